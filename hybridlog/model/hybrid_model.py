@@ -1,0 +1,156 @@
+"""The hybrid model: what a model file describes, with symbolic mode equations."""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy
+
+from hybridlog.signals import FloatArray
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One discrete mode of a discrete-time switched system.
+
+    .. math::
+
+        x(k+1) = f_q(x(k), u(k)) + \\xi(k), \\qquad y(k) = h_q(x(k), u(k)) + \\omega(k)
+
+    (paper 000, eq. (2)).  ``f`` and ``h`` are sympy expressions in the model's state and
+    input symbols with every parameter already substituted.
+
+    Attributes
+    ----------
+    id:
+        The mode id as written in the model file (``"1"``, ``"valve_open"`` ...).
+    f:
+        Next-state expressions, one per state.
+    h:
+        Output expressions, one per output.
+    process_noise:
+        Covariance ``Q_q = g_q R_ξ g_qᵀ`` of the additive process noise, ``(n_x, n_x)``.
+    measurement_noise:
+        Covariance ``R_q`` of the measurement noise, ``(n_y, n_y)``.
+    linear:
+        True when the mode was given as ``A``, ``B``, ``C``, ``D`` matrices.
+    """
+
+    id: str
+    f: tuple[sympy.Expr, ...]
+    h: tuple[sympy.Expr, ...]
+    process_noise: FloatArray
+    measurement_noise: FloatArray
+    linear: bool = False
+
+
+@dataclass(frozen=True)
+class HybridModel:
+    """A discrete-time hybrid (switched) system read from a model file.
+
+    Attributes
+    ----------
+    name, description, reference:
+        Free text from the model file; ``reference`` names paper and equations.
+    dt:
+        Sample time in seconds.
+    states, inputs, outputs:
+        Symbol names, in the order of the state, input and output vectors.
+    parameters:
+        Parameter values (after ``--set`` overrides), already substituted into the modes.
+    modes:
+        The modes, in the order of the file; their index is the mode index used everywhere.
+    initial_state, initial_covariance, initial_mode_probabilities:
+        The estimators' prior ``x̂(0|0)``, ``P(0|0)`` and ``Pr(q(0))``.
+    transitions:
+        Markov matrix ``Π[i, j] = Pr(q(k+1)=j | q(k)=i)``, or ``None`` when the file has none.
+    signals, truth:
+        Default message paths for symbols, and for ground truth (``mode`` and state names).
+    default_estimator:
+        Estimator used by ``analyze`` when none is named.
+    estimator_options:
+        Default options per estimator name, from ``[estimators.<name>]``.
+    simulation_state:
+        True initial state used by ``simulate`` (``[simulation] state``), defaults to
+        ``initial_state``.
+    source:
+        The model file's text (or the built-in's), printed by ``hybridlog models NAME``.
+    """
+
+    name: str
+    description: str
+    reference: str
+    dt: float
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    parameters: dict[str, float]
+    modes: tuple[Mode, ...]
+    initial_state: FloatArray
+    initial_covariance: FloatArray
+    initial_mode_probabilities: FloatArray
+    transitions: FloatArray | None
+    signals: dict[str, str] = field(default_factory=dict)
+    truth: dict[str, str] = field(default_factory=dict)
+    default_estimator: str = "imm"
+    estimator_options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    simulation_state: FloatArray | None = None
+    simulation_inputs: dict[str, sympy.Expr] = field(default_factory=dict)
+    source: str = ""
+
+    @property
+    def n_states(self) -> int:
+        """Length of the continuous state vector."""
+        return len(self.states)
+
+    @property
+    def n_inputs(self) -> int:
+        """Length of the input vector."""
+        return len(self.inputs)
+
+    @property
+    def n_outputs(self) -> int:
+        """Length of the output vector."""
+        return len(self.outputs)
+
+    @property
+    def n_modes(self) -> int:
+        """Number of discrete modes."""
+        return len(self.modes)
+
+    @property
+    def mode_ids(self) -> tuple[str, ...]:
+        """Mode ids in index order."""
+        return tuple(m.id for m in self.modes)
+
+    def mode_index(self, mode_id: str) -> int:
+        """Index of the mode with id ``mode_id``; raises ``KeyError`` when there is none."""
+        return self.mode_ids.index(mode_id)
+
+    def equations_hash(self) -> str:
+        """Hash of everything compiled code depends on: symbols and mode equations."""
+        digest = hashlib.sha256()
+        for part in (self.states, self.inputs, self.outputs):
+            digest.update(repr(part).encode())
+        for mode in self.modes:
+            digest.update(sympy.srepr(mode.f).encode())
+            digest.update(sympy.srepr(mode.h).encode())
+        return digest.hexdigest()[:20]
+
+    def symbols(self) -> tuple[list[sympy.Symbol], list[sympy.Symbol]]:
+        """Sympy symbols of the states and of the inputs."""
+        return (
+            [sympy.Symbol(s, real=True) for s in self.states],
+            [sympy.Symbol(u, real=True) for u in self.inputs],
+        )
+
+    def stationary_transition(self, stay: float) -> FloatArray:
+        """Markov matrix with ``stay`` on the diagonal and the rest spread evenly."""
+        n = self.n_modes
+        if n == 1:
+            return np.ones((1, 1))
+        off = (1.0 - stay) / (n - 1)
+        return np.full((n, n), off) + np.eye(n) * (stay - off)

@@ -1,0 +1,51 @@
+"""Aligned signals: what every log reader produces and every estimator consumes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class AlignedSignals:
+    """Input/output samples on the model's grid ``t0 + k*dt``.
+
+    Row ``k`` holds the input ``u(k)`` applied from ``t_k`` to ``t_{k+1}`` and the output
+    ``y(k)`` measured at ``t_k``.  Ground truth, when the log has it, uses the same rows.
+
+    Attributes
+    ----------
+    source:
+        Path (or name) of the log the samples came from, for reports and errors.
+    time:
+        Sample times in seconds, shape ``(N,)``.
+    inputs:
+        ``u``, shape ``(N, n_u)``, columns in the order of ``input_names``.
+    outputs:
+        ``y``, shape ``(N, n_y)``, columns in the order of ``output_names``.
+    truth_modes:
+        True mode of each sample as an index into ``mode_ids`` of the model, shape ``(N,)``,
+        or ``None`` when the log has no ground-truth mode.
+    truth_states:
+        True states, shape ``(N, n_x)`` with NaN in columns the log does not have, or ``None``.
+    """
+
+    source: str
+    time: FloatArray
+    input_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    inputs: FloatArray
+    outputs: FloatArray
+    truth_modes: IntArray | None = None
+    state_names: tuple[str, ...] = ()
+    truth_states: FloatArray | None = None
+
+    @property
+    def n_samples(self) -> int:
+        """Number of rows on the grid."""
+        return int(self.time.shape[0])
