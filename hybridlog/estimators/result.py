@@ -43,7 +43,11 @@ class EstimationResult:
     runtime_s:
         Wall time of the estimation itself, excluding one-time compilation.
     compile_s:
-        Wall time spent compiling (0 when the compiled code came from the cache).
+        Wall time spent compiling (close to 0 when the compiled code came from the cache).
+    notes:
+        Remarks for the report (for example which variant of an algorithm ran).
+    covariances:
+        Full ``P(k|k)``, shape ``(N, n_x, n_x)``, only when the caller asked for it.
     """
 
     estimator: str
@@ -60,6 +64,7 @@ class EstimationResult:
     runtime_s: float = 0.0
     compile_s: float = 0.0
     notes: tuple[str, ...] = field(default=())
+    covariances: FloatArray | None = None
 
     @property
     def n_samples(self) -> int:

@@ -1,0 +1,1 @@
+"""Model files: TOML parsing, symbolic mode equations and their compiled form."""

@@ -14,11 +14,11 @@ from hybridlog.signals import FloatArray
 
 @dataclass(frozen=True)
 class Mode:
-    """One discrete mode of a discrete-time switched system.
+    r"""One discrete mode of a discrete-time switched system.
 
     .. math::
 
-        x(k+1) = f_q(x(k), u(k)) + \\xi(k), \\qquad y(k) = h_q(x(k), u(k)) + \\omega(k)
+        x(k+1) = f_q(x(k), u(k)) + \xi(k), \qquad y(k) = h_q(x(k), u(k)) + \omega(k)
 
     (paper 000, eq. (2)).  ``f`` and ``h`` are sympy expressions in the model's state and
     input symbols with every parameter already substituted.
@@ -74,8 +74,14 @@ class HybridModel:
     estimator_options:
         Default options per estimator name, from ``[estimators.<name>]``.
     simulation_state:
-        True initial state used by ``simulate`` (``[simulation] state``), defaults to
+        True initial state used by ``simulate`` (``[simulation] state``); ``None`` means
         ``initial_state``.
+    simulation_inputs:
+        Input signals for ``simulate`` as expressions in ``t`` (seconds) and ``k`` (step).
+    simulation_schedule:
+        Default mode schedule for ``simulate``, e.g. ``"1:100,2:100,3:100"``.
+    simulation_state_min:
+        Lower bounds of the true states in ``simulate`` (e.g. tank levels at 0), or ``None``.
     source:
         The model file's text (or the built-in's), printed by ``hybridlog models NAME``.
     """
@@ -99,6 +105,8 @@ class HybridModel:
     estimator_options: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulation_state: FloatArray | None = None
     simulation_inputs: dict[str, sympy.Expr] = field(default_factory=dict)
+    simulation_schedule: str = ""
+    simulation_state_min: FloatArray | None = None
     source: str = ""
 
     @property
@@ -147,10 +155,10 @@ class HybridModel:
             [sympy.Symbol(u, real=True) for u in self.inputs],
         )
 
-    def stationary_transition(self, stay: float) -> FloatArray:
-        """Markov matrix with ``stay`` on the diagonal and the rest spread evenly."""
-        n = self.n_modes
-        if n == 1:
-            return np.ones((1, 1))
-        off = (1.0 - stay) / (n - 1)
-        return np.full((n, n), off) + np.eye(n) * (stay - off)
+
+def markov_matrix(stay: float, n_modes: int) -> FloatArray:
+    """Markov matrix with ``stay`` on the diagonal and the rest spread evenly over the others."""
+    if n_modes == 1:
+        return np.ones((1, 1))
+    off = (1.0 - stay) / (n_modes - 1)
+    return np.full((n_modes, n_modes), off) + np.eye(n_modes) * (stay - off)

@@ -1,0 +1,92 @@
+"""What the filter estimators share: noise stacks, output buffers, the result assembly."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hybridlog.errors import ModelError
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+
+
+def noise_stacks(model: HybridModel) -> tuple[FloatArray, FloatArray]:
+    """Per-mode process and measurement covariances, shapes ``(n_modes, n, n)``.
+
+    The filters divide by the innovation covariance, so every ``R_q`` must be positive
+    definite; a singular one is a :class:`ModelError` naming the mode.
+    """
+    Q = np.ascontiguousarray(np.stack([m.process_noise for m in model.modes]), dtype=float)
+    R = np.ascontiguousarray(np.stack([m.measurement_noise for m in model.modes]), dtype=float)
+    for mode, r in zip(model.modes, R, strict=True):
+        if np.linalg.eigvalsh(r).min() <= 0.0:
+            raise ModelError(
+                f"{model.name}: the measurement noise covariance of mode '{mode.id}' is "
+                "singular; the filters need it positive definite"
+            )
+    return Q, R
+
+
+@dataclass(frozen=True)
+class FilterBuffers:
+    """Arrays a compiled filter loop writes its per-sample output into."""
+
+    modes: IntArray
+    mode_probabilities: FloatArray
+    state_means: FloatArray
+    state_variances: FloatArray
+    output_predictions: FloatArray
+    covariances: FloatArray
+
+    @classmethod
+    def allocate(
+        cls, model: HybridModel, n_samples: int, *, store_covariances: bool = False
+    ) -> FilterBuffers:
+        """Buffers for ``n_samples`` rows; full covariances only when asked for."""
+        n_x = model.n_states
+        return cls(
+            modes=np.zeros(n_samples, dtype=np.int64),
+            mode_probabilities=np.zeros((n_samples, model.n_modes)),
+            state_means=np.zeros((n_samples, n_x)),
+            state_variances=np.zeros((n_samples, n_x)),
+            output_predictions=np.full((n_samples, model.n_outputs), np.nan),
+            covariances=np.zeros((n_samples if store_covariances else 0, n_x, n_x)),
+        )
+
+    def result(
+        self,
+        name: str,
+        options: dict[str, Any],
+        model: HybridModel,
+        signals: AlignedSignals,
+        *,
+        runtime_s: float,
+        compile_s: float,
+        notes: tuple[str, ...] = (),
+    ) -> EstimationResult:
+        """Package the filled buffers as the common result type."""
+        return EstimationResult(
+            estimator=name,
+            options=options,
+            time=signals.time,
+            mode_ids=model.mode_ids,
+            state_names=model.states,
+            output_names=model.outputs,
+            modes=self.modes,
+            mode_probabilities=self.mode_probabilities,
+            state_means=self.state_means,
+            state_variances=self.state_variances,
+            output_predictions=self.output_predictions,
+            runtime_s=runtime_s,
+            compile_s=compile_s,
+            notes=notes,
+            covariances=self.covariances if self.covariances.shape[0] else None,
+        )
+
+
+def contiguous(array: FloatArray) -> FloatArray:
+    """C-contiguous float64 copy-if-needed, as the compiled kernels require."""
+    return np.ascontiguousarray(array, dtype=np.float64)

@@ -1,0 +1,270 @@
+r"""Interacting multiple model (IMM) estimator with an extended Kalman filter per mode.
+
+The classic baseline (Blom and Bar-Shalom 1988; Bar-Shalom, Li, Kirubarajan 2001, §11.6.6):
+
+.. math::
+
+    \bar c_j = \sum_i \Pi_{ij}\mu_i,\qquad
+    \mu_{i|j} = \Pi_{ij}\mu_i/\bar c_j                           \quad \text{(mixing)}
+
+    \hat x^0_j = \sum_i \mu_{i|j}\hat x_i,\qquad
+    P^0_j = \sum_i \mu_{i|j}(P_i + (\hat x_i-\hat x^0_j)(\cdot)^T)
+
+    \text{EKF}_j:\; \hat x_j^- = f_j(\hat x^0_j, u),\;
+    P_j^- = F_j P^0_j F_j^T + Q_j,\; \gamma_j = y - h_j(\hat x_j^-)
+
+    \mu_j \propto \bar c_j\, N(\gamma_j; 0, H_j P_j^- H_j^T + R_j)
+
+``Π[i, j] = Pr(q(k+1)=j | q(k)=i)`` comes from the model's ``[transitions]`` or from the
+option ``transition_stay`` (default 0.95 on the diagonal, the rest spread evenly).  The
+measurement update uses the Joseph form; mode probabilities are normalised in log space.
+The mode estimate is the most probable mode; the one-step-ahead output prediction is
+``Σ_j c̄_j h_j(x̂_j^-)``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+from numba import types
+
+from hybridlog.estimators.common import FilterBuffers, contiguous, noise_stacks
+from hybridlog.estimators.kernels import (
+    cholesky,
+    congruence,
+    gain,
+    gaussian_log_density,
+    joseph_update,
+    mixture_moments,
+    normalize_log,
+)
+from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.model.compiled import MATRIX_FUNCTION, VECTOR_FUNCTION, compile_model
+from hybridlog.model.hybrid_model import HybridModel, markov_matrix
+from hybridlog.signals import AlignedSignals, FloatArray
+
+NAME = "imm"
+
+
+@dataclass(frozen=True)
+class ImmOptions:
+    """Options of the IMM: the Markov matrix's diagonal when the model gives no matrix."""
+
+    transition_stay: float | None = field(default=None, metadata={"range": (0.0, 1.0)})
+
+
+_F8_1 = types.float64[::1]
+_F8_2 = types.float64[:, ::1]
+_F8_3 = types.float64[:, :, ::1]
+_SIGNATURE = types.void(
+    VECTOR_FUNCTION,
+    MATRIX_FUNCTION,
+    VECTOR_FUNCTION,
+    MATRIX_FUNCTION,
+    _F8_2,
+    _F8_2,
+    _F8_3,
+    _F8_3,
+    _F8_1,
+    _F8_2,
+    _F8_1,
+    _F8_2,
+    types.int64[::1],
+    _F8_2,
+    _F8_2,
+    _F8_2,
+    _F8_2,
+    _F8_3,
+)
+
+
+@numba.njit(_SIGNATURE, cache=True, error_model="numpy", nogil=True)  # type: ignore[misc]
+def _imm_loop(
+    f,
+    F,
+    h,
+    H,
+    inputs,
+    outputs,
+    Q,
+    R,
+    x0,
+    P0,
+    mu0,
+    transitions,
+    modes_out,
+    probabilities_out,
+    means_out,
+    variances_out,
+    predictions_out,
+    covariances_out,
+) -> None:  # pragma: no cover - compiled; exercised through run_imm
+    n_samples = outputs.shape[0]
+    n = x0.shape[0]
+    m = outputs.shape[1]
+    n_q = mu0.shape[0]
+    store_covariances = covariances_out.shape[0] == n_samples
+
+    x_i = np.empty((n_q, n))
+    P_i = np.empty((n_q, n, n))
+    for i in range(n_q):
+        x_i[i] = x0
+        P_i[i] = P0
+    mu = mu0.copy()
+    x = x0.copy()
+    P = P0.copy()
+
+    c_bar = np.empty(n_q)
+    weights = np.empty(n_q)
+    x_mix = np.empty((n_q, n))
+    P_mix = np.empty((n_q, n, n))
+    x_pred = np.empty(n)
+    P_pred = np.empty((n, n))
+    F_j = np.empty((n, n))
+    H_j = np.empty((m, n))
+    y_j = np.empty((n_q, m))
+    gamma = np.empty(m)
+    S = np.empty((m, m))
+    L = np.zeros((m, m))
+    K = np.empty((n, m))
+    IKH = np.empty((n, n))
+    work_nn = np.empty((n, n))
+    work_mn = np.empty((m, n))
+    work_nm = np.empty((n, m))
+    vec_m = np.empty(m)
+    vec_m2 = np.empty(m)
+    log_posterior = np.empty(n_q)
+
+    def record(row: int) -> None:
+        best = 0
+        for i in range(n_q):
+            if mu[i] > mu[best]:
+                best = i
+        modes_out[row] = best
+        probabilities_out[row, :] = mu
+        means_out[row, :] = x
+        for a in range(n):
+            variances_out[row, a] = P[a, a]
+        if store_covariances:
+            covariances_out[row] = P
+
+    record(0)
+    for k in range(n_samples - 1):
+        u = inputs[k]
+        u_next = inputs[k + 1]
+        y = outputs[k + 1]
+        # Mixing: predicted mode probabilities and mixed initial conditions per mode.
+        for j in range(n_q):
+            acc = 0.0
+            for i in range(n_q):
+                acc += transitions[i, j] * mu[i]
+            c_bar[j] = acc
+        for j in range(n_q):
+            if c_bar[j] > 0.0:
+                for i in range(n_q):
+                    weights[i] = transitions[i, j] * mu[i] / c_bar[j]
+                mixture_moments(weights, x_i, P_i, x_mix[j], P_mix[j])
+            else:
+                x_mix[j] = x_i[j]
+                P_mix[j] = P_i[j]
+        for b in range(m):
+            predictions_out[k + 1, b] = 0.0
+        for j in range(n_q):
+            # EKF prediction of mode j.
+            f(j, x_mix[j], u, x_pred)
+            F(j, x_mix[j], u, F_j)
+            congruence(F_j, P_mix[j], work_nn, P_pred)
+            for a in range(n):
+                for c in range(n):
+                    P_pred[a, c] += Q[j, a, c]
+            # EKF update of mode j.
+            h(j, x_pred, u_next, y_j[j])
+            H(j, x_pred, u_next, H_j)
+            for b in range(m):
+                gamma[b] = y[b] - y_j[j, b]
+                predictions_out[k + 1, b] += c_bar[j] * y_j[j, b]
+            congruence(H_j, P_pred, work_mn, S)
+            for b in range(m):
+                for c in range(m):
+                    S[b, c] += R[j, b, c]
+            if not cholesky(S, L):
+                log_posterior[j] = -np.inf
+                x_i[j] = x_pred
+                P_i[j] = P_pred
+                continue
+            log_posterior[j] = (
+                math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
+            ) + gaussian_log_density(gamma, L, vec_m)
+            gain(P_pred, H_j, L, work_nm, vec_m, vec_m2, K)
+            for a in range(n):
+                acc = x_pred[a]
+                for b in range(m):
+                    acc += K[a, b] * gamma[b]
+                x_i[j, a] = acc
+            joseph_update(P_pred, K, H_j, R[j], IKH, work_nn, work_nm, P_i[j])
+        if not normalize_log(log_posterior, mu):
+            mu[:] = c_bar
+        mixture_moments(mu, x_i, P_i, x, P)
+        record(k + 1)
+
+
+def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
+    """Markov matrix: ``transition_stay`` when set, else the model's, else 0.95 stay."""
+    if options.transition_stay is not None:
+        return markov_matrix(options.transition_stay, model.n_modes)
+    if model.transitions is not None:
+        return model.transitions
+    return markov_matrix(0.95, model.n_modes)
+
+
+def run_imm(
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: ImmOptions,
+    *,
+    jit: bool = True,
+    store_covariances: bool = False,
+) -> EstimationResult:
+    """Run the IMM over the aligned signals (``jit=False``: plain-Python reference path)."""
+    compiled = compile_model(model, jit=jit)
+    Q, R = noise_stacks(model)
+    transitions = contiguous(transition_matrix(model, options))
+    buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
+    loop = _imm_loop if jit else _imm_loop.py_func
+    start = time.perf_counter()
+    loop(
+        compiled.f,
+        compiled.F,
+        compiled.h,
+        compiled.H,
+        contiguous(signals.inputs),
+        contiguous(signals.outputs),
+        Q,
+        R,
+        contiguous(model.initial_state),
+        contiguous(model.initial_covariance),
+        contiguous(model.initial_mode_probabilities),
+        transitions,
+        buffers.modes,
+        buffers.mode_probabilities,
+        buffers.state_means,
+        buffers.state_variances,
+        buffers.output_predictions,
+        buffers.covariances,
+    )
+    runtime = time.perf_counter() - start
+    used = options_dict(options)
+    used["transition_matrix"] = transitions.tolist()
+    return buffers.result(
+        NAME, used, model, signals, runtime_s=runtime, compile_s=compiled.compile_s
+    )
+
+
+def imm_options(values: dict[str, object]) -> ImmOptions:
+    """Validated IMM options from a name → value mapping."""
+    return parse_options(ImmOptions, values, estimator=NAME)

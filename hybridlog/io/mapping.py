@@ -1,0 +1,188 @@
+"""Which log field feeds which model symbol (SPEC §5).
+
+For each model input and output, and for the ground truth (``truth.mode``,
+``truth.<state>``), the field is chosen in this order:
+
+1. ``--map SYMBOL=PATH`` given by the user (the field must exist);
+2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field;
+3. a field named like the symbol (``u1``, ``y``; ``mode`` for the true mode; the state's
+   name for a true state) -- the CSV/Parquet column-name default.
+
+Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+from hybridlog.errors import LogError, OptionError
+from hybridlog.io.source import closest_names
+
+TRUTH_PREFIX = "truth."
+TRUTH_MODE = "truth.mode"
+DEFAULT_MODE_FIELD = "mode"
+
+
+@dataclass(frozen=True)
+class SignalMap:
+    """The log field chosen for every symbol.
+
+    Attributes
+    ----------
+    inputs, outputs:
+        ``{symbol: field}`` in the model's order.
+    truth_mode:
+        Field holding the true mode id, or ``None``.
+    truth_states:
+        ``{state: field}`` for the states the log has, in the model's order.
+    """
+
+    inputs: dict[str, str]
+    outputs: dict[str, str]
+    truth_mode: str | None = None
+    truth_states: dict[str, str] = field(default_factory=dict)
+
+
+def valid_map_symbols(
+    inputs: Sequence[str], outputs: Sequence[str], states: Sequence[str]
+) -> tuple[str, ...]:
+    """Every symbol ``--map`` accepts on its left-hand side."""
+    return (
+        *inputs,
+        *outputs,
+        TRUTH_MODE,
+        *(f"{TRUTH_PREFIX}{state}" for state in states),
+    )
+
+
+def parse_maps(
+    maps: Sequence[str],
+    *,
+    inputs: Sequence[str],
+    outputs: Sequence[str],
+    states: Sequence[str],
+) -> dict[str, str]:
+    """Parse ``--map SYMBOL=PATH`` options.
+
+    Parameters
+    ----------
+    maps:
+        The option values, e.g. ``["y=level_m", "truth.mode=/truth/mode.data"]``.
+    inputs, outputs, states:
+        The model's symbol names.
+
+    Returns
+    -------
+    dict
+        ``{symbol: path}`` with ``truth.``-prefixed keys for ground truth.
+
+    Raises
+    ------
+    OptionError
+        For a value without ``=``, an empty side, an unknown symbol (listing the valid ones)
+        or a symbol mapped twice.
+    """
+    valid = valid_map_symbols(inputs, outputs, states)
+    parsed: dict[str, str] = {}
+    for item in maps:
+        symbol, sep, path = item.partition("=")
+        symbol, path = symbol.strip(), path.strip()
+        if not sep or not symbol or not path:
+            raise OptionError(f"--map {item!r}: expected SYMBOL=PATH, e.g. y=level")
+        if symbol not in valid:
+            raise OptionError(
+                f"--map {item!r}: unknown symbol {symbol!r}; valid symbols: {', '.join(valid)}"
+            )
+        if symbol in parsed:
+            raise OptionError(f"--map: symbol {symbol!r} is mapped twice")
+        parsed[symbol] = path
+    return parsed
+
+
+def resolve_signal_map(
+    fields: Sequence[str],
+    *,
+    source: str,
+    inputs: Sequence[str],
+    outputs: Sequence[str],
+    states: Sequence[str],
+    signals: Mapping[str, str] | None = None,
+    truth: Mapping[str, str] | None = None,
+    maps: Mapping[str, str] | None = None,
+    field_word: str = "column",
+) -> SignalMap:
+    """Choose the log field of every symbol (see the module docstring for the order).
+
+    Parameters
+    ----------
+    fields:
+        The fields the log has (``LogSource.fields()``).
+    source:
+        The log's path, for messages.
+    inputs, outputs, states:
+        The model's symbol names.
+    signals, truth:
+        The model's ``[signals]`` (symbol → path) and ``[truth]`` (``mode``/state → path).
+    maps:
+        Parsed ``--map`` options (:func:`parse_maps`).
+    field_word:
+        ``"column"`` or ``"field"``, for messages.
+
+    Returns
+    -------
+    SignalMap
+
+    Raises
+    ------
+    LogError
+        When an input or output, or a truth symbol given with ``--map``, has no field in the
+        log; the message lists the closest field names.
+    """
+    available = set(fields)
+    signals = signals or {}
+    truth = truth or {}
+    maps = maps or {}
+
+    def choose(symbol: str, model_path: str | None, default: str, required: bool) -> str | None:
+        mapped = maps.get(symbol)
+        if mapped is not None:
+            if mapped not in available:
+                raise LogError(
+                    f"{source}: no {field_word} {mapped!r} for {_describe(symbol, inputs)} "
+                    f"(from --map {symbol}={mapped}); {closest_names([mapped], fields)}"
+                )
+            return mapped
+        if model_path is not None and model_path in available:
+            return model_path
+        if default in available:
+            return default
+        if not required:
+            return None
+        looked = [default] if model_path is None else [model_path, default]
+        raise LogError(
+            f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
+            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "
+            f"{closest_names(looked, fields)}"
+        )
+
+    def required(symbol: str) -> str:
+        chosen = choose(symbol, signals.get(symbol), symbol, required=True)
+        assert chosen is not None  # choose raises instead of returning None when required
+        return chosen
+
+    input_fields = {u: required(u) for u in inputs}
+    output_fields = {y: required(y) for y in outputs}
+    truth_mode = choose(TRUTH_MODE, truth.get("mode"), DEFAULT_MODE_FIELD, required=False)
+    truth_states: dict[str, str] = {}
+    for state in states:
+        chosen = choose(f"{TRUTH_PREFIX}{state}", truth.get(state), state, required=False)
+        if chosen is not None:
+            truth_states[state] = chosen
+    return SignalMap(input_fields, output_fields, truth_mode, truth_states)
+
+
+def _describe(symbol: str, inputs: Sequence[str]) -> str:
+    if symbol.startswith(TRUTH_PREFIX):
+        return symbol
+    return f"{'input' if symbol in inputs else 'output'} {symbol!r}"

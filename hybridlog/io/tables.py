@@ -1,0 +1,582 @@
+"""CSV and Parquet logs: one row per time stamp, one column per signal.
+
+The time column is ``t`` (or ``time``) in seconds; Parquet may also store it as a
+``Datetime``/``Duration``.  Every other column is a field a symbol can be mapped to.  An empty
+cell means "no sample of this column at this time", which is how a multi-rate table is written;
+a cell that is not a number is an error naming its line, never a silent string column.
+
+CSV files are read with an explicit schema: the header line is parsed first, then the wanted
+columns are read as ``Float64`` (label columns such as ``mode`` as strings).  Line numbers in
+messages count the header as line 1 and assume one record per physical line (no quoted line
+breaks); blank lines are skipped but counted.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Self
+
+import numpy as np
+import polars as pl
+
+from hybridlog.errors import LogError
+from hybridlog.io.source import (
+    LabelSeries,
+    Series,
+    check_seconds_range,
+    closest_names,
+    format_ns,
+    seconds_to_ns,
+)
+from hybridlog.signals import FloatArray, IntArray
+
+TABLE_SUFFIXES = (".csv", ".parquet")
+TIME_COLUMNS = ("t", "time")
+
+# Step larger than this multiple of the median step is reported as a gap by ``describe``.
+GAP_FACTOR = 1.5
+# ``describe`` lists at most this many gaps (and always counts them all).
+MAX_LISTED_GAPS = 1000
+
+
+class TableSource:
+    """A CSV or Parquet log (:class:`~hybridlog.io.source.LogSource` implementation).
+
+    Parameters
+    ----------
+    path:
+        A ``.csv`` or ``.parquet`` file.  The header (or Parquet schema) is read at once;
+        the data only by :meth:`read` and :meth:`describe`.
+
+    Raises
+    ------
+    LogError
+        When the file is missing, empty, has no header, or has duplicate or unnamed columns.
+    """
+
+    field_word = "column"
+
+    def __init__(self, path: str | Path) -> None:
+        self._file = Path(path)
+        self.format = self._file.suffix.lower().lstrip(".")
+        if f".{self.format}" not in TABLE_SUFFIXES:
+            raise LogError(f"{path}: not a table log (expected a .csv or .parquet file)")
+        if not self._file.is_file():
+            raise LogError(f"{path}: no such file")
+        self._schema: dict[str, pl.DataType] = {}
+        if self.format == "csv":
+            self._columns = _read_csv_header(self._file)
+        else:
+            self._schema = _read_parquet_schema(self._file)
+            self._columns = tuple(self._schema)
+        self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
+        # Row (0-based, data rows only) of every sample returned by ``read``, per column.
+        self._rows: dict[str, IntArray] = {}
+
+    @property
+    def path(self) -> str:
+        """The file's path as given."""
+        return str(self._file)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Every column of the table, time included, in file order."""
+        return self._columns
+
+    @property
+    def time_column(self) -> str | None:
+        """Name of the time column, or ``None`` when the table has none."""
+        return self._time_column
+
+    def fields(self) -> tuple[str, ...]:
+        """Columns a symbol can be mapped to: all but the time column."""
+        return tuple(c for c in self._columns if c != self._time_column)
+
+    def __enter__(self) -> Self:
+        """Return the source itself; the file is read eagerly."""
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        """Nothing to release."""
+
+    def locate(self, name: str, index: int) -> str:
+        """Line (CSV, header = line 1) or row (Parquet, 1-based) of a sample read earlier."""
+        rows = self._rows.get(name)
+        row = int(rows[index]) if rows is not None and 0 <= index < rows.size else index
+        return f"{self._row_label(row)}, column {name!r}"
+
+    def _row_label(self, row: int) -> str:
+        return f"line {row + 2}" if self.format == "csv" else f"row {row + 1}"
+
+    # ------------------------------------------------------------------ reading
+
+    def read(
+        self, numeric: Sequence[str], labels: Sequence[str] = ()
+    ) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
+        """Read the named columns as numeric series and label series.
+
+        Parameters
+        ----------
+        numeric:
+            Columns to read as ``float64``; must hold numbers (or be empty) in every row.
+        labels:
+            Columns to read as text labels (stripped; empty means no sample).
+
+        Returns
+        -------
+        tuple of dict
+            ``{column: Series}`` and ``{column: LabelSeries}``; each series holds the rows
+            where that column has a value.
+
+        Raises
+        ------
+        LogError
+            Naming the file and the line/row and column of a non-numeric cell, a missing
+            or unordered time, or a missing column.
+        """
+        time_column = self._require_time()
+        for name in (*numeric, *labels):
+            if name not in self._columns:
+                raise LogError(
+                    f"{self.path}: no column {name!r}; {closest_names([name], self.fields())}"
+                )
+        wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
+        as_float = {time_column, *numeric} - set(labels)
+        if self.format == "csv":
+            frame = _read_csv_frame(self._file, wanted, as_float)
+        else:
+            frame = self._read_parquet_frame(wanted, set(numeric), set(labels))
+        if frame.height == 0:
+            raise LogError(f"{self.path}: no data rows")
+        rows = self._kept_rows(frame, time_column)
+        if rows.size < frame.height:
+            frame = frame[pl.Series(rows)]
+        time_ns = self._time_ns(frame.get_column(time_column), rows)
+
+        numeric_series: dict[str, Series] = {}
+        for name in numeric:
+            column = self._to_float(frame.get_column(name), rows)
+            present = column.is_not_null().to_numpy()
+            values: FloatArray = column.filter(pl.Series(present)).to_numpy().astype(np.float64)
+            numeric_series[name] = Series(name, time_ns[present], values)
+            self._rows[name] = rows[present]
+        label_series: dict[str, LabelSeries] = {}
+        for name in labels:
+            text = _as_labels(frame.get_column(name))
+            present = text.is_not_null().to_numpy()
+            text = text.filter(pl.Series(present))
+            categories = text.unique(maintain_order=True)
+            codes = text.replace_strict(
+                categories, pl.int_range(0, categories.len(), eager=True), return_dtype=pl.Int64
+            )
+            label_series[name] = LabelSeries(
+                name,
+                time_ns[present],
+                codes.to_numpy().astype(np.int64),
+                tuple(str(c) for c in categories.to_list()),
+            )
+            self._rows[name] = rows[present]
+        return numeric_series, label_series
+
+    def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
+        if column.dtype == pl.Float64:
+            return column
+        if column.dtype.is_numeric():
+            return column.cast(pl.Float64)
+        return _parse_floats(self._file, column, rows)
+
+    def _require_time(self) -> str:
+        if self._time_column is None:
+            raise LogError(
+                f"{self.path}: no time column (expected 't' or 'time' in seconds); "
+                f"{closest_names(list(TIME_COLUMNS), self._columns)}"
+            )
+        return self._time_column
+
+    def _read_parquet_frame(
+        self, wanted: list[str], numeric: set[str], labels: set[str]
+    ) -> pl.DataFrame:
+        time_column = self._require_time()
+        for name in wanted:
+            dtype = self._schema[name]
+            if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
+                continue
+            if (name in numeric or name == time_column) and not dtype.is_numeric():
+                raise LogError(
+                    f"{self.path}: column {name!r} has type {dtype}, expected a number"
+                )
+            if name in labels and not (
+                dtype.is_numeric() or dtype in (pl.String, pl.Categorical, pl.Boolean)
+                or isinstance(dtype, pl.Enum)
+            ):
+                raise LogError(
+                    f"{self.path}: column {name!r} has type {dtype}, expected mode ids"
+                )
+        try:
+            frame = pl.read_parquet(self._file, columns=wanted)
+        except pl.exceptions.PolarsError as err:
+            raise LogError(f"{self.path}: not a readable Parquet file ({_first_line(err)})") from err
+        casts = [
+            pl.col(name).cast(pl.Float64)
+            for name in wanted
+            if name in numeric and name not in labels and self._schema[name] != pl.Float64
+        ]
+        return frame.with_columns(casts) if casts else frame
+
+    def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
+        """Rows to use: all of them, minus blank CSV lines; a row without a time is an error."""
+        rows: IntArray = np.arange(frame.height, dtype=np.int64)
+        missing = frame.get_column(time_column).is_null().to_numpy()
+        if not missing.any():
+            return rows
+        blank = _blank_csv_rows(self._file) if self.format == "csv" else np.zeros_like(missing)
+        not_blank = missing & ~blank[: missing.size]
+        if not_blank.any():
+            row = int(np.argmax(not_blank))
+            raise LogError(
+                f"{self.path}, {self._row_label(row)}, column {time_column!r}: empty time cell"
+            )
+        return rows[~missing]
+
+    def _time_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
+        name = column.name
+        if isinstance(column.dtype, pl.Datetime):
+            time_ns: IntArray = column.dt.epoch("ns").to_numpy().astype(np.int64)
+        elif isinstance(column.dtype, pl.Duration):
+            time_ns = column.dt.total_nanoseconds().to_numpy().astype(np.int64)
+        else:
+            column = self._to_float(column, rows)
+            seconds: FloatArray = column.to_numpy().astype(np.float64)
+            bad = check_seconds_range(seconds)
+            if bad >= 0:
+                raise LogError(
+                    f"{self.path}, {self._row_label(int(rows[bad]))}, column {name!r}: "
+                    f"time {seconds[bad]} is not a finite number of seconds"
+                )
+            time_ns = seconds_to_ns(seconds)
+        steps = np.diff(time_ns)
+        if steps.size and (steps <= 0).any():
+            i = int(np.argmax(steps <= 0)) + 1
+            how = "repeats" if steps[i - 1] == 0 else "goes backwards"
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[i]))}, column {name!r}: time {how} "
+                f"(t={format_ns(int(time_ns[i]))} s after t={format_ns(int(time_ns[i - 1]))} s "
+                f"on {self._row_label(int(rows[i - 1]))}); time must be strictly increasing"
+            )
+        self._rows[name] = rows
+        return time_ns
+
+    # ------------------------------------------------------------------ inspect
+
+    def describe(self) -> dict[str, Any]:
+        """Summarise the table for ``hybridlog inspect``.
+
+        Returns
+        -------
+        dict
+            JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count, min,
+            max, rate_hz``), ``time`` (``column, start, end, duration`` in seconds, or
+            ``None``), ``sample_time``, ``rate_hz``, ``gaps`` (steps longer than 1.5 times the
+            median, at most 1000), ``gap_count`` and ``problems`` (why time is unusable).
+            Times are seconds as floats; statistics of columns that are not numeric are
+            ``None``.
+        """
+        problems: list[str] = []
+        frame = self._full_frame()
+        time_ns: IntArray | None = None
+        rows: IntArray = np.arange(frame.height, dtype=np.int64)
+        if frame.height == 0:
+            problems.append("no data rows")
+        elif self._time_column is None:
+            problems.append("no time column (expected 't' or 'time')")
+        else:
+            try:
+                rows = self._kept_rows(frame, self._time_column)
+                time_ns = self._time_ns(
+                    frame.get_column(self._time_column)[pl.Series(rows)], rows
+                )
+            except LogError as err:
+                problems.append(str(err).removeprefix(f"{self.path}, "))
+                rows = np.arange(frame.height, dtype=np.int64)
+        if rows.size < frame.height:
+            frame = frame[pl.Series(rows)]
+        columns = [
+            _describe_column(frame.get_column(name), time_ns, self.format)
+            for name in self._columns
+        ]
+        info: dict[str, Any] = {
+            "path": self.path,
+            "format": self.format,
+            "rows": frame.height,
+            "columns": columns,
+            "time": None,
+            "sample_time": None,
+            "rate_hz": None,
+            "gaps": [],
+            "gap_count": 0,
+            "problems": problems,
+        }
+        if time_ns is not None and time_ns.size:
+            info["time"] = {
+                "column": self._time_column,
+                "start": time_ns[0] / 1e9,
+                "end": time_ns[-1] / 1e9,
+                "duration": (time_ns[-1] - time_ns[0]) / 1e9,
+            }
+            steps = np.diff(time_ns)
+            if steps.size:
+                median = float(np.median(steps))
+                info["sample_time"] = median / 1e9
+                info["rate_hz"] = 1e9 / median
+                starts = np.flatnonzero(steps > GAP_FACTOR * median)
+                info["gap_count"] = int(starts.size)
+                info["gaps"] = [
+                    {
+                        "start": time_ns[i] / 1e9,
+                        "end": time_ns[i + 1] / 1e9,
+                        "duration": (time_ns[i + 1] - time_ns[i]) / 1e9,
+                    }
+                    for i in starts[:MAX_LISTED_GAPS].tolist()
+                ]
+        return info
+
+    def _full_frame(self) -> pl.DataFrame:
+        if self.format == "parquet":
+            try:
+                return pl.read_parquet(self._file)
+            except pl.exceptions.PolarsError as err:
+                raise LogError(
+                    f"{self.path}: not a readable Parquet file ({_first_line(err)})"
+                ) from err
+        return _read_csv_strings(self._file, list(self._columns))
+
+
+# ---------------------------------------------------------------------- CSV helpers
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__
+
+
+def _read_csv_header(path: Path) -> tuple[str, ...]:
+    """Parse line 1 of a CSV file into column names, checking them."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            line = handle.readline()
+    except UnicodeDecodeError as err:
+        raise LogError(f"{path}: not a UTF-8 text file ({err.reason})") from err
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+    if not line:
+        raise LogError(f"{path}: empty file")
+    if not line.strip():
+        raise LogError(f"{path}, line 1: no header (the first line must name the columns)")
+    names = next(csv.reader([line]))
+    if all(_is_number(name) for name in names):
+        raise LogError(
+            f"{path}, line 1: no header; {line.strip()[:40]!r} looks like data "
+            "(the first line must name the columns, e.g. t,u,y)"
+        )
+    for position, name in enumerate(names, start=1):
+        if not name.strip():
+            raise LogError(f"{path}, line 1: column {position} of the header has no name")
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise LogError(f"{path}, line 1: duplicate column name {name!r} in the header")
+        seen.add(name)
+    return tuple(names)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_csv_strings(path: Path, columns: list[str]) -> pl.DataFrame:
+    """Read ``columns`` as text; raise :class:`LogError` for a file polars cannot parse."""
+    try:
+        frame = pl.read_csv(path, columns=columns, infer_schema=False)
+    except pl.exceptions.PolarsError as err:
+        line, fields = _first_ragged_line(path)
+        if line:
+            raise LogError(
+                f"{path}, line {line}: {fields} fields, but the header names "
+                f"{len(_read_csv_header(path))} columns"
+            ) from err
+        raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
+    _check_truncated(path)
+    return frame
+
+
+def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.DataFrame:
+    """Read ``columns``: those in ``as_float`` as ``Float64``, the others as text.
+
+    The fast path lets polars parse the numbers; when that fails the columns are read as
+    text and converted here, which tolerates surrounding blanks and finds the bad cell.
+    """
+    schema = {c: pl.Float64 if c in as_float else pl.String for c in columns}
+    try:
+        frame = pl.read_csv(path, columns=columns, schema_overrides=schema, infer_schema=False)
+    except pl.exceptions.PolarsError:
+        text = _read_csv_strings(path, columns)
+        rows: IntArray = np.arange(text.height, dtype=np.int64)
+        return text.with_columns(
+            [_parse_floats(path, text.get_column(c), rows) for c in columns if c in as_float]
+        )
+    _check_truncated(path)
+    return frame
+
+
+def _parse_floats(path: Path, column: pl.Series, rows: IntArray) -> pl.Series:
+    """Convert a text column to ``Float64``; empty cells become nulls, others must parse."""
+    text = column.cast(pl.String).str.strip_chars()
+    text = pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
+    values = text.cast(pl.Float64, strict=False)
+    bad = (values.is_null() & text.is_not_null()).to_numpy()
+    if bad.any():
+        first = int(np.argmax(bad))
+        raise LogError(
+            f"{path}, line {int(rows[first]) + 2}, column {column.name!r}: "
+            f"{text[first]!r} is not a number"
+        )
+    return values
+
+
+def _blank_csv_rows(path: Path) -> np.ndarray[Any, np.dtype[np.bool_]]:
+    """Rows that polars read from blank lines: every column null."""
+    frame = _read_csv_strings(path, list(_read_csv_header(path)))
+    blank: np.ndarray[Any, np.dtype[np.bool_]] = (
+        frame.select(pl.all_horizontal(pl.all().is_null())).to_series().to_numpy()
+    )
+    return blank
+
+
+def _first_ragged_line(path: Path) -> tuple[int, int]:
+    """Line number and field count of the first record wider than the header, or (0, 0)."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            reader = csv.reader(handle)
+            width = len(next(reader, []))
+            for record in reader:
+                if len(record) > width:
+                    return reader.line_num, len(record)
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return 0, 0
+    return 0, 0
+
+
+def _check_truncated(path: Path) -> None:
+    """Reject a file whose last line has no newline and fewer fields than the header.
+
+    That is what a log cut off while being written looks like; polars would silently read
+    the missing cells as empty.
+    """
+    with path.open("rb") as handle:
+        handle.seek(0, 2)
+        size = handle.tell()
+        handle.seek(max(0, size - 65536))
+        tail = handle.read()
+    if not tail or tail.endswith(b"\n"):
+        return
+    last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
+    fields = next(csv.reader([last]), [])
+    width = len(_read_csv_header(path))
+    if len(fields) < width:
+        with path.open("rb") as handle:
+            line = sum(chunk.count(b"\n") for chunk in iter(lambda: handle.read(1 << 20), b""))
+        raise LogError(
+            f"{path}, line {line + 1}: truncated last line ({len(fields)} of {width} fields "
+            "and no newline at the end of the file)"
+        )
+
+
+def _as_labels(column: pl.Series) -> pl.Series:
+    """Mode ids as stripped text; integer-valued floats (Parquet) lose their ``.0``."""
+    dtype = column.dtype
+    if dtype.is_float():
+        finite = column.drop_nulls()
+        if finite.len() and bool((finite == finite.round(0)).all()):
+            column = column.cast(pl.Int64, strict=False)
+    text = column.cast(pl.String).str.strip_chars()
+    return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
+
+
+# ---------------------------------------------------------------------- Parquet helpers
+
+
+def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
+    try:
+        schema = pl.read_parquet_schema(path)
+    except (pl.exceptions.PolarsError, OSError) as err:
+        raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
+    if not schema:
+        raise LogError(f"{path}: the Parquet file has no columns")
+    return dict(schema)
+
+
+# ---------------------------------------------------------------------- describe helpers
+
+
+def _describe_column(
+    column: pl.Series, time_ns: IntArray | None, table_format: str
+) -> dict[str, Any]:
+    """Name, dtype, non-null count, finite min/max and median rate of one column."""
+    dtype = _dtype_name(column.dtype)
+    values: FloatArray | None = None
+    if table_format == "csv":
+        text = column.str.strip_chars()
+        text = pl.select(pl.when(text != "").then(text)).to_series()
+        parsed = text.cast(pl.Float64, strict=False)
+        if parsed.null_count() == text.null_count():
+            dtype = "float64"
+            values = parsed.to_numpy().astype(np.float64)
+        else:
+            dtype = "string"
+        present = text.is_not_null().to_numpy()
+    else:
+        if column.dtype.is_numeric():
+            values = column.cast(pl.Float64).to_numpy().astype(np.float64)
+        present = column.is_not_null().to_numpy()
+    info: dict[str, Any] = {
+        "name": column.name,
+        "dtype": dtype,
+        "count": int(present.sum()),
+        "min": None,
+        "max": None,
+        "rate_hz": None,
+    }
+    if values is not None:
+        finite = values[np.isfinite(values)]
+        if finite.size:
+            info["min"] = float(finite.min())
+            info["max"] = float(finite.max())
+    if time_ns is not None and time_ns.size == present.size:
+        info["rate_hz"] = _rate(time_ns[present])
+    return info
+
+
+def _rate(time_ns: IntArray) -> float | None:
+    steps = np.diff(time_ns)
+    if not steps.size:
+        return None
+    median = float(np.median(steps))
+    return 1e9 / median if median > 0 else None
+
+
+def _dtype_name(dtype: pl.DataType) -> str:
+    text = str(dtype)
+    return text.lower() if text.isalnum() else text
+

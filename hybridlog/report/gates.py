@@ -1,0 +1,292 @@
+"""CI gates: ``--fail-under METRIC=VALUE`` and ``--fail-over METRIC=VALUE``.
+
+A ``--fail-under`` gate fails when the metric is below its bound, a ``--fail-over`` gate
+when it is above.  A gated metric that is ``null`` in the report (for instance
+``mode_accuracy`` of a log without ground truth) fails the gate, with a message saying so.
+
+Metric names
+------------
+``vaf``, ``mse``
+    Mean over outputs (``report["vaf"]``, ``report["mse"]``).
+``vaf.<y>``, ``mse.<y>``
+    Of one output ``<y>``.
+``mode_accuracy``
+    ``report["modes"]["accuracy"]``, a fraction in ``[0, 1]``.
+``detection_delay_s``
+    Mean detection delay of true mode switches, seconds.
+``missed_switches``
+    Number of true mode switches never detected.
+``state_rmse.<x>``
+    RMSE of state ``<x>``.
+``runtime_s``, ``samples_per_s``
+    Estimation speed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from hybridlog.errors import OptionError
+
+__all__ = [
+    "METRICS",
+    "Gate",
+    "evaluate_gates",
+    "metric_value",
+    "parse_gate",
+    "parse_gates",
+    "validate_gates",
+]
+
+GateKind = Literal["under", "over"]
+
+#: Metrics without a qualifier.
+METRICS: tuple[str, ...] = (
+    "vaf",
+    "mse",
+    "mode_accuracy",
+    "detection_delay_s",
+    "missed_switches",
+    "runtime_s",
+    "samples_per_s",
+)
+#: Metrics qualified by an output (``vaf.y1``) or a state (``state_rmse.x1``).
+_OUTPUT_METRICS = ("vaf", "mse")
+_STATE_METRICS = ("state_rmse",)
+
+_WHY_NULL = {
+    "mode_accuracy": "the log has no ground-truth mode",
+    "missed_switches": "the log has no ground-truth mode",
+    "detection_delay_s": "no ground-truth mode or no true switch was detected",
+    "state_rmse": "the log has no ground truth for this state",
+    "vaf": "no finite one-step-ahead prediction",
+    "mse": "no finite one-step-ahead prediction",
+    "samples_per_s": "the runtime was not measured",
+}
+
+
+@dataclass(frozen=True)
+class Gate:
+    """One CI gate.
+
+    Attributes
+    ----------
+    metric:
+        Metric name, e.g. ``vaf`` or ``state_rmse.x1`` (see the module docstring).
+    bound:
+        The bound.
+    kind:
+        ``"under"``: fail when the metric is below ``bound``; ``"over"``: when above.
+    spec:
+        The text the gate was parsed from, for messages.
+
+    """
+
+    metric: str
+    bound: float
+    kind: GateKind
+    spec: str
+
+    @property
+    def option(self) -> str:
+        """The command-line option that set this gate."""
+        return f"--fail-{self.kind}"
+
+
+def _known_names() -> str:
+    return ", ".join([*METRICS, "vaf.<output>", "mse.<output>", "state_rmse.<state>"])
+
+
+def parse_gate(spec: str, kind: GateKind) -> Gate:
+    """Parse one ``METRIC=VALUE`` gate specification.
+
+    Parameters
+    ----------
+    spec:
+        E.g. ``"vaf=90"`` or ``"state_rmse.x1=0.5"``.
+    kind:
+        ``"under"`` for ``--fail-under``, ``"over"`` for ``--fail-over``.
+
+    Returns
+    -------
+    Gate
+        The parsed gate.
+
+    Raises
+    ------
+    OptionError
+        When the spec has no ``=``, an unknown metric name or a bound that is not a finite
+        number; the message names the spec.
+
+    """
+    option = f"--fail-{kind}"
+    metric, sep, value = spec.partition("=")
+    metric = metric.strip()
+    value = value.strip()
+    if not sep or not metric or not value:
+        raise OptionError(f"{option} {spec!r} is not of the form METRIC=VALUE")
+    base, dot, qualifier = metric.partition(".")
+    if dot:
+        known = bool(qualifier) and base in (*_OUTPUT_METRICS, *_STATE_METRICS)
+    else:
+        known = base in METRICS
+    if not known:
+        raise OptionError(f"{option} {spec!r}: unknown metric {metric!r}; known: {_known_names()}")
+    try:
+        bound = float(value)
+    except ValueError:
+        raise OptionError(f"{option} {spec!r}: bound {value!r} is not a number") from None
+    if not math.isfinite(bound):
+        raise OptionError(f"{option} {spec!r}: bound {value!r} is not a finite number")
+    return Gate(metric=metric, bound=bound, kind=kind, spec=spec)
+
+
+def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -> list[Gate]:
+    """Parse every ``--fail-under`` and ``--fail-over`` value.
+
+    Parameters
+    ----------
+    fail_under:
+        ``METRIC=VALUE`` specs that fail when the metric is below the value.
+    fail_over:
+        ``METRIC=VALUE`` specs that fail when the metric is above the value.
+
+    Returns
+    -------
+    list of Gate
+        ``--fail-under`` gates first, each group in the order given.
+
+    """
+    return [parse_gate(s, "under") for s in fail_under] + [parse_gate(s, "over") for s in fail_over]
+
+
+def validate_gates(
+    gates: Iterable[Gate], *, output_names: Sequence[str], state_names: Sequence[str]
+) -> None:
+    """Check that qualified metrics name an output or state of the model.
+
+    Call this before a long run so that ``--fail-under vaf.y9=90`` fails early.
+
+    Parameters
+    ----------
+    gates:
+        Parsed gates.
+    output_names, state_names:
+        The model's outputs and states.
+
+    Raises
+    ------
+    OptionError
+        Naming the first gate whose output or state is unknown.
+
+    """
+    for gate in gates:
+        base, dot, qualifier = gate.metric.partition(".")
+        if not dot:
+            continue
+        if base in _OUTPUT_METRICS and qualifier not in output_names:
+            raise OptionError(
+                f"{gate.option} {gate.spec!r}: {qualifier!r} is not an output; "
+                f"outputs: {', '.join(output_names)}"
+            )
+        if base in _STATE_METRICS and qualifier not in state_names:
+            raise OptionError(
+                f"{gate.option} {gate.spec!r}: {qualifier!r} is not a state; "
+                f"states: {', '.join(state_names)}"
+            )
+
+
+def metric_value(report: Mapping[str, Any], metric: str) -> float | None:
+    """Look a metric up in a report.
+
+    Parameters
+    ----------
+    report:
+        A report from :func:`hybridlog.report.document.build_report`.
+    metric:
+        A metric name (see the module docstring).
+
+    Returns
+    -------
+    float or None
+        The value, ``None`` when the report holds ``null`` for it.
+
+    Raises
+    ------
+    OptionError
+        When the metric name is unknown or names an output/state the report does not have.
+
+    """
+    base, dot, qualifier = metric.partition(".")
+    modes: Mapping[str, Any] = report.get("modes") or {}
+    value: Any
+    if not dot and base in ("vaf", "mse", "runtime_s", "samples_per_s"):
+        value = report.get(base)
+    elif not dot and base == "mode_accuracy":
+        value = modes.get("accuracy")
+    elif not dot and base == "detection_delay_s":
+        value = modes.get("detection_delay_s")
+    elif not dot and base == "missed_switches":
+        value = (modes.get("detection") or {}).get("missed")
+    elif dot and base in _OUTPUT_METRICS:
+        outputs: Mapping[str, Any] = report.get("outputs") or {}
+        if qualifier not in outputs:
+            raise OptionError(f"gate metric {metric!r}: {qualifier!r} is not an output")
+        value = outputs[qualifier].get(base)
+    elif dot and base in _STATE_METRICS:
+        states: Mapping[str, Any] = report.get("states") or {}
+        if qualifier not in states:
+            raise OptionError(f"gate metric {metric!r}: {qualifier!r} is not a state")
+        value = states[qualifier].get("rmse")
+    else:
+        raise OptionError(f"unknown gate metric {metric!r}; known: {_known_names()}")
+    if value is None:
+        return None
+    f = float(value)
+    return f if math.isfinite(f) else None
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def evaluate_gates(report: Mapping[str, Any], gates: Iterable[Gate]) -> list[str]:
+    """Check gates against a report.
+
+    Parameters
+    ----------
+    report:
+        A report from :func:`hybridlog.report.document.build_report`.
+    gates:
+        Parsed gates.
+
+    Returns
+    -------
+    list of str
+        One message per failed gate, e.g. ``"vaf = 87.2 is under the bound 90"``; empty
+        when every gate is met.
+
+    Raises
+    ------
+    OptionError
+        When a gate names an output or state the report does not have.
+
+    """
+    failures: list[str] = []
+    for gate in gates:
+        value = metric_value(report, gate.metric)
+        if value is None:
+            base = gate.metric.partition(".")[0]
+            why = _WHY_NULL.get(base, "the report has no value for it")
+            failures.append(
+                f"{gate.metric} is not available ({why}), so the {gate.option} bound "
+                f"{_fmt(gate.bound)} cannot be met"
+            )
+        elif gate.kind == "under" and value < gate.bound:
+            failures.append(f"{gate.metric} = {_fmt(value)} is under the bound {_fmt(gate.bound)}")
+        elif gate.kind == "over" and value > gate.bound:
+            failures.append(f"{gate.metric} = {_fmt(value)} is over the bound {_fmt(gate.bound)}")
+    return failures

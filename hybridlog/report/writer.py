@@ -1,0 +1,88 @@
+"""Write every output of ``hybridlog analyze`` into one directory, atomically."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.report.document import build_report, render_markdown, report_json
+from hybridlog.report.output_dir import atomic_output_dir
+from hybridlog.report.plots import write_plots
+from hybridlog.report.tables import (
+    check_table_format,
+    estimates_frame,
+    timeline_frame,
+    write_table,
+)
+from hybridlog.signals import AlignedSignals
+
+__all__ = ["write_report"]
+
+
+def write_report(
+    out_dir: str | os.PathLike[str],
+    result: EstimationResult,
+    signals: AlignedSignals,
+    *,
+    log: str,
+    model_name: str,
+    dt: float,
+    table_format: str = "csv",
+    force: bool = False,
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Compute the metrics of a run and write its output directory (SPEC §8).
+
+    Writes ``report.json``, ``report.md``, ``timeline.<fmt>``, ``estimates.<fmt>`` and
+    ``plots/{outputs,modes,states}.png`` into a temporary directory and renames it to
+    ``out_dir`` only when all of them are complete (see
+    :func:`hybridlog.report.output_dir.atomic_output_dir`).
+
+    Parameters
+    ----------
+    out_dir:
+        The output directory.
+    result:
+        What the estimator returned.
+    signals:
+        The aligned signals it ran on.
+    log:
+        Path or name of the log, recorded in the report.
+    model_name:
+        Name of the model, recorded in the report.
+    dt:
+        The model's sample time in seconds.
+    table_format:
+        ``"csv"`` or ``"parquet"`` for the timeline and estimates tables.
+    force:
+        Replace a non-empty existing ``out_dir``.
+    extra:
+        Additional top-level report keys (they replace computed keys of the same name).
+
+    Returns
+    -------
+    dict
+        The report, as written to ``report.json``.
+
+    Raises
+    ------
+    OptionError
+        For an unknown ``table_format``.
+    OutputError
+        When ``out_dir`` exists and is not empty (without ``force``) or cannot be written.
+
+    """
+    fmt = check_table_format(table_format)
+    report = build_report(result, signals, log=log, model_name=model_name, dt=dt, extra=extra)
+    with atomic_output_dir(out_dir, force=force) as tmp:
+        (tmp / "report.json").write_text(report_json(report), encoding="utf-8")
+        (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
+        write_table(timeline_frame(result, signals), tmp / "timeline", fmt)
+        write_table(estimates_frame(result, signals), tmp / "estimates", fmt)
+        plot_dir = Path(tmp / "plots")
+        plot_dir.mkdir()
+        write_plots(plot_dir, result, signals)
+    return report

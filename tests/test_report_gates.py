@@ -1,0 +1,105 @@
+"""CI gates: --fail-under / --fail-over parsing and evaluation against a report."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from hybridlog.errors import OptionError
+from hybridlog.report.gates import Gate, evaluate_gates, parse_gate, parse_gates, validate_gates
+
+
+def report(*, truth: bool = True) -> dict[str, Any]:
+    return {
+        "outputs": {"y1": {"mse": 0.02, "vaf": 87.2}, "y2": {"mse": 0.5, "vaf": None}},
+        "mse": 0.26,
+        "vaf": 87.2,
+        "modes": {
+            "accuracy": 0.93 if truth else None,
+            "detection_delay_s": 0.4 if truth else None,
+            "detection": {"missed": 1} if truth else None,
+        },
+        "states": {"x1": {"rmse": 0.1 if truth else None}},
+        "runtime_s": 2.0,
+        "samples_per_s": 5000.0,
+    }
+
+
+def test_parse_gate() -> None:
+    assert parse_gate(" vaf = 90 ", "under") == Gate("vaf", 90.0, "under", " vaf = 90 ")
+    assert parse_gate("state_rmse.x1=0.5", "over").metric == "state_rmse.x1"
+    gates = parse_gates(["vaf=90", "mode_accuracy=0.9"], ["mse=1e-3"])
+    assert [(g.metric, g.bound, g.kind) for g in gates] == [
+        ("vaf", 90.0, "under"),
+        ("mode_accuracy", 0.9, "under"),
+        ("mse", 1e-3, "over"),
+    ]
+
+
+@pytest.mark.parametrize(
+    ("spec", "fragment"),
+    [
+        ("vaf", "METRIC=VALUE"),
+        ("=90", "METRIC=VALUE"),
+        ("vaf=", "METRIC=VALUE"),
+        ("accuracy=0.9", "unknown metric 'accuracy'"),
+        ("vaf.=90", "unknown metric"),
+        ("rmse.x1=1", "unknown metric"),
+        ("vaf=ninety", "not a number"),
+        ("vaf=nan", "not a finite number"),
+        ("mse=inf", "not a finite number"),
+    ],
+)
+def test_bad_spec_is_an_option_error_naming_it(spec: str, fragment: str) -> None:
+    with pytest.raises(OptionError, match="--fail-under") as info:
+        parse_gate(spec, "under")
+    message = str(info.value)
+    assert repr(spec) in message
+    assert fragment in message
+    assert "\n" not in message
+
+
+def test_all_gates_met_gives_no_messages() -> None:
+    gates = parse_gates(
+        ["vaf=80", "vaf.y1=87.2", "mode_accuracy=0.9", "samples_per_s=1000"],
+        ["mse=0.3", "mse.y2=0.5", "state_rmse.x1=0.2", "detection_delay_s=1", "missed_switches=1"],
+    )
+    assert evaluate_gates(report(), gates) == []
+
+
+def test_missed_gates_name_metric_value_and_bound() -> None:
+    gates = parse_gates(["vaf=90", "mode_accuracy=0.95"], ["mse.y2=0.1", "runtime_s=1"])
+    assert evaluate_gates(report(), gates) == [
+        "vaf = 87.2 is under the bound 90",
+        "mode_accuracy = 0.93 is under the bound 0.95",
+        "mse.y2 = 0.5 is over the bound 0.1",
+        "runtime_s = 2 is over the bound 1",
+    ]
+
+
+def test_null_metric_fails_the_gate_and_says_why() -> None:
+    gates = parse_gates(["mode_accuracy=0.9", "vaf.y2=50"], ["state_rmse.x1=1"])
+    messages = evaluate_gates(report(truth=False), gates)
+    assert len(messages) == 3
+    assert messages[0].startswith("mode_accuracy is not available")
+    assert "ground-truth mode" in messages[0]
+    assert "0.9" in messages[0]
+    assert messages[1].startswith("vaf.y2 is not available")
+    assert "ground truth" in messages[2]
+
+
+def test_unknown_output_or_state_is_an_option_error() -> None:
+    with pytest.raises(OptionError, match="'y9' is not an output"):
+        evaluate_gates(report(), parse_gates(["vaf.y9=90"]))
+    with pytest.raises(OptionError, match="'x9' is not a state"):
+        evaluate_gates(report(), parse_gates([], ["state_rmse.x9=1"]))
+
+
+def test_validate_gates_before_a_run() -> None:
+    ok = parse_gates(["vaf.y1=90", "vaf=90"], ["state_rmse.x1=1"])
+    validate_gates(ok, output_names=["y1"], state_names=["x1"])
+    with pytest.raises(OptionError, match=r"--fail-over 'mse\.q=1'"):
+        validate_gates(parse_gates([], ["mse.q=1"]), output_names=["y1"], state_names=["x1"])
+    with pytest.raises(OptionError, match="not a state"):
+        validate_gates(parse_gates(["state_rmse.y1=1"]), output_names=["y1"], state_names=["x1"])

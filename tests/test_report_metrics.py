@@ -1,0 +1,211 @@
+"""Metrics of hybridlog.report.metrics: hand-computed cases and hypothesis properties."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from hybridlog.report import metrics
+
+NAN = float("nan")
+
+
+# --- MSE / VAF (paper 001, section 5) -------------------------------------------------------
+
+
+def test_mse_and_vaf_by_hand() -> None:
+    y = np.array([1.0, 2.0, 3.0, 4.0])
+    y_hat = np.array([NAN, 2.0, 2.0, 5.0])  # row 0: no prediction, ignored
+    # errors over rows 1..3: [0, 1, -1] -> MSE 2/3; var(e) = 2/3; var(ŷ) = var([2,2,5]) = 2
+    assert metrics.mse(y, y_hat) == pytest.approx([2.0 / 3.0], rel=1e-15)
+    assert metrics.vaf(y, y_hat) == pytest.approx([(1.0 - (2.0 / 3.0) / 2.0) * 100.0], rel=1e-15)
+
+
+def test_vaf_uses_variance_of_prediction_not_of_measurement() -> None:
+    y = np.array([0.0, 1.0, 2.0, 3.0])
+    y_hat = np.array([0.0, 0.0, 4.0, 4.0])
+    e = y - y_hat
+    expected = (1.0 - np.var(e) / np.var(y_hat)) * 100.0
+    wrong = (1.0 - np.var(e) / np.var(y)) * 100.0
+    assert expected != pytest.approx(wrong)
+    assert metrics.vaf(y, y_hat)[0] == pytest.approx(expected, rel=1e-15)
+
+
+def test_vaf_is_clamped_at_zero() -> None:
+    y_hat = np.array([1.0, -1.0, 1.0, -1.0])
+    y = -y_hat  # e = -2ŷ: var(e) = 4 var(ŷ)
+    assert metrics.vaf(y, y_hat)[0] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("y", "y_hat", "expected"),
+    [
+        ([3.0, 3.0, 3.0], [3.0, 3.0, 3.0], 100.0),  # constant and exact
+        ([5.0, 5.0, 5.0], [3.0, 3.0, 3.0], 100.0),  # constant offset: error variance 0
+        ([1.0, 2.0, 3.0], [2.0, 2.0, 2.0], 0.0),  # var(ŷ) = 0 but the error varies
+    ],
+)
+def test_vaf_with_constant_prediction(y: list[float], y_hat: list[float], expected: float) -> None:
+    assert metrics.vaf(np.array(y), np.array(y_hat))[0] == expected
+
+
+def test_metrics_per_column_and_empty_column() -> None:
+    y = np.array([[1.0, 1.0], [2.0, 2.0], [4.0, 3.0]])
+    y_hat = np.array([[NAN, NAN], [2.0, NAN], [3.0, NAN]])
+    out_mse = metrics.mse(y, y_hat)
+    assert out_mse[0] == pytest.approx(0.5)
+    assert math.isnan(out_mse[1])
+    assert math.isnan(metrics.vaf(y, y_hat)[1])
+    assert metrics.mean_of_finite(out_mse) == pytest.approx(0.5)
+    assert math.isnan(metrics.mean_of_finite([NAN, NAN]))
+
+
+def test_shape_mismatch_is_an_error() -> None:
+    with pytest.raises(ValueError, match="shape"):
+        metrics.mse(np.zeros((3, 2)), np.zeros((3, 1)))
+
+
+finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_subnormal=False)
+columns = hnp.arrays(np.float64, st.tuples(st.integers(2, 40), st.integers(1, 3)), elements=finite)
+
+
+@given(columns)
+@settings(max_examples=200, deadline=None)
+def test_perfect_predictor_gives_mse_0_and_vaf_100(y: np.ndarray) -> None:
+    y_hat = y.copy()
+    y_hat[0] = NAN  # like an EstimationResult: no prediction for the prior
+    assert np.all(metrics.mse(y, y_hat) == 0.0)
+    assert np.all(metrics.vaf(y, y_hat) == 100.0)
+
+
+@given(columns, st.data())
+@settings(max_examples=200, deadline=None)
+def test_vaf_is_within_0_and_100(y: np.ndarray, data: st.DataObject) -> None:
+    y_hat = data.draw(hnp.arrays(np.float64, y.shape, elements=finite))
+    v = metrics.vaf(y, y_hat)
+    assert np.all((v >= 0.0) & (v <= 100.0))
+    assert np.all(metrics.mse(y, y_hat) >= 0.0)
+
+
+# --- modes ------------------------------------------------------------------------------------
+
+IDS = ("a", "b", "c")
+
+
+def test_accuracy_and_confusion_by_hand() -> None:
+    est = np.array([0, 0, 1, 1, 2])
+    truth = np.array([0, 1, 1, 1, 2])
+    assert metrics.mode_accuracy(est, truth) == pytest.approx(0.8)
+    counts = metrics.confusion_matrix(est, truth, 3)
+    # rows: true mode, columns: estimated mode
+    np.testing.assert_array_equal(counts, [[1, 0, 0], [1, 2, 0], [0, 0, 1]])
+
+
+def test_confusion_rejects_out_of_range_modes() -> None:
+    with pytest.raises(ValueError, match="outside"):
+        metrics.confusion_matrix(np.array([0, 3]), np.array([0, 0]), 3)
+
+
+def test_switches_by_hand() -> None:
+    t = np.arange(5) * 0.1
+    switches = metrics.mode_switches(t, np.array([0, 0, 1, 1, 0]), IDS)
+    assert switches == [
+        {"t": pytest.approx(0.2), "from": "a", "to": "b"},
+        {"t": pytest.approx(0.4), "from": "b", "to": "a"},
+    ]
+    assert metrics.mode_switches(t, np.zeros(5, dtype=np.int64), IDS) == []
+
+
+def test_dwell_times_by_hand() -> None:
+    t = np.array([0.0, 1.0, 2.0, 4.0])
+    # durations: 1, 1, 2 and dt = 0.5 for the last sample
+    dwell = metrics.dwell_times(t, np.array([0, 1, 1, 0]), 3, 0.5)
+    np.testing.assert_allclose(dwell, [1.5, 3.0, 0.0])
+
+
+def test_detection_delays_by_hand() -> None:
+    t = np.arange(11, dtype=float)
+    truth = np.array([0, 0, 0, 1, 1, 1, 1, 2, 2, 0, 0])
+    est = np.array([0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 2])
+    det = metrics.detection_delays(t, est, truth, IDS)
+    # switch at 3 into b: estimate reaches b at 5 -> 2 s
+    # switch at 7 into c: never c before the next true switch at 9 -> missed
+    # switch at 9 into a: never a before the end (2 at 10 is the wrong mode) -> missed
+    assert [(e.t, e.from_mode, e.to_mode, e.delay_s) for e in det.events] == [
+        (3.0, "a", "b", 2.0),
+        (7.0, "b", "c", None),
+        (9.0, "c", "a", None),
+    ]
+    assert (det.detected, det.missed) == (1, 2)
+    assert det.mean_s == 2.0
+    assert det.max_s == 2.0
+
+
+def test_detection_delay_is_zero_when_the_estimate_switched_early() -> None:
+    t = np.arange(6) * 0.5
+    truth = np.array([0, 0, 0, 1, 1, 1])
+    est = np.array([0, 1, 1, 1, 1, 1])
+    det = metrics.detection_delays(t, est, truth, IDS)
+    assert det.delays_s.tolist() == [0.0]
+
+
+def test_detection_delays_mean_and_max() -> None:
+    t = np.arange(10, dtype=float)
+    truth = np.array([0, 0, 1, 1, 1, 0, 0, 0, 0, 0])
+    est = np.array([0, 0, 0, 1, 1, 1, 1, 1, 0, 0])
+    det = metrics.detection_delays(t, est, truth, IDS)
+    assert det.delays_s.tolist() == [1.0, 3.0]
+    assert det.mean_s == 2.0
+    assert det.max_s == 3.0
+
+
+def test_no_true_switch_gives_nan_delay() -> None:
+    det = metrics.detection_delays(np.arange(4.0), np.zeros(4, int), np.zeros(4, int), IDS)
+    assert det.events == ()
+    assert math.isnan(det.mean_s)
+    assert det.missed == 0
+
+
+mode_seqs = hnp.arrays(np.int64, st.integers(1, 60), elements=st.integers(0, 2))
+
+
+@given(mode_seqs)
+@settings(max_examples=200, deadline=None)
+def test_estimate_equal_to_truth_is_perfect(modes: np.ndarray) -> None:
+    t = np.arange(modes.size) * 0.25
+    assert metrics.mode_accuracy(modes, modes) == 1.0
+    counts = metrics.confusion_matrix(modes, modes, 3)
+    assert np.count_nonzero(counts - np.diag(np.diag(counts))) == 0
+    assert counts.sum() == modes.size
+    det = metrics.detection_delays(t, modes, modes, IDS)
+    assert det.missed == 0
+    assert np.all(det.delays_s == 0.0)
+    assert metrics.dwell_times(t, modes, 3, 0.25).sum() == pytest.approx(modes.size * 0.25)
+
+
+@given(mode_seqs, st.data())
+@settings(max_examples=200, deadline=None)
+def test_accuracy_is_the_confusion_diagonal(truth: np.ndarray, data: st.DataObject) -> None:
+    est = data.draw(hnp.arrays(np.int64, truth.shape, elements=st.integers(0, 2)))
+    counts = metrics.confusion_matrix(est, truth, 3)
+    assert metrics.mode_accuracy(est, truth) == pytest.approx(np.trace(counts) / truth.size)
+    assert 0.0 <= metrics.mode_accuracy(est, truth) <= 1.0
+    np.testing.assert_array_equal(counts.sum(axis=1), np.bincount(truth, minlength=3))
+    np.testing.assert_array_equal(counts.sum(axis=0), np.bincount(est, minlength=3))
+
+
+# --- states -----------------------------------------------------------------------------------
+
+
+def test_state_rmse_by_hand() -> None:
+    x_hat = np.array([[1.0, 0.0, 5.0], [2.0, 0.0, 5.0], [3.0, 0.0, 5.0]])
+    x_true = np.array([[1.0, NAN, 2.0], [4.0, NAN, NAN], [3.0, NAN, 1.0]])
+    rmse = metrics.state_rmse(x_hat, x_true)
+    assert rmse[0] == pytest.approx(math.sqrt(4.0 / 3.0))
+    assert math.isnan(rmse[1])  # no truth for this state
+    assert rmse[2] == pytest.approx(math.sqrt((9.0 + 16.0) / 2.0))  # NaN rows ignored
