@@ -30,7 +30,7 @@ from typing import Literal
 import numpy as np
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io.source import NS_PER_S, Series, format_ns
+from hybridlog.io.source import NS_PER_S, LabelSeries, Series, format_ns
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 Resample = Literal["nearest", "linear"]
@@ -175,10 +175,8 @@ def resample_series(
     """
     tolerance = clock_tolerance_ns(dt_ns)
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
-    if method == "linear":
-        values = interpolate(series, grid_ns, tolerance)
-    else:
-        values = series.values[index]
+    linear = method == "linear"
+    values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
     in_gap = np.flatnonzero(2 * distance > dt_ns)
     if in_gap.size == 0:
         return values, in_gap
@@ -208,13 +206,41 @@ def _gap_error(
     return LogError(f"{source}: gap in {label} (column {series.name!r}): no sample {where}")
 
 
+def check_alignment_options(
+    dt: float, resample: str, max_gap: float | None
+) -> tuple[int, Resample, int]:
+    """Validate the alignment options before any log is read.
+
+    Returns
+    -------
+    tuple
+        ``dt`` in nanoseconds, the resampling method, and ``max_gap`` in nanoseconds.
+
+    Raises
+    ------
+    OptionError
+        For an unusable ``dt``, an unknown ``resample`` or a negative ``max_gap``.
+    """
+    dt_ns = step_ns(dt)
+    if resample not in RESAMPLE_METHODS:
+        raise OptionError(
+            f"resample: unknown method {resample!r}; choose one of {', '.join(RESAMPLE_METHODS)}"
+        )
+    method: Resample = "linear" if resample == "linear" else "nearest"
+    if max_gap is None:
+        return dt_ns, method, DEFAULT_MAX_GAP_STEPS * dt_ns
+    if not np.isfinite(max_gap) or max_gap < 0:
+        raise OptionError(f"max_gap: must be a non-negative number of seconds, got {max_gap}")
+    return dt_ns, method, round(max_gap * NS_PER_S)
+
+
 def align_signals(
     *,
     source: str,
     dt: float,
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
-    truth_mode: tuple[Series, IntArray] | None = None,
+    truth_mode: LabelSeries | None = None,
     states: Sequence[str] = (),
     truth_states: Mapping[str, Series] | None = None,
     resample: str = "nearest",
@@ -231,8 +257,8 @@ def align_signals(
     inputs, outputs:
         ``{symbol: series}`` in the model's order.
     truth_mode:
-        ``(series, mode_indices)``: the true-mode samples (only their times are used) and
-        each sample's index into the model's mode ids; or ``None``.
+        True-mode samples whose ``codes`` are indices into the model's mode ids
+        (:func:`~hybridlog.io.source.labels_to_codes`), or ``None``.
     states:
         The model's state names (order of ``truth_states`` columns).
     truth_states:
@@ -255,18 +281,7 @@ def align_signals(
         For an output gap longer than ``max_gap`` (naming the time span), signals that do
         not overlap, or a true mode that starts too late.
     """
-    dt_ns = step_ns(dt)
-    if resample not in RESAMPLE_METHODS:
-        raise OptionError(
-            f"resample: unknown method {resample!r}; choose one of {', '.join(RESAMPLE_METHODS)}"
-        )
-    method: Resample = "linear" if resample == "linear" else "nearest"
-    if max_gap is None:
-        max_gap_ns = DEFAULT_MAX_GAP_STEPS * dt_ns
-    elif not np.isfinite(max_gap) or max_gap < 0:
-        raise OptionError(f"max_gap: must be a non-negative number of seconds, got {max_gap}")
-    else:
-        max_gap_ns = round(max_gap * NS_PER_S)
+    dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
 
     output_list = list(outputs.values())
@@ -296,10 +311,10 @@ def align_signals(
     if truth_states:
         x_true = np.full((n, len(states)), np.nan)
         for j, state in enumerate(states):
-            series = truth_states.get(state)
-            if series is None or series.time_ns.size == 0:
+            truth_series = truth_states.get(state)
+            if truth_series is None or truth_series.time_ns.size == 0:
                 continue
-            values, too_long = resample_series(series, grid, dt_ns, max_gap_ns, method)
+            values, too_long = resample_series(truth_series, grid, dt_ns, max_gap_ns, method)
             values[too_long] = np.nan
             x_true[:, j] = values
 
@@ -318,12 +333,11 @@ def align_signals(
 
 def _hold_modes(
     source: str,
-    truth_mode: tuple[Series, IntArray],
+    series: LabelSeries,
     grid: IntArray,
     dt_ns: int,
     tolerance: int,
 ) -> IntArray:
-    series, codes = truth_mode
     if series.time_ns.size == 0:
         raise LogError(f"{source}: truth.mode (column {series.name!r}) has no samples")
     index = hold_index(series.time_ns, grid, tolerance)
@@ -336,5 +350,5 @@ def _hold_modes(
                 f"after the first sample time t={format_ns(int(grid[0]))} s"
             )
         index[before] = 0
-    modes: IntArray = codes[index].astype(np.int64)
+    modes: IntArray = series.codes[index].astype(np.int64)
     return modes

@@ -145,9 +145,7 @@ def seconds_to_ns(seconds: FloatArray) -> IntArray:
     """
     whole = np.floor(seconds)
     fraction = seconds - whole
-    result: IntArray = whole.astype(np.int64) * NS_PER_S + np.rint(fraction * 1e9).astype(
-        np.int64
-    )
+    result: IntArray = whole.astype(np.int64) * NS_PER_S + np.rint(fraction * 1e9).astype(np.int64)
     return result
 
 

@@ -210,20 +210,19 @@ class TableSource:
             if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
                 continue
             if (name in numeric or name == time_column) and not dtype.is_numeric():
-                raise LogError(
-                    f"{self.path}: column {name!r} has type {dtype}, expected a number"
-                )
+                raise LogError(f"{self.path}: column {name!r} has type {dtype}, expected a number")
             if name in labels and not (
-                dtype.is_numeric() or dtype in (pl.String, pl.Categorical, pl.Boolean)
+                dtype.is_numeric()
+                or dtype in (pl.String, pl.Categorical, pl.Boolean)
                 or isinstance(dtype, pl.Enum)
             ):
-                raise LogError(
-                    f"{self.path}: column {name!r} has type {dtype}, expected mode ids"
-                )
+                raise LogError(f"{self.path}: column {name!r} has type {dtype}, expected mode ids")
         try:
             frame = pl.read_parquet(self._file, columns=wanted)
         except pl.exceptions.PolarsError as err:
-            raise LogError(f"{self.path}: not a readable Parquet file ({_first_line(err)})") from err
+            raise LogError(
+                f"{self.path}: not a readable Parquet file ({_first_line(err)})"
+            ) from err
         casts = [
             pl.col(name).cast(pl.Float64)
             for name in wanted
@@ -234,7 +233,9 @@ class TableSource:
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
         """Rows to use: all of them, minus blank CSV lines; a row without a time is an error."""
         rows: IntArray = np.arange(frame.height, dtype=np.int64)
-        missing = frame.get_column(time_column).is_null().to_numpy()
+        missing: np.ndarray[Any, np.dtype[np.bool_]] = (
+            frame.get_column(time_column).is_null().to_numpy()
+        )
         if not missing.any():
             return rows
         blank = _blank_csv_rows(self._file) if self.format == "csv" else np.zeros_like(missing)
@@ -244,7 +245,8 @@ class TableSource:
             raise LogError(
                 f"{self.path}, {self._row_label(row)}, column {time_column!r}: empty time cell"
             )
-        return rows[~missing]
+        kept: IntArray = rows[~missing]
+        return kept
 
     def _time_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
         name = column.name
@@ -300,17 +302,14 @@ class TableSource:
         else:
             try:
                 rows = self._kept_rows(frame, self._time_column)
-                time_ns = self._time_ns(
-                    frame.get_column(self._time_column)[pl.Series(rows)], rows
-                )
+                time_ns = self._time_ns(frame.get_column(self._time_column)[pl.Series(rows)], rows)
             except LogError as err:
                 problems.append(str(err).removeprefix(f"{self.path}, "))
                 rows = np.arange(frame.height, dtype=np.int64)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
         columns = [
-            _describe_column(frame.get_column(name), time_ns, self.format)
-            for name in self._columns
+            _describe_column(frame.get_column(name), time_ns, self.format) for name in self._columns
         ]
         info: dict[str, Any] = {
             "path": self.path,
@@ -579,4 +578,3 @@ def _rate(time_ns: IntArray) -> float | None:
 def _dtype_name(dtype: pl.DataType) -> str:
     text = str(dtype)
     return text.lower() if text.isalnum() else text
-

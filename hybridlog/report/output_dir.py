@@ -24,7 +24,8 @@ def _is_nonempty_dir(path: Path) -> bool:
         return any(True for _ in entries)
 
 
-def _check_target(target: Path, force: bool) -> None:
+def check_target(target: Path, force: bool) -> None:
+    """Refuse a target that exists and is not an empty directory, unless ``force``."""
     if not target.name:
         raise OutputError(f"output directory {str(target)!r} cannot be replaced")
     if not (target.exists() or target.is_symlink()):
@@ -37,7 +38,7 @@ def _check_target(target: Path, force: bool) -> None:
 
 def _commit(tmp: Path, target: Path, force: bool) -> None:
     # Checked again: the target may have appeared while the outputs were written.
-    _check_target(target, force)
+    check_target(target, force)
     if not target.exists():
         os.rename(tmp, target)
         return
@@ -90,7 +91,7 @@ def atomic_output_dir(target: str | os.PathLike[str], *, force: bool = False) ->
 
     """
     path = Path(os.path.abspath(target))
-    _check_target(path, force)
+    check_target(path, force)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.tmp-{secrets.token_hex(4)}")

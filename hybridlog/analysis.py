@@ -1,0 +1,242 @@
+"""The jobs the commands run: one log through one estimator into one report, and its kin.
+
+This layer joins the others (``io`` → ``model`` → ``estimators`` → ``report``) and is what
+the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogError`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import polars as pl
+from hybridlog.errors import OptionError
+from hybridlog.estimators import estimator_options, get_estimator
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.io import load_signals
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.model.loader import load_model
+from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
+from hybridlog.report.gates import Gate
+from hybridlog.report.output_dir import atomic_output_dir, check_target
+from hybridlog.signals import AlignedSignals
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How to read and align a log (``--map``, ``--resample``, ``--max-gap``)."""
+
+    maps: tuple[str, ...] = ()
+    resample: str = "nearest"
+    max_gap: float | None = None
+
+
+@dataclass(frozen=True)
+class Settings:
+    """``--set NAME=VALUE`` values, split into model parameters and estimator options."""
+
+    parameters: dict[str, float] = field(default_factory=dict)
+    options: dict[str, str] = field(default_factory=dict)
+
+
+def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridModel, Settings]:
+    """Load the model and apply ``--set`` values: names of parameters change the model,
+    all other names are estimator options (validated by the estimator)."""
+    model = load_model(model_ref)
+    settings = Settings()
+    for text in values:
+        name, sep, value = text.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise OptionError(f"--set: '{text}' is not NAME=VALUE")
+        if name in model.parameters:
+            try:
+                settings.parameters[name] = float(value)
+            except ValueError as err:
+                raise OptionError(f"--set {name}: '{value}' is not a number") from err
+        else:
+            settings.options[name] = value.strip()
+    if settings.parameters:
+        model = load_model(model_ref, parameters=settings.parameters)
+    return model, settings
+
+
+def read_log(log: str | Path, model: HybridModel, read: ReadOptions) -> AlignedSignals:
+    """The log's signals for ``model`` on its grid."""
+    return load_signals(
+        log,
+        states=model.states,
+        inputs=model.inputs,
+        outputs=model.outputs,
+        mode_ids=model.mode_ids,
+        dt=model.dt,
+        signals=model.signals,
+        truth=model.truth,
+        maps=read.maps,
+        resample=read.resample,
+        max_gap=read.max_gap,
+    )
+
+
+def estimate(
+    model: HybridModel, signals: AlignedSignals, estimator: str | None, settings: Settings
+) -> EstimationResult:
+    """Run one estimator (default: the model's ``default_estimator``)."""
+    name = estimator or model.default_estimator
+    chosen = get_estimator(name)
+    return chosen.run(model, signals, estimator_options(model, name, settings.options))
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What ``analyze`` produced: the report, where it went, and the missed CI gates."""
+
+    report: dict[str, Any]
+    out_dir: Path
+    gate_failures: list[str]
+
+
+def gates_for(
+    model: HybridModel, fail_under: Sequence[str], fail_over: Sequence[str]
+) -> list[Gate]:
+    """Parse the CI gates and check that the outputs and states they name exist."""
+    gates = parse_gates(fail_under, fail_over)
+    validate_gates(gates, output_names=model.outputs, state_names=model.states)
+    return gates
+
+
+def analyze(
+    log: str | Path,
+    model_ref: str | Path,
+    *,
+    out_dir: str | os.PathLike[str],
+    estimator: str | None = None,
+    sets: Sequence[str] = (),
+    read: ReadOptions = ReadOptions(),
+    fail_under: Sequence[str] = (),
+    fail_over: Sequence[str] = (),
+    table_format: str = "csv",
+    force: bool = False,
+) -> Outcome:
+    """Run one estimator over one log and write the outputs of SPEC §8 into ``out_dir``.
+
+    Everything the user gave is validated before anything is written; the output directory
+    appears complete or not at all.
+    """
+    check_target(Path(out_dir), force)
+    model, settings = parse_sets(sets, model_ref)
+    gates = gates_for(model, fail_under, fail_over)
+    signals = read_log(log, model, read)
+    result = estimate(model, signals, estimator, settings)
+    report = write_report(
+        out_dir,
+        result,
+        signals,
+        log=str(log),
+        model_name=model.name,
+        dt=model.dt,
+        table_format=table_format,
+        force=force,
+    )
+    return Outcome(report=report, out_dir=Path(out_dir), gate_failures=evaluate_gates(report, gates))
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """What ``compare`` produced: one report per estimator and the side-by-side table."""
+
+    reports: dict[str, dict[str, Any]]
+    table: str
+    gate_failures: list[str]
+
+
+_COLUMNS = ("vaf", "mse", "mode_accuracy", "detection_delay_s", "samples_per_s")
+
+
+def _row(report: Mapping[str, Any]) -> dict[str, Any]:
+    modes = report["modes"]
+    return {
+        "vaf": report["vaf"],
+        "mse": report["mse"],
+        "mode_accuracy": modes["accuracy"],
+        "detection_delay_s": modes["detection_delay_s"],
+        "samples_per_s": report["samples_per_s"],
+    }
+
+
+def _cell(value: object) -> str:
+    if value is None:
+        return "n/a"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
+    """A GitHub-flavoured Markdown table."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def compare(
+    log: str | Path,
+    model_ref: str | Path,
+    estimators: Sequence[str],
+    *,
+    out_dir: str | os.PathLike[str],
+    sets: Sequence[str] = (),
+    read: ReadOptions = ReadOptions(),
+    fail_under: Sequence[str] = (),
+    fail_over: Sequence[str] = (),
+    table_format: str = "csv",
+    force: bool = False,
+) -> Comparison:
+    """Run several estimators on one log: ``<out>/<estimator>/`` reports and a table.
+
+    The table (``comparison.md`` and ``comparison.csv``) has one row per estimator; CI gates
+    apply to every estimator.
+    """
+    if not estimators:
+        raise OptionError("--estimators: name at least one estimator")
+    if len(set(estimators)) != len(estimators):
+        raise OptionError("--estimators: an estimator is named twice")
+    check_target(Path(out_dir), force)
+    model, settings = parse_sets(sets, model_ref)
+    for name in estimators:
+        get_estimator(name)
+    gates = gates_for(model, fail_under, fail_over)
+    signals = read_log(log, model, read)
+    results = {name: estimate(model, signals, name, settings) for name in estimators}
+    reports: dict[str, dict[str, Any]] = {}
+    with atomic_output_dir(out_dir, force=force) as folder:
+        for name, result in results.items():
+            reports[name] = write_report(
+                folder / name, result, signals, log=str(log), model_name=model.name,
+                dt=model.dt, table_format=table_format,
+            )
+        rows = [[name, *_row(report).values()] for name, report in reports.items()]
+        table = markdown_table(("estimator", *_COLUMNS), rows)
+        (folder / "comparison.md").write_text(
+            f"# {model.name} on {log}\n\n{table}\n", encoding="utf-8"
+        )
+        write_summary_csv(folder / "comparison.csv", ("estimator", *_COLUMNS), rows)
+    failures = [
+        f"{name}: {failure}" for name, report in reports.items()
+        for failure in evaluate_gates(report, gates)
+    ]
+    return Comparison(reports=reports, table=table, gate_failures=failures)
+
+
+def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
+    """A small summary table as CSV (empty cells for missing values)."""
+    frame = pl.DataFrame(
+        [[None if v is None else v for v in row] for row in rows],
+        schema=list(header),
+        orient="row",
+        infer_schema_length=None,
+    )
+    frame.write_csv(path)

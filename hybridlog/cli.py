@@ -1,0 +1,271 @@
+"""The ``hybridlog`` command line: a thin click layer over :mod:`hybridlog.analysis`.
+
+Every command calls one library function.  hybridlog's own errors become one line on stderr
+and exit code 2 (``--debug`` shows the traceback); a missed CI gate is exit code 1.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, TypeVar
+
+import click
+
+from hybridlog import __version__
+from hybridlog.analysis import ReadOptions, analyze, compare
+from hybridlog.batch import run_batch
+from hybridlog.errors import HybridlogError
+from hybridlog.io import write_table
+from hybridlog.io.inspect import format_inspection, inspect_log
+from hybridlog.model.builtins import builtin_names, builtin_text
+from hybridlog.model.loader import load_model
+from hybridlog.simulate import simulate as simulate_model
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _examples(*lines: str) -> str:
+    return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+def _model_option(function: F) -> F:
+    return click.option(
+        "--model", "model_ref", required=True, metavar="MODEL",
+        help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
+    )(function)
+
+
+def _analysis_options(function: F) -> F:
+    """Options shared by analyze, compare and batch; each is defined here once."""
+    decorators = [
+        click.option("--map", "maps", multiple=True, metavar="SYMBOL=PATH",
+                     help="Map a model input, output or truth symbol (truth.mode, truth.x1) "
+                          "to a log field. Repeatable."),
+        click.option("--set", "sets", multiple=True, metavar="NAME=VALUE",
+                     help="Override a model parameter or an estimator option. Repeatable."),
+        click.option("--fail-under", multiple=True, metavar="METRIC=VALUE",
+                     help="CI gate: exit 1 when METRIC (vaf, mse, mode_accuracy, vaf.y1, ...) "
+                          "is below VALUE. Repeatable."),
+        click.option("--fail-over", multiple=True, metavar="METRIC=VALUE",
+                     help="CI gate: exit 1 when METRIC is above VALUE. Repeatable."),
+        click.option("--table-format", type=click.Choice(["csv", "parquet"]), default="csv",
+                     show_default=True, help="Format of timeline and estimates tables."),
+        click.option("--resample", type=click.Choice(["nearest", "linear"]), default="nearest",
+                     show_default=True,
+                     help="How outputs are put on the model's grid: nearest sample within "
+                          "half a step, or linear interpolation."),
+        click.option("--max-gap", type=float, default=None, metavar="SECONDS",
+                     help="Longest tolerated gap in the outputs [default: 5*dt]."),
+        click.option("--force", is_flag=True,
+                     help="Replace an existing, non-empty output directory."),
+    ]
+    for decorator in reversed(decorators):
+        function = decorator(function)
+    return function
+
+
+class _Context:
+    def __init__(self, debug: bool, quiet: bool) -> None:
+        self.debug = debug
+        self.quiet = quiet
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="hybridlog")
+@click.option("--debug", is_flag=True, help="Show tracebacks of errors.")
+@click.option("--quiet", "-q", is_flag=True, help="Print only errors.")
+@click.pass_context
+def cli(ctx: click.Context, debug: bool, quiet: bool) -> None:
+    """Mode and state estimation for hybrid (switched) systems from recorded logs.
+
+    \b
+    Start with:
+      hybridlog models
+      hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf --out report
+    """
+    ctx.obj = _Context(debug, quiet)
+
+
+def _say(ctx: click.Context, text: str) -> None:
+    if not ctx.find_object(_Context) or not ctx.find_object(_Context).quiet:  # type: ignore[union-attr]
+        click.echo(text)
+
+
+@cli.command(epilog=_examples(
+    "hybridlog inspect sample_logs/three_tank_hstf.csv",
+    "hybridlog inspect sample_logs/three_tank_hstf.csv --json",
+))
+@click.argument("log", type=click.Path(path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
+def inspect(log: Path, as_json: bool) -> None:
+    """Describe a log: columns or topics, types, counts, rates, time span and gaps."""
+    info = inspect_log(log)
+    click.echo(json.dumps(info, indent=2) if as_json else format_inspection(info))
+
+
+@cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))
+@click.argument("name", required=False)
+def models(name: str | None) -> None:
+    """List the built-in models, or print the model file of one."""
+    if name is not None:
+        load_model(name)  # validates the name with the usual error
+        click.echo(builtin_text(name), nl=False)
+        return
+    for builtin in builtin_names():
+        model = load_model(builtin)
+        click.echo(f"{builtin:20s} {model.reference}")
+
+
+@cli.command(epilog=_examples(
+    "hybridlog simulate three_tank_hstf --out tank.csv --seed 1",
+    "hybridlog simulate three_tank_hstf --out tank.parquet --schedule 1:50,3:50 --steps 400",
+))
+@click.argument("model_ref", metavar="MODEL")
+@click.option("--out", "out", required=True, type=click.Path(path_type=Path),
+              help="Log to write: .csv or .parquet.")
+@click.option("--schedule", default=None, metavar="MODE:STEPS,...",
+              help="Steps spent in each mode, repeated to --steps [default: the model's].")
+@click.option("--steps", type=click.IntRange(min=1), default=None,
+              help="Number of steps [default: the schedule's total].")
+@click.option("--seed", type=int, default=0, show_default=True, help="Noise seed.")
+@click.option("--force", is_flag=True, help="Replace an existing file.")
+@click.pass_context
+def simulate(
+    ctx: click.Context, model_ref: str, out: Path, schedule: str | None, steps: int | None,
+    seed: int, force: bool,
+) -> None:
+    """Simulate a model along a mode schedule and write a log with ground truth."""
+    model = load_model(model_ref)
+    log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
+    write_table(out, log.columns(model), force=force)
+    _say(ctx, f"wrote {out} ({log.time.shape[0]} samples)")
+
+
+@cli.command("analyze", epilog=_examples(
+    "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf --out report",
+    "hybridlog analyze log.csv --model three_tank_hstf --estimator imm "
+    "--set transition_stay=0.99 --out report_imm --fail-under mode_accuracy=0.9",
+))
+@click.argument("log", type=click.Path(path_type=Path))
+@_model_option
+@click.option("--estimator", default=None,
+              help="Estimator name (hstf, imm) [default: the model's default_estimator].")
+@click.option("--out", "out_dir", type=click.Path(path_type=Path), default=None,
+              help="Output directory [default: <log name>_<estimator>].")
+@_analysis_options
+@click.pass_context
+def analyze_command(ctx: click.Context, log: Path, model_ref: str, estimator: str | None,
+                    out_dir: Path | None, **options: Any) -> None:
+    """Run one estimator over one log and write report, tables and plots."""
+    read, common = _split_options(options)
+    target = out_dir or Path(f"{log.stem}_{estimator or 'report'}")
+    outcome = analyze(log, model_ref, out_dir=target, estimator=estimator, read=read, **common)
+    report = outcome.report
+    _say(ctx, _summary_line(report))
+    _say(ctx, f"report: {outcome.out_dir / 'report.md'}")
+    _gate_exit(outcome.gate_failures)
+
+
+@cli.command("compare", epilog=_examples(
+    "hybridlog compare sample_logs/three_tank_hstf.csv --model three_tank_hstf "
+    "--estimators hstf,imm --out comparison",
+))
+@click.argument("log", type=click.Path(path_type=Path))
+@_model_option
+@click.option("--estimators", required=True, metavar="A,B,...",
+              help="Comma-separated estimator names.")
+@click.option("--out", "out_dir", required=True, type=click.Path(path_type=Path),
+              help="Output directory: one report per estimator and comparison.md/.csv.")
+@_analysis_options
+@click.pass_context
+def compare_command(ctx: click.Context, log: Path, model_ref: str, estimators: str,
+                    out_dir: Path, **options: Any) -> None:
+    """Run several estimators on one log and write a side-by-side table."""
+    read, common = _split_options(options)
+    names = [name.strip() for name in estimators.split(",") if name.strip()]
+    outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
+    _say(ctx, outcome.table)
+    _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
+    _gate_exit(outcome.gate_failures)
+
+
+@cli.command("batch", epilog=_examples(
+    "hybridlog batch sample_logs/*.csv --model three_tank_hstf --estimator hstf --out batch",
+    "hybridlog batch logs/*.parquet --model my_plant.toml --estimator imm --out nightly "
+    "--jobs 2 --fail-under vaf=90",
+))
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@_model_option
+@click.option("--estimator", default=None, help="Estimator name [default: the model's].")
+@click.option("--out", "out_dir", required=True, type=click.Path(path_type=Path),
+              help="Output directory: one report folder per log and summary.md/.csv.")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Logs analysed in parallel (processes).")
+@_analysis_options
+@click.pass_context
+def batch_command(ctx: click.Context, logs: Sequence[Path], model_ref: str,
+                  estimator: str | None, out_dir: Path, jobs: int, **options: Any) -> None:
+    """Analyse many logs; a failing log never stops the others, finished logs are skipped."""
+    read, common = _split_options(options)
+    outcome = run_batch(list(logs), model_ref, out_dir=out_dir, estimator=estimator,
+                        jobs=jobs, read=read, **common)
+    _say(ctx, outcome.table)
+    _say(ctx, f"summary: {out_dir / 'summary.md'}")
+    if outcome.failed:
+        click.echo(f"hybridlog: {outcome.failed} of {len(logs)} logs failed "
+                   f"(see {out_dir / 'summary.md'})", err=True)
+    _gate_exit(outcome.gate_failures)
+    if outcome.failed:
+        sys.exit(2)
+
+
+def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
+    read = ReadOptions(maps=tuple(options.pop("maps")), resample=options.pop("resample"),
+                       max_gap=options.pop("max_gap"))
+    return read, {
+        "sets": tuple(options.pop("sets")),
+        "fail_under": tuple(options.pop("fail_under")),
+        "fail_over": tuple(options.pop("fail_over")),
+        "table_format": options.pop("table_format"),
+        "force": options.pop("force"),
+    }
+
+
+def _summary_line(report: dict[str, Any]) -> str:
+    def number(value: object, digits: str) -> str:
+        return "n/a" if value is None else format(value, digits)
+
+    accuracy = report["modes"]["accuracy"]
+    return (
+        f"{report['estimator']} on {report['log']}: {report['samples']} samples, "
+        f"VAF {number(report['vaf'], '.2f')} %, MSE {number(report['mse'], '.4g')}, "
+        f"mode accuracy {number(accuracy, '.3f')}"
+    )
+
+
+def _gate_exit(failures: Sequence[str]) -> None:
+    for failure in failures:
+        click.echo(f"hybridlog: gate failed: {failure}", err=True)
+    if failures:
+        sys.exit(1)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Console entry point: run the CLI, turning hybridlog errors into exit code 2."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        cli.main(args=args, prog_name="hybridlog", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("hybridlog: aborted", err=True)
+        sys.exit(130)
+    except click.ClickException as err:
+        err.show()
+        sys.exit(2 if err.exit_code in (1, 2) else err.exit_code)
+    except HybridlogError as err:
+        if "--debug" in args:
+            raise
+        click.echo(f"hybridlog: error: {err}", err=True)
+        sys.exit(2)

@@ -1,0 +1,270 @@
+"""Alignment onto the model grid: exactness on grid, multi-rate rules, gaps."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hybridlog.errors import LogError, OptionError
+from hybridlog.io import load_signals, write_table
+from hybridlog.io.align import align_signals
+from hybridlog.io.source import LabelSeries, Series, format_ns, seconds_to_ns
+
+
+def series(name: str, seconds: np.ndarray | list[float], values: np.ndarray | list[float]) -> Series:
+    return Series(
+        name,
+        seconds_to_ns(np.asarray(seconds, dtype=np.float64)),
+        np.asarray(values, dtype=np.float64),
+    )
+
+
+def test_seconds_to_ns_and_format() -> None:
+    np.testing.assert_array_equal(
+        seconds_to_ns(np.array([0.0, 0.1, 0.30000000000000004, -1.5, 1.7e9 + 0.25])),
+        [0, 100_000_000, 300_000_000, -1_500_000_000, 1_700_000_000_250_000_000],
+    )
+    assert format_ns(1_500_000_000) == "1.5"
+    assert format_ns(-250_000_000) == "-0.25"
+    assert format_ns(3_000_000_000) == "3"
+
+
+def test_on_grid_csv_is_reproduced_bit_for_bit(tmp_path: Path) -> None:
+    rng = np.random.default_rng(7)
+    n = 1000
+    u = rng.normal(size=n) * 10.0 ** rng.integers(-300, 300, size=n)
+    y = rng.normal(size=n)
+    y[:3] = [-0.0, 5e-324, np.finfo(float).max]
+    path = write_table(tmp_path / "log.csv", {"t": np.arange(n) * 0.01, "u": u, "y": y})
+    signals = load_signals(
+        path, states=(), inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.01
+    )
+    assert signals.n_samples == n
+    assert signals.inputs[:, 0].tobytes() == u.tobytes()
+    assert signals.outputs[:, 0].tobytes() == y.tobytes()
+    np.testing.assert_allclose(signals.time, np.arange(n) * 0.01, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("resample", ["nearest", "linear"])
+def test_on_grid_epoch_times_are_reproduced(resample: str) -> None:
+    # Float seconds near 1.7e9 carry ~0.2 µs of rounding; the samples still count as on grid.
+    n = 500
+    seconds = 1.7e9 + np.arange(n) * 0.001
+    values = np.random.default_rng(3).normal(size=n)
+    aligned = align_signals(
+        source="epoch",
+        dt=0.001,
+        inputs={"u": series("u", seconds, values)},
+        outputs={"y": series("y", seconds, values[::-1])},
+        resample=resample,
+    )
+    assert aligned.n_samples == n
+    assert aligned.inputs[:, 0].tobytes() == values.tobytes()
+    assert aligned.outputs[:, 0].tobytes() == values[::-1].tobytes()
+
+
+@given(
+    n=st.integers(min_value=1, max_value=300),
+    dt=st.floats(min_value=1e-3, max_value=100.0),
+    t0=st.floats(min_value=-1e5, max_value=1e5),
+    resample=st.sampled_from(["nearest", "linear"]),
+    seed=st.integers(min_value=0, max_value=2**32 - 1),
+)
+@settings(max_examples=200, deadline=None)
+def test_alignment_of_on_grid_data_is_the_identity(
+    n: int, dt: float, t0: float, resample: str, seed: int
+) -> None:
+    rng = np.random.default_rng(seed)
+    seconds = t0 + np.arange(n) * dt
+    u = rng.normal(size=(n, 2))
+    y = rng.normal(size=n)
+    aligned = align_signals(
+        source="h",
+        dt=dt,
+        inputs={"u1": series("u1", seconds, u[:, 0]), "u2": series("u2", seconds, u[:, 1])},
+        outputs={"y": series("y", seconds, y)},
+        resample=resample,
+    )
+    assert aligned.n_samples == n
+    assert aligned.inputs.tobytes() == np.ascontiguousarray(u).tobytes()
+    assert aligned.outputs[:, 0].tobytes() == y.tobytes()
+    np.testing.assert_allclose(aligned.time, seconds, rtol=1e-12, atol=1e-8)
+
+
+def multi_rate(tmp_path: Path) -> Path:
+    """Input u = k at 10 Hz (t = k/10), output y = j at 3 Hz (t = j/3), both on 0..3 s."""
+    u_times = [k / 10 for k in range(31)]
+    y_times = [j / 3 for j in range(10)]
+    times = sorted(set(u_times) | set(y_times))
+    lines = ["t,u,y"]
+    for t in times:
+        u = str(u_times.index(t)) if t in u_times else ""
+        y = str(y_times.index(t)) if t in y_times else ""
+        lines.append(f"{t!r},{u},{y}")
+    path = tmp_path / "multi.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_multi_rate_nearest_by_hand(tmp_path: Path) -> None:
+    signals = load_signals(
+        multi_rate(tmp_path), states=(), inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.5
+    )
+    # Grid 0, 0.5, ..., 3.0 (the last output sample is at 3.0).
+    np.testing.assert_array_equal(signals.time, [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
+    # Zero-order hold of u = k at t = k/10: the sample at t_k itself.
+    np.testing.assert_array_equal(signals.inputs[:, 0], [0, 5, 10, 15, 20, 25, 30])
+    # Nearest y: 0.5 lies 1/6 s from y(1/3) = 1 and y(2/3) = 2, a tie that goes to the
+    # earlier sample; 1.0 = 3/3 is a sample; 1.5 ties between 4/3 and 5/3 -> 4; and so on.
+    np.testing.assert_array_equal(signals.outputs[:, 0], [0, 1, 3, 4, 6, 7, 9])
+
+
+def test_multi_rate_linear_by_hand(tmp_path: Path) -> None:
+    signals = load_signals(
+        multi_rate(tmp_path),
+        states=(),
+        inputs=("u",),
+        outputs=("y",),
+        mode_ids=("a",),
+        dt=0.5,
+        resample="linear",
+    )
+    # y = 3 t exactly between samples: the midpoints give 1.5, 4.5, 7.5.
+    np.testing.assert_allclose(signals.outputs[:, 0], [0, 1.5, 3, 4.5, 6, 7.5, 9], atol=1e-8)
+    np.testing.assert_array_equal(signals.inputs[:, 0], [0, 5, 10, 15, 20, 25, 30])
+
+
+def test_grid_starts_when_every_signal_has_a_value() -> None:
+    aligned = align_signals(
+        source="s",
+        dt=1.0,
+        inputs={"u": series("u", [0.0, 1.0, 2.0, 3.0, 4.0], [0, 1, 2, 3, 4])},
+        outputs={"y": series("y", [1.5, 2.6, 3.4, 4.5], [15, 26, 34, 45])},
+    )
+    # t0 = 1.5 (first y); last grid point at most 0.5 s after y's last sample 4.5.
+    np.testing.assert_array_equal(aligned.time, [1.5, 2.5, 3.5, 4.5])
+    np.testing.assert_array_equal(aligned.inputs[:, 0], [1, 2, 3, 4])
+    np.testing.assert_array_equal(aligned.outputs[:, 0], [15, 26, 34, 45])
+
+
+def test_gap_longer_than_max_gap_names_the_span() -> None:
+    seconds = [0.0, 0.5, 1.0, 1.5, 2.0, 5.0, 5.5]
+    u = series("u", np.arange(12) * 0.5, np.arange(12))
+    y = series("level", seconds, np.arange(7))
+    with pytest.raises(LogError) as info:
+        align_signals(source="log.csv", dt=0.5, inputs={"u": u}, outputs={"y": y})
+    message = str(info.value)
+    assert "log.csv" in message
+    assert "output 'y'" in message and "'level'" in message
+    assert "from t=2 s to t=5 s" in message
+    assert "max_gap 2.5 s" in message
+    # With a longer max_gap the gap is bridged by the nearest sample (3.5 s is a tie
+    # between 2 s and 5 s and goes to the earlier one).
+    aligned = align_signals(
+        source="log.csv", dt=0.5, inputs={"u": u}, outputs={"y": y}, max_gap=3.0
+    )
+    np.testing.assert_array_equal(aligned.outputs[:, 0], [0, 1, 2, 3, 4, 4, 4, 4, 5, 5, 5, 6])
+
+
+def test_short_gap_is_bridged_linearly() -> None:
+    u = series("u", np.arange(5) * 1.0, np.zeros(5))
+    y = series("y", [0.0, 1.0, 4.0], [0.0, 1.0, 4.0])
+    aligned = align_signals(
+        source="s", dt=1.0, inputs={"u": u}, outputs={"y": y}, resample="linear"
+    )
+    np.testing.assert_array_equal(aligned.outputs[:, 0], [0, 1, 2, 3, 4])
+
+
+def test_max_gap_zero_allows_no_missing_grid_point() -> None:
+    u = series("u", np.arange(5) * 1.0, np.zeros(5))
+    y = series("y", [0.0, 1.0, 3.0, 4.0], [0.0, 1.0, 3.0, 4.0])
+    with pytest.raises(LogError, match="from t=1 s to t=3 s"):
+        align_signals(source="s", dt=1.0, inputs={"u": u}, outputs={"y": y}, max_gap=0.0)
+
+
+def test_truth_mode_is_held_and_truth_states_are_nan_outside() -> None:
+    grid = np.arange(6) * 1.0
+    mode = LabelSeries(
+        "mode",
+        seconds_to_ns(np.array([0.2, 2.9])),
+        np.array([1, 0], dtype=np.int64),
+        ("a", "b"),
+    )
+    aligned = align_signals(
+        source="s",
+        dt=1.0,
+        inputs={"u": series("u", grid, grid)},
+        outputs={"y": series("y", grid, grid)},
+        truth_mode=mode,
+        states=("x1", "x2"),
+        truth_states={"x2": series("x2", [2.0, 3.0], [20.0, 30.0])},
+    )
+    assert aligned.truth_modes is not None and aligned.truth_states is not None
+    # 0.2 s is within half a step of t=0; 2.9 s counts from t=3 on (hold).
+    np.testing.assert_array_equal(aligned.truth_modes, [1, 1, 1, 0, 0, 0])
+    assert np.isnan(aligned.truth_states[:, 0]).all()
+    np.testing.assert_array_equal(
+        aligned.truth_states[:, 1], [np.nan, np.nan, 20, 30, np.nan, np.nan]
+    )
+
+
+def test_truth_mode_starting_late_is_an_error() -> None:
+    grid = np.arange(6) * 1.0
+    mode = LabelSeries("mode", seconds_to_ns(np.array([2.0])), np.array([0]), ("a",))
+    with pytest.raises(LogError, match=r"truth.mode .* starts at t=2 s"):
+        align_signals(
+            source="s",
+            dt=1.0,
+            inputs={"u": series("u", grid, grid)},
+            outputs={"y": series("y", grid, grid)},
+            truth_mode=mode,
+        )
+
+
+def test_signals_that_do_not_overlap() -> None:
+    with pytest.raises(LogError, match="do not overlap"):
+        align_signals(
+            source="s",
+            dt=1.0,
+            inputs={"u": series("u", [5.0, 6.0], [0, 0])},
+            outputs={"y": series("y", [0.0, 1.0], [0, 0])},
+        )
+
+
+@pytest.mark.parametrize(
+    ("options", "pattern"),
+    [
+        ({"resample": "cubic"}, "resample: unknown method 'cubic'"),
+        ({"max_gap": -1.0}, "max_gap: must be a non-negative"),
+        ({"dt": 0.0}, "dt: sample time must be a positive"),
+        ({"dt": float("nan")}, "dt: sample time must be a positive"),
+    ],
+)
+def test_bad_options(options: dict[str, object], pattern: str) -> None:
+    grid = np.arange(3) * 1.0
+    kwargs: dict[str, object] = {
+        "source": "s",
+        "dt": 1.0,
+        "inputs": {"u": series("u", grid, grid)},
+        "outputs": {"y": series("y", grid, grid)},
+        **options,
+    }
+    with pytest.raises(OptionError, match=pattern):
+        align_signals(**kwargs)  # type: ignore[arg-type]
+
+
+def test_a_million_rows_align_quickly() -> None:
+    n = 1_000_000
+    seconds = np.arange(n) * 0.01
+    rng = np.random.default_rng(0)
+    u, y = series("u", seconds, rng.normal(size=n)), series("y", seconds, rng.normal(size=n))
+    start = time.perf_counter()
+    aligned = align_signals(source="big", dt=0.01, inputs={"u": u}, outputs={"y": y})
+    elapsed = time.perf_counter() - start
+    assert aligned.n_samples == n
+    assert elapsed < 1.0

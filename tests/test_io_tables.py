@@ -1,0 +1,375 @@
+"""CSV and Parquet logs: reading, checks and their messages, mapping, inspect."""
+
+from __future__ import annotations
+
+import json
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+import pytest
+
+from hybridlog.errors import LogError, OptionError
+from hybridlog.io import format_inspection, inspect_log, load_signals, write_table
+from hybridlog.io.tables import TableSource
+
+MODEL: dict[str, Any] = {
+    "states": ("x1", "x2"),
+    "inputs": ("u",),
+    "outputs": ("y",),
+    "mode_ids": ("1", "valve_open"),
+    "dt": 0.1,
+}
+
+
+def load(path: Path, **options: Any) -> Any:
+    return load_signals(path, **{**MODEL, **options})
+
+
+def csv_file(tmp_path: Path, text: str, name: str = "log.csv") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+GOOD = "t,u,y,mode\n0.0,1,10,1\n0.1,2,20,1\n0.2,3,30,valve_open\n0.3,4,40,valve_open\n"
+
+
+def test_reads_a_plain_csv(tmp_path: Path) -> None:
+    signals = load(csv_file(tmp_path, GOOD))
+    np.testing.assert_array_equal(signals.time, [0.0, 0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2, 3, 4])
+    np.testing.assert_array_equal(signals.outputs[:, 0], [10, 20, 30, 40])
+    assert signals.truth_modes is not None
+    np.testing.assert_array_equal(signals.truth_modes, [0, 0, 1, 1])
+    assert signals.truth_states is None
+    assert signals.source.endswith("log.csv")
+
+
+def test_non_numeric_cell_names_line_and_column(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y\n0.0,1,10\n0.1,2,20\n0.2,3,oops\n")
+    with pytest.raises(LogError) as info:
+        load(path)
+    message = str(info.value)
+    assert "log.csv" in message
+    assert "line 4" in message
+    assert "'y'" in message
+    assert "'oops'" in message
+    assert "\n" not in message
+
+
+def test_non_numeric_cell_in_an_unmapped_column_is_ignored(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y,note\n0.0,1,10,start\n0.1,2,20,\n")
+    assert load(path).n_samples == 2
+
+
+def test_blanks_around_numbers_are_accepted(tmp_path: Path) -> None:
+    signals = load(csv_file(tmp_path, "t,u,y\n0.0, 1 ,10\n0.1,2,  20.5\n"))
+    np.testing.assert_array_equal(signals.outputs[:, 0], [10, 20.5])
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2])
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "how"),
+    [
+        ("t,u,y\n0.0,1,1\n0.2,1,1\n0.1,1,1\n", "line 4", "goes backwards"),
+        ("t,u,y\n0.0,1,1\n0.1,1,1\n0.1,1,1\n", "line 4", "repeats"),
+    ],
+)
+def test_time_must_increase(tmp_path: Path, text: str, line: str, how: str) -> None:
+    with pytest.raises(LogError, match=how) as info:
+        load(csv_file(tmp_path, text))
+    assert line in str(info.value)
+    assert "'t'" in str(info.value)
+
+
+@pytest.mark.parametrize("cell", ["nan", "NaN", "inf", "-inf"])
+def test_non_finite_mapped_value_names_time_and_column(tmp_path: Path, cell: str) -> None:
+    path = csv_file(tmp_path, f"t,u,y\n0.0,1,1\n0.1,1,1\n0.2,1,{cell}\n")
+    with pytest.raises(LogError) as info:
+        load(path)
+    message = str(info.value)
+    assert "t=0.2 s" in message
+    assert "column 'y'" in message
+    assert "line 4" in message
+    assert "output 'y'" in message
+
+
+def test_non_finite_unmapped_value_is_ignored(tmp_path: Path) -> None:
+    assert load(csv_file(tmp_path, "t,u,y,z\n0.0,1,1,nan\n0.1,1,1,inf\n")).n_samples == 2
+
+
+def test_non_finite_time_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(LogError, match=r"line 3, column 't'.*not a finite"):
+        load(csv_file(tmp_path, "t,u,y\n0.0,1,1\nnan,1,1\n"))
+
+
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("", "empty file"),
+        ("\n0,1,2\n", r"line 1: no header"),
+        ("0.0,1,2\n0.1,1,2\n", r"line 1: no header.*looks like data"),
+        ("t,u,y\n", "no data rows"),
+        ("t,u,y,y\n0,1,2,3\n", r"duplicate column name 'y'"),
+        ("t,u,,y\n0,1,2,3\n", r"column 3 of the header has no name"),
+        ("x,u,y\n0,1,2\n", r"no time column.*'t' or 'time'"),
+    ],
+)
+def test_malformed_tables(tmp_path: Path, text: str, pattern: str) -> None:
+    with pytest.raises(LogError, match=pattern):
+        load(csv_file(tmp_path, text))
+
+
+def test_time_column_may_be_called_time(tmp_path: Path) -> None:
+    signals = load(csv_file(tmp_path, "time,u,y\n5.0,1,2\n5.1,1,3\n"))
+    np.testing.assert_array_equal(signals.time, [5.0, 5.1])
+
+
+def test_empty_time_cell_names_its_line(tmp_path: Path) -> None:
+    with pytest.raises(LogError, match=r"line 3, column 't': empty time cell"):
+        load(csv_file(tmp_path, "t,u,y\n0.0,1,1\n,1,1\n0.2,1,1\n"))
+
+
+def test_blank_lines_are_skipped_but_counted(tmp_path: Path) -> None:
+    text = "t,u,y\n0.0,1,1\n\n0.1,2,2\n0.2,3,x\n\n\n"
+    path = csv_file(tmp_path, text)
+    with pytest.raises(LogError, match="line 5"):
+        load(path)
+    path.write_text(text.replace(",x", ",3"))
+    np.testing.assert_array_equal(load(path).outputs[:, 0], [1, 2, 3])
+
+
+def test_truncated_last_line_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(LogError, match=r"line 4: truncated last line"):
+        load(csv_file(tmp_path, "t,u,y\n0.0,1,1\n0.1,1,1\n0.2,1"))
+
+
+def test_line_with_too_many_fields_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(LogError, match=r"line 3: 4 fields, but the header names 3 columns"):
+        load(csv_file(tmp_path, "t,u,y\n0.0,1,1\n0.1,1,1,7\n"))
+
+
+def test_unsupported_format_and_missing_file(tmp_path: Path) -> None:
+    other = tmp_path / "log.txt"
+    other.write_text(GOOD)
+    with pytest.raises(LogError, match=r"log.txt: unsupported log format.*\.csv, \.parquet"):
+        load(other)
+    with pytest.raises(LogError, match=r"nope.csv: no such file"):
+        load(tmp_path / "nope.csv")
+    with pytest.raises(LogError, match="a directory"):
+        load(tmp_path)
+
+
+# ---------------------------------------------------------------- multi-rate and truth
+
+
+def test_empty_cells_are_missing_samples(tmp_path: Path) -> None:
+    # u at 10 Hz, y at 5 Hz in one table: y's empty cells are not samples.
+    text = "t,u,y\n0.0,1,10\n0.1,2,\n0.2,3,30\n0.3,4,\n0.4,5,50\n"
+    signals = load(csv_file(tmp_path, text), dt=0.2)
+    np.testing.assert_array_equal(signals.time, [0.0, 0.2, 0.4])
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 3, 5])
+    np.testing.assert_array_equal(signals.outputs[:, 0], [10, 30, 50])
+
+
+def test_unknown_truth_mode_names_value_line_and_time(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,1\n0.1,1,1,valve_shut\n")
+    with pytest.raises(LogError) as info:
+        load(path)
+    message = str(info.value)
+    assert "'valve_shut'" in message
+    assert "line 3" in message
+    assert "t=0.1 s" in message
+
+
+def test_mode_ids_are_compared_as_stripped_text(tmp_path: Path) -> None:
+    signals = load(csv_file(tmp_path, "t,u,y,mode\n0.0,1,1, 1 \n0.1,1,1,valve_open\n"))
+    assert signals.truth_modes is not None
+    np.testing.assert_array_equal(signals.truth_modes, [0, 1])
+    with pytest.raises(LogError, match=r"'1.0' at t=0 s is not a mode"):
+        load(csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,1.0\n", name="float.csv"))
+
+
+def test_truth_states_by_column_name(tmp_path: Path) -> None:
+    signals = load(csv_file(tmp_path, "t,u,y,x2\n0.0,1,1,7\n0.1,1,1,8\n"))
+    assert signals.truth_states is not None
+    assert signals.state_names == ("x1", "x2")
+    assert np.isnan(signals.truth_states[:, 0]).all()
+    np.testing.assert_array_equal(signals.truth_states[:, 1], [7, 8])
+
+
+# ---------------------------------------------------------------- mapping
+
+
+def test_missing_output_lists_closest_columns(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y_meas,yy,pressure\n0,1,2,3,4\n")
+    with pytest.raises(LogError) as info:
+        load(path, outputs=("y_mes",))
+    message = str(info.value)
+    assert "output 'y_mes'" in message
+    assert "closest: 'y_meas'" in message
+    assert "pressure" not in message
+
+
+def test_map_overrides_the_default_column(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y,level\n0.0,1,10,100\n0.1,2,20,200\n")
+    signals = load(path, maps=["y=level"])
+    np.testing.assert_array_equal(signals.outputs[:, 0], [100, 200])
+    assert signals.output_names == ("y",)
+
+
+def test_map_to_a_missing_column_lists_closest(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y,level\n0.0,1,10,100\n")
+    with pytest.raises(LogError, match=r"no column 'levle'.*--map y=levle.*closest: 'level'"):
+        load(path, maps=["y=levle"])
+
+
+def test_map_unknown_symbol_is_an_option_error(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, GOOD)
+    with pytest.raises(OptionError, match=r"unknown symbol 'z'.*u, y, truth.mode, truth.x1"):
+        load(path, maps=["z=y"])
+    with pytest.raises(OptionError, match="SYMBOL=PATH"):
+        load(path, maps=["y"])
+
+
+def test_map_truth_mode_and_state(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y,phase,h1\n0.0,1,1,valve_open,5\n0.1,1,1,1,6\n")
+    signals = load(path, maps=["truth.mode=phase", "truth.x1=h1"])
+    assert signals.truth_modes is not None and signals.truth_states is not None
+    np.testing.assert_array_equal(signals.truth_modes, [1, 0])
+    np.testing.assert_array_equal(signals.truth_states[:, 0], [5, 6])
+
+
+def test_model_signal_paths_apply_only_when_present(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y,level\n0.0,1,10,100\n")
+    used = load(path, signals={"y": "level"})
+    np.testing.assert_array_equal(used.outputs[:, 0], [100])
+    ignored = load(path, signals={"y": "/sensor/level.data"})
+    np.testing.assert_array_equal(ignored.outputs[:, 0], [10])
+
+
+# ---------------------------------------------------------------- Parquet
+
+
+def test_parquet_round_trip(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    n = 50
+    columns = {
+        "t": np.arange(n) * 0.1,
+        "u": rng.normal(size=n),
+        "y": rng.normal(size=n) * 1e-300,
+        "x1": rng.normal(size=n),
+        "mode": ["1" if k < 20 else "valve_open" for k in range(n)],
+    }
+    signals = {}
+    for suffix in (".csv", ".parquet"):
+        path = write_table(tmp_path / f"log{suffix}", columns)
+        signals[suffix] = load(path)
+        np.testing.assert_array_equal(signals[suffix].inputs[:, 0], columns["u"])
+        np.testing.assert_array_equal(signals[suffix].outputs[:, 0], columns["y"])
+        assert signals[suffix].truth_states is not None
+        np.testing.assert_array_equal(signals[suffix].truth_states[:, 0], columns["x1"])
+        assert signals[suffix].truth_modes is not None
+        assert signals[suffix].truth_modes.tolist() == [0] * 20 + [1] * 30
+    np.testing.assert_array_equal(signals[".csv"].time, signals[".parquet"].time)
+
+
+def test_parquet_non_numeric_signal_column(tmp_path: Path) -> None:
+    path = tmp_path / "log.parquet"
+    pl.DataFrame({"t": [0.0, 0.1], "u": [1.0, 2.0], "y": ["a", "b"]}).write_parquet(path)
+    with pytest.raises(LogError, match=r"log.parquet: column 'y' has type String"):
+        load(path)
+
+
+def test_parquet_typed_columns(tmp_path: Path) -> None:
+    path = tmp_path / "log.parquet"
+    start = datetime(2024, 5, 1, 12, 0, 0)
+    pl.DataFrame(
+        {
+            "time": [start + timedelta(milliseconds=100 * k) for k in range(3)],
+            "u": pl.Series([1, 2, 3], dtype=pl.Int32),
+            "y": pl.Series([1.5, 2.5, 3.5], dtype=pl.Float32),
+            "mode": pl.Series([1, 1, 1], dtype=pl.Int64),
+        }
+    ).write_parquet(path)
+    signals = load(path)
+    assert signals.truth_modes is not None
+    np.testing.assert_array_equal(signals.truth_modes, [0, 0, 0])
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2, 3])
+    np.testing.assert_allclose(np.diff(signals.time), 0.1, rtol=1e-6)
+
+
+def test_parquet_row_numbers_in_messages(tmp_path: Path) -> None:
+    path = tmp_path / "log.parquet"
+    pl.DataFrame({"t": [0.0, 0.1, 0.05], "u": [1.0] * 3, "y": [1.0] * 3}).write_parquet(path)
+    with pytest.raises(LogError, match=r"row 3, column 't': time goes backwards"):
+        load(path)
+
+
+def test_corrupt_parquet(tmp_path: Path) -> None:
+    path = tmp_path / "log.parquet"
+    path.write_bytes(b"PAR1 this is not parquet")
+    with pytest.raises(LogError, match="not a readable Parquet file"):
+        load(path)
+
+
+# ---------------------------------------------------------------- inspect
+
+
+def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
+    times = [0.0, 0.1, 0.2, 0.3, 0.8, 0.9, 1.0]
+    lines = ["t,u,y,note"] + [f"{t},{k},{2 * k},n{k}" for k, t in enumerate(times)]
+    path = csv_file(tmp_path, "\n".join(lines) + "\n")
+    info = inspect_log(path)
+    json.dumps(info, allow_nan=False)
+    assert info["format"] == "csv"
+    assert info["rows"] == 7
+    assert info["problems"] == []
+    assert info["time"] == {"column": "t", "start": 0.0, "end": 1.0, "duration": 1.0}
+    assert info["sample_time"] == pytest.approx(0.1)
+    assert info["rate_hz"] == pytest.approx(10.0)
+    assert info["gap_count"] == 1
+    assert info["gaps"][0]["start"] == pytest.approx(0.3)
+    assert info["gaps"][0]["end"] == pytest.approx(0.8)
+    by_name = {c["name"]: c for c in info["columns"]}
+    assert by_name["y"] == {
+        "name": "y",
+        "dtype": "float64",
+        "count": 7,
+        "min": 0.0,
+        "max": 12.0,
+        "rate_hz": pytest.approx(10.0),
+    }
+    assert by_name["note"]["dtype"] == "string"
+    assert by_name["note"]["min"] is None
+    text = format_inspection(info)
+    assert "sample time 0.1 s (10 Hz)" in text
+    assert "0.3 s to 0.8 s" in text
+    assert "note" in text and "string" in text
+
+
+def test_inspect_lists_time_problems_instead_of_failing(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,y\n0.0,1\n0.2,nan\n0.1,3\n")
+    info = inspect_log(path)
+    assert info["time"] is None
+    assert len(info["problems"]) == 1
+    assert "line 4" in info["problems"][0]
+    json.dumps(info, allow_nan=False)
+    assert "problems:" in format_inspection(info)
+
+
+def test_inspect_parquet(tmp_path: Path) -> None:
+    path = write_table(tmp_path / "log.parquet", {"t": np.arange(4) * 0.5, "y": np.ones(4)})
+    info = inspect_log(path)
+    assert info["format"] == "parquet"
+    assert info["rate_hz"] == pytest.approx(2.0)
+    assert [c["dtype"] for c in info["columns"]] == ["float64", "float64"]
+
+
+def test_fields_exclude_time(tmp_path: Path) -> None:
+    with TableSource(csv_file(tmp_path, GOOD)) as source:
+        assert source.fields() == ("u", "y", "mode")
+        assert source.time_column == "t"
