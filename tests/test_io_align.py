@@ -15,8 +15,10 @@ from hybridlog.io import load_signals, write_table
 from hybridlog.io.align import align_signals
 from hybridlog.io.source import LabelSeries, Series, format_ns, seconds_to_ns
 
+ArrayLike = np.ndarray | list[float]
 
-def series(name: str, seconds: np.ndarray | list[float], values: np.ndarray | list[float]) -> Series:
+
+def series(name: str, seconds: ArrayLike, values: ArrayLike) -> Series:
     return Series(
         name,
         seconds_to_ns(np.asarray(seconds, dtype=np.float64)),
@@ -41,9 +43,7 @@ def test_on_grid_csv_is_reproduced_bit_for_bit(tmp_path: Path) -> None:
     y = rng.normal(size=n)
     y[:3] = [-0.0, 5e-324, np.finfo(float).max]
     path = write_table(tmp_path / "log.csv", {"t": np.arange(n) * 0.01, "u": u, "y": y})
-    signals = load_signals(
-        path, states=(), inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.01
-    )
+    signals = load_signals(path, states=(), inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.01)
     assert signals.n_samples == n
     assert signals.inputs[:, 0].tobytes() == u.tobytes()
     assert signals.outputs[:, 0].tobytes() == y.tobytes()

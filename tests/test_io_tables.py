@@ -14,6 +14,7 @@ import pytest
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io import format_inspection, inspect_log, load_signals, write_table
 from hybridlog.io.tables import TableSource
+from hybridlog.io.writers import Column
 
 MODEL: dict[str, Any] = {
     "states": ("x1", "x2"),
@@ -257,7 +258,7 @@ def test_model_signal_paths_apply_only_when_present(tmp_path: Path) -> None:
 def test_parquet_round_trip(tmp_path: Path) -> None:
     rng = np.random.default_rng(1)
     n = 50
-    columns = {
+    columns: dict[str, Column] = {
         "t": np.arange(n) * 0.1,
         "u": rng.normal(size=n),
         "y": rng.normal(size=n) * 1e-300,
@@ -299,7 +300,9 @@ def test_parquet_typed_columns(tmp_path: Path) -> None:
     assert signals.truth_modes is not None
     np.testing.assert_array_equal(signals.truth_modes, [0, 0, 0])
     np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2, 3])
-    np.testing.assert_allclose(np.diff(signals.time), 0.1, rtol=1e-6)
+    # Float seconds at Unix-epoch magnitude resolve ~0.2 µs.
+    assert signals.time[0] == (start - datetime(1970, 1, 1)).total_seconds()
+    np.testing.assert_allclose(np.diff(signals.time), 0.1, atol=1e-6)
 
 
 def test_parquet_row_numbers_in_messages(tmp_path: Path) -> None:

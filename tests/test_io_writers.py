@@ -10,6 +10,7 @@ import pytest
 
 from hybridlog.errors import OptionError, OutputError
 from hybridlog.io import write_table
+from hybridlog.io.writers import Column
 
 
 def test_csv_floats_round_trip_exactly(tmp_path: Path) -> None:
@@ -24,7 +25,11 @@ def test_csv_floats_round_trip_exactly(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_round_trip_every_format(tmp_path: Path, suffix: str) -> None:
-    columns = {"t": np.array([0.0, 0.5]), "k": np.array([1, 2]), "mode": ["1", "valve_open"]}
+    columns: dict[str, Column] = {
+        "t": np.array([0.0, 0.5]),
+        "k": np.array([1, 2]),
+        "mode": ["1", "valve_open"],
+    }
     path = write_table(tmp_path / f"log{suffix}", columns)
     frame = pl.read_csv(path, infer_schema=False) if suffix == ".csv" else pl.read_parquet(path)
     assert frame.columns == ["t", "k", "mode"]

@@ -52,7 +52,7 @@ def format_inspection(info: dict[str, Any]) -> str:
     span = info.get("time")
     if span is not None:
         text = (
-            f"time: column {span['column']!r}, {_num(span['start'])} s to {_num(span['end'])} s"
+            f"time: column {span['column']!r}, {_at(span['start'])} s to {_at(span['end'])} s"
             f" ({_num(span['duration'])} s)"
         )
         if info.get("sample_time") is not None:
@@ -67,7 +67,7 @@ def format_inspection(info: dict[str, Any]) -> str:
             lines.append(f"gaps: {count} step(s) longer than 1.5 x the sample time")
             for gap in gaps[:10]:
                 lines.append(
-                    f"  {_num(gap['start'])} s to {_num(gap['end'])} s ({_num(gap['duration'])} s)"
+                    f"  {_at(gap['start'])} s to {_at(gap['end'])} s ({_num(gap['duration'])} s)"
                 )
             if count > 10:
                 lines.append(f"  ... {count - 10} more")
@@ -101,3 +101,8 @@ def _num(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
     return str(value)
+
+
+def _at(seconds: float) -> str:
+    """A time stamp to the microsecond, readable also at Unix-epoch magnitudes."""
+    return f"{seconds:.6f}".rstrip("0").rstrip(".")

@@ -16,10 +16,13 @@ from hybridlog.errors import OptionError, OutputError
 
 TABLE_FORMATS = (".csv", ".parquet")
 
+#: What a column may be: a 1-D numeric array or a sequence of strings (e.g. mode ids).
+Column = np.ndarray[Any, Any] | Sequence[str]
+
 
 def write_table(
     path: str | os.PathLike[str],
-    columns: Mapping[str, np.ndarray[Any, Any] | Sequence[str]],
+    columns: Mapping[str, Column],
     *,
     force: bool = False,
 ) -> Path:
@@ -69,6 +72,10 @@ def write_table(
             dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"
         )
         os.close(handle)
+        # mkstemp makes the file private (0600); a log should get the usual permissions.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temp_name, 0o666 & ~umask)
     except OSError as err:
         raise OutputError(f"{path}: cannot be written ({err.strerror})") from err
     temp = Path(temp_name)
@@ -102,7 +109,7 @@ def _publish(temp: Path, target: Path, *, force: bool) -> None:
         os.replace(temp, target)
 
 
-def _frame(columns: Mapping[str, np.ndarray[Any, Any] | Sequence[str]]) -> pl.DataFrame:
+def _frame(columns: Mapping[str, Column]) -> pl.DataFrame:
     series: list[pl.Series] = []
     length: int | None = None
     for name, values in columns.items():

@@ -51,12 +51,24 @@ FUNCTIONS: Mapping[str, Callable[..., sympy.Expr]] = {
 
 CONSTANTS: Mapping[str, sympy.Expr] = {"pi": sympy.pi, "e": sympy.E}
 
+MAX_LENGTH = 20_000
+"""Longest expression accepted, in characters."""
+MAX_EXPONENT = 64
+"""Largest magnitude of a numeric exponent: ``2**10**9`` would make sympy compute forever."""
+
+
+def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
+    if exponent.is_Number and abs(exponent) > MAX_EXPONENT:
+        raise ValueError(f"the exponent {exponent} is larger than {MAX_EXPONENT}")
+    return base**exponent
+
+
 _BINARY: Mapping[type[ast.operator], Callable[[sympy.Expr, sympy.Expr], sympy.Expr]] = {
     ast.Add: lambda a, b: a + b,
     ast.Sub: lambda a, b: a - b,
     ast.Mult: lambda a, b: a * b,
     ast.Div: lambda a, b: a / b,
-    ast.Pow: lambda a, b: a**b,
+    ast.Pow: _power,
 }
 
 _COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Basic]] = {
@@ -86,14 +98,25 @@ def parse_expression(text: str, symbols: Mapping[str, sympy.Expr], *, key: str) 
     """
     if not isinstance(text, str):
         raise ModelError(f"{key}: expected an expression string, got {type(text).__name__}")
+    if len(text) > MAX_LENGTH:
+        raise ModelError(f"{key}: expression longer than {MAX_LENGTH} characters")
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as err:
         raise ModelError(f"{key}: cannot parse {text!r}: {err.msg}") from err
+    except (RecursionError, MemoryError) as err:
+        raise ModelError(f"{key}: expression nested too deeply") from err
     try:
-        return _Converter(symbols, key).visit(tree.body)
-    except (TypeError, ValueError) as err:
+        expression = _Converter(symbols, key).visit(tree.body)
+    except (TypeError, ValueError, ArithmeticError) as err:
         raise ModelError(f"{key}: {err}") from err
+    except RecursionError as err:
+        raise ModelError(f"{key}: expression nested too deeply") from err
+    if not isinstance(expression, sympy.Expr):
+        raise ModelError(f"{key}: {text!r} is a condition, not a value")
+    if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
+        raise ModelError(f"{key}: {text!r} is not finite (a division by zero?)")
+    return expression
 
 
 class _Converter:

@@ -1,0 +1,75 @@
+"""Signal mapping rules (SPEC §5), without files."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from hybridlog.errors import LogError, OptionError
+from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
+
+SYMBOLS: dict[str, Any] = {"inputs": ("u1", "u2"), "outputs": ("y",), "states": ("h1", "h2")}
+
+
+def test_parse_maps() -> None:
+    parsed = parse_maps([" y = /level.data ", "truth.mode=/truth/mode.data"], **SYMBOLS)
+    assert parsed == {"y": "/level.data", "truth.mode": "/truth/mode.data"}
+
+
+@pytest.mark.parametrize(
+    ("maps", "pattern"),
+    [
+        (["y"], "expected SYMBOL=PATH"),
+        (["=col"], "expected SYMBOL=PATH"),
+        (["y="], "expected SYMBOL=PATH"),
+        (["h1=col"], r"unknown symbol 'h1'; valid symbols: u1, u2, y, truth.mode, truth.h1"),
+        (["truth.h3=col"], "unknown symbol 'truth.h3'"),
+        (["y=a", "y=b"], "'y' is mapped twice"),
+    ],
+)
+def test_parse_maps_rejects(maps: list[str], pattern: str) -> None:
+    with pytest.raises(OptionError, match=pattern):
+        parse_maps(maps, **SYMBOLS)
+
+
+def test_resolution_order() -> None:
+    fields = ("u1", "u2", "cmd2", "y", "level", "mode", "phase", "h2", "tank1")
+    chosen = resolve_signal_map(
+        fields,
+        source="log.csv",
+        signals={"u2": "cmd2", "u1": "/cmd/u1.data"},
+        truth={"mode": "phase", "h1": "/truth/h1"},
+        maps={"y": "level", "truth.h1": "tank1"},
+        **SYMBOLS,
+    )
+    assert chosen == SignalMap(
+        inputs={"u1": "u1", "u2": "cmd2"},
+        outputs={"y": "level"},
+        truth_mode="phase",
+        truth_states={"h1": "tank1", "h2": "h2"},
+    )
+
+
+def test_truth_is_optional() -> None:
+    chosen = resolve_signal_map(("u1", "u2", "y"), source="log.csv", **SYMBOLS)
+    assert chosen.truth_mode is None
+    assert chosen.truth_states == {}
+
+
+def test_missing_input_names_what_was_looked_for() -> None:
+    with pytest.raises(LogError) as info:
+        resolve_signal_map(
+            ("u_1", "u2", "y"), source="log.csv", signals={"u1": "/cmd.data"}, **SYMBOLS
+        )
+    message = str(info.value)
+    assert message.startswith("log.csv: no column for input 'u1'")
+    assert "'/cmd.data' and 'u1'" in message
+    assert "closest: 'u_1'" in message
+
+
+def test_mapped_truth_must_exist() -> None:
+    with pytest.raises(LogError, match=r"no column 'phse' for truth.mode.*closest: 'phase'"):
+        resolve_signal_map(
+            ("u1", "u2", "y", "phase"), source="log.csv", maps={"truth.mode": "phse"}, **SYMBOLS
+        )
