@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import polars as pl
+
 from hybridlog.errors import OptionError
 from hybridlog.estimators import estimator_options, get_estimator
 from hybridlog.estimators.result import EstimationResult
@@ -43,8 +44,11 @@ class Settings:
 
 
 def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridModel, Settings]:
-    """Load the model and apply ``--set`` values: names of parameters change the model,
-    all other names are estimator options (validated by the estimator)."""
+    """Load the model and split ``--set`` values into parameters and estimator options.
+
+    Names of model parameters change the model; all other names are estimator options,
+    validated by the estimator when it runs.
+    """
     model = load_model(model_ref)
     settings = Settings()
     for text in values:
@@ -115,7 +119,7 @@ def analyze(
     out_dir: str | os.PathLike[str],
     estimator: str | None = None,
     sets: Sequence[str] = (),
-    read: ReadOptions = ReadOptions(),
+    read: ReadOptions | None = None,
     fail_under: Sequence[str] = (),
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
@@ -129,7 +133,7 @@ def analyze(
     check_target(Path(out_dir), force)
     model, settings = parse_sets(sets, model_ref)
     gates = gates_for(model, fail_under, fail_over)
-    signals = read_log(log, model, read)
+    signals = read_log(log, model, read or ReadOptions())
     result = estimate(model, signals, estimator, settings)
     report = write_report(
         out_dir,
@@ -141,7 +145,9 @@ def analyze(
         table_format=table_format,
         force=force,
     )
-    return Outcome(report=report, out_dir=Path(out_dir), gate_failures=evaluate_gates(report, gates))
+    return Outcome(
+        report=report, out_dir=Path(out_dir), gate_failures=evaluate_gates(report, gates)
+    )
 
 
 @dataclass(frozen=True)
@@ -189,7 +195,7 @@ def compare(
     *,
     out_dir: str | os.PathLike[str],
     sets: Sequence[str] = (),
-    read: ReadOptions = ReadOptions(),
+    read: ReadOptions | None = None,
     fail_under: Sequence[str] = (),
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
@@ -209,14 +215,19 @@ def compare(
     for name in estimators:
         get_estimator(name)
     gates = gates_for(model, fail_under, fail_over)
-    signals = read_log(log, model, read)
+    signals = read_log(log, model, read or ReadOptions())
     results = {name: estimate(model, signals, name, settings) for name in estimators}
     reports: dict[str, dict[str, Any]] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
             reports[name] = write_report(
-                folder / name, result, signals, log=str(log), model_name=model.name,
-                dt=model.dt, table_format=table_format,
+                folder / name,
+                result,
+                signals,
+                log=str(log),
+                model_name=model.name,
+                dt=model.dt,
+                table_format=table_format,
             )
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         table = markdown_table(("estimator", *_COLUMNS), rows)
@@ -225,7 +236,8 @@ def compare(
         )
         write_summary_csv(folder / "comparison.csv", ("estimator", *_COLUMNS), rows)
     failures = [
-        f"{name}: {failure}" for name, report in reports.items()
+        f"{name}: {failure}"
+        for name, report in reports.items()
         for failure in evaluate_gates(report, gates)
     ]
     return Comparison(reports=reports, table=table, gate_failures=failures)

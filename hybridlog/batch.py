@@ -68,8 +68,14 @@ def folder_names(logs: Sequence[Path]) -> list[str]:
 
 
 def _analyze_one(
-    log: str, folder: str, model_ref: str, estimator: str | None, sets: tuple[str, ...],
-    read: ReadOptions, table_format: str, force: bool,
+    log: str,
+    folder: str,
+    model_ref: str,
+    estimator: str | None,
+    sets: tuple[str, ...],
+    read: ReadOptions,
+    table_format: str,
+    force: bool,
 ) -> LogOutcome:
     report_file = Path(folder) / "report.json"
     if not force and report_file.is_file():
@@ -80,8 +86,14 @@ def _analyze_one(
             pass  # an unreadable earlier report is redone
     try:
         outcome = analyze(
-            log, model_ref, out_dir=folder, estimator=estimator, sets=sets, read=read,
-            table_format=table_format, force=True,
+            log,
+            model_ref,
+            out_dir=folder,
+            estimator=estimator,
+            sets=sets,
+            read=read,
+            table_format=table_format,
+            force=True,
         )
     except HybridlogError as err:
         return LogOutcome(log, folder, "failed", None, str(err))
@@ -96,7 +108,7 @@ def run_batch(
     estimator: str | None = None,
     jobs: int = 1,
     sets: Sequence[str] = (),
-    read: ReadOptions = ReadOptions(),
+    read: ReadOptions | None = None,
     fail_under: Sequence[str] = (),
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
@@ -112,7 +124,16 @@ def run_batch(
     root.mkdir(parents=True, exist_ok=True)
     folders = [str(root / name) for name in folder_names(paths)]
     arguments = [
-        (str(log), folder, str(model_ref), estimator, tuple(sets), read, table_format, force)
+        (
+            str(log),
+            folder,
+            str(model_ref),
+            estimator,
+            tuple(sets),
+            read or ReadOptions(),
+            table_format,
+            force,
+        )
         for log, folder in zip(paths, folders, strict=True)
     ]
     if jobs == 1 or len(arguments) == 1:
@@ -123,7 +144,8 @@ def run_batch(
             outcomes = list(pool.map(_analyze_one, *zip(*arguments, strict=True)))
     rows = [
         [
-            o.log, o.status,
+            o.log,
+            o.status,
             None if o.report is None else o.report["samples"],
             None if o.report is None else o.report["vaf"],
             None if o.report is None else o.report["mse"],
@@ -137,7 +159,8 @@ def run_batch(
     write_summary_csv(root / "summary.csv", _COLUMNS, rows)
     failures = [
         f"{o.log}: {failure}"
-        for o in outcomes if o.report is not None
+        for o in outcomes
+        if o.report is not None
         for failure in evaluate_gates(o.report, gates)
     ]
     return BatchOutcome(logs=outcomes, table=table, gate_failures=failures)

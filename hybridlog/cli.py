@@ -33,7 +33,10 @@ def _examples(*lines: str) -> str:
 
 def _model_option(function: F) -> F:
     return click.option(
-        "--model", "model_ref", required=True, metavar="MODEL",
+        "--model",
+        "model_ref",
+        required=True,
+        metavar="MODEL",
         help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
     )(function)
 
@@ -41,26 +44,59 @@ def _model_option(function: F) -> F:
 def _analysis_options(function: F) -> F:
     """Options shared by analyze, compare and batch; each is defined here once."""
     decorators = [
-        click.option("--map", "maps", multiple=True, metavar="SYMBOL=PATH",
-                     help="Map a model input, output or truth symbol (truth.mode, truth.x1) "
-                          "to a log field. Repeatable."),
-        click.option("--set", "sets", multiple=True, metavar="NAME=VALUE",
-                     help="Override a model parameter or an estimator option. Repeatable."),
-        click.option("--fail-under", multiple=True, metavar="METRIC=VALUE",
-                     help="CI gate: exit 1 when METRIC (vaf, mse, mode_accuracy, vaf.y1, ...) "
-                          "is below VALUE. Repeatable."),
-        click.option("--fail-over", multiple=True, metavar="METRIC=VALUE",
-                     help="CI gate: exit 1 when METRIC is above VALUE. Repeatable."),
-        click.option("--table-format", type=click.Choice(["csv", "parquet"]), default="csv",
-                     show_default=True, help="Format of timeline and estimates tables."),
-        click.option("--resample", type=click.Choice(["nearest", "linear"]), default="nearest",
-                     show_default=True,
-                     help="How outputs are put on the model's grid: nearest sample within "
-                          "half a step, or linear interpolation."),
-        click.option("--max-gap", type=float, default=None, metavar="SECONDS",
-                     help="Longest tolerated gap in the outputs [default: 5*dt]."),
-        click.option("--force", is_flag=True,
-                     help="Replace an existing, non-empty output directory."),
+        click.option(
+            "--map",
+            "maps",
+            multiple=True,
+            metavar="SYMBOL=PATH",
+            help="Map a model input, output or truth symbol (truth.mode, truth.x1) "
+            "to a log field. Repeatable.",
+        ),
+        click.option(
+            "--set",
+            "sets",
+            multiple=True,
+            metavar="NAME=VALUE",
+            help="Override a model parameter or an estimator option. Repeatable.",
+        ),
+        click.option(
+            "--fail-under",
+            multiple=True,
+            metavar="METRIC=VALUE",
+            help="CI gate: exit 1 when METRIC (vaf, mse, mode_accuracy, vaf.y1, ...) "
+            "is below VALUE. Repeatable.",
+        ),
+        click.option(
+            "--fail-over",
+            multiple=True,
+            metavar="METRIC=VALUE",
+            help="CI gate: exit 1 when METRIC is above VALUE. Repeatable.",
+        ),
+        click.option(
+            "--table-format",
+            type=click.Choice(["csv", "parquet"]),
+            default="csv",
+            show_default=True,
+            help="Format of timeline and estimates tables.",
+        ),
+        click.option(
+            "--resample",
+            type=click.Choice(["nearest", "linear"]),
+            default="nearest",
+            show_default=True,
+            help="How outputs are put on the model's grid: nearest sample within "
+            "half a step, or linear interpolation.",
+        ),
+        click.option(
+            "--max-gap",
+            type=float,
+            default=None,
+            metavar="SECONDS",
+            help="Longest tolerated gap in the outputs [default: 5*dt].",
+        ),
+        click.option(
+            "--force", is_flag=True, help="Replace an existing, non-empty output directory."
+        ),
     ]
     for decorator in reversed(decorators):
         function = decorator(function)
@@ -79,7 +115,7 @@ class _Context:
 @click.option("--quiet", "-q", is_flag=True, help="Print only errors.")
 @click.pass_context
 def cli(ctx: click.Context, debug: bool, quiet: bool) -> None:
-    """Mode and state estimation for hybrid (switched) systems from recorded logs.
+    r"""Mode and state estimation for hybrid (switched) systems from recorded logs.
 
     \b
     Start with:
@@ -94,10 +130,12 @@ def _say(ctx: click.Context, text: str) -> None:
         click.echo(text)
 
 
-@cli.command(epilog=_examples(
-    "hybridlog inspect sample_logs/three_tank_hstf.csv",
-    "hybridlog inspect sample_logs/three_tank_hstf.csv --json",
-))
+@cli.command(
+    epilog=_examples(
+        "hybridlog inspect sample_logs/three_tank_hstf.csv",
+        "hybridlog inspect sample_logs/three_tank_hstf.csv --json",
+    )
+)
 @click.argument("log", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
 def inspect(log: Path, as_json: bool) -> None:
@@ -119,23 +157,43 @@ def models(name: str | None) -> None:
         click.echo(f"{builtin:20s} {model.reference}")
 
 
-@cli.command(epilog=_examples(
-    "hybridlog simulate three_tank_hstf --out tank.csv --seed 1",
-    "hybridlog simulate three_tank_hstf --out tank.parquet --schedule 1:50,3:50 --steps 400",
-))
+@cli.command(
+    epilog=_examples(
+        "hybridlog simulate three_tank_hstf --out tank.csv --seed 1",
+        "hybridlog simulate three_tank_hstf --out tank.parquet --schedule 1:50,3:50 --steps 400",
+    )
+)
 @click.argument("model_ref", metavar="MODEL")
-@click.option("--out", "out", required=True, type=click.Path(path_type=Path),
-              help="Log to write: .csv or .parquet.")
-@click.option("--schedule", default=None, metavar="MODE:STEPS,...",
-              help="Steps spent in each mode, repeated to --steps [default: the model's].")
-@click.option("--steps", type=click.IntRange(min=1), default=None,
-              help="Number of steps [default: the schedule's total].")
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Log to write: .csv or .parquet.",
+)
+@click.option(
+    "--schedule",
+    default=None,
+    metavar="MODE:STEPS,...",
+    help="Steps spent in each mode, repeated to --steps [default: the model's].",
+)
+@click.option(
+    "--steps",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Number of steps [default: the schedule's total].",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="Noise seed.")
 @click.option("--force", is_flag=True, help="Replace an existing file.")
 @click.pass_context
 def simulate(
-    ctx: click.Context, model_ref: str, out: Path, schedule: str | None, steps: int | None,
-    seed: int, force: bool,
+    ctx: click.Context,
+    model_ref: str,
+    out: Path,
+    schedule: str | None,
+    steps: int | None,
+    seed: int,
+    force: bool,
 ) -> None:
     """Simulate a model along a mode schedule and write a log with ground truth."""
     model = load_model(model_ref)
@@ -144,21 +202,39 @@ def simulate(
     _say(ctx, f"wrote {out} ({log.time.shape[0]} samples)")
 
 
-@cli.command("analyze", epilog=_examples(
-    "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf --out report",
-    "hybridlog analyze log.csv --model three_tank_hstf --estimator imm "
-    "--set transition_stay=0.99 --out report_imm --fail-under mode_accuracy=0.9",
-))
+@cli.command(
+    "analyze",
+    epilog=_examples(
+        "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf --out report",
+        "hybridlog analyze log.csv --model three_tank_hstf --estimator imm "
+        "--set transition_stay=0.99 --out report_imm --fail-under mode_accuracy=0.9",
+    ),
+)
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
-@click.option("--estimator", default=None,
-              help="Estimator name (hstf, imm) [default: the model's default_estimator].")
-@click.option("--out", "out_dir", type=click.Path(path_type=Path), default=None,
-              help="Output directory [default: <log name>_<estimator>].")
+@click.option(
+    "--estimator",
+    default=None,
+    help="Estimator name (hstf, imm) [default: the model's default_estimator].",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Output directory [default: <log name>_<estimator>].",
+)
 @_analysis_options
 @click.pass_context
-def analyze_command(ctx: click.Context, log: Path, model_ref: str, estimator: str | None,
-                    out_dir: Path | None, **options: Any) -> None:
+def analyze_command(
+    ctx: click.Context,
+    /,
+    log: Path,
+    model_ref: str,
+    estimator: str | None,
+    out_dir: Path | None,
+    **options: Any,
+) -> None:
     """Run one estimator over one log and write report, tables and plots."""
     read, common = _split_options(options)
     target = out_dir or Path(f"{log.stem}_{estimator or 'report'}")
@@ -169,20 +245,30 @@ def analyze_command(ctx: click.Context, log: Path, model_ref: str, estimator: st
     _gate_exit(outcome.gate_failures)
 
 
-@cli.command("compare", epilog=_examples(
-    "hybridlog compare sample_logs/three_tank_hstf.csv --model three_tank_hstf "
-    "--estimators hstf,imm --out comparison",
-))
+@cli.command(
+    "compare",
+    epilog=_examples(
+        "hybridlog compare sample_logs/three_tank_hstf.csv --model three_tank_hstf "
+        "--estimators hstf,imm --out comparison",
+    ),
+)
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
-@click.option("--estimators", required=True, metavar="A,B,...",
-              help="Comma-separated estimator names.")
-@click.option("--out", "out_dir", required=True, type=click.Path(path_type=Path),
-              help="Output directory: one report per estimator and comparison.md/.csv.")
+@click.option(
+    "--estimators", required=True, metavar="A,B,...", help="Comma-separated estimator names."
+)
+@click.option(
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Output directory: one report per estimator and comparison.md/.csv.",
+)
 @_analysis_options
 @click.pass_context
-def compare_command(ctx: click.Context, log: Path, model_ref: str, estimators: str,
-                    out_dir: Path, **options: Any) -> None:
+def compare_command(
+    ctx: click.Context, /, log: Path, model_ref: str, estimators: str, out_dir: Path, **options: Any
+) -> None:
     """Run several estimators on one log and write a side-by-side table."""
     read, common = _split_options(options)
     names = [name.strip() for name in estimators.split(",") if name.strip()]
@@ -192,39 +278,67 @@ def compare_command(ctx: click.Context, log: Path, model_ref: str, estimators: s
     _gate_exit(outcome.gate_failures)
 
 
-@cli.command("batch", epilog=_examples(
-    "hybridlog batch sample_logs/*.csv --model three_tank_hstf --estimator hstf --out batch",
-    "hybridlog batch logs/*.parquet --model my_plant.toml --estimator imm --out nightly "
-    "--jobs 2 --fail-under vaf=90",
-))
+@cli.command(
+    "batch",
+    epilog=_examples(
+        "hybridlog batch sample_logs/*.csv --model three_tank_hstf --estimator hstf --out batch",
+        "hybridlog batch logs/*.parquet --model my_plant.toml --estimator imm --out nightly "
+        "--jobs 2 --fail-under vaf=90",
+    ),
+)
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @_model_option
 @click.option("--estimator", default=None, help="Estimator name [default: the model's].")
-@click.option("--out", "out_dir", required=True, type=click.Path(path_type=Path),
-              help="Output directory: one report folder per log and summary.md/.csv.")
-@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Logs analysed in parallel (processes).")
+@click.option(
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Output directory: one report folder per log and summary.md/.csv.",
+)
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Logs analysed in parallel (processes).",
+)
 @_analysis_options
 @click.pass_context
-def batch_command(ctx: click.Context, logs: Sequence[Path], model_ref: str,
-                  estimator: str | None, out_dir: Path, jobs: int, **options: Any) -> None:
+def batch_command(
+    ctx: click.Context,
+    /,
+    logs: Sequence[Path],
+    model_ref: str,
+    estimator: str | None,
+    out_dir: Path,
+    jobs: int,
+    **options: Any,
+) -> None:
     """Analyse many logs; a failing log never stops the others, finished logs are skipped."""
     read, common = _split_options(options)
-    outcome = run_batch(list(logs), model_ref, out_dir=out_dir, estimator=estimator,
-                        jobs=jobs, read=read, **common)
+    outcome = run_batch(
+        list(logs), model_ref, out_dir=out_dir, estimator=estimator, jobs=jobs, read=read, **common
+    )
     _say(ctx, outcome.table)
     _say(ctx, f"summary: {out_dir / 'summary.md'}")
     if outcome.failed:
-        click.echo(f"hybridlog: {outcome.failed} of {len(logs)} logs failed "
-                   f"(see {out_dir / 'summary.md'})", err=True)
+        click.echo(
+            f"hybridlog: {outcome.failed} of {len(logs)} logs failed "
+            f"(see {out_dir / 'summary.md'})",
+            err=True,
+        )
     _gate_exit(outcome.gate_failures)
     if outcome.failed:
         sys.exit(2)
 
 
 def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
-    read = ReadOptions(maps=tuple(options.pop("maps")), resample=options.pop("resample"),
-                       max_gap=options.pop("max_gap"))
+    read = ReadOptions(
+        maps=tuple(options.pop("maps")),
+        resample=options.pop("resample"),
+        max_gap=options.pop("max_gap"),
+    )
     return read, {
         "sets": tuple(options.pop("sets")),
         "fail_under": tuple(options.pop("fail_under")),

@@ -18,13 +18,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 import sympy
 from numba import types
 
 from hybridlog.errors import ModelError, OptionError
-from hybridlog.model.compiled import VECTOR_FUNCTION, compile_model
+from hybridlog.jit import jit_signature
+from hybridlog.model.compiled import VECTOR_FUNCTION, ModelFunction, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray, IntArray
 
@@ -125,20 +125,19 @@ _SIGNATURE = types.void(
 )
 
 
-@numba.njit(_SIGNATURE, cache=True, error_model="numpy")  # type: ignore[misc]
-def _simulate_loop(
-    f,
-    h,
-    modes,
-    inputs,
-    process_factors,
-    process_draws,
-    measurement_factors,
-    measurement_draws,
-    states,
-    outputs,
-    state_min,
-) -> None:  # pragma: no cover - compiled; exercised through simulate
+def _simulate_steps(
+    f: ModelFunction,
+    h: ModelFunction,
+    modes: IntArray,
+    inputs: FloatArray,
+    process_factors: FloatArray,
+    process_draws: FloatArray,
+    measurement_factors: FloatArray,
+    measurement_draws: FloatArray,
+    states: FloatArray,
+    outputs: FloatArray,
+    state_min: FloatArray,
+) -> None:  # compiled as simulate
     n = states.shape[1]
     m = outputs.shape[1]
     clean = np.empty(n)
@@ -158,6 +157,9 @@ def _simulate_loop(
             for b in range(m):
                 acc += measurement_factors[q, a, b] * measurement_draws[k, b]
             outputs[k, a] = acc
+
+
+_simulate_loop = jit_signature(_SIGNATURE)(_simulate_steps)
 
 
 def simulate(

@@ -69,8 +69,12 @@ def test_covariances_stay_symmetric_psd_and_probabilities_normalised(
     std = np.sqrt(np.diag(model.modes[0].measurement_noise))
     outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
     signals = AlignedSignals(
-        source="sim", time=log.time, input_names=model.inputs, output_names=model.outputs,
-        inputs=log.inputs, outputs=outputs,
+        source="sim",
+        time=log.time,
+        input_names=model.inputs,
+        output_names=model.outputs,
+        inputs=log.inputs,
+        outputs=outputs,
     )
     assert_filter_invariants(RUNS[run_name](model, signals))
 
@@ -82,8 +86,12 @@ def test_invariants_hold_with_a_burst_of_outliers_on_every_model(long_logs, run_
         outputs = log.outputs.copy()
         outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
         signals = AlignedSignals(
-            source="sim", time=log.time, input_names=model.inputs,
-            output_names=model.outputs, inputs=log.inputs, outputs=outputs,
+            source="sim",
+            time=log.time,
+            input_names=model.inputs,
+            output_names=model.outputs,
+            inputs=log.inputs,
+            outputs=outputs,
         )
         result = RUNS[run_name](model, signals)
         assert_filter_invariants(result)

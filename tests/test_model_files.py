@@ -71,7 +71,11 @@ def _replace(text, old, new):
 @pytest.mark.parametrize(
     ("old", "new", "message"),
     [
-        ('"theta + 0.05*omega"', '"theta + 0.05*omegaa"', r"modes\.only\.f\[0\]: unknown symbol 'omegaa'"),
+        (
+            '"theta + 0.05*omega"',
+            '"theta + 0.05*omegaa"',
+            r"modes\.only\.f\[0\]: unknown symbol 'omegaa'",
+        ),
         (
             'h = ["sin(theta)", "omega + 0.1*theta**2"]',
             'h = ["sin(theta)"]',
@@ -82,10 +86,22 @@ def _replace(text, old, new):
         ('name = "pendulum"', "colour = 'red'\nname = 'p'", r"colour: unknown key"),
         ("[noise]", "colour = 'red'\n[noise]", r"modes\.only\.colour: unknown key"),
         ("covariance = 0.5", "covariance = 0.5\nvariance = 2", r"initial\.variance: unknown key"),
-        ("state = [0.3, 0.0]", "state = [0.3]", r"initial\.state: wrong length; expected 2 instead of 1"),
-        ("measurement = [0.01, 0.02]", "measurement = [[1, 2], [3, 4]]", r"noise\.measurement: covariance must be symmetric"),
+        (
+            "state = [0.3, 0.0]",
+            "state = [0.3]",
+            r"initial\.state: wrong length; expected 2 instead of 1",
+        ),
+        (
+            "measurement = [0.01, 0.02]",
+            "measurement = [[1, 2], [3, 4]]",
+            r"noise\.measurement: covariance must be symmetric",
+        ),
         ("dt = 0.05", "dt = -1", r"dt: must be positive"),
-        ('outputs = ["y_sin", "y_speed"]', 'outputs = ["y_sin", "theta"]', r"outputs: 'theta' is already one of the states"),
+        (
+            'outputs = ["y_sin", "y_speed"]',
+            'outputs = ["y_sin", "theta"]',
+            r"outputs: 'theta' is already one of the states",
+        ),
     ],
 )
 def test_nonlinear_model_errors_name_the_key(old, new, message):
@@ -108,9 +124,21 @@ def test_nonlinear_model_errors_name_the_key(old, new, message):
             r"modes\.fast\.A: matrix A of mode 'fast' has the wrong number of rows; "
             r"expected 2 instead of 1",
         ),
-        ("matrix = [[0.97, 0.03], [0.05, 0.95]]", "matrix = [[0.97, 0.13], [0.05, 0.95]]", r"transitions\.matrix\[0\]: each row"),
-        ("mode_probabilities = [0.6, 0.4]", "mode = 'medium'", r"initial\.mode: unknown mode 'medium'"),
-        ("A = [[1.0, 0.1], [0.0, 0.95]]", "A = [[1.0, 0.1], [0.0, 'q*2']]", r"modes\.slow\.A\[1\]\[1\]: unknown symbol 'q'"),
+        (
+            "matrix = [[0.97, 0.03], [0.05, 0.95]]",
+            "matrix = [[0.97, 0.13], [0.05, 0.95]]",
+            r"transitions\.matrix\[0\]: each row",
+        ),
+        (
+            "mode_probabilities = [0.6, 0.4]",
+            "mode = 'medium'",
+            r"initial\.mode: unknown mode 'medium'",
+        ),
+        (
+            "A = [[1.0, 0.1], [0.0, 0.95]]",
+            "A = [[1.0, 0.1], [0.0, 'q*2']]",
+            r"modes\.slow\.A\[1\]\[1\]: unknown symbol 'q'",
+        ),
     ],
 )
 def test_linear_model_errors_name_the_key(old, new, message):
@@ -158,5 +186,8 @@ def test_three_tank_builtin_matches_the_paper():
         np.testing.assert_allclose(mode.process_noise, 0.5 * np.eye(3))
         np.testing.assert_allclose(mode.measurement_noise, 0.5 * np.eye(3))
     x1, x2, x3 = sympy.symbols("x1 x2 x3", real=True)
-    assert [sympy.simplify(e - k * x) for k, mode in enumerate(model.modes, 1)
-            for e, x in zip(mode.h, (x1, x2, x3), strict=True)] == [0] * 9
+    assert [
+        sympy.simplify(e - k * x)
+        for k, mode in enumerate(model.modes, 1)
+        for e, x in zip(mode.h, (x1, x2, x3), strict=True)
+    ] == [0] * 9

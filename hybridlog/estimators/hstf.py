@@ -35,7 +35,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 from numba import types
 
@@ -51,9 +50,15 @@ from hybridlog.estimators.kernels import (
 )
 from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.model.compiled import MATRIX_FUNCTION, VECTOR_FUNCTION, compile_model
+from hybridlog.jit import jit_signature
+from hybridlog.model.compiled import (
+    MATRIX_FUNCTION,
+    VECTOR_FUNCTION,
+    ModelFunction,
+    compile_model,
+)
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 NAME = "hstf"
 
@@ -98,31 +103,30 @@ _SIGNATURE = types.void(
 )
 
 
-@numba.njit(_SIGNATURE, cache=True, error_model="numpy", nogil=True)  # type: ignore[misc]
-def _hstf_loop(
-    f,
-    F,
-    h,
-    H,
-    inputs,
-    outputs,
-    Q,
-    R,
-    x0,
-    P0,
-    mu0,
-    rho,
-    beta,
-    theta,
-    fading,
-    unfaded_likelihood,
-    modes_out,
-    probabilities_out,
-    means_out,
-    variances_out,
-    predictions_out,
-    covariances_out,
-) -> None:  # pragma: no cover - compiled; exercised through run_hstf
+def _hstf_steps(
+    f: ModelFunction,
+    F: ModelFunction,
+    h: ModelFunction,
+    H: ModelFunction,
+    inputs: FloatArray,
+    outputs: FloatArray,
+    Q: FloatArray,
+    R: FloatArray,
+    x0: FloatArray,
+    P0: FloatArray,
+    mu0: FloatArray,
+    rho: float,
+    beta: float,
+    theta: float,
+    fading: bool,
+    unfaded_likelihood: bool,
+    modes_out: IntArray,
+    probabilities_out: FloatArray,
+    means_out: FloatArray,
+    variances_out: FloatArray,
+    predictions_out: FloatArray,
+    covariances_out: FloatArray,
+) -> None:  # compiled as run_hstf
     n_samples = outputs.shape[0]
     n = x0.shape[0]
     m = outputs.shape[1]
@@ -267,6 +271,9 @@ def _hstf_loop(
             covariances_out[k + 1] = P
 
 
+_hstf_loop = jit_signature(_SIGNATURE)(_hstf_steps)
+
+
 def run_hstf(
     model: HybridModel,
     signals: AlignedSignals,
@@ -283,7 +290,7 @@ def run_hstf(
     compiled = compile_model(model, jit=jit)
     Q, R = noise_stacks(model)
     buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    loop = _hstf_loop if jit else _hstf_loop.py_func
+    loop = _hstf_loop if jit else _hstf_steps
     start = time.perf_counter()
     loop(
         compiled.f,

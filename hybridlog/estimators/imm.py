@@ -28,7 +28,6 @@ import math
 import time
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 from numba import types
 
@@ -44,9 +43,15 @@ from hybridlog.estimators.kernels import (
 )
 from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.model.compiled import MATRIX_FUNCTION, VECTOR_FUNCTION, compile_model
+from hybridlog.jit import jit_signature
+from hybridlog.model.compiled import (
+    MATRIX_FUNCTION,
+    VECTOR_FUNCTION,
+    ModelFunction,
+    compile_model,
+)
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
-from hybridlog.signals import AlignedSignals, FloatArray
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 NAME = "imm"
 
@@ -83,27 +88,26 @@ _SIGNATURE = types.void(
 )
 
 
-@numba.njit(_SIGNATURE, cache=True, error_model="numpy", nogil=True)  # type: ignore[misc]
-def _imm_loop(
-    f,
-    F,
-    h,
-    H,
-    inputs,
-    outputs,
-    Q,
-    R,
-    x0,
-    P0,
-    mu0,
-    transitions,
-    modes_out,
-    probabilities_out,
-    means_out,
-    variances_out,
-    predictions_out,
-    covariances_out,
-) -> None:  # pragma: no cover - compiled; exercised through run_imm
+def _imm_steps(
+    f: ModelFunction,
+    F: ModelFunction,
+    h: ModelFunction,
+    H: ModelFunction,
+    inputs: FloatArray,
+    outputs: FloatArray,
+    Q: FloatArray,
+    R: FloatArray,
+    x0: FloatArray,
+    P0: FloatArray,
+    mu0: FloatArray,
+    transitions: FloatArray,
+    modes_out: IntArray,
+    probabilities_out: FloatArray,
+    means_out: FloatArray,
+    variances_out: FloatArray,
+    predictions_out: FloatArray,
+    covariances_out: FloatArray,
+) -> None:  # compiled as run_imm
     n_samples = outputs.shape[0]
     n = x0.shape[0]
     m = outputs.shape[1]
@@ -213,6 +217,9 @@ def _imm_loop(
         record(k + 1)
 
 
+_imm_loop = jit_signature(_SIGNATURE)(_imm_steps)
+
+
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
     """Markov matrix: ``transition_stay`` when set, else the model's, else 0.95 stay."""
     if options.transition_stay is not None:
@@ -235,7 +242,7 @@ def run_imm(
     Q, R = noise_stacks(model)
     transitions = contiguous(transition_matrix(model, options))
     buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    loop = _imm_loop if jit else _imm_loop.py_func
+    loop = _imm_loop if jit else _imm_steps
     start = time.perf_counter()
     loop(
         compiled.f,

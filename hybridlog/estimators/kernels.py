@@ -9,15 +9,16 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-_JIT = {"cache": True, "error_model": "numpy", "nogil": True}
+from hybridlog.jit import jit
+from hybridlog.signals import FloatArray
+
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def mat_mul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
+@jit
+def mat_mul(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
     """``out = A @ B``."""
     for i in range(A.shape[0]):
         for j in range(B.shape[1]):
@@ -27,8 +28,8 @@ def mat_mul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
             out[i, j] = acc
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def mat_mul_bt(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
+@jit
+def mat_mul_bt(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
     """``out = A @ B.T``."""
     for i in range(A.shape[0]):
         for j in range(B.shape[0]):
@@ -38,16 +39,16 @@ def mat_mul_bt(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
             out[i, j] = acc
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def congruence(A: np.ndarray, P: np.ndarray, work: np.ndarray, out: np.ndarray) -> None:
+@jit
+def congruence(A: FloatArray, P: FloatArray, work: FloatArray, out: FloatArray) -> None:
     """``out = A P Aᵀ`` (``work`` has the shape of ``A``), symmetric by construction."""
     mat_mul(A, P, work)
     mat_mul_bt(work, A, out)
     symmetrize(out)
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def symmetrize(P: np.ndarray) -> None:
+@jit
+def symmetrize(P: FloatArray) -> None:
     """Replace ``P`` by ``(P + Pᵀ)/2`` in place."""
     for i in range(P.shape[0]):
         for j in range(i + 1, P.shape[0]):
@@ -56,8 +57,8 @@ def symmetrize(P: np.ndarray) -> None:
             P[j, i] = mean
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def cholesky(S: np.ndarray, L: np.ndarray) -> bool:
+@jit
+def cholesky(S: FloatArray, L: FloatArray) -> bool:
     """Lower Cholesky factor of the symmetric matrix ``S`` into ``L``; False if not PD."""
     n = S.shape[0]
     for j in range(n):
@@ -78,8 +79,8 @@ def cholesky(S: np.ndarray, L: np.ndarray) -> bool:
     return True
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def forward_solve(L: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+@jit
+def forward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
     """Solve ``L out = b`` for lower-triangular ``L``."""
     for i in range(L.shape[0]):
         acc = b[i]
@@ -88,8 +89,8 @@ def forward_solve(L: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
         out[i] = acc / L[i, i]
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def backward_solve(L: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+@jit
+def backward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
     """Solve ``Lᵀ out = b`` for lower-triangular ``L``."""
     n = L.shape[0]
     for i in range(n - 1, -1, -1):
@@ -99,8 +100,8 @@ def backward_solve(L: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
         out[i] = acc / L[i, i]
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def gaussian_log_density(gamma: np.ndarray, L: np.ndarray, work: np.ndarray) -> float:
+@jit
+def gaussian_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray) -> float:
     """``log N(γ; 0, S)`` given the Cholesky factor ``L`` of ``S``."""
     forward_solve(L, gamma, work)
     quadratic = 0.0
@@ -108,18 +109,18 @@ def gaussian_log_density(gamma: np.ndarray, L: np.ndarray, work: np.ndarray) -> 
     for i in range(gamma.shape[0]):
         quadratic += work[i] * work[i]
         log_det += 2.0 * math.log(L[i, i])
-    return -0.5 * (quadratic + log_det + gamma.shape[0] * LOG_2PI)
+    return float(-0.5 * (quadratic + log_det + gamma.shape[0] * LOG_2PI))
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
+@jit
 def gain(
-    P: np.ndarray,
-    H: np.ndarray,
-    L: np.ndarray,
-    PHt: np.ndarray,
-    column: np.ndarray,
-    solved: np.ndarray,
-    K: np.ndarray,
+    P: FloatArray,
+    H: FloatArray,
+    L: FloatArray,
+    PHt: FloatArray,
+    column: FloatArray,
+    solved: FloatArray,
+    K: FloatArray,
 ) -> None:
     """Kalman gain ``K = P Hᵀ S⁻¹`` with ``S = L Lᵀ`` (Cholesky factor ``L``)."""
     mat_mul_bt(P, H, PHt)
@@ -133,16 +134,16 @@ def gain(
             K[i, j] = column[j]
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
+@jit
 def joseph_update(
-    P: np.ndarray,
-    K: np.ndarray,
-    H: np.ndarray,
-    R: np.ndarray,
-    IKH: np.ndarray,
-    work_nn: np.ndarray,
-    work_nm: np.ndarray,
-    out: np.ndarray,
+    P: FloatArray,
+    K: FloatArray,
+    H: FloatArray,
+    R: FloatArray,
+    IKH: FloatArray,
+    work_nn: FloatArray,
+    work_nm: FloatArray,
+    out: FloatArray,
 ) -> None:
     """``out = (I − K H) P (I − K H)ᵀ + K R Kᵀ`` (Joseph form: symmetric PSD by construction)."""
     n = P.shape[0]
@@ -163,8 +164,8 @@ def joseph_update(
     symmetrize(out)
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
-def normalize_log(log_weights: np.ndarray, out: np.ndarray) -> bool:
+@jit
+def normalize_log(log_weights: FloatArray, out: FloatArray) -> bool:
     """``out = exp(w − logsumexp(w))``; False (``out`` untouched) when no weight is finite."""
     top = -np.inf
     for value in log_weights:
@@ -181,13 +182,13 @@ def normalize_log(log_weights: np.ndarray, out: np.ndarray) -> bool:
     return True
 
 
-@numba.njit(**_JIT)  # type: ignore[misc]
+@jit
 def mixture_moments(
-    weights: np.ndarray,
-    means: np.ndarray,
-    covariances: np.ndarray,
-    mean_out: np.ndarray,
-    covariance_out: np.ndarray,
+    weights: FloatArray,
+    means: FloatArray,
+    covariances: FloatArray,
+    mean_out: FloatArray,
+    covariance_out: FloatArray,
 ) -> None:
     """Mean and covariance of a Gaussian mixture (paper 000, eqs. (36)-(37)).
 

@@ -29,6 +29,7 @@ from numba import types
 
 from hybridlog.model.codegen import CODEGEN_VERSION, FUNCTION_NAMES, generate_source
 from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.signals import FloatArray
 
 VECTOR_SIGNATURE = types.void(
     types.int64, types.float64[::1], types.float64[::1], types.float64[::1]
@@ -42,6 +43,10 @@ VECTOR_FUNCTION = types.FunctionType(VECTOR_SIGNATURE)
 MATRIX_FUNCTION = types.FunctionType(MATRIX_SIGNATURE)
 
 
+ModelFunction = Callable[[int, FloatArray, FloatArray, FloatArray], None]
+"""``(mode index, x, u, out)``: the calling convention of ``f``, ``F``, ``h`` and ``H``."""
+
+
 @dataclass(frozen=True)
 class CompiledModel:
     """The four mode functions of a model (see :mod:`hybridlog.model.codegen`).
@@ -50,10 +55,10 @@ class CompiledModel:
     to zero when the machine code came from the on-disk cache.
     """
 
-    f: Callable[..., None]
-    F: Callable[..., None]
-    h: Callable[..., None]
-    H: Callable[..., None]
+    f: ModelFunction
+    F: ModelFunction
+    h: ModelFunction
+    H: ModelFunction
     compile_s: float
     jit: bool
 
@@ -97,7 +102,8 @@ def compile_model(model: HybridModel, *, jit: bool = True) -> CompiledModel:
         namespace: dict[str, Any] = {}
         exec(compile(source, f"<hybridlog model {model.name}>", "exec"), namespace)
         functions = [namespace[name] for name in FUNCTION_NAMES]
-    compiled = CompiledModel(*functions, compile_s=time.perf_counter() - start, jit=jit)
+    f, F, h, H = functions
+    compiled = CompiledModel(f, F, h, H, compile_s=time.perf_counter() - start, jit=jit)
     _LOADED[memo] = compiled
     return compiled
 

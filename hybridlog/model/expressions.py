@@ -71,7 +71,7 @@ _BINARY: Mapping[type[ast.operator], Callable[[sympy.Expr, sympy.Expr], sympy.Ex
     ast.Pow: _power,
 }
 
-_COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Basic]] = {
+_COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Expr]] = {
     ast.Lt: sympy.Lt,
     ast.LtE: sympy.Le,
     ast.Gt: sympy.Gt,
@@ -174,8 +174,7 @@ class _Converter:
         operator = _COMPARE.get(type(node.ops[0]))
         if operator is None:
             raise self.fail(f"comparison {type(node.ops[0]).__name__}")
-        result = operator(self.visit(node.left), self.visit(node.comparators[0]))
-        return result  # type: ignore[return-value]
+        return operator(self.visit(node.left), self.visit(node.comparators[0]))
 
     def call(self, node: ast.Call) -> sympy.Expr:
         if not isinstance(node.func, ast.Name):

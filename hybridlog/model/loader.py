@@ -449,7 +449,8 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
         probabilities = _vector(value, n, key)
     if probabilities.min() < 0 or not math.isclose(probabilities.sum(), 1.0, abs_tol=1e-9):
         raise ModelError(f"{key}: probabilities must be non-negative and sum to 1")
-    return probabilities / probabilities.sum()
+    normalised: FloatArray = probabilities / probabilities.sum()
+    return normalised
 
 
 def _transitions(value: Any, mode_ids: tuple[str, ...]) -> FloatArray | None:
