@@ -1,0 +1,394 @@
+"""The command line on real files: outputs, CI gates, and bad input (exit 2, one line)."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import polars as pl
+import pytest
+from click.testing import CliRunner
+
+from hybridlog.cli import cli, main
+
+ROOT = Path(__file__).resolve().parent.parent
+SAMPLE = ROOT / "sample_logs" / "three_tank_hstf.csv"
+
+
+def run(args, expect=0):
+    """Run the CLI through ``main`` (which maps errors to exit codes) and check the code."""
+    runner = CliRunner()
+    result = runner.invoke(main_command, args, catch_exceptions=False)
+    assert result.exit_code == expect, result.output + result.stderr
+    return result
+
+
+class _Main:
+    """Click-runner adapter for ``main`` so the error → exit-code mapping is exercised."""
+
+    name = "hybridlog"
+
+    def main(self, args, prog_name=None, standalone_mode=True, **extra):
+        try:
+            main(list(args))
+        except SystemExit as exit_:
+            raise SystemExit(exit_.code) from None
+        raise SystemExit(0)
+
+
+main_command = _Main()
+
+
+@pytest.fixture
+def tank_log(tmp_path):
+    path = tmp_path / "tank.csv"
+    run(["simulate", "three_tank_hstf", "--out", str(path), "--seed", "3"])
+    return path
+
+
+def test_every_command_has_help_with_an_example():
+    for name, command in cli.commands.items():
+        assert command.help, name
+        result = CliRunner().invoke(cli, [name, "--help"])
+        assert result.exit_code == 0
+        assert "Examples:" in result.output and "hybridlog " + name in result.output, name
+
+
+def test_python_dash_m_runs_the_cli():
+    done = subprocess.run(
+        [sys.executable, "-m", "hybridlog", "models"], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert "three_tank_hstf" in done.stdout
+
+
+def test_models_lists_and_prints_builtins():
+    assert "three_tank_hstf" in run(["models"]).output
+    text = run(["models", "three_tank_hstf"]).output
+    assert "[modes.1]" in text and "paper 000" in text
+    assert run(["models", "nope"], expect=2).stderr.count("\n") == 1
+
+
+def test_simulate_writes_ground_truth_columns(tmp_path):
+    out = tmp_path / "s.parquet"
+    run(
+        ["simulate", "three_tank_hstf", "--out", str(out), "--schedule", "1:5,3:5", "--steps", "30"]
+    )
+    frame = pl.read_parquet(out)
+    assert frame.columns == ["t", "u", "y1", "y2", "y3", "mode", "x1", "x2", "x3"]
+    assert frame.height == 31
+    assert frame["mode"].to_list()[:12] == ["1"] * 6 + ["3"] * 5 + ["1"]
+    # Same seed, same log; an existing file is never overwritten without --force.
+    again = tmp_path / "again.parquet"
+    run(
+        [
+            "simulate",
+            "three_tank_hstf",
+            "--out",
+            str(again),
+            "--schedule",
+            "1:5,3:5",
+            "--steps",
+            "30",
+        ]
+    )
+    assert pl.read_parquet(again).equals(frame)
+    result = run(["simulate", "three_tank_hstf", "--out", str(out)], expect=2)
+    assert "already exists" in result.stderr
+
+
+def test_inspect_json(tank_log):
+    info = json.loads(run(["inspect", str(tank_log), "--json"]).output)
+    assert info["rows"] == 301
+    assert "y1" in json.dumps(info)
+
+
+def test_analyze_writes_every_output(tank_log, tmp_path):
+    out = tmp_path / "report"
+    result = run(["analyze", str(tank_log), "--model", "three_tank_hstf", "--out", str(out)])
+    assert str(out / "report.md") in result.output
+    for name in (
+        "report.json",
+        "report.md",
+        "timeline.csv",
+        "estimates.csv",
+        "plots/outputs.png",
+        "plots/modes.png",
+        "plots/states.png",
+    ):
+        assert (out / name).is_file(), name
+    report = json.loads((out / "report.json").read_text())
+    for key in (
+        "hybridlog_version",
+        "log",
+        "model",
+        "estimator",
+        "options",
+        "samples",
+        "dt",
+        "t_start",
+        "t_end",
+        "outputs",
+        "mse",
+        "vaf",
+        "modes",
+        "states",
+        "runtime_s",
+        "samples_per_s",
+    ):
+        assert key in report, key
+    for key in ("labels", "switches", "dwell_s", "accuracy", "confusion", "detection_delay_s"):
+        assert key in report["modes"], key
+    assert report["estimator"] == "hstf"  # the model's default_estimator
+    assert report["samples"] == 301
+    assert set(report["states"]) == {"x1", "x2", "x3"}
+    timeline = pl.read_csv(out / "timeline.csv")
+    assert timeline.columns == ["t", "mode", "p_1", "p_2", "p_3", "truth_mode"]
+
+
+def test_existing_output_is_refused_then_replaced_with_force(tank_log, tmp_path):
+    out = tmp_path / "report"
+    args = ["analyze", str(tank_log), "--model", "three_tank_hstf", "--out", str(out)]
+    run(args)
+    before = (out / "report.json").read_bytes()
+    result = run([*args, "--estimator", "imm"], expect=2)
+    assert "--force" in result.stderr
+    assert (out / "report.json").read_bytes() == before
+    run([*args, "--estimator", "imm", "--force"])
+    assert json.loads((out / "report.json").read_text())["estimator"] == "imm"
+
+
+def test_gates_exit_one_naming_metric_value_and_bound(tank_log, tmp_path):
+    base = ["analyze", str(tank_log), "--model", "three_tank_hstf", "--estimator", "imm"]
+    run(
+        [
+            *base,
+            "--out",
+            str(tmp_path / "a"),
+            "--fail-under",
+            "mode_accuracy=0.5",
+            "--fail-over",
+            "mse=1000",
+        ]
+    )
+    result = run([*base, "--out", str(tmp_path / "b"), "--fail-under", "vaf=99.9"], expect=1)
+    report = json.loads((tmp_path / "b" / "report.json").read_text())
+    assert f"vaf = {report['vaf']:.4g}" in result.stderr or "vaf =" in result.stderr
+    assert "99.9" in result.stderr
+    result = run([*base, "--out", str(tmp_path / "c"), "--fail-over", "mse.y1=0.001"], expect=1)
+    assert "mse.y1" in result.stderr and "0.001" in result.stderr
+
+
+def test_set_overrides_options_and_parameters(tank_log, tmp_path):
+    out = tmp_path / "r"
+    run(
+        [
+            "analyze",
+            str(tank_log),
+            "--model",
+            "three_tank_hstf",
+            "--out",
+            str(out),
+            "--set",
+            "theta=0.9",
+            "--set",
+            "rho=0.5",
+            "--set",
+            "A=160",
+        ]
+    )
+    options = json.loads((out / "report.json").read_text())["options"]
+    assert options["theta"] == 0.9 and options["rho"] == 0.5
+
+
+def _one_line_error(result, *fragments):
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("hybridlog: error: ")
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+    assert "Traceback" not in result.output + result.stderr
+
+
+def _bad_model(tmp_path, old, new):
+    text = (ROOT / "hybridlog/model/builtin/three_tank_hstf.toml").read_text()
+    assert old in text
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("make_args", "fragments"),
+    [
+        (lambda t, log: [str(t / "missing.csv"), "--model", "three_tank_hstf"], ["missing.csv"]),
+        (lambda t, log: [str(log), "--model", "no_such_model"], ["no_such_model"]),
+        (
+            lambda t, log: [str(log), "--model", "three_tank_hstf", "--estimator", "kalman"],
+            ["kalman"],
+        ),
+        (lambda t, log: [str(log), "--model", "three_tank_hstf", "--set", "theta=2"], ["theta"]),
+        (lambda t, log: [str(log), "--model", "three_tank_hstf", "--set", "gamma=1"], ["gamma"]),
+        (lambda t, log: [str(log), "--model", "three_tank_hstf", "--map", "y9=y1"], ["y9"]),
+        (lambda t, log: [str(log), "--model", "three_tank_hstf", "--map", "y1=level"], ["level"]),
+        (
+            lambda t, log: [str(log), "--model", "three_tank_hstf", "--fail-under", "vaff=3"],
+            ["vaff"],
+        ),
+        (
+            lambda t, log: [
+                str(log),
+                "--model",
+                str(_bad_model(t, '"x1", "x2", "x3"]\n', '"x1", "x2", "x4"]\n')),
+            ],
+            ["bad.toml", "x4"],
+        ),
+        (
+            lambda t, log: [str(log), "--model", str(_bad_model(t, "A = 154.0", 'A = "os"'))],
+            ["bad.toml", "parameters.A"],
+        ),
+        (
+            lambda t, log: [
+                str(log),
+                "--model",
+                str(_bad_model(t, 'u = "20"', "u = \"__import__('os')\"")),
+            ],
+            ["bad.toml", "simulation.inputs.u"],
+        ),
+        (
+            lambda t, log: [
+                str(log),
+                "--model",
+                str(_bad_model(t, "measurement = 0.5", "measurement = 0.0")),
+            ],
+            ["singular"],
+        ),
+    ],
+    ids=[
+        "missing-log",
+        "unknown-model",
+        "unknown-estimator",
+        "bad-option-value",
+        "unknown-option",
+        "map-unknown-symbol",
+        "map-missing-column",
+        "bad-gate",
+        "model-unknown-symbol",
+        "model-bad-parameter",
+        "model-code-injection",
+        "singular-noise",
+    ],
+)
+def test_bad_input_is_one_line_exit_two_and_no_output(tank_log, tmp_path, make_args, fragments):
+    out = tmp_path / "out"
+    result = run(["analyze", *make_args(tmp_path, tank_log), "--out", str(out)], expect=2)
+    _one_line_error(result, *fragments)
+    assert not out.exists()
+    assert not any(p.name.startswith(".out") for p in tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("mutate", "fragments"),
+    [
+        (lambda text: text.replace("\n5.0,", "\n5.0x,", 1), ["line 7", "'t'"]),
+        (lambda text: text.replace(",20.0,", ",abc,", 3), ["line", "'u'", "abc"]),
+        (lambda text: text.replace("\n3.0,", "\n1.5,", 1), ["line 5", "backwards"]),
+        (lambda text: text.replace(",20.0,", ",nan,", 1), ["'u'", "nan"]),
+        (lambda text: "", ["empty"]),
+        (lambda text: text[: len(text) // 2], ["truncated"]),
+    ],
+    ids=["bad-time", "text-cell", "time-backwards", "nan", "empty", "truncated"],
+)
+def test_bad_log_content(tank_log, tmp_path, mutate, fragments):
+    bad = tmp_path / "bad.csv"
+    bad.write_text(mutate(tank_log.read_text()))
+    out = tmp_path / "out"
+    result = run(["analyze", str(bad), "--model", "three_tank_hstf", "--out", str(out)], expect=2)
+    _one_line_error(result, "bad.csv", *fragments)
+    assert not out.exists()
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    with pytest.raises(Exception, match="no_such_model"):
+        main(
+            [
+                "--debug",
+                "analyze",
+                str(SAMPLE),
+                "--model",
+                "no_such_model",
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+
+
+def test_compare_writes_side_by_side_table(tank_log, tmp_path):
+    out = tmp_path / "cmp"
+    result = run(
+        [
+            "compare",
+            str(tank_log),
+            "--model",
+            "three_tank_hstf",
+            "--estimators",
+            "hstf,imm",
+            "--out",
+            str(out),
+        ]
+    )
+    assert "| hstf |" in result.output and "| imm |" in result.output
+    table = pl.read_csv(out / "comparison.csv")
+    assert table["estimator"].to_list() == ["hstf", "imm"]
+    for name in ("hstf", "imm"):
+        report = json.loads((out / name / "report.json").read_text())
+        assert report["estimator"] == name
+        assert table.filter(pl.col("estimator") == name)["vaf"][0] == pytest.approx(report["vaf"])
+
+
+def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
+    logs = []
+    for seed in (1, 2):
+        path = tmp_path / f"run{seed}.csv"
+        run(["simulate", "three_tank_hstf", "--out", str(path), "--seed", str(seed)])
+        logs.append(str(path))
+    broken = tmp_path / "broken.csv"
+    broken.write_text("t,u,y1\n0,1,2\n")
+    out = tmp_path / "batch"
+    args = [
+        "batch",
+        *logs,
+        str(broken),
+        "--model",
+        "three_tank_hstf",
+        "--estimator",
+        "imm",
+        "--out",
+        str(out),
+    ]
+    result = run(args, expect=2)
+    assert "1 of 3 logs failed" in result.stderr
+    summary = pl.read_csv(out / "summary.csv")
+    assert summary["status"].to_list() == ["done", "done", "failed"]
+    assert "y2" in summary["error"][2]
+    stamp = (out / "run1" / "report.json").stat().st_mtime_ns
+    result = run(args, expect=2)
+    assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["skipped", "skipped", "failed"]
+    assert (out / "run1" / "report.json").stat().st_mtime_ns == stamp
+    run(
+        [
+            "batch",
+            *logs,
+            "--model",
+            "three_tank_hstf",
+            "--estimator",
+            "imm",
+            "--out",
+            str(out),
+            "--force",
+            "--jobs",
+            "2",
+        ]
+    )
+    assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["done", "done"]
+    assert (out / "run1" / "report.json").stat().st_mtime_ns != stamp
