@@ -65,6 +65,7 @@ VARIANTS: dict[str, Runner] = {
 
 
 def signals_of(model: HybridModel, log: SimulatedLog) -> AlignedSignals:
+    """The simulated log as the estimators' input, with its ground truth."""
     return AlignedSignals(
         source="sim",
         time=log.time,
@@ -79,6 +80,7 @@ def signals_of(model: HybridModel, log: SimulatedLog) -> AlignedSignals:
 
 
 def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> dict[str, float]:
+    """The study's metrics of one run (NaN delay = switch missed)."""
     truth = log.modes
     out: dict[str, float] = {
         "acc": metrics.mode_accuracy(r.modes, truth),
@@ -91,7 +93,9 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
     rmse = metrics.state_rmse(r.state_means[K0:], log.states[K0:])
     for name, value in zip(model.states, rmse, strict=True):
         out[f"RMSE {name} k>={K0}"] = float(value)
-    out["VAF % (mean of y)"] = metrics.mean_of_finite(metrics.vaf(log.outputs, r.output_predictions))
+    out["VAF % (mean of y)"] = metrics.mean_of_finite(
+        metrics.vaf(log.outputs, r.output_predictions)
+    )
     out["MSE (mean of y)"] = metrics.mean_of_finite(metrics.mse(log.outputs, r.output_predictions))
     det = metrics.detection_delays(log.time, r.modes, truth, model.mode_ids)
     for event in det.events:
@@ -103,6 +107,7 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
 
 
 def fmt(values: np.ndarray, key: str) -> str:
+    """Mean ± std [min, max] over seeds (a count for the block-final checks)."""
     finite = values[np.isfinite(values)]
     missed = values.size - finite.size
     if finite.size == 0:
@@ -118,6 +123,7 @@ def fmt(values: np.ndarray, key: str) -> str:
 
 
 def summary_table(rows: dict[str, list[dict[str, float]]]) -> str:
+    """Markdown table: one row per metric, one column per variant."""
     names = list(rows)
     keys = list(rows[names[0]][0])
     lines = ["| metric | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
@@ -140,18 +146,18 @@ def traced_hstf(
     call; the wrapper passes the arguments through and returns the original value.
     Returns the result, γ of shape (N, n_q, m) and S of shape (N, n_q, m, m) (row 0 NaN).
     """
-    original = hstf_module.gaussian_log_density
+    original = getattr(hstf_module, "gaussian_log_density")  # noqa: B009
     records: list[tuple[np.ndarray, np.ndarray]] = []
 
     def recording(gamma: np.ndarray, L: np.ndarray, work: np.ndarray) -> float:
         records.append((gamma.copy(), L @ L.T))
         return float(original(gamma, L, work))
 
-    hstf_module.gaussian_log_density = recording
+    setattr(hstf_module, "gaussian_log_density", recording)  # noqa: B010
     try:
         result = run_hstf(model, sig, options, jit=False, store_covariances=True)
     finally:
-        hstf_module.gaussian_log_density = original
+        setattr(hstf_module, "gaussian_log_density", original)  # noqa: B010
     n, n_q, m = sig.n_samples, model.n_modes, model.n_outputs
     if len(records) != (n - 1) * n_q:
         raise RuntimeError("a likelihood was not evaluated (singular S_i?)")
@@ -165,8 +171,10 @@ def traced_hstf(
 def fading_factors(
     model: HybridModel, sig: AlignedSignals, r: EstimationResult, S: np.ndarray
 ) -> np.ndarray:
-    """λ_i(k+1) recovered from the recorded S_i: eqs. (24), (28), (35) give
-    tr S_i = λ_i tr(H̄_i F̄_i P(k|k) F̄_iᵀ H̄_iᵀ) + tr(H̄_i Q H̄_iᵀ) + tr R."""
+    """Fading factors λ_i(k+1) recovered from the recorded S_i of the faded likelihood.
+
+    Eqs. (24), (28), (35) give tr S_i = λ_i tr(H̄_i F̄_i P(k|k) F̄_iᵀ H̄_iᵀ) + tr(H̄_i Q H̄_iᵀ) + tr R.
+    """
     c = compile_model(model, jit=False)
     Q, R = noise_stacks(model)
     n, n_q, nx, m = sig.n_samples, model.n_modes, model.n_states, model.n_outputs
@@ -189,18 +197,20 @@ def fading_factors(
     return lam
 
 
-def why(model: HybridModel) -> None:
+Runs = list[tuple[SimulatedLog, dict[str, EstimationResult]]]
+
+
+def why(model: HybridModel, runs: Runs) -> None:
+    """Print the diagnostics of the faithful HSTF's mode posterior and fading factors."""
     theta = PAPER.theta
     print("\n## Why (faithful hstf)\n")
     # 1. Does Pr(q=1 | Y^k) ever reach θ while mode 1 is true (k = 1..100)?
     peak1, peak2, hits, hits2, hits_after = [], [], 0, 0, []
     post_true: dict[str, list[list[float]]] = {"hstf": [], "hstf-unfaded": []}
     after_switch: dict[str, list[np.ndarray]] = {"hstf": [], "hstf-unfaded": []}
-    for seed in SEEDS:
-        log = simulate(model, seed=seed)
-        sig = signals_of(model, log)
+    for log, results in runs:
         for name in post_true:
-            r = VARIANTS[name](model, sig)
+            r = results[name]
             p_true = r.mode_probabilities[np.arange(log.modes.size), log.modes]
             post_true[name].append([float(p_true[a:b].mean()) for a, b in BLOCKS])
             after_switch[name].append(
@@ -234,12 +244,27 @@ def why(model: HybridModel) -> None:
         a = np.array(values).mean(axis=0)
         print(f"| {name} | {a[0]:.3f} | {a[1]:.3f} | {a[2]:.3f} |")
     print("\nposterior of the new true mode at k = s..s+9 after each switch (mean over seeds):\n")
-    for name, values in after_switch.items():
-        a = np.array(values).mean(axis=0)
+    for name, windows in after_switch.items():
+        a = np.array(windows).mean(axis=0)
         for j, s in enumerate(SWITCH_ROWS):
             print(f"  {name:13s} k={s}..{s + 9}: " + " ".join(f"{v:.2f}" for v in a[j]))
 
-    # 2. One traced run (seed 0): first steps, fading factors, S_i against |γ_i|².
+    # 2. Scale bias of the combined state estimate per block (all seeds).
+    print("\nstate scale per block, Σ_k Σ_j x̂_j(k) / Σ_k Σ_j x_j(k) (mean ± std over seeds):\n")
+    for name in ("hstf", "hstf-unfaded"):
+        ratios = []
+        for log, results in runs:
+            r = results[name]
+            ratios.append([r.state_means[a:b].sum() / log.states[a:b].sum() for a, b in BLOCKS])
+        a = np.array(ratios)
+        print(
+            f"  {name:13s} "
+            + "  ".join(
+                f"block {j + 1}: {a[:, j].mean():.2f} ± {a[:, j].std():.2f}" for j in range(3)
+            )
+        )
+
+    # 3. One traced run (seed 0): first steps, fading factors, S_i against |γ_i|².
     log = simulate(model, seed=0)
     sig = signals_of(model, log)
     for name, options in (
@@ -249,39 +274,68 @@ def why(model: HybridModel) -> None:
         r, gamma, S = traced_hstf(model, sig, options)
         fast = VARIANTS[name](model, sig)
         same = np.allclose(r.mode_probabilities, fast.mode_probabilities, atol=1e-9)
-        lam = fading_factors(model, sig, r, S)
+        faded = options.likelihood == "faded"
+        # With the unfaded likelihood S_i carries no λ_i, so λ cannot be recovered from it.
+        lam = fading_factors(model, sig, r, S) if faded else None
         g2 = np.einsum("kij,kij->ki", gamma, gamma)
         trS = np.einsum("kijj->ki", S)
         maha = _maha(gamma, S)
+        floor = options.rho * mixture_residual_trace(sig, r, gamma, S) / (1.0 + options.rho)
         print(f"\n### seed 0, {name} (traced run reproduces the compiled run: {same})\n")
-        print("| k | q̂ | Pr(q=1,2,3 given Y^k) | λ_1, λ_2, λ_3 | tr S_i | abs(γ_i)² | γᵀS⁻¹γ |")
-        print("|---|---|---|---|---|---|---|")
+        print(
+            "| k | q̂ | Pr(q=1,2,3 given Y^k) | λ_1, λ_2, λ_3 | tr S_i | ρ tr S(k-1)/(1+ρ) "
+            "| abs(γ_i)² | γᵀS_i⁻¹γ |"
+        )
+        print("|---|---|---|---|---|---|---|---|")
         for k in (*range(1, 6), 50, 100, 101, 102, 103, 150, 200, 201, 202, 203, 250, 300):
+            lam_text = ", ".join(f"{v:.1f}" for v in lam[k]) if lam is not None else "n/a"
             print(
                 f"| {k} | {model.mode_ids[r.modes[k]]} | "
                 + ", ".join(f"{p:.3f}" for p in r.mode_probabilities[k])
-                + " | "
-                + ", ".join(f"{v:.1f}" for v in lam[k])
-                + " | "
+                + f" | {lam_text} | "
                 + ", ".join(f"{v:.0f}" for v in trS[k])
-                + " | "
+                + f" | {floor[k - 1]:.0f} | "
                 + ", ".join(f"{v:.0f}" for v in g2[k])
                 + " | "
                 + ", ".join(f"{v:.1f}" for v in maha[k])
                 + " |"
             )
-        print("\nmedian over each block of λ_i, tr S_i, γᵀS⁻¹γ (modes 1, 2, 3):")
+        print("\nmedian over each block (modes 1, 2, 3):")
         for a, b in BLOCKS:
-            print(
-                f"  k={a}..{b - 1}: λ "
+            lam_text = (
+                "λ "
                 + ", ".join(f"{v:.1f}" for v in np.median(lam[a:b], axis=0))
-                + " | tr S "
-                + ", ".join(f"{v:.0f}" for v in np.median(trS[a:b], axis=0))
-                + " | γᵀS⁻¹γ "
-                + ", ".join(f"{v:.1f}" for v in np.median(maha[a:b], axis=0))
-                + " | fraction with λ_i > 1: "
+                + " (share > 1: "
                 + ", ".join(f"{v:.2f}" for v in np.mean(lam[a:b] > 1.0 + 1e-9, axis=0))
+                + ") | "
+                if lam is not None
+                else ""
             )
+            print(
+                f"  k={a}..{b - 1}: {lam_text}tr S_i "
+                + ", ".join(f"{v:.0f}" for v in np.median(trS[a:b], axis=0))
+                + " | abs(γ_i)² "
+                + ", ".join(f"{v:.0f}" for v in np.median(g2[a:b], axis=0))
+                + " | γᵀS_i⁻¹γ "
+                + ", ".join(f"{v:.1f}" for v in np.median(maha[a:b], axis=0))
+            )
+
+
+def mixture_residual_trace(
+    sig: AlignedSignals, r: EstimationResult, gamma: np.ndarray, S: np.ndarray
+) -> np.ndarray:
+    """Trace of S(k), eq. (38), from the recorded S_i, γ_i (ŷ_i = y − γ_i) and posteriors.
+
+    Row 0 is the filter's initial S = 0.
+    """
+    out = np.zeros(sig.n_samples)
+    for k in range(1, sig.n_samples):
+        mu = r.mode_probabilities[k]
+        y_i = sig.outputs[k] - gamma[k]
+        y_mix = mu @ y_i
+        spread = np.einsum("i,ia,ia->", mu, y_i - y_mix, y_i - y_mix)
+        out[k] = float(mu @ np.einsum("ijj->i", S[k])) + spread
+    return out
 
 
 def _maha(gamma: np.ndarray, S: np.ndarray) -> np.ndarray:
@@ -292,18 +346,22 @@ def _maha(gamma: np.ndarray, S: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
+    """Run all variants over all seeds, print the summary table and the diagnostics."""
     start = time.perf_counter()
     model = load_model("three_tank_hstf")
     rows: dict[str, list[dict[str, float]]] = {name: [] for name in VARIANTS}
+    runs: Runs = []
     for seed in SEEDS:
         log = simulate(model, seed=seed)
         sig = signals_of(model, log)
-        for name, runner in VARIANTS.items():
-            rows[name].append(run_metrics(model, log, runner(model, sig)))
+        results = {name: runner(model, sig) for name, runner in VARIANTS.items()}
+        runs.append((log, results))
+        for name, r in results.items():
+            rows[name].append(run_metrics(model, log, r))
     print(f"# three_tank_hstf, seeds {SEEDS.start}..{SEEDS.stop - 1} ({len(SEEDS)} runs each)\n")
     print("mean ± std [min, max] over seeds; delays over the seeds where the switch was detected\n")
     print(summary_table(rows))
-    why(model)
+    why(model, runs)
     print(f"\n(total wall time {time.perf_counter() - start:.1f} s)")
 
 
