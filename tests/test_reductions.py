@@ -1,6 +1,7 @@
 """Reductions to known cases, compared with FilterPy as an independent implementation."""
 
 import numpy as np
+import pytest
 from filterpy.kalman import ExtendedKalmanFilter, IMMEstimator, KalmanFilter
 
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
@@ -42,10 +43,11 @@ def _linear_matrices(model, mode_index):
     return A, B, C
 
 
-def test_imm_equals_filterpy_imm_on_a_linear_two_mode_model():
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_imm_equals_filterpy_imm_on_a_linear_two_mode_model(kernel):
     model = parse_model(LINEAR_TWO_MODE)
     signals = _signals(model, steps=500, seed=3)
-    result = run_imm(model, signals, ImmOptions())
+    result = run_imm(model, signals, ImmOptions(), kernel=kernel)
 
     filters = []
     for index, mode in enumerate(model.modes):
@@ -68,10 +70,11 @@ def test_imm_equals_filterpy_imm_on_a_linear_two_mode_model():
     assert set(result.modes.tolist()) == {0, 1}
 
 
-def test_single_mode_hstf_without_fading_equals_filterpy_ekf():
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_single_mode_hstf_without_fading_equals_filterpy_ekf(kernel):
     model = parse_model(PENDULUM_ONE_MODE)
     signals = _signals(model, steps=500, seed=11)
-    result = run_hstf(model, signals, HstfOptions(fading=False))
+    result = run_hstf(model, signals, HstfOptions(fading=False), kernel=kernel)
     compiled = compile_model(model)
     n, m = model.n_states, model.n_outputs
 

@@ -56,6 +56,17 @@ class FilterBuffers:
             covariances=np.zeros((n_samples if store_covariances else 0, n_x, n_x)),
         )
 
+    def arrays(self) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """The buffers in the order the compiled loops take them."""
+        return (
+            self.modes,
+            self.mode_probabilities,
+            self.state_means,
+            self.state_variances,
+            self.output_predictions,
+            self.covariances,
+        )
+
     def result(
         self,
         name: str,

@@ -32,8 +32,11 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 
 from __future__ import annotations
 
+import functools
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numba import types
@@ -50,11 +53,32 @@ from hybridlog.estimators.kernels import (
 )
 from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.unrolled import (
+    Matrix,
+    Program,
+    Vector,
+    argmax,
+    carry,
+    constant_matrix,
+    matrix_names,
+    mode_values,
+    module_source,
+    named,
+    normalize_log_weights,
+    product,
+    record,
+    reshape,
+    term,
+    upper,
+    use_unrolled,
+    vector_names,
+)
 from hybridlog.jit import jit_signature
 from hybridlog.model.compiled import (
     MATRIX_FUNCTION,
     VECTOR_FUNCTION,
     ModelFunction,
+    compile_generated,
     compile_model,
 )
 from hybridlog.model.hybrid_model import HybridModel
@@ -271,7 +295,10 @@ def _hstf_steps(
             covariances_out[k + 1] = P
 
 
-_hstf_loop = jit_signature(_SIGNATURE)(_hstf_steps)
+@functools.cache
+def _hstf_loop() -> Callable[..., None]:
+    """The generic loops compiled (once, on first use; numba caches them on disk)."""
+    return jit_signature(_SIGNATURE)(_hstf_steps)
 
 
 def run_hstf(
@@ -280,53 +307,170 @@ def run_hstf(
     options: HstfOptions,
     *,
     jit: bool = True,
+    kernel: str = "auto",
     store_covariances: bool = False,
 ) -> EstimationResult:
     """Run the HSTF over the aligned signals.
 
-    ``jit=False`` runs the same loop as plain Python on plain-Python mode functions (slow;
-    the reference the compiled path is tested against).
+    ``kernel`` chooses the compiled code: ``unrolled`` (straight-line code generated for the
+    model, :func:`generate_hstf_source`), ``loops`` (the generic loops of :func:`_hstf_steps`)
+    or ``auto`` (unrolled for small models).  ``jit=False`` runs the generic loops as plain
+    Python on plain-Python mode functions: slow, the reference the tests compare against.
     """
-    compiled = compile_model(model, jit=jit)
     Q, R = noise_stacks(model)
     buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    loop = _hstf_loop if jit else _hstf_steps
-    start = time.perf_counter()
-    loop(
-        compiled.f,
-        compiled.F,
-        compiled.h,
-        compiled.H,
+    data = (
         contiguous(signals.inputs),
         contiguous(signals.outputs),
-        Q,
-        R,
+    )
+    prior = (
         contiguous(model.initial_state),
         contiguous(model.initial_covariance),
         contiguous(model.initial_mode_probabilities),
+    )
+    settings = (
         options.rho,
         options.beta,
         options.theta,
         options.fading,
         options.likelihood == "unfaded",
-        buffers.modes,
-        buffers.mode_probabilities,
-        buffers.state_means,
-        buffers.state_variances,
-        buffers.output_predictions,
-        buffers.covariances,
     )
+    outputs = buffers.arrays()
+    loop: Callable[..., None]
+    arguments: tuple[Any, ...]
+    if jit and use_unrolled(model, kernel):
+        arguments = (*data, *prior, *settings, *outputs)
+        source = module_source(model, generate_hstf_source(model))
+        loop, compile_s = compile_generated(source, "hstf_run", arguments)
+    else:
+        compiled = compile_model(model, jit=jit)
+        functions = (compiled.f, compiled.F, compiled.h, compiled.H)
+        arguments = (*functions, *data, Q, R, *prior, *settings, *outputs)
+        loop = _hstf_loop() if jit else _hstf_steps
+        compile_s = compiled.compile_s
+    start = time.perf_counter()
+    loop(*arguments)
     runtime = time.perf_counter() - start
     return buffers.result(
-        NAME,
-        options_dict(options),
-        model,
-        signals,
-        runtime_s=runtime,
-        compile_s=compiled.compile_s,
+        NAME, options_dict(options), model, signals, runtime_s=runtime, compile_s=compile_s
     )
 
 
 def hstf_options(values: dict[str, object]) -> HstfOptions:
     """Validated HSTF options from a name → value mapping."""
     return parse_options(HstfOptions, values, estimator=NAME)
+
+
+def generate_hstf_source(model: HybridModel) -> str:
+    """Straight-line source of the whole HSTF time loop for ``model`` (see ``unrolled.py``).
+
+    Defines ``hstf_run(inputs, outputs, x0, P0, mu0, rho, beta, theta, fading,
+    unfaded_likelihood, <output arrays>)``, computing exactly what :func:`_hstf_steps` does,
+    with the mode functions, noise covariances and small matrix products written out.
+    """
+    n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
+    p = Program(indent="    ")
+    x = vector_names("x", n)
+    P = matrix_names("P", n, n, symmetric=True)
+    S = matrix_names("S", m, m, symmetric=True)
+    mu = vector_names("mu", n_q)
+    u, v, y = vector_names("u", n_u), vector_names("v", n_u), vector_names("y", m)
+    Q = [constant_matrix(mode.process_noise) for mode in model.modes]
+    R = [constant_matrix(mode.measurement_noise) for mode in model.modes]
+    uniform = 1.0 / n_q
+
+    p.emit("n_samples = outputs.shape[0]")
+    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    carry(p, x, [f"x0[{a}]" for a in range(n)])
+    carry(p, upper(P), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
+    carry(p, upper(S), ["0.0"] * (m * (m + 1) // 2))
+    carry(p, mu, [f"mu0[{i}]" for i in range(n_q)])
+    p.emit(f"q_hat = {argmax(p, mu)}")  # eq. (40) needs q̂(k): the most probable prior mode
+    record(p, "0", "q_hat", mu, x, P)
+    p.emit("for k in range(n_samples - 1):")
+    p.indent = "        "
+    carry(p, u, [f"inputs[k, {c}]" for c in range(n_u)])
+    carry(p, v, [f"inputs[k + 1, {c}]" for c in range(n_u)])
+    carry(p, y, [f"outputs[k + 1, {b}]" for b in range(m)])
+    x_names = list(x)
+    x_i = [mode_values(p, model, i, "f", x_names, u) for i in range(n_q)]  # (10)
+    F_i = [reshape(mode_values(p, model, i, "F", x_names, u), n, n) for i in range(n_q)]  # (25)
+    x_pred = [
+        p.let("xp", [product(uniform, x_i[i][a]) for i in range(n_q)]) for a in range(n)
+    ]  # (21)
+    x_pred_names = named(p, "xpn", x_pred)
+    H_i = [
+        reshape(mode_values(p, model, i, "H", x_pred_names, v), m, n) for i in range(n_q)
+    ]  # (12)
+    y_i = [mode_values(p, model, i, "h", named(p, "xin", x_i[i]), v) for i in range(n_q)]
+    gamma = [[p.difference("g", y[b], y_i[i][b]) for b in range(m)] for i in range(n_q)]  # (31)
+    for b in range(m):
+        prediction = p.let("yp", [product(uniform, y_i[i][b]) for i in range(n_q)])
+        p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
+    FPF = [p.congruence(f"fpf{i}_", F_i[i], P) for i in range(n_q)]
+    lam: list[str] = []
+    for i in range(n_q):
+        # (26)-(30): only the traces of M_i and N_i are needed.
+        HFPF = p.matmul(f"hf{i}_", H_i[i], FPF[i])
+        HQ = p.matmul(f"hq{i}_", H_i[i], Q[i])
+        trace_m = p.let(
+            "trm", [product(HFPF[b][c], H_i[i][b][c]) for b in range(m) for c in range(n)]
+        )
+        hqh = p.let("hqh", [product(HQ[b][c], H_i[i][b][c]) for b in range(m) for c in range(n)])
+        outer = p.let("gg", [product(gamma[i][b], gamma[i][b]) for b in range(m)])
+        trace_s = p.let("trs", [S[b][b] for b in range(m)])
+        trace_r = float(np.trace(model.modes[i].measurement_noise))
+        trace_n = p.assign(
+            "trn",
+            f"({term(outer)} if k == 0 else (rho*{term(trace_s)} + {term(outer)})/(1.0 + rho))"
+            f" - {term(hqh)} - beta*{term(trace_r)}",
+        )
+        factor = p.fresh("lam")
+        p.emit(f"{factor} = 1.0")
+        p.emit(f"if fading and {term(trace_m)} > 0.0 and {trace_n} / {term(trace_m)} > 1.0:")
+        p.emit(f"    {factor} = {trace_n} / {term(trace_m)}")
+        lam.append(factor)
+    P_i_pred = [
+        p.symmetric_sum(f"pip{i}_", [p.scaled("sc", lam[i], FPF[i]), Q[i]]) for i in range(n_q)
+    ]  # (24)
+    _, P_pred = p.mixture("pm", [uniform] * n_q, x_i, P_i_pred)  # (22)
+    x_post: list[Vector] = []
+    P_post: list[Matrix] = []
+    S_i: list[Matrix] = []
+    log_likelihood: Vector = []
+    for i in range(n_q):
+        L = p.cholesky(f"lg{i}_", p.congruence(f"sg{i}_", H_i[i], P_pred, add=R[i]))
+        K = p.gain(f"k{i}_", P_pred, H_i[i], L)  # (11)
+        x_post.append(
+            [
+                p.let(f"xu{i}_", [x_i[i][a], *[product(K[a][b], gamma[i][b]) for b in range(m)]])
+                for a in range(n)
+            ]
+        )  # (9)
+        P_post.append(p.joseph(f"pu{i}_", P_pred, K, H_i[i], R[i]))  # (32)
+        scale = p.assign("ls", f"1.0 if unfaded_likelihood else {lam[i]}")
+        base = p.symmetric_sum(f"b{i}_", [p.scaled("sc", scale, FPF[i]), Q[i]])
+        S_i.append(p.congruence(f"si{i}_", H_i[i], base, add=R[i]))  # (35)
+        Ls = p.cholesky(f"ls{i}_", S_i[i])
+        ll = p.gaussian_log_density(f"ll{i}_", gamma[i], Ls)  # (34)
+        p.emit(f"if {ll} != {ll}:")  # NaN from a failed Cholesky factor
+        p.emit(f"    {ll} = -math.inf")
+        log_likelihood.append(ll)
+    mu_new = normalize_log_weights(p, log_likelihood, mu)  # (33)
+    x_new, P_new = p.mixture("cm", mu_new, x_post, P_post)  # (36), (37)
+    _, S_new = p.mixture("sm", mu_new, y_i, S_i)  # (38), (39)
+    best = argmax(p, mu_new)  # (40)
+    top_mu = p.assign("topmu", f"max({', '.join(term(w) for w in mu_new)})")
+    p.emit(f"if {top_mu} >= theta:")
+    p.emit(f"    q_hat = {best}")
+    carry(p, x, x_new)
+    carry(p, upper(P), upper(P_new))
+    carry(p, upper(S), upper(S_new))
+    carry(p, mu, mu_new)
+    record(p, "k + 1", "q_hat", mu, x, P)
+    signature = (
+        "def hstf_run(inputs, outputs, x0, P0, mu0, rho, beta, theta, fading, "
+        "unfaded_likelihood, modes_out, probabilities_out, means_out, variances_out, "
+        "predictions_out, covariances_out):"
+    )
+    return f"{signature}\n{p.source()}\n"

@@ -24,9 +24,12 @@ The mode estimate is the most probable mode; the one-step-ahead output predictio
 
 from __future__ import annotations
 
+import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numba import types
@@ -43,11 +46,33 @@ from hybridlog.estimators.kernels import (
 )
 from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.unrolled import (
+    Entry,
+    Matrix,
+    Program,
+    Vector,
+    argmax,
+    carry,
+    constant_matrix,
+    matrix_names,
+    mode_values,
+    module_source,
+    named,
+    normalize_log_weights,
+    product,
+    record,
+    reshape,
+    term,
+    upper,
+    use_unrolled,
+    vector_names,
+)
 from hybridlog.jit import jit_signature
 from hybridlog.model.compiled import (
     MATRIX_FUNCTION,
     VECTOR_FUNCTION,
     ModelFunction,
+    compile_generated,
     compile_model,
 )
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
@@ -217,7 +242,10 @@ def _imm_steps(
         record(k + 1)
 
 
-_imm_loop = jit_signature(_SIGNATURE)(_imm_steps)
+@functools.cache
+def _imm_loop() -> Callable[..., None]:
+    """The generic loops compiled (once, on first use; numba caches them on disk)."""
+    return jit_signature(_SIGNATURE)(_imm_steps)
 
 
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
@@ -235,43 +263,137 @@ def run_imm(
     options: ImmOptions,
     *,
     jit: bool = True,
+    kernel: str = "auto",
     store_covariances: bool = False,
 ) -> EstimationResult:
-    """Run the IMM over the aligned signals (``jit=False``: plain-Python reference path)."""
-    compiled = compile_model(model, jit=jit)
+    """Run the IMM over the aligned signals.
+
+    ``kernel`` and ``jit`` choose the code as for :func:`hybridlog.estimators.hstf.run_hstf`:
+    straight-line code generated for the model (:func:`generate_imm_source`), the generic
+    compiled loops (:func:`_imm_steps`), or those loops as plain Python (``jit=False``).
+    """
     Q, R = noise_stacks(model)
     transitions = contiguous(transition_matrix(model, options))
     buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    loop = _imm_loop if jit else _imm_steps
-    start = time.perf_counter()
-    loop(
-        compiled.f,
-        compiled.F,
-        compiled.h,
-        compiled.H,
-        contiguous(signals.inputs),
-        contiguous(signals.outputs),
-        Q,
-        R,
+    data = (contiguous(signals.inputs), contiguous(signals.outputs))
+    prior = (
         contiguous(model.initial_state),
         contiguous(model.initial_covariance),
         contiguous(model.initial_mode_probabilities),
-        transitions,
-        buffers.modes,
-        buffers.mode_probabilities,
-        buffers.state_means,
-        buffers.state_variances,
-        buffers.output_predictions,
-        buffers.covariances,
     )
+    outputs = buffers.arrays()
+    loop: Callable[..., None]
+    arguments: tuple[Any, ...]
+    if jit and use_unrolled(model, kernel):
+        arguments = (*data, transitions, *prior, *outputs)
+        source = module_source(model, generate_imm_source(model))
+        loop, compile_s = compile_generated(source, "imm_run", arguments)
+    else:
+        compiled = compile_model(model, jit=jit)
+        functions = (compiled.f, compiled.F, compiled.h, compiled.H)
+        arguments = (*functions, *data, Q, R, *prior, transitions, *outputs)
+        loop = _imm_loop() if jit else _imm_steps
+        compile_s = compiled.compile_s
+    start = time.perf_counter()
+    loop(*arguments)
     runtime = time.perf_counter() - start
     used = options_dict(options)
     used["transition_matrix"] = transitions.tolist()
-    return buffers.result(
-        NAME, used, model, signals, runtime_s=runtime, compile_s=compiled.compile_s
-    )
+    return buffers.result(NAME, used, model, signals, runtime_s=runtime, compile_s=compile_s)
 
 
 def imm_options(values: dict[str, object]) -> ImmOptions:
     """Validated IMM options from a name → value mapping."""
     return parse_options(ImmOptions, values, estimator=NAME)
+
+
+def generate_imm_source(model: HybridModel) -> str:
+    """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
+
+    Defines ``imm_run(inputs, outputs, transitions, x0, P0, mu0, <output arrays>)`` with the
+    same meaning as :func:`_imm_steps`; the mode functions, the noise covariances and every
+    small matrix product are written out for the model's dimensions.
+    """
+    n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
+    p = Program(indent="    ")
+    X = [vector_names(f"x{i}", n) for i in range(n_q)]
+    P = [matrix_names(f"P{i}", n, n, symmetric=True) for i in range(n_q)]
+    mu = vector_names("mu", n_q)
+    T = matrix_names("T", n_q, n_q)
+    u, v, y = vector_names("u", n_u), vector_names("v", n_u), vector_names("y", m)
+    Q = [constant_matrix(mode.process_noise) for mode in model.modes]
+    R = [constant_matrix(mode.measurement_noise) for mode in model.modes]
+
+    p.emit("n_samples = outputs.shape[0]")
+    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    for i in range(n_q):
+        carry(p, X[i], [f"x0[{a}]" for a in range(n)])
+        carry(p, upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
+        p.emit(f"{mu[i]} = mu0[{i}]")
+        carry(p, T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
+    record(p, "0", argmax(p, mu), mu, X[0], P[0])
+    p.emit("for k in range(n_samples - 1):")
+    p.indent = "        "
+    carry(p, u, [f"inputs[k, {c}]" for c in range(n_u)])
+    carry(p, v, [f"inputs[k + 1, {c}]" for c in range(n_u)])
+    carry(p, y, [f"outputs[k + 1, {b}]" for b in range(m)])
+    # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
+    c_bar = [p.let("c", [product(T[i][j], mu[i]) for i in range(n_q)]) for j in range(n_q)]
+    x_post: list[Vector] = []
+    P_post: list[Matrix] = []
+    log_posterior: Vector = []
+    prediction_parts: list[list[Entry | None]] = [[] for _ in range(m)]
+    for j in range(n_q):
+        weights: Vector = [
+            p.assign(
+                "w",
+                f"{T[i][j]}*{mu[i]}/{term(c_bar[j])} if {term(c_bar[j])} > 0.0 "
+                f"else {1.0 if i == j else 0.0}",
+            )
+            for i in range(n_q)
+        ]
+        x_mix, P_mix = p.mixture(f"m{j}_", weights, X, P)
+        x_mix_names = named(p, "xm", x_mix)
+        # EKF prediction (mode j).
+        x_pred = mode_values(p, model, j, "f", x_mix_names, u)
+        F = reshape(mode_values(p, model, j, "F", x_mix_names, u), n, n)
+        P_pred = p.congruence(f"pp{j}_", F, P_mix, add=Q[j])
+        # EKF update (mode j).
+        x_pred_names = named(p, "xp", x_pred)
+        y_pred = mode_values(p, model, j, "h", x_pred_names, v)
+        H = reshape(mode_values(p, model, j, "H", x_pred_names, v), m, n)
+        gamma = [p.difference("g", y[b], y_pred[b]) for b in range(m)]
+        for b in range(m):
+            prediction_parts[b].append(product(c_bar[j], y_pred[b]))
+        L = p.cholesky(f"l{j}_", p.congruence(f"s{j}_", H, P_pred, add=R[j]))
+        log_likelihood = p.gaussian_log_density(f"ll{j}_", gamma, L)
+        K = p.gain(f"k{j}_", P_pred, H, L)
+        x_post.append(
+            [
+                p.let(f"xu{j}_", [x_pred[a], *[product(K[a][b], gamma[b]) for b in range(m)]])
+                for a in range(n)
+            ]
+        )
+        P_post.append(p.joseph(f"pu{j}_", P_pred, K, H, R[j]))
+        c = term(c_bar[j])
+        posterior = p.assign(
+            "lp", f"(math.log({c}) if {c} > 0.0 else -math.inf) + {log_likelihood}"
+        )
+        p.emit(f"if {posterior} != {posterior}:")  # NaN from a failed Cholesky factor
+        p.emit(f"    {posterior} = -math.inf")
+        log_posterior.append(posterior)
+    mu_new = normalize_log_weights(p, log_posterior, c_bar)
+    x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)
+    for b in range(m):
+        prediction = p.let("yp", prediction_parts[b])
+        p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
+    for i in range(n_q):
+        carry(p, X[i], x_post[i])
+        carry(p, upper(P[i]), upper(P_post[i]))
+    carry(p, mu, mu_new)
+    record(p, "k + 1", argmax(p, mu), mu, x_combined, P_combined)
+    signature = (
+        "def imm_run(inputs, outputs, transitions, x0, P0, mu0, modes_out, probabilities_out, "
+        "means_out, variances_out, predictions_out, covariances_out):"
+    )
+    return f"{signature}\n{p.source()}\n"

@@ -110,3 +110,63 @@ def generate_source(model: HybridModel) -> str:
             lines += body
         lines.append("    return None")
     return "\n".join(lines) + "\n"
+
+
+def mode_expressions(model: HybridModel, mode_index: int, kind: str) -> list[sympy.Expr]:
+    """``f``, ``h`` or the row-major Jacobian entries ``F``, ``H`` of one mode."""
+    xs, _ = model.symbols()
+    mode = model.modes[mode_index]
+    if kind == "f":
+        return list(mode.f)
+    if kind == "h":
+        return list(mode.h)
+    if kind == "F":
+        return _jacobian(mode.f, xs)
+    if kind == "H":
+        return _jacobian(mode.h, xs)
+    raise ValueError(f"unknown mode function {kind!r}")
+
+
+def emit_mode_function(
+    model: HybridModel,
+    mode_index: int,
+    kind: str,
+    states: Sequence[str],
+    inputs: Sequence[str],
+    prefix: str,
+    indent: str,
+) -> tuple[list[str], list[float | str]]:
+    """Straight-line lines computing one mode function at named scalar states and inputs.
+
+    Returns the lines and one entry per value: a float where the expression is a number
+    (Jacobian entries that are structurally constant cost nothing), else a variable name.
+    """
+    xs, us = model.symbols()
+    names: dict[sympy.Symbol, sympy.Symbol] = {
+        **{x: sympy.Symbol(s) for x, s in zip(xs, states, strict=True)},
+        **{u: sympy.Symbol(s) for u, s in zip(us, inputs, strict=True)},
+    }
+    expressions = mode_expressions(model, mode_index, kind)
+    entries: list[float | str] = []
+    pending: list[sympy.Expr] = []
+    targets: list[str] = []
+    for index, expression in enumerate(expressions):
+        if expression.is_Number:
+            entries.append(float(expression))
+        else:
+            target = f"{prefix}{index}"
+            entries.append(target)
+            pending.append(expression)
+            targets.append(target)
+    if not pending:
+        return [], entries
+    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
+    replacements, reduced = sympy.cse(
+        pending, symbols=sympy.numbered_symbols(f"{prefix}c"), optimizations="basic"
+    )
+    lines = [
+        f"{indent}{sym} = {printer.doprint(value.xreplace(names))}" for sym, value in replacements
+    ]
+    for target, value in zip(targets, reduced, strict=True):
+        lines.append(f"{indent}{target} = {printer.doprint(sympy.sympify(value).xreplace(names))}")
+    return lines, entries

@@ -78,15 +78,12 @@ _LOADED: dict[str, CompiledModel] = {}
 def compile_model(model: HybridModel, *, jit: bool = True) -> CompiledModel:
     """Return the compiled (``jit=True``) or plain-Python mode functions of ``model``."""
     source = generate_source(model)
-    key = hashlib.sha256(f"{CODEGEN_VERSION}|{numba.__version__}|{source}".encode()).hexdigest()[
-        :24
-    ]
-    memo = f"{key}|{jit}"
+    memo = hashlib.sha256(f"{CODEGEN_VERSION}|{jit}|{source}".encode()).hexdigest()
     if memo in _LOADED:
         return _LOADED[memo]
     start = time.perf_counter()
     if jit:
-        module = _load_module(key, source)
+        module = load_generated(source)
         functions = [getattr(module, name) for name in FUNCTION_NAMES]
         signatures = {
             "f": VECTOR_SIGNATURE,
@@ -108,8 +105,12 @@ def compile_model(model: HybridModel, *, jit: bool = True) -> CompiledModel:
     return compiled
 
 
-def _load_module(key: str, source: str) -> ModuleType:
-    """Write the generated source (once) and import it from its file, so numba can cache."""
+def load_generated(source: str) -> ModuleType:
+    """Write generated source (once, named by its hash) and import it from that file.
+
+    Importing from a real file is what lets numba's ``cache=True`` keep the machine code.
+    """
+    key = hashlib.sha256(f"{numba.__version__}|{source}".encode()).hexdigest()[:24]
     folder = cache_dir() / "models"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"m_{key}.py"
@@ -125,3 +126,20 @@ def _load_module(key: str, source: str) -> ModuleType:
     sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
+
+
+def compile_generated(
+    source: str, function: str, arguments: tuple[Any, ...]
+) -> tuple[Callable[..., None], float]:
+    """Compile ``function`` of generated ``source`` for the types of ``arguments``.
+
+    Returns the compiled function and the seconds spent loading or compiling it (close to
+    zero when numba's on-disk cache already holds it).
+    """
+    start = time.perf_counter()
+    module = load_generated(source)
+    signature = types.void(*(numba.typeof(argument) for argument in arguments))  # type: ignore[no-untyped-call]
+    compiled = numba.njit(signature, cache=True, error_model="numpy", nogil=True)(
+        getattr(module, function)
+    )
+    return compiled, time.perf_counter() - start
