@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,7 +71,8 @@ def _analyze_one(
     log: str,
     folder: str,
     model_ref: str,
-    estimator: str | None,
+    model_name: str,
+    estimator: str,
     sets: tuple[str, ...],
     read: ReadOptions,
     table_format: str,
@@ -81,9 +82,20 @@ def _analyze_one(
     if not force and report_file.is_file():
         try:
             report = json.loads(report_file.read_text(encoding="utf-8"))
-            return LogOutcome(log, folder, "skipped", report, None)
         except (OSError, ValueError):
-            pass  # an unreadable earlier report is redone
+            report = None  # an unreadable earlier report is redone
+        if isinstance(report, dict):
+            made_with = (report.get("model"), report.get("estimator"))
+            if made_with == (model_name, estimator):
+                return LogOutcome(log, folder, "skipped", report, None)
+            return LogOutcome(
+                log,
+                folder,
+                "failed",
+                None,
+                f"{folder} holds a report of {made_with[1]} with model {made_with[0]}; "
+                "use --force to replace it, or another --out",
+            )
     try:
         outcome = analyze(
             log,
@@ -113,8 +125,12 @@ def run_batch(
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
     force: bool = False,
+    progress: Callable[[LogOutcome], None] | None = None,
 ) -> BatchOutcome:
-    """Analyse every log into ``<out>/<log name>/`` and write ``summary.md``/``summary.csv``."""
+    """Analyse every log into ``<out>/<log name>/`` and write ``summary.md``/``summary.csv``.
+
+    ``progress`` is called with each log's outcome as it finishes (in the order of ``logs``).
+    """
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
     paths = [Path(log) for log in logs]
@@ -123,12 +139,14 @@ def run_batch(
     root = Path(out_dir)
     root.mkdir(parents=True, exist_ok=True)
     folders = [str(root / name) for name in folder_names(paths)]
+    chosen = estimator or model.default_estimator
     arguments = [
         (
             str(log),
             folder,
             str(model_ref),
-            estimator,
+            model.name,
+            chosen,
             tuple(sets),
             read or ReadOptions(),
             table_format,
@@ -136,12 +154,19 @@ def run_batch(
         )
         for log, folder in zip(paths, folders, strict=True)
     ]
+    outcomes: list[LogOutcome] = []
     if jobs == 1 or len(arguments) == 1:
-        outcomes = [_analyze_one(*args) for args in arguments]
+        for args in arguments:
+            outcomes.append(_analyze_one(*args))
+            if progress is not None:
+                progress(outcomes[-1])
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-            outcomes = list(pool.map(_analyze_one, *zip(*arguments, strict=True)))
+            for outcome in pool.map(_analyze_one, *zip(*arguments, strict=True)):
+                outcomes.append(outcome)
+                if progress is not None:
+                    progress(outcome)
     rows = [
         [
             o.log,

@@ -6,9 +6,10 @@ and exit code 2 (``--debug`` shows the traceback); a missed CI gate is exit code
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -317,9 +318,17 @@ def batch_command(
 ) -> None:
     """Analyse many logs; a failing log never stops the others, finished logs are skipped."""
     read, common = _split_options(options)
-    outcome = run_batch(
-        list(logs), model_ref, out_dir=out_dir, estimator=estimator, jobs=jobs, read=read, **common
-    )
+    with _progress(ctx, len(logs), "logs") as advance:
+        outcome = run_batch(
+            list(logs),
+            model_ref,
+            out_dir=out_dir,
+            estimator=estimator,
+            jobs=jobs,
+            read=read,
+            progress=advance,
+            **common,
+        )
     _say(ctx, outcome.table)
     _say(ctx, f"summary: {out_dir / 'summary.md'}")
     if outcome.failed:
@@ -331,6 +340,19 @@ def batch_command(
     _gate_exit(outcome.gate_failures)
     if outcome.failed:
         sys.exit(2)
+
+
+@contextlib.contextmanager
+def _progress(
+    ctx: click.Context, total: int, label: str
+) -> Iterator[Callable[[object], None] | None]:
+    """A progress bar on stderr, only on a terminal and without ``--quiet``."""
+    settings = ctx.find_object(_Context)
+    if (settings is not None and settings.quiet) or not sys.stderr.isatty():
+        yield None
+        return
+    with click.progressbar(length=total, label=label, file=sys.stderr) as bar:
+        yield lambda _: bar.update(1)
 
 
 def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:

@@ -392,3 +392,66 @@ def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
     )
     assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["done", "done"]
     assert (out / "run1" / "report.json").stat().st_mtime_ns != stamp
+
+
+def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
+    log = tmp_path / "run.csv"
+    run(["simulate", "three_tank_hstf", "--out", str(log), "--seed", "4"])
+    out = tmp_path / "batch"
+    run(["batch", str(log), "--model", "three_tank_hstf", "--estimator", "imm", "--out", str(out)])
+    before = (out / "run" / "report.json").read_bytes()
+    result = run(
+        ["batch", str(log), "--model", "three_tank_hstf", "--estimator", "hstf", "--out", str(out)],
+        expect=2,
+    )
+    assert "1 of 1 logs failed" in result.stderr
+    assert "holds a report of imm" in pl.read_csv(out / "summary.csv")["error"][0]
+    assert (out / "run" / "report.json").read_bytes() == before
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (
+            ["simulate", "three_tank_hstf", "--out", "{tmp}/s.csv", "--schedule", "1:10,7:3"],
+            "unknown mode '7'",
+        ),
+        (["simulate", "three_tank_hstf", "--out", "{tmp}/s.csv", "--schedule", "1:ten"], "'ten'"),
+        (["simulate", "three_tank_hstf", "--out", "{tmp}/s.txt"], "s.txt"),
+        (["inspect", "{tmp}/nothing.csv"], "nothing.csv"),
+        (["models", "three_tank"], "three_tank"),
+    ],
+)
+def test_other_commands_reject_bad_input_in_one_line(tmp_path, args, fragment):
+    result = run([a.format(tmp=tmp_path) for a in args], expect=2)
+    _one_line_error(result, fragment)
+    assert not (tmp_path / "s.csv").exists()
+
+
+def test_log_without_truth_gives_null_truth_metrics_and_gates_say_so(tank_log, tmp_path):
+    plain = tmp_path / "plain.csv"
+    pl.read_csv(tank_log).select("t", "u", "y1", "y2", "y3").write_csv(plain)
+    out = tmp_path / "r"
+    result = run(
+        [
+            "analyze",
+            str(plain),
+            "--model",
+            "three_tank_hstf",
+            "--estimator",
+            "imm",
+            "--out",
+            str(out),
+            "--fail-under",
+            "mode_accuracy=0.5",
+        ],
+        expect=1,
+    )
+    assert "mode_accuracy" in result.stderr and "not available" in result.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert report["modes"]["accuracy"] is None
+    assert report["modes"]["confusion"] is None
+    assert report["modes"]["detection_delay_s"] is None
+    assert all(v["rmse"] is None for v in report["states"].values())
+    assert report["vaf"] is not None
+    assert "truth_mode" not in pl.read_csv(out / "timeline.csv").columns
