@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -9,6 +11,8 @@ import numpy as np
 
 from hybridlog.errors import ModelError
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.unrolled import module_source, use_unrolled
+from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -101,3 +105,67 @@ class FilterBuffers:
 def contiguous(array: FloatArray) -> FloatArray:
     """C-contiguous float64 copy-if-needed, as the compiled kernels require."""
     return np.ascontiguousarray(array, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class FilterCode:
+    """The code paths of one filter (see ``docs/architecture.md``, "Compiled code").
+
+    Both loops take ``(inputs, outputs, x0, P0, mu0, *settings, *buffers)``; the generic ones
+    take the model functions ``f, F, h, H`` first and ``Q, R`` after the outputs.
+    """
+
+    name: str
+    generate: Callable[[HybridModel], str]
+    """Straight-line source of the whole loop for a model, defining ``<name>_run``."""
+    compiled_loops: Callable[[], Callable[..., None]]
+    """The generic loops, compiled."""
+    plain_loops: Callable[..., None]
+    """The generic loops as plain Python."""
+
+
+def run_filter(
+    code: FilterCode,
+    model: HybridModel,
+    signals: AlignedSignals,
+    settings: tuple[Any, ...],
+    options: dict[str, Any],
+    *,
+    jit: bool,
+    kernel: str,
+    store_covariances: bool,
+) -> EstimationResult:
+    """Run a filter over the aligned signals with the chosen code path.
+
+    ``kernel``: ``unrolled`` (straight-line code generated for the model), ``loops`` (the
+    generic compiled loops) or ``auto`` (unrolled for small models); ``jit=False`` runs the
+    generic loops as plain Python on plain-Python mode functions, the tests' reference.
+    """
+    Q, R = noise_stacks(model)
+    buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
+    common = (
+        contiguous(signals.inputs),
+        contiguous(signals.outputs),
+        contiguous(model.initial_state),
+        contiguous(model.initial_covariance),
+        contiguous(model.initial_mode_probabilities),
+        *settings,
+        *buffers.arrays(),
+    )
+    loop: Callable[..., None]
+    arguments: tuple[Any, ...]
+    if jit and use_unrolled(model, kernel):
+        arguments = common
+        source = module_source(model, code.generate(model))
+        loop, compile_s = compile_generated(source, f"{code.name}_run", arguments)
+    else:
+        compiled = compile_model(model, jit=jit)
+        arguments = (compiled.f, compiled.F, compiled.h, compiled.H, *common[:2], Q, R, *common[2:])
+        loop = code.compiled_loops() if jit else code.plain_loops
+        compile_s = compiled.compile_s
+    start = time.perf_counter()
+    loop(*arguments)
+    runtime = time.perf_counter() - start
+    return buffers.result(
+        code.name, options, model, signals, runtime_s=runtime, compile_s=compile_s
+    )

@@ -33,15 +33,13 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 from __future__ import annotations
 
 import functools
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numba import types
 
-from hybridlog.estimators.common import FilterBuffers, contiguous, noise_stacks
+from hybridlog.estimators.common import FilterCode, run_filter
 from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
@@ -62,7 +60,6 @@ from hybridlog.estimators.unrolled import (
     constant_matrix,
     matrix_names,
     mode_values,
-    module_source,
     named,
     normalize_log_weights,
     product,
@@ -70,7 +67,6 @@ from hybridlog.estimators.unrolled import (
     reshape,
     term,
     upper,
-    use_unrolled,
     vector_names,
 )
 from hybridlog.jit import jit_signature
@@ -78,8 +74,6 @@ from hybridlog.model.compiled import (
     MATRIX_FUNCTION,
     VECTOR_FUNCTION,
     ModelFunction,
-    compile_generated,
-    compile_model,
 )
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
@@ -312,22 +306,9 @@ def run_hstf(
 ) -> EstimationResult:
     """Run the HSTF over the aligned signals.
 
-    ``kernel`` chooses the compiled code: ``unrolled`` (straight-line code generated for the
-    model, :func:`generate_hstf_source`), ``loops`` (the generic loops of :func:`_hstf_steps`)
-    or ``auto`` (unrolled for small models).  ``jit=False`` runs the generic loops as plain
-    Python on plain-Python mode functions: slow, the reference the tests compare against.
+    ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
+    :func:`generate_hstf_source` for small models, else the generic :func:`_hstf_steps`.
     """
-    Q, R = noise_stacks(model)
-    buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    data = (
-        contiguous(signals.inputs),
-        contiguous(signals.outputs),
-    )
-    prior = (
-        contiguous(model.initial_state),
-        contiguous(model.initial_covariance),
-        contiguous(model.initial_mode_probabilities),
-    )
     settings = (
         options.rho,
         options.beta,
@@ -335,24 +316,15 @@ def run_hstf(
         options.fading,
         options.likelihood == "unfaded",
     )
-    outputs = buffers.arrays()
-    loop: Callable[..., None]
-    arguments: tuple[Any, ...]
-    if jit and use_unrolled(model, kernel):
-        arguments = (*data, *prior, *settings, *outputs)
-        source = module_source(model, generate_hstf_source(model))
-        loop, compile_s = compile_generated(source, "hstf_run", arguments)
-    else:
-        compiled = compile_model(model, jit=jit)
-        functions = (compiled.f, compiled.F, compiled.h, compiled.H)
-        arguments = (*functions, *data, Q, R, *prior, *settings, *outputs)
-        loop = _hstf_loop() if jit else _hstf_steps
-        compile_s = compiled.compile_s
-    start = time.perf_counter()
-    loop(*arguments)
-    runtime = time.perf_counter() - start
-    return buffers.result(
-        NAME, options_dict(options), model, signals, runtime_s=runtime, compile_s=compile_s
+    return run_filter(
+        CODE,
+        model,
+        signals,
+        settings,
+        options_dict(options),
+        jit=jit,
+        kernel=kernel,
+        store_covariances=store_covariances,
     )
 
 
@@ -474,3 +446,6 @@ def generate_hstf_source(model: HybridModel) -> str:
         "predictions_out, covariances_out):"
     )
     return f"{signature}\n{p.source()}\n"
+
+
+CODE = FilterCode(NAME, generate_hstf_source, lambda: _hstf_loop(), _hstf_steps)

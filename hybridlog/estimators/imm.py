@@ -26,15 +26,13 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numba import types
 
-from hybridlog.estimators.common import FilterBuffers, contiguous, noise_stacks
+from hybridlog.estimators.common import FilterCode, contiguous, run_filter
 from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
@@ -56,7 +54,6 @@ from hybridlog.estimators.unrolled import (
     constant_matrix,
     matrix_names,
     mode_values,
-    module_source,
     named,
     normalize_log_weights,
     product,
@@ -64,7 +61,6 @@ from hybridlog.estimators.unrolled import (
     reshape,
     term,
     upper,
-    use_unrolled,
     vector_names,
 )
 from hybridlog.jit import jit_signature
@@ -72,8 +68,6 @@ from hybridlog.model.compiled import (
     MATRIX_FUNCTION,
     VECTOR_FUNCTION,
     ModelFunction,
-    compile_generated,
-    compile_model,
 )
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
@@ -268,38 +262,22 @@ def run_imm(
 ) -> EstimationResult:
     """Run the IMM over the aligned signals.
 
-    ``kernel`` and ``jit`` choose the code as for :func:`hybridlog.estimators.hstf.run_hstf`:
-    straight-line code generated for the model (:func:`generate_imm_source`), the generic
-    compiled loops (:func:`_imm_steps`), or those loops as plain Python (``jit=False``).
+    ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
+    :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
     """
-    Q, R = noise_stacks(model)
     transitions = contiguous(transition_matrix(model, options))
-    buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    data = (contiguous(signals.inputs), contiguous(signals.outputs))
-    prior = (
-        contiguous(model.initial_state),
-        contiguous(model.initial_covariance),
-        contiguous(model.initial_mode_probabilities),
-    )
-    outputs = buffers.arrays()
-    loop: Callable[..., None]
-    arguments: tuple[Any, ...]
-    if jit and use_unrolled(model, kernel):
-        arguments = (*data, transitions, *prior, *outputs)
-        source = module_source(model, generate_imm_source(model))
-        loop, compile_s = compile_generated(source, "imm_run", arguments)
-    else:
-        compiled = compile_model(model, jit=jit)
-        functions = (compiled.f, compiled.F, compiled.h, compiled.H)
-        arguments = (*functions, *data, Q, R, *prior, transitions, *outputs)
-        loop = _imm_loop() if jit else _imm_steps
-        compile_s = compiled.compile_s
-    start = time.perf_counter()
-    loop(*arguments)
-    runtime = time.perf_counter() - start
     used = options_dict(options)
     used["transition_matrix"] = transitions.tolist()
-    return buffers.result(NAME, used, model, signals, runtime_s=runtime, compile_s=compile_s)
+    return run_filter(
+        CODE,
+        model,
+        signals,
+        (transitions,),
+        used,
+        jit=jit,
+        kernel=kernel,
+        store_covariances=store_covariances,
+    )
 
 
 def imm_options(values: dict[str, object]) -> ImmOptions:
@@ -310,7 +288,7 @@ def imm_options(values: dict[str, object]) -> ImmOptions:
 def generate_imm_source(model: HybridModel) -> str:
     """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_run(inputs, outputs, transitions, x0, P0, mu0, <output arrays>)`` with the
+    Defines ``imm_run(inputs, outputs, x0, P0, mu0, transitions, <output arrays>)`` with the
     same meaning as :func:`_imm_steps`; the mode functions, the noise covariances and every
     small matrix product are written out for the model's dimensions.
     """
@@ -393,7 +371,10 @@ def generate_imm_source(model: HybridModel) -> str:
     carry(p, mu, mu_new)
     record(p, "k + 1", argmax(p, mu), mu, x_combined, P_combined)
     signature = (
-        "def imm_run(inputs, outputs, transitions, x0, P0, mu0, modes_out, probabilities_out, "
+        "def imm_run(inputs, outputs, x0, P0, mu0, transitions, modes_out, probabilities_out, "
         "means_out, variances_out, predictions_out, covariances_out):"
     )
     return f"{signature}\n{p.source()}\n"
+
+
+CODE = FilterCode(NAME, generate_imm_source, lambda: _imm_loop(), _imm_steps)
