@@ -8,6 +8,7 @@ Python on plain-Python mode functions.
 import numpy as np
 import pytest
 
+from hybridlog.errors import ModelError
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.unrolled import use_unrolled
@@ -87,3 +88,22 @@ def test_auto_takes_straight_line_code_for_small_models_only():
     )
     assert not use_unrolled(wide, "auto")
     assert use_unrolled(wide, "unrolled")
+
+
+def test_a_diverging_filter_is_an_error_naming_the_time():
+    model = parse_model(
+        'name = "kink"\ndt = 1\nstates = ["x"]\noutputs = ["y"]\n'
+        '[modes.a]\nf = ["x + sqrt(abs(x - 2))"]\nh = ["x"]\n'
+        "[noise]\nprocess = 0.1\nmeasurement = 0.1\n[initial]\nstate = [2.0]\n"
+    )
+    signals = AlignedSignals(
+        source="sim",
+        time=np.arange(5.0),
+        input_names=(),
+        output_names=("y",),
+        inputs=np.zeros((5, 0)),
+        outputs=np.full((5, 1), 2.0),
+    )
+    for kernel in ("unrolled", "loops"):
+        with pytest.raises(ModelError, match=r"kink: hstf diverged at t = 1 s \(sample 1\)"):
+            run_hstf(model, signals, HstfOptions(), kernel=kernel)

@@ -166,6 +166,13 @@ def run_filter(
     start = time.perf_counter()
     loop(*arguments)
     runtime = time.perf_counter() - start
+    finite = np.isfinite(buffers.state_means).all(axis=1)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        raise ModelError(
+            f"{model.name}: {code.name} diverged at t = {signals.time[row]:g} s (sample {row}): "
+            "the state estimate is not finite; a Jacobian of the model may be infinite there"
+        )
     return buffers.result(
         code.name, options, model, signals, runtime_s=runtime, compile_s=compile_s
     )
