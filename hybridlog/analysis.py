@@ -116,7 +116,7 @@ def analyze(
     log: str | Path,
     model_ref: str | Path,
     *,
-    out_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str] | None = None,
     estimator: str | None = None,
     sets: Sequence[str] = (),
     read: ReadOptions | None = None,
@@ -127,11 +127,14 @@ def analyze(
 ) -> Outcome:
     """Run one estimator over one log and write the outputs of SPEC §8 into ``out_dir``.
 
-    Everything the user gave is validated before anything is written; the output directory
-    appears complete or not at all.
+    ``out_dir`` defaults to ``<log name>_<estimator>`` in the working directory.  Everything
+    the user gave is validated before anything is written; the output directory appears
+    complete or not at all.
     """
-    check_target(Path(out_dir), force)
     model, settings = parse_sets(sets, model_ref)
+    estimator = estimator or model.default_estimator
+    out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
+    check_target(out_dir, force)
     gates = gates_for(model, fail_under, fail_over)
     signals = read_log(log, model, read or ReadOptions())
     result = estimate(model, signals, estimator, settings)
@@ -145,9 +148,7 @@ def analyze(
         table_format=table_format,
         force=force,
     )
-    return Outcome(
-        report=report, out_dir=Path(out_dir), gate_failures=evaluate_gates(report, gates)
-    )
+    return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
 
 
 @dataclass(frozen=True)

@@ -223,7 +223,7 @@ def simulate(
     "out_dir",
     type=click.Path(path_type=Path),
     default=None,
-    help="Output directory [default: <log name>_<estimator>].",
+    help="Output directory [default: <log name>_<estimator> here].",
 )
 @_analysis_options
 @click.pass_context
@@ -238,8 +238,7 @@ def analyze_command(
 ) -> None:
     """Run one estimator over one log and write report, tables and plots."""
     read, common = _split_options(options)
-    target = out_dir or Path(f"{log.stem}_{estimator or 'report'}")
-    outcome = analyze(log, model_ref, out_dir=target, estimator=estimator, read=read, **common)
+    outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
     report = outcome.report
     _say(ctx, _summary_line(report))
     _say(ctx, f"report: {outcome.out_dir / 'report.md'}")
