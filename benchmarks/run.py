@@ -40,7 +40,7 @@ from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
 RESULTS = Path(__file__).resolve().parent / "results.md"
-BENCHMARKS = ("three_tank", "compile", "filterpy")
+BENCHMARKS = ("three_tank", "compile", "filterpy", "clustering", "read")
 
 HSTF_TARGET_S = 3.0
 """10^6 HSTF steps on the three-tank model must take less than this."""
@@ -429,6 +429,22 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += bench_three_tank(sizes, repeat)
         elif name == "compile":
             rows += bench_compile()
+        elif name == "clustering":
+            from benchmarks.clustering import bench_clustering
+
+            rows += [
+                Row(
+                    label, steps=n, time_s=t, target=target, met=met, notes=f"{n:,} points; {notes}"
+                )
+                for label, n, t, target, met, notes in bench_clustering(args.quick)
+            ]
+        elif name == "read":
+            from benchmarks.read_logs import bench_read
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_read(args.quick, repeat)
+            ]
         else:
             rows += bench_filterpy(sizes, repeat)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

@@ -17,7 +17,7 @@ import polars as pl
 from hybridlog.errors import OptionError
 from hybridlog.estimators import estimator_options, get_estimator
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.io import load_signals
+from hybridlog.io import ReadSettings, load_signals
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
@@ -28,11 +28,22 @@ from hybridlog.signals import AlignedSignals
 
 @dataclass(frozen=True)
 class ReadOptions:
-    """How to read and align a log (``--map``, ``--resample``, ``--max-gap``)."""
+    """How to read and align a log (``--map``, ``--resample``, ``--max-gap``, ...).
+
+    ``time``, ``sort``, ``recover`` and ``msg_dirs`` go to the reader
+    (:class:`~hybridlog.io.source.ReadSettings`); ``split_gaps`` and ``drop_nonfinite`` to
+    :func:`~hybridlog.io.load_signals`.
+    """
 
     maps: tuple[str, ...] = ()
     resample: str = "nearest"
     max_gap: float | None = None
+    split_gaps: bool = False
+    time: str = "log"
+    sort: bool = False
+    drop_nonfinite: bool = False
+    recover: bool = False
+    msg_dirs: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -68,8 +79,13 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     return model, settings
 
 
-def read_log(log: str | Path, model: HybridModel, read: ReadOptions) -> AlignedSignals:
-    """The log's signals for ``model`` on its grid."""
+def read_log(
+    log: str | Path,
+    model: HybridModel,
+    read: ReadOptions,
+    notes: dict[str, Any] | None = None,
+) -> AlignedSignals:
+    """The log's signals for ``model`` on its grid; ``notes`` gets what reading did."""
     return load_signals(
         log,
         states=model.states,
@@ -82,6 +98,12 @@ def read_log(log: str | Path, model: HybridModel, read: ReadOptions) -> AlignedS
         maps=read.maps,
         resample=read.resample,
         max_gap=read.max_gap,
+        settings=ReadSettings(
+            time=read.time, sort=read.sort, recover=read.recover, msg_dirs=read.msg_dirs
+        ),
+        split_gaps=read.split_gaps,
+        drop_nonfinite=read.drop_nonfinite,
+        notes=notes,
     )
 
 
@@ -136,7 +158,8 @@ def analyze(
     out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
     check_target(out_dir, force)
     gates = gates_for(model, fail_under, fail_over)
-    signals = read_log(log, model, read or ReadOptions())
+    reading: dict[str, Any] = {}
+    signals = read_log(log, model, read or ReadOptions(), reading)
     result = estimate(model, signals, estimator, settings)
     report = write_report(
         out_dir,
@@ -147,6 +170,7 @@ def analyze(
         dt=model.dt,
         table_format=table_format,
         force=force,
+        extra={"reading": reading},
     )
     return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
 
@@ -216,7 +240,8 @@ def compare(
     for name in estimators:
         get_estimator(name)
     gates = gates_for(model, fail_under, fail_over)
-    signals = read_log(log, model, read or ReadOptions())
+    reading: dict[str, Any] = {}
+    signals = read_log(log, model, read or ReadOptions(), reading)
     results = {name: estimate(model, signals, name, settings) for name in estimators}
     reports: dict[str, dict[str, Any]] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
@@ -229,6 +254,7 @@ def compare(
                 model_name=model.name,
                 dt=model.dt,
                 table_format=table_format,
+                extra={"reading": reading},
             )
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         table = markdown_table(("estimator", *_COLUMNS), rows)

@@ -18,8 +18,13 @@ import click
 from hybridlog import __version__
 from hybridlog.analysis import ReadOptions, analyze, compare
 from hybridlog.batch import run_batch
+from hybridlog.cluster.discovery import discover_modes
+from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError
-from hybridlog.io import write_table
+from hybridlog.estimators.chiu import ChiuOptions
+from hybridlog.io import ReadSettings
+from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, write_log
+from hybridlog.io.bag_writers import log_format as log_format_of
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
@@ -96,6 +101,48 @@ def _analysis_options(function: F) -> F:
             help="Longest tolerated gap in the outputs [default: 5*dt].",
         ),
         click.option(
+            "--split-gaps",
+            is_flag=True,
+            help="Cut the log at output gaps longer than --max-gap and analyse the longest "
+            "piece (report.json lists the pieces) instead of refusing the log.",
+        ),
+        click.option(
+            "--time",
+            "time_source",
+            type=click.Choice(["log", "header"]),
+            default="log",
+            show_default=True,
+            help="Sample times of bag and MCAP messages: the recorder's log time, or each "
+            "message's header.stamp.",
+        ),
+        click.option(
+            "--sort",
+            is_flag=True,
+            help="Put samples whose times go backwards in order, and keep the last of "
+            "samples with equal times, instead of refusing the log.",
+        ),
+        click.option(
+            "--drop-nonfinite",
+            is_flag=True,
+            help="Drop NaN and infinite samples (counted in report.json) instead of "
+            "refusing the log.",
+        ),
+        click.option(
+            "--recover",
+            is_flag=True,
+            help="Read an unfinished or damaged MCAP file sequentially up to its first bad "
+            "record, and analyse that (recorded in report.json).",
+        ),
+        click.option(
+            "--msg-dir",
+            "msg_dirs",
+            multiple=True,
+            type=click.Path(path_type=Path),
+            metavar="DIR",
+            help="Folder of .msg files (pkg/msg/Name.msg) for message types the log does "
+            "not define. Repeatable.",
+        ),
+        click.option(
             "--force", is_flag=True, help="Replace an existing, non-empty output directory."
         ),
     ]
@@ -134,14 +181,26 @@ def _say(ctx: click.Context, text: str) -> None:
 @cli.command(
     epilog=_examples(
         "hybridlog inspect sample_logs/three_tank_hstf.csv",
-        "hybridlog inspect sample_logs/three_tank_hstf.csv --json",
+        "hybridlog inspect sample_logs/three_tank_hstf.mcap --json",
+        "hybridlog inspect sample_logs/three_tank_hstf_ros2",
     )
 )
 @click.argument("log", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
-def inspect(log: Path, as_json: bool) -> None:
-    """Describe a log: columns or topics, types, counts, rates, time span and gaps."""
-    info = inspect_log(log)
+@click.option(
+    "--msg-dir",
+    "msg_dirs",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    metavar="DIR",
+    help="Folder of .msg files for message types the log does not define. Repeatable.",
+)
+def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
+    """Describe a log: columns or topics, types, counts, rates, time span and gaps.
+
+    Reads CSV, Parquet, MCAP, ROS 1 .bag, ROS 2 bag folders and .db3 files.
+    """
+    info = inspect_log(log, ReadSettings(msg_dirs=tuple(str(d) for d in msg_dirs)))
     click.echo(json.dumps(info, indent=2) if as_json else format_inspection(info))
 
 
@@ -162,6 +221,8 @@ def models(name: str | None) -> None:
     epilog=_examples(
         "hybridlog simulate three_tank_hstf --out tank.csv --seed 1",
         "hybridlog simulate three_tank_hstf --out tank.parquet --schedule 1:50,3:50 --steps 400",
+        "hybridlog simulate three_tank_hstf --out tank.mcap --encoding json",
+        "hybridlog simulate three_tank_hstf --out tank_bag --format ros2-sqlite3",
     )
 )
 @click.argument("model_ref", metavar="MODEL")
@@ -170,7 +231,21 @@ def models(name: str | None) -> None:
     "out",
     required=True,
     type=click.Path(path_type=Path),
-    help="Log to write: .csv or .parquet.",
+    help="Log to write: .csv, .parquet, .mcap, .bag, or a ROS 2 bag folder with --format.",
+)
+@click.option(
+    "--format",
+    "log_format",
+    type=click.Choice(list(LOG_FORMATS)),
+    default=None,
+    help="Log format [default: from the suffix of --out].",
+)
+@click.option(
+    "--encoding",
+    type=click.Choice(list(MCAP_ENCODINGS)),
+    default="cdr",
+    show_default=True,
+    help="Message encoding of an MCAP file: ROS 2 CDR, JSON or ROS 1.",
 )
 @click.option(
     "--schedule",
@@ -191,16 +266,140 @@ def simulate(
     ctx: click.Context,
     model_ref: str,
     out: Path,
+    log_format: str | None,
+    encoding: str,
     schedule: str | None,
     steps: int | None,
     seed: int,
     force: bool,
 ) -> None:
-    """Simulate a model along a mode schedule and write a log with ground truth."""
+    """Simulate a model along a mode schedule and write a log with ground truth.
+
+    In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
+    true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
+    """
     model = load_model(model_ref)
+    log_format_of(out, log_format)  # a bad suffix fails before the simulation runs
     log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
-    write_table(out, log.columns(model), force=force)
+    write_log(
+        out,
+        log.columns(model),
+        truth=("mode", *model.states),
+        format=log_format,
+        encoding=encoding,
+        force=force,
+    )
     _say(ctx, f"wrote {out} ({log.time.shape[0]} samples)")
+
+
+@cli.command(
+    "cluster",
+    epilog=_examples(
+        "hybridlog cluster sample_logs/double_cart_case1.csv --model double_cart_case1",
+        "hybridlog cluster log.csv --model double_cart_case2 --radius 0.4 --compare-kmeans "
+        "--out dc2_centers.json",
+        "hybridlog analyze log.csv --model double_cart_case2 --estimator chiu "
+        "--set centers=dc2_centers.json --out report",
+    ),
+)
+@click.argument("log", type=click.Path(path_type=Path))
+@_model_option
+@click.option(
+    "--radius",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="Cluster radius r_a in the unit hyper-box the regression vectors are scaled into.",
+)
+@click.option(
+    "--squash", type=float, default=1.25, show_default=True, help="r_b/r_a of eqs. (6)-(7)."
+)
+@click.option("--accept", type=float, default=0.5, show_default=True, help="Accept ratio ε1.")
+@click.option("--reject", type=float, default=0.15, show_default=True, help="Reject ratio ε2.")
+@click.option(
+    "--exact/--approximate",
+    "exact",
+    default=None,
+    help="Exact all-pairs potentials, or the grid approximation for long logs "
+    f"[default: exact up to {AUTO_EXACT_MAX:,} vectors].",
+)
+@click.option(
+    "--output-lags",
+    default="0,1",
+    show_default=True,
+    help="Lags of every output in φ(k); must contain 0.",
+)
+@click.option("--input-lags", default="1", show_default=True, help="Lags of every input in φ(k).")
+@click.option(
+    "--out",
+    "out",
+    type=click.Path(path_type=Path),
+    default=Path("centers.json"),
+    show_default=True,
+    help="Centres and classifier to write (read by analyze --set centers=FILE).",
+)
+@click.option(
+    "--plot",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Picture of the clusters [default: --out with .png].",
+)
+@click.option("--compare-kmeans", is_flag=True, help="Also fit k-means and compare.")
+@click.option(
+    "--map",
+    "maps",
+    multiple=True,
+    metavar="SYMBOL=PATH",
+    help="Map a model input, output or truth symbol to a log field. Repeatable.",
+)
+@click.option("--force", is_flag=True, help="Replace existing output files.")
+@click.pass_context
+def cluster_command(
+    ctx: click.Context,
+    /,
+    log: Path,
+    model_ref: str,
+    radius: float,
+    squash: float,
+    accept: float,
+    reject: float,
+    exact: bool | None,
+    output_lags: str,
+    input_lags: str,
+    out: Path,
+    plot: Path | None,
+    compare_kmeans: bool,
+    maps: tuple[str, ...],
+    force: bool,
+) -> None:
+    """Fit Chiu subtractive clusters on regression vectors offline (paper 001).
+
+    Clusters φ(k) = [y(k), y(k-1), u(k-1)] (or other lags), labels each cluster as a model
+    mode from the data and the model alone, and writes the centres and classifier to a JSON
+    file, a plot, and a table.
+    """
+    outcome = discover_modes(
+        log,
+        model_ref,
+        out=out,
+        chiu=ChiuOptions(
+            radius=radius,
+            squash=squash,
+            accept=accept,
+            reject=reject,
+            method="auto" if exact is None else ("exact" if exact else "approximate"),
+            output_lags=output_lags,
+            input_lags=input_lags,
+        ),
+        compare_kmeans=compare_kmeans,
+        plot=plot,
+        maps=maps,
+        force=force,
+    )
+    _say(ctx, outcome.table)
+    for note in outcome.notes:
+        _say(ctx, f"- {note}")
+    _say(ctx, f"centres: {outcome.centers_path}, plot: {outcome.plot_path}")
 
 
 @cli.command(
@@ -359,6 +558,12 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
         maps=tuple(options.pop("maps")),
         resample=options.pop("resample"),
         max_gap=options.pop("max_gap"),
+        split_gaps=options.pop("split_gaps"),
+        time=options.pop("time_source"),
+        sort=options.pop("sort"),
+        drop_nonfinite=options.pop("drop_nonfinite"),
+        recover=options.pop("recover"),
+        msg_dirs=tuple(str(d) for d in options.pop("msg_dirs")),
     )
     return read, {
         "sets": tuple(options.pop("sets")),

@@ -12,19 +12,39 @@ bound the true states from below (``[simulation] state_min``, e.g. tank levels a
 plant then stays physical while the estimators still use the unbounded model.  A schedule
 ``"1:100,2:100,3:100"`` gives the number of steps spent in each mode; row 0 (the initial
 state) carries the first scheduled mode, so 300 steps make 301 rows.
+
+State-driven switching: when every mode has a ``guard`` (``guard = "x3 <= 0"``), the mode of
+row ``k`` is the first mode, in file order, whose guard holds at ``x(k)`` (and ``u(k)``); it
+gives ``y(k)`` and also governs the step out of row ``k``,
+
+.. math::
+
+    x(k+1) = f_{q(k)}(x(k), u(k)) + \xi(k), \qquad q(k) = \text{mode whose guard holds at } x(k)
+
+as in paper 001, eq. (1) (the mode cannot be decided by ``x(k+1)`` before that state
+exists).  A row where no guard holds is an error.  The guards are compiled with numba
+(cached on disk beside the model's functions), so 10^4 steps take milliseconds.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
+import os
+import sys
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
+import numba
 import numpy as np
 import sympy
 from numba import types
+from sympy.printing.pycode import PythonCodePrinter
 
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.jit import jit_signature
-from hybridlog.model.compiled import VECTOR_FUNCTION, ModelFunction, compile_model
+from hybridlog.model.compiled import VECTOR_FUNCTION, ModelFunction, cache_dir, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray, IntArray
 
@@ -161,24 +181,157 @@ def _simulate_steps(
 
 _simulate_loop = jit_signature(_SIGNATURE)(_simulate_steps)
 
+GUARD_SIGNATURE = types.int64(types.float64[::1], types.float64[::1])
+"""``guard(x, u)``: index of the first mode whose guard holds, or -1."""
+GUARD_FUNCTION = types.FunctionType(GUARD_SIGNATURE)
+GuardFunction = Callable[[FloatArray, FloatArray], int]
+
+
+def guard_source(model: HybridModel) -> str:
+    """Python source of ``guard(x, u)`` for a state-driven model."""
+    xs, us = model.symbols()
+    names = {x: sympy.Symbol(f"x_{i}") for i, x in enumerate(xs)}
+    names.update({u: sympy.Symbol(f"u_{i}") for i, u in enumerate(us)})
+    printer = PythonCodePrinter({"fully_qualified_modules": True, "standard": "python3"})
+    lines = ["import math", "", "", "def guard(x, u):"]
+    lines += [f"    x_{i} = x[{i}]" for i in range(model.n_states)]
+    lines += [f"    u_{i} = u[{i}]" for i in range(model.n_inputs)]
+    for index, mode in enumerate(model.modes):
+        assert mode.guard is not None
+        lines.append(f"    if {printer.doprint(mode.guard.xreplace(names))}:  # mode {mode.id!r}")
+        lines.append(f"        return {index}")
+    lines.append("    return -1")
+    return "\n".join(lines) + "\n"
+
+
+_GUARDS: dict[str, GuardFunction] = {}
+
+
+def compile_guard(model: HybridModel, *, jit: bool = True) -> GuardFunction:
+    """The model's guard function, compiled (cached on disk) or as plain Python."""
+    source = guard_source(model)
+    key = hashlib.sha256(f"{numba.__version__}|{source}".encode()).hexdigest()[:24]
+    memo = f"{key}|{jit}"
+    if memo in _GUARDS:
+        return _GUARDS[memo]
+    if jit:
+        folder = cache_dir() / "models"
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / f"g_{key}.py"
+        if not path.exists() or path.read_text(encoding="utf-8") != source:
+            temporary = path.with_suffix(f".{os.getpid()}.tmp")
+            temporary.write_text(source, encoding="utf-8")
+            temporary.replace(path)
+        name = f"hybridlog_guard_{key}"
+        spec = importlib.util.spec_from_file_location(name, path)
+        if spec is None or spec.loader is None:  # pragma: no cover - the file was just written
+            raise ImportError(f"cannot import generated guard module {path}")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        function: GuardFunction = numba.njit(GUARD_SIGNATURE, cache=True)(module.guard)
+    else:
+        namespace: dict[str, Any] = {}
+        exec(compile(source, f"<hybridlog guards {model.name}>", "exec"), namespace)
+        function = namespace["guard"]
+    _GUARDS[memo] = function
+    return function
+
+
+_GUARDED_SIGNATURE = types.int64(
+    VECTOR_FUNCTION,
+    VECTOR_FUNCTION,
+    GUARD_FUNCTION,
+    types.float64[:, ::1],
+    types.float64[:, :, ::1],
+    types.float64[:, ::1],
+    types.float64[:, :, ::1],
+    types.float64[:, ::1],
+    types.float64[:, ::1],
+    types.float64[:, ::1],
+    types.int64[::1],
+    types.float64[::1],
+)
+
+
+def _simulate_guarded_steps(
+    f: ModelFunction,
+    h: ModelFunction,
+    guard: GuardFunction,
+    inputs: FloatArray,
+    process_factors: FloatArray,
+    process_draws: FloatArray,
+    measurement_factors: FloatArray,
+    measurement_draws: FloatArray,
+    states: FloatArray,
+    outputs: FloatArray,
+    modes: IntArray,
+    state_min: FloatArray,
+) -> int:  # compiled as simulate (state-driven); returns the row where no guard held, or -1
+    n = states.shape[1]
+    m = outputs.shape[1]
+    clean = np.empty(n)
+    measured = np.empty(m)
+    for k in range(states.shape[0]):
+        if k > 0:
+            q = modes[k - 1]
+            f(q, states[k - 1], inputs[k - 1], clean)
+            for a in range(n):
+                acc = clean[a]
+                for b in range(n):
+                    acc += process_factors[q, a, b] * process_draws[k, b]
+                states[k, a] = max(acc, state_min[a])
+        q = guard(states[k], inputs[k])
+        if q < 0:
+            return k
+        modes[k] = q
+        h(q, states[k], inputs[k], measured)
+        for a in range(m):
+            acc = measured[a]
+            for b in range(m):
+                acc += measurement_factors[q, a, b] * measurement_draws[k, b]
+            outputs[k, a] = acc
+    return -1
+
+
+_simulate_guarded_loop = jit_signature(_GUARDED_SIGNATURE)(_simulate_guarded_steps)
+
 
 def simulate(
-    model: HybridModel, *, schedule: str | None = None, steps: int | None = None, seed: int = 0
+    model: HybridModel,
+    *,
+    schedule: str | None = None,
+    steps: int | None = None,
+    seed: int = 0,
+    jit: bool = True,
 ) -> SimulatedLog:
-    """Simulate ``model`` along a mode schedule with Gaussian process and measurement noise.
+    """Simulate ``model`` with Gaussian process and measurement noise.
 
     Parameters
     ----------
     schedule:
         ``"MODE:STEPS,..."``; defaults to the model's ``[simulation] schedule``, else the first
-        mode for ``steps`` steps.
+        mode for ``steps`` steps.  Not allowed for a state-driven model (mode guards).
     steps:
-        Number of steps (rows − 1); defaults to the schedule's total.
+        Number of steps (rows − 1); defaults to the schedule's total (100 for a state-driven
+        model).
     seed:
         Seed of the noise generator (NumPy PCG64): the same seed gives the same log.
+    jit:
+        Compiled loop (default) or the same code in plain Python (tests).
     """
-    text = schedule or model.simulation_schedule or f"{model.mode_ids[0]}:{steps or 100}"
-    modes = mode_sequence(parse_schedule(text, model.mode_ids), steps)
+    if model.state_driven:
+        if schedule:
+            raise OptionError(
+                f"--schedule: {model.name} switches by its mode guards (modes.<id>.guard); "
+                "a schedule does not apply"
+            )
+        if steps is not None and steps <= 0:
+            raise OptionError("--steps: must be positive")
+        modes = np.zeros((steps or 100) + 1, dtype=np.int64)
+    else:
+        text = schedule or model.simulation_schedule or f"{model.mode_ids[0]}:{steps or 100}"
+        modes = mode_sequence(parse_schedule(text, model.mode_ids), steps)
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt
     inputs = input_signals(model, time)
@@ -188,22 +341,53 @@ def simulate(
     states = np.zeros((n_rows, model.n_states))
     states[0] = model.initial_state if model.simulation_state is None else model.simulation_state
     outputs = np.zeros((n_rows, model.n_outputs))
-    compiled = compile_model(model)
-    _simulate_loop(
-        compiled.f,
-        compiled.h,
-        modes,
-        inputs,
-        np.ascontiguousarray(np.stack([_noise_factor(m.process_noise) for m in model.modes])),
-        process_draws,
-        np.ascontiguousarray(np.stack([_noise_factor(m.measurement_noise) for m in model.modes])),
-        measurement_draws,
-        states,
-        outputs,
+    compiled = compile_model(model, jit=jit)
+    process_factors = np.ascontiguousarray(
+        np.stack([_noise_factor(m.process_noise) for m in model.modes])
+    )
+    measurement_factors = np.ascontiguousarray(
+        np.stack([_noise_factor(m.measurement_noise) for m in model.modes])
+    )
+    state_min = (
         np.full(model.n_states, -np.inf)
         if model.simulation_state_min is None
-        else model.simulation_state_min,
+        else model.simulation_state_min
     )
+    if model.state_driven:
+        loop = _simulate_guarded_loop if jit else _simulate_guarded_steps
+        stuck = loop(
+            compiled.f,
+            compiled.h,
+            compile_guard(model, jit=jit),
+            inputs,
+            process_factors,
+            process_draws,
+            measurement_factors,
+            measurement_draws,
+            states,
+            outputs,
+            modes,
+            state_min,
+        )
+        if stuck >= 0:
+            raise ModelError(
+                f"{model.name}: no mode's guard (modes.<id>.guard) holds at t = {time[stuck]} "
+                f"(x = {states[stuck].tolist()})"
+            )
+    else:
+        (_simulate_loop if jit else _simulate_steps)(
+            compiled.f,
+            compiled.h,
+            modes,
+            inputs,
+            process_factors,
+            process_draws,
+            measurement_factors,
+            measurement_draws,
+            states,
+            outputs,
+            state_min,
+        )
     if not np.all(np.isfinite(states)) or not np.all(np.isfinite(outputs)):
         row = int(np.argmax(~np.all(np.isfinite(np.hstack([states, outputs])), axis=1)))
         raise ModelError(f"{model.name}: the simulation diverged (non-finite at t = {time[row]})")

@@ -268,3 +268,81 @@ def test_a_million_rows_align_quickly() -> None:
     elapsed = time.perf_counter() - start
     assert aligned.n_samples == n
     assert elapsed < 1.0
+
+
+def test_split_gaps_analyses_the_longest_piece_and_records_the_pieces() -> None:
+    # Output samples every 0.1 s with two long holes: 2.0-3.0 s and 7.0-7.8 s.
+    seconds = np.round(np.arange(0.0, 10.01, 0.1), 10)
+    keep = ~(((seconds > 2.0) & (seconds < 3.0)) | ((seconds > 7.0) & (seconds < 7.8)))
+    y = series("y", seconds[keep], seconds[keep] * 10)
+    u = series("u", [0.0, 5.0], [1.0, 2.0])
+    with pytest.raises(LogError, match="gap in output 'y'"):
+        align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": y}, max_gap=0.5)
+    notes: dict[str, object] = {}
+    aligned = align_signals(
+        source="s",
+        dt=0.1,
+        inputs={"u": u},
+        outputs={"y": y},
+        max_gap=0.5,
+        split_gaps=True,
+        notes=notes,
+    )
+    assert notes["segments"] == [
+        {"start": 0.0, "end": 2.0, "duration": 2.0},
+        {"start": 3.0, "end": 7.0, "duration": 4.0},
+        {"start": 7.8, "end": 10.0, "duration": pytest.approx(2.2)},
+    ]
+    assert notes["analysed_segment"] == 1
+    np.testing.assert_allclose(aligned.time, np.arange(30, 71) * 0.1)
+    np.testing.assert_allclose(aligned.outputs[:, 0], np.arange(30, 71) * 1.0)
+    # The input is held across the cut: from 5 s on it is 2.
+    np.testing.assert_array_equal(
+        aligned.inputs[:, 0], np.where(aligned.time < 5.0 - 1e-9, 1.0, 2.0)
+    )
+
+
+def test_split_gaps_without_gaps_changes_nothing() -> None:
+    y = series("y", np.arange(50) * 0.1, np.arange(50))
+    notes: dict[str, object] = {}
+    plain = align_signals(source="s", dt=0.1, inputs={}, outputs={"y": y})
+    split = align_signals(
+        source="s", dt=0.1, inputs={}, outputs={"y": y}, split_gaps=True, notes=notes
+    )
+    np.testing.assert_array_equal(plain.outputs, split.outputs)
+    assert notes == {}
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.integers(-20_000, 20_000), min_size=2, max_size=40),
+    st.integers(0, 3),
+    st.sampled_from(["nearest", "linear"]),
+)
+def test_on_grid_shortcut_agrees_with_the_search(
+    jitter_ns: list[int], skip: int, resample: str
+) -> None:
+    # Samples within the clock tolerance (10 µs at dt = 10 ms) of the grid take the shortcut,
+    # others the search; both must give what the search alone gives.
+    from hybridlog.io import align as align_module
+
+    n = len(jitter_ns)
+    time_ns = np.arange(n, dtype=np.int64) * 10_000_000 + np.array(jitter_ns, dtype=np.int64)
+    time_ns[0] = 0
+    values = np.arange(n, dtype=np.float64) ** 2
+    y = Series(
+        "y", time_ns[skip:] if skip < n - 1 else time_ns, values[skip:] if skip < n - 1 else values
+    )
+    u = Series("u", time_ns, values)
+    fast = align_signals(source="s", dt=0.01, inputs={"u": u}, outputs={"y": y}, resample=resample)
+    original = align_module.on_grid
+    try:
+        align_module.on_grid = lambda *args: -1  # type: ignore[assignment]
+        slow = align_signals(
+            source="s", dt=0.01, inputs={"u": u}, outputs={"y": y}, resample=resample
+        )
+    finally:
+        align_module.on_grid = original
+    np.testing.assert_array_equal(fast.time, slow.time)
+    np.testing.assert_array_equal(fast.inputs, slow.inputs)
+    np.testing.assert_array_equal(fast.outputs, slow.outputs)

@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from hybridlog.errors import OptionError
+from hybridlog.estimators.chiu import chiu_options, kmeans_options, run_chiu, run_kmeans
 from hybridlog.estimators.hstf import hstf_options, run_hstf
 from hybridlog.estimators.imm import imm_options, run_imm
 from hybridlog.estimators.result import EstimationResult
@@ -40,9 +41,19 @@ ESTIMATORS: dict[str, Estimator] = {
         "interacting multiple model with an EKF per mode",
         lambda model, signals, options: run_imm(model, signals, imm_options(dict(options))),
     ),
+    "chiu": Estimator(
+        "chiu",
+        "Chiu subtractive clustering + switched Luenberger observer, paper 001",
+        lambda model, signals, options: run_chiu(model, signals, chiu_options(dict(options))),
+    ),
+    "kmeans": Estimator(
+        "kmeans",
+        "k-means clustering + switched Luenberger observer, paper 001's baseline",
+        lambda model, signals, options: run_kmeans(model, signals, kmeans_options(dict(options))),
+    ),
 }
 
-PLANNED = ("chiu", "kmeans", "unknown-mode", "sliding-mode", "switching-observer")
+PLANNED = ("unknown-mode", "sliding-mode", "switching-observer")
 """Estimator names of SPEC §7 that this version does not provide yet."""
 
 

@@ -1,24 +1,30 @@
 """Logs → aligned signals.
 
 :func:`load_signals` is the one entry point the commands use: it opens a log with the reader
-for its format (:func:`open_log`), maps model symbols to log fields (:mod:`.mapping`), reads
-only those fields, checks them, and aligns them onto the model's grid (:mod:`.align`).
-Readers implement :class:`~hybridlog.io.source.LogSource`; a new format only has to register
-an opener in :data:`~hybridlog.io.readers.READERS`.
+for its format (:func:`open_log`: CSV/Parquet, MCAP, ROS 1 and ROS 2 bags), maps model symbols
+to log fields (:mod:`.mapping`: column names or message paths), reads only those fields,
+checks them, and aligns them onto the model's grid (:mod:`.align`).  Readers implement
+:class:`~hybridlog.io.source.LogSource`; a new format registers in :mod:`.readers`.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
+from typing import Any
 
+import numpy as np
+
+from hybridlog.errors import OptionError
 from hybridlog.io.align import align_signals, check_alignment_options
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
-from hybridlog.io.readers import READERS, open_log
+from hybridlog.io.readers import FORMATS, open_log
 from hybridlog.io.source import (
+    TIME_SOURCES,
     LabelSeries,
     LogSource,
+    ReadSettings,
     Series,
     check_finite,
     labels_to_codes,
@@ -27,9 +33,10 @@ from hybridlog.io.writers import write_table
 from hybridlog.signals import AlignedSignals
 
 __all__ = [
-    "READERS",
+    "FORMATS",
     "LabelSeries",
     "LogSource",
+    "ReadSettings",
     "Series",
     "SignalMap",
     "format_inspection",
@@ -53,13 +60,17 @@ def load_signals(
     maps: Sequence[str] = (),
     resample: str = "nearest",
     max_gap: float | None = None,
+    settings: ReadSettings | None = None,
+    split_gaps: bool = False,
+    drop_nonfinite: bool = False,
+    notes: dict[str, Any] | None = None,
 ) -> AlignedSignals:
     """Read a log and align the model's signals onto its grid ``t0 + k*dt``.
 
     Parameters
     ----------
     path:
-        The log (``.csv`` or ``.parquet``).
+        The log: ``.csv``, ``.parquet``, ``.mcap``, ``.bag``, ``.db3`` or a ROS 2 bag folder.
     states, inputs, outputs:
         The model's symbol names, in vector order.
     mode_ids:
@@ -74,6 +85,15 @@ def load_signals(
         ``"nearest"`` (default) or ``"linear"``, for outputs and true states.
     max_gap:
         Longest tolerated gap in the outputs, in seconds; default ``5*dt``.
+    settings:
+        How the reader takes samples (``--time``, ``--sort``, ``--recover``, ``--msg-dir``).
+    split_gaps:
+        Analyse the longest piece between over-long output gaps instead of refusing the log.
+    drop_nonfinite:
+        Drop NaN and infinite samples (counted in ``notes``) instead of refusing the log.
+    notes:
+        Filled with what reading did, for the report: the format, the time source, and
+        recovery, sorting, dropped samples and gap pieces where they apply.
 
     Returns
     -------
@@ -89,8 +109,14 @@ def load_signals(
         value, time going backwards, an unknown true mode, or an over-long gap.
     """
     check_alignment_options(dt, resample, max_gap)
+    settings = settings or ReadSettings()
+    if settings.time not in TIME_SOURCES:
+        raise OptionError(
+            f"--time: expected one of {', '.join(TIME_SOURCES)}, got {settings.time!r}"
+        )
     parsed = parse_maps(maps, inputs=inputs, outputs=outputs, states=states)
-    with open_log(path) as source:
+    notes = notes if notes is not None else {}
+    with open_log(path, settings) as source:
         mapping = resolve_signal_map(
             source.fields(),
             source=source.path,
@@ -101,6 +127,8 @@ def load_signals(
             truth=truth,
             maps=parsed,
             field_word=source.field_word,
+            message_paths=source.message_paths,
+            explain=source.explain_missing,
         )
         symbols = {
             **{field: f"input {u!r}" for u, field in mapping.inputs.items()},
@@ -118,8 +146,21 @@ def load_signals(
         )
         labels = [mapping.truth_mode] if mapping.truth_mode is not None else []
         numeric_series, label_series = source.read(numeric, labels)
-        for name, series in numeric_series.items():
-            check_finite(source, series, symbols[name])
+        dropped: dict[str, int] = {}
+        for name, series in list(numeric_series.items()):
+            if drop_nonfinite:
+                finite = np.isfinite(series.values)
+                if not finite.all():
+                    dropped[name] = int((~finite).sum())
+                    numeric_series[name] = Series(
+                        name, series.time_ns[finite], series.values[finite]
+                    )
+            else:
+                check_finite(source, series, symbols[name])
+        notes.update({"format": getattr(source, "format", "?"), "time": settings.time})
+        notes.update(source.notes())
+        if dropped:
+            notes["nonfinite_dropped"] = dropped
         truth_mode = None
         if mapping.truth_mode is not None:
             mode_series = label_series[mapping.truth_mode]
@@ -135,4 +176,6 @@ def load_signals(
             truth_states={x: numeric_series[f] for x, f in mapping.truth_states.items()},
             resample=resample,
             max_gap=max_gap,
+            split_gaps=split_gaps,
+            notes=notes,
         )

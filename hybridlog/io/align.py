@@ -15,6 +15,12 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 - True mode: zero-order hold; grid points before its first sample take that sample if it is
   within ``dt/2``.
 - True states: like outputs, but NaN instead of an error where no sample is usable.
+- ``split_gaps``: instead of refusing a log with an output gap longer than ``max_gap``, cut it
+  at every such gap and align the longest piece (the earliest of equally long ones).  The
+  estimators need one continuous grid, and a filter carried across a gap would start the next
+  piece from a stale state; analysing each piece separately would need one report per piece.
+  The pieces and the one analysed are recorded (``notes["segments"]``,
+  ``notes["analysed_segment"]``) and end up in ``report.json``.
 
 A sample up to ``dt/1000`` (at least 1 µs, at most ``dt/4``) away from a grid point counts as
 *at* it: float seconds at Unix-epoch magnitudes carry ~0.2 µs of rounding, and a log sampled
@@ -25,7 +31,7 @@ bit for bit: every value is one of the log's samples, never recomputed.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -103,13 +109,38 @@ def make_grid(
         )
     step = dt * NS_PER_S
     n = int((t_end - t0) // step) + 1
-    offsets = np.rint(np.arange(n + 1, dtype=np.float64) * step).astype(np.int64)
+    if step == round(step):  # whole nanoseconds: exact integer steps, and faster
+        offsets = np.arange(n + 1, dtype=np.int64) * round(step)
+    else:
+        offsets = np.rint(np.arange(n + 1, dtype=np.float64) * step).astype(np.int64)
     grid: IntArray = t0 + offsets
     return grid[grid <= t_end]
 
 
+def on_grid(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> int:
+    """Where a series sampled exactly on the grid starts, else -1.
+
+    Returns ``i0`` when ``time_ns[i0 : i0 + len(grid_ns)]`` is within ``tolerance_ns`` of the
+    grid point by point -- the common case of a log recorded at the model's rate, for which
+    every grid point's sample is known without searching.
+    """
+    n = grid_ns.size
+    if n == 0:
+        return -1
+    start = int(np.searchsorted(time_ns, grid_ns[0] - tolerance_ns, side="left"))
+    if start + n > time_ns.size:
+        return -1
+    offset = time_ns[start : start + n] - grid_ns
+    if int(offset.max()) <= tolerance_ns and int(offset.min()) >= -tolerance_ns:
+        return start
+    return -1
+
+
 def hold_index(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> IntArray:
     """Index of the last sample at or before each grid point (-1 where there is none)."""
+    start = on_grid(time_ns, grid_ns, tolerance_ns)
+    if start >= 0:
+        return np.arange(start, start + grid_ns.size, dtype=np.int64)
     index: IntArray = np.searchsorted(time_ns, grid_ns + tolerance_ns, side="right") - 1
     return index
 
@@ -122,6 +153,11 @@ def nearest_index(
     The later sample wins only when it is closer by more than ``tolerance_ns``, so exact
     ties (and ties blurred by timestamp rounding) go to the earlier sample.
     """
+    start = on_grid(time_ns, grid_ns, tolerance_ns)
+    if start >= 0:
+        index_on: IntArray = np.arange(start, start + grid_ns.size, dtype=np.int64)
+        distance_on: IntArray = np.abs(time_ns[start : start + grid_ns.size] - grid_ns)
+        return index_on, distance_on
     n = time_ns.size
     right = np.searchsorted(time_ns, grid_ns, side="left")
     left = right - 1
@@ -245,6 +281,8 @@ def align_signals(
     truth_states: Mapping[str, Series] | None = None,
     resample: str = "nearest",
     max_gap: float | None = None,
+    split_gaps: bool = False,
+    notes: dict[str, Any] | None = None,
 ) -> AlignedSignals:
     """Put mapped series onto the grid ``t0 + k*dt`` (rules in the module docstring).
 
@@ -268,6 +306,11 @@ def align_signals(
     max_gap:
         Longest tolerated time in seconds between two output samples around a gap;
         default ``5*dt``.
+    split_gaps:
+        Align the longest piece between longer gaps instead of refusing the log.
+    notes:
+        Filled with the pieces (``segments``) and the one analysed when ``split_gaps`` cut
+        the log.
 
     Returns
     -------
@@ -283,6 +326,10 @@ def align_signals(
     """
     dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
+    if split_gaps and outputs:
+        outputs = _longest_piece(
+            source, inputs, outputs, max_gap_ns, notes if notes is not None else {}
+        )
 
     output_list = list(outputs.values())
     grid = make_grid(
@@ -352,3 +399,49 @@ def _hold_modes(
         index[before] = 0
     modes: IntArray = series.codes[index].astype(np.int64)
     return modes
+
+
+def _longest_piece(
+    source: str,
+    inputs: Mapping[str, Series],
+    outputs: Mapping[str, Series],
+    max_gap_ns: int,
+    notes: dict[str, Any],
+) -> dict[str, Series]:
+    """The outputs cut to the longest stretch without a gap longer than ``max_gap``."""
+    for series in (*inputs.values(), *outputs.values()):
+        if series.time_ns.size == 0:
+            raise LogError(f"{source}: {series.name!r} has no samples")
+    start = max(int(s.time_ns[0]) for s in (*inputs.values(), *outputs.values()))
+    end = min(int(s.time_ns[-1]) for s in outputs.values())
+    gaps: list[tuple[int, int]] = []
+    for series in outputs.values():
+        steps = np.diff(series.time_ns)
+        for i in np.flatnonzero(steps > max_gap_ns).tolist():
+            gaps.append((int(series.time_ns[i]), int(series.time_ns[i + 1])))
+    if not gaps:
+        return dict(outputs)
+    pieces: list[tuple[int, int]] = []
+    cursor = start
+    for gap_start, gap_end in sorted(gaps):
+        if gap_start > cursor:
+            pieces.append((cursor, min(gap_start, end)))
+        cursor = max(cursor, gap_end)
+    if cursor <= end:
+        pieces.append((cursor, end))
+    pieces = [(a, b) for a, b in pieces if a <= b]
+    if not pieces:
+        raise LogError(f"{source}: no stretch of the outputs is free of gaps longer than max_gap")
+    best = max(range(len(pieces)), key=lambda i: (pieces[i][1] - pieces[i][0], -i))
+    lo, hi = pieces[best]
+    notes["segments"] = [
+        {"start": a / NS_PER_S, "end": b / NS_PER_S, "duration": (b - a) / NS_PER_S}
+        for a, b in pieces
+    ]
+    notes["analysed_segment"] = best
+    notes["gaps"] = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in sorted(set(gaps))]
+    cut: dict[str, Series] = {}
+    for symbol, series in outputs.items():
+        keep = (series.time_ns >= lo) & (series.time_ns <= hi)
+        cut[symbol] = Series(series.name, series.time_ns[keep], series.values[keep])
+    return cut

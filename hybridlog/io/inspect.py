@@ -3,18 +3,27 @@
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from typing import Any
 
-from hybridlog.io.readers import open_log
+from hybridlog.io.readers import UnfinishedLogError, open_log
+from hybridlog.io.source import ReadSettings
 
 
-def inspect_log(path: str | os.PathLike[str]) -> dict[str, Any]:
+def inspect_log(
+    path: str | os.PathLike[str], settings: ReadSettings | None = None
+) -> dict[str, Any]:
     """Describe a log: fields, types, counts, value ranges, time span, rate and gaps.
+
+    An unfinished MCAP file (no footer) is described as far as it can be read
+    sequentially, with the reason in ``problems``.
 
     Parameters
     ----------
     path:
-        The log file.
+        The log file (or ROS 2 bag directory).
+    settings:
+        Reading settings; ``msg_dirs`` lets the fields of custom message types be listed.
 
     Returns
     -------
@@ -23,7 +32,10 @@ def inspect_log(path: str | os.PathLike[str]) -> dict[str, Any]:
         rate_hz``), ``time`` (``column, start, end, duration``) or ``None``, ``sample_time``
         (median step, s), ``rate_hz``, ``gaps`` (``start, end, duration`` of every step
         longer than 1.5 times the median; at most 1000 listed), ``gap_count`` and
-        ``problems`` (why the time column is unusable, if it is).  Only plain ``str``,
+        ``problems`` (why the time column is unusable, if it is).  For bags and MCAP files:
+        ``path, format, messages, topics`` (each ``name, type, encoding, count,
+        indexed_count, start, end, duration, rate_hz, gap_count, gaps, fields``), ``time``
+        (``start, end, duration``), ``problems`` and ``reading``.  Only plain ``str``,
         ``int``, ``float``, ``None``, lists and dicts, so ``json.dumps`` takes it as is.
 
     Raises
@@ -31,7 +43,16 @@ def inspect_log(path: str | os.PathLike[str]) -> dict[str, Any]:
     LogError
         When the file is missing, of an unsupported format, or unreadable.
     """
-    with open_log(path) as source:
+    settings = settings or ReadSettings()
+    try:
+        source = open_log(path, settings)
+    except UnfinishedLogError as err:
+        source = open_log(path, replace(settings, recover=True))
+        with source:
+            info = source.describe()
+        info["problems"] = [str(err).removeprefix(f"{path}: "), *info["problems"]]
+        return info
+    with source:
         return source.describe()
 
 
@@ -48,6 +69,8 @@ def format_inspection(info: dict[str, Any]) -> str:
     str
         Several lines, without a trailing newline.
     """
+    if "topics" in info:
+        return _format_messages(info)
     lines = [f"{info['path']} ({info['format']}, {info['rows']} rows)"]
     span = info.get("time")
     if span is not None:
@@ -87,6 +110,69 @@ def format_inspection(info: dict[str, Any]) -> str:
     lines.append("")
     for row in [header, *rows]:
         lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    problems = info.get("problems") or []
+    if problems:
+        lines.append("")
+        lines.append("problems:")
+        lines.extend(f"  {p}" for p in problems)
+    return "\n".join(lines)
+
+
+def _format_messages(info: dict[str, Any]) -> str:
+    """The text form of a bag's or MCAP file's description."""
+    topics = info["topics"]
+    lines = [
+        f"{info['path']} ({info['format']}, {info['messages']} messages, {len(topics)} topics)"
+    ]
+    span = info.get("time")
+    if span is not None:
+        lines.append(
+            f"time: {_at(span['start'])} s to {_at(span['end'])} s ({_num(span['duration'])} s)"
+        )
+    header = ("topic", "type", "count", "rate_hz", "gaps", "start", "end")
+    rows = [
+        (
+            str(t["name"]),
+            str(t["type"] or "-"),
+            str(t["count"]),
+            _num(t["rate_hz"]),
+            str(t["gap_count"]),
+            "-" if t["start"] is None else _at(t["start"]),
+            "-" if t["end"] is None else _at(t["end"]),
+        )
+        for t in topics
+    ]
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    lines.append("")
+    for row in [header, *rows]:
+        lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    gapped = [t for t in topics if t["gap_count"]]
+    if gapped:
+        lines.append("")
+        lines.append("gaps (steps longer than 1.5 x the topic's median step):")
+        for topic in gapped:
+            for gap in topic["gaps"][:5]:
+                lines.append(
+                    f"  {topic['name']}: {_at(gap['start'])} s to {_at(gap['end'])} s "
+                    f"({_num(gap['duration'])} s)"
+                )
+            if topic["gap_count"] > 5:
+                lines.append(f"  {topic['name']}: ... {topic['gap_count'] - 5} more")
+    fields = [f for t in topics for f in t["fields"]]
+    if fields:
+        lines.append("")
+        lines.append("fields (message paths for --map; [] takes an index, [-1] the last):")
+        shown = fields[:40]
+        lines.extend(f"  {f}" for f in shown)
+        if len(fields) > len(shown):
+            lines.append(f"  ... {len(fields) - len(shown)} more (see --json)")
+    reading = info.get("reading") or {}
+    if reading.get("recovered"):
+        lines.append("")
+        lines.append(
+            f"read sequentially: {reading['messages_readable']} messages, "
+            f"up to {reading['stopped_at']}"
+        )
     problems = info.get("problems") or []
     if problems:
         lines.append("")

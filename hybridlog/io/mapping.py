@@ -5,15 +5,24 @@ For each model input and output, and for the ground truth (``truth.mode``,
 
 1. ``--map SYMBOL=PATH`` given by the user (the field must exist);
 2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field;
-3. a field named like the symbol (``u1``, ``y``; ``mode`` for the true mode; the state's
-   name for a true state) -- the CSV/Parquet column-name default.
+3. the default name: in CSV/Parquet, a column named like the symbol (``u1``, ``y``; ``mode``
+   for the true mode; the state's name for a true state); in bags and MCAP files, the topics
+   ``hybridlog simulate`` writes (:func:`default_field`):
+
+   ==================== ==========================================
+   symbol               default message path
+   ==================== ==========================================
+   input or output *s*  ``/s.data`` (``std_msgs/Float64``)
+   ``truth.mode``       ``/truth/mode.data`` (``std_msgs/String``)
+   ``truth.x`` (state)  ``/truth/x.data`` (``std_msgs/Float64``)
+   ==================== ==========================================
 
 Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from hybridlog.errors import LogError, OptionError
@@ -42,6 +51,25 @@ class SignalMap:
     outputs: dict[str, str]
     truth_mode: str | None = None
     truth_states: dict[str, str] = field(default_factory=dict)
+
+
+def default_field(symbol: str, *, message_paths: bool) -> str:
+    """The field a symbol maps to when neither ``--map`` nor the model names one.
+
+    Parameters
+    ----------
+    symbol:
+        An input or output name, ``truth.mode`` or ``truth.<state>``.
+    message_paths:
+        ``True`` for bags and MCAP files (topic defaults), ``False`` for tables (columns).
+    """
+    if not message_paths:
+        if symbol == TRUTH_MODE:
+            return DEFAULT_MODE_FIELD
+        return symbol.removeprefix(TRUTH_PREFIX)
+    if symbol.startswith(TRUTH_PREFIX):
+        return f"/truth/{symbol.removeprefix(TRUTH_PREFIX)}.data"
+    return f"/{symbol}.data"
 
 
 def valid_map_symbols(
@@ -111,6 +139,8 @@ def resolve_signal_map(
     truth: Mapping[str, str] | None = None,
     maps: Mapping[str, str] | None = None,
     field_word: str = "column",
+    message_paths: bool = False,
+    explain: Callable[[str, bool], str | None] | None = None,
 ) -> SignalMap:
     """Choose the log field of every symbol (see the module docstring for the order).
 
@@ -128,6 +158,12 @@ def resolve_signal_map(
         Parsed ``--map`` options (:func:`parse_maps`).
     field_word:
         ``"column"`` or ``"field"``, for messages.
+    message_paths:
+        Whether fields are message paths (bags, MCAP): selects the default names.
+    explain:
+        ``explain(name, numeric)`` is ``None`` when the log has field ``name`` (holding
+        numbers, if ``numeric``), else why not (``LogSource.explain_missing``); default:
+        membership in ``fields``.
 
     Returns
     -------
@@ -144,39 +180,58 @@ def resolve_signal_map(
     truth = truth or {}
     maps = maps or {}
 
+    def missing(name: str, numeric: bool) -> str | None:
+        if explain is not None:
+            reason = explain(name, numeric)
+            return None if reason is None else reason.removeprefix(f"{name!r}: ")
+        return None if name in available else closest_names([name], fields)
+
     def choose(symbol: str, model_path: str | None, default: str, required: bool) -> str | None:
+        numeric = symbol != TRUTH_MODE
         mapped = maps.get(symbol)
         if mapped is not None:
-            if mapped not in available:
+            reason = missing(mapped, numeric)
+            if reason is not None:
                 raise LogError(
                     f"{source}: no {field_word} {mapped!r} for {_describe(symbol, inputs)} "
-                    f"(from --map {symbol}={mapped}); {closest_names([mapped], fields)}"
+                    f"(from --map {symbol}={mapped}); {reason}"
                 )
             return mapped
-        if model_path is not None and model_path in available:
+        if model_path is not None and missing(model_path, numeric) is None:
             return model_path
-        if default in available:
+        if missing(default, numeric) is None:
             return default
         if not required:
             return None
         looked = [default] if model_path is None else [model_path, default]
+        why = closest_names(looked, fields)
+        for name in looked if explain is not None else ():
+            # A field that exists but cannot be used (e.g. its topic cannot be decoded) is
+            # worth more to the user than a list of names.
+            reason = missing(name, numeric)
+            if reason is not None and not reason.startswith("no topic"):
+                why = reason
+                break
         raise LogError(
             f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
-            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "
-            f"{closest_names(looked, fields)}"
+            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); {why}"
         )
 
+    def default(symbol: str) -> str:
+        return default_field(symbol, message_paths=message_paths)
+
     def required(symbol: str) -> str:
-        chosen = choose(symbol, signals.get(symbol), symbol, required=True)
+        chosen = choose(symbol, signals.get(symbol), default(symbol), required=True)
         assert chosen is not None  # choose raises instead of returning None when required
         return chosen
 
     input_fields = {u: required(u) for u in inputs}
     output_fields = {y: required(y) for y in outputs}
-    truth_mode = choose(TRUTH_MODE, truth.get("mode"), DEFAULT_MODE_FIELD, required=False)
+    truth_mode = choose(TRUTH_MODE, truth.get("mode"), default(TRUTH_MODE), required=False)
     truth_states: dict[str, str] = {}
     for state in states:
-        chosen = choose(f"{TRUTH_PREFIX}{state}", truth.get(state), state, required=False)
+        symbol = f"{TRUTH_PREFIX}{state}"
+        chosen = choose(symbol, truth.get(state), default(symbol), required=False)
         if chosen is not None:
             truth_states[state] = chosen
     return SignalMap(input_fields, output_fields, truth_mode, truth_states)

@@ -23,8 +23,36 @@ from hybridlog.signals import FloatArray, IntArray
 
 NS_PER_S = 1_000_000_000
 
+#: Where sample times come from: the recorder's log time, or each message's ``header.stamp``.
+TIME_SOURCES: tuple[str, ...] = ("log", "header")
+
 # |t| beyond this many seconds does not fit into int64 nanoseconds (about 292 years).
 _MAX_SECONDS = 9.2e9
+
+
+@dataclass(frozen=True)
+class ReadSettings:
+    """How a reader turns records into samples (``--time``, ``--sort``, ``--recover``, ...).
+
+    Attributes
+    ----------
+    time:
+        ``"log"`` (default): the time the recorder logged each message (a table's time
+        column); ``"header"``: each message's ``header.stamp``.
+    sort:
+        Put samples that go backwards in time into order, and keep the last of samples with
+        the same time, instead of refusing the log.
+    recover:
+        Read what is readable of a damaged or unfinished MCAP file, sequentially, instead of
+        refusing it.
+    msg_dirs:
+        Folders of ``.msg`` files defining message types the log does not define itself.
+    """
+
+    time: str = "log"
+    sort: bool = False
+    recover: bool = False
+    msg_dirs: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -88,8 +116,28 @@ class LogSource(Protocol):
         """What a field is called in messages: ``"column"`` for tables, ``"field"`` for bags."""
         ...
 
+    @property
+    def message_paths(self) -> bool:
+        """Whether fields are message paths (``/topic.field``) rather than column names."""
+        ...
+
     def fields(self) -> tuple[str, ...]:
-        """Names of the fields a symbol can be mapped to (the time field excluded)."""
+        """Names of the fields a symbol can be mapped to (the time field excluded).
+
+        For message logs these are the numeric and text leaves of every topic's messages;
+        arrays are listed as ``field[]`` and take any index.
+        """
+        ...
+
+    def explain_missing(self, name: str, numeric: bool = False) -> str | None:
+        """``None`` when ``name`` is a field of the log, else why not (with close names).
+
+        With ``numeric``, a field that holds text (not a number) is explained as unusable.
+        """
+        ...
+
+    def notes(self) -> dict[str, Any]:
+        """What reading did that a report should record (recovery, sorting); JSON-ready."""
         ...
 
     def read(

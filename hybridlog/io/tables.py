@@ -22,9 +22,10 @@ from typing import Any, Self
 import numpy as np
 import polars as pl
 
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.io.source import (
     LabelSeries,
+    ReadSettings,
     Series,
     check_seconds_range,
     closest_names,
@@ -58,8 +59,16 @@ class TableSource:
     """
 
     field_word = "column"
+    message_paths = False
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, settings: ReadSettings | None = None) -> None:
+        self.settings = settings or ReadSettings()
+        if self.settings.time != "log":
+            raise OptionError(
+                f"--time {self.settings.time}: {path} is a table; its time column is the "
+                "only time it has (use --time log)"
+            )
+        self._notes: dict[str, Any] = {}
         self._file = Path(path)
         self.format = self._file.suffix.lower().lstrip(".")
         if f".{self.format}" not in TABLE_SUFFIXES:
@@ -94,6 +103,19 @@ class TableSource:
     def fields(self) -> tuple[str, ...]:
         """Columns a symbol can be mapped to: all but the time column."""
         return tuple(c for c in self._columns if c != self._time_column)
+
+    def explain_missing(self, name: str, numeric: bool = False) -> str | None:
+        """``None`` for a column of the table, else the closest column names.
+
+        Whether a column holds numbers is checked when it is read (``numeric`` is unused).
+        """
+        if name in self.fields():
+            return None
+        return closest_names([name], self.fields())
+
+    def notes(self) -> dict[str, Any]:
+        """What reading did (``--sort``: rows reordered and repeated times dropped)."""
+        return dict(self._notes)
 
     def __enter__(self) -> Self:
         """Return the source itself; the file is read eagerly."""
@@ -159,7 +181,11 @@ class TableSource:
         rows = self._kept_rows(frame, time_column)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
-        time_ns = self._time_ns(frame.get_column(time_column), rows)
+        sort = self.settings.sort
+        time_ns = self._time_ns(frame.get_column(time_column), rows, check=not sort)
+        if sort:
+            frame, rows, time_ns = self._sorted(frame, rows, time_ns)
+            self._rows[time_column] = rows
 
         numeric_series: dict[str, Series] = {}
         for name in numeric:
@@ -248,7 +274,24 @@ class TableSource:
         kept: IntArray = rows[~missing]
         return kept
 
-    def _time_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
+    def _sorted(
+        self, frame: pl.DataFrame, rows: IntArray, time_ns: IntArray
+    ) -> tuple[pl.DataFrame, IntArray, IntArray]:
+        """``--sort``: rows in time order (stable), the last of rows with equal times kept."""
+        steps = np.diff(time_ns)
+        if steps.size and (steps < 0).any():
+            order = np.argsort(time_ns, kind="stable")
+            self._notes["sorted"] = {"rows_out_of_order": int((steps < 0).sum())}
+            frame, rows, time_ns = frame[pl.Series(order)], rows[order], time_ns[order]
+            steps = np.diff(time_ns)
+        same = steps == 0
+        if same.any():
+            keep = np.append(~same, True)
+            self._notes["duplicates_dropped"] = int(same.sum())
+            frame, rows, time_ns = frame.filter(pl.Series(keep)), rows[keep], time_ns[keep]
+        return frame, rows, time_ns
+
+    def _time_ns(self, column: pl.Series, rows: IntArray, *, check: bool = True) -> IntArray:
         name = column.name
         if isinstance(column.dtype, pl.Datetime):
             time_ns: IntArray = column.dt.epoch("ns").to_numpy().astype(np.int64)
@@ -265,7 +308,7 @@ class TableSource:
                 )
             time_ns = seconds_to_ns(seconds)
         steps = np.diff(time_ns)
-        if steps.size and (steps <= 0).any():
+        if check and steps.size and (steps <= 0).any():
             i = int(np.argmax(steps <= 0)) + 1
             how = "repeats" if steps[i - 1] == 0 else "goes backwards"
             raise LogError(

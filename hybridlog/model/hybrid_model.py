@@ -37,6 +37,9 @@ class Mode:
         Covariance ``R_q`` of the measurement noise, ``(n_y, n_y)``.
     linear:
         True when the mode was given as ``A``, ``B``, ``C``, ``D`` matrices.
+    guard:
+        Condition on the states and inputs under which the mode is active (``guard =
+        "x3 <= 0"``), a sympy relational; ``None`` when the model is switched by a schedule.
     """
 
     id: str
@@ -45,6 +48,7 @@ class Mode:
     process_noise: FloatArray
     measurement_noise: FloatArray
     linear: bool = False
+    guard: sympy.Basic | None = None
 
 
 @dataclass(frozen=True)
@@ -128,6 +132,11 @@ class HybridModel:
     def n_modes(self) -> int:
         """Number of discrete modes."""
         return len(self.modes)
+
+    @property
+    def state_driven(self) -> bool:
+        """True when the modes switch by their guards (state-driven switching)."""
+        return any(m.guard is not None for m in self.modes)
 
     @property
     def mode_ids(self) -> tuple[str, ...]:

@@ -7,6 +7,7 @@ instead of 4``.
 
 from __future__ import annotations
 
+import ast
 import math
 import tomllib
 from collections.abc import Mapping
@@ -48,7 +49,7 @@ _UNSUPPORTED = {
     "jumps": "state-reset maps",
     "integration_step": "continuous-time models",
 }
-_MODE_KEYS = {"f", "h", "A", "B", "C", "D", "process_noise", "measurement_noise"}
+_MODE_KEYS = {"f", "h", "A", "B", "C", "D", "process_noise", "measurement_noise", "guard"}
 _NOISE_KEYS = {"process", "measurement"}
 _INITIAL_KEYS = {"state", "covariance", "mode", "mode_probabilities"}
 _TRANSITION_KEYS = {"matrix", "stay"}
@@ -143,6 +144,7 @@ class _Builder:
             for mode_id, spec in modes_table.items()
         )
         mode_ids = tuple(m.id for m in modes)
+        _check_guards(modes)
         initial = _table(_required(data, "initial", ""), "initial")
         _check_keys(initial, _INITIAL_KEYS, "initial")
         x0 = _vector(_required(initial, "state", "initial"), len(states), "initial.state")
@@ -156,6 +158,11 @@ class _Builder:
             else None
         )
         sim_inputs = self.simulation_inputs(simulation, inputs, params)
+        if "schedule" in simulation and modes[0].guard is not None:
+            raise ModelError(
+                "simulation.schedule: the modes switch by their guards (modes.<id>.guard); "
+                "a schedule does not apply"
+            )
         estimators = _table(data.get("estimators", {}), "estimators")
         return HybridModel(
             name=_string(data.get("name", "unnamed"), "name"),
@@ -244,7 +251,20 @@ class _Builder:
             if "measurement_noise" in spec
             else default_r
         )
-        return Mode(id=mode_id, f=f, h=h, process_noise=q, measurement_noise=r, linear=linear)
+        guard = (
+            _guard(spec["guard"], f"{key}.guard", env, set(states) | set(inputs))
+            if "guard" in spec
+            else None
+        )
+        return Mode(
+            id=mode_id,
+            f=f,
+            h=h,
+            process_noise=q,
+            measurement_noise=r,
+            linear=linear,
+            guard=guard,
+        )
 
     def simulation_inputs(
         self, simulation: dict[str, Any], inputs: tuple[str, ...], params: Mapping[str, Any]
@@ -259,6 +279,35 @@ class _Builder:
             value = str(text) if isinstance(text, int | float) else text
             result[name] = parse_expression(value, env, key=key)
         return result
+
+
+def _guard(value: Any, key: str, env: Mapping[str, sympy.Expr], variables: set[str]) -> sympy.Basic:
+    """A mode's guard: one comparison of states and inputs, e.g. ``"x3 <= 0"``."""
+    text = _string(value, key).strip()
+    try:
+        tree = ast.parse(text, mode="eval")
+    except SyntaxError as err:
+        raise ModelError(f"{key}: cannot parse {text!r}: {err.msg}") from err
+    if not isinstance(tree.body, ast.Compare):
+        raise ModelError(f"{key}: expected a comparison such as 'x3 <= 0', got {text!r}")
+    # The expression grammar returns values; a Piecewise carries the condition through it.
+    wrapped = parse_expression(f"Piecewise(1, {text}, 0)", env, key=key)
+    if not isinstance(wrapped, sympy.Piecewise):
+        raise ModelError(f"{key}: {text!r} does not depend on the states or inputs")
+    condition: sympy.Basic = wrapped.args[0].cond
+    if not {str(s) for s in condition.free_symbols} & variables:
+        raise ModelError(f"{key}: {text!r} does not depend on the states or inputs")
+    return condition
+
+
+def _check_guards(modes: tuple[Mode, ...]) -> None:
+    """Either every mode has a guard (state-driven switching) or none has."""
+    guarded = [m.id for m in modes if m.guard is not None]
+    if guarded and len(guarded) != len(modes):
+        missing = next(m.id for m in modes if m.guard is None)
+        raise ModelError(
+            f"modes.{missing}.guard: missing; when one mode has a guard every mode needs one"
+        )
 
 
 def _check_keys(

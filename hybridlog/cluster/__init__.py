@@ -1,0 +1,35 @@
+"""Mode discovery by clustering (paper 001): pure algorithms over arrays.
+
+- :mod:`~hybridlog.cluster.regressors`: regression vectors φ(k) = [y(k), y(k−1), u(k−1)] and
+  their generalisation to any lags, outputs and inputs.
+- :mod:`~hybridlog.cluster.subtractive`: Chiu's subtractive clustering, eqs. (5)–(7), exact
+  (compiled, blocked) or approximate (grid) potentials
+  (:mod:`~hybridlog.cluster.potentials`).
+- :mod:`~hybridlog.cluster.kmeans`: the k-means baseline.
+- :mod:`~hybridlog.cluster.labels`: the decision rule (2)–(3) and labelling clusters as modes.
+- :mod:`~hybridlog.cluster.centers_file`: ``centers.json``.
+- :mod:`~hybridlog.cluster.reference`: a naive all-pairs port of MATLAB's ``subclust``.
+"""
+
+from hybridlog.cluster.kmeans import KMeansClusters, kmeans_clustering
+from hybridlog.cluster.labels import ClusterLabels, decide_clusters, label_clusters
+from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
+from hybridlog.cluster.subtractive import (
+    SubtractiveClusters,
+    SubtractiveOptions,
+    subtractive_clustering,
+)
+
+__all__ = [
+    "ClusterLabels",
+    "KMeansClusters",
+    "RegressorSpec",
+    "SubtractiveClusters",
+    "SubtractiveOptions",
+    "decide_clusters",
+    "kmeans_clustering",
+    "label_clusters",
+    "parse_lags",
+    "regression_vectors",
+    "subtractive_clustering",
+]

@@ -1,0 +1,247 @@
+"""``centers.json``: fitted cluster centres and the mode classifier built on them.
+
+Written by ``hybridlog cluster`` and read by the ``chiu`` and ``kmeans`` estimators
+(``--set centers=centers.json``).  Layout (``format = "hybridlog-centers"``, ``version = 1``)::
+
+    {
+      "format": "hybridlog-centers", "version": 1,
+      "model": "double_cart_case1", "log": "sample_logs/double_cart_case1.csv",
+      "mode_ids": ["1", "2"],
+      "regressors": ["y(k)", "y(k-1)", "u(k-1)"],
+      "output_lags": [0, 1], "input_lags": [1],
+      "scaling": {"lower": [...], "upper": [...]},     # the unit hyper-box
+      "chiu": {                                        # subtractive clustering
+        "parameters": {"radius": 0.5, "squash": 1.25, "accept": 0.5, "reject": 0.15, ...},
+        "centers": [[...], ...],                       # data units, one row per cluster
+        "modes": ["1", "2"],                           # the classifier: mode of each cluster
+        "labelling": ["cluster 1 (...) -> mode '1' ...", ...],
+        "potentials": [...], "potential_ratios": [...], "radii": [...], "sigmas": [...], ...
+      },
+      "kmeans": {"parameters": {...}, "centers": [[...]], "modes": [...], ...}   # optional
+    }
+
+Only the keys the estimators need are validated on reading; errors name the file and key.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hybridlog.errors import OptionError, OutputError
+from hybridlog.signals import FloatArray
+
+__all__ = ["FORMAT", "VERSION", "CentersFile", "StoredClusters", "read_centers", "write_centers"]
+
+FORMAT = "hybridlog-centers"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class StoredClusters:
+    """The centres of one algorithm in a ``centers.json``.
+
+    Attributes
+    ----------
+    centers:
+        Centres in data units, shape ``(c, d)``.
+    modes:
+        Mode id of each cluster, or ``None`` when the file has no labels.
+    labelling:
+        How the labels were chosen (for reports).
+    """
+
+    centers: FloatArray
+    modes: tuple[str, ...] | None
+    labelling: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class CentersFile:
+    """A validated ``centers.json``."""
+
+    path: str
+    model: str
+    mode_ids: tuple[str, ...]
+    regressors: tuple[str, ...]
+    output_lags: tuple[int, ...]
+    input_lags: tuple[int, ...]
+    lower: FloatArray
+    upper: FloatArray
+    clusters: dict[str, StoredClusters]
+
+
+def write_centers(path: str | os.PathLike[str], content: Mapping[str, Any], *, force: bool) -> Path:
+    """Write ``content`` (with ``format`` and ``version`` added) as JSON, atomically.
+
+    Raises
+    ------
+    OutputError
+        When ``path`` exists and ``force`` is false, or it cannot be written.
+    """
+    target = Path(path)
+    if target.exists() and not force:
+        raise OutputError(f"{target}: already exists (use --force to replace it)")
+    payload = {"format": FORMAT, "version": VERSION, **content}
+    text = json.dumps(_plain(payload), indent=2, allow_nan=False) + "\n"
+    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    try:
+        if target.parent != Path(""):
+            target.parent.mkdir(parents=True, exist_ok=True)
+        temporary.write_text(text, encoding="utf-8")
+        temporary.replace(target)
+    except OSError as err:
+        temporary.unlink(missing_ok=True)
+        raise OutputError(f"{target}: cannot write: {err}") from err
+    return target
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        number = float(value)
+        return number if math.isfinite(number) else None
+    return value
+
+
+def read_centers(path: str | os.PathLike[str]) -> CentersFile:
+    """Read and validate a ``centers.json``.
+
+    Raises
+    ------
+    OptionError
+        When the file is missing, not JSON, of another format, or a needed key is wrong;
+        the message names the file and the key.
+    """
+    source = Path(path)
+    try:
+        data = json.loads(source.read_text(encoding="utf-8"))
+    except FileNotFoundError as err:
+        raise OptionError(f"{source}: no such centers file") from err
+    except (OSError, UnicodeDecodeError) as err:
+        raise OptionError(f"{source}: cannot read: {err}") from err
+    except json.JSONDecodeError as err:
+        raise OptionError(f"{source}: not JSON: {err.msg} (line {err.lineno})") from err
+    reader = _Reader(str(source))
+    if not isinstance(data, dict):
+        raise reader.error("", "expected a JSON object")
+    if data.get("format") != FORMAT:
+        raise reader.error("format", f"expected {FORMAT!r}, got {data.get('format')!r}")
+    if data.get("version") != VERSION:
+        raise reader.error("version", f"unsupported version {data.get('version')!r}")
+    regressors = tuple(reader.strings(data, "regressors"))
+    d = len(regressors)
+    scaling = reader.table(data, "scaling")
+    lower = reader.vector(scaling, "scaling.lower", d)
+    upper = reader.vector(scaling, "scaling.upper", d)
+    if np.any(upper < lower):
+        raise reader.error("scaling", "every upper bound must be at least the lower one")
+    clusters: dict[str, StoredClusters] = {}
+    for name in ("chiu", "kmeans"):
+        if name not in data or data[name] is None:
+            continue
+        table = reader.table(data, name)
+        centers = reader.matrix(table, f"{name}.centers", d)
+        modes_value = table.get("modes")
+        modes = (
+            None
+            if modes_value is None
+            else tuple(reader.strings(table, "modes", f"{name}.modes", length=len(centers)))
+        )
+        labelling = tuple(str(v) for v in table.get("labelling") or [])
+        clusters[name] = StoredClusters(centers=centers, modes=modes, labelling=labelling)
+    if not clusters:
+        raise reader.error("chiu", "the file holds no centres (neither 'chiu' nor 'kmeans')")
+    return CentersFile(
+        path=str(source),
+        model=str(data.get("model", "")),
+        mode_ids=tuple(str(m) for m in data.get("mode_ids") or []),
+        regressors=regressors,
+        output_lags=reader.lags(data, "output_lags"),
+        input_lags=reader.lags(data, "input_lags"),
+        lower=lower,
+        upper=upper,
+        clusters=clusters,
+    )
+
+
+class _Reader:
+    """Typed access to the parsed JSON with errors that name the file and key."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def error(self, key: str, what: str) -> OptionError:
+        where = f"{self.source}: {key}" if key else self.source
+        return OptionError(f"{where}: {what}")
+
+    def table(self, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+        value = data.get(key.rsplit(".", 1)[-1])
+        if not isinstance(value, dict):
+            raise self.error(key, "expected a JSON object")
+        return value
+
+    def strings(
+        self,
+        data: Mapping[str, Any],
+        name: str,
+        key: str | None = None,
+        *,
+        length: int | None = None,
+    ) -> Sequence[str]:
+        value = data.get(name)
+        key = key or name
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise self.error(key, "expected a list of strings")
+        if length is not None and len(value) != length:
+            raise self.error(key, f"expected {length} entries, got {len(value)}")
+        if not value:
+            raise self.error(key, "must not be empty")
+        return value
+
+    def lags(self, data: Mapping[str, Any], key: str) -> tuple[int, ...]:
+        value = data.get(key)
+        if not isinstance(value, list) or not all(
+            isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value
+        ):
+            raise self.error(key, "expected a list of non-negative whole numbers")
+        return tuple(value)
+
+    def vector(self, data: Mapping[str, Any], key: str, length: int) -> FloatArray:
+        value = data.get(key.rsplit(".", 1)[-1])
+        if not isinstance(value, list) or len(value) != length:
+            raise self.error(key, f"expected a list of {length} numbers")
+        return self._numbers(value, key)
+
+    def matrix(self, data: Mapping[str, Any], key: str, columns: int) -> FloatArray:
+        value = data.get(key.rsplit(".", 1)[-1])
+        if (
+            not isinstance(value, list)
+            or not value
+            or any(not isinstance(row, list) or len(row) != columns for row in value)
+        ):
+            raise self.error(key, f"expected a non-empty list of rows of {columns} numbers")
+        return self._numbers(value, key)
+
+    def _numbers(self, value: list[Any], key: str) -> FloatArray:
+        flat = np.asarray(value, dtype=object).ravel()
+        if any(isinstance(v, bool) or not isinstance(v, int | float) for v in flat):
+            raise self.error(key, "expected numbers")
+        array = np.asarray(value, dtype=np.float64)
+        if not np.all(np.isfinite(array)):
+            raise self.error(key, "non-finite number")
+        return array

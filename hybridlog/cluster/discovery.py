@@ -1,0 +1,241 @@
+"""The ``hybridlog cluster`` job: fit the mode classifier of paper 001 on one log.
+
+Reads the log for the model, builds the regression vectors, runs subtractive clustering
+(and k-means with ``compare_kmeans``), labels the clusters as modes (when the model is
+linear: see :mod:`hybridlog.estimators.chiu`), writes ``centers.json`` and a plot, and
+returns a table for the terminal.  Prints nothing; errors are ``HybridlogError``.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hybridlog.analysis import ReadOptions, markdown_table, read_log
+from hybridlog.cluster.centers_file import write_centers
+from hybridlog.cluster.plot import plot_clusters
+from hybridlog.cluster.regressors import regression_vectors
+from hybridlog.errors import ModelError, OutputError
+from hybridlog.estimators.chiu import (
+    ChiuOptions,
+    KMeansOptions,
+    ModeClassifier,
+    design_observer,
+    fit_classifier,
+)
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.model.loader import load_model
+from hybridlog.signals import AlignedSignals
+
+__all__ = ["ClusterOutcome", "discover_modes"]
+
+
+@dataclass(frozen=True)
+class ClusterOutcome:
+    """What ``hybridlog cluster`` produced."""
+
+    centers_path: Path
+    plot_path: Path | None
+    table: str
+    notes: tuple[str, ...]
+    chiu: ModeClassifier
+    kmeans: ModeClassifier | None
+    accuracy: dict[str, float | None]
+
+
+def _accuracy(
+    classifier: ModeClassifier, model: HybridModel, signals: AlignedSignals
+) -> float | None:
+    if classifier.cluster_modes is None or signals.truth_modes is None:
+        return None
+    decided = classifier.cluster_modes[classifier.decide(signals.outputs)]
+    return float(np.mean(decided == signals.truth_modes))
+
+
+def _entry(classifier: ModeClassifier, model: HybridModel) -> dict[str, Any]:
+    modes = (
+        None
+        if classifier.cluster_modes is None
+        else [model.mode_ids[m] for m in classifier.cluster_modes]
+    )
+    return {
+        **{k: v for k, v in classifier.details.items() if k != "labelling_scores"},
+        "centers": classifier.centers,
+        "decision_values": classifier.decision_values,
+        "modes": modes,
+        "labelling": list(classifier.labelling),
+        "notes": list(classifier.notes),
+    }
+
+
+def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
+    rows: list[list[object]] = []
+    ratios = classifier.details.get("potential_ratios")
+    sizes = classifier.details.get("sizes")
+    for c, centre in enumerate(classifier.centers):
+        mode = (
+            "-" if classifier.cluster_modes is None else model.mode_ids[classifier.cluster_modes[c]]
+        )
+        rows.append(
+            [
+                classifier.algorithm,
+                c + 1,
+                mode,
+                None if sizes is None else int(sizes[c]),
+                None if ratios is None else float(ratios[c]),
+                ", ".join(f"{v:.4g}" for v in centre),
+            ]
+        )
+    return rows
+
+
+def discover_modes(
+    log: str | os.PathLike[str],
+    model_ref: str | os.PathLike[str],
+    *,
+    out: str | os.PathLike[str] = "centers.json",
+    chiu: ChiuOptions | None = None,
+    compare_kmeans: bool = False,
+    kmeans: KMeansOptions | None = None,
+    plot: str | os.PathLike[str] | None = None,
+    maps: tuple[str, ...] = (),
+    force: bool = False,
+) -> ClusterOutcome:
+    """Fit, label and save the clusters of one log (``hybridlog cluster``).
+
+    Parameters
+    ----------
+    log, model_ref:
+        The log and the model (built-in name or file).
+    out:
+        ``centers.json`` to write.
+    chiu:
+        Subtractive-clustering options (radius, squash, method, lags …).
+    compare_kmeans:
+        Also fit k-means (same lags) and store it in the file.
+    kmeans:
+        k-means options (its lags are taken from ``chiu``).
+    plot:
+        PNG to draw; ``None`` for ``out`` with the suffix ``.png``.
+    maps:
+        ``--map SYMBOL=PATH`` values.
+    force:
+        Replace existing output files.
+    """
+    target = Path(out)
+    picture = target.with_suffix(".png") if plot is None else Path(plot)
+    for path in (target, picture):
+        if path.exists() and not force:
+            raise OutputError(f"{path}: already exists (use --force to replace it)")
+    chiu = chiu or ChiuOptions()
+    model = load_model(os.fspath(model_ref))
+    signals = read_log(os.fspath(log), model, ReadOptions(maps=maps))
+    notes: list[str] = []
+    try:
+        observer = design_observer(model, chiu.decay_rate)
+    except ModelError as err:
+        observer = None
+        notes.append(f"clusters not labelled as modes: {err}")
+    fitted = fit_classifier(model, signals, "chiu", chiu, observer=observer)
+    baseline = None
+    if compare_kmeans:
+        options = kmeans or KMeansOptions()
+        options = KMeansOptions(
+            clusters=options.clusters,
+            restarts=options.restarts,
+            seed=options.seed,
+            output_lags=chiu.output_lags,
+            input_lags=chiu.input_lags,
+            decay_rate=chiu.decay_rate,
+        )
+        baseline = fit_classifier(model, signals, "kmeans", options, observer=observer)
+    accuracy = {"chiu": _accuracy(fitted, model, signals)}
+    if baseline is not None:
+        accuracy["kmeans"] = _accuracy(baseline, model, signals)
+    content: dict[str, Any] = {
+        "model": model.name,
+        "log": str(log),
+        "mode_ids": list(model.mode_ids),
+        "regressors": list(fitted.regressors),
+        "output_lags": list(fitted.spec.output_lags),
+        "input_lags": list(fitted.spec.input_lags),
+        "scaling": {"lower": fitted.lower, "upper": fitted.upper},
+        "chiu": {
+            "parameters": {
+                "radius": chiu.radius,
+                "squash": chiu.squash,
+                "accept": chiu.accept,
+                "reject": chiu.reject,
+                "self_potential": chiu.self_potential,
+                "method": chiu.method,
+            },
+            **_entry(fitted, model),
+        },
+        "mode_accuracy_on_log": accuracy,
+    }
+    if baseline is not None:
+        content["kmeans"] = {
+            "parameters": {"clusters": len(baseline.centers)},
+            **_entry(baseline, model),
+        }
+    write_centers(target, content, force=force)
+    phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
+    lag = fitted.spec.max_lag
+    clusters = fitted.decide(signals.outputs)[lag:]
+    labels = [
+        f"cluster {c + 1}"
+        + (
+            ""
+            if fitted.cluster_modes is None
+            else f" -> mode '{model.mode_ids[fitted.cluster_modes[c]]}'"
+        )
+        for c in range(len(fitted.centers))
+    ]
+    truth = (
+        None
+        if signals.truth_modes is None
+        else [model.mode_ids[q] for q in signals.truth_modes[lag:]]
+    )
+    plot_clusters(
+        picture,
+        time=signals.time[lag:],
+        phi=phi,
+        names=fitted.regressors,
+        clusters=clusters,
+        centers=fitted.centers,
+        cluster_labels=labels,
+        decision_values=fitted.decision_values[:, 0],
+        kmeans_centers=None if baseline is None else baseline.centers,
+        truth=truth,
+    )
+    rows = _rows(fitted, model) + ([] if baseline is None else _rows(baseline, model))
+    table = markdown_table(
+        (
+            "algorithm",
+            "cluster",
+            "mode",
+            "samples",
+            "P*/P1*",
+            f"centre [{', '.join(fitted.regressors)}]",
+        ),
+        rows,
+    )
+    notes += [*fitted.notes, *fitted.labelling]
+    if baseline is not None:
+        notes += [*baseline.notes, *baseline.labelling]
+    for name, value in accuracy.items():
+        if value is not None:
+            notes.append(f"{name}: mode accuracy of the decision rule on this log {value:.4f}")
+    return ClusterOutcome(
+        centers_path=target,
+        plot_path=picture,
+        table=table,
+        notes=tuple(notes),
+        chiu=fitted,
+        kmeans=baseline,
+        accuracy=accuracy,
+    )

@@ -1,0 +1,111 @@
+"""The k-means baseline of paper 001's comparison (Tables 1–4).
+
+SciPy's :func:`scipy.cluster.vq.kmeans2` (Lloyd's algorithm, k-means++ seeding) on the same
+unit-box-scaled regression vectors as the subtractive clustering, restarted ``restarts``
+times with seeds ``seed, seed+1, …``; the run with the smallest within-cluster sum of squares
+wins.  SciPy is already a dependency and its ``kmeans2`` is enough for ``k`` = the number of
+modes; scikit-learn's ``KMeans`` (the usual choice) would add a large dependency for the same
+algorithm.  Results are deterministic for a given seed.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.cluster.vq import kmeans2
+
+from hybridlog.cluster.subtractive import unit_box
+from hybridlog.errors import OptionError
+from hybridlog.signals import FloatArray, IntArray
+
+__all__ = ["KMeansClusters", "kmeans_clustering"]
+
+
+@dataclass(frozen=True)
+class KMeansClusters:
+    """Result of :func:`kmeans_clustering`.
+
+    Attributes
+    ----------
+    centers, centers_unit:
+        Centres in data units and in unit-box coordinates, shape ``(k, d)``.
+    sizes:
+        Points assigned to each centre (nearest centre in the unit box), shape ``(k,)``.
+    inertia:
+        Within-cluster sum of squared unit-box distances of the winning run.
+    lower, upper:
+        Bounds of the unit-box scaling.
+    seed, restarts, iterations:
+        The settings used.
+    """
+
+    centers: FloatArray
+    centers_unit: FloatArray
+    sizes: IntArray
+    inertia: float
+    lower: FloatArray
+    upper: FloatArray
+    seed: int
+    restarts: int
+    iterations: int
+
+    @property
+    def n_clusters(self) -> int:
+        """Number of centres."""
+        return int(self.centers.shape[0])
+
+
+def kmeans_clustering(
+    data: FloatArray,
+    n_clusters: int,
+    *,
+    restarts: int = 10,
+    seed: int = 0,
+    iterations: int = 100,
+    bounds: tuple[Sequence[float], Sequence[float]] | None = None,
+) -> KMeansClusters:
+    """k-means on unit-box-scaled ``data`` ``(N, d)``; the best of ``restarts`` runs.
+
+    Raises
+    ------
+    OptionError
+        When there are fewer distinct points than clusters, or a setting is out of range.
+    """
+    points = np.asarray(data, dtype=np.float64)
+    if n_clusters < 1:
+        raise OptionError(f"clusters: must be at least 1, got {n_clusters}")
+    if restarts < 1:
+        raise OptionError(f"restarts: must be at least 1, got {restarts}")
+    if points.ndim != 2 or np.unique(points, axis=0).shape[0] < n_clusters:
+        raise OptionError(f"clusters: the data have fewer than {n_clusters} distinct points")
+    unit, lower, upper = unit_box(points, bounds)
+    best: tuple[float, FloatArray, IntArray] | None = None
+    for run in range(restarts):
+        with warnings.catch_warnings():
+            # An empty cluster is reported by a warning; such a run simply loses below.
+            warnings.simplefilter("ignore", UserWarning)
+            centres, labels = kmeans2(unit, n_clusters, iter=iterations, minit="++", rng=seed + run)
+        counts = np.bincount(labels, minlength=n_clusters)
+        if np.any(counts == 0):
+            continue
+        inertia = float(((unit - centres[labels]) ** 2).sum())
+        if best is None or inertia < best[0]:
+            best = (inertia, np.asarray(centres, dtype=np.float64), counts.astype(np.int64))
+    if best is None:
+        raise OptionError(f"clusters: every k-means run left one of {n_clusters} clusters empty")
+    inertia, centres_unit, sizes = best
+    span = np.where(upper > lower, upper - lower, 1.0)
+    return KMeansClusters(
+        centers=lower + centres_unit * span,
+        centers_unit=centres_unit,
+        sizes=sizes,
+        inertia=inertia,
+        lower=lower,
+        upper=upper,
+        seed=seed,
+        restarts=restarts,
+        iterations=iterations,
+    )

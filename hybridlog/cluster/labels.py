@@ -1,0 +1,194 @@
+r"""From clusters to modes: the decision rule (paper 001, eqs. (2)–(3)) and cluster labelling.
+
+Decision
+    Each sample goes to the cluster whose decision variable is nearest to its output,
+
+    .. math::
+
+        \hat c(k) = \arg\min_i J_i(k), \qquad J_i(k) = \lVert y(k) - y_i^*\rVert^2
+        \quad (2),(3)
+
+    where ``y_i*`` are the ``y(k)`` components of centre ``i``.  With several outputs each
+    is divided by its unit-box range first (for one output this is exactly eq. (3)).  Ties
+    go to the cluster found first.
+Labelling
+    Clusters are numbered in the order the clustering found them, which says nothing about
+    the model's modes.  They are labelled from the data and the model alone, never from
+    ground truth: a labelling (a map cluster → mode) is scored by a callable, and the map
+    with the lowest score wins (the estimators use the switched observer's sum of squared
+    one-step output prediction errors, i.e. the labelling under which the model best
+    predicts the log).  Every mode must receive at least one cluster when there are at
+    least as many clusters as modes (paper 001 assumes the number of modes ``s`` is known and
+    every mode occurs); surplus clusters go wherever they fit best.  With fewer clusters than
+    modes each cluster gets its own mode.  The search is exhaustive up to
+    :data:`EXHAUSTIVE_MAX` maps, else coordinate descent (one cluster at a time, until no
+    change lowers the score) from the best of the round-robin maps.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hybridlog.signals import FloatArray, IntArray
+
+__all__ = ["EXHAUSTIVE_MAX", "ClusterLabels", "decide_clusters", "label_clusters"]
+
+
+def decide_clusters(
+    outputs: FloatArray, decision_values: FloatArray, scale: FloatArray | None = None
+) -> IntArray:
+    """Nearest decision variable of every sample (eqs. (2)–(3)).
+
+    Parameters
+    ----------
+    outputs:
+        ``y(k)``, shape ``(N, n_y)``.
+    decision_values:
+        ``y_i*`` of each cluster, shape ``(c, n_y)``.
+    scale:
+        Divisor of each output (its unit-box range), shape ``(n_y,)``; default 1.
+
+    Returns
+    -------
+    IntArray
+        Cluster index of each sample, shape ``(N,)``.
+    """
+    y = np.asarray(outputs, dtype=np.float64)
+    centres = np.asarray(decision_values, dtype=np.float64)
+    divisor = np.ones(y.shape[1]) if scale is None else np.asarray(scale, dtype=np.float64)
+    divisor = np.where(divisor > 0.0, divisor, 1.0)
+    costs = np.zeros((y.shape[0], centres.shape[0]))
+    for j in range(y.shape[1]):
+        costs += ((y[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
+    decided: IntArray = np.argmin(costs, axis=1).astype(np.int64)
+    return decided
+
+
+EXHAUSTIVE_MAX = 4096
+"""Largest number of cluster → mode maps searched exhaustively."""
+
+
+@dataclass(frozen=True)
+class ClusterLabels:
+    """Mode of every cluster and how it was chosen.
+
+    Attributes
+    ----------
+    modes:
+        Mode index of each cluster, shape ``(c,)``.
+    score:
+        Score of the chosen map.
+    alternatives:
+        ``alternatives[c, i]``: the score with cluster ``c`` alone moved to mode ``i``.
+    sizes:
+        Samples decided for each cluster.
+    notes:
+        One line per cluster (and per mode without a cluster), for reports.
+    """
+
+    modes: IntArray
+    score: float
+    alternatives: FloatArray
+    sizes: IntArray
+    notes: tuple[str, ...]
+
+
+def _admissible(labels: Sequence[int], n_modes: int, n_clusters: int, sizes: IntArray) -> bool:
+    used = {m for c, m in enumerate(labels) if sizes[c] > 0}
+    populated = int(np.count_nonzero(sizes))
+    if populated >= n_modes:
+        return len(used) == n_modes
+    return len(used) == populated
+
+
+def label_clusters(
+    n_clusters: int,
+    mode_ids: Sequence[str],
+    score: Callable[[IntArray], float],
+    sizes: IntArray,
+    *,
+    what: str = "score",
+) -> ClusterLabels:
+    """Label clusters as modes by the lowest ``score(map)`` (see the module docstring).
+
+    Parameters
+    ----------
+    n_clusters:
+        Number of clusters ``c``.
+    mode_ids:
+        The model's mode ids.
+    score:
+        ``score(labels)`` for ``labels`` of shape ``(c,)`` (mode index per cluster); lower
+        is better.
+    sizes:
+        Samples decided for each cluster (clusters without samples are ignored).
+    what:
+        Name of the score, for the notes.
+    """
+    n_modes = len(mode_ids)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    cache: dict[tuple[int, ...], float] = {}
+
+    def evaluate(labels: Sequence[int]) -> float:
+        key = tuple(int(m) for m in labels)
+        if key not in cache:
+            cache[key] = float(score(np.array(key, dtype=np.int64)))
+        return cache[key]
+
+    best: tuple[int, ...] | None = None
+    if n_modes**n_clusters <= EXHAUSTIVE_MAX:
+        for labels in itertools.product(range(n_modes), repeat=n_clusters):
+            if _admissible(labels, n_modes, n_clusters, sizes) and (
+                best is None or evaluate(labels) < evaluate(best)
+            ):
+                best = labels
+        method = "exhaustive search"
+    if best is None:
+        starts = [
+            tuple((c + shift) % n_modes for c in range(n_clusters)) for shift in range(n_modes)
+        ]
+        current = list(starts[int(np.argmin([evaluate(start) for start in starts]))])
+        improved = True
+        while improved:
+            improved = False
+            for c in range(n_clusters):
+                for m in range(n_modes):
+                    trial = [*current[:c], m, *current[c + 1 :]]
+                    if _admissible(trial, n_modes, n_clusters, sizes) and evaluate(
+                        trial
+                    ) < evaluate(current):
+                        current = trial
+                        improved = True
+        best = tuple(current)
+        method = "coordinate descent"
+    chosen = np.array(best, dtype=np.int64)
+    alternatives = np.zeros((n_clusters, n_modes))
+    for c in range(n_clusters):
+        for m in range(n_modes):
+            alternatives[c, m] = evaluate([*best[:c], m, *best[c + 1 :]])
+    total = evaluate(best)
+    notes = [f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}"]
+    for c in range(n_clusters):
+        mode = mode_ids[chosen[c]]
+        if sizes[c] == 0:
+            notes.append(f"cluster {c + 1} decides no sample: unused (labelled '{mode}')")
+            continue
+        others = ", ".join(
+            f"'{mode_ids[m]}' {alternatives[c, m]:.4g}" for m in range(n_modes) if m != chosen[c]
+        )
+        shared = int(np.count_nonzero((chosen == chosen[c]) & (sizes > 0)))
+        role = "" if shared == 1 else f" (one of {shared} clusters of that mode)"
+        notes.append(
+            f"cluster {c + 1} ({sizes[c]} samples) -> mode '{mode}'{role}; {what} with it in "
+            f"mode {others}"
+        )
+    for m in range(n_modes):
+        if not np.any((chosen == m) & (sizes > 0)):
+            notes.append(f"mode '{mode_ids[m]}' has no cluster: it is never decided")
+    return ClusterLabels(
+        modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=tuple(notes)
+    )

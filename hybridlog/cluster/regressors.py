@@ -1,0 +1,127 @@
+r"""Regression vectors φ(k) of paper 001 and their generalisation.
+
+Paper 001 (§4.A) clusters
+
+.. math::
+
+    \varphi(k) = [\,y(k),\; y(k-1),\; u(k-1)\,]^T ,
+
+here generalised to several outputs and inputs and any lags:
+
+.. math::
+
+    \varphi(k) = [\,y_1(k-a_1), \dots, y_1(k-a_p), \dots, y_{n_y}(k-a_p),\;
+                   u_1(k-b_1), \dots, u_{n_u}(k-b_q)\,]^T
+
+with output lags ``a`` (which must include 0: the decision variables of eq. (3) are the
+``y_j(k)`` components of a centre) and input lags ``b``.  Rows ``k`` start at the largest
+lag, so ``N − max_lag`` vectors come from ``N`` samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hybridlog.errors import OptionError
+from hybridlog.signals import FloatArray
+
+__all__ = ["RegressorSpec", "parse_lags", "regression_vectors"]
+
+
+@dataclass(frozen=True)
+class RegressorSpec:
+    """Which lags of every output and input make up φ(k); default: paper 001's φ(k).
+
+    Attributes
+    ----------
+    output_lags:
+        Lags ``a`` of each output, in the order they appear in φ(k); must contain 0.
+    input_lags:
+        Lags ``b`` of each input (may be empty; 0 means ``u(k)``).
+    """
+
+    output_lags: tuple[int, ...] = (0, 1)
+    input_lags: tuple[int, ...] = (1,)
+
+    def __post_init__(self) -> None:
+        if 0 not in self.output_lags:
+            raise OptionError(
+                "output_lags: must contain 0 (y(k) holds the decision variables of eq. (3))"
+            )
+        for name, lags in (("output_lags", self.output_lags), ("input_lags", self.input_lags)):
+            if any(lag < 0 for lag in lags):
+                raise OptionError(f"{name}: lags must be non-negative, got {list(lags)}")
+            if len(set(lags)) != len(lags):
+                raise OptionError(f"{name}: a lag is listed twice in {list(lags)}")
+
+    @property
+    def max_lag(self) -> int:
+        """The largest lag: the first ``max_lag`` samples give no vector."""
+        return max((*self.output_lags, *self.input_lags))
+
+    def dimension(self, n_outputs: int, n_inputs: int) -> int:
+        """Length of φ(k)."""
+        return n_outputs * len(self.output_lags) + n_inputs * len(self.input_lags)
+
+    def names(self, outputs: Sequence[str], inputs: Sequence[str]) -> list[str]:
+        """Component names such as ``y(k)``, ``y(k-1)``, ``u(k-1)``."""
+
+        def lagged(name: str, lag: int) -> str:
+            return f"{name}(k)" if lag == 0 else f"{name}(k-{lag})"
+
+        return [lagged(y, a) for y in outputs for a in self.output_lags] + [
+            lagged(u, b) for u in inputs for b in self.input_lags
+        ]
+
+    def decision_columns(self, n_outputs: int) -> list[int]:
+        """Columns of φ(k) holding ``y_j(k)``, one per output (the decision variables)."""
+        zero = self.output_lags.index(0)
+        return [j * len(self.output_lags) + zero for j in range(n_outputs)]
+
+
+def parse_lags(text: str | Sequence[int], key: str) -> tuple[int, ...]:
+    """``"0,1"`` (or a list) → ``(0, 1)``; an empty string is no lag at all."""
+    if not isinstance(text, str):
+        values = list(text)
+    else:
+        parts = [p.strip() for p in text.replace(";", ",").split(",") if p.strip()]
+        values = []
+        for part in parts:
+            try:
+                values.append(int(part))
+            except ValueError as err:
+                raise OptionError(f"{key}: '{part}' is not a whole number") from err
+    if any(isinstance(v, bool) or not isinstance(v, int | np.integer) for v in values):
+        raise OptionError(f"{key}: expected whole numbers, got {values!r}")
+    return tuple(int(v) for v in values)
+
+
+def regression_vectors(outputs: FloatArray, inputs: FloatArray, spec: RegressorSpec) -> FloatArray:
+    """φ(k) for ``k = max_lag … N−1``, shape ``(N − max_lag, d)``.
+
+    Parameters
+    ----------
+    outputs:
+        ``y``, shape ``(N, n_y)``.
+    inputs:
+        ``u``, shape ``(N, n_u)``.
+    spec:
+        The lags.
+
+    Raises
+    ------
+    OptionError
+        When the log is shorter than the largest lag plus one sample.
+    """
+    y = np.asarray(outputs, dtype=np.float64)
+    u = np.asarray(inputs, dtype=np.float64)
+    n = y.shape[0]
+    lag = spec.max_lag
+    if n <= lag:
+        raise OptionError(f"output_lags, input_lags: {n} samples are too few for lags up to {lag}")
+    columns = [y[lag - a : n - a, j] for j in range(y.shape[1]) for a in spec.output_lags]
+    columns += [u[lag - b : n - b, i] for i in range(u.shape[1]) for b in spec.input_lags]
+    return np.ascontiguousarray(np.stack(columns, axis=1))

@@ -1,0 +1,320 @@
+"""Writing logs in every format hybridlog reads (``hybridlog simulate``).
+
+:func:`write_log` takes the same named columns as :func:`~hybridlog.io.writers.write_table`
+(a time column ``t`` in seconds, numeric columns, text columns such as mode ids) and writes
+them as a table, an MCAP file, a ROS 1 bag or a ROS 2 bag directory.  In the message formats
+each column becomes a topic with standard message types, so any ROS tool can read them:
+
+======================================== ===================== ============================
+column                                   topic                 message type
+======================================== ===================== ============================
+numeric column *c* (inputs, outputs)     ``/c``                ``std_msgs/Float64``
+ground-truth column *c* (``truth=``)     ``/truth/c``          ``std_msgs/Float64``
+text column (e.g. the true ``mode``)     ``/truth/mode``       ``std_msgs/String``
+======================================== ===================== ============================
+
+Every message of row *k* is logged at ``t_k`` (integer nanoseconds, exact for the float
+seconds of the table), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
+``/truth/x1.data`` are the default mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
+zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
+``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
+``ros1``, ``ros1msg`` schemas) on request.  Files appear complete or not at all: they are
+written under a temporary name and renamed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import struct
+import tempfile
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hybridlog import __version__
+from hybridlog.errors import OptionError, OutputError
+from hybridlog.io.source import seconds_to_ns
+from hybridlog.io.writers import TABLE_FORMATS, Column, write_table
+
+#: ``--format`` values; the first four also follow from the suffix.
+LOG_FORMATS: tuple[str, ...] = ("csv", "parquet", "mcap", "bag", "ros2-sqlite3", "ros2-mcap")
+#: ``--encoding`` values for MCAP files.
+MCAP_ENCODINGS: tuple[str, ...] = ("cdr", "json", "ros1")
+SUFFIX_FORMATS = {".csv": "csv", ".parquet": "parquet", ".mcap": "mcap", ".bag": "bag"}
+
+FLOAT64 = "std_msgs/msg/Float64"
+STRING = "std_msgs/msg/String"
+_CDR_LE = b"\x00\x01\x00\x00"
+_F64 = struct.Struct("<d")
+_U32 = struct.Struct("<I")
+_JSON_SCHEMAS = {
+    FLOAT64: {"type": "object", "properties": {"data": {"type": "number"}}},
+    STRING: {"type": "object", "properties": {"data": {"type": "string"}}},
+}
+
+
+@dataclass(frozen=True)
+class TopicColumn:
+    """One topic written from one column."""
+
+    topic: str
+    column: str
+    msgtype: str
+
+
+def log_format(path: str | os.PathLike[str], format: str | None) -> str:
+    """The format to write: ``format`` if given, else the one the suffix names.
+
+    Raises
+    ------
+    OptionError
+        For an unknown format, or a path whose suffix names none (listing the choices).
+    """
+    if format is not None:
+        if format not in LOG_FORMATS:
+            raise OptionError(
+                f"--format: unknown format {format!r}; choose one of {', '.join(LOG_FORMATS)}"
+            )
+        return format
+    suffix = Path(path).suffix.lower()
+    if suffix in SUFFIX_FORMATS:
+        return SUFFIX_FORMATS[suffix]
+    raise OptionError(
+        f"{path}: cannot tell the log format from suffix {suffix or '(none)'!r}; use "
+        f"{', '.join(SUFFIX_FORMATS)} or --format ros2-sqlite3|ros2-mcap for a ROS 2 bag folder"
+    )
+
+
+def log_topics(columns: Mapping[str, Column], truth: Sequence[str] = ()) -> list[TopicColumn]:
+    """The topic of every column but ``t`` (see the module docstring)."""
+    out = []
+    for name, values in columns.items():
+        if name == "t":
+            continue
+        numeric = isinstance(values, np.ndarray) and values.dtype.kind in "biuf"
+        topic = f"/truth/{name}" if name in truth else f"/{name}"
+        out.append(TopicColumn(topic, name, FLOAT64 if numeric else STRING))
+    return out
+
+
+def write_log(
+    path: str | os.PathLike[str],
+    columns: Mapping[str, Column],
+    *,
+    truth: Sequence[str] = (),
+    format: str | None = None,
+    encoding: str = "cdr",
+    force: bool = False,
+) -> Path:
+    """Write a log in any format hybridlog reads.
+
+    Parameters
+    ----------
+    path:
+        Output file, or folder for a ROS 2 bag.  Missing parent folders are created.
+    columns:
+        ``{name: values}``: ``t`` (seconds, increasing) and 1-D numeric arrays or sequences
+        of text, all of the same length.
+    truth:
+        Columns that are ground truth: their topics go under ``/truth/``.
+    format:
+        One of :data:`LOG_FORMATS`; default from the suffix.
+    encoding:
+        MCAP message encoding: ``cdr`` (default), ``json`` or ``ros1``.
+    force:
+        Replace an existing file or folder.
+
+    Returns
+    -------
+    pathlib.Path
+        What was written.
+
+    Raises
+    ------
+    OptionError
+        For an unknown format or encoding, or an encoding given for a format without one.
+    OutputError
+        When the target exists and ``force`` is false, or it cannot be written.
+    """
+    chosen = log_format(path, format)
+    if encoding not in MCAP_ENCODINGS:
+        raise OptionError(
+            f"--encoding: unknown {encoding!r}; choose one of {', '.join(MCAP_ENCODINGS)}"
+        )
+    if encoding != "cdr" and chosen != "mcap":
+        raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
+    if chosen in ("csv", "parquet"):
+        target = Path(path)
+        if f".{chosen}" != target.suffix.lower() or target.suffix.lower() not in TABLE_FORMATS:
+            raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
+        return write_table(path, columns, force=force)
+    if "t" not in columns:
+        raise ValueError("columns: a time column 't' is needed")
+    time_ns = seconds_to_ns(np.asarray(columns["t"], dtype=np.float64))
+    topics = log_topics(columns, truth)
+    writer: Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
+    if chosen == "mcap":
+        writer = _MCAP_WRITERS[encoding]
+    elif chosen == "bag":
+        writer = _write_ros1_bag
+    else:
+        writer = _ros2_writer(chosen.removeprefix("ros2-"))
+    return _atomic(
+        Path(path), force, lambda target: writer(target, topics, columns, time_ns), chosen
+    )
+
+
+def _atomic(target: Path, force: bool, write: Callable[[Path], None], chosen: str) -> Path:
+    """Write into a fresh temporary folder next to ``target``, then rename into place."""
+    if target.exists() and not force:
+        raise OutputError(f"{target}: already exists (use --force to replace it)")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        folder = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}."))
+    except OSError as err:
+        raise OutputError(f"{target}: cannot be written ({err.strerror})") from err
+    staged = folder / target.name
+    try:
+        try:
+            write(staged)
+        except (OSError, ValueError) as err:
+            raise OutputError(f"{target}: cannot be written ({err})") from err
+        except Exception as err:  # the bag writers raise their own WriterError classes
+            if type(err).__name__ != "WriterError":
+                raise
+            raise OutputError(f"{target}: cannot be written ({err})") from err
+        if target.exists():
+            if not force:
+                raise OutputError(f"{target}: already exists (use --force to replace it)")
+            if target.is_dir() and not target.is_symlink():
+                shutil.rmtree(target)
+            else:
+                target.unlink()
+        os.replace(staged, target)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    return target
+
+
+def _rows(
+    topics: Sequence[TopicColumn], columns: Mapping[str, Column], time_ns: Any
+) -> Iterator[tuple[int, int, Any]]:
+    """``(log time, topic index, value)`` row by row, topics in column order."""
+    values = [columns[t.column] for t in topics]
+    for k, stamp in enumerate(time_ns.tolist()):
+        for j, column in enumerate(values):
+            yield stamp, j, column[k]
+
+
+def _typestore(ros1: bool) -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.LATEST)
+
+
+def _serializer(msgtype: str, encoding: str) -> Callable[[Any], bytes]:
+    """Serialise a value as a ``std_msgs`` ``Float64``/``String`` message."""
+    if encoding == "json":
+        return lambda value: json.dumps({"data": _plain(value)}).encode()
+    if msgtype == FLOAT64:
+        if encoding == "cdr":
+            return lambda value: _CDR_LE + _F64.pack(float(value))
+        return lambda value: _F64.pack(float(value))
+
+    def string(value: Any) -> bytes:
+        data = str(value).encode()
+        if encoding == "cdr":
+            return _CDR_LE + _U32.pack(len(data) + 1) + data + b"\x00"
+        return _U32.pack(len(data)) + data
+
+    return string
+
+
+def _plain(value: Any) -> Any:
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _write_mcap(
+    path: Path,
+    topics: Sequence[TopicColumn],
+    columns: Mapping[str, Column],
+    time_ns: Any,
+    encoding: str,
+) -> None:
+    from mcap.writer import CompressionType, Writer
+
+    profile = {"cdr": "ros2", "ros1": "ros1", "json": ""}[encoding]
+    store = _typestore(ros1=encoding == "ros1") if encoding != "json" else None
+    with path.open("xb") as handle:
+        writer = Writer(handle, compression=CompressionType.ZSTD, enable_data_crcs=True)
+        writer.start(profile=profile, library=f"hybridlog {__version__}")
+        schema_ids: dict[str, int] = {}
+        channels: list[int] = []
+        serializers = []
+        for topic in topics:
+            if topic.msgtype not in schema_ids:
+                schema_ids[topic.msgtype] = _register_schema(writer, store, topic.msgtype, encoding)
+            channels.append(
+                writer.register_channel(topic.topic, encoding, schema_ids[topic.msgtype])
+            )
+            serializers.append(_serializer(topic.msgtype, encoding))
+        for sequence, (stamp, j, value) in enumerate(_rows(topics, columns, time_ns), 1):
+            writer.add_message(channels[j], stamp, serializers[j](value), stamp, sequence)
+        writer.finish()  # type: ignore[no-untyped-call]
+
+
+def _register_schema(writer: Any, store: Any, msgtype: str, encoding: str) -> int:
+    if encoding == "json":
+        data = json.dumps(_JSON_SCHEMAS[msgtype]).encode()
+        return int(writer.register_schema(msgtype, "jsonschema", data))
+    ros1 = encoding == "ros1"
+    text, _ = store.generate_msgdef(msgtype, ros_version=1 if ros1 else 2)
+    name = msgtype.replace("/msg/", "/") if ros1 else msgtype
+    return int(writer.register_schema(name, "ros1msg" if ros1 else "ros2msg", text.encode()))
+
+
+_MCAP_WRITERS: dict[
+    str, Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
+] = {
+    encoding: (lambda e: lambda p, t, c, s: _write_mcap(p, t, c, s, e))(encoding)
+    for encoding in MCAP_ENCODINGS
+}
+
+
+def _write_ros1_bag(
+    path: Path, topics: Sequence[TopicColumn], columns: Mapping[str, Column], time_ns: Any
+) -> None:
+    from rosbags.rosbag1 import Writer
+
+    store = _typestore(ros1=True)
+    with Writer(path) as writer:
+        connections = [writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics]
+        serializers = [_serializer(t.msgtype, "ros1") for t in topics]
+        for stamp, j, value in _rows(topics, columns, time_ns):
+            writer.write(connections[j], stamp, serializers[j](value))
+
+
+def _ros2_writer(
+    storage: str,
+) -> Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]:
+    def write(
+        path: Path, topics: Sequence[TopicColumn], columns: Mapping[str, Column], time_ns: Any
+    ) -> None:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        store = _typestore(ros1=False)
+        with Writer(path, version=Writer.VERSION_LATEST, storage_plugin=plugin) as writer:
+            connections = [
+                writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics
+            ]
+            serializers = [_serializer(t.msgtype, "cdr") for t in topics]
+            for stamp, j, value in _rows(topics, columns, time_ns):
+                writer.write(connections[j], stamp, serializers[j](value))
+
+    return write

@@ -1,0 +1,455 @@
+"""MCAP files: checks every MCAP gets, and the reader for those rosbags cannot read.
+
+:func:`check_mcap` runs before any MCAP is read, whichever library reads it: it refuses an
+empty file and wrong magic bytes, tells a finished file (footer and closing magic) from one
+whose recorder was killed or that was cut off, and validates the summary and data-section
+CRCs when the writer stored them (the libraries' readers check chunk CRCs at most, and only
+when asked).
+
+``ros2``-profile files are then read by rosbags (:mod:`.rosbag_reader`).  :class:`McapSource`
+reads everything else with the ``mcap`` library -- ROS 2 CDR, ROS 1 and JSON messages with
+any profile -- validating chunk CRCs, and it is the non-seeking reader ``--recover`` uses on
+any MCAP: records are read in file order up to the first one that is cut off or damaged.
+
+Message definitions come from the channels' schemas (``ros2msg``, ``ros2idl``, ``ros1msg``
+via rosbags' parsers; a schema without text falls back to ``--msg-dir`` and the standard
+types); ``mcap-ros2-support`` and ``mcap-ros1-support`` decode messages one by one where
+hybridlog's batch decoder does not apply, and JSON messages are parsed with :mod:`json`.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import zlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+from hybridlog.errors import LogError
+from hybridlog.io.messages import MessageSource, Topic, first_line, parse_json_schema
+from hybridlog.io.rosbag_reader import complete_typestore, types_from_msg_dirs
+from hybridlog.io.source import ReadSettings
+
+MAGIC = b"\x89MCAP0\r\n"
+_FOOTER_SIZE = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
+_DATA_END_SIZE = 1 + 8 + 4
+_OP_HEADER, _OP_FOOTER, _OP_DATA_END = 0x01, 0x02, 0x0F
+_CRC_BLOCK = 1 << 22
+
+
+@dataclass(frozen=True)
+class McapLayout:
+    """What :func:`check_mcap` found.
+
+    Attributes
+    ----------
+    profile:
+        The header's profile (``"ros2"``, ``"ros1"``, ``""`` ...), or ``None`` when the header
+        itself is cut off.
+    finished:
+        Whether the file ends with a footer and the closing magic bytes.
+    problem:
+        Why it is not finished, for messages.
+    """
+
+    profile: str | None
+    finished: bool
+    problem: str | None = None
+
+
+def check_mcap(path: Path) -> McapLayout:
+    """Check an MCAP file's framing and stored CRCs (see the module docstring).
+
+    Raises
+    ------
+    LogError
+        For an empty file, wrong magic bytes, or a summary or data-section CRC mismatch.
+    """
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as handle:
+            return _check_open_mcap(path, handle, size)
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+
+
+def _check_open_mcap(path: Path, handle: IO[bytes], size: int) -> McapLayout:
+    if size == 0:
+        raise LogError(f"{path}: empty file")
+    head = handle.read(8)
+    if head != MAGIC:
+        raise LogError(
+            f"{path}: not an MCAP file (wrong magic bytes {head[:8]!r}, expected {MAGIC!r})"
+        )
+    profile = _read_profile(handle)
+    if size < 8 + _FOOTER_SIZE + 8:
+        return McapLayout(profile, False, "the file ends before its footer")
+    handle.seek(size - 8)
+    if handle.read(8) != MAGIC:
+        return McapLayout(profile, False, "no closing magic bytes: the file is cut off")
+    footer_at = size - 8 - _FOOTER_SIZE
+    handle.seek(footer_at)
+    footer = handle.read(_FOOTER_SIZE)
+    opcode, length, summary_start, _offsets, summary_crc = struct.unpack("<BQQQI", footer)
+    if opcode != _OP_FOOTER or length != _FOOTER_SIZE - 9:
+        return McapLayout(profile, False, "no footer record before the closing magic bytes")
+    if summary_start and not 8 <= summary_start <= footer_at:
+        raise LogError(
+            f"{path}: damaged MCAP footer (summary offset {summary_start} is outside the file)"
+        )
+    if summary_start and summary_crc:
+        actual = _crc(handle, summary_start, footer_at + 1 + 8 + 16)
+        if actual != summary_crc:
+            raise LogError(
+                f"{path}: CRC mismatch in the MCAP summary section "
+                f"(stored 0x{summary_crc:08x}, computed 0x{actual:08x})"
+            )
+    data_end_at = (summary_start or footer_at) - _DATA_END_SIZE
+    if data_end_at >= 8:
+        handle.seek(data_end_at)
+        record = handle.read(_DATA_END_SIZE)
+        op, record_length, data_crc = struct.unpack("<BQI", record)
+        if op == _OP_DATA_END and record_length == 4 and data_crc:
+            actual = _crc(handle, 0, data_end_at)
+            if actual != data_crc:
+                raise LogError(
+                    f"{path}: CRC mismatch in the MCAP data section "
+                    f"(stored 0x{data_crc:08x}, computed 0x{actual:08x}); the file is corrupt"
+                )
+    return McapLayout(profile, True)
+
+
+def _read_profile(handle: IO[bytes]) -> str | None:
+    record = handle.read(1 + 8 + 4)
+    if len(record) < 13 or record[0] != _OP_HEADER:
+        return None
+    (length,) = struct.unpack_from("<I", record, 9)
+    text = handle.read(length)
+    if len(text) < length:
+        return None
+    return text.decode("utf-8", errors="replace")
+
+
+def _crc(handle: IO[bytes], start: int, end: int) -> int:
+    handle.seek(start)
+    crc, remaining = 0, end - start
+    while remaining > 0:
+        block = handle.read(min(_CRC_BLOCK, remaining))
+        if not block:
+            break
+        crc = zlib.crc32(block, crc)
+        remaining -= len(block)
+    return crc
+
+
+def _library_errors() -> tuple[type[BaseException], ...]:
+    from mcap.exceptions import McapError
+
+    errors: list[type[BaseException]] = [
+        McapError,
+        ValueError,  # includes mcap's CRCValidationError
+        struct.error,
+        EOFError,
+        OSError,
+        KeyError,
+        IndexError,
+        RuntimeError,  # lz4 reports corrupt frames this way
+    ]
+    try:
+        from zstandard import ZstdError
+
+        errors.append(ZstdError)
+    except ImportError:  # pragma: no cover - zstandard comes with mcap's extras
+        pass
+    return tuple(errors)
+
+
+def count_readable(path: Path) -> tuple[int, str]:
+    """Messages a sequential read gets out of ``path`` before it stops, and why it stops."""
+    from mcap.stream_reader import StreamReader
+
+    count = 0
+    try:
+        with path.open("rb") as handle:
+            for record in StreamReader(handle, validate_crcs=True).records:
+                if type(record).__name__ == "Message":
+                    count += 1
+    except _library_errors() as err:
+        return count, _stop_reason(err)
+    return count, "the end of the file"
+
+
+def _stop_reason(err: BaseException) -> str:
+    name = type(err).__name__
+    if name == "EndOfFile" or isinstance(err, (EOFError, struct.error)):
+        return "a record cut off at the end of the file"
+    if name == "CRCValidationError":
+        return f"a CRC mismatch ({first_line(err)})"
+    return f"a damaged record ({first_line(err)})"
+
+
+def _normal_type(name: str) -> str:
+    """``std_msgs/Float64`` (ROS 1 style) → ``std_msgs/msg/Float64``."""
+    parts = name.split("/")
+    if len(parts) == 2:
+        return f"{parts[0]}/msg/{parts[1]}"
+    return name
+
+
+def _referenced(types: dict[str, Any]) -> set[str]:
+    names = set(types)
+    for _, fields in types.values():
+        for _, desc in fields:
+            node = int(desc[0])
+            if node == 2:
+                names.add(desc[1])
+            elif node in (3, 4) and int(desc[1][0][0]) == 2:
+                names.add(desc[1][0][1])
+    return names
+
+
+class McapSource(MessageSource):
+    """An MCAP file read with the ``mcap`` library (see the module docstring).
+
+    Parameters
+    ----------
+    path:
+        The file.
+    layout:
+        What :func:`check_mcap` found.
+    settings:
+        ``recover`` reads sequentially up to the first damaged record; ``msg_dirs`` adds types.
+
+    Raises
+    ------
+    LogError
+        When the file's summary or records cannot be read.
+    """
+
+    def __init__(
+        self, path: str | Path, layout: McapLayout, settings: ReadSettings | None = None
+    ) -> None:
+        super().__init__(path, settings)
+        self.format = "mcap"
+        self._profile = layout.profile or ""
+        self._sequential = self.settings.recover or not layout.finished
+        self._handle: IO[bytes] | None = None
+        self._stop: str | None = None
+        self._extra_types: dict[str, Any] | None = None
+        self._stores: dict[int, Any] = {}
+        try:
+            self._handle = self._file.open("rb")
+            schemas, channels, counts = self._structure()
+        except OSError as err:
+            self.close()
+            raise LogError(f"{self.path}: cannot be read ({err.strerror})") from err
+        except _library_errors() as err:
+            self.close()
+            raise LogError(f"{self.path}: damaged MCAP file ({first_line(err)})") from err
+        try:
+            self._topics = self._make_topics(schemas, channels, counts)
+        except LogError:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        """Close the file."""
+        handle, self._handle = self._handle, None
+        if handle is not None:
+            handle.close()
+
+    # -- structure
+
+    def _structure(self) -> tuple[dict[int, Any], dict[int, Any], dict[int, int] | None]:
+        """Schemas, channels and (when known) per-channel message counts."""
+        from mcap.reader import SeekingReader
+
+        assert self._handle is not None
+        if not self._sequential:
+            reader = SeekingReader(self._handle, validate_crcs=True)
+            summary = reader.get_summary()
+            if summary is not None and summary.channels:
+                counts = (
+                    dict(summary.statistics.channel_message_counts)
+                    if summary.statistics is not None
+                    else None
+                )
+                return dict(summary.schemas), dict(summary.channels), counts
+        return self._scan_structure()
+
+    def _scan_structure(self) -> tuple[dict[int, Any], dict[int, Any], dict[int, int] | None]:
+        """One sequential pass: schemas, channels, and messages up to the first bad record."""
+        from mcap.records import Channel, Message, Schema
+        from mcap.stream_reader import StreamReader
+
+        assert self._handle is not None
+        schemas: dict[int, Any] = {}
+        channels: dict[int, Any] = {}
+        counts: dict[int, int] = {}
+        total = 0
+        self._handle.seek(0)
+        try:
+            for record in StreamReader(self._handle, validate_crcs=True).records:
+                if isinstance(record, Message):
+                    counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
+                    total += 1
+                elif isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+        except _library_errors() as err:
+            if not self.settings.recover:
+                raise
+            self._stop = _stop_reason(err)
+        if self.settings.recover:
+            self._notes.update(
+                {
+                    "recovered": True,
+                    "messages_readable": total,
+                    "stopped_at": self._stop or "the end of the file",
+                }
+            )
+        # Counts of a sequential read are what was read; there is no index to check against.
+        return schemas, channels, None
+
+    def _make_topics(
+        self, schemas: dict[int, Any], channels: dict[int, Any], counts: dict[int, int] | None
+    ) -> dict[str, Topic]:
+        grouped: dict[str, list[Any]] = {}
+        for channel in channels.values():
+            grouped.setdefault(channel.topic, []).append(channel)
+        topics: dict[str, Topic] = {}
+        for name, group in grouped.items():
+            channel = group[0]
+            schema = schemas.get(channel.schema_id) if channel.schema_id else None
+            count = None if counts is None else sum(counts.get(c.id, 0) for c in group)
+            topic = self._topic(name, channel, schema, count)
+            kinds = {(c.schema_id, c.message_encoding) for c in group}
+            if len(kinds) > 1 and topic.problem is None:
+                topic.problem = "has channels with different schemas or encodings"
+            topics[name] = topic
+        return topics
+
+    def _topic(self, name: str, channel: Any, schema: Any, count: int | None) -> Topic:
+        encoding = channel.message_encoding
+        msgtype = _normal_type(schema.name) if schema is not None else ""
+        topic = Topic(name, msgtype, encoding, count)
+        if encoding == "json":
+            topic.decode = json.loads
+            if schema is not None and schema.encoding == "jsonschema":
+                topic.json_schema = parse_json_schema(schema.data)
+            return topic
+        if encoding not in ("cdr", "ros1"):
+            topic.problem = (
+                f"message encoding {encoding!r} is not supported (supported: cdr, ros1, json)"
+            )
+            return topic
+        if schema is None:
+            topic.problem = "schemaless channel: its messages cannot be decoded"
+            return topic
+        topic.typedefs = self._typedefs(schema, encoding == "ros1")
+        topic.decode = self._decoder(encoding, schema)
+        if topic.typedefs is None or msgtype not in topic.typedefs:
+            topic.typedefs = None
+            if topic.decode is None:
+                topic.problem = (
+                    f"type {msgtype!r} has no definition in the log or the standard types; "
+                    f"pass --msg-dir DIR with {msgtype}.msg in it"
+                )
+        elif topic.decode is None:
+            topic.decode = self._store_decoder(schema.id, msgtype, encoding == "ros1")
+        return topic
+
+    def _typedefs(self, schema: Any, ros1: bool) -> Any:
+        """Rosbags definitions for a schema (cached per schema), or ``None``."""
+        from rosbags.typesys import (
+            Stores,
+            TypesysError,
+            get_types_from_idl,
+            get_types_from_msg,
+            get_typestore,
+        )
+
+        if schema.id in self._stores:
+            cached = self._stores[schema.id]
+            return None if cached is None else cached.fielddefs
+        name = _normal_type(schema.name)
+        store: Any = None
+        types: dict[str, Any] = {}
+        try:
+            text = schema.data.decode("utf-8")
+            if schema.encoding in ("ros2msg", "ros1msg") and text.strip():
+                types = get_types_from_msg(text, name)
+            elif schema.encoding in ("ros2idl", "omgidl") and text.strip():
+                separator = "=" * 80 + "\n"
+                parts = text.split(separator)[1:] if text.startswith(separator) else [text]
+                for part in parts:
+                    idl = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
+                    types.update(get_types_from_idl(idl))
+            store = get_typestore(Stores.EMPTY)
+            if types:
+                store.register(types)
+            if self._extra_types is None:
+                self._extra_types = (
+                    types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
+                )
+            complete_typestore(store, _referenced(types) | {name}, self._extra_types, ros1)
+        except (TypesysError, UnicodeDecodeError, ValueError, KeyError):
+            store = None
+        self._stores[schema.id] = store
+        return None if store is None else store.fielddefs
+
+    def _store_decoder(self, schema_id: int, msgtype: str, ros1: bool) -> Callable[[bytes], object]:
+        store = self._stores[schema_id]
+        if ros1:
+            return lambda data: store.deserialize_ros1(data, msgtype)
+        return lambda data: store.deserialize_cdr(data, msgtype)
+
+    @staticmethod
+    def _decoder(encoding: str, schema: Any) -> Callable[[bytes], object] | None:
+        """The ``mcap-ros2-support`` / ``mcap-ros1-support`` decoder for a schema, if any."""
+        try:
+            if encoding == "cdr":
+                from mcap_ros2.decoder import DecoderFactory as Ros2Factory
+
+                return Ros2Factory().decoder_for("cdr", schema)
+            from mcap_ros1.decoder import DecoderFactory as Ros1Factory
+
+            return Ros1Factory().decoder_for("ros1", schema)
+        except Exception:  # the libraries raise assorted errors for schemas they cannot parse
+            return None
+
+    # -- reading
+
+    def _read_errors(self) -> tuple[type[BaseException], ...]:
+        return _library_errors()
+
+    def _damaged(self, err: BaseException) -> LogError:
+        if type(err).__name__ == "CRCValidationError":
+            return LogError(f"{self.path}: CRC mismatch in the MCAP file ({first_line(err)})")
+        return LogError(f"{self.path}: damaged MCAP file ({first_line(err)})")
+
+    def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+        from mcap.reader import NonSeekingReader, SeekingReader
+
+        if not topics:
+            return
+        assert self._handle is not None
+        self._handle.seek(0)
+        if not self._sequential:
+            reader = SeekingReader(self._handle, validate_crcs=True)
+            messages = reader.iter_messages(topics=sorted(topics), log_time_order=False)
+            for _, channel, message in messages:
+                yield channel.topic, message.log_time, message.data
+            return
+        stream = NonSeekingReader(self._handle, validate_crcs=True)
+        try:
+            for _, channel, message in stream.iter_messages(
+                topics=sorted(topics), log_time_order=False
+            ):
+                yield channel.topic, message.log_time, message.data
+        except _library_errors():
+            if not self.settings.recover:
+                raise

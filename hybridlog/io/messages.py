@@ -1,0 +1,722 @@
+"""What every log of messages shares: topics, message paths, batched decoding, time order.
+
+:class:`MessageSource` implements :class:`~hybridlog.io.source.LogSource` for logs made of
+timestamped messages on topics (ROS 1 and ROS 2 bags, MCAP).  A subclass opens the file,
+describes its topics (:class:`Topic`) and yields raw messages; everything else is here:
+
+- Fields are message paths (:mod:`.message_paths`), checked against the topics' message
+  definitions before anything is read, so that a wrong name is reported with the close ones.
+- Only the topics of the mapped paths are read, in one pass.  Their serialised messages are
+  collected in batches (at most 65,536 messages or 16 MiB per topic) and each batch is
+  reduced to the requested numbers at once (:class:`~.message_paths.BatchDecoder`), so
+  memory grows with the selected signals, not with the file.  Messages without a definition
+  the batch decoder can use (JSON, unusual layouts) are decoded one by one.
+- Time: ``--time log`` (default) takes the recorder's log time.  Messages are taken in log-time
+  order, the order every ROS and MCAP player replays them; files read sequentially are put in
+  that order (stably) when they are not already.  ``--time header`` takes each message's
+  ``header.stamp``; a topic whose stamps go backwards (in log-time order) is refused unless
+  ``--sort``.  Two messages of one topic with the same time are refused unless ``--sort``,
+  which keeps the last of them.
+- When the file says how many messages a topic has (MCAP summary, bag index, ``metadata.yaml``),
+  the messages read must add up to it: a damaged index that hides messages is an error.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Self
+
+import numpy as np
+
+from hybridlog.errors import LogError
+from hybridlog.io.message_paths import (
+    BatchDecoder,
+    IndexRangeError,
+    LayoutError,
+    MessagePath,
+    PathError,
+    Step,
+    Typedefs,
+    UndecodableError,
+    as_label,
+    as_number,
+    check_path,
+    decode_each,
+    evaluate,
+    format_steps,
+    leaf_fields,
+    make_batch,
+    split_path,
+    stamp_ns,
+)
+from hybridlog.io.source import (
+    LabelSeries,
+    ReadSettings,
+    Series,
+    closest_names,
+    format_ns,
+)
+from hybridlog.signals import FloatArray, IntArray
+
+BATCH_MESSAGES = 65_536
+BATCH_BYTES = 16 * 2**20
+HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
+GAP_FACTOR = 1.5
+MAX_LISTED_GAPS = 1000
+
+
+@dataclass
+class Topic:
+    """One topic of a message log.
+
+    Attributes
+    ----------
+    name:
+        The topic name, e.g. ``/y1``.
+    msgtype:
+        Its message type, e.g. ``std_msgs/msg/Float64`` (``""`` when unknown).
+    encoding:
+        How its messages are serialised: ``"cdr"``, ``"ros1"``, ``"json"`` or another name.
+    count:
+        How many messages the file's index or summary lists, or ``None`` when it does not say.
+    typedefs:
+        rosbags field definitions that hold ``msgtype``, when the type's definition is known.
+    decode:
+        Decodes one serialised message into an object or ``dict`` (fallback path).
+    problem:
+        Why the topic's messages cannot be decoded (no schema, unknown encoding, no
+        definition), or ``None``.
+    json_schema:
+        The topic's JSON schema, for JSON messages that have one.
+    """
+
+    name: str
+    msgtype: str
+    encoding: str
+    count: int | None = None
+    typedefs: Typedefs | None = None
+    decode: Callable[[bytes], object] | None = None
+    problem: str | None = None
+    json_schema: Mapping[str, Any] | None = None
+
+    @property
+    def label(self) -> str:
+        """``'/y1' (std_msgs/msg/Float64)`` for messages."""
+        return f"{self.name!r} ({self.msgtype or 'no type'})"
+
+
+class MessageSource:
+    """Base of the message-log readers (see the module docstring).
+
+    Subclasses set ``format`` and fill ``_topics`` when opened, and implement
+    :meth:`_iter_raw` and :meth:`_read_errors`.
+    """
+
+    field_word = "field"
+    message_paths = True
+    format = "messages"
+
+    def __init__(self, path: str | Path, settings: ReadSettings | None = None) -> None:
+        self._file = Path(path)
+        self.settings = settings or ReadSettings()
+        self._topics: dict[str, Topic] = {}
+        self._notes: dict[str, Any] = {}
+        self._problems: list[str] = []
+
+    # ------------------------------------------------------------------ subclass hooks
+
+    def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+        """Yield ``(topic, log_time_ns, serialised message)`` for the named topics."""
+        raise NotImplementedError
+
+    def _read_errors(self) -> tuple[type[BaseException], ...]:
+        """Exceptions the underlying library raises for a damaged file."""
+        return (OSError,)
+
+    def _damaged(self, err: BaseException) -> LogError:
+        """The error for a file the library could not read to the end."""
+        return LogError(f"{self.path}: damaged {self.format} file ({first_line(err)})")
+
+    # ------------------------------------------------------------------ LogSource
+
+    @property
+    def path(self) -> str:
+        """The log's path as given."""
+        return str(self._file)
+
+    @property
+    def topics(self) -> dict[str, Topic]:
+        """The log's topics by name."""
+        return self._topics
+
+    def __enter__(self) -> Self:
+        """Return the opened source."""
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        """Release the file (subclasses close their readers)."""
+        self.close()
+
+    def close(self) -> None:
+        """Release what the source holds."""
+
+    def notes(self) -> dict[str, Any]:
+        """What reading did that a report should record."""
+        return dict(self._notes)
+
+    def locate(self, name: str, index: int) -> str:
+        """A sample's field (times are in the messages that quote this)."""
+        return f"field {name!r}"
+
+    def fields(self) -> tuple[str, ...]:
+        """Numeric and text leaves of every topic's messages, as message paths."""
+        out: list[str] = []
+        for name in sorted(self._topics):
+            topic = self._topics[name]
+            leaves: list[str] = []
+            if topic.typedefs is not None and topic.msgtype in topic.typedefs:
+                leaves = leaf_fields(topic.typedefs, topic.msgtype)
+            elif topic.json_schema is not None:
+                leaves = _json_leaves(topic.json_schema)
+            out.extend(name + leaf for leaf in leaves) if leaves else out.append(name)
+        return tuple(out)
+
+    def explain_missing(self, name: str, numeric: bool = False) -> str | None:
+        """``None`` when ``name`` is a usable path (a number, with ``numeric``), else why not."""
+        try:
+            self.resolve(name, "number" if numeric else "any")
+        except PathError as err:
+            return str(err)
+        return None
+
+    def resolve(self, text: str, want: str) -> MessagePath:
+        """Parse a path and check it against the topic's definition.
+
+        Parameters
+        ----------
+        text:
+            The path.
+        want:
+            ``"number"``, ``"label"`` (a number or a string) or ``"any"`` (either).
+
+        Raises
+        ------
+        PathError
+            Naming the path and what is wrong, with close names where that helps.
+        """
+        path = split_path(text, list(self._topics))
+        topic = self._topics[path.topic]
+        if topic.problem:
+            raise PathError(f"topic {topic.label}: {topic.problem}")
+        kind: str | None = None
+        type_name = ""
+        try:
+            if topic.typedefs is not None:
+                target = check_path(topic.typedefs, topic.msgtype, path.steps)
+                kind, type_name = target.kind, target.type_name
+            elif topic.json_schema is not None:
+                kind = _json_kind(topic.json_schema, path.steps)
+                type_name = kind or ""
+        except PathError as err:
+            raise PathError(f"{text!r}: {err}") from None
+        if not path.steps:
+            raise PathError(
+                f"{text!r} names a whole message of topic {topic.label}; add a field, "
+                f"e.g. {text}.data"
+            )
+        if kind == "message":
+            raise PathError(
+                f"{text!r} is a message ({type_name}), not a number; name a field in it"
+            )
+        if kind == "array":
+            raise PathError(f"{text!r} is an array of {type_name}; add an index, e.g. {text}[0]")
+        if kind == "string" and want == "number":
+            raise PathError(f"{text!r} is a string, not a number")
+        return path
+
+    # ------------------------------------------------------------------ reading
+
+    def read(
+        self, numeric: Sequence[str], labels: Sequence[str] = ()
+    ) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
+        """Read the named message paths in one pass over the mapped topics.
+
+        Raises
+        ------
+        LogError
+            For a path that does not fit the log, an undecodable message, an index out of
+            range, a topic without ``header.stamp`` under ``--time header``, times that go
+            backwards or repeat (without ``--sort``), a count that differs from the index.
+        """
+        header = self.settings.time == "header"
+        readers: dict[str, _TopicReader] = {}
+        for text, want in [*((t, "number") for t in numeric), *((t, "label") for t in labels)]:
+            try:
+                path = self.resolve(text, want)
+            except PathError as err:
+                raise LogError(f"{self.path}: {err}") from None
+            topic = self._topics[path.topic]
+            reader = readers.get(topic.name)
+            if reader is None:
+                if header:
+                    self._check_header(topic)
+                reader = readers[topic.name] = _TopicReader(self, topic, header)
+            reader.want(text, path, want)
+        if not readers:
+            return {}, {}
+        self._collect(readers)
+        if not self.settings.recover:
+            for reader in readers.values():
+                expected = reader.topic.count
+                if expected is not None and reader.count != expected:
+                    raise LogError(
+                        f"{self.path}: topic {reader.topic.name!r}: {reader.count} messages "
+                        f"found but the file's index lists {expected} (a damaged index or "
+                        "summary; --recover reads the file sequentially)"
+                    )
+        numeric_series: dict[str, Series] = {}
+        label_series: dict[str, LabelSeries] = {}
+        for reader in readers.values():
+            numbers, texts = reader.series()
+            numeric_series.update(numbers)
+            label_series.update(texts)
+        return numeric_series, label_series
+
+    def _check_header(self, topic: Topic) -> None:
+        missing = f"topic {topic.label} has no header.stamp; --time header needs it on every "
+        missing += "mapped topic (use --time log)"
+        if topic.typedefs is not None:
+            try:
+                target = check_path(topic.typedefs, topic.msgtype, HEADER_STAMP)
+            except PathError:
+                raise LogError(f"{self.path}: {missing}") from None
+            if target.kind not in ("message", "number"):
+                raise LogError(f"{self.path}: {missing}")
+        elif topic.json_schema is not None:
+            try:
+                _json_kind(topic.json_schema, HEADER_STAMP)
+            except PathError:
+                raise LogError(f"{self.path}: {missing}") from None
+
+    def _collect(self, readers: dict[str, _TopicReader]) -> None:
+        """One pass over the file, handing batches of raw messages to the topic readers."""
+        buffers: dict[str, tuple[list[bytes], list[int], list[int]]] = {
+            name: ([], [], [0]) for name in readers
+        }
+        try:
+            for topic, log_time, data in self._iter_raw(set(readers)):
+                datas, times, size = buffers[topic]
+                datas.append(data)
+                times.append(log_time)
+                size[0] += len(data)
+                if size[0] >= BATCH_BYTES or len(datas) >= BATCH_MESSAGES:
+                    readers[topic].add(datas, times)
+                    buffers[topic] = ([], [], [0])
+        except self._read_errors() as err:
+            raise self._damaged(err) from err
+        for name, (datas, times, _) in buffers.items():
+            if datas:
+                readers[name].add(datas, times)
+
+    # ------------------------------------------------------------------ inspect
+
+    def describe(self) -> dict[str, Any]:
+        """Summarise the log for ``hybridlog inspect``.
+
+        Returns
+        -------
+        dict
+            ``path, format, messages, topics`` (each ``name, type, encoding, count,
+            indexed_count, start, end, duration, rate_hz, gap_count, gaps, fields``),
+            ``time`` (``start, end, duration`` over all messages, or ``None``), ``problems``
+            and ``reading`` (what reading did, e.g. recovery).  Times are seconds as floats.
+        """
+        problems = list(self._problems)
+        times: dict[str, list[int]] = {name: [] for name in self._topics}
+        try:
+            for topic_name, log_time, _ in self._iter_raw(set(self._topics)):
+                times[topic_name].append(log_time)
+        except self._read_errors() as err:
+            problems.append(str(self._damaged(err)).removeprefix(f"{self.path}: "))
+        fields = self.fields()
+        topics = []
+        start, end = None, None
+        for name in sorted(self._topics):
+            topic = self._topics[name]
+            stamps = np.sort(np.asarray(times[name], dtype=np.int64))
+            info = _describe_times(stamps)
+            if stamps.size:
+                first, last = int(stamps[0]), int(stamps[-1])
+                start = first if start is None else min(start, first)
+                end = last if end is None else max(end, last)
+            if topic.problem:
+                problems.append(f"topic {topic.label}: {topic.problem}")
+            if topic.count is not None and topic.count != stamps.size and not problems:
+                problems.append(
+                    f"topic {name!r}: {stamps.size} messages found but the index lists "
+                    f"{topic.count}"
+                )
+            topics.append(
+                {
+                    "name": name,
+                    "type": topic.msgtype,
+                    "encoding": topic.encoding,
+                    "count": int(stamps.size),
+                    "indexed_count": topic.count,
+                    **info,
+                    "fields": [f for f in fields if f == name or _under(f, name)],
+                }
+            )
+        total = sum(t["count"] for t in topics)
+        return {
+            "path": self.path,
+            "format": self.format,
+            "messages": total,
+            "topics": topics,
+            "time": None
+            if start is None or end is None
+            else {"start": start / 1e9, "end": end / 1e9, "duration": (end - start) / 1e9},
+            "problems": problems,
+            "reading": self.notes(),
+        }
+
+
+def _under(field_path: str, topic: str) -> bool:
+    return field_path.startswith(topic) and field_path[len(topic) : len(topic) + 1] in (".", "[")
+
+
+def _describe_times(stamps: IntArray) -> dict[str, Any]:
+    info: dict[str, Any] = {
+        "start": None,
+        "end": None,
+        "duration": None,
+        "rate_hz": None,
+        "gap_count": 0,
+        "gaps": [],
+    }
+    if not stamps.size:
+        return info
+    info["start"] = int(stamps[0]) / 1e9
+    info["end"] = int(stamps[-1]) / 1e9
+    info["duration"] = (int(stamps[-1]) - int(stamps[0])) / 1e9
+    steps = np.diff(stamps)
+    if steps.size:
+        median = float(np.median(steps))
+        if median > 0:
+            info["rate_hz"] = 1e9 / median
+            starts = np.flatnonzero(steps > GAP_FACTOR * median)
+            info["gap_count"] = int(starts.size)
+            info["gaps"] = [
+                {
+                    "start": int(stamps[i]) / 1e9,
+                    "end": int(stamps[i + 1]) / 1e9,
+                    "duration": int(steps[i]) / 1e9,
+                }
+                for i in starts[:MAX_LISTED_GAPS].tolist()
+            ]
+    return info
+
+
+def first_line(err: BaseException) -> str:
+    """The first line of an exception's message, or its class name."""
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__
+
+
+# ---------------------------------------------------------------------- one topic
+
+
+@dataclass
+class _Wanted:
+    text: str
+    path: MessagePath
+    kind: str  # "number" or "label"
+    values: list[FloatArray] = field(default_factory=list)
+    codes: list[IntArray] = field(default_factory=list)
+    categories: list[tuple[str, ...]] = field(default_factory=list)
+
+
+class _TopicReader:
+    """Collects the wanted paths of one topic, batch by batch."""
+
+    def __init__(self, source: MessageSource, topic: Topic, header: bool) -> None:
+        self.source = source
+        self.topic = topic
+        self.header = header
+        self.wanted: list[_Wanted] = []
+        self.log_times: list[IntArray] = []
+        self.stamps: list[IntArray] = []
+        self.count = 0
+        self.batch_decoder: BatchDecoder | None = None
+        if topic.typedefs is not None and topic.encoding in ("cdr", "ros1"):
+            self.batch_decoder = BatchDecoder(
+                topic.typedefs, topic.msgtype, cdr=topic.encoding == "cdr"
+            )
+
+    def want(self, text: str, path: MessagePath, kind: str) -> None:
+        if not any(w.text == text and w.kind == kind for w in self.wanted):
+            self.wanted.append(_Wanted(text, path, kind))
+
+    def _where(self, times: Sequence[int], row: int) -> str:
+        return f"the message logged at t={format_ns(int(times[row]))} s"
+
+    def add(self, datas: list[bytes], times: list[int]) -> None:
+        """Reduce one batch of serialised messages to the wanted values."""
+        log_times = np.asarray(times, dtype=np.int64)
+        try:
+            if self.batch_decoder is not None:
+                try:
+                    self._add_batch(datas)
+                except LayoutError:
+                    self._add_objects(datas, times)
+            else:
+                self._add_objects(datas, times)
+        except UndecodableError as err:
+            raise LogError(
+                f"{self.source.path}: topic {self.topic.label}: {self._where(times, err.row)} "
+                f"cannot be decoded ({err})"
+            ) from None
+        except IndexRangeError as err:
+            raise LogError(
+                f"{self.source.path}: {err.path!r}: index out of range in "
+                f"{self._where(times, err.row)} (the array has {err.length} elements)"
+            ) from None
+        self.log_times.append(log_times)
+        self.count += len(datas)
+
+    def _add_batch(self, datas: list[bytes]) -> None:
+        decoder = self.batch_decoder
+        assert decoder is not None
+        batch = make_batch(datas, cdr=self.topic.encoding == "cdr")
+        results: list[tuple[_Wanted, Any]] = []
+        for wanted in self.wanted:
+            try:
+                if wanted.kind == "number":
+                    results.append((wanted, decoder.numbers(batch, wanted.path.steps)))
+                else:
+                    results.append((wanted, decoder.labels(batch, wanted.path.steps)))
+            except IndexRangeError as err:
+                err.path = wanted.text
+                raise
+        stamps = decoder.stamps(batch, HEADER_STAMP) if self.header else None
+        # Only keep the batch once every path decoded, so a fallback starts from scratch.
+        for wanted, result in results:
+            if wanted.kind == "number":
+                wanted.values.append(result)
+            else:
+                wanted.codes.append(result[0])
+                wanted.categories.append(result[1])
+        if stamps is not None:
+            self.stamps.append(stamps)
+
+    def _add_objects(self, datas: list[bytes], times: list[int]) -> None:
+        decode = self.topic.decode
+        if decode is None:
+            raise LogError(
+                f"{self.source.path}: topic {self.topic.label}: no decoder for its messages"
+            )
+        messages = decode_each(decode, datas)
+        for wanted in self.wanted:
+            row = 0
+            try:
+                if wanted.kind == "number":
+                    values = np.empty(len(messages), dtype=np.float64)
+                    for row, message in enumerate(messages):
+                        values[row] = as_number(evaluate(message, wanted.path.steps))
+                    wanted.values.append(values)
+                else:
+                    texts = [
+                        as_label(evaluate(message, wanted.path.steps))
+                        for row, message in enumerate(messages)
+                    ]
+                    unique, codes = np.unique(np.array(texts, dtype=object), return_inverse=True)
+                    wanted.codes.append(codes.astype(np.int64).reshape(-1))
+                    wanted.categories.append(tuple(str(u) for u in unique.tolist()))
+            except PathError as err:
+                reason = str(err)
+                if not reason.startswith(("the message", ".", "[")):
+                    reason = f"the value {reason}"
+                raise LogError(
+                    f"{self.source.path}: {wanted.text!r}: {reason} in {self._where(times, row)}"
+                ) from None
+        if self.header:
+            stamps = np.empty(len(messages), dtype=np.int64)
+            row = 0
+            try:
+                for row, message in enumerate(messages):
+                    stamps[row] = stamp_ns(evaluate(message, HEADER_STAMP))
+            except PathError as err:
+                raise LogError(
+                    f"{self.source.path}: topic {self.topic.label}: header.stamp "
+                    f"{err} in {self._where(times, row)} (--time header needs it)"
+                ) from None
+            self.stamps.append(stamps)
+
+    # -- series
+
+    def series(self) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
+        """The wanted paths as series, in time order (see the module docstring)."""
+        log_times = _concat_int(self.log_times)
+        time_ns = _concat_int(self.stamps) if self.header else log_times
+        order, keep = self._order(time_ns, log_times)
+        if order is not None:
+            time_ns = time_ns[order]
+        if keep is not None:
+            time_ns = time_ns[keep]
+        numbers: dict[str, Series] = {}
+        labels: dict[str, LabelSeries] = {}
+        for wanted in self.wanted:
+            if wanted.kind == "number":
+                values = np.concatenate(wanted.values) if wanted.values else np.zeros(0, np.float64)
+                values = _reorder(values, order, keep)
+                numbers[wanted.text] = Series(wanted.text, time_ns, values)
+            else:
+                codes, categories = _merge_labels(wanted.codes, wanted.categories)
+                labels[wanted.text] = LabelSeries(
+                    wanted.text, time_ns, _reorder(codes, order, keep), categories
+                )
+        return numbers, labels
+
+    def _order(
+        self, time_ns: IntArray, log_times: IntArray
+    ) -> tuple[IntArray | None, np.ndarray[Any, np.dtype[np.bool_]] | None]:
+        source, topic = self.source, self.topic
+        sort = source.settings.sort
+        word = "header.stamp" if self.header else "log time"
+        order: IntArray | None = None
+        steps = np.diff(time_ns)
+        backwards = steps < 0
+        if backwards.any():
+            if self.header and not sort:
+                i = int(np.argmax(backwards)) + 1
+                raise LogError(
+                    f"{source.path}: topic {topic.name!r}: header.stamp goes backwards "
+                    f"(t={format_ns(int(time_ns[i]))} s in the message logged at "
+                    f"t={format_ns(int(log_times[i]))} s, after "
+                    f"t={format_ns(int(time_ns[i - 1]))} s); --sort puts messages in time order"
+                )
+            order = np.argsort(time_ns, kind="stable")
+            if sort:
+                source._notes.setdefault("sorted", {})[topic.name] = int(backwards.sum())
+            time_ns = time_ns[order]
+            steps = np.diff(time_ns)
+        same = steps == 0
+        keep = None
+        if same.any():
+            first = int(np.argmax(same)) + 1
+            if not sort:
+                raise LogError(
+                    f"{source.path}: topic {topic.name!r}: {int(same.sum())} message(s) have "
+                    f"the same {word} as the one before (first at "
+                    f"t={format_ns(int(time_ns[first]))} s); --sort keeps the last of each"
+                )
+            keep = np.append(~same, True)
+            source._notes.setdefault("duplicates_dropped", {})[topic.name] = int(same.sum())
+        return order, keep
+
+
+def _reorder(values: Any, order: IntArray | None, keep: Any) -> Any:
+    if order is not None:
+        values = values[order]
+    if keep is not None:
+        values = values[keep]
+    return values
+
+
+def _concat_int(parts: list[IntArray]) -> IntArray:
+    if not parts:
+        return np.zeros(0, dtype=np.int64)
+    result: IntArray = np.concatenate(parts).astype(np.int64)
+    return result
+
+
+def _merge_labels(
+    codes: list[IntArray], categories: list[tuple[str, ...]]
+) -> tuple[IntArray, tuple[str, ...]]:
+    merged: dict[str, int] = {}
+    parts: list[IntArray] = []
+    for batch_codes, batch_categories in zip(codes, categories, strict=True):
+        lookup = np.array(
+            [merged.setdefault(c, len(merged)) for c in batch_categories], dtype=np.int64
+        )
+        parts.append(lookup[batch_codes] if lookup.size else batch_codes)
+    return _concat_int(parts), tuple(merged)
+
+
+# ---------------------------------------------------------------------- JSON schemas
+
+
+def parse_json_schema(data: bytes) -> Mapping[str, Any] | None:
+    """A JSON schema as a dict, or ``None`` when it is empty or not JSON."""
+    try:
+        schema = json.loads(data) if data else None
+    except (ValueError, UnicodeDecodeError):
+        return None
+    return schema if isinstance(schema, dict) else None
+
+
+def _json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
+    """What ``steps`` name in a JSON schema, or ``None`` where the schema does not say."""
+    node: Any = schema
+    done: list[Step] = []
+    for step in steps:
+        if not isinstance(node, Mapping):
+            return None
+        if isinstance(step, int):
+            if node.get("type") not in ("array", None) and "items" not in node:
+                raise PathError(f"{format_steps(done) or 'the message'} is not an array")
+            node = node.get("items")
+        else:
+            properties = node.get("properties")
+            if not isinstance(properties, Mapping):
+                return None
+            if step not in properties:
+                names = [str(k) for k in properties]
+                raise PathError(
+                    f"{format_steps(done) or 'the message'} has no field {step!r}; "
+                    f"{closest_names([step], names).replace('available', 'fields')}"
+                )
+            node = properties[step]
+        done.append(step)
+    if not isinstance(node, Mapping):
+        return None
+    kind = node.get("type")
+    if isinstance(kind, list):
+        kind = next((k for k in kind if k != "null"), None)
+    return {
+        "number": "number",
+        "integer": "number",
+        "boolean": "number",
+        "string": "string",
+        "object": "message",
+        "array": "array",
+    }.get(str(kind))
+
+
+def _json_leaves(schema: Mapping[str, Any], prefix: str = "", depth: int = 0) -> list[str]:
+    out: list[str] = []
+    properties = schema.get("properties")
+    if depth > 8 or not isinstance(properties, Mapping):
+        return out
+    for name, node in properties.items():
+        if not isinstance(node, Mapping):
+            continue
+        kind = node.get("type")
+        if kind in ("number", "integer", "boolean", "string"):
+            out.append(f"{prefix}.{name}")
+        elif kind == "object":
+            out.extend(_json_leaves(node, f"{prefix}.{name}", depth + 1))
+        elif kind == "array":
+            items = node.get("items")
+            if isinstance(items, Mapping) and items.get("type") in ("number", "integer"):
+                out.append(f"{prefix}.{name}[]")
+    return out

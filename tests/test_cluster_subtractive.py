@@ -1,0 +1,214 @@
+"""Subtractive clustering (paper 001, eqs. (5)-(7)): hand case, naive reference, grid, laws."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from hybridlog.cluster.potentials import exact_potentials, naive_potentials
+from hybridlog.cluster.reference import naive_subtractive_clustering
+from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
+from hybridlog.cluster.subtractive import (
+    AUTO_EXACT_MAX,
+    CENTRE_TOLERANCE,
+    POTENTIAL_TOLERANCE,
+    SubtractiveOptions,
+    subtractive_clustering,
+)
+from hybridlog.errors import OptionError
+from hybridlog.model.loader import load_model
+from hybridlog.simulate import simulate
+
+
+def test_hand_computable_case():
+    # Unit box [0, 1]; r_a = 0.5 so the kernel is exp(-16 d^2), r_b = 0.625: exp(-10.24 d^2).
+    data = np.array([[0.0], [0.0], [0.0], [1.0]])
+    e16, e1024 = math.exp(-16.0), math.exp(-10.24)
+    found = subtractive_clustering(data, SubtractiveOptions(radius=0.5))
+    assert found.method == "exact"
+    np.testing.assert_allclose(found.initial_potentials, [3 + e16] * 3 + [1 + 3 * e16], rtol=1e-14)
+    first = 3 + e16
+    second = 1 + 3 * e16 - first * e1024  # revised by eq. (6); ratio 1/3: grey zone,
+    # accepted as d_min/r_a = 2 >= 1 - 1/3; the three equal points tie (round-off decides)
+    assert found.center_indices[0] in (0, 1, 2) and found.center_indices[1] == 3
+    np.testing.assert_allclose(found.potentials, [first, second], rtol=1e-14)
+    np.testing.assert_allclose(found.centers, [[0.0], [1.0]])
+    np.testing.assert_allclose(found.radii, [0.5])
+    np.testing.assert_allclose(found.sigmas, [0.5 / math.sqrt(8)])
+    # Paper's eq. (5) (no self term): the lone point has potential 3 e^-16: below reject.
+    paper = subtractive_clustering(data, SubtractiveOptions(radius=0.5, self_potential=False))
+    assert paper.n_clusters == 1 and paper.center_indices[0] in (0, 1, 2)
+    np.testing.assert_allclose(paper.initial_potentials[3], 3 * e16, rtol=1e-14)
+
+
+def _blobs(rng, n, d, k=3):
+    centres = rng.uniform(-3, 3, (k, d))
+    labels = rng.integers(0, k, n)
+    return centres[labels] + rng.normal(0, rng.uniform(0.2, 0.8), (n, d))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_exact_equals_naive_all_pairs(seed):
+    rng = np.random.default_rng(seed)
+    data = _blobs(rng, int(rng.integers(50, 400)), int(rng.integers(1, 5)))
+    radius = float(rng.uniform(0.15, 0.8))
+    squash = float(rng.uniform(1.1, 2.0))
+    self_term = bool(seed % 2)
+    found = subtractive_clustering(
+        data,
+        SubtractiveOptions(radius=radius, squash=squash, self_potential=self_term, method="exact"),
+    )
+    indices, peaks = naive_subtractive_clustering(
+        data, radius, squash=squash, self_potential=self_term
+    )
+    assert found.center_indices.tolist() == indices.tolist()
+    np.testing.assert_allclose(found.potentials, peaks, rtol=1e-10)
+
+
+def test_rejections_walk_like_matlab():
+    # Many candidates in the grey zone near one centre: each is rejected one by one.
+    rng = np.random.default_rng(11)
+    data = np.concatenate([rng.normal(0, 0.05, (300, 2)), rng.normal(0.6, 0.2, (200, 2))])
+    for accept, reject in ((0.9, 0.05), (0.7, 0.3), (0.5, 0.15)):
+        found = subtractive_clustering(
+            data, SubtractiveOptions(radius=0.2, accept=accept, reject=reject, method="exact")
+        )
+        indices, _ = naive_subtractive_clustering(data, 0.2, accept=accept, reject=reject)
+        assert found.center_indices.tolist() == indices.tolist()
+
+
+def test_compiled_kernels_equal_plain_python():
+    rng = np.random.default_rng(3)
+    data = _blobs(rng, 120, 3)
+    compiled = subtractive_clustering(data, SubtractiveOptions(radius=0.3))
+    plain = subtractive_clustering(data, SubtractiveOptions(radius=0.3), jit=False)
+    assert compiled.center_indices.tolist() == plain.center_indices.tolist()
+    np.testing.assert_allclose(compiled.initial_potentials, plain.initial_potentials, rtol=1e-13)
+    X = rng.normal(size=(3, 700))
+    np.testing.assert_allclose(exact_potentials(X), naive_potentials(X), rtol=1e-12)
+
+
+def _shapes(n, rng):
+    blobs = [((0, 0), 0.3), ((2, 1), 0.5), ((0, 2), 0.2)]
+    yield "blobs 2-D", np.concatenate([rng.normal(c, s, (n // 3, 2)) for c, s in blobs])
+    scales = [
+        ((0, 0, 0), 0.2, (3, 1, 1)),
+        ((2, 1, 0), 0.3, (1, 2, 1)),
+        ((0, 2, 2), 0.25, (1, 1, 0.5)),
+    ]
+    yield (
+        "anisotropic 3-D",
+        np.concatenate([rng.normal(c, s, (n // 3, 3)) * np.array(k) for c, s, k in scales]),
+    )
+    yield (
+        "unequal 3-D",
+        np.concatenate(
+            [rng.normal(0, 0.1, (int(0.7 * n), 3)), rng.normal(1, 0.3, (n - int(0.7 * n), 3))]
+        ),
+    )
+    t = rng.uniform(0, 4 * np.pi, n)
+    yield "helix", np.stack([np.cos(t), np.sin(t), t / 6], 1) + rng.normal(0, 0.05, (n, 3))
+    model = load_model("double_cart_case1")
+    log = simulate(model, steps=n, seed=3)
+    yield "double cart φ(k)", regression_vectors(log.outputs, log.inputs, RegressorSpec())
+    yield (
+        "blob + uniform",
+        np.concatenate([rng.normal(0.5, 0.05, (n // 2, 2)), rng.uniform(0, 1, (n - n // 2, 2))]),
+    )
+
+
+@pytest.mark.parametrize("radius", [0.5, 0.3])
+def test_approximate_centres_within_tolerance(radius):
+    rng = np.random.default_rng(0)
+    for name, data in _shapes(10_000, rng):
+        if name == "helix" and radius < 0.5:
+            continue  # a ridge of equal potential: the order of near-tied centres is arbitrary
+        exact = subtractive_clustering(data, SubtractiveOptions(radius=radius, method="exact"))
+        approx = subtractive_clustering(
+            data, SubtractiveOptions(radius=radius, method="approximate")
+        )
+        assert approx.method == "approximate" and approx.grid == 128
+        error = np.abs(approx.initial_potentials - exact.initial_potentials).max()
+        assert error <= POTENTIAL_TOLERANCE * exact.initial_potentials.max(), name
+        assert approx.n_clusters == exact.n_clusters, name
+        distance = np.linalg.norm(approx.centers_unit - exact.centers_unit, axis=1) / radius
+        assert distance.max() <= CENTRE_TOLERANCE, (name, distance)
+        # approximate centres are data points too
+        np.testing.assert_array_equal(approx.centers, data[approx.center_indices])
+
+
+def test_auto_picks_by_size_and_says_so():
+    rng = np.random.default_rng(5)
+    small = subtractive_clustering(rng.normal(size=(500, 2)))
+    assert small.method == "exact" and "auto" in small.notes[0]
+    large = subtractive_clustering(rng.normal(size=(AUTO_EXACT_MAX + 1, 2)))
+    assert large.method == "approximate" and "auto" in large.notes[0]
+    # a grid too coarse for the radius: auto falls back to exact, explicit approximate fails
+    many = rng.normal(size=(AUTO_EXACT_MAX + 1, 7))
+    options = SubtractiveOptions(radius=0.2, max_centres=1)
+    assert subtractive_clustering(many, options).method == "exact"
+    with pytest.raises(OptionError, match="method: the approximate potentials"):
+        subtractive_clustering(
+            many[:100], SubtractiveOptions(radius=0.2, method="approximate", max_centres=1)
+        )
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (SubtractiveOptions(radius=0.0), "radius: must be positive"),
+        (SubtractiveOptions(radius=(0.5, 0.5, 0.5)), "radius: expected one value or 2"),
+        (SubtractiveOptions(squash=1.0), "squash"),
+        (SubtractiveOptions(accept=0.1, reject=0.2), "accept, reject"),
+        (SubtractiveOptions(method="fast"), "method"),
+    ],
+)
+def test_bad_options_name_the_key(options, message):
+    with pytest.raises(OptionError, match=message):
+        subtractive_clustering(np.zeros((10, 2)) + np.arange(10)[:, None], options)
+
+
+def test_bad_data():
+    with pytest.raises(OptionError, match="row 2 is not finite"):
+        subtractive_clustering(np.array([[0.0], [1.0], [np.nan]]))
+    with pytest.raises(OptionError, match="non-empty"):
+        subtractive_clustering(np.zeros((0, 2)))
+
+
+def test_constant_dimension_and_per_dimension_radius():
+    data = np.stack([np.linspace(0, 1, 50), np.full(50, 3.0)], axis=1)
+    found = subtractive_clustering(data, SubtractiveOptions(radius=(0.3, 0.5)))
+    assert np.all(found.centers[:, 1] == 3.0)
+    np.testing.assert_allclose(found.radii, [0.3, 0.0])
+
+
+points = st.lists(
+    st.tuples(*(st.floats(-100, 100, allow_nan=False) for _ in range(2))),
+    min_size=2,
+    max_size=60,
+    unique=True,
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(points, st.floats(0.1, 1.0), st.booleans())
+def test_properties(rows, radius, self_term):
+    data = np.array(rows)
+    options = SubtractiveOptions(radius=radius, self_potential=self_term, method="exact")
+    found = subtractive_clustering(data, options)
+    top = found.initial_potentials.max()
+    assume(np.unique(np.round(found.initial_potentials / top, 9)).size == len(rows))  # no ties
+    # every exact centre is a data point
+    for centre, index in zip(found.centers, found.center_indices, strict=True):
+        np.testing.assert_array_equal(centre, data[index])
+    # potentials are never negative beyond round-off, before and after the revisions
+    assert found.initial_potentials.min() >= -1e-12
+    assert found.final_potentials.min() >= 0.0
+    assert np.all(found.potentials > 0.0)
+    # invariant to the order of the samples (same centre points, same potentials)
+    order = np.random.default_rng(len(rows)).permutation(len(rows))
+    shuffled = subtractive_clustering(data[order], options)
+    np.testing.assert_allclose(shuffled.centers, found.centers, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(shuffled.potentials, found.potentials, rtol=1e-9)

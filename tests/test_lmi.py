@@ -1,0 +1,72 @@
+"""Observer gains from paper 001's LMI (15): the certificate, not particular gains."""
+
+import numpy as np
+import pytest
+
+from hybridlog.estimators.lmi import ObserverDesignError, certificate, observer_gains
+from hybridlog.estimators.switched_observer import linear_modes
+from hybridlog.model.loader import load_model
+
+
+def _check(A, C, gains, rho):
+    """Independent check: ρ² S_i − Ã_iᵀ S_j Ã_i ≻ 0 for all (i, j), S_i ≻ 0, Ã_i Schur."""
+    L, S = gains.gains, gains.lyapunov
+    closed = A - L @ C
+    for i in range(len(A)):
+        assert np.linalg.eigvalsh(S[i]).min() > 0
+        assert np.abs(np.linalg.eigvals(closed[i])).max() < 1
+        for j in range(len(A)):
+            gap = rho**2 * S[i] - closed[i].T @ S[j] @ closed[i]
+            assert np.linalg.eigvalsh((gap + gap.T) / 2).min() > 0
+
+
+@pytest.mark.parametrize("name", ["double_cart_case1", "double_cart_case2"])
+def test_feasible_and_certified_for_both_cases(name):
+    model = load_model(name)
+    linear = linear_modes(model)
+    gains = observer_gains(linear.A, linear.C, model.mode_ids, model_name=name)
+    _check(linear.A, linear.C, gains, 1.0)
+    assert gains.margin > 1e-3 and gains.decay_bound < 1.0
+    assert np.all(gains.spectral_radii < 1.0)
+    # the error of the switched observer shrinks under an arbitrary switching sequence
+    rng = np.random.default_rng(0)
+    error = rng.normal(size=4)
+    closed = linear.A - gains.gains @ linear.C
+    values = []
+    for _ in range(200):
+        q = int(rng.integers(0, 2))
+        values.append(error @ gains.lyapunov[q] @ error)
+        error = closed[q] @ error
+        assert error @ gains.lyapunov[int(rng.integers(0, 2))] @ error >= 0
+    assert np.linalg.norm(error) < 1e-4
+
+
+def test_decay_rate_is_honoured():
+    model = load_model("double_cart_case1")
+    linear = linear_modes(model)
+    gains = observer_gains(linear.A, linear.C, model.mode_ids, decay_rate=0.8)
+    _check(linear.A, linear.C, gains, 0.8)
+    assert gains.decay_bound <= 0.8 + 1e-9
+    margin, bound, _ = certificate(linear.A, linear.C, gains.gains, gains.lyapunov, 0.8)
+    assert margin == pytest.approx(gains.margin) and bound == pytest.approx(gains.decay_bound)
+
+
+def test_undetectable_mode_is_named():
+    A = np.array([[[0.5, 0.0], [0.0, 0.4]], [[0.5, 0.0], [0.0, 1.2]]])  # mode b: x2 unstable
+    C = np.array([[[1.0, 1.0]], [[1.0, 0.0]]])  # ... and unseen
+    with pytest.raises(ObserverDesignError, match=r"mode\(s\) 'b' alone"):
+        observer_gains(A, C, ["a", "b"], model_name="toy")
+
+
+def test_jointly_infeasible_modes_are_named():
+    # A rotation seen through x1 in mode p and x2 in mode q: each mode alone admits a
+    # dead-beat gain, but switching between them has no certificate at decay rate 0.5.
+    A = np.array([[[0.0, 1.0], [-1.0, 0.0]], [[0.0, 1.0], [-1.0, 0.0]]])
+    C = np.array([[[1.0, 0.0]], [[0.0, 1.0]]])
+    with pytest.raises(ObserverDesignError, match="infeasible for modes 'p', 'q' jointly"):
+        observer_gains(A, C, ["p", "q"], decay_rate=0.5, model_name="toy")
+
+
+def test_bad_decay_rate():
+    with pytest.raises(ObserverDesignError, match="decay_rate"):
+        observer_gains(np.eye(2)[None], np.ones((1, 1, 2)), ["a"], decay_rate=1.5)
