@@ -264,7 +264,7 @@ def render_markdown(report: Mapping[str, Any]) -> str:
     str
         Markdown: title, run facts, per-output MSE/VAF table, mode summary (with accuracy,
         confusion matrix and detection delays when the true mode is known), state RMSE
-        table and runtime.
+        table, runtime and the estimator's notes.
 
     """
     lines: list[str] = [
@@ -332,4 +332,8 @@ def render_markdown(report: Mapping[str, Any]) -> str:
     ]
     if report.get("compile_s") is not None:
         lines.append(f"- compilation: {_fmt(report.get('compile_s'), '.3f')} s")
+    notes = [str(note) for note in report.get("notes") or []]
+    if notes:
+        lines += ["", "## Notes", ""]
+        lines += [f"- {note}" for note in notes]
     return "\n".join(lines) + "\n"
