@@ -30,6 +30,7 @@ from hybridlog.io.message_paths import (
     as_number,
     check_path,
     evaluate,
+    leaf_value,
     make_batch,
     split_path,
     stamp_ns,
@@ -121,6 +122,55 @@ def test_the_same_path_works_on_every_decoder(library: str) -> None:
         evaluate(message, ("point", "q"))
     with pytest.raises(PathError, match="not a number"):
         as_number(evaluate(message, ("header", "frame_id")))
+
+
+def decoded_arrays() -> dict[str, object]:
+    """One Float64MultiArray and one uint8[] field, decoded by every library."""
+    ros2, ros1 = ros2_store(), ros1_store()
+    values = [0.5, -1.5, 2.0]
+    raw2 = bytes(
+        ros2.serialize_cdr(
+            ros2.types["std_msgs/msg/Float64MultiArray"](
+                layout=ros2.types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0),
+                data=np.array(values),
+            ),
+            "std_msgs/msg/Float64MultiArray",
+        )
+    )
+    raw1 = bytes(
+        ros1.serialize_ros1(
+            ros1.types["std_msgs/msg/Float64MultiArray"](
+                layout=ros1.types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0),
+                data=np.array(values),
+            ),
+            "std_msgs/msg/Float64MultiArray",
+        )
+    )
+    name2, name1 = "std_msgs/msg/Float64MultiArray", "std_msgs/Float64MultiArray"
+    schema2 = Schema(id=1, name=name2, encoding="ros2msg", data=msgdef(name2).encode())
+    schema1 = Schema(id=1, name=name1, encoding="ros1msg", data=msgdef(name2, 1).encode())
+    decode2 = Ros2Decoders().decoder_for("cdr", schema2)
+    decode1 = Ros1Decoders().decoder_for("ros1", schema1)
+    assert decode2 is not None and decode1 is not None
+    return {
+        "rosbags ROS 2": ros2.deserialize_cdr(raw2, name2),
+        "rosbags ROS 1": ros1.deserialize_ros1(raw1, name2),
+        "mcap-ros2-support": decode2(raw2),
+        "mcap-ros1-support": decode1(raw1),
+        "json": {"layout": {"dim": [], "data_offset": 0}, "data": values},
+    }
+
+
+@pytest.mark.parametrize("library", list(decoded_arrays()))
+def test_numeric_arrays_are_float_arrays_on_every_decoder(library: str) -> None:
+    message = decoded_arrays()[library]
+    values = leaf_value(message, ("data",))
+    assert isinstance(values, np.ndarray) and values.dtype == np.float64
+    np.testing.assert_array_equal(values, [0.5, -1.5, 2.0])
+    assert leaf_value(message, ("data", -1)) == 2.0
+    assert leaf_value(message, ("layout", "data_offset")) == 0.0
+    with pytest.raises(PathError, match="index out of range"):
+        leaf_value(message, ("data", 3))
 
 
 def test_numeric_arrays_become_float_arrays_whatever_the_container() -> None:
@@ -276,6 +326,18 @@ def test_batch_decoder_reads_stamps_and_labels_of_standard_types() -> None:
     np.testing.assert_array_equal(decoder.numbers(batch, ("point", "y")), [-5.0, -2.0])
     codes, categories = decoder.labels(batch, ("header", "frame_id"))
     assert [categories[c] for c in codes] == ["a", "b"]
+
+
+def test_batch_decoder_reads_ros1_stamps_after_the_header_seq() -> None:
+    store = ros1_store()
+    times = [7, 3 * 10**9 + 9]
+    points = [stamped_point(store, t, 1.0 + i, frame="odom" * i) for i, t in enumerate(times)]
+    raw = [bytes(store.serialize_ros1(p, "geometry_msgs/msg/PointStamped")) for p in points]
+    decoder = BatchDecoder(store.fielddefs, "geometry_msgs/msg/PointStamped", cdr=False)
+    batch = make_batch(raw, cdr=False)
+    np.testing.assert_array_equal(decoder.stamps(batch, ("header", "stamp")), times)
+    np.testing.assert_array_equal(decoder.numbers(batch, ("point", "x")), [1.0, 2.0])
+    np.testing.assert_array_equal(decoder.numbers(batch, ("point", "z")), [0.5, 0.5])
 
 
 def test_batch_decoder_rejects_messages_that_do_not_fit_their_type() -> None:

@@ -34,8 +34,8 @@ from logfiles import (
     write_ros2_bag,
 )
 
-from hybridlog.cli import main
-from hybridlog.io import load_signals
+from hybridlog.cli import cli, main
+from hybridlog.io import ReadSettings, load_signals
 from hybridlog.io.writers import write_table
 
 SAME = ("samples", "dt", "outputs", "mse", "vaf", "states")
@@ -116,8 +116,6 @@ def test_header_time_takes_the_stamps_not_the_log_time(tmp_path: Path) -> None:
         "maps": [m for m in MAPS if m != "--map"],
     }
     by_log = load_signals(log, **model)
-    from hybridlog.io.source import ReadSettings
-
     by_header = load_signals(log, settings=ReadSettings(time="header"), **model)
     np.testing.assert_allclose(by_log.time - by_header.time, 0.009)
     np.testing.assert_array_equal(by_log.outputs, by_header.outputs)
@@ -126,9 +124,7 @@ def test_header_time_takes_the_stamps_not_the_log_time(tmp_path: Path) -> None:
 
 def test_inspect_lists_every_topic_of_a_foreign_bag(tmp_path: Path) -> None:
     log = write_ros2_bag(tmp_path / "bag", scene(tank_run()), "sqlite3")
-    result = CliRunner().invoke(
-        __import__("hybridlog.cli", fromlist=["cli"]).cli, ["inspect", str(log), "--json"]
-    )
+    result = CliRunner().invoke(cli, ["inspect", str(log), "--json"])
     assert result.exit_code == 0, result.output
     info = json.loads(result.output)
     topics = {t["name"]: t for t in info["topics"]}
@@ -148,3 +144,63 @@ def test_inspect_lists_every_topic_of_a_foreign_bag(tmp_path: Path) -> None:
     assert "/levels.point.x" in topics["/levels"]["fields"]
     assert "/sim/state.data[]" in topics["/sim/state"]["fields"]
     assert info["problems"] == []
+
+
+def _signals(log: Path, **options: Any) -> Any:
+    return load_signals(
+        log,
+        states=("x1", "x2", "x3"),
+        inputs=("u",),
+        outputs=("y1", "y2", "y3"),
+        mode_ids=("1", "2", "3"),
+        dt=1.0,
+        maps=[m for m in MAPS if m != "--map"],
+        **options,
+    )
+
+
+@pytest.mark.parametrize(
+    "writer", ["rosbags ROS 2 mcap", "mcap CDR, no profile", "mcap-ros1-support"]
+)
+def test_small_batches_and_the_one_by_one_fallback_read_the_same(
+    writer: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The fallback decodes with rosbags (bags), mcap-ros2-support and mcap-ros1-support (MCAP).
+    from hybridlog.io import message_paths, messages
+
+    name, write = WRITERS[writer]
+    log = write(tmp_path / name, scene(tank_run()))
+    plain = _signals(log)
+    monkeypatch.setattr(messages, "BATCH_MESSAGES", 7)  # labels and values merged over batches
+    batched = _signals(log)
+    monkeypatch.setattr(message_paths, "MAX_WALKED_ELEMENTS", -1)  # arrays: rosbags decodes
+    fallback = _signals(log)
+    for other in (batched, fallback):
+        np.testing.assert_array_equal(other.time, plain.time)
+        np.testing.assert_array_equal(other.inputs, plain.inputs)
+        np.testing.assert_array_equal(other.outputs, plain.outputs)
+        np.testing.assert_array_equal(other.truth_modes, plain.truth_modes)
+        np.testing.assert_array_equal(other.truth_states, plain.truth_states)
+
+
+def test_only_mapped_topics_are_decoded(tmp_path: Path) -> None:
+    from logfiles import Channel, json_bytes, json_message, write_mcap
+
+    from hybridlog.errors import LogError
+    from hybridlog.io.mcap_reader import McapSource, check_mcap
+
+    records = scene(tank_run())
+    topics = sorted({r.topic for r in records})
+    channels = [Channel(t, "json", "x", "jsonschema", "{}") for t in [*topics, "/junk"]]
+    messages = [(topics.index(r.topic), r.log_ns, json_bytes(json_message(r))) for r in records]
+    messages += [(len(topics), r.log_ns, b"{not json") for r in records[::50]]
+    log = write_mcap(
+        tmp_path / "junk.mcap", channels, sorted(messages, key=lambda m: m[1]), profile=""
+    )
+    signals = _signals(log)  # never decodes /junk
+    assert signals.n_samples == 91
+    with (
+        McapSource(log, check_mcap(log)) as source,
+        pytest.raises(LogError, match="cannot be decoded"),
+    ):
+        source.read(["/junk.data"])

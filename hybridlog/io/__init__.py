@@ -157,7 +157,7 @@ def load_signals(
                     )
             else:
                 check_finite(source, series, symbols[name])
-        notes.update({"format": getattr(source, "format", "?"), "time": settings.time})
+        notes.update({"format": source.format, "time": settings.time})
         notes.update(source.notes())
         if dropped:
             notes["nonfinite_dropped"] = dropped

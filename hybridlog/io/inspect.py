@@ -121,9 +121,8 @@ def format_inspection(info: dict[str, Any]) -> str:
 def _format_messages(info: dict[str, Any]) -> str:
     """The text form of a bag's or MCAP file's description."""
     topics = info["topics"]
-    lines = [
-        f"{info['path']} ({info['format']}, {info['messages']} messages, {len(topics)} topics)"
-    ]
+    kind = info["format"] + (f", profile {info['profile']!r}" if "profile" in info else "")
+    lines = [f"{info['path']} ({kind}, {info['messages']} messages, {len(topics)} topics)"]
     span = info.get("time")
     if span is not None:
         lines.append(

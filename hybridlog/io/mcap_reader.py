@@ -88,7 +88,7 @@ def _check_open_mcap(path: Path, handle: IO[bytes], size: int) -> McapLayout:
         return McapLayout(profile, False, "the file ends before its footer")
     handle.seek(size - 8)
     if handle.read(8) != MAGIC:
-        return McapLayout(profile, False, "no closing magic bytes: the file is cut off")
+        return McapLayout(profile, False, "no closing magic bytes")
     footer_at = size - 8 - _FOOTER_SIZE
     handle.seek(footer_at)
     footer = handle.read(_FOOTER_SIZE)
@@ -233,7 +233,7 @@ class McapSource(MessageSource):
     ) -> None:
         super().__init__(path, settings)
         self.format = "mcap"
-        self._profile = layout.profile or ""
+        self._details["profile"] = layout.profile or ""
         self._sequential = self.settings.recover or not layout.finished
         self._handle: IO[bytes] | None = None
         self._stop: str | None = None
@@ -287,13 +287,11 @@ class McapSource(MessageSource):
         assert self._handle is not None
         schemas: dict[int, Any] = {}
         channels: dict[int, Any] = {}
-        counts: dict[int, int] = {}
         total = 0
         self._handle.seek(0)
         try:
             for record in StreamReader(self._handle, validate_crcs=True).records:
                 if isinstance(record, Message):
-                    counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
                     total += 1
                 elif isinstance(record, Schema):
                     schemas[record.id] = record
@@ -428,7 +426,7 @@ class McapSource(MessageSource):
 
     def _damaged(self, err: BaseException) -> LogError:
         if type(err).__name__ == "CRCValidationError":
-            return LogError(f"{self.path}: CRC mismatch in the MCAP file ({first_line(err)})")
+            return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({first_line(err)})")
         return LogError(f"{self.path}: damaged MCAP file ({first_line(err)})")
 
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:

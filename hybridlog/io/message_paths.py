@@ -10,8 +10,8 @@ The same path works on every kind of message hybridlog reads:
 
 - :func:`evaluate` follows a path through a decoded message -- a rosbags message object (ROS 1
   or ROS 2), an ``mcap-ros1-support``/``mcap-ros2-support`` object or a JSON ``dict`` -- and
-  :func:`as_number` turns what it finds into a float; numeric arrays come out as ``float64``
-  arrays whatever container the library returned.
+  :func:`leaf_value` returns what it finds as a float, a string, or a ``float64`` array for
+  numeric arrays, whatever container the library returned.
 - :func:`check_path` checks a path against a message definition (a rosbags type store)
   before anything is read, so that a wrong field is reported with the fields that exist.
 - :class:`BatchDecoder` reads a path out of many *serialised* CDR or ROS 1 messages at once,
@@ -414,6 +414,26 @@ def as_float_array(value: object) -> FloatArray:
             raise PathError(f"is {_kind(value)}, not an array of numbers") from err
         return result
     raise PathError(f"is {_kind(value)}, not an array of numbers")
+
+
+def leaf_value(message: object, steps: Sequence[Step]) -> float | str | FloatArray:
+    """What a path names in a decoded message, in one form whatever the decoder.
+
+    Numbers (and booleans) come out as ``float``, text as ``str``, and numeric arrays as
+    ``float64`` arrays -- whether the library gave a NumPy array (rosbags), a list
+    (``mcap-ros2-support``, JSON), a tuple or ``bytes`` (``mcap-ros1-support``).
+
+    Raises
+    ------
+    PathError
+        For a missing field, an index out of range, or a nested message.
+    """
+    value = evaluate(message, steps)
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (bytes, bytearray, np.ndarray, array.array, list, tuple)):
+        return as_float_array(value)
+    return as_number(value)
 
 
 def as_label(value: object) -> str:

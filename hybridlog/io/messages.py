@@ -126,6 +126,8 @@ class MessageSource:
         self._topics: dict[str, Topic] = {}
         self._notes: dict[str, Any] = {}
         self._problems: list[str] = []
+        # Format details for ``describe`` (e.g. an MCAP file's profile).
+        self._details: dict[str, Any] = {}
 
     # ------------------------------------------------------------------ subclass hooks
 
@@ -187,7 +189,7 @@ class MessageSource:
                 leaves = leaf_fields(topic.typedefs, topic.msgtype)
             elif topic.json_schema is not None:
                 leaves = _json_leaves(topic.json_schema)
-            out.extend(name + leaf for leaf in leaves) if leaves else out.append(name)
+            out.extend([name + leaf for leaf in leaves] or [name])
         return tuple(out)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
@@ -380,6 +382,7 @@ class MessageSource:
         return {
             "path": self.path,
             "format": self.format,
+            **self._details,
             "messages": total,
             "topics": topics,
             "time": None

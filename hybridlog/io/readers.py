@@ -143,8 +143,8 @@ def _open_mcap(file: Path, settings: ReadSettings) -> LogSource:
     if not layout.finished:
         readable, stop = count_readable(file)
         raise UnfinishedLogError(
-            f"{file}: unfinished MCAP file ({layout.problem}; the recorder was killed or the "
-            f"file was cut off); {readable} messages are readable up to {stop}, "
+            f"{file}: unfinished MCAP file ({layout.problem}: the recorder was killed or the "
+            f"file was cut off); {readable} messages are readable, up to {stop}; "
             "--recover analyses them",
             readable,
         )

@@ -168,6 +168,8 @@ class BagSource(MessageSource):
             plugin = type(getattr(storage, "storages", [None])[0]).__name__
             self.format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
         self._store = reader.typestore
+        if kind == "mcap":
+            self._details["profile"] = "ros2"
         try:
             extra = types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
             complete_typestore(
@@ -197,6 +199,11 @@ class BagSource(MessageSource):
                 f"{self.path}: holds an MCAP file whose profile is not 'ros2', so it is not a "
                 "ROS 2 bag; open the .mcap file itself (read with the mcap library)"
             )
+        if "index looks damaged" in text:
+            return (
+                f"{self.path}: damaged ROS 1 bag: its index cannot be read (the file is cut off "
+                "or corrupt; `rosbag reindex` may rebuild it)"
+            )
         if "not indexed" in text:
             return (
                 f"{self.path}: the ROS 1 bag is not indexed (its recording did not finish); "
@@ -204,6 +211,11 @@ class BagSource(MessageSource):
             )
         if "Cannot open database" in text or isinstance(err, sqlite3.Error):
             return f"{self.path}: not a readable ROS 2 bag database ({text})"
+        if "File end magic is invalid" in text and self._kind == "ros2":
+            return (
+                f"{self.path}: its MCAP storage file is unfinished (no footer: the recorder was "
+                "killed?); analyse the .mcap file inside it with --recover"
+            )
         if "File magic is invalid" in text:
             return f"{self.path}: not a {self.format} file (wrong magic bytes)"
         if "seems to be empty" in text:
@@ -233,8 +245,8 @@ class BagSource(MessageSource):
                 topic.problem = "schemaless channel: its messages cannot be decoded"
             elif not self._ros1 and formats != {"cdr"}:
                 topic.problem = (
-                    f"message encoding {', '.join(sorted(formats))!r} is not CDR "
-                    "(open an MCAP file directly to read JSON or ROS 1 messages)"
+                    f"message encoding {', '.join(sorted(formats))!r} is not CDR, which a "
+                    "ROS 2 bag requires"
                 )
             elif msgtype not in store.fielddefs:
                 topic.problem = (
@@ -265,7 +277,7 @@ class BagSource(MessageSource):
     def _damaged(self, err: BaseException) -> LogError:
         text = first_line(err)
         if "checksum" in text.lower() or "crc" in text.lower():
-            return LogError(f"{self.path}: CRC mismatch in the {self.format} file ({text})")
+            return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({text})")
         return LogError(f"{self.path}: damaged {self.format} file ({text})")
 
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:

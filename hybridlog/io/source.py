@@ -106,6 +106,9 @@ class LogSource(Protocol):
     the caller needs, so that a reader can decode the file in one pass.
     """
 
+    #: The log's format for reports and ``inspect``: ``"csv"``, ``"mcap"``, ``"ros1-bag"`` ...
+    format: str
+
     @property
     def path(self) -> str:
         """The log's path, used to prefix every error message."""
