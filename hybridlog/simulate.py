@@ -28,10 +28,6 @@ exists).  A row where no guard holds is an error.  The guards are compiled with 
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import os
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -44,7 +40,12 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.jit import jit_signature
-from hybridlog.model.compiled import VECTOR_FUNCTION, ModelFunction, cache_dir, compile_model
+from hybridlog.model.compiled import (
+    VECTOR_FUNCTION,
+    ModelFunction,
+    compile_model,
+    load_generated,
+)
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray, IntArray
 
@@ -210,25 +211,11 @@ _GUARDS: dict[str, GuardFunction] = {}
 def compile_guard(model: HybridModel, *, jit: bool = True) -> GuardFunction:
     """The model's guard function, compiled (cached on disk) or as plain Python."""
     source = guard_source(model)
-    key = hashlib.sha256(f"{numba.__version__}|{source}".encode()).hexdigest()[:24]
-    memo = f"{key}|{jit}"
+    memo = f"{jit}|{source}"
     if memo in _GUARDS:
         return _GUARDS[memo]
     if jit:
-        folder = cache_dir() / "models"
-        folder.mkdir(parents=True, exist_ok=True)
-        path = folder / f"g_{key}.py"
-        if not path.exists() or path.read_text(encoding="utf-8") != source:
-            temporary = path.with_suffix(f".{os.getpid()}.tmp")
-            temporary.write_text(source, encoding="utf-8")
-            temporary.replace(path)
-        name = f"hybridlog_guard_{key}"
-        spec = importlib.util.spec_from_file_location(name, path)
-        if spec is None or spec.loader is None:  # pragma: no cover - the file was just written
-            raise ImportError(f"cannot import generated guard module {path}")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
+        module = load_generated(source)
         function: GuardFunction = numba.njit(GUARD_SIGNATURE, cache=True)(module.guard)
     else:
         namespace: dict[str, Any] = {}

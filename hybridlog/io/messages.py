@@ -23,6 +23,7 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
 
 from __future__ import annotations
 
+import abc
 import json
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -109,7 +110,7 @@ class Topic:
         return f"{self.name!r} ({self.msgtype or 'no type'})"
 
 
-class MessageSource:
+class MessageSource(abc.ABC):
     """Base of the message-log readers (see the module docstring).
 
     Subclasses set ``format`` and fill ``_topics`` when opened, and implement
@@ -131,9 +132,9 @@ class MessageSource:
 
     # ------------------------------------------------------------------ subclass hooks
 
+    @abc.abstractmethod
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
         """Yield ``(topic, log_time_ns, serialised message)`` for the named topics."""
-        raise NotImplementedError
 
     def _read_errors(self) -> tuple[type[BaseException], ...]:
         """Exceptions the underlying library raises for a damaged file."""
@@ -168,6 +169,7 @@ class MessageSource:
         """Release the file (subclasses close their readers)."""
         self.close()
 
+    @abc.abstractmethod
     def close(self) -> None:
         """Release what the source holds."""
 
