@@ -161,15 +161,7 @@ QUICK = Sizes(three_tank=(10**3, 10**4), filterpy_steps=200, hybridlog_steps=10*
 
 def signals_for(model: HybridModel, n_samples: int, seed: int) -> AlignedSignals:
     """``n_samples`` simulated rows (``n_samples − 1`` filter steps)."""
-    log = simulate(model, steps=n_samples - 1, seed=seed)
-    return AlignedSignals(
-        source="bench",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-    )
+    return simulate(model, steps=n_samples - 1, seed=seed).signals(model, source="bench")
 
 
 def best_runtime(

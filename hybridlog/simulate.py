@@ -47,7 +47,7 @@ from hybridlog.model.compiled import (
     load_generated,
 )
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 
 @dataclass(frozen=True)
@@ -59,6 +59,20 @@ class SimulatedLog:
     outputs: FloatArray
     modes: IntArray
     states: FloatArray
+
+    def signals(self, model: HybridModel, source: str = "simulation") -> AlignedSignals:
+        """The run as the estimators' input, ground truth (modes and states) included."""
+        return AlignedSignals(
+            source=source,
+            time=self.time,
+            input_names=model.inputs,
+            output_names=model.outputs,
+            inputs=self.inputs,
+            outputs=self.outputs,
+            truth_modes=self.modes,
+            state_names=model.states,
+            truth_states=self.states,
+        )
 
     def columns(self, model: HybridModel) -> dict[str, FloatArray | list[str]]:
         """Log columns by name: ``t``, inputs, outputs, ``mode`` (mode ids) and true states."""

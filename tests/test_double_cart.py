@@ -21,7 +21,6 @@ from hybridlog.estimators.chiu import (
 )
 from hybridlog.estimators.switched_observer import linear_modes, run_observer
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -29,17 +28,7 @@ SAMPLE = ROOT / "sample_logs" / "double_cart_case1.csv"
 
 
 def signals_of(model, log):
-    return AlignedSignals(
-        source="sim",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-        truth_modes=log.modes,
-        state_names=model.states,
-        truth_states=log.states,
-    )
+    return log.signals(model)
 
 
 @pytest.mark.parametrize("name", ["double_cart_case1", "double_cart_case2"])

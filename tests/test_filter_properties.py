@@ -1,5 +1,7 @@
 """Numerical invariants of the filters over long runs with gross outliers (hypothesis)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -8,7 +10,6 @@ from hypothesis import strategies as st
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 from tests.models import LINEAR_TWO_MODE
 
@@ -68,14 +69,7 @@ def test_covariances_stay_symmetric_psd_and_probabilities_normalised(
     rows = rng.choice(STEPS, size=n_outliers, replace=False)
     std = np.sqrt(np.diag(model.modes[0].measurement_noise))
     outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
-    signals = AlignedSignals(
-        source="sim",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=outputs,
-    )
+    signals = dataclasses.replace(log.signals(model), outputs=outputs)
     assert_filter_invariants(RUNS[run_name](model, signals))
 
 
@@ -85,14 +79,7 @@ def test_invariants_hold_with_a_burst_of_outliers_on_every_model(long_logs, run_
     for model, log in long_logs.values():
         outputs = log.outputs.copy()
         outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
-        signals = AlignedSignals(
-            source="sim",
-            time=log.time,
-            input_names=model.inputs,
-            output_names=model.outputs,
-            inputs=log.inputs,
-            outputs=outputs,
-        )
+        signals = dataclasses.replace(log.signals(model), outputs=outputs)
         result = RUNS[run_name](model, signals)
         assert_filter_invariants(result)
         # The filter recovers: the last tenth of the run tracks the measurements again.

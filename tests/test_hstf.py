@@ -5,7 +5,6 @@ import pytest
 
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.model.loader import load_model
-from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 from tests.reference_hstf import reference_hstf
 
@@ -13,16 +12,7 @@ from tests.reference_hstf import reference_hstf
 @pytest.fixture(scope="module")
 def three_tank():
     model = load_model("three_tank_hstf")
-    log = simulate(model, seed=7)
-    signals = AlignedSignals(
-        source="sim",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-    )
-    return model, signals
+    return model, simulate(model, seed=7).signals(model)
 
 
 @pytest.mark.parametrize(

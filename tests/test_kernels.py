@@ -31,15 +31,7 @@ RUNS = {
 
 
 def _signals(model, steps):
-    log = simulate(model, steps=steps, seed=4)
-    return AlignedSignals(
-        source="sim",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-    )
+    return simulate(model, steps=steps, seed=4).signals(model)
 
 
 def _assert_same(a, b, tolerance):

@@ -8,21 +8,12 @@ from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.loader import parse_model
-from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 from tests.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 
 def _signals(model, steps, seed):
-    log = simulate(model, steps=steps, seed=seed)
-    return AlignedSignals(
-        source="sim",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-    )
+    return simulate(model, steps=steps, seed=seed).signals(model)
 
 
 def _linear_matrices(model, mode_index):

@@ -65,16 +65,7 @@ def variation(name: str, index: int) -> tuple[object, AlignedSignals]:
     text = builtin_text(name).replace('u = "sin(0.3*t)"', f'u = "{a}*sin({w}*t + {0.7 * index})"')
     model = parse_model(text, origin=name)
     log = simulate(model, steps=1000, seed=index)
-    signals = AlignedSignals(
-        source=f"{name} variation {index}",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-        truth_modes=log.modes,
-    )
-    return model, signals
+    return model, log.signals(model, source=f"{name} variation {index}")
 
 
 def fmt(values: list[float], spec: str) -> str:

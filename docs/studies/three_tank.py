@@ -66,17 +66,7 @@ VARIANTS: dict[str, Runner] = {
 
 def signals_of(model: HybridModel, log: SimulatedLog) -> AlignedSignals:
     """The simulated log as the estimators' input, with its ground truth."""
-    return AlignedSignals(
-        source="sim",
-        time=log.time,
-        input_names=model.inputs,
-        output_names=model.outputs,
-        inputs=log.inputs,
-        outputs=log.outputs,
-        truth_modes=log.modes,
-        state_names=model.states,
-        truth_states=log.states,
-    )
+    return log.signals(model)
 
 
 def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> dict[str, float]:
