@@ -123,8 +123,6 @@ def _shapes(n, rng):
 def test_approximate_centres_within_tolerance(radius):
     rng = np.random.default_rng(0)
     for name, data in _shapes(10_000, rng):
-        if name == "helix" and radius < 0.5:
-            continue  # a ridge of equal potential: the order of near-tied centres is arbitrary
         exact = subtractive_clustering(data, SubtractiveOptions(radius=radius, method="exact"))
         approx = subtractive_clustering(
             data, SubtractiveOptions(radius=radius, method="approximate")
@@ -132,11 +130,16 @@ def test_approximate_centres_within_tolerance(radius):
         assert approx.method == "approximate" and approx.grid == 128
         error = np.abs(approx.initial_potentials - exact.initial_potentials).max()
         assert error <= POTENTIAL_TOLERANCE * exact.initial_potentials.max(), name
+        # approximate centres are data points too
+        np.testing.assert_array_equal(approx.centers, data[approx.center_indices])
+        if name == "helix" and radius < 0.5:
+            # The documented exception (subtractive.py): the potential has a ridge of near-equal
+            # values, so which of two near-tied points becomes a centre depends on differences
+            # far below the grid's error (measured: 20 exact centres, 21 approximate).
+            continue
         assert approx.n_clusters == exact.n_clusters, name
         distance = np.linalg.norm(approx.centers_unit - exact.centers_unit, axis=1) / radius
         assert distance.max() <= CENTRE_TOLERANCE, (name, distance)
-        # approximate centres are data points too
-        np.testing.assert_array_equal(approx.centers, data[approx.center_indices])
 
 
 def test_auto_picks_by_size_and_says_so():
