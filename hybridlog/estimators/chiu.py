@@ -294,11 +294,12 @@ def fit_classifier(
                 sigmas=found.sigmas,
                 center_rows=found.center_indices + spec.max_lag,
             )
+            self_term = "included" if options.self_potential else "excluded (eq. (5) as printed)"
             notes = (
                 f"chiu: {found.n_clusters} centres from {phi.shape[0]} regression vectors "
                 f"φ(k) = [{text}]; {found.notes[0]}; r_a = {options.radius:g}, "
                 f"squash {options.squash:g}, accept {options.accept:g}, reject "
-                f"{options.reject:g}, self term {'in' if options.self_potential else 'out'}",
+                f"{options.reject:g}, self term {self_term}",
             )
         else:
             assert isinstance(options, KMeansOptions)
