@@ -287,7 +287,7 @@ def test_timeline_values(tmp_path: Path) -> None:
     result, signals = make_run(n=60)
     write_report(tmp_path / "o", result, signals, log="l", model_name="m", dt=DT)
     timeline = read_table(tmp_path / "o" / "timeline.csv")
-    assert timeline["mode"].to_list() == result.mode_labels
+    assert timeline["mode"].to_list() == [result.mode_ids[m] for m in result.modes]
     assert signals.truth_modes is not None
     assert timeline["truth_mode"].to_list() == [MODE_IDS[i] for i in signals.truth_modes]
     np.testing.assert_array_equal(timeline["p_low"].to_numpy(), result.mode_probabilities[:, 1])

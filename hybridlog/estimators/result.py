@@ -5,8 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from hybridlog.signals import FloatArray, IntArray
 
 
@@ -70,9 +68,3 @@ class EstimationResult:
     def n_samples(self) -> int:
         """Number of samples estimated."""
         return int(self.time.shape[0])
-
-    @property
-    def mode_labels(self) -> list[str]:
-        """Estimated mode of each sample as the model's mode id."""
-        ids = np.asarray(self.mode_ids, dtype=object)
-        return [str(m) for m in ids[self.modes]]

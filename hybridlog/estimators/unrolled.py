@@ -117,12 +117,6 @@ class Program:
             result.append(row)
         return result
 
-    def matvec(self, hint: str, A: Matrix, v: Vector) -> Vector:
-        """``A @ v``."""
-        return [
-            self.let(hint, [product(A[i][k], v[k]) for k in range(len(v))]) for i in range(len(A))
-        ]
-
     def congruence(self, hint: str, A: Matrix, P: Matrix, add: Matrix | None = None) -> Matrix:
         """``A P Aᵀ (+ add)`` for symmetric ``P`` and ``add``: upper triangle, mirrored."""
         W = self.matmul(hint + "w", A, P)

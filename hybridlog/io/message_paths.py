@@ -150,11 +150,6 @@ class MessagePath:
     topic: str
     steps: tuple[Step, ...]
 
-    @property
-    def canonical(self) -> str:
-        """The path in Foxglove spelling: ``/topic.a.b[0]``."""
-        return self.topic + format_steps(self.steps)
-
 
 def format_steps(steps: Sequence[Step]) -> str:
     """``("a", "b", 0)`` → ``".a.b[0]"``."""

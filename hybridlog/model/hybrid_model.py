@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -146,16 +145,6 @@ class HybridModel:
     def mode_index(self, mode_id: str) -> int:
         """Index of the mode with id ``mode_id``; raises ``KeyError`` when there is none."""
         return self.mode_ids.index(mode_id)
-
-    def equations_hash(self) -> str:
-        """Hash of everything compiled code depends on: symbols and mode equations."""
-        digest = hashlib.sha256()
-        for part in (self.states, self.inputs, self.outputs):
-            digest.update(repr(part).encode())
-        for mode in self.modes:
-            digest.update(sympy.srepr(mode.f).encode())
-            digest.update(sympy.srepr(mode.h).encode())
-        return digest.hexdigest()[:20]
 
     def symbols(self) -> tuple[list[sympy.Symbol], list[sympy.Symbol]]:
         """Sympy symbols of the states and of the inputs."""
