@@ -39,7 +39,7 @@ from numba import types
 from sympy.printing.pycode import PythonCodePrinter
 
 from hybridlog.errors import ModelError, OptionError
-from hybridlog.jit import jit_signature
+from hybridlog.jit import jit, jit_signature
 from hybridlog.model.compiled import (
     VECTOR_FUNCTION,
     ModelFunction,
@@ -145,6 +145,18 @@ def _noise_factor(covariance: FloatArray) -> FloatArray:
     return factor
 
 
+@jit
+def add_noise(
+    clean: FloatArray, factor: FloatArray, draws: FloatArray, lower: FloatArray, out: FloatArray
+) -> None:
+    """``out = max(clean + G w, lower)`` for a noise factor ``G`` and standard normal ``w``."""
+    for a in range(out.shape[0]):
+        acc = clean[a]
+        for b in range(draws.shape[0]):
+            acc += factor[a, b] * draws[b]
+        out[a] = max(acc, lower[a])
+
+
 _SIGNATURE = types.void(
     VECTOR_FUNCTION,
     VECTOR_FUNCTION,
@@ -173,25 +185,16 @@ def _simulate_steps(
     outputs: FloatArray,
     state_min: FloatArray,
 ) -> None:  # compiled as simulate
-    n = states.shape[1]
-    m = outputs.shape[1]
-    clean = np.empty(n)
-    measured = np.empty(m)
+    clean = np.empty(states.shape[1])
+    measured = np.empty(outputs.shape[1])
+    no_bound = np.full(outputs.shape[1], -np.inf)
     for k in range(states.shape[0]):
         q = modes[k]
         if k > 0:
             f(q, states[k - 1], inputs[k - 1], clean)
-            for a in range(n):
-                acc = clean[a]
-                for b in range(n):
-                    acc += process_factors[q, a, b] * process_draws[k, b]
-                states[k, a] = max(acc, state_min[a])
+            add_noise(clean, process_factors[q], process_draws[k], state_min, states[k])
         h(q, states[k], inputs[k], measured)
-        for a in range(m):
-            acc = measured[a]
-            for b in range(m):
-                acc += measurement_factors[q, a, b] * measurement_draws[k, b]
-            outputs[k, a] = acc
+        add_noise(measured, measurement_factors[q], measurement_draws[k], no_bound, outputs[k])
 
 
 _simulate_loop = jit_signature(_SIGNATURE)(_simulate_steps)
@@ -269,29 +272,20 @@ def _simulate_guarded_steps(
     modes: IntArray,
     state_min: FloatArray,
 ) -> int:  # compiled as simulate (state-driven); returns the row where no guard held, or -1
-    n = states.shape[1]
-    m = outputs.shape[1]
-    clean = np.empty(n)
-    measured = np.empty(m)
+    clean = np.empty(states.shape[1])
+    measured = np.empty(outputs.shape[1])
+    no_bound = np.full(outputs.shape[1], -np.inf)
     for k in range(states.shape[0]):
         if k > 0:
             q = modes[k - 1]
             f(q, states[k - 1], inputs[k - 1], clean)
-            for a in range(n):
-                acc = clean[a]
-                for b in range(n):
-                    acc += process_factors[q, a, b] * process_draws[k, b]
-                states[k, a] = max(acc, state_min[a])
+            add_noise(clean, process_factors[q], process_draws[k], state_min, states[k])
         q = guard(states[k], inputs[k])
         if q < 0:
             return k
         modes[k] = q
         h(q, states[k], inputs[k], measured)
-        for a in range(m):
-            acc = measured[a]
-            for b in range(m):
-                acc += measurement_factors[q, a, b] * measurement_draws[k, b]
-            outputs[k, a] = acc
+        add_noise(measured, measurement_factors[q], measurement_draws[k], no_bound, outputs[k])
     return -1
 
 

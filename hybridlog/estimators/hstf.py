@@ -56,15 +56,17 @@ from hybridlog.estimators.unrolled import (
     Program,
     Vector,
     argmax,
+    begin_loop,
     carry,
-    constant_matrix,
     matrix_names,
     mode_values,
     named,
+    noise_matrices,
     normalize_log_weights,
     product,
     record,
     reshape,
+    start,
     term,
     upper,
     vector_names,
@@ -346,24 +348,17 @@ def generate_hstf_source(model: HybridModel) -> str:
     P = matrix_names("P", n, n, symmetric=True)
     S = matrix_names("S", m, m, symmetric=True)
     mu = vector_names("mu", n_q)
-    u, v, y = vector_names("u", n_u), vector_names("v", n_u), vector_names("y", m)
-    Q = [constant_matrix(mode.process_noise) for mode in model.modes]
-    R = [constant_matrix(mode.measurement_noise) for mode in model.modes]
+    Q, R = noise_matrices(model)
     uniform = 1.0 / n_q
 
-    p.emit("n_samples = outputs.shape[0]")
-    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    start(p)
     carry(p, x, [f"x0[{a}]" for a in range(n)])
     carry(p, upper(P), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
     carry(p, upper(S), ["0.0"] * (m * (m + 1) // 2))
     carry(p, mu, [f"mu0[{i}]" for i in range(n_q)])
     p.emit(f"q_hat = {argmax(p, mu)}")  # eq. (40) needs q̂(k): the most probable prior mode
     record(p, "0", "q_hat", mu, x, P)
-    p.emit("for k in range(n_samples - 1):")
-    p.indent = "        "
-    carry(p, u, [f"inputs[k, {c}]" for c in range(n_u)])
-    carry(p, v, [f"inputs[k + 1, {c}]" for c in range(n_u)])
-    carry(p, y, [f"outputs[k + 1, {b}]" for b in range(m)])
+    u, v, y = begin_loop(p, n_u, m)
     x_names = list(x)
     x_i = [mode_values(p, model, i, "f", x_names, u) for i in range(n_q)]  # (10)
     F_i = [reshape(mode_values(p, model, i, "F", x_names, u), n, n) for i in range(n_q)]  # (25)
@@ -411,22 +406,16 @@ def generate_hstf_source(model: HybridModel) -> str:
     S_i: list[Matrix] = []
     log_likelihood: Vector = []
     for i in range(n_q):
-        L = p.cholesky(f"lg{i}_", p.congruence(f"sg{i}_", H_i[i], P_pred, add=R[i]))
-        K = p.gain(f"k{i}_", P_pred, H_i[i], L)  # (11)
-        x_post.append(
-            [
-                p.let(f"xu{i}_", [x_i[i][a], *[product(K[a][b], gamma[i][b]) for b in range(m)]])
-                for a in range(n)
-            ]
-        )  # (9)
-        P_post.append(p.joseph(f"pu{i}_", P_pred, K, H_i[i], R[i]))  # (32)
+        # (9), (11), (32): the gain from the combined P(k+1|k).
+        x_update, P_update, _ = p.kalman_update(f"u{i}_", x_i[i], P_pred, H_i[i], R[i], gamma[i])
+        x_post.append(x_update)
+        P_post.append(P_update)
         scale = p.assign("ls", f"1.0 if unfaded_likelihood else {lam[i]}")
         base = p.symmetric_sum(f"b{i}_", [p.scaled("sc", scale, FPF[i]), Q[i]])
         S_i.append(p.congruence(f"si{i}_", H_i[i], base, add=R[i]))  # (35)
         Ls = p.cholesky(f"ls{i}_", S_i[i])
         ll = p.gaussian_log_density(f"ll{i}_", gamma[i], Ls)  # (34)
-        p.emit(f"if {ll} != {ll}:")  # NaN from a failed Cholesky factor
-        p.emit(f"    {ll} = -math.inf")
+        p.minus_inf_if_nan(ll)
         log_likelihood.append(ll)
     mu_new = normalize_log_weights(p, log_likelihood, mu)  # (33)
     x_new, P_new = p.mixture("cm", mu_new, x_post, P_post)  # (36), (37)

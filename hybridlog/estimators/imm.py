@@ -50,15 +50,17 @@ from hybridlog.estimators.unrolled import (
     Program,
     Vector,
     argmax,
+    begin_loop,
     carry,
-    constant_matrix,
     matrix_names,
     mode_values,
     named,
+    noise_matrices,
     normalize_log_weights,
     product,
     record,
     reshape,
+    start,
     term,
     upper,
     vector_names,
@@ -298,23 +300,16 @@ def generate_imm_source(model: HybridModel) -> str:
     P = [matrix_names(f"P{i}", n, n, symmetric=True) for i in range(n_q)]
     mu = vector_names("mu", n_q)
     T = matrix_names("T", n_q, n_q)
-    u, v, y = vector_names("u", n_u), vector_names("v", n_u), vector_names("y", m)
-    Q = [constant_matrix(mode.process_noise) for mode in model.modes]
-    R = [constant_matrix(mode.measurement_noise) for mode in model.modes]
+    Q, R = noise_matrices(model)
 
-    p.emit("n_samples = outputs.shape[0]")
-    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    start(p)
     for i in range(n_q):
         carry(p, X[i], [f"x0[{a}]" for a in range(n)])
         carry(p, upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
         p.emit(f"{mu[i]} = mu0[{i}]")
         carry(p, T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
     record(p, "0", argmax(p, mu), mu, X[0], P[0])
-    p.emit("for k in range(n_samples - 1):")
-    p.indent = "        "
-    carry(p, u, [f"inputs[k, {c}]" for c in range(n_u)])
-    carry(p, v, [f"inputs[k + 1, {c}]" for c in range(n_u)])
-    carry(p, y, [f"outputs[k + 1, {b}]" for b in range(m)])
+    u, v, y = begin_loop(p, n_u, m)
     # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
     c_bar = [p.let("c", [product(T[i][j], mu[i]) for i in range(n_q)]) for j in range(n_q)]
     x_post: list[Vector] = []
@@ -343,22 +338,15 @@ def generate_imm_source(model: HybridModel) -> str:
         gamma = [p.difference("g", y[b], y_pred[b]) for b in range(m)]
         for b in range(m):
             prediction_parts[b].append(product(c_bar[j], y_pred[b]))
-        L = p.cholesky(f"l{j}_", p.congruence(f"s{j}_", H, P_pred, add=R[j]))
+        x_update, P_update, L = p.kalman_update(f"u{j}_", x_pred, P_pred, H, R[j], gamma)
+        x_post.append(x_update)
+        P_post.append(P_update)
         log_likelihood = p.gaussian_log_density(f"ll{j}_", gamma, L)
-        K = p.gain(f"k{j}_", P_pred, H, L)
-        x_post.append(
-            [
-                p.let(f"xu{j}_", [x_pred[a], *[product(K[a][b], gamma[b]) for b in range(m)]])
-                for a in range(n)
-            ]
-        )
-        P_post.append(p.joseph(f"pu{j}_", P_pred, K, H, R[j]))
         c = term(c_bar[j])
         posterior = p.assign(
             "lp", f"(math.log({c}) if {c} > 0.0 else -math.inf) + {log_likelihood}"
         )
-        p.emit(f"if {posterior} != {posterior}:")  # NaN from a failed Cholesky factor
-        p.emit(f"    {posterior} = -math.inf")
+        p.minus_inf_if_nan(posterior)
         log_posterior.append(posterior)
     mu_new = normalize_log_weights(p, log_posterior, c_bar)
     x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)

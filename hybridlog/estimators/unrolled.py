@@ -221,6 +221,27 @@ class Program:
         KRK = self.congruence(hint + "r", K, R)
         return self.congruence(hint, IKH, P, add=KRK)
 
+    def kalman_update(
+        self, hint: str, x: Vector, P: Matrix, H: Matrix, R: Matrix, gamma: Vector
+    ) -> tuple[Vector, Matrix, Matrix]:
+        """Measurement update with residual ``γ``: ``x + Kγ``, Joseph ``P``, and ``chol(S)``.
+
+        ``S = H P Hᵀ + R`` and ``K = P Hᵀ S⁻¹``; the Cholesky factor of ``S`` is returned for
+        callers whose likelihood uses this ``S``.
+        """
+        L = self.cholesky(hint + "l", self.congruence(hint + "s", H, P, add=R))
+        K = self.gain(hint + "k", P, H, L)
+        x_post = [
+            self.let(hint + "x", [x[a], *[product(K[a][b], gamma[b]) for b in range(len(gamma))]])
+            for a in range(len(x))
+        ]
+        return x_post, self.joseph(hint + "p", P, K, H, R), L
+
+    def minus_inf_if_nan(self, name: str) -> None:
+        """A NaN (from a failed Cholesky factor) becomes ``-inf``: no weight for that mode."""
+        self.emit(f"if {name} != {name}:")
+        self.emit(f"    {name} = -math.inf")
+
     def mixture(
         self, hint: str, weights: Vector, means: Sequence[Vector], covariances: Sequence[Matrix]
     ) -> tuple[Vector, Matrix]:
@@ -276,6 +297,35 @@ def vector_names(prefix: str, size: int) -> Vector:
 def constant_matrix(values: FloatArray) -> Matrix:
     """Literal entries of a numeric matrix."""
     return [[float(v) for v in row] for row in values.tolist()]
+
+
+def noise_matrices(model: HybridModel) -> tuple[list[Matrix], list[Matrix]]:
+    """Per-mode process and measurement covariances as literal matrices."""
+    return (
+        [constant_matrix(mode.process_noise) for mode in model.modes],
+        [constant_matrix(mode.measurement_noise) for mode in model.modes],
+    )
+
+
+def start(program: Program) -> None:
+    """First lines of every generated loop function."""
+    program.emit("n_samples = outputs.shape[0]")
+    program.emit("store_covariances = covariances_out.shape[0] == n_samples")
+
+
+def begin_loop(program: Program, n_inputs: int, n_outputs: int) -> tuple[Vector, Vector, Vector]:
+    """Open the time loop and load ``u(k)``, ``u(k+1)`` and ``y(k+1)`` into scalars."""
+    u, v, y = (
+        vector_names("u", n_inputs),
+        vector_names("v", n_inputs),
+        vector_names("y", n_outputs),
+    )
+    program.emit("for k in range(n_samples - 1):")
+    program.indent += "    "
+    carry(program, u, [f"inputs[k, {c}]" for c in range(n_inputs)])
+    carry(program, v, [f"inputs[k + 1, {c}]" for c in range(n_inputs)])
+    carry(program, y, [f"outputs[k + 1, {b}]" for b in range(n_outputs)])
+    return u, v, y
 
 
 def named(program: Program, hint: str, entries: Vector) -> list[str]:
