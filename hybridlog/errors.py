@@ -24,3 +24,30 @@ class OptionError(HybridlogError):
 
 class OutputError(HybridlogError):
     """An output path cannot be written without destroying something the user has."""
+
+
+EXCERPT_LIMIT = 80
+"""Longest excerpt of user-supplied text quoted in an error message."""
+
+
+def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
+    r"""``text`` as a short, printable, one-line quotation for an error message.
+
+    Control characters (NUL bytes of a zeroed file, newlines) are shown escaped and anything
+    longer than ``limit`` characters is cut in the middle with an ellipsis, so that an error
+    about a 16 KB line or a deeply nested expression stays one short line.
+
+    Examples
+    --------
+    >>> excerpt("a\x00b")
+    "'a\\x00b'"
+    >>> len(excerpt("x" * 10_000)) <= EXCERPT_LIMIT + 2
+    True
+    """
+    shown = "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(text)
+    )
+    if len(shown) > limit:
+        keep = max(limit - 1, 2)
+        shown = shown[: keep - keep // 3] + "…" + shown[len(shown) - keep // 3 :]
+    return "'" + shown + "'"
