@@ -87,6 +87,9 @@ class HybridModel:
         Lower bounds of the true states in ``simulate`` (e.g. tank levels at 0), or ``None``.
     source:
         The model file's text (or the built-in's), printed by ``hybridlog models NAME``.
+    origin:
+        Where the model came from: the file's path as the user gave it, or the built-in's
+        name.  Errors about the model name it, so the user knows which file to change.
     """
 
     name: str
@@ -111,6 +114,7 @@ class HybridModel:
     simulation_schedule: str = ""
     simulation_state_min: FloatArray | None = None
     source: str = ""
+    origin: str = ""
 
     @property
     def n_states(self) -> int:

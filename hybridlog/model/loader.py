@@ -93,7 +93,7 @@ def parse_model(
     except tomllib.TOMLDecodeError as err:
         raise ModelError(f"{origin}: invalid TOML: {err}") from err
     try:
-        return _Builder(data, text, parameters or {}).build()
+        return _Builder(data, text, parameters or {}, origin).build()
     except ModelError as err:
         raise ModelError(f"{origin}: {err}") from err
 
@@ -101,9 +101,12 @@ def parse_model(
 class _Builder:
     """Validates the parsed TOML table step by step; each step names its keys in errors."""
 
-    def __init__(self, data: dict[str, Any], text: str, overrides: Mapping[str, float]) -> None:
+    def __init__(
+        self, data: dict[str, Any], text: str, overrides: Mapping[str, float], origin: str
+    ) -> None:
         self.data = data
         self.text = text
+        self.origin = origin
         self.overrides = overrides
 
     def build(self) -> HybridModel:
@@ -195,6 +198,7 @@ class _Builder:
                 else None
             ),
             source=self.text,
+            origin=self.origin,
         )
 
     def parameters(self, taken: set[str]) -> dict[str, sympy.Float]:
