@@ -10,12 +10,14 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import polars as pl
 
-from hybridlog.errors import OptionError
-from hybridlog.estimators import estimator_options, get_estimator
+from hybridlog.errors import OptionError, excerpt
+from hybridlog.estimators import Prepared, prepare, resolve_estimator
+from hybridlog.estimators.options import closest
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.io import ReadSettings, load_signals
 from hybridlog.model.hybrid_model import HybridModel
@@ -47,36 +49,78 @@ class ReadOptions:
 
 
 @dataclass(frozen=True)
-class Settings:
-    """``--set NAME=VALUE`` values, split into model parameters and estimator options."""
+class Overrides:
+    """``--set NAME=VALUE`` values, split into model parameters and estimator options.
 
-    parameters: dict[str, float] = field(default_factory=dict)
-    options: dict[str, str] = field(default_factory=dict)
+    Both are read-only mappings: the value is built once by :func:`parse_sets`.
+    """
+
+    parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    options: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
 
 
-def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridModel, Settings]:
+def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridModel, Overrides]:
     """Load the model and split ``--set`` values into parameters and estimator options.
 
     Names of model parameters change the model; all other names are estimator options,
-    validated by the estimator when it runs.
+    checked against the chosen estimators by :func:`prepare_estimators`.
     """
     model = load_model(model_ref)
-    settings = Settings()
+    parameters: dict[str, float] = {}
+    options: dict[str, str] = {}
     for text in values:
         name, sep, value = text.partition("=")
         name = name.strip()
         if not sep or not name:
-            raise OptionError(f"--set: '{text}' is not NAME=VALUE")
+            raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
+        if name in parameters or name in options:
+            raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
         if name in model.parameters:
             try:
-                settings.parameters[name] = float(value)
+                parameters[name] = float(value)
             except ValueError as err:
-                raise OptionError(f"--set {name}: '{value}' is not a number") from err
+                raise OptionError(f"--set {name}: {excerpt(value)} is not a number") from err
         else:
-            settings.options[name] = value.strip()
-    if settings.parameters:
-        model = load_model(model_ref, parameters=settings.parameters)
-    return model, settings
+            options[name] = value.strip()
+    if parameters:
+        model = load_model(model_ref, parameters=parameters)
+    return model, Overrides(MappingProxyType(parameters), MappingProxyType(options))
+
+
+def prepare_estimators(
+    model: HybridModel,
+    names: Sequence[str | None],
+    overrides: Overrides,
+    *,
+    given_by: str = "--estimator",
+) -> list[Prepared]:
+    """Resolve estimators (``None``: the model's default) and their options before any work.
+
+    Each estimator gets the ``--set`` options it declares; a name that is neither a model
+    parameter nor an option of any chosen estimator is an :class:`OptionError` listing both
+    and suggesting the closest name.
+    """
+    chosen = [resolve_estimator(model, name, given_by=given_by) for name in names]
+    declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
+    for name, value in overrides.options.items():
+        if not any(name in known for known in declared.values()):
+            options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
+            candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
+            raise OptionError(
+                f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}: neither a parameter of "
+                f"model {model.origin or model.name} (parameters: "
+                f"{', '.join(model.parameters) or 'none'}) nor an estimator option ({options})"
+                f"{closest(name, candidates)}"
+            )
+    return [
+        prepare(
+            model,
+            e.name,
+            {k: v for k, v in overrides.options.items() if k in declared[e.name]},
+            given_by=given_by,
+        )
+        for e in chosen
+    ]
 
 
 def read_log(
@@ -108,12 +152,14 @@ def read_log(
 
 
 def estimate(
-    model: HybridModel, signals: AlignedSignals, estimator: str | None, settings: Settings
+    model: HybridModel,
+    signals: AlignedSignals,
+    estimator: str | None,
+    overrides: Overrides | None = None,
 ) -> EstimationResult:
-    """Run one estimator (default: the model's ``default_estimator``)."""
-    name = estimator or model.default_estimator
-    chosen = get_estimator(name)
-    return chosen.run(model, signals, estimator_options(model, name, settings.options))
+    """Run one estimator (default: the model's ``default_estimator``) over aligned signals."""
+    (prepared,) = prepare_estimators(model, [estimator], overrides or Overrides())
+    return prepared.run(model, signals)
 
 
 @dataclass(frozen=True)
@@ -153,14 +199,15 @@ def analyze(
     the user gave is validated before anything is written; the output directory appears
     complete or not at all.
     """
-    model, settings = parse_sets(sets, model_ref)
-    estimator = estimator or model.default_estimator
+    model, overrides = parse_sets(sets, model_ref)
+    (prepared,) = prepare_estimators(model, [estimator], overrides)
+    estimator = prepared.name
     out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
     check_target(out_dir, force)
     gates = gates_for(model, fail_under, fail_over)
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read or ReadOptions(), reading)
-    result = estimate(model, signals, estimator, settings)
+    result = prepared.run(model, signals)
     report = write_report(
         out_dir,
         result,
@@ -236,13 +283,12 @@ def compare(
     if len(set(estimators)) != len(estimators):
         raise OptionError("--estimators: an estimator is named twice")
     check_target(Path(out_dir), force)
-    model, settings = parse_sets(sets, model_ref)
-    for name in estimators:
-        get_estimator(name)
+    model, overrides = parse_sets(sets, model_ref)
+    prepared = prepare_estimators(model, estimators, overrides, given_by="--estimators")
     gates = gates_for(model, fail_under, fail_over)
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read or ReadOptions(), reading)
-    results = {name: estimate(model, signals, name, settings) for name in estimators}
+    results = {p.name: p.run(model, signals) for p in prepared}
     reports: dict[str, dict[str, Any]] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():

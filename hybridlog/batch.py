@@ -22,6 +22,7 @@ from hybridlog.analysis import (
     gates_for,
     markdown_table,
     parse_sets,
+    prepare_estimators,
     write_summary_csv,
 )
 from hybridlog.errors import HybridlogError, OptionError
@@ -134,12 +135,13 @@ def run_batch(
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
     paths = [Path(log) for log in logs]
-    model, _ = parse_sets(sets, model_ref)  # validates the model and --set before any work
+    model, overrides = parse_sets(sets, model_ref)  # the model, estimator and --set are
+    (prepared,) = prepare_estimators(model, [estimator], overrides)  # checked before any work
     gates = gates_for(model, fail_under, fail_over)
     root = Path(out_dir)
     root.mkdir(parents=True, exist_ok=True)
     folders = [str(root / name) for name in folder_names(paths)]
-    chosen = estimator or model.default_estimator
+    chosen = prepared.name
     arguments = [
         (
             str(log),

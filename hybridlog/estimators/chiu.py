@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 
@@ -41,10 +41,10 @@ from hybridlog.cluster.centers_file import read_centers
 from hybridlog.cluster.kmeans import kmeans_clustering
 from hybridlog.cluster.labels import decide_clusters, label_clusters
 from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
-from hybridlog.cluster.subtractive import METHODS, SubtractiveOptions, subtractive_clustering
+from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
 from hybridlog.errors import OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
-from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
 from hybridlog.model.hybrid_model import HybridModel
@@ -68,50 +68,49 @@ _BURN_IN_MAX = 100
 
 @dataclass(frozen=True)
 class ChiuOptions:
-    """Options of the ``chiu`` estimator (clustering defaults: MATLAB ``subclust``).
+    """Options of the ``chiu`` estimator (clustering defaults: MATLAB ``subclust``)."""
 
-    ``radius`` is ``r_a`` in unit-box units; ``squash`` is ``r_b/r_a``; ``accept``/``reject``
-    are ε₁/ε₂; ``self_potential=false`` is eq. (5) as printed; ``method`` is ``auto``,
-    ``exact`` or ``approximate``; ``centers`` a ``centers.json`` to load instead of fitting;
-    ``cluster_modes`` the mode ids of the clusters in order (default: automatic labelling);
-    ``decay_rate`` the ``ρ`` of the LMI (1 = the paper's condition).
-    """
-
-    radius: float = field(default=0.5, metadata={"range": (1e-3, 100.0)})
-    squash: float = field(default=1.25, metadata={"range": (1.0, 100.0)})
-    accept: float = field(default=0.5, metadata={"range": (0.0, 1.0)})
-    reject: float = field(default=0.15, metadata={"range": (0.0, 1.0)})
-    self_potential: bool = True
-    method: str = field(default="auto", metadata={"choices": METHODS})
-    output_lags: str = "0,1"
-    input_lags: str = "1"
-    centers: str = ""
-    cluster_modes: str = ""
-    decay_rate: float = field(default=1.0, metadata={"range": (1e-6, 1.0)})
+    radius: float = option(
+        0.5, "cluster radius r_a of eq. (5), in unit-box units", range=(1e-3, 100.0)
+    )
+    squash: float = option(1.25, "r_b/r_a of the revision eqs. (6)-(7)", range=(1.0, 100.0))
+    accept: float = option(0.5, "acceptance ratio ε₁ of a new centre", range=(0.0, 1.0))
+    reject: float = option(0.15, "rejection ratio ε₂ of a new centre", range=(0.0, 1.0))
+    self_potential: bool = option(
+        True, "count each point in its own potential (false: eq. (5) as printed)"
+    )
+    method: Literal["auto", "exact", "approximate"] = option(
+        "auto", "potentials: exact all-pairs, approximate on a grid, or auto by size"
+    )
+    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
+    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
+    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
+    cluster_modes: str = option(
+        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
+    )
+    decay_rate: float = option(
+        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
+    )
 
 
 @dataclass(frozen=True)
 class KMeansOptions:
-    """Options of the ``kmeans`` estimator.
+    """Options of the ``kmeans`` estimator; the lags, centres and labels are as for ``chiu``."""
 
-    ``clusters`` defaults to the number of modes; the best of ``restarts`` k-means++ runs
-    with seeds ``seed, seed+1, …`` is kept.  The other options are as for ``chiu``.
-    """
-
-    clusters: float | None = field(default=None, metadata={"range": (1.0, 1000.0)})
-    restarts: float = field(default=10.0, metadata={"range": (1.0, 1000.0)})
-    seed: float = field(default=0.0, metadata={"range": (0.0, 2.0**31)})
-    output_lags: str = "0,1"
-    input_lags: str = "1"
-    centers: str = ""
-    cluster_modes: str = ""
-    decay_rate: float = field(default=1.0, metadata={"range": (1e-6, 1.0)})
-
-
-def _whole(value: float, name: str, estimator: str) -> int:
-    if value != int(value):
-        raise OptionError(f"{estimator} option '{name}': expected a whole number, got {value!r}")
-    return int(value)
+    clusters: int | None = option(
+        None, "number of k-means centres (none: the number of modes)", range=(1, 1000)
+    )
+    restarts: int = option(10, "k-means++ runs; the one of least inertia is kept", range=(1, 1000))
+    seed: int = option(0, "seed of the first run (then seed+1, ...)", range=(0, 2**31))
+    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
+    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
+    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
+    cluster_modes: str = option(
+        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
+    )
+    decay_rate: float = option(
+        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
+    )
 
 
 @dataclass(frozen=True)
@@ -303,17 +302,8 @@ def fit_classifier(
             )
         else:
             assert isinstance(options, KMeansOptions)
-            k = (
-                model.n_modes
-                if options.clusters is None
-                else _whole(options.clusters, "clusters", algorithm)
-            )
-            km = kmeans_clustering(
-                phi,
-                k,
-                restarts=_whole(options.restarts, "restarts", algorithm),
-                seed=_whole(options.seed, "seed", algorithm),
-            )
+            k = model.n_modes if options.clusters is None else options.clusters
+            km = kmeans_clustering(phi, k, restarts=options.restarts, seed=options.seed)
             centers, lower, upper = km.centers, km.lower, km.upper
             details.update(inertia=km.inertia, seed=km.seed, restarts=km.restarts)
             notes = (

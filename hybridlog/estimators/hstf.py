@@ -34,7 +34,8 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numba import types
@@ -49,7 +50,7 @@ from hybridlog.estimators.kernels import (
     mixture_moments,
     normalize_log,
 )
-from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
     Matrix,
@@ -87,11 +88,13 @@ NAME = "hstf"
 class HstfOptions:
     """Options of the HSTF (paper 000): ρ, β, θ and the two switches documented above."""
 
-    rho: float = field(default=0.95, metadata={"range": (1e-12, 1.0)})
-    beta: float = field(default=1.0, metadata={"range": (1.0, 1e12)})
-    theta: float = field(default=0.95, metadata={"range": (0.5, 1.0)})
-    fading: bool = True
-    likelihood: str = field(default="faded", metadata={"choices": ("faded", "unfaded")})
+    rho: float = option(0.95, "forgetting factor ρ of eq. (30)", range=(1e-12, 1.0))
+    beta: float = option(1.0, "softening factor β of eq. (29)", range=(1.0, 1e12))
+    theta: float = option(0.95, "mode decision threshold θ of eq. (40)", range=(0.5, 1.0))
+    fading: bool = option(True, "strong tracking fading λ_i (false: λ_i = 1, the plain EKF)")
+    likelihood: Literal["faded", "unfaded"] = option(
+        "faded", "S_i of eq. (35) from the faded P_i (the paper) or from λ_i = 1 (a variant)"
+    )
 
 
 _F8_1 = types.float64[::1]

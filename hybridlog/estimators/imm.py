@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import types
@@ -42,7 +42,7 @@ from hybridlog.estimators.kernels import (
     mixture_moments,
     normalize_log,
 )
-from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
     Entry,
@@ -81,7 +81,11 @@ NAME = "imm"
 class ImmOptions:
     """Options of the IMM: the Markov matrix's diagonal when the model gives no matrix."""
 
-    transition_stay: float | None = field(default=None, metadata={"range": (0.0, 1.0)})
+    transition_stay: float | None = option(
+        None,
+        "diagonal of the Markov matrix (none: the model's [transitions], else 0.95)",
+        range=(0.0, 1.0),
+    )
 
 
 _F8_1 = types.float64[::1]

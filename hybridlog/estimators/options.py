@@ -1,77 +1,342 @@
-"""Estimator options: typed dataclasses filled from model defaults and ``--set`` values."""
+"""Estimator options: frozen dataclasses parsed and validated from their type hints.
+
+Every estimator declares its options once, as a frozen dataclass whose fields are made with
+:func:`option` (a default, a one-line help text and, for numbers, an inclusive range).  The
+field's type hint says how a value is read, from a ``--set NAME=VALUE`` string or from a TOML
+value of the model file's ``[estimators.<name>]`` table:
+
+``bool``
+    ``true``/``false`` (also ``yes``/``no``, ``on``/``off``, ``1``/``0``).
+``int``
+    a whole number (``10``, ``10.0``); ``True``/``False`` are refused.
+``float``
+    a finite number.
+``str``
+    any text.
+``Literal["a", "b"]``
+    one of the listed strings.
+``X | None``
+    ``none`` (or an empty value) for ``None``, otherwise as ``X``.
+
+:func:`parse_options` builds the dataclass, :func:`describe_options` lists the options for
+``--help``, ``--set`` errors and the docs.  Errors are one line naming the estimator, the
+option and where the value came from (:class:`OptionSource`).
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
-from collections.abc import Mapping
-from typing import Any, TypeVar
+import types
+import typing
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any, Literal, TypeVar, Union
 
-from hybridlog.errors import OptionError
+from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
+
+__all__ = [
+    "OptionInfo",
+    "OptionSource",
+    "closest",
+    "describe_options",
+    "format_options",
+    "option",
+    "options_dict",
+    "parse_options",
+]
 
 T = TypeVar("T")
 
 _TRUE = {"true", "yes", "on", "1"}
 _FALSE = {"false", "no", "off", "0"}
+_NONE = {"none", ""}
 
 
-def parse_options(cls: type[T], values: Mapping[str, Any], *, estimator: str) -> T:
-    """Build the options dataclass ``cls`` from ``values`` (strings from ``--set`` or TOML).
+def option(default: T, help: str, *, range: tuple[float, float] | None = None) -> T:
+    """A dataclass field for an estimator option.
 
-    Unknown names and values of the wrong type are :class:`OptionError` naming the option.
-    Each field may declare ``metadata={"choices": (...)}`` or ``{"range": (low, high)}``.
+    Parameters
+    ----------
+    default:
+        The value used when neither the model file nor ``--set`` gives one.
+    help:
+        One line for ``--help`` and the docs (what the option is, with the paper's symbol
+        and equation where it has one).
+    range:
+        Inclusive ``(low, high)`` bounds of a number.
     """
-    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    metadata: dict[str, Any] = {"help": help}
+    if range is not None:
+        metadata["range"] = range
+    field: T = dataclasses.field(default=default, metadata=metadata)
+    return field
+
+
+@dataclass(frozen=True)
+class OptionSource:
+    """Where an option value came from, so that an error names what the user must change.
+
+    Attributes
+    ----------
+    label:
+        The place, e.g. ``--set theta=2`` or ``bad.toml: estimators.hstf.theta``.
+    error:
+        The error class to raise: :class:`OptionError` for the command line,
+        :class:`ModelError` for a model file.
+    """
+
+    label: str
+    error: type[HybridlogError] = OptionError
+
+    @classmethod
+    def command_line(cls, flag: str, name: str, raw: object) -> OptionSource:
+        """A value given as ``<flag> name=raw`` (``flag`` is ``--set``)."""
+        return cls(f"{flag} {name}={excerpt(raw)[1:-1]}")
+
+    @classmethod
+    def model_file(cls, origin: str, estimator: str, name: str) -> OptionSource:
+        """A value from the ``[estimators.<estimator>]`` table of the model file ``origin``."""
+        return cls(f"{origin}: estimators.{estimator}.{name}", ModelError)
+
+
+@dataclass(frozen=True)
+class _Kind:
+    """How one option's values are read: the base type, its choices, whether None is allowed."""
+
+    base: type[Any]
+    choices: tuple[object, ...] | None
+    optional: bool
+
+    @property
+    def text(self) -> str:
+        if self.choices is not None:
+            shown = "|".join(str(c) for c in self.choices)
+        else:
+            shown = self.base.__name__
+        return f"{shown} or none" if self.optional else shown
+
+
+def _kind(hint: object, where: str) -> _Kind:
+    optional = False
+    origin = typing.get_origin(hint)
+    if origin in (Union, types.UnionType):
+        members = [a for a in typing.get_args(hint) if a is not type(None)]
+        if len(members) != len(typing.get_args(hint)) - 1 or len(members) != 1:
+            raise TypeError(f"{where}: only 'X | None' unions are supported, not {hint}")
+        optional = True
+        hint = members[0]
+        origin = typing.get_origin(hint)
+    if origin is Literal:
+        choices = typing.get_args(hint)
+        bases = {type(c) for c in choices}
+        if len(bases) != 1 or next(iter(bases)) not in (str, int):
+            raise TypeError(f"{where}: Literal choices must all be str or all int, not {hint}")
+        return _Kind(next(iter(bases)), choices, optional)
+    if hint in (bool, int, float, str):
+        return _Kind(typing.cast(type[Any], hint), None, optional)
+    raise TypeError(f"{where}: unsupported option type {hint}")
+
+
+_KINDS: dict[type[Any], dict[str, tuple[dataclasses.Field[Any], _Kind]]] = {}
+
+
+def _kinds(cls: type[Any]) -> dict[str, tuple[dataclasses.Field[Any], _Kind]]:
+    """Each field of ``cls`` with how it is read (worked out once per class)."""
+    if cls not in _KINDS:
+        if not (dataclasses.is_dataclass(cls) and cls.__dataclass_params__.frozen):  # type: ignore[attr-defined]
+            raise TypeError(f"{cls.__name__}: estimator options must be a frozen dataclass")
+        hints = typing.get_type_hints(cls)
+        _KINDS[cls] = {
+            f.name: (f, _kind(hints[f.name], f"{cls.__name__}.{f.name}"))
+            for f in dataclasses.fields(cls)
+        }
+    return _KINDS[cls]
+
+
+def closest(name: str, candidates: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the candidate most like ``name``, or ``""``."""
+    found = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
+    return f"; did you mean '{found[0]}'?" if found else ""
+
+
+def parse_options(
+    cls: type[T],
+    values: Mapping[str, Any],
+    *,
+    estimator: str,
+    sources: Mapping[str, OptionSource] | None = None,
+) -> T:
+    """Build the options dataclass ``cls`` from ``values`` (``--set`` strings or TOML values).
+
+    Parameters
+    ----------
+    cls:
+        A frozen dataclass whose fields were made with :func:`option`.
+    values:
+        Option name → value; options not named keep their defaults.
+    estimator:
+        The estimator's registry name, for messages.
+    sources:
+        Where each value came from; a bad value raises ``sources[name].error`` prefixed with
+        its label.  Without a source the error is an :class:`OptionError`.
+
+    Raises
+    ------
+    OptionError, ModelError
+        One line naming the estimator, the option and (with ``sources``) the file and key or
+        the ``--set`` value: an unknown name (with the closest known name), a value of the
+        wrong type, outside its range or not one of its choices.
+    """
+    kinds = _kinds(cls)
+    sources = sources or {}
     converted: dict[str, Any] = {}
     for name, raw in values.items():
-        if name not in fields:
-            known = ", ".join(sorted(fields))
-            raise OptionError(f"{estimator} option '{name}': unknown (options: {known})")
-        field = fields[name]
-        value = _convert(raw, str(field.type), f"{estimator} option '{name}'")
-        choices = field.metadata.get("choices")
-        if choices is not None and value not in choices:
-            raise OptionError(
-                f"{estimator} option '{name}': {value!r} is not one of {', '.join(choices)}"
+        source = sources.get(name, OptionSource(""))
+        prefix = f"{source.label}: " if source.label else ""
+        if name not in kinds:
+            raise source.error(
+                f"{prefix}{estimator} has no option {excerpt(name)} (options: "
+                f"{', '.join(kinds)}){closest(name, kinds)}"
             )
-        bounds = field.metadata.get("range")
-        if bounds is not None and not bounds[0] <= value <= bounds[1]:
-            raise OptionError(
-                f"{estimator} option '{name}': {value!r} is outside [{bounds[0]}, {bounds[1]}]"
-            )
-        converted[name] = value
+        field, kind = kinds[name]
+        what = f"{prefix}{estimator} option '{name}'"
+        try:
+            converted[name] = _check(_convert(raw, kind), kind, field)
+        except ValueError as err:
+            raise source.error(f"{what}: {err}") from None
     return cls(**converted)
 
 
-def _convert(raw: Any, annotation: str, what: str) -> Any:
-    if annotation == "bool":
+def _convert(raw: Any, kind: _Kind) -> Any:
+    """``raw`` read as ``kind``; ``ValueError`` with the reason otherwise."""
+    if kind.optional and (raw is None or (isinstance(raw, str) and raw.strip().lower() in _NONE)):
+        return None
+    text = raw.strip() if isinstance(raw, str) else None
+    if kind.base is bool:
         if isinstance(raw, bool):
             return raw
-        text = str(raw).strip().lower()
-        if text in _TRUE:
-            return True
-        if text in _FALSE:
-            return False
-        raise OptionError(f"{what}: expected true or false, got {raw!r}")
-    if annotation == "float":
-        if isinstance(raw, bool):
-            raise OptionError(f"{what}: expected a number, got {raw!r}")
-        try:
-            number = float(raw)
-        except (TypeError, ValueError) as err:
-            raise OptionError(f"{what}: expected a number, got {raw!r}") from err
-        if not math.isfinite(number):
-            raise OptionError(f"{what}: non-finite number {raw!r}")
+        if text is not None and text.lower() in _TRUE | _FALSE:
+            return text.lower() in _TRUE
+        raise ValueError(f"expected true or false, got {excerpt(raw)}")
+    if kind.base is str:
+        if text is None:
+            raise ValueError(f"expected text, got {excerpt(raw)}")
+        return text
+    if isinstance(raw, bool) or not isinstance(raw, int | float | str):
+        raise ValueError(f"expected a number, got {excerpt(raw)}")
+    try:
+        number = float(raw)
+    except ValueError:
+        raise ValueError(f"expected a number, got {excerpt(raw)}") from None
+    if not math.isfinite(number):
+        raise ValueError(f"expected a finite number, got {excerpt(raw)}")
+    if kind.base is float:
         return number
-    if annotation == "str":
-        return str(raw)
-    if annotation == "float | None":
-        if raw is None or str(raw).strip().lower() in {"none", ""}:
-            return None
-        return _convert(raw, "float", what)
-    raise TypeError(f"unsupported option type {annotation}")  # pragma: no cover
+    if isinstance(raw, int):
+        return raw
+    if text is not None and text.lstrip("+-").isdigit():
+        return int(text)
+    if not number.is_integer():
+        raise ValueError(f"expected a whole number, got {excerpt(raw)}")
+    return int(number)
+
+
+def _check(value: Any, kind: _Kind, field: dataclasses.Field[Any]) -> Any:
+    if value is None:
+        return None
+    if kind.choices is not None and value not in kind.choices:
+        raise ValueError(
+            f"{excerpt(value)} is not one of {', '.join(str(c) for c in kind.choices)}"
+        )
+    bounds = field.metadata.get("range")
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        raise ValueError(f"{_shown(value)} is outside [{_shown(bounds[0])}, {_shown(bounds[1])}]")
+    return value
+
+
+@dataclass(frozen=True)
+class OptionInfo:
+    """One option as ``--help`` and the docs show it.
+
+    Attributes
+    ----------
+    name:
+        The option's name (as in ``--set NAME=VALUE``).
+    type:
+        ``float``, ``int``, ``bool``, ``str``, ``a|b`` for choices, with ``or none`` when
+        ``none`` is allowed.
+    default:
+        The default value.
+    constraint:
+        ``in [low, high]`` for a ranged number, else empty.
+    help:
+        The one-line help text.
+    """
+
+    name: str
+    type: str
+    default: object
+    constraint: str
+    help: str
+
+
+def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
+    """Every option of the options dataclass ``cls``, in declaration order.
+
+    Raises
+    ------
+    TypeError
+        When ``cls`` is not a frozen dataclass of supported option types, or an option has
+        no help text (a defect of the estimator, found by the tests).
+    """
+    infos = []
+    for name, (field, kind) in _kinds(cls).items():
+        help_text = field.metadata.get("help", "")
+        if not help_text:
+            raise TypeError(f"{cls.__name__}.{name}: an estimator option needs a help text")
+        bounds = field.metadata.get("range")
+        constraint = "" if bounds is None else f"in [{_shown(bounds[0])}, {_shown(bounds[1])}]"
+        infos.append(
+            OptionInfo(
+                name=name,
+                type=kind.text,
+                default=field.default,
+                constraint=constraint,
+                help=help_text,
+            )
+        )
+    return tuple(infos)
+
+
+def _shown(value: object) -> str:
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if value == "":
+        return '""'
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def format_options(infos: Iterable[OptionInfo]) -> str:
+    """Plain-text lines, one per option: ``name=DEFAULT  (type, range)  help``."""
+    rows = [
+        (
+            f"{i.name}={_shown(i.default)}",
+            ", ".join(p for p in (i.type, i.constraint) if p),
+            i.help,
+        )
+        for i in infos
+    ]
+    if not rows:
+        return "(no options)"
+    first = max(len(r[0]) for r in rows)
+    second = max(len(r[1]) for r in rows)
+    return "\n".join(f"{a:<{first}}  {b:<{second}}  {c}".rstrip() for a, b, c in rows)
 
 
 def options_dict(options: object) -> dict[str, Any]:
-    """The options as a plain dict for reports."""
+    """The options as a plain dict for reports (:func:`parse_options` reads it back)."""
     return dataclasses.asdict(options)  # type: ignore[call-overload, no-any-return]

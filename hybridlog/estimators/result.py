@@ -5,12 +5,24 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from hybridlog.signals import FloatArray, IntArray
+
+
+class ResultShapeError(ValueError):
+    """An estimator built a result whose arrays do not fit together: a defect of the estimator.
+
+    Not a :class:`~hybridlog.errors.HybridlogError`: nothing the user gave can cause it.
+    """
 
 
 @dataclass(frozen=True)
 class EstimationResult:
     """Per-sample output of a hybrid estimator over one log.
+
+    The shapes and dtypes below are checked when the result is built
+    (:class:`ResultShapeError` names the estimator and the field).
 
     Row ``k`` describes sample ``k`` of the aligned signals.  Row 0 is the estimator's prior
     (the model's initial state, covariance and mode probabilities): no output was predicted
@@ -63,6 +75,43 @@ class EstimationResult:
     compile_s: float = 0.0
     notes: tuple[str, ...] = field(default=())
     covariances: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.time, np.ndarray) or self.time.ndim != 1:
+            got = getattr(self.time, "shape", type(self.time).__name__)
+            raise ResultShapeError(
+                f"{self.estimator}: result field 'time' has shape {got}; expected (N,)"
+            )
+        n = self.time.shape[0]
+        n_modes, n_x, n_y = len(self.mode_ids), len(self.state_names), len(self.output_names)
+        expected: dict[str, tuple[tuple[int, ...], type[np.generic]]] = {
+            "time": ((n,), np.float64),
+            "modes": ((n,), np.int64),
+            "mode_probabilities": ((n, n_modes), np.float64),
+            "state_means": ((n, n_x), np.float64),
+            "state_variances": ((n, n_x), np.float64),
+            "output_predictions": ((n, n_y), np.float64),
+        }
+        if self.covariances is not None:
+            expected["covariances"] = ((n, n_x, n_x), np.float64)
+        for name, (shape, dtype) in expected.items():
+            array = getattr(self, name)
+            if not isinstance(array, np.ndarray) or array.shape != shape:
+                got = array.shape if isinstance(array, np.ndarray) else type(array).__name__
+                raise ResultShapeError(
+                    f"{self.estimator}: result field '{name}' has shape {got}; expected "
+                    f"{shape} (N samples, {n_modes} modes, {n_x} states, {n_y} outputs)"
+                )
+            if array.dtype != dtype:
+                raise ResultShapeError(
+                    f"{self.estimator}: result field '{name}' has dtype {array.dtype}; "
+                    f"expected {np.dtype(dtype)}"
+                )
+        if n and not (self.modes.min() >= 0 and self.modes.max() < n_modes):
+            raise ResultShapeError(
+                f"{self.estimator}: result field 'modes' holds mode indices outside "
+                f"[0, {n_modes}) ({self.modes.min()} .. {self.modes.max()})"
+            )
 
     @property
     def n_samples(self) -> int:

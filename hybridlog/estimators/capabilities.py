@@ -1,0 +1,159 @@
+"""What an estimator needs of the model and the log, checked before it runs.
+
+An estimator declares its needs as :class:`Capabilities` (typed flags in its registry
+entry); :class:`ModelTraits` says what a loaded model offers.  :meth:`Capabilities.mismatch`
+compares the two and returns the first reason the estimator cannot run, so the run layer can
+refuse with one line naming the model file and the estimator instead of failing deep inside
+an algorithm.  This module imports nothing heavy at import time (sympy only when a model's
+linearity is asked for): the registry, and through it ``--help``, import it.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+    from hybridlog.signals import AlignedSignals
+
+__all__ = ["Capabilities", "ModelTraits"]
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What an estimator needs (checked before it runs) and what it offers.
+
+    Attributes
+    ----------
+    needs_linear_model:
+        Every mode's ``f`` and ``h`` must be affine in the states and inputs.
+    needs_markov_matrix:
+        The model must have a ``[transitions]`` Markov matrix.
+    uses_markov_matrix:
+        The model's ``[transitions]`` matrix is used when present (a default otherwise).
+    needs_switching_signal:
+        The log must carry the switching signal (the true mode, ``--map truth.mode=PATH``).
+    needs_measured_state:
+        The continuous state must be measured: the outputs are the states in every mode.
+    needs_components:
+        The model must describe ``[components]`` (concurrent probabilistic automata).
+    continuous_time:
+        The estimator works on continuous-time models (and only on them); ``False``: on
+        discrete-time models only.
+    supports_smoothing:
+        A fixed-interval smoother can run after the filter (``--smooth``).
+    """
+
+    needs_linear_model: bool = False
+    needs_markov_matrix: bool = False
+    uses_markov_matrix: bool = False
+    needs_switching_signal: bool = False
+    needs_measured_state: bool = False
+    needs_components: bool = False
+    continuous_time: bool = False
+    supports_smoothing: bool = False
+
+    def needs(self) -> tuple[str, ...]:
+        """The needs in words, for ``--help`` and the docs."""
+        words = ["continuous-time model" if self.continuous_time else "discrete-time model"]
+        if self.needs_linear_model:
+            words.append("linear modes")
+        if self.needs_markov_matrix:
+            words.append("Markov matrix")
+        elif self.uses_markov_matrix:
+            words.append("Markov matrix (optional)")
+        if self.needs_components:
+            words.append("[components]")
+        if self.needs_measured_state:
+            words.append("measured state")
+        if self.needs_switching_signal:
+            words.append("switching signal in the log")
+        return tuple(words)
+
+    def mismatch(self, traits: ModelTraits) -> str | None:
+        """The first reason the model cannot be used, as ``needs X; the model ...``, or None."""
+        if self.continuous_time != traits.continuous:
+            wanted = "continuous-time" if self.continuous_time else "discrete-time"
+            has = "continuous" if traits.continuous else "discrete"
+            return f"needs a {wanted} model; the model's time is {has}"
+        if self.needs_components and not traits.components:
+            return "needs a model with [components]; the model has none"
+        if self.needs_markov_matrix and not traits.markov_matrix:
+            return "needs a Markov matrix; the model has no [transitions] table"
+        if self.needs_linear_model and traits.nonlinear is not None:
+            return f"needs a linear model; the modes are nonlinear: {traits.nonlinear}"
+        if self.needs_measured_state and traits.unmeasured_state is not None:
+            return f"needs the state measured; {traits.unmeasured_state}"
+        return None
+
+    def signals_mismatch(self, signals: AlignedSignals) -> str | None:
+        """The first reason the aligned log cannot be used, or None."""
+        if self.needs_switching_signal and signals.truth_modes is None:
+            return (
+                "needs the switching signal in the log; map it with --map truth.mode=PATH "
+                "(or a 'mode' column)"
+            )
+        return None
+
+
+class ModelTraits:
+    """What a loaded model offers, as :meth:`Capabilities.mismatch` asks for it.
+
+    Each trait is worked out on first use and kept (linearity needs sympy derivatives).
+    """
+
+    def __init__(self, model: HybridModel) -> None:
+        self.model = model
+
+    @property
+    def continuous(self) -> bool:
+        """True for a continuous-time model.
+
+        :class:`~hybridlog.model.hybrid_model.HybridModel` has no timebase yet (the loader
+        accepts only ``time = "discrete"``), so every model loaded today is discrete.
+        """
+        return False
+
+    @property
+    def components(self) -> bool:
+        """True when the model has ``[components]`` (the loader accepts none yet)."""
+        return False
+
+    @property
+    def markov_matrix(self) -> bool:
+        """True when the model file gives a ``[transitions]`` matrix."""
+        return self.model.transitions is not None
+
+    @functools.cached_property
+    def nonlinear(self) -> str | None:
+        """The first mode equation that is not affine in the states and inputs, or None.
+
+        ``"modes.1.f[0] is not affine in x1, x2"``: an equation is affine when its derivative
+        by every state and input depends on no state or input.
+        """
+        import sympy
+
+        xs, us = self.model.symbols()
+        variables = {*xs, *us}
+        for mode in self.model.modes:
+            for key, expressions in (("f", mode.f), ("h", mode.h)):
+                for i, expression in enumerate(expressions):
+                    bent = sorted(
+                        str(v)
+                        for v in variables
+                        if sympy.diff(expression, v).free_symbols & variables
+                    )
+                    if bent:
+                        return f"modes.{mode.id}.{key}[{i}] is not affine in {', '.join(bent)}"
+        return None
+
+    @functools.cached_property
+    def unmeasured_state(self) -> str | None:
+        """Why the outputs are not the states (``h = x``) in every mode, or None."""
+        xs, _ = self.model.symbols()
+        for mode in self.model.modes:
+            if list(mode.h) != xs:
+                return f"modes.{mode.id}.h is not the state ({', '.join(self.model.states)})"
+        return None

@@ -1,0 +1,286 @@
+"""The estimator registry: one entry per estimator, and the one way to run any of them.
+
+An entry names the estimator, says in one line what it is and which paper and equations it
+implements, points to its options dataclass and run function, and declares its
+:class:`~hybridlog.estimators.capabilities.Capabilities`.  The module is named by a string
+and imported on first use, so importing the registry (``--help``, batch workers) loads no
+numba, sympy, scipy, cvxpy or matplotlib.
+
+Adding an estimator is one module (an options dataclass made with
+:func:`~hybridlog.estimators.options.option` and ``run(model, signals, options) ->
+EstimationResult``) and one entry in :data:`ESTIMATORS`.
+
+:func:`prepare` resolves the estimator and its options against a model before any log is
+read: the model's ``default_estimator`` when none is named, its capabilities against the
+model, the options of the model file's ``[estimators.<name>]`` table and then the overrides,
+each error naming the file and key or the command-line option the user must change.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
+
+from hybridlog.errors import LogError, ModelError, OptionError, excerpt
+from hybridlog.estimators.capabilities import Capabilities, ModelTraits
+from hybridlog.estimators.options import (
+    OptionInfo,
+    OptionSource,
+    closest,
+    describe_options,
+    format_options,
+    options_dict,
+    parse_options,
+)
+
+if TYPE_CHECKING:
+    from hybridlog.estimators.result import EstimationResult
+    from hybridlog.model.hybrid_model import HybridModel
+    from hybridlog.signals import AlignedSignals
+
+__all__ = [
+    "ESTIMATORS",
+    "PLANNED",
+    "Estimator",
+    "Prepared",
+    "get_estimator",
+    "prepare",
+    "resolve_estimator",
+]
+
+Runner = Callable[["HybridModel", "AlignedSignals", Any], "EstimationResult"]
+
+
+@dataclass(frozen=True)
+class Estimator:
+    """A registered estimator.
+
+    Attributes
+    ----------
+    name:
+        Registry name (``--estimator NAME``).
+    summary:
+        One line: what the estimator is.
+    source:
+        The paper (file under ``papers/``) and equations it implements, or the classic
+        reference.
+    module:
+        The module that holds it, imported on first use.
+    options:
+        Name of its options dataclass in ``module``.
+    run:
+        Name of ``run(model, signals, options) -> EstimationResult`` in ``module``.
+    capabilities:
+        What it needs of the model and the log.
+    """
+
+    name: str
+    summary: str
+    source: str
+    module: str
+    options: str
+    run: str
+    capabilities: Capabilities = field(default_factory=Capabilities)
+
+    def _attribute(self, name: str) -> Any:
+        return getattr(importlib.import_module(self.module), name)
+
+    @property
+    def options_type(self) -> type[Any]:
+        """The options dataclass (imports the estimator's module)."""
+        return cast(type[Any], self._attribute(self.options))
+
+    @property
+    def run_function(self) -> Runner:
+        """The run function (imports the estimator's module)."""
+        return cast(Runner, self._attribute(self.run))
+
+    def describe_options(self) -> tuple[OptionInfo, ...]:
+        """Every option: name, type, default, range or choices, one-line help."""
+        return describe_options(self.options_type)
+
+    def help_text(self) -> str:
+        """The estimator and its options as plain text for ``--help`` and the docs."""
+        lines = [
+            f"{self.name}: {self.summary} ({self.source})",
+            f"needs: {', '.join(self.capabilities.needs())}",
+            format_options(self.describe_options()),
+        ]
+        return "\n".join(lines)
+
+    def parse_options(
+        self, values: Mapping[str, Any], sources: Mapping[str, OptionSource] | None = None
+    ) -> Any:
+        """The options dataclass from ``values``; errors name ``sources[name]``."""
+        return parse_options(self.options_type, values, estimator=self.name, sources=sources)
+
+
+ESTIMATORS: dict[str, Estimator] = {
+    e.name: e
+    for e in (
+        Estimator(
+            name="hstf",
+            summary="hybrid strong tracking filter (unknown mode transitions)",
+            source="paper 000, eqs. (5)-(40)",
+            module="hybridlog.estimators.hstf",
+            options="HstfOptions",
+            run="run_hstf",
+        ),
+        Estimator(
+            name="imm",
+            summary="interacting multiple model with an EKF per mode",
+            source="Blom and Bar-Shalom 1988; Bar-Shalom, Li, Kirubarajan 2001, 11.6.6",
+            module="hybridlog.estimators.imm",
+            options="ImmOptions",
+            run="run_imm",
+            capabilities=Capabilities(uses_markov_matrix=True),
+        ),
+        Estimator(
+            name="chiu",
+            summary="Chiu subtractive clustering + switched Luenberger observer",
+            source="paper 001, eqs. (2)-(8), LMI (15)",
+            module="hybridlog.estimators.chiu",
+            options="ChiuOptions",
+            run="run_chiu",
+            capabilities=Capabilities(needs_linear_model=True),
+        ),
+        Estimator(
+            name="kmeans",
+            summary="k-means clustering + switched Luenberger observer (paper 001's baseline)",
+            source="paper 001, eqs. (2)-(3), (8), LMI (15)",
+            module="hybridlog.estimators.chiu",
+            options="KMeansOptions",
+            run="run_kmeans",
+            capabilities=Capabilities(needs_linear_model=True),
+        ),
+    )
+}
+"""Every estimator this version provides, by name."""
+
+PLANNED = ("unknown-mode", "sliding-mode", "switching-observer")
+"""Estimator names of SPEC §7 that this version does not provide yet."""
+
+
+def _unknown(name: str, known: Mapping[str, Estimator]) -> str:
+    available = ", ".join(known)
+    if name in PLANNED:
+        return f"'{name}' is not available in this version (available: {available})"
+    return f"unknown estimator {excerpt(name)} (available: {available}){closest(name, known)}"
+
+
+def get_estimator(name: str, *, given_by: str = "--estimator") -> Estimator:
+    """The registered estimator called ``name``.
+
+    Raises
+    ------
+    OptionError
+        ``<given_by>: unknown estimator ...`` listing the available ones.
+    """
+    if name in ESTIMATORS:
+        return ESTIMATORS[name]
+    raise OptionError(f"{given_by}: {_unknown(name, ESTIMATORS)}")
+
+
+def resolve_estimator(
+    model: HybridModel, name: str | None, *, given_by: str = "--estimator"
+) -> Estimator:
+    """The estimator ``name``, or the model's ``default_estimator`` when ``name`` is None.
+
+    Raises
+    ------
+    ModelError
+        The model file names an unknown estimator in ``default_estimator`` (when it is used)
+        or in an ``[estimators.<x>]`` table (planned estimators' tables are accepted).
+    OptionError
+        ``name`` is unknown (``<given_by>: unknown estimator ...``).
+    """
+    origin = model.origin or model.name
+    for table in model.estimator_options:
+        if table not in ESTIMATORS and table not in PLANNED:
+            raise ModelError(f"{origin}: estimators.{table}: {_unknown(table, ESTIMATORS)}")
+    if name is None:
+        name = model.default_estimator
+        if name not in ESTIMATORS:
+            raise ModelError(f"{origin}: default_estimator: {_unknown(name, ESTIMATORS)}")
+    return get_estimator(name, given_by=given_by)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """An estimator with validated options, checked against a model, ready to run.
+
+    Attributes
+    ----------
+    estimator:
+        The registry entry.
+    options:
+        Its options dataclass, defaults filled in.
+    """
+
+    estimator: Estimator
+    options: Any
+
+    @property
+    def name(self) -> str:
+        """The estimator's registry name."""
+        return self.estimator.name
+
+    def run(self, model: HybridModel, signals: AlignedSignals) -> EstimationResult:
+        """Run over the aligned log (checked first for what the estimator needs of a log)."""
+        problem = self.estimator.capabilities.signals_mismatch(signals)
+        if problem is not None:
+            raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")
+        return self.estimator.run_function(model, signals, self.options)
+
+    def options_dict(self) -> dict[str, Any]:
+        """The options as the report's ``options`` (read back by :func:`prepare`)."""
+        return options_dict(self.options)
+
+
+def prepare(
+    model: HybridModel,
+    name: str | None,
+    overrides: Mapping[str, Any] | None = None,
+    *,
+    given_by: str = "--estimator",
+    overrides_by: str = "--set",
+) -> Prepared:
+    """Resolve an estimator and its options for ``model`` before any log is read.
+
+    Parameters
+    ----------
+    model:
+        The loaded model (``model.origin`` names its file in errors).
+    name:
+        The estimator's name, or ``None`` for the model's ``default_estimator``.
+    overrides:
+        Option values that replace the model file's ``[estimators.<name>]`` values.
+    given_by, overrides_by:
+        The command-line options ``name`` and ``overrides`` came from, for messages.
+
+    Raises
+    ------
+    ModelError
+        The model file names an unknown estimator (``default_estimator``, an
+        ``[estimators.<x>]`` table), gives a bad option value, or the model lacks what the
+        estimator needs (one line naming the file, the key and the estimator).
+    OptionError
+        An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``).
+    """
+    estimator = resolve_estimator(model, name, given_by=given_by)
+    name = estimator.name
+    origin = model.origin or model.name
+    traits = ModelTraits(model)
+    problem = estimator.capabilities.mismatch(traits)
+    if problem is not None:
+        suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
+        hint = f" (estimators for this model: {', '.join(suited)})" if suited else ""
+        raise ModelError(f"{origin}: estimator '{name}' {problem}{hint}")
+    from_file = model.estimator_options.get(name, {})
+    sources = {k: OptionSource.model_file(origin, name, k) for k in from_file}
+    overrides = overrides or {}
+    sources.update({k: OptionSource.command_line(overrides_by, k, v) for k, v in overrides.items()})
+    options = estimator.parse_options({**from_file, **overrides}, sources)
+    return Prepared(estimator, options)
