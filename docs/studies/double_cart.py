@@ -24,7 +24,8 @@ if __package__ in (None, ""):  # run as a file: make the repository root importa
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from hybridlog.analysis import ReadOptions, read_log
-from hybridlog.estimators.chiu import ChiuOptions, KMeansOptions, run_chiu, run_kmeans
+from hybridlog.estimators.chiu import ChiuOptions, run_chiu
+from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.hybrid_model import HybridModel

@@ -22,11 +22,11 @@ from hybridlog.cluster.regressors import regression_vectors
 from hybridlog.errors import ModelError, OutputError
 from hybridlog.estimators.chiu import (
     ChiuOptions,
-    KMeansOptions,
     ModeClassifier,
     design_observer,
     fit_classifier,
 )
+from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.signals import AlignedSignals

@@ -1,11 +1,11 @@
-r"""Estimators ``chiu`` and ``kmeans``: clustering mode classifier + switched observer (paper 001).
+r"""Estimator ``chiu``: clustering mode classifier + switched observer (paper 001).
 
 Algorithm 1 of paper 001:
 
 Offline
     Regression vectors ``φ(k) = [y(k), y(k−1), u(k−1)]`` (any lags: options ``output_lags``,
     ``input_lags``) are clustered, by Chiu's subtractive clustering (``chiu``, eqs. (5)–(7),
-    :mod:`hybridlog.cluster.subtractive`) or by k-means (``kmeans``, the paper's baseline).
+    :mod:`hybridlog.cluster.subtractive`) or by k-means (:mod:`hybridlog.estimators.kmeans`).
     By default the clusters are fitted on the analysed log itself; ``centers=FILE`` loads
     the centres (and labels) that ``hybridlog cluster`` wrote instead.
 Labelling
@@ -33,7 +33,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -50,16 +50,17 @@ from hybridlog.estimators.switched_observer import LinearModes, linear_modes, ru
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
+if TYPE_CHECKING:
+    from hybridlog.estimators.kmeans import KMeansOptions
+
 __all__ = [
     "ChiuOptions",
-    "KMeansOptions",
     "ModeClassifier",
     "chiu_options",
     "design_observer",
     "fit_classifier",
-    "kmeans_options",
     "run_chiu",
-    "run_kmeans",
+    "run_clustering_observer",
 ]
 
 _BURN_IN_FRACTION = 0.1
@@ -82,26 +83,6 @@ class ChiuOptions:
     method: Literal["auto", "exact", "approximate"] = option(
         "auto", "potentials: exact all-pairs, approximate on a grid, or auto by size"
     )
-    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
-    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
-    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
-    cluster_modes: str = option(
-        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
-    )
-    decay_rate: float = option(
-        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
-    )
-
-
-@dataclass(frozen=True)
-class KMeansOptions:
-    """Options of the ``kmeans`` estimator; the lags, centres and labels are as for ``chiu``."""
-
-    clusters: int | None = option(
-        None, "number of k-means centres (none: the number of modes)", range=(1, 1000)
-    )
-    restarts: int = option(10, "k-means++ runs; the one of least inertia is kept", range=(1, 1000))
-    seed: int = option(0, "seed of the first run (then seed+1, ...)", range=(0, 2**31))
     output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
     input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
     centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
@@ -301,7 +282,7 @@ def fit_classifier(
                 f"{options.reject:g}, self term {self_term}",
             )
         else:
-            assert isinstance(options, KMeansOptions)
+            assert not isinstance(options, ChiuOptions)
             k = model.n_modes if options.clusters is None else options.clusters
             km = kmeans_clustering(phi, k, restarts=options.restarts, seed=options.seed)
             centers, lower, upper = km.centers, km.lower, km.upper
@@ -363,7 +344,7 @@ def fit_classifier(
     )
 
 
-def _run(
+def run_clustering_observer(
     name: str,
     model: HybridModel,
     signals: AlignedSignals,
@@ -371,6 +352,7 @@ def _run(
     *,
     jit: bool,
 ) -> EstimationResult:
+    """Algorithm 1 of paper 001 (module docstring) with the centres of ``name``."""
     start = time.perf_counter()
     linear, gains = design_observer(model, options.decay_rate)
     classifier = fit_classifier(model, signals, name, options, observer=(linear, gains))
@@ -437,21 +419,9 @@ def run_chiu(
     model: HybridModel, signals: AlignedSignals, options: ChiuOptions, *, jit: bool = True
 ) -> EstimationResult:
     """Paper 001 with Chiu's subtractive clustering (see the module docstring)."""
-    return _run("chiu", model, signals, options, jit=jit)
-
-
-def run_kmeans(
-    model: HybridModel, signals: AlignedSignals, options: KMeansOptions, *, jit: bool = True
-) -> EstimationResult:
-    """Paper 001's k-means comparison: the same pipeline with k-means centres."""
-    return _run("kmeans", model, signals, options, jit=jit)
+    return run_clustering_observer("chiu", model, signals, options, jit=jit)
 
 
 def chiu_options(values: dict[str, object]) -> ChiuOptions:
     """Validated ``chiu`` options from a name → value mapping."""
     return parse_options(ChiuOptions, values, estimator="chiu")
-
-
-def kmeans_options(values: dict[str, object]) -> KMeansOptions:
-    """Validated ``kmeans`` options from a name → value mapping."""
-    return parse_options(KMeansOptions, values, estimator="kmeans")

@@ -150,7 +150,7 @@ ESTIMATORS: dict[str, Estimator] = {
             name="kmeans",
             summary="k-means clustering + switched Luenberger observer (paper 001's baseline)",
             source="paper 001, eqs. (2)-(3), (8), LMI (15)",
-            module="hybridlog.estimators.chiu",
+            module="hybridlog.estimators.kmeans",
             options="KMeansOptions",
             run="run_kmeans",
             capabilities=Capabilities(needs_linear_model=True),

@@ -1,0 +1,52 @@
+"""Estimator ``kmeans``: paper 001's comparison, its pipeline with k-means centres.
+
+Everything but the offline clustering is the ``chiu`` estimator's
+(:func:`~hybridlog.estimators.chiu.run_clustering_observer`): regression vectors, labels
+from the observer's prediction fit, nearest-centre decision (eqs. (2)-(3)), switched observer
+(8) with gains from the LMI (15).  The centres are the best (least inertia) of ``restarts``
+k-means++ runs (:func:`hybridlog.cluster.kmeans.kmeans_clustering`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from hybridlog.estimators.chiu import run_clustering_observer
+from hybridlog.estimators.options import option, parse_options
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.signals import AlignedSignals
+
+__all__ = ["KMeansOptions", "kmeans_options", "run_kmeans"]
+
+
+@dataclass(frozen=True)
+class KMeansOptions:
+    """Options of the ``kmeans`` estimator; the lags, centres and labels are as for ``chiu``."""
+
+    clusters: int | None = option(
+        None, "number of k-means centres (none: the number of modes)", range=(1, 1000)
+    )
+    restarts: int = option(10, "k-means++ runs; the one of least inertia is kept", range=(1, 1000))
+    seed: int = option(0, "seed of the first run (then seed+1, ...)", range=(0, 2**31))
+    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
+    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
+    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
+    cluster_modes: str = option(
+        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
+    )
+    decay_rate: float = option(
+        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
+    )
+
+
+def run_kmeans(
+    model: HybridModel, signals: AlignedSignals, options: KMeansOptions, *, jit: bool = True
+) -> EstimationResult:
+    """Paper 001's k-means comparison: the same pipeline with k-means centres."""
+    return run_clustering_observer("kmeans", model, signals, options, jit=jit)
+
+
+def kmeans_options(values: dict[str, object]) -> KMeansOptions:
+    """Validated ``kmeans`` options from a name → value mapping."""
+    return parse_options(KMeansOptions, values, estimator="kmeans")
