@@ -18,7 +18,6 @@ import polars as pl
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators import Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
-from hybridlog.estimators.result import EstimationResult
 from hybridlog.io import ReadSettings, load_signals
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
@@ -149,17 +148,6 @@ def read_log(
         drop_nonfinite=read.drop_nonfinite,
         notes=notes,
     )
-
-
-def estimate(
-    model: HybridModel,
-    signals: AlignedSignals,
-    estimator: str | None,
-    overrides: Overrides | None = None,
-) -> EstimationResult:
-    """Run one estimator (default: the model's ``default_estimator``) over aligned signals."""
-    (prepared,) = prepare_estimators(model, [estimator], overrides or Overrides())
-    return prepared.run(model, signals)
 
 
 @dataclass(frozen=True)

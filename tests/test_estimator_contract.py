@@ -19,8 +19,9 @@ import pytest
 
 from hybridlog.analysis import Overrides, analyze, parse_sets, prepare_estimators
 from hybridlog.errors import LogError, ModelError, OptionError
-from hybridlog.estimators import ESTIMATORS, Capabilities, get_estimator, prepare
+from hybridlog.estimators import ESTIMATORS, Capabilities, Estimator, get_estimator, prepare
 from hybridlog.estimators.capabilities import ModelTraits
+from hybridlog.estimators.options import option, options_dict
 from hybridlog.estimators.result import EstimationResult, ResultShapeError
 from hybridlog.model.loader import load_model
 from hybridlog.report.document import build_report, report_json
@@ -144,12 +145,12 @@ def bad_values(estimator):
 def test_a_bad_set_option_is_one_line_naming_estimator_and_option(name, cases):
     model, _ = cases[model_for(name)]
     checked = 0
-    for option, raw, reason in bad_values(ESTIMATORS[name]):
-        overrides = Overrides(options=MappingProxyType({option: raw}))
+    for key, raw, reason in bad_values(ESTIMATORS[name]):
+        overrides = Overrides(options=MappingProxyType({key: raw}))
         with pytest.raises(OptionError) as caught:
             prepare_estimators(model, [name], overrides)
         message = str(caught.value)
-        assert message.startswith(f"--set {option}={raw}: {name} option '{option}': ")
+        assert message.startswith(f"--set {key}={raw}: {name} option '{key}': ")
         assert reason in message
         assert "\n" not in message
         checked += 1
@@ -158,17 +159,17 @@ def test_a_bad_set_option_is_one_line_naming_estimator_and_option(name, cases):
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))
 def test_a_bad_option_in_the_model_file_names_file_and_key(name, tmp_path):
-    option, raw, reason = next(bad_values(ESTIMATORS[name]))
+    key, raw, reason = next(bad_values(ESTIMATORS[name]))
     base = model_for(name)
     text = (ROOT / f"hybridlog/model/builtin/{base}.toml").read_text()
     text = text.split("\n[estimators.")[0]  # the built-in's own table, if any, is the last
     path = tmp_path / "model.toml"
-    path.write_text(f"{text}\n[estimators.{name}]\n{option} = {json.dumps(raw)}\n")
+    path.write_text(f"{text}\n[estimators.{name}]\n{key} = {json.dumps(raw)}\n")
     model = load_model(path)
     with pytest.raises(ModelError) as caught:
         prepare(model, name)
     message = str(caught.value)
-    assert message.startswith(f"{path}: estimators.{name}.{option}: {name} option '{option}': ")
+    assert message.startswith(f"{path}: estimators.{name}.{key}: {name} option '{key}': ")
     assert reason in message
 
 
@@ -335,3 +336,52 @@ def test_a_result_of_the_wrong_dtype_or_mode_names_estimator_and_field():
         EstimationResult(**{**fields, "time": np.zeros((5, 1))})
     with pytest.raises(ResultShapeError, match="'output_predictions' has shape list"):
         EstimationResult(**{**fields, "output_predictions": [[0.0]] * 5})
+
+
+# The recipe of docs/architecture.md, followed by a test: this module holds an estimator
+# (options + run), one registry entry names it, and `analyze` writes its report unchanged.
+
+
+@dataclasses.dataclass(frozen=True)
+class PersistOptions:
+    lag: int = option(1, "predict y(k) as y(k - lag)", range=(1, 10))
+
+
+def run_persist(model, signals, options):
+    """Naive persistence: the prior's mode and state throughout, ŷ(k) = y(k − lag)."""
+    n = signals.n_samples
+    predictions = np.full(signals.outputs.shape, np.nan)
+    predictions[options.lag :] = signals.outputs[: n - options.lag]
+    prior = model.initial_mode_probabilities
+    return EstimationResult(
+        estimator="persist",
+        options=options_dict(options),
+        time=signals.time,
+        mode_ids=model.mode_ids,
+        state_names=model.states,
+        output_names=model.outputs,
+        modes=np.full(n, int(np.argmax(prior)), dtype=np.int64),
+        mode_probabilities=np.tile(prior, (n, 1)),
+        state_means=np.tile(model.initial_state, (n, 1)),
+        state_variances=np.tile(np.diag(model.initial_covariance), (n, 1)),
+        output_predictions=predictions,
+    )
+
+
+def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypatch):
+    entry = Estimator(
+        name="persist",
+        summary="naive persistence",
+        source="none",
+        module=__name__,
+        options="PersistOptions",
+        run="run_persist",
+    )
+    monkeypatch.setitem(ESTIMATORS, "persist", entry)
+    outcome = analyze(
+        SAMPLE, "three_tank_hstf", estimator="persist", sets=["lag=2"], out_dir=tmp_path / "r"
+    )
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["estimator"] == "persist" and report["options"] == {"lag": 2}
+    assert outcome.report["modes"]["accuracy"] is not None
+    assert "lag=1  int, in [1, 10]  predict y(k) as y(k - lag)" in entry.help_text()

@@ -4,6 +4,7 @@ import dataclasses
 import json
 import typing
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import pytest
@@ -19,6 +20,7 @@ from hybridlog.estimators.options import (
     options_dict,
     parse_options,
 )
+from hybridlog.estimators.registry import reference_markdown
 
 
 @dataclass(frozen=True)
@@ -191,3 +193,10 @@ def test_integer_options_are_real_ints():
 def test_chiu_method_choices_are_the_clustering_methods():
     hints = typing.get_type_hints(ESTIMATORS["chiu"].options_type)
     assert typing.get_args(hints["method"]) == METHODS
+
+
+def test_the_estimator_reference_in_docs_is_generated_from_the_registry():
+    written = (Path(__file__).resolve().parent.parent / "docs" / "estimators.md").read_text()
+    assert written == reference_markdown(), (
+        "run: python -m hybridlog.estimators > docs/estimators.md"
+    )

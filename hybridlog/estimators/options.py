@@ -45,6 +45,7 @@ __all__ = [
     "option",
     "options_dict",
     "parse_options",
+    "shown",
 ]
 
 T = TypeVar("T")
@@ -252,7 +253,7 @@ def _check(value: Any, kind: _Kind, field: dataclasses.Field[Any]) -> Any:
         )
     bounds = field.metadata.get("range")
     if bounds is not None and not bounds[0] <= value <= bounds[1]:
-        raise ValueError(f"{_shown(value)} is outside [{_shown(bounds[0])}, {_shown(bounds[1])}]")
+        raise ValueError(f"{shown(value)} is outside [{shown(bounds[0])}, {shown(bounds[1])}]")
     return value
 
 
@@ -297,7 +298,7 @@ def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
         if not help_text:
             raise TypeError(f"{cls.__name__}.{name}: an estimator option needs a help text")
         bounds = field.metadata.get("range")
-        constraint = "" if bounds is None else f"in [{_shown(bounds[0])}, {_shown(bounds[1])}]"
+        constraint = "" if bounds is None else f"in [{shown(bounds[0])}, {shown(bounds[1])}]"
         infos.append(
             OptionInfo(
                 name=name,
@@ -310,7 +311,8 @@ def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
     return tuple(infos)
 
 
-def _shown(value: object) -> str:
+def shown(value: object) -> str:
+    """A default or bound as ``--set`` would take it: ``none``, ``true``, ``""``, ``0.95``."""
     if value is None:
         return "none"
     if isinstance(value, bool):
@@ -324,7 +326,7 @@ def format_options(infos: Iterable[OptionInfo]) -> str:
     """Plain-text lines, one per option: ``name=DEFAULT  (type, range)  help``."""
     rows = [
         (
-            f"{i.name}={_shown(i.default)}",
+            f"{i.name}={shown(i.default)}",
             ", ".join(p for p in (i.type, i.constraint) if p),
             i.help,
         )

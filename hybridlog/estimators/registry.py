@@ -33,6 +33,7 @@ from hybridlog.estimators.options import (
     format_options,
     options_dict,
     parse_options,
+    shown,
 )
 
 if TYPE_CHECKING:
@@ -47,6 +48,7 @@ __all__ = [
     "Prepared",
     "get_estimator",
     "prepare",
+    "reference_markdown",
     "resolve_estimator",
 ]
 
@@ -109,6 +111,30 @@ class Estimator:
             format_options(self.describe_options()),
         ]
         return "\n".join(lines)
+
+    def markdown(self) -> str:
+        """The estimator and a table of its options, for ``docs/estimators.md``."""
+
+        def cell(value: object) -> str:
+            return str(value).replace("|", "\\|")
+
+        rows = [
+            f"| `{i.name}` | {cell(i.type)} | `{shown(i.default)}` | "
+            f"{cell(i.constraint.removeprefix('in '))} | {cell(i.help)} |"
+            for i in self.describe_options()
+        ]
+        return "\n".join(
+            [
+                f"## {self.name}",
+                "",
+                f"{self.summary}. Source: {self.source}. Needs: "
+                f"{', '.join(self.capabilities.needs())}.",
+                "",
+                "| option | type | default | range | help |",
+                "|---|---|---|---|---|",
+                *rows,
+            ]
+        )
 
     def parse_options(
         self, values: Mapping[str, Any], sources: Mapping[str, OptionSource] | None = None
@@ -284,3 +310,17 @@ def prepare(
     sources.update({k: OptionSource.command_line(overrides_by, k, v) for k, v in overrides.items()})
     options = estimator.parse_options({**from_file, **overrides}, sources)
     return Prepared(estimator, options)
+
+
+def reference_markdown() -> str:
+    """``docs/estimators.md``: every estimator and its options, from the registry alone."""
+    sections = [e.markdown() for e in ESTIMATORS.values()]
+    return "\n\n".join([_REFERENCE_HEADER, *sections]) + "\n"
+
+
+_REFERENCE_HEADER = """# Estimators and their options
+
+Generated from the registry (`hybridlog/estimators/registry.py`) with
+`python -m hybridlog.estimators > docs/estimators.md`; a test checks it is current.
+Options are set in a model file's `[estimators.<name>]` table or with `--set NAME=VALUE`
+(which wins)."""
