@@ -253,6 +253,9 @@ def test_capabilities_refuse_an_unsuitable_model_naming_file_and_estimator(tmp_p
         f"{path}: estimator 'chiu' needs a linear model; the modes are nonlinear: "
         "modes.1.f[0] is not affine in x1, x3 (estimators for this model: hstf, imm)"
     )
+    path.write_text(TANK_TEXT.replace('default_estimator = "hstf"', 'default_estimator = "chiu"'))
+    with pytest.raises(ModelError, match=rf"^{path}: default_estimator 'chiu' needs a linear"):
+        prepare(load_model(path), None)
 
 
 def test_capabilities_checks_for_every_need(cases):
@@ -263,6 +266,19 @@ def test_capabilities_checks_for_every_need(cases):
     assert Capabilities().mismatch(tank_traits) is None
     assert "continuous-time model" in Capabilities(continuous_time=True).mismatch(tank_traits)
     assert "[components]" in Capabilities(needs_components=True).mismatch(tank_traits)
+    assert "boolean-affine" in Capabilities(needs_boolean_affine=True).mismatch(tank_traits)
+    assert Capabilities(applies_jump_maps=True).mismatch(tank_traits) is None
+
+    class Other(ModelTraits):  # the kinds the loader does not produce yet
+        continuous = jumps = components = booleans = True
+
+    other = Other(tank)
+    assert Capabilities().mismatch(other) == (
+        "needs a discrete-time model; the model's time is continuous"
+    )
+    flags = {"continuous_time": True, "needs_components": True, "needs_boolean_affine": True}
+    assert "does not apply jump maps" in Capabilities(**flags).mismatch(other)
+    assert Capabilities(**flags, applies_jump_maps=True).mismatch(other) is None
     assert tank.transitions is None and cart.transitions is not None
     assert "[transitions]" in Capabilities(needs_markov_matrix=True).mismatch(tank_traits)
     assert Capabilities(needs_markov_matrix=True).mismatch(cart_traits) is None

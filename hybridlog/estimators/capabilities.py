@@ -39,6 +39,11 @@ class Capabilities:
         The continuous state must be measured: the outputs are the states in every mode.
     needs_components:
         The model must describe ``[components]`` (concurrent probabilistic automata).
+    needs_boolean_affine:
+        The model must be boolean-affine (``booleans = [...]``, paper 003 eq. (48)).
+    applies_jump_maps:
+        The estimator applies the model's ``[jumps]`` state resets at switches; without it a
+        model with jump maps is refused (they would be silently ignored).
     continuous_time:
         The estimator works on continuous-time models (and only on them); ``False``: on
         discrete-time models only.
@@ -52,6 +57,8 @@ class Capabilities:
     needs_switching_signal: bool = False
     needs_measured_state: bool = False
     needs_components: bool = False
+    needs_boolean_affine: bool = False
+    applies_jump_maps: bool = False
     continuous_time: bool = False
     supports_smoothing: bool = False
 
@@ -66,6 +73,10 @@ class Capabilities:
             words.append("Markov matrix (optional)")
         if self.needs_components:
             words.append("[components]")
+        if self.needs_boolean_affine:
+            words.append("boolean-affine model")
+        if self.applies_jump_maps:
+            words.append("jump maps (optional)")
         if self.needs_measured_state:
             words.append("measured state")
         if self.needs_switching_signal:
@@ -80,6 +91,10 @@ class Capabilities:
             return f"needs a {wanted} model; the model's time is {has}"
         if self.needs_components and not traits.components:
             return "needs a model with [components]; the model has none"
+        if self.needs_boolean_affine and not traits.booleans:
+            return "needs a boolean-affine model (booleans = [...]); the model is not one"
+        if traits.jumps and not self.applies_jump_maps:
+            return "does not apply jump maps; the model has [jumps] state resets"
         if self.needs_markov_matrix and not traits.markov_matrix:
             return "needs a Markov matrix; the model has no [transitions] table"
         if self.needs_linear_model and traits.nonlinear is not None:
@@ -119,6 +134,16 @@ class ModelTraits:
     @property
     def components(self) -> bool:
         """True when the model has ``[components]`` (the loader accepts none yet)."""
+        return False
+
+    @property
+    def booleans(self) -> bool:
+        """True for a boolean-affine model (the loader accepts none yet)."""
+        return False
+
+    @property
+    def jumps(self) -> bool:
+        """True when the model has ``[jumps]`` state resets (the loader accepts none yet)."""
         return False
 
     @property

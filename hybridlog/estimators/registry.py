@@ -296,6 +296,7 @@ def prepare(
         An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``).
     """
     estimator = resolve_estimator(model, name, given_by=given_by)
+    what = "estimator" if name is not None else "default_estimator"
     name = estimator.name
     origin = model.origin or model.name
     traits = ModelTraits(model)
@@ -303,7 +304,7 @@ def prepare(
     if problem is not None:
         suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
         hint = f" (estimators for this model: {', '.join(suited)})" if suited else ""
-        raise ModelError(f"{origin}: estimator '{name}' {problem}{hint}")
+        raise ModelError(f"{origin}: {what} '{name}' {problem}{hint}")
     from_file = model.estimator_options.get(name, {})
     sources = {k: OptionSource.model_file(origin, name, k) for k in from_file}
     overrides = overrides or {}
