@@ -135,8 +135,9 @@ def run_batch(
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
     paths = [Path(log) for log in logs]
-    model, overrides = parse_sets(sets, model_ref)  # the model, estimator and --set are
-    (prepared,) = prepare_estimators(model, [estimator], overrides)  # checked before any work
+    # the model, the estimator and every --set value are checked before any work
+    model, overrides = parse_sets(sets, model_ref)
+    (prepared,) = prepare_estimators(model, [estimator], overrides)
     gates = gates_for(model, fail_under, fail_over)
     root = Path(out_dir)
     root.mkdir(parents=True, exist_ok=True)
