@@ -56,6 +56,7 @@ if TYPE_CHECKING:
 __all__ = [
     "ChiuOptions",
     "ModeClassifier",
+    "ObserverOptions",
     "chiu_options",
     "design_observer",
     "fit_classifier",
@@ -68,7 +69,22 @@ _BURN_IN_MAX = 100
 
 
 @dataclass(frozen=True)
-class ChiuOptions:
+class ObserverOptions:
+    """Options of paper 001's pipeline shared by ``chiu`` and ``kmeans``."""
+
+    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
+    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
+    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
+    cluster_modes: str = option(
+        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
+    )
+    decay_rate: float = option(
+        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
+    )
+
+
+@dataclass(frozen=True)
+class ChiuOptions(ObserverOptions):
     """Options of the ``chiu`` estimator (clustering defaults: MATLAB ``subclust``)."""
 
     radius: float = option(
@@ -82,15 +98,6 @@ class ChiuOptions:
     )
     method: Literal["auto", "exact", "approximate"] = option(
         "auto", "potentials: exact all-pairs, approximate on a grid, or auto by size"
-    )
-    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
-    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
-    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
-    cluster_modes: str = option(
-        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
-    )
-    decay_rate: float = option(
-        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
     )
 
 
@@ -146,7 +153,7 @@ class ModeClassifier:
         return decide_clusters(outputs, self.decision_values, span)
 
 
-def _spec(options: ChiuOptions | KMeansOptions) -> RegressorSpec:
+def _spec(options: ObserverOptions) -> RegressorSpec:
     return RegressorSpec(
         output_lags=parse_lags(options.output_lags, "output_lags"),
         input_lags=parse_lags(options.input_lags, "input_lags"),

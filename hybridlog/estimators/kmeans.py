@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hybridlog.estimators.chiu import run_clustering_observer
+from hybridlog.estimators.chiu import ObserverOptions, run_clustering_observer
 from hybridlog.estimators.options import option, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.hybrid_model import HybridModel
@@ -21,7 +21,7 @@ __all__ = ["KMeansOptions", "kmeans_options", "run_kmeans"]
 
 
 @dataclass(frozen=True)
-class KMeansOptions:
+class KMeansOptions(ObserverOptions):
     """Options of the ``kmeans`` estimator; the lags, centres and labels are as for ``chiu``."""
 
     clusters: int | None = option(
@@ -29,15 +29,6 @@ class KMeansOptions:
     )
     restarts: int = option(10, "k-means++ runs; the one of least inertia is kept", range=(1, 1000))
     seed: int = option(0, "seed of the first run (then seed+1, ...)", range=(0, 2**31))
-    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
-    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
-    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
-    cluster_modes: str = option(
-        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
-    )
-    decay_rate: float = option(
-        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
-    )
 
 
 def run_kmeans(
