@@ -11,11 +11,13 @@ from hypothesis import strategies as st
 from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.estimators.common import noise_stacks
-from hybridlog.model.expressions import parse_expression
+from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
 from tests.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 X = {"x": sympy.Symbol("x", real=True), "k_p": sympy.Float(2.0)}
+Y = {"x": sympy.Symbol("x", real=True), "y": sympy.Symbol("y", real=True), "p": sympy.Float(3.0)}
+Y_BEFORE = {"x": previous_symbol("x"), "y": previous_symbol("y")}
 
 
 @pytest.mark.parametrize(
@@ -342,3 +344,35 @@ def test_cli_refuses_a_complex_model_in_one_line_and_writes_nothing(tmp_path, ca
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and f"{path}: modes.only.f[0]: " in lines[0], lines
     assert "complex-valued" in lines[0] and not out.exists()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet="xyk[]-=+*/()01 .,", max_size=30))
+def test_any_equation_text_parses_or_fails_with_a_model_error(text):
+    try:
+        expr = parse_expression(text, Y, key="e", previous=Y_BEFORE)
+    except ModelError as err:
+        assert str(err).startswith("e: ") and "\n" not in str(err)
+    else:
+        assert isinstance(expr, sympy.Expr)
+
+
+def test_time_indices_only_where_asked_for():
+    x_now, x_before = Y["x"], Y_BEFORE["x"]
+    assert (
+        parse_expression("x[k] - 2*x[k-1]", Y, key="e", previous=Y_BEFORE) == x_now - 2 * x_before
+    )
+    assert parse_expression("x - x[k]", Y, key="e", previous=Y_BEFORE) == 0
+    assert str(x_before) == "x[k-1]"
+    with pytest.raises(ModelError, match=r"^e: a Subscript expression is not allowed"):
+        parse_expression("x[k-1]", Y, key="e")
+    for text, message in [
+        ("x[k+1]", r"the time index of 'x' must be \[k\] or \[k-1\], got \[k \+ 1\]"),
+        ("x[0]", r"the time index of .x. must be \[k\] or \[k-1\], got \[0\]"),
+        ("p[k-1]", r"'p' is a parameter and has no time index"),
+        ("z[k-1]", r"unknown symbol 'z'"),
+        ("x[k-1][k]", r"indexing anything but a variable name"),
+        ("(x+1)[k]", r"indexing anything but a variable name"),
+    ]:
+        with pytest.raises(ModelError, match=r"^e: " + message):
+            parse_expression(text, Y, key="e", previous=Y_BEFORE)

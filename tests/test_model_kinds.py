@@ -7,9 +7,11 @@ import sympy
 
 from hybridlog.errors import ModelError
 from hybridlog.estimators.switched_observer import linear_modes
+from hybridlog.model.codegen import generate_source
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.loader import load_model, parse_model
+from hybridlog.simulate import simulate
 from tests.model_kinds import CLUTCH_JUMPS, CONTINUOUS_TANK, THREE_COMPONENTS, VALVES_BOOLEAN
 from tests.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
@@ -582,3 +584,33 @@ def test_components_model_takes_per_component_truth_and_command_signals():
     )
     model = parse_model(text)
     assert model.truth == {"mode.A2": "/truth/a2.data"} and model.signals == {"ud1": "/cmd.data"}
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        (CONTINUOUS_TANK, "time"),
+        (CLUTCH_JUMPS, "time"),
+        (THREE_COMPONENTS, "components"),
+    ],
+)
+def test_discrete_only_code_refuses_other_kinds_instead_of_computing_nonsense(text, key):
+    model = parse_model(text, origin="kind.toml")
+    with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: simulate "):
+        simulate(model, steps=3)
+    with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: the discrete-time mode func"):
+        generate_source(model)
+    model.check_supported("x", continuous=True, jumps=True, components=True)
+
+
+def test_jump_maps_are_refused_where_they_would_be_ignored():
+    text = _replace(
+        PENDULUM_ONE_MODE,
+        "[noise]",
+        '[modes.other]\nf = ["theta", "omega"]\nh = ["theta", "omega"]\n'
+        '[jumps."only->other"]\nomega = "0"\n[noise]',
+    )
+    model = parse_model(text, origin="j.toml")
+    assert not model.is_continuous and model.has_jumps
+    with pytest.raises(ModelError, match=r'^j\.toml: jumps\."only->other": simulate does not'):
+        simulate(model, steps=3)

@@ -383,6 +383,46 @@ class HybridModel:
         """
         return ModelError(f"{self.origin or self.name}: {key}: {message}")
 
+    def check_supported(
+        self,
+        what: str,
+        *,
+        continuous: bool = False,
+        jumps: bool = False,
+        components: bool = False,
+    ) -> None:
+        """Refuse a model with a feature ``what`` cannot handle, naming the file and key.
+
+        Code written for discrete-time models with enumerated modes would silently compute
+        wrong numbers on the other kinds (a continuous model has no ``f``, a components
+        model no ``modes``, jump maps would be ignored); it calls this first.
+
+        Parameters
+        ----------
+        what:
+            What refuses, for the message (``"simulate"``, ``"estimator 'hstf'"``).
+        continuous, jumps, components:
+            Whether ``what`` handles continuous time, jump maps, components models.
+
+        Raises
+        ------
+        ModelError
+            ``"<file>: time: simulate needs a discrete-time model; ..."`` and the like.
+        """
+        if self.has_components and not components:
+            raise self.error(
+                "components",
+                f"{what} does not handle components models (paper 002); they have no "
+                "enumerated modes",
+            )
+        if self.is_continuous and not continuous:
+            raise self.error(
+                "time",
+                f"{what} needs a discrete-time model; this one is continuous-time (dx)",
+            )
+        if self.has_jumps and not jumps:
+            raise self.error(self.jumps[0].key, f"{what} does not apply jump maps")
+
     def linear_modes(self) -> tuple[LinearForm, ...]:
         """The matrices of every mode, for estimators that need a linear switched model.
 

@@ -132,7 +132,7 @@ def load_model(
         return parse_model(builtin_text(name), origin=name, parameters=parameters)
     known = ", ".join(builtin_names())
     raise ModelError(
-        f"{excerpt(name)}: neither a model file nor a built-in model (built-ins: {known})"
+        f"{excerpt(name)[1:-1]}: neither a model file nor a built-in model (built-ins: {known})"
     )
 
 
