@@ -254,7 +254,7 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
             'outputs = ["y_sin", "pi"]',
             r"outputs: 'pi' is a function or constant",
         ),
-        ('inputs = ["torque"]', 'inputs = ["t"]', r"inputs: 't' is a function or constant"),
+        ('inputs = ["torque"]', 'inputs = ["t"]', r"inputs: 't' is the time \(t\) or step \(k\)"),
         ('inputs = ["torque"]', 'inputs = ["1u"]', r"inputs: '1u' is not a valid symbol name"),
         ('inputs = ["torque"]', 'inputs = ["u u"]', r"inputs: 'u u' is not a valid symbol name"),
         ("l = 1.3", "lambda = 1.3", r"parameters\.lambda: 'lambda' is a Python keyword"),

@@ -4,6 +4,8 @@ components; each loaded and validated, and each bad variant refused naming its k
 import numpy as np
 import pytest
 import sympy
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hybridlog.errors import ModelError
 from hybridlog.estimators.switched_observer import linear_modes
@@ -53,6 +55,8 @@ def test_continuous_model_has_dx_and_an_integration_step():
     assert _value(open_.dx[0], h1=4.0, q=1.0) == pytest.approx(1.0 - 0.5 * 2.0)
     default = parse_model(_replace(CONTINUOUS_TANK, 'method = "euler", ', ""))
     assert default.timebase.method == "rk4"
+    spaced = parse_model(_replace(CONTINUOUS_TANK, "[modes.closed]", '[modes."valve closed"]'))
+    assert spaced.mode_ids[1] == "valve closed"
 
 
 # --- linear modes as matrices -------------------------------------------------------------
@@ -268,7 +272,8 @@ _CONTINUOUS_ERRORS = [
     ("A = [[-1.0]]", 'A = [["2*h1"]]', r"modes\.matrices\.A\[0\]\[0\]: a matrix entry may use"),
     ("A = [[-1.0]]", 'A = [["sqrt(-c)"]]', r"modes\.matrices\.A\[0\]\[0\]: .*complex-valued"),
     ('dx = ["q"]', 'dx = ["q", "q"]', r"modes\.closed\.dx: wrong number of expressions"),
-    ("[modes.closed]", '[modes."clo sed"]', r"modes\.'clo sed': 'clo sed' is not a valid mode"),
+    ("[modes.closed]", '[modes."clo:sed"]', r"modes\.'clo:sed': 'clo:sed' is not a valid mode"),
+    ("[modes.closed]", '[modes." closed"]', r"modes\.' closed': ' closed' is not a valid mode"),
 ]
 
 
@@ -542,8 +547,8 @@ _COMPONENT_ERRORS = [
     ),
     (
         "[components.A3]",
-        '[components."A 3"]',
-        r"components\.'A 3': 'A 3' is not a valid component name",
+        '[components."A,3"]',
+        r"components\.'A,3': 'A,3' is not a valid component name",
     ),
     (
         "covariance = 1.0",
@@ -614,3 +619,29 @@ def test_jump_maps_are_refused_where_they_would_be_ignored():
     assert not model.is_continuous and model.has_jumps
     with pytest.raises(ModelError, match=r'^j\.toml: jumps\."only->other": simulate does not'):
         simulate(model, steps=3)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.lists(st.integers(-3, 3), min_size=9, max_size=9),
+    st.sampled_from(
+        [
+            "{a}*p + {b}*v + {c}*a",
+            "({a}*p + {b}*v)*2/2 + {c}*a",
+            "{a}*(p + v) - {a}*v + {b}*v + {c}*a",
+        ]
+    ),
+)
+def test_affine_expressions_give_the_matrices_they_were_written_from(numbers, pattern):
+    rows = [numbers[0:3], numbers[3:6], numbers[6:9]]
+    f = [pattern.format(a=r[0], b=r[1], c=r[2]) for r in rows[:2]]
+    h = [f"{rows[2][0]}*p + {rows[2][1]}*v + {rows[2][2]}*a + 1.5", "v"]
+    text = _replace(LINEAR_TWO_MODE, "A = [[1.0, 0.1], [0.0, 0.95]]", f"f = {f}\nh = {h}")
+    text = _replace(text, "B = [[0.005], [0.1]]\nC = [[1.0, 0.0], [0.0, 1.0]]\n", "")
+    form = parse_model(text).modes[0].linear_form
+    assert form is not None
+    np.testing.assert_array_equal(form.A, [r[:2] for r in rows[:2]])
+    np.testing.assert_array_equal(form.B, [[r[2]] for r in rows[:2]])
+    np.testing.assert_array_equal(form.C, [rows[2][:2], [0, 1]])
+    np.testing.assert_array_equal(form.D, [[rows[2][2]], [0]])
+    np.testing.assert_array_equal(form.output_offset, [1.5, 0.0])

@@ -83,6 +83,11 @@ def symbol_name_problem(name: str) -> str | None:
         return "is not a valid symbol name (letters, digits and _, not starting with a digit)"
     if keyword.iskeyword(name):
         return "is a Python keyword and cannot be a symbol name"
+    if name in ("t", "k"):
+        return (
+            "is the time (t) or step (k) of simulation inputs and component equations and "
+            "cannot be a symbol name"
+        )
     if name in RESERVED_NAMES:
         return "is a function or constant of the expression grammar and cannot be a symbol name"
     return None

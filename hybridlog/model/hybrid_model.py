@@ -426,6 +426,9 @@ class HybridModel:
     def linear_modes(self) -> tuple[LinearForm, ...]:
         """The matrices of every mode, for estimators that need a linear switched model.
 
+        In continuous time they are the matrices of ``dx`` (``ẋ = A x + B u + c``), not of
+        a sampled system; check :attr:`is_continuous`.
+
         Raises
         ------
         ModelError

@@ -389,7 +389,7 @@ class _Builder:
         default_q: FloatArray,
         default_r: FloatArray,
     ) -> Mode:
-        key = f"modes.{mode_id}"
+        key = key_path("modes", mode_id)
         check_keys(spec, _MODE_KEYS, key)
         _check_dynamics_key(spec, key, symbols.continuous)
         dyn = symbols.dynamics_key
@@ -706,7 +706,8 @@ def _check_guards(modes: tuple[Mode, ...]) -> None:
     if guarded and len(guarded) != len(modes):
         missing = next(m.id for m in modes if m.guard is None)
         raise ModelError(
-            f"modes.{missing}.guard: missing; when one mode has a guard every mode needs one"
+            f"{key_path('modes', missing)}.guard: missing; when one mode has a guard every mode "
+            "needs one"
         )
 
 
@@ -726,7 +727,7 @@ def _matrix(
     *,
     required: bool,
 ) -> sympy.Matrix:
-    key = f"modes.{mode_id}.{name}"
+    key = f"{key_path('modes', mode_id)}.{name}"
     rows, cols = shape
     if name not in spec:
         if required:

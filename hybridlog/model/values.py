@@ -87,21 +87,22 @@ def as_probability(value: Any, key: str) -> float:
 
 
 def as_label(value: str, key: str, what: str) -> str:
-    """A mode id or component name: printable, short, without ``, : * ->`` or spaces.
+    """A mode id or component name: printable, short, without ``, : * ->``.
 
     These labels become CSV column names (``p_<mode>``), ``--schedule`` items
-    (``MODE:STEPS``) and jump keys (``"a->b"``), so the characters those use are refused.
+    (``MODE:STEPS``) and jump keys (``"a->b"``), so the characters those use are refused,
+    and so are leading or trailing spaces (invisible in every one of them).
     """
     if (
         not value
         or len(value) > MAX_LABEL
         or not value.isprintable()
-        or any(c.isspace() for c in value)
+        or value != value.strip()
         or any(bad in value for bad in _LABEL_FORBIDDEN)
     ):
         raise ModelError(
             f"{key}: {excerpt(value, 40)} is not a valid {what} (1 to {MAX_LABEL} printable "
-            "characters without spaces, ',', ':', '*' or '->')"
+            "characters, no leading or trailing space, no ',', ':', '*' or '->')"
         )
     return value
 
