@@ -530,6 +530,11 @@ _COMPONENT_ERRORS = [
         r"components\.A2\.modes\.m21\.measurement_noise\.yc2: not one of the outputs",
     ),
     (
+        'equations = ["wc1 = 0"]',
+        "equations = []",
+        r"components\.A1\.modes\.m12\.equations: at least one equation is required",
+    ),
+    (
         "process_noise = {xc1 = 0.2}",
         "process_noise = {xc2 = 0.2}",
         r"components\.A2\.modes\.m22\.process_noise\.xc2: not one of the states",

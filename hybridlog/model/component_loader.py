@@ -205,8 +205,13 @@ def _mode(
     texts = required(spec, "equations", key)
     if isinstance(texts, str):
         texts = [texts]
-    if not isinstance(texts, list) or not texts:
+    if not isinstance(texts, list):
         raise ModelError(f"{key}.equations: expected a list of equation strings")
+    if not texts:
+        raise ModelError(
+            f"{key}.equations: at least one equation is required (the mode without equations "
+            f"is the implicit '{UNKNOWN}' mode)"
+        )
     equations = tuple(
         _equation(text, f"{key}.equations[{i}]", names) for i, text in enumerate(texts)
     )
@@ -238,7 +243,7 @@ def _mode(
             f"{key}.measurement_noise",
             measured,
             defaults_r,
-            "outputs this mode's equations use",
+            "outputs this mode's algebraic equations use",
         ),
         key=key,
     )
