@@ -315,6 +315,7 @@ def simulate(
     jit:
         Compiled loop (default) or the same code in plain Python (tests).
     """
+    model.check_supported("simulate")
     if model.state_driven:
         if schedule:
             raise OptionError(

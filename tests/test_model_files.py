@@ -8,12 +8,16 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hybridlog.cli import main
 from hybridlog.errors import ModelError
-from hybridlog.model.expressions import parse_expression
+from hybridlog.estimators.common import noise_stacks
+from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
 from tests.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 X = {"x": sympy.Symbol("x", real=True), "k_p": sympy.Float(2.0)}
+Y = {"x": sympy.Symbol("x", real=True), "y": sympy.Symbol("y", real=True), "p": sympy.Float(3.0)}
+Y_BEFORE = {"x": previous_symbol("x"), "y": previous_symbol("y")}
 
 
 @pytest.mark.parametrize(
@@ -172,7 +176,8 @@ def test_linear_modes_become_affine_expressions():
     a = sympy.Symbol("a", real=True)
     assert sympy.simplify(fast.f[1] - (-0.3 * p + 0.7 * v + 0.2 * a)) == 0
     np.testing.assert_allclose(fast.process_noise, [[0.02, 0.005], [0.005, 0.03]])
-    assert fast.linear
+    assert fast.linear_form is not None  # was `fast.linear`; Mode.linear became linear_form
+    np.testing.assert_allclose(fast.linear_form.A, [[1.0, 0.1], [-0.3, 0.7]])
 
 
 def test_three_tank_builtin_matches_the_paper():
@@ -192,3 +197,182 @@ def test_three_tank_builtin_matches_the_paper():
         for k, mode in enumerate(model.modes, 1)
         for e, x in zip(mode.h, (x1, x2, x3), strict=True)
     ] == [0] * 9
+
+
+# --- issue 7: hostile model files are refused in one short line naming file and key --------
+
+_F0 = '"theta + 0.05*omega"'
+
+
+@pytest.mark.parametrize(
+    "expression",
+    ["sqrt(-1) + theta", "log(-1)", "(-1)**0.5", "(-8)**(1/3)", "sqrt(-theta**2 - 1)", "log(-g)"],
+)
+def test_complex_valued_expressions_are_refused_naming_the_key(expression):
+    text = _replace(PENDULUM_ONE_MODE, _F0, f'"{expression}"')
+    with pytest.raises(
+        ModelError, match=r"^plant\.toml: modes\.only\.f\[0\]: .* is complex-valued"
+    ):
+        parse_model(text, origin="plant.toml")
+
+
+def test_complex_simulation_input_and_matrix_entry_are_refused():
+    text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
+    with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
+        parse_model(text, origin="p.toml")
+    text = _replace(
+        LINEAR_TWO_MODE, "A = [[1.0, 0.1], [0.0, 0.95]]", "A = [[1.0, 0.1], [0.0, 'log(-2)']]"
+    )
+    with pytest.raises(ModelError, match=r"^m\.toml: modes\.slow\.A\[1\]\[1\]: .*complex"):
+        parse_model(text, origin="m.toml")
+
+
+@pytest.mark.parametrize(
+    "expression", ["sqrt(theta)", "log(1 + theta**2)", "theta**0.5", "sqrt(g)"]
+)
+def test_real_roots_and_logs_of_variables_are_accepted(expression):
+    model = parse_model(_replace(PENDULUM_ONE_MODE, _F0, f'"{expression}"'))
+    assert model.modes[0].f[0].is_extended_real is not False
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            'states = ["theta", "omega"]',
+            'states = ["lambda", "omega"]',
+            r"states: 'lambda' is a Python keyword",
+        ),
+        (
+            'states = ["theta", "omega"]',
+            'states = ["theta", "None"]',
+            r"states: 'None' is a Python keyword",
+        ),
+        ('inputs = ["torque"]', 'inputs = ["sqrt"]', r"inputs: 'sqrt' is a function or constant"),
+        (
+            'outputs = ["y_sin", "y_speed"]',
+            'outputs = ["y_sin", "pi"]',
+            r"outputs: 'pi' is a function or constant",
+        ),
+        ('inputs = ["torque"]', 'inputs = ["t"]', r"inputs: 't' is the time \(t\) or step \(k\)"),
+        ('inputs = ["torque"]', 'inputs = ["1u"]', r"inputs: '1u' is not a valid symbol name"),
+        ('inputs = ["torque"]', 'inputs = ["u u"]', r"inputs: 'u u' is not a valid symbol name"),
+        ("l = 1.3", "lambda = 1.3", r"parameters\.lambda: 'lambda' is a Python keyword"),
+        ("l = 1.3", "exp = 1.3", r"parameters\.exp: 'exp' is a function or constant"),
+        ("c = 0.2", "torque = 0.2", r"parameters\.torque: the name is already one of the inputs"),
+        ("c = 0.2", "y_sin = 0.2", r"parameters\.y_sin: the name is already one of the outputs"),
+    ],
+)
+def test_names_the_grammar_cannot_use_are_refused_in_their_key(old, new, message):
+    with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
+        parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+
+
+@pytest.mark.parametrize(
+    ("expression", "message"),
+    [
+        ("(" * 300 + "theta" + ")" * 300, "cannot parse"),
+        ("sin(" * 150 + "theta" + ")" * 150, "nested more than 100 levels deep"),
+        ("-" * 5000 + "theta", "too long or nested too deeply"),
+        ("theta + " * 2400 + "1", None),
+        ("theta " * 3000, "cannot parse"),
+        ("theta + \x00" * 10, "cannot parse"),
+        ("theta" * 5000, "longer than 20000 characters"),
+    ],
+    ids=["parentheses", "calls", "unary", "long-sum", "garbage", "nul", "too-long"],
+)
+def test_huge_or_deep_expressions_give_one_short_line(expression, message):
+    text = _replace(PENDULUM_ONE_MODE, _F0, '"' + expression.replace("\x00", "\\u0000") + '"')
+    if message is None:  # a long flat sum is fine: chains are built without recursion
+        assert parse_model(text).modes[0].f[0] == 2400 * sympy.Symbol("theta", real=True) + 1
+        return
+    with pytest.raises(ModelError) as caught:
+        parse_model(text, origin="plant.toml")
+    line = str(caught.value)
+    assert line.startswith("plant.toml: modes.only.f[0]: ") and message in line
+    assert "\n" not in line and len(line) < 250, line
+
+
+def test_every_error_names_the_file_and_quotes_user_text_short():
+    huge = "x" * 5000
+    for old, new, key in [
+        ('name = "pendulum"', f'"{huge}" = 1', "plant.toml: '"),
+        ("[modes.only]", f'[modes."{huge}"]', "plant.toml: modes.'"),
+        ("l = 1.3", f'l = "{huge}"', "plant.toml: parameters.l: expected a number"),
+        ("[noise]", f'[signals]\n"{huge}" = "/a"\n[noise]', "plant.toml: signals.'xxx"),
+    ]:
+        with pytest.raises(ModelError) as caught:
+            parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+        assert str(caught.value).startswith(key) and len(str(caught.value)) < 400
+
+
+def test_modes_record_which_key_their_noise_came_from():
+    model = parse_model(LINEAR_TWO_MODE, origin="m.toml")
+    slow, fast = model.modes
+    assert (slow.process_noise_key, slow.measurement_noise_key) == (
+        "noise.process",
+        "noise.measurement",
+    )
+    assert fast.process_noise_key == "modes.fast.process_noise"
+    error = model.error(fast.process_noise_key, "singular")
+    assert str(error) == "m.toml: modes.fast.process_noise: singular"
+    assert (
+        load_model("three_tank_hstf")
+        .error("noise.process", "x")
+        .args[0]
+        .startswith("three_tank_hstf: noise.process: ")
+    )
+
+
+def test_a_singular_measurement_noise_names_the_file_and_its_key():
+    text = _replace(
+        LINEAR_TWO_MODE, "measurement = [[0.05, 0.01], [0.01, 0.08]]", "measurement = 0"
+    )
+    with pytest.raises(
+        ModelError, match=r"^m\.toml: noise\.measurement: the measurement noise covariance of mode"
+    ):
+        noise_stacks(parse_model(text, origin="m.toml"))
+
+
+def test_cli_refuses_a_complex_model_in_one_line_and_writes_nothing(tmp_path, capsys):
+    path = tmp_path / "complex.toml"
+    path.write_text(_replace(PENDULUM_ONE_MODE, _F0, '"sqrt(-1) + theta"'))
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out)])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{path}: modes.only.f[0]: " in lines[0], lines
+    assert "complex-valued" in lines[0] and not out.exists()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet="xyk[]-=+*/()01 .,", max_size=30))
+def test_any_equation_text_parses_or_fails_with_a_model_error(text):
+    try:
+        expr = parse_expression(text, Y, key="e", previous=Y_BEFORE)
+    except ModelError as err:
+        assert str(err).startswith("e: ") and "\n" not in str(err)
+    else:
+        assert isinstance(expr, sympy.Expr)
+
+
+def test_time_indices_only_where_asked_for():
+    x_now, x_before = Y["x"], Y_BEFORE["x"]
+    assert (
+        parse_expression("x[k] - 2*x[k-1]", Y, key="e", previous=Y_BEFORE) == x_now - 2 * x_before
+    )
+    assert parse_expression("x - x[k]", Y, key="e", previous=Y_BEFORE) == 0
+    assert str(x_before) == "x[k-1]"
+    with pytest.raises(ModelError, match=r"^e: a Subscript expression is not allowed"):
+        parse_expression("x[k-1]", Y, key="e")
+    for text, message in [
+        ("x[k+1]", r"the time index of 'x' must be \[k\] or \[k-1\], got \[k \+ 1\]"),
+        ("x[0]", r"the time index of .x. must be \[k\] or \[k-1\], got \[0\]"),
+        ("p[k-1]", r"'p' is a parameter and has no time index"),
+        ("z[k-1]", r"unknown symbol 'z'"),
+        ("x[k-1][k]", r"indexing anything but a variable name"),
+        ("(x+1)[k]", r"indexing anything but a variable name"),
+    ]:
+        with pytest.raises(ModelError, match=r"^e: " + message):
+            parse_expression(text, Y, key="e", previous=Y_BEFORE)

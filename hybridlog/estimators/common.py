@@ -27,9 +27,10 @@ def noise_stacks(model: HybridModel) -> tuple[FloatArray, FloatArray]:
     R = np.ascontiguousarray(np.stack([m.measurement_noise for m in model.modes]), dtype=float)
     for mode, r in zip(model.modes, R, strict=True):
         if np.linalg.eigvalsh(r).min() <= 0.0:
-            raise ModelError(
-                f"{model.name}: the measurement noise covariance of mode '{mode.id}' is "
-                "singular; the filters need it positive definite"
+            raise model.error(
+                mode.measurement_noise_key,
+                f"the measurement noise covariance of mode '{mode.id}' is singular; "
+                "the filters need it positive definite",
             )
     return Q, R
 

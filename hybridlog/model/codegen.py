@@ -71,6 +71,7 @@ def _body(
 
 def generate_source(model: HybridModel) -> str:
     """Python source (without decorators) defining ``f``, ``F``, ``h`` and ``H`` for ``model``."""
+    model.check_supported("the discrete-time mode functions f, F, h, H")
     xs, us = model.symbols()
     # Read the vectors into local scalars named after their slots, so the code is plain math.
     names: dict[sympy.Symbol, sympy.Symbol] = {}

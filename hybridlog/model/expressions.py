@@ -5,17 +5,26 @@ parsed with :mod:`ast` and only a small grammar is accepted: numbers, the model'
 parameters, ``+ - * / **``, unary minus, comparisons, and calls of whitelisted functions.
 Everything else (attribute access, subscripts, lambdas, comprehensions, strings, keyword
 arguments, unknown names or functions) is refused with an error naming the model key.
+
+Only the equations of a ``[components]`` model also accept the time index of paper 002,
+``name[k]`` and ``name[k-1]`` (``previous=`` of :func:`parse_expression`).
+
+Every expression must be real: one that sympy finds complex-valued (``sqrt(-1)``,
+``log(-2)``, ``(-8)**(1/3)``, ``sqrt(-x**2 - 1)``) is refused, since compiled code would
+either fail or silently drop the imaginary part.  ``sqrt(x)`` of a real ``x`` is accepted:
+whether it is real depends on the data.
 """
 
 from __future__ import annotations
 
 import ast
+import keyword
 import math
 from collections.abc import Callable, Mapping
 
 import sympy
 
-from hybridlog.errors import ModelError
+from hybridlog.errors import ModelError, excerpt
 
 
 def _piecewise(*args: sympy.Expr) -> sympy.Expr:
@@ -51,10 +60,47 @@ FUNCTIONS: Mapping[str, Callable[..., sympy.Expr]] = {
 
 CONSTANTS: Mapping[str, sympy.Expr] = {"pi": sympy.pi, "e": sympy.E}
 
+RESERVED_NAMES = frozenset({*FUNCTIONS, *CONSTANTS, "t", "k"})
+"""Names the grammar gives a meaning of its own: the functions, the constants, the time
+``t`` and the step ``k`` of simulation inputs (and of component equations' ``x[k-1]``)."""
+
 MAX_LENGTH = 20_000
 """Longest expression accepted, in characters."""
+MAX_DEPTH = 100
+"""Deepest nesting of operations accepted (a chain ``a + b + c ...`` counts once)."""
 MAX_EXPONENT = 64
 """Largest magnitude of a numeric exponent: ``2**10**9`` would make sympy compute forever."""
+
+
+def symbol_name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a model symbol (a state, input, parameter ...), or ``None``.
+
+    A symbol must be a Python identifier that is not a keyword (``lambda``) and not a name
+    the grammar already uses (``sqrt``, ``pi``, ``t``): either would make every expression
+    that uses it fail to parse or mean something else.
+    """
+    if not name.isidentifier():
+        return "is not a valid symbol name (letters, digits and _, not starting with a digit)"
+    if keyword.iskeyword(name):
+        return "is a Python keyword and cannot be a symbol name"
+    if name in ("t", "k"):
+        return (
+            "is the time (t) or step (k) of simulation inputs and component equations and "
+            "cannot be a symbol name"
+        )
+    if name in RESERVED_NAMES:
+        return "is a function or constant of the expression grammar and cannot be a symbol name"
+    return None
+
+
+def previous_symbol(name: str) -> sympy.Symbol:
+    """The symbol of variable ``name`` at step k−1 (written ``name[k-1]``), printed so."""
+    return sympy.Symbol(f"{name}[k-1]", real=True)
+
+
+def _unquoted(text: object, limit: int) -> str:
+    """:func:`excerpt` without the quotes, for text inside a message of our own."""
+    return excerpt(text, limit)[1:-1]
 
 
 def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
@@ -63,14 +109,6 @@ def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
     return base**exponent
 
 
-_BINARY: Mapping[type[ast.operator], Callable[[sympy.Expr, sympy.Expr], sympy.Expr]] = {
-    ast.Add: lambda a, b: a + b,
-    ast.Sub: lambda a, b: a - b,
-    ast.Mult: lambda a, b: a * b,
-    ast.Div: lambda a, b: a / b,
-    ast.Pow: _power,
-}
-
 _COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Expr]] = {
     ast.Lt: sympy.Lt,
     ast.LtE: sympy.Le,
@@ -78,8 +116,44 @@ _COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Expr
     ast.GtE: sympy.Ge,
 }
 
+_SUMS = (ast.Add, ast.Sub)
+_PRODUCTS = (ast.Mult, ast.Div)
 
-def parse_expression(text: str, symbols: Mapping[str, sympy.Expr], *, key: str) -> sympy.Expr:
+
+def _chain_group(op: ast.operator) -> type | None:
+    if isinstance(op, _SUMS):
+        return ast.Add
+    if isinstance(op, _PRODUCTS):
+        return ast.Mult
+    return None
+
+
+def _depth(root: ast.AST) -> int:
+    """Nesting depth of ``root``; a left-leaning chain of ``+ -`` or ``* /`` counts once."""
+    deepest = 0
+    stack = [(root, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        group = _chain_group(node.op) if isinstance(node, ast.BinOp) else None
+        for child in ast.iter_child_nodes(node):
+            same_chain = (
+                group is not None
+                and isinstance(child, ast.BinOp)
+                and child is getattr(node, "left", None)
+                and _chain_group(child.op) is group
+            )
+            stack.append((child, depth if same_chain else depth + 1))
+    return deepest
+
+
+def parse_expression(
+    text: str,
+    symbols: Mapping[str, sympy.Expr],
+    *,
+    key: str,
+    previous: Mapping[str, sympy.Expr] | None = None,
+) -> sympy.Expr:
     """Parse one model expression into a sympy expression.
 
     Parameters
@@ -90,11 +164,16 @@ def parse_expression(text: str, symbols: Mapping[str, sympy.Expr], *, key: str) 
         Names the expression may use (states, inputs, parameters) and what they stand for.
     key:
         The model key holding the expression, used in every error message.
+    previous:
+        Only for the equations of a components model: the variables that may carry a time
+        index, and their symbols at step k−1.  ``name[k]`` then means ``symbols[name]`` and
+        ``name[k-1]`` means ``previous[name]``.  Without it a subscript is an error.
 
     Raises
     ------
     ModelError
-        On a syntax error, a construct outside the grammar, or an unknown name or function.
+        On a syntax error, a construct outside the grammar, an unknown name or function,
+        nesting deeper than :data:`MAX_DEPTH`, or a value that is not finite or not real.
     """
     if not isinstance(text, str):
         raise ModelError(f"{key}: expected an expression string, got {type(text).__name__}")
@@ -103,28 +182,60 @@ def parse_expression(text: str, symbols: Mapping[str, sympy.Expr], *, key: str) 
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as err:
-        raise ModelError(f"{key}: cannot parse {text!r}: {err.msg}") from err
+        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {err.msg}") from err
+    except ValueError as err:  # e.g. NUL bytes, on Python versions that raise it
+        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {_unquoted(err, 80)}") from err
     except (RecursionError, MemoryError) as err:
-        raise ModelError(f"{key}: expression nested too deeply") from err
+        raise ModelError(
+            f"{key}: cannot parse {excerpt(text)}: too long or nested too deeply for the parser"
+        ) from err
+    if _depth(tree.body) > MAX_DEPTH:
+        raise ModelError(f"{key}: expression nested more than {MAX_DEPTH} levels deep")
     try:
-        expression = _Converter(symbols, key).visit(tree.body)
+        expression = _Converter(symbols, key, previous).visit(tree.body)
     except (TypeError, ValueError, ArithmeticError) as err:
-        raise ModelError(f"{key}: {err}") from err
+        raise ModelError(f"{key}: {_unquoted(err, 200)}") from err
     except RecursionError as err:
-        raise ModelError(f"{key}: expression nested too deeply") from err
+        raise ModelError(f"{key}: expression too long or nested too deeply") from err
     if not isinstance(expression, sympy.Expr):
-        raise ModelError(f"{key}: {text!r} is a condition, not a value")
+        raise ModelError(f"{key}: {excerpt(text)} is a condition, not a value")
     if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
-        raise ModelError(f"{key}: {text!r} is not finite (a division by zero?)")
+        raise ModelError(f"{key}: {excerpt(text)} is not finite (a division by zero?)")
+    reason = _complex_reason(expression)
+    if reason:
+        raise ModelError(
+            f"{key}: {excerpt(text)} is complex-valued ({reason}); model expressions must be real"
+        )
     return expression
+
+
+def _complex_reason(expression: sympy.Expr) -> str:
+    """Why sympy finds ``expression`` complex-valued, or ``""`` when it does not.
+
+    Among the grammar's functions only the imaginary unit itself, powers (roots of negative
+    numbers) and logarithms (of negative numbers) leave the reals from real arguments, so
+    only those are asked; asking every node costs several times more.
+    """
+    if expression.has(sympy.I):
+        return f"it evaluates to {excerpt(expression, 40)}"
+    for atom in sorted(expression.atoms(sympy.Pow, sympy.log), key=sympy.default_sort_key):
+        if atom.is_extended_real is False:
+            return f"{excerpt(atom, 40)} is not real"
+    return ""
 
 
 class _Converter:
     """Walks a restricted Python AST and builds the sympy expression."""
 
-    def __init__(self, symbols: Mapping[str, sympy.Expr], key: str) -> None:
+    def __init__(
+        self,
+        symbols: Mapping[str, sympy.Expr],
+        key: str,
+        previous: Mapping[str, sympy.Expr] | None,
+    ) -> None:
         self.symbols = symbols
         self.key = key
+        self.previous = previous
 
     def fail(self, what: str) -> ModelError:
         return ModelError(f"{self.key}: {what} is not allowed in a model expression")
@@ -135,10 +246,7 @@ class _Converter:
         if isinstance(node, ast.Name):
             return self.name(node.id)
         if isinstance(node, ast.BinOp):
-            operator = _BINARY.get(type(node.op))
-            if operator is None:
-                raise self.fail(f"operator {type(node.op).__name__}")
-            return operator(self.visit(node.left), self.visit(node.right))
+            return self.binary(node)
         if isinstance(node, ast.UnaryOp):
             if isinstance(node.op, ast.USub):
                 return -self.visit(node.operand)
@@ -151,11 +259,35 @@ class _Converter:
             return self.call(node)
         if isinstance(node, ast.Attribute):
             raise self.fail(f"attribute access '.{node.attr}'")
+        if isinstance(node, ast.Subscript) and self.previous is not None:
+            return self.indexed(node)
         raise self.fail(f"a {type(node).__name__} expression")
+
+    def binary(self, node: ast.BinOp) -> sympy.Expr:
+        """``+ - * / **``; a chain ``a + b - c ...`` is built in one step, without recursion."""
+        group = _chain_group(node.op)
+        if group is None:
+            if isinstance(node.op, ast.Pow):
+                return _power(self.visit(node.left), self.visit(node.right))
+            raise self.fail(f"operator {type(node.op).__name__}")
+        links: list[tuple[ast.operator, ast.expr]] = []
+        left: ast.expr = node
+        while isinstance(left, ast.BinOp) and _chain_group(left.op) is group:
+            links.append((left.op, left.right))
+            left = left.left
+        terms = [self.visit(left)]
+        for op, right in reversed(links):
+            value = self.visit(right)
+            if isinstance(op, ast.Sub):
+                value = -value
+            elif isinstance(op, ast.Div):
+                value = 1 / value
+            terms.append(value)
+        return sympy.Add(*terms) if group is ast.Add else sympy.Mul(*terms)
 
     def constant(self, value: object) -> sympy.Expr:
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(f"the constant {value!r}")
+            raise self.fail(f"the constant {excerpt(value, 40)}")
         if not math.isfinite(value):
             raise ModelError(f"{self.key}: non-finite number {value!r}")
         return sympy.Integer(value) if isinstance(value, int) else sympy.Float(value)
@@ -166,7 +298,39 @@ class _Converter:
         if name in CONSTANTS:
             return CONSTANTS[name]
         known = ", ".join(sorted(self.symbols)) or "none"
-        raise ModelError(f"{self.key}: unknown symbol '{name}' (known: {known})")
+        raise ModelError(
+            f"{self.key}: unknown symbol {excerpt(name, 40)} (known: {_unquoted(known, 200)})"
+        )
+
+    def indexed(self, node: ast.Subscript) -> sympy.Expr:
+        """``name[k]`` (step k) or ``name[k-1]`` (step k−1) of a components equation."""
+        assert self.previous is not None
+        if not isinstance(node.value, ast.Name):
+            raise self.fail("indexing anything but a variable name")
+        name = node.value.id
+        index = node.slice
+        if name not in self.previous:
+            if name in self.symbols:
+                raise ModelError(
+                    f"{self.key}: {excerpt(name, 40)} is a parameter and has no time index"
+                )
+            return self.name(name)  # raises: unknown symbol
+        if isinstance(index, ast.Name) and index.id == "k":
+            return self.symbols[name]
+        if (
+            isinstance(index, ast.BinOp)
+            and isinstance(index.op, ast.Sub)
+            and isinstance(index.left, ast.Name)
+            and index.left.id == "k"
+            and isinstance(index.right, ast.Constant)
+            and index.right.value == 1
+            and not isinstance(index.right.value, bool)
+        ):
+            return self.previous[name]
+        raise ModelError(
+            f"{self.key}: the time index of '{name}' must be [k] or [k-1], "
+            f"got [{_unquoted(ast.unparse(index), 20)}]"
+        )
 
     def compare(self, node: ast.Compare) -> sympy.Expr:
         if len(node.ops) != 1:
@@ -184,7 +348,9 @@ class _Converter:
         function = FUNCTIONS.get(node.func.id)
         if function is None:
             allowed = ", ".join(sorted(FUNCTIONS))
-            raise ModelError(f"{self.key}: unknown function '{node.func.id}' (allowed: {allowed})")
+            raise ModelError(
+                f"{self.key}: unknown function {excerpt(node.func.id, 40)} (allowed: {allowed})"
+            )
         if node.keywords:
             raise self.fail("a keyword argument")
         if any(isinstance(arg, ast.Starred) for arg in node.args):

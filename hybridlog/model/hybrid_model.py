@@ -1,44 +1,140 @@
-"""The hybrid model: what a model file describes, with symbolic mode equations."""
+"""The hybrid model: what a model file describes, with symbolic mode equations.
+
+Four kinds of model share :class:`HybridModel` (SPEC §6); flags say which one a model is:
+
+- discrete or continuous time (:attr:`HybridModel.timebase`, :attr:`HybridModel.is_continuous`);
+- modes written one by one (``[modes.<id>]``) or as the combinations of booleans
+  (:attr:`HybridModel.boolean_affine`, paper 003);
+- optional state-reset maps at switches (:attr:`HybridModel.jumps`, paper 004);
+- concurrent component automata with an unknown mode (:attr:`HybridModel.components`,
+  paper 002), whose modes are not enumerated (:attr:`HybridModel.modes` is empty).
+
+The loader accepts every kind; an estimator that cannot handle one refuses it.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import sympy
 
+from hybridlog.errors import ModelError
+from hybridlog.model.components import Component
 from hybridlog.signals import FloatArray
+
+TimeKind = Literal["discrete", "continuous"]
+IntegrationMethod = Literal["euler", "rk4"]
+INTEGRATION_METHODS: tuple[IntegrationMethod, ...] = ("euler", "rk4")
+
+
+@dataclass(frozen=True)
+class Timebase:
+    r"""How the model's time advances.
+
+    Discrete time (``time = "discrete"``): ``x(k+1) = f_q(x(k), u(k))`` every ``dt`` seconds.
+    Continuous time (``time = "continuous"``): :math:`\dot x = f_q(x, u)` integrated with a
+    fixed step ``step`` by ``method`` (``"euler"`` or classical ``"rk4"``), inputs held
+    between samples, outputs sampled every ``dt`` seconds; ``dt`` is an integer multiple of
+    ``step``.
+
+    Attributes
+    ----------
+    kind:
+        ``"discrete"`` or ``"continuous"``.
+    dt:
+        Sample time of inputs and outputs, in seconds.
+    step:
+        Integration step in seconds (``dt`` for a discrete model).
+    method:
+        Integration method of a continuous model; ``None`` for a discrete one.
+    """
+
+    kind: TimeKind
+    dt: float
+    step: float
+    method: IntegrationMethod | None
+
+    @property
+    def is_continuous(self) -> bool:
+        """True for ``time = "continuous"``."""
+        return self.kind == "continuous"
+
+    @property
+    def substeps(self) -> int:
+        """Integration steps per sample, ``dt / step`` (1 for a discrete model)."""
+        return max(1, round(self.dt / self.step))
+
+
+@dataclass(frozen=True)
+class LinearForm:
+    r"""Numeric matrices of a mode that is affine in the states and inputs.
+
+    .. math::
+
+        x^+ = A x + B u + c, \qquad y = C x + D u + d
+
+    where :math:`x^+` is ``x(k+1)`` in discrete time and :math:`\dot x` in continuous time.
+
+    Attributes
+    ----------
+    A, B, C, D:
+        Shapes ``(n_x, n_x)``, ``(n_x, n_u)``, ``(n_y, n_x)``, ``(n_y, n_u)``.
+    state_offset, output_offset:
+        The affine terms ``c`` ``(n_x,)`` and ``d`` ``(n_y,)``; zero for a mode given as
+        matrices.
+    """
+
+    A: FloatArray
+    B: FloatArray
+    C: FloatArray
+    D: FloatArray
+    state_offset: FloatArray
+    output_offset: FloatArray
 
 
 @dataclass(frozen=True)
 class Mode:
-    r"""One discrete mode of a discrete-time switched system.
+    r"""One discrete mode of a switched system.
 
     .. math::
 
         x(k+1) = f_q(x(k), u(k)) + \xi(k), \qquad y(k) = h_q(x(k), u(k)) + \omega(k)
 
-    (paper 000, eq. (2)).  ``f`` and ``h`` are sympy expressions in the model's state and
-    input symbols with every parameter already substituted.
+    (paper 000, eq. (2)) in discrete time, or :math:`\dot x = f_q(x, u)` in continuous time
+    (papers 003 eq. (1), 004 eq. (2)).  Expressions are sympy expressions in the model's
+    state and input symbols with every parameter already substituted.
 
     Attributes
     ----------
     id:
         The mode id as written in the model file (``"1"``, ``"valve_open"`` ...).
     f:
-        Next-state expressions, one per state.
+        Next-state expressions, one per state, of a discrete-time model; empty in
+        continuous time.
     h:
         Output expressions, one per output.
     process_noise:
         Covariance ``Q_q = g_q R_ξ g_qᵀ`` of the additive process noise, ``(n_x, n_x)``.
     measurement_noise:
         Covariance ``R_q`` of the measurement noise, ``(n_y, n_y)``.
-    linear:
-        True when the mode was given as ``A``, ``B``, ``C``, ``D`` matrices.
+    dx:
+        Time derivatives, one per state, of a continuous-time model; empty in discrete
+        time.
     guard:
         Condition on the states and inputs under which the mode is active (``guard =
         "x3 <= 0"``), a sympy relational; ``None`` when the model is switched by a schedule.
+    linear_form:
+        The mode's matrices when ``f`` (or ``dx``) and ``h`` are affine in the states and
+        inputs (given as ``A``, ``B``, ``C``, ``D`` or as expressions whose Jacobian is
+        constant); ``None`` for a nonlinear mode.
+    nonlinear_key:
+        For a nonlinear mode, the key of its first expression that is not affine
+        (``modes.2.f[0]``); empty for a linear one.
+    process_noise_key, measurement_noise_key:
+        The model-file keys the two covariances came from (``noise.process`` or
+        ``modes.2.process_noise``), so later errors about them name the key to change.
     """
 
     id: str
@@ -46,26 +142,109 @@ class Mode:
     h: tuple[sympy.Expr, ...]
     process_noise: FloatArray
     measurement_noise: FloatArray
-    linear: bool = False
+    dx: tuple[sympy.Expr, ...] = ()
     guard: sympy.Basic | None = None
+    linear_form: LinearForm | None = None
+    nonlinear_key: str = ""
+    process_noise_key: str = "noise.process"
+    measurement_noise_key: str = "noise.measurement"
+
+    @property
+    def dynamics(self) -> tuple[sympy.Expr, ...]:
+        """``f`` of a discrete-time mode or ``dx`` of a continuous-time one."""
+        return self.dx if self.dx else self.f
+
+
+@dataclass(frozen=True)
+class Jump:
+    r"""A state-reset map applied when the mode switches (paper 004, eq. (3)).
+
+    .. math::
+
+        x(t_j) = R(\sigma(t_j^-), \sigma(t_j), x(t_j^-))
+
+    Written ``[jumps."a->b"]`` with one expression per reset state; states not listed keep
+    their value.  ``"*->b"`` applies to every switch into ``b`` that has no map of its own.
+
+    Attributes
+    ----------
+    source:
+        Mode id before the switch, or ``None`` for ``*`` (any other mode).
+    target:
+        Mode id after the switch.
+    reset:
+        ``R``: the new value of every state (the identity for states not listed), as
+        expressions in the states before the switch and the parameters.
+    key:
+        The model-file key (``jumps."1->2"``).
+    """
+
+    source: str | None
+    target: str
+    reset: tuple[sympy.Expr, ...]
+    key: str
+
+
+@dataclass(frozen=True)
+class BooleanAffine:
+    r"""A boolean-affine switched system (paper 003, eq. (1)).
+
+    .. math::
+
+        \dot x = G(x, u) + D(x, u)\,\delta(\sigma), \qquad \delta \in \{0, 1\}^L
+
+    written once with the booleans as symbols; the model's modes are the ``2^L``
+    combinations, numbered by eq. (48): :math:`\sigma = \sum_j \delta_j 2^{L-j}` (the first
+    boolean is the most significant bit), mode id ``str(σ)``.  ``G`` and ``D`` are derived
+    by the estimators that need them; the loader only checks that the expressions are
+    affine in the booleans.
+
+    Attributes
+    ----------
+    booleans:
+        The boolean names ``δ_1 … δ_L``, in the file's order.
+    dynamics:
+        ``dx`` (or ``f`` in discrete time) with the boolean symbols, one per state.
+    h:
+        Output expressions, which may use the booleans too.
+    key:
+        The model-file key of the equations (``dynamics``).
+    """
+
+    booleans: tuple[str, ...]
+    dynamics: tuple[sympy.Expr, ...]
+    h: tuple[sympy.Expr, ...]
+    key: str = "dynamics"
+
+    def symbols(self) -> tuple[sympy.Symbol, ...]:
+        """Sympy symbols of the booleans (real)."""
+        return tuple(sympy.Symbol(b, real=True) for b in self.booleans)
+
+    def delta(self, sigma: int) -> tuple[int, ...]:
+        """The boolean vector δ(σ) of mode σ, eq. (48): δ_1 is the most significant bit."""
+        n = len(self.booleans)
+        if not 0 <= sigma < 2**n:
+            raise ValueError(f"sigma must be in 0..{2**n - 1}, got {sigma}")
+        return tuple((sigma >> (n - 1 - j)) & 1 for j in range(n))
 
 
 @dataclass(frozen=True)
 class HybridModel:
-    """A discrete-time hybrid (switched) system read from a model file.
+    """A hybrid (switched) system read from a model file.
 
     Attributes
     ----------
     name, description, reference:
         Free text from the model file; ``reference`` names paper and equations.
-    dt:
-        Sample time in seconds.
+    timebase:
+        Discrete or continuous time, the sample time and the integration step.
     states, inputs, outputs:
         Symbol names, in the order of the state, input and output vectors.
     parameters:
         Parameter values (after ``--set`` overrides), already substituted into the modes.
     modes:
         The modes, in the order of the file; their index is the mode index used everywhere.
+        Empty for a components model (its modes are per component).
     initial_state, initial_covariance, initial_mode_probabilities:
         The estimators' prior ``x̂(0|0)``, ``P(0|0)`` and ``Pr(q(0))``.
     transitions:
@@ -90,12 +269,21 @@ class HybridModel:
     origin:
         Where the model came from: the file's path as the user gave it, or the built-in's
         name.  Errors about the model name it, so the user knows which file to change.
+    jumps:
+        State-reset maps at switches (``[jumps."a->b"]``), see :meth:`reset_map`.
+    boolean_affine:
+        The boolean-affine form when the model has ``booleans``; ``None`` otherwise.
+    components:
+        The component automata of a ``[components.*]`` model (paper 002); empty otherwise.
+    variables, commands:
+        A components model's internal variables (neither states nor measured) and its
+        command (discrete input) names.
     """
 
     name: str
     description: str
     reference: str
-    dt: float
+    timebase: Timebase
     states: tuple[str, ...]
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
@@ -115,6 +303,16 @@ class HybridModel:
     simulation_state_min: FloatArray | None = None
     source: str = ""
     origin: str = ""
+    jumps: tuple[Jump, ...] = ()
+    boolean_affine: BooleanAffine | None = None
+    components: tuple[Component, ...] = ()
+    variables: tuple[str, ...] = ()
+    commands: tuple[str, ...] = ()
+
+    @property
+    def dt(self) -> float:
+        """Sample time in seconds (of the outputs, for a continuous-time model)."""
+        return self.timebase.dt
 
     @property
     def n_states(self) -> int:
@@ -133,13 +331,33 @@ class HybridModel:
 
     @property
     def n_modes(self) -> int:
-        """Number of discrete modes."""
+        """Number of discrete modes (0 for a components model)."""
         return len(self.modes)
 
     @property
     def state_driven(self) -> bool:
         """True when the modes switch by their guards (state-driven switching)."""
         return any(m.guard is not None for m in self.modes)
+
+    @property
+    def is_continuous(self) -> bool:
+        """True for a continuous-time model (``time = "continuous"``)."""
+        return self.timebase.is_continuous
+
+    @property
+    def has_jumps(self) -> bool:
+        """True when the model has state-reset maps (``[jumps."a->b"]``)."""
+        return bool(self.jumps)
+
+    @property
+    def has_booleans(self) -> bool:
+        """True for a boolean-affine model (``booleans = [...]``)."""
+        return self.boolean_affine is not None
+
+    @property
+    def has_components(self) -> bool:
+        """True for a concurrent-automata model (``[components.*]``)."""
+        return bool(self.components)
 
     @property
     def mode_ids(self) -> tuple[str, ...]:
@@ -156,6 +374,97 @@ class HybridModel:
             [sympy.Symbol(s, real=True) for s in self.states],
             [sympy.Symbol(u, real=True) for u in self.inputs],
         )
+
+    def error(self, key: str, message: str) -> ModelError:
+        """A :class:`ModelError` naming the model file (or built-in) and ``key``.
+
+        For errors found after loading (a covariance a filter cannot use, a nonlinear mode
+        given to a linear estimator), so that they read like the loader's own.
+        """
+        return ModelError(f"{self.origin or self.name}: {key}: {message}")
+
+    def check_supported(
+        self,
+        what: str,
+        *,
+        continuous: bool = False,
+        jumps: bool = False,
+        components: bool = False,
+    ) -> None:
+        """Refuse a model with a feature ``what`` cannot handle, naming the file and key.
+
+        Code written for discrete-time models with enumerated modes would silently compute
+        wrong numbers on the other kinds (a continuous model has no ``f``, a components
+        model no ``modes``, jump maps would be ignored); it calls this first.
+
+        Parameters
+        ----------
+        what:
+            What refuses, for the message (``"simulate"``, ``"estimator 'hstf'"``).
+        continuous, jumps, components:
+            Whether ``what`` handles continuous time, jump maps, components models.
+
+        Raises
+        ------
+        ModelError
+            ``"<file>: time: simulate needs a discrete-time model; ..."`` and the like.
+        """
+        if self.has_components and not components:
+            raise self.error(
+                "components",
+                f"{what} does not handle components models (paper 002); they have no "
+                "enumerated modes",
+            )
+        if self.is_continuous and not continuous:
+            raise self.error(
+                "time",
+                f"{what} needs a discrete-time model; this one is continuous-time (dx)",
+            )
+        if self.has_jumps and not jumps:
+            raise self.error(self.jumps[0].key, f"{what} does not apply jump maps")
+
+    def linear_modes(self) -> tuple[LinearForm, ...]:
+        """The matrices of every mode, for estimators that need a linear switched model.
+
+        In continuous time they are the matrices of ``dx`` (``ẋ = A x + B u + c``), not of
+        a sampled system; check :attr:`is_continuous`.
+
+        Raises
+        ------
+        ModelError
+            Naming the model file, the first nonlinear mode and its first expression that
+            is not affine in the states and inputs (``modes.2.f[1]``).
+        """
+        if not self.modes:
+            raise self.error("components", "a components model has no enumerated modes")
+        forms = []
+        for mode in self.modes:
+            if mode.linear_form is None:
+                raise self.error(
+                    mode.nonlinear_key,
+                    f"mode '{mode.id}' is not linear (not affine in the states and inputs)",
+                )
+            forms.append(mode.linear_form)
+        return tuple(forms)
+
+    def reset_map(self, source: int, target: int) -> tuple[sympy.Expr, ...] | None:
+        """The jump map ``R`` for a switch from mode index ``source`` to ``target``.
+
+        A map written for the pair (``"a->b"``) wins over one for any source (``"*->b"``);
+        ``None`` means the state is continuous across this switch (``R`` is the identity).
+        """
+        if source == target:
+            return None
+        source_id, target_id = self.modes[source].id, self.modes[target].id
+        wildcard = None
+        for jump in self.jumps:
+            if jump.target != target_id:
+                continue
+            if jump.source == source_id:
+                return jump.reset
+            if jump.source is None:
+                wildcard = jump.reset
+        return wildcard
 
 
 def markov_matrix(stay: float, n_modes: int) -> FloatArray:

@@ -1,26 +1,69 @@
 """Model files (TOML, SPEC §6) → :class:`~hybridlog.model.hybrid_model.HybridModel`.
 
-Every value is validated and every error names the key at fault, e.g.
-``model.toml: modes.2.C: matrix C of mode '2' has the wrong number of columns; expected 3
-instead of 4``.
+Every value is validated and every error starts with the file (or built-in name) and names
+the key at fault, e.g. ``model.toml: modes.2.C: matrix C of mode '2' has the wrong number of
+columns; expected 3 instead of 4``.
+
+A model's modes come in one of three ways, and the keys of the others are refused:
+
+- ``[modes.<id>]``, each with ``f`` (discrete time) or ``dx`` (continuous time) and ``h``,
+  or with matrices ``A``, ``B``, ``C`` (``D``);
+- ``booleans = [...]`` with the equations written once in ``[dynamics]`` (paper 003): the
+  modes are the ``2^L`` combinations (:class:`~hybridlog.model.hybrid_model.BooleanAffine`);
+- ``[components.<name>]`` (paper 002), see :mod:`hybridlog.model.component_loader`.
+
+Continuous time: ``time = "continuous"``, ``dt`` (the sample time of the log) and
+``integration = {method = "euler" | "rk4", step = ...}`` (``rk4`` when not given), ``dt``
+an integer multiple of ``step``.  ``[jumps."a->b"]`` give state resets at switches.
 """
 
 from __future__ import annotations
 
 import ast
+import json
 import math
 import tomllib
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import sympy
+from sympy.core.function import Application
 
-from hybridlog.errors import ModelError
+from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.builtins import builtin_names, builtin_text
+from hybridlog.model.component_loader import load_components
+from hybridlog.model.components import Component
 from hybridlog.model.expressions import parse_expression
-from hybridlog.model.hybrid_model import HybridModel, Mode, markov_matrix
+from hybridlog.model.hybrid_model import (
+    INTEGRATION_METHODS,
+    BooleanAffine,
+    HybridModel,
+    IntegrationMethod,
+    Jump,
+    LinearForm,
+    Mode,
+    Timebase,
+    markov_matrix,
+)
+from hybridlog.model.values import (
+    as_covariance,
+    as_expressions,
+    as_label,
+    as_names,
+    as_number,
+    as_positive,
+    as_probability,
+    as_string,
+    as_table,
+    as_vector,
+    check_disjoint,
+    check_keys,
+    key_path,
+    required,
+)
 from hybridlog.signals import FloatArray
 
 _TOP_KEYS = {
@@ -29,31 +72,38 @@ _TOP_KEYS = {
     "reference",
     "time",
     "dt",
+    "integration",
     "states",
     "inputs",
     "outputs",
     "parameters",
     "modes",
+    "booleans",
+    "dynamics",
+    "components",
+    "variables",
+    "commands",
     "noise",
     "initial",
     "transitions",
+    "jumps",
     "signals",
     "truth",
     "default_estimator",
     "estimators",
     "simulation",
 }
-_UNSUPPORTED = {
-    "booleans": "boolean-affine models",
-    "components": "concurrent probabilistic hybrid automata",
-    "jumps": "state-reset maps",
-    "integration_step": "continuous-time models",
-}
-_MODE_KEYS = {"f", "h", "A", "B", "C", "D", "process_noise", "measurement_noise", "guard"}
+_MODE_KEYS = {"f", "dx", "h", "A", "B", "C", "D", "process_noise", "measurement_noise", "guard"}
+_DYNAMICS_KEYS = {"f", "dx", "h", "process_noise", "measurement_noise"}
+_INTEGRATION_KEYS = {"method", "step"}
 _NOISE_KEYS = {"process", "measurement"}
 _INITIAL_KEYS = {"state", "covariance", "mode", "mode_probabilities"}
 _TRANSITION_KEYS = {"matrix", "stay"}
 _SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule"}
+MAX_BOOLEANS = 10
+"""Most booleans of a boolean-affine model (2^10 = 1024 modes)."""
+_STEP_TOLERANCE = 1e-9
+"""Relative tolerance of ``dt`` being an integer multiple of the integration step."""
 
 
 def load_model(
@@ -81,7 +131,9 @@ def load_model(
     if name in builtin_names():
         return parse_model(builtin_text(name), origin=name, parameters=parameters)
     known = ", ".join(builtin_names())
-    raise ModelError(f"{name}: neither a model file nor a built-in model (built-ins: {known})")
+    raise ModelError(
+        f"{excerpt(name)[1:-1]}: neither a model file nor a built-in model (built-ins: {known})"
+    )
 
 
 def parse_model(
@@ -96,6 +148,27 @@ def parse_model(
         return _Builder(data, text, parameters or {}, origin).build()
     except ModelError as err:
         raise ModelError(f"{origin}: {err}") from err
+    except RecursionError as err:  # sympy on a pathological expression the grammar let by
+        raise ModelError(f"{origin}: an expression is nested too deeply") from err
+
+
+@dataclass(frozen=True)
+class _Symbols:
+    """What the mode equations of one model may refer to."""
+
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    x: tuple[sympy.Symbol, ...]
+    u: tuple[sympy.Symbol, ...]
+    parameters: dict[str, sympy.Expr]
+    env: dict[str, sympy.Expr]
+    continuous: bool
+
+    @property
+    def dynamics_key(self) -> str:
+        """``dx`` in continuous time, ``f`` in discrete time."""
+        return "dx" if self.continuous else "f"
 
 
 class _Builder:
@@ -111,67 +184,124 @@ class _Builder:
 
     def build(self) -> HybridModel:
         data = self.data
-        _check_keys(data, _TOP_KEYS, "", unsupported=_UNSUPPORTED)
-        time = data.get("time", "discrete")
-        if time != "discrete":
+        check_keys(data, _TOP_KEYS, "")
+        kind = _kind(data)
+        timebase = _timebase(data)
+        if kind == "components" and timebase.is_continuous:
             raise ModelError(
-                f"time: {time!r} models are not supported by this version (use 'discrete')"
+                "time: a components model is discrete-time (paper 002 eq. (1)); "
+                "use time = 'discrete'"
             )
-        dt = _positive_number(_required(data, "dt", ""), "dt")
-        states = _names(_required(data, "states", ""), "states")
-        inputs = _names(data.get("inputs", []), "inputs", allow_empty=True)
-        outputs = _names(_required(data, "outputs", ""), "outputs")
-        _check_disjoint({"states": states, "inputs": inputs, "outputs": outputs})
-        params = self.parameters(set(states) | set(inputs))
-        x_syms = {s: sympy.Symbol(s, real=True) for s in states}
-        u_syms = {u: sympy.Symbol(u, real=True) for u in inputs}
-        env: dict[str, sympy.Expr] = {**x_syms, **u_syms, **params}
-        noise = _table(data.get("noise", {}), "noise")
-        _check_keys(noise, _NOISE_KEYS, "noise")
-        default_q = _covariance(noise.get("process", 0.0), len(states), "noise.process")
-        default_r = _covariance(noise.get("measurement", 1.0), len(outputs), "noise.measurement")
-        modes_table = _table(_required(data, "modes", ""), "modes")
-        if not modes_table:
-            raise ModelError("modes: at least one mode is required")
-        modes = tuple(
-            self.mode(
-                str(mode_id),
-                _table(spec, f"modes.{mode_id}"),
-                env,
-                states,
-                inputs,
-                outputs,
-                default_q,
-                default_r,
-            )
-            for mode_id, spec in modes_table.items()
+        states = as_names(required(data, "states", ""), "states")
+        inputs = as_names(data.get("inputs", []), "inputs", allow_empty=True)
+        outputs = as_names(required(data, "outputs", ""), "outputs")
+        booleans: tuple[str, ...] = ()
+        variables: tuple[str, ...] = ()
+        commands: tuple[str, ...] = ()
+        if kind == "booleans":
+            booleans = as_names(data["booleans"], "booleans")
+            if len(booleans) > MAX_BOOLEANS:
+                raise ModelError(
+                    f"booleans: at most {MAX_BOOLEANS} booleans (2^{MAX_BOOLEANS} modes), "
+                    f"got {len(booleans)}"
+                )
+        if kind == "components":
+            variables = as_names(data.get("variables", []), "variables", allow_empty=True)
+            commands = as_names(data.get("commands", []), "commands", allow_empty=True)
+        groups = {
+            "states": states,
+            "inputs": inputs,
+            "outputs": outputs,
+            "booleans": booleans,
+            "variables": variables,
+            "commands": commands,
+        }
+        check_disjoint(groups)
+        params = self.parameters(groups)
+        x = tuple(sympy.Symbol(s, real=True) for s in states)
+        u = tuple(sympy.Symbol(s, real=True) for s in inputs)
+        symbols = _Symbols(
+            states=states,
+            inputs=inputs,
+            outputs=outputs,
+            x=x,
+            u=u,
+            parameters=params,
+            env={
+                **dict(zip(states, x, strict=True)),
+                **dict(zip(inputs, u, strict=True)),
+                **params,
+            },
+            continuous=timebase.is_continuous,
         )
-        mode_ids = tuple(m.id for m in modes)
-        _check_guards(modes)
-        initial = _table(_required(data, "initial", ""), "initial")
-        _check_keys(initial, _INITIAL_KEYS, "initial")
-        x0 = _vector(_required(initial, "state", "initial"), len(states), "initial.state")
-        p0 = _covariance(initial.get("covariance", 1.0), len(states), "initial.covariance")
-        mu0 = _initial_modes(initial, mode_ids)
-        simulation = _table(data.get("simulation", {}), "simulation")
-        _check_keys(simulation, _SIMULATION_KEYS, "simulation")
+        noise = as_table(data.get("noise", {}), "noise")
+        check_keys(noise, _NOISE_KEYS, "noise")
+        default_q = as_covariance(noise.get("process", 0.0), len(states), "noise.process")
+        default_r = as_covariance(noise.get("measurement", 1.0), len(outputs), "noise.measurement")
+        initial = as_table(required(data, "initial", ""), "initial")
+        if kind == "components":
+            for key in ("mode", "mode_probabilities"):
+                if key in initial:
+                    raise ModelError(
+                        f"initial.{key}: a components model gives its initial modes per "
+                        "component (components.<name>.initial)"
+                    )
+        check_keys(initial, _INITIAL_KEYS, "initial")
+        modes: tuple[Mode, ...] = ()
+        components: tuple[Component, ...] = ()
+        boolean_affine = None
+        jumps: tuple[Jump, ...] = ()
+        if kind == "components":
+            components = load_components(
+                as_table(data["components"], "components"),
+                states=states,
+                inputs=inputs,
+                outputs=outputs,
+                variables=variables,
+                commands=commands,
+                parameters=params,
+                process_variances=_variances(default_q, "noise.process"),
+                measurement_variances=_variances(default_r, "noise.measurement"),
+            )
+            mu0 = np.zeros(0)
+            transitions = None
+        else:
+            if kind == "booleans":
+                boolean_affine, modes = self.boolean_modes(symbols, booleans, default_q, default_r)
+            else:
+                modes = self.listed_modes(symbols, default_q, default_r)
+            mode_ids = tuple(m.id for m in modes)
+            mu0 = _initial_modes(initial, mode_ids)
+            transitions = _transitions(data.get("transitions"), mode_ids)
+            jumps = _jumps(data.get("jumps", {}), mode_ids, symbols)
+        x0 = as_vector(required(initial, "state", "initial"), len(states), "initial.state")
+        p0 = as_covariance(initial.get("covariance", 1.0), len(states), "initial.covariance")
+        simulation = as_table(data.get("simulation", {}), "simulation")
+        check_keys(simulation, _SIMULATION_KEYS, "simulation")
         sim_state = (
-            _vector(simulation["state"], len(states), "simulation.state")
+            as_vector(simulation["state"], len(states), "simulation.state")
             if "state" in simulation
             else None
         )
         sim_inputs = self.simulation_inputs(simulation, inputs, params)
-        if "schedule" in simulation and modes[0].guard is not None:
+        if "schedule" in simulation and kind == "components":
+            raise ModelError(
+                "simulation.schedule: a components model has no joint mode schedule; "
+                "its components switch by their transition probabilities"
+            )
+        if "schedule" in simulation and modes and modes[0].guard is not None:
             raise ModelError(
                 "simulation.schedule: the modes switch by their guards (modes.<id>.guard); "
                 "a schedule does not apply"
             )
-        estimators = _table(data.get("estimators", {}), "estimators")
+        estimators = as_table(data.get("estimators", {}), "estimators")
+        truth_keys = {"mode", *states} if kind != "components" else set(states)
+        truth_keys |= {f"mode.{c.name}" for c in components}
         return HybridModel(
-            name=_string(data.get("name", "unnamed"), "name"),
-            description=_string(data.get("description", ""), "description"),
-            reference=_string(data.get("reference", ""), "reference"),
-            dt=dt,
+            name=as_string(data.get("name", "unnamed"), "name"),
+            description=as_string(data.get("description", ""), "description"),
+            reference=as_string(data.get("reference", ""), "reference"),
+            timebase=timebase,
             states=states,
             inputs=inputs,
             outputs=outputs,
@@ -180,127 +310,393 @@ class _Builder:
             initial_state=x0,
             initial_covariance=p0,
             initial_mode_probabilities=mu0,
-            transitions=_transitions(data.get("transitions"), mode_ids),
+            transitions=transitions,
             signals=_string_map(
-                data.get("signals", {}), "signals", set(states) | set(inputs) | set(outputs)
+                data.get("signals", {}), "signals", {*states, *inputs, *outputs, *commands}
             ),
-            truth=_string_map(data.get("truth", {}), "truth", {"mode", *states}),
-            default_estimator=_string(data.get("default_estimator", "imm"), "default_estimator"),
+            truth=_string_map(data.get("truth", {}), "truth", truth_keys),
+            default_estimator=as_string(data.get("default_estimator", "imm"), "default_estimator"),
             estimator_options={
-                str(k): dict(_table(v, f"estimators.{k}")) for k, v in estimators.items()
+                str(k): dict(as_table(v, key_path("estimators", str(k))))
+                for k, v in estimators.items()
             },
             simulation_state=sim_state,
             simulation_inputs=sim_inputs,
-            simulation_schedule=_string(simulation.get("schedule", ""), "simulation.schedule"),
+            simulation_schedule=as_string(simulation.get("schedule", ""), "simulation.schedule"),
             simulation_state_min=(
-                _vector(simulation["state_min"], len(states), "simulation.state_min")
+                as_vector(simulation["state_min"], len(states), "simulation.state_min")
                 if "state_min" in simulation
                 else None
             ),
             source=self.text,
             origin=self.origin,
+            jumps=jumps,
+            boolean_affine=boolean_affine,
+            components=components,
+            variables=variables,
+            commands=commands,
         )
 
-    def parameters(self, taken: set[str]) -> dict[str, sympy.Float]:
-        table = _table(self.data.get("parameters", {}), "parameters")
+    def parameters(self, groups: Mapping[str, tuple[str, ...]]) -> dict[str, sympy.Expr]:
+        table = as_table(self.data.get("parameters", {}), "parameters")
+        taken = {name: group for group, names in groups.items() for name in names}
         values: dict[str, float] = {}
         for name, value in table.items():
-            key = f"parameters.{name}"
+            key = key_path("parameters", name)
+            as_names([name], key)
             if name in taken:
-                raise ModelError(f"{key}: the name is already a state or input")
-            values[name] = _number(value, key)
+                raise ModelError(f"{key}: the name is already one of the {taken[name]}")
+            values[name] = as_number(value, key)
         for name, value in self.overrides.items():
             if name not in values:
                 known = ", ".join(sorted(values)) or "none"
-                raise ModelError(f"parameters.{name}: no such parameter (known: {known})")
-            values[name] = _number(value, f"parameters.{name}")
+                raise ModelError(
+                    f"{key_path('parameters', name)}: no such parameter (known: {known})"
+                )
+            values[name] = as_number(value, f"parameters.{name}")
         return {name: sympy.Float(v) for name, v in values.items()}
+
+    def listed_modes(
+        self, symbols: _Symbols, default_q: FloatArray, default_r: FloatArray
+    ) -> tuple[Mode, ...]:
+        """The ``[modes.<id>]`` tables, in the file's order."""
+        if "dynamics" in self.data:
+            raise ModelError(
+                "dynamics: only a boolean-affine model (booleans = [...]) writes its "
+                "equations once in [dynamics]; give them per mode in [modes.<id>]"
+            )
+        table = as_table(required(self.data, "modes", ""), "modes")
+        if not table:
+            raise ModelError("modes: at least one mode is required")
+        modes = tuple(
+            self.mode(
+                as_label(str(mode_id), key_path("modes", str(mode_id)), "mode id"),
+                as_table(spec, key_path("modes", str(mode_id))),
+                symbols,
+                default_q,
+                default_r,
+            )
+            for mode_id, spec in table.items()
+        )
+        _check_guards(modes)
+        return modes
 
     def mode(
         self,
         mode_id: str,
         spec: dict[str, Any],
-        env: Mapping[str, sympy.Expr],
-        states: tuple[str, ...],
-        inputs: tuple[str, ...],
-        outputs: tuple[str, ...],
+        symbols: _Symbols,
         default_q: FloatArray,
         default_r: FloatArray,
     ) -> Mode:
-        key = f"modes.{mode_id}"
-        _check_keys(spec, _MODE_KEYS, key)
-        x = sympy.Matrix([env[s] for s in states])
-        u = sympy.Matrix([env[s] for s in inputs])
+        key = key_path("modes", mode_id)
+        check_keys(spec, _MODE_KEYS, key)
+        _check_dynamics_key(spec, key, symbols.continuous)
+        dyn = symbols.dynamics_key
+        n_x, n_u, n_y = len(symbols.states), len(symbols.inputs), len(symbols.outputs)
         linear = any(k in spec for k in ("A", "B", "C", "D"))
-        if linear and ("f" in spec or "h" in spec):
-            raise ModelError(f"{key}: give either f and h or A, B, C (and D), not both")
+        if linear and (dyn in spec or "h" in spec):
+            raise ModelError(f"{key}: give either {dyn} and h or A, B, C (and D), not both")
+        form: LinearForm | None
         if linear:
-            n_x, n_u, n_y = len(states), len(inputs), len(outputs)
-            A = _matrix(spec, "A", (n_x, n_x), mode_id, env, required=True)
-            B = _matrix(spec, "B", (n_x, n_u), mode_id, env, required=n_u > 0)
-            C = _matrix(spec, "C", (n_y, n_x), mode_id, env, required=True)
-            D = _matrix(spec, "D", (n_y, n_u), mode_id, env, required=False)
-            f = tuple(A * x + B * u) if n_u else tuple(A * x)
+            A = _matrix(spec, "A", (n_x, n_x), mode_id, symbols, required=True)
+            B = _matrix(spec, "B", (n_x, n_u), mode_id, symbols, required=n_u > 0)
+            C = _matrix(spec, "C", (n_y, n_x), mode_id, symbols, required=True)
+            D = _matrix(spec, "D", (n_y, n_u), mode_id, symbols, required=False)
+            x, u = sympy.Matrix(symbols.x), sympy.Matrix(symbols.u)
+            dynamics = tuple(A * x + B * u) if n_u else tuple(A * x)
             h = tuple(C * x + D * u) if n_u else tuple(C * x)
+            form = LinearForm(
+                A=_numeric(A),
+                B=_numeric(B),
+                C=_numeric(C),
+                D=_numeric(D),
+                state_offset=np.zeros(n_x),
+                output_offset=np.zeros(n_y),
+            )
+            nonlinear_key = ""
         else:
-            f = _expressions(_required(spec, "f", key), len(states), f"{key}.f", env)
-            h = _expressions(_required(spec, "h", key), len(outputs), f"{key}.h", env)
-        q = (
-            _covariance(spec["process_noise"], len(states), f"{key}.process_noise")
-            if "process_noise" in spec
-            else default_q
-        )
-        r = (
-            _covariance(spec["measurement_noise"], len(outputs), f"{key}.measurement_noise")
-            if "measurement_noise" in spec
-            else default_r
-        )
+            dynamics = as_expressions(required(spec, dyn, key), n_x, f"{key}.{dyn}", symbols.env)
+            h = as_expressions(required(spec, "h", key), n_y, f"{key}.h", symbols.env)
+            form, nonlinear_key = _linear_form(dynamics, h, symbols, f"{key}.{dyn}", f"{key}.h")
+        q, q_key = _mode_noise(spec, "process_noise", key, n_x, default_q, "noise.process")
+        r, r_key = _mode_noise(spec, "measurement_noise", key, n_y, default_r, "noise.measurement")
         guard = (
-            _guard(spec["guard"], f"{key}.guard", env, set(states) | set(inputs))
+            _guard(spec["guard"], f"{key}.guard", symbols.env, {*symbols.states, *symbols.inputs})
             if "guard" in spec
             else None
         )
         return Mode(
             id=mode_id,
-            f=f,
+            f=() if symbols.continuous else dynamics,
             h=h,
             process_noise=q,
             measurement_noise=r,
-            linear=linear,
+            dx=dynamics if symbols.continuous else (),
             guard=guard,
+            linear_form=form,
+            nonlinear_key=nonlinear_key,
+            process_noise_key=q_key,
+            measurement_noise_key=r_key,
         )
+
+    def boolean_modes(
+        self,
+        symbols: _Symbols,
+        booleans: tuple[str, ...],
+        default_q: FloatArray,
+        default_r: FloatArray,
+    ) -> tuple[BooleanAffine, tuple[Mode, ...]]:
+        """The ``2^L`` modes of a boolean-affine model, σ = Σ_j δ_j 2^(L−j) (paper 003 (48))."""
+        if "modes" in self.data:
+            raise ModelError(
+                "modes: a boolean-affine model's modes are the combinations of its booleans "
+                "(σ = Σ δ_j 2^(L−j), paper 003 eq. (48)); write the equations once in [dynamics]"
+            )
+        spec = as_table(required(self.data, "dynamics", ""), "dynamics")
+        check_keys(spec, _DYNAMICS_KEYS, "dynamics")
+        _check_dynamics_key(spec, "dynamics", symbols.continuous)
+        dyn = symbols.dynamics_key
+        deltas = tuple(sympy.Symbol(b, real=True) for b in booleans)
+        env = {**symbols.env, **dict(zip(booleans, deltas, strict=True))}
+        n_x, n_y = len(symbols.states), len(symbols.outputs)
+        dynamics = as_expressions(required(spec, dyn, "dynamics"), n_x, f"dynamics.{dyn}", env)
+        h = as_expressions(required(spec, "h", "dynamics"), n_y, "dynamics.h", env)
+        _check_boolean_affine(dynamics, f"dynamics.{dyn}", deltas)
+        _check_boolean_affine(h, "dynamics.h", deltas)
+        used = set().union(*(e.free_symbols for e in (*dynamics, *h)))
+        unused = [b for b, d in zip(booleans, deltas, strict=True) if d not in used]
+        if unused:
+            raise ModelError(f"booleans: '{unused[0]}' appears in no expression of [dynamics]")
+        q, q_key = _mode_noise(spec, "process_noise", "dynamics", n_x, default_q, "noise.process")
+        r, r_key = _mode_noise(
+            spec, "measurement_noise", "dynamics", n_y, default_r, "noise.measurement"
+        )
+        affine = BooleanAffine(booleans=booleans, dynamics=dynamics, h=h)
+        modes = []
+        for sigma in range(2 ** len(booleans)):
+            values = {
+                d: sympy.Integer(bit) for d, bit in zip(deltas, affine.delta(sigma), strict=True)
+            }
+            f_sigma = tuple(e.xreplace(values) for e in dynamics)
+            h_sigma = tuple(e.xreplace(values) for e in h)
+            form, nonlinear_key = _linear_form(
+                f_sigma, h_sigma, symbols, f"dynamics.{dyn}", "dynamics.h"
+            )
+            modes.append(
+                Mode(
+                    id=str(sigma),
+                    f=() if symbols.continuous else f_sigma,
+                    h=h_sigma,
+                    process_noise=q,
+                    measurement_noise=r,
+                    dx=f_sigma if symbols.continuous else (),
+                    linear_form=form,
+                    nonlinear_key=nonlinear_key,
+                    process_noise_key=q_key,
+                    measurement_noise_key=r_key,
+                )
+            )
+        return affine, tuple(modes)
 
     def simulation_inputs(
         self, simulation: dict[str, Any], inputs: tuple[str, ...], params: Mapping[str, Any]
     ) -> dict[str, sympy.Expr]:
-        table = _table(simulation.get("inputs", {}), "simulation.inputs")
+        table = as_table(simulation.get("inputs", {}), "simulation.inputs")
         env = {"t": sympy.Symbol("t", real=True), "k": sympy.Symbol("k", real=True), **params}
         result: dict[str, sympy.Expr] = {}
         for name, text in table.items():
-            key = f"simulation.inputs.{name}"
+            key = key_path("simulation.inputs", name)
             if name not in inputs:
-                raise ModelError(f"{key}: '{name}' is not an input (inputs: {', '.join(inputs)})")
+                raise ModelError(
+                    f"{key}: {excerpt(name, 40)} is not an input (inputs: {', '.join(inputs)})"
+                )
             value = str(text) if isinstance(text, int | float) else text
             result[name] = parse_expression(value, env, key=key)
         return result
 
 
+def _kind(data: Mapping[str, Any]) -> str:
+    """``"modes"``, ``"booleans"`` or ``"components"``; refuses keys of the other kinds."""
+    if "components" in data:
+        for key in ("modes", "booleans", "dynamics", "transitions", "jumps"):
+            if key in data:
+                raise ModelError(
+                    f"{key}: not part of a components model (its modes, equations and "
+                    "transition probabilities are in components.<name>)"
+                )
+        return "components"
+    for key in ("variables", "commands"):
+        if key in data:
+            raise ModelError(f"{key}: only a components model ([components.<name>]) has {key}")
+    return "booleans" if "booleans" in data else "modes"
+
+
+def _timebase(data: Mapping[str, Any]) -> Timebase:
+    time = data.get("time", "discrete")
+    if time not in ("discrete", "continuous"):
+        raise ModelError(
+            f"time: expected 'discrete' or 'continuous', got {excerpt(repr(time), 40)[1:-1]}"
+        )
+    dt = as_positive(required(data, "dt", ""), "dt")
+    if time == "discrete":
+        if "integration" in data:
+            raise ModelError(
+                "integration: only a continuous-time model (time = 'continuous') has an "
+                "integration step"
+            )
+        return Timebase(kind="discrete", dt=dt, step=dt, method=None)
+    spec = as_table(required(data, "integration", ""), "integration")
+    check_keys(spec, _INTEGRATION_KEYS, "integration")
+    step = as_positive(required(spec, "step", "integration"), "integration.step")
+    method = spec.get("method", "rk4")
+    if method not in INTEGRATION_METHODS:
+        raise ModelError(
+            f"integration.method: expected one of {', '.join(INTEGRATION_METHODS)}, got "
+            f"{excerpt(repr(method), 40)[1:-1]}"
+        )
+    ratio = dt / step
+    if step > dt * (1 + _STEP_TOLERANCE) or abs(ratio - round(ratio)) > _STEP_TOLERANCE * ratio:
+        raise ModelError(
+            f"integration.step: dt = {dt:g} must be an integer multiple of the integration "
+            f"step {step:g} (dt/step = {ratio:.6g})"
+        )
+    checked: IntegrationMethod = "euler" if method == "euler" else "rk4"
+    return Timebase(kind="continuous", dt=dt, step=step, method=checked)
+
+
+def _check_dynamics_key(spec: Mapping[str, Any], key: str, continuous: bool) -> None:
+    """``f`` in discrete time, ``dx`` in continuous time: the other one is refused."""
+    if continuous and "f" in spec:
+        raise ModelError(
+            f"{key}.f: a continuous-time model (time = 'continuous') gives the time "
+            "derivatives as dx, not a next state f"
+        )
+    if not continuous and "dx" in spec:
+        raise ModelError(
+            f"{key}.dx: a discrete-time model gives the next state as f; dx (time "
+            "derivatives) needs time = 'continuous'"
+        )
+
+
+def _mode_noise(
+    spec: Mapping[str, Any], name: str, key: str, n: int, default: FloatArray, default_key: str
+) -> tuple[FloatArray, str]:
+    """A mode's own covariance and its key, or the model-wide default and its key."""
+    if name not in spec:
+        return default, default_key
+    return as_covariance(spec[name], n, f"{key}.{name}"), f"{key}.{name}"
+
+
+def _variances(matrix: FloatArray, key: str) -> FloatArray:
+    """The diagonal of a covariance that must be diagonal (the components model's noise)."""
+    if np.count_nonzero(matrix - np.diag(np.diag(matrix))):
+        raise ModelError(
+            f"{key}: a components model takes variances (a number or a list), not a "
+            "matrix with correlations"
+        )
+    variances: FloatArray = np.diag(matrix).copy()
+    return variances
+
+
+def _affine_coefficients(expr: sympy.Expr, variables: list[sympy.Symbol]) -> list[float] | None:
+    """``[∂e/∂v for v in variables] + [e(0)]`` when ``expr`` is affine, else ``None``.
+
+    A function or a non-polynomial power of a variable rules affinity out at once (cheap,
+    and it spares the derivatives of nonlinear expressions); what is left is a polynomial,
+    affine when every first derivative is a constant (expanded if need be, so that
+    ``(x + 1)**2 - x**2`` counts as affine).
+    """
+    if expr.free_symbols:
+        for atom in expr.atoms(Application):
+            if atom.free_symbols:
+                return None
+        for power in expr.atoms(sympy.Pow):
+            if power.free_symbols and not (power.exp.is_Integer and power.exp > 0):
+                return None
+    row = []
+    try:
+        for variable in variables:
+            slope = expr.diff(variable)
+            if slope.free_symbols:
+                slope = sympy.expand(slope)
+                if slope.free_symbols:
+                    return None
+            row.append(float(slope))
+        row.append(float(expr.xreplace(dict.fromkeys(variables, sympy.Integer(0)))))
+    except TypeError:
+        return None
+    return row
+
+
+def _linear_form(
+    dynamics: tuple[sympy.Expr, ...],
+    h: tuple[sympy.Expr, ...],
+    symbols: _Symbols,
+    dynamics_key: str,
+    h_key: str,
+) -> tuple[LinearForm | None, str]:
+    """The mode's matrices when every expression is affine; else ``None`` and the first key."""
+    variables = [*symbols.x, *symbols.u]
+    rows: list[list[float]] = []
+    for key, expressions in ((dynamics_key, dynamics), (h_key, h)):
+        for i, expr in enumerate(expressions):
+            row = _affine_coefficients(expr, variables)
+            if row is None:
+                return None, f"{key}[{i}]"
+            rows.append(row)
+    n_x, n_u = len(symbols.x), len(symbols.u)
+    table = np.array(rows, dtype=float).reshape(len(rows), n_x + n_u + 1)
+    top, bottom = table[:n_x], table[n_x:]
+    return (
+        LinearForm(
+            A=np.ascontiguousarray(top[:, :n_x]),
+            B=np.ascontiguousarray(top[:, n_x : n_x + n_u]),
+            C=np.ascontiguousarray(bottom[:, :n_x]),
+            D=np.ascontiguousarray(bottom[:, n_x : n_x + n_u]),
+            state_offset=np.ascontiguousarray(top[:, -1]),
+            output_offset=np.ascontiguousarray(bottom[:, -1]),
+        ),
+        "",
+    )
+
+
+def _check_boolean_affine(
+    expressions: tuple[sympy.Expr, ...], key: str, deltas: tuple[sympy.Symbol, ...]
+) -> None:
+    """Each expression affine in the booleans: ∂e/∂δ_j free of every δ (paper 003 eq. (1))."""
+    booleans = set(deltas)
+    for i, expr in enumerate(expressions):
+        if not expr.free_symbols & booleans:
+            continue
+        for delta in deltas:
+            left = sympy.diff(expr, delta).free_symbols & booleans
+            if left:
+                names = ", ".join(sorted(str(s) for s in left))
+                raise ModelError(
+                    f"{key}[{i}]: not affine in the booleans (its derivative by {delta} "
+                    f"depends on {names}); write it as G(x, u) + D(x, u)·δ"
+                )
+
+
 def _guard(value: Any, key: str, env: Mapping[str, sympy.Expr], variables: set[str]) -> sympy.Basic:
     """A mode's guard: one comparison of states and inputs, e.g. ``"x3 <= 0"``."""
-    text = _string(value, key).strip()
+    text = as_string(value, key).strip()
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as err:
-        raise ModelError(f"{key}: cannot parse {text!r}: {err.msg}") from err
+        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {err.msg}") from err
+    except (RecursionError, MemoryError, ValueError) as err:
+        raise ModelError(f"{key}: cannot parse {excerpt(text)}") from err
     if not isinstance(tree.body, ast.Compare):
-        raise ModelError(f"{key}: expected a comparison such as 'x3 <= 0', got {text!r}")
+        raise ModelError(f"{key}: expected a comparison such as 'x3 <= 0', got {excerpt(text)}")
     # The expression grammar returns values; a Piecewise carries the condition through it.
     wrapped = parse_expression(f"Piecewise(1, {text}, 0)", env, key=key)
     if not isinstance(wrapped, sympy.Piecewise):
-        raise ModelError(f"{key}: {text!r} does not depend on the states or inputs")
+        raise ModelError(f"{key}: {excerpt(text)} does not depend on the states or inputs")
     condition: sympy.Basic = wrapped.args[0].cond
     if not {str(s) for s in condition.free_symbols} & variables:
-        raise ModelError(f"{key}: {text!r} does not depend on the states or inputs")
+        raise ModelError(f"{key}: {excerpt(text)} does not depend on the states or inputs")
     return condition
 
 
@@ -310,126 +706,15 @@ def _check_guards(modes: tuple[Mode, ...]) -> None:
     if guarded and len(guarded) != len(modes):
         missing = next(m.id for m in modes if m.guard is None)
         raise ModelError(
-            f"modes.{missing}.guard: missing; when one mode has a guard every mode needs one"
+            f"{key_path('modes', missing)}.guard: missing; when one mode has a guard every mode "
+            "needs one"
         )
 
 
-def _check_keys(
-    table: Mapping[str, Any],
-    allowed: set[str],
-    where: str,
-    *,
-    unsupported: Mapping[str, str] | None = None,
-) -> None:
-    for key in table:
-        if unsupported and key in unsupported:
-            raise ModelError(f"{key}: {unsupported[key]} are not supported by this version")
-        if key not in allowed:
-            full = f"{where}.{key}" if where else key
-            raise ModelError(f"{full}: unknown key (allowed: {', '.join(sorted(allowed))})")
-
-
-def _required(table: Mapping[str, Any], key: str, where: str) -> Any:
-    if key not in table:
-        full = f"{where}.{key}" if where else key
-        raise ModelError(f"{full}: required key is missing")
-    return table[key]
-
-
-def _table(value: Any, key: str) -> dict[str, Any]:
-    if not isinstance(value, dict):
-        raise ModelError(f"{key}: expected a table, got {type(value).__name__}")
-    return value
-
-
-def _string(value: Any, key: str) -> str:
-    if not isinstance(value, str):
-        raise ModelError(f"{key}: expected a string, got {type(value).__name__}")
-    return value
-
-
-def _number(value: Any, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ModelError(f"{key}: expected a number, got {value!r}")
-    if not math.isfinite(value):
-        raise ModelError(f"{key}: non-finite number {value!r}")
-    return float(value)
-
-
-def _positive_number(value: Any, key: str) -> float:
-    number = _number(value, key)
-    if number <= 0:
-        raise ModelError(f"{key}: must be positive, got {number!r}")
-    return number
-
-
-def _names(value: Any, key: str, *, allow_empty: bool = False) -> tuple[str, ...]:
-    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise ModelError(f"{key}: expected a list of names")
-    if not value and not allow_empty:
-        raise ModelError(f"{key}: at least one name is required")
-    for name in value:
-        if not name.isidentifier() or name in {"t", "k", "pi", "e"}:
-            raise ModelError(f"{key}: '{name}' is not a valid symbol name")
-    if len(set(value)) != len(value):
-        raise ModelError(f"{key}: names must be unique")
-    return tuple(value)
-
-
-def _check_disjoint(groups: Mapping[str, tuple[str, ...]]) -> None:
-    seen: dict[str, str] = {}
-    for group, names in groups.items():
-        for name in names:
-            if name in seen:
-                raise ModelError(f"{group}: '{name}' is already one of the {seen[name]}")
-            seen[name] = group
-
-
-def _vector(value: Any, n: int, key: str) -> FloatArray:
-    if not isinstance(value, list):
-        raise ModelError(f"{key}: expected a list of {n} numbers")
-    if len(value) != n:
-        raise ModelError(f"{key}: wrong length; expected {n} instead of {len(value)}")
-    return np.array([_number(v, f"{key}[{i}]") for i, v in enumerate(value)])
-
-
-def _covariance(value: Any, n: int, key: str) -> FloatArray:
-    """A covariance given as a scalar (times I), a diagonal list, or a full matrix."""
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        matrix = np.eye(n) * _number(value, key)
-    elif isinstance(value, list) and value and all(isinstance(r, list) for r in value):
-        if len(value) != n or any(len(r) != n for r in value):
-            rows = len(value)
-            cols = len(value[0])
-            raise ModelError(f"{key}: wrong shape; expected {n}x{n} instead of {rows}x{cols}")
-        matrix = np.array(
-            [[_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)] for i, r in enumerate(value)]
-        )
-    elif isinstance(value, list):
-        matrix = np.diag(_vector(value, n, key))
-    else:
-        raise ModelError(f"{key}: expected a number, a diagonal list or a matrix")
-    if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
-        raise ModelError(f"{key}: covariance must be symmetric")
-    if n and np.linalg.eigvalsh(matrix).min() < -1e-12 * max(1.0, float(np.abs(matrix).max())):
-        raise ModelError(f"{key}: covariance must be positive semi-definite")
-    return matrix
-
-
-def _expressions(
-    value: Any, n: int, key: str, env: Mapping[str, sympy.Expr]
-) -> tuple[sympy.Expr, ...]:
-    if isinstance(value, str):
-        value = [value]
-    if not isinstance(value, list):
-        raise ModelError(f"{key}: expected a list of {n} expression strings")
-    if len(value) != n:
-        raise ModelError(
-            f"{key}: wrong number of expressions; expected {n} instead of {len(value)}"
-        )
-    return tuple(
-        parse_expression(str(v) if isinstance(v, int | float) else v, env, key=f"{key}[{i}]")
-        for i, v in enumerate(value)
+def _numeric(matrix: sympy.Matrix) -> FloatArray:
+    rows, cols = matrix.shape
+    return np.array([[float(matrix[i, j]) for j in range(cols)] for i in range(rows)]).reshape(
+        rows, cols
     )
 
 
@@ -438,11 +723,11 @@ def _matrix(
     name: str,
     shape: tuple[int, int],
     mode_id: str,
-    env: Mapping[str, sympy.Expr],
+    symbols: _Symbols,
     *,
     required: bool,
 ) -> sympy.Matrix:
-    key = f"modes.{mode_id}.{name}"
+    key = f"{key_path('modes', mode_id)}.{name}"
     rows, cols = shape
     if name not in spec:
         if required:
@@ -467,15 +752,72 @@ def _matrix(
                 f"expected {cols} instead of {len(row)}"
             )
     entries = [
-        [
-            parse_expression(v, env, key=f"{key}[{i}][{j}]")
-            if isinstance(v, str)
-            else sympy.Float(_number(v, f"{key}[{i}][{j}]"))
-            for j, v in enumerate(row)
-        ]
-        for i, row in enumerate(value)
+        [_entry(v, f"{key}[{i}][{j}]", symbols) for j, v in enumerate(r)]
+        for i, r in enumerate(value)
     ]
     return sympy.Matrix(entries)
+
+
+def _entry(value: Any, key: str, symbols: _Symbols) -> sympy.Expr:
+    """One matrix entry: a number or an expression of parameters (never states or inputs)."""
+    if not isinstance(value, str):
+        return sympy.Float(as_number(value, key))
+    entry = parse_expression(value, symbols.env, key=key)
+    if entry.free_symbols:
+        names = ", ".join(sorted(str(s) for s in entry.free_symbols))
+        raise ModelError(
+            f"{key}: a matrix entry may use numbers and parameters only, not {names} "
+            "(write a nonlinear mode with f/dx and h)"
+        )
+    return entry
+
+
+def _jumps(value: Any, mode_ids: tuple[str, ...], symbols: _Symbols) -> tuple[Jump, ...]:
+    """``[jumps."a->b"]``: reset expressions per state (paper 004 eq. (3))."""
+    table = as_table(value, "jumps")
+    env = {**dict(zip(symbols.states, symbols.x, strict=True)), **symbols.parameters}
+    seen: dict[tuple[str, str], str] = {}
+    jumps = []
+    for raw, spec in table.items():
+        shown = json.dumps(raw) if len(raw) <= 130 and raw.isprintable() else excerpt(raw, 40)
+        key = f"jumps.{shown}"
+        source, arrow, target = (part.strip() for part in raw.partition("->"))
+        if not arrow or not source or not target:
+            raise ModelError(
+                f"{key}: expected 'a->b' (a jump from mode a to mode b, or '*->b' from any mode)"
+            )
+        for end, wildcard_allowed in ((source, True), (target, False)):
+            if end not in mode_ids and not (wildcard_allowed and end == "*"):
+                raise ModelError(
+                    f"{key}: unknown mode {excerpt(end, 40)} (modes: {', '.join(mode_ids)})"
+                )
+        if source == target:
+            raise ModelError(f"{key}: a mode does not jump to itself")
+        if (source, target) in seen:
+            raise ModelError(f"{key}: the same switch as {seen[source, target]}")
+        seen[source, target] = key
+        resets = as_table(spec, key)
+        if not resets:
+            raise ModelError(f"{key}: no state is reset; list the states the switch resets")
+        reset = list(symbols.x)
+        for name, text in resets.items():
+            if name not in symbols.states:
+                raise ModelError(
+                    f"{key_path(key, name)}: not a state (states: {', '.join(symbols.states)})"
+                )
+            expression = str(text) if isinstance(text, int | float) else text
+            reset[symbols.states.index(name)] = parse_expression(
+                expression, env, key=key_path(key, name)
+            )
+        jumps.append(
+            Jump(
+                source=None if source == "*" else source,
+                target=target,
+                reset=tuple(reset),
+                key=key,
+            )
+        )
+    return tuple(jumps)
 
 
 def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> FloatArray:
@@ -485,7 +827,9 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
     if "mode" in initial:
         mode = str(initial["mode"])
         if mode not in mode_ids:
-            raise ModelError(f"initial.mode: unknown mode '{mode}' (modes: {', '.join(mode_ids)})")
+            raise ModelError(
+                f"initial.mode: unknown mode {excerpt(mode, 40)} (modes: {', '.join(mode_ids)})"
+            )
         probabilities = np.zeros(n)
         probabilities[mode_ids.index(mode)] = 1.0
         return probabilities
@@ -496,10 +840,10 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
     if isinstance(value, dict):
         unknown = set(value) - set(mode_ids)
         if unknown:
-            raise ModelError(f"{key}.{sorted(unknown)[0]}: unknown mode")
-        probabilities = np.array([_number(value.get(m, 0.0), f"{key}.{m}") for m in mode_ids])
+            raise ModelError(f"{key_path(key, sorted(unknown)[0])}: unknown mode")
+        probabilities = np.array([as_number(value.get(m, 0.0), f"{key}.{m}") for m in mode_ids])
     else:
-        probabilities = _vector(value, n, key)
+        probabilities = as_vector(value, n, key)
     if probabilities.min() < 0 or not math.isclose(probabilities.sum(), 1.0, abs_tol=1e-9):
         raise ModelError(f"{key}: probabilities must be non-negative and sum to 1")
     normalised: FloatArray = probabilities / probabilities.sum()
@@ -509,21 +853,17 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
 def _transitions(value: Any, mode_ids: tuple[str, ...]) -> FloatArray | None:
     if value is None:
         return None
-    table = _table(value, "transitions")
-    _check_keys(table, _TRANSITION_KEYS, "transitions")
+    table = as_table(value, "transitions")
+    check_keys(table, _TRANSITION_KEYS, "transitions")
     n = len(mode_ids)
     if "matrix" in table and "stay" in table:
         raise ModelError("transitions: give either matrix or stay, not both")
     if "stay" in table:
-        stay = _number(table["stay"], "transitions.stay")
-        if not 0.0 <= stay <= 1.0:
-            raise ModelError(f"transitions.stay: must be a probability in [0, 1], got {stay!r}")
-        return markov_matrix(stay, n)
-    matrix = _covariance_free_matrix(_required(table, "matrix", "transitions"), n)
-    return matrix
+        return markov_matrix(as_probability(table["stay"], "transitions.stay"), n)
+    return _markov_rows(required(table, "matrix", "transitions"), n)
 
 
-def _covariance_free_matrix(value: Any, n: int) -> FloatArray:
+def _markov_rows(value: Any, n: int) -> FloatArray:
     key = "transitions.matrix"
     if (
         not isinstance(value, list)
@@ -532,7 +872,7 @@ def _covariance_free_matrix(value: Any, n: int) -> FloatArray:
     ):
         raise ModelError(f"{key}: expected a {n}x{n} matrix (one row per mode)")
     matrix = np.array(
-        [[_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)] for i, r in enumerate(value)]
+        [[as_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)] for i, r in enumerate(value)]
     )
     if matrix.min() < 0 or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
         bad = int(np.argmax(np.abs(matrix.sum(axis=1) - 1.0)))
@@ -541,12 +881,12 @@ def _covariance_free_matrix(value: Any, n: int) -> FloatArray:
 
 
 def _string_map(value: Any, key: str, allowed: set[str]) -> dict[str, str]:
-    table = _table(value, key)
+    table = as_table(value, key)
     result: dict[str, str] = {}
     for name, path in table.items():
         if name not in allowed:
             raise ModelError(
-                f"{key}.{name}: unknown symbol (allowed: {', '.join(sorted(allowed))})"
+                f"{key_path(key, name)}: unknown symbol (allowed: {', '.join(sorted(allowed))})"
             )
-        result[name] = _string(path, f"{key}.{name}")
+        result[name] = as_string(path, key_path(key, name))
     return result

@@ -1,0 +1,387 @@
+r"""``[components.<name>]`` of a model file → :class:`~hybridlog.model.components.Component`.
+
+A components model (paper 002) lists its continuous ``states``, measured ``outputs``,
+``inputs``, internal ``variables`` (neither states nor measured, e.g. a flow between two
+components) and ``commands`` (discrete inputs that condition transitions).  Each component::
+
+    [components.regulator]
+    unknown = 0.001                  # Pr(a known mode turns unknown) per step
+    initial = "partly_open"          # or {partly_open = 0.9, off = 0.1}
+
+    [components.regulator.modes.partly_open]
+    equations = ["x1[k] = 0.5*u1[k-1]", "y1 = x1"]
+    process_noise = {x1 = 0.01}      # variances; default: [noise] process
+    measurement_noise = {y1 = 0.04}  # default: [noise] measurement
+
+    [[components.regulator.transitions]]
+    from = "partly_open"             # a mode id, "unknown", or "*" (every known mode)
+    when = {cmd = 1}                 # optional command values
+    to = {stuck_open = 0.001}        # the rest stays in the source mode
+
+A difference equation ``x[k] = ...`` defines a state from variables at step k−1 (written
+``v[k-1]``); an algebraic equation ``lhs = rhs`` relates variables at step k (written ``v``
+or ``v[k]``).  Every name is checked; an error names the equation's key,
+``components.<c>.modes.<m>.equations[i]``.  See
+:meth:`~hybridlog.model.components.Component.transition_probabilities` for how the rules
+and the unknown mode's probability combine.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import sympy
+
+from hybridlog.errors import ModelError, excerpt
+from hybridlog.model.components import (
+    UNKNOWN,
+    Component,
+    ComponentMode,
+    Equation,
+    EquationKind,
+    TransitionRule,
+)
+from hybridlog.model.expressions import parse_expression, previous_symbol
+from hybridlog.model.values import (
+    as_label,
+    as_number,
+    as_probability,
+    as_string,
+    as_table,
+    check_keys,
+    key_path,
+    required,
+)
+from hybridlog.signals import FloatArray
+
+_COMPONENT_KEYS = {"modes", "transitions", "unknown", "initial", "description"}
+_MODE_KEYS = {"equations", "process_noise", "measurement_noise", "description"}
+_RULE_KEYS = {"from", "when", "to"}
+_EQUALS = re.compile(r"(?<![<>=!])=(?!=)")
+_DIFFERENCE_LEFT = re.compile(r"\s*([^\W\d]\w*)\s*\[\s*k\s*\]\s*")
+_PROBABILITY_TOLERANCE = 1e-9
+
+
+class _Variables:
+    """The names a components model's equations may use, and their symbols at k and k−1."""
+
+    def __init__(
+        self,
+        states: tuple[str, ...],
+        inputs: tuple[str, ...],
+        outputs: tuple[str, ...],
+        variables: tuple[str, ...],
+        parameters: Mapping[str, sympy.Expr],
+    ) -> None:
+        self.states = states
+        self.outputs = outputs
+        names = (*states, *inputs, *outputs, *variables)
+        self.current = {n: sympy.Symbol(n, real=True) for n in names}
+        self.previous = {n: previous_symbol(n) for n in names}
+        self.env: dict[str, sympy.Expr] = {**self.current, **parameters}
+        self.name_of = {
+            **{s: (n, False) for n, s in self.current.items()},
+            **{s: (n, True) for n, s in self.previous.items()},
+        }
+
+    def used(self, *expressions: sympy.Expr) -> tuple[frozenset[str], frozenset[str]]:
+        """Names used at step k and at step k−1."""
+        now: set[str] = set()
+        before: set[str] = set()
+        for expr in expressions:
+            for symbol in expr.free_symbols:
+                name, previous = self.name_of[symbol]
+                (before if previous else now).add(name)
+        return frozenset(now), frozenset(before)
+
+
+def load_components(
+    table: dict[str, Any],
+    *,
+    states: tuple[str, ...],
+    inputs: tuple[str, ...],
+    outputs: tuple[str, ...],
+    variables: tuple[str, ...],
+    commands: tuple[str, ...],
+    parameters: Mapping[str, sympy.Expr],
+    process_variances: FloatArray,
+    measurement_variances: FloatArray,
+) -> tuple[Component, ...]:
+    """Validate ``[components.*]`` and build the components, in the file's order.
+
+    ``process_variances`` and ``measurement_variances`` are the ``[noise]`` defaults per
+    state and per output.  Besides each table's own checks: a state is defined by the
+    difference equations of one component only (at most one per mode), and every state,
+    output and internal variable appears in some equation.
+    """
+    if not table:
+        raise ModelError("components: at least one component is required")
+    names = _Variables(states, inputs, outputs, variables, parameters)
+    defaults_q = dict(zip(states, (float(v) for v in process_variances), strict=True))
+    defaults_r = dict(zip(outputs, (float(v) for v in measurement_variances), strict=True))
+    owner: dict[str, str] = {}
+    components = []
+    for raw_name, spec in table.items():
+        key = key_path("components", raw_name)
+        name = as_label(raw_name, key, "component name")
+        component = _component(
+            name, as_table(spec, key), key, names, commands, defaults_q, defaults_r
+        )
+        for state in component.states:
+            if state in owner:
+                first = next(
+                    e.key for m in component.modes for e in m.equations if e.state == state
+                )
+                raise ModelError(
+                    f"{first}: '{state}' already has difference equations in {owner[state]}; "
+                    "a state belongs to one component"
+                )
+            owner[state] = key
+        components.append(component)
+    used = set(owner)
+    for component in components:
+        for mode in component.modes:
+            for equation in mode.equations:
+                used |= equation.variables | equation.previous
+    for group, group_names in (("states", states), ("outputs", outputs), ("variables", variables)):
+        for name in group_names:
+            if group == "states" and name not in owner:
+                raise ModelError(f"states: '{name}' has no difference equation in any component")
+            if name not in used:
+                raise ModelError(f"{group}: '{name}' appears in no component equation")
+    return tuple(components)
+
+
+def _component(
+    name: str,
+    spec: dict[str, Any],
+    key: str,
+    names: _Variables,
+    commands: tuple[str, ...],
+    defaults_q: Mapping[str, float],
+    defaults_r: Mapping[str, float],
+) -> Component:
+    check_keys(spec, _COMPONENT_KEYS, key)
+    modes_table = as_table(required(spec, "modes", key), f"{key}.modes")
+    if not modes_table:
+        raise ModelError(f"{key}.modes: at least one mode is required")
+    modes = []
+    for raw_id, mode_spec in modes_table.items():
+        mode_key = key_path(f"{key}.modes", raw_id)
+        mode_id = as_label(raw_id, mode_key, "mode id")
+        if mode_id == UNKNOWN:
+            raise ModelError(
+                f"{mode_key}: '{UNKNOWN}' is every component's implicit unknown mode "
+                "(no equations); choose another id"
+            )
+        modes.append(
+            _mode(mode_id, as_table(mode_spec, mode_key), mode_key, names, defaults_q, defaults_r)
+        )
+    mode_ids = tuple(m.id for m in modes)
+    unknown = as_probability(required(spec, "unknown", key), f"{key}.unknown")
+    if unknown >= 1.0:
+        raise ModelError(f"{key}.unknown: must be below 1, got {unknown!r}")
+    return Component(
+        name=name,
+        modes=tuple(modes),
+        unknown_probability=unknown,
+        initial_mode_probabilities=_initial(spec.get("initial"), f"{key}.initial", mode_ids),
+        rules=_rules(spec.get("transitions", []), f"{key}.transitions", mode_ids, commands),
+        key=key,
+    )
+
+
+def _mode(
+    mode_id: str,
+    spec: dict[str, Any],
+    key: str,
+    names: _Variables,
+    defaults_q: Mapping[str, float],
+    defaults_r: Mapping[str, float],
+) -> ComponentMode:
+    check_keys(spec, _MODE_KEYS, key)
+    texts = required(spec, "equations", key)
+    if isinstance(texts, str):
+        texts = [texts]
+    if not isinstance(texts, list):
+        raise ModelError(f"{key}.equations: expected a list of equation strings")
+    if not texts:
+        raise ModelError(
+            f"{key}.equations: at least one equation is required (the mode without equations "
+            f"is the implicit '{UNKNOWN}' mode)"
+        )
+    equations = tuple(
+        _equation(text, f"{key}.equations[{i}]", names) for i, text in enumerate(texts)
+    )
+    defined: dict[str, str] = {}
+    for equation in equations:
+        if equation.state in defined:
+            raise ModelError(
+                f"{equation.key}: a second difference equation for '{equation.state}' in this "
+                f"mode (the first is {defined[equation.state]})"
+            )
+        if equation.state:
+            defined[equation.state] = equation.key
+    measured = sorted(
+        {v for e in equations if e.kind == "algebraic" for v in e.variables if v in names.outputs},
+        key=names.outputs.index,
+    )
+    return ComponentMode(
+        id=mode_id,
+        equations=equations,
+        process_noise=_variances(
+            spec.get("process_noise", {}),
+            f"{key}.process_noise",
+            list(defined),
+            defaults_q,
+            "states this mode's difference equations define",
+        ),
+        measurement_noise=_variances(
+            spec.get("measurement_noise", {}),
+            f"{key}.measurement_noise",
+            measured,
+            defaults_r,
+            "outputs this mode's algebraic equations use",
+        ),
+        key=key,
+    )
+
+
+def _variances(
+    value: Any,
+    key: str,
+    allowed: list[str],
+    defaults: Mapping[str, float],
+    what: str,
+) -> dict[str, float]:
+    """Per-name variances of a mode, the defaults filled in for the names not given."""
+    table = as_table(value, key)
+    result = {name: defaults[name] for name in allowed}
+    for name, variance in table.items():
+        entry = key_path(key, name)
+        if name not in allowed:
+            listed = ", ".join(allowed) or "none"
+            raise ModelError(f"{entry}: not one of the {what} ({listed})")
+        number = as_number(variance, entry)
+        if number < 0:
+            raise ModelError(f"{entry}: a variance must be non-negative, got {number!r}")
+        result[name] = number
+    return result
+
+
+def _equation(value: Any, key: str, names: _Variables) -> Equation:
+    """One equation, difference (``x[k] = ...``) or algebraic (``lhs = rhs``)."""
+    text = as_string(value, key)
+    sides = _EQUALS.split(text)
+    if len(sides) != 2:
+        raise ModelError(f"{key}: expected one equation 'lhs = rhs', got {excerpt(text)}")
+    left_text, right_text = sides
+    difference = _DIFFERENCE_LEFT.fullmatch(left_text)
+    kind: EquationKind
+    if difference and difference.group(1) in names.states:
+        state = difference.group(1)
+        lhs: sympy.Expr = names.current[state]
+        kind = "difference"
+    else:
+        state = ""
+        lhs = parse_expression(left_text, names.env, key=key, previous=names.previous)
+        kind = "algebraic"
+    rhs = parse_expression(right_text, names.env, key=key, previous=names.previous)
+    now, before = names.used(lhs, rhs)
+    if kind == "difference":
+        now_right, _ = names.used(rhs)
+        if now_right:
+            first = sorted(now_right)[0]
+            raise ModelError(
+                f"{key}: the right side of a difference equation uses step k−1 only; "
+                f"write {first}[k-1] instead of {first}"
+            )
+        now = frozenset()
+    elif before:
+        first = sorted(before)[0]
+        raise ModelError(
+            f"{key}: an algebraic equation relates variables at one step; {first}[k-1] "
+            f"belongs in a difference equation x[k] = ..."
+        )
+    elif not now:
+        raise ModelError(f"{key}: {excerpt(text)} uses no variable")
+    return Equation(
+        key=key,
+        text=text,
+        kind=kind,
+        lhs=lhs,
+        rhs=rhs,
+        state=state,
+        variables=now,
+        previous=before,
+    )
+
+
+def _initial(value: Any, key: str, mode_ids: tuple[str, ...]) -> dict[str, float]:
+    """``initial = "mode"`` or ``{mode = p, ...}`` over the modes and ``unknown``."""
+    allowed = (*mode_ids, UNKNOWN)
+    if value is None:
+        return {m: 1.0 / len(mode_ids) for m in mode_ids} | {UNKNOWN: 0.0}
+    if isinstance(value, str):
+        if value not in allowed:
+            raise ModelError(
+                f"{key}: unknown mode {excerpt(value, 40)} (modes: {', '.join(allowed)})"
+            )
+        return {m: float(m == value) for m in allowed}
+    table = as_table(value, key)
+    probabilities = {m: 0.0 for m in allowed}
+    for mode, p in table.items():
+        if mode not in allowed:
+            raise ModelError(f"{key_path(key, mode)}: unknown mode (modes: {', '.join(allowed)})")
+        probabilities[mode] = as_probability(p, key_path(key, mode))
+    if abs(sum(probabilities.values()) - 1.0) > _PROBABILITY_TOLERANCE:
+        raise ModelError(f"{key}: probabilities must sum to 1")
+    return probabilities
+
+
+def _rules(
+    value: Any, key: str, mode_ids: tuple[str, ...], commands: tuple[str, ...]
+) -> tuple[TransitionRule, ...]:
+    """``[[components.<c>.transitions]]``: ``from``, optional ``when``, ``to``."""
+    if not isinstance(value, list):
+        raise ModelError(f"{key}: expected an array of tables ([[{key}]])")
+    targets_allowed = (*mode_ids, UNKNOWN)
+    seen: dict[tuple[str, tuple[tuple[str, float], ...]], str] = {}
+    rules = []
+    for i, raw in enumerate(value):
+        rule_key = f"{key}[{i}]"
+        spec = as_table(raw, rule_key)
+        check_keys(spec, _RULE_KEYS, rule_key)
+        source = as_string(required(spec, "from", rule_key), f"{rule_key}.from")
+        if source not in (*targets_allowed, "*"):
+            raise ModelError(
+                f"{rule_key}.from: unknown mode {excerpt(source, 40)} (modes: "
+                f"{', '.join(targets_allowed)}, or * for every known mode)"
+            )
+        when: dict[str, float] = {}
+        for command, setting in as_table(spec.get("when", {}), f"{rule_key}.when").items():
+            entry = key_path(f"{rule_key}.when", command)
+            if command not in commands:
+                listed = ", ".join(commands) or "none declared"
+                raise ModelError(f"{entry}: not a command (commands: {listed})")
+            when[command] = as_number(setting, entry)
+        targets: dict[str, float] = {}
+        for target, p in as_table(required(spec, "to", rule_key), f"{rule_key}.to").items():
+            entry = key_path(f"{rule_key}.to", target)
+            if target not in targets_allowed:
+                raise ModelError(f"{entry}: unknown mode (modes: {', '.join(targets_allowed)})")
+            targets[target] = as_probability(p, entry)
+        total = sum(targets.values())
+        if total > 1.0 + _PROBABILITY_TOLERANCE:
+            raise ModelError(
+                f"{rule_key}.to: probabilities sum to {total:g} > 1 (the rest of 1 stays in "
+                "the source mode)"
+            )
+        identity = (source, tuple(sorted(when.items())))
+        if identity in seen:
+            raise ModelError(f"{rule_key}: the same from and when as {seen[identity]}")
+        seen[identity] = rule_key
+        rules.append(TransitionRule(source=source, when=when, targets=targets, key=rule_key))
+    return tuple(rules)

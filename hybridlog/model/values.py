@@ -1,0 +1,186 @@
+"""Checked reading of TOML values for the model loader; every error names the key.
+
+Each function takes the parsed TOML value and the full key it came from
+(``modes.2.process_noise``) and returns a typed value or raises :class:`ModelError` whose
+message starts with that key.  User text is quoted with :func:`hybridlog.errors.excerpt`,
+so an error stays one short line whatever the file holds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import sympy
+
+from hybridlog.errors import ModelError, excerpt
+from hybridlog.model.expressions import parse_expression, symbol_name_problem
+from hybridlog.signals import FloatArray
+
+MAX_LABEL = 64
+"""Longest mode id or component name accepted."""
+_LABEL_FORBIDDEN = (",", ":", "*", "->")
+
+
+def key_path(where: str, key: str) -> str:
+    """``where.key``, with ``key`` quoted (and cut) unless it is a plain short name."""
+    plain = bool(key) and (key.isidentifier() or key.replace("_", "").replace("-", "").isalnum())
+    shown = key if plain and len(key) <= MAX_LABEL else excerpt(key, 40)
+    return f"{where}.{shown}" if where else shown
+
+
+def check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    """Refuse any key of ``table`` not in ``allowed``, naming it and listing the allowed."""
+    for key in table:
+        if key not in allowed:
+            raise ModelError(
+                f"{key_path(where, key)}: unknown key (allowed: {', '.join(sorted(allowed))})"
+            )
+
+
+def required(table: Mapping[str, Any], key: str, where: str) -> Any:
+    """``table[key]``, or an error naming the missing key."""
+    if key not in table:
+        raise ModelError(f"{key_path(where, key)}: required key is missing")
+    return table[key]
+
+
+def as_table(value: Any, key: str) -> dict[str, Any]:
+    """A TOML table."""
+    if not isinstance(value, dict):
+        raise ModelError(f"{key}: expected a table, got {type(value).__name__}")
+    return value
+
+
+def as_string(value: Any, key: str) -> str:
+    """A string."""
+    if not isinstance(value, str):
+        raise ModelError(f"{key}: expected a string, got {type(value).__name__}")
+    return value
+
+
+def as_number(value: Any, key: str) -> float:
+    """A finite number (integer or float, not a boolean)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ModelError(f"{key}: expected a number, got {excerpt(repr(value), 40)[1:-1]}")
+    if not math.isfinite(value):
+        raise ModelError(f"{key}: non-finite number {value!r}")
+    return float(value)
+
+
+def as_positive(value: Any, key: str) -> float:
+    """A finite number > 0."""
+    number = as_number(value, key)
+    if number <= 0:
+        raise ModelError(f"{key}: must be positive, got {number!r}")
+    return number
+
+
+def as_probability(value: Any, key: str) -> float:
+    """A number in [0, 1]."""
+    number = as_number(value, key)
+    if not 0.0 <= number <= 1.0:
+        raise ModelError(f"{key}: must be a probability in [0, 1], got {number!r}")
+    return number
+
+
+def as_label(value: str, key: str, what: str) -> str:
+    """A mode id or component name: printable, short, without ``, : * ->``.
+
+    These labels become CSV column names (``p_<mode>``), ``--schedule`` items
+    (``MODE:STEPS``) and jump keys (``"a->b"``), so the characters those use are refused,
+    and so are leading or trailing spaces (invisible in every one of them).
+    """
+    if (
+        not value
+        or len(value) > MAX_LABEL
+        or not value.isprintable()
+        or value != value.strip()
+        or any(bad in value for bad in _LABEL_FORBIDDEN)
+    ):
+        raise ModelError(
+            f"{key}: {excerpt(value, 40)} is not a valid {what} (1 to {MAX_LABEL} printable "
+            "characters, no leading or trailing space, no ',', ':', '*' or '->')"
+        )
+    return value
+
+
+def as_names(value: Any, key: str, *, allow_empty: bool = False) -> tuple[str, ...]:
+    """A list of unique symbol names (see :func:`symbol_name_problem`)."""
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ModelError(f"{key}: expected a list of names")
+    if not value and not allow_empty:
+        raise ModelError(f"{key}: at least one name is required")
+    for name in value:
+        problem = symbol_name_problem(name)
+        if problem:
+            raise ModelError(f"{key}: {excerpt(name, 40)} {problem}")
+    if len(set(value)) != len(value):
+        twice = next(v for v in value if value.count(v) > 1)
+        raise ModelError(f"{key}: names must be unique ('{twice}' is listed twice)")
+    return tuple(value)
+
+
+def check_disjoint(groups: Mapping[str, tuple[str, ...]]) -> None:
+    """Every name in at most one group; the error names the later group's key."""
+    seen: dict[str, str] = {}
+    for group, names in groups.items():
+        for name in names:
+            if name in seen:
+                raise ModelError(f"{group}: '{name}' is already one of the {seen[name]}")
+            seen[name] = group
+
+
+def as_vector(value: Any, n: int, key: str) -> FloatArray:
+    """A list of exactly ``n`` finite numbers."""
+    if not isinstance(value, list):
+        raise ModelError(f"{key}: expected a list of {n} numbers")
+    if len(value) != n:
+        raise ModelError(f"{key}: wrong length; expected {n} instead of {len(value)}")
+    return np.array([as_number(v, f"{key}[{i}]") for i, v in enumerate(value)])
+
+
+def as_covariance(value: Any, n: int, key: str) -> FloatArray:
+    """A covariance given as a scalar (times I), a diagonal list, or a full matrix."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        matrix = np.eye(n) * as_number(value, key)
+    elif isinstance(value, list) and value and all(isinstance(r, list) for r in value):
+        if len(value) != n or any(len(r) != n for r in value):
+            rows = len(value)
+            cols = len(value[0])
+            raise ModelError(f"{key}: wrong shape; expected {n}x{n} instead of {rows}x{cols}")
+        matrix = np.array(
+            [
+                [as_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)]
+                for i, r in enumerate(value)
+            ]
+        )
+    elif isinstance(value, list):
+        matrix = np.diag(as_vector(value, n, key))
+    else:
+        raise ModelError(f"{key}: expected a number, a diagonal list or a matrix")
+    if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
+        raise ModelError(f"{key}: covariance must be symmetric")
+    if n and np.linalg.eigvalsh(matrix).min() < -1e-12 * max(1.0, float(np.abs(matrix).max())):
+        raise ModelError(f"{key}: covariance must be positive semi-definite")
+    return matrix
+
+
+def as_expressions(
+    value: Any, n: int, key: str, env: Mapping[str, sympy.Expr]
+) -> tuple[sympy.Expr, ...]:
+    """A list of ``n`` expression strings (a single string when ``n`` is 1)."""
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list):
+        raise ModelError(f"{key}: expected a list of {n} expression strings")
+    if len(value) != n:
+        raise ModelError(
+            f"{key}: wrong number of expressions; expected {n} instead of {len(value)}"
+        )
+    return tuple(
+        parse_expression(str(v) if isinstance(v, int | float) else v, env, key=f"{key}[{i}]")
+        for i, v in enumerate(value)
+    )
