@@ -18,14 +18,15 @@ import numpy as np
 import pytest
 
 from hybridlog.analysis import Overrides, analyze, parse_sets, prepare_estimators
-from hybridlog.errors import LogError, ModelError, OptionError
+from hybridlog.errors import HybridlogError, LogError, ModelError, OptionError
 from hybridlog.estimators import ESTIMATORS, Capabilities, Estimator, get_estimator, prepare
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.options import option, options_dict
 from hybridlog.estimators.result import EstimationResult, ResultShapeError
-from hybridlog.model.loader import load_model
+from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report.document import build_report, report_json
 from hybridlog.simulate import simulate
+from tests import model_kinds
 
 ROOT = Path(__file__).resolve().parent.parent
 TANK_TEXT = (ROOT / "hybridlog/model/builtin/three_tank_hstf.toml").read_text()
@@ -401,3 +402,22 @@ def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypa
     assert report["estimator"] == "persist" and report["options"] == {"lag": 2}
     assert outcome.report["modes"]["accuracy"] is not None
     assert "lag=1  int, in [1, 10]  predict y(k) as y(k - lag)" in entry.help_text()
+
+
+@pytest.mark.parametrize(
+    ("text", "reason"),
+    [
+        (
+            model_kinds.CONTINUOUS_TANK,
+            "needs a discrete-time model; the model's time is continuous",
+        ),
+        (model_kinds.CLUTCH_JUMPS, "model's time is continuous"),
+    ],
+)
+def test_models_of_kinds_no_estimator_handles_yet_are_refused_before_reading(text, reason):
+    model = parse_model(text, origin="kind.toml")
+    for name in ("hstf", "imm"):
+        with pytest.raises(HybridlogError, match=reason) as caught:
+            prepare(model, name)
+        assert "kind.toml" in str(caught.value)
+        assert "\n" not in str(caught.value)

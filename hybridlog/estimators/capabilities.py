@@ -5,7 +5,7 @@ entry); :class:`ModelTraits` says what a loaded model offers.  :meth:`Capabiliti
 compares the two and returns the first reason the estimator cannot run, so the run layer can
 refuse with one line naming the model file and the estimator instead of failing deep inside
 an algorithm.  This module imports nothing heavy at import time (sympy only when a model's
-linearity is asked for): the registry, and through it ``--help``, import it.
+state measurement is asked for): the registry, and through it ``--help``, import it.
 """
 
 from __future__ import annotations
@@ -116,7 +116,7 @@ class Capabilities:
 class ModelTraits:
     """What a loaded model offers, as :meth:`Capabilities.mismatch` asks for it.
 
-    Each trait is worked out on first use and kept (linearity needs sympy derivatives).
+    Each trait is read off the loaded model; the costly ones are worked out once.
     """
 
     def __init__(self, model: HybridModel) -> None:
@@ -124,27 +124,23 @@ class ModelTraits:
 
     @property
     def continuous(self) -> bool:
-        """True for a continuous-time model.
-
-        :class:`~hybridlog.model.hybrid_model.HybridModel` has no timebase yet (the loader
-        accepts only ``time = "discrete"``), so every model loaded today is discrete.
-        """
-        return False
+        """True for a continuous-time model (``time = "continuous"``)."""
+        return self.model.is_continuous
 
     @property
     def components(self) -> bool:
-        """True when the model has ``[components]`` (the loader accepts none yet)."""
-        return False
+        """True when the model has ``[components]``."""
+        return self.model.has_components
 
     @property
     def booleans(self) -> bool:
-        """True for a boolean-affine model (the loader accepts none yet)."""
-        return False
+        """True for a boolean-affine model (``booleans = [...]``)."""
+        return self.model.has_booleans
 
     @property
     def jumps(self) -> bool:
-        """True when the model has ``[jumps]`` state resets (the loader accepts none yet)."""
-        return False
+        """True when the model has ``[jumps]`` state resets."""
+        return self.model.has_jumps
 
     @property
     def markov_matrix(self) -> bool:
@@ -155,24 +151,25 @@ class ModelTraits:
     def nonlinear(self) -> str | None:
         """The first mode equation that is not affine in the states and inputs, or None.
 
-        ``"modes.1.f[0] is not affine in x1, x2"``: an equation is affine when its derivative
-        by every state and input depends on no state or input.
+        ``"modes.1.f[0] is not affine in x1, x3"``.  The loader has already worked out which
+        modes are affine (:attr:`~hybridlog.model.hybrid_model.Mode.linear_form`); only the
+        first nonlinear mode is differentiated again, to name the variables at fault.
         """
+        mode = next((m for m in self.model.modes if m.linear_form is None), None)
+        if mode is None:
+            return None
         import sympy
 
         xs, us = self.model.symbols()
         variables = {*xs, *us}
-        for mode in self.model.modes:
-            for key, expressions in (("f", mode.f), ("h", mode.h)):
-                for i, expression in enumerate(expressions):
-                    bent = sorted(
-                        str(v)
-                        for v in variables
-                        if sympy.diff(expression, v).free_symbols & variables
-                    )
-                    if bent:
-                        return f"modes.{mode.id}.{key}[{i}] is not affine in {', '.join(bent)}"
-        return None
+        for key, expressions in (("dx" if mode.dx else "f", mode.dynamics), ("h", mode.h)):
+            for i, expression in enumerate(expressions):
+                bent = sorted(
+                    str(v) for v in variables if sympy.diff(expression, v).free_symbols & variables
+                )
+                if bent:
+                    return f"modes.{mode.id}.{key}[{i}] is not affine in {', '.join(bent)}"
+        return f"{mode.nonlinear_key} is not affine in the states and inputs"
 
     @functools.cached_property
     def unmeasured_state(self) -> str | None:
