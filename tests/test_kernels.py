@@ -82,11 +82,13 @@ def test_auto_takes_straight_line_code_for_small_models_only():
     assert use_unrolled(wide, "unrolled")
 
 
-def test_a_diverging_filter_is_an_error_naming_the_time():
+def test_a_diverging_filter_is_an_error_naming_the_model_file_estimator_and_time():
+    # Issue 7: the message names the model file (not the model's internal name).
     model = parse_model(
         'name = "kink"\ndt = 1\nstates = ["x"]\noutputs = ["y"]\n'
         '[modes.a]\nf = ["x + sqrt(abs(x - 2))"]\nh = ["x"]\n'
-        "[noise]\nprocess = 0.1\nmeasurement = 0.1\n[initial]\nstate = [2.0]\n"
+        "[noise]\nprocess = 0.1\nmeasurement = 0.1\n[initial]\nstate = [2.0]\n",
+        origin="models/kink.toml",
     )
     signals = AlignedSignals(
         source="sim",
@@ -97,5 +99,7 @@ def test_a_diverging_filter_is_an_error_naming_the_time():
         outputs=np.full((5, 1), 2.0),
     )
     for kernel in ("unrolled", "loops"):
-        with pytest.raises(ModelError, match=r"kink: hstf diverged at t = 1 s \(sample 1\)"):
+        with pytest.raises(
+            ModelError, match=r"^models/kink\.toml: hstf diverged at t = 1 s \(sample 1\)"
+        ):
             run_hstf(model, signals, HstfOptions(), kernel=kernel)
