@@ -154,10 +154,11 @@ def _noise_factor(covariance: FloatArray) -> FloatArray:
     return factor
 
 
-COPIES = 3.0
-"""Copies of every simulated value alive at the peak of ``hybridlog simulate``: the arrays
-of :func:`simulate` (noise draws, states, outputs, inputs, time, modes) and the log writer's
-table built from them (measured peaks are in ``tests/test_simulate.py``'s docstring)."""
+COPIES = 9.0
+"""Copies of every simulated value alive at the peak of ``hybridlog simulate``: the arrays of
+:func:`simulate` and what the log writer builds from them.  Measured (peak RSS growth of
+three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4,
+ROS 1 bag 8 copies; the check uses the worst case, with a margin."""
 
 
 def memory_needed(model: HybridModel, rows: int) -> int:
@@ -198,7 +199,7 @@ def available_memory() -> int | None:
 
 
 def _gigabytes(size: float) -> str:
-    return f"{size / 1e9:.3g} GB" if size >= 1e8 else f"{size / 1e6:.3g} MB"
+    return f"{size / 1e9:,.1f} GB" if size >= 1e8 else f"{size / 1e6:,.1f} MB"
 
 
 def _check_memory(model: HybridModel, rows: int, where: str) -> None:

@@ -26,22 +26,22 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
 
-def noise_stacks(
-    model: HybridModel, estimator: str = "the filters"
-) -> tuple[FloatArray, FloatArray]:
+def noise_stacks(model: HybridModel, estimator: str = "") -> tuple[FloatArray, FloatArray]:
     """Per-mode process and measurement covariances, shapes ``(n_modes, n, n)``.
 
     The filters divide by the innovation covariance, so every ``R_q`` must be positive
-    definite; a singular one is a :class:`ModelError` naming the model file and the mode.
+    definite; a singular one is a :class:`ModelError` naming the model file, the mode and
+    ``estimator``.
     """
     Q = np.ascontiguousarray(np.stack([m.process_noise for m in model.modes]), dtype=float)
     R = np.ascontiguousarray(np.stack([m.measurement_noise for m in model.modes]), dtype=float)
     for mode, r in zip(model.modes, R, strict=True):
         if np.linalg.eigvalsh(r).min() <= 0.0:
+            needs = f"the {estimator} filter needs" if estimator else "the filters need"
             raise ModelError(
                 f"{model.origin or model.name}: the measurement noise covariance of mode "
                 f"'{mode.id}' (noise.measurement or modes.{mode.id}.R) is singular; "
-                f"{estimator} need it positive definite"
+                f"{needs} it positive definite"
             )
     return Q, R
 
