@@ -82,6 +82,12 @@ def test_same_model_same_key_and_every_change_that_shapes_code_another_key():
     x1 = sympy.Symbol("x1", real=True)
     bent = dataclasses.replace(mode, f=(mode.f[0] + 1e-12 * x1, *mode.f[1:]))
     assert model_key(dataclasses.replace(tank, modes=(bent, *tank.modes[1:]))) != model_key(tank)
+    # Equal values of different kinds are different code (a rational, a float).
+    half = [dataclasses.replace(mode, f=(mode.f[0] + c * x1, *mode.f[1:])) for c in (0.5, 1 / 2)]
+    half_exact = dataclasses.replace(mode, f=(mode.f[0] + sympy.Rational(1, 2) * x1, *mode.f[1:]))
+    keys = [model_key(dataclasses.replace(tank, modes=(m, *tank.modes[1:]))) for m in half]
+    assert keys[0] == keys[1]
+    assert keys[0] != model_key(dataclasses.replace(tank, modes=(half_exact, *tank.modes[1:])))
     # What the compiled code receives as arguments at run time does not change the code.
     moved = dataclasses.replace(tank, initial_state=tank.initial_state + 1.0, origin="x.toml")
     assert model_key(moved) == model_key(tank)
