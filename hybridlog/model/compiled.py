@@ -183,7 +183,13 @@ def model_key(model: HybridModel) -> str:
     digest = hashlib.sha256()
     _feed(digest, model)
     key = digest.hexdigest()
-    _KEYS[id(model)] = (weakref.ref(model), key)
+    identity = id(model)
+
+    def forget(reference: weakref.ref[HybridModel]) -> None:
+        if _KEYS.get(identity, (None, ""))[0] is reference:
+            del _KEYS[identity]
+
+    _KEYS[identity] = (weakref.ref(model, forget), key)
     return key
 
 
