@@ -148,11 +148,12 @@ def test_a_warm_cache_imports_without_generating_and_a_damaged_file_is_rewritten
 
     assert load_generated(model, "probe", refuse).ANSWER == 42
     assert calls == [1]
-    # A truncated file (a crash, a full disk) is regenerated, never imported.
-    path.write_text(path.read_text()[:-10])
-    monkeypatch.setattr(compiled, "_MODULES", {})
-    assert load_generated(model, "probe", generate).ANSWER == 42
-    assert calls == [1, 1]
+    # A truncated or altered file (a crash, a full disk) is regenerated, never imported.
+    for damage in (lambda text: text[:-10], lambda text: text.replace("42", "43")):
+        path.write_text(damage(path.read_text()))
+        monkeypatch.setattr(compiled, "_MODULES", {})
+        assert load_generated(model, "probe", generate).ANSWER == 42
+    assert calls == [1, 1, 1]
     assert path.read_text().startswith("# hybridlog generated probe ")
 
 

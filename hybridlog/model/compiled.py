@@ -227,12 +227,17 @@ def artefact_key(model: HybridModel, kind: str, modules: Sequence[str] = ()) -> 
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def _header(kind: str, key: str) -> str:
-    return f"# hybridlog generated {kind} {key}\n"
+def _framed(kind: str, key: str, body: str) -> str:
+    """The module's text: a header naming the key, the body, a trailer with its checksum."""
+    checksum = hashlib.sha256(body.encode()).hexdigest()[:16]
+    return f"# hybridlog generated {kind} {key}\n{body}\n# end {checksum}\n"
 
 
-def _trailer(kind: str, key: str) -> str:
-    return f"\n# end of hybridlog generated {kind} {key}\n"
+def _intact(kind: str, key: str, text: str) -> bool:
+    """Whether ``text`` is a whole module written by :func:`_framed` for this key."""
+    header = f"# hybridlog generated {kind} {key}\n"
+    body, sep, _ = text.removeprefix(header).rpartition("\n# end ")
+    return text.startswith(header) and bool(sep) and text == _framed(kind, key, body)
 
 
 def _write_once(path: Path, text: str, replace: bool) -> None:
@@ -284,15 +289,13 @@ def load_generated(
     with _LOCK:
         if path in _MODULES:
             return _MODULES[path]
-        header, trailer = _header(kind, key), _trailer(kind, key)
         try:
             text = path.read_text(encoding="utf-8")
-            exists = True
         except (FileNotFoundError, UnicodeDecodeError):
-            text, exists = "", path.exists()
-        if not (text.startswith(header) and text.endswith(trailer)):
+            text = ""
+        if not _intact(kind, key, text):
             path.parent.mkdir(parents=True, exist_ok=True)
-            _write_once(path, header + generate() + trailer, replace=exists)
+            _write_once(path, _framed(kind, key, generate()), replace=path.exists())
         name = f"hybridlog_generated_{kind}_{key}"
         spec = importlib.util.spec_from_file_location(name, path)
         if spec is None or spec.loader is None:  # pragma: no cover - the file exists
