@@ -33,7 +33,6 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -62,10 +61,8 @@ from hybridlog.estimators.unrolled import (
     vector_names,
 )
 from hybridlog.model.compiled import ModelFunction
+from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
-
-if TYPE_CHECKING:
-    from hybridlog.model.hybrid_model import HybridModel
 
 NAME = "hstf"
 
@@ -262,8 +259,7 @@ def run_hstf(
     """Run the HSTF over the aligned signals.
 
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
-    the accelerator :func:`generate_hstf_source` for small models, else the generic
-    :func:`_hstf_steps`.
+    :func:`generate_hstf_source` for small models, else the generic :func:`_hstf_steps`.
     """
     settings = (
         options.rho,

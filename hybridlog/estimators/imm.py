@@ -219,8 +219,7 @@ def run_imm(
     """Run the IMM over the aligned signals.
 
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
-    the accelerator :func:`generate_imm_source` for small models, else the generic
-    :func:`_imm_steps`.
+    :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
     """
     transitions = contiguous(transition_matrix(model, options))
     used = options_dict(options)
