@@ -233,8 +233,8 @@ def bench_compile() -> list[Row]:
         row.target = "≈ 0 s"
         row.met = child["compile_s"] < 0.5
         rows.append(row)
-        # Also cold numba cache: the estimator kernels (compiled eagerly at import, normally
-        # cached in the package's __pycache__) are compiled again, inside "imports".
+        # Also cold numba cache: the estimator kernels (compiled on first use, normally
+        # cached in the package's __pycache__) are compiled again, inside the first calls.
         child, wall = run_child(
             {
                 "HYBRIDLOG_CACHE_DIR": str(Path(folder) / "hybridlog-2"),

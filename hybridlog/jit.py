@@ -1,28 +1,76 @@
-"""numba compilation settings shared by every compiled kernel."""
+"""numba compilation settings shared by every compiled kernel, and compilation on first use.
+
+Importing this module does not import numba: :func:`jit` imports it when it decorates (so a
+module of kernels pays for numba when *it* is imported), and :func:`compile_for` when it
+first compiles.  Nothing is compiled at import time: :func:`jit` kernels compile on their
+first call, :func:`compile_for` when a caller first needs a function for given arguments;
+both keep the machine code in numba's on-disk cache (``cache=True``).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Sequence
 from typing import Any, TypeVar, cast
-
-import numba
 
 F = TypeVar("F", bound=Callable[..., Any])
 
+OPTIONS: dict[str, Any] = {"cache": True, "error_model": "numpy", "nogil": True}
+"""nopython, cached on disk, NumPy's floating-point error model (no exceptions), no GIL."""
+
 
 def jit(function: F) -> F:
-    """Compile ``function`` with numba: nopython, cached on disk, NumPy error model, no GIL."""
-    return cast(F, numba.njit(cache=True, error_model="numpy", nogil=True)(function))
+    """Compile ``function`` with numba (:data:`OPTIONS`) on its first call."""
+    import numba
+
+    return cast(F, numba.njit(**OPTIONS)(function))
 
 
-def jit_signature(signature: Any) -> Callable[[F], F]:
-    """Like :func:`jit`, compiled eagerly for one explicit signature.
+def signature_of(arguments: Sequence[Any]) -> tuple[Any, ...]:
+    """The numba argument types of a call (numba infers the result type from them).
 
-    Kernels that take model functions as first-class ``FunctionType`` arguments need the
-    explicit signature: their machine code is then independent of the model and cached once.
+    A compiled function passed as an argument (a numba dispatcher compiled for one explicit
+    signature, as the model functions of :mod:`hybridlog.model.compiled` are) is typed as a
+    first-class function of that signature, so a kernel taking it is compiled once for every
+    model rather than once per model function.
     """
+    from numba import types
+    from numba.core.dispatcher import Dispatcher
 
-    def decorate(function: F) -> F:
-        return cast(F, numba.njit(signature, cache=True, error_model="numpy", nogil=True)(function))
+    def type_of(value: Any) -> Any:
+        if isinstance(value, Dispatcher):
+            (signature,) = value.nopython_signatures
+            return types.FunctionType(signature)
+        return numba_typeof(value)
 
-    return decorate
+    return tuple(type_of(value) for value in arguments)
+
+
+def numba_typeof(value: Any) -> Any:
+    """The numba type of a Python value (``float64[:, ::1]`` for a C-contiguous 2-d array...)."""
+    import numba
+
+    return numba.typeof(value)  # type: ignore[no-untyped-call]
+
+
+_COMPILED: dict[tuple[Callable[..., Any], Any], Callable[..., Any]] = {}
+_LOCK = threading.Lock()
+
+
+def compile_for(function: Callable[..., Any], arguments: Sequence[Any]) -> Callable[..., Any]:
+    """``function`` compiled (or loaded from numba's cache) for the types of ``arguments``.
+
+    The signature is derived from the arguments (:func:`signature_of`), never written by
+    hand: adding an argument to a kernel is one edit, to the kernel and its call.  Each
+    (function, signature) is compiled once per process.
+    """
+    signature = signature_of(arguments)
+    key = (function, signature)
+    with _LOCK:
+        compiled = _COMPILED.get(key)
+        if compiled is None:
+            import numba
+
+            compiled = numba.njit(signature, **OPTIONS)(function)
+            _COMPILED[key] = compiled
+    return compiled

@@ -1,14 +1,19 @@
 """The three code paths of each filter compute the same thing.
 
-``unrolled`` (straight-line code generated per model) is what runs by default; ``loops``
-(generic compiled loops) serves large models; ``jit=False`` runs the generic loops as plain
-Python on plain-Python mode functions.
+``unrolled`` (the filter's accelerator: straight-line code generated per model) is what runs
+by default where it applies; ``loops`` (generic compiled loops) serves large models;
+``jit=False`` runs the generic loops as plain Python on plain-Python mode functions.
 """
+
+import importlib
+import pkgutil
 
 import numpy as np
 import pytest
 
+import hybridlog.estimators
 from hybridlog.errors import ModelError
+from hybridlog.estimators.common import FilterCode
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.unrolled import use_unrolled
@@ -69,6 +74,22 @@ def test_unrolled_loops_and_plain_python_agree(model_name, run_name):
     _assert_same(plain, compiled, 1e-12)
 
 
+def _filter_codes():
+    """Every filter of every estimator module, found without a list to keep up to date."""
+    codes = []
+    for info in pkgutil.iter_modules(hybridlog.estimators.__path__):
+        module = importlib.import_module(f"hybridlog.estimators.{info.name}")
+        codes += [value for value in vars(module).values() if isinstance(value, FilterCode)]
+    return codes
+
+
+def test_every_accelerator_is_checked_against_the_plain_path():
+    accelerated = {code.name for code in _filter_codes() if code.accelerator is not None}
+    assert accelerated >= {"hstf", "imm"}
+    # Each one must have a row in RUNS, which the test above compares path by path.
+    assert accelerated <= {name.split("-")[0] for name in RUNS}
+
+
 def test_auto_takes_straight_line_code_for_small_models_only():
     model = load_model("three_tank_hstf")
     assert use_unrolled(model, "auto")
@@ -82,11 +103,13 @@ def test_auto_takes_straight_line_code_for_small_models_only():
     assert use_unrolled(wide, "unrolled")
 
 
-def test_a_diverging_filter_is_an_error_naming_the_time():
+def test_a_diverging_filter_is_an_error_naming_the_model_file_estimator_and_time():
+    # Issue 7: the message names the model file (not the model's internal name).
     model = parse_model(
         'name = "kink"\ndt = 1\nstates = ["x"]\noutputs = ["y"]\n'
         '[modes.a]\nf = ["x + sqrt(abs(x - 2))"]\nh = ["x"]\n'
-        "[noise]\nprocess = 0.1\nmeasurement = 0.1\n[initial]\nstate = [2.0]\n"
+        "[noise]\nprocess = 0.1\nmeasurement = 0.1\n[initial]\nstate = [2.0]\n",
+        origin="models/kink.toml",
     )
     signals = AlignedSignals(
         source="sim",
@@ -97,5 +120,7 @@ def test_a_diverging_filter_is_an_error_naming_the_time():
         outputs=np.full((5, 1), 2.0),
     )
     for kernel in ("unrolled", "loops"):
-        with pytest.raises(ModelError, match=r"kink: hstf diverged at t = 1 s \(sample 1\)"):
+        with pytest.raises(
+            ModelError, match=r"^models/kink\.toml: hstf diverged at t = 1 s \(sample 1\)"
+        ):
             run_hstf(model, signals, HstfOptions(), kernel=kernel)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from hybridlog.errors import ModelError
 from hybridlog.estimators.switched_observer import linear_modes
-from hybridlog.model.codegen import generate_source
+from hybridlog.model.compiled import compile_model
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.loader import load_model, parse_model
@@ -609,7 +609,7 @@ def test_discrete_only_code_refuses_other_kinds_instead_of_computing_nonsense(te
     with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: simulate "):
         simulate(model, steps=3)
     with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: the discrete-time mode func"):
-        generate_source(model)
+        compile_model(model, jit=False)
     model.check_supported("x", continuous=True, jumps=True, components=True)
 
 

@@ -1,36 +1,47 @@
-"""What the filter estimators share: noise stacks, output buffers, the result assembly."""
+"""What the filter estimators share: noise stacks, output buffers, the runner of their code.
+
+A filter is a generic time loop over the model's compiled functions (mandatory, one
+:class:`FilterCode`) and may add an :class:`Accelerator`: straight-line code generated for
+the model, which :func:`run_filter` picks for the models it applies to.  Both compute the
+same thing (``tests/test_kernels.py`` checks every accelerator against the plain path).
+"""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hybridlog.errors import ModelError
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.estimators.unrolled import module_source, use_unrolled
+from hybridlog.estimators.unrolled import fits_unrolled, module_source
+from hybridlog.jit import compile_for
 from hybridlog.model.compiled import compile_generated, compile_model
-from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
 
-def noise_stacks(model: HybridModel) -> tuple[FloatArray, FloatArray]:
+
+def noise_stacks(model: HybridModel, estimator: str = "") -> tuple[FloatArray, FloatArray]:
     """Per-mode process and measurement covariances, shapes ``(n_modes, n, n)``.
 
     The filters divide by the innovation covariance, so every ``R_q`` must be positive
-    definite; a singular one is a :class:`ModelError` naming the mode.
+    definite; a singular one is a :class:`ModelError` naming the model file, the mode and
+    ``estimator``.
     """
     Q = np.ascontiguousarray(np.stack([m.process_noise for m in model.modes]), dtype=float)
     R = np.ascontiguousarray(np.stack([m.measurement_noise for m in model.modes]), dtype=float)
     for mode, r in zip(model.modes, R, strict=True):
         if np.linalg.eigvalsh(r).min() <= 0.0:
+            needs = f"the {estimator} filter needs" if estimator else "the filters need"
             raise model.error(
                 mode.measurement_noise_key,
                 f"the measurement noise covariance of mode '{mode.id}' is singular; "
-                "the filters need it positive definite",
+                f"{needs} it positive definite",
             )
     return Q, R
 
@@ -108,21 +119,53 @@ def contiguous(array: FloatArray) -> FloatArray:
     return np.ascontiguousarray(array, dtype=np.float64)
 
 
+KERNELS = ("auto", "unrolled", "loops")
+"""Code paths of a filter: ``unrolled`` is its accelerator, ``loops`` the generic loop,
+``auto`` the accelerator where it applies."""
+
+
+@dataclass(frozen=True)
+class Accelerator:
+    """Straight-line code a filter generates for a model: optional, faster, the same result.
+
+    ``generate(model)`` returns the source of one function named ``function`` taking the
+    generic loop's arguments without the model functions and noise stacks:
+    ``(inputs, outputs, x0, P0, mu0, *settings, *buffers)``; it runs in a module with
+    ``math`` and ``LOG_2PI`` (:func:`~hybridlog.estimators.unrolled.module_source`).  The
+    generated module is cached by model (:func:`hybridlog.model.compiled.load_generated`);
+    ``modules`` names the modules whose code shapes the source besides ``generate``'s own
+    (their text is part of the key).
+    """
+
+    generate: Callable[[HybridModel], str]
+    function: str
+    applies: Callable[[HybridModel], bool] = fits_unrolled
+    """Whether ``auto`` takes the accelerator for a model."""
+    modules: tuple[str, ...] = ("hybridlog.estimators.unrolled",)
+
+
 @dataclass(frozen=True)
 class FilterCode:
-    """The code paths of one filter (see ``docs/architecture.md``, "Compiled code").
+    """The code of one filter (see ``docs/architecture.md``, "Compiled code").
 
-    Both loops take ``(inputs, outputs, x0, P0, mu0, *settings, *buffers)``; the generic ones
-    take the model functions ``f, F, h, H`` first and ``Q, R`` after the outputs.
+    ``loop`` is the generic time loop, plain Python that numba compiles on first use (its
+    signature derived from the arguments): ``(f, F, h, H, inputs, outputs, Q, R, x0, P0, mu0,
+    *settings, *buffers)``.  ``accelerator`` is optional.
     """
 
     name: str
-    generate: Callable[[HybridModel], str]
-    """Straight-line source of the whole loop for a model, defining ``<name>_run``."""
-    compiled_loops: Callable[[], Callable[..., None]]
-    """The generic loops, compiled."""
-    plain_loops: Callable[..., None]
-    """The generic loops as plain Python."""
+    loop: Callable[..., None]
+    accelerator: Accelerator | None = None
+
+
+def _diverged(
+    code: FilterCode, model: HybridModel, signals: AlignedSignals, row: int
+) -> ModelError:
+    return ModelError(
+        f"{model.origin or model.name}: {code.name} diverged at t = {signals.time[row]:g} s "
+        f"(sample {row}): the state estimate is not finite; a Jacobian of the model may be "
+        "infinite there"
+    )
 
 
 def run_filter(
@@ -138,12 +181,18 @@ def run_filter(
 ) -> EstimationResult:
     """Run a filter over the aligned signals with the chosen code path.
 
-    ``kernel``: ``unrolled`` (straight-line code generated for the model), ``loops`` (the
-    generic compiled loops) or ``auto`` (unrolled for small models); ``jit=False`` runs the
-    generic loops as plain Python on plain-Python mode functions, the tests' reference.
+    ``kernel``: ``unrolled`` (the filter's accelerator), ``loops`` (the generic compiled
+    loop) or ``auto`` (the accelerator where it applies, see :class:`Accelerator`);
+    ``jit=False`` runs the generic loop as plain Python on plain-Python mode functions, the
+    tests' reference.
     """
-    Q, R = noise_stacks(model)
+    if kernel not in KERNELS:
+        raise ValueError(f"unknown kernel {kernel!r}")
+    accelerator = code.accelerator
+    if kernel == "unrolled" and accelerator is None:
+        raise ValueError(f"{code.name} has no accelerator")
     buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
+    Q, R = noise_stacks(model, code.name)
     common = (
         contiguous(signals.inputs),
         contiguous(signals.outputs),
@@ -155,25 +204,33 @@ def run_filter(
     )
     loop: Callable[..., None]
     arguments: tuple[Any, ...]
-    if jit and use_unrolled(model, kernel):
+    if (
+        jit
+        and accelerator is not None
+        and (kernel == "unrolled" or (kernel == "auto" and accelerator.applies(model)))
+    ):
         arguments = common
-        source = module_source(model, code.generate(model))
-        loop, compile_s = compile_generated(source, f"{code.name}_run", arguments)
+        modules = (accelerator.generate.__module__, *accelerator.modules)
+        loop, compile_s = compile_generated(
+            model,
+            code.name,
+            lambda: module_source(model, accelerator.generate(model)),
+            modules,
+            accelerator.function,
+            arguments,
+        )
     else:
+        start = time.perf_counter()
         compiled = compile_model(model, jit=jit)
         arguments = (compiled.f, compiled.F, compiled.h, compiled.H, *common[:2], Q, R, *common[2:])
-        loop = code.compiled_loops() if jit else code.plain_loops
-        compile_s = compiled.compile_s
+        loop = compile_for(code.loop, arguments) if jit else code.loop
+        compile_s = time.perf_counter() - start
     start = time.perf_counter()
     loop(*arguments)
     runtime = time.perf_counter() - start
     finite = np.isfinite(buffers.state_means).all(axis=1)
     if not finite.all():
-        row = int(np.argmin(finite))
-        raise ModelError(
-            f"{model.name}: {code.name} diverged at t = {signals.time[row]:g} s (sample {row}): "
-            "the state estimate is not finite; a Jacobian of the model may be infinite there"
-        )
+        raise _diverged(code, model, signals, int(np.argmin(finite)))
     return buffers.result(
         code.name, options, model, signals, runtime_s=runtime, compile_s=compile_s
     )

@@ -32,15 +32,12 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numba import types
 
-from hybridlog.estimators.common import FilterCode, run_filter
+from hybridlog.estimators.common import Accelerator, FilterCode, run_filter
 from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
@@ -56,28 +53,15 @@ from hybridlog.estimators.unrolled import (
     Matrix,
     Program,
     Vector,
-    argmax,
-    begin_loop,
-    carry,
     matrix_names,
-    mode_values,
-    named,
     noise_matrices,
-    normalize_log_weights,
     product,
-    record,
     reshape,
-    start,
     term,
     upper,
     vector_names,
 )
-from hybridlog.jit import jit_signature
-from hybridlog.model.compiled import (
-    MATRIX_FUNCTION,
-    VECTOR_FUNCTION,
-    ModelFunction,
-)
+from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -95,35 +79,6 @@ class HstfOptions:
     likelihood: Literal["faded", "unfaded"] = option(
         "faded", "S_i of eq. (35) from the faded P_i (the paper) or from λ_i = 1 (a variant)"
     )
-
-
-_F8_1 = types.float64[::1]
-_F8_2 = types.float64[:, ::1]
-_F8_3 = types.float64[:, :, ::1]
-_SIGNATURE = types.void(
-    VECTOR_FUNCTION,
-    MATRIX_FUNCTION,
-    VECTOR_FUNCTION,
-    MATRIX_FUNCTION,
-    _F8_2,
-    _F8_2,
-    _F8_3,
-    _F8_3,
-    _F8_1,
-    _F8_2,
-    _F8_1,
-    types.float64,
-    types.float64,
-    types.float64,
-    types.boolean,
-    types.boolean,
-    types.int64[::1],
-    _F8_2,
-    _F8_2,
-    _F8_2,
-    _F8_2,
-    _F8_3,
-)
 
 
 def _hstf_steps(
@@ -149,7 +104,8 @@ def _hstf_steps(
     variances_out: FloatArray,
     predictions_out: FloatArray,
     covariances_out: FloatArray,
-) -> None:  # compiled as run_hstf
+) -> None:
+    """The generic HSTF time loop (compiled on first use; the docstring of the module)."""
     n_samples = outputs.shape[0]
     n = x0.shape[0]
     m = outputs.shape[1]
@@ -294,12 +250,6 @@ def _hstf_steps(
             covariances_out[k + 1] = P
 
 
-@functools.cache
-def _hstf_loop() -> Callable[..., None]:
-    """The generic loops compiled (once, on first use; numba caches them on disk)."""
-    return jit_signature(_SIGNATURE)(_hstf_steps)
-
-
 def run_hstf(
     model: HybridModel,
     signals: AlignedSignals,
@@ -354,25 +304,23 @@ def generate_hstf_source(model: HybridModel) -> str:
     Q, R = noise_matrices(model)
     uniform = 1.0 / n_q
 
-    start(p)
-    carry(p, x, [f"x0[{a}]" for a in range(n)])
-    carry(p, upper(P), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
-    carry(p, upper(S), ["0.0"] * (m * (m + 1) // 2))
-    carry(p, mu, [f"mu0[{i}]" for i in range(n_q)])
-    p.emit(f"q_hat = {argmax(p, mu)}")  # eq. (40) needs q̂(k): the most probable prior mode
-    record(p, "0", "q_hat", mu, x, P)
-    u, v, y = begin_loop(p, n_u, m)
+    p.prologue()
+    p.carry(x, [f"x0[{a}]" for a in range(n)])
+    p.carry(upper(P), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
+    p.carry(upper(S), ["0.0"] * (m * (m + 1) // 2))
+    p.carry(mu, [f"mu0[{i}]" for i in range(n_q)])
+    p.emit(f"q_hat = {p.argmax(mu)}")  # eq. (40) needs q̂(k): the most probable prior mode
+    p.record("0", "q_hat", mu, x, P)
+    u, v, y = p.open_time_loop(n_u, m)
     x_names = list(x)
-    x_i = [mode_values(p, model, i, "f", x_names, u) for i in range(n_q)]  # (10)
-    F_i = [reshape(mode_values(p, model, i, "F", x_names, u), n, n) for i in range(n_q)]  # (25)
+    x_i = [p.mode_values(model, i, "f", x_names, u) for i in range(n_q)]  # (10)
+    F_i = [reshape(p.mode_values(model, i, "F", x_names, u), n, n) for i in range(n_q)]  # (25)
     x_pred = [
         p.let("xp", [product(uniform, x_i[i][a]) for i in range(n_q)]) for a in range(n)
     ]  # (21)
-    x_pred_names = named(p, "xpn", x_pred)
-    H_i = [
-        reshape(mode_values(p, model, i, "H", x_pred_names, v), m, n) for i in range(n_q)
-    ]  # (12)
-    y_i = [mode_values(p, model, i, "h", named(p, "xin", x_i[i]), v) for i in range(n_q)]
+    x_pred_names = p.named("xpn", x_pred)
+    H_i = [reshape(p.mode_values(model, i, "H", x_pred_names, v), m, n) for i in range(n_q)]  # (12)
+    y_i = [p.mode_values(model, i, "h", p.named("xin", x_i[i]), v) for i in range(n_q)]
     gamma = [[p.difference("g", y[b], y_i[i][b]) for b in range(m)] for i in range(n_q)]  # (31)
     for b in range(m):
         prediction = p.let("yp", [product(uniform, y_i[i][b]) for i in range(n_q)])
@@ -420,18 +368,18 @@ def generate_hstf_source(model: HybridModel) -> str:
         ll = p.gaussian_log_density(f"ll{i}_", gamma[i], Ls)  # (34)
         p.minus_inf_if_nan(ll)
         log_likelihood.append(ll)
-    mu_new = normalize_log_weights(p, log_likelihood, mu)  # (33)
+    mu_new = p.normalized_weights(log_likelihood, mu)  # (33)
     x_new, P_new = p.mixture("cm", mu_new, x_post, P_post)  # (36), (37)
     _, S_new = p.mixture("sm", mu_new, y_i, S_i)  # (38), (39)
-    best = argmax(p, mu_new)  # (40)
+    best = p.argmax(mu_new)  # (40)
     top_mu = p.assign("topmu", f"max({', '.join(term(w) for w in mu_new)})")
     p.emit(f"if {top_mu} >= theta:")
     p.emit(f"    q_hat = {best}")
-    carry(p, x, x_new)
-    carry(p, upper(P), upper(P_new))
-    carry(p, upper(S), upper(S_new))
-    carry(p, mu, mu_new)
-    record(p, "k + 1", "q_hat", mu, x, P)
+    p.carry(x, x_new)
+    p.carry(upper(P), upper(P_new))
+    p.carry(upper(S), upper(S_new))
+    p.carry(mu, mu_new)
+    p.record("k + 1", "q_hat", mu, x, P)
     signature = (
         "def hstf_run(inputs, outputs, x0, P0, mu0, rho, beta, theta, fading, "
         "unfaded_likelihood, modes_out, probabilities_out, means_out, variances_out, "
@@ -440,4 +388,5 @@ def generate_hstf_source(model: HybridModel) -> str:
     return f"{signature}\n{p.source()}\n"
 
 
-CODE = FilterCode(NAME, generate_hstf_source, lambda: _hstf_loop(), _hstf_steps)
+CODE = FilterCode(NAME, _hstf_steps, Accelerator(generate_hstf_source, "hstf_run"))
+"""The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

@@ -24,15 +24,12 @@ The mode estimate is the most probable mode; the one-step-ahead output predictio
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import types
 
-from hybridlog.estimators.common import FilterCode, contiguous, run_filter
+from hybridlog.estimators.common import Accelerator, FilterCode, contiguous, run_filter
 from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
@@ -49,28 +46,15 @@ from hybridlog.estimators.unrolled import (
     Matrix,
     Program,
     Vector,
-    argmax,
-    begin_loop,
-    carry,
     matrix_names,
-    mode_values,
-    named,
     noise_matrices,
-    normalize_log_weights,
     product,
-    record,
     reshape,
-    start,
     term,
     upper,
     vector_names,
 )
-from hybridlog.jit import jit_signature
-from hybridlog.model.compiled import (
-    MATRIX_FUNCTION,
-    VECTOR_FUNCTION,
-    ModelFunction,
-)
+from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -86,31 +70,6 @@ class ImmOptions:
         "diagonal of the Markov matrix (none: the model's [transitions], else 0.95)",
         range=(0.0, 1.0),
     )
-
-
-_F8_1 = types.float64[::1]
-_F8_2 = types.float64[:, ::1]
-_F8_3 = types.float64[:, :, ::1]
-_SIGNATURE = types.void(
-    VECTOR_FUNCTION,
-    MATRIX_FUNCTION,
-    VECTOR_FUNCTION,
-    MATRIX_FUNCTION,
-    _F8_2,
-    _F8_2,
-    _F8_3,
-    _F8_3,
-    _F8_1,
-    _F8_2,
-    _F8_1,
-    _F8_2,
-    types.int64[::1],
-    _F8_2,
-    _F8_2,
-    _F8_2,
-    _F8_2,
-    _F8_3,
-)
 
 
 def _imm_steps(
@@ -132,7 +91,8 @@ def _imm_steps(
     variances_out: FloatArray,
     predictions_out: FloatArray,
     covariances_out: FloatArray,
-) -> None:  # compiled as run_imm
+) -> None:
+    """The generic IMM time loop (compiled on first use; the docstring of the module)."""
     n_samples = outputs.shape[0]
     n = x0.shape[0]
     m = outputs.shape[1]
@@ -242,12 +202,6 @@ def _imm_steps(
         record(k + 1)
 
 
-@functools.cache
-def _imm_loop() -> Callable[..., None]:
-    """The generic loops compiled (once, on first use; numba caches them on disk)."""
-    return jit_signature(_SIGNATURE)(_imm_steps)
-
-
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
     """Markov matrix: ``transition_stay`` when set, else the model's, else 0.95 stay."""
     if options.transition_stay is not None:
@@ -306,14 +260,14 @@ def generate_imm_source(model: HybridModel) -> str:
     T = matrix_names("T", n_q, n_q)
     Q, R = noise_matrices(model)
 
-    start(p)
+    p.prologue()
     for i in range(n_q):
-        carry(p, X[i], [f"x0[{a}]" for a in range(n)])
-        carry(p, upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
+        p.carry(X[i], [f"x0[{a}]" for a in range(n)])
+        p.carry(upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
         p.emit(f"{mu[i]} = mu0[{i}]")
-        carry(p, T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
-    record(p, "0", argmax(p, mu), mu, X[0], P[0])
-    u, v, y = begin_loop(p, n_u, m)
+        p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
+    p.record("0", p.argmax(mu), mu, X[0], P[0])
+    u, v, y = p.open_time_loop(n_u, m)
     # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
     c_bar = [p.let("c", [product(T[i][j], mu[i]) for i in range(n_q)]) for j in range(n_q)]
     x_post: list[Vector] = []
@@ -330,15 +284,15 @@ def generate_imm_source(model: HybridModel) -> str:
             for i in range(n_q)
         ]
         x_mix, P_mix = p.mixture(f"m{j}_", weights, X, P)
-        x_mix_names = named(p, "xm", x_mix)
+        x_mix_names = p.named("xm", x_mix)
         # EKF prediction (mode j).
-        x_pred = mode_values(p, model, j, "f", x_mix_names, u)
-        F = reshape(mode_values(p, model, j, "F", x_mix_names, u), n, n)
+        x_pred = p.mode_values(model, j, "f", x_mix_names, u)
+        F = reshape(p.mode_values(model, j, "F", x_mix_names, u), n, n)
         P_pred = p.congruence(f"pp{j}_", F, P_mix, add=Q[j])
         # EKF update (mode j).
-        x_pred_names = named(p, "xp", x_pred)
-        y_pred = mode_values(p, model, j, "h", x_pred_names, v)
-        H = reshape(mode_values(p, model, j, "H", x_pred_names, v), m, n)
+        x_pred_names = p.named("xp", x_pred)
+        y_pred = p.mode_values(model, j, "h", x_pred_names, v)
+        H = reshape(p.mode_values(model, j, "H", x_pred_names, v), m, n)
         gamma = [p.difference("g", y[b], y_pred[b]) for b in range(m)]
         for b in range(m):
             prediction_parts[b].append(product(c_bar[j], y_pred[b]))
@@ -352,16 +306,16 @@ def generate_imm_source(model: HybridModel) -> str:
         )
         p.minus_inf_if_nan(posterior)
         log_posterior.append(posterior)
-    mu_new = normalize_log_weights(p, log_posterior, c_bar)
+    mu_new = p.normalized_weights(log_posterior, c_bar)
     x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)
     for b in range(m):
         prediction = p.let("yp", prediction_parts[b])
         p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
     for i in range(n_q):
-        carry(p, X[i], x_post[i])
-        carry(p, upper(P[i]), upper(P_post[i]))
-    carry(p, mu, mu_new)
-    record(p, "k + 1", argmax(p, mu), mu, x_combined, P_combined)
+        p.carry(X[i], x_post[i])
+        p.carry(upper(P[i]), upper(P_post[i]))
+    p.carry(mu, mu_new)
+    p.record("k + 1", p.argmax(mu), mu, x_combined, P_combined)
     signature = (
         "def imm_run(inputs, outputs, x0, P0, mu0, transitions, modes_out, probabilities_out, "
         "means_out, variances_out, predictions_out, covariances_out):"
@@ -369,4 +323,5 @@ def generate_imm_source(model: HybridModel) -> str:
     return f"{signature}\n{p.source()}\n"
 
 
-CODE = FilterCode(NAME, generate_imm_source, lambda: _imm_loop(), _imm_steps)
+CODE = FilterCode(NAME, _imm_steps, Accelerator(generate_imm_source, "imm_run"))
+"""The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

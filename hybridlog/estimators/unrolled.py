@@ -6,18 +6,40 @@ matrix product written out (no loops, no array views): about 5x faster than comp
 literal (folded at generation time, so structural zeros of Jacobians and noise covariances
 cost nothing) or the name of a scalar variable of the generated function.
 
-The estimators build their time loops from these pieces (``imm.py``, ``hstf.py``); the
+The estimators build their accelerators from these pieces (``imm.py``, ``hstf.py``); the
 generic compiled kernels (``kernels.py``) compute the same thing and are what the tests
-compare the generated code against.
+compare the generated code against.  The model's own functions are written inline by
+:func:`hybridlog.model.codegen.emit_mode_function` (the one place sympy is printed).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
-from hybridlog.model.codegen import emit_mode_function
-from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
+__all__ = [
+    "MAX_UNROLLED_SIZE",
+    "Entry",
+    "Matrix",
+    "Program",
+    "Vector",
+    "constant_matrix",
+    "fits_unrolled",
+    "matrix_names",
+    "module_source",
+    "noise_matrices",
+    "product",
+    "reshape",
+    "term",
+    "upper",
+    "use_unrolled",
+    "vector_names",
+]
 
 Entry = float | str
 """A literal value or the name of a scalar variable in the generated code."""
@@ -273,9 +295,116 @@ class Program:
                 result[a][b] = result[b][a] = self.let(hint, [product(factor, matrix[a][b])])
         return result
 
+    # -- the frame of a generated time loop ------------------------------------------------
+
+    def prologue(self) -> None:
+        """First lines of every generated loop function."""
+        self.emit("n_samples = outputs.shape[0]")
+        self.emit("store_covariances = covariances_out.shape[0] == n_samples")
+
+    def open_time_loop(self, n_inputs: int, n_outputs: int) -> tuple[Vector, Vector, Vector]:
+        """Open the time loop and load ``u(k)``, ``u(k+1)`` and ``y(k+1)`` into scalars."""
+        u, v, y = (
+            vector_names("u", n_inputs),
+            vector_names("v", n_inputs),
+            vector_names("y", n_outputs),
+        )
+        self.emit("for k in range(n_samples - 1):")
+        self.indent += "    "
+        self.carry(u, [f"inputs[k, {c}]" for c in range(n_inputs)])
+        self.carry(v, [f"inputs[k + 1, {c}]" for c in range(n_inputs)])
+        self.carry(y, [f"outputs[k + 1, {b}]" for b in range(n_outputs)])
+        return u, v, y
+
+    def carry(self, targets: Sequence[Entry], values: Sequence[Entry | str]) -> None:
+        """Assign the new values to the loop-carried variables (``targets`` are names)."""
+        for target, value in zip(targets, values, strict=True):
+            self.emit(f"{term(target)} = {term(value)}")
+
+    def named(self, hint: str, entries: Vector) -> list[str]:
+        """Entries as variable names (literals are bound to variables), for model functions."""
+        return [e if isinstance(e, str) else self.assign(hint, _literal(e)) for e in entries]
+
+    def normalized_weights(self, log_weights: Vector, fallback: Vector) -> Vector:
+        """``exp(w − logsumexp(w))``; ``fallback`` when no weight is finite."""
+        top = self.assign("top", f"max({', '.join(term(w) for w in log_weights)})")
+        out = [self.fresh("mu") for _ in log_weights]
+        exps = [self.fresh("e") for _ in log_weights]
+        inner = "    "
+        self.emit(f"if -math.inf < {top} < math.inf:")
+        for e, w in zip(exps, log_weights, strict=True):
+            self.emit(f"{inner}{e} = math.exp({term(w)} - {top})")
+        total = " + ".join(exps)
+        for name, e in zip(out, exps, strict=True):
+            self.emit(f"{inner}{name} = {e} / ({total})")
+        self.emit("else:")
+        for name, f in zip(out, fallback, strict=True):
+            self.emit(f"{inner}{name} = {term(f)}")
+        return list(out)
+
+    def argmax(self, values: Vector) -> str:
+        """Index of the largest value (the first on ties)."""
+        best = self.fresh("best")
+        top = self.fresh("top")
+        self.emit(f"{best} = 0")
+        self.emit(f"{top} = {term(values[0])}")
+        for index, value in enumerate(values[1:], start=1):
+            self.emit(f"if {term(value)} > {top}:")
+            self.emit(f"    {best} = {index}")
+            self.emit(f"    {top} = {term(value)}")
+        return best
+
+    def record(
+        self, row: str, mode: str, probabilities: Vector, mean: Vector, covariance: Matrix
+    ) -> None:
+        """Write one row of the estimator's output arrays."""
+        self.emit(f"modes_out[{row}] = {mode}")
+        for i, value in enumerate(probabilities):
+            self.emit(f"probabilities_out[{row}, {i}] = {term(value)}")
+        for a, value in enumerate(mean):
+            self.emit(f"means_out[{row}, {a}] = {term(value)}")
+            self.emit(f"variances_out[{row}, {a}] = {term(covariance[a][a])}")
+        self.emit("if store_covariances:")
+        for a in range(len(mean)):
+            for b in range(len(mean)):
+                self.emit(f"    covariances_out[{row}, {a}, {b}] = {term(covariance[a][b])}")
+
+    def mode_values(
+        self,
+        model: HybridModel,
+        mode: int,
+        kind: str,
+        states: Sequence[Entry],
+        inputs: Sequence[Entry],
+    ) -> Vector:
+        """Emit one mode function (``f``, ``F``, ``h``, ``H``) at named states and inputs."""
+        from hybridlog.model.codegen import emit_mode_function
+
+        lines, entries = emit_mode_function(
+            model,
+            mode,
+            kind,
+            [term(x) for x in states],
+            [term(x) for x in inputs],
+            self.fresh(kind),
+            self.indent,
+        )
+        self.lines.extend(lines)
+        return entries
+
     def source(self) -> str:
         """The body as text."""
         return "\n".join(self.lines)
+
+
+def reshape(entries: Sequence[Entry], rows: int, cols: int) -> Matrix:
+    """Row-major entries as a matrix."""
+    return [list(entries[i * cols : (i + 1) * cols]) for i in range(rows)]
+
+
+def upper(matrix: Matrix) -> list[Entry]:
+    """Upper-triangle entries, row by row."""
+    return [matrix[i][j] for i in range(len(matrix)) for j in range(i, len(matrix))]
 
 
 def matrix_names(prefix: str, rows: int, cols: int, *, symmetric: bool = False) -> Matrix:
@@ -307,141 +436,27 @@ def noise_matrices(model: HybridModel) -> tuple[list[Matrix], list[Matrix]]:
     )
 
 
-def start(program: Program) -> None:
-    """First lines of every generated loop function."""
-    program.emit("n_samples = outputs.shape[0]")
-    program.emit("store_covariances = covariances_out.shape[0] == n_samples")
-
-
-def begin_loop(program: Program, n_inputs: int, n_outputs: int) -> tuple[Vector, Vector, Vector]:
-    """Open the time loop and load ``u(k)``, ``u(k+1)`` and ``y(k+1)`` into scalars."""
-    u, v, y = (
-        vector_names("u", n_inputs),
-        vector_names("v", n_inputs),
-        vector_names("y", n_outputs),
-    )
-    program.emit("for k in range(n_samples - 1):")
-    program.indent += "    "
-    carry(program, u, [f"inputs[k, {c}]" for c in range(n_inputs)])
-    carry(program, v, [f"inputs[k + 1, {c}]" for c in range(n_inputs)])
-    carry(program, y, [f"outputs[k + 1, {b}]" for b in range(n_outputs)])
-    return u, v, y
-
-
-def named(program: Program, hint: str, entries: Vector) -> list[str]:
-    """Entries as variable names (literals are bound to variables), for model functions."""
-    return [e if isinstance(e, str) else program.assign(hint, _literal(e)) for e in entries]
-
-
-def reshape(entries: Sequence[Entry], rows: int, cols: int) -> Matrix:
-    """Row-major entries as a matrix."""
-    return [list(entries[i * cols : (i + 1) * cols]) for i in range(rows)]
-
-
-def normalize_log_weights(program: Program, log_weights: Vector, fallback: Vector) -> Vector:
-    """``exp(w − logsumexp(w))``; ``fallback`` when no weight is finite."""
-    top = program.assign("top", f"max({', '.join(term(w) for w in log_weights)})")
-    out = [program.fresh("mu") for _ in log_weights]
-    exps = [program.fresh("e") for _ in log_weights]
-    inner = "    "
-    program.emit(f"if -math.inf < {top} < math.inf:")
-    for e, w in zip(exps, log_weights, strict=True):
-        program.emit(f"{inner}{e} = math.exp({term(w)} - {top})")
-    total = " + ".join(exps)
-    for name, e in zip(out, exps, strict=True):
-        program.emit(f"{inner}{name} = {e} / ({total})")
-    program.emit("else:")
-    for name, f in zip(out, fallback, strict=True):
-        program.emit(f"{inner}{name} = {term(f)}")
-    return list(out)
-
-
-def argmax(program: Program, values: Vector) -> str:
-    """Index of the largest value (the first on ties)."""
-    best = program.fresh("best")
-    top = program.fresh("top")
-    program.emit(f"{best} = 0")
-    program.emit(f"{top} = {term(values[0])}")
-    for index, value in enumerate(values[1:], start=1):
-        program.emit(f"if {term(value)} > {top}:")
-        program.emit(f"    {best} = {index}")
-        program.emit(f"    {top} = {term(value)}")
-    return best
-
-
-def carry(program: Program, targets: Sequence[Entry], values: Sequence[Entry | str]) -> None:
-    """Assign the new values to the loop-carried variables (``targets`` are names)."""
-    for target, value in zip(targets, values, strict=True):
-        program.emit(f"{term(target)} = {term(value)}")
-
-
-def upper(matrix: Matrix) -> list[Entry]:
-    """Upper-triangle entries, row by row."""
-    return [matrix[i][j] for i in range(len(matrix)) for j in range(i, len(matrix))]
-
-
-def record(
-    program: Program,
-    row: str,
-    mode: str,
-    probabilities: Vector,
-    mean: Vector,
-    covariance: Matrix,
-) -> None:
-    """Write one row of the estimator's output arrays."""
-    program.emit(f"modes_out[{row}] = {mode}")
-    for i, value in enumerate(probabilities):
-        program.emit(f"probabilities_out[{row}, {i}] = {term(value)}")
-    for a, value in enumerate(mean):
-        program.emit(f"means_out[{row}, {a}] = {term(value)}")
-        program.emit(f"variances_out[{row}, {a}] = {term(covariance[a][a])}")
-    program.emit("if store_covariances:")
-    for a in range(len(mean)):
-        for b in range(len(mean)):
-            program.emit(f"    covariances_out[{row}, {a}, {b}] = {term(covariance[a][b])}")
-
-
-def mode_values(
-    program: Program,
-    model: HybridModel,
-    mode: int,
-    kind: str,
-    states: Sequence[Entry],
-    inputs: Sequence[Entry],
-) -> Vector:
-    """Emit one mode function (``f``, ``F``, ``h``, ``H``) at named states and inputs."""
-    lines, entries = emit_mode_function(
-        model,
-        mode,
-        kind,
-        [term(x) for x in states],
-        [term(x) for x in inputs],
-        program.fresh(kind),
-        program.indent,
-    )
-    program.lines.extend(lines)
-    return entries
-
-
 MAX_UNROLLED_SIZE = 6
 """Largest state or output dimension given straight-line code: the code grows with the cube
 of the dimension, and beyond this the compiled loops of ``kernels.py`` compile faster."""
 
-KERNELS = ("auto", "unrolled", "loops")
-"""Kernel choices of the filters: ``auto`` takes straight-line code for small models."""
+
+def fits_unrolled(model: HybridModel) -> bool:
+    """Whether straight-line code pays for ``model`` (at most :data:`MAX_UNROLLED_SIZE`)."""
+    return max(model.n_states, model.n_outputs) <= MAX_UNROLLED_SIZE
 
 
 def use_unrolled(model: HybridModel, kernel: str) -> bool:
-    """Whether a filter should run the straight-line kernel for ``model``."""
-    if kernel not in KERNELS:
+    """Whether a filter with straight-line code runs it for ``model`` under ``kernel``."""
+    if kernel not in ("auto", "unrolled", "loops"):
         raise ValueError(f"unknown kernel {kernel!r}")
     if kernel == "auto":
-        return max(model.n_states, model.n_outputs) <= MAX_UNROLLED_SIZE
+        return fits_unrolled(model)
     return kernel == "unrolled"
 
 
 def module_source(model: HybridModel, function_source: str) -> str:
-    """A complete module around one generated function."""
+    """A complete module around one generated function (``math`` and ``LOG_2PI`` in scope)."""
     return (
         f'"""Generated by hybridlog for model {model.name!r}: straight-line filter loop."""\n\n'
         "import math\n\nLOG_2PI = math.log(2.0 * math.pi)\n\n\n"

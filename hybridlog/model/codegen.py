@@ -1,65 +1,64 @@
-"""Symbolic derivatives and straight-line Python source for a model's mode equations.
+"""The one place where sympy expressions become Python source (compiled by numba).
 
-For every mode ``q`` the generated module defines four functions with one shared calling
-convention (the mode index selects the branch, the result is written into ``out``)::
+:func:`model_source` writes a model's module.  For every mode ``q`` it defines four
+functions with one shared calling convention (the mode index selects the branch, the result
+is written into ``out``)::
 
     f(q, x, u, out)   # out[i]    = f_q,i(x, u)           next state   (paper 000, eq. (2))
     F(q, x, u, out)   # out[i, j] = ∂f_q,i/∂x_j            eq. (25)
     h(q, x, u, out)   # out[i]    = h_q,i(x, u)           output
     H(q, x, u, out)   # out[i, j] = ∂h_q,i/∂x_j            eq. (12)
 
-Jacobians are derived with sympy; common subexpressions are shared (``sympy.cse``), so the
-generated code is scalar straight-line code without small-array loops.
+and, when the model has them, ``guard(x, u)`` (index of the first mode whose guard holds,
+or -1) and ``input_<j>(t, k)`` (the ``[simulation.inputs]`` signals, NumPy-vectorised over
+the time grid, as ``sympy.lambdify`` would evaluate them).  :func:`emit_mode_function`
+writes one mode function inline, for the straight-line filter loops of
+:mod:`hybridlog.estimators.unrolled`.
+
+Derivatives come from :mod:`hybridlog.model.derivatives`; common subexpressions are shared
+(``sympy.cse``), so the generated code is scalar straight-line code without small-array
+loops.  Nothing here is run when the compiled-code cache (:mod:`hybridlog.model.compiled`)
+already holds a model's module.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import sympy
+from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.model.derivatives import jacobian
 
-CODEGEN_VERSION = "1"
-"""Bumped whenever the generated code changes, so cached modules are regenerated."""
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
 
 FUNCTION_NAMES = ("f", "F", "h", "H")
+"""The mode functions every model module defines."""
 
 
-class _Printer(PythonCodePrinter):  # type: ignore[misc]
+def _printer() -> PythonCodePrinter:
     """Python printer whose output numba compiles: ``math`` functions, ternaries for Piecewise."""
+    return PythonCodePrinter({"fully_qualified_modules": True, "standard": "python3"})
 
 
-def _heaviside(arg: sympy.Expr, *_: sympy.Expr) -> sympy.Expr:
-    # ∂max(x, 0)/∂x: 1 above zero, 0 at and below (a subgradient choice).
-    return sympy.Piecewise((sympy.S.One, arg > 0), (sympy.S.Zero, True))
-
-
-def _dirac(*_: sympy.Expr) -> sympy.Expr:
-    # ∂sign(x)/∂x away from 0: the point x = 0 itself has measure zero.
-    return sympy.S.Zero
-
-
-def _jacobian(exprs: Sequence[sympy.Expr], xs: Sequence[sympy.Symbol]) -> list[sympy.Expr]:
-    """Row-major entries of ∂exprs/∂xs, with Heaviside and DiracDelta made printable."""
-    return [
-        sympy.diff(e, x).replace(sympy.DiracDelta, _dirac).replace(sympy.Heaviside, _heaviside)
-        for e in exprs
-        for x in xs
-    ]
-
-
-def _body(
-    exprs: Sequence[sympy.Expr],
+def assignments(
+    expressions: Sequence[sympy.Expr],
     targets: Sequence[str],
-    names: dict[sympy.Symbol, str],
-    printer: _Printer,
+    names: Mapping[sympy.Symbol, sympy.Symbol],
     indent: str,
+    temporaries: str = "c_",
 ) -> list[str]:
-    """Lines assigning ``exprs`` to ``targets`` via common subexpressions."""
+    """Lines assigning ``expressions`` to ``targets``, sharing common subexpressions.
+
+    ``names`` renames the model's symbols to the generated code's scalar variables; the
+    shared subexpressions are bound to ``<temporaries>0``, ``<temporaries>1`` ...
+    """
+    printer = _printer()
     replacements, reduced = sympy.cse(
-        list(exprs), symbols=sympy.numbered_symbols("c_"), optimizations="basic"
+        list(expressions), symbols=sympy.numbered_symbols(temporaries), optimizations="basic"
     )
     lines = [
         f"{indent}{sym} = {printer.doprint(value.xreplace(names))}" for sym, value in replacements
@@ -69,48 +68,12 @@ def _body(
     return lines
 
 
-def generate_source(model: HybridModel) -> str:
-    """Python source (without decorators) defining ``f``, ``F``, ``h`` and ``H`` for ``model``."""
-    model.check_supported("the discrete-time mode functions f, F, h, H")
+def _slot_names(model: HybridModel) -> dict[sympy.Symbol, sympy.Symbol]:
+    """The model's states and inputs renamed to ``x_<i>`` and ``u_<i>``."""
     xs, us = model.symbols()
-    # Read the vectors into local scalars named after their slots, so the code is plain math.
-    names: dict[sympy.Symbol, sympy.Symbol] = {}
-    for i, x in enumerate(xs):
-        names[x] = sympy.Symbol(f"x_{i}")
-    for i, u in enumerate(us):
-        names[u] = sympy.Symbol(f"u_{i}")
-    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
-    n_x, n_y = model.n_states, model.n_outputs
-    loads = [f"        x_{i} = x[{i}]" for i in range(n_x)]
-    loads += [f"        u_{i} = u[{i}]" for i in range(model.n_inputs)]
-    vector_targets = {
-        "f": [f"out[{i}]" for i in range(n_x)],
-        "h": [f"out[{i}]" for i in range(n_y)],
-        "F": [f"out[{i}, {j}]" for i in range(n_x) for j in range(n_x)],
-        "H": [f"out[{i}, {j}]" for i in range(n_y) for j in range(n_x)],
-    }
-    lines = [
-        f'"""Generated by hybridlog (codegen {CODEGEN_VERSION}) for model {model.name!r}."""',
-        "import math",
-        "",
-    ]
-    for name in FUNCTION_NAMES:
-        lines += ["", f"def {name}(q, x, u, out):"]
-        for index, mode in enumerate(model.modes):
-            exprs = {
-                "f": list(mode.f),
-                "h": list(mode.h),
-                "F": _jacobian(mode.f, xs),
-                "H": _jacobian(mode.h, xs),
-            }[name]
-            keyword = "if" if index == 0 else "elif"
-            lines.append(f"    {keyword} q == {index}:  # mode {mode.id!r}")
-            body = _body(exprs, vector_targets[name], names, printer, " " * 8)
-            used = "\n".join(body)
-            lines += [line for line in loads if line.split(" = ")[0].strip() in used]
-            lines += body
-        lines.append("    return None")
-    return "\n".join(lines) + "\n"
+    names = {x: sympy.Symbol(f"x_{i}") for i, x in enumerate(xs)}
+    names.update({u: sympy.Symbol(f"u_{i}") for i, u in enumerate(us)})
+    return names
 
 
 def mode_expressions(model: HybridModel, mode_index: int, kind: str) -> list[sympy.Expr]:
@@ -122,10 +85,78 @@ def mode_expressions(model: HybridModel, mode_index: int, kind: str) -> list[sym
     if kind == "h":
         return list(mode.h)
     if kind == "F":
-        return _jacobian(mode.f, xs)
+        return [entry for row in jacobian(mode.f, xs) for entry in row]
     if kind == "H":
-        return _jacobian(mode.h, xs)
+        return [entry for row in jacobian(mode.h, xs) for entry in row]
     raise ValueError(f"unknown mode function {kind!r}")
+
+
+def _mode_functions(model: HybridModel) -> list[str]:
+    names = _slot_names(model)
+    n_x, n_y = model.n_states, model.n_outputs
+    loads = [f"        x_{i} = x[{i}]" for i in range(n_x)]
+    loads += [f"        u_{i} = u[{i}]" for i in range(model.n_inputs)]
+    vector_targets = {
+        "f": [f"out[{i}]" for i in range(n_x)],
+        "h": [f"out[{i}]" for i in range(n_y)],
+        "F": [f"out[{i}, {j}]" for i in range(n_x) for j in range(n_x)],
+        "H": [f"out[{i}, {j}]" for i in range(n_y) for j in range(n_x)],
+    }
+    lines: list[str] = []
+    for name in FUNCTION_NAMES:
+        lines += ["", "", f"def {name}(q, x, u, out):"]
+        for index, mode in enumerate(model.modes):
+            keyword = "if" if index == 0 else "elif"
+            lines.append(f"    {keyword} q == {index}:  # mode {mode.id!r}")
+            exprs = mode_expressions(model, index, name)
+            body = assignments(exprs, vector_targets[name], names, " " * 8)
+            used = "\n".join(body)
+            lines += [line for line in loads if line.split(" = ")[0].strip() in used]
+            lines += body
+        lines.append("    return None")
+    return lines
+
+
+def _guard_function(model: HybridModel) -> list[str]:
+    names = _slot_names(model)
+    printer = _printer()
+    lines = ["", "", "def guard(x, u):"]
+    lines += [f"    x_{i} = x[{i}]" for i in range(model.n_states)]
+    lines += [f"    u_{i} = u[{i}]" for i in range(model.n_inputs)]
+    for index, mode in enumerate(model.modes):
+        if mode.guard is None:
+            continue
+        lines.append(f"    if {printer.doprint(mode.guard.xreplace(names))}:  # mode {mode.id!r}")
+        lines.append(f"        return {index}")
+    lines.append("    return -1")
+    return lines
+
+
+def _input_functions(model: HybridModel) -> list[str]:
+    # The NumPy printer of sympy.lambdify(modules="numpy"): the same calls, the same values.
+    printer = NumPyPrinter({"fully_qualified_modules": True, "inline": True})
+    lines: list[str] = []
+    for index, name in enumerate(model.inputs):
+        if name in model.simulation_inputs:
+            expression = printer.doprint(model.simulation_inputs[name])
+            lines += ["", "", f"def input_{index}(t, k):  # {name}", f"    return {expression}"]
+    return lines
+
+
+def model_source(model: HybridModel) -> str:
+    """Python source (without decorators) of the model's functions, see the module doc."""
+    lines = [
+        f'"""Generated by hybridlog for model {model.name!r}: mode functions."""',
+        "",
+        "import math",
+        "",
+        "import numpy",
+    ]
+    lines += _mode_functions(model)
+    if model.state_driven:
+        lines += _guard_function(model)
+    lines += _input_functions(model)
+    return "\n".join(lines) + "\n"
 
 
 def emit_mode_function(
@@ -147,11 +178,10 @@ def emit_mode_function(
         **{x: sympy.Symbol(s) for x, s in zip(xs, states, strict=True)},
         **{u: sympy.Symbol(s) for u, s in zip(us, inputs, strict=True)},
     }
-    expressions = mode_expressions(model, mode_index, kind)
     entries: list[float | str] = []
     pending: list[sympy.Expr] = []
     targets: list[str] = []
-    for index, expression in enumerate(expressions):
+    for index, expression in enumerate(mode_expressions(model, mode_index, kind)):
         if expression.is_Number:
             entries.append(float(expression))
         else:
@@ -161,13 +191,4 @@ def emit_mode_function(
             targets.append(target)
     if not pending:
         return [], entries
-    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
-    replacements, reduced = sympy.cse(
-        pending, symbols=sympy.numbered_symbols(f"{prefix}c"), optimizations="basic"
-    )
-    lines = [
-        f"{indent}{sym} = {printer.doprint(value.xreplace(names))}" for sym, value in replacements
-    ]
-    for target, value in zip(targets, reduced, strict=True):
-        lines.append(f"{indent}{target} = {printer.doprint(sympy.sympify(value).xreplace(names))}")
-    return lines, entries
+    return assignments(pending, targets, names, indent, temporaries=f"{prefix}c"), entries

@@ -1,70 +1,96 @@
-"""Compiled mode functions: generated source, compiled with numba and cached on disk.
+"""Compiled model code and its on-disk cache, keyed by what shapes the code.
 
-The generated module for a model is written to ``<cache>/models/m_<hash>.py`` where the hash
-covers the model's equations, the code generator and the numba version; numba's own cache
-(``cache=True``) then keeps the machine code beside it, so a second run of the same model
-pays no compilation.  The cache folder is ``$HYBRIDLOG_CACHE_DIR`` or
+Every piece of code generated for a model -- the model's own functions
+(:func:`~hybridlog.model.codegen.model_source`: ``f``, ``F``, ``h``, ``H``, the guards and the
+simulation inputs) and the straight-line filter loops the estimators may add as
+accelerators -- is a Python module written to ``<cache>/models/<kind>_<key>.py`` and
+imported from there, so numba's own cache (``cache=True``) keeps the machine code beside it.
+
+The key is a hash of
+
+* the model's canonical content (:func:`model_key`): every field of the model that a
+  generator reads -- names, the modes' equations (their sympy trees, parameters already
+  substituted), guards, noise covariances, simulation inputs -- but not what the compiled
+  code receives as arguments at run time (prior, Markov matrix, options);
+* the source text of every module that shapes the generated code (the generators
+  themselves, :mod:`hybridlog.model.codegen`, :mod:`hybridlog.model.derivatives` ...);
+* the sympy version (its printers and ``cse`` write the code).
+
+So a change to anything that shapes the code gives a new file, and a stale module is never
+imported; when the file exists it is imported as it is, without running sympy or the
+generator.  The key costs about a millisecond (a walk over the expression trees), not the
+0.1-0.4 s of generating the code.  The cache folder is ``$HYBRIDLOG_CACHE_DIR`` or
 ``$XDG_CACHE_HOME/hybridlog`` (``~/.cache/hybridlog``).
 
-Every function has one of two signatures known to the estimator kernels, so the kernels are
-compiled (and cached) once for all models and receive the model functions as first-class
-function values.
+Importing this module imports neither numba nor sympy; they are imported when code is
+compiled or generated.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import importlib.metadata
 import importlib.util
 import os
 import sys
+import threading
 import time
-from collections.abc import Callable
+import weakref
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numba
-from numba import types
+import numpy as np
 
-from hybridlog.model.codegen import CODEGEN_VERSION, FUNCTION_NAMES, generate_source
-from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray
 
-VECTOR_SIGNATURE = types.void(
-    types.int64, types.float64[::1], types.float64[::1], types.float64[::1]
-)
-"""``f``/``h``: (mode index, x, u, out vector)."""
-MATRIX_SIGNATURE = types.void(
-    types.int64, types.float64[::1], types.float64[::1], types.float64[:, ::1]
-)
-"""``F``/``H``: (mode index, x, u, out matrix)."""
-VECTOR_FUNCTION = types.FunctionType(VECTOR_SIGNATURE)
-MATRIX_FUNCTION = types.FunctionType(MATRIX_SIGNATURE)
-
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
 
 ModelFunction = Callable[[int, FloatArray, FloatArray, FloatArray], None]
 """``(mode index, x, u, out)``: the calling convention of ``f``, ``F``, ``h`` and ``H``."""
+GuardFunction = Callable[[FloatArray, FloatArray], int]
+"""``guard(x, u)``: index of the first mode whose guard holds, or -1."""
+InputFunction = Callable[[FloatArray, FloatArray], Any]
+"""``input(t, k)``: one simulation input over the time grid (an array or a scalar)."""
 
+CODE_MODULES = (
+    "hybridlog.model.codegen",
+    "hybridlog.model.derivatives",
+    "hybridlog.model.hybrid_model",
+)
+"""Modules that shape every generated module (the printer, the derivatives, the symbols)."""
 
-@dataclass(frozen=True)
-class CompiledModel:
-    """The four mode functions of a model (see :mod:`hybridlog.model.codegen`).
+RUNTIME_FIELDS = frozenset(
+    {
+        # Read by no generator: the compiled code receives these as arguments, or never.
+        "source",
+        "origin",
+        "description",
+        "reference",
+        "initial_state",
+        "initial_covariance",
+        "initial_mode_probabilities",
+        "transitions",
+        "signals",
+        "truth",
+        "default_estimator",
+        "estimator_options",
+        "simulation_state",
+        "simulation_schedule",
+        "simulation_state_min",
+    }
+)
+"""Model fields left out of :func:`model_key`; every other field is in it (new ones too).
 
-    ``compile_s`` is the time spent generating and compiling in this process; it is close
-    to zero when the machine code came from the on-disk cache.
-    """
-
-    f: ModelFunction
-    F: ModelFunction
-    h: ModelFunction
-    H: ModelFunction
-    compile_s: float
-    jit: bool
+A generator that starts reading one of these must remove it from this set."""
 
 
 def cache_dir() -> Path:
-    """Folder holding generated model modules and their numba caches."""
+    """Folder holding generated modules and their numba caches."""
     override = os.environ.get("HYBRIDLOG_CACHE_DIR")
     if override:
         return Path(override)
@@ -72,74 +98,313 @@ def cache_dir() -> Path:
     return Path(base) / "hybridlog"
 
 
-_LOADED: dict[str, CompiledModel] = {}
+def _sympy_text(expression: Any) -> str:
+    """The expression tree as text: class names, atoms exactly (like ``sympy.srepr``).
+
+    A sympy tree's arguments are in canonical order once built, so walking them gives the
+    same text in every process; ``srepr`` prints the same content but sorts the terms again
+    for display, which costs 10-30 ms a model where this walk costs well under one.
+    """
+    from sympy.core.singleton import Singleton
+
+    parts: list[str] = []
+
+    def walk(node: Any) -> None:
+        if node.is_Symbol:
+            parts.append(f"Symbol({node.name!r},{sorted(node.assumptions0.items())})")
+        elif node.is_Float:
+            parts.append(f"Float({node._mpf_},{node._prec})")
+        elif node.is_Rational:
+            parts.append(f"Rational({node.p},{node.q})")
+        elif node.args:
+            parts.append(f"{type(node).__name__}(")
+            for argument in node.args:
+                walk(argument)
+            parts.append(")")
+        elif isinstance(type(node), Singleton):  # pi, E, oo, nan, true ...
+            parts.append(type(node).__name__)
+        else:
+            import sympy
+
+            parts.append(sympy.srepr(node))
+
+    walk(expression)
+    return "sympy:" + "".join(parts) + ";"
+
+
+def _feed(digest: Any, value: object) -> None:
+    """Feed a canonical, type-tagged serialisation of ``value`` into ``digest``."""
+    import sympy
+
+    if value is None or isinstance(value, bool | int | float | str):
+        digest.update(f"{type(value).__name__}:{value!r};".encode())
+    elif isinstance(value, np.ndarray):
+        array = np.ascontiguousarray(value)
+        digest.update(f"ndarray:{array.dtype.str}:{array.shape};".encode())
+        digest.update(array.tobytes())
+    elif isinstance(value, sympy.Basic):
+        digest.update(_sympy_text(value).encode())
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        digest.update(f"{type(value).__qualname__}(".encode())
+        for item in dataclasses.fields(value):
+            if item.name not in RUNTIME_FIELDS:
+                digest.update(f"{item.name}=".encode())
+                _feed(digest, getattr(value, item.name))
+        digest.update(b")")
+    elif isinstance(value, Mapping):
+        digest.update(b"{")
+        for name in sorted(value, key=str):
+            _feed(digest, name)
+            _feed(digest, value[name])
+        digest.update(b"}")
+    elif isinstance(value, tuple | list):
+        digest.update(b"[")
+        for item in value:
+            _feed(digest, item)
+        digest.update(b"]")
+    else:
+        # An object without a canonical form could give a different key in every process.
+        raise TypeError(f"model_key cannot serialise a {type(value).__qualname__}")
+
+
+_KEYS: dict[int, tuple[weakref.ref[HybridModel], str]] = {}
+
+
+def model_key(model: HybridModel) -> str:
+    """Hash of the model's canonical content: every field but :data:`RUNTIME_FIELDS`.
+
+    Equal models give equal keys in every process (sympy trees are canonical); any
+    change to an equation, a parameter (substituted into the equations), a noise
+    covariance, a guard, a dimension or a name gives another key.
+    """
+    known = _KEYS.get(id(model))
+    if known is not None and known[0]() is model:
+        return known[1]
+    digest = hashlib.sha256()
+    _feed(digest, model)
+    key = digest.hexdigest()
+    identity = id(model)
+
+    def forget(reference: weakref.ref[HybridModel]) -> None:
+        if _KEYS.get(identity, (None, ""))[0] is reference:
+            del _KEYS[identity]
+
+    _KEYS[identity] = (weakref.ref(model, forget), key)
+    return key
+
+
+_FINGERPRINTS: dict[tuple[str, ...], str] = {}
+
+
+def code_fingerprint(modules: Sequence[str]) -> str:
+    """Hash of what turns a model into code: the source files of ``modules`` and sympy's version.
+
+    The files are found without importing the modules (so without importing sympy).
+    """
+    names = tuple(sorted({*CODE_MODULES, *modules}))
+    known = _FINGERPRINTS.get(names)
+    if known is not None:
+        return known
+    digest = hashlib.sha256(f"sympy {importlib.metadata.version('sympy')};".encode())
+    for name in names:
+        module = sys.modules.get(name)
+        origin = getattr(module, "__file__", None)
+        if origin is None:
+            spec = importlib.util.find_spec(name)
+            origin = spec.origin if spec is not None else None
+        if origin is None:  # pragma: no cover - every listed module is a file of the package
+            raise ImportError(f"no source file for {name}")
+        digest.update(f"{name}:".encode())
+        digest.update(Path(origin).read_bytes())
+    fingerprint = digest.hexdigest()
+    _FINGERPRINTS[names] = fingerprint
+    return fingerprint
+
+
+def artefact_key(model: HybridModel, kind: str, modules: Sequence[str] = ()) -> str:
+    """Key of one generated module: the model's content, the kind and the code that writes it."""
+    text = f"{kind}|{model_key(model)}|{code_fingerprint(modules)}"
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _framed(kind: str, key: str, body: str) -> str:
+    """The module's text: a header naming the key, the body, a trailer with its checksum."""
+    checksum = hashlib.sha256(body.encode()).hexdigest()[:16]
+    return f"# hybridlog generated {kind} {key}\n{body}\n# end {checksum}\n"
+
+
+def _intact(kind: str, key: str, text: str) -> bool:
+    """Whether ``text`` is a whole module written by :func:`_framed` for this key."""
+    header = f"# hybridlog generated {kind} {key}\n"
+    body, sep, _ = text.removeprefix(header).rpartition("\n# end ")
+    return text.startswith(header) and bool(sep) and text == _framed(kind, key, body)
+
+
+def _write_once(path: Path, text: str, replace: bool) -> None:
+    """Write ``text`` to ``path`` atomically; keep a file another process wrote first.
+
+    A module numba has cached machine code for is never rewritten (that would invalidate
+    the cache), unless ``replace`` (the file on disk is damaged).
+    """
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    temporary.write_text(text, encoding="utf-8")
+    try:
+        if replace:
+            temporary.replace(path)
+            return
+        try:
+            os.link(temporary, path)
+        except FileExistsError:
+            pass
+        except OSError:  # a file system without hard links
+            temporary.replace(path)
+            return
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+_MODULES: dict[Path, ModuleType] = {}
+_LOCK = threading.RLock()
+
+
+def load_generated(
+    model: HybridModel, kind: str, generate: Callable[[], str], modules: Sequence[str] = ()
+) -> ModuleType:
+    """Import the generated module ``kind`` of ``model``, generating it only when not cached.
+
+    Parameters
+    ----------
+    model:
+        The model the code is for.
+    kind:
+        What the module holds (``model``, ``hstf``, ...): part of its file name and key.
+    generate:
+        Writes the module's source; called only when the cache has no valid file.
+    modules:
+        Names of the modules whose code shapes the source besides :data:`CODE_MODULES`
+        (the generator's own module, helpers it uses): their text is part of the key.
+    """
+    key = artefact_key(model, kind, modules)
+    path = cache_dir() / "models" / f"{kind}_{key}.py"
+    with _LOCK:
+        if path in _MODULES:
+            return _MODULES[path]
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (FileNotFoundError, UnicodeDecodeError):
+            text = ""
+        if not _intact(kind, key, text):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            _write_once(path, _framed(kind, key, generate()), replace=path.exists())
+        name = f"hybridlog_generated_{kind}_{key}"
+        spec = importlib.util.spec_from_file_location(name, path)
+        if spec is None or spec.loader is None:  # pragma: no cover - the file exists
+            raise ImportError(f"cannot import generated module {path}")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        _MODULES[path] = module
+        return module
+
+
+def model_module(model: HybridModel) -> ModuleType:
+    """The module of the model's own functions (see :mod:`hybridlog.model.codegen`)."""
+
+    def generate() -> str:
+        from hybridlog.model.codegen import model_source
+
+        return model_source(model)
+
+    return load_generated(model, "model", generate)
+
+
+def _model_signatures() -> dict[str, Any]:
+    from numba import types
+
+    vector = types.void(types.int64, types.float64[::1], types.float64[::1], types.float64[::1])
+    matrix = types.void(types.int64, types.float64[::1], types.float64[::1], types.float64[:, ::1])
+    guard = types.int64(types.float64[::1], types.float64[::1])
+    return {"f": vector, "h": vector, "F": matrix, "H": matrix, "guard": guard}
+
+
+@dataclass(frozen=True)
+class CompiledModel:
+    """The four mode functions of a model (see :mod:`hybridlog.model.codegen`).
+
+    Each compiled function has one fixed numba signature, so a kernel that takes them as
+    arguments is compiled once for every model.  ``compile_s`` is the time spent loading,
+    generating and compiling in this process; close to zero when everything was cached.
+    """
+
+    f: ModelFunction
+    F: ModelFunction
+    h: ModelFunction
+    H: ModelFunction
+    compile_s: float
+
+
+_COMPILED: dict[tuple[str, str, bool], Any] = {}
+
+
+def _function(model: HybridModel, name: str, jit: bool) -> Any:
+    """One function of the model's module, compiled with its fixed signature when ``jit``."""
+    memo = (model_key(model), name, jit)
+    with _LOCK:
+        if memo not in _COMPILED:
+            function = getattr(model_module(model), name)
+            if jit:
+                import numba
+
+                from hybridlog.jit import OPTIONS
+
+                signature = _model_signatures()[name]
+                function = numba.njit(signature, **OPTIONS)(function)
+            _COMPILED[memo] = function
+        return _COMPILED[memo]
 
 
 def compile_model(model: HybridModel, *, jit: bool = True) -> CompiledModel:
-    """Return the compiled (``jit=True``) or plain-Python mode functions of ``model``."""
-    source = generate_source(model)
-    memo = hashlib.sha256(f"{CODEGEN_VERSION}|{jit}|{source}".encode()).hexdigest()
-    if memo in _LOADED:
-        return _LOADED[memo]
+    """The compiled (``jit=True``) or plain-Python mode functions of ``model``."""
+    model.check_supported("the discrete-time mode functions f, F, h, H")
     start = time.perf_counter()
-    if jit:
-        module = load_generated(source)
-        functions = [getattr(module, name) for name in FUNCTION_NAMES]
-        signatures = {
-            "f": VECTOR_SIGNATURE,
-            "h": VECTOR_SIGNATURE,
-            "F": MATRIX_SIGNATURE,
-            "H": MATRIX_SIGNATURE,
-        }
-        functions = [
-            numba.njit(signatures[name], cache=True, error_model="numpy")(function)
-            for name, function in zip(FUNCTION_NAMES, functions, strict=True)
-        ]
-    else:
-        namespace: dict[str, Any] = {}
-        exec(compile(source, f"<hybridlog model {model.name}>", "exec"), namespace)
-        functions = [namespace[name] for name in FUNCTION_NAMES]
-    f, F, h, H = functions
-    compiled = CompiledModel(f, F, h, H, compile_s=time.perf_counter() - start, jit=jit)
-    _LOADED[memo] = compiled
-    return compiled
+    f, F, h, H = (_function(model, name, jit) for name in ("f", "F", "h", "H"))
+    return CompiledModel(f, F, h, H, compile_s=time.perf_counter() - start)
 
 
-def load_generated(source: str) -> ModuleType:
-    """Write generated source (once, named by its hash) and import it from that file.
+def compile_guard(model: HybridModel, *, jit: bool = True) -> GuardFunction:
+    """``guard(x, u)`` of a state-driven model, compiled or as plain Python."""
+    if not model.state_driven:
+        raise ValueError(f"{model.name} has no mode guards")
+    guard: GuardFunction = _function(model, "guard", jit)
+    return guard
 
-    Importing from a real file is what lets numba's ``cache=True`` keep the machine code.
-    """
-    key = hashlib.sha256(f"{numba.__version__}|{source}".encode()).hexdigest()[:24]
-    folder = cache_dir() / "models"
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"m_{key}.py"
-    if not path.exists() or path.read_text(encoding="utf-8") != source:
-        temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_text(source, encoding="utf-8")
-        temporary.replace(path)
-    name = f"hybridlog_generated_{key}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:  # pragma: no cover - the file was just written
-        raise ImportError(f"cannot import generated model module {path}")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+
+def input_functions(model: HybridModel) -> dict[str, InputFunction]:
+    """The ``[simulation.inputs]`` signals by input name, NumPy-vectorised ``(t, k)``."""
+    module = model_module(model)
+    return {
+        name: getattr(module, f"input_{index}")
+        for index, name in enumerate(model.inputs)
+        if hasattr(module, f"input_{index}")
+    }
 
 
 def compile_generated(
-    source: str, function: str, arguments: tuple[Any, ...]
+    model: HybridModel,
+    kind: str,
+    generate: Callable[[], str],
+    modules: Sequence[str],
+    function: str,
+    arguments: Sequence[Any],
 ) -> tuple[Callable[..., None], float]:
-    """Compile ``function`` of generated ``source`` for the types of ``arguments``.
+    """``function`` of a generated module, compiled for the types of ``arguments``.
 
-    Returns the compiled function and the seconds spent loading or compiling it (close to
-    zero when numba's on-disk cache already holds it).
+    Returns the compiled function and the seconds spent generating, loading or compiling it
+    (close to zero when the module and its machine code were cached).
     """
+    from hybridlog.jit import compile_for
+
     start = time.perf_counter()
-    module = load_generated(source)
-    signature = types.void(*(numba.typeof(argument) for argument in arguments))  # type: ignore[no-untyped-call]
-    compiled = numba.njit(signature, cache=True, error_model="numpy", nogil=True)(
-        getattr(module, function)
-    )
+    module = load_generated(model, kind, generate, modules)
+    compiled = compile_for(getattr(module, function), arguments)
     return compiled, time.perf_counter() - start

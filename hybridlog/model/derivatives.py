@@ -1,0 +1,90 @@
+r"""Symbolic derivatives of a model's expressions: Jacobians and Lie derivatives.
+
+Every derivative hybridlog compiles is taken here, with sympy, and made printable: the
+derivatives of ``abs``, ``sign``, ``max`` and ``min`` are distributions
+(``Heaviside``, ``DiracDelta``), replaced by the functions a compiled step can evaluate
+(:func:`printable`).
+
+The Lie derivative of an output map :math:`h` along a vector field :math:`f` is
+
+.. math::
+
+    L_f^0 h = h, \qquad L_f^{k} h = \frac{\partial L_f^{k-1} h}{\partial x}\, f ,
+
+the building block of the drift-observability map
+:math:`\Phi = [h, L_f h, \dots, L_f^{n-1} h]` of paper 004, eq. (20) (Germani, Manes, Pepe,
+``papers/004_33eb1488165da6c7.txt``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sympy
+
+
+def _heaviside(arg: sympy.Expr, *_: sympy.Expr) -> sympy.Expr:
+    # ∂max(x, 0)/∂x: 1 above zero, 0 at and below (a subgradient choice).
+    return sympy.Piecewise((sympy.S.One, arg > 0), (sympy.S.Zero, True))
+
+
+def _dirac(*_: sympy.Expr) -> sympy.Expr:
+    # ∂sign(x)/∂x away from 0: the point x = 0 itself has measure zero.
+    return sympy.S.Zero
+
+
+def printable(expression: sympy.Expr) -> sympy.Expr:
+    """``expression`` with ``DiracDelta`` set to 0 and ``Heaviside(x)`` to ``x > 0``."""
+    return expression.replace(sympy.DiracDelta, _dirac).replace(sympy.Heaviside, _heaviside)
+
+
+def jacobian(
+    expressions: Sequence[sympy.Expr], variables: Sequence[sympy.Symbol]
+) -> list[list[sympy.Expr]]:
+    """``J[i][j] = ∂expressions[i]/∂variables[j]`` (``F``, ``H`` of paper 000, eqs. (12), (25)).
+
+    Examples
+    --------
+    >>> x, y = sympy.symbols("x y", real=True)
+    >>> jacobian([x * y, abs(x)], [x, y])
+    [[y, x], [sign(x), 0]]
+    """
+    return [[printable(sympy.diff(e, v)) for v in variables] for e in expressions]
+
+
+def lie_derivative(
+    h: Sequence[sympy.Expr],
+    f: Sequence[sympy.Expr],
+    states: Sequence[sympy.Symbol],
+    order: int = 1,
+) -> list[sympy.Expr]:
+    r"""The ``order``-th Lie derivative :math:`L_f^{order} h` of the map ``h`` along ``f``.
+
+    Parameters
+    ----------
+    h:
+        The map, one expression per component (e.g. a mode's outputs).
+    f:
+        The vector field, one expression per state (``dx`` of a continuous-time mode).
+    states:
+        The state symbols, in the order of ``f``.
+    order:
+        How often to differentiate; 0 returns ``h``.
+
+    Examples
+    --------
+    >>> x1, x2 = sympy.symbols("x1 x2", real=True)
+    >>> lie_derivative([x1], [x2, -x1], [x1, x2], order=2)
+    [-x1]
+    """
+    if len(f) != len(states):
+        raise ValueError(f"the vector field has {len(f)} components for {len(states)} states")
+    if order < 0:
+        raise ValueError(f"order must be non-negative, not {order}")
+    current = list(h)
+    for _ in range(order):
+        current = [
+            sympy.Add(*(d * fi for d, fi in zip(row, f, strict=True)))
+            for row in jacobian(current, states)
+        ]
+    return current
