@@ -10,7 +10,8 @@ Every command that writes goes through this module, in two steps:
    ``--force`` and, for folders, unless hybridlog wrote them (they carry the :data:`MARKER`
    file, or are legacy report folders of ours).
 2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
-   temporary names next to the targets (``.<name>.tmp-<pid>-<hex>``) and rename them into
+   temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
+   rename them into
    place when all of them are complete; a failure removes them and leaves the targets as they
    were.  Temporaries of processes that died (``kill -9``) are removed by the next run writing
    to the same place (:func:`remove_stale_temporaries`).
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import hashlib
 import json
 import os
 import re
@@ -58,7 +60,9 @@ MARKER = ".hybridlog"
 """File hybridlog writes into every output folder it creates: version, command, process."""
 
 _PATH_LIMIT = 240
-_TEMPORARY = re.compile(r"^\..+\.(?:tmp|old)-(?P<pid>\d+)-[0-9a-f]{8}(?:\.[^.]*)?$")
+_TEMPORARY = re.compile(
+    r"^\..+\.hybridlog-(?:tmp|old)-(?P<host>[0-9a-f]{4})-(?P<pid>\d+)-[0-9a-f]{8}(?:\.[^.]*)?$"
+)
 
 
 def _shown(path: PathLike) -> str:
@@ -285,13 +289,23 @@ def check_file_target(target: PathLike, *, force: bool) -> Path:
 # --- temporary names and their clean-up --------------------------------------------------------
 
 
-def temporary_name(target: Path, *, kind: str = "tmp", keep_suffix: bool = False) -> Path:
-    """A fresh hidden name next to ``target`` naming this process: ``.<name>.tmp-<pid>-<hex>``.
+def _host_tag() -> str:
+    """Four hex digits of the host name, recorded in temporary names.
 
-    With ``keep_suffix`` the suffix stays last (``.<stem>.tmp-<pid>-<hex><suffix>``), for
-    writers that choose the format from it (matplotlib).
+    Process ids are only compared on the host (or container) that made a name, so a run on
+    a shared disk never removes the temporaries of a process running elsewhere.
     """
-    tag = f"{kind}-{os.getpid()}-{secrets.token_hex(4)}"
+    return hashlib.sha1(socket.gethostname().encode(), usedforsecurity=False).hexdigest()[:4]
+
+
+def temporary_name(target: Path, *, kind: str = "tmp", keep_suffix: bool = False) -> Path:
+    """A fresh hidden name next to ``target`` naming this process and host.
+
+    ``.<name>.hybridlog-<kind>-<host>-<pid>-<hex>``; with ``keep_suffix`` the suffix stays
+    last (``.<stem>.hybridlog-tmp-<host>-<pid>-<hex><suffix>``), for writers that choose the
+    format from it (matplotlib).
+    """
+    tag = f"hybridlog-{kind}-{_host_tag()}-{os.getpid()}-{secrets.token_hex(4)}"
     if keep_suffix and target.suffix:
         return target.with_name(f".{target.stem}.{tag}{target.suffix}")
     return target.with_name(f".{target.name}.{tag}")
@@ -312,8 +326,8 @@ def _alive(pid: int) -> bool:
 def remove_stale_temporaries(folder: PathLike) -> list[Path]:
     """Remove temporaries that dead hybridlog processes left in ``folder``.
 
-    Only names of the form ``.<name>.tmp-<pid>-<hex>`` (or ``.old-``) whose process no longer
-    runs are touched, and of folders only those that are empty or carry :data:`MARKER`.
+    Only names made by :func:`temporary_name` on this host whose process no longer runs are
+    touched, and of folders only those that are empty or carry :data:`MARKER`.
 
     Returns
     -------
@@ -321,13 +335,14 @@ def remove_stale_temporaries(folder: PathLike) -> list[Path]:
         What was removed.
     """
     removed: list[Path] = []
+    host = _host_tag()
     try:
         entries = list(os.scandir(folder))
     except OSError:
         return removed
     for entry in entries:
         match = _TEMPORARY.match(entry.name)
-        if match is None or _alive(int(match["pid"])):
+        if match is None or match["host"] != host or _alive(int(match["pid"])):
             continue
         path = Path(entry.path)
         with contextlib.suppress(OSError):
@@ -485,7 +500,9 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
     area = temporary_name(path)
     try:
         area.mkdir()
+        write_marker(area)
     except OSError as err:
+        shutil.rmtree(area, ignore_errors=True)
         raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
     try:
         yield area

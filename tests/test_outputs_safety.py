@@ -36,6 +36,7 @@ from hybridlog.outputs import (
     check_dir_target,
     is_ours,
     remove_stale_temporaries,
+    temporary_name,
 )
 from tests.logfiles import scene, tank_run, write_msg_dir, write_ros2_bag
 
@@ -457,28 +458,39 @@ def _dead_pid() -> int:
 
 def test_the_next_run_removes_temporaries_of_dead_processes(tmp_path: Path) -> None:
     dead, alive = _dead_pid(), os.getpid()
-    stale_dir = tmp_path / f".report.tmp-{dead}-0123abcd"
+    host = temporary_name(tmp_path / "x").name.split("-")[2]  # .x.hybridlog-tmp-<host>-…
+    other_host = f"{(int(host, 16) + 1) % 0x10000:04x}"
+
+    def name(base: str, kind: str, pid: int, suffix: str = "", on: str = host) -> Path:
+        return tmp_path / f".{base}.hybridlog-{kind}-{on}-{pid}-0123abcd{suffix}"
+
+    stale_dir = name("report", "tmp", dead)
     stale_dir.mkdir()
     (stale_dir / MARKER).write_text("{}")
     (stale_dir / "report.json").write_text("{")
-    empty_dir = tmp_path / f".other.old-{dead}-89abcdef"
+    empty_dir = name("other", "old", dead)
     empty_dir.mkdir()
-    stale_file = tmp_path / f".log.tmp-{dead}-fedcba98.csv"
+    stale_file = name("log", "tmp", dead, ".csv")
     stale_file.write_text("t,u\n0,")
     kept = [
-        tmp_path / f".busy.tmp-{alive}-0123abcd",  # a live process is still writing it
-        tmp_path / f".notes.tmp-{dead}-0123abcd",  # not a folder hybridlog made
-        tmp_path / f".x.tmp-{dead}-0123",  # not the pattern
+        name("busy", "tmp", alive),  # a live process is still writing it
+        name("notes", "tmp", dead),  # a folder hybridlog did not make (no marker)
+        name(
+            "shared", "tmp", dead, on=other_host
+        ),  # made on another host: its pid means nothing here
+        tmp_path / f".x.tmp-{dead}-0123abcd",  # not hybridlog's pattern
     ]
     for folder in kept:
         folder.mkdir()
         (folder / "file").write_text("x")
+        if folder != kept[1]:
+            (folder / MARKER).write_text("{}")
     with atomic_output_dir(tmp_path / "report") as tmp:
         (tmp / "a.txt").write_text("a")
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["report", *(k.name for k in kept)])
     assert remove_stale_temporaries(tmp_path) == []
     with atomic_files([tmp_path / "t.csv"]) as (temporary,):
         assert temporary.parent == tmp_path and temporary.suffix == ".csv"
-        assert f".tmp-{alive}-" in temporary.name
+        assert f".hybridlog-tmp-{host}-{alive}-" in temporary.name
         temporary.write_text("x\n")
     assert (tmp_path / "t.csv").read_text() == "x\n"
