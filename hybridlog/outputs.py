@@ -356,12 +356,27 @@ def remove_stale_temporaries(folder: PathLike) -> list[Path]:
     return removed
 
 
-def _prepare_parent(target: Path) -> None:
+def _prepare_parent(target: Path) -> list[Path]:
+    """Create the missing parent folders of ``target``; return them, innermost first.
+
+    Also removes temporaries of dead processes from the parent (see
+    :func:`remove_stale_temporaries`).
+    """
+    missing = [p for p in target.parents if not p.exists()]
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
+        _remove_created(missing)
         raise OutputError(f"cannot create folder {_shown(target.parent)}: {err.strerror}") from err
     remove_stale_temporaries(target.parent)
+    return missing
+
+
+def _remove_created(folders: Sequence[Path]) -> None:
+    """Remove folders made for outputs that were never written (deepest first)."""
+    for folder in sorted(folders, key=lambda f: len(f.parts), reverse=True):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
 
 
 # --- publishing --------------------------------------------------------------------------------
@@ -466,19 +481,21 @@ def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path
 
     """
     path = check_dir_target(target, force=force)
-    _prepare_parent(path)
+    created = _prepare_parent(path)
     tmp = temporary_name(path)
     try:
-        tmp.mkdir()
-        write_marker(tmp)
-    except OSError as err:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise OutputError(f"cannot create output directory {_shown(path)}: {err.strerror}") from err
-    try:
+        try:
+            tmp.mkdir()
+            write_marker(tmp)
+        except OSError as err:
+            raise OutputError(
+                f"cannot create output directory {_shown(path)}: {err.strerror}"
+            ) from err
         yield tmp
         publish_dir(tmp, path, force=force)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
+        _remove_created(created)
         raise
 
 
@@ -496,18 +513,20 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
         When the folder cannot be created.
     """
     path = Path(os.path.abspath(target))
-    _prepare_parent(path)
+    created = _prepare_parent(path)
     area = temporary_name(path)
     try:
-        area.mkdir()
-        write_marker(area)
-    except OSError as err:
-        shutil.rmtree(area, ignore_errors=True)
-        raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
-    try:
+        try:
+            area.mkdir()
+            write_marker(area)
+        except OSError as err:
+            raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
         yield area
-    finally:
+    except BaseException:
         shutil.rmtree(area, ignore_errors=True)
+        _remove_created(created)
+        raise
+    shutil.rmtree(area, ignore_errors=True)
 
 
 @contextmanager
@@ -532,16 +551,19 @@ def atomic_files(targets: Sequence[PathLike], *, force: bool = False) -> Iterato
         As :func:`check_file_target`, or when a file cannot be moved into place.
     """
     paths = [check_file_target(target, force=force) for target in targets]
-    for path in paths:
-        _prepare_parent(path)
+    created: list[Path] = []
     temporaries = [temporary_name(path, keep_suffix=True) for path in paths]
     try:
+        for path in paths:
+            created += _prepare_parent(path)
         yield temporaries
         for path in paths:  # all still writable before the first is replaced
             check_file_target(path, force=force)
         for staged, path in zip(temporaries, paths, strict=True):
             publish_file(staged, path, force=force)
-    finally:
+    except BaseException:
         for staged in temporaries:
             with contextlib.suppress(FileNotFoundError):
                 staged.unlink()
+        _remove_created(created)
+        raise

@@ -36,6 +36,7 @@ from hybridlog.outputs import (
     check_dir_target,
     is_ours,
     remove_stale_temporaries,
+    staging_dir,
     temporary_name,
 )
 from tests.logfiles import scene, tank_run, write_msg_dir, write_ros2_bag
@@ -494,3 +495,17 @@ def test_the_next_run_removes_temporaries_of_dead_processes(tmp_path: Path) -> N
         assert f".hybridlog-tmp-{host}-{alive}-" in temporary.name
         temporary.write_text("x\n")
     assert (tmp_path / "t.csv").read_text() == "x\n"
+
+
+def test_a_failed_write_leaves_no_folder_behind(tmp_path: Path) -> None:
+    with pytest.raises(RuntimeError), atomic_output_dir(tmp_path / "a" / "b" / "out") as tmp:
+        (tmp / "report.json").write_text("{")
+        raise RuntimeError("disk on fire")
+    targets = [tmp_path / "c" / "x.json", tmp_path / "c" / "d" / "x.png"]
+    with pytest.raises(RuntimeError), atomic_files(targets) as (first, _):
+        first.write_text("{}")
+        raise RuntimeError("disk on fire")
+    with pytest.raises(RuntimeError), staging_dir(tmp_path / "e" / "bag") as area:
+        (area / "bag").mkdir()
+        raise RuntimeError("disk on fire")
+    assert list(tmp_path.iterdir()) == []
