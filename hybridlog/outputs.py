@@ -341,6 +341,8 @@ def remove_stale_temporaries(folder: PathLike) -> list[Path]:
     except OSError:
         return removed
     for entry in entries:
+        if not entry.name.startswith("."):
+            continue
         match = _TEMPORARY.match(entry.name)
         if match is None or match["host"] != host or _alive(int(match["pid"])):
             continue

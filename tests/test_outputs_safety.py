@@ -38,6 +38,7 @@ from hybridlog.outputs import (
     remove_stale_temporaries,
     staging_dir,
     temporary_name,
+    write_marker,
 )
 from tests.logfiles import scene, tank_run, write_msg_dir, write_ros2_bag
 
@@ -74,6 +75,9 @@ def ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (root / "model_link.json").symlink_to(root / "m" / "tank.toml")
     os.link(root / "p" / "log.csv", root / "hard.json")
     (root / "pic.png").symlink_to(root / "c.json")  # dangling: c.json is an output
+    (root / "broot").mkdir()  # an earlier batch folder whose summary is a hard link of a log
+    write_marker(root / "broot")
+    os.link(root / "p" / "log.csv", root / "broot" / "summary.csv")
     (root / "theirs").mkdir()
     (root / "theirs" / "thesis.tex").write_text("years of work\n")
     (root / "theirs_dir.json").mkdir()
@@ -180,6 +184,11 @@ REFUSED: list[tuple[str, Callable[[Path, bool], object], str]] = [
         "batch --out holds the model file",
         lambda ws, f: run_batch([ws / "bag"], ws / "m/tank.toml", out_dir=ws / "m", force=f),
         "contains the model file",
+    ),
+    (
+        "batch summary is a hard link of a log",
+        lambda ws, f: run_batch([ws / "p/log.csv"], TANK, out_dir=ws / "broot", force=f),
+        "summary.csv is the log",
     ),
     # cluster: --out and --plot
     (
