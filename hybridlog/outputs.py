@@ -29,7 +29,7 @@ import secrets
 import shutil
 import socket
 import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -232,11 +232,14 @@ def _is_nonempty_dir(path: Path) -> bool:
         return any(True for _ in entries)
 
 
-def check_dir_target(target: PathLike, *, force: bool) -> Path:
+def check_dir_target(
+    target: PathLike, *, force: bool, ours: Callable[[Path], bool] | None = None
+) -> Path:
     """Check that an output folder may be created or replaced; return its absolute path.
 
     A missing or empty folder is fine.  A non-empty one is replaced only with ``force`` and
-    only when hybridlog wrote it (:func:`is_ours`): a user's own folder is never wiped.
+    only when hybridlog wrote it (:func:`is_ours`, or the test ``ours`` of a writer whose
+    folders record it another way): a user's own folder is never wiped.
 
     Raises
     ------
@@ -261,7 +264,7 @@ def check_dir_target(target: PathLike, *, force: bool) -> Path:
         raise OutputError(
             f"output directory {_shown(path)} is not empty; use --force to replace it"
         )
-    if not is_ours(path):
+    if not (is_ours(path) or (ours is not None and ours(path))):
         raise OutputError(
             f"output directory {_shown(path)} holds files hybridlog did not write (no "
             f"{MARKER} file), so --force will not delete it; choose another output "
@@ -416,7 +419,9 @@ def publish_file(staged: Path, target: Path, *, force: bool) -> None:
         raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
 
 
-def publish_dir(staged: Path, target: Path, *, force: bool) -> None:
+def publish_dir(
+    staged: Path, target: Path, *, force: bool, ours: Callable[[Path], bool] | None = None
+) -> None:
     """Move the finished folder ``staged`` to ``target``, replacing an old one of ours.
 
     The old folder is renamed aside first and deleted only once the new one is in place.
@@ -424,10 +429,11 @@ def publish_dir(staged: Path, target: Path, *, force: bool) -> None:
     Raises
     ------
     OutputError
-        As :func:`check_dir_target` (checked again: the target may have appeared meanwhile),
+        As :func:`check_dir_target` with ``ours`` (checked again: the target may have appeared
+    meanwhile),
         or when a rename fails.
     """
-    check_dir_target(target, force=force)
+    check_dir_target(target, force=force, ours=ours)
     try:
         if not target.exists():
             os.rename(staged, target)

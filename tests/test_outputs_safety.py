@@ -25,7 +25,7 @@ from hybridlog.cli import main
 from hybridlog.cluster import discovery
 from hybridlog.cluster.discovery import discover_modes
 from hybridlog.errors import OptionError, OutputError
-from hybridlog.io.bag_writers import check_log_target, write_log
+from hybridlog.io.bag_writers import check_log_target, write_log, written_by_hybridlog
 from hybridlog.io.writers import write_table
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs import (
@@ -360,14 +360,17 @@ def test_simulate_replaces_its_own_bag_folder_only(tmp_path: Path) -> None:
     bag = tmp_path / "bag"
     columns = tank_run(steps=20).columns
     write_log(bag, columns, format="ros2-sqlite3")
-    assert (bag / MARKER).is_file() and (bag / "bag.db3").is_file()
+    # The bag records its writer in metadata.yaml: no foreign file inside a ROS 2 bag.
+    assert sorted(p.name for p in bag.iterdir()) == ["bag.db3", "metadata.yaml"]
+    assert written_by_hybridlog(bag)
     with pytest.raises(OutputError, match="not empty"):
         write_log(bag, columns, format="ros2-sqlite3")
     write_log(bag, columns, format="ros2-mcap", force=True)
-    assert sorted(p.name for p in bag.iterdir()) == [MARKER, "bag.mcap", "metadata.yaml"]
-    write_ros2_bag(tmp_path / "recorded", scene(tank_run(steps=20)), "sqlite3")
+    assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
+    recorded = write_ros2_bag(tmp_path / "recorded", scene(tank_run(steps=20)), "sqlite3")
+    assert not written_by_hybridlog(recorded)
     with pytest.raises(OutputError, match="did not write"):
-        write_log(tmp_path / "recorded", columns, format="ros2-sqlite3", force=True)
+        write_log(recorded, columns, format="ros2-sqlite3", force=True)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 

@@ -19,14 +19,16 @@ seconds of the table), so the message paths ``/u.data``, ``/y1.data``, ``/truth/
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
 ``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
 ``ros1``, ``ros1msg`` schemas) on request.  Files appear complete or not at all: they are
-written under a temporary name and renamed (:mod:`hybridlog.outputs`); a ROS 2 bag folder
-carries hybridlog's marker file, so ``--force`` may replace it later.
+written under a temporary name and renamed (:mod:`hybridlog.outputs`); a ROS 2 bag records
+in its ``custom_data`` that hybridlog wrote it (:data:`BAG_WRITER`), so ``--force`` may
+replace it later.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import struct
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -47,7 +49,6 @@ from hybridlog.outputs import (
     check_file_target,
     publish_dir,
     staging_dir,
-    write_marker,
 )
 
 #: ``--format`` values; the first four also follow from the suffix.
@@ -152,7 +153,7 @@ def check_log_target(
             raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
     check_apart([("--out", path)], inputs)
     if chosen.startswith("ros2-"):
-        check_dir_target(path, force=force)
+        check_dir_target(path, force=force, ours=written_by_hybridlog)
     else:
         check_file_target(path, force=force)
     return chosen
@@ -217,12 +218,34 @@ def write_log(
         with staging_dir(target) as area:
             staged = area / target.name  # rosbag2 names its storage file after the folder
             _written(target, lambda: writer(staged, topics, columns, time_ns))
-            write_marker(staged)
-            publish_dir(staged, Path(os.path.abspath(target)), force=force)
+            publish_dir(
+                staged, Path(os.path.abspath(target)), force=force, ours=written_by_hybridlog
+            )
     else:
         with atomic_files([target], force=force) as (staged,):
             _written(target, lambda: writer(staged, topics, columns, time_ns))
     return target
+
+
+#: ``custom_data`` entry of the ``metadata.yaml`` of every ROS 2 bag ``simulate`` writes: a
+#: bag folder carries no file of hybridlog's own, so ``--force`` knows it by this.
+BAG_WRITER = ("written_by", "hybridlog")
+
+
+def written_by_hybridlog(folder: Path) -> bool:
+    """Whether ``folder`` is a ROS 2 bag that hybridlog wrote (see :data:`BAG_WRITER`).
+
+    A conservative check of the text rosbags' writer puts in ``metadata.yaml`` (the entry
+    right under ``custom_data:``); any other layout counts as someone else's bag.
+    """
+    key, value = BAG_WRITER
+    try:
+        text = (folder / "metadata.yaml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return (
+        re.search(rf"^  custom_data:\n(    \w+: .*\n)*    {key}: {value}$", text, re.M) is not None
+    )
 
 
 def _written(target: Path, write: Callable[[], None]) -> None:
@@ -346,6 +369,7 @@ def _ros2_writer(
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
         store = _typestore(ros1=False)
         with Writer(path, version=Writer.VERSION_LATEST, storage_plugin=plugin) as writer:
+            writer.set_custom_data(*BAG_WRITER)
             connections = [
                 writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics
             ]
