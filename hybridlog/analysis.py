@@ -21,9 +21,10 @@ from hybridlog.estimators.options import closest
 from hybridlog.io import ReadSettings, load_signals
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
+from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
 from hybridlog.report.gates import Gate
-from hybridlog.report.output_dir import atomic_output_dir, check_target
+from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
 
 
@@ -122,6 +123,28 @@ def prepare_estimators(
     ]
 
 
+def input_paths(
+    logs: Sequence[PathLike],
+    model_ref: PathLike,
+    prepared: Sequence[Prepared],
+    read: ReadOptions,
+) -> list[tuple[str, PathLike]]:
+    """Every file and folder a run reads, named for error messages: no output may touch them.
+
+    The logs, the model file (unless a built-in name), a centres file (the ``centers``
+    option, from ``--set`` or the model file) and every ``--msg-dir``.
+    """
+    paths: list[tuple[str, PathLike]] = [("log", log) for log in logs]
+    if os.path.exists(model_ref):
+        paths.append(("model file", model_ref))
+    for estimator in prepared:
+        centers = getattr(estimator.options, "centers", None)
+        if centers:
+            paths.append(("centres file", centers))
+    paths += [("--msg-dir folder", folder) for folder in read.msg_dirs]
+    return paths
+
+
 def read_log(
     log: str | Path,
     model: HybridModel,
@@ -191,10 +214,13 @@ def analyze(
     (prepared,) = prepare_estimators(model, [estimator], overrides)
     estimator = prepared.name
     out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
-    check_target(out_dir, force)
+    read = read or ReadOptions()
+    check_apart([("--out", out_dir)], input_paths([log], model_ref, [prepared], read))
+    check_dir_target(out_dir, force=force)
+    check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
     reading: dict[str, Any] = {}
-    signals = read_log(log, model, read or ReadOptions(), reading)
+    signals = read_log(log, model, read, reading)
     result = prepared.run(model, signals)
     report = write_report(
         out_dir,
@@ -270,12 +296,15 @@ def compare(
         raise OptionError("--estimators: name at least one estimator")
     if len(set(estimators)) != len(estimators):
         raise OptionError("--estimators: an estimator is named twice")
-    check_target(Path(out_dir), force)
     model, overrides = parse_sets(sets, model_ref)
     prepared = prepare_estimators(model, estimators, overrides, given_by="--estimators")
+    read = read or ReadOptions()
+    check_apart([("--out", out_dir)], input_paths([log], model_ref, prepared, read))
+    check_dir_target(out_dir, force=force)
+    check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
     reading: dict[str, Any] = {}
-    signals = read_log(log, model, read or ReadOptions(), reading)
+    signals = read_log(log, model, read, reading)
     results = {p.name: p.run(model, signals) for p in prepared}
     reports: dict[str, dict[str, Any]] = {}
     with atomic_output_dir(out_dir, force=force) as folder:

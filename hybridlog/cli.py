@@ -23,8 +23,7 @@ from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError
 from hybridlog.estimators.chiu import ChiuOptions
 from hybridlog.io import ReadSettings
-from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, write_log
-from hybridlog.io.bag_writers import log_format as log_format_of
+from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, check_log_target, write_log
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
@@ -143,7 +142,10 @@ def _analysis_options(function: F) -> F:
             "not define. Repeatable.",
         ),
         click.option(
-            "--force", is_flag=True, help="Replace an existing, non-empty output directory."
+            "--force",
+            is_flag=True,
+            help="Replace an output directory hybridlog wrote before (never a folder holding "
+            "other files, never an input).",
         ),
     ]
     for decorator in reversed(decorators):
@@ -260,7 +262,11 @@ def models(name: str | None) -> None:
     help="Number of steps [default: the schedule's total].",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Noise seed.")
-@click.option("--force", is_flag=True, help="Replace an existing file.")
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).",
+)
 @click.pass_context
 def simulate(
     ctx: click.Context,
@@ -279,7 +285,9 @@ def simulate(
     true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
     """
     model = load_model(model_ref)
-    log_format_of(out, log_format)  # a bad suffix fails before the simulation runs
+    inputs = [("model file", model_ref)] if Path(model_ref).exists() else []
+    # Every check of the output runs before the simulation.
+    check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
     log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
     write_log(
         out,
@@ -288,6 +296,7 @@ def simulate(
         format=log_format,
         encoding=encoding,
         force=force,
+        inputs=inputs,
     )
     _say(ctx, f"wrote {out} ({log.time.shape[0]} samples)")
 
@@ -352,7 +361,9 @@ def simulate(
     metavar="SYMBOL=PATH",
     help="Map a model input, output or truth symbol to a log field. Repeatable.",
 )
-@click.option("--force", is_flag=True, help="Replace existing output files.")
+@click.option(
+    "--force", is_flag=True, help="Replace existing output files (never the log or the model)."
+)
 @click.pass_context
 def cluster_command(
     ctx: click.Context,

@@ -346,69 +346,6 @@ def test_compare_writes_side_by_side_table(tank_log, tmp_path):
         assert table.filter(pl.col("estimator") == name)["vaf"][0] == pytest.approx(report["vaf"])
 
 
-def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
-    logs = []
-    for seed in (1, 2):
-        path = tmp_path / f"run{seed}.csv"
-        run(["simulate", "three_tank_hstf", "--out", str(path), "--seed", str(seed)])
-        logs.append(str(path))
-    broken = tmp_path / "broken.csv"
-    broken.write_text("t,u,y1\n0,1,2\n")
-    out = tmp_path / "batch"
-    args = [
-        "batch",
-        *logs,
-        str(broken),
-        "--model",
-        "three_tank_hstf",
-        "--estimator",
-        "imm",
-        "--out",
-        str(out),
-    ]
-    result = run(args, expect=2)
-    assert "1 of 3 logs failed" in result.stderr
-    summary = pl.read_csv(out / "summary.csv")
-    assert summary["status"].to_list() == ["done", "done", "failed"]
-    assert "y2" in summary["error"][2]
-    stamp = (out / "run1" / "report.json").stat().st_mtime_ns
-    result = run(args, expect=2)
-    assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["skipped", "skipped", "failed"]
-    assert (out / "run1" / "report.json").stat().st_mtime_ns == stamp
-    run(
-        [
-            "batch",
-            *logs,
-            "--model",
-            "three_tank_hstf",
-            "--estimator",
-            "imm",
-            "--out",
-            str(out),
-            "--force",
-            "--jobs",
-            "2",
-        ]
-    )
-    assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["done", "done"]
-    assert (out / "run1" / "report.json").stat().st_mtime_ns != stamp
-
-
-def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
-    log = tmp_path / "run.csv"
-    run(["simulate", "three_tank_hstf", "--out", str(log), "--seed", "4"])
-    out = tmp_path / "batch"
-    run(["batch", str(log), "--model", "three_tank_hstf", "--estimator", "imm", "--out", str(out)])
-    before = (out / "run" / "report.json").read_bytes()
-    result = run(
-        ["batch", str(log), "--model", "three_tank_hstf", "--estimator", "hstf", "--out", str(out)],
-        expect=2,
-    )
-    assert "1 of 1 logs failed" in result.stderr
-    assert "holds a report of imm" in pl.read_csv(out / "summary.csv")["error"][0]
-    assert (out / "run" / "report.json").read_bytes() == before
-
-
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [

@@ -361,10 +361,12 @@ def test_existing_nonempty_dir_is_refused_and_untouched(tmp_path: Path) -> None:
 
 
 def test_force_replaces_an_existing_dir(tmp_path: Path) -> None:
+    # --force replaces only a folder hybridlog wrote (SPEC §9); a user's own folder is
+    # refused (tests/test_outputs_safety.py).
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "old.txt").write_text("old")
     result, signals = make_run(n=20)
+    write_report(out, result, signals, log="l", model_name="m", dt=DT)
+    (out / "old.txt").write_text("old")
     write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
     assert not (out / "old.txt").exists()
     assert (out / "report.json").is_file()
@@ -385,19 +387,20 @@ def test_failure_while_writing_leaves_nothing_behind(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, existing: bool
 ) -> None:
     out = tmp_path / "out"
-    if existing:
-        out.mkdir()
+    result, signals = make_run(n=20)
+    if existing:  # an earlier report (--force replaces only what hybridlog wrote)
+        write_report(out, result, signals, log="l", model_name="m", dt=DT)
         (out / "keep.txt").write_text("mine")
+        before = snapshot(out)
 
     def broken(*args: object) -> list[Path]:
         raise RuntimeError("disk on fire")
 
     monkeypatch.setattr(writer_module, "write_plots", broken)
-    result, signals = make_run(n=20)
     with pytest.raises(RuntimeError, match="disk on fire"):
         write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
     if existing:
-        assert snapshot(out) == {"keep.txt": b"mine"}
+        assert snapshot(out) == before
         assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     else:
         assert list(tmp_path.iterdir()) == []

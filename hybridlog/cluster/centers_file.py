@@ -36,9 +36,18 @@ from typing import Any
 import numpy as np
 
 from hybridlog.errors import OptionError, OutputError
+from hybridlog.outputs import atomic_files
 from hybridlog.signals import FloatArray
 
-__all__ = ["FORMAT", "VERSION", "CentersFile", "StoredClusters", "read_centers", "write_centers"]
+__all__ = [
+    "FORMAT",
+    "VERSION",
+    "CentersFile",
+    "StoredClusters",
+    "centers_json",
+    "read_centers",
+    "write_centers",
+]
 
 FORMAT = "hybridlog-centers"
 VERSION = 1
@@ -78,6 +87,12 @@ class CentersFile:
     clusters: dict[str, StoredClusters]
 
 
+def centers_json(content: Mapping[str, Any]) -> str:
+    """The text of a ``centers.json`` holding ``content`` (``format`` and ``version`` added)."""
+    payload = {"format": FORMAT, "version": VERSION, **content}
+    return json.dumps(_plain(payload), indent=2, allow_nan=False) + "\n"
+
+
 def write_centers(path: str | os.PathLike[str], content: Mapping[str, Any], *, force: bool) -> Path:
     """Write ``content`` (with ``format`` and ``version`` added) as JSON, atomically.
 
@@ -86,21 +101,13 @@ def write_centers(path: str | os.PathLike[str], content: Mapping[str, Any], *, f
     OutputError
         When ``path`` exists and ``force`` is false, or it cannot be written.
     """
-    target = Path(path)
-    if target.exists() and not force:
-        raise OutputError(f"{target}: already exists (use --force to replace it)")
-    payload = {"format": FORMAT, "version": VERSION, **content}
-    text = json.dumps(_plain(payload), indent=2, allow_nan=False) + "\n"
-    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    try:
-        if target.parent != Path(""):
-            target.parent.mkdir(parents=True, exist_ok=True)
-        temporary.write_text(text, encoding="utf-8")
-        temporary.replace(target)
-    except OSError as err:
-        temporary.unlink(missing_ok=True)
-        raise OutputError(f"{target}: cannot write: {err}") from err
-    return target
+    text = centers_json(content)
+    with atomic_files([path], force=force) as (temporary,):
+        try:
+            temporary.write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise OutputError(f"{path}: cannot write: {err.strerror}") from err
+    return Path(path)
 
 
 def _plain(value: Any) -> Any:

@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 
 from hybridlog.analysis import ReadOptions, markdown_table, read_log
-from hybridlog.cluster.centers_file import write_centers
+from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.plot import plot_clusters
 from hybridlog.cluster.regressors import regression_vectors
-from hybridlog.errors import ModelError, OutputError
+from hybridlog.errors import ModelError, OptionError, OutputError
 from hybridlog.estimators.chiu import (
     ChiuOptions,
     ModeClassifier,
@@ -29,9 +29,19 @@ from hybridlog.estimators.chiu import (
 from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
+from hybridlog.outputs import (
+    PathLike,
+    atomic_files,
+    check_apart,
+    check_distinct,
+    check_file_target,
+)
 from hybridlog.signals import AlignedSignals
 
-__all__ = ["ClusterOutcome", "discover_modes"]
+__all__ = ["PLOT_SUFFIXES", "ClusterOutcome", "check_cluster_outputs", "discover_modes"]
+
+#: Picture formats of ``--plot`` (written by matplotlib's Agg canvas, no external tools).
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
 @dataclass(frozen=True)
@@ -93,6 +103,50 @@ def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
     return rows
 
 
+def check_cluster_outputs(
+    log: PathLike,
+    model_ref: PathLike,
+    *,
+    out: PathLike,
+    plot: PathLike | None,
+    force: bool,
+) -> tuple[Path, Path]:
+    """Check both outputs of ``hybridlog cluster`` before anything is read or written.
+
+    Returns
+    -------
+    tuple of pathlib.Path
+        The centres file and the picture (``out`` with ``.png`` when ``plot`` is ``None``).
+
+    Raises
+    ------
+    OptionError
+        For a centres file not named ``*.json`` or a picture not named as one of
+        :data:`PLOT_SUFFIXES`.
+    OutputError
+        When an output is, contains or sits inside the log or the model file, both name the
+        same file, or one exists without ``force`` (see :mod:`hybridlog.outputs`).
+    """
+    target = Path(out)
+    picture = target.with_suffix(".png") if plot is None else Path(plot)
+    if target.suffix.lower() != ".json":
+        raise OptionError(f"--out {target}: the centres file is JSON; name it *.json")
+    if picture.suffix.lower() not in PLOT_SUFFIXES:
+        raise OptionError(
+            f"--plot {picture}: cannot draw a {picture.suffix or 'suffix-less'} file; "
+            f"name it *{', *'.join(PLOT_SUFFIXES)}"
+        )
+    outputs = [("--out", target), ("--plot", picture)]
+    check_distinct(outputs)
+    inputs: list[tuple[str, PathLike]] = [("log", log)]
+    if os.path.exists(model_ref):
+        inputs.append(("model file", model_ref))
+    check_apart(outputs, inputs)
+    for path in (target, picture):
+        check_file_target(path, force=force)
+    return target, picture
+
+
 def discover_modes(
     log: str | os.PathLike[str],
     model_ref: str | os.PathLike[str],
@@ -126,11 +180,7 @@ def discover_modes(
     force:
         Replace existing output files.
     """
-    target = Path(out)
-    picture = target.with_suffix(".png") if plot is None else Path(plot)
-    for path in (target, picture):
-        if path.exists() and not force:
-            raise OutputError(f"{path}: already exists (use --force to replace it)")
+    target, picture = check_cluster_outputs(log, model_ref, out=out, plot=plot, force=force)
     chiu = chiu or ChiuOptions()
     model = load_model(os.fspath(model_ref))
     signals = read_log(os.fspath(log), model, ReadOptions(maps=maps))
@@ -182,7 +232,6 @@ def discover_modes(
             "parameters": {"clusters": len(baseline.centers)},
             **_entry(baseline, model),
         }
-    write_centers(target, content, force=force)
     phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
     lag = fitted.spec.max_lag
     clusters = fitted.decide(signals.outputs)[lag:]
@@ -200,18 +249,23 @@ def discover_modes(
         if signals.truth_modes is None
         else [model.mode_ids[q] for q in signals.truth_modes[lag:]]
     )
-    plot_clusters(
-        picture,
-        time=signals.time[lag:],
-        phi=phi,
-        names=fitted.regressors,
-        clusters=clusters,
-        centers=fitted.centers,
-        cluster_labels=labels,
-        decision_values=fitted.decision_values[:, 0],
-        kmeans_centers=None if baseline is None else baseline.centers,
-        truth=truth,
-    )
+    with atomic_files([target, picture], force=force) as (centers_file, picture_file):
+        try:
+            centers_file.write_text(centers_json(content), encoding="utf-8")
+            plot_clusters(
+                picture_file,
+                time=signals.time[lag:],
+                phi=phi,
+                names=fitted.regressors,
+                clusters=clusters,
+                centers=fitted.centers,
+                cluster_labels=labels,
+                decision_values=fitted.decision_values[:, 0],
+                kmeans_centers=None if baseline is None else baseline.centers,
+                truth=truth,
+            )
+        except OSError as err:
+            raise OutputError(f"cannot write {target} and {picture}: {err.strerror}") from err
     rows = _rows(fitted, model) + ([] if baseline is None else _rows(baseline, model))
     table = markdown_table(
         (

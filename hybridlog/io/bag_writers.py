@@ -19,16 +19,17 @@ seconds of the table), so the message paths ``/u.data``, ``/y1.data``, ``/truth/
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
 ``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
 ``ros1``, ``ros1msg`` schemas) on request.  Files appear complete or not at all: they are
-written under a temporary name and renamed.
+written under a temporary name and renamed (:mod:`hybridlog.outputs`); a ROS 2 bag records
+in its ``custom_data`` that hybridlog wrote it (:data:`BAG_WRITER`), so ``--force`` may
+replace it later.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
+import re
 import struct
-import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,15 @@ from hybridlog import __version__
 from hybridlog.errors import OptionError, OutputError
 from hybridlog.io.source import seconds_to_ns
 from hybridlog.io.writers import TABLE_FORMATS, Column, write_table
+from hybridlog.outputs import (
+    PathLike,
+    atomic_files,
+    check_apart,
+    check_dir_target,
+    check_file_target,
+    publish_dir,
+    staging_dir,
+)
 
 #: ``--format`` values; the first four also follow from the suffix.
 LOG_FORMATS: tuple[str, ...] = ("csv", "parquet", "mcap", "bag", "ros2-sqlite3", "ros2-mcap")
@@ -102,14 +112,62 @@ def log_topics(columns: Mapping[str, Column], truth: Sequence[str] = ()) -> list
     return out
 
 
+def check_log_target(
+    path: PathLike,
+    *,
+    format: str | None = None,
+    encoding: str = "cdr",
+    force: bool = False,
+    inputs: Sequence[tuple[str, PathLike]] = (),
+) -> str:
+    """Check everything about a log to write before it is simulated; return its format.
+
+    Parameters
+    ----------
+    path, format, encoding, force:
+        As for :func:`write_log`.
+    inputs:
+        ``(what, path)`` pairs the log must not replace, contain or sit inside (the model
+        file of ``simulate``).
+
+    Raises
+    ------
+    OptionError
+        For an unknown format or encoding, an encoding given for a format without one, or a
+        table log whose suffix is not its format's.
+    OutputError
+        When the target is, contains or sits inside an input; exists without ``force``; is
+        a folder where a file is written (or the reverse); or is a folder hybridlog did not
+        write (see :mod:`hybridlog.outputs`).
+    """
+    chosen = log_format(path, format)
+    if encoding not in MCAP_ENCODINGS:
+        raise OptionError(
+            f"--encoding: unknown {encoding!r}; choose one of {', '.join(MCAP_ENCODINGS)}"
+        )
+    if encoding != "cdr" and chosen != "mcap":
+        raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
+    if chosen in ("csv", "parquet"):
+        suffix = Path(path).suffix.lower()
+        if f".{chosen}" != suffix or suffix not in TABLE_FORMATS:
+            raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
+    check_apart([("--out", path)], inputs)
+    if chosen.startswith("ros2-"):
+        check_dir_target(path, force=force, ours=written_by_hybridlog)
+    else:
+        check_file_target(path, force=force)
+    return chosen
+
+
 def write_log(
-    path: str | os.PathLike[str],
+    path: PathLike,
     columns: Mapping[str, Column],
     *,
     truth: Sequence[str] = (),
     format: str | None = None,
     encoding: str = "cdr",
     force: bool = False,
+    inputs: Sequence[tuple[str, PathLike]] = (),
 ) -> Path:
     """Write a log in any format hybridlog reads.
 
@@ -127,7 +185,9 @@ def write_log(
     encoding:
         MCAP message encoding: ``cdr`` (default), ``json`` or ``ros1``.
     force:
-        Replace an existing file or folder.
+        Replace an existing file, or a ROS 2 bag folder hybridlog wrote.
+    inputs:
+        ``(what, path)`` pairs the log must not touch (see :func:`check_log_target`).
 
     Returns
     -------
@@ -136,22 +196,11 @@ def write_log(
 
     Raises
     ------
-    OptionError
-        For an unknown format or encoding, or an encoding given for a format without one.
-    OutputError
-        When the target exists and ``force`` is false, or it cannot be written.
+    OptionError, OutputError
+        As :func:`check_log_target`; ``OutputError`` also when the log cannot be written.
     """
-    chosen = log_format(path, format)
-    if encoding not in MCAP_ENCODINGS:
-        raise OptionError(
-            f"--encoding: unknown {encoding!r}; choose one of {', '.join(MCAP_ENCODINGS)}"
-        )
-    if encoding != "cdr" and chosen != "mcap":
-        raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
+    chosen = check_log_target(path, format=format, encoding=encoding, force=force, inputs=inputs)
     if chosen in ("csv", "parquet"):
-        target = Path(path)
-        if f".{chosen}" != target.suffix.lower() or target.suffix.lower() not in TABLE_FORMATS:
-            raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
         return write_table(path, columns, force=force)
     if "t" not in columns:
         raise ValueError("columns: a time column 't' is needed")
@@ -164,41 +213,51 @@ def write_log(
         writer = _write_ros1_bag
     else:
         writer = _ros2_writer(chosen.removeprefix("ros2-"))
-    return _atomic(
-        Path(path), force, lambda target: writer(target, topics, columns, time_ns), chosen
+    target = Path(path)
+    if chosen.startswith("ros2-"):
+        with staging_dir(target) as area:
+            staged = area / target.name  # rosbag2 names its storage file after the folder
+            _written(target, lambda: writer(staged, topics, columns, time_ns))
+            publish_dir(
+                staged, Path(os.path.abspath(target)), force=force, ours=written_by_hybridlog
+            )
+    else:
+        with atomic_files([target], force=force) as (staged,):
+            _written(target, lambda: writer(staged, topics, columns, time_ns))
+    return target
+
+
+#: ``custom_data`` entry of the ``metadata.yaml`` of every ROS 2 bag ``simulate`` writes: a
+#: bag folder carries no file of hybridlog's own, so ``--force`` knows it by this.
+BAG_WRITER = ("written_by", "hybridlog")
+
+
+def written_by_hybridlog(folder: Path) -> bool:
+    """Whether ``folder`` is a ROS 2 bag that hybridlog wrote (see :data:`BAG_WRITER`).
+
+    A conservative check of the text rosbags' writer puts in ``metadata.yaml`` (the entry
+    right under ``custom_data:``); any other layout counts as someone else's bag.
+    """
+    key, value = BAG_WRITER
+    try:
+        text = (folder / "metadata.yaml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return (
+        re.search(rf"^  custom_data:\n(    \w+: .*\n)*    {key}: {value}$", text, re.M) is not None
     )
 
 
-def _atomic(target: Path, force: bool, write: Callable[[Path], None], chosen: str) -> Path:
-    """Write into a fresh temporary folder next to ``target``, then rename into place."""
-    if target.exists() and not force:
-        raise OutputError(f"{target}: already exists (use --force to replace it)")
+def _written(target: Path, write: Callable[[], None]) -> None:
+    """Run ``write``, turning what the writers raise on a failed write into ``OutputError``."""
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        folder = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}."))
-    except OSError as err:
-        raise OutputError(f"{target}: cannot be written ({err.strerror})") from err
-    staged = folder / target.name
-    try:
-        try:
-            write(staged)
-        except (OSError, ValueError) as err:
-            raise OutputError(f"{target}: cannot be written ({err})") from err
-        except Exception as err:  # the bag writers raise their own WriterError classes
-            if type(err).__name__ != "WriterError":
-                raise
-            raise OutputError(f"{target}: cannot be written ({err})") from err
-        if target.exists():
-            if not force:
-                raise OutputError(f"{target}: already exists (use --force to replace it)")
-            if target.is_dir() and not target.is_symlink():
-                shutil.rmtree(target)
-            else:
-                target.unlink()
-        os.replace(staged, target)
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
-    return target
+        write()
+    except (OSError, ValueError) as err:
+        raise OutputError(f"{target}: cannot be written ({err})") from err
+    except Exception as err:  # the bag writers raise their own WriterError classes
+        if type(err).__name__ != "WriterError":
+            raise
+        raise OutputError(f"{target}: cannot be written ({err})") from err
 
 
 def _rows(
@@ -310,6 +369,7 @@ def _ros2_writer(
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
         store = _typestore(ros1=False)
         with Writer(path, version=Writer.VERSION_LATEST, storage_plugin=plugin) as writer:
+            writer.set_custom_data(*BAG_WRITER)
             connections = [
                 writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics
             ]

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -13,6 +11,7 @@ import numpy as np
 import polars as pl
 
 from hybridlog.errors import OptionError, OutputError
+from hybridlog.outputs import atomic_files
 
 TABLE_FORMATS = (".csv", ".parquet")
 
@@ -28,9 +27,10 @@ def write_table(
 ) -> Path:
     """Write named columns to a ``.csv`` or ``.parquet`` file, atomically.
 
-    The table is written to a temporary file in the same directory and renamed into place,
-    so a failure leaves either the old file or nothing -- never half a table.  Floats are
-    written in the shortest form that reads back to the same double.
+    The table is written to a temporary file in the same directory and renamed into place
+    (:func:`hybridlog.outputs.atomic_files`), so a failure leaves either the old file or
+    nothing -- never half a table.  Floats are written in the shortest form that reads back
+    to the same double.
 
     Parameters
     ----------
@@ -63,50 +63,16 @@ def write_table(
             f"{path}: unsupported table format {target.suffix or '(none)'!r}; "
             f"supported: {', '.join(TABLE_FORMATS)}"
         )
-    if target.exists() and not force:
-        raise OutputError(f"{path}: already exists (use --force to replace it)")
     frame = _frame(columns)
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        handle, temp_name = tempfile.mkstemp(
-            dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"
-        )
-        os.close(handle)
-        # mkstemp makes the file private (0600); a log should get the usual permissions.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temp_name, 0o666 & ~umask)
-    except OSError as err:
-        raise OutputError(f"{path}: cannot be written ({err.strerror})") from err
-    temp = Path(temp_name)
-    try:
-        if suffix == ".csv":
-            frame.write_csv(temp)
-        else:
-            frame.write_parquet(temp)
-        _publish(temp, target, force=force)
-    except (OSError, pl.exceptions.PolarsError) as err:
-        raise OutputError(f"{path}: cannot be written ({err})") from err
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            temp.unlink()
+    with atomic_files([target], force=force) as (temporary,):
+        try:
+            if suffix == ".csv":
+                frame.write_csv(temporary)
+            else:
+                frame.write_parquet(temporary)
+        except (OSError, pl.exceptions.PolarsError) as err:
+            raise OutputError(f"{path}: cannot be written ({err})") from err
     return target
-
-
-def _publish(temp: Path, target: Path, *, force: bool) -> None:
-    """Move the finished ``temp`` to ``target``, never clobbering it unless ``force``."""
-    if force:
-        os.replace(temp, target)
-        return
-    try:
-        # A hard link fails if ``target`` appeared meanwhile, unlike a rename.
-        os.link(temp, target)
-    except FileExistsError as err:
-        raise OutputError(f"{target}: already exists (use --force to replace it)") from err
-    except OSError:
-        if target.exists():
-            raise OutputError(f"{target}: already exists (use --force to replace it)") from None
-        os.replace(temp, target)
 
 
 def _frame(columns: Mapping[str, Column]) -> pl.DataFrame:

@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.outputs import atomic_output_dir
 from hybridlog.report.document import build_report, render_markdown, report_json
-from hybridlog.report.output_dir import atomic_output_dir
 from hybridlog.report.plots import write_plots
 from hybridlog.report.tables import (
     check_table_format,
@@ -39,7 +39,7 @@ def write_report(
     Writes ``report.json``, ``report.md``, ``timeline.<fmt>``, ``estimates.<fmt>`` and
     ``plots/{outputs,modes,states}.png`` into a temporary directory and renames it to
     ``out_dir`` only when all of them are complete (see
-    :func:`hybridlog.report.output_dir.atomic_output_dir`).
+    :func:`hybridlog.outputs.atomic_output_dir`).
 
     Parameters
     ----------

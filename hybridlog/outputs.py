@@ -1,0 +1,577 @@
+"""Output paths that never cost the user a byte (SPEC §9).
+
+Every command that writes goes through this module, in two steps:
+
+1. **Check everything first.**  :func:`check_apart` refuses an output path that is, contains or
+   sits inside any input (log, model file, centres file, ``--msg-dir``), with or without
+   ``--force``; paths are compared after resolving symbolic links, ``..`` and relative parts,
+   and by device and inode, so hard links and bind mounts are caught too.
+   :func:`check_dir_target` and :func:`check_file_target` refuse existing targets unless
+   ``--force`` and, for folders, unless hybridlog wrote them (they carry the :data:`MARKER`
+   file, or are legacy report folders of ours).
+2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
+   temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
+   rename them into
+   place when all of them are complete; a failure removes them and leaves the targets as they
+   were.  Temporaries of processes that died (``kill -9``) are removed by the next run writing
+   to the same place (:func:`remove_stale_temporaries`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import hashlib
+import json
+import os
+import re
+import secrets
+import shutil
+import socket
+import sys
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+from hybridlog import __version__
+from hybridlog.errors import OutputError, excerpt
+
+__all__ = [
+    "MARKER",
+    "PathLike",
+    "atomic_files",
+    "atomic_output_dir",
+    "check_apart",
+    "check_dir_target",
+    "check_distinct",
+    "check_file_target",
+    "is_ours",
+    "publish_dir",
+    "publish_file",
+    "remove_stale_temporaries",
+    "staging_dir",
+    "temporary_name",
+    "write_marker",
+]
+
+PathLike = str | os.PathLike[str]
+
+MARKER = ".hybridlog"
+"""File hybridlog writes into every output folder it creates: version, command, process."""
+
+_PATH_LIMIT = 240
+_TEMPORARY = re.compile(
+    r"^\..+\.hybridlog-(?:tmp|old)-(?P<host>[0-9a-f]{4})-(?P<pid>\d+)-[0-9a-f]{8}(?:\.[^.]*)?$"
+)
+
+
+def _shown(path: PathLike) -> str:
+    """A path for an error message: escaped if it holds control characters, cut if huge."""
+    return excerpt(os.fspath(path), _PATH_LIMIT)[1:-1]
+
+
+# --- outputs are never inputs ------------------------------------------------------------------
+
+
+def _identity(path: str) -> tuple[int, int] | None:
+    try:
+        status = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return status.st_dev, status.st_ino
+
+
+def _lineage(path: str) -> list[str]:
+    """``path`` and its parent folders, innermost first (``path`` is absolute and resolved)."""
+    chain = [path]
+    while (parent := os.path.dirname(chain[-1])) != chain[-1]:
+        chain.append(parent)
+    return chain
+
+
+class _Input:
+    """An input path, resolved, with the identities of it and its parent folders."""
+
+    def __init__(self, what: str, path: PathLike) -> None:
+        self.what = what
+        self.path = path
+        self.resolved = os.path.realpath(path)
+        self.identity = _identity(self.resolved)
+        self.parents = (
+            [] if self.identity is None else [_identity(p) for p in _lineage(self.resolved)[1:]]
+        )
+
+
+def _relation(output: str, lineage: Sequence[tuple[int, int] | None], given: _Input) -> str | None:
+    """How resolved ``output`` overlaps ``given``: ``is``, ``contains``, ``is inside`` or none.
+
+    ``lineage`` holds the identities (device, inode) of ``output`` and its parent folders,
+    which catch other names of the same file or folder: hard links, bind mounts,
+    case-insensitive disks.
+    """
+    if output == given.resolved:
+        return "is"
+    if given.resolved.startswith(output.rstrip(os.sep) + os.sep):
+        return "contains"
+    if output.startswith(given.resolved.rstrip(os.sep) + os.sep):
+        return "is inside"
+    if given.identity is None:
+        return None
+    if lineage[0] == given.identity:
+        return "is"
+    if given.identity in lineage[1:]:
+        return "is inside"
+    if lineage[0] is not None and lineage[0] in given.parents:
+        return "contains"
+    return None
+
+
+def check_apart(
+    outputs: Iterable[tuple[str, PathLike]], inputs: Iterable[tuple[str, PathLike]]
+) -> None:
+    """Refuse any output that is, contains or sits inside any input.
+
+    Holds with or without ``--force``: replacing an output folder must never delete a log, a
+    model file, a centres file or a message-definition folder.
+
+    Parameters
+    ----------
+    outputs:
+        ``(what, path)`` pairs, e.g. ``("--out", "report")``; ``what`` names the option.
+    inputs:
+        ``(what, path)`` pairs, e.g. ``("log", "p/log.csv")``.  Paths that do not exist are
+        compared by name only.
+
+    Raises
+    ------
+    OutputError
+        Naming both paths, for the first overlap found.
+    """
+    given = [_Input(what, path) for what, path in inputs]
+    for option, output in outputs:
+        resolved = os.path.realpath(output)
+        lineage = [_identity(p) for p in _lineage(resolved)]
+        for item in given:
+            relation = _relation(resolved, lineage, item)
+            if relation is not None:
+                raise OutputError(
+                    f"{option} {_shown(output)} {relation} the {item.what} "
+                    f"{_shown(item.path)}; choose an output path outside every input"
+                )
+
+
+def check_distinct(outputs: Sequence[tuple[str, PathLike]]) -> None:
+    """Refuse two outputs of one command that name the same path.
+
+    Raises
+    ------
+    OutputError
+        Naming both options and the path.
+    """
+    seen: dict[str, str] = {}
+    for option, path in outputs:
+        resolved = os.path.realpath(path)
+        if resolved in seen:
+            raise OutputError(f"{seen[resolved]} and {option} both name {_shown(path)}")
+        seen[resolved] = option
+
+
+# --- what hybridlog wrote ----------------------------------------------------------------------
+
+
+def write_marker(folder: Path) -> None:
+    """Write :data:`MARKER` into ``folder``: this folder is hybridlog's to replace."""
+    record = {
+        "written_by": "hybridlog",
+        "version": __version__,
+        "command": [Path(sys.argv[0]).name, *sys.argv[1:]] if sys.argv else [],
+        "pid": os.getpid(),
+        "host": socket.gethostname(),
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }
+    (folder / MARKER).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
+def _starts_with(path: Path, start: str) -> bool:
+    try:
+        with path.open(encoding="utf-8") as handle:
+            return handle.read(len(start)) == start
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def _legacy(folder: Path) -> bool:
+    """A report, comparison or batch folder written before hybridlog wrote markers."""
+    report = folder / "report.json"
+    if report.is_file():
+        try:
+            data = json.loads(report.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return False
+        return isinstance(data, dict) and "hybridlog_version" in data
+    return (
+        _starts_with(folder / "comparison.md", "# ")
+        and _starts_with(folder / "comparison.csv", "estimator,")
+    ) or (
+        _starts_with(folder / "summary.md", "# Batch: ")
+        and _starts_with(folder / "summary.csv", "log,status,")
+    )
+
+
+def is_ours(folder: PathLike) -> bool:
+    """Whether hybridlog wrote ``folder``: it holds :data:`MARKER`, or is a legacy report."""
+    path = Path(folder)
+    return (path / MARKER).is_file() or _legacy(path)
+
+
+# --- checks of existing targets ----------------------------------------------------------------
+
+
+def _is_nonempty_dir(path: Path) -> bool:
+    with os.scandir(path) as entries:
+        return any(True for _ in entries)
+
+
+def check_dir_target(
+    target: PathLike, *, force: bool, ours: Callable[[Path], bool] | None = None
+) -> Path:
+    """Check that an output folder may be created or replaced; return its absolute path.
+
+    A missing or empty folder is fine.  A non-empty one is replaced only with ``force`` and
+    only when hybridlog wrote it (:func:`is_ours`, or the test ``ours`` of a writer whose
+    folders record it another way): a user's own folder is never wiped.
+
+    Raises
+    ------
+    OutputError
+        When the target exists and is not a folder (or is a symbolic link), is not empty
+        (without ``force``), or holds files hybridlog did not write.
+    """
+    path = Path(os.path.abspath(target))
+    if path.parent == path:
+        raise OutputError(f"output directory {_shown(target)} cannot be replaced")
+    if not (path.exists() or path.is_symlink()):
+        return path
+    if not path.is_dir() or path.is_symlink():
+        raise OutputError(f"output path {_shown(path)} exists and is not a directory")
+    try:
+        nonempty = _is_nonempty_dir(path)
+    except OSError as err:
+        raise OutputError(f"output directory {_shown(path)}: {err.strerror}") from err
+    if not nonempty:
+        return path
+    if not force:
+        raise OutputError(
+            f"output directory {_shown(path)} is not empty; use --force to replace it"
+        )
+    if not (is_ours(path) or (ours is not None and ours(path))):
+        raise OutputError(
+            f"output directory {_shown(path)} holds files hybridlog did not write (no "
+            f"{MARKER} file), so --force will not delete it; choose another output "
+            "directory or remove this one yourself"
+        )
+    return path
+
+
+def check_file_target(target: PathLike, *, force: bool) -> Path:
+    """Check that an output file may be created, or replaced with ``force``.
+
+    Raises
+    ------
+    OutputError
+        When the target is a folder, or exists and ``force`` is false.
+    """
+    path = Path(os.path.abspath(target))
+    if path.is_dir():
+        raise OutputError(f"{_shown(target)}: is a directory; name a file to write")
+    if (path.exists() or path.is_symlink()) and not force:
+        raise OutputError(f"{_shown(target)}: already exists (use --force to replace it)")
+    return path
+
+
+# --- temporary names and their clean-up --------------------------------------------------------
+
+
+def _host_tag() -> str:
+    """Four hex digits of the host name, recorded in temporary names.
+
+    Process ids are only compared on the host (or container) that made a name, so a run on
+    a shared disk never removes the temporaries of a process running elsewhere.
+    """
+    return hashlib.sha1(socket.gethostname().encode(), usedforsecurity=False).hexdigest()[:4]
+
+
+def temporary_name(target: Path, *, kind: str = "tmp", keep_suffix: bool = False) -> Path:
+    """A fresh hidden name next to ``target`` naming this process and host.
+
+    ``.<name>.hybridlog-<kind>-<host>-<pid>-<hex>``; with ``keep_suffix`` the suffix stays
+    last (``.<stem>.hybridlog-tmp-<host>-<pid>-<hex><suffix>``), for writers that choose the
+    format from it (matplotlib).
+    """
+    tag = f"hybridlog-{kind}-{_host_tag()}-{os.getpid()}-{secrets.token_hex(4)}"
+    if keep_suffix and target.suffix:
+        return target.with_name(f".{target.stem}.{tag}{target.suffix}")
+    return target.with_name(f".{target.name}.{tag}")
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # someone else's process (or an absurd number): leave its files alone
+    return True
+
+
+def remove_stale_temporaries(folder: PathLike) -> list[Path]:
+    """Remove temporaries that dead hybridlog processes left in ``folder``.
+
+    Only names made by :func:`temporary_name` on this host whose process no longer runs are
+    touched, and of folders only those that are empty or carry :data:`MARKER`.
+
+    Returns
+    -------
+    list of pathlib.Path
+        What was removed.
+    """
+    removed: list[Path] = []
+    host = _host_tag()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        if not entry.name.startswith("."):
+            continue
+        match = _TEMPORARY.match(entry.name)
+        if match is None or match["host"] != host or _alive(int(match["pid"])):
+            continue
+        path = Path(entry.path)
+        with contextlib.suppress(OSError):
+            if entry.is_dir(follow_symlinks=False):
+                if (path / MARKER).is_file() or not _is_nonempty_dir(path):
+                    shutil.rmtree(path)
+                    removed.append(path)
+            else:
+                path.unlink()
+                removed.append(path)
+    return removed
+
+
+def _prepare_parent(target: Path) -> list[Path]:
+    """Create the missing parent folders of ``target``; return them, innermost first.
+
+    Also removes temporaries of dead processes from the parent (see
+    :func:`remove_stale_temporaries`).
+    """
+    missing = [p for p in target.parents if not p.exists()]
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        _remove_created(missing)
+        raise OutputError(f"cannot create folder {_shown(target.parent)}: {err.strerror}") from err
+    remove_stale_temporaries(target.parent)
+    return missing
+
+
+def _remove_created(folders: Sequence[Path]) -> None:
+    """Remove folders made for outputs that were never written (deepest first)."""
+    for folder in sorted(folders, key=lambda f: len(f.parts), reverse=True):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
+# --- publishing --------------------------------------------------------------------------------
+
+
+def publish_file(staged: Path, target: Path, *, force: bool) -> None:
+    """Move the finished ``staged`` file to ``target``; never clobber it unless ``force``.
+
+    Raises
+    ------
+    OutputError
+        When ``target`` appeared meanwhile (without ``force``), is a folder, or the move fails.
+    """
+    check_file_target(target, force=force)
+    try:
+        if force:
+            os.replace(staged, target)
+            return
+        try:
+            # A hard link fails if ``target`` appeared meanwhile, unlike a rename.
+            os.link(staged, target)
+        except FileExistsError:
+            raise OutputError(
+                f"{_shown(target)}: already exists (use --force to replace it)"
+            ) from None
+        except OSError:
+            if target.exists():
+                raise OutputError(
+                    f"{_shown(target)}: already exists (use --force to replace it)"
+                ) from None
+            os.replace(staged, target)
+        else:
+            staged.unlink()
+    except OSError as err:
+        raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
+
+
+def publish_dir(
+    staged: Path, target: Path, *, force: bool, ours: Callable[[Path], bool] | None = None
+) -> None:
+    """Move the finished folder ``staged`` to ``target``, replacing an old one of ours.
+
+    The old folder is renamed aside first and deleted only once the new one is in place.
+
+    Raises
+    ------
+    OutputError
+        As :func:`check_dir_target` with ``ours`` (checked again: the target may have appeared
+    meanwhile),
+        or when a rename fails.
+    """
+    check_dir_target(target, force=force, ours=ours)
+    try:
+        if not target.exists():
+            os.rename(staged, target)
+            return
+        if not _is_nonempty_dir(target):
+            os.rmdir(target)
+            os.rename(staged, target)
+            return
+        backup = temporary_name(target, kind="old")
+        os.rename(target, backup)
+        try:
+            os.rename(staged, target)
+        except BaseException:
+            os.rename(backup, target)
+            raise
+        shutil.rmtree(backup, ignore_errors=True)
+    except OSError as err:
+        raise OutputError(f"cannot move outputs into {_shown(target)}: {err.strerror}") from err
+
+
+@contextmanager
+def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path]:
+    """Write an output directory atomically, marked as hybridlog's.
+
+    Yields a fresh temporary directory next to ``target`` that already holds :data:`MARKER`;
+    when the ``with`` block finishes without an exception it is renamed to ``target``.  An
+    existing empty ``target`` is replaced; a non-empty one only with ``force`` and only if
+    hybridlog wrote it (see :func:`check_dir_target`), and then only after the new folder is
+    complete.  On any exception (including one from the rename) the temporary directory is
+    removed and ``target`` is left untouched.
+
+    Parameters
+    ----------
+    target:
+        The output directory to create or replace.  Missing parents are created.
+    force:
+        Replace a non-empty existing directory of hybridlog's.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary directory to write into.
+
+    Raises
+    ------
+    OutputError
+        As :func:`check_dir_target`, or when the folder cannot be created or renamed.
+
+    Examples
+    --------
+    >>> with atomic_output_dir("out") as tmp:  # doctest: +SKIP
+    ...     (tmp / "report.json").write_text("{}")
+
+    """
+    path = check_dir_target(target, force=force)
+    created = _prepare_parent(path)
+    tmp = temporary_name(path)
+    try:
+        try:
+            tmp.mkdir()
+            write_marker(tmp)
+        except OSError as err:
+            raise OutputError(
+                f"cannot create output directory {_shown(path)}: {err.strerror}"
+            ) from err
+        yield tmp
+        publish_dir(tmp, path, force=force)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        _remove_created(created)
+        raise
+
+
+@contextmanager
+def staging_dir(target: PathLike) -> Iterator[Path]:
+    """A temporary folder next to ``target`` (same filesystem), always removed afterwards.
+
+    For writers that must create their output under its final name themselves (a ROS 2 bag
+    names its storage file after its folder): write ``staging / target.name``, then
+    :func:`publish_file` or :func:`publish_dir` it.
+
+    Raises
+    ------
+    OutputError
+        When the folder cannot be created.
+    """
+    path = Path(os.path.abspath(target))
+    created = _prepare_parent(path)
+    area = temporary_name(path)
+    try:
+        try:
+            area.mkdir()
+            write_marker(area)
+        except OSError as err:
+            raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
+        yield area
+    except BaseException:
+        shutil.rmtree(area, ignore_errors=True)
+        _remove_created(created)
+        raise
+    shutil.rmtree(area, ignore_errors=True)
+
+
+@contextmanager
+def atomic_files(targets: Sequence[PathLike], *, force: bool = False) -> Iterator[list[Path]]:
+    """Write several output files so that they appear only when all were written.
+
+    Yields one temporary path per target (next to it, same suffix, not yet created); when the
+    ``with`` block finishes without an exception each is moved onto its target.  On any
+    exception the temporaries are removed and the targets are left as they were.
+
+    Parameters
+    ----------
+    targets:
+        Output files; existing ones are replaced only with ``force``.  Missing parent folders
+        are created.
+    force:
+        Replace existing files.
+
+    Raises
+    ------
+    OutputError
+        As :func:`check_file_target`, or when a file cannot be moved into place.
+    """
+    paths = [check_file_target(target, force=force) for target in targets]
+    created: list[Path] = []
+    temporaries = [temporary_name(path, keep_suffix=True) for path in paths]
+    try:
+        for path in paths:
+            created += _prepare_parent(path)
+        yield temporaries
+        for path in paths:  # all still writable before the first is replaced
+            check_file_target(path, force=force)
+        for staged, path in zip(temporaries, paths, strict=True):
+            publish_file(staged, path, force=force)
+    except BaseException:
+        for staged in temporaries:
+            with contextlib.suppress(FileNotFoundError):
+                staged.unlink()
+        _remove_created(created)
+        raise

@@ -1,0 +1,176 @@
+"""Worker processes that fail only their own task when they die, and die with their parent.
+
+:mod:`concurrent.futures` cannot tell which task killed a worker (a killed worker breaks the
+whole pool and every pending task), and its workers outlive a parent killed with ``kill -9``
+(they finish their task, then hang on the task queue).  Here each worker has its own pipe,
+so the task it was busy with is known when it dies, and a daemon thread in each worker exits
+the process as soon as its parent is gone.  The thread starts before the task function's
+module is imported (the function is sent with the first task), so a worker exits promptly
+even while it is still starting.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from multiprocessing.context import SpawnContext, SpawnProcess
+from typing import Any, TypeVar
+
+__all__ = ["PARENT_POLL_S", "run_tasks"]
+
+R = TypeVar("R")
+
+PARENT_POLL_S = 0.2
+"""How often a worker checks that its parent still runs (seconds)."""
+
+
+def _watch_parent(parent: int) -> None:
+    """Exit this process as soon as ``parent`` is gone (``kill -9`` runs no clean-up).
+
+    The process has then been re-parented, so ``os.getppid()`` changed.  Its temporary
+    outputs are left to the next run (:func:`hybridlog.outputs.remove_stale_temporaries`).
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="hybridlog-parent-watch", daemon=True).start()
+
+
+def _serve(connection: Connection, parent: int) -> None:
+    """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``)."""
+    _watch_parent(parent)
+    while True:
+        try:
+            task = connection.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        function, arguments = task
+        result = function(*arguments)
+        try:
+            connection.send(result)
+        except (OSError, ValueError):
+            return
+
+
+@dataclass
+class _Worker:
+    process: SpawnProcess
+    connection: Connection
+    task: int | None = None
+
+
+def _start(context: SpawnContext) -> _Worker:
+    ours, theirs = context.Pipe()
+    process = context.Process(
+        target=_serve, args=(theirs, os.getpid()), name="hybridlog-worker", daemon=True
+    )
+    process.start()
+    theirs.close()
+    return _Worker(process, ours)
+
+
+def _death(process: SpawnProcess) -> str:
+    process.join(timeout=5)
+    code = process.exitcode
+    if code is not None and code < 0:
+        try:
+            return f"killed by signal {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
+
+
+def _stop(worker: _Worker) -> None:
+    with contextlib.suppress(OSError, ValueError):
+        worker.connection.send(None)
+    worker.process.join(timeout=5)
+    if worker.process.is_alive():
+        worker.process.kill()
+        worker.process.join(timeout=5)
+    worker.connection.close()
+
+
+def run_tasks(
+    function: Callable[..., R],
+    tasks: Sequence[tuple[Any, ...]],
+    *,
+    jobs: int,
+    died: Callable[[int, str], R],
+    done: Callable[[R], None] | None = None,
+) -> list[R]:
+    """Run ``function(*task)`` for every task in ``jobs`` worker processes.
+
+    Parameters
+    ----------
+    function:
+        A module-level function that returns a picklable result and does not raise (catch
+        per task what may fail).  It is pickled by reference, so its module is imported in
+        each worker.
+    tasks:
+        Picklable argument tuples.
+    jobs:
+        Number of worker processes (``spawn`` start method: no state shared with the caller).
+    died:
+        The result of task ``i`` whose worker died, from ``(i, reason)`` (e.g. ``"killed by
+        signal SIGKILL"``).  The task is not retried: it may be what killed the worker.  A
+        new worker takes the remaining tasks.
+    done:
+        Called with each result as it arrives (in completion order).
+
+    Returns
+    -------
+    list
+        One result per task, in the order of ``tasks``.
+    """
+    context = multiprocessing.get_context("spawn")
+    pending = deque(range(len(tasks)))
+    results: dict[int, R] = {}
+    workers: list[_Worker] = []
+
+    def finish(index: int, result: R) -> None:
+        results[index] = result
+        if done is not None:
+            done(result)
+
+    try:
+        while pending or any(w.task is not None for w in workers):
+            while pending and len(workers) < jobs:
+                workers.append(_start(context))
+            for worker in workers:
+                if worker.task is None and pending:
+                    worker.task = pending.popleft()
+                    # A worker that died idle is found below through its sentinel.
+                    with contextlib.suppress(OSError, ValueError):
+                        worker.connection.send((function, tasks[worker.task]))
+            busy = [w for w in workers if w.task is not None]
+            ready = set(wait([w.connection for w in busy] + [w.process.sentinel for w in busy]))
+            for worker in busy:
+                index = worker.task
+                if index is None or not {worker.connection, worker.process.sentinel} & ready:
+                    continue
+                worker.task = None
+                try:
+                    result: R = worker.connection.recv()
+                except (EOFError, OSError):
+                    finish(index, died(index, _death(worker.process)))
+                    workers.remove(worker)
+                    worker.connection.close()
+                    continue
+                finish(index, result)
+    finally:
+        for worker in workers:
+            _stop(worker)
+    return [results[index] for index in range(len(tasks))]
