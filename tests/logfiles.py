@@ -492,3 +492,47 @@ def write_mcap_cdr(path: Path, records: Sequence[Record], *, profile: str = "") 
             (index[record.topic], record.log_ns, cdr(ros_message(store, record), msgtype))
         )
     return write_mcap(path, channels, messages, profile=profile, compression=CompressionType.LZ4)
+
+
+# --------------------------------------------------------------------- MCAP writer variants
+#
+# The MCAP specification makes most records optional: chunks, message and chunk indexes,
+# statistics, summary offsets, and repeating channels and schemas in the summary.  The
+# ``mcap`` writer can leave each out; a reader must read every combination the same way.
+
+VARIANT_TOPICS = ("/u", "/y")
+
+
+def variant_values(k: np.ndarray) -> dict[str, np.ndarray]:
+    """The values of ``/u`` and ``/y`` at step ``k`` (distinct, so a mix-up shows)."""
+    return {"/u": 0.5 * k, "/y": 100.0 + k * k / 7.0}
+
+
+def write_mcap_variant(path: Path, profile: str, steps: int = 40, **writer_options: Any) -> Path:
+    """``/u`` and ``/y`` (``Float64``, one per second) with the given ``Writer`` options.
+
+    ``profile`` ``"ros2"`` (or ``""``) writes CDR with ``ros2msg`` schemas, ``"ros1"`` ROS 1
+    serialisation with ``ros1msg`` schemas, as the ``ros2``/``ros1`` profiles require.
+    """
+    ros1 = profile == "ros1"
+    values = variant_values(np.arange(steps))
+    with path.open("wb") as handle:
+        writer = Writer(handle, chunk_size=300, **writer_options)
+        writer.start(profile=profile, library="tests")
+        if ros1:
+            schema = writer.register_schema("std_msgs/Float64", "ros1msg", b"float64 data\n")
+        else:
+            schema = writer.register_schema(
+                "std_msgs/msg/Float64", "ros2msg", msgdef("std_msgs/msg/Float64").encode()
+            )
+        channels = {
+            topic: writer.register_channel(topic, "ros1" if ros1 else "cdr", schema)
+            for topic in VARIANT_TOPICS
+        }
+        for k in range(steps):
+            for topic in VARIANT_TOPICS:
+                value = float(values[topic][k])
+                data = struct.pack("<d", value) if ros1 else float64_cdr(value)
+                writer.add_message(channels[topic], k * NS, data, k * NS, k)
+        writer.finish()
+    return path
