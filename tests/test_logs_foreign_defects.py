@@ -271,3 +271,20 @@ def test_recover_is_suggested_only_when_it_reads_messages(
     report = json.loads((tmp_path / "c" / "report.json").read_text())
     assert report["reading"]["messages_readable"] == readable
     assert report["samples"] > 0
+
+
+def test_a_bag_folder_whose_mcap_rosbags_cannot_index_points_to_the_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # rosbags' MCAP storage reader needs channels repeated in the summary; the file itself is
+    # read by the mcap library.
+    bag = write_streams_bag(tmp_path / "bag", good_streams(), "mcap")
+    inner = bag / "bag.mcap"
+    inner.unlink()
+    write_streams_mcap(inner, good_streams(), repeat_channels=False)
+    with pytest.raises(LogError) as error:
+        inspect_log(bag)
+    message = str(error.value)
+    assert "its summary does not repeat the channels" in message
+    assert message.endswith(f"analyse the file itself: {inner}")
+    check_good_topics(inner)
