@@ -154,3 +154,15 @@ def test_damage_anywhere_raises_log_errors_only(
         return data[:at] + new + data[at + len(chunk) :]
 
     assert check(name, tmp_path_factory.mktemp("damage"), damage) == []
+
+
+@pytest.mark.parametrize("name", ["bare db3", "ros2 sqlite3 folder"])
+def test_an_sqlite_bag_cut_by_one_byte_is_refused(name: str, tmp_path: Path) -> None:
+    # SQLite reads the missing end of its last page as zeros: without the page count check
+    # the last /u message's float64 lost its exponent byte and 20.0 was read as 1e-322.
+    log, target = damaged_copy(name, tmp_path, truncate(-1))
+    with pytest.raises(LogError) as error:
+        inspect_log(log)
+    assert str(error.value).startswith(
+        f"{target}: damaged SQLite database: 135167 bytes where its header records 33 pages"
+    )

@@ -48,6 +48,39 @@ from hybridlog.io.source import ReadSettings
 SCHEMALESS = "__schemaless__"
 
 
+def check_sqlite(path: Path) -> None:
+    """Refuse an SQLite file shorter than the size its header records.
+
+    SQLite keeps no checksums, but its header records the page size and (when the "version
+    valid for" number equals the change counter) the number of pages: a file cut short does
+    not add up.  SQLite itself reads a cut-off last page as zeros, which turns the last
+    messages' bytes into other numbers without any error.  (Bytes after the last page are
+    ignored by SQLite and harmless.)
+
+    Raises
+    ------
+    LogError
+        Naming the file, its size and the size its header records.
+    """
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as handle:
+            header = handle.read(100)
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+    if len(header) < 100:
+        return  # sqlite reports a file this short itself
+    page_size = int.from_bytes(header[16:18], "big")
+    page_size = 65536 if page_size == 1 else page_size
+    pages = int.from_bytes(header[28:32], "big")
+    valid = header[24:28] == header[92:96] and pages > 0
+    if valid and size < page_size * pages:
+        raise LogError(
+            f"{path}: damaged SQLite database: {size} bytes where its header records "
+            f"{pages} pages of {page_size} bytes ({page_size * pages} bytes); the file is cut off"
+        )
+
+
 def _qos_text(connection: Any) -> str:
     return repr(getattr(connection.ext, "offered_qos_profiles", None))
 
@@ -89,6 +122,10 @@ class BagSource(MessageSource):
         self._per_message_zstd = False
         if kind == "ros2":
             self._check_mcap_storage()
+            for file in sorted(self._file.glob("*.db3")):
+                check_sqlite(file)
+        elif kind == "db3":
+            check_sqlite(self._file)
         try:
             self._open()
             extra = types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
@@ -173,7 +210,8 @@ class BagSource(MessageSource):
                 "run `rosbag reindex` on it"
             )
         if "Cannot open database" in text or type(err).__module__.startswith(("sqlite", "apsw")):
-            return f"{self.path}: not a readable ROS 2 bag database ({text})"
+            reason = excerpt(first_line(err).rsplit(": ", 1)[-1]).strip("'")
+            return f"{self.path}: not a readable ROS 2 bag database ({reason})"
         if "File magic is invalid" in text:
             return f"{self.path}: not a {self.format} file (wrong magic bytes)"
         if "seems to be empty" in text:
