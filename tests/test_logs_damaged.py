@@ -3,10 +3,10 @@
 Each sample log (every format hybridlog reads, every bag storage, bare storage files) is
 copied and damaged the way files get damaged -- cut off at several points, 64 bytes flipped
 or zeroed at several offsets -- and then inspected and loaded at library level, as
-``analyze``, ``compare``, ``batch`` and ``inspect`` do (MCAP also with ``--recover``).  Each
-call must either return or raise :class:`~hybridlog.errors.LogError` (which the CLI prints as
-one line with exit code 2); any other exception is what a user would see as a traceback.
-The damaged file must not be changed by reading it.
+``analyze``, ``compare``, ``batch`` and ``inspect`` do (MCAP files and bag folders also with
+``--recover``).  Each call must either return or raise :class:`~hybridlog.errors.LogError`
+(which the CLI prints as one line with exit code 2); any other exception is what a user
+would see as a traceback.  The damaged file must not be changed by reading it.
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def read_every_way(log: Path) -> list[str]:
     """Inspect and load ``log``; what escaped as something other than a LogError."""
     model = load_model("three_tank_hstf")
     escaped: list[str] = []
-    recover = [False, True] if log.suffix == ".mcap" else [False]
+    recover = [False, True] if log.suffix == ".mcap" or log.is_dir() else [False]
     calls: list[Callable[[], object]] = [lambda: inspect_log(log)]
     for flag in recover:
         calls.append(
