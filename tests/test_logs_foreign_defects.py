@@ -288,3 +288,17 @@ def test_a_bag_folder_whose_mcap_rosbags_cannot_index_points_to_the_file(
     assert "its summary does not repeat the channels" in message
     assert message.endswith(f"analyse the file itself: {inner}")
     check_good_topics(inner)
+
+
+def test_a_topic_without_messages_missing_from_the_storage_is_no_problem(tmp_path: Path) -> None:
+    from logfiles import Stream
+
+    quiet = Stream("/quiet", "std_msgs/msg/Float64", msgdef("std_msgs/msg/Float64"), ())
+    bag = write_streams_bag(tmp_path / "bag", [*good_streams(), quiet])
+    with sqlite3.connect(bag / "bag.db3") as connection:
+        connection.execute("delete from topics where name = '/quiet'")
+    connection.close()
+    info = inspect_log(bag)
+    assert {t["name"]: t["count"] for t in info["topics"]} == {"/u": 30, "/y": 30, "/quiet": 0}
+    assert info["problems"] == [] and "metadata" not in info["reading"]
+    check_good_topics(bag)

@@ -293,17 +293,23 @@ class BagSource(MessageSource):
             listed.add(key)
             stored = storage_topics.get(key)
             if stored is None:
-                remarks.append(
-                    f"topic {entry.topic!r} ({entry.msgtype}) is listed in metadata.yaml with "
-                    f"{entry.msgcount} messages but no storage file holds it"
-                )
+                # A topic without messages may be missing from a storage file; one with
+                # messages is lost (a damaged storage file).
+                lost = entry.msgcount > 0
+                if lost:
+                    remarks.append(
+                        f"topic {entry.topic!r} ({entry.msgtype}) is listed in metadata.yaml "
+                        f"with {entry.msgcount} messages but no storage file holds it"
+                    )
                 if entry.topic not in topics:
                     topics[entry.topic] = Topic(
                         entry.topic,
                         entry.msgtype,
                         "cdr",
-                        None,
-                        problem="listed in metadata.yaml but in no storage file of the bag",
+                        0,
+                        problem="listed in metadata.yaml but in no storage file of the bag"
+                        if lost
+                        else None,
                     )
                 continue
             if any(_qos_text(c) != _qos_text(entry) for c in stored):
