@@ -1,4 +1,4 @@
-"""Log reading benchmarks: MCAP against rosbags' own loop, CSV rows/s, peak memory.
+"""Log reading benchmarks: the batch decoder against rosbags' deserialiser, CSV rows/s, memory.
 
     .venv/bin/python -m benchmarks.read_logs           # full sizes, prints a Markdown table
     .venv/bin/python -m benchmarks.read_logs --quick   # small sizes (smoke check)
@@ -6,18 +6,26 @@
 
 Files (written once into a temporary folder, not timed):
 
-- a ROS 2 CDR MCAP of 10^6 messages -- three ``std_msgs/Float64`` topics ``/u``, ``/y1``,
-  ``/y2`` at 100 Hz, zstd chunks with CRCs -- written by ``hybridlog.io.bag_writers``;
+- two ROS 2 CDR MCAP files of 10^6 messages each, three topics ``/u``, ``/y1``, ``/y2`` at
+  100 Hz, zstd chunks: one of ``std_msgs/Float64`` (written by ``hybridlog.io.bag_writers``,
+  with CRCs) and one of ``geometry_msgs/PointStamped`` (a struct with a header and a string,
+  written with the ``mcap`` writer);
 - a CSV of 2·10^6 rows ``t, u, y1, y2`` (dt = 10 ms).
 
 Each measurement runs in a fresh child process (one after the other), so that its peak
 memory (``VmHWM``, the resident high-water mark) is its own, reported with the mark right
-after the imports; the time is the best of ``--repeat`` runs inside it:
+after the imports; the time is the best of ``--repeat`` runs inside it, and the notes give the
+wall time of the whole child process (interpreter start, imports, every repetition):
 
 - *rosbags loop*: ``AnyReader.messages()`` + ``AnyReader.deserialize`` over every message and
-  reading ``.data`` -- the baseline;
-- *hybridlog MCAP*: ``load_signals`` of the same file with input ``u`` and outputs ``y1``,
-  ``y2``: reading, decoding the three paths and aligning onto the 10 ms grid;
+  reading the field -- rosbags' own way to read the file;
+- *hybridlog, batch decoder*: ``load_signals`` with input ``u`` and outputs ``y1``, ``y2``
+  (``.data`` or ``.point.x``): reading, checking every message's size against its definition,
+  decoding the three paths in batches and aligning onto the 10 ms grid;
+- *hybridlog, rosbags' deserialiser*: the same with the batch decoder switched off, so every
+  message is deserialised by rosbags and the path read from the object;
+- *decode only*: the serialised messages in memory, the batch decoder (size check included)
+  against a plain ``deserialize_cdr`` loop -- the decoders alone, without file reading;
 - *hybridlog CSV*: ``load_signals`` of the CSV, the same three signals.
 """
 
@@ -28,6 +36,7 @@ import json
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -36,12 +45,16 @@ import numpy as np
 
 MCAP_RATIO_TARGET = 0.8
 """hybridlog must read + align at least this fraction of rosbags' messages/s."""
+DECODER_TARGET = 2.0
+"""The batch decoder must be at least this many times faster than rosbags' deserialiser."""
 CSV_ROWS_TARGET = 5_000_000
 """CSV rows/s that reading + aligning must reach."""
 
 FULL = {"messages": 1_000_000, "csv_rows": 2_000_000}
 QUICK = {"messages": 30_000, "csv_rows": 100_000}
 DT = 0.01
+TYPES = {"Float64": ("std_msgs/msg/Float64", ".data"), "PointStamped": (
+    "geometry_msgs/msg/PointStamped", ".point.x")}  # fmt: skip
 
 Result = tuple[str, int, float, str, bool | None, str]
 """(label, messages or rows, best time in s, target, met, notes), as ``benchmarks.run`` wants."""
@@ -49,7 +62,7 @@ Result = tuple[str, int, float, str, bool | None, str]
 _CHILD = r"""
 import json, resource, sys, time
 from pathlib import Path
-kind, path, repeat = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3])
+kind, path, field, repeat = sys.argv[1], Path(sys.argv[2]), sys.argv[3], int(sys.argv[4])
 
 def peak_mib():
     # VmHWM is this process's own high-water mark; ru_maxrss would also count the parent's
@@ -63,19 +76,52 @@ def peak_mib():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 if kind == "rosbags":
+    from operator import attrgetter
     from rosbags.highlevel import AnyReader
+    get = attrgetter(field[1:])
     def once():
         count = 0
         with AnyReader([path]) as reader:
             for connection, _, raw in reader.messages():
-                reader.deserialize(raw, connection.msgtype).data
+                get(reader.deserialize(raw, connection.msgtype))
                 count += 1
         return count
+elif kind == "decode-batch" or kind == "decode-rosbags":
+    import numpy as np
+    from operator import attrgetter
+    from mcap.reader import make_reader
+    from rosbags.typesys import Stores, get_typestore
+    from hybridlog.io.message_paths import BatchDecoder, make_batch
+    store = get_typestore(Stores.LATEST)
+    with path.open("rb") as handle:
+        raw = [(s.name, m.data) for s, _, m in make_reader(handle).iter_messages()]
+    msgtype = raw[0][0]
+    datas = [d for _, d in raw]
+    steps = tuple(field[1:].split("."))
+    def once():
+        if kind == "decode-batch":
+            decoder = BatchDecoder(store.fielddefs, msgtype, cdr=True)
+            parts = []
+            for start in range(0, len(datas), 65536):
+                batch = make_batch(datas[start:start + 65536], cdr=True)
+                decoder.check_sizes(batch)
+                parts.append(decoder.numbers(batch, steps))
+            return int(np.concatenate(parts).size)
+        get, deserialize = attrgetter(field[1:]), store.deserialize_cdr
+        values = np.fromiter((get(deserialize(d, msgtype)) for d in datas), np.float64)
+        return int(values.size)
 else:
     from hybridlog.io import load_signals
+    if kind == "hybridlog-rosbags":
+        from hybridlog.io import message_paths
+        def no_batches(self, batch):
+            raise message_paths.LayoutError("benchmark: decode message by message")
+        message_paths.BatchDecoder.check_sizes = no_batches
+    maps = [] if field == "-" else [f"u=/u{field}", f"y1=/y1{field}", f"y2=/y2{field}"]
     def once():
         signals = load_signals(
-            path, states=(), inputs=("u",), outputs=("y1", "y2"), mode_ids=("a",), dt=%(dt)r
+            path, states=(), inputs=("u",), outputs=("y1", "y2"), mode_ids=("a",), dt=%(dt)r,
+            maps=maps,
         )
         return signals.n_samples
 imported = peak_mib()
@@ -88,86 +134,146 @@ print(json.dumps({"time_s": best, "count": count, "imports_mib": imported, "peak
 """
 
 
-def write_files(folder: Path, sizes: dict[str, int]) -> tuple[Path, Path]:
-    """The benchmark MCAP and CSV (see the module docstring)."""
+def write_points(path: Path, rows: int) -> Path:
+    """The ``PointStamped`` MCAP: three topics, ``rows`` messages each (see the docstring)."""
+    from mcap.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    types = store.types
+    msgtype = "geometry_msgs/msg/PointStamped"
+    definition = store.generate_msgdef(msgtype, ros_version=2)[0].encode()
+    with path.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="ros2", library="benchmarks")
+        schema = writer.register_schema(msgtype, "ros2msg", definition)
+        channels = [writer.register_channel(t, "cdr", schema) for t in ("/u", "/y1", "/y2")]
+        for k in range(rows):
+            t_ns = k * 10_000_000
+            stamp = types["builtin_interfaces/msg/Time"](sec=t_ns // 10**9, nanosec=t_ns % 10**9)
+            header = types["std_msgs/msg/Header"](stamp=stamp, frame_id="map")
+            for j, channel in enumerate(channels):
+                point = types["geometry_msgs/msg/Point"](x=float(k + j), y=0.5, z=-1.0)
+                message = types[msgtype](header=header, point=point)
+                data = bytes(store.serialize_cdr(message, msgtype))
+                writer.add_message(channel, t_ns, data, t_ns)
+        writer.finish()
+    return path
+
+
+def write_files(folder: Path, sizes: dict[str, int]) -> dict[str, Path]:
+    """The benchmark files (see the module docstring)."""
     from hybridlog.io.bag_writers import write_log
     from hybridlog.io.writers import write_table
 
     rows = -(-sizes["messages"] // 3)
     t = np.arange(rows) * DT
     columns = {"t": t, "u": np.sin(t), "y1": np.cos(t), "y2": 0.5 * t}
-    mcap = write_log(folder / "bench.mcap", columns)
+    floats = write_log(folder / "floats.mcap", columns)
+    points = write_points(folder / "points.mcap", rows)
     n = sizes["csv_rows"]
     t = np.arange(n) * DT
     csv = write_table(
         folder / "bench.csv", {"t": t, "u": np.sin(t), "y1": np.cos(t), "y2": 0.5 * t}
     )
-    return mcap, csv
+    return {"Float64": floats, "PointStamped": points, "csv": csv}
 
 
-def measure(kind: str, path: Path, repeat: int) -> dict[str, Any]:
-    """Run one measurement in a child process and return what it printed."""
+def measure(kind: str, path: Path, field: str, repeat: int) -> dict[str, Any]:
+    """Run one measurement in a child process and return what it printed (+ its wall time)."""
     code = _CHILD % {"dt": DT}
+    start = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-c", code, kind, str(path), str(repeat)],
+        [sys.executable, "-c", code, kind, str(path), field, str(repeat)],
         capture_output=True,
         text=True,
         check=True,
     )
     result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    result["process_s"] = time.perf_counter() - start
     return result
+
+
+def _memory(result: dict[str, Any]) -> str:
+    return (
+        f"peak RSS {result['peak_mib']:,.0f} MiB ({result['imports_mib']:,.0f} MiB after "
+        f"imports); whole process {result['process_s']:.2f} s"
+    )
 
 
 def bench_read(quick: bool = False, repeat: int = 3) -> list[Result]:
     """The rows of the log-reading benchmark."""
     sizes = QUICK if quick else FULL
+    messages = 3 * (-(-sizes["messages"] // 3))
+    rows: list[Result] = []
     with tempfile.TemporaryDirectory(prefix="hybridlog-bench-") as folder:
-        mcap, csv = write_files(Path(folder), sizes)
-        messages = 3 * (-(-sizes["messages"] // 3))
-        base = measure("rosbags", mcap, repeat)
-        ours = measure("hybridlog", mcap, repeat)
-        table = measure("hybridlog", csv, repeat)
-        mcap_mib = mcap.stat().st_size / 2**20
-        csv_mib = csv.stat().st_size / 2**20
-    base_rate = messages / base["time_s"]
-    our_rate = messages / ours["time_s"]
-    ratio = our_rate / base_rate
+        files = write_files(Path(folder), sizes)
+        for name, (_, field) in TYPES.items():
+            path = files[name]
+            mib = path.stat().st_size / 2**20
+            base = measure("rosbags", path, field, repeat)
+            batch = measure("hybridlog", path, field, repeat)
+            each = measure("hybridlog-rosbags", path, field, repeat)
+            decode_batch = measure("decode-batch", path, field, repeat)
+            decode_each = measure("decode-rosbags", path, field, repeat)
+            base_rate = messages / base["time_s"]
+            ratio = base["time_s"] / batch["time_s"]
+            gain = each["time_s"] / batch["time_s"]
+            process_gain = each["process_s"] / batch["process_s"]
+            decode_gain = decode_each["time_s"] / decode_batch["time_s"]
+            rows += [
+                (
+                    f"read {name} · rosbags AnyReader loop",
+                    messages,
+                    base["time_s"],
+                    "baseline",
+                    None,
+                    f"{base_rate:,.0f} messages/s; messages() + deserialize + {field} over all "
+                    f"{messages:,} messages ({mib:.0f} MiB file); {_memory(base)}",
+                ),
+                (
+                    f"read {name} · hybridlog, batch decoder",
+                    messages,
+                    batch["time_s"],
+                    f"≥ {MCAP_RATIO_TARGET:.0%} of rosbags' messages/s",
+                    ratio >= MCAP_RATIO_TARGET,
+                    f"{messages / batch['time_s']:,.0f} messages/s = {ratio:.2f} × rosbags; "
+                    f"{batch['count']:,} grid samples; {_memory(batch)}",
+                ),
+                (
+                    f"read {name} · hybridlog, rosbags' deserialiser",
+                    messages,
+                    each["time_s"],
+                    "–",
+                    None,
+                    f"{messages / each['time_s']:,.0f} messages/s; the batch decoder reads "
+                    f"{gain:.2f} × as fast (whole process {process_gain:.2f} ×); {_memory(each)}",
+                ),
+                (
+                    f"decode {name} · batch decoder vs deserialize_cdr loop",
+                    messages,
+                    decode_batch["time_s"],
+                    f"≥ {DECODER_TARGET:g} × rosbags' deserialiser",
+                    decode_gain >= DECODER_TARGET,
+                    f"{messages / decode_batch['time_s']:,.0f} vs "
+                    f"{messages / decode_each['time_s']:,.0f} messages/s = {decode_gain:.1f} ×; "
+                    "messages in memory, size check included",
+                ),
+            ]
+        table = measure("hybridlog", files["csv"], "-", repeat)
+        csv_mib = files["csv"].stat().st_size / 2**20
     rows_rate = sizes["csv_rows"] / table["time_s"]
-
-    def memory(result: dict[str, Any]) -> str:
-        return (
-            f"peak RSS {result['peak_mib']:,.0f} MiB "
-            f"({result['imports_mib']:,.0f} MiB after imports)"
-        )
-
-    return [
+    rows.append(
         (
-            "read · rosbags AnyReader loop (MCAP)",
-            messages,
-            base["time_s"],
-            "baseline",
-            None,
-            f"{base_rate:,.0f} messages/s; messages() + deserialize + .data over all "
-            f"{messages:,} messages ({mcap_mib:.0f} MiB file); {memory(base)}",
-        ),
-        (
-            "read · hybridlog MCAP, 3 signals read + aligned",
-            messages,
-            ours["time_s"],
-            f"≥ {MCAP_RATIO_TARGET:.0%} of rosbags' messages/s",
-            ratio >= MCAP_RATIO_TARGET,
-            f"{our_rate:,.0f} messages/s = {ratio:.2f} × rosbags; {ours['count']:,} grid "
-            f"samples; {memory(ours)}",
-        ),
-        (
-            "read · hybridlog CSV, 3 signals read + aligned",
+            "read CSV · hybridlog, 3 signals read + aligned",
             sizes["csv_rows"],
             table["time_s"],
             f"≥ {CSV_ROWS_TARGET / 1e6:g} M rows/s",
             rows_rate >= CSV_ROWS_TARGET,
-            f"{rows_rate:,.0f} rows/s ({csv_mib:.0f} MiB file); {memory(table)}",
-        ),
-    ]
+            f"{rows_rate:,.0f} rows/s ({csv_mib:.0f} MiB file); {_memory(table)}",
+        )
+    )
+    return rows
 
 
 def main(argv: Sequence[str] | None = None) -> int:

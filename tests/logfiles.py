@@ -492,3 +492,246 @@ def write_mcap_cdr(path: Path, records: Sequence[Record], *, profile: str = "") 
             (index[record.topic], record.log_ns, cdr(ros_message(store, record), msgtype))
         )
     return write_mcap(path, channels, messages, profile=profile, compression=CompressionType.LZ4)
+
+
+# --------------------------------------------------------------------- MCAP writer variants
+#
+# The MCAP specification makes most records optional: chunks, message and chunk indexes,
+# statistics, summary offsets, and repeating channels and schemas in the summary.  The
+# ``mcap`` writer can leave each out; a reader must read every combination the same way.
+
+VARIANT_TOPICS = ("/u", "/y")
+
+
+def variant_values(k: np.ndarray) -> dict[str, np.ndarray]:
+    """The values of ``/u`` and ``/y`` at step ``k`` (distinct, so a mix-up shows)."""
+    return {"/u": 0.5 * k, "/y": 100.0 + k * k / 7.0}
+
+
+def write_mcap_variant(path: Path, profile: str, steps: int = 40, **writer_options: Any) -> Path:
+    """``/u`` and ``/y`` (``Float64``, one per second) with the given ``Writer`` options.
+
+    ``profile`` ``"ros2"`` (or ``""``) writes CDR with ``ros2msg`` schemas, ``"ros1"`` ROS 1
+    serialisation with ``ros1msg`` schemas, as the ``ros2``/``ros1`` profiles require.
+    """
+    ros1 = profile == "ros1"
+    values = variant_values(np.arange(steps))
+    with path.open("wb") as handle:
+        writer = Writer(handle, chunk_size=300, **writer_options)
+        writer.start(profile=profile, library="tests")
+        if ros1:
+            schema = writer.register_schema("std_msgs/Float64", "ros1msg", b"float64 data\n")
+        else:
+            schema = writer.register_schema(
+                "std_msgs/msg/Float64", "ros2msg", msgdef("std_msgs/msg/Float64").encode()
+            )
+        channels = {
+            topic: writer.register_channel(topic, "ros1" if ros1 else "cdr", schema)
+            for topic in VARIANT_TOPICS
+        }
+        for k in range(steps):
+            for topic in VARIANT_TOPICS:
+                value = float(values[topic][k])
+                data = struct.pack("<d", value) if ros1 else float64_cdr(value)
+                writer.add_message(channels[topic], k * NS, data, k * NS, k)
+        writer.finish()
+    return path
+
+
+# --------------------------------------------------------------------- definitions that lie
+#
+# Logs whose stored definitions do not let rosbags decode a topic, beside good topics:
+# rosbag2's talker.db3 stores the placeholder ``uint8 level`` for rcl_interfaces/msg/Log,
+# and ROS 2 Jazzy records service events with the ``.srv`` text (``---``) as definition.
+
+LOG_TYPE = "rcl_interfaces/msg/Log"
+PLACEHOLDER = "uint8 level\n"
+EVENT_TYPE = "example_interfaces/srv/AddTwoInts_Event"
+EVENT_DEFINITION = (
+    "=" * 80 + "\nSRV: example_interfaces/srv/AddTwoInts\nint64 a\nint64 b\n---\nint64 sum\n"
+)
+
+
+def log_cdr(k: int) -> bytes:
+    """A ``rosout`` message at level 20 (INFO) whose stamp's first byte is 251 + k."""
+    store = ros2_store()
+    types = store.types
+    message = types[LOG_TYPE](
+        stamp=types["builtin_interfaces/msg/Time"](sec=1_700_000_251 + k, nanosec=0),
+        level=20,
+        name="talker",
+        msg=f"Publishing: 'Hello World: {k}'",
+        file="talker.cpp",
+        function="on_timer",
+        line=42,
+    )
+    return cdr(message, LOG_TYPE)
+
+
+@cache
+def event_store() -> Any:
+    """ROS 2 types plus ``AddTwoInts`` and its service event, to serialise real events.
+
+    Written as field definitions: rosbags' ``.msg`` parser renames ``srv`` types.
+    """
+    from rosbags.typesys.base import Nodetype
+
+    store = get_typestore(Stores.LATEST)
+    request, response = (f"example_interfaces/srv/AddTwoInts_{p}" for p in ("Request", "Response"))
+    int64 = (Nodetype.BASE, ("int64", 0))
+    store.register(
+        {
+            request: ([], [("a", int64), ("b", int64)]),
+            response: ([], [("sum", int64)]),
+            EVENT_TYPE: (
+                [],
+                [
+                    ("info", (Nodetype.NAME, "service_msgs/msg/ServiceEventInfo")),
+                    ("request", (Nodetype.SEQUENCE, ((Nodetype.NAME, request), 1))),
+                    ("response", (Nodetype.SEQUENCE, ((Nodetype.NAME, response), 1))),
+                ],
+            ),
+        }
+    )
+    return store
+
+
+def event_cdr(k: int) -> bytes:
+    """A service event: the request ``k + 1`` sent."""
+    store = event_store()
+    types = store.types
+    info = types["service_msgs/msg/ServiceEventInfo"](
+        event_type=0,
+        stamp=types["builtin_interfaces/msg/Time"](sec=k, nanosec=0),
+        client_gid=np.zeros(16, dtype=np.uint8),
+        sequence_number=k,
+    )
+    request = types["example_interfaces/srv/AddTwoInts_Request"](a=k, b=1)
+    return bytes(
+        store.serialize_cdr(
+            types[EVENT_TYPE](info=info, request=[request], response=[]), EVENT_TYPE
+        )
+    )
+
+
+@dataclass(frozen=True)
+class Stream:
+    """One topic of a hand-made log: its type, stored definition and messages."""
+
+    topic: str
+    msgtype: str
+    definition: str
+    messages: tuple[tuple[int, bytes], ...]
+
+
+def good_streams(steps: int = 30) -> list[Stream]:
+    """``/u`` and ``/y`` as ``Float64``, one per second, ``u = k``, ``y = 2k``."""
+    definition = msgdef("std_msgs/msg/Float64")
+    return [
+        Stream(
+            topic,
+            "std_msgs/msg/Float64",
+            definition,
+            tuple((k * NS, float64_cdr(float(k * scale))) for k in range(steps)),
+        )
+        for topic, scale in (("/u", 1), ("/y", 2))
+    ]
+
+
+def rosout_stream(definition: str, steps: int = 30) -> Stream:
+    return Stream(
+        "/rosout", LOG_TYPE, definition, tuple((k * NS, log_cdr(k)) for k in range(steps))
+    )
+
+
+def event_stream(steps: int = 30) -> Stream:
+    return Stream(
+        "/add_two_ints/_service_event",
+        EVENT_TYPE,
+        EVENT_DEFINITION,
+        tuple((k * NS + 1000, event_cdr(k)) for k in range(steps)),
+    )
+
+
+def write_streams_mcap(path: Path, streams: Sequence[Stream], **writer_options: Any) -> Path:
+    """A ``ros2``-profile MCAP with the ``mcap`` writer, each stream with its own schema."""
+    with path.open("wb") as handle:
+        writer = Writer(handle, **writer_options)
+        writer.start(profile="ros2", library="tests")
+        ids = []
+        for stream in streams:
+            schema = writer.register_schema(stream.msgtype, "ros2msg", stream.definition.encode())
+            ids.append(writer.register_channel(stream.topic, "cdr", schema))
+        messages = sorted(
+            (t, i, data) for i, stream in enumerate(streams) for t, data in stream.messages
+        )
+        for t, i, data in messages:
+            writer.add_message(ids[i], t, data, t)
+        writer.finish()
+    return path
+
+
+def write_streams_bag(
+    path: Path, streams: Sequence[Stream], storage: str = "sqlite3", qos: Sequence[Any] = ()
+) -> Path:
+    """A ROS 2 bag with rosbags' writer, each stream with its stored definition."""
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Ros2Writer
+
+    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+    with Ros2Writer(path, version=9, storage_plugin=plugin) as writer:
+        connections = []
+        for stream in streams:
+            if stream.msgtype in ros2_store().fielddefs:
+                digest = ros2_store().hash_rihs01(stream.msgtype)
+            else:
+                digest = event_store().hash_rihs01(stream.msgtype)
+            connections.append(
+                writer.add_connection(
+                    stream.topic,
+                    stream.msgtype,
+                    msgdef=stream.definition,
+                    rihs01=digest,
+                    offered_qos_profiles=list(qos),
+                )
+            )
+        messages = sorted(
+            (t, i, data) for i, stream in enumerate(streams) for t, data in stream.messages
+        )
+        for t, i, data in messages:
+            writer.write(connections[i], t, data)
+    return path
+
+
+def forget_type_hashes(db3: Path) -> None:
+    """Clear the type hashes of an sqlite3 bag, as bags recorded before ROS 2 Iron have none."""
+    import sqlite3
+
+    with sqlite3.connect(db3) as connection:
+        connection.execute("update topics set type_description_hash = ''")
+        connection.execute("update message_definitions set type_description_hash = ''")
+    connection.close()
+
+
+def reliable_qos(depth: int = 10) -> Any:
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+
+    never = QosTime(sec=9223372036, nsec=854775807)
+    return Qos(
+        history=QosHistory.KEEP_LAST,
+        depth=depth,
+        reliability=QosReliability.RELIABLE,
+        durability=QosDurability.VOLATILE,
+        deadline=never,
+        lifespan=never,
+        liveliness=QosLiveliness.AUTOMATIC,
+        liveliness_lease_duration=never,
+        avoid_ros_namespace_conventions=False,
+    )

@@ -25,6 +25,7 @@ from hybridlog.io.message_paths import (
     IndexRangeError,
     PathError,
     UndecodableError,
+    accessor,
     as_float_array,
     as_label,
     as_number,
@@ -302,6 +303,7 @@ def test_batch_decoding_matches_rosbags_deserialiser(
         decoded = [store.deserialize_cdr(r, "test_msgs/msg/Mixed") for r in raw]
     batch = make_batch(raw, cdr=not ros1)
     decoder = BatchDecoder(store.fielddefs, "test_msgs/msg/Mixed", cdr=not ros1)
+    decoder.check_sizes(batch)  # what rosbags writes fits its definition exactly
     for steps in PATHS:
         bad_row, expected = _reference(decoded, steps)
         if bad_row >= 0:
@@ -353,3 +355,62 @@ def test_batch_decoder_rejects_messages_that_do_not_fit_their_type() -> None:
         make_batch([good, b"\x00\x07" + good[2:]], cdr=True)
     with pytest.raises(UndecodableError, match="shorter than a CDR header"):
         make_batch([b"\x00"], cdr=True)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(mixed, st.integers(-12, 12), st.booleans())
+def test_the_size_check_refuses_what_rosbags_refuses(
+    fields: dict[str, Any], change: int, ros1: bool
+) -> None:
+    # Bytes cut off or appended: the batch decoder must refuse the batch exactly when
+    # rosbags' deserialiser (which checks that the definition consumes every byte) does.
+    store = STORES[ros1]
+    message = _message(store, fields)
+    if ros1:
+        raw = bytes(store.serialize_ros1(message, "test_msgs/msg/Mixed"))
+    else:
+        raw = bytes(store.serialize_cdr(message, "test_msgs/msg/Mixed"))
+    changed = raw + bytes(range(change)) if change >= 0 else raw[:change]
+    try:
+        if ros1:
+            store.deserialize_ros1(changed, "test_msgs/msg/Mixed")
+        else:
+            store.deserialize_cdr(changed, "test_msgs/msg/Mixed")
+        rosbags_refuses = False
+    except Exception:
+        rosbags_refuses = True
+    decoder = BatchDecoder(store.fielddefs, "test_msgs/msg/Mixed", cdr=not ros1)
+    try:
+        decoder.check_sizes(make_batch([raw, changed], cdr=not ros1))
+        refused = False
+    except UndecodableError as err:
+        assert err.row == 1
+        refused = True
+    assert refused == rosbags_refuses
+
+
+def test_a_placeholder_definition_is_refused_by_the_size_check() -> None:
+    # rosbag2's talker.db3: rcl_interfaces/msg/Log stored as "uint8 level".
+    from logfiles import LOG_TYPE, PLACEHOLDER, log_cdr
+
+    store = get_typestore(Stores.EMPTY)
+    store.register(get_types_from_msg(PLACEHOLDER, LOG_TYPE))
+    decoder = BatchDecoder(store.fielddefs, LOG_TYPE, cdr=True)
+    batch = make_batch([log_cdr(k) for k in range(3)], cdr=True)
+    assert decoder.numbers(batch, ("level",)).tolist() == [251.0, 252.0, 253.0]  # unchecked
+    with pytest.raises(UndecodableError, match="accounts for 1 of its"):
+        decoder.check_sizes(batch)
+
+
+def test_accessor_follows_attributes_and_indices_like_evaluate() -> None:
+    store = ros2_store()
+    point = stamped_point(store, 3 * 10**9 + 7, 1.5)
+    assert accessor(("point", "y"))(point) == -1.5
+    assert accessor(("header", "stamp", "sec"))(point) == 3
+    array = store.types["std_msgs/msg/Float64MultiArray"](
+        layout=store.types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0),
+        data=np.array([1.0, 2.0, 4.0]),
+    )
+    assert accessor(("data", -1))(array) == evaluate(array, ("data", -1)) == 4.0
+    with pytest.raises(IndexError):
+        accessor(("data", 3))(array)

@@ -165,7 +165,7 @@ def _signals(log: Path, **options: Any) -> Any:
 def test_small_batches_and_the_one_by_one_fallback_read_the_same(
     writer: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # The fallback decodes with rosbags (bags), mcap-ros2-support and mcap-ros1-support (MCAP).
+    # The fallback decodes with rosbags' deserialisers (bags and MCAP alike).
     from hybridlog.io import message_paths, messages
 
     name, write = WRITERS[writer]

@@ -166,6 +166,10 @@ def _format_messages(info: dict[str, Any]) -> str:
         if len(fields) > len(shown):
             lines.append(f"  ... {len(fields) - len(shown)} more (see --json)")
     reading = info.get("reading") or {}
+    if reading.get("metadata"):
+        lines.append("")
+        lines.append("metadata.yaml and the storage files disagree (the storage files are read):")
+        lines.extend(f"  {remark}" for remark in reading["metadata"])
     if reading.get("recovered"):
         lines.append("")
         lines.append(

@@ -1,4 +1,4 @@
-"""MCAP files: checks every MCAP gets, and the reader for those rosbags cannot read.
+"""MCAP files: checks every MCAP gets, and the reader for those rosbags does not read.
 
 :func:`check_mcap` runs before any MCAP is read, whichever library reads it: it refuses an
 empty file and wrong magic bytes, tells a finished file (footer and closing magic) from one
@@ -6,15 +6,22 @@ whose recorder was killed or that was cut off, and validates the summary and dat
 CRCs when the writer stored them (the libraries' readers check chunk CRCs at most, and only
 when asked).
 
-``ros2``-profile files are then read by rosbags (:mod:`.rosbag_reader`).  :class:`McapSource`
-reads everything else with the ``mcap`` library -- ROS 2 CDR, ROS 1 and JSON messages with
-any profile -- validating chunk CRCs, and it is the non-seeking reader ``--recover`` uses on
-any MCAP: records are read in file order up to the first one that is cut off or damaged.
+``ros2``-profile files whose summary repeats every channel and schema and indexes every
+chunk's messages -- what rosbag2 writes -- are then read by rosbags
+(:mod:`.rosbag_reader`), which is faster; :func:`rosbags_summary_problem` says when a file is
+not like that (rosbags then lists no topics or reads no messages).  :class:`McapSource` reads
+everything else with the ``mcap`` library -- ROS 2 CDR, ROS 1 and JSON messages with any
+profile -- validating chunk CRCs.  Channels and schemas need not be repeated in the summary
+(the MCAP specification makes that optional): when they are not, the file is read
+sequentially and they are taken from the data section.  The sequential reader is also what
+``--recover`` uses on any MCAP: records are read in file order up to the first one that is
+cut off or damaged.
 
-Message definitions come from the channels' schemas (``ros2msg``, ``ros2idl``, ``ros1msg``
-via rosbags' parsers; a schema without text falls back to ``--msg-dir`` and the standard
-types); ``mcap-ros2-support`` and ``mcap-ros1-support`` decode messages one by one where
-hybridlog's batch decoder does not apply, and JSON messages are parsed with :mod:`json`.
+Message definitions come from the channels' schemas (``ros2msg``, ``ros2idl``, ``ros1msg``,
+each parsed on its own by rosbags, see :mod:`.definitions`; a schema without text falls back
+to ``--msg-dir`` and the standard types), and messages are decoded by rosbags, whose
+deserialisers check that the definition accounts for every byte; JSON messages are parsed
+with :mod:`json`.
 """
 
 from __future__ import annotations
@@ -22,14 +29,20 @@ from __future__ import annotations
 import json
 import struct
 import zlib
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from hybridlog.errors import LogError
-from hybridlog.io.messages import MessageSource, Topic, first_line, parse_json_schema
-from hybridlog.io.rosbag_reader import complete_typestore, types_from_msg_dirs
+from hybridlog.errors import HybridlogError, LogError, excerpt
+from hybridlog.io.definitions import (
+    DefinitionError,
+    first_line,
+    normal_type,
+    types_from_msg_dirs,
+    typestore_for,
+)
+from hybridlog.io.messages import MessageSource, Topic, parse_json_schema
 from hybridlog.io.source import ReadSettings
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -144,26 +157,68 @@ def _crc(handle: IO[bytes], start: int, end: int) -> int:
     return crc
 
 
-def _library_errors() -> tuple[type[BaseException], ...]:
-    from mcap.exceptions import McapError
+def summary_problem(summary: Any) -> str | None:
+    """Why an MCAP summary does not describe every channel and schema, or ``None``.
 
-    errors: list[type[BaseException]] = [
-        McapError,
-        ValueError,  # includes mcap's CRCValidationError
-        struct.error,
-        EOFError,
-        OSError,
-        KeyError,
-        IndexError,
-        RuntimeError,  # lz4 reports corrupt frames this way
-    ]
+    The MCAP specification makes repeating channels and schemas in the summary optional;
+    a reader that seeks with the summary alone then misses them.
+    """
+    if summary is None:
+        return "it has no summary"
+    referenced: set[int] = set()
+    if summary.statistics is not None:
+        referenced.update(summary.statistics.channel_message_counts)
+    for chunk_index in summary.chunk_indexes:
+        referenced.update(chunk_index.message_index_offsets)
+    if not summary.channels or referenced - set(summary.channels):
+        return "its summary does not repeat the channels"
+    if any(c.schema_id and c.schema_id not in summary.schemas for c in summary.channels.values()):
+        return "its summary does not repeat the schemas"
+    return None
+
+
+def rosbags_summary_problem(path: Path) -> str | None:
+    """Why rosbags' MCAP reader would misread this finished ``ros2`` file, or ``None``.
+
+    rosbags seeks with the summary only: it needs the channels and schemas repeated there
+    and, for chunked files, message indexes (without them it reads no message of a chunk).
+    """
+    from mcap.reader import SeekingReader
+
     try:
-        from zstandard import ZstdError
+        with path.open("rb") as handle:
+            summary = SeekingReader(handle).get_summary()
+    except Exception as err:  # a summary the mcap library cannot read: let the reader say why
+        return f"its summary cannot be read ({excerpt(first_line(err))})"
+    problem = summary_problem(summary)
+    if (
+        summary is not None
+        and problem is None
+        and any(not c.message_index_offsets for c in summary.chunk_indexes)
+    ):
+        problem = "its chunks have no message indexes"
+    return problem
 
-        errors.append(ZstdError)
-    except ImportError:  # pragma: no cover - zstandard comes with mcap's extras
+
+def recover_hint(path: Path, topic: str, found: int) -> str:
+    """``--recover``, suggested only when a sequential read finds more than ``found`` messages.
+
+    For a topic with fewer messages than the summary lists: the summary may be what is
+    damaged, and ``--recover`` reads the data section sequentially instead.
+    """
+    from mcap.reader import NonSeekingReader
+
+    count = 0
+    try:
+        with path.open("rb") as handle:
+            reader = NonSeekingReader(handle, validate_crcs=True)
+            for _ in reader.iter_messages(topics=[topic], log_time_order=False):
+                count += 1
+    except Exception:  # counting stops where the file is damaged, as --recover does
         pass
-    return tuple(errors)
+    if count <= found:
+        return ""
+    return f"; --recover reads the file sequentially and finds {count}"
 
 
 def count_readable(path: Path) -> tuple[int, str]:
@@ -176,7 +231,7 @@ def count_readable(path: Path) -> tuple[int, str]:
             for record in StreamReader(handle, validate_crcs=True).records:
                 if type(record).__name__ == "Message":
                     count += 1
-    except _library_errors() as err:
+    except Exception as err:  # the first record that is cut off or corrupt ends the read
         return count, _stop_reason(err)
     return count, "the end of the file"
 
@@ -186,28 +241,8 @@ def _stop_reason(err: BaseException) -> str:
     if name == "EndOfFile" or isinstance(err, (EOFError, struct.error)):
         return "a record cut off at the end of the file"
     if name == "CRCValidationError":
-        return f"a CRC mismatch ({first_line(err)})"
-    return f"a damaged record ({first_line(err)})"
-
-
-def _normal_type(name: str) -> str:
-    """``std_msgs/Float64`` (ROS 1 style) → ``std_msgs/msg/Float64``."""
-    parts = name.split("/")
-    if len(parts) == 2:
-        return f"{parts[0]}/msg/{parts[1]}"
-    return name
-
-
-def _referenced(types: dict[str, Any]) -> set[str]:
-    names = set(types)
-    for _, fields in types.values():
-        for _, desc in fields:
-            node = int(desc[0])
-            if node == 2:
-                names.add(desc[1])
-            elif node in (3, 4) and int(desc[1][0][0]) == 2:
-                names.add(desc[1][0][1])
-    return names
+        return f"a CRC mismatch ({excerpt(first_line(err))})"
+    return f"a damaged record ({excerpt(first_line(err))})"
 
 
 class McapSource(MessageSource):
@@ -242,17 +277,16 @@ class McapSource(MessageSource):
         try:
             self._handle = self._file.open("rb")
             schemas, channels, counts = self._structure()
+            self._topics = self._make_topics(schemas, channels, counts)
+        except HybridlogError:
+            self.close()
+            raise
         except OSError as err:
             self.close()
             raise LogError(f"{self.path}: cannot be read ({err.strerror})") from err
-        except _library_errors() as err:
+        except Exception as err:  # the mcap library raises assorted errors on corrupt bytes
             self.close()
-            raise LogError(f"{self.path}: damaged MCAP file ({first_line(err)})") from err
-        try:
-            self._topics = self._make_topics(schemas, channels, counts)
-        except LogError:
-            self.close()
-            raise
+            raise self._damaged(err) from err
 
     def close(self) -> None:
         """Close the file."""
@@ -267,17 +301,20 @@ class McapSource(MessageSource):
         from mcap.reader import SeekingReader
 
         assert self._handle is not None
-        if not self._sequential:
-            reader = SeekingReader(self._handle, validate_crcs=True)
-            summary = reader.get_summary()
-            if summary is not None and summary.channels:
-                counts = (
-                    dict(summary.statistics.channel_message_counts)
-                    if summary.statistics is not None
-                    else None
-                )
-                return dict(summary.schemas), dict(summary.channels), counts
-        return self._scan_structure()
+        if self._sequential:
+            return self._scan_structure()
+        summary = SeekingReader(self._handle, validate_crcs=True).get_summary()
+        counts = (
+            dict(summary.statistics.channel_message_counts)
+            if summary is not None and summary.statistics is not None
+            else None
+        )
+        if summary is not None and summary_problem(summary) is None:
+            return dict(summary.schemas), dict(summary.channels), counts
+        # Channels and schemas live in the data section only: read it in file order.
+        self._sequential = True
+        schemas, channels, _ = self._scan_structure()
+        return schemas, channels, counts
 
     def _scan_structure(self) -> tuple[dict[int, Any], dict[int, Any], dict[int, int] | None]:
         """One sequential pass: schemas, channels, and messages up to the first bad record."""
@@ -297,7 +334,7 @@ class McapSource(MessageSource):
                     schemas[record.id] = record
                 elif isinstance(record, Channel):
                     channels[record.id] = record
-        except _library_errors() as err:
+        except Exception as err:  # the first record that is cut off or corrupt ends the read
             if not self.settings.recover:
                 raise
             self._stop = _stop_reason(err)
@@ -332,7 +369,7 @@ class McapSource(MessageSource):
 
     def _topic(self, name: str, channel: Any, schema: Any, count: int | None) -> Topic:
         encoding = channel.message_encoding
-        msgtype = _normal_type(schema.name) if schema is not None else ""
+        msgtype = normal_type(schema.name) if schema is not None else ""
         topic = Topic(name, msgtype, encoding, count)
         if encoding == "json":
             topic.decode = json.loads
@@ -347,87 +384,68 @@ class McapSource(MessageSource):
         if schema is None:
             topic.problem = "schemaless channel: its messages cannot be decoded"
             return topic
-        topic.typedefs = self._typedefs(schema, encoding == "ros1")
-        topic.decode = self._decoder(encoding, schema)
-        if topic.typedefs is None or msgtype not in topic.typedefs:
-            topic.typedefs = None
-            if topic.decode is None:
-                topic.problem = (
-                    f"type {msgtype!r} has no definition in the log or the standard types; "
-                    f"pass --msg-dir DIR with {msgtype}.msg in it"
-                )
-        elif topic.decode is None:
-            topic.decode = self._store_decoder(schema.id, msgtype, encoding == "ros1")
+        ros1 = encoding == "ros1"
+        try:
+            store = self._store(schema, msgtype, ros1)
+        except DefinitionError as err:
+            topic.problem = str(err)
+            return topic
+        topic.typedefs = store.fielddefs
+        if ros1:
+            topic.decode = lambda data: store.deserialize_ros1(data, msgtype)
+        else:
+            topic.decode = lambda data: store.deserialize_cdr(data, msgtype)
         return topic
 
-    def _typedefs(self, schema: Any, ros1: bool) -> Any:
-        """Rosbags definitions for a schema (cached per schema), or ``None``."""
-        from rosbags.typesys import (
-            Stores,
-            TypesysError,
-            get_types_from_idl,
-            get_types_from_msg,
-            get_typestore,
-        )
+    def _store(self, schema: Any, msgtype: str, ros1: bool) -> Any:
+        """The rosbags type store of one schema (cached per schema id).
 
-        if schema.id in self._stores:
-            cached = self._stores[schema.id]
-            return None if cached is None else cached.fielddefs
-        name = _normal_type(schema.name)
-        store: Any = None
-        types: dict[str, Any] = {}
+        Raises
+        ------
+        DefinitionError
+            When the schema's text cannot be parsed or the type is defined nowhere.
+        """
+        cached = self._stores.get(schema.id)
+        if isinstance(cached, DefinitionError):
+            raise cached
+        if cached is not None:
+            return cached
+        if self._extra_types is None:
+            self._extra_types = (
+                types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
+            )
+        encoding = {"ros2msg": "msg", "ros1msg": "msg", "ros2idl": "idl", "omgidl": "idl"}
         try:
             text = schema.data.decode("utf-8")
-            if schema.encoding in ("ros2msg", "ros1msg") and text.strip():
-                types = get_types_from_msg(text, name)
-            elif schema.encoding in ("ros2idl", "omgidl") and text.strip():
-                separator = "=" * 80 + "\n"
-                parts = text.split(separator)[1:] if text.startswith(separator) else [text]
-                for part in parts:
-                    idl = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
-                    types.update(get_types_from_idl(idl))
-            store = get_typestore(Stores.EMPTY)
-            if types:
-                store.register(types)
-            if self._extra_types is None:
-                self._extra_types = (
-                    types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
-                )
-            complete_typestore(store, _referenced(types) | {name}, self._extra_types, ros1)
-        except (TypesysError, UnicodeDecodeError, ValueError, KeyError):
-            store = None
+            store = typestore_for(
+                msgtype,
+                encoding.get(schema.encoding, ""),
+                text,
+                ros1=ros1,
+                extra=self._extra_types,
+            )
+        except UnicodeDecodeError:
+            error = DefinitionError("its schema is not UTF-8 text")
+            self._stores[schema.id] = error
+            raise error from None
+        except DefinitionError as err:
+            self._stores[schema.id] = err
+            raise
         self._stores[schema.id] = store
-        return None if store is None else store.fielddefs
-
-    def _store_decoder(self, schema_id: int, msgtype: str, ros1: bool) -> Callable[[bytes], object]:
-        store = self._stores[schema_id]
-        if ros1:
-            return lambda data: store.deserialize_ros1(data, msgtype)
-        return lambda data: store.deserialize_cdr(data, msgtype)
-
-    @staticmethod
-    def _decoder(encoding: str, schema: Any) -> Callable[[bytes], object] | None:
-        """The ``mcap-ros2-support`` / ``mcap-ros1-support`` decoder for a schema, if any."""
-        try:
-            if encoding == "cdr":
-                from mcap_ros2.decoder import DecoderFactory as Ros2Factory
-
-                return Ros2Factory().decoder_for("cdr", schema)
-            from mcap_ros1.decoder import DecoderFactory as Ros1Factory
-
-            return Ros1Factory().decoder_for("ros1", schema)
-        except Exception:  # the libraries raise assorted errors for schemas they cannot parse
-            return None
+        return store
 
     # -- reading
 
-    def _read_errors(self) -> tuple[type[BaseException], ...]:
-        return _library_errors()
-
     def _damaged(self, err: BaseException) -> LogError:
         if type(err).__name__ == "CRCValidationError":
-            return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({first_line(err)})")
-        return LogError(f"{self.path}: damaged MCAP file ({first_line(err)})")
+            return LogError(
+                f"{self.path}: CRC mismatch: the file is corrupt ({excerpt(first_line(err))})"
+            )
+        return LogError(f"{self.path}: damaged MCAP file ({excerpt(first_line(err))})")
+
+    def _recover_hint(self, topic: str, found: int) -> str:
+        """Suggest ``--recover`` only when a sequential read finds more of ``topic``."""
+        return "" if self._sequential else recover_hint(self._file, topic, found)
 
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
         from mcap.reader import NonSeekingReader, SeekingReader
@@ -448,6 +466,6 @@ class McapSource(MessageSource):
                 topics=sorted(topics), log_time_order=False
             ):
                 yield channel.topic, message.log_time, message.data
-        except _library_errors():
+        except Exception:  # --recover: stop at the first record cut off or corrupt
             if not self.settings.recover:
                 raise

@@ -17,8 +17,12 @@ The same path works on every kind of message hybridlog reads:
 - :class:`BatchDecoder` reads a path out of many *serialised* CDR or ROS 1 messages at once,
   without building message objects: the byte offset of the field is walked for all messages
   together with NumPy, following the same layout rules as rosbags' generated deserialisers
-  (CDR: every primitive aligned to its size relative to the payload; ROS 1: packed).  This is
-  what makes reading a selected signal cheaper than deserialising its messages; anything it
+  (CDR: every primitive aligned to its size relative to the payload; ROS 1: packed).  Before
+  any value is taken, :meth:`BatchDecoder.check_sizes` walks every field of every message
+  and requires the definition to end where the message ends, as rosbags' deserialiser does:
+  a definition that does not describe the bytes is refused, never read into wrong numbers.
+  This is what makes reading a selected signal cheaper than deserialising its messages
+  (13-21x on ``Float64`` and ``PointStamped``, see ``benchmarks/read_logs.py``); anything it
   does not handle (``float128``, wide strings, long sequences of nested messages) raises
   :class:`LayoutError` and the caller decodes those messages one by one instead.
 """
@@ -27,6 +31,7 @@ from __future__ import annotations
 
 import array
 import math
+import operator
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -358,6 +363,36 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
 _MISSING = object()
 
 
+def accessor(steps: Sequence[Step]) -> Callable[[object], object]:
+    """A function that follows ``steps`` through a decoded message object, at C speed.
+
+    Attribute runs become one :func:`operator.attrgetter`, indices an
+    :func:`operator.itemgetter`.  It raises what Python raises (``AttributeError``,
+    ``IndexError``, ``TypeError``); :func:`evaluate` is the careful version that says why.
+    """
+    parts: list[Callable[[Any], Any]] = []
+    names: list[str] = []
+    for step in steps:
+        if isinstance(step, int):
+            if names:
+                parts.append(operator.attrgetter(".".join(names)))
+                names = []
+            parts.append(operator.itemgetter(step))
+        else:
+            names.append(step)
+    if names:
+        parts.append(operator.attrgetter(".".join(names)))
+    if len(parts) == 1:
+        return parts[0]
+
+    def follow(message: object) -> object:
+        for part in parts:
+            message = part(message)
+        return message
+
+    return follow
+
+
 def _attribute(value: object, name: str) -> object:
     for candidate in (name, f"{name}_"):
         try:
@@ -583,6 +618,35 @@ class BatchDecoder:
         self._cdr = cdr
 
     # -- public
+
+    def check_sizes(self, batch: RawBatch) -> None:
+        """Check that the definition accounts for every byte of every message in ``batch``.
+
+        A definition that does not describe the bytes -- a placeholder stored by the
+        recorder, a type changed between recording and reading -- would otherwise be read
+        "successfully" into wrong numbers.  The end of each message according to the
+        definition must be its actual end: exactly for ROS 1; for CDR up to 3 bytes of
+        trailing padding are allowed, as rosbags' deserialiser allows them.
+
+        Raises
+        ------
+        UndecodableError
+            Naming the first message whose size does not fit the definition.
+        LayoutError
+            When the walk needs the one-by-one fallback (which checks sizes itself).
+        """
+        rows: IntArray = np.arange(batch.size, dtype=np.int64)
+        end = self._skip(batch, rows, np.zeros(batch.size, dtype=np.int64), (NAME, self._msgtype))
+        length = batch.ends - batch.starts
+        slack = length - end
+        bad = (slack < 0) | (slack > (3 if self._cdr else 0))
+        if bad.any():
+            row = int(np.argmax(bad))
+            raise UndecodableError(
+                row,
+                f"its stored definition of {self._msgtype} accounts for {int(end[row])} of its "
+                f"{int(length[row])} bytes: the messages were not written with this definition",
+            )
 
     def numbers(self, batch: RawBatch, steps: Sequence[Step]) -> FloatArray:
         """The number at ``steps`` in every message, as ``float64``.

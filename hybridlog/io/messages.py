@@ -33,7 +33,8 @@ from typing import Any, Self
 
 import numpy as np
 
-from hybridlog.errors import LogError
+from hybridlog.errors import HybridlogError, LogError, excerpt
+from hybridlog.io.definitions import first_line
 from hybridlog.io.message_paths import (
     BatchDecoder,
     IndexRangeError,
@@ -43,6 +44,7 @@ from hybridlog.io.message_paths import (
     Step,
     Typedefs,
     UndecodableError,
+    accessor,
     as_label,
     as_number,
     check_path,
@@ -113,8 +115,10 @@ class Topic:
 class MessageSource(abc.ABC):
     """Base of the message-log readers (see the module docstring).
 
-    Subclasses set ``format`` and fill ``_topics`` when opened, and implement
-    :meth:`_iter_raw` and :meth:`_read_errors`.
+    Subclasses set ``format`` and fill ``_topics`` when opened, implement :meth:`_iter_raw`
+    and :meth:`close`, and may word :meth:`_damaged` and :meth:`_recover_hint` for their
+    format.  Messages are only ever read through :meth:`_messages`, which turns whatever the
+    library raises on a damaged file into a :class:`~hybridlog.errors.LogError`.
     """
 
     field_word = "field"
@@ -136,13 +140,33 @@ class MessageSource(abc.ABC):
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
         """Yield ``(topic, log_time_ns, serialised message)`` for the named topics."""
 
-    def _read_errors(self) -> tuple[type[BaseException], ...]:
-        """Exceptions the underlying library raises for a damaged file."""
-        return (OSError,)
-
     def _damaged(self, err: BaseException) -> LogError:
         """The error for a file the library could not read to the end."""
-        return LogError(f"{self.path}: damaged {self.format} file ({first_line(err)})")
+        return LogError(f"{self.path}: damaged {self.format} file ({excerpt(first_line(err))})")
+
+    def _recover_hint(self, topic: str, found: int) -> str:
+        """A hint for a topic with fewer messages than the index lists ("" when none helps)."""
+        return ""
+
+    def _messages(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+        """:meth:`_iter_raw`, with whatever the library raises turned into a :class:`LogError`.
+
+        This is the one place where reading a damaged file fails: the libraries below raise
+        assorted exceptions on corrupt bytes (``OverflowError``, ``struct.error``,
+        ``KeyError``, decompression errors ...), so everything but hybridlog's own errors is
+        caught, around the library's ``next`` only, and reported as a damaged file.
+        """
+        iterator = self._iter_raw(topics)
+        while True:
+            try:
+                item = next(iterator)
+            except StopIteration:
+                return
+            except HybridlogError:
+                raise
+            except Exception as err:  # corrupt bytes make the libraries raise anything
+                raise self._damaged(err) from err
+            yield item
 
     # ------------------------------------------------------------------ LogSource
 
@@ -285,7 +309,7 @@ class MessageSource(abc.ABC):
                     raise LogError(
                         f"{self.path}: topic {reader.topic.name!r}: {reader.count} messages "
                         f"found but the file's index lists {expected} (a damaged index or "
-                        "summary; --recover reads the file sequentially)"
+                        f"summary){self._recover_hint(reader.topic.name, reader.count)}"
                     )
         numeric_series: dict[str, Series] = {}
         label_series: dict[str, LabelSeries] = {}
@@ -316,17 +340,14 @@ class MessageSource(abc.ABC):
         buffers: dict[str, tuple[list[bytes], list[int], list[int]]] = {
             name: ([], [], [0]) for name in readers
         }
-        try:
-            for topic, log_time, data in self._iter_raw(set(readers)):
-                datas, times, size = buffers[topic]
-                datas.append(data)
-                times.append(log_time)
-                size[0] += len(data)
-                if size[0] >= BATCH_BYTES or len(datas) >= BATCH_MESSAGES:
-                    readers[topic].add(datas, times)
-                    buffers[topic] = ([], [], [0])
-        except self._read_errors() as err:
-            raise self._damaged(err) from err
+        for topic, log_time, data in self._messages(set(readers)):
+            datas, times, size = buffers[topic]
+            datas.append(data)
+            times.append(log_time)
+            size[0] += len(data)
+            if size[0] >= BATCH_BYTES or len(datas) >= BATCH_MESSAGES:
+                readers[topic].add(datas, times)
+                buffers[topic] = ([], [], [0])
         for name, (datas, times, _) in buffers.items():
             if datas:
                 readers[name].add(datas, times)
@@ -347,10 +368,10 @@ class MessageSource(abc.ABC):
         problems = list(self._problems)
         times: dict[str, list[int]] = {name: [] for name in self._topics}
         try:
-            for topic_name, log_time, _ in self._iter_raw(set(self._topics)):
+            for topic_name, log_time, _ in self._messages(set(self._topics)):
                 times[topic_name].append(log_time)
-        except self._read_errors() as err:
-            problems.append(str(self._damaged(err)).removeprefix(f"{self.path}: "))
+        except LogError as err:
+            problems.append(str(err).removeprefix(f"{self.path}: "))
         fields = self.fields()
         topics = []
         start, end = None, None
@@ -431,12 +452,6 @@ def _describe_times(stamps: IntArray) -> dict[str, Any]:
     return info
 
 
-def first_line(err: BaseException) -> str:
-    """The first line of an exception's message, or its class name."""
-    text = str(err).strip()
-    return text.splitlines()[0] if text else type(err).__name__
-
-
 # ---------------------------------------------------------------------- one topic
 
 
@@ -502,6 +517,7 @@ class _TopicReader:
         decoder = self.batch_decoder
         assert decoder is not None
         batch = make_batch(datas, cdr=self.topic.encoding == "cdr")
+        decoder.check_sizes(batch)
         results: list[tuple[_Wanted, Any]] = []
         for wanted in self.wanted:
             try:
@@ -534,9 +550,11 @@ class _TopicReader:
             row = 0
             try:
                 if wanted.kind == "number":
-                    values = np.empty(len(messages), dtype=np.float64)
-                    for row, message in enumerate(messages):
-                        values[row] = as_number(evaluate(message, wanted.path.steps))
+                    values = self._numbers(messages, wanted.path.steps)
+                    if values is None:  # the careful loop, which names what is wrong
+                        values = np.empty(len(messages), dtype=np.float64)
+                        for row, message in enumerate(messages):
+                            values[row] = as_number(evaluate(message, wanted.path.steps))
                     wanted.values.append(values)
                 else:
                     texts = [
@@ -565,6 +583,22 @@ class _TopicReader:
                     f"{err} in {self._where(times, row)} (--time header needs it)"
                 ) from None
             self.stamps.append(stamps)
+
+    def _numbers(self, messages: list[object], steps: Sequence[Step]) -> FloatArray | None:
+        """The numbers at ``steps`` in one go, or ``None`` when any message needs a closer look.
+
+        Only for messages decoded by rosbags against a definition the path was checked with
+        (so the leaf is a number); JSON values could be strings that NumPy would parse.
+        """
+        if self.topic.typedefs is None:
+            return None
+        try:
+            values: FloatArray = np.fromiter(
+                map(accessor(steps), messages), dtype=np.float64, count=len(messages)
+            )
+        except (AttributeError, IndexError, KeyError, TypeError, ValueError):
+            return None
+        return values
 
     # -- series
 

@@ -5,17 +5,22 @@ SQLite (a ROS 2 ``.db3``) or Parquet (``PAR1``); anything else is read as CSV wh
 ends in ``.csv``.  A directory is a ROS 2 bag.  A suffix that promises a format the content
 does not have is an error naming both.
 
-========================== =============================================================
-log                        reader
-========================== =============================================================
-``.csv``, ``.parquet``     :class:`~hybridlog.io.tables.TableSource` (polars)
-``.bag`` (ROS 1)           :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
-ROS 2 bag directory        :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
-``.db3``                   :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
-``.mcap``, profile ros2    :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
-``.mcap``, other profiles  :class:`~hybridlog.io.mcap_reader.McapSource` (mcap library)
-``.mcap`` with --recover   :class:`~hybridlog.io.mcap_reader.McapSource`, sequential
-========================== =============================================================
+=============================== ========================================================
+log                             reader
+=============================== ========================================================
+``.csv``, ``.parquet``          :class:`~hybridlog.io.tables.TableSource` (polars)
+``.bag`` (ROS 1)                :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
+ROS 2 bag directory             :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
+``.db3``                        :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
+``.mcap``, profile ros2,        :class:`~hybridlog.io.rosbag_reader.BagSource` (rosbags)
+fully indexed summary
+``.mcap``, any other            :class:`~hybridlog.io.mcap_reader.McapSource` (mcap library)
+``.mcap`` with --recover        :class:`~hybridlog.io.mcap_reader.McapSource`, sequential
+=============================== ========================================================
+
+Every reader turns whatever its library raises on a damaged file into a
+:class:`~hybridlog.errors.LogError` naming the file, so a corrupt log never ends in a
+traceback.
 """
 
 from __future__ import annotations
@@ -25,7 +30,12 @@ from pathlib import Path
 
 from hybridlog.errors import LogError
 from hybridlog.io.mcap_reader import MAGIC as MCAP_MAGIC
-from hybridlog.io.mcap_reader import McapSource, check_mcap, count_readable
+from hybridlog.io.mcap_reader import (
+    McapSource,
+    check_mcap,
+    count_readable,
+    rosbags_summary_problem,
+)
 from hybridlog.io.rosbag_reader import BagSource
 from hybridlog.io.source import LogSource, ReadSettings
 from hybridlog.io.tables import TableSource
@@ -142,12 +152,20 @@ def _open_mcap(file: Path, settings: ReadSettings) -> LogSource:
         return McapSource(file, layout, settings)
     if not layout.finished:
         readable, stop = count_readable(file)
+        then = (
+            f"{readable} messages are readable, up to {stop}; --recover analyses them"
+            if readable
+            else f"no message is readable (the read stops at {stop}), so --recover cannot help"
+        )
         raise UnfinishedLogError(
             f"{file}: unfinished MCAP file ({layout.problem}: the recorder was killed or the "
-            f"file was cut off); {readable} messages are readable, up to {stop}; "
-            "--recover analyses them",
+            f"file was cut off); {then}",
             readable,
         )
-    if layout.profile == "ros2" and file.suffix.lower() == ".mcap":
+    if (
+        layout.profile == "ros2"
+        and file.suffix.lower() == ".mcap"
+        and rosbags_summary_problem(file) is None
+    ):
         return BagSource(file, "mcap", settings)
     return McapSource(file, layout, settings)

@@ -1,134 +1,98 @@
-"""ROS 1 and ROS 2 bags through ``rosbags.highlevel.AnyReader``.
+"""ROS 1 and ROS 2 bags through rosbags' bag readers.
 
-Reads ROS 1 ``.bag`` files, ROS 2 bag directories (``metadata.yaml`` with sqlite3 or MCAP
-storage), bare ROS 2 ``.db3`` files and bare MCAP files of the ``ros2`` profile.  Message
-definitions come from the bag itself; types it does not define are taken, in this order, from
-``--msg-dir`` folders (:func:`types_from_msg_dirs`) and from rosbags' standard ROS 1 (Noetic) or
-ROS 2 (latest LTS) type store.  Messages are read raw and reduced by
-:class:`~hybridlog.io.messages.MessageSource`; rosbags' deserialiser is the fallback.
+Reads ROS 1 ``.bag`` files (``rosbags.rosbag1``), ROS 2 bag directories (``metadata.yaml``
+with sqlite3 or MCAP storage), bare ROS 2 ``.db3`` files and bare ``ros2``-profile MCAP files
+that carry a complete summary (``rosbags.rosbag2``).  Messages are read raw and reduced by
+:class:`~hybridlog.io.messages.MessageSource`.
+
+What this adds to rosbags' readers:
+
+- Each topic's message definition is parsed on its own (:mod:`.definitions`), where
+  rosbags' ``AnyReader`` parses them all at once and refuses the bag when one fails: a
+  definition rosbags cannot parse, or whose stored type hash does not match it, makes only
+  its topic undecodable.
+- In a bag directory, topics are matched between ``metadata.yaml`` and the storage files by
+  name and type (rosbags also compares their QoS text, so a bag whose metadata was written
+  by another ROS version reads as empty); where the two disagree (QoS, counts, topics),
+  ``reading["metadata"]`` says so and the storage files, which hold the messages, win.
+- MCAP storage files are checked like bare MCAP files first (CRCs, footer; see
+  :func:`~hybridlog.io.mcap_reader.check_mcap`), and whatever rosbags raises on a damaged
+  file becomes a :class:`~hybridlog.errors.LogError` naming the file.
 """
 
 from __future__ import annotations
 
-import sqlite3
-import struct
+import contextlib
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from hybridlog.errors import LogError
-from hybridlog.io.message_paths import Typedefs
-from hybridlog.io.messages import MessageSource, Topic, first_line
+from hybridlog.errors import HybridlogError, LogError, excerpt
+from hybridlog.io.definitions import (
+    DefinitionError,
+    digest_problem,
+    first_line,
+    types_from_msg_dirs,
+    typestore_for,
+)
+from hybridlog.io.mcap_reader import (
+    check_mcap,
+    count_readable,
+    recover_hint,
+    rosbags_summary_problem,
+)
+from hybridlog.io.messages import MessageSource, Topic
 from hybridlog.io.source import ReadSettings
 
 SCHEMALESS = "__schemaless__"
 
 
-def _library_errors() -> tuple[type[BaseException], ...]:
-    from rosbags.highlevel import AnyReaderError
-    from rosbags.rosbag1 import ReaderError as Ros1Error
-    from rosbags.rosbag2 import ReaderError as Ros2Error
-    from rosbags.serde import SerdeError
-    from rosbags.typesys import TypesysError
+def check_sqlite(path: Path) -> None:
+    """Refuse an SQLite file shorter than the size its header records.
 
-    errors: list[type[BaseException]] = [
-        AnyReaderError,
-        Ros1Error,
-        Ros2Error,
-        SerdeError,
-        TypesysError,
-        sqlite3.Error,
-        struct.error,
-        OSError,
-        EOFError,
-        ValueError,
-        KeyError,
-        IndexError,
-        RuntimeError,  # lz4 reports corrupt frames this way
-    ]
-    try:
-        from backports.zstd import ZstdError
-
-        errors.append(ZstdError)
-    except ImportError:  # pragma: no cover - Python >= 3.14 has compression.zstd
-        pass
-    return tuple(errors)
-
-
-def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
-    """Message types defined by the ``.msg`` files under ``folders``.
-
-    A file ``<pkg>/msg/<Name>.msg`` (or ``<pkg>/<Name>.msg``) defines ``<pkg>/msg/<Name>``.
+    SQLite keeps no checksums, but its header records the page size and (when the "version
+    valid for" number equals the change counter) the number of pages: a file cut short does
+    not add up.  SQLite itself reads a cut-off last page as zeros, which turns the last
+    messages' bytes into other numbers without any error.  (Bytes after the last page are
+    ignored by SQLite and harmless.)
 
     Raises
     ------
     LogError
-        For a folder that does not exist or a ``.msg`` file rosbags cannot parse (naming it).
+        Naming the file, its size and the size its header records.
     """
-    from rosbags.typesys import TypesysError, get_types_from_msg
-
-    types: dict[str, Any] = {}
-    for folder in folders:
-        root = Path(folder)
-        if not root.is_dir():
-            raise LogError(f"--msg-dir {folder}: no such folder")
-        for file in sorted(root.rglob("*.msg")):
-            parent = file.parent
-            package = parent.parent.name if parent.name == "msg" else parent.name
-            name = f"{package}/msg/{file.stem}"
-            try:
-                types.update(get_types_from_msg(file.read_text(encoding="utf-8"), name))
-            except (TypesysError, UnicodeDecodeError, OSError) as err:
-                raise LogError(
-                    f"{file}: not a readable message definition ({first_line(err)})"
-                ) from err
-    return types
-
-
-def standard_types(ros1: bool) -> Typedefs:
-    """Rosbags' standard message definitions (ROS 1 Noetic, or the latest ROS 2 LTS)."""
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.LATEST)
-    fielddefs: Typedefs = store.fielddefs
-    return fielddefs
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as handle:
+            header = handle.read(100)
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+    if len(header) < 100:
+        return  # sqlite reports a file this short itself
+    page_size = int.from_bytes(header[16:18], "big")
+    page_size = 65536 if page_size == 1 else page_size
+    pages = int.from_bytes(header[28:32], "big")
+    valid = header[24:28] == header[92:96] and pages > 0
+    if valid and size < page_size * pages:
+        raise LogError(
+            f"{path}: damaged SQLite database: {size} bytes where its header records "
+            f"{pages} pages of {page_size} bytes ({page_size * pages} bytes); the file is cut off"
+        )
 
 
-def complete_typestore(store: Any, needed: set[str], extra: dict[str, Any], ros1: bool) -> None:
-    """Register into ``store`` the ``needed`` types it lacks (and what they use).
-
-    Taken from ``extra`` (``--msg-dir``) first, then from the standard definitions.
-    """
-    missing = {name for name in needed if name not in store.fielddefs}
-    if not missing:
-        return
-    pool: dict[str, Any] = {**standard_types(ros1), **extra}
-    chosen: dict[str, Any] = {}
-
-    def add(name: str) -> None:
-        if name in chosen or name in store.fielddefs or name not in pool:
-            return
-        chosen[name] = pool[name]
-        for _, desc in pool[name][1]:
-            node = int(desc[0])
-            if node == 2:
-                add(desc[1])
-            elif node in (3, 4) and int(desc[1][0][0]) == 2:
-                add(desc[1][0][1])
-
-    for name in sorted(missing):
-        add(name)
-    if chosen:
-        store.register(chosen)
+def _qos_text(connection: Any) -> str:
+    return repr(getattr(connection.ext, "offered_qos_profiles", None))
 
 
 class BagSource(MessageSource):
-    """A bag read through rosbags' ``AnyReader`` (see the module docstring).
+    """A bag read through rosbags' bag readers (see the module docstring).
 
     Parameters
     ----------
     path:
-        A ``.bag`` file, a ROS 2 bag directory, a ``.db3`` file or a ``ros2``-profile ``.mcap``.
+        A ``.bag`` file, a ROS 2 bag directory, a ``.db3`` file or a ``ros2``-profile
+        ``.mcap`` whose summary rosbags can index.
     kind:
         ``"ros1"``, ``"ros2"`` (directory), ``"db3"`` or ``"mcap"``: what the content says.
     settings:
@@ -137,14 +101,11 @@ class BagSource(MessageSource):
     Raises
     ------
     LogError
-        When rosbags cannot open the bag (naming why in one line).
+        When the bag cannot be opened (naming why in one line).
     """
 
     def __init__(self, path: str | Path, kind: str, settings: ReadSettings | None = None) -> None:
         super().__init__(path, settings)
-        from rosbags.highlevel import AnyReader
-        from rosbags.typesys import Stores, get_typestore
-
         self._kind = kind
         self._ros1 = kind == "ros1"
         self.format = {
@@ -153,40 +114,79 @@ class BagSource(MessageSource):
             "db3": "ros2-db3",
             "mcap": "mcap",
         }[kind]
-        default = get_typestore(Stores.ROS1_NOETIC if self._ros1 else Stores.LATEST)
-        self._reader: Any = None
-        try:
-            reader = AnyReader([self._file], default_typestore=default)
-            reader.open()
-        except FileNotFoundError as err:
-            raise LogError(self._open_problem(err)) from None
-        except _library_errors() as err:
-            raise LogError(self._open_problem(err)) from None
-        self._reader = reader
-        if kind == "ros2":
-            storage = getattr(reader.readers[0], "storage", None)
-            plugin = type(getattr(storage, "storages", [None])[0]).__name__
-            self.format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
-        self._store = reader.typestore
         if kind == "mcap":
             self._details["profile"] = "ros2"
+        self._reader: Any = None
+        # (storage reader, its connections): where messages are read from.
+        self._storages: list[tuple[Any, list[Any]]] = []
+        self._per_message_zstd = False
+        if kind == "ros2":
+            self._check_mcap_storage()
+            for file in sorted(self._file.glob("*.db3")):
+                check_sqlite(file)
+        elif kind == "db3":
+            check_sqlite(self._file)
         try:
+            self._open()
             extra = types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
-            complete_typestore(
-                self._store, {c.msgtype for c in reader.connections}, extra, self._ros1
-            )
-        except LogError:
+            self._topics = self._make_topics(extra)
+        except HybridlogError:
             self.close()
             raise
-        except _library_errors() as err:
+        except Exception as err:  # rosbags raises assorted errors on damaged bags
             self.close()
-            raise LogError(
-                f"{self.path}: message definitions conflict ({first_line(err)})"
-            ) from err
-        self._topics = self._make_topics()
+            raise LogError(self._open_problem(err)) from None
+
+    # ------------------------------------------------------------------ opening
+
+    def _check_mcap_storage(self) -> None:
+        """Check the MCAP storage files of a bag directory as bare MCAP files are checked."""
+        for file in sorted(self._file.glob("*.mcap")):
+            layout = check_mcap(file)
+            if not layout.finished:
+                readable, _ = count_readable(file)
+                then = (
+                    f"{readable} messages are readable: analyse {file} with --recover"
+                    if readable
+                    else "no message in it is readable"
+                )
+                raise LogError(
+                    f"{self.path}: its MCAP storage file {file.name} is unfinished "
+                    f"({layout.problem}: the recorder was killed?); {then}"
+                )
+            problem = rosbags_summary_problem(file) if layout.profile == "ros2" else None
+            if problem is not None:
+                raise LogError(
+                    f"{self.path}: rosbags' bag reader cannot index its MCAP storage file "
+                    f"{file.name} ({problem}); analyse the file itself: {file}"
+                )
+
+    def _open(self) -> None:
+        if self._ros1:
+            from rosbags.rosbag1 import Reader as Ros1Reader
+
+            reader: Any = Ros1Reader(self._file)
+            reader.open()
+            self._reader = reader
+            self._storages = [(reader, list(reader.connections))]
+            return
+        from rosbags.rosbag2 import Reader as Ros2Reader
+
+        reader = Ros2Reader(self._file)
+        reader.open()
+        self._reader = reader
+        storage = reader.storage
+        storages = getattr(storage, "storages", None)
+        if storages is None:  # a bare .db3 or .mcap
+            self._storages = [(storage, list(storage.connections))]
+            return
+        self._storages = [(s, list(s.connections)) for s in storages]
+        self._per_message_zstd = reader.compression_mode == "message"
+        plugin = type(storages[0]).__name__ if storages else ""
+        self.format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
 
     def _open_problem(self, err: BaseException) -> str:
-        text = first_line(err)
+        text = excerpt(first_line(err)).strip("'")
         if isinstance(err, FileNotFoundError) and "metadata" in text:
             inside = sorted(p.name for p in self._file.glob("*") if p.suffix in (".db3", ".mcap"))
             hint = f"; open the file inside it directly: {inside[0]}" if inside else ""
@@ -209,35 +209,31 @@ class BagSource(MessageSource):
                 f"{self.path}: the ROS 1 bag is not indexed (its recording did not finish); "
                 "run `rosbag reindex` on it"
             )
-        if "Cannot open database" in text or isinstance(err, sqlite3.Error):
-            return f"{self.path}: not a readable ROS 2 bag database ({text})"
-        if "File end magic is invalid" in text and self._kind == "ros2":
-            return (
-                f"{self.path}: its MCAP storage file is unfinished (no footer: the recorder was "
-                "killed?); analyse the .mcap file inside it with --recover"
-            )
+        if "Cannot open database" in text or type(err).__module__.startswith(("sqlite", "apsw")):
+            reason = excerpt(first_line(err).rsplit(": ", 1)[-1]).strip("'")
+            return f"{self.path}: not a readable ROS 2 bag database ({reason})"
         if "File magic is invalid" in text:
             return f"{self.path}: not a {self.format} file (wrong magic bytes)"
         if "seems to be empty" in text:
             return f"{self.path}: empty file"
-        if "no type definitions" in text:
-            return f"{self.path}: the bag has no message definitions; pass --msg-dir DIR"
         return f"{self.path}: cannot open the {self.format} file ({text})"
 
-    def _make_topics(self) -> dict[str, Topic]:
-        store = self._store
-        topics: dict[str, Topic] = {}
+    # ------------------------------------------------------------------ topics
+
+    def _make_topics(self, extra: dict[str, Any]) -> dict[str, Topic]:
         grouped: dict[str, list[Any]] = {}
-        for connection in self._reader.connections:
-            grouped.setdefault(connection.topic, []).append(connection)
+        for _, connections in self._storages:
+            for connection in connections:
+                grouped.setdefault(connection.topic, []).append(connection)
+        stores: dict[tuple[str, str, str], Any] = {}
+        topics: dict[str, Topic] = {}
         for name, connections in grouped.items():
             msgtypes = {c.msgtype for c in connections}
             msgtype = connections[0].msgtype
-            encoding = "ros1" if self._ros1 else "cdr"
-            formats = {getattr(c.ext, "serialization_format", "ros1") for c in connections}
             counts = [c.msgcount for c in connections]
             count = sum(counts) if all(c >= 0 for c in counts) else None
-            topic = Topic(name, msgtype, encoding, count)
+            topic = Topic(name, msgtype, "ros1" if self._ros1 else "cdr", count)
+            formats = {getattr(c.ext, "serialization_format", "ros1") for c in connections}
             if len(msgtypes) > 1:
                 topic.problem = f"has several message types ({', '.join(sorted(msgtypes))})"
             elif msgtype == SCHEMALESS:
@@ -248,41 +244,124 @@ class BagSource(MessageSource):
                     f"message encoding {', '.join(sorted(formats))!r} is not CDR, which a "
                     "ROS 2 bag requires"
                 )
-            elif msgtype not in store.fielddefs:
-                topic.problem = (
-                    f"type {msgtype!r} has no definition in the log or the standard types; "
-                    f"pass --msg-dir DIR with {msgtype}.msg in it"
-                )
             else:
-                topic.typedefs = store.fielddefs
-                topic.decode = self._decoder(msgtype)
+                self._define(topic, connections[0], stores, extra)
             topics[name] = topic
+        if self._kind == "ros2":
+            self._compare_metadata(topics)
         return topics
 
-    def _decoder(self, msgtype: str) -> Any:
-        store = self._store
+    def _define(
+        self, topic: Topic, connection: Any, stores: dict[tuple[str, str, str], Any], extra: Any
+    ) -> None:
+        """Give ``topic`` its type store from the connection's stored definition."""
+        definition = connection.msgdef
+        encoding = {"MSG": "msg", "IDL": "idl"}.get(definition.format.name, "")
+        key = (topic.msgtype, encoding, definition.data)
+        try:
+            store = stores.get(key)
+            if store is None:
+                store = stores[key] = typestore_for(
+                    topic.msgtype, encoding, definition.data, ros1=self._ros1, extra=extra
+                )
+        except DefinitionError as err:
+            topic.problem = str(err)
+            return
+        if encoding:
+            problem = digest_problem(store, topic.msgtype, connection.digest, ros1=self._ros1)
+            if problem is not None:
+                topic.problem = problem
+                return
+        topic.typedefs = store.fielddefs
+        msgtype = topic.msgtype
         if self._ros1:
-            return lambda data: store.deserialize_ros1(data, msgtype)
-        return lambda data: store.deserialize_cdr(data, msgtype)
+            topic.decode = lambda data: store.deserialize_ros1(data, msgtype)
+        else:
+            topic.decode = lambda data: store.deserialize_cdr(data, msgtype)
+
+    def _compare_metadata(self, topics: dict[str, Topic]) -> None:
+        """Match ``metadata.yaml``'s topics to the storage's by name and type; note differences."""
+        storage_topics: dict[tuple[str, str], list[Any]] = {}
+        for _, connections in self._storages:
+            for connection in connections:
+                key = (connection.topic, connection.msgtype)
+                storage_topics.setdefault(key, []).append(connection)
+        remarks: list[str] = []
+        listed: set[tuple[str, str]] = set()
+        for entry in self._reader.connections:
+            key = (entry.topic, entry.msgtype)
+            listed.add(key)
+            stored = storage_topics.get(key)
+            if stored is None:
+                # A topic without messages may be missing from a storage file; one with
+                # messages is lost (a damaged storage file).
+                lost = entry.msgcount > 0
+                if lost:
+                    remarks.append(
+                        f"topic {entry.topic!r} ({entry.msgtype}) is listed in metadata.yaml "
+                        f"with {entry.msgcount} messages but no storage file holds it"
+                    )
+                if entry.topic not in topics:
+                    topics[entry.topic] = Topic(
+                        entry.topic,
+                        entry.msgtype,
+                        "cdr",
+                        0,
+                        problem="listed in metadata.yaml but in no storage file of the bag"
+                        if lost
+                        else None,
+                    )
+                continue
+            if any(_qos_text(c) != _qos_text(entry) for c in stored):
+                remarks.append(
+                    f"topic {entry.topic!r}: metadata.yaml and the storage file give different "
+                    "QoS profiles (topics are matched by name and type)"
+                )
+            held = sum(c.msgcount for c in stored)
+            if held != entry.msgcount:
+                remarks.append(
+                    f"topic {entry.topic!r}: metadata.yaml lists {entry.msgcount} messages, the "
+                    f"storage holds {held}"
+                )
+        for topic_name, msgtype in sorted(set(storage_topics) - listed):
+            remarks.append(f"topic {topic_name!r} ({msgtype}) is not listed in metadata.yaml")
+        if remarks:
+            self._notes["metadata"] = remarks
+
+    # ------------------------------------------------------------------ reading
 
     def close(self) -> None:
         """Close the rosbags reader."""
         reader, self._reader = self._reader, None
-        if reader is not None and reader.stack is not None:
+        self._storages = []
+        if reader is None:
+            return
+        with contextlib.suppress(Exception):  # a reader that failed half-way may fail again
             reader.close()
 
-    def _read_errors(self) -> tuple[type[BaseException], ...]:
-        return _library_errors()
-
     def _damaged(self, err: BaseException) -> LogError:
-        text = first_line(err)
+        text = excerpt(first_line(err)).strip("'")
         if "checksum" in text.lower() or "crc" in text.lower():
             return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({text})")
         return LogError(f"{self.path}: damaged {self.format} file ({text})")
 
+    def _recover_hint(self, topic: str, found: int) -> str:
+        """``--recover`` applies to bare MCAP files only (read then by the mcap library)."""
+        return recover_hint(self._file, topic, found) if self._kind == "mcap" else ""
+
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
-        connections = [c for c in self._reader.connections if c.topic in topics]
-        if not connections:
-            return
-        for connection, timestamp, data in self._reader.messages(connections=connections):
-            yield connection.topic, timestamp, data
+        decompress = _zstd_decompress() if self._per_message_zstd else None
+        for storage, connections in self._storages:
+            chosen = [c for c in connections if c.topic in topics]
+            if not chosen:
+                continue
+            for connection, timestamp, data in storage.messages(chosen):
+                yield connection.topic, timestamp, data if decompress is None else decompress(data)
+
+
+def _zstd_decompress() -> Any:
+    if sys.version_info >= (3, 14):  # pragma: no cover
+        from compression import zstd
+    else:
+        from backports import zstd
+    return zstd.decompress

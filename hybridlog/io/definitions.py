@@ -1,0 +1,218 @@
+"""Message definitions: from the log, from ``--msg-dir`` folders, from rosbags' standard types.
+
+Every distinct definition a log stores (an MCAP schema, a bag connection's ``msgdef``) gets a
+rosbags type store of its own (:func:`typestore_for`).  One definition rosbags cannot parse --
+a ROS 2 Jazzy service-event schema holding a ``.srv`` text with ``---``, a placeholder, a
+typo -- therefore makes only the topics that use it undecodable, never the whole file.
+
+Types a definition references but does not define, and types the log stores no definition
+for at all (ROS 2 bags recorded before Iron), are taken from ``--msg-dir`` folders first and
+then from rosbags' standard ROS 1 (Noetic) or ROS 2 (latest LTS) definitions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from hybridlog.errors import LogError, excerpt
+from hybridlog.io.message_paths import Typedefs
+
+_IDL_SEPARATOR = "=" * 80 + "\n"
+
+
+class DefinitionError(Exception):
+    """A stored definition that cannot be used (message without the file, one line)."""
+
+
+def first_line(err: BaseException) -> str:
+    """The first line of an exception's message, or its class name."""
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__
+
+
+def normal_type(name: str) -> str:
+    """``std_msgs/Float64`` (ROS 1 style) → ``std_msgs/msg/Float64``."""
+    parts = name.split("/")
+    if len(parts) == 2:
+        return f"{parts[0]}/msg/{parts[1]}"
+    return name
+
+
+def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
+    """Message types defined by the ``.msg`` files under ``folders``.
+
+    A file ``<pkg>/msg/<Name>.msg`` (or ``<pkg>/<Name>.msg``) defines ``<pkg>/msg/<Name>``.
+
+    Raises
+    ------
+    LogError
+        For a folder that does not exist or a ``.msg`` file rosbags cannot parse (naming it).
+    """
+    from rosbags.typesys import TypesysError, get_types_from_msg
+
+    types: dict[str, Any] = {}
+    for folder in folders:
+        root = Path(folder)
+        if not root.is_dir():
+            raise LogError(f"--msg-dir {folder}: no such folder")
+        for file in sorted(root.rglob("*.msg")):
+            parent = file.parent
+            package = parent.parent.name if parent.name == "msg" else parent.name
+            name = f"{package}/msg/{file.stem}"
+            try:
+                types.update(get_types_from_msg(file.read_text(encoding="utf-8"), name))
+            except (TypesysError, UnicodeDecodeError, OSError) as err:
+                raise LogError(
+                    f"{file}: not a readable message definition ({first_line(err)})"
+                ) from err
+    return types
+
+
+def standard_types(ros1: bool) -> Typedefs:
+    """Rosbags' standard message definitions (ROS 1 Noetic, or the latest ROS 2 LTS)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.LATEST)
+    fielddefs: Typedefs = store.fielddefs
+    return fielddefs
+
+
+def referenced_types(types: Typedefs) -> set[str]:
+    """The types of ``types`` and every message type their fields use."""
+    names = set(types)
+    for _, fields in types.values():
+        for _, desc in fields:
+            node = int(desc[0])
+            if node == 2:
+                names.add(desc[1])
+            elif node in (3, 4) and int(desc[1][0][0]) == 2:
+                names.add(desc[1][0][1])
+    return names
+
+
+def complete_typestore(store: Any, needed: set[str], extra: Typedefs, ros1: bool) -> None:
+    """Register into ``store`` the ``needed`` types it lacks (and what they use).
+
+    Taken from ``extra`` (``--msg-dir``) first, then from the standard definitions.
+    """
+    missing = {name for name in needed if name not in store.fielddefs}
+    if not missing:
+        return
+    pool: dict[str, Any] = {**standard_types(ros1), **extra}
+    chosen: dict[str, Any] = {}
+
+    def add(name: str) -> None:
+        if name in chosen or name in store.fielddefs or name not in pool:
+            return
+        chosen[name] = pool[name]
+        for _, desc in pool[name][1]:
+            node = int(desc[0])
+            if node == 2:
+                add(desc[1])
+            elif node in (3, 4) and int(desc[1][0][0]) == 2:
+                add(desc[1][0][1])
+
+    for name in sorted(missing):
+        add(name)
+    if chosen:
+        store.register(chosen)
+
+
+def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
+    """Parse one stored definition into rosbags field definitions.
+
+    Parameters
+    ----------
+    msgtype:
+        The type it defines (``pkg/msg/Name``).
+    encoding:
+        ``"msg"`` (``.msg`` text, ROS 1 or ROS 2, with ``MSG:`` sections for the types it
+        uses) or ``"idl"`` (ROS 2 IDL, possibly several ``IDL:`` sections).
+    text:
+        The definition.
+
+    Raises
+    ------
+    DefinitionError
+        When rosbags cannot parse it.
+    """
+    from rosbags.typesys import TypesysError, get_types_from_idl, get_types_from_msg
+
+    types: dict[str, Any] = {}
+    try:
+        if encoding == "msg":
+            types.update(get_types_from_msg(text, msgtype))
+        else:
+            parts = text.split(_IDL_SEPARATOR)[1:] if text.startswith(_IDL_SEPARATOR) else [text]
+            for part in parts:
+                idl = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
+                types.update(get_types_from_idl(idl))
+    except (TypesysError, ValueError, KeyError, IndexError, AttributeError, TypeError) as err:
+        raise DefinitionError(
+            f"its stored message definition cannot be parsed ({excerpt(first_line(err))})"
+        ) from err
+    return types
+
+
+def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: Typedefs) -> Any:
+    """A rosbags type store that defines ``msgtype``, built from its stored definition.
+
+    Parameters
+    ----------
+    msgtype:
+        The topic's type (``pkg/msg/Name``).
+    encoding:
+        ``"msg"``, ``"idl"``, or ``""`` when the log stores no definition (then ``--msg-dir``
+        types and the standard types define it).
+    text:
+        The stored definition.
+    ros1:
+        Whether the messages are ROS 1 serialised (for the standard types to complete with).
+    extra:
+        Types from ``--msg-dir`` folders.
+
+    Raises
+    ------
+    DefinitionError
+        When the stored definition cannot be parsed, conflicts with itself, or the type is
+        defined nowhere.
+    """
+    from rosbags.typesys import Stores, TypesysError, get_typestore
+
+    types = parse_definition(msgtype, encoding, text) if encoding and text.strip() else {}
+    store = get_typestore(Stores.EMPTY)
+    try:
+        if types:
+            store.register(types)
+        complete_typestore(store, referenced_types(types) | {msgtype}, extra, ros1)
+    except (TypesysError, ValueError, KeyError, TypeError, SyntaxError) as err:
+        raise DefinitionError(
+            f"its message definition cannot be used ({excerpt(first_line(err))})"
+        ) from err
+    if msgtype not in store.fielddefs:
+        raise DefinitionError(
+            f"type {msgtype!r} has no definition in the log or the standard types; "
+            f"pass --msg-dir DIR with {msgtype}.msg in it"
+        )
+    return store
+
+
+def digest_problem(store: Any, msgtype: str, digest: str, *, ros1: bool) -> str | None:
+    """Why a stored type hash does not fit the stored definition, or ``None``.
+
+    ROS 1 bags store each definition's MD5 sum, ROS 2 bags (Iron and later) a ``RIHS01_``
+    type hash; a mismatch means the definition is not the one the messages were written with.
+    """
+    if not digest or (not ros1 and not digest.startswith("RIHS01_")):
+        return None
+    try:
+        have = store.generate_msgdef(msgtype)[1] if ros1 else store.hash_rihs01(msgtype)
+    except Exception:  # a hash rosbags cannot compute is no evidence either way
+        return None
+    if have == digest:
+        return None
+    return (
+        f"its stored message definition does not match its type hash ({excerpt(digest, 24)}); "
+        "the messages were written with another definition"
+    )
