@@ -1,8 +1,8 @@
-"""Message paths: parsing, the slash alias, the same path on every decoder, batch decoding.
+"""Message paths: parsing, the slash alias, the same path on every decoder.
 
-The batch decoder (offsets walked for all messages at once) is checked against rosbags'
-own deserialiser on random messages of types with strings, sequences, nested messages and
-fixed arrays, in little- and big-endian CDR and in ROS 1 serialisation.
+Paths are read out of messages rosbags wrote and deserialised, on random messages of types
+with strings, sequences, nested messages and fixed arrays, in little- and big-endian CDR and
+in ROS 1 serialisation; bytes that do not fit their definition are refused.
 """
 
 from __future__ import annotations
@@ -21,8 +21,6 @@ from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from hybridlog.io.message_paths import (
-    BatchDecoder,
-    IndexRangeError,
     PathError,
     UndecodableError,
     accessor,
@@ -30,9 +28,9 @@ from hybridlog.io.message_paths import (
     as_label,
     as_number,
     check_path,
+    decode_each,
     evaluate,
     leaf_value,
-    make_batch,
     split_path,
     stamp_ns,
 )
@@ -199,7 +197,7 @@ def test_labels_are_text_and_integral_numbers_lose_their_fraction() -> None:
     assert as_label(True) == "1"
 
 
-# ------------------------------------------------------------------ batch decoder
+# ------------------------------------------------------------------ deserialised messages
 
 MIXED = """
 bool flag
@@ -287,119 +285,56 @@ def _reference(messages: list[Any], steps: tuple[Any, ...]) -> tuple[int, list[f
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(st.tuples(mixed, st.booleans()), min_size=1, max_size=6), st.booleans())
-def test_batch_decoding_matches_rosbags_deserialiser(
+def test_paths_read_deserialised_messages_of_every_layout(
     rows: list[tuple[dict[str, Any], bool]], ros1: bool
 ) -> None:
+    # Messages written by rosbags (little- and big-endian CDR, ROS 1) and read back through
+    # decode_each with rosbags' deserialiser: every path gives the field that was written.
     store = STORES[ros1]
     messages = [_message(store, fields) for fields, _ in rows]
     if ros1:
         raw = [bytes(store.serialize_ros1(m, "test_msgs/msg/Mixed")) for m in messages]
-        decoded = [store.deserialize_ros1(r, "test_msgs/msg/Mixed") for r in raw]
+        decode = lambda data: store.deserialize_ros1(data, "test_msgs/msg/Mixed")  # noqa: E731
     else:
         raw = [
             bytes(store.serialize_cdr(m, "test_msgs/msg/Mixed", little_endian=little))
             for m, (_, little) in zip(messages, rows, strict=True)
         ]
-        decoded = [store.deserialize_cdr(r, "test_msgs/msg/Mixed") for r in raw]
-    batch = make_batch(raw, cdr=not ros1)
-    decoder = BatchDecoder(store.fielddefs, "test_msgs/msg/Mixed", cdr=not ros1)
-    decoder.check_sizes(batch)  # what rosbags writes fits its definition exactly
+        decode = lambda data: store.deserialize_cdr(data, "test_msgs/msg/Mixed")  # noqa: E731
+    decoded = decode_each(decode, raw)
     for steps in PATHS:
-        bad_row, expected = _reference(decoded, steps)
-        if bad_row >= 0:
-            with pytest.raises(IndexRangeError) as info:
-                decoder.numbers(batch, steps)
-            assert info.value.row == bad_row
-        else:
-            np.testing.assert_array_equal(decoder.numbers(batch, steps), expected)
-    codes, categories = decoder.labels(batch, ("name",))
-    assert [categories[c] for c in codes] == [m.name.strip() for m in decoded]
+        bad_row, expected = _reference(messages, steps)
+        got = _reference(decoded, steps)
+        assert got[0] == bad_row
+        np.testing.assert_array_equal(got[1], expected)
+        for message in decoded[: bad_row if bad_row >= 0 else None]:
+            assert as_number(accessor(steps)(message)) == as_number(evaluate(message, steps))
+    assert [as_label(m.name) for m in decoded] == [as_label(m.name) for m in messages]
 
 
-def test_batch_decoder_reads_stamps_and_labels_of_standard_types() -> None:
-    store = ros2_store()
-    points = [
-        stamped_point(store, t, x, frame=f) for t, x, f in ((5, 5.0, "a"), (10**10 + 1, 2.0, "b "))
-    ]
-    raw = [bytes(store.serialize_cdr(p, "geometry_msgs/msg/PointStamped")) for p in points]
-    decoder = BatchDecoder(store.fielddefs, "geometry_msgs/msg/PointStamped", cdr=True)
-    batch = make_batch(raw, cdr=True)
-    np.testing.assert_array_equal(decoder.stamps(batch, ("header", "stamp")), [5, 10**10 + 1])
-    np.testing.assert_array_equal(decoder.numbers(batch, ("point", "y")), [-5.0, -2.0])
-    codes, categories = decoder.labels(batch, ("header", "frame_id"))
-    assert [categories[c] for c in codes] == ["a", "b"]
-
-
-def test_batch_decoder_reads_ros1_stamps_after_the_header_seq() -> None:
-    store = ros1_store()
-    times = [7, 3 * 10**9 + 9]
-    points = [stamped_point(store, t, 1.0 + i, frame="odom" * i) for i, t in enumerate(times)]
-    raw = [bytes(store.serialize_ros1(p, "geometry_msgs/msg/PointStamped")) for p in points]
-    decoder = BatchDecoder(store.fielddefs, "geometry_msgs/msg/PointStamped", cdr=False)
-    batch = make_batch(raw, cdr=False)
-    np.testing.assert_array_equal(decoder.stamps(batch, ("header", "stamp")), times)
-    np.testing.assert_array_equal(decoder.numbers(batch, ("point", "x")), [1.0, 2.0])
-    np.testing.assert_array_equal(decoder.numbers(batch, ("point", "z")), [0.5, 0.5])
-
-
-def test_batch_decoder_rejects_messages_that_do_not_fit_their_type() -> None:
+def test_messages_that_do_not_fit_their_type_are_refused_naming_the_row() -> None:
     store = ros2_store()
     good = bytes(
         store.serialize_cdr(stamped_point(store, 1, 2.0), "geometry_msgs/msg/PointStamped")
     )
-    decoder = BatchDecoder(store.fielddefs, "geometry_msgs/msg/PointStamped", cdr=True)
+    decode = lambda data: store.deserialize_cdr(data, "geometry_msgs/msg/PointStamped")  # noqa: E731
     with pytest.raises(UndecodableError) as info:
-        decoder.numbers(make_batch([good, good[:-9]], cdr=True), ("point", "z"))
+        decode_each(decode, [good, good[:-9]])
     assert info.value.row == 1
-    with pytest.raises(UndecodableError, match="encapsulation"):
-        make_batch([good, b"\x00\x07" + good[2:]], cdr=True)
-    with pytest.raises(UndecodableError, match="shorter than a CDR header"):
-        make_batch([b"\x00"], cdr=True)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(mixed, st.integers(-12, 12), st.booleans())
-def test_the_size_check_refuses_what_rosbags_refuses(
-    fields: dict[str, Any], change: int, ros1: bool
-) -> None:
-    # Bytes cut off or appended: the batch decoder must refuse the batch exactly when
-    # rosbags' deserialiser (which checks that the definition consumes every byte) does.
-    store = STORES[ros1]
-    message = _message(store, fields)
-    if ros1:
-        raw = bytes(store.serialize_ros1(message, "test_msgs/msg/Mixed"))
-    else:
-        raw = bytes(store.serialize_cdr(message, "test_msgs/msg/Mixed"))
-    changed = raw + bytes(range(change)) if change >= 0 else raw[:change]
-    try:
-        if ros1:
-            store.deserialize_ros1(changed, "test_msgs/msg/Mixed")
-        else:
-            store.deserialize_cdr(changed, "test_msgs/msg/Mixed")
-        rosbags_refuses = False
-    except Exception:
-        rosbags_refuses = True
-    decoder = BatchDecoder(store.fielddefs, "test_msgs/msg/Mixed", cdr=not ros1)
-    try:
-        decoder.check_sizes(make_batch([raw, changed], cdr=not ros1))
-        refused = False
-    except UndecodableError as err:
-        assert err.row == 1
-        refused = True
-    assert refused == rosbags_refuses
-
-
-def test_a_placeholder_definition_is_refused_by_the_size_check() -> None:
-    # rosbag2's talker.db3: rcl_interfaces/msg/Log stored as "uint8 level".
+def test_a_placeholder_definition_is_refused_not_read_into_wrong_numbers() -> None:
+    # rosbag2's talker.db3: rcl_interfaces/msg/Log stored as "uint8 level".  Read straight
+    # from the bytes, level would be 251, 252, 253 (the first byte of stamp.sec).
     from logfiles import LOG_TYPE, PLACEHOLDER, log_cdr
 
     store = get_typestore(Stores.EMPTY)
     store.register(get_types_from_msg(PLACEHOLDER, LOG_TYPE))
-    decoder = BatchDecoder(store.fielddefs, LOG_TYPE, cdr=True)
-    batch = make_batch([log_cdr(k) for k in range(3)], cdr=True)
-    assert decoder.numbers(batch, ("level",)).tolist() == [251.0, 252.0, 253.0]  # unchecked
-    with pytest.raises(UndecodableError, match="accounts for 1 of its"):
-        decoder.check_sizes(batch)
+    with pytest.raises(UndecodableError) as info:
+        decode_each(
+            lambda data: store.deserialize_cdr(data, LOG_TYPE), [log_cdr(k) for k in range(3)]
+        )
+    assert info.value.row == 0
 
 
 def test_accessor_follows_attributes_and_indices_like_evaluate() -> None:

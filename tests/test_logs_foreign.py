@@ -162,25 +162,22 @@ def _signals(log: Path, **options: Any) -> Any:
 @pytest.mark.parametrize(
     "writer", ["rosbags ROS 2 mcap", "mcap CDR, no profile", "mcap-ros1-support"]
 )
-def test_small_batches_and_the_one_by_one_fallback_read_the_same(
+def test_small_batches_read_the_same(
     writer: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # The fallback decodes with rosbags' deserialisers (bags and MCAP alike).
-    from hybridlog.io import message_paths, messages
+    # Labels and values of one topic are merged over many batches without a seam.
+    from hybridlog.io import messages
 
     name, write = WRITERS[writer]
     log = write(tmp_path / name, scene(tank_run()))
     plain = _signals(log)
-    monkeypatch.setattr(messages, "BATCH_MESSAGES", 7)  # labels and values merged over batches
+    monkeypatch.setattr(messages, "BATCH_MESSAGES", 7)
     batched = _signals(log)
-    monkeypatch.setattr(message_paths, "MAX_WALKED_ELEMENTS", -1)  # arrays: rosbags decodes
-    fallback = _signals(log)
-    for other in (batched, fallback):
-        np.testing.assert_array_equal(other.time, plain.time)
-        np.testing.assert_array_equal(other.inputs, plain.inputs)
-        np.testing.assert_array_equal(other.outputs, plain.outputs)
-        np.testing.assert_array_equal(other.truth_modes, plain.truth_modes)
-        np.testing.assert_array_equal(other.truth_states, plain.truth_states)
+    np.testing.assert_array_equal(batched.time, plain.time)
+    np.testing.assert_array_equal(batched.inputs, plain.inputs)
+    np.testing.assert_array_equal(batched.outputs, plain.outputs)
+    np.testing.assert_array_equal(batched.truth_modes, plain.truth_modes)
+    np.testing.assert_array_equal(batched.truth_states, plain.truth_states)
 
 
 def test_only_mapped_topics_are_decoded(tmp_path: Path) -> None:

@@ -39,7 +39,6 @@ from logfiles import (
 from hybridlog.cli import main
 from hybridlog.errors import LogError
 from hybridlog.io import format_inspection, inspect_log, load_signals
-from hybridlog.io import message_paths as paths_module
 
 
 def load(log: Path, y: str = "/y.data") -> Any:
@@ -89,18 +88,9 @@ def _placeholder_log(kind: str, folder: Path) -> Path:
 PLACEHOLDER_LOGS = ["mcap, rosbags reader", "mcap, mcap reader", "bag folder", "bare db3"]
 
 
-@pytest.mark.parametrize("decoder", ["batch", "one by one"])
 @pytest.mark.parametrize("kind", PLACEHOLDER_LOGS)
-def test_a_definition_that_does_not_fit_the_bytes_is_refused(
-    kind: str, decoder: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_a_definition_that_does_not_fit_the_bytes_is_refused(kind: str, tmp_path: Path) -> None:
     log = _placeholder_log(kind, tmp_path)
-    if decoder == "one by one":  # the fallback decodes with rosbags' deserialisers
-
-        def layout(*_: Any) -> None:
-            raise paths_module.LayoutError("forced")
-
-        monkeypatch.setattr(paths_module.BatchDecoder, "check_sizes", layout)
     info = inspect_log(log)
     rosout = next(t for t in info["topics"] if t["name"] == "/rosout")
     assert (rosout["type"], rosout["count"]) == (LOG_TYPE, 30)
@@ -110,10 +100,7 @@ def test_a_definition_that_does_not_fit_the_bytes_is_refused(
     message = str(error.value)
     assert message.startswith(f"{log}: topic '/rosout' ({LOG_TYPE})"), message
     assert "cannot be decoded" in message
-    if decoder == "batch":
-        assert "accounts for 1 of its" in message
-    else:
-        assert "size mismatch" in message
+    assert "size mismatch" in message
     check_good_topics(log)
 
 

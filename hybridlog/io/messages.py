@@ -7,10 +7,10 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
 - Fields are message paths (:mod:`.message_paths`), checked against the topics' message
   definitions before anything is read, so that a wrong name is reported with the close ones.
 - Only the topics of the mapped paths are read, in one pass.  Their serialised messages are
-  collected in batches (at most 65,536 messages or 16 MiB per topic) and each batch is
-  reduced to the requested numbers at once (:class:`~.message_paths.BatchDecoder`), so
-  memory grows with the selected signals, not with the file.  Messages without a definition
-  the batch decoder can use (JSON, unusual layouts) are decoded one by one.
+  collected in batches (at most 65,536 messages or 16 MiB per topic); each batch is
+  deserialised (rosbags' deserialisers for CDR and ROS 1, which refuse bytes that do not fit
+  the definition) and reduced to the requested numbers, so memory grows with the selected
+  signals, not with the file.
 - Time: ``--time log`` (default) takes the recorder's log time.  Messages are taken in log-time
   order, the order every ROS and MCAP player replays them; files read sequentially are put in
   that order (stably) when they are not already.  ``--time header`` takes each message's
@@ -36,9 +36,7 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.message_paths import (
-    BatchDecoder,
     IndexRangeError,
-    LayoutError,
     MessagePath,
     PathError,
     Step,
@@ -52,7 +50,6 @@ from hybridlog.io.message_paths import (
     evaluate,
     format_steps,
     leaf_fields,
-    make_batch,
     split_path,
     stamp_ns,
 )
@@ -476,11 +473,6 @@ class _TopicReader:
         self.log_times: list[IntArray] = []
         self.stamps: list[IntArray] = []
         self.count = 0
-        self.batch_decoder: BatchDecoder | None = None
-        if topic.typedefs is not None and topic.encoding in ("cdr", "ros1"):
-            self.batch_decoder = BatchDecoder(
-                topic.typedefs, topic.msgtype, cdr=topic.encoding == "cdr"
-            )
 
     def want(self, text: str, path: MessagePath, kind: str) -> None:
         if not any(w.text == text and w.kind == kind for w in self.wanted):
@@ -493,13 +485,7 @@ class _TopicReader:
         """Reduce one batch of serialised messages to the wanted values."""
         log_times = np.asarray(times, dtype=np.int64)
         try:
-            if self.batch_decoder is not None:
-                try:
-                    self._add_batch(datas)
-                except LayoutError:
-                    self._add_objects(datas, times)
-            else:
-                self._add_objects(datas, times)
+            self._add_objects(datas, times)
         except UndecodableError as err:
             raise LogError(
                 f"{self.source.path}: topic {self.topic.label}: {self._where(times, err.row)} "
@@ -512,32 +498,6 @@ class _TopicReader:
             ) from None
         self.log_times.append(log_times)
         self.count += len(datas)
-
-    def _add_batch(self, datas: list[bytes]) -> None:
-        decoder = self.batch_decoder
-        assert decoder is not None
-        batch = make_batch(datas, cdr=self.topic.encoding == "cdr")
-        decoder.check_sizes(batch)
-        results: list[tuple[_Wanted, Any]] = []
-        for wanted in self.wanted:
-            try:
-                if wanted.kind == "number":
-                    results.append((wanted, decoder.numbers(batch, wanted.path.steps)))
-                else:
-                    results.append((wanted, decoder.labels(batch, wanted.path.steps)))
-            except IndexRangeError as err:
-                err.path = wanted.text
-                raise
-        stamps = decoder.stamps(batch, HEADER_STAMP) if self.header else None
-        # Only keep the batch once every path decoded, so a fallback starts from scratch.
-        for wanted, result in results:
-            if wanted.kind == "number":
-                wanted.values.append(result)
-            else:
-                wanted.codes.append(result[0])
-                wanted.categories.append(result[1])
-        if stamps is not None:
-            self.stamps.append(stamps)
 
     def _add_objects(self, datas: list[bytes], times: list[int]) -> None:
         decode = self.topic.decode
