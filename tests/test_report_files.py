@@ -507,3 +507,17 @@ def test_report_md_reads_well(tmp_path: Path) -> None:
     assert "1 estimated mode switch." in md
     assert "- estimation: 310 µs (129,032 samples/s)" in md
     assert "- compilation: 1.5 s" in md
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_a_run_too_short_for_the_metrics_is_refused(tmp_path: Path, n: int) -> None:
+    # Issue 7: 1- and 2-row logs gave exit 0 with "VAF 100 %".
+    from hybridlog.errors import LogError
+    from hybridlog.report.document import MIN_SAMPLES
+
+    result, signals = make_run(n=n)
+    with pytest.raises(LogError, match=rf"^short\.csv: too short: {n} samples? .* at least 3"):
+        write_report(tmp_path / "o", result, signals, log="short.csv", model_name="m", dt=DT)
+    assert not (tmp_path / "o").exists()
+    result, signals = make_run(n=MIN_SAMPLES)
+    write_report(tmp_path / "o", result, signals, log="short.csv", model_name="m", dt=DT)

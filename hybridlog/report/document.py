@@ -34,11 +34,13 @@ from typing import Any
 import numpy as np
 
 from hybridlog import __version__
+from hybridlog.errors import LogError
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics
 from hybridlog.signals import AlignedSignals
 
 __all__ = [
+    "MIN_SAMPLES",
     "build_report",
     "check_compatible",
     "duration",
@@ -48,6 +50,10 @@ __all__ = [
     "render_markdown",
     "report_json",
 ]
+
+MIN_SAMPLES = 3
+"""Fewest samples a run must have to be reported: row 0 is the estimators' prior (no
+prediction), and VAF and fit compare spreads, which a single predicted sample does not have."""
 
 MAX_LISTED_SWITCHES = 50
 """``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
@@ -203,9 +209,20 @@ def build_report(
     dict
         JSON-ready (strict: no NaN) report; see the module docstring for the keys.
 
+    Raises
+    ------
+    LogError
+        When the run has fewer than :data:`MIN_SAMPLES` samples (naming ``log``).
+
     """
     check_compatible(result, signals)
     n = result.n_samples
+    if n < MIN_SAMPLES:
+        raise LogError(
+            f"{log}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
+            f"a report needs at least {MIN_SAMPLES}: the first sample is the prior, and VAF "
+            "and fit need the spread of at least two predicted samples"
+        )
     per_output = dict(
         zip(
             result.output_names,
