@@ -521,3 +521,37 @@ def test_a_run_too_short_for_the_metrics_is_refused(tmp_path: Path, n: int) -> N
     assert not (tmp_path / "o").exists()
     result, signals = make_run(n=MIN_SAMPLES)
     write_report(tmp_path / "o", result, signals, log="short.csv", model_name="m", dt=DT)
+
+
+def test_tables_for_people_format_numbers_per_column() -> None:
+    from hybridlog.analysis import markdown_table
+    from hybridlog.report.document import duration, plural
+
+    table = markdown_table(
+        ("estimator", "vaf", "mse", "samples_per_s", "missed", "error"),
+        [
+            ["hstf", 66.8775, 110.028, 491277.3, 1, None],
+            ["imm", 87.3912, 5.66412, 1668410.2, 0, "a | b"],
+        ],
+    )
+    assert table.splitlines() == [
+        "| estimator | vaf | mse | samples_per_s | missed | error |",
+        "|---|---:|---:|---:|---:|---|",
+        "| hstf | 66.88 | 110.028 | 491,277 | 1 | n/a |",
+        "| imm | 87.39 | 5.664 | 1,668,410 | 0 | a \\| b |",
+    ]
+    spread = markdown_table(("mse",), [[9.76e-6], [0.1419]])  # paper 001: would need 9 decimals
+    assert spread.splitlines()[2:] == ["| 9.760e-06 |", "| 1.419e-01 |"]
+    assert [duration(s) for s in (0.00031, 2.5e-6, 12.345, 0.0, None)] == [
+        "310 µs",
+        "2.5 µs",
+        "12.3 s",
+        "0 s",
+        "n/a",
+    ]
+    assert [plural(n, "switch") for n in (0, 1, 2, 1500)] == [
+        "0 switches",
+        "1 switch",
+        "2 switches",
+        "1,500 switches",
+    ]
