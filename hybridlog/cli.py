@@ -77,8 +77,11 @@ def _global_flags(function: F) -> F:
 
 
 def _estimator_names() -> str:
-    """The registered estimators, for help texts (the registry is the one list)."""
-    return ", ".join(ESTIMATORS)
+    """The registered estimators, for help texts (the registry is the one list).
+
+    Iterating the registry yields names (a mapping's keys) or entries with a ``name``.
+    """
+    return ", ".join(str(getattr(entry, "name", entry)) for entry in ESTIMATORS)
 
 
 def _model_option(function: F) -> F:
@@ -339,7 +342,7 @@ def simulate(
         encoding=encoding,
         force=force,
     )
-    _say(ctx, f"wrote {out} ({log.time.shape[0]} samples)")
+    _say(ctx, f"wrote {out} ({plural(log.time.shape[0], 'sample')})")
 
 
 @cli.command(

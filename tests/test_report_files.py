@@ -468,6 +468,7 @@ def test_undefined_metrics_are_null_with_their_reason(tmp_path: Path) -> None:
     result, signals = make_run(n=30)
     flat = result.output_predictions.copy()
     flat[1:, 0] = 4.0  # a constant prediction of y1: var(ŷ) = 0
+    flat[5:7, 1] = np.nan  # a filter that produced no prediction of y2 at two samples
     outputs = signals.outputs.copy()
     outputs[:, 1] = 2.5  # a constant measurement of y2: ‖y − ȳ‖ = 0
     report = write_report(
@@ -487,6 +488,8 @@ def test_undefined_metrics_are_null_with_their_reason(tmp_path: Path) -> None:
     assert "vaf" not in reasons and "mse.y1" not in reasons
     md = (tmp_path / "o" / "report.md").read_text()
     assert "- vaf.y1 is n/a: var(ŷ) = 0" in md
+    assert report["outputs"]["y2"]["samples"] == 27 and report["outputs"]["y1"]["samples"] == 29
+    assert "- y2: metrics over 27 of 29 samples" in md and "- y1: metrics over" not in md
     assert "| y1 | " in md and "| n/a |" in md
 
 

@@ -440,6 +440,13 @@ def render_markdown(report: Mapping[str, Any]) -> str:
         for name, why in reasons.items()
         if name.partition(".")[0] in ("mse", "vaf", "fit")
     ]
+    expected = int(report.get("samples") or 0) - 1  # every sample after the prior
+    undefined += [
+        f"- {y}: metrics over {m['samples']:,} of {expected:,} samples; the others have no "
+        "finite measurement or prediction"
+        for y, m in outputs.items()
+        if isinstance(m.get("samples"), int) and m["samples"] < expected
+    ]
     if undefined:
         lines += ["", *undefined]
 
