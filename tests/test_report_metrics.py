@@ -290,3 +290,34 @@ def test_state_rmse_by_hand() -> None:
     assert rmse[0] == pytest.approx(math.sqrt(4.0 / 3.0))
     assert math.isnan(rmse[1])  # no truth for this state
     assert rmse[2] == pytest.approx(math.sqrt((9.0 + 16.0) / 2.0))  # NaN rows ignored
+
+
+# Magnitudes in [1e-50, 1e6] (or 0): scaled by 1e±250 they stay representable.
+moderate = st.one_of(
+    st.just(0.0),
+    st.floats(min_value=1e-50, max_value=1e6),
+    st.floats(min_value=-1e6, max_value=-1e-50),
+)
+
+
+@given(
+    hnp.arrays(np.float64, st.tuples(st.integers(2, 40), st.integers(1, 3)), elements=moderate),
+    st.data(),
+    st.sampled_from([1e-250, 1e-100, 1e100, 1e250]),
+)
+@settings(max_examples=100, deadline=None)
+def test_vaf_and_fit_do_not_depend_on_the_unit(
+    y: np.ndarray, data: st.DataObject, scale: float
+) -> None:
+    # Ratios of spreads: the same in any unit, even where squares of the values would
+    # underflow or overflow float64 (no warning either: filterwarnings = error).
+    y_hat = data.draw(hnp.arrays(np.float64, y.shape, elements=moderate))
+    for metric in (metrics.vaf, metrics.fit):
+        plain, scaled = metric(y, y_hat), metric(y * scale, y_hat * scale)
+        np.testing.assert_allclose(scaled, plain, rtol=1e-9, atol=1e-6)  # in percent
+
+
+def test_vaf_of_a_prediction_with_a_tiny_spread_is_defined() -> None:
+    # hypothesis found it: var(ŷ) = (1.8e-220)² underflows float64 if computed naively.
+    (m,) = metrics.output_metrics(np.array([1.0, 1.0]), np.array([3.54270596e-220, 0.0]))
+    assert 0.0 <= m.vaf <= 100.0 and "vaf" not in m.undefined

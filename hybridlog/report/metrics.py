@@ -63,16 +63,45 @@ def _paired(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> tuple[FloatArray, FloatAr
     return y2, yh2
 
 
-def _scaled(y: FloatArray, y_hat: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``y`` and ``y_hat`` divided by their largest magnitude.
+def _magnitude_and_unit(v: FloatArray) -> tuple[float, FloatArray]:
+    """``v`` as ``m * u`` with ``m = max|v|`` and ``|u| <= 1`` (``u = v`` when ``m = 0``).
 
-    VAF and fit are ratios, unchanged by a common scale; scaling first keeps their squares
-    from overflowing (a diverged prediction) or underflowing (tiny signals) float64.
+    Spreads and norms are taken of ``u`` and multiplied by ``m`` (or divided as ratios):
+    squares of ``u`` neither overflow (a diverged prediction) nor underflow (tiny signals)
+    float64, where squares of ``v`` itself might.
     """
-    scale = max(float(np.max(np.abs(y))), float(np.max(np.abs(y_hat))))
-    if scale == 0.0:
-        return y, y_hat
-    return y / scale, y_hat / scale
+    m = float(np.max(np.abs(v))) if v.size else 0.0
+    return (m, v / m) if 0.0 < m < np.inf else (m, v)
+
+
+def _std_ratio(a: FloatArray, b: FloatArray) -> float:
+    """``std(a) / std(b)`` without overflow or underflow in the squares.
+
+    ``inf`` when ``a`` overflowed float64; NaN when ``b`` is numerically constant.
+    """
+    ma, ua = _magnitude_and_unit(a)
+    mb, ub = _magnitude_and_unit(b)
+    if ma == 0.0:
+        return 0.0
+    if ma == np.inf:
+        return np.inf
+    spread = float(np.std(ub))
+    return (ma / mb) * (float(np.std(ua)) / spread) if spread > 0.0 else np.nan
+
+
+def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
+    """``‖a‖ / ‖b‖`` without overflow or underflow in the squares.
+
+    ``inf`` when ``a`` overflowed float64; NaN when ``b`` is numerically zero.
+    """
+    ma, ua = _magnitude_and_unit(a)
+    mb, ub = _magnitude_and_unit(b)
+    if ma == 0.0:
+        return 0.0
+    if ma == np.inf:
+        return np.inf
+    size = float(np.linalg.norm(ub))
+    return (ma / mb) * (float(np.linalg.norm(ua)) / size) if size > 0.0 else np.nan
 
 
 def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
@@ -144,12 +173,11 @@ def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
             ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
             if not ok.any():
                 continue
-            yc, hc = _scaled(y2[ok, j], yh2[ok, j])
-            if np.all(hc == hc[0]):
-                continue
-            var_hat = float(np.var(hc))
-            if var_hat > 0.0:  # 0 only if the scaled values round to one number
-                out[j] = max(1.0 - float(np.var(yc - hc)) / var_hat, 0.0) * 100.0
+            h = yh2[ok, j]
+            if np.all(h == h[0]):
+                continue  # var(ŷ) = 0: undefined
+            ratio = _std_ratio(y2[ok, j] - h, h)  # an overflowing error gives inf: VAF 0
+            out[j] = max(1.0 - ratio * ratio, 0.0) * 100.0
     return out
 
 
@@ -177,7 +205,8 @@ def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_y,)``, values in ``(-inf, 100]``; NaN where undefined.
+        Shape ``(n_y,)``, values in ``(-inf, 100]`` (``-inf`` when the prediction diverged
+        so far that its error overflows float64); NaN where undefined.
 
     """
     y2, yh2 = _paired(y, y_hat)
@@ -187,12 +216,11 @@ def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
             ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
             if not ok.any():
                 continue
-            if np.all(y2[ok, j] == y2[ok, j][0]):
-                continue
-            yc, hc = _scaled(y2[ok, j], yh2[ok, j])
-            spread = float(np.linalg.norm(yc - np.mean(yc)))
-            if spread > 0.0:  # 0 only if the scaled values round to one number
-                out[j] = (1.0 - float(np.linalg.norm(yc - hc)) / spread) * 100.0
+            y_ok = y2[ok, j]
+            if np.all(y_ok == y_ok[0]):
+                continue  # ‖y − ȳ‖ = 0: undefined
+            # An error that overflows float64 (a diverged prediction) gives -inf.
+            out[j] = (1.0 - _norm_ratio(y_ok - yh2[ok, j], y_ok - np.mean(y_ok))) * 100.0
     return out
 
 
@@ -256,12 +284,13 @@ def output_metrics(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> tuple[OutputMetric
                     f"‖y − mean(y)‖ = 0: the measurement is the same in {rows} with a "
                     "prediction, so fit = 1 − ‖y − ŷ‖/‖y − mean(y)‖ is undefined"
                 )
-            if not np.isfinite(values[0][j]):
-                largest = float(np.max(np.abs(yh2[ok, j])))
-                undefined["mse"] = (
-                    f"the prediction diverged (|ŷ| up to {largest:.3g}): its squared error "
-                    "overflows float64"
-                )
+            largest = float(np.max(np.abs(yh2[ok, j])))
+            for name, value in zip(("mse", "fit"), (values[0][j], values[2][j]), strict=True):
+                if np.isinf(value):
+                    undefined[name] = (
+                        f"the prediction diverged (|ŷ| up to {largest:.3g}): its error "
+                        "overflows float64"
+                    )
         out.append(
             OutputMetrics(
                 samples=n,
