@@ -9,6 +9,8 @@ from __future__ import annotations
 import contextlib
 import json
 import sys
+import traceback
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -20,20 +22,62 @@ from hybridlog.analysis import ReadOptions, analyze, compare
 from hybridlog.batch import run_batch
 from hybridlog.cluster.discovery import discover_modes
 from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
-from hybridlog.errors import HybridlogError
+from hybridlog.errors import HybridlogError, excerpt
+from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.chiu import ChiuOptions
 from hybridlog.io import ReadSettings
 from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, check_log_target, write_log
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
+from hybridlog.report.document import duration, plural
 from hybridlog.simulate import simulate as simulate_model
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+MAX_MESSAGE = 400
+"""Longest error or warning line the CLI prints (longer ones are cut in the middle)."""
+
+
 def _examples(*lines: str) -> str:
+    """An epilog of example command lines (they run as written from the repository root)."""
     return "\b\nExamples:\n" + "\n".join(f"  {line}" for line in lines)
+
+
+class _Context:
+    def __init__(self, debug: bool = False, quiet: bool = False) -> None:
+        self.debug = debug
+        self.quiet = quiet
+
+
+def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+    if value:
+        setattr(ctx.ensure_object(_Context), str(param.name), True)
+
+
+def _global_flags(function: F) -> F:
+    """``--debug`` and ``-q/--quiet``, accepted before and after the subcommand."""
+    function = click.option(
+        "--quiet",
+        "-q",
+        is_flag=True,
+        expose_value=False,
+        callback=_set_flag,
+        help="Print only errors.",
+    )(function)
+    return click.option(
+        "--debug",
+        is_flag=True,
+        expose_value=False,
+        callback=_set_flag,
+        help="Show tracebacks of errors.",
+    )(function)
+
+
+def _estimator_names() -> str:
+    """The registered estimators, for help texts (the registry is the one list)."""
+    return ", ".join(ESTIMATORS)
 
 
 def _model_option(function: F) -> F:
@@ -68,8 +112,8 @@ def _analysis_options(function: F) -> F:
             "--fail-under",
             multiple=True,
             metavar="METRIC=VALUE",
-            help="CI gate: exit 1 when METRIC (vaf, mse, mode_accuracy, vaf.y1, ...) "
-            "is below VALUE. Repeatable.",
+            help="CI gate: exit 1 when METRIC (vaf, fit, mse, mode_accuracy, "
+            "missed_switches, fit.y1, state_rmse.x1, ...) is below VALUE. Repeatable.",
         ),
         click.option(
             "--fail-over",
@@ -153,30 +197,30 @@ def _analysis_options(function: F) -> F:
     return function
 
 
-class _Context:
-    def __init__(self, debug: bool, quiet: bool) -> None:
-        self.debug = debug
-        self.quiet = quiet
-
-
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.group(
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+    epilog=_examples(
+        "hybridlog models",
+        "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
+        "--estimator imm --out first_report",
+    ),
+)
 @click.version_option(__version__, prog_name="hybridlog")
-@click.option("--debug", is_flag=True, help="Show tracebacks of errors.")
-@click.option("--quiet", "-q", is_flag=True, help="Print only errors.")
+@_global_flags
 @click.pass_context
-def cli(ctx: click.Context, debug: bool, quiet: bool) -> None:
-    r"""Mode and state estimation for hybrid (switched) systems from recorded logs.
+def cli(ctx: click.Context) -> None:
+    """Mode and state estimation for hybrid (switched) systems from recorded logs.
 
-    \b
-    Start with:
-      hybridlog models
-      hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf --out report
+    Every command has --help with examples, which run as written from the repository root.
+    Exit codes: 0 success, 1 a CI gate failed, 2 bad usage or bad input (one line on stderr
+    naming the file, option or line).
     """
-    ctx.obj = _Context(debug, quiet)
+    ctx.ensure_object(_Context)
 
 
 def _say(ctx: click.Context, text: str) -> None:
-    if not ctx.find_object(_Context) or not ctx.find_object(_Context).quiet:  # type: ignore[union-attr]
+    settings = ctx.find_object(_Context)
+    if settings is None or not settings.quiet:
         click.echo(text)
 
 
@@ -187,6 +231,7 @@ def _say(ctx: click.Context, text: str) -> None:
         "hybridlog inspect sample_logs/three_tank_hstf_ros2",
     )
 )
+@_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
 @click.option(
@@ -207,6 +252,7 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
 
 
 @cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))
+@_global_flags
 @click.argument("name", required=False)
 def models(name: str | None) -> None:
     """List the built-in models, or print the model file of one."""
@@ -221,12 +267,14 @@ def models(name: str | None) -> None:
 
 @cli.command(
     epilog=_examples(
-        "hybridlog simulate three_tank_hstf --out tank.csv --seed 1",
-        "hybridlog simulate three_tank_hstf --out tank.parquet --schedule 1:50,3:50 --steps 400",
-        "hybridlog simulate three_tank_hstf --out tank.mcap --encoding json",
-        "hybridlog simulate three_tank_hstf --out tank_bag --format ros2-sqlite3",
+        "hybridlog simulate three_tank_hstf --out sim/tank.csv --seed 1",
+        "hybridlog simulate three_tank_hstf --out sim/tank.parquet --schedule 1:50,3:50 "
+        "--steps 400",
+        "hybridlog simulate three_tank_hstf --out sim/tank.mcap --encoding json",
+        "hybridlog simulate three_tank_hstf --out sim/tank_bag --format ros2-sqlite3",
     )
 )
+@_global_flags
 @click.argument("model_ref", metavar="MODEL")
 @click.option(
     "--out",
@@ -261,7 +309,9 @@ def models(name: str | None) -> None:
     default=None,
     help="Number of steps [default: the schedule's total].",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Noise seed.")
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
+)
 @click.option(
     "--force",
     is_flag=True,
@@ -298,19 +348,20 @@ def simulate(
         force=force,
         inputs=inputs,
     )
-    _say(ctx, f"wrote {out} ({log.time.shape[0]} samples)")
+    _say(ctx, f"wrote {out} ({plural(log.time.shape[0], 'sample')})")
 
 
 @cli.command(
     "cluster",
     epilog=_examples(
         "hybridlog cluster sample_logs/double_cart_case1.csv --model double_cart_case1",
-        "hybridlog cluster log.csv --model double_cart_case2 --radius 0.4 --compare-kmeans "
-        "--out dc2_centers.json",
-        "hybridlog analyze log.csv --model double_cart_case2 --estimator chiu "
-        "--set centers=dc2_centers.json --out report",
+        "hybridlog cluster sample_logs/double_cart_case2.csv --model double_cart_case2 "
+        "--radius 0.4 --compare-kmeans --out dc2_centers.json",
+        "hybridlog analyze sample_logs/double_cart_case2.csv --model double_cart_case2 "
+        "--estimator chiu --set centers=dc2_centers.json --out dc2_chiu",
     ),
 )
+@_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
 @click.option(
@@ -416,17 +467,20 @@ def cluster_command(
 @cli.command(
     "analyze",
     epilog=_examples(
-        "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf --out report",
-        "hybridlog analyze log.csv --model three_tank_hstf --estimator imm "
-        "--set transition_stay=0.99 --out report_imm --fail-under mode_accuracy=0.9",
+        "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
+        "--estimator imm --out tank_imm",
+        "hybridlog analyze sample_logs/three_tank_hstf.mcap --model three_tank_hstf "
+        "--estimator imm --set transition_stay=0.9 --out tank_gated "
+        "--fail-under mode_accuracy=0.9 --fail-under fit=60",
     ),
 )
+@_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
 @click.option(
     "--estimator",
     default=None,
-    help="Estimator name (hstf, imm) [default: the model's default_estimator].",
+    help=f"Estimator name ({_estimator_names()}) [default: the model's default_estimator].",
 )
 @click.option(
     "--out",
@@ -459,13 +513,19 @@ def analyze_command(
     "compare",
     epilog=_examples(
         "hybridlog compare sample_logs/three_tank_hstf.csv --model three_tank_hstf "
-        "--estimators hstf,imm --out comparison",
+        "--estimators hstf,imm --out tank_compare",
+        "hybridlog compare sample_logs/double_cart_case1.csv --model double_cart_case1 "
+        "--estimators chiu,kmeans --out dc1_compare",
     ),
 )
+@_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
 @click.option(
-    "--estimators", required=True, metavar="A,B,...", help="Comma-separated estimator names."
+    "--estimators",
+    required=True,
+    metavar="A,B,...",
+    help=f"Comma-separated estimator names ({_estimator_names()}).",
 )
 @click.option(
     "--out",
@@ -484,6 +544,7 @@ def compare_command(
     names = [name.strip() for name in estimators.split(",") if name.strip()]
     outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
     _say(ctx, outcome.table)
+    _say(ctx, f"reports: {', '.join(str(out_dir / name / 'report.md') for name in names)}")
     _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
     _gate_exit(outcome.gate_failures)
 
@@ -491,14 +552,23 @@ def compare_command(
 @cli.command(
     "batch",
     epilog=_examples(
-        "hybridlog batch sample_logs/*.csv --model three_tank_hstf --estimator hstf --out batch",
-        "hybridlog batch logs/*.parquet --model my_plant.toml --estimator imm --out nightly "
-        "--jobs 2 --fail-under vaf=90",
+        "hybridlog batch sample_logs/three_tank_hstf.csv sample_logs/three_tank_hstf.mcap "
+        "--model three_tank_hstf --estimator imm --out tank_formats",
+        "hybridlog simulate three_tank_hstf --out runs/seed1.csv --seed 1",
+        "hybridlog simulate three_tank_hstf --out runs/seed2.csv --seed 2 "
+        "--schedule 3:60,1:60,2:60",
+        "hybridlog batch runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
+        "--jobs 2 --fail-under fit=60",
     ),
 )
+@_global_flags
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @_model_option
-@click.option("--estimator", default=None, help="Estimator name [default: the model's].")
+@click.option(
+    "--estimator",
+    default=None,
+    help=f"Estimator name ({_estimator_names()}) [default: the model's default_estimator].",
+)
 @click.option(
     "--out",
     "out_dir",
@@ -586,37 +656,143 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
 
 
 def _summary_line(report: dict[str, Any]) -> str:
-    def number(value: object, digits: str) -> str:
-        return "n/a" if value is None else format(value, digits)
+    def number(value: object, digits: str, unit: str = "") -> str:
+        return "n/a" if value is None else format(value, digits) + unit
 
-    accuracy = report["modes"]["accuracy"]
-    return (
-        f"{report['estimator']} on {report['log']}: {report['samples']} samples, "
-        f"VAF {number(report['vaf'], '.2f')} %, MSE {number(report['mse'], '.4g')}, "
-        f"mode accuracy {number(accuracy, '.3f')}"
+    modes = report["modes"]
+    text = (
+        f"{report['estimator']} on {report['log']}: {plural(report['samples'], 'sample')} "
+        f"in {duration(report.get('runtime_s'))}, VAF {number(report['vaf'], '.2f', ' %')}, "
+        f"fit {number(report.get('fit'), '.2f', ' %')}, MSE {number(report['mse'], '.4g')}, "
+        f"mode accuracy {number(_percent(modes['accuracy']), '.1f', ' %')}"
     )
+    detection = modes.get("detection")
+    if detection:
+        switches = plural(detection["detected"] + detection["missed"], "true switch")
+        text += f", {switches}: {detection['detected']} detected, {detection['missed']} missed"
+    return text
+
+
+def _percent(fraction: float | None) -> float | None:
+    return None if fraction is None else 100.0 * fraction
 
 
 def _gate_exit(failures: Sequence[str]) -> None:
     for failure in failures:
-        click.echo(f"hybridlog: gate failed: {failure}", err=True)
+        click.echo(_one_line(f"hybridlog: gate failed: {failure}"), err=True)
     if failures:
         sys.exit(1)
 
 
+def _one_line(text: str) -> str:
+    """The final guard on everything printed to stderr: one printable, bounded line."""
+    return excerpt(" ".join(str(text).split()), MAX_MESSAGE)[1:-1]
+
+
+def _usage_message(err: click.UsageError) -> str:
+    """A click usage error as one line: ``hybridlog analyze: --max-gap: 'abc' is not ...``."""
+    command = err.ctx.command_path if err.ctx is not None else "hybridlog"
+    if isinstance(err, click.BadParameter) and not isinstance(err, click.MissingParameter):
+        param = err.param
+        if err.param_hint is not None:
+            hint = str(err.param_hint)
+        elif isinstance(param, click.Option):
+            hint = "/".join(param.opts)
+        elif param is not None:
+            hint = param.human_readable_name
+        else:
+            hint = "value"
+        message = f"{hint}: {err.message}"
+    else:
+        message = err.format_message()
+    message = message.strip().rstrip(".")
+    message = message[:1].lower() + message[1:]
+    return f"{command}: {message} (see {command} --help)"
+
+
+def _where(err: BaseException) -> str:
+    """``module.py:line`` of the innermost hybridlog frame of a traceback, or ``""``."""
+    package = str(Path(__file__).parent)
+    frames = [f for f in traceback.extract_tb(err.__traceback__) if f.filename.startswith(package)]
+    if not frames:
+        return ""
+    frame = frames[-1]
+    return f" in {Path(frame.filename).name}:{frame.lineno}"
+
+
+@contextlib.contextmanager
+def _warnings_handled() -> Iterator[list[warnings.WarningMessage]]:
+    """Numerical warnings become errors; other warnings are collected for one-line notes.
+
+    A RuntimeWarning (numpy's overflow, invalid value, division by zero) means a number
+    hybridlog computed cannot be vouched for: the command stops with an error rather than
+    report it.  Anything else a library warns about is printed after the command as one
+    line, never as Python's raw two-line warning text.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        warnings.simplefilter("error", RuntimeWarning)
+        yield caught
+
+
 def main(argv: Sequence[str] | None = None) -> None:
-    """Console entry point: run the CLI, turning hybridlog errors into exit code 2."""
+    """Console entry point: run the CLI; every failure becomes one line and an exit code.
+
+    Exit codes: 0 success, 1 a CI gate failed, 2 bad usage or bad input (hybridlog's
+    errors, click's usage errors, numerical trouble, anything unexpected), 130 interrupted.
+    ``--debug`` (anywhere on the line) re-raises instead, with the traceback.
+    """
     args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
+    code = 0
+    caught: list[warnings.WarningMessage] = []
     try:
-        cli.main(args=args, prog_name="hybridlog", standalone_mode=False)
+        with _warnings_handled() as caught:
+            result = cli.main(args=args, prog_name="hybridlog", standalone_mode=False)
+            code = result if isinstance(result, int) else 0
+    except click.exceptions.NoArgsIsHelpError as err:
+        click.echo(err.format_message())
     except click.exceptions.Abort:
         click.echo("hybridlog: aborted", err=True)
-        sys.exit(130)
+        code = 130
+    except click.UsageError as err:
+        click.echo(_one_line(_usage_message(err)), err=True)
+        code = 2
     except click.ClickException as err:
-        err.show()
-        sys.exit(2 if err.exit_code in (1, 2) else err.exit_code)
+        click.echo(_one_line(f"hybridlog: error: {err.format_message()}"), err=True)
+        code = 2 if err.exit_code in (1, 2) else err.exit_code
     except HybridlogError as err:
-        if "--debug" in args:
+        if debug:
             raise
-        click.echo(f"hybridlog: error: {err}", err=True)
-        sys.exit(2)
+        click.echo(_one_line(f"hybridlog: error: {err}"), err=True)
+        code = 2
+    except RuntimeWarning as err:
+        if debug:
+            raise
+        click.echo(
+            _one_line(
+                f"hybridlog: error: numerical trouble{_where(err)}: {err}; hybridlog reports no "
+                "number it cannot vouch for (--debug shows where)"
+            ),
+            err=True,
+        )
+        code = 2
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except Exception as err:  # the last guard: never a traceback without --debug
+        if debug:
+            raise
+        click.echo(
+            _one_line(
+                f"hybridlog: error: unexpected {type(err).__name__}{_where(err)}: {err} "
+                "(a bug, or an input hybridlog does not check yet; --debug shows the traceback)"
+            ),
+            err=True,
+        )
+        code = 2
+    finally:
+        for warning in caught:
+            category = warning.category.__name__
+            click.echo(_one_line(f"hybridlog: note: {category}: {warning.message}"), err=True)
+    if code:
+        sys.exit(code)

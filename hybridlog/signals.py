@@ -10,6 +10,15 @@ import numpy.typing as npt
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+MAX_MAGNITUDE = 2.0**480
+"""Largest magnitude (≈ 3.1e144) of a signal value hybridlog accepts from a log.
+
+Metrics square differences of values and sum them over the log: with ``|v| < 2**480`` a
+difference is below ``2**481`` and its square below ``2**962``, so a sum over up to
+``2**61`` samples (more than any log holds) stays below float64's ``2**1024``.  A larger
+value cannot be a measurement; it is what corrupt bytes decode to (``-1e271``).
+"""
+
 
 @dataclass(frozen=True)
 class AlignedSignals:

@@ -344,6 +344,13 @@ def test_compare_writes_side_by_side_table(tank_log, tmp_path):
         report = json.loads((out / name / "report.json").read_text())
         assert report["estimator"] == name
         assert table.filter(pl.col("estimator") == name)["vaf"][0] == pytest.approx(report["vaf"])
+        assert table.filter(pl.col("estimator") == name)["fit"][0] == pytest.approx(report["fit"])
+    # The paper-faithful HSTF's report says in one sentence why it underperforms (issue 7).
+    hstf_md = (out / "hstf" / "report.md").read_text()
+    assert "likelihood=faded is the paper's eq. (35)" in hstf_md and "docs/three_tank.md" in hstf_md
+    assert "docs/three_tank.md" not in (out / "imm" / "report.md").read_text()
+    assert "## Notes on `hstf`" in (out / "comparison.md").read_text()
+    assert str(out / "hstf" / "report.md") in result.output
 
 
 @pytest.mark.parametrize(
@@ -392,3 +399,105 @@ def test_log_without_truth_gives_null_truth_metrics_and_gates_say_so(tank_log, t
     assert all(v["rmse"] is None for v in report["states"].values())
     assert report["vaf"] is not None
     assert "truth_mode" not in pl.read_csv(out / "timeline.csv").columns
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (
+            ["analyze", "{log}", "--model", "three_tank_hstf", "--max-gap", "abc"],
+            "hybridlog analyze: --max-gap: 'abc' is not a valid float "
+            "(see hybridlog analyze --help)",
+        ),
+        (
+            ["analyze", "{log}", "--model", "three_tank_hstf", "--bogus"],
+            "hybridlog analyze: no such option '--bogus'",
+        ),
+        (["analyze", "--model", "three_tank_hstf"], "hybridlog analyze: missing argument 'LOG'"),
+        (["compare", "{log}", "--model", "three_tank_hstf"], "missing option '--estimators'"),
+        (
+            ["simulate", "three_tank_hstf", "--out", "{tmp}/s.csv", "--seed", "-1"],
+            "hybridlog simulate: --seed: -1 is not in the range x>=0",
+        ),
+        (["frobnicate"], "hybridlog: no such command 'frobnicate' (see hybridlog --help)"),
+    ],
+    ids=["bad-float", "unknown-option", "missing-argument", "missing-option", "seed", "command"],
+)
+def test_usage_errors_are_one_line_exit_two(tmp_path, args, line):
+    result = run([a.format(log=SAMPLE, tmp=tmp_path) for a in args], expect=2)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and line in lines[0], result.stderr
+    assert "Usage:" not in result.output + result.stderr
+    assert not (tmp_path / "s.csv").exists()
+
+
+def test_quiet_and_debug_work_after_the_subcommand(tmp_path):
+    out = tmp_path / "r"
+    args = ["analyze", str(SAMPLE), "--model", "three_tank_hstf", "--estimator", "imm"]
+    assert run([*args, "--out", str(out), "-q"]).output == ""
+    assert run(["-q", *args, "--out", str(tmp_path / "r2")]).output == ""
+    assert "report:" in run([*args, "--out", str(tmp_path / "r3")]).output
+    with pytest.raises(Exception, match="no_such_model"):
+        main(["models", "no_such_model", "--debug"])
+
+
+def test_every_failure_is_one_bounded_printable_line(monkeypatch):
+    # The last guard in main(): hybridlog errors, numerical warnings and unexpected
+    # exceptions all become one short line; other warnings become one-line notes.
+    import warnings
+
+    import numpy as np
+
+    from hybridlog import cli as cli_module
+    from hybridlog.errors import LogError
+
+    def huge_error():
+        raise LogError("z.csv: " + "\x00" * 16384 + "\n" + "(" * 18000)
+
+    def overflow():
+        return [str(np.exp(np.float64(1000.0)))]
+
+    def unexpected():
+        raise KeyError("boom")
+
+    def library_warning():
+        warnings.warn("a library changed its mind\nover two lines", UserWarning, stacklevel=1)
+        return []
+
+    cases = [
+        (huge_error, 2, "hybridlog: error: z.csv: \\x00\\x00"),
+        (overflow, 2, "hybridlog: error: numerical trouble in cli.py:"),
+        (unexpected, 2, "hybridlog: error: unexpected KeyError in cli.py:"),
+        (library_warning, 0, "hybridlog: note: UserWarning: a library changed its mind over"),
+    ]
+    for replacement, code, start in cases:
+        monkeypatch.setattr(cli_module, "builtin_names", replacement)
+        result = run(["models"], expect=code)
+        lines = result.stderr.splitlines()
+        assert len(lines) == 1, result.stderr
+        assert lines[0].startswith(start), lines[0]
+        assert len(lines[0]) <= cli_module.MAX_MESSAGE + 2 and lines[0].isprintable()
+        assert "Traceback" not in result.stderr and "Warning:" not in result.stderr[len(start) :]
+
+
+def test_corrupt_parquet_value_and_short_log_are_refused(tmp_path):
+    # Issue 7: a corrupted Parquet gave truth x1 = -1e271, RMSE "n/a", exit 0 and a raw numpy
+    # RuntimeWarning; 1- and 2-row logs gave exit 0 with "VAF 100 %".
+    frame = pl.read_csv(SAMPLE)
+    bad = tmp_path / "bad.parquet"
+    frame.with_columns(
+        pl.when(pl.col("t") == 42.0).then(-1e271).otherwise(pl.col("x1")).alias("x1")
+    ).write_parquet(bad)
+    args = ["--model", "three_tank_hstf", "--estimator", "imm"]
+    result = run(["analyze", str(bad), *args, "--out", str(tmp_path / "o")], expect=2)
+    _one_line_error(result, "bad.parquet, row 43, column 'x1'", "truth.x1 at t=42 s")
+    out = tmp_path / "dropped"
+    run(["analyze", str(bad), *args, "--out", str(out), "--drop-nonfinite"])
+    report = json.loads((out / "report.json").read_text())
+    assert report["reading"]["out_of_range_dropped"] == {"x1": 1}
+    assert report["states"]["x1"]["rmse"] < 5.0
+    short = tmp_path / "short.csv"
+    frame.head(2).write_csv(short)
+    result = run(["analyze", str(short), *args, "--out", str(tmp_path / "s")], expect=2)
+    _one_line_error(result, "short.csv: too short: 2 samples", "at least 3")
+    assert not (tmp_path / "s").exists()

@@ -102,6 +102,54 @@ def test_non_finite_unmapped_value_is_ignored(tmp_path: Path) -> None:
     assert load(csv_file(tmp_path, "t,u,y,z\n0.0,1,1,nan\n0.1,1,1,inf\n")).n_samples == 2
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+@pytest.mark.parametrize(
+    ("column", "value", "symbol"),
+    [
+        ("x1", -1e271, "truth.x1"),  # what a corrupted Parquet decoded to (issue 7)
+        ("u", 1e300, "input 'u'"),
+        ("y", -np.finfo(float).max, "output 'y'"),
+        ("y", 2.0**480, "output 'y'"),  # the bound itself is out of range
+    ],
+)
+def test_out_of_range_value_names_column_and_time(
+    tmp_path: Path, suffix: str, column: str, value: float, symbol: str
+) -> None:
+    n = 6
+    columns: dict[str, Column] = {
+        "t": np.arange(n) * 0.1,
+        "u": np.ones(n),
+        "y": np.arange(n, dtype=float),
+        "x1": np.full(n, 2.0),
+    }
+    columns[column] = np.where(np.arange(n) == 3, value, columns[column])  # type: ignore[call-overload]
+    path = write_table(tmp_path / f"log{suffix}", columns)
+    with pytest.raises(LogError) as info:
+        load(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}, {'line 5' if suffix == '.csv' else 'row 4'}, column")
+    assert f"column {column!r}" in message and symbol in message
+    assert "t=0.3 s is out of range" in message and "--drop-nonfinite" in message
+    notes: dict[str, Any] = {}
+    signals = load(path, drop_nonfinite=True, notes=notes)
+    assert notes["out_of_range_dropped"] == {column: 1}
+    assert "nonfinite_dropped" not in notes
+    if column == "x1":
+        assert signals.truth_states is not None
+        assert np.all(signals.truth_states[:, 0] == 2.0)  # the short gap is bridged
+    else:
+        assert signals.n_samples == n
+
+
+def test_nonfinite_and_out_of_range_are_counted_apart(tmp_path: Path) -> None:
+    path = csv_file(tmp_path, "t,u,y\n0.0,1,1\n0.1,1,nan\n0.2,1,1e200\n0.3,1,2\n0.4,1,3\n")
+    notes: dict[str, Any] = {}
+    signals = load(path, drop_nonfinite=True, notes=notes)
+    assert notes["nonfinite_dropped"] == {"y": 1}
+    assert notes["out_of_range_dropped"] == {"y": 1}
+    assert np.all(np.abs(signals.outputs) < 10)
+
+
 def test_non_finite_time_is_an_error(tmp_path: Path) -> None:
     with pytest.raises(LogError, match=r"line 3, column 't'.*not a finite"):
         load(csv_file(tmp_path, "t,u,y\n0.0,1,1\nnan,1,1\n"))
@@ -151,6 +199,41 @@ def test_truncated_last_line_is_an_error(tmp_path: Path) -> None:
 def test_line_with_too_many_fields_is_an_error(tmp_path: Path) -> None:
     with pytest.raises(LogError, match=r"line 3: 4 fields, but the header names 3 columns"):
         load(csv_file(tmp_path, "t,u,y\n0.0,1,1\n0.1,1,1,7\n"))
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "fields"),
+    [
+        ("t,u,y\n0.0,1,1\n0.1,1\n0.2,1,1\n", 3, "2 fields"),  # too few: was silently missing
+        ("t,u,y\n0.0,1,1\n0.1\n0.2,1,1\n", 3, "1 field,"),
+        ("t,u,y\n0.0,1,1\n\n0.1,1,1\n0.2,1\n", 5, "2 fields"),  # blank lines still count
+        ('t,u,y\n0.0,"1",1\n0.1,"1,5"\n0.2,1,1\n', 3, "2 fields"),  # quoted: csv module
+        ("t,u,y\r\n0.0,1,1\r\n0.1,1,1,7\r\n", 3, "4 fields"),
+    ],
+)
+def test_line_with_a_wrong_number_of_fields_is_an_error(
+    tmp_path: Path, text: str, line: int, fields: str
+) -> None:
+    path = csv_file(tmp_path, text)
+    with pytest.raises(LogError, match=rf"line {line}: {fields}.*header names 3 columns"):
+        load(path)
+    with pytest.raises(LogError, match=rf"line {line}: {fields}"):
+        inspect_log(path)
+
+
+def test_zeroed_or_binary_file_gives_a_short_error(tmp_path: Path) -> None:
+    path = tmp_path / "log.csv"
+    path.write_bytes(b"\x00" * 16384 + b"\n" + b"\x00" * 16384 + b"\n")
+    with pytest.raises(LogError) as info:
+        load(path)
+    message = str(info.value)
+    assert "line 1" in message and "not printable" in message and "\\x00" in message
+    assert len(message) < 200 + len(str(path))
+    garbage = "9" * 5000 + "x"
+    path.write_text(f"t,u,y\n0.0,1,1\n0.1,{garbage},1\n0.2,1,1\n")
+    with pytest.raises(LogError, match=r"line 3, column 'u': '9+…9+x' is not a number") as info:
+        load(path)
+    assert len(str(info.value)) < 200 + len(str(path))
 
 
 def test_unsupported_format_and_missing_file(tmp_path: Path) -> None:

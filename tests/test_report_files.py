@@ -111,9 +111,12 @@ def recompute(timeline: pl.DataFrame, estimates: pl.DataFrame, dt: float) -> dic
         var_e = float(e.var(ddof=0))  # type: ignore[arg-type]
         var_hat = float(d[f"{y}_hat"].var(ddof=0))  # type: ignore[arg-type]
         vaf = max(1.0 - var_e / var_hat, 0.0) * 100.0
-        out["outputs"][y] = {"mse": mse, "vaf": vaf}
-    out["mse"] = sum(v["mse"] for v in out["outputs"].values()) / len(OUTPUTS)
-    out["vaf"] = sum(v["vaf"] for v in out["outputs"].values()) / len(OUTPUTS)
+        # MATLAB compare's NRMSE fit: 100 (1 - |y - ŷ| / |y - mean(y)|)
+        spread = d[y] - d[y].mean()
+        fit = 100.0 * (1.0 - math.sqrt(float((e * e).sum())) / math.sqrt(float((spread**2).sum())))
+        out["outputs"][y] = {"mse": mse, "vaf": vaf, "fit": fit, "samples": d.height}
+    for key in ("mse", "vaf", "fit"):
+        out[key] = sum(v[key] for v in out["outputs"].values()) / len(OUTPUTS)
     for x in STATES:
         if f"{x}_true" in estimates.columns:
             d = estimates.select(pl.col(f"{x}_hat"), pl.col(f"{x}_true")).drop_nulls()
@@ -147,7 +150,11 @@ def recompute(timeline: pl.DataFrame, estimates: pl.DataFrame, dt: float) -> dic
         starts = [k for k in range(1, len(truth)) if truth[k] != truth[k - 1]]
         for i, s in enumerate(starts):
             end = starts[i + 1] if i + 1 < len(starts) else len(truth)
-            hit = next((k for k in range(s, end) if mode[k] == truth[s]), None)
+            # detected only by an estimated change *into* the new mode (SPEC §8)
+            hit = next(
+                (k for k in range(s, end) if mode[k] == truth[s] != mode[k - 1]),
+                None,
+            )
             if hit is not None:
                 delays.append(t[hit] - t[s])
         modes["detection_delay_s"] = sum(delays) / len(delays) if delays else None
@@ -163,10 +170,11 @@ def recompute(timeline: pl.DataFrame, estimates: pl.DataFrame, dt: float) -> dic
 
 def assert_report_matches(report: dict[str, Any], again: dict[str, Any]) -> None:
     for y in OUTPUTS:
-        for key in ("mse", "vaf"):
+        for key in ("mse", "vaf", "fit"):
             assert close(report["outputs"][y][key], again["outputs"][y][key]), (y, key)
-    assert close(report["mse"], again["mse"])
-    assert close(report["vaf"], again["vaf"])
+        assert report["outputs"][y]["samples"] == again["outputs"][y]["samples"]
+    for key in ("mse", "vaf", "fit"):
+        assert close(report[key], again[key]), key
     for x in STATES:
         assert close(report["states"][x]["rmse"], again["states"][x]["rmse"]), x
     m, m2 = report["modes"], again["modes"]
@@ -200,6 +208,7 @@ SPEC_KEYS = {
     "outputs",
     "mse",
     "vaf",
+    "fit",
     "modes",
     "states",
     "runtime_s",
@@ -422,3 +431,133 @@ def test_atomic_output_dir_writes_only_on_success(tmp_path: Path) -> None:
         assert not target.exists()
     assert (target / "a.txt").read_text() == "a"
     assert [p.name for p in tmp_path.iterdir()] == ["t"]
+
+
+def test_a_switch_into_the_mode_the_estimate_is_stuck_in_is_reported_missed(
+    tmp_path: Path,
+) -> None:
+    from dataclasses import replace
+
+    result, signals = make_run(n=60)
+    truth = np.repeat(np.array([0, 1, 2], dtype=np.int64), 20)
+    stuck = np.ones(60, dtype=np.int64)  # wrongly in "low" from the start, never leaves
+    report = write_report(
+        tmp_path / "o",
+        replace(result, modes=stuck),
+        replace(signals, truth_modes=truth),
+        log="l",
+        model_name="m",
+        dt=DT,
+    )
+    detection = report["modes"]["detection"]
+    assert (detection["detected"], detection["missed"]) == (0, 2)
+    into_low, into_high = detection["events"]
+    assert into_low["to"] == "low" and into_low["detected"] is False
+    assert into_low["delay_s"] is None
+    assert "already in mode low" in into_low["miss_reason"]
+    assert "never changed into mode high" in into_high["miss_reason"]
+    assert report["modes"]["detection_delay_s"] is None
+    assert report["null_reasons"]["detection_delay_s"] == "every true switch (2) was missed"
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert "2 true mode switches: 0 detected, 2 missed" in md
+    assert "missed: the estimate was already in mode low" in md
+    assert "first estimated change *into* the new mode" in md  # the definition is documented
+    assert "0 estimated mode switches." in md
+
+
+def test_undefined_metrics_are_null_with_their_reason(tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    result, signals = make_run(n=30)
+    flat = result.output_predictions.copy()
+    flat[1:, 0] = 4.0  # a constant prediction of y1: var(ŷ) = 0
+    flat[5:7, 1] = np.nan  # a filter that produced no prediction of y2 at two samples
+    outputs = signals.outputs.copy()
+    outputs[:, 1] = 2.5  # a constant measurement of y2: ‖y − ȳ‖ = 0
+    report = write_report(
+        tmp_path / "o",
+        replace(result, output_predictions=flat),
+        replace(signals, outputs=outputs),
+        log="l",
+        model_name="m",
+        dt=DT,
+    )
+    assert report["outputs"]["y1"]["vaf"] is None and report["outputs"]["y1"]["fit"] is not None
+    assert report["outputs"]["y2"]["fit"] is None and report["outputs"]["y2"]["vaf"] is not None
+    assert report["vaf"] == report["outputs"]["y2"]["vaf"]  # mean over outputs where defined
+    reasons = report["null_reasons"]
+    assert reasons["vaf.y1"].startswith("var(ŷ) = 0")
+    assert reasons["fit.y2"].startswith("‖y − mean(y)‖ = 0")
+    assert "vaf" not in reasons and "mse.y1" not in reasons
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert "- vaf.y1 is n/a: var(ŷ) = 0" in md
+    assert report["outputs"]["y2"]["samples"] == 27 and report["outputs"]["y1"]["samples"] == 29
+    assert "- y2: metrics over 27 of 29 samples" in md and "- y1: metrics over" not in md
+    assert "| y1 | " in md and "| n/a |" in md
+
+
+def test_report_md_reads_well(tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    result, signals = make_run(n=40)
+    one_switch = np.repeat(np.array([0, 2], dtype=np.int64), 20)
+    write_report(
+        tmp_path / "o",
+        replace(result, modes=one_switch, runtime_s=0.00031),
+        signals,
+        log="l",
+        model_name="m",
+        dt=DT,
+    )
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert "1 estimated mode switch." in md
+    assert "- estimation: 310 µs (129,032 samples/s)" in md
+    assert "- compilation: 1.5 s" in md
+
+
+@pytest.mark.parametrize("n", [1, 2])
+def test_a_run_too_short_for_the_metrics_is_refused(tmp_path: Path, n: int) -> None:
+    # Issue 7: 1- and 2-row logs gave exit 0 with "VAF 100 %".
+    from hybridlog.errors import LogError
+    from hybridlog.report.document import MIN_SAMPLES
+
+    result, signals = make_run(n=n)
+    with pytest.raises(LogError, match=rf"^short\.csv: too short: {n} samples? .* at least 3"):
+        write_report(tmp_path / "o", result, signals, log="short.csv", model_name="m", dt=DT)
+    assert not (tmp_path / "o").exists()
+    result, signals = make_run(n=MIN_SAMPLES)
+    write_report(tmp_path / "o", result, signals, log="short.csv", model_name="m", dt=DT)
+
+
+def test_tables_for_people_format_numbers_per_column() -> None:
+    from hybridlog.analysis import markdown_table
+    from hybridlog.report.document import duration, plural
+
+    table = markdown_table(
+        ("estimator", "vaf", "mse", "samples_per_s", "missed", "error"),
+        [
+            ["hstf", 66.8775, 110.028, 491277.3, 1, None],
+            ["imm", 87.3912, 5.66412, 1668410.2, 0, "a | b"],
+        ],
+    )
+    assert table.splitlines() == [
+        "| estimator | vaf | mse | samples_per_s | missed | error |",
+        "|---|---:|---:|---:|---:|---|",
+        "| hstf | 66.88 | 110.028 | 491,277 | 1 | n/a |",
+        "| imm | 87.39 | 5.664 | 1,668,410 | 0 | a \\| b |",
+    ]
+    spread = markdown_table(("mse",), [[9.76e-6], [0.1419]])  # paper 001: would need 9 decimals
+    assert spread.splitlines()[2:] == ["| 9.760e-06 |", "| 1.419e-01 |"]
+    assert [duration(s) for s in (0.00031, 2.5e-6, 12.345, 0.0, None)] == [
+        "310 µs",
+        "2.5 µs",
+        "12.3 s",
+        "0 s",
+        "n/a",
+    ]
+    assert [plural(n, "switch") for n in (0, 1, 2, 1500)] == [
+        "0 switches",
+        "1 switch",
+        "2 switches",
+        "1,500 switches",
+    ]

@@ -103,3 +103,20 @@ def test_validate_gates_before_a_run() -> None:
         validate_gates(parse_gates([], ["mse.q=1"]), output_names=["y1"], state_names=["x1"])
     with pytest.raises(OptionError, match="not a state"):
         validate_gates(parse_gates(["state_rmse.y1=1"]), output_names=["y1"], state_names=["x1"])
+
+
+def test_fit_gates_overall_and_per_output() -> None:
+    fitted = {
+        **report(),
+        "outputs": {"y1": {"fit": 92.5}, "y2": {"fit": None}},
+        "fit": 92.5,
+        "null_reasons": {"fit.y2": "‖y − mean(y)‖ = 0: the measurement is constant"},
+    }
+    assert evaluate_gates(fitted, parse_gates(["fit=80", "fit.y1=90"])) == []
+    assert evaluate_gates(fitted, parse_gates(["fit=95"])) == ["fit = 92.5 is under the bound 95"]
+    (message,) = evaluate_gates(fitted, parse_gates(["fit.y2=50"]))
+    # the report's own reason is quoted
+    assert message.startswith("fit.y2 is not available (‖y − mean(y)‖ = 0")
+    validate_gates(parse_gates(["fit.y1=80"]), output_names=["y1"], state_names=[])
+    with pytest.raises(OptionError, match="'y3' is not an output"):
+        validate_gates(parse_gates(["fit.y3=80"]), output_names=["y1"], state_names=[])

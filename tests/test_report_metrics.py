@@ -42,16 +42,64 @@ def test_vaf_is_clamped_at_zero() -> None:
     assert metrics.vaf(y, y_hat)[0] == 0.0
 
 
+# var(ŷ) = 0 leaves VAF undefined (issue 7: a 2-row log scored "VAF 100 %").  These cases
+# were 100, 100 and 0 (the limits) before; the contract is now NaN with a reason.
 @pytest.mark.parametrize(
-    ("y", "y_hat", "expected"),
+    ("y", "y_hat"),
     [
-        ([3.0, 3.0, 3.0], [3.0, 3.0, 3.0], 100.0),  # constant and exact
-        ([5.0, 5.0, 5.0], [3.0, 3.0, 3.0], 100.0),  # constant offset: error variance 0
-        ([1.0, 2.0, 3.0], [2.0, 2.0, 2.0], 0.0),  # var(ŷ) = 0 but the error varies
+        ([3.0, 3.0, 3.0], [3.0, 3.0, 3.0]),  # constant and exact
+        ([5.0, 5.0, 5.0], [3.0, 3.0, 3.0]),  # constant offset: error variance 0
+        ([1.0, 2.0, 3.0], [2.0, 2.0, 2.0]),  # var(ŷ) = 0 but the error varies
+        ([NAN, 7.0], [NAN, 6.0]),  # a 2-row log: one predicted sample
     ],
 )
-def test_vaf_with_constant_prediction(y: list[float], y_hat: list[float], expected: float) -> None:
-    assert metrics.vaf(np.array(y), np.array(y_hat))[0] == expected
+def test_vaf_with_constant_prediction_is_undefined(y: list[float], y_hat: list[float]) -> None:
+    assert math.isnan(metrics.vaf(np.array(y), np.array(y_hat))[0])
+    (m,) = metrics.output_metrics(np.array(y), np.array(y_hat))
+    assert math.isnan(m.vaf)
+    assert "var(ŷ) = 0" in m.undefined["vaf"]
+    assert "mse" not in m.undefined  # MSE is defined for a single sample
+
+
+def test_fit_by_hand() -> None:
+    y = np.array([NAN, 1.0, 2.0, 3.0, 6.0])
+    y_hat = np.array([NAN, 1.0, 3.0, 3.0, 4.0])
+    # rows 1..4: y - ŷ = [0, -1, 0, 2] -> ‖·‖ = √5; mean(y) = 3 -> y - ȳ = [-2, -1, 0, 3] -> √14
+    assert metrics.fit(y, y_hat)[0] == pytest.approx((1.0 - math.sqrt(5.0 / 14.0)) * 100.0)
+
+
+def test_fit_can_be_negative_and_rewards_no_worse_predictor() -> None:
+    y = np.array([0.0, 1.0, 2.0, 3.0])
+    mean_predictor = np.full(4, 1.5)
+    assert metrics.fit(y, mean_predictor)[0] == pytest.approx(0.0)
+    assert metrics.fit(y, -y)[0] < 0.0
+    # VAF's var(ŷ) denominator rewards inflating the prediction; fit's does not.
+    good, inflated = y + 0.1 * np.array([1, -1, 1, -1]), 3.0 * y
+    assert metrics.vaf(y, inflated)[0] > 0.0
+    assert metrics.fit(y, good)[0] > metrics.fit(y, inflated)[0]
+
+
+def test_fit_of_a_constant_measurement_is_undefined() -> None:
+    y, y_hat = np.array([2.0, 2.0, 2.0]), np.array([1.0, 2.0, 3.0])
+    assert math.isnan(metrics.fit(y, y_hat)[0])
+    (m,) = metrics.output_metrics(y, y_hat)
+    assert "‖y − mean(y)‖ = 0" in m.undefined["fit"]
+    assert m.samples == 3
+
+
+def test_metrics_without_a_usable_row_say_so() -> None:
+    (m,) = metrics.output_metrics(np.array([1.0, 2.0]), np.array([NAN, NAN]))
+    assert m.samples == 0
+    assert set(m.undefined) == {"mse", "vaf", "fit"}
+    assert math.isnan(m.mse) and math.isnan(m.vaf) and math.isnan(m.fit)
+
+
+def test_a_diverged_prediction_gives_null_metrics_without_a_warning() -> None:
+    y = np.array([NAN, 1.0, 2.0, 3.0])
+    y_hat = np.array([NAN, 1e300, -1e300, 1e300])
+    (m,) = metrics.output_metrics(y, y_hat)  # filterwarnings = error: an overflow would raise
+    assert not math.isfinite(m.mse)
+    assert "diverged" in m.undefined["mse"]
 
 
 def test_metrics_per_column_and_empty_column() -> None:
@@ -76,11 +124,15 @@ columns = hnp.arrays(np.float64, st.tuples(st.integers(2, 40), st.integers(1, 3)
 
 @given(columns)
 @settings(max_examples=200, deadline=None)
-def test_perfect_predictor_gives_mse_0_and_vaf_100(y: np.ndarray) -> None:
+def test_perfect_predictor_gives_mse_0_and_vaf_and_fit_100(y: np.ndarray) -> None:
     y_hat = y.copy()
     y_hat[0] = NAN  # like an EstimationResult: no prediction for the prior
     assert np.all(metrics.mse(y, y_hat) == 0.0)
-    assert np.all(metrics.vaf(y, y_hat) == 100.0)
+    # VAF and fit are 100 wherever defined (y varies over the predicted rows); NaN otherwise.
+    varies = np.ptp(y[1:], axis=0) > 0.0
+    v, f = metrics.vaf(y, y_hat), metrics.fit(y, y_hat)
+    assert np.all(v[varies] == 100.0) and np.all(f[varies] == 100.0)
+    assert np.all(np.isnan(v[~varies])) and np.all(np.isnan(f[~varies]))
 
 
 @given(columns, st.data())
@@ -88,8 +140,12 @@ def test_perfect_predictor_gives_mse_0_and_vaf_100(y: np.ndarray) -> None:
 def test_vaf_is_within_0_and_100(y: np.ndarray, data: st.DataObject) -> None:
     y_hat = data.draw(hnp.arrays(np.float64, y.shape, elements=finite))
     v = metrics.vaf(y, y_hat)
-    assert np.all((v >= 0.0) & (v <= 100.0))
+    defined = ~np.isnan(v)
+    assert np.all((v[defined] >= 0.0) & (v[defined] <= 100.0))
+    assert np.array_equal(defined, np.ptp(y_hat, axis=0) > 0.0)  # undefined: constant ŷ
     assert np.all(metrics.mse(y, y_hat) >= 0.0)
+    f = metrics.fit(y, y_hat)
+    assert np.all(f[~np.isnan(f)] <= 100.0)
 
 
 # --- modes ------------------------------------------------------------------------------------
@@ -146,12 +202,37 @@ def test_detection_delays_by_hand() -> None:
     assert det.max_s == 2.0
 
 
-def test_detection_delay_is_zero_when_the_estimate_switched_early() -> None:
+# Issue 7 changed this contract: an estimate that switched early (was already in the new
+# mode before the true switch) used to count as "detected, 0 s"; it is now a miss.
+def test_an_estimate_already_in_the_new_mode_is_a_miss() -> None:
     t = np.arange(6) * 0.5
     truth = np.array([0, 0, 0, 1, 1, 1])
     est = np.array([0, 1, 1, 1, 1, 1])
     det = metrics.detection_delays(t, est, truth, IDS)
-    assert det.delays_s.tolist() == [0.0]
+    assert det.delays_s.tolist() == []
+    assert (det.detected, det.missed) == (0, 1)
+    (event,) = det.events
+    assert event.miss_reason is not None
+    assert "already in mode b (since t=0.5 s)" in event.miss_reason
+
+
+def test_a_filter_stuck_in_a_mode_the_truth_enters_detects_nothing() -> None:
+    # The demo's case: hstf starts (wrongly) in mode 2 and stays; the truth goes 1 -> 2 -> 3.
+    t = np.arange(9, dtype=float)
+    truth = np.array([0, 0, 0, 1, 1, 1, 2, 2, 2])
+    stuck = np.ones(9, dtype=np.int64)
+    det = metrics.detection_delays(t, stuck, truth, IDS)
+    assert [e.detected for e in det.events] == [False, False]
+    assert math.isnan(det.mean_s)
+    first, second = det.events
+    assert first.miss_reason is not None and "already in mode b" in first.miss_reason
+    assert "before the next true switch at t=6 s" in first.miss_reason
+    assert second.miss_reason is not None and "never changed into mode c" in second.miss_reason
+    assert "before the end of the log" in second.miss_reason
+    # Leaving the mode and changing back into it after the switch is a detection.
+    est = np.array([1, 1, 1, 1, 0, 1, 1, 2, 2])
+    det = metrics.detection_delays(t, est, truth, IDS)
+    assert det.delays_s.tolist() == [2.0, 1.0]
 
 
 def test_detection_delays_mean_and_max() -> None:
@@ -209,3 +290,34 @@ def test_state_rmse_by_hand() -> None:
     assert rmse[0] == pytest.approx(math.sqrt(4.0 / 3.0))
     assert math.isnan(rmse[1])  # no truth for this state
     assert rmse[2] == pytest.approx(math.sqrt((9.0 + 16.0) / 2.0))  # NaN rows ignored
+
+
+# Magnitudes in [1e-50, 1e6] (or 0): scaled by 1e±250 they stay representable.
+moderate = st.one_of(
+    st.just(0.0),
+    st.floats(min_value=1e-50, max_value=1e6),
+    st.floats(min_value=-1e6, max_value=-1e-50),
+)
+
+
+@given(
+    hnp.arrays(np.float64, st.tuples(st.integers(2, 40), st.integers(1, 3)), elements=moderate),
+    st.data(),
+    st.sampled_from([1e-250, 1e-100, 1e100, 1e250]),
+)
+@settings(max_examples=100, deadline=None)
+def test_vaf_and_fit_do_not_depend_on_the_unit(
+    y: np.ndarray, data: st.DataObject, scale: float
+) -> None:
+    # Ratios of spreads: the same in any unit, even where squares of the values would
+    # underflow or overflow float64 (no warning either: filterwarnings = error).
+    y_hat = data.draw(hnp.arrays(np.float64, y.shape, elements=moderate))
+    for metric in (metrics.vaf, metrics.fit):
+        plain, scaled = metric(y, y_hat), metric(y * scale, y_hat * scale)
+        np.testing.assert_allclose(scaled, plain, rtol=1e-9, atol=1e-6)  # in percent
+
+
+def test_vaf_of_a_prediction_with_a_tiny_spread_is_defined() -> None:
+    # hypothesis found it: var(ŷ) = (1.8e-220)² underflows float64 if computed naively.
+    (m,) = metrics.output_metrics(np.array([1.0, 1.0]), np.array([3.54270596e-220, 0.0]))
+    assert 0.0 <= m.vaf <= 100.0 and "vaf" not in m.undefined

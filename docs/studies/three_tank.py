@@ -86,6 +86,9 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
     out["VAF % (mean of y)"] = metrics.mean_of_finite(
         metrics.vaf(log.outputs, r.output_predictions)
     )
+    out["Fit % (mean of y)"] = metrics.mean_of_finite(
+        metrics.fit(log.outputs, r.output_predictions)
+    )
     out["MSE (mean of y)"] = metrics.mean_of_finite(metrics.mse(log.outputs, r.output_predictions))
     det = metrics.detection_delays(log.time, r.modes, truth, model.mode_ids)
     for event in det.events:
@@ -104,7 +107,7 @@ def fmt(values: np.ndarray, key: str) -> str:
         return f"missed {missed}/{values.size}"
     if key.startswith("final"):
         return f"{int(finite.sum())}/{values.size}"
-    digits = 1 if ("VAF" in key or "MSE" in key or "delay" in key) else 3
+    digits = 1 if ("VAF" in key or "Fit" in key or "MSE" in key or "delay" in key) else 3
     text = (
         f"{finite.mean():.{digits}f} ± {finite.std():.{digits}f} "
         f"[{finite.min():.{digits}f}, {finite.max():.{digits}f}]"

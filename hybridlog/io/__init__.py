@@ -14,8 +14,9 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from hybridlog.errors import OptionError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.io.align import align_signals, check_alignment_options
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
@@ -27,10 +28,11 @@ from hybridlog.io.source import (
     ReadSettings,
     Series,
     check_finite,
+    format_ns,
     labels_to_codes,
 )
 from hybridlog.io.writers import write_table
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals
 
 __all__ = [
     "FORMATS",
@@ -90,7 +92,10 @@ def load_signals(
     split_gaps:
         Analyse the longest piece between over-long output gaps instead of refusing the log.
     drop_nonfinite:
-        Drop NaN and infinite samples (counted in ``notes``) instead of refusing the log.
+        Drop NaN, infinite and out-of-range samples (counted in ``notes``) instead of
+        refusing the log.  Out of range means ``|value| >= 2**480``
+        (:data:`~hybridlog.signals.MAX_MAGNITUDE`): no measurement is that large, and the
+        squares the metrics sum would overflow float64; corrupt bytes decode to such values.
     notes:
         Filled with what reading did, for the report: the format, the time source, and
         recovery, sorting, dropped samples and gap pieces where they apply.
@@ -105,8 +110,8 @@ def load_signals(
         For a malformed ``--map``, an unknown symbol, an unknown ``resample`` or a bad
         ``max_gap``.
     LogError
-        For a missing or unreadable log, a missing field, a non-numeric, NaN or infinite
-        value, time going backwards, an unknown true mode, or an over-long gap.
+        For a missing or unreadable log, a missing field, a non-numeric, NaN, infinite or
+        out-of-range value, time going backwards, an unknown true mode, or an over-long gap.
     """
     check_alignment_options(dt, resample, max_gap)
     settings = settings or ReadSettings()
@@ -147,20 +152,26 @@ def load_signals(
         labels = [mapping.truth_mode] if mapping.truth_mode is not None else []
         numeric_series, label_series = source.read(numeric, labels)
         dropped: dict[str, int] = {}
+        out_of_range: dict[str, int] = {}
         for name, series in list(numeric_series.items()):
-            if drop_nonfinite:
-                finite = np.isfinite(series.values)
-                if not finite.all():
-                    dropped[name] = int((~finite).sum())
-                    numeric_series[name] = Series(
-                        name, series.time_ns[finite], series.values[finite]
-                    )
-            else:
+            finite = np.isfinite(series.values)
+            usable = finite & (np.abs(series.values) < MAX_MAGNITUDE)
+            if usable.all():
+                continue
+            if not drop_nonfinite:
                 check_finite(source, series, symbols[name])
+                _refuse_out_of_range(source, series, symbols[name], usable)
+            if not finite.all():
+                dropped[name] = int((~finite).sum())
+            if (finite & ~usable).any():
+                out_of_range[name] = int((finite & ~usable).sum())
+            numeric_series[name] = Series(name, series.time_ns[usable], series.values[usable])
         notes.update({"format": source.format, "time": settings.time})
         notes.update(source.notes())
         if dropped:
             notes["nonfinite_dropped"] = dropped
+        if out_of_range:
+            notes["out_of_range_dropped"] = out_of_range
         truth_mode = None
         if mapping.truth_mode is not None:
             mode_series = label_series[mapping.truth_mode]
@@ -179,3 +190,16 @@ def load_signals(
             split_gaps=split_gaps,
             notes=notes,
         )
+
+
+def _refuse_out_of_range(
+    source: LogSource, series: Series, symbol: str, usable: npt.NDArray[np.bool_]
+) -> None:
+    """Raise for the first finite value of ``series`` whose magnitude is absurd."""
+    first = int(np.argmax(~usable))
+    raise LogError(
+        f"{source.path}, {source.locate(series.name, first)}: {series.values[first]:.6g} for "
+        f"{symbol} at t={format_ns(int(series.time_ns[first]))} s is out of range "
+        f"(|value| >= 2^480 = {MAX_MAGNITUDE:.3g}: no measurement is that large, corrupt bytes "
+        "are; --drop-nonfinite drops such samples)"
+    )

@@ -22,7 +22,7 @@ from typing import Any, Self
 import numpy as np
 import polars as pl
 
-from hybridlog.errors import LogError, OptionError
+from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.source import (
     LabelSeries,
     ReadSettings,
@@ -133,7 +133,7 @@ class TableSource:
         """Line (CSV, header = line 1) or row (Parquet, 1-based) of a sample read earlier."""
         rows = self._rows.get(name)
         row = int(rows[index]) if rows is not None and 0 <= index < rows.size else index
-        return f"{self._row_label(row)}, column {name!r}"
+        return f"{self._row_label(row)}, column {excerpt(name)}"
 
     def _row_label(self, row: int) -> str:
         return f"line {row + 2}" if self.format == "csv" else f"row {row + 1}"
@@ -168,7 +168,8 @@ class TableSource:
         for name in (*numeric, *labels):
             if name not in self._columns:
                 raise LogError(
-                    f"{self.path}: no column {name!r}; {closest_names([name], self.fields())}"
+                    f"{self.path}: no column {excerpt(name)}; "
+                    f"{closest_names([name], self.fields())}"
                 )
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
@@ -236,13 +237,17 @@ class TableSource:
             if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
                 continue
             if (name in numeric or name == time_column) and not dtype.is_numeric():
-                raise LogError(f"{self.path}: column {name!r} has type {dtype}, expected a number")
+                raise LogError(
+                    f"{self.path}: column {excerpt(name)} has type {dtype}, expected a number"
+                )
             if name in labels and not (
                 dtype.is_numeric()
                 or dtype in (pl.String, pl.Categorical, pl.Boolean)
                 or isinstance(dtype, pl.Enum)
             ):
-                raise LogError(f"{self.path}: column {name!r} has type {dtype}, expected mode ids")
+                raise LogError(
+                    f"{self.path}: column {excerpt(name)} has type {dtype}, expected mode ids"
+                )
         try:
             frame = pl.read_parquet(self._file, columns=wanted)
         except pl.exceptions.PolarsError as err:
@@ -269,7 +274,8 @@ class TableSource:
         if not_blank.any():
             row = int(np.argmax(not_blank))
             raise LogError(
-                f"{self.path}, {self._row_label(row)}, column {time_column!r}: empty time cell"
+                f"{self.path}, {self._row_label(row)}, column {excerpt(time_column)}: "
+                "empty time cell"
             )
         kept: IntArray = rows[~missing]
         return kept
@@ -303,7 +309,7 @@ class TableSource:
             bad = check_seconds_range(seconds)
             if bad >= 0:
                 raise LogError(
-                    f"{self.path}, {self._row_label(int(rows[bad]))}, column {name!r}: "
+                    f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
                     f"time {seconds[bad]} is not a finite number of seconds"
                 )
             time_ns = seconds_to_ns(seconds)
@@ -312,7 +318,7 @@ class TableSource:
             i = int(np.argmax(steps <= 0)) + 1
             how = "repeats" if steps[i - 1] == 0 else "goes backwards"
             raise LogError(
-                f"{self.path}, {self._row_label(int(rows[i]))}, column {name!r}: time {how} "
+                f"{self.path}, {self._row_label(int(rows[i]))}, column {excerpt(name)}: time {how} "
                 f"(t={format_ns(int(time_ns[i]))} s after t={format_ns(int(time_ns[i - 1]))} s "
                 f"on {self._row_label(int(rows[i - 1]))}); time must be strictly increasing"
             )
@@ -405,8 +411,9 @@ class TableSource:
 
 
 def _first_line(err: BaseException) -> str:
+    """The first line of a library's error, cut short: it may quote the file's bytes."""
     text = str(err).strip()
-    return text.splitlines()[0] if text else type(err).__name__
+    return excerpt(text.splitlines()[0], 120)[1:-1] if text else type(err).__name__
 
 
 def _read_csv_header(path: Path) -> tuple[str, ...]:
@@ -425,16 +432,21 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
     names = next(csv.reader([line]))
     if all(_is_number(name) for name in names):
         raise LogError(
-            f"{path}, line 1: no header; {line.strip()[:40]!r} looks like data "
+            f"{path}, line 1: no header; {excerpt(line.strip(), 40)} looks like data "
             "(the first line must name the columns, e.g. t,u,y)"
         )
     for position, name in enumerate(names, start=1):
         if not name.strip():
             raise LogError(f"{path}, line 1: column {position} of the header has no name")
+        if not name.isprintable():
+            raise LogError(
+                f"{path}, line 1: column {position} of the header, {excerpt(name, 40)}, is not "
+                "printable text (a zeroed or binary file?)"
+            )
     seen: set[str] = set()
     for name in names:
         if name in seen:
-            raise LogError(f"{path}, line 1: duplicate column name {name!r} in the header")
+            raise LogError(f"{path}, line 1: duplicate column name {excerpt(name)} in the header")
         seen.add(name)
     return tuple(names)
 
@@ -447,19 +459,19 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _read_csv_strings(path: Path, columns: list[str]) -> pl.DataFrame:
-    """Read ``columns`` as text; raise :class:`LogError` for a file polars cannot parse."""
+def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:
+    """Read ``columns`` as text; raise :class:`LogError` for a file polars cannot parse.
+
+    ``checked``: the caller already ran :func:`_check_truncated` and
+    :func:`_check_record_widths`.
+    """
+    if not checked:
+        _check_truncated(path)
+        _check_record_widths(path)
     try:
         frame = pl.read_csv(path, columns=columns, infer_schema=False)
     except pl.exceptions.PolarsError as err:
-        line, fields = _first_ragged_line(path)
-        if line:
-            raise LogError(
-                f"{path}, line {line}: {fields} fields, but the header names "
-                f"{len(_read_csv_header(path))} columns"
-            ) from err
         raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
-    _check_truncated(path)
     return frame
 
 
@@ -470,15 +482,16 @@ def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.Da
     text and converted here, which tolerates surrounding blanks and finds the bad cell.
     """
     schema = {c: pl.Float64 if c in as_float else pl.String for c in columns}
+    _check_truncated(path)
+    _check_record_widths(path)
     try:
         frame = pl.read_csv(path, columns=columns, schema_overrides=schema, infer_schema=False)
     except pl.exceptions.PolarsError:
-        text = _read_csv_strings(path, columns)
+        text = _read_csv_strings(path, columns, checked=True)
         rows: IntArray = np.arange(text.height, dtype=np.int64)
         return text.with_columns(
             [_parse_floats(path, text.get_column(c), rows) for c in columns if c in as_float]
         )
-    _check_truncated(path)
     return frame
 
 
@@ -491,8 +504,8 @@ def _parse_floats(path: Path, column: pl.Series, rows: IntArray) -> pl.Series:
     if bad.any():
         first = int(np.argmax(bad))
         raise LogError(
-            f"{path}, line {int(rows[first]) + 2}, column {column.name!r}: "
-            f"{text[first]!r} is not a number"
+            f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
+            f"{excerpt(text[first])} is not a number"
         )
     return values
 
@@ -506,17 +519,65 @@ def _blank_csv_rows(path: Path) -> np.ndarray[Any, np.dtype[np.bool_]]:
     return blank
 
 
-def _first_ragged_line(path: Path) -> tuple[int, int]:
-    """Line number and field count of the first record wider than the header, or (0, 0)."""
+def _check_record_widths(path: Path) -> None:
+    """Every record has as many fields as the header names; blank lines aside.
+
+    polars reads a record with too few fields as missing values, which would silently turn
+    a damaged line into "no sample"; too many fields it refuses without saying where.  Both
+    are errors naming the line.  Without quote characters in the file, fields are counted
+    from the comma and newline positions (one count of each when they agree, else NumPy to
+    find the line); with quotes, by the ``csv`` module.
+
+    Raises
+    ------
+    LogError
+        Naming the first line whose field count differs from the header's.
+    """
+    width = len(_read_csv_header(path))
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+    if b'"' in data:
+        line, fields = _first_odd_record(path, width)
+    elif data.count(b",") == (width - 1) * (data.count(b"\n") + (not data.endswith(b"\n"))):
+        return  # every line has width - 1 commas, unless a short and a long one cancel out,
+        # and a long one polars refuses in any case (the common case: one fast pass)
+    else:
+        line, fields = _first_odd_line(data, width)
+    if line:
+        raise LogError(
+            f"{path}, line {line}: {fields} field{'' if fields == 1 else 's'}, but the header "
+            f"names {width} columns"
+        )
+
+
+def _first_odd_line(data: bytes, width: int) -> tuple[int, int]:
+    """Line number and field count of the first non-blank line without ``width`` fields."""
+    buf = np.frombuffer(data, dtype=np.uint8)
+    newlines = np.flatnonzero(buf == ord("\n"))
+    starts = np.concatenate(([0], newlines + 1))
+    ends = np.concatenate((newlines, [buf.size]))
+    commas = np.flatnonzero(buf == ord(","))
+    fields = np.searchsorted(commas, ends) - np.searchsorted(commas, starts) + 1
+    for index in np.flatnonzero(fields[1:] != width).tolist():
+        line = index + 1  # 0-based index into the lines; the header is line 0
+        if data[starts[line] : ends[line]].strip():  # blank lines are allowed
+            return line + 1, int(fields[line])
+    return 0, 0
+
+
+def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
+    """Like :func:`_first_odd_line` for files with quoted fields, by the ``csv`` module."""
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             reader = csv.reader(handle)
-            width = len(next(reader, []))
+            next(reader, [])
             for record in reader:
-                if len(record) > width:
+                if record and len(record) != width and any(f.strip() for f in record):
                     return reader.line_num, len(record)
-    except (OSError, UnicodeDecodeError, csv.Error):
-        return 0, 0
+    except (UnicodeDecodeError, csv.Error):
+        return 0, 0  # polars then says what it cannot parse
     return 0, 0
 
 

@@ -6,9 +6,10 @@ when it is above.  A gated metric that is ``null`` in the report (for instance
 
 Metric names
 ------------
-``vaf``, ``mse``
-    Mean over outputs (``report["vaf"]``, ``report["mse"]``).
-``vaf.<y>``, ``mse.<y>``
+``vaf``, ``mse``, ``fit``
+    Mean over the outputs where the metric is defined (``report["vaf"]``, ...); ``fit`` is
+    MATLAB ``compare``'s NRMSE fit in percent.
+``vaf.<y>``, ``mse.<y>``, ``fit.<y>``
     Of one output ``<y>``.
 ``mode_accuracy``
     ``report["modes"]["accuracy"]``, a fraction in ``[0, 1]``.
@@ -47,6 +48,7 @@ GateKind = Literal["under", "over"]
 METRICS: tuple[str, ...] = (
     "vaf",
     "mse",
+    "fit",
     "mode_accuracy",
     "detection_delay_s",
     "missed_switches",
@@ -54,9 +56,10 @@ METRICS: tuple[str, ...] = (
     "samples_per_s",
 )
 #: Metrics qualified by an output (``vaf.y1``) or a state (``state_rmse.x1``).
-_OUTPUT_METRICS = ("vaf", "mse")
+_OUTPUT_METRICS = ("vaf", "mse", "fit")
 _STATE_METRICS = ("state_rmse",)
 
+# Fallbacks for reports without ``null_reasons`` (written by older versions).
 _WHY_NULL = {
     "mode_accuracy": "the log has no ground-truth mode",
     "missed_switches": "the log has no ground-truth mode",
@@ -64,6 +67,7 @@ _WHY_NULL = {
     "state_rmse": "the log has no ground truth for this state",
     "vaf": "no finite one-step-ahead prediction",
     "mse": "no finite one-step-ahead prediction",
+    "fit": "no finite one-step-ahead prediction",
     "samples_per_s": "the runtime was not measured",
 }
 
@@ -97,7 +101,7 @@ class Gate:
 
 
 def _known_names() -> str:
-    return ", ".join([*METRICS, "vaf.<output>", "mse.<output>", "state_rmse.<state>"])
+    return ", ".join([*METRICS, *(f"{m}.<output>" for m in _OUTPUT_METRICS), "state_rmse.<state>"])
 
 
 def parse_gate(spec: str, kind: GateKind) -> Gate:
@@ -223,7 +227,7 @@ def metric_value(report: Mapping[str, Any], metric: str) -> float | None:
     base, dot, qualifier = metric.partition(".")
     modes: Mapping[str, Any] = report.get("modes") or {}
     value: Any
-    if not dot and base in ("vaf", "mse", "runtime_s", "samples_per_s"):
+    if not dot and base in ("vaf", "mse", "fit", "runtime_s", "samples_per_s"):
         value = report.get(base)
     elif not dot and base == "mode_accuracy":
         value = modes.get("accuracy")
@@ -280,7 +284,8 @@ def evaluate_gates(report: Mapping[str, Any], gates: Iterable[Gate]) -> list[str
         value = metric_value(report, gate.metric)
         if value is None:
             base = gate.metric.partition(".")[0]
-            why = _WHY_NULL.get(base, "the report has no value for it")
+            reasons: Mapping[str, str] = report.get("null_reasons") or {}
+            why = reasons.get(gate.metric) or _WHY_NULL.get(base, "the report has no value for it")
             failures.append(
                 f"{gate.metric} is not available ({why}), so the {gate.option} bound "
                 f"{_fmt(gate.bound)} cannot be met"

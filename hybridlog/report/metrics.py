@@ -1,17 +1,20 @@
 """Quality metrics of one estimation run: output fit, mode recognition and state error.
 
 Pure functions over NumPy arrays; they never warn, print or touch files.  A metric that
-cannot be computed (no usable sample, no ground truth) is NaN here and ``null`` in
-``report.json``.
+cannot be computed (no usable sample, no ground truth, a zero denominator, a diverged
+prediction whose squares overflow float64) is NaN here and ``null`` in ``report.json``,
+with the reason from :func:`output_metrics`.
 
 References
 ----------
 Paper 001 (``papers/001_73b6a953d073a2d8.txt``), section 5: the MSE and VAF formulas.
+MATLAB System Identification Toolbox, ``compare``: the fit (NRMSE) formula.
 
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TypedDict
 
@@ -22,15 +25,18 @@ from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
     "DetectionDelays",
+    "OutputMetrics",
     "Switch",
     "SwitchDetection",
     "confusion_matrix",
     "detection_delays",
     "dwell_times",
+    "fit",
     "mean_of_finite",
     "mode_accuracy",
     "mode_switches",
     "mse",
+    "output_metrics",
     "sample_durations",
     "state_rmse",
     "vaf",
@@ -55,6 +61,47 @@ def _paired(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> tuple[FloatArray, FloatAr
     if y2.shape != yh2.shape:
         raise ValueError(f"y has shape {y2.shape} but y_hat has shape {yh2.shape}")
     return y2, yh2
+
+
+def _magnitude_and_unit(v: FloatArray) -> tuple[float, FloatArray]:
+    """``v`` as ``m * u`` with ``m = max|v|`` and ``|u| <= 1`` (``u = v`` when ``m = 0``).
+
+    Spreads and norms are taken of ``u`` and multiplied by ``m`` (or divided as ratios):
+    squares of ``u`` neither overflow (a diverged prediction) nor underflow (tiny signals)
+    float64, where squares of ``v`` itself might.
+    """
+    m = float(np.max(np.abs(v))) if v.size else 0.0
+    return (m, v / m) if 0.0 < m < np.inf else (m, v)
+
+
+def _std_ratio(a: FloatArray, b: FloatArray) -> float:
+    """``std(a) / std(b)`` without overflow or underflow in the squares.
+
+    ``inf`` when ``a`` overflowed float64; NaN when ``b`` is numerically constant.
+    """
+    ma, ua = _magnitude_and_unit(a)
+    mb, ub = _magnitude_and_unit(b)
+    if ma == 0.0:
+        return 0.0
+    if ma == np.inf:
+        return np.inf
+    spread = float(np.std(ub))
+    return (ma / mb) * (float(np.std(ua)) / spread) if spread > 0.0 else np.nan
+
+
+def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
+    """``‖a‖ / ‖b‖`` without overflow or underflow in the squares.
+
+    ``inf`` when ``a`` overflowed float64; NaN when ``b`` is numerically zero.
+    """
+    ma, ua = _magnitude_and_unit(a)
+    mb, ub = _magnitude_and_unit(b)
+    if ma == 0.0:
+        return 0.0
+    if ma == np.inf:
+        return np.inf
+    size = float(np.linalg.norm(ub))
+    return (ma / mb) * (float(np.linalg.norm(ua)) / size) if size > 0.0 else np.nan
 
 
 def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
@@ -82,11 +129,12 @@ def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
     """
     y2, yh2 = _paired(y, y_hat)
     out = np.full(y2.shape[1], np.nan)
-    for j in range(y2.shape[1]):
-        ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
-        if ok.any():
-            err = y2[ok, j] - yh2[ok, j]
-            out[j] = float(np.mean(err * err))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j in range(y2.shape[1]):
+            ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
+            if ok.any():
+                err = y2[ok, j] - yh2[ok, j]
+                out[j] = float(np.mean(err * err))
     return out
 
 
@@ -101,9 +149,9 @@ def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
 
     The denominator is the variance of the *prediction*, as in the paper (not of ``y``).
     Variances are population variances (``ddof=0``) over the rows where both ``y`` and
-    ``y_hat`` are finite.  When ``var(ŷ) = 0`` the ratio is undefined; the limit is used:
-    VAF is 100 when the error variance is 0 as well (the prediction explains ``y`` up to a
-    constant offset, exactly as the formula scores any constant offset) and 0 otherwise.
+    ``y_hat`` are finite.  When ``var(ŷ) = 0`` (a constant prediction, or a single usable
+    row) the ratio is undefined and so is VAF: NaN, never a guessed 0 or 100
+    (:func:`output_metrics` says why).
 
     Parameters
     ----------
@@ -115,22 +163,144 @@ def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_y,)``, values in ``[0, 100]``; NaN for a column without a usable row.
+        Shape ``(n_y,)``, values in ``[0, 100]``; NaN where undefined.
 
     """
     y2, yh2 = _paired(y, y_hat)
     out = np.full(y2.shape[1], np.nan)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j in range(y2.shape[1]):
+            ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
+            if not ok.any():
+                continue
+            h = yh2[ok, j]
+            if np.all(h == h[0]):
+                continue  # var(ŷ) = 0: undefined
+            ratio = _std_ratio(y2[ok, j] - h, h)  # an overflowing error gives inf: VAF 0
+            out[j] = max(1.0 - ratio * ratio, 0.0) * 100.0
+    return out
+
+
+def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
+    r"""Fit in percent per output column: the NRMSE of MATLAB's ``compare``.
+
+    .. math::
+
+        \mathrm{fit} = \Bigl(1 - \frac{\lVert y - \hat y\rVert_2}
+                                      {\lVert y - \bar y\rVert_2}\Bigr) \cdot 100\,\%
+
+    over the rows where both ``y`` and ``y_hat`` are finite, ``ȳ`` the mean of ``y`` over
+    those rows.  100 is a perfect prediction, 0 is no better than predicting the mean, and
+    a worse prediction is negative (not clamped, as in ``compare``).  Unlike VAF, the
+    denominator does not depend on the prediction, so a worse predictor never scores
+    better.  NaN when ``y`` is constant over the usable rows (``‖y − ȳ‖ = 0``).
+
+    Parameters
+    ----------
+    y:
+        Measured outputs, shape ``(N,)`` or ``(N, n_y)``.
+    y_hat:
+        One-step-ahead predictions, same shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n_y,)``, values in ``(-inf, 100]`` (``-inf`` when the prediction diverged
+        so far that its error overflows float64); NaN where undefined.
+
+    """
+    y2, yh2 = _paired(y, y_hat)
+    out = np.full(y2.shape[1], np.nan)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j in range(y2.shape[1]):
+            ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
+            if not ok.any():
+                continue
+            y_ok = y2[ok, j]
+            if np.all(y_ok == y_ok[0]):
+                continue  # ‖y − ȳ‖ = 0: undefined
+            # An error that overflows float64 (a diverged prediction) gives -inf.
+            out[j] = (1.0 - _norm_ratio(y_ok - yh2[ok, j], y_ok - np.mean(y_ok))) * 100.0
+    return out
+
+
+@dataclass(frozen=True)
+class OutputMetrics:
+    """MSE, VAF and fit of one output, and why any of them is undefined.
+
+    Attributes
+    ----------
+    samples:
+        Rows used: where both the measurement and the one-step-ahead prediction are finite.
+    mse, vaf, fit:
+        See :func:`mse`, :func:`vaf`, :func:`fit`; NaN where undefined.
+    undefined:
+        ``{metric: reason}`` for each of ``mse``, ``vaf``, ``fit`` that is NaN.
+
+    """
+
+    samples: int
+    mse: float
+    vaf: float
+    fit: float
+    undefined: Mapping[str, str]
+
+
+def output_metrics(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> tuple[OutputMetrics, ...]:
+    """:func:`mse`, :func:`vaf` and :func:`fit` of every output column, with reasons for NaNs.
+
+    Parameters
+    ----------
+    y:
+        Measured outputs, shape ``(N,)`` or ``(N, n_y)``.
+    y_hat:
+        One-step-ahead predictions, same shape.
+
+    Returns
+    -------
+    tuple of OutputMetrics
+        One per column.
+
+    """
+    y2, yh2 = _paired(y, y_hat)
+    values = (mse(y2, yh2), vaf(y2, yh2), fit(y2, yh2))
+    out = []
     for j in range(y2.shape[1]):
         ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
-        if not ok.any():
-            continue
-        var_err = float(np.var(y2[ok, j] - yh2[ok, j]))
-        var_hat = float(np.var(yh2[ok, j]))
-        if var_hat > 0.0:
-            out[j] = max(1.0 - var_err / var_hat, 0.0) * 100.0
+        n = int(np.count_nonzero(ok))
+        undefined: dict[str, str] = {}
+        if n == 0:
+            why = "no sample has both a measurement and a one-step-ahead prediction"
+            undefined = {"mse": why, "vaf": why, "fit": why}
         else:
-            out[j] = 100.0 if var_err == 0.0 else 0.0
-    return out
+            rows = "the only row" if n == 1 else f"all {n:,} rows"
+            if not np.isfinite(values[1][j]):
+                undefined["vaf"] = (
+                    f"var(ŷ) = 0: the prediction is the same in {rows} with a prediction, "
+                    "so VAF = 1 − var(y − ŷ)/var(ŷ) is undefined"
+                )
+            if not np.isfinite(values[2][j]):
+                undefined["fit"] = (
+                    f"‖y − mean(y)‖ = 0: the measurement is the same in {rows} with a "
+                    "prediction, so fit = 1 − ‖y − ŷ‖/‖y − mean(y)‖ is undefined"
+                )
+            largest = float(np.max(np.abs(yh2[ok, j])))
+            for name, value in zip(("mse", "fit"), (values[0][j], values[2][j]), strict=True):
+                if np.isinf(value):
+                    undefined[name] = (
+                        f"the prediction diverged (|ŷ| up to {largest:.3g}): its error "
+                        "overflows float64"
+                    )
+        out.append(
+            OutputMetrics(
+                samples=n,
+                mse=float(values[0][j]),
+                vaf=float(values[1][j]),
+                fit=float(values[2][j]),
+                undefined=undefined,
+            )
+        )
+    return tuple(out)
 
 
 def mean_of_finite(values: npt.ArrayLike) -> float:
@@ -288,7 +458,7 @@ def dwell_times(time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: flo
 
 @dataclass(frozen=True)
 class SwitchDetection:
-    """How one true mode switch was detected.
+    """How one true mode switch was detected, or why it was not.
 
     Attributes
     ----------
@@ -297,8 +467,10 @@ class SwitchDetection:
     from_mode, to_mode:
         Mode ids before and after the switch.
     detected_t:
-        Time of the first sample, at or after ``t`` and before the next true switch, whose
-        estimated mode is ``to_mode``; ``None`` when there is none (a missed switch).
+        Time of the first estimated change *into* ``to_mode`` at or after ``t`` and before
+        the next true switch; ``None`` when there is none (a missed switch).
+    miss_reason:
+        Why the switch counts as missed (one sentence), ``None`` when it was detected.
 
     """
 
@@ -306,6 +478,12 @@ class SwitchDetection:
     from_mode: str
     to_mode: str
     detected_t: float | None
+    miss_reason: str | None = None
+
+    @property
+    def detected(self) -> bool:
+        """Whether an estimated change into the new mode detected the switch."""
+        return self.detected_t is not None
 
     @property
     def delay_s(self) -> float | None:
@@ -338,7 +516,7 @@ class DetectionDelays:
 
     @property
     def missed(self) -> int:
-        """Number of true switches never detected before the next true switch."""
+        """Number of true switches not detected (see :func:`detection_delays`)."""
         return len(self.events) - self.detected
 
     @property
@@ -354,21 +532,46 @@ class DetectionDelays:
         return float(np.max(d)) if d.size else float("nan")
 
 
+def _seconds(t: float) -> str:
+    return f"{t:.9g} s"
+
+
+def _miss_reason(t: FloatArray, est: IntArray, s: int, e: int, mode: int, mode_id: str) -> str:
+    """Why no estimated change into ``mode`` detected the true switch at sample ``s``."""
+    window = (
+        f"before the next true switch at t={_seconds(float(t[e]))}"
+        if e < est.size
+        else "before the end of the log"
+    )
+    if est[s - 1] != mode:
+        return f"the estimate never changed into mode {mode_id} {window}"
+    left = np.flatnonzero(est[:s] != mode)
+    since = float(t[left[-1] + 1]) if left.size else float(t[0])
+    return (
+        f"the estimate was already in mode {mode_id} (since t={_seconds(since)}) when the "
+        f"truth switched to it, and no estimated change into mode {mode_id} followed {window}"
+    )
+
+
 def detection_delays(
     time: npt.ArrayLike,
     estimated: npt.ArrayLike,
     truth: npt.ArrayLike,
     mode_ids: tuple[str, ...] | list[str],
 ) -> DetectionDelays:
-    """Delay from each true mode switch to the estimate reaching the new mode.
+    """Delay from each true mode switch to the estimate *changing into* the new mode (SPEC §8).
 
     For a true switch at sample ``s`` into mode ``m`` (``truth[s] != truth[s-1]``), the
     detection sample is the first ``k`` in ``s <= k < s_next`` (``s_next`` the next true
-    switch, or the end of the run) with ``estimated[k] == m``; the delay is
-    ``time[k] - time[s]``.  This is the first estimated switch into ``m`` at or after the
-    true switch, counted as 0 when the estimate already is ``m`` at ``s`` (an early switch
-    is not penalised).  Without such a ``k`` the switch is *missed*; missed switches are
-    counted, not given a delay.
+    switch, or the end of the run) where the estimate changes into ``m``:
+    ``estimated[k] == m`` and ``estimated[k-1] != m``.  The delay is ``time[k] - time[s]``
+    (0 when the estimate changes into ``m`` at the very sample the truth does).
+
+    An estimate that already sat in ``m`` before the true switch has not detected it, even
+    though it agrees with the truth from ``s`` on: a filter stuck in a wrong mode would
+    otherwise be credited with a perfect, instant detection whenever the truth happens to
+    enter the mode it is stuck in.  Such a switch, and one the estimate never changes into
+    ``m`` for, is *missed*: counted, given a reason, and not given a delay.
 
     Parameters
     ----------
@@ -395,16 +598,21 @@ def detection_delays(
         )
     starts = np.flatnonzero(tru[1:] != tru[:-1]) + 1
     ends = np.append(starts[1:], tru.size)[: starts.size]
+    # Samples where the estimate changes: estimated[k] != estimated[k-1].
+    changes = np.flatnonzero(est[1:] != est[:-1]) + 1
     events = []
     for s, e in zip(starts, ends, strict=True):
-        m = tru[s]
-        hits = np.flatnonzero(est[s:e] == m)
+        m = int(tru[s])
+        inside = changes[np.searchsorted(changes, s) : np.searchsorted(changes, e)]
+        hits = inside[est[inside] == m]
+        mode_id = str(mode_ids[m])
         events.append(
             SwitchDetection(
                 t=float(t[s]),
                 from_mode=str(mode_ids[tru[s - 1]]),
-                to_mode=str(mode_ids[m]),
-                detected_t=float(t[s + hits[0]]) if hits.size else None,
+                to_mode=mode_id,
+                detected_t=float(t[hits[0]]) if hits.size else None,
+                miss_reason=None if hits.size else _miss_reason(t, est, int(s), int(e), m, mode_id),
             )
         )
     return DetectionDelays(events=tuple(events))
