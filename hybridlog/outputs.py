@@ -315,6 +315,7 @@ def temporary_name(target: Path, *, kind: str = "tmp", keep_suffix: bool = False
 
 
 def _alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs (a zombie has exited: only its entry is left)."""
     if pid == os.getpid():
         return True
     try:
@@ -323,7 +324,11 @@ def _alive(pid: int) -> bool:
         return False
     except (PermissionError, OverflowError):
         return True  # someone else's process (or an absurd number): leave its files alone
-    return True
+    try:  # an orphan killed with its parent stays a zombie where nothing reaps it
+        stat = (Path("/proc") / str(pid) / "stat").read_text()
+    except OSError:
+        return True  # no /proc (not Linux): the signal test above is all there is
+    return stat.rsplit(")", 1)[-1].split()[:1] != ["Z"]
 
 
 def remove_stale_temporaries(folder: PathLike) -> list[Path]:
