@@ -1,4 +1,4 @@
-"""The ``hybridlog`` command line: a thin click layer over :mod:`hybridlog.analysis`.
+"""The ``hybridlog`` command line: a thin click layer over the jobs (:mod:`hybridlog.jobs`).
 
 Every command calls one library function.  hybridlog's own errors become one line on stderr
 and exit code 2 (``--debug`` shows the traceback); a missed CI gate is exit code 1.
@@ -18,8 +18,6 @@ from typing import Any, TypeVar
 import click
 
 from hybridlog import __version__
-from hybridlog.analysis import ReadOptions, analyze, compare
-from hybridlog.batch import run_batch
 from hybridlog.cluster.discovery import discover_modes
 from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError, excerpt
@@ -28,6 +26,8 @@ from hybridlog.estimators.chiu import ChiuOptions
 from hybridlog.io import ReadSettings
 from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, check_log_target, write_log
 from hybridlog.io.inspect import format_inspection, inspect_log
+from hybridlog.jobs.analysis import ReadOptions, analyze, compare
+from hybridlog.jobs.batch import run_batch
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
 from hybridlog.report.document import duration, plural

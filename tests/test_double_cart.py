@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from hybridlog.analysis import analyze
 from hybridlog.cli import main
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.chiu import ChiuOptions, chiu_options, design_observer, run_chiu
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.switched_observer import linear_modes, run_observer
+from hybridlog.jobs.analysis import analyze
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 

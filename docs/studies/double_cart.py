@@ -23,7 +23,7 @@ import numpy as np
 if __package__ in (None, ""):  # run as a file: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from hybridlog.analysis import ReadOptions, read_log
+from hybridlog.jobs.analysis import ReadOptions, read_log
 from hybridlog.estimators.chiu import ChiuOptions, run_chiu
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.result import EstimationResult

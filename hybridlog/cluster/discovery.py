@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.analysis import ReadOptions, markdown_table, read_log
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.plot import plot_clusters
 from hybridlog.cluster.regressors import regression_vectors
@@ -27,6 +26,7 @@ from hybridlog.estimators.chiu import (
     fit_classifier,
 )
 from hybridlog.estimators.kmeans import KMeansOptions
+from hybridlog.jobs.analysis import ReadOptions, read_log
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import (
@@ -36,6 +36,7 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_target,
 )
+from hybridlog.report.summary import markdown_table
 from hybridlog.signals import AlignedSignals
 
 __all__ = ["PLOT_SUFFIXES", "ClusterOutcome", "check_cluster_outputs", "discover_modes"]

@@ -1,4 +1,4 @@
-"""The jobs the commands run: one log through one estimator into one report, and its kin.
+"""The ``analyze`` and ``compare`` jobs: one log through one or several estimators.
 
 This layer joins the others (``io`` → ``model`` → ``estimators`` → ``report``) and is what
 the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogError`.
@@ -6,15 +6,12 @@ the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogE
 
 from __future__ import annotations
 
-import math
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
-
-import polars as pl
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators import Prepared, prepare, resolve_estimator
@@ -25,6 +22,7 @@ from hybridlog.model.loader import load_model
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
 from hybridlog.report.gates import Gate
+from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
 
@@ -270,80 +268,6 @@ def _row(report: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
-SIGNIFICANT_DIGITS = 4
-"""Markdown tables show every number of a column with at least this many significant digits."""
-
-
-def _column_format(values: Sequence[object]) -> Callable[[object], str]:
-    """One format for a whole column of a table for people (CSV files keep raw values).
-
-    Integers get thousands separators.  Floats get the same number of decimals, enough for
-    :data:`SIGNIFICANT_DIGITS` digits of the smallest non-zero magnitude (``1,668,410``,
-    ``87.39``, ``0.6013``), with thousands separators; a column spanning more than six
-    decades, or needing more than six decimals, is written in scientific notation.
-    """
-    floats = [
-        abs(float(v))
-        for v in values
-        if isinstance(v, float) and not isinstance(v, bool) and math.isfinite(v) and v != 0.0
-    ]
-    spec = ",.0f"
-    if floats:
-        small, big = min(floats), max(floats)
-        decimals = SIGNIFICANT_DIGITS - 1 - math.floor(math.log10(small))
-        wide = decimals > 6 or big / small > 1e6
-        spec = ".3e" if wide else f",.{max(decimals, 0)}f"
-
-    def cell(value: object) -> str:
-        if value is None:
-            return "n/a"
-        if isinstance(value, bool):
-            return str(value)
-        if isinstance(value, int):
-            return f"{value:,}"
-        if isinstance(value, float):
-            return format(value, spec) if math.isfinite(value) else str(value)
-        return str(value).replace("|", "\\|")
-
-    return cell
-
-
-def _cell(value: object) -> str:
-    """One value on its own, formatted as :func:`markdown_table` would in a column."""
-    return _column_format([value])(value)
-
-
-def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
-    """A GitHub-flavoured Markdown table, numbers formatted per column for people.
-
-    Columns holding numbers are right-aligned; see :func:`_column_format` for the digits.
-    """
-    formats = [_column_format([row[j] for row in rows]) for j in range(len(header))]
-    numeric = [
-        any(isinstance(row[j], int | float) and not isinstance(row[j], bool) for row in rows)
-        for j in range(len(header))
-    ]
-    lines = [
-        "| " + " | ".join(header) + " |",
-        "|" + "".join("---:|" if n else "---|" for n in numeric),
-    ]
-    lines += [
-        "| " + " | ".join(f(v) for f, v in zip(formats, row, strict=True)) + " |" for row in rows
-    ]
-    return "\n".join(lines)
-
-
-def comparison_markdown(title: str, table: str, reports: Mapping[str, Mapping[str, Any]]) -> str:
-    """``comparison.md``: the table, where each report is, and each estimator's notes."""
-    lines = [f"# {title}", "", table, ""]
-    lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
-    for name, report in reports.items():
-        notes = [str(note) for note in report.get("notes") or []]
-        if notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in notes)]
-    return "\n".join(lines) + "\n"
-
-
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -401,14 +325,3 @@ def compare(
         for failure in evaluate_gates(report, gates)
     ]
     return Comparison(reports=reports, table=table, gate_failures=failures)
-
-
-def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """A small summary table as CSV (empty cells for missing values)."""
-    frame = pl.DataFrame(
-        [[None if v is None else v for v in row] for row in rows],
-        schema=list(header),
-        orient="row",
-        infer_schema_length=None,
-    )
-    frame.write_csv(path)
