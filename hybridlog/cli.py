@@ -18,7 +18,6 @@ from typing import Any, TypeVar
 import click
 
 from hybridlog import __version__
-from hybridlog.cluster.discovery import discover_modes
 from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
@@ -28,6 +27,7 @@ from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, check_log_targ
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.jobs.analysis import ReadOptions, analyze, compare
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.cluster import discover_modes
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
 from hybridlog.report.document import duration, plural

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from hybridlog.cluster.centers_file import read_centers, write_centers
 from hybridlog.cluster.kmeans import kmeans_clustering
 from hybridlog.cluster.labels import decide_clusters, label_clusters
 from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
 from hybridlog.errors import OptionError, OutputError
+from hybridlog.jobs.centers import read_centers, write_centers
 
 
 def test_paper_regression_vectors_and_generalisation():

@@ -7,7 +7,7 @@ the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogE
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -17,6 +17,7 @@ from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators import Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadSettings, load_signals
+from hybridlog.jobs.centers import read_centers
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
@@ -122,6 +123,16 @@ def prepare_estimators(
     ]
 
 
+FILE_OPTIONS: Mapping[str, tuple[str, Callable[[str], object]]] = MappingProxyType(
+    {"centers": ("centres file", read_centers)}
+)
+"""Estimator options that name an input file: option → (what the file is, its reader).
+
+The job reads the file (estimators read none) and passes the parsed content to the
+estimator's run function as the keyword argument of the same name (:func:`estimator_inputs`);
+no output may touch the file (:func:`input_paths`)."""
+
+
 def input_paths(
     logs: Sequence[PathLike],
     model_ref: PathLike,
@@ -130,18 +141,34 @@ def input_paths(
 ) -> list[tuple[str, PathLike]]:
     """Every file and folder a run reads, named for error messages: no output may touch them.
 
-    The logs, the model file (unless a built-in name), a centres file (the ``centers``
-    option, from ``--set`` or the model file) and every ``--msg-dir``.
+    The logs, the model file (unless a built-in name), the files estimator options name
+    (:data:`FILE_OPTIONS`: a centres file, from ``--set`` or the model file) and every
+    ``--msg-dir``.
     """
     paths: list[tuple[str, PathLike]] = [("log", log) for log in logs]
     if os.path.exists(model_ref):
         paths.append(("model file", model_ref))
     for estimator in prepared:
-        centers = getattr(estimator.options, "centers", None)
-        if centers:
-            paths.append(("centres file", centers))
+        for name, (what, _) in FILE_OPTIONS.items():
+            value = getattr(estimator.options, name, None)
+            if value:
+                paths.append((what, value))
     paths += [("--msg-dir folder", folder) for folder in read.msg_dirs]
     return paths
+
+
+def estimator_inputs(prepared: Prepared) -> dict[str, object]:
+    """The files the estimator's options name (:data:`FILE_OPTIONS`), read and parsed.
+
+    The keyword arguments of :meth:`Prepared.run <hybridlog.estimators.Prepared.run>`;
+    errors name the file (and the key at fault).
+    """
+    inputs: dict[str, object] = {}
+    for name, (_, read) in FILE_OPTIONS.items():
+        value = getattr(prepared.options, name, None)
+        if value:
+            inputs[name] = read(value)
+    return inputs
 
 
 def read_log(
@@ -218,9 +245,10 @@ def analyze(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
+    inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read, reading)
-    result = prepared.run(model, signals)
+    result = prepared.run(model, signals, **inputs)
     report = write_report(
         out_dir,
         result,
@@ -297,9 +325,10 @@ def compare(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
+    inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read, reading)
-    results = {p.name: p.run(model, signals) for p in prepared}
+    results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
     reports: dict[str, dict[str, Any]] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
