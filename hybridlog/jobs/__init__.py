@@ -5,8 +5,9 @@
 - :mod:`~hybridlog.jobs.batch`: many logs, one report folder each, a summary; its worker
   processes are in :mod:`~hybridlog.jobs.workers`.
 - :mod:`~hybridlog.jobs.cluster`: ``hybridlog cluster``, the mode classifier of paper 001
-  fitted on one log and saved as ``centers.json``; :mod:`~hybridlog.jobs.centers` reads and
-  writes that file.
+  fitted on one log and saved as ``centers.json`` with a picture
+  (:mod:`~hybridlog.jobs.cluster_plot`); :mod:`~hybridlog.jobs.centers` reads and writes
+  that file (also for the ``centers=FILE`` option of ``chiu`` and ``kmeans``).
 - :mod:`~hybridlog.jobs.simulate`: ``hybridlog simulate``, a simulated run written as a log.
 
 Each job checks everything the user gave before it reads a log or writes a byte, calls the
