@@ -14,12 +14,12 @@ from dataclasses import dataclass
 from hybridlog.cluster.centers_file import CentersFile
 from hybridlog.cluster.kmeans import KMeansParameters
 from hybridlog.estimators.chiu import ObserverOptions, run_clustering_observer
-from hybridlog.estimators.options import option, parse_options
+from hybridlog.estimators.options import option
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals
 
-__all__ = ["KMeansOptions", "kmeans_options", "run_kmeans"]
+__all__ = ["KMeansOptions", "run_kmeans"]
 
 
 @dataclass(frozen=True)
@@ -50,8 +50,3 @@ def run_kmeans(
     ``centers``: the parsed file ``options.centers`` names (read by the job).
     """
     return run_clustering_observer("kmeans", model, signals, options, centers=centers, jit=jit)
-
-
-def kmeans_options(values: dict[str, object]) -> KMeansOptions:
-    """Validated ``kmeans`` options from a name → value mapping."""
-    return parse_options(KMeansOptions, values, estimator="kmeans")
