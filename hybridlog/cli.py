@@ -1,4 +1,4 @@
-"""The ``hybridlog`` command line: a thin click layer over :mod:`hybridlog.analysis`.
+"""The ``hybridlog`` command line: a thin click layer over the jobs (:mod:`hybridlog.jobs`).
 
 Every command calls one library function.  hybridlog's own errors become one line on stderr
 and exit code 2 (``--debug`` shows the traceback); a missed CI gate is exit code 1.
@@ -18,20 +18,20 @@ from typing import Any, TypeVar
 import click
 
 from hybridlog import __version__
-from hybridlog.analysis import ReadOptions, analyze, compare
-from hybridlog.batch import run_batch
-from hybridlog.cluster.discovery import discover_modes
 from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.chiu import ChiuOptions
 from hybridlog.io import ReadSettings
-from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, check_log_target, write_log
+from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS
 from hybridlog.io.inspect import format_inspection, inspect_log
+from hybridlog.jobs.analysis import ReadOptions, analyze, compare
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.cluster import discover_modes
+from hybridlog.jobs.simulate import simulate_log
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
 from hybridlog.report.document import duration, plural
-from hybridlog.simulate import simulate as simulate_model
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -334,21 +334,17 @@ def simulate(
     In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
     true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
     """
-    model = load_model(model_ref)
-    inputs = [("model file", model_ref)] if Path(model_ref).exists() else []
-    # Every check of the output runs before the simulation.
-    check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
-    log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
-    write_log(
+    outcome = simulate_log(
+        model_ref,
         out,
-        log.columns(model),
-        truth=("mode", *model.states),
-        format=log_format,
+        log_format=log_format,
         encoding=encoding,
+        schedule=schedule,
+        steps=steps,
+        seed=seed,
         force=force,
-        inputs=inputs,
     )
-    _say(ctx, f"wrote {out} ({plural(log.time.shape[0], 'sample')})")
+    _say(ctx, f"wrote {out} ({plural(outcome.samples, 'sample')})")
 
 
 @cli.command(

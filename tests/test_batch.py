@@ -20,10 +20,10 @@ import polars as pl
 import pytest
 from click.testing import CliRunner
 
-from hybridlog.batch import folder_names, natural_key, run_batch
 from hybridlog.cli import main
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import folder_names, natural_key, run_batch
 from hybridlog.outputs import MARKER, write_marker
 from tests.logfiles import tank_run
 

@@ -1,15 +1,21 @@
-"""Regression vectors, k-means baseline, decision rule, labelling and centers.json."""
+"""Regression vectors, k-means baseline, decision rule, labelling, classifier, centers.json."""
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
-from hybridlog.cluster.centers_file import read_centers, write_centers
-from hybridlog.cluster.kmeans import kmeans_clustering
+from hybridlog.cluster.centers_file import centers_json, parse_centers
+from hybridlog.cluster.classifier import fit_classifier, manual_labels, stored_classifier
+from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
 from hybridlog.cluster.labels import decide_clusters, label_clusters
 from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
+from hybridlog.cluster.subtractive import SubtractiveOptions
 from hybridlog.errors import OptionError, OutputError
+from hybridlog.estimators.chiu import ChiuOptions
+from hybridlog.estimators.kmeans import KMeansOptions
+from hybridlog.jobs.centers import read_centers, write_centers
 
 
 def test_paper_regression_vectors_and_generalisation():
@@ -108,3 +114,79 @@ def test_centers_file_round_trip_and_errors(tmp_path):
         read_centers(path)
     with pytest.raises(OptionError, match="no such centers file"):
         read_centers(tmp_path / "missing.json")
+
+
+def _two_blobs():
+    rng = np.random.default_rng(3)
+    y = np.concatenate([rng.normal(0.0, 0.05, 150), rng.normal(4.0, 0.05, 150)])[:, None]
+    u = np.zeros((300, 0))
+    return y, u
+
+
+def test_the_classifier_is_immutable_and_labelling_returns_a_new_one():
+    y, u = _two_blobs()
+    spec = RegressorSpec(output_lags=(0,), input_lags=())
+    fitted = fit_classifier(y, u, spec, SubtractiveOptions(), names=["y(k)"], n_modes=2)
+    assert fitted.algorithm == "chiu" and fitted.cluster_modes is None
+    assert fitted.details["sizes"].sum() == 300 and len(fitted.centers) == 2
+    with pytest.raises(TypeError):
+        fitted.details["sizes"] = None  # read-only: no mutation after construction
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fitted.cluster_modes = np.array([0, 1])  # type: ignore[misc]
+    labelled = fitted.labelled(np.array([1, 0]), ["by hand"], labelling_scores=np.zeros((2, 2)))
+    assert labelled.cluster_modes.tolist() == [1, 0] and labelled.labelling == ("by hand",)
+    assert list(labelled.details) == [*fitted.details, "labelling_scores"]
+    assert fitted.cluster_modes is None and "labelling_scores" not in fitted.details
+    km = fit_classifier(y, u, spec, KMeansParameters(seed=1), names=["y(k)"], n_modes=2)
+    assert km.algorithm == "kmeans" and list(km.details) == ["inertia", "seed", "restarts", "sizes"]
+    np.testing.assert_array_equal(np.sort(km.decide(y)), np.sort(fitted.decide(y)))
+    assert manual_labels(" 2, 1", ["1", "2"], 2).tolist() == [1, 0]
+    with pytest.raises(OptionError, match=r"cluster_modes: 1 mode ids for 2 clusters \('2'\)"):
+        manual_labels("2", ["1", "2"], 2)
+
+
+def test_estimator_options_default_to_the_clustering_defaults():
+    # The estimators' options declare help and ranges; the clustering they ask for is
+    # cluster/'s, with the same defaults (MATLAB subclust; ten k-means++ runs from seed 0).
+    assert ChiuOptions().clustering() == SubtractiveOptions()
+    assert KMeansOptions().clustering() == KMeansParameters()
+    assert ChiuOptions().regressor_spec() == KMeansOptions().regressor_spec() == RegressorSpec()
+
+
+def test_a_stored_classifier_comes_from_parsed_text_not_a_file():
+    y, _ = _two_blobs()
+    spec = RegressorSpec(output_lags=(0,), input_lags=())
+    text = centers_json(
+        {
+            "regressors": ["y(k)"],
+            "output_lags": [0],
+            "input_lags": [],
+            "scaling": {"lower": [-0.5], "upper": [4.5]},
+            "chiu": {"centers": [[4.0], [0.0]], "modes": ["b", "a"], "labelling": ["why"]},
+        }
+    )
+    stored = parse_centers(text, "mem.json")
+    found = stored_classifier(
+        stored, "chiu", spec, y, names=["y(k)"], mode_ids=["a", "b"], source="mem.json"
+    )
+    assert found.cluster_modes.tolist() == [1, 0]
+    assert found.labelling == ("labels loaded from mem.json", "why")
+    assert found.notes == ("chiu: 2 centres loaded from mem.json",)
+    assert found.details["sizes"].tolist() == [150, 150]
+    # labels of modes the model does not have are dropped, not guessed
+    other = stored_classifier(
+        stored, "chiu", spec, y, names=["y(k)"], mode_ids=["1", "2"], source="mem.json"
+    )
+    assert other.cluster_modes is None and other.labelling == ()
+    with pytest.raises(OptionError, match=r"^mem.json: regressors \['y\(k\)'\] do not match"):
+        stored_classifier(
+            stored, "chiu", spec, y, names=["z(k)"], mode_ids=["a"], source="mem.json"
+        )
+    with pytest.raises(
+        OptionError, match=r"^mem.json: kmeans: no kmeans centres .*--compare-kmeans"
+    ):
+        stored_classifier(
+            stored, "kmeans", spec, y, names=["y(k)"], mode_ids=["a"], source="mem.json"
+        )
+    with pytest.raises(OptionError, match=r"^mem.json: not JSON"):
+        parse_centers("{", "mem.json")

@@ -8,12 +8,19 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from hybridlog.analysis import analyze
 from hybridlog.cli import main
+from hybridlog.cluster.centers_file import centers_json, parse_centers
 from hybridlog.errors import ModelError, OptionError
-from hybridlog.estimators.chiu import ChiuOptions, chiu_options, design_observer, run_chiu
+from hybridlog.estimators.chiu import (
+    ChiuOptions,
+    chiu_options,
+    design_observer,
+    mode_classifier,
+    run_chiu,
+)
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.switched_observer import linear_modes, run_observer
+from hybridlog.jobs.analysis import analyze
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 
@@ -149,6 +156,34 @@ def test_manual_labels_and_option_errors():
         chiu_options({"method": "fast"})
     with pytest.raises(ModelError, match="not linear"):
         run_chiu(load_model("three_tank_hstf"), signals, ChiuOptions())
+
+
+def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
+    model = load_model("double_cart_case1")
+    signals = signals_of(model, simulate(model, steps=300, seed=1))
+    fitted = run_chiu(model, signals, ChiuOptions())
+    classifier = mode_classifier(model, signals, ChiuOptions(), observer=design_observer(model, 1))
+    text = centers_json(
+        {
+            "regressors": list(classifier.regressors),
+            "output_lags": list(classifier.spec.output_lags),
+            "input_lags": list(classifier.spec.input_lags),
+            "scaling": {"lower": classifier.lower, "upper": classifier.upper},
+            "chiu": {
+                "centers": classifier.centers,
+                "modes": [model.mode_ids[m] for m in classifier.cluster_modes],
+            },
+        }
+    )
+    missing = str(tmp_path / "never_written.json")
+    options = ChiuOptions(centers=missing)
+    with pytest.raises(OptionError, match=r"^centers=.*never_written.json: the estimator reads no"):
+        run_chiu(model, signals, options)
+    stored = run_chiu(model, signals, options, centers=parse_centers(text, missing))
+    np.testing.assert_array_equal(stored.modes, fitted.modes)
+    np.testing.assert_array_equal(stored.state_means, fitted.state_means)
+    assert f"chiu: {len(classifier.centers)} centres loaded from {missing}" in stored.notes
+    assert list(tmp_path.iterdir()) == []
 
 
 def run_cli(args, expect=0):

@@ -17,12 +17,12 @@ from types import MappingProxyType
 import numpy as np
 import pytest
 
-from hybridlog.analysis import Overrides, analyze, parse_sets, prepare_estimators
 from hybridlog.errors import HybridlogError, LogError, ModelError, OptionError
 from hybridlog.estimators import ESTIMATORS, Capabilities, Estimator, get_estimator, prepare
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.options import option, options_dict
 from hybridlog.estimators.result import EstimationResult, ResultShapeError
+from hybridlog.jobs.analysis import Overrides, analyze, parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report.document import build_report, report_json
 from hybridlog.simulate import simulate

@@ -14,8 +14,8 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from hybridlog.analysis import analyze
 from hybridlog.cli import cli
+from hybridlog.jobs.analysis import analyze
 
 SCHEDULE = ["--schedule", "1:30,2:30,3:30", "--steps", "90", "--seed", "11"]
 

@@ -19,14 +19,14 @@ from pathlib import Path
 import pytest
 
 from hybridlog import __version__
-from hybridlog.analysis import ReadOptions, analyze, compare
-from hybridlog.batch import run_batch
 from hybridlog.cli import main
-from hybridlog.cluster import discovery
-from hybridlog.cluster.discovery import discover_modes
 from hybridlog.errors import OptionError, OutputError
 from hybridlog.io.bag_writers import check_log_target, write_log, written_by_hybridlog
 from hybridlog.io.writers import write_table
+from hybridlog.jobs import cluster as cluster_job
+from hybridlog.jobs.analysis import ReadOptions, analyze, compare
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.cluster import discover_modes
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs import (
     MARKER,
@@ -404,7 +404,7 @@ def test_simulate_checks_before_simulating(
     def never(*args: object, **kwargs: object) -> None:
         raise AssertionError("simulated before the output was checked")
 
-    monkeypatch.setattr("hybridlog.cli.simulate_model", never)
+    monkeypatch.setattr("hybridlog.jobs.simulate.simulate_model", never)
     model = tmp_path / "tank.toml"
     model.write_text(builtin_text(TANK))
     for args in (
@@ -444,7 +444,7 @@ def test_cluster_writes_both_outputs_or_neither(
         path.write_bytes(b"half a pic")
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(discovery, "plot_clusters", full_disk)
+    monkeypatch.setattr(cluster_job, "plot_clusters", full_disk)
     with pytest.raises(OutputError, match="No space left"):
         discover_modes(SAMPLE_DC, "double_cart_case1", out=out)
     assert list(tmp_path.iterdir()) == []

@@ -1,5 +1,8 @@
 """Mode discovery by clustering (paper 001): pure algorithms over arrays.
 
+Nothing here reads or writes a file (the jobs do: :mod:`hybridlog.jobs.cluster`,
+:mod:`hybridlog.jobs.centers`), and nothing imports :mod:`hybridlog.estimators`.
+
 - :mod:`~hybridlog.cluster.regressors`: regression vectors φ(k) = [y(k), y(k−1), u(k−1)] and
   their generalisation to any lags, outputs and inputs.
 - :mod:`~hybridlog.cluster.subtractive`: Chiu's subtractive clustering, eqs. (5)–(7), exact
@@ -7,7 +10,9 @@
   (:mod:`~hybridlog.cluster.potentials`).
 - :mod:`~hybridlog.cluster.kmeans`: the k-means baseline.
 - :mod:`~hybridlog.cluster.labels`: the decision rule (2)–(3) and labelling clusters as modes.
-- :mod:`~hybridlog.cluster.centers_file`: ``centers.json``.
+- :mod:`~hybridlog.cluster.classifier`: the mode classifier (centres, decision rule, modes),
+  fitted on arrays or taken from a parsed centres file.
+- :mod:`~hybridlog.cluster.centers_file`: the ``centers.json`` format (text ↔ values).
 - :mod:`~hybridlog.cluster.reference`: a naive all-pairs port of MATLAB's ``subclust``.
 """
 

@@ -1,7 +1,9 @@
 """``centers.json``: fitted cluster centres and the mode classifier built on them.
 
-Written by ``hybridlog cluster`` and read by the ``chiu`` and ``kmeans`` estimators
-(``--set centers=centers.json``).  Layout (``format = "hybridlog-centers"``, ``version = 1``)::
+Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estimators
+(``--set centers=centers.json``).  This module turns the file's text into a
+:class:`CentersFile` and content into text; it reads and writes no file (the jobs do:
+:mod:`hybridlog.jobs.centers`).  Layout (``format = "hybridlog-centers"``, ``version = 1``)::
 
     {
       "format": "hybridlog-centers", "version": 1,
@@ -27,16 +29,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hybridlog.errors import OptionError, OutputError
-from hybridlog.outputs import atomic_files
+from hybridlog.errors import OptionError
 from hybridlog.signals import FloatArray
 
 __all__ = [
@@ -45,8 +44,7 @@ __all__ = [
     "CentersFile",
     "StoredClusters",
     "centers_json",
-    "read_centers",
-    "write_centers",
+    "parse_centers",
 ]
 
 FORMAT = "hybridlog-centers"
@@ -93,23 +91,6 @@ def centers_json(content: Mapping[str, Any]) -> str:
     return json.dumps(_plain(payload), indent=2, allow_nan=False) + "\n"
 
 
-def write_centers(path: str | os.PathLike[str], content: Mapping[str, Any], *, force: bool) -> Path:
-    """Write ``content`` (with ``format`` and ``version`` added) as JSON, atomically.
-
-    Raises
-    ------
-    OutputError
-        When ``path`` exists and ``force`` is false, or it cannot be written.
-    """
-    text = centers_json(content)
-    with atomic_files([path], force=force) as (temporary,):
-        try:
-            temporary.write_text(text, encoding="utf-8")
-        except OSError as err:
-            raise OutputError(f"{path}: cannot write: {err.strerror}") from err
-    return Path(path)
-
-
 def _plain(value: Any) -> Any:
     if isinstance(value, Mapping):
         return {str(k): _plain(v) for k, v in value.items()}
@@ -125,25 +106,27 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def read_centers(path: str | os.PathLike[str]) -> CentersFile:
-    """Read and validate a ``centers.json``.
+def parse_centers(text: str, source: str) -> CentersFile:
+    """Parse and validate the text of a ``centers.json``.
+
+    Parameters
+    ----------
+    text:
+        The file's content.
+    source:
+        The file's name, for messages.
 
     Raises
     ------
     OptionError
-        When the file is missing, not JSON, of another format, or a needed key is wrong;
-        the message names the file and the key.
+        When the text is not JSON, of another format, or a needed key is wrong; the message
+        names ``source`` and the key.
     """
-    source = Path(path)
     try:
-        data = json.loads(source.read_text(encoding="utf-8"))
-    except FileNotFoundError as err:
-        raise OptionError(f"{source}: no such centers file") from err
-    except (OSError, UnicodeDecodeError) as err:
-        raise OptionError(f"{source}: cannot read: {err}") from err
+        data = json.loads(text)
     except json.JSONDecodeError as err:
         raise OptionError(f"{source}: not JSON: {err.msg} (line {err.lineno})") from err
-    reader = _Reader(str(source))
+    reader = _Reader(source)
     if not isinstance(data, dict):
         raise reader.error("", "expected a JSON object")
     if data.get("format") != FORMAT:
@@ -174,7 +157,7 @@ def read_centers(path: str | os.PathLike[str]) -> CentersFile:
     if not clusters:
         raise reader.error("chiu", "the file holds no centres (neither 'chiu' nor 'kmeans')")
     return CentersFile(
-        path=str(source),
+        path=source,
         model=str(data.get("model", "")),
         mode_ids=tuple(str(m) for m in data.get("mode_ids") or []),
         regressors=regressors,

@@ -21,7 +21,26 @@ from hybridlog.cluster.subtractive import unit_box
 from hybridlog.errors import OptionError
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["KMeansClusters", "kmeans_clustering"]
+__all__ = ["KMeansClusters", "KMeansParameters", "kmeans_clustering"]
+
+
+@dataclass(frozen=True)
+class KMeansParameters:
+    """Parameters of the k-means baseline as the mode classifier uses them.
+
+    Attributes
+    ----------
+    clusters:
+        Number of centres ``k``; ``None``: the number of the model's modes.
+    restarts:
+        k-means++ runs; the one of least inertia is kept.
+    seed:
+        Seed of the first run (then ``seed + 1``, ...).
+    """
+
+    clusters: int | None = None
+    restarts: int = 10
+    seed: int = 0
 
 
 @dataclass(frozen=True)

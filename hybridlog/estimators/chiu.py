@@ -6,8 +6,10 @@ Offline
     Regression vectors ``φ(k) = [y(k), y(k−1), u(k−1)]`` (any lags: options ``output_lags``,
     ``input_lags``) are clustered, by Chiu's subtractive clustering (``chiu``, eqs. (5)–(7),
     :mod:`hybridlog.cluster.subtractive`) or by k-means (:mod:`hybridlog.estimators.kmeans`).
-    By default the clusters are fitted on the analysed log itself; ``centers=FILE`` loads
-    the centres (and labels) that ``hybridlog cluster`` wrote instead.
+    By default the clusters are fitted on the analysed log itself; ``centers=FILE`` uses
+    the centres (and labels) that ``hybridlog cluster`` wrote instead: the job running the
+    estimator reads the file and passes it parsed (``centers=``); the estimator reads no file.
+    The classifier itself is :class:`hybridlog.cluster.classifier.ModeClassifier`.
 Labelling
     Each cluster is given a mode from the data and the model alone (never from ground truth,
     :mod:`hybridlog.cluster.labels`): among the maps cluster → mode that give every mode a
@@ -33,33 +35,37 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from hybridlog.cluster.centers_file import read_centers
-from hybridlog.cluster.kmeans import kmeans_clustering
-from hybridlog.cluster.labels import decide_clusters, label_clusters
-from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
-from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
+from hybridlog.cluster.centers_file import CentersFile
+from hybridlog.cluster.classifier import (
+    ModeClassifier,
+    fit_classifier,
+    manual_labels,
+    stored_classifier,
+)
+from hybridlog.cluster.labels import label_clusters
+from hybridlog.cluster.regressors import RegressorSpec, parse_lags
+from hybridlog.cluster.subtractive import SubtractiveOptions
 from hybridlog.errors import OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
 from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import AlignedSignals, IntArray
 
 if TYPE_CHECKING:
     from hybridlog.estimators.kmeans import KMeansOptions
 
 __all__ = [
     "ChiuOptions",
-    "ModeClassifier",
     "ObserverOptions",
     "chiu_options",
     "design_observer",
-    "fit_classifier",
+    "mode_classifier",
     "run_chiu",
     "run_clustering_observer",
 ]
@@ -82,6 +88,13 @@ class ObserverOptions:
         1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
     )
 
+    def regressor_spec(self) -> RegressorSpec:
+        """The lags of φ(k) (``output_lags``, ``input_lags``)."""
+        return RegressorSpec(
+            output_lags=parse_lags(self.output_lags, "output_lags"),
+            input_lags=parse_lags(self.input_lags, "input_lags"),
+        )
+
 
 @dataclass(frozen=True)
 class ChiuOptions(ObserverOptions):
@@ -100,78 +113,16 @@ class ChiuOptions(ObserverOptions):
         "auto", "potentials: exact all-pairs, approximate on a grid, or auto by size"
     )
 
-
-@dataclass(frozen=True)
-class ModeClassifier:
-    """Fitted centres and their modes: the classifier of eqs. (2)–(3).
-
-    Attributes
-    ----------
-    algorithm:
-        ``"chiu"`` or ``"kmeans"``.
-    spec:
-        The regression-vector lags.
-    regressors:
-        Names of the components of φ(k).
-    decision_columns:
-        Columns of φ holding ``y_j(k)``: the decision variables.
-    centers:
-        Cluster centres in data units, shape ``(c, d)``.
-    lower, upper:
-        Unit-box scaling of φ.
-    cluster_modes:
-        Mode index of each cluster, or ``None`` when not labelled.
-    labelling:
-        How the clusters were labelled (one line each).
-    notes:
-        How the centres were obtained.
-    details:
-        Algorithm-specific values for ``centers.json`` (potentials, radii, sizes …).
-    """
-
-    algorithm: str
-    spec: RegressorSpec
-    regressors: tuple[str, ...]
-    decision_columns: tuple[int, ...]
-    centers: FloatArray
-    lower: FloatArray
-    upper: FloatArray
-    cluster_modes: IntArray | None
-    labelling: tuple[str, ...]
-    notes: tuple[str, ...]
-    details: dict[str, Any]
-
-    @property
-    def decision_values(self) -> FloatArray:
-        """``y_i*``: the ``y(k)`` components of every centre, shape ``(c, n_y)``."""
-        values: FloatArray = self.centers[:, list(self.decision_columns)]
-        return values
-
-    def decide(self, outputs: FloatArray) -> IntArray:
-        """Cluster of every sample by the nearest decision variable (eqs. (2)–(3))."""
-        span = (self.upper - self.lower)[list(self.decision_columns)]
-        return decide_clusters(outputs, self.decision_values, span)
-
-
-def _spec(options: ObserverOptions) -> RegressorSpec:
-    return RegressorSpec(
-        output_lags=parse_lags(options.output_lags, "output_lags"),
-        input_lags=parse_lags(options.input_lags, "input_lags"),
-    )
-
-
-def _manual_labels(text: str, model: HybridModel, n_clusters: int) -> IntArray:
-    ids = [part.strip() for part in text.split(",") if part.strip()]
-    if len(ids) != n_clusters:
-        raise OptionError(
-            f"cluster_modes: {len(ids)} mode ids for {n_clusters} clusters ('{text}')"
+    def clustering(self) -> SubtractiveOptions:
+        """The subtractive-clustering part of the options."""
+        return SubtractiveOptions(
+            radius=self.radius,
+            squash=self.squash,
+            accept=self.accept,
+            reject=self.reject,
+            self_potential=self.self_potential,
+            method=self.method,
         )
-    for mode in ids:
-        if mode not in model.mode_ids:
-            raise OptionError(
-                f"cluster_modes: unknown mode '{mode}' (modes: {', '.join(model.mode_ids)})"
-            )
-    return np.array([model.mode_index(m) for m in ids], dtype=np.int64)
 
 
 def design_observer(model: HybridModel, decay_rate: float) -> tuple[LinearModes, ObserverGains]:
@@ -209,146 +160,74 @@ def _prediction_score(
     return score
 
 
-def fit_classifier(
+def mode_classifier(
     model: HybridModel,
     signals: AlignedSignals,
-    algorithm: str,
     options: ChiuOptions | KMeansOptions,
     *,
+    centers: CentersFile | None = None,
     observer: tuple[LinearModes, ObserverGains] | None = None,
 ) -> ModeClassifier:
-    """Fit (or load) the centres and label the clusters as modes.
+    """Fit (or take from ``centers``) the clusters and label them as modes.
+
+    The labels come, in this order of precedence, from ``cluster_modes``, from the centres
+    file, from the switched observer's prediction fit (the module docstring), or not at all.
 
     Parameters
     ----------
     model, signals:
         The model and the log the clusters are fitted on (and labelled with).
-    algorithm:
-        ``"chiu"`` or ``"kmeans"``.
     options:
-        The estimator's options.
+        The estimator's options: ``chiu`` clusters by subtractive clustering, ``kmeans``
+        by k-means.
+    centers:
+        A parsed ``centers.json`` to take the centres from instead of fitting them.
     observer:
         Matrices and gains for the automatic labelling; ``None`` leaves the clusters
         unlabelled unless ``cluster_modes`` or the centres file gives labels.
     """
-    spec = _spec(options)
+    spec = options.regressor_spec()
     names = tuple(spec.names(model.outputs, model.inputs))
-    columns = spec.decision_columns(model.n_outputs)
-    stored_modes: tuple[str, ...] | None = None
-    labelling: tuple[str, ...] = ()
-    details: dict[str, Any] = {}
-    if options.centers:
-        stored = read_centers(options.centers)
-        if stored.regressors != names:
-            raise OptionError(
-                f"{options.centers}: regressors {list(stored.regressors)} do not match this "
-                f"model and these lags ({list(names)})"
-            )
-        if algorithm not in stored.clusters:
-            raise OptionError(
-                f"{options.centers}: {algorithm}: no {algorithm} centres in the file"
-                + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
-            )
-        entry = stored.clusters[algorithm]
-        centers, lower, upper = entry.centers, stored.lower, stored.upper
-        notes = (f"{algorithm}: {len(centers)} centres loaded from {options.centers}",)
-        if entry.modes is not None and set(entry.modes) <= set(model.mode_ids):
-            stored_modes = entry.modes
-            labelling = (f"labels loaded from {options.centers}", *entry.labelling)
+    classifier: ModeClassifier
+    if centers is not None:
+        algorithm = "chiu" if isinstance(options, ChiuOptions) else "kmeans"
+        classifier = stored_classifier(
+            centers,
+            algorithm,
+            spec,
+            signals.outputs,
+            names=names,
+            mode_ids=model.mode_ids,
+            source=options.centers or centers.path,
+        )
     else:
-        phi = regression_vectors(signals.outputs, signals.inputs, spec)
-        text = ", ".join(names)
-        if algorithm == "chiu":
-            assert isinstance(options, ChiuOptions)
-            found = subtractive_clustering(
-                phi,
-                SubtractiveOptions(
-                    radius=options.radius,
-                    squash=options.squash,
-                    accept=options.accept,
-                    reject=options.reject,
-                    self_potential=options.self_potential,
-                    method=options.method,
-                ),
-            )
-            centers, lower, upper = found.centers, found.lower, found.upper
-            details.update(
-                method=found.method,
-                grid=found.grid,
-                potentials=found.potentials,
-                potential_ratios=found.potential_ratios,
-                radii=found.radii,
-                sigmas=found.sigmas,
-                center_rows=found.center_indices + spec.max_lag,
-            )
-            self_term = "included" if options.self_potential else "excluded (eq. (5) as printed)"
-            notes = (
-                f"chiu: {found.n_clusters} centres from {phi.shape[0]} regression vectors "
-                f"φ(k) = [{text}]; {found.notes[0]}; r_a = {options.radius:g}, "
-                f"squash {options.squash:g}, accept {options.accept:g}, reject "
-                f"{options.reject:g}, self term {self_term}",
-            )
-        else:
-            assert not isinstance(options, ChiuOptions)
-            k = model.n_modes if options.clusters is None else options.clusters
-            km = kmeans_clustering(phi, k, restarts=options.restarts, seed=options.seed)
-            centers, lower, upper = km.centers, km.lower, km.upper
-            details.update(inertia=km.inertia, seed=km.seed, restarts=km.restarts)
-            notes = (
-                f"kmeans: {k} centres from {phi.shape[0]} regression vectors φ(k) = [{text}] "
-                f"(scipy kmeans2, k-means++, best of {km.restarts} runs from seed {km.seed}, "
-                f"inertia {km.inertia:.4g})",
-            )
-    classifier = ModeClassifier(
-        algorithm=algorithm,
-        spec=spec,
-        regressors=names,
-        decision_columns=tuple(columns),
-        centers=np.asarray(centers, dtype=np.float64),
-        lower=np.asarray(lower, dtype=np.float64),
-        upper=np.asarray(upper, dtype=np.float64),
-        cluster_modes=None,
-        labelling=(),
-        notes=notes,
-        details=details,
-    )
-    decided = classifier.decide(signals.outputs)
-    sizes = np.bincount(decided, minlength=len(classifier.centers))
-    details["sizes"] = sizes
-    cluster_modes: IntArray | None
+        classifier = fit_classifier(
+            signals.outputs,
+            signals.inputs,
+            spec,
+            options.clustering(),
+            names=names,
+            n_modes=model.n_modes,
+        )
     if options.cluster_modes:
-        cluster_modes = _manual_labels(options.cluster_modes, model, len(classifier.centers))
-        labelling = (f"labels given by cluster_modes={options.cluster_modes}",)
-    elif stored_modes is not None:
-        cluster_modes = np.array([model.mode_index(m) for m in stored_modes], dtype=np.int64)
-    elif observer is not None:
+        modes = manual_labels(options.cluster_modes, model.mode_ids, len(classifier.centers))
+        return classifier.labelled(
+            modes, (f"labels given by cluster_modes={options.cluster_modes}",)
+        )
+    if classifier.cluster_modes is not None:
+        return classifier
+    if observer is not None:
+        decided = classifier.decide(signals.outputs)
         score = _prediction_score(model, signals, *observer, decided)
         labels = label_clusters(
             len(classifier.centers),
             model.mode_ids,
             score,
-            sizes,
+            classifier.details["sizes"],
             what="one-step prediction SSE",
         )
-        cluster_modes = labels.modes
-        labelling = labels.notes
-        details["labelling_scores"] = labels.alternatives
-    else:
-        cluster_modes = None
-        labelling = ("clusters not labelled (the model is not linear)",)
-    return ModeClassifier(
-        algorithm=algorithm,
-        spec=spec,
-        regressors=names,
-        decision_columns=tuple(columns),
-        centers=classifier.centers,
-        lower=classifier.lower,
-        upper=classifier.upper,
-        cluster_modes=cluster_modes,
-        labelling=labelling,
-        notes=notes,
-        details=details,
-    )
+        return classifier.labelled(labels.modes, labels.notes, labelling_scores=labels.alternatives)
+    return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))
 
 
 def run_clustering_observer(
@@ -357,12 +236,25 @@ def run_clustering_observer(
     signals: AlignedSignals,
     options: ChiuOptions | KMeansOptions,
     *,
+    centers: CentersFile | None,
     jit: bool,
 ) -> EstimationResult:
-    """Algorithm 1 of paper 001 (module docstring) with the centres of ``name``."""
+    """Algorithm 1 of paper 001 (module docstring) with the centres of ``name``.
+
+    Raises
+    ------
+    OptionError
+        ``options.centers`` names a file but ``centers`` (its parsed content) is missing:
+        the estimator reads no file, the job running it does.
+    """
+    if options.centers and centers is None:
+        raise OptionError(
+            f"centers={options.centers}: the estimator reads no file; pass the parsed file "
+            "as centers= (hybridlog.jobs.centers.read_centers)"
+        )
     start = time.perf_counter()
     linear, gains = design_observer(model, options.decay_rate)
-    classifier = fit_classifier(model, signals, name, options, observer=(linear, gains))
+    classifier = mode_classifier(model, signals, options, centers=centers, observer=(linear, gains))
     assert classifier.cluster_modes is not None
     decided = classifier.decide(signals.outputs)
     modes = classifier.cluster_modes[decided]
@@ -423,10 +315,18 @@ def run_clustering_observer(
 
 
 def run_chiu(
-    model: HybridModel, signals: AlignedSignals, options: ChiuOptions, *, jit: bool = True
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: ChiuOptions,
+    *,
+    centers: CentersFile | None = None,
+    jit: bool = True,
 ) -> EstimationResult:
-    """Paper 001 with Chiu's subtractive clustering (see the module docstring)."""
-    return run_clustering_observer("chiu", model, signals, options, jit=jit)
+    """Paper 001 with Chiu's subtractive clustering (see the module docstring).
+
+    ``centers``: the parsed file ``options.centers`` names (read by the job).
+    """
+    return run_clustering_observer("chiu", model, signals, options, centers=centers, jit=jit)
 
 
 def chiu_options(values: dict[str, object]) -> ChiuOptions:

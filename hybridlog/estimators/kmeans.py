@@ -11,13 +11,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from hybridlog.cluster.centers_file import CentersFile
+from hybridlog.cluster.kmeans import KMeansParameters
 from hybridlog.estimators.chiu import ObserverOptions, run_clustering_observer
-from hybridlog.estimators.options import option, parse_options
+from hybridlog.estimators.options import option
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals
 
-__all__ = ["KMeansOptions", "kmeans_options", "run_kmeans"]
+__all__ = ["KMeansOptions", "run_kmeans"]
 
 
 @dataclass(frozen=True)
@@ -30,14 +32,21 @@ class KMeansOptions(ObserverOptions):
     restarts: int = option(10, "k-means++ runs; the one of least inertia is kept", range=(1, 1000))
     seed: int = option(0, "seed of the first run (then seed+1, ...)", range=(0, 2**31))
 
+    def clustering(self) -> KMeansParameters:
+        """The k-means part of the options."""
+        return KMeansParameters(clusters=self.clusters, restarts=self.restarts, seed=self.seed)
+
 
 def run_kmeans(
-    model: HybridModel, signals: AlignedSignals, options: KMeansOptions, *, jit: bool = True
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: KMeansOptions,
+    *,
+    centers: CentersFile | None = None,
+    jit: bool = True,
 ) -> EstimationResult:
-    """Paper 001's k-means comparison: the same pipeline with k-means centres."""
-    return run_clustering_observer("kmeans", model, signals, options, jit=jit)
+    """Paper 001's k-means comparison: the same pipeline with k-means centres.
 
-
-def kmeans_options(values: dict[str, object]) -> KMeansOptions:
-    """Validated ``kmeans`` options from a name → value mapping."""
-    return parse_options(KMeansOptions, values, estimator="kmeans")
+    ``centers``: the parsed file ``options.centers`` names (read by the job).
+    """
+    return run_clustering_observer("kmeans", model, signals, options, centers=centers, jit=jit)

@@ -52,7 +52,8 @@ __all__ = [
     "resolve_estimator",
 ]
 
-Runner = Callable[["HybridModel", "AlignedSignals", Any], "EstimationResult"]
+Runner = Callable[..., "EstimationResult"]
+"""``run(model, signals, options, **inputs) -> EstimationResult``."""
 
 
 @dataclass(frozen=True)
@@ -253,12 +254,16 @@ class Prepared:
         """The estimator's registry name."""
         return self.estimator.name
 
-    def run(self, model: HybridModel, signals: AlignedSignals) -> EstimationResult:
-        """Run over the aligned log (checked first for what the estimator needs of a log)."""
+    def run(self, model: HybridModel, signals: AlignedSignals, **inputs: Any) -> EstimationResult:
+        """Run over the aligned log (checked first for what the estimator needs of a log).
+
+        ``inputs`` are the parsed files the options name (``centers=``), read by the job:
+        estimators read no file.
+        """
         problem = self.estimator.capabilities.signals_mismatch(signals)
         if problem is not None:
             raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")
-        return self.estimator.run_function(model, signals, self.options)
+        return self.estimator.run_function(model, signals, self.options, **inputs)
 
     def options_dict(self) -> dict[str, Any]:
         """The options as the report's ``options`` (read back by :func:`prepare`)."""

@@ -2,7 +2,8 @@
 
 Reads the log for the model, builds the regression vectors, runs subtractive clustering
 (and k-means with ``compare_kmeans``), labels the clusters as modes (when the model is
-linear: see :mod:`hybridlog.estimators.chiu`), writes ``centers.json`` and a plot, and
+linear: see :func:`hybridlog.estimators.chiu.mode_classifier`), writes ``centers.json``
+(:mod:`hybridlog.cluster.centers_file`) and a plot (:mod:`hybridlog.jobs.cluster_plot`), and
 returns a table for the terminal.  Prints nothing; errors are ``HybridlogError``.
 """
 
@@ -15,18 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.analysis import ReadOptions, markdown_table, read_log
 from hybridlog.cluster.centers_file import centers_json
-from hybridlog.cluster.plot import plot_clusters
+from hybridlog.cluster.classifier import ModeClassifier
 from hybridlog.cluster.regressors import regression_vectors
 from hybridlog.errors import ModelError, OptionError, OutputError
-from hybridlog.estimators.chiu import (
-    ChiuOptions,
-    ModeClassifier,
-    design_observer,
-    fit_classifier,
-)
+from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
+from hybridlog.jobs.analysis import ReadOptions, read_log
+from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import (
@@ -36,6 +33,7 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_target,
 )
+from hybridlog.report.summary import markdown_table
 from hybridlog.signals import AlignedSignals
 
 __all__ = ["PLOT_SUFFIXES", "ClusterOutcome", "check_cluster_outputs", "discover_modes"]
@@ -190,7 +188,7 @@ def discover_modes(
     except ModelError as err:
         observer = None
         notes.append(f"clusters not labelled as modes: {err}")
-    fitted = fit_classifier(model, signals, "chiu", chiu, observer=observer)
+    fitted = mode_classifier(model, signals, chiu, observer=observer)
     baseline = None
     if compare_kmeans:
         options = kmeans or KMeansOptions()
@@ -202,7 +200,7 @@ def discover_modes(
             input_lags=chiu.input_lags,
             decay_rate=chiu.decay_rate,
         )
-        baseline = fit_classifier(model, signals, "kmeans", options, observer=observer)
+        baseline = mode_classifier(model, signals, options, observer=observer)
     accuracy = {"chiu": _accuracy(fitted, model, signals)}
     if baseline is not None:
         accuracy["kmeans"] = _accuracy(baseline, model, signals)

@@ -4,7 +4,7 @@ A failing log never stops the others: any exception while analysing a log, and a
 process that dies, is recorded as that log's one-line error in the summary.  A log whose
 folder already holds a report of the same model and estimator is skipped (its report is reused
 in the summary) unless ``force`` is given.  ``jobs > 1`` analyses logs in parallel worker
-processes (:mod:`hybridlog.workers`), which exit when the batch process dies.  Logs are
+processes (:mod:`hybridlog.jobs.workers`), which exit when the batch process dies.  Logs are
 processed and summarised in natural order (``s1, s2, s10``).
 """
 
@@ -18,17 +18,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hybridlog.analysis import (
+from hybridlog.errors import HybridlogError, OptionError, OutputError
+from hybridlog.jobs.analysis import (
     ReadOptions,
     analyze,
     gates_for,
     input_paths,
-    markdown_table,
     parse_sets,
     prepare_estimators,
-    write_summary_csv,
 )
-from hybridlog.errors import HybridlogError, OptionError, OutputError
+from hybridlog.jobs.workers import run_tasks
 from hybridlog.outputs import (
     MARKER,
     PathLike,
@@ -40,8 +39,8 @@ from hybridlog.outputs import (
     write_marker,
 )
 from hybridlog.report import evaluate_gates
+from hybridlog.report.summary import markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
-from hybridlog.workers import run_tasks
 
 _COLUMNS = ("log", "status", "samples", "vaf", "mse", "mode_accuracy", "error")
 _ERROR_LIMIT = 300

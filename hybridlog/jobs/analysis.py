@@ -1,4 +1,4 @@
-"""The jobs the commands run: one log through one estimator into one report, and its kin.
+"""The ``analyze`` and ``compare`` jobs: one log through one or several estimators.
 
 This layer joins the others (``io`` → ``model`` → ``estimators`` → ``report``) and is what
 the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogError`.
@@ -6,7 +6,6 @@ the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogE
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -14,17 +13,17 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-import polars as pl
-
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators import Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadSettings, load_signals
+from hybridlog.jobs.centers import read_centers
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
 from hybridlog.report.gates import Gate
+from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
 
@@ -124,6 +123,16 @@ def prepare_estimators(
     ]
 
 
+FILE_OPTIONS: Mapping[str, tuple[str, Callable[[str], object]]] = MappingProxyType(
+    {"centers": ("centres file", read_centers)}
+)
+"""Estimator options that name an input file: option → (what the file is, its reader).
+
+The job reads the file (estimators read none) and passes the parsed content to the
+estimator's run function as the keyword argument of the same name (:func:`estimator_inputs`);
+no output may touch the file (:func:`input_paths`)."""
+
+
 def input_paths(
     logs: Sequence[PathLike],
     model_ref: PathLike,
@@ -132,18 +141,34 @@ def input_paths(
 ) -> list[tuple[str, PathLike]]:
     """Every file and folder a run reads, named for error messages: no output may touch them.
 
-    The logs, the model file (unless a built-in name), a centres file (the ``centers``
-    option, from ``--set`` or the model file) and every ``--msg-dir``.
+    The logs, the model file (unless a built-in name), the files estimator options name
+    (:data:`FILE_OPTIONS`: a centres file, from ``--set`` or the model file) and every
+    ``--msg-dir``.
     """
     paths: list[tuple[str, PathLike]] = [("log", log) for log in logs]
     if os.path.exists(model_ref):
         paths.append(("model file", model_ref))
     for estimator in prepared:
-        centers = getattr(estimator.options, "centers", None)
-        if centers:
-            paths.append(("centres file", centers))
+        for name, (what, _) in FILE_OPTIONS.items():
+            value = getattr(estimator.options, name, None)
+            if value:
+                paths.append((what, value))
     paths += [("--msg-dir folder", folder) for folder in read.msg_dirs]
     return paths
+
+
+def estimator_inputs(prepared: Prepared) -> dict[str, object]:
+    """The files the estimator's options name (:data:`FILE_OPTIONS`), read and parsed.
+
+    The keyword arguments of :meth:`Prepared.run <hybridlog.estimators.Prepared.run>`;
+    errors name the file (and the key at fault).
+    """
+    inputs: dict[str, object] = {}
+    for name, (_, read) in FILE_OPTIONS.items():
+        value = getattr(prepared.options, name, None)
+        if value:
+            inputs[name] = read(value)
+    return inputs
 
 
 def read_log(
@@ -220,9 +245,10 @@ def analyze(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
+    inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read, reading)
-    result = prepared.run(model, signals)
+    result = prepared.run(model, signals, **inputs)
     report = write_report(
         out_dir,
         result,
@@ -270,80 +296,6 @@ def _row(report: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
-SIGNIFICANT_DIGITS = 4
-"""Markdown tables show every number of a column with at least this many significant digits."""
-
-
-def _column_format(values: Sequence[object]) -> Callable[[object], str]:
-    """One format for a whole column of a table for people (CSV files keep raw values).
-
-    Integers get thousands separators.  Floats get the same number of decimals, enough for
-    :data:`SIGNIFICANT_DIGITS` digits of the smallest non-zero magnitude (``1,668,410``,
-    ``87.39``, ``0.6013``), with thousands separators; a column spanning more than six
-    decades, or needing more than six decimals, is written in scientific notation.
-    """
-    floats = [
-        abs(float(v))
-        for v in values
-        if isinstance(v, float) and not isinstance(v, bool) and math.isfinite(v) and v != 0.0
-    ]
-    spec = ",.0f"
-    if floats:
-        small, big = min(floats), max(floats)
-        decimals = SIGNIFICANT_DIGITS - 1 - math.floor(math.log10(small))
-        wide = decimals > 6 or big / small > 1e6
-        spec = ".3e" if wide else f",.{max(decimals, 0)}f"
-
-    def cell(value: object) -> str:
-        if value is None:
-            return "n/a"
-        if isinstance(value, bool):
-            return str(value)
-        if isinstance(value, int):
-            return f"{value:,}"
-        if isinstance(value, float):
-            return format(value, spec) if math.isfinite(value) else str(value)
-        return str(value).replace("|", "\\|")
-
-    return cell
-
-
-def _cell(value: object) -> str:
-    """One value on its own, formatted as :func:`markdown_table` would in a column."""
-    return _column_format([value])(value)
-
-
-def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
-    """A GitHub-flavoured Markdown table, numbers formatted per column for people.
-
-    Columns holding numbers are right-aligned; see :func:`_column_format` for the digits.
-    """
-    formats = [_column_format([row[j] for row in rows]) for j in range(len(header))]
-    numeric = [
-        any(isinstance(row[j], int | float) and not isinstance(row[j], bool) for row in rows)
-        for j in range(len(header))
-    ]
-    lines = [
-        "| " + " | ".join(header) + " |",
-        "|" + "".join("---:|" if n else "---|" for n in numeric),
-    ]
-    lines += [
-        "| " + " | ".join(f(v) for f, v in zip(formats, row, strict=True)) + " |" for row in rows
-    ]
-    return "\n".join(lines)
-
-
-def comparison_markdown(title: str, table: str, reports: Mapping[str, Mapping[str, Any]]) -> str:
-    """``comparison.md``: the table, where each report is, and each estimator's notes."""
-    lines = [f"# {title}", "", table, ""]
-    lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
-    for name, report in reports.items():
-        notes = [str(note) for note in report.get("notes") or []]
-        if notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in notes)]
-    return "\n".join(lines) + "\n"
-
-
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -373,9 +325,10 @@ def compare(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
+    inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read, reading)
-    results = {p.name: p.run(model, signals) for p in prepared}
+    results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
     reports: dict[str, dict[str, Any]] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
@@ -401,14 +354,3 @@ def compare(
         for failure in evaluate_gates(report, gates)
     ]
     return Comparison(reports=reports, table=table, gate_failures=failures)
-
-
-def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """A small summary table as CSV (empty cells for missing values)."""
-    frame = pl.DataFrame(
-        [[None if v is None else v for v in row] for row in rows],
-        schema=list(header),
-        orient="row",
-        infer_schema_length=None,
-    )
-    frame.write_csv(path)

@@ -1,0 +1,270 @@
+r"""The mode classifier of paper 001: cluster centres, their decision rule and their modes.
+
+Offline, the regression vectors ``φ(k)`` of a log are clustered (Chiu's subtractive
+clustering, eqs. (5)–(7), or k-means, the paper's comparison); online, every sample goes to
+the cluster whose decision variable is nearest (eqs. (2)–(3)),
+
+.. math::
+
+    \hat c(k) = \arg\min_i \lVert y(k) - y_i^*\rVert^2 ,
+
+and the cluster's mode is the estimated mode.  This module holds the classifier and the ways
+to obtain one without ground truth or files: :func:`fit_classifier` clusters arrays,
+:func:`stored_classifier` takes the centres of a parsed ``centers.json``
+(:mod:`hybridlog.cluster.centers_file`), :func:`manual_labels` reads ``cluster_modes="2,1"``.
+Labelling clusters by how well a model predicts the log needs the switched observer and
+lives with it (:func:`hybridlog.estimators.chiu.mode_classifier`), which calls
+:func:`hybridlog.cluster.labels.label_clusters` with that score.
+
+References
+----------
+Paper 001 (``papers/001_73b6a953d073a2d8.txt``), §4.A, eqs. (2)–(7).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from hybridlog.cluster.centers_file import CentersFile
+from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
+from hybridlog.cluster.labels import decide_clusters
+from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
+from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
+from hybridlog.errors import OptionError
+from hybridlog.signals import FloatArray, IntArray
+
+__all__ = [
+    "ModeClassifier",
+    "fit_classifier",
+    "manual_labels",
+    "stored_classifier",
+]
+
+
+@dataclass(frozen=True)
+class ModeClassifier:
+    """Fitted centres and their modes: the classifier of eqs. (2)–(3).
+
+    Immutable: :meth:`labelled` returns a new classifier with the clusters' modes.
+
+    Attributes
+    ----------
+    algorithm:
+        ``"chiu"`` or ``"kmeans"``.
+    spec:
+        The regression-vector lags.
+    regressors:
+        Names of the components of φ(k).
+    decision_columns:
+        Columns of φ holding ``y_j(k)``: the decision variables.
+    centers:
+        Cluster centres in data units, shape ``(c, d)``.
+    lower, upper:
+        Unit-box scaling of φ.
+    cluster_modes:
+        Mode index of each cluster, or ``None`` when not labelled.
+    labelling:
+        How the clusters were labelled (one line each).
+    notes:
+        How the centres were obtained.
+    details:
+        Algorithm-specific values for ``centers.json`` (potentials, radii, ``sizes``: samples
+        decided for each cluster on the log it was fitted or applied to, ...); read-only.
+    """
+
+    algorithm: str
+    spec: RegressorSpec
+    regressors: tuple[str, ...]
+    decision_columns: tuple[int, ...]
+    centers: FloatArray
+    lower: FloatArray
+    upper: FloatArray
+    cluster_modes: IntArray | None
+    labelling: tuple[str, ...]
+    notes: tuple[str, ...]
+    details: Mapping[str, Any]
+
+    @property
+    def decision_values(self) -> FloatArray:
+        """``y_i*``: the ``y(k)`` components of every centre, shape ``(c, n_y)``."""
+        values: FloatArray = self.centers[:, list(self.decision_columns)]
+        return values
+
+    def decide(self, outputs: FloatArray) -> IntArray:
+        """Cluster of every sample by the nearest decision variable (eqs. (2)–(3))."""
+        span = (self.upper - self.lower)[list(self.decision_columns)]
+        return decide_clusters(outputs, self.decision_values, span)
+
+    def labelled(
+        self, cluster_modes: IntArray | None, labelling: Sequence[str], **details: Any
+    ) -> ModeClassifier:
+        """The same centres with ``cluster_modes``; ``details`` are added to :attr:`details`."""
+        return dataclasses.replace(
+            self,
+            cluster_modes=cluster_modes,
+            labelling=tuple(labelling),
+            details=MappingProxyType({**self.details, **details}),
+        )
+
+
+def _unlabelled(
+    algorithm: str,
+    spec: RegressorSpec,
+    names: tuple[str, ...],
+    centers: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    notes: tuple[str, ...],
+    details: Mapping[str, Any],
+    outputs: FloatArray,
+) -> ModeClassifier:
+    """A classifier without modes; ``details`` gain the cluster sizes on ``outputs``."""
+    classifier = ModeClassifier(
+        algorithm=algorithm,
+        spec=spec,
+        regressors=names,
+        decision_columns=tuple(spec.decision_columns(outputs.shape[1])),
+        centers=np.asarray(centers, dtype=np.float64),
+        lower=np.asarray(lower, dtype=np.float64),
+        upper=np.asarray(upper, dtype=np.float64),
+        cluster_modes=None,
+        labelling=(),
+        notes=notes,
+        details=MappingProxyType({}),
+    )
+    sizes = np.bincount(classifier.decide(outputs), minlength=len(classifier.centers))
+    return dataclasses.replace(classifier, details=MappingProxyType({**details, "sizes": sizes}))
+
+
+def fit_classifier(
+    outputs: FloatArray,
+    inputs: FloatArray,
+    spec: RegressorSpec,
+    clustering: SubtractiveOptions | KMeansParameters,
+    *,
+    names: Sequence[str],
+    n_modes: int,
+) -> ModeClassifier:
+    """Cluster the regression vectors of a log; the clusters get no modes yet.
+
+    Parameters
+    ----------
+    outputs, inputs:
+        ``y`` ``(N, n_y)`` and ``u`` ``(N, n_u)`` of the log.
+    spec:
+        The lags making up φ(k).
+    clustering:
+        :class:`~hybridlog.cluster.subtractive.SubtractiveOptions` for Chiu's subtractive
+        clustering (``algorithm = "chiu"``) or
+        :class:`~hybridlog.cluster.kmeans.KMeansParameters` for k-means (``"kmeans"``).
+    names:
+        Names of the components of φ(k) (:meth:`RegressorSpec.names`).
+    n_modes:
+        Number of modes: the number of k-means centres unless ``clustering.clusters`` says.
+    """
+    names = tuple(names)
+    phi = regression_vectors(outputs, inputs, spec)
+    text = ", ".join(names)
+    details: dict[str, Any]
+    if isinstance(clustering, SubtractiveOptions):
+        algorithm = "chiu"
+        found = subtractive_clustering(phi, clustering)
+        centers, lower, upper = found.centers, found.lower, found.upper
+        details = {
+            "method": found.method,
+            "grid": found.grid,
+            "potentials": found.potentials,
+            "potential_ratios": found.potential_ratios,
+            "radii": found.radii,
+            "sigmas": found.sigmas,
+            "center_rows": found.center_indices + spec.max_lag,
+        }
+        self_term = "included" if clustering.self_potential else "excluded (eq. (5) as printed)"
+        radius = np.atleast_1d(np.asarray(clustering.radius, dtype=float))
+        notes = (
+            f"chiu: {found.n_clusters} centres from {phi.shape[0]} regression vectors "
+            f"φ(k) = [{text}]; {found.notes[0]}; r_a = {', '.join(f'{r:g}' for r in radius)}, "
+            f"squash {clustering.squash:g}, accept {clustering.accept:g}, reject "
+            f"{clustering.reject:g}, self term {self_term}",
+        )
+    else:
+        algorithm = "kmeans"
+        k = n_modes if clustering.clusters is None else clustering.clusters
+        km = kmeans_clustering(phi, k, restarts=clustering.restarts, seed=clustering.seed)
+        centers, lower, upper = km.centers, km.lower, km.upper
+        details = {"inertia": km.inertia, "seed": km.seed, "restarts": km.restarts}
+        notes = (
+            f"kmeans: {k} centres from {phi.shape[0]} regression vectors φ(k) = [{text}] "
+            f"(scipy kmeans2, k-means++, best of {km.restarts} runs from seed {km.seed}, "
+            f"inertia {km.inertia:.4g})",
+        )
+    return _unlabelled(algorithm, spec, names, centers, lower, upper, notes, details, outputs)
+
+
+def stored_classifier(
+    stored: CentersFile,
+    algorithm: str,
+    spec: RegressorSpec,
+    outputs: FloatArray,
+    *,
+    names: Sequence[str],
+    mode_ids: Sequence[str],
+    source: str,
+) -> ModeClassifier:
+    """The classifier of ``algorithm`` in a parsed ``centers.json``, applied to ``outputs``.
+
+    Labelled with the file's modes when the file has them and they are modes of the model.
+
+    Raises
+    ------
+    OptionError
+        The file's regressors are not φ(k) of this model and these lags, or it holds no
+        centres of ``algorithm`` (the message starts with ``source``, the file's name).
+    """
+    names = tuple(names)
+    if stored.regressors != names:
+        raise OptionError(
+            f"{source}: regressors {list(stored.regressors)} do not match this "
+            f"model and these lags ({list(names)})"
+        )
+    if algorithm not in stored.clusters:
+        raise OptionError(
+            f"{source}: {algorithm}: no {algorithm} centres in the file"
+            + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
+        )
+    entry = stored.clusters[algorithm]
+    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {source}",)
+    classifier = _unlabelled(
+        algorithm, spec, names, entry.centers, stored.lower, stored.upper, notes, {}, outputs
+    )
+    if entry.modes is not None and set(entry.modes) <= set(mode_ids):
+        modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
+        return classifier.labelled(modes, (f"labels loaded from {source}", *entry.labelling))
+    return classifier
+
+
+def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArray:
+    """Mode index of each cluster from ``cluster_modes="2,1"`` (mode ids in cluster order).
+
+    Raises
+    ------
+    OptionError
+        Not one known mode id per cluster.
+    """
+    ids = [part.strip() for part in text.split(",") if part.strip()]
+    if len(ids) != n_clusters:
+        raise OptionError(
+            f"cluster_modes: {len(ids)} mode ids for {n_clusters} clusters ('{text}')"
+        )
+    for mode in ids:
+        if mode not in mode_ids:
+            raise OptionError(
+                f"cluster_modes: unknown mode '{mode}' (modes: {', '.join(mode_ids)})"
+            )
+    return np.array([list(mode_ids).index(m) for m in ids], dtype=np.int64)

@@ -1,0 +1,55 @@
+"""Reading and writing ``centers.json`` (the format: :mod:`hybridlog.cluster.centers_file`).
+
+``hybridlog cluster`` writes the file; ``analyze``/``compare``/``batch`` read it for the
+``chiu`` and ``kmeans`` estimators' ``centers=FILE`` option and pass the parsed
+:class:`~hybridlog.cluster.centers_file.CentersFile` to the estimator, which reads no file.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from hybridlog.cluster.centers_file import CentersFile, centers_json, parse_centers
+from hybridlog.errors import OptionError, OutputError
+from hybridlog.outputs import atomic_files
+
+__all__ = ["read_centers", "write_centers"]
+
+
+def read_centers(path: str | os.PathLike[str]) -> CentersFile:
+    """Read and validate a ``centers.json``.
+
+    Raises
+    ------
+    OptionError
+        When the file is missing, unreadable, not JSON, of another format, or a needed key
+        is wrong; the message names the file and the key.
+    """
+    source = Path(path)
+    try:
+        text = source.read_text(encoding="utf-8")
+    except FileNotFoundError as err:
+        raise OptionError(f"{source}: no such centers file") from err
+    except (OSError, UnicodeDecodeError) as err:
+        raise OptionError(f"{source}: cannot read: {err}") from err
+    return parse_centers(text, str(source))
+
+
+def write_centers(path: str | os.PathLike[str], content: Mapping[str, Any], *, force: bool) -> Path:
+    """Write ``content`` (with ``format`` and ``version`` added) as JSON, atomically.
+
+    Raises
+    ------
+    OutputError
+        When ``path`` exists and ``force`` is false, or it cannot be written.
+    """
+    text = centers_json(content)
+    with atomic_files([path], force=force) as (temporary,):
+        try:
+            temporary.write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise OutputError(f"{path}: cannot write: {err.strerror}") from err
+    return Path(path)
