@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog.analysis import (
-    ReadOptions,
     analyze,
     gates_for,
     input_paths,
@@ -29,6 +28,7 @@ from hybridlog.analysis import (
     write_summary_csv,
 )
 from hybridlog.errors import HybridlogError, OptionError, OutputError
+from hybridlog.io import ReadOptions
 from hybridlog.outputs import (
     MARKER,
     PathLike,

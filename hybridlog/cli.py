@@ -18,14 +18,14 @@ from typing import Any, TypeVar
 import click
 
 from hybridlog import __version__
-from hybridlog.analysis import ReadOptions, analyze, compare
+from hybridlog.analysis import analyze, compare
 from hybridlog.batch import run_batch
 from hybridlog.cluster.discovery import discover_modes
 from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.chiu import ChiuOptions
-from hybridlog.io import ReadSettings
+from hybridlog.io import ReadOptions
 from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS, check_log_target, write_log
 from hybridlog.io.inspect import format_inspection, inspect_log
 from hybridlog.model.builtins import builtin_names, builtin_text
@@ -247,7 +247,7 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
 
     Reads CSV, Parquet, MCAP, ROS 1 .bag, ROS 2 bag folders and .db3 files.
     """
-    info = inspect_log(log, ReadSettings(msg_dirs=tuple(str(d) for d in msg_dirs)))
+    info = inspect_log(log, ReadOptions(msg_dirs=tuple(str(d) for d in msg_dirs)))
     click.echo(json.dumps(info, indent=2) if as_json else format_inspection(info))
 
 

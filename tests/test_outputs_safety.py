@@ -19,12 +19,13 @@ from pathlib import Path
 import pytest
 
 from hybridlog import __version__
-from hybridlog.analysis import ReadOptions, analyze, compare
+from hybridlog.analysis import analyze, compare
 from hybridlog.batch import run_batch
 from hybridlog.cli import main
 from hybridlog.cluster import discovery
 from hybridlog.cluster.discovery import discover_modes
 from hybridlog.errors import OptionError, OutputError
+from hybridlog.io import ReadOptions
 from hybridlog.io.bag_writers import check_log_target, write_log, written_by_hybridlog
 from hybridlog.io.writers import write_table
 from hybridlog.model.builtins import builtin_text

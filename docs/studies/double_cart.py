@@ -23,10 +23,11 @@ import numpy as np
 if __package__ in (None, ""):  # run as a file: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from hybridlog.analysis import ReadOptions, read_log
+from hybridlog.analysis import read_log
 from hybridlog.estimators.chiu import ChiuOptions, run_chiu
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.io import ReadOptions
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model

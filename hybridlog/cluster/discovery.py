@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.analysis import ReadOptions, markdown_table, read_log
+from hybridlog.analysis import markdown_table, read_log
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.plot import plot_clusters
 from hybridlog.cluster.regressors import regression_vectors
@@ -27,6 +27,7 @@ from hybridlog.estimators.chiu import (
     fit_classifier,
 )
 from hybridlog.estimators.kmeans import KMeansOptions
+from hybridlog.io import ReadOptions
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import (
