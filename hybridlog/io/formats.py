@@ -153,8 +153,6 @@ FORMATS: tuple[LogFormat, ...] = (
     ),
 )
 
-_HEAD = max(len(f.magic) for f in FORMATS)
-
 
 def get_format(name: str) -> LogFormat:
     """The row of :data:`FORMATS` called ``name`` (a programming error if there is none)."""
@@ -191,7 +189,7 @@ def sniff(path: str | os.PathLike[str]) -> LogFormat | None:
     """
     try:
         with Path(path).open("rb") as handle:
-            head = handle.read(_HEAD)
+            head = handle.read(max(len(f.magic) for f in FORMATS))
     except OSError as err:
         raise LogError(f"{os.fspath(path)}: cannot be read ({err.strerror})") from err
     if not head:

@@ -81,21 +81,23 @@ class SignalSpec:
 
     Attributes
     ----------
-    inputs, outputs, states:
-        The model's symbol names, in vector order (states: for ground truth).
+    inputs, outputs:
+        The model's input and output names, in vector order.
     mode_ids:
         The model's mode ids; true-mode labels must be among them (compared as text).
     dt:
         The model's sample time in seconds.
+    states:
+        The model's state names, in vector order (for ground truth; default none).
     signals, truth:
         The model's ``[signals]`` and ``[truth]`` tables (symbol → message path).
     """
 
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
+    mode_ids: tuple[str, ...]
     dt: float
     states: tuple[str, ...] = ()
-    mode_ids: tuple[str, ...] = ()
     signals: Mapping[str, str] = field(default_factory=_no_paths)
     truth: Mapping[str, str] = field(default_factory=_no_paths)
 
@@ -105,9 +107,9 @@ class SignalSpec:
         return cls(
             inputs=tuple(model.inputs),
             outputs=tuple(model.outputs),
+            mode_ids=tuple(model.mode_ids),
             dt=model.dt,
             states=tuple(model.states),
-            mode_ids=tuple(model.mode_ids),
             signals=MappingProxyType(dict(model.signals)),
             truth=MappingProxyType(dict(model.truth)),
         )
