@@ -42,8 +42,7 @@ from hybridlog.io.definitions import (
     types_from_msg_dirs,
     typestore_for,
 )
-from hybridlog.io.formats import MCAP_MAGIC as MAGIC
-from hybridlog.io.formats import LogFormat
+from hybridlog.io.formats import MCAP_MAGIC, LogFormat
 from hybridlog.io.messages import MessageSource, Topic, parse_json_schema
 from hybridlog.io.options import ReadOptions
 
@@ -93,15 +92,15 @@ def _check_open_mcap(path: Path, handle: IO[bytes], size: int) -> McapLayout:
     if size == 0:
         raise LogError(f"{path}: empty file")
     head = handle.read(8)
-    if head != MAGIC:
+    if head != MCAP_MAGIC:
         raise LogError(
-            f"{path}: not an MCAP file (wrong magic bytes {head[:8]!r}, expected {MAGIC!r})"
+            f"{path}: not an MCAP file (wrong magic bytes {head[:8]!r}, expected {MCAP_MAGIC!r})"
         )
     profile = _read_profile(handle)
     if size < 8 + _FOOTER_SIZE + 8:
         return McapLayout(profile, False, "the file ends before its footer")
     handle.seek(size - 8)
-    if handle.read(8) != MAGIC:
+    if handle.read(8) != MCAP_MAGIC:
         return McapLayout(profile, False, "no closing magic bytes")
     footer_at = size - 8 - _FOOTER_SIZE
     handle.seek(footer_at)
