@@ -86,13 +86,16 @@ if kind == "rosbags":
                 count += 1
         return count
 else:
-    from hybridlog.io import load_signals
-    maps = [] if field == "-" else [f"u=/u{field}", f"y1=/y1{field}", f"y2=/y2{field}"]
+    import importlib
+    from hybridlog.io import ReadOptions, SignalSpec, load_signals
+    from hybridlog.io.formats import log_format
+    # Readers are imported when a log of their format is first opened: import it here, as
+    # rosbags' reader is imported above, so that the times below are reading alone.
+    importlib.import_module(log_format(path).reader.partition(":")[0])
+    maps = () if field == "-" else (f"u=/u{field}", f"y1=/y1{field}", f"y2=/y2{field}")
+    spec = SignalSpec(inputs=("u",), outputs=("y1", "y2"), mode_ids=("a",), dt=%(dt)r)
     def once():
-        signals = load_signals(
-            path, states=(), inputs=("u",), outputs=("y1", "y2"), mode_ids=("a",), dt=%(dt)r,
-            maps=maps,
-        )
+        signals = load_signals(path, spec, ReadOptions(maps=maps))
         return signals.n_samples
 imported = peak_mib()
 best, count = float("inf"), 0

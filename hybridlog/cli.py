@@ -22,10 +22,11 @@ from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.chiu import ChiuOptions
-from hybridlog.io import ReadSettings
+from hybridlog.io import ReadOptions
 from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS
+from hybridlog.io.formats import format_list
 from hybridlog.io.inspect import format_inspection, inspect_log
-from hybridlog.jobs.analysis import ReadOptions, analyze, compare
+from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.jobs.simulate import simulate_log
@@ -225,11 +226,13 @@ def _say(ctx: click.Context, text: str) -> None:
 
 
 @cli.command(
+    help="Describe a log: columns or topics, types, counts, rates, time span and gaps.\n\n"
+    f"Reads {format_list(titles=True)}.",
     epilog=_examples(
         "hybridlog inspect sample_logs/three_tank_hstf.csv",
         "hybridlog inspect sample_logs/three_tank_hstf.mcap --json",
         "hybridlog inspect sample_logs/three_tank_hstf_ros2",
-    )
+    ),
 )
 @_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
@@ -243,11 +246,8 @@ def _say(ctx: click.Context, text: str) -> None:
     help="Folder of .msg files for message types the log does not define. Repeatable.",
 )
 def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
-    """Describe a log: columns or topics, types, counts, rates, time span and gaps.
-
-    Reads CSV, Parquet, MCAP, ROS 1 .bag, ROS 2 bag folders and .db3 files.
-    """
-    info = inspect_log(log, ReadSettings(msg_dirs=tuple(str(d) for d in msg_dirs)))
+    """Describe a log (the help text lists the formats from the table of formats)."""
+    info = inspect_log(log, ReadOptions(msg_dirs=tuple(str(d) for d in msg_dirs)))
     click.echo(json.dumps(info, indent=2) if as_json else format_inspection(info))
 
 

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io import load_signals, write_table
+from hybridlog.io import ReadOptions, SignalSpec, load_signals, write_table
 from hybridlog.io.align import align_signals
 from hybridlog.io.source import LabelSeries, Series, format_ns, seconds_to_ns
 from hybridlog.signals import MAX_MAGNITUDE
@@ -46,7 +46,8 @@ def test_on_grid_csv_is_reproduced_bit_for_bit(tmp_path: Path) -> None:
     y = rng.normal(size=n)
     y[:3] = [-0.0, 5e-324, np.nextafter(MAX_MAGNITUDE, 0.0)]
     path = write_table(tmp_path / "log.csv", {"t": np.arange(n) * 0.01, "u": u, "y": y})
-    signals = load_signals(path, states=(), inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.01)
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.01)
+    signals = load_signals(path, spec)
     assert signals.n_samples == n
     assert signals.inputs[:, 0].tobytes() == u.tobytes()
     assert signals.outputs[:, 0].tobytes() == y.tobytes()
@@ -116,7 +117,7 @@ def multi_rate(tmp_path: Path) -> Path:
 
 def test_multi_rate_nearest_by_hand(tmp_path: Path) -> None:
     signals = load_signals(
-        multi_rate(tmp_path), states=(), inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.5
+        multi_rate(tmp_path), SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.5)
     )
     # Grid 0, 0.5, ..., 3.0 (the last output sample is at 3.0).
     np.testing.assert_array_equal(signals.time, [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
@@ -130,12 +131,8 @@ def test_multi_rate_nearest_by_hand(tmp_path: Path) -> None:
 def test_multi_rate_linear_by_hand(tmp_path: Path) -> None:
     signals = load_signals(
         multi_rate(tmp_path),
-        states=(),
-        inputs=("u",),
-        outputs=("y",),
-        mode_ids=("a",),
-        dt=0.5,
-        resample="linear",
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.5),
+        ReadOptions(resample="linear"),
     )
     # y = 3 t exactly between samples: the midpoints give 1.5, 4.5, 7.5.
     np.testing.assert_allclose(signals.outputs[:, 0], [0, 1.5, 3, 4.5, 6, 7.5, 9], atol=1e-8)

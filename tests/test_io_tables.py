@@ -12,7 +12,14 @@ import polars as pl
 import pytest
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io import format_inspection, inspect_log, load_signals, write_table
+from hybridlog.io import (
+    ReadOptions,
+    SignalSpec,
+    format_inspection,
+    inspect_log,
+    load_signals,
+    write_table,
+)
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import Column
 
@@ -25,8 +32,14 @@ MODEL: dict[str, Any] = {
 }
 
 
-def load(path: Path, **options: Any) -> Any:
-    return load_signals(path, **{**MODEL, **options})
+SPEC_FIELDS = {"states", "inputs", "outputs", "mode_ids", "dt", "signals", "truth"}
+
+
+def load(path: Path, notes: dict[str, Any] | None = None, **options: Any) -> Any:
+    """``load_signals`` with the spec keys of ``options`` over ``MODEL``, the rest read options."""
+    spec = {**MODEL, **{k: v for k, v in options.items() if k in SPEC_FIELDS}}
+    read = {k: tuple(v) if k == "maps" else v for k, v in options.items() if k not in SPEC_FIELDS}
+    return load_signals(path, SignalSpec(**spec), ReadOptions(**read), notes=notes)
 
 
 def csv_file(tmp_path: Path, text: str, name: str = "log.csv") -> Path:

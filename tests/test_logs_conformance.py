@@ -26,7 +26,7 @@ from logfiles import VARIANT_TOPICS, variant_values, write_mcap_variant
 from mcap.writer import CompressionType, IndexType
 
 from hybridlog.cli import cli
-from hybridlog.io import inspect_log, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 
 CONFORMANCE = Path(__file__).parent / "data" / "mcap-conformance"
 
@@ -99,12 +99,8 @@ def test_every_writer_variant_gives_the_same_counts_and_values(
         counts = {t["name"]: t["count"] for t in info["topics"]}
         signals = load_signals(
             log,
-            states=(),
-            inputs=("u",),
-            outputs=("y",),
-            mode_ids=("a",),
-            dt=1.0,
-            maps=["u=/u.data", "y=/y.data"],
+            SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
+            ReadOptions(maps=("u=/u.data", "y=/y.data")),
         )
         same = (
             counts == dict.fromkeys(VARIANT_TOPICS, steps)

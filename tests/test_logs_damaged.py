@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadSettings, inspect_log, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 from hybridlog.model.loader import load_model
 
 SAMPLES = Path(__file__).parent.parent / "sample_logs"
@@ -91,15 +91,7 @@ def read_every_way(log: Path) -> list[str]:
     for flag in recover:
         calls.append(
             lambda flag=flag: load_signals(  # type: ignore[misc]
-                log,
-                states=model.states,
-                inputs=model.inputs,
-                outputs=model.outputs,
-                mode_ids=model.mode_ids,
-                dt=model.dt,
-                signals=model.signals,
-                truth=model.truth,
-                settings=ReadSettings(recover=flag),
+                log, SignalSpec.of(model), ReadOptions(recover=flag)
             )
         )
     for call in calls:

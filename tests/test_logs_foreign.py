@@ -35,7 +35,7 @@ from logfiles import (
 )
 
 from hybridlog.cli import cli, main
-from hybridlog.io import ReadSettings, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.io.writers import write_table
 
 SAME = ("samples", "dt", "outputs", "mse", "vaf", "states")
@@ -107,16 +107,16 @@ def test_logs_of_other_writers_are_analysed_like_the_csv(
 
 def test_header_time_takes_the_stamps_not_the_log_time(tmp_path: Path) -> None:
     log = write_mcap_json(tmp_path / "stamped.mcap", header_scene_records())
-    model: dict[str, Any] = {
-        "states": ("x1", "x2", "x3"),
-        "inputs": ("u",),
-        "outputs": ("y1", "y2", "y3"),
-        "mode_ids": ("1", "2", "3"),
-        "dt": 1.0,
-        "maps": [m for m in MAPS if m != "--map"],
-    }
-    by_log = load_signals(log, **model)
-    by_header = load_signals(log, settings=ReadSettings(time="header"), **model)
+    model = SignalSpec(
+        states=("x1", "x2", "x3"),
+        inputs=("u",),
+        outputs=("y1", "y2", "y3"),
+        mode_ids=("1", "2", "3"),
+        dt=1.0,
+    )
+    maps = tuple(m for m in MAPS if m != "--map")
+    by_log = load_signals(log, model, ReadOptions(maps=maps))
+    by_header = load_signals(log, model, ReadOptions(maps=maps, time="header"))
     np.testing.assert_allclose(by_log.time - by_header.time, 0.009)
     np.testing.assert_array_equal(by_log.outputs, by_header.outputs)
     np.testing.assert_array_equal(by_log.truth_modes, by_header.truth_modes)
@@ -146,16 +146,17 @@ def test_inspect_lists_every_topic_of_a_foreign_bag(tmp_path: Path) -> None:
     assert info["problems"] == []
 
 
-def _signals(log: Path, **options: Any) -> Any:
+def _signals(log: Path) -> Any:
     return load_signals(
         log,
-        states=("x1", "x2", "x3"),
-        inputs=("u",),
-        outputs=("y1", "y2", "y3"),
-        mode_ids=("1", "2", "3"),
-        dt=1.0,
-        maps=[m for m in MAPS if m != "--map"],
-        **options,
+        SignalSpec(
+            states=("x1", "x2", "x3"),
+            inputs=("u",),
+            outputs=("y1", "y2", "y3"),
+            mode_ids=("1", "2", "3"),
+            dt=1.0,
+        ),
+        ReadOptions(maps=tuple(m for m in MAPS if m != "--map")),
     )
 
 

@@ -38,18 +38,14 @@ from logfiles import (
 
 from hybridlog.cli import main
 from hybridlog.errors import LogError
-from hybridlog.io import format_inspection, inspect_log, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
 
 
 def load(log: Path, y: str = "/y.data") -> Any:
     return load_signals(
         log,
-        states=(),
-        inputs=("u",),
-        outputs=("y",),
-        mode_ids=("a",),
-        dt=1.0,
-        maps=["u=/u.data", f"y={y}"],
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
+        ReadOptions(maps=("u=/u.data", f"y={y}")),
     )
 
 

@@ -21,10 +21,11 @@ import pytest
 from hybridlog import __version__
 from hybridlog.cli import main
 from hybridlog.errors import OptionError, OutputError
+from hybridlog.io import ReadOptions
 from hybridlog.io.bag_writers import check_log_target, write_log, written_by_hybridlog
 from hybridlog.io.writers import write_table
 from hybridlog.jobs import cluster as cluster_job
-from hybridlog.jobs.analysis import ReadOptions, analyze, compare
+from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.model.builtins import builtin_text

@@ -26,7 +26,8 @@ if __package__ in (None, ""):  # run as a file: make the repository root importa
 from hybridlog.estimators.chiu import ChiuOptions, run_chiu
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.jobs.analysis import ReadOptions, read_log
+from hybridlog.io import ReadOptions
+from hybridlog.jobs.analysis import read_log
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model

@@ -31,16 +31,15 @@ bit for bit: every value is one of the log's samples, never recomputed.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from hybridlog.errors import LogError, OptionError
+from hybridlog.io.options import Resample, check_max_gap, check_resample
 from hybridlog.io.source import NS_PER_S, LabelSeries, Series, format_ns
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
-Resample = Literal["nearest", "linear"]
-RESAMPLE_METHODS: tuple[str, ...] = ("nearest", "linear")
 DEFAULT_MAX_GAP_STEPS = 5
 
 
@@ -258,15 +257,10 @@ def check_alignment_options(
         For an unusable ``dt``, an unknown ``resample`` or a negative ``max_gap``.
     """
     dt_ns = step_ns(dt)
-    if resample not in RESAMPLE_METHODS:
-        raise OptionError(
-            f"resample: unknown method {resample!r}; choose one of {', '.join(RESAMPLE_METHODS)}"
-        )
-    method: Resample = "linear" if resample == "linear" else "nearest"
+    method = check_resample(resample)
+    check_max_gap(max_gap)
     if max_gap is None:
         return dt_ns, method, DEFAULT_MAX_GAP_STEPS * dt_ns
-    if not np.isfinite(max_gap) or max_gap < 0:
-        raise OptionError(f"max_gap: must be a non-negative number of seconds, got {max_gap}")
     return dt_ns, method, round(max_gap * NS_PER_S)
 
 

@@ -6,13 +6,12 @@ import os
 from dataclasses import replace
 from typing import Any
 
-from hybridlog.io.readers import UnfinishedLogError, open_log
-from hybridlog.io.source import ReadSettings
+from hybridlog.io.formats import open_log
+from hybridlog.io.mcap_reader import UnfinishedLogError
+from hybridlog.io.options import ReadOptions
 
 
-def inspect_log(
-    path: str | os.PathLike[str], settings: ReadSettings | None = None
-) -> dict[str, Any]:
+def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -> dict[str, Any]:
     """Describe a log: fields, types, counts, value ranges, time span, rate and gaps.
 
     An unfinished MCAP file (no footer) is described as far as it can be read
@@ -22,8 +21,8 @@ def inspect_log(
     ----------
     path:
         The log file (or ROS 2 bag directory).
-    settings:
-        Reading settings; ``msg_dirs`` lets the fields of custom message types be listed.
+    options:
+        How to read; ``msg_dirs`` lets the fields of custom message types be listed.
 
     Returns
     -------
@@ -43,11 +42,11 @@ def inspect_log(
     LogError
         When the file is missing, of an unsupported format, or unreadable.
     """
-    settings = settings or ReadSettings()
+    options = options or ReadOptions()
     try:
-        source = open_log(path, settings)
+        source = open_log(path, options)
     except UnfinishedLogError as err:
-        source = open_log(path, replace(settings, recover=True))
+        source = open_log(path, replace(options, recover=True))
         with source:
             info = source.describe()
         info["problems"] = [str(err).removeprefix(f"{path}: "), *info["problems"]]
@@ -71,7 +70,7 @@ def format_inspection(info: dict[str, Any]) -> str:
     """
     if "topics" in info:
         return _format_messages(info)
-    lines = [f"{info['path']} ({info['format']}, {info['rows']} rows)"]
+    lines = [f"{info['path']} ({info['format']}, {_count(info['rows'], 'row')})"]
     span = info.get("time")
     if span is not None:
         text = (
@@ -87,7 +86,7 @@ def format_inspection(info: dict[str, Any]) -> str:
         if count == 0:
             lines.append("gaps: none")
         else:
-            lines.append(f"gaps: {count} step(s) longer than 1.5 x the sample time")
+            lines.append(f"gaps: {_count(count, 'step')} longer than 1.5 x the sample time")
             for gap in gaps[:10]:
                 lines.append(
                     f"  {_at(gap['start'])} s to {_at(gap['end'])} s ({_num(gap['duration'])} s)"
@@ -122,7 +121,8 @@ def _format_messages(info: dict[str, Any]) -> str:
     """The text form of a bag's or MCAP file's description."""
     topics = info["topics"]
     kind = info["format"] + (f", profile {info['profile']!r}" if "profile" in info else "")
-    lines = [f"{info['path']} ({kind}, {info['messages']} messages, {len(topics)} topics)"]
+    counts = f"{_count(info['messages'], 'message')}, {_count(len(topics), 'topic')}"
+    lines = [f"{info['path']} ({kind}, {counts})"]
     span = info.get("time")
     if span is not None:
         lines.append(
@@ -173,7 +173,7 @@ def _format_messages(info: dict[str, Any]) -> str:
     if reading.get("recovered"):
         lines.append("")
         lines.append(
-            f"read sequentially: {reading['messages_readable']} messages, "
+            f"read sequentially: {_count(reading['messages_readable'], 'message')}, "
             f"up to {reading['stopped_at']}"
         )
     problems = info.get("problems") or []
@@ -182,6 +182,11 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("problems:")
         lines.extend(f"  {p}" for p in problems)
     return "\n".join(lines)
+
+
+def _count(count: int, noun: str) -> str:
+    """``"1 topic"``, ``"2 topics"``: a count with its (regular) noun in agreement."""
+    return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
 
 
 def _num(value: Any) -> str:

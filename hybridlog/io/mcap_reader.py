@@ -42,10 +42,10 @@ from hybridlog.io.definitions import (
     types_from_msg_dirs,
     typestore_for,
 )
+from hybridlog.io.formats import MCAP_MAGIC, LogFormat
 from hybridlog.io.messages import MessageSource, Topic, parse_json_schema
-from hybridlog.io.source import ReadSettings
+from hybridlog.io.options import ReadOptions
 
-MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_SIZE = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
 _DATA_END_SIZE = 1 + 8 + 4
 _OP_HEADER, _OP_FOOTER, _OP_DATA_END = 0x01, 0x02, 0x0F
@@ -92,15 +92,15 @@ def _check_open_mcap(path: Path, handle: IO[bytes], size: int) -> McapLayout:
     if size == 0:
         raise LogError(f"{path}: empty file")
     head = handle.read(8)
-    if head != MAGIC:
+    if head != MCAP_MAGIC:
         raise LogError(
-            f"{path}: not an MCAP file (wrong magic bytes {head[:8]!r}, expected {MAGIC!r})"
+            f"{path}: not an MCAP file (wrong magic bytes {head[:8]!r}, expected {MCAP_MAGIC!r})"
         )
     profile = _read_profile(handle)
     if size < 8 + _FOOTER_SIZE + 8:
         return McapLayout(profile, False, "the file ends before its footer")
     handle.seek(size - 8)
-    if handle.read(8) != MAGIC:
+    if handle.read(8) != MCAP_MAGIC:
         return McapLayout(profile, False, "no closing magic bytes")
     footer_at = size - 8 - _FOOTER_SIZE
     handle.seek(footer_at)
@@ -245,6 +245,59 @@ def _stop_reason(err: BaseException) -> str:
     return f"a damaged record ({excerpt(first_line(err))})"
 
 
+class UnfinishedLogError(LogError):
+    """An MCAP file without its footer (cut off, or the recorder was killed).
+
+    Attributes
+    ----------
+    readable:
+        How many messages a sequential read gets out of it.
+    """
+
+    def __init__(self, message: str, readable: int) -> None:
+        super().__init__(message)
+        self.readable = readable
+
+
+def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> MessageSource:
+    """The reader of an MCAP file: rosbags' where it reads the file right, else the mcap one.
+
+    ``ros2``-profile files named ``.mcap`` whose summary indexes everything
+    (:func:`rosbags_summary_problem`) go to :class:`~hybridlog.io.rosbag_reader.BagSource`;
+    every other file, and any file with ``--recover``, to :class:`McapSource`.
+
+    Raises
+    ------
+    LogError
+        For a file :func:`check_mcap` refuses; :class:`UnfinishedLogError` for a file without
+        footer (unless ``options.recover``), saying how many messages ``--recover`` would get.
+    """
+    layout = check_mcap(path)
+    if options.recover:
+        return McapSource(path, layout, options)
+    if not layout.finished:
+        readable, stop = count_readable(path)
+        then = (
+            f"{readable} messages are readable, up to {stop}; --recover analyses them"
+            if readable
+            else f"no message is readable (the read stops at {stop}), so --recover cannot help"
+        )
+        raise UnfinishedLogError(
+            f"{path}: unfinished MCAP file ({layout.problem}: the recorder was killed or the "
+            f"file was cut off); {then}",
+            readable,
+        )
+    if (
+        layout.profile == "ros2"
+        and path.suffix.lower() in log_format.suffixes  # rosbags reads bare files by suffix
+        and rosbags_summary_problem(path) is None
+    ):
+        from hybridlog.io.rosbag_reader import BagSource  # which imports this module's checks
+
+        return BagSource(path, options, log_format)
+    return McapSource(path, layout, options)
+
+
 class McapSource(MessageSource):
     """An MCAP file read with the ``mcap`` library (see the module docstring).
 
@@ -254,7 +307,7 @@ class McapSource(MessageSource):
         The file.
     layout:
         What :func:`check_mcap` found.
-    settings:
+    options:
         ``recover`` reads sequentially up to the first damaged record; ``msg_dirs`` adds types.
 
     Raises
@@ -264,12 +317,11 @@ class McapSource(MessageSource):
     """
 
     def __init__(
-        self, path: str | Path, layout: McapLayout, settings: ReadSettings | None = None
+        self, path: str | Path, layout: McapLayout, options: ReadOptions | None = None
     ) -> None:
-        super().__init__(path, settings)
-        self.format = "mcap"
+        super().__init__(path, options, "mcap")
         self._details["profile"] = layout.profile or ""
-        self._sequential = self.settings.recover or not layout.finished
+        self._sequential = self.options.recover or not layout.finished
         self._handle: IO[bytes] | None = None
         self._stop: str | None = None
         self._extra_types: dict[str, Any] | None = None
@@ -335,10 +387,10 @@ class McapSource(MessageSource):
                 elif isinstance(record, Channel):
                     channels[record.id] = record
         except Exception as err:  # the first record that is cut off or corrupt ends the read
-            if not self.settings.recover:
+            if not self.options.recover:
                 raise
             self._stop = _stop_reason(err)
-        if self.settings.recover:
+        if self.options.recover:
             self._notes.update(
                 {
                     "recovered": True,
@@ -412,7 +464,7 @@ class McapSource(MessageSource):
             return cached
         if self._extra_types is None:
             self._extra_types = (
-                types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
+                types_from_msg_dirs(self.options.msg_dirs) if self.options.msg_dirs else {}
             )
         encoding = {"ros2msg": "msg", "ros1msg": "msg", "ros2idl": "idl", "omgidl": "idl"}
         try:
@@ -467,5 +519,5 @@ class McapSource(MessageSource):
             ):
                 yield channel.topic, message.log_time, message.data
         except Exception:  # --recover: stop at the first record cut off or corrupt
-            if not self.settings.recover:
+            if not self.options.recover:
                 raise

@@ -53,10 +53,12 @@ from hybridlog.io.message_paths import (
     split_path,
     stamp_ns,
 )
+from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
     LabelSeries,
-    ReadSettings,
+    Reading,
     Series,
+    SourceInfo,
     closest_names,
     format_ns,
 )
@@ -110,21 +112,28 @@ class Topic:
 
 
 class MessageSource(abc.ABC):
-    """Base of the message-log readers (see the module docstring).
+    """Base of the message-log readers: a :class:`~hybridlog.io.source.LogSource`.
 
-    Subclasses set ``format`` and fill ``_topics`` when opened, implement :meth:`_iter_raw`
-    and :meth:`close`, and may word :meth:`_damaged` and :meth:`_recover_hint` for their
-    format.  Messages are only ever read through :meth:`_messages`, which turns whatever the
-    library raises on a damaged file into a :class:`~hybridlog.errors.LogError`.
+    Subclasses fill ``_topics`` when opened (and may refine ``_format``), implement
+    :meth:`_iter_raw` and :meth:`close`, and may word :meth:`_damaged` and
+    :meth:`_recover_hint` for their format.  Messages are only ever read through
+    :meth:`_messages`, which turns whatever the library raises on a damaged file into a
+    :class:`~hybridlog.errors.LogError`.
+
+    Parameters
+    ----------
+    path:
+        The log.
+    options:
+        How to read it (``time``, ``sort``, ``recover`` and ``msg_dirs`` are used).
+    format_name:
+        The format for reports and ``inspect`` (a row name of the table of formats).
     """
 
-    field_word = "field"
-    message_paths = True
-    format = "messages"
-
-    def __init__(self, path: str | Path, settings: ReadSettings | None = None) -> None:
+    def __init__(self, path: str | Path, options: ReadOptions | None, format_name: str) -> None:
         self._file = Path(path)
-        self.settings = settings or ReadSettings()
+        self.options = options or ReadOptions()
+        self._format = format_name
         self._topics: dict[str, Topic] = {}
         self._notes: dict[str, Any] = {}
         self._problems: list[str] = []
@@ -139,7 +148,7 @@ class MessageSource(abc.ABC):
 
     def _damaged(self, err: BaseException) -> LogError:
         """The error for a file the library could not read to the end."""
-        return LogError(f"{self.path}: damaged {self.format} file ({excerpt(first_line(err))})")
+        return LogError(f"{self.path}: damaged {self._format} file ({excerpt(first_line(err))})")
 
     def _recover_hint(self, topic: str, found: int) -> str:
         """A hint for a topic with fewer messages than the index lists ("" when none helps)."""
@@ -168,6 +177,11 @@ class MessageSource(abc.ABC):
     # ------------------------------------------------------------------ LogSource
 
     @property
+    def info(self) -> SourceInfo:
+        """Path and format; fields are message paths."""
+        return SourceInfo(self.path, self._format, message_paths=True)
+
+    @property
     def path(self) -> str:
         """The log's path as given."""
         return str(self._file)
@@ -193,14 +207,6 @@ class MessageSource(abc.ABC):
     @abc.abstractmethod
     def close(self) -> None:
         """Release what the source holds."""
-
-    def notes(self) -> dict[str, Any]:
-        """What reading did that a report should record."""
-        return dict(self._notes)
-
-    def locate(self, name: str, index: int) -> str:
-        """A sample's field (times are in the messages that quote this)."""
-        return f"field {name!r}"
 
     def fields(self) -> tuple[str, ...]:
         """Numeric and text leaves of every topic's messages, as message paths."""
@@ -270,9 +276,7 @@ class MessageSource(abc.ABC):
 
     # ------------------------------------------------------------------ reading
 
-    def read(
-        self, numeric: Sequence[str], labels: Sequence[str] = ()
-    ) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
+    def read(self, numeric: Sequence[str], labels: Sequence[str] = ()) -> Reading:
         """Read the named message paths in one pass over the mapped topics.
 
         Raises
@@ -282,7 +286,7 @@ class MessageSource(abc.ABC):
             range, a topic without ``header.stamp`` under ``--time header``, times that go
             backwards or repeat (without ``--sort``), a count that differs from the index.
         """
-        header = self.settings.time == "header"
+        header = self.options.time == "header"
         readers: dict[str, _TopicReader] = {}
         for text, want in [*((t, "number") for t in numeric), *((t, "label") for t in labels)]:
             try:
@@ -297,9 +301,9 @@ class MessageSource(abc.ABC):
                 reader = readers[topic.name] = _TopicReader(self, topic, header)
             reader.want(text, path, want)
         if not readers:
-            return {}, {}
+            return Reading({}, {}, dict(self._notes))
         self._collect(readers)
-        if not self.settings.recover:
+        if not self.options.recover:
             for reader in readers.values():
                 expected = reader.topic.count
                 if expected is not None and reader.count != expected:
@@ -314,7 +318,7 @@ class MessageSource(abc.ABC):
             numbers, texts = reader.series()
             numeric_series.update(numbers)
             label_series.update(texts)
-        return numeric_series, label_series
+        return Reading(numeric_series, label_series, dict(self._notes))
 
     def _check_header(self, topic: Topic) -> None:
         missing = f"topic {topic.label} has no header.stamp; --time header needs it on every "
@@ -401,7 +405,7 @@ class MessageSource(abc.ABC):
         total = sum(t["count"] for t in topics)
         return {
             "path": self.path,
-            "format": self.format,
+            "format": self._format,
             **self._details,
             "messages": total,
             "topics": topics,
@@ -409,7 +413,7 @@ class MessageSource(abc.ABC):
             if start is None or end is None
             else {"start": start / 1e9, "end": end / 1e9, "duration": (end - start) / 1e9},
             "problems": problems,
-            "reading": self.notes(),
+            "reading": dict(self._notes),
         }
 
 
@@ -589,7 +593,7 @@ class _TopicReader:
         self, time_ns: IntArray, log_times: IntArray
     ) -> tuple[IntArray | None, np.ndarray[Any, np.dtype[np.bool_]] | None]:
         source, topic = self.source, self.topic
-        sort = source.settings.sort
+        sort = source.options.sort
         word = "header.stamp" if self.header else "log time"
         order: IntArray | None = None
         steps = np.diff(time_ns)

@@ -36,6 +36,7 @@ from hybridlog.io.definitions import (
     types_from_msg_dirs,
     typestore_for,
 )
+from hybridlog.io.formats import LogFormat
 from hybridlog.io.mcap_reader import (
     check_mcap,
     count_readable,
@@ -43,7 +44,7 @@ from hybridlog.io.mcap_reader import (
     rosbags_summary_problem,
 )
 from hybridlog.io.messages import MessageSource, Topic
-from hybridlog.io.source import ReadSettings
+from hybridlog.io.options import ReadOptions
 
 SCHEMALESS = "__schemaless__"
 
@@ -93,10 +94,11 @@ class BagSource(MessageSource):
     path:
         A ``.bag`` file, a ROS 2 bag directory, a ``.db3`` file or a ``ros2``-profile
         ``.mcap`` whose summary rosbags can index.
-    kind:
-        ``"ros1"``, ``"ros2"`` (directory), ``"db3"`` or ``"mcap"``: what the content says.
-    settings:
-        Reading settings (``--msg-dir`` is used here).
+    options:
+        How to read it (``msg_dirs`` is used here, the rest by the base class).
+    log_format:
+        The row of the table of formats the content matched: ``ros1-bag``, ``ros2-bag``
+        (directory), ``ros2-db3`` or ``mcap``.
 
     Raises
     ------
@@ -104,31 +106,26 @@ class BagSource(MessageSource):
         When the bag cannot be opened (naming why in one line).
     """
 
-    def __init__(self, path: str | Path, kind: str, settings: ReadSettings | None = None) -> None:
-        super().__init__(path, settings)
-        self._kind = kind
-        self._ros1 = kind == "ros1"
-        self.format = {
-            "ros1": "ros1-bag",
-            "ros2": "ros2-bag",
-            "db3": "ros2-db3",
-            "mcap": "mcap",
-        }[kind]
+    def __init__(self, path: str | Path, options: ReadOptions, log_format: LogFormat) -> None:
+        super().__init__(path, options, log_format.name)
+        kind = self._kind = log_format.name
+        self._ros1 = kind == "ros1-bag"
+        self._directory = log_format.directory
         if kind == "mcap":
             self._details["profile"] = "ros2"
         self._reader: Any = None
         # (storage reader, its connections): where messages are read from.
         self._storages: list[tuple[Any, list[Any]]] = []
         self._per_message_zstd = False
-        if kind == "ros2":
+        if log_format.directory:
             self._check_mcap_storage()
             for file in sorted(self._file.glob("*.db3")):
                 check_sqlite(file)
-        elif kind == "db3":
+        elif kind == "ros2-db3":
             check_sqlite(self._file)
         try:
             self._open()
-            extra = types_from_msg_dirs(self.settings.msg_dirs) if self.settings.msg_dirs else {}
+            extra = types_from_msg_dirs(self.options.msg_dirs) if self.options.msg_dirs else {}
             self._topics = self._make_topics(extra)
         except HybridlogError:
             self.close()
@@ -183,7 +180,7 @@ class BagSource(MessageSource):
         self._storages = [(s, list(s.connections)) for s in storages]
         self._per_message_zstd = reader.compression_mode == "message"
         plugin = type(storages[0]).__name__ if storages else ""
-        self.format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
+        self._format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
 
     def _open_problem(self, err: BaseException) -> str:
         text = excerpt(first_line(err)).strip("'")
@@ -213,10 +210,10 @@ class BagSource(MessageSource):
             reason = excerpt(first_line(err).rsplit(": ", 1)[-1]).strip("'")
             return f"{self.path}: not a readable ROS 2 bag database ({reason})"
         if "File magic is invalid" in text:
-            return f"{self.path}: not a {self.format} file (wrong magic bytes)"
+            return f"{self.path}: not a {self._format} file (wrong magic bytes)"
         if "seems to be empty" in text:
             return f"{self.path}: empty file"
-        return f"{self.path}: cannot open the {self.format} file ({text})"
+        return f"{self.path}: cannot open the {self._format} file ({text})"
 
     # ------------------------------------------------------------------ topics
 
@@ -247,7 +244,7 @@ class BagSource(MessageSource):
             else:
                 self._define(topic, connections[0], stores, extra)
             topics[name] = topic
-        if self._kind == "ros2":
+        if self._directory:
             self._compare_metadata(topics)
         return topics
 
@@ -343,7 +340,7 @@ class BagSource(MessageSource):
         text = excerpt(first_line(err)).strip("'")
         if "checksum" in text.lower() or "crc" in text.lower():
             return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({text})")
-        return LogError(f"{self.path}: damaged {self.format} file ({text})")
+        return LogError(f"{self.path}: damaged {self._format} file ({text})")
 
     def _recover_hint(self, topic: str, found: int) -> str:
         """``--recover`` applies to bare MCAP files only (read then by the mcap library)."""

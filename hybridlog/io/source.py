@@ -11,48 +11,19 @@ resolution at Unix-epoch magnitudes and make "is this sample on the grid" compar
 from __future__ import annotations
 
 import difflib
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Any, Protocol, Self
 
 import numpy as np
 
-from hybridlog.errors import LogError
 from hybridlog.signals import FloatArray, IntArray
 
 NS_PER_S = 1_000_000_000
 
-#: Where sample times come from: the recorder's log time, or each message's ``header.stamp``.
-TIME_SOURCES: tuple[str, ...] = ("log", "header")
-
 # |t| beyond this many seconds does not fit into int64 nanoseconds (about 292 years).
 _MAX_SECONDS = 9.2e9
-
-
-@dataclass(frozen=True)
-class ReadSettings:
-    """How a reader turns records into samples (``--time``, ``--sort``, ``--recover``, ...).
-
-    Attributes
-    ----------
-    time:
-        ``"log"`` (default): the time the recorder logged each message (a table's time
-        column); ``"header"``: each message's ``header.stamp``.
-    sort:
-        Put samples that go backwards in time into order, and keep the last of samples with
-        the same time, instead of refusing the log.
-    recover:
-        Read what is readable of a damaged or unfinished MCAP file, sequentially, instead of
-        refusing it.
-    msg_dirs:
-        Folders of ``.msg`` files defining message types the log does not define itself.
-    """
-
-    time: str = "log"
-    sort: bool = False
-    recover: bool = False
-    msg_dirs: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -99,29 +70,72 @@ class LabelSeries:
     categories: tuple[str, ...]
 
 
-class LogSource(Protocol):
-    """A readable log: the interface alignment and ``inspect`` rely on.
+@dataclass(frozen=True)
+class SourceInfo:
+    """The static facts of an open log, for messages, mapping and reports.
 
-    Sources are context managers; ``read`` may be called once per source, with every field
-    the caller needs, so that a reader can decode the file in one pass.
+    Attributes
+    ----------
+    path:
+        The log's path as given, which prefixes every error message.
+    format:
+        The log's format for reports and ``inspect``: ``"csv"``, ``"mcap"``,
+        ``"ros2-bag (sqlite3)"`` ... (a row name of :data:`~hybridlog.io.formats.FORMATS`,
+        refined where the reader learns more, such as a bag folder's storage).
+    message_paths:
+        Whether fields are message paths (``/topic.field``) rather than column names.
     """
 
-    #: The log's format for reports and ``inspect``: ``"csv"``, ``"mcap"``, ``"ros1-bag"`` ...
+    path: str
     format: str
-
-    @property
-    def path(self) -> str:
-        """The log's path, used to prefix every error message."""
-        ...
+    message_paths: bool
 
     @property
     def field_word(self) -> str:
-        """What a field is called in messages: ``"column"`` for tables, ``"field"`` for bags."""
-        ...
+        """What a field is called in messages: ``"field"`` in message logs, else ``"column"``."""
+        return "field" if self.message_paths else "column"
+
+
+def field_location(name: str, index: int) -> str:
+    """Where a sample of a message log sits: its field (the messages quote its time)."""
+    return f"field {name!r}"
+
+
+@dataclass(frozen=True)
+class Reading:
+    """What :meth:`LogSource.read` returns.
+
+    Attributes
+    ----------
+    numeric:
+        ``{field: Series}`` of the fields read as numbers.
+    labels:
+        ``{field: LabelSeries}`` of the fields read as labels.
+    notes:
+        What reading did that a report should record (recovery, sorting); JSON-ready.
+    locate:
+        ``locate(field, index)``: where sample ``index`` of ``field`` sits in the file, e.g.
+        ``"line 17, column 'y'"``, for messages about its value.
+    """
+
+    numeric: dict[str, Series]
+    labels: dict[str, LabelSeries]
+    notes: dict[str, Any] = field(default_factory=dict)
+    locate: Callable[[str, int], str] = field_location
+
+
+class LogSource(Protocol):
+    """A readable log: what signal mapping, alignment and ``inspect`` rely on.
+
+    Sources are context managers; :meth:`read` may be called once per source, with every field
+    the caller needs, so that a reader can decode the file in one pass.  A reader is chosen
+    from the table of formats (:mod:`.formats`); :class:`~hybridlog.io.tables.TableSource`
+    and :class:`~hybridlog.io.messages.MessageSource` are the two families.
+    """
 
     @property
-    def message_paths(self) -> bool:
-        """Whether fields are message paths (``/topic.field``) rather than column names."""
+    def info(self) -> SourceInfo:
+        """The log's path, format and kind of field names."""
         ...
 
     def fields(self) -> tuple[str, ...]:
@@ -139,13 +153,7 @@ class LogSource(Protocol):
         """
         ...
 
-    def notes(self) -> dict[str, Any]:
-        """What reading did that a report should record (recovery, sorting); JSON-ready."""
-        ...
-
-    def read(
-        self, numeric: Sequence[str], labels: Sequence[str] = ()
-    ) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
+    def read(self, numeric: Sequence[str], labels: Sequence[str] = ()) -> Reading:
         """Read the named fields: ``numeric`` as float series, ``labels`` as label series.
 
         Raises
@@ -153,10 +161,6 @@ class LogSource(Protocol):
         LogError
             When a field is missing, not numeric, or its timestamps are unusable.
         """
-        ...
-
-    def locate(self, name: str, index: int) -> str:
-        """Where sample ``index`` of field ``name`` sits, e.g. ``"line 17, column 'y'"``."""
         ...
 
     def describe(self) -> dict[str, Any]:
@@ -234,49 +238,3 @@ def closest_names(wanted: Sequence[str], available: Sequence[str], limit: int = 
     shown = ", ".join(repr(a) for a in available[:8])
     more = f", ... ({len(available)} in all)" if len(available) > 8 else ""
     return f"available: {shown}{more}"
-
-
-def labels_to_codes(
-    source: LogSource, series: LabelSeries, mode_ids: Sequence[str], symbol: str
-) -> IntArray:
-    """Translate a label series into indices of ``mode_ids``.
-
-    Labels and mode ids are compared as text after stripping whitespace: ``"1"`` matches mode
-    ``"1"`` but ``"1.0"`` does not.
-
-    Raises
-    ------
-    LogError
-        Naming the first sample whose label is not a mode id, with its location and time.
-    """
-    index = {mode_id.strip(): i for i, mode_id in enumerate(mode_ids)}
-    lookup = np.array([index.get(label, -1) for label in series.categories], dtype=np.int64)
-    codes: IntArray = lookup[series.codes] if lookup.size else series.codes.copy()
-    bad = codes < 0
-    if bad.any():
-        first = int(np.argmax(bad))
-        label = series.categories[int(series.codes[first])]
-        raise LogError(
-            f"{source.path}, {source.locate(series.name, first)}: {symbol} {label!r} at "
-            f"t={format_ns(int(series.time_ns[first]))} s is not a mode of the model "
-            f"(mode ids: {', '.join(mode_ids)}; compared as text)"
-        )
-    return codes
-
-
-def check_finite(source: LogSource, series: Series, symbol: str) -> None:
-    """Raise unless every value of ``series`` is finite.
-
-    Raises
-    ------
-    LogError
-        Naming the location, the symbol and the time of the first NaN or infinite value.
-    """
-    bad = ~np.isfinite(series.values)
-    if bad.any():
-        first = int(np.argmax(bad))
-        value = float(series.values[first])
-        raise LogError(
-            f"{source.path}, {source.locate(series.name, first)}: {value} for {symbol} at "
-            f"t={format_ns(int(series.time_ns[first]))} s (mapped signals must be finite)"
-        )

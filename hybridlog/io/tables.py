@@ -23,10 +23,13 @@ import numpy as np
 import polars as pl
 
 from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.io.formats import LogFormat, get_format
+from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
     LabelSeries,
-    ReadSettings,
+    Reading,
     Series,
+    SourceInfo,
     check_seconds_range,
     closest_names,
     format_ns,
@@ -34,8 +37,9 @@ from hybridlog.io.source import (
 )
 from hybridlog.signals import FloatArray, IntArray
 
-TABLE_SUFFIXES = (".csv", ".parquet")
 TIME_COLUMNS = ("t", "time")
+
+_TABLES = (get_format("csv"), get_format("parquet"))
 
 # Step larger than this multiple of the median step is reported as a gap by ``describe``.
 GAP_FACTOR = 1.5
@@ -49,8 +53,13 @@ class TableSource:
     Parameters
     ----------
     path:
-        A ``.csv`` or ``.parquet`` file.  The header (or Parquet schema) is read at once;
-        the data only by :meth:`read` and :meth:`describe`.
+        A CSV or Parquet file.  The header (or Parquet schema) is read at once; the data
+        only by :meth:`read` and :meth:`describe`.
+    options:
+        How to read it (``sort`` is used; ``time`` must be ``"log"``).
+    log_format:
+        The ``csv`` or ``parquet`` row of the table of formats; by default the one the
+        suffix names.
 
     Raises
     ------
@@ -58,25 +67,30 @@ class TableSource:
         When the file is missing, empty, has no header, or has duplicate or unnamed columns.
     """
 
-    field_word = "column"
-    message_paths = False
-
-    def __init__(self, path: str | Path, settings: ReadSettings | None = None) -> None:
-        self.settings = settings or ReadSettings()
-        if self.settings.time != "log":
+    def __init__(
+        self,
+        path: str | Path,
+        options: ReadOptions | None = None,
+        log_format: LogFormat | None = None,
+    ) -> None:
+        self.options = options or ReadOptions()
+        if self.options.time != "log":
             raise OptionError(
-                f"--time {self.settings.time}: {path} is a table; its time column is the "
+                f"--time {self.options.time}: {path} is a table; its time column is the "
                 "only time it has (use --time log)"
             )
         self._notes: dict[str, Any] = {}
         self._file = Path(path)
-        self.format = self._file.suffix.lower().lstrip(".")
-        if f".{self.format}" not in TABLE_SUFFIXES:
+        if log_format is None:
+            suffix = self._file.suffix.lower()
+            log_format = next((f for f in _TABLES if suffix in f.suffixes), None)
+        if log_format is None or log_format not in _TABLES:
             raise LogError(f"{path}: not a table log (expected a .csv or .parquet file)")
+        self._format = log_format.name
         if not self._file.is_file():
             raise LogError(f"{path}: no such file")
         self._schema: dict[str, pl.DataType] = {}
-        if self.format == "csv":
+        if self._format == "csv":
             self._columns = _read_csv_header(self._file)
         else:
             self._schema = _read_parquet_schema(self._file)
@@ -84,6 +98,11 @@ class TableSource:
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
+
+    @property
+    def info(self) -> SourceInfo:
+        """Path and format (``csv`` or ``parquet``); fields are column names."""
+        return SourceInfo(self.path, self._format, message_paths=False)
 
     @property
     def path(self) -> str:
@@ -113,10 +132,6 @@ class TableSource:
             return None
         return closest_names([name], self.fields())
 
-    def notes(self) -> dict[str, Any]:
-        """What reading did (``--sort``: rows reordered and repeated times dropped)."""
-        return dict(self._notes)
-
     def __enter__(self) -> Self:
         """Return the source itself; the file is read eagerly."""
         return self
@@ -129,20 +144,18 @@ class TableSource:
     ) -> None:
         """Nothing to release."""
 
-    def locate(self, name: str, index: int) -> str:
+    def _locate(self, name: str, index: int) -> str:
         """Line (CSV, header = line 1) or row (Parquet, 1-based) of a sample read earlier."""
         rows = self._rows.get(name)
         row = int(rows[index]) if rows is not None and 0 <= index < rows.size else index
         return f"{self._row_label(row)}, column {excerpt(name)}"
 
     def _row_label(self, row: int) -> str:
-        return f"line {row + 2}" if self.format == "csv" else f"row {row + 1}"
+        return f"line {row + 2}" if self._format == "csv" else f"row {row + 1}"
 
     # ------------------------------------------------------------------ reading
 
-    def read(
-        self, numeric: Sequence[str], labels: Sequence[str] = ()
-    ) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
+    def read(self, numeric: Sequence[str], labels: Sequence[str] = ()) -> Reading:
         """Read the named columns as numeric series and label series.
 
         Parameters
@@ -154,9 +167,9 @@ class TableSource:
 
         Returns
         -------
-        tuple of dict
-            ``{column: Series}`` and ``{column: LabelSeries}``; each series holds the rows
-            where that column has a value.
+        Reading
+            ``{column: Series}`` and ``{column: LabelSeries}``, each series holding the rows
+            where that column has a value; notes on ``--sort``; the line or row of a sample.
 
         Raises
         ------
@@ -173,7 +186,7 @@ class TableSource:
                 )
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
-        if self.format == "csv":
+        if self._format == "csv":
             frame = _read_csv_frame(self._file, wanted, as_float)
         else:
             frame = self._read_parquet_frame(wanted, set(numeric), set(labels))
@@ -182,7 +195,7 @@ class TableSource:
         rows = self._kept_rows(frame, time_column)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
-        sort = self.settings.sort
+        sort = self.options.sort
         time_ns = self._time_ns(frame.get_column(time_column), rows, check=not sort)
         if sort:
             frame, rows, time_ns = self._sorted(frame, rows, time_ns)
@@ -211,7 +224,7 @@ class TableSource:
                 tuple(str(c) for c in categories.to_list()),
             )
             self._rows[name] = rows[present]
-        return numeric_series, label_series
+        return Reading(numeric_series, label_series, dict(self._notes), self._locate)
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:
@@ -269,7 +282,7 @@ class TableSource:
         )
         if not missing.any():
             return rows
-        blank = _blank_csv_rows(self._file) if self.format == "csv" else np.zeros_like(missing)
+        blank = _blank_csv_rows(self._file) if self._format == "csv" else np.zeros_like(missing)
         not_blank = missing & ~blank[: missing.size]
         if not_blank.any():
             row = int(np.argmax(not_blank))
@@ -358,11 +371,11 @@ class TableSource:
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
         columns = [
-            _describe_column(frame.get_column(name), time_ns, self.format) for name in self._columns
+            _describe_column(frame.get_column(c), time_ns, self._format) for c in self._columns
         ]
         info: dict[str, Any] = {
             "path": self.path,
-            "format": self.format,
+            "format": self._format,
             "rows": frame.height,
             "columns": columns,
             "time": None,
@@ -397,7 +410,7 @@ class TableSource:
         return info
 
     def _full_frame(self) -> pl.DataFrame:
-        if self.format == "parquet":
+        if self._format == "parquet":
             try:
                 return pl.read_parquet(self._file)
             except pl.exceptions.PolarsError as err:

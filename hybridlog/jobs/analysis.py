@@ -16,7 +16,7 @@ from typing import Any
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators import Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
-from hybridlog.io import ReadSettings, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.jobs.centers import read_centers
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
@@ -26,26 +26,6 @@ from hybridlog.report.gates import Gate
 from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
-
-
-@dataclass(frozen=True)
-class ReadOptions:
-    """How to read and align a log (``--map``, ``--resample``, ``--max-gap``, ...).
-
-    ``time``, ``sort``, ``recover`` and ``msg_dirs`` go to the reader
-    (:class:`~hybridlog.io.source.ReadSettings`); ``split_gaps`` and ``drop_nonfinite`` to
-    :func:`~hybridlog.io.load_signals`.
-    """
-
-    maps: tuple[str, ...] = ()
-    resample: str = "nearest"
-    max_gap: float | None = None
-    split_gaps: bool = False
-    time: str = "log"
-    sort: bool = False
-    drop_nonfinite: bool = False
-    recover: bool = False
-    msg_dirs: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -178,25 +158,7 @@ def read_log(
     notes: dict[str, Any] | None = None,
 ) -> AlignedSignals:
     """The log's signals for ``model`` on its grid; ``notes`` gets what reading did."""
-    return load_signals(
-        log,
-        states=model.states,
-        inputs=model.inputs,
-        outputs=model.outputs,
-        mode_ids=model.mode_ids,
-        dt=model.dt,
-        signals=model.signals,
-        truth=model.truth,
-        maps=read.maps,
-        resample=read.resample,
-        max_gap=read.max_gap,
-        settings=ReadSettings(
-            time=read.time, sort=read.sort, recover=read.recover, msg_dirs=read.msg_dirs
-        ),
-        split_gaps=read.split_gaps,
-        drop_nonfinite=read.drop_nonfinite,
-        notes=notes,
-    )
+    return load_signals(log, SignalSpec.of(model), read, notes=notes)
 
 
 @dataclass(frozen=True)

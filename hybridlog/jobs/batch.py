@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog.errors import HybridlogError, OptionError, OutputError
+from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
-    ReadOptions,
     analyze,
     gates_for,
     input_paths,

@@ -22,7 +22,8 @@ from hybridlog.cluster.regressors import regression_vectors
 from hybridlog.errors import ModelError, OptionError, OutputError
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
-from hybridlog.jobs.analysis import ReadOptions, read_log
+from hybridlog.io import ReadOptions
+from hybridlog.jobs.analysis import read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model

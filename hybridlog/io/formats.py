@@ -1,0 +1,261 @@
+r"""The table of log formats, and the reader of each log chosen from it.
+
+Every log format is one row of :data:`FORMATS`: its name, the magic bytes its content starts
+with, its suffixes, whether it is a directory, and its reader (imported only when a log of
+that format is opened).  :func:`open_log`, :func:`sniff`, the suffix cross-check, the list of
+supported formats in errors and help, and ``inspect`` all read this table; there is no other
+list of formats.
+
+The content decides what a file is: the row whose magic bytes start it.  A format whose
+reader needs the suffix (rosbags reads ROS 1 bags and ``.db3`` files by their names) refuses
+a file named otherwise, saying how to rename it; MCAP and Parquet content is read whatever
+the name.  A file whose content matches no row is read by the row of its suffix when that
+row has no magic bytes (CSV), and refused when it has (a suffix that promises a format the
+content does not have).  A directory is read by the directory row that holds it.
+
+=================== ========================== ================================================
+format              content                    reader
+=================== ========================== ================================================
+``csv``             ``.csv``, any text         :class:`~hybridlog.io.tables.TableSource`
+``parquet``         ``PAR1``                   :class:`~hybridlog.io.tables.TableSource`
+``mcap``            ``\x89MCAP0\r\n``          :func:`~hybridlog.io.mcap_reader.open_mcap`:
+                                               rosbags for ``ros2``-profile files with a full
+                                               summary, else the ``mcap`` library (also
+                                               ``--recover``)
+``ros1-bag``        ``#ROSBAG V2.0``, ``.bag`` :class:`~hybridlog.io.rosbag_reader.BagSource`
+``ros2-db3``        SQLite, ``.db3``           :class:`~hybridlog.io.rosbag_reader.BagSource`
+``ros2-bag``        a directory with           :class:`~hybridlog.io.rosbag_reader.BagSource`
+                    ``metadata.yaml`` or bag
+                    files
+=================== ========================== ================================================
+
+Only the standard library is imported here, so that help texts can list the formats without
+loading a reader.  Every reader turns whatever its library raises on a damaged file into a
+:class:`~hybridlog.errors.LogError` naming the file, so a corrupt log never ends in a
+traceback.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, cast
+
+from hybridlog.errors import LogError
+from hybridlog.io.options import ReadOptions
+
+if TYPE_CHECKING:
+    from hybridlog.io.source import LogSource
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+@dataclass(frozen=True)
+class LogFormat:
+    """One row of the table of log formats.
+
+    Attributes
+    ----------
+    name:
+        The format's name in reports and ``inspect`` (``"csv"``, ``"ros1-bag"`` ...).
+    what:
+        The format with its article, for messages (``"a ROS 1 bag"``).
+    title:
+        The format in lists of formats (``"ROS 1 bags"``).
+    suffixes:
+        The file suffixes of the format; for a directory, the suffixes of the files it holds.
+    reader:
+        ``"module:name"`` of the reader: a callable ``reader(path, options, log_format)``
+        returning a :class:`~hybridlog.io.source.LogSource` (usually the source class).
+    magic:
+        The bytes the content starts with (empty: the format has none, e.g. CSV).
+    misnamed:
+        When the reader needs the suffix: what to tell the user about a file with this
+        content and another name ("" when any name will do).
+    directory:
+        Whether the log is a directory.
+    index_file:
+        For a directory: a file whose presence marks the format (``metadata.yaml``).
+    """
+
+    name: str
+    what: str
+    title: str
+    suffixes: tuple[str, ...]
+    reader: str
+    magic: bytes = b""
+    misnamed: str = ""
+    directory: bool = False
+    index_file: str = ""
+
+    def open(self, path: Path, options: ReadOptions) -> LogSource:
+        """Open ``path`` with this format's reader (imported on first use)."""
+        module, _, name = self.reader.partition(":")
+        reader = getattr(importlib.import_module(module), name)
+        opener = cast("Callable[[Path, ReadOptions, LogFormat], LogSource]", reader)
+        return opener(path, options, self)
+
+    def holds(self, folder: Path) -> bool:
+        """For a directory format: whether ``folder`` has its index file or one of its files."""
+        if (folder / self.index_file).exists():
+            return True
+        return any(p.suffix in self.suffixes for p in folder.iterdir())
+
+
+#: Every log format hybridlog reads, in the order the help lists them (directories last).
+FORMATS: tuple[LogFormat, ...] = (
+    LogFormat("csv", "a CSV file", "CSV", (".csv",), "hybridlog.io.tables:TableSource"),
+    LogFormat(
+        "parquet",
+        "a Parquet file",
+        "Parquet",
+        (".parquet",),
+        "hybridlog.io.tables:TableSource",
+        magic=b"PAR1",
+    ),
+    LogFormat(
+        "mcap",
+        "an MCAP file",
+        "MCAP",
+        (".mcap",),
+        "hybridlog.io.mcap_reader:open_mcap",
+        magic=MCAP_MAGIC,
+    ),
+    LogFormat(
+        "ros1-bag",
+        "a ROS 1 bag",
+        "ROS 1 bags",
+        (".bag",),
+        "hybridlog.io.rosbag_reader:BagSource",
+        magic=b"#ROSBAG V2.0\n",
+        misnamed="is a ROS 1 bag; rename it to end in .bag to read it",
+    ),
+    LogFormat(
+        "ros2-db3",
+        "a ROS 2 sqlite3 bag",
+        "ROS 2 sqlite3 bags",
+        (".db3",),
+        "hybridlog.io.rosbag_reader:BagSource",
+        magic=b"SQLite format 3\x00",
+        misnamed="is an SQLite database; a ROS 2 bag file must end in .db3",
+    ),
+    LogFormat(
+        "ros2-bag",
+        "a ROS 2 bag",
+        "ROS 2 bag directories",
+        (".db3", ".mcap"),
+        "hybridlog.io.rosbag_reader:BagSource",
+        directory=True,
+        index_file="metadata.yaml",
+    ),
+)
+
+
+def get_format(name: str) -> LogFormat:
+    """The row of :data:`FORMATS` called ``name`` (a programming error if there is none)."""
+    return next(f for f in FORMATS if f.name == name)
+
+
+def format_list(*, titles: bool = False) -> str:
+    """The supported formats as text, for errors and help.
+
+    Parameters
+    ----------
+    titles:
+        ``False``: ``".csv, .parquet, .mcap, .bag, .db3 and ROS 2 bag directories"``;
+        ``True``: ``"CSV (.csv), Parquet (.parquet), ... and ROS 2 bag directories"``.
+    """
+    items: list[str] = []
+    for log_format in FORMATS:
+        if log_format.directory:
+            items.append(log_format.title)
+        elif titles:
+            items.append(f"{log_format.title} ({', '.join(log_format.suffixes)})")
+        else:
+            items.extend(log_format.suffixes)
+    return f"{', '.join(items[:-1])} and {items[-1]}"
+
+
+def sniff(path: str | os.PathLike[str]) -> LogFormat | None:
+    """The file format whose magic bytes start ``path``, or ``None`` when none does.
+
+    Raises
+    ------
+    LogError
+        When the file cannot be read or is empty.
+    """
+    try:
+        with Path(path).open("rb") as handle:
+            head = handle.read(max(len(f.magic) for f in FORMATS))
+    except OSError as err:
+        raise LogError(f"{os.fspath(path)}: cannot be read ({err.strerror})") from err
+    if not head:
+        raise LogError(f"{os.fspath(path)}: empty file")
+    return next((f for f in FORMATS if f.magic and head.startswith(f.magic)), None)
+
+
+def log_format(path: str | os.PathLike[str]) -> LogFormat:
+    """The row of :data:`FORMATS` that reads ``path`` (rules in the module docstring).
+
+    Raises
+    ------
+    LogError
+        When the log does not exist, is empty, its content does not match its suffix, or
+        its format is not supported (listing those that are).
+    """
+    shown = os.fspath(path)
+    file = Path(path)
+    if not file.exists():
+        raise LogError(f"{shown}: no such file")
+    if file.is_dir():
+        folders = [f for f in FORMATS if f.directory]
+        chosen = next((f for f in folders if f.holds(file)), None)
+        if chosen is None:
+            wanted = " or ".join(f"{f.index_file} or bag files" for f in folders)
+            what = " or ".join(f.what for f in folders)
+            raise LogError(f"{shown}: a directory without {wanted} is not {what}")
+        return chosen
+    suffix = file.suffix.lower()
+    content = sniff(path)
+    if content is not None:
+        if content.misnamed and suffix not in content.suffixes:
+            raise LogError(f"{shown}: {content.misnamed}")
+        return content
+    named = next((f for f in FORMATS if not f.directory and suffix in f.suffixes), None)
+    if named is None:
+        raise LogError(
+            f"{shown}: unsupported log format (suffix {file.suffix or '(none)'!r}); "
+            f"supported: {format_list()}"
+        )
+    if named.magic:
+        raise LogError(f"{shown}: not {named.what} (wrong magic bytes)")
+    return named
+
+
+def open_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -> LogSource:
+    """Open a log with the reader of its format (:func:`log_format`).
+
+    Parameters
+    ----------
+    path:
+        A log file, or a ROS 2 bag directory.
+    options:
+        How to read it (``time``, ``sort``, ``recover``, ``msg_dirs`` concern the readers).
+
+    Returns
+    -------
+    LogSource
+        An open source; use it as a context manager.
+
+    Raises
+    ------
+    LogError
+        When the log does not exist, is empty, its content does not match its suffix, its
+        format is not supported (listing those that are), or it cannot be opened;
+        :class:`~hybridlog.io.mcap_reader.UnfinishedLogError` for an MCAP file without
+        footer (unless ``recover``).
+    """
+    return log_format(path).open(Path(path), options or ReadOptions())

@@ -1,0 +1,286 @@
+"""A log and what a model asks of it → :class:`~hybridlog.signals.AlignedSignals`.
+
+:func:`load_signals` opens the log with the reader of its format (:func:`~.formats.open_log`),
+maps the model's symbols to log fields (:mod:`.mapping`: column names or message paths),
+reads only those fields, checks their values, and aligns them onto the model's grid
+(:mod:`.align`).  What the model asks for is a :class:`SignalSpec`; how to read is one
+:class:`~hybridlog.io.options.ReadOptions`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from hybridlog.errors import LogError
+from hybridlog.io.align import align_signals, check_alignment_options
+from hybridlog.io.formats import open_log
+from hybridlog.io.mapping import parse_maps, resolve_signal_map
+from hybridlog.io.options import ReadOptions
+from hybridlog.io.source import LabelSeries, Series, format_ns
+from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
+
+Locate = Callable[[str, int], str]
+
+
+class ModelSignals(Protocol):
+    """What :meth:`SignalSpec.of` reads of a model (a ``HybridModel`` has all of it)."""
+
+    @property
+    def states(self) -> Sequence[str]:
+        """State names, in vector order."""
+        ...
+
+    @property
+    def inputs(self) -> Sequence[str]:
+        """Input names, in vector order."""
+        ...
+
+    @property
+    def outputs(self) -> Sequence[str]:
+        """Output names, in vector order."""
+        ...
+
+    @property
+    def mode_ids(self) -> Sequence[str]:
+        """Mode ids, in mode-index order."""
+        ...
+
+    @property
+    def dt(self) -> float:
+        """Sample time in seconds."""
+        ...
+
+    @property
+    def signals(self) -> Mapping[str, str]:
+        """The model's ``[signals]`` table."""
+        ...
+
+    @property
+    def truth(self) -> Mapping[str, str]:
+        """The model's ``[truth]`` table."""
+        ...
+
+
+def _no_paths() -> Mapping[str, str]:
+    return MappingProxyType({})
+
+
+@dataclass(frozen=True, kw_only=True)
+class SignalSpec:
+    """What a model asks of a log: its symbols, mode ids, sample time and default paths.
+
+    ``io`` and ``model`` are peers: :meth:`of` reads these from any object shaped like a
+    ``HybridModel`` (:class:`ModelSignals`) without importing ``model``.
+
+    Attributes
+    ----------
+    inputs, outputs:
+        The model's input and output names, in vector order.
+    mode_ids:
+        The model's mode ids; true-mode labels must be among them (compared as text).
+    dt:
+        The model's sample time in seconds.
+    states:
+        The model's state names, in vector order (for ground truth; default none).
+    signals, truth:
+        The model's ``[signals]`` and ``[truth]`` tables (symbol → message path).
+    """
+
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    mode_ids: tuple[str, ...]
+    dt: float
+    states: tuple[str, ...] = ()
+    signals: Mapping[str, str] = field(default_factory=_no_paths)
+    truth: Mapping[str, str] = field(default_factory=_no_paths)
+
+    @classmethod
+    def of(cls, model: ModelSignals) -> SignalSpec:
+        """The spec of a model (a ``HybridModel`` or anything shaped like one)."""
+        return cls(
+            inputs=tuple(model.inputs),
+            outputs=tuple(model.outputs),
+            mode_ids=tuple(model.mode_ids),
+            dt=model.dt,
+            states=tuple(model.states),
+            signals=MappingProxyType(dict(model.signals)),
+            truth=MappingProxyType(dict(model.truth)),
+        )
+
+
+def load_signals(
+    path: str | os.PathLike[str],
+    spec: SignalSpec,
+    options: ReadOptions | None = None,
+    *,
+    notes: dict[str, Any] | None = None,
+) -> AlignedSignals:
+    """Read a log and align the model's signals onto its grid ``t0 + k*dt``.
+
+    Parameters
+    ----------
+    path:
+        The log: any format of :data:`~hybridlog.io.formats.FORMATS` (``.csv``,
+        ``.parquet``, ``.mcap``, ``.bag``, ``.db3`` or a ROS 2 bag folder).
+    spec:
+        What the model asks for (:meth:`SignalSpec.of` a model).
+    options:
+        How to read and align (``--map``, ``--resample``, ``--max-gap``, ``--split-gaps``,
+        ``--time``, ``--sort``, ``--drop-nonfinite``, ``--recover``, ``--msg-dir``).  With
+        ``drop_nonfinite``, NaN, infinite and out-of-range samples are dropped (counted in
+        ``notes``) instead of refusing the log.  Out of range means ``|value| >= 2**480``
+        (:data:`~hybridlog.signals.MAX_MAGNITUDE`): no measurement is that large, and the
+        squares the metrics sum would overflow float64; corrupt bytes decode to such values.
+    notes:
+        Filled with what reading did, for the report: the format, the time source, and
+        recovery, sorting, dropped samples and gap pieces where they apply.
+
+    Returns
+    -------
+    AlignedSignals
+
+    Raises
+    ------
+    OptionError
+        For a malformed ``--map``, an unknown symbol, or an unusable ``dt``.
+    LogError
+        For a missing or unreadable log, a missing field, a non-numeric, NaN, infinite or
+        out-of-range value, time going backwards, an unknown true mode, or an over-long gap.
+    """
+    options = options or ReadOptions()
+    check_alignment_options(spec.dt, options.resample, options.max_gap)
+    parsed = parse_maps(options.maps, inputs=spec.inputs, outputs=spec.outputs, states=spec.states)
+    notes = notes if notes is not None else {}
+    with open_log(path, options) as source:
+        info = source.info
+        mapping = resolve_signal_map(
+            source.fields(),
+            source=info.path,
+            inputs=spec.inputs,
+            outputs=spec.outputs,
+            states=spec.states,
+            signals=spec.signals,
+            truth=spec.truth,
+            maps=parsed,
+            field_word=info.field_word,
+            message_paths=info.message_paths,
+            explain=source.explain_missing,
+        )
+        symbols = {
+            **{field: f"input {u!r}" for u, field in mapping.inputs.items()},
+            **{field: f"output {y!r}" for y, field in mapping.outputs.items()},
+            **{field: f"truth.{x}" for x, field in mapping.truth_states.items()},
+        }
+        numeric = list(
+            dict.fromkeys(
+                [
+                    *mapping.inputs.values(),
+                    *mapping.outputs.values(),
+                    *mapping.truth_states.values(),
+                ]
+            )
+        )
+        labels = [mapping.truth_mode] if mapping.truth_mode is not None else []
+        reading = source.read(numeric, labels)
+        numeric_series = dict(reading.numeric)
+        dropped: dict[str, int] = {}
+        out_of_range: dict[str, int] = {}
+        for name, series in list(numeric_series.items()):
+            finite = np.isfinite(series.values)
+            usable = finite & (np.abs(series.values) < MAX_MAGNITUDE)
+            if usable.all():
+                continue
+            if not options.drop_nonfinite:
+                _refuse_nonfinite(info.path, reading.locate, series, symbols[name])
+                _refuse_out_of_range(info.path, reading.locate, series, symbols[name], usable)
+            if not finite.all():
+                dropped[name] = int((~finite).sum())
+            if (finite & ~usable).any():
+                out_of_range[name] = int((finite & ~usable).sum())
+            numeric_series[name] = Series(name, series.time_ns[usable], series.values[usable])
+        notes.update({"format": info.format, "time": options.time})
+        notes.update(reading.notes)
+        if dropped:
+            notes["nonfinite_dropped"] = dropped
+        if out_of_range:
+            notes["out_of_range_dropped"] = out_of_range
+        truth_mode = None
+        if mapping.truth_mode is not None:
+            mode_series = reading.labels[mapping.truth_mode]
+            codes = _truth_mode_codes(info.path, reading.locate, mode_series, spec.mode_ids)
+            truth_mode = LabelSeries(
+                mode_series.name, mode_series.time_ns, codes, tuple(spec.mode_ids)
+            )
+        return align_signals(
+            source=info.path,
+            dt=spec.dt,
+            inputs={u: numeric_series[f] for u, f in mapping.inputs.items()},
+            outputs={y: numeric_series[f] for y, f in mapping.outputs.items()},
+            truth_mode=truth_mode,
+            states=spec.states,
+            truth_states={x: numeric_series[f] for x, f in mapping.truth_states.items()},
+            resample=options.resample,
+            max_gap=options.max_gap,
+            split_gaps=options.split_gaps,
+            notes=notes,
+        )
+
+
+def _truth_mode_codes(
+    path: str, locate: Locate, series: LabelSeries, mode_ids: Sequence[str]
+) -> IntArray:
+    """Translate the true-mode label series into indices of ``mode_ids``.
+
+    Labels and mode ids are compared as text after stripping whitespace: ``"1"`` matches mode
+    ``"1"`` but ``"1.0"`` does not.
+
+    Raises
+    ------
+    LogError
+        Naming the first sample whose label is not a mode id, with its location and time.
+    """
+    index = {mode_id.strip(): i for i, mode_id in enumerate(mode_ids)}
+    lookup = np.array([index.get(label, -1) for label in series.categories], dtype=np.int64)
+    codes: IntArray = lookup[series.codes] if lookup.size else series.codes.copy()
+    bad = codes < 0
+    if bad.any():
+        first = int(np.argmax(bad))
+        label = series.categories[int(series.codes[first])]
+        raise LogError(
+            f"{path}, {locate(series.name, first)}: truth.mode {label!r} at "
+            f"t={format_ns(int(series.time_ns[first]))} s is not a mode of the model "
+            f"(mode ids: {', '.join(mode_ids)}; compared as text)"
+        )
+    return codes
+
+
+def _refuse_nonfinite(path: str, locate: Locate, series: Series, symbol: str) -> None:
+    """Raise for the first NaN or infinite value of ``series``, if any."""
+    bad = ~np.isfinite(series.values)
+    if bad.any():
+        first = int(np.argmax(bad))
+        value = float(series.values[first])
+        raise LogError(
+            f"{path}, {locate(series.name, first)}: {value} for {symbol} at "
+            f"t={format_ns(int(series.time_ns[first]))} s (mapped signals must be finite)"
+        )
+
+
+def _refuse_out_of_range(
+    path: str, locate: Locate, series: Series, symbol: str, usable: npt.NDArray[np.bool_]
+) -> None:
+    """Raise for the first finite value of ``series`` whose magnitude is absurd."""
+    first = int(np.argmax(~usable))
+    raise LogError(
+        f"{path}, {locate(series.name, first)}: {series.values[first]:.6g} for "
+        f"{symbol} at t={format_ns(int(series.time_ns[first]))} s is out of range "
+        f"(|value| >= 2^480 = {MAX_MAGNITUDE:.3g}: no measurement is that large, corrupt bytes "
+        "are; --drop-nonfinite drops such samples)"
+    )

@@ -1,0 +1,98 @@
+"""How a log is read: the one options type, from the command line down to the readers.
+
+:class:`ReadOptions` gathers ``--map``, ``--resample``, ``--max-gap``, ``--split-gaps``,
+``--time``, ``--sort``, ``--drop-nonfinite``, ``--recover`` and ``--msg-dir``.  It is checked
+when it is built, so every value that exists is valid: the CLI builds one, the job layer
+passes it on, :func:`~hybridlog.io.load_signals` and the readers take what they need from it.
+
+Only the standard library is imported here, so that the CLI can name the options without
+loading a reader.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from hybridlog.errors import OptionError
+
+Resample = Literal["nearest", "linear"]
+TimeSource = Literal["log", "header"]
+
+#: How outputs and true states are put on the grid (:mod:`.align`).
+RESAMPLE_METHODS: tuple[str, ...] = ("nearest", "linear")
+
+#: Where sample times come from: the recorder's log time, or each message's ``header.stamp``.
+TIME_SOURCES: tuple[str, ...] = ("log", "header")
+
+
+def check_resample(resample: str) -> Resample:
+    """``resample`` as a method name, or :class:`OptionError` naming the choices."""
+    if resample not in RESAMPLE_METHODS:
+        raise OptionError(
+            f"resample: unknown method {resample!r}; choose one of {', '.join(RESAMPLE_METHODS)}"
+        )
+    return "linear" if resample == "linear" else "nearest"
+
+
+def check_max_gap(max_gap: float | None) -> None:
+    """Refuse a ``max_gap`` that is not ``None`` or a finite, non-negative number of seconds."""
+    if max_gap is not None and (not math.isfinite(max_gap) or max_gap < 0):
+        raise OptionError(f"max_gap: must be a non-negative number of seconds, got {max_gap}")
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How to read a log and align it onto the model's grid.
+
+    Attributes
+    ----------
+    maps:
+        ``--map SYMBOL=PATH`` values (parsed against the model's symbols when the log is read).
+    resample:
+        ``"nearest"`` (default) or ``"linear"``, for outputs and true states.
+    max_gap:
+        Longest tolerated gap in the outputs, in seconds; ``None``: ``5*dt``.
+    split_gaps:
+        Analyse the longest piece between over-long output gaps instead of refusing the log.
+    time:
+        ``"log"`` (default): the time the recorder logged each message (a table's time
+        column); ``"header"``: each message's ``header.stamp``.
+    sort:
+        Put samples that go backwards in time into order, and keep the last of samples with
+        the same time, instead of refusing the log.
+    drop_nonfinite:
+        Drop NaN, infinite and out-of-range samples (counted in the reading notes) instead
+        of refusing the log.
+    recover:
+        Read what is readable of a damaged or unfinished MCAP file, sequentially, instead of
+        refusing it.
+    msg_dirs:
+        Folders of ``.msg`` files defining message types the log does not define itself.
+
+    Raises
+    ------
+    OptionError
+        When built with an unknown ``time`` or ``resample``, or a negative or non-finite
+        ``max_gap``.
+    """
+
+    maps: tuple[str, ...] = ()
+    resample: Resample = "nearest"
+    max_gap: float | None = None
+    split_gaps: bool = False
+    time: TimeSource = "log"
+    sort: bool = False
+    drop_nonfinite: bool = False
+    recover: bool = False
+    msg_dirs: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        """Check the values that have a fixed set or range (the one place they are checked)."""
+        check_resample(self.resample)
+        check_max_gap(self.max_gap)
+        if self.time not in TIME_SOURCES:
+            raise OptionError(
+                f"--time: expected one of {', '.join(TIME_SOURCES)}, got {self.time!r}"
+            )
