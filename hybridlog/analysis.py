@@ -23,8 +23,8 @@ from hybridlog.io import ReadSettings, load_signals
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
-from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
-from hybridlog.report.gates import Gate
+from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates, write_report
+from hybridlog.report.gates import Gate, metric
 from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
 
@@ -178,7 +178,7 @@ def read_log(
 class Outcome:
     """What ``analyze`` produced: the report, where it went, and the missed CI gates."""
 
-    report: dict[str, Any]
+    report: Report
     out_dir: Path
     gate_failures: list[str]
 
@@ -232,7 +232,7 @@ def analyze(
         dt=model.dt,
         table_format=table_format,
         force=force,
-        extra={"reading": reading},
+        reading=reading,
     )
     return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
 
@@ -241,7 +241,7 @@ def analyze(
 class Comparison:
     """What ``compare`` produced: one report per estimator and the side-by-side table."""
 
-    reports: dict[str, dict[str, Any]]
+    reports: dict[str, Report]
     table: str
     gate_failures: list[str]
 
@@ -257,17 +257,8 @@ _COLUMNS = (
 )
 
 
-def _row(report: Mapping[str, Any]) -> dict[str, Any]:
-    modes = report["modes"]
-    return {
-        "vaf": report["vaf"],
-        "fit": report.get("fit"),
-        "mse": report["mse"],
-        "mode_accuracy": modes["accuracy"],
-        "missed_switches": (modes.get("detection") or {}).get("missed"),
-        "detection_delay_s": modes["detection_delay_s"],
-        "samples_per_s": report["samples_per_s"],
-    }
+def _row(report: Report) -> dict[str, Any]:
+    return {name: metric(report, name) for name in _COLUMNS}  # the gates' metric names
 
 
 SIGNIFICANT_DIGITS = 4
@@ -333,14 +324,13 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> s
     return "\n".join(lines)
 
 
-def comparison_markdown(title: str, table: str, reports: Mapping[str, Mapping[str, Any]]) -> str:
+def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -> str:
     """``comparison.md``: the table, where each report is, and each estimator's notes."""
     lines = [f"# {title}", "", table, ""]
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     for name, report in reports.items():
-        notes = [str(note) for note in report.get("notes") or []]
-        if notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in notes)]
+        if report.notes:
+            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in report.notes)]
     return "\n".join(lines) + "\n"
 
 
@@ -376,7 +366,7 @@ def compare(
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read, reading)
     results = {p.name: p.run(model, signals) for p in prepared}
-    reports: dict[str, dict[str, Any]] = {}
+    reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
             reports[name] = write_report(
@@ -387,7 +377,7 @@ def compare(
                 model_name=model.name,
                 dt=model.dt,
                 table_format=table_format,
-                extra={"reading": reading},
+                reading=reading,
             )
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         table = markdown_table(("estimator", *_COLUMNS), rows)
