@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import pickle
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -222,6 +223,12 @@ def test_the_report_cannot_be_changed() -> None:
         dataclasses.replace(report, extra={"vaf": 1.0})
 
 
+def test_a_report_crosses_process_boundaries() -> None:
+    # batch --jobs N sends each log's report from its worker process through a pipe
+    report = sample_report("double_cart_case1_chiu")
+    assert pickle.loads(pickle.dumps(report)) == report
+
+
 def test_a_report_of_an_earlier_version_is_read_with_its_gaps() -> None:
     data = json.loads((DATA / "three_tank_hstf_hstf.report.json").read_text(encoding="utf-8"))
     for key in ("fit", "compile_s", "notes", "null_reasons", "reading"):
@@ -306,6 +313,10 @@ MALFORMED: list[tuple[str | bytes, str]] = [
         changed(lambda d: d.update(options={"a": json.loads("[" * 70 + "]" * 70)})),
         "'options' is nested deeper than 64 levels",
     ),
+    (
+        changed(lambda d: d["reading"].update(rate=1e400)).replace("Infinity", "1e400"),
+        "'reading' holds a number that is not finite",
+    ),
 ]
 
 
@@ -336,7 +347,7 @@ def test_an_unreadable_file_is_a_report_error(tmp_path: Path) -> None:
 
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=5),
+    st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5),
     lambda inner: (
         st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=5), inner, max_size=3)
     ),
@@ -405,3 +416,20 @@ def test_batch_reads_earlier_reports_through_the_typed_report(tmp_path: Path) ->
     status, again = batch()
     assert status == "done" and again is not None and again.vaf == done.vaf
     assert read_report(stored) == again
+
+
+TEXT = (DATA / "synthetic_stuck.report.json").read_bytes()
+
+
+@given(st.lists(st.tuples(st.integers(0, len(TEXT) - 1), st.integers(0, 255)), max_size=4))
+@settings(max_examples=300, deadline=None)
+def test_any_damaged_file_is_read_or_refused_never_a_crash(flips: list[tuple[int, int]]) -> None:
+    damaged = bytearray(TEXT)
+    for offset, byte in flips:
+        damaged[offset] = byte
+    try:
+        report = Report.from_json(bytes(damaged), source="r.json")
+    except ReportError as err:
+        assert str(err).startswith("r.json: ") and "\n" not in str(err)
+    else:
+        assert Report.from_json(report.to_json()) == report

@@ -429,14 +429,21 @@ class _Reader:
     def wrong(self, path: str, value: object, expected: str) -> ReportError:
         return self.error(path, f"is {_kind(value)}; expected {expected}")
 
-    def get(
-        self, data: Mapping[str, object], key: str, path: str, default: object = _MISSING
-    ) -> object:
+    def at(
+        self,
+        data: Mapping[str, object],
+        path: str,
+        key: str,
+        read: Callable[[object, str], T],
+        default: object = _MISSING,
+    ) -> T:
+        """``data[key]`` read by ``read``; ``default`` when missing (required without one)."""
+        where = f"{path}.{key}" if path else key
         if key in data:
-            return data[key]
+            return read(data[key], where)
         if default is _MISSING:
-            raise self.error(f"{path}.{key}" if path else key, "is missing")
-        return default
+            raise self.error(where, "is missing")
+        return read(default, where)
 
     def mapping(self, value: object, path: str) -> Mapping[str, object]:
         if not isinstance(value, dict):
@@ -451,13 +458,19 @@ class _Reader:
             raise self.wrong(path, value, "a list")
         return tuple(read(v, f"{path}[{i}]") for i, v in enumerate(value))
 
+    def list_of(self, read: Callable[[object, str], T]) -> Callable[[object, str], tuple[T, ...]]:
+        return lambda value, path: self.sequence(value, path, read)
+
+    def map_of(self, read: Callable[[object, str], T]) -> Callable[[object, str], dict[str, T]]:
+        return lambda value, path: self.items(value, path, read)
+
+    def or_null(self, read: Callable[[object, str], T]) -> Callable[[object, str], T | None]:
+        return lambda value, path: None if value is None else read(value, path)
+
     def string(self, value: object, path: str) -> str:
         if not isinstance(value, str):
             raise self.wrong(path, value, "a string")
         return value
-
-    def optional_string(self, value: object, path: str) -> str | None:
-        return None if value is None else self.string(value, path)
 
     def boolean(self, value: object, path: str) -> bool:
         if not isinstance(value, bool):
@@ -470,9 +483,6 @@ class _Reader:
         if value < 0:
             raise self.error(path, f"is {value}; expected a count (>= 0)")
         return value
-
-    def optional_count(self, value: object, path: str) -> int | None:
-        return None if value is None else self.count(value, path)
 
     def number(self, value: object, path: str) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
@@ -496,15 +506,21 @@ class _Reader:
         return cast(JsonObject, self.json_value(self.mapping(value, path), path))
 
     def json_value(self, value: object, path: str) -> JsonValue:
-        """A copy of a free-form JSON value no deeper than :data:`MAX_DEPTH` levels."""
+        """A copy of a free-form JSON value: finite numbers, at most :data:`MAX_DEPTH` deep."""
         stack = [(value, 0)]
         while stack:
             item, depth = stack.pop()
             if isinstance(item, dict | list):
                 if depth >= MAX_DEPTH:
                     raise self.error(path, f"is nested deeper than {MAX_DEPTH} levels")
+                if isinstance(item, dict) and not all(isinstance(k, str) for k in item):
+                    raise self.error(path, "holds an object key that is not a string")
                 children = item.values() if isinstance(item, dict) else item
                 stack += [(child, depth + 1) for child in children]
+            elif isinstance(item, float) and not math.isfinite(item):
+                raise self.error(path, "holds a number that is not finite")
+            elif not (item is None or isinstance(item, bool | int | float | str)):
+                raise self.error(path, f"holds a {type(item).__name__}, which JSON does not have")
         return cast(JsonValue, copy.deepcopy(value))
 
     # --- the parts ------------------------------------------------------------------------
@@ -512,38 +528,34 @@ class _Reader:
     def output(self, value: object, path: str) -> OutputReport:
         data = self.mapping(value, path)
         return OutputReport(
-            mse=self.optional_number(self.get(data, "mse", path), f"{path}.mse"),
-            vaf=self.optional_number(self.get(data, "vaf", path), f"{path}.vaf"),
-            fit=self.optional_number(self.get(data, "fit", path, None), f"{path}.fit"),
-            samples=self.optional_count(self.get(data, "samples", path, None), f"{path}.samples"),
+            mse=self.at(data, path, "mse", self.optional_number),
+            vaf=self.at(data, path, "vaf", self.optional_number),
+            fit=self.at(data, path, "fit", self.optional_number, None),
+            samples=self.at(data, path, "samples", self.or_null(self.count), None),
         )
 
     def state(self, value: object, path: str) -> StateReport:
         data = self.mapping(value, path)
-        return StateReport(rmse=self.optional_number(self.get(data, "rmse", path), f"{path}.rmse"))
+        return StateReport(rmse=self.at(data, path, "rmse", self.optional_number))
 
     def switch(self, value: object, path: str) -> ModeSwitch:
         data = self.mapping(value, path)
         return ModeSwitch(
-            t=self.number(self.get(data, "t", path), f"{path}.t"),
-            from_mode=self.string(self.get(data, "from", path), f"{path}.from"),
-            to_mode=self.string(self.get(data, "to", path), f"{path}.to"),
+            t=self.at(data, path, "t", self.number),
+            from_mode=self.at(data, path, "from", self.string),
+            to_mode=self.at(data, path, "to", self.string),
         )
 
     def event(self, value: object, path: str) -> SwitchDetection:
         data = self.mapping(value, path)
         event = SwitchDetection(
-            t=self.number(self.get(data, "t", path), f"{path}.t"),
-            from_mode=self.string(self.get(data, "from", path), f"{path}.from"),
-            to_mode=self.string(self.get(data, "to", path), f"{path}.to"),
-            detected_t=self.optional_number(
-                self.get(data, "detected_t", path), f"{path}.detected_t"
-            ),
-            miss_reason=self.optional_string(
-                self.get(data, "miss_reason", path, None), f"{path}.miss_reason"
-            ),
+            t=self.at(data, path, "t", self.number),
+            from_mode=self.at(data, path, "from", self.string),
+            to_mode=self.at(data, path, "to", self.string),
+            detected_t=self.at(data, path, "detected_t", self.optional_number),
+            miss_reason=self.at(data, path, "miss_reason", self.or_null(self.string), None),
         )
-        detected = self.boolean(self.get(data, "detected", path), f"{path}.detected")
+        detected = self.at(data, path, "detected", self.boolean)
         if detected != event.detected:
             raise self.error(
                 f"{path}.detected",
@@ -551,17 +563,15 @@ class _Reader:
             )
         return event
 
-    def detection(self, value: object, path: str) -> Detection | None:
-        if value is None:
-            return None
+    def detection(self, value: object, path: str) -> Detection:
         data = self.mapping(value, path)
         detection = Detection(
-            mean_s=self.optional_number(self.get(data, "mean_s", path), f"{path}.mean_s"),
-            max_s=self.optional_number(self.get(data, "max_s", path), f"{path}.max_s"),
-            events=self.sequence(self.get(data, "events", path), f"{path}.events", self.event),
+            mean_s=self.at(data, path, "mean_s", self.optional_number),
+            max_s=self.at(data, path, "max_s", self.optional_number),
+            events=self.at(data, path, "events", self.list_of(self.event)),
         )
         for key in ("detected", "missed"):
-            stated = self.count(self.get(data, key, path), f"{path}.{key}")
+            stated = self.at(data, path, key, self.count)
             if stated != getattr(detection, key):
                 raise self.error(
                     f"{path}.{key}", f"is {stated} but the events say {getattr(detection, key)}"
@@ -570,33 +580,28 @@ class _Reader:
 
     def modes(self, value: object, path: str) -> ModeReport:
         data = self.mapping(value, path)
-        labels = self.sequence(self.get(data, "labels", path), f"{path}.labels", self.string)
-        dwell = self.items(self.get(data, "dwell_s", path), f"{path}.dwell_s", self.optional_number)
+        labels = self.at(data, path, "labels", self.list_of(self.string))
+        dwell = self.at(data, path, "dwell_s", self.map_of(self.optional_number))
         self.same_labels(dwell, labels, f"{path}.dwell_s")
-        confusion_value = self.get(data, "confusion", path)
-        confusion: dict[str, dict[str, int]] | None = None
-        if confusion_value is not None:
-            confusion = {}
-            for t, row in self.mapping(confusion_value, f"{path}.confusion").items():
-                where = f"{path}.confusion.{t}"
-                confusion[t] = self.items(row, where, self.count)
-                self.same_labels(confusion[t], labels, where)
+        counts = self.or_null(self.map_of(self.map_of(self.count)))
+        confusion = self.at(data, path, "confusion", counts)
+        if confusion is not None:
             self.same_labels(confusion, labels, f"{path}.confusion")
+            for t, row in confusion.items():
+                self.same_labels(row, labels, f"{path}.confusion.{t}")
         modes = ModeReport(
             labels=labels,
-            switches=self.sequence(
-                self.get(data, "switches", path), f"{path}.switches", self.switch
-            ),
+            switches=self.at(data, path, "switches", self.list_of(self.switch)),
             dwell_s=dwell,
-            accuracy=self.optional_number(self.get(data, "accuracy", path), f"{path}.accuracy"),
+            accuracy=self.at(data, path, "accuracy", self.optional_number),
             confusion=confusion,
-            detection=self.detection(self.get(data, "detection", path, None), f"{path}.detection"),
+            detection=self.at(data, path, "detection", self.or_null(self.detection), None),
         )
-        delay_path = f"{path}.detection_delay_s"
-        delay = self.optional_number(self.get(data, "detection_delay_s", path), delay_path)
+        delay = self.at(data, path, "detection_delay_s", self.optional_number)
         if delay != modes.detection_delay_s:
             raise self.error(
-                delay_path, f"is {delay} but detection.mean_s is {modes.detection_delay_s}"
+                f"{path}.detection_delay_s",
+                f"is {delay} but detection.mean_s is {modes.detection_delay_s}",
             )
         return modes
 
@@ -610,32 +615,27 @@ class _Reader:
         if not isinstance(value, dict) or "hybridlog_version" not in value:
             raise ReportError(f"{self.source}: not a hybridlog report (no 'hybridlog_version' key)")
         data: Mapping[str, object] = value
-        reading = self.get(data, "reading", "", None)
         return Report(
             hybridlog_version=self.string(data["hybridlog_version"], "hybridlog_version"),
-            log=self.string(self.get(data, "log", ""), "log"),
-            model=self.string(self.get(data, "model", ""), "model"),
-            estimator=self.string(self.get(data, "estimator", ""), "estimator"),
-            options=self.json_object(self.get(data, "options", ""), "options"),
-            samples=self.count(self.get(data, "samples", ""), "samples"),
-            dt=self.number(self.get(data, "dt", ""), "dt"),
-            t_start=self.optional_number(self.get(data, "t_start", ""), "t_start"),
-            t_end=self.optional_number(self.get(data, "t_end", ""), "t_end"),
-            outputs=self.items(self.get(data, "outputs", ""), "outputs", self.output),
-            mse=self.optional_number(self.get(data, "mse", ""), "mse"),
-            vaf=self.optional_number(self.get(data, "vaf", ""), "vaf"),
-            fit=self.optional_number(self.get(data, "fit", "", None), "fit"),
-            modes=self.modes(self.get(data, "modes", ""), "modes"),
-            states=self.items(self.get(data, "states", ""), "states", self.state),
-            runtime_s=self.optional_number(self.get(data, "runtime_s", ""), "runtime_s"),
-            compile_s=self.optional_number(self.get(data, "compile_s", "", None), "compile_s"),
-            samples_per_s=self.optional_number(
-                self.get(data, "samples_per_s", ""), "samples_per_s"
-            ),
-            notes=self.sequence(self.get(data, "notes", "", []), "notes", self.string),
-            null_reasons=self.items(
-                self.get(data, "null_reasons", "", {}), "null_reasons", self.string
-            ),
-            reading=None if reading is None else self.json_object(reading, "reading"),
+            log=self.at(data, "", "log", self.string),
+            model=self.at(data, "", "model", self.string),
+            estimator=self.at(data, "", "estimator", self.string),
+            options=self.at(data, "", "options", self.json_object),
+            samples=self.at(data, "", "samples", self.count),
+            dt=self.at(data, "", "dt", self.number),
+            t_start=self.at(data, "", "t_start", self.optional_number),
+            t_end=self.at(data, "", "t_end", self.optional_number),
+            outputs=self.at(data, "", "outputs", self.map_of(self.output)),
+            mse=self.at(data, "", "mse", self.optional_number),
+            vaf=self.at(data, "", "vaf", self.optional_number),
+            fit=self.at(data, "", "fit", self.optional_number, None),
+            modes=self.at(data, "", "modes", self.modes),
+            states=self.at(data, "", "states", self.map_of(self.state)),
+            runtime_s=self.at(data, "", "runtime_s", self.optional_number),
+            compile_s=self.at(data, "", "compile_s", self.optional_number, None),
+            samples_per_s=self.at(data, "", "samples_per_s", self.optional_number),
+            notes=self.at(data, "", "notes", self.list_of(self.string), []),
+            null_reasons=self.at(data, "", "null_reasons", self.map_of(self.string), {}),
+            reading=self.at(data, "", "reading", self.or_null(self.json_object), None),
             extra={k: self.json_value(v, k) for k, v in data.items() if k not in _KEYS},
         )
