@@ -13,7 +13,7 @@ import traceback
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
@@ -32,7 +32,10 @@ from hybridlog.jobs.cluster import discover_modes
 from hybridlog.jobs.simulate import simulate_log
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import load_model
-from hybridlog.report.document import duration, plural
+from hybridlog.report.markdown import duration, plural
+
+if TYPE_CHECKING:
+    from hybridlog.report.document import Report
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -651,21 +654,20 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
     }
 
 
-def _summary_line(report: dict[str, Any]) -> str:
+def _summary_line(report: Report) -> str:
     def number(value: object, digits: str, unit: str = "") -> str:
         return "n/a" if value is None else format(value, digits) + unit
 
-    modes = report["modes"]
     text = (
-        f"{report['estimator']} on {report['log']}: {plural(report['samples'], 'sample')} "
-        f"in {duration(report.get('runtime_s'))}, VAF {number(report['vaf'], '.2f', ' %')}, "
-        f"fit {number(report.get('fit'), '.2f', ' %')}, MSE {number(report['mse'], '.4g')}, "
-        f"mode accuracy {number(_percent(modes['accuracy']), '.1f', ' %')}"
+        f"{report.estimator} on {report.log}: {plural(report.samples, 'sample')} "
+        f"in {duration(report.runtime_s)}, VAF {number(report.vaf, '.2f', ' %')}, "
+        f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}, "
+        f"mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
     )
-    detection = modes.get("detection")
-    if detection:
-        switches = plural(detection["detected"] + detection["missed"], "true switch")
-        text += f", {switches}: {detection['detected']} detected, {detection['missed']} missed"
+    detection = report.modes.detection
+    if detection is not None:
+        switches = plural(detection.detected + detection.missed, "true switch")
+        text += f", {switches}: {detection.detected} detected, {detection.missed} missed"
     return text
 
 

@@ -26,6 +26,10 @@ class OutputError(HybridlogError):
     """An output path cannot be written without destroying something the user has."""
 
 
+class ReportError(HybridlogError):
+    """A ``report.json`` cannot be read back: not JSON, not a hybridlog report, or malformed."""
+
+
 EXCERPT_LIMIT = 80
 """Longest excerpt of user-supplied text quoted in an error message."""
 

@@ -233,11 +233,11 @@ def test_cluster_command_then_analyze_with_the_centres(tmp_path):
             sets=(f"centers={out}",),
         )
         report = outcome.report
-        assert report["modes"]["accuracy"] > 0.8 and report["vaf"] > 99.0
-        assert any("loaded from" in n for n in report["notes"])
+        assert report.modes.accuracy > 0.8 and report.vaf > 99.0
+        assert any("loaded from" in n for n in report.notes)
     # the fitted-on-the-log run gives the same decisions as the stored classifier
     fitted = analyze(SAMPLE, "double_cart_case1", out_dir=tmp_path / "fit", estimator="chiu")
-    assert fitted.report["modes"]["accuracy"] == pytest.approx(
+    assert fitted.report.modes.accuracy == pytest.approx(
         json.loads((tmp_path / "chiu" / "report.json").read_text())["modes"]["accuracy"]
     )
 

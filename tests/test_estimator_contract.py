@@ -24,7 +24,7 @@ from hybridlog.estimators.options import option, options_dict
 from hybridlog.estimators.result import EstimationResult, ResultShapeError
 from hybridlog.jobs.analysis import Overrides, analyze, parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.report.document import build_report, report_json
+from hybridlog.report import build_report
 from hybridlog.simulate import simulate
 from tests import model_kinds
 
@@ -116,7 +116,7 @@ def test_options_round_trip_through_the_report(name, cases, runs):
     model, signals = cases[model_for(name)]
     prepared, result, _ = runs[name]
     report = build_report(result, signals, log="sim", model_name=model.name, dt=model.dt)
-    written = json.loads(report_json(report))["options"]
+    written = json.loads(report.to_json())["options"]
     declared = [info.name for info in prepared.estimator.describe_options()]
     assert set(declared) <= set(written)
     again = prepared.estimator.parse_options({k: written[k] for k in declared})
@@ -400,7 +400,7 @@ def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypa
     )
     report = json.loads((tmp_path / "r" / "report.json").read_text())
     assert report["estimator"] == "persist" and report["options"] == {"lag": 2}
-    assert outcome.report["modes"]["accuracy"] is not None
+    assert outcome.report.modes.accuracy is not None
     assert "lag=1  int, in [1, 10]  predict y(k) as y(k - lag)" in entry.help_text()
 
 

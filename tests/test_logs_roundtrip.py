@@ -44,7 +44,7 @@ def simulate_to(folder: Path, out: str, extra: list[str]) -> None:
 def analysis(log: Path, out: Path) -> tuple[dict[str, Any], bytes]:
     outcome = analyze(log, "three_tank_hstf", out_dir=out, estimator="hstf")
     report = json.loads((out / "report.json").read_text())
-    assert report == json.loads(json.dumps(outcome.report))
+    assert report == json.loads(outcome.report.to_json())
     return report, (out / "timeline.csv").read_bytes()
 
 

@@ -228,7 +228,7 @@ def test_report_json_matches_metrics_recomputed_from_tables(
         out, result, signals, log="run.csv", model_name="tanks", dt=DT, table_format=table_format
     )
     report = strict_json(out / "report.json")
-    assert report == returned
+    assert report == returned.to_dict()
     assert report.keys() >= SPEC_KEYS
     assert report["modes"].keys() >= MODE_KEYS
     assert report["hybridlog_version"] == hybridlog.__version__
@@ -313,7 +313,7 @@ def test_extra_keys_are_merged(tmp_path: Path) -> None:
         model_name="m",
         dt=DT,
         extra={"compile_s": 2.0, "split": np.float64(np.nan), "gap": [1, np.int64(2)]},
-    )
+    ).to_dict()
     assert report["compile_s"] == 2.0
     assert report["split"] is None
     assert strict_json(tmp_path / "o" / "report.json")["gap"] == [1, 2]
@@ -325,7 +325,7 @@ def test_zero_runtime_gives_null_speed(tmp_path: Path) -> None:
 
     report = write_report(
         tmp_path / "o", replace(result, runtime_s=0.0), signals, log="l", model_name="m", dt=DT
-    )
+    ).to_dict()
     assert report["samples_per_s"] is None
 
 
@@ -448,7 +448,7 @@ def test_a_switch_into_the_mode_the_estimate_is_stuck_in_is_reported_missed(
         log="l",
         model_name="m",
         dt=DT,
-    )
+    ).to_dict()
     detection = report["modes"]["detection"]
     assert (detection["detected"], detection["missed"]) == (0, 2)
     into_low, into_high = detection["events"]
@@ -481,7 +481,7 @@ def test_undefined_metrics_are_null_with_their_reason(tmp_path: Path) -> None:
         log="l",
         model_name="m",
         dt=DT,
-    )
+    ).to_dict()
     assert report["outputs"]["y1"]["vaf"] is None and report["outputs"]["y1"]["fit"] is not None
     assert report["outputs"]["y2"]["fit"] is None and report["outputs"]["y2"]["vaf"] is not None
     assert report["vaf"] == report["outputs"]["y2"]["vaf"]  # mean over outputs where defined
@@ -519,7 +519,7 @@ def test_report_md_reads_well(tmp_path: Path) -> None:
 def test_a_run_too_short_for_the_metrics_is_refused(tmp_path: Path, n: int) -> None:
     # Issue 7: 1- and 2-row logs gave exit 0 with "VAF 100 %".
     from hybridlog.errors import LogError
-    from hybridlog.report.document import MIN_SAMPLES
+    from hybridlog.report.build import MIN_SAMPLES
 
     result, signals = make_run(n=n)
     with pytest.raises(LogError, match=rf"^short\.csv: too short: {n} samples? .* at least 3"):
@@ -530,7 +530,7 @@ def test_a_run_too_short_for_the_metrics_is_refused(tmp_path: Path, n: int) -> N
 
 
 def test_tables_for_people_format_numbers_per_column() -> None:
-    from hybridlog.report.document import duration, plural
+    from hybridlog.report.markdown import duration, plural
     from hybridlog.report.summary import markdown_table
 
     table = markdown_table(

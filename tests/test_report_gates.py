@@ -2,28 +2,60 @@
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import replace
 
 import pytest
 
 from hybridlog.errors import OptionError
+from hybridlog.report.document import (
+    Detection,
+    ModeReport,
+    OutputReport,
+    Report,
+    StateReport,
+    SwitchDetection,
+)
 from hybridlog.report.gates import Gate, evaluate_gates, parse_gate, parse_gates, validate_gates
 
 
-def report(*, truth: bool = True) -> dict[str, Any]:
-    return {
-        "outputs": {"y1": {"mse": 0.02, "vaf": 87.2}, "y2": {"mse": 0.5, "vaf": None}},
-        "mse": 0.26,
-        "vaf": 87.2,
-        "modes": {
-            "accuracy": 0.93 if truth else None,
-            "detection_delay_s": 0.4 if truth else None,
-            "detection": {"missed": 1} if truth else None,
+def report(*, truth: bool = True) -> Report:
+    detection = Detection(
+        mean_s=0.4,
+        max_s=0.4,
+        events=(
+            SwitchDetection(t=1.0, from_mode="a", to_mode="b", detected_t=1.4),
+            SwitchDetection(t=3.0, from_mode="b", to_mode="a", detected_t=None, miss_reason="x"),
+        ),
+    )
+    return Report(
+        hybridlog_version="0",
+        log="run.csv",
+        model="m",
+        estimator="imm",
+        options={},
+        samples=5,
+        dt=1.0,
+        t_start=0.0,
+        t_end=4.0,
+        outputs={
+            "y1": OutputReport(mse=0.02, vaf=87.2, fit=None, samples=4),
+            "y2": OutputReport(mse=0.5, vaf=None, fit=None, samples=4),
         },
-        "states": {"x1": {"rmse": 0.1 if truth else None}},
-        "runtime_s": 2.0,
-        "samples_per_s": 5000.0,
-    }
+        mse=0.26,
+        vaf=87.2,
+        fit=None,
+        modes=ModeReport(
+            labels=("a", "b"),
+            switches=(),
+            dwell_s={"a": 5.0, "b": 0.0},
+            accuracy=0.93 if truth else None,
+            detection=detection if truth else None,
+        ),
+        states={"x1": StateReport(rmse=0.1 if truth else None)},
+        runtime_s=2.0,
+        compile_s=None,
+        samples_per_s=5000.0,
+    )
 
 
 def test_parse_gate() -> None:
@@ -106,12 +138,15 @@ def test_validate_gates_before_a_run() -> None:
 
 
 def test_fit_gates_overall_and_per_output() -> None:
-    fitted = {
-        **report(),
-        "outputs": {"y1": {"fit": 92.5}, "y2": {"fit": None}},
-        "fit": 92.5,
-        "null_reasons": {"fit.y2": "‖y − mean(y)‖ = 0: the measurement is constant"},
-    }
+    fitted = replace(
+        report(),
+        outputs={
+            "y1": OutputReport(mse=None, vaf=None, fit=92.5, samples=4),
+            "y2": OutputReport(mse=None, vaf=None, fit=None, samples=4),
+        },
+        fit=92.5,
+        null_reasons={"fit.y2": "‖y − mean(y)‖ = 0: the measurement is constant"},
+    )
     assert evaluate_gates(fitted, parse_gates(["fit=80", "fit.y1=90"])) == []
     assert evaluate_gates(fitted, parse_gates(["fit=95"])) == ["fit = 92.5 is under the bound 95"]
     (message,) = evaluate_gates(fitted, parse_gates(["fit.y2=50"]))

@@ -21,8 +21,8 @@ from hybridlog.jobs.centers import read_centers
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
-from hybridlog.report import evaluate_gates, parse_gates, validate_gates, write_report
-from hybridlog.report.gates import Gate
+from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates, write_report
+from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
@@ -165,7 +165,7 @@ def read_log(
 class Outcome:
     """What ``analyze`` produced: the report, where it went, and the missed CI gates."""
 
-    report: dict[str, Any]
+    report: Report
     out_dir: Path
     gate_failures: list[str]
 
@@ -220,7 +220,7 @@ def analyze(
         dt=model.dt,
         table_format=table_format,
         force=force,
-        extra={"reading": reading},
+        reading=reading,
     )
     return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
 
@@ -229,7 +229,7 @@ def analyze(
 class Comparison:
     """What ``compare`` produced: one report per estimator and the side-by-side table."""
 
-    reports: dict[str, dict[str, Any]]
+    reports: dict[str, Report]
     table: str
     gate_failures: list[str]
 
@@ -245,17 +245,8 @@ _COLUMNS = (
 )
 
 
-def _row(report: Mapping[str, Any]) -> dict[str, Any]:
-    modes = report["modes"]
-    return {
-        "vaf": report["vaf"],
-        "fit": report.get("fit"),
-        "mse": report["mse"],
-        "mode_accuracy": modes["accuracy"],
-        "missed_switches": (modes.get("detection") or {}).get("missed"),
-        "detection_delay_s": modes["detection_delay_s"],
-        "samples_per_s": report["samples_per_s"],
-    }
+def _row(report: Report) -> dict[str, Any]:
+    return {name: metric(report, name) for name in _COLUMNS}  # the gates' metric names
 
 
 def compare(
@@ -291,7 +282,7 @@ def compare(
     reading: dict[str, Any] = {}
     signals = read_log(log, model, read, reading)
     results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
-    reports: dict[str, dict[str, Any]] = {}
+    reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
             reports[name] = write_report(
@@ -302,7 +293,7 @@ def compare(
                 model_name=model.name,
                 dt=model.dt,
                 table_format=table_format,
-                extra={"reading": reading},
+                reading=reading,
             )
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         table = markdown_table(("estimator", *_COLUMNS), rows)

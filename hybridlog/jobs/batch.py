@@ -10,15 +10,13 @@ processed and summarised in natural order (``s1, s2, s10``).
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-from hybridlog.errors import HybridlogError, OptionError, OutputError
+from hybridlog.errors import HybridlogError, OptionError, OutputError, ReportError
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     analyze,
@@ -38,7 +36,7 @@ from hybridlog.outputs import (
     remove_stale_temporaries,
     write_marker,
 )
-from hybridlog.report import evaluate_gates
+from hybridlog.report import Report, evaluate_gates, read_report
 from hybridlog.report.summary import markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
 
@@ -53,7 +51,7 @@ class LogOutcome:
     log: str
     folder: str
     status: str
-    report: dict[str, Any] | None
+    report: Report | None
     error: str | None
 
 
@@ -118,11 +116,11 @@ def _analyze_checked(
         report_file = path / "report.json"
         if not force and report_file.is_file():
             try:
-                report = json.loads(report_file.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                report = None  # an unreadable earlier report is redone
-            if isinstance(report, dict):
-                made_with = (report.get("model"), report.get("estimator"))
+                report: Report | None = read_report(report_file)
+            except ReportError:
+                report = None  # an unreadable or malformed earlier report is redone
+            if report is not None:
+                made_with = (report.model, report.estimator)
                 if made_with == (model_name, estimator):
                     return LogOutcome(log, folder, "skipped", report, None)
                 return LogOutcome(
@@ -263,10 +261,10 @@ def run_batch(
         [
             o.log,
             o.status,
-            None if o.report is None else o.report["samples"],
-            None if o.report is None else o.report["vaf"],
-            None if o.report is None else o.report["mse"],
-            None if o.report is None else o.report["modes"]["accuracy"],
+            None if o.report is None else o.report.samples,
+            None if o.report is None else o.report.vaf,
+            None if o.report is None else o.report.mse,
+            None if o.report is None else o.report.modes.accuracy,
             o.error,
         ]
         for o in outcomes

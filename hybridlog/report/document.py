@@ -1,528 +1,641 @@
-"""The report of one run: a JSON-ready dict (``report.json``) and its Markdown rendering.
+"""The report of one run: a typed, immutable :class:`Report` and its JSON form, ``report.json``.
 
-The dict has the keys of SPEC §8; everything that needs ground truth is ``None`` (``null``)
-when the log has none, and every non-finite number becomes ``None`` so the JSON is strict.
-Every gate metric that is ``null`` gets a one-sentence reason in ``null_reasons``.
+:func:`hybridlog.report.build.build_report` computes a :class:`Report` from an estimation
+result; :meth:`Report.to_json` writes ``report.json`` and :meth:`Report.from_json` (or
+:func:`read_report`) reads one back, checking every key, so that a malformed or foreign file
+is a :class:`~hybridlog.errors.ReportError` naming the file and the key, never a crash.
 
-Keys
-----
+Keys of ``report.json``
+-----------------------
 ``hybridlog_version, log, model, estimator, options, samples, dt, t_start, t_end,
 outputs: {<y>: {mse, vaf, fit, samples}}, mse, vaf, fit,
 modes: {labels, switches: [{t, from, to}], dwell_s: {<mode>: s}, accuracy,
 confusion: {<true mode>: {<estimated mode>: count}}, detection_delay_s, detection},
-states: {<x>: {rmse}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``
+states: {<x>: {rmse}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``, then
+``reading`` (what reading the log did) when known, then any further keys (:attr:`Report.extra`).
 
-``outputs.<y>.samples`` counts the rows the output metrics use (a measurement and a
-one-step-ahead prediction); ``mse``, ``vaf`` and ``fit`` at the top are the means over the
-outputs where the metric is defined.  ``null_reasons`` maps gate metric names (``vaf``,
-``fit.y1``, ``mode_accuracy``, ``state_rmse.x2``, ...; see :mod:`hybridlog.report.gates`)
-to why the report holds ``null`` for them.
-
-``modes.detection`` (``None`` without a true mode) holds the details behind
-``detection_delay_s`` (the mean): ``{mean_s, max_s, detected, missed,
-events: [{t, from, to, detected, detected_t, delay_s, miss_reason}]}``, see
+Everything that needs ground truth is ``null`` when the log has none, and every number that
+is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` counts the rows the
+output metrics use (a measurement and a one-step-ahead prediction); ``mse``, ``vaf`` and
+``fit`` at the top are the means over the outputs where the metric is defined.
+``null_reasons`` maps gate metric names (``vaf``, ``fit.y1``, ``mode_accuracy``,
+``state_rmse.x2``, ...; see :mod:`hybridlog.report.gates`) to why the report holds ``null``
+for them.  ``modes.detection`` (``null`` without a true mode) holds the details behind
+``detection_delay_s`` (their mean): ``{mean_s, max_s, detected, missed, events: [{t, from,
+to, detected, detected_t, delay_s, miss_reason}]}``, see
 :func:`hybridlog.report.metrics.detection_delays`.
+
+Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
+``null_reasons``, ``outputs.<y>.samples`` or ``miss_reason``; they are read with ``None``
+(or empty) in their place.
 """
 
 from __future__ import annotations
 
+import copy
 import json
 import math
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Final, TypeAlias, TypeVar, cast
 
-import numpy as np
-
-from hybridlog import __version__
-from hybridlog.errors import LogError
-from hybridlog.estimators.result import EstimationResult
-from hybridlog.report import metrics
-from hybridlog.signals import AlignedSignals
+from hybridlog.errors import ReportError, excerpt
+from hybridlog.report.metrics import SwitchDetection
 
 __all__ = [
-    "MIN_SAMPLES",
-    "build_report",
-    "check_compatible",
-    "duration",
-    "jsonable",
-    "plural",
-    "rate",
-    "render_markdown",
-    "report_json",
+    "Detection",
+    "JsonValue",
+    "ModeReport",
+    "ModeSwitch",
+    "OutputReport",
+    "Report",
+    "StateReport",
+    "SwitchDetection",
+    "read_report",
 ]
 
-MIN_SAMPLES = 3
-"""Fewest samples a run must have to be reported: row 0 is the estimators' prior (no
-prediction), and VAF and fit compare spreads, which a single predicted sample does not have."""
+JsonValue: TypeAlias = bool | int | float | str | list["JsonValue"] | dict[str, "JsonValue"] | None
+"""A value of plain JSON (strict: floats are finite)."""
 
-MAX_LISTED_SWITCHES = 50
-"""``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
+JsonObject: TypeAlias = dict[str, JsonValue]
 
 
-def jsonable(value: Any) -> Any:
-    """Convert a value to plain JSON types, with ``None`` for NaN and infinities.
+@dataclass(frozen=True)
+class OutputReport:
+    """Metrics of one output (paper 001, section 5; MATLAB ``compare``'s fit).
 
-    Parameters
+    Attributes
     ----------
-    value:
-        Nested dicts, lists, tuples, NumPy scalars and arrays, numbers, strings.
-
-    Returns
-    -------
-    Any
-        The same structure made of ``dict``, ``list``, ``str``, ``int``, ``float``,
-        ``bool`` and ``None``; any other object becomes its ``str``.
+    mse, vaf, fit:
+        See :func:`hybridlog.report.metrics.output_metrics`; ``None`` where undefined (the
+        report's :attr:`~Report.null_reasons` says why).
+    samples:
+        Rows the metrics use (a finite measurement and prediction); ``None`` in reports of
+        versions that did not record it.
 
     """
-    if value is None or isinstance(value, bool | str):
-        return value
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, int | np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        f = float(value)
-        return f if math.isfinite(f) else None
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | set | frozenset):
-        return [jsonable(v) for v in value]
-    return str(value)
+
+    mse: float | None
+    vaf: float | None
+    fit: float | None
+    samples: int | None
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``{mse, vaf, fit, samples}``."""
+        return {"mse": self.mse, "vaf": self.vaf, "fit": self.fit, "samples": self.samples}
 
 
-def _num(x: float) -> float | None:
-    return x if math.isfinite(x) else None
+@dataclass(frozen=True)
+class StateReport:
+    """Error of one state estimate: ``rmse`` against the true state (``None`` without truth)."""
+
+    rmse: float | None
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``{rmse}``."""
+        return {"rmse": self.rmse}
 
 
-def check_compatible(result: EstimationResult, signals: AlignedSignals) -> None:
-    """Check that a result and the signals it was computed from line up row by row.
+@dataclass(frozen=True)
+class ModeSwitch:
+    """One change of the estimated mode: at time ``t``, the first sample in ``to_mode``."""
 
-    Parameters
+    t: float
+    from_mode: str
+    to_mode: str
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``{t, from, to}``."""
+        return {"t": self.t, "from": self.from_mode, "to": self.to_mode}
+
+
+def _event_dict(event: SwitchDetection) -> JsonObject:
+    return {
+        "t": event.t,
+        "from": event.from_mode,
+        "to": event.to_mode,
+        "detected": event.detected,
+        "detected_t": event.detected_t,
+        "delay_s": event.delay_s,
+        "miss_reason": event.miss_reason,
+    }
+
+
+@dataclass(frozen=True)
+class Detection:
+    """How every true mode switch was detected (:func:`~hybridlog.report.metrics.detection_delays`).
+
+    Attributes
     ----------
-    result:
-        The estimation result.
-    signals:
-        The aligned signals it was computed from.
-
-    Raises
-    ------
-    ValueError
-        When sample counts, output columns or truth shapes disagree (a programming error,
-        not a user error).
+    mean_s, max_s:
+        Mean and largest delay over the detected switches; ``None`` when none was detected.
+    events:
+        One entry per true switch, in time order.
 
     """
-    n = result.n_samples
-    if signals.n_samples != n:
-        raise ValueError(f"result has {n} samples but the signals have {signals.n_samples}")
-    n_y = len(result.output_names)
-    if signals.outputs.shape != (n, n_y) or result.output_predictions.shape != (n, n_y):
-        raise ValueError(
-            f"outputs have shape {signals.outputs.shape} and predictions "
-            f"{result.output_predictions.shape}; expected {(n, n_y)}"
-        )
-    n_x = len(result.state_names)
-    if result.state_means.shape != (n, n_x) or result.state_variances.shape != (n, n_x):
-        raise ValueError(f"state means/variances do not have shape {(n, n_x)}")
-    if result.mode_probabilities.shape != (n, len(result.mode_ids)):
-        raise ValueError(f"mode probabilities do not have shape {(n, len(result.mode_ids))}")
-    if signals.truth_modes is not None and signals.truth_modes.shape != (n,):
-        raise ValueError(f"truth modes have shape {signals.truth_modes.shape}; expected {(n,)}")
-    if signals.truth_states is not None and signals.truth_states.shape != (n, n_x):
-        raise ValueError(
-            f"truth states have shape {signals.truth_states.shape}; expected {(n, n_x)}"
-        )
+
+    mean_s: float | None
+    max_s: float | None
+    events: tuple[SwitchDetection, ...]
+
+    @property
+    def detected(self) -> int:
+        """Number of true switches detected."""
+        return sum(1 for e in self.events if e.detected)
+
+    @property
+    def missed(self) -> int:
+        """Number of true switches missed."""
+        return len(self.events) - self.detected
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``{mean_s, max_s, detected, missed, events}``."""
+        return {
+            "mean_s": self.mean_s,
+            "max_s": self.max_s,
+            "detected": self.detected,
+            "missed": self.missed,
+            "events": [_event_dict(e) for e in self.events],
+        }
 
 
-def _modes_section(result: EstimationResult, signals: AlignedSignals, dt: float) -> dict[str, Any]:
-    ids = tuple(str(m) for m in result.mode_ids)
-    dwell = metrics.dwell_times(result.time, result.modes, len(ids), dt)
-    section: dict[str, Any] = {
-        "labels": list(ids),
-        "switches": [dict(s) for s in metrics.mode_switches(result.time, result.modes, ids)],
-        "dwell_s": {m: float(d) for m, d in zip(ids, dwell, strict=True)},
-        "accuracy": None,
-        "confusion": None,
-        "detection_delay_s": None,
-        "detection": None,
-    }
-    truth = signals.truth_modes
-    if truth is None:
-        return section
-    section["accuracy"] = _num(metrics.mode_accuracy(result.modes, truth))
-    counts = metrics.confusion_matrix(result.modes, truth, len(ids))
-    section["confusion"] = {
-        t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)} for i, t_id in enumerate(ids)
-    }
-    det = metrics.detection_delays(result.time, result.modes, truth, ids)
-    section["detection_delay_s"] = _num(det.mean_s)
-    section["detection"] = {
-        "mean_s": _num(det.mean_s),
-        "max_s": _num(det.max_s),
-        "detected": det.detected,
-        "missed": det.missed,
-        "events": [
-            {
-                "t": e.t,
-                "from": e.from_mode,
-                "to": e.to_mode,
-                "detected": e.detected,
-                "detected_t": e.detected_t,
-                "delay_s": e.delay_s,
-                "miss_reason": e.miss_reason,
-            }
-            for e in det.events
-        ],
-    }
-    return section
+@dataclass(frozen=True)
+class ModeReport:
+    """The estimated mode sequence and, with a true mode, how well it matches.
 
-
-def build_report(
-    result: EstimationResult,
-    signals: AlignedSignals,
-    *,
-    log: str,
-    model_name: str,
-    dt: float,
-    extra: Mapping[str, Any] | None = None,
-) -> dict[str, Any]:
-    """Compute every metric of a run and assemble the ``report.json`` dict.
-
-    Parameters
+    Attributes
     ----------
-    result:
-        What the estimator returned.
-    signals:
-        The aligned signals it ran on (measured outputs, ground truth if any).
-    log:
-        Path or name of the log, as the user gave it.
-    model_name:
-        Name of the model.
-    dt:
-        The model's sample time in seconds.
+    labels:
+        The model's mode ids.
+    switches:
+        Every change of the estimated mode.
+    dwell_s:
+        Seconds spent in each mode (``{label: s}``).
+    accuracy:
+        Fraction of samples whose estimated mode is the true one; ``None`` without truth.
+    confusion:
+        ``{true mode: {estimated mode: sample count}}``; ``None`` without truth.
+    detection:
+        Detection of every true switch; ``None`` without truth.
+
+    """
+
+    labels: tuple[str, ...]
+    switches: tuple[ModeSwitch, ...]
+    dwell_s: Mapping[str, float | None]
+    accuracy: float | None = None
+    confusion: Mapping[str, Mapping[str, int]] | None = None
+    detection: Detection | None = None
+
+    @property
+    def detection_delay_s(self) -> float | None:
+        """Mean detection delay in seconds; ``None`` without truth or detected switch."""
+        return None if self.detection is None else self.detection.mean_s
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``modes`` of ``report.json``."""
+        confusion: JsonValue = None
+        if self.confusion is not None:
+            confusion = {t: dict(row) for t, row in self.confusion.items()}
+        return {
+            "labels": list(self.labels),
+            "switches": [s.to_dict() for s in self.switches],
+            "dwell_s": dict(self.dwell_s),
+            "accuracy": self.accuracy,
+            "confusion": confusion,
+            "detection_delay_s": self.detection_delay_s,
+            "detection": None if self.detection is None else self.detection.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class Report:
+    """Everything ``report.json`` records about one run of one estimator over one log.
+
+    Built by :func:`hybridlog.report.build.build_report`; the mappings are fresh copies
+    owned by the report and typed read-only.  :meth:`to_dict` gives the keys and values of
+    ``report.json`` in its order (module docstring), :meth:`from_json` reads them back.
+
+    Attributes
+    ----------
+    hybridlog_version, log, model, estimator:
+        What ran on what.
+    options:
+        The estimator's options as JSON.
+    samples, dt, t_start, t_end:
+        The grid: number of samples, sample time and first and last time (seconds).
+    outputs:
+        Metrics per output.
+    mse, vaf, fit:
+        Means of the per-output metrics over the outputs where they are defined.
+    modes:
+        The mode sequence and its accuracy.
+    states:
+        Error per state.
+    runtime_s, compile_s, samples_per_s:
+        Speed of the estimation and time spent compiling.
+    notes:
+        The estimator's remarks.
+    null_reasons:
+        ``{gate metric name: why it is None}``.
+    reading:
+        What reading the log did (format, time source, dropped samples, ...), when known.
     extra:
-        Additional top-level keys; they replace computed keys of the same name.
+        Further top-level keys, written after all others (names of no other attribute).
 
-    Returns
-    -------
-    dict
-        JSON-ready (strict: no NaN) report; see the module docstring for the keys.
+    """
+
+    hybridlog_version: str
+    log: str
+    model: str
+    estimator: str
+    options: Mapping[str, JsonValue]
+    samples: int
+    dt: float
+    t_start: float | None
+    t_end: float | None
+    outputs: Mapping[str, OutputReport]
+    mse: float | None
+    vaf: float | None
+    fit: float | None
+    modes: ModeReport
+    states: Mapping[str, StateReport]
+    runtime_s: float | None
+    compile_s: float | None
+    samples_per_s: float | None
+    notes: tuple[str, ...] = ()
+    null_reasons: Mapping[str, str] = field(default_factory=dict)
+    reading: Mapping[str, JsonValue] | None = None
+    extra: Mapping[str, JsonValue] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        clash = sorted(set(self.extra) & _KEYS)
+        if clash:
+            raise ValueError(f"extra keys {clash} are report attributes; set those instead")
+
+    def to_dict(self) -> JsonObject:
+        """The report as plain JSON values: the keys and values of ``report.json``, in order.
+
+        Returns
+        -------
+        dict
+            A new dict (changing it does not change the report).
+
+        """
+        data: JsonObject = {
+            "hybridlog_version": self.hybridlog_version,
+            "log": self.log,
+            "model": self.model,
+            "estimator": self.estimator,
+            "options": copy.deepcopy(dict(self.options)),
+            "samples": self.samples,
+            "dt": self.dt,
+            "t_start": self.t_start,
+            "t_end": self.t_end,
+            "outputs": {y: m.to_dict() for y, m in self.outputs.items()},
+            "mse": self.mse,
+            "vaf": self.vaf,
+            "fit": self.fit,
+            "modes": self.modes.to_dict(),
+            "states": {x: s.to_dict() for x, s in self.states.items()},
+            "runtime_s": self.runtime_s,
+            "compile_s": self.compile_s,
+            "samples_per_s": self.samples_per_s,
+            "notes": list(self.notes),
+            "null_reasons": dict(self.null_reasons),
+        }
+        if self.reading is not None:
+            data["reading"] = copy.deepcopy(dict(self.reading))
+        data.update(copy.deepcopy(dict(self.extra)))
+        return data
+
+    def to_json(self) -> str:
+        """``report.json``: the report as strict, indented JSON text ending in a newline.
+
+        Raises
+        ------
+        ValueError
+            When a number is not finite (the report was built with one where only ``None``
+            may stand: a programming error).
+
+        """
+        return json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+
+    @classmethod
+    def from_dict(cls, data: object, *, source: str = "report.json") -> Report:
+        """Read a report from parsed JSON, checking every key.
+
+        Parameters
+        ----------
+        data:
+            What :func:`json.loads` returned for a ``report.json``.
+        source:
+            Where it came from, for error messages.
+
+        Returns
+        -------
+        Report
+            The report; keys it does not know are kept in :attr:`extra`.
+
+        Raises
+        ------
+        ReportError
+            When ``data`` is not a hybridlog report (no ``hybridlog_version``) or a key is
+            missing or holds a value of the wrong kind; the message names ``source`` and
+            the key.
+
+        """
+        return _Reader(source).report(data)
+
+    @classmethod
+    def from_json(cls, text: str | bytes, *, source: str = "report.json") -> Report:
+        """Read a report from the text of a ``report.json`` (see :meth:`from_dict`).
+
+        Raises
+        ------
+        ReportError
+            When the text is not strict JSON or not a hybridlog report.
+
+        """
+        try:
+            data = json.loads(text, parse_constant=_refuse_constant)
+        except json.JSONDecodeError as err:
+            raise ReportError(
+                f"{source}: not JSON ({err.msg} at line {err.lineno}, column {err.colno})"
+            ) from None
+        except (ValueError, RecursionError) as err:  # NaN/Infinity; nesting beyond the stack
+            reason = "nested too deeply" if isinstance(err, RecursionError) else str(err)
+            raise ReportError(f"{source}: not strict JSON ({reason})") from None
+        return cls.from_dict(data, source=source)
+
+
+def read_report(path: str | Path) -> Report:
+    """Read a ``report.json`` file (:meth:`Report.from_json`).
 
     Raises
     ------
-    LogError
-        When the run has fewer than :data:`MIN_SAMPLES` samples (naming ``log``).
+    ReportError
+        When the file cannot be read, is not UTF-8 or is not a hybridlog report.
 
     """
-    check_compatible(result, signals)
-    n = result.n_samples
-    if n < MIN_SAMPLES:
-        raise LogError(
-            f"{log}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
-            f"a report needs at least {MIN_SAMPLES}: the first sample is the prior, and VAF "
-            "and fit need the spread of at least two predicted samples"
-        )
-    per_output = dict(
-        zip(
-            result.output_names,
-            metrics.output_metrics(signals.outputs, result.output_predictions),
-            strict=True,
-        )
-    )
-    states: dict[str, Any] = {x: {"rmse": None} for x in result.state_names}
-    if signals.truth_states is not None:
-        rmse = metrics.state_rmse(result.state_means, signals.truth_states)
-        for x, r in zip(result.state_names, rmse, strict=True):
-            states[x]["rmse"] = _num(float(r))
-    runtime = float(result.runtime_s)
-    modes = _modes_section(result, signals, dt)
-    report: dict[str, Any] = {
-        "hybridlog_version": __version__,
-        "log": str(log),
-        "model": model_name,
-        "estimator": result.estimator,
-        "options": jsonable(result.options),
-        "samples": n,
-        "dt": float(dt),
-        "t_start": float(result.time[0]) if n else None,
-        "t_end": float(result.time[-1]) if n else None,
-        "outputs": {
-            y: {"mse": _num(m.mse), "vaf": _num(m.vaf), "fit": _num(m.fit), "samples": m.samples}
-            for y, m in per_output.items()
-        },
-        "mse": _num(metrics.mean_of_finite([m.mse for m in per_output.values()])),
-        "vaf": _num(metrics.mean_of_finite([m.vaf for m in per_output.values()])),
-        "fit": _num(metrics.mean_of_finite([m.fit for m in per_output.values()])),
-        "modes": modes,
-        "states": states,
-        "runtime_s": runtime,
-        "compile_s": float(result.compile_s),
-        "samples_per_s": n / runtime if runtime > 0.0 else None,
-        "notes": list(result.notes),
-    }
-    report["null_reasons"] = _null_reasons(report, per_output, signals)
-    if extra:
-        report.update(extra)
-    cleaned: dict[str, Any] = jsonable(report)
-    return cleaned
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = err.strerror if isinstance(err, OSError) else "not UTF-8 text"
+        raise ReportError(f"{path}: cannot read the report: {reason}") from None
+    return Report.from_json(text, source=str(path))
 
 
-def _null_reasons(
-    report: Mapping[str, Any],
-    per_output: Mapping[str, metrics.OutputMetrics],
-    signals: AlignedSignals,
-) -> dict[str, str]:
-    """Why each gate metric that is ``null`` in ``report`` is null (keys as in gates)."""
-    reasons: dict[str, str] = {}
-    for name in ("mse", "vaf", "fit"):
-        for y, m in per_output.items():
-            if name in m.undefined:
-                reasons[f"{name}.{y}"] = m.undefined[name]
-        if report[name] is None and per_output:
-            y, m = next(iter(per_output.items()))
-            reasons[name] = f"undefined for every output ({y}: {m.undefined.get(name)})"
-    modes = report["modes"]
-    if signals.truth_modes is None:
-        for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
-            reasons[name] = "the log has no ground-truth mode"
-    elif modes["detection_delay_s"] is None:
-        events = modes["detection"]["events"]
-        reasons["detection_delay_s"] = (
-            "the true mode never switches"
-            if not events
-            else f"every true switch ({len(events)}) was missed"
-        )
-    for x, value in report["states"].items():
-        if value["rmse"] is None:
-            reasons[f"state_rmse.{x}"] = f"the log has no ground truth for state {x}"
-    if report["samples_per_s"] is None:
-        reasons["samples_per_s"] = "the runtime was too short to measure"
-    return reasons
+def _refuse_constant(name: str) -> object:
+    raise ValueError(f"{name} is not a JSON number")
 
 
-def report_json(report: Mapping[str, Any]) -> str:
-    """Serialise a report as strict JSON (``NaN`` is never written).
+_KEYS: Final = frozenset(f.name for f in fields(Report)) - {"extra"}
+"""Top-level keys of ``report.json`` that are attributes of :class:`Report`."""
 
-    Parameters
-    ----------
-    report:
-        A report from :func:`build_report`.
+MAX_DEPTH: Final = 64
+"""Deepest nesting of lists and objects read back in ``options``, ``reading`` and further keys
+(hybridlog writes a few levels; copying or writing far deeper ones would exhaust Python's
+stack)."""
 
-    Returns
-    -------
-    str
-        Indented JSON text ending in a newline.
-
-    """
-    return json.dumps(jsonable(report), indent=2, allow_nan=False) + "\n"
+_MISSING: Final = object()
+T = TypeVar("T")
 
 
-def _fmt(value: Any, spec: str = ".6g") -> str:
+def _kind(value: object) -> str:
     if value is None:
-        return "n/a"
-    if isinstance(value, float):
-        return format(value, spec)
-    return str(value)
+        return "null"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, int | float):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "a list"
+    return "an object"
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
+@dataclass(frozen=True)
+class _Reader:
+    """Reads parsed ``report.json`` values into typed parts; errors name the file and key."""
 
+    source: str
 
-def plural(count: int, noun: str, plural_form: str | None = None) -> str:
-    """``"1 switch"``, ``"2 switches"``: a count with its noun in agreement.
+    def error(self, path: str, problem: str) -> ReportError:
+        return ReportError(f"{self.source}: {excerpt(path)} {problem}")
 
-    Parameters
-    ----------
-    count:
-        How many.
-    noun:
-        The singular noun (or noun phrase ending in the noun).
-    plural_form:
-        The plural when it is not ``noun + "s"`` (``"es"`` after s, x, ch, sh).
+    def wrong(self, path: str, value: object, expected: str) -> ReportError:
+        return self.error(path, f"is {_kind(value)}; expected {expected}")
 
-    Returns
-    -------
-    str
-        E.g. ``"1 estimated mode switch"``, ``"0 estimated mode switches"``.
+    def at(
+        self,
+        data: Mapping[str, object],
+        path: str,
+        key: str,
+        read: Callable[[object, str], T],
+        default: object = _MISSING,
+    ) -> T:
+        """``data[key]`` read by ``read``; ``default`` when missing (required without one)."""
+        where = f"{path}.{key}" if path else key
+        if key in data:
+            return read(data[key], where)
+        if default is _MISSING:
+            raise self.error(where, "is missing")
+        return read(default, where)
 
-    """
-    if count == 1:
-        return f"{count} {noun}"
-    if plural_form is None:
-        plural_form = noun + ("es" if noun.endswith(("s", "x", "ch", "sh")) else "s")
-    return f"{count:,} {plural_form}"
+    def mapping(self, value: object, path: str) -> Mapping[str, object]:
+        if not isinstance(value, dict):
+            raise self.wrong(path, value, "an object")
+        return value
 
+    def items(self, value: object, path: str, read: Callable[[object, str], T]) -> dict[str, T]:
+        return {k: read(v, f"{path}.{k}") for k, v in self.mapping(value, path).items()}
 
-def duration(seconds: float | None) -> str:
-    """A duration for people, with three significant digits and a unit that fits.
+    def sequence(self, value: object, path: str, read: Callable[[object, str], T]) -> tuple[T, ...]:
+        if not isinstance(value, list):
+            raise self.wrong(path, value, "a list")
+        return tuple(read(v, f"{path}[{i}]") for i, v in enumerate(value))
 
-    ``0.00031`` → ``"0.31 ms"``, ``2.5e-6`` → ``"2.5 µs"``, ``12.345`` → ``"12.3 s"``,
-    ``None`` → ``"n/a"``.
-    """
-    if seconds is None or not math.isfinite(seconds):
-        return "n/a"
-    magnitude = abs(seconds)
-    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("µs", 1e-6)):
-        if magnitude >= scale:
-            return f"{seconds / scale:.3g} {unit}"
-    return f"{seconds * 1e9:.3g} ns" if magnitude > 0 else "0 s"
+    def list_of(self, read: Callable[[object, str], T]) -> Callable[[object, str], tuple[T, ...]]:
+        return lambda value, path: self.sequence(value, path, read)
 
+    def map_of(self, read: Callable[[object, str], T]) -> Callable[[object, str], dict[str, T]]:
+        return lambda value, path: self.items(value, path, read)
 
-def rate(per_second: float | None, noun: str) -> str:
-    """``1234567.8`` → ``"1,234,568 samples/s"`` (``"n/a"`` when unknown)."""
-    if per_second is None or not math.isfinite(per_second):
-        return "n/a"
-    return f"{per_second:,.0f} {noun}/s" if per_second >= 100 else f"{per_second:.3g} {noun}/s"
+    def or_null(self, read: Callable[[object, str], T]) -> Callable[[object, str], T | None]:
+        return lambda value, path: None if value is None else read(value, path)
 
+    def string(self, value: object, path: str) -> str:
+        if not isinstance(value, str):
+            raise self.wrong(path, value, "a string")
+        return value
 
-DEFINITIONS = (
-    "MSE = mean((y − ŷ)²) and VAF = max(1 − var(y − ŷ)/var(ŷ), 0)·100 % (paper 001) use the "
-    "one-step-ahead prediction ŷ(k), made before y(k) is used; the first sample (the prior) "
-    "has none.",
-    "Fit = (1 − ‖y − ŷ‖/‖y − mean(y)‖)·100 % (MATLAB `compare`'s NRMSE): 100 is perfect, "
-    "0 no better than the mean of y, negative worse. Unlike VAF, its denominator does not "
-    "depend on the prediction, so a worse predictor cannot score higher.",
-    "A metric is n/a (null) when undefined, with the reason given: VAF when var(ŷ) = 0, fit "
-    "when y is constant. The top rows are the means over the outputs where it is defined.",
-    "Mode accuracy: the fraction of all samples whose estimated mode is the true one.",
-    "Detection delay: from a true switch to the first estimated change *into* the new mode at "
-    "or after it, before the next true switch. An estimate that was already in that mode "
-    "before the switch has not detected it: a miss, as is a switch never followed by such a "
-    "change. The mean and max are over the detected switches.",
-)
+    def boolean(self, value: object, path: str) -> bool:
+        if not isinstance(value, bool):
+            raise self.wrong(path, value, "true or false")
+        return value
 
+    def count(self, value: object, path: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.wrong(path, value, "a whole number")
+        if value < 0:
+            raise self.error(path, f"is {value}; expected a count (>= 0)")
+        return value
 
-def render_markdown(report: Mapping[str, Any]) -> str:
-    """Render a report for people (``report.md``, CI job summaries).
+    def number(self, value: object, path: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.wrong(path, value, "a number")
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond float's range
+            number = math.inf
+        if not math.isfinite(number):  # or a float literal beyond it (1e400)
+            raise self.error(path, "is not a finite number")
+        return number
 
-    Parameters
-    ----------
-    report:
-        A report from :func:`build_report`.
+    def optional_number(self, value: object, path: str) -> float | None:
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.wrong(path, value, "a number or null")
+        return self.number(value, path)
 
-    Returns
-    -------
-    str
-        Markdown: title, run facts, per-output MSE/VAF/fit table (with why a metric is
-        n/a), mode summary (with accuracy, confusion matrix and every true switch with its
-        detection or why it was missed, when the true mode is known), state RMSE table,
-        runtime, the estimator's notes and the definitions of the metrics.
+    def json_object(self, value: object, path: str) -> JsonObject:
+        return cast(JsonObject, self.json_value(self.mapping(value, path), path))
 
-    """
-    reasons: Mapping[str, str] = report.get("null_reasons") or {}
-    lines: list[str] = [
-        f"# hybridlog report: {_cell(str(report.get('log')))}",
-        "",
-        f"- model: `{report.get('model')}`, estimator: `{report.get('estimator')}`",
-        f"- samples: {report.get('samples')}, dt = {_fmt(report.get('dt'))} s, "
-        f"t = {_fmt(report.get('t_start'))} … {_fmt(report.get('t_end'))} s",
-        f"- hybridlog {report.get('hybridlog_version')}",
-        "",
-        "## Outputs",
-        "",
-        "| output | MSE | VAF (%) | fit (%) |",
-        "|---|---:|---:|---:|",
-    ]
-    outputs: Mapping[str, Mapping[str, Any]] = report.get("outputs") or {}
-    for y, m in outputs.items():
-        lines.append(
-            f"| {_cell(y)} | {_fmt(m.get('mse'))} | {_fmt(m.get('vaf'), '.4f')} "
-            f"| {_fmt(m.get('fit'), '.4f')} |"
+    def json_value(self, value: object, path: str) -> JsonValue:
+        """A copy of a free-form JSON value: finite numbers, at most :data:`MAX_DEPTH` deep."""
+        stack = [(value, 0)]
+        while stack:
+            item, depth = stack.pop()
+            if isinstance(item, dict | list):
+                if depth >= MAX_DEPTH:
+                    raise self.error(path, f"is nested deeper than {MAX_DEPTH} levels")
+                if isinstance(item, dict) and not all(isinstance(k, str) for k in item):
+                    raise self.error(path, "holds an object key that is not a string")
+                children = item.values() if isinstance(item, dict) else item
+                stack += [(child, depth + 1) for child in children]
+            elif isinstance(item, float) and not math.isfinite(item):
+                raise self.error(path, "holds a number that is not finite")
+            elif not (item is None or isinstance(item, bool | int | float | str)):
+                raise self.error(path, f"holds a {type(item).__name__}, which JSON does not have")
+        return cast(JsonValue, copy.deepcopy(value))
+
+    # --- the parts ------------------------------------------------------------------------
+
+    def output(self, value: object, path: str) -> OutputReport:
+        data = self.mapping(value, path)
+        return OutputReport(
+            mse=self.at(data, path, "mse", self.optional_number),
+            vaf=self.at(data, path, "vaf", self.optional_number),
+            fit=self.at(data, path, "fit", self.optional_number, None),
+            samples=self.at(data, path, "samples", self.or_null(self.count), None),
         )
-    lines.append(
-        f"| **mean** | **{_fmt(report.get('mse'))}** | **{_fmt(report.get('vaf'), '.4f')}** "
-        f"| **{_fmt(report.get('fit'), '.4f')}** |"
-    )
-    undefined = [
-        f"- {name} is n/a: {why}"
-        for name, why in reasons.items()
-        if name.partition(".")[0] in ("mse", "vaf", "fit")
-    ]
-    expected = int(report.get("samples") or 0) - 1  # every sample after the prior
-    undefined += [
-        f"- {y}: metrics over {m['samples']:,} of {expected:,} samples; the others have no "
-        "finite measurement or prediction"
-        for y, m in outputs.items()
-        if isinstance(m.get("samples"), int) and m["samples"] < expected
-    ]
-    if undefined:
-        lines += ["", *undefined]
 
-    modes: Mapping[str, Any] = report.get("modes") or {}
-    labels = [str(m) for m in modes.get("labels") or []]
-    switches = list(modes.get("switches") or [])
-    dwell: Mapping[str, Any] = modes.get("dwell_s") or {}
-    lines += ["", "## Modes", "", f"{plural(len(switches), 'estimated mode switch')}.", ""]
-    lines += ["| mode | dwell (s) |", "|---|---:|"]
-    lines += [f"| {_cell(m)} | {_fmt(dwell.get(m))} |" for m in labels]
-    lines.append("")
-    if modes.get("accuracy") is None:
-        lines.append("No ground-truth mode in the log: accuracy and delays are not known.")
-    else:
-        lines += _truth_lines(modes, labels)
+    def state(self, value: object, path: str) -> StateReport:
+        data = self.mapping(value, path)
+        return StateReport(rmse=self.at(data, path, "rmse", self.optional_number))
 
-    states: Mapping[str, Mapping[str, Any]] = report.get("states") or {}
-    if states:
-        lines += ["", "## States", "", "| state | RMSE |", "|---|---:|"]
-        lines += [f"| {_cell(x)} | {_fmt(s.get('rmse'))} |" for x, s in states.items()]
+    def switch(self, value: object, path: str) -> ModeSwitch:
+        data = self.mapping(value, path)
+        return ModeSwitch(
+            t=self.at(data, path, "t", self.number),
+            from_mode=self.at(data, path, "from", self.string),
+            to_mode=self.at(data, path, "to", self.string),
+        )
 
-    samples_per_s = report.get("samples_per_s")
-    lines += [
-        "",
-        "## Runtime",
-        "",
-        f"- estimation: {duration(report.get('runtime_s'))} ({rate(samples_per_s, 'samples')})",
-    ]
-    if report.get("compile_s") is not None:
-        lines.append(f"- compilation: {duration(report.get('compile_s'))}")
-    notes = [str(note) for note in report.get("notes") or []]
-    if notes:
-        lines += ["", "## Notes", ""]
-        lines += [f"- {note}" for note in notes]
-    lines += ["", "## How the metrics are defined", ""]
-    lines += [f"- {text}" for text in DEFINITIONS]
-    return "\n".join(lines) + "\n"
-
-
-def _truth_lines(modes: Mapping[str, Any], labels: list[str]) -> list[str]:
-    """Accuracy, detection of every true switch, and the confusion matrix."""
-    det: Mapping[str, Any] = modes.get("detection") or {}
-    events: list[Mapping[str, Any]] = list(det.get("events") or [])
-    detected = int(det.get("detected", 0))
-    missed = int(det.get("missed", 0))
-    lines = [
-        f"- mode accuracy: {_fmt(modes['accuracy'], '.4%')}",
-        f"- {plural(len(events), 'true mode switch')}: {detected:,} detected, {missed:,} missed"
-        + (
-            f"; detection delay mean {_fmt(modes.get('detection_delay_s'))} s, "
-            f"max {_fmt(det.get('max_s'))} s"
-            if modes.get("detection_delay_s") is not None
-            else ""
-        ),
-    ]
-    if events:
-        lines += ["", "| true switch at (s) | from → to | detected at (s) | delay (s) |"]
-        lines.append("|---:|---|---|---:|")
-        for e in events[:MAX_LISTED_SWITCHES]:
-            found = e.get("detected_t")
-            when = _fmt(found) if found is not None else f"missed: {e.get('miss_reason')}"
-            lines.append(
-                f"| {_fmt(e.get('t'))} | {_cell(str(e.get('from')))} → {_cell(str(e.get('to')))} "
-                f"| {_cell(when)} | {_fmt(e.get('delay_s'))} |"
+    def event(self, value: object, path: str) -> SwitchDetection:
+        data = self.mapping(value, path)
+        event = SwitchDetection(
+            t=self.at(data, path, "t", self.number),
+            from_mode=self.at(data, path, "from", self.string),
+            to_mode=self.at(data, path, "to", self.string),
+            detected_t=self.at(data, path, "detected_t", self.optional_number),
+            miss_reason=self.at(data, path, "miss_reason", self.or_null(self.string), None),
+        )
+        detected = self.at(data, path, "detected", self.boolean)
+        if detected != event.detected:
+            raise self.error(
+                f"{path}.detected",
+                f"is {str(detected).lower()} but detected_t is {event.detected_t}",
             )
-        if len(events) > MAX_LISTED_SWITCHES:
-            lines.append(f"\n… and {len(events) - MAX_LISTED_SWITCHES:,} more in report.json.")
-    confusion: Mapping[str, Mapping[str, Any]] = modes.get("confusion") or {}
-    lines += [
-        "",
-        "Confusion (rows: true mode, columns: estimated mode, sample counts):",
-        "",
-        "| true \\ estimated | " + " | ".join(_cell(m) for m in labels) + " |",
-        "|---|" + "---:|" * len(labels),
-    ]
-    for t_id in labels:
-        row = confusion.get(t_id, {})
-        lines.append(f"| {_cell(t_id)} | " + " | ".join(str(row.get(e, 0)) for e in labels) + " |")
-    return lines
+        return event
+
+    def detection(self, value: object, path: str) -> Detection:
+        data = self.mapping(value, path)
+        detection = Detection(
+            mean_s=self.at(data, path, "mean_s", self.optional_number),
+            max_s=self.at(data, path, "max_s", self.optional_number),
+            events=self.at(data, path, "events", self.list_of(self.event)),
+        )
+        for key in ("detected", "missed"):
+            stated = self.at(data, path, key, self.count)
+            if stated != getattr(detection, key):
+                raise self.error(
+                    f"{path}.{key}", f"is {stated} but the events say {getattr(detection, key)}"
+                )
+        return detection
+
+    def modes(self, value: object, path: str) -> ModeReport:
+        data = self.mapping(value, path)
+        labels = self.at(data, path, "labels", self.list_of(self.string))
+        dwell = self.at(data, path, "dwell_s", self.map_of(self.optional_number))
+        self.same_labels(dwell, labels, f"{path}.dwell_s")
+        counts = self.or_null(self.map_of(self.map_of(self.count)))
+        confusion = self.at(data, path, "confusion", counts)
+        if confusion is not None:
+            self.same_labels(confusion, labels, f"{path}.confusion")
+            for t, row in confusion.items():
+                self.same_labels(row, labels, f"{path}.confusion.{t}")
+        modes = ModeReport(
+            labels=labels,
+            switches=self.at(data, path, "switches", self.list_of(self.switch)),
+            dwell_s=dwell,
+            accuracy=self.at(data, path, "accuracy", self.optional_number),
+            confusion=confusion,
+            detection=self.at(data, path, "detection", self.or_null(self.detection), None),
+        )
+        delay = self.at(data, path, "detection_delay_s", self.optional_number)
+        if delay != modes.detection_delay_s:
+            raise self.error(
+                f"{path}.detection_delay_s",
+                f"is {delay} but detection.mean_s is {modes.detection_delay_s}",
+            )
+        return modes
+
+    def same_labels(self, data: Mapping[str, object], labels: tuple[str, ...], path: str) -> None:
+        if set(data) != set(labels):
+            raise self.error(
+                path, f"has keys {sorted(data)}; expected the mode labels {sorted(labels)}"
+            )
+
+    def report(self, value: object) -> Report:
+        if not isinstance(value, dict) or "hybridlog_version" not in value:
+            raise ReportError(f"{self.source}: not a hybridlog report (no 'hybridlog_version' key)")
+        data: Mapping[str, object] = value
+        return Report(
+            hybridlog_version=self.string(data["hybridlog_version"], "hybridlog_version"),
+            log=self.at(data, "", "log", self.string),
+            model=self.at(data, "", "model", self.string),
+            estimator=self.at(data, "", "estimator", self.string),
+            options=self.at(data, "", "options", self.json_object),
+            samples=self.at(data, "", "samples", self.count),
+            dt=self.at(data, "", "dt", self.number),
+            t_start=self.at(data, "", "t_start", self.optional_number),
+            t_end=self.at(data, "", "t_end", self.optional_number),
+            outputs=self.at(data, "", "outputs", self.map_of(self.output)),
+            mse=self.at(data, "", "mse", self.optional_number),
+            vaf=self.at(data, "", "vaf", self.optional_number),
+            fit=self.at(data, "", "fit", self.optional_number, None),
+            modes=self.at(data, "", "modes", self.modes),
+            states=self.at(data, "", "states", self.map_of(self.state)),
+            runtime_s=self.at(data, "", "runtime_s", self.optional_number),
+            compile_s=self.at(data, "", "compile_s", self.optional_number, None),
+            samples_per_s=self.at(data, "", "samples_per_s", self.optional_number),
+            notes=self.at(data, "", "notes", self.list_of(self.string), []),
+            null_reasons=self.at(data, "", "null_reasons", self.map_of(self.string), {}),
+            reading=self.at(data, "", "reading", self.or_null(self.json_object), None),
+            extra={k: self.json_value(v, k) for k, v in data.items() if k not in _KEYS},
+        )

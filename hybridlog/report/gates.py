@@ -7,12 +7,12 @@ when it is above.  A gated metric that is ``null`` in the report (for instance
 Metric names
 ------------
 ``vaf``, ``mse``, ``fit``
-    Mean over the outputs where the metric is defined (``report["vaf"]``, ...); ``fit`` is
+    Mean over the outputs where the metric is defined (``report.vaf``, ...); ``fit`` is
     MATLAB ``compare``'s NRMSE fit in percent.
 ``vaf.<y>``, ``mse.<y>``, ``fit.<y>``
-    Of one output ``<y>``.
+    Of one output ``<y>`` (``report.outputs[y].vaf``, ...).
 ``mode_accuracy``
-    ``report["modes"]["accuracy"]``, a fraction in ``[0, 1]``.
+    ``report.modes.accuracy``, a fraction in ``[0, 1]``.
 ``detection_delay_s``
     Mean detection delay of true mode switches, seconds.
 ``missed_switches``
@@ -21,21 +21,26 @@ Metric names
     RMSE of state ``<x>``.
 ``runtime_s``, ``samples_per_s``
     Estimation speed.
+
+:func:`metric` reads any of them from a :class:`~hybridlog.report.document.Report` through
+one typed accessor per name (:data:`METRICS` lists the unqualified ones).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Final, Literal
 
 from hybridlog.errors import OptionError
+from hybridlog.report.document import OutputReport, Report, StateReport
 
 __all__ = [
     "METRICS",
     "Gate",
     "evaluate_gates",
+    "metric",
     "metric_value",
     "parse_gate",
     "parse_gates",
@@ -44,20 +49,29 @@ __all__ = [
 
 GateKind = Literal["under", "over"]
 
+#: The metric of each unqualified name.
+_REPORT_METRICS: Final[Mapping[str, Callable[[Report], float | int | None]]] = {
+    "vaf": lambda r: r.vaf,
+    "mse": lambda r: r.mse,
+    "fit": lambda r: r.fit,
+    "mode_accuracy": lambda r: r.modes.accuracy,
+    "detection_delay_s": lambda r: r.modes.detection_delay_s,
+    "missed_switches": lambda r: None if r.modes.detection is None else r.modes.detection.missed,
+    "runtime_s": lambda r: r.runtime_s,
+    "samples_per_s": lambda r: r.samples_per_s,
+}
+#: Metrics qualified by an output (``vaf.y1``) ...
+_OUTPUT_METRICS: Final[Mapping[str, Callable[[OutputReport], float | None]]] = {
+    "vaf": lambda o: o.vaf,
+    "mse": lambda o: o.mse,
+    "fit": lambda o: o.fit,
+}
+#: ... or by a state (``state_rmse.x1``).
+_STATE_METRICS: Final[Mapping[str, Callable[[StateReport], float | None]]] = {
+    "state_rmse": lambda s: s.rmse,
+}
 #: Metrics without a qualifier.
-METRICS: tuple[str, ...] = (
-    "vaf",
-    "mse",
-    "fit",
-    "mode_accuracy",
-    "detection_delay_s",
-    "missed_switches",
-    "runtime_s",
-    "samples_per_s",
-)
-#: Metrics qualified by an output (``vaf.y1``) or a state (``state_rmse.x1``).
-_OUTPUT_METRICS = ("vaf", "mse", "fit")
-_STATE_METRICS = ("state_rmse",)
+METRICS: tuple[str, ...] = tuple(_REPORT_METRICS)
 
 # Fallbacks for reports without ``null_reasons`` (written by older versions).
 _WHY_NULL = {
@@ -203,15 +217,44 @@ def validate_gates(
             )
 
 
-def metric_value(report: Mapping[str, Any], metric: str) -> float | None:
-    """Look a metric up in a report.
+def metric(report: Report, name: str) -> float | int | None:
+    """Read a metric of a report by its name (see the module docstring).
 
     Parameters
     ----------
     report:
-        A report from :func:`hybridlog.report.document.build_report`.
-    metric:
-        A metric name (see the module docstring).
+        A report from :func:`hybridlog.report.build.build_report` (or read back).
+    name:
+        A metric name such as ``vaf``, ``fit.y1``, ``state_rmse.x2`` or ``mode_accuracy``.
+
+    Returns
+    -------
+    float, int or None
+        The value as the report holds it (``missed_switches`` is a count), ``None`` when
+        the report holds ``null`` for it.
+
+    Raises
+    ------
+    OptionError
+        When the name is unknown or names an output/state the report does not have.
+
+    """
+    base, dot, qualifier = name.partition(".")
+    if not dot and base in _REPORT_METRICS:
+        return _REPORT_METRICS[base](report)
+    if dot and base in _OUTPUT_METRICS:
+        if qualifier not in report.outputs:
+            raise OptionError(f"gate metric {name!r}: {qualifier!r} is not an output")
+        return _OUTPUT_METRICS[base](report.outputs[qualifier])
+    if dot and base in _STATE_METRICS:
+        if qualifier not in report.states:
+            raise OptionError(f"gate metric {name!r}: {qualifier!r} is not a state")
+        return _STATE_METRICS[base](report.states[qualifier])
+    raise OptionError(f"unknown gate metric {name!r}; known: {_known_names()}")
+
+
+def metric_value(report: Report, name: str) -> float | None:
+    """A metric of a report as a float, for a gate (see :func:`metric`).
 
     Returns
     -------
@@ -221,32 +264,10 @@ def metric_value(report: Mapping[str, Any], metric: str) -> float | None:
     Raises
     ------
     OptionError
-        When the metric name is unknown or names an output/state the report does not have.
+        When the name is unknown or names an output/state the report does not have.
 
     """
-    base, dot, qualifier = metric.partition(".")
-    modes: Mapping[str, Any] = report.get("modes") or {}
-    value: Any
-    if not dot and base in ("vaf", "mse", "fit", "runtime_s", "samples_per_s"):
-        value = report.get(base)
-    elif not dot and base == "mode_accuracy":
-        value = modes.get("accuracy")
-    elif not dot and base == "detection_delay_s":
-        value = modes.get("detection_delay_s")
-    elif not dot and base == "missed_switches":
-        value = (modes.get("detection") or {}).get("missed")
-    elif dot and base in _OUTPUT_METRICS:
-        outputs: Mapping[str, Any] = report.get("outputs") or {}
-        if qualifier not in outputs:
-            raise OptionError(f"gate metric {metric!r}: {qualifier!r} is not an output")
-        value = outputs[qualifier].get(base)
-    elif dot and base in _STATE_METRICS:
-        states: Mapping[str, Any] = report.get("states") or {}
-        if qualifier not in states:
-            raise OptionError(f"gate metric {metric!r}: {qualifier!r} is not a state")
-        value = states[qualifier].get("rmse")
-    else:
-        raise OptionError(f"unknown gate metric {metric!r}; known: {_known_names()}")
+    value = metric(report, name)
     if value is None:
         return None
     f = float(value)
@@ -257,13 +278,13 @@ def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
 
-def evaluate_gates(report: Mapping[str, Any], gates: Iterable[Gate]) -> list[str]:
+def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
     """Check gates against a report.
 
     Parameters
     ----------
     report:
-        A report from :func:`hybridlog.report.document.build_report`.
+        A report from :func:`hybridlog.report.build.build_report` (or read back).
     gates:
         Parsed gates.
 
@@ -284,8 +305,9 @@ def evaluate_gates(report: Mapping[str, Any], gates: Iterable[Gate]) -> list[str
         value = metric_value(report, gate.metric)
         if value is None:
             base = gate.metric.partition(".")[0]
-            reasons: Mapping[str, str] = report.get("null_reasons") or {}
-            why = reasons.get(gate.metric) or _WHY_NULL.get(base, "the report has no value for it")
+            why = report.null_reasons.get(gate.metric) or _WHY_NULL.get(
+                base, "the report has no value for it"
+            )
             failures.append(
                 f"{gate.metric} is not available ({why}), so the {gate.option} bound "
                 f"{_fmt(gate.bound)} cannot be met"

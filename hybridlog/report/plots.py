@@ -77,27 +77,21 @@ def _empty(fig: Figure, ax: Axes, text: str) -> None:
     ax.set_axis_off()
 
 
+def _panels(what: str, names: tuple[str, ...]) -> tuple[Figure, list[Axes], tuple[str, ...]]:
+    """A figure titled ``what`` with one panel per name drawn (at most :data:`MAX_PANELS`)."""
+    drawn = names[:MAX_PANELS]
+    fig, axes = _new_figure(len(drawn))
+    _panel_title(fig, what, len(names))
+    return fig, axes, drawn
+
+
 def plot_outputs(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw measured outputs against their one-step-ahead predictions.
 
-    Parameters
-    ----------
-    result:
-        The estimation result.
-    signals:
-        The aligned signals (measured outputs).
-    path:
-        PNG file to write.
-
-    Returns
-    -------
-    pathlib.Path
-        ``path``.
-
+    Writes ``path`` (PNG) and returns it; the measured outputs come from ``signals``.
     """
-    names = result.output_names[:MAX_PANELS]
-    fig, axes = _new_figure(len(names))
-    _panel_title(fig, "Outputs: measured vs one-step-ahead prediction", len(result.output_names))
+    title = "Outputs: measured vs one-step-ahead prediction"
+    fig, axes, names = _panels(title, result.output_names)
     if not names:
         _empty(fig, axes[0], "no outputs")
         return _save(fig, path)
@@ -130,20 +124,7 @@ def _mode_steps(time: FloatArray, modes: IntArray) -> tuple[FloatArray, FloatArr
 def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
-    Parameters
-    ----------
-    result:
-        The estimation result.
-    signals:
-        The aligned signals (ground-truth mode).
-    path:
-        PNG file to write.
-
-    Returns
-    -------
-    pathlib.Path
-        ``path``.
-
+    Writes ``path`` (PNG) and returns it; the true mode comes from ``signals``.
     """
     fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=2.4)
     fig.suptitle("Modes")
@@ -173,24 +154,9 @@ def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) ->
 def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw state estimates with ±2σ bands, against the true states when known.
 
-    Parameters
-    ----------
-    result:
-        The estimation result.
-    signals:
-        The aligned signals (ground-truth states).
-    path:
-        PNG file to write.
-
-    Returns
-    -------
-    pathlib.Path
-        ``path``.
-
+    Writes ``path`` (PNG) and returns it; the true states come from ``signals``.
     """
-    names = result.state_names[:MAX_PANELS]
-    fig, axes = _new_figure(len(names))
-    _panel_title(fig, "States: estimate ±2σ vs truth", len(result.state_names))
+    fig, axes, names = _panels("States: estimate ±2σ vs truth", result.state_names)
     if not names:
         _empty(fig, axes[0], "no states")
         return _save(fig, path)

@@ -10,9 +10,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import polars as pl
+
+if TYPE_CHECKING:
+    from hybridlog.report.document import Report
 
 __all__ = [
     "SIGNIFICANT_DIGITS",
@@ -79,14 +82,13 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> s
     return "\n".join(lines)
 
 
-def comparison_markdown(title: str, table: str, reports: Mapping[str, Mapping[str, Any]]) -> str:
+def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -> str:
     """``comparison.md``: the table, where each report is, and each estimator's notes."""
     lines = [f"# {title}", "", table, ""]
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     for name, report in reports.items():
-        notes = [str(note) for note in report.get("notes") or []]
-        if notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in notes)]
+        if report.notes:
+            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in report.notes)]
     return "\n".join(lines) + "\n"
 
 

@@ -9,7 +9,9 @@ from typing import Any
 
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.outputs import atomic_output_dir
-from hybridlog.report.document import build_report, render_markdown, report_json
+from hybridlog.report.build import build_report
+from hybridlog.report.document import Report
+from hybridlog.report.markdown import render_markdown
 from hybridlog.report.plots import write_plots
 from hybridlog.report.tables import (
     check_table_format,
@@ -32,8 +34,9 @@ def write_report(
     dt: float,
     table_format: str = "csv",
     force: bool = False,
+    reading: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
-) -> dict[str, Any]:
+) -> Report:
     """Compute the metrics of a run and write its output directory (SPEC §8).
 
     Writes ``report.json``, ``report.md``, ``timeline.<fmt>``, ``estimates.<fmt>`` and
@@ -59,13 +62,15 @@ def write_report(
         ``"csv"`` or ``"parquet"`` for the timeline and estimates tables.
     force:
         Replace a non-empty existing ``out_dir``.
+    reading:
+        What reading the log did, recorded as the report's ``reading``.
     extra:
         Additional top-level report keys (they replace computed keys of the same name).
 
     Returns
     -------
-    dict
-        The report, as written to ``report.json``.
+    Report
+        The report; ``report.json`` holds its :meth:`~Report.to_json`.
 
     Raises
     ------
@@ -76,9 +81,11 @@ def write_report(
 
     """
     fmt = check_table_format(table_format)
-    report = build_report(result, signals, log=log, model_name=model_name, dt=dt, extra=extra)
+    report = build_report(
+        result, signals, log=log, model_name=model_name, dt=dt, reading=reading, extra=extra
+    )
     with atomic_output_dir(out_dir, force=force) as tmp:
-        (tmp / "report.json").write_text(report_json(report), encoding="utf-8")
+        (tmp / "report.json").write_text(report.to_json(), encoding="utf-8")
         (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
         write_table(timeline_frame(result, signals), tmp / "timeline", fmt)
         write_table(estimates_frame(result, signals), tmp / "estimates", fmt)

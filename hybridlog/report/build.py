@@ -1,0 +1,282 @@
+"""Compute the :class:`~hybridlog.report.document.Report` of one run from its result and log.
+
+Every metric comes from :mod:`hybridlog.report.metrics`; this module assembles them into the
+typed report, turns numbers that are not finite into ``None`` and says why each gate metric
+that is ``None`` is undefined (``null_reasons``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from hybridlog import __version__
+from hybridlog.errors import LogError
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.report import metrics
+from hybridlog.report.document import (
+    Detection,
+    JsonObject,
+    ModeReport,
+    ModeSwitch,
+    OutputReport,
+    Report,
+    StateReport,
+)
+from hybridlog.report.markdown import plural
+from hybridlog.signals import AlignedSignals
+
+__all__ = ["MIN_SAMPLES", "build_report", "check_compatible", "jsonable"]
+
+MIN_SAMPLES = 3
+"""Fewest samples a run must have to be reported: row 0 is the estimators' prior (no
+prediction), and VAF and fit compare spreads, which a single predicted sample does not have."""
+
+
+def jsonable(value: Any) -> Any:
+    """Convert a value to plain JSON types, with ``None`` for NaN and infinities.
+
+    Parameters
+    ----------
+    value:
+        Nested dicts, lists, tuples, NumPy scalars and arrays, numbers, strings.
+
+    Returns
+    -------
+    Any
+        The same structure made of ``dict``, ``list``, ``str``, ``int``, ``float``,
+        ``bool`` and ``None``; any other object becomes its ``str``.
+
+    """
+    if value is None or isinstance(value, bool | str):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        f = float(value)
+        return f if math.isfinite(f) else None
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | set | frozenset):
+        return [jsonable(v) for v in value]
+    return str(value)
+
+
+def _num(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def check_compatible(result: EstimationResult, signals: AlignedSignals) -> None:
+    """Check that a result and the signals it was computed from line up row by row.
+
+    The result's own arrays are checked when it is built
+    (:class:`~hybridlog.estimators.result.EstimationResult`); this checks the signals
+    against it.
+
+    Parameters
+    ----------
+    result:
+        The estimation result.
+    signals:
+        The aligned signals it was computed from.
+
+    Raises
+    ------
+    ValueError
+        When sample counts, outputs or truth shapes disagree (a programming error, not a
+        user error).
+
+    """
+    n = result.n_samples
+    if signals.n_samples != n:
+        raise ValueError(f"result has {n} samples but the signals have {signals.n_samples}")
+    if tuple(signals.output_names) != tuple(result.output_names):
+        raise ValueError(
+            f"the result predicts outputs {result.output_names} but the signals hold "
+            f"{signals.output_names}"
+        )
+    n_y, n_x = len(result.output_names), len(result.state_names)
+    if signals.outputs.shape != (n, n_y):
+        raise ValueError(f"outputs have shape {signals.outputs.shape}; expected {(n, n_y)}")
+    if signals.truth_modes is not None and signals.truth_modes.shape != (n,):
+        raise ValueError(f"truth modes have shape {signals.truth_modes.shape}; expected {(n,)}")
+    if signals.truth_states is not None and signals.truth_states.shape != (n, n_x):
+        raise ValueError(
+            f"truth states have shape {signals.truth_states.shape}; expected {(n, n_x)}"
+        )
+
+
+def _modes(result: EstimationResult, signals: AlignedSignals, dt: float) -> ModeReport:
+    ids = tuple(str(m) for m in result.mode_ids)
+    dwell = metrics.dwell_times(result.time, result.modes, len(ids), dt)
+    modes = ModeReport(
+        labels=ids,
+        switches=tuple(
+            ModeSwitch(t=s["t"], from_mode=s["from"], to_mode=s["to"])
+            for s in metrics.mode_switches(result.time, result.modes, ids)
+        ),
+        dwell_s={m: _num(float(d)) for m, d in zip(ids, dwell, strict=True)},
+    )
+    truth = signals.truth_modes
+    if truth is None:
+        return modes
+    counts = metrics.confusion_matrix(result.modes, truth, len(ids))
+    det = metrics.detection_delays(result.time, result.modes, truth, ids)
+    return ModeReport(
+        labels=modes.labels,
+        switches=modes.switches,
+        dwell_s=modes.dwell_s,
+        accuracy=_num(metrics.mode_accuracy(result.modes, truth)),
+        confusion={
+            t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
+            for i, t_id in enumerate(ids)
+        },
+        detection=Detection(mean_s=_num(det.mean_s), max_s=_num(det.max_s), events=det.events),
+    )
+
+
+def build_report(
+    result: EstimationResult,
+    signals: AlignedSignals,
+    *,
+    log: str,
+    model_name: str,
+    dt: float,
+    reading: Mapping[str, Any] | None = None,
+    extra: Mapping[str, Any] | None = None,
+) -> Report:
+    """Compute every metric of a run into a :class:`~hybridlog.report.document.Report`.
+
+    Parameters
+    ----------
+    result:
+        What the estimator returned.
+    signals:
+        The aligned signals it ran on (measured outputs, ground truth if any).
+    log:
+        Path or name of the log, as the user gave it.
+    model_name:
+        Name of the model.
+    dt:
+        The model's sample time in seconds.
+    reading:
+        What reading the log did (the ``notes`` of :func:`hybridlog.io.load_signals`).
+    extra:
+        Further top-level keys of ``report.json``; a key naming a report attribute
+        replaces the computed value (checked like a key of a ``report.json``).
+
+    Returns
+    -------
+    Report
+        The report; ``report.to_json()`` is ``report.json``.
+
+    Raises
+    ------
+    LogError
+        When the run has fewer than :data:`MIN_SAMPLES` samples (naming ``log``).
+
+    """
+    check_compatible(result, signals)
+    n = result.n_samples
+    if n < MIN_SAMPLES:
+        raise LogError(
+            f"{log}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
+            f"a report needs at least {MIN_SAMPLES}: the first sample is the prior, and VAF "
+            "and fit need the spread of at least two predicted samples"
+        )
+    per_output = dict(
+        zip(
+            result.output_names,
+            metrics.output_metrics(signals.outputs, result.output_predictions),
+            strict=True,
+        )
+    )
+    rmse = np.full(len(result.state_names), np.nan)
+    if signals.truth_states is not None:
+        rmse = metrics.state_rmse(result.state_means, signals.truth_states)
+    runtime = float(result.runtime_s)
+    modes = _modes(result, signals, dt)
+    states = {
+        x: StateReport(rmse=_num(float(r))) for x, r in zip(result.state_names, rmse, strict=True)
+    }
+    means = {
+        name: _num(metrics.mean_of_finite([getattr(m, name) for m in per_output.values()]))
+        for name in ("mse", "vaf", "fit")
+    }
+    samples_per_s = _num(n / runtime) if runtime > 0.0 else None
+    report = Report(
+        hybridlog_version=__version__,
+        log=str(log),
+        model=model_name,
+        estimator=result.estimator,
+        options=_json_object(result.options),
+        samples=n,
+        dt=float(dt),
+        t_start=_num(float(result.time[0])),
+        t_end=_num(float(result.time[-1])),
+        outputs={
+            y: OutputReport(mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples)
+            for y, m in per_output.items()
+        },
+        mse=means["mse"],
+        vaf=means["vaf"],
+        fit=means["fit"],
+        modes=modes,
+        states=states,
+        runtime_s=_num(runtime),
+        compile_s=_num(float(result.compile_s)),
+        samples_per_s=samples_per_s,
+        notes=tuple(str(note) for note in result.notes),
+        null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
+        reading=None if reading is None else _json_object(reading),
+    )
+    if extra:
+        report = Report.from_dict({**report.to_dict(), **_json_object(extra)}, source=str(log))
+    return report
+
+
+def _json_object(value: Mapping[str, Any]) -> JsonObject:
+    converted: JsonObject = jsonable(value)
+    return converted
+
+
+def _null_reasons(
+    per_output: Mapping[str, metrics.OutputMetrics],
+    means: Mapping[str, float | None],
+    modes: ModeReport,
+    states: Mapping[str, StateReport],
+    signals: AlignedSignals,
+    samples_per_s: float | None,
+) -> dict[str, str]:
+    """Why each gate metric that is ``None`` in the report is (keys as in the gates)."""
+    reasons: dict[str, str] = {}
+    for name in ("mse", "vaf", "fit"):
+        for y, m in per_output.items():
+            if name in m.undefined:
+                reasons[f"{name}.{y}"] = m.undefined[name]
+        if means[name] is None and per_output:
+            y, m = next(iter(per_output.items()))
+            reasons[name] = f"undefined for every output ({y}: {m.undefined.get(name)})"
+    if signals.truth_modes is None:
+        for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
+            reasons[name] = "the log has no ground-truth mode"
+    elif modes.detection is not None and modes.detection_delay_s is None:
+        events = modes.detection.events
+        reasons["detection_delay_s"] = (
+            "the true mode never switches"
+            if not events
+            else f"every true switch ({len(events)}) was missed"
+        )
+    for x, state in states.items():
+        if state.rmse is None:
+            reasons[f"state_rmse.{x}"] = f"the log has no ground truth for state {x}"
+    if samples_per_s is None:
+        reasons["samples_per_s"] = "the runtime was too short to measure"
+    return reasons

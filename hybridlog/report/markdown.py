@@ -1,0 +1,222 @@
+"""``report.md``: a report for people (and CI job summaries), and the wording it shares.
+
+:func:`render_markdown` writes a :class:`~hybridlog.report.document.Report` as Markdown with
+the definitions of its metrics; :func:`plural`, :func:`duration` and :func:`rate` word
+counts, times and speeds the same way here and in the command line's messages.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from hybridlog.report.document import ModeReport, Report
+
+__all__ = ["DEFINITIONS", "MAX_LISTED_SWITCHES", "duration", "plural", "rate", "render_markdown"]
+
+MAX_LISTED_SWITCHES = 50
+"""``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
+
+
+def _fmt(value: Any, spec: str = ".6g") -> str:
+    if value is None:
+        return "n/a"
+    if isinstance(value, float):
+        return format(value, spec)
+    return str(value)
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def plural(count: int, noun: str, plural_form: str | None = None) -> str:
+    """``"1 switch"``, ``"2 switches"``: a count with its noun in agreement.
+
+    Parameters
+    ----------
+    count:
+        How many.
+    noun:
+        The singular noun (or noun phrase ending in the noun).
+    plural_form:
+        The plural when it is not ``noun + "s"`` (``"es"`` after s, x, ch, sh).
+
+    Returns
+    -------
+    str
+        E.g. ``"1 estimated mode switch"``, ``"0 estimated mode switches"``.
+
+    """
+    if count == 1:
+        return f"{count} {noun}"
+    if plural_form is None:
+        plural_form = noun + ("es" if noun.endswith(("s", "x", "ch", "sh")) else "s")
+    return f"{count:,} {plural_form}"
+
+
+def duration(seconds: float | None) -> str:
+    """A duration for people, with three significant digits and a unit that fits.
+
+    ``0.00031`` → ``"0.31 ms"``, ``2.5e-6`` → ``"2.5 µs"``, ``12.345`` → ``"12.3 s"``,
+    ``None`` → ``"n/a"``.
+    """
+    if seconds is None or not math.isfinite(seconds):
+        return "n/a"
+    magnitude = abs(seconds)
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("µs", 1e-6)):
+        if magnitude >= scale:
+            return f"{seconds / scale:.3g} {unit}"
+    return f"{seconds * 1e9:.3g} ns" if magnitude > 0 else "0 s"
+
+
+def rate(per_second: float | None, noun: str) -> str:
+    """``1234567.8`` → ``"1,234,568 samples/s"`` (``"n/a"`` when unknown)."""
+    if per_second is None or not math.isfinite(per_second):
+        return "n/a"
+    return f"{per_second:,.0f} {noun}/s" if per_second >= 100 else f"{per_second:.3g} {noun}/s"
+
+
+DEFINITIONS = (
+    "MSE = mean((y − ŷ)²) and VAF = max(1 − var(y − ŷ)/var(ŷ), 0)·100 % (paper 001) use the "
+    "one-step-ahead prediction ŷ(k), made before y(k) is used; the first sample (the prior) "
+    "has none.",
+    "Fit = (1 − ‖y − ŷ‖/‖y − mean(y)‖)·100 % (MATLAB `compare`'s NRMSE): 100 is perfect, "
+    "0 no better than the mean of y, negative worse. Unlike VAF, its denominator does not "
+    "depend on the prediction, so a worse predictor cannot score higher.",
+    "A metric is n/a (null) when undefined, with the reason given: VAF when var(ŷ) = 0, fit "
+    "when y is constant. The top rows are the means over the outputs where it is defined.",
+    "Mode accuracy: the fraction of all samples whose estimated mode is the true one.",
+    "Detection delay: from a true switch to the first estimated change *into* the new mode at "
+    "or after it, before the next true switch. An estimate that was already in that mode "
+    "before the switch has not detected it: a miss, as is a switch never followed by such a "
+    "change. The mean and max are over the detected switches.",
+)
+
+
+def render_markdown(report: Report) -> str:
+    """Render a report for people (``report.md``, CI job summaries).
+
+    Parameters
+    ----------
+    report:
+        A report from :func:`hybridlog.report.build.build_report` (or read back).
+
+    Returns
+    -------
+    str
+        Markdown: title, run facts, per-output MSE/VAF/fit table (with why a metric is
+        n/a), mode summary (with accuracy, confusion matrix and every true switch with its
+        detection or why it was missed, when the true mode is known), state RMSE table,
+        runtime, the estimator's notes and the definitions of the metrics.
+
+    """
+    lines: list[str] = [
+        f"# hybridlog report: {_cell(report.log)}",
+        "",
+        f"- model: `{report.model}`, estimator: `{report.estimator}`",
+        f"- samples: {report.samples}, dt = {_fmt(report.dt)} s, "
+        f"t = {_fmt(report.t_start)} … {_fmt(report.t_end)} s",
+        f"- hybridlog {report.hybridlog_version}",
+        "",
+        "## Outputs",
+        "",
+        "| output | MSE | VAF (%) | fit (%) |",
+        "|---|---:|---:|---:|",
+    ]
+    for y, m in report.outputs.items():
+        lines.append(
+            f"| {_cell(y)} | {_fmt(m.mse)} | {_fmt(m.vaf, '.4f')} | {_fmt(m.fit, '.4f')} |"
+        )
+    lines.append(
+        f"| **mean** | **{_fmt(report.mse)}** | **{_fmt(report.vaf, '.4f')}** "
+        f"| **{_fmt(report.fit, '.4f')}** |"
+    )
+    undefined = [
+        f"- {name} is n/a: {why}"
+        for name, why in report.null_reasons.items()
+        if name.partition(".")[0] in ("mse", "vaf", "fit")
+    ]
+    expected = report.samples - 1  # every sample after the prior
+    undefined += [
+        f"- {y}: metrics over {m.samples:,} of {expected:,} samples; the others have no "
+        "finite measurement or prediction"
+        for y, m in report.outputs.items()
+        if m.samples is not None and m.samples < expected
+    ]
+    if undefined:
+        lines += ["", *undefined]
+
+    modes = report.modes
+    lines += ["", "## Modes", "", f"{plural(len(modes.switches), 'estimated mode switch')}.", ""]
+    lines += ["| mode | dwell (s) |", "|---|---:|"]
+    lines += [f"| {_cell(m)} | {_fmt(modes.dwell_s.get(m))} |" for m in modes.labels]
+    lines.append("")
+    if modes.accuracy is None:
+        lines.append("No ground-truth mode in the log: accuracy and delays are not known.")
+    else:
+        lines += _truth_lines(modes, modes.accuracy)
+
+    if report.states:
+        lines += ["", "## States", "", "| state | RMSE |", "|---|---:|"]
+        lines += [f"| {_cell(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
+
+    lines += [
+        "",
+        "## Runtime",
+        "",
+        f"- estimation: {duration(report.runtime_s)} ({rate(report.samples_per_s, 'samples')})",
+    ]
+    if report.compile_s is not None:
+        lines.append(f"- compilation: {duration(report.compile_s)}")
+    if report.notes:
+        lines += ["", "## Notes", ""]
+        lines += [f"- {note}" for note in report.notes]
+    lines += ["", "## How the metrics are defined", ""]
+    lines += [f"- {text}" for text in DEFINITIONS]
+    return "\n".join(lines) + "\n"
+
+
+def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
+    """Accuracy, detection of every true switch, and the confusion matrix."""
+    det = modes.detection
+    events = det.events if det is not None else ()
+    detected, missed = (det.detected, det.missed) if det is not None else (0, 0)
+    delay = modes.detection_delay_s
+    lines = [
+        f"- mode accuracy: {_fmt(accuracy, '.4%')}",
+        f"- {plural(len(events), 'true mode switch')}: {detected:,} detected, {missed:,} missed"
+        + (
+            f"; detection delay mean {_fmt(delay)} s, "
+            f"max {_fmt(det.max_s if det is not None else None)} s"
+            if delay is not None
+            else ""
+        ),
+    ]
+    if events:
+        lines += ["", "| true switch at (s) | from → to | detected at (s) | delay (s) |"]
+        lines.append("|---:|---|---|---:|")
+        for e in events[:MAX_LISTED_SWITCHES]:
+            found = e.detected_t
+            when = _fmt(found) if found is not None else f"missed: {e.miss_reason}"
+            lines.append(
+                f"| {_fmt(e.t)} | {_cell(e.from_mode)} → {_cell(e.to_mode)} "
+                f"| {_cell(when)} | {_fmt(e.delay_s)} |"
+            )
+        if len(events) > MAX_LISTED_SWITCHES:
+            lines.append(f"\n… and {len(events) - MAX_LISTED_SWITCHES:,} more in report.json.")
+    confusion = modes.confusion or {}
+    lines += [
+        "",
+        "Confusion (rows: true mode, columns: estimated mode, sample counts):",
+        "",
+        "| true \\ estimated | " + " | ".join(_cell(m) for m in modes.labels) + " |",
+        "|---|" + "---:|" * len(modes.labels),
+    ]
+    for t_id in modes.labels:
+        row = confusion.get(t_id, {})
+        lines.append(
+            f"| {_cell(t_id)} | " + " | ".join(str(row.get(e, 0)) for e in modes.labels) + " |"
+        )
+    return lines
