@@ -11,28 +11,21 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any
-
-import numpy as np
-import numpy.typing as npt
+from typing import TYPE_CHECKING, Any
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io.align import align_signals, check_alignment_options
-from hybridlog.io.inspect import format_inspection, inspect_log
-from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
-from hybridlog.io.readers import FORMATS, open_log
-from hybridlog.io.source import (
-    TIME_SOURCES,
-    LabelSeries,
-    LogSource,
-    ReadSettings,
-    Series,
-    check_finite,
-    format_ns,
-    labels_to_codes,
-)
-from hybridlog.io.writers import write_table
-from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals
+from hybridlog.lazy import lazy_exports
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
+    from hybridlog.io.inspect import format_inspection, inspect_log
+    from hybridlog.io.mapping import SignalMap
+    from hybridlog.io.readers import FORMATS, open_log
+    from hybridlog.io.source import LabelSeries, LogSource, ReadSettings, Series
+    from hybridlog.io.writers import write_table
+    from hybridlog.signals import AlignedSignals
 
 __all__ = [
     "FORMATS",
@@ -47,6 +40,19 @@ __all__ = [
     "open_log",
     "write_table",
 ]
+
+# Imported on first use, so that importing a light module of io/ (``hybridlog simulate
+# --help`` reads the log formats) loads no numpy, polars, mcap or rosbags.
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        ".inspect": ["format_inspection", "inspect_log"],
+        ".mapping": ["SignalMap"],
+        ".readers": ["FORMATS", "open_log"],
+        ".source": ["LabelSeries", "LogSource", "ReadSettings", "Series"],
+        ".writers": ["write_table"],
+    },
+)
 
 
 def load_signals(
@@ -113,6 +119,21 @@ def load_signals(
         For a missing or unreadable log, a missing field, a non-numeric, NaN, infinite or
         out-of-range value, time going backwards, an unknown true mode, or an over-long gap.
     """
+    import numpy as np
+
+    from hybridlog.io.align import align_signals, check_alignment_options
+    from hybridlog.io.mapping import parse_maps, resolve_signal_map
+    from hybridlog.io.readers import open_log
+    from hybridlog.io.source import (
+        TIME_SOURCES,
+        LabelSeries,
+        ReadSettings,
+        Series,
+        check_finite,
+        labels_to_codes,
+    )
+    from hybridlog.signals import MAX_MAGNITUDE
+
     check_alignment_options(dt, resample, max_gap)
     settings = settings or ReadSettings()
     if settings.time not in TIME_SOURCES:
@@ -196,6 +217,11 @@ def _refuse_out_of_range(
     source: LogSource, series: Series, symbol: str, usable: npt.NDArray[np.bool_]
 ) -> None:
     """Raise for the first finite value of ``series`` whose magnitude is absurd."""
+    import numpy as np
+
+    from hybridlog.io.source import format_ns
+    from hybridlog.signals import MAX_MAGNITUDE
+
     first = int(np.argmax(~usable))
     raise LogError(
         f"{source.path}, {source.locate(series.name, first)}: {series.values[first]:.6g} for "
