@@ -217,6 +217,10 @@ def _analysis_options(function: F) -> F:
     return function
 
 
+_METAVARS = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN"}
+"""click's names of plain option types; choices and optional types show as ``[a|b]``."""
+
+
 @dataclass(frozen=True)
 class _DataclassOptions:
     """Command-line options generated from an options dataclass: its one definition.
@@ -261,13 +265,12 @@ class _DataclassOptions:
                     )
                 )
                 continue
-            metavar = f"[{info.type}]" if "|" in info.type else info.type.upper()
             limits = f"; {info.constraint}" if info.constraint else ""
             params.append(
                 click.Option(
                     [f"--{name.replace('_', '-')}", name],
                     default=None,
-                    metavar=metavar.replace("STR", "TEXT"),
+                    metavar=_METAVARS.get(info.type, f"[{info.type}]"),
                     help=f"{info.help} [{default}{limits}]",
                 )
             )
