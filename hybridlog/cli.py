@@ -2,6 +2,11 @@
 
 Every command calls one library function.  hybridlog's own errors become one line on stderr
 and exit code 2 (``--debug`` shows the traceback); a missed CI gate is exit code 1.
+
+Start-up is lazy: this module imports click and hybridlog's light modules only (the errors,
+the estimator registry, the names of the built-in models), and each command imports what it
+needs when it runs, so ``hybridlog --help``, ``hybridlog <command> --help`` and ``hybridlog
+models`` load no numpy, polars, numba, sympy, scipy or matplotlib (``tests/test_startup.py``).
 """
 
 from __future__ import annotations
@@ -11,30 +16,22 @@ import json
 import sys
 import traceback
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
 from hybridlog import __version__
-from hybridlog.cluster.subtractive import AUTO_EXACT_MAX
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
-from hybridlog.estimators.chiu import ChiuOptions
-from hybridlog.io import ReadOptions
-from hybridlog.io.bag_writers import LOG_FORMATS, MCAP_ENCODINGS
+from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
 from hybridlog.io.formats import format_list
-from hybridlog.io.inspect import format_inspection, inspect_log
-from hybridlog.jobs.analysis import analyze, compare
-from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.cluster import discover_modes
-from hybridlog.jobs.simulate import simulate_log
-from hybridlog.model.builtins import builtin_names, builtin_text
-from hybridlog.model.loader import load_model
-from hybridlog.report.markdown import duration, plural
+from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
 
 if TYPE_CHECKING:
+    from hybridlog.io import ReadOptions
     from hybridlog.report.document import Report
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -79,32 +76,63 @@ def _global_flags(function: F) -> F:
     )(function)
 
 
-def _estimator_names() -> str:
-    """The registered estimators, for help texts (the registry is the one list)."""
-    return ", ".join(ESTIMATORS)
+def _estimators_epilog(*examples: str) -> str:
+    """The registered estimators with their summaries, then ``examples``.
+
+    Read from the registry alone (the one list), which imports no estimator module.
+    """
+    width = max(len(name) for name in ESTIMATORS)
+    rows = [f"  {e.name:<{width}}  {e.summary}" for e in ESTIMATORS.values()]
+    listing = "\b\nEstimators (options: --set NAME=VALUE, see docs/estimators.md):\n"
+    return listing + "\n".join(rows) + "\n\n" + _examples(*examples)
 
 
-def _model_option(function: F) -> F:
-    return click.option(
-        "--model",
-        "model_ref",
-        required=True,
-        metavar="MODEL",
-        help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
-    )(function)
+# Options shared by several commands: each is defined here once.
+
+_model_option = click.option(
+    "--model",
+    "model_ref",
+    required=True,
+    metavar="MODEL",
+    help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
+)
+
+_estimator_option = click.option(
+    "--estimator",
+    default=None,
+    metavar="NAME",
+    help="Estimator (listed below) [default: the model's default_estimator].",
+)
+
+_map_option = click.option(
+    "--map",
+    "maps",
+    multiple=True,
+    metavar="SYMBOL=PATH",
+    help="Map a model input, output or truth symbol (truth.mode, truth.x1) "
+    "to a log field. Repeatable.",
+)
+
+_msg_dir_option = click.option(
+    "--msg-dir",
+    "msg_dirs",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    metavar="DIR",
+    help="Folder of .msg files (pkg/msg/Name.msg) for message types the log does "
+    "not define. Repeatable.",
+)
+
+
+def _force_option(replaces: str) -> Callable[[F], F]:
+    """``--force``: what it replaces differs by command (and never includes an input)."""
+    return click.option("--force", is_flag=True, help=f"Replace {replaces}.")
 
 
 def _analysis_options(function: F) -> F:
-    """Options shared by analyze, compare and batch; each is defined here once."""
+    """Options shared by analyze, compare and batch."""
     decorators = [
-        click.option(
-            "--map",
-            "maps",
-            multiple=True,
-            metavar="SYMBOL=PATH",
-            help="Map a model input, output or truth symbol (truth.mode, truth.x1) "
-            "to a log field. Repeatable.",
-        ),
+        _map_option,
         click.option(
             "--set",
             "sets",
@@ -180,25 +208,130 @@ def _analysis_options(function: F) -> F:
             help="Read an unfinished or damaged MCAP file sequentially up to its first bad "
             "record, and analyse that (recorded in report.json).",
         ),
-        click.option(
-            "--msg-dir",
-            "msg_dirs",
-            multiple=True,
-            type=click.Path(path_type=Path),
-            metavar="DIR",
-            help="Folder of .msg files (pkg/msg/Name.msg) for message types the log does "
-            "not define. Repeatable.",
-        ),
-        click.option(
-            "--force",
-            is_flag=True,
-            help="Replace an output directory hybridlog wrote before (never a folder holding "
-            "other files, never an input).",
+        _msg_dir_option,
+        _force_option(
+            "an output directory hybridlog wrote before (never a folder holding other "
+            "files, never an input)"
         ),
     ]
     for decorator in reversed(decorators):
         function = decorator(function)
     return function
+
+
+_METAVARS = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN"}
+"""click's names of plain option types; choices and optional types show as ``[a|b]``."""
+
+
+@dataclass(frozen=True)
+class _DataclassOptions:
+    """Command-line options generated from an options dataclass: its one definition.
+
+    Each named field becomes ``--field-name VALUE`` whose help, default and type come from
+    the field (:func:`~hybridlog.estimators.options.describe_options`); the values given are
+    read and checked by :func:`~hybridlog.estimators.options.parse_options`, exactly like
+    ``--set`` values, and fields not given keep the dataclass's defaults.  A
+    ``Literal`` field may instead be a switch between two of its choices
+    (``--exact/--approximate``).
+
+    Attributes
+    ----------
+    load:
+        Returns the dataclass (called when the command is first used, so that its module is
+        not imported by ``hybridlog --help`` or other commands).
+    names:
+        The fields offered, in the order shown.
+    owner:
+        Whose options they are, for messages (``chiu option 'radius': ...``).
+    switches:
+        Field → (choice of ``--on``, choice of ``--off``), the flags named after the choices.
+    """
+
+    load: Callable[[], type[Any]]
+    names: tuple[str, ...]
+    owner: str
+    switches: Mapping[str, tuple[str, str]]
+
+    def params(self) -> list[click.Parameter]:
+        """The click options, one per field."""
+        infos = {info.name: info for info in describe_options(self.load())}
+        params: list[click.Parameter] = []
+        for name in self.names:
+            info = infos[name]
+            default = f"default: {shown(info.default)}"
+            if name in self.switches:
+                on, off = self.switches[name]
+                params.append(
+                    click.Option(
+                        [f"--{on}/--{off}", name], default=None, help=f"{info.help} [{default}]"
+                    )
+                )
+                continue
+            limits = f"; {info.constraint}" if info.constraint else ""
+            params.append(
+                click.Option(
+                    [f"--{name.replace('_', '-')}", name],
+                    default=None,
+                    metavar=_METAVARS.get(info.type, f"[{info.type}]"),
+                    help=f"{info.help} [{default}{limits}]",
+                )
+            )
+        return params
+
+    def parse(self, given: Mapping[str, Any]) -> Any:
+        """The dataclass from the values given on the command line (``None``: not given)."""
+        values: dict[str, Any] = {}
+        sources: dict[str, OptionSource] = {}
+        for name, value in given.items():
+            if value is None:
+                continue
+            if name in self.switches:
+                values[name] = self.switches[name][0 if value else 1]
+                continue
+            values[name] = value
+            sources[name] = OptionSource(f"--{name.replace('_', '-')} {excerpt(value)[1:-1]}")
+        return parse_options(self.load(), values, estimator=self.owner, sources=sources)
+
+
+class _GeneratedOptionsCommand(click.Command):
+    """A command with options generated by a :class:`_DataclassOptions` on first use.
+
+    The options are made when the command's parameters are first needed (to parse its
+    arguments or show its help), after the parameter named ``after``.
+    """
+
+    def __init__(self, *args: Any, generated: _DataclassOptions, after: str, **kwargs: Any) -> None:
+        self._generated: _DataclassOptions | None = generated
+        self._after = after
+        super().__init__(*args, **kwargs)
+
+    @property
+    def params(self) -> list[click.Parameter]:
+        if self._generated is not None:
+            generated, self._generated = self._generated, None
+            at = [p.name for p in self._params].index(self._after) + 1
+            self._params[at:at] = generated.params()
+        return self._params
+
+    @params.setter
+    def params(self, value: list[click.Parameter]) -> None:
+        self._params = value
+
+
+def _chiu_options() -> type[Any]:
+    """The clustering options of paper 001's classifier (defaults: MATLAB ``subclust``)."""
+    from hybridlog.estimators.chiu import ChiuOptions
+
+    return ChiuOptions
+
+
+_CLUSTERING = _DataclassOptions(
+    load=_chiu_options,
+    names=("radius", "squash", "accept", "reject", "method", "output_lags", "input_lags"),
+    owner="chiu",
+    switches={"method": ("exact", "approximate")},
+)
+"""``hybridlog cluster``'s clustering options, from the ``chiu`` estimator's options."""
 
 
 @click.group(
@@ -240,16 +373,12 @@ def _say(ctx: click.Context, text: str) -> None:
 @_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
-@click.option(
-    "--msg-dir",
-    "msg_dirs",
-    multiple=True,
-    type=click.Path(path_type=Path),
-    metavar="DIR",
-    help="Folder of .msg files for message types the log does not define. Repeatable.",
-)
+@_msg_dir_option
 def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
     """Describe a log (the help text lists the formats from the table of formats)."""
+    from hybridlog.io import ReadOptions
+    from hybridlog.io.inspect import format_inspection, inspect_log
+
     info = inspect_log(log, ReadOptions(msg_dirs=tuple(str(d) for d in msg_dirs)))
     click.echo(json.dumps(info, indent=2) if as_json else format_inspection(info))
 
@@ -260,12 +389,33 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
 def models(name: str | None) -> None:
     """List the built-in models, or print the model file of one."""
     if name is not None:
-        load_model(name)  # validates the name with the usual error
         click.echo(builtin_text(name), nl=False)
         return
     for builtin in builtin_names():
-        model = load_model(builtin)
-        click.echo(f"{builtin:20s} {model.reference}")
+        click.echo(f"{builtin:20s} {builtin_reference(builtin)}")
+
+
+class _LogFormats(click.Choice[str]):
+    """``--format`` or ``--encoding``: choices read from the log writers when first needed.
+
+    ``name`` is the tuple of :mod:`hybridlog.io.bag_writers` that lists them (the one
+    list); the module is imported to parse or show ``simulate``'s options, not by other
+    commands.
+    """
+
+    def __init__(self, name: str) -> None:
+        self._name = name
+        super().__init__(())
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        from hybridlog.io import bag_writers
+
+        return tuple(getattr(bag_writers, self._name))
+
+    @choices.setter
+    def choices(self, value: Sequence[str]) -> None:
+        """Ignored: click's constructor sets the choices, which are read instead."""
 
 
 @cli.command(
@@ -289,13 +439,13 @@ def models(name: str | None) -> None:
 @click.option(
     "--format",
     "log_format",
-    type=click.Choice(list(LOG_FORMATS)),
+    type=_LogFormats("LOG_FORMATS"),
     default=None,
     help="Log format [default: from the suffix of --out].",
 )
 @click.option(
     "--encoding",
-    type=click.Choice(list(MCAP_ENCODINGS)),
+    type=_LogFormats("MCAP_ENCODINGS"),
     default="cdr",
     show_default=True,
     help="Message encoding of an MCAP file: ROS 2 CDR, JSON or ROS 1.",
@@ -315,11 +465,7 @@ def models(name: str | None) -> None:
 @click.option(
     "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
 )
-@click.option(
-    "--force",
-    is_flag=True,
-    help="Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).",
-)
+@_force_option("an existing file, or a ROS 2 bag folder hybridlog wrote (never the model)")
 @click.pass_context
 def simulate(
     ctx: click.Context,
@@ -337,6 +483,9 @@ def simulate(
     In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
     true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
     """
+    from hybridlog.jobs.simulate import simulate_log
+    from hybridlog.report.markdown import plural
+
     outcome = simulate_log(
         model_ref,
         out,
@@ -352,6 +501,9 @@ def simulate(
 
 @cli.command(
     "cluster",
+    cls=_GeneratedOptionsCommand,
+    generated=_CLUSTERING,
+    after="model_ref",
     epilog=_examples(
         "hybridlog cluster sample_logs/double_cart_case1.csv --model double_cart_case1",
         "hybridlog cluster sample_logs/double_cart_case2.csv --model double_cart_case2 "
@@ -363,32 +515,6 @@ def simulate(
 @_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
-@click.option(
-    "--radius",
-    type=float,
-    default=0.5,
-    show_default=True,
-    help="Cluster radius r_a in the unit hyper-box the regression vectors are scaled into.",
-)
-@click.option(
-    "--squash", type=float, default=1.25, show_default=True, help="r_b/r_a of eqs. (6)-(7)."
-)
-@click.option("--accept", type=float, default=0.5, show_default=True, help="Accept ratio ε1.")
-@click.option("--reject", type=float, default=0.15, show_default=True, help="Reject ratio ε2.")
-@click.option(
-    "--exact/--approximate",
-    "exact",
-    default=None,
-    help="Exact all-pairs potentials, or the grid approximation for long logs "
-    f"[default: exact up to {AUTO_EXACT_MAX:,} vectors].",
-)
-@click.option(
-    "--output-lags",
-    default="0,1",
-    show_default=True,
-    help="Lags of every output in φ(k); must contain 0.",
-)
-@click.option("--input-lags", default="1", show_default=True, help="Lags of every input in φ(k).")
 @click.option(
     "--out",
     "out",
@@ -404,34 +530,20 @@ def simulate(
     help="Picture of the clusters [default: --out with .png].",
 )
 @click.option("--compare-kmeans", is_flag=True, help="Also fit k-means and compare.")
-@click.option(
-    "--map",
-    "maps",
-    multiple=True,
-    metavar="SYMBOL=PATH",
-    help="Map a model input, output or truth symbol to a log field. Repeatable.",
-)
-@click.option(
-    "--force", is_flag=True, help="Replace existing output files (never the log or the model)."
-)
+@_map_option
+@_force_option("existing output files (never the log or the model)")
 @click.pass_context
 def cluster_command(
     ctx: click.Context,
     /,
     log: Path,
     model_ref: str,
-    radius: float,
-    squash: float,
-    accept: float,
-    reject: float,
-    exact: bool | None,
-    output_lags: str,
-    input_lags: str,
     out: Path,
     plot: Path | None,
     compare_kmeans: bool,
     maps: tuple[str, ...],
     force: bool,
+    **clustering: Any,
 ) -> None:
     """Fit Chiu subtractive clusters on regression vectors offline (paper 001).
 
@@ -439,19 +551,13 @@ def cluster_command(
     mode from the data and the model alone, and writes the centres and classifier to a JSON
     file, a plot, and a table.
     """
+    from hybridlog.jobs.cluster import discover_modes
+
     outcome = discover_modes(
         log,
         model_ref,
         out=out,
-        chiu=ChiuOptions(
-            radius=radius,
-            squash=squash,
-            accept=accept,
-            reject=reject,
-            method="auto" if exact is None else ("exact" if exact else "approximate"),
-            output_lags=output_lags,
-            input_lags=input_lags,
-        ),
+        chiu=_CLUSTERING.parse(clustering),
         compare_kmeans=compare_kmeans,
         plot=plot,
         maps=maps,
@@ -465,7 +571,7 @@ def cluster_command(
 
 @cli.command(
     "analyze",
-    epilog=_examples(
+    epilog=_estimators_epilog(
         "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
         "--estimator imm --out tank_imm",
         "hybridlog analyze sample_logs/three_tank_hstf.mcap --model three_tank_hstf "
@@ -476,11 +582,7 @@ def cluster_command(
 @_global_flags
 @click.argument("log", type=click.Path(path_type=Path))
 @_model_option
-@click.option(
-    "--estimator",
-    default=None,
-    help=f"Estimator name ({_estimator_names()}) [default: the model's default_estimator].",
-)
+@_estimator_option
 @click.option(
     "--out",
     "out_dir",
@@ -500,6 +602,8 @@ def analyze_command(
     **options: Any,
 ) -> None:
     """Run one estimator over one log and write report, tables and plots."""
+    from hybridlog.jobs.analysis import analyze
+
     read, common = _split_options(options)
     outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
     report = outcome.report
@@ -510,7 +614,7 @@ def analyze_command(
 
 @cli.command(
     "compare",
-    epilog=_examples(
+    epilog=_estimators_epilog(
         "hybridlog compare sample_logs/three_tank_hstf.csv --model three_tank_hstf "
         "--estimators hstf,imm --out tank_compare",
         "hybridlog compare sample_logs/double_cart_case1.csv --model double_cart_case1 "
@@ -524,7 +628,7 @@ def analyze_command(
     "--estimators",
     required=True,
     metavar="A,B,...",
-    help=f"Comma-separated estimator names ({_estimator_names()}).",
+    help="Comma-separated estimator names (listed below).",
 )
 @click.option(
     "--out",
@@ -539,6 +643,8 @@ def compare_command(
     ctx: click.Context, /, log: Path, model_ref: str, estimators: str, out_dir: Path, **options: Any
 ) -> None:
     """Run several estimators on one log and write a side-by-side table."""
+    from hybridlog.jobs.analysis import compare
+
     read, common = _split_options(options)
     names = [name.strip() for name in estimators.split(",") if name.strip()]
     outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
@@ -550,7 +656,7 @@ def compare_command(
 
 @cli.command(
     "batch",
-    epilog=_examples(
+    epilog=_estimators_epilog(
         "hybridlog batch sample_logs/three_tank_hstf.csv sample_logs/three_tank_hstf.mcap "
         "--model three_tank_hstf --estimator imm --out tank_formats",
         "hybridlog simulate three_tank_hstf --out runs/seed1.csv --seed 1",
@@ -563,11 +669,7 @@ def compare_command(
 @_global_flags
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @_model_option
-@click.option(
-    "--estimator",
-    default=None,
-    help=f"Estimator name ({_estimator_names()}) [default: the model's default_estimator].",
-)
+@_estimator_option
 @click.option(
     "--out",
     "out_dir",
@@ -595,6 +697,8 @@ def batch_command(
     **options: Any,
 ) -> None:
     """Analyse many logs; a failing log never stops the others, finished logs are skipped."""
+    from hybridlog.jobs.batch import run_batch
+
     read, common = _split_options(options)
     with _progress(ctx, len(logs), "logs") as advance:
         outcome = run_batch(
@@ -634,6 +738,8 @@ def _progress(
 
 
 def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
+    from hybridlog.io import ReadOptions
+
     read = ReadOptions(
         maps=tuple(options.pop("maps")),
         resample=options.pop("resample"),
@@ -655,6 +761,8 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
 
 
 def _summary_line(report: Report) -> str:
+    from hybridlog.report.markdown import duration, plural
+
     def number(value: object, digits: str, unit: str = "") -> str:
         return "n/a" if value is None else format(value, digits) + unit
 

@@ -10,6 +10,9 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import cli, main
+from hybridlog.errors import ModelError
+from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
+from hybridlog.model.loader import load_model
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE = ROOT / "sample_logs" / "three_tank_hstf.csv"
@@ -67,6 +70,21 @@ def test_models_lists_and_prints_builtins():
     text = run(["models", "three_tank_hstf"]).output
     assert "[modes.1]" in text and "paper 000" in text
     assert run(["models", "nope"], expect=2).stderr.count("\n") == 1
+
+
+def test_builtins_are_valid_models_listed_without_sympy_by_their_reference():
+    # `hybridlog models` reads names and references with tomllib alone (a light start); the
+    # files are package data, so their validity is checked here rather than on every call.
+    for name in builtin_names():
+        model = load_model(name)
+        assert builtin_reference(name) == model.reference != ""
+        assert builtin_text(name).startswith(f'name = "{model.name}"')
+    with pytest.raises(
+        ModelError, match=r"^no_such: not a built-in model \(built-ins: .*three_tank"
+    ):
+        builtin_text("no_such")
+    with pytest.raises(ModelError, match="not a built-in model"):
+        builtin_text("../loader")
 
 
 def test_simulate_writes_ground_truth_columns(tmp_path):

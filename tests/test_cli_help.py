@@ -1,16 +1,22 @@
-"""Every example in every ``--help`` runs as written, from a copy of the repository root."""
+"""Help texts: every example runs as written, lists and options come from one definition."""
 
 from __future__ import annotations
 
+import ast
 import glob
 import shlex
 import shutil
+from collections import Counter
 from pathlib import Path
 
+import click
 import pytest
 from click.testing import CliRunner
 
-from hybridlog.cli import cli, main
+from hybridlog.cli import _CLUSTERING, cli, main
+from hybridlog.errors import OptionError
+from hybridlog.estimators import ESTIMATORS
+from hybridlog.estimators.options import describe_options, shown
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -55,3 +61,57 @@ def test_every_help_example_runs_as_written(
         err = capsys.readouterr().err
         assert "hybridlog: " not in err and "Traceback" not in err, f"{line}\n{err}"
     assert len(examples) >= 20
+
+
+def help_text(*args: str) -> str:
+    result = CliRunner().invoke(cli, [*args, "--help"], terminal_width=1000)
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+@pytest.mark.parametrize("command", ["analyze", "compare", "batch"])
+def test_help_lists_every_estimator_with_its_summary_from_the_registry(command):
+    lines = help_text(command).splitlines()
+    for estimator in ESTIMATORS.values():
+        assert any(line.split() == [estimator.name, *estimator.summary.split()] for line in lines)
+
+
+def test_cluster_options_are_generated_from_the_chiu_options():
+    # One definition (issue 8: the defaults were repeated in the CLI): each clustering option
+    # of `hybridlog cluster` shows the default and help of the chiu estimator's options, and
+    # what is not given is the dataclass's default.
+    options_type = ESTIMATORS["chiu"].options_type
+    infos = {info.name: info for info in describe_options(options_type)}
+    params = {p.name: p for p in cli.commands["cluster"].params}
+    for name in _CLUSTERING.names:
+        option = params[name]
+        assert isinstance(option, click.Option) and option.default is None, name
+        assert option.help is not None and infos[name].help in option.help, name
+        assert f"default: {shown(infos[name].default)}" in option.help, name
+    assert params["method"].opts == ["--exact"] and params["method"].secondary_opts == [
+        "--approximate"
+    ]
+    assert _CLUSTERING.parse({name: None for name in _CLUSTERING.names}) == options_type()
+    chosen = _CLUSTERING.parse({"radius": "0.4", "method": False, "input_lags": "1,2"})
+    assert chosen == options_type(radius=0.4, method="approximate", input_lags="1,2")
+    with pytest.raises(OptionError, match=r"^--squash 0\.5: chiu option 'squash': 0\.5 is outside"):
+        _CLUSTERING.parse({"squash": "0.5"})
+
+
+def test_every_option_is_declared_once():
+    # `--map` and `--msg-dir` were declared twice (issue 8).  Each flag has one click.option
+    # call in cli.py; --out alone is declared per command: each writes something different.
+    tree = ast.parse((ROOT / "hybridlog" / "cli.py").read_text(encoding="utf-8"))
+    declared = Counter(
+        flag
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        and ast.unparse(node.func) in ("click.option", "click.Option")
+        and node.args
+        and isinstance(node.args[0], ast.Constant)
+        and isinstance(node.args[0].value, str)
+        for flag in node.args[0].value.split("/")
+        if flag.startswith("-")
+    )
+    assert {"--map", "--msg-dir", "--model", "--estimator", "--force"} <= set(declared)
+    assert {flag: n for flag, n in declared.items() if n > 1} == {"--out": 5}

@@ -43,7 +43,7 @@ from scipy.sparse.csgraph import connected_components
 PACKAGE = Path(__file__).resolve().parent.parent / "hybridlog"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("hybridlog", "errors"),
+    ("hybridlog", "errors", "lazy"),
     ("signals", "jit", "outputs"),
     ("io", "model"),
     ("cluster",),

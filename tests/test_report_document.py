@@ -395,9 +395,8 @@ def test_any_value_anywhere_is_read_or_refused_never_a_crash(
 def test_batch_reads_earlier_reports_through_the_typed_report(tmp_path: Path) -> None:
     # A report.json of the same model and estimator is reused only when it is a report:
     # a malformed one is redone (it used to be "skipped" and then crash the summary).
-    from hybridlog.jobs.batch import run_batch
-
     from hybridlog.io.writers import write_table
+    from hybridlog.jobs.batch import run_batch
     from tests.logfiles import tank_run
 
     log = write_table(tmp_path / "run.csv", tank_run(steps=60).columns)

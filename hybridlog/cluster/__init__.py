@@ -14,16 +14,24 @@ Nothing here reads or writes a file (the jobs do: :mod:`hybridlog.jobs.cluster`,
   fitted on arrays or taken from a parsed centres file.
 - :mod:`~hybridlog.cluster.centers_file`: the ``centers.json`` format (text ↔ values).
 - :mod:`~hybridlog.cluster.reference`: a naive all-pairs port of MATLAB's ``subclust``.
+
+The names below are imported on first use (:mod:`hybridlog.lazy`): importing the package, or
+one light module of it, loads no numba or scipy.
 """
 
-from hybridlog.cluster.kmeans import KMeansClusters, kmeans_clustering
-from hybridlog.cluster.labels import ClusterLabels, decide_clusters, label_clusters
-from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
-from hybridlog.cluster.subtractive import (
-    SubtractiveClusters,
-    SubtractiveOptions,
-    subtractive_clustering,
-)
+from typing import TYPE_CHECKING
+
+from hybridlog.lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from hybridlog.cluster.kmeans import KMeansClusters, kmeans_clustering
+    from hybridlog.cluster.labels import ClusterLabels, decide_clusters, label_clusters
+    from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
+    from hybridlog.cluster.subtractive import (
+        SubtractiveClusters,
+        SubtractiveOptions,
+        subtractive_clustering,
+    )
 
 __all__ = [
     "ClusterLabels",
@@ -38,3 +46,13 @@ __all__ = [
     "regression_vectors",
     "subtractive_clustering",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        ".kmeans": ["KMeansClusters", "kmeans_clustering"],
+        ".labels": ["ClusterLabels", "decide_clusters", "label_clusters"],
+        ".regressors": ["RegressorSpec", "parse_lags", "regression_vectors"],
+        ".subtractive": ["SubtractiveClusters", "SubtractiveOptions", "subtractive_clustering"],
+    },
+)

@@ -14,8 +14,9 @@ library.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from hybridlog.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from hybridlog.io.formats import FORMATS, LogFormat, open_log
@@ -25,24 +26,6 @@ if TYPE_CHECKING:
     from hybridlog.io.options import ReadOptions
     from hybridlog.io.source import LabelSeries, LogSource, Reading, Series, SourceInfo
     from hybridlog.io.writers import write_table
-
-_HOMES = {
-    "FORMATS": "formats",
-    "LogFormat": "formats",
-    "open_log": "formats",
-    "format_inspection": "inspect",
-    "inspect_log": "inspect",
-    "SignalSpec": "load",
-    "load_signals": "load",
-    "SignalMap": "mapping",
-    "ReadOptions": "options",
-    "LabelSeries": "source",
-    "LogSource": "source",
-    "Reading": "source",
-    "Series": "source",
-    "SourceInfo": "source",
-    "write_table": "writers",
-}
 
 __all__ = [
     "FORMATS",
@@ -62,12 +45,15 @@ __all__ = [
     "write_table",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    """Import an exported name from its module on first use."""
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{home}"), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        ".formats": ["FORMATS", "LogFormat", "open_log"],
+        ".inspect": ["format_inspection", "inspect_log"],
+        ".load": ["SignalSpec", "load_signals"],
+        ".mapping": ["SignalMap"],
+        ".options": ["ReadOptions"],
+        ".source": ["LabelSeries", "LogSource", "Reading", "Series", "SourceInfo"],
+        ".writers": ["write_table"],
+    },
+)

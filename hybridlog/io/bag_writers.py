@@ -33,14 +33,10 @@ import struct
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from hybridlog import __version__
 from hybridlog.errors import OptionError, OutputError
-from hybridlog.io.source import seconds_to_ns
-from hybridlog.io.writers import TABLE_FORMATS, Column, write_table
 from hybridlog.outputs import (
     PathLike,
     atomic_files,
@@ -50,6 +46,12 @@ from hybridlog.outputs import (
     publish_dir,
     staging_dir,
 )
+
+if TYPE_CHECKING:
+    from hybridlog.io.writers import Column
+
+# numpy, polars and the writers are imported where they are used: ``hybridlog simulate
+# --help`` reads LOG_FORMATS and MCAP_ENCODINGS from here and must stay light.
 
 #: ``--format`` values; the first four also follow from the suffix.
 LOG_FORMATS: tuple[str, ...] = ("csv", "parquet", "mcap", "bag", "ros2-sqlite3", "ros2-mcap")
@@ -102,6 +104,8 @@ def log_format(path: str | os.PathLike[str], format: str | None) -> str:
 
 def log_topics(columns: Mapping[str, Column], truth: Sequence[str] = ()) -> list[TopicColumn]:
     """The topic of every column but ``t`` (see the module docstring)."""
+    import numpy as np
+
     out = []
     for name, values in columns.items():
         if name == "t":
@@ -140,6 +144,8 @@ def check_log_target(
         a folder where a file is written (or the reverse); or is a folder hybridlog did not
         write (see :mod:`hybridlog.outputs`).
     """
+    from hybridlog.io.writers import TABLE_FORMATS
+
     chosen = log_format(path, format)
     if encoding not in MCAP_ENCODINGS:
         raise OptionError(
@@ -199,6 +205,11 @@ def write_log(
     OptionError, OutputError
         As :func:`check_log_target`; ``OutputError`` also when the log cannot be written.
     """
+    import numpy as np
+
+    from hybridlog.io.source import seconds_to_ns
+    from hybridlog.io.writers import write_table
+
     chosen = check_log_target(path, format=format, encoding=encoding, force=force, inputs=inputs)
     if chosen in ("csv", "parquet"):
         return write_table(path, columns, force=force)
@@ -295,6 +306,8 @@ def _serializer(msgtype: str, encoding: str) -> Callable[[Any], bytes]:
 
 
 def _plain(value: Any) -> Any:
+    import numpy as np
+
     return value.item() if isinstance(value, np.generic) else value
 
 

@@ -3,16 +3,22 @@
 The entry point is :func:`write_report`, which returns the typed :class:`Report` (its
 :meth:`~Report.to_json` is ``report.json``; :func:`read_report` reads one back).  The pieces
 live in :mod:`.metrics`, :mod:`.build`, :mod:`.document`, :mod:`.markdown`, :mod:`.tables`,
-:mod:`.plots` and :mod:`.gates`; output folders are written with
-:func:`hybridlog.outputs.atomic_output_dir`.
+:mod:`.plots`, :mod:`.gates` and :mod:`.summary`; output folders are written with
+:func:`hybridlog.outputs.atomic_output_dir`.  The names below are imported on first use
+(:mod:`hybridlog.lazy`), so importing the package loads no numpy or matplotlib.
 """
 
-from hybridlog.outputs import atomic_output_dir
-from hybridlog.report.build import build_report
-from hybridlog.report.document import Report, read_report
-from hybridlog.report.gates import Gate, evaluate_gates, parse_gates, validate_gates
-from hybridlog.report.markdown import render_markdown
-from hybridlog.report.writer import write_report
+from typing import TYPE_CHECKING
+
+from hybridlog.lazy import lazy_exports
+
+if TYPE_CHECKING:
+    from hybridlog.outputs import atomic_output_dir
+    from hybridlog.report.build import build_report
+    from hybridlog.report.document import Report, read_report
+    from hybridlog.report.gates import Gate, evaluate_gates, parse_gates, validate_gates
+    from hybridlog.report.markdown import render_markdown
+    from hybridlog.report.writer import write_report
 
 __all__ = [
     "Gate",
@@ -26,3 +32,15 @@ __all__ = [
     "validate_gates",
     "write_report",
 ]
+
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "hybridlog.outputs": ["atomic_output_dir"],
+        ".build": ["build_report"],
+        ".document": ["Report", "read_report"],
+        ".gates": ["Gate", "evaluate_gates", "parse_gates", "validate_gates"],
+        ".markdown": ["render_markdown"],
+        ".writer": ["write_report"],
+    },
+)
