@@ -320,7 +320,7 @@ class _GeneratedOptionsCommand(click.Command):
 
 def _chiu_options() -> type[Any]:
     """The clustering options of paper 001's classifier (defaults: MATLAB ``subclust``)."""
-    from hybridlog.estimators.chiu import ChiuOptions
+    from hybridlog.estimators.observer_options import ChiuOptions
 
     return ChiuOptions
 

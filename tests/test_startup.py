@@ -82,12 +82,6 @@ def test_help_version_and_models_import_no_heavy_library():
     assert not any(found.values()), found
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="cluster's options are generated from ChiuOptions, which lives in "
-    "estimators/chiu.py with the estimator (numba, scipy, sympy) until it moves to a light "
-    "module of cluster/ (issue 8, the jobs branch); then remove this mark",
-)
 def test_cluster_help_imports_no_heavy_library():
     found = heavy_imports(["cluster", "--help"])
     assert not found["cluster --help"], found

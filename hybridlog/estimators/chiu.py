@@ -34,8 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -47,11 +46,10 @@ from hybridlog.cluster.classifier import (
     stored_classifier,
 )
 from hybridlog.cluster.labels import label_clusters
-from hybridlog.cluster.regressors import RegressorSpec, parse_lags
-from hybridlog.cluster.subtractive import SubtractiveOptions
 from hybridlog.errors import OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
-from hybridlog.estimators.options import option, options_dict, parse_options
+from hybridlog.estimators.observer_options import ChiuOptions, ObserverOptions
+from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
 from hybridlog.model.hybrid_model import HybridModel
@@ -72,57 +70,6 @@ __all__ = [
 
 _BURN_IN_FRACTION = 0.1
 _BURN_IN_MAX = 100
-
-
-@dataclass(frozen=True)
-class ObserverOptions:
-    """Options of paper 001's pipeline shared by ``chiu`` and ``kmeans``."""
-
-    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
-    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
-    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
-    cluster_modes: str = option(
-        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
-    )
-    decay_rate: float = option(
-        1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
-    )
-
-    def regressor_spec(self) -> RegressorSpec:
-        """The lags of φ(k) (``output_lags``, ``input_lags``)."""
-        return RegressorSpec(
-            output_lags=parse_lags(self.output_lags, "output_lags"),
-            input_lags=parse_lags(self.input_lags, "input_lags"),
-        )
-
-
-@dataclass(frozen=True)
-class ChiuOptions(ObserverOptions):
-    """Options of the ``chiu`` estimator (clustering defaults: MATLAB ``subclust``)."""
-
-    radius: float = option(
-        0.5, "cluster radius r_a of eq. (5), in unit-box units", range=(1e-3, 100.0)
-    )
-    squash: float = option(1.25, "r_b/r_a of the revision eqs. (6)-(7)", range=(1.0, 100.0))
-    accept: float = option(0.5, "acceptance ratio ε₁ of a new centre", range=(0.0, 1.0))
-    reject: float = option(0.15, "rejection ratio ε₂ of a new centre", range=(0.0, 1.0))
-    self_potential: bool = option(
-        True, "count each point in its own potential (false: eq. (5) as printed)"
-    )
-    method: Literal["auto", "exact", "approximate"] = option(
-        "auto", "potentials: exact all-pairs, approximate on a grid, or auto by size"
-    )
-
-    def clustering(self) -> SubtractiveOptions:
-        """The subtractive-clustering part of the options."""
-        return SubtractiveOptions(
-            radius=self.radius,
-            squash=self.squash,
-            accept=self.accept,
-            reject=self.reject,
-            self_potential=self.self_potential,
-            method=self.method,
-        )
 
 
 def design_observer(model: HybridModel, decay_rate: float) -> tuple[LinearModes, ObserverGains]:

@@ -9,32 +9,14 @@ k-means++ runs (:func:`hybridlog.cluster.kmeans.kmeans_clustering`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from hybridlog.cluster.centers_file import CentersFile
-from hybridlog.cluster.kmeans import KMeansParameters
-from hybridlog.estimators.chiu import ObserverOptions, run_clustering_observer
-from hybridlog.estimators.options import option
+from hybridlog.estimators.chiu import run_clustering_observer
+from hybridlog.estimators.observer_options import KMeansOptions
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals
 
 __all__ = ["KMeansOptions", "run_kmeans"]
-
-
-@dataclass(frozen=True)
-class KMeansOptions(ObserverOptions):
-    """Options of the ``kmeans`` estimator; the lags, centres and labels are as for ``chiu``."""
-
-    clusters: int | None = option(
-        None, "number of k-means centres (none: the number of modes)", range=(1, 1000)
-    )
-    restarts: int = option(10, "k-means++ runs; the one of least inertia is kept", range=(1, 1000))
-    seed: int = option(0, "seed of the first run (then seed+1, ...)", range=(0, 2**31))
-
-    def clustering(self) -> KMeansParameters:
-        """The k-means part of the options."""
-        return KMeansParameters(clusters=self.clusters, restarts=self.restarts, seed=self.seed)
 
 
 def run_kmeans(
