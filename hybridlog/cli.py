@@ -6,7 +6,7 @@ and exit code 2 (``--debug`` shows the traceback); a missed CI gate is exit code
 Start-up is lazy: this module imports click and hybridlog's light modules only (the errors,
 the estimator registry, the names of the built-in models), and each command imports what it
 needs when it runs, so ``hybridlog --help``, ``hybridlog <command> --help`` and ``hybridlog
-models`` load no numpy, polars, numba, sympy, scipy or matplotlib (``tests/test_startup.py``).
+models`` load no numpy, polars, numba, sympy, scipy or matplotlib (``tests/cli/test_startup.py``).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 A filter is a generic time loop over the model's compiled functions (mandatory, one
 :class:`FilterCode`) and may add an :class:`Accelerator`: straight-line code generated for
 the model, which :func:`run_filter` picks for the models it applies to.  Both compute the
-same thing (``tests/test_kernels.py`` checks every accelerator against the plain path).
+same thing (``tests/estimators/test_kernels.py`` checks every accelerator against the plain path).
 """
 
 from __future__ import annotations

@@ -1,0 +1,116 @@
+"""Help texts: every example runs as written, lists and options come from one definition."""
+
+from __future__ import annotations
+
+import ast
+import glob
+import shlex
+import shutil
+from collections import Counter
+from pathlib import Path
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from hybridlog.cli import _CLUSTERING, cli, main
+from hybridlog.errors import OptionError
+from hybridlog.estimators import ESTIMATORS
+from hybridlog.estimators.options import describe_options, shown
+from tests.support.paths import ROOT
+
+
+def help_examples() -> list[tuple[str, str]]:
+    """``(command, example line)`` for the top-level help and every command, in order."""
+    found: list[tuple[str, str]] = []
+    for name in ["", *cli.commands]:
+        args = [name, "--help"] if name else ["--help"]
+        text = CliRunner().invoke(cli, args, prog_name="hybridlog", terminal_width=1000).output
+        _, marker, examples = text.partition("Examples:\n")
+        assert marker, f"'hybridlog {name} --help' has no examples"
+        for line in examples.splitlines():
+            if not line.strip():
+                break
+            assert line.strip().startswith("hybridlog "), line
+            found.append((name or "hybridlog", line.strip()))
+    return found
+
+
+def run(line: str) -> None:
+    """Run one example in-process like a shell would: split words, expand globs."""
+    words = shlex.split(line)[1:]
+    args = [match for word in words for match in (sorted(glob.glob(word)) or [word])]
+    try:
+        main(args)
+    except SystemExit as exit_:
+        assert exit_.code in (0, None), f"{line}: exit {exit_.code}"
+
+
+def test_every_help_example_runs_as_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    examples = help_examples()
+    assert {command for command, _ in examples} == {"hybridlog", *cli.commands}
+    shutil.copytree(ROOT / "sample_logs", tmp_path / "sample_logs")
+    monkeypatch.chdir(tmp_path)
+    # In order, in one folder: chained examples (cluster, then analyze with its centres)
+    # find what the earlier ones wrote, and an output two examples share would fail.
+    for _, line in examples:
+        run(line)
+        err = capsys.readouterr().err
+        assert "hybridlog: " not in err and "Traceback" not in err, f"{line}\n{err}"
+    assert len(examples) >= 20
+
+
+def help_text(*args: str) -> str:
+    result = CliRunner().invoke(cli, [*args, "--help"], terminal_width=1000)
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+@pytest.mark.parametrize("command", ["analyze", "compare", "batch"])
+def test_help_lists_every_estimator_with_its_summary_from_the_registry(command):
+    lines = help_text(command).splitlines()
+    for estimator in ESTIMATORS.values():
+        assert any(line.split() == [estimator.name, *estimator.summary.split()] for line in lines)
+
+
+def test_cluster_options_are_generated_from_the_chiu_options():
+    # One definition (issue 8: the defaults were repeated in the CLI): each clustering option
+    # of `hybridlog cluster` shows the default and help of the chiu estimator's options, and
+    # what is not given is the dataclass's default.
+    options_type = ESTIMATORS["chiu"].options_type
+    infos = {info.name: info for info in describe_options(options_type)}
+    params = {p.name: p for p in cli.commands["cluster"].params}
+    for name in _CLUSTERING.names:
+        option = params[name]
+        assert isinstance(option, click.Option) and option.default is None, name
+        assert option.help is not None and infos[name].help in option.help, name
+        assert f"default: {shown(infos[name].default)}" in option.help, name
+    assert params["method"].opts == ["--exact"] and params["method"].secondary_opts == [
+        "--approximate"
+    ]
+    assert _CLUSTERING.parse({name: None for name in _CLUSTERING.names}) == options_type()
+    chosen = _CLUSTERING.parse({"radius": "0.4", "method": False, "input_lags": "1,2"})
+    assert chosen == options_type(radius=0.4, method="approximate", input_lags="1,2")
+    with pytest.raises(OptionError, match=r"^--squash 0\.5: chiu option 'squash': 0\.5 is outside"):
+        _CLUSTERING.parse({"squash": "0.5"})
+
+
+def test_every_option_is_declared_once():
+    # `--map` and `--msg-dir` were declared twice (issue 8).  Each flag has one click.option
+    # call in cli.py; --out alone is declared per command: each writes something different.
+    tree = ast.parse((ROOT / "hybridlog" / "cli.py").read_text(encoding="utf-8"))
+    declared = Counter(
+        flag
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        and ast.unparse(node.func) in ("click.option", "click.Option")
+        and node.args
+        and isinstance(node.args[0], ast.Constant)
+        and isinstance(node.args[0].value, str)
+        for flag in node.args[0].value.split("/")
+        if flag.startswith("-")
+    )
+    assert {"--map", "--msg-dir", "--model", "--estimator", "--force"} <= set(declared)
+    assert {flag: n for flag, n in declared.items() if n > 1} == {"--out": 5}

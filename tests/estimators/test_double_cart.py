@@ -1,0 +1,276 @@
+"""Paper 001's double cart: state-driven switching, the chiu/kmeans estimators, the CLI."""
+
+import json
+import time
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from hybridlog.cli import main
+from hybridlog.cluster.centers_file import centers_json, parse_centers
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.estimators.chiu import (
+    ChiuOptions,
+    chiu_options,
+    design_observer,
+    mode_classifier,
+    run_chiu,
+)
+from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
+from hybridlog.estimators.switched_observer import linear_modes, run_observer
+from hybridlog.jobs.analysis import analyze
+from hybridlog.model.loader import load_model, parse_model
+from hybridlog.simulate import simulate
+from tests.support.paths import SAMPLE_LOGS
+
+SAMPLE = SAMPLE_LOGS / "double_cart_case1.csv"
+
+
+def signals_of(model, log):
+    return log.signals(model)
+
+
+@pytest.mark.parametrize("name", ["double_cart_case1", "double_cart_case2"])
+def test_state_driven_simulation_follows_the_guards(name):
+    model = load_model(name)
+    assert model.state_driven and model.mode_ids == ("1", "2")
+    log = simulate(model, steps=400, seed=1)
+    np.testing.assert_array_equal(log.modes, (log.states[:, 2] > 0).astype(int))
+    linear = linear_modes(model)
+    # paper 001 eq. (1): the mode of row k governs the step from x(k) (noise-free states)
+    for k in range(400):
+        q = log.modes[k]
+        expected = linear.A[q] @ log.states[k] + linear.B[q] @ log.inputs[k]
+        np.testing.assert_allclose(log.states[k + 1], expected, atol=1e-12)
+    plain = simulate(model, steps=60, seed=1, jit=False)
+    np.testing.assert_allclose(plain.states, simulate(model, steps=60, seed=1).states)
+
+
+def test_ten_thousand_steps_simulate_fast():
+    model = load_model("double_cart_case1")
+    simulate(model, steps=100, seed=0)  # compile or load from the cache
+    start = time.perf_counter()
+    simulate(model, steps=10_000, seed=0)
+    assert time.perf_counter() - start < 1.0
+
+
+GUARDED = """
+name = "g"
+dt = 1.0
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+[modes.low]
+A = [[0.5]]
+B = [[1.0]]
+C = [[1.0]]
+{low}
+[modes.high]
+A = [[0.9]]
+B = [[1.0]]
+C = [[1.0]]
+{high}
+[initial]
+state = [0.0]
+[simulation]
+state = [0.0]
+{simulation}
+[simulation.inputs]
+u = "sin(t)"
+"""
+
+
+@pytest.mark.parametrize(
+    ("low", "high", "simulation", "message"),
+    [
+        ('guard = "x <= 0"', "", "", "modes.high.guard: missing"),
+        ('guard = "x"', 'guard = "x > 0"', "", "modes.low.guard: expected a comparison"),
+        ('guard = "z <= 0"', 'guard = "x > 0"', "", "modes.low.guard: unknown symbol 'z'"),
+        ('guard = "x <="', 'guard = "x > 0"', "", "modes.low.guard: cannot parse"),
+        ('guard = "1 < 2"', 'guard = "x > 0"', "", "does not depend on the states"),
+        ('guard = "x <= 0"', 'guard = "x > 0"', 'schedule = "low:3"', "simulation.schedule"),
+        ("guard = 3", 'guard = "x > 0"', "", "modes.low.guard: expected a string"),
+    ],
+)
+def test_bad_guards_name_the_key(low, high, simulation, message):
+    with pytest.raises(ModelError, match=message):
+        parse_model(GUARDED.format(low=low, high=high, simulation=simulation))
+
+
+def test_guards_first_wins_none_is_an_error_schedule_refused():
+    model = parse_model(
+        GUARDED.format(low='guard = "x <= 0.5"', high='guard = "x > 0"', simulation="")
+    )
+    log = simulate(model, steps=50)
+    assert np.all(log.modes[log.states[:, 0] <= 0.5] == 0)
+    with pytest.raises(OptionError, match="--schedule"):
+        simulate(model, schedule="low:3")
+    gap = parse_model(GUARDED.format(low='guard = "x < -5"', high='guard = "x > 5"', simulation=""))
+    with pytest.raises(ModelError, match="no mode's guard"):
+        simulate(gap, steps=5)
+
+
+def test_observer_with_true_modes_converges_and_plain_path_agrees():
+    model = load_model("double_cart_case1")
+    log = simulate(model, steps=600, seed=4)
+    linear, gains = design_observer(model, 1.0)
+    means, predictions = run_observer(
+        linear, gains.gains, log.inputs, log.outputs, log.modes, model.initial_state
+    )
+    assert np.abs(means[-100:] - log.states[-100:]).max() < 0.02
+    assert np.isnan(predictions[0, 0]) and np.all(np.isfinite(predictions[1:]))
+    plain = run_observer(
+        linear, gains.gains, log.inputs, log.outputs, log.modes, model.initial_state, jit=False
+    )
+    np.testing.assert_allclose(plain[0], means, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("runner", ["chiu", "kmeans"])
+def test_estimators_on_the_double_cart(runner):
+    model = load_model("double_cart_case2")
+    log = simulate(model, steps=500, seed=2)
+    signals = signals_of(model, log)
+    run = run_chiu if runner == "chiu" else run_kmeans
+    result = run(model, signals, ChiuOptions() if runner == "chiu" else KMeansOptions())
+    assert result.estimator == runner
+    accuracy = np.mean(result.modes == log.modes)
+    assert accuracy > 0.85  # ground truth is never used: labels come from prediction fit
+    np.testing.assert_array_equal(result.mode_probabilities.sum(axis=1), 1.0)
+    assert np.all(np.isnan(result.state_variances))
+    assert any("->" in note and "mode" in note for note in result.notes)
+    assert "lmi_margin" in result.options["observer"]
+
+
+def test_manual_labels_and_option_errors():
+    model = load_model("double_cart_case1")
+    signals = signals_of(model, simulate(model, steps=300, seed=1))
+    swapped = run_kmeans(model, signals, KMeansOptions(cluster_modes="1,2"))
+    assert any("cluster_modes=1,2" in note for note in swapped.notes)
+    with pytest.raises(OptionError, match="cluster_modes: unknown mode '7'"):
+        run_kmeans(model, signals, KMeansOptions(cluster_modes="1,7"))
+    with pytest.raises(OptionError, match="output_lags: must contain 0"):
+        run_chiu(model, signals, ChiuOptions(output_lags="1,2"))
+    with pytest.raises(OptionError, match="chiu option 'method'"):
+        chiu_options({"method": "fast"})
+    with pytest.raises(ModelError, match="not linear"):
+        run_chiu(load_model("three_tank_hstf"), signals, ChiuOptions())
+
+
+def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
+    model = load_model("double_cart_case1")
+    signals = signals_of(model, simulate(model, steps=300, seed=1))
+    fitted = run_chiu(model, signals, ChiuOptions())
+    classifier = mode_classifier(model, signals, ChiuOptions(), observer=design_observer(model, 1))
+    text = centers_json(
+        {
+            "regressors": list(classifier.regressors),
+            "output_lags": list(classifier.spec.output_lags),
+            "input_lags": list(classifier.spec.input_lags),
+            "scaling": {"lower": classifier.lower, "upper": classifier.upper},
+            "chiu": {
+                "centers": classifier.centers,
+                "modes": [model.mode_ids[m] for m in classifier.cluster_modes],
+            },
+        }
+    )
+    missing = str(tmp_path / "never_written.json")
+    options = ChiuOptions(centers=missing)
+    with pytest.raises(OptionError, match=r"^centers=.*never_written.json: the estimator reads no"):
+        run_chiu(model, signals, options)
+    stored = run_chiu(model, signals, options, centers=parse_centers(text, missing))
+    np.testing.assert_array_equal(stored.modes, fitted.modes)
+    np.testing.assert_array_equal(stored.state_means, fitted.state_means)
+    assert f"chiu: {len(classifier.centers)} centres loaded from {missing}" in stored.notes
+    assert list(tmp_path.iterdir()) == []
+
+
+def run_cli(args, expect=0):
+    runner = CliRunner()
+
+    class _Main:
+        name = "hybridlog"
+
+        def main(self, args, prog_name=None, standalone_mode=True, **extra):
+            try:
+                main(list(args))
+            except SystemExit as exit_:
+                raise SystemExit(exit_.code) from None
+            raise SystemExit(0)
+
+    result = runner.invoke(_Main(), args, catch_exceptions=False)
+    assert result.exit_code == expect, result.output + result.stderr
+    return result
+
+
+def test_cluster_command_then_analyze_with_the_centres(tmp_path):
+    out = tmp_path / "c.json"
+    result = run_cli(
+        [
+            "cluster",
+            str(SAMPLE),
+            "--model",
+            "double_cart_case1",
+            "--out",
+            str(out),
+            "--compare-kmeans",
+        ]
+    )
+    assert "| chiu | 1 |" in result.output and "kmeans" in result.output
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    content = json.loads(out.read_text())
+    assert content["regressors"] == ["y(k)", "y(k-1)", "u(k-1)"]
+    assert content["chiu"]["modes"] and content["kmeans"]["modes"]
+    assert content["chiu"]["parameters"]["squash"] == 1.25
+    run_cli(["cluster", str(SAMPLE), "--model", "double_cart_case1", "--out", str(out)], expect=2)
+    for estimator in ("chiu", "kmeans"):
+        outcome = analyze(
+            SAMPLE,
+            "double_cart_case1",
+            out_dir=tmp_path / estimator,
+            estimator=estimator,
+            sets=(f"centers={out}",),
+        )
+        report = outcome.report
+        assert report.modes.accuracy > 0.8 and report.vaf > 99.0
+        assert any("loaded from" in n for n in report.notes)
+    # the fitted-on-the-log run gives the same decisions as the stored classifier
+    fitted = analyze(SAMPLE, "double_cart_case1", out_dir=tmp_path / "fit", estimator="chiu")
+    assert fitted.report.modes.accuracy == pytest.approx(
+        json.loads((tmp_path / "chiu" / "report.json").read_text())["modes"]["accuracy"]
+    )
+
+
+def test_cluster_command_errors(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": "hybridlog-centers", "version": 1, "regressors": ["y(k)"]}')
+    result = run_cli(
+        [
+            "analyze",
+            str(SAMPLE),
+            "--model",
+            "double_cart_case1",
+            "--estimator",
+            "chiu",
+            "--set",
+            f"centers={bad}",
+            "--out",
+            str(tmp_path / "r"),
+        ],
+        expect=2,
+    )
+    assert "scaling" in result.stderr and result.stderr.count("\n") == 1
+    result = run_cli(
+        [
+            "cluster",
+            str(SAMPLE),
+            "--model",
+            "double_cart_case1",
+            "--radius",
+            "0",
+            "--out",
+            str(tmp_path / "x.json"),
+        ],
+        expect=2,
+    )
+    assert "radius" in result.stderr

@@ -1,0 +1,422 @@
+"""The estimator contract, checked for every registered estimator (issue 8).
+
+Each estimator runs on a small simulated log of a model its capabilities accept (the
+nonlinear three-tank for the filters, the linear double cart for the clustering observers):
+the result's shapes, probabilities, determinism, option errors and the options written to the
+report are the same contract for all of them.
+"""
+
+import dataclasses
+import json
+import subprocess
+import sys
+import typing
+from types import MappingProxyType
+
+import numpy as np
+import pytest
+
+from hybridlog.errors import HybridlogError, LogError, ModelError, OptionError
+from hybridlog.estimators import ESTIMATORS, Capabilities, Estimator, get_estimator, prepare
+from hybridlog.estimators.capabilities import ModelTraits
+from hybridlog.estimators.options import option, options_dict
+from hybridlog.estimators.result import EstimationResult, ResultShapeError
+from hybridlog.jobs.analysis import Overrides, analyze, parse_sets, prepare_estimators
+from hybridlog.model.loader import load_model, parse_model
+from hybridlog.report import build_report
+from hybridlog.simulate import simulate
+from tests.support import model_kinds
+from tests.support.paths import ROOT
+
+TANK_TEXT = (ROOT / "hybridlog/model/builtin/three_tank_hstf.toml").read_text()
+SAMPLE = ROOT / "sample_logs" / "three_tank_hstf.csv"
+HEAVY = ("numba", "sympy", "scipy", "cvxpy", "matplotlib", "polars")
+
+
+def model_for(name):
+    return (
+        "double_cart_case1"
+        if ESTIMATORS[name].capabilities.needs_linear_model
+        else ("three_tank_hstf")
+    )
+
+
+@pytest.fixture(scope="module")
+def cases():
+    """Model and a short simulated log per model name, built once."""
+    built = {}
+    for model_name, steps in (("three_tank_hstf", 120), ("double_cart_case1", 300)):
+        model = load_model(model_name)
+        built[model_name] = (model, simulate(model, steps=steps, seed=1).signals(model))
+    return built
+
+
+@pytest.fixture(scope="module")
+def runs(cases):
+    """Every estimator run twice on its case, through the registry."""
+    results = {}
+    for name in ESTIMATORS:
+        model, signals = cases[model_for(name)]
+        prepared = prepare(model, name)
+        results[name] = (prepared, prepared.run(model, signals), prepared.run(model, signals))
+    return results
+
+
+def test_the_registry_imports_no_heavy_library():
+    code = (
+        "import sys, hybridlog.estimators as e; "
+        "assert len(e.ESTIMATORS) >= 4 and all(e.ESTIMATORS[n].summary for n in e.ESTIMATORS); "
+        f"print(','.join(m for m in {HEAVY!r} if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == ""
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_entry_is_complete(name):
+    entry = ESTIMATORS[name]
+    assert entry.name == name and entry.summary and entry.source
+    assert dataclasses.is_dataclass(entry.options_type)
+    assert callable(entry.run_function)
+    assert isinstance(entry.capabilities, Capabilities)
+    assert not entry.capabilities.supports_smoothing  # no smoother exists yet
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_result_shapes_and_probabilities(name, cases, runs):
+    model, signals = cases[model_for(name)]
+    _, result, _ = runs[name]
+    n = signals.n_samples
+    assert result.estimator == name
+    np.testing.assert_array_equal(result.time, signals.time)
+    assert result.mode_ids == model.mode_ids
+    assert result.modes.shape == (n,) and result.modes.dtype == np.int64
+    assert result.mode_probabilities.shape == (n, model.n_modes)
+    assert result.state_means.shape == result.state_variances.shape == (n, model.n_states)
+    assert result.output_predictions.shape == (n, model.n_outputs)
+    probabilities = result.mode_probabilities
+    assert np.all(probabilities >= 0.0)
+    np.testing.assert_allclose(probabilities.sum(axis=1), 1.0, atol=1e-9)
+    assert np.all(np.isnan(result.output_predictions[0]))
+    assert np.all(np.isfinite(result.output_predictions[1:]))
+    assert np.all(np.isfinite(result.state_means))
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_two_runs_are_equal(name, runs):
+    _, first, second = runs[name]
+    for field in ("modes", "mode_probabilities", "state_means", "state_variances"):
+        np.testing.assert_array_equal(getattr(first, field), getattr(second, field))
+    np.testing.assert_array_equal(first.output_predictions, second.output_predictions)
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_options_round_trip_through_the_report(name, cases, runs):
+    model, signals = cases[model_for(name)]
+    prepared, result, _ = runs[name]
+    report = build_report(result, signals, log="sim", model_name=model.name, dt=model.dt)
+    written = json.loads(report.to_json())["options"]
+    declared = [info.name for info in prepared.estimator.describe_options()]
+    assert set(declared) <= set(written)
+    again = prepared.estimator.parse_options({k: written[k] for k in declared})
+    assert again == prepared.options
+    assert prepared.options_dict() == {k: result.options[k] for k in declared}
+
+
+def bad_values(estimator):
+    """(option, raw value, what the message says) for every option that has a bad value."""
+    cls = estimator.options_type
+    hints = typing.get_type_hints(cls)
+    for field in dataclasses.fields(cls):
+        hint = hints[field.name]
+        members = [a for a in typing.get_args(hint) if a is not type(None)] or [hint]
+        base = members[0] if typing.get_origin(hint) is not typing.Literal else hint
+        if base is bool:
+            yield field.name, "maybe", "expected true or false"
+        elif typing.get_origin(base) is typing.Literal:
+            yield field.name, "no-such-choice", "is not one of"
+        elif base in (int, float):
+            yield field.name, "abc", "expected a number"
+            if "range" in field.metadata:
+                yield field.name, str(2 * field.metadata["range"][1] + 1), "is outside"
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_a_bad_set_option_is_one_line_naming_estimator_and_option(name, cases):
+    model, _ = cases[model_for(name)]
+    checked = 0
+    for key, raw, reason in bad_values(ESTIMATORS[name]):
+        overrides = Overrides(options=MappingProxyType({key: raw}))
+        with pytest.raises(OptionError) as caught:
+            prepare_estimators(model, [name], overrides)
+        message = str(caught.value)
+        assert message.startswith(f"--set {key}={raw}: {name} option '{key}': ")
+        assert reason in message
+        assert "\n" not in message
+        checked += 1
+    assert checked >= 1
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_a_bad_option_in_the_model_file_names_file_and_key(name, tmp_path):
+    key, raw, reason = next(bad_values(ESTIMATORS[name]))
+    base = model_for(name)
+    text = (ROOT / f"hybridlog/model/builtin/{base}.toml").read_text()
+    text = text.split("\n[estimators.")[0]  # the built-in's own table, if any, is the last
+    path = tmp_path / "model.toml"
+    path.write_text(f"{text}\n[estimators.{name}]\n{key} = {json.dumps(raw)}\n")
+    model = load_model(path)
+    with pytest.raises(ModelError) as caught:
+        prepare(model, name)
+    message = str(caught.value)
+    assert message.startswith(f"{path}: estimators.{name}.{key}: {name} option '{key}': ")
+    assert reason in message
+
+
+def test_range_errors_name_the_file_key_or_the_set_value(tmp_path):
+    path = tmp_path / "tank.toml"
+    path.write_text(TANK_TEXT.replace("theta = 0.95", "theta = 2.0"))
+    model = load_model(path)
+    with pytest.raises(ModelError, match=rf"^{path}: estimators\.hstf\.theta: hstf option 'theta'"):
+        prepare(model, "hstf")
+    fixed = prepare(model, "hstf", {"theta": "0.9"})  # --set wins over the file
+    assert fixed.options.theta == 0.9
+    with pytest.raises(OptionError, match=r"^--set rho=0: hstf option 'rho': 0 is outside"):
+        prepare(model, "hstf", {"rho": "0"})
+
+
+def test_a_bad_default_estimator_names_the_model_file_and_key(tmp_path):
+    path = tmp_path / "tank.toml"
+    path.write_text(TANK_TEXT.replace('default_estimator = "hstf"', 'default_estimator = "hsft"'))
+    with pytest.raises(ModelError) as caught:
+        analyze(SAMPLE, path, out_dir=tmp_path / "out")
+    message = str(caught.value)
+    assert message.startswith(f"{path}: default_estimator: unknown estimator 'hsft'")
+    assert "did you mean 'hstf'" in message and "--estimator" not in message
+    assert not (tmp_path / "out").exists()
+    # naming an estimator does not use the default, so the bad default does not matter
+    assert prepare(load_model(path), "imm").name == "imm"
+
+
+def test_unknown_estimator_tables_and_names(tmp_path):
+    path = tmp_path / "tank.toml"
+    path.write_text(f"{TANK_TEXT}\n[estimators.kalman]\nq = 1\n")
+    with pytest.raises(ModelError, match=rf"^{path}: estimators\.kalman: unknown estimator"):
+        prepare(load_model(path), "hstf")
+    path.write_text(f"{TANK_TEXT}\n[estimators.sliding-mode]\nV_M = 1\n")  # a planned one
+    assert prepare(load_model(path), "hstf").name == "hstf"
+    with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
+        get_estimator("im")
+    with pytest.raises(OptionError, match="'unknown-mode' is not available in this version"):
+        get_estimator("unknown-mode")
+
+
+def test_set_bogus_lists_parameters_and_options_and_suggests(tmp_path):
+    model, overrides = parse_sets(["thetta=0.9"], "three_tank_hstf")
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, [None], overrides)
+    message = str(caught.value)
+    assert message.startswith("--set thetta=0.9: neither a parameter of model three_tank_hstf")
+    assert "parameters: A, " in message and "options of hstf: rho, beta, theta" in message
+    assert message.endswith("did you mean 'theta'?")
+    model, overrides = parse_sets(["Az=3"], "three_tank_hstf")
+    with pytest.raises(OptionError, match="did you mean 'A'"):
+        prepare_estimators(model, ["imm"], overrides)
+
+
+def test_set_values_are_split_once_into_an_immutable_value():
+    model, overrides = parse_sets(["A=160", "theta=0.9"], "three_tank_hstf")
+    assert dict(overrides.parameters) == {"A": 160.0} and model.parameters["A"] == 160.0
+    assert dict(overrides.options) == {"theta": "0.9"}
+    with pytest.raises(TypeError):
+        overrides.options["rho"] = "0.5"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        overrides.options = {}
+    with pytest.raises(OptionError, match=r"^--set theta: given twice$"):
+        parse_sets(["theta=0.9", "theta=0.8"], "three_tank_hstf")
+    with pytest.raises(OptionError, match=r"^--set: 'theta' is not NAME=VALUE$"):
+        parse_sets(["theta"], "three_tank_hstf")
+
+
+def test_each_compared_estimator_gets_the_options_it_declares():
+    model, overrides = parse_sets(["theta=0.9", "transition_stay=0.8"], "three_tank_hstf")
+    hstf, imm = prepare_estimators(model, ["hstf", "imm"], overrides, given_by="--estimators")
+    assert hstf.options.theta == 0.9 and imm.options.transition_stay == 0.8
+
+
+def test_capabilities_refuse_an_unsuitable_model_naming_file_and_estimator(tmp_path):
+    path = tmp_path / "tank.toml"
+    path.write_text(TANK_TEXT)
+    with pytest.raises(ModelError) as caught:
+        prepare(load_model(path), "chiu")
+    assert str(caught.value) == (
+        f"{path}: estimator 'chiu' needs a linear model; the modes are nonlinear: "
+        "modes.1.f[0] is not affine in x1, x3 (estimators for this model: hstf, imm)"
+    )
+    path.write_text(TANK_TEXT.replace('default_estimator = "hstf"', 'default_estimator = "chiu"'))
+    with pytest.raises(ModelError, match=rf"^{path}: default_estimator 'chiu' needs a linear"):
+        prepare(load_model(path), None)
+
+
+def test_capabilities_checks_for_every_need(cases):
+    tank, tank_signals = cases["three_tank_hstf"]
+    cart, _ = cases["double_cart_case1"]
+    tank_traits, cart_traits = ModelTraits(tank), ModelTraits(cart)
+    assert cart_traits.nonlinear is None and tank_traits.nonlinear is not None
+    assert Capabilities().mismatch(tank_traits) is None
+    assert "continuous-time model" in Capabilities(continuous_time=True).mismatch(tank_traits)
+    assert "[components]" in Capabilities(needs_components=True).mismatch(tank_traits)
+    assert "boolean-affine" in Capabilities(needs_boolean_affine=True).mismatch(tank_traits)
+    assert Capabilities(applies_jump_maps=True).mismatch(tank_traits) is None
+
+    class Other(ModelTraits):  # the kinds the loader does not produce yet
+        continuous = jumps = components = booleans = True
+
+    other = Other(tank)
+    assert Capabilities().mismatch(other) == (
+        "needs a discrete-time model; the model's time is continuous"
+    )
+    flags = {"continuous_time": True, "needs_components": True, "needs_boolean_affine": True}
+    assert "does not apply jump maps" in Capabilities(**flags).mismatch(other)
+    assert Capabilities(**flags, applies_jump_maps=True).mismatch(other) is None
+    assert tank.transitions is None and cart.transitions is not None
+    assert "[transitions]" in Capabilities(needs_markov_matrix=True).mismatch(tank_traits)
+    assert Capabilities(needs_markov_matrix=True).mismatch(cart_traits) is None
+    measured = Capabilities(needs_measured_state=True)
+    assert measured.mismatch(tank_traits) == (
+        "needs the state measured; modes.2.h is not the state (x1, x2, x3)"
+    )
+    assert "modes.1.h is not the state (x1, x2, x3, x4)" in measured.mismatch(cart_traits)
+    switching = Capabilities(needs_switching_signal=True)
+    assert switching.signals_mismatch(tank_signals) is None
+    blind = dataclasses.replace(tank_signals, truth_modes=None)
+    assert "--map truth.mode=PATH" in switching.signals_mismatch(blind)
+
+
+def test_a_log_without_what_the_estimator_needs_is_refused(cases, monkeypatch):
+    model, signals = cases["three_tank_hstf"]
+    entry = dataclasses.replace(
+        ESTIMATORS["hstf"], capabilities=Capabilities(needs_switching_signal=True)
+    )
+    monkeypatch.setitem(ESTIMATORS, "hstf", entry)
+    prepared = prepare(model, "hstf")
+    with pytest.raises(LogError, match=r"^simulation: estimator 'hstf' needs the switching"):
+        prepared.run(model, dataclasses.replace(signals, truth_modes=None))
+
+
+def result_fields(n=5, n_modes=2, n_x=3, n_y=1):
+    return {
+        "estimator": "toy",
+        "options": {},
+        "time": np.arange(n, dtype=np.float64),
+        "mode_ids": tuple(str(i) for i in range(n_modes)),
+        "state_names": tuple(f"x{i}" for i in range(n_x)),
+        "output_names": tuple(f"y{i}" for i in range(n_y)),
+        "modes": np.zeros(n, dtype=np.int64),
+        "mode_probabilities": np.full((n, n_modes), 1.0 / n_modes),
+        "state_means": np.zeros((n, n_x)),
+        "state_variances": np.zeros((n, n_x)),
+        "output_predictions": np.zeros((n, n_y)),
+    }
+
+
+@pytest.mark.parametrize(
+    "field",
+    [
+        "modes",
+        "mode_probabilities",
+        "state_means",
+        "state_variances",
+        "output_predictions",
+        "covariances",
+    ],
+)
+def test_a_result_of_the_wrong_shape_names_estimator_and_field(field):
+    fields = result_fields()
+    fields["covariances"] = np.zeros((5, 3, 3))
+    EstimationResult(**fields)
+    fields[field] = np.zeros((4, *fields[field].shape[1:]), dtype=fields[field].dtype)
+    with pytest.raises(ResultShapeError, match=rf"^toy: result field '{field}' has shape \(4"):
+        EstimationResult(**fields)
+
+
+def test_a_result_of_the_wrong_dtype_or_mode_names_estimator_and_field():
+    fields = result_fields()
+    with pytest.raises(ResultShapeError, match=r"^toy: result field 'modes' has dtype float64"):
+        EstimationResult(**{**fields, "modes": np.zeros(5)})
+    with pytest.raises(ResultShapeError, match=r"^toy: result field 'state_means' has dtype"):
+        EstimationResult(**{**fields, "state_means": np.zeros((5, 3), dtype=np.float32)})
+    with pytest.raises(ResultShapeError, match=r"'modes' holds mode indices outside \[0, 2\)"):
+        EstimationResult(**{**fields, "modes": np.array([0, 1, 2, 0, 0])})
+    with pytest.raises(ResultShapeError, match=r"^toy: result field 'time' has shape \(5, 1\)"):
+        EstimationResult(**{**fields, "time": np.zeros((5, 1))})
+    with pytest.raises(ResultShapeError, match="'output_predictions' has shape list"):
+        EstimationResult(**{**fields, "output_predictions": [[0.0]] * 5})
+
+
+# The recipe of docs/architecture.md, followed by a test: this module holds an estimator
+# (options + run), one registry entry names it, and `analyze` writes its report unchanged.
+
+
+@dataclasses.dataclass(frozen=True)
+class PersistOptions:
+    lag: int = option(1, "predict y(k) as y(k - lag)", range=(1, 10))
+
+
+def run_persist(model, signals, options):
+    """Naive persistence: the prior's mode and state throughout, ŷ(k) = y(k − lag)."""
+    n = signals.n_samples
+    predictions = np.full(signals.outputs.shape, np.nan)
+    predictions[options.lag :] = signals.outputs[: n - options.lag]
+    prior = model.initial_mode_probabilities
+    return EstimationResult(
+        estimator="persist",
+        options=options_dict(options),
+        time=signals.time,
+        mode_ids=model.mode_ids,
+        state_names=model.states,
+        output_names=model.outputs,
+        modes=np.full(n, int(np.argmax(prior)), dtype=np.int64),
+        mode_probabilities=np.tile(prior, (n, 1)),
+        state_means=np.tile(model.initial_state, (n, 1)),
+        state_variances=np.tile(np.diag(model.initial_covariance), (n, 1)),
+        output_predictions=predictions,
+    )
+
+
+def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypatch):
+    entry = Estimator(
+        name="persist",
+        summary="naive persistence",
+        source="none",
+        module=__name__,
+        options="PersistOptions",
+        run="run_persist",
+    )
+    monkeypatch.setitem(ESTIMATORS, "persist", entry)
+    outcome = analyze(
+        SAMPLE, "three_tank_hstf", estimator="persist", sets=["lag=2"], out_dir=tmp_path / "r"
+    )
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["estimator"] == "persist" and report["options"] == {"lag": 2}
+    assert outcome.report.modes.accuracy is not None
+    assert "lag=1  int, in [1, 10]  predict y(k) as y(k - lag)" in entry.help_text()
+
+
+@pytest.mark.parametrize(
+    ("text", "reason"),
+    [
+        (
+            model_kinds.CONTINUOUS_TANK,
+            "needs a discrete-time model; the model's time is continuous",
+        ),
+        (model_kinds.CLUTCH_JUMPS, "model's time is continuous"),
+    ],
+)
+def test_models_of_kinds_no_estimator_handles_yet_are_refused_before_reading(text, reason):
+    model = parse_model(text, origin="kind.toml")
+    for name in ("hstf", "imm"):
+        with pytest.raises(HybridlogError, match=reason) as caught:
+            prepare(model, name)
+        assert "kind.toml" in str(caught.value)
+        assert "\n" not in str(caught.value)

@@ -1,0 +1,202 @@
+"""Estimator options: read from type hints, validated, described; errors name the culprit."""
+
+import dataclasses
+import json
+import typing
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import pytest
+
+from hybridlog.cluster.subtractive import METHODS
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.estimators import ESTIMATORS
+from hybridlog.estimators.options import (
+    OptionSource,
+    describe_options,
+    format_options,
+    option,
+    options_dict,
+    parse_options,
+)
+from hybridlog.estimators.registry import reference_markdown
+
+
+@dataclass(frozen=True)
+class Toy:
+    count: int = option(3, "a whole number", range=(1, 10))
+    gain: float = option(0.5, "a number", range=(0.0, 1.0))
+    on: bool = option(True, "a switch")
+    label: str = option("", "any text")
+    shape: Literal["round", "square"] = option("round", "one of two")
+    limit: float | None = option(None, "a number or none", range=(0.0, 5.0))
+    size: int | None = option(None, "a whole number or none")
+
+
+def parse(**values):
+    return parse_options(Toy, values, estimator="toy")
+
+
+@pytest.mark.parametrize(
+    ("name", "raw", "value"),
+    [
+        ("count", "4", 4),
+        ("count", 4, 4),
+        ("count", 4.0, 4),  # TOML `count = 4.0`
+        ("count", " 7 ", 7),
+        ("count", "5.0", 5),
+        ("gain", "0.25", 0.25),
+        ("gain", 1, 1.0),
+        ("on", "no", False),
+        ("on", "TRUE", True),
+        ("on", False, False),
+        ("label", " a b ", "a b"),
+        ("shape", "square", "square"),
+        ("limit", "none", None),
+        ("limit", "", None),
+        ("limit", "2.5", 2.5),
+        ("size", "None", None),
+        ("size", "12", 12),
+    ],
+)
+def test_values_are_read_by_their_type_hint(name, raw, value):
+    parsed = getattr(parse(**{name: raw}), name)
+    assert parsed == value and type(parsed) is type(value)
+
+
+@pytest.mark.parametrize(
+    ("name", "raw", "reason"),
+    [
+        ("count", "3.5", "expected a whole number, got '3.5'"),
+        ("count", True, "expected a number, got 'True'"),
+        ("count", "many", "expected a number, got 'many'"),
+        ("count", "11", "11 is outside [1, 10]"),
+        ("count", "none", "expected a number, got 'none'"),
+        ("gain", "nan", "expected a finite number, got 'nan'"),
+        ("gain", "inf", "expected a finite number, got 'inf'"),
+        ("gain", "-0.1", "-0.1 is outside [0, 1]"),
+        ("gain", [1], "expected a number, got '[1]'"),
+        ("on", "maybe", "expected true or false, got 'maybe'"),
+        ("on", 1, "expected true or false, got '1'"),
+        ("label", 5, "expected text, got '5'"),
+        ("shape", "oval", "'oval' is not one of round, square"),
+        ("limit", "6", "6 is outside [0, 5]"),
+    ],
+)
+def test_bad_values_are_one_line_naming_estimator_and_option(name, raw, reason):
+    with pytest.raises(OptionError) as caught:
+        parse(**{name: raw})
+    assert str(caught.value) == f"toy option '{name}': {reason}"
+
+
+def test_unknown_names_list_the_options_and_suggest_the_closest():
+    with pytest.raises(OptionError, match=r"toy has no option 'gian' \(options: count, gain, on,"):
+        parse(gian="1")
+    with pytest.raises(OptionError, match="did you mean 'gain'"):
+        parse(gian="1")
+    with pytest.raises(OptionError) as caught:
+        parse(zzzz="1")
+    assert "did you mean" not in str(caught.value)
+
+
+def test_errors_name_where_the_value_came_from():
+    with pytest.raises(OptionError, match=r"^--set count=0: toy option 'count': 0 is outside"):
+        parse_options(
+            Toy,
+            {"count": "0"},
+            estimator="toy",
+            sources={"count": OptionSource.command_line("--set", "count", "0")},
+        )
+    source = OptionSource.model_file("m/bad.toml", "toy", "count")
+    with pytest.raises(ModelError, match=r"^m/bad.toml: estimators.toy.count: toy option 'count'"):
+        parse_options(Toy, {"count": 0}, estimator="toy", sources={"count": source})
+    unknown = OptionSource.model_file("m/bad.toml", "toy", "cnt")
+    with pytest.raises(ModelError, match=r"^m/bad.toml: estimators.toy.cnt: toy has no option"):
+        parse_options(Toy, {"cnt": 0}, estimator="toy", sources={"cnt": unknown})
+
+
+def test_long_or_binary_values_are_quoted_short():
+    with pytest.raises(OptionError) as caught:
+        parse(count="\x00" * 16_000)
+    message = str(caught.value)
+    assert len(message) < 200 and "\n" not in message and "\\x00" in message
+
+
+@pytest.mark.parametrize(
+    "hint",
+    [list[int], dict[str, int], int | str, int | str | None, Literal["a", 1], bytes],
+)
+def test_unsupported_option_types_are_refused_when_declared(hint):
+    cls = dataclasses.make_dataclass("Bad", [("x", hint, option(None, "x"))], frozen=True)
+    with pytest.raises(TypeError, match=r"Bad\.x"):
+        parse_options(cls, {}, estimator="bad")
+
+
+def test_options_must_be_frozen_and_described():
+    loose = dataclasses.make_dataclass("Loose", [("x", int, option(1, "x"))])
+    with pytest.raises(TypeError, match="frozen"):
+        parse_options(loose, {}, estimator="loose")
+    mute = dataclasses.make_dataclass("Mute", [("x", int, 1)], frozen=True)
+    with pytest.raises(TypeError, match=r"Mute.x: an estimator option needs a help text"):
+        describe_options(mute)
+
+
+def test_description_and_text_come_from_the_one_definition():
+    infos = {i.name: i for i in describe_options(Toy)}
+    assert list(infos) == [f.name for f in dataclasses.fields(Toy)]
+    assert (infos["count"].type, infos["count"].default, infos["count"].constraint) == (
+        "int",
+        3,
+        "in [1, 10]",
+    )
+    assert infos["shape"].type == "round|square"
+    assert infos["limit"].type == "float or none"
+    text = format_options(describe_options(Toy)).splitlines()
+    assert len(text) == len(infos)
+    assert text[0].split() == ["count=3", "int,", "in", "[1,", "10]", "a", "whole", "number"]
+    assert text[3].startswith('label=""') and text[5].startswith("limit=none")
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_every_option_of_every_estimator_has_one_line_help(name):
+    estimator = ESTIMATORS[name]
+    infos = estimator.describe_options()
+    assert infos, name
+    for info in infos:
+        assert info.help.strip() and "\n" not in info.help and len(info.help) <= 100, info
+    text = estimator.help_text()
+    assert text.startswith(f"{name}: {estimator.summary}") and "needs: " in text
+    for info in infos:
+        assert f"\n{info.name}=" in text
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_defaults_round_trip_through_json(name):
+    estimator = ESTIMATORS[name]
+    defaults = estimator.options_type()
+    back = json.loads(json.dumps(options_dict(defaults)))
+    assert estimator.parse_options(back) == defaults
+    as_text = {k: "none" if v is None else str(v) for k, v in back.items()}
+    assert estimator.parse_options(as_text) == defaults
+
+
+def test_integer_options_are_real_ints():
+    kmeans = ESTIMATORS["kmeans"]
+    options = kmeans.parse_options({"clusters": "3", "restarts": "4", "seed": 7.0})
+    assert (options.clusters, options.restarts, options.seed) == (3, 4, 7)
+    assert all(type(v) is int for v in (options.clusters, options.restarts, options.seed))
+    with pytest.raises(OptionError, match="kmeans option 'restarts': expected a whole number"):
+        kmeans.parse_options({"restarts": "2.5"})
+
+
+def test_chiu_method_choices_are_the_clustering_methods():
+    hints = typing.get_type_hints(ESTIMATORS["chiu"].options_type)
+    assert typing.get_args(hints["method"]) == METHODS
+
+
+def test_the_estimator_reference_in_docs_is_generated_from_the_registry():
+    written = (Path(__file__).resolve().parents[2] / "docs" / "estimators.md").read_text()
+    assert written == reference_markdown(), (
+        "run: python -m hybridlog.estimators > docs/estimators.md"
+    )

@@ -1,0 +1,126 @@
+"""The three code paths of each filter compute the same thing.
+
+``unrolled`` (the filter's accelerator: straight-line code generated per model) is what runs
+by default where it applies; ``loops`` (generic compiled loops) serves large models;
+``jit=False`` runs the generic loops as plain Python on plain-Python mode functions.
+"""
+
+import importlib
+import pkgutil
+
+import numpy as np
+import pytest
+
+import hybridlog.estimators
+from hybridlog.errors import ModelError
+from hybridlog.estimators.common import FilterCode
+from hybridlog.estimators.hstf import HstfOptions, run_hstf
+from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.unrolled import use_unrolled
+from hybridlog.model.loader import load_model, parse_model
+from hybridlog.signals import AlignedSignals
+from hybridlog.simulate import simulate
+from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
+
+MODELS = {
+    "three_tank_hstf": lambda: load_model("three_tank_hstf"),
+    "linear_two_mode": lambda: parse_model(LINEAR_TWO_MODE),
+    "pendulum": lambda: parse_model(PENDULUM_ONE_MODE),
+}
+RUNS = {
+    "hstf": lambda m, s, **kw: run_hstf(m, s, HstfOptions(), **kw),
+    "hstf-unfaded": lambda m, s, **kw: run_hstf(m, s, HstfOptions(likelihood="unfaded"), **kw),
+    "hstf-no-fading": lambda m, s, **kw: run_hstf(m, s, HstfOptions(fading=False), **kw),
+    "imm": lambda m, s, **kw: run_imm(m, s, ImmOptions(), **kw),
+}
+
+
+def _signals(model, steps):
+    return simulate(model, steps=steps, seed=4).signals(model)
+
+
+def _assert_same(a, b, tolerance):
+    np.testing.assert_allclose(a.state_means, b.state_means, rtol=tolerance, atol=tolerance)
+    np.testing.assert_allclose(a.state_variances, b.state_variances, rtol=tolerance, atol=tolerance)
+    np.testing.assert_allclose(
+        a.mode_probabilities, b.mode_probabilities, rtol=tolerance, atol=tolerance
+    )
+    np.testing.assert_allclose(
+        a.output_predictions, b.output_predictions, rtol=tolerance, atol=tolerance
+    )
+    np.testing.assert_array_equal(a.modes, b.modes)
+    np.testing.assert_allclose(a.covariances, b.covariances, rtol=tolerance, atol=tolerance)
+
+
+@pytest.mark.parametrize("model_name", sorted(MODELS))
+@pytest.mark.parametrize("run_name", sorted(RUNS))
+def test_unrolled_loops_and_plain_python_agree(model_name, run_name):
+    model = MODELS[model_name]()
+    run = RUNS[run_name]
+    signals = _signals(model, steps=400)
+    unrolled = run(model, signals, kernel="unrolled", store_covariances=True)
+    loops = run(model, signals, kernel="loops", store_covariances=True)
+    _assert_same(unrolled, loops, 1e-9)
+    short = AlignedSignals(
+        source="sim",
+        time=signals.time[:60],
+        input_names=model.inputs,
+        output_names=model.outputs,
+        inputs=signals.inputs[:60],
+        outputs=signals.outputs[:60],
+    )
+    plain = run(model, short, jit=False, store_covariances=True)
+    compiled = run(model, short, kernel="loops", store_covariances=True)
+    _assert_same(plain, compiled, 1e-12)
+
+
+def _filter_codes():
+    """Every filter of every estimator module, found without a list to keep up to date."""
+    codes = []
+    for info in pkgutil.iter_modules(hybridlog.estimators.__path__):
+        module = importlib.import_module(f"hybridlog.estimators.{info.name}")
+        codes += [value for value in vars(module).values() if isinstance(value, FilterCode)]
+    return codes
+
+
+def test_every_accelerator_is_checked_against_the_plain_path():
+    accelerated = {code.name for code in _filter_codes() if code.accelerator is not None}
+    assert accelerated >= {"hstf", "imm"}
+    # Each one must have a row in RUNS, which the test above compares path by path.
+    assert accelerated <= {name.split("-")[0] for name in RUNS}
+
+
+def test_auto_takes_straight_line_code_for_small_models_only():
+    model = load_model("three_tank_hstf")
+    assert use_unrolled(model, "auto")
+    assert not use_unrolled(model, "loops")
+    wide = parse_model(
+        "dt = 1\nstates = [" + ", ".join(f'"s{i}"' for i in range(7)) + ']\noutputs = ["y"]\n'
+        "[modes.a]\nA = " + str(np.eye(7).tolist()) + "\nC = [" + str([1.0] * 7) + "]\n"
+        "[initial]\nstate = " + str([0.0] * 7) + "\n"
+    )
+    assert not use_unrolled(wide, "auto")
+    assert use_unrolled(wide, "unrolled")
+
+
+def test_a_diverging_filter_is_an_error_naming_the_model_file_estimator_and_time():
+    # Issue 7: the message names the model file (not the model's internal name).
+    model = parse_model(
+        'name = "kink"\ndt = 1\nstates = ["x"]\noutputs = ["y"]\n'
+        '[modes.a]\nf = ["x + sqrt(abs(x - 2))"]\nh = ["x"]\n'
+        "[noise]\nprocess = 0.1\nmeasurement = 0.1\n[initial]\nstate = [2.0]\n",
+        origin="models/kink.toml",
+    )
+    signals = AlignedSignals(
+        source="sim",
+        time=np.arange(5.0),
+        input_names=(),
+        output_names=("y",),
+        inputs=np.zeros((5, 0)),
+        outputs=np.full((5, 1), 2.0),
+    )
+    for kernel in ("unrolled", "loops"):
+        with pytest.raises(
+            ModelError, match=r"^models/kink\.toml: hstf diverged at t = 1 s \(sample 1\)"
+        ):
+            run_hstf(model, signals, HstfOptions(), kernel=kernel)

@@ -1,0 +1,71 @@
+"""One ReadOptions, checked when built; the SignalSpec of a model."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import pytest
+
+from hybridlog.cli import main
+from hybridlog.errors import OptionError
+from hybridlog.io import ReadOptions, SignalSpec
+from hybridlog.model.loader import load_model
+from tests.support.paths import TANK_CSV
+
+SAMPLE = TANK_CSV
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"time": "wall"}, "--time: expected one of log, header, got 'wall'"),
+        ({"resample": "cubic"}, "resample: unknown method 'cubic'; choose one of nearest, linear"),
+        ({"max_gap": -1.0}, "max_gap: must be a non-negative number of seconds, got -1.0"),
+        ({"max_gap": math.nan}, "max_gap: must be a non-negative number of seconds, got nan"),
+        ({"max_gap": math.inf}, "max_gap: must be a non-negative number of seconds, got inf"),
+    ],
+)
+def test_bad_values_are_refused_when_built(values: dict[str, object], message: str) -> None:
+    with pytest.raises(OptionError) as error:
+        ReadOptions(**values)  # type: ignore[arg-type]
+    assert str(error.value) == message
+
+
+def test_good_values_and_defaults() -> None:
+    assert ReadOptions() == ReadOptions(
+        maps=(), resample="nearest", max_gap=None, time="log", msg_dirs=()
+    )
+    options = ReadOptions(resample="linear", max_gap=0.0, time="header", sort=True)
+    assert (options.resample, options.max_gap, options.time, options.sort) == (
+        "linear",
+        0.0,
+        "header",
+        True,
+    )
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        options.sort = False  # type: ignore[misc]
+
+
+def test_the_command_line_builds_the_checked_options(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "report"
+    args = ["analyze", str(SAMPLE), "--model", "three_tank_hstf", "--out", str(out)]
+    with pytest.raises(SystemExit) as exit_:
+        main([*args, "--max-gap", "-2"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err == "hybridlog: error: max_gap: must be a non-negative number of seconds, got -2.0\n"
+    assert not out.exists()
+
+
+def test_signal_spec_of_a_model() -> None:
+    model = load_model("three_tank_hstf")
+    spec = SignalSpec.of(model)
+    assert (spec.inputs, spec.outputs, spec.states) == (model.inputs, model.outputs, model.states)
+    assert (spec.mode_ids, spec.dt) == (model.mode_ids, model.dt)
+    assert dict(spec.signals) == model.signals and dict(spec.truth) == model.truth
+    with pytest.raises(TypeError):
+        spec.signals["u"] = "/other.data"  # type: ignore[index]

@@ -1,0 +1,287 @@
+"""What logs written by other tools got wrong, one class of defect per test (issue 7).
+
+Every file here is written by another tool's writer -- rosbags' ROS 2 bag writer, the
+``mcap`` writer -- and then, where the defect needs it, edited the way real files differ:
+
+- a stored definition that does not describe the bytes (rosbag2's ``talker.db3`` stores the
+  placeholder ``uint8 level`` for ``rcl_interfaces/msg/Log``): refused, never decoded into
+  wrong numbers -- by the batch decoder and by the one-by-one fallback alike;
+- a definition rosbags cannot parse (ROS 2 Jazzy service events store the ``.srv`` text with
+  ``---``) beside good topics: only that topic is marked, the others are read;
+- a bag whose ``metadata.yaml`` gives other QoS profiles than its storage file: topics are
+  matched by name and type, and ``inspect`` says the two disagree;
+- hints: ``--recover`` is suggested only where it would read messages.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from hybridlog.cli import main
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
+from tests.support.logfiles import (
+    EVENT_TYPE,
+    LOG_TYPE,
+    PLACEHOLDER,
+    event_stream,
+    forget_type_hashes,
+    good_streams,
+    msgdef,
+    reliable_qos,
+    rosout_stream,
+    write_streams_bag,
+    write_streams_mcap,
+)
+
+
+def load(log: Path, y: str = "/y.data") -> Any:
+    return load_signals(
+        log,
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
+        ReadOptions(maps=("u=/u.data", f"y={y}")),
+    )
+
+
+def check_good_topics(log: Path, steps: int = 30) -> None:
+    signals = load(log)
+    np.testing.assert_array_equal(signals.inputs[:, 0], np.arange(steps, dtype=float))
+    np.testing.assert_array_equal(signals.outputs[:, 0], 2.0 * np.arange(steps))
+
+
+def cli_error(args: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_:
+        main(args)
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2, err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    return err
+
+
+# ------------------------------------------------------------------ definitions that lie
+
+
+def _placeholder_log(kind: str, folder: Path) -> Path:
+    streams = [*good_streams(), rosout_stream(PLACEHOLDER)]
+    if kind == "mcap, rosbags reader":
+        return write_streams_mcap(folder / "talker.mcap", streams)
+    if kind == "mcap, mcap reader":  # no repeated channels: read with the mcap library
+        return write_streams_mcap(
+            folder / "talker.mcap", streams, repeat_channels=False, repeat_schemas=False
+        )
+    bag = write_streams_bag(folder / "talker", streams)
+    forget_type_hashes(bag / "talker.db3")  # as in rosbag2's talker.db3: nothing to compare
+    return bag if kind == "bag folder" else bag / "talker.db3"
+
+
+PLACEHOLDER_LOGS = ["mcap, rosbags reader", "mcap, mcap reader", "bag folder", "bare db3"]
+
+
+@pytest.mark.parametrize("kind", PLACEHOLDER_LOGS)
+def test_a_definition_that_does_not_fit_the_bytes_is_refused(kind: str, tmp_path: Path) -> None:
+    log = _placeholder_log(kind, tmp_path)
+    info = inspect_log(log)
+    rosout = next(t for t in info["topics"] if t["name"] == "/rosout")
+    assert (rosout["type"], rosout["count"]) == (LOG_TYPE, 30)
+    assert "/rosout.level" in rosout["fields"]  # the placeholder is all the file says
+    with pytest.raises(LogError) as error:
+        load(log, "/rosout.level")
+    message = str(error.value)
+    assert message.startswith(f"{log}: topic '/rosout' ({LOG_TYPE})"), message
+    assert "cannot be decoded" in message
+    assert "size mismatch" in message
+    check_good_topics(log)
+
+
+def test_a_definition_that_does_not_fit_its_type_hash_marks_the_topic(tmp_path: Path) -> None:
+    # The same bag with the hashes rosbag2 (Iron and later) stores: caught before any read.
+    log = write_streams_bag(tmp_path / "talker", [*good_streams(), rosout_stream(PLACEHOLDER)])
+    info = inspect_log(log)
+    assert {t["name"]: t["count"] for t in info["topics"]} == {"/u": 30, "/y": 30, "/rosout": 30}
+    assert len(info["problems"]) == 1
+    assert "'/rosout'" in info["problems"][0]
+    assert "does not match its type hash" in info["problems"][0]
+    with pytest.raises(LogError, match=r"'/rosout'.*does not match its type hash"):
+        load(log, "/rosout.level")
+    check_good_topics(log)
+
+
+def test_the_true_definition_decodes_the_true_level(tmp_path: Path) -> None:
+    # The control: the same bytes with rcl_interfaces/msg/Log's real definition.
+    log = write_streams_mcap(
+        tmp_path / "talker.mcap", [*good_streams(), rosout_stream(msgdef(LOG_TYPE))]
+    )
+    assert set(load(log, "/rosout.level").outputs[:, 0]) == {20.0}
+
+
+# ------------------------------------------------------------------ one undecodable schema
+
+
+def _event_log(kind: str, folder: Path) -> Path:
+    streams = [*good_streams(), event_stream()]
+    if kind == "mcap, rosbags reader":
+        return write_streams_mcap(folder / "events.mcap", streams)
+    if kind == "mcap, mcap reader":
+        return write_streams_mcap(folder / "events.mcap", streams, repeat_channels=False)
+    return write_streams_bag(folder / "events", streams, "mcap" if "mcap" in kind else "sqlite3")
+
+
+@pytest.mark.parametrize(
+    "kind", ["mcap, rosbags reader", "mcap, mcap reader", "bag folder sqlite3", "bag folder mcap"]
+)
+def test_a_service_event_schema_marks_only_its_topic(kind: str, tmp_path: Path) -> None:
+    log = _event_log(kind, tmp_path)
+    info = inspect_log(log)
+    topics = {t["name"]: t for t in info["topics"]}
+    assert {name: t["count"] for name, t in topics.items()} == {
+        "/u": 30,
+        "/y": 30,
+        "/add_two_ints/_service_event": 30,
+    }
+    assert topics["/add_two_ints/_service_event"]["type"] == EVENT_TYPE
+    assert info["messages"] == 90
+    assert len(info["problems"]) == 1, info["problems"]
+    assert info["problems"][0].startswith(f"topic '/add_two_ints/_service_event' ({EVENT_TYPE}):")
+    assert "definition cannot be parsed" in info["problems"][0]
+    check_good_topics(log)
+
+
+def test_mapping_the_undecodable_topic_is_a_one_line_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = _event_log("bag folder sqlite3", tmp_path)
+    err = cli_error(
+        [
+            "analyze",
+            str(log),
+            "--model",
+            "three_tank_hstf",
+            "--map",
+            "u=/add_two_ints/_service_event.request[0].a",
+            "--out",
+            str(tmp_path / "out"),
+        ],
+        capsys,
+    )
+    assert "'/add_two_ints/_service_event'" in err and "cannot be parsed" in err
+    assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------------------------------ metadata vs storage
+
+
+def _edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new))
+
+
+@pytest.mark.parametrize("where", ["metadata.yaml, sqlite3", "metadata.yaml, mcap", "db3 column"])
+def test_bag_topics_are_matched_by_name_and_type_not_qos(where: str, tmp_path: Path) -> None:
+    storage = "mcap" if "mcap" in where else "sqlite3"
+    bag = write_streams_bag(tmp_path / "bag", good_streams(), storage, qos=[reliable_qos()])
+    if where == "db3 column":
+        with sqlite3.connect(bag / "bag.db3") as connection:
+            connection.execute(
+                "update topics set offered_qos_profiles = "
+                "replace(offered_qos_profiles, 'depth: 10', 'depth: 1')"
+            )
+        connection.close()
+    else:
+        _edit(bag / "metadata.yaml", "reliability: reliable", "reliability: best_effort")
+    info = inspect_log(bag)
+    assert {t["name"]: t["count"] for t in info["topics"]} == {"/u": 30, "/y": 30}
+    assert info["problems"] == []
+    remarks = info["reading"]["metadata"]
+    assert remarks == [
+        f"topic {name!r}: metadata.yaml and the storage file give different QoS profiles "
+        "(topics are matched by name and type)"
+        for name in ("/u", "/y")
+    ]
+    assert "metadata.yaml and the storage file give different QoS" in format_inspection(info)
+    check_good_topics(bag)
+
+
+def test_a_topic_missing_from_the_storage_is_named_without_a_recover_hint(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = write_streams_bag(tmp_path / "bag", good_streams())
+    with sqlite3.connect(bag / "bag.db3") as connection:
+        connection.execute("delete from topics where name = '/y'")
+    connection.close()
+    info = inspect_log(bag)
+    assert {t["name"]: t["count"] for t in info["topics"]} == {"/u": 30, "/y": 0}
+    assert info["reading"]["metadata"] == [
+        "topic '/y' (std_msgs/msg/Float64) is listed in metadata.yaml with 30 messages but no "
+        "storage file holds it"
+    ]
+    err = cli_error(
+        ["analyze", str(bag), "--model", "three_tank_hstf", "--map", "y1=/y.data", "--out",
+         str(tmp_path / "out")],
+        capsys,
+    )  # fmt: skip
+    assert "'/y'" in err and "listed in metadata.yaml but in no storage file" in err
+    assert "--recover" not in err
+
+
+# ------------------------------------------------------------------ hints
+
+
+def test_recover_is_suggested_only_when_it_reads_messages(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    whole = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf.mcap"
+    data = whole.read_bytes()
+    args = ["analyze", "--model", "three_tank_hstf"]
+    short = tmp_path / "short.mcap"  # 10 % of the file: only its header and first schema
+    short.write_bytes(data[: len(data) // 10])
+    err = cli_error([*args[:1], str(short), *args[1:], "--out", str(tmp_path / "a")], capsys)
+    assert "no message is readable" in err and "--recover cannot help" in err
+    cut = tmp_path / "cut.mcap"  # 90 %: most chunks are whole
+    cut.write_bytes(data[: len(data) * 9 // 10])
+    err = cli_error([*args[:1], str(cut), *args[1:], "--out", str(tmp_path / "b")], capsys)
+    readable = int(err.split("); ")[1].split(" messages are readable")[0])
+    assert readable > 0 and "--recover analyses them" in err
+    capsys.readouterr()
+    main([*args[:1], str(cut), *args[1:], "--out", str(tmp_path / "c"), "--recover"])
+    report = json.loads((tmp_path / "c" / "report.json").read_text())
+    assert report["reading"]["messages_readable"] == readable
+    assert report["samples"] > 0
+
+
+def test_a_bag_folder_whose_mcap_rosbags_cannot_index_points_to_the_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # rosbags' MCAP storage reader needs channels repeated in the summary; the file itself is
+    # read by the mcap library.
+    bag = write_streams_bag(tmp_path / "bag", good_streams(), "mcap")
+    inner = bag / "bag.mcap"
+    inner.unlink()
+    write_streams_mcap(inner, good_streams(), repeat_channels=False)
+    with pytest.raises(LogError) as error:
+        inspect_log(bag)
+    message = str(error.value)
+    assert "its summary does not repeat the channels" in message
+    assert message.endswith(f"analyse the file itself: {inner}")
+    check_good_topics(inner)
+
+
+def test_a_topic_without_messages_missing_from_the_storage_is_no_problem(tmp_path: Path) -> None:
+    from tests.support.logfiles import Stream
+
+    quiet = Stream("/quiet", "std_msgs/msg/Float64", msgdef("std_msgs/msg/Float64"), ())
+    bag = write_streams_bag(tmp_path / "bag", [*good_streams(), quiet])
+    with sqlite3.connect(bag / "bag.db3") as connection:
+        connection.execute("delete from topics where name = '/quiet'")
+    connection.close()
+    info = inspect_log(bag)
+    assert {t["name"]: t["count"] for t in info["topics"]} == {"/u": 30, "/y": 30, "/quiet": 0}
+    assert info["problems"] == [] and "metadata" not in info["reading"]
+    check_good_topics(bag)

@@ -1,0 +1,259 @@
+"""Batch reprocessing: every log gets its outcome, whatever happens to the others.
+
+A log that fails (bad input, a reader raising an unexpected exception, a worker process that
+is killed) is listed with its one-line error while the others finish; workers die with the
+batch process; logs are summarised in natural order.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import polars as pl
+import pytest
+from click.testing import CliRunner
+
+from hybridlog.cli import main
+from hybridlog.io.tables import TableSource
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import folder_names, natural_key, run_batch
+from hybridlog.outputs import MARKER, write_marker
+from tests.support.logfiles import tank_run
+
+TANK = "three_tank_hstf"
+
+
+class _Main:
+    """Click-runner adapter for ``main`` so the error → exit-code mapping is exercised."""
+
+    name = "hybridlog"
+
+    def main(self, args, prog_name=None, standalone_mode=True, **extra):
+        try:
+            main(list(args))
+        except SystemExit as exit_:
+            raise SystemExit(exit_.code) from None
+        raise SystemExit(0)
+
+
+def run(args, expect=0):
+    result = CliRunner().invoke(_Main(), args, catch_exceptions=False)
+    assert result.exit_code == expect, result.output + result.stderr
+    return result
+
+
+def write_logs(folder: Path, names: list[str], steps: int = 90) -> list[Path]:
+    return [
+        write_table(folder / f"{name}.csv", tank_run(steps=steps, seed=k).columns)
+        for k, name in enumerate(names, 1)
+    ]
+
+
+def test_natural_order_and_folder_names() -> None:
+    names = ["s10", "s2", "s1", "run_b10", "run_b9", "S3", "s1a"]
+    assert sorted(names, key=natural_key) == ["S3", "run_b9", "run_b10", "s1", "s1a", "s2", "s10"]
+    logs = [Path("a/.hidden.csv"), Path("a/x.csv"), Path("b/x.csv"), Path("c/.csv")]
+    assert folder_names(logs) == ["_hidden", "a_x", "b_x", "_csv"]
+
+
+def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
+    logs = []
+    for seed in (1, 2):
+        path = tmp_path / f"run{seed}.csv"
+        run(["simulate", "three_tank_hstf", "--out", str(path), "--seed", str(seed)])
+        logs.append(str(path))
+    broken = tmp_path / "broken.csv"
+    broken.write_text("t,u,y1\n0,1,2\n")
+    out = tmp_path / "batch"
+    args = [
+        "batch",
+        *logs,
+        str(broken),
+        "--model",
+        "three_tank_hstf",
+        "--estimator",
+        "imm",
+        "--out",
+        str(out),
+    ]
+    result = run(args, expect=2)
+    assert "1 of 3 logs failed" in result.stderr
+    summary = pl.read_csv(out / "summary.csv")
+    # Logs are summarised in natural order: broken.csv before run1.csv.
+    assert summary["log"].to_list() == [str(broken), *logs]
+    assert summary["status"].to_list() == ["failed", "done", "done"]
+    assert "y2" in summary["error"][0]
+    stamp = (out / "run1" / "report.json").stat().st_mtime_ns
+    result = run(args, expect=2)
+    assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["failed", "skipped", "skipped"]
+    assert (out / "run1" / "report.json").stat().st_mtime_ns == stamp
+    run(
+        [
+            "batch",
+            *logs,
+            "--model",
+            "three_tank_hstf",
+            "--estimator",
+            "imm",
+            "--out",
+            str(out),
+            "--force",
+            "--jobs",
+            "2",
+        ]
+    )
+    assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["done", "done"]
+    assert (out / "run1" / "report.json").stat().st_mtime_ns != stamp
+
+
+def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
+    log = tmp_path / "run.csv"
+    run(["simulate", "three_tank_hstf", "--out", str(log), "--seed", "4"])
+    out = tmp_path / "batch"
+    run(["batch", str(log), "--model", "three_tank_hstf", "--estimator", "imm", "--out", str(out)])
+    before = (out / "run" / "report.json").read_bytes()
+    result = run(
+        ["batch", str(log), "--model", "three_tank_hstf", "--estimator", "hstf", "--out", str(out)],
+        expect=2,
+    )
+    assert "1 of 1 logs failed" in result.stderr
+    assert "holds a report of imm" in pl.read_csv(out / "summary.csv")["error"][0]
+    assert (out / "run" / "report.json").read_bytes() == before
+
+
+def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    logs = write_logs(tmp_path, ["s10", "s2", "crash", "s1"])
+    read = TableSource.read
+
+    def crashing(self: TableSource, *args: object, **kwargs: object) -> object:
+        if Path(self.path).name == "crash.csv":
+            raise KeyError("reader bug\nsecond line")
+        return read(self, *args, **kwargs)
+
+    monkeypatch.setattr(TableSource, "read", crashing)
+    out = tmp_path / "out"
+    out.mkdir()
+    write_marker(out)  # an earlier batch's folder, holding a folder of someone else's
+    (out / "s2").mkdir()
+    (out / "s2" / "mine.txt").write_text("not hybridlog's")
+    outcome = run_batch(logs, TANK, out_dir=out, estimator="imm", force=True)
+    assert [Path(o.log).name for o in outcome.logs] == ["crash.csv", "s1.csv", "s2.csv", "s10.csv"]
+    assert [o.status for o in outcome.logs] == ["failed", "done", "failed", "done"]
+    assert outcome.logs[0].error == "KeyError: 'reader bug\\nsecond line'"
+    assert "holds files hybridlog did not write" in (outcome.logs[2].error or "")
+    assert (out / "s2" / "mine.txt").read_text() == "not hybridlog's"
+    summary = pl.read_csv(out / "summary.csv")
+    assert [Path(p).name for p in summary["log"]] == ["crash.csv", "s1.csv", "s2.csv", "s10.csv"]
+    text = (out / "summary.md").read_text()
+    assert "## Failed logs (2 of 4)" in text and "KeyError: 'reader bug" in text
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [MARKER, "s1", "s10", "s2", "summary.csv", "summary.md"]
+    )
+
+
+def _children(pid: int) -> dict[int, str]:
+    """Living descendants of ``pid`` and their command lines, from /proc."""
+    parents: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        parents.setdefault(int(fields[1]), []).append(int(entry.name))
+    found: dict[int, str] = {}
+    todo = list(parents.get(pid, []))
+    while todo:
+        child = todo.pop()
+        if _alive(child):
+            found[child] = _cmdline(child)
+        todo += parents.get(child, [])
+    return found
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return (Path("/proc") / str(pid) / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"  # a zombie has exited; only its parent's bookkeeping is left
+
+
+def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
+    logs = write_logs(tmp_path, ["a1", "a2", "a3"])
+    killed: list[int] = []
+
+    def kill_the_first_worker() -> None:
+        deadline = time.monotonic() + 120
+        while not killed and time.monotonic() < deadline:
+            for pid, command in _children(os.getpid()).items():
+                if "spawn_main" in command:
+                    os.kill(pid, signal.SIGKILL)
+                    killed.append(pid)
+                    return
+            time.sleep(0.01)
+
+    killer = threading.Thread(target=kill_the_first_worker)
+    killer.start()
+    outcome = run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", jobs=2)
+    killer.join()
+    assert len(killed) == 1
+    statuses = [o.status for o in outcome.logs]
+    assert sorted(statuses) == ["done", "done", "failed"]
+    failed = outcome.logs[statuses.index("failed")]
+    assert failed.error == "worker process died (killed by signal SIGKILL)"
+    assert not (Path(failed.folder)).exists()
+    assert "worker process died" in (tmp_path / "out" / "summary.md").read_text()
+
+
+def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Path) -> None:
+    logs = write_logs(tmp_path, [f"s{k}" for k in range(1, 5)])
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "hybridlog", "batch", *map(str, logs), "--model", TANK]
+    batch = subprocess.Popen(
+        [*command, "--estimator", "imm", "--out", str(out), "--jobs", "2"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        # Wait until both workers have written a report, so both are busy with the next log.
+        writers: set[int] = set()
+        deadline = time.monotonic() + 240
+        while len(writers) < 2 and batch.poll() is None and time.monotonic() < deadline:
+            for marker in out.glob(f"s*/{MARKER}"):
+                writers.add(json.loads(marker.read_text())["pid"])
+            time.sleep(0.05)
+        assert len(writers) == 2, "the batch never ran two workers"
+        family = _children(batch.pid)
+        assert writers <= set(family)
+        os.kill(batch.pid, signal.SIGKILL)
+        batch.wait()
+        killed_at = time.monotonic()
+        while any(_alive(pid) for pid in family) and time.monotonic() - killed_at < 5:
+            time.sleep(0.05)
+        assert not [family[pid] for pid in family if _alive(pid)]
+    finally:
+        if batch.poll() is None:
+            batch.kill()
+            batch.wait()
+    finished = {p.name for p in out.iterdir() if not p.name.startswith(".")}
+    outcome = run_batch(logs, TANK, out_dir=out, estimator="imm")
+    for log in outcome.logs:
+        assert log.status == ("skipped" if Path(log.folder).name in finished else "done")
+    # Temporaries the killed workers left are gone; only the batch folder's marker is hidden.
+    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MARKER]

@@ -1,0 +1,525 @@
+"""Nothing lost (SPEC §9): no output is, contains or sits inside an input; --force replaces
+only what hybridlog wrote; every output is checked before anything is written.
+
+Every refused case runs against one workspace of real inputs (a CSV log, a ROS 2 bag folder
+written by rosbags, a model file, a centres file, a message-definition folder) and checks
+that not one byte of it changed and that nothing was left behind.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from hybridlog import __version__
+from hybridlog.cli import main
+from hybridlog.errors import OptionError, OutputError
+from hybridlog.io import ReadOptions
+from hybridlog.io.bag_writers import check_log_target, write_log, written_by_hybridlog
+from hybridlog.io.writers import write_table
+from hybridlog.jobs import cluster as cluster_job
+from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.cluster import discover_modes
+from hybridlog.model.builtins import builtin_text
+from hybridlog.outputs import (
+    MARKER,
+    atomic_files,
+    atomic_output_dir,
+    check_apart,
+    check_dir_target,
+    is_ours,
+    remove_stale_temporaries,
+    staging_dir,
+    temporary_name,
+    write_marker,
+)
+from tests.support.logfiles import scene, tank_run, write_msg_dir, write_ros2_bag
+from tests.support.paths import SAMPLE_LOGS
+
+TANK = "three_tank_hstf"
+
+
+def tree(root: Path) -> dict[str, str]:
+    """Every entry under ``root`` (hidden ones too): kind and content hash or link target."""
+    found: dict[str, str] = {}
+    for path in sorted(root.rglob("*")):
+        name = str(path.relative_to(root))
+        if path.is_symlink():
+            found[name] = "link:" + os.readlink(path)
+        elif path.is_dir():
+            found[name] = "dir"
+        else:
+            found[name] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return found
+
+
+@pytest.fixture(scope="module")
+def ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Inputs of every kind, and links to them."""
+    root = tmp_path_factory.mktemp("ws")
+    write_table(root / "p" / "log.csv", tank_run().columns)
+    write_ros2_bag(root / "bag", scene(tank_run()), "sqlite3")
+    (root / "m").mkdir()
+    (root / "m" / "tank.toml").write_text(builtin_text(TANK))
+    (root / "c").mkdir()
+    (root / "c" / "centers.json").write_text('{"format": "hybridlog-centers"}\n')
+    write_msg_dir(root / "msgs", "pkg", "Reading", "float64 value\n")
+    (root / "plink").symlink_to(root / "p", target_is_directory=True)
+    (root / "log_link.json").symlink_to(root / "p" / "log.csv")
+    (root / "model_link.json").symlink_to(root / "m" / "tank.toml")
+    os.link(root / "p" / "log.csv", root / "hard.json")
+    (root / "pic.png").symlink_to(root / "c.json")  # dangling: c.json is an output
+    (root / "broot").mkdir()  # an earlier batch folder whose summary is a hard link of a log
+    write_marker(root / "broot")
+    os.link(root / "p" / "log.csv", root / "broot" / "summary.csv")
+    (root / "theirs").mkdir()
+    (root / "theirs" / "thesis.tex").write_text("years of work\n")
+    (root / "theirs_dir.json").mkdir()
+    (root / "theirs_dir.mcap").mkdir()
+    return root
+
+
+# (what is tried, expected words of the one-line error); every case is refused with and
+# without --force where the flag exists.
+REFUSED: list[tuple[str, Callable[[Path, bool], object], str]] = [
+    # analyze: output folder vs the log
+    (
+        "analyze --out holds the log",
+        lambda ws, f: analyze(ws / "p/log.csv", TANK, out_dir=ws / "p", force=f),
+        "contains the log",
+    ),
+    (
+        "analyze --out is the ROS 2 bag folder",
+        lambda ws, f: analyze(ws / "bag", TANK, out_dir=ws / "bag", force=f),
+        "is the log",
+    ),
+    (
+        "analyze --out inside the ROS 2 bag folder",
+        lambda ws, f: analyze(ws / "bag", TANK, out_dir=ws / "bag" / "report", force=f),
+        "is inside the log",
+    ),
+    (
+        "analyze --out through '..'",
+        lambda ws, f: analyze(ws / "p/log.csv", TANK, out_dir=ws / "p/sub/..", force=f),
+        "contains the log",
+    ),
+    (
+        "analyze --out through a symbolic link",
+        lambda ws, f: analyze(ws / "p/log.csv", TANK, out_dir=ws / "plink", force=f),
+        "contains the log",
+    ),
+    (
+        "analyze log through a symbolic link",
+        lambda ws, f: analyze(ws / "plink/log.csv", TANK, out_dir=ws / "p", force=f),
+        "contains the log",
+    ),
+    (
+        "analyze the log itself as --out",
+        lambda ws, f: analyze(ws / "p/log.csv", TANK, out_dir=ws / "p/log.csv", force=f),
+        "is the log",
+    ),
+    # analyze: the other inputs
+    (
+        "analyze --out holds the model file",
+        lambda ws, f: analyze(ws / "p/log.csv", ws / "m/tank.toml", out_dir=ws / "m", force=f),
+        "contains the model file",
+    ),
+    (
+        "analyze --out holds the centres file",
+        lambda ws, f: analyze(
+            ws / "p/log.csv",
+            "double_cart_case1",  # chiu needs a linear model
+            out_dir=ws / "c",
+            estimator="chiu",
+            sets=(f"centers={ws / 'c/centers.json'}",),
+            force=f,
+        ),
+        "contains the centres file",
+    ),
+    (
+        "analyze --out is the --msg-dir",
+        lambda ws, f: analyze(
+            ws / "bag",
+            TANK,
+            out_dir=ws / "msgs",
+            read=ReadOptions(msg_dirs=(str(ws / "msgs"),)),
+            force=f,
+        ),
+        "is the --msg-dir folder",
+    ),
+    (
+        "analyze --out inside the --msg-dir",
+        lambda ws, f: analyze(
+            ws / "bag",
+            TANK,
+            out_dir=ws / "msgs/pkg",
+            read=ReadOptions(msg_dirs=(str(ws / "msgs"),)),
+            force=f,
+        ),
+        "is inside the --msg-dir folder",
+    ),
+    # compare and batch
+    (
+        "compare --out holds the log",
+        lambda ws, f: compare(ws / "p/log.csv", TANK, ["hstf", "imm"], out_dir=ws / "p", force=f),
+        "contains the log",
+    ),
+    (
+        "batch --out holds one of the logs",
+        lambda ws, f: run_batch([ws / "bag", ws / "p/log.csv"], TANK, out_dir=ws / "p", force=f),
+        "contains the log",
+    ),
+    (
+        "batch --out is a ROS 2 bag folder",
+        lambda ws, f: run_batch([ws / "bag"], TANK, out_dir=ws / "bag", force=f),
+        "is the log",
+    ),
+    (
+        "batch --out holds the model file",
+        lambda ws, f: run_batch([ws / "bag"], ws / "m/tank.toml", out_dir=ws / "m", force=f),
+        "contains the model file",
+    ),
+    (
+        "batch summary is a hard link of a log",
+        lambda ws, f: run_batch([ws / "p/log.csv"], TANK, out_dir=ws / "broot", force=f),
+        "summary.csv is the log",
+    ),
+    # cluster: --out and --plot
+    (
+        "cluster --out is a link to the log",
+        lambda ws, f: discover_modes(
+            ws / "p/log.csv", TANK, out=ws / "log_link.json", plot=ws / "x.png", force=f
+        ),
+        "is the log",
+    ),
+    (
+        "cluster --out is a hard link of the log",
+        lambda ws, f: discover_modes(
+            ws / "p/log.csv", TANK, out=ws / "hard.json", plot=ws / "x.png", force=f
+        ),
+        "is the log",
+    ),
+    (
+        "cluster --out is a link to the model file",
+        lambda ws, f: discover_modes(
+            ws / "p/log.csv", ws / "m/tank.toml", out=ws / "model_link.json", force=f
+        ),
+        "is the model file",
+    ),
+    (
+        "cluster --plot inside the ROS 2 bag folder",
+        lambda ws, f: discover_modes(
+            ws / "bag", TANK, out=ws / "c.json", plot=ws / "bag/c.png", force=f
+        ),
+        "--plot",
+    ),
+    (
+        "cluster --out and --plot are one file",
+        lambda ws, f: discover_modes(
+            ws / "p/log.csv", TANK, out=ws / "plink/../c.json", plot=ws / "pic.png", force=f
+        ),
+        "both name",
+    ),
+    # simulate: --out vs the model file
+    (
+        "simulate --out is the model file",
+        lambda ws, f: check_log_target(
+            ws / "m/tank.toml", format="mcap", force=f, inputs=[("model file", ws / "m/tank.toml")]
+        ),
+        "is the model file",
+    ),
+    (
+        "simulate a ROS 2 bag folder over the model's folder",
+        lambda ws, f: write_log(
+            ws / "m",
+            tank_run().columns,
+            format="ros2-sqlite3",
+            force=f,
+            inputs=[("model file", ws / "m/tank.toml")],
+        ),
+        "contains the model file",
+    ),
+    # --force replaces only what hybridlog wrote
+    (
+        "analyze --out is someone's folder",
+        lambda ws, f: analyze(ws / "p/log.csv", TANK, out_dir=ws / "theirs", force=f),
+        "theirs",
+    ),
+    (
+        "compare --out is someone's folder",
+        lambda ws, f: compare(ws / "p/log.csv", TANK, ["imm"], out_dir=ws / "theirs", force=f),
+        "theirs",
+    ),
+    (
+        "batch --out is someone's folder",
+        lambda ws, f: run_batch([ws / "p/log.csv"], TANK, out_dir=ws / "theirs", force=f),
+        "did not write",
+    ),
+    (
+        "simulate a ROS 2 bag over someone's folder",
+        lambda ws, f: write_log(ws / "theirs", tank_run().columns, format="ros2-mcap", force=f),
+        "theirs",
+    ),
+    (
+        "simulate a file over a folder",
+        lambda ws, f: write_log(ws / "theirs_dir.mcap", tank_run().columns, force=f),
+        "is a directory",
+    ),
+    (
+        "cluster --out over a folder",
+        lambda ws, f: discover_modes(ws / "p/log.csv", TANK, out=ws / "theirs_dir.json", force=f),
+        "is a directory",
+    ),
+    (
+        "analyze --out is a link to a folder",
+        lambda ws, f: analyze(ws / "bag", TANK, out_dir=ws / "plink", force=f),
+        "not a directory",
+    ),
+]
+
+
+@pytest.mark.parametrize("force", [False, True], ids=["", "force"])
+@pytest.mark.parametrize(
+    ("attempt", "words"), [c[1:] for c in REFUSED], ids=[c[0] for c in REFUSED]
+)
+def test_unsafe_outputs_are_refused_and_nothing_changes(
+    ws: Path, attempt: Callable[[Path, bool], object], words: str, force: bool
+) -> None:
+    before = tree(ws)
+    with pytest.raises(OutputError) as info:
+        attempt(ws, force)
+    message = str(info.value)
+    assert "\n" not in message
+    if words == "theirs" and not force:
+        words = "not empty"
+    assert words in message
+    assert tree(ws) == before
+
+
+def test_overlap_names_both_paths_relative_or_absolute(
+    ws: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(ws)
+    with pytest.raises(OutputError) as info:
+        check_apart([("--out", str(ws / "p"))], [("log", "p/log.csv")])
+    assert str(info.value) == (
+        f"--out {ws / 'p'} contains the log p/log.csv; choose an output path outside every input"
+    )
+    with pytest.raises(OutputError, match=r"^--out ./bag/../bag/x is inside the log /.*/bag;"):
+        check_apart([("--out", "./bag/../bag/x")], [("log", str(ws / "bag"))])
+    check_apart([("--out", "p2")], [("log", "p/log.csv"), ("log", "bag")])  # apart: fine
+
+
+def test_the_cli_refuses_with_one_line_and_exit_2(
+    ws: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = tree(ws)
+    log = str(ws / "p" / "log.csv")
+    with pytest.raises(SystemExit) as exit_:
+        main(["analyze", log, "--model", TANK, "--out", str(ws / "p"), "--force"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"--out {ws / 'p'} contains the log {log}" in err
+    assert tree(ws) == before
+
+
+# --- --force replaces what hybridlog wrote -----------------------------------------------------
+
+
+def test_force_replaces_only_hybridlogs_own_folders(tmp_path: Path) -> None:
+    log = write_table(tmp_path / "log.csv", tank_run().columns)
+    out = tmp_path / "report"
+    analyze(log, TANK, out_dir=out, estimator="imm")
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["version"] == __version__ and marker["written_by"] == "hybridlog"
+    assert marker["pid"] == os.getpid() and isinstance(marker["command"], list)
+    with pytest.raises(OutputError, match="not empty; use --force"):
+        analyze(log, TANK, out_dir=out, estimator="imm")
+    (out / "notes.txt").write_text("mine, but inside hybridlog's folder")
+    analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+    assert not (out / "notes.txt").exists() and (out / MARKER).is_file()
+    # A report folder of an earlier hybridlog (no marker yet) is hybridlog's too.
+    (out / MARKER).unlink()
+    assert is_ours(out)
+    check_dir_target(out, force=True)
+    (out / "report.json").write_text('{"mine": 1}')
+    assert not is_ours(out)
+    with pytest.raises(OutputError, match="did not write"):
+        check_dir_target(out, force=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv", "report"]
+
+
+def test_simulate_replaces_its_own_bag_folder_only(tmp_path: Path) -> None:
+    bag = tmp_path / "bag"
+    columns = tank_run(steps=20).columns
+    write_log(bag, columns, format="ros2-sqlite3")
+    # The bag records its writer in metadata.yaml: no foreign file inside a ROS 2 bag.
+    assert sorted(p.name for p in bag.iterdir()) == ["bag.db3", "metadata.yaml"]
+    assert written_by_hybridlog(bag)
+    with pytest.raises(OutputError, match="not empty"):
+        write_log(bag, columns, format="ros2-sqlite3")
+    write_log(bag, columns, format="ros2-mcap", force=True)
+    assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
+    recorded = write_ros2_bag(tmp_path / "recorded", scene(tank_run(steps=20)), "sqlite3")
+    assert not written_by_hybridlog(recorded)
+    with pytest.raises(OutputError, match="did not write"):
+        write_log(recorded, columns, format="ros2-sqlite3", force=True)
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+# --- every output checked before anything is written -------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("target", "options", "error", "words"),
+    [
+        ("run.txt", {}, OptionError, "cannot tell the log format"),
+        ("run.parquet", {"format": "csv"}, OptionError, "must be named *.csv"),
+        ("run.csv", {"encoding": "json"}, OptionError, "only MCAP files"),
+        ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
+        ("exists.mcap", {}, OutputError, "already exists"),
+        ("exists.mcap", {"format": "ros2-mcap", "force": True}, OutputError, "not a directory"),
+    ],
+)
+def test_simulate_outputs_are_checked_up_front(
+    tmp_path: Path, target: str, options: dict[str, object], error: type, words: str
+) -> None:
+    (tmp_path / "exists.mcap").write_bytes(b"mine")
+    with pytest.raises(error) as info:
+        check_log_target(tmp_path / target, **options)  # type: ignore[arg-type]
+    assert words in str(info.value)
+    assert [p.name for p in tmp_path.iterdir()] == ["exists.mcap"]
+
+
+def test_simulate_checks_before_simulating(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def never(*args: object, **kwargs: object) -> None:
+        raise AssertionError("simulated before the output was checked")
+
+    monkeypatch.setattr("hybridlog.jobs.simulate.simulate_model", never)
+    model = tmp_path / "tank.toml"
+    model.write_text(builtin_text(TANK))
+    for args in (
+        ["--out", str(tmp_path / "run.parquet"), "--format", "csv"],
+        ["--out", str(model), "--format", "mcap", "--force"],
+        ["--out", str(tmp_path), "--format", "ros2-sqlite3", "--force"],
+    ):
+        with pytest.raises(SystemExit) as exit_:
+            main(["simulate", str(model), *args])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "Traceback" not in err
+    assert model.read_text() == builtin_text(TANK)
+    assert [p.name for p in tmp_path.iterdir()] == ["tank.toml"]
+
+
+def test_analyze_checks_its_options_before_reading(tmp_path: Path) -> None:
+    with pytest.raises(OptionError, match="--table-format"):
+        analyze(tmp_path / "missing.csv", TANK, out_dir=tmp_path / "r", table_format="xlsx")
+    assert list(tmp_path.iterdir()) == []
+
+
+SAMPLE_DC = SAMPLE_LOGS / "double_cart_case1.csv"
+
+
+def test_cluster_writes_both_outputs_or_neither(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = tmp_path / "c.json"
+    with pytest.raises(OptionError, match=r"--plot .*x.csv.*\*\.png"):
+        discover_modes(SAMPLE_DC, "double_cart_case1", out=out, plot=tmp_path / "x.csv")
+    with pytest.raises(OptionError, match=r"\*\.json"):
+        discover_modes(SAMPLE_DC, "double_cart_case1", out=tmp_path / "c.csv")
+    assert list(tmp_path.iterdir()) == []
+
+    def full_disk(path: Path, **_: object) -> None:
+        path.write_bytes(b"half a pic")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(cluster_job, "plot_clusters", full_disk)
+    with pytest.raises(OutputError, match="No space left"):
+        discover_modes(SAMPLE_DC, "double_cart_case1", out=out)
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    outcome = discover_modes(SAMPLE_DC, "double_cart_case1", out=out, plot=tmp_path / "c.svg")
+    assert json.loads(out.read_text())["format"] == "hybridlog-centers"
+    assert outcome.plot_path == tmp_path / "c.svg"
+    assert (tmp_path / "c.svg").read_text().lstrip().startswith("<?xml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "c.svg"]
+
+
+# --- temporaries of dead processes -------------------------------------------------------------
+
+
+def _dead_pid() -> int:
+    done = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return int(done.stdout)
+
+
+def test_the_next_run_removes_temporaries_of_dead_processes(tmp_path: Path) -> None:
+    dead, alive = _dead_pid(), os.getpid()
+    host = temporary_name(tmp_path / "x").name.split("-")[2]  # .x.hybridlog-tmp-<host>-…
+    other_host = f"{(int(host, 16) + 1) % 0x10000:04x}"
+
+    def name(base: str, kind: str, pid: int, suffix: str = "", on: str = host) -> Path:
+        return tmp_path / f".{base}.hybridlog-{kind}-{on}-{pid}-0123abcd{suffix}"
+
+    stale_dir = name("report", "tmp", dead)
+    stale_dir.mkdir()
+    (stale_dir / MARKER).write_text("{}")
+    (stale_dir / "report.json").write_text("{")
+    empty_dir = name("other", "old", dead)
+    empty_dir.mkdir()
+    stale_file = name("log", "tmp", dead, ".csv")
+    stale_file.write_text("t,u\n0,")
+    kept = [
+        name("busy", "tmp", alive),  # a live process is still writing it
+        name("notes", "tmp", dead),  # a folder hybridlog did not make (no marker)
+        name(
+            "shared", "tmp", dead, on=other_host
+        ),  # made on another host: its pid means nothing here
+        tmp_path / f".x.tmp-{dead}-0123abcd",  # not hybridlog's pattern
+    ]
+    for folder in kept:
+        folder.mkdir()
+        (folder / "file").write_text("x")
+        if folder != kept[1]:
+            (folder / MARKER).write_text("{}")
+    with atomic_output_dir(tmp_path / "report") as tmp:
+        (tmp / "a.txt").write_text("a")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["report", *(k.name for k in kept)])
+    assert remove_stale_temporaries(tmp_path) == []
+    with atomic_files([tmp_path / "t.csv"]) as (temporary,):
+        assert temporary.parent == tmp_path and temporary.suffix == ".csv"
+        assert f".hybridlog-tmp-{host}-{alive}-" in temporary.name
+        temporary.write_text("x\n")
+    assert (tmp_path / "t.csv").read_text() == "x\n"
+
+
+def test_a_failed_write_leaves_no_folder_behind(tmp_path: Path) -> None:
+    with pytest.raises(RuntimeError), atomic_output_dir(tmp_path / "a" / "b" / "out") as tmp:
+        (tmp / "report.json").write_text("{")
+        raise RuntimeError("disk on fire")
+    targets = [tmp_path / "c" / "x.json", tmp_path / "c" / "d" / "x.png"]
+    with pytest.raises(RuntimeError), atomic_files(targets) as (first, _):
+        first.write_text("{}")
+        raise RuntimeError("disk on fire")
+    with pytest.raises(RuntimeError), staging_dir(tmp_path / "e" / "bag") as area:
+        (area / "bag").mkdir()
+        raise RuntimeError("disk on fire")
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,208 @@
+"""The one sympy → compiled-code path: derivatives, printer, and the cache keyed by model.
+
+The cache must never hand out code for another model (the key changes with everything that
+shapes the code) and, once warm, must give a new process its compiled code without running
+sympy's code generation at all.
+"""
+
+import dataclasses
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import sympy
+
+from hybridlog.model import compiled
+from hybridlog.model.compiled import (
+    artefact_key,
+    code_fingerprint,
+    input_functions,
+    load_generated,
+    model_key,
+)
+from hybridlog.model.derivatives import jacobian, lie_derivative
+from hybridlog.model.loader import load_model, parse_model
+from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
+
+MODELS = {
+    "three_tank_hstf": lambda: load_model("three_tank_hstf"),
+    "double_cart_case1": lambda: load_model("double_cart_case1"),
+    "double_cart_case2": lambda: load_model("double_cart_case2"),
+    "linear_two_mode": lambda: parse_model(LINEAR_TWO_MODE),
+    "pendulum": lambda: parse_model(PENDULUM_ONE_MODE),
+}
+
+
+# -- derivatives ------------------------------------------------------------------------
+
+
+def test_lie_derivatives_of_a_pendulum():
+    x1, x2 = sympy.symbols("x1 x2", real=True)
+    f = [x2, -sympy.sin(x1)]
+    h = [x1, x1 * x2]
+    assert lie_derivative(h, f, [x1, x2], order=0) == h
+    first = lie_derivative(h, f, [x1, x2])
+    expected_first = [x2, x2**2 - x1 * sympy.sin(x1)]
+    assert all(sympy.simplify(a - b) == 0 for a, b in zip(first, expected_first, strict=True))
+    # L_f^2 h = L_f (L_f h): the observability map of paper 004 stacks these.
+    second = lie_derivative(h, f, [x1, x2], order=2)
+    again = lie_derivative(first, f, [x1, x2])
+    assert all(sympy.simplify(a - b) == 0 for a, b in zip(second, again, strict=True))
+    assert sympy.simplify(second[0] + sympy.sin(x1)) == 0
+    with pytest.raises(ValueError, match="2 states"):
+        lie_derivative(h, [x2], [x1, x2])
+    with pytest.raises(ValueError, match="non-negative"):
+        lie_derivative(h, f, [x1, x2], order=-1)
+
+
+def test_jacobians_of_kinks_are_printable_functions():
+    x, y = sympy.symbols("x y", real=True)
+    J = jacobian([sympy.Max(x, 0) * y, sympy.sign(x) + y, sympy.Abs(x)], [x, y])
+    assert not any(entry.has(sympy.Heaviside, sympy.DiracDelta) for row in J for entry in row)
+    assert J[0][1] == sympy.Max(x, 0)
+    assert J[0][0].subs({x: 2, y: 3}) == 3 and J[0][0].subs({x: -2, y: 3}) == 0
+    assert J[1] == [0, 1]
+    assert J[2][0] == sympy.sign(x)
+
+
+# -- the key ----------------------------------------------------------------------------
+
+
+def test_same_model_same_key_and_every_change_that_shapes_code_another_key():
+    tank = load_model("three_tank_hstf")
+    assert model_key(tank) == model_key(load_model("three_tank_hstf"))
+    assert model_key(tank) != model_key(load_model("three_tank_hstf", parameters={"a3": 0.6}))
+    mode = tank.modes[0]
+    noisier = dataclasses.replace(mode, measurement_noise=mode.measurement_noise * 2.0)
+    changed = dataclasses.replace(tank, modes=(noisier, *tank.modes[1:]))
+    assert model_key(changed) != model_key(tank)
+    x1 = sympy.Symbol("x1", real=True)
+    bent = dataclasses.replace(mode, f=(mode.f[0] + 1e-12 * x1, *mode.f[1:]))
+    assert model_key(dataclasses.replace(tank, modes=(bent, *tank.modes[1:]))) != model_key(tank)
+    # Equal values of different kinds are different code (a rational, a float).
+    half = [dataclasses.replace(mode, f=(mode.f[0] + c * x1, *mode.f[1:])) for c in (0.5, 1 / 2)]
+    half_exact = dataclasses.replace(mode, f=(mode.f[0] + sympy.Rational(1, 2) * x1, *mode.f[1:]))
+    keys = [model_key(dataclasses.replace(tank, modes=(m, *tank.modes[1:]))) for m in half]
+    assert keys[0] == keys[1]
+    assert keys[0] != model_key(dataclasses.replace(tank, modes=(half_exact, *tank.modes[1:])))
+    # What the compiled code receives as arguments at run time does not change the code.
+    moved = dataclasses.replace(tank, initial_state=tank.initial_state + 1.0, origin="x.toml")
+    assert model_key(moved) == model_key(tank)
+    keys = {model_key(make()) for make in MODELS.values()}
+    assert len(keys) == len(MODELS)
+
+
+def test_the_key_is_the_same_in_another_process():
+    code = textwrap.dedent(
+        """
+        from hybridlog.model.compiled import model_key
+        from hybridlog.model.loader import load_model
+        print(model_key(load_model("double_cart_case1")))
+        """
+    )
+    environment = {**os.environ, "PYTHONHASHSEED": "12345"}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=environment, check=True
+    )
+    assert done.stdout.strip() == model_key(load_model("double_cart_case1"))
+
+
+def test_the_key_changes_with_the_code_that_writes_the_module(tmp_path, monkeypatch):
+    model = parse_model(PENDULUM_ONE_MODE)
+    assert artefact_key(model, "hstf") != artefact_key(model, "imm")
+    generator = tmp_path / "fake_generator.py"
+    generator.write_text("VERSION = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(compiled, "_FINGERPRINTS", {})
+    before = artefact_key(model, "fake", ["fake_generator"])
+    assert before != artefact_key(model, "fake")
+    generator.write_text("VERSION = 2\n")
+    monkeypatch.setattr(compiled, "_FINGERPRINTS", {})
+    assert artefact_key(model, "fake", ["fake_generator"]) != before
+    assert code_fingerprint(["fake_generator"]) != code_fingerprint([])
+
+
+# -- the cache --------------------------------------------------------------------------
+
+
+def test_a_warm_cache_imports_without_generating_and_a_damaged_file_is_rewritten(
+    tmp_path, monkeypatch
+):
+    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", str(tmp_path))
+    model = parse_model(PENDULUM_ONE_MODE)
+    calls = []
+
+    def generate():
+        calls.append(1)
+        return "ANSWER = 42\n"
+
+    assert load_generated(model, "probe", generate).ANSWER == 42
+    (path,) = (tmp_path / "models").glob("probe_*.py")
+    monkeypatch.setattr(compiled, "_MODULES", {})  # as in a new process
+
+    def refuse():
+        raise AssertionError("generated again although the cache holds the module")
+
+    assert load_generated(model, "probe", refuse).ANSWER == 42
+    assert calls == [1]
+    # A truncated or altered file (a crash, a full disk) is regenerated, never imported.
+    for damage in (lambda text: text[:-10], lambda text: text.replace("42", "43")):
+        path.write_text(damage(path.read_text()))
+        monkeypatch.setattr(compiled, "_MODULES", {})
+        assert load_generated(model, "probe", generate).ANSWER == 42
+    assert calls == [1, 1, 1]
+    assert path.read_text().startswith("# hybridlog generated probe ")
+
+
+def test_a_warm_process_runs_filters_and_simulation_without_the_code_generator():
+    # Warm the cache here (a no-op when earlier tests did), then a fresh process must find
+    # everything: no import of model/codegen.py, hence no sympy printing, cse or diff.
+    code = textwrap.dedent(
+        """
+        import sys
+        from hybridlog.estimators.hstf import HstfOptions, run_hstf
+        from hybridlog.estimators.imm import ImmOptions, run_imm
+        from hybridlog.model.loader import load_model
+        from hybridlog.simulate import simulate
+
+        simulate(load_model("double_cart_case1"), steps=30, seed=1)  # guards and inputs
+        model = load_model("three_tank_hstf")
+        signals = simulate(model, steps=30, seed=1).signals(model)
+        for kernel in ("auto", "loops"):
+            run_hstf(model, signals, HstfOptions(), kernel=kernel)
+            run_imm(model, signals, ImmOptions(), kernel=kernel)
+        print("hybridlog.model.codegen" in sys.modules)
+        """
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    done = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
+    assert done.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_simulation_inputs_equal_sympy_lambdify_bit_for_bit(name):
+    model = MODELS[name]()
+    t, k = sympy.Symbol("t", real=True), sympy.Symbol("k", real=True)
+    time = np.arange(2000) * model.dt
+    steps = np.arange(2000, dtype=float)
+    functions = input_functions(model)
+    assert set(functions) == set(model.simulation_inputs)
+    for input_name, expression in model.simulation_inputs.items():
+        reference = sympy.lambdify((t, k), expression, modules="numpy")
+        expected = np.broadcast_to(np.asarray(reference(time, steps), dtype=float), time.shape)
+        got = np.broadcast_to(
+            np.asarray(functions[input_name](time, steps), dtype=float), time.shape
+        )
+        assert got.tobytes() == expected.tobytes()
+
+
+def test_importing_simulate_and_the_compiled_code_cache_loads_neither_numba_nor_sympy():
+    code = (
+        "import sys, hybridlog.simulate, hybridlog.model.compiled, hybridlog.jit\n"
+        "print([name for name in ('numba', 'sympy', 'scipy') if name in sys.modules])"
+    )
+    done = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
+    assert done.stdout.strip() == "[]"

@@ -1,0 +1,378 @@
+"""Model files: the restricted expression grammar and errors that name the key."""
+
+import math
+
+import numpy as np
+import pytest
+import sympy
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hybridlog.cli import main
+from hybridlog.errors import ModelError
+from hybridlog.estimators.common import noise_stacks
+from hybridlog.model.expressions import parse_expression, previous_symbol
+from hybridlog.model.loader import load_model, parse_model
+from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
+
+X = {"x": sympy.Symbol("x", real=True), "k_p": sympy.Float(2.0)}
+Y = {"x": sympy.Symbol("x", real=True), "y": sympy.Symbol("y", real=True), "p": sympy.Float(3.0)}
+Y_BEFORE = {"x": previous_symbol("x"), "y": previous_symbol("y")}
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "__import__('os')",
+        "__import__('os').system('echo hacked')",
+        "x.__class__",
+        "().__class__.__bases__[0]",
+        "sqrt.__globals__",
+        "open('/etc/passwd')",
+        "eval('1')",
+        "[x for x in ()]",
+        "lambda: 1",
+        "x if x else 1",
+        "'text'",
+        "x[0]",
+        "exp(x=1)",
+        "sin(*x)",
+        "x @ x",
+        "x // 2",
+        "x and 1",
+        "2**10**9",
+    ],
+)
+def test_code_and_unknown_constructs_are_refused(text):
+    with pytest.raises(ModelError, match=r"^modes\.a\.f\[0\]: "):
+        parse_expression(text, X, key="modes.a.f[0]")
+
+
+def test_whitelisted_functions_and_piecewise_parse():
+    expr = parse_expression(
+        "Piecewise(sqrt(x), x > 0, 0) + max(x, 1) - sign(x)*abs(x) + k_p*tanh(x)", X, key="k"
+    )
+    value = float(expr.subs(X["x"], 4.0))
+    assert math.isclose(value, 2.0 + 4.0 - 4.0 + 2.0 * math.tanh(4.0))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(max_size=40))
+def test_any_text_parses_or_fails_with_a_model_error(text):
+    try:
+        expr = parse_expression(text, X, key="k")
+    except ModelError as err:
+        assert str(err).startswith("k: ")
+    else:
+        assert isinstance(expr, sympy.Expr)
+
+
+def _replace(text, old, new):
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            '"theta + 0.05*omega"',
+            '"theta + 0.05*omegaa"',
+            r"modes\.only\.f\[0\]: unknown symbol 'omegaa'",
+        ),
+        (
+            'h = ["sin(theta)", "omega + 0.1*theta**2"]',
+            'h = ["sin(theta)"]',
+            r"modes\.only\.h: wrong number of expressions; expected 2 instead of 1",
+        ),
+        ("l = 1.3", "l = inf", r"parameters\.l: non-finite number"),
+        ("l = 1.3", "l = nan", r"parameters\.l: non-finite number"),
+        ('name = "pendulum"', "colour = 'red'\nname = 'p'", r"colour: unknown key"),
+        ("[noise]", "colour = 'red'\n[noise]", r"modes\.only\.colour: unknown key"),
+        ("covariance = 0.5", "covariance = 0.5\nvariance = 2", r"initial\.variance: unknown key"),
+        (
+            "state = [0.3, 0.0]",
+            "state = [0.3]",
+            r"initial\.state: wrong length; expected 2 instead of 1",
+        ),
+        (
+            "measurement = [0.01, 0.02]",
+            "measurement = [[1, 2], [3, 4]]",
+            r"noise\.measurement: covariance must be symmetric",
+        ),
+        ("dt = 0.05", "dt = -1", r"dt: must be positive"),
+        (
+            'outputs = ["y_sin", "y_speed"]',
+            'outputs = ["y_sin", "theta"]',
+            r"outputs: 'theta' is already one of the states",
+        ),
+    ],
+)
+def test_nonlinear_model_errors_name_the_key(old, new, message):
+    with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
+        parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            "C = [[1.0, 0.0], [0.5, 2.0]]",
+            "C = [[1.0, 0.0, 3.0], [0.5, 2.0, 1.0]]",
+            r"modes\.fast\.C: matrix C of mode 'fast' has the wrong number of columns; "
+            r"expected 2 instead of 3",
+        ),
+        (
+            "A = [[1.0, 0.1], [-0.3, 0.7]]",
+            "A = [[1.0, 0.1]]",
+            r"modes\.fast\.A: matrix A of mode 'fast' has the wrong number of rows; "
+            r"expected 2 instead of 1",
+        ),
+        (
+            "matrix = [[0.97, 0.03], [0.05, 0.95]]",
+            "matrix = [[0.97, 0.13], [0.05, 0.95]]",
+            r"transitions\.matrix\[0\]: each row",
+        ),
+        (
+            "mode_probabilities = [0.6, 0.4]",
+            "mode = 'medium'",
+            r"initial\.mode: unknown mode 'medium'",
+        ),
+        (
+            "A = [[1.0, 0.1], [0.0, 0.95]]",
+            "A = [[1.0, 0.1], [0.0, 'q*2']]",
+            r"modes\.slow\.A\[1\]\[1\]: unknown symbol 'q'",
+        ),
+    ],
+)
+def test_linear_model_errors_name_the_key(old, new, message):
+    with pytest.raises(ModelError, match=r"^m\.toml: " + message):
+        parse_model(_replace(LINEAR_TWO_MODE, old, new), origin="m.toml")
+
+
+def test_invalid_toml_names_the_file_and_line():
+    with pytest.raises(ModelError, match=r"^bad\.toml: invalid TOML: .*line 2"):
+        parse_model("name = 'x'\ndt = = 1\n", origin="bad.toml")
+
+
+def test_unknown_model_name_lists_builtins():
+    with pytest.raises(ModelError, match="three_tank_hstf"):
+        load_model("no_such_model")
+
+
+def test_parameter_override_changes_the_equations():
+    base = parse_model(PENDULUM_ONE_MODE)
+    changed = parse_model(PENDULUM_ONE_MODE, parameters={"l": 2.6})
+    assert base.modes[0].f != changed.modes[0].f
+    assert changed.parameters["l"] == 2.6
+    with pytest.raises(ModelError, match=r"parameters\.length: no such parameter"):
+        parse_model(PENDULUM_ONE_MODE, parameters={"length": 1.0})
+
+
+def test_linear_modes_become_affine_expressions():
+    model = parse_model(LINEAR_TWO_MODE)
+    fast = model.modes[1]
+    p, v = sympy.symbols("p v", real=True)
+    a = sympy.Symbol("a", real=True)
+    assert sympy.simplify(fast.f[1] - (-0.3 * p + 0.7 * v + 0.2 * a)) == 0
+    np.testing.assert_allclose(fast.process_noise, [[0.02, 0.005], [0.005, 0.03]])
+    assert fast.linear_form is not None  # was `fast.linear`; Mode.linear became linear_form
+    np.testing.assert_allclose(fast.linear_form.A, [[1.0, 0.1], [-0.3, 0.7]])
+
+
+def test_three_tank_builtin_matches_the_paper():
+    model = load_model("three_tank_hstf")
+    assert model.states == ("x1", "x2", "x3")
+    assert model.mode_ids == ("1", "2", "3")
+    assert model.dt == 1.0
+    np.testing.assert_allclose(model.initial_state, [20, 5, 10])
+    np.testing.assert_allclose(model.initial_covariance, 100 * np.eye(3))
+    np.testing.assert_allclose(model.initial_mode_probabilities, [0, 1, 0])
+    for mode in model.modes:
+        np.testing.assert_allclose(mode.process_noise, 0.5 * np.eye(3))
+        np.testing.assert_allclose(mode.measurement_noise, 0.5 * np.eye(3))
+    x1, x2, x3 = sympy.symbols("x1 x2 x3", real=True)
+    assert [
+        sympy.simplify(e - k * x)
+        for k, mode in enumerate(model.modes, 1)
+        for e, x in zip(mode.h, (x1, x2, x3), strict=True)
+    ] == [0] * 9
+
+
+# --- issue 7: hostile model files are refused in one short line naming file and key --------
+
+_F0 = '"theta + 0.05*omega"'
+
+
+@pytest.mark.parametrize(
+    "expression",
+    ["sqrt(-1) + theta", "log(-1)", "(-1)**0.5", "(-8)**(1/3)", "sqrt(-theta**2 - 1)", "log(-g)"],
+)
+def test_complex_valued_expressions_are_refused_naming_the_key(expression):
+    text = _replace(PENDULUM_ONE_MODE, _F0, f'"{expression}"')
+    with pytest.raises(
+        ModelError, match=r"^plant\.toml: modes\.only\.f\[0\]: .* is complex-valued"
+    ):
+        parse_model(text, origin="plant.toml")
+
+
+def test_complex_simulation_input_and_matrix_entry_are_refused():
+    text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
+    with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
+        parse_model(text, origin="p.toml")
+    text = _replace(
+        LINEAR_TWO_MODE, "A = [[1.0, 0.1], [0.0, 0.95]]", "A = [[1.0, 0.1], [0.0, 'log(-2)']]"
+    )
+    with pytest.raises(ModelError, match=r"^m\.toml: modes\.slow\.A\[1\]\[1\]: .*complex"):
+        parse_model(text, origin="m.toml")
+
+
+@pytest.mark.parametrize(
+    "expression", ["sqrt(theta)", "log(1 + theta**2)", "theta**0.5", "sqrt(g)"]
+)
+def test_real_roots_and_logs_of_variables_are_accepted(expression):
+    model = parse_model(_replace(PENDULUM_ONE_MODE, _F0, f'"{expression}"'))
+    assert model.modes[0].f[0].is_extended_real is not False
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            'states = ["theta", "omega"]',
+            'states = ["lambda", "omega"]',
+            r"states: 'lambda' is a Python keyword",
+        ),
+        (
+            'states = ["theta", "omega"]',
+            'states = ["theta", "None"]',
+            r"states: 'None' is a Python keyword",
+        ),
+        ('inputs = ["torque"]', 'inputs = ["sqrt"]', r"inputs: 'sqrt' is a function or constant"),
+        (
+            'outputs = ["y_sin", "y_speed"]',
+            'outputs = ["y_sin", "pi"]',
+            r"outputs: 'pi' is a function or constant",
+        ),
+        ('inputs = ["torque"]', 'inputs = ["t"]', r"inputs: 't' is the time \(t\) or step \(k\)"),
+        ('inputs = ["torque"]', 'inputs = ["1u"]', r"inputs: '1u' is not a valid symbol name"),
+        ('inputs = ["torque"]', 'inputs = ["u u"]', r"inputs: 'u u' is not a valid symbol name"),
+        ("l = 1.3", "lambda = 1.3", r"parameters\.lambda: 'lambda' is a Python keyword"),
+        ("l = 1.3", "exp = 1.3", r"parameters\.exp: 'exp' is a function or constant"),
+        ("c = 0.2", "torque = 0.2", r"parameters\.torque: the name is already one of the inputs"),
+        ("c = 0.2", "y_sin = 0.2", r"parameters\.y_sin: the name is already one of the outputs"),
+    ],
+)
+def test_names_the_grammar_cannot_use_are_refused_in_their_key(old, new, message):
+    with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
+        parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+
+
+@pytest.mark.parametrize(
+    ("expression", "message"),
+    [
+        ("(" * 300 + "theta" + ")" * 300, "cannot parse"),
+        ("sin(" * 150 + "theta" + ")" * 150, "nested more than 100 levels deep"),
+        ("-" * 5000 + "theta", "too long or nested too deeply"),
+        ("theta + " * 2400 + "1", None),
+        ("theta " * 3000, "cannot parse"),
+        ("theta + \x00" * 10, "cannot parse"),
+        ("theta" * 5000, "longer than 20000 characters"),
+    ],
+    ids=["parentheses", "calls", "unary", "long-sum", "garbage", "nul", "too-long"],
+)
+def test_huge_or_deep_expressions_give_one_short_line(expression, message):
+    text = _replace(PENDULUM_ONE_MODE, _F0, '"' + expression.replace("\x00", "\\u0000") + '"')
+    if message is None:  # a long flat sum is fine: chains are built without recursion
+        assert parse_model(text).modes[0].f[0] == 2400 * sympy.Symbol("theta", real=True) + 1
+        return
+    with pytest.raises(ModelError) as caught:
+        parse_model(text, origin="plant.toml")
+    line = str(caught.value)
+    assert line.startswith("plant.toml: modes.only.f[0]: ") and message in line
+    assert "\n" not in line and len(line) < 250, line
+
+
+def test_every_error_names_the_file_and_quotes_user_text_short():
+    huge = "x" * 5000
+    for old, new, key in [
+        ('name = "pendulum"', f'"{huge}" = 1', "plant.toml: '"),
+        ("[modes.only]", f'[modes."{huge}"]', "plant.toml: modes.'"),
+        ("l = 1.3", f'l = "{huge}"', "plant.toml: parameters.l: expected a number"),
+        ("[noise]", f'[signals]\n"{huge}" = "/a"\n[noise]', "plant.toml: signals.'xxx"),
+    ]:
+        with pytest.raises(ModelError) as caught:
+            parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+        assert str(caught.value).startswith(key) and len(str(caught.value)) < 400
+
+
+def test_modes_record_which_key_their_noise_came_from():
+    model = parse_model(LINEAR_TWO_MODE, origin="m.toml")
+    slow, fast = model.modes
+    assert (slow.process_noise_key, slow.measurement_noise_key) == (
+        "noise.process",
+        "noise.measurement",
+    )
+    assert fast.process_noise_key == "modes.fast.process_noise"
+    error = model.error(fast.process_noise_key, "singular")
+    assert str(error) == "m.toml: modes.fast.process_noise: singular"
+    assert (
+        load_model("three_tank_hstf")
+        .error("noise.process", "x")
+        .args[0]
+        .startswith("three_tank_hstf: noise.process: ")
+    )
+
+
+def test_a_singular_measurement_noise_names_the_file_and_its_key():
+    text = _replace(
+        LINEAR_TWO_MODE, "measurement = [[0.05, 0.01], [0.01, 0.08]]", "measurement = 0"
+    )
+    with pytest.raises(
+        ModelError, match=r"^m\.toml: noise\.measurement: the measurement noise covariance of mode"
+    ):
+        noise_stacks(parse_model(text, origin="m.toml"))
+
+
+def test_cli_refuses_a_complex_model_in_one_line_and_writes_nothing(tmp_path, capsys):
+    path = tmp_path / "complex.toml"
+    path.write_text(_replace(PENDULUM_ONE_MODE, _F0, '"sqrt(-1) + theta"'))
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out)])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{path}: modes.only.f[0]: " in lines[0], lines
+    assert "complex-valued" in lines[0] and not out.exists()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet="xyk[]-=+*/()01 .,", max_size=30))
+def test_any_equation_text_parses_or_fails_with_a_model_error(text):
+    try:
+        expr = parse_expression(text, Y, key="e", previous=Y_BEFORE)
+    except ModelError as err:
+        assert str(err).startswith("e: ") and "\n" not in str(err)
+    else:
+        assert isinstance(expr, sympy.Expr)
+
+
+def test_time_indices_only_where_asked_for():
+    x_now, x_before = Y["x"], Y_BEFORE["x"]
+    assert (
+        parse_expression("x[k] - 2*x[k-1]", Y, key="e", previous=Y_BEFORE) == x_now - 2 * x_before
+    )
+    assert parse_expression("x - x[k]", Y, key="e", previous=Y_BEFORE) == 0
+    assert str(x_before) == "x[k-1]"
+    with pytest.raises(ModelError, match=r"^e: a Subscript expression is not allowed"):
+        parse_expression("x[k-1]", Y, key="e")
+    for text, message in [
+        ("x[k+1]", r"the time index of 'x' must be \[k\] or \[k-1\], got \[k \+ 1\]"),
+        ("x[0]", r"the time index of .x. must be \[k\] or \[k-1\], got \[0\]"),
+        ("p[k-1]", r"'p' is a parameter and has no time index"),
+        ("z[k-1]", r"unknown symbol 'z'"),
+        ("x[k-1][k]", r"indexing anything but a variable name"),
+        ("(x+1)[k]", r"indexing anything but a variable name"),
+    ]:
+        with pytest.raises(ModelError, match=r"^e: " + message):
+            parse_expression(text, Y, key="e", previous=Y_BEFORE)

@@ -1,0 +1,101 @@
+"""``simulate`` refuses bad input up front, naming the option or the model file and key."""
+
+import numpy as np
+import pytest
+
+from hybridlog.cli import main
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.estimators.hstf import HstfOptions, run_hstf
+from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.model.loader import load_model
+from hybridlog.signals import AlignedSignals
+from hybridlog.simulate import memory_needed, simulate
+from tests.support.models import PENDULUM_ONE_MODE
+from tests.support.paths import ROOT
+
+TANK = (ROOT / "hybridlog/model/builtin/three_tank_hstf.toml").read_text()
+
+
+def _model_file(tmp_path, text, old=None, new=None):
+    if old is not None:
+        assert old in text
+        text = text.replace(old, new, 1)
+    path = tmp_path / "plant.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "3"])
+def test_a_bad_seed_is_an_option_error(seed):
+    with pytest.raises(OptionError, match=r"^--seed: must be a non-negative integer$"):
+        simulate(load_model("three_tank_hstf"), steps=3, seed=seed)
+
+
+def test_more_steps_than_memory_are_refused_up_front_with_the_size(tmp_path):
+    model = load_model("three_tank_hstf")
+    # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws).
+    assert memory_needed(model, 1000) == 1000 * 15 * 8 * 9
+    with pytest.raises(OptionError, match=r"^--steps: 1,000,000,000,000 steps would need about"):
+        simulate(model, steps=10**12)
+    with pytest.raises(OptionError, match=r"^--schedule: .* GB of memory and .* is available"):
+        simulate(model, schedule=f"1:{10**12}")
+    path = _model_file(tmp_path, TANK, 'schedule = "', f'schedule = "2:{10**12},')
+    with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: .* steps would need"):
+        simulate(load_model(path))
+
+
+def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
+    path = _model_file(tmp_path, TANK, 'schedule = "', 'schedule = "7:10,')
+    model = load_model(path)
+    with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: unknown mode '7'"):
+        simulate(model)
+    with pytest.raises(OptionError, match=r"^--schedule: 'ten' in '1:ten' is not a whole number$"):
+        simulate(model, schedule="1:ten")
+    assert simulate(model, schedule="2:4").modes.tolist() == [1] * 5
+
+
+def test_divergence_and_missing_inputs_name_the_model_file(tmp_path):
+    exploding = PENDULUM_ONE_MODE.replace('f = ["theta + 0.05*omega"', 'f = ["1e300*theta"')
+    path = _model_file(tmp_path, exploding)
+    with pytest.raises(ModelError, match=rf"^{path}: the simulation diverged \(non-finite at"):
+        simulate(load_model(path), steps=20)
+    silent = PENDULUM_ONE_MODE.replace('torque = "0.3*sin(0.5*t)"', "")
+    path = _model_file(tmp_path, silent)
+    with pytest.raises(ModelError, match=rf"^{path}: simulation\.inputs\.torque: no input"):
+        simulate(load_model(path), steps=20)
+
+
+def test_a_singular_measurement_noise_names_the_file_mode_and_estimator(tmp_path):
+    text = PENDULUM_ONE_MODE.replace("measurement = [0.01, 0.02]", "measurement = [0.0, 0.02]")
+    model = load_model(_model_file(tmp_path, text))
+    signals = AlignedSignals(
+        source="sim",
+        time=np.arange(4.0),
+        input_names=model.inputs,
+        output_names=model.outputs,
+        inputs=np.zeros((4, 1)),
+        outputs=np.zeros((4, 2)),
+    )
+    for run, options, name in ((run_hstf, HstfOptions(), "hstf"), (run_imm, ImmOptions(), "imm")):
+        with pytest.raises(
+            ModelError,
+            match=rf"^{tmp_path}/plant\.toml: noise\.measurement: the measurement noise covariance "
+            rf"of mode 'only' is singular; the {name} filter needs",
+        ):
+            run(model, signals, options)
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [(["--seed", "-1"], "--seed: -1 is not in the range x>=0"), (["--steps", "10**9"], "GB")],
+)
+def test_the_command_refuses_in_one_line_before_writing(tmp_path, capsys, args, fragment):
+    # Issue 7: a ValueError traceback, and an OOM kill at 23.7 GB, before.
+    out = tmp_path / "s.csv"
+    args = [str(10**9) if a == "10**9" else a for a in args]
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", "three_tank_hstf", "--out", str(out), *args])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in lines[0], lines
+    assert not out.exists()

@@ -1,0 +1,1 @@
+"""What the tests share: real files of other tools, model texts, reference implementations."""
