@@ -14,15 +14,102 @@ The loader accepts every kind; an estimator that cannot handle one refuses it.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Generic, Literal, TypeVar, overload
 
 import numpy as np
-import sympy
 
 from hybridlog.errors import ModelError
-from hybridlog.model.components import Component
 from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    import sympy
+
+    from hybridlog.model.components import Component
+
+T = TypeVar("T")
+
+
+class Deferred:
+    """Stands for a :class:`Symbolic` field's value until it is first read.
+
+    A model read from the loaded-model cache (:mod:`hybridlog.model.cache`) holds its
+    sympy expressions as ``Deferred`` values that rebuild the model from its text on first
+    use, so a run that never reads an expression never imports sympy.
+    """
+
+    __slots__ = ("compute",)
+
+    def __init__(self, compute: Callable[[], Any]) -> None:
+        self.compute = compute
+
+
+_MISSING: Any = object()
+
+
+class Symbolic(Generic[T]):
+    """Dataclass field (a data descriptor) holding sympy objects, or a :class:`Deferred`.
+
+    Reading the field returns the value, computing a :class:`Deferred` once on first
+    read; :func:`stored` peeks at what is held without computing it.
+    """
+
+    def __init__(self, default: T = _MISSING) -> None:
+        self.default = default
+        self.name = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    @overload
+    def __get__(self, instance: None, owner: type) -> T: ...
+
+    @overload
+    def __get__(self, instance: object, owner: type) -> T: ...
+
+    def __get__(self, instance: object | None, owner: type) -> T:
+        if instance is None:  # the dataclass asks for the default
+            if self.default is _MISSING:
+                raise AttributeError(self.name)
+            return self.default
+        value = instance.__dict__[self.name]
+        if isinstance(value, Deferred):
+            value = value.compute()
+            instance.__dict__[self.name] = value
+        result: T = value
+        return result
+
+    def __set__(self, instance: object, value: T | Deferred) -> None:
+        instance.__dict__[self.name] = value
+
+
+def stored(instance: object, name: str) -> Any:
+    """The value a :class:`Symbolic` field holds, a :class:`Deferred` left as it is."""
+    return instance.__dict__[name]
+
+
+class _NoInputs(Mapping[str, Any]):
+    """The empty, immutable (so hashable) default of ``simulation_inputs``."""
+
+    def __getitem__(self, key: str) -> Any:
+        raise KeyError(key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(())
+
+    def __len__(self) -> int:
+        return 0
+
+    def __hash__(self) -> int:
+        return 0
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Mapping) and not other
+
+
+NO_INPUTS: Mapping[str, Any] = _NoInputs()
+
 
 TimeKind = Literal["discrete", "continuous"]
 IntegrationMethod = Literal["euler", "rk4"]
@@ -138,12 +225,12 @@ class Mode:
     """
 
     id: str
-    f: tuple[sympy.Expr, ...]
-    h: tuple[sympy.Expr, ...]
     process_noise: FloatArray
     measurement_noise: FloatArray
-    dx: tuple[sympy.Expr, ...] = ()
-    guard: sympy.Basic | None = None
+    f: Symbolic[tuple[sympy.Expr, ...]] = Symbolic()
+    h: Symbolic[tuple[sympy.Expr, ...]] = Symbolic()
+    dx: Symbolic[tuple[sympy.Expr, ...]] = Symbolic(())
+    guard: Symbolic[sympy.Basic | None] = Symbolic(None)
     linear_form: LinearForm | None = None
     nonlinear_key: str = ""
     process_noise_key: str = "noise.process"
@@ -153,6 +240,11 @@ class Mode:
     def dynamics(self) -> tuple[sympy.Expr, ...]:
         """``f`` of a discrete-time mode or ``dx`` of a continuous-time one."""
         return self.dx if self.dx else self.f
+
+    @property
+    def has_guard(self) -> bool:
+        """True when the mode has a guard (known without building the guard's expression)."""
+        return stored(self, "guard") is not None
 
 
 @dataclass(frozen=True)
@@ -181,8 +273,8 @@ class Jump:
 
     source: str | None
     target: str
-    reset: tuple[sympy.Expr, ...]
     key: str
+    reset: Symbolic[tuple[sympy.Expr, ...]] = Symbolic()
 
 
 @dataclass(frozen=True)
@@ -212,12 +304,14 @@ class BooleanAffine:
     """
 
     booleans: tuple[str, ...]
-    dynamics: tuple[sympy.Expr, ...]
-    h: tuple[sympy.Expr, ...]
+    dynamics: Symbolic[tuple[sympy.Expr, ...]] = Symbolic()
+    h: Symbolic[tuple[sympy.Expr, ...]] = Symbolic()
     key: str = "dynamics"
 
     def symbols(self) -> tuple[sympy.Symbol, ...]:
         """Sympy symbols of the booleans (real)."""
+        import sympy
+
         return tuple(sympy.Symbol(b, real=True) for b in self.booleans)
 
     def delta(self, sigma: int) -> tuple[int, ...]:
@@ -298,7 +392,7 @@ class HybridModel:
     default_estimator: str = "imm"
     estimator_options: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulation_state: FloatArray | None = None
-    simulation_inputs: dict[str, sympy.Expr] = field(default_factory=dict)
+    simulation_inputs: Symbolic[Mapping[str, sympy.Expr]] = Symbolic(NO_INPUTS)
     simulation_schedule: str = ""
     simulation_state_min: FloatArray | None = None
     source: str = ""
@@ -337,7 +431,7 @@ class HybridModel:
     @property
     def state_driven(self) -> bool:
         """True when the modes switch by their guards (state-driven switching)."""
-        return any(m.guard is not None for m in self.modes)
+        return any(m.has_guard for m in self.modes)
 
     @property
     def is_continuous(self) -> bool:
@@ -370,6 +464,8 @@ class HybridModel:
 
     def symbols(self) -> tuple[list[sympy.Symbol], list[sympy.Symbol]]:
         """Sympy symbols of the states and of the inputs."""
+        import sympy
+
         return (
             [sympy.Symbol(s, real=True) for s in self.states],
             [sympy.Symbol(u, real=True) for u in self.inputs],
