@@ -18,8 +18,8 @@ from hybridlog.estimators import Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.jobs.centers import read_centers
+from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.model.loader import load_model
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates, write_report
 from hybridlog.report.gates import Gate, metric

@@ -25,8 +25,8 @@ from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
+from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.model.loader import load_model
 from hybridlog.outputs import (
     PathLike,
     atomic_files,

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hybridlog.io.bag_writers import check_log_target, write_log
-from hybridlog.model.loader import load_model
+from hybridlog.model.cache import load_model
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import simulate as simulate_model
 

@@ -183,6 +183,12 @@ def model_key(model: HybridModel) -> str:
     digest = hashlib.sha256()
     _feed(digest, model)
     key = digest.hexdigest()
+    remember_key(model, key)
+    return key
+
+
+def remember_key(model: HybridModel, key: str) -> None:
+    """Record ``key`` as :func:`model_key` of ``model`` (the loaded-model cache stores it)."""
     identity = id(model)
 
     def forget(reference: weakref.ref[HybridModel]) -> None:
@@ -190,7 +196,6 @@ def model_key(model: HybridModel) -> str:
             del _KEYS[identity]
 
     _KEYS[identity] = (weakref.ref(model, forget), key)
-    return key
 
 
 _FINGERPRINTS: dict[tuple[str, ...], str] = {}

@@ -25,7 +25,6 @@ import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,7 +32,7 @@ import sympy
 from sympy.core.function import Application
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.builtins import builtin_names, builtin_text
+from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.components import Component
 from hybridlog.model.expressions import parse_expression
@@ -65,6 +64,8 @@ from hybridlog.model.values import (
     required,
 )
 from hybridlog.signals import FloatArray
+
+__all__ = ["load_model", "parse_model"]
 
 _TOP_KEYS = {
     "name",
@@ -104,36 +105,6 @@ MAX_BOOLEANS = 10
 """Most booleans of a boolean-affine model (2^10 = 1024 modes)."""
 _STEP_TOLERANCE = 1e-9
 """Relative tolerance of ``dt`` being an integer multiple of the integration step."""
-
-
-def load_model(
-    name_or_path: str | Path, *, parameters: Mapping[str, float] | None = None
-) -> HybridModel:
-    """Load a built-in model by name or a model file by path.
-
-    Parameters
-    ----------
-    name_or_path:
-        A built-in name (``hybridlog models`` lists them) or the path of a TOML file.
-    parameters:
-        Overrides of ``[parameters]`` values (``--set NAME=VALUE``); unknown names are errors.
-    """
-    path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
-        if not path.is_file():
-            raise ModelError(f"{path}: no such model file")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as err:
-            raise ModelError(f"{path}: cannot read model file: {err}") from err
-        return parse_model(text, origin=str(path), parameters=parameters)
-    name = str(name_or_path)
-    if name in builtin_names():
-        return parse_model(builtin_text(name), origin=name, parameters=parameters)
-    known = ", ".join(builtin_names())
-    raise ModelError(
-        f"{excerpt(name)[1:-1]}: neither a model file nor a built-in model (built-ins: {known})"
-    )
 
 
 def parse_model(

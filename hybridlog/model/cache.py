@@ -1,0 +1,378 @@
+"""Loaded models on disk: a warm run builds no sympy expression and imports no sympy.
+
+:func:`load_model` is the entry point of every job.  Parsing a model file into sympy
+expressions and working out which modes are affine takes about 0.5 s with sympy's import;
+the result is the same for the same text, parameters and code, so it is kept in
+``<cache>/loaded/model_<key>.json`` (beside the compiled code of
+:mod:`hybridlog.model.compiled`).  The key hashes
+
+* the model text (the file's or the built-in's) and the ``--set`` parameter overrides;
+* the source of every module of :mod:`hybridlog.model` (the loader, the expression
+  grammar, the model types, the compiled-code key), hybridlog's version;
+* the versions of sympy, numpy and Python (they shape the expressions and numbers).
+
+So any change gives a new file, and a stale one is never read.  The file holds everything
+numeric and textual of the model (names, timebase, noise, priors, Markov matrix, linear
+forms, estimator options, simulation settings, the nonlinear keys and the compiled-code
+key :func:`~hybridlog.model.compiled.model_key`), as JSON: reading it cannot run code.
+The sympy expressions are not stored: the model read from the cache holds them as
+:class:`~hybridlog.model.hybrid_model.Deferred` values that parse the model text again, with
+the loader, the first time anything reads one (code generation on a cold compiled-code
+cache, derivatives, an estimator's capability message).
+
+A file is framed by its key and a checksum of its body; a damaged, truncated or foreign
+file is ignored and rewritten.  Files are written to a temporary and linked or renamed into
+place, so parallel batch workers never read half a file.  Models with ``[components]``
+(paper 002; their automata hold expressions in every part) are not cached.  The origin
+(file path or built-in name) is not part of the key: it is set from the current call, so
+every error names the file as the user gave it.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.metadata
+import json
+import sys
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import hybridlog
+from hybridlog.errors import ModelError, excerpt
+from hybridlog.model.builtins import builtin_names, builtin_text
+from hybridlog.model.compiled import (
+    _framed,
+    _intact,
+    _write_once,
+    cache_dir,
+    model_key,
+    remember_key,
+)
+from hybridlog.model.hybrid_model import (
+    BooleanAffine,
+    Deferred,
+    HybridModel,
+    Jump,
+    LinearForm,
+    Mode,
+    Timebase,
+    stored,
+)
+from hybridlog.signals import FloatArray
+
+FORMAT = 1
+"""Version of the file layout; part of the key."""
+KIND = "loaded-model"
+"""The kind named in each file's header."""
+
+
+def load_model(
+    name_or_path: str | Path, *, parameters: Mapping[str, float] | None = None
+) -> HybridModel:
+    """Load a built-in model by name or a model file by path, from the cache when warm.
+
+    Parameters
+    ----------
+    name_or_path:
+        A built-in name (``hybridlog models`` lists them) or the path of a TOML file.
+    parameters:
+        Overrides of ``[parameters]`` values (``--set NAME=VALUE``); unknown names are errors.
+
+    Raises
+    ------
+    ModelError
+        The file is missing or unreadable, the name is no built-in, or the model is
+        invalid (:func:`~hybridlog.model.loader.parse_model`); every message starts with
+        the file or built-in name.
+    """
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise ModelError(f"{path}: no such model file")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as err:
+            raise ModelError(f"{path}: cannot read model file: {err}") from err
+        return cached_model(text, origin=str(path), parameters=parameters)
+    name = str(name_or_path)
+    if name in builtin_names():
+        return cached_model(builtin_text(name), origin=name, parameters=parameters)
+    known = ", ".join(builtin_names())
+    raise ModelError(
+        f"{excerpt(name)[1:-1]}: neither a model file nor a built-in model (built-ins: {known})"
+    )
+
+
+def cached_model(
+    text: str, *, origin: str, parameters: Mapping[str, float] | None = None
+) -> HybridModel:
+    """The model of ``text`` with ``parameters``: read from the cache, or built and stored."""
+    overrides = dict(parameters or {})
+    key = loaded_key(text, overrides)
+    path = cache_dir() / "loaded" / f"model_{key}.json"
+    rebuild = _rebuilder(text, origin, overrides)
+    model = _read(path, key, text, origin, rebuild)
+    if model is not None:
+        return model
+    model = rebuild()
+    body = _encode(model)
+    if body is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        _write_once(path, _framed(KIND, key, body), replace=path.exists())
+    return model
+
+
+@functools.cache
+def _code_fingerprint() -> str:
+    """Hash of what turns a text into a model: this package's code and the libraries."""
+    digest = hashlib.sha256(
+        f"format {FORMAT}; hybridlog {hybridlog.__version__}; python {sys.version}; "
+        f"sympy {importlib.metadata.version('sympy')}; numpy {np.__version__};".encode()
+    )
+    for source in sorted(Path(__file__).parent.glob("*.py")):
+        digest.update(f"{source.name}:".encode())
+        digest.update(source.read_bytes())
+    return digest.hexdigest()
+
+
+def loaded_key(text: str, parameters: Mapping[str, Any]) -> str:
+    """Key of a loaded model: its text, the overrides and :func:`_code_fingerprint`."""
+    overrides = sorted((str(k), type(v).__name__, repr(v)) for k, v in parameters.items())
+    digest = hashlib.sha256(_code_fingerprint().encode())
+    digest.update(f"{len(text)}:{text};{overrides!r}".encode())
+    return digest.hexdigest()[:32]
+
+
+def _rebuilder(text: str, origin: str, overrides: dict[str, Any]) -> Callable[[], HybridModel]:
+    """Builds the model with the loader (and sympy), once."""
+
+    @functools.cache
+    def rebuild() -> HybridModel:
+        from hybridlog.model.loader import parse_model
+
+        return parse_model(text, origin=origin, parameters=overrides)
+
+    return rebuild
+
+
+def _array(value: FloatArray) -> dict[str, Any]:
+    return {"dtype": value.dtype.str, "shape": list(value.shape), "data": value.ravel().tolist()}
+
+
+def _optional_array(value: FloatArray | None) -> dict[str, Any] | None:
+    return None if value is None else _array(value)
+
+
+def _from_array(value: Mapping[str, Any]) -> FloatArray:
+    dtype = np.dtype(value["dtype"])
+    if dtype.kind != "f":
+        raise ValueError(f"not a float array: {dtype}")
+    array: FloatArray = np.array(value["data"], dtype=dtype).reshape(value["shape"])
+    return array
+
+
+def _from_optional_array(value: Mapping[str, Any] | None) -> FloatArray | None:
+    return None if value is None else _from_array(value)
+
+
+def _encode(model: HybridModel) -> str | None:
+    """The file body for ``model``, or ``None`` when it cannot be stored exactly."""
+    if model.components:
+        return None
+    affine = model.boolean_affine
+    content = {
+        "name": model.name,
+        "description": model.description,
+        "reference": model.reference,
+        "timebase": [
+            model.timebase.kind,
+            model.timebase.dt,
+            model.timebase.step,
+            model.timebase.method,
+        ],
+        "states": list(model.states),
+        "inputs": list(model.inputs),
+        "outputs": list(model.outputs),
+        "parameters": model.parameters,
+        "modes": [
+            {
+                "id": mode.id,
+                "process_noise": _array(mode.process_noise),
+                "measurement_noise": _array(mode.measurement_noise),
+                "linear_form": (
+                    None
+                    if mode.linear_form is None
+                    else {name: _array(getattr(mode.linear_form, name)) for name in _FORM}
+                ),
+                "nonlinear_key": mode.nonlinear_key,
+                "process_noise_key": mode.process_noise_key,
+                "measurement_noise_key": mode.measurement_noise_key,
+                "guard": mode.has_guard,
+            }
+            for mode in model.modes
+        ],
+        "initial_state": _array(model.initial_state),
+        "initial_covariance": _array(model.initial_covariance),
+        "initial_mode_probabilities": _array(model.initial_mode_probabilities),
+        "transitions": _optional_array(model.transitions),
+        "signals": model.signals,
+        "truth": model.truth,
+        "default_estimator": model.default_estimator,
+        "estimator_options": model.estimator_options,
+        "simulation_state": _optional_array(model.simulation_state),
+        "simulation_inputs": bool(stored(model, "simulation_inputs")),
+        "simulation_schedule": model.simulation_schedule,
+        "simulation_state_min": _optional_array(model.simulation_state_min),
+        "jumps": [[jump.source, jump.target, jump.key] for jump in model.jumps],
+        "boolean_affine": None if affine is None else [list(affine.booleans), affine.key],
+        "variables": list(model.variables),
+        "commands": list(model.commands),
+        "model_key": model_key(model),
+    }
+    try:
+        body = json.dumps(content, sort_keys=True, allow_nan=False)
+    except (TypeError, ValueError):  # a TOML date in an option, a NaN: not stored exactly
+        return None
+    return body
+
+
+_FORM = ("A", "B", "C", "D", "state_offset", "output_offset")
+
+
+def _read(
+    path: Path, key: str, text: str, origin: str, rebuild: Callable[[], HybridModel]
+) -> HybridModel | None:
+    """The model stored at ``path``, or ``None`` when it is missing, damaged or foreign."""
+    try:
+        framed = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    if not _intact(KIND, key, framed):
+        return None
+    body = framed.split("\n", 1)[1].rpartition("\n# end ")[0]
+    try:
+        model = _decode(json.loads(body), text, origin, _checked(rebuild, key, path))
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError):
+        return None
+    return model
+
+
+def _checked(rebuild: Callable[[], HybridModel], key: str, path: Path) -> Callable[[], HybridModel]:
+    """``rebuild``, checking that the model built again is the one the file described."""
+
+    @functools.cache
+    def checked() -> HybridModel:
+        model = rebuild()
+        if _encode(model) != _body(path):
+            raise ModelError(
+                f"{model.origin}: the cached model {path} does not match the model file; delete it"
+            )
+        return model
+
+    return checked
+
+
+def _body(path: Path) -> str:
+    """The body of a framed file."""
+    return path.read_text(encoding="utf-8").split("\n", 1)[1].rpartition("\n# end ")[0]
+
+
+def _decode(
+    content: dict[str, Any], text: str, origin: str, rebuild: Callable[[], HybridModel]
+) -> HybridModel:
+    """The model of a file body; its expressions deferred to ``rebuild``."""
+    kind, dt, step, method = content["timebase"]
+    if kind not in ("discrete", "continuous") or method not in (None, "euler", "rk4"):
+        raise ValueError(f"bad timebase {kind!r} {method!r}")
+    continuous = kind == "continuous"
+
+    def part(*steps: str | int) -> Deferred:
+        """The value at ``steps`` (attributes and indices) of the model built again."""
+
+        def compute() -> Any:
+            value: Any = rebuild()
+            for step in steps:
+                value = value[step] if isinstance(step, int) else getattr(value, step)
+            return value
+
+        return Deferred(compute)
+
+    modes = []
+    for index, mode in enumerate(content["modes"]):
+        form = mode["linear_form"]
+        equations = part("modes", index, "dynamics")
+        modes.append(
+            Mode(
+                id=str(mode["id"]),
+                process_noise=_from_array(mode["process_noise"]),
+                measurement_noise=_from_array(mode["measurement_noise"]),
+                f=() if continuous else equations,
+                h=part("modes", index, "h"),
+                dx=equations if continuous else (),
+                guard=part("modes", index, "guard") if mode["guard"] else None,
+                linear_form=(
+                    None
+                    if form is None
+                    else LinearForm(**{name: _from_array(form[name]) for name in _FORM})
+                ),
+                nonlinear_key=str(mode["nonlinear_key"]),
+                process_noise_key=str(mode["process_noise_key"]),
+                measurement_noise_key=str(mode["measurement_noise_key"]),
+            )
+        )
+    affine = content["boolean_affine"]
+    model = HybridModel(
+        name=str(content["name"]),
+        description=str(content["description"]),
+        reference=str(content["reference"]),
+        timebase=Timebase(kind=kind, dt=float(dt), step=float(step), method=method),
+        states=tuple(map(str, content["states"])),
+        inputs=tuple(map(str, content["inputs"])),
+        outputs=tuple(map(str, content["outputs"])),
+        parameters={str(k): float(v) for k, v in content["parameters"].items()},
+        modes=tuple(modes),
+        initial_state=_from_array(content["initial_state"]),
+        initial_covariance=_from_array(content["initial_covariance"]),
+        initial_mode_probabilities=_from_array(content["initial_mode_probabilities"]),
+        transitions=_from_optional_array(content["transitions"]),
+        signals={str(k): str(v) for k, v in content["signals"].items()},
+        truth={str(k): str(v) for k, v in content["truth"].items()},
+        default_estimator=str(content["default_estimator"]),
+        estimator_options={str(k): dict(v) for k, v in content["estimator_options"].items()},
+        simulation_state=_from_optional_array(content["simulation_state"]),
+        simulation_inputs=(part("simulation_inputs") if content["simulation_inputs"] else {}),
+        simulation_schedule=str(content["simulation_schedule"]),
+        simulation_state_min=_from_optional_array(content["simulation_state_min"]),
+        source=text,
+        origin=origin,
+        jumps=tuple(
+            Jump(
+                source=None if source is None else str(source),
+                target=str(target),
+                key=str(jump_key),
+                reset=part("jumps", index, "reset"),
+            )
+            for index, (source, target, jump_key) in enumerate(content["jumps"])
+        ),
+        boolean_affine=(
+            None
+            if affine is None
+            else BooleanAffine(
+                booleans=tuple(map(str, affine[0])),
+                dynamics=part("boolean_affine", "dynamics"),
+                h=part("boolean_affine", "h"),
+                key=str(affine[1]),
+            )
+        ),
+        variables=tuple(map(str, content["variables"])),
+        commands=tuple(map(str, content["commands"])),
+    )
+    stored_key = content["model_key"]
+    if not isinstance(stored_key, str):
+        raise TypeError("model_key")
+    remember_key(model, stored_key)
+    return model
