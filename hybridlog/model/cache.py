@@ -234,7 +234,7 @@ def _encode(model: HybridModel) -> str | None:
         "model_key": model_key(model),
     }
     try:
-        body = json.dumps(content, sort_keys=True, allow_nan=False)
+        body = json.dumps(content, allow_nan=False)
     except (TypeError, ValueError):  # a TOML date in an option, a NaN: not stored exactly
         return None
     return body
