@@ -15,6 +15,9 @@ A model's modes come in one of three ways, and the keys of the others are refuse
 Continuous time: ``time = "continuous"``, ``dt`` (the sample time of the log) and
 ``integration = {method = "euler" | "rk4", step = ...}`` (``rk4`` when not given), ``dt``
 an integer multiple of ``step``.  ``[jumps."a->b"]`` give state resets at switches.
+
+:func:`load_model` (re-exported from :mod:`hybridlog.model.cache`) reads a model file or a
+built-in and calls :func:`parse_model` only when the loaded-model cache has no valid file.
 """
 
 from __future__ import annotations
