@@ -35,7 +35,7 @@ import hashlib
 import importlib.metadata
 import json
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -114,11 +114,12 @@ def cached_model(
     overrides = dict(parameters or {})
     key = loaded_key(text, overrides)
     path = cache_dir() / "loaded" / f"model_{key}.json"
-    rebuild = _rebuilder(text, origin, overrides)
-    model = _read(path, key, text, origin, rebuild)
+    model = _read(path, key, text, origin, overrides)
     if model is not None:
         return model
-    model = rebuild()
+    from hybridlog.model.loader import parse_model
+
+    model = parse_model(text, origin=origin, parameters=overrides)
     body = _encode(model)
     if body is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -147,16 +148,52 @@ def loaded_key(text: str, parameters: Mapping[str, Any]) -> str:
     return digest.hexdigest()[:32]
 
 
-def _rebuilder(text: str, origin: str, overrides: dict[str, Any]) -> Callable[[], HybridModel]:
-    """Builds the model with the loader (and sympy), once."""
+class _Source:
+    """What a model read from the cache was built from; builds it again on first need.
 
-    @functools.cache
-    def rebuild() -> HybridModel:
-        from hybridlog.model.loader import parse_model
+    Picklable (the built model is not pickled, only the text), so a model read from the
+    cache can be sent to another process like one built by the loader.
+    """
 
-        return parse_model(text, origin=origin, parameters=overrides)
+    def __init__(self, text: str, origin: str, overrides: dict[str, Any], body: str) -> None:
+        self.text = text
+        self.origin = origin
+        self.overrides = overrides
+        self.body = body
+        self.built: HybridModel | None = None
 
-    return rebuild
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "built": None}
+
+    def model(self) -> HybridModel:
+        """The model built by the loader, checked against the file it was read from."""
+        if self.built is None:
+            from hybridlog.model.loader import parse_model
+
+            model = parse_model(self.text, origin=self.origin, parameters=self.overrides)
+            if _encode(model) != self.body:
+                raise ModelError(
+                    f"{self.origin}: the cached model (loaded/model_<key>.json in the cache "
+                    "folder) does not match the model file; delete it"
+                )
+            self.built = model
+        return self.built
+
+
+class _Part:
+    """A :class:`Deferred`'s computation: the value at ``steps`` of the model built again."""
+
+    __slots__ = ("source", "steps")
+
+    def __init__(self, source: _Source, steps: tuple[str | int, ...]) -> None:
+        self.source = source
+        self.steps = steps
+
+    def __call__(self) -> Any:
+        value: Any = self.source.model()
+        for step in self.steps:
+            value = value[step] if isinstance(step, int) else getattr(value, step)
+        return value
 
 
 def _array(value: FloatArray) -> dict[str, Any]:
@@ -244,7 +281,7 @@ _FORM = ("A", "B", "C", "D", "state_offset", "output_offset")
 
 
 def _read(
-    path: Path, key: str, text: str, origin: str, rebuild: Callable[[], HybridModel]
+    path: Path, key: str, text: str, origin: str, overrides: dict[str, Any]
 ) -> HybridModel | None:
     """The model stored at ``path``, or ``None`` when it is missing, damaged or foreign."""
     try:
@@ -255,51 +292,21 @@ def _read(
         return None
     body = framed.split("\n", 1)[1].rpartition("\n# end ")[0]
     try:
-        model = _decode(json.loads(body), text, origin, _checked(rebuild, key, path))
+        model = _decode(json.loads(body), _Source(text, origin, overrides, body))
     except (ValueError, TypeError, KeyError, IndexError, AttributeError):
         return None
     return model
 
 
-def _checked(rebuild: Callable[[], HybridModel], key: str, path: Path) -> Callable[[], HybridModel]:
-    """``rebuild``, checking that the model built again is the one the file described."""
-
-    @functools.cache
-    def checked() -> HybridModel:
-        model = rebuild()
-        if _encode(model) != _body(path):
-            raise ModelError(
-                f"{model.origin}: the cached model {path} does not match the model file; delete it"
-            )
-        return model
-
-    return checked
-
-
-def _body(path: Path) -> str:
-    """The body of a framed file."""
-    return path.read_text(encoding="utf-8").split("\n", 1)[1].rpartition("\n# end ")[0]
-
-
-def _decode(
-    content: dict[str, Any], text: str, origin: str, rebuild: Callable[[], HybridModel]
-) -> HybridModel:
-    """The model of a file body; its expressions deferred to ``rebuild``."""
+def _decode(content: dict[str, Any], source: _Source) -> HybridModel:
+    """The model of a file body; its expressions deferred to ``source``."""
     kind, dt, step, method = content["timebase"]
     if kind not in ("discrete", "continuous") or method not in (None, "euler", "rk4"):
         raise ValueError(f"bad timebase {kind!r} {method!r}")
     continuous = kind == "continuous"
 
     def part(*steps: str | int) -> Deferred:
-        """The value at ``steps`` (attributes and indices) of the model built again."""
-
-        def compute() -> Any:
-            value: Any = rebuild()
-            for step in steps:
-                value = value[step] if isinstance(step, int) else getattr(value, step)
-            return value
-
-        return Deferred(compute)
+        return Deferred(_Part(source, steps))
 
     modes = []
     for index, mode in enumerate(content["modes"]):
@@ -347,16 +354,16 @@ def _decode(
         simulation_inputs=(part("simulation_inputs") if content["simulation_inputs"] else {}),
         simulation_schedule=str(content["simulation_schedule"]),
         simulation_state_min=_from_optional_array(content["simulation_state_min"]),
-        source=text,
-        origin=origin,
+        source=source.text,
+        origin=source.origin,
         jumps=tuple(
             Jump(
-                source=None if source is None else str(source),
+                source=None if start is None else str(start),
                 target=str(target),
                 key=str(jump_key),
                 reset=part("jumps", index, "reset"),
             )
-            for index, (source, target, jump_key) in enumerate(content["jumps"])
+            for index, (start, target, jump_key) in enumerate(content["jumps"])
         ),
         boolean_affine=(
             None

@@ -8,6 +8,7 @@ or foreign file is ignored and rewritten; errors name the file and key as the lo
 
 import dataclasses
 import os
+import pickle
 import subprocess
 import sys
 import textwrap
@@ -258,7 +259,8 @@ def test_a_warm_model_built_again_must_match_its_file(tmp_path: Path, cache_fold
     load_model(path)
     (stored_file,) = cached_files(cache_folder)
     key = stored_file.stem.removeprefix("model_")
-    body = cache._body(stored_file).replace('"name": "', '"name": "forged ', 1)
+    body = stored_file.read_text(encoding="utf-8").split("\n", 1)[1].rpartition("\n# end ")[0]
+    body = body.replace('"name": "', '"name": "forged ', 1)
     stored_file.write_text(cache._framed(cache.KIND, key, body), encoding="utf-8")
     forged = load_model(path)
     assert forged.name.startswith("forged")
@@ -276,6 +278,16 @@ def test_the_deferred_expressions_are_the_loaders(tmp_path: Path):
         assert warm_jump.reset == cold_jump.reset
         assert all(isinstance(e, sympy.Basic) for e in warm_jump.reset)
     assert isinstance(warm, HybridModel)
+
+
+def test_a_warm_model_can_be_sent_to_another_process(tmp_path: Path):
+    path = write_model(tmp_path, "pendulum", PENDULUM_ONE_MODE)
+    cold = load_model(path)
+    warm = load_model(path)
+    assert isinstance(stored(warm.modes[0], "f"), Deferred)
+    assert_same(pickle.loads(pickle.dumps(warm)), cold)
+    _ = warm.modes[0].f  # built here: the copy still carries only the text
+    assert_same(pickle.loads(pickle.dumps(warm)), cold)
 
 
 def test_a_warm_analyze_and_simulate_import_no_sympy(tmp_path: Path):
