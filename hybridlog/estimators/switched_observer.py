@@ -67,11 +67,23 @@ def _constant_matrix(
 def linear_modes(model: HybridModel) -> LinearModes:
     """``A_i, B_i, C_i, D_i`` (and affine terms) from the model's mode equations.
 
+    The loader's :attr:`~hybridlog.model.hybrid_model.Mode.linear_form` when every mode has
+    one (no sympy: a model from the loaded-model cache keeps its expressions unbuilt);
+    otherwise the Jacobians of the expressions, naming the first mode that is not affine.
+
     Raises
     ------
     ModelError
         When a mode's ``f`` or ``h`` is not affine in the states and inputs (names the mode).
     """
+    forms = [mode.linear_form for mode in model.modes]
+    if forms and not model.is_continuous and all(form is not None for form in forms):
+        return LinearModes(
+            *(
+                np.ascontiguousarray(np.stack([getattr(form, name) for form in forms]))
+                for name in ("A", "B", "C", "D", "state_offset", "output_offset")
+            )
+        )
     xs, us = model.symbols()
     symbols = [*xs, *us]
     zero = {s: 0 for s in symbols}

@@ -280,6 +280,24 @@ def test_the_deferred_expressions_are_the_loaders(tmp_path: Path):
     assert isinstance(warm, HybridModel)
 
 
+@pytest.mark.parametrize("name", ["double_cart_case1", "double_cart_case2", "linear_two_mode"])
+def test_the_observers_linear_modes_are_the_loaders_bit_for_bit(name: str, tmp_path: Path):
+    # chiu and kmeans take the matrices the loader worked out (no sympy on a warm run);
+    # they must be the Jacobians the observer computed from the expressions before.
+    from hybridlog.estimators.switched_observer import linear_modes
+
+    reference = name if name in BUILTINS else write_model(tmp_path, name, TEXTS[name])
+    load_model(reference)
+    warm = load_model(reference)
+    assert all(mode.linear_form is not None for mode in warm.modes)
+    from_forms = linear_modes(warm)
+    assert isinstance(stored(warm.modes[0], "f"), Deferred)  # no expression was built
+    symbolic = dataclasses.replace(
+        warm, modes=tuple(dataclasses.replace(m, linear_form=None) for m in warm.modes)
+    )
+    assert_same(from_forms, linear_modes(symbolic))
+
+
 def test_a_warm_model_can_be_sent_to_another_process(tmp_path: Path):
     path = write_model(tmp_path, "pendulum", PENDULUM_ONE_MODE)
     cold = load_model(path)
