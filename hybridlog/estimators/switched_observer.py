@@ -18,14 +18,17 @@ double cart) this is the paper's ``ŷ(k) = C_i x̂(k)``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy
 
 from hybridlog.errors import ModelError
 from hybridlog.jit import jit
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray, IntArray
+
+if TYPE_CHECKING:
+    import sympy
 
 __all__ = ["LinearModes", "linear_modes", "run_observer"]
 
@@ -84,6 +87,8 @@ def linear_modes(model: HybridModel) -> LinearModes:
                 for name in ("A", "B", "C", "D", "state_offset", "output_offset")
             )
         )
+    import sympy
+
     xs, us = model.symbols()
     symbols = [*xs, *us]
     zero = {s: 0 for s in symbols}
