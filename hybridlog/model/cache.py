@@ -155,8 +155,11 @@ class _Source:
     cache can be sent to another process like one built by the loader.
     """
 
-    def __init__(self, text: str, origin: str, overrides: dict[str, Any], body: str) -> None:
+    def __init__(
+        self, text: str, origin: str, overrides: dict[str, Any], body: str, path: Path
+    ) -> None:
         self.text = text
+        self.path = str(path)
         self.origin = origin
         self.overrides = overrides
         self.body = body
@@ -173,8 +176,8 @@ class _Source:
             model = parse_model(self.text, origin=self.origin, parameters=self.overrides)
             if _encode(model) != self.body:
                 raise ModelError(
-                    f"{self.origin}: the cached model (loaded/model_<key>.json in the cache "
-                    "folder) does not match the model file; delete it"
+                    f"{self.origin}: the cached model {self.path} does not match the model "
+                    "file; delete it"
                 )
             self.built = model
         return self.built
@@ -292,7 +295,7 @@ def _read(
         return None
     body = framed.split("\n", 1)[1].rpartition("\n# end ")[0]
     try:
-        model = _decode(json.loads(body), _Source(text, origin, overrides, body))
+        model = _decode(json.loads(body), _Source(text, origin, overrides, body, path))
     except (ValueError, TypeError, KeyError, IndexError, AttributeError):
         return None
     return model
