@@ -86,7 +86,11 @@ def _std_ratio(a: FloatArray, b: FloatArray) -> float:
     if ma == np.inf:
         return np.inf
     spread = float(np.std(ub))
-    return (ma / mb) * (float(np.std(ua)) / spread) if spread > 0.0 else np.nan
+    if not spread > 0.0:
+        return np.nan
+    ratio = float(np.std(ua)) / spread
+    # 0 stays 0 where ma / mb overflows (a constant a against a tiny spread of b).
+    return (ma / mb) * ratio if ratio else 0.0
 
 
 def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
@@ -101,7 +105,10 @@ def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
     if ma == np.inf:
         return np.inf
     size = float(np.linalg.norm(ub))
-    return (ma / mb) * (float(np.linalg.norm(ua)) / size) if size > 0.0 else np.nan
+    if not size > 0.0:
+        return np.nan
+    ratio = float(np.linalg.norm(ua)) / size
+    return (ma / mb) * ratio if ratio else 0.0
 
 
 @dataclass(frozen=True)
