@@ -117,6 +117,7 @@ def measure(rows: int, repeat: int) -> dict[str, Any]:
         "stages": stages,
         "staged_wall_s": end - start,
         "staged_peak_mib": staged_peak,
+        "peak_after": child.get("peak_mib", {}),
     }
 
 
@@ -147,6 +148,7 @@ def bench_analyze(quick: bool = False, repeat: int = 3) -> list[Result]:
     ]
     total = m["staged_wall_s"]
     for stage, seconds in m["stages"].items():
+        peak = m["peak_after"].get(stage)
         rows.append(
             (
                 f"analyze stage · {stage}",
@@ -154,7 +156,8 @@ def bench_analyze(quick: bool = False, repeat: int = 3) -> list[Result]:
                 seconds,
                 "",
                 None,
-                f"{seconds / total:.0%} of the timed run's {total:.2f} s",
+                f"{seconds / total:.0%} of the timed run's {total:.2f} s"
+                + ("" if peak is None else f"; VmHWM {peak:,.0f} MiB after it"),
             )
         )
     return rows

@@ -6,8 +6,10 @@ The arguments after ``--`` are the command line of ``hybridlog``; the command ru
 ``hybridlog.cli.main`` exactly as the console script does, with the job's stage functions
 wrapped by timers.  ``STAGES.json`` gets, in seconds since the epoch (``time.time()``, so
 the parent can place them against its own clock): ``started`` (this module's first line)
-and ``finished`` (after the command returned, before the interpreter shuts down); and the
-wall time of each stage in seconds.  A function that calls another timed one (a stage
+and ``finished`` (after the command returned, before the interpreter shuts down); the
+wall time of each stage in seconds (``stages``); and the resident high-water mark
+(``VmHWM``, MiB) when each stage last ended (``peak_mib``): the stage where it jumps made
+the peak.  A function that calls another timed one (a stage
 inside a stage) is charged only for its own time.  ``benchmarks/analyze_e2e.py`` runs this
 child and the plain command and assembles the breakdown.
 """
@@ -25,6 +27,19 @@ from typing import Any  # noqa: E402
 
 _clock: dict[str, float] = {}
 _stack: list[list[float]] = []
+_peak: dict[str, float] = {}
+
+
+def _vmhwm_mib() -> float:
+    """The process's resident high-water mark so far (``VmHWM``), in MiB; 0 if unknown."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return 0.0
 
 
 def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
@@ -39,6 +54,7 @@ def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
             spent = time.perf_counter() - start
             inner = _stack.pop()[0]
             _clock[stage] = _clock.get(stage, 0.0) + spent - inner
+            _peak[stage] = _vmhwm_mib()
             if _stack:
                 _stack[-1][0] += spent
 
@@ -63,6 +79,7 @@ def main() -> None:
     from hybridlog.report.document import Report
 
     _clock["imports"] = time.perf_counter() - start
+    _peak["imports"] = _vmhwm_mib()
     _patch(analysis, "parse_sets", "model (load, sympy)")
     _patch(analysis, "prepare_estimators", "estimator options")
     _patch(analysis, "read_log", "read log")
@@ -87,7 +104,10 @@ def main() -> None:
         code = done.code if isinstance(done.code, int) else 1
     _clock["command"] = time.perf_counter() - command
     with open(out, "w", encoding="utf-8") as stream:
-        json.dump({"started": STARTED, "finished": time.time(), "stages": _clock}, stream)
+        json.dump(
+            {"started": STARTED, "finished": time.time(), "stages": _clock, "peak_mib": _peak},
+            stream,
+        )
     sys.exit(code)
 
 
