@@ -98,8 +98,9 @@ def main() -> None:
     Report.to_json = _timed("report.json + report.md", Report.to_json)  # type: ignore[method-assign]
     code = 0
     command = time.perf_counter()
+    sys.argv = ["hybridlog", *argv]
     try:
-        cli.main(argv)
+        cli.main()  # as the console script calls it: this process runs the one command
     except SystemExit as done:
         code = done.code if isinstance(done.code, int) else 1
     _clock["command"] = time.perf_counter() - command
