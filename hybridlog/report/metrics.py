@@ -86,7 +86,11 @@ def _std_ratio(a: FloatArray, b: FloatArray) -> float:
     if ma == np.inf:
         return np.inf
     spread = float(np.std(ub))
-    return (ma / mb) * (float(np.std(ua)) / spread) if spread > 0.0 else np.nan
+    if not spread > 0.0:
+        return np.nan
+    ratio = float(np.std(ua)) / spread
+    # 0 stays 0 where ma / mb overflows (a constant a against a tiny spread of b).
+    return (ma / mb) * ratio if ratio else 0.0
 
 
 def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
@@ -101,7 +105,59 @@ def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
     if ma == np.inf:
         return np.inf
     size = float(np.linalg.norm(ub))
-    return (ma / mb) * (float(np.linalg.norm(ua)) / size) if size > 0.0 else np.nan
+    if not size > 0.0:
+        return np.nan
+    ratio = float(np.linalg.norm(ua)) / size
+    return (ma / mb) * ratio if ratio else 0.0
+
+
+@dataclass(frozen=True)
+class _Column:
+    """One column's rows where both ``y`` and ``ŷ`` are finite, as contiguous arrays."""
+
+    y: FloatArray
+    y_hat: FloatArray
+
+
+def _usable(y2: FloatArray, yh2: FloatArray) -> list[_Column]:
+    """Each column's usable rows (both finite), selected once for every metric.
+
+    The columns are copied out contiguous first (one strided pass), so the finiteness
+    tests and selections run over contiguous memory; the selected values, their order and
+    so every reduction over them are those of selecting from the 2-D arrays directly.
+    """
+    columns = []
+    for y_col, yh_col in zip(np.ascontiguousarray(y2.T), np.ascontiguousarray(yh2.T), strict=True):
+        ok = np.isfinite(y_col)
+        ok &= np.isfinite(yh_col)
+        columns.append(_Column(y_col[ok], yh_col[ok]))
+    return columns
+
+
+def _mse(c: _Column) -> float:
+    if not c.y.size:
+        return np.nan
+    with np.errstate(over="ignore", invalid="ignore"):
+        err = c.y - c.y_hat
+        return float(np.mean(err * err))
+
+
+def _vaf(c: _Column) -> float:
+    h = c.y_hat
+    if not h.size or np.all(h == h[0]):
+        return np.nan  # no usable row, or var(ŷ) = 0: undefined
+    with np.errstate(over="ignore", invalid="ignore"):
+        ratio = _std_ratio(c.y - h, h)  # an overflowing error gives inf: VAF 0
+        return max(1.0 - ratio * ratio, 0.0) * 100.0
+
+
+def _fit(c: _Column) -> float:
+    y_ok = c.y
+    if not y_ok.size or np.all(y_ok == y_ok[0]):
+        return np.nan  # no usable row, or ‖y − ȳ‖ = 0: undefined
+    with np.errstate(over="ignore", invalid="ignore"):
+        # An error that overflows float64 (a diverged prediction) gives -inf.
+        return (1.0 - _norm_ratio(y_ok - c.y_hat, y_ok - np.mean(y_ok))) * 100.0
 
 
 def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
@@ -127,15 +183,7 @@ def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
         Shape ``(n_y,)``; NaN for a column without a single usable row.
 
     """
-    y2, yh2 = _paired(y, y_hat)
-    out = np.full(y2.shape[1], np.nan)
-    with np.errstate(over="ignore", invalid="ignore"):
-        for j in range(y2.shape[1]):
-            ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
-            if ok.any():
-                err = y2[ok, j] - yh2[ok, j]
-                out[j] = float(np.mean(err * err))
-    return out
+    return np.array([_mse(c) for c in _usable(*_paired(y, y_hat))], dtype=np.float64)
 
 
 def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
@@ -166,19 +214,7 @@ def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
         Shape ``(n_y,)``, values in ``[0, 100]``; NaN where undefined.
 
     """
-    y2, yh2 = _paired(y, y_hat)
-    out = np.full(y2.shape[1], np.nan)
-    with np.errstate(over="ignore", invalid="ignore"):
-        for j in range(y2.shape[1]):
-            ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
-            if not ok.any():
-                continue
-            h = yh2[ok, j]
-            if np.all(h == h[0]):
-                continue  # var(ŷ) = 0: undefined
-            ratio = _std_ratio(y2[ok, j] - h, h)  # an overflowing error gives inf: VAF 0
-            out[j] = max(1.0 - ratio * ratio, 0.0) * 100.0
-    return out
+    return np.array([_vaf(c) for c in _usable(*_paired(y, y_hat))], dtype=np.float64)
 
 
 def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
@@ -209,19 +245,7 @@ def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
         so far that its error overflows float64); NaN where undefined.
 
     """
-    y2, yh2 = _paired(y, y_hat)
-    out = np.full(y2.shape[1], np.nan)
-    with np.errstate(over="ignore", invalid="ignore"):
-        for j in range(y2.shape[1]):
-            ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
-            if not ok.any():
-                continue
-            y_ok = y2[ok, j]
-            if np.all(y_ok == y_ok[0]):
-                continue  # ‖y − ȳ‖ = 0: undefined
-            # An error that overflows float64 (a diverged prediction) gives -inf.
-            out[j] = (1.0 - _norm_ratio(y_ok - yh2[ok, j], y_ok - np.mean(y_ok))) * 100.0
-    return out
+    return np.array([_fit(c) for c in _usable(*_paired(y, y_hat))], dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -262,44 +286,34 @@ def output_metrics(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> tuple[OutputMetric
         One per column.
 
     """
-    y2, yh2 = _paired(y, y_hat)
-    values = (mse(y2, yh2), vaf(y2, yh2), fit(y2, yh2))
     out = []
-    for j in range(y2.shape[1]):
-        ok = np.isfinite(y2[:, j]) & np.isfinite(yh2[:, j])
-        n = int(np.count_nonzero(ok))
+    for column in _usable(*_paired(y, y_hat)):
+        values = {"mse": _mse(column), "vaf": _vaf(column), "fit": _fit(column)}
+        n = column.y.size
         undefined: dict[str, str] = {}
         if n == 0:
             why = "no sample has both a measurement and a one-step-ahead prediction"
             undefined = {"mse": why, "vaf": why, "fit": why}
         else:
             rows = "the only row" if n == 1 else f"all {n:,} rows"
-            if not np.isfinite(values[1][j]):
+            if not np.isfinite(values["vaf"]):
                 undefined["vaf"] = (
                     f"var(ŷ) = 0: the prediction is the same in {rows} with a prediction, "
                     "so VAF = 1 − var(y − ŷ)/var(ŷ) is undefined"
                 )
-            if not np.isfinite(values[2][j]):
+            if not np.isfinite(values["fit"]):
                 undefined["fit"] = (
                     f"‖y − mean(y)‖ = 0: the measurement is the same in {rows} with a "
                     "prediction, so fit = 1 − ‖y − ŷ‖/‖y − mean(y)‖ is undefined"
                 )
-            largest = float(np.max(np.abs(yh2[ok, j])))
-            for name, value in zip(("mse", "fit"), (values[0][j], values[2][j]), strict=True):
-                if np.isinf(value):
+            for name in ("mse", "fit"):
+                if np.isinf(values[name]):
+                    largest = float(np.max(np.abs(column.y_hat)))
                     undefined[name] = (
                         f"the prediction diverged (|ŷ| up to {largest:.3g}): its error "
                         "overflows float64"
                     )
-        out.append(
-            OutputMetrics(
-                samples=n,
-                mse=float(values[0][j]),
-                vaf=float(values[1][j]),
-                fit=float(values[2][j]),
-                undefined=undefined,
-            )
-        )
+        out.append(OutputMetrics(samples=n, **values, undefined=undefined))
     return tuple(out)
 
 
@@ -536,17 +550,19 @@ def _seconds(t: float) -> str:
     return f"{t:.9g} s"
 
 
-def _miss_reason(t: FloatArray, est: IntArray, s: int, e: int, mode: int, mode_id: str) -> str:
-    """Why no estimated change into ``mode`` detected the true switch at sample ``s``."""
+def _miss_reason(window_end: float | None, mode_id: str, since: float | None) -> str:
+    """Why no estimated change into ``mode_id`` detected a true switch into it.
+
+    ``window_end``: time of the next true switch (``None``: the end of the log);
+    ``since``: when the estimate already sat in the mode, the start of that stay.
+    """
     window = (
-        f"before the next true switch at t={_seconds(float(t[e]))}"
-        if e < est.size
+        f"before the next true switch at t={_seconds(window_end)}"
+        if window_end is not None
         else "before the end of the log"
     )
-    if est[s - 1] != mode:
+    if since is None:
         return f"the estimate never changed into mode {mode_id} {window}"
-    left = np.flatnonzero(est[:s] != mode)
-    since = float(t[left[-1] + 1]) if left.size else float(t[0])
     return (
         f"the estimate was already in mode {mode_id} (since t={_seconds(since)}) when the "
         f"truth switched to it, and no estimated change into mode {mode_id} followed {window}"
@@ -598,21 +614,49 @@ def detection_delays(
         )
     starts = np.flatnonzero(tru[1:] != tru[:-1]) + 1
     ends = np.append(starts[1:], tru.size)[: starts.size]
+    into = tru[starts]
     # Samples where the estimate changes: estimated[k] != estimated[k-1].
     changes = np.flatnonzero(est[1:] != est[:-1]) + 1
+    # The first change into the switch's mode at or after its start, per mode at once; it
+    # detects the switch when it comes before the next true switch.
+    hit = np.full(starts.size, -1, dtype=np.int64)
+    for m in range(n_modes):
+        switches = np.flatnonzero(into == m)
+        into_m = changes[est[changes] == m]
+        first = np.searchsorted(into_m, starts[switches])
+        found = first < into_m.size
+        k = into_m[first[found]]
+        inside = k < ends[switches[found]]
+        hit[switches[found][inside]] = k[inside]
+    # For a miss where the estimate already sat in the mode: the start of that stay, the
+    # last change of the estimate at or before the sample before the switch (or sample 0).
+    stay = np.append(0, changes)[np.searchsorted(changes, starts - 1, side="right")]
+    already = est[starts - 1] == into
+    ids = [str(m) for m in mode_ids]
+    times = t.tolist()
     events = []
-    for s, e in zip(starts, ends, strict=True):
-        m = int(tru[s])
-        inside = changes[np.searchsorted(changes, s) : np.searchsorted(changes, e)]
-        hits = inside[est[inside] == m]
-        mode_id = str(mode_ids[m])
+    for s, e, m, before, k, sat, first_in_mode in zip(
+        starts.tolist(),
+        ends.tolist(),
+        into.tolist(),
+        tru[starts - 1].tolist(),
+        hit.tolist(),
+        already.tolist(),
+        stay.tolist(),
+        strict=True,
+    ):
+        reason = None
+        if k < 0:
+            reason = _miss_reason(
+                times[e] if e < est.size else None, ids[m], times[first_in_mode] if sat else None
+            )
         events.append(
             SwitchDetection(
-                t=float(t[s]),
-                from_mode=str(mode_ids[tru[s - 1]]),
-                to_mode=mode_id,
-                detected_t=float(t[hits[0]]) if hits.size else None,
-                miss_reason=None if hits.size else _miss_reason(t, est, int(s), int(e), m, mode_id),
+                t=times[s],
+                from_mode=ids[before],
+                to_mode=ids[m],
+                detected_t=times[k] if k >= 0 else None,
+                miss_reason=reason,
             )
         )
     return DetectionDelays(events=tuple(events))

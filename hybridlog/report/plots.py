@@ -3,58 +3,171 @@
 ``outputs.png``
     One panel per output: measured ``y`` and the one-step-ahead prediction ``ŷ``.
 ``modes.png``
-    The estimated mode sequence (and the true one when known) and the mode probabilities.
+    The estimated mode timeline (and the true one when known) as runs, one row per mode, and
+    the mode probabilities.
 ``states.png``
     One panel per state: the estimate with a ±2σ band (where a variance is defined) and the
     true state when known.
 
-Long runs are thinned for drawing only: curves keep every ``ceil(N / MAX_POINTS)``-th sample,
-while the mode sequences are drawn exactly from their change points.  At most
-``MAX_PANELS`` outputs/states are drawn.
+A PNG cannot show more than one value range per pixel column, so long runs are reduced to
+what it can show before drawing (:func:`envelope`): the samples are cut into time bins no
+wider than a pixel column of the panel, and each bin is drawn through its first sample, its
+minimum, its maximum and its last sample (the "M4" reduction: every extreme the full curve
+reaches in a column is kept, so the picture is the same).  The mode timelines are drawn
+from their runs (:func:`mode_runs`), the runs of each mode merged where they touch the same
+pixel column (:func:`mode_bars`): a run shorter than a pixel still shows as one pixel
+column.  At most ``MAX_PANELS`` outputs/states are drawn.  matplotlib is imported when the
+first figure is made, so code that writes no plot does not load it.
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
-__all__ = ["MAX_PANELS", "MAX_POINTS", "plot_modes", "plot_outputs", "plot_states", "write_plots"]
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
-MAX_POINTS = 4000
+__all__ = [
+    "MAX_PANELS",
+    "Envelope",
+    "ModeRuns",
+    "envelope",
+    "mode_bars",
+    "mode_runs",
+    "pixel_columns",
+    "plot_modes",
+    "plot_outputs",
+    "plot_states",
+    "time_bins",
+    "write_plots",
+]
+
 MAX_PANELS = 16
 _DPI = 100
+_WIDTH_IN = 10.0
+_LEFT, _RIGHT = 0.09, 0.98
 
 
-def _stride(n: int) -> int:
-    return max(1, math.ceil(n / MAX_POINTS))
+def pixel_columns() -> int:
+    """Width in pixels of a panel's plotting area: the bins of :func:`time_bins`."""
+    return int(np.ceil(_WIDTH_IN * _DPI * (_RIGHT - _LEFT)))
 
 
-def _thin(a: FloatArray) -> FloatArray:
-    """Every ``_stride``-th sample, always keeping the last one."""
-    n = a.shape[0]
-    step = _stride(n)
-    if step == 1:
-        return a
-    idx = np.append(np.arange(0, n, step), n - 1) if (n - 1) % step else np.arange(0, n, step)
-    return a[idx]
+def time_bins(time: FloatArray, columns: int) -> IntArray:
+    """Start index of each non-empty bin when ``[t_0, t_end]`` is cut into ``columns`` equal bins.
+
+    ``time`` must not decrease; sample ``k`` is in bin ``⌊(t_k − t_0) / (t_end − t_0) ·
+    columns⌋`` (the last sample in the last bin).  The panel's x range holds ``[t_0, t_end]`` (plus
+    matplotlib's margins), so each bin is at most one pixel column wide.  Returns the
+    indices (ascending, starting with 0) where a new bin begins; empty for no samples.
+    """
+    n = time.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    t0, t1 = float(time[0]), float(time[-1])
+    if not t1 > t0:
+        return np.zeros(1, dtype=np.int64)
+    column = np.minimum(((time - t0) / (t1 - t0) * columns).astype(np.int64), columns - 1)
+    return np.concatenate(([0], np.flatnonzero(column[1:] != column[:-1]) + 1))
+
+
+class Envelope(NamedTuple):
+    """A curve reduced to four points per bin: first, extreme, extreme, last (see module)."""
+
+    time: FloatArray
+    values: FloatArray
+
+
+def envelope(time: FloatArray, values: FloatArray, starts: IntArray) -> Envelope:
+    """Reduce ``values`` over the bins beginning at ``starts`` (:func:`time_bins`) to M4 points.
+
+    Per bin: the first sample, the minimum and the maximum of its finite samples (in the
+    order that makes the shorter path from the first to the last sample), and the last
+    sample, each at its own time (minimum and maximum at the bin's middle time).  A
+    non-finite first or last sample stays non-finite, so the curve breaks there as the full
+    curve does; a bin without a finite sample is all NaN.  When the bins hold at most four
+    samples each on average, nothing is gained and the curve is returned as it is.
+    """
+    n = values.shape[0]
+    if n <= 4 * starts.shape[0]:
+        return Envelope(time, values)
+    ends = np.append(starts[1:], n) - 1
+    finite = np.where(np.isfinite(values), values, np.nan)
+    with np.errstate(invalid="ignore"):
+        low = np.fmin.reduceat(finite, starts)
+        high = np.fmax.reduceat(finite, starts)
+    first, last = values[starts], values[ends]
+    rising = ~(first > last)  # down to the minimum first, then up, when the bin rises
+    points = np.empty((starts.shape[0], 4), dtype=np.float64)
+    points[:, 0] = first
+    points[:, 1] = np.where(rising, low, high)
+    points[:, 2] = np.where(rising, high, low)
+    points[:, 3] = last
+    middle = 0.5 * (time[starts] + time[ends])
+    times = np.stack([time[starts], middle, middle, time[ends]], axis=1)
+    return Envelope(times.ravel(), points.ravel())
+
+
+class ModeRuns(NamedTuple):
+    """Maximal runs of one mode in a mode sequence: samples ``start[i] .. end[i] - 1``."""
+
+    start: IntArray
+    end: IntArray
+    mode: IntArray
+
+
+def mode_runs(modes: IntArray) -> ModeRuns:
+    """The runs of a mode sequence, from its change points (a run begins at each switch)."""
+    n = modes.shape[0]
+    if n == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return ModeRuns(empty, empty, empty)
+    start = np.concatenate(([0], np.flatnonzero(modes[1:] != modes[:-1]) + 1))
+    end = np.append(start[1:], n)
+    return ModeRuns(start, end, modes[start])
+
+
+def mode_bars(runs: ModeRuns, starts: IntArray, n_modes: int) -> list[tuple[IntArray, IntArray]]:
+    """Per mode, the runs of bins (:func:`time_bins` ``starts``) where the mode occurs.
+
+    A run covers every bin from the one holding its first sample to the one holding its
+    last; the bins a mode covers (exactly those it occurs in) are merged into maximal
+    ``(first bin, last bin)`` ranges, so every run lies inside a range of its mode and
+    runs are joined only where they occur in the same or adjacent pixel columns.
+    """
+    n_bins = starts.shape[0]
+    first = np.searchsorted(starts, runs.start, side="right") - 1
+    last = np.searchsorted(starts, runs.end - 1, side="right") - 1
+    bars = []
+    for m in range(n_modes):
+        mine = runs.mode == m
+        cover = np.zeros(n_bins + 1, dtype=np.int64)
+        np.add.at(cover, first[mine], 1)
+        np.add.at(cover, last[mine] + 1, -1)
+        inside = np.cumsum(cover[:-1]) > 0
+        edges = np.diff(np.concatenate(([0], inside.astype(np.int8), [0])))
+        bars.append((np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
+    return bars
 
 
 def _new_figure(n_panels: int, panel_height: float = 2.0) -> tuple[Figure, list[Axes]]:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     # Fixed margins in inches rather than layout="constrained": the constrained layout
     # measured every tick label and took half of the report's writing time.
     height = 0.8 + panel_height * max(n_panels, 1)
-    fig = Figure(figsize=(10.0, height))
+    fig = Figure(figsize=(_WIDTH_IN, height))
     FigureCanvasAgg(fig)
     fig.subplots_adjust(
-        left=0.09, right=0.98, top=1.0 - 0.45 / height, bottom=0.45 / height, hspace=0.12
+        left=_LEFT, right=_RIGHT, top=1.0 - 0.45 / height, bottom=0.45 / height, hspace=0.12
     )
     axes = fig.subplots(max(n_panels, 1), 1, sharex=True, squeeze=False)[:, 0]
     return fig, list(axes)
@@ -85,6 +198,10 @@ def _panels(what: str, names: tuple[str, ...]) -> tuple[Figure, list[Axes], tupl
     return fig, axes, drawn
 
 
+def _bins(result: EstimationResult) -> IntArray:
+    return time_bins(result.time, pixel_columns())
+
+
 def plot_outputs(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw measured outputs against their one-step-ahead predictions.
 
@@ -95,12 +212,16 @@ def plot_outputs(result: EstimationResult, signals: AlignedSignals, path: Path) 
     if not names:
         _empty(fig, axes[0], "no outputs")
         return _save(fig, path)
-    t = _thin(result.time)
+    bins = _bins(result)
     for j, (ax, y) in enumerate(zip(axes, names, strict=True)):
-        ax.plot(t, _thin(signals.outputs[:, j]), lw=0.8, color="0.3", label=f"{y} measured")
         ax.plot(
-            t,
-            _thin(result.output_predictions[:, j]),
+            *envelope(result.time, signals.outputs[:, j], bins),
+            lw=0.8,
+            color="0.3",
+            label=f"{y} measured",
+        )
+        ax.plot(
+            *envelope(result.time, result.output_predictions[:, j], bins),
             lw=0.8,
             color="tab:blue",
             ls="--",
@@ -112,13 +233,28 @@ def plot_outputs(result: EstimationResult, signals: AlignedSignals, path: Path) 
     return _save(fig, path)
 
 
-def _mode_steps(time: FloatArray, modes: IntArray) -> tuple[FloatArray, FloatArray]:
-    """Exact step curve of a mode sequence from its change points only."""
-    change = np.flatnonzero(modes[1:] != modes[:-1]) + 1
-    idx = np.concatenate(([0], change))
-    t = np.append(time[idx], time[-1])
-    m = np.append(modes[idx], modes[-1]).astype(np.float64)
-    return t, m
+def _draw_runs(
+    ax: Axes,
+    time: FloatArray,
+    modes: IntArray,
+    bins: IntArray,
+    n_modes: int,
+    *,
+    height: float,
+    color: str,
+    label: str,
+) -> None:
+    """One bar per range of pixel columns a mode occupies, on the mode's row."""
+    edges = np.append(time[bins], time[-1])
+    labelled = False
+    for m, (first, last) in enumerate(mode_bars(mode_runs(modes), bins, n_modes)):
+        widths = edges[last + 1] - edges[first]
+        spans = list(zip(edges[first].tolist(), widths.tolist(), strict=True))
+        if spans:
+            ax.broken_barh(
+                spans, (m - height / 2, height), color=color, label=None if labelled else label
+            )
+            labelled = True
 
 
 def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
@@ -133,22 +269,42 @@ def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) ->
         _empty(fig, ax_mode, "no samples")
         _empty(fig, ax_prob, "no samples")
         return _save(fig, path)
+    bins = _bins(result)
+    n_modes = len(ids)
     if signals.truth_modes is not None:
-        t_true, m_true = _mode_steps(result.time, signals.truth_modes)
-        ax_mode.step(t_true, m_true, where="post", lw=2.5, color="0.7", label="true")
-    t_est, m_est = _mode_steps(result.time, result.modes)
-    ax_mode.step(t_est, m_est, where="post", lw=1.0, color="tab:red", label="estimated")
-    ax_mode.set_yticks(range(len(ids)), ids)
-    ax_mode.set_ylim(-0.5, len(ids) - 0.5)
+        truth, t = signals.truth_modes, result.time
+        _draw_runs(ax_mode, t, truth, bins, n_modes, height=0.8, color="0.8", label="true")
+    _draw_runs(
+        ax_mode, result.time, result.modes, bins, n_modes, height=0.3, color="tab:red",
+        label="estimated",
+    )  # fmt: skip
+    ax_mode.set_yticks(range(n_modes), ids)
+    ax_mode.set_ylim(-0.5, n_modes - 0.5)
     ax_mode.set_ylabel("mode")
     ax_mode.legend(loc="upper right", fontsize="small")
-    t = _thin(result.time)
     for j, m in enumerate(ids):
-        ax_prob.plot(t, _thin(result.mode_probabilities[:, j]), lw=0.8, label=f"p({m})")
+        ax_prob.plot(
+            *envelope(result.time, result.mode_probabilities[:, j], bins), lw=0.8, label=f"p({m})"
+        )
     ax_prob.set_ylabel("probability")
     ax_prob.set_xlabel("t (s)")
-    ax_prob.legend(loc="upper right", fontsize="small", ncol=min(len(ids), 6))
+    ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, 6))
     return _save(fig, path)
+
+
+def _band(
+    time: FloatArray, low: FloatArray, high: FloatArray, bins: IntArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The ±2σ band per bin: its lowest and highest edge, over the bin's time span."""
+    n = time.shape[0]
+    if n <= 4 * bins.shape[0]:
+        return time, low, high
+    ends = np.append(bins[1:], n) - 1
+    with np.errstate(invalid="ignore"):
+        lo = np.fmin.reduceat(low, bins)
+        hi = np.fmax.reduceat(high, bins)
+    t = np.stack([time[bins], time[ends]], axis=1).ravel()
+    return t, np.repeat(lo, 2), np.repeat(hi, 2)
 
 
 def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
@@ -160,19 +316,28 @@ def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -
     if not names:
         _empty(fig, axes[0], "no states")
         return _save(fig, path)
-    t = _thin(result.time)
+    bins = _bins(result)
     for i, (ax, x) in enumerate(zip(axes, names, strict=True)):
-        mean = _thin(result.state_means[:, i])
+        mean = result.state_means[:, i]
         # max() keeps NaN (no variance defined) and clips tiny negative round-off.
-        sigma = np.sqrt(np.maximum(_thin(result.state_variances[:, i]), 0.0))
+        sigma = np.sqrt(np.maximum(result.state_variances[:, i], 0.0))
         band = np.isfinite(sigma) & np.isfinite(mean)
         if band.any():
-            lo = np.where(band, mean - 2.0 * sigma, 0.0)
-            hi = np.where(band, mean + 2.0 * sigma, 0.0)
-            ax.fill_between(t, lo, hi, where=band, color="tab:blue", alpha=0.2, label="±2σ")
+            low = np.where(band, mean - 2.0 * sigma, np.nan)
+            high = np.where(band, mean + 2.0 * sigma, np.nan)
+            t_band, lo, hi = _band(result.time, low, high, bins)
+            ax.fill_between(
+                t_band, np.nan_to_num(lo), np.nan_to_num(hi), where=np.isfinite(lo),
+                color="tab:blue", alpha=0.2, label="±2σ",
+            )  # fmt: skip
         if signals.truth_states is not None and np.isfinite(signals.truth_states[:, i]).any():
-            ax.plot(t, _thin(signals.truth_states[:, i]), lw=1.5, color="0.5", label="true")
-        ax.plot(t, mean, lw=0.8, color="tab:blue", label="estimate")
+            ax.plot(
+                *envelope(result.time, signals.truth_states[:, i], bins),
+                lw=1.5,
+                color="0.5",
+                label="true",
+            )
+        ax.plot(*envelope(result.time, mean, bins), lw=0.8, color="tab:blue", label="estimate")
         ax.set_ylabel(x)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")

@@ -269,6 +269,48 @@ def test_estimate_equal_to_truth_is_perfect(modes: np.ndarray) -> None:
     assert metrics.dwell_times(t, modes, 3, 0.25).sum() == pytest.approx(modes.size * 0.25)
 
 
+def _detections_by_definition(
+    t: np.ndarray, est: np.ndarray, truth: np.ndarray
+) -> list[tuple[float, str, str, float | None, str | None]]:
+    """The docstring of ``detection_delays`` read literally, one switch and one sample at a time."""
+    events = []
+    starts = [s for s in range(1, truth.size) if truth[s] != truth[s - 1]]
+    for s, end in zip(starts, [*starts[1:], truth.size][: len(starts)], strict=True):
+        m = truth[s]
+        hits = [k for k in range(s, end) if est[k] == m and est[k - 1] != m]
+        window = (
+            f"before the next true switch at t={t[end]:.9g} s"
+            if end < truth.size
+            else "before the end of the log"
+        )
+        reason = None
+        if not hits and est[s - 1] != m:
+            reason = f"the estimate never changed into mode {IDS[m]} {window}"
+        elif not hits:
+            stay = s - 1
+            while stay > 0 and est[stay - 1] == m:
+                stay -= 1
+            reason = (
+                f"the estimate was already in mode {IDS[m]} (since t={t[stay]:.9g} s) when the "
+                f"truth switched to it, and no estimated change into mode {IDS[m]} followed "
+                f"{window}"
+            )
+        detected = float(t[hits[0]]) if hits else None
+        events.append((float(t[s]), IDS[truth[s - 1]], IDS[m], detected, reason))
+    return events
+
+
+@given(mode_seqs, st.data())
+@settings(max_examples=300, deadline=None)
+def test_detection_delays_follow_their_definition(truth: np.ndarray, data: st.DataObject) -> None:
+    # detection_delays works on change points of whole arrays; this walks the samples.
+    est = data.draw(hnp.arrays(np.int64, truth.shape, elements=st.integers(0, 2)))
+    t = np.cumsum(data.draw(hnp.arrays(np.float64, truth.shape, elements=st.floats(0.01, 2.0))))
+    det = metrics.detection_delays(t, est, truth, IDS)
+    got = [(e.t, e.from_mode, e.to_mode, e.detected_t, e.miss_reason) for e in det.events]
+    assert got == _detections_by_definition(t, est, truth)
+
+
 @given(mode_seqs, st.data())
 @settings(max_examples=200, deadline=None)
 def test_accuracy_is_the_confusion_diagonal(truth: np.ndarray, data: st.DataObject) -> None:

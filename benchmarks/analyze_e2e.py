@@ -1,0 +1,185 @@
+"""End to end: ``hybridlog analyze`` of a 10^6-row three-tank log, wall time, peak RSS, stages.
+
+    .venv/bin/python -m benchmarks.analyze_e2e           # full size, prints a Markdown table
+    .venv/bin/python -m benchmarks.analyze_e2e --quick   # 10^4 rows (smoke check)
+    .venv/bin/python -m benchmarks.run --only analyze    # the same rows inside the harness
+
+The log is written once into a temporary folder by ``hybridlog simulate three_tank_hstf
+--steps 1000000 --out big.parquet`` (a child process, not timed).  Then, each in a fresh
+child process, one after the other:
+
+1. one warm-up ``hybridlog analyze big.parquet --model three_tank_hstf --table-format
+   parquet`` (fills the model and numba caches of a first run; not timed);
+2. ``--repeat`` runs of the same command as a user runs it (``python -m hybridlog``): the
+   time is the best wall time of the whole process (interpreter start to exit, measured
+   around it), the memory the largest peak resident set (``ru_maxrss`` of the child from
+   ``wait4``, the kernel's ``VmHWM``) of those runs;
+3. one run of the same command under :mod:`benchmarks.analyze_stages`, which wraps each
+   stage of the job with a timer: the breakdown (start-up = interpreter start before the
+   first line; shutdown = after the command returned until the process is gone, measured by
+   this process's clock).  The timers cost next to nothing; the stages add up to that run's
+   wall time, which the notes give.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+WALL_TARGET_S = 2.0
+"""``analyze`` of 10^6 rows with parquet tables, whole process, must take at most this."""
+RSS_TARGET_MIB = 400.0
+"""... and peak at most this resident memory."""
+
+FULL_ROWS = 1_000_000
+QUICK_ROWS = 10_000
+
+Result = tuple[str, int | None, float | None, str, bool | None, str]
+"""(label, rows, time in s, target, met, notes), as ``benchmarks.run`` wants."""
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _run(argv: Sequence[str], cwd: Path) -> tuple[float, float, float]:
+    """Run a child to completion: (start, end) on ``time.time()`` and its peak RSS in MiB."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    start = time.time()
+    child = subprocess.Popen(
+        argv, cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    _, status, usage = os.wait4(child.pid, 0)
+    end = time.time()
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode != 0:
+        stderr = child.stderr.read().decode() if child.stderr else ""
+        raise RuntimeError(f"{' '.join(argv)} failed ({child.returncode}):\n{stderr}")
+    if child.stderr:
+        child.stderr.close()
+    return start, end, usage.ru_maxrss / 1024
+
+
+def _analyze_args(log: Path, out: Path) -> list[str]:
+    return [
+        "analyze",
+        str(log),
+        "--model",
+        "three_tank_hstf",
+        "--table-format",
+        "parquet",
+        "--out",
+        str(out),
+        "--force",
+    ]
+
+
+def measure(rows: int, repeat: int) -> dict[str, Any]:
+    """Write the log, run the command: best wall, peak RSS, and the stages of one run."""
+    python = sys.executable
+    with tempfile.TemporaryDirectory(prefix="hybridlog-bench-") as name:
+        folder = Path(name)
+        log = folder / "big.parquet"
+        simulate = ["simulate", "three_tank_hstf", "--steps", str(rows), "--out", str(log)]
+        _run([python, "-m", "hybridlog", *simulate], folder)
+        command = [python, "-m", "hybridlog", *_analyze_args(log, folder / "out")]
+        _run(command, folder)  # warm-up: caches of a first run
+        walls, peaks = [], []
+        for _ in range(repeat):
+            start, end, peak = _run(command, folder)
+            walls.append(end - start)
+            peaks.append(peak)
+        clock = folder / "stages.json"
+        staged = [python, "-m", "benchmarks.analyze_stages", str(clock), "--"]
+        start, end, staged_peak = _run([*staged, *_analyze_args(log, folder / "out")], folder)
+        child = json.loads(clock.read_text(encoding="utf-8"))
+        size = log.stat().st_size / 2**20
+        tables = sum(p.stat().st_size for p in (folder / "out").glob("*.parquet")) / 2**20
+    stages = {"start-up (interpreter)": child["started"] - start, **child["stages"]}
+    command_s = stages.pop("command")
+    stages["other (in the command)"] = command_s - sum(
+        v for k, v in child["stages"].items() if k not in ("command", "imports")
+    )
+    stages["shutdown"] = end - child["finished"]
+    return {
+        "rows": rows + 1,
+        "log_mib": size,
+        "tables_mib": tables,
+        "wall_s": min(walls),
+        "walls": walls,
+        "peak_mib": max(peaks),
+        "stages": stages,
+        "staged_wall_s": end - start,
+        "staged_peak_mib": staged_peak,
+        "peak_after": child.get("peak_mib", {}),
+    }
+
+
+def bench_analyze(quick: bool = False, repeat: int = 3) -> list[Result]:
+    """The rows of the end-to-end ``analyze`` benchmark."""
+    m = measure(QUICK_ROWS if quick else FULL_ROWS, repeat)
+    n = m["rows"]
+    walls = ", ".join(f"{w:.2f}" for w in m["walls"])
+    rows: list[Result] = [
+        (
+            "analyze three-tank log · wall (whole process)",
+            n,
+            m["wall_s"],
+            f"≤ {WALL_TARGET_S:g} s",
+            m["wall_s"] <= WALL_TARGET_S if not quick else None,
+            f"best of {len(m['walls'])} runs ({walls} s); `hybridlog analyze` of a "
+            f"{m['log_mib']:.0f} MiB parquet log, `--table-format parquet` "
+            f"({m['tables_mib']:.0f} MiB of tables), warm caches",
+        ),
+        (
+            "analyze three-tank log · peak RSS",
+            n,
+            None,
+            f"≤ {RSS_TARGET_MIB:g} MiB",
+            m["peak_mib"] <= RSS_TARGET_MIB if not quick else None,
+            f"{m['peak_mib']:,.0f} MiB (largest VmHWM of the timed runs)",
+        ),
+    ]
+    total = m["staged_wall_s"]
+    for stage, seconds in m["stages"].items():
+        peak = m["peak_after"].get(stage)
+        rows.append(
+            (
+                f"analyze stage · {stage}",
+                None,
+                seconds,
+                "",
+                None,
+                f"{seconds / total:.0%} of the timed run's {total:.2f} s"
+                + ("" if peak is None else f"; VmHWM {peak:,.0f} MiB after it"),
+            )
+        )
+    return rows
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.analyze_e2e", description=__doc__)
+    parser.add_argument("--quick", action="store_true", help=f"{QUICK_ROWS:,} rows")
+    parser.add_argument("--repeat", type=int, default=3, help="timed runs (default 3)")
+    args = parser.parse_args(argv)
+    print(f"load average {os.getloadavg()[0]:.2f} at start", file=sys.stderr)
+    print("| Benchmark | Rows | Time (s) | Target | Met | Notes |")
+    print("| --- | ---: | ---: | --- | :-: | --- |")
+    for label, n, t, target, met, notes in bench_analyze(args.quick, args.repeat):
+        shown = "" if met is None else ("yes" if met else "**NO**")
+        print(
+            f"| {label} | {'' if n is None else f'{n:,}'} | "
+            f"{'–' if t is None else f'{t:.3f}'} | {target} | {shown} | {notes} |"
+        )
+    print(f"load average {os.getloadavg()[0]:.2f} at the end", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

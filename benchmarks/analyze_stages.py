@@ -1,0 +1,116 @@
+"""Run ``hybridlog analyze`` in this process with a clock on each stage (for ``make bench``).
+
+    python -m benchmarks.analyze_stages STAGES.json -- analyze LOG --model M --out DIR ...
+
+The arguments after ``--`` are the command line of ``hybridlog``; the command runs through
+``hybridlog.cli.main`` exactly as the console script does, with the job's stage functions
+wrapped by timers.  ``STAGES.json`` gets, in seconds since the epoch (``time.time()``, so
+the parent can place them against its own clock): ``started`` (this module's first line)
+and ``finished`` (after the command returned, before the interpreter shuts down); the
+wall time of each stage in seconds (``stages``); and the resident high-water mark
+(``VmHWM``, MiB) when each stage last ended (``peak_mib``): the stage where it jumps made
+the peak.  A function that calls another timed one (a stage
+inside a stage) is charged only for its own time.  ``benchmarks/analyze_e2e.py`` runs this
+child and the plain command and assembles the breakdown.
+"""
+
+from __future__ import annotations
+
+import time
+
+STARTED = time.time()
+
+import json  # noqa: E402
+import sys  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from typing import Any  # noqa: E402
+
+_clock: dict[str, float] = {}
+_stack: list[list[float]] = []
+_peak: dict[str, float] = {}
+
+
+def _vmhwm_mib() -> float:
+    """The process's resident high-water mark so far (``VmHWM``), in MiB; 0 if unknown."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return 0.0
+
+
+def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function`` charging its wall time, less that of timed calls inside it, to ``stage``."""
+
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        _stack.append([0.0])
+        start = time.perf_counter()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            spent = time.perf_counter() - start
+            inner = _stack.pop()[0]
+            _clock[stage] = _clock.get(stage, 0.0) + spent - inner
+            _peak[stage] = _vmhwm_mib()
+            if _stack:
+                _stack[-1][0] += spent
+
+    return wrapper
+
+
+def _patch(module: Any, name: str, stage: str) -> None:
+    setattr(module, name, _timed(stage, getattr(module, name)))
+
+
+def main() -> None:
+    """Import, wrap the stages, run the command, write the clock."""
+    out, sep, *argv = sys.argv[1:]
+    if sep != "--":
+        raise SystemExit(__doc__)
+    start = time.perf_counter()
+    import hybridlog.cli as cli
+    import hybridlog.estimators.common as common
+    import hybridlog.jobs.analysis as analysis
+    import hybridlog.report.writer as writer
+    from hybridlog.estimators.registry import Prepared
+    from hybridlog.report.document import Report
+
+    _clock["imports"] = time.perf_counter() - start
+    _peak["imports"] = _vmhwm_mib()
+    _patch(analysis, "parse_sets", "model (load, sympy)")
+    _patch(analysis, "prepare_estimators", "estimator options")
+    _patch(analysis, "read_log", "read log")
+    _patch(Prepared, "run", "estimate (filter)")
+    _patch(common, "compile_generated", "compile (sympy source, numba cache)")
+    _patch(common, "compile_model", "compile (sympy source, numba cache)")
+    for name, stage in (
+        ("build_report", "metrics"),
+        ("render_markdown", "report.json + report.md"),
+        ("timeline_frame", "tables"),
+        ("estimates_frame", "tables"),
+        ("write_table", "tables"),
+        ("write_plots", "plots"),
+    ):
+        _patch(writer, name, stage)
+    Report.to_json = _timed("report.json + report.md", Report.to_json)  # type: ignore[method-assign]
+    code = 0
+    command = time.perf_counter()
+    sys.argv = ["hybridlog", *argv]
+    try:
+        cli.main()  # as the console script calls it: this process runs the one command
+    except SystemExit as done:
+        code = done.code if isinstance(done.code, int) else 1
+    _clock["command"] = time.perf_counter() - command
+    with open(out, "w", encoding="utf-8") as stream:
+        json.dump(
+            {"started": STARTED, "finished": time.time(), "stages": _clock, "peak_mib": _peak},
+            stream,
+        )
+    sys.exit(code)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,103 @@
+"""What the plots draw of a long run: every extreme per pixel column, every mode run."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from hybridlog.report import metrics
+from hybridlog.report.plots import envelope, mode_bars, mode_runs, pixel_columns, time_bins
+
+
+def _per_column(
+    t: np.ndarray, v: np.ndarray, t0: float, t1: float, columns: int
+) -> dict[int, tuple[float, float]]:
+    """(min, max) of the finite values in each pixel column of ``[t0, t1]``."""
+    column = np.minimum(((t - t0) / (t1 - t0) * columns).astype(np.int64), columns - 1)
+    out = {}
+    for c in np.unique(column[np.isfinite(v)]):
+        inside = v[(column == c) & np.isfinite(v)]
+        out[int(c)] = (float(inside.min()), float(inside.max()))
+    return out
+
+
+@given(
+    st.integers(2, 5_000),
+    st.integers(1, 300),
+    st.floats(0.001, 10.0),
+    st.integers(0, 2**32 - 1),
+    st.floats(0.0, 0.3),
+)
+@settings(max_examples=150, deadline=None)
+def test_the_envelope_keeps_min_and_max_of_every_pixel_column(
+    n: int, columns: int, dt: float, seed: int, missing: float
+) -> None:
+    rng = np.random.default_rng(seed)
+    t = 5.0 + dt * np.cumsum(rng.integers(1, 4, n))  # gaps of 1..3 samples
+    v = np.cumsum(rng.standard_normal(n)) * 10.0 ** rng.integers(-3, 4)
+    v[rng.random(n) < missing] = np.nan
+    bins = time_bins(t, columns)
+    reduced = envelope(t, v, bins)
+    t0, t1 = float(t[0]), float(t[-1])
+    assert np.all(np.diff(reduced.time) >= 0.0)
+    assert reduced.time[0] == t0 and reduced.time[-1] == t1
+    assert _per_column(reduced.time, reduced.values, t0, t1, columns) == _per_column(
+        t, v, t0, t1, columns
+    )
+    # Each bin lies inside one pixel column, and the reduction draws at most four points per bin.
+    ends = np.append(bins[1:], n) - 1
+    width = (t1 - t0) / columns
+    assert np.all(t[ends] - t[bins] <= width * (1 + 1e-12))
+    assert reduced.values.size <= max(n, 4 * bins.size)
+
+
+def test_the_envelope_keeps_the_breaks_of_a_curve_and_a_short_curve_as_it_is() -> None:
+    t = np.arange(10_000, dtype=np.float64)
+    v = np.sin(t / 50.0)
+    v[0] = np.nan  # row 0 of a prediction
+    v[5_000:5_200] = np.nan  # a gap wider than a pixel column
+    reduced = envelope(t, v, time_bins(t, 100))
+    assert np.isnan(reduced.values[0])
+    gap = (reduced.time > 5_000) & (reduced.time < 5_199)
+    assert gap.any() and np.isnan(reduced.values[gap]).all()
+    short = envelope(t[:50], v[:50], time_bins(t[:50], pixel_columns()))
+    assert short.values is v[:50] or np.array_equal(short.values, v[:50], equal_nan=True)
+
+
+mode_seqs = hnp.arrays(np.int64, st.integers(1, 3_000), elements=st.integers(0, 2))
+
+
+@given(mode_seqs, st.integers(1, 400))
+@settings(max_examples=150, deadline=None)
+def test_mode_runs_have_the_switches_and_the_bars_cover_every_run(
+    modes: np.ndarray, columns: int
+) -> None:
+    t = np.arange(modes.size) * 0.1
+    ids = ("a", "b", "c")
+    runs = mode_runs(modes)
+    switches = metrics.mode_switches(t, modes, ids)
+    assert [float(t[s]) for s in runs.start[1:]] == [s["t"] for s in switches]
+    assert [ids[m] for m in runs.mode[1:]] == [s["to"] for s in switches]
+    assert np.array_equal(np.repeat(runs.mode, runs.end - runs.start), modes)
+    bins = time_bins(t, columns)
+    bin_of = np.searchsorted(bins, np.arange(modes.size), side="right") - 1
+    bars = mode_bars(runs, bins, 3)
+    for m, (first, last) in enumerate(bars):
+        assert np.all(first <= last) and np.all(last[:-1] + 1 < first[1:])  # apart, ordered
+        covered = np.zeros(bins.size, dtype=bool)
+        for a, b in zip(first, last, strict=True):
+            covered[a : b + 1] = True
+        # A bin is covered exactly when the mode occurs in it.
+        occurs = np.zeros(bins.size, dtype=bool)
+        occurs[bin_of[modes == m]] = True
+        assert np.array_equal(covered, occurs)
+        for s, e, mode in zip(runs.start, runs.end, runs.mode, strict=True):
+            if mode == m:
+                assert covered[bin_of[s] : bin_of[e - 1] + 1].all()
+    if bins.size == modes.size:  # one bin per sample: the bars are the runs
+        for m, (first, last) in enumerate(bars):
+            mine = runs.mode == m
+            assert np.array_equal(first, runs.start[mine])
+            assert np.array_equal(last, runs.end[mine] - 1)
