@@ -26,18 +26,30 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from hybridlog.estimators.common import Accelerator, FilterCode, contiguous, run_filter
+from hybridlog.estimators.common import (
+    Accelerator,
+    FilterBuffers,
+    FilterCode,
+    FilterRun,
+    Mode,
+    contiguous,
+    run_filter,
+)
 from hybridlog.estimators.kernels import (
+    argmax,
     cholesky,
     congruence,
+    dimensions,
     gain,
     gaussian_log_density,
     joseph_update,
     mixture_moments,
     normalize_log,
+    record,
 )
 from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
@@ -54,9 +66,8 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
-from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import AlignedSignals, FloatArray
 
 NAME = "imm"
 
@@ -72,39 +83,27 @@ class ImmOptions:
     )
 
 
+class ImmSettings(NamedTuple):
+    """The IMM's own settings as its loops take them."""
+
+    transitions: FloatArray
+    """The Markov matrix ``Π`` (:func:`transition_matrix`), C-contiguous."""
+
+
 def _imm_steps(
-    f: ModelFunction,
-    F: ModelFunction,
-    h: ModelFunction,
-    H: ModelFunction,
-    inputs: FloatArray,
-    outputs: FloatArray,
-    Q: FloatArray,
-    R: FloatArray,
-    x0: FloatArray,
-    P0: FloatArray,
-    mu0: FloatArray,
-    transitions: FloatArray,
-    modes_out: IntArray,
-    probabilities_out: FloatArray,
-    means_out: FloatArray,
-    variances_out: FloatArray,
-    predictions_out: FloatArray,
-    covariances_out: FloatArray,
+    f: Mode, F: Mode, h: Mode, H: Mode, run: FilterRun, settings: ImmSettings, out: FilterBuffers
 ) -> None:
     """The generic IMM time loop (compiled on first use; the docstring of the module)."""
-    n_samples = outputs.shape[0]
-    n = x0.shape[0]
-    m = outputs.shape[1]
-    n_q = mu0.shape[0]
-    store_covariances = covariances_out.shape[0] == n_samples
+    inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
+    transitions = settings.transitions
+    n_samples, n, m, n_q = dimensions(run)
 
     x_i = np.empty((n_q, n))
     P_i = np.empty((n_q, n, n))
     for i in range(n_q):
         x_i[i] = x0
         P_i[i] = P0
-    mu = mu0.copy()
+    mu = run.mu0.copy()
     x = x0.copy()
     P = P0.copy()
 
@@ -129,20 +128,7 @@ def _imm_steps(
     vec_m2 = np.empty(m)
     log_posterior = np.empty(n_q)
 
-    def record(row: int) -> None:
-        best = 0
-        for i in range(n_q):
-            if mu[i] > mu[best]:
-                best = i
-        modes_out[row] = best
-        probabilities_out[row, :] = mu
-        means_out[row, :] = x
-        for a in range(n):
-            variances_out[row, a] = P[a, a]
-        if store_covariances:
-            covariances_out[row] = P
-
-    record(0)
+    record(out, 0, argmax(mu), mu, x, P)
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
@@ -161,8 +147,9 @@ def _imm_steps(
             else:
                 x_mix[j] = x_i[j]
                 P_mix[j] = P_i[j]
+        predictions = out.output_predictions[k + 1]
         for b in range(m):
-            predictions_out[k + 1, b] = 0.0
+            predictions[b] = 0.0
         for j in range(n_q):
             # EKF prediction of mode j.
             f(j, x_mix[j], u, x_pred)
@@ -176,7 +163,7 @@ def _imm_steps(
             H(j, x_pred, u_next, H_j)
             for b in range(m):
                 gamma[b] = y[b] - y_j[j, b]
-                predictions_out[k + 1, b] += c_bar[j] * y_j[j, b]
+                predictions[b] += c_bar[j] * y_j[j, b]
             congruence(H_j, P_pred, work_mn, S)
             for b in range(m):
                 for c in range(m):
@@ -199,7 +186,7 @@ def _imm_steps(
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
-        record(k + 1)
+        record(out, k + 1, argmax(mu), mu, x, P)
 
 
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
@@ -232,7 +219,7 @@ def run_imm(
         CODE,
         model,
         signals,
-        (transitions,),
+        ImmSettings(transitions),
         used,
         jit=jit,
         kernel=kernel,
@@ -248,8 +235,8 @@ def imm_options(values: dict[str, object]) -> ImmOptions:
 def generate_imm_source(model: HybridModel) -> str:
     """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_run(inputs, outputs, x0, P0, mu0, transitions, <output arrays>)`` with the
-    same meaning as :func:`_imm_steps`; the mode functions, the noise covariances and every
+    Defines ``imm_run(run, settings, out)``, the frame of :func:`_imm_steps` without the
+    model functions, with the same meaning; the mode functions, the noise covariances and every
     small matrix product are written out for the model's dimensions.
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
@@ -260,7 +247,7 @@ def generate_imm_source(model: HybridModel) -> str:
     T = matrix_names("T", n_q, n_q)
     Q, R = noise_matrices(model)
 
-    p.prologue()
+    p.prologue(ImmSettings._fields)
     for i in range(n_q):
         p.carry(X[i], [f"x0[{a}]" for a in range(n)])
         p.carry(upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
@@ -316,11 +303,7 @@ def generate_imm_source(model: HybridModel) -> str:
         p.carry(upper(P[i]), upper(P_post[i]))
     p.carry(mu, mu_new)
     p.record("k + 1", p.argmax(mu), mu, x_combined, P_combined)
-    signature = (
-        "def imm_run(inputs, outputs, x0, P0, mu0, transitions, modes_out, probabilities_out, "
-        "means_out, variances_out, predictions_out, covariances_out):"
-    )
-    return f"{signature}\n{p.source()}\n"
+    return p.function("imm_run")
 
 
 CODE = FilterCode(NAME, _imm_steps, Accelerator(generate_imm_source, "imm_run"))

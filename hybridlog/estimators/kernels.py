@@ -1,18 +1,24 @@
-"""Small compiled linear-algebra kernels shared by the filters.
+"""Small compiled kernels shared by the filters' generic loops.
 
 The filters work on 2-6 dimensional states; NumPy calls on such tiny arrays cost tens of
 microseconds each, so the time loops are compiled whole with numba and use these helpers,
-which write into preallocated arrays.
+which write into preallocated arrays: linear algebra, and the frame every loop shares
+(:func:`dimensions` of its :class:`~hybridlog.estimators.common.FilterRun`, :func:`record`
+of one row into its :class:`~hybridlog.estimators.common.FilterBuffers`).
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    from hybridlog.estimators.common import FilterBuffers, FilterRun
 
 LOG_2PI = math.log(2.0 * math.pi)
 
@@ -212,3 +218,37 @@ def mixture_moments(
                 acc += weights[i] * spread
             covariance_out[a, b] = acc
             covariance_out[b, a] = acc
+
+
+@jit
+def dimensions(run: FilterRun) -> tuple[int, int, int, int]:
+    """Samples, states, outputs and modes of a filter run."""
+    return run.outputs.shape[0], run.x0.shape[0], run.outputs.shape[1], run.mu0.shape[0]
+
+
+@jit
+def argmax(values: FloatArray) -> int:
+    """Index of the largest value (the first on ties)."""
+    best = 0
+    for i in range(values.shape[0]):
+        if values[i] > values[best]:
+            best = i
+    return best
+
+
+@jit
+def record(
+    out: FilterBuffers, row: int, mode: int, mu: FloatArray, x: FloatArray, P: FloatArray
+) -> None:
+    """Write row ``row`` of a filter's output: mode, mode probabilities, mean, covariance.
+
+    The full covariance only where the buffers hold them (``covariances`` has no rows
+    otherwise).
+    """
+    out.modes[row] = mode
+    out.mode_probabilities[row, :] = mu
+    out.state_means[row, :] = x
+    for a in range(x.shape[0]):
+        out.state_variances[row, a] = P[a, a]
+    if out.covariances.shape[0] > row:
+        out.covariances[row] = P
