@@ -50,12 +50,12 @@ from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
     dimensions,
-    gain,
     gaussian_log_density,
-    joseph_update,
+    kalman_update,
     mixture_moments,
     normalize_log,
     record,
+    workspace,
 )
 from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
@@ -138,17 +138,9 @@ def _hstf_steps(
     x_pred = np.empty(n)
     P_pred = np.empty((n, n))
     y_mix = np.empty(m)
-    work_nn = np.empty((n, n))
-    work_mn = np.empty((m, n))
-    work_nm = np.empty((n, m))
-    IKH = np.empty((n, n))
-    K = np.empty((n, m))
-    L = np.zeros((m, m))
+    work = workspace(n, m)
     HQH = np.empty((m, m))
     M = np.empty((m, m))
-    Si_gain = np.empty((m, m))
-    vec_m = np.empty(m)
-    vec_m2 = np.empty(m)
 
     record(out, 0, q_hat, mu, x, P)
 
@@ -178,11 +170,11 @@ def _hstf_steps(
                 acc += y_i[i, b]
             out.output_predictions[k + 1, b] = acc / n_q
         for i in range(n_q):
-            congruence(F_i[i], P, work_nn, FPF[i])  # F̄_i P(k|k) F̄_iᵀ
+            congruence(F_i[i], P, work.nn, FPF[i])  # F̄_i P(k|k) F̄_iᵀ
             lam = 1.0
             if fading:
-                congruence(H_i[i], FPF[i], work_mn, M)  # (28)
-                congruence(H_i[i], Q[i], work_mn, HQH)
+                congruence(H_i[i], FPF[i], work.mn, M)  # (28)
+                congruence(H_i[i], Q[i], work.mn, HQH)
                 trace_n = 0.0
                 trace_m = 0.0
                 for b in range(m):
@@ -199,32 +191,23 @@ def _hstf_steps(
                     P_i_pred[i, a, c] = lam * FPF[i, a, c] + Q[i, a, c]  # (24)
         mixture_moments(uniform, x_i_pred, P_i_pred, x_pred, P_pred)  # (22)
         for i in range(n_q):
-            # (11): gain from the combined P(k+1|k).
-            congruence(H_i[i], P_pred, work_mn, Si_gain)
-            for b in range(m):
-                for c in range(m):
-                    Si_gain[b, c] += R[i, b, c]
-            cholesky(Si_gain, L)
-            gain(P_pred, H_i[i], L, work_nm, vec_m, vec_m2, K)
-            for a in range(n):  # (9)
-                acc = x_i_pred[i, a]
-                for b in range(m):
-                    acc += K[a, b] * gamma_i[i, b]
-                x_i_post[i, a] = acc
-            joseph_update(P_pred, K, H_i[i], R[i], IKH, work_nn, work_nm, P_i_post[i])  # (32)
+            # (9), (11), (32): the gain from the combined P(k+1|k).
+            kalman_update(
+                x_i_pred[i], P_pred, H_i[i], R[i], gamma_i[i], work, x_i_post[i], P_i_post[i]
+            )
             # (35): likelihood covariance from the mode-conditional P_i(k+1|k) (Remark 1).
             if unfaded_likelihood:
                 for a in range(n):
                     for c in range(n):
-                        work_nn[a, c] = FPF[i, a, c] + Q[i, a, c]
-                congruence(H_i[i], work_nn, work_mn, S_i[i])
+                        work.nn[a, c] = FPF[i, a, c] + Q[i, a, c]
+                congruence(H_i[i], work.nn, work.mn, S_i[i])
             else:
-                congruence(H_i[i], P_i_pred[i], work_mn, S_i[i])
+                congruence(H_i[i], P_i_pred[i], work.mn, S_i[i])
             for b in range(m):
                 for c in range(m):
                     S_i[i, b, c] += R[i, b, c]
-            if cholesky(S_i[i], L):
-                log_likelihood[i] = gaussian_log_density(gamma_i[i], L, vec_m)  # (34)
+            if cholesky(S_i[i], work.L):
+                log_likelihood[i] = gaussian_log_density(gamma_i[i], work.L, work.m)  # (34)
             else:
                 log_likelihood[i] = -np.inf
         # (33) with the uniform prior of (20), normalised in log space.

@@ -41,15 +41,14 @@ from hybridlog.estimators.common import (
 )
 from hybridlog.estimators.kernels import (
     argmax,
-    cholesky,
     congruence,
     dimensions,
-    gain,
     gaussian_log_density,
-    joseph_update,
+    kalman_update,
     mixture_moments,
     normalize_log,
     record,
+    workspace,
 )
 from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
@@ -117,15 +116,7 @@ def _imm_steps(
     H_j = np.empty((m, n))
     y_j = np.empty((n_q, m))
     gamma = np.empty(m)
-    S = np.empty((m, m))
-    L = np.zeros((m, m))
-    K = np.empty((n, m))
-    IKH = np.empty((n, n))
-    work_nn = np.empty((n, n))
-    work_mn = np.empty((m, n))
-    work_nm = np.empty((n, m))
-    vec_m = np.empty(m)
-    vec_m2 = np.empty(m)
+    work = workspace(n, m)
     log_posterior = np.empty(n_q)
 
     record(out, 0, argmax(mu), mu, x, P)
@@ -154,7 +145,7 @@ def _imm_steps(
             # EKF prediction of mode j.
             f(j, x_mix[j], u, x_pred)
             F(j, x_mix[j], u, F_j)
-            congruence(F_j, P_mix[j], work_nn, P_pred)
+            congruence(F_j, P_mix[j], work.nn, P_pred)
             for a in range(n):
                 for c in range(n):
                     P_pred[a, c] += Q[j, a, c]
@@ -164,25 +155,14 @@ def _imm_steps(
             for b in range(m):
                 gamma[b] = y[b] - y_j[j, b]
                 predictions[b] += c_bar[j] * y_j[j, b]
-            congruence(H_j, P_pred, work_mn, S)
-            for b in range(m):
-                for c in range(m):
-                    S[b, c] += R[j, b, c]
-            if not cholesky(S, L):
+            if kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, x_i[j], P_i[j]):
+                log_posterior[j] = (
+                    math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
+                ) + gaussian_log_density(gamma, work.L, work.m)
+            else:  # S is not positive definite: the prediction stands, the mode is ruled out
                 log_posterior[j] = -np.inf
                 x_i[j] = x_pred
                 P_i[j] = P_pred
-                continue
-            log_posterior[j] = (
-                math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
-            ) + gaussian_log_density(gamma, L, vec_m)
-            gain(P_pred, H_j, L, work_nm, vec_m, vec_m2, K)
-            for a in range(n):
-                acc = x_pred[a]
-                for b in range(m):
-                    acc += K[a, b] * gamma[b]
-                x_i[j, a] = acc
-            joseph_update(P_pred, K, H_j, R[j], IKH, work_nn, work_nm, P_i[j])
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)

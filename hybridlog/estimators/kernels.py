@@ -10,7 +10,7 @@ of one row into its :class:`~hybridlog.estimators.common.FilterBuffers`).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -252,3 +252,66 @@ def record(
         out.state_variances[row, a] = P[a, a]
     if out.covariances.shape[0] > row:
         out.covariances[row] = P
+
+
+class Workspace(NamedTuple):
+    """Scratch arrays of a filter loop for ``n`` states and ``m`` outputs (:func:`workspace`)."""
+
+    nn: FloatArray
+    mn: FloatArray
+    nm: FloatArray
+    IKH: FloatArray
+    K: FloatArray
+    S: FloatArray
+    L: FloatArray
+    m: FloatArray
+    m2: FloatArray
+
+
+@jit
+def workspace(n: int, m: int) -> Workspace:
+    """The scratch arrays :func:`kalman_update` and the filters' loops work in."""
+    return Workspace(
+        np.empty((n, n)),
+        np.empty((m, n)),
+        np.empty((n, m)),
+        np.empty((n, n)),
+        np.empty((n, m)),
+        np.empty((m, m)),
+        np.zeros((m, m)),
+        np.empty(m),
+        np.empty(m),
+    )
+
+
+@jit
+def kalman_update(
+    x_pred: FloatArray,
+    P_pred: FloatArray,
+    H: FloatArray,
+    R: FloatArray,
+    gamma: FloatArray,
+    work: Workspace,
+    x_out: FloatArray,
+    P_out: FloatArray,
+) -> bool:
+    """Extended Kalman filter measurement update with the residual ``gamma``.
+
+    ``S = H P Hᵀ + R``, ``K = P Hᵀ S⁻¹``, ``x_out = x_pred + K γ`` and ``P_out`` in the
+    Joseph form (paper 000, eqs. (9), (11), (32); the IMM's mode-matched EKF update).
+    Returns whether ``S`` is positive definite; ``work.L`` then holds its Cholesky factor
+    (otherwise the outputs are not meaningful).
+    """
+    congruence(H, P_pred, work.mn, work.S)
+    for b in range(R.shape[0]):
+        for c in range(R.shape[1]):
+            work.S[b, c] += R[b, c]
+    positive = cholesky(work.S, work.L)
+    gain(P_pred, H, work.L, work.nm, work.m, work.m2, work.K)
+    for a in range(x_pred.shape[0]):
+        acc = x_pred[a]
+        for b in range(gamma.shape[0]):
+            acc += work.K[a, b] * gamma[b]
+        x_out[a] = acc
+    joseph_update(P_pred, work.K, H, R, work.IKH, work.nn, work.nm, P_out)
+    return positive
