@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
 
-Mode = ModelFunction
+Fn = ModelFunction
 """One of a model's compiled mode functions ``f``, ``F``, ``h``, ``H``: ``fn(mode, x, u, out)``."""
 
 

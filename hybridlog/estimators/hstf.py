@@ -42,7 +42,7 @@ from hybridlog.estimators.common import (
     FilterBuffers,
     FilterCode,
     FilterRun,
-    Mode,
+    Fn,
     run_filter,
 )
 from hybridlog.estimators.kernels import (
@@ -110,7 +110,7 @@ class HstfSettings(NamedTuple):
 
 
 def _hstf_steps(
-    f: Mode, F: Mode, h: Mode, H: Mode, run: FilterRun, settings: HstfSettings, out: FilterBuffers
+    f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: HstfSettings, out: FilterBuffers
 ) -> None:
     """The generic HSTF time loop (compiled on first use; the docstring of the module)."""
     inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R

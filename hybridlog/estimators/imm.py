@@ -35,7 +35,7 @@ from hybridlog.estimators.common import (
     FilterBuffers,
     FilterCode,
     FilterRun,
-    Mode,
+    Fn,
     contiguous,
     run_filter,
 )
@@ -90,7 +90,7 @@ class ImmSettings(NamedTuple):
 
 
 def _imm_steps(
-    f: Mode, F: Mode, h: Mode, H: Mode, run: FilterRun, settings: ImmSettings, out: FilterBuffers
+    f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: ImmSettings, out: FilterBuffers
 ) -> None:
     """The generic IMM time loop (compiled on first use; the docstring of the module)."""
     inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
