@@ -174,7 +174,10 @@ class FilterCode:
     signature derived from the arguments): ``(f, F, h, H, run, settings, out)``, the model's
     mode functions (first-class functions: one machine code for every model), the
     :class:`FilterRun`, the filter's own settings (a named tuple) and the
-    :class:`FilterBuffers`.  ``accelerator`` is optional and takes the same frame.
+    :class:`FilterBuffers`.  ``accelerator`` is optional and takes the same frame.  The mode
+    functions stay four arguments: numba types a tuple of first-class functions only through
+    its experimental unification of function types (it warns, and a named tuple of them does
+    not match the compiled signature at the call).
     """
 
     name: str
