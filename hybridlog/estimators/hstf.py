@@ -139,6 +139,8 @@ def _hstf_steps(
     P_pred = np.empty((n, n))
     y_mix = np.empty(m)
     work = workspace(n, m)
+    work_nn, work_mn, L, vec_m = work.nn, work.mn, work.L, work.m
+    predictions_out = out.output_predictions
     HQH = np.empty((m, m))
     M = np.empty((m, m))
 
@@ -168,13 +170,13 @@ def _hstf_steps(
             acc = 0.0
             for i in range(n_q):
                 acc += y_i[i, b]
-            out.output_predictions[k + 1, b] = acc / n_q
+            predictions_out[k + 1, b] = acc / n_q
         for i in range(n_q):
-            congruence(F_i[i], P, work.nn, FPF[i])  # F̄_i P(k|k) F̄_iᵀ
+            congruence(F_i[i], P, work_nn, FPF[i])  # F̄_i P(k|k) F̄_iᵀ
             lam = 1.0
             if fading:
-                congruence(H_i[i], FPF[i], work.mn, M)  # (28)
-                congruence(H_i[i], Q[i], work.mn, HQH)
+                congruence(H_i[i], FPF[i], work_mn, M)  # (28)
+                congruence(H_i[i], Q[i], work_mn, HQH)
                 trace_n = 0.0
                 trace_m = 0.0
                 for b in range(m):
@@ -199,15 +201,15 @@ def _hstf_steps(
             if unfaded_likelihood:
                 for a in range(n):
                     for c in range(n):
-                        work.nn[a, c] = FPF[i, a, c] + Q[i, a, c]
-                congruence(H_i[i], work.nn, work.mn, S_i[i])
+                        work_nn[a, c] = FPF[i, a, c] + Q[i, a, c]
+                congruence(H_i[i], work_nn, work_mn, S_i[i])
             else:
-                congruence(H_i[i], P_i_pred[i], work.mn, S_i[i])
+                congruence(H_i[i], P_i_pred[i], work_mn, S_i[i])
             for b in range(m):
                 for c in range(m):
                     S_i[i, b, c] += R[i, b, c]
-            if cholesky(S_i[i], work.L):
-                log_likelihood[i] = gaussian_log_density(gamma_i[i], work.L, work.m)  # (34)
+            if cholesky(S_i[i], L):
+                log_likelihood[i] = gaussian_log_density(gamma_i[i], L, vec_m)  # (34)
             else:
                 log_likelihood[i] = -np.inf
         # (33) with the uniform prior of (20), normalised in log space.

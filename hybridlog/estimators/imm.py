@@ -117,6 +117,7 @@ def _imm_steps(
     y_j = np.empty((n_q, m))
     gamma = np.empty(m)
     work = workspace(n, m)
+    work_nn, L, vec_m = work.nn, work.L, work.m
     log_posterior = np.empty(n_q)
 
     record(out, 0, argmax(mu), mu, x, P)
@@ -145,7 +146,7 @@ def _imm_steps(
             # EKF prediction of mode j.
             f(j, x_mix[j], u, x_pred)
             F(j, x_mix[j], u, F_j)
-            congruence(F_j, P_mix[j], work.nn, P_pred)
+            congruence(F_j, P_mix[j], work_nn, P_pred)
             for a in range(n):
                 for c in range(n):
                     P_pred[a, c] += Q[j, a, c]
@@ -158,7 +159,7 @@ def _imm_steps(
             if kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, x_i[j], P_i[j]):
                 log_posterior[j] = (
                     math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
-                ) + gaussian_log_density(gamma, work.L, work.m)
+                ) + gaussian_log_density(gamma, L, vec_m)
             else:  # S is not positive definite: the prediction stands, the mode is ruled out
                 log_posterior[j] = -np.inf
                 x_i[j] = x_pred

@@ -302,16 +302,17 @@ def kalman_update(
     Returns whether ``S`` is positive definite; ``work.L`` then holds its Cholesky factor
     (otherwise the outputs are not meaningful).
     """
-    congruence(H, P_pred, work.mn, work.S)
+    nn, mn, nm, IKH, K, S, L, vec, vec2 = work  # once: each field access costs a reference
+    congruence(H, P_pred, mn, S)
     for b in range(R.shape[0]):
         for c in range(R.shape[1]):
-            work.S[b, c] += R[b, c]
-    positive = cholesky(work.S, work.L)
-    gain(P_pred, H, work.L, work.nm, work.m, work.m2, work.K)
+            S[b, c] += R[b, c]
+    positive = cholesky(S, L)
+    gain(P_pred, H, L, nm, vec, vec2, K)
     for a in range(x_pred.shape[0]):
         acc = x_pred[a]
         for b in range(gamma.shape[0]):
-            acc += work.K[a, b] * gamma[b]
+            acc += K[a, b] * gamma[b]
         x_out[a] = acc
-    joseph_update(P_pred, work.K, H, R, work.IKH, work.nn, work.nm, P_out)
+    joseph_update(P_pred, K, H, R, IKH, nn, nm, P_out)
     return positive
