@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -19,11 +19,15 @@ from hybridlog.errors import ModelError
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import fits_unrolled, module_source
 from hybridlog.jit import compile_for
-from hybridlog.model.compiled import compile_generated, compile_model
+from hybridlog.model.compiled import ModelFunction, compile_generated, compile_model
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
+
+
+Fn = ModelFunction
+"""One of a model's compiled mode functions ``f``, ``F``, ``h``, ``H``: ``fn(mode, x, u, out)``."""
 
 
 def noise_stacks(model: HybridModel, estimator: str = "") -> tuple[FloatArray, FloatArray]:
@@ -46,9 +50,38 @@ def noise_stacks(model: HybridModel, estimator: str = "") -> tuple[FloatArray, F
     return Q, R
 
 
-@dataclass(frozen=True)
-class FilterBuffers:
-    """Arrays a compiled filter loop writes its per-sample output into."""
+class FilterRun(NamedTuple):
+    """What a filter's time loop reads: one record, the same for both code paths.
+
+    The aligned signals, the per-mode noise stacks of :func:`noise_stacks` (an accelerator
+    has them written into its code and does not read them) and the prior of the model.
+    """
+
+    inputs: FloatArray
+    outputs: FloatArray
+    Q: FloatArray
+    R: FloatArray
+    x0: FloatArray
+    P0: FloatArray
+    mu0: FloatArray
+
+    @classmethod
+    def of(cls, model: HybridModel, signals: AlignedSignals, estimator: str) -> FilterRun:
+        """The record of ``model`` over ``signals``, C-contiguous float64 throughout."""
+        Q, R = noise_stacks(model, estimator)
+        return cls(
+            contiguous(signals.inputs),
+            contiguous(signals.outputs),
+            Q,
+            R,
+            contiguous(model.initial_state),
+            contiguous(model.initial_covariance),
+            contiguous(model.initial_mode_probabilities),
+        )
+
+
+class FilterBuffers(NamedTuple):
+    """Arrays a compiled filter loop writes its per-sample output into (its ``out`` record)."""
 
     modes: IntArray
     mode_probabilities: FloatArray
@@ -70,17 +103,6 @@ class FilterBuffers:
             state_variances=np.zeros((n_samples, n_x)),
             output_predictions=np.full((n_samples, model.n_outputs), np.nan),
             covariances=np.zeros((n_samples if store_covariances else 0, n_x, n_x)),
-        )
-
-    def arrays(self) -> tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """The buffers in the order the compiled loops take them."""
-        return (
-            self.modes,
-            self.mode_probabilities,
-            self.state_means,
-            self.state_variances,
-            self.output_predictions,
-            self.covariances,
         )
 
     def result(
@@ -129,12 +151,12 @@ class Accelerator:
     """Straight-line code a filter generates for a model: optional, faster, the same result.
 
     ``generate(model)`` returns the source of one function named ``function`` taking the
-    generic loop's arguments without the model functions and noise stacks:
-    ``(inputs, outputs, x0, P0, mu0, *settings, *buffers)``; it runs in a module with
-    ``math`` and ``LOG_2PI`` (:func:`~hybridlog.estimators.unrolled.module_source`).  The
-    generated module is cached by model (:func:`hybridlog.model.compiled.load_generated`);
-    ``modules`` names the modules whose code shapes the source besides ``generate``'s own
-    (their text is part of the key).
+    frame of the generic loop without the model functions, ``(run, settings, out)``
+    (:class:`FilterCode`), written by :meth:`~hybridlog.estimators.unrolled.Program.function`;
+    it runs in a module with ``math`` and ``LOG_2PI``
+    (:func:`~hybridlog.estimators.unrolled.module_source`).  The generated module is cached by
+    model (:func:`hybridlog.model.compiled.load_generated`); ``modules`` names the modules
+    whose code shapes the source besides ``generate``'s own (their text is part of the key).
     """
 
     generate: Callable[[HybridModel], str]
@@ -149,8 +171,13 @@ class FilterCode:
     """The code of one filter (see ``docs/architecture.md``, "Compiled code").
 
     ``loop`` is the generic time loop, plain Python that numba compiles on first use (its
-    signature derived from the arguments): ``(f, F, h, H, inputs, outputs, Q, R, x0, P0, mu0,
-    *settings, *buffers)``.  ``accelerator`` is optional.
+    signature derived from the arguments): ``(f, F, h, H, run, settings, out)``, the model's
+    mode functions (first-class functions: one machine code for every model), the
+    :class:`FilterRun`, the filter's own settings (a named tuple) and the
+    :class:`FilterBuffers`.  ``accelerator`` is optional and takes the same frame.  The mode
+    functions stay four arguments: numba types a tuple of first-class functions only through
+    its experimental unification of function types (it warns, and a named tuple of them does
+    not match the compiled signature at the call).
     """
 
     name: str
@@ -192,16 +219,7 @@ def run_filter(
     if kernel == "unrolled" and accelerator is None:
         raise ValueError(f"{code.name} has no accelerator")
     buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    Q, R = noise_stacks(model, code.name)
-    common = (
-        contiguous(signals.inputs),
-        contiguous(signals.outputs),
-        contiguous(model.initial_state),
-        contiguous(model.initial_covariance),
-        contiguous(model.initial_mode_probabilities),
-        *settings,
-        *buffers.arrays(),
-    )
+    frame = (FilterRun.of(model, signals, code.name), settings, buffers)
     loop: Callable[..., None]
     arguments: tuple[Any, ...]
     if (
@@ -209,7 +227,7 @@ def run_filter(
         and accelerator is not None
         and (kernel == "unrolled" or (kernel == "auto" and accelerator.applies(model)))
     ):
-        arguments = common
+        arguments = frame
         modules = (accelerator.generate.__module__, *accelerator.modules)
         loop, compile_s = compile_generated(
             model,
@@ -222,7 +240,7 @@ def run_filter(
     else:
         start = time.perf_counter()
         compiled = compile_model(model, jit=jit)
-        arguments = (compiled.f, compiled.F, compiled.h, compiled.H, *common[:2], Q, R, *common[2:])
+        arguments = (compiled.f, compiled.F, compiled.h, compiled.H, *frame)
         loop = compile_for(code.loop, arguments) if jit else code.loop
         compile_s = time.perf_counter() - start
     start = time.perf_counter()

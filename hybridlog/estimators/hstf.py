@@ -33,19 +33,29 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
-from hybridlog.estimators.common import Accelerator, FilterCode, run_filter
+from hybridlog.estimators.common import (
+    Accelerator,
+    FilterBuffers,
+    FilterCode,
+    FilterRun,
+    Fn,
+    run_filter,
+)
 from hybridlog.estimators.kernels import (
+    argmax,
     cholesky,
     congruence,
-    gain,
+    dimensions,
     gaussian_log_density,
-    joseph_update,
+    kalman_update,
     mixture_moments,
     normalize_log,
+    record,
+    workspace,
 )
 from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
@@ -61,9 +71,8 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
-from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import AlignedSignals
 
 NAME = "hstf"
 
@@ -90,45 +99,29 @@ class HstfOptions:
     )
 
 
+class HstfSettings(NamedTuple):
+    """The HSTF's own settings as its loops take them (from :class:`HstfOptions`)."""
+
+    rho: float
+    beta: float
+    theta: float
+    fading: bool
+    unfaded_likelihood: bool
+
+
 def _hstf_steps(
-    f: ModelFunction,
-    F: ModelFunction,
-    h: ModelFunction,
-    H: ModelFunction,
-    inputs: FloatArray,
-    outputs: FloatArray,
-    Q: FloatArray,
-    R: FloatArray,
-    x0: FloatArray,
-    P0: FloatArray,
-    mu0: FloatArray,
-    rho: float,
-    beta: float,
-    theta: float,
-    fading: bool,
-    unfaded_likelihood: bool,
-    modes_out: IntArray,
-    probabilities_out: FloatArray,
-    means_out: FloatArray,
-    variances_out: FloatArray,
-    predictions_out: FloatArray,
-    covariances_out: FloatArray,
+    f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: HstfSettings, out: FilterBuffers
 ) -> None:
     """The generic HSTF time loop (compiled on first use; the docstring of the module)."""
-    n_samples = outputs.shape[0]
-    n = x0.shape[0]
-    m = outputs.shape[1]
-    n_q = mu0.shape[0]
-    store_covariances = covariances_out.shape[0] == n_samples
+    inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R
+    rho, beta, theta, fading, unfaded_likelihood = settings
+    n_samples, n, m, n_q = dimensions(run)
 
-    x = x0.copy()
-    P = P0.copy()
+    x = run.x0.copy()
+    P = run.P0.copy()
     S = np.zeros((m, m))  # output residual covariance of eq. (38), previous step
-    mu = mu0.copy()
-    q_hat = 0  # eq. (40) needs q̂(k): start from the most probable mode
-    for i in range(n_q):
-        if mu[i] > mu[q_hat]:
-            q_hat = i
+    mu = run.mu0.copy()
+    q_hat = argmax(mu)  # eq. (40) needs q̂(k): start from the most probable mode
 
     x_i_pred = np.empty((n_q, n))
     F_i = np.empty((n_q, n, n))
@@ -145,25 +138,13 @@ def _hstf_steps(
     x_pred = np.empty(n)
     P_pred = np.empty((n, n))
     y_mix = np.empty(m)
-    work_nn = np.empty((n, n))
-    work_mn = np.empty((m, n))
-    work_nm = np.empty((n, m))
-    IKH = np.empty((n, n))
-    K = np.empty((n, m))
-    L = np.zeros((m, m))
+    work = workspace(n, m)
+    work_nn, work_mn, L, vec_m = work.nn, work.mn, work.L, work.m
+    predictions_out = out.output_predictions
     HQH = np.empty((m, m))
     M = np.empty((m, m))
-    Si_gain = np.empty((m, m))
-    vec_m = np.empty(m)
-    vec_m2 = np.empty(m)
 
-    modes_out[0] = q_hat
-    probabilities_out[0, :] = mu
-    means_out[0, :] = x
-    for a in range(n):
-        variances_out[0, a] = P[a, a]
-    if store_covariances:
-        covariances_out[0] = P
+    record(out, 0, q_hat, mu, x, P)
 
     for k in range(n_samples - 1):
         u = inputs[k]
@@ -212,19 +193,10 @@ def _hstf_steps(
                     P_i_pred[i, a, c] = lam * FPF[i, a, c] + Q[i, a, c]  # (24)
         mixture_moments(uniform, x_i_pred, P_i_pred, x_pred, P_pred)  # (22)
         for i in range(n_q):
-            # (11): gain from the combined P(k+1|k).
-            congruence(H_i[i], P_pred, work_mn, Si_gain)
-            for b in range(m):
-                for c in range(m):
-                    Si_gain[b, c] += R[i, b, c]
-            cholesky(Si_gain, L)
-            gain(P_pred, H_i[i], L, work_nm, vec_m, vec_m2, K)
-            for a in range(n):  # (9)
-                acc = x_i_pred[i, a]
-                for b in range(m):
-                    acc += K[a, b] * gamma_i[i, b]
-                x_i_post[i, a] = acc
-            joseph_update(P_pred, K, H_i[i], R[i], IKH, work_nn, work_nm, P_i_post[i])  # (32)
+            # (9), (11), (32): the gain from the combined P(k+1|k).
+            kalman_update(
+                x_i_pred[i], P_pred, H_i[i], R[i], gamma_i[i], work, x_i_post[i], P_i_post[i]
+            )
             # (35): likelihood covariance from the mode-conditional P_i(k+1|k) (Remark 1).
             if unfaded_likelihood:
                 for a in range(n):
@@ -244,19 +216,10 @@ def _hstf_steps(
         normalize_log(log_likelihood, mu)
         mixture_moments(mu, x_i_post, P_i_post, x, P)  # (36), (37)
         mixture_moments(mu, y_i, S_i, y_mix, S)  # (38), (39)
-        best = 0  # (40)
-        for i in range(n_q):
-            if mu[i] > mu[best]:
-                best = i
+        best = argmax(mu)  # (40)
         if mu[best] >= theta:
             q_hat = best
-        modes_out[k + 1] = q_hat
-        probabilities_out[k + 1, :] = mu
-        means_out[k + 1, :] = x
-        for a in range(n):
-            variances_out[k + 1, a] = P[a, a]
-        if store_covariances:
-            covariances_out[k + 1] = P
+        record(out, k + 1, q_hat, mu, x, P)
 
 
 def run_hstf(
@@ -273,7 +236,7 @@ def run_hstf(
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_hstf_source` for small models, else the generic :func:`_hstf_steps`.
     """
-    settings = (
+    settings = HstfSettings(
         options.rho,
         options.beta,
         options.theta,
@@ -303,9 +266,9 @@ def hstf_options(values: dict[str, object]) -> HstfOptions:
 def generate_hstf_source(model: HybridModel) -> str:
     """Straight-line source of the whole HSTF time loop for ``model`` (see ``unrolled.py``).
 
-    Defines ``hstf_run(inputs, outputs, x0, P0, mu0, rho, beta, theta, fading,
-    unfaded_likelihood, <output arrays>)``, computing exactly what :func:`_hstf_steps` does,
-    with the mode functions, noise covariances and small matrix products written out.
+    Defines ``hstf_run(run, settings, out)``, the frame of :func:`_hstf_steps` without the
+    model functions, computing exactly what :func:`_hstf_steps` does, with the mode functions,
+    noise covariances and small matrix products written out.
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
     p = Program(indent="    ")
@@ -316,7 +279,7 @@ def generate_hstf_source(model: HybridModel) -> str:
     Q, R = noise_matrices(model)
     uniform = 1.0 / n_q
 
-    p.prologue()
+    p.prologue(HstfSettings._fields)
     p.carry(x, [f"x0[{a}]" for a in range(n)])
     p.carry(upper(P), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
     p.carry(upper(S), ["0.0"] * (m * (m + 1) // 2))
@@ -392,12 +355,7 @@ def generate_hstf_source(model: HybridModel) -> str:
     p.carry(upper(S), upper(S_new))
     p.carry(mu, mu_new)
     p.record("k + 1", "q_hat", mu, x, P)
-    signature = (
-        "def hstf_run(inputs, outputs, x0, P0, mu0, rho, beta, theta, fading, "
-        "unfaded_likelihood, modes_out, probabilities_out, means_out, variances_out, "
-        "predictions_out, covariances_out):"
-    )
-    return f"{signature}\n{p.source()}\n"
+    return p.function("hstf_run")
 
 
 CODE = FilterCode(NAME, _hstf_steps, Accelerator(generate_hstf_source, "hstf_run"))

@@ -26,18 +26,29 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from hybridlog.estimators.common import Accelerator, FilterCode, contiguous, run_filter
+from hybridlog.estimators.common import (
+    Accelerator,
+    FilterBuffers,
+    FilterCode,
+    FilterRun,
+    Fn,
+    contiguous,
+    run_filter,
+)
 from hybridlog.estimators.kernels import (
-    cholesky,
+    argmax,
     congruence,
-    gain,
+    dimensions,
     gaussian_log_density,
-    joseph_update,
+    kalman_update,
     mixture_moments,
     normalize_log,
+    record,
+    workspace,
 )
 from hybridlog.estimators.options import option, options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
@@ -54,9 +65,8 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
-from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import AlignedSignals, FloatArray
 
 NAME = "imm"
 
@@ -72,39 +82,27 @@ class ImmOptions:
     )
 
 
+class ImmSettings(NamedTuple):
+    """The IMM's own settings as its loops take them."""
+
+    transitions: FloatArray
+    """The Markov matrix ``Π`` (:func:`transition_matrix`), C-contiguous."""
+
+
 def _imm_steps(
-    f: ModelFunction,
-    F: ModelFunction,
-    h: ModelFunction,
-    H: ModelFunction,
-    inputs: FloatArray,
-    outputs: FloatArray,
-    Q: FloatArray,
-    R: FloatArray,
-    x0: FloatArray,
-    P0: FloatArray,
-    mu0: FloatArray,
-    transitions: FloatArray,
-    modes_out: IntArray,
-    probabilities_out: FloatArray,
-    means_out: FloatArray,
-    variances_out: FloatArray,
-    predictions_out: FloatArray,
-    covariances_out: FloatArray,
+    f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: ImmSettings, out: FilterBuffers
 ) -> None:
     """The generic IMM time loop (compiled on first use; the docstring of the module)."""
-    n_samples = outputs.shape[0]
-    n = x0.shape[0]
-    m = outputs.shape[1]
-    n_q = mu0.shape[0]
-    store_covariances = covariances_out.shape[0] == n_samples
+    inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
+    transitions = settings.transitions
+    n_samples, n, m, n_q = dimensions(run)
 
     x_i = np.empty((n_q, n))
     P_i = np.empty((n_q, n, n))
     for i in range(n_q):
         x_i[i] = x0
         P_i[i] = P0
-    mu = mu0.copy()
+    mu = run.mu0.copy()
     x = x0.copy()
     P = P0.copy()
 
@@ -118,31 +116,11 @@ def _imm_steps(
     H_j = np.empty((m, n))
     y_j = np.empty((n_q, m))
     gamma = np.empty(m)
-    S = np.empty((m, m))
-    L = np.zeros((m, m))
-    K = np.empty((n, m))
-    IKH = np.empty((n, n))
-    work_nn = np.empty((n, n))
-    work_mn = np.empty((m, n))
-    work_nm = np.empty((n, m))
-    vec_m = np.empty(m)
-    vec_m2 = np.empty(m)
+    work = workspace(n, m)
+    work_nn, L, vec_m = work.nn, work.L, work.m
     log_posterior = np.empty(n_q)
 
-    def record(row: int) -> None:
-        best = 0
-        for i in range(n_q):
-            if mu[i] > mu[best]:
-                best = i
-        modes_out[row] = best
-        probabilities_out[row, :] = mu
-        means_out[row, :] = x
-        for a in range(n):
-            variances_out[row, a] = P[a, a]
-        if store_covariances:
-            covariances_out[row] = P
-
-    record(0)
+    record(out, 0, argmax(mu), mu, x, P)
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
@@ -161,8 +139,9 @@ def _imm_steps(
             else:
                 x_mix[j] = x_i[j]
                 P_mix[j] = P_i[j]
+        predictions = out.output_predictions[k + 1]
         for b in range(m):
-            predictions_out[k + 1, b] = 0.0
+            predictions[b] = 0.0
         for j in range(n_q):
             # EKF prediction of mode j.
             f(j, x_mix[j], u, x_pred)
@@ -176,30 +155,19 @@ def _imm_steps(
             H(j, x_pred, u_next, H_j)
             for b in range(m):
                 gamma[b] = y[b] - y_j[j, b]
-                predictions_out[k + 1, b] += c_bar[j] * y_j[j, b]
-            congruence(H_j, P_pred, work_mn, S)
-            for b in range(m):
-                for c in range(m):
-                    S[b, c] += R[j, b, c]
-            if not cholesky(S, L):
+                predictions[b] += c_bar[j] * y_j[j, b]
+            if kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, x_i[j], P_i[j]):
+                log_posterior[j] = (
+                    math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
+                ) + gaussian_log_density(gamma, L, vec_m)
+            else:  # S is not positive definite: the prediction stands, the mode is ruled out
                 log_posterior[j] = -np.inf
                 x_i[j] = x_pred
                 P_i[j] = P_pred
-                continue
-            log_posterior[j] = (
-                math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
-            ) + gaussian_log_density(gamma, L, vec_m)
-            gain(P_pred, H_j, L, work_nm, vec_m, vec_m2, K)
-            for a in range(n):
-                acc = x_pred[a]
-                for b in range(m):
-                    acc += K[a, b] * gamma[b]
-                x_i[j, a] = acc
-            joseph_update(P_pred, K, H_j, R[j], IKH, work_nn, work_nm, P_i[j])
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
-        record(k + 1)
+        record(out, k + 1, argmax(mu), mu, x, P)
 
 
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
@@ -232,7 +200,7 @@ def run_imm(
         CODE,
         model,
         signals,
-        (transitions,),
+        ImmSettings(transitions),
         used,
         jit=jit,
         kernel=kernel,
@@ -248,8 +216,8 @@ def imm_options(values: dict[str, object]) -> ImmOptions:
 def generate_imm_source(model: HybridModel) -> str:
     """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_run(inputs, outputs, x0, P0, mu0, transitions, <output arrays>)`` with the
-    same meaning as :func:`_imm_steps`; the mode functions, the noise covariances and every
+    Defines ``imm_run(run, settings, out)``, the frame of :func:`_imm_steps` without the
+    model functions, with the same meaning; the mode functions, the noise covariances and every
     small matrix product are written out for the model's dimensions.
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
@@ -260,7 +228,7 @@ def generate_imm_source(model: HybridModel) -> str:
     T = matrix_names("T", n_q, n_q)
     Q, R = noise_matrices(model)
 
-    p.prologue()
+    p.prologue(ImmSettings._fields)
     for i in range(n_q):
         p.carry(X[i], [f"x0[{a}]" for a in range(n)])
         p.carry(upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
@@ -316,11 +284,7 @@ def generate_imm_source(model: HybridModel) -> str:
         p.carry(upper(P[i]), upper(P_post[i]))
     p.carry(mu, mu_new)
     p.record("k + 1", p.argmax(mu), mu, x_combined, P_combined)
-    signature = (
-        "def imm_run(inputs, outputs, x0, P0, mu0, transitions, modes_out, probabilities_out, "
-        "means_out, variances_out, predictions_out, covariances_out):"
-    )
-    return f"{signature}\n{p.source()}\n"
+    return p.function("imm_run")
 
 
 CODE = FilterCode(NAME, _imm_steps, Accelerator(generate_imm_source, "imm_run"))

@@ -1,18 +1,24 @@
-"""Small compiled linear-algebra kernels shared by the filters.
+"""Small compiled kernels shared by the filters' generic loops.
 
 The filters work on 2-6 dimensional states; NumPy calls on such tiny arrays cost tens of
 microseconds each, so the time loops are compiled whole with numba and use these helpers,
-which write into preallocated arrays.
+which write into preallocated arrays: linear algebra, and the frame every loop shares
+(:func:`dimensions` of its :class:`~hybridlog.estimators.common.FilterRun`, :func:`record`
+of one row into its :class:`~hybridlog.estimators.common.FilterBuffers`).
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    from hybridlog.estimators.common import FilterBuffers, FilterRun
 
 LOG_2PI = math.log(2.0 * math.pi)
 
@@ -212,3 +218,101 @@ def mixture_moments(
                 acc += weights[i] * spread
             covariance_out[a, b] = acc
             covariance_out[b, a] = acc
+
+
+@jit
+def dimensions(run: FilterRun) -> tuple[int, int, int, int]:
+    """Samples, states, outputs and modes of a filter run."""
+    return run.outputs.shape[0], run.x0.shape[0], run.outputs.shape[1], run.mu0.shape[0]
+
+
+@jit
+def argmax(values: FloatArray) -> int:
+    """Index of the largest value (the first on ties)."""
+    best = 0
+    for i in range(values.shape[0]):
+        if values[i] > values[best]:
+            best = i
+    return best
+
+
+@jit
+def record(
+    out: FilterBuffers, row: int, mode: int, mu: FloatArray, x: FloatArray, P: FloatArray
+) -> None:
+    """Write row ``row`` of a filter's output: mode, mode probabilities, mean, covariance.
+
+    The full covariance only where the buffers hold them (``covariances`` has no rows
+    otherwise).
+    """
+    out.modes[row] = mode
+    out.mode_probabilities[row, :] = mu
+    out.state_means[row, :] = x
+    for a in range(x.shape[0]):
+        out.state_variances[row, a] = P[a, a]
+    if out.covariances.shape[0] > row:
+        out.covariances[row] = P
+
+
+class Workspace(NamedTuple):
+    """Scratch arrays of a filter loop for ``n`` states and ``m`` outputs (:func:`workspace`)."""
+
+    nn: FloatArray
+    mn: FloatArray
+    nm: FloatArray
+    IKH: FloatArray
+    K: FloatArray
+    S: FloatArray
+    L: FloatArray
+    m: FloatArray
+    m2: FloatArray
+
+
+@jit
+def workspace(n: int, m: int) -> Workspace:
+    """The scratch arrays :func:`kalman_update` and the filters' loops work in."""
+    return Workspace(
+        np.empty((n, n)),
+        np.empty((m, n)),
+        np.empty((n, m)),
+        np.empty((n, n)),
+        np.empty((n, m)),
+        np.empty((m, m)),
+        np.zeros((m, m)),
+        np.empty(m),
+        np.empty(m),
+    )
+
+
+@jit
+def kalman_update(
+    x_pred: FloatArray,
+    P_pred: FloatArray,
+    H: FloatArray,
+    R: FloatArray,
+    gamma: FloatArray,
+    work: Workspace,
+    x_out: FloatArray,
+    P_out: FloatArray,
+) -> bool:
+    """Extended Kalman filter measurement update with the residual ``gamma``.
+
+    ``S = H P Hᵀ + R``, ``K = P Hᵀ S⁻¹``, ``x_out = x_pred + K γ`` and ``P_out`` in the
+    Joseph form (paper 000, eqs. (9), (11), (32); the IMM's mode-matched EKF update).
+    Returns whether ``S`` is positive definite; ``work.L`` then holds its Cholesky factor
+    (otherwise the outputs are not meaningful).
+    """
+    nn, mn, nm, IKH, K, S, L, vec, vec2 = work  # once: each field access costs a reference
+    congruence(H, P_pred, mn, S)
+    for b in range(R.shape[0]):
+        for c in range(R.shape[1]):
+            S[b, c] += R[b, c]
+    positive = cholesky(S, L)
+    gain(P_pred, H, L, nm, vec, vec2, K)
+    for a in range(x_pred.shape[0]):
+        acc = x_pred[a]
+        for b in range(gamma.shape[0]):
+            acc += K[a, b] * gamma[b]
+        x_out[a] = acc
+    joseph_update(P_pred, K, H, R, IKH, nn, nm, P_out)
+    return positive

@@ -297,10 +297,25 @@ class Program:
 
     # -- the frame of a generated time loop ------------------------------------------------
 
-    def prologue(self) -> None:
-        """First lines of every generated loop function."""
+    def prologue(self, settings: Sequence[str]) -> None:
+        """First lines of every generated loop function: its frame, unpacked.
+
+        The function takes the generic loop's frame without the model functions,
+        ``(run, settings, out)`` (:class:`~hybridlog.estimators.common.FilterCode`); the
+        ``settings`` record's fields are bound to their names.
+        """
+        for name in ("inputs", "outputs", "x0", "P0", "mu0"):
+            self.emit(f"{name} = run.{name}")
+        for name in settings:
+            self.emit(f"{name} = settings.{name}")
+        for name, field in _OUTPUT_NAMES:
+            self.emit(f"{name} = out.{field}")
         self.emit("n_samples = outputs.shape[0]")
         self.emit("store_covariances = covariances_out.shape[0] == n_samples")
+
+    def function(self, name: str) -> str:
+        """The emitted lines as the source of the loop function ``name(run, settings, out)``."""
+        return f"def {name}(run, settings, out):\n{self.source()}\n"
 
     def open_time_loop(self, n_inputs: int, n_outputs: int) -> tuple[Vector, Vector, Vector]:
         """Open the time loop and load ``u(k)``, ``u(k+1)`` and ``y(k+1)`` into scalars."""
@@ -395,6 +410,17 @@ class Program:
     def source(self) -> str:
         """The body as text."""
         return "\n".join(self.lines)
+
+
+_OUTPUT_NAMES = (
+    ("modes_out", "modes"),
+    ("probabilities_out", "mode_probabilities"),
+    ("means_out", "state_means"),
+    ("variances_out", "state_variances"),
+    ("predictions_out", "output_predictions"),
+    ("covariances_out", "covariances"),
+)
+"""The generated code's names of the output arrays and their fields in ``FilterBuffers``."""
 
 
 def reshape(entries: Sequence[Entry], rows: int, cols: int) -> Matrix:

@@ -13,9 +13,10 @@ import pytest
 
 import hybridlog.estimators
 from hybridlog.errors import ModelError
-from hybridlog.estimators.common import FilterCode
+from hybridlog.estimators.common import FilterBuffers, FilterCode
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.kernels import kalman_update, record, workspace
 from hybridlog.estimators.unrolled import use_unrolled
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals
@@ -124,3 +125,46 @@ def test_a_diverging_filter_is_an_error_naming_the_model_file_estimator_and_time
             ModelError, match=r"^models/kink\.toml: hstf diverged at t = 1 s \(sample 1\)"
         ):
             run_hstf(model, signals, HstfOptions(), kernel=kernel)
+
+
+def test_the_shared_ekf_update_is_the_joseph_form_and_flags_a_singular_innovation():
+    # kalman_update serves both generic loops (paper 000 eqs. (9), (11), (32); the IMM's EKF).
+    rng = np.random.default_rng(3)
+    n, m = 4, 2
+    A = rng.normal(size=(n, n))
+    P = A @ A.T + np.eye(n)
+    H = rng.normal(size=(m, n))
+    B = rng.normal(size=(m, m))
+    R = B @ B.T + 0.1 * np.eye(m)
+    x, gamma = rng.normal(size=n), rng.normal(size=m)
+    work = workspace(n, m)
+    x_out, P_out = np.empty(n), np.empty((n, n))
+    assert kalman_update(x, P, H, R, gamma, work, x_out, P_out)
+    S = H @ P @ H.T + R
+    K = P @ H.T @ np.linalg.inv(S)
+    I_KH = np.eye(n) - K @ H
+    np.testing.assert_allclose(x_out, x + K @ gamma, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(P_out, I_KH @ P @ I_KH.T + K @ R @ K.T, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(work.L @ work.L.T, S, rtol=1e-12, atol=1e-12)
+    assert not kalman_update(x, P, H, -S - np.eye(m), gamma, work, x_out, P_out)
+
+
+@pytest.mark.parametrize("store_covariances", [False, True])
+def test_record_writes_one_output_row_and_covariances_only_where_kept(store_covariances):
+    model = parse_model(LINEAR_TWO_MODE)
+    out = FilterBuffers.allocate(model, 3, store_covariances=store_covariances)
+    n = model.n_states
+    mu = np.linspace(0.2, 0.8, model.n_modes)
+    x = np.arange(1.0, n + 1.0)
+    P = np.arange(float(n * n)).reshape(n, n)
+    record(out, 1, 1, mu, x, P)
+    assert out.modes.tolist() == [0, 1, 0]
+    np.testing.assert_array_equal(out.mode_probabilities[1], mu)
+    np.testing.assert_array_equal(out.state_means[1], x)
+    np.testing.assert_array_equal(out.state_variances[1], np.diag(P))
+    assert not out.state_means[[0, 2]].any()
+    if store_covariances:
+        np.testing.assert_array_equal(out.covariances[1], P)
+        assert not out.covariances[[0, 2]].any()
+    else:
+        assert out.covariances.shape[0] == 0
