@@ -7,11 +7,18 @@ so the task it was busy with is known when it dies, and a daemon thread in each 
 the process as soon as its parent is gone.  The thread starts before the task function's
 module is imported (the function is sent with the first task), so a worker exits promptly
 even while it is still starting.
+
+:class:`WorkerPool` starts the workers as soon as it is entered, so that they import what
+they need (``preload``) while the caller still checks its inputs; a worker runs every task
+it is given in the same process, so what a task function keeps between calls (a loaded
+model, compiled code) stays warm.  Leaving the pool with an exception kills the workers at
+once.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib
 import multiprocessing
 import os
 import signal
@@ -24,7 +31,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any, TypeVar
 
-__all__ = ["PARENT_POLL_S", "run_tasks"]
+__all__ = ["PARENT_POLL_S", "WorkerPool", "run_tasks"]
 
 R = TypeVar("R")
 
@@ -47,9 +54,14 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, name="hybridlog-parent-watch", daemon=True).start()
 
 
-def _serve(connection: Connection, parent: int) -> None:
-    """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``)."""
+def _serve(connection: Connection, parent: int, preload: tuple[str, ...] = ()) -> None:
+    """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``).
+
+    The modules named in ``preload`` are imported first, while the parent is busy too.
+    """
     _watch_parent(parent)
+    for module in preload:
+        importlib.import_module(module)
     while True:
         try:
             task = connection.recv()
@@ -72,10 +84,10 @@ class _Worker:
     task: int | None = None
 
 
-def _start(context: SpawnContext) -> _Worker:
+def _start(context: SpawnContext, preload: tuple[str, ...] = ()) -> _Worker:
     ours, theirs = context.Pipe()
     process = context.Process(
-        target=_serve, args=(theirs, os.getpid()), name="hybridlog-worker", daemon=True
+        target=_serve, args=(theirs, os.getpid(), preload), name="hybridlog-worker", daemon=True
     )
     process.start()
     theirs.close()
@@ -103,52 +115,76 @@ def _stop(worker: _Worker) -> None:
     worker.connection.close()
 
 
-def run_tasks(
-    function: Callable[..., R],
-    tasks: Sequence[tuple[Any, ...]],
-    *,
-    jobs: int,
-    died: Callable[[int, str], R],
-    done: Callable[[R], None] | None = None,
-) -> list[R]:
-    """Run ``function(*task)`` for every task in ``jobs`` worker processes.
+class WorkerPool:
+    """``jobs`` worker processes, started when the pool is entered (see the module docstring).
 
     Parameters
     ----------
-    function:
-        A module-level function that returns a picklable result and does not raise (catch
-        per task what may fail).  It is pickled by reference, so its module is imported in
-        each worker.
-    tasks:
-        Picklable argument tuples.
     jobs:
         Number of worker processes (``spawn`` start method: no state shared with the caller).
-    died:
-        The result of task ``i`` whose worker died, from ``(i, reason)`` (e.g. ``"killed by
-        signal SIGKILL"``).  The task is not retried: it may be what killed the worker.  A
-        new worker takes the remaining tasks.
-    done:
-        Called with each result as it arrives (in completion order).
-
-    Returns
-    -------
-    list
-        One result per task, in the order of ``tasks``.
+    preload:
+        Modules each worker imports as soon as it starts.
     """
-    context = multiprocessing.get_context("spawn")
-    pending = deque(range(len(tasks)))
-    results: dict[int, R] = {}
-    workers: list[_Worker] = []
 
-    def finish(index: int, result: R) -> None:
-        results[index] = result
-        if done is not None:
-            done(result)
+    def __init__(self, jobs: int, preload: Sequence[str] = ()) -> None:
+        self.jobs = jobs
+        self.preload = tuple(preload)
+        self._context = multiprocessing.get_context("spawn")
+        self._workers: list[_Worker] = []
 
-    try:
+    def __enter__(self) -> WorkerPool:
+        self._workers = [_start(self._context, self.preload) for _ in range(self.jobs)]
+        return self
+
+    def __exit__(self, kind: object, error: object, trace: object) -> None:
+        for worker in self._workers:
+            if kind is not None:  # the caller failed: nothing the workers do is wanted
+                worker.process.kill()
+            _stop(worker)
+        self._workers = []
+
+    def run(
+        self,
+        function: Callable[..., R],
+        tasks: Sequence[tuple[Any, ...]],
+        *,
+        died: Callable[[int, str], R],
+        done: Callable[[R], None] | None = None,
+    ) -> list[R]:
+        """Run ``function(*task)`` for every task in the pool's workers.
+
+        Parameters
+        ----------
+        function:
+            A module-level function that returns a picklable result and does not raise
+            (catch per task what may fail).  It is pickled by reference, so its module is
+            imported in each worker.
+        tasks:
+            Picklable argument tuples.
+        died:
+            The result of task ``i`` whose worker died, from ``(i, reason)`` (e.g. ``"killed
+            by signal SIGKILL"``).  The task is not retried: it may be what killed the
+            worker.  A new worker takes the remaining tasks.
+        done:
+            Called with each result as it arrives (in completion order).
+
+        Returns
+        -------
+        list
+            One result per task, in the order of ``tasks``.
+        """
+        pending = deque(range(len(tasks)))
+        results: dict[int, R] = {}
+        workers = self._workers
+
+        def finish(index: int, result: R) -> None:
+            results[index] = result
+            if done is not None:
+                done(result)
+
         while pending or any(w.task is not None for w in workers):
-            while pending and len(workers) < jobs:
-                workers.append(_start(context))
+            while pending and len(workers) < self.jobs:
+                workers.append(_start(self._context, self.preload))
             for worker in workers:
                 if worker.task is None and pending:
                     worker.task = pending.popleft()
@@ -170,7 +206,20 @@ def run_tasks(
                     worker.connection.close()
                     continue
                 finish(index, result)
-    finally:
-        for worker in workers:
-            _stop(worker)
-    return [results[index] for index in range(len(tasks))]
+        return [results[index] for index in range(len(tasks))]
+
+
+def run_tasks(
+    function: Callable[..., R],
+    tasks: Sequence[tuple[Any, ...]],
+    *,
+    jobs: int,
+    died: Callable[[int, str], R],
+    done: Callable[[R], None] | None = None,
+) -> list[R]:
+    """Run ``function(*task)`` for every task in ``jobs`` worker processes.
+
+    A :class:`WorkerPool` for one call of :meth:`WorkerPool.run` (see there).
+    """
+    with WorkerPool(min(jobs, max(len(tasks), 1))) as pool:
+        return pool.run(function, tasks, died=died, done=done)

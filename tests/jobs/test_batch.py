@@ -21,6 +21,7 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import main
+from hybridlog.errors import OptionError
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import folder_names, natural_key, run_batch
@@ -59,8 +60,19 @@ def write_logs(folder: Path, names: list[str], steps: int = 90) -> list[Path]:
 def test_natural_order_and_folder_names() -> None:
     names = ["s10", "s2", "s1", "run_b10", "run_b9", "S3", "s1a"]
     assert sorted(names, key=natural_key) == ["S3", "run_b9", "run_b10", "s1", "s1a", "s2", "s10"]
+    # Folder names: the path from the logs' common folder, suffix kept (issue 9; they were
+    # "_hidden", "a_x", "b_x", "_csv"), never hidden, never a batch file's name.
     logs = [Path("a/.hidden.csv"), Path("a/x.csv"), Path("b/x.csv"), Path("c/.csv")]
-    assert folder_names(logs) == ["_hidden", "a_x", "b_x", "_csv"]
+    assert folder_names(logs) == ["a/_.hidden.csv", "a/x.csv", "b/x.csv", "c/_.csv"]
+    logs = [Path("d/summary.md"), Path("d/_summary.md"), Path("d/__x"), Path("d/.hybridlog")]
+    assert folder_names(logs) == ["_summary.md", "__summary.md", "__x", "_.hybridlog"]
+    logs = [Path("d2/run.csv"), Path("d2/run.parquet")]
+    assert folder_names(logs) == ["run.csv", "run.parquet"]
+    assert folder_names(logs[::-1]) == ["run.parquet", "run.csv"]
+    with pytest.raises(OptionError, match="given twice"):
+        folder_names([Path("a/x.csv"), Path("a/../a/x.csv")])
+    with pytest.raises(OptionError, match="lies inside the log"):
+        folder_names([Path("a/bag"), Path("a/bag/x.csv")])
 
 
 def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
@@ -83,17 +95,19 @@ def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
         "--out",
         str(out),
     ]
-    result = run(args, expect=2)
+    # A log that cannot be analysed fails the batch like a missed gate: exit 1 (issue 9; it
+    # was 2, which SPEC §4 keeps for bad usage or shared input checked before any log).
+    result = run(args, expect=1)
     assert "1 of 3 logs failed" in result.stderr
     summary = pl.read_csv(out / "summary.csv")
     # Logs are summarised in natural order: broken.csv before run1.csv.
     assert summary["log"].to_list() == [str(broken), *logs]
     assert summary["status"].to_list() == ["failed", "done", "done"]
     assert "y2" in summary["error"][0]
-    stamp = (out / "run1" / "report.json").stat().st_mtime_ns
-    result = run(args, expect=2)
+    stamp = (out / "run1.csv" / "report.json").stat().st_mtime_ns
+    result = run(args, expect=1)
     assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["failed", "skipped", "skipped"]
-    assert (out / "run1" / "report.json").stat().st_mtime_ns == stamp
+    assert (out / "run1.csv" / "report.json").stat().st_mtime_ns == stamp
     run(
         [
             "batch",
@@ -110,7 +124,7 @@ def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
         ]
     )
     assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["done", "done"]
-    assert (out / "run1" / "report.json").stat().st_mtime_ns != stamp
+    assert (out / "run1.csv" / "report.json").stat().st_mtime_ns != stamp
 
 
 def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
@@ -118,14 +132,14 @@ def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
     run(["simulate", "three_tank_hstf", "--out", str(log), "--seed", "4"])
     out = tmp_path / "batch"
     run(["batch", str(log), "--model", "three_tank_hstf", "--estimator", "imm", "--out", str(out)])
-    before = (out / "run" / "report.json").read_bytes()
+    before = (out / "run.csv" / "report.json").read_bytes()
     result = run(
         ["batch", str(log), "--model", "three_tank_hstf", "--estimator", "hstf", "--out", str(out)],
-        expect=2,
+        expect=1,
     )
     assert "1 of 1 logs failed" in result.stderr
     assert "holds a report of imm" in pl.read_csv(out / "summary.csv")["error"][0]
-    assert (out / "run" / "report.json").read_bytes() == before
+    assert (out / "run.csv" / "report.json").read_bytes() == before
 
 
 def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -141,20 +155,20 @@ def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.M
     out = tmp_path / "out"
     out.mkdir()
     write_marker(out)  # an earlier batch's folder, holding a folder of someone else's
-    (out / "s2").mkdir()
-    (out / "s2" / "mine.txt").write_text("not hybridlog's")
+    (out / "s2.csv").mkdir()
+    (out / "s2.csv" / "mine.txt").write_text("not hybridlog's")
     outcome = run_batch(logs, TANK, out_dir=out, estimator="imm", force=True)
     assert [Path(o.log).name for o in outcome.logs] == ["crash.csv", "s1.csv", "s2.csv", "s10.csv"]
     assert [o.status for o in outcome.logs] == ["failed", "done", "failed", "done"]
     assert outcome.logs[0].error == "KeyError: 'reader bug\\nsecond line'"
     assert "holds files hybridlog did not write" in (outcome.logs[2].error or "")
-    assert (out / "s2" / "mine.txt").read_text() == "not hybridlog's"
+    assert (out / "s2.csv" / "mine.txt").read_text() == "not hybridlog's"
     summary = pl.read_csv(out / "summary.csv")
     assert [Path(p).name for p in summary["log"]] == ["crash.csv", "s1.csv", "s2.csv", "s10.csv"]
     text = (out / "summary.md").read_text()
     assert "## Failed logs (2 of 4)" in text and "KeyError: 'reader bug" in text
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        [MARKER, "s1", "s10", "s2", "summary.csv", "summary.md"]
+        [MARKER, "s1.csv", "s10.csv", "s2.csv", "summary.csv", "summary.md", "summary.png"]
     )
 
 
