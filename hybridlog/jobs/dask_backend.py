@@ -35,7 +35,7 @@ def _client(address: str) -> Any:
             "--scheduler: Dask is not installed; install the extra: pip install 'hybridlog[dask]'"
         ) from err
     try:
-        return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+        return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError, ValueError, TypeError) as err:
         reason = " ".join(str(err).split()) or type(err).__name__
         raise OptionError(
@@ -80,9 +80,9 @@ def run_on_dask(
         When Dask is not installed or the scheduler cannot be reached within
         :data:`CONNECT_TIMEOUT_S`.
     """
+    client = _client(address)
     from distributed import as_completed
 
-    client = _client(address)
     try:
         batch = uuid.uuid4().hex
         futures = [
