@@ -665,8 +665,6 @@ def compare_command(
         "--schedule 3:60,1:60,2:60",
         "hybridlog batch runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
         "--jobs 2 --fail-under fit=60 --plots failed --junit nightly/junit.xml",
-        "hybridlog batch runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
-        "--scheduler tcp://10.0.0.5:8786",
     ),
 )
 @_global_flags

@@ -36,7 +36,7 @@ def _client(address: str) -> Any:
         ) from err
     try:
         return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT_S)
-    except (OSError, TimeoutError, ValueError, TypeError) as err:
+    except Exception as err:  # refused, timed out, a bad address, or not a Dask scheduler
         reason = " ".join(str(err).split()) or type(err).__name__
         raise OptionError(
             f"--scheduler {excerpt(address)[1:-1]}: cannot reach the Dask scheduler within "
