@@ -26,6 +26,7 @@ summarised in natural order (``s1, s2, s10``).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib
 import json
@@ -426,43 +427,48 @@ def run_batch(
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths = sorted((str(log) for log in logs), key=natural_key)
-    job, model, gates, tasks = _plan(
-        paths,
-        model_ref,
-        out_dir=out_dir,
-        estimator=estimator,
-        sets=sets,
-        read=read or ReadOptions(),
-        fail_under=fail_under,
-        fail_over=fail_over,
-        table_format=table_format,
-        plots=plots,
-        junit=junit,
-        force=force,
-    )
-    died = [_died(log, folder) for _, log, folder in tasks]
-    outcomes: list[LogOutcome]
-    if scheduler is not None:
-        from hybridlog.jobs.dask_backend import run_on_dask
-
-        outcomes = run_on_dask(
-            analyze_log, tasks, scheduler, died=lambda i, why: died[i](why), done=progress
-        )
-    elif jobs > 1 and len(tasks) > 1:
+    pool = None
+    if scheduler is None and jobs > 1 and len(paths) > 1:
         from hybridlog.jobs.workers import WorkerPool
 
-        with WorkerPool(min(jobs, len(tasks)), preload=(__name__,)) as pool:
+        # started first, so that the workers import what they need while this process
+        # checks the inputs (leaving the pool on an error kills them)
+        pool = WorkerPool(min(jobs, len(paths)), preload=(__name__,))
+    with pool if pool is not None else contextlib.nullcontext():
+        job, model, gates, tasks = _plan(
+            paths,
+            model_ref,
+            out_dir=out_dir,
+            estimator=estimator,
+            sets=sets,
+            read=read or ReadOptions(),
+            fail_under=fail_under,
+            fail_over=fail_over,
+            table_format=table_format,
+            plots=plots,
+            junit=junit,
+            force=force,
+        )
+        died = [_died(log, folder) for _, log, folder in tasks]
+        outcomes: list[LogOutcome]
+        if scheduler is not None:
+            from hybridlog.jobs.dask_backend import run_on_dask
+
+            outcomes = run_on_dask(
+                analyze_log, tasks, scheduler, died=lambda i, why: died[i](why), done=progress
+            )
+        elif pool is not None:
             # this process only waits now: it imports what the summary plot needs meanwhile
             plotting = threading.Thread(target=_import_summary_plot, daemon=True)
             plotting.start()
             outcomes = pool.run(analyze_log, tasks, died=lambda i, why: died[i](why), done=progress)
             plotting.join()
-    else:
-        outcomes = []
-        for task in tasks:
-            outcomes.append(analyze_log(*task))
-            if progress is not None:
-                progress(outcomes[-1])
+        else:
+            outcomes = []
+            for task in tasks:
+                outcomes.append(analyze_log(*task))
+                if progress is not None:
+                    progress(outcomes[-1])
     return _summarise(Path(os.path.abspath(out_dir)), model, job, gates, outcomes, junit)
 
 

@@ -22,6 +22,7 @@ import importlib
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 from collections import deque
@@ -58,6 +59,9 @@ def _serve(connection: Connection, parent: int, preload: tuple[str, ...] = ()) -
     """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``).
 
     The modules named in ``preload`` are imported first, while the parent is busy too.
+    Told to stop, the worker flushes its standard streams and exits at once: its tasks wrote
+    their files and sent their results, so the interpreter's tear-down (freeing every
+    module of numpy, polars and numba one by one) would only make the parent wait.
     """
     _watch_parent(parent)
     for module in preload:
@@ -68,13 +72,21 @@ def _serve(connection: Connection, parent: int, preload: tuple[str, ...] = ()) -
         except (EOFError, OSError):
             return
         if task is None:
-            return
+            _exit_now()
         function, arguments = task
         result = function(*arguments)
         try:
             connection.send(result)
         except (OSError, ValueError):
             return
+
+
+def _exit_now() -> None:
+    """Exit the worker without the interpreter's tear-down, its output flushed."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(0)
 
 
 @dataclass
@@ -137,9 +149,12 @@ class WorkerPool:
         return self
 
     def __exit__(self, kind: object, error: object, trace: object) -> None:
-        for worker in self._workers:
+        for worker in self._workers:  # all told first, so that they stop side by side
             if kind is not None:  # the caller failed: nothing the workers do is wanted
                 worker.process.kill()
+            with contextlib.suppress(OSError, ValueError):
+                worker.connection.send(None)
+        for worker in self._workers:
             _stop(worker)
         self._workers = []
 

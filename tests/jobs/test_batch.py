@@ -236,7 +236,8 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
 
 
 def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Path) -> None:
-    logs = write_logs(tmp_path, [f"s{k}" for k in range(1, 5)])
+    # enough logs that the batch still runs when both workers have written a report
+    logs = write_logs(tmp_path, [f"s{k}" for k in range(1, 41)])
     out = tmp_path / "out"
     command = [sys.executable, "-m", "hybridlog", "batch", *map(str, logs), "--model", TANK]
     batch = subprocess.Popen(
