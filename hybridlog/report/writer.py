@@ -20,7 +20,14 @@ from hybridlog.report.tables import (
 )
 from hybridlog.signals import AlignedSignals
 
-__all__ = ["write_report"]
+__all__ = ["write_plots", "write_report"]
+
+
+def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
+    """:func:`hybridlog.report.plots.write_plots`, importing matplotlib only when called."""
+    from hybridlog.report.plots import write_plots as draw
+
+    return draw(plot_dir, result, signals)
 
 
 def write_report(
@@ -93,8 +100,6 @@ def write_report(
         write_table(timeline_frame(result, signals), tmp / "timeline", fmt)
         write_table(estimates_frame(result, signals), tmp / "estimates", fmt)
         if plots(report) if callable(plots) else plots:
-            from hybridlog.report.plots import write_plots
-
             plot_dir = Path(tmp / "plots")
             plot_dir.mkdir()
             write_plots(plot_dir, result, signals)
