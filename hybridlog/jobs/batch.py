@@ -80,6 +80,7 @@ __all__ = [
     "folder_names",
     "natural_key",
     "run_batch",
+    "warm_up_worker",
 ]
 
 PLOT_CHOICES = ("none", "failed", "all")
@@ -433,7 +434,7 @@ def run_batch(
 
         # started first, so that the workers import what they need while this process
         # checks the inputs (leaving the pool on an error kills them)
-        pool = WorkerPool(min(jobs, len(paths)), preload=(__name__,))
+        pool = WorkerPool(min(jobs, len(paths)), preload=(f"{__name__}:warm_up_worker",))
     with pool if pool is not None else contextlib.nullcontext():
         job, model, gates, tasks = _plan(
             paths,
@@ -470,6 +471,22 @@ def run_batch(
                 if progress is not None:
                     progress(outcomes[-1])
     return _summarise(Path(os.path.abspath(out_dir)), model, job, gates, outcomes, junit)
+
+
+def _one(x: float) -> float:
+    return x
+
+
+def warm_up_worker() -> None:
+    """Run by each batch worker as it starts: numba's compiler set up before the first log.
+
+    Importing numba and setting up its CPU target take about a second, which a worker
+    spends here while the batch process still checks the inputs, instead of on its first log.
+    """
+    import numba
+
+    compiled: Any = numba.njit(_one)
+    compiled(1.0)
 
 
 def _import_summary_plot() -> None:

@@ -58,14 +58,18 @@ def _watch_parent(parent: int) -> None:
 def _serve(connection: Connection, parent: int, preload: tuple[str, ...] = ()) -> None:
     """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``).
 
-    The modules named in ``preload`` are imported first, while the parent is busy too.
+    The modules named in ``preload`` are imported first, while the parent is busy too; an
+    entry ``module:function`` also calls the function (without arguments).
     Told to stop, the worker flushes its standard streams and exits at once: its tasks wrote
     their files and sent their results, so the interpreter's tear-down (freeing every
     module of numpy, polars and numba one by one) would only make the parent wait.
     """
     _watch_parent(parent)
-    for module in preload:
-        importlib.import_module(module)
+    for entry in preload:
+        module, _, function = entry.partition(":")
+        loaded = importlib.import_module(module)
+        if function:
+            getattr(loaded, function)()
     while True:
         try:
             task = connection.recv()
@@ -135,7 +139,7 @@ class WorkerPool:
     jobs:
         Number of worker processes (``spawn`` start method: no state shared with the caller).
     preload:
-        Modules each worker imports as soon as it starts.
+        Modules each worker imports as soon as it starts (``module:function``: and calls).
     """
 
     def __init__(self, jobs: int, preload: Sequence[str] = ()) -> None:
