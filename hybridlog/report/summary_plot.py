@@ -1,6 +1,7 @@
 """``summary.png`` of a batch: each log's key metrics side by side, failures marked.
 
-Three panels over the logs in natural order: VAF (%), mode accuracy (%) and MSE (log scale).
+Three panels over the logs in natural order: VAF (%), mode accuracy (%) and MSE (log scale
+when it spans more than a decade).
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
 at the bottom of every panel.  Drawn with matplotlib's Agg canvas (no pyplot, no global
 state), like the per-log plots (:mod:`hybridlog.report.plots`).
@@ -43,7 +44,7 @@ def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None
     width = min(4.0 + 0.12 * len(rows), 16.0)
     fig = Figure(figsize=(width, 6.4))
     FigureCanvasAgg(fig)
-    fig.subplots_adjust(left=0.08, right=0.98, top=0.93, bottom=0.2, hspace=0.15)
+    fig.subplots_adjust(left=0.11, right=0.98, top=0.93, bottom=0.2, hspace=0.15)
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
@@ -74,8 +75,9 @@ def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None
                 transform=ax.get_xaxis_transform(),
                 zorder=3,
             )
-        if metric == "mse" and any(v is not None and v > 0 for v in values):
-            ax.set_yscale("log")
+        positive = [v for v in values if v is not None and v > 0]
+        if metric == "mse" and positive and max(positive) > 10 * min(positive):
+            ax.set_yscale("log")  # MSEs spanning decades
         ax.set_ylabel(label, fontsize=9)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))
