@@ -7,6 +7,7 @@ batch process; logs are summarised in natural order.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
@@ -16,6 +17,7 @@ import threading
 import time
 from pathlib import Path
 
+import click
 import polars as pl
 import pytest
 from click.testing import CliRunner
@@ -24,7 +26,7 @@ from hybridlog.cli import main
 from hybridlog.errors import OptionError
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import folder_names, natural_key, run_batch
+from hybridlog.jobs.batch import LogOutcome, folder_names, natural_key, run_batch
 from hybridlog.outputs import MARKER, write_marker
 from tests.support.logfiles import tank_run
 
@@ -272,3 +274,29 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
         assert log.status == ("skipped" if Path(log.folder).name in finished else "done")
     # Temporaries the killed workers left are gone; only the batch folder's marker is hidden.
     assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MARKER]
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_progress_bar_counts_done_failed_skipped_with_rate(
+    monkeypatch: pytest.MonkeyPatch, quiet: bool
+) -> None:
+    from hybridlog import cli as cli_module
+
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    context = click.Context(cli_module.cli, obj=cli_module._Context(quiet=quiet))
+    statuses = ["done", "failed", "skipped", "done"]
+    with cli_module._batch_progress(context, len(statuses)) as advance:
+        if quiet:
+            assert advance is None
+            return
+        assert advance is not None
+        for status in statuses:
+            advance(LogOutcome("log", "folder", status, None, None))
+    text = terminal.getvalue()
+    assert "4/4" in text and "done 2 · failed 1 · skipped 1 · " in text and "logs/min" in text
