@@ -65,7 +65,7 @@ from hybridlog.outputs import (
     remove_stale_temporaries,
     write_marker,
 )
-from hybridlog.report import Report, evaluate_gates, read_report, write_report
+from hybridlog.report import Report, evaluate_gates, parse_gates, read_report, write_report
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import check_junit_target, write_junit
 from hybridlog.report.summary import BatchRow, batch_markdown, batch_rows_csv
@@ -192,9 +192,9 @@ class BatchJob:
 
     Attributes
     ----------
-    model_ref, model_sha256, sets, estimator:
-        The model (file path or built-in name) and its content hash, the ``--set`` values and
-        the estimator's registry name.
+    model_ref, model_sha256, model_name, sets, estimator:
+        The model (file path or built-in name), its content hash and name, the ``--set``
+        values and the estimator's registry name.
     read, table_format, fail_under, fail_over, plots, force:
         The run's options (``plots``: one of :data:`PLOT_CHOICES`).
     settings:
@@ -203,6 +203,7 @@ class BatchJob:
 
     model_ref: str
     model_sha256: str
+    model_name: str
     sets: tuple[str, ...]
     estimator: str
     read: ReadOptions
@@ -305,8 +306,7 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
         report = read_report(report_file)
     except ReportError:
         return None  # an unreadable or malformed earlier report is redone
-    model_name = _warm(job).model.name
-    if (report.model, report.estimator) != (model_name, job.estimator):
+    if (report.model, report.estimator) != (job.model_name, job.estimator):
         return LogOutcome(
             log,
             str(folder),
@@ -317,7 +317,9 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
         )
     if report.extra.get(PROVENANCE_KEY) != job.provenance(log_sha256):
         return None
-    if _wants_plots(job, _warm(job).gates)(report) and not (folder / "plots").is_dir():
+    # checked without loading the model, so that resuming a finished batch costs no start-up
+    gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []
+    if _wants_plots(job, gates)(report) and not (folder / "plots").is_dir():
         return None
     return LogOutcome(log, str(folder), "skipped", report, None)
 
@@ -526,6 +528,7 @@ def _plan(
     job = BatchJob(
         model_ref=str(model_ref),
         model_sha256=model_hash(model_ref),
+        model_name=model.name,
         sets=tuple(sets),
         estimator=prepared.name,
         read=read,
