@@ -430,14 +430,23 @@ def run_batch(
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths = sorted((str(log) for log in logs), key=natural_key)
-    pool = None
-    if scheduler is None and jobs > 1 and len(paths) > 1:
+    pool = client = None
+    if scheduler is not None:
+        from hybridlog.jobs.dask_backend import connect, run_on_dask
+
+        client = connect(scheduler)  # before anything is written: an unreachable one fails alone
+    elif jobs > 1 and len(paths) > 1:
         from hybridlog.jobs.workers import WorkerPool
 
         # started first, so that the workers import what they need while this process
         # checks the inputs (leaving the pool on an error kills them)
         pool = WorkerPool(min(jobs, len(paths)), preload=(f"{__name__}:warm_up_worker",))
-    with pool if pool is not None else contextlib.nullcontext():
+    resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
+    if pool is not None:
+        resource = pool
+    elif client is not None:
+        resource = contextlib.closing(client)
+    with resource:
         job, model, gates, tasks = _plan(
             paths,
             model_ref,
@@ -454,11 +463,9 @@ def run_batch(
         )
         died = [_died(log, folder) for _, log, folder in tasks]
         outcomes: list[LogOutcome]
-        if scheduler is not None:
-            from hybridlog.jobs.dask_backend import run_on_dask
-
+        if client is not None:
             outcomes = run_on_dask(
-                analyze_log, tasks, scheduler, died=lambda i, why: died[i](why), done=progress
+                analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
             )
         elif pool is not None:
             # this process only waits now: it imports what the summary plot needs meanwhile

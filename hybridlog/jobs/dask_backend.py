@@ -19,7 +19,7 @@ from typing import Any, TypeVar, cast
 
 from hybridlog.errors import OptionError, excerpt
 
-__all__ = ["CONNECT_TIMEOUT_S", "run_on_dask"]
+__all__ = ["CONNECT_TIMEOUT_S", "connect", "run_on_dask"]
 
 R = TypeVar("R")
 
@@ -27,7 +27,15 @@ CONNECT_TIMEOUT_S = 5.0
 """How long the client tries to reach the scheduler before giving up (seconds)."""
 
 
-def _client(address: str) -> Any:
+def connect(address: str) -> Any:
+    """A Dask client of the scheduler at ``address`` (close it when done).
+
+    Raises
+    ------
+    OptionError
+        When Dask is not installed or the scheduler cannot be reached within
+        :data:`CONNECT_TIMEOUT_S`.
+    """
     try:
         from distributed import Client
     except ImportError as err:
@@ -47,12 +55,12 @@ def _client(address: str) -> Any:
 def run_on_dask(
     function: Callable[..., R],
     tasks: Sequence[tuple[Any, ...]],
-    address: str,
+    client: Any,
     *,
     died: Callable[[int, str], R],
     done: Callable[[R], None] | None = None,
 ) -> list[R]:
-    """Run ``function(*task)`` for every task on the cluster of the scheduler at ``address``.
+    """Run ``function(*task)`` for every task on the cluster of ``client`` (:func:`connect`).
 
     Parameters
     ----------
@@ -61,8 +69,8 @@ def run_on_dask(
         what may fail); workers import it by reference.
     tasks:
         Argument tuples (pickled by Dask).
-    address:
-        The scheduler's address, e.g. ``tcp://10.0.0.5:8786``.
+    client:
+        A client from :func:`connect`; it is closed when all tasks are done.
     died:
         The result of task ``i`` when Dask could not run it (its worker died, Dask gave up),
         from ``(i, reason)``.
@@ -73,14 +81,7 @@ def run_on_dask(
     -------
     list
         One result per task, in the order of ``tasks``.
-
-    Raises
-    ------
-    OptionError
-        When Dask is not installed or the scheduler cannot be reached within
-        :data:`CONNECT_TIMEOUT_S`.
     """
-    client = _client(address)
     from distributed import as_completed
 
     try:

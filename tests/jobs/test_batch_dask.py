@@ -73,6 +73,7 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
     with pytest.raises(OptionError, match=r"--scheduler tcp://127.0.0.1:9: cannot reach") as err:
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
     assert "\n" not in str(err.value)
+    assert not (tmp_path / "out").exists()  # refused before anything was written
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
     with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
