@@ -5,6 +5,7 @@ Library-level, in this process (``jobs=1``), except the one test that kills a ba
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -36,12 +37,17 @@ def write_logs(folder: Path, names: list[str], steps: int = 40, first_seed: int 
 
 
 def stamps(out: Path) -> dict[str, int]:
-    """The modification time of every finished report.json below ``out``, by folder."""
+    """The modification time of every finished report.json below ``out``, by folder.
+
+    Temporaries (hidden) are skipped; a folder renamed while we look is taken as it is then.
+    """
     found = {}
-    for path in out.rglob("report.json"):
-        folder = path.parent.relative_to(out)
-        if not any(part.startswith(".") for part in folder.parts):  # not a temporary
-            found[folder.as_posix()] = path.stat().st_mtime_ns
+    for parent, folders, files in os.walk(out):
+        folders[:] = [f for f in folders if not f.startswith(".")]
+        if "report.json" in files:
+            with contextlib.suppress(FileNotFoundError):
+                stamp = (Path(parent) / "report.json").stat().st_mtime_ns
+                found[Path(parent).relative_to(out).as_posix()] = stamp
     return found
 
 
