@@ -27,7 +27,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any, TypeVar
@@ -38,6 +38,9 @@ R = TypeVar("R")
 
 PARENT_POLL_S = 0.2
 """How often a worker checks that its parent still runs (seconds)."""
+
+QUEUED = 2
+"""Tasks sent ahead to each worker: the next one is waiting when it finishes one."""
 
 
 def _watch_parent(parent: int) -> None:
@@ -97,7 +100,8 @@ def _exit_now() -> None:
 class _Worker:
     process: SpawnProcess
     connection: Connection
-    task: int | None = None
+    tasks: deque[int] = field(default_factory=deque)
+    """Tasks sent and not answered yet, in order: the first is the one running."""
 
 
 def _start(context: SpawnContext, preload: tuple[str, ...] = ()) -> _Worker:
@@ -183,7 +187,8 @@ class WorkerPool:
         died:
             The result of task ``i`` whose worker died, from ``(i, reason)`` (e.g. ``"killed
             by signal SIGKILL"``).  The task is not retried: it may be what killed the
-            worker.  A new worker takes the remaining tasks.
+            worker.  A new worker takes the remaining tasks, including those queued
+            behind it (:data:`QUEUED`), which had not started.
         done:
             Called with each result as it arrives (in completion order).
 
@@ -201,30 +206,36 @@ class WorkerPool:
             if done is not None:
                 done(result)
 
-        while pending or any(w.task is not None for w in workers):
+        while pending or any(w.tasks for w in workers):
             while pending and len(workers) < self.jobs:
                 workers.append(_start(self._context, self.preload))
             for worker in workers:
-                if worker.task is None and pending:
-                    worker.task = pending.popleft()
-                    # A worker that died idle is found below through its sentinel.
+                # QUEUED tasks per worker, so that it never waits for this process between two
+                while pending and len(worker.tasks) < QUEUED:
+                    worker.tasks.append(pending.popleft())
+                    # A worker that died is found below through its sentinel.
                     with contextlib.suppress(OSError, ValueError):
-                        worker.connection.send((function, tasks[worker.task]))
-            busy = [w for w in workers if w.task is not None]
+                        worker.connection.send((function, tasks[worker.tasks[-1]]))
+            busy = [w for w in workers if w.tasks]
             ready = set(wait([w.connection for w in busy] + [w.process.sentinel for w in busy]))
             for worker in busy:
-                index = worker.task
-                if index is None or not {worker.connection, worker.process.sentinel} & ready:
+                if not {worker.connection, worker.process.sentinel} & ready:
                     continue
-                worker.task = None
                 try:
-                    result: R = worker.connection.recv()
+                    while worker.tasks and worker.connection.poll():
+                        result: R = worker.connection.recv()
+                        finish(worker.tasks.popleft(), result)
+                    if worker.tasks and worker.process.sentinel in ready:
+                        raise EOFError  # it ended with tasks unanswered
                 except (EOFError, OSError):
+                    # the task it was running killed it (or it was killed running it); the
+                    # ones queued behind it never started and go to another worker
+                    index = worker.tasks.popleft()
                     finish(index, died(index, _death(worker.process)))
+                    pending.extendleft(reversed(worker.tasks))
+                    worker.tasks.clear()
                     workers.remove(worker)
                     worker.connection.close()
-                    continue
-                finish(index, result)
         return [results[index] for index in range(len(tasks))]
 
 
