@@ -40,7 +40,7 @@ from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
 RESULTS = Path(__file__).resolve().parent / "results.md"
-BENCHMARKS = ("three_tank", "compile", "filterpy", "clustering", "read", "analyze")
+BENCHMARKS = ("three_tank", "compile", "filterpy", "clustering", "read", "analyze", "batch")
 
 HSTF_TARGET_S = 3.0
 """10^6 HSTF steps on the three-tank model must take less than this."""
@@ -429,6 +429,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                     label, steps=n, time_s=t, target=target, met=met, notes=f"{n:,} points; {notes}"
                 )
                 for label, n, t, target, met, notes in bench_clustering(args.quick)
+            ]
+        elif name == "batch":
+            from benchmarks.batch import bench_batch
+
+            rows += [
+                Row(label, time_s=t, target=target, met=met, notes=notes)  # logs, not steps
+                for label, _, t, target, met, notes in bench_batch(args.quick, min(repeat, 2))
             ]
         elif name == "read":
             from benchmarks.read_logs import bench_read

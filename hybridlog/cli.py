@@ -15,6 +15,7 @@ import contextlib
 import gc
 import json
 import sys
+import time
 import traceback
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -668,7 +669,7 @@ def compare_command(
         "hybridlog simulate three_tank_hstf --out runs/seed2.csv --seed 2 "
         "--schedule 3:60,1:60,2:60",
         "hybridlog batch runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
-        "--jobs 2 --fail-under fit=60",
+        "--jobs 2 --fail-under fit=60 --plots failed --junit nightly/junit.xml",
     ),
 )
 @_global_flags
@@ -680,7 +681,8 @@ def compare_command(
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output directory: one report folder per log and summary.md/.csv.",
+    help="Output directory: one report folder per log (its path from the logs' common "
+    "folder, e.g. d2/run.csv/) and summary.md/.csv/.png.",
 )
 @click.option(
     "--jobs",
@@ -688,6 +690,27 @@ def compare_command(
     default=1,
     show_default=True,
     help="Logs analysed in parallel (processes).",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Run on the Dask cluster of this scheduler (e.g. tcp://host:8786; needs "
+    "hybridlog[dask] and the paths shared with the workers) instead of local processes.",
+)
+@click.option(
+    "--plots",
+    type=click.Choice(["none", "failed", "all"]),
+    default="none",
+    show_default=True,
+    help="Per-log plots: none, only logs that miss a gate, or all.",
+)
+@click.option(
+    "--junit",
+    default=None,
+    type=click.Path(path_type=Path),
+    metavar="FILE",
+    help="Write JUnit XML: a test case per log per gate, an error per log not analysed.",
 )
 @_analysis_options
 @click.pass_context
@@ -699,19 +722,30 @@ def batch_command(
     estimator: str | None,
     out_dir: Path,
     jobs: int,
+    scheduler: str | None,
+    plots: str,
+    junit: Path | None,
     **options: Any,
 ) -> None:
-    """Analyse many logs; a failing log never stops the others, finished logs are skipped."""
+    """Analyse many logs; a failing log never stops the others.
+
+    A log is skipped when its report records the same log content, model, options and
+    hybridlog version (--force redoes all).  Exit status 1 when a log could not be analysed
+    or missed a gate, 2 for bad options, model or output folder.
+    """
     from hybridlog.jobs.batch import run_batch
 
     read, common = _split_options(options)
-    with _progress(ctx, len(logs), "logs") as advance:
+    with _batch_progress(ctx, len(logs)) as advance:
         outcome = run_batch(
             list(logs),
             model_ref,
             out_dir=out_dir,
             estimator=estimator,
             jobs=jobs,
+            scheduler=scheduler,
+            plots=plots,
+            junit=junit,
             read=read,
             progress=advance,
             **common,
@@ -726,20 +760,57 @@ def batch_command(
         )
     _gate_exit(outcome.gate_failures)
     if outcome.failed:
-        sys.exit(2)
+        sys.exit(1)
+
+
+@contextlib.contextmanager
+def _batch_progress(ctx: click.Context, total: int) -> Iterator[Callable[[Any], None] | None]:
+    """A progress bar of a batch on stderr: done / failed / skipped, rate and ETA."""
+    counts = {"done": 0, "failed": 0, "skipped": 0}
+    started = time.monotonic()
+
+    def show(_: object) -> str:
+        finished = sum(counts.values())
+        rate = finished / max(time.monotonic() - started, 1e-9) * 60
+        return (
+            f"done {counts['done']} · failed {counts['failed']} · skipped {counts['skipped']}"
+            f" · {rate:,.0f} logs/min"
+        )
+
+    with _progress(ctx, total, "logs", show) as bar:
+        if bar is None:
+            yield None
+            return
+
+        def advance(outcome: Any) -> None:
+            counts[outcome.status] = counts.get(outcome.status, 0) + 1
+            bar(outcome)
+
+        yield advance
 
 
 @contextlib.contextmanager
 def _progress(
-    ctx: click.Context, total: int, label: str
+    ctx: click.Context,
+    total: int,
+    label: str,
+    show: Callable[[Any], str] | None = None,
 ) -> Iterator[Callable[[object], None] | None]:
-    """A progress bar on stderr, only on a terminal and without ``--quiet``."""
+    """A progress bar on stderr (with ETA), only on a terminal and without ``--quiet``."""
     settings = ctx.find_object(_Context)
     if (settings is not None and settings.quiet) or not sys.stderr.isatty():
         yield None
         return
-    with click.progressbar(length=total, label=label, file=sys.stderr) as bar:
-        yield lambda _: bar.update(1)
+    bar: Any
+    with click.progressbar(
+        length=total,
+        label=label,
+        file=sys.stderr,
+        show_eta=True,
+        show_pos=True,
+        item_show_func=None if show is None else lambda item: show(item),
+    ) as bar:
+        yield lambda item: bar.update(1, item)
 
 
 def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:

@@ -1,46 +1,94 @@
 """Batch reprocessing: one estimator over many logs, each into its own report folder.
 
 A failing log never stops the others: any exception while analysing a log, and a worker
-process that dies, is recorded as that log's one-line error in the summary.  A log whose
-folder already holds a report of the same model and estimator is skipped (its report is reused
-in the summary) unless ``force`` is given.  ``jobs > 1`` analyses logs in parallel worker
-processes (:mod:`hybridlog.jobs.workers`), which exit when the batch process dies.  Logs are
-processed and summarised in natural order (``s1, s2, s10``).
+process that dies, is recorded as that log's one-line error in the summary.
+
+**Resume by content.**  Every report a batch writes records its provenance (report key
+``batch``, :func:`provenance`): the SHA-256 of the log's bytes (of every file of a bag
+folder), of the model file (or built-in model text), the settings that change results
+(estimator and its options, ``--set`` parameters, read options with the content of every
+``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
+is skipped (its report reused) only when its folder's report records exactly the provenance
+of the run about to be made; otherwise it is redone.  ``force`` redoes every log.
+
+**Folder names** (:func:`folder_names`) are the log paths relative to their common folder,
+suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They depend on each log's own path and
+on the common folder only, never on the order of the arguments.
+
+**Throughput.**  Workers stay warm: each process loads the model, prepares the estimator and
+compiles its code once per batch (:func:`_warm`) and reuses them for every log it analyses;
+per-log plots are drawn only as ``plots`` asks (``none`` by default, ``failed``: logs that miss
+a gate, ``all``).  ``jobs > 1`` analyses logs in worker processes
+(:mod:`hybridlog.jobs.workers`), ``scheduler`` on a Dask cluster
+(:mod:`hybridlog.jobs.dask_backend`); the results are the same.  Logs are processed and
+summarised in natural order (``s1, s2, s10``).
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
+import importlib
+import json
 import os
 import re
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from hybridlog.errors import HybridlogError, OptionError, OutputError, ReportError
+from hybridlog import __version__
+from hybridlog.errors import HybridlogError, OptionError, OutputError, ReportError, excerpt
+from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
-    analyze,
+    FILE_OPTIONS,
+    Overrides,
+    estimator_inputs,
     gates_for,
     input_paths,
     parse_sets,
     prepare_estimators,
+    read_log,
 )
-from hybridlog.jobs.workers import run_tasks
+from hybridlog.jobs.provenance import content_hash, model_hash
+from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
     MARKER,
     PathLike,
     atomic_files,
     check_apart,
     check_dir_target,
+    check_distinct,
     is_ours,
     remove_stale_temporaries,
     write_marker,
 )
-from hybridlog.report import Report, evaluate_gates, read_report
-from hybridlog.report.summary import markdown_table, write_summary_csv
+from hybridlog.report import Report, evaluate_gates, parse_gates, read_report, write_report
+from hybridlog.report.gates import Gate
+from hybridlog.report.junit import check_junit_target, write_junit
+from hybridlog.report.summary import BatchRow, batch_markdown, batch_rows_csv
 from hybridlog.report.tables import check_table_format
 
-_COLUMNS = ("log", "status", "samples", "vaf", "mse", "mode_accuracy", "error")
+__all__ = [
+    "PLOT_CHOICES",
+    "BatchJob",
+    "BatchOutcome",
+    "LogOutcome",
+    "analyze_log",
+    "folder_names",
+    "natural_key",
+    "run_batch",
+    "warm_up_worker",
+]
+
+PLOT_CHOICES = ("none", "failed", "all")
+"""``--plots``: no per-log plots (the default in batch), logs that miss a gate, every log."""
+
+PROVENANCE_KEY = "batch"
+"""Report key under which a batch records what the report was made from."""
+
 _ERROR_LIMIT = 300
 
 
@@ -76,20 +124,57 @@ def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
     )
 
 
-def folder_names(logs: Sequence[Path]) -> list[str]:
-    """A distinct report folder name per log: its stem, made unique with its parent's name.
+_RESERVED = frozenset({"summary.md", "summary.csv", "summary.png", MARKER})
 
-    Names never start with a dot, so a report folder is never hidden nor taken for
-    hybridlog's marker or temporary files.
+
+def _escaped(part: str, top: bool) -> str:
+    """A path component as a folder name: never hidden, never a batch file's name.
+
+    A component whose text after leading ``_`` starts with ``.`` (or, at the top, is a batch
+    file's name) gets one more ``_``; every other is kept.  The mapping is one-to-one: a
+    kept name never looks like an escaped one.
     """
-    stems = [log.stem for log in logs]
+    bare = part.lstrip("_")
+    if bare.startswith(".") or not bare or (top and bare in _RESERVED):
+        return "_" + part
+    return part
+
+
+def folder_names(logs: Sequence[PathLike]) -> list[str]:
+    """Each log's report folder, relative to the batch folder: its path from the logs' root.
+
+    The root is the deepest folder holding every log, so ``d2/run.csv`` and
+    ``d2/run.parquet`` get ``d2/run.csv`` and ``d2/run.parquet`` (the suffix is kept), whatever
+    the order of the arguments.  Hidden names and names of the batch's own files are escaped
+    (:func:`_escaped`).
+
+    Raises
+    ------
+    OptionError
+        When a log is given twice, or lies inside another log (a file inside a bag folder).
+    """
+    absolute = [os.path.abspath(log) for log in logs]
+    if not absolute:
+        return []
+    root = os.path.commonpath([os.path.dirname(path) for path in absolute])
     names: list[str] = []
-    for log, stem in zip(logs, stems, strict=True):
-        name = stem if stems.count(stem) == 1 else f"{log.parent.name or 'log'}_{stem}"
-        name = "_" + name[1:] if name.startswith(".") else name or "_"
-        while name in names:
-            name += "_"
+    seen: dict[str, PathLike] = {}
+    for log, path in zip(logs, absolute, strict=True):
+        parts = Path(os.path.relpath(path, root)).parts
+        name = "/".join(_escaped(part, k == 0) for k, part in enumerate(parts))
+        if name in seen:
+            raise OptionError(f"log {excerpt(str(log))} is given twice")
+        seen[name] = log
         names.append(name)
+    for name in names:
+        parent = name.rpartition("/")[0]
+        while parent:
+            if parent in seen:
+                raise OptionError(
+                    f"log {excerpt(str(seen[name]))} lies inside the log "
+                    f"{excerpt(str(seen[parent]))}; give one of them"
+                )
+            parent = parent.rpartition("/")[0]
     return names
 
 
@@ -98,79 +183,196 @@ def _one_line(text: str) -> str:
     return line if len(line) <= _ERROR_LIMIT else line[: _ERROR_LIMIT - 1] + "…"
 
 
-def _analyze_checked(
-    log: str,
-    folder: str,
-    model_ref: str,
-    model_name: str,
-    estimator: str,
-    sets: tuple[str, ...],
-    read: ReadOptions,
-    table_format: str,
-    force: bool,
-) -> LogOutcome:
+# --- what is shared by the logs -----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """Everything the logs of a batch share; sent with each log to the worker analysing it.
+
+    Attributes
+    ----------
+    model_ref, model_sha256, model_name, sets, estimator:
+        The model (file path or built-in name), its content hash and name, the ``--set``
+        values and the estimator's registry name.
+    read, table_format, fail_under, fail_over, plots, force:
+        The run's options (``plots``: one of :data:`PLOT_CHOICES`).
+    settings:
+        The settings that change results, as canonical JSON (part of :func:`provenance`).
+    """
+
+    model_ref: str
+    model_sha256: str
+    model_name: str
+    sets: tuple[str, ...]
+    estimator: str
+    read: ReadOptions
+    table_format: str
+    fail_under: tuple[str, ...]
+    fail_over: tuple[str, ...]
+    plots: str
+    force: bool
+    settings: str
+
+    def provenance(self, log_sha256: str) -> dict[str, Any]:
+        """What a report of this batch for a log of this content records (key ``batch``)."""
+        return {
+            "log_sha256": log_sha256,
+            "model_sha256": self.model_sha256,
+            "settings": json.loads(self.settings),
+            "hybridlog_version": __version__,
+        }
+
+
+def _settings(
+    prepared: Prepared, overrides: Overrides, read: ReadOptions, table_format: str
+) -> str:
+    """The settings that change a batch's results, as canonical JSON text."""
+    files = {
+        name: content_hash(value, what=what)
+        for name, (what, _) in FILE_OPTIONS.items()
+        if (value := getattr(prepared.options, name, None))
+    }
+    reading: dict[str, Any] = dataclasses.asdict(read)
+    reading["msg_dirs"] = [
+        [folder, content_hash(folder, what="--msg-dir folder")] for folder in read.msg_dirs
+    ]
+    settings = {
+        "estimator": prepared.name,
+        "options": prepared.options_dict(),
+        "parameters": dict(overrides.parameters),
+        "files": files,
+        "read": reading,
+        "table_format": table_format,
+    }
+    return json.dumps(settings, sort_keys=True, default=str)
+
+
+@dataclass(frozen=True)
+class _Warm:
+    """What a worker keeps between the logs of a batch."""
+
+    model: HybridModel
+    prepared: Prepared
+    inputs: dict[str, object]
+    gates: list[Gate]
+
+
+_WARM: dict[tuple[object, ...], _Warm] = {}
+_WARM_LOCK = threading.Lock()
+
+
+def _warm_key(job: BatchJob) -> tuple[object, ...]:
+    return (job.model_ref, job.model_sha256, job.sets, job.estimator, job.fail_under, job.fail_over)
+
+
+def _warm(job: BatchJob) -> _Warm:
+    """The loaded model, prepared estimator, its input files and gates, once per process.
+
+    Kept for the batch's model, ``--set`` values and estimator (one batch at a time: a new
+    key replaces the old one), so a worker loads and compiles nothing after its first log.
+    """
+    key = _warm_key(job)
+    with _WARM_LOCK:
+        warm = _WARM.get(key)
+        if warm is None:
+            model, overrides = parse_sets(job.sets, job.model_ref)
+            (prepared,) = prepare_estimators(model, [job.estimator], overrides)
+            gates = gates_for(model, job.fail_under, job.fail_over)
+            warm = _Warm(model, prepared, estimator_inputs(prepared), gates)
+            _WARM.clear()
+            _WARM[key] = warm
+        return warm
+
+
+def _wants_plots(job: BatchJob, gates: Sequence[Gate]) -> Callable[[Report], bool]:
+    def wanted(report: Report) -> bool:
+        if job.plots == "all":
+            return True
+        return job.plots == "failed" and bool(evaluate_gates(report, gates))
+
+    return wanted
+
+
+# --- one log ------------------------------------------------------------------------------------
+
+
+def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutcome | None:
+    """The finished outcome of a log whose folder holds a report of this very run, if any."""
+    report_file = folder / "report.json"
+    if job.force or not report_file.is_file():
+        return None
+    try:
+        report = read_report(report_file)
+    except ReportError:
+        return None  # an unreadable or malformed earlier report is redone
+    if (report.model, report.estimator) != (job.model_name, job.estimator):
+        return LogOutcome(
+            log,
+            str(folder),
+            "failed",
+            None,
+            f"{folder} holds a report of {report.estimator} with model {report.model}; "
+            "use --force to replace it, or another --out",
+        )
+    if report.extra.get(PROVENANCE_KEY) != job.provenance(log_sha256):
+        return None
+    # checked without loading the model, so that resuming a finished batch costs no start-up
+    gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []
+    if _wants_plots(job, gates)(report) and not (folder / "plots").is_dir():
+        return None
+    return LogOutcome(log, str(folder), "skipped", report, None)
+
+
+def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     path = Path(folder)
+    # The log's bytes are hashed before they are read, so a report never records a
+    # content it was not made from.
+    log_sha256 = content_hash(log)
     if path.exists() or path.is_symlink():
         # A folder hybridlog did not write is never replaced, with or without --force.
         check_dir_target(path, force=True)
-        report_file = path / "report.json"
-        if not force and report_file.is_file():
-            try:
-                report: Report | None = read_report(report_file)
-            except ReportError:
-                report = None  # an unreadable or malformed earlier report is redone
-            if report is not None:
-                made_with = (report.model, report.estimator)
-                if made_with == (model_name, estimator):
-                    return LogOutcome(log, folder, "skipped", report, None)
-                return LogOutcome(
-                    log,
-                    folder,
-                    "failed",
-                    None,
-                    f"{folder} holds a report of {made_with[1]} with model {made_with[0]}; "
-                    "use --force to replace it, or another --out",
-                )
-    outcome = analyze(
-        log,
-        model_ref,
-        out_dir=folder,
-        estimator=estimator,
-        sets=sets,
-        read=read,
-        table_format=table_format,
+        reused = _reusable(job, path, log, log_sha256)
+        if reused is not None:
+            return reused
+    warm = _warm(job)
+    reading: dict[str, Any] = {}
+    signals = read_log(log, warm.model, job.read, reading)
+    result = warm.prepared.run(warm.model, signals, **warm.inputs)
+    report = write_report(
+        path,
+        result,
+        signals,
+        log=log,
+        model_name=warm.model.name,
+        dt=warm.model.dt,
+        table_format=job.table_format,
         force=True,
+        reading=reading,
+        extra={PROVENANCE_KEY: job.provenance(log_sha256)},
+        plots=_wants_plots(job, warm.gates),
     )
-    return LogOutcome(log, folder, "done", outcome.report, None)
+    return LogOutcome(log, folder, "done", report, None)
 
 
-def _analyze_one(
-    log: str,
-    folder: str,
-    model_ref: str,
-    model_name: str,
-    estimator: str,
-    sets: tuple[str, ...],
-    read: ReadOptions,
-    table_format: str,
-    force: bool,
-) -> LogOutcome:
-    """Analyse one log of the batch; every failure becomes the log's one-line error."""
+def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
+    """Analyse one log of a batch into ``folder``; every failure becomes its one-line error.
+
+    The task a worker runs (a local process or a Dask worker): it returns, never raises.
+    """
     try:
-        return _analyze_checked(
-            log, folder, model_ref, model_name, estimator, sets, read, table_format, force
-        )
+        return _analyze_checked(job, log, folder)
     except HybridlogError as err:
         return LogOutcome(log, folder, "failed", None, _one_line(str(err)))
     except Exception as err:  # a reader or estimator bug must not stop the other logs
         return LogOutcome(log, folder, "failed", None, _one_line(f"{type(err).__name__}: {err}"))
 
 
-# --- the batch ---------------------------------------------------------------------------------
+# --- the batch ----------------------------------------------------------------------------------
 
 
-def _prepare_root(root: Path) -> None:
-    """Create the batch folder, or check that an existing one is hybridlog's."""
+def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
+    """Create the batch folder and the folders holding log folders, or check they are ours."""
     if root.exists() or root.is_symlink():
         check_dir_target(root, force=True)  # a file, a link, or a folder of someone else's
         if any(root.iterdir()) and not is_ours(root):
@@ -178,13 +380,22 @@ def _prepare_root(root: Path) -> None:
                 f"output directory {root} holds files hybridlog did not write (no {MARKER} "
                 "file); choose another --out or empty the folder yourself"
             )
+    parents = sorted({folder.parent for folder in folders} | {root})
     try:
         root.mkdir(parents=True, exist_ok=True)
         if not (root / MARKER).is_file():
             write_marker(root)
+        for parent in parents:
+            # made here, before any worker starts, so that no worker removes one another uses
+            parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
-    remove_stale_temporaries(root)
+    for parent in parents:
+        remove_stale_temporaries(parent)
+
+
+def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
+    return lambda reason: LogOutcome(log, folder, "failed", None, f"worker process died ({reason})")
 
 
 def run_batch(
@@ -194,94 +405,195 @@ def run_batch(
     out_dir: PathLike,
     estimator: str | None = None,
     jobs: int = 1,
+    scheduler: str | None = None,
     sets: Sequence[str] = (),
     read: ReadOptions | None = None,
     fail_under: Sequence[str] = (),
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
+    plots: str = "none",
+    junit: PathLike | None = None,
     force: bool = False,
     progress: Callable[[LogOutcome], None] | None = None,
 ) -> BatchOutcome:
-    """Analyse every log into ``<out>/<log name>/`` and write ``summary.md``/``summary.csv``.
+    """Analyse every log into ``<out>/<log path>/``; write ``summary.md``/``.csv``/``.png``.
 
-    Everything shared by the logs (model, options, gates, the output folder) is checked
-    before the first log is read: the output folder must not be, contain or sit inside any
-    log, the model file, a centres file or a ``--msg-dir``.  ``progress`` is called with each
-    log's outcome as it finishes.
+    Everything shared by the logs (model, options, gates, the output folder, the JUnit file)
+    is checked before the first log is read: the outputs must not be, contain or sit inside
+    any log, the model file, a centres file or a ``--msg-dir``.  ``progress`` is called with
+    each log's outcome as it finishes.  ``jobs`` worker processes analyse the logs, or the
+    Dask cluster whose scheduler is at ``scheduler``.  ``junit`` names a JUnit XML file to
+    write (:func:`hybridlog.report.junit.write_junit`).
     """
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
-    paths = sorted((Path(log) for log in logs), key=lambda p: natural_key(str(p)))
+    if plots not in PLOT_CHOICES:
+        raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
+    paths = sorted((str(log) for log in logs), key=natural_key)
+    pool = client = None
+    if scheduler is not None:
+        from hybridlog.jobs.dask_backend import connect, run_on_dask
+
+        client = connect(scheduler)  # before anything is written: an unreachable one fails alone
+    elif jobs > 1 and len(paths) > 1:
+        from hybridlog.jobs.workers import WorkerPool
+
+        # started first, so that the workers import what they need while this process
+        # checks the inputs (leaving the pool on an error kills them)
+        pool = WorkerPool(min(jobs, len(paths)), preload=(f"{__name__}:warm_up_worker",))
+    resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
+    if pool is not None:
+        resource = pool
+    elif client is not None:
+        resource = contextlib.closing(client)
+    with resource:
+        job, model, gates, tasks = _plan(
+            paths,
+            model_ref,
+            out_dir=out_dir,
+            estimator=estimator,
+            sets=sets,
+            read=read or ReadOptions(),
+            fail_under=fail_under,
+            fail_over=fail_over,
+            table_format=table_format,
+            plots=plots,
+            junit=junit,
+            force=force,
+        )
+        died = [_died(log, folder) for _, log, folder in tasks]
+        outcomes: list[LogOutcome]
+        if client is not None:
+            outcomes = run_on_dask(
+                analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
+            )
+        elif pool is not None:
+            # this process only waits now: it imports what the summary plot needs meanwhile
+            plotting = threading.Thread(target=_import_summary_plot, daemon=True)
+            plotting.start()
+            outcomes = pool.run(analyze_log, tasks, died=lambda i, why: died[i](why), done=progress)
+            plotting.join()
+        else:
+            outcomes = []
+            for task in tasks:
+                outcomes.append(analyze_log(*task))
+                if progress is not None:
+                    progress(outcomes[-1])
+    return _summarise(Path(os.path.abspath(out_dir)), model, job, gates, outcomes, junit)
+
+
+def _one(x: float) -> float:
+    return x
+
+
+def warm_up_worker() -> None:
+    """Run by each batch worker as it starts: numba's compiler set up before the first log.
+
+    Importing numba and setting up its CPU target take about a second, which a worker
+    spends here while the batch process still checks the inputs, instead of on its first log.
+    """
+    import numba
+
+    compiled: Any = numba.njit(_one)
+    compiled(1.0)
+
+
+def _import_summary_plot() -> None:
+    importlib.import_module("hybridlog.report.summary_plot")
+
+
+def _plan(
+    paths: Sequence[str],
+    model_ref: str | Path,
+    *,
+    out_dir: PathLike,
+    estimator: str | None,
+    sets: Sequence[str],
+    read: ReadOptions,
+    fail_under: Sequence[str],
+    fail_over: Sequence[str],
+    table_format: str,
+    plots: str,
+    junit: PathLike | None,
+    force: bool,
+) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
+    """Check everything the logs share, prepare the batch folder; the job and its tasks."""
     # the model, the estimator and every --set value are checked before any work
     model, overrides = parse_sets(sets, model_ref)
     (prepared,) = prepare_estimators(model, [estimator], overrides)
     gates = gates_for(model, fail_under, fail_over)
-    chosen = prepared.name
     check_table_format(table_format)
-    read = read or ReadOptions()
     root = Path(os.path.abspath(out_dir))
-    summary_md, summary_csv = root / "summary.md", root / "summary.csv"
-    check_apart(
-        [("--out", out_dir), ("--out", summary_md), ("--out", summary_csv)],
-        input_paths(paths, model_ref, [prepared], read),
+    names = folder_names(paths)
+    summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
+    outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
+    if junit is not None:
+        outputs.append(("--junit", junit))
+        check_distinct(outputs[1:])
+        check_junit_target(junit, force=force)
+    check_apart(outputs, input_paths(paths, model_ref, [prepared], read))
+    job = BatchJob(
+        model_ref=str(model_ref),
+        model_sha256=model_hash(model_ref),
+        model_name=model.name,
+        sets=tuple(sets),
+        estimator=prepared.name,
+        read=read,
+        table_format=table_format,
+        fail_under=tuple(fail_under),
+        fail_over=tuple(fail_over),
+        plots=plots,
+        force=force,
+        settings=_settings(prepared, overrides, read, table_format),
     )
-    _prepare_root(root)
-    folders = [str(root / name) for name in folder_names(paths)]
-    arguments = [
-        (
-            str(log),
-            folder,
-            str(model_ref),
-            model.name,
-            chosen,
-            tuple(sets),
-            read,
-            table_format,
-            force,
-        )
-        for log, folder in zip(paths, folders, strict=True)
-    ]
-    outcomes: list[LogOutcome] = []
-    if jobs == 1 or len(arguments) == 1:
-        for args in arguments:
-            outcomes.append(_analyze_one(*args))
-            if progress is not None:
-                progress(outcomes[-1])
-    else:
-        outcomes = run_tasks(
-            _analyze_one,
-            arguments,
-            jobs=jobs,
-            died=lambda i, reason: LogOutcome(
-                str(paths[i]), folders[i], "failed", None, f"worker process died ({reason})"
-            ),
-            done=progress,
-        )
+    folders = [root / name for name in names]
+    _prepare_root(root, folders)
+    with _WARM_LOCK:  # this process has it all loaded already
+        _WARM.clear()
+        _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared), gates)
+    tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
+    return job, model, gates, tasks
+
+
+def _summarise(
+    root: Path,
+    model: HybridModel,
+    job: BatchJob,
+    gates: Sequence[Gate],
+    outcomes: Sequence[LogOutcome],
+    junit: PathLike | None,
+) -> BatchOutcome:
+    """Write the summary files (and the JUnit file) from the outcomes, in natural order."""
     rows = [
-        [
-            o.log,
-            o.status,
-            None if o.report is None else o.report.samples,
-            None if o.report is None else o.report.vaf,
-            None if o.report is None else o.report.mse,
-            None if o.report is None else o.report.modes.accuracy,
-            o.error,
-        ]
+        BatchRow(
+            log=o.log,
+            folder=Path(o.folder).relative_to(root).as_posix(),
+            status=o.status,
+            report=o.report,
+            error=o.error,
+            gates=tuple(
+                (f"{gate.option} {gate.spec}", next(iter(evaluate_gates(o.report, [gate])), None))
+                for gate in gates
+            )
+            if o.report is not None
+            else (),
+        )
         for o in outcomes
     ]
-    table = markdown_table(_COLUMNS, rows)
-    failed = [f"- {o.log}: {o.error}" for o in outcomes if o.status == "failed"]
-    text = f"# Batch: {model.name}\n\n{table}\n"
-    if failed:
-        text += f"\n## Failed logs ({len(failed)} of {len(outcomes)})\n\n" + "\n".join(failed)
-        text += "\n"
-    with atomic_files([summary_md, summary_csv], force=True) as (markdown, csv):
-        markdown.write_text(text, encoding="utf-8")
-        write_summary_csv(csv, _COLUMNS, rows)
+    title = f"{model.name} · {job.estimator}"
+    table, text = batch_markdown(title, rows, [f"{g.option} {g.spec}" for g in gates])
+    targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
+    if junit is not None:
+        targets.append(junit)
+    with atomic_files(targets, force=True) as staged:
+        staged[0].write_text(text, encoding="utf-8")
+        batch_rows_csv(staged[1], rows)
+        from hybridlog.report.summary_plot import write_summary_plot
+
+        write_summary_plot(staged[2], title, rows)
+        if junit is not None:
+            write_junit(staged[3], f"hybridlog batch: {title}", rows)
     failures = [
-        f"{o.log}: {failure}"
-        for o in outcomes
-        if o.report is not None
-        for failure in evaluate_gates(o.report, gates)
+        f"{row.log}: {failure}" for row in rows for _, failure in row.gates if failure is not None
     ]
-    return BatchOutcome(logs=outcomes, table=table, gate_failures=failures)
+    return BatchOutcome(logs=list(outcomes), table=table, gate_failures=failures)

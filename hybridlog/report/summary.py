@@ -2,13 +2,16 @@
 
 :func:`markdown_table` formats numbers per column for reading (thousands separators, the
 same decimals down a column); :func:`write_summary_csv` keeps the raw values;
-:func:`comparison_markdown` is ``comparison.md`` of ``hybridlog compare``.
+:func:`comparison_markdown` is ``comparison.md`` of ``hybridlog compare``;
+:func:`batch_markdown` and :func:`batch_rows_csv` are ``summary.md`` and ``summary.csv`` of
+``hybridlog batch``, from one :class:`BatchRow` per log.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,6 +22,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SIGNIFICANT_DIGITS",
+    "BatchRow",
+    "batch_markdown",
+    "batch_rows_csv",
     "comparison_markdown",
     "markdown_table",
     "write_summary_csv",
@@ -101,3 +107,135 @@ def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence
         infer_schema_length=None,
     )
     frame.write_csv(path)
+
+
+# --- hybridlog batch ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BatchRow:
+    """One log of a batch, as its summaries show it.
+
+    Attributes
+    ----------
+    log:
+        The log's path as given.
+    folder:
+        Its report folder, relative to the batch folder.
+    status:
+        ``done``, ``skipped`` (an earlier report of the same run reused) or ``failed``.
+    report:
+        The report (``None`` when the log could not be analysed).
+    error:
+        The one-line error of a failed log.
+    gates:
+        ``(gate, failure)`` per CI gate, e.g. ``("--fail-under vaf=90", "vaf = 87.2 is under
+        the bound 90")``; ``failure`` is ``None`` for a gate met.  Empty for a failed log.
+    """
+
+    log: str
+    folder: str
+    status: str
+    report: Report | None
+    error: str | None
+    gates: tuple[tuple[str, str | None], ...] = ()
+
+    @property
+    def missed(self) -> list[str]:
+        """The failure messages of the gates this log missed."""
+        return [failure for _, failure in self.gates if failure is not None]
+
+    @property
+    def passed(self) -> bool:
+        """Analysed, and every gate met."""
+        return self.status != "failed" and not self.missed
+
+    def metrics(self) -> list[object]:
+        """The key metrics shown for every log: samples, VAF, MSE, mode accuracy."""
+        r = self.report
+        if r is None:
+            return [None, None, None, None]
+        return [r.samples, r.vaf, r.mse, r.modes.accuracy]
+
+
+BATCH_METRICS = ("samples", "vaf", "mse", "mode_accuracy")
+"""The metrics of each log in the batch summaries (report keys)."""
+
+
+def _gate_cell(row: BatchRow) -> str:
+    if row.status == "failed":
+        return "not analysed"
+    if not row.gates:
+        return ""
+    missed = row.missed
+    if not missed:
+        return f"pass ({len(row.gates)})"
+    return "FAIL: " + "; ".join(missed)
+
+
+def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -> tuple[str, str]:
+    """``summary.md`` of a batch: failures first, then natural order; and its table alone.
+
+    ``rows`` come in natural order; the table lists the logs that could not be analysed,
+    then those that missed a gate, then the others, each group in that order, with the gate
+    results per log.  Fit for a CI job summary (GitHub-flavoured Markdown).
+    """
+    failed = [row for row in rows if row.status == "failed"]
+    missed = [row for row in rows if row.status != "failed" and row.missed]
+    passed = [row for row in rows if row.passed]
+    counts = ", ".join(
+        f"{n} {what}"
+        for n, what in (
+            (sum(r.status == "done" for r in rows), "analysed"),
+            (sum(r.status == "skipped" for r in rows), "skipped (unchanged)"),
+            (len(failed), "failed"),
+            (len(missed), "missed a gate"),
+        )
+        if n
+    )
+    verdict = "all passed" if len(passed) == len(rows) else f"{len(rows) - len(passed)} not passed"
+    header = ("log", "status", "gates", *BATCH_METRICS, "report")
+    table = markdown_table(
+        header,
+        [
+            [
+                row.log,
+                row.status,
+                _gate_cell(row),
+                *row.metrics(),
+                "n/a" if row.report is None else f"{row.folder}/report.md",
+            ]
+            for row in [*failed, *missed, *passed]
+        ],
+    )
+    lines = [f"# Batch: {title}", "", f"**{len(rows)} logs: {verdict}** ({counts})."]
+    if gates:
+        lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
+    lines += ["", table]
+    if failed:
+        lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
+        lines += [f"- {row.log}: {row.error}" for row in failed]
+    if missed:
+        lines += ["", f"## Missed gates ({len(missed)} of {len(rows)})", ""]
+        lines += [f"- {row.log}: {'; '.join(row.missed)}" for row in missed]
+    return table, "\n".join(lines) + "\n"
+
+
+def batch_rows_csv(path: Path, rows: Sequence[BatchRow]) -> None:
+    """``summary.csv`` of a batch: one row per log in natural order, raw values."""
+    header = ("log", "status", *BATCH_METRICS, "gate_failures", "error", "folder")
+    write_summary_csv(
+        path,
+        header,
+        [
+            [
+                row.log,
+                row.status,
+                *row.metrics(),
+                "; ".join(row.missed) or None,
+                row.error,
+                row.folder,
+            ]
+            for row in rows
+        ],
+    )

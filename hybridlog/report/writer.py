@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -12,7 +12,6 @@ from hybridlog.outputs import atomic_output_dir
 from hybridlog.report.build import build_report
 from hybridlog.report.document import Report
 from hybridlog.report.markdown import render_markdown
-from hybridlog.report.plots import write_plots
 from hybridlog.report.tables import (
     check_table_format,
     estimates_frame,
@@ -21,7 +20,14 @@ from hybridlog.report.tables import (
 )
 from hybridlog.signals import AlignedSignals
 
-__all__ = ["write_report"]
+__all__ = ["write_plots", "write_report"]
+
+
+def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
+    """:func:`hybridlog.report.plots.write_plots`, importing matplotlib only when called."""
+    from hybridlog.report.plots import write_plots as draw
+
+    return draw(plot_dir, result, signals)
 
 
 def write_report(
@@ -36,6 +42,7 @@ def write_report(
     force: bool = False,
     reading: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    plots: bool | Callable[[Report], bool] = True,
 ) -> Report:
     """Compute the metrics of a run and write its output directory (SPEC §8).
 
@@ -66,6 +73,9 @@ def write_report(
         What reading the log did, recorded as the report's ``reading``.
     extra:
         Additional top-level report keys (they replace computed keys of the same name).
+    plots:
+        Whether to draw ``plots/`` (matplotlib is imported only then), or a test of the
+        report that decides it (``hybridlog batch --plots failed``: logs that miss a gate).
 
     Returns
     -------
@@ -89,7 +99,8 @@ def write_report(
         (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
         write_table(timeline_frame(result, signals), tmp / "timeline", fmt)
         write_table(estimates_frame(result, signals), tmp / "estimates", fmt)
-        plot_dir = Path(tmp / "plots")
-        plot_dir.mkdir()
-        write_plots(plot_dir, result, signals)
+        if plots(report) if callable(plots) else plots:
+            plot_dir = Path(tmp / "plots")
+            plot_dir.mkdir()
+            write_plots(plot_dir, result, signals)
     return report

@@ -35,6 +35,7 @@ def test_readme_tour_runs_as_written(tmp_path):
     shutil.copytree(ROOT / "sample_logs", tmp_path / "sample_logs")
     env = dict(os.environ)
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
+    env.pop("GITHUB_STEP_SUMMARY", None)  # the recipe appends to it on GitHub only
     for command in tour_commands():
         done = subprocess.run(
             ["bash", "-c", command],
@@ -46,3 +47,24 @@ def test_readme_tour_runs_as_written(tmp_path):
             timeout=300,
         )
         assert done.returncode == 0, f"{command}\n{done.stdout}\n{done.stderr}"
+    # the CI recipe's outputs: JUnit with a case per log per gate, the job summary
+    junit = (tmp_path / "ci_report" / "junit.xml").read_text()
+    assert '<testsuites name="hybridlog batch" tests="4" failures="0" errors="0"' in junit
+    assert (tmp_path / "ci_summary.md").read_text().startswith("# Batch: three_tank_hstf")
+
+
+def test_the_ci_recipe_runs_the_tested_commands():
+    """The CI recipe's YAML runs exactly the commands of a tested ```sh block."""
+    text = (ROOT / "README.md").read_text()
+    (recipe,) = re.findall(r"```yaml\n(.*?)```", text, flags=re.DOTALL)
+    runs = [
+        line.strip()
+        for line in recipe.splitlines()
+        if line.strip().startswith(("hybridlog ", "run: hybridlog", "run: cat"))
+    ]
+    runs = [line.removeprefix("run: ") for line in runs]
+    assert any("--junit" in line for line in runs) and any("summary.md" in line for line in runs)
+    commands = tour_commands()
+    for line in runs:
+        tested = line.replace('"$GITHUB_STEP_SUMMARY"', '"${GITHUB_STEP_SUMMARY:-ci_summary.md}"')
+        assert tested in commands, line

@@ -7,6 +7,7 @@ batch process; logs are summarised in natural order.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import signal
@@ -16,14 +17,16 @@ import threading
 import time
 from pathlib import Path
 
+import click
 import polars as pl
 import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import main
+from hybridlog.errors import OptionError
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import folder_names, natural_key, run_batch
+from hybridlog.jobs.batch import LogOutcome, folder_names, natural_key, run_batch
 from hybridlog.outputs import MARKER, write_marker
 from tests.support.logfiles import tank_run
 
@@ -59,8 +62,19 @@ def write_logs(folder: Path, names: list[str], steps: int = 90) -> list[Path]:
 def test_natural_order_and_folder_names() -> None:
     names = ["s10", "s2", "s1", "run_b10", "run_b9", "S3", "s1a"]
     assert sorted(names, key=natural_key) == ["S3", "run_b9", "run_b10", "s1", "s1a", "s2", "s10"]
+    # Folder names: the path from the logs' common folder, suffix kept (issue 9; they were
+    # "_hidden", "a_x", "b_x", "_csv"), never hidden, never a batch file's name.
     logs = [Path("a/.hidden.csv"), Path("a/x.csv"), Path("b/x.csv"), Path("c/.csv")]
-    assert folder_names(logs) == ["_hidden", "a_x", "b_x", "_csv"]
+    assert folder_names(logs) == ["a/_.hidden.csv", "a/x.csv", "b/x.csv", "c/_.csv"]
+    logs = [Path("d/summary.md"), Path("d/_summary.md"), Path("d/__x"), Path("d/.hybridlog")]
+    assert folder_names(logs) == ["_summary.md", "__summary.md", "__x", "_.hybridlog"]
+    logs = [Path("d2/run.csv"), Path("d2/run.parquet")]
+    assert folder_names(logs) == ["run.csv", "run.parquet"]
+    assert folder_names(logs[::-1]) == ["run.parquet", "run.csv"]
+    with pytest.raises(OptionError, match="given twice"):
+        folder_names([Path("a/x.csv"), Path("a/../a/x.csv")])
+    with pytest.raises(OptionError, match="lies inside the log"):
+        folder_names([Path("a/bag"), Path("a/bag/x.csv")])
 
 
 def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
@@ -83,17 +97,19 @@ def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
         "--out",
         str(out),
     ]
-    result = run(args, expect=2)
+    # A log that cannot be analysed fails the batch like a missed gate: exit 1 (issue 9; it
+    # was 2, which SPEC §4 keeps for bad usage or shared input checked before any log).
+    result = run(args, expect=1)
     assert "1 of 3 logs failed" in result.stderr
     summary = pl.read_csv(out / "summary.csv")
     # Logs are summarised in natural order: broken.csv before run1.csv.
     assert summary["log"].to_list() == [str(broken), *logs]
     assert summary["status"].to_list() == ["failed", "done", "done"]
     assert "y2" in summary["error"][0]
-    stamp = (out / "run1" / "report.json").stat().st_mtime_ns
-    result = run(args, expect=2)
+    stamp = (out / "run1.csv" / "report.json").stat().st_mtime_ns
+    result = run(args, expect=1)
     assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["failed", "skipped", "skipped"]
-    assert (out / "run1" / "report.json").stat().st_mtime_ns == stamp
+    assert (out / "run1.csv" / "report.json").stat().st_mtime_ns == stamp
     run(
         [
             "batch",
@@ -110,7 +126,7 @@ def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
         ]
     )
     assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["done", "done"]
-    assert (out / "run1" / "report.json").stat().st_mtime_ns != stamp
+    assert (out / "run1.csv" / "report.json").stat().st_mtime_ns != stamp
 
 
 def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
@@ -118,14 +134,14 @@ def test_batch_does_not_mix_reports_of_another_estimator(tmp_path):
     run(["simulate", "three_tank_hstf", "--out", str(log), "--seed", "4"])
     out = tmp_path / "batch"
     run(["batch", str(log), "--model", "three_tank_hstf", "--estimator", "imm", "--out", str(out)])
-    before = (out / "run" / "report.json").read_bytes()
+    before = (out / "run.csv" / "report.json").read_bytes()
     result = run(
         ["batch", str(log), "--model", "three_tank_hstf", "--estimator", "hstf", "--out", str(out)],
-        expect=2,
+        expect=1,
     )
     assert "1 of 1 logs failed" in result.stderr
     assert "holds a report of imm" in pl.read_csv(out / "summary.csv")["error"][0]
-    assert (out / "run" / "report.json").read_bytes() == before
+    assert (out / "run.csv" / "report.json").read_bytes() == before
 
 
 def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -141,20 +157,20 @@ def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.M
     out = tmp_path / "out"
     out.mkdir()
     write_marker(out)  # an earlier batch's folder, holding a folder of someone else's
-    (out / "s2").mkdir()
-    (out / "s2" / "mine.txt").write_text("not hybridlog's")
+    (out / "s2.csv").mkdir()
+    (out / "s2.csv" / "mine.txt").write_text("not hybridlog's")
     outcome = run_batch(logs, TANK, out_dir=out, estimator="imm", force=True)
     assert [Path(o.log).name for o in outcome.logs] == ["crash.csv", "s1.csv", "s2.csv", "s10.csv"]
     assert [o.status for o in outcome.logs] == ["failed", "done", "failed", "done"]
     assert outcome.logs[0].error == "KeyError: 'reader bug\\nsecond line'"
     assert "holds files hybridlog did not write" in (outcome.logs[2].error or "")
-    assert (out / "s2" / "mine.txt").read_text() == "not hybridlog's"
+    assert (out / "s2.csv" / "mine.txt").read_text() == "not hybridlog's"
     summary = pl.read_csv(out / "summary.csv")
     assert [Path(p).name for p in summary["log"]] == ["crash.csv", "s1.csv", "s2.csv", "s10.csv"]
     text = (out / "summary.md").read_text()
     assert "## Failed logs (2 of 4)" in text and "KeyError: 'reader bug" in text
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        [MARKER, "s1", "s10", "s2", "summary.csv", "summary.md"]
+        [MARKER, "s1.csv", "s10.csv", "s2.csv", "summary.csv", "summary.md", "summary.png"]
     )
 
 
@@ -222,7 +238,8 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
 
 
 def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Path) -> None:
-    logs = write_logs(tmp_path, [f"s{k}" for k in range(1, 5)])
+    # enough logs that the batch still runs when both workers have written a report
+    logs = write_logs(tmp_path, [f"s{k}" for k in range(1, 41)])
     out = tmp_path / "out"
     command = [sys.executable, "-m", "hybridlog", "batch", *map(str, logs), "--model", TANK]
     batch = subprocess.Popen(
@@ -257,3 +274,29 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
         assert log.status == ("skipped" if Path(log.folder).name in finished else "done")
     # Temporaries the killed workers left are gone; only the batch folder's marker is hidden.
     assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MARKER]
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_progress_bar_counts_done_failed_skipped_with_rate(
+    monkeypatch: pytest.MonkeyPatch, quiet: bool
+) -> None:
+    from hybridlog import cli as cli_module
+
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    context = click.Context(cli_module.cli, obj=cli_module._Context(quiet=quiet))
+    statuses = ["done", "failed", "skipped", "done"]
+    with cli_module._batch_progress(context, len(statuses)) as advance:
+        if quiet:
+            assert advance is None
+            return
+        assert advance is not None
+        for status in statuses:
+            advance(LogOutcome("log", "folder", status, None, None))
+    text = terminal.getvalue()
+    assert "4/4" in text and "done 2 · failed 1 · skipped 1 · " in text and "logs/min" in text

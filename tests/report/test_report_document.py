@@ -409,7 +409,7 @@ def test_batch_reads_earlier_reports_through_the_typed_report(tmp_path: Path) ->
     status, done = batch()
     assert status == "done" and done is not None
     assert batch() == ("skipped", done)  # read back equal to what was written
-    stored = out / "run" / "report.json"
+    stored = out / "run.csv" / "report.json"  # issue 9: the folder keeps the suffix
     stored.write_text(
         '{"hybridlog_version": "0.1.0", "model": "three_tank_hstf", "estimator": "imm"}'
     )

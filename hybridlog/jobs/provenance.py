@@ -1,0 +1,77 @@
+"""What a batch result was made from: content hashes of logs, models and option files.
+
+A batch skips a log only when its finished report records the same provenance as the run
+about to be made (:func:`hybridlog.jobs.batch.run_batch`): the log's content hash, the
+model's content hash, the settings that change results, and hybridlog's version.  Hashes are
+SHA-256 of the bytes, read in chunks (a file is never held in memory whole); a folder (a
+ROS 2 bag, a ``--msg-dir``) hashes every file below it, in sorted order, with its relative
+path and size, so renaming, adding or removing a file inside it changes the hash too.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+from hybridlog.errors import LogError, ModelError
+from hybridlog.outputs import PathLike
+
+__all__ = ["content_hash", "model_hash"]
+
+
+def _file_digest(path: Path) -> bytes:
+    with path.open("rb") as handle:
+        return hashlib.file_digest(handle, "sha256").digest()
+
+
+def _folder_files(folder: Path) -> list[Path]:
+    files: list[Path] = []
+    for parent, dirs, names in os.walk(folder):
+        dirs.sort()
+        files += [Path(parent) / name for name in sorted(names)]
+    return files
+
+
+def content_hash(path: PathLike, *, what: str = "log") -> str:
+    """SHA-256 (hex) of a file's bytes, or of every file of a folder with its relative path.
+
+    Raises
+    ------
+    LogError
+        When the file or folder cannot be read (``what`` names it in the message).
+    """
+    target = Path(path)
+    try:
+        if not target.is_dir():
+            return _file_digest(target).hex()
+        digest = hashlib.sha256(b"folder\0")
+        for file in _folder_files(target):
+            relative = file.relative_to(target).as_posix().encode("utf-8", "surrogateescape")
+            digest.update(len(relative).to_bytes(8, "little") + relative)
+            digest.update(file.stat().st_size.to_bytes(8, "little"))
+            digest.update(_file_digest(file))
+        return digest.hexdigest()
+    except OSError as err:
+        raise LogError(f"{what} {path}: cannot read it: {err.strerror or err}") from err
+
+
+def model_hash(model_ref: PathLike) -> str:
+    """SHA-256 (hex) of a model file's bytes, or of a built-in model's text.
+
+    Called after the model was loaded, so ``model_ref`` names a file or a built-in.
+
+    Raises
+    ------
+    ModelError
+        When the model file cannot be read.
+    """
+    path = Path(model_ref)
+    if path.suffix == ".toml" or path.exists():
+        try:
+            return _file_digest(path).hex()
+        except OSError as err:
+            raise ModelError(f"{path}: cannot read model file: {err.strerror or err}") from err
+    from hybridlog.model.builtins import builtin_text
+
+    return hashlib.sha256(builtin_text(str(model_ref)).encode("utf-8")).hexdigest()

@@ -1,0 +1,97 @@
+"""JUnit XML of a batch, so that CI systems show each log's gates as their own test cases.
+
+One ``testcase`` per log per CI gate (``classname`` the log, ``name`` the gate), failing with
+the gate's message when it is missed; one per log that could not be analysed, as an
+``error`` carrying the log's one-line error; and, when no gate is given, one ``analysis``
+case per analysed log.  The format is the common subset read by GitHub Actions reporters,
+GitLab, Jenkins and Azure DevOps (``testsuites`` → ``testsuite`` → ``testcase`` with
+``failure``/``error`` children), written with :mod:`xml.etree.ElementTree`.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from pathlib import Path
+
+from hybridlog.errors import OutputError
+from hybridlog.outputs import PathLike, check_file_target
+from hybridlog.report.summary import BatchRow
+
+__all__ = ["ROOT_NAME", "check_junit_target", "junit_tree", "write_junit"]
+
+ROOT_NAME = "hybridlog batch"
+"""``name`` of the ``testsuites`` element: how a JUnit file of hybridlog's is recognised."""
+
+_SIGNATURE = f'<testsuites name="{ROOT_NAME}'
+
+
+def _ours(path: Path) -> bool:
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(256).decode("utf-8", "replace")
+    except OSError:
+        return False
+    return _SIGNATURE in head
+
+
+def check_junit_target(target: PathLike, *, force: bool) -> Path:
+    """Check that the JUnit file may be written: new, a JUnit file of a batch, or ``force``.
+
+    A CI job re-runs a batch into the same file, so a JUnit file hybridlog wrote is replaced
+    without ``--force``; any other existing file only with it.
+
+    Raises
+    ------
+    OutputError
+        When the target is a folder, or an existing file of someone else's without ``force``.
+    """
+    path = Path(target)
+    return check_file_target(path, force=force or (path.is_file() and _ours(path)))
+
+
+def _case(suite: ET.Element, classname: str, name: str, seconds: float) -> ET.Element:
+    return ET.SubElement(
+        suite, "testcase", {"classname": classname, "name": name, "time": f"{seconds:.3f}"}
+    )
+
+
+def junit_tree(suite_name: str, rows: Sequence[BatchRow]) -> ET.ElementTree[ET.Element]:
+    """The JUnit document of a batch (see the module docstring)."""
+    root = ET.Element("testsuites", {"name": ROOT_NAME})
+    suite = ET.SubElement(root, "testsuite", {"name": suite_name})
+    tests = failures = errors = 0
+    total = 0.0
+    for row in rows:
+        if row.report is None:
+            case = _case(suite, row.log, "analysis", 0.0)
+            message = row.error or "could not be analysed"
+            ET.SubElement(case, "error", {"message": message, "type": "hybridlog"}).text = message
+            tests, errors = tests + 1, errors + 1
+            continue
+        seconds = row.report.runtime_s or 0.0
+        total += seconds
+        if not row.gates:
+            _case(suite, row.log, "analysis", seconds)
+            tests += 1
+            continue
+        for gate, failure in row.gates:
+            case = _case(suite, row.log, gate, seconds / len(row.gates))
+            tests += 1
+            if failure is not None:
+                ET.SubElement(case, "failure", {"message": failure, "type": "gate"}).text = failure
+                failures += 1
+    counts = {"tests": str(tests), "failures": str(failures), "errors": str(errors)}
+    for element in (root, suite):
+        element.attrib.update({**counts, "time": f"{total:.3f}"})
+    suite.set("skipped", "0")
+    ET.indent(root)
+    return ET.ElementTree(root)
+
+
+def write_junit(path: Path, suite_name: str, rows: Sequence[BatchRow]) -> None:
+    """Write the JUnit XML of a batch to ``path`` (UTF-8, with an XML declaration)."""
+    try:
+        junit_tree(suite_name, rows).write(path, encoding="utf-8", xml_declaration=True)
+    except OSError as err:
+        raise OutputError(f"--junit {path}: cannot write it: {err.strerror}") from err

@@ -1,0 +1,89 @@
+"""``summary.png`` of a batch: each log's key metrics side by side, failures marked.
+
+Three panels over the logs in natural order: VAF (%), mode accuracy (%) and MSE (log scale
+when it spans more than a decade).
+A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
+at the bottom of every panel.  Drawn with matplotlib's Agg canvas (no pyplot, no global
+state), like the per-log plots (:mod:`hybridlog.report.plots`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from hybridlog.report.summary import BatchRow
+
+__all__ = ["MAX_LABELS", "write_summary_plot"]
+
+MAX_LABELS = 40
+"""Up to this many logs, the x axis names each log; beyond it, it numbers them."""
+
+_OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
+
+
+def _value(row: BatchRow, metric: str) -> float | None:
+    report = row.report
+    if report is None:
+        return None
+    value = {
+        "vaf": report.vaf,
+        "mode_accuracy": None if report.modes.accuracy is None else 100 * report.modes.accuracy,
+        "mse": report.mse,
+    }[metric]
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None:
+    """Draw ``summary.png`` (see the module docstring) into ``path``."""
+    panels = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
+    width = min(4.0 + 0.12 * len(rows), 16.0)
+    fig = Figure(figsize=(width, 6.4))
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=0.11, right=0.98, top=0.93, bottom=0.2, hspace=0.15)
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    missed = sum(1 for row in rows if row.status != "failed" and row.missed)
+    failed = sum(1 for row in rows if row.status == "failed")
+    fig.suptitle(
+        f"{title}: {len(rows)} logs, {failed} not analysed, {missed} missed a gate (red)",
+        fontsize=10,
+    )
+    positions = range(len(rows))
+    for ax, (metric, label) in zip(axes, panels, strict=True):
+        values = [_value(row, metric) for row in rows]
+        groups = (
+            (_OK, [row.passed for row in rows]),
+            (_MISSED, [row.status != "failed" and bool(row.missed) for row in rows]),
+        )
+        for colour, keep in groups:
+            shown = [(k, v) for k, v in enumerate(values) if keep[k] and v is not None]
+            if shown:
+                xs, ys = zip(*shown, strict=True)
+                ax.scatter(xs, ys, s=16, color=colour, zorder=3)
+        crosses = [k for k, row in enumerate(rows) if row.status == "failed"]
+        if crosses:
+            ax.scatter(
+                crosses,
+                [0.02] * len(crosses),
+                marker="x",
+                s=36,
+                color=_FAILED,
+                transform=ax.get_xaxis_transform(),
+                zorder=3,
+            )
+        positive = [v for v in values if v is not None and v > 0]
+        if metric == "mse" and positive and max(positive) > 10 * min(positive):
+            ax.set_yscale("log")  # MSEs spanning decades
+        ax.set_ylabel(label, fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))
+    if len(rows) <= MAX_LABELS:
+        axes[-1].set_xticks(list(positions))
+        axes[-1].set_xticklabels([row.folder for row in rows], rotation=60, fontsize=7)
+    else:
+        axes[-1].set_xlabel("log (natural order; summary.csv lists them)")
+    fig.savefig(path, dpi=100, format="png")

@@ -1,0 +1,79 @@
+"""``hybridlog batch --scheduler``: the same batch on a Dask cluster (a LocalCluster here)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+import hybridlog.jobs.dask_backend as dask_backend
+from hybridlog.errors import OptionError
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import run_batch
+from tests.support.logfiles import tank_run
+
+distributed = pytest.importorskip("distributed")
+
+TANK = "three_tank_hstf"
+
+
+def test_dask_and_local_batches_write_the_same_summaries(tmp_path: Path) -> None:
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=40, seed=k).columns)
+        for k in range(1, 7)
+    ]
+    broken = tmp_path / "logs" / "s7.csv"
+    broken.write_text("t,u,y1\n0,1,2\n")
+    logs.append(broken)
+    gate = ["vaf=-1e9"]
+    local = run_batch(logs, TANK, out_dir=tmp_path / "local", estimator="imm", fail_under=gate)
+    with distributed.LocalCluster(
+        n_workers=1,
+        threads_per_worker=2,
+        processes=False,  # threads of this process: quick to start, numba already loaded
+        protocol="tcp",  # a real address, reached over TCP as a remote scheduler would be
+        host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster:
+        remote = run_batch(
+            logs,
+            TANK,
+            out_dir=tmp_path / "dask",
+            estimator="imm",
+            scheduler=cluster.scheduler_address,
+            fail_under=gate,
+        )
+        summaries = {n: (tmp_path / "dask" / n).read_bytes() for n in ("summary.md", "summary.csv")}
+        again = run_batch(
+            logs,
+            TANK,
+            out_dir=tmp_path / "dask",
+            estimator="imm",
+            scheduler=cluster.scheduler_address,
+        )
+    assert [o.status for o in remote.logs] == [o.status for o in local.logs]
+    assert [o.status for o in remote.logs] == ["done"] * 6 + ["failed"]
+    assert [o.status for o in again.logs] == ["skipped"] * 6 + ["failed"]
+    # the workers wrote the report folders, the client the summaries: the same bytes
+    for name, text in summaries.items():
+        assert text == (tmp_path / "local" / name).read_bytes()
+    for log in logs[:-1]:
+        dask_report = tmp_path / "dask" / log.name / "estimates.csv"
+        assert (
+            dask_report.read_bytes()
+            == (tmp_path / "local" / log.name / "estimates.csv").read_bytes()
+        )
+    assert not [p for p in (tmp_path / "dask").iterdir() if ".hybridlog-tmp" in p.name]
+
+
+def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 0.5)
+    with pytest.raises(OptionError, match=r"--scheduler tcp://127.0.0.1:9: cannot reach") as err:
+        run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
+    assert "\n" not in str(err.value)
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
+    with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
+        run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
