@@ -32,8 +32,8 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from typing import Literal, NamedTuple
+from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +45,7 @@ from hybridlog.estimators.common import (
     Fn,
     run_filter,
 )
+from hybridlog.estimators.filter_options import HstfOptions
 from hybridlog.estimators.kernels import (
     argmax,
     cholesky,
@@ -57,7 +58,7 @@ from hybridlog.estimators.kernels import (
     record,
     workspace,
 )
-from hybridlog.estimators.options import option, options_dict, parse_options
+from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
     Matrix,
@@ -84,19 +85,6 @@ FADED_LIKELIHOOD_NOTE = (
     "(docs/three_tank.md in hybridlog's repository)"
 )
 """Why the paper-faithful HSTF underperforms, shown in every report of it (one sentence)."""
-
-
-@dataclass(frozen=True)
-class HstfOptions:
-    """Options of the HSTF (paper 000): ρ, β, θ and the two switches documented above."""
-
-    rho: float = option(0.95, "forgetting factor ρ of eq. (30)", range=(1e-12, 1.0))
-    beta: float = option(1.0, "softening factor β of eq. (29)", range=(1.0, 1e12))
-    theta: float = option(0.95, "mode decision threshold θ of eq. (40)", range=(0.5, 1.0))
-    fading: bool = option(True, "strong tracking fading λ_i (false: λ_i = 1, the plain EKF)")
-    likelihood: Literal["faded", "unfaded"] = option(
-        "faded", "S_i of eq. (35) from the faded P_i (the paper) or from λ_i = 1 (a variant)"
-    )
 
 
 class HstfSettings(NamedTuple):

@@ -25,7 +25,6 @@ The mode estimate is the most probable mode; the one-step-ahead output predictio
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -39,6 +38,7 @@ from hybridlog.estimators.common import (
     contiguous,
     run_filter,
 )
+from hybridlog.estimators.filter_options import ImmOptions
 from hybridlog.estimators.kernels import (
     argmax,
     congruence,
@@ -50,7 +50,7 @@ from hybridlog.estimators.kernels import (
     record,
     workspace,
 )
-from hybridlog.estimators.options import option, options_dict, parse_options
+from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
     Entry,
@@ -69,17 +69,6 @@ from hybridlog.model.hybrid_model import HybridModel, markov_matrix
 from hybridlog.signals import AlignedSignals, FloatArray
 
 NAME = "imm"
-
-
-@dataclass(frozen=True)
-class ImmOptions:
-    """Options of the IMM: the Markov matrix's diagonal when the model gives no matrix."""
-
-    transition_stay: float | None = option(
-        None,
-        "diagonal of the Markov matrix (none: the model's [transitions], else 0.95)",
-        range=(0.0, 1.0),
-    )
 
 
 class ImmSettings(NamedTuple):

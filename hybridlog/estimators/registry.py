@@ -72,11 +72,15 @@ class Estimator:
     module:
         The module that holds it, imported on first use.
     options:
-        Name of its options dataclass in ``module``.
+        Name of its options dataclass, in ``options_module`` or else in ``module``.
     run:
         Name of ``run(model, signals, options) -> EstimationResult`` in ``module``.
     capabilities:
         What it needs of the model and the log.
+    options_module:
+        A light module holding the options dataclass (no numba, scipy, cvxpy), so that
+        ``--help`` and the checks made before any log is read do not load the compiler;
+        empty: ``module``.
     """
 
     name: str
@@ -86,14 +90,15 @@ class Estimator:
     options: str
     run: str
     capabilities: Capabilities = field(default_factory=Capabilities)
+    options_module: str = ""
 
-    def _attribute(self, name: str) -> Any:
-        return getattr(importlib.import_module(self.module), name)
+    def _attribute(self, name: str, module: str = "") -> Any:
+        return getattr(importlib.import_module(module or self.module), name)
 
     @property
     def options_type(self) -> type[Any]:
-        """The options dataclass (imports the estimator's module)."""
-        return cast(type[Any], self._attribute(self.options))
+        """The options dataclass (imports ``options_module``)."""
+        return cast(type[Any], self._attribute(self.options, self.options_module))
 
     @property
     def run_function(self) -> Runner:
@@ -153,6 +158,7 @@ ESTIMATORS: dict[str, Estimator] = {
             source="paper 000, eqs. (5)-(40)",
             module="hybridlog.estimators.hstf",
             options="HstfOptions",
+            options_module="hybridlog.estimators.filter_options",
             run="run_hstf",
         ),
         Estimator(
@@ -161,6 +167,7 @@ ESTIMATORS: dict[str, Estimator] = {
             source="Blom and Bar-Shalom 1988; Bar-Shalom, Li, Kirubarajan 2001, 11.6.6",
             module="hybridlog.estimators.imm",
             options="ImmOptions",
+            options_module="hybridlog.estimators.filter_options",
             run="run_imm",
             capabilities=Capabilities(uses_markov_matrix=True),
         ),
@@ -170,6 +177,7 @@ ESTIMATORS: dict[str, Estimator] = {
             source="paper 001, eqs. (2)-(8), LMI (15)",
             module="hybridlog.estimators.chiu",
             options="ChiuOptions",
+            options_module="hybridlog.estimators.observer_options",
             run="run_chiu",
             capabilities=Capabilities(needs_linear_model=True),
         ),
@@ -179,6 +187,7 @@ ESTIMATORS: dict[str, Estimator] = {
             source="paper 001, eqs. (2)-(3), (8), LMI (15)",
             module="hybridlog.estimators.kmeans",
             options="KMeansOptions",
+            options_module="hybridlog.estimators.observer_options",
             run="run_kmeans",
             capabilities=Capabilities(needs_linear_model=True),
         ),

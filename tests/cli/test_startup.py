@@ -104,3 +104,24 @@ def test_the_version_is_written_once():
     # hybridlog/__init__.py holds it (a metadata lookup costs 0.06 s per start);
     # pyproject.toml reads it from there, so the installed metadata agrees.
     assert metadata.version("hybridlog") == hybridlog.__version__
+
+
+OPTIONS_RUNNER = """
+import json, sys
+from hybridlog.estimators.registry import ESTIMATORS
+
+for estimator in ESTIMATORS.values():
+    estimator.describe_options()
+    estimator.parse_options({})
+print(json.dumps(sorted({name.split(".")[0] for name in sys.modules})))
+"""
+
+
+def test_estimator_options_are_read_without_the_compiler():
+    # batch checks every option before its workers start; the parent must not pay for numba
+    done = subprocess.run(
+        [sys.executable, "-c", OPTIONS_RUNNER], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    loaded = set(json.loads(done.stdout.splitlines()[-1]))
+    assert not loaded & {"numba", "llvmlite", "scipy", "cvxpy", "sympy", "matplotlib"}, loaded
