@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 
 from hybridlog.report.summary import BatchRow
 
-__all__ = ["MAX_LABELS", "write_summary_plot"]
+__all__ = ["MAX_LABELS", "summary_figure", "write_summary_plot"]
 
 MAX_LABELS = 40
 """Up to this many logs, the x axis names each log; beyond it, it numbers them."""
@@ -40,16 +40,20 @@ def _value(row: BatchRow, metric: str) -> float | None:
 
 def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None:
     """Draw ``summary.png`` (see the module docstring) into ``path``."""
+    summary_figure(title, rows).savefig(path, dpi=100, format="png")
+
+
+def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
+    """The figure of ``summary.png``: one panel per key metric over the logs."""
     panels = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
-    width = min(4.0 + 0.12 * len(rows), 16.0)
-    fig = Figure(figsize=(width, 6.4))
+    width = min(6.0 + 0.12 * len(rows), 16.0)
+    fig = Figure(figsize=(width, 6.4), layout="constrained")  # room for every label
     FigureCanvasAgg(fig)
-    fig.subplots_adjust(left=0.11, right=0.98, top=0.93, bottom=0.2, hspace=0.15)
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
     fig.suptitle(
-        f"{title}: {len(rows)} logs, {failed} not analysed, {missed} missed a gate (red)",
+        f"{title}\n{len(rows)} logs, {failed} not analysed (crosses), {missed} missed a gate (red)",
         fontsize=10,
     )
     positions = range(len(rows))
@@ -78,6 +82,8 @@ def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None
         positive = [v for v in values if v is not None and v > 0]
         if metric == "mse" and positive and max(positive) > 10 * min(positive):
             ax.set_yscale("log")  # MSEs spanning decades
+        elif metric != "mse" and ax.get_ylim()[1] > 100:
+            ax.set_ylim(top=101.0)  # percentages: nothing is above 100
         ax.set_ylabel(label, fontsize=9)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))
@@ -86,4 +92,4 @@ def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None
         axes[-1].set_xticklabels([row.folder for row in rows], rotation=60, fontsize=7)
     else:
         axes[-1].set_xlabel("log (natural order; summary.csv lists them)")
-    fig.savefig(path, dpi=100, format="png")
+    return fig

@@ -1,0 +1,58 @@
+"""summary.png of a batch: every analysed log drawn, failures marked (issue 9)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from matplotlib.colors import to_hex
+
+from hybridlog.report.document import read_report
+from hybridlog.report.summary import BatchRow
+from hybridlog.report.summary_plot import summary_figure, write_summary_plot
+
+REPORT = Path(__file__).parents[1] / "data" / "reports" / "synthetic_extra.report.json"
+
+
+def rows() -> list[BatchRow]:
+    report = read_report(REPORT)
+    other = replace(report, vaf=42.0)
+    return [
+        BatchRow("a.csv", "a.csv", "done", report, None, (("--fail-under vaf=10", None),)),
+        BatchRow("b.csv", "b.csv", "done", other, None, (("--fail-under vaf=10", "vaf low"),)),
+        BatchRow("c.csv", "c.csv", "failed", None, "c.csv: broken", ()),
+    ]
+
+
+def points(ax, colour: str) -> list[tuple[float, float]]:
+    """Data points of ``ax`` drawn in ``colour`` (crosses in axes coordinates for y)."""
+    found = []
+    for collection in ax.collections:
+        colours = collection.get_facecolor()
+        if len(colours) == 0:
+            colours = collection.get_edgecolor()
+        if to_hex(colours[0]) == colour:
+            found += [(float(x), float(y)) for x, y in np.asarray(collection.get_offsets())]
+    return found
+
+
+def test_each_log_is_drawn_and_failures_are_red():
+    batch = rows()
+    fig = summary_figure("model · imm", batch)
+    vaf_axes, accuracy_axes, _ = fig.axes
+    blue, red = points(vaf_axes, "#1f77b4"), points(vaf_axes, "#d62728")
+    assert blue == [(0.0, batch[0].report.vaf)]
+    # the log that missed its gate at its value, the unanalysed one as a cross at x = 2
+    assert (1.0, 42.0) in red
+    assert [x for x, _ in red if x == 2.0] == [2.0]
+    labels = [t.get_text() for t in fig.axes[-1].get_xticklabels()]
+    assert labels == ["a.csv", "b.csv", "c.csv"]
+    assert "1 not analysed" in fig.get_suptitle() and "1 missed a gate" in fig.get_suptitle()
+    assert accuracy_axes.get_ylim()[1] <= 101.0
+
+
+def test_the_png_is_written(tmp_path):
+    target = tmp_path / "summary.png"
+    write_summary_plot(target, "model · imm", rows())
+    assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
