@@ -218,22 +218,12 @@ class TableSource:
             self._rows[name] = rows[present]
         label_series: dict[str, LabelSeries] = {}
         for name in labels:
-            text = _as_labels(frame.get_column(name))
+            codes, categories = _label_codes(frame.get_column(name))
             label_time, label_rows = time_ns, rows
-            if text.null_count():
-                present = text.is_not_null().to_numpy()
-                text = text.filter(pl.Series(present))
-                label_time, label_rows = time_ns[present], rows[present]
-            categories = text.unique(maintain_order=True)
-            codes = text.replace_strict(
-                categories, pl.int_range(0, categories.len(), eager=True), return_dtype=pl.Int64
-            )
-            label_series[name] = LabelSeries(
-                name,
-                label_time,
-                np.asarray(codes.to_numpy(), dtype=np.int64),
-                tuple(str(c) for c in categories.to_list()),
-            )
+            present = codes >= 0
+            if not present.all():
+                codes, label_time, label_rows = codes[present], time_ns[present], rows[present]
+            label_series[name] = LabelSeries(name, label_time, codes, categories)
             self._rows[name] = label_rows
         return Reading(numeric_series, label_series, dict(self._notes), self._locate)
 
@@ -329,7 +319,7 @@ class TableSource:
             time_ns = column.dt.total_nanoseconds().to_numpy().astype(np.int64)
         else:
             column = self._to_float(column, rows)
-            seconds: FloatArray = column.to_numpy().astype(np.float64)
+            seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
             if bad >= 0:
                 raise LogError(
@@ -639,6 +629,28 @@ def _as_labels(column: pl.Series) -> pl.Series:
             column = column.cast(pl.Int64, strict=False)
     text = column.cast(pl.String).str.strip_chars()
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
+
+
+def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
+    """Mode-id codes of a label column: ``(codes, labels)``, code -1 where a cell is empty.
+
+    ``labels`` are the distinct stripped labels (:func:`_as_labels`) in order of first
+    appearance; ``codes[i]`` indexes them.  Labels are worked out on the column's distinct
+    values only, and each cell becomes a small integer code through an ``Enum`` of them: a
+    10^6-row column of a few mode ids costs a few MB, not the string copies of the whole
+    column that stripping and mapping it cell by cell made (about 50 MB).
+    """
+    text = column if column.dtype == pl.String else _as_labels(column)
+    distinct = text.unique(maintain_order=True).drop_nulls()
+    first: dict[str, int] = {}
+    lookup: list[int] = []
+    for label in _as_labels(distinct).to_list():
+        lookup.append(-1 if label is None else first.setdefault(label, len(first)))
+    lookup.append(-1)  # empty cells (null)
+    physical = text.cast(pl.Enum(distinct.to_list())).to_physical()
+    index = physical.fill_null(distinct.len()).to_numpy()
+    codes: IntArray = np.asarray(lookup, dtype=np.int64)[index]
+    return codes, tuple(first)
 
 
 # ---------------------------------------------------------------------- Parquet helpers
