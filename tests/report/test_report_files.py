@@ -326,6 +326,24 @@ def test_streamed_tables_equal_the_whole_frame(
         assert read_table(streamed).height == 250
 
 
+def test_a_lazy_table_projects_filters_and_limits_like_its_frame(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from hybridlog.report import tables
+
+    monkeypatch.setattr(tables, "BATCH_ROWS", 16)
+    result, signals = make_run(n=100)
+    table = tables.timeline_table(result, signals)
+    frame = table.frame()
+    for query in (
+        lambda f: f.select("t", "mode"),
+        lambda f: f.filter(pl.col("mode") == "low").select("p_low"),
+        lambda f: f.head(37),
+        lambda f: f.filter(pl.col("t") > T0 + 2.0).head(5),
+    ):
+        assert query(table.lazy()).collect().equals(query(frame.lazy()).collect())
+
+
 def test_extra_keys_are_merged(tmp_path: Path) -> None:
     result, signals = make_run(n=30)
     report = write_report(
