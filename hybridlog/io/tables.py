@@ -186,12 +186,18 @@ class TableSource:
                 )
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
+        # Parquet numeric columns are decoded one at a time once the rows are known (below):
+        # polars' memory then peaks at about one column, not all of them, and what it
+        # frees it keeps for its own later use, never for NumPy's arrays.
+        later: list[str] = []
         if self._format == "csv":
             frame = _read_csv_frame(self._file, wanted, as_float)
         else:
-            frame = self._read_parquet_frame(wanted, set(numeric), set(labels))
+            later = [n for n in dict.fromkeys(numeric) if n not in labels and n != time_column]
+            frame = self._read_parquet_frame(wanted, set(numeric), set(labels), skip=later)
         if frame.height == 0:
             raise LogError(f"{self.path}: no data rows")
+        height = frame.height
         rows = self._kept_rows(frame, time_column)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
@@ -206,7 +212,12 @@ class TableSource:
         # size of its columns, not several times that.
         numeric_series: dict[str, Series] = {}
         for name in numeric:
-            column = self._to_float(frame.get_column(name), rows)
+            if name in later:
+                taken = self._parquet_column(name, rows if rows.size < height or sort else None)
+            else:
+                taken = frame.get_column(name)
+            column = self._to_float(taken, rows)
+            del taken
             if column.null_count() == 0:
                 values: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)
                 numeric_series[name] = Series(name, time_ns, values)
@@ -243,8 +254,9 @@ class TableSource:
         return self._time_column
 
     def _read_parquet_frame(
-        self, wanted: list[str], numeric: set[str], labels: set[str]
+        self, wanted: list[str], numeric: set[str], labels: set[str], skip: Sequence[str] = ()
     ) -> pl.DataFrame:
+        """The ``wanted`` columns but ``skip`` (all of them checked for their type)."""
         time_column = self._require_time()
         for name in wanted:
             dtype = self._schema[name]
@@ -265,17 +277,30 @@ class TableSource:
         try:
             # low_memory: decoded a row group at a time, 10^6 rows of 9 columns (82 MB of
             # values) peak about 25 MiB lower, in about the same time
-            frame = pl.read_parquet(self._file, columns=wanted, low_memory=True)
+            read = [name for name in wanted if name not in skip]
+            frame = pl.read_parquet(self._file, columns=read, low_memory=True)
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
             ) from err
         casts = [
             pl.col(name).cast(pl.Float64)
-            for name in wanted
+            for name in read
             if name in numeric and name not in labels and self._schema[name] != pl.Float64
         ]
         return frame.with_columns(casts) if casts else frame
+
+    def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
+        """One numeric column of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+        try:
+            column = pl.read_parquet(self._file, columns=[name], low_memory=True).to_series()
+        except pl.exceptions.PolarsError as err:
+            raise LogError(
+                f"{self.path}: not a readable Parquet file ({_first_line(err)})"
+            ) from err
+        if column.dtype != pl.Float64:
+            column = column.cast(pl.Float64)
+        return column if rows is None else column.gather(rows)
 
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
         """Rows to use: all of them, minus blank CSV lines; a row without a time is an error."""
