@@ -125,8 +125,9 @@ def _usable(y2: FloatArray, yh2: FloatArray) -> list[_Column]:
     Each column is copied out contiguous first (one strided pass), so the finiteness tests
     and selections run over contiguous memory; the selected values, their order and so
     every reduction over them are those of selecting from the 2-D arrays directly.  One
-    column pair is copied at a time: at 10^6 rows and three outputs, 32 MB more at the
-    peak instead of the 96 MB that copying both arrays whole first held.
+    column pair is copied at a time: at 10^6 rows and three outputs, the copies peak at
+    64 MB (the selected rows and the pair being copied), not the 96 MB that copying both
+    arrays whole first held.
     """
     columns = []
     for j in range(y2.shape[1]):
