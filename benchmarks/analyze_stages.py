@@ -89,8 +89,8 @@ def main() -> None:
     for name, stage in (
         ("build_report", "metrics"),
         ("render_markdown", "report.json + report.md"),
-        ("timeline_frame", "tables"),
-        ("estimates_frame", "tables"),
+        ("timeline_table", "tables"),
+        ("estimates_table", "tables"),
         ("write_table", "tables"),
         ("write_plots", "plots"),
     ):

@@ -135,6 +135,20 @@ def on_grid(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> int:
     return -1
 
 
+def on_grid_values(series: Series, grid_ns: IntArray, tolerance_ns: int) -> FloatArray | None:
+    """The series' values at the grid points when it is sampled on the grid, else ``None``.
+
+    A view of ``series.values`` (no copy, no index array): on the grid, the zero-order hold,
+    the nearest sample and the linear interpolation all take the sample at each grid point
+    (the one within ``tolerance_ns``), and no grid point is in a gap.
+    """
+    start = on_grid(series.time_ns, grid_ns, tolerance_ns)
+    if start < 0:
+        return None
+    values: FloatArray = series.values[start : start + grid_ns.size]
+    return values
+
+
 def hold_index(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> IntArray:
     """Index of the last sample at or before each grid point (-1 where there is none)."""
     start = on_grid(time_ns, grid_ns, tolerance_ns)
@@ -203,12 +217,16 @@ def resample_series(
     Returns
     -------
     values:
-        Nearest (or interpolated) values; gaps up to ``max_gap`` bridged.
+        Nearest (or interpolated) values; gaps up to ``max_gap`` bridged.  For a series
+        sampled on the grid, a read-only view of ``series.values``.
     too_long:
         Indices of grid points with no sample within ``dt/2`` whose surrounding samples are
         more than ``max_gap`` apart, or that lie outside the series' span.
     """
     tolerance = clock_tolerance_ns(dt_ns)
+    on = on_grid_values(series, grid_ns, tolerance)
+    if on is not None:  # the common case: one view, no index, distance or gap arrays
+        return on, np.zeros(0, dtype=np.int64)
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
     linear = method == "linear"
     values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
@@ -333,7 +351,10 @@ def align_signals(
 
     u = np.empty((n, len(inputs)), dtype=np.float64)
     for j, series in enumerate(inputs.values()):
-        u[:, j] = series.values[hold_index(series.time_ns, grid, tolerance)]
+        on = on_grid_values(series, grid, tolerance)
+        u[:, j] = (
+            on if on is not None else series.values[hold_index(series.time_ns, grid, tolerance)]
+        )
 
     y = np.empty((n, len(outputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(outputs.items()):
@@ -356,8 +377,8 @@ def align_signals(
             if truth_series is None or truth_series.time_ns.size == 0:
                 continue
             values, too_long = resample_series(truth_series, grid, dt_ns, max_gap_ns, method)
-            values[too_long] = np.nan
             x_true[:, j] = values
+            x_true[too_long, j] = np.nan
 
     return AlignedSignals(
         source=source,

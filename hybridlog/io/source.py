@@ -200,7 +200,12 @@ def seconds_to_ns(seconds: FloatArray) -> IntArray:
     """
     whole = np.floor(seconds)
     fraction = seconds - whole
-    result: IntArray = whole.astype(np.int64) * NS_PER_S + np.rint(fraction * 1e9).astype(np.int64)
+    fraction *= 1e9
+    np.rint(fraction, out=fraction)
+    result: IntArray = whole.astype(np.int64)
+    del whole  # the same operations as one expression, with two fewer temporaries
+    result *= NS_PER_S
+    result += fraction.astype(np.int64)
     return result
 
 

@@ -122,12 +122,17 @@ class _Column:
 def _usable(y2: FloatArray, yh2: FloatArray) -> list[_Column]:
     """Each column's usable rows (both finite), selected once for every metric.
 
-    The columns are copied out contiguous first (one strided pass), so the finiteness
-    tests and selections run over contiguous memory; the selected values, their order and
-    so every reduction over them are those of selecting from the 2-D arrays directly.
+    Each column is copied out contiguous first (one strided pass), so the finiteness tests
+    and selections run over contiguous memory; the selected values, their order and so
+    every reduction over them are those of selecting from the 2-D arrays directly.  One
+    column pair is copied at a time: at 10^6 rows and three outputs, the copies peak at
+    64 MB (the selected rows and the pair being copied), not the 96 MB that copying both
+    arrays whole first held.
     """
     columns = []
-    for y_col, yh_col in zip(np.ascontiguousarray(y2.T), np.ascontiguousarray(yh2.T), strict=True):
+    for j in range(y2.shape[1]):
+        y_col = np.ascontiguousarray(y2[:, j])
+        yh_col = np.ascontiguousarray(yh2[:, j])
         ok = np.isfinite(y_col)
         ok &= np.isfinite(yh_col)
         columns.append(_Column(y_col[ok], yh_col[ok]))

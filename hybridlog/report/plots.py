@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "MAX_PANELS",
+    "PNG_COMPRESS_LEVEL",
     "Envelope",
     "ModeRuns",
     "envelope",
@@ -50,6 +51,10 @@ __all__ = [
 ]
 
 MAX_PANELS = 16
+PNG_COMPRESS_LEVEL = 1
+"""zlib level of the PNG files (Pillow's default is 6).  The pixels are the same at any level;
+on the three figures of a 10^6-sample run level 1 encoded in half the time (0.10 s against
+0.19 s) for files 3 % larger in total (638 KB against 620 KB)."""
 _DPI = 100
 _WIDTH_IN = 10.0
 _LEFT, _RIGHT = 0.09, 0.98
@@ -99,7 +104,8 @@ def envelope(time: FloatArray, values: FloatArray, starts: IntArray) -> Envelope
     if n <= 4 * starts.shape[0]:
         return Envelope(time, values)
     ends = np.append(starts[1:], n) - 1
-    finite = np.where(np.isfinite(values), values, np.nan)
+    usable = np.isfinite(values)
+    finite = values if usable.all() else np.where(usable, values, np.nan)  # no copy if all are
     with np.errstate(invalid="ignore"):
         low = np.fmin.reduceat(finite, starts)
         high = np.fmax.reduceat(finite, starts)
@@ -174,7 +180,7 @@ def _new_figure(n_panels: int, panel_height: float = 2.0) -> tuple[Figure, list[
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    fig.savefig(path, dpi=_DPI)
+    fig.savefig(path, dpi=_DPI, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return path
 
 
@@ -319,13 +325,20 @@ def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -
     bins = _bins(result)
     for i, (ax, x) in enumerate(zip(axes, names, strict=True)):
         mean = result.state_means[:, i]
-        # max() keeps NaN (no variance defined) and clips tiny negative round-off.
-        sigma = np.sqrt(np.maximum(result.state_variances[:, i], 0.0))
-        band = np.isfinite(sigma) & np.isfinite(mean)
+        # max() keeps NaN (no variance defined) and clips tiny negative round-off; the
+        # arrays are worked in place: three of the run's length at a time, not seven.
+        two_sigma = np.maximum(result.state_variances[:, i], 0.0)
+        np.sqrt(two_sigma, out=two_sigma)
+        two_sigma *= 2.0
+        band = np.isfinite(two_sigma) & np.isfinite(mean)
         if band.any():
-            low = np.where(band, mean - 2.0 * sigma, np.nan)
-            high = np.where(band, mean + 2.0 * sigma, np.nan)
+            low = mean - two_sigma
+            high = np.add(mean, two_sigma, out=two_sigma)
+            np.invert(band, out=band)
+            low[band] = np.nan
+            high[band] = np.nan
             t_band, lo, hi = _band(result.time, low, high, bins)
+            del low, high
             ax.fill_between(
                 t_band, np.nan_to_num(lo), np.nan_to_num(hi), where=np.isfinite(lo),
                 color="tab:blue", alpha=0.2, label="±2σ",

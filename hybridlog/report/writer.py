@@ -14,8 +14,8 @@ from hybridlog.report.document import Report
 from hybridlog.report.markdown import render_markdown
 from hybridlog.report.tables import (
     check_table_format,
-    estimates_frame,
-    timeline_frame,
+    estimates_table,
+    timeline_table,
     write_table,
 )
 from hybridlog.signals import AlignedSignals
@@ -97,8 +97,8 @@ def write_report(
     with atomic_output_dir(out_dir, force=force) as tmp:
         (tmp / "report.json").write_text(report.to_json(), encoding="utf-8")
         (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
-        write_table(timeline_frame(result, signals), tmp / "timeline", fmt)
-        write_table(estimates_frame(result, signals), tmp / "estimates", fmt)
+        write_table(timeline_table(result, signals), tmp / "timeline", fmt)
+        write_table(estimates_table(result, signals), tmp / "estimates", fmt)
         if plots(report) if callable(plots) else plots:
             plot_dir = Path(tmp / "plots")
             plot_dir.mkdir()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -334,15 +335,22 @@ def test_on_grid_shortcut_agrees_with_the_search(
         "y", time_ns[skip:] if skip < n - 1 else time_ns, values[skip:] if skip < n - 1 else values
     )
     u = Series("u", time_ns, values)
-    fast = align_signals(source="s", dt=0.01, inputs={"u": u}, outputs={"y": y}, resample=resample)
+    x = Series("x", time_ns[: n // 2 + 1], values[: n // 2 + 1])  # truth that stops early
+    common: dict[str, Any] = {
+        "inputs": {"u": u},
+        "outputs": {"y": y},
+        "states": ("x",),
+        "truth_states": {"x": x},
+        "resample": resample,
+    }
+    fast = align_signals(source="s", dt=0.01, **common)
     original = align_module.on_grid
     try:
         align_module.on_grid = lambda *args: -1  # type: ignore[assignment]
-        slow = align_signals(
-            source="s", dt=0.01, inputs={"u": u}, outputs={"y": y}, resample=resample
-        )
+        slow = align_signals(source="s", dt=0.01, **common)
     finally:
         align_module.on_grid = original
     np.testing.assert_array_equal(fast.time, slow.time)
     np.testing.assert_array_equal(fast.inputs, slow.inputs)
     np.testing.assert_array_equal(fast.outputs, slow.outputs)
+    np.testing.assert_array_equal(fast.truth_states, slow.truth_states)  # NaN where it stopped

@@ -290,6 +290,71 @@ def test_mode_ids_are_compared_as_stripped_text(tmp_path: Path) -> None:
         load(csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,1.0\n", name="float.csv"))
 
 
+@pytest.mark.parametrize(
+    "cells",
+    [
+        pl.Series("mode", [" b", "a", None, "b ", "", "a", "  ", "c", "b"], dtype=pl.String),
+        pl.Series("mode", ["b", "a", None, "b", "c"], dtype=pl.Categorical),
+        pl.Series("mode", [2.0, 1.0, None, 2.0, 3.0]),
+        pl.Series("mode", [2.5, 1.0, None, 2.5]),
+        pl.Series("mode", [None, "", " "], dtype=pl.String),
+    ],
+    ids=["text", "categorical", "whole floats", "fractional floats", "all empty"],
+)
+def test_label_columns_read_as_codes_of_their_stripped_labels(
+    tmp_path: Path, cells: pl.Series
+) -> None:
+    """Labels are worked out on distinct values; each row gets the code of its own cell."""
+    path = tmp_path / "log.parquet"
+    t = np.arange(cells.len()) * 0.1
+    pl.DataFrame([pl.Series("t", t), cells]).write_parquet(path)
+    with TableSource(path) as source:
+        series = source.read([], ["mode"]).labels["mode"]
+    # the label of each cell, one at a time: stripped text, empty = none, 2.0 -> "2"
+    whole = all(c is None or float(c) == int(c) for c in cells) if cells.dtype.is_float() else 0
+    expected = [
+        None if c is None or not str(c).strip() else str(int(c) if whole else c).strip()
+        for c in cells.to_list()
+    ]
+    kept = [i for i, label in enumerate(expected) if label is not None]
+    assert series.categories == tuple(dict.fromkeys(expected[i] for i in kept))
+    assert [series.categories[c] for c in series.codes] == [expected[i] for i in kept]
+    assert series.codes.dtype == np.int64
+    np.testing.assert_array_equal(series.time_ns, np.rint(t[kept] * 1e9).astype(np.int64))
+
+
+@pytest.mark.parametrize("sort", [False, True])
+def test_parquet_columns_read_one_by_one_follow_the_kept_rows(tmp_path: Path, sort: bool) -> None:
+    """Numeric Parquet columns are decoded after the rows are known; each lands on its row."""
+    t = [0.0, 0.1, 0.3, 0.2, 0.4, 0.4, 0.5] if sort else [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
+    n = len(t)
+    frame = pl.DataFrame(
+        {
+            "t": t,
+            "u": pl.Series(range(10, 10 + n), dtype=pl.Int32),  # cast to Float64
+            "y": [float(k) if k != 2 else None for k in range(n)],  # an empty cell
+            "mode": ["1", "valve_open"] * (n // 2) + ["1"],
+        }
+    )
+    path = tmp_path / "log.parquet"
+    frame.write_parquet(path, row_group_size=2)  # several row groups
+    with TableSource(path, ReadOptions(sort=sort)) as source:
+        reading = source.read(["u", "y"], ["mode"])
+    # the reference: the rows in time order, the last of equal times kept
+    order = sorted(range(n), key=lambda k: t[k])
+    kept = [k for i, k in enumerate(order) if i + 1 == n or t[order[i + 1]] != t[k]]
+    u, y = reading.numeric["u"], reading.numeric["y"]
+    assert u.values.dtype == np.float64
+    np.testing.assert_array_equal(u.values, [10.0 + k for k in kept])
+    np.testing.assert_array_equal(u.time_ns, [round(t[k] * 1e9) for k in kept])
+    np.testing.assert_array_equal(y.values, [float(k) for k in kept if k != 2])
+    np.testing.assert_array_equal(y.time_ns, [round(t[k] * 1e9) for k in kept if k != 2])
+    mode = reading.labels["mode"]
+    labels = frame["mode"].to_list()
+    assert [mode.categories[c] for c in mode.codes] == [labels[k] for k in kept]
+    assert reading.locate("y", 2) == f"row {[k for k in kept if k != 2][2] + 1}, column 'y'"
+
+
 def test_truth_states_by_column_name(tmp_path: Path) -> None:
     signals = load(csv_file(tmp_path, "t,u,y,x2\n0.0,1,1,7\n0.1,1,1,8\n"))
     assert signals.truth_states is not None
