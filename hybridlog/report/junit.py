@@ -47,7 +47,10 @@ def check_junit_target(target: PathLike, *, force: bool) -> Path:
         When the target is a folder, or an existing file of someone else's without ``force``.
     """
     path = Path(target)
-    return check_file_target(path, force=force or (path.is_file() and _ours(path)))
+    try:
+        return check_file_target(path, force=force or (path.is_file() and _ours(path)))
+    except OutputError as err:
+        raise OutputError(f"--junit {err}") from None
 
 
 def _case(suite: ET.Element, classname: str, name: str, seconds: float) -> ET.Element:

@@ -244,3 +244,22 @@ def test_a_batch_killed_half_way_is_completed_without_rewriting_finished_logs(
     assert len(after) == 40
     assert {k: after[k] for k in finished} == finished
     assert not [p for p in out.iterdir() if p.name.startswith(".") and p.name != ".hybridlog"]
+
+
+def test_junit_replaces_its_own_file_but_not_a_foreign_one(tmp_path: Path) -> None:
+    logs = write_logs(tmp_path / "logs", ["a.csv"])
+    junit = tmp_path / "junit.xml"
+    run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", junit=junit)
+    first = junit.read_bytes()
+    run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", junit=junit)  # its own
+    assert junit.read_bytes().startswith(first[:60])
+    foreign = tmp_path / "results.xml"
+    foreign.write_text("<mine/>", encoding="utf-8")
+    with pytest.raises(OutputError, match=r"^--junit .*results\.xml: already exists"):
+        run_batch(logs, TANK, out_dir=tmp_path / "out2", estimator="imm", junit=foreign)
+    assert foreign.read_text(encoding="utf-8") == "<mine/>"
+    assert not (tmp_path / "out2").exists()
+    before = logs[0].read_bytes()
+    with pytest.raises(OutputError, match=r"^--junit .* is the log"):  # not even with force
+        run_batch(logs, TANK, out_dir=tmp_path / "out3", estimator="imm", junit=logs[0], force=True)
+    assert logs[0].read_bytes() == before
