@@ -47,8 +47,15 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     """The figure of ``summary.png``: one panel per key metric over the logs."""
     panels = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
     width = min(6.0 + 0.12 * len(rows), 16.0)
-    fig = Figure(figsize=(width, 6.4), layout="constrained")  # room for every label
+    height = 6.4
+    fig = Figure(figsize=(width, height))
     FigureCanvasAgg(fig)
+    # margins in inches (a layout engine costs more than the drawing): the y labels, the
+    # two-line title, the rotated log names
+    below = 1.3 if len(rows) <= MAX_LABELS else 0.6
+    fig.subplots_adjust(
+        left=0.95 / width, right=1 - 0.2 / width, top=1 - 0.6 / height, bottom=below / height
+    )
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
@@ -89,7 +96,8 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))
     if len(rows) <= MAX_LABELS:
         axes[-1].set_xticks(list(positions))
-        axes[-1].set_xticklabels([row.folder for row in rows], rotation=60, fontsize=7)
+        names = [f"…{row.folder[-23:]}" if len(row.folder) > 24 else row.folder for row in rows]
+        axes[-1].set_xticklabels(names, rotation=60, fontsize=7)  # long paths: their ends
     else:
         axes[-1].set_xlabel("log (natural order; summary.csv lists them)")
     return fig
