@@ -494,22 +494,9 @@ def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path
 
     """
     path = check_dir_target(target, force=force)
-    created = _prepare_parent(path)
-    tmp = temporary_name(path)
-    try:
-        try:
-            tmp.mkdir()
-            write_marker(tmp)
-        except OSError as err:
-            raise OutputError(
-                f"cannot create output directory {_shown(path)}: {err.strerror}"
-            ) from err
+    with staging_dir(path) as tmp:
         yield tmp
         publish_dir(tmp, path, force=force)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        _remove_created(created)
-        raise
 
 
 @contextmanager

@@ -32,7 +32,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.context import SpawnContext, SpawnProcess
 from typing import Any, TypeVar
 
-__all__ = ["PARENT_POLL_S", "WorkerPool", "run_tasks"]
+__all__ = ["PARENT_POLL_S", "WorkerPool"]
 
 R = TypeVar("R")
 
@@ -237,19 +237,3 @@ class WorkerPool:
                     workers.remove(worker)
                     worker.connection.close()
         return [results[index] for index in range(len(tasks))]
-
-
-def run_tasks(
-    function: Callable[..., R],
-    tasks: Sequence[tuple[Any, ...]],
-    *,
-    jobs: int,
-    died: Callable[[int, str], R],
-    done: Callable[[R], None] | None = None,
-) -> list[R]:
-    """Run ``function(*task)`` for every task in ``jobs`` worker processes.
-
-    A :class:`WorkerPool` for one call of :meth:`WorkerPool.run` (see there).
-    """
-    with WorkerPool(min(jobs, max(len(tasks), 1))) as pool:
-        return pool.run(function, tasks, died=died, done=done)
