@@ -18,6 +18,31 @@ class ResultShapeError(ValueError):
 
 
 @dataclass(frozen=True)
+class PostProcessing:
+    """How an offline pass after the filter changed a result (issue 12).
+
+    Attributes
+    ----------
+    smoothing:
+        Short name of the fixed-interval smoother that produced the states and mode
+        probabilities (for example ``"kim-rts"``), or ``None`` when they are the filter's.
+    mode_sequence:
+        How the per-sample mode was chosen: ``"argmax"`` of the (smoothed) probabilities or
+        ``"viterbi"`` (the most likely mode sequence).
+    description:
+        One line for the report: the algorithm, its paper and equations.
+    filtered:
+        The causal filter's own result over the same log, for the filtered-vs-smoothed
+        comparison.
+    """
+
+    smoothing: str | None
+    mode_sequence: str
+    description: str
+    filtered: EstimationResult
+
+
+@dataclass(frozen=True)
 class EstimationResult:
     """Per-sample output of a hybrid estimator over one log.
 
@@ -58,6 +83,10 @@ class EstimationResult:
         Remarks for the report (for example which variant of an algorithm ran).
     covariances:
         Full ``P(k|k)``, shape ``(N, n_x, n_x)``, only when the caller asked for it.
+    post_processing:
+        Set when the estimates above are not the causal filter's own (``--smooth``,
+        ``--mode-sequence viterbi``): how they were made, and the filter's result beside them.
+        ``output_predictions`` stay the filter's one-step-ahead predictions either way.
     """
 
     estimator: str
@@ -75,6 +104,7 @@ class EstimationResult:
     compile_s: float = 0.0
     notes: tuple[str, ...] = field(default=())
     covariances: FloatArray | None = None
+    post_processing: PostProcessing | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.time, np.ndarray) or self.time.ndim != 1:
