@@ -871,6 +871,9 @@ def _summary_line(report: Report) -> str:
         f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}, "
         f"mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
     )
+    smoothing = report.smoothing
+    if smoothing is not None and smoothing.filtered.mode_accuracy is not None:
+        text += f" (filtered {number(_percent(smoothing.filtered.mode_accuracy), '.1f', ' %')})"
     detection = report.modes.detection
     if detection is not None:
         switches = plural(detection.detected + detection.missed, "true switch")
