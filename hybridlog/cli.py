@@ -131,6 +131,10 @@ def _force_option(replaces: str) -> Callable[[F], F]:
     return click.option("--force", is_flag=True, help=f"Replace {replaces}.")
 
 
+_SMOOTHING = ", ".join(e.name for e in ESTIMATORS.values() if e.capabilities.supports_smoothing)
+"""The estimators that declare a fixed-interval smoother (``--smooth``), from the registry."""
+
+
 def _analysis_options(function: F) -> F:
     """Options shared by analyze, compare and batch."""
     decorators = [
@@ -154,6 +158,23 @@ def _analysis_options(function: F) -> F:
             multiple=True,
             metavar="METRIC=VALUE",
             help="CI gate: exit 1 when METRIC is above VALUE. Repeatable.",
+        ),
+        click.option(
+            "--smooth",
+            is_flag=True,
+            help="After the filter, run its fixed-interval smoother over the whole log "
+            f"(estimators with one: {_SMOOTHING or 'none yet'}; the option smooth = true). "
+            "Modes, states and tables then hold the smoothed estimates; report.json's "
+            "smoothing key has the filter's metrics beside them. In compare, every "
+            "estimator must have a smoother (--set smooth=true smooths those that do).",
+        ),
+        click.option(
+            "--mode-sequence",
+            type=click.Choice(["argmax", "viterbi"]),
+            default=None,
+            help="How the mode timeline is read off: the most probable mode per sample "
+            "(argmax), or the most likely sequence (viterbi) [default: the estimator's "
+            "option mode_sequence, argmax].",
         ),
         click.option(
             "--table-format",
@@ -833,6 +854,8 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
         "fail_over": tuple(options.pop("fail_over")),
         "table_format": options.pop("table_format"),
         "force": options.pop("force"),
+        "smooth": options.pop("smooth"),
+        "mode_sequence": options.pop("mode_sequence"),
     }
 
 
@@ -848,6 +871,9 @@ def _summary_line(report: Report) -> str:
         f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}, "
         f"mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
     )
+    smoothing = report.smoothing
+    if smoothing is not None and smoothing.filtered.mode_accuracy is not None:
+        text += f" (filtered {number(_percent(smoothing.filtered.mode_accuracy), '.1f', ' %')})"
     detection = report.modes.detection
     if detection is not None:
         switches = plural(detection.detected + detection.missed, "true switch")

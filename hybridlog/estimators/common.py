@@ -136,6 +136,35 @@ class FilterBuffers(NamedTuple):
         )
 
 
+class ModeStore(NamedTuple):
+    """Per-mode filtered quantities a filter keeps for an offline pass after it (issue 12).
+
+    Row ``k`` holds, for every mode ``j``, the mode-matched filtered mean ``x̂_j(k|k)``,
+    covariance ``P_j(k|k)`` and the log-likelihood ``log N(γ_j(k); 0, S_j(k))`` of the
+    measurement ``y(k)`` (row 0, the prior: ``x0``, ``P0`` and 0).  The arrays have no rows
+    when nothing after the filter needs them (:meth:`allocate` with ``keep=False``), so the
+    filter's loop writes them only on demand.  Footprint when kept: ``8 N n_q (n_x² + n_x + 1)``
+    bytes (10^6 samples, 3 modes, 3 states: 312 MB).
+    """
+
+    means: FloatArray
+    covariances: FloatArray
+    log_likelihoods: FloatArray
+
+    @classmethod
+    def allocate(cls, model: HybridModel, n_samples: int, *, keep: bool) -> ModeStore:
+        """Arrays for ``n_samples`` rows when ``keep``, else arrays with no rows."""
+        rows, n_x, n_q = (n_samples if keep else 0), model.n_states, model.n_modes
+        return cls(
+            np.zeros((rows, n_q, n_x)), np.zeros((rows, n_q, n_x, n_x)), np.zeros((rows, n_q))
+        )
+
+    @property
+    def kept(self) -> bool:
+        """Whether the arrays have rows."""
+        return bool(self.means.shape[0])
+
+
 def contiguous(array: FloatArray) -> FloatArray:
     """C-contiguous float64 copy-if-needed, as the compiled kernels require."""
     return np.ascontiguousarray(array, dtype=np.float64)

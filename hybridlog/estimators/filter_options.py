@@ -30,10 +30,22 @@ class HstfOptions:
 
 @dataclass(frozen=True)
 class ImmOptions:
-    """Options of the IMM: the Markov matrix's diagonal when the model gives no matrix."""
+    """Options of the IMM: the Markov matrix's diagonal, and the offline pass after it (issue 12).
+
+    ``smooth`` and ``mode_sequence`` are the names ``--smooth`` and ``--mode-sequence`` map to.
+    """
 
     transition_stay: float | None = option(
         None,
         "diagonal of the Markov matrix (none: the model's [transitions], else 0.95)",
         range=(0.0, 1.0),
+    )
+    smooth: bool = option(
+        False,
+        "fixed-interval smoother after the filter (Kim 1994, per-mode RTS/extended step)",
+    )
+    mode_sequence: Literal["argmax", "viterbi"] = option(
+        "argmax",
+        "per-sample mode: argmax of the (smoothed) probabilities, or viterbi (most likely "
+        "sequence)",
     )

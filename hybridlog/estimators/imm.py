@@ -35,6 +35,7 @@ from hybridlog.estimators.common import (
     FilterCode,
     FilterRun,
     Fn,
+    ModeStore,
     contiguous,
     run_filter,
 )
@@ -76,6 +77,8 @@ class ImmSettings(NamedTuple):
 
     transitions: FloatArray
     """The Markov matrix ``Π`` (:func:`transition_matrix`), C-contiguous."""
+    store: ModeStore
+    """Per-mode filtered estimates and likelihoods for the smoother (no rows: not kept)."""
 
 
 def _imm_steps(
@@ -83,7 +86,8 @@ def _imm_steps(
 ) -> None:
     """The generic IMM time loop (compiled on first use; the docstring of the module)."""
     inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
-    transitions = settings.transitions
+    transitions, store = settings
+    keep = store.means.shape[0] > 0
     n_samples, n, m, n_q = dimensions(run)
 
     x_i = np.empty((n_q, n))
@@ -110,6 +114,10 @@ def _imm_steps(
     log_posterior = np.empty(n_q)
 
     record(out, 0, argmax(mu), mu, x, P)
+    if keep:
+        store.means[0] = x_i
+        store.covariances[0] = P_i
+        store.log_likelihoods[0] = 0.0
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
@@ -146,17 +154,24 @@ def _imm_steps(
                 gamma[b] = y[b] - y_j[j, b]
                 predictions[b] += c_bar[j] * y_j[j, b]
             if kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, x_i[j], P_i[j]):
+                log_likelihood = gaussian_log_density(gamma, L, vec_m)
                 log_posterior[j] = (
                     math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
-                ) + gaussian_log_density(gamma, L, vec_m)
+                ) + log_likelihood
             else:  # S is not positive definite: the prediction stands, the mode is ruled out
+                log_likelihood = -np.inf
                 log_posterior[j] = -np.inf
                 x_i[j] = x_pred
                 P_i[j] = P_pred
+            if keep:
+                store.log_likelihoods[k + 1, j] = log_likelihood
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
         record(out, k + 1, argmax(mu), mu, x, P)
+        if keep:
+            store.means[k + 1] = x_i
+            store.covariances[k + 1] = P_i
 
 
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
@@ -177,23 +192,44 @@ def run_imm(
     kernel: str = "auto",
     store_covariances: bool = False,
 ) -> EstimationResult:
-    """Run the IMM over the aligned signals.
+    """Run the IMM over the aligned signals, then the offline passes its options ask for.
+
+    ``smooth``: the Kim smoother of :mod:`hybridlog.estimators.smoothing` (the forward pass
+    then keeps its per-mode estimates, :class:`~hybridlog.estimators.common.ModeStore`);
+    ``mode_sequence="viterbi"``: the Viterbi path as the modes.  Either sets the result's
+    ``post_processing``; without them the result is the filter's alone.
 
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
     """
     transitions = contiguous(transition_matrix(model, options))
     used = options_dict(options)
+    offline = options.smooth or options.mode_sequence != "argmax"
     used["transition_matrix"] = transitions.tolist()
-    return run_filter(
+    store = ModeStore.allocate(model, signals.n_samples, keep=offline)
+    filtered = run_filter(
         CODE,
         model,
         signals,
-        ImmSettings(transitions),
+        ImmSettings(transitions, store),
         used,
         jit=jit,
         kernel=kernel,
         store_covariances=store_covariances,
+    )
+    if not offline:
+        return filtered
+    from hybridlog.estimators.smoothing import post_process
+
+    return post_process(
+        model,
+        signals,
+        filtered,
+        store,
+        transitions,
+        smooth=options.smooth,
+        mode_sequence=options.mode_sequence,
+        jit=jit,
     )
 
 
@@ -224,12 +260,19 @@ def generate_imm_source(model: HybridModel) -> str:
         p.emit(f"{mu[i]} = mu0[{i}]")
         p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
     p.record("0", p.argmax(mu), mu, X[0], P[0])
+    p.emit("keep = store.means.shape[0] > 0")
+    p.emit("if keep:")
+    for i in range(n_q):
+        p.emit(f"    store.means[0, {i}] = x0")
+        p.emit(f"    store.covariances[0, {i}] = P0")
+        p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
     u, v, y = p.open_time_loop(n_u, m)
     # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
     c_bar = [p.let("c", [product(T[i][j], mu[i]) for i in range(n_q)]) for j in range(n_q)]
     x_post: list[Vector] = []
     P_post: list[Matrix] = []
     log_posterior: Vector = []
+    log_likelihoods: list[str] = []
     prediction_parts: list[list[Entry | None]] = [[] for _ in range(m)]
     for j in range(n_q):
         weights: Vector = [
@@ -257,17 +300,26 @@ def generate_imm_source(model: HybridModel) -> str:
         x_post.append(x_update)
         P_post.append(P_update)
         log_likelihood = p.gaussian_log_density(f"ll{j}_", gamma, L)
+        p.minus_inf_if_nan(log_likelihood)
         c = term(c_bar[j])
         posterior = p.assign(
             "lp", f"(math.log({c}) if {c} > 0.0 else -math.inf) + {log_likelihood}"
         )
         p.minus_inf_if_nan(posterior)
         log_posterior.append(posterior)
+        log_likelihoods.append(log_likelihood)
     mu_new = p.normalized_weights(log_posterior, c_bar)
     x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)
     for b in range(m):
         prediction = p.let("yp", prediction_parts[b])
         p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
+    p.emit("if keep:")
+    for j in range(n_q):
+        p.emit(f"    store.log_likelihoods[k + 1, {j}] = {log_likelihoods[j]}")
+        for a in range(n):
+            p.emit(f"    store.means[k + 1, {j}, {a}] = {term(x_post[j][a])}")
+            for b in range(n):
+                p.emit(f"    store.covariances[k + 1, {j}, {a}, {b}] = {term(P_post[j][a][b])}")
     for i in range(n_q):
         p.carry(X[i], x_post[i])
         p.carry(upper(P[i]), upper(P_post[i]))

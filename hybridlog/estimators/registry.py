@@ -169,7 +169,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options="ImmOptions",
             options_module="hybridlog.estimators.filter_options",
             run="run_imm",
-            capabilities=Capabilities(uses_markov_matrix=True),
+            capabilities=Capabilities(uses_markov_matrix=True, supports_smoothing=True),
         ),
         Estimator(
             name="chiu",

@@ -14,7 +14,7 @@ from types import MappingProxyType
 from typing import Any
 
 from hybridlog.errors import OptionError, excerpt
-from hybridlog.estimators import Prepared, prepare, resolve_estimator
+from hybridlog.estimators import ESTIMATORS, Estimator, Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.jobs.centers import read_centers
@@ -67,20 +67,95 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     return model, Overrides(MappingProxyType(parameters), MappingProxyType(options))
 
 
+SMOOTH_OPTION = "smooth"
+"""The estimator option ``--smooth`` sets (``smooth = true`` under ``[estimators.<name>]``)."""
+
+MODE_SEQUENCE_OPTION = "mode_sequence"
+"""The estimator option ``--mode-sequence`` sets (``argmax`` or ``viterbi``)."""
+
+
+def _admits(estimator: Estimator, option: str) -> bool:
+    """Whether the estimator has the option (and, for ``smooth``, declares a smoother)."""
+    names = {info.name for info in estimator.describe_options()}
+    if option == SMOOTH_OPTION:
+        return estimator.capabilities.supports_smoothing and option in names
+    return option in names
+
+
+def smoothing_overrides(
+    chosen: Sequence[Estimator],
+    overrides: Overrides,
+    *,
+    smooth: bool = False,
+    mode_sequence: str | None = None,
+    given_by: str = "--estimator",
+) -> Overrides:
+    """``--smooth`` and ``--mode-sequence`` as the estimator options they stand for.
+
+    ``--smooth`` is ``--set smooth=true`` and ``--mode-sequence X`` is ``--set
+    mode_sequence=X``, with one difference: every chosen estimator must have the option
+    (``compare --smooth`` smooths every estimator it compares or refuses; ``--set
+    smooth=true`` is the way to smooth only the estimators that have a smoother).
+
+    Raises
+    ------
+    OptionError
+        One line naming the flag and the estimator without the option (and the estimators
+        that have it), or a flag given together with ``--set`` of its option.
+    """
+    flags = {SMOOTH_OPTION: ("--smooth", "true" if smooth else None)}
+    flags[MODE_SEQUENCE_OPTION] = ("--mode-sequence", mode_sequence)
+    options = dict(overrides.options)
+    for option, (flag, value) in flags.items():
+        if value is None:
+            continue
+        if option in options:
+            raise OptionError(
+                f"{flag}: also given as --set {option}={excerpt(options[option])[1:-1]}; "
+                "give one of them"
+            )
+        for estimator in chosen:
+            if not _admits(estimator, option):
+                having = [e.name for e in ESTIMATORS.values() if _admits(e, option)]
+                hint = ""
+                if len(chosen) > 1:
+                    hint = f"; --set {option}={value} applies it only to the estimators that do"
+                raise OptionError(
+                    f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it "
+                    f"(estimators that do: {', '.join(having) or 'none'}){hint}"
+                )
+            choices = next(i.type for i in estimator.describe_options() if i.name == option).split(
+                "|"
+            )
+            if option == MODE_SEQUENCE_OPTION and value not in choices:
+                raise OptionError(
+                    f"{flag} {value}: estimator '{estimator.name}' offers {', '.join(choices)}"
+                )
+        options[option] = value
+    return Overrides(overrides.parameters, MappingProxyType(options))
+
+
 def prepare_estimators(
     model: HybridModel,
     names: Sequence[str | None],
     overrides: Overrides,
     *,
     given_by: str = "--estimator",
+    smooth: bool = False,
+    mode_sequence: str | None = None,
 ) -> list[Prepared]:
     """Resolve estimators (``None``: the model's default) and their options before any work.
 
     Each estimator gets the ``--set`` options it declares; a name that is neither a model
     parameter nor an option of any chosen estimator is an :class:`OptionError` listing both
-    and suggesting the closest name.
+    and suggesting the closest name.  ``smooth`` and ``mode_sequence`` (``--smooth``,
+    ``--mode-sequence``) set those options of every chosen estimator, each of which must
+    have them (:func:`smoothing_overrides`).
     """
     chosen = [resolve_estimator(model, name, given_by=given_by) for name in names]
+    overrides = smoothing_overrides(
+        chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=given_by
+    )
     declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
@@ -191,15 +266,20 @@ def analyze(
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
     force: bool = False,
+    smooth: bool = False,
+    mode_sequence: str | None = None,
 ) -> Outcome:
     """Run one estimator over one log and write the outputs of SPEC §8 into ``out_dir``.
 
     ``out_dir`` defaults to ``<log name>_<estimator>`` in the working directory.  Everything
     the user gave is validated before anything is written; the output directory appears
-    complete or not at all.
+    complete or not at all.  ``smooth`` and ``mode_sequence`` are ``--smooth`` and
+    ``--mode-sequence`` (:func:`smoothing_overrides`).
     """
     model, overrides = parse_sets(sets, model_ref)
-    (prepared,) = prepare_estimators(model, [estimator], overrides)
+    (prepared,) = prepare_estimators(
+        model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
+    )
     estimator = prepared.name
     out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
     read = read or ReadOptions()
@@ -221,6 +301,7 @@ def analyze(
         table_format=table_format,
         force=force,
         reading=reading,
+        model=model,
     )
     return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
 
@@ -249,6 +330,20 @@ def _row(report: Report) -> dict[str, Any]:
     return {name: metric(report, name) for name in _COLUMNS}  # the gates' metric names
 
 
+_SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy")
+"""Columns added to the comparison when an estimator's estimates were smoothed: the
+smoother and mode sequence (``kim-rts, viterbi``; empty for a filter's own estimates) and the
+filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``."""
+
+
+def _smoothing_cells(report: Report) -> list[Any]:
+    smoothing = report.smoothing
+    if smoothing is None:
+        return [None, None]
+    name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
+    return [name, smoothing.filtered.mode_accuracy]
+
+
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -261,18 +356,30 @@ def compare(
     fail_over: Sequence[str] = (),
     table_format: str = "csv",
     force: bool = False,
+    smooth: bool = False,
+    mode_sequence: str | None = None,
 ) -> Comparison:
     """Run several estimators on one log: ``<out>/<estimator>/`` reports and a table.
 
     The table (``comparison.md`` and ``comparison.csv``) has one row per estimator; CI gates
-    apply to every estimator.
+    apply to every estimator.  ``smooth`` (``--smooth``) and ``mode_sequence`` apply to every
+    estimator, each of which must offer them (:func:`smoothing_overrides`); when any
+    estimator's estimates were smoothed, the table gets a ``smoothing`` column and the
+    filter's own mode accuracy beside the smoothed one.
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
     if len(set(estimators)) != len(estimators):
         raise OptionError("--estimators: an estimator is named twice")
     model, overrides = parse_sets(sets, model_ref)
-    prepared = prepare_estimators(model, estimators, overrides, given_by="--estimators")
+    prepared = prepare_estimators(
+        model,
+        estimators,
+        overrides,
+        given_by="--estimators",
+        smooth=smooth,
+        mode_sequence=mode_sequence,
+    )
     read = read or ReadOptions()
     check_apart([("--out", out_dir)], input_paths([log], model_ref, prepared, read))
     check_dir_target(out_dir, force=force)
@@ -294,13 +401,19 @@ def compare(
                 dt=model.dt,
                 table_format=table_format,
                 reading=reading,
+                model=model,
             )
+        columns: tuple[str, ...] = ("estimator", *_COLUMNS)
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
-        table = markdown_table(("estimator", *_COLUMNS), rows)
+        if any(report.smoothing is not None for report in reports.values()):
+            columns += _SMOOTHING_COLUMNS
+            for row, report in zip(rows, reports.values(), strict=True):
+                row += _smoothing_cells(report)
+        table = markdown_table(columns, rows)
         (folder / "comparison.md").write_text(
             comparison_markdown(f"{model.name} on {log}", table, reports), encoding="utf-8"
         )
-        write_summary_csv(folder / "comparison.csv", ("estimator", *_COLUMNS), rows)
+        write_summary_csv(folder / "comparison.csv", columns, rows)
     failures = [
         f"{name}: {failure}"
         for name, report in reports.items()

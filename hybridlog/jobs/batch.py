@@ -197,6 +197,8 @@ class BatchJob:
         values and the estimator's registry name.
     read, table_format, fail_under, fail_over, plots, force:
         The run's options (``plots``: one of :data:`PLOT_CHOICES`).
+    smooth, mode_sequence:
+        ``--smooth`` and ``--mode-sequence`` (estimator options: recorded in ``settings``).
     settings:
         The settings that change results, as canonical JSON (part of :func:`provenance`).
     """
@@ -213,6 +215,8 @@ class BatchJob:
     plots: str
     force: bool
     settings: str
+    smooth: bool = False
+    mode_sequence: str | None = None
 
     def provenance(self, log_sha256: str) -> dict[str, Any]:
         """What a report of this batch for a log of this content records (key ``batch``)."""
@@ -263,7 +267,16 @@ _WARM_LOCK = threading.Lock()
 
 
 def _warm_key(job: BatchJob) -> tuple[object, ...]:
-    return (job.model_ref, job.model_sha256, job.sets, job.estimator, job.fail_under, job.fail_over)
+    return (
+        job.model_ref,
+        job.model_sha256,
+        job.sets,
+        job.estimator,
+        job.smooth,
+        job.mode_sequence,
+        job.fail_under,
+        job.fail_over,
+    )
 
 
 def _warm(job: BatchJob) -> _Warm:
@@ -277,7 +290,13 @@ def _warm(job: BatchJob) -> _Warm:
         warm = _WARM.get(key)
         if warm is None:
             model, overrides = parse_sets(job.sets, job.model_ref)
-            (prepared,) = prepare_estimators(model, [job.estimator], overrides)
+            (prepared,) = prepare_estimators(
+                model,
+                [job.estimator],
+                overrides,
+                smooth=job.smooth,
+                mode_sequence=job.mode_sequence,
+            )
             gates = gates_for(model, job.fail_under, job.fail_over)
             warm = _Warm(model, prepared, estimator_inputs(prepared), gates)
             _WARM.clear()
@@ -351,6 +370,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         reading=reading,
         extra={PROVENANCE_KEY: job.provenance(log_sha256)},
         plots=_wants_plots(job, warm.gates),
+        model=warm.model,
     )
     return LogOutcome(log, folder, "done", report, None)
 
@@ -415,6 +435,8 @@ def run_batch(
     junit: PathLike | None = None,
     force: bool = False,
     progress: Callable[[LogOutcome], None] | None = None,
+    smooth: bool = False,
+    mode_sequence: str | None = None,
 ) -> BatchOutcome:
     """Analyse every log into ``<out>/<log path>/``; write ``summary.md``/``.csv``/``.png``.
 
@@ -423,7 +445,10 @@ def run_batch(
     any log, the model file, a centres file or a ``--msg-dir``.  ``progress`` is called with
     each log's outcome as it finishes.  ``jobs`` worker processes analyse the logs, or the
     Dask cluster whose scheduler is at ``scheduler``.  ``junit`` names a JUnit XML file to
-    write (:func:`hybridlog.report.junit.write_junit`).
+    write (:func:`hybridlog.report.junit.write_junit`).  ``smooth`` and ``mode_sequence``
+    are ``--smooth`` and ``--mode-sequence``
+    (:func:`hybridlog.jobs.analysis.smoothing_overrides`); as estimator options they are part
+    of the settings a resumed batch compares, so changing them redoes every log.
     """
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
@@ -460,6 +485,8 @@ def run_batch(
             plots=plots,
             junit=junit,
             force=force,
+            smooth=smooth,
+            mode_sequence=mode_sequence,
         )
         died = [_died(log, folder) for _, log, folder in tasks]
         outcomes: list[LogOutcome]
@@ -516,11 +543,15 @@ def _plan(
     plots: str,
     junit: PathLike | None,
     force: bool,
+    smooth: bool = False,
+    mode_sequence: str | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
     """Check everything the logs share, prepare the batch folder; the job and its tasks."""
     # the model, the estimator and every --set value are checked before any work
     model, overrides = parse_sets(sets, model_ref)
-    (prepared,) = prepare_estimators(model, [estimator], overrides)
+    (prepared,) = prepare_estimators(
+        model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
+    )
     gates = gates_for(model, fail_under, fail_over)
     check_table_format(table_format)
     root = Path(os.path.abspath(out_dir))
@@ -545,6 +576,8 @@ def _plan(
         plots=plots,
         force=force,
         settings=_settings(prepared, overrides, read, table_format),
+        smooth=smooth,
+        mode_sequence=mode_sequence,
     )
     folders = [root / name for name in names]
     _prepare_root(root, folders)

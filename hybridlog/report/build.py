@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,12 +24,17 @@ from hybridlog.report.document import (
     ModeSwitch,
     OutputReport,
     Report,
+    Smoothing,
+    SmoothingMetrics,
     StateReport,
 )
 from hybridlog.report.markdown import plural
 from hybridlog.signals import AlignedSignals
 
-__all__ = ["MIN_SAMPLES", "build_report", "check_compatible", "jsonable"]
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
+__all__ = ["MIN_SAMPLES", "build_report", "check_compatible", "jsonable", "smoothing_report"]
 
 MIN_SAMPLES = 3
 """Fewest samples a run must have to be reported: row 0 is the estimators' prior (no
@@ -151,8 +156,16 @@ def build_report(
     dt: float,
     reading: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
+    model: HybridModel | None = None,
 ) -> Report:
     """Compute every metric of a run into a :class:`~hybridlog.report.document.Report`.
+
+    A result whose estimates are not the causal filter's own (``result.post_processing``:
+    ``--smooth``, ``--mode-sequence viterbi``) is reported as it is (modes, states and the
+    tables hold the smoothed values; the output metrics stay the filter's one-step-ahead
+    prediction, which ``output_predictions`` holds either way), and its ``smoothing`` holds
+    the mode, state and output metrics of the filter's estimates and of the smoothed ones
+    (:func:`smoothing_report`).
 
     Parameters
     ----------
@@ -171,6 +184,10 @@ def build_report(
     extra:
         Further top-level keys of ``report.json``; a key naming a report attribute
         replaces the computed value (checked like a key of a ``report.json``).
+    model:
+        The model the result was estimated with: for a smoothed result, the outputs its
+        estimates explain are computed through the model's ``h``
+        (:func:`~hybridlog.report.explained.explained_outputs`); ``None`` when not given.
 
     Returns
     -------
@@ -235,11 +252,119 @@ def build_report(
         samples_per_s=samples_per_s,
         notes=tuple(str(note) for note in result.notes),
         null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
+        smoothing=smoothing_report(result, signals, model),
         reading=None if reading is None else _json_object(reading),
     )
     if extra:
         report = Report.from_dict({**report.to_dict(), **_json_object(extra)}, source=str(log))
     return report
+
+
+def _side(
+    result: EstimationResult, signals: AlignedSignals, model: HybridModel | None
+) -> SmoothingMetrics:
+    """The metrics of one side (filtered or smoothed) of a smoothed run."""
+    ids = tuple(str(m) for m in result.mode_ids)
+    truth = signals.truth_modes
+    rmse = np.full(len(result.state_names), np.nan)
+    if signals.truth_states is not None:
+        rmse = metrics.state_rmse(result.state_means, signals.truth_states)
+    states = {
+        x: StateReport(rmse=_num(float(r))) for x, r in zip(result.state_names, rmse, strict=True)
+    }
+    outputs: dict[str, OutputReport] | None = None
+    fit: float | None = None
+    explained = None
+    if model is not None:
+        from hybridlog.report.explained import explained_outputs
+
+        explained = explained_outputs(model, result, signals)
+    if explained is not None:
+        per_output = metrics.output_metrics(signals.outputs, explained)
+        outputs = {
+            y: OutputReport(mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples)
+            for y, m in zip(result.output_names, per_output, strict=True)
+        }
+        fit = _num(metrics.mean_of_finite([m.fit for m in per_output]))
+    switches = int(np.count_nonzero(result.modes[1:] != result.modes[:-1]))
+    if truth is None:
+        return SmoothingMetrics(
+            mode_accuracy=None,
+            confusion=None,
+            detection_delay_s=None,
+            detection_max_s=None,
+            detected=None,
+            missed=None,
+            estimated_switches=switches,
+            states=states,
+            outputs=outputs,
+            fit=fit,
+        )
+    counts = metrics.confusion_matrix(result.modes, truth, len(ids))
+    det = metrics.detection_delays(result.time, result.modes, truth, ids)
+    detected = sum(1 for e in det.events if e.detected)
+    return SmoothingMetrics(
+        mode_accuracy=_num(metrics.mode_accuracy(result.modes, truth)),
+        confusion={
+            t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
+            for i, t_id in enumerate(ids)
+        },
+        detection_delay_s=_num(det.mean_s),
+        detection_max_s=_num(det.max_s),
+        detected=detected,
+        missed=len(det.events) - detected,
+        estimated_switches=switches,
+        states=states,
+        outputs=outputs,
+        fit=fit,
+    )
+
+
+def smoothing_report(
+    result: EstimationResult, signals: AlignedSignals, model: HybridModel | None = None
+) -> Smoothing | None:
+    """The ``smoothing`` part of a report: what ran after the filter, metrics before and after.
+
+    Parameters
+    ----------
+    result:
+        The run's result; ``None`` is returned unless ``result.post_processing`` is set.
+    signals:
+        The aligned signals it ran on.
+    model:
+        The model, to compute the outputs each side's mode and state explain
+        (``ŷ = h_q̂(x̂, u)``); without it their ``outputs`` and ``fit`` are ``None``.
+
+    Raises
+    ------
+    ValueError
+        When the filter's result does not line up with the smoothed one (a programming
+        error of the estimator).
+
+    """
+    post = result.post_processing
+    if post is None:
+        return None
+    filtered = post.filtered
+    same = (
+        filtered.n_samples == result.n_samples
+        and filtered.mode_ids == result.mode_ids
+        and filtered.state_names == result.state_names
+        and filtered.output_names == result.output_names
+    )
+    if not same:
+        raise ValueError(
+            f"{result.estimator}: the filtered result does not line up with the smoothed one "
+            f"({filtered.n_samples} against {result.n_samples} samples, or other modes, "
+            "states or outputs)"
+        )
+    return Smoothing(
+        method=post.smoothing,
+        mode_sequence=post.mode_sequence,
+        description=post.description,
+        filtered=_side(filtered, signals, model),
+        smoothed=_side(result, signals, model),
+    )
 
 
 def _json_object(value: Mapping[str, Any]) -> JsonObject:

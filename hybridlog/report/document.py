@@ -12,7 +12,20 @@ outputs: {<y>: {mse, vaf, fit, samples}}, mse, vaf, fit,
 modes: {labels, switches: [{t, from, to}], dwell_s: {<mode>: s}, accuracy,
 confusion: {<true mode>: {<estimated mode>: count}}, detection_delay_s, detection},
 states: {<x>: {rmse}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``, then
-``reading`` (what reading the log did) when known, then any further keys (:attr:`Report.extra`).
+``smoothing`` when the estimates are not the causal filter's own (``--smooth``,
+``--mode-sequence viterbi``; absent otherwise), then ``reading`` (what reading the log did)
+when known, then any further keys (:attr:`Report.extra`).
+
+``smoothing`` is ``{method, mode_sequence, description, filtered: {...}, smoothed: {...}}``
+(:class:`Smoothing`): ``method`` names the fixed-interval smoother (``null`` when only the
+mode sequence was changed), ``mode_sequence`` is ``argmax`` or ``viterbi``, and ``filtered``
+and ``smoothed`` hold the same metrics (:class:`SmoothingMetrics`) of the causal filter's
+estimates and of the report's own: ``mode_accuracy, confusion, detection_delay_s,
+detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse}}, outputs: {<y>:
+{mse, vaf, fit, samples}}, fit``.  Their ``outputs`` are not the one-step-ahead prediction of
+the top-level ``outputs`` (which stays the filter's either way): they are
+``ŷ(k) = h_q̂(k)(x̂(k), u(k))``, the outputs the estimated mode and state explain, ``null``
+when the model was not at hand to evaluate ``h``.
 
 Everything that needs ground truth is ``null`` when the log has none, and every number that
 is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` counts the rows the
@@ -33,6 +46,7 @@ Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 from collections.abc import Callable, Mapping
@@ -44,12 +58,15 @@ from hybridlog.errors import ReportError, excerpt
 from hybridlog.report.metrics import SwitchDetection
 
 __all__ = [
+    "MODE_SEQUENCES",
     "Detection",
     "JsonValue",
     "ModeReport",
     "ModeSwitch",
     "OutputReport",
     "Report",
+    "Smoothing",
+    "SmoothingMetrics",
     "StateReport",
     "SwitchDetection",
     "read_report",
@@ -195,17 +212,112 @@ class ModeReport:
 
     def to_dict(self) -> JsonObject:
         """The JSON object ``modes`` of ``report.json``."""
-        confusion: JsonValue = None
-        if self.confusion is not None:
-            confusion = {t: dict(row) for t, row in self.confusion.items()}
         return {
             "labels": list(self.labels),
             "switches": [s.to_dict() for s in self.switches],
             "dwell_s": dict(self.dwell_s),
             "accuracy": self.accuracy,
-            "confusion": confusion,
+            "confusion": _confusion_dict(self.confusion),
             "detection_delay_s": self.detection_delay_s,
             "detection": None if self.detection is None else self.detection.to_dict(),
+        }
+
+
+def _confusion_dict(confusion: Mapping[str, Mapping[str, int]] | None) -> JsonValue:
+    return None if confusion is None else {t: dict(row) for t, row in confusion.items()}
+
+
+@dataclass(frozen=True)
+class SmoothingMetrics:
+    """Metrics of one side of a smoothed run: the causal filter's estimates or the smoothed.
+
+    Attributes
+    ----------
+    mode_accuracy:
+        Fraction of samples whose mode is the true one; ``None`` without a true mode.
+    confusion:
+        ``{true mode: {estimated mode: sample count}}``; ``None`` without a true mode.
+    detection_delay_s, detection_max_s:
+        Mean and largest delay of the detected true switches; ``None`` without a true mode
+        or a detected switch.
+    detected, missed:
+        True switches detected and missed; ``None`` without a true mode.
+    estimated_switches:
+        Changes of the estimated mode (blips count twice).
+    states:
+        RMSE per state against the true state.
+    outputs:
+        Per output, MSE/VAF/fit of ``ŷ(k) = h_q̂(k)(x̂(k), u(k))`` (the outputs the estimated
+        mode and state explain, not a prediction); ``None`` when ``h`` was not evaluated.
+    fit:
+        Mean of ``outputs``' fit over the outputs where it is defined.
+
+    """
+
+    mode_accuracy: float | None
+    confusion: Mapping[str, Mapping[str, int]] | None
+    detection_delay_s: float | None
+    detection_max_s: float | None
+    detected: int | None
+    missed: int | None
+    estimated_switches: int
+    states: Mapping[str, StateReport]
+    outputs: Mapping[str, OutputReport] | None
+    fit: float | None
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``smoothing.filtered`` or ``smoothing.smoothed``."""
+        return {
+            "mode_accuracy": self.mode_accuracy,
+            "confusion": _confusion_dict(self.confusion),
+            "detection_delay_s": self.detection_delay_s,
+            "detection_max_s": self.detection_max_s,
+            "detected": self.detected,
+            "missed": self.missed,
+            "estimated_switches": self.estimated_switches,
+            "states": {x: s.to_dict() for x, s in self.states.items()},
+            "outputs": None
+            if self.outputs is None
+            else {y: o.to_dict() for y, o in self.outputs.items()},
+            "fit": self.fit,
+        }
+
+
+@dataclass(frozen=True)
+class Smoothing:
+    """What an offline pass after the filter did, and the metrics before and after it.
+
+    Attributes
+    ----------
+    method:
+        The fixed-interval smoother (e.g. ``kim-rts``), or ``None`` when only the mode
+        sequence was chosen differently.
+    mode_sequence:
+        ``argmax`` (of the mode probabilities) or ``viterbi`` (the most likely sequence).
+    description:
+        One line: the algorithm, its paper and equations.
+    filtered:
+        Metrics of the causal filter's own estimates.
+    smoothed:
+        Metrics of the report's estimates (those of the tables and the top-level ``modes``
+        and ``states``).
+
+    """
+
+    method: str | None
+    mode_sequence: str
+    description: str
+    filtered: SmoothingMetrics
+    smoothed: SmoothingMetrics
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``smoothing`` of ``report.json``."""
+        return {
+            "method": self.method,
+            "mode_sequence": self.mode_sequence,
+            "description": self.description,
+            "filtered": self.filtered.to_dict(),
+            "smoothed": self.smoothed.to_dict(),
         }
 
 
@@ -239,6 +351,9 @@ class Report:
         The estimator's remarks.
     null_reasons:
         ``{gate metric name: why it is None}``.
+    smoothing:
+        What ran after the filter and the metrics before and after it; ``None`` when the
+        estimates are the causal filter's own (the key is then absent from ``report.json``).
     reading:
         What reading the log did (format, time source, dropped samples, ...), when known.
     extra:
@@ -266,6 +381,7 @@ class Report:
     samples_per_s: float | None
     notes: tuple[str, ...] = ()
     null_reasons: Mapping[str, str] = field(default_factory=dict)
+    smoothing: Smoothing | None = None
     reading: Mapping[str, JsonValue] | None = None
     extra: Mapping[str, JsonValue] = field(default_factory=dict)
 
@@ -305,6 +421,8 @@ class Report:
             "notes": list(self.notes),
             "null_reasons": dict(self.null_reasons),
         }
+        if self.smoothing is not None:
+            data["smoothing"] = self.smoothing.to_dict()
         if self.reading is not None:
             data["reading"] = copy.deepcopy(dict(self.reading))
         data.update(copy.deepcopy(dict(self.extra)))
@@ -398,6 +516,9 @@ MAX_DEPTH: Final = 64
 """Deepest nesting of lists and objects read back in ``options``, ``reading`` and further keys
 (hybridlog writes a few levels; copying or writing far deeper ones would exhaust Python's
 stack)."""
+
+MODE_SEQUENCES: Final = ("argmax", "viterbi")
+"""How a mode sequence is read off (``smoothing.mode_sequence``, ``--mode-sequence``)."""
 
 _MISSING: Final = object()
 T = TypeVar("T")
@@ -578,17 +699,24 @@ class _Reader:
                 )
         return detection
 
-    def modes(self, value: object, path: str) -> ModeReport:
-        data = self.mapping(value, path)
-        labels = self.at(data, path, "labels", self.list_of(self.string))
-        dwell = self.at(data, path, "dwell_s", self.map_of(self.optional_number))
-        self.same_labels(dwell, labels, f"{path}.dwell_s")
+    def confusion(
+        self, data: Mapping[str, object], path: str, labels: tuple[str, ...]
+    ) -> dict[str, dict[str, int]] | None:
+        """``data["confusion"]``: null, or counts keyed by the mode labels in both levels."""
         counts = self.or_null(self.map_of(self.map_of(self.count)))
         confusion = self.at(data, path, "confusion", counts)
         if confusion is not None:
             self.same_labels(confusion, labels, f"{path}.confusion")
             for t, row in confusion.items():
                 self.same_labels(row, labels, f"{path}.confusion.{t}")
+        return confusion
+
+    def modes(self, value: object, path: str) -> ModeReport:
+        data = self.mapping(value, path)
+        labels = self.at(data, path, "labels", self.list_of(self.string))
+        dwell = self.at(data, path, "dwell_s", self.map_of(self.optional_number))
+        self.same_labels(dwell, labels, f"{path}.dwell_s")
+        confusion = self.confusion(data, path, labels)
         modes = ModeReport(
             labels=labels,
             switches=self.at(data, path, "switches", self.list_of(self.switch)),
@@ -605,6 +733,61 @@ class _Reader:
             )
         return modes
 
+    def smoothing_metrics(
+        self, value: object, path: str, labels: tuple[str, ...], states: tuple[str, ...]
+    ) -> SmoothingMetrics:
+        data = self.mapping(value, path)
+        outputs = self.at(data, path, "outputs", self.or_null(self.map_of(self.output)))
+        metrics = SmoothingMetrics(
+            mode_accuracy=self.at(data, path, "mode_accuracy", self.optional_number),
+            confusion=self.confusion(data, path, labels),
+            detection_delay_s=self.at(data, path, "detection_delay_s", self.optional_number),
+            detection_max_s=self.at(data, path, "detection_max_s", self.optional_number),
+            detected=self.at(data, path, "detected", self.or_null(self.count)),
+            missed=self.at(data, path, "missed", self.or_null(self.count)),
+            estimated_switches=self.at(data, path, "estimated_switches", self.count),
+            states=self.at(data, path, "states", self.map_of(self.state)),
+            outputs=outputs,
+            fit=self.at(data, path, "fit", self.optional_number),
+        )
+        if set(metrics.states) != set(states):
+            raise self.error(
+                f"{path}.states",
+                f"has keys {sorted(metrics.states)}; expected the report's states {sorted(states)}",
+            )
+        truth = (metrics.confusion is not None, metrics.detected is not None)
+        if truth[0] != truth[1] or (metrics.mode_accuracy is not None) != truth[0]:
+            raise self.error(
+                path,
+                "holds mode_accuracy, confusion and detected/missed only in part; all are "
+                "null without a true mode, all set with one",
+            )
+        if (metrics.detected is None) != (metrics.missed is None):
+            raise self.error(f"{path}.missed", "must be null exactly when detected is")
+        return metrics
+
+    def smoothing(
+        self, value: object, path: str, labels: tuple[str, ...], states: tuple[str, ...]
+    ) -> Smoothing:
+        data = self.mapping(value, path)
+        mode_sequence = self.at(data, path, "mode_sequence", self.string)
+        if mode_sequence not in MODE_SEQUENCES:
+            raise self.error(
+                f"{path}.mode_sequence",
+                f"is {excerpt(mode_sequence)}; expected one of {', '.join(MODE_SEQUENCES)}",
+            )
+
+        def side(value: object, where: str) -> SmoothingMetrics:
+            return self.smoothing_metrics(value, where, labels, states)
+
+        return Smoothing(
+            method=self.at(data, path, "method", self.or_null(self.string)),
+            mode_sequence=mode_sequence,
+            description=self.at(data, path, "description", self.string),
+            filtered=self.at(data, path, "filtered", side),
+            smoothed=self.at(data, path, "smoothed", side),
+        )
+
     def same_labels(self, data: Mapping[str, object], labels: tuple[str, ...], path: str) -> None:
         if set(data) != set(labels):
             raise self.error(
@@ -615,7 +798,7 @@ class _Reader:
         if not isinstance(value, dict) or "hybridlog_version" not in value:
             raise ReportError(f"{self.source}: not a hybridlog report (no 'hybridlog_version' key)")
         data: Mapping[str, object] = value
-        return Report(
+        report = Report(
             hybridlog_version=self.string(data["hybridlog_version"], "hybridlog_version"),
             log=self.at(data, "", "log", self.string),
             model=self.at(data, "", "model", self.string),
@@ -639,3 +822,10 @@ class _Reader:
             reading=self.at(data, "", "reading", self.or_null(self.json_object), None),
             extra={k: self.json_value(v, k) for k, v in data.items() if k not in _KEYS},
         )
+        labels, states = report.modes.labels, tuple(report.states)
+
+        def smoothing(value: object, path: str) -> Smoothing:
+            return self.smoothing(value, path, labels, states)
+
+        found = self.at(data, "", "smoothing", self.or_null(smoothing), None)
+        return report if found is None else dataclasses.replace(report, smoothing=found)

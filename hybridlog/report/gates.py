@@ -22,6 +22,12 @@ Metric names
 ``runtime_s``, ``samples_per_s``
     Estimation speed.
 
+A smoothed run (``--smooth``, ``--mode-sequence viterbi``) is gated on its report's own
+values: ``mode_accuracy``, ``detection_delay_s``, ``missed_switches`` and ``state_rmse.<x>``
+are then those of the smoothed estimates, while ``vaf``, ``mse`` and ``fit`` stay the filter's
+one-step-ahead prediction (the filter's own mode and state metrics are in ``report.json``'s
+``smoothing.filtered``, not gated).
+
 :func:`metric` reads any of them from a :class:`~hybridlog.report.document.Report` through
 one typed accessor per name (:data:`METRICS` lists the unqualified ones).
 """

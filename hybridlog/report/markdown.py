@@ -11,7 +11,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from hybridlog.report.document import ModeReport, Report
+    from hybridlog.report.document import ModeReport, Report, Smoothing
 
 __all__ = ["DEFINITIONS", "MAX_LISTED_SWITCHES", "duration", "plural", "rate", "render_markdown"]
 
@@ -161,6 +161,8 @@ def render_markdown(report: Report) -> str:
     if report.states:
         lines += ["", "## States", "", "| state | RMSE |", "|---|---:|"]
         lines += [f"| {_cell(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
+    if report.smoothing is not None:
+        lines += ["", *_smoothing_lines(report.smoothing)]
 
     lines += [
         "",
@@ -176,6 +178,64 @@ def render_markdown(report: Report) -> str:
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
     return "\n".join(lines) + "\n"
+
+
+def _change(before: float | int | None, after: float | int | None, spec: str) -> str:
+    if before is None or after is None:
+        return "n/a"
+    return format(after - before, "+" + spec)
+
+
+def _smoothing_lines(smoothing: Smoothing) -> list[str]:
+    """The "Smoothing" section: what ran after the filter and the metrics before and after."""
+    method = f"`{smoothing.method}`" if smoothing.method else "none (the filter's estimates)"
+    f, s = smoothing.filtered, smoothing.smoothed
+    lines = [
+        "## Smoothing",
+        "",
+        f"- smoother: {method}; mode sequence: `{smoothing.mode_sequence}`",
+        f"- {smoothing.description}",
+        "- The modes, states and tables of this report hold these estimates (the causal "
+        "filter's own are in the `_filtered` columns). The output MSE, VAF and fit above stay "
+        "the filter's one-step-ahead prediction ŷ(k|k−1): a smoother uses y(k) itself, so it "
+        "predicts nothing. The output fit below is of ŷ(k) = h(x̂(k), u(k)) in the estimated "
+        "mode: how well each side's estimates explain the measurements.",
+        "",
+        "| metric | filtered | smoothed | change |",
+        "|---|---:|---:|---:|",
+    ]
+
+    def percent(value: float | None) -> float | None:
+        return None if value is None else 100.0 * value
+
+    rows: list[tuple[str, float | int | None, float | int | None, str]] = [
+        ("mode accuracy (%)", percent(f.mode_accuracy), percent(s.mode_accuracy), ".4g"),
+        ("true switches missed", f.missed, s.missed, "d"),
+        ("detection delay, mean (s)", f.detection_delay_s, s.detection_delay_s, ".6g"),
+        ("detection delay, max (s)", f.detection_max_s, s.detection_max_s, ".6g"),
+        ("estimated mode switches", f.estimated_switches, s.estimated_switches, "d"),
+    ]
+    rows += [
+        (f"RMSE {x}", f.states[x].rmse, state.rmse, ".6g")
+        for x, state in s.states.items()
+        if x in f.states
+    ]
+    if f.outputs is not None and s.outputs is not None:
+        rows += [
+            (f"fit of h(x̂) {y} (%)", f.outputs[y].fit, out.fit, ".4g")
+            for y, out in s.outputs.items()
+            if y in f.outputs
+        ]
+    for name, before, after, spec in rows:
+        shown = ".4f" if spec == ".4g" else spec
+        lines.append(
+            f"| {_cell(name)} | {_fmt(before, shown) if before is not None else 'n/a'} "
+            f"| {_fmt(after, shown) if after is not None else 'n/a'} "
+            f"| {_change(before, after, spec)} |"
+        )
+    if f.mode_accuracy is None:
+        lines += ["", "No ground-truth mode in the log: mode accuracy and delays are not known."]
+    return lines
 
 
 def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:

@@ -9,6 +9,10 @@
     One panel per state: the estimate with a ±2σ band (where a variance is defined) and the
     true state when known.
 
+A smoothed run (``result.post_processing``) draws the smoothed estimates as above and the
+causal filter's own over them, thin and dashed: its mode runs as a thin bar inside the
+estimated one, its mode probabilities and state estimates as dashed curves.
+
 A PNG cannot show more than one value range per pixel column, so long runs are reduced to
 what it can show before drawing (:func:`envelope`): the samples are cut into time bins no
 wider than a pixel column of the panel, and each bin is drawn through its first sample, its
@@ -263,6 +267,14 @@ def _draw_runs(
             labelled = True
 
 
+def _mode_label(result: EstimationResult) -> str:
+    """The legend of the estimated mode: ``estimated``, ``smoothed`` or ``viterbi``."""
+    post = result.post_processing
+    if post is None:
+        return "estimated"
+    return "viterbi" if post.mode_sequence == "viterbi" else "smoothed"
+
+
 def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
@@ -280,18 +292,32 @@ def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) ->
     if signals.truth_modes is not None:
         truth, t = signals.truth_modes, result.time
         _draw_runs(ax_mode, t, truth, bins, n_modes, height=0.8, color="0.8", label="true")
+    filtered = None if result.post_processing is None else result.post_processing.filtered
     _draw_runs(
         ax_mode, result.time, result.modes, bins, n_modes, height=0.3, color="tab:red",
-        label="estimated",
+        label=_mode_label(result),
     )  # fmt: skip
+    if filtered is not None:
+        _draw_runs(
+            ax_mode, result.time, filtered.modes, bins, n_modes, height=0.08, color="k",
+            label="filtered",
+        )  # fmt: skip
     ax_mode.set_yticks(range(n_modes), ids)
     ax_mode.set_ylim(-0.5, n_modes - 0.5)
     ax_mode.set_ylabel("mode")
     ax_mode.legend(loc="upper right", fontsize="small")
     for j, m in enumerate(ids):
-        ax_prob.plot(
+        (line,) = ax_prob.plot(
             *envelope(result.time, result.mode_probabilities[:, j], bins), lw=0.8, label=f"p({m})"
         )
+        if filtered is not None:
+            ax_prob.plot(
+                *envelope(result.time, filtered.mode_probabilities[:, j], bins),
+                lw=0.5,
+                ls="--",
+                color=line.get_color(),
+                label=f"p({m}) filtered",
+            )
     ax_prob.set_ylabel("probability")
     ax_prob.set_xlabel("t (s)")
     ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, 6))
@@ -350,7 +376,21 @@ def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -
                 color="0.5",
                 label="true",
             )
-        ax.plot(*envelope(result.time, mean, bins), lw=0.8, color="tab:blue", label="estimate")
+        smoothed = result.post_processing is not None and result.post_processing.smoothing
+        ax.plot(
+            *envelope(result.time, mean, bins),
+            lw=0.8,
+            color="tab:blue",
+            label="smoothed" if smoothed else "estimate",
+        )
+        if result.post_processing is not None:
+            ax.plot(
+                *envelope(result.time, result.post_processing.filtered.state_means[:, i], bins),
+                lw=0.5,
+                ls="--",
+                color="k",
+                label="filtered",
+            )
         ax.set_ylabel(x)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")

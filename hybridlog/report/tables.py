@@ -4,13 +4,19 @@ Columns
 -------
 ``timeline``
     ``t``, ``mode`` (estimated mode id), ``p_<mode>`` for each mode id (posterior
-    probability or normalised score), ``truth_mode`` (true mode id) when the log has a
-    ground-truth mode, then the estimator's own columns (``EstimationResult.timeline_columns``).
+    probability or normalised score), then, for a smoothed run (``--smooth``,
+    ``--mode-sequence viterbi``), ``mode_filtered`` and ``p_<mode>_filtered`` (the causal
+    filter's own), ``truth_mode`` (true mode id) when the log has a ground-truth mode, then the
+    estimator's own columns (``EstimationResult.timeline_columns``).
 ``estimates``
     ``t``; for each state ``x``: ``<x>_hat`` (estimate) and ``<x>_var`` (diagonal of the
-    error covariance); for each output ``y``: ``<y>_hat`` (one-step-ahead prediction) and
+    error covariance), then for a smoothed run ``<x>_hat_filtered`` and ``<x>_var_filtered``
+    (the causal filter's own); for each output ``y``: ``<y>_hat`` (one-step-ahead prediction) and
     ``<y>`` (the measured output, so metrics can be recomputed from this file alone); then
     ``<x>_true`` for each state the log has ground truth for (a column that is not all NaN).
+
+In a smoothed run ``mode``, ``p_<mode>``, ``<x>_hat`` and ``<x>_var`` hold the smoothed (or
+Viterbi) values; ``<y>_hat`` is the filter's one-step-ahead prediction either way.
 
 Missing values (no prediction in row 0, no variance, a gap in the truth) are written as
 nulls: an empty cell in CSV, a null in Parquet.  Floats are written with full round-trip
@@ -191,6 +197,11 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
     table.labels("mode", ids, result.modes)
     for j, m in enumerate(ids):
         table.floats(f"p_{m}", result.mode_probabilities[:, j])
+    if result.post_processing is not None:
+        filtered = result.post_processing.filtered
+        table.labels("mode_filtered", ids, filtered.modes)
+        for j, m in enumerate(ids):
+            table.floats(f"p_{m}_filtered", filtered.mode_probabilities[:, j])
     if signals.truth_modes is not None:
         table.labels("truth_mode", ids, signals.truth_modes)
     for column in result.timeline_columns:
@@ -219,9 +230,13 @@ def estimates_table(result: EstimationResult, signals: AlignedSignals) -> Table:
     """
     table = _TableBuilder(result.time.shape[0])
     table.floats("t", result.time)
+    filtered = None if result.post_processing is None else result.post_processing.filtered
     for i, x in enumerate(result.state_names):
         table.floats(f"{x}_hat", result.state_means[:, i])
         table.floats(f"{x}_var", result.state_variances[:, i])
+        if filtered is not None:
+            table.floats(f"{x}_hat_filtered", filtered.state_means[:, i])
+            table.floats(f"{x}_var_filtered", filtered.state_variances[:, i])
     for j, y in enumerate(result.output_names):
         table.floats(f"{y}_hat", result.output_predictions[:, j])
         table.floats(y, signals.outputs[:, j])

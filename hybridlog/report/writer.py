@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.outputs import atomic_output_dir
@@ -19,6 +19,9 @@ from hybridlog.report.tables import (
     write_table,
 )
 from hybridlog.signals import AlignedSignals
+
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = ["write_plots", "write_report"]
 
@@ -43,6 +46,7 @@ def write_report(
     reading: Mapping[str, Any] | None = None,
     extra: Mapping[str, Any] | None = None,
     plots: bool | Callable[[Report], bool] = True,
+    model: HybridModel | None = None,
 ) -> Report:
     """Compute the metrics of a run and write its output directory (SPEC §8).
 
@@ -76,6 +80,9 @@ def write_report(
     plots:
         Whether to draw ``plots/`` (matplotlib is imported only then), or a test of the
         report that decides it (``hybridlog batch --plots failed``: logs that miss a gate).
+    model:
+        The model the result was estimated with (for the outputs a smoothed run's estimates
+        explain, :func:`~hybridlog.report.build.build_report`).
 
     Returns
     -------
@@ -92,7 +99,14 @@ def write_report(
     """
     fmt = check_table_format(table_format)
     report = build_report(
-        result, signals, log=log, model_name=model_name, dt=dt, reading=reading, extra=extra
+        result,
+        signals,
+        log=log,
+        model_name=model_name,
+        dt=dt,
+        reading=reading,
+        extra=extra,
+        model=model,
     )
     with atomic_output_dir(out_dir, force=force) as tmp:
         (tmp / "report.json").write_text(report.to_json(), encoding="utf-8")

@@ -79,7 +79,9 @@ def test_entry_is_complete(name):
     assert dataclasses.is_dataclass(entry.options_type)
     assert callable(entry.run_function)
     assert isinstance(entry.capabilities, Capabilities)
-    assert not entry.capabilities.supports_smoothing  # no smoother exists yet
+    # An estimator offers smoothing exactly when its options have the switch (issue 12).
+    fields = {f.name for f in dataclasses.fields(entry.options_type)}
+    assert entry.capabilities.supports_smoothing == ("smooth" in fields)
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))

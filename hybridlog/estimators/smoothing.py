@@ -1,0 +1,376 @@
+r"""Offline passes after a filter: the fixed-interval IMM smoother and the Viterbi path (issue 12).
+
+**Smoother: Kim (1994), with an extended RTS backward step per pair of modes.**  Kim C.-J.,
+"Dynamic linear models with Markov-switching", *Journal of Econometrics* 60 (1994) 1-22,
+eqs. (2.19)-(2.23); Kim and Nelson, *State-Space Models with Regime Switching* (1999), §5.2.2.
+It runs backwards over the per-mode filtered estimates the forward IMM kept
+(:class:`~hybridlog.estimators.common.ModeStore`): ``x̂_i(k|k)``, ``P_i(k|k)``, ``μ_i(k)``.
+For ``k = N−2 … 0``, with ``Π`` the Markov matrix:
+
+.. math::
+
+    \log \bar c_j(k+1) = \operatorname{logsumexp}_i(\log\Pi_{ij} + \log\mu_i(k))
+        \qquad (\Pr(q_{k+1}=j \mid Y^k))
+
+    \log p_{ij}(k) = \log\mu^s_j(k+1) + \log\mu_i(k) + \log\Pi_{ij} - \log\bar c_j(k+1)
+        \qquad \text{(Kim eq. (2.20))}
+
+    \log\mu^s_i(k) = \operatorname{logsumexp}_j \log p_{ij}(k),\qquad
+    w_{j|i} = p_{ij}/\mu^s_i \qquad \text{(eq. (2.21))}
+
+    \hat x^-_{ij} = f_j(\hat x_i(k|k), u_k),\; F_{ij} = \partial f_j/\partial x|_{\hat x_i(k|k)},\;
+    P^-_{ij} = F_{ij} P_i F_{ij}^T + Q_j
+
+    J_{ij} = P_i F_{ij}^T (P^-_{ij})^{-1},\quad
+    \hat x^s_{ij} = \hat x_i + J_{ij}(\hat x^s_j(k+1) - \hat x^-_{ij}) \qquad \text{(eq. (2.22))}
+
+    P^s_{ij} = (I - J F) P_i (I - J F)^T + J (Q_j + P^s_j(k+1)) J^T \qquad \text{(eq. (2.23))}
+
+    \hat x^s_i = \textstyle\sum_j w_{j|i}\hat x^s_{ij},\quad
+    P^s_i = \sum_j w_{j|i}(P^s_{ij} + (\hat x^s_{ij}-\hat x^s_i)(\cdot)^T)
+
+and the output is the mixture ``Σ_i μ^s_i x̂^s_i`` with its covariance.  Nonlinear modes are
+linearised at the filtered estimates ``x̂_i(k|k)`` (the extended RTS step).  The covariance of
+eq. (2.23) is written in the equivalent Joseph-like form above — it equals
+``P_i + J(P^s_j − P^-_{ij})Jᵀ`` when ``J = P_i Fᵀ (P^-)⁻¹`` — a sum of congruences of PSD
+matrices, so it stays PSD up to rounding, and every covariance is symmetrised.  Mode
+probabilities are combined in log space and renormalised at every step.  At the last sample
+the smoothed estimate is the filtered one.  A pair whose ``P^-_{ij}`` is not positive definite
+gets ``J = 0`` (the filtered estimate stands).
+
+**Viterbi.**  The most likely mode sequence given the forward pass's per-mode log-likelihoods
+``ℓ_j(k) = log N(γ_j(k); 0, S_j(k))``: ``δ_j(0) = log μ_j(0)``,
+``δ_j(k) = max_i(δ_i(k−1) + log Π_ij) + ℓ_j(k)`` and back-tracking (Rabiner 1989, eqs.
+(32a)-(35)), in log space.  The likelihoods are those of the IMM's mode-matched filters, so the
+path is exact for the chain only as far as the IMM's Gaussian mixture reduction is.
+
+Both passes are compiled with numba; the smoother calls the model's compiled ``f`` and ``F``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from hybridlog.estimators.common import FilterBuffers, Fn, ModeStore, contiguous
+from hybridlog.estimators.kernels import (
+    argmax,
+    backward_solve,
+    cholesky,
+    congruence,
+    forward_solve,
+    mat_mul,
+    mixture_moments,
+    record,
+    symmetrize,
+)
+from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.jit import compile_for, jit
+from hybridlog.model.compiled import compile_model
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+
+__all__ = ["KIM_DESCRIPTION", "post_process", "viterbi"]
+
+KIM = "kim-rts"
+"""``PostProcessing.smoothing`` of the IMM smoother."""
+
+KIM_DESCRIPTION = (
+    "Kim (1994) fixed-interval smoother, eqs. (2.19)-(2.23): backward mode probabilities in "
+    "log space, an extended RTS step per pair of modes linearised at the filtered estimates"
+)
+VITERBI_DESCRIPTION = (
+    "Viterbi path over the Markov chain with the forward filters' per-mode likelihoods "
+    "(Rabiner 1989, eqs. (32)-(35))"
+)
+
+
+@jit
+def safe_log(value: float) -> float:
+    """``log(value)``, ``-inf`` for ``value <= 0``."""
+    return math.log(value) if value > 0.0 else -math.inf
+
+
+@jit
+def log_sum_exp(values: FloatArray) -> float:
+    """``log Σ exp(values)``; ``-inf`` when every value is ``-inf``."""
+    top = -math.inf
+    for value in values:
+        if value > top:
+            top = value
+    if top == -math.inf:
+        return top
+    total = 0.0
+    for value in values:
+        total += math.exp(value - top)
+    return top + math.log(total)
+
+
+def kim_backward(
+    f: Fn,
+    F: Fn,
+    inputs: FloatArray,
+    transitions: FloatArray,
+    Q: FloatArray,
+    mu: FloatArray,
+    store: ModeStore,
+    out: FilterBuffers,
+) -> None:
+    """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
+
+    ``mu`` are the filtered mode probabilities, ``store`` the forward pass's per-mode
+    estimates; ``store`` is overwritten with the smoothed per-mode estimates as the pass goes
+    (no second array of that size).  Row ``N−1`` is the caller's (the filtered one).
+    """
+    n_samples, n_q, n = store.means.shape
+    log_T = np.empty((n_q, n_q))
+    for i in range(n_q):
+        for j in range(n_q):
+            log_T[i, j] = safe_log(transitions[i, j])
+    log_mu_next = np.empty(n_q)  # log μ^s(k+1)
+    for j in range(n_q):
+        log_mu_next[j] = safe_log(mu[n_samples - 1, j])
+    log_mu = np.empty(n_q)
+    log_c = np.empty(n_q)
+    terms = np.empty(n_q)
+    log_pair = np.empty((n_q, n_q))
+    row_total = np.empty(n_q)
+    log_new = np.empty(n_q)
+    weights = np.empty(n_q)
+    mu_s = np.empty(n_q)
+    x_pair = np.empty((n_q, n))
+    P_pair = np.empty((n_q, n, n))
+    x_new = np.empty((n_q, n))
+    P_new = np.empty((n_q, n, n))
+    x_pred = np.empty(n)
+    F_ij = np.empty((n, n))
+    FP = np.empty((n, n))
+    P_pred = np.empty((n, n))
+    L = np.zeros((n, n))
+    column = np.empty(n)
+    solved = np.empty(n)
+    J = np.empty((n, n))
+    IJF = np.empty((n, n))
+    work = np.empty((n, n))
+    part = np.empty((n, n))
+    x = np.empty(n)
+    P = np.empty((n, n))
+    for k in range(n_samples - 2, -1, -1):
+        u = inputs[k]
+        x_i = store.means[k]  # filtered x̂_i(k|k), overwritten below with the smoothed
+        P_i = store.covariances[k]
+        x_next = store.means[k + 1]  # already smoothed
+        P_next = store.covariances[k + 1]
+        for i in range(n_q):
+            log_mu[i] = safe_log(mu[k, i])
+        for j in range(n_q):
+            for i in range(n_q):
+                terms[i] = log_T[i, j] + log_mu[i]
+            log_c[j] = log_sum_exp(terms)
+        for i in range(n_q):
+            for j in range(n_q):
+                if log_c[j] == -math.inf or log_mu_next[j] == -math.inf:
+                    log_pair[i, j] = -math.inf
+                else:
+                    log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_c[j]
+            row_total[i] = log_sum_exp(log_pair[i])
+        total = log_sum_exp(row_total)
+        if total == -math.inf:  # nothing links the two samples: keep the filtered step
+            for i in range(n_q):
+                log_new[i] = log_mu[i]
+        else:
+            for i in range(n_q):
+                log_new[i] = row_total[i] - total
+        for i in range(n_q):
+            if log_new[i] == -math.inf or total == -math.inf:
+                x_new[i] = x_i[i]
+                P_new[i] = P_i[i]
+                continue
+            for j in range(n_q):
+                weights[j] = math.exp(log_pair[i, j] - row_total[i])
+                if weights[j] == 0.0:
+                    x_pair[j] = x_i[i]
+                    P_pair[j] = P_i[i]
+                    continue
+                f(j, x_i[i], u, x_pred)
+                F(j, x_i[i], u, F_ij)
+                congruence(F_ij, P_i[i], FP, P_pred)  # FP = F P_i
+                for a in range(n):
+                    for b in range(n):
+                        P_pred[a, b] += Q[j, a, b]
+                if not cholesky(P_pred, L):
+                    x_pair[j] = x_i[i]
+                    P_pair[j] = P_i[i]
+                    continue
+                # J = P_i Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P_i)ᵀ, column by column of F P_i.
+                for b in range(n):
+                    for a in range(n):
+                        column[a] = FP[a, b]
+                    forward_solve(L, column, solved)
+                    backward_solve(L, solved, column)
+                    for a in range(n):
+                        J[b, a] = column[a]
+                for a in range(n):
+                    acc = x_i[i, a]
+                    for b in range(n):
+                        acc += J[a, b] * (x_next[j, b] - x_pred[b])
+                    x_pair[j, a] = acc
+                mat_mul(J, F_ij, IJF)
+                for a in range(n):
+                    for b in range(n):
+                        IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
+                        part[a, b] = Q[j, a, b] + P_next[j, a, b]
+                congruence(IJF, P_i[i], work, P_pair[j])
+                congruence(J, part, work, P)
+                for a in range(n):
+                    for b in range(n):
+                        P_pair[j, a, b] += P[a, b]
+                symmetrize(P_pair[j])
+            mixture_moments(weights, x_pair, P_pair, x_new[i], P_new[i])
+        for i in range(n_q):
+            mu_s[i] = math.exp(log_new[i])
+            log_mu_next[i] = log_new[i]
+        store.means[k] = x_new
+        store.covariances[k] = P_new
+        mixture_moments(mu_s, x_new, P_new, x, P)
+        record(out, k, argmax(mu_s), mu_s, x, P)
+
+
+def viterbi(
+    log_transitions: FloatArray, log_prior: FloatArray, log_likelihoods: FloatArray
+) -> IntArray:
+    """Most likely mode path: argmax over paths of ``log μ_{q0}(0) + Σ (log Π + ℓ)``.
+
+    ``log_likelihoods[k, j]`` is ``ℓ_j(k)`` (row 0 unused: the prior stands for it).  Ties go
+    to the lowest mode index.  A sample where no mode has a finite likelihood counts every
+    mode alike (its row is taken as 0).  Plain Python that numba compiles on first use.
+    """
+    n_samples, n_q = log_likelihoods.shape
+    path = np.zeros(n_samples, dtype=np.int64)
+    if n_samples == 0:
+        return path
+    back = np.zeros((n_samples, n_q), dtype=np.int64)
+    delta = log_prior.copy()
+    new = np.empty(n_q)
+    for k in range(1, n_samples):
+        finite = False
+        for j in range(n_q):
+            if log_likelihoods[k, j] > -math.inf:
+                finite = True
+        top = -math.inf
+        for j in range(n_q):
+            best = 0
+            best_value = -math.inf
+            for i in range(n_q):
+                value = delta[i] + log_transitions[i, j]
+                if value > best_value:
+                    best_value = value
+                    best = i
+            back[k, j] = best
+            new[j] = best_value + (log_likelihoods[k, j] if finite else 0.0)
+            if new[j] > top:
+                top = new[j]
+        if top == -math.inf:  # no path reaches sample k: restart from its likelihoods
+            for j in range(n_q):
+                delta[j] = log_likelihoods[k, j] if finite else 0.0
+        else:
+            for j in range(n_q):
+                delta[j] = new[j] - top
+    path[n_samples - 1] = argmax(delta)
+    for k in range(n_samples - 1, 0, -1):
+        path[k - 1] = back[k, path[k]]
+    return path
+
+
+def _log(values: FloatArray) -> FloatArray:
+    with np.errstate(divide="ignore"):
+        return contiguous(np.log(values))
+
+
+def post_process(
+    model: HybridModel,
+    signals: AlignedSignals,
+    filtered: EstimationResult,
+    store: ModeStore,
+    transitions: FloatArray,
+    *,
+    smooth: bool,
+    mode_sequence: str,
+    jit: bool,
+) -> EstimationResult:
+    """The result after the offline passes asked for, with the filter's beside it.
+
+    ``smooth``: the Kim smoother's states, variances, probabilities and modes (argmax of the
+    smoothed probabilities); ``mode_sequence == "viterbi"``: the Viterbi path as the modes.
+    ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
+    """
+    start = time.perf_counter()
+    compile_s = 0.0
+    result = filtered
+    descriptions: list[str] = []
+    if smooth:
+        n = filtered.n_samples
+        buffers = FilterBuffers.allocate(
+            model, n, store_covariances=filtered.covariances is not None
+        )
+        if n:
+            Q = contiguous(np.stack([m.process_noise for m in model.modes]))
+            compiled = compile_model(model, jit=jit)
+            arguments: tuple[Any, ...] = (
+                compiled.f,
+                compiled.F,
+                contiguous(signals.inputs),
+                contiguous(transitions),
+                Q,
+                filtered.mode_probabilities,
+                store,
+                buffers,
+            )
+            compile_start = time.perf_counter()
+            loop = compile_for(kim_backward, arguments) if jit else kim_backward
+            compile_s += time.perf_counter() - compile_start
+            loop(*arguments)
+            last = n - 1
+            buffers.modes[last] = int(np.argmax(filtered.mode_probabilities[last]))
+            buffers.mode_probabilities[last] = filtered.mode_probabilities[last]
+            buffers.state_means[last] = filtered.state_means[last]
+            buffers.state_variances[last] = filtered.state_variances[last]
+            if filtered.covariances is not None:
+                buffers.covariances[last] = filtered.covariances[last]
+        result = replace(
+            filtered,
+            modes=buffers.modes,
+            mode_probabilities=buffers.mode_probabilities,
+            state_means=buffers.state_means,
+            state_variances=buffers.state_variances,
+            covariances=buffers.covariances if filtered.covariances is not None else None,
+        )
+        descriptions.append(KIM_DESCRIPTION)
+    if mode_sequence == "viterbi":
+        inputs_v = (
+            _log(transitions),
+            _log(model.initial_mode_probabilities),
+            contiguous(store.log_likelihoods),
+        )
+        compile_start = time.perf_counter()
+        decode = compile_for(viterbi, inputs_v) if jit else viterbi
+        compile_s += time.perf_counter() - compile_start
+        path = decode(*inputs_v)
+        result = replace(result, modes=path)
+        descriptions.append(VITERBI_DESCRIPTION)
+    elapsed = time.perf_counter() - start - compile_s
+    return replace(
+        result,
+        runtime_s=filtered.runtime_s + elapsed,
+        compile_s=filtered.compile_s + compile_s,
+        post_processing=PostProcessing(
+            smoothing=KIM if smooth else None,
+            mode_sequence=mode_sequence,
+            description="; ".join(descriptions),
+            filtered=filtered,
+        ),
+    )

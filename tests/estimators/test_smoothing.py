@@ -1,0 +1,229 @@
+"""The IMM's offline passes (issue 12): the Kim smoother and the Viterbi mode sequence."""
+
+import dataclasses
+import itertools
+
+import numpy as np
+import pytest
+from filterpy.kalman import KalmanFilter
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.smoothing import viterbi
+from hybridlog.model.loader import load_model, parse_model
+from hybridlog.simulate import simulate
+from tests.estimators.test_filter_properties import assert_filter_invariants
+from tests.estimators.test_reductions import _linear_matrices
+from tests.support.models import LINEAR_TWO_MODE
+
+ONE_MODE = LINEAR_TWO_MODE.replace(
+    """[modes.fast]
+A = [[1.0, 0.1], [-0.3, 0.7]]
+B = [[0.0], [0.2]]
+C = [[1.0, 0.0], [0.5, 2.0]]
+process_noise = [[0.02, 0.005], [0.005, 0.03]]
+""",
+    "",
+).replace("mode_probabilities = [0.6, 0.4]", "mode_probabilities = [1.0]")
+ONE_MODE = ONE_MODE.replace("matrix = [[0.97, 0.03], [0.05, 0.95]]", "matrix = [[1.0]]")
+ONE_MODE = ONE_MODE.replace(
+    'schedule = "slow:120,fast:80,slow:150,fast:150"', 'schedule = "slow:300"'
+)
+
+
+def _unforced(model, steps, seed):
+    """A simulated log with its inputs replaced by zeros (FilterPy's RTS has no ``B u``)."""
+    log = simulate(model, steps=steps, seed=seed)
+    signals = log.signals(model)
+    return dataclasses.replace(signals, inputs=np.zeros_like(signals.inputs))
+
+
+def _filterpy_rts(model, mode_index, signals):
+    """FilterPy's Kalman filter and ``rts_smoother`` on one linear mode (hybridlog's rows)."""
+    A, _, C = _linear_matrices(model, mode_index)
+    mode = model.modes[mode_index]
+    kf = KalmanFilter(dim_x=model.n_states, dim_z=model.n_outputs)
+    kf.F, kf.H = A, C
+    kf.Q, kf.R = mode.process_noise.copy(), mode.measurement_noise.copy()
+    kf.x = model.initial_state.copy()
+    kf.P = model.initial_covariance.copy()
+    means, covariances = [kf.x.copy()], [kf.P.copy()]
+    for k in range(1, signals.n_samples):
+        kf.predict()
+        kf.update(signals.outputs[k])
+        means.append(kf.x.copy())
+        covariances.append(kf.P.copy())
+    n = signals.n_samples
+    x, P, _, _ = kf.rts_smoother(np.array(means), np.array(covariances), [A] * n, [kf.Q] * n)
+    return x, P
+
+
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_one_mode_smoother_equals_filterpy_rts(kernel):
+    model = parse_model(ONE_MODE)
+    assert model.n_modes == 1
+    signals = _unforced(model, 400, seed=2)
+    result = run_imm(model, signals, ImmOptions(smooth=True), kernel=kernel, store_covariances=True)
+    x, P = _filterpy_rts(model, 0, signals)
+    np.testing.assert_allclose(result.state_means, x, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(result.covariances, P, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(result.state_variances, np.diagonal(P, axis1=1, axis2=2), atol=1e-8)
+    # The smoother changed the estimates (the test would not notice a copy of the filter's).
+    filtered = result.post_processing.filtered
+    assert np.abs(filtered.state_means - x).max() > 1e-3
+
+
+@pytest.mark.parametrize(("true_mode", "prior"), [("slow", [1.0, 0.0]), ("fast", [0.0, 1.0])])
+def test_two_modes_with_stay_one_and_known_mode_is_the_rts_of_that_mode(true_mode, prior):
+    text = LINEAR_TWO_MODE.replace(
+        "mode_probabilities = [0.6, 0.4]", f"mode_probabilities = {prior}"
+    )
+    text = text.replace('"slow:120,fast:80,slow:150,fast:150"', f'"{true_mode}:300"')
+    model = parse_model(text)
+    signals = _unforced(model, 300, seed=4)
+    result = run_imm(
+        model, signals, ImmOptions(transition_stay=1.0, smooth=True), store_covariances=True
+    )
+    index = model.mode_ids.index(true_mode)
+    x, P = _filterpy_rts(model, index, signals)
+    np.testing.assert_allclose(result.state_means, x, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(result.covariances, P, rtol=0, atol=1e-8)
+    assert (result.modes == index).all()
+    np.testing.assert_array_equal(result.mode_probabilities[:, index], 1.0)
+
+
+STEPS = 100_000
+
+
+@pytest.fixture(scope="module")
+def long_logs():
+    logs = {}
+    for name, model in (
+        ("three_tank_hstf", load_model("three_tank_hstf")),
+        ("linear_two_mode", parse_model(LINEAR_TWO_MODE)),
+    ):
+        logs[name] = (model, simulate(model, steps=STEPS - 1, seed=5))
+    return logs
+
+
+def assert_smoother_invariants(result):
+    """Filter invariants on the smoothed result, and the last sample is the filter's."""
+    assert_filter_invariants(result)
+    filtered = result.post_processing.filtered
+    assert_filter_invariants(filtered)
+    np.testing.assert_array_equal(result.state_means[-1], filtered.state_means[-1])
+    np.testing.assert_array_equal(result.covariances[-1], filtered.covariances[-1])
+    np.testing.assert_array_equal(result.mode_probabilities[-1], filtered.mode_probabilities[-1])
+    np.testing.assert_array_equal(result.output_predictions, filtered.output_predictions)
+
+
+@settings(
+    max_examples=3, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    model_name=st.sampled_from(["linear_two_mode", "three_tank_hstf"]),
+    n_outliers=st.integers(min_value=0, max_value=200),
+    sigmas=st.sampled_from([10.0, 1e3, 1e6]),
+    seed=st.integers(min_value=0, max_value=2**32 - 1),
+)
+def test_smoothed_covariances_psd_probabilities_normalised_with_outliers(
+    long_logs, model_name, n_outliers, sigmas, seed
+):
+    model, log = long_logs[model_name]
+    rng = np.random.default_rng(seed)
+    outputs = log.outputs.copy()
+    rows = rng.choice(STEPS, size=n_outliers, replace=False)
+    std = np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
+    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    result = run_imm(
+        model, signals, ImmOptions(smooth=True, mode_sequence="viterbi"), store_covariances=True
+    )
+    assert_smoother_invariants(result)
+
+
+def test_smoother_invariants_with_a_burst_of_outliers(long_logs):
+    model, log = long_logs["three_tank_hstf"]
+    outputs = log.outputs.copy()
+    outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    result = run_imm(model, signals, ImmOptions(smooth=True), store_covariances=True)
+    assert_smoother_invariants(result)
+    # Smoothing is offline: away from the burst, the smoothed modes are at least as right.
+    truth = log.modes
+    smoothed = np.mean(result.modes[2000:] == truth[2000:])
+    filtered = np.mean(result.post_processing.filtered.modes[2000:] == truth[2000:])
+    assert smoothed >= filtered
+
+
+def _brute_force(log_T, log_prior, log_likelihoods):
+    n_samples, n_q = log_likelihoods.shape
+    best, best_path = -np.inf, None
+    for path in itertools.product(range(n_q), repeat=n_samples):
+        score = log_prior[path[0]] + sum(
+            log_T[path[k - 1], path[k]] + log_likelihoods[k, path[k]] for k in range(1, n_samples)
+        )
+        if score > best:
+            best, best_path = score, path
+    return best, best_path
+
+
+def _score(path, log_T, log_prior, log_likelihoods):
+    return log_prior[path[0]] + sum(
+        log_T[path[k - 1], path[k]] + log_likelihoods[k, path[k]] for k in range(1, len(path))
+    )
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n_q=st.integers(min_value=1, max_value=3),
+    n_samples=st.integers(min_value=1, max_value=6),
+    seed=st.integers(min_value=0, max_value=2**32 - 1),
+    forbid=st.booleans(),
+)
+def test_viterbi_equals_brute_force_enumeration(n_q, n_samples, seed, forbid):
+    rng = np.random.default_rng(seed)
+    T = rng.dirichlet(np.ones(n_q), size=n_q)
+    if forbid and n_q > 1:
+        T[0, 1] = 0.0  # an impossible transition
+        T[0] /= T[0].sum()
+    with np.errstate(divide="ignore"):
+        log_T = np.log(T)
+        log_prior = np.log(rng.dirichlet(np.ones(n_q)))
+    log_likelihoods = rng.normal(scale=3.0, size=(n_samples, n_q))
+    path = viterbi(log_T, log_prior, log_likelihoods)
+    best, best_path = _brute_force(log_T, log_prior, log_likelihoods)
+    assert _score(path, log_T, log_prior, log_likelihoods) == pytest.approx(best, abs=1e-9)
+    assert tuple(path.tolist()) == best_path  # continuous random scores: no ties
+
+
+def test_imm_viterbi_modes_are_a_path_of_the_chain():
+    """With a forbidden transition, the Viterbi modes never take it; the argmax modes may."""
+    text = LINEAR_TWO_MODE.replace("[[0.97, 0.03], [0.05, 0.95]]", "[[0.97, 0.03], [0.0, 1.0]]")
+    text = text.replace('"slow:120,fast:80,slow:150,fast:150"', '"slow:150,fast:150"')
+    model = parse_model(text)
+    signals = simulate(model, steps=300, seed=8).signals(model)
+    result = run_imm(model, signals, ImmOptions(mode_sequence="viterbi"))
+    pp = result.post_processing
+    assert pp.smoothing is None and pp.mode_sequence == "viterbi"
+    fast, slow = model.mode_ids.index("fast"), model.mode_ids.index("slow")
+    back = (result.modes[:-1] == fast) & (result.modes[1:] == slow)
+    assert not back.any()
+    # Without smoothing only the modes change.
+    np.testing.assert_array_equal(result.state_means, pp.filtered.state_means)
+    assert np.mean(result.modes == signals.truth_modes) > 0.9
+
+
+def test_without_the_options_the_result_is_the_filters():
+    model = parse_model(LINEAR_TWO_MODE)
+    signals = simulate(model, steps=200, seed=1).signals(model)
+    result = run_imm(model, signals, ImmOptions())
+    assert result.post_processing is None
+    assert result.options["smooth"] is False and result.options["mode_sequence"] == "argmax"
+    smoothed = run_imm(model, signals, ImmOptions(smooth=True))
+    assert smoothed.options["smooth"] is True
+    assert smoothed.post_processing.smoothing == "kim-rts"
+    assert smoothed.post_processing.mode_sequence == "argmax"
+    np.testing.assert_array_equal(smoothed.post_processing.filtered.state_means, result.state_means)
+    np.testing.assert_array_equal(smoothed.modes, np.argmax(smoothed.mode_probabilities, axis=1))

@@ -1,0 +1,296 @@
+"""The report of a smoothed run (issue 12): report.json's ``smoothing``, tables, report.md, plots.
+
+The results are built by hand (a "filter" and a better "smoother" over the same synthetic
+log), so these tests check the report layer alone: each side's metrics must be those the
+report computes for that side's result on its own, and every value must come back from the
+files.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+import pytest
+
+from hybridlog.errors import ReportError
+from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.model.cache import load_model
+from hybridlog.report import Report, build_report, read_report, render_markdown, write_report
+from hybridlog.report.explained import explained_outputs
+from hybridlog.signals import AlignedSignals
+from tests.report.test_report_files import DT, MODE_IDS, OUTPUTS, STATES, make_run
+
+DESCRIPTION = "Kim (1994) smoother with an RTS backward step per mode, eqs. (1)-(3)"
+
+
+def smoothed_run(
+    *, truth: bool = True, mode_sequence: str = "argmax", smoothing: str | None = "kim-rts"
+) -> tuple[EstimationResult, AlignedSignals]:
+    """The run of ``make_run`` as the filter, and a result closer to the truth as the smoother."""
+    filtered, signals = make_run(truth=truth)
+    rng = np.random.default_rng(7)
+    _, with_truth = make_run(truth=True)
+    assert with_truth.truth_modes is not None and with_truth.truth_states is not None
+    modes = with_truth.truth_modes.copy()
+    modes[rng.random(modes.size) < 0.01] = 0  # a few errors remain
+    probs = 0.05 + 0.85 * np.eye(len(MODE_IDS))[modes]
+    probs /= probs.sum(axis=1, keepdims=True)
+    x_true = np.nan_to_num(with_truth.truth_states) + 0.0
+    means = 0.5 * (filtered.state_means + x_true)
+    means[:, 1] = filtered.state_means[:, 1] + 0.01
+    result = dataclasses.replace(
+        filtered,
+        modes=modes.astype(np.int64),
+        mode_probabilities=probs,
+        state_means=means,
+        state_variances=0.5 * filtered.state_variances,
+        post_processing=PostProcessing(
+            smoothing=smoothing, mode_sequence=mode_sequence, description=DESCRIPTION,
+            filtered=filtered,
+        ),
+    )  # fmt: skip
+    return result, signals
+
+
+def read_table(path: Path) -> pl.DataFrame:
+    header = path.read_text().splitlines()[0].split(",")
+    strings = {"mode", "truth_mode", "mode_filtered"}
+    return pl.read_csv(path, schema={c: pl.String if c in strings else pl.Float64 for c in header})
+
+
+def side_of(report: Report) -> dict[str, Any]:
+    """The metrics ``smoothing.<side>`` must hold, from a report of that side's result alone."""
+    modes = report.modes
+    det = modes.detection
+    confusion = modes.confusion
+    return {
+        "mode_accuracy": modes.accuracy,
+        "confusion": None if confusion is None else {k: dict(v) for k, v in confusion.items()},
+        "detection_delay_s": modes.detection_delay_s,
+        "detection_max_s": None if det is None else det.max_s,
+        "detected": None if det is None else det.detected,
+        "missed": None if det is None else det.missed,
+        "estimated_switches": len(modes.switches),
+        "states": {x: s.to_dict() for x, s in report.states.items()},
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("truth", [True, False], ids=["truth", "no-truth"])
+def test_smoothing_holds_each_sides_metrics_and_reads_back(tmp_path: Path, truth: bool) -> None:
+    result, signals = smoothed_run(truth=truth)
+    assert result.post_processing is not None
+    filtered = result.post_processing.filtered
+    report = write_report(
+        tmp_path / "out", result, signals, log="run.csv", model_name="m", dt=DT, plots=False
+    )
+    alone = {
+        name: build_report(r, signals, log="run.csv", model_name="m", dt=DT)
+        for name, r in (("filtered", filtered), ("smoothed", result))
+    }
+    data = json.loads((tmp_path / "out" / "report.json").read_text())
+    smoothing = data["smoothing"]
+    assert list(data)[list(data).index("null_reasons") + 1] == "smoothing"
+    assert (smoothing["method"], smoothing["mode_sequence"]) == ("kim-rts", "argmax")
+    assert smoothing["description"] == DESCRIPTION
+    for side in ("filtered", "smoothed"):
+        expected = side_of(alone[side])
+        assert {k: smoothing[side][k] for k in expected} == expected
+        # without the model at hand, the outputs the estimates explain are not known
+        assert smoothing[side]["outputs"] is None and smoothing[side]["fit"] is None
+    # the report's own modes and states are the smoothed ones; the outputs the filter's
+    assert data["modes"] == alone["smoothed"].to_dict()["modes"]
+    assert data["states"] == alone["smoothed"].to_dict()["states"]
+    for key in ("outputs", "mse", "vaf", "fit"):
+        assert data[key] == alone["filtered"].to_dict()[key]
+    if truth:
+        assert smoothing["smoothed"]["mode_accuracy"] > smoothing["filtered"]["mode_accuracy"]
+    assert read_report(tmp_path / "out" / "report.json") == report
+    assert "smoothing" not in alone["filtered"].to_dict()
+    assert alone["filtered"].smoothing is None
+
+
+def test_tables_hold_smoothed_values_and_the_filtered_ones_beside_them(tmp_path: Path) -> None:
+    result, signals = smoothed_run()
+    assert result.post_processing is not None
+    filtered = result.post_processing.filtered
+    write_report(
+        tmp_path / "out", result, signals, log="run.csv", model_name="m", dt=DT, plots=False
+    )
+    timeline = read_table(tmp_path / "out" / "timeline.csv")
+    estimates = read_table(tmp_path / "out" / "estimates.csv")
+    ids = np.array(MODE_IDS)
+    assert timeline.columns == [
+        "t", "mode", *(f"p_{m}" for m in MODE_IDS), "mode_filtered",
+        *(f"p_{m}_filtered" for m in MODE_IDS), "truth_mode",
+    ]  # fmt: skip
+    assert timeline["mode"].to_list() == ids[result.modes].tolist()
+    assert timeline["mode_filtered"].to_list() == ids[filtered.modes].tolist()
+    for j, m in enumerate(MODE_IDS):
+        np.testing.assert_array_equal(
+            timeline[f"p_{m}"].to_numpy(), result.mode_probabilities[:, j]
+        )
+        np.testing.assert_array_equal(
+            timeline[f"p_{m}_filtered"].to_numpy(), filtered.mode_probabilities[:, j]
+        )
+    for i, x in enumerate(STATES):
+        np.testing.assert_array_equal(estimates[f"{x}_hat"].to_numpy(), result.state_means[:, i])
+        np.testing.assert_array_equal(
+            estimates[f"{x}_hat_filtered"].to_numpy(), filtered.state_means[:, i]
+        )
+        np.testing.assert_array_equal(
+            estimates[f"{x}_var_filtered"].to_numpy(), filtered.state_variances[:, i]
+        )
+    for j, y in enumerate(OUTPUTS):  # the filter's one-step-ahead prediction either way
+        np.testing.assert_array_equal(
+            estimates[f"{y}_hat"].to_numpy()[1:], filtered.output_predictions[1:, j]
+        )
+    assert not any(c.endswith("_filtered") for c in read_table_plain(tmp_path))
+
+
+def read_table_plain(tmp_path: Path) -> list[str]:
+    """The columns of both tables of the same run without post-processing."""
+    result, signals = make_run()
+    write_report(
+        tmp_path / "plain", result, signals, log="run.csv", model_name="m", dt=DT, plots=False
+    )
+    columns: list[str] = []
+    for name in ("timeline", "estimates"):
+        columns += (tmp_path / "plain" / f"{name}.csv").read_text().splitlines()[0].split(",")
+    return columns
+
+
+def test_report_md_has_a_smoothing_section_with_the_gain(tmp_path: Path) -> None:
+    result, signals = smoothed_run(mode_sequence="viterbi")
+    report = write_report(tmp_path / "out", result, signals, log="run.csv", model_name="m", dt=DT)
+    text = (tmp_path / "out" / "report.md").read_text()
+    assert text == render_markdown(report)
+    section = text.split("## Smoothing", 1)[1].split("\n## ", 1)[0]
+    assert "`kim-rts`" in section and "`viterbi`" in section and DESCRIPTION in section
+    assert "one-step-ahead prediction" in section
+    assert report.smoothing is not None
+    f, s = report.smoothing.filtered, report.smoothing.smoothed
+    assert f.mode_accuracy is not None and s.mode_accuracy is not None
+    gain = 100 * (s.mode_accuracy - f.mode_accuracy)
+    row = next(line for line in section.splitlines() if line.startswith("| mode accuracy"))
+    assert row.split("|")[2:5] == [
+        f" {100 * f.mode_accuracy:.4f} ", f" {100 * s.mode_accuracy:.4f} ", f" {gain:+.4g} "
+    ]  # fmt: skip
+    for x in STATES:
+        assert f"| RMSE {x} |" in section
+    for name in ("outputs.png", "modes.png", "states.png"):
+        assert (tmp_path / "out" / "plots" / name).stat().st_size > 1000
+    plain, signals = make_run()
+    assert "## Smoothing" not in render_markdown(
+        build_report(plain, signals, log="run.csv", model_name="m", dt=DT)
+    )
+
+
+def test_a_filtered_result_that_does_not_line_up_is_a_programming_error() -> None:
+    result, signals = smoothed_run()
+    assert result.post_processing is not None
+    short = make_run(n=399)[0]
+    broken = dataclasses.replace(
+        result, post_processing=dataclasses.replace(result.post_processing, filtered=short)
+    )
+    with pytest.raises(ValueError, match="does not line up"):
+        build_report(broken, signals, log="run.csv", model_name="m", dt=DT)
+
+
+def _report_data() -> dict[str, Any]:
+    result, signals = smoothed_run()
+    data: dict[str, Any] = build_report(
+        result, signals, log="run.csv", model_name="m", dt=DT
+    ).to_dict()
+    return data
+
+
+def _set(data: dict[str, Any], path: str, value: object) -> dict[str, Any]:
+    changed = copy.deepcopy(data)
+    *parents, last = path.split(".")
+    target = changed
+    for key in parents:
+        target = target[key]
+    if value is _DELETE:
+        del target[last]
+    else:
+        target[last] = value
+    return changed
+
+
+_DELETE = object()
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "message"),
+    [
+        ("smoothing", [], "'smoothing' is a list; expected an object"),
+        ("smoothing.method", 3, "'smoothing.method' is a number; expected a string"),
+        ("smoothing.mode_sequence", "best", "'smoothing.mode_sequence' is 'best'; expected one"),
+        ("smoothing.description", _DELETE, "'smoothing.description' is missing"),
+        ("smoothing.filtered", _DELETE, "'smoothing.filtered' is missing"),
+        ("smoothing.smoothed.mode_accuracy", "0.9", "'smoothing.smoothed.mode_accuracy' is a str"),
+        ("smoothing.filtered.confusion.off", {"off": 1}, "'smoothing.filtered.confusion.off' has"),
+        ("smoothing.smoothed.states", {"x1": {"rmse": 1.0}}, "'smoothing.smoothed.states' has"),
+        ("smoothing.smoothed.missed", None, "'smoothing.smoothed.missed' must be null exactly"),
+        ("smoothing.filtered.confusion", None, "'smoothing.filtered' holds mode_accuracy, conf"),
+        (
+            "smoothing.filtered.estimated_switches",
+            -1,
+            "'smoothing.filtered.estimated_switches' is -1",
+        ),
+        ("smoothing.smoothed.outputs", {"y1": 1}, "'smoothing.smoothed.outputs.y1' is a number"),
+    ],
+)
+def test_a_malformed_smoothing_is_a_report_error_naming_the_key(
+    path: str, value: object, message: str
+) -> None:
+    text = json.dumps(_set(_report_data(), path, value))
+    with pytest.raises(ReportError, match="^r.json: " + re.escape(message)):
+        Report.from_json(text, source="r.json")
+
+
+def test_smoothing_null_reads_as_none() -> None:
+    data = _set(_report_data(), "smoothing", None)
+    assert Report.from_dict(data).smoothing is None
+
+
+def test_explained_outputs_are_h_of_the_estimate_in_its_mode() -> None:
+    """Through the compiled h of a linear model: y = C_q x + D_q u + d_q, and the plain loop."""
+    model = load_model("double_cart_case1")
+    n = 50
+    rng = np.random.default_rng(3)
+    modes = rng.integers(0, model.n_modes, size=n).astype(np.int64)
+    n_x, n_y = model.n_states, model.n_outputs
+    result = EstimationResult(
+        estimator="imm", options={}, time=np.arange(n) * model.dt, mode_ids=model.mode_ids,
+        state_names=tuple(model.states), output_names=tuple(model.outputs), modes=modes,
+        mode_probabilities=np.eye(model.n_modes)[modes], state_means=rng.normal(size=(n, n_x)),
+        state_variances=np.ones((n, n_x)), output_predictions=np.zeros((n, n_y)),
+    )  # fmt: skip
+    signals = AlignedSignals(
+        source="x.csv", time=result.time, input_names=tuple(model.inputs),
+        output_names=tuple(model.outputs), inputs=rng.normal(size=(n, model.n_inputs)),
+        outputs=np.zeros((n, model.n_outputs)),
+    )  # fmt: skip
+    linear = model.linear_modes()
+    expected = np.array(
+        [
+            linear[q].C @ result.state_means[k] + linear[q].D @ signals.inputs[k]
+            + linear[q].output_offset
+            for k, q in enumerate(modes)
+        ]
+    )  # fmt: skip
+    compiled = explained_outputs(model, result, signals)
+    plain = explained_outputs(model, result, signals, jit=False)
+    assert compiled is not None and plain is not None
+    np.testing.assert_allclose(compiled, expected, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(compiled, plain)
+    other = dataclasses.replace(result, mode_ids=("a", "b"))
+    assert explained_outputs(model, other, signals) is None
