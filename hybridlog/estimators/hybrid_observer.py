@@ -26,7 +26,11 @@ is integrated with the model's fixed step and method (``integration``), the mode
 
 Sampling, as for every estimator (row ``k``: ``u(k)`` applied from ``t_k``, ``y(k)``
 measured at ``t_k``): on ``[t_k, t_{k+1})`` σ = σ(k) and ``u`` and ``y`` are held at their
-sample values (zero-order hold, so ``x̂(t_k)`` uses ``y(0) … y(k−1)`` only); a switch
+sample values (zero-order hold), or, with ``output_hold = "first"`` (the default), ``y`` is
+extrapolated from its last two samples, ``y(k) + (t − t_k)(y(k) − y(k−1))/(t_k − t_{k−1})``
+(a causal first-order hold; on the first interval of a mode, where ``y`` may have jumped,
+the slope is the estimate's own ``ẏ = ∂h/∂x·dx(σ, x̂(t_k), u(k))``).  Either way
+``x̂(t_k)`` uses ``y(0) … y(k−1)`` only.  A switch
 ``σ(k+1) ≠ σ(k)`` happens at ``t_{k+1}``, where ``R`` is applied (the true switching instant
 lies in ``(t_k, t_{k+1}]``: a log tells no more).  The output prediction of row ``k`` is
 ``h(σ(k), x̂(t_k))``, made before ``y(k)`` is used; row 0 is the prior (the model's initial
@@ -168,7 +172,7 @@ def _rhs(q, x, u, y, gain, n, out, hv, Qm, W, r, v):
         out[i] += v[i]
 
 
-def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4,
+def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order,
             out_x, out_prediction, out_condition, out_jumped):
     """The whole run of observer (20) with jumps, see hybridlog.estimators.hybrid_observer."""
     n = x0.shape[0]
@@ -195,18 +199,28 @@ def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4,
         u = inputs[k]
         y = outputs[k, 0]
         step = (time[k + 1] - time[k]) / substeps
-        for _ in range(substeps):
-            _rhs(q, x, u, y, gain, n, k1, hv, Qm, W, r, v)
+        slope = 0.0
+        if first_order and k > 0 and modes[k - 1] == q:
+            slope = (y - outputs[k - 1, 0]) / (time[k] - time[k - 1])
+        elif first_order:  # first interval of a mode: dy/dt = dh/dx dx of the estimate
+            dx(q, x, u, k1)
+            Q(q, x, u, Qm)  # its first row is dh/dx (Phi_1 = h)
+            for i in range(n):
+                slope += Qm[0, i] * k1[i]
+        for s in range(substeps):
+            tau = s * step
+            _rhs(q, x, u, y + slope * tau, gain, n, k1, hv, Qm, W, r, v)
             if rk4:
+                y_half = y + slope * (tau + 0.5 * step)
                 for i in range(n):
                     xt[i] = x[i] + 0.5 * step * k1[i]
-                _rhs(q, xt, u, y, gain, n, k2, hv, Qm, W, r, v)
+                _rhs(q, xt, u, y_half, gain, n, k2, hv, Qm, W, r, v)
                 for i in range(n):
                     xt[i] = x[i] + 0.5 * step * k2[i]
-                _rhs(q, xt, u, y, gain, n, k3, hv, Qm, W, r, v)
+                _rhs(q, xt, u, y_half, gain, n, k3, hv, Qm, W, r, v)
                 for i in range(n):
                     xt[i] = x[i] + step * k3[i]
-                _rhs(q, xt, u, y, gain, n, k4, hv, Qm, W, r, v)
+                _rhs(q, xt, u, y + slope * (tau + step), gain, n, k4, hv, Qm, W, r, v)
                 for i in range(n):
                     x[i] += step / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             else:
@@ -367,6 +381,7 @@ def run_switching_observer(
         gain,
         np.int64(timebase.substeps),
         timebase.method == "rk4",
+        options.output_hold == "first",
         np.zeros((count, n)),
         np.zeros(count),
         np.zeros(count),
@@ -384,7 +399,7 @@ def run_switching_observer(
     if count:
         observe(*arguments)
     runtime = time.perf_counter() - start
-    states, predictions, condition, jumped = arguments[8:12]
+    states, predictions, condition, jumped = arguments[9:13]
     probabilities = np.zeros((count, model.n_modes))
     probabilities[np.arange(count), modes] = 1.0
     switches = int(np.count_nonzero(np.diff(modes))) if count else 0

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators.options import option
@@ -33,6 +34,10 @@ class SwitchingObserverOptions:
         DEFAULT_EIGENVALUES,
         "eigenvalues of A_b - K C_b (sec. 5): n negative reals 'l1,l2,...', "
         "or one value l for l, 2l, ..., nl",
+    )
+    output_hold: Literal["first", "zero"] = option(
+        "first",
+        "y between samples: first = extrapolated from the last two samples (causal), zero = held",
     )
     condition_limit: float = option(
         1e6,

@@ -91,3 +91,62 @@ def signals(
         state_names=("m", "omega", "T"),
         truth_states=states.copy(),
     )
+
+
+def linearised_error(p: Mapping[str, float], gain: np.ndarray) -> Callable[..., np.ndarray]:
+    """``M(σ, x, α)``: the observer's error dynamics ė = M e linearised at x̂ = x.
+
+    Differentiating observer (20) at x̂ = x (where y − h = 0) gives
+    ``M = ∂(f + g α)/∂x − Q(σ, x)⁻¹ K ∂h/∂x``; the frozen-time eigenvalues of M are what
+    the placed Λ becomes once the plant's own nonlinearity is added.  Written again here with
+    sympy from eqs. (42)-(44) (not through hybridlog's derivatives).
+    """
+    import sympy
+
+    m, omega, torque, alpha = sympy.symbols("m omega T alpha", real=True)
+    xs = [m, omega, torque]
+    functions = []
+    for sigma in (0, 1):
+        inertia = p["JE"] + sigma * p["JL"]
+        friction = p["fE"] + sigma * p["fL"]
+        beta = p["beta_bar"] * m * sympy.exp(-p["gamma"] * (omega - p["omega_bar"]) ** 4)
+        m_ss = (p["m0"] + p["m1"] * omega) * alpha + p["q0"]
+        field = [-p["p"] * omega * (m - m_ss), (beta - friction * omega - torque) / inertia, 0]
+        drift = [sympy.sympify(e).subs(alpha, 0) for e in field]
+        phi = [omega]
+        for _ in range(2):
+            phi.append(sum(sympy.diff(phi[-1], x) * f for x, f in zip(xs, drift, strict=True)))
+        q = sympy.Matrix(phi).jacobian(xs)
+        jac = sympy.Matrix(field).jacobian(xs)
+        functions.append(
+            tuple(sympy.lambdify([xs, alpha], e, "numpy") for e in (sympy.Matrix(phi), q, jac))
+        )
+    c = np.array([[0.0, 1.0, 0.0]])
+
+    def matrices(sigma: int, x: np.ndarray, a: float) -> tuple[np.ndarray, ...]:
+        """Φ(σ, x), Q(σ, x) and M(σ, x, α)."""
+        phi_fn, q_fn, jac_fn = functions[sigma]
+        phi_value = np.asarray(phi_fn(list(x), a), dtype=float).ravel()
+        q_value = np.asarray(q_fn(list(x), a), dtype=float)
+        jac_value = np.asarray(jac_fn(list(x), a), dtype=float)
+        m_value = jac_value - np.linalg.solve(q_value, gain.reshape(-1, 1)) @ c
+        return phi_value, q_value, m_value
+
+    return matrices
+
+
+def vandermonde(eigenvalues: Sequence[float]) -> np.ndarray:
+    """V(Λ) with V (A_b − K(Λ) C_b) V⁻¹ = diag(Λ) (paper 004, sec. 5)."""
+    n = len(eigenvalues)
+    a_b = np.eye(n, k=1)
+    gain = np.poly(eigenvalues)[1:].reshape(-1, 1)
+    c_b = np.eye(1, n)
+    values, vectors = np.linalg.eig((a_b - gain @ c_b).T)  # rows of V: left eigenvectors
+    order = np.argsort(-values.real)
+    return np.asarray(vectors[:, order].T.real / vectors[0, order].real[:, None])
+
+
+def decay_rate(time: np.ndarray, error: np.ndarray) -> float:
+    """Least-squares slope of ``log(error)`` against time (the exponential rate, 1/s)."""
+    slope, _ = np.polyfit(time, np.log(error), 1)
+    return float(slope)
