@@ -46,6 +46,7 @@ step, the jumps, the conditioning -- is one compiled function generated for the 
 from __future__ import annotations
 
 import time
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -64,6 +65,7 @@ if TYPE_CHECKING:
 __all__ = [
     "brunovsky_gain",
     "drift_observability",
+    "observer_module",
     "observer_source",
     "run_switching_observer",
 ]
@@ -285,6 +287,23 @@ def observer_source(model: HybridModel) -> str:
     return "\n".join(lines) + _LOOP
 
 
+KIND = "switchobs"
+"""File-name prefix and key part of the generated module in the compiled-code cache."""
+GENERATORS = ("hybridlog.estimators.hybrid_observer",)
+"""Modules whose source shapes the generated module (part of its cache key)."""
+
+
+def observer_module(model: HybridModel) -> ModuleType:
+    """The generated module of ``model`` (:func:`observer_source`), from the cache when there.
+
+    Its ``dx``, ``h``, ``Q`` and ``reset`` are numba functions callable from Python too (the
+    benchmark integrates the same right-hand side with SciPy).
+    """
+    from hybridlog.model.compiled import load_generated
+
+    return load_generated(model, KIND, lambda: observer_source(model), GENERATORS)
+
+
 def _check_model(model: HybridModel) -> None:
     origin = model.origin or model.name
     if model.n_outputs != 1:
@@ -388,12 +407,7 @@ def run_switching_observer(
         np.zeros(count, dtype=np.int64),
     )
     observe, compile_s = compile_generated(
-        model,
-        "switchobs",
-        lambda: observer_source(model),
-        ("hybridlog.estimators.hybrid_observer",),
-        "observe",
-        arguments,
+        model, KIND, lambda: observer_source(model), GENERATORS, "observe", arguments
     )
     start = time.perf_counter()
     if count:
