@@ -303,3 +303,23 @@ def test_refusals_name_the_model_and_why(switched, tmp_path):
     with pytest.raises(ModelError, match="needs a continuous-time model"):
         prepare(load_model("three_tank_hstf"), "switching-observer")
     assert prepare(parse_model(model_kinds.CLUTCH_JUMPS), "switching-observer")
+
+
+def test_analyze_a_clutch_log_end_to_end_and_without_the_mode_column(switched, tmp_path):
+    import polars as pl
+
+    from hybridlog.jobs.analysis import analyze
+
+    _, _, signals, result = switched
+    columns = {"time": signals.time, "alpha": signals.inputs[:, 0], "y": signals.outputs[:, 0]}
+    log = tmp_path / "clutch.csv"
+    pl.DataFrame({**columns, "mode": signals.truth_modes}).write_csv(log)
+    outcome = analyze(log, "ice_clutch", out_dir=tmp_path / "out", sets=["eigenvalues=-4,-8,-12"])
+    report = outcome.report
+    assert report.modes.accuracy == 1.0
+    assert any("jump maps R applied at 11 of them" in note for note in report.notes)
+    blind = tmp_path / "blind.csv"
+    pl.DataFrame(columns).write_csv(blind)
+    with pytest.raises(LogError, match=r"blind\.csv: estimator 'switching-observer' needs the "):
+        analyze(blind, "ice_clutch", out_dir=tmp_path / "none")
+    assert not (tmp_path / "none").exists()
