@@ -310,7 +310,7 @@ def test_analyze_a_clutch_log_end_to_end_and_without_the_mode_column(switched, t
 
     from hybridlog.jobs.analysis import analyze
 
-    _, _, signals, result = switched
+    _, _, signals, _ = switched
     columns = {"time": signals.time, "alpha": signals.inputs[:, 0], "y": signals.outputs[:, 0]}
     log = tmp_path / "clutch.csv"
     pl.DataFrame({**columns, "mode": signals.truth_modes}).write_csv(log)
