@@ -40,7 +40,16 @@ from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
 RESULTS = Path(__file__).resolve().parent / "results.md"
-BENCHMARKS = ("three_tank", "compile", "filterpy", "clustering", "read", "analyze", "batch")
+BENCHMARKS = (
+    "three_tank",
+    "compile",
+    "filterpy",
+    "clustering",
+    "read",
+    "analyze",
+    "batch",
+    "switching_observer",
+)
 
 HSTF_TARGET_S = 3.0
 """10^6 HSTF steps on the three-tank model must take less than this."""
@@ -450,6 +459,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [
                 Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
                 for label, n, t, target, met, notes in bench_analyze(args.quick, repeat)
+            ]
+        elif name == "switching_observer":
+            from benchmarks.switching_observer import bench_switching_observer
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_switching_observer(args.quick, repeat)
             ]
         else:
             rows += bench_filterpy(sizes, repeat)

@@ -192,3 +192,59 @@ def emit_mode_function(
     if not pending:
         return [], entries
     return assignments(pending, targets, names, indent, temporaries=f"{prefix}c"), entries
+
+
+def switched_function(
+    model: HybridModel,
+    name: str,
+    expressions: Sequence[Sequence[sympy.Expr]],
+    targets: Sequence[str],
+) -> list[str]:
+    """Lines of ``def <name>(q, x, u, out)``: ``targets = expressions[q]`` for mode index ``q``.
+
+    The calling convention of the model functions (:func:`model_source`) for expressions an
+    estimator derives itself (paper 004's drift-observability Jacobian ``Q``, a mode's
+    ``dx``): one branch per mode, states and inputs read into scalars only where used.
+    """
+    names = _slot_names(model)
+    loads = [f"        x_{i} = x[{i}]" for i in range(model.n_states)]
+    loads += [f"        u_{i} = u[{i}]" for i in range(model.n_inputs)]
+    lines = ["", "", f"def {name}(q, x, u, out):"]
+    for index, mode in enumerate(model.modes):
+        keyword = "if" if index == 0 else "elif"
+        lines.append(f"    {keyword} q == {index}:  # mode {mode.id!r}")
+        body = assignments(expressions[index], targets, names, " " * 8)
+        used = "\n".join(body)
+        lines += [line for line in loads if line.split(" = ")[0].strip() in used]
+        lines += body
+    lines.append("    return None")
+    return lines
+
+
+def jump_function(model: HybridModel, name: str = "reset") -> list[str]:
+    """Lines of ``def <name>(a, b, x, out) -> int``: the jump map ``R`` (paper 004, eq. (3)).
+
+    ``out`` receives the state after a switch from mode index ``a`` to ``b``
+    (:meth:`~hybridlog.model.hybrid_model.HybridModel.reset_map`); the function returns 1
+    when a map was applied and 0 when the state is continuous across the switch (``out = x``).
+    """
+    names = _slot_names(model)
+    n_x = model.n_states
+    targets = [f"out[{i}]" for i in range(n_x)]
+    lines = ["", "", f"def {name}(a, b, x, out):"]
+    lines += [f"    x_{i} = x[{i}]" for i in range(n_x)]
+    first = True
+    for a in range(model.n_modes):
+        for b in range(model.n_modes):
+            reset = model.reset_map(a, b)
+            if reset is None:
+                continue
+            keyword = "if" if first else "elif"
+            first = False
+            source, target = model.modes[a].id, model.modes[b].id
+            lines.append(f"    {keyword} a == {a} and b == {b}:  # {source!r} -> {target!r}")
+            lines += assignments(list(reset), targets, names, " " * 8)
+            lines.append("        return 1")
+    lines += [f"    out[{i}] = x_{i}" for i in range(n_x)]
+    lines.append("    return 0")
+    return lines

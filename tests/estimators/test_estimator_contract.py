@@ -25,7 +25,7 @@ from hybridlog.jobs.analysis import Overrides, analyze, parse_sets, prepare_esti
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report import build_report
 from hybridlog.simulate import simulate
-from tests.support import model_kinds
+from tests.support import clutch, model_kinds
 from tests.support.paths import ROOT
 
 TANK_TEXT = (ROOT / "hybridlog/model/builtin/three_tank_hstf.toml").read_text()
@@ -34,11 +34,24 @@ HEAVY = ("numba", "sympy", "scipy", "cvxpy", "matplotlib", "polars")
 
 
 def model_for(name):
+    if name == "switching-observer":
+        return "ice_clutch"
     return (
         "double_cart_case1"
         if ESTIMATORS[name].capabilities.needs_linear_model
         else ("three_tank_hstf")
     )
+
+
+def clutch_case():
+    """The engine with clutch (continuous time, jumps): a short log made with SciPy."""
+    model = load_model("ice_clutch")
+    values = {k: float(v) for k, v in model.parameters.items()}
+    modes = clutch.schedule_modes([(0, 40), (1, 40), (0, 40)])
+    times, alpha, states = clutch.trajectory(
+        values, modes, [0.08, 140.0, 15.0], lambda t: 0.4 + 0.1 * np.sin(2 * t), model.dt
+    )
+    return model, clutch.signals(times, alpha, states, modes)
 
 
 @pytest.fixture(scope="module")
@@ -48,6 +61,7 @@ def cases():
     for model_name, steps in (("three_tank_hstf", 120), ("double_cart_case1", 300)):
         model = load_model(model_name)
         built[model_name] = (model, simulate(model, steps=steps, seed=1).signals(model))
+    built["ice_clutch"] = clutch_case()
     return built
 
 

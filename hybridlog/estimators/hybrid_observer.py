@@ -1,0 +1,446 @@
+r"""Paper 004's switching observer for nonlinear hybrid automata with jumps, over a whole log.
+
+Germani, Manes, Pepe, *State observation for nonlinear hybrid automata*
+(``papers/004_33eb1488165da6c7.txt``).  The switching signal σ(t) is known (the log's true
+mode column, ``--map truth.mode=PATH``); per mode the drift-observability map (eq. (7))
+
+.. math::
+
+    \Phi(\sigma, x) = [h, L_f h, \dots, L_f^{n-1} h]^T, \qquad
+    Q(\sigma, x) = \partial\Phi(\sigma, x)/\partial x \quad (21)
+
+is taken with sympy (:func:`~hybridlog.model.derivatives.lie_derivative`; ``f`` is the
+mode's ``dx`` with the inputs at zero, the drift), and the observer (20)
+
+.. math::
+
+    \dot{\hat x} = f(\sigma, \hat x) + g(\sigma, \hat x) u
+        + Q(\sigma, \hat x)^{-1} K \bigl(y - h(\sigma, \hat x)\bigr), \quad t \ne t_j,
+    \qquad \hat x(t_j) = R(\sigma(t_j^-), \sigma(t_j), \hat x(t_j^-))
+
+is integrated with the model's fixed step and method (``integration``), the mode's whole
+``dx`` standing for ``f + g u``.  ``K = K(Λ)`` places the eigenvalues of ``A_b − K C_b``
+(Brunovsky form: ``A_b`` the shift, ``C_b = [1, 0, …, 0]``) at the chosen real values Λ
+(Section 5): ``A_b − K C_b`` is a companion matrix whose characteristic polynomial is
+``s^n + K_1 s^{n−1} + … + K_n``, so ``K`` is the coefficients of ``∏(s − λ_j)``.
+
+Sampling, as for every estimator (row ``k``: ``u(k)`` applied from ``t_k``, ``y(k)``
+measured at ``t_k``): on ``[t_k, t_{k+1})`` σ = σ(k) and ``u`` and ``y`` are held at their
+sample values (zero-order hold), or, with ``output_hold = "first"`` (the default), ``y`` is
+extrapolated from its last two samples, ``y(k) + (t − t_k)(y(k) − y(k−1))/(t_k − t_{k−1})``
+(a causal first-order hold; on the first interval of a mode, where ``y`` may have jumped,
+the slope is the estimate's own ``ẏ = ∂h/∂x·dx(σ, x̂(t_k), u(k))``).  Either way
+``x̂(t_k)`` uses ``y(0) … y(k−1)`` only.  A switch
+``σ(k+1) ≠ σ(k)`` happens at ``t_{k+1}``, where ``R`` is applied (the true switching instant
+lies in ``(t_k, t_{k+1}]``: a log tells no more).  The output prediction of row ``k`` is
+``h(σ(k), x̂(t_k))``, made before ``y(k)`` is used; row 0 is the prior (the model's initial
+state).  Mode probabilities are the one-hot σ; there is no covariance (variances NaN).
+
+The condition number κ₁(Q) (1-norm) is computed at every sample; where it exceeds the
+``condition_limit`` option a note says when and how badly (the correction ``Q⁻¹K(y − h)``
+is then inaccurate, and infinite where Q is singular).  The whole loop -- every integration
+step, the jumps, the conditioning -- is one compiled function generated for the model
+(:func:`observer_source`), cached on disk like the model's functions.
+"""
+
+from __future__ import annotations
+
+import time
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hybridlog.errors import LogError, ModelError
+from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    import sympy
+
+    from hybridlog.model.hybrid_model import HybridModel
+    from hybridlog.signals import AlignedSignals
+
+__all__ = [
+    "brunovsky_gain",
+    "drift_observability",
+    "observer_module",
+    "observer_source",
+    "run_switching_observer",
+]
+
+NAME = "switching-observer"
+
+
+def brunovsky_gain(eigenvalues: tuple[float, ...]) -> FloatArray:
+    """``K(Λ)`` with ``eig(A_b − K C_b) = Λ`` (paper 004, Section 5).
+
+    ``A_b − K C_b`` is the companion matrix of ``s^n + K_1 s^{n−1} + … + K_n``.
+
+    Examples
+    --------
+    >>> brunovsky_gain((-1.0, -2.0)).tolist()
+    [3.0, 2.0]
+    """
+    return np.ascontiguousarray(np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real)
+
+
+def drift_observability(
+    model: HybridModel, mode_index: int
+) -> tuple[list[sympy.Expr], list[list[sympy.Expr]]]:
+    r"""``Φ = [h, L_f h, …, L_f^{n−1} h]`` (eq. (7)) and ``Q = ∂Φ/∂x`` (eq. (21)) of one mode.
+
+    ``f`` is the drift: the mode's ``dx`` with every input at zero.
+    """
+    import sympy
+
+    from hybridlog.model.derivatives import jacobian, lie_derivative
+
+    xs, us = model.symbols()
+    mode = model.modes[mode_index]
+    drift = [sympy.sympify(e).xreplace({u: sympy.S.Zero for u in us}) for e in mode.dx]
+    (h,) = mode.h
+    phi = [lie_derivative([h], drift, xs, order=k)[0] for k in range(model.n_states)]
+    return phi, jacobian(phi, xs)
+
+
+_LOOP = '''
+
+def _solve(M, b, n, W, out):
+    """``out = M⁻¹ b``, Gaussian elimination with partial pivoting (W: workspace); 0: singular."""
+    for i in range(n):
+        out[i] = b[i]
+        for j in range(n):
+            W[i, j] = M[i, j]
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(W[r, c]) > abs(W[p, c]):
+                p = r
+        if W[p, c] == 0.0:
+            for i in range(n):
+                out[i] = math.nan
+            return 0
+        if p != c:
+            for j in range(n):
+                W[c, j], W[p, j] = W[p, j], W[c, j]
+            out[c], out[p] = out[p], out[c]
+        for r in range(c + 1, n):
+            m = W[r, c] / W[c, c]
+            for j in range(c, n):
+                W[r, j] -= m * W[c, j]
+            out[r] -= m * out[c]
+    for c in range(n - 1, -1, -1):
+        s = out[c]
+        for j in range(c + 1, n):
+            s -= W[c, j] * out[j]
+        out[c] = s / W[c, c]
+    return 1
+
+
+def _condition(M, n, W, e, col):
+    """The 1-norm condition number of M (inf when singular)."""
+    norm = 0.0
+    for j in range(n):
+        s = 0.0
+        for i in range(n):
+            s += abs(M[i, j])
+        norm = max(norm, s)
+    inverse = 0.0
+    for j in range(n):
+        for i in range(n):
+            e[i] = 0.0
+        e[j] = 1.0
+        if _solve(M, e, n, W, col) == 0:
+            return math.inf
+        s = 0.0
+        for i in range(n):
+            s += abs(col[i])
+        inverse = max(inverse, s)
+    return norm * inverse
+
+
+def _rhs(q, x, u, y, gain, n, out, hv, Qm, W, r, v):
+    """Observer (20): out = dx(q, x, u) + Q(q, x)^-1 K (y - h(q, x, u))."""
+    dx(q, x, u, out)
+    h(q, x, u, hv)
+    Q(q, x, u, Qm)
+    e = y - hv[0]
+    for i in range(n):
+        r[i] = gain[i] * e
+    _solve(Qm, r, n, W, v)
+    for i in range(n):
+        out[i] += v[i]
+
+
+def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order,
+            out_x, out_prediction, out_condition, out_jumped):
+    """The whole run of observer (20) with jumps, see hybridlog.estimators.hybrid_observer."""
+    n = x0.shape[0]
+    count = time.shape[0]
+    x = x0.copy()
+    xt = numpy.empty(n)
+    k1 = numpy.empty(n)
+    k2 = numpy.empty(n)
+    k3 = numpy.empty(n)
+    k4 = numpy.empty(n)
+    jumped = numpy.empty(n)
+    hv = numpy.empty(1)
+    Qm = numpy.empty((n, n))
+    W = numpy.empty((n, n))
+    r = numpy.empty(n)
+    v = numpy.empty(n)
+    for i in range(n):
+        out_x[0, i] = x[i]
+    out_prediction[0] = math.nan
+    Q(modes[0], x, inputs[0], Qm)
+    out_condition[0] = _condition(Qm, n, W, r, v)
+    for k in range(count - 1):
+        q = modes[k]
+        u = inputs[k]
+        y = outputs[k, 0]
+        step = (time[k + 1] - time[k]) / substeps
+        slope = 0.0
+        if first_order and k > 0 and modes[k - 1] == q:
+            slope = (y - outputs[k - 1, 0]) / (time[k] - time[k - 1])
+        elif first_order:  # first interval of a mode: dy/dt = dh/dx dx of the estimate
+            dx(q, x, u, k1)
+            Q(q, x, u, Qm)  # its first row is dh/dx (Phi_1 = h)
+            for i in range(n):
+                slope += Qm[0, i] * k1[i]
+        for s in range(substeps):
+            tau = s * step
+            _rhs(q, x, u, y + slope * tau, gain, n, k1, hv, Qm, W, r, v)
+            if rk4:
+                y_half = y + slope * (tau + 0.5 * step)
+                for i in range(n):
+                    xt[i] = x[i] + 0.5 * step * k1[i]
+                _rhs(q, xt, u, y_half, gain, n, k2, hv, Qm, W, r, v)
+                for i in range(n):
+                    xt[i] = x[i] + 0.5 * step * k2[i]
+                _rhs(q, xt, u, y_half, gain, n, k3, hv, Qm, W, r, v)
+                for i in range(n):
+                    xt[i] = x[i] + step * k3[i]
+                _rhs(q, xt, u, y + slope * (tau + step), gain, n, k4, hv, Qm, W, r, v)
+                for i in range(n):
+                    x[i] += step / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            else:
+                for i in range(n):
+                    x[i] += step * k1[i]
+        following = modes[k + 1]
+        out_jumped[k + 1] = 0
+        if following != q:
+            out_jumped[k + 1] = reset(q, following, x, jumped)
+            for i in range(n):
+                x[i] = jumped[i]
+        for i in range(n):
+            out_x[k + 1, i] = x[i]
+        h(following, x, inputs[k + 1], hv)
+        out_prediction[k + 1] = hv[0]
+        Q(following, x, inputs[k + 1], Qm)
+        out_condition[k + 1] = _condition(Qm, n, W, r, v)
+    return None
+
+
+dx = _jit(dx)
+h = _jit(h)
+Q = _jit(Q)
+reset = _jit(reset)
+_solve = _jit(_solve)
+_condition = _jit(_condition)
+_rhs = _jit(_rhs)
+'''
+
+
+def observer_source(model: HybridModel) -> str:
+    """Python source of the observer's module: ``dx``, ``h``, ``Q``, ``reset`` and ``observe``.
+
+    The mode functions are printed by :mod:`hybridlog.model.codegen` (the one printer);
+    ``observe`` integrates observer (20) over the whole log (RK4 or Euler, the jumps, κ₁(Q)).
+    """
+    from hybridlog.model.codegen import jump_function, switched_function
+
+    n = model.n_states
+    per_mode = [drift_observability(model, i) for i in range(model.n_modes)]
+    lines = [
+        f'"""Generated by hybridlog for model {model.name!r}: switching observer (paper 004)."""',
+        "",
+        "import math",
+        "",
+        "import numba",
+        "import numpy",
+        "",
+        '_jit = numba.njit(cache=True, error_model="numpy", nogil=True)',
+    ]
+    lines += switched_function(
+        model, "dx", [list(m.dx) for m in model.modes], [f"out[{i}]" for i in range(n)]
+    )
+    lines += switched_function(model, "h", [list(m.h) for m in model.modes], ["out[0]"])
+    lines += switched_function(
+        model,
+        "Q",
+        [[entry for row in q for entry in row] for _, q in per_mode],
+        [f"out[{i}, {j}]" for i in range(n) for j in range(n)],
+    )
+    lines += jump_function(model)
+    return "\n".join(lines) + _LOOP
+
+
+KIND = "switchobs"
+"""File-name prefix and key part of the generated module in the compiled-code cache."""
+GENERATORS = ("hybridlog.estimators.hybrid_observer",)
+"""Modules whose source shapes the generated module (part of its cache key)."""
+
+
+def observer_module(model: HybridModel) -> ModuleType:
+    """The generated module of ``model`` (:func:`observer_source`), from the cache when there.
+
+    Its ``dx``, ``h``, ``Q`` and ``reset`` are numba functions callable from Python too (the
+    benchmark integrates the same right-hand side with SciPy).
+    """
+    from hybridlog.model.compiled import load_generated
+
+    return load_generated(model, KIND, lambda: observer_source(model), GENERATORS)
+
+
+def _check_model(model: HybridModel) -> None:
+    origin = model.origin or model.name
+    if model.n_outputs != 1:
+        raise ModelError(
+            f"{origin}: estimator '{NAME}' needs a single-output model (paper 004, eq. (1): "
+            f"h maps to R); the model has {model.n_outputs} outputs "
+            f"({', '.join(model.outputs)})"
+        )
+    model.check_supported(f"estimator '{NAME}'", continuous=True, jumps=True)
+
+
+def _runs(mask: Any) -> list[tuple[int, int]]:
+    """``(first, last)`` index of every run of True in ``mask``."""
+    padded = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _notes(
+    time_s: FloatArray,
+    condition: FloatArray,
+    limit: float,
+    switches: int,
+    jumped: int,
+    states: FloatArray,
+    eigenvalues: tuple[float, ...],
+) -> tuple[str, ...]:
+    notes = [
+        f"observer (20) of paper 004 with K placing eig(A_b - K C_b) at "
+        f"{', '.join(f'{v:g}' for v in eigenvalues)}; sigma from the log switched "
+        f"{switches} times, jump maps R applied at {jumped} of them",
+    ]
+    finite = np.isfinite(condition)
+    worst = int(np.argmax(np.where(finite, condition, np.inf)))
+    notes.append(
+        f"condition number kappa_1(Q) along the run: median "
+        f"{np.median(condition[finite]) if finite.any() else np.inf:.3g}, "
+        f"max {condition[worst]:.3g} at t = {time_s[worst]:.6g} s"
+    )
+    bad = ~(condition <= limit)
+    if bad.any():
+        runs = _runs(bad)
+        where = "; ".join(f"t = {time_s[a]:.6g}..{time_s[b]:.6g} s" for a, b in runs[:3])
+        more = f" and {len(runs) - 3} more intervals" if len(runs) > 3 else ""
+        notes.append(
+            f"WARNING: Q(sigma, x) is ill-conditioned (kappa_1 > {limit:.3g}) on "
+            f"{int(bad.sum())} samples ({where}{more}; worst {condition[worst]:.3g} at "
+            f"t = {time_s[worst]:.6g} s): the correction Q^-1 K (y - h) is unreliable there"
+        )
+    broken = ~np.isfinite(states).all(axis=1)
+    if broken.any():
+        first = int(np.argmax(broken))
+        notes.append(
+            f"WARNING: the estimate is not finite from t = {time_s[first]:.6g} s on "
+            "(Q singular or the integration step too large for the gain)"
+        )
+    return tuple(notes)
+
+
+def run_switching_observer(
+    model: HybridModel, signals: AlignedSignals, options: SwitchingObserverOptions
+) -> EstimationResult:
+    """Run observer (20) of paper 004 over the aligned log (see the module doc).
+
+    Raises
+    ------
+    ModelError
+        The model has more than one output, or is not continuous-time.
+    LogError
+        The log has no switching signal (the true mode column).
+    OptionError
+        ``eigenvalues`` is not one or ``n`` negative reals.
+    """
+    from hybridlog.model.compiled import compile_generated
+    from hybridlog.signals import IntArray
+
+    _check_model(model)
+    if signals.truth_modes is None:
+        raise LogError(
+            f"{signals.source}: estimator '{NAME}' needs the switching signal in the log; map "
+            "it with --map truth.mode=PATH (or a 'mode' column)"
+        )
+    eigenvalues = options.eigenvalue_list(model.n_states)
+    gain = brunovsky_gain(eigenvalues)
+    count, n = signals.n_samples, model.n_states
+    modes: IntArray = np.ascontiguousarray(signals.truth_modes, dtype=np.int64)
+    timebase = model.timebase
+    arguments = (
+        np.ascontiguousarray(signals.time, dtype=np.float64),
+        modes,
+        np.ascontiguousarray(signals.inputs, dtype=np.float64).reshape(count, model.n_inputs),
+        np.ascontiguousarray(signals.outputs, dtype=np.float64),
+        np.ascontiguousarray(model.initial_state, dtype=np.float64),
+        gain,
+        np.int64(timebase.substeps),
+        timebase.method == "rk4",
+        options.output_hold == "first",
+        np.zeros((count, n)),
+        np.zeros(count),
+        np.zeros(count),
+        np.zeros(count, dtype=np.int64),
+    )
+    observe, compile_s = compile_generated(
+        model, KIND, lambda: observer_source(model), GENERATORS, "observe", arguments
+    )
+    start = time.perf_counter()
+    if count:
+        observe(*arguments)
+    runtime = time.perf_counter() - start
+    states, predictions, condition, jumped = arguments[9:13]
+    probabilities = np.zeros((count, model.n_modes))
+    probabilities[np.arange(count), modes] = 1.0
+    switches = int(np.count_nonzero(np.diff(modes))) if count else 0
+    notes = _notes(
+        signals.time,
+        condition,
+        options.condition_limit,
+        switches,
+        int(jumped.sum()),
+        states,
+        eigenvalues,
+    )
+    from hybridlog.estimators.options import options_dict
+
+    return EstimationResult(
+        estimator=NAME,
+        options=options_dict(options),
+        time=signals.time,
+        mode_ids=model.mode_ids,
+        state_names=model.states,
+        output_names=model.outputs,
+        modes=modes.copy(),
+        mode_probabilities=probabilities,
+        state_means=states,
+        state_variances=np.full((count, n), np.nan),
+        output_predictions=predictions.reshape(count, 1),
+        runtime_s=runtime,
+        compile_s=compile_s,
+        notes=notes,
+    )

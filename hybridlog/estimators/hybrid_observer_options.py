@@ -1,0 +1,77 @@
+"""Options of paper 004's ``switching-observer`` (a light module: no numba, sympy, scipy).
+
+The estimator (:mod:`hybridlog.estimators.hybrid_observer`) imports sympy and numba; its
+options live here so that the registry, ``--help`` and a batch's planning read them without
+loading either.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from hybridlog.errors import OptionError, excerpt
+from hybridlog.estimators.options import option
+
+__all__ = ["DEFAULT_EIGENVALUES", "SwitchingObserverOptions"]
+
+DEFAULT_EIGENVALUES = "-5"
+"""One value ``λ``: the eigenvalues ``λ, 2λ, …, nλ`` of ``A_b − K C_b`` (distinct, real)."""
+
+
+@dataclass(frozen=True)
+class SwitchingObserverOptions:
+    """Options of the ``switching-observer`` estimator (paper 004, observer (20)).
+
+    ``eigenvalues`` is the set Λ of Section 5: the gain ``K(Λ)`` places the eigenvalues of
+    the Brunovsky pair's ``A_b − K C_b`` at these real values.  One value ``λ`` stands for
+    ``λ, 2λ, …, nλ`` (distinct, ``λ`` the slowest, as Lemma 4's ``λ_n < … < λ_1 < 0``); a
+    comma-separated list gives all ``n`` of them.
+    """
+
+    eigenvalues: str = option(
+        DEFAULT_EIGENVALUES,
+        "eigenvalues of A_b - K C_b (sec. 5): n negative reals 'l1,l2,...', "
+        "or one value l for l, 2l, ..., nl",
+    )
+    output_hold: Literal["first", "zero"] = option(
+        "first",
+        "y between samples: first = extrapolated from the last two samples (causal), zero = held",
+    )
+    condition_limit: float = option(
+        1e6,
+        "warn where the 1-norm condition number of Q(sigma, x) = dPhi/dx (eq. (21)) exceeds this",
+        range=(1.0, 1e300),
+    )
+
+    def eigenvalue_list(self, n_states: int) -> tuple[float, ...]:
+        """The ``n_states`` eigenvalues Λ, slowest (largest) first.
+
+        Raises
+        ------
+        OptionError
+            The text is not one negative number or ``n_states`` comma-separated ones.
+        """
+        what = "switching-observer option 'eigenvalues'"
+        parts = [p.strip() for p in self.eigenvalues.split(",")]
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            raise OptionError(
+                f"{what}: expected negative numbers separated by commas, got "
+                f"{excerpt(self.eigenvalues)}"
+            ) from None
+        if not all(math.isfinite(v) and v < 0.0 for v in values):
+            raise OptionError(
+                f"{what}: every eigenvalue must be a finite negative real (Hurwitz A_b - K C_b), "
+                f"got {excerpt(self.eigenvalues)}"
+            )
+        if len(values) == 1:
+            values = [values[0] * (j + 1) for j in range(n_states)]
+        elif len(values) != n_states:
+            raise OptionError(
+                f"{what}: the model has {n_states} states, so give {n_states} eigenvalues or "
+                f"one, not {len(values)} ({excerpt(self.eigenvalues)})"
+            )
+        return tuple(sorted(values, reverse=True))

@@ -1,0 +1,325 @@
+"""Paper 004's switching observer (``switching-observer``) against independent references.
+
+* One mode, no jumps: the observer of Ciccarella, Dalla Mora and Germani (1993, paper 004's
+  ref. [8], eq. (18)) on a Van der Pol oscillator with a nonlinear output, written here by
+  hand (Φ, Q, K) and integrated with SciPy's ``solve_ivp``; hybridlog's fixed-step RK4 must
+  agree within its own step error (estimated by halving the step: Richardson).
+* The engine with clutch (``ice_clutch``, paper 004 §6): a plant made with SciPy
+  (``tests/support/clutch.py``), switches with the jumps (45)-(46).  The error decays
+  exponentially between switches and across jumps at the rate the linearised error
+  dynamics predict; the jump maps are applied at the switching samples.
+"""
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from hybridlog.errors import LogError, ModelError, OptionError
+from hybridlog.estimators import prepare
+from hybridlog.estimators.hybrid_observer import brunovsky_gain, run_switching_observer
+from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
+from hybridlog.model.builtins import builtin_text
+from hybridlog.model.loader import load_model, parse_model
+from hybridlog.signals import AlignedSignals
+from tests.support import clutch, model_kinds
+
+MU = 1.0
+VAN_DER_POL = f"""
+name = "van_der_pol"
+time = "continuous"
+dt = 0.01
+integration = {{method = "rk4", step = 0.002}}
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.only]
+dx = ["x2", "{MU}*(1 - x1**2)*x2 - x1 + u"]
+h = ["x1 + x1**3/3"]
+
+[initial]
+state = [0.5, -0.5]
+mode = "only"
+"""
+EIGENVALUES = (-3.0, -6.0)
+
+
+def vdp_field(x, u):
+    return np.array([x[1], MU * (1 - x[0] ** 2) * x[1] - x[0] + u])
+
+
+def vdp_observer(x, u, y):
+    """Eq. (18) written by hand: Φ = [x1 + x1³/3, (1 + x1²) x2], Q = ∂Φ/∂x."""
+    q = np.array([[1 + x[0] ** 2, 0.0], [2 * x[0] * x[1], 1 + x[0] ** 2]])
+    gain = np.array([-(EIGENVALUES[0] + EIGENVALUES[1]), EIGENVALUES[0] * EIGENVALUES[1]])
+    return vdp_field(x, u) + np.linalg.solve(q, gain * (y - (x[0] + x[0] ** 3 / 3)))
+
+
+@pytest.fixture(scope="module")
+def vdp_log():
+    dt, count = 0.01, 400
+    times = np.arange(count) * dt
+    u = 0.5 * np.sin(times)
+    x, states = np.array([2.0, 0.0]), [np.array([2.0, 0.0])]
+    for k in range(count - 1):
+        sol = solve_ivp(
+            lambda _t, s, a=u[k]: vdp_field(s, a), (times[k], times[k + 1]), x, rtol=1e-11
+        )
+        x = sol.y[:, -1]
+        states.append(x)
+    states = np.array(states)
+    y = states[:, :1] + states[:, :1] ** 3 / 3
+    return AlignedSignals(
+        source="vdp.csv",
+        time=times,
+        input_names=("u",),
+        output_names=("y",),
+        inputs=u.reshape(-1, 1),
+        outputs=y,
+        truth_modes=np.zeros(count, dtype=np.int64),
+        state_names=("x1", "x2"),
+        truth_states=states,
+    )
+
+
+def reference_run(signals, x0, hold):
+    """Observer (18) integrated by solve_ivp (rtol 1e-10) over each sample interval."""
+    t, u, y = signals.time, signals.inputs[:, 0], signals.outputs[:, 0]
+    x, out = np.asarray(x0, dtype=float), [np.asarray(x0, dtype=float)]
+    for k in range(len(t) - 1):
+        if hold == "first":
+            if k > 0:
+                slope = (y[k] - y[k - 1]) / (t[k] - t[k - 1])
+            else:  # the estimate's own dy/dt: dh/dx f(x̂(t_0), u(0))
+                slope = (1 + x[0] ** 2) * vdp_field(x, u[k])[0]
+        else:
+            slope = 0.0
+        sol = solve_ivp(
+            lambda s, z, k=k, slope=slope: vdp_observer(z, u[k], y[k] + slope * (s - t[k])),
+            (t[k], t[k + 1]),
+            x,
+            method="DOP853",
+            rtol=1e-10,
+            atol=1e-12,
+        )
+        x = sol.y[:, -1]
+        out.append(x)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("hold", ["zero", "first"])
+def test_one_mode_equals_the_observer_of_ciccarella_dalla_mora_germani(vdp_log, hold):
+    options = SwitchingObserverOptions(eigenvalues="-3,-6", output_hold=hold)
+    result = run_switching_observer(parse_model(VAN_DER_POL), vdp_log, options)
+    halved = parse_model(VAN_DER_POL.replace("step = 0.002", "step = 0.001"))
+    finer = run_switching_observer(halved, vdp_log, options).state_means
+    reference = reference_run(vdp_log, [0.5, -0.5], hold)
+    # RK4's global error at step h is about 16/15 |x_h - x_{h/2}| (Richardson); the reference
+    # itself is good to ~1e-10.
+    tolerance = 2.0 * np.abs(result.state_means - finer).max() + 1e-9
+    assert np.abs(result.state_means - reference).max() <= tolerance
+    assert tolerance < 1e-6
+    # the observer converges: of the initial error of 1.5 after 3 s remains the error of the
+    # hold, about dt·max|ẏ| (≈ 0.03) when y is held, far less when it is extrapolated
+    late = np.abs(result.state_means[300:] - vdp_log.truth_states[300:]).max()
+    step_of_y = np.abs(np.diff(vdp_log.outputs[:, 0])).max()
+    assert late < (1e-3 if hold == "first" else step_of_y)
+    np.testing.assert_array_equal(result.modes, 0)
+    assert np.isnan(result.state_variances).all() and np.isnan(result.output_predictions[0, 0])
+    x_hat = result.state_means[1:, 0]
+    np.testing.assert_allclose(result.output_predictions[1:, 0], x_hat + x_hat**3 / 3)
+
+
+def test_the_gain_places_the_eigenvalues_of_the_brunovsky_pair():
+    eigenvalues = (-1.5, -4.0, -7.0, -20.0)
+    gain = brunovsky_gain(eigenvalues)
+    a_b, c_b = np.eye(4, k=1), np.eye(1, 4)
+    placed = np.sort(np.linalg.eigvals(a_b - gain.reshape(-1, 1) @ c_b).real)
+    np.testing.assert_allclose(placed, sorted(eigenvalues), rtol=1e-9)
+    assert SwitchingObserverOptions(eigenvalues="-2").eigenvalue_list(3) == (-2.0, -4.0, -6.0)
+    assert SwitchingObserverOptions(eigenvalues="-9, -1,-4").eigenvalue_list(3) == (-1, -4, -9)
+
+
+CLUTCH_DT = 0.01
+DWELL = 25  # samples between switches: 0.25 s
+SCALE = np.array([0.1, 100.0, 10.0])  # g, rad/s, N m: the error norm is ‖e / SCALE‖
+
+
+def clutch_run(text, eigenvalues, schedule, x0=(0.08, 140.0, 15.0)):
+    model = parse_model(text, origin="ice_clutch")
+    values = {k: float(v) for k, v in model.parameters.items()}
+    modes = clutch.schedule_modes(schedule)
+    times, alpha, states = clutch.trajectory(
+        values, modes, x0, lambda t: 0.4 + 0.1 * np.sin(2 * t), CLUTCH_DT
+    )
+    signals = clutch.signals(times, alpha, states, modes)
+    prepared = prepare(model, "switching-observer", {"eigenvalues": eigenvalues})
+    return model, values, signals, prepared.run(model, signals)
+
+
+@pytest.fixture(scope="module")
+def switched():
+    schedule = [(0, DWELL), (1, DWELL)] * 6
+    return clutch_run(builtin_text("ice_clutch"), "-4,-8,-12", schedule)
+
+
+def expected_rates(values, signals, eigenvalues, window):
+    """Frozen-time spectral abscissa of the linearised error dynamics M(σ, x, α) on ``window``."""
+    matrices = clutch.linearised_error(values, brunovsky_gain(eigenvalues))
+    return np.array(
+        [
+            np.linalg.eigvals(
+                matrices(
+                    int(signals.truth_modes[k]), signals.truth_states[k], signals.inputs[k, 0]
+                )[2]
+            ).real.max()
+            for k in window
+        ]
+    )
+
+
+def fitted_rate(times, norm):
+    """Slope of log ‖e‖ and 3 standard errors of it (the resolution of the fit)."""
+    (slope, _), cov = np.polyfit(times, np.log(norm), 1, cov=True)
+    return float(slope), 3.0 * float(np.sqrt(cov[0, 0]))
+
+
+def decay_window(norm):
+    """From the peak of the initial transient to the last sample 30x above the floor."""
+    floor = np.median(norm[-len(norm) // 5 :])
+    start = int(np.argmax(norm))
+    end = int(np.flatnonzero(norm > 30.0 * floor).max())
+    assert end - start > 2 * DWELL, "the run must decay over several switches"
+    return np.arange(start, end + 1), floor
+
+
+def test_the_clutch_error_decays_across_switches_and_jumps_at_the_predicted_rate(switched):
+    _, values, signals, result = switched
+    norm = np.linalg.norm((result.state_means - signals.truth_states) / SCALE, axis=1)
+    window, floor = decay_window(norm)
+    rate, resolution = fitted_rate(signals.time[window], norm[window])
+    # The error obeys ė = M e with M = ∂(f + gα)/∂x − Q⁻¹K ∂h/∂x near x̂ = x: its slowest
+    # eigenvalue is λ1 = -4 moved by the plant's own Jacobian (for this engine by the air
+    # dynamics p·ω ≈ 15 1/s), computed along the true trajectory.  Each jump multiplies
+    # ‖e/SCALE‖ by at most the largest and at least the smallest gain of ∂R/∂x (eqs. (45),
+    # (46): diagonal), spread over the window.
+    abscissa = expected_rates(values, signals, (-4.0, -8.0, -12.0), window)
+    switches = np.flatnonzero(np.diff(signals.truth_modes[window])) + 1
+    engaged = int(np.sum(signals.truth_modes[window][switches] == 1))
+    released = len(switches) - engaged
+    length = signals.time[window[-1]] - signals.time[window[0]]
+    jump_up = (engaged * np.log(5 / 3) + released * np.log(1.0)) / length
+    jump_down = (engaged * np.log(2 / 3) + released * np.log(0.6)) / length
+    low = abscissa.min() + jump_down - resolution
+    high = abscissa.max() + jump_up + resolution
+    assert len(switches) >= 3
+    assert low <= rate <= high < 0.0, (low, rate, high)
+    # and so within the plant's shift of the placed slowest eigenvalue
+    shift = np.abs(abscissa + 4.0).max() + max(jump_up, -jump_down) + resolution
+    assert abs(rate + 4.0) <= shift
+    assert norm[window[-1]] < 1e-2 * norm[window[0]]  # two decades at least over the window
+    assert floor < 1e-3
+
+
+def test_between_switches_each_mode_decays_at_its_own_predicted_rate():
+    for mode in (0, 1):
+        _, values, signals, result = clutch_run(
+            builtin_text("ice_clutch"), "-4,-8,-12", [(mode, 120)]
+        )
+        norm = np.linalg.norm((result.state_means - signals.truth_states) / SCALE, axis=1)
+        floor = np.median(norm[-20:])
+        window = np.arange(int(np.argmax(norm)), int(np.flatnonzero(norm > 30 * floor).max()) + 1)
+        rate, resolution = fitted_rate(signals.time[window], norm[window])
+        abscissa = expected_rates(values, signals, (-4.0, -8.0, -12.0), window)
+        assert abscissa.min() - resolution <= rate <= abscissa.max() + resolution, (
+            mode,
+            abscissa.min(),
+            rate,
+            abscissa.max(),
+        )
+
+
+def test_jump_maps_are_applied_exactly_at_the_switching_samples():
+    started = builtin_text("ice_clutch").replace(
+        "state = [0.1, 150.0, 12.0]", "state = [0.08, 140.0, 15.0]"
+    )
+    assert started != builtin_text("ice_clutch")
+    schedule = [(0, DWELL), (1, DWELL)] * 3
+    _, _, signals, exact = clutch_run(started, "-4,-8,-12", schedule)
+    error = np.abs(exact.state_means - signals.truth_states) / SCALE
+    assert "jump maps R applied at 5 of them" in exact.notes[0]
+    # without the maps the estimate is off by the jump (ω × J_L/(J_E+J_L)) right after
+    without = started.split('[jumps."0->1"]')[0] + "[noise]" + started.split("[noise]")[1]
+    _, _, _, ignored = clutch_run(without, "-4,-8,-12", schedule)
+    first = DWELL  # the first engaging sample
+    wrong = np.abs(ignored.state_means[first] - signals.truth_states[first]) / SCALE
+    omega = signals.truth_states[first - 1, 1]
+    np.testing.assert_allclose(wrong[1], omega / 3 / SCALE[1], rtol=0.05)  # J_L/(J_E+J_L) = 1/3
+    # started on the truth, the estimate with the maps stays on it across all five jumps: its
+    # error (the hold's and the integration's) is 30 times below that one jump's
+    assert error.max() < wrong[1] / 30
+    assert error[first].max() < wrong[1] / 30
+
+
+def test_mode_probabilities_are_the_known_switching_signal(switched):
+    _, _, signals, result = switched
+    np.testing.assert_array_equal(result.modes, signals.truth_modes)
+    np.testing.assert_array_equal(result.mode_probabilities[:, 1], signals.truth_modes)
+    assert any("kappa_1(Q)" in note for note in result.notes)
+    assert not any(note.startswith("WARNING") for note in result.notes)
+
+
+def test_ill_conditioned_q_is_a_warning_naming_time_and_value(switched):
+    model, _, signals, _ = switched
+    prepared = prepare(model, "switching-observer", {"condition_limit": "2e4"})
+    result = prepared.run(model, signals)
+    (warning,) = [n for n in result.notes if n.startswith("WARNING")]
+    assert "ill-conditioned (kappa_1 > 2e+04)" in warning and "t = " in warning
+    assert "worst" in warning
+
+
+def test_refusals_name_the_model_and_why(switched, tmp_path):
+    model, _, signals, _ = switched
+    two_outputs = VAN_DER_POL.replace('outputs = ["y"]', 'outputs = ["y", "v"]').replace(
+        'h = ["x1 + x1**3/3"]', 'h = ["x1", "x2"]'
+    )
+    path = tmp_path / "two.toml"
+    path.write_text(two_outputs)
+    with pytest.raises(
+        ModelError,
+        match=rf"^{path}: estimator 'switching-observer' needs a "
+        r"single-output model .* 2 outputs \(y, v\)$",
+    ):
+        run_switching_observer(load_model(path), signals, SwitchingObserverOptions())
+    blind = AlignedSignals(**{**signals.__dict__, "truth_modes": None})
+    with pytest.raises(LogError, match="needs the switching signal in the log; map it with --map"):
+        prepare(model, "switching-observer").run(model, blind)
+    with pytest.raises(LogError, match="needs the switching signal"):
+        run_switching_observer(model, blind, SwitchingObserverOptions())
+    with pytest.raises(OptionError, match=r"'eigenvalues': the model has 3 states, so give 3"):
+        run_switching_observer(model, signals, SwitchingObserverOptions(eigenvalues="-1,-2"))
+    with pytest.raises(OptionError, match=r"'eigenvalues': every eigenvalue must be .* negative"):
+        run_switching_observer(model, signals, SwitchingObserverOptions(eigenvalues="-1,2,-3"))
+    with pytest.raises(ModelError, match="needs a continuous-time model"):
+        prepare(load_model("three_tank_hstf"), "switching-observer")
+    assert prepare(parse_model(model_kinds.CLUTCH_JUMPS), "switching-observer")
+
+
+def test_analyze_a_clutch_log_end_to_end_and_without_the_mode_column(switched, tmp_path):
+    import polars as pl
+
+    from hybridlog.jobs.analysis import analyze
+
+    _, _, signals, _ = switched
+    columns = {"time": signals.time, "alpha": signals.inputs[:, 0], "y": signals.outputs[:, 0]}
+    log = tmp_path / "clutch.csv"
+    pl.DataFrame({**columns, "mode": signals.truth_modes}).write_csv(log)
+    outcome = analyze(log, "ice_clutch", out_dir=tmp_path / "out", sets=["eigenvalues=-4,-8,-12"])
+    report = outcome.report
+    assert report.modes.accuracy == 1.0
+    assert any("jump maps R applied at 11 of them" in note for note in report.notes)
+    blind = tmp_path / "blind.csv"
+    pl.DataFrame(columns).write_csv(blind)
+    with pytest.raises(LogError, match=r"blind\.csv: estimator 'switching-observer' needs the "):
+        analyze(blind, "ice_clutch", out_dir=tmp_path / "none")
+    assert not (tmp_path / "none").exists()
