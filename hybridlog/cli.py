@@ -491,6 +491,10 @@ def simulate(
 ) -> None:
     """Simulate a model along a mode schedule and write a log with ground truth.
 
+    A components model plays its [simulation] scenario instead (per-component schedules,
+    unmodelled behaviour, controller; --set moves its parameters); its log also holds the
+    commands and the true mode of each component (mode.<component>).
+
     In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
     true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
     """
