@@ -182,6 +182,7 @@ class Tracker:
         self.variance_growth = variance_growth
         self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
         self.filtered = 0
+        self.proposed = 0
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -254,6 +255,7 @@ class Tracker:
                 break
             prior, j, assignment = item
             tried += 1
+            self.proposed += 1
             child = self._filter(hypotheses[j], assignment, k, memos[j])
             score = prior + child.log_belief
             child.log_belief = score
