@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hybridlog.estimators.cpha.cluster_filter import FilterCache
+from hybridlog.estimators.cpha.cluster_filter import FilterCache, compile_cluster
 from hybridlog.estimators.cpha.hypotheses import Hypothesis, Tracker
 from hybridlog.estimators.cpha.structure import StructureCache
 from hybridlog.model.loader import parse_model
@@ -131,3 +131,29 @@ def test_held_states_keep_their_mean_and_grow_their_variance():
     assert h.x[0] == 0.3 and h.P[0, 0] == pytest.approx(2.0 * 1.1**3)
     assert h.P[0, 1] == h.P[0, 2] == 0.0
     assert np.isnan(h.y_pred[0]) and np.isfinite(h.y_pred[1])
+
+
+def test_the_unrolled_ekf_is_the_numpy_ekf():
+    text = PAPER_EXAMPLE.replace("0.8*xc1[k-1]", "0.8*sin(xc1[k-1])").replace(
+        '"yc2 = 2.0*xc2 + xc3"', '"yc2 = 2.0*xc2 + exp(xc3/4)"'
+    )
+    model = parse_model(text)
+    names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
+    structure = StructureCache(model.components, variables=model.variables, **names)
+    rng = np.random.default_rng(0)
+    for cluster in structure.get(FULL).clusters:
+        fast = compile_cluster(cluster, **names)
+        slow = compile_cluster(cluster, **names, unrolled=False)
+        assert fast._ekf is not None and slow._ekf is None
+        n = len(cluster.states)
+        for _ in range(5):
+            x = rng.normal(size=n)
+            L = rng.normal(size=(n, n))
+            P = L @ L.T + np.eye(n)
+            u0, u1, y0, y1 = rng.normal(size=1), rng.normal(size=1), *rng.normal(size=(2, 2))
+            a = fast.step(x, P, u0, y0, u1, y1)
+            b = slow.step(x, P, u0, y0, u1, y1)
+            np.testing.assert_allclose(a.x, b.x, rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(a.P, b.P, rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(a.y_pred, b.y_pred, rtol=1e-12)
+            assert a.log_po == pytest.approx(b.log_po, rel=1e-10)

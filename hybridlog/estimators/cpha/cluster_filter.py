@@ -28,8 +28,10 @@ with :math:`D = \partial g/\partial v` (the same reading of eq. (6) for algebrai
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import sympy
@@ -87,6 +89,8 @@ class ClusterFilter:
     r_virtual: FloatArray
     _predict: _Fn
     _observe: _Fn
+    _ekf: Callable[..., tuple[float, ...]] | None = None
+    _upper: tuple[IntArray, IntArray] = (np.zeros(0, np.int64), np.zeros(0, np.int64))
 
     def step(
         self,
@@ -102,6 +106,56 @@ class ClusterFilter:
         ``u_prev``, ``y_prev`` and ``u_now``, ``y_now`` are the model's whole input and
         output vectors at k−1 and k; the cluster takes its inputs and virtual inputs there.
         """
+        if self._ekf is not None:
+            return self._step_unrolled(x, P, u_prev, y_prev, u_now, y_now)
+        return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+
+    def _step_unrolled(
+        self,
+        x: FloatArray,
+        P: FloatArray,
+        u_prev: FloatArray,
+        y_prev: FloatArray,
+        u_now: FloatArray,
+        y_now: FloatArray,
+    ) -> StepResult:
+        """:meth:`step` by the cluster's EKF written out as scalar code (:func:`_unrolled`)."""
+        assert self._ekf is not None
+        n, m = len(self.states), len(self.outputs)
+        rows, cols = self._upper
+        values = self._ekf(
+            *x.tolist(),
+            *P[rows, cols].tolist(),
+            *u_prev[self.inputs].tolist(),
+            *y_prev[self.virtual].tolist(),
+            *u_now[self.inputs].tolist(),
+            *y_now[self.virtual].tolist(),
+            *y_now[self.outputs].tolist(),
+        )
+        out = np.asarray(values, dtype=np.float64)
+        n_p = len(rows)
+        minors = out[n + n_p + m : n + n_p + 2 * m]
+        if not np.all(minors > 0.0):
+            return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+        x_new = out[:n].copy()
+        P_new = np.empty((n, n))
+        P_new[rows, cols] = out[n : n + n_p]
+        P_new[cols, rows] = out[n : n + n_p]
+        log_po = float(out[-1])
+        if not math.isfinite(log_po):
+            log_po = -math.inf
+        return StepResult(x_new, P_new, out[n + n_p : n + n_p + m].copy(), log_po)
+
+    def step_numeric(
+        self,
+        x: FloatArray,
+        P: FloatArray,
+        u_prev: FloatArray,
+        y_prev: FloatArray,
+        u_now: FloatArray,
+        y_now: FloatArray,
+    ) -> StepResult:
+        """:meth:`step` with numpy matrices (Cholesky of ``S``)."""
         args = (*x, *u_prev[self.inputs], *y_prev[self.virtual])
         x_pred, A, B = self._predict(*args)
         x_pred = np.asarray(x_pred, dtype=np.float64).reshape(-1)
@@ -144,8 +198,14 @@ def compile_cluster(
     states: tuple[str, ...],
     inputs: tuple[str, ...],
     outputs: tuple[str, ...],
+    unrolled: bool = True,
 ) -> ClusterFilter:
-    """Lambdify the cluster's ``f``, ``g`` and Jacobians (``∂/∂x`` and ``∂/∂v``)."""
+    """Lambdify the cluster's ``f``, ``g`` and Jacobians (``∂/∂x`` and ``∂/∂v``).
+
+    ``unrolled``: also write the whole EKF step out as scalar code for small clusters
+    (:func:`_unrolled`, several times faster than numpy on 1–4 states); otherwise, and for
+    larger clusters, :meth:`ClusterFilter.step` uses numpy matrices.
+    """
     x = [sympy.Symbol(s, real=True) for s in cluster.states]
     u = [sympy.Symbol(s, real=True) for s in cluster.inputs]
     v = [sympy.Symbol(s, real=True) for s in cluster.virtual_inputs]
@@ -160,6 +220,7 @@ def compile_cluster(
     args = [*x, *u, *v]
     predict = sympy.lambdify(args, [f, F, B], modules="numpy", cse=True)
     observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
+    ekf = _unrolled(cluster, x, u, v, f, F, B, h, H, D) if unrolled else None
     return ClusterFilter(
         cluster=cluster,
         states=np.array([states.index(s) for s in cluster.states], dtype=np.int64),
@@ -171,7 +232,69 @@ def compile_cluster(
         r_virtual=np.array(cluster.virtual_noise, dtype=np.float64),
         _predict=predict,
         _observe=observe,
+        _ekf=ekf,
+        _upper=np.triu_indices(len(x)),
     )
+
+
+UNROLLED_MAX_STATES = 4
+UNROLLED_MAX_OUTPUTS = 3
+
+
+def _unrolled(
+    cluster: Cluster,
+    x: list[sympy.Symbol],
+    u: list[sympy.Symbol],
+    v: list[sympy.Symbol],
+    f: sympy.Matrix,
+    F: sympy.Matrix,
+    B: sympy.Matrix,
+    h: sympy.Matrix,
+    H: sympy.Matrix,
+    D: sympy.Matrix,
+) -> Callable[..., tuple[float, ...]] | None:
+    """The cluster's whole EKF step (eqs. (12)–(21), (6)) as one scalar function.
+
+    Written out symbolically (``S⁻¹`` by its adjugate) and lambdified with common
+    subexpressions for small clusters (at most :data:`UNROLLED_MAX_STATES` states and
+    :data:`UNROLLED_MAX_OUTPUTS` outputs); ``None`` otherwise.  Arguments: ``x``, the upper
+    triangle of ``P`` row by row, ``u(k-1)``, ``v(k-1)``, ``u(k)``, ``v(k)``, ``y(k)``.
+    Returns ``x̂(k|k)``, the upper triangle of ``P(k|k)``, ``g(x̂(k|k-1))``, the leading
+    principal minors of ``S`` (all positive when ``S`` is positive definite) and
+    ``log P_O``.
+    """
+    n, m = len(x), len(cluster.outputs)
+    if n > UNROLLED_MAX_STATES or m > UNROLLED_MAX_OUTPUTS or m == 0:
+        return None
+    p = {(i, j): sympy.Symbol(f"p_{i}_{j}", real=True) for i in range(n) for j in range(i, n)}
+    P = sympy.Matrix(n, n, lambda i, j: p[(min(i, j), max(i, j))])
+    u_prev = [sympy.Symbol(f"uprev_{s}", real=True) for s in u]
+    v_prev = [sympy.Symbol(f"vprev_{s}", real=True) for s in v]
+    y = [sympy.Symbol(f"meas_{o}", real=True) for o in cluster.outputs]
+    at_prev = dict(zip([*u, *v], [*u_prev, *v_prev], strict=True))
+    f_k, F_k, B_k = (e.xreplace(at_prev) for e in (f, F, B))
+    Q = sympy.diag(*cluster.process_noise)
+    if v:
+        Q = Q + B_k * sympy.diag(*cluster.virtual_noise) * B_k.T  # eq. (6)
+    P_pred = F_k * P * F_k.T + Q
+    at_pred = dict(zip(x, list(f_k), strict=True))
+    h_k, H_k, D_k = (e.xreplace(at_pred) for e in (h, H, D))
+    R = sympy.diag(*cluster.measurement_noise)
+    if v:
+        R = R + D_k * sympy.diag(*cluster.virtual_noise) * D_k.T
+    S = H_k * P_pred * H_k.T + R
+    minors = [S[:i, :i].det() for i in range(1, m + 1)]
+    S_inv = S.adjugate() / minors[-1]
+    K = P_pred * H_k.T * S_inv
+    r = sympy.Matrix(y) - h_k
+    x_new = f_k + K * r
+    P_new = (sympy.eye(n) - K * H_k) * P_pred
+    upper = [P_new[i, j] for i in range(n) for j in range(i, n)]
+    log_po = -(r.T * S_inv * r)[0, 0] / 2
+    args = [*x, *p.values(), *u_prev, *v_prev, *u, *v, *y]
+    outputs = [*x_new, *upper, *h_k, *minors, log_po]
+    function = sympy.lambdify(args, outputs, modules="math", cse=True)
+    return cast(Callable[..., tuple[float, ...]], function)
 
 
 class FilterCache:
@@ -184,16 +307,19 @@ class FilterCache:
         self._cache: dict[tuple[object, ...], ClusterFilter] = {}
         self.hits = 0
         self.misses = 0
+        self.seconds = 0.0
 
     def get(self, cluster: Cluster) -> ClusterFilter:
-        """The compiled filter of ``cluster`` (compiled on first use)."""
+        """The compiled filter of ``cluster`` (compiled on first use, timed in ``seconds``)."""
         key = cluster.signature
         found = self._cache.get(key)
         if found is not None:
             self.hits += 1
             return found
         self.misses += 1
+        start = time.perf_counter()
         states, inputs, outputs = self.names
         compiled = compile_cluster(cluster, states=states, inputs=inputs, outputs=outputs)
         self._cache[key] = compiled
+        self.seconds += time.perf_counter() - start
         return compiled

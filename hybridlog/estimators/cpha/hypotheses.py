@@ -35,7 +35,7 @@ import numpy as np
 from hybridlog.estimators.cpha.cluster_filter import FilterCache, StepResult
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.model.components import UNKNOWN, Component
-from hybridlog.signals import FloatArray
+from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["Hypothesis", "Tracker", "TransitionTable"]
 
@@ -183,6 +183,7 @@ class Tracker:
         self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
         self.filtered = 0
         self.proposed = 0
+        self._blocks: dict[int, IntArray] = {}
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -211,29 +212,34 @@ class Tracker:
     ) -> Hypothesis:
         decomposition = self.structure.get(assignment)
         x = parent.x.copy()
-        P = np.zeros_like(parent.P)
+        n = len(x)
+        P_flat = np.zeros(n * n)
+        parent_P = parent.P.reshape(-1)
         y_pred = np.full(self.outputs.shape[1], np.nan)
         log_po = 0.0
         u_prev, y_prev = self.inputs[k - 1], self.outputs[k - 1]
         u_now, y_now = self.inputs[k], self.outputs[k]
-        covered = np.zeros(len(x), dtype=bool)
+        covered = np.zeros(n, dtype=bool)
         for cluster in decomposition.clusters:
             compiled = self.filters.get(cluster)
+            idx = compiled.states
+            block = self._blocks.get(id(compiled))
+            if block is None:
+                block = (idx[:, None] * n + idx[None, :]).reshape(-1)
+                self._blocks[id(compiled)] = block
             key = cluster.signature
             result = memo.get(key)
             if result is None:
-                idx = compiled.states
-                result = compiled.step(
-                    parent.x[idx], parent.P[np.ix_(idx, idx)], u_prev, y_prev, u_now, y_now
-                )
+                P_parent = parent_P[block].reshape(len(idx), len(idx))
+                result = compiled.step(parent.x[idx], P_parent, u_prev, y_prev, u_now, y_now)
                 memo[key] = result
                 self.filtered += 1
-            idx = compiled.states
             x[idx] = result.x
-            P[np.ix_(idx, idx)] = result.P
+            P_flat[block] = result.P.reshape(-1)
             covered[idx] = True
             y_pred[compiled.outputs] = result.y_pred
             log_po += result.log_po
+        P = P_flat.reshape(n, n)
         held = np.flatnonzero(~covered)
         P[held, held] = parent.P[held, held] * self.variance_growth
         return Hypothesis(assignment, log_po, x, P, y_pred)

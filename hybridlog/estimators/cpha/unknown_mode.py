@@ -55,13 +55,45 @@ def assignment_label(assignment: Assignment) -> str:
     return SEPARATOR.join(assignment)
 
 
+_CACHES: dict[tuple[object, ...], tuple[StructureCache, FilterCache]] = {}
+_CACHED_MODELS = 4
+
+
+def caches(model: HybridModel) -> tuple[StructureCache, FilterCache]:
+    """Decompositions and compiled cluster filters of ``model``, kept across runs.
+
+    Keyed by the model's text and parameter values; the last :data:`_CACHED_MODELS` models
+    are kept, so a batch or a study over many logs of one model compiles once.
+    """
+    key = (model.name, model.source, tuple(sorted(model.parameters.items())), model.states)
+    found = _CACHES.get(key)
+    if found is None:
+        names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
+        structure = StructureCache(model.components, variables=model.variables, **names)
+        found = (structure, FilterCache(**names))
+        if len(_CACHES) >= _CACHED_MODELS:
+            del _CACHES[next(iter(_CACHES))]
+        _CACHES[key] = found
+    return found
+
+
 def make_tracker(
-    model: HybridModel, signals: AlignedSignals, options: UnknownModeOptions
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: UnknownModeOptions,
+    *,
+    fresh: bool = False,
 ) -> Tracker:
-    """The hypothesis tracker over ``signals`` with fresh caches."""
-    names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
-    structure = StructureCache(model.components, variables=model.variables, **names)
-    filters = FilterCache(**names)
+    """The hypothesis tracker over ``signals``; ``fresh``: new caches, else :func:`caches`.
+
+    A model without ``source`` text (built in code) always gets fresh caches.
+    """
+    if fresh or not model.source:
+        names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
+        structure = StructureCache(model.components, variables=model.variables, **names)
+        filters = FilterCache(**names)
+    else:
+        structure, filters = caches(model)
     return Tracker(
         model.components,
         structure,
@@ -83,6 +115,9 @@ def run_unknown_mode(
     n = signals.n_samples
     n_x, n_y = model.n_states, model.n_outputs
     components = model.components
+    structure, filters = tracker.structure, tracker.filters
+    counts = (structure.hits, structure.misses, filters.hits, filters.misses)
+    compiling = structure.seconds + filters.seconds
     start = time.perf_counter()
     hypotheses = tracker.start(
         np.array(model.initial_state, dtype=np.float64),
@@ -105,7 +140,8 @@ def run_unknown_mode(
                     p_unknown[k, c] += belief
         rows.append(list(row.items()))
         best.append(max(hypotheses, key=lambda h: h.log_belief))
-    runtime = time.perf_counter() - start
+    compile_s = structure.seconds + filters.seconds - compiling
+    runtime = time.perf_counter() - start - compile_s
     mode_ids = tuple(assignment_label(a) for a in labels)
     probabilities = np.zeros((n, len(mode_ids)))
     for k, row_items in enumerate(rows):
@@ -127,12 +163,12 @@ def run_unknown_mode(
         columns.append(
             TimelineColumn(f"p_unknown.{component.name}", np.clip(p_unknown[:, c], 0.0, 1.0))
         )
-    structure, filters = tracker.structure, tracker.filters
+    s_hits, s_misses = structure.hits - counts[0], structure.misses - counts[1]
+    f_hits, f_misses = filters.hits - counts[2], filters.misses - counts[3]
     notes = (
-        f"decompositions: {structure.misses} computed, {structure.hits} cache hits "
-        f"({_rate(structure.hits, structure.misses)}); cluster filters: {filters.misses} "
-        f"compiled, {filters.hits} cache hits ({_rate(filters.hits, filters.misses)}); "
-        f"{tracker.filtered} cluster EKF steps",
+        f"decompositions: {s_misses} computed, {s_hits} cache hits "
+        f"({_rate(s_hits, s_misses)}); cluster filters: {f_misses} compiled, {f_hits} cache "
+        f"hits ({_rate(f_hits, f_misses)}); {tracker.filtered} cluster EKF steps",
     )
     return EstimationResult(
         estimator=NAME,
@@ -147,6 +183,7 @@ def run_unknown_mode(
         state_variances=variances,
         output_predictions=predictions,
         runtime_s=runtime,
+        compile_s=compile_s,
         notes=notes,
         timeline_columns=tuple(columns),
     )
