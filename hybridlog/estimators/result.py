@@ -18,6 +18,29 @@ class ResultShapeError(ValueError):
 
 
 @dataclass(frozen=True)
+class TimelineColumn:
+    """An estimator-specific column of the mode timeline, beside ``mode`` and ``p_<mode>``.
+
+    For example the unthresholded boolean estimates of ``sliding-mode`` (floats) or the mode of
+    each component of a ``[components]`` model (labels).
+
+    Attributes
+    ----------
+    name:
+        Column name in timeline.csv (``delta_tilde.d1``, ``mode.regulator2``); it may not
+        repeat a standard column's name.
+    values:
+        Shape ``(N,)``: float64 values, or int64 indices into ``labels`` when labels are given.
+    labels:
+        When not empty, the column holds these labels (written as text).
+    """
+
+    name: str
+    values: FloatArray | IntArray
+    labels: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class PostProcessing:
     """How an offline pass after the filter changed a result (issue 12).
 
@@ -83,6 +106,9 @@ class EstimationResult:
         Remarks for the report (for example which variant of an algorithm ran).
     covariances:
         Full ``P(k|k)``, shape ``(N, n_x, n_x)``, only when the caller asked for it.
+    timeline_columns:
+        Estimator-specific timeline columns (:class:`TimelineColumn`), written after the
+        standard ones.
     post_processing:
         Set when the estimates above are not the causal filter's own (``--smooth``,
         ``--mode-sequence viterbi``): how they were made, and the filter's result beside them.
@@ -104,6 +130,7 @@ class EstimationResult:
     compile_s: float = 0.0
     notes: tuple[str, ...] = field(default=())
     covariances: FloatArray | None = None
+    timeline_columns: tuple[TimelineColumn, ...] = ()
     post_processing: PostProcessing | None = None
 
     def __post_init__(self) -> None:
@@ -142,6 +169,29 @@ class EstimationResult:
                 f"{self.estimator}: result field 'modes' holds mode indices outside "
                 f"[0, {n_modes}) ({self.modes.min()} .. {self.modes.max()})"
             )
+
+        standard = {"t", "mode", "truth_mode", *(f"p_{m}" for m in self.mode_ids)}
+        seen: set[str] = set()
+        for column in self.timeline_columns:
+            labelled = bool(column.labels)
+            dtype = np.int64 if labelled else np.float64
+            values = column.values
+            if (
+                column.name in standard
+                or column.name in seen
+                or not isinstance(values, np.ndarray)
+                or values.shape != (n,)
+                or values.dtype != dtype
+                or (
+                    labelled and n and not (values.min() >= 0 and values.max() < len(column.labels))
+                )
+            ):
+                raise ResultShapeError(
+                    f"{self.estimator}: timeline column {column.name!r} must have a new name "
+                    f"and shape ({n},) of {np.dtype(dtype)}"
+                    + (f" indices into its {len(column.labels)} labels" if labelled else "")
+                )
+            seen.add(column.name)
 
     @property
     def n_samples(self) -> int:

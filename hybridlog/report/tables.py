@@ -4,8 +4,8 @@ Columns
 -------
 ``timeline``
     ``t``, ``mode`` (estimated mode id), ``p_<mode>`` for each mode id (posterior
-    probability or normalised score), and ``truth_mode`` (true mode id) when the log has a
-    ground-truth mode.
+    probability or normalised score), ``truth_mode`` (true mode id) when the log has a
+    ground-truth mode, then the estimator's own columns (``EstimationResult.timeline_columns``).
 ``estimates``
     ``t``; for each state ``x``: ``<x>_hat`` (estimate) and ``<x>_var`` (diagonal of the
     error covariance); for each output ``y``: ``<y>_hat`` (one-step-ahead prediction) and
@@ -193,6 +193,11 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
         table.floats(f"p_{m}", result.mode_probabilities[:, j])
     if signals.truth_modes is not None:
         table.labels("truth_mode", ids, signals.truth_modes)
+    for column in result.timeline_columns:
+        if column.labels:
+            table.labels(column.name, column.labels, column.values.astype(np.int64, copy=False))
+        else:
+            table.floats(column.name, column.values.astype(np.float64, copy=False))
     return table.table()
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -13,7 +14,7 @@ import pytest
 
 import hybridlog
 from hybridlog.errors import OptionError, OutputError
-from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.result import EstimationResult, ResultShapeError, TimelineColumn
 from hybridlog.report import atomic_output_dir, write_report
 from hybridlog.report import writer as writer_module
 from hybridlog.signals import AlignedSignals
@@ -83,7 +84,9 @@ def read_table(path: Path) -> pl.DataFrame:
         return pl.read_parquet(path)
     header = path.read_text().splitlines()[0].split(",")
     strings = {"mode", "truth_mode"}
-    schema = {c: (pl.String if c in strings else pl.Float64) for c in header}
+    schema = {
+        c: (pl.String if c in strings or c.startswith("mode.") else pl.Float64) for c in header
+    }
     return pl.read_csv(path, schema=schema)
 
 
@@ -301,6 +304,40 @@ def test_timeline_values(tmp_path: Path) -> None:
     assert timeline["truth_mode"].to_list() == [MODE_IDS[i] for i in signals.truth_modes]
     np.testing.assert_array_equal(timeline["p_low"].to_numpy(), result.mode_probabilities[:, 1])
     np.testing.assert_array_equal(timeline["t"].to_numpy(), result.time)
+
+
+def test_estimator_timeline_columns_follow_the_standard_ones(tmp_path: Path) -> None:
+    result, signals = make_run(n=40)
+    n = result.n_samples
+    delta = np.linspace(-0.2, 1.2, n)
+    delta[3] = np.nan
+    component = (np.arange(n) // 10 % 3).astype(np.int64)
+    extra = (
+        TimelineColumn("delta_tilde.d1", delta),
+        TimelineColumn("mode.valve", component, labels=("open", "closed", "unknown")),
+    )
+    result = dataclasses.replace(result, timeline_columns=extra)
+    write_report(tmp_path / "o", result, signals, log="l", model_name="m", dt=DT)
+    timeline = read_table(tmp_path / "o" / "timeline.csv")
+    assert timeline.columns[-2:] == ["delta_tilde.d1", "mode.valve"]
+    assert timeline["delta_tilde.d1"][3] is None
+    np.testing.assert_array_equal(timeline["delta_tilde.d1"].to_numpy()[4:], delta[4:])
+    assert timeline["mode.valve"].to_list() == [("open", "closed", "unknown")[i] for i in component]
+
+
+@pytest.mark.parametrize(
+    "column",
+    [
+        TimelineColumn("mode", np.zeros(5)),  # a standard column's name
+        TimelineColumn("x", np.zeros(4)),  # wrong length
+        TimelineColumn("x", np.zeros(5, dtype=np.int64)),  # labels missing
+        TimelineColumn("x", np.full(5, 2, dtype=np.int64), labels=("a", "b")),  # out of range
+    ],
+)
+def test_a_bad_timeline_column_is_a_defect_of_the_estimator(column: TimelineColumn) -> None:
+    result, _ = make_run(n=5)
+    with pytest.raises(ResultShapeError, match="timeline column"):
+        dataclasses.replace(result, timeline_columns=(column,))
 
 
 @pytest.mark.parametrize("table_format", ["csv", "parquet"])
