@@ -203,11 +203,22 @@ ESTIMATORS: dict[str, Estimator] = {
                 needs_switching_signal=True, applies_jump_maps=True, continuous_time=True
             ),
         ),
+        Estimator(
+            name="unknown-mode",
+            summary="hybrid estimation with unknown modes: filter clusters per joint mode, "
+            "k best trajectories",
+            source="paper 002, eqs. (4)-(8), (12)-(21), §3.1",
+            module="hybridlog.estimators.cpha.unknown_mode",
+            options="UnknownModeOptions",
+            options_module="hybridlog.estimators.cpha.options",
+            run="run_unknown_mode",
+            capabilities=Capabilities(needs_components=True),
+        ),
     )
 }
 """Every estimator this version provides, by name."""
 
-PLANNED = ("unknown-mode", "sliding-mode")
+PLANNED = ("sliding-mode",)
 """Estimator names of SPEC §7 that this version does not provide yet."""
 
 

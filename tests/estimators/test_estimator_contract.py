@@ -26,6 +26,7 @@ from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report import build_report
 from hybridlog.simulate import simulate
 from tests.support import clutch, model_kinds
+from tests.support.cpha import CPHA_EXAMPLE, cpha_log
 from tests.support.paths import ROOT
 
 TANK_TEXT = (ROOT / "hybridlog/model/builtin/three_tank_hstf.toml").read_text()
@@ -36,6 +37,8 @@ HEAVY = ("numba", "sympy", "scipy", "cvxpy", "matplotlib", "polars")
 def model_for(name):
     if name == "switching-observer":
         return "ice_clutch"
+    if ESTIMATORS[name].capabilities.needs_components:
+        return "cpha_example"
     return (
         "double_cart_case1"
         if ESTIMATORS[name].capabilities.needs_linear_model
@@ -54,6 +57,13 @@ def clutch_case():
     return model, clutch.signals(times, alpha, states, modes)
 
 
+def model_text(name):
+    """The model file text of a case (a built-in's, or the components example's)."""
+    if name == "cpha_example":
+        return CPHA_EXAMPLE
+    return (ROOT / f"hybridlog/model/builtin/{name}.toml").read_text()
+
+
 @pytest.fixture(scope="module")
 def cases():
     """Model and a short simulated log per model name, built once."""
@@ -62,6 +72,8 @@ def cases():
         model = load_model(model_name)
         built[model_name] = (model, simulate(model, steps=steps, seed=1).signals(model))
     built["ice_clutch"] = clutch_case()
+    components = parse_model(CPHA_EXAMPLE)
+    built["cpha_example"] = (components, cpha_log(components, 80, seed=1))
     return built
 
 
@@ -105,9 +117,12 @@ def test_result_shapes_and_probabilities(name, cases, runs):
     n = signals.n_samples
     assert result.estimator == name
     np.testing.assert_array_equal(result.time, signals.time)
-    assert result.mode_ids == model.mode_ids
+    if model.has_components:  # joint assignments, one mode per component (unknown-mode)
+        assert all(len(m.split("|")) == len(model.components) for m in result.mode_ids)
+    else:
+        assert result.mode_ids == model.mode_ids
     assert result.modes.shape == (n,) and result.modes.dtype == np.int64
-    assert result.mode_probabilities.shape == (n, model.n_modes)
+    assert result.mode_probabilities.shape == (n, len(result.mode_ids))
     assert result.state_means.shape == result.state_variances.shape == (n, model.n_states)
     assert result.output_predictions.shape == (n, model.n_outputs)
     probabilities = result.mode_probabilities
@@ -176,8 +191,7 @@ def test_a_bad_set_option_is_one_line_naming_estimator_and_option(name, cases):
 @pytest.mark.parametrize("name", list(ESTIMATORS))
 def test_a_bad_option_in_the_model_file_names_file_and_key(name, tmp_path):
     key, raw, reason = next(bad_values(ESTIMATORS[name]))
-    base = model_for(name)
-    text = (ROOT / f"hybridlog/model/builtin/{base}.toml").read_text()
+    text = model_text(model_for(name))
     text = text.split("\n[estimators.")[0]  # the built-in's own table, if any, is the last
     path = tmp_path / "model.toml"
     path.write_text(f"{text}\n[estimators.{name}]\n{key} = {json.dumps(raw)}\n")
@@ -223,8 +237,8 @@ def test_unknown_estimator_tables_and_names(tmp_path):
     assert prepare(load_model(path), "hstf").name == "hstf"
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")
-    with pytest.raises(OptionError, match="'unknown-mode' is not available in this version"):
-        get_estimator("unknown-mode")
+    with pytest.raises(OptionError, match="'sliding-mode' is not available in this version"):
+        get_estimator("sliding-mode")
 
 
 def test_set_bogus_lists_parameters_and_options_and_suggests(tmp_path):

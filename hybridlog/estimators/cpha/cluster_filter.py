@@ -1,0 +1,325 @@
+r"""An extended Kalman filter per cluster of a filter cluster (paper 002, Appendix A).
+
+A :class:`~hybridlog.estimators.cpha.structure.Cluster` becomes a :class:`ClusterFilter`:
+its ``f``, ``h`` and their Jacobians lambdified once (numpy), and :meth:`ClusterFilter.step`
+the EKF of eqs. (12)–(21):
+
+.. math::
+
+    \hat x^- = f(\hat x, u, v),\; A = \partial f/\partial x,\;
+    P^- = A P A^T + \tilde Q                                          \quad (12)-(14)
+
+    r = y - g(\hat x^-, u, v),\; C = \partial g/\partial x,\;
+    S = C P^- C^T + \tilde R                                          \quad (15)-(17)
+
+    K = P^- C^T S^{-1},\; \hat x = \hat x^- + K r,\; P = (I - K C) P^-  \quad (18)-(20)
+
+    \log P_O = -\tfrac12 r^T S^{-1} r                                  \quad (21)
+
+``v`` are the virtual inputs (measured outputs of other clusters).  Their sensor noise enters
+as eq. (6): :math:`\tilde Q = Q + B\,\mathrm{diag}(r_v)B^T` with
+:math:`B = \partial f/\partial v` at the previous estimate (footnote 6); where a virtual input
+enters an output equation at step k, likewise :math:`\tilde R = R + D\,\mathrm{diag}(r_v)D^T`
+with :math:`D = \partial g/\partial v` (the same reading of eq. (6) for algebraic use).
+
+:class:`FilterCache` compiles each distinct cluster once and counts hits.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import cast
+
+import numpy as np
+import sympy
+
+from hybridlog.estimators.cpha.structure import Cluster
+from hybridlog.signals import FloatArray, IntArray
+
+__all__ = ["ClusterFilter", "FilterCache", "StepResult", "compile_cluster"]
+
+_Fn = Callable[..., list[FloatArray]]
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """One EKF step of a cluster.
+
+    Attributes
+    ----------
+    x, P:
+        ``x̂(k|k)`` and ``P(k|k)`` of the cluster's states.
+    y_pred:
+        ``g(x̂(k|k-1))``, the one-step-ahead output prediction.
+    log_po:
+        ``log P_O = -rᵀS⁻¹r/2`` (eq. (21)); ``-inf`` when ``S`` is not positive definite.
+    """
+
+    x: FloatArray
+    P: FloatArray
+    y_pred: FloatArray
+    log_po: float
+
+
+@dataclass(frozen=True)
+class ClusterFilter:
+    """A compiled cluster: index maps into the model's vectors and the lambdified model.
+
+    Attributes
+    ----------
+    cluster:
+        The structural cluster it was made from.
+    states, outputs, inputs, virtual:
+        Indices of the cluster's states, outputs, inputs and virtual inputs in the model's
+        state, output, input and output vectors.
+    Q, R, r_virtual:
+        Process, measurement and virtual-input variances (diagonals).
+    """
+
+    cluster: Cluster
+    states: IntArray
+    outputs: IntArray
+    inputs: IntArray
+    virtual: IntArray
+    Q: FloatArray
+    R: FloatArray
+    r_virtual: FloatArray
+    _predict: _Fn
+    _observe: _Fn
+    _ekf: Callable[..., tuple[float, ...]] | None = None
+    _upper: tuple[IntArray, IntArray] = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+
+    def step(
+        self,
+        x: FloatArray,
+        P: FloatArray,
+        u_prev: FloatArray,
+        y_prev: FloatArray,
+        u_now: FloatArray,
+        y_now: FloatArray,
+    ) -> StepResult:
+        """One EKF step (eqs. (12)–(21)) from the cluster's ``x̂(k-1|k-1)``, ``P(k-1|k-1)``.
+
+        ``u_prev``, ``y_prev`` and ``u_now``, ``y_now`` are the model's whole input and
+        output vectors at k−1 and k; the cluster takes its inputs and virtual inputs there.
+        """
+        if self._ekf is not None:
+            return self._step_unrolled(x, P, u_prev, y_prev, u_now, y_now)
+        return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+
+    def _step_unrolled(
+        self,
+        x: FloatArray,
+        P: FloatArray,
+        u_prev: FloatArray,
+        y_prev: FloatArray,
+        u_now: FloatArray,
+        y_now: FloatArray,
+    ) -> StepResult:
+        """:meth:`step` by the cluster's EKF written out as scalar code (:func:`_unrolled`)."""
+        assert self._ekf is not None
+        n, m = len(self.states), len(self.outputs)
+        rows, cols = self._upper
+        values = self._ekf(
+            *x.tolist(),
+            *P[rows, cols].tolist(),
+            *u_prev[self.inputs].tolist(),
+            *y_prev[self.virtual].tolist(),
+            *u_now[self.inputs].tolist(),
+            *y_now[self.virtual].tolist(),
+            *y_now[self.outputs].tolist(),
+        )
+        out = np.asarray(values, dtype=np.float64)
+        n_p = len(rows)
+        minors = out[n + n_p + m : n + n_p + 2 * m]
+        if not np.all(minors > 0.0):
+            return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+        x_new = out[:n].copy()
+        P_new = np.empty((n, n))
+        P_new[rows, cols] = out[n : n + n_p]
+        P_new[cols, rows] = out[n : n + n_p]
+        log_po = float(out[-1])
+        if not math.isfinite(log_po):
+            log_po = -math.inf
+        return StepResult(x_new, P_new, out[n + n_p : n + n_p + m].copy(), log_po)
+
+    def step_numeric(
+        self,
+        x: FloatArray,
+        P: FloatArray,
+        u_prev: FloatArray,
+        y_prev: FloatArray,
+        u_now: FloatArray,
+        y_now: FloatArray,
+    ) -> StepResult:
+        """:meth:`step` with numpy matrices (Cholesky of ``S``)."""
+        args = (*x, *u_prev[self.inputs], *y_prev[self.virtual])
+        x_pred, A, B = self._predict(*args)
+        x_pred = np.asarray(x_pred, dtype=np.float64).reshape(-1)
+        A = np.asarray(A, dtype=np.float64).reshape(len(x), len(x))
+        Q = np.diag(self.Q)
+        if len(self.virtual):
+            B = np.asarray(B, dtype=np.float64).reshape(len(x), len(self.virtual))
+            Q = Q + (B * self.r_virtual) @ B.T  # eq. (6)
+        P_pred = A @ P @ A.T + Q
+        obs_args = (*x_pred, *u_now[self.inputs], *y_now[self.virtual])
+        y_pred, C, D = self._observe(*obs_args)
+        y_pred = np.asarray(y_pred, dtype=np.float64).reshape(-1)
+        m = len(self.outputs)
+        C = np.asarray(C, dtype=np.float64).reshape(m, len(x))
+        R = np.diag(self.R)
+        if len(self.virtual):
+            D = np.asarray(D, dtype=np.float64).reshape(m, len(self.virtual))
+            R = R + (D * self.r_virtual) @ D.T
+        r = y_now[self.outputs] - y_pred
+        S = C @ P_pred @ C.T + R
+        try:
+            L = np.linalg.cholesky(S)
+        except np.linalg.LinAlgError:
+            return StepResult(x_pred, P_pred, y_pred, -math.inf)
+        PCt = P_pred @ C.T
+        K = np.linalg.solve(L.T, np.linalg.solve(L, PCt.T)).T  # eq. (18)
+        x_new = x_pred + K @ r
+        P_new = (np.eye(len(x)) - K @ C) @ P_pred
+        P_new = 0.5 * (P_new + P_new.T)
+        z = np.linalg.solve(L, r)
+        log_po = -0.5 * float(z @ z)
+        if not math.isfinite(log_po):
+            log_po = -math.inf
+        return StepResult(x_new, P_new, y_pred, log_po)
+
+
+def compile_cluster(
+    cluster: Cluster,
+    *,
+    states: tuple[str, ...],
+    inputs: tuple[str, ...],
+    outputs: tuple[str, ...],
+    unrolled: bool = True,
+) -> ClusterFilter:
+    """Lambdify the cluster's ``f``, ``g`` and Jacobians (``∂/∂x`` and ``∂/∂v``).
+
+    ``unrolled``: also write the whole EKF step out as scalar code for small clusters
+    (:func:`_unrolled`, several times faster than numpy on 1–4 states); otherwise, and for
+    larger clusters, :meth:`ClusterFilter.step` uses numpy matrices.
+    """
+    x = [sympy.Symbol(s, real=True) for s in cluster.states]
+    u = [sympy.Symbol(s, real=True) for s in cluster.inputs]
+    v = [sympy.Symbol(s, real=True) for s in cluster.virtual_inputs]
+    f = sympy.Matrix(cluster.f)
+    h = sympy.Matrix(cluster.h)
+    xv = sympy.Matrix(x)
+    vv = sympy.Matrix(v) if v else sympy.zeros(0, 1)
+    F = f.jacobian(xv)
+    B = f.jacobian(vv) if v else sympy.zeros(len(x), 0)
+    H = h.jacobian(xv)
+    D = h.jacobian(vv) if v else sympy.zeros(len(cluster.outputs), 0)
+    args = [*x, *u, *v]
+    predict = sympy.lambdify(args, [f, F, B], modules="numpy", cse=True)
+    observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
+    ekf = _unrolled(cluster, x, u, v, f, F, B, h, H, D) if unrolled else None
+    return ClusterFilter(
+        cluster=cluster,
+        states=np.array([states.index(s) for s in cluster.states], dtype=np.int64),
+        outputs=np.array([outputs.index(o) for o in cluster.outputs], dtype=np.int64),
+        inputs=np.array([inputs.index(i) for i in cluster.inputs], dtype=np.int64),
+        virtual=np.array([outputs.index(o) for o in cluster.virtual_inputs], dtype=np.int64),
+        Q=np.array(cluster.process_noise, dtype=np.float64),
+        R=np.array(cluster.measurement_noise, dtype=np.float64),
+        r_virtual=np.array(cluster.virtual_noise, dtype=np.float64),
+        _predict=predict,
+        _observe=observe,
+        _ekf=ekf,
+        _upper=np.triu_indices(len(x)),
+    )
+
+
+UNROLLED_MAX_STATES = 4
+UNROLLED_MAX_OUTPUTS = 3
+
+
+def _unrolled(
+    cluster: Cluster,
+    x: list[sympy.Symbol],
+    u: list[sympy.Symbol],
+    v: list[sympy.Symbol],
+    f: sympy.Matrix,
+    F: sympy.Matrix,
+    B: sympy.Matrix,
+    h: sympy.Matrix,
+    H: sympy.Matrix,
+    D: sympy.Matrix,
+) -> Callable[..., tuple[float, ...]] | None:
+    """The cluster's whole EKF step (eqs. (12)–(21), (6)) as one scalar function.
+
+    Written out symbolically (``S⁻¹`` by its adjugate) and lambdified with common
+    subexpressions for small clusters (at most :data:`UNROLLED_MAX_STATES` states and
+    :data:`UNROLLED_MAX_OUTPUTS` outputs); ``None`` otherwise.  Arguments: ``x``, the upper
+    triangle of ``P`` row by row, ``u(k-1)``, ``v(k-1)``, ``u(k)``, ``v(k)``, ``y(k)``.
+    Returns ``x̂(k|k)``, the upper triangle of ``P(k|k)``, ``g(x̂(k|k-1))``, the leading
+    principal minors of ``S`` (all positive when ``S`` is positive definite) and
+    ``log P_O``.
+    """
+    n, m = len(x), len(cluster.outputs)
+    if n > UNROLLED_MAX_STATES or m > UNROLLED_MAX_OUTPUTS or m == 0:
+        return None
+    p = {(i, j): sympy.Symbol(f"p_{i}_{j}", real=True) for i in range(n) for j in range(i, n)}
+    P = sympy.Matrix(n, n, lambda i, j: p[(min(i, j), max(i, j))])
+    u_prev = [sympy.Symbol(f"uprev_{s}", real=True) for s in u]
+    v_prev = [sympy.Symbol(f"vprev_{s}", real=True) for s in v]
+    y = [sympy.Symbol(f"meas_{o}", real=True) for o in cluster.outputs]
+    at_prev = dict(zip([*u, *v], [*u_prev, *v_prev], strict=True))
+    f_k, F_k, B_k = (e.xreplace(at_prev) for e in (f, F, B))
+    Q = sympy.diag(*cluster.process_noise)
+    if v:
+        Q = Q + B_k * sympy.diag(*cluster.virtual_noise) * B_k.T  # eq. (6)
+    P_pred = F_k * P * F_k.T + Q
+    at_pred = dict(zip(x, list(f_k), strict=True))
+    h_k, H_k, D_k = (e.xreplace(at_pred) for e in (h, H, D))
+    R = sympy.diag(*cluster.measurement_noise)
+    if v:
+        R = R + D_k * sympy.diag(*cluster.virtual_noise) * D_k.T
+    S = H_k * P_pred * H_k.T + R
+    minors = [S[:i, :i].det() for i in range(1, m + 1)]
+    S_inv = S.adjugate() / minors[-1]
+    K = P_pred * H_k.T * S_inv
+    r = sympy.Matrix(y) - h_k
+    x_new = f_k + K * r
+    P_new = (sympy.eye(n) - K * H_k) * P_pred
+    upper = [P_new[i, j] for i in range(n) for j in range(i, n)]
+    log_po = -(r.T * S_inv * r)[0, 0] / 2
+    args = [*x, *p.values(), *u_prev, *v_prev, *u, *v, *y]
+    outputs = [*x_new, *upper, *h_k, *minors, log_po]
+    function = sympy.lambdify(args, outputs, modules="math", cse=True)
+    return cast(Callable[..., tuple[float, ...]], function)
+
+
+class FilterCache:
+    """Compiled cluster filters by cluster signature; :attr:`hits`, :attr:`misses` count."""
+
+    def __init__(
+        self, *, states: tuple[str, ...], inputs: tuple[str, ...], outputs: tuple[str, ...]
+    ) -> None:
+        self.names = (states, inputs, outputs)
+        self._cache: dict[tuple[object, ...], ClusterFilter] = {}
+        self.hits = 0
+        self.misses = 0
+        self.seconds = 0.0
+
+    def get(self, cluster: Cluster) -> ClusterFilter:
+        """The compiled filter of ``cluster`` (compiled on first use, timed in ``seconds``)."""
+        key = cluster.signature
+        found = self._cache.get(key)
+        if found is not None:
+            self.hits += 1
+            return found
+        self.misses += 1
+        start = time.perf_counter()
+        states, inputs, outputs = self.names
+        compiled = compile_cluster(cluster, states=states, inputs=inputs, outputs=outputs)
+        self._cache[key] = compiled
+        self.seconds += time.perf_counter() - start
+        return compiled

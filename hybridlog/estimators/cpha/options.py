@@ -1,0 +1,33 @@
+"""Options of the ``unknown-mode`` estimator (a light module: no scipy, sympy or numba).
+
+The registry, ``--help`` and a batch's planning read them without loading the estimator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from hybridlog.estimators.options import option
+
+__all__ = ["UnknownModeOptions"]
+
+
+@dataclass(frozen=True)
+class UnknownModeOptions:
+    """Options of ``unknown-mode`` (paper 002): beam width, work bound, held variance, unknown."""
+
+    beam: int = option(20, "number of hypotheses (trajectories) kept per step", range=(1, 10000))
+    candidates: int | None = option(
+        None,
+        "most successors filtered per step (none: 10 x beam); the beam is exact when the "
+        "bound is not reached",
+        range=(1, 1000000),
+    )
+    variance_growth: float = option(
+        1.1,
+        "factor on the variance of an unobservable or undetermined state per step (§3.1)",
+        range=(1.0, 1e6),
+    )
+    unknown_mode: bool = option(
+        True, "every component has the unknown mode (false: only the modelled modes)"
+    )

@@ -1,0 +1,194 @@
+r"""The ``unknown-mode`` estimator: hybrid estimation with unknown modes (paper 002).
+
+For a ``[components]`` model (concurrent probabilistic hybrid automata, Definitions 1–3):
+
+* every tracked hypothesis is a joint mode assignment with one mode per component, where
+  ``unknown`` (no equations, §3) is a mode of every component with the prior the model file
+  gives (option ``unknown_mode = false`` removes it);
+* each assignment is decomposed once (:mod:`~hybridlog.estimators.cpha.structure`, §3.1)
+  into a filter cluster, one EKF per cluster (:mod:`~hybridlog.estimators.cpha.cluster_filter`,
+  Appendix A); its ``P_O`` is the product of the clusters' (eq. (7)), an upper bound when a
+  component is unknown;
+* hybrid estimation keeps the ``beam`` most likely trajectories (eqs. (4)–(5),
+  :mod:`~hybridlog.estimators.cpha.hypotheses`).
+
+Result
+------
+``mode_ids`` are joint assignments labelled ``"<mode of component 1>|<mode of 2>|…"`` in
+the model's component order (``m11|m21|unknown``); listed are those that were in the beam at
+some step, in order of first appearance.  ``mode_probabilities[k, j]`` is the summed
+normalised belief of the kept hypotheses with assignment ``j`` at step k (0 when none is
+kept).  ``modes[k]`` is the assignment of the most likely hypothesis (the paper's hybrid
+estimate, §2.2), whose ``x̂``, ``diag P`` and ``ŷ(k|k-1)`` are reported; an output no cluster of
+it predicts is NaN.  Timeline columns: ``mode.<component>`` (labels: the component's modes and
+``unknown``) of the most likely hypothesis, and ``p_unknown.<component>``, the summed belief
+of the kept hypotheses in which the component is unknown.
+
+Commands (``when`` in transition rules) are not read from logs in this version: the rules
+without ``when`` apply.  Notes list the decomposition and filter cache hit rates.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from hybridlog.estimators.cpha.cluster_filter import FilterCache
+from hybridlog.estimators.cpha.hypotheses import Hypothesis, Tracker
+from hybridlog.estimators.cpha.options import UnknownModeOptions
+from hybridlog.estimators.cpha.structure import Assignment, StructureCache
+from hybridlog.estimators.options import options_dict
+from hybridlog.estimators.result import EstimationResult, TimelineColumn
+from hybridlog.model.components import UNKNOWN
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.signals import AlignedSignals
+
+__all__ = ["NAME", "UnknownModeOptions", "assignment_label", "run_unknown_mode"]
+
+NAME = "unknown-mode"
+SEPARATOR = "|"
+
+
+def assignment_label(assignment: Assignment) -> str:
+    """``m11|m21|unknown``: the mode ids of a joint assignment, in component order."""
+    return SEPARATOR.join(assignment)
+
+
+_CACHES: dict[tuple[object, ...], tuple[StructureCache, FilterCache]] = {}
+_CACHED_MODELS = 4
+
+
+def caches(model: HybridModel) -> tuple[StructureCache, FilterCache]:
+    """Decompositions and compiled cluster filters of ``model``, kept across runs.
+
+    Keyed by the model's text and parameter values; the last :data:`_CACHED_MODELS` models
+    are kept, so a batch or a study over many logs of one model compiles once.
+    """
+    key = (model.name, model.source, tuple(sorted(model.parameters.items())), model.states)
+    found = _CACHES.get(key)
+    if found is None:
+        names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
+        structure = StructureCache(model.components, variables=model.variables, **names)
+        found = (structure, FilterCache(**names))
+        if len(_CACHES) >= _CACHED_MODELS:
+            del _CACHES[next(iter(_CACHES))]
+        _CACHES[key] = found
+    return found
+
+
+def make_tracker(
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: UnknownModeOptions,
+    *,
+    fresh: bool = False,
+) -> Tracker:
+    """The hypothesis tracker over ``signals``; ``fresh``: new caches, else :func:`caches`.
+
+    A model without ``source`` text (built in code) always gets fresh caches.
+    """
+    if fresh or not model.source:
+        names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
+        structure = StructureCache(model.components, variables=model.variables, **names)
+        filters = FilterCache(**names)
+    else:
+        structure, filters = caches(model)
+    return Tracker(
+        model.components,
+        structure,
+        filters,
+        np.ascontiguousarray(signals.inputs, dtype=np.float64),
+        np.ascontiguousarray(signals.outputs, dtype=np.float64),
+        beam=options.beam,
+        candidates=options.candidates if options.candidates is not None else 10 * options.beam,
+        variance_growth=options.variance_growth,
+        unknown_mode=options.unknown_mode,
+    )
+
+
+def run_unknown_mode(
+    model: HybridModel, signals: AlignedSignals, options: UnknownModeOptions
+) -> EstimationResult:
+    """Run hybrid estimation with unknown modes over the aligned log (module docstring)."""
+    tracker = make_tracker(model, signals, options)
+    n = signals.n_samples
+    n_x, n_y = model.n_states, model.n_outputs
+    components = model.components
+    structure, filters = tracker.structure, tracker.filters
+    counts = (structure.hits, structure.misses, filters.hits, filters.misses)
+    compiling = structure.seconds + filters.seconds
+    start = time.perf_counter()
+    hypotheses = tracker.start(
+        np.array(model.initial_state, dtype=np.float64),
+        np.array(model.initial_covariance, dtype=np.float64),
+    )
+    labels: dict[Assignment, int] = {}
+    rows: list[list[tuple[int, float]]] = []
+    best: list[Hypothesis] = []
+    p_unknown = np.zeros((n, len(components)))
+    for k in range(n):
+        if k > 0:
+            hypotheses = tracker.step(hypotheses, k)
+        row: dict[int, float] = {}
+        for h in hypotheses:
+            j = labels.setdefault(h.assignment, len(labels))
+            belief = float(np.exp(h.log_belief))
+            row[j] = row.get(j, 0.0) + belief
+            for c, mode in enumerate(h.assignment):
+                if mode == UNKNOWN:
+                    p_unknown[k, c] += belief
+        rows.append(list(row.items()))
+        best.append(max(hypotheses, key=lambda h: h.log_belief))
+    compile_s = structure.seconds + filters.seconds - compiling
+    runtime = time.perf_counter() - start - compile_s
+    mode_ids = tuple(assignment_label(a) for a in labels)
+    probabilities = np.zeros((n, len(mode_ids)))
+    for k, row_items in enumerate(rows):
+        for j, p in row_items:
+            probabilities[k, j] = p
+    totals = probabilities.sum(axis=1, keepdims=True)
+    probabilities /= np.where(totals > 0, totals, 1.0)
+    modes = np.array([labels[h.assignment] for h in best], dtype=np.int64)
+    means = np.array([h.x for h in best], dtype=np.float64).reshape(n, n_x)
+    variances = np.array([np.diag(h.P) for h in best], dtype=np.float64).reshape(n, n_x)
+    predictions = np.array([h.y_pred for h in best], dtype=np.float64).reshape(n, n_y)
+    predictions[0] = np.nan
+    columns: list[TimelineColumn] = []
+    for c, component in enumerate(components):
+        mode_labels = (*component.mode_ids, UNKNOWN)
+        values = np.array([mode_labels.index(h.assignment[c]) for h in best], dtype=np.int64)
+        columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
+    for c, component in enumerate(components):
+        columns.append(
+            TimelineColumn(f"p_unknown.{component.name}", np.clip(p_unknown[:, c], 0.0, 1.0))
+        )
+    s_hits, s_misses = structure.hits - counts[0], structure.misses - counts[1]
+    f_hits, f_misses = filters.hits - counts[2], filters.misses - counts[3]
+    notes = (
+        f"decompositions: {s_misses} computed, {s_hits} cache hits "
+        f"({_rate(s_hits, s_misses)}); cluster filters: {f_misses} compiled, {f_hits} cache "
+        f"hits ({_rate(f_hits, f_misses)}); {tracker.filtered} cluster EKF steps",
+    )
+    return EstimationResult(
+        estimator=NAME,
+        options=options_dict(options),
+        time=np.asarray(signals.time, dtype=np.float64),
+        mode_ids=mode_ids,
+        state_names=model.states,
+        output_names=model.outputs,
+        modes=modes,
+        mode_probabilities=probabilities,
+        state_means=means,
+        state_variances=variances,
+        output_predictions=predictions,
+        runtime_s=runtime,
+        compile_s=compile_s,
+        notes=notes,
+        timeline_columns=tuple(columns),
+    )
+
+
+def _rate(hits: int, misses: int) -> str:
+    total = hits + misses
+    return f"{100.0 * hits / total:.1f} % hit rate" if total else "no look-ups"

@@ -1,0 +1,122 @@
+"""Hybrid estimation with unknown modes (paper 002 eqs. (4)-(5)) and the estimator's result."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from hybridlog.estimators import prepare
+from hybridlog.estimators.cpha.hypotheses import Hypothesis
+from hybridlog.estimators.cpha.options import UnknownModeOptions
+from hybridlog.estimators.cpha.unknown_mode import make_tracker, run_unknown_mode
+from hybridlog.model.components import UNKNOWN
+from hybridlog.model.loader import parse_model
+from tests.support.cpha import CPHA_EXAMPLE, cpha_log
+
+
+@pytest.fixture(scope="module")
+def model():
+    return parse_model(CPHA_EXAMPLE)
+
+
+def known_transition_log(component, source, target):
+    """log P_T(target | source) with the unknown mode removed and the rest renormalised."""
+    p = component.transition_probabilities(source)
+    p.pop(UNKNOWN, None)
+    return math.log(p[target] / sum(p.values())) if target in p else -math.inf
+
+
+def exhaustive(model, tracker, steps):
+    """Every trajectory of every known joint mode (no pruning): the most likely per step."""
+    assignments = list(itertools.product(*(c.mode_ids for c in model.components)))
+    x0, P0 = model.initial_state, model.initial_covariance
+    start = tuple(c.mode_ids[0] for c in model.components)  # the initial modes (all known)
+    nan = np.full(model.n_outputs, np.nan)
+    trajectories = [Hypothesis(start, 0.0, x0.copy(), P0.copy(), nan)]
+    best = []
+    for k in range(1, steps):
+        extended = []
+        for parent in trajectories:
+            for a in assignments:
+                prior = parent.log_belief + sum(
+                    known_transition_log(c, s, t)
+                    for c, s, t in zip(model.components, parent.assignment, a, strict=True)
+                )
+                if prior == -math.inf:
+                    continue
+                child = tracker.successor(parent, a, k)
+                child.log_belief += prior
+                extended.append(child)
+        top = max(h.log_belief for h in extended)
+        total = top + math.log(sum(math.exp(h.log_belief - top) for h in extended))
+        for h in extended:
+            h.log_belief -= total
+        trajectories = extended
+        winner = max(trajectories, key=lambda h: h.log_belief)
+        best.append((winner.assignment, winner.log_belief, winner.x))
+    return best, len(assignments)
+
+
+def test_a_wide_beam_finds_the_most_likely_joint_mode_of_the_exhaustive_enumeration(model):
+    steps = 6
+    signals = cpha_log(model, steps, seed=2, a2=lambda k: "m22" if k >= 3 else "m21")
+    options = UnknownModeOptions(beam=4**5, candidates=10**6, unknown_mode=False)
+    reference, n_assignments = exhaustive(model, make_tracker(model, signals, options), steps)
+    assert n_assignments == 4
+    tracker = make_tracker(model, signals, options)
+    hypotheses = tracker.start(model.initial_state, model.initial_covariance)
+    assert [h.assignment for h in hypotheses] == [("m11", "m21", "m31")]
+    for k in range(1, steps):
+        hypotheses = tracker.step(hypotheses, k)
+        assert len(hypotheses) == 4**k  # the beam holds every trajectory
+        assignment, log_belief, x = reference[k - 1]
+        assert hypotheses[0].assignment == assignment
+        assert hypotheses[0].log_belief == pytest.approx(log_belief, abs=1e-9)
+        np.testing.assert_allclose(hypotheses[0].x, x, atol=1e-12)
+
+
+def test_a_narrow_beam_proposes_few_successors_and_keeps_beam_hypotheses(model):
+    signals = cpha_log(model, 40, seed=4)
+    tracker = make_tracker(model, signals, UnknownModeOptions(beam=3))
+    hypotheses = tracker.start(model.initial_state, model.initial_covariance)
+    for k in range(1, 40):
+        hypotheses = tracker.step(hypotheses, k)
+        assert len(hypotheses) == 3
+        beliefs = [h.log_belief for h in hypotheses]
+        assert beliefs == sorted(beliefs, reverse=True)
+        assert sum(math.exp(b) for b in beliefs) == pytest.approx(1.0)
+    # 3 parents x 3^3 successor assignments each are never all filtered.
+    assert tracker.proposed < 39 * 3 * 27 / 4
+
+
+def test_unknown_mode_detects_an_unmodelled_drift_and_without_it_the_drift_is_misread(model):
+    drift = cpha_log(model, 150, seed=1, a1=lambda k: "drift" if 60 <= k < 100 else "m11")
+    result = run_unknown_mode(model, drift, UnknownModeOptions(beam=10))
+    columns = {c.name: c for c in result.timeline_columns}
+    a1 = columns["mode.A1"]
+    assert a1.labels == ("m11", "m12", UNKNOWN)
+    is_unknown = a1.values == a1.labels.index(UNKNOWN)
+    assert not is_unknown[:60].any()
+    assert is_unknown[70:100].mean() >= 0.8
+    p_unknown = columns["p_unknown.A1"].values
+    assert p_unknown[75:100].min() > 0.5 and p_unknown[:55].max() < 0.5
+    assert all(label.count("|") == 2 for label in result.mode_ids)
+    np.testing.assert_allclose(result.mode_probabilities.sum(axis=1), 1.0)
+    assert "decompositions:" in result.notes[0] and "hit rate" in result.notes[0]
+
+    closed = run_unknown_mode(model, drift, UnknownModeOptions(beam=10, unknown_mode=False))
+    assert not any(UNKNOWN in label for label in closed.mode_ids)
+    a1_closed = {c.name: c for c in closed.timeline_columns}["mode.A1"]
+    assert not (a1_closed.values == 2).any()
+    # the states stay estimated throughout: no state is held
+    assert np.isfinite(closed.output_predictions[1:]).all()
+
+
+def test_the_registry_runs_it_on_a_components_model_only(model):
+    prepared = prepare(model, "unknown-mode", {"beam": "5"})
+    assert prepared.options.beam == 5 and prepared.options.unknown_mode is True
+    signals = cpha_log(model, 30, seed=3)
+    result = prepared.run(model, signals)
+    assert result.estimator == "unknown-mode" and result.n_samples == 30
+    assert result.options["beam"] == 5
