@@ -24,6 +24,17 @@ gives ``y(k)`` and also governs the step out of row ``k``,
 as in paper 001, eq. (1) (the mode cannot be decided by ``x(k+1)`` before that state
 exists).  A row where no guard holds is an error.
 
+Continuous time (``time = "continuous"``, paper 003 eq. (1), paper 004 eq. (2)): row ``k``
+is sampled at ``t_k = k·dt`` and the same convention holds, the mode of row ``k`` governs
+the interval :math:`(t_{k-1}, t_k]` into it, with the input ``u(k-1)`` held over it; the
+switch from ``q(k-1)`` to ``q(k)`` happens at :math:`t_{k-1}^+`, where the model's jump map
+resets the state first, :math:`x \leftarrow R(q(k-1), q(k), x(t_{k-1}))` (paper 004,
+eq. (3)); row ``k-1`` keeps the state before the jump.  The state is integrated with the
+model's fixed step and method (:mod:`hybridlog.integration`), ``dt / step`` steps a row; the
+model's process noise ``Q_q`` is an intensity (Euler-Maruyama, ``√step`` scaled draws per
+step), the optional :class:`Disturbance` is paper 003's eq. (49).  A schedule's counts are
+rows (``"7:50"`` at ``dt = 0.01`` is a dwell of 0.5 s).
+
 The model's functions, guards and input signals come from the one compiled-code cache
 (:mod:`hybridlog.model.compiled`): with a warm cache a simulation runs no sympy and compiles
 nothing, and 10^4 steps take milliseconds.  Importing this module imports neither numba nor
@@ -41,7 +52,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hybridlog.errors import HybridlogError, ModelError, OptionError
-from hybridlog.model.compiled import compile_guard, compile_model, input_functions
+from hybridlog.model.compiled import (
+    compile_continuous,
+    compile_guard,
+    compile_model,
+    input_functions,
+)
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 if TYPE_CHECKING:
@@ -220,6 +236,28 @@ def _check_seed(seed: object) -> int:
     return int(seed)
 
 
+@dataclass(frozen=True)
+class Disturbance:
+    r"""The state-dependent disturbance of paper 003, eq. (49), added to a continuous ``dx``.
+
+    .. math::
+
+        \varepsilon_i(x, t) = a \,(|x_1| + \dots + |x_n|)\,\sin(\omega t), \qquad i = 1 \dots n
+
+    (the paper: ``a = 0.1``, ω not given).
+
+    Attributes
+    ----------
+    amplitude:
+        ``a``, in 1/s (ε has the units of ``dx``).
+    frequency:
+        ω in rad/s.
+    """
+
+    amplitude: float
+    frequency: float
+
+
 def simulate(
     model: HybridModel,
     *,
@@ -227,6 +265,8 @@ def simulate(
     steps: int | None = None,
     seed: int = 0,
     jit: bool = True,
+    noise: bool = True,
+    disturbance: Disturbance | None = None,
 ) -> SimulatedLog:
     """Simulate ``model`` with Gaussian process and measurement noise.
 
@@ -243,6 +283,11 @@ def simulate(
         gives the same log.
     jit:
         Compiled loop (default) or the same code in plain Python (tests).
+    noise:
+        Draw the model's process and measurement noise (default); ``False``: a noise-free
+        run (the draws are made all the same, so they do not shift with this flag).
+    disturbance:
+        The disturbance of paper 003 eq. (49) on a continuous-time model; ``None``: none.
 
     Raises
     ------
@@ -251,9 +296,24 @@ def simulate(
     ModelError
         A bad ``[simulation]`` table, a row where no guard holds, or a diverging run.
     """
-    model.check_supported("simulate")
     seed = _check_seed(seed)
     origin = _origin(model)
+    if model.is_continuous:
+        model.check_supported("simulate", continuous=True, jumps=True)
+        if model.state_driven:
+            first = next(m for m in model.modes if m.has_guard)
+            raise model.error(
+                f"modes.{first.id}.guard",
+                "simulate does not switch a continuous-time model by its guards; give a "
+                "schedule instead",
+            )
+    else:
+        model.check_supported("simulate")
+        if disturbance is not None:
+            raise OptionError(
+                "--disturbance: the disturbance of paper 003 eq. (49) needs a continuous-time "
+                f"model; {origin} is discrete-time"
+            )
     if model.state_driven:
         if schedule:
             raise OptionError(
@@ -286,17 +346,19 @@ def simulate(
     time = np.arange(n_rows, dtype=float) * model.dt
     inputs = input_signals(model, time)
     rng = np.random.default_rng(seed)
-    process_draws = rng.standard_normal((n_rows, model.n_states))
+    substeps = model.timebase.substeps if model.is_continuous else 1
+    process_rows = (n_rows - 1) * substeps if model.is_continuous else n_rows
+    process_draws = rng.standard_normal((process_rows, model.n_states))
     measurement_draws = rng.standard_normal((n_rows, model.n_outputs))
     states = np.zeros((n_rows, model.n_states))
     states[0] = model.initial_state if model.simulation_state is None else model.simulation_state
     outputs = np.zeros((n_rows, model.n_outputs))
-    compiled = compile_model(model, jit=jit)
+    scale = 1.0 if noise else 0.0
     process_factors = np.ascontiguousarray(
-        np.stack([_noise_factor(m.process_noise) for m in model.modes])
+        np.stack([scale * _noise_factor(m.process_noise) for m in model.modes])
     )
     measurement_factors = np.ascontiguousarray(
-        np.stack([_noise_factor(m.measurement_noise) for m in model.modes])
+        np.stack([scale * _noise_factor(m.measurement_noise) for m in model.modes])
     )
     state_min = (
         np.full(model.n_states, -np.inf)
@@ -307,7 +369,39 @@ def simulate(
     from hybridlog.jit import compile_for
 
     arguments: tuple[object, ...]
-    if model.state_driven:
+    if model.is_continuous:
+        from hybridlog.integration import METHOD_CODES, step_function
+
+        functions = compile_continuous(model, jit=jit)
+        timebase = model.timebase
+        arguments = (
+            step_function(jit),
+            functions.dx,
+            functions.h,
+            functions.jump,
+            METHOD_CODES[timebase.method or "rk4"],
+            timebase.step,
+            substeps,
+            modes,
+            inputs,
+            time,
+            process_factors,
+            process_draws,
+            measurement_factors,
+            measurement_draws,
+            np.array(
+                [0.0, 0.0]
+                if disturbance is None
+                else [disturbance.amplitude, disturbance.frequency],
+            ),
+            states,
+            outputs,
+            state_min,
+        )
+        continuous: Callable[..., None] = kernels.simulate_continuous_steps
+        (compile_for(continuous, arguments) if jit else continuous)(*arguments)
+    elif model.state_driven:
+        compiled = compile_model(model, jit=jit)
         arguments = (
             compiled.f,
             compiled.h,
@@ -330,6 +424,7 @@ def simulate(
                 f"(x = {states[stuck].tolist()})"
             )
     else:
+        compiled = compile_model(model, jit=jit)
         arguments = (
             compiled.f,
             compiled.h,

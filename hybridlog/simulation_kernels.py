@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from hybridlog.integration import StepFunction
 from hybridlog.jit import jit
-from hybridlog.model.compiled import GuardFunction, ModelFunction
+from hybridlog.model.compiled import GuardFunction, JumpFunction, ModelFunction
 from hybridlog.signals import FloatArray, IntArray
 
 
@@ -86,3 +87,68 @@ def simulate_guarded_steps(
         h(q, states[k], inputs[k], measured)
         add_noise(measured, measurement_factors[q], measurement_draws[k], no_bound, outputs[k])
     return -1
+
+
+def simulate_continuous_steps(
+    advance: StepFunction,
+    dx: ModelFunction,
+    h: ModelFunction,
+    jump: JumpFunction,
+    method: int,
+    step: float,
+    substeps: int,
+    modes: IntArray,
+    inputs: FloatArray,
+    time: FloatArray,
+    process_factors: FloatArray,
+    process_draws: FloatArray,
+    measurement_factors: FloatArray,
+    measurement_draws: FloatArray,
+    disturbance: FloatArray,
+    states: FloatArray,
+    outputs: FloatArray,
+    state_min: FloatArray,
+) -> None:
+    r"""Continuous time: the interval :math:`(t_{k-1}, t_k]` runs in mode ``q(k)``, ``u(k-1)`` held.
+
+    At a switch (``q(k) ≠ q(k-1)``) the jump map is applied first,
+    :math:`x \leftarrow R(q(k-1), q(k), x(t_{k-1}))` (paper 004, eq. (3)); then ``substeps``
+    integration steps of ``method`` (``advance``: :func:`hybridlog.integration.step_function`),
+    each followed by the disturbance :math:`h\,\varepsilon(x, t)` of paper 003 eq. (49),
+    :math:`\varepsilon_i = a \sum_j |x_j| \sin(\omega t)` with ``disturbance = (a, ω)``
+    evaluated before the step (Euler on :math:`f + \varepsilon` for ``euler``), and the
+    Euler-Maruyama increment :math:`G\sqrt h\,w` of the process noise (``G Gᵀ`` the
+    intensity ``Q_q``), then the bound ``state_min``.  ``process_draws`` has one row per
+    integration step (``(N - 1) · substeps`` rows).
+    """
+    n = states.shape[1]
+    work = np.zeros((5, n))
+    x = states[0].copy()
+    jumped = np.empty(n)
+    measured = np.empty(outputs.shape[1])
+    no_bound = np.full(outputs.shape[1], -np.inf)
+    root = np.sqrt(step)
+    amplitude, omega = disturbance[0], disturbance[1]
+    for k in range(states.shape[0]):
+        q = modes[k]
+        if k > 0:
+            if q != modes[k - 1]:
+                jump(modes[k - 1], q, x, jumped)
+                x[:] = jumped
+            for s in range(substeps):
+                push = 0.0
+                if amplitude != 0.0:
+                    size = 0.0
+                    for i in range(n):
+                        size += abs(x[i])
+                    push = step * amplitude * size * np.sin(omega * (time[k - 1] + s * step))
+                advance(dx, method, q, x, inputs[k - 1], step, work)
+                row = (k - 1) * substeps + s
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += process_factors[q, i, j] * process_draws[row, j]
+                    x[i] = max(x[i] + push + root * acc, state_min[i])
+        states[k, :] = x
+        h(q, x, inputs[k], measured)
+        add_noise(measured, measurement_factors[q], measurement_draws[k], no_bound, outputs[k])

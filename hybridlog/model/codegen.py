@@ -1,4 +1,4 @@
-"""The one place where sympy expressions become Python source (compiled by numba).
+r"""The one place where sympy expressions become Python source (compiled by numba).
 
 :func:`model_source` writes a model's module.  For every mode ``q`` it defines four
 functions with one shared calling convention (the mode index selects the branch, the result
@@ -9,7 +9,13 @@ is written into ``out``)::
     h(q, x, u, out)   # out[i]    = h_q,i(x, u)           output
     H(q, x, u, out)   # out[i, j] = ∂h_q,i/∂x_j            eq. (12)
 
-and, when the model has them, ``guard(x, u)`` (index of the first mode whose guard holds,
+A continuous-time model's module defines ``dx`` (:math:`\dot x`) and ``DX``
+(:math:`\partial \dot x / \partial x`) in place of ``f`` and ``F``, with the same
+convention, and ``jump(p, q, x, out)`` (the state after a switch from mode ``p`` to ``q``,
+paper 004 eq. (3), the identity where the model has no map); a boolean-affine one also
+``G(q, x, u, out)`` and ``D(q, x, u, out)`` of paper 003, eq. (1) (``q`` unused).
+
+And, when the model has them, ``guard(x, u)`` (index of the first mode whose guard holds,
 or -1) and ``input_<j>(t, k)`` (the ``[simulation.inputs]`` signals, NumPy-vectorised over
 the time grid, as ``sympy.lambdify`` would evaluate them).  :func:`emit_mode_function`
 writes one mode function inline, for the straight-line filter loops of
@@ -30,13 +36,16 @@ import sympy
 from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-from hybridlog.model.derivatives import jacobian
+from hybridlog.model.derivatives import boolean_affine_split, jacobian
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
 FUNCTION_NAMES = ("f", "F", "h", "H")
-"""The mode functions every model module defines."""
+"""The mode functions every discrete-time model module defines."""
+
+CONTINUOUS_FUNCTION_NAMES = ("dx", "DX", "h", "H")
+"""The mode functions every continuous-time model module defines (``dx`` in place of ``f``)."""
 
 
 def _printer() -> PythonCodePrinter:
@@ -82,10 +91,14 @@ def mode_expressions(model: HybridModel, mode_index: int, kind: str) -> list[sym
     mode = model.modes[mode_index]
     if kind == "f":
         return list(mode.f)
+    if kind == "dx":
+        return list(mode.dx)
     if kind == "h":
         return list(mode.h)
     if kind == "F":
         return [entry for row in jacobian(mode.f, xs) for entry in row]
+    if kind == "DX":
+        return [entry for row in jacobian(mode.dx, xs) for entry in row]
     if kind == "H":
         return [entry for row in jacobian(mode.h, xs) for entry in row]
     raise ValueError(f"unknown mode function {kind!r}")
@@ -102,8 +115,9 @@ def _mode_functions(model: HybridModel) -> list[str]:
         "F": [f"out[{i}, {j}]" for i in range(n_x) for j in range(n_x)],
         "H": [f"out[{i}, {j}]" for i in range(n_y) for j in range(n_x)],
     }
+    vector_targets["dx"], vector_targets["DX"] = vector_targets["f"], vector_targets["F"]
     lines: list[str] = []
-    for name in FUNCTION_NAMES:
+    for name in CONTINUOUS_FUNCTION_NAMES if model.is_continuous else FUNCTION_NAMES:
         lines += ["", "", f"def {name}(q, x, u, out):"]
         for index, mode in enumerate(model.modes):
             keyword = "if" if index == 0 else "elif"
@@ -132,6 +146,70 @@ def _guard_function(model: HybridModel) -> list[str]:
     return lines
 
 
+def _loads(model: HybridModel, used: str, indent: str = "    ") -> list[str]:
+    """``x_<i> = x[i]`` and ``u_<i> = u[i]`` for the slots ``used`` (the body's text) reads."""
+    loads = [f"{indent}x_{i} = x[{i}]" for i in range(model.n_states)]
+    loads += [f"{indent}u_{i} = u[{i}]" for i in range(model.n_inputs)]
+    return [line for line in loads if line.split(" = ")[0].strip() in used]
+
+
+def _boolean_affine_functions(model: HybridModel) -> list[str]:
+    """``G(q, x, u, out)`` and ``D(q, x, u, out)`` of paper 003, eq. (1) (``q`` is unused).
+
+    The mode argument keeps the calling convention (and numba signature) of ``dx`` and
+    ``DX``, so a kernel takes them as the same first-class function types.
+    """
+    affine = model.boolean_affine
+    assert affine is not None
+    try:
+        G, D = boolean_affine_split(affine.dynamics, affine.symbols())
+    except ValueError as err:  # the loader checks this too; the code must not rely on it
+        index, _, message = str(err).partition(": ")
+        raise model.error(f"{affine.key}.dx[{index}]", message) from err
+    names = _slot_names(model)
+    n_x, n_b = model.n_states, len(affine.booleans)
+    lines: list[str] = []
+    for name, exprs, targets in (
+        ("G", list(G), [f"out[{i}]" for i in range(n_x)]),
+        (
+            "D",
+            [e for row in D for e in row],
+            [f"out[{i}, {j}]" for i in range(n_x) for j in range(n_b)],
+        ),
+    ):
+        body = assignments(exprs, targets, names, "    ")
+        lines += ["", "", f"def {name}(q, x, u, out):", *_loads(model, "\n".join(body)), *body]
+        lines.append("    return None")
+    return lines
+
+
+def _jump_function(model: HybridModel) -> list[str]:
+    """``jump(p, q, x, out)``: ``out = R(p, q, x)``, the state after a switch from ``p`` to ``q``.
+
+    Paper 004, eq. (3); the identity where the model has no map for the pair (and for
+    ``p == q``).  ``out`` must not be ``x``.
+    """
+    names = _slot_names(model)
+    xs, _ = model.symbols()
+    lines = ["", "", "def jump(p, q, x, out):"]
+    keyword = "if"
+    for source in range(model.n_modes):
+        for target in range(model.n_modes):
+            reset = model.reset_map(source, target)
+            if reset is None:
+                continue
+            lines.append(f"    {keyword} p == {source} and q == {target}:")
+            keyword = "elif"
+            targets = [f"out[{i}]" for i in range(model.n_states)]
+            body = assignments(list(reset), targets, names, " " * 8)
+            lines += _loads(model, "\n".join(body), " " * 8)
+            lines += body
+            lines.append("        return None")
+    lines += [f"    out[{i}] = x[{i}]" for i in range(len(xs))]
+    lines.append("    return None")
+    return lines
+
+
 def _input_functions(model: HybridModel) -> list[str]:
     # The NumPy printer of sympy.lambdify(modules="numpy"): the same calls, the same values.
     printer = NumPyPrinter({"fully_qualified_modules": True, "inline": True})
@@ -155,6 +233,10 @@ def model_source(model: HybridModel) -> str:
     lines += _mode_functions(model)
     if model.state_driven:
         lines += _guard_function(model)
+    if model.is_continuous:
+        lines += _jump_function(model)
+        if model.has_booleans:
+            lines += _boolean_affine_functions(model)
     lines += _input_functions(model)
     return "\n".join(lines) + "\n"
 

@@ -334,7 +334,19 @@ def _model_signatures() -> dict[str, Any]:
     vector = types.void(types.int64, types.float64[::1], types.float64[::1], types.float64[::1])
     matrix = types.void(types.int64, types.float64[::1], types.float64[::1], types.float64[:, ::1])
     guard = types.int64(types.float64[::1], types.float64[::1])
-    return {"f": vector, "h": vector, "F": matrix, "H": matrix, "guard": guard}
+    jump = types.void(types.int64, types.int64, types.float64[::1], types.float64[::1])
+    return {
+        "f": vector,
+        "h": vector,
+        "F": matrix,
+        "H": matrix,
+        "guard": guard,
+        "dx": vector,
+        "DX": matrix,
+        "G": vector,
+        "D": matrix,
+        "jump": jump,
+    }
 
 
 @dataclass(frozen=True)
@@ -379,6 +391,53 @@ def compile_model(model: HybridModel, *, jit: bool = True) -> CompiledModel:
     start = time.perf_counter()
     f, F, h, H = (_function(model, name, jit) for name in ("f", "F", "h", "H"))
     return CompiledModel(f, F, h, H, compile_s=time.perf_counter() - start)
+
+
+JumpFunction = Callable[[int, int, FloatArray, FloatArray], None]
+"""``jump(p, q, x, out)``: ``out = R(p, q, x)`` at a switch from mode ``p`` to ``q``."""
+
+
+@dataclass(frozen=True)
+class CompiledContinuousModel:
+    r"""The mode functions of a continuous-time model (see :mod:`hybridlog.model.codegen`).
+
+    ``dx(q, x, u, out)`` writes :math:`\dot x = f_q(x, u)`, ``DX`` its Jacobian in ``x``,
+    ``h``, ``H`` the output and its Jacobian, ``jump(p, q, x, out)`` the state after a switch
+    (the identity without a jump map).  A boolean-affine model (paper 003, eq. (1)) also
+    has ``G(q, x, u, out)`` (``dx`` at δ = 0) and ``D(q, x, u, out)`` (``(n_x, L)``, column
+    ``j`` = ∂dx/∂δ_j), derived symbolically; ``q`` is ignored by both.  ``G`` and ``D`` are
+    ``None`` for other models.
+    """
+
+    dx: ModelFunction
+    DX: ModelFunction
+    h: ModelFunction
+    H: ModelFunction
+    jump: JumpFunction
+    G: ModelFunction | None
+    D: ModelFunction | None
+    compile_s: float
+
+
+def compile_continuous(model: HybridModel, *, jit: bool = True) -> CompiledContinuousModel:
+    """The compiled (``jit=True``) or plain-Python functions of a continuous-time model.
+
+    Raises
+    ------
+    ModelError
+        The model is discrete-time (``time``) or a components model.
+    """
+    if not model.is_continuous:
+        raise model.error(
+            "time", "the continuous-time mode functions need time = 'continuous' (dx)"
+        )
+    model.check_supported("the continuous-time mode functions", continuous=True, jumps=True)
+    start = time.perf_counter()
+    dx, DX, h, H, jump = (_function(model, name, jit) for name in ("dx", "DX", "h", "H", "jump"))
+    G = D = None
+    if model.has_booleans:
+        G, D = (_function(model, name, jit) for name in ("G", "D"))
+    return CompiledContinuousModel(dx, DX, h, H, jump, G, D, compile_s=time.perf_counter() - start)
 
 
 def compile_guard(model: HybridModel, *, jit: bool = True) -> GuardFunction:

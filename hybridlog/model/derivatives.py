@@ -88,3 +88,42 @@ def lie_derivative(
             for row in jacobian(current, states)
         ]
     return current
+
+
+def boolean_affine_split(
+    expressions: Sequence[sympy.Expr], booleans: Sequence[sympy.Symbol]
+) -> tuple[list[sympy.Expr], list[list[sympy.Expr]]]:
+    r"""``G`` and ``D`` of :math:`\dot x = G(x, u) + D(x, u)\,\delta` (paper 003, eq. (1)).
+
+    ``G`` is ``expressions`` at :math:`\delta = 0`; column ``j`` of ``D`` is
+    :math:`\partial\,\text{expressions} / \partial \delta_j`.
+
+    Raises
+    ------
+    ValueError
+        ``"<i>: ..."`` naming the first expression that is not affine in the booleans (a
+        column of ``D`` that still depends on a boolean), so that ``G + D δ`` would not give
+        the expressions back.
+
+    Examples
+    --------
+    >>> x, d1, d2 = sympy.symbols("x d1 d2", real=True)
+    >>> boolean_affine_split([1 - x * d1, d2 * x + d1], [d1, d2])
+    ([1, 0], [[-x, 0], [1, x]])
+    """
+    flags = set(booleans)
+    zero = {d: sympy.S.Zero for d in booleans}
+    G: list[sympy.Expr] = []
+    D: list[list[sympy.Expr]] = []
+    for i, expression in enumerate(expressions):
+        row = [sympy.diff(expression, d) for d in booleans]
+        for d, column in zip(booleans, row, strict=True):
+            left = column.free_symbols & flags
+            if left:
+                names = ", ".join(sorted(str(s) for s in left))
+                raise ValueError(
+                    f"{i}: not affine in the booleans (its derivative by {d} depends on {names})"
+                )
+        G.append(expression.xreplace(zero))
+        D.append(row)
+    return G, D

@@ -611,8 +611,12 @@ def test_components_model_takes_per_component_truth_and_command_signals():
 )
 def test_discrete_only_code_refuses_other_kinds_instead_of_computing_nonsense(text, key):
     model = parse_model(text, origin="kind.toml")
-    with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: simulate "):
-        simulate(model, steps=3)
+    if key == "components":
+        with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: simulate "):
+            simulate(model, steps=3)
+    else:  # issue 11: simulate integrates continuous-time models (tests/model/test_continuous.py)
+        with pytest.raises(ModelError, match=r"^kind\.toml: simulation\.inputs\.\w+: no input"):
+            simulate(model, steps=3)
     with pytest.raises(ModelError, match=rf"^kind\.toml: {key}: the discrete-time mode func"):
         compile_model(model, jit=False)
     model.check_supported("x", continuous=True, jumps=True, components=True)

@@ -1,0 +1,163 @@
+"""Continuous time: compiled ``dx``, ``G``/``D`` (paper 003 eq. (1)), the fixed-step
+integrator and ``simulate`` with jumps, checked against exact solutions and ``solve_ivp``."""
+
+import numpy as np
+import pytest
+import sympy
+from scipy.integrate import solve_ivp
+
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.integration import EULER, RK4, integrate_log, step_function
+from hybridlog.jit import compile_for
+from hybridlog.model.compiled import compile_continuous
+from hybridlog.model.derivatives import boolean_affine_split
+from hybridlog.model.loader import parse_model
+from hybridlog.simulate import Disturbance, simulate
+from tests.support.model_kinds import CLUTCH_JUMPS, CONTINUOUS_TANK, VALVES_BOOLEAN
+from tests.support.models import PENDULUM_ONE_MODE
+
+CLUTCH_RUN = CLUTCH_JUMPS.replace(
+    "[initial]",
+    '[simulation]\nschedule = "0:30,1:30,0:30"\ninputs = {alpha = "0.5 + 0.1*sin(t)"}\n[initial]',
+)
+
+
+def test_g_and_d_give_back_dx_in_every_mode():
+    model = parse_model(VALVES_BOOLEAN)
+    code = compile_continuous(model, jit=False)
+    assert code.G is not None and code.D is not None
+    rng = np.random.default_rng(1)
+    for sigma in range(8):
+        x, u = rng.uniform(0.05, 0.3, 3), rng.uniform(0, 1e-4, 1)
+        dx, G, D = np.zeros(3), np.zeros(3), np.zeros((3, 3))
+        code.dx(sigma, x, u, dx)
+        code.G(sigma, x, u, G)
+        code.D(sigma, x, u, D)
+        delta = np.array(model.boolean_affine.delta(sigma))
+        np.testing.assert_allclose(G + D @ delta, dx, rtol=1e-12, atol=1e-15)
+        # eq. (46): D is lower bidiagonal, G = [q/β1, 0, 0] (eq. (45))
+        assert D[0, 1] == D[0, 2] == D[1, 2] == D[2, 0] == 0.0 and G[1] == G[2] == 0.0
+
+
+def test_boolean_affine_split_refuses_a_product_of_booleans():
+    x, d1, d2 = sympy.symbols("x d1 d2", real=True)
+    G, D = boolean_affine_split([x + 2 * d1 - x * d2], [d1, d2])
+    assert [x] == G and [[2, -x]] == D
+    with pytest.raises(ValueError, match=r"^0: not affine in the booleans .* by d1 depends on d2"):
+        boolean_affine_split([x * d1 * d2], [d1, d2])
+
+
+def test_continuous_functions_refuse_a_discrete_model():
+    model = parse_model(PENDULUM_ONE_MODE, origin="p.toml")
+    with pytest.raises(ModelError, match=r"^p\.toml: time: the continuous-time mode functions"):
+        compile_continuous(model, jit=False)
+
+
+def _linear_run(method: str, step: float):
+    """``dx = -2 h1 + 3 q + 1`` (mode ``linear``) from 1 for 1 s with q = 0.5: exact e^{-2t}."""
+    model = parse_model(
+        CONTINUOUS_TANK.replace(
+            'integration = {method = "euler", step = 0.001}',
+            f'integration = {{method = "{method}", step = {step}}}',
+        ).replace("dt = 0.01", "dt = 0.1")
+    )
+    code = compile_continuous(model)
+    n = 11
+    modes = np.full(n, model.mode_index("linear"), dtype=np.int64)
+    inputs = np.full((n, 1), 0.5)
+    states = np.zeros((n, 1))
+    arguments = (
+        step_function(),
+        code.dx,
+        {"euler": EULER, "rk4": RK4}[method],
+        modes,
+        inputs,
+        np.array([1.0]),
+        model.timebase.step,
+        model.timebase.substeps,
+        states,
+    )
+    compile_for(integrate_log, arguments)(*arguments)
+    t = np.arange(n) * 0.1
+    exact = 1.25 - 0.25 * np.exp(-2 * t)
+    return np.abs(states[:, 0] - exact).max()
+
+
+def test_euler_and_rk4_converge_to_the_exact_solution_at_their_orders():
+    euler = [_linear_run("euler", h) for h in (0.01, 0.005)]
+    rk4 = [_linear_run("rk4", h) for h in (0.05, 0.025)]
+    assert 1.9 < euler[0] / euler[1] < 2.1  # first order
+    assert 14 < rk4[0] / rk4[1] < 18  # fourth order
+    assert rk4[0] < 1e-6 and euler[1] < 2e-3
+
+
+def _clutch_reference(model, log):
+    """The same run with solve_ivp (tight tolerances), interval by interval, jumps at switches."""
+    dx = compile_continuous(model, jit=False).dx
+    jump = compile_continuous(model, jit=False).jump
+    x = log.states[0].copy()
+    states = [x.copy()]
+    for k in range(1, log.time.shape[0]):
+        q, u = int(log.modes[k]), log.inputs[k - 1]
+        if q != log.modes[k - 1]:
+            after = np.zeros(3)
+            jump(int(log.modes[k - 1]), q, x, after)
+            x = after
+
+        def rhs(_t, state, q=q, u=u):
+            out = np.zeros(3)
+            dx(q, np.ascontiguousarray(state), u, out)
+            return out
+
+        x = solve_ivp(rhs, (0, model.dt), x, rtol=1e-11, atol=1e-11, method="DOP853").y[:, -1]
+        states.append(x.copy())
+    return np.array(states)
+
+
+def test_rk4_simulation_with_jumps_matches_solve_ivp_at_the_models_step():
+    model = parse_model(CLUTCH_RUN)
+    log = simulate(model, noise=False)
+    assert log.modes.tolist() == [0] * 31 + [1] * 30 + [0] * 30
+    reference = _clutch_reference(model, log)
+    scale = np.abs(reference).max(axis=0)
+    assert np.max(np.abs(log.states - reference) / scale) < 1e-8
+    # the jump (45) of T at the switch into mode 1: T(t+) = (TE + TL)/TE·T(t−), T constant after
+    assert log.states[30, 2] == pytest.approx(5.0) and log.states[31, 2] == pytest.approx(15.0)
+    assert log.states[61, 2] == pytest.approx(5.0)
+    np.testing.assert_array_equal(log.outputs[:, 0], log.states[:, 1])
+
+
+def test_plain_python_and_compiled_simulations_agree_and_noise_is_seeded():
+    model = parse_model(
+        VALVES_BOOLEAN.replace(
+            "[initial]", '[simulation]\ninputs = {q = "1e-5"}\nschedule = "7:3,2:3"\n[initial]'
+        )
+    )
+    compiled = simulate(model, seed=3)
+    plain = simulate(model, seed=3, jit=False)
+    np.testing.assert_allclose(compiled.outputs, plain.outputs, rtol=1e-12)
+    quiet = simulate(model, seed=3, noise=False)
+    np.testing.assert_array_equal(quiet.outputs, quiet.states)
+    np.testing.assert_allclose(compiled.states, quiet.states, rtol=1e-12)  # no process noise
+    assert 0 < np.abs(compiled.outputs - quiet.outputs).max() < 0.01  # measurement noise 1e-6
+
+
+def test_the_disturbance_of_eq_49_is_added_to_dx():
+    model = parse_model(
+        VALVES_BOOLEAN.replace(
+            "[initial]", '[simulation]\ninputs = {q = "1e-5"}\nschedule = "0:4"\n[initial]'
+        )
+    )
+    log = simulate(model, noise=False, disturbance=Disturbance(0.1, 50.0))
+    # mode 0 (all valves closed): dx = [q/(a w), 0, 0] + 0.1 (|H1|+|H2|+|H3|) sin(50 t), Euler
+    x = np.array([0.2, 0.15, 0.1])
+    step = 0.001
+    for j in range(40):
+        x = x + step * (np.array([1e-5 / 0.035**2, 0, 0]) + 0.1 * x.sum() * np.sin(50 * j * step))
+    np.testing.assert_allclose(log.states[-1], x, rtol=1e-12)
+
+
+def test_a_disturbance_needs_a_continuous_model():
+    model = parse_model(PENDULUM_ONE_MODE)
+    with pytest.raises(OptionError, match=r"^--disturbance: .* needs a continuous-time model"):
+        simulate(model, steps=3, disturbance=Disturbance(0.1, 1.0))
