@@ -291,6 +291,13 @@ def test_refusals_name_the_model_and_why(switched, tmp_path):
         r"single-output model .* 2 outputs \(y, v\)$",
     ):
         run_switching_observer(load_model(path), signals, SwitchingObserverOptions())
+    # refused when prepared, before any log is read
+    with pytest.raises(
+        ModelError,
+        match=rf"^{path}: estimator 'switching-observer' needs a single-output model; the "
+        r"model has 2 outputs \(y, v\)",
+    ):
+        prepare(load_model(path), "switching-observer")
     blind = AlignedSignals(**{**signals.__dict__, "truth_modes": None})
     with pytest.raises(LogError, match="needs the switching signal in the log; map it with --map"):
         prepare(model, "switching-observer").run(model, blind)
