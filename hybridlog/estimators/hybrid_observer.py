@@ -336,6 +336,8 @@ def _notes(
         f"{', '.join(f'{v:g}' for v in eigenvalues)}; sigma from the log switched "
         f"{switches} times, jump maps R applied at {jumped} of them",
     ]
+    if not time_s.size:
+        return tuple(notes)
     valid = np.isfinite(states).all(axis=1)  # kappa_1 of a non-finite estimate means nothing
     worst = int(np.argmax(np.where(valid, np.nan_to_num(condition, nan=np.inf), -1.0)))
     finite = valid & np.isfinite(condition)

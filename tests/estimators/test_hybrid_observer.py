@@ -269,6 +269,22 @@ def test_mode_probabilities_are_the_known_switching_signal(switched):
     assert not any(note.startswith("WARNING") for note in result.notes)
 
 
+def test_logs_of_one_and_no_sample(switched):
+    model, _, signals, _ = switched
+    for count in (1, 0):
+        short = AlignedSignals(
+            **{
+                **signals.__dict__,
+                **{k: getattr(signals, k)[:count] for k in ("time", "inputs", "outputs")},
+                "truth_modes": signals.truth_modes[:count],
+                "truth_states": signals.truth_states[:count],
+            }
+        )
+        result = prepare(model, "switching-observer").run(model, short)
+        assert result.state_means.shape == (count, 3)
+        np.testing.assert_array_equal(result.state_means, np.tile(model.initial_state, (count, 1)))
+
+
 def test_ill_conditioned_q_is_a_warning_naming_time_and_value(switched):
     model, _, signals, _ = switched
     prepared = prepare(model, "switching-observer", {"condition_limit": "2e4"})
