@@ -47,12 +47,14 @@ EIGENVALUES = ("-10,-20,-30", "-4,-8,-12", "-2,-4,-6")
 
 
 def throttle(t: np.ndarray) -> np.ndarray:
+    """The throttle α(t) of the scenario."""
     return 0.4 + 0.1 * np.sin(2 * t)
 
 
 def make_log(
     values: dict[str, float], noise: float = 0.0, seed: int = 0, torque: float = X0[2]
 ) -> tuple[AlignedSignals, np.ndarray]:
+    """The scenario's log (σ, α, y and the true states) and the true states."""
     modes = clutch.schedule_modes([(i % 2, DWELL) for i in range(SEGMENTS)])
     x0 = (X0[0], X0[1], torque)
     times, alpha, states = clutch.trajectory(values, modes, x0, throttle, DT)
@@ -66,15 +68,18 @@ def make_log(
 
 
 def error_norm(result: EstimationResult, states: np.ndarray) -> np.ndarray:
+    """‖(x − x̂)/s‖ per sample."""
     return np.asarray(np.linalg.norm((result.state_means - states) / SCALE, axis=1))
 
 
 def fit(times: np.ndarray, norm: np.ndarray) -> tuple[float, float]:
+    """Slope of log ‖e‖ and 3 standard errors of it."""
     (slope, _), cov = np.polyfit(times, np.log(norm), 1, cov=True)
     return float(slope), 3.0 * float(np.sqrt(cov[0, 0]))
 
 
 def window(norm: np.ndarray) -> np.ndarray:
+    """From the peak of the initial transient to the last sample 30x above the floor."""
     floor = np.median(norm[-len(norm) // 5 :])
     start = int(np.argmax(norm))
     end = int(np.flatnonzero(norm > 30.0 * floor).max())
@@ -87,6 +92,7 @@ def abscissa(
     eigenvalues: tuple[float, ...],
     rows: np.ndarray,
 ) -> np.ndarray:
+    """Frozen-time spectral abscissa of M along the true trajectory on ``rows``."""
     matrices = clutch.linearised_error(values, brunovsky_gain(eigenvalues))
     assert signals.truth_modes is not None and signals.truth_states is not None
     return np.array(
@@ -104,6 +110,7 @@ def abscissa(
 def decay_table(
     model: HybridModel, values: dict[str, float], signals: AlignedSignals, states: np.ndarray
 ) -> tuple[str, dict[str, tuple[EstimationResult, np.ndarray, float, float]]]:
+    """The decay table for every Λ, and the runs for the figures."""
     lines = [
         "| Λ (eig. of A_b − K C_b) | λ1 | fitted rate over the switches (1/s) | fit window (s) "
         "| frozen-time abscissa of M on it (1/s) | rate per dwell (1/s) "
@@ -143,11 +150,13 @@ def decay_table(
 
 
 def conditioning(runs: dict[str, tuple[EstimationResult, np.ndarray, float, float]]) -> str:
+    """The notes of the first run (κ₁(Q) along it)."""
     result = next(iter(runs.values()))[0]
     return "\n".join(f"- {note}" for note in result.notes)
 
 
 def noise_table(model: HybridModel, values: dict[str, float]) -> str:
+    """RMS errors over the second half with measurement noise, for both holds of y."""
     lines = [
         "| noise σ_y (rad/s) | output_hold | RMS error m (g) | RMS error ω (rad/s) "
         "| RMS error T (N m) |",
@@ -205,6 +214,7 @@ def plots(
     states: np.ndarray,
     runs: dict[str, tuple[EstimationResult, np.ndarray, float, float]],
 ) -> None:
+    """docs/ice_clutch_error.png and docs/ice_clutch_states.png."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -249,6 +259,7 @@ def plots(
 
 
 def main() -> None:
+    """Print the tables of docs/ice_clutch.md and write its figures."""
     model = parse_model(builtin_text("ice_clutch"), origin="ice_clutch")
     values = {k: float(v) for k, v in model.parameters.items()}
     signals, states = make_log(values)

@@ -49,6 +49,8 @@ class Capabilities:
         discrete-time models only.
     supports_smoothing:
         A fixed-interval smoother can run after the filter (``--smooth``).
+    needs_single_output:
+        The model must have exactly one output (paper 004's observer, ``h`` maps to R).
     """
 
     needs_linear_model: bool = False
@@ -61,6 +63,7 @@ class Capabilities:
     applies_jump_maps: bool = False
     continuous_time: bool = False
     supports_smoothing: bool = False
+    needs_single_output: bool = False
 
     def needs(self) -> tuple[str, ...]:
         """The needs in words, for ``--help`` and the docs."""
@@ -79,6 +82,8 @@ class Capabilities:
             words.append("jump maps (optional)")
         if self.needs_measured_state:
             words.append("measured state")
+        if self.needs_single_output:
+            words.append("one output")
         if self.needs_switching_signal:
             words.append("switching signal in the log")
         return tuple(words)
@@ -101,6 +106,11 @@ class Capabilities:
             return f"needs a linear model; the modes are nonlinear: {traits.nonlinear}"
         if self.needs_measured_state and traits.unmeasured_state is not None:
             return f"needs the state measured; {traits.unmeasured_state}"
+        if self.needs_single_output and traits.outputs != 1:
+            return (
+                f"needs a single-output model; the model has {traits.outputs} outputs "
+                f"({', '.join(traits.model.outputs)})"
+            )
         return None
 
     def signals_mismatch(self, signals: AlignedSignals) -> str | None:
@@ -141,6 +151,11 @@ class ModelTraits:
     def jumps(self) -> bool:
         """True when the model has ``[jumps]`` state resets."""
         return self.model.has_jumps
+
+    @property
+    def outputs(self) -> int:
+        """Number of outputs."""
+        return self.model.n_outputs
 
     @property
     def markov_matrix(self) -> bool:

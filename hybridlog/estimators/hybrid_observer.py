@@ -336,14 +336,17 @@ def _notes(
         f"{', '.join(f'{v:g}' for v in eigenvalues)}; sigma from the log switched "
         f"{switches} times, jump maps R applied at {jumped} of them",
     ]
-    finite = np.isfinite(condition)
-    worst = int(np.argmax(np.where(finite, condition, np.inf)))
+    if not time_s.size:
+        return tuple(notes)
+    valid = np.isfinite(states).all(axis=1)  # kappa_1 of a non-finite estimate means nothing
+    worst = int(np.argmax(np.where(valid, np.nan_to_num(condition, nan=np.inf), -1.0)))
+    finite = valid & np.isfinite(condition)
     notes.append(
         f"condition number kappa_1(Q) along the run: median "
         f"{np.median(condition[finite]) if finite.any() else np.inf:.3g}, "
         f"max {condition[worst]:.3g} at t = {time_s[worst]:.6g} s"
     )
-    bad = ~(condition <= limit)
+    bad = valid & ~(condition <= limit)
     if bad.any():
         runs = _runs(bad)
         where = "; ".join(f"t = {time_s[a]:.6g}..{time_s[b]:.6g} s" for a, b in runs[:3])

@@ -200,7 +200,10 @@ ESTIMATORS: dict[str, Estimator] = {
             options_module="hybridlog.estimators.hybrid_observer_options",
             run="run_switching_observer",
             capabilities=Capabilities(
-                needs_switching_signal=True, applies_jump_maps=True, continuous_time=True
+                needs_switching_signal=True,
+                applies_jump_maps=True,
+                continuous_time=True,
+                needs_single_output=True,
             ),
         ),
         Estimator(

@@ -317,6 +317,11 @@ def test_capabilities_checks_for_every_need(cases):
         "needs the state measured; modes.2.h is not the state (x1, x2, x3)"
     )
     assert "modes.1.h is not the state (x1, x2, x3, x4)" in measured.mismatch(cart_traits)
+    single = Capabilities(needs_single_output=True)
+    assert single.mismatch(tank_traits) == (
+        "needs a single-output model; the model has 3 outputs (y1, y2, y3)"
+    )
+    assert single.mismatch(cart_traits) is None
     switching = Capabilities(needs_switching_signal=True)
     assert switching.signals_mismatch(tank_signals) is None
     blind = dataclasses.replace(tank_signals, truth_modes=None)

@@ -269,6 +269,22 @@ def test_mode_probabilities_are_the_known_switching_signal(switched):
     assert not any(note.startswith("WARNING") for note in result.notes)
 
 
+def test_logs_of_one_and_no_sample(switched):
+    model, _, signals, _ = switched
+    for count in (1, 0):
+        short = AlignedSignals(
+            **{
+                **signals.__dict__,
+                **{k: getattr(signals, k)[:count] for k in ("time", "inputs", "outputs")},
+                "truth_modes": signals.truth_modes[:count],
+                "truth_states": signals.truth_states[:count],
+            }
+        )
+        result = prepare(model, "switching-observer").run(model, short)
+        assert result.state_means.shape == (count, 3)
+        np.testing.assert_array_equal(result.state_means, np.tile(model.initial_state, (count, 1)))
+
+
 def test_ill_conditioned_q_is_a_warning_naming_time_and_value(switched):
     model, _, signals, _ = switched
     prepared = prepare(model, "switching-observer", {"condition_limit": "2e4"})
@@ -291,6 +307,13 @@ def test_refusals_name_the_model_and_why(switched, tmp_path):
         r"single-output model .* 2 outputs \(y, v\)$",
     ):
         run_switching_observer(load_model(path), signals, SwitchingObserverOptions())
+    # refused when prepared, before any log is read
+    with pytest.raises(
+        ModelError,
+        match=rf"^{path}: estimator 'switching-observer' needs a single-output model; the "
+        r"model has 2 outputs \(y, v\)",
+    ):
+        prepare(load_model(path), "switching-observer")
     blind = AlignedSignals(**{**signals.__dict__, "truth_modes": None})
     with pytest.raises(LogError, match="needs the switching signal in the log; map it with --map"):
         prepare(model, "switching-observer").run(model, blind)
@@ -323,3 +346,16 @@ def test_analyze_a_clutch_log_end_to_end_and_without_the_mode_column(switched, t
     with pytest.raises(LogError, match=r"blind\.csv: estimator 'switching-observer' needs the "):
         analyze(blind, "ice_clutch", out_dir=tmp_path / "none")
     assert not (tmp_path / "none").exists()
+
+
+def test_a_singular_q_and_the_diverged_estimate_are_warnings_naming_the_time():
+    # A stalled engine as the prior: at m = ω = T = 0, det Q = (β̄e/J²)(pω − (e'/e) L_f h) = 0
+    stalled = builtin_text("ice_clutch").replace(
+        "state = [0.1, 150.0, 12.0]", "state = [0.0, 0.0, 0.0]"
+    )
+    _, _, _, result = clutch_run(stalled, "-4,-8,-12", [(0, 30), (1, 30)])
+    warnings = [note for note in result.notes if note.startswith("WARNING")]
+    assert len(warnings) == 2
+    assert "ill-conditioned (kappa_1 > 1e+06) on 1 samples (t = 0..0 s; worst inf" in warnings[0]
+    assert "the estimate is not finite from t = 0.01 s on" in warnings[1]
+    assert np.isnan(result.state_means[1:]).all()

@@ -42,7 +42,7 @@ TEXTS = {
     "valves_boolean": VALVES_BOOLEAN,
     "clutch_jumps": CLUTCH_JUMPS,
 }
-BUILTINS = ("three_tank_hstf", "double_cart_case1", "double_cart_case2")
+BUILTINS = ("three_tank_hstf", "double_cart_case1", "double_cart_case2", "ice_clutch")
 
 
 @pytest.fixture(autouse=True)
