@@ -129,8 +129,8 @@ def test_the_report_draws_one_timeline_per_component(model, tmp_path):
     signals = cpha_log(model, 40, seed=3, a1=lambda k: "drift" if k >= 20 else "m11")
     result = run_unknown_mode(model, signals, UnknownModeOptions(beam=5))
     written = write_plots(tmp_path, result, signals)
-    assert [p.name for p in written][-1] == "components.png"
-    assert (tmp_path / "components.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
+    assert (tmp_path / "modes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     bare = dataclasses.replace(result, timeline_columns=())
     assert plot_components(bare, tmp_path / "none.png") is None
     assert not (tmp_path / "none.png").exists()
