@@ -187,6 +187,8 @@ class Tracker:
         self.proposed = 0
         self._blocks: dict[int, IntArray] = {}
         self.n_states = len(structure.names.states)
+        self._no_prediction = np.full(outputs.shape[1], np.nan)
+        self._held: dict[tuple[int, ...], IntArray] = {}
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -272,16 +274,20 @@ class Tracker:
         x = parent.x.copy()
         n = len(x)
         P_flat = np.zeros(n * n)
-        y_pred = np.full(self.outputs.shape[1], np.nan)
-        covered = np.zeros(n, dtype=bool)
+        y_pred = self._no_prediction.copy()
         for compiled, result in results:
-            idx = compiled.states
-            x[idx] = result.x
+            x[compiled.states] = result.x
             P_flat[self._block(compiled)] = result.P.reshape(-1)
-            covered[idx] = True
             y_pred[compiled.outputs] = result.y_pred
         P = P_flat.reshape(n, n)
-        held = np.flatnonzero(~covered)
+        covering = tuple(id(compiled) for compiled, _ in results)
+        held = self._held.get(covering)
+        if held is None:
+            covered = np.zeros(n, dtype=bool)
+            for compiled, _ in results:
+                covered[compiled.states] = True
+            held = np.flatnonzero(~covered)
+            self._held[covering] = held
         P[held, held] = parent.P[held, held] * self.variance_growth
         return Hypothesis(assignment, log_belief, x, P, y_pred)
 
