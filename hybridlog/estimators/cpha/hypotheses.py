@@ -45,7 +45,8 @@ __all__ = ["Hypothesis", "Tracker", "TransitionTable"]
 class TransitionTable:
     """Per component and source mode: targets sorted by falling probability, as logs.
 
-    ``unknown_mode=False`` removes the unknown mode (targets and initial) and renormalises.
+    ``unknown_mode=False`` removes the unknown mode (targets and initial) and renormalises;
+    a component that starts only in ``unknown`` then starts uniformly over its known modes.
     Commands are not read from logs in this version: rules with ``when`` do not apply.
     """
 
@@ -59,7 +60,11 @@ class TransitionTable:
             for source in sources:
                 table[source] = self._sorted(component.transition_probabilities(source))
             self._table.append(table)
-        self.initial = [self._sorted(c.initial_mode_probabilities) for c in components]
+        self.initial = [
+            self._sorted(c.initial_mode_probabilities)
+            or self._sorted(dict.fromkeys(c.mode_ids, 1.0))  # only unknown, switched off
+            for c in components
+        ]
 
     def _sorted(self, probabilities: dict[str, float]) -> list[tuple[float, str]]:
         kept = {
