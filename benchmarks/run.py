@@ -49,6 +49,7 @@ BENCHMARKS = (
     "analyze",
     "batch",
     "switching_observer",
+    "unknown_mode",
 )
 
 HSTF_TARGET_S = 3.0
@@ -452,6 +453,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [
                 Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
                 for label, n, t, target, met, notes in bench_read(args.quick, repeat)
+            ]
+        elif name == "unknown_mode":
+            from benchmarks.unknown_mode import bench_unknown_mode
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_unknown_mode(args.quick, repeat)
             ]
         elif name == "analyze":
             from benchmarks.analyze_e2e import bench_analyze

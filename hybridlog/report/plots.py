@@ -4,7 +4,8 @@
     One panel per output: measured ``y`` and the one-step-ahead prediction ``ŷ``.
 ``modes.png``
     The estimated mode timeline (and the true one when known) as runs, one row per mode, and
-    the mode probabilities.
+    the mode probabilities; for a ``[components]`` result (``unknown-mode``) one timeline per
+    component (``unknown`` in its own colour) and the joint assignment.
 ``states.png``
     One panel per state: the estimate with a ±2σ band (where a variance is defined) and the
     true state when known.
@@ -278,8 +279,13 @@ def _mode_label(result: EstimationResult) -> str:
 def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
-    Writes ``path`` (PNG) and returns it; the true mode comes from ``signals``.
+    Writes ``path`` (PNG) and returns it; the true mode comes from ``signals``.  A result
+    with per-component mode columns (``unknown-mode``: joint assignments as modes) gets
+    :func:`plot_components` instead.
     """
+    components = plot_components(result, path)
+    if components is not None:
+        return components
     fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=2.4)
     fig.suptitle("Modes")
     ids = [str(m) for m in result.mode_ids]
@@ -397,8 +403,68 @@ def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -
     return _save(fig, path)
 
 
+COMPONENT_PREFIX = "mode."
+"""Timeline columns ``mode.<component>`` hold a ``[components]`` model's per-component modes."""
+
+UNKNOWN_LABEL = "unknown"
+UNKNOWN_COLOR = "tab:red"
+KNOWN_COLOR = "tab:blue"
+
+
+def plot_components(result: EstimationResult, path: Path) -> Path | None:
+    """Draw one mode timeline per component and the joint assignment (paper 002).
+
+    For results with labelled ``mode.<component>`` timeline columns (``unknown-mode``); the
+    ``unknown`` mode is drawn in its own colour.  The last panel shows the estimated joint
+    assignment over the assignments it visited.  Returns ``None`` (nothing written) when the
+    result has no such columns.
+    """
+    columns = [
+        c for c in result.timeline_columns if c.name.startswith(COMPONENT_PREFIX) and c.labels
+    ]
+    if not columns or result.n_samples == 0:
+        return None
+    visited = np.unique(result.modes)
+    fig, axes = _new_figure(len(columns) + 1, panel_height=max(1.0, 0.35 * len(visited)))
+    fig.suptitle("Modes per component and joint assignment")
+    bins = _bins(result)
+    for ax, column in zip(axes, columns, strict=False):
+        values = np.asarray(column.values, dtype=np.int64)
+        n_labels = len(column.labels)
+        for label_index, label in enumerate(column.labels):
+            only = np.where(values == label_index, label_index, n_labels)
+            color = UNKNOWN_COLOR if label == UNKNOWN_LABEL else KNOWN_COLOR
+            edges = np.append(result.time[bins], result.time[-1])
+            bars = mode_bars(mode_runs(only), bins, n_labels)[label_index]
+            first, last = bars
+            spans = list(
+                zip(edges[first].tolist(), (edges[last + 1] - edges[first]).tolist(), strict=True)
+            )
+            if spans:
+                ax.broken_barh(spans, (label_index - 0.35, 0.7), color=color)
+        ax.set_yticks(range(n_labels), column.labels)
+        ax.set_ylim(-0.5, n_labels - 0.5)
+        ax.set_ylabel(column.name.removeprefix(COMPONENT_PREFIX))
+    joint = axes[-1]
+    rank = {int(m): i for i, m in enumerate(visited)}
+    rows = np.array([rank[int(m)] for m in result.modes], dtype=np.int64)
+    _draw_runs(
+        joint, result.time, rows, bins, len(visited), height=0.6, color="0.3", label="estimated"
+    )
+    joint.set_yticks(
+        range(len(visited)), [result.mode_ids[int(m)] for m in visited], fontsize="x-small"
+    )
+    joint.set_ylim(-0.5, len(visited) - 0.5)
+    joint.set_ylabel("joint")
+    joint.set_xlabel("t (s)")
+    return _save(fig, path)
+
+
 def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
     """Write ``outputs.png``, ``modes.png`` and ``states.png`` into a directory.
+
+    For a result with per-component mode columns (``unknown-mode``) ``modes.png`` is
+    :func:`plot_components`.
 
     Parameters
     ----------
