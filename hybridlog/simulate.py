@@ -30,8 +30,8 @@ the interval :math:`(t_{k-1}, t_k]` into it, with the input ``u(k-1)`` held over
 switch from ``q(k-1)`` to ``q(k)`` happens at :math:`t_{k-1}^+`, where the model's jump map
 resets the state first, :math:`x \leftarrow R(q(k-1), q(k), x(t_{k-1}))` (paper 004,
 eq. (3)); row ``k-1`` keeps the state before the jump.  The state is integrated with the
-model's fixed step and method (:mod:`hybridlog.integration`), ``dt / step`` steps a row; the
-model's process noise ``Q_q`` is an intensity (Euler-Maruyama, ``√step`` scaled draws per
+model's fixed step and method (:mod:`hybridlog.model.integration`), ``dt / step`` steps a
+row; the model's process noise ``Q_q`` is an intensity (Euler-Maruyama, ``√step`` scaled draws per
 step), the optional :class:`Disturbance` is paper 003's eq. (49).  A schedule's counts are
 rows (``"7:50"`` at ``dt = 0.01`` is a dwell of 0.5 s).
 
@@ -370,7 +370,7 @@ def simulate(
 
     arguments: tuple[object, ...]
     if model.is_continuous:
-        from hybridlog.integration import METHOD_CODES, step_function
+        from hybridlog.model.integration import METHOD_CODES, step_function
 
         functions = compile_continuous(model, jit=jit)
         timebase = model.timebase

@@ -34,6 +34,8 @@ HEAVY = ("numba", "sympy", "scipy", "cvxpy", "matplotlib", "polars")
 
 
 def model_for(name):
+    if ESTIMATORS[name].capabilities.needs_boolean_affine:
+        return "three_tank_valves"
     return (
         "double_cart_case1"
         if ESTIMATORS[name].capabilities.needs_linear_model
@@ -45,7 +47,11 @@ def model_for(name):
 def cases():
     """Model and a short simulated log per model name, built once."""
     built = {}
-    for model_name, steps in (("three_tank_hstf", 120), ("double_cart_case1", 300)):
+    for model_name, steps in (
+        ("three_tank_hstf", 120),
+        ("double_cart_case1", 300),
+        ("three_tank_valves", 300),
+    ):
         model = load_model(model_name)
         built[model_name] = (model, simulate(model, steps=steps, seed=1).signals(model))
     return built
@@ -203,7 +209,7 @@ def test_unknown_estimator_tables_and_names(tmp_path):
     path.write_text(f"{TANK_TEXT}\n[estimators.kalman]\nq = 1\n")
     with pytest.raises(ModelError, match=rf"^{path}: estimators\.kalman: unknown estimator"):
         prepare(load_model(path), "hstf")
-    path.write_text(f"{TANK_TEXT}\n[estimators.sliding-mode]\nV_M = 1\n")  # a planned one
+    path.write_text(f"{TANK_TEXT}\n[estimators.unknown-mode]\nV_M = 1\n")  # a planned one
     assert prepare(load_model(path), "hstf").name == "hstf"
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")

@@ -7,10 +7,10 @@ import sympy
 from scipy.integrate import solve_ivp
 
 from hybridlog.errors import ModelError, OptionError
-from hybridlog.integration import EULER, RK4, integrate_log, step_function
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.derivatives import boolean_affine_split
+from hybridlog.model.integration import EULER, RK4, integrate_log, step_function
 from hybridlog.model.loader import parse_model
 from hybridlog.simulate import Disturbance, simulate
 from tests.support.model_kinds import CLUTCH_JUMPS, CONTINUOUS_TANK, VALVES_BOOLEAN
