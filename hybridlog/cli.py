@@ -467,6 +467,18 @@ class _LogFormats(click.Choice[str]):
 @click.option(
     "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
 )
+@click.option(
+    "--noise/--no-noise",
+    default=True,
+    show_default=True,
+    help="Draw the model's process and measurement noise.",
+)
+@click.option(
+    "--disturbance",
+    default=None,
+    metavar="A,OMEGA",
+    help="Continuous time: add paper 003's eq. (49), A·(|x1|+...+|xn|)·sin(OMEGA·t), to dx.",
+)
 @_force_option("an existing file, or a ROS 2 bag folder hybridlog wrote (never the model)")
 @click.pass_context
 def simulate(
@@ -478,6 +490,8 @@ def simulate(
     schedule: str | None,
     steps: int | None,
     seed: int,
+    noise: bool,
+    disturbance: str | None,
     force: bool,
 ) -> None:
     """Simulate a model along a mode schedule and write a log with ground truth.
@@ -496,6 +510,8 @@ def simulate(
         schedule=schedule,
         steps=steps,
         seed=seed,
+        noise=noise,
+        disturbance=disturbance,
         force=force,
     )
     _say(ctx, f"wrote {out} ({plural(outcome.samples, 'sample')})")

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from hybridlog.errors import HybridlogError, ModelError, OptionError
+from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.model.compiled import (
     compile_continuous,
     compile_guard,
@@ -256,6 +256,20 @@ class Disturbance:
 
     amplitude: float
     frequency: float
+
+
+def parse_disturbance(text: str) -> Disturbance:
+    """``"A,OMEGA"`` (``--disturbance``) as a :class:`Disturbance`; an :class:`OptionError` else."""
+    parts = text.split(",")
+    try:
+        amplitude, frequency = (float(part) for part in parts)
+    except ValueError as err:
+        raise OptionError(
+            f"--disturbance: expected A,OMEGA (two numbers), got {excerpt(text)}"
+        ) from err
+    if not (np.isfinite(amplitude) and np.isfinite(frequency)):
+        raise OptionError(f"--disturbance: A and OMEGA must be finite, got {excerpt(text)}")
+    return Disturbance(amplitude, frequency)
 
 
 def simulate(

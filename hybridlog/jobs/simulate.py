@@ -14,6 +14,7 @@ from pathlib import Path
 from hybridlog.io.bag_writers import check_log_target, write_log
 from hybridlog.model.cache import load_model
 from hybridlog.outputs import PathLike
+from hybridlog.simulate import parse_disturbance
 from hybridlog.simulate import simulate as simulate_model
 
 __all__ = ["SimulationOutcome", "simulate_log"]
@@ -36,6 +37,8 @@ def simulate_log(
     schedule: str | None = None,
     steps: int | None = None,
     seed: int = 0,
+    noise: bool = True,
+    disturbance: str | None = None,
     force: bool = False,
 ) -> SimulationOutcome:
     """Simulate ``model_ref`` and write the run to ``out`` with its true modes and states.
@@ -49,8 +52,10 @@ def simulate_log(
     log_format, encoding:
         As for :func:`hybridlog.io.bag_writers.write_log` (format from the suffix when
         ``None``; the message encoding of an MCAP file).
-    schedule, steps, seed:
+    schedule, steps, seed, noise:
         As for :func:`hybridlog.simulate.simulate`.
+    disturbance:
+        ``"A,OMEGA"``: the :class:`~hybridlog.simulate.Disturbance` of paper 003 eq. (49).
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).
 
@@ -59,13 +64,16 @@ def simulate_log(
     HybridlogError
         A bad model, option or output, each found before anything is simulated or written.
     """
+    parsed = parse_disturbance(disturbance) if disturbance is not None else None
     model = load_model(model_ref)
     inputs: list[tuple[str, PathLike]] = (
         [("model file", model_ref)] if Path(model_ref).exists() else []
     )
     # Every check of the output runs before the simulation.
     check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
-    log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
+    log = simulate_model(
+        model, schedule=schedule, steps=steps, seed=seed, noise=noise, disturbance=parsed
+    )
     path = write_log(
         out,
         log.columns(model),

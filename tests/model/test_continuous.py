@@ -161,3 +161,24 @@ def test_a_disturbance_needs_a_continuous_model():
     model = parse_model(PENDULUM_ONE_MODE)
     with pytest.raises(OptionError, match=r"^--disturbance: .* needs a continuous-time model"):
         simulate(model, steps=3, disturbance=Disturbance(0.1, 1.0))
+
+
+def test_cli_simulates_a_continuous_model_with_the_disturbance_and_refuses_a_bad_one(
+    tmp_path, capsys
+):
+    import polars as pl
+
+    from hybridlog.cli import main
+
+    out = tmp_path / "valves.csv"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", "three_tank_valves", "--out", str(out), "--disturbance", "0.1"])
+    assert exit_.value.code == 2 and not out.exists()
+    assert capsys.readouterr().err.strip() == (
+        "hybridlog: error: --disturbance: expected A,OMEGA (two numbers), got '0.1'"
+    )
+    args = ["--steps", "40", "--no-noise", "--disturbance", "2e-4,6.28", "--schedule", "3:20"]
+    main(["simulate", "three_tank_valves", "--out", str(out), *args])
+    frame = pl.read_csv(out)
+    assert frame.columns == ["t", "q", "y1", "y2", "y3", "mode", "H1", "H2", "H3"]
+    assert frame.height == 41 and frame["y3"].to_list() == frame["H3"].to_list()
