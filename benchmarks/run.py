@@ -40,7 +40,16 @@ from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
 RESULTS = Path(__file__).resolve().parent / "results.md"
-BENCHMARKS = ("three_tank", "compile", "filterpy", "clustering", "read", "analyze", "batch")
+BENCHMARKS = (
+    "three_tank",
+    "compile",
+    "filterpy",
+    "clustering",
+    "read",
+    "analyze",
+    "batch",
+    "sliding_mode",
+)
 
 HSTF_TARGET_S = 3.0
 """10^6 HSTF steps on the three-tank model must take less than this."""
@@ -429,6 +438,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                     label, steps=n, time_s=t, target=target, met=met, notes=f"{n:,} points; {notes}"
                 )
                 for label, n, t, target, met, notes in bench_clustering(args.quick)
+            ]
+        elif name == "sliding_mode":
+            from benchmarks.sliding_mode import bench_sliding_mode
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_sliding_mode(args.quick, repeat)
             ]
         elif name == "batch":
             from benchmarks.batch import bench_batch
