@@ -182,3 +182,22 @@ def test_cli_simulates_a_continuous_model_with_the_disturbance_and_refuses_a_bad
     frame = pl.read_csv(out)
     assert frame.columns == ["t", "q", "y1", "y2", "y3", "mode", "H1", "H2", "H3"]
     assert frame.height == 41 and frame["y3"].to_list() == frame["H3"].to_list()
+
+
+def test_the_valve_sample_logs_are_what_their_commands_write(tmp_path):
+    import re
+    import shlex
+
+    from hybridlog.cli import main
+    from tests.support.paths import ROOT
+
+    text = (ROOT / "sample_logs" / "README.md").read_text()
+    commands = re.findall(r"`(hybridlog simulate three_tank_valves [^`]*)`", text)
+    assert len(commands) == 2
+    for command in commands:
+        args = shlex.split(command)[1:]
+        at = args.index("--out") + 1
+        sample = ROOT / args[at]
+        fresh = tmp_path / sample.name
+        main([*args[:at], str(fresh), *args[at + 1 :]])
+        assert fresh.read_bytes() == sample.read_bytes()
