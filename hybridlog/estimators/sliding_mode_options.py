@@ -43,8 +43,7 @@ class SlidingModeOptions:
     )
     channel_gains: Literal["uniform", "rows"] = option(
         "uniform",
-        "V_M per channel i: uniform (eq. (20) as printed) or rows (V_M·‖D_i‖₁/max_l ‖D_l‖₁, "
-        "the per-channel bound of eq. (17))",
+        "gain of channel i: uniform V_M (eq. (20)) or rows, V_M·‖D_i‖₁/max_l ‖D_l‖₁ (eq. (17))",
     )
     threshold: float = option(
         0.5, "threshold of eq. (32): δ̂_j = 1 where δ̃_j exceeds it", range=(0.0, 1.0)
