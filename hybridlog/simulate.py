@@ -180,10 +180,12 @@ ROS 1 bag 8 copies; the check uses the worst case, with a margin."""
 def memory_needed(model: HybridModel, rows: int) -> int:
     """Bytes a simulation of ``rows`` rows needs at its peak, writing the log included.
 
-    Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per state and
-    output, 8 bytes each, times :data:`COPIES`.
+    Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per output and
+    per state and integration step (``dt / step`` steps a row in continuous time, else 1),
+    8 bytes each, times :data:`COPIES`.
     """
-    values = 2 + model.n_inputs + 2 * (model.n_states + model.n_outputs)
+    substeps = model.timebase.substeps
+    values = 2 + model.n_inputs + 2 * model.n_outputs + model.n_states * (1 + substeps)
     return int(rows * values * 8 * COPIES)
 
 
