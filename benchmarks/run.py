@@ -50,6 +50,7 @@ BENCHMARKS = (
     "batch",
     "switching_observer",
     "unknown_mode",
+    "sliding_mode",
 )
 
 HSTF_TARGET_S = 3.0
@@ -439,6 +440,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                     label, steps=n, time_s=t, target=target, met=met, notes=f"{n:,} points; {notes}"
                 )
                 for label, n, t, target, met, notes in bench_clustering(args.quick)
+            ]
+        elif name == "sliding_mode":
+            from benchmarks.sliding_mode import bench_sliding_mode
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_sliding_mode(args.quick, repeat)
             ]
         elif name == "batch":
             from benchmarks.batch import bench_batch

@@ -496,6 +496,18 @@ class _LogFormats(click.Choice[str]):
     metavar="NAME=VALUE",
     help="A scenario parameter of a components model (a fault time, a drift rate). Repeatable.",
 )
+@click.option(
+    "--noise/--no-noise",
+    default=True,
+    show_default=True,
+    help="Draw the model's process and measurement noise.",
+)
+@click.option(
+    "--disturbance",
+    default=None,
+    metavar="A,OMEGA",
+    help="Continuous time: add paper 003's eq. (49), A·(|x1|+...+|xn|)·sin(OMEGA·t), to dx.",
+)
 @_force_option("an existing file, or a ROS 2 bag folder hybridlog wrote (never the model)")
 @click.pass_context
 def simulate(
@@ -508,6 +520,8 @@ def simulate(
     steps: int | None,
     seed: int,
     sets: tuple[str, ...],
+    noise: bool,
+    disturbance: str | None,
     force: bool,
 ) -> None:
     """Simulate a model along a mode schedule and write a log with ground truth.
@@ -530,6 +544,8 @@ def simulate(
         schedule=schedule,
         steps=steps,
         seed=seed,
+        noise=noise,
+        disturbance=disturbance,
         force=force,
         settings=sets,
     )

@@ -30,8 +30,8 @@ the interval :math:`(t_{k-1}, t_k]` into it, with the input ``u(k-1)`` held over
 switch from ``q(k-1)`` to ``q(k)`` happens at :math:`t_{k-1}^+`, where the model's jump map
 resets the state first, :math:`x \leftarrow R(q(k-1), q(k), x(t_{k-1}))` (paper 004,
 eq. (3)); row ``k-1`` keeps the state before the jump.  The state is integrated with the
-model's fixed step and method (:mod:`hybridlog.integration`), ``dt / step`` steps a row; the
-model's process noise ``Q_q`` is an intensity (Euler-Maruyama, ``√step`` scaled draws per
+model's fixed step and method (:mod:`hybridlog.model.integration`), ``dt / step`` steps a
+row; the model's process noise ``Q_q`` is an intensity (Euler-Maruyama, ``√step`` scaled draws per
 step), the optional :class:`Disturbance` is paper 003's eq. (49).  A schedule's counts are
 rows (``"7:50"`` at ``dt = 0.01`` is a dwell of 0.5 s).
 
@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from hybridlog.errors import HybridlogError, ModelError, OptionError
+from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.model.compiled import (
     compile_continuous,
     compile_guard,
@@ -180,10 +180,12 @@ ROS 1 bag 8 copies; the check uses the worst case, with a margin."""
 def memory_needed(model: HybridModel, rows: int) -> int:
     """Bytes a simulation of ``rows`` rows needs at its peak, writing the log included.
 
-    Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per state and
-    output, 8 bytes each, times :data:`COPIES`.
+    Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per output and
+    per state and integration step (``dt / step`` steps a row in continuous time, else 1),
+    8 bytes each, times :data:`COPIES`.
     """
-    values = 2 + model.n_inputs + 2 * (model.n_states + model.n_outputs)
+    substeps = model.timebase.substeps
+    values = 2 + model.n_inputs + 2 * model.n_outputs + model.n_states * (1 + substeps)
     return int(rows * values * 8 * COPIES)
 
 
@@ -256,6 +258,20 @@ class Disturbance:
 
     amplitude: float
     frequency: float
+
+
+def parse_disturbance(text: str) -> Disturbance:
+    """``"A,OMEGA"`` (``--disturbance``) as a :class:`Disturbance`; an :class:`OptionError` else."""
+    parts = text.split(",")
+    try:
+        amplitude, frequency = (float(part) for part in parts)
+    except ValueError as err:
+        raise OptionError(
+            f"--disturbance: expected A,OMEGA (two numbers), got {excerpt(text)}"
+        ) from err
+    if not (np.isfinite(amplitude) and np.isfinite(frequency)):
+        raise OptionError(f"--disturbance: A and OMEGA must be finite, got {excerpt(text)}")
+    return Disturbance(amplitude, frequency)
 
 
 def simulate(
@@ -370,7 +386,7 @@ def simulate(
 
     arguments: tuple[object, ...]
     if model.is_continuous:
-        from hybridlog.integration import METHOD_CODES, step_function
+        from hybridlog.model.integration import METHOD_CODES, step_function
 
         functions = compile_continuous(model, jit=jit)
         timebase = model.timebase

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from hybridlog.integration import StepFunction
 from hybridlog.jit import jit
 from hybridlog.model.compiled import GuardFunction, JumpFunction, ModelFunction
+from hybridlog.model.integration import StepFunction
 from hybridlog.signals import FloatArray, IntArray
 
 
@@ -113,7 +113,8 @@ def simulate_continuous_steps(
 
     At a switch (``q(k) ≠ q(k-1)``) the jump map is applied first,
     :math:`x \leftarrow R(q(k-1), q(k), x(t_{k-1}))` (paper 004, eq. (3)); then ``substeps``
-    integration steps of ``method`` (``advance``: :func:`hybridlog.integration.step_function`),
+    integration steps of ``method`` (``advance``, from
+    :func:`hybridlog.model.integration.step_function`),
     each followed by the disturbance :math:`h\,\varepsilon(x, t)` of paper 003 eq. (49),
     :math:`\varepsilon_i = a \sum_j |x_j| \sin(\omega t)` with ``disturbance = (a, ω)``
     evaluated before the step (Euler on :math:`f + \varepsilon` for ``euler``), and the

@@ -7,7 +7,6 @@ only the registry, never an estimator's module (numba, sympy, cvxpy ...) until i
 from hybridlog.estimators.capabilities import Capabilities
 from hybridlog.estimators.registry import (
     ESTIMATORS,
-    PLANNED,
     Estimator,
     Prepared,
     get_estimator,
@@ -17,7 +16,6 @@ from hybridlog.estimators.registry import (
 
 __all__ = [
     "ESTIMATORS",
-    "PLANNED",
     "Capabilities",
     "Estimator",
     "Prepared",

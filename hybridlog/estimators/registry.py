@@ -43,7 +43,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ESTIMATORS",
-    "PLANNED",
     "Estimator",
     "Prepared",
     "get_estimator",
@@ -217,18 +216,25 @@ ESTIMATORS: dict[str, Estimator] = {
             run="run_unknown_mode",
             capabilities=Capabilities(needs_components=True),
         ),
+        Estimator(
+            name="sliding-mode",
+            summary="discrete-state reconstruction by a second-order sliding-mode observer",
+            source="paper 003, eqs. (10)-(21), (30), (32), (48)",
+            module="hybridlog.estimators.sliding_mode",
+            options="SlidingModeOptions",
+            options_module="hybridlog.estimators.sliding_mode_options",
+            run="run_sliding_mode",
+            capabilities=Capabilities(
+                continuous_time=True, needs_boolean_affine=True, needs_measured_state=True
+            ),
+        ),
     )
 }
 """Every estimator this version provides, by name."""
 
-PLANNED = ("sliding-mode",)
-"""Estimator names of SPEC §7 that this version does not provide yet."""
-
 
 def _unknown(name: str, known: Mapping[str, Estimator]) -> str:
     available = ", ".join(known)
-    if name in PLANNED:
-        return f"'{name}' is not available in this version (available: {available})"
     return f"unknown estimator {excerpt(name)} (available: {available}){closest(name, known)}"
 
 
@@ -254,13 +260,13 @@ def resolve_estimator(
     ------
     ModelError
         The model file names an unknown estimator in ``default_estimator`` (when it is used)
-        or in an ``[estimators.<x>]`` table (planned estimators' tables are accepted).
+        or in an ``[estimators.<x>]`` table.
     OptionError
         ``name`` is unknown (``<given_by>: unknown estimator ...``).
     """
     origin = model.origin or model.name
     for table in model.estimator_options:
-        if table not in ESTIMATORS and table not in PLANNED:
+        if table not in ESTIMATORS:
             raise ModelError(f"{origin}: estimators.{table}: {_unknown(table, ESTIMATORS)}")
     if name is None:
         name = model.default_estimator

@@ -17,6 +17,7 @@ from hybridlog.errors import OptionError, excerpt
 from hybridlog.io.bag_writers import check_log_target, write_log
 from hybridlog.model.cache import load_model
 from hybridlog.outputs import PathLike
+from hybridlog.simulate import parse_disturbance
 from hybridlog.simulate import simulate as simulate_model
 
 __all__ = ["SimulationOutcome", "simulate_log"]
@@ -39,6 +40,8 @@ def simulate_log(
     schedule: str | None = None,
     steps: int | None = None,
     seed: int = 0,
+    noise: bool = True,
+    disturbance: str | None = None,
     force: bool = False,
     settings: Sequence[str] = (),
 ) -> SimulationOutcome:
@@ -53,8 +56,10 @@ def simulate_log(
     log_format, encoding:
         As for :func:`hybridlog.io.bag_writers.write_log` (format from the suffix when
         ``None``; the message encoding of an MCAP file).
-    schedule, steps, seed:
+    schedule, steps, seed, noise:
         As for :func:`hybridlog.simulate.simulate`.
+    disturbance:
+        ``"A,OMEGA"``: the :class:`~hybridlog.simulate.Disturbance` of paper 003 eq. (49).
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).
     settings:
@@ -66,6 +71,7 @@ def simulate_log(
     HybridlogError
         A bad model, option or output, each found before anything is simulated or written.
     """
+    parsed = parse_disturbance(disturbance) if disturbance is not None else None
     model = load_model(model_ref)
     inputs: list[tuple[str, PathLike]] = (
         [("model file", model_ref)] if Path(model_ref).exists() else []
@@ -79,6 +85,12 @@ def simulate_log(
                 f"--schedule: {model.origin or model.name} is a components model; its "
                 "components' modes are scheduled in simulation.modes"
             )
+        if parsed is not None or not noise:
+            flag = "--disturbance" if parsed is not None else "--no-noise"
+            raise OptionError(
+                f"{flag}: {model.origin or model.name} is a components model; its noise "
+                "and unmodelled behaviours are set in its [simulation] table"
+            )
         from hybridlog.simulate_components import simulate_components
 
         played = simulate_components(model, steps=steps, seed=seed, settings=values)
@@ -91,7 +103,9 @@ def simulate_log(
                 f"--set {name}: {model.origin or model.name} has no scenario parameters "
                 "(only a components model's [simulation.parameters])"
             )
-        log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
+        log = simulate_model(
+            model, schedule=schedule, steps=steps, seed=seed, noise=noise, disturbance=parsed
+        )
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
     path = write_log(

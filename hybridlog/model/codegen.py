@@ -193,7 +193,8 @@ def _jump_function(model: HybridModel) -> list[str]:
     xs, _ = model.symbols()
     lines = ["", "", "def jump(p, q, x, out):"]
     keyword = "if"
-    for source in range(model.n_modes):
+    pairs = range(model.n_modes) if model.has_jumps else range(0)
+    for source in pairs:
         for target in range(model.n_modes):
             reset = model.reset_map(source, target)
             if reset is None:

@@ -39,6 +39,8 @@ def model_for(name):
         return "ice_clutch"
     if ESTIMATORS[name].capabilities.needs_components:
         return "cpha_example"
+    if ESTIMATORS[name].capabilities.needs_boolean_affine:
+        return "three_tank_valves"
     return (
         "double_cart_case1"
         if ESTIMATORS[name].capabilities.needs_linear_model
@@ -68,7 +70,11 @@ def model_text(name):
 def cases():
     """Model and a short simulated log per model name, built once."""
     built = {}
-    for model_name, steps in (("three_tank_hstf", 120), ("double_cart_case1", 300)):
+    for model_name, steps in (
+        ("three_tank_hstf", 120),
+        ("double_cart_case1", 300),
+        ("three_tank_valves", 300),
+    ):
         model = load_model(model_name)
         built[model_name] = (model, simulate(model, steps=steps, seed=1).signals(model))
     built["ice_clutch"] = clutch_case()
@@ -233,12 +239,11 @@ def test_unknown_estimator_tables_and_names(tmp_path):
     path.write_text(f"{TANK_TEXT}\n[estimators.kalman]\nq = 1\n")
     with pytest.raises(ModelError, match=rf"^{path}: estimators\.kalman: unknown estimator"):
         prepare(load_model(path), "hstf")
-    path.write_text(f"{TANK_TEXT}\n[estimators.sliding-mode]\nV_M = 1\n")  # a planned one
-    assert prepare(load_model(path), "hstf").name == "hstf"
+    path.write_text(f"{TANK_TEXT}\n[estimators.unknown-mode]\nV_M = 1\n")  # another's table
+    with pytest.raises(ModelError, match=r"estimators\.unknown-mode: unknown option 'V_M'"):
+        prepare(load_model(path), "hstf")
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")
-    with pytest.raises(OptionError, match="'sliding-mode' is not available in this version"):
-        get_estimator("sliding-mode")
 
 
 def test_set_bogus_lists_parameters_and_options_and_suggests(tmp_path):

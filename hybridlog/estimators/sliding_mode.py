@@ -1,0 +1,336 @@
+r"""Discrete-state reconstruction by second-order sliding modes (paper 003, ``sliding-mode``).
+
+Orani, Pisano, Franceschelli, Giua, Usai, ``papers/003_fa184d5ae47b7376.txt``.  For a
+boolean-affine switched system with measured state (eq. (1))
+
+.. math::
+
+    \dot x = G(x, u) + D(x, u)\,\delta(\sigma) + \varepsilon(x, t)
+
+the observer (10) :math:`\dot z = G(x, u) + w` makes the error :math:`e = x - z` a set of
+decoupled double integrators :math:`\ddot e_i = \varphi_i + v_i`, :math:`v = -\dot w`
+(eqs. (11)-(16)), steered to :math:`e = \dot e = 0` in finite time after every switch by the
+suboptimal second-order sliding-mode algorithm (eq. (20))
+
+.. math::
+
+    v_i = -\alpha\,V_M\,\mathrm{sign}\bigl(e_i - \tfrac12 e_i(\xi_{i,j})\bigr),
+    \qquad V_M = \Gamma\,\bar\Phi \quad (21)
+
+where :math:`\xi_{i,j}` is the last instant where :math:`\dot e_i = 0` (an extremum of
+:math:`e_i`).  :math:`\dot e` is not measured: an extremum is detected where the increment of
+:math:`e_i` over one step changes sign, and :math:`e_i(\xi)` is the value there (the
+"suboptimal" algorithm's usual implementation, papers/NOTES.md).  ``α`` is 1 in eq. (20) as
+printed; the general suboptimal algorithm [19], [22] uses :math:`\alpha = \alpha^*` where
+:math:`(e_i - \tfrac12 e_i(\xi))(e_i(\xi) - e_i) > 0` and 1 elsewhere (option ``alpha``).
+On the sliding manifold :math:`w = D\delta + \varepsilon` (eq. (29)), so
+
+.. math::
+
+    \tilde\delta = (D^\top D)^{-1} D^\top w \quad (30), \qquad
+    \hat\delta_j = [\tilde\delta_j > 0.5] \quad (32), \qquad
+    \hat\sigma = \sum_j \hat\delta_j\,2^{L-j} \quad (48).
+
+Discretisation: the observer advances with the model's integration step ``h``
+(``integration.step``, ``dt / h`` steps per sample) with the measured state and the input
+of the sample held over the sample.  Over one step :math:`\dot z = G(x, u) + w` and
+:math:`\dot w = -v` are constant (``x``, ``u`` held, ``v`` decided at the start of the
+step), so one Euler step integrates them exactly for those held values whatever the model's
+method: ``z += h (G + w)``, ``w += h α V_M sign(·)``.  The whole loop is compiled (numba).
+
+Result: the mode is :math:`\hat\sigma`; the mode probabilities are the one-hot vector of
+:math:`\hat\sigma` (the observer computes no probabilities); the state estimate is the
+observer state ``z``; the output prediction of sample ``k`` is ``h`` at ``z(k)`` (made from
+the samples before ``k``) in the mode :math:`\hat\sigma(k-1)`; the timeline has the
+unthresholded :math:`\tilde\delta` columns ``delta_tilde.<boolean>``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from hybridlog.errors import ModelError
+from hybridlog.estimators.options import options_dict
+from hybridlog.estimators.result import EstimationResult, TimelineColumn
+from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
+from hybridlog.jit import compile_for
+from hybridlog.model.compiled import ModelFunction, compile_continuous
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+
+__all__ = ["channel_gains", "gain", "run_sliding_mode", "sliding_mode_steps"]
+
+
+def gain(model: HybridModel, options: SlidingModeOptions) -> float:
+    """``V_M``: ``v_max``, or ``Γ Φ̄`` (eq. (21)).
+
+    Raises
+    ------
+    ModelError
+        Neither ``v_max`` nor ``drift_bound`` is set (naming the model file's table).
+    """
+    if options.v_max is not None:
+        return options.v_max
+    if options.drift_bound is None:
+        raise model.error(
+            "estimators.sliding-mode",
+            "sliding-mode needs the gain V_M: set v_max, or drift_bound (Φ̄ of eq. (19)) and "
+            "gamma (Γ of eq. (21)); --set v_max=... works too",
+        )
+    return options.gamma * options.drift_bound
+
+
+def channel_gains(
+    D: ModelFunction, signals: AlignedSignals, n_booleans: int, v_max: float, mode: str
+) -> FloatArray:
+    r"""``V_M`` of every channel ``i`` of eq. (16).
+
+    ``uniform``: ``V_M`` for all (eq. (20) as printed).  ``rows``: each SISO subsystem (16)
+    gets its own bound, eq. (17) being per channel (:math:`|\varphi_i| \le \Phi_i`):
+    :math:`V_{M,i} = V_M\,\|D_{i,:}\|_1 / \max_l \|D_{l,:}\|_1` with ``D`` at the first
+    sample; :math:`\|D_{i,:}\|_1` bounds the jump of :math:`\dot e_i` at a switch (25), so
+    every channel's transient (26) scales alike, and a channel whose column of ``D`` is small
+    does not chatter more than its share into :math:`\tilde\delta` (30).
+    """
+    x = np.ascontiguousarray(signals.outputs[0], dtype=np.float64)
+    n = x.shape[0]
+    if mode == "uniform" or signals.n_samples == 0:
+        return np.full(n, float(v_max))
+    u = np.ascontiguousarray(signals.inputs[0], dtype=np.float64)
+    d = np.zeros((n, n_booleans))
+    D(0, x, u, d)
+    rows = np.abs(d).sum(axis=1)
+    if not np.all(np.isfinite(rows)) or rows.max() <= 0.0:
+        return np.full(n, float(v_max))
+    scaled: FloatArray = float(v_max) * rows / rows.max()
+    return scaled
+
+
+def sliding_mode_steps(
+    G: ModelFunction,
+    D: ModelFunction,
+    h: ModelFunction,
+    inputs: FloatArray,
+    measured: FloatArray,
+    step: float,
+    substeps: int,
+    gains: FloatArray,
+    alpha: float,
+    threshold: float,
+    means: FloatArray,
+    predictions: FloatArray,
+    deltas: FloatArray,
+    modes: IntArray,
+) -> None:
+    """The observer over a whole log (see the module doc); compiled with ``compile_for``.
+
+    ``measured`` is the state ``x(k)`` of every sample, ``(N, n)``; ``gains`` the
+    ``V_M`` of every channel (:func:`channel_gains`); writes ``z(k)``
+    (``means``), ``h(σ̂(k-1), z(k), u(k))`` (``predictions``, row 0 left as it is),
+    ``δ̃(k)`` (``deltas``, NaN where ``DᵀD`` is singular) and ``σ̂(k)`` (``modes``).
+    """
+    n_samples, n = measured.shape
+    n_b = deltas.shape[1]
+    z = measured[0].copy()
+    w = np.zeros(n)
+    extremum = np.zeros(n)  # e_i(ξ_ij): e at the last detected extremum (ξ_i0 = 0, e(0))
+    last = np.zeros(n)  # e_i at the previous step
+    rise = np.zeros(n)  # the last nonzero increment of e_i
+    g = np.zeros(n)
+    d = np.zeros((n, n_b))
+    normal = np.zeros((n_b, n_b + 1))  # [DᵀD | Dᵀw], eliminated in place
+    predicted = np.zeros(predictions.shape[1])
+    for i in range(n):
+        last[i] = measured[0, i] - z[i]
+        extremum[i] = last[i]
+    sigma = 0
+    for k in range(n_samples):
+        x = measured[k]
+        u = inputs[k]
+        means[k, :] = z
+        if k > 0:
+            h(sigma, z, u, predicted)
+            predictions[k, :] = predicted
+        # eq. (30): the least-squares solution of D δ̃ = w, by Gaussian elimination.
+        D(0, x, u, d)
+        for a in range(n_b):
+            for b in range(n_b):
+                acc = 0.0
+                for i in range(n):
+                    acc += d[i, a] * d[i, b]
+                normal[a, b] = acc
+            acc = 0.0
+            for i in range(n):
+                acc += d[i, a] * w[i]
+            normal[a, n_b] = acc
+        singular = False
+        for col in range(n_b):
+            pivot = col
+            for row in range(col + 1, n_b):
+                if abs(normal[row, col]) > abs(normal[pivot, col]):
+                    pivot = row
+            if not abs(normal[pivot, col]) > 0.0:
+                singular = True
+                break
+            if pivot != col:
+                for b in range(n_b + 1):
+                    normal[col, b], normal[pivot, b] = normal[pivot, b], normal[col, b]
+            for row in range(col + 1, n_b):
+                factor = normal[row, col] / normal[col, col]
+                for b in range(col, n_b + 1):
+                    normal[row, b] -= factor * normal[col, b]
+        if singular:
+            for a in range(n_b):
+                deltas[k, a] = np.nan
+        else:
+            for a in range(n_b - 1, -1, -1):
+                acc = normal[a, n_b]
+                for b in range(a + 1, n_b):
+                    acc -= normal[a, b] * deltas[k, b]
+                deltas[k, a] = acc / normal[a, a]
+            # eqs. (32), (48): threshold, then σ̂ = Σ δ̂_j 2^(L-j)
+            sigma = 0
+            for a in range(n_b):
+                sigma = 2 * sigma + (1 if deltas[k, a] > threshold else 0)
+        modes[k] = sigma
+        if k == n_samples - 1:
+            break
+        # eqs. (10), (20): the observer over (t_k, t_k+1], x(k) and u(k) held.
+        G(0, x, u, g)
+        for _ in range(substeps):
+            for i in range(n):
+                e = x[i] - z[i]
+                increment = e - last[i]
+                if increment * rise[i] < 0.0:  # the increment changed sign: an extremum
+                    extremum[i] = last[i]
+                if increment != 0.0:
+                    rise[i] = increment
+                last[i] = e
+                s = e - 0.5 * extremum[i]
+                scale = alpha if s * (extremum[i] - e) > 0.0 else 1.0
+                z[i] += step * (g[i] + w[i])
+                if s > 0.0:
+                    w[i] += step * scale * gains[i]
+                elif s < 0.0:
+                    w[i] -= step * scale * gains[i]
+
+
+def run_sliding_mode(
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: SlidingModeOptions | None = None,
+    *,
+    jit: bool = True,
+) -> EstimationResult:
+    """Reconstruct the discrete state of a boolean-affine model from its measured state.
+
+    Parameters
+    ----------
+    model:
+        A continuous-time boolean-affine model whose outputs are its states (``h = x``).
+    signals:
+        The log; its outputs are the measured state.
+    options:
+        :class:`SlidingModeOptions`; the defaults when ``None``.
+    jit:
+        Compiled loop (default) or the same code in plain Python (tests).
+
+    Raises
+    ------
+    ModelError
+        The model is not continuous-time and boolean-affine, its state is not measured, it
+        has more booleans than states (eq. (2)), or no gain is set.
+    """
+    options = options or SlidingModeOptions()
+    affine = model.boolean_affine
+    if not model.is_continuous or affine is None:
+        raise model.error(
+            "booleans",
+            "sliding-mode needs a continuous-time boolean-affine model (paper 003, eq. (1))",
+        )
+    xs, _ = model.symbols()
+    for mode in model.modes:
+        if list(mode.h) != xs:
+            raise model.error(
+                "dynamics.h",
+                f"sliding-mode needs the state measured (h = {', '.join(model.states)})",
+            )
+    if len(affine.booleans) > model.n_states:
+        raise model.error(
+            "booleans",
+            f"sliding-mode needs at most as many booleans as states (eq. (2)); "
+            f"{len(affine.booleans)} > {model.n_states}",
+        )
+    v_max = gain(model, options)
+    start = time.perf_counter()
+    code = compile_continuous(model, jit=jit)
+    assert code.G is not None and code.D is not None
+    gains = channel_gains(code.D, signals, len(affine.booleans), v_max, options.channel_gains)
+    n_samples = signals.n_samples
+    means = np.zeros((n_samples, model.n_states))
+    predictions = np.full((n_samples, model.n_outputs), np.nan)
+    deltas = np.zeros((n_samples, len(affine.booleans)))
+    modes = np.zeros(n_samples, dtype=np.int64)
+    arguments = (
+        code.G,
+        code.D,
+        code.h,
+        np.ascontiguousarray(signals.inputs, dtype=np.float64),
+        np.ascontiguousarray(signals.outputs, dtype=np.float64),
+        model.timebase.step,
+        model.timebase.substeps,
+        gains,
+        float(options.alpha),
+        float(options.threshold),
+        means,
+        predictions,
+        deltas,
+        modes,
+    )
+    loop = compile_for(sliding_mode_steps, arguments) if jit else sliding_mode_steps
+    compile_s = time.perf_counter() - start
+    start = time.perf_counter()
+    loop(*arguments)
+    runtime = time.perf_counter() - start
+    if not np.isfinite(means).all():
+        row = int(np.argmin(np.isfinite(means).all(axis=1)))
+        raise ModelError(
+            f"{model.origin or model.name}: sliding-mode diverged at t = "
+            f"{signals.time[row]:g} s (sample {row}): the observer state is not finite"
+        )
+    probabilities = np.zeros((n_samples, model.n_modes))
+    probabilities[np.arange(n_samples), modes] = 1.0
+    singular = int(np.isnan(deltas).any(axis=1).sum())
+    notes = [
+        f"V_M = {v_max:g} (per channel: {', '.join(f'{g:.3g}' for g in gains)}), "
+        f"α* = {options.alpha:g}, threshold {options.threshold:g}; "
+        f"observer step {model.timebase.step:g} s",
+        "mode probabilities are the one-hot vector of σ̂ (the observer computes none); "
+        "state variances are undefined (NaN)",
+    ]
+    if singular:
+        notes.append(
+            f"D(x, u) was singular on {singular} samples (δ̃ NaN there, σ̂ held): eq. (4) fails"
+        )
+    return EstimationResult(
+        estimator="sliding-mode",
+        options=options_dict(options),
+        time=signals.time,
+        mode_ids=model.mode_ids,
+        state_names=model.states,
+        output_names=model.outputs,
+        modes=modes,
+        mode_probabilities=probabilities,
+        state_means=means,
+        state_variances=np.full((n_samples, model.n_states), np.nan),
+        output_predictions=predictions,
+        runtime_s=runtime,
+        compile_s=compile_s,
+        notes=tuple(notes),
+        timeline_columns=tuple(
+            TimelineColumn(f"delta_tilde.{name}", np.ascontiguousarray(deltas[:, j]))
+            for j, name in enumerate(affine.booleans)
+        ),
+    )

@@ -1,0 +1,50 @@
+"""Options of the ``sliding-mode`` estimator (paper 003), a light module (no numba).
+
+Kept apart from :mod:`hybridlog.estimators.sliding_mode`, which imports numba, so that the
+registry and ``--help`` read them without loading the compiler.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from hybridlog.estimators.options import option
+
+__all__ = ["SlidingModeOptions"]
+
+
+@dataclass(frozen=True)
+class SlidingModeOptions:
+    """Options of the suboptimal second-order sliding-mode observer, eqs. (10)-(21), (30), (32).
+
+    The observer gain is ``V_M = v_max`` when given, else ``V_M = Γ Φ̄`` (eq. (21)) with
+    ``Γ = gamma`` and ``Φ̄ = drift_bound``, the bound (17)/(19) of the drift
+    ``|φ_i| ≤ D_1 √n + ε̄_1``; one of ``v_max`` and ``drift_bound`` must be set (the model
+    file's ``[estimators.sliding-mode]`` table is the place for the plant's values).
+    """
+
+    v_max: float | None = option(
+        None,
+        "observer gain V_M of eq. (20), in state units/s² (none: gamma·drift_bound)",
+        range=(1e-12, 1e12),
+    )
+    gamma: float = option(1.0, "Γ of eq. (21), V_M = Γ·Φ̄", range=(1e-6, 1e12))
+    drift_bound: float | None = option(
+        None,
+        "Φ̄ of eqs. (17), (19): bound of the drift |φ_i| in state units/s²",
+        range=(1e-15, 1e12),
+    )
+    alpha: float = option(
+        1.0,
+        "α* of the suboptimal algorithm [19]: gain α*·V_M where (e−½e_M)(e_M−e) > 0 "
+        "(1: eq. (20) as printed)",
+        range=(1e-3, 1.0),
+    )
+    channel_gains: Literal["uniform", "rows"] = option(
+        "uniform",
+        "gain of channel i: uniform V_M (eq. (20)) or rows, V_M·‖D_i‖₁/max_l ‖D_l‖₁ (eq. (17))",
+    )
+    threshold: float = option(
+        0.5, "threshold of eq. (32): δ̂_j = 1 where δ̃_j exceeds it", range=(0.0, 1.0)
+    )
