@@ -357,8 +357,68 @@ def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -
     return _save(fig, path)
 
 
+COMPONENT_PREFIX = "mode."
+"""Timeline columns ``mode.<component>`` hold a ``[components]`` model's per-component modes."""
+
+UNKNOWN_LABEL = "unknown"
+UNKNOWN_COLOR = "tab:red"
+KNOWN_COLOR = "tab:blue"
+
+
+def plot_components(result: EstimationResult, path: Path) -> Path | None:
+    """Draw one mode timeline per component and the joint assignment (paper 002).
+
+    For results with labelled ``mode.<component>`` timeline columns (``unknown-mode``); the
+    ``unknown`` mode is drawn in its own colour.  The last panel shows the estimated joint
+    assignment over the assignments it visited.  Returns ``None`` (nothing written) when the
+    result has no such columns.
+    """
+    columns = [
+        c for c in result.timeline_columns if c.name.startswith(COMPONENT_PREFIX) and c.labels
+    ]
+    if not columns or result.n_samples == 0:
+        return None
+    visited = np.unique(result.modes)
+    fig, axes = _new_figure(len(columns) + 1, panel_height=max(1.0, 0.35 * len(visited)))
+    fig.suptitle("Modes per component and joint assignment")
+    bins = _bins(result)
+    for ax, column in zip(axes, columns, strict=False):
+        values = np.asarray(column.values, dtype=np.int64)
+        n_labels = len(column.labels)
+        for label_index, label in enumerate(column.labels):
+            only = np.where(values == label_index, label_index, n_labels)
+            color = UNKNOWN_COLOR if label == UNKNOWN_LABEL else KNOWN_COLOR
+            edges = np.append(result.time[bins], result.time[-1])
+            bars = mode_bars(mode_runs(only), bins, n_labels)[label_index]
+            first, last = bars
+            spans = list(
+                zip(edges[first].tolist(), (edges[last + 1] - edges[first]).tolist(), strict=True)
+            )
+            if spans:
+                ax.broken_barh(spans, (label_index - 0.35, 0.7), color=color)
+        ax.set_yticks(range(n_labels), column.labels)
+        ax.set_ylim(-0.5, n_labels - 0.5)
+        ax.set_ylabel(column.name.removeprefix(COMPONENT_PREFIX))
+    joint = axes[-1]
+    rank = {int(m): i for i, m in enumerate(visited)}
+    rows = np.array([rank[int(m)] for m in result.modes], dtype=np.int64)
+    _draw_runs(
+        joint, result.time, rows, bins, len(visited), height=0.6, color="0.3", label="estimated"
+    )
+    joint.set_yticks(
+        range(len(visited)), [result.mode_ids[int(m)] for m in visited], fontsize="x-small"
+    )
+    joint.set_ylim(-0.5, len(visited) - 0.5)
+    joint.set_ylabel("joint")
+    joint.set_xlabel("t (s)")
+    return _save(fig, path)
+
+
 def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
     """Write ``outputs.png``, ``modes.png`` and ``states.png`` into a directory.
+
+    A result with per-component mode columns (``unknown-mode``) also gets
+    ``components.png`` (:func:`plot_components`).
 
     Parameters
     ----------
@@ -375,8 +435,10 @@ def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignal
         The files written.
 
     """
-    return [
+    written = [
         plot_outputs(result, signals, plot_dir / "outputs.png"),
         plot_modes(result, signals, plot_dir / "modes.png"),
         plot_states(result, signals, plot_dir / "states.png"),
     ]
+    components = plot_components(result, plot_dir / "components.png")
+    return [*written, *([components] if components is not None else [])]

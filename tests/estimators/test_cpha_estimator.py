@@ -1,5 +1,6 @@
 """Hybrid estimation with unknown modes (paper 002 eqs. (4)-(5)) and the estimator's result."""
 
+import dataclasses
 import itertools
 import math
 
@@ -120,3 +121,16 @@ def test_the_registry_runs_it_on_a_components_model_only(model):
     result = prepared.run(model, signals)
     assert result.estimator == "unknown-mode" and result.n_samples == 30
     assert result.options["beam"] == 5
+
+
+def test_the_report_draws_one_timeline_per_component(model, tmp_path):
+    from hybridlog.report.plots import plot_components, write_plots
+
+    signals = cpha_log(model, 40, seed=3, a1=lambda k: "drift" if k >= 20 else "m11")
+    result = run_unknown_mode(model, signals, UnknownModeOptions(beam=5))
+    written = write_plots(tmp_path, result, signals)
+    assert [p.name for p in written][-1] == "components.png"
+    assert (tmp_path / "components.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    bare = dataclasses.replace(result, timeline_columns=())
+    assert plot_components(bare, tmp_path / "none.png") is None
+    assert not (tmp_path / "none.png").exists()

@@ -17,8 +17,10 @@ continuous estimate ``x̂``, ``P`` of its filter cluster.  One step:
 * The ``beam`` best are kept and normalised (eq. (5)).  Trajectories are not merged: two
   hypotheses may share an assignment through different histories (§2.2).
 
-Successors of one parent that share a cluster (same equations) share its EKF step (computed
-once per parent and cluster).  States outside every cluster hold their mean and their
+Successors that share a cluster (same equations) and its prior estimate share its EKF step,
+computed once per step: a cluster's estimate depends only on its own history and the
+measured virtual inputs, so trajectories that differ only in other clusters' modes hold the
+same one.  States outside every cluster hold their mean and their
 variance grows by ``variance_growth`` per step; their covariances with the other states are
 dropped (§3.1).
 """
@@ -32,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hybridlog.estimators.cpha.cluster_filter import FilterCache, StepResult
+from hybridlog.estimators.cpha.cluster_filter import ClusterFilter, FilterCache, StepResult
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.signals import FloatArray, IntArray
@@ -184,6 +186,7 @@ class Tracker:
         self.filtered = 0
         self.proposed = 0
         self._blocks: dict[int, IntArray] = {}
+        self.n_states = len(structure.names.states)
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -201,58 +204,98 @@ class Tracker:
 
     def successor(self, parent: Hypothesis, assignment: Assignment, k: int) -> Hypothesis:
         """The filtered successor of ``parent`` in ``assignment`` at step k (belief = log P_O)."""
-        return self._filter(parent, assignment, k, {})
+        log_po, results = self._evaluate(0, parent, assignment, k, {}, {})
+        return self._assemble(parent, assignment, results, log_po)
 
-    def _filter(
+    def _evaluate(
         self,
+        j: int,
         parent: Hypothesis,
         assignment: Assignment,
         k: int,
         memo: dict[tuple[object, ...], StepResult],
-    ) -> Hypothesis:
+        per_parent: dict[tuple[int, tuple[object, ...]], StepResult],
+    ) -> tuple[float, list[tuple[ClusterFilter, StepResult]]]:
+        """``log P_O`` of the filter cluster of ``assignment`` from parent ``j`` (eq. (7)).
+
+        ``per_parent`` remembers each parent's cluster steps; ``memo`` shares a cluster step
+        between parents that hold the same estimate of that cluster.
+        """
         decomposition = self.structure.get(assignment)
+        log_po = 0.0
+        results = []
+        for cluster in decomposition.clusters:
+            signature = cluster.signature
+            result = per_parent.get((j, signature))
+            compiled = self.filters.get(cluster)
+            if result is None:
+                idx = compiled.states
+                block = self._block(compiled)
+                x_parent = parent.x[idx]
+                P_parent = parent.P.reshape(-1)[block]
+                key = (signature, x_parent.tobytes(), P_parent.tobytes())
+                result = memo.get(key)
+                if result is None:
+                    result = compiled.step(
+                        x_parent,
+                        P_parent.reshape(len(idx), len(idx)),
+                        self.inputs[k - 1],
+                        self.outputs[k - 1],
+                        self.inputs[k],
+                        self.outputs[k],
+                    )
+                    memo[key] = result
+                    self.filtered += 1
+                per_parent[(j, signature)] = result
+            results.append((compiled, result))
+            log_po += result.log_po
+        return log_po, results
+
+    def _block(self, compiled: ClusterFilter) -> IntArray:
+        """Indices of the cluster's covariance block in the flattened full ``P``."""
+        block = self._blocks.get(id(compiled))
+        if block is None:
+            n = self.n_states
+            idx = compiled.states
+            block = (idx[:, None] * n + idx[None, :]).reshape(-1)
+            self._blocks[id(compiled)] = block
+        return block
+
+    def _assemble(
+        self,
+        parent: Hypothesis,
+        assignment: Assignment,
+        results: Sequence[tuple[ClusterFilter, StepResult]],
+        log_belief: float,
+    ) -> Hypothesis:
+        """The successor's full estimate: its clusters' results, the rest held (§3.1)."""
         x = parent.x.copy()
         n = len(x)
         P_flat = np.zeros(n * n)
-        parent_P = parent.P.reshape(-1)
         y_pred = np.full(self.outputs.shape[1], np.nan)
-        log_po = 0.0
-        u_prev, y_prev = self.inputs[k - 1], self.outputs[k - 1]
-        u_now, y_now = self.inputs[k], self.outputs[k]
         covered = np.zeros(n, dtype=bool)
-        for cluster in decomposition.clusters:
-            compiled = self.filters.get(cluster)
+        for compiled, result in results:
             idx = compiled.states
-            block = self._blocks.get(id(compiled))
-            if block is None:
-                block = (idx[:, None] * n + idx[None, :]).reshape(-1)
-                self._blocks[id(compiled)] = block
-            key = cluster.signature
-            result = memo.get(key)
-            if result is None:
-                P_parent = parent_P[block].reshape(len(idx), len(idx))
-                result = compiled.step(parent.x[idx], P_parent, u_prev, y_prev, u_now, y_now)
-                memo[key] = result
-                self.filtered += 1
             x[idx] = result.x
-            P_flat[block] = result.P.reshape(-1)
+            P_flat[self._block(compiled)] = result.P.reshape(-1)
             covered[idx] = True
             y_pred[compiled.outputs] = result.y_pred
-            log_po += result.log_po
         P = P_flat.reshape(n, n)
         held = np.flatnonzero(~covered)
         P[held, held] = parent.P[held, held] * self.variance_growth
-        return Hypothesis(assignment, log_po, x, P, y_pred)
+        return Hypothesis(assignment, log_belief, x, P, y_pred)
 
     def step(self, hypotheses: Sequence[Hypothesis], k: int) -> list[Hypothesis]:
         """Eqs. (4)–(5) at step k: the ``beam`` best filtered successors, normalised."""
         bases = [h.log_belief for h in hypotheses]
         lists = [self.transitions.successors(h.assignment) for h in hypotheses]
         proposals = _Proposals(bases, lists)
-        memos: list[dict[tuple[object, ...], StepResult]] = [{} for _ in hypotheses]
-        best: list[tuple[float, int, Hypothesis]] = []  # min-heap of the beam best scores
+        memo: dict[tuple[object, ...], StepResult] = {}
+        per_parent: dict[tuple[int, tuple[object, ...]], StepResult] = {}
+        # min-heap of the beam best: (score, order, parent, assignment, cluster results)
+        best: list[tuple[float, int, int, Assignment, list[tuple[ClusterFilter, StepResult]]]]
+        best = []
         tried = 0
-        counter = 0
         while tried < self.candidates:
             if len(best) >= self.beam and proposals.peek() <= best[0][0]:
                 break  # P_O ≤ 1: no later proposal can beat the beam
@@ -262,16 +305,14 @@ class Tracker:
             prior, j, assignment = item
             tried += 1
             self.proposed += 1
-            child = self._filter(hypotheses[j], assignment, k, memos[j])
-            score = prior + child.log_belief
-            child.log_belief = score
-            counter += 1
-            entry = (score, counter, child)
+            log_po, results = self._evaluate(j, hypotheses[j], assignment, k, memo, per_parent)
+            entry = (prior + log_po, tried, j, assignment, results)
             if len(best) < self.beam:
                 heapq.heappush(best, entry)
-            elif score > best[0][0]:
+            elif entry[0] > best[0][0]:
                 heapq.heapreplace(best, entry)
-        kept = [h for _, _, h in sorted(best, key=lambda e: (-e[0], e[1]))]
+        best.sort(key=lambda e: (-e[0], e[1]))
+        kept = [self._assemble(hypotheses[j], a, r, score) for score, _, j, a, r in best]
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
             return _fallback(hypotheses)
         _normalise(kept)

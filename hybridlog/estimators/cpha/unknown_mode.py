@@ -26,6 +26,16 @@ of the kept hypotheses in which the component is unknown.
 
 Commands (``when`` in transition rules) are not read from logs in this version: the rules
 without ``when`` apply.  Notes list the decomposition and filter cache hit rates.
+
+Modelling the unknown mode
+--------------------------
+``P_O = exp(-rᵀS⁻¹r/2) ≤ 1`` (eq. (21), unnormalised) and an unknown component drops its
+filters, whose ``P_O`` is then the upper bound 1 (§3).  A well-fitting known mode still pays
+``E[rᵀS⁻¹r]/2 = 1/2`` per output per step, so a hypothesis that stays unknown gains about
+``e^{1/2}`` per dropped output per step.  Unless staying unknown costs more than that — a
+``from = "unknown"`` rule leaving it with probability above ``1 − e^{-1/2} ≈ 0.4`` per dropped
+output — the unknown mode wins by default after a few dozen steps.  Entering it costs
+``log unknown`` once: the smaller ``unknown``, the larger the misfit needed to enter.
 """
 
 from __future__ import annotations
