@@ -260,3 +260,38 @@ def test_simulate_cli_writes_the_scenario_with_its_truth(tmp_path, hybridlog_mai
     assert math.isclose(frame["t"][1], 60.0)
     code, error = hybridlog_main([*args, "--set", "drift=1", "--force"])
     assert code == 2 and error.startswith("hybridlog: error: --set drift: not a scenario param")
+
+
+def test_unknown_mode_on_the_short_scenario_and_without_the_unknown_mode(model, short_run):
+    """The study's claims at small scale (docs/bioplex.md): the drift is declared unknown and
+    later stuck-open, the light fault and both repairs are found; without the unknown mode the
+    drift is taken for a regulator stuck open while its flow is still well below the limit."""
+    from hybridlog.estimators.registry import prepare
+    from hybridlog.signals import AlignedSignals
+
+    signals = AlignedSignals(
+        source="short",
+        time=short_run.time,
+        input_names=model.inputs,
+        output_names=model.outputs,
+        inputs=short_run.inputs,
+        outputs=short_run.outputs,
+    )
+
+    def modes(**options):
+        result = prepare(model, "unknown-mode", options).run(model, signals)
+        joint = [result.mode_ids[q].split("|") for q in result.modes]
+        return {c.name: [row[i] for row in joint] for i, c in enumerate(model.components)}
+
+    found = modes()
+    fr2, ls = found["fr2"], found["ls"]
+    assert UNKNOWN not in fr2[:100]
+    assert 100 <= fr2.index(UNKNOWN) < 150
+    assert fr2[249] == "stuck_open" and fr2[252] == "partly_open"
+    assert 150 <= ls.index("one_bank_out") < 160
+    assert ls[260:] == ["full"] * 41
+    without = modes(unknown_mode=False)
+    assert all(UNKNOWN not in labels for labels in without.values())
+    taken = without["fr2"].index("stuck_open")
+    assert 100 < taken < 250
+    assert short_run.states[taken, 1] < 0.7 - 0.05  # still well below q_max
