@@ -224,9 +224,9 @@ def simulate_components(
         else:
             joint.step(values_log[k - 1], parameters, now)
             now[state_slice] += joint.process_std * process_draws[k]
+        if controller is not None:  # u(k) is not known yet: the outputs do not depend on it
+            inputs[k, controlled] = inputs[k - 1, controlled] if k else 0.0
         now[input_slice] = inputs[k]
-        if controller is not None:
-            now[input_slice][controlled] = values_log[k - 1, input_slice][controlled] if k else 0.0
         joint.algebraic(now, parameters)
         measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
         if controller is not None:
