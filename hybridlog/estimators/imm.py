@@ -181,7 +181,13 @@ def run_imm(
 
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
+    A ``[components]`` model runs on its enumerated joint known modes
+    (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).
     """
+    if model.has_components:
+        from hybridlog.estimators.cpha.joint import joint_mode_model
+
+        model = joint_mode_model(model)
     transitions = contiguous(transition_matrix(model, options))
     used = options_dict(options)
     used["transition_matrix"] = transitions.tolist()

@@ -4,7 +4,8 @@
     One panel per output: measured ``y`` and the one-step-ahead prediction ``ŷ``.
 ``modes.png``
     The estimated mode timeline (and the true one when known) as runs, one row per mode, and
-    the mode probabilities.
+    the mode probabilities; for a ``[components]`` result (``unknown-mode``) one timeline per
+    component (``unknown`` in its own colour) and the joint assignment.
 ``states.png``
     One panel per state: the estimate with a ±2σ band (where a variance is defined) and the
     true state when known.
@@ -266,8 +267,13 @@ def _draw_runs(
 def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
-    Writes ``path`` (PNG) and returns it; the true mode comes from ``signals``.
+    Writes ``path`` (PNG) and returns it; the true mode comes from ``signals``.  A result
+    with per-component mode columns (``unknown-mode``: joint assignments as modes) gets
+    :func:`plot_components` instead.
     """
+    components = plot_components(result, path)
+    if components is not None:
+        return components
     fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=2.4)
     fig.suptitle("Modes")
     ids = [str(m) for m in result.mode_ids]
@@ -417,8 +423,8 @@ def plot_components(result: EstimationResult, path: Path) -> Path | None:
 def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
     """Write ``outputs.png``, ``modes.png`` and ``states.png`` into a directory.
 
-    A result with per-component mode columns (``unknown-mode``) also gets
-    ``components.png`` (:func:`plot_components`).
+    For a result with per-component mode columns (``unknown-mode``) ``modes.png`` is
+    :func:`plot_components`.
 
     Parameters
     ----------
@@ -435,10 +441,8 @@ def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignal
         The files written.
 
     """
-    written = [
+    return [
         plot_outputs(result, signals, plot_dir / "outputs.png"),
         plot_modes(result, signals, plot_dir / "modes.png"),
         plot_states(result, signals, plot_dir / "states.png"),
     ]
-    components = plot_components(result, plot_dir / "components.png")
-    return [*written, *([components] if components is not None else [])]

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import sympy
 
 from hybridlog.estimators import prepare
 from hybridlog.estimators.cpha.hypotheses import Hypothesis
@@ -129,8 +130,32 @@ def test_the_report_draws_one_timeline_per_component(model, tmp_path):
     signals = cpha_log(model, 40, seed=3, a1=lambda k: "drift" if k >= 20 else "m11")
     result = run_unknown_mode(model, signals, UnknownModeOptions(beam=5))
     written = write_plots(tmp_path, result, signals)
-    assert [p.name for p in written][-1] == "components.png"
-    assert (tmp_path / "components.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
+    assert (tmp_path / "modes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     bare = dataclasses.replace(result, timeline_columns=())
     assert plot_components(bare, tmp_path / "none.png") is None
     assert not (tmp_path / "none.png").exists()
+
+
+def test_imm_runs_on_the_enumerated_joint_modes_and_agrees_where_it_should(model):
+    from hybridlog.estimators.cpha.joint import joint_mode_model
+    from hybridlog.estimators.imm import ImmOptions, run_imm
+
+    joint = joint_mode_model(model)
+    assert joint.mode_ids == ("m11|m21|m31", "m11|m22|m31", "m12|m21|m31", "m12|m22|m31")
+    x1, x2, x3, u1 = (sympy.Symbol(n, real=True) for n in ("xc1", "xc2", "xc3", "uc1"))
+    full = joint.modes[0]  # eq. (3): the MIMO model of [m11, m21, m31]
+    expected = (0.8 * x1 + 0.2 * u1, x1 + x3, 0.4 * x2 + 0.5 * u1)
+    assert all(sympy.simplify(a - b) == 0 for a, b in zip(full.f, expected, strict=True))
+    assert all(sympy.simplify(a - b) == 0 for a, b in zip(full.h, (x1, 2.0 * x2 + x3), strict=True))
+    np.testing.assert_allclose(joint.transitions.sum(axis=1), 1.0)
+    np.testing.assert_array_equal(joint.initial_mode_probabilities, [1.0, 0.0, 0.0, 0.0])
+
+    signals = cpha_log(model, 200, seed=1, a2=lambda k: "m22" if 80 <= k < 140 else "m21")
+    imm = run_imm(model, signals, ImmOptions())
+    beam = run_unknown_mode(model, signals, UnknownModeOptions(beam=20, unknown_mode=False))
+    settled = np.r_[20:75, 100:135, 165:200]  # well inside each true segment
+    truth = np.where((np.arange(200) >= 80) & (np.arange(200) < 140), 1, 0)
+    for result in (imm, beam):
+        labels = np.array([result.mode_ids[i] for i in result.modes])
+        assert np.mean(labels[settled] == np.array(joint.mode_ids)[truth[settled]]) >= 0.95

@@ -187,6 +187,9 @@ class Tracker:
         self.proposed = 0
         self._blocks: dict[int, IntArray] = {}
         self.n_states = len(structure.names.states)
+        self._no_prediction = np.full(outputs.shape[1], np.nan)
+        self._held: dict[tuple[int, ...], IntArray] = {}
+        self._assignment_filters: dict[Assignment, list[tuple[ClusterFilter, IntArray]]] = {}
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -214,26 +217,22 @@ class Tracker:
         assignment: Assignment,
         k: int,
         memo: dict[tuple[object, ...], StepResult],
-        per_parent: dict[tuple[int, tuple[object, ...]], StepResult],
+        per_parent: dict[tuple[int, int], StepResult],
     ) -> tuple[float, list[tuple[ClusterFilter, StepResult]]]:
         """``log P_O`` of the filter cluster of ``assignment`` from parent ``j`` (eq. (7)).
 
         ``per_parent`` remembers each parent's cluster steps; ``memo`` shares a cluster step
         between parents that hold the same estimate of that cluster.
         """
-        decomposition = self.structure.get(assignment)
         log_po = 0.0
         results = []
-        for cluster in decomposition.clusters:
-            signature = cluster.signature
-            result = per_parent.get((j, signature))
-            compiled = self.filters.get(cluster)
+        for compiled, block in self._filters_of(assignment):
+            result = per_parent.get((j, id(compiled)))
             if result is None:
                 idx = compiled.states
-                block = self._block(compiled)
                 x_parent = parent.x[idx]
                 P_parent = parent.P.reshape(-1)[block]
-                key = (signature, x_parent.tobytes(), P_parent.tobytes())
+                key = (id(compiled), x_parent.tobytes(), P_parent.tobytes())
                 result = memo.get(key)
                 if result is None:
                     result = compiled.step(
@@ -246,10 +245,28 @@ class Tracker:
                     )
                     memo[key] = result
                     self.filtered += 1
-                per_parent[(j, signature)] = result
+                per_parent[(j, id(compiled))] = result
             results.append((compiled, result))
             log_po += result.log_po
         return log_po, results
+
+    def _filters_of(self, assignment: Assignment) -> list[tuple[ClusterFilter, IntArray]]:
+        """The compiled filters of the assignment's clusters and their covariance blocks.
+
+        Looked up in the caches once per assignment; later uses count as cache hits.
+        """
+        found = self._assignment_filters.get(assignment)
+        if found is not None:
+            self.structure.hits += 1
+            self.filters.hits += len(found)
+            return found
+        decomposition = self.structure.get(assignment)
+        found = []
+        for cluster in decomposition.clusters:
+            compiled = self.filters.get(cluster)
+            found.append((compiled, self._block(compiled)))
+        self._assignment_filters[assignment] = found
+        return found
 
     def _block(self, compiled: ClusterFilter) -> IntArray:
         """Indices of the cluster's covariance block in the flattened full ``P``."""
@@ -272,16 +289,20 @@ class Tracker:
         x = parent.x.copy()
         n = len(x)
         P_flat = np.zeros(n * n)
-        y_pred = np.full(self.outputs.shape[1], np.nan)
-        covered = np.zeros(n, dtype=bool)
+        y_pred = self._no_prediction.copy()
         for compiled, result in results:
-            idx = compiled.states
-            x[idx] = result.x
+            x[compiled.states] = result.x
             P_flat[self._block(compiled)] = result.P.reshape(-1)
-            covered[idx] = True
             y_pred[compiled.outputs] = result.y_pred
         P = P_flat.reshape(n, n)
-        held = np.flatnonzero(~covered)
+        covering = tuple(id(compiled) for compiled, _ in results)
+        held = self._held.get(covering)
+        if held is None:
+            covered = np.zeros(n, dtype=bool)
+            for compiled, _ in results:
+                covered[compiled.states] = True
+            held = np.flatnonzero(~covered)
+            self._held[covering] = held
         P[held, held] = parent.P[held, held] * self.variance_growth
         return Hypothesis(assignment, log_belief, x, P, y_pred)
 
@@ -291,7 +312,7 @@ class Tracker:
         lists = [self.transitions.successors(h.assignment) for h in hypotheses]
         proposals = _Proposals(bases, lists)
         memo: dict[tuple[object, ...], StepResult] = {}
-        per_parent: dict[tuple[int, tuple[object, ...]], StepResult] = {}
+        per_parent: dict[tuple[int, int], StepResult] = {}
         # min-heap of the beam best: (score, order, parent, assignment, cluster results)
         best: list[tuple[float, int, int, Assignment, list[tuple[ClusterFilter, StepResult]]]]
         best = []

@@ -43,7 +43,7 @@ import sympy
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from hybridlog.errors import ModelError
-from hybridlog.model.components import UNKNOWN, Component, Equation
+from hybridlog.model.components import Component, Equation
 from hybridlog.model.expressions import previous_symbol
 
 __all__ = [
@@ -579,8 +579,3 @@ class StructureCache:
         self._cache[assignment] = result
         self.seconds += time.perf_counter() - start
         return result
-
-
-def is_unknown(mode: str) -> bool:
-    """True for the implicit unknown mode."""
-    return mode == UNKNOWN
