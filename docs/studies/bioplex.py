@@ -283,14 +283,15 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
     print("\nPer run (sample log first); the last columns count the steps outside the drift")
     print("window whose estimated mode differs from the true one:\n")
-    print("| run | " + " | ".join(EVENTS) + " | fr1 ≠ truth | piv1 ≠ truth | ls ≠ truth |")
-    print("|---|" + "---|" * (len(EVENTS) + 3))
+    components = [c.name for c in model.components]
+    print("| run | " + " | ".join([*EVENTS, *(f"{c} ≠ truth" for c in components)]) + " |")
+    print("|---|" + "---|" * (len(EVENTS) + len(components)))
     names = ["sample", *(f"seed {seed}" for seed in range(args.seeds))]
     found_all = [sample, *({e: per_seed[e][seed] for e in EVENTS} for seed in range(args.seeds))]
     for name, found, (modes, truth) in zip(names, found_all, on_runs, strict=True):
         wrong = [
             sum(1 for k in range(len(truth[c])) if k not in drift and modes[c][k] != truth[c][k])
-            for c in ("fr1", "piv1", "ls")
+            for c in components
         ]
         cells = [shown(found[e]) for e in EVENTS] + [str(w) for w in wrong]
         print(f"| {name} | " + " | ".join(cells) + " |")
