@@ -427,6 +427,7 @@ class _LogFormats(click.Choice[str]):
         "--steps 400",
         "hybridlog simulate three_tank_hstf --out sim/tank.mcap --encoding json",
         "hybridlog simulate three_tank_hstf --out sim/tank_bag --format ros2-sqlite3",
+        "hybridlog simulate bioplex_pgc --out sim/bioplex.csv --seed 3 --set light_fault=950",
     )
 )
 @_global_flags
@@ -467,6 +468,13 @@ class _LogFormats(click.Choice[str]):
 @click.option(
     "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
 )
+@click.option(
+    "--set",
+    "sets",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="A scenario parameter of a components model (a fault time, a drift rate). Repeatable.",
+)
 @_force_option("an existing file, or a ROS 2 bag folder hybridlog wrote (never the model)")
 @click.pass_context
 def simulate(
@@ -478,9 +486,14 @@ def simulate(
     schedule: str | None,
     steps: int | None,
     seed: int,
+    sets: tuple[str, ...],
     force: bool,
 ) -> None:
     """Simulate a model along a mode schedule and write a log with ground truth.
+
+    A components model plays its [simulation] scenario instead (per-component schedules,
+    unmodelled behaviour, controller; --set moves its parameters); its log also holds the
+    commands and the true mode of each component (mode.<component>).
 
     In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
     true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
@@ -497,6 +510,7 @@ def simulate(
         steps=steps,
         seed=seed,
         force=force,
+        settings=sets,
     )
     _say(ctx, f"wrote {out} ({plural(outcome.samples, 'sample')})")
 

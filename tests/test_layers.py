@@ -58,6 +58,7 @@ UNIT_OF_MODULE = {
     "hybridlog": "hybridlog",
     "hybridlog.simulate": "simulation",
     "hybridlog.simulation_kernels": "simulation",
+    "hybridlog.simulate_components": "simulation",
     "hybridlog.__main__": "cli",
 }
 """Top-level modules whose unit is not their own name."""

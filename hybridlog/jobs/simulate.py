@@ -8,9 +8,12 @@ truth (:func:`hybridlog.io.bag_writers.write_log`).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from hybridlog.errors import OptionError, excerpt
 from hybridlog.io.bag_writers import check_log_target, write_log
 from hybridlog.model.cache import load_model
 from hybridlog.outputs import PathLike
@@ -37,6 +40,7 @@ def simulate_log(
     steps: int | None = None,
     seed: int = 0,
     force: bool = False,
+    settings: Sequence[str] = (),
 ) -> SimulationOutcome:
     """Simulate ``model_ref`` and write the run to ``out`` with its true modes and states.
 
@@ -53,6 +57,9 @@ def simulate_log(
         As for :func:`hybridlog.simulate.simulate`.
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).
+    settings:
+        ``NAME=VALUE`` texts (``--set``): scenario parameters of a components model
+        (:mod:`hybridlog.model.scenario`), e.g. a fault time or a drift rate.
 
     Raises
     ------
@@ -65,14 +72,57 @@ def simulate_log(
     )
     # Every check of the output runs before the simulation.
     check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
-    log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
+    values = _settings(settings)
+    if model.has_components:
+        if schedule:
+            raise OptionError(
+                f"--schedule: {model.origin or model.name} is a components model; its "
+                "components' modes are scheduled in simulation.modes"
+            )
+        from hybridlog.simulate_components import simulate_components
+
+        played = simulate_components(model, steps=steps, seed=seed, settings=values)
+        columns, truth = played.columns(model), played.truth_columns(model)
+        samples = int(played.time.shape[0])
+    else:
+        if values:
+            name = next(iter(values))
+            raise OptionError(
+                f"--set {name}: {model.origin or model.name} has no scenario parameters "
+                "(only a components model's [simulation.parameters])"
+            )
+        log = simulate_model(model, schedule=schedule, steps=steps, seed=seed)
+        columns, truth = log.columns(model), ("mode", *model.states)
+        samples = int(log.time.shape[0])
     path = write_log(
         out,
-        log.columns(model),
-        truth=("mode", *model.states),
+        columns,
+        truth=truth,
         format=log_format,
         encoding=encoding,
         force=force,
         inputs=inputs,
     )
-    return SimulationOutcome(path=path, samples=int(log.time.shape[0]))
+    return SimulationOutcome(path=path, samples=samples)
+
+
+def _settings(texts: Sequence[str]) -> dict[str, float]:
+    """``--set NAME=VALUE`` texts → ``{name: value}``, each named in its error."""
+    values: dict[str, float] = {}
+    for text in texts:
+        name, sep, value = text.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
+        if name in values:
+            raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
+        try:
+            number = float(value)
+        except ValueError as err:
+            raise OptionError(
+                f"--set {excerpt(name)[1:-1]}: {excerpt(value)} is not a number"
+            ) from err
+        if not math.isfinite(number):
+            raise OptionError(f"--set {excerpt(name)[1:-1]}: {excerpt(value)} is not finite")
+        values[name] = number
+    return values

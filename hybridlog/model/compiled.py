@@ -157,6 +157,11 @@ def _feed(digest: Any, value: object) -> None:
             _feed(digest, name)
             _feed(digest, value[name])
         digest.update(b"}")
+    elif isinstance(value, frozenset | set):  # e.g. the names an equation uses
+        digest.update(b"<")
+        for item in sorted(value, key=repr):
+            _feed(digest, item)
+        digest.update(b">")
     elif isinstance(value, tuple | list):
         digest.update(b"[")
         for item in value:

@@ -92,7 +92,10 @@ class _Variables:
         before: set[str] = set()
         for expr in expressions:
             for symbol in expr.free_symbols:
-                name, previous = self.name_of[symbol]
+                entry = self.name_of.get(symbol)
+                if entry is None:  # a symbol of the caller's own (a scenario parameter)
+                    continue
+                name, previous = entry
                 (before if previous else now).add(name)
         return frozenset(now), frozenset(before)
 
@@ -152,6 +155,25 @@ def load_components(
             if name not in used:
                 raise ModelError(f"{group}: '{name}' appears in no component equation")
     return tuple(components)
+
+
+def parse_equation(
+    text: Any,
+    key: str,
+    *,
+    states: tuple[str, ...],
+    inputs: tuple[str, ...],
+    outputs: tuple[str, ...],
+    variables: tuple[str, ...],
+    parameters: Mapping[str, sympy.Expr],
+) -> Equation:
+    """One equation in the grammar of a component mode, outside ``[components]``.
+
+    For equations a model file writes elsewhere (``[[simulation.unmodelled]]``);
+    ``parameters`` may map names to free symbols of the caller's own, which are kept in the
+    equation and are neither variables at step k nor at step k−1.
+    """
+    return _equation(text, key, _Variables(states, inputs, outputs, variables, parameters))
 
 
 def _component(

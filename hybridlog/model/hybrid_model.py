@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     import sympy
 
     from hybridlog.model.components import Component
+    from hybridlog.model.scenario import Scenario
 
 T = TypeVar("T")
 
@@ -372,6 +373,9 @@ class HybridModel:
     variables, commands:
         A components model's internal variables (neither states nor measured) and its
         command (discrete input) names.
+    scenario:
+        A components model's ``[simulation]`` scenario (:mod:`hybridlog.model.scenario`);
+        ``None`` for the other kinds.
     """
 
     name: str
@@ -402,6 +406,7 @@ class HybridModel:
     components: tuple[Component, ...] = ()
     variables: tuple[str, ...] = ()
     commands: tuple[str, ...] = ()
+    scenario: Scenario | None = None
 
     @property
     def dt(self) -> float:

@@ -50,6 +50,7 @@ from hybridlog.model.hybrid_model import (
     Timebase,
     markov_matrix,
 )
+from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
 from hybridlog.model.values import (
     as_covariance,
     as_expressions,
@@ -103,7 +104,7 @@ _INTEGRATION_KEYS = {"method", "step"}
 _NOISE_KEYS = {"process", "measurement"}
 _INITIAL_KEYS = {"state", "covariance", "mode", "mode_probabilities"}
 _TRANSITION_KEYS = {"matrix", "stay"}
-_SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule"}
+_SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule", *COMPONENT_KEYS}
 MAX_BOOLEANS = 10
 """Most booleans of a boolean-affine model (2^10 = 1024 modes)."""
 _STEP_TOLERANCE = 1e-9
@@ -258,6 +259,21 @@ class _Builder:
             else None
         )
         sim_inputs = self.simulation_inputs(simulation, inputs, params)
+        scenario = None
+        if kind == "components":
+            scenario = load_scenario(
+                simulation,
+                components=components,
+                states=states,
+                inputs=inputs,
+                outputs=outputs,
+                variables=variables,
+                commands=commands,
+                parameters=params,
+            )
+        else:
+            for key in sorted(COMPONENT_KEYS & set(simulation)):
+                raise ModelError(f"simulation.{key}: only a components model's scenario has {key}")
         if "schedule" in simulation and kind == "components":
             raise ModelError(
                 "simulation.schedule: a components model has no joint mode schedule; "
@@ -309,6 +325,7 @@ class _Builder:
             components=components,
             variables=variables,
             commands=commands,
+            scenario=scenario,
         )
 
     def parameters(self, groups: Mapping[str, tuple[str, ...]]) -> dict[str, sympy.Expr]:

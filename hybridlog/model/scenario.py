@@ -1,0 +1,344 @@
+r"""The ``[simulation]`` scenario of a components model: what ``hybridlog simulate`` plays.
+
+A components model (paper 002) has no joint mode schedule; its scenario says, per
+component, when it changes mode, and adds what the model does not contain::
+
+    [simulation]
+    state = [0.49, 0.49, 1200.0]
+    steps = 1500
+
+    [simulation.parameters]           # numbers; `hybridlog simulate --set NAME=VALUE`
+    light_fault = 900
+    drift_rate = 0.003
+
+    [simulation.modes]                # MODE@STEP, ...: the mode from that step on
+    ls = "full, one_bank_out@light_fault, full@1300"
+
+    [simulation.commands]             # VALUE@STEP, ...: command values (logged)
+    light_cmd = "1"
+
+    [[simulation.unmodelled]]         # behaviour no mode of the model describes
+    component = "fr2"
+    start = 700                       # a step or a parameter name
+    end = 1100                        # optional: until the end
+    equations = ["xc2[k] = min(xc2[k-1] + drift_rate, q_max)", "yc2 = xc2"]
+
+    [simulation.controller]           # commands of the inputs computed from measurements
+    states = {integral = 0.0}         # controller memory and its value before step 0
+    update = {integral = "integral + 1200 - yc3"}
+    inputs = {uc1 = "0.98 + 0.01*(1200 - yc3) + 5e-4*integral"}
+
+Steps are integers or names of ``[simulation.parameters]``, so a hidden scenario can move a
+fault with ``--set``.  An unmodelled behaviour replaces the component's equations from
+``start`` to ``end`` (exclusive); its true mode is ``unknown`` (paper 002 §3) and its noise
+is that of the mode the schedule gives.  The controller runs once per step after the outputs
+are measured: ``update`` computes its memory at step k from the memory at k−1 and the
+measured outputs ``y(k)``; ``inputs`` then computes ``u(k)`` from ``y(k)`` and the new memory
+(names of outputs, controller states, model and scenario parameters, ``t`` and ``k``).
+
+This module holds the data and its validation; :mod:`hybridlog.simulate_components` plays it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from hybridlog.errors import ModelError, excerpt
+from hybridlog.model.component_loader import parse_equation
+from hybridlog.model.components import UNKNOWN, Component, Equation
+from hybridlog.model.values import (
+    as_names,
+    as_number,
+    as_string,
+    as_table,
+    check_keys,
+    key_path,
+    required,
+)
+
+if TYPE_CHECKING:
+    import sympy
+
+COMPONENT_KEYS = frozenset({"steps", "parameters", "modes", "commands", "unmodelled", "controller"})
+"""``[simulation]`` keys only a components model has (besides ``state`` and ``inputs``)."""
+_UNMODELLED_KEYS = {"component", "start", "end", "equations", "description"}
+_CONTROLLER_KEYS = {"states", "update", "inputs"}
+
+Step = int | str
+"""A step: a non-negative integer, or the name of a scenario parameter holding one."""
+
+
+@dataclass(frozen=True)
+class Unmodelled:
+    """Equations that replace one component's for a while (its true mode is ``unknown``).
+
+    Attributes
+    ----------
+    component:
+        The component's name.
+    start, end:
+        First step of the behaviour and the step it ends at (exclusive; ``None``: never).
+    equations:
+        The equations, parsed as a component mode's; they may use scenario parameters.
+    key:
+        ``simulation.unmodelled[i]``.
+    """
+
+    component: str
+    start: Step
+    end: Step | None
+    equations: tuple[Equation, ...]
+    key: str
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A components model's ``[simulation]`` scenario (see the module doc).
+
+    Attributes
+    ----------
+    steps:
+        Default number of steps (rows − 1); ``None``: 100.
+    parameters:
+        Scenario parameters and their default values (``--set`` overrides them).
+    modes:
+        Per component, ``(mode, step)`` pairs: the mode from that step on.
+    commands:
+        Per command, ``(value, step)`` pairs.
+    unmodelled:
+        Behaviours the model does not contain, in the file's order.
+    controller_states:
+        Controller memory and its value before step 0.
+    controller_update:
+        Controller memory at step k as expressions of its memory at k−1 (its plain
+        symbols), the measured outputs, parameters, ``t`` and ``k``.
+    controller_inputs:
+        Inputs computed by the controller, expressions of the measured outputs, the
+        memory at step k, parameters, ``t`` and ``k``.
+    """
+
+    steps: int | None = None
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    modes: Mapping[str, tuple[tuple[str, Step], ...]] = field(default_factory=dict)
+    commands: Mapping[str, tuple[tuple[float, Step], ...]] = field(default_factory=dict)
+    unmodelled: tuple[Unmodelled, ...] = ()
+    controller_states: Mapping[str, float] = field(default_factory=dict)
+    controller_update: Mapping[str, sympy.Expr] = field(default_factory=dict)
+    controller_inputs: Mapping[str, sympy.Expr] = field(default_factory=dict)
+
+    def parameter_values(self, settings: Mapping[str, float] | None = None) -> dict[str, float]:
+        """The scenario parameters with ``settings`` (``--set``) applied.
+
+        Raises
+        ------
+        KeyError
+            A setting that is not a scenario parameter (the caller names the option).
+        """
+        values = dict(self.parameters)
+        for name, value in (settings or {}).items():
+            if name not in values:
+                raise KeyError(name)
+            values[name] = float(value)
+        return values
+
+
+def load_scenario(
+    table: Mapping[str, Any],
+    *,
+    components: tuple[Component, ...],
+    states: tuple[str, ...],
+    inputs: tuple[str, ...],
+    outputs: tuple[str, ...],
+    variables: tuple[str, ...],
+    commands: tuple[str, ...],
+    parameters: Mapping[str, sympy.Expr],
+) -> Scenario:
+    """Validate the components-only keys of ``[simulation]`` (see the module doc)."""
+    import sympy
+
+    steps = None
+    if "steps" in table:
+        value = table["steps"]
+        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+            raise ModelError(f"simulation.steps: expected a positive whole number, got {value!r}")
+        steps = int(value)
+    scenario_parameters: dict[str, float] = {}
+    taken = {*states, *inputs, *outputs, *variables, *commands, *parameters}
+    for name, value in as_table(table.get("parameters", {}), "simulation.parameters").items():
+        key = key_path("simulation.parameters", name)
+        as_names([name], key)
+        if name in taken:
+            raise ModelError(f"{key}: the name is already a variable or parameter of the model")
+        scenario_parameters[name] = as_number(value, key)
+    symbols = {name: sympy.Symbol(name, real=True) for name in scenario_parameters}
+    by_name = {c.name: c for c in components}
+
+    def step(value: Any, key: str) -> Step:
+        if isinstance(value, str):
+            if value not in scenario_parameters:
+                known = ", ".join(scenario_parameters) or "none"
+                raise ModelError(
+                    f"{key}: {excerpt(value, 40)} is not a scenario parameter "
+                    f"(simulation.parameters: {known})"
+                )
+            return value
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ModelError(f"{key}: expected a step (a whole number >= 0 or a parameter name)")
+        return int(value)
+
+    modes: dict[str, tuple[tuple[str, Step], ...]] = {}
+    for name, text in as_table(table.get("modes", {}), "simulation.modes").items():
+        key = key_path("simulation.modes", name)
+        if name not in by_name:
+            raise ModelError(f"{key}: not a component (components: {', '.join(by_name)})")
+        allowed = by_name[name].mode_ids
+        entries = []
+        for label, at in _entries(as_string(text, key), key, step):
+            if label not in allowed:
+                raise ModelError(
+                    f"{key}: unknown mode {excerpt(label, 40)} (modes: {', '.join(allowed)}; "
+                    f"'{UNKNOWN}' is played by simulation.unmodelled)"
+                )
+            entries.append((label, at))
+        modes[name] = tuple(entries)
+    command_values: dict[str, tuple[tuple[float, Step], ...]] = {}
+    for name, text in as_table(table.get("commands", {}), "simulation.commands").items():
+        key = key_path("simulation.commands", name)
+        if name not in commands:
+            raise ModelError(f"{key}: not a command (commands: {', '.join(commands) or 'none'})")
+        raw = str(text) if isinstance(text, int | float) and not isinstance(text, bool) else text
+        entries_c = []
+        for label, at in _entries(as_string(raw, key), key, step):
+            try:
+                entries_c.append((float(label), at))
+            except ValueError as err:
+                raise ModelError(f"{key}: {excerpt(label, 40)} is not a number") from err
+        command_values[name] = tuple(entries_c)
+    unmodelled = []
+    raw_list = table.get("unmodelled", [])
+    if not isinstance(raw_list, list):
+        raise ModelError("simulation.unmodelled: expected an array of tables")
+    equation_parameters = {**parameters, **symbols}
+    for i, raw in enumerate(raw_list):
+        key = f"simulation.unmodelled[{i}]"
+        spec = as_table(raw, key)
+        check_keys(spec, _UNMODELLED_KEYS, key)
+        component = as_string(required(spec, "component", key), f"{key}.component")
+        if component not in by_name:
+            raise ModelError(f"{key}.component: not a component (components: {', '.join(by_name)})")
+        texts = required(spec, "equations", key)
+        if isinstance(texts, str):
+            texts = [texts]
+        if not isinstance(texts, list) or not texts:
+            raise ModelError(f"{key}.equations: expected a non-empty list of equation strings")
+        equations = tuple(
+            parse_equation(
+                text,
+                f"{key}.equations[{j}]",
+                states=states,
+                inputs=inputs,
+                outputs=outputs,
+                variables=variables,
+                parameters=equation_parameters,
+            )
+            for j, text in enumerate(texts)
+        )
+        owned = set(by_name[component].states)
+        for equation in equations:
+            if equation.state and equation.state not in owned:
+                raise ModelError(
+                    f"{equation.key}: '{equation.state}' is a state of another component "
+                    f"(a state belongs to one component)"
+                )
+        unmodelled.append(
+            Unmodelled(
+                component=component,
+                start=step(required(spec, "start", key), f"{key}.start"),
+                end=step(spec["end"], f"{key}.end") if "end" in spec else None,
+                equations=equations,
+                key=key,
+            )
+        )
+    controller = as_table(table.get("controller", {}), "simulation.controller")
+    check_keys(controller, _CONTROLLER_KEYS, "simulation.controller")
+    memory: dict[str, float] = {}
+    for name, value in as_table(
+        controller.get("states", {}), "simulation.controller.states"
+    ).items():
+        key = key_path("simulation.controller.states", name)
+        as_names([name], key)
+        if name in taken or name in scenario_parameters:
+            raise ModelError(f"{key}: the name is already a variable or parameter of the model")
+        memory[name] = as_number(value, key)
+    env: dict[str, sympy.Expr] = {
+        **{name: sympy.Symbol(name, real=True) for name in (*outputs, *memory)},
+        "t": sympy.Symbol("t", real=True),
+        "k": sympy.Symbol("k", real=True),
+        **parameters,
+        **symbols,
+    }
+    update: dict[str, sympy.Expr] = {}
+    for name, text in as_table(
+        controller.get("update", {}), "simulation.controller.update"
+    ).items():
+        key = key_path("simulation.controller.update", name)
+        if name not in memory:
+            raise ModelError(
+                f"{key}: not a controller state (simulation.controller.states: "
+                f"{', '.join(memory) or 'none'})"
+            )
+        update[name] = _expression(text, env, key)
+    control: dict[str, sympy.Expr] = {}
+    for name, text in as_table(
+        controller.get("inputs", {}), "simulation.controller.inputs"
+    ).items():
+        key = key_path("simulation.controller.inputs", name)
+        if name not in inputs:
+            raise ModelError(f"{key}: not an input (inputs: {', '.join(inputs) or 'none'})")
+        if name in as_table(table.get("inputs", {}), "simulation.inputs"):
+            raise ModelError(f"{key}: simulation.inputs.{name} gives this input already")
+        control[name] = _expression(text, env, key)
+    return Scenario(
+        steps=steps,
+        parameters=scenario_parameters,
+        modes=modes,
+        commands=command_values,
+        unmodelled=tuple(unmodelled),
+        controller_states=memory,
+        controller_update=update,
+        controller_inputs=control,
+    )
+
+
+def _expression(value: Any, env: Mapping[str, sympy.Expr], key: str) -> sympy.Expr:
+    from hybridlog.model.expressions import parse_expression
+
+    text = str(value) if isinstance(value, int | float) and not isinstance(value, bool) else value
+    return parse_expression(as_string(text, key), env, key=key)
+
+
+def _entries(text: str, key: str, step: Any) -> list[tuple[str, Step]]:
+    """``"a, b@10, c@name"`` → ``[("a", 0), ("b", 10), ("c", "name")]``; the first is at 0."""
+    entries: list[tuple[str, Step]] = []
+    for i, part in enumerate(text.split(",")):
+        label, sep, at = part.strip().partition("@")
+        label = label.strip()
+        if not label:
+            raise ModelError(
+                f"{key}: an empty entry in {excerpt(text, 60)} (write VALUE@STEP, ...)"
+            )
+        if not sep:
+            if i:
+                raise ModelError(
+                    f"{key}: {excerpt(part.strip(), 40)} needs @STEP (only the first "
+                    "entry starts at step 0 without one)"
+                )
+            entries.append((label, 0))
+            continue
+        at = at.strip()
+        entries.append((label, step(int(at) if at.isdigit() else at, key)))
+    if not entries or entries[0][1] != 0:
+        raise ModelError(f"{key}: the first entry must start at step 0 (write it without @STEP)")
+    return entries

@@ -1,0 +1,537 @@
+r"""Simulation of a components model (paper 002): the whole plant, one joint mode at a time.
+
+A components model's plant at step k is the union of its components' equations for the
+joint mode of that step (paper 002 eq. (8)).  For every joint mode the scenario visits, the
+union is solved once with sympy, independently of any estimator's decomposition:
+
+.. math::
+
+    x(k) = f_{q(k)}\bigl(v(k-1)\bigr) + v_s(k-1), \qquad
+    w(k) = g_{q(k)}\bigl(x(k), u(k)\bigr), \qquad
+    y_{meas}(k) = y(k) + v_o(k)
+
+(eq. (1)): the difference equations give the states from every variable at step k−1; the
+algebraic equations are solved for the outputs and internal variables at step k.  The
+solution is printed by :mod:`hybridlog.model.codegen` into one module per joint mode, kept
+in the compiled-code cache (:func:`hybridlog.model.compiled.load_generated`), so a warm run
+solves nothing.
+
+The scenario (:mod:`hybridlog.model.scenario`) gives each component's mode per step, the
+command values, unmodelled behaviours (their rows' true mode is ``unknown``) and the
+controller, which runs after the outputs of step k are measured and computes ``u(k)``.
+Process and measurement noise are Gaussian with the variances of the scheduled modes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.model.compiled import input_functions, load_generated
+from hybridlog.model.components import UNKNOWN, Equation
+from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    import sympy
+
+    from hybridlog.model.hybrid_model import HybridModel
+    from hybridlog.model.scenario import Scenario, Step
+
+_MODULES = ("hybridlog.simulate_components",)
+"""The module whose code shapes the generated joint-mode and controller modules."""
+
+
+@dataclass(frozen=True)
+class ComponentsLog:
+    """A simulated run of a components model: the columns of the log ``simulate`` writes.
+
+    Attributes
+    ----------
+    time:
+        ``t_k = k·dt``, shape ``(N,)``.
+    inputs, outputs:
+        ``u(k)`` and the measured ``y(k)`` (noise included), ``(N, n_u)`` and ``(N, n_y)``.
+    states:
+        The true states ``x(k)``, ``(N, n_x)``.
+    variables:
+        The true internal variables ``w(k)``, ``(N, n_w)``.
+    commands:
+        The command values, ``(N, n_c)``.
+    modes:
+        Per component, its true mode per row (``unknown`` during an unmodelled behaviour).
+    controller:
+        The controller's memory per row, ``(N, n_memory)``.
+    """
+
+    time: FloatArray
+    inputs: FloatArray
+    outputs: FloatArray
+    states: FloatArray
+    variables: FloatArray
+    commands: FloatArray
+    modes: Mapping[str, tuple[str, ...]]
+    controller: FloatArray
+
+    def truth_columns(self, model: HybridModel) -> tuple[str, ...]:
+        """Columns that are ground truth: ``mode.<component>`` and the states."""
+        return (*(f"mode.{c.name}" for c in model.components), *model.states)
+
+    def columns(self, model: HybridModel) -> dict[str, FloatArray | list[str]]:
+        """``t``, inputs, outputs, commands, ``mode.<component>``, true states, by name."""
+        columns: dict[str, FloatArray | list[str]] = {"t": self.time}
+        for group, names in (
+            (self.inputs, model.inputs),
+            (self.outputs, model.outputs),
+            (self.commands, model.commands),
+        ):
+            for j, name in enumerate(names):
+                columns[name] = np.ascontiguousarray(group[:, j])
+        for component in model.components:
+            columns[f"mode.{component.name}"] = list(self.modes[component.name])
+        for j, name in enumerate(model.states):
+            columns[name] = np.ascontiguousarray(self.states[:, j])
+        return columns
+
+
+@dataclass(frozen=True)
+class _Joint:
+    """One joint mode's compiled equations and noise standard deviations."""
+
+    step: Callable[[FloatArray, FloatArray, FloatArray], None]
+    algebraic: Callable[[FloatArray, FloatArray], None]
+    process_std: FloatArray
+    measurement_std: FloatArray
+
+
+def _origin(model: HybridModel) -> str:
+    return model.origin or model.name
+
+
+def simulate_components(
+    model: HybridModel,
+    *,
+    steps: int | None = None,
+    seed: int = 0,
+    settings: Mapping[str, float] | None = None,
+) -> ComponentsLog:
+    """Play the scenario of a components model (see the module doc).
+
+    Parameters
+    ----------
+    model:
+        A components model with a ``[simulation]`` scenario.
+    steps:
+        Number of steps (rows − 1); default the scenario's ``steps``, else 100.
+    seed:
+        Seed of the noise (NumPy PCG64): the same seed and settings give the same log.
+    settings:
+        Scenario parameter values (``--set NAME=VALUE``): fault times, drift rate, gains.
+
+    Raises
+    ------
+    OptionError
+        A bad ``steps``, ``seed`` or setting, or a run that does not fit in memory.
+    ModelError
+        A scenario the model cannot play: a joint mode whose equations do not determine
+        every variable, an algebraic loop through the controller, a diverging run.
+    """
+    from hybridlog.simulate import _check_memory, _check_seed
+
+    seed = _check_seed(seed)
+    origin = _origin(model)
+    scenario = model.scenario
+    if not model.has_components or scenario is None:
+        raise ModelError(f"{origin}: components: not a components model")
+    try:
+        values = scenario.parameter_values(settings)
+    except KeyError as err:
+        known = ", ".join(scenario.parameters) or "none"
+        raise OptionError(
+            f"--set {err.args[0]}: not a scenario parameter of {origin} "
+            f"(simulation.parameters: {known})"
+        ) from err
+    if steps is not None and steps <= 0:
+        raise OptionError("--steps: must be positive")
+    n_steps = steps or scenario.steps or 100
+    rows = n_steps + 1
+    _check_memory(model, rows, "--steps" if steps else f"{origin}: simulation.steps")
+
+    def at(step: Step, key: str) -> int:
+        if isinstance(step, int):
+            return step
+        value = values[step]
+        if value < 0 or value != int(value):
+            where = f"--set {step}" if step in (settings or {}) else f"{origin}: {key}"
+            raise (OptionError if where.startswith("--") else ModelError)(
+                f"{where}: {step} = {value:g} is used as a step; it must be a whole number >= 0"
+            )
+        return int(value)
+
+    labels = _mode_labels(model, scenario, rows, at)
+    overrides = _overrides(model, scenario, rows, at, labels)
+    commands = np.zeros((rows, len(model.commands)))
+    for j, name in enumerate(model.commands):
+        for value, start in _sorted(
+            scenario.commands.get(name, ()), at, f"simulation.commands.{name}"
+        ):
+            commands[min(start, rows) :, j] = value
+    joints: dict[tuple[str, ...], _Joint] = {}
+    assignment = [
+        tuple(
+            f"~{overrides[c.name][k]}" if overrides[c.name][k] >= 0 else labels[c.name][k]
+            for c in model.components
+        )
+        for k in range(rows)
+    ]
+    parameter_names = tuple(values)
+    parameters = np.array([values[n] for n in parameter_names], dtype=float)
+    for entries in dict.fromkeys(assignment):
+        joints[entries] = _compile_joint(
+            model, scenario, entries, _labels_of(entries, model), parameter_names
+        )
+
+    time = np.arange(rows, dtype=float) * model.dt
+    inputs = _open_loop_inputs(model, scenario, time)
+    controlled = [model.inputs.index(name) for name in scenario.controller_inputs]
+    controller = _controller(model, scenario, parameter_names) if controlled else None
+    memory = np.array(list(scenario.controller_states.values()), dtype=float)
+    memory_log = np.zeros((rows, memory.shape[0]))
+    rng = np.random.default_rng(seed)
+    process_draws = rng.standard_normal((rows, model.n_states))
+    measurement_draws = rng.standard_normal((rows, model.n_outputs))
+
+    n_x, n_u, n_y = model.n_states, model.n_inputs, model.n_outputs
+    universe = (*model.states, *model.inputs, *model.outputs, *model.variables)
+    values_log = np.zeros((rows, len(universe)))
+    state_slice = slice(0, n_x)
+    input_slice = slice(n_x, n_x + n_u)
+    output_slice = slice(n_x + n_u, n_x + n_u + n_y)
+    measured = np.zeros((rows, n_y))
+    initial = model.initial_state if model.simulation_state is None else model.simulation_state
+    new_memory = np.zeros_like(memory)
+    control = np.zeros(len(controlled))
+    for k in range(rows):
+        joint = joints[assignment[k]]
+        now = values_log[k]
+        if k == 0:
+            now[state_slice] = initial
+        else:
+            joint.step(values_log[k - 1], parameters, now)
+            now[state_slice] += joint.process_std * process_draws[k]
+        if controller is not None:  # u(k) is not known yet: the outputs do not depend on it
+            inputs[k, controlled] = inputs[k - 1, controlled] if k else 0.0
+        now[input_slice] = inputs[k]
+        joint.algebraic(now, parameters)
+        measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
+        if controller is not None:
+            update, compute = controller
+            update(measured[k], memory, parameters, time[k], float(k), new_memory)
+            memory[:] = new_memory
+            compute(measured[k], memory, parameters, time[k], float(k), control)
+            inputs[k, controlled] = control
+            now[input_slice] = inputs[k]
+            joint.algebraic(now, parameters)
+            memory_log[k] = memory
+        if not np.all(np.isfinite(now)) or not np.all(np.isfinite(measured[k])):
+            raise ModelError(f"{origin}: the simulation diverged (non-finite at t = {time[k]})")
+    modes = {
+        c.name: tuple(
+            UNKNOWN if overrides[c.name][k] >= 0 else labels[c.name][k] for k in range(rows)
+        )
+        for c in model.components
+    }
+    return ComponentsLog(
+        time=time,
+        inputs=inputs,
+        outputs=measured,
+        states=np.ascontiguousarray(values_log[:, state_slice]),
+        variables=np.ascontiguousarray(values_log[:, n_x + n_u + n_y :]),
+        commands=commands,
+        modes=modes,
+        controller=memory_log,
+    )
+
+
+def _labels_of(joint: tuple[str, ...], model: HybridModel) -> dict[str, str]:
+    """Component → its entry of a joint assignment (a mode id, or ``~i`` for unmodelled i)."""
+    return {c.name: entry for c, entry in zip(model.components, joint, strict=True)}
+
+
+def _sorted(
+    entries: Sequence[tuple[Any, Step]], at: Callable[[Step, str], int], key: str
+) -> list[tuple[Any, int]]:
+    """Schedule entries with their steps resolved; the steps must increase."""
+    resolved = [(value, at(step, key)) for value, step in entries]
+    for (_, before), (_, after) in itertools.pairwise(resolved):
+        if after <= before:
+            raise ModelError(f"{key}: the steps must increase ({before} then {after})")
+    return resolved
+
+
+def _mode_labels(
+    model: HybridModel, scenario: Scenario, rows: int, at: Callable[[Step, str], int]
+) -> dict[str, list[str]]:
+    """Each component's scheduled mode per row (default: its most likely initial mode)."""
+    labels: dict[str, list[str]] = {}
+    for component in model.components:
+        initial = component.initial_mode_probabilities
+        default = max(component.mode_ids, key=lambda m: initial.get(m, 0.0))
+        entries = scenario.modes.get(component.name, ((default, 0),))
+        row = [default] * rows
+        for mode, start in _sorted(entries, at, f"simulation.modes.{component.name}"):
+            row[min(start, rows) :] = [mode] * (rows - min(start, rows))
+        labels[component.name] = row
+    return labels
+
+
+def _overrides(
+    model: HybridModel,
+    scenario: Scenario,
+    rows: int,
+    at: Callable[[Step, str], int],
+    labels: Mapping[str, list[str]],
+) -> dict[str, list[int]]:
+    """Per component and row, the index of the unmodelled behaviour in force, or −1."""
+    overrides = {c.name: [-1] * rows for c in model.components}
+    for index, behaviour in enumerate(scenario.unmodelled):
+        start = at(behaviour.start, f"{behaviour.key}.start")
+        end = rows if behaviour.end is None else at(behaviour.end, f"{behaviour.key}.end")
+        if end <= start:
+            raise ModelError(
+                f"{_origin(model)}: {behaviour.key}: end ({end}) must come after start ({start})"
+            )
+        row = overrides[behaviour.component]
+        for k in range(min(start, rows), min(end, rows)):
+            if row[k] >= 0:
+                raise ModelError(
+                    f"{_origin(model)}: {behaviour.key}: overlaps "
+                    f"{scenario.unmodelled[row[k]].key} at step {k}"
+                )
+            row[k] = index
+    return overrides
+
+
+def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) -> FloatArray:
+    """``u(k)`` of the inputs ``[simulation.inputs]`` gives; the controller fills the rest."""
+    functions = input_functions(model)
+    steps = np.arange(time.shape[0], dtype=float)
+    inputs = np.zeros((time.shape[0], model.n_inputs))
+    for j, name in enumerate(model.inputs):
+        if name in scenario.controller_inputs:
+            continue
+        if name not in functions:
+            raise ModelError(
+                f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with "
+                "(nor simulation.controller.inputs)"
+            )
+        values = np.broadcast_to(np.asarray(functions[name](time, steps), dtype=float), time.shape)
+        if not np.all(np.isfinite(values)):
+            raise ModelError(f"{_origin(model)}: simulation.inputs.{name}: non-finite values")
+        inputs[:, j] = values
+    return inputs
+
+
+def _joint_equations(
+    model: HybridModel, scenario: Scenario, joint: Mapping[str, str]
+) -> list[Equation]:
+    equations: list[Equation] = []
+    for component in model.components:
+        entry = joint[component.name]
+        if entry.startswith("~"):
+            equations += scenario.unmodelled[int(entry[1:])].equations
+        else:
+            equations += component.equations(entry)
+    return equations
+
+
+def _describe(joint: Mapping[str, str], scenario: Scenario) -> str:
+    parts = []
+    for name, entry in joint.items():
+        shown = scenario.unmodelled[int(entry[1:])].key if entry.startswith("~") else entry
+        parts.append(f"{name}={shown}")
+    return "{" + ", ".join(parts) + "}"
+
+
+def _compile_joint(
+    model: HybridModel,
+    scenario: Scenario,
+    joint_entries: tuple[str, ...],
+    joint: Mapping[str, str],
+    parameter_names: tuple[str, ...],
+) -> _Joint:
+    """The joint mode's solved equations (generated once, then cached) and its noise."""
+    digest = hashlib.sha256(repr((joint_entries, parameter_names)).encode()).hexdigest()[:16]
+
+    def generate() -> str:
+        return _joint_source(model, scenario, joint, parameter_names)
+
+    module = load_generated(model, f"joint_{digest}", generate, _MODULES)
+    process = np.zeros(model.n_states)
+    measurement = np.zeros(model.n_outputs)
+    for component in model.components:
+        entry = joint[component.name]
+        if entry.startswith("~"):  # the noise of the mode the schedule gives
+            continue
+        mode = component.mode(entry)
+        for name, variance in mode.process_noise.items():
+            process[model.states.index(name)] = variance
+        for name, variance in mode.measurement_noise.items():
+            measurement[model.outputs.index(name)] = variance
+    return _Joint(
+        step=module.step,
+        algebraic=module.algebraic,
+        process_std=np.sqrt(process),
+        measurement_std=np.sqrt(measurement),
+    )
+
+
+def _joint_source(
+    model: HybridModel,
+    scenario: Scenario,
+    joint: Mapping[str, str],
+    parameter_names: tuple[str, ...],
+) -> str:
+    """Python source of ``step(b, p, a)`` and ``algebraic(a, p)`` for one joint mode.
+
+    ``b`` holds every variable at step k−1 and ``a`` at step k, in the order states, inputs,
+    outputs, internal variables; ``p`` the scenario parameters.  ``step`` writes the states
+    of ``a``; ``algebraic`` the outputs and internal variables from its states and inputs.
+    """
+    import sympy
+
+    from hybridlog.model.codegen import assignments
+    from hybridlog.model.expressions import previous_symbol
+
+    origin = _origin(model)
+    shown = _describe(joint, scenario)
+    equations = _joint_equations(model, scenario, joint)
+    universe = (*model.states, *model.inputs, *model.outputs, *model.variables)
+    current = {n: sympy.Symbol(n, real=True) for n in universe}
+    names: dict[sympy.Symbol, sympy.Symbol] = {}
+    for i, name in enumerate(universe):
+        names[current[name]] = sympy.Symbol(f"a{i}")
+        names[previous_symbol(name)] = sympy.Symbol(f"b{i}")
+    for i, name in enumerate(parameter_names):
+        names[sympy.Symbol(name, real=True)] = sympy.Symbol(f"p{i}")
+    difference = {e.state: e.rhs for e in equations if e.kind == "difference"}
+    for state in model.states:
+        if state not in difference:
+            raise ModelError(
+                f"{origin}: simulation: in the joint mode {shown} no difference equation "
+                f"gives the state '{state}'"
+            )
+    unknowns = [current[n] for n in (*model.outputs, *model.variables)]
+    residuals = [e.residual for e in equations if e.kind == "algebraic"]
+    solutions = sympy.solve(residuals, unknowns, dict=True) if residuals else []
+    if len(solutions) != 1 or set(solutions[0]) != set(unknowns):
+        missing = [str(u) for u in unknowns if u not in solutions[0]] if len(solutions) == 1 else []
+        reason = (
+            f"they do not determine {', '.join(missing)}"
+            if missing
+            else f"they have {len(solutions)} solutions (one is needed)"
+        )
+        raise ModelError(
+            f"{origin}: simulation: the algebraic equations of the joint mode {shown} cannot "
+            f"be solved for the outputs and variables: {reason}"
+        )
+    solution = solutions[0]
+    controlled = {current[n] for n in scenario.controller_inputs}
+    for output in model.outputs:
+        loop = solution[current[output]].free_symbols & controlled
+        if loop:
+            raise ModelError(
+                f"{origin}: simulation.controller.inputs: in the joint mode {shown} the output "
+                f"'{output}' depends on {sorted(map(str, loop))[0]} at the same step "
+                "(an algebraic loop through the controller)"
+            )
+    n = len(universe)
+    lines = [f'"""Generated by hybridlog: the joint mode {shown} of {model.name!r}."""', ""]
+    lines += ["import math", "", "", "def step(b, p, a):"]
+    lines += [f"    b{i} = b[{i}]" for i in range(n)]
+    lines += [f"    p{i} = p[{i}]" for i in range(len(parameter_names))]
+    states = list(model.states)
+    lines += assignments(
+        [difference[s] for s in states],
+        [f"a[{universe.index(s)}]" for s in states],
+        names,
+        "    ",
+        temporaries="t_",
+    )
+    lines += ["    return None", "", "", "def algebraic(a, p):"]
+    known = len(model.states) + len(model.inputs)
+    lines += [f"    a{i} = a[{i}]" for i in range(known)]
+    lines += [f"    p{i} = p[{i}]" for i in range(len(parameter_names))]
+    lines += assignments(
+        [solution[u] for u in unknowns],
+        [f"a[{known + j}]" for j in range(len(unknowns))],
+        names,
+        "    ",
+        temporaries="t_",
+    )
+    lines.append("    return None")
+    return "\n".join(lines) + "\n"
+
+
+def _controller(
+    model: HybridModel, scenario: Scenario, parameter_names: tuple[str, ...]
+) -> tuple[Callable[..., None], Callable[..., None]]:
+    """``update(y, c, p, t, k, out)`` and ``control(y, c, p, t, k, out)`` of the controller."""
+
+    def generate() -> str:
+        return _controller_source(model, scenario, parameter_names)
+
+    digest = hashlib.sha256(repr(parameter_names).encode()).hexdigest()[:16]
+    module = load_generated(model, f"controller_{digest}", generate, _MODULES)
+    return module.update, module.control
+
+
+def _controller_source(
+    model: HybridModel, scenario: Scenario, parameter_names: tuple[str, ...]
+) -> str:
+    import sympy
+
+    from hybridlog.model.codegen import assignments
+
+    names: dict[sympy.Symbol, sympy.Symbol] = {
+        sympy.Symbol("t", real=True): sympy.Symbol("t"),
+        sympy.Symbol("k", real=True): sympy.Symbol("k"),
+    }
+    for i, name in enumerate(model.outputs):
+        names[sympy.Symbol(name, real=True)] = sympy.Symbol(f"y{i}")
+    memory = list(scenario.controller_states)
+    for i, name in enumerate(memory):
+        names[sympy.Symbol(name, real=True)] = sympy.Symbol(f"c{i}")
+    for i, name in enumerate(parameter_names):
+        names[sympy.Symbol(name, real=True)] = sympy.Symbol(f"p{i}")
+    head = [f"    y{i} = y[{i}]" for i in range(model.n_outputs)]
+    head += [f"    c{i} = c[{i}]" for i in range(len(memory))]
+    head += [f"    p{i} = p[{i}]" for i in range(len(parameter_names))]
+    lines = [f'"""Generated by hybridlog: the simulation controller of {model.name!r}."""', ""]
+    lines += ["import math", "", "", "def update(y, c, p, t, k, out):", *head]
+    kept = [(i, name) for i, name in enumerate(memory) if name not in scenario.controller_update]
+    lines += [f"    out[{i}] = c{i}" for i, _ in kept]
+    updated = [(i, name) for i, name in enumerate(memory) if name in scenario.controller_update]
+    if updated:
+        lines += assignments(
+            [scenario.controller_update[name] for _, name in updated],
+            [f"out[{i}]" for i, _ in updated],
+            names,
+            "    ",
+            temporaries="t_",
+        )
+    lines += ["    return None", "", "", "def control(y, c, p, t, k, out):", *head]
+    lines += assignments(
+        list(scenario.controller_inputs.values()),
+        [f"out[{j}]" for j in range(len(scenario.controller_inputs))],
+        names,
+        "    ",
+        temporaries="t_",
+    )
+    lines.append("    return None")
+    return "\n".join(lines) + "\n"
