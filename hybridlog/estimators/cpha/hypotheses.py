@@ -30,7 +30,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -183,6 +183,10 @@ class Hypothesis:
         Continuous estimate of all states (cross-cluster covariances are zero).
     y_pred:
         One-step-ahead output prediction of its clusters (NaN for outputs in none).
+    sources:
+        The cluster step that produced ``x``, ``P`` of each of its clusters, by the
+        cluster's state indices: lets successors find a shared step by identity
+        (:meth:`Tracker._evaluate`); empty when unknown.
     """
 
     assignment: Assignment
@@ -190,6 +194,7 @@ class Hypothesis:
     x: FloatArray
     P: FloatArray
     y_pred: FloatArray
+    sources: dict[tuple[int, ...], StepResult] = field(default_factory=dict)
 
 
 class Tracker:
@@ -242,6 +247,7 @@ class Tracker:
         self._successors: dict[Assignment, _Successors] = {}
         self._assignment_filters: dict[Assignment, tuple[int, ...]] = {}
         self._compiled: list[ClusterFilter] = []
+        self._state_keys: list[tuple[int, ...]] = []
         self._compiled_ids: dict[int, int] = {}
         self._layouts: dict[tuple[int, ...], _Layout] = {}
 
@@ -264,7 +270,7 @@ class Tracker:
     def successor(self, parent: Hypothesis, assignment: Assignment, k: int) -> Hypothesis:
         """The filtered successor of ``parent`` in ``assignment`` at step k (belief = log P_O)."""
         ids = self._filters_of(assignment)
-        log_po, results = self._evaluate(0, parent, ids, k, {}, [{}], {})
+        log_po, results = self._evaluate(0, parent, ids, k, {}, {}, [{}], {})
         return self._assemble(parent, assignment, ids, results, log_po)
 
     def _evaluate(
@@ -274,13 +280,16 @@ class Tracker:
         ids: tuple[int, ...],
         k: int,
         memo: dict[tuple[object, ...], StepResult],
+        shared: dict[tuple[int, int], StepResult],
         per_parent: list[dict[int, StepResult]],
         scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]],
     ) -> tuple[float, tuple[StepResult, ...]]:
         """``log P_O`` of the filter cluster ``ids`` from parent ``j`` (eq. (7)).
 
         ``per_parent[j]`` remembers parent j's cluster steps; ``memo`` shares a cluster step
-        between parents that hold the same estimate of that cluster; ``scored`` remembers
+        between parents that hold the same estimate (the same bytes) of that cluster, and
+        ``shared`` finds it faster when they hold it from the same earlier step object (the
+        parent's ``sources``: then the bytes are the same); ``scored`` remembers
         parent j's ``log P_O`` per cluster set (successors that differ only in modes that
         leave the clusters unchanged, e.g. unknown in either of two upstream components).
         """
@@ -294,6 +303,14 @@ class Tracker:
             result = steps.get(i)
             if result is None:
                 compiled = self._compiled[i]
+                source = parent.sources.get(self._state_keys[i])
+                if source is not None:
+                    result = shared.get((i, id(source)))
+                    if result is not None:
+                        steps[i] = result
+                        results.append(result)
+                        log_po += result.log_po
+                        continue
                 idx = compiled.states
                 x_parent = parent.x[idx]
                 P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
@@ -310,6 +327,8 @@ class Tracker:
                     )
                     memo[key] = result
                     self.filtered += 1
+                if source is not None:
+                    shared[(i, id(source))] = result
                 steps[i] = result
             results.append(result)
             log_po += result.log_po
@@ -335,6 +354,7 @@ class Tracker:
             if i is None:
                 i = self._compiled_ids[id(compiled)] = len(self._compiled)
                 self._compiled.append(compiled)
+                self._state_keys.append(tuple(compiled.states.tolist()))
             ids.append(i)
         found = tuple(ids)
         self._assignment_filters[assignment] = found
@@ -369,15 +389,17 @@ class Tracker:
         n = len(x)
         P_flat = np.zeros(n * n)
         y_pred = self._no_prediction.copy()
+        sources = {}
         for i, result in zip(ids, results, strict=True):
             compiled = self._compiled[i]
+            sources[self._state_keys[i]] = result
             x[compiled.states] = result.x
             P_flat[self._layout((i,)).block] = result.P.reshape(-1)
             y_pred[compiled.outputs] = result.y_pred
         P = P_flat.reshape(n, n)
         held = self._layout(ids).held
         P[held, held] = parent.P[held, held] * self.variance_growth
-        return Hypothesis(assignment, log_belief, x, P, y_pred)
+        return Hypothesis(assignment, log_belief, x, P, y_pred, sources)
 
     def _table(self, assignment: Assignment) -> _Successors:
         """The successor table out of ``assignment`` (built once per assignment)."""
@@ -393,6 +415,7 @@ class Tracker:
         tables = [self._table(h.assignment) for h in hypotheses]
         proposals = _Proposals(bases, tables)
         memo: dict[tuple[object, ...], StepResult] = {}
+        shared: dict[tuple[int, int], StepResult] = {}
         per_parent: list[dict[int, StepResult]] = [{} for _ in hypotheses]
         scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]] = {}
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
@@ -407,7 +430,9 @@ class Tracker:
             prior, j, code = item
             tried += 1
             ids = self._entry(tables[j], code)[1]
-            log_po, results = self._evaluate(j, hypotheses[j], ids, k, memo, per_parent, scored)
+            log_po, results = self._evaluate(
+                j, hypotheses[j], ids, k, memo, shared, per_parent, scored
+            )
             entry = (prior + log_po, tried, j, code, results)
             if len(best) < self.beam:
                 heapq.heappush(best, entry)
