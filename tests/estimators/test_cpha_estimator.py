@@ -159,3 +159,17 @@ def test_imm_runs_on_the_enumerated_joint_modes_and_agrees_where_it_should(model
     for result in (imm, beam):
         labels = np.array([result.mode_ids[i] for i in result.modes])
         assert np.mean(labels[settled] == np.array(joint.mode_ids)[truth[settled]]) >= 0.95
+
+
+def test_a_component_starting_unknown_starts_in_its_known_modes_when_unknown_is_off():
+    text = CPHA_EXAMPLE.replace(
+        '[components.A3]\nunknown = 0.001\ninitial = "m31"',
+        '[components.A3]\nunknown = 0.001\ninitial = "unknown"',
+    )
+    model = parse_model(text)
+    assert model.components[2].initial_mode_probabilities["unknown"] == 1.0
+    signals = cpha_log(model, 10, seed=1)
+    off = run_unknown_mode(model, signals, UnknownModeOptions(beam=4, unknown_mode=False))
+    assert all(label.endswith("|m31") for label in off.mode_ids)
+    on = run_unknown_mode(model, signals, UnknownModeOptions(beam=4))
+    assert on.mode_ids[on.modes[0]].endswith("|unknown")
