@@ -371,8 +371,14 @@ class Tracker:
                 idx = self._compiled[i].states
                 blocks.append((idx[:, None] * n + idx[None, :]).reshape(-1))
                 covered[idx] = True
-            block = np.concatenate(blocks) if blocks else np.zeros(0, np.int64)
-            found = _Layout(block, np.flatnonzero(~covered))
+            empty = np.zeros(0, np.int64)
+            found = _Layout(
+                np.concatenate([self._compiled[i].states for i in ids]) if ids else empty,
+                np.concatenate(blocks) if blocks else empty,
+                np.concatenate([self._compiled[i].outputs for i in ids]) if ids else empty,
+                np.flatnonzero(~covered),
+                tuple(self._state_keys[i] for i in ids),
+            )
             self._layouts[ids] = found
         return found
 
@@ -385,20 +391,20 @@ class Tracker:
         log_belief: float,
     ) -> Hypothesis:
         """The successor's full estimate: its clusters' results, the rest held (§3.1)."""
+        layout = self._layout(ids)
         x = parent.x.copy()
         n = len(x)
         P_flat = np.zeros(n * n)
         y_pred = self._no_prediction.copy()
-        sources = {}
-        for i, result in zip(ids, results, strict=True):
-            compiled = self._compiled[i]
-            sources[self._state_keys[i]] = result
-            x[compiled.states] = result.x
-            P_flat[self._layout((i,)).block] = result.P.reshape(-1)
-            y_pred[compiled.outputs] = result.y_pred
+        if results:
+            x[layout.states] = np.concatenate([result.x for result in results])
+            P_flat[layout.block] = np.concatenate([result.P.reshape(-1) for result in results])
+            y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
         P = P_flat.reshape(n, n)
-        held = self._layout(ids).held
-        P[held, held] = parent.P[held, held] * self.variance_growth
+        held = layout.held
+        if len(held):
+            P[held, held] = parent.P[held, held] * self.variance_growth
+        sources = dict(zip(layout.keys, results, strict=True))
         return Hypothesis(assignment, log_belief, x, P, y_pred, sources)
 
     def _table(self, assignment: Assignment) -> _Successors:
@@ -464,13 +470,18 @@ class Tracker:
 
 @dataclass(frozen=True)
 class _Layout:
-    """Where a set of clusters writes: its covariance blocks in the flattened full ``P``.
+    """Where the results of a set of clusters go, in cluster order.
 
-    ``block`` indexes the flattened ``P``; ``held`` are the states in none of the clusters.
+    ``states``, ``outputs``: their states and outputs in the full ``x`` and ``ŷ``; ``block``:
+    their covariance blocks in the flattened full ``P``; ``held``: the states in none of
+    them; ``keys``: each cluster's state indices (the keys of ``Hypothesis.sources``).
     """
 
+    states: IntArray
     block: IntArray
+    outputs: IntArray
     held: IntArray
+    keys: tuple[tuple[int, ...], ...]
 
 
 def _fallback(hypotheses: Sequence[Hypothesis]) -> list[Hypothesis]:
