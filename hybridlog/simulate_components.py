@@ -19,7 +19,9 @@ solves nothing.
 The scenario (:mod:`hybridlog.model.scenario`) gives each component's mode per step, the
 command values, unmodelled behaviours (their rows' true mode is ``unknown``) and the
 controller, which runs after the outputs of step k are measured and computes ``u(k)``.
-Process and measurement noise are Gaussian with the variances of the scheduled modes.
+Process and measurement noise are Gaussian with the variances of the scheduled modes; an
+unmodelled behaviour has no process noise (its equations are played as written) and keeps
+the sensor noise of the mode the schedule gives.
 """
 
 from __future__ import annotations
@@ -184,7 +186,9 @@ def simulate_components(
     joints: dict[tuple[str, ...], _Joint] = {}
     assignment = [
         tuple(
-            f"~{overrides[c.name][k]}" if overrides[c.name][k] >= 0 else labels[c.name][k]
+            f"~{overrides[c.name][k]}:{labels[c.name][k]}"
+            if overrides[c.name][k] >= 0
+            else labels[c.name][k]
             for c in model.components
         )
         for k in range(rows)
@@ -224,9 +228,9 @@ def simulate_components(
         else:
             joint.step(values_log[k - 1], parameters, now)
             now[state_slice] += joint.process_std * process_draws[k]
+        if controller is not None:  # u(k) is not known yet: the outputs do not depend on it
+            inputs[k, controlled] = inputs[k - 1, controlled] if k else 0.0
         now[input_slice] = inputs[k]
-        if controller is not None:
-            now[input_slice][controlled] = values_log[k - 1, input_slice][controlled] if k else 0.0
         joint.algebraic(now, parameters)
         measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
         if controller is not None:
@@ -259,8 +263,17 @@ def simulate_components(
 
 
 def _labels_of(joint: tuple[str, ...], model: HybridModel) -> dict[str, str]:
-    """Component → its entry of a joint assignment (a mode id, or ``~i`` for unmodelled i)."""
+    """Component → its entry of a joint assignment.
+
+    A mode id, or ``~i:<scheduled mode>`` while unmodelled behaviour i replaces the
+    component's equations.
+    """
     return {c.name: entry for c, entry in zip(model.components, joint, strict=True)}
+
+
+def _unmodelled_index(entry: str) -> int:
+    """``i`` of a joint-assignment entry ``~i:<scheduled mode>`` (unmodelled behaviour i)."""
+    return int(entry[1:].partition(":")[0])
 
 
 def _sorted(
@@ -344,7 +357,7 @@ def _joint_equations(
     for component in model.components:
         entry = joint[component.name]
         if entry.startswith("~"):
-            equations += scenario.unmodelled[int(entry[1:])].equations
+            equations += scenario.unmodelled[_unmodelled_index(entry)].equations
         else:
             equations += component.equations(entry)
     return equations
@@ -353,7 +366,9 @@ def _joint_equations(
 def _describe(joint: Mapping[str, str], scenario: Scenario) -> str:
     parts = []
     for name, entry in joint.items():
-        shown = scenario.unmodelled[int(entry[1:])].key if entry.startswith("~") else entry
+        shown = (
+            scenario.unmodelled[_unmodelled_index(entry)].key if entry.startswith("~") else entry
+        )
         parts.append(f"{name}={shown}")
     return "{" + ", ".join(parts) + "}"
 
@@ -376,11 +391,13 @@ def _compile_joint(
     measurement = np.zeros(model.n_outputs)
     for component in model.components:
         entry = joint[component.name]
-        if entry.startswith("~"):  # the noise of the mode the schedule gives
-            continue
-        mode = component.mode(entry)
+        unmodelled = entry.startswith("~")
+        # An unmodelled behaviour is played as written (no process noise); its outputs keep
+        # the sensor noise of the mode the schedule gives.
+        mode = component.mode(entry.partition(":")[2] if unmodelled else entry)
         for name, variance in mode.process_noise.items():
-            process[model.states.index(name)] = variance
+            if not unmodelled:
+                process[model.states.index(name)] = variance
         for name, variance in mode.measurement_noise.items():
             measurement[model.outputs.index(name)] = variance
     return _Joint(

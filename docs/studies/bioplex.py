@@ -48,7 +48,7 @@ from hybridlog.io.load import SignalSpec
 from hybridlog.model.cache import load_model
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import AlignedSignals, FloatArray
 from hybridlog.simulate_components import ComponentsLog, simulate_components
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -150,15 +150,84 @@ def co2_table(path: Path, times: Mapping[str, float]) -> str:
     return "\n".join(lines)
 
 
+def truth_of(path: Path, model: HybridModel) -> dict[str, list[str]]:
+    """The true mode of every component per row of a simulated log (``mode.<component>``)."""
+    import polars as pl
+
+    frame = pl.read_csv(path)
+    return {c.name: frame[f"mode.{c.name}"].to_list() for c in model.components}
+
+
+def agreement(
+    model: HybridModel,
+    runs: Sequence[tuple[Mapping[str, Sequence[str]], Mapping[str, Sequence[str]]]],
+    drift: range,
+) -> str:
+    """Markdown: per component, estimated modes in the drift window and errors elsewhere."""
+    lines = [
+        "| component | estimated modes in the drift window | steps ≠ truth outside it |",
+        "|---|---|---|",
+    ]
+    for component in model.components:
+        counts: Counter[str] = Counter()
+        wrong = total = 0
+        for modes, truth in runs:
+            labels, true = modes[component.name], truth[component.name]
+            counts.update(labels[k] for k in drift)
+            outside = [k for k in range(len(labels)) if k not in drift]
+            wrong += sum(1 for k in outside if labels[k] != true[k])
+            total += len(outside)
+        share = ", ".join(
+            f"{mode} {100.0 * n / sum(counts.values()):.1f} %" for mode, n in counts.most_common()
+        )
+        lines.append(
+            f"| {component.name} | {share} | {wrong} of {total} ({100.0 * wrong / total:.2f} %) |"
+        )
+    return "\n".join(lines)
+
+
+def regulator_table(
+    rows: Sequence[tuple[str, EstimationResult, EstimationResult, FloatArray]],
+    model: HybridModel,
+    drift: range,
+) -> str:
+    """Markdown: regulator 2 with and without the unknown mode, run by run.
+
+    First step of ``stuck_open`` in the drift window, and the RMS error of the estimated flow
+    ``xc2`` (the mean of the most likely hypothesis) against the true flow over the window.
+    """
+    index = model.states.index("xc2")
+    lines = [
+        "| run | stuck_open from (with unknown) | without unknown | "
+        "RMS error of xc2 [g/min], with | without |",
+        "|---|---|---|---|---|",
+    ]
+    for name, on, off, truth in rows:
+        cells = []
+        for result in (on, off):
+            labels = component_modes(model, result)["fr2"]
+            cells.append(shown(first(labels, "stuck_open", drift.start, drift.stop)))
+        errors = [
+            float(np.sqrt(np.mean((r.state_means[drift, index] - truth[drift]) ** 2)))
+            for r in (on, off)
+        ]
+        lines.append(f"| {name} | {cells[0]} | {cells[1]} | {errors[0]:.3f} | {errors[1]:.3f} |")
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Print the study's tables (module doc)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="number of seeds (0..N-1)")
+    parser.add_argument(
+        "--off-seeds", type=int, default=3, help="seeds also run without the unknown mode"
+    )
     parser.add_argument("--beam", type=int, default=20, help="beam width of unknown-mode")
     args = parser.parse_args(argv)
     model = load_model("bioplex_pgc")
     assert model.scenario is not None
     times = model.scenario.parameter_values()
+    drift = range(int(times["drift_start"]), int(times["drift_end"]))
     print(f"# BIO-Plex study: unknown-mode, beam {args.beam}\n")
 
     # 0. The plant under its controller: true CO2 on the sample log, by phase.
@@ -166,31 +235,42 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     # 1. The sample log, read as a user's log.
     signals = load_signals(SAMPLE, SignalSpec.of(model))
-    start = time.perf_counter()
+    sample_truth = truth_of(SAMPLE, model)
     result = estimate(model, signals, beam=args.beam)
-    seconds = time.perf_counter() - start
-    sample = detections(component_modes(model, result), times)
-    print(f"Sample log {SAMPLE.name} ({signals.n_samples} samples): {seconds:.1f} s\n")
-    print(f"notes: {'; '.join(result.notes)}\n")
+    sample_modes = component_modes(model, result)
+    sample = detections(sample_modes, times)
+    print(f"Sample log: {signals.n_samples} samples, estimator loop {result.runtime_s:.2f} s")
+    print(f"({'; '.join(result.notes)})\n")
+    sample_off_result = estimate(model, signals, beam=args.beam, unknown_mode=False)
+    sample_off = component_modes(model, sample_off_result)
+    import polars as pl
+
+    regulator_rows = [("sample", result, sample_off_result, pl.read_csv(SAMPLE)["xc2"].to_numpy())]
 
     # 2. Seeds.
     start = time.perf_counter()
     per_seed: dict[str, list[int | None]] = {event: [] for event in EVENTS}
-    off_runs: list[dict[str, list[str]]] = []
-    truths: list[ComponentsLog] = []
+    on_runs = [(sample_modes, sample_truth)]
+    off_runs = [(sample_off, sample_truth)]
+    runtimes = []
     for seed in range(args.seeds):
         log = simulate_components(model, seed=seed)
-        truths.append(log)
+        truth = {name: list(labels) for name, labels in log.modes.items()}
         seed_signals = signals_of(model, log, f"seed {seed}")
-        found = detections(
-            component_modes(model, estimate(model, seed_signals, beam=args.beam)), times
-        )
+        on = estimate(model, seed_signals, beam=args.beam)
+        runtimes.append(on.runtime_s)
+        modes = component_modes(model, on)
+        on_runs.append((modes, truth))
+        found = detections(modes, times)
         for event in EVENTS:
             per_seed[event].append(found[event])
-        off = estimate(model, seed_signals, beam=args.beam, unknown_mode=False)
-        off_runs.append(component_modes(model, off))
+        if seed < args.off_seeds:
+            off = estimate(model, seed_signals, beam=args.beam, unknown_mode=False)
+            off_runs.append((component_modes(model, off), truth))
+            regulator_rows.append((f"seed {seed}", on, off, log.states[:, 1]))
         print(f"seed {seed}: {found} ({time.perf_counter() - start:.0f} s)", file=sys.stderr)
 
+    print(f"Seeds 0..{args.seeds - 1}: estimator loop median {np.median(runtimes):.2f} s a run\n")
     print("| event | paper | sample log | median over seeds | min – max | detected |")
     print("|---|---|---|---|---|---|")
     for event in EVENTS:
@@ -201,27 +281,34 @@ def main(argv: Sequence[str] | None = None) -> None:
             f"| {event} | {PAPER[event]} | {shown(sample[event])} | {shown(median)} | "
             f"{spread} | {len(found_times)}/{args.seeds} |"
         )
+    print("\nPer run (sample log first); the last columns count the steps outside the drift")
+    print("window whose estimated mode differs from the true one:\n")
+    components = [c.name for c in model.components]
+    print("| run | " + " | ".join([*EVENTS, *(f"{c} ≠ truth" for c in components)]) + " |")
+    print("|---|" + "---|" * (len(EVENTS) + len(components)))
+    names = ["sample", *(f"seed {seed}" for seed in range(args.seeds))]
+    found_all = [sample, *({e: per_seed[e][seed] for e in EVENTS} for seed in range(args.seeds))]
+    for name, found, (modes, truth) in zip(names, found_all, on_runs, strict=True):
+        wrong = [
+            sum(1 for k in range(len(truth[c])) if k not in drift and modes[c][k] != truth[c][k])
+            for c in components
+        ]
+        cells = [shown(found[e]) for e in EVENTS] + [str(w) for w in wrong]
+        print(f"| {name} | " + " | ".join(cells) + " |")
 
-    # 3. Without the unknown mode: what explains the drift (rows drift_start..drift_end).
-    drift = range(int(times["drift_start"]), int(times["drift_end"]))
+    # 3. With and without the unknown mode: what explains the drift, and errors elsewhere.
     print(
-        "\nWithout the unknown mode (unknown_mode = false), steps of the drift window "
-        f"{drift.start}..{drift.stop - 1} by estimated mode, summed over {args.seeds} seeds:\n"
+        f"\nWith the unknown mode, drift window {drift.start}..{drift.stop - 1} (true mode of "
+        f"fr2: unknown), the sample log and {args.seeds} seeds:\n"
     )
-    print("| component | estimated modes in the drift window | wrong outside it |")
-    print("|---|---|---|")
-    for component in model.components:
-        counts: Counter[str] = Counter()
-        wrong = 0
-        for modes, truth in zip(off_runs, truths, strict=True):
-            labels = modes[component.name]
-            counts.update(labels[k] for k in drift)
-            true = truth.modes[component.name]
-            wrong += sum(1 for k in range(len(labels)) if k not in drift and labels[k] != true[k])
-        share = ", ".join(
-            f"{mode} {100.0 * n / sum(counts.values()):.1f} %" for mode, n in counts.most_common()
-        )
-        print(f"| {component.name} | {share} | {wrong} steps |")
+    print(agreement(model, on_runs, drift))
+    print(
+        f"\nWithout the unknown mode (unknown_mode = false), the sample log and "
+        f"{args.off_seeds} seeds:\n"
+    )
+    print(agreement(model, off_runs, drift))
+    print("\nRegulator 2 in the drift window, with and without the unknown mode:\n")
+    print(regulator_table(regulator_rows, model, drift))
 
 
 if __name__ == "__main__":

@@ -30,11 +30,13 @@ component, when it changes mode, and adds what the model does not contain::
 
 Steps are integers or names of ``[simulation.parameters]``, so a hidden scenario can move a
 fault with ``--set``.  An unmodelled behaviour replaces the component's equations from
-``start`` to ``end`` (exclusive); its true mode is ``unknown`` (paper 002 §3) and its noise
-is that of the mode the schedule gives.  The controller runs once per step after the outputs
-are measured: ``update`` computes its memory at step k from the memory at k−1 and the
-measured outputs ``y(k)``; ``inputs`` then computes ``u(k)`` from ``y(k)`` and the new memory
-(names of outputs, controller states, model and scenario parameters, ``t`` and ``k``).
+``start`` to ``end`` (exclusive); its true mode is ``unknown`` (paper 002 §3).  Its
+equations are played as written (no process noise: a drift stays a ramp, not a random
+walk); its outputs keep the sensor noise of the mode the schedule gives.  The controller runs
+once per step after the outputs are measured: ``update`` computes its memory at step k from
+the memory at k−1 and the measured outputs ``y(k)``; ``inputs`` then computes ``u(k)`` from
+``y(k)`` and the new memory (names of outputs, controller states, model and scenario
+parameters, ``t`` and ``k``).
 
 This module holds the data and its validation; :mod:`hybridlog.simulate_components` plays it.
 """

@@ -132,19 +132,19 @@ class ClusterFilter:
             *y_now[self.virtual].tolist(),
             *y_now[self.outputs].tolist(),
         )
-        out = np.asarray(values, dtype=np.float64)
         n_p = len(rows)
-        minors = out[n + n_p + m : n + n_p + 2 * m]
-        if not np.all(minors > 0.0):
+        if not all(float(minor) > 0.0 for minor in values[n + n_p + m : n + n_p + 2 * m]):
             return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
-        x_new = out[:n].copy()
+        x_new = np.array(values[:n], dtype=np.float64)
+        upper = np.array(values[n : n + n_p], dtype=np.float64)
         P_new = np.empty((n, n))
-        P_new[rows, cols] = out[n : n + n_p]
-        P_new[cols, rows] = out[n : n + n_p]
-        log_po = float(out[-1])
+        P_new[rows, cols] = upper
+        P_new[cols, rows] = upper
+        log_po = float(values[-1])
         if not math.isfinite(log_po):
             log_po = -math.inf
-        return StepResult(x_new, P_new, out[n + n_p : n + n_p + m].copy(), log_po)
+        y_pred = np.array(values[n + n_p : n + n_p + m], dtype=np.float64)
+        return StepResult(x_new, P_new, y_pred, log_po)
 
     def step_numeric(
         self,

@@ -30,7 +30,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -80,6 +80,58 @@ class TransitionTable:
         return [table[mode] for table, mode in zip(self._table, assignment, strict=True)]
 
 
+_Entry = tuple[Assignment, tuple[int, ...]]
+"""A successor's assignment and the ids of its clusters' filters (:meth:`Tracker._filters_of`)."""
+
+
+class _Successors:
+    """The successors out of one joint assignment, shared by every parent holding it.
+
+    ``lists[c]`` are component c's sorted ``(log P_T, target)``.  A rank vector ``r`` (one
+    rank per component) is coded as the integer ``Σ_c r_c · stride_c``; its children (one
+    rank incremented) and its assignment are derived once per code and kept.
+    """
+
+    def __init__(self, lists: Sequence[Sequence[tuple[float, str]]]) -> None:
+        self.lists = lists
+        self.empty = any(not options for options in lists)
+        self.first = sum(o[0][0] for o in lists) if not self.empty else -math.inf
+        strides = []
+        stride = 1
+        for options in lists:
+            strides.append(stride)
+            stride *= max(len(options), 1)
+        self.strides = tuple(strides)
+        self._children: dict[int, tuple[tuple[tuple[float, int, int], ...], ...]] = {}
+        self.entries: dict[int, _Entry] = {}
+
+    def ranks(self, code: int) -> tuple[int, ...]:
+        """The rank vector of ``code``."""
+        return tuple(
+            (code // stride) % max(len(options), 1)
+            for stride, options in zip(self.strides, self.lists, strict=True)
+        )
+
+    def children(self, code: int, last: int) -> tuple[tuple[float, int, int], ...]:
+        """``(Δ score, child code, c)`` of the children incrementing a rank at ``c >= last``."""
+        found = self._children.get(code)
+        if found is None:
+            ranks = self.ranks(code)
+            kids = []
+            for c, (r, options) in enumerate(zip(ranks, self.lists, strict=True)):
+                if r + 1 < len(options):
+                    kids.append((options[r + 1][0] - options[r][0], code + self.strides[c], c))
+            found = tuple(
+                tuple(kid for kid in kids if kid[2] >= start) for start in range(len(ranks))
+            )
+            self._children[code] = found
+        return found[last]
+
+    def assignment(self, code: int) -> Assignment:
+        """The joint assignment of ``code``."""
+        return tuple(options[r][1] for options, r in zip(self.lists, self.ranks(code), strict=True))
+
+
 class _Proposals:
     """Best-first enumeration of ``base_j + Σ_c lists[j][c][r_c]`` over parents and ranks.
 
@@ -87,41 +139,34 @@ class _Proposals:
     incremented position (each rank vector has one parent in this tree).
     """
 
-    def __init__(
-        self, bases: Sequence[float], lists: Sequence[Sequence[Sequence[tuple[float, str]]]]
-    ) -> None:
-        self.lists = lists
-        self.heap: list[tuple[float, int, int, tuple[int, ...], int]] = []
+    def __init__(self, bases: Sequence[float], successors: Sequence[_Successors]) -> None:
+        self.successors = successors
+        self.heap: list[tuple[float, int, int, int, int]] = []
         self.counter = 0
-        for j, (base, per_component) in enumerate(zip(bases, lists, strict=True)):
-            if any(not options for options in per_component) or not math.isfinite(base):
+        for j, (base, table) in enumerate(zip(bases, successors, strict=True)):
+            if table.empty or not math.isfinite(base):
                 continue
-            ranks = (0,) * len(per_component)
-            self._push(base + sum(o[0][0] for o in per_component), j, ranks, 0)
-
-    def _push(self, score: float, j: int, ranks: tuple[int, ...], last: int) -> None:
-        self.counter += 1
-        heapq.heappush(self.heap, (-score, self.counter, j, ranks, last))
+            self.counter += 1
+            self.heap.append((-(base + table.first), self.counter, j, 0, 0))
+        heapq.heapify(self.heap)
 
     def peek(self) -> float:
         """The score of the next proposal (``-inf`` when there is none)."""
         return -self.heap[0][0] if self.heap else -math.inf
 
-    def pop(self) -> tuple[float, int, Assignment] | None:
-        """The next best ``(score, parent, assignment)``, or None when exhausted."""
+    def pop(self) -> tuple[float, int, int] | None:
+        """The next best ``(score, parent, rank code)``, or None when exhausted."""
         if not self.heap:
             return None
-        negative, _, j, ranks, last = heapq.heappop(self.heap)
+        heap = self.heap
+        negative, _, j, code, last = heapq.heappop(heap)
         score = -negative
-        per_component = self.lists[j]
-        for c in range(last, len(ranks)):
-            r = ranks[c]
-            if r + 1 < len(per_component[c]):
-                child = (*ranks[:c], r + 1, *ranks[c + 1 :])
-                delta = per_component[c][r + 1][0] - per_component[c][r][0]
-                self._push(score + delta, j, child, c)
-        assignment = tuple(per_component[c][r][1] for c, r in enumerate(ranks))
-        return score, j, assignment
+        counter = self.counter
+        for delta, child, c in self.successors[j].children(code, last):
+            counter += 1
+            heapq.heappush(heap, (-(score + delta), counter, j, child, c))
+        self.counter = counter
+        return score, j, code
 
 
 @dataclass
@@ -138,6 +183,10 @@ class Hypothesis:
         Continuous estimate of all states (cross-cluster covariances are zero).
     y_pred:
         One-step-ahead output prediction of its clusters (NaN for outputs in none).
+    sources:
+        The cluster step that produced ``x``, ``P`` of each of its clusters, by the
+        cluster's state indices: lets successors find a shared step by identity
+        (:meth:`Tracker._evaluate`); empty when unknown.
     """
 
     assignment: Assignment
@@ -145,6 +194,7 @@ class Hypothesis:
     x: FloatArray
     P: FloatArray
     y_pred: FloatArray
+    sources: dict[tuple[int, ...], StepResult] = field(default_factory=dict)
 
 
 class Tracker:
@@ -190,54 +240,81 @@ class Tracker:
         self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
         self.filtered = 0
         self.proposed = 0
-        self._blocks: dict[int, IntArray] = {}
         self.n_states = len(structure.names.states)
         self._no_prediction = np.full(outputs.shape[1], np.nan)
-        self._held: dict[tuple[int, ...], IntArray] = {}
-        self._assignment_filters: dict[Assignment, list[tuple[ClusterFilter, IntArray]]] = {}
+        # Per mode assignment (kept across steps): its successor table, its clusters' filters
+        # (by small integer ids), and per cluster set the indices its results are written to.
+        self._successors: dict[Assignment, _Successors] = {}
+        self._assignment_filters: dict[Assignment, tuple[int, ...]] = {}
+        self._compiled: list[ClusterFilter] = []
+        self._state_keys: list[tuple[int, ...]] = []
+        self._compiled_ids: dict[int, int] = {}
+        self._layouts: dict[tuple[int, ...], _Layout] = {}
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
-        proposals = _Proposals([0.0], [self.transitions.initial])
+        initial = _Successors(self.transitions.initial)
+        proposals = _Proposals([0.0], [initial])
         hypotheses: list[Hypothesis] = []
         nan = np.full(self.outputs.shape[1], np.nan)
         while len(hypotheses) < self.beam:
             item = proposals.pop()
             if item is None:
                 break
-            score, _, assignment = item
+            score, _, code = item
+            assignment = initial.assignment(code)
             hypotheses.append(Hypothesis(assignment, score, x0.copy(), P0.copy(), nan))
         _normalise(hypotheses)
         return hypotheses
 
     def successor(self, parent: Hypothesis, assignment: Assignment, k: int) -> Hypothesis:
         """The filtered successor of ``parent`` in ``assignment`` at step k (belief = log P_O)."""
-        log_po, results = self._evaluate(0, parent, assignment, k, {}, {})
-        return self._assemble(parent, assignment, results, log_po)
+        ids = self._filters_of(assignment)
+        log_po, results = self._evaluate(0, parent, ids, k, {}, {}, [{}], {})
+        return self._assemble(parent, assignment, ids, results, log_po)
 
     def _evaluate(
         self,
         j: int,
         parent: Hypothesis,
-        assignment: Assignment,
+        ids: tuple[int, ...],
         k: int,
         memo: dict[tuple[object, ...], StepResult],
-        per_parent: dict[tuple[int, int], StepResult],
-    ) -> tuple[float, list[tuple[ClusterFilter, StepResult]]]:
-        """``log P_O`` of the filter cluster of ``assignment`` from parent ``j`` (eq. (7)).
+        shared: dict[tuple[int, int], StepResult],
+        per_parent: list[dict[int, StepResult]],
+        scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]],
+    ) -> tuple[float, tuple[StepResult, ...]]:
+        """``log P_O`` of the filter cluster ``ids`` from parent ``j`` (eq. (7)).
 
-        ``per_parent`` remembers each parent's cluster steps; ``memo`` shares a cluster step
-        between parents that hold the same estimate of that cluster.
+        ``per_parent[j]`` remembers parent j's cluster steps; ``memo`` shares a cluster step
+        between parents that hold the same estimate (the same bytes) of that cluster, and
+        ``shared`` finds it faster when they hold it from the same earlier step object (the
+        parent's ``sources``: then the bytes are the same); ``scored`` remembers
+        parent j's ``log P_O`` per cluster set (successors that differ only in modes that
+        leave the clusters unchanged, e.g. unknown in either of two upstream components).
         """
+        found = scored.get((j, ids))
+        if found is not None:
+            return found
         log_po = 0.0
         results = []
-        for compiled, block in self._filters_of(assignment):
-            result = per_parent.get((j, id(compiled)))
+        steps = per_parent[j]
+        for i in ids:
+            result = steps.get(i)
             if result is None:
+                compiled = self._compiled[i]
+                source = parent.sources.get(self._state_keys[i])
+                if source is not None:
+                    result = shared.get((i, id(source)))
+                    if result is not None:
+                        steps[i] = result
+                        results.append(result)
+                        log_po += result.log_po
+                        continue
                 idx = compiled.states
                 x_parent = parent.x[idx]
-                P_parent = parent.P.reshape(-1)[block]
-                key = (id(compiled), x_parent.tobytes(), P_parent.tobytes())
+                P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
+                key = (i, x_parent.tobytes(), P_parent.tobytes())
                 result = memo.get(key)
                 if result is None:
                     result = compiled.step(
@@ -250,13 +327,17 @@ class Tracker:
                     )
                     memo[key] = result
                     self.filtered += 1
-                per_parent[(j, id(compiled))] = result
-            results.append((compiled, result))
+                if source is not None:
+                    shared[(i, id(source))] = result
+                steps[i] = result
+            results.append(result)
             log_po += result.log_po
-        return log_po, results
+        found = (log_po, tuple(results))
+        scored[(j, ids)] = found
+        return found
 
-    def _filters_of(self, assignment: Assignment) -> list[tuple[ClusterFilter, IntArray]]:
-        """The compiled filters of the assignment's clusters and their covariance blocks.
+    def _filters_of(self, assignment: Assignment) -> tuple[int, ...]:
+        """The ids of the compiled filters of the assignment's clusters, in cluster order.
 
         Looked up in the caches once per assignment; later uses count as cache hits.
         """
@@ -266,61 +347,85 @@ class Tracker:
             self.filters.hits += len(found)
             return found
         decomposition = self.structure.get(assignment)
-        found = []
+        ids = []
         for cluster in decomposition.clusters:
             compiled = self.filters.get(cluster)
-            found.append((compiled, self._block(compiled)))
+            i = self._compiled_ids.get(id(compiled))
+            if i is None:
+                i = self._compiled_ids[id(compiled)] = len(self._compiled)
+                self._compiled.append(compiled)
+                self._state_keys.append(tuple(compiled.states.tolist()))
+            ids.append(i)
+        found = tuple(ids)
         self._assignment_filters[assignment] = found
         return found
 
-    def _block(self, compiled: ClusterFilter) -> IntArray:
-        """Indices of the cluster's covariance block in the flattened full ``P``."""
-        block = self._blocks.get(id(compiled))
-        if block is None:
+    def _layout(self, ids: tuple[int, ...]) -> _Layout:
+        """Where the results of the filters ``ids`` go in the full ``x``, ``P`` and ``ŷ``."""
+        found = self._layouts.get(ids)
+        if found is None:
             n = self.n_states
-            idx = compiled.states
-            block = (idx[:, None] * n + idx[None, :]).reshape(-1)
-            self._blocks[id(compiled)] = block
-        return block
+            covered = np.zeros(n, dtype=bool)
+            blocks = []
+            for i in ids:
+                idx = self._compiled[i].states
+                blocks.append((idx[:, None] * n + idx[None, :]).reshape(-1))
+                covered[idx] = True
+            empty = np.zeros(0, np.int64)
+            found = _Layout(
+                np.concatenate([self._compiled[i].states for i in ids]) if ids else empty,
+                np.concatenate(blocks) if blocks else empty,
+                np.concatenate([self._compiled[i].outputs for i in ids]) if ids else empty,
+                np.flatnonzero(~covered),
+                tuple(self._state_keys[i] for i in ids),
+            )
+            self._layouts[ids] = found
+        return found
 
     def _assemble(
         self,
         parent: Hypothesis,
         assignment: Assignment,
-        results: Sequence[tuple[ClusterFilter, StepResult]],
+        ids: tuple[int, ...],
+        results: Sequence[StepResult],
         log_belief: float,
     ) -> Hypothesis:
         """The successor's full estimate: its clusters' results, the rest held (§3.1)."""
+        layout = self._layout(ids)
         x = parent.x.copy()
         n = len(x)
         P_flat = np.zeros(n * n)
         y_pred = self._no_prediction.copy()
-        for compiled, result in results:
-            x[compiled.states] = result.x
-            P_flat[self._block(compiled)] = result.P.reshape(-1)
-            y_pred[compiled.outputs] = result.y_pred
+        if results:
+            x[layout.states] = np.concatenate([result.x for result in results])
+            P_flat[layout.block] = np.concatenate([result.P.reshape(-1) for result in results])
+            y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
         P = P_flat.reshape(n, n)
-        covering = tuple(id(compiled) for compiled, _ in results)
-        held = self._held.get(covering)
-        if held is None:
-            covered = np.zeros(n, dtype=bool)
-            for compiled, _ in results:
-                covered[compiled.states] = True
-            held = np.flatnonzero(~covered)
-            self._held[covering] = held
-        P[held, held] = parent.P[held, held] * self.variance_growth
-        return Hypothesis(assignment, log_belief, x, P, y_pred)
+        held = layout.held
+        if len(held):
+            P[held, held] = parent.P[held, held] * self.variance_growth
+        sources = dict(zip(layout.keys, results, strict=True))
+        return Hypothesis(assignment, log_belief, x, P, y_pred, sources)
+
+    def _table(self, assignment: Assignment) -> _Successors:
+        """The successor table out of ``assignment`` (built once per assignment)."""
+        found = self._successors.get(assignment)
+        if found is None:
+            found = _Successors(self.transitions.successors(assignment))
+            self._successors[assignment] = found
+        return found
 
     def step(self, hypotheses: Sequence[Hypothesis], k: int) -> list[Hypothesis]:
         """Eqs. (4)–(5) at step k: the ``beam`` best filtered successors, normalised."""
         bases = [h.log_belief for h in hypotheses]
-        lists = [self.transitions.successors(h.assignment) for h in hypotheses]
-        proposals = _Proposals(bases, lists)
+        tables = [self._table(h.assignment) for h in hypotheses]
+        proposals = _Proposals(bases, tables)
         memo: dict[tuple[object, ...], StepResult] = {}
-        per_parent: dict[tuple[int, int], StepResult] = {}
-        # min-heap of the beam best: (score, order, parent, assignment, cluster results)
-        best: list[tuple[float, int, int, Assignment, list[tuple[ClusterFilter, StepResult]]]]
-        best = []
+        shared: dict[tuple[int, int], StepResult] = {}
+        per_parent: list[dict[int, StepResult]] = [{} for _ in hypotheses]
+        scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]] = {}
+        # min-heap of the beam best: (score, order, parent, rank code, cluster results)
+        best: list[tuple[float, int, int, int, tuple[StepResult, ...]]] = []
         tried = 0
         while tried < self.candidates:
             if len(best) >= self.beam and proposals.peek() <= best[0][0]:
@@ -328,21 +433,55 @@ class Tracker:
             item = proposals.pop()
             if item is None:
                 break
-            prior, j, assignment = item
+            prior, j, code = item
             tried += 1
-            self.proposed += 1
-            log_po, results = self._evaluate(j, hypotheses[j], assignment, k, memo, per_parent)
-            entry = (prior + log_po, tried, j, assignment, results)
+            ids = self._entry(tables[j], code)[1]
+            log_po, results = self._evaluate(
+                j, hypotheses[j], ids, k, memo, shared, per_parent, scored
+            )
+            entry = (prior + log_po, tried, j, code, results)
             if len(best) < self.beam:
                 heapq.heappush(best, entry)
             elif entry[0] > best[0][0]:
                 heapq.heapreplace(best, entry)
+        self.proposed += tried
         best.sort(key=lambda e: (-e[0], e[1]))
-        kept = [self._assemble(hypotheses[j], a, r, score) for score, _, j, a, r in best]
+        kept = []
+        for score, _, j, code, results in best:
+            assignment, ids = tables[j].entries[code]
+            kept.append(self._assemble(hypotheses[j], assignment, ids, results, score))
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
             return _fallback(hypotheses)
         _normalise(kept)
         return kept
+
+    def _entry(self, table: _Successors, code: int) -> _Entry:
+        """The assignment of ``code`` in ``table`` and its filters (looked up once)."""
+        found = table.entries.get(code)
+        if found is None:
+            assignment = table.assignment(code)
+            found = (assignment, self._filters_of(assignment))
+            table.entries[code] = found
+        else:
+            self.structure.hits += 1
+            self.filters.hits += len(found[1])
+        return found
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where the results of a set of clusters go, in cluster order.
+
+    ``states``, ``outputs``: their states and outputs in the full ``x`` and ``ŷ``; ``block``:
+    their covariance blocks in the flattened full ``P``; ``held``: the states in none of
+    them; ``keys``: each cluster's state indices (the keys of ``Hypothesis.sources``).
+    """
+
+    states: IntArray
+    block: IntArray
+    outputs: IntArray
+    held: IntArray
+    keys: tuple[tuple[int, ...], ...]
 
 
 def _fallback(hypotheses: Sequence[Hypothesis]) -> list[Hypothesis]:

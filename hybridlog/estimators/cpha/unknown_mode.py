@@ -134,6 +134,8 @@ def run_unknown_mode(
         np.array(model.initial_covariance, dtype=np.float64),
     )
     labels: dict[Assignment, int] = {}
+    # per assignment: its label index and its components in the unknown mode
+    known: dict[Assignment, tuple[int, tuple[int, ...]]] = {}
     rows: list[list[tuple[int, float]]] = []
     best: list[Hypothesis] = []
     p_unknown = np.zeros((n, len(components)))
@@ -141,13 +143,21 @@ def run_unknown_mode(
         if k > 0:
             hypotheses = tracker.step(hypotheses, k)
         row: dict[int, float] = {}
-        for h in hypotheses:
-            j = labels.setdefault(h.assignment, len(labels))
-            belief = float(np.exp(h.log_belief))
+        beliefs = np.exp([h.log_belief for h in hypotheses]).tolist()
+        p_row = p_unknown[k].tolist()
+        for h, belief in zip(hypotheses, beliefs, strict=True):
+            found = known.get(h.assignment)
+            if found is None:
+                unknown = tuple(c for c, mode in enumerate(h.assignment) if mode == UNKNOWN)
+                found = known[h.assignment] = (
+                    labels.setdefault(h.assignment, len(labels)),
+                    unknown,
+                )
+            j, unknown = found
             row[j] = row.get(j, 0.0) + belief
-            for c, mode in enumerate(h.assignment):
-                if mode == UNKNOWN:
-                    p_unknown[k, c] += belief
+            for c in unknown:
+                p_row[c] += belief
+        p_unknown[k] = p_row
         rows.append(list(row.items()))
         best.append(max(hypotheses, key=lambda h: h.log_belief))
     compile_s = structure.seconds + filters.seconds - compiling
