@@ -22,9 +22,12 @@ def test_changing_smooth_redoes_the_logs_and_the_same_flag_skips_them(tmp_path: 
     assert report["smoothing"]["method"] and report["options"]["smooth"] is True
     assert report["batch"]["settings"]["options"]["smooth"] is True
     assert set(again(smooth=True).values()) == {"skipped"}
+    summary = (out / "summary.md").read_text().splitlines()[0]
+    assert summary == f"# Batch: {TANK} · imm · {report['smoothing']['method']}, argmax"
     # --set smooth=true is the same run as --smooth
     assert set(again(sets=["smooth=true"]).values()) == {"skipped"}
     assert set(again(smooth=True, mode_sequence="viterbi").values()) == {"done"}
     assert set(again(smooth=True, mode_sequence="viterbi").values()) == {"skipped"}
     assert set(again().values()) == {"done"}
     assert "smoothing" not in json.loads((out / "s1.csv" / "report.json").read_text())
+    assert (out / "summary.md").read_text().startswith(f"# Batch: {TANK} · imm\n")
