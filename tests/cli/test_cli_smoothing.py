@@ -106,3 +106,6 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
     row = table.filter(pl.col("estimator") == "imm")
     assert row["filtered_mode_accuracy"][0] == pytest.approx(imm.filtered.mode_accuracy)
     assert row["mode_accuracy"][0] == pytest.approx(done.reports["imm"].modes.accuracy)
+    assert row["smoothing"][0] == f"{imm.method}, argmax"
+    if done.reports["hstf"].smoothing is None:  # hstf has no smoother (yet)
+        assert table.filter(pl.col("estimator") == "hstf")["smoothing"][0] == "none"
