@@ -40,8 +40,8 @@ RTS steps per sample; this one ``n_q``.  Nonlinear modes are linearised where th
 IMM linearised them (at ``x̂⁰_j``).  The covariance above equals ``P⁰ + J(P^s − P^-)Jᵀ``
 for this ``J`` and is a sum of congruences of PSD matrices, so it stays PSD up to rounding;
 every covariance is symmetrised.  Mode probabilities are combined in log space and
-renormalised at every step.  At the last sample the smoothed estimate is the filtered one.  A mode whose ``P^-_j`` is not
-positive definite gets ``J_j = 0``.
+renormalised at every step.  At the last sample the smoothed estimate is the filtered one.
+A mode whose ``P^-_j`` is not positive definite gets ``J_j = 0``.
 
 Guard: the exact RTS step has ``P^s_j(k+1) ≤ P^-_j`` (the smoothed estimate is no wider than
 the prediction).  The collapsed mixture ``P^s_j(k+1)`` holds the spread between the next
