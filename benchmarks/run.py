@@ -40,7 +40,16 @@ from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
 RESULTS = Path(__file__).resolve().parent / "results.md"
-BENCHMARKS = ("three_tank", "compile", "filterpy", "clustering", "read", "analyze", "batch")
+BENCHMARKS = (
+    "three_tank",
+    "compile",
+    "filterpy",
+    "clustering",
+    "read",
+    "analyze",
+    "batch",
+    "smoothing",
+)
 
 HSTF_TARGET_S = 3.0
 """10^6 HSTF steps on the three-tank model must take less than this."""
@@ -443,6 +452,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [
                 Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
                 for label, n, t, target, met, notes in bench_read(args.quick, repeat)
+            ]
+        elif name == "smoothing":
+            from benchmarks.smoothing import bench_smoothing
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_smoothing(args.quick, repeat)
             ]
         elif name == "analyze":
             from benchmarks.analyze_e2e import bench_analyze

@@ -114,7 +114,7 @@ def _imm_steps(
     log_posterior = np.empty(n_q)
 
     record(out, 0, argmax(mu), mu, x, P)
-    if keep:
+    if keep:  # row 0 when the log has one sample; else the mixing of step 0 replaces it
         store.means[0] = x_i
         store.covariances[0] = P_i
         store.log_likelihoods[0] = 0.0
@@ -136,6 +136,9 @@ def _imm_steps(
             else:
                 x_mix[j] = x_i[j]
                 P_mix[j] = P_i[j]
+        if keep:
+            store.means[k] = x_mix
+            store.covariances[k] = P_mix
         predictions = out.output_predictions[k + 1]
         for b in range(m):
             predictions[b] = 0.0
@@ -284,6 +287,11 @@ def generate_imm_source(model: HybridModel) -> str:
             for i in range(n_q)
         ]
         x_mix, P_mix = p.mixture(f"m{j}_", weights, X, P)
+        p.emit("if keep:")  # the smoother's prior of mode j (ModeStore)
+        for a in range(n):
+            p.emit(f"    store.means[k, {j}, {a}] = {term(x_mix[a])}")
+            for e in range(n):
+                p.emit(f"    store.covariances[k, {j}, {a}, {e}] = {term(P_mix[a][e])}")
         x_mix_names = p.named("xm", x_mix)
         # EKF prediction (mode j).
         x_pred = p.mode_values(model, j, "f", x_mix_names, u)

@@ -1,16 +1,19 @@
 r"""Offline passes after a filter: the fixed-interval IMM smoother and the Viterbi path (issue 12).
 
-**Smoother: Kim (1994), with an extended RTS backward step per pair of modes.**  Kim C.-J.,
-"Dynamic linear models with Markov-switching", *Journal of Econometrics* 60 (1994) 1-22,
-eqs. (2.19)-(2.23); Kim and Nelson, *State-Space Models with Regime Switching* (1999), §5.2.2.
-It runs backwards over the per-mode filtered estimates the forward IMM kept
-(:class:`~hybridlog.estimators.common.ModeStore`): ``x̂_i(k|k)``, ``P_i(k|k)``, ``μ_i(k)``.
-For ``k = N−2 … 0``, with ``Π`` the Markov matrix:
+**Smoother: Kim's backward mode recursion with a per-mode extended RTS step on the IMM's mixed
+prior.**  Mode probabilities: Kim C.-J., "Dynamic linear models with Markov-switching",
+*Journal of Econometrics* 60 (1994) 1-22, eqs. (2.20)-(2.21) (Kim and Nelson, *State-Space
+Models with Regime Switching*, 1999, §5.2.2).  States: an RTS step (Rauch, Tung, Striebel
+1965) per *next* mode ``j``, from the forward IMM's own mixed prior of mode ``j`` — the same
+structure as Lopez and Danès' low-complexity IMM smoother (IEEE TAES 53(1), 2017), written
+out here as implemented.  The forward pass keeps
+(:class:`~hybridlog.estimators.common.ModeStore`) the mixed priors ``x̂⁰_j(k)``, ``P⁰_j(k)``
+(the estimate of ``x(k)`` given ``q(k+1) = j``, Blom and Bar-Shalom's mixing), the per-mode
+estimates of the last sample and the filtered ``μ(k)``.  For ``k = N−2 … 0``:
 
 .. math::
 
     \log \bar c_j(k+1) = \operatorname{logsumexp}_i(\log\Pi_{ij} + \log\mu_i(k))
-        \qquad (\Pr(q_{k+1}=j \mid Y^k))
 
     \log p_{ij}(k) = \log\mu^s_j(k+1) + \log\mu_i(k) + \log\Pi_{ij} - \log\bar c_j(k+1)
         \qquad \text{(Kim eq. (2.20))}
@@ -18,25 +21,37 @@ For ``k = N−2 … 0``, with ``Π`` the Markov matrix:
     \log\mu^s_i(k) = \operatorname{logsumexp}_j \log p_{ij}(k),\qquad
     w_{j|i} = p_{ij}/\mu^s_i \qquad \text{(eq. (2.21))}
 
-    \hat x^-_{ij} = f_j(\hat x_i(k|k), u_k),\; F_{ij} = \partial f_j/\partial x|_{\hat x_i(k|k)},\;
-    P^-_{ij} = F_{ij} P_i F_{ij}^T + Q_j
+    \hat x^-_j = f_j(\hat x^0_j, u_k),\; F_j = \partial f_j/\partial x|_{\hat x^0_j},\;
+    P^-_j = F_j P^0_j F_j^T + Q_j \qquad \text{(the IMM's own prediction of mode } j)
 
-    J_{ij} = P_i F_{ij}^T (P^-_{ij})^{-1},\quad
-    \hat x^s_{ij} = \hat x_i + J_{ij}(\hat x^s_j(k+1) - \hat x^-_{ij}) \qquad \text{(eq. (2.22))}
+    J_j = P^0_j F_j^T (P^-_j)^{-1},\quad
+    \hat x^{(j)} = \hat x^0_j + J_j(\hat x^s_j(k+1) - \hat x^-_j)
 
-    P^s_{ij} = (I - J F) P_i (I - J F)^T + J (Q_j + P^s_j(k+1)) J^T \qquad \text{(eq. (2.23))}
+    P^{(j)} = (I - J_j F_j) P^0_j (I - J_j F_j)^T + J_j (Q_j + P^s_j(k+1)) J_j^T
 
-    \hat x^s_i = \textstyle\sum_j w_{j|i}\hat x^s_{ij},\quad
-    P^s_i = \sum_j w_{j|i}(P^s_{ij} + (\hat x^s_{ij}-\hat x^s_i)(\cdot)^T)
+    \hat x^s_i(k) = \textstyle\sum_j w_{j|i}\hat x^{(j)},\quad
+    P^s_i(k) = \sum_j w_{j|i}(P^{(j)} + (\hat x^{(j)}-\hat x^s_i)(\cdot)^T)
 
-and the output is the mixture ``Σ_i μ^s_i x̂^s_i`` with its covariance.  Nonlinear modes are
-linearised at the filtered estimates ``x̂_i(k|k)`` (the extended RTS step).  The covariance of
-eq. (2.23) is written in the equivalent Joseph-like form above — it equals
-``P_i + J(P^s_j − P^-_{ij})Jᵀ`` when ``J = P_i Fᵀ (P^-)⁻¹`` — a sum of congruences of PSD
-matrices, so it stays PSD up to rounding, and every covariance is symmetrised.  Mode
-probabilities are combined in log space and renormalised at every step.  At the last sample
-the smoothed estimate is the filtered one.  A pair whose ``P^-_{ij}`` is not positive definite
-gets ``J = 0`` (the filtered estimate stands).
+The output is ``Σ_i μ^s_i x̂^s_i = Σ_j Pr(q(k+1)=j|Y^N) E[x(k) | q(k+1)=j, Y^N]`` with its
+covariance.  The approximations: Gaussian per mode (as the IMM), and
+``E[x(k) | q(k)=i, q(k+1)=j, Y^N] ≈ E[x(k) | q(k+1)=j, Y^N]`` for the per-mode estimates.
+Kim's own state step (one RTS step per pair ``(i, j)`` from ``x̂_i(k|k)``) takes ``n_q²``
+RTS steps per sample; this one ``n_q``.  Nonlinear modes are linearised where the forward
+IMM linearised them (at ``x̂⁰_j``).  The covariance above equals ``P⁰ + J(P^s − P^-)Jᵀ``
+for this ``J`` and is a sum of congruences of PSD matrices, so it stays PSD up to rounding;
+every covariance is symmetrised.  Mode probabilities are combined in log space and
+renormalised at every step.  At the last sample the smoothed estimate is the filtered one.
+A mode whose ``P^-_j`` is not positive definite gets ``J_j = 0``.
+
+Guard: the exact RTS step has ``P^s_j(k+1) ≤ P^-_j`` (the smoothed estimate is no wider than
+the prediction).  The collapsed mixture ``P^s_j(k+1)`` holds the spread between the next
+modes' hypotheses and can break it; with little process noise ``J_j ≈ F_j⁻¹`` then widens the
+estimate at every step backwards, without end (on the double cart, no process noise: states
+of 1e29 after 600 steps, docs/smoothing.md).  Where ``P^-_j − P^s_j(k+1)`` is not positive
+definite (slack ``1e-9 trace P^-_j``) the step of mode ``j`` is skipped: ``x̂^{(j)} = x̂⁰_j``,
+the forward prior, and the backward pass goes on from there.  With one mode, or with the stay
+probability at 1 and the true mode known, this is the RTS smoother of that mode (when the
+guard holds, as it does for the exact RTS).
 
 **Viterbi.**  The most likely mode sequence given the forward pass's per-mode log-likelihoods
 ``ℓ_j(k) = log N(γ_j(k); 0, S_j(k))``: ``δ_j(0) = log μ_j(0)``,
@@ -80,8 +95,8 @@ KIM = "kim-rts"
 """``PostProcessing.smoothing`` of the IMM smoother."""
 
 KIM_DESCRIPTION = (
-    "Kim (1994) fixed-interval smoother, eqs. (2.19)-(2.23): backward mode probabilities in "
-    "log space, an extended RTS step per pair of modes linearised at the filtered estimates"
+    "fixed-interval IMM smoother: Kim (1994) eqs. (2.20)-(2.21) for the mode probabilities "
+    "(log space), an extended RTS step per next mode from the IMM's mixed prior for the states"
 )
 VITERBI_DESCRIPTION = (
     "Viterbi path over the Markov chain with the forward filters' per-mode likelihoods "
@@ -110,6 +125,10 @@ def log_sum_exp(values: FloatArray) -> float:
     return top + math.log(total)
 
 
+GUARD_TOLERANCE = 1e-9
+"""Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
+
+
 def kim_backward(
     f: Fn,
     F: Fn,
@@ -122,9 +141,9 @@ def kim_backward(
 ) -> None:
     """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
 
-    ``mu`` are the filtered mode probabilities, ``store`` the forward pass's per-mode
-    estimates; ``store`` is overwritten with the smoothed per-mode estimates as the pass goes
-    (no second array of that size).  Row ``N−1`` is the caller's (the filtered one).
+    ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept; it is
+    overwritten with the smoothed per-mode estimates as the pass goes (no second array of
+    that size).  Row ``N−1`` is the caller's (the filtered one).
     """
     n_samples, n_q, n = store.means.shape
     log_T = np.empty((n_q, n_q))
@@ -142,12 +161,12 @@ def kim_backward(
     log_new = np.empty(n_q)
     weights = np.empty(n_q)
     mu_s = np.empty(n_q)
-    x_pair = np.empty((n_q, n))
-    P_pair = np.empty((n_q, n, n))
+    x_j = np.empty((n_q, n))  # E[x(k) | q(k+1)=j, Y^N]
+    P_j = np.empty((n_q, n, n))
     x_new = np.empty((n_q, n))
     P_new = np.empty((n_q, n, n))
     x_pred = np.empty(n)
-    F_ij = np.empty((n, n))
+    F_j = np.empty((n, n))
     FP = np.empty((n, n))
     P_pred = np.empty((n, n))
     L = np.zeros((n, n))
@@ -161,8 +180,8 @@ def kim_backward(
     P = np.empty((n, n))
     for k in range(n_samples - 2, -1, -1):
         u = inputs[k]
-        x_i = store.means[k]  # filtered x̂_i(k|k), overwritten below with the smoothed
-        P_i = store.covariances[k]
+        x_prior = store.means[k]  # mixed priors x̂⁰_j(k), overwritten below with x̂^s_i(k)
+        P_prior = store.covariances[k]
         x_next = store.means[k + 1]  # already smoothed
         P_next = store.covariances[k + 1]
         for i in range(n_q):
@@ -179,58 +198,72 @@ def kim_backward(
                     log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_c[j]
             row_total[i] = log_sum_exp(log_pair[i])
         total = log_sum_exp(row_total)
-        if total == -math.inf:  # nothing links the two samples: keep the filtered step
+        # RTS step of each next mode j from its mixed prior.
+        for j in range(n_q):
+            x_j[j] = x_prior[j]
+            P_j[j] = P_prior[j]
+            if log_mu_next[j] == -math.inf:
+                continue  # q(k+1) = j is ruled out: no weight, the prior stands
+            f(j, x_prior[j], u, x_pred)
+            F(j, x_prior[j], u, F_j)
+            congruence(F_j, P_prior[j], FP, P_pred)  # FP = F P⁰
+            for a in range(n):
+                for b in range(n):
+                    P_pred[a, b] += Q[j, a, b]
+            if not cholesky(P_pred, L):
+                continue
+            # Guard: the exact RTS keeps P^s_j(k+1) <= P^-_j; a collapsed mixture wider than
+            # the prediction would widen the estimate backwards (through F⁻¹ when Q is
+            # small): the step is skipped and the forward prior stands (module docstring).
+            scale = 0.0
+            for a in range(n):
+                scale += P_pred[a, a]
+            for a in range(n):
+                for b in range(n):
+                    work[a, b] = P_pred[a, b] - P_next[j, a, b]
+                work[a, a] += GUARD_TOLERANCE * scale
+            if not cholesky(work, IJF):
+                continue
+            # J = P⁰ Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P⁰)ᵀ, column by column of F P⁰.
+            for b in range(n):
+                for a in range(n):
+                    column[a] = FP[a, b]
+                forward_solve(L, column, solved)
+                backward_solve(L, solved, column)
+                for a in range(n):
+                    J[b, a] = column[a]
+            for a in range(n):
+                acc = x_prior[j, a]
+                for b in range(n):
+                    acc += J[a, b] * (x_next[j, b] - x_pred[b])
+                x_j[j, a] = acc
+            mat_mul(J, F_j, IJF)
+            for a in range(n):
+                for b in range(n):
+                    IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
+                    part[a, b] = Q[j, a, b] + P_next[j, a, b]
+            congruence(IJF, P_prior[j], work, P_j[j])
+            congruence(J, part, work, P)
+            for a in range(n):
+                for b in range(n):
+                    P_j[j, a, b] += P[a, b]
+            symmetrize(P_j[j])
+        if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
         else:
             for i in range(n_q):
                 log_new[i] = row_total[i] - total
         for i in range(n_q):
+            mu_s[i] = math.exp(log_mu_next[i])
+        for i in range(n_q):
             if log_new[i] == -math.inf or total == -math.inf:
-                x_new[i] = x_i[i]
-                P_new[i] = P_i[i]
+                # No weight on q(k) = i: any finite estimate does; the combined one.
+                mixture_moments(mu_s, x_j, P_j, x_new[i], P_new[i])
                 continue
             for j in range(n_q):
                 weights[j] = math.exp(log_pair[i, j] - row_total[i])
-                if weights[j] == 0.0:
-                    x_pair[j] = x_i[i]
-                    P_pair[j] = P_i[i]
-                    continue
-                f(j, x_i[i], u, x_pred)
-                F(j, x_i[i], u, F_ij)
-                congruence(F_ij, P_i[i], FP, P_pred)  # FP = F P_i
-                for a in range(n):
-                    for b in range(n):
-                        P_pred[a, b] += Q[j, a, b]
-                if not cholesky(P_pred, L):
-                    x_pair[j] = x_i[i]
-                    P_pair[j] = P_i[i]
-                    continue
-                # J = P_i Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P_i)ᵀ, column by column of F P_i.
-                for b in range(n):
-                    for a in range(n):
-                        column[a] = FP[a, b]
-                    forward_solve(L, column, solved)
-                    backward_solve(L, solved, column)
-                    for a in range(n):
-                        J[b, a] = column[a]
-                for a in range(n):
-                    acc = x_i[i, a]
-                    for b in range(n):
-                        acc += J[a, b] * (x_next[j, b] - x_pred[b])
-                    x_pair[j, a] = acc
-                mat_mul(J, F_ij, IJF)
-                for a in range(n):
-                    for b in range(n):
-                        IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
-                        part[a, b] = Q[j, a, b] + P_next[j, a, b]
-                congruence(IJF, P_i[i], work, P_pair[j])
-                congruence(J, part, work, P)
-                for a in range(n):
-                    for b in range(n):
-                        P_pair[j, a, b] += P[a, b]
-                symmetrize(P_pair[j])
-            mixture_moments(weights, x_pair, P_pair, x_new[i], P_new[i])
+            mixture_moments(weights, x_j, P_j, x_new[i], P_new[i])
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
