@@ -172,7 +172,7 @@ def _imm_steps(
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
         record(out, k + 1, argmax(mu), mu, x, P)
-        if keep:
+        if keep and k == n_samples - 2:  # the last row; the others get the mixing
             store.means[k + 1] = x_i
             store.covariances[k + 1] = P_i
 
@@ -233,6 +233,7 @@ def run_imm(
         smooth=options.smooth,
         mode_sequence=options.mode_sequence,
         jit=jit,
+        kernel=kernel,
     )
 
 
@@ -324,6 +325,8 @@ def generate_imm_source(model: HybridModel) -> str:
     p.emit("if keep:")
     for j in range(n_q):
         p.emit(f"    store.log_likelihoods[k + 1, {j}] = {log_likelihoods[j]}")
+    p.emit("if keep and k == n_samples - 2:")  # the last row; the others get the mixing
+    for j in range(n_q):
         for a in range(n):
             p.emit(f"    store.means[k + 1, {j}, {a}] = {term(x_post[j][a])}")
             for b in range(n):
