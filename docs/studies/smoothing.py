@@ -32,7 +32,6 @@ state RMSE against the simulated truth (all states, samples 1..N−1).
 from __future__ import annotations
 
 import sys
-import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -42,7 +41,8 @@ import numpy as np
 if __package__ in (None, ""):  # run as a file: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.filter_options import ImmOptions
+from hybridlog.estimators.imm import run_imm
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.hybrid_model import HybridModel
@@ -97,18 +97,15 @@ def scores(result: EstimationResult, signals: AlignedSignals) -> dict[str, float
 Scenario = Callable[[int], tuple[HybridModel, AlignedSignals]]
 
 
-def run(scenario: Scenario, seeds: range) -> tuple[dict[str, list[dict[str, float]]], float]:
-    """Every variant on every seed's log; the time spent in the estimators."""
+def run(scenario: Scenario, seeds: range) -> dict[str, list[dict[str, float]]]:
+    """Every variant on every seed's log."""
     rows: dict[str, list[dict[str, float]]] = {name: [] for name in VARIANTS}
-    spent = 0.0
     for seed in seeds:
         model, signals = scenario(seed)
         for name, options in VARIANTS.items():
-            start = time.perf_counter()
             result = run_imm(model, signals, options)
-            spent += time.perf_counter() - start
             rows[name].append(scores(result, signals))
-    return rows, spent
+    return rows
 
 
 def table(rows: dict[str, list[dict[str, float]]]) -> str:
@@ -175,15 +172,13 @@ def main() -> None:
 
         scenarios.append((f"double_cart_case{case} (600 steps)", cart_scenario, range(20)))
     for title, scenario, seeds in scenarios:
-        rows, spent = run(scenario, seeds)
+        rows = run(scenario, seeds)
         print(f"### {title}, {len(seeds)} seeds\n")
         print("median [min, max] over the seeds\n")
         print(table(rows))
         print()
         print(per_seed(rows, seeds))
-        print(
-            f"\n(estimation time of the four variants over all seeds: {spent:.1f} s)\n", flush=True
-        )
+        print(flush=True)
 
 
 if __name__ == "__main__":

@@ -66,6 +66,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -84,8 +85,23 @@ from hybridlog.estimators.kernels import (
     symmetrize,
 )
 from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.estimators.unrolled import (
+    Entry,
+    Matrix,
+    Program,
+    Vector,
+    matrix_names,
+    module_source,
+    noise_matrices,
+    product,
+    reshape,
+    term,
+    upper,
+    use_unrolled,
+    vector_names,
+)
 from hybridlog.jit import compile_for, jit
-from hybridlog.model.compiled import compile_model
+from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -334,12 +350,15 @@ def post_process(
     smooth: bool,
     mode_sequence: str,
     jit: bool,
+    kernel: str = "auto",
 ) -> EstimationResult:
     """The result after the offline passes asked for, with the filter's beside it.
 
     ``smooth``: the Kim smoother's states, variances, probabilities and modes (argmax of the
     smoothed probabilities); ``mode_sequence == "viterbi"``: the Viterbi path as the modes.
     ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
+    ``kernel`` as for the filter: straight-line code (:func:`generate_smoother_source`) where
+    it applies, else the generic :func:`kim_backward`.
     """
     start = time.perf_counter()
     compile_s = 0.0
@@ -351,20 +370,37 @@ def post_process(
             model, n, store_covariances=filtered.covariances is not None
         )
         if n:
-            Q = contiguous(np.stack([m.process_noise for m in model.modes]))
-            compiled = compile_model(model, jit=jit)
-            arguments: tuple[Any, ...] = (
-                compiled.f,
-                compiled.F,
-                contiguous(signals.inputs),
-                contiguous(transitions),
-                Q,
-                filtered.mode_probabilities,
-                store,
-                buffers,
-            )
+            arguments: tuple[Any, ...]
             compile_start = time.perf_counter()
-            loop = compile_for(kim_backward, arguments) if jit else kim_backward
+            if jit and use_unrolled(model, kernel):
+                arguments = (
+                    contiguous(signals.inputs),
+                    _log(transitions),
+                    filtered.mode_probabilities,
+                    store,
+                    buffers,
+                )
+                loop, _ = compile_generated(
+                    model,
+                    "imm_smooth",
+                    lambda: module_source(model, generate_smoother_source(model)),
+                    (__name__, "hybridlog.estimators.unrolled"),
+                    "imm_smooth",
+                    arguments,
+                )
+            else:
+                compiled = compile_model(model, jit=jit)
+                arguments = (
+                    compiled.f,
+                    compiled.F,
+                    contiguous(signals.inputs),
+                    contiguous(transitions),
+                    contiguous(np.stack([m.process_noise for m in model.modes])),
+                    filtered.mode_probabilities,
+                    store,
+                    buffers,
+                )
+                loop = compile_for(kim_backward, arguments) if jit else kim_backward
             compile_s += time.perf_counter() - compile_start
             loop(*arguments)
             last = n - 1
@@ -407,3 +443,181 @@ def post_process(
             filtered=filtered,
         ),
     )
+
+
+def _log_sum_exp_source(p: Program, hint: str, expressions: list[str]) -> str:
+    """Emit ``log Σ exp(expressions)`` as :func:`log_sum_exp` computes it; its variable."""
+    terms = [p.assign(hint + "t", e) for e in expressions]
+    top = terms[0] if len(terms) == 1 else p.assign(hint + "top", f"max({', '.join(terms)})")
+    result = p.fresh(hint)
+    p.emit(f"if {top} == -math.inf:")
+    p.emit(f"    {result} = -math.inf")
+    p.emit("else:")
+    total = " + ".join(f"math.exp({t} - {top})" for t in terms)
+    p.emit(f"    {result} = {top} + math.log({total})")
+    return result
+
+
+def _select(
+    p: Program, hint: str, condition: str, chosen: Sequence[Entry], other: Sequence[Entry]
+) -> Vector:
+    """Variables holding ``chosen`` where ``condition`` holds, else ``other``."""
+    names = [p.fresh(hint) for _ in chosen]
+    p.emit(f"if {condition}:")
+    for name, value in zip(names, chosen, strict=True):
+        p.emit(f"    {name} = {term(value)}")
+    p.emit("else:")
+    for name, value in zip(names, other, strict=True):
+        p.emit(f"    {name} = {term(value)}")
+    return list(names)
+
+
+def generate_smoother_source(model: HybridModel) -> str:
+    """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
+
+    Defines ``imm_smooth(inputs, log_T, mu, store, out)``: the same backward pass with the mode
+    functions, the process noise and the small matrix products written out.  Equal to the
+    generic loop up to rounding (``tests/estimators/test_smoothing.py``).
+    """
+    n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
+    Q, _ = noise_matrices(model)
+    p = Program(indent="    ")
+    p.emit("means = store.means")
+    p.emit("covs = store.covariances")
+    for name, field in (
+        ("modes_out", "modes"),
+        ("probabilities_out", "mode_probabilities"),
+        ("means_out", "state_means"),
+        ("variances_out", "state_variances"),
+        ("covariances_out", "covariances"),
+    ):
+        p.emit(f"{name} = out.{field}")
+    p.emit("n_samples = means.shape[0]")
+    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    log_next = vector_names("lmn", n_q)  # log μ^s(k+1), carried
+    for j in range(n_q):
+        last = f"mu[n_samples - 1, {j}]"
+        p.emit(f"{log_next[j]} = math.log({last}) if {last} > 0.0 else -math.inf")
+    log_T = matrix_names("lT", n_q, n_q)
+    for i in range(n_q):
+        for j in range(n_q):
+            p.emit(f"{log_T[i][j]} = log_T[{i}, {j}]")
+    p.emit("for k in range(n_samples - 2, -1, -1):")
+    p.indent += "    "
+    u = vector_names("u", n_u)
+    p.carry(u, [f"inputs[k, {c}]" for c in range(n_u)])
+    log_mu = [
+        p.assign("lmu", f"math.log(mu[k, {i}]) if mu[k, {i}] > 0.0 else -math.inf")
+        for i in range(n_q)
+    ]
+    log_c = [
+        _log_sum_exp_source(p, "lc", [f"{log_T[i][j]} + {log_mu[i]}" for i in range(n_q)])
+        for j in range(n_q)
+    ]
+    log_pair = [
+        [
+            p.assign(
+                "lp",
+                f"-math.inf if ({log_c[j]} == -math.inf or {log_next[j]} == -math.inf) else "
+                f"{log_next[j]} + {log_mu[i]} + {log_T[i][j]} - {log_c[j]}",
+            )
+            for j in range(n_q)
+        ]
+        for i in range(n_q)
+    ]
+    row_total = [_log_sum_exp_source(p, "rt", list(log_pair[i])) for i in range(n_q)]
+    total = _log_sum_exp_source(p, "tot", list(row_total))
+    X_s: list[Vector] = []
+    P_s: list[Matrix] = []
+    for j in range(n_q):
+        x0 = [p.assign("xz", f"means[k, {j}, {a}]") for a in range(n)]
+        P0: Matrix = [[0.0] * n for _ in range(n)]
+        Pn: Matrix = [[0.0] * n for _ in range(n)]
+        for a in range(n):
+            for b in range(a, n):
+                P0[a][b] = P0[b][a] = p.assign("pz", f"covs[k, {j}, {a}, {b}]")
+                Pn[a][b] = Pn[b][a] = p.assign("pn", f"covs[k + 1, {j}, {a}, {b}]")
+        xn = [p.assign("xn", f"means[k + 1, {j}, {a}]") for a in range(n)]
+        x_pred = p.mode_values(model, j, "f", x0, u)
+        F = reshape(p.mode_values(model, j, "F", x0, u), n, n)
+        P_pred = p.congruence(f"pp{j}_", F, P0, add=Q[j])
+        L = p.cholesky(f"lc{j}_", P_pred)
+        FP = p.matmul(f"fp{j}_", F, P0)
+        J: Matrix = [[0.0] * n for _ in range(n)]
+        for b in range(n):
+            solved = p.backward_solve(
+                f"jb{j}_", L, p.forward_solve(f"jf{j}_", L, [FP[a][b] for a in range(n)])
+            )
+            for a in range(n):
+                J[b][a] = solved[a]
+        trace = p.let("tr", [P_pred[a][a] for a in range(n)])
+        D: Matrix = [[0.0] * n for _ in range(n)]
+        for a in range(n):
+            for b in range(a, n):
+                extra = f" + {GUARD_TOLERANCE!r}*{term(trace)}" if a == b else ""
+                D[a][b] = D[b][a] = p.assign(
+                    "dg", f"{term(P_pred[a][b])} - {term(Pn[a][b])}{extra}"
+                )
+        LD = p.cholesky(f"ld{j}_", D)
+        positive = " and ".join(
+            [f"{term(L[a][a])} > 0.0" for a in range(n)]
+            + [f"{term(LD[a][a])} > 0.0" for a in range(n)]
+        )
+        ok = p.assign("ok", f"{log_next[j]} != -math.inf and {positive}")
+        gap = [p.difference("gp", xn[b], x_pred[b]) for b in range(n)]
+        x_rts = [
+            p.let("xr", [x0[a], *[product(J[a][b], gap[b]) for b in range(n)]]) for a in range(n)
+        ]
+        JF = p.matmul(f"jF{j}_", J, F)
+        IJF: Matrix = [
+            [p.difference("ij", 1.0 if a == b else 0.0, JF[a][b]) for b in range(n)]
+            for a in range(n)
+        ]
+        part: Matrix = [[0.0] * n for _ in range(n)]
+        for a in range(n):
+            for b in range(a, n):
+                part[a][b] = part[b][a] = p.let("qp", [Q[j][a][b], Pn[a][b]])
+        P_rts = p.symmetric_sum(
+            f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
+        )
+        X_s.append(_select(p, "xs", ok, x_rts, x0))
+        chosen = _select(p, "ps", ok, upper(P_rts), upper(P0))
+        P_sel: Matrix = [[0.0] * n for _ in range(n)]
+        index = 0
+        for a in range(n):
+            for b in range(a, n):
+                P_sel[a][b] = P_sel[b][a] = chosen[index]
+                index += 1
+        P_s.append(P_sel)
+    log_new = [p.fresh("ln") for _ in range(n_q)]
+    p.emit(f"if {total} == -math.inf:")
+    for i in range(n_q):
+        p.emit(f"    {log_new[i]} = {log_mu[i]}")
+    p.emit("else:")
+    for i in range(n_q):
+        p.emit(f"    {log_new[i]} = {row_total[i]} - {total}")
+    mu_next = [p.assign("mx", f"math.exp({log_next[j]})") for j in range(n_q)]
+    x_new: list[Vector] = []
+    P_new: list[Matrix] = []
+    for i in range(n_q):
+        weights: Vector = [
+            p.assign(
+                "w",
+                f"{mu_next[j]} if ({log_new[i]} == -math.inf or {total} == -math.inf) else "
+                f"math.exp({log_pair[i][j]} - {row_total[i]})",
+            )
+            for j in range(n_q)
+        ]
+        x_i, P_i = p.mixture(f"nm{i}_", weights, X_s, P_s)
+        x_new.append(x_i)
+        P_new.append(P_i)
+    mu_s: Vector = [p.assign("ms", f"math.exp({log_new[i]})") for i in range(n_q)]
+    for i in range(n_q):
+        for a in range(n):
+            p.emit(f"means[k, {i}, {a}] = {term(x_new[i][a])}")
+            for b in range(n):
+                p.emit(f"covs[k, {i}, {a}, {b}] = {term(P_new[i][a][b])}")
+    x, P = p.mixture("cm", mu_s, x_new, P_new)
+    p.record("k", p.argmax(mu_s), mu_s, x, P)
+    p.carry(log_next, log_new)
+    return f"def imm_smooth(inputs, log_T, mu, store, out):\n{p.source()}\n"

@@ -243,3 +243,17 @@ def test_smoother_stays_bounded_without_process_noise():
         return np.sqrt(np.mean((means[1:] - log.states[1:]) ** 2))
 
     assert rmse(result.state_means) <= 2 * rmse(result.post_processing.filtered.state_means)
+
+
+@pytest.mark.parametrize("name", ["three_tank_hstf", "double_cart_case1"])
+def test_straight_line_smoother_equals_the_generic_loop(name):
+    model = load_model(name)
+    signals = simulate(model, steps=500, seed=3).signals(model)
+    options = ImmOptions(smooth=True)
+    fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
+    plain = run_imm(model, signals, options, kernel="loops", store_covariances=True)
+    for field in ("state_means", "covariances", "mode_probabilities"):
+        a, b = getattr(fast, field), getattr(plain, field)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
+    np.testing.assert_array_equal(fast.modes, plain.modes)
+    assert np.abs(fast.state_means - fast.post_processing.filtered.state_means).max() > 1e-6
