@@ -51,6 +51,7 @@ BENCHMARKS = (
     "switching_observer",
     "unknown_mode",
     "sliding_mode",
+    "smoothing",
 )
 
 HSTF_TARGET_S = 3.0
@@ -468,6 +469,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [
                 Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
                 for label, n, t, target, met, notes in bench_unknown_mode(args.quick, repeat)
+            ]
+        elif name == "smoothing":
+            from benchmarks.smoothing import bench_smoothing
+
+            rows += [
+                Row(label, steps=n, time_s=t, target=target, met=met, notes=notes)
+                for label, n, t, target, met, notes in bench_smoothing(args.quick, repeat)
             ]
         elif name == "analyze":
             from benchmarks.analyze_e2e import bench_analyze

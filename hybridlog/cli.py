@@ -630,6 +630,8 @@ def cluster_command(
         "hybridlog analyze sample_logs/three_tank_hstf.mcap --model three_tank_hstf "
         "--estimator imm --set transition_stay=0.9 --out tank_gated "
         "--fail-under mode_accuracy=0.9 --fail-under fit=60",
+        "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
+        "--estimator imm --smooth --mode-sequence viterbi --out tank_smooth",
     ),
 )
 @_global_flags

@@ -137,14 +137,16 @@ class FilterBuffers(NamedTuple):
 
 
 class ModeStore(NamedTuple):
-    """Per-mode filtered quantities a filter keeps for an offline pass after it (issue 12).
+    """Per-mode quantities a filter keeps for an offline pass after it (issue 12).
 
-    Row ``k`` holds, for every mode ``j``, the mode-matched filtered mean ``x̂_j(k|k)``,
-    covariance ``P_j(k|k)`` and the log-likelihood ``log N(γ_j(k); 0, S_j(k))`` of the
-    measurement ``y(k)`` (row 0, the prior: ``x0``, ``P0`` and 0).  The arrays have no rows
-    when nothing after the filter needs them (:meth:`allocate` with ``keep=False``), so the
-    filter's loop writes them only on demand.  Footprint when kept: ``8 N n_q (n_x² + n_x + 1)``
-    bytes (10^6 samples, 3 modes, 3 states: 312 MB).
+    For every mode ``j``: ``log_likelihoods[k, j]`` is ``log N(γ_j(k); 0, S_j(k))`` of the
+    measurement ``y(k)`` (row 0: 0).  ``means[k, j]`` and ``covariances[k, j]`` are, for
+    ``k < N−1``, the IMM's mixed prior ``x̂⁰_j(k)``, ``P⁰_j(k)`` of the step ``k → k+1``
+    (the estimate of ``x(k)`` given ``q(k+1) = j``), and in the last row the mode-matched
+    filtered ``x̂_j(N−1|N−1)``, ``P_j(N−1|N−1)``.  Arrays nothing after the filter needs
+    have no rows (:meth:`allocate`), so the filter's loop writes them only on demand: the
+    smoother needs the states (``8 N n_q (n_x² + n_x)`` bytes, 275 MiB for 10^6 samples,
+    3 modes, 3 states), the Viterbi path the likelihoods (``8 N n_q`` bytes).
     """
 
     means: FloatArray
@@ -152,17 +154,16 @@ class ModeStore(NamedTuple):
     log_likelihoods: FloatArray
 
     @classmethod
-    def allocate(cls, model: HybridModel, n_samples: int, *, keep: bool) -> ModeStore:
-        """Arrays for ``n_samples`` rows when ``keep``, else arrays with no rows."""
-        rows, n_x, n_q = (n_samples if keep else 0), model.n_states, model.n_modes
+    def allocate(
+        cls, model: HybridModel, n_samples: int, *, states: bool, likelihoods: bool
+    ) -> ModeStore:
+        """``n_samples`` rows of the states and of the likelihoods where asked, else none."""
+        rows, n_x, n_q = (n_samples if states else 0), model.n_states, model.n_modes
         return cls(
-            np.zeros((rows, n_q, n_x)), np.zeros((rows, n_q, n_x, n_x)), np.zeros((rows, n_q))
+            np.zeros((rows, n_q, n_x)),
+            np.zeros((rows, n_q, n_x, n_x)),
+            np.zeros((n_samples if likelihoods else 0, n_q)),
         )
-
-    @property
-    def kept(self) -> bool:
-        """Whether the arrays have rows."""
-        return bool(self.means.shape[0])
 
 
 def contiguous(array: FloatArray) -> FloatArray:

@@ -24,6 +24,14 @@ Options: ``rho`` (forgetting factor ρ of eq. (30)), ``beta`` (softening factor 
 filter is then the plain EKF) and ``likelihood`` (``faded``: S_i from the faded P_i(k+1|k) as
 in eq. (35), the paper's choice; ``unfaded``: S_i from λ_i = 1, a named variant).
 
+No smoothing (issue 12): the paper assumes unknown transitions and predicts every mode with
+probability ``1/n_q`` (eq. (20)).  Under that uniform chain Kim's backward factor
+``Σ_j Π_ij μ^s_j(k+1)/c̄_j(k+1)`` is the same for every mode, so the smoothed mode
+probabilities equal the filtered ones, and the Viterbi path is the per-sample argmax of the
+likelihoods of eq. (34): an offline pass would add nothing the filter does not show.  The
+registry entry therefore says ``supports_smoothing=False`` and ``--smooth`` is refused with
+one line; a model with a Markov matrix can be smoothed with ``imm``.
+
 References
 ----------
 Wang W., Peng Z., Zhou D. State estimation of a class of hybrid systems in the presence of

@@ -87,7 +87,8 @@ def _imm_steps(
     """The generic IMM time loop (compiled on first use; the docstring of the module)."""
     inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
     transitions, store = settings
-    keep = store.means.shape[0] > 0
+    keep_states = store.means.shape[0] > 0
+    keep_likelihoods = store.log_likelihoods.shape[0] > 0
     n_samples, n, m, n_q = dimensions(run)
 
     x_i = np.empty((n_q, n))
@@ -114,9 +115,10 @@ def _imm_steps(
     log_posterior = np.empty(n_q)
 
     record(out, 0, argmax(mu), mu, x, P)
-    if keep:
+    if keep_states:  # row 0 when the log has one sample; else the mixing of step 0 replaces it
         store.means[0] = x_i
         store.covariances[0] = P_i
+    if keep_likelihoods:
         store.log_likelihoods[0] = 0.0
     for k in range(n_samples - 1):
         u = inputs[k]
@@ -136,6 +138,9 @@ def _imm_steps(
             else:
                 x_mix[j] = x_i[j]
                 P_mix[j] = P_i[j]
+        if keep_states:
+            store.means[k] = x_mix
+            store.covariances[k] = P_mix
         predictions = out.output_predictions[k + 1]
         for b in range(m):
             predictions[b] = 0.0
@@ -163,13 +168,13 @@ def _imm_steps(
                 log_posterior[j] = -np.inf
                 x_i[j] = x_pred
                 P_i[j] = P_pred
-            if keep:
+            if keep_likelihoods:
                 store.log_likelihoods[k + 1, j] = log_likelihood
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
         record(out, k + 1, argmax(mu), mu, x, P)
-        if keep:
+        if keep_states and k == n_samples - 2:  # the last row; the others get the mixing
             store.means[k + 1] = x_i
             store.covariances[k + 1] = P_i
 
@@ -212,7 +217,12 @@ def run_imm(
     used = options_dict(options)
     offline = options.smooth or options.mode_sequence != "argmax"
     used["transition_matrix"] = transitions.tolist()
-    store = ModeStore.allocate(model, signals.n_samples, keep=offline)
+    store = ModeStore.allocate(
+        model,
+        signals.n_samples,
+        states=options.smooth,
+        likelihoods=options.mode_sequence == "viterbi",
+    )
     filtered = run_filter(
         CODE,
         model,
@@ -236,6 +246,7 @@ def run_imm(
         smooth=options.smooth,
         mode_sequence=options.mode_sequence,
         jit=jit,
+        kernel=kernel,
     )
 
 
@@ -266,11 +277,14 @@ def generate_imm_source(model: HybridModel) -> str:
         p.emit(f"{mu[i]} = mu0[{i}]")
         p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
     p.record("0", p.argmax(mu), mu, X[0], P[0])
-    p.emit("keep = store.means.shape[0] > 0")
-    p.emit("if keep:")
+    p.emit("keep_states = store.means.shape[0] > 0")
+    p.emit("keep_likelihoods = store.log_likelihoods.shape[0] > 0")
+    p.emit("if keep_states:")
     for i in range(n_q):
         p.emit(f"    store.means[0, {i}] = x0")
         p.emit(f"    store.covariances[0, {i}] = P0")
+    p.emit("if keep_likelihoods:")
+    for i in range(n_q):
         p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
     u, v, y = p.open_time_loop(n_u, m)
     # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
@@ -290,6 +304,11 @@ def generate_imm_source(model: HybridModel) -> str:
             for i in range(n_q)
         ]
         x_mix, P_mix = p.mixture(f"m{j}_", weights, X, P)
+        p.emit("if keep_states:")  # the smoother's prior of mode j (ModeStore)
+        for a in range(n):
+            p.emit(f"    store.means[k, {j}, {a}] = {term(x_mix[a])}")
+            for e in range(n):
+                p.emit(f"    store.covariances[k, {j}, {a}, {e}] = {term(P_mix[a][e])}")
         x_mix_names = p.named("xm", x_mix)
         # EKF prediction (mode j).
         x_pred = p.mode_values(model, j, "f", x_mix_names, u)
@@ -319,9 +338,11 @@ def generate_imm_source(model: HybridModel) -> str:
     for b in range(m):
         prediction = p.let("yp", prediction_parts[b])
         p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
-    p.emit("if keep:")
+    p.emit("if keep_likelihoods:")
     for j in range(n_q):
         p.emit(f"    store.log_likelihoods[k + 1, {j}] = {log_likelihoods[j]}")
+    p.emit("if keep_states and k == n_samples - 2:")  # the last row; the others get the mixing
+    for j in range(n_q):
         for a in range(n):
             p.emit(f"    store.means[k + 1, {j}, {a}] = {term(x_post[j][a])}")
             for b in range(n):

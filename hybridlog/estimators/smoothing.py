@@ -1,16 +1,19 @@
 r"""Offline passes after a filter: the fixed-interval IMM smoother and the Viterbi path (issue 12).
 
-**Smoother: Kim (1994), with an extended RTS backward step per pair of modes.**  Kim C.-J.,
-"Dynamic linear models with Markov-switching", *Journal of Econometrics* 60 (1994) 1-22,
-eqs. (2.19)-(2.23); Kim and Nelson, *State-Space Models with Regime Switching* (1999), §5.2.2.
-It runs backwards over the per-mode filtered estimates the forward IMM kept
-(:class:`~hybridlog.estimators.common.ModeStore`): ``x̂_i(k|k)``, ``P_i(k|k)``, ``μ_i(k)``.
-For ``k = N−2 … 0``, with ``Π`` the Markov matrix:
+**Smoother: Kim's backward mode recursion with a per-mode extended RTS step on the IMM's mixed
+prior.**  Mode probabilities: Kim C.-J., "Dynamic linear models with Markov-switching",
+*Journal of Econometrics* 60 (1994) 1-22, eqs. (2.20)-(2.21) (Kim and Nelson, *State-Space
+Models with Regime Switching*, 1999, §5.2.2).  States: an RTS step (Rauch, Tung, Striebel
+1965) per *next* mode ``j``, from the forward IMM's own mixed prior of mode ``j`` — the same
+structure as Lopez and Danès' low-complexity IMM smoother (IEEE TAES 53(1), 2017), written
+out here as implemented.  The forward pass keeps
+(:class:`~hybridlog.estimators.common.ModeStore`) the mixed priors ``x̂⁰_j(k)``, ``P⁰_j(k)``
+(the estimate of ``x(k)`` given ``q(k+1) = j``, Blom and Bar-Shalom's mixing), the per-mode
+estimates of the last sample and the filtered ``μ(k)``.  For ``k = N−2 … 0``:
 
 .. math::
 
     \log \bar c_j(k+1) = \operatorname{logsumexp}_i(\log\Pi_{ij} + \log\mu_i(k))
-        \qquad (\Pr(q_{k+1}=j \mid Y^k))
 
     \log p_{ij}(k) = \log\mu^s_j(k+1) + \log\mu_i(k) + \log\Pi_{ij} - \log\bar c_j(k+1)
         \qquad \text{(Kim eq. (2.20))}
@@ -18,25 +21,37 @@ For ``k = N−2 … 0``, with ``Π`` the Markov matrix:
     \log\mu^s_i(k) = \operatorname{logsumexp}_j \log p_{ij}(k),\qquad
     w_{j|i} = p_{ij}/\mu^s_i \qquad \text{(eq. (2.21))}
 
-    \hat x^-_{ij} = f_j(\hat x_i(k|k), u_k),\; F_{ij} = \partial f_j/\partial x|_{\hat x_i(k|k)},\;
-    P^-_{ij} = F_{ij} P_i F_{ij}^T + Q_j
+    \hat x^-_j = f_j(\hat x^0_j, u_k),\; F_j = \partial f_j/\partial x|_{\hat x^0_j},\;
+    P^-_j = F_j P^0_j F_j^T + Q_j \qquad \text{(the IMM's own prediction of mode } j)
 
-    J_{ij} = P_i F_{ij}^T (P^-_{ij})^{-1},\quad
-    \hat x^s_{ij} = \hat x_i + J_{ij}(\hat x^s_j(k+1) - \hat x^-_{ij}) \qquad \text{(eq. (2.22))}
+    J_j = P^0_j F_j^T (P^-_j)^{-1},\quad
+    \hat x^{(j)} = \hat x^0_j + J_j(\hat x^s_j(k+1) - \hat x^-_j)
 
-    P^s_{ij} = (I - J F) P_i (I - J F)^T + J (Q_j + P^s_j(k+1)) J^T \qquad \text{(eq. (2.23))}
+    P^{(j)} = (I - J_j F_j) P^0_j (I - J_j F_j)^T + J_j (Q_j + P^s_j(k+1)) J_j^T
 
-    \hat x^s_i = \textstyle\sum_j w_{j|i}\hat x^s_{ij},\quad
-    P^s_i = \sum_j w_{j|i}(P^s_{ij} + (\hat x^s_{ij}-\hat x^s_i)(\cdot)^T)
+    \hat x^s_i(k) = \textstyle\sum_j w_{j|i}\hat x^{(j)},\quad
+    P^s_i(k) = \sum_j w_{j|i}(P^{(j)} + (\hat x^{(j)}-\hat x^s_i)(\cdot)^T)
 
-and the output is the mixture ``Σ_i μ^s_i x̂^s_i`` with its covariance.  Nonlinear modes are
-linearised at the filtered estimates ``x̂_i(k|k)`` (the extended RTS step).  The covariance of
-eq. (2.23) is written in the equivalent Joseph-like form above — it equals
-``P_i + J(P^s_j − P^-_{ij})Jᵀ`` when ``J = P_i Fᵀ (P^-)⁻¹`` — a sum of congruences of PSD
-matrices, so it stays PSD up to rounding, and every covariance is symmetrised.  Mode
-probabilities are combined in log space and renormalised at every step.  At the last sample
-the smoothed estimate is the filtered one.  A pair whose ``P^-_{ij}`` is not positive definite
-gets ``J = 0`` (the filtered estimate stands).
+The output is ``Σ_i μ^s_i x̂^s_i = Σ_j Pr(q(k+1)=j|Y^N) E[x(k) | q(k+1)=j, Y^N]`` with its
+covariance.  The approximations: Gaussian per mode (as the IMM), and
+``E[x(k) | q(k)=i, q(k+1)=j, Y^N] ≈ E[x(k) | q(k+1)=j, Y^N]`` for the per-mode estimates.
+Kim's own state step (one RTS step per pair ``(i, j)`` from ``x̂_i(k|k)``) takes ``n_q²``
+RTS steps per sample; this one ``n_q``.  Nonlinear modes are linearised where the forward
+IMM linearised them (at ``x̂⁰_j``).  The covariance above equals ``P⁰ + J(P^s − P^-)Jᵀ``
+for this ``J`` and is a sum of congruences of PSD matrices, so it stays PSD up to rounding;
+every covariance is symmetrised.  Mode probabilities are combined in log space and
+renormalised at every step.  At the last sample the smoothed estimate is the filtered one.
+A mode whose ``P^-_j`` is not positive definite gets ``J_j = 0``.
+
+Guard: the exact RTS step has ``P^s_j(k+1) ≤ P^-_j`` (the smoothed estimate is no wider than
+the prediction).  The collapsed mixture ``P^s_j(k+1)`` holds the spread between the next
+modes' hypotheses and can break it; with little process noise ``J_j ≈ F_j⁻¹`` then widens the
+estimate at every step backwards, without end (on the double cart, no process noise: states
+of 1e29 after 600 steps, docs/smoothing.md).  Where ``P^-_j − P^s_j(k+1)`` is not positive
+definite (slack ``1e-9 trace P^-_j``) the step of mode ``j`` is skipped: ``x̂^{(j)} = x̂⁰_j``,
+the forward prior, and the backward pass goes on from there.  With one mode, or with the stay
+probability at 1 and the true mode known, this is the RTS smoother of that mode (when the
+guard holds, as it does for the exact RTS).
 
 **Viterbi.**  The most likely mode sequence given the forward pass's per-mode log-likelihoods
 ``ℓ_j(k) = log N(γ_j(k); 0, S_j(k))``: ``δ_j(0) = log μ_j(0)``,
@@ -51,6 +66,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -69,8 +85,23 @@ from hybridlog.estimators.kernels import (
     symmetrize,
 )
 from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.estimators.unrolled import (
+    Entry,
+    Matrix,
+    Program,
+    Vector,
+    matrix_names,
+    module_source,
+    noise_matrices,
+    product,
+    reshape,
+    term,
+    upper,
+    use_unrolled,
+    vector_names,
+)
 from hybridlog.jit import compile_for, jit
-from hybridlog.model.compiled import compile_model
+from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -80,8 +111,8 @@ KIM = "kim-rts"
 """``PostProcessing.smoothing`` of the IMM smoother."""
 
 KIM_DESCRIPTION = (
-    "Kim (1994) fixed-interval smoother, eqs. (2.19)-(2.23): backward mode probabilities in "
-    "log space, an extended RTS step per pair of modes linearised at the filtered estimates"
+    "fixed-interval IMM smoother: Kim (1994) eqs. (2.20)-(2.21) for the mode probabilities "
+    "(log space), an extended RTS step per next mode from the IMM's mixed prior for the states"
 )
 VITERBI_DESCRIPTION = (
     "Viterbi path over the Markov chain with the forward filters' per-mode likelihoods "
@@ -110,6 +141,10 @@ def log_sum_exp(values: FloatArray) -> float:
     return top + math.log(total)
 
 
+GUARD_TOLERANCE = 1e-9
+"""Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
+
+
 def kim_backward(
     f: Fn,
     F: Fn,
@@ -122,9 +157,9 @@ def kim_backward(
 ) -> None:
     """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
 
-    ``mu`` are the filtered mode probabilities, ``store`` the forward pass's per-mode
-    estimates; ``store`` is overwritten with the smoothed per-mode estimates as the pass goes
-    (no second array of that size).  Row ``N−1`` is the caller's (the filtered one).
+    ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept; it is
+    overwritten with the smoothed per-mode estimates as the pass goes (no second array of
+    that size).  Row ``N−1`` is the caller's (the filtered one).
     """
     n_samples, n_q, n = store.means.shape
     log_T = np.empty((n_q, n_q))
@@ -142,12 +177,12 @@ def kim_backward(
     log_new = np.empty(n_q)
     weights = np.empty(n_q)
     mu_s = np.empty(n_q)
-    x_pair = np.empty((n_q, n))
-    P_pair = np.empty((n_q, n, n))
+    x_j = np.empty((n_q, n))  # E[x(k) | q(k+1)=j, Y^N]
+    P_j = np.empty((n_q, n, n))
     x_new = np.empty((n_q, n))
     P_new = np.empty((n_q, n, n))
     x_pred = np.empty(n)
-    F_ij = np.empty((n, n))
+    F_j = np.empty((n, n))
     FP = np.empty((n, n))
     P_pred = np.empty((n, n))
     L = np.zeros((n, n))
@@ -161,8 +196,8 @@ def kim_backward(
     P = np.empty((n, n))
     for k in range(n_samples - 2, -1, -1):
         u = inputs[k]
-        x_i = store.means[k]  # filtered x̂_i(k|k), overwritten below with the smoothed
-        P_i = store.covariances[k]
+        x_prior = store.means[k]  # mixed priors x̂⁰_j(k), overwritten below with x̂^s_i(k)
+        P_prior = store.covariances[k]
         x_next = store.means[k + 1]  # already smoothed
         P_next = store.covariances[k + 1]
         for i in range(n_q):
@@ -179,58 +214,72 @@ def kim_backward(
                     log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_c[j]
             row_total[i] = log_sum_exp(log_pair[i])
         total = log_sum_exp(row_total)
-        if total == -math.inf:  # nothing links the two samples: keep the filtered step
+        # RTS step of each next mode j from its mixed prior.
+        for j in range(n_q):
+            x_j[j] = x_prior[j]
+            P_j[j] = P_prior[j]
+            if log_mu_next[j] == -math.inf:
+                continue  # q(k+1) = j is ruled out: no weight, the prior stands
+            f(j, x_prior[j], u, x_pred)
+            F(j, x_prior[j], u, F_j)
+            congruence(F_j, P_prior[j], FP, P_pred)  # FP = F P⁰
+            for a in range(n):
+                for b in range(n):
+                    P_pred[a, b] += Q[j, a, b]
+            if not cholesky(P_pred, L):
+                continue
+            # Guard: the exact RTS keeps P^s_j(k+1) <= P^-_j; a collapsed mixture wider than
+            # the prediction would widen the estimate backwards (through F⁻¹ when Q is
+            # small): the step is skipped and the forward prior stands (module docstring).
+            scale = 0.0
+            for a in range(n):
+                scale += P_pred[a, a]
+            for a in range(n):
+                for b in range(n):
+                    work[a, b] = P_pred[a, b] - P_next[j, a, b]
+                work[a, a] += GUARD_TOLERANCE * scale
+            if not cholesky(work, IJF):
+                continue
+            # J = P⁰ Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P⁰)ᵀ, column by column of F P⁰.
+            for b in range(n):
+                for a in range(n):
+                    column[a] = FP[a, b]
+                forward_solve(L, column, solved)
+                backward_solve(L, solved, column)
+                for a in range(n):
+                    J[b, a] = column[a]
+            for a in range(n):
+                acc = x_prior[j, a]
+                for b in range(n):
+                    acc += J[a, b] * (x_next[j, b] - x_pred[b])
+                x_j[j, a] = acc
+            mat_mul(J, F_j, IJF)
+            for a in range(n):
+                for b in range(n):
+                    IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
+                    part[a, b] = Q[j, a, b] + P_next[j, a, b]
+            congruence(IJF, P_prior[j], work, P_j[j])
+            congruence(J, part, work, P)
+            for a in range(n):
+                for b in range(n):
+                    P_j[j, a, b] += P[a, b]
+            symmetrize(P_j[j])
+        if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
         else:
             for i in range(n_q):
                 log_new[i] = row_total[i] - total
         for i in range(n_q):
+            mu_s[i] = math.exp(log_mu_next[i])
+        for i in range(n_q):
             if log_new[i] == -math.inf or total == -math.inf:
-                x_new[i] = x_i[i]
-                P_new[i] = P_i[i]
+                # No weight on q(k) = i: any finite estimate does; the combined one.
+                mixture_moments(mu_s, x_j, P_j, x_new[i], P_new[i])
                 continue
             for j in range(n_q):
                 weights[j] = math.exp(log_pair[i, j] - row_total[i])
-                if weights[j] == 0.0:
-                    x_pair[j] = x_i[i]
-                    P_pair[j] = P_i[i]
-                    continue
-                f(j, x_i[i], u, x_pred)
-                F(j, x_i[i], u, F_ij)
-                congruence(F_ij, P_i[i], FP, P_pred)  # FP = F P_i
-                for a in range(n):
-                    for b in range(n):
-                        P_pred[a, b] += Q[j, a, b]
-                if not cholesky(P_pred, L):
-                    x_pair[j] = x_i[i]
-                    P_pair[j] = P_i[i]
-                    continue
-                # J = P_i Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P_i)ᵀ, column by column of F P_i.
-                for b in range(n):
-                    for a in range(n):
-                        column[a] = FP[a, b]
-                    forward_solve(L, column, solved)
-                    backward_solve(L, solved, column)
-                    for a in range(n):
-                        J[b, a] = column[a]
-                for a in range(n):
-                    acc = x_i[i, a]
-                    for b in range(n):
-                        acc += J[a, b] * (x_next[j, b] - x_pred[b])
-                    x_pair[j, a] = acc
-                mat_mul(J, F_ij, IJF)
-                for a in range(n):
-                    for b in range(n):
-                        IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
-                        part[a, b] = Q[j, a, b] + P_next[j, a, b]
-                congruence(IJF, P_i[i], work, P_pair[j])
-                congruence(J, part, work, P)
-                for a in range(n):
-                    for b in range(n):
-                        P_pair[j, a, b] += P[a, b]
-                symmetrize(P_pair[j])
-            mixture_moments(weights, x_pair, P_pair, x_new[i], P_new[i])
+            mixture_moments(weights, x_j, P_j, x_new[i], P_new[i])
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
@@ -301,12 +350,15 @@ def post_process(
     smooth: bool,
     mode_sequence: str,
     jit: bool,
+    kernel: str = "auto",
 ) -> EstimationResult:
     """The result after the offline passes asked for, with the filter's beside it.
 
     ``smooth``: the Kim smoother's states, variances, probabilities and modes (argmax of the
     smoothed probabilities); ``mode_sequence == "viterbi"``: the Viterbi path as the modes.
     ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
+    ``kernel`` as for the filter: straight-line code (:func:`generate_smoother_source`) where
+    it applies, else the generic :func:`kim_backward`.
     """
     start = time.perf_counter()
     compile_s = 0.0
@@ -318,20 +370,37 @@ def post_process(
             model, n, store_covariances=filtered.covariances is not None
         )
         if n:
-            Q = contiguous(np.stack([m.process_noise for m in model.modes]))
-            compiled = compile_model(model, jit=jit)
-            arguments: tuple[Any, ...] = (
-                compiled.f,
-                compiled.F,
-                contiguous(signals.inputs),
-                contiguous(transitions),
-                Q,
-                filtered.mode_probabilities,
-                store,
-                buffers,
-            )
+            arguments: tuple[Any, ...]
             compile_start = time.perf_counter()
-            loop = compile_for(kim_backward, arguments) if jit else kim_backward
+            if jit and use_unrolled(model, kernel):
+                arguments = (
+                    contiguous(signals.inputs),
+                    _log(transitions),
+                    filtered.mode_probabilities,
+                    store,
+                    buffers,
+                )
+                loop, _ = compile_generated(
+                    model,
+                    "imm_smooth",
+                    lambda: module_source(model, generate_smoother_source(model)),
+                    (__name__, "hybridlog.estimators.unrolled"),
+                    "imm_smooth",
+                    arguments,
+                )
+            else:
+                compiled = compile_model(model, jit=jit)
+                arguments = (
+                    compiled.f,
+                    compiled.F,
+                    contiguous(signals.inputs),
+                    contiguous(transitions),
+                    contiguous(np.stack([m.process_noise for m in model.modes])),
+                    filtered.mode_probabilities,
+                    store,
+                    buffers,
+                )
+                loop = compile_for(kim_backward, arguments) if jit else kim_backward
             compile_s += time.perf_counter() - compile_start
             loop(*arguments)
             last = n - 1
@@ -374,3 +443,181 @@ def post_process(
             filtered=filtered,
         ),
     )
+
+
+def _log_sum_exp_source(p: Program, hint: str, expressions: list[str]) -> str:
+    """Emit ``log Σ exp(expressions)`` as :func:`log_sum_exp` computes it; its variable."""
+    terms = [p.assign(hint + "t", e) for e in expressions]
+    top = terms[0] if len(terms) == 1 else p.assign(hint + "top", f"max({', '.join(terms)})")
+    result = p.fresh(hint)
+    p.emit(f"if {top} == -math.inf:")
+    p.emit(f"    {result} = -math.inf")
+    p.emit("else:")
+    total = " + ".join(f"math.exp({t} - {top})" for t in terms)
+    p.emit(f"    {result} = {top} + math.log({total})")
+    return result
+
+
+def _select(
+    p: Program, hint: str, condition: str, chosen: Sequence[Entry], other: Sequence[Entry]
+) -> Vector:
+    """Variables holding ``chosen`` where ``condition`` holds, else ``other``."""
+    names = [p.fresh(hint) for _ in chosen]
+    p.emit(f"if {condition}:")
+    for name, value in zip(names, chosen, strict=True):
+        p.emit(f"    {name} = {term(value)}")
+    p.emit("else:")
+    for name, value in zip(names, other, strict=True):
+        p.emit(f"    {name} = {term(value)}")
+    return list(names)
+
+
+def generate_smoother_source(model: HybridModel) -> str:
+    """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
+
+    Defines ``imm_smooth(inputs, log_T, mu, store, out)``: the same backward pass with the mode
+    functions, the process noise and the small matrix products written out.  Equal to the
+    generic loop up to rounding (``tests/estimators/test_smoothing.py``).
+    """
+    n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
+    Q, _ = noise_matrices(model)
+    p = Program(indent="    ")
+    p.emit("means = store.means")
+    p.emit("covs = store.covariances")
+    for name, field in (
+        ("modes_out", "modes"),
+        ("probabilities_out", "mode_probabilities"),
+        ("means_out", "state_means"),
+        ("variances_out", "state_variances"),
+        ("covariances_out", "covariances"),
+    ):
+        p.emit(f"{name} = out.{field}")
+    p.emit("n_samples = means.shape[0]")
+    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    log_next = vector_names("lmn", n_q)  # log μ^s(k+1), carried
+    for j in range(n_q):
+        last = f"mu[n_samples - 1, {j}]"
+        p.emit(f"{log_next[j]} = math.log({last}) if {last} > 0.0 else -math.inf")
+    log_T = matrix_names("lT", n_q, n_q)
+    for i in range(n_q):
+        for j in range(n_q):
+            p.emit(f"{log_T[i][j]} = log_T[{i}, {j}]")
+    p.emit("for k in range(n_samples - 2, -1, -1):")
+    p.indent += "    "
+    u = vector_names("u", n_u)
+    p.carry(u, [f"inputs[k, {c}]" for c in range(n_u)])
+    log_mu = [
+        p.assign("lmu", f"math.log(mu[k, {i}]) if mu[k, {i}] > 0.0 else -math.inf")
+        for i in range(n_q)
+    ]
+    log_c = [
+        _log_sum_exp_source(p, "lc", [f"{log_T[i][j]} + {log_mu[i]}" for i in range(n_q)])
+        for j in range(n_q)
+    ]
+    log_pair = [
+        [
+            p.assign(
+                "lp",
+                f"-math.inf if ({log_c[j]} == -math.inf or {log_next[j]} == -math.inf) else "
+                f"{log_next[j]} + {log_mu[i]} + {log_T[i][j]} - {log_c[j]}",
+            )
+            for j in range(n_q)
+        ]
+        for i in range(n_q)
+    ]
+    row_total = [_log_sum_exp_source(p, "rt", list(log_pair[i])) for i in range(n_q)]
+    total = _log_sum_exp_source(p, "tot", list(row_total))
+    X_s: list[Vector] = []
+    P_s: list[Matrix] = []
+    for j in range(n_q):
+        x0 = [p.assign("xz", f"means[k, {j}, {a}]") for a in range(n)]
+        P0: Matrix = [[0.0] * n for _ in range(n)]
+        Pn: Matrix = [[0.0] * n for _ in range(n)]
+        for a in range(n):
+            for b in range(a, n):
+                P0[a][b] = P0[b][a] = p.assign("pz", f"covs[k, {j}, {a}, {b}]")
+                Pn[a][b] = Pn[b][a] = p.assign("pn", f"covs[k + 1, {j}, {a}, {b}]")
+        xn = [p.assign("xn", f"means[k + 1, {j}, {a}]") for a in range(n)]
+        x_pred = p.mode_values(model, j, "f", x0, u)
+        F = reshape(p.mode_values(model, j, "F", x0, u), n, n)
+        P_pred = p.congruence(f"pp{j}_", F, P0, add=Q[j])
+        L = p.cholesky(f"lc{j}_", P_pred)
+        FP = p.matmul(f"fp{j}_", F, P0)
+        J: Matrix = [[0.0] * n for _ in range(n)]
+        for b in range(n):
+            solved = p.backward_solve(
+                f"jb{j}_", L, p.forward_solve(f"jf{j}_", L, [FP[a][b] for a in range(n)])
+            )
+            for a in range(n):
+                J[b][a] = solved[a]
+        trace = p.let("tr", [P_pred[a][a] for a in range(n)])
+        D: Matrix = [[0.0] * n for _ in range(n)]
+        for a in range(n):
+            for b in range(a, n):
+                extra = f" + {GUARD_TOLERANCE!r}*{term(trace)}" if a == b else ""
+                D[a][b] = D[b][a] = p.assign(
+                    "dg", f"{term(P_pred[a][b])} - {term(Pn[a][b])}{extra}"
+                )
+        LD = p.cholesky(f"ld{j}_", D)
+        positive = " and ".join(
+            [f"{term(L[a][a])} > 0.0" for a in range(n)]
+            + [f"{term(LD[a][a])} > 0.0" for a in range(n)]
+        )
+        ok = p.assign("ok", f"{log_next[j]} != -math.inf and {positive}")
+        gap = [p.difference("gp", xn[b], x_pred[b]) for b in range(n)]
+        x_rts = [
+            p.let("xr", [x0[a], *[product(J[a][b], gap[b]) for b in range(n)]]) for a in range(n)
+        ]
+        JF = p.matmul(f"jF{j}_", J, F)
+        IJF: Matrix = [
+            [p.difference("ij", 1.0 if a == b else 0.0, JF[a][b]) for b in range(n)]
+            for a in range(n)
+        ]
+        part: Matrix = [[0.0] * n for _ in range(n)]
+        for a in range(n):
+            for b in range(a, n):
+                part[a][b] = part[b][a] = p.let("qp", [Q[j][a][b], Pn[a][b]])
+        P_rts = p.symmetric_sum(
+            f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
+        )
+        X_s.append(_select(p, "xs", ok, x_rts, x0))
+        chosen = _select(p, "ps", ok, upper(P_rts), upper(P0))
+        P_sel: Matrix = [[0.0] * n for _ in range(n)]
+        index = 0
+        for a in range(n):
+            for b in range(a, n):
+                P_sel[a][b] = P_sel[b][a] = chosen[index]
+                index += 1
+        P_s.append(P_sel)
+    log_new = [p.fresh("ln") for _ in range(n_q)]
+    p.emit(f"if {total} == -math.inf:")
+    for i in range(n_q):
+        p.emit(f"    {log_new[i]} = {log_mu[i]}")
+    p.emit("else:")
+    for i in range(n_q):
+        p.emit(f"    {log_new[i]} = {row_total[i]} - {total}")
+    mu_next = [p.assign("mx", f"math.exp({log_next[j]})") for j in range(n_q)]
+    x_new: list[Vector] = []
+    P_new: list[Matrix] = []
+    for i in range(n_q):
+        weights: Vector = [
+            p.assign(
+                "w",
+                f"{mu_next[j]} if ({log_new[i]} == -math.inf or {total} == -math.inf) else "
+                f"math.exp({log_pair[i][j]} - {row_total[i]})",
+            )
+            for j in range(n_q)
+        ]
+        x_i, P_i = p.mixture(f"nm{i}_", weights, X_s, P_s)
+        x_new.append(x_i)
+        P_new.append(P_i)
+    mu_s: Vector = [p.assign("ms", f"math.exp({log_new[i]})") for i in range(n_q)]
+    for i in range(n_q):
+        for a in range(n):
+            p.emit(f"means[k, {i}, {a}] = {term(x_new[i][a])}")
+            for b in range(n):
+                p.emit(f"covs[k, {i}, {a}, {b}] = {term(P_new[i][a][b])}")
+    x, P = p.mixture("cm", mu_s, x_new, P_new)
+    p.record("k", p.argmax(mu_s), mu_s, x, P)
+    p.carry(log_next, log_new)
+    return f"def imm_smooth(inputs, log_T, mu, store, out):\n{p.source()}\n"

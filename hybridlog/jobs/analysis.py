@@ -332,14 +332,14 @@ def _row(report: Report) -> dict[str, Any]:
 
 _SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy")
 """Columns added to the comparison when an estimator's estimates were smoothed: the
-smoother and mode sequence (``kim-rts, viterbi``; empty for a filter's own estimates) and the
+smoother and mode sequence (``kim-rts, viterbi``; ``none`` for a filter's own estimates) and the
 filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``."""
 
 
 def _smoothing_cells(report: Report) -> list[Any]:
     smoothing = report.smoothing
     if smoothing is None:
-        return [None, None]
+        return ["none", None]
     name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
     return [name, smoothing.filtered.mode_accuracy]
 

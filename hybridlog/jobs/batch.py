@@ -614,6 +614,13 @@ def _summarise(
         for o in outcomes
     ]
     title = f"{model.name} · {job.estimator}"
+    smoothed = {
+        ", ".join(n for n in (o.report.smoothing.method, o.report.smoothing.mode_sequence) if n)
+        for o in outcomes
+        if o.report is not None and o.report.smoothing is not None
+    }
+    if smoothed:  # the modes and states summarised are then the smoothed ones
+        title += f" · {' / '.join(sorted(smoothed))}"
     table, text = batch_markdown(title, rows, [f"{g.option} {g.spec}" for g in gates])
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:

@@ -197,11 +197,13 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         f"- {smoothing.description}",
         "- The modes, states and tables of this report hold these estimates (the causal "
         "filter's own are in the `_filtered` columns). The output MSE, VAF and fit above stay "
-        "the filter's one-step-ahead prediction ŷ(k|k−1): a smoother uses y(k) itself, so it "
-        "predicts nothing. The output fit below is of ŷ(k) = h(x̂(k), u(k)) in the estimated "
-        "mode: how well each side's estimates explain the measurements.",
+        "the filter's one-step-ahead prediction ŷ(k|k−1): an offline pass uses y(k) and the "
+        "samples after it, so it predicts nothing. The output fit below is of ŷ(k) = "
+        "h(x̂(k), u(k)) in the estimated mode: how well each side's estimates explain the "
+        "measurements.",
         "",
-        "| metric | filtered | smoothed | change |",
+        f"| metric | filtered | {'smoothed' if smoothing.method else smoothing.mode_sequence} "
+        "| change |",
         "|---|---:|---:|---:|",
     ]
 

@@ -227,3 +227,33 @@ def test_without_the_options_the_result_is_the_filters():
     assert smoothed.post_processing.mode_sequence == "argmax"
     np.testing.assert_array_equal(smoothed.post_processing.filtered.state_means, result.state_means)
     np.testing.assert_array_equal(smoothed.modes, np.argmax(smoothed.mode_probabilities, axis=1))
+
+
+def test_smoother_stays_bounded_without_process_noise():
+    """Regression: with Q = 0, mixing the modes' hypotheses once widened the estimate at every
+    step backwards (through F⁻¹) until the states reached 1e29; the guard stops it."""
+    model = load_model("double_cart_case1")
+    assert not model.modes[0].process_noise.any()
+    log = simulate(model, steps=600, seed=0)
+    signals = log.signals(model)
+    result = run_imm(model, signals, ImmOptions(smooth=True), store_covariances=True)
+    assert_smoother_invariants(result)
+
+    def rmse(means):
+        return np.sqrt(np.mean((means[1:] - log.states[1:]) ** 2))
+
+    assert rmse(result.state_means) <= 2 * rmse(result.post_processing.filtered.state_means)
+
+
+@pytest.mark.parametrize("name", ["three_tank_hstf", "double_cart_case1"])
+def test_straight_line_smoother_equals_the_generic_loop(name):
+    model = load_model(name)
+    signals = simulate(model, steps=500, seed=3).signals(model)
+    options = ImmOptions(smooth=True)
+    fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
+    plain = run_imm(model, signals, options, kernel="loops", store_covariances=True)
+    for field in ("state_means", "covariances", "mode_probabilities"):
+        a, b = getattr(fast, field), getattr(plain, field)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
+    np.testing.assert_array_equal(fast.modes, plain.modes)
+    assert np.abs(fast.state_means - fast.post_processing.filtered.state_means).max() > 1e-6

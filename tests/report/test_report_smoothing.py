@@ -186,6 +186,11 @@ def test_report_md_has_a_smoothing_section_with_the_gain(tmp_path: Path) -> None
         assert f"| RMSE {x} |" in section
     for name in ("outputs.png", "modes.png", "states.png"):
         assert (tmp_path / "out" / "plots" / name).stat().st_size > 1000
+    assert "| metric | filtered | smoothed | change |" in section
+    only, signals = smoothed_run(mode_sequence="viterbi", smoothing=None)
+    text = render_markdown(build_report(only, signals, log="run.csv", model_name="m", dt=DT))
+    assert "| metric | filtered | viterbi | change |" in text
+    assert "smoother: none (the filter's estimates); mode sequence: `viterbi`" in text
     plain, signals = make_run()
     assert "## Smoothing" not in render_markdown(
         build_report(plain, signals, log="run.csv", model_name="m", dt=DT)

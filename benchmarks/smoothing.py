@@ -1,0 +1,101 @@
+"""Speed of the IMM's offline passes (issue 12): the smoother and the Viterbi path.
+
+    .venv/bin/python -m benchmarks.smoothing           # ~1 minute, prints a Markdown table
+    .venv/bin/python -m benchmarks.run --only smoothing
+
+The built-in three-tank model (3 modes, 3 states, 3 outputs), ``simulate(model,
+steps=N-1, seed=1)``, N = 10^6 samples (10^4 with ``--quick``).  Times are
+``EstimationResult.runtime_s`` (compiled code only, after a warm-up run that compiles or loads
+everything), best of ``repeat``:
+
+* ``imm filter``: ``run_imm`` with its defaults (the forward pass alone, keeping nothing);
+* ``imm smooth=true``: the forward pass keeping the per-mode store, then the backward pass;
+  the notes give the backward pass alone (its steps/s) and the store's size;
+* ``imm mode_sequence=viterbi``: the forward pass keeping the store, then the Viterbi path;
+* ``ratio``: smoothing ÷ filtering time (target ≤ 2×).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Sequence
+
+from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.model.loader import load_model
+from hybridlog.simulate import simulate
+
+RATIO_TARGET = 2.0
+"""Smoothing (forward + backward) may take at most this many times the filter's time."""
+
+BenchRow = tuple[str, int | None, float | None, str, bool | None, str]
+"""(label, steps, seconds, target, met, notes), as ``benchmarks.run`` takes them."""
+
+
+def _best(runs: Sequence[EstimationResult]) -> EstimationResult:
+    return min(runs, key=lambda r: r.runtime_s)
+
+
+def bench_smoothing(quick: bool, repeat: int) -> list[BenchRow]:
+    """The rows of the ``smoothing`` section."""
+    model = load_model("three_tank_hstf")
+    n = 10**4 if quick else 10**6
+    smooth, viterbi = ImmOptions(smooth=True), ImmOptions(mode_sequence="viterbi")
+    warm = simulate(model, steps=99, seed=1).signals(model, source="bench")
+    for options in (ImmOptions(), smooth, viterbi):
+        run_imm(model, warm, options)  # compile (or load) outside the timed runs
+    signals = simulate(model, steps=n - 1, seed=1).signals(model, source="bench")
+    steps = n - 1
+    filtered = _best([run_imm(model, signals, ImmOptions()) for _ in range(repeat)])
+    smoothed = _best([run_imm(model, signals, smooth) for _ in range(repeat)])
+    decoded = _best([run_imm(model, signals, viterbi) for _ in range(repeat)])
+    assert smoothed.post_processing is not None and decoded.post_processing is not None
+    forward = smoothed.post_processing.filtered.runtime_s
+    backward = smoothed.runtime_s - forward
+    store_mb = 8 * n * model.n_modes * (model.n_states**2 + model.n_states) / 2**20
+    ratio = smoothed.runtime_s / filtered.runtime_s
+    return [
+        ("smoothing · three_tank imm filter", steps, filtered.runtime_s, "", None, ""),
+        (
+            "smoothing · three_tank imm smooth=true",
+            steps,
+            smoothed.runtime_s,
+            "",
+            None,
+            f"forward pass keeping the store {forward:.3f} s; backward pass alone "
+            f"{backward:.3f} s = {steps / backward:,.0f} steps/s; store {store_mb:,.0f} MiB",
+        ),
+        (
+            "smoothing · three_tank imm mode_sequence=viterbi",
+            steps,
+            decoded.runtime_s,
+            "",
+            None,
+            f"Viterbi alone {decoded.runtime_s - decoded.post_processing.filtered.runtime_s:.3f} s",
+        ),
+        (
+            "smoothing · ratio smooth / filter",
+            None,
+            None,
+            f"≤ {RATIO_TARGET:g}×",
+            ratio <= RATIO_TARGET,
+            f"{ratio:.2f}× (load average {os.getloadavg()[0]:.2f})",
+        ),
+    ]
+
+
+def main() -> None:
+    """Print the section as a Markdown table."""
+    quick = "--quick" in sys.argv[1:]
+    print("| benchmark | steps | time s | steps/s | target | met | notes |")
+    print("|---|---|---|---|---|---|---|")
+    for label, steps, seconds, target, met, notes in bench_smoothing(quick, 2 if quick else 3):
+        rate = f"{steps / seconds:,.0f}" if steps and seconds else ""
+        shown = f"{seconds:.3f}" if seconds is not None else ""
+        ok = "" if met is None else ("yes" if met else "**NO**")
+        print(f"| {label} | {steps or ''} | {shown} | {rate} | {target} | {ok} | {notes} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,185 @@
+"""Filtered vs smoothed vs Viterbi mode and state estimates of the IMM (issue 12).
+
+Run from the repository root::
+
+    .venv/bin/python docs/studies/smoothing.py         # ~1 min; prints docs/smoothing.md's tables
+
+Library level: each log is made with :func:`hybridlog.simulate.simulate` and estimated with
+:func:`hybridlog.estimators.imm.run_imm` at its defaults, once per variant:
+
+* ``filtered``           the IMM itself (argmax of the filtered mode probabilities);
+* ``viterbi``            the filter's states, the Viterbi mode path (``mode_sequence=viterbi``);
+* ``smoothed``           Kim's smoother (``smooth=true``): argmax of the smoothed probabilities;
+* ``smoothed+viterbi``   the smoothed states with the Viterbi path.
+
+Scenarios (none tuned to a result: fixed before the first run):
+
+* ``three_tank``: the built-in ``three_tank_hstf`` plant with measurement variance 60 (model
+  and simulation alike; ``measurement = 60.0``), 700 steps, schedule
+  ``1:100,2:100,3:100,1:100,3:100,2:100,1:100`` (six switches), u = 20, seeds 0..29.  The
+  IMM's Markov matrix is its default (0.95 on the diagonal); the prior is the model's
+  (deliberately wrong state and mode, as in paper 000).
+* ``double_cart_case1`` / ``_case2``: paper 001's state-driven double cart (its own input
+  ``u = sin(0.3 t)``, sensor noise 0.001, no process noise), 600 steps, seeds 0..19; the true
+  initial state is the model's ``[simulation] state`` plus N(0, 0.3²) per component (drawn
+  from the seed), the IMM's prior the model's (at rest, mode 1), stay probability 0.95.
+
+Metrics per log: mode error (1 − accuracy, samples 1..N−1), detection delay (mean over the
+detected switches, ``hybridlog.report.metrics.detection_delays``) and missed switches, and the
+state RMSE against the simulated truth (all states, samples 1..N−1).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+if __package__ in (None, ""):  # run as a file: make the repository root importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from hybridlog.estimators.filter_options import ImmOptions
+from hybridlog.estimators.imm import run_imm
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.model.builtins import builtin_text
+from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.model.loader import load_model, parse_model
+from hybridlog.report import metrics
+from hybridlog.signals import AlignedSignals
+from hybridlog.simulate import SimulatedLog, simulate
+
+THREE_TANK_SCHEDULE = "1:100,2:100,3:100,1:100,3:100,2:100,1:100"
+VARIANTS = {
+    "filtered": ImmOptions(),
+    "viterbi": ImmOptions(mode_sequence="viterbi"),
+    "smoothed": ImmOptions(smooth=True),
+    "smoothed+viterbi": ImmOptions(smooth=True, mode_sequence="viterbi"),
+}
+
+
+def three_tank() -> HybridModel:
+    """The three-tank plant with measurement variance 60."""
+    text = builtin_text("three_tank_hstf")
+    noisy = text.replace("measurement = 0.5 ", "measurement = 60.0 ")
+    assert noisy != text
+    return parse_model(noisy)
+
+
+def three_tank_log(model: HybridModel, seed: int) -> SimulatedLog:
+    """One three-tank log of the study."""
+    return simulate(model, schedule=THREE_TANK_SCHEDULE, seed=seed)
+
+
+def double_cart_log(model: HybridModel, seed: int) -> SimulatedLog:
+    """One double-cart log: the model's input, the seed's true initial state and noise."""
+    start = np.asarray(model.simulation_state) + np.random.default_rng(seed).normal(0, 0.3, 4)
+    return simulate(replace(model, simulation_state=start), steps=600, seed=seed)
+
+
+def scores(result: EstimationResult, signals: AlignedSignals) -> dict[str, float]:
+    """Mode error (%), mean detection delay (s), missed switches, state RMSE of one run."""
+    truth = signals.truth_modes
+    states = signals.truth_states
+    assert truth is not None and states is not None
+    delays = metrics.detection_delays(signals.time, result.modes, truth, result.mode_ids)
+    error = result.state_means[1:] - states[1:]
+    return {
+        "mode error %": 100.0 * (1.0 - metrics.mode_accuracy(result.modes[1:], truth[1:])),
+        "delay s": delays.mean_s,
+        "missed": float(delays.missed),
+        "state RMSE": float(np.sqrt(np.mean(error**2))),
+    }
+
+
+Scenario = Callable[[int], tuple[HybridModel, AlignedSignals]]
+
+
+def run(scenario: Scenario, seeds: range) -> dict[str, list[dict[str, float]]]:
+    """Every variant on every seed's log."""
+    rows: dict[str, list[dict[str, float]]] = {name: [] for name in VARIANTS}
+    for seed in seeds:
+        model, signals = scenario(seed)
+        for name, options in VARIANTS.items():
+            result = run_imm(model, signals, options)
+            rows[name].append(scores(result, signals))
+    return rows
+
+
+def table(rows: dict[str, list[dict[str, float]]]) -> str:
+    """Median [min, max] of every metric, one line per variant."""
+    keys = list(next(iter(rows.values()))[0])
+    lines = ["| variant | " + " | ".join(keys) + " |", "|---" * (len(keys) + 1) + "|"]
+    for name, runs in rows.items():
+        cells = []
+        for key in keys:
+            values = np.array([r[key] for r in runs])
+            finite = values[np.isfinite(values)]
+            if not finite.size:
+                cells.append("n/a")
+                continue
+            median, low, high = np.median(finite), finite.min(), finite.max()
+            digits = ".0f" if key == "missed" else ".2f" if key != "state RMSE" else ".3g"
+            cells.append(f"{median:{digits}} [{low:{digits}}, {high:{digits}}]")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def per_seed(rows: dict[str, list[dict[str, float]]], seeds: range) -> str:
+    """How the smoothed mode error compares with the filter's on each log."""
+    filtered = np.array([r["mode error %"] for r in rows["filtered"]])
+    lines = []
+    for name in ("smoothed", "viterbi", "smoothed+viterbi"):
+        other = np.array([r["mode error %"] for r in rows[name]])
+        ratio = np.where(filtered > 0, other / np.maximum(filtered, 1e-300), np.nan)
+        worse = int(np.sum(other > filtered))
+        if np.isfinite(ratio).any():
+            worst = int(np.nanargmax(ratio))
+            worst_text = (
+                f"worst seed {seeds[worst]}: {other[worst]:.2f} % vs {filtered[worst]:.2f} % "
+                f"(ratio {ratio[worst]:.2f})"
+            )
+        else:
+            worst_text = "the filter made no mode error on any log"
+        lines.append(
+            f"- {name}: mode error below the filter's on "
+            f"{int(np.sum(other < filtered))}/{len(filtered)} logs, equal on "
+            f"{int(np.sum(other == filtered))}, above on {worse}; median ratio to the "
+            f"filter's {np.nanmedian(ratio):.2f}; {worst_text}"
+        )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    """Print the tables of docs/smoothing.md."""
+    tank = three_tank()
+
+    def tank_scenario(seed: int) -> tuple[HybridModel, AlignedSignals]:
+        return tank, three_tank_log(tank, seed).signals(tank)
+
+    scenarios: list[tuple[str, Scenario, range]] = [
+        ("three_tank (measurement variance 60, 6 switches, 700 steps)", tank_scenario, range(30))
+    ]
+    for case in (1, 2):
+        cart = load_model(f"double_cart_case{case}")
+
+        def cart_scenario(
+            seed: int, cart: HybridModel = cart
+        ) -> tuple[HybridModel, AlignedSignals]:
+            return cart, double_cart_log(cart, seed).signals(cart)
+
+        scenarios.append((f"double_cart_case{case} (600 steps)", cart_scenario, range(20)))
+    for title, scenario, seeds in scenarios:
+        rows = run(scenario, seeds)
+        print(f"### {title}, {len(seeds)} seeds\n")
+        print("median [min, max] over the seeds\n")
+        print(table(rows))
+        print()
+        print(per_seed(rows, seeds))
+        print(flush=True)
+
+
+if __name__ == "__main__":
+    main()

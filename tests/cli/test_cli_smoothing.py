@@ -1,0 +1,111 @@
+"""``--smooth`` and ``--mode-sequence`` on the command line (issue 12): one test per kind.
+
+The smoother itself is tested in tests/estimators/; here: the flags reach the estimator as
+its options ``smooth`` and ``mode_sequence`` (the same path as ``--set`` and a model file's
+``[estimators.<name>]``), the outputs carry both the filtered and the smoothed estimates, and
+an estimator without a smoother is refused in one line before the log is read.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import polars as pl
+import pytest
+
+from hybridlog.errors import OptionError
+from hybridlog.jobs.analysis import compare, parse_sets, prepare_estimators
+from hybridlog.model.builtins import builtin_text
+from tests.cli.test_cli import run
+from tests.support.paths import SAMPLE_LOGS, TANK_CSV
+
+DC1 = SAMPLE_LOGS / "double_cart_case1.csv"
+
+
+def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -> None:
+    common = [str(TANK_CSV), "--estimator", "imm"]
+    run(["analyze", *common, "--model", "three_tank_hstf", "--out", str(tmp_path / "f")])
+    result = run(
+        ["analyze", *common, "--model", "three_tank_hstf", "--smooth", "--mode-sequence",
+         "viterbi", "--out", str(tmp_path / "s")]
+    )  # fmt: skip
+    assert "mode accuracy" in result.output and "(filtered " in result.output
+    filtered = json.loads((tmp_path / "f" / "report.json").read_text())
+    smoothed = json.loads((tmp_path / "s" / "report.json").read_text())
+    assert "smoothing" not in filtered and filtered["options"]["smooth"] is False
+    assert smoothed["options"]["smooth"] is True
+    assert smoothed["options"]["mode_sequence"] == "viterbi"
+    smoothing = smoothed["smoothing"]
+    assert smoothing["method"] and smoothing["mode_sequence"] == "viterbi"
+    # the filter's side is the plain run's; the output metrics stay the filter's prediction
+    assert smoothing["filtered"]["mode_accuracy"] == filtered["modes"]["accuracy"]
+    assert smoothing["smoothed"]["mode_accuracy"] == smoothed["modes"]["accuracy"]
+    for x, state in filtered["states"].items():
+        assert smoothing["filtered"]["states"][x] == state
+    for key in ("outputs", "mse", "vaf", "fit"):
+        assert smoothed[key] == filtered[key]
+    assert smoothing["smoothed"]["fit"] is not None  # ŷ = h(x̂) through the model
+    assert set(smoothing["smoothed"]["outputs"]) == set(filtered["outputs"])
+    timeline = pl.read_csv(tmp_path / "s" / "timeline.csv")
+    assert {"mode_filtered", "p_1_filtered"} <= set(timeline.columns)
+    plain = pl.read_csv(tmp_path / "f" / "timeline.csv")
+    assert timeline["mode_filtered"].to_list() == plain["mode"].to_list()
+    assert "## Smoothing" in (tmp_path / "s" / "report.md").read_text()
+
+
+def test_smooth_on_an_estimator_without_a_smoother_is_one_line_before_the_log_is_read(
+    tmp_path: Path,
+) -> None:
+    missing = tmp_path / "no such log.csv"
+    out = tmp_path / "out"
+    args = ["analyze", str(missing), "--model", "double_cart_case1", "--estimator", "chiu"]
+    result = run([*args, "--smooth", "--out", str(out)], expect=2)
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith("hybridlog: error: --smooth: estimator 'chiu'")
+    assert "does not offer it" in line and "imm" in line
+    result = run([*args, "--mode-sequence", "viterbi", "--out", str(out)], expect=2)
+    assert "--mode-sequence: estimator 'chiu'" in result.stderr
+    assert not out.exists()
+
+
+def test_the_flags_are_the_estimator_options(tmp_path: Path) -> None:
+    """Library level: what each flag sets, the model file's smooth = true, --set conflicts."""
+    model, overrides = parse_sets([], "three_tank_hstf")
+    (imm,) = prepare_estimators(model, ["imm"], overrides, smooth=True, mode_sequence="viterbi")
+    assert (imm.options.smooth, imm.options.mode_sequence) == (True, "viterbi")
+    (plain,) = prepare_estimators(model, ["imm"], overrides)
+    assert (plain.options.smooth, plain.options.mode_sequence) == (False, "argmax")
+    model, overrides = parse_sets(["smooth=false"], "three_tank_hstf")
+    with pytest.raises(OptionError, match=r"^--smooth: also given as --set smooth=false"):
+        prepare_estimators(model, ["imm"], overrides, smooth=True)
+    # smooth = true under [estimators.imm] is the same setting as --smooth
+    path = tmp_path / "tank.toml"
+    path.write_text(builtin_text("three_tank_hstf") + "\n[estimators.imm]\nsmooth = true\n")
+    model, overrides = parse_sets([], path)
+    (from_file,) = prepare_estimators(model, ["imm"], overrides)
+    assert from_file.options == imm.options.__class__(smooth=True)
+    (both,) = prepare_estimators(model, ["imm"], overrides, smooth=True)
+    assert both.options == from_file.options
+
+
+def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> None:
+    with pytest.raises(OptionError) as caught:
+        compare(DC1, "double_cart_case1", ["imm", "chiu"], out_dir=tmp_path / "c", smooth=True)
+    assert str(caught.value).startswith("--smooth: estimator 'chiu' (--estimators) does not")
+    assert "--set smooth=true applies it only to the estimators that do" in str(caught.value)
+    assert not (tmp_path / "c").exists()
+    # --set smooth=true smooths the estimators that have a smoother, and the table says so
+    done = compare(
+        TANK_CSV, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "c", sets=["smooth=true"]
+    )
+    table = pl.read_csv(tmp_path / "c" / "comparison.csv")
+    assert table.columns[-2:] == ["smoothing", "filtered_mode_accuracy"]
+    imm = done.reports["imm"].smoothing
+    assert imm is not None and imm.method is not None
+    row = table.filter(pl.col("estimator") == "imm")
+    assert row["filtered_mode_accuracy"][0] == pytest.approx(imm.filtered.mode_accuracy)
+    assert row["mode_accuracy"][0] == pytest.approx(done.reports["imm"].modes.accuracy)
+    assert row["smoothing"][0] == f"{imm.method}, argmax"
+    if done.reports["hstf"].smoothing is None:  # hstf has no smoother (yet)
+        assert table.filter(pl.col("estimator") == "hstf")["smoothing"][0] == "none"
