@@ -4,9 +4,9 @@ r"""Offline passes after a filter: the fixed-interval IMM smoother and the Viter
 prior.**  Mode probabilities: Kim C.-J., "Dynamic linear models with Markov-switching",
 *Journal of Econometrics* 60 (1994) 1-22, eqs. (2.20)-(2.21) (Kim and Nelson, *State-Space
 Models with Regime Switching*, 1999, §5.2.2).  States: an RTS step (Rauch, Tung, Striebel
-1965) per *next* mode ``j``, from the forward IMM's own mixed prior of mode ``j`` — the same
-structure as Lopez and Danès' low-complexity IMM smoother (IEEE TAES 53(1), 2017), written
-out here as implemented.  The forward pass keeps
+1965) per *next* mode ``j``, from the forward IMM's own mixed prior of mode ``j``, close in
+structure to Lopez and Danès' low-complexity IMM smoother (IEEE TAES 2017; their equations
+were not checked line by line): what is implemented is written out below.  The forward pass keeps
 (:class:`~hybridlog.estimators.common.ModeStore`) the mixed priors ``x̂⁰_j(k)``, ``P⁰_j(k)``
 (the estimate of ``x(k)`` given ``q(k+1) = j``, Blom and Bar-Shalom's mixing), the per-mode
 estimates of the last sample and the filtered ``μ(k)``.  For ``k = N−2 … 0``:
