@@ -131,6 +131,13 @@ def _force_option(replaces: str) -> Callable[[F], F]:
     return click.option("--force", is_flag=True, help=f"Replace {replaces}.")
 
 
+def _set_option(what: str) -> Callable[[F], F]:
+    """``--set NAME=VALUE``: what it may set differs by command."""
+    return click.option(
+        "--set", "sets", multiple=True, metavar="NAME=VALUE", help=f"{what} Repeatable."
+    )
+
+
 _SMOOTHING = ", ".join(e.name for e in ESTIMATORS.values() if e.capabilities.supports_smoothing)
 """The estimators that declare a fixed-interval smoother (``--smooth``), from the registry."""
 
@@ -139,13 +146,7 @@ def _analysis_options(function: F) -> F:
     """Options shared by analyze, compare and batch."""
     decorators = [
         _map_option,
-        click.option(
-            "--set",
-            "sets",
-            multiple=True,
-            metavar="NAME=VALUE",
-            help="Override a model parameter or an estimator option. Repeatable.",
-        ),
+        _set_option("Override a model parameter or an estimator option."),
         click.option(
             "--fail-under",
             multiple=True,
@@ -489,13 +490,7 @@ class _LogFormats(click.Choice[str]):
 @click.option(
     "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
 )
-@click.option(
-    "--set",
-    "sets",
-    multiple=True,
-    metavar="NAME=VALUE",
-    help="A scenario parameter of a components model (a fault time, a drift rate). Repeatable.",
-)
+@_set_option("A scenario parameter of a components model (a fault time, a drift rate).")
 @click.option(
     "--noise/--no-noise",
     default=True,
