@@ -239,9 +239,8 @@ def test_unknown_estimator_tables_and_names(tmp_path):
     path.write_text(f"{TANK_TEXT}\n[estimators.kalman]\nq = 1\n")
     with pytest.raises(ModelError, match=rf"^{path}: estimators\.kalman: unknown estimator"):
         prepare(load_model(path), "hstf")
-    path.write_text(f"{TANK_TEXT}\n[estimators.unknown-mode]\nV_M = 1\n")  # another's table
-    with pytest.raises(ModelError, match=r"estimators\.unknown-mode: unknown option 'V_M'"):
-        prepare(load_model(path), "hstf")
+    path.write_text(f"{TANK_TEXT}\n[estimators.imm]\ntransition_stay = 0.9\n")  # another's
+    assert prepare(load_model(path), "hstf").name == "hstf"
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")
 
