@@ -30,7 +30,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -169,7 +169,6 @@ class _Proposals:
         return score, j, code
 
 
-@dataclass
 class Hypothesis:
     """One tracked trajectory.
 
@@ -185,16 +184,102 @@ class Hypothesis:
         One-step-ahead output prediction of its clusters (NaN for outputs in none).
     sources:
         The cluster step that produced ``x``, ``P`` of each of its clusters, by the
-        cluster's state indices: lets successors find a shared step by identity
-        (:meth:`Tracker._evaluate`); empty when unknown.
+        cluster's state indices: lets successors find a shared step by identity and read
+        its estimate there (:meth:`Tracker._evaluate`); empty when unknown.
+
+    A hypothesis made by :meth:`Tracker.step` assembles ``x``, ``P`` and ``y_pred`` from its
+    parent and its cluster steps only when they are first read (most pruned hypotheses
+    never are); the parent is released then.
     """
 
-    assignment: Assignment
-    log_belief: float
-    x: FloatArray
-    P: FloatArray
-    y_pred: FloatArray
-    sources: dict[tuple[int, ...], StepResult] = field(default_factory=dict)
+    __slots__ = ("_P", "_pending", "_x", "_y_pred", "assignment", "log_belief", "sources")
+
+    def __init__(
+        self,
+        assignment: Assignment,
+        log_belief: float,
+        x: FloatArray | None,
+        P: FloatArray | None,
+        y_pred: FloatArray | None,
+        sources: dict[tuple[int, ...], StepResult] | None = None,
+        pending: _Pending | None = None,
+    ) -> None:
+        self.assignment = assignment
+        self.log_belief = log_belief
+        self._x = x
+        self._P = P
+        self._y_pred = y_pred
+        self.sources = {} if sources is None else sources
+        self._pending = pending
+
+    @property
+    def x(self) -> FloatArray:
+        """``x̂(k|k)`` of all states."""
+        if self._x is None:
+            self._materialise()
+        assert self._x is not None
+        return self._x
+
+    @property
+    def P(self) -> FloatArray:
+        """``P(k|k)`` of all states."""
+        if self._P is None:
+            self._materialise()
+        assert self._P is not None
+        return self._P
+
+    @property
+    def y_pred(self) -> FloatArray:
+        """``ŷ(k|k-1)`` of all outputs."""
+        if self._y_pred is None:
+            self._materialise()
+        assert self._y_pred is not None
+        return self._y_pred
+
+    def _materialise(self) -> None:
+        """Assemble ``x``, ``P``, ``y_pred`` of this and its unassembled ancestors (oldest first).
+
+        The successor's full estimate: its clusters' results, the rest held (§3.1).
+        """
+        chain = []
+        h: Hypothesis | None = self
+        while h is not None and h._pending is not None:
+            chain.append(h)
+            h = h._pending.parent
+        for h in reversed(chain):
+            pending = h._pending
+            assert pending is not None
+            parent, layout, results = pending.parent, pending.layout, pending.results
+            assert parent._x is not None and parent._P is not None
+            x = parent._x.copy()
+            n = len(x)
+            P_flat = np.zeros(n * n)
+            y_pred = pending.no_prediction.copy()
+            if results:
+                x[layout.states] = np.concatenate([result.x for result in results])
+                P_flat[layout.block] = np.concatenate([result.P.reshape(-1) for result in results])
+                y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
+            P = P_flat.reshape(n, n)
+            held = layout.held
+            if len(held):
+                P[held, held] = parent._P[held, held] * pending.variance_growth
+            h._x, h._P, h._y_pred = x, P, y_pred
+            h._pending = None
+
+
+@dataclass(frozen=True)
+class _Pending:
+    """What :meth:`Hypothesis._materialise` needs to assemble a successor.
+
+    The parent, the layout of the cluster set, the cluster steps, the held variances'
+    growth factor and an all-NaN prediction.
+    """
+
+    parent: Hypothesis
+    layout: _Layout
+    results: tuple[StepResult, ...]
+    variance_growth: float
+    no_prediction: FloatArray
 
 
 class Tracker:
@@ -312,8 +397,12 @@ class Tracker:
                         log_po += result.log_po
                         continue
                 idx = compiled.states
-                x_parent = parent.x[idx]
-                P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
+                if source is not None:  # the same bytes as the parent's x[idx], P block
+                    x_parent = source.x
+                    P_parent = source.P.reshape(-1)
+                else:
+                    x_parent = parent.x[idx]
+                    P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
                 key = (i, x_parent.tobytes(), P_parent.tobytes())
                 result = memo.get(key)
                 if result is None:
@@ -392,20 +481,11 @@ class Tracker:
     ) -> Hypothesis:
         """The successor's full estimate: its clusters' results, the rest held (§3.1)."""
         layout = self._layout(ids)
-        x = parent.x.copy()
-        n = len(x)
-        P_flat = np.zeros(n * n)
-        y_pred = self._no_prediction.copy()
-        if results:
-            x[layout.states] = np.concatenate([result.x for result in results])
-            P_flat[layout.block] = np.concatenate([result.P.reshape(-1) for result in results])
-            y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
-        P = P_flat.reshape(n, n)
-        held = layout.held
-        if len(held):
-            P[held, held] = parent.P[held, held] * self.variance_growth
         sources = dict(zip(layout.keys, results, strict=True))
-        return Hypothesis(assignment, log_belief, x, P, y_pred, sources)
+        pending = _Pending(
+            parent, layout, tuple(results), self.variance_growth, self._no_prediction
+        )
+        return Hypothesis(assignment, log_belief, None, None, None, sources, pending)
 
     def _table(self, assignment: Assignment) -> _Successors:
         """The successor table out of ``assignment`` (built once per assignment)."""
