@@ -31,6 +31,7 @@ import heapq
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -267,8 +268,7 @@ class Hypothesis:
             h._pending = None
 
 
-@dataclass(frozen=True)
-class _Pending:
+class _Pending(NamedTuple):
     """What :meth:`Hypothesis._materialise` needs to assemble a successor.
 
     The parent, the layout of the cluster set, the cluster steps, the held variances'
@@ -355,7 +355,7 @@ class Tracker:
     def successor(self, parent: Hypothesis, assignment: Assignment, k: int) -> Hypothesis:
         """The filtered successor of ``parent`` in ``assignment`` at step k (belief = log P_O)."""
         ids = self._filters_of(assignment)
-        log_po, results = self._evaluate(0, parent, ids, k, {}, {}, [{}], {})
+        log_po, results = self._evaluate(0, parent, ids, k, {}, {}, [{}])
         return self._assemble(parent, assignment, ids, results, log_po)
 
     def _evaluate(
@@ -367,20 +367,14 @@ class Tracker:
         memo: dict[tuple[object, ...], StepResult],
         shared: dict[tuple[int, int], StepResult],
         per_parent: list[dict[int, StepResult]],
-        scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]],
     ) -> tuple[float, tuple[StepResult, ...]]:
         """``log P_O`` of the filter cluster ``ids`` from parent ``j`` (eq. (7)).
 
         ``per_parent[j]`` remembers parent j's cluster steps; ``memo`` shares a cluster step
         between parents that hold the same estimate (the same bytes) of that cluster, and
         ``shared`` finds it faster when they hold it from the same earlier step object (the
-        parent's ``sources``: then the bytes are the same); ``scored`` remembers
-        parent j's ``log P_O`` per cluster set (successors that differ only in modes that
-        leave the clusters unchanged, e.g. unknown in either of two upstream components).
+        parent's ``sources``: then the bytes are the same).
         """
-        found = scored.get((j, ids))
-        if found is not None:
-            return found
         log_po = 0.0
         results = []
         steps = per_parent[j]
@@ -421,9 +415,7 @@ class Tracker:
                 steps[i] = result
             results.append(result)
             log_po += result.log_po
-        found = (log_po, tuple(results))
-        scored[(j, ids)] = found
-        return found
+        return log_po, tuple(results)
 
     def _filters_of(self, assignment: Assignment) -> tuple[int, ...]:
         """The ids of the compiled filters of the assignment's clusters, in cluster order.
@@ -503,7 +495,6 @@ class Tracker:
         memo: dict[tuple[object, ...], StepResult] = {}
         shared: dict[tuple[int, int], StepResult] = {}
         per_parent: list[dict[int, StepResult]] = [{} for _ in hypotheses]
-        scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]] = {}
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
         best: list[tuple[float, int, int, int, tuple[StepResult, ...]]] = []
         tried = 0
@@ -516,9 +507,7 @@ class Tracker:
             prior, j, code = item
             tried += 1
             ids = self._entry(tables[j], code)[1]
-            log_po, results = self._evaluate(
-                j, hypotheses[j], ids, k, memo, shared, per_parent, scored
-            )
+            log_po, results = self._evaluate(j, hypotheses[j], ids, k, memo, shared, per_parent)
             entry = (prior + log_po, tried, j, code, results)
             if len(best) < self.beam:
                 heapq.heappush(best, entry)
