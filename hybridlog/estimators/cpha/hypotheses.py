@@ -277,7 +277,7 @@ class _Pending(NamedTuple):
 
     parent: Hypothesis
     layout: _Layout
-    results: tuple[StepResult, ...]
+    results: Sequence[StepResult]
     variance_growth: float
     no_prediction: FloatArray
 
@@ -381,41 +381,49 @@ class Tracker:
         for i in ids:
             result = steps.get(i)
             if result is None:
-                compiled = self._compiled[i]
-                source = parent.sources.get(self._state_keys[i])
-                if source is not None:
-                    result = shared.get((i, id(source)))
-                    if result is not None:
-                        steps[i] = result
-                        results.append(result)
-                        log_po += result.log_po
-                        continue
-                idx = compiled.states
-                if source is not None:  # the same bytes as the parent's x[idx], P block
-                    x_parent = source.x
-                    P_parent = source.P.reshape(-1)
-                else:
-                    x_parent = parent.x[idx]
-                    P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
-                key = (i, x_parent.tobytes(), P_parent.tobytes())
-                result = memo.get(key)
-                if result is None:
-                    result = compiled.step(
-                        x_parent,
-                        P_parent.reshape(len(idx), len(idx)),
-                        self.inputs[k - 1],
-                        self.outputs[k - 1],
-                        self.inputs[k],
-                        self.outputs[k],
-                    )
-                    memo[key] = result
-                    self.filtered += 1
-                if source is not None:
-                    shared[(i, id(source))] = result
-                steps[i] = result
+                result = steps[i] = self._cluster_step(parent, i, k, memo, shared)
             results.append(result)
             log_po += result.log_po
         return log_po, tuple(results)
+
+    def _cluster_step(
+        self,
+        parent: Hypothesis,
+        i: int,
+        k: int,
+        memo: dict[tuple[object, ...], StepResult],
+        shared: dict[tuple[int, int], StepResult],
+    ) -> StepResult:
+        """The EKF step of filter ``i`` from ``parent``'s estimate (see :meth:`_evaluate`)."""
+        source = parent.sources.get(self._state_keys[i])
+        if source is not None:
+            result = shared.get((i, id(source)))
+            if result is not None:
+                return result
+        compiled = self._compiled[i]
+        idx = compiled.states
+        if source is not None:  # the same bytes as the parent's x[idx], P block
+            x_parent = source.x
+            P_parent = source.P.reshape(-1)
+        else:
+            x_parent = parent.x[idx]
+            P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
+        key = (i, x_parent.tobytes(), P_parent.tobytes())
+        result = memo.get(key)
+        if result is None:
+            result = compiled.step(
+                x_parent,
+                P_parent.reshape(len(idx), len(idx)),
+                self.inputs[k - 1],
+                self.outputs[k - 1],
+                self.inputs[k],
+                self.outputs[k],
+            )
+            memo[key] = result
+            self.filtered += 1
+        if source is not None:
+            shared[(i, id(source))] = result
+        return result
 
     def _filters_of(self, assignment: Assignment) -> tuple[int, ...]:
         """The ids of the compiled filters of the assignment's clusters, in cluster order.
@@ -474,9 +482,7 @@ class Tracker:
         """The successor's full estimate: its clusters' results, the rest held (§3.1)."""
         layout = self._layout(ids)
         sources = dict(zip(layout.keys, results, strict=True))
-        pending = _Pending(
-            parent, layout, tuple(results), self.variance_growth, self._no_prediction
-        )
+        pending = _Pending(parent, layout, results, self.variance_growth, self._no_prediction)
         return Hypothesis(assignment, log_belief, None, None, None, sources, pending)
 
     def _table(self, assignment: Assignment) -> _Successors:
@@ -496,8 +502,8 @@ class Tracker:
         shared: dict[tuple[int, int], StepResult] = {}
         per_parent: list[dict[int, StepResult]] = [{} for _ in hypotheses]
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
-        best: list[tuple[float, int, int, int, tuple[StepResult, ...]]] = []
-        tried = 0
+        best: list[tuple[float, int, int, int, list[StepResult]]] = []
+        tried = hits = filter_hits = 0
         while tried < self.candidates:
             if len(best) >= self.beam and proposals.peek() <= best[0][0]:
                 break  # P_O ≤ 1: no later proposal can beat the beam
@@ -506,14 +512,31 @@ class Tracker:
                 break
             prior, j, code = item
             tried += 1
-            ids = self._entry(tables[j], code)[1]
-            log_po, results = self._evaluate(j, hypotheses[j], ids, k, memo, shared, per_parent)
+            table = tables[j]
+            found = table.entries.get(code)
+            if found is None:
+                found = self._entry(table, code)
+            else:  # the assignment's decomposition and filters, looked up before
+                hits += 1
+                filter_hits += len(found[1])
+            # eq. (7): log P_O of the successor's filter cluster, as in _evaluate
+            steps = per_parent[j]
+            log_po = 0.0
+            results = []
+            for i in found[1]:
+                result = steps.get(i)
+                if result is None:
+                    result = steps[i] = self._cluster_step(hypotheses[j], i, k, memo, shared)
+                results.append(result)
+                log_po += result.log_po
             entry = (prior + log_po, tried, j, code, results)
             if len(best) < self.beam:
                 heapq.heappush(best, entry)
             elif entry[0] > best[0][0]:
                 heapq.heapreplace(best, entry)
         self.proposed += tried
+        self.structure.hits += hits
+        self.filters.hits += filter_hits
         best.sort(key=lambda e: (-e[0], e[1]))
         kept = []
         for score, _, j, code, results in best:
@@ -525,15 +548,13 @@ class Tracker:
         return kept
 
     def _entry(self, table: _Successors, code: int) -> _Entry:
-        """The assignment of ``code`` in ``table`` and its filters (looked up once)."""
-        found = table.entries.get(code)
-        if found is None:
-            assignment = table.assignment(code)
-            found = (assignment, self._filters_of(assignment))
-            table.entries[code] = found
-        else:
-            self.structure.hits += 1
-            self.filters.hits += len(found[1])
+        """The assignment of ``code`` in ``table`` and its filters, kept in ``table``.
+
+        Later uses in :meth:`step` count as cache hits.
+        """
+        assignment = table.assignment(code)
+        found = (assignment, self._filters_of(assignment))
+        table.entries[code] = found
         return found
 
 
