@@ -30,7 +30,8 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -169,7 +170,6 @@ class _Proposals:
         return score, j, code
 
 
-@dataclass
 class Hypothesis:
     """One tracked trajectory.
 
@@ -185,16 +185,101 @@ class Hypothesis:
         One-step-ahead output prediction of its clusters (NaN for outputs in none).
     sources:
         The cluster step that produced ``x``, ``P`` of each of its clusters, by the
-        cluster's state indices: lets successors find a shared step by identity
-        (:meth:`Tracker._evaluate`); empty when unknown.
+        cluster's state indices: lets successors find a shared step by identity and read
+        its estimate there (:meth:`Tracker._evaluate`); empty when unknown.
+
+    A hypothesis made by :meth:`Tracker.step` assembles ``x``, ``P`` and ``y_pred`` from its
+    parent and its cluster steps only when they are first read (most pruned hypotheses
+    never are); the parent is released then.
     """
 
-    assignment: Assignment
-    log_belief: float
-    x: FloatArray
-    P: FloatArray
-    y_pred: FloatArray
-    sources: dict[tuple[int, ...], StepResult] = field(default_factory=dict)
+    __slots__ = ("_P", "_pending", "_x", "_y_pred", "assignment", "log_belief", "sources")
+
+    def __init__(
+        self,
+        assignment: Assignment,
+        log_belief: float,
+        x: FloatArray | None,
+        P: FloatArray | None,
+        y_pred: FloatArray | None,
+        sources: dict[tuple[int, ...], StepResult] | None = None,
+        pending: _Pending | None = None,
+    ) -> None:
+        self.assignment = assignment
+        self.log_belief = log_belief
+        self._x = x
+        self._P = P
+        self._y_pred = y_pred
+        self.sources = {} if sources is None else sources
+        self._pending = pending
+
+    @property
+    def x(self) -> FloatArray:
+        """``x̂(k|k)`` of all states."""
+        if self._x is None:
+            self._materialise()
+        assert self._x is not None
+        return self._x
+
+    @property
+    def P(self) -> FloatArray:
+        """``P(k|k)`` of all states."""
+        if self._P is None:
+            self._materialise()
+        assert self._P is not None
+        return self._P
+
+    @property
+    def y_pred(self) -> FloatArray:
+        """``ŷ(k|k-1)`` of all outputs."""
+        if self._y_pred is None:
+            self._materialise()
+        assert self._y_pred is not None
+        return self._y_pred
+
+    def _materialise(self) -> None:
+        """Assemble ``x``, ``P``, ``y_pred`` of this and its unassembled ancestors (oldest first).
+
+        The successor's full estimate: its clusters' results, the rest held (§3.1).
+        """
+        chain = []
+        h: Hypothesis | None = self
+        while h is not None and h._pending is not None:
+            chain.append(h)
+            h = h._pending.parent
+        for h in reversed(chain):
+            pending = h._pending
+            assert pending is not None
+            parent, layout, results = pending.parent, pending.layout, pending.results
+            assert parent._x is not None and parent._P is not None
+            x = parent._x.copy()
+            n = len(x)
+            P_flat = np.zeros(n * n)
+            y_pred = pending.no_prediction.copy()
+            if results:
+                x[layout.states] = np.concatenate([result.x for result in results])
+                P_flat[layout.block] = np.concatenate([result.P.reshape(-1) for result in results])
+                y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
+            P = P_flat.reshape(n, n)
+            held = layout.held
+            if len(held):
+                P[held, held] = parent._P[held, held] * pending.variance_growth
+            h._x, h._P, h._y_pred = x, P, y_pred
+            h._pending = None
+
+
+class _Pending(NamedTuple):
+    """What :meth:`Hypothesis._materialise` needs to assemble a successor.
+
+    The parent, the layout of the cluster set, the cluster steps, the held variances'
+    growth factor and an all-NaN prediction.
+    """
+
+    parent: Hypothesis
+    layout: _Layout
+    results: Sequence[StepResult]
+    variance_growth: float
+    no_prediction: FloatArray
 
 
 class Tracker:
@@ -270,7 +355,7 @@ class Tracker:
     def successor(self, parent: Hypothesis, assignment: Assignment, k: int) -> Hypothesis:
         """The filtered successor of ``parent`` in ``assignment`` at step k (belief = log P_O)."""
         ids = self._filters_of(assignment)
-        log_po, results = self._evaluate(0, parent, ids, k, {}, {}, [{}], {})
+        log_po, results = self._evaluate(0, parent, ids, k, {}, {}, [{}])
         return self._assemble(parent, assignment, ids, results, log_po)
 
     def _evaluate(
@@ -282,59 +367,63 @@ class Tracker:
         memo: dict[tuple[object, ...], StepResult],
         shared: dict[tuple[int, int], StepResult],
         per_parent: list[dict[int, StepResult]],
-        scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]],
     ) -> tuple[float, tuple[StepResult, ...]]:
         """``log P_O`` of the filter cluster ``ids`` from parent ``j`` (eq. (7)).
 
         ``per_parent[j]`` remembers parent j's cluster steps; ``memo`` shares a cluster step
         between parents that hold the same estimate (the same bytes) of that cluster, and
         ``shared`` finds it faster when they hold it from the same earlier step object (the
-        parent's ``sources``: then the bytes are the same); ``scored`` remembers
-        parent j's ``log P_O`` per cluster set (successors that differ only in modes that
-        leave the clusters unchanged, e.g. unknown in either of two upstream components).
+        parent's ``sources``: then the bytes are the same).
         """
-        found = scored.get((j, ids))
-        if found is not None:
-            return found
         log_po = 0.0
         results = []
         steps = per_parent[j]
         for i in ids:
             result = steps.get(i)
             if result is None:
-                compiled = self._compiled[i]
-                source = parent.sources.get(self._state_keys[i])
-                if source is not None:
-                    result = shared.get((i, id(source)))
-                    if result is not None:
-                        steps[i] = result
-                        results.append(result)
-                        log_po += result.log_po
-                        continue
-                idx = compiled.states
-                x_parent = parent.x[idx]
-                P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
-                key = (i, x_parent.tobytes(), P_parent.tobytes())
-                result = memo.get(key)
-                if result is None:
-                    result = compiled.step(
-                        x_parent,
-                        P_parent.reshape(len(idx), len(idx)),
-                        self.inputs[k - 1],
-                        self.outputs[k - 1],
-                        self.inputs[k],
-                        self.outputs[k],
-                    )
-                    memo[key] = result
-                    self.filtered += 1
-                if source is not None:
-                    shared[(i, id(source))] = result
-                steps[i] = result
+                result = steps[i] = self._cluster_step(parent, i, k, memo, shared)
             results.append(result)
             log_po += result.log_po
-        found = (log_po, tuple(results))
-        scored[(j, ids)] = found
-        return found
+        return log_po, tuple(results)
+
+    def _cluster_step(
+        self,
+        parent: Hypothesis,
+        i: int,
+        k: int,
+        memo: dict[tuple[object, ...], StepResult],
+        shared: dict[tuple[int, int], StepResult],
+    ) -> StepResult:
+        """The EKF step of filter ``i`` from ``parent``'s estimate (see :meth:`_evaluate`)."""
+        source = parent.sources.get(self._state_keys[i])
+        if source is not None:
+            result = shared.get((i, id(source)))
+            if result is not None:
+                return result
+        compiled = self._compiled[i]
+        idx = compiled.states
+        if source is not None:  # the same bytes as the parent's x[idx], P block
+            x_parent = source.x
+            P_parent = source.P.reshape(-1)
+        else:
+            x_parent = parent.x[idx]
+            P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
+        key = (i, x_parent.tobytes(), P_parent.tobytes())
+        result = memo.get(key)
+        if result is None:
+            result = compiled.step(
+                x_parent,
+                P_parent.reshape(len(idx), len(idx)),
+                self.inputs[k - 1],
+                self.outputs[k - 1],
+                self.inputs[k],
+                self.outputs[k],
+            )
+            memo[key] = result
+            self.filtered += 1
+        if source is not None:
+            shared[(i, id(source))] = result
+        return result
 
     def _filters_of(self, assignment: Assignment) -> tuple[int, ...]:
         """The ids of the compiled filters of the assignment's clusters, in cluster order.
@@ -392,20 +481,9 @@ class Tracker:
     ) -> Hypothesis:
         """The successor's full estimate: its clusters' results, the rest held (§3.1)."""
         layout = self._layout(ids)
-        x = parent.x.copy()
-        n = len(x)
-        P_flat = np.zeros(n * n)
-        y_pred = self._no_prediction.copy()
-        if results:
-            x[layout.states] = np.concatenate([result.x for result in results])
-            P_flat[layout.block] = np.concatenate([result.P.reshape(-1) for result in results])
-            y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
-        P = P_flat.reshape(n, n)
-        held = layout.held
-        if len(held):
-            P[held, held] = parent.P[held, held] * self.variance_growth
         sources = dict(zip(layout.keys, results, strict=True))
-        return Hypothesis(assignment, log_belief, x, P, y_pred, sources)
+        pending = _Pending(parent, layout, results, self.variance_growth, self._no_prediction)
+        return Hypothesis(assignment, log_belief, None, None, None, sources, pending)
 
     def _table(self, assignment: Assignment) -> _Successors:
         """The successor table out of ``assignment`` (built once per assignment)."""
@@ -423,10 +501,9 @@ class Tracker:
         memo: dict[tuple[object, ...], StepResult] = {}
         shared: dict[tuple[int, int], StepResult] = {}
         per_parent: list[dict[int, StepResult]] = [{} for _ in hypotheses]
-        scored: dict[tuple[int, tuple[int, ...]], tuple[float, tuple[StepResult, ...]]] = {}
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
-        best: list[tuple[float, int, int, int, tuple[StepResult, ...]]] = []
-        tried = 0
+        best: list[tuple[float, int, int, int, list[StepResult]]] = []
+        tried = hits = filter_hits = 0
         while tried < self.candidates:
             if len(best) >= self.beam and proposals.peek() <= best[0][0]:
                 break  # P_O ≤ 1: no later proposal can beat the beam
@@ -435,16 +512,31 @@ class Tracker:
                 break
             prior, j, code = item
             tried += 1
-            ids = self._entry(tables[j], code)[1]
-            log_po, results = self._evaluate(
-                j, hypotheses[j], ids, k, memo, shared, per_parent, scored
-            )
+            table = tables[j]
+            found = table.entries.get(code)
+            if found is None:
+                found = self._entry(table, code)
+            else:  # the assignment's decomposition and filters, looked up before
+                hits += 1
+                filter_hits += len(found[1])
+            # eq. (7): log P_O of the successor's filter cluster, as in _evaluate
+            steps = per_parent[j]
+            log_po = 0.0
+            results = []
+            for i in found[1]:
+                result = steps.get(i)
+                if result is None:
+                    result = steps[i] = self._cluster_step(hypotheses[j], i, k, memo, shared)
+                results.append(result)
+                log_po += result.log_po
             entry = (prior + log_po, tried, j, code, results)
             if len(best) < self.beam:
                 heapq.heappush(best, entry)
             elif entry[0] > best[0][0]:
                 heapq.heapreplace(best, entry)
         self.proposed += tried
+        self.structure.hits += hits
+        self.filters.hits += filter_hits
         best.sort(key=lambda e: (-e[0], e[1]))
         kept = []
         for score, _, j, code, results in best:
@@ -456,15 +548,13 @@ class Tracker:
         return kept
 
     def _entry(self, table: _Successors, code: int) -> _Entry:
-        """The assignment of ``code`` in ``table`` and its filters (looked up once)."""
-        found = table.entries.get(code)
-        if found is None:
-            assignment = table.assignment(code)
-            found = (assignment, self._filters_of(assignment))
-            table.entries[code] = found
-        else:
-            self.structure.hits += 1
-            self.filters.hits += len(found[1])
+        """The assignment of ``code`` in ``table`` and its filters, kept in ``table``.
+
+        Later uses in :meth:`step` count as cache hits.
+        """
+        assignment = table.assignment(code)
+        found = (assignment, self._filters_of(assignment))
+        table.entries[code] = found
         return found
 
 
