@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -238,8 +239,13 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
 
 
 def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Path) -> None:
-    # enough logs that the batch still runs when both workers have written a report
-    logs = write_logs(tmp_path, [f"s{k}" for k in range(1, 41)])
+    # Enough logs that the batch still runs for seconds after both workers have written a
+    # report, however slow the machine: copies of one log (each still gets its own folder).
+    (first,) = write_logs(tmp_path, ["s1"])
+    logs = [first]
+    for k in range(2, 151):
+        logs.append(tmp_path / f"s{k}.csv")
+        shutil.copyfile(first, logs[-1])
     out = tmp_path / "out"
     command = [sys.executable, "-m", "hybridlog", "batch", *map(str, logs), "--model", TANK]
     batch = subprocess.Popen(
@@ -257,6 +263,7 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
             time.sleep(0.05)
         assert len(writers) == 2, "the batch never ran two workers"
         family = _children(batch.pid)
+        assert batch.poll() is None, "the batch ended before it could be killed"
         assert writers <= set(family)
         os.kill(batch.pid, signal.SIGKILL)
         batch.wait()
