@@ -366,8 +366,17 @@ def post_process(
     descriptions: list[str] = []
     if smooth:
         n = filtered.n_samples
-        buffers = FilterBuffers.allocate(
-            model, n, store_covariances=filtered.covariances is not None
+        # The backward pass writes no output predictions: the filter's array stands in (no
+        # 8 N n_y bytes of NaN written per run).
+        buffers = FilterBuffers(
+            modes=np.zeros(n, dtype=np.int64),
+            mode_probabilities=np.zeros((n, model.n_modes)),
+            state_means=np.zeros((n, model.n_states)),
+            state_variances=np.zeros((n, model.n_states)),
+            output_predictions=filtered.output_predictions,
+            covariances=np.zeros(
+                (n if filtered.covariances is not None else 0, model.n_states, model.n_states)
+            ),
         )
         if n:
             arguments: tuple[Any, ...]
