@@ -366,8 +366,17 @@ def post_process(
     descriptions: list[str] = []
     if smooth:
         n = filtered.n_samples
-        buffers = FilterBuffers.allocate(
-            model, n, store_covariances=filtered.covariances is not None
+        # The backward pass writes no output predictions: the filter's array stands in (no
+        # 8 N n_y bytes of NaN written per run).
+        buffers = FilterBuffers(
+            modes=np.zeros(n, dtype=np.int64),
+            mode_probabilities=np.zeros((n, model.n_modes)),
+            state_means=np.zeros((n, model.n_states)),
+            state_variances=np.zeros((n, model.n_states)),
+            output_predictions=filtered.output_predictions,
+            covariances=np.zeros(
+                (n if filtered.covariances is not None else 0, model.n_states, model.n_states)
+            ),
         )
         if n:
             arguments: tuple[Any, ...]
@@ -477,7 +486,9 @@ def generate_smoother_source(model: HybridModel) -> str:
 
     Defines ``imm_smooth(inputs, log_T, mu, store, out)``: the same backward pass with the mode
     functions, the process noise and the small matrix products written out.  Equal to the
-    generic loop up to rounding (``tests/estimators/test_smoothing.py``).
+    generic loop up to rounding (``tests/estimators/test_smoothing.py``).  It reads only the
+    upper triangles of the store's covariances, carries ``x̂^s_j(k+1)``, ``P^s_j(k+1)`` and
+    ``μ^s(k+1)`` from one step to the next in variables and writes nothing back to the store.
     """
     n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
     Q, _ = noise_matrices(model)
@@ -498,10 +509,23 @@ def generate_smoother_source(model: HybridModel) -> str:
     for j in range(n_q):
         last = f"mu[n_samples - 1, {j}]"
         p.emit(f"{log_next[j]} = math.log({last}) if {last} > 0.0 else -math.inf")
+    mu_carried = vector_names("mxc", n_q)  # exp(log μ^s(k+1)), carried
+    for j in range(n_q):
+        p.emit(f"{mu_carried[j]} = math.exp({log_next[j]})")
     log_T = matrix_names("lT", n_q, n_q)
     for i in range(n_q):
         for j in range(n_q):
             p.emit(f"{log_T[i][j]} = log_T[{i}, {j}]")
+    # x̂^s_j(k+1), P^s_j(k+1) (upper triangle), carried: the pass keeps them in variables
+    # and writes nothing back to the store.
+    x_next = [vector_names(f"xn{j}_", n) for j in range(n_q)]
+    P_next = [matrix_names(f"pn{j}_", n, n, symmetric=True) for j in range(n_q)]
+    for j in range(n_q):
+        p.carry(x_next[j], [f"means[n_samples - 1, {j}, {a}]" for a in range(n)])
+        p.carry(
+            upper(P_next[j]),
+            [f"covs[n_samples - 1, {j}, {a}, {b}]" for a in range(n) for b in range(a, n)],
+        )
     p.emit("for k in range(n_samples - 2, -1, -1):")
     p.indent += "    "
     u = vector_names("u", n_u)
@@ -532,12 +556,11 @@ def generate_smoother_source(model: HybridModel) -> str:
     for j in range(n_q):
         x0 = [p.assign("xz", f"means[k, {j}, {a}]") for a in range(n)]
         P0: Matrix = [[0.0] * n for _ in range(n)]
-        Pn: Matrix = [[0.0] * n for _ in range(n)]
         for a in range(n):
             for b in range(a, n):
                 P0[a][b] = P0[b][a] = p.assign("pz", f"covs[k, {j}, {a}, {b}]")
-                Pn[a][b] = Pn[b][a] = p.assign("pn", f"covs[k + 1, {j}, {a}, {b}]")
-        xn = [p.assign("xn", f"means[k + 1, {j}, {a}]") for a in range(n)]
+        Pn: Matrix = P_next[j]
+        xn: Vector = x_next[j]
         x_pred = p.mode_values(model, j, "f", x0, u)
         F = reshape(p.mode_values(model, j, "F", x0, u), n, n)
         P_pred = p.congruence(f"pp{j}_", F, P0, add=Q[j])
@@ -596,7 +619,7 @@ def generate_smoother_source(model: HybridModel) -> str:
     p.emit("else:")
     for i in range(n_q):
         p.emit(f"    {log_new[i]} = {row_total[i]} - {total}")
-    mu_next = [p.assign("mx", f"math.exp({log_next[j]})") for j in range(n_q)]
+    mu_next = mu_carried  # exp(log μ^s(k+1)): last step's μ^s, carried (no exp here)
     x_new: list[Vector] = []
     P_new: list[Matrix] = []
     for i in range(n_q):
@@ -612,12 +635,11 @@ def generate_smoother_source(model: HybridModel) -> str:
         x_new.append(x_i)
         P_new.append(P_i)
     mu_s: Vector = [p.assign("ms", f"math.exp({log_new[i]})") for i in range(n_q)]
-    for i in range(n_q):
-        for a in range(n):
-            p.emit(f"means[k, {i}, {a}] = {term(x_new[i][a])}")
-            for b in range(n):
-                p.emit(f"covs[k, {i}, {a}, {b}] = {term(P_new[i][a][b])}")
     x, P = p.mixture("cm", mu_s, x_new, P_new)
     p.record("k", p.argmax(mu_s), mu_s, x, P)
     p.carry(log_next, log_new)
+    p.carry(mu_carried, mu_s)
+    for i in range(n_q):
+        p.carry(x_next[i], x_new[i])
+        p.carry(upper(P_next[i]), upper(P_new[i]))
     return f"def imm_smooth(inputs, log_T, mu, store, out):\n{p.source()}\n"
