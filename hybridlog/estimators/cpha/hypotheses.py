@@ -504,15 +504,25 @@ class Tracker:
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
         best: list[tuple[float, int, int, int, list[StepResult]]] = []
         tried = hits = filter_hits = 0
+        # the proposals' best-first pop (_Proposals.pop) and the shared-step look-up of
+        # _cluster_step, inlined: this loop runs ~40 times per step
+        heap = proposals.heap
+        counter = proposals.counter
+        beam = self.beam
+        state_keys = self._state_keys
+        heappop, heappush = heapq.heappop, heapq.heappush
         while tried < self.candidates:
-            if len(best) >= self.beam and proposals.peek() <= best[0][0]:
-                break  # P_O ≤ 1: no later proposal can beat the beam
-            item = proposals.pop()
-            if item is None:
+            if not heap:
                 break
-            prior, j, code = item
-            tried += 1
+            if len(best) >= beam and -heap[0][0] <= best[0][0]:
+                break  # P_O ≤ 1: no later proposal can beat the beam
+            negative, _, j, code, last = heappop(heap)
+            prior = -negative
             table = tables[j]
+            for delta, child, c in table.children(code, last):
+                counter += 1
+                heappush(heap, (-(prior + delta), counter, j, child, c))
+            tried += 1
             found = table.entries.get(code)
             if found is None:
                 found = self._entry(table, code)
@@ -521,19 +531,26 @@ class Tracker:
                 filter_hits += len(found[1])
             # eq. (7): log P_O of the successor's filter cluster, as in _evaluate
             steps = per_parent[j]
+            parent = hypotheses[j]
             log_po = 0.0
             results = []
             for i in found[1]:
                 result = steps.get(i)
                 if result is None:
-                    result = steps[i] = self._cluster_step(hypotheses[j], i, k, memo, shared)
+                    source = parent.sources.get(state_keys[i])
+                    if source is not None:
+                        result = shared.get((i, id(source)))
+                    if result is None:
+                        result = self._cluster_step(parent, i, k, memo, shared)
+                    steps[i] = result
                 results.append(result)
                 log_po += result.log_po
             entry = (prior + log_po, tried, j, code, results)
-            if len(best) < self.beam:
-                heapq.heappush(best, entry)
+            if len(best) < beam:
+                heappush(best, entry)
             elif entry[0] > best[0][0]:
                 heapq.heapreplace(best, entry)
+        proposals.counter = counter
         self.proposed += tried
         self.structure.hits += hits
         self.filters.hits += filter_hits
