@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
@@ -91,6 +91,8 @@ class ClusterFilter:
     _observe: _Fn
     _ekf: Callable[..., tuple[float, ...]] | None = None
     _upper: tuple[IntArray, IntArray] = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    _upper_flat: IntArray = field(default_factory=lambda: np.zeros(0, np.int64))
+    _full: IntArray = field(default_factory=lambda: np.zeros((0, 0), np.int64))
 
     def step(
         self,
@@ -122,29 +124,26 @@ class ClusterFilter:
         """:meth:`step` by the cluster's EKF written out as scalar code (:func:`_unrolled`)."""
         assert self._ekf is not None
         n, m = len(self.states), len(self.outputs)
-        rows, cols = self._upper
+        n_p = len(self._upper[0])
         values = self._ekf(
             *x.tolist(),
-            *P[rows, cols].tolist(),
+            *P.reshape(-1)[self._upper_flat].tolist(),
             *u_prev[self.inputs].tolist(),
             *y_prev[self.virtual].tolist(),
             *u_now[self.inputs].tolist(),
             *y_now[self.virtual].tolist(),
             *y_now[self.outputs].tolist(),
         )
-        n_p = len(rows)
-        if not all(float(minor) > 0.0 for minor in values[n + n_p + m : n + n_p + 2 * m]):
-            return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
-        x_new = np.array(values[:n], dtype=np.float64)
-        upper = np.array(values[n : n + n_p], dtype=np.float64)
-        P_new = np.empty((n, n))
-        P_new[rows, cols] = upper
-        P_new[cols, rows] = upper
+        for minor in values[n + n_p + m : n + n_p + 2 * m]:
+            if not minor > 0.0:  # also NaN
+                return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+        # one array of the results; x̂, ŷ are views of it, P its upper triangle mirrored
+        array = np.array(values, dtype=np.float64)
+        P_new = array[self._full]
         log_po = float(values[-1])
         if not math.isfinite(log_po):
             log_po = -math.inf
-        y_pred = np.array(values[n + n_p : n + n_p + m], dtype=np.float64)
-        return StepResult(x_new, P_new, y_pred, log_po)
+        return StepResult(array[:n], P_new, array[n + n_p : n + n_p + m], log_po)
 
     def step_numeric(
         self,
@@ -221,6 +220,7 @@ def compile_cluster(
     predict = sympy.lambdify(args, [f, F, B], modules="numpy", cse=True)
     observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
     ekf = _unrolled(cluster, x, u, v, f, F, B, h, H, D) if unrolled else None
+    upper = np.triu_indices(len(x))
     return ClusterFilter(
         cluster=cluster,
         states=np.array([states.index(s) for s in cluster.states], dtype=np.int64),
@@ -233,8 +233,21 @@ def compile_cluster(
         _predict=predict,
         _observe=observe,
         _ekf=ekf,
-        _upper=np.triu_indices(len(x)),
+        _upper=upper,
+        _upper_flat=upper[0] * len(x) + upper[1],
+        _full=_mirrored(len(x)),
     )
+
+
+def _mirrored(n: int) -> IntArray:
+    """Where each entry of the ``n × n`` covariance is in the results of :func:`_unrolled`.
+
+    ``n`` states come first, then the upper triangle row by row; the lower triangle mirrors it.
+    """
+    position = np.zeros((n, n), dtype=np.int64)
+    for p, (i, j) in enumerate(zip(*np.triu_indices(n), strict=True)):
+        position[i, j] = position[j, i] = n + p
+    return position
 
 
 UNROLLED_MAX_STATES = 4
