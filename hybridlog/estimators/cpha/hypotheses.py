@@ -511,17 +511,22 @@ class Tracker:
         beam = self.beam
         state_keys = self._state_keys
         heappop, heappush = heapq.heappop, heapq.heappush
+        floor = -math.inf  # the beam's lowest score once it is full
         while tried < self.candidates:
             if not heap:
                 break
-            if len(best) >= beam and -heap[0][0] <= best[0][0]:
+            if -heap[0][0] <= floor and len(best) >= beam:
                 break  # P_O ≤ 1: no later proposal can beat the beam
             negative, _, j, code, last = heappop(heap)
             prior = -negative
             table = tables[j]
             for delta, child, c in table.children(code, last):
-                counter += 1
-                heappush(heap, (-(prior + delta), counter, j, child, c))
+                score = prior + delta
+                # a child below the floor (which only rises) would stop the loop when on
+                # top, as the next proposal after it does then: it is not pushed
+                if score >= floor:
+                    counter += 1
+                    heappush(heap, (-score, counter, j, child, c))
             tried += 1
             found = table.entries.get(code)
             if found is None:
@@ -548,8 +553,11 @@ class Tracker:
             entry = (prior + log_po, tried, j, code, results)
             if len(best) < beam:
                 heappush(best, entry)
-            elif entry[0] > best[0][0]:
+                if len(best) == beam:
+                    floor = best[0][0]
+            elif entry[0] > floor:
                 heapq.heapreplace(best, entry)
+                floor = best[0][0]
         proposals.counter = counter
         self.proposed += tried
         self.structure.hits += hits
