@@ -102,15 +102,35 @@ class ClusterFilter:
         y_prev: FloatArray,
         u_now: FloatArray,
         y_now: FloatArray,
+        measured: list[float] | None = None,
     ) -> StepResult:
         """One EKF step (eqs. (12)–(21)) from the cluster's ``x̂(k-1|k-1)``, ``P(k-1|k-1)``.
 
         ``u_prev``, ``y_prev`` and ``u_now``, ``y_now`` are the model's whole input and
         output vectors at k−1 and k; the cluster takes its inputs and virtual inputs there.
+        ``measured``: :meth:`measured` of those, when the caller keeps it for several steps.
         """
         if self._ekf is not None:
-            return self._step_unrolled(x, P, u_prev, y_prev, u_now, y_now)
+            if measured is None:
+                measured = self.measured(u_prev, y_prev, u_now, y_now)
+            return self._step_unrolled(x, P, u_prev, y_prev, u_now, y_now, measured)
         return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+
+    def measured(
+        self, u_prev: FloatArray, y_prev: FloatArray, u_now: FloatArray, y_now: FloatArray
+    ) -> list[float]:
+        """The cluster's inputs and virtual inputs at k−1 and k and its outputs at k.
+
+        The trailing arguments of the unrolled step (:func:`_unrolled`), the same for every
+        estimate filtered at step k.
+        """
+        return [
+            *u_prev[self.inputs].tolist(),
+            *y_prev[self.virtual].tolist(),
+            *u_now[self.inputs].tolist(),
+            *y_now[self.virtual].tolist(),
+            *y_now[self.outputs].tolist(),
+        ]
 
     def _step_unrolled(
         self,
@@ -120,20 +140,13 @@ class ClusterFilter:
         y_prev: FloatArray,
         u_now: FloatArray,
         y_now: FloatArray,
+        measured: list[float],
     ) -> StepResult:
         """:meth:`step` by the cluster's EKF written out as scalar code (:func:`_unrolled`)."""
         assert self._ekf is not None
         n, m = len(self.states), len(self.outputs)
         n_p = len(self._upper[0])
-        values = self._ekf(
-            *x.tolist(),
-            *P.reshape(-1)[self._upper_flat].tolist(),
-            *u_prev[self.inputs].tolist(),
-            *y_prev[self.virtual].tolist(),
-            *u_now[self.inputs].tolist(),
-            *y_now[self.virtual].tolist(),
-            *y_now[self.outputs].tolist(),
-        )
+        values = self._ekf(*x.tolist(), *P.reshape(-1)[self._upper_flat].tolist(), *measured)
         for minor in values[n + n_p + m : n + n_p + 2 * m]:
             if not minor > 0.0:  # also NaN
                 return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)

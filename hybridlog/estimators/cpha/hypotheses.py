@@ -335,6 +335,9 @@ class Tracker:
         self._state_keys: list[tuple[int, ...]] = []
         self._compiled_ids: dict[int, int] = {}
         self._layouts: dict[tuple[int, ...], _Layout] = {}
+        # per filter: its measured arguments at step _measured_k (ClusterFilter.measured)
+        self._measured: dict[int, list[float]] = {}
+        self._measured_k = -1
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -411,13 +414,27 @@ class Tracker:
         key = (i, x_parent.tobytes(), P_parent.tobytes())
         result = memo.get(key)
         if result is None:
-            result = compiled.step(
-                x_parent,
-                P_parent.reshape(len(idx), len(idx)),
+            u_prev, y_prev, u_now, y_now = (
                 self.inputs[k - 1],
                 self.outputs[k - 1],
                 self.inputs[k],
                 self.outputs[k],
+            )
+            # the filter's measured arguments at step k, kept for its other estimates
+            if self._measured_k != k:
+                self._measured_k = k
+                self._measured.clear()
+            measured = self._measured.get(i)
+            if measured is None:
+                measured = self._measured[i] = compiled.measured(u_prev, y_prev, u_now, y_now)
+            result = compiled.step(
+                x_parent,
+                P_parent.reshape(len(idx), len(idx)),
+                u_prev,
+                y_prev,
+                u_now,
+                y_now,
+                measured,
             )
             memo[key] = result
             self.filtered += 1
