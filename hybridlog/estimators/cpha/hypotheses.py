@@ -581,9 +581,16 @@ class Tracker:
         self.filters.hits += filter_hits
         best.sort(key=lambda e: (-e[0], e[1]))
         kept = []
+        # _assemble, inlined
+        layouts, growth, no_prediction = self._layouts, self.variance_growth, self._no_prediction
         for score, _, j, code, results in best:
             assignment, ids = tables[j].entries[code]
-            kept.append(self._assemble(hypotheses[j], assignment, ids, results, score))
+            layout = layouts.get(ids)
+            if layout is None:
+                layout = self._layout(ids)
+            sources = dict(zip(layout.keys, results, strict=True))
+            pending = _Pending(hypotheses[j], layout, results, growth, no_prediction)
+            kept.append(Hypothesis(assignment, score, None, None, None, sources, pending))
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
             return _fallback(hypotheses)
         _normalise(kept)
