@@ -537,7 +537,8 @@ class Tracker:
             negative, _, j, code, last = heappop(heap)
             prior = -negative
             table = tables[j]
-            for delta, child, c in table.children(code, last):
+            kids = table._children.get(code)  # table.children(code, last), inlined
+            for delta, child, c in table.children(code, last) if kids is None else kids[last]:
                 score = prior + delta
                 # a child below the floor (which only rises) would stop the loop when on
                 # top, as the next proposal after it does then: it is not pushed
