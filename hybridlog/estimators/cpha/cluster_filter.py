@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
@@ -91,6 +91,8 @@ class ClusterFilter:
     _observe: _Fn
     _ekf: Callable[..., tuple[float, ...]] | None = None
     _upper: tuple[IntArray, IntArray] = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    _upper_flat: IntArray = field(default_factory=lambda: np.zeros(0, np.int64))
+    _full: IntArray = field(default_factory=lambda: np.zeros((0, 0), np.int64))
 
     def step(
         self,
@@ -100,15 +102,35 @@ class ClusterFilter:
         y_prev: FloatArray,
         u_now: FloatArray,
         y_now: FloatArray,
+        measured: list[float] | None = None,
     ) -> StepResult:
         """One EKF step (eqs. (12)–(21)) from the cluster's ``x̂(k-1|k-1)``, ``P(k-1|k-1)``.
 
         ``u_prev``, ``y_prev`` and ``u_now``, ``y_now`` are the model's whole input and
         output vectors at k−1 and k; the cluster takes its inputs and virtual inputs there.
+        ``measured``: :meth:`measured` of those, when the caller keeps it for several steps.
         """
         if self._ekf is not None:
-            return self._step_unrolled(x, P, u_prev, y_prev, u_now, y_now)
+            if measured is None:
+                measured = self.measured(u_prev, y_prev, u_now, y_now)
+            return self._step_unrolled(x, P, u_prev, y_prev, u_now, y_now, measured)
         return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+
+    def measured(
+        self, u_prev: FloatArray, y_prev: FloatArray, u_now: FloatArray, y_now: FloatArray
+    ) -> list[float]:
+        """The cluster's inputs and virtual inputs at k−1 and k and its outputs at k.
+
+        The trailing arguments of the unrolled step (:func:`_unrolled`), the same for every
+        estimate filtered at step k.
+        """
+        return [
+            *u_prev[self.inputs].tolist(),
+            *y_prev[self.virtual].tolist(),
+            *u_now[self.inputs].tolist(),
+            *y_now[self.virtual].tolist(),
+            *y_now[self.outputs].tolist(),
+        ]
 
     def _step_unrolled(
         self,
@@ -118,33 +140,23 @@ class ClusterFilter:
         y_prev: FloatArray,
         u_now: FloatArray,
         y_now: FloatArray,
+        measured: list[float],
     ) -> StepResult:
         """:meth:`step` by the cluster's EKF written out as scalar code (:func:`_unrolled`)."""
         assert self._ekf is not None
         n, m = len(self.states), len(self.outputs)
-        rows, cols = self._upper
-        values = self._ekf(
-            *x.tolist(),
-            *P[rows, cols].tolist(),
-            *u_prev[self.inputs].tolist(),
-            *y_prev[self.virtual].tolist(),
-            *u_now[self.inputs].tolist(),
-            *y_now[self.virtual].tolist(),
-            *y_now[self.outputs].tolist(),
-        )
-        n_p = len(rows)
-        if not all(float(minor) > 0.0 for minor in values[n + n_p + m : n + n_p + 2 * m]):
-            return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
-        x_new = np.array(values[:n], dtype=np.float64)
-        upper = np.array(values[n : n + n_p], dtype=np.float64)
-        P_new = np.empty((n, n))
-        P_new[rows, cols] = upper
-        P_new[cols, rows] = upper
+        n_p = len(self._upper[0])
+        values = self._ekf(*x.tolist(), *P.reshape(-1)[self._upper_flat].tolist(), *measured)
+        for minor in values[n + n_p + m : n + n_p + 2 * m]:
+            if not minor > 0.0:  # also NaN
+                return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
+        # one array of the results; x̂, ŷ are views of it, P its upper triangle mirrored
+        array = np.array(values, dtype=np.float64)
+        P_new = array[self._full]
         log_po = float(values[-1])
         if not math.isfinite(log_po):
             log_po = -math.inf
-        y_pred = np.array(values[n + n_p : n + n_p + m], dtype=np.float64)
-        return StepResult(x_new, P_new, y_pred, log_po)
+        return StepResult(array[:n], P_new, array[n + n_p : n + n_p + m], log_po)
 
     def step_numeric(
         self,
@@ -221,6 +233,7 @@ def compile_cluster(
     predict = sympy.lambdify(args, [f, F, B], modules="numpy", cse=True)
     observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
     ekf = _unrolled(cluster, x, u, v, f, F, B, h, H, D) if unrolled else None
+    upper = np.triu_indices(len(x))
     return ClusterFilter(
         cluster=cluster,
         states=np.array([states.index(s) for s in cluster.states], dtype=np.int64),
@@ -233,8 +246,21 @@ def compile_cluster(
         _predict=predict,
         _observe=observe,
         _ekf=ekf,
-        _upper=np.triu_indices(len(x)),
+        _upper=upper,
+        _upper_flat=upper[0] * len(x) + upper[1],
+        _full=_mirrored(len(x)),
     )
+
+
+def _mirrored(n: int) -> IntArray:
+    """Where each entry of the ``n × n`` covariance is in the results of :func:`_unrolled`.
+
+    ``n`` states come first, then the upper triangle row by row; the lower triangle mirrors it.
+    """
+    position = np.zeros((n, n), dtype=np.int64)
+    for p, (i, j) in enumerate(zip(*np.triu_indices(n), strict=True)):
+        position[i, j] = position[j, i] = n + p
+    return position
 
 
 UNROLLED_MAX_STATES = 4

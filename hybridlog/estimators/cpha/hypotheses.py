@@ -335,6 +335,9 @@ class Tracker:
         self._state_keys: list[tuple[int, ...]] = []
         self._compiled_ids: dict[int, int] = {}
         self._layouts: dict[tuple[int, ...], _Layout] = {}
+        # per filter: its measured arguments at step _measured_k (ClusterFilter.measured)
+        self._measured: dict[int, list[float]] = {}
+        self._measured_k = -1
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -411,13 +414,27 @@ class Tracker:
         key = (i, x_parent.tobytes(), P_parent.tobytes())
         result = memo.get(key)
         if result is None:
-            result = compiled.step(
-                x_parent,
-                P_parent.reshape(len(idx), len(idx)),
+            u_prev, y_prev, u_now, y_now = (
                 self.inputs[k - 1],
                 self.outputs[k - 1],
                 self.inputs[k],
                 self.outputs[k],
+            )
+            # the filter's measured arguments at step k, kept for its other estimates
+            if self._measured_k != k:
+                self._measured_k = k
+                self._measured.clear()
+            measured = self._measured.get(i)
+            if measured is None:
+                measured = self._measured[i] = compiled.measured(u_prev, y_prev, u_now, y_now)
+            result = compiled.step(
+                x_parent,
+                P_parent.reshape(len(idx), len(idx)),
+                u_prev,
+                y_prev,
+                u_now,
+                y_now,
+                measured,
             )
             memo[key] = result
             self.filtered += 1
@@ -504,15 +521,31 @@ class Tracker:
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
         best: list[tuple[float, int, int, int, list[StepResult]]] = []
         tried = hits = filter_hits = 0
+        # the proposals' best-first pop (_Proposals.pop) and the shared-step look-up of
+        # _cluster_step, inlined: this loop runs ~40 times per step
+        heap = proposals.heap
+        counter = proposals.counter
+        beam = self.beam
+        state_keys = self._state_keys
+        heappop, heappush = heapq.heappop, heapq.heappush
+        floor = -math.inf  # the beam's lowest score once it is full
         while tried < self.candidates:
-            if len(best) >= self.beam and proposals.peek() <= best[0][0]:
-                break  # P_O ≤ 1: no later proposal can beat the beam
-            item = proposals.pop()
-            if item is None:
+            if not heap:
                 break
-            prior, j, code = item
-            tried += 1
+            if -heap[0][0] <= floor and len(best) >= beam:
+                break  # P_O ≤ 1: no later proposal can beat the beam
+            negative, _, j, code, last = heappop(heap)
+            prior = -negative
             table = tables[j]
+            kids = table._children.get(code)  # table.children(code, last), inlined
+            for delta, child, c in table.children(code, last) if kids is None else kids[last]:
+                score = prior + delta
+                # a child below the floor (which only rises) would stop the loop when on
+                # top, as the next proposal after it does then: it is not pushed
+                if score >= floor:
+                    counter += 1
+                    heappush(heap, (-score, counter, j, child, c))
+            tried += 1
             found = table.entries.get(code)
             if found is None:
                 found = self._entry(table, code)
@@ -521,27 +554,44 @@ class Tracker:
                 filter_hits += len(found[1])
             # eq. (7): log P_O of the successor's filter cluster, as in _evaluate
             steps = per_parent[j]
+            parent = hypotheses[j]
             log_po = 0.0
             results = []
             for i in found[1]:
                 result = steps.get(i)
                 if result is None:
-                    result = steps[i] = self._cluster_step(hypotheses[j], i, k, memo, shared)
+                    source = parent.sources.get(state_keys[i])
+                    if source is not None:
+                        result = shared.get((i, id(source)))
+                    if result is None:
+                        result = self._cluster_step(parent, i, k, memo, shared)
+                    steps[i] = result
                 results.append(result)
                 log_po += result.log_po
             entry = (prior + log_po, tried, j, code, results)
-            if len(best) < self.beam:
-                heapq.heappush(best, entry)
-            elif entry[0] > best[0][0]:
+            if len(best) < beam:
+                heappush(best, entry)
+                if len(best) == beam:
+                    floor = best[0][0]
+            elif entry[0] > floor:
                 heapq.heapreplace(best, entry)
+                floor = best[0][0]
+        proposals.counter = counter
         self.proposed += tried
         self.structure.hits += hits
         self.filters.hits += filter_hits
         best.sort(key=lambda e: (-e[0], e[1]))
         kept = []
+        # _assemble, inlined
+        layouts, growth, no_prediction = self._layouts, self.variance_growth, self._no_prediction
         for score, _, j, code, results in best:
             assignment, ids = tables[j].entries[code]
-            kept.append(self._assemble(hypotheses[j], assignment, ids, results, score))
+            layout = layouts.get(ids)
+            if layout is None:
+                layout = self._layout(ids)
+            sources = dict(zip(layout.keys, results, strict=True))
+            pending = _Pending(hypotheses[j], layout, results, growth, no_prediction)
+            kept.append(Hypothesis(assignment, score, None, None, None, sources, pending))
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
             return _fallback(hypotheses)
         _normalise(kept)
