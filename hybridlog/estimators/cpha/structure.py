@@ -454,8 +454,8 @@ def _solve_cluster(
         substituted = [e.residual.xreplace(solved) for e in algebraic]
         try:
             solutions = sympy.solve(substituted, unknowns, dict=True)
-        except NotImplementedError:
-            solutions = []
+        except NotImplementedError:  # sympy's answer for equations it has no method for
+            solutions = []  # refused below, naming the equation's key
         if not solutions or any(u not in solutions[0] for u in unknowns):
             label = "|".join(assignment)
             raise ModelError(
