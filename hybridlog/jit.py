@@ -19,6 +19,23 @@ OPTIONS: dict[str, Any] = {"cache": True, "error_model": "numpy", "nogil": True}
 """nopython, cached on disk, NumPy's floating-point error model (no exceptions), no GIL."""
 
 
+def _one(x: float) -> float:
+    return x
+
+
+def set_up() -> None:
+    """Import numba and set up its CPU target now, not in the first compile or cache load.
+
+    That set-up takes about a second of Python (it holds the GIL), the same for every
+    kernel: a batch worker does it as it starts, while the batch process still checks the
+    inputs, and ``analyze`` while a thread reads the log.  Compiles a one-line function.
+    """
+    import numba
+
+    compiled: Any = numba.njit(_one)
+    compiled(1.0)
+
+
 def jit(function: F) -> F:
     """Compile ``function`` with numba (:data:`OPTIONS`) on its first call."""
     import numba

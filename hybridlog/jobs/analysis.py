@@ -13,10 +13,12 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from hybridlog.background import Background
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators import ESTIMATORS, Estimator, Prepared, prepare, resolve_estimator
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -236,6 +238,26 @@ def read_log(
     return load_signals(log, SignalSpec.of(model), read, notes=notes)
 
 
+def read_log_set_up(
+    log: str | Path,
+    model: HybridModel,
+    read: ReadOptions,
+    notes: dict[str, Any] | None = None,
+) -> AlignedSignals:
+    """:func:`read_log`, with numba's set-up (:func:`hybridlog.jit.set_up`) done meanwhile.
+
+    The log is read in a thread (polars' readers release the GIL) while this one sets up
+    numba, which every estimator's compiled code needs and which holds the GIL: on two
+    cores the two cost the time of the longer.
+    """
+    reading = Background(lambda: read_log(log, model, read, notes), "hybridlog-read")
+    try:
+        set_up()
+    finally:
+        reading.wait()
+    return reading.result()
+
+
 @dataclass(frozen=True)
 class Outcome:
     """What ``analyze`` produced: the report, where it went, and the missed CI gates."""
@@ -289,7 +311,7 @@ def analyze(
     gates = gates_for(model, fail_under, fail_over)
     inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
-    signals = read_log(log, model, read, reading)
+    signals = read_log_set_up(log, model, read, reading)
     result = prepared.run(model, signals, **inputs)
     report = write_report(
         out_dir,
@@ -387,7 +409,7 @@ def compare(
     gates = gates_for(model, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
-    signals = read_log(log, model, read, reading)
+    signals = read_log_set_up(log, model, read, reading)
     results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:

@@ -80,7 +80,6 @@ __all__ = [
     "folder_names",
     "natural_key",
     "run_batch",
-    "warm_up_worker",
 ]
 
 PLOT_CHOICES = ("none", "failed", "all")
@@ -465,7 +464,7 @@ def run_batch(
 
         # started first, so that the workers import what they need while this process
         # checks the inputs (leaving the pool on an error kills them)
-        pool = WorkerPool(min(jobs, len(paths)), preload=(f"{__name__}:warm_up_worker",))
+        pool = WorkerPool(min(jobs, len(paths)), preload=("hybridlog.jit:set_up",))
     resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
     if pool is not None:
         resource = pool
@@ -507,22 +506,6 @@ def run_batch(
                 if progress is not None:
                     progress(outcomes[-1])
     return _summarise(Path(os.path.abspath(out_dir)), model, job, gates, outcomes, junit)
-
-
-def _one(x: float) -> float:
-    return x
-
-
-def warm_up_worker() -> None:
-    """Run by each batch worker as it starts: numba's compiler set up before the first log.
-
-    Importing numba and setting up its CPU target take about a second, which a worker
-    spends here while the batch process still checks the inputs, instead of on its first log.
-    """
-    import numba
-
-    compiled: Any = numba.njit(_one)
-    compiled(1.0)
 
 
 def _import_summary_plot() -> None:

@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hybridlog.background import Background
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.outputs import atomic_output_dir
 from hybridlog.report.build import build_report
@@ -98,23 +99,44 @@ def write_report(
 
     """
     fmt = check_table_format(table_format)
-    report = build_report(
-        result,
-        signals,
-        log=log,
-        model_name=model_name,
-        dt=dt,
-        reading=reading,
-        extra=extra,
-        model=model,
-    )
     with atomic_output_dir(out_dir, force=force) as tmp:
-        (tmp / "report.json").write_text(report.to_json(), encoding="utf-8")
-        (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
-        write_table(timeline_table(result, signals), tmp / "timeline", fmt)
-        write_table(estimates_table(result, signals), tmp / "estimates", fmt)
-        if plots(report) if callable(plots) else plots:
-            plot_dir = Path(tmp / "plots")
-            plot_dir.mkdir()
-            write_plots(plot_dir, result, signals)
+        plot_dir = Path(tmp / "plots")
+        # The plots are drawn in a thread while the metrics and tables are made (see
+        # :mod:`hybridlog.background`): matplotlib holds the GIL, numpy's reductions and
+        # polars' writers mostly do not.  Plots that depend on the report start after it.
+        drawing = _draw(plot_dir, result, signals) if plots is True else None
+        try:
+            report = build_report(
+                result,
+                signals,
+                log=log,
+                model_name=model_name,
+                dt=dt,
+                reading=reading,
+                extra=extra,
+                model=model,
+            )
+            (tmp / "report.json").write_text(report.to_json(), encoding="utf-8")
+            (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
+            write_table(timeline_table(result, signals), tmp / "timeline", fmt)
+            write_table(estimates_table(result, signals), tmp / "estimates", fmt)
+            if callable(plots) and plots(report):
+                drawing = _draw(plot_dir, result, signals)
+            if drawing is not None:
+                drawing.result()
+        finally:
+            if drawing is not None:  # never leave the folder while a thread writes into it
+                drawing.wait()
     return report
+
+
+def _draw(
+    plot_dir: Path, result: EstimationResult, signals: AlignedSignals
+) -> Background[list[Path]]:
+    """:func:`write_plots` into a new ``plot_dir``, in a thread."""
+
+    def draw() -> list[Path]:
+        plot_dir.mkdir()
+        return write_plots(plot_dir, result, signals)
+
+    return Background(draw, "hybridlog-plots")
