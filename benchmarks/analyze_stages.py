@@ -10,8 +10,13 @@ and ``finished`` (after the command returned, before the interpreter shuts down)
 wall time of each stage in seconds (``stages``); and the resident high-water mark
 (``VmHWM``, MiB) when each stage last ended (``peak_mib``): the stage where it jumps made
 the peak.  A function that calls another timed one (a stage
-inside a stage) is charged only for its own time.  ``benchmarks/analyze_e2e.py`` runs this
-child and the plain command and assembles the breakdown.
+inside a stage) is charged only for its own time.  Stages that ran in another thread than
+the main one (``analyze`` reads the log in a thread while numba sets up, and draws the plots
+in a thread beside the metrics and tables: :mod:`hybridlog.background`) are listed in
+``beside``: they overlap the main thread's stages, among which ``waiting for a thread`` is
+the time the main thread waited for them; the main thread's stages add up to the command.
+``benchmarks/analyze_e2e.py`` runs this child and the plain command and assembles the
+breakdown.
 """
 
 from __future__ import annotations
@@ -22,12 +27,14 @@ STARTED = time.time()
 
 import json  # noqa: E402
 import sys  # noqa: E402
+import threading  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from typing import Any  # noqa: E402
 
 _clock: dict[str, float] = {}
-_stack: list[list[float]] = []
+_stacks = threading.local()
 _peak: dict[str, float] = {}
+_beside: set[str] = set()
 
 
 def _vmhwm_mib() -> float:
@@ -46,6 +53,11 @@ def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
     """``function`` charging its wall time, less that of timed calls inside it, to ``stage``."""
 
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if not hasattr(_stacks, "stack"):
+            _stacks.stack = []
+        _stack: list[list[float]] = _stacks.stack
+        if threading.current_thread() is not threading.main_thread():
+            _beside.add(stage)
         _stack.append([0.0])
         start = time.perf_counter()
         try:
@@ -75,6 +87,7 @@ def main() -> None:
     import hybridlog.estimators.common as common
     import hybridlog.jobs.analysis as analysis
     import hybridlog.report.writer as writer
+    from hybridlog.background import Background
     from hybridlog.estimators.registry import Prepared
     from hybridlog.report.document import Report
 
@@ -83,6 +96,9 @@ def main() -> None:
     _patch(analysis, "parse_sets", "model (load, sympy)")
     _patch(analysis, "prepare_estimators", "estimator options")
     _patch(analysis, "read_log", "read log")
+    _patch(analysis, "set_up", "numba set-up")
+    Background.wait = _timed("waiting for a thread", Background.wait)  # type: ignore[method-assign]
+    Background.result = _timed("waiting for a thread", Background.result)  # type: ignore[method-assign]
     _patch(Prepared, "run", "estimate (filter)")
     _patch(common, "compile_generated", "compile (sympy source, numba cache)")
     _patch(common, "compile_model", "compile (sympy source, numba cache)")
@@ -106,7 +122,13 @@ def main() -> None:
     _clock["command"] = time.perf_counter() - command
     with open(out, "w", encoding="utf-8") as stream:
         json.dump(
-            {"started": STARTED, "finished": time.time(), "stages": _clock, "peak_mib": _peak},
+            {
+                "started": STARTED,
+                "finished": time.time(),
+                "stages": _clock,
+                "peak_mib": _peak,
+                "beside": sorted(_beside),
+            },
             stream,
         )
     sys.exit(code)
