@@ -97,6 +97,7 @@ def main() -> None:
     _patch(analysis, "prepare_estimators", "estimator options")
     _patch(analysis, "read_log", "read log")
     _patch(analysis, "set_up", "numba set-up")
+    _patch(analysis, "import_plotting", "import matplotlib")
     Background.wait = _timed("waiting for a thread", Background.wait)  # type: ignore[method-assign]
     Background.result = _timed("waiting for a thread", Background.result)  # type: ignore[method-assign]
     _patch(Prepared, "run", "estimate (filter)")

@@ -27,6 +27,7 @@ from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
+from hybridlog.report.writer import import_plotting
 from hybridlog.signals import AlignedSignals
 
 
@@ -312,7 +313,11 @@ def analyze(
     inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
     signals = read_log_set_up(log, model, read, reading)
-    result = prepared.run(model, signals, **inputs)
+    plotting = Background(import_plotting, "hybridlog-import-plotting")
+    try:
+        result = prepared.run(model, signals, **inputs)
+    finally:
+        plotting.wait()
     report = write_report(
         out_dir,
         result,
@@ -410,7 +415,11 @@ def compare(
     inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
     signals = read_log_set_up(log, model, read, reading)
-    results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
+    plotting = Background(import_plotting, "hybridlog-import-plotting")
+    try:
+        results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
+    finally:
+        plotting.wait()
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
