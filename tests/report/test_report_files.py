@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -491,6 +492,34 @@ def test_failure_while_writing_leaves_nothing_behind(
         assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     else:
         assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failure_beside_the_drawing_waits_for_it_and_leaves_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The plots are drawn in a thread; a failure of the tables meanwhile must not remove
+    the folder under the thread (nor leave what it writes afterwards)."""
+    import threading
+
+    out = tmp_path / "out"
+    result, signals = make_run(n=20)
+    drawn = threading.Event()
+
+    def slow_plots(plot_dir: Path, *args: object) -> list[Path]:
+        time.sleep(0.2)  # still drawing when the tables fail
+        (plot_dir / "outputs.png").write_bytes(b"png")
+        drawn.set()
+        return [plot_dir / "outputs.png"]
+
+    def broken(*args: object) -> None:
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(writer_module, "write_plots", slow_plots)
+    monkeypatch.setattr(writer_module, "write_table", broken)
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        write_report(out, result, signals, log="l", model_name="m", dt=DT)
+    assert drawn.is_set()  # waited for, before the temporary folder was removed
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_atomic_output_dir_refuses_a_file(tmp_path: Path) -> None:
