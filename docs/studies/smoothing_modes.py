@@ -524,7 +524,7 @@ def exact_distances(A: tuple[float, float] = (0.9, 0.6), seeds: range = range(20
     for seed in seeds:
         signals = small_log(A, seed)
         filtered, kim, variant, _, _ = passes(model, signals)
-        _, smoothed, _, _ = exact_posterior(A, signals.inputs[:, 0], signals.outputs[:, 0])
+        _, smoothed, _, _, _ = exact_posterior(A, signals.inputs[:, 0], signals.outputs[:, 0])
         for name, result in (("filtered", filtered), ("kim", kim), ("evidence", variant)):
             totals[name] += float(np.abs(result.mode_probabilities - smoothed).sum())
     return (

@@ -10,7 +10,7 @@ computable: one Kalman filter and RTS smoother per sequence (``n_q ** N`` of the
   ``x̂⁰_j(k)`` is then exactly ``E[x(k) | q(k+1)=j, Y^N]``).  The IMM's filtered and smoothed
   mode probabilities and the smoothed state mean and variance equal the exact ones to
   rounding, on both code paths: a wrong index, a transposed Markov matrix or a dropped term
-  of the recursion breaks it;
+  of the recursion breaks it; the Viterbi path is the exact most likely sequence;
 * where it is an approximation (a state with memory): the smoothed probabilities are nearer
   the exact smoothed ones than the filter's are, summed over a batch of logs.
 """
@@ -55,7 +55,7 @@ def _parameters(A):
 
 
 def exact_posterior(A, inputs, outputs):
-    """Exact filtered and smoothed mode marginals, smoothed state mean and variance.
+    """Exact filtered and smoothed mode marginals, smoothed state mean and variance, MAP path.
 
     Brute force over every mode sequence ``q(0..N-1)``: ``q(0) ~ μ(0)``, ``x(0) ~ N(x̂0, P0)``
     (no measurement at sample 0, as in the IMM), and for ``k >= 1``
@@ -109,7 +109,7 @@ def exact_posterior(A, inputs, outputs):
             smoothed[k, m] = w[sequences[:, k] == m].sum()
     mean = w @ means
     variance = w @ (variances + (means - mean) ** 2)
-    return filtered, smoothed, mean, variance
+    return filtered, smoothed, mean, variance, sequences[np.argmax(log_prefix[:, -1])]
 
 
 def _log(A, seed, n=9):
@@ -144,9 +144,13 @@ def test_kim_smoother_is_exact_on_a_markov_chain_with_gaussian_emissions(kernel)
     for seed in range(4):
         signals = _log(A, seed)
         result = run_imm(
-            model, signals, ImmOptions(smooth=True), kernel=kernel, store_covariances=True
+            model,
+            signals,
+            ImmOptions(smooth=True, mode_sequence="viterbi"),
+            kernel=kernel,
+            store_covariances=True,
         )
-        filtered, smoothed, mean, variance = exact_posterior(
+        filtered, smoothed, mean, variance, path = exact_posterior(
             A, signals.inputs[:, 0], signals.outputs[:, 0]
         )
         before = result.post_processing.filtered
@@ -154,6 +158,8 @@ def test_kim_smoother_is_exact_on_a_markov_chain_with_gaussian_emissions(kernel)
         np.testing.assert_allclose(result.mode_probabilities, smoothed, rtol=0, atol=1e-12)
         np.testing.assert_allclose(result.state_means[:, 0], mean, rtol=0, atol=1e-12)
         np.testing.assert_allclose(result.covariances[:, 0, 0], variance, rtol=0, atol=1e-12)
+        # The Viterbi path is the most likely sequence (the IMM's likelihoods are exact here).
+        np.testing.assert_array_equal(result.modes, path)
         # The smoothing mattered here (a copy of the filter's would not pass).
         assert np.abs(smoothed - filtered).max() > 0.05
 
@@ -165,7 +171,7 @@ def test_kim_smoother_nearer_the_exact_posterior_than_the_filter_with_memory():
     for seed in range(20):
         signals = _log(A, seed)
         result = run_imm(model, signals, ImmOptions(smooth=True))
-        _, smoothed, _, _ = exact_posterior(A, signals.inputs[:, 0], signals.outputs[:, 0])
+        _, smoothed, _, _, _ = exact_posterior(A, signals.inputs[:, 0], signals.outputs[:, 0])
         kim += np.abs(result.mode_probabilities - smoothed).sum()
         filter_ += np.abs(result.post_processing.filtered.mode_probabilities - smoothed).sum()
     assert kim < filter_
