@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    .venv/bin/python docs/studies/smoothing.py         # ~1 min; prints docs/smoothing.md's tables
+    .venv/bin/python docs/studies/smoothing.py     # ~10 s warm; prints docs/smoothing.md's tables
 
 Library level: each log is made with :func:`hybridlog.simulate.simulate` and estimated with
 :func:`hybridlog.estimators.imm.run_imm` at its defaults, once per variant:
