@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    .venv/bin/python docs/studies/smoothing.py         # ~1 min; prints docs/smoothing.md's tables
+    .venv/bin/python docs/studies/smoothing.py     # ~10 s warm; prints docs/smoothing.md's tables
 
 Library level: each log is made with :func:`hybridlog.simulate.simulate` and estimated with
 :func:`hybridlog.estimators.imm.run_imm` at its defaults, once per variant:
@@ -18,7 +18,9 @@ Scenarios (none tuned to a result: fixed before the first run):
   and simulation alike; ``measurement = 60.0``), 700 steps, schedule
   ``1:100,2:100,3:100,1:100,3:100,2:100,1:100`` (six switches), u = 20, seeds 0..29.  The
   IMM's Markov matrix is its default (0.95 on the diagonal); the prior is the model's
-  (deliberately wrong state and mode, as in paper 000).
+  (deliberately wrong state and mode, as in paper 000).  The same scenario on the fresh seeds
+  100..139 is its own table: issue 12 says hidden scenarios of this kind will be tried, and
+  seeds 0..29 were the development seeds of ``docs/studies/smoothing_modes.py``.
 * ``double_cart_case1`` / ``_case2``: paper 001's state-driven double cart (its own input
   ``u = sin(0.3 t)``, sensor noise 0.001, no process noise), 600 steps, seeds 0..19; the true
   initial state is the model's ``[simulation] state`` plus N(0, 0.3²) per component (drawn
@@ -160,7 +162,12 @@ def main() -> None:
         return tank, three_tank_log(tank, seed).signals(tank)
 
     scenarios: list[tuple[str, Scenario, range]] = [
-        ("three_tank (measurement variance 60, 6 switches, 700 steps)", tank_scenario, range(30))
+        ("three_tank (measurement variance 60, 6 switches, 700 steps)", tank_scenario, range(30)),
+        (
+            "three_tank, fresh seeds 100..139 (the same scenario)",
+            tank_scenario,
+            range(100, 140),
+        ),
     ]
     for case in (1, 2):
         cart = load_model(f"double_cart_case{case}")
