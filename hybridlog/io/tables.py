@@ -354,10 +354,12 @@ class TableSource:
                     f"time {seconds[bad]} is not a finite number of seconds"
                 )
             time_ns = seconds_to_ns(seconds)
-        steps = np.diff(time_ns)
-        if check and steps.size and (steps <= 0).any():
-            i = int(np.argmax(steps <= 0)) + 1
-            how = "repeats" if steps[i - 1] == 0 else "goes backwards"
+        # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
+        # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
+        not_after = time_ns[1:] <= time_ns[:-1]
+        if check and not_after.size and not_after.any():
+            i = int(np.argmax(not_after)) + 1
+            how = "repeats" if time_ns[i] == time_ns[i - 1] else "goes backwards"
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[i]))}, column {excerpt(name)}: time {how} "
                 f"(t={format_ns(int(time_ns[i]))} s after t={format_ns(int(time_ns[i - 1]))} s "

@@ -262,7 +262,9 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
     """Write a table as ``<stem>.csv`` or ``<stem>.parquet``.
 
     A :class:`Table` is streamed in batches of :data:`BATCH_ROWS` rows (polars' streaming
-    sink); the file is the same as that of its whole :meth:`~Table.frame`.
+    sink); the file holds the same data as that of its whole :meth:`~Table.frame`.  Its
+    Parquet row groups are one batch each: polars' default (about twice as many rows)
+    buffered 15-25 MiB more per table of a 10^6-row run while writing.
 
     Parameters
     ----------
@@ -285,7 +287,12 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
         if table_format == "csv":
             lazy.sink_csv(path, null_value="")
         else:
-            lazy.sink_parquet(path, compression="zstd", compression_level=PARQUET_ZSTD_LEVEL)
+            lazy.sink_parquet(
+                path,
+                compression="zstd",
+                compression_level=PARQUET_ZSTD_LEVEL,
+                row_group_size=BATCH_ROWS,
+            )
     elif table_format == "csv":
         frame.write_csv(path, null_value="")
     else:
