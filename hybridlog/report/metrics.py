@@ -81,19 +81,21 @@ def _magnitude_and_unit(v: FloatArray, *, scratch: bool = False) -> tuple[float,
     return m, v / m
 
 
-def _std_ratio(a: FloatArray, b: FloatArray) -> float:
-    """``std(a) / std(b)`` without overflow or underflow in the squares.
+def _std_ratio(a: Callable[[], FloatArray], b: FloatArray) -> float:
+    """``std(a()) / std(b)`` without overflow or underflow in the squares.
 
-    ``inf`` when ``a`` overflowed float64; NaN when ``b`` is numerically constant.  ``a``
-    is the caller's temporary and is overwritten.
+    ``inf`` when ``a()`` overflowed float64; NaN when ``b`` is numerically constant.
+    ``a`` makes the numerator's values (a temporary, overwritten); it is called once the
+    spread of ``b`` is known, so the two scaled copies are never in memory together.
     """
-    ma, ua = _magnitude_and_unit(a, scratch=True)
     mb, ub = _magnitude_and_unit(b)
+    spread = float(np.std(ub))
+    del ub
+    ma, ua = _magnitude_and_unit(a(), scratch=True)
     if ma == 0.0:
         return 0.0
     if ma == np.inf:
         return np.inf
-    spread = float(np.std(ub))
     if not spread > 0.0:
         return np.nan
     ratio = float(np.std(ua)) / spread
@@ -101,19 +103,20 @@ def _std_ratio(a: FloatArray, b: FloatArray) -> float:
     return (ma / mb) * ratio if ratio else 0.0
 
 
-def _norm_ratio(a: FloatArray, b: FloatArray) -> float:
-    """``‖a‖ / ‖b‖`` without overflow or underflow in the squares.
+def _norm_ratio(a: Callable[[], FloatArray], b: Callable[[], FloatArray]) -> float:
+    """``‖a()‖ / ‖b()‖`` without overflow or underflow in the squares.
 
-    ``inf`` when ``a`` overflowed float64; NaN when ``b`` is numerically zero.  ``a`` and
-    ``b`` are the caller's temporaries and are overwritten.
+    ``inf`` when ``a()`` overflowed float64; NaN when ``b()`` is numerically zero.  ``a``
+    and ``b`` make temporaries (overwritten), one after the other.
     """
-    ma, ua = _magnitude_and_unit(a, scratch=True)
-    mb, ub = _magnitude_and_unit(b, scratch=True)
+    mb, ub = _magnitude_and_unit(b(), scratch=True)
+    size = float(np.linalg.norm(ub))
+    del ub
+    ma, ua = _magnitude_and_unit(a(), scratch=True)
     if ma == 0.0:
         return 0.0
     if ma == np.inf:
         return np.inf
-    size = float(np.linalg.norm(ub))
     if not size > 0.0:
         return np.nan
     ratio = float(np.linalg.norm(ua)) / size
@@ -161,7 +164,7 @@ def _vaf(c: _Column) -> float:
     if not h.size or np.all(h == h[0]):
         return np.nan  # no usable row, or var(ŷ) = 0: undefined
     with np.errstate(over="ignore", invalid="ignore"):
-        ratio = _std_ratio(c.y - h, h)  # an overflowing error gives inf: VAF 0
+        ratio = _std_ratio(lambda: c.y - h, h)  # an overflowing error gives inf: VAF 0
         return max(1.0 - ratio * ratio, 0.0) * 100.0
 
 
@@ -171,7 +174,8 @@ def _fit(c: _Column) -> float:
         return np.nan  # no usable row, or ‖y − ȳ‖ = 0: undefined
     with np.errstate(over="ignore", invalid="ignore"):
         # An error that overflows float64 (a diverged prediction) gives -inf.
-        return (1.0 - _norm_ratio(y_ok - c.y_hat, y_ok - np.mean(y_ok))) * 100.0
+        error = _norm_ratio(lambda: y_ok - c.y_hat, lambda: y_ok - np.mean(y_ok))
+        return (1.0 - error) * 100.0
 
 
 def _per_column(
