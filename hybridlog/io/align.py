@@ -37,7 +37,7 @@ import numpy as np
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
-from hybridlog.io.source import NS_PER_S, LabelSeries, Series, format_ns
+from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 DEFAULT_MAX_GAP_STEPS = 5
@@ -108,12 +108,19 @@ def make_grid(
         )
     step = dt * NS_PER_S
     n = int((t_end - t0) // step) + 1
+    # Built in place (one array; the same values as t0 + offsets), then cut to the points
+    # up to t_end: the grid never decreases, so those are a prefix, found by bisection.
     if step == round(step):  # whole nanoseconds: exact integer steps, and faster
-        offsets = np.arange(n + 1, dtype=np.int64) * round(step)
+        grid: IntArray = np.arange(n + 1, dtype=np.int64)
+        grid *= round(step)
     else:
-        offsets = np.rint(np.arange(n + 1, dtype=np.float64) * step).astype(np.int64)
-    grid: IntArray = t0 + offsets
-    return grid[grid <= t_end]
+        scaled = np.arange(n + 1, dtype=np.float64)
+        scaled *= step
+        np.rint(scaled, out=scaled)
+        grid = scaled.astype(np.int64)
+        del scaled
+    grid += t0
+    return grid[: int(np.searchsorted(grid, t_end, side="right"))]
 
 
 def on_grid(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> int:
@@ -129,10 +136,11 @@ def on_grid(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> int:
     start = int(np.searchsorted(time_ns, grid_ns[0] - tolerance_ns, side="left"))
     if start + n > time_ns.size:
         return -1
-    offset = time_ns[start : start + n] - grid_ns
-    if int(offset.max()) <= tolerance_ns and int(offset.min()) >= -tolerance_ns:
-        return start
-    return -1
+    for lo in range(0, n, BLOCK):  # a block's offsets at a time, not N of them
+        offset = time_ns[start + lo : start + min(lo + BLOCK, n)] - grid_ns[lo : lo + BLOCK]
+        if int(offset.max()) > tolerance_ns or int(offset.min()) < -tolerance_ns:
+            return -1
+    return start
 
 
 def on_grid_values(series: Series, grid_ns: IntArray, tolerance_ns: int) -> FloatArray | None:
@@ -402,6 +410,10 @@ def _hold_modes(
 ) -> IntArray:
     if series.time_ns.size == 0:
         raise LogError(f"{source}: truth.mode (column {series.name!r}) has no samples")
+    start = on_grid(series.time_ns, grid, tolerance)
+    if start >= 0:  # the codes at the grid points, without an index array
+        on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
+        return on
     index = hold_index(series.time_ns, grid, tolerance)
     before = index < 0
     if before.any():

@@ -193,6 +193,8 @@ def load_signals(
         dropped: dict[str, int] = {}
         out_of_range: dict[str, int] = {}
         for name, series in list(numeric_series.items()):
+            if _all_usable(series.values):
+                continue
             finite = np.isfinite(series.values)
             usable = finite & (np.abs(series.values) < MAX_MAGNITUDE)
             if usable.all():
@@ -231,6 +233,18 @@ def load_signals(
             split_gaps=options.split_gaps,
             notes=notes,
         )
+
+
+def _all_usable(values: npt.NDArray[np.float64]) -> bool:
+    """Whether every value is finite and below :data:`MAX_MAGNITUDE` in magnitude.
+
+    From the smallest and largest value (NaN when any is NaN), without the full-size masks
+    that are built only to find or drop the bad samples.
+    """
+    if values.size == 0:
+        return True
+    lo, hi = float(values.min()), float(values.max())
+    return lo > -MAX_MAGNITUDE and hi < MAX_MAGNITUDE
 
 
 def _truth_mode_codes(

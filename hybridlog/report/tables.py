@@ -92,8 +92,14 @@ def check_table_format(table_format: str) -> TableFormat:
     raise OptionError(f"--table-format {table_format!r} is not one of {', '.join(TABLE_FORMATS)}")
 
 
-BATCH_ROWS = 1 << 16
-"""Rows per batch when a :class:`Table` is streamed to its file."""
+BATCH_ROWS = 1 << 14
+"""Rows per batch when a :class:`Table` is streamed to its file, and per Parquet row group.
+
+What polars buffers while writing grows with both (a row group is encoded once it is
+complete): on a 10^6-row three-tank run, batches and row groups of 16,384 rows left the
+process 25-35 MiB smaller after writing both tables than polars' default row groups
+(about 120,000 rows) did, in the same time; polars reads the file back faster, not slower.
+"""
 
 Column = Callable[[int, int], pl.Series]
 """Rows ``lo:hi`` of one column as a polars series."""
@@ -262,7 +268,8 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
     """Write a table as ``<stem>.csv`` or ``<stem>.parquet``.
 
     A :class:`Table` is streamed in batches of :data:`BATCH_ROWS` rows (polars' streaming
-    sink); the file is the same as that of its whole :meth:`~Table.frame`.
+    sink); the file holds the same data as that of its whole :meth:`~Table.frame`, in
+    Parquet row groups of one batch each.
 
     Parameters
     ----------
@@ -285,7 +292,12 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
         if table_format == "csv":
             lazy.sink_csv(path, null_value="")
         else:
-            lazy.sink_parquet(path, compression="zstd", compression_level=PARQUET_ZSTD_LEVEL)
+            lazy.sink_parquet(
+                path,
+                compression="zstd",
+                compression_level=PARQUET_ZSTD_LEVEL,
+                row_group_size=BATCH_ROWS,
+            )
     elif table_format == "csv":
         frame.write_csv(path, null_value="")
     else:

@@ -379,3 +379,98 @@ def test_vaf_of_a_prediction_with_a_tiny_spread_is_defined() -> None:
     # hypothesis found it: var(ŷ) = (1.8e-220)² underflows float64 if computed naively.
     (m,) = metrics.output_metrics(np.array([1.0, 1.0]), np.array([3.54270596e-220, 0.0]))
     assert 0.0 <= m.vaf <= 100.0 and "vaf" not in m.undefined
+
+
+# --- memory: no full-size copy of every column, no list of every sample ---------------------
+
+
+def _reference_output_metrics(y: np.ndarray, y_hat: np.ndarray) -> list[tuple[float, ...]]:
+    """MSE, VAF and fit computed as plainly as the formulas read (the pre-streaming code)."""
+
+    def unit(v: np.ndarray) -> tuple[float, np.ndarray]:
+        m = float(np.max(np.abs(v))) if v.size else 0.0
+        return (m, v / m) if 0.0 < m < np.inf else (m, v)
+
+    def ratio(a: np.ndarray, b: np.ndarray, spread: object) -> float:
+        ma, ua = unit(a)
+        mb, ub = unit(b)
+        if ma == 0.0:
+            return 0.0
+        if ma == np.inf:
+            return np.inf
+        size = float(spread(ub))  # type: ignore[operator]
+        if not size > 0.0:
+            return np.nan
+        r = float(spread(ua)) / size  # type: ignore[operator]
+        return (ma / mb) * r if r else 0.0
+
+    out = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        for j in range(y.shape[1]):
+            yc, hc = np.ascontiguousarray(y[:, j]), np.ascontiguousarray(y_hat[:, j])
+            ok = np.isfinite(yc) & np.isfinite(hc)
+            yo, ho = yc[ok], hc[ok]
+            mse = float(np.mean((yo - ho) * (yo - ho))) if yo.size else np.nan
+            vaf = np.nan
+            if ho.size and not np.all(ho == ho[0]):
+                r = ratio(yo - ho, ho, np.std)
+                vaf = max(1.0 - r * r, 0.0) * 100.0
+            fit = np.nan
+            if yo.size and not np.all(yo == yo[0]):
+                fit = (1.0 - ratio(yo - ho, yo - np.mean(yo), np.linalg.norm)) * 100.0
+            out.append((mse, vaf, fit))
+    return out
+
+
+def test_streamed_output_metrics_are_bit_identical_to_the_plain_formulas() -> None:
+    rng = np.random.default_rng(7)
+    n = 5_000
+    y = rng.normal(size=(n, 4)) * np.array([1.0, 1e-150, 1e150, 3.0])
+    y_hat = y + rng.normal(size=(n, 4)) * np.array([0.1, 1e-151, 1e149, 1e300])
+    y_hat[0] = NAN  # no prediction in row 0
+    y[17, 0] = np.inf
+    y_hat[40:60, 1] = NAN
+    y_hat[:, 3] *= 1e7  # |ŷ| near 1e307: the error overflows to infinity
+    got = [(m.mse, m.vaf, m.fit) for m in metrics.output_metrics(y, y_hat)]
+    expected = _reference_output_metrics(y, y_hat)
+    assert np.array_equal(np.array(got), np.array(expected), equal_nan=True)
+    assert np.array_equal(metrics.mse(y, y_hat), np.array([e[0] for e in expected]), equal_nan=True)
+
+
+def _traced_peak(function: object, *args: object) -> int:
+    """Peak bytes NumPy and Python allocated while ``function(*args)`` ran (tracemalloc).
+
+    NumPy reports every array buffer to tracemalloc, so the figure counts the arrays a
+    function makes, deterministically (no allocator, no other process in it).
+    """
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        function(*args)  # type: ignore[operator]
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_output_metrics_hold_one_column_at_a_time() -> None:
+    # Selecting every column's usable rows at once (after contiguous copies of each) peaked
+    # at 10 column-sized arrays for three outputs; one column pair at a time, with the
+    # temporaries of one metric, peaks near 4 (3 for the state RMSE).
+    n = 200_000
+    rng = np.random.default_rng(1)
+    y = rng.normal(size=(n, 3))
+    y_hat = y + rng.normal(size=(n, 3))
+    y_hat[0] = NAN
+    column = 8 * n
+    assert _traced_peak(metrics.output_metrics, y, y_hat) < 5 * column
+    assert _traced_peak(metrics.state_rmse, y_hat, y) < 5 * column
+
+
+def test_detection_delays_make_no_per_sample_python_objects() -> None:
+    # time.tolist() made a Python float per sample (32 bytes each: four columns' worth).
+    n = 200_000
+    time = np.arange(n) * 0.01
+    truth = (np.arange(n) // 2_000) % 3  # 99 true switches
+    estimated = np.roll(truth, 3)
+    assert _traced_peak(metrics.detection_delays, time, estimated, truth, ("a", "b", "c")) < (8 * n)
