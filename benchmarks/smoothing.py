@@ -21,6 +21,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from hybridlog.estimators.common import packed_width
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.loader import load_model
@@ -53,7 +54,7 @@ def bench_smoothing(quick: bool, repeat: int) -> list[BenchRow]:
     assert smoothed.post_processing is not None and decoded.post_processing is not None
     forward = smoothed.post_processing.filtered.runtime_s
     backward = smoothed.runtime_s - forward
-    store_mb = 8 * n * model.n_modes * (model.n_states**2 + model.n_states) / 2**20
+    store_mb = 8 * n * model.n_modes * packed_width(model.n_states) / 2**20
     ratio = smoothed.runtime_s / filtered.runtime_s
     return [
         ("smoothing · three_tank imm filter", steps, filtered.runtime_s, "", None, ""),

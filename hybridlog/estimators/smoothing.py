@@ -72,7 +72,14 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.estimators.common import FilterBuffers, Fn, ModeStore, contiguous
+from hybridlog.estimators.common import (
+    FilterBuffers,
+    Fn,
+    ModeStore,
+    contiguous,
+    packed_width,
+    upper_pairs,
+)
 from hybridlog.estimators.kernels import (
     argmax,
     backward_solve,
@@ -145,6 +152,19 @@ GUARD_TOLERANCE = 1e-9
 """Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
 
 
+@jit
+def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
+    """Read one packed :class:`~hybridlog.estimators.common.ModeStore` record into ``x``, ``P``."""
+    n = x.shape[0]
+    index = n
+    for a in range(n):
+        x[a] = record[a]
+        for b in range(a, n):
+            P[a, b] = record[index]
+            P[b, a] = record[index]
+            index += 1
+
+
 def kim_backward(
     f: Fn,
     F: Fn,
@@ -157,11 +177,12 @@ def kim_backward(
 ) -> None:
     """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
 
-    ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept; it is
-    overwritten with the smoothed per-mode estimates as the pass goes (no second array of
-    that size).  Row ``N−1`` is the caller's (the filtered one).
+    ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept (read
+    only: the smoothed per-mode estimates of the next sample are carried in arrays).  Row
+    ``N−1`` is the caller's (the filtered one).
     """
-    n_samples, n_q, n = store.means.shape
+    n_samples, n_q, _ = store.states.shape
+    n = Q.shape[1]
     log_T = np.empty((n_q, n_q))
     for i in range(n_q):
         for j in range(n_q):
@@ -194,12 +215,17 @@ def kim_backward(
     part = np.empty((n, n))
     x = np.empty(n)
     P = np.empty((n, n))
+    x_prior = np.empty((n_q, n))  # mixed priors x̂⁰_j(k)
+    P_prior = np.empty((n_q, n, n))
+    x_next = np.empty((n_q, n))  # x̂^s_j(k+1), P^s_j(k+1): the step before's x_new, P_new
+    P_next = np.empty((n_q, n, n))
+    if n_samples > 0:
+        for j in range(n_q):
+            unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
     for k in range(n_samples - 2, -1, -1):
         u = inputs[k]
-        x_prior = store.means[k]  # mixed priors x̂⁰_j(k), overwritten below with x̂^s_i(k)
-        P_prior = store.covariances[k]
-        x_next = store.means[k + 1]  # already smoothed
-        P_next = store.covariances[k + 1]
+        for j in range(n_q):
+            unpack_state(store.states[k, j], x_prior[j], P_prior[j])
         for i in range(n_q):
             log_mu[i] = safe_log(mu[k, i])
         for j in range(n_q):
@@ -283,8 +309,8 @@ def kim_backward(
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
-        store.means[k] = x_new
-        store.covariances[k] = P_new
+        x_next[:, :] = x_new
+        P_next[:, :, :] = P_new
         mixture_moments(mu_s, x_new, P_new, x, P)
         record(out, k, argmax(mu_s), mu_s, x, P)
 
@@ -486,15 +512,15 @@ def generate_smoother_source(model: HybridModel) -> str:
 
     Defines ``imm_smooth(inputs, log_T, mu, store, out)``: the same backward pass with the mode
     functions, the process noise and the small matrix products written out.  Equal to the
-    generic loop up to rounding (``tests/estimators/test_smoothing.py``).  It reads only the
-    upper triangles of the store's covariances, carries ``x̂^s_j(k+1)``, ``P^s_j(k+1)`` and
-    ``μ^s(k+1)`` from one step to the next in variables and writes nothing back to the store.
+    generic loop up to rounding (``tests/estimators/test_smoothing.py``).  It reads the store's
+    packed records (:class:`~hybridlog.estimators.common.ModeStore`), carries ``x̂^s_j(k+1)``,
+    ``P^s_j(k+1)`` and ``μ^s(k+1)`` from one step to the next in variables and writes nothing
+    back to the store.
     """
     n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
     Q, _ = noise_matrices(model)
     p = Program(indent="    ")
-    p.emit("means = store.means")
-    p.emit("covs = store.covariances")
+    p.emit("states = store.states")
     for name, field in (
         ("modes_out", "modes"),
         ("probabilities_out", "mode_probabilities"),
@@ -503,7 +529,7 @@ def generate_smoother_source(model: HybridModel) -> str:
         ("covariances_out", "covariances"),
     ):
         p.emit(f"{name} = out.{field}")
-    p.emit("n_samples = means.shape[0]")
+    p.emit("n_samples = states.shape[0]")
     p.emit("store_covariances = covariances_out.shape[0] == n_samples")
     log_next = vector_names("lmn", n_q)  # log μ^s(k+1), carried
     for j in range(n_q):
@@ -520,12 +546,10 @@ def generate_smoother_source(model: HybridModel) -> str:
     # and writes nothing back to the store.
     x_next = [vector_names(f"xn{j}_", n) for j in range(n_q)]
     P_next = [matrix_names(f"pn{j}_", n, n, symmetric=True) for j in range(n_q)]
+    packed = range(n, packed_width(n))  # the covariance's entries in a record, upper_pairs order
     for j in range(n_q):
-        p.carry(x_next[j], [f"means[n_samples - 1, {j}, {a}]" for a in range(n)])
-        p.carry(
-            upper(P_next[j]),
-            [f"covs[n_samples - 1, {j}, {a}, {b}]" for a in range(n) for b in range(a, n)],
-        )
+        p.carry(x_next[j], [f"states[n_samples - 1, {j}, {a}]" for a in range(n)])
+        p.carry(upper(P_next[j]), [f"states[n_samples - 1, {j}, {e}]" for e in packed])
     p.emit("for k in range(n_samples - 2, -1, -1):")
     p.indent += "    "
     u = vector_names("u", n_u)
@@ -554,11 +578,10 @@ def generate_smoother_source(model: HybridModel) -> str:
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
     for j in range(n_q):
-        x0 = [p.assign("xz", f"means[k, {j}, {a}]") for a in range(n)]
+        x0 = [p.assign("xz", f"states[k, {j}, {a}]") for a in range(n)]
         P0: Matrix = [[0.0] * n for _ in range(n)]
-        for a in range(n):
-            for b in range(a, n):
-                P0[a][b] = P0[b][a] = p.assign("pz", f"covs[k, {j}, {a}, {b}]")
+        for index, (a, b) in enumerate(upper_pairs(n), start=n):
+            P0[a][b] = P0[b][a] = p.assign("pz", f"states[k, {j}, {index}]")
         Pn: Matrix = P_next[j]
         xn: Vector = x_next[j]
         x_pred = p.mode_values(model, j, "f", x0, u)
