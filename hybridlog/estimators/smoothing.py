@@ -148,6 +148,10 @@ def log_sum_exp(values: FloatArray) -> float:
     return top + math.log(total)
 
 
+LINEAR_FLOOR = 1e-280
+"""Smallest ``c̄_j = Σ_i Π_ij μ_i`` whose log the straight-line smoother takes directly (far
+above the subnormal range, so every term keeps full precision); below it, the log-sum-exp."""
+
 GUARD_TOLERANCE = 1e-9
 """Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
 
@@ -410,6 +414,7 @@ def post_process(
             if jit and use_unrolled(model, kernel):
                 arguments = (
                     contiguous(signals.inputs),
+                    contiguous(transitions),
                     _log(transitions),
                     filtered.mode_probabilities,
                     store,
@@ -482,15 +487,32 @@ def post_process(
 
 def _log_sum_exp_source(p: Program, hint: str, expressions: list[str]) -> str:
     """Emit ``log Σ exp(expressions)`` as :func:`log_sum_exp` computes it; its variable."""
+    return _log_sum_exp_parts(p, hint, expressions)[0]
+
+
+def _log_sum_exp_parts(p: Program, hint: str, expressions: list[str]) -> tuple[str, list[str], str]:
+    """``log Σ exp(a_i)`` as :func:`log_sum_exp` computes it (the same operations), with its parts.
+
+    Returns the variables of the result, of ``e_i = exp(a_i − max a)`` and of ``s = Σ e_i``,
+    so that the normalised weights ``exp(a_i − log Σ exp a)`` are ``e_i / s`` without another
+    ``exp`` (equal to rounding).  When every ``a_i`` is ``-inf``: ``-inf``, zeros and 1.
+    """
     terms = [p.assign(hint + "t", e) for e in expressions]
     top = terms[0] if len(terms) == 1 else p.assign(hint + "top", f"max({', '.join(terms)})")
     result = p.fresh(hint)
+    exps = [p.fresh(hint + "e") for _ in terms]
+    total = p.fresh(hint + "s")
     p.emit(f"if {top} == -math.inf:")
     p.emit(f"    {result} = -math.inf")
+    for e in exps:
+        p.emit(f"    {e} = 0.0")
+    p.emit(f"    {total} = 1.0")
     p.emit("else:")
-    total = " + ".join(f"math.exp({t} - {top})" for t in terms)
+    for e, t in zip(exps, terms, strict=True):
+        p.emit(f"    {e} = math.exp({t} - {top})")
+    p.emit(f"    {total} = {' + '.join(exps)}")
     p.emit(f"    {result} = {top} + math.log({total})")
-    return result
+    return result, exps, total
 
 
 def _select(
@@ -510,8 +532,14 @@ def _select(
 def generate_smoother_source(model: HybridModel) -> str:
     """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_smooth(inputs, log_T, mu, store, out)``: the same backward pass with the mode
-    functions, the process noise and the small matrix products written out.  Equal to the
+    Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out)``: the same backward pass
+    with the mode functions, the process noise and the small matrix products written out.
+    Its mode recursion computes the same log-space quantities with fewer ``exp`` (12 and 10
+    ``log`` per sample for three modes, against 33 and 10): ``log c̄_j`` as the log of the
+    linear ``Σ_i Π_ij μ_i(k)`` (``μ(k)`` is stored linear, so the log-sum-exp adds no range;
+    it is kept where the sum is below :data:`LINEAR_FLOOR`), and ``w_{j|i}``, ``μ^s_i`` as the
+    exps each log-sum-exp already took, normalised (:func:`_log_sum_exp_parts`); the
+    carried ``log μ^s`` is the same expression as before.  Equal to the
     generic loop up to rounding (``tests/estimators/test_smoothing.py``).  It reads the store's
     packed records (:class:`~hybridlog.estimators.common.ModeStore`), carries ``x̂^s_j(k+1)``,
     ``P^s_j(k+1)`` and ``μ^s(k+1)`` from one step to the next in variables and writes nothing
@@ -539,9 +567,11 @@ def generate_smoother_source(model: HybridModel) -> str:
     for j in range(n_q):
         p.emit(f"{mu_carried[j]} = math.exp({log_next[j]})")
     log_T = matrix_names("lT", n_q, n_q)
+    T = matrix_names("T", n_q, n_q)
     for i in range(n_q):
         for j in range(n_q):
             p.emit(f"{log_T[i][j]} = log_T[{i}, {j}]")
+            p.emit(f"{T[i][j]} = transitions[{i}, {j}]")
     # x̂^s_j(k+1), P^s_j(k+1) (upper triangle), carried: the pass keeps them in variables
     # and writes nothing back to the store.
     x_next = [vector_names(f"xn{j}_", n) for j in range(n_q)]
@@ -554,14 +584,25 @@ def generate_smoother_source(model: HybridModel) -> str:
     p.indent += "    "
     u = vector_names("u", n_u)
     p.carry(u, [f"inputs[k, {c}]" for c in range(n_u)])
+    mu_k = [p.assign("mk", f"mu[k, {i}]") for i in range(n_q)]
     log_mu = [
-        p.assign("lmu", f"math.log(mu[k, {i}]) if mu[k, {i}] > 0.0 else -math.inf")
+        p.assign("lmu", f"math.log({mu_k[i]}) if {mu_k[i]} > 0.0 else -math.inf")
         for i in range(n_q)
     ]
-    log_c = [
-        _log_sum_exp_source(p, "lc", [f"{log_T[i][j]} + {log_mu[i]}" for i in range(n_q)])
-        for j in range(n_q)
-    ]
+    # log c̄_j = log Σ_i Π_ij μ_i(k): the log of the linear sum (μ(k) is stored linear, so the
+    # log-sum-exp adds no range) unless the sum is too small for full precision.
+    log_c: list[str] = []
+    for j in range(n_q):
+        c_bar = p.let("cb", [f"{T[i][j]}*{mu_k[i]}" for i in range(n_q)])
+        result = p.fresh("lc")
+        p.emit(f"if {term(c_bar)} > {LINEAR_FLOOR!r}:")
+        p.emit(f"    {result} = math.log({term(c_bar)})")
+        p.emit("else:")
+        p.indent += "    "
+        exact = _log_sum_exp_source(p, "lc", [f"{log_T[i][j]} + {log_mu[i]}" for i in range(n_q)])
+        p.emit(f"{result} = {exact}")
+        p.indent = p.indent[:-4]
+        log_c.append(result)
     log_pair = [
         [
             p.assign(
@@ -573,8 +614,11 @@ def generate_smoother_source(model: HybridModel) -> str:
         ]
         for i in range(n_q)
     ]
-    row_total = [_log_sum_exp_source(p, "rt", list(log_pair[i])) for i in range(n_q)]
-    total = _log_sum_exp_source(p, "tot", list(row_total))
+    # Each row's log-sum-exp keeps its exps: w_{j|i} = exp(log p_ij − rt_i) = e_ij / s_i, and
+    # likewise μ^s_i = exp(rt_i − tot) from the exps of the total (no other exp).
+    rows = [_log_sum_exp_parts(p, "rt", list(log_pair[i])) for i in range(n_q)]
+    row_total = [row[0] for row in rows]
+    total, total_exps, total_sum = _log_sum_exp_parts(p, "tot", list(row_total))
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
     for j in range(n_q):
@@ -646,18 +690,25 @@ def generate_smoother_source(model: HybridModel) -> str:
     x_new: list[Vector] = []
     P_new: list[Matrix] = []
     for i in range(n_q):
+        _, row_exps, row_sum = rows[i]
         weights: Vector = [
             p.assign(
                 "w",
                 f"{mu_next[j]} if ({log_new[i]} == -math.inf or {total} == -math.inf) else "
-                f"math.exp({log_pair[i][j]} - {row_total[i]})",
+                f"{row_exps[j]} / {row_sum}",
             )
             for j in range(n_q)
         ]
         x_i, P_i = p.mixture(f"nm{i}_", weights, X_s, P_s)
         x_new.append(x_i)
         P_new.append(P_i)
-    mu_s: Vector = [p.assign("ms", f"math.exp({log_new[i]})") for i in range(n_q)]
+    mu_s: Vector = [
+        p.assign(
+            "ms",
+            f"math.exp({log_new[i]}) if {total} == -math.inf else {total_exps[i]} / {total_sum}",
+        )
+        for i in range(n_q)
+    ]
     x, P = p.mixture("cm", mu_s, x_new, P_new)
     p.record("k", p.argmax(mu_s), mu_s, x, P)
     p.carry(log_next, log_new)
@@ -665,4 +716,4 @@ def generate_smoother_source(model: HybridModel) -> str:
     for i in range(n_q):
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))
-    return f"def imm_smooth(inputs, log_T, mu, store, out):\n{p.source()}\n"
+    return f"def imm_smooth(inputs, transitions, log_T, mu, store, out):\n{p.source()}\n"
