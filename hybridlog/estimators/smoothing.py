@@ -529,6 +529,46 @@ def _select(
     return list(names)
 
 
+def _triangular_solves(
+    p: Program, hint: str, L: Matrix, inverse: Sequence[Entry], b: Vector
+) -> Vector:
+    """``(L Lᵀ)⁻¹ b``: ``L z = b`` then ``Lᵀ y = z``, with ``inverse[i] = 1/L[i][i]``.
+
+    :meth:`~hybridlog.estimators.unrolled.Program.forward_solve` and ``backward_solve``
+    with a multiplication by the reciprocal in place of each division.
+    """
+    size = len(L)
+    z: Vector = []
+    for i in range(size):
+        partial = p.let(hint + "fp", [b[i], *[_negated(product(L[i][k], z[k])) for k in range(i)]])
+        z.append(
+            partial
+            if partial == 0.0
+            else p.assign(hint + "f", f"{term(partial)}*{term(inverse[i])}")
+        )
+    y: Vector = [0.0] * size
+    for i in range(size - 1, -1, -1):
+        partial = p.let(
+            hint + "bp",
+            [z[i], *[_negated(product(L[k][i], y[k])) for k in range(i + 1, size)]],
+        )
+        y[i] = (
+            partial
+            if partial == 0.0
+            else p.assign(hint + "b", f"{term(partial)}*{term(inverse[i])}")
+        )
+    return y
+
+
+def _negated(value: Entry | None) -> Entry | None:
+    """``−value`` for :meth:`Program.let` (``None`` stays a structural zero)."""
+    if value is None:
+        return None
+    if isinstance(value, float):
+        return -value
+    return f"-{value}" if "*" not in value else f"-({value})"
+
+
 def generate_smoother_source(model: HybridModel) -> str:
     """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
 
@@ -633,11 +673,12 @@ def generate_smoother_source(model: HybridModel) -> str:
         P_pred = p.congruence(f"pp{j}_", F, P0, add=Q[j])
         L = p.cholesky(f"lc{j}_", P_pred)
         FP = p.matmul(f"fp{j}_", F, P0)
+        # J = P⁰Fᵀ(P^-)⁻¹ column by column of F P⁰, two triangular solves each, multiplying by
+        # the reciprocals of L's diagonal (n divisions per mode instead of 2n²; equal to rounding).
+        inverse = [p.assign(f"rl{j}_", f"1.0 / {term(L[a][a])}") for a in range(n)]
         J: Matrix = [[0.0] * n for _ in range(n)]
         for b in range(n):
-            solved = p.backward_solve(
-                f"jb{j}_", L, p.forward_solve(f"jf{j}_", L, [FP[a][b] for a in range(n)])
-            )
+            solved = _triangular_solves(p, f"j{j}_", L, inverse, [FP[a][b] for a in range(n)])
             for a in range(n):
                 J[b][a] = solved[a]
         trace = p.let("tr", [P_pred[a][a] for a in range(n)])
