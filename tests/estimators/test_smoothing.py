@@ -316,3 +316,23 @@ def test_both_forward_code_paths_write_the_same_store():
         P = np.einsum("j,jab->ab", mu, P_j + spread[:, :, None] * spread[:, None, :])
         np.testing.assert_allclose(x, result.state_means[-1], rtol=1e-12)
         np.testing.assert_allclose(P, result.covariances[-1], rtol=1e-12, atol=1e-15)
+
+
+def test_straight_line_smoother_equals_the_generic_loop_where_probabilities_underflow():
+    """Outliers drive filtered mode probabilities to 0 and below 1e-280: the straight-line
+    pass then takes its log-space branch (its linear branch elsewhere); both equal the loop."""
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=1500, seed=7).signals(model)
+    outputs = signals.outputs.copy()
+    outputs[400:420] += 1e4 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[900:905] -= 1e2 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    signals = dataclasses.replace(signals, outputs=outputs)
+    options = ImmOptions(smooth=True)
+    fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
+    plain = run_imm(model, signals, options, kernel="loops", store_covariances=True)
+    filtered = plain.post_processing.filtered.mode_probabilities
+    assert (filtered == 0.0).any() and ((filtered > 0.0) & (filtered < 1e-280)).any()
+    for field in ("state_means", "covariances", "mode_probabilities"):
+        a, b = getattr(fast, field), getattr(plain, field)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
+    np.testing.assert_array_equal(fast.modes, plain.modes)
