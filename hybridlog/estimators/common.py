@@ -158,7 +158,7 @@ class ModeStore(NamedTuple):
     ``k → k+1`` (the estimate of ``x(k)`` given ``q(k+1) = j``), and in the last row the
     mode-matched filtered ``x̂_j(N−1|N−1)``, ``P_j(N−1|N−1)``.  Arrays nothing after the
     filter needs have no rows (:meth:`allocate`), so the filter's loop writes them only on
-    demand: the smoother needs the states (``8 N n_q (n_x + n_x(n_x+1)/2)`` bytes, 216 MiB
+    demand: the smoother needs the states (``8 N n_q (n_x + n_x(n_x+1)/2)`` bytes, 206 MiB
     for 10^6 samples, 3 modes, 3 states), the Viterbi path the likelihoods (``8 N n_q``
     bytes).  The filter writes every row, so they are allocated uninitialised.
     """
