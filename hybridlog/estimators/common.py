@@ -183,12 +183,14 @@ class ModeStore(NamedTuple):
         width = self.states.shape[2]
         return (math.isqrt(8 * width + 9) - 3) // 2
 
+    @property
     def means(self) -> FloatArray:
         """The means of :attr:`states`, shape ``(rows, n_q, n_x)`` (a view)."""
         return self.states[:, :, : self.n_states]
 
+    @property
     def covariances(self) -> FloatArray:
-        """The covariances of :attr:`states` unpacked, shape ``(rows, n_q, n_x, n_x)``."""
+        """The covariances of :attr:`states` unpacked, shape ``(rows, n_q, n_x, n_x)`` (a copy)."""
         n = self.n_states
         rows, n_q, _ = self.states.shape
         full = np.empty((rows, n_q, n, n))

@@ -283,8 +283,8 @@ def test_mode_store_record_round_trips(n):
     np.testing.assert_array_equal(P_back, P)
     store = ModeStore(record.reshape(1, 1, -1), np.empty((0, 1)))
     assert store.n_states == n
-    np.testing.assert_array_equal(store.means()[0, 0], x)
-    np.testing.assert_array_equal(store.covariances()[0, 0], P)
+    np.testing.assert_array_equal(store.means[0, 0], x)
+    np.testing.assert_array_equal(store.covariances[0, 0], P)
 
 
 def test_both_forward_code_paths_write_the_same_store():
@@ -310,7 +310,7 @@ def test_both_forward_code_paths_write_the_same_store():
     np.testing.assert_allclose(fast.log_likelihoods, plain.log_likelihoods, rtol=1e-12)
     for store, result in zip(stores, results, strict=True):
         mu = result.mode_probabilities[-1]
-        x_j, P_j = store.means()[-1], store.covariances()[-1]
+        x_j, P_j = store.means[-1], store.covariances[-1]
         x = mu @ x_j
         spread = x_j - x
         P = np.einsum("j,jab->ab", mu, P_j + spread[:, :, None] * spread[:, None, :])
