@@ -2,27 +2,40 @@
 
     .venv/bin/python -m benchmarks.smoothing           # ~1 minute, prints a Markdown table
     .venv/bin/python -m benchmarks.run --only smoothing
+    .venv/bin/python -m benchmarks.smoothing --breakdown   # where the time goes (~1 minute)
 
 The built-in three-tank model (3 modes, 3 states, 3 outputs), ``simulate(model,
 steps=N-1, seed=1)``, N = 10^6 samples (10^4 with ``--quick``).  Times are
 ``EstimationResult.runtime_s`` (compiled code only, after a warm-up run that compiles or loads
-everything), best of ``repeat``:
+everything), best of ``repeat``, the three runs interleaved:
 
 * ``imm filter``: ``run_imm`` with its defaults (the forward pass alone, keeping nothing);
 * ``imm smooth=true``: the forward pass keeping the per-mode store, then the backward pass;
   the notes give the backward pass alone (its steps/s) and the store's size;
 * ``imm mode_sequence=viterbi``: the forward pass keeping the store, then the Viterbi path;
 * ``ratio``: smoothing ÷ filtering time (target ≤ 2×).
+
+``--breakdown`` prints, in one process, the thread CPU time of the first touch of three
+store-sized arrays while the process is young (memory it has not used before), then (best of
+7, the runs interleaved) of the pieces: the forward pass keeping nothing, keeping a fresh
+store, and keeping a store whose pages are already touched; the backward pass alone (its
+output buffers fresh, as in a run); and the first touch of a fresh array of the store's size
+(``np.empty`` then ``fill``) once the process has freed memory it can reuse.
 """
 
 from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 
-from hybridlog.estimators.imm import ImmOptions, run_imm
+import numpy as np
+
+from hybridlog.estimators.common import ModeStore, packed_width, run_filter
+from hybridlog.estimators.imm import CODE, ImmOptions, ImmSettings, run_imm, transition_matrix
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.smoothing import post_process
 from hybridlog.model.loader import load_model
 from hybridlog.simulate import simulate
 
@@ -47,13 +60,17 @@ def bench_smoothing(quick: bool, repeat: int) -> list[BenchRow]:
         run_imm(model, warm, options)  # compile (or load) outside the timed runs
     signals = simulate(model, steps=n - 1, seed=1).signals(model, source="bench")
     steps = n - 1
-    filtered = _best([run_imm(model, signals, ImmOptions()) for _ in range(repeat)])
-    smoothed = _best([run_imm(model, signals, smooth) for _ in range(repeat)])
-    decoded = _best([run_imm(model, signals, viterbi) for _ in range(repeat)])
+    # Interleaved (filter, smooth, Viterbi, filter, ...): on a shared machine the three see
+    # the same spells of load, and the ratio compares like with like.
+    runs: list[list[EstimationResult]] = [[], [], []]
+    for _ in range(repeat):
+        for row, options in zip(runs, (ImmOptions(), smooth, viterbi), strict=True):
+            row.append(run_imm(model, signals, options))
+    filtered, smoothed, decoded = (_best(row) for row in runs)
     assert smoothed.post_processing is not None and decoded.post_processing is not None
     forward = smoothed.post_processing.filtered.runtime_s
     backward = smoothed.runtime_s - forward
-    store_mb = 8 * n * model.n_modes * (model.n_states**2 + model.n_states) / 2**20
+    store_mb = 8 * n * model.n_modes * packed_width(model.n_states) / 2**20
     ratio = smoothed.runtime_s / filtered.runtime_s
     return [
         ("smoothing · three_tank imm filter", steps, filtered.runtime_s, "", None, ""),
@@ -85,8 +102,93 @@ def bench_smoothing(quick: bool, repeat: int) -> list[BenchRow]:
     ]
 
 
+def breakdown(repeat: int = 7) -> list[tuple[str, float]]:
+    """CPU seconds (``time.thread_time``, best of ``repeat``) of the smoother's pieces."""
+    model = load_model("three_tank_hstf")
+    n = 10**6
+    # First, while the process is young: three store-sized arrays touched one after the
+    # other and kept (memory the process has not used before, as in a command-line run).
+    shape = (n, model.n_modes, packed_width(model.n_states))
+    young: list[float] = []
+    kept = []
+    for _ in range(3):
+        start = time.thread_time()
+        array = np.empty(shape)
+        array.fill(0.0)
+        young.append(time.thread_time() - start)
+        kept.append(array)
+    del kept
+    signals = simulate(model, steps=n - 1, seed=1).signals(model, source="bench")
+    transitions = transition_matrix(model, ImmOptions(smooth=True))
+    touched = ModeStore.allocate(model, n, states=True, likelihoods=False)
+
+    def forward(store: ModeStore) -> EstimationResult:
+        return run_filter(
+            CODE,
+            model,
+            signals,
+            ImmSettings(transitions, store),
+            {},
+            jit=True,
+            kernel="auto",
+            store_covariances=False,
+        )
+
+    filtered = forward(touched)  # compiles; touches the store's pages
+
+    def backward() -> None:
+        post_process(
+            model,
+            signals,
+            filtered,
+            touched,
+            transitions,
+            smooth=True,
+            mode_sequence="argmax",
+            jit=True,
+        )
+
+    def first_touch() -> None:
+        np.empty(touched.states.shape).fill(0.0)
+
+    backward()  # compiles
+    pieces: list[tuple[str, Callable[[], object]]] = [
+        (
+            "forward pass keeping nothing (the filter)",
+            lambda: forward(ModeStore.allocate(model, n, states=False, likelihoods=False)),
+        ),
+        (
+            "forward pass keeping a fresh store",
+            lambda: forward(ModeStore.allocate(model, n, states=True, likelihoods=False)),
+        ),
+        ("forward pass keeping a store with its pages touched", lambda: forward(touched)),
+        ("backward pass alone (fresh output buffers)", backward),
+        (f"first touch of {touched.states.nbytes / 2**20:,.0f} MiB (np.empty, fill)", first_touch),
+    ]
+    best = [float("inf")] * len(pieces)
+    for _ in range(repeat):
+        for index, (_, run) in enumerate(pieces):
+            start = time.thread_time()
+            run()
+            best[index] = min(best[index], time.thread_time() - start)
+    size = f"{8 * np.prod(shape) / 2**20:,.0f} MiB"
+    return [
+        *(
+            (f"first touch of {size}, fresh process, array {i + 1} of 3", t)
+            for i, t in enumerate(young)
+        ),
+        *((label, seconds) for (label, _), seconds in zip(pieces, best, strict=True)),
+    ]
+
+
 def main() -> None:
-    """Print the section as a Markdown table."""
+    """Print the section as a Markdown table (``--breakdown``: the pieces' CPU times)."""
+    if "--breakdown" in sys.argv[1:]:
+        print(f"load average {os.getloadavg()[0]:.2f}")
+        for label, seconds in breakdown():
+            print(f"| {label} | {seconds:.3f} s CPU |")
+        print(f"load average {os.getloadavg()[0]:.2f}")
+        return
     quick = "--quick" in sys.argv[1:]
     print("| benchmark | steps | time s | steps/s | target | met | notes |")
     print("|---|---|---|---|---|---|---|")

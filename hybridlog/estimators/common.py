@@ -8,6 +8,7 @@ same thing (``tests/estimators/test_kernels.py`` checks every accelerator agains
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -136,21 +137,33 @@ class FilterBuffers(NamedTuple):
         )
 
 
+def packed_width(n_x: int) -> int:
+    """Entries of one mode's :class:`ModeStore` record: mean, upper triangle of covariance."""
+    return n_x + n_x * (n_x + 1) // 2
+
+
+def upper_pairs(n_x: int) -> list[tuple[int, int]]:
+    """``(a, b)`` with ``a <= b``, row by row: the order of a packed covariance's entries."""
+    return [(a, b) for a in range(n_x) for b in range(a, n_x)]
+
+
 class ModeStore(NamedTuple):
     """Per-mode quantities a filter keeps for an offline pass after it (issue 12).
 
     For every mode ``j``: ``log_likelihoods[k, j]`` is ``log N(γ_j(k); 0, S_j(k))`` of the
-    measurement ``y(k)`` (row 0: 0).  ``means[k, j]`` and ``covariances[k, j]`` are, for
-    ``k < N−1``, the IMM's mixed prior ``x̂⁰_j(k)``, ``P⁰_j(k)`` of the step ``k → k+1``
-    (the estimate of ``x(k)`` given ``q(k+1) = j``), and in the last row the mode-matched
-    filtered ``x̂_j(N−1|N−1)``, ``P_j(N−1|N−1)``.  Arrays nothing after the filter needs
-    have no rows (:meth:`allocate`), so the filter's loop writes them only on demand: the
-    smoother needs the states (``8 N n_q (n_x² + n_x)`` bytes, 275 MiB for 10^6 samples,
-    3 modes, 3 states), the Viterbi path the likelihoods (``8 N n_q`` bytes).
+    measurement ``y(k)`` (row 0: 0).  ``states[k, j]`` is one mode's record, packed: the mean
+    (``n_x`` entries) then the upper triangle of the covariance row by row
+    (:func:`upper_pairs`, ``n_x(n_x+1)/2`` entries; the covariances are symmetric).  For
+    ``k < N−1`` it holds the IMM's mixed prior ``x̂⁰_j(k)``, ``P⁰_j(k)`` of the step
+    ``k → k+1`` (the estimate of ``x(k)`` given ``q(k+1) = j``), and in the last row the
+    mode-matched filtered ``x̂_j(N−1|N−1)``, ``P_j(N−1|N−1)``.  Arrays nothing after the
+    filter needs have no rows (:meth:`allocate`), so the filter's loop writes them only on
+    demand: the smoother needs the states (``8 N n_q (n_x + n_x(n_x+1)/2)`` bytes, 206 MiB
+    for 10^6 samples, 3 modes, 3 states), the Viterbi path the likelihoods (``8 N n_q``
+    bytes).  The filter writes every row, so they are allocated uninitialised.
     """
 
-    means: FloatArray
-    covariances: FloatArray
+    states: FloatArray
     log_likelihoods: FloatArray
 
     @classmethod
@@ -158,12 +171,32 @@ class ModeStore(NamedTuple):
         cls, model: HybridModel, n_samples: int, *, states: bool, likelihoods: bool
     ) -> ModeStore:
         """``n_samples`` rows of the states and of the likelihoods where asked, else none."""
-        rows, n_x, n_q = (n_samples if states else 0), model.n_states, model.n_modes
+        rows, n_q = (n_samples if states else 0), model.n_modes
         return cls(
-            np.zeros((rows, n_q, n_x)),
-            np.zeros((rows, n_q, n_x, n_x)),
-            np.zeros((n_samples if likelihoods else 0, n_q)),
+            np.empty((rows, n_q, packed_width(model.n_states))),
+            np.empty((n_samples if likelihoods else 0, n_q)),
         )
+
+    @property
+    def n_states(self) -> int:
+        """``n_x``, from the width of the records."""
+        width = self.states.shape[2]
+        return (math.isqrt(8 * width + 9) - 3) // 2
+
+    @property
+    def means(self) -> FloatArray:
+        """The means of :attr:`states`, shape ``(rows, n_q, n_x)`` (a view)."""
+        return self.states[:, :, : self.n_states]
+
+    @property
+    def covariances(self) -> FloatArray:
+        """The covariances of :attr:`states` unpacked, shape ``(rows, n_q, n_x, n_x)`` (a copy)."""
+        n = self.n_states
+        rows, n_q, _ = self.states.shape
+        full = np.empty((rows, n_q, n, n))
+        for index, (a, b) in enumerate(upper_pairs(n), start=n):
+            full[:, :, a, b] = full[:, :, b, a] = self.states[:, :, index]
+        return full
 
 
 def contiguous(array: FloatArray) -> FloatArray:

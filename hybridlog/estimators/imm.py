@@ -38,6 +38,7 @@ from hybridlog.estimators.common import (
     ModeStore,
     contiguous,
     run_filter,
+    upper_pairs,
 )
 from hybridlog.estimators.filter_options import ImmOptions
 from hybridlog.estimators.kernels import (
@@ -66,6 +67,7 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
+from hybridlog.jit import jit
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
 from hybridlog.signals import AlignedSignals, FloatArray
 
@@ -81,13 +83,25 @@ class ImmSettings(NamedTuple):
     """Per-mode filtered estimates and likelihoods for the smoother (no rows: not kept)."""
 
 
+@jit
+def pack_state(x: FloatArray, P: FloatArray, out: FloatArray) -> None:
+    """Write ``x`` and the upper triangle of ``P`` into one :class:`ModeStore` record ``out``."""
+    n = x.shape[0]
+    index = n
+    for a in range(n):
+        out[a] = x[a]
+        for b in range(a, n):
+            out[index] = P[a, b]
+            index += 1
+
+
 def _imm_steps(
     f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: ImmSettings, out: FilterBuffers
 ) -> None:
     """The generic IMM time loop (compiled on first use; the docstring of the module)."""
     inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
     transitions, store = settings
-    keep_states = store.means.shape[0] > 0
+    keep_states = store.states.shape[0] > 0
     keep_likelihoods = store.log_likelihoods.shape[0] > 0
     n_samples, n, m, n_q = dimensions(run)
 
@@ -116,8 +130,8 @@ def _imm_steps(
 
     record(out, 0, argmax(mu), mu, x, P)
     if keep_states:  # row 0 when the log has one sample; else the mixing of step 0 replaces it
-        store.means[0] = x_i
-        store.covariances[0] = P_i
+        for i in range(n_q):
+            pack_state(x_i[i], P_i[i], store.states[0, i])
     if keep_likelihoods:
         store.log_likelihoods[0] = 0.0
     for k in range(n_samples - 1):
@@ -139,8 +153,8 @@ def _imm_steps(
                 x_mix[j] = x_i[j]
                 P_mix[j] = P_i[j]
         if keep_states:
-            store.means[k] = x_mix
-            store.covariances[k] = P_mix
+            for j in range(n_q):
+                pack_state(x_mix[j], P_mix[j], store.states[k, j])
         predictions = out.output_predictions[k + 1]
         for b in range(m):
             predictions[b] = 0.0
@@ -175,8 +189,8 @@ def _imm_steps(
         mixture_moments(mu, x_i, P_i, x, P)
         record(out, k + 1, argmax(mu), mu, x, P)
         if keep_states and k == n_samples - 2:  # the last row; the others get the mixing
-            store.means[k + 1] = x_i
-            store.covariances[k + 1] = P_i
+            for i in range(n_q):
+                pack_state(x_i[i], P_i[i], store.states[k + 1, i])
 
 
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
@@ -255,6 +269,15 @@ def imm_options(values: dict[str, object]) -> ImmOptions:
     return parse_options(ImmOptions, values, estimator=NAME)
 
 
+def _store_record(p: Program, row: str, mode: int, x: Vector, P: Matrix) -> None:
+    """Emit the writes of one packed :class:`ModeStore` record (inside an ``if``)."""
+    n = len(x)
+    for a in range(n):
+        p.emit(f"    store.states[{row}, {mode}, {a}] = {term(x[a])}")
+    for index, (a, b) in enumerate(upper_pairs(n), start=n):
+        p.emit(f"    store.states[{row}, {mode}, {index}] = {term(P[a][b])}")
+
+
 def generate_imm_source(model: HybridModel) -> str:
     """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
 
@@ -277,12 +300,15 @@ def generate_imm_source(model: HybridModel) -> str:
         p.emit(f"{mu[i]} = mu0[{i}]")
         p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
     p.record("0", p.argmax(mu), mu, X[0], P[0])
-    p.emit("keep_states = store.means.shape[0] > 0")
+    p.emit("keep_states = store.states.shape[0] > 0")
     p.emit("keep_likelihoods = store.log_likelihoods.shape[0] > 0")
     p.emit("if keep_states:")
+    pairs = upper_pairs(n)
     for i in range(n_q):
-        p.emit(f"    store.means[0, {i}] = x0")
-        p.emit(f"    store.covariances[0, {i}] = P0")
+        for a in range(n):
+            p.emit(f"    store.states[0, {i}, {a}] = x0[{a}]")
+        for index, (a, b) in enumerate(pairs, start=n):
+            p.emit(f"    store.states[0, {i}, {index}] = P0[{a}, {b}]")
     p.emit("if keep_likelihoods:")
     for i in range(n_q):
         p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
@@ -304,11 +330,8 @@ def generate_imm_source(model: HybridModel) -> str:
             for i in range(n_q)
         ]
         x_mix, P_mix = p.mixture(f"m{j}_", weights, X, P)
-        p.emit("if keep_states:")  # the smoother's prior of mode j (ModeStore)
-        for a in range(n):
-            p.emit(f"    store.means[k, {j}, {a}] = {term(x_mix[a])}")
-            for e in range(n):
-                p.emit(f"    store.covariances[k, {j}, {a}, {e}] = {term(P_mix[a][e])}")
+        p.emit("if keep_states:")  # the smoother's prior of mode j (ModeStore, packed)
+        _store_record(p, "k", j, x_mix, P_mix)
         x_mix_names = p.named("xm", x_mix)
         # EKF prediction (mode j).
         x_pred = p.mode_values(model, j, "f", x_mix_names, u)
@@ -343,10 +366,7 @@ def generate_imm_source(model: HybridModel) -> str:
         p.emit(f"    store.log_likelihoods[k + 1, {j}] = {log_likelihoods[j]}")
     p.emit("if keep_states and k == n_samples - 2:")  # the last row; the others get the mixing
     for j in range(n_q):
-        for a in range(n):
-            p.emit(f"    store.means[k + 1, {j}, {a}] = {term(x_post[j][a])}")
-            for b in range(n):
-                p.emit(f"    store.covariances[k + 1, {j}, {a}, {b}] = {term(P_post[j][a][b])}")
+        _store_record(p, "k + 1", j, x_post[j], P_post[j])
     for i in range(n_q):
         p.carry(X[i], x_post[i])
         p.carry(upper(P[i]), upper(P_post[i]))

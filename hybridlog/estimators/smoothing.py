@@ -40,7 +40,10 @@ RTS steps per sample; this one ``n_q``.  Nonlinear modes are linearised where th
 IMM linearised them (at ``x̂⁰_j``).  The covariance above equals ``P⁰ + J(P^s − P^-)Jᵀ``
 for this ``J`` and is a sum of congruences of PSD matrices, so it stays PSD up to rounding;
 every covariance is symmetrised.  Mode probabilities are combined in log space and
-renormalised at every step.  At the last sample the smoothed estimate is the filtered one.
+renormalised at every step (the straight-line code for small models does the same
+arithmetic in linear space on the samples where every probability involved is at least
+1e-280, where the log space adds no range and the two agree to rounding; see
+``_mode_recursion_source``).  At the last sample the smoothed estimate is the filtered one.
 A mode whose ``P^-_j`` is not positive definite gets ``J_j = 0``.
 
 Guard: the exact RTS step has ``P^s_j(k+1) ≤ P^-_j`` (the smoothed estimate is no wider than
@@ -72,7 +75,14 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.estimators.common import FilterBuffers, Fn, ModeStore, contiguous
+from hybridlog.estimators.common import (
+    FilterBuffers,
+    Fn,
+    ModeStore,
+    contiguous,
+    packed_width,
+    upper_pairs,
+)
 from hybridlog.estimators.kernels import (
     argmax,
     backward_solve,
@@ -141,8 +151,25 @@ def log_sum_exp(values: FloatArray) -> float:
     return top + math.log(total)
 
 
+LINEAR_FLOOR = 1e-280
+"""Smallest ``c̄_j = Σ_i Π_ij μ_i`` whose log the straight-line smoother takes directly (far
+above the subnormal range, so every term keeps full precision); below it, the log-sum-exp."""
+
 GUARD_TOLERANCE = 1e-9
 """Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
+
+
+@jit
+def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
+    """Read one packed :class:`~hybridlog.estimators.common.ModeStore` record into ``x``, ``P``."""
+    n = x.shape[0]
+    index = n
+    for a in range(n):
+        x[a] = record[a]
+        for b in range(a, n):
+            P[a, b] = record[index]
+            P[b, a] = record[index]
+            index += 1
 
 
 def kim_backward(
@@ -157,11 +184,12 @@ def kim_backward(
 ) -> None:
     """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
 
-    ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept; it is
-    overwritten with the smoothed per-mode estimates as the pass goes (no second array of
-    that size).  Row ``N−1`` is the caller's (the filtered one).
+    ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept (read
+    only: the smoothed per-mode estimates of the next sample are carried in arrays).  Row
+    ``N−1`` is the caller's (the filtered one).
     """
-    n_samples, n_q, n = store.means.shape
+    n_samples, n_q, _ = store.states.shape
+    n = Q.shape[1]
     log_T = np.empty((n_q, n_q))
     for i in range(n_q):
         for j in range(n_q):
@@ -194,12 +222,17 @@ def kim_backward(
     part = np.empty((n, n))
     x = np.empty(n)
     P = np.empty((n, n))
+    x_prior = np.empty((n_q, n))  # mixed priors x̂⁰_j(k)
+    P_prior = np.empty((n_q, n, n))
+    x_next = np.empty((n_q, n))  # x̂^s_j(k+1), P^s_j(k+1): the step before's x_new, P_new
+    P_next = np.empty((n_q, n, n))
+    if n_samples > 0:
+        for j in range(n_q):
+            unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
     for k in range(n_samples - 2, -1, -1):
         u = inputs[k]
-        x_prior = store.means[k]  # mixed priors x̂⁰_j(k), overwritten below with x̂^s_i(k)
-        P_prior = store.covariances[k]
-        x_next = store.means[k + 1]  # already smoothed
-        P_next = store.covariances[k + 1]
+        for j in range(n_q):
+            unpack_state(store.states[k, j], x_prior[j], P_prior[j])
         for i in range(n_q):
             log_mu[i] = safe_log(mu[k, i])
         for j in range(n_q):
@@ -283,8 +316,8 @@ def kim_backward(
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
-        store.means[k] = x_new
-        store.covariances[k] = P_new
+        x_next[:, :] = x_new
+        P_next[:, :, :] = P_new
         mixture_moments(mu_s, x_new, P_new, x, P)
         record(out, k, argmax(mu_s), mu_s, x, P)
 
@@ -384,6 +417,7 @@ def post_process(
             if jit and use_unrolled(model, kernel):
                 arguments = (
                     contiguous(signals.inputs),
+                    contiguous(transitions),
                     _log(transitions),
                     filtered.mode_probabilities,
                     store,
@@ -456,15 +490,32 @@ def post_process(
 
 def _log_sum_exp_source(p: Program, hint: str, expressions: list[str]) -> str:
     """Emit ``log Σ exp(expressions)`` as :func:`log_sum_exp` computes it; its variable."""
+    return _log_sum_exp_parts(p, hint, expressions)[0]
+
+
+def _log_sum_exp_parts(p: Program, hint: str, expressions: list[str]) -> tuple[str, list[str], str]:
+    """``log Σ exp(a_i)`` as :func:`log_sum_exp` computes it (the same operations), with its parts.
+
+    Returns the variables of the result, of ``e_i = exp(a_i − max a)`` and of ``s = Σ e_i``,
+    so that the normalised weights ``exp(a_i − log Σ exp a)`` are ``e_i / s`` without another
+    ``exp`` (equal to rounding).  When every ``a_i`` is ``-inf``: ``-inf``, zeros and 1.
+    """
     terms = [p.assign(hint + "t", e) for e in expressions]
     top = terms[0] if len(terms) == 1 else p.assign(hint + "top", f"max({', '.join(terms)})")
     result = p.fresh(hint)
+    exps = [p.fresh(hint + "e") for _ in terms]
+    total = p.fresh(hint + "s")
     p.emit(f"if {top} == -math.inf:")
     p.emit(f"    {result} = -math.inf")
+    for e in exps:
+        p.emit(f"    {e} = 0.0")
+    p.emit(f"    {total} = 1.0")
     p.emit("else:")
-    total = " + ".join(f"math.exp({t} - {top})" for t in terms)
+    for e, t in zip(exps, terms, strict=True):
+        p.emit(f"    {e} = math.exp({t} - {top})")
+    p.emit(f"    {total} = {' + '.join(exps)}")
     p.emit(f"    {result} = {top} + math.log({total})")
-    return result
+    return result, exps, total
 
 
 def _select(
@@ -481,63 +532,117 @@ def _select(
     return list(names)
 
 
-def generate_smoother_source(model: HybridModel) -> str:
-    """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
+def _triangular_solves(
+    p: Program, hint: str, L: Matrix, inverse: Sequence[Entry], b: Vector
+) -> Vector:
+    """``(L Lᵀ)⁻¹ b``: ``L z = b`` then ``Lᵀ y = z``, with ``inverse[i] = 1/L[i][i]``.
 
-    Defines ``imm_smooth(inputs, log_T, mu, store, out)``: the same backward pass with the mode
-    functions, the process noise and the small matrix products written out.  Equal to the
-    generic loop up to rounding (``tests/estimators/test_smoothing.py``).  It reads only the
-    upper triangles of the store's covariances, carries ``x̂^s_j(k+1)``, ``P^s_j(k+1)`` and
-    ``μ^s(k+1)`` from one step to the next in variables and writes nothing back to the store.
+    :meth:`~hybridlog.estimators.unrolled.Program.forward_solve` and ``backward_solve``
+    with a multiplication by the reciprocal in place of each division.
     """
-    n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
-    Q, _ = noise_matrices(model)
-    p = Program(indent="    ")
-    p.emit("means = store.means")
-    p.emit("covs = store.covariances")
-    for name, field in (
-        ("modes_out", "modes"),
-        ("probabilities_out", "mode_probabilities"),
-        ("means_out", "state_means"),
-        ("variances_out", "state_variances"),
-        ("covariances_out", "covariances"),
-    ):
-        p.emit(f"{name} = out.{field}")
-    p.emit("n_samples = means.shape[0]")
-    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
-    log_next = vector_names("lmn", n_q)  # log μ^s(k+1), carried
-    for j in range(n_q):
-        last = f"mu[n_samples - 1, {j}]"
-        p.emit(f"{log_next[j]} = math.log({last}) if {last} > 0.0 else -math.inf")
-    mu_carried = vector_names("mxc", n_q)  # exp(log μ^s(k+1)), carried
-    for j in range(n_q):
-        p.emit(f"{mu_carried[j]} = math.exp({log_next[j]})")
-    log_T = matrix_names("lT", n_q, n_q)
-    for i in range(n_q):
-        for j in range(n_q):
-            p.emit(f"{log_T[i][j]} = log_T[{i}, {j}]")
-    # x̂^s_j(k+1), P^s_j(k+1) (upper triangle), carried: the pass keeps them in variables
-    # and writes nothing back to the store.
-    x_next = [vector_names(f"xn{j}_", n) for j in range(n_q)]
-    P_next = [matrix_names(f"pn{j}_", n, n, symmetric=True) for j in range(n_q)]
-    for j in range(n_q):
-        p.carry(x_next[j], [f"means[n_samples - 1, {j}, {a}]" for a in range(n)])
-        p.carry(
-            upper(P_next[j]),
-            [f"covs[n_samples - 1, {j}, {a}, {b}]" for a in range(n) for b in range(a, n)],
+    size = len(L)
+    z: Vector = []
+    for i in range(size):
+        partial = p.let(hint + "fp", [b[i], *[_negated(product(L[i][k], z[k])) for k in range(i)]])
+        z.append(
+            partial
+            if partial == 0.0
+            else p.assign(hint + "f", f"{term(partial)}*{term(inverse[i])}")
         )
-    p.emit("for k in range(n_samples - 2, -1, -1):")
+    y: Vector = [0.0] * size
+    for i in range(size - 1, -1, -1):
+        partial = p.let(
+            hint + "bp",
+            [z[i], *[_negated(product(L[k][i], y[k])) for k in range(i + 1, size)]],
+        )
+        y[i] = (
+            partial
+            if partial == 0.0
+            else p.assign(hint + "b", f"{term(partial)}*{term(inverse[i])}")
+        )
+    return y
+
+
+def _negated(value: Entry | None) -> Entry | None:
+    """``−value`` for :meth:`Program.let` (``None`` stays a structural zero)."""
+    if value is None:
+        return None
+    if isinstance(value, float):
+        return -value
+    return f"-{value}" if "*" not in value else f"-({value})"
+
+
+def _mode_recursion_source(
+    p: Program, T: Matrix, log_T: Matrix, log_next: Vector, mu_next: Vector
+) -> tuple[Vector, Vector, list[Vector]]:
+    """Emit one step of Kim's mode recursion; variables of ``log μ^s(k)``, ``μ^s(k)``, ``w_{j|i}``.
+
+    ``log_next`` and ``mu_next`` hold ``log μ^s(k+1)`` and ``μ^s(k+1)``; ``mu[k]`` is read.
+    Two branches, equal to rounding:
+
+    * linear, when every quantity is in full-precision range -- each ``c̄_j``, each
+      ``μ^s_j(k+1)`` (unless ``−inf`` in log space) and each ``μ_i(k)`` and unnormalised
+      ``μ^s_i(k)`` (unless ``μ_i(k) = 0``) at least :data:`LINEAR_FLOOR`: ``q_j = μ^s_j(k+1) /
+      c̄_j``, ``a_ij = Π_ij q_j`` (``= p_ij / μ_i``), ``s_i = Σ_j a_ij``, ``μ^s_i ∝ μ_i s_i``,
+      ``w_{j|i} = a_ij / s_i`` and ``log μ^s_i = log(μ^s_i)``: the log space adds no range
+      there (no ``exp``, ``n_q`` ``log``);
+    * else the log-space recursion of the module docstring as :func:`kim_backward` computes
+      it, with fewer ``exp``: ``log c̄_j`` as the log of the linear sum (``μ(k)`` is stored
+      linear) unless it is below :data:`LINEAR_FLOOR`, and ``w_{j|i}``, ``μ^s_i`` as the exps
+      each log-sum-exp already took, normalised (:func:`_log_sum_exp_parts`).
+
+    A row with ``μ_i(k) = 0`` (``log μ^s_i(k) = −inf``) takes ``w_{j|i} = μ^s_j(k+1)``, as
+    :func:`kim_backward` does.
+    """
+    n_q = len(T)
+    floor = repr(LINEAR_FLOOR)
+    mu_k = [p.assign("mk", f"mu[k, {i}]") for i in range(n_q)]
+    c_bar = [p.let("cb", [f"{T[i][j]}*{mu_k[i]}" for i in range(n_q)]) for j in range(n_q)]
+    ratio = [p.assign("q", f"{mu_next[j]} / {term(c_bar[j])}") for j in range(n_q)]
+    a = [[p.assign("a", f"{T[i][j]}*{ratio[j]}") for j in range(n_q)] for i in range(n_q)]
+    s = [p.let("s", list(a[i])) for i in range(n_q)]
+    b = [p.assign("b", f"{mu_k[i]}*{term(s[i])}") for i in range(n_q)]
+    b_total = p.let("bt", list(b))
+    conditions = (
+        [f"{term(c_bar[j])} >= {floor}" for j in range(n_q)]
+        + [f"({log_next[j]} == -math.inf or {mu_next[j]} >= {floor})" for j in range(n_q)]
+        + [
+            f"({mu_k[i]} == 0.0 or ({mu_k[i]} >= {floor} and {b[i]} >= {floor}))"
+            for i in range(n_q)
+        ]
+        + [f"{term(b_total)} >= {floor}"]
+    )
+    fast = p.assign("fast", " and ".join(conditions))
+    log_new: Vector = [p.fresh("ln") for _ in range(n_q)]
+    mu_s: Vector = [p.fresh("ms") for _ in range(n_q)]
+    weights: list[Vector] = [[p.fresh("w") for _ in range(n_q)] for _ in range(n_q)]
+    p.emit(f"if {fast}:")
     p.indent += "    "
-    u = vector_names("u", n_u)
-    p.carry(u, [f"inputs[k, {c}]" for c in range(n_u)])
+    for i in range(n_q):
+        p.emit(f"{mu_s[i]} = {b[i]} / {term(b_total)}")
+        p.emit(f"{log_new[i]} = math.log({mu_s[i]}) if {mu_s[i]} > 0.0 else -math.inf")
+        for j in range(n_q):
+            p.emit(
+                f"{weights[i][j]} = {mu_next[j]} if {mu_k[i]} == 0.0 else {a[i][j]} / {term(s[i])}"
+            )
+    p.indent = p.indent[:-4]
+    p.emit("else:")
+    p.indent += "    "
     log_mu = [
-        p.assign("lmu", f"math.log(mu[k, {i}]) if mu[k, {i}] > 0.0 else -math.inf")
+        p.assign("lmu", f"math.log({mu_k[i]}) if {mu_k[i]} > 0.0 else -math.inf")
         for i in range(n_q)
     ]
-    log_c = [
-        _log_sum_exp_source(p, "lc", [f"{log_T[i][j]} + {log_mu[i]}" for i in range(n_q)])
-        for j in range(n_q)
-    ]
+    log_c: list[str] = []
+    for j in range(n_q):
+        result = p.fresh("lc")
+        p.emit(f"if {term(c_bar[j])} > {floor}:")
+        p.emit(f"    {result} = math.log({term(c_bar[j])})")
+        p.emit("else:")
+        p.indent += "    "
+        exact = _log_sum_exp_source(p, "lc", [f"{log_T[i][j]} + {log_mu[i]}" for i in range(n_q)])
+        p.emit(f"{result} = {exact}")
+        p.indent = p.indent[:-4]
+        log_c.append(result)
     log_pair = [
         [
             p.assign(
@@ -549,16 +654,89 @@ def generate_smoother_source(model: HybridModel) -> str:
         ]
         for i in range(n_q)
     ]
-    row_total = [_log_sum_exp_source(p, "rt", list(log_pair[i])) for i in range(n_q)]
-    total = _log_sum_exp_source(p, "tot", list(row_total))
+    rows = [_log_sum_exp_parts(p, "rt", list(log_pair[i])) for i in range(n_q)]
+    total, total_exps, total_sum = _log_sum_exp_parts(p, "tot", [row[0] for row in rows])
+    p.emit(f"if {total} == -math.inf:")
+    for i in range(n_q):
+        p.emit(f"    {log_new[i]} = {log_mu[i]}")
+        p.emit(f"    {mu_s[i]} = math.exp({log_mu[i]})")
+    p.emit("else:")
+    for i in range(n_q):
+        p.emit(f"    {log_new[i]} = {rows[i][0]} - {total}")
+        p.emit(f"    {mu_s[i]} = {total_exps[i]} / {total_sum}")
+    for i in range(n_q):
+        _, row_exps, row_sum = rows[i]
+        for j in range(n_q):
+            p.emit(
+                f"{weights[i][j]} = {mu_next[j]} if ({log_new[i]} == -math.inf or "
+                f"{total} == -math.inf) else {row_exps[j]} / {row_sum}"
+            )
+    p.indent = p.indent[:-4]
+    return log_new, mu_s, weights
+
+
+def generate_smoother_source(model: HybridModel) -> str:
+    """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
+
+    Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out)``: the same backward pass
+    with the mode functions, the process noise and the small matrix products written out.
+    Its mode recursion (:func:`_mode_recursion_source`) takes the linear form of the same
+    equations where every probability involved is in full-precision range (no ``exp``, three
+    ``log`` per sample for three modes, against 33 ``exp`` and 10 ``log`` of the log-space
+    form; 95 % of the three-tank benchmark's samples) and the log-space form elsewhere; the
+    gain's triangular solves multiply by the reciprocals of the factor's diagonal.  Equal to the
+    generic loop up to rounding (``tests/estimators/test_smoothing.py``).  It reads the store's
+    packed records (:class:`~hybridlog.estimators.common.ModeStore`), carries ``x̂^s_j(k+1)``,
+    ``P^s_j(k+1)`` and ``μ^s(k+1)`` from one step to the next in variables and writes nothing
+    back to the store.
+    """
+    n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
+    Q, _ = noise_matrices(model)
+    p = Program(indent="    ")
+    p.emit("states = store.states")
+    for name, field in (
+        ("modes_out", "modes"),
+        ("probabilities_out", "mode_probabilities"),
+        ("means_out", "state_means"),
+        ("variances_out", "state_variances"),
+        ("covariances_out", "covariances"),
+    ):
+        p.emit(f"{name} = out.{field}")
+    p.emit("n_samples = states.shape[0]")
+    p.emit("store_covariances = covariances_out.shape[0] == n_samples")
+    log_next = vector_names("lmn", n_q)  # log μ^s(k+1), carried
+    for j in range(n_q):
+        last = f"mu[n_samples - 1, {j}]"
+        p.emit(f"{log_next[j]} = math.log({last}) if {last} > 0.0 else -math.inf")
+    mu_carried = vector_names("mxc", n_q)  # exp(log μ^s(k+1)), carried
+    for j in range(n_q):
+        p.emit(f"{mu_carried[j]} = math.exp({log_next[j]})")
+    log_T = matrix_names("lT", n_q, n_q)
+    T = matrix_names("T", n_q, n_q)
+    for i in range(n_q):
+        for j in range(n_q):
+            p.emit(f"{log_T[i][j]} = log_T[{i}, {j}]")
+            p.emit(f"{T[i][j]} = transitions[{i}, {j}]")
+    # x̂^s_j(k+1), P^s_j(k+1) (upper triangle), carried: the pass keeps them in variables
+    # and writes nothing back to the store.
+    x_next = [vector_names(f"xn{j}_", n) for j in range(n_q)]
+    P_next = [matrix_names(f"pn{j}_", n, n, symmetric=True) for j in range(n_q)]
+    packed = range(n, packed_width(n))  # the covariance's entries in a record, upper_pairs order
+    for j in range(n_q):
+        p.carry(x_next[j], [f"states[n_samples - 1, {j}, {a}]" for a in range(n)])
+        p.carry(upper(P_next[j]), [f"states[n_samples - 1, {j}, {e}]" for e in packed])
+    p.emit("for k in range(n_samples - 2, -1, -1):")
+    p.indent += "    "
+    u = vector_names("u", n_u)
+    p.carry(u, [f"inputs[k, {c}]" for c in range(n_u)])
+    log_new, mu_s, weights = _mode_recursion_source(p, T, log_T, log_next, mu_carried)
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
     for j in range(n_q):
-        x0 = [p.assign("xz", f"means[k, {j}, {a}]") for a in range(n)]
+        x0 = [p.assign("xz", f"states[k, {j}, {a}]") for a in range(n)]
         P0: Matrix = [[0.0] * n for _ in range(n)]
-        for a in range(n):
-            for b in range(a, n):
-                P0[a][b] = P0[b][a] = p.assign("pz", f"covs[k, {j}, {a}, {b}]")
+        for index, (a, b) in enumerate(upper_pairs(n), start=n):
+            P0[a][b] = P0[b][a] = p.assign("pz", f"states[k, {j}, {index}]")
         Pn: Matrix = P_next[j]
         xn: Vector = x_next[j]
         x_pred = p.mode_values(model, j, "f", x0, u)
@@ -566,11 +744,12 @@ def generate_smoother_source(model: HybridModel) -> str:
         P_pred = p.congruence(f"pp{j}_", F, P0, add=Q[j])
         L = p.cholesky(f"lc{j}_", P_pred)
         FP = p.matmul(f"fp{j}_", F, P0)
+        # J = P⁰Fᵀ(P^-)⁻¹ column by column of F P⁰, two triangular solves each, multiplying by
+        # the reciprocals of L's diagonal (n divisions per mode instead of 2n²; equal to rounding).
+        inverse = [p.assign(f"rl{j}_", f"1.0 / {term(L[a][a])}") for a in range(n)]
         J: Matrix = [[0.0] * n for _ in range(n)]
         for b in range(n):
-            solved = p.backward_solve(
-                f"jb{j}_", L, p.forward_solve(f"jf{j}_", L, [FP[a][b] for a in range(n)])
-            )
+            solved = _triangular_solves(p, f"j{j}_", L, inverse, [FP[a][b] for a in range(n)])
             for a in range(n):
                 J[b][a] = solved[a]
         trace = p.let("tr", [P_pred[a][a] for a in range(n)])
@@ -612,29 +791,12 @@ def generate_smoother_source(model: HybridModel) -> str:
                 P_sel[a][b] = P_sel[b][a] = chosen[index]
                 index += 1
         P_s.append(P_sel)
-    log_new = [p.fresh("ln") for _ in range(n_q)]
-    p.emit(f"if {total} == -math.inf:")
-    for i in range(n_q):
-        p.emit(f"    {log_new[i]} = {log_mu[i]}")
-    p.emit("else:")
-    for i in range(n_q):
-        p.emit(f"    {log_new[i]} = {row_total[i]} - {total}")
-    mu_next = mu_carried  # exp(log μ^s(k+1)): last step's μ^s, carried (no exp here)
     x_new: list[Vector] = []
     P_new: list[Matrix] = []
     for i in range(n_q):
-        weights: Vector = [
-            p.assign(
-                "w",
-                f"{mu_next[j]} if ({log_new[i]} == -math.inf or {total} == -math.inf) else "
-                f"math.exp({log_pair[i][j]} - {row_total[i]})",
-            )
-            for j in range(n_q)
-        ]
-        x_i, P_i = p.mixture(f"nm{i}_", weights, X_s, P_s)
+        x_i, P_i = p.mixture(f"nm{i}_", weights[i], X_s, P_s)
         x_new.append(x_i)
         P_new.append(P_i)
-    mu_s: Vector = [p.assign("ms", f"math.exp({log_new[i]})") for i in range(n_q)]
     x, P = p.mixture("cm", mu_s, x_new, P_new)
     p.record("k", p.argmax(mu_s), mu_s, x, P)
     p.carry(log_next, log_new)
@@ -642,4 +804,4 @@ def generate_smoother_source(model: HybridModel) -> str:
     for i in range(n_q):
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))
-    return f"def imm_smooth(inputs, log_T, mu, store, out):\n{p.source()}\n"
+    return f"def imm_smooth(inputs, transitions, log_T, mu, store, out):\n{p.source()}\n"

@@ -9,8 +9,16 @@ from filterpy.kalman import KalmanFilter
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hybridlog.estimators.imm import ImmOptions, run_imm
-from hybridlog.estimators.smoothing import viterbi
+from hybridlog.estimators.common import ModeStore, packed_width, run_filter
+from hybridlog.estimators.imm import (
+    CODE,
+    ImmOptions,
+    ImmSettings,
+    pack_state,
+    run_imm,
+    transition_matrix,
+)
+from hybridlog.estimators.smoothing import unpack_state, viterbi
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.estimators.test_filter_properties import assert_filter_invariants
@@ -257,3 +265,74 @@ def test_straight_line_smoother_equals_the_generic_loop(name):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
     np.testing.assert_array_equal(fast.modes, plain.modes)
     assert np.abs(fast.state_means - fast.post_processing.filtered.state_means).max() > 1e-6
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 6])
+def test_mode_store_record_round_trips(n):
+    """A packed record (mean, then the covariance's upper triangle) gives back x and P exactly."""
+    rng = np.random.default_rng(n)
+    x = rng.normal(size=n)
+    A = rng.normal(size=(n, n))
+    P = A @ A.T
+    record = np.full(packed_width(n), np.nan)
+    pack_state(x, P, record)
+    assert np.isfinite(record).all()
+    x_back, P_back = np.empty(n), np.empty((n, n))
+    unpack_state(record, x_back, P_back)
+    np.testing.assert_array_equal(x_back, x)
+    np.testing.assert_array_equal(P_back, P)
+    store = ModeStore(record.reshape(1, 1, -1), np.empty((0, 1)))
+    assert store.n_states == n
+    np.testing.assert_array_equal(store.means[0, 0], x)
+    np.testing.assert_array_equal(store.covariances[0, 0], P)
+
+
+def test_both_forward_code_paths_write_the_same_store():
+    """The straight-line and the generic IMM write the same packed records; the last row holds
+    the mode-matched filtered estimates, whose mixture is the filter's last estimate."""
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=300, seed=6).signals(model)
+    transitions = np.ascontiguousarray(transition_matrix(model, ImmOptions()), dtype=float)
+    stores, results = [], []
+    for kernel in ("unrolled", "loops"):
+        store = ModeStore.allocate(model, signals.n_samples, states=True, likelihoods=True)
+        settings = ImmSettings(transitions, store)
+        results.append(
+            run_filter(
+                CODE, model, signals, settings, {}, jit=True, kernel=kernel, store_covariances=True
+            )
+        )
+        stores.append(store)
+    fast, plain = stores
+    assert fast.states.shape == (signals.n_samples, model.n_modes, packed_width(model.n_states))
+    scale = np.abs(plain.states).max()
+    np.testing.assert_allclose(fast.states, plain.states, rtol=1e-12, atol=1e-13 * scale)
+    np.testing.assert_allclose(fast.log_likelihoods, plain.log_likelihoods, rtol=1e-12)
+    for store, result in zip(stores, results, strict=True):
+        mu = result.mode_probabilities[-1]
+        x_j, P_j = store.means[-1], store.covariances[-1]
+        x = mu @ x_j
+        spread = x_j - x
+        P = np.einsum("j,jab->ab", mu, P_j + spread[:, :, None] * spread[:, None, :])
+        np.testing.assert_allclose(x, result.state_means[-1], rtol=1e-12)
+        np.testing.assert_allclose(P, result.covariances[-1], rtol=1e-12, atol=1e-15)
+
+
+def test_straight_line_smoother_equals_the_generic_loop_where_probabilities_underflow():
+    """Outliers drive filtered mode probabilities to 0 and below 1e-280: the straight-line
+    pass then takes its log-space branch (its linear branch elsewhere); both equal the loop."""
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=1500, seed=7).signals(model)
+    outputs = signals.outputs.copy()
+    outputs[400:420] += 1e4 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[900:905] -= 1e2 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    signals = dataclasses.replace(signals, outputs=outputs)
+    options = ImmOptions(smooth=True)
+    fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
+    plain = run_imm(model, signals, options, kernel="loops", store_covariances=True)
+    filtered = plain.post_processing.filtered.mode_probabilities
+    assert (filtered == 0.0).any() and ((filtered > 0.0) & (filtered < 1e-280)).any()
+    for field in ("state_means", "covariances", "mode_probabilities"):
+        a, b = getattr(fast, field), getattr(plain, field)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
+    np.testing.assert_array_equal(fast.modes, plain.modes)
