@@ -80,7 +80,7 @@ import re
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -186,6 +186,14 @@ def _log_evidence(
     return value
 
 
+class UnpackedStore(NamedTuple):
+    """The forward pass's store unpacked, which the variant's backward loop overwrites."""
+
+    means: FloatArray
+    covariances: FloatArray
+    log_likelihoods: FloatArray
+
+
 def evidence_backward(
     f: Fn,
     F: Fn,
@@ -199,7 +207,7 @@ def evidence_backward(
     x0: FloatArray,
     P0: FloatArray,
     mu: FloatArray,
-    store: ModeStore,
+    store: UnpackedStore,
     out: FilterBuffers,
 ) -> None:
     """:func:`~hybridlog.estimators.smoothing.kim_backward` with the pair weights of the variant."""
@@ -425,7 +433,7 @@ def evidence_smooth(
     model: HybridModel,
     signals: AlignedSignals,
     filtered: EstimationResult,
-    store: ModeStore,
+    store: UnpackedStore,
     transitions: FloatArray,
 ) -> EstimationResult:
     """The variant's smoothed result (states, probabilities, argmax modes)."""
@@ -490,7 +498,7 @@ def passes(
         kernel="auto",
         store_covariances=False,
     )
-    copy = ModeStore(store.means.copy(), store.covariances.copy(), store.log_likelihoods)
+    copy = UnpackedStore(store.means.copy(), store.covariances, store.log_likelihoods)
     kim = post_process(
         model,
         signals,
