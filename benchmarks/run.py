@@ -127,6 +127,10 @@ signals = AlignedSignals(
     outputs=np.array([15.0, 10.0, 10.0]) + np.random.default_rng(0).standard_normal((n, 3)),
 )
 t = time.perf_counter()
+from hybridlog.jit import set_up
+set_up()  # numba's own set-up, once per process (analyze does it while reading the log)
+out["numba_setup_s"] = time.perf_counter() - t
+t = time.perf_counter()
 result = run_hstf(model, signals, HstfOptions())
 out["hstf_first_call_s"] = time.perf_counter() - t
 out["compile_s"] = result.compile_s
@@ -228,7 +232,8 @@ def run_child(env_overrides: dict[str, str]) -> tuple[dict[str, float], float]:
 
 def compile_row(label: str, child: dict[str, float], wall: float) -> Row:
     notes = (
-        f"process wall {wall:.2f} s (imports {child['import_s']:.2f} s, first run_hstf "
+        f"process wall {wall:.2f} s (imports {child['import_s']:.2f} s, numba's set-up "
+        f"{child['numba_setup_s']:.2f} s, first run_hstf "
         f"{child['hstf_first_call_s']:.2f} s, first run_imm {child['imm_first_call_s']:.2f} s)"
     )
     return Row(f"compile · {label}", time_s=child["compile_s"], notes=notes)
