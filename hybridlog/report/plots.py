@@ -21,8 +21,9 @@ minimum, its maximum and its last sample (the "M4" reduction: every extreme the 
 reaches in a column is kept, so the picture is the same).  The mode timelines are drawn
 from their runs (:func:`mode_runs`), the runs of each mode merged where they touch the same
 pixel column (:func:`mode_bars`): a run shorter than a pixel still shows as one pixel
-column.  At most ``MAX_PANELS`` outputs/states are drawn.  matplotlib is imported when the
-first figure is made, so code that writes no plot does not load it.
+column.  Such a reduced curve, with more than two points per pixel column, is drawn without
+antialiasing (:func:`_curve`).  At most ``MAX_PANELS`` outputs/states are drawn.  matplotlib
+is imported when the first figure is made, so code that writes no plot does not load it.
 """
 
 from __future__ import annotations
