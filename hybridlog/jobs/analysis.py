@@ -11,7 +11,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import Any, TypeVar
 
 from hybridlog.background import Background
 from hybridlog.errors import OptionError, excerpt
@@ -29,6 +29,8 @@ from hybridlog.report.summary import comparison_markdown, markdown_table, write_
 from hybridlog.report.tables import check_table_format
 from hybridlog.report.writer import import_plotting
 from hybridlog.signals import AlignedSignals
+
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -239,24 +241,31 @@ def read_log(
     return load_signals(log, SignalSpec.of(model), read, notes=notes)
 
 
-def read_log_set_up(
+def read_and_run(
     log: str | Path,
     model: HybridModel,
     read: ReadOptions,
-    notes: dict[str, Any] | None = None,
-) -> AlignedSignals:
-    """:func:`read_log`, with numba's set-up (:func:`hybridlog.jit.set_up`) done meanwhile.
+    notes: dict[str, Any],
+    run: Callable[[AlignedSignals], R],
+) -> tuple[AlignedSignals, R]:
+    """The log's signals and ``run(signals)``, with the set-up they wait for done beside them.
 
     The log is read in a thread (polars' readers release the GIL) while this one sets up
-    numba, which every estimator's compiled code needs and which holds the GIL: on two
-    cores the two cost the time of the longer.
+    numba (:func:`hybridlog.jit.set_up`, which holds it); then matplotlib is imported in a
+    thread while ``run`` runs the estimators' compiled loops, which release it.  On two
+    cores each pair costs the time of the longer.  ``notes`` gets what reading did.
     """
     reading = Background(lambda: read_log(log, model, read, notes), "hybridlog-read")
     try:
         set_up()
     finally:
         reading.wait()
-    return reading.result()
+    signals = reading.result()
+    plotting = Background(import_plotting, "hybridlog-import-plotting")
+    try:
+        return signals, run(signals)
+    finally:
+        plotting.wait()
 
 
 @dataclass(frozen=True)
@@ -312,12 +321,9 @@ def analyze(
     gates = gates_for(model, fail_under, fail_over)
     inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
-    signals = read_log_set_up(log, model, read, reading)
-    plotting = Background(import_plotting, "hybridlog-import-plotting")
-    try:
-        result = prepared.run(model, signals, **inputs)
-    finally:
-        plotting.wait()
+    signals, result = read_and_run(
+        log, model, read, reading, lambda signals: prepared.run(model, signals, **inputs)
+    )
     report = write_report(
         out_dir,
         result,
@@ -414,12 +420,13 @@ def compare(
     gates = gates_for(model, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
-    signals = read_log_set_up(log, model, read, reading)
-    plotting = Background(import_plotting, "hybridlog-import-plotting")
-    try:
-        results = {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
-    finally:
-        plotting.wait()
+    signals, results = read_and_run(
+        log,
+        model,
+        read,
+        reading,
+        lambda signals: {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared},
+    )
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():
