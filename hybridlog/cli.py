@@ -28,6 +28,7 @@ import click
 from hybridlog import __version__
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
+from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
 from hybridlog.io.formats import format_list
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
@@ -171,11 +172,13 @@ def _analysis_options(function: F) -> F:
         ),
         click.option(
             "--mode-sequence",
-            type=click.Choice(["argmax", "viterbi"]),
+            type=click.Choice(MODE_SEQUENCES),
             default=None,
             help="How the mode timeline is read off: the most probable mode per sample "
-            "(argmax), or the most likely sequence (viterbi) [default: the estimator's "
-            "option mode_sequence, argmax].",
+            "(argmax), the most likely sequence over the filter's per-mode likelihoods "
+            "(viterbi), or the most likely of the best mode histories, each with its own "
+            "EKF (kbest; --set beam=N keeps N, default 20) [default: the estimator's option "
+            "mode_sequence, argmax].",
         ),
         click.option(
             "--table-format",

@@ -10,7 +10,13 @@ Library level: each log is made with :func:`hybridlog.simulate.simulate` and est
 * ``filtered``           the IMM itself (argmax of the filtered mode probabilities);
 * ``viterbi``            the filter's states, the Viterbi mode path (``mode_sequence=viterbi``);
 * ``smoothed``           Kim's smoother (``smooth=true``): argmax of the smoothed probabilities;
-* ``smoothed+viterbi``   the smoothed states with the Viterbi path.
+* ``smoothed+viterbi``   the smoothed states with the Viterbi path;
+* ``kbest``              the filter's states, the path of the best of the 20 best mode
+                         histories, each with its own EKF (``mode_sequence=kbest``).
+
+For every log where ``kbest``'s mode error is above the filter's, the study also prints the
+log likelihood of two mode paths under the model (one EKF along each path, the prediction-error
+decomposition, plus the log prior and Markov probabilities): ``kbest``'s and the true one.
 
 Scenarios (none tuned to a result: fixed before the first run):
 
@@ -39,14 +45,16 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import multivariate_normal
 
 if __package__ in (None, ""):  # run as a file: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from hybridlog.estimators.filter_options import ImmOptions
-from hybridlog.estimators.imm import run_imm
+from hybridlog.estimators.imm import run_imm, transition_matrix
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.builtins import builtin_text
+from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report import metrics
@@ -59,6 +67,7 @@ VARIANTS = {
     "viterbi": ImmOptions(mode_sequence="viterbi"),
     "smoothed": ImmOptions(smooth=True),
     "smoothed+viterbi": ImmOptions(smooth=True, mode_sequence="viterbi"),
+    "kbest": ImmOptions(mode_sequence="kbest"),
 }
 
 
@@ -99,15 +108,61 @@ def scores(result: EstimationResult, signals: AlignedSignals) -> dict[str, float
 Scenario = Callable[[int], tuple[HybridModel, AlignedSignals]]
 
 
+def path_log_likelihood(model: HybridModel, signals: AlignedSignals, path: np.ndarray) -> float:
+    """``log Pr(q(1..N-1) = path, y(1..N-1) | q(0) = path[0])`` under the model, by one EKF.
+
+    The prediction-error decomposition along the path with the IMM's Markov matrix (the
+    likelihood ``kbest`` ranks its hypotheses by, computed here independently in plain Python).
+    """
+    compiled = compile_model(model)
+    log_T = np.log(transition_matrix(model, ImmOptions()))
+    x, P = model.initial_state.copy(), model.initial_covariance.copy()
+    n, m = model.n_states, model.n_outputs
+    x_pred, F, y_hat, H = np.empty(n), np.empty((n, n)), np.empty(m), np.empty((m, n))
+    total = 0.0
+    for k in range(1, signals.n_samples):
+        j = int(path[k])
+        mode = model.modes[j]
+        compiled.f(j, x, signals.inputs[k - 1], x_pred)
+        compiled.F(j, x, signals.inputs[k - 1], F)
+        P_pred = F @ P @ F.T + mode.process_noise
+        compiled.h(j, x_pred, signals.inputs[k], y_hat)
+        compiled.H(j, x_pred, signals.inputs[k], H)
+        S = H @ P_pred @ H.T + mode.measurement_noise
+        gamma = signals.outputs[k] - y_hat
+        total += float(log_T[int(path[k - 1]), j])
+        total += float(multivariate_normal.logpdf(gamma, mean=np.zeros(m), cov=S))
+        gain = np.linalg.solve(S, H @ P_pred).T
+        x = x_pred + gain @ gamma
+        IKH = np.eye(n) - gain @ H
+        P = IKH @ P_pred @ IKH.T + gain @ mode.measurement_noise @ gain.T
+    return total
+
+
 def run(scenario: Scenario, seeds: range) -> dict[str, list[dict[str, float]]]:
-    """Every variant on every seed's log."""
+    """Every variant on every seed's log; where kbest errs more than the filter, why."""
     rows: dict[str, list[dict[str, float]]] = {name: [] for name in VARIANTS}
     for seed in seeds:
         model, signals = scenario(seed)
         for name, options in VARIANTS.items():
             result = run_imm(model, signals, options)
             rows[name].append(scores(result, signals))
+            if name == "kbest" and scores_above(rows, "kbest"):
+                assert signals.truth_modes is not None
+                truth = signals.truth_modes.copy()
+                truth[0] = result.modes[0]  # row 0 is the prior, not scored
+                print(
+                    f"- seed {seed}: kbest {rows['kbest'][-1]['mode error %']:.2f} % vs the "
+                    f"filter's {rows['filtered'][-1]['mode error %']:.2f} %; log likelihood "
+                    f"of kbest's path {path_log_likelihood(model, signals, result.modes):.2f}, "
+                    f"of the true path {path_log_likelihood(model, signals, truth):.2f}"
+                )
     return rows
+
+
+def scores_above(rows: dict[str, list[dict[str, float]]], name: str) -> bool:
+    """Whether the last log's mode error of ``name`` is above the filter's."""
+    return rows[name][-1]["mode error %"] > rows["filtered"][-1]["mode error %"]
 
 
 def table(rows: dict[str, list[dict[str, float]]]) -> str:
@@ -133,7 +188,7 @@ def per_seed(rows: dict[str, list[dict[str, float]]], seeds: range) -> str:
     """How the smoothed mode error compares with the filter's on each log."""
     filtered = np.array([r["mode error %"] for r in rows["filtered"]])
     lines = []
-    for name in ("smoothed", "viterbi", "smoothed+viterbi"):
+    for name in ("smoothed", "viterbi", "smoothed+viterbi", "kbest"):
         other = np.array([r["mode error %"] for r in rows[name]])
         ratio = np.where(filtered > 0, other / np.maximum(filtered, 1e-300), np.nan)
         worse = int(np.sum(other > filtered))
@@ -179,8 +234,9 @@ def main() -> None:
 
         scenarios.append((f"double_cart_case{case} (600 steps)", cart_scenario, range(20)))
     for title, scenario, seeds in scenarios:
-        rows = run(scenario, seeds)
         print(f"### {title}, {len(seeds)} seeds\n")
+        rows = run(scenario, seeds)
+        print()
         print("median [min, max] over the seeds\n")
         print(table(rows))
         print()

@@ -8,11 +8,11 @@ loading the compiler.  ``hybridlog.estimators.hstf`` and ``.imm`` re-export them
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args, get_type_hints
 
 from hybridlog.estimators.options import option
 
-__all__ = ["HstfOptions", "ImmOptions"]
+__all__ = ["MODE_SEQUENCES", "HstfOptions", "ImmOptions"]
 
 
 @dataclass(frozen=True)
@@ -44,8 +44,16 @@ class ImmOptions:
         False,
         "fixed-interval smoother after the filter (Kim 1994, per-mode RTS/extended step)",
     )
-    mode_sequence: Literal["argmax", "viterbi"] = option(
+    mode_sequence: Literal["argmax", "viterbi", "kbest"] = option(
         "argmax",
-        "per-sample mode: argmax of the (smoothed) probabilities, or viterbi (most likely "
-        "sequence)",
+        "per-sample mode: argmax of the (smoothed) probabilities, viterbi or kbest (most "
+        "likely sequence)",
     )
+    beam: int = option(
+        20, "mode histories kept by kbest, each with its own EKF (never mixed)", range=(1, 10000)
+    )
+
+
+MODE_SEQUENCES: tuple[str, ...] = get_args(get_type_hints(ImmOptions)["mode_sequence"])
+"""How the IMM's mode timeline can be read off, in order: ``--mode-sequence``'s choices and the
+values report.json's ``smoothing.mode_sequence`` may hold."""

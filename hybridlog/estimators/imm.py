@@ -215,8 +215,9 @@ def run_imm(
 
     ``smooth``: the Kim smoother of :mod:`hybridlog.estimators.smoothing` (the forward pass
     then keeps its per-mode estimates, :class:`~hybridlog.estimators.common.ModeStore`);
-    ``mode_sequence="viterbi"``: the Viterbi path as the modes.  Either sets the result's
-    ``post_processing``; without them the result is the filter's alone.
+    ``mode_sequence="viterbi"``: the Viterbi path as the modes; ``"kbest"``: the mode history
+    of the best of ``beam`` hypotheses (:mod:`hybridlog.estimators.mode_hypotheses`).  Each
+    sets the result's ``post_processing``; without them the result is the filter's alone.
 
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
@@ -261,6 +262,7 @@ def run_imm(
         mode_sequence=options.mode_sequence,
         jit=jit,
         kernel=kernel,
+        beam=options.beam,
     )
 
 

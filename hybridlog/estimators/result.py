@@ -51,7 +51,8 @@ class PostProcessing:
         probabilities (for example ``"kim-rts"``), or ``None`` when they are the filter's.
     mode_sequence:
         How the per-sample mode was chosen: ``"argmax"`` of the (smoothed) probabilities or
-        ``"viterbi"`` (the most likely mode sequence).
+        ``"viterbi"`` (the most likely mode sequence over the filter's likelihoods) or ``"kbest"``
+        (the best of the k best mode histories).
     description:
         One line for the report: the algorithm, its paper and equations.
     filtered:

@@ -77,6 +77,7 @@ import numpy as np
 
 from hybridlog.estimators.common import (
     FilterBuffers,
+    FilterRun,
     Fn,
     ModeStore,
     contiguous,
@@ -127,6 +128,10 @@ KIM_DESCRIPTION = (
 VITERBI_DESCRIPTION = (
     "Viterbi path over the Markov chain with the forward filters' per-mode likelihoods "
     "(Rabiner 1989, eqs. (32)-(35))"
+)
+KBEST_DESCRIPTION = (
+    "the most likely of the {beam} best mode histories, each with its own EKF, never mixed "
+    "(k-best trajectory tracking, paper 002 eqs. (4)-(5))"
 )
 
 
@@ -384,11 +389,14 @@ def post_process(
     mode_sequence: str,
     jit: bool,
     kernel: str = "auto",
+    beam: int = 20,
 ) -> EstimationResult:
     """The result after the offline passes asked for, with the filter's beside it.
 
     ``smooth``: the Kim smoother's states, variances, probabilities and modes (argmax of the
-    smoothed probabilities); ``mode_sequence == "viterbi"``: the Viterbi path as the modes.
+    smoothed probabilities); ``mode_sequence == "viterbi"``: the Viterbi path as the modes;
+    ``"kbest"``: the best of ``beam`` mode histories
+    (:func:`hybridlog.estimators.mode_hypotheses.best_history`) as the modes.
     ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
     ``kernel`` as for the filter: straight-line code (:func:`generate_smoother_source`) where
     it applies, else the generic :func:`kim_backward`.
@@ -474,6 +482,24 @@ def post_process(
         path = decode(*inputs_v)
         result = replace(result, modes=path)
         descriptions.append(VITERBI_DESCRIPTION)
+    elif mode_sequence == "kbest":
+        from hybridlog.estimators.mode_hypotheses import best_history
+
+        compiled = compile_model(model, jit=jit)
+        inputs_k = (
+            compiled.f,
+            compiled.F,
+            compiled.h,
+            compiled.H,
+            FilterRun.of(model, signals, "imm"),
+            _log(transitions),
+            beam,
+        )
+        compile_start = time.perf_counter()
+        search = compile_for(best_history, inputs_k) if jit else best_history
+        compile_s += time.perf_counter() - compile_start
+        result = replace(result, modes=search(*inputs_k))
+        descriptions.append(KBEST_DESCRIPTION.format(beam=beam))
     elapsed = time.perf_counter() - start - compile_s
     return replace(
         result,

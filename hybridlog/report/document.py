@@ -55,6 +55,7 @@ from pathlib import Path
 from typing import Final, TypeAlias, TypeVar, cast
 
 from hybridlog.errors import ReportError, excerpt
+from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.report.metrics import SwitchDetection
 
 __all__ = [
@@ -517,8 +518,6 @@ MAX_DEPTH: Final = 64
 (hybridlog writes a few levels; copying or writing far deeper ones would exhaust Python's
 stack)."""
 
-MODE_SEQUENCES: Final = ("argmax", "viterbi")
-"""How a mode sequence is read off (``smoothing.mode_sequence``, ``--mode-sequence``)."""
 
 _MISSING: Final = object()
 T = TypeVar("T")

@@ -289,11 +289,11 @@ def _draw_runs(
 
 
 def _mode_label(result: EstimationResult) -> str:
-    """The legend of the estimated mode: ``estimated``, ``smoothed`` or ``viterbi``."""
+    """The legend of the estimated mode: ``estimated``, ``smoothed``, ``viterbi`` or ``kbest``."""
     post = result.post_processing
     if post is None:
         return "estimated"
-    return "viterbi" if post.mode_sequence == "viterbi" else "smoothed"
+    return "smoothed" if post.mode_sequence == "argmax" else post.mode_sequence
 
 
 def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:

@@ -54,6 +54,19 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
     assert "## Smoothing" in (tmp_path / "s" / "report.md").read_text()
 
 
+def test_analyze_mode_sequence_kbest(tmp_path: Path) -> None:
+    out = tmp_path / "k"
+    run(["analyze", str(TANK_CSV), "--model", "three_tank_hstf", "--estimator", "imm",
+         "--mode-sequence", "kbest", "--set", "beam=8", "--out", str(out)])  # fmt: skip
+    report = json.loads((out / "report.json").read_text())
+    assert report["options"]["mode_sequence"] == "kbest" and report["options"]["beam"] == 8
+    smoothing = report["smoothing"]
+    assert smoothing["method"] is None and smoothing["mode_sequence"] == "kbest"
+    assert "8 best mode histories" in smoothing["description"]
+    assert smoothing["smoothed"]["mode_accuracy"] == report["modes"]["accuracy"]
+    assert "| metric | filtered | kbest | change |" in (out / "report.md").read_text()
+
+
 def test_smooth_on_an_estimator_without_a_smoother_is_one_line_before_the_log_is_read(
     tmp_path: Path,
 ) -> None:
