@@ -39,10 +39,11 @@ import numpy as np
 
 from hybridlog.estimators.common import FilterRun
 from hybridlog.estimators.kernels import (
+    cholesky,
     congruence,
+    gain,
     gaussian_log_density,
-    kalman_update,
-    workspace,
+    joseph_update,
 )
 from hybridlog.model.compiled import ModelFunction
 from hybridlog.signals import FloatArray, IntArray
@@ -84,7 +85,6 @@ def best_history(
     weight_h = np.full(width, -math.inf)
     # the extensions of one step
     x_c = np.zeros((candidates, n))
-    P_c = np.zeros((candidates, n, n))
     weight_c = np.full(candidates, -math.inf)
     prior_c = np.full(candidates, -math.inf)
     # the history: which hypothesis each kept one extends, and its mode
@@ -101,15 +101,22 @@ def best_history(
             weight_h[kept] = math.log(mu0[j])
             modes[0, kept] = j
             kept += 1
-    work = workspace(n, m)
-    x_pred = np.empty(n)
-    P_pred = np.empty((n, n))
+    # per extension: its EKF prediction, innovation and the Cholesky factor of S; the gain
+    # and the Joseph update are computed only for the extensions kept
+    P_c = np.zeros((candidates, n, n))
+    H_c = np.zeros((candidates, m, n))
+    gamma_c = np.zeros((candidates, m))
+    L_c = np.zeros((candidates, m, m))
     F_j = np.empty((n, n))
-    H_j = np.empty((m, n))
     y_j = np.empty(m)
-    gamma = np.empty(m)
-    vec_m = np.empty(m)
+    S = np.empty((m, m))
     work_nn = np.empty((n, n))
+    work_mn = np.empty((m, n))
+    work_nm = np.empty((n, m))
+    IKH = np.empty((n, n))
+    gain_k = np.empty((n, m))
+    vec_m = np.empty(m)
+    vec_m2 = np.empty(m)
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
@@ -120,26 +127,28 @@ def best_history(
                 c = i * n_q + j
                 prior = weight_h[i] + log_transitions[mode_h[i], j]
                 prior_c[c] = prior
-                f(j, x_h[i], u, x_pred)
+                weight_c[c] = -math.inf
+                if not prior > -math.inf:
+                    continue
+                f(j, x_h[i], u, x_c[c])
                 F(j, x_h[i], u, F_j)
-                congruence(F_j, P_h[i], work_nn, P_pred)
+                congruence(F_j, P_h[i], work_nn, P_c[c])
                 for a in range(n):
                     for b in range(n):
-                        P_pred[a, b] += Q[j, a, b]
-                h(j, x_pred, u_next, y_j)
-                H(j, x_pred, u_next, H_j)
+                        P_c[c, a, b] += Q[j, a, b]
+                h(j, x_c[c], u_next, y_j)
+                H(j, x_c[c], u_next, H_c[c])
                 for b in range(m):
-                    gamma[b] = y[b] - y_j[b]
-                if prior > -math.inf and kalman_update(
-                    x_pred, P_pred, H_j, R[j], gamma, work, x_c[c], P_c[c]
-                ):
-                    weight_c[c] = prior + gaussian_log_density(gamma, work.L, vec_m)
-                    any_finite = any_finite or weight_c[c] > -math.inf
-                else:
-                    weight_c[c] = -math.inf
-                    x_c[c] = x_pred
-                    P_c[c] = P_pred
+                    gamma_c[c, b] = y[b] - y_j[b]
+                congruence(H_c[c], P_c[c], work_mn, S)
+                for a in range(m):
+                    for b in range(m):
+                        S[a, b] += R[j, a, b]
+                if cholesky(S, L_c[c]):
+                    weight_c[c] = prior + gaussian_log_density(gamma_c[c], L_c[c], vec_m)
+                    any_finite = True
         used = kept * n_q
+        # every extension ruled out: rank by the prior alone, carry the predictions on
         scores = weight_c[:used] if any_finite else prior_c[:used]
         order = np.argsort(-scores, kind="mergesort")
         top = scores[order[0]]
@@ -148,8 +157,17 @@ def best_history(
             c = order[r]
             if not scores[c] > -math.inf:
                 break
-            x_h[r] = x_c[c]
-            P_h[r] = P_c[c]
+            if any_finite:  # the EKF update of the kept extension (Joseph form)
+                gain(P_c[c], H_c[c], L_c[c], work_nm, vec_m, vec_m2, gain_k)
+                for a in range(n):
+                    acc = x_c[c, a]
+                    for b in range(m):
+                        acc += gain_k[a, b] * gamma_c[c, b]
+                    x_h[r, a] = acc
+                joseph_update(P_c[c], gain_k, H_c[c], R[c % n_q], IKH, work_nn, work_nm, P_h[r])
+            else:
+                x_h[r] = x_c[c]
+                P_h[r] = P_c[c]
             mode_h[r] = c % n_q
             weight_h[r] = scores[c] - top  # relative to the best: no drift to -inf
             parent[k + 1, r] = c // n_q
