@@ -203,7 +203,8 @@ def per_seed(rows: dict[str, list[dict[str, float]]], seeds: range) -> str:
         lines.append(
             f"- {name}: mode error below the filter's on "
             f"{int(np.sum(other < filtered))}/{len(filtered)} logs, equal on "
-            f"{int(np.sum(other == filtered))}, above on {worse}; median ratio to the "
+            f"{int(np.sum(other == filtered))}, above on {worse}; at most half the filter's "
+            f"on {int(np.sum(other <= 0.5 * filtered))}; median ratio to the "
             f"filter's {np.nanmedian(ratio):.2f}; {worst_text}"
         )
     return "\n".join(lines)
