@@ -41,16 +41,22 @@ import numpy as np
 
 from hybridlog.estimators.common import FilterRun
 from hybridlog.estimators.kernels import (
+    backward_solve,
     cholesky,
     congruence,
+    forward_solve,
     gain,
     gaussian_log_density,
     joseph_update,
+    kalman_update,
+    mat_mul,
+    symmetrize,
+    workspace,
 )
 from hybridlog.model.compiled import ModelFunction
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["best_history"]
+__all__ = ["best_history", "follow_path", "smooth_path"]
 
 
 def best_history(
@@ -180,3 +186,128 @@ def best_history(
         path[k] = modes[k, index]
         index = parent[k, index]
     return path
+
+
+def follow_path(
+    f: ModelFunction,
+    F: ModelFunction,
+    h: ModelFunction,
+    H: ModelFunction,
+    run: FilterRun,
+    path: IntArray,
+    means: FloatArray,
+    covariances: FloatArray,
+) -> None:
+    """The EKF that follows one mode path: ``x̂(k|k)``, ``P(k|k)`` into ``means``, ``covariances``.
+
+    The best hypothesis' own filter, computed again along its path (the search keeps only
+    modes and back pointers): prediction with ``f, F`` of ``path[k]`` from ``x̂(k−1|k−1)``,
+    update with ``h, H`` (Joseph form).  Where ``S`` is not positive definite the
+    prediction stands.  Row 0 is the prior.
+    """
+    inputs, outputs, Q, R, x0, P0, _ = run
+    n_samples, m = outputs.shape
+    n = x0.shape[0]
+    if n_samples == 0:
+        return
+    means[0] = x0
+    covariances[0] = P0
+    work = workspace(n, m)
+    x_pred = np.empty(n)
+    P_pred = np.empty((n, n))
+    F_j = np.empty((n, n))
+    H_j = np.empty((m, n))
+    y_j = np.empty(m)
+    gamma = np.empty(m)
+    work_nn = np.empty((n, n))
+    for k in range(1, n_samples):
+        j = path[k]
+        f(j, means[k - 1], inputs[k - 1], x_pred)
+        F(j, means[k - 1], inputs[k - 1], F_j)
+        congruence(F_j, covariances[k - 1], work_nn, P_pred)
+        for a in range(n):
+            for b in range(n):
+                P_pred[a, b] += Q[j, a, b]
+        h(j, x_pred, inputs[k], y_j)
+        H(j, x_pred, inputs[k], H_j)
+        for b in range(m):
+            gamma[b] = outputs[k, b] - y_j[b]
+        if not kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, means[k], covariances[k]):
+            means[k] = x_pred
+            covariances[k] = P_pred
+
+
+def smooth_path(
+    f: ModelFunction,
+    F: ModelFunction,
+    run: FilterRun,
+    path: IntArray,
+    means: FloatArray,
+    covariances: FloatArray,
+) -> None:
+    r"""Extended RTS smoother along one mode path, in place over :func:`follow_path`'s output.
+
+    .. math::
+
+        J = P(k|k) F^T P^-(k+1)^{-1},\qquad
+        \hat x^s(k) = \hat x(k|k) + J (\hat x^s(k+1) - f(\hat x(k|k)))
+
+        P^s(k) = (I - J F) P(k|k) (I - J F)^T + J (Q + P^s(k+1)) J^T
+
+    with ``f, F`` of mode ``path[k+1]`` linearised at ``x̂(k|k)`` (Rauch, Tung, Striebel 1965;
+    the covariance as a sum of congruences of PSD matrices, equal to
+    ``P(k|k) − J (P^- − P^s(k+1)) Jᵀ``).  Where ``P^-(k+1)`` is not positive definite the
+    filtered estimate stands.  The last row is the filter's.
+    """
+    inputs, _, Q, _, _, _, _ = run
+    n_samples = means.shape[0]
+    n = means.shape[1]
+    x_pred = np.empty(n)
+    F_j = np.empty((n, n))
+    FP = np.empty((n, n))
+    P_pred = np.empty((n, n))
+    L = np.zeros((n, n))
+    column = np.empty(n)
+    solved = np.empty(n)
+    J = np.empty((n, n))
+    IJF = np.empty((n, n))
+    part = np.empty((n, n))
+    work = np.empty((n, n))
+    P_s = np.empty((n, n))
+    P_f = np.empty((n, n))
+    x_f = np.empty(n)
+    for k in range(n_samples - 2, -1, -1):
+        j = path[k + 1]
+        x_f[:] = means[k]
+        P_f[:, :] = covariances[k]
+        f(j, x_f, inputs[k], x_pred)
+        F(j, x_f, inputs[k], F_j)
+        congruence(F_j, P_f, FP, P_pred)  # FP = F P(k|k)
+        for a in range(n):
+            for b in range(n):
+                P_pred[a, b] += Q[j, a, b]
+        if not cholesky(P_pred, L):
+            continue
+        for b in range(n):  # J = ((P^-)⁻¹ F P)ᵀ, column by column of F P
+            for a in range(n):
+                column[a] = FP[a, b]
+            forward_solve(L, column, solved)
+            backward_solve(L, solved, column)
+            for a in range(n):
+                J[b, a] = column[a]
+        for a in range(n):
+            acc = x_f[a]
+            for b in range(n):
+                acc += J[a, b] * (means[k + 1, b] - x_pred[b])
+            means[k, a] = acc
+        mat_mul(J, F_j, IJF)
+        for a in range(n):
+            for b in range(n):
+                IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
+                part[a, b] = Q[j, a, b] + covariances[k + 1, a, b]
+        congruence(IJF, P_f, work, P_s)
+        congruence(J, part, work, covariances[k])
+        for a in range(n):
+            for b in range(n):
+                covariances[k, a, b] += P_s[a, b]
+        symmetrize(covariances[k])

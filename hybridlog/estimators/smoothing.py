@@ -130,9 +130,12 @@ VITERBI_DESCRIPTION = (
     "(Rabiner 1989, eqs. (32)-(35))"
 )
 KBEST_DESCRIPTION = (
-    "the most likely of the {beam} best mode histories, each with its own EKF, never mixed "
-    "(k-best trajectory tracking, paper 002 eqs. (4)-(5))"
+    "modes: the most likely of the {beam} best mode histories, each with its own EKF, never "
+    "mixed (k-best trajectory tracking, paper 002 eqs. (4)-(5)); states: {states}"
 )
+PATH_RTS = "kim-rts+path-rts"
+"""``PostProcessing.smoothing`` with ``kbest``: Kim's mode probabilities, the states smoothed
+along the path."""
 
 
 @jit
@@ -396,7 +399,9 @@ def post_process(
     ``smooth``: the Kim smoother's states, variances, probabilities and modes (argmax of the
     smoothed probabilities); ``mode_sequence == "viterbi"``: the Viterbi path as the modes;
     ``"kbest"``: the best of ``beam`` mode histories
-    (:func:`hybridlog.estimators.mode_hypotheses.best_history`) as the modes.
+    (:func:`hybridlog.estimators.mode_hypotheses.best_history`) as the modes, and the states
+    of the EKF along it (``smooth``: of the RTS smoother along it; the mode probabilities are
+    then Kim's).
     ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
     ``kernel`` as for the filter: straight-line code (:func:`generate_smoother_source`) where
     it applies, else the generic :func:`kim_backward`.
@@ -483,34 +488,77 @@ def post_process(
         result = replace(result, modes=path)
         descriptions.append(VITERBI_DESCRIPTION)
     elif mode_sequence == "kbest":
-        from hybridlog.estimators.mode_hypotheses import best_history
-
-        compiled = compile_model(model, jit=jit)
-        inputs_k = (
-            compiled.f,
-            compiled.F,
-            compiled.h,
-            compiled.H,
-            FilterRun.of(model, signals, "imm"),
-            _log(transitions),
-            beam,
-        )
-        compile_start = time.perf_counter()
-        search = compile_for(best_history, inputs_k) if jit else best_history
-        compile_s += time.perf_counter() - compile_start
-        result = replace(result, modes=search(*inputs_k))
-        descriptions.append(KBEST_DESCRIPTION.format(beam=beam))
+        result, spent = _kbest(model, signals, result, transitions, beam, smooth, jit)
+        compile_s += spent
+        descriptions = [
+            KBEST_DESCRIPTION.format(
+                beam=beam,
+                states="the extended RTS smoother along that path; mode probabilities: Kim's "
+                "smoother"
+                if smooth
+                else "the EKF along that path",
+            )
+        ]
     elapsed = time.perf_counter() - start - compile_s
     return replace(
         result,
         runtime_s=filtered.runtime_s + elapsed,
         compile_s=filtered.compile_s + compile_s,
         post_processing=PostProcessing(
-            smoothing=KIM if smooth else None,
+            smoothing=(PATH_RTS if mode_sequence == "kbest" else KIM) if smooth else None,
             mode_sequence=mode_sequence,
             description="; ".join(descriptions),
             filtered=filtered,
         ),
+    )
+
+
+def _kbest(
+    model: HybridModel,
+    signals: AlignedSignals,
+    result: EstimationResult,
+    transitions: FloatArray,
+    beam: int,
+    smooth: bool,
+    jit: bool,
+) -> tuple[EstimationResult, float]:
+    """``result`` with the ``kbest`` path as its modes and the states of the EKF along it.
+
+    :mod:`hybridlog.estimators.mode_hypotheses`: the path, then the EKF that follows it
+    (``smooth``: and the extended RTS smoother along it).  Returns the compile time too.
+    """
+    from hybridlog.estimators.mode_hypotheses import best_history, follow_path, smooth_path
+
+    compiled = compile_model(model, jit=jit)
+    run = FilterRun.of(model, signals, "imm")
+    n, n_x = signals.n_samples, model.n_states
+    means = np.zeros((n, n_x))
+    covariances = np.zeros((n, n_x, n_x))
+    searched = (compiled.f, compiled.F, compiled.h, compiled.H, run, _log(transitions), beam)
+    compile_start = time.perf_counter()
+    search = compile_for(best_history, searched) if jit else best_history
+    compile_s = time.perf_counter() - compile_start
+    path = search(*searched)
+    followed = (compiled.f, compiled.F, compiled.h, compiled.H, run, path, means, covariances)
+    compile_start = time.perf_counter()
+    follow = compile_for(follow_path, followed) if jit else follow_path
+    compile_s += time.perf_counter() - compile_start
+    follow(*followed)
+    if smooth:
+        smoothed = (compiled.f, compiled.F, run, path, means, covariances)
+        compile_start = time.perf_counter()
+        backward = compile_for(smooth_path, smoothed) if jit else smooth_path
+        compile_s += time.perf_counter() - compile_start
+        backward(*smoothed)
+    return (
+        replace(
+            result,
+            modes=path,
+            state_means=means,
+            state_variances=np.ascontiguousarray(np.diagonal(covariances, axis1=1, axis2=2)),
+            covariances=covariances if result.covariances is not None else None,
+        ),
+        compile_s,
     )
 
 

@@ -7,9 +7,13 @@ Checked against things independent of the code:
   wide enough to keep every history nothing is pruned and the path must be the exact one,
   also where the state has memory (where the IMM's Viterbi path is only an approximation);
 * the chain: the path never takes a transition the Markov matrix forbids;
+* the states along the path: with one mode, or the stay probability at 1 and the true mode
+  known, they are FilterPy's Kalman filter and ``rts_smoother`` (``smooth = true``) to 1e-8;
+  covariances stay symmetric PSD under outliers, and the smoothed last sample is the filtered;
 * the plain-Python path of the same function (``jit=False``) and the compiled one agree.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -18,8 +22,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.estimators.imm import ImmOptions, run_imm
-from hybridlog.model.loader import parse_model
+from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
+from tests.estimators.test_filter_properties import assert_filter_invariants
+from tests.estimators.test_smoothing import ONE_MODE, _filterpy_rts, _unforced
 from tests.estimators.test_smoothing_modes import (
     PRIOR_MODES,
     PRIOR_STATE,
@@ -100,8 +106,7 @@ def test_the_path_never_takes_a_forbidden_transition(seed, beam):
     pp = result.post_processing
     assert pp.smoothing is None and pp.mode_sequence == "kbest"
     assert f"{beam} best mode histories" in pp.description
-    # only the modes change: states and predictions stay the filter's
-    np.testing.assert_array_equal(result.state_means, pp.filtered.state_means)
+    # the one-step-ahead predictions stay the filter's (the basis of MSE and VAF)
     np.testing.assert_array_equal(result.output_predictions, pp.filtered.output_predictions)
 
 
@@ -112,5 +117,71 @@ def test_plain_python_and_compiled_agree():
     compiled = run_imm(model, signals, options)
     plain = run_imm(model, signals, options, jit=False)
     np.testing.assert_array_equal(compiled.modes, plain.modes)
-    assert compiled.post_processing.smoothing == "kim-rts"
+    assert compiled.post_processing.smoothing == "kim-rts+path-rts"
+    np.testing.assert_allclose(compiled.state_means, plain.state_means, rtol=1e-12, atol=1e-12)
     assert np.mean(compiled.modes == signals.truth_modes) > 0.9
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_one_mode_states_are_filterpys_kalman_filter_and_rts(smooth):
+    model = parse_model(ONE_MODE)
+    signals = _unforced(model, 300, seed=6)
+    result = run_imm(
+        model,
+        signals,
+        ImmOptions(mode_sequence="kbest", beam=3, smooth=smooth),
+        store_covariances=True,
+    )
+    assert (result.modes == 0).all()
+    x, P = _filterpy_rts(model, 0, signals, smoothed=smooth)
+    expected = "kim-rts+path-rts" if smooth else None
+    assert result.post_processing.smoothing == expected
+    np.testing.assert_allclose(result.state_means, x, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(result.covariances, P, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(result.state_variances, np.diagonal(P, axis1=1, axis2=2), atol=1e-8)
+
+
+@pytest.mark.parametrize(("true_mode", "prior"), [("slow", [1.0, 0.0]), ("fast", [0.0, 1.0])])
+def test_stay_one_and_known_mode_is_the_rts_of_that_mode(true_mode, prior):
+    text = LINEAR_TWO_MODE.replace(
+        "mode_probabilities = [0.6, 0.4]", f"mode_probabilities = {prior}"
+    )
+    text = text.replace('"slow:120,fast:80,slow:150,fast:150"', f'"{true_mode}:300"')
+    model = parse_model(text)
+    signals = _unforced(model, 300, seed=4)
+    options = ImmOptions(transition_stay=1.0, smooth=True, mode_sequence="kbest")
+    result = run_imm(model, signals, options, store_covariances=True)
+    index = model.mode_ids.index(true_mode)
+    assert (result.modes == index).all()
+    x, P = _filterpy_rts(model, index, signals)
+    np.testing.assert_allclose(result.state_means, x, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(result.covariances, P, rtol=0, atol=1e-8)
+
+
+@settings(max_examples=4, deadline=None)
+@given(
+    n_outliers=st.integers(min_value=0, max_value=40),
+    sigmas=st.sampled_from([10.0, 1e3, 1e6]),
+    seed=st.integers(min_value=0, max_value=2**32 - 1),
+)
+def test_path_states_psd_and_last_sample_filtered_with_outliers(n_outliers, sigmas, seed):
+    model = load_model("three_tank_hstf")
+    log = simulate(model, steps=3000, seed=seed % 1000)
+    rng = np.random.default_rng(seed)
+    outputs = log.outputs.copy()
+    rows = rng.choice(len(outputs), size=n_outliers, replace=False)
+    std = np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
+    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    runs = {
+        smooth: run_imm(
+            model, signals, ImmOptions(mode_sequence="kbest", beam=5, smooth=smooth),
+            store_covariances=True,
+        )
+        for smooth in (False, True)
+    }  # fmt: skip
+    for result in runs.values():
+        assert_filter_invariants(result)
+    np.testing.assert_array_equal(runs[True].modes, runs[False].modes)
+    np.testing.assert_array_equal(runs[True].state_means[-1], runs[False].state_means[-1])
+    np.testing.assert_array_equal(runs[True].covariances[-1], runs[False].covariances[-1])

@@ -47,8 +47,11 @@ def _unforced(model, steps, seed):
     return dataclasses.replace(signals, inputs=np.zeros_like(signals.inputs))
 
 
-def _filterpy_rts(model, mode_index, signals):
-    """FilterPy's Kalman filter and ``rts_smoother`` on one linear mode (hybridlog's rows)."""
+def _filterpy_rts(model, mode_index, signals, *, smoothed=True):
+    """FilterPy's Kalman filter and ``rts_smoother`` on one linear mode (hybridlog's rows).
+
+    ``smoothed=False``: the filter's own ``x̂(k|k)``, ``P(k|k)`` instead.
+    """
     A, _, C = _linear_matrices(model, mode_index)
     mode = model.modes[mode_index]
     kf = KalmanFilter(dim_x=model.n_states, dim_z=model.n_outputs)
@@ -62,6 +65,8 @@ def _filterpy_rts(model, mode_index, signals):
         kf.update(signals.outputs[k])
         means.append(kf.x.copy())
         covariances.append(kf.P.copy())
+    if not smoothed:
+        return np.array(means), np.array(covariances)
     n = signals.n_samples
     x, P, _, _ = kf.rts_smoother(np.array(means), np.array(covariances), [A] * n, [kf.Q] * n)
     return x, P
