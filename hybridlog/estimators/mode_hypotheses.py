@@ -125,37 +125,66 @@ def best_history(
     gain_k = np.empty((n, m))
     vec_m = np.empty(m)
     vec_m2 = np.empty(m)
+    # Exact pruning: S = H P Hᵀ + R ⪰ R, so log N(γ; 0, S) <= cap_j = −(m log 2π + log det R_j)/2.
+    # An extension whose prior plus cap_j is below the beam-th best log weight already found
+    # cannot be kept, and is not computed (the path is the same as without the bound).
+    cap = np.full(n_q, math.inf)
+    for j in range(n_q):
+        if cholesky(R[j], S):
+            log_det = 0.0
+            for a in range(m):
+                log_det += 2.0 * math.log(S[a, a])
+            cap[j] = -0.5 * (m * math.log(2.0 * math.pi) + log_det)
+    best_found = np.empty(width)  # the beam best log weights computed so far in a step
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
         any_finite = False
+        used = kept * n_q
         for i in range(kept):
             for j in range(n_q):
                 c = i * n_q + j
-                prior = weight_h[i] + log_transitions[mode_h[i], j]
-                prior_c[c] = prior
+                prior_c[c] = weight_h[i] + log_transitions[mode_h[i], j]
                 weight_c[c] = -math.inf
-                if not prior > -math.inf:
-                    continue
-                f(j, x_h[i], u, x_c[c])
-                F(j, x_h[i], u, F_j)
-                congruence(F_j, P_h[i], work_nn, P_c[c])
-                for a in range(n):
-                    for b in range(n):
-                        P_c[c, a, b] += Q[j, a, b]
-                h(j, x_c[c], u_next, y_j)
-                H(j, x_c[c], u_next, H_c[c])
+        by_prior = np.argsort(-prior_c[:used], kind="mergesort")
+        found = 0
+        threshold = -math.inf  # the beam-th best of best_found once it is full
+        for r in range(used):
+            c = by_prior[r]
+            i = c // n_q
+            j = c % n_q
+            prior = prior_c[c]
+            if not prior > -math.inf:
+                break  # sorted: none of the rest is possible either
+            if found == width and prior + cap[j] < threshold:
+                continue
+            f(j, x_h[i], u, x_c[c])
+            F(j, x_h[i], u, F_j)
+            congruence(F_j, P_h[i], work_nn, P_c[c])
+            for a in range(n):
+                for b in range(n):
+                    P_c[c, a, b] += Q[j, a, b]
+            h(j, x_c[c], u_next, y_j)
+            H(j, x_c[c], u_next, H_c[c])
+            for b in range(m):
+                gamma_c[c, b] = y[b] - y_j[b]
+            congruence(H_c[c], P_c[c], work_mn, S)
+            for a in range(m):
                 for b in range(m):
-                    gamma_c[c, b] = y[b] - y_j[b]
-                congruence(H_c[c], P_c[c], work_mn, S)
-                for a in range(m):
-                    for b in range(m):
-                        S[a, b] += R[j, a, b]
-                if cholesky(S, L_c[c]):
-                    weight_c[c] = prior + gaussian_log_density(gamma_c[c], L_c[c], vec_m)
-                    any_finite = True
-        used = kept * n_q
+                    S[a, b] += R[j, a, b]
+            if cholesky(S, L_c[c]):
+                weight = prior + gaussian_log_density(gamma_c[c], L_c[c], vec_m)
+                weight_c[c] = weight
+                any_finite = True
+                if found < width:
+                    best_found[found] = weight
+                    found += 1
+                    if found == width:
+                        threshold = best_found.min()
+                elif weight > threshold:
+                    best_found[np.argmin(best_found)] = weight
+                    threshold = best_found.min()
         # every extension ruled out: rank by the prior alone, carry the predictions on
         scores = weight_c[:used] if any_finite else prior_c[:used]
         order = np.argsort(-scores, kind="mergesort")
