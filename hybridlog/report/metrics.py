@@ -14,6 +14,7 @@ MATLAB System Identification Toolbox, ``compare``: the fit (NRMSE) formula.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TypedDict
@@ -103,6 +104,15 @@ def _std_ratio(a: Callable[[], FloatArray], b: FloatArray) -> float:
     return (ma / mb) * ratio if ratio else 0.0
 
 
+def _norm(scratch: FloatArray) -> float:
+    """``‖v‖₂`` of a temporary (squared in place), the same on every CPU.
+
+    NumPy's pairwise sum, not ``np.linalg.norm``: that is BLAS's ``ddot``, whose kernel (and
+    so the last bits of every fit) depends on the processor it runs on.
+    """
+    return math.sqrt(float(np.sum(np.square(scratch, out=scratch))))
+
+
 def _norm_ratio(a: Callable[[], FloatArray], b: Callable[[], FloatArray]) -> float:
     """``‖a()‖ / ‖b()‖`` without overflow or underflow in the squares.
 
@@ -110,7 +120,7 @@ def _norm_ratio(a: Callable[[], FloatArray], b: Callable[[], FloatArray]) -> flo
     and ``b`` make temporaries (overwritten), one after the other.
     """
     mb, ub = _magnitude_and_unit(b(), scratch=True)
-    size = float(np.linalg.norm(ub))
+    size = _norm(ub)
     del ub
     ma, ua = _magnitude_and_unit(a(), scratch=True)
     if ma == 0.0:
@@ -119,7 +129,7 @@ def _norm_ratio(a: Callable[[], FloatArray], b: Callable[[], FloatArray]) -> flo
         return np.inf
     if not size > 0.0:
         return np.nan
-    ratio = float(np.linalg.norm(ua)) / size
+    ratio = _norm(ua) / size
     return (ma / mb) * ratio if ratio else 0.0
 
 
