@@ -43,6 +43,19 @@ def jit(function: F) -> F:
     return cast(F, numba.njit(**OPTIONS)(function))
 
 
+def jitable(function: F) -> F:
+    """``function`` as plain Python when called from Python, compiled into a compiled caller.
+
+    For the small steps the generic loops share that take model functions as arguments
+    (numba cannot type a Python function passed to a compiled one): the plain-Python
+    reference path (``jit=False``) calls them as they are, the compiled loops inline them.
+    """
+    from numba.extending import register_jitable
+
+    registered: F = register_jitable(function)
+    return registered
+
+
 def signature_of(arguments: Sequence[Any]) -> tuple[Any, ...]:
     """The numba argument types of a call (numba infers the result type from them).
 

@@ -36,27 +36,78 @@ model at beam 20, ``docs/smoothing.md``).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from hybridlog.estimators.common import FilterRun
 from hybridlog.estimators.kernels import (
-    backward_solve,
     cholesky,
     congruence,
-    forward_solve,
     gain,
     gaussian_log_density,
     joseph_update,
     kalman_update,
-    mat_mul,
-    symmetrize,
     workspace,
 )
+from hybridlog.estimators.smoothing import rts_step, rts_work
+from hybridlog.jit import jit, jitable
 from hybridlog.model.compiled import ModelFunction
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["best_history", "follow_path", "smooth_path"]
+
+
+class Scratch(NamedTuple):
+    """Scratch arrays of :func:`predict` (:func:`scratch_for`)."""
+
+    F: FloatArray
+    y: FloatArray
+    nn: FloatArray
+
+
+@jit
+def scratch_for(n: int, m: int) -> Scratch:
+    """The scratch arrays of :func:`predict` for ``n`` states and ``m`` outputs."""
+    return Scratch(np.empty((n, n)), np.empty(m), np.empty((n, n)))
+
+
+@jitable
+def predict(
+    f: ModelFunction,
+    F: ModelFunction,
+    h: ModelFunction,
+    H: ModelFunction,
+    mode: int,
+    x: FloatArray,
+    P: FloatArray,
+    u: FloatArray,
+    u_next: FloatArray,
+    y: FloatArray,
+    Q: FloatArray,
+    x_pred: FloatArray,
+    P_pred: FloatArray,
+    H_out: FloatArray,
+    gamma: FloatArray,
+    scratch: Scratch,
+) -> None:
+    """EKF prediction of ``mode`` from ``x̂(k|k), P(k|k)`` and its innovation at ``k+1``.
+
+    ``x̂⁻ = f(x̂, u(k))``, ``P⁻ = F P Fᵀ + Q``, ``H`` at ``x̂⁻`` and ``γ = y(k+1) − h(x̂⁻,
+    u(k+1))`` (paper 000 eqs. (7)-(8), (31) in the NOTES' reading; the IMM's mode-matched
+    prediction without the mixing).
+    """
+    F_x, y_hat, work = scratch
+    f(mode, x, u, x_pred)
+    F(mode, x, u, F_x)
+    congruence(F_x, P, work, P_pred)
+    for a in range(P.shape[0]):
+        for b in range(P.shape[0]):
+            P_pred[a, b] += Q[a, b]
+    h(mode, x_pred, u_next, y_hat)
+    H(mode, x_pred, u_next, H_out)
+    for b in range(y.shape[0]):
+        gamma[b] = y[b] - y_hat[b]
 
 
 def best_history(
@@ -115,9 +166,8 @@ def best_history(
     H_c = np.zeros((candidates, m, n))
     gamma_c = np.zeros((candidates, m))
     L_c = np.zeros((candidates, m, m))
-    F_j = np.empty((n, n))
-    y_j = np.empty(m)
     S = np.empty((m, m))
+    scratch = scratch_for(n, m)
     work_nn = np.empty((n, n))
     work_mn = np.empty((m, n))
     work_nm = np.empty((n, m))
@@ -159,16 +209,8 @@ def best_history(
                 break  # sorted: none of the rest is possible either
             if found == width and prior + cap[j] < threshold:
                 continue
-            f(j, x_h[i], u, x_c[c])
-            F(j, x_h[i], u, F_j)
-            congruence(F_j, P_h[i], work_nn, P_c[c])
-            for a in range(n):
-                for b in range(n):
-                    P_c[c, a, b] += Q[j, a, b]
-            h(j, x_c[c], u_next, y_j)
-            H(j, x_c[c], u_next, H_c[c])
-            for b in range(m):
-                gamma_c[c, b] = y[b] - y_j[b]
+            predict(f, F, h, H, j, x_h[i], P_h[i], u, u_next, y, Q[j], x_c[c], P_c[c],
+                    H_c[c], gamma_c[c], scratch)  # fmt: skip
             congruence(H_c[c], P_c[c], work_mn, S)
             for a in range(m):
                 for b in range(m):
@@ -244,23 +286,13 @@ def follow_path(
     work = workspace(n, m)
     x_pred = np.empty(n)
     P_pred = np.empty((n, n))
-    F_j = np.empty((n, n))
+    scratch = scratch_for(n, m)
     H_j = np.empty((m, n))
-    y_j = np.empty(m)
     gamma = np.empty(m)
-    work_nn = np.empty((n, n))
     for k in range(1, n_samples):
         j = path[k]
-        f(j, means[k - 1], inputs[k - 1], x_pred)
-        F(j, means[k - 1], inputs[k - 1], F_j)
-        congruence(F_j, covariances[k - 1], work_nn, P_pred)
-        for a in range(n):
-            for b in range(n):
-                P_pred[a, b] += Q[j, a, b]
-        h(j, x_pred, inputs[k], y_j)
-        H(j, x_pred, inputs[k], H_j)
-        for b in range(m):
-            gamma[b] = outputs[k, b] - y_j[b]
+        predict(f, F, h, H, j, means[k - 1], covariances[k - 1], inputs[k - 1], inputs[k],
+                outputs[k], Q[j], x_pred, P_pred, H_j, gamma, scratch)  # fmt: skip
         if not kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, means[k], covariances[k]):
             means[k] = x_pred
             covariances[k] = P_pred
@@ -274,69 +306,21 @@ def smooth_path(
     means: FloatArray,
     covariances: FloatArray,
 ) -> None:
-    r"""Extended RTS smoother along one mode path, in place over :func:`follow_path`'s output.
+    """Extended RTS smoother along one mode path, in place over :func:`follow_path`'s output.
 
-    .. math::
-
-        J = P(k|k) F^T P^-(k+1)^{-1},\qquad
-        \hat x^s(k) = \hat x(k|k) + J (\hat x^s(k+1) - f(\hat x(k|k)))
-
-        P^s(k) = (I - J F) P(k|k) (I - J F)^T + J (Q + P^s(k+1)) J^T
-
-    with ``f, F`` of mode ``path[k+1]`` linearised at ``x̂(k|k)`` (Rauch, Tung, Striebel 1965;
-    the covariance as a sum of congruences of PSD matrices, equal to
-    ``P(k|k) − J (P^- − P^s(k+1)) Jᵀ``).  Where ``P^-(k+1)`` is not positive definite the
-    filtered estimate stands.  The last row is the filter's.
+    Each step is :func:`hybridlog.estimators.smoothing.rts_step` with ``f, F`` of mode
+    ``path[k+1]`` linearised at ``x̂(k|k)`` (Rauch, Tung, Striebel 1965); where it does not
+    apply (``P^-(k+1)`` not positive definite, or its guard) the filtered estimate stands.  The
+    last row is the filter's.
     """
     inputs, _, Q, _, _, _, _ = run
-    n_samples = means.shape[0]
-    n = means.shape[1]
-    x_pred = np.empty(n)
-    F_j = np.empty((n, n))
-    FP = np.empty((n, n))
-    P_pred = np.empty((n, n))
-    L = np.zeros((n, n))
-    column = np.empty(n)
-    solved = np.empty(n)
-    J = np.empty((n, n))
-    IJF = np.empty((n, n))
-    part = np.empty((n, n))
-    work = np.empty((n, n))
-    P_s = np.empty((n, n))
-    P_f = np.empty((n, n))
+    n_samples, n = means.shape
+    w = rts_work(n)
     x_f = np.empty(n)
+    P_f = np.empty((n, n))
     for k in range(n_samples - 2, -1, -1):
         j = path[k + 1]
         x_f[:] = means[k]
         P_f[:, :] = covariances[k]
-        f(j, x_f, inputs[k], x_pred)
-        F(j, x_f, inputs[k], F_j)
-        congruence(F_j, P_f, FP, P_pred)  # FP = F P(k|k)
-        for a in range(n):
-            for b in range(n):
-                P_pred[a, b] += Q[j, a, b]
-        if not cholesky(P_pred, L):
-            continue
-        for b in range(n):  # J = ((P^-)⁻¹ F P)ᵀ, column by column of F P
-            for a in range(n):
-                column[a] = FP[a, b]
-            forward_solve(L, column, solved)
-            backward_solve(L, solved, column)
-            for a in range(n):
-                J[b, a] = column[a]
-        for a in range(n):
-            acc = x_f[a]
-            for b in range(n):
-                acc += J[a, b] * (means[k + 1, b] - x_pred[b])
-            means[k, a] = acc
-        mat_mul(J, F_j, IJF)
-        for a in range(n):
-            for b in range(n):
-                IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
-                part[a, b] = Q[j, a, b] + covariances[k + 1, a, b]
-        congruence(IJF, P_f, work, P_s)
-        congruence(J, part, work, covariances[k])
-        for a in range(n):
-            for b in range(n):
-                covariances[k, a, b] += P_s[a, b]
-        symmetrize(covariances[k])
+        rts_step(f, F, j, x_f, P_f, inputs[k], Q[j], means[k + 1], covariances[k + 1],
+                 means[k], covariances[k], w)  # fmt: skip

@@ -71,7 +71,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -111,7 +111,7 @@ from hybridlog.estimators.unrolled import (
     use_unrolled,
     vector_names,
 )
-from hybridlog.jit import compile_for, jit
+from hybridlog.jit import compile_for, jit, jitable
 from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
@@ -180,6 +180,120 @@ def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
             index += 1
 
 
+class RtsWork(NamedTuple):
+    """Scratch arrays of :func:`rts_step` for ``n`` states (:func:`rts_work`)."""
+
+    x_pred: FloatArray
+    F: FloatArray
+    FP: FloatArray
+    P_pred: FloatArray
+    L: FloatArray
+    column: FloatArray
+    solved: FloatArray
+    J: FloatArray
+    IJF: FloatArray
+    work: FloatArray
+    part: FloatArray
+    congruent: FloatArray
+
+
+@jit
+def rts_work(n: int) -> RtsWork:
+    """The scratch arrays of :func:`rts_step`."""
+    return RtsWork(
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.zeros((n, n)),
+        np.empty(n),
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((n, n)),
+    )
+
+
+@jitable
+def rts_step(
+    f: Fn,
+    F: Fn,
+    mode: int,
+    x: FloatArray,
+    P: FloatArray,
+    u: FloatArray,
+    Q: FloatArray,
+    x_next: FloatArray,
+    P_next: FloatArray,
+    x_out: FloatArray,
+    P_out: FloatArray,
+    w: RtsWork,
+) -> bool:
+    r"""One extended RTS step from ``x̂, P`` at ``k`` and the smoothed ``x̂^s, P^s`` at ``k+1``.
+
+    .. math::
+
+        \hat x^- = f(\hat x),\quad P^- = F P F^T + Q,\quad J = P F^T (P^-)^{-1}
+
+        \hat x^s = \hat x + J(\hat x^s(k+1) - \hat x^-),\quad
+        P^s = (I - JF) P (I - JF)^T + J (Q + P^s(k+1)) J^T
+
+    (Rauch, Tung, Striebel 1965; the covariance as a sum of congruences of PSD matrices, equal
+    to ``P − J (P^- − P^s(k+1)) Jᵀ``), ``f, F`` of ``mode`` linearised at ``x̂``.  Returns
+    False, with the outputs untouched, where ``P^-`` is not positive definite, or where
+    ``P^s(k+1)`` is wider than ``P^-`` (by more than :data:`GUARD_TOLERANCE` of its trace):
+    the exact smoother never has that, and a collapsed mixture that does would widen the
+    estimate backwards (through ``F⁻¹`` when ``Q`` is small; the module docstring).
+    ``x_out`` and ``P_out`` must not be ``x`` and ``P``.
+    """
+    n = x.shape[0]
+    x_pred, F_x, FP, P_pred, L, column, solved, J, IJF, work, part, congruent = w
+    f(mode, x, u, x_pred)
+    F(mode, x, u, F_x)
+    congruence(F_x, P, FP, P_pred)  # FP = F P
+    for a in range(n):
+        for b in range(n):
+            P_pred[a, b] += Q[a, b]
+    if not cholesky(P_pred, L):
+        return False
+    scale = 0.0
+    for a in range(n):
+        scale += P_pred[a, a]
+    for a in range(n):
+        for b in range(n):
+            work[a, b] = P_pred[a, b] - P_next[a, b]
+        work[a, a] += GUARD_TOLERANCE * scale
+    if not cholesky(work, IJF):
+        return False
+    # J = P Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P)ᵀ, column by column of F P.
+    for b in range(n):
+        for a in range(n):
+            column[a] = FP[a, b]
+        forward_solve(L, column, solved)
+        backward_solve(L, solved, column)
+        for a in range(n):
+            J[b, a] = column[a]
+    for a in range(n):
+        acc = x[a]
+        for b in range(n):
+            acc += J[a, b] * (x_next[b] - x_pred[b])
+        x_out[a] = acc
+    mat_mul(J, F_x, IJF)
+    for a in range(n):
+        for b in range(n):
+            IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
+            part[a, b] = Q[a, b] + P_next[a, b]
+    congruence(IJF, P, work, P_out)
+    congruence(J, part, work, congruent)
+    for a in range(n):
+        for b in range(n):
+            P_out[a, b] += congruent[a, b]
+    symmetrize(P_out)
+    return True
+
+
 def kim_backward(
     f: Fn,
     F: Fn,
@@ -217,17 +331,7 @@ def kim_backward(
     P_j = np.empty((n_q, n, n))
     x_new = np.empty((n_q, n))
     P_new = np.empty((n_q, n, n))
-    x_pred = np.empty(n)
-    F_j = np.empty((n, n))
-    FP = np.empty((n, n))
-    P_pred = np.empty((n, n))
-    L = np.zeros((n, n))
-    column = np.empty(n)
-    solved = np.empty(n)
-    J = np.empty((n, n))
-    IJF = np.empty((n, n))
-    work = np.empty((n, n))
-    part = np.empty((n, n))
+    w = rts_work(n)
     x = np.empty(n)
     P = np.empty((n, n))
     x_prior = np.empty((n_q, n))  # mixed priors x̂⁰_j(k)
@@ -261,50 +365,8 @@ def kim_backward(
             P_j[j] = P_prior[j]
             if log_mu_next[j] == -math.inf:
                 continue  # q(k+1) = j is ruled out: no weight, the prior stands
-            f(j, x_prior[j], u, x_pred)
-            F(j, x_prior[j], u, F_j)
-            congruence(F_j, P_prior[j], FP, P_pred)  # FP = F P⁰
-            for a in range(n):
-                for b in range(n):
-                    P_pred[a, b] += Q[j, a, b]
-            if not cholesky(P_pred, L):
-                continue
-            # Guard: the exact RTS keeps P^s_j(k+1) <= P^-_j; a collapsed mixture wider than
-            # the prediction would widen the estimate backwards (through F⁻¹ when Q is
-            # small): the step is skipped and the forward prior stands (module docstring).
-            scale = 0.0
-            for a in range(n):
-                scale += P_pred[a, a]
-            for a in range(n):
-                for b in range(n):
-                    work[a, b] = P_pred[a, b] - P_next[j, a, b]
-                work[a, a] += GUARD_TOLERANCE * scale
-            if not cholesky(work, IJF):
-                continue
-            # J = P⁰ Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P⁰)ᵀ, column by column of F P⁰.
-            for b in range(n):
-                for a in range(n):
-                    column[a] = FP[a, b]
-                forward_solve(L, column, solved)
-                backward_solve(L, solved, column)
-                for a in range(n):
-                    J[b, a] = column[a]
-            for a in range(n):
-                acc = x_prior[j, a]
-                for b in range(n):
-                    acc += J[a, b] * (x_next[j, b] - x_pred[b])
-                x_j[j, a] = acc
-            mat_mul(J, F_j, IJF)
-            for a in range(n):
-                for b in range(n):
-                    IJF[a, b] = (1.0 if a == b else 0.0) - IJF[a, b]
-                    part[a, b] = Q[j, a, b] + P_next[j, a, b]
-            congruence(IJF, P_prior[j], work, P_j[j])
-            congruence(J, part, work, P)
-            for a in range(n):
-                for b in range(n):
-                    P_j[j, a, b] += P[a, b]
-            symmetrize(P_j[j])
+            rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
+                     x_j[j], P_j[j], w)  # fmt: skip
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
