@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
 import pytest
 
-from hybridlog.allocators import JEMALLOC_CONF
+from hybridlog.allocators import JEMALLOC_CONF, JEMALLOC_CONF_VARIABLE
 
 RETAINED = """
 import sys
@@ -60,9 +61,15 @@ return_freed_memory()
 import polars
 print(os.environ[JEMALLOC_CONF_VARIABLE])
 """
+    # This process imported polars, which set the variable: the children start without it.
+    env = {k: v for k, v in os.environ.items() if k != JEMALLOC_CONF_VARIABLE}
     seen = {
         mode: subprocess.run(
-            [sys.executable, "-c", script, mode], capture_output=True, text=True, check=True
+            [sys.executable, "-c", script, mode],
+            capture_output=True,
+            text=True,
+            check=True,
+            env=env,
         ).stdout.strip()
         for mode in ("fresh", "user", "late")
     }
