@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 
 from hybridlog import __version__
+from hybridlog.allocators import return_freed_memory
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
@@ -655,9 +656,8 @@ def analyze_command(
     **options: Any,
 ) -> None:
     """Run one estimator over one log and write report, tables and plots."""
+    _one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.jobs.analysis import analyze
-
-    _one_bounded_job()
 
     read, common = _split_options(options)
     outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
@@ -698,9 +698,8 @@ def compare_command(
     ctx: click.Context, /, log: Path, model_ref: str, estimators: str, out_dir: Path, **options: Any
 ) -> None:
     """Run several estimators on one log and write a side-by-side table."""
+    _one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.jobs.analysis import compare
-
-    _one_bounded_job()
 
     read, common = _split_options(options)
     names = [name.strip() for name in estimators.split(",") if name.strip()]
@@ -983,10 +982,14 @@ def _one_bounded_job() -> None:
     Only when the process runs this one command and ends (:func:`main` without ``argv``):
     the collector's full passes over every object the libraries created took about 0.5 s
     of a 10^6-row ``analyze`` and free next to nothing; the process returns its memory at
-    exit.  ``batch`` keeps the collector: its parent runs as long as the logs last.
+    exit.  ``batch`` keeps the collector: its parent runs as long as the logs last.  The
+    C allocators are set to return what the job frees at once
+    (:func:`hybridlog.allocators.return_freed_memory`: a lower peak resident set), which
+    must happen before the job imports polars.
     """
     if _PROCESS["one_command"]:
         gc.disable()
+        return_freed_memory()
 
 
 def main(argv: Sequence[str] | None = None) -> None:

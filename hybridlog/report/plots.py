@@ -67,6 +67,10 @@ _MATPLOTLIB = threading.Lock()
 """Held while one run's figures are drawn: the report may draw them in a thread
 (:func:`hybridlog.report.writer.write_report`), and matplotlib's font cache is not safe
 to use from two threads at once (a Dask worker runs several logs side by side)."""
+_BLOCK = 1 << 16
+"""Samples per block of the reductions (:func:`time_bins`, :func:`envelope`, the ±2σ band):
+their temporaries are 0.5 MB, not 8 MB per array of a 10^6-sample run.  The plots are drawn
+in a thread beside the metrics and tables, so what they hold adds to the run's peak."""
 _DPI = 100
 _WIDTH_IN = 10.0
 _LEFT, _RIGHT = 0.09, 0.98
@@ -91,8 +95,26 @@ def time_bins(time: FloatArray, columns: int) -> IntArray:
     t0, t1 = float(time[0]), float(time[-1])
     if not t1 > t0:
         return np.zeros(1, dtype=np.int64)
-    column = np.minimum(((time - t0) / (t1 - t0) * columns).astype(np.int64), columns - 1)
-    return np.concatenate(([0], np.flatnonzero(column[1:] != column[:-1]) + 1))
+    starts = [np.zeros(1, dtype=np.int64)]
+    previous = None  # the last bin of the block before: a new bin may begin at a block's start
+    for lo in range(0, n, _BLOCK):
+        block = time[lo : lo + _BLOCK]
+        column = np.minimum(((block - t0) / (t1 - t0) * columns).astype(np.int64), columns - 1)
+        if previous is not None and column[0] != previous:
+            starts.append(np.array([lo], dtype=np.int64))
+        starts.append(np.flatnonzero(column[1:] != column[:-1]) + 1 + lo)
+        previous = column[-1]
+    return np.concatenate(starts)
+
+
+def _bin_blocks(starts: IntArray, n: int) -> list[tuple[int, int]]:
+    """Ranges ``[a, b)`` of the bins beginning at ``starts``, about :data:`_BLOCK` samples each.
+
+    A reduction over one range of bins needs only that range's samples: its temporaries are
+    about a block long, whatever the run's length (a bin longer than a block is one range).
+    """
+    per_block = max(1, _BLOCK * starts.shape[0] // max(n, 1))
+    return [(a, min(a + per_block, starts.shape[0])) for a in range(0, starts.shape[0], per_block)]
 
 
 class Envelope(NamedTuple):
@@ -116,11 +138,16 @@ def envelope(time: FloatArray, values: FloatArray, starts: IntArray) -> Envelope
     if n <= 4 * starts.shape[0]:
         return Envelope(time, values)
     ends = np.append(starts[1:], n) - 1
-    usable = np.isfinite(values)
-    finite = values if usable.all() else np.where(usable, values, np.nan)  # no copy if all are
-    with np.errstate(invalid="ignore"):
-        low = np.fmin.reduceat(finite, starts)
-        high = np.fmax.reduceat(finite, starts)
+    low = np.empty(starts.shape[0], dtype=np.float64)
+    high = np.empty(starts.shape[0], dtype=np.float64)
+    for a, b in _bin_blocks(starts, n):  # a block of bins at a time (:func:`_bin_blocks`)
+        lo = int(starts[a])
+        chunk = values[lo : int(ends[b - 1]) + 1]
+        usable = np.isfinite(chunk)
+        finite = chunk if usable.all() else np.where(usable, chunk, np.nan)  # no copy if all are
+        with np.errstate(invalid="ignore"):
+            low[a:b] = np.fmin.reduceat(finite, starts[a:b] - lo)
+            high[a:b] = np.fmax.reduceat(finite, starts[a:b] - lo)
     first, last = values[starts], values[ends]
     rising = ~(first > last)  # down to the minimum first, then up, when the bin rises
     points = np.empty((starts.shape[0], 4), dtype=np.float64)
@@ -354,19 +381,47 @@ def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) ->
     return _save(fig, path)
 
 
-def _band(
-    time: FloatArray, low: FloatArray, high: FloatArray, bins: IntArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """The ±2σ band per bin: its lowest and highest edge, over the bin's time span."""
+def _sigma_band(
+    time: FloatArray, mean: FloatArray, variance: FloatArray, bins: IntArray
+) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """The ±2σ band of ``mean`` (times, lower and upper edge); ``None`` where it has none.
+
+    ``mean ± 2·sqrt(max(variance, 0))`` where both are finite (``max`` keeps NaN, no
+    variance defined, and clips tiny negative round-off), NaN elsewhere.  A long run gets
+    per bin its lowest and highest edge over the bin's time span, worked out a block of bins
+    at a time (:func:`_bin_blocks`): the temporaries are a block long, not the run's.
+    """
     n = time.shape[0]
-    if n <= 4 * bins.shape[0]:
-        return time, low, high
+    reduce = n > 4 * bins.shape[0]
+    blocks = _bin_blocks(bins, n) if reduce else [(0, bins.shape[0])]
     ends = np.append(bins[1:], n) - 1
-    with np.errstate(invalid="ignore"):
-        lo = np.fmin.reduceat(low, bins)
-        hi = np.fmax.reduceat(high, bins)
+    lows: list[FloatArray] = []
+    highs: list[FloatArray] = []
+    banded = False
+    for a, b in blocks:
+        lo, hi = (int(bins[a]), int(ends[b - 1]) + 1) if reduce else (0, n)
+        two_sigma = np.maximum(variance[lo:hi], 0.0)
+        np.sqrt(two_sigma, out=two_sigma)
+        two_sigma *= 2.0
+        band = np.isfinite(two_sigma) & np.isfinite(mean[lo:hi])
+        banded = banded or bool(band.any())
+        low = mean[lo:hi] - two_sigma
+        high = np.add(mean[lo:hi], two_sigma, out=two_sigma)
+        np.invert(band, out=band)
+        low[band] = np.nan
+        high[band] = np.nan
+        if reduce:
+            with np.errstate(invalid="ignore"):
+                low = np.fmin.reduceat(low, bins[a:b] - lo)
+                high = np.fmax.reduceat(high, bins[a:b] - lo)
+        lows.append(low)
+        highs.append(high)
+    if not banded:
+        return None
+    if not reduce:
+        return time, lows[0], highs[0]
     t = np.stack([time[bins], time[ends]], axis=1).ravel()
-    return t, np.repeat(lo, 2), np.repeat(hi, 2)
+    return t, np.repeat(np.concatenate(lows), 2), np.repeat(np.concatenate(highs), 2)
 
 
 def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
@@ -381,20 +436,9 @@ def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -
     bins = _bins(result)
     for i, (ax, x) in enumerate(zip(axes, names, strict=True)):
         mean = result.state_means[:, i]
-        # max() keeps NaN (no variance defined) and clips tiny negative round-off; the
-        # arrays are worked in place: three of the run's length at a time, not seven.
-        two_sigma = np.maximum(result.state_variances[:, i], 0.0)
-        np.sqrt(two_sigma, out=two_sigma)
-        two_sigma *= 2.0
-        band = np.isfinite(two_sigma) & np.isfinite(mean)
-        if band.any():
-            low = mean - two_sigma
-            high = np.add(mean, two_sigma, out=two_sigma)
-            np.invert(band, out=band)
-            low[band] = np.nan
-            high[band] = np.nan
-            t_band, lo, hi = _band(result.time, low, high, bins)
-            del low, high
+        sigma_band = _sigma_band(result.time, mean, result.state_variances[:, i], bins)
+        if sigma_band is not None:
+            t_band, lo, hi = sigma_band
             ax.fill_between(
                 t_band, np.nan_to_num(lo), np.nan_to_num(hi), where=np.isfinite(lo),
                 color="tab:blue", alpha=0.2, label="±2σ",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -101,3 +102,51 @@ def test_mode_runs_have_the_switches_and_the_bars_cover_every_run(
             mine = runs.mode == m
             assert np.array_equal(first, runs.start[mine])
             assert np.array_equal(last, runs.end[mine] - 1)
+
+
+@pytest.mark.parametrize("block", [7, 1000, 1 << 16])
+def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
+    block: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The reference: the whole-array reductions the block-wise ones replaced.
+    from hybridlog.report import plots
+
+    rng = np.random.default_rng(9)
+    n, columns = 20_011, 97
+    time = np.cumsum(rng.uniform(0.5, 1.5, n))
+    values = rng.normal(size=n)
+    values[rng.integers(0, n, 300)] = np.nan
+    variance = rng.normal(1.0, 0.5, n)  # some negative (clipped), some NaN
+    variance[rng.integers(0, n, 200)] = np.nan
+    monkeypatch.setattr(plots, "_BLOCK", block)
+
+    column = np.minimum(((time - time[0]) / (time[-1] - time[0]) * columns).astype(np.int64), 96)
+    bins = np.concatenate(([0], np.flatnonzero(column[1:] != column[:-1]) + 1))
+    np.testing.assert_array_equal(plots.time_bins(time, columns), bins)
+
+    ends = np.append(bins[1:], n) - 1
+    finite = np.where(np.isfinite(values), values, np.nan)
+    with np.errstate(invalid="ignore"):
+        low, high = np.fmin.reduceat(finite, bins), np.fmax.reduceat(finite, bins)
+    curve = plots.envelope(time, values, bins)
+    points = curve.values.reshape(-1, 4)
+    np.testing.assert_array_equal(points[:, 0], values[bins])
+    np.testing.assert_array_equal(points[:, 3], values[ends])
+    rising = ~(values[bins] > values[ends])
+    np.testing.assert_array_equal(points[:, 1], np.where(rising, low, high))
+    np.testing.assert_array_equal(points[:, 2], np.where(rising, high, low))
+
+    two_sigma = 2.0 * np.sqrt(np.maximum(variance, 0.0))
+    outside = ~(np.isfinite(two_sigma) & np.isfinite(values))
+    edge_low, edge_high = values - two_sigma, values + two_sigma
+    edge_low[outside] = np.nan
+    edge_high[outside] = np.nan
+    with np.errstate(invalid="ignore"):
+        band_low = np.fmin.reduceat(edge_low, bins)
+        band_high = np.fmax.reduceat(edge_high, bins)
+    band = plots._sigma_band(time, values, variance, bins)
+    assert band is not None
+    np.testing.assert_array_equal(band[0], np.stack([time[bins], time[ends]], axis=1).ravel())
+    np.testing.assert_array_equal(band[1], np.repeat(band_low, 2))
+    np.testing.assert_array_equal(band[2], np.repeat(band_high, 2))
+    assert plots._sigma_band(time, values, np.full(n, np.nan), bins) is None
