@@ -13,6 +13,8 @@ everything), best of ``repeat``, the three runs interleaved:
 * ``imm smooth=true``: the forward pass keeping the per-mode store, then the backward pass;
   the notes give the backward pass alone (its steps/s) and the store's size;
 * ``imm mode_sequence=viterbi``: the forward pass keeping the store, then the Viterbi path;
+* ``imm mode_sequence=kbest``: on N/10 samples, the filter, then the best of 20 mode
+  histories each with its own EKF and the EKF along its path (``docs/smoothing.md``);
 * ``ratio``: smoothing ÷ filtering time (target ≤ 2×).
 
 ``--breakdown`` prints, in one process, the thread CPU time of the first touch of three
@@ -67,6 +69,14 @@ def bench_smoothing(quick: bool, repeat: int) -> list[BenchRow]:
         for row, options in zip(runs, (ImmOptions(), smooth, viterbi), strict=True):
             row.append(run_imm(model, signals, options))
     filtered, smoothed, decoded = (_best(row) for row in runs)
+    # kbest on a tenth of the samples: beam · n_q EKF predictions per sample (about 100x the
+    # filter's work), timed apart
+    kbest = ImmOptions(mode_sequence="kbest")
+    run_imm(model, warm, kbest)
+    few = simulate(model, steps=n // 10 - 1, seed=1).signals(model, source="bench")
+    searched = _best([run_imm(model, few, kbest) for _ in range(repeat)])
+    assert searched.post_processing is not None
+    search_s = searched.runtime_s - searched.post_processing.filtered.runtime_s
     assert smoothed.post_processing is not None and decoded.post_processing is not None
     forward = smoothed.post_processing.filtered.runtime_s
     backward = smoothed.runtime_s - forward
@@ -90,6 +100,15 @@ def bench_smoothing(quick: bool, repeat: int) -> list[BenchRow]:
             "",
             None,
             f"Viterbi alone {decoded.runtime_s - decoded.post_processing.filtered.runtime_s:.3f} s",
+        ),
+        (
+            f"smoothing · three_tank imm mode_sequence=kbest (beam {kbest.beam})",
+            few.n_samples - 1,
+            searched.runtime_s,
+            "",
+            None,
+            f"{few.n_samples:,} samples; the search and the EKF along its path alone "
+            f"{search_s:.3f} s = {1e6 * search_s / (few.n_samples - 1):.1f} µs/step",
         ),
         (
             "smoothing · ratio smooth / filter",
