@@ -28,6 +28,9 @@ Scenarios (none tuned to a result: fixed before the first run):
   (deliberately wrong state and mode, as in paper 000).  The same scenario on the fresh seeds
   100..139 is its own table: issue 12 says hidden scenarios of this kind will be tried, and
   seeds 0..29 were the development seeds of ``docs/studies/smoothing_modes.py``.
+* ``three_tank, random schedules``: the same plant and noise, seeds 200..229, each with its own
+  schedule of 7-9 segments of 50-150 steps in random modes (``random_schedule``; added after
+  ``kbest`` was written, as a scenario of the kind the issue says will be tried);
 * ``double_cart_case1`` / ``_case2``: paper 001's state-driven double cart (its own input
   ``u = sin(0.3 t)``, sensor noise 0.001, no process noise), 600 steps, seeds 0..19; the true
   initial state is the model's ``[simulation] state`` plus N(0, 0.3²) per component (drawn
@@ -84,6 +87,17 @@ def three_tank() -> HybridModel:
 def three_tank_log(model: HybridModel, seed: int) -> SimulatedLog:
     """One three-tank log of the study."""
     return simulate(model, schedule=THREE_TANK_SCHEDULE, seed=seed)
+
+
+def random_schedule(seed: int) -> str:
+    """7-9 segments of 50-150 steps in random modes (none repeated back to back)."""
+    rng = np.random.default_rng(seed)
+    segments, last = [], ""
+    for _ in range(int(rng.integers(7, 10))):
+        mode = str(rng.choice([q for q in ("1", "2", "3") if q != last]))
+        segments.append(f"{mode}:{int(rng.integers(50, 151))}")
+        last = mode
+    return ",".join(segments)
 
 
 def double_cart_log(model: HybridModel, seed: int) -> SimulatedLog:
@@ -242,6 +256,14 @@ def main() -> None:
             range(100, 140),
         ),
     ]
+
+    def random_scenario(seed: int) -> tuple[HybridModel, AlignedSignals]:
+        return tank, simulate(tank, schedule=random_schedule(seed), seed=seed).signals(tank)
+
+    scenarios.append(
+        ("three_tank, random schedules (seeds 200..229, 6-8 switches)", random_scenario,
+         range(200, 230))
+    )  # fmt: skip
     for case in (1, 2):
         cart = load_model(f"double_cart_case{case}")
 
