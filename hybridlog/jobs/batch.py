@@ -462,9 +462,9 @@ def run_batch(
     elif jobs > 1 and len(paths) > 1:
         from hybridlog.jobs.workers import WorkerPool
 
-        # started first, so that the workers import what they need while this process
-        # checks the inputs (leaving the pool on an error kills them)
-        pool = WorkerPool(min(jobs, len(paths)), preload=("hybridlog.jit:set_up",))
+        # entered first, so that the forkserver warms up while this process checks the
+        # inputs (leaving the pool on an error kills its workers)
+        pool = WorkerPool(min(jobs, len(paths)), warmup="hybridlog.jobs.worker_warmup")
     resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
     if pool is not None:
         resource = pool

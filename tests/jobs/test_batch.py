@@ -203,6 +203,15 @@ def _cmdline(pid: int) -> str:
         return ""
 
 
+def _is_worker(pid: int) -> bool:
+    """Whether ``pid`` is a batch worker: a process forked by multiprocessing's forkserver."""
+    try:
+        parent = int((Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[1])
+    except OSError:
+        return False
+    return "multiprocessing.forkserver" in _cmdline(parent)
+
+
 def _alive(pid: int) -> bool:
     try:
         state = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -218,8 +227,8 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
     def kill_the_first_worker() -> None:
         deadline = time.monotonic() + 120
         while not killed and time.monotonic() < deadline:
-            for pid, command in _children(os.getpid()).items():
-                if "spawn_main" in command:
+            for pid in _children(os.getpid()):
+                if _is_worker(pid):
                     os.kill(pid, signal.SIGKILL)
                     killed.append(pid)
                     return
