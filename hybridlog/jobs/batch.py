@@ -464,7 +464,7 @@ def run_batch(
 
         # entered first, so that the forkserver warms up while this process checks the
         # inputs (leaving the pool on an error kills its workers)
-        pool = WorkerPool(min(jobs, len(paths)), warmup="hybridlog.jobs.worker_warmup")
+        pool = WorkerPool(min(jobs, len(paths)))
     resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
     if pool is not None:
         resource = pool

@@ -9,20 +9,25 @@ function's module is imported (the function is sent with the first task), so a w
 promptly even while it is still starting.
 
 **Forkserver.**  Workers are forked from multiprocessing's forkserver: a fresh interpreter
-(never a fork of the caller, which may have used polars' or BLAS's threads) that the pool
-starts as soon as it is entered, and that imports ``warmup`` once, in parallel with the
-caller checking its inputs.  Each worker is a fork of that warm process, so numba's
-set-up and the imports are paid once per batch, not once per worker, and a worker that
-replaces a dead one starts warm in milliseconds.  The forkserver must have no thread but
-its main one when it forks; measured with CPython 3.11, numpy 2 and polars 2.1 (what
-``/proc/self/task`` lists): numpy's and scipy's OpenBLAS start one pool thread each at
-import (two cores), which their ``pthread_atfork`` handler stops before every fork, so the
-forkserver forks with its main thread only (``tests/jobs/test_workers.py``); importing
-polars would start four threads (jemalloc's background threads, ``polars-ooc-cleaner``,
-``polars-ooc-decay``), so the warm-up module imports no polars
-(:mod:`hybridlog.jobs.worker_warmup`).  A worker starts with the caller's current working
-directory (multiprocessing sends it) and environment (sent here: the forkserver's is the
-one it was started with).
+(never a fork of the caller, who may have used polars' or BLAS's threads) started when the
+pool is entered, or earlier by :func:`start_forkserver`, which imports :data:`WARMUP` once,
+in parallel with the caller checking its inputs.  Each worker is a fork of that warm
+process: numba's set-up and the imports are paid once per batch, not once per worker, and
+a worker replacing a dead one starts warm in milliseconds.
+
+A process may fork safely only with no thread but the one forking (a thread holding a lock
+at fork time leaves it held forever in the child).  Measured with CPython 3.11, numpy 2.x
+and polars 2.1 on two cores (``/proc/self/task``): numpy's OpenBLAS and scipy's (loaded by
+numba's set-up) each start one pool thread at import; each library's ``pthread_atfork``
+handler stops its pool before every fork (the forkserver has three threads before its first
+fork, one right after it) and the pool restarts on first use, in the child too.  Importing
+polars starts four threads with no such handler (jemalloc's two background threads,
+``polars-ooc-cleaner``, ``polars-ooc-decay``), so the warm-up imports no polars
+(:mod:`hybridlog.jobs.worker_warmup`) and each worker imports it after the fork (~0.08 s).
+``tests/jobs/test_workers.py`` checks from a worker that the forkserver has one thread and
+no polars.  A worker starts in the caller's current folder (multiprocessing sends it) and
+with the caller's current environment (sent here: the forkserver keeps the one it started
+with).
 
 **Parent watch.**  A forked worker's parent is the forkserver, and the forkserver does not
 exit when the pool's process dies while workers live: each worker inherits the write end of
@@ -56,12 +61,26 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.context import ForkServerContext, ForkServerProcess
 from typing import Any, TypeVar
 
-__all__ = ["WorkerPool"]
+__all__ = ["WARMUP", "WorkerPool", "start_forkserver"]
 
 R = TypeVar("R")
 
 QUEUED = 2
 """Tasks sent ahead to each worker: the next one is waiting when it finishes one."""
+
+WARMUP = "hybridlog.jobs.worker_warmup"
+"""The module the forkserver imports before it forks any worker (:func:`start_forkserver`)."""
+
+
+def start_forkserver() -> None:
+    """Start this process's forkserver, which imports :data:`WARMUP`, unless it runs already.
+
+    Returns at once: the forkserver warms up while this process goes on.  A forkserver this
+    process started earlier, for a pool or for other code, is reused as it is (with the
+    modules it preloaded; workers forked from one without :data:`WARMUP` start cold).
+    """
+    multiprocessing.forkserver.set_forkserver_preload([WARMUP])
+    multiprocessing.forkserver.ensure_running()
 
 
 def _watch_parent(lifeline: Connection) -> None:
@@ -165,25 +184,17 @@ class WorkerPool:
     ----------
     jobs:
         Number of worker processes.
-    warmup:
-        Module the forkserver imports once before it forks any worker, if this process does
-        not run a forkserver yet (multiprocessing's preload).  Its import must leave no
-        thread running but the main one.  multiprocessing ignores an ``ImportError`` in it:
-        the workers then start cold.
     """
 
-    def __init__(self, jobs: int, warmup: str) -> None:
+    def __init__(self, jobs: int) -> None:
         self.jobs = jobs
-        self.warmup = warmup
         self._context = multiprocessing.get_context("forkserver")
         self._workers: list[_Worker] = []
         # only this process holds the writing end: the workers' reading ends close with it
         self._lifeline, self._lifeline_writer = self._context.Pipe(duplex=False)
 
     def __enter__(self) -> WorkerPool:
-        self._context.set_forkserver_preload([self.warmup])
-        # returns at once: the forkserver warms up while the caller goes on
-        multiprocessing.forkserver.ensure_running()
+        start_forkserver()
         return self
 
     def __exit__(self, kind: object, error: object, trace: object) -> None:

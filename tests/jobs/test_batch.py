@@ -274,6 +274,8 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
         family = _children(batch.pid)
         assert batch.poll() is None, "the batch ended before it could be killed"
         assert writers <= set(family)
+        for kind in ("multiprocessing.forkserver", "multiprocessing.resource_tracker"):
+            assert any(kind in command for command in family.values()), kind
         os.kill(batch.pid, signal.SIGKILL)
         batch.wait()
         killed_at = time.monotonic()
