@@ -294,6 +294,31 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
     assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MARKER]
 
 
+PARENT_RUNNER = """
+import json, sys
+from hybridlog.jobs.batch import run_batch
+
+outcome = run_batch(sys.argv[1:3], "three_tank_hstf", out_dir=sys.argv[3], estimator="imm", jobs=2)
+assert [log.status for log in outcome.logs] == ["done", "done"]
+print(json.dumps(sorted({name.split(".")[0] for name in sys.modules})))
+"""
+
+
+def test_with_workers_the_batch_process_loads_no_compiler(tmp_path: Path) -> None:
+    # numba's set-up is the workers' (done once, in their forkserver): the batch process
+    # only plans, waits and summarises, so its start-up stays short
+    logs = write_logs(tmp_path, ["a1", "a2"])
+    done = subprocess.run(
+        [sys.executable, "-c", PARENT_RUNNER, *map(str, logs), str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    loaded = set(json.loads(done.stdout.splitlines()[-1]))
+    assert not loaded & {"numba", "llvmlite", "scipy"}, loaded
+
+
 class _Terminal(io.StringIO):
     def isatty(self) -> bool:
         return True
