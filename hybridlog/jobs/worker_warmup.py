@@ -16,6 +16,7 @@ fork handler (what was measured: :mod:`hybridlog.jobs.workers`).
 
 from __future__ import annotations
 
+import gc
 import importlib
 
 from hybridlog import jit
@@ -35,3 +36,8 @@ filters and their compiled loops' machinery, reading and aligning, the report's 
 for module in MODULES:
     importlib.import_module(module)
 jit.set_up()
+# The objects of these imports are never walked by a collector again: not by the workers'
+# (their pages stay shared with the forkserver rather than copied when touched) nor by the
+# forkserver's tear-down, which ends 0.12 s sooner (a caller reading the batch's output
+# through a pipe waits for it: the forkserver holds the batch's stdout and stderr).
+gc.freeze()
