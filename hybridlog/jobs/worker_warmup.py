@@ -37,7 +37,7 @@ for module in MODULES:
     importlib.import_module(module)
 jit.set_up()
 # The objects of these imports are never walked by a collector again: not by the workers'
-# (their pages stay shared with the forkserver rather than copied when touched) nor by the
-# forkserver's tear-down, which ends 0.12 s sooner (a caller reading the batch's output
-# through a pipe waits for it: the forkserver holds the batch's stdout and stderr).
+# (whose walks would also write to, and so copy, the pages they share with the forkserver)
+# nor by the forkserver's tear-down, which ends 0.12 s sooner (a caller reading the batch's
+# output through a pipe waits for it: the forkserver holds the batch's stdout and stderr).
 gc.freeze()
