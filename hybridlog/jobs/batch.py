@@ -494,7 +494,9 @@ def run_batch(
                 analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
             )
         elif pool is not None:
-            # this process only waits now: it imports what the summary plot needs meanwhile
+            # this process needs no numba and only waits now, first for the forkserver's
+            # warm-up (the workers fork when it is done), then for the results: it imports
+            # what the summary plot needs meanwhile (0.2 s less at the end)
             plotting = threading.Thread(target=_import_summary_plot, daemon=True)
             plotting.start()
             outcomes = pool.run(analyze_log, tasks, died=lambda i, why: died[i](why), done=progress)
