@@ -783,6 +783,12 @@ def batch_command(
     hybridlog version (--force redoes all).  Exit status 1 when a log could not be analysed
     or missed a gate, 2 for bad options, model or output folder.
     """
+    if jobs > 1 and len(logs) > 1 and scheduler is None:
+        # run_batch's workers fork from this forkserver: started before the batch job's
+        # imports, it warms up while this process imports polars and numpy
+        from hybridlog.jobs.workers import start_forkserver
+
+        start_forkserver()
     from hybridlog.jobs.batch import run_batch
 
     read, common = _split_options(options)

@@ -4,75 +4,114 @@
 whole pool and every pending task), and its workers outlive a parent killed with ``kill -9``
 (they finish their task, then hang on the task queue).  Here each worker has its own pipe,
 so the task it was busy with is known when it dies, and a daemon thread in each worker exits
-the process as soon as its parent is gone.  The thread starts before the task function's
-module is imported (the function is sent with the first task), so a worker exits promptly
-even while it is still starting.
+the process as soon as the pool's process is gone.  The thread starts before the task
+function's module is imported (the function is sent with the first task), so a worker exits
+promptly even while it is still starting.
 
-:class:`WorkerPool` starts the workers as soon as it is entered, so that they import what
-they need (``preload``) while the caller still checks its inputs; a worker runs every task
-it is given in the same process, so what a task function keeps between calls (a loaded
-model, compiled code) stays warm.  Leaving the pool with an exception kills the workers at
-once.
+**Forkserver.**  Workers are forked from multiprocessing's forkserver: a fresh interpreter
+(never a fork of the caller, who may have used polars' or BLAS's threads) started when the
+pool is entered, or earlier by :func:`start_forkserver`, which imports :data:`WARMUP` once,
+in parallel with the caller checking its inputs.  Each worker is a fork of that warm
+process: numba's set-up and the imports are paid once per batch, not once per worker, and
+a worker replacing a dead one starts warm in milliseconds.
+
+A process may fork safely only with no thread but the one forking (a thread holding a lock
+at fork time leaves it held forever in the child).  Measured with CPython 3.11, numpy 2.x
+and polars 2.1 on two cores (``/proc/self/task``): numpy's OpenBLAS and scipy's (loaded by
+numba's set-up) each start one pool thread at import; each library's ``pthread_atfork``
+handler stops its pool before every fork (the forkserver has three threads before its first
+fork, one right after it) and the pool restarts on first use, in the child too.  Importing
+polars starts four threads with no such handler (jemalloc's two background threads,
+``polars-ooc-cleaner``, ``polars-ooc-decay``), so the warm-up imports no polars
+(:mod:`hybridlog.jobs.worker_warmup`) and each worker imports it after the fork (~0.08 s).
+``tests/jobs/test_workers.py`` checks from a worker that the forkserver has one thread and
+no polars.  A worker starts in the caller's current folder (multiprocessing sends it) and
+with the caller's current environment (sent here: the forkserver keeps the one it started
+with).
+
+**Parent watch.**  A forked worker's parent is the forkserver, and the forkserver does not
+exit when the pool's process dies while workers live: each worker inherits the write end of
+the pipe whose end-of-file tells the forkserver that its clients are gone (measured: after
+``kill -9`` of the caller, worker and forkserver stay until the worker exits).  So a worker
+watches the pool's process itself, through a pipe whose only writer is that process: the
+kernel closes it when the process ends, however it ends.  The workers then exit, the
+forkserver sees its clients gone and exits, and so does multiprocessing's resource tracker.
+
+:class:`WorkerPool` forks the workers on the first :meth:`WorkerPool.run` (a fork request
+waits until the forkserver has finished its warm-up, which the caller should not wait for
+while it has work of its own); a worker runs every task it is given in the same process, so
+what a task function keeps between calls (a loaded model, compiled code) stays warm.
+Leaving the pool with an exception kills the workers at once.  The forkserver serves every
+pool of the calling process and lives until that process ends.
 """
 
 from __future__ import annotations
 
 import contextlib
-import importlib
 import multiprocessing
+import multiprocessing.forkserver
 import os
 import signal
 import sys
 import threading
-import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
-from multiprocessing.context import SpawnContext, SpawnProcess
+from multiprocessing.context import ForkServerContext, ForkServerProcess
 from typing import Any, TypeVar
 
-__all__ = ["PARENT_POLL_S", "WorkerPool"]
+__all__ = ["WARMUP", "WorkerPool", "start_forkserver"]
 
 R = TypeVar("R")
-
-PARENT_POLL_S = 0.2
-"""How often a worker checks that its parent still runs (seconds)."""
 
 QUEUED = 2
 """Tasks sent ahead to each worker: the next one is waiting when it finishes one."""
 
+WARMUP = "hybridlog.jobs.worker_warmup"
+"""The module the forkserver imports before it forks any worker (:func:`start_forkserver`)."""
 
-def _watch_parent(parent: int) -> None:
-    """Exit this process as soon as ``parent`` is gone (``kill -9`` runs no clean-up).
 
-    The process has then been re-parented, so ``os.getppid()`` changed.  Its temporary
-    outputs are left to the next run (:func:`hybridlog.outputs.remove_stale_temporaries`).
+def start_forkserver() -> None:
+    """Start this process's forkserver, which imports :data:`WARMUP`, unless it runs already.
+
+    Returns at once: the forkserver warms up while this process goes on.  A forkserver this
+    process started earlier, for a pool or for other code, is reused as it is (with the
+    modules it preloaded; workers forked from one without :data:`WARMUP` start cold).
+    """
+    multiprocessing.forkserver.set_forkserver_preload([WARMUP])
+    multiprocessing.forkserver.ensure_running()
+
+
+def _watch_parent(lifeline: Connection) -> None:
+    """Exit this process as soon as the pool's process is gone (``kill -9`` runs no clean-up).
+
+    ``lifeline`` is the reading end of a pipe nothing is ever written to; its one writer is
+    the pool's process, so reading it ends (end of file) when that process has ended.  Its
+    temporary outputs are left to the next run
+    (:func:`hybridlog.outputs.remove_stale_temporaries`).
     """
 
     def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(PARENT_POLL_S)
+        with contextlib.suppress(EOFError, OSError):
+            lifeline.recv_bytes()
         os._exit(1)
 
     threading.Thread(target=watch, name="hybridlog-parent-watch", daemon=True).start()
 
 
-def _serve(connection: Connection, parent: int, preload: tuple[str, ...] = ()) -> None:
+def _serve(connection: Connection, lifeline: Connection, environment: dict[str, str]) -> None:
     """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``).
 
-    The modules named in ``preload`` are imported first, while the parent is busy too; an
-    entry ``module:function`` also calls the function (without arguments).
-    Told to stop, the worker flushes its standard streams and exits at once: its tasks wrote
-    their files and sent their results, so the interpreter's tear-down (freeing every
-    module of numpy, polars and numba one by one) would only make the parent wait.
+    ``environment`` is the pool's process's when it started this worker.  Told to stop, the
+    worker flushes its standard streams and exits at once: its tasks wrote their files and
+    sent their results, so the interpreter's tear-down (freeing every module of numpy,
+    polars and numba one by one) would only make the parent wait.
     """
-    _watch_parent(parent)
-    for entry in preload:
-        module, _, function = entry.partition(":")
-        loaded = importlib.import_module(module)
-        if function:
-            getattr(loaded, function)()
+    _watch_parent(lifeline)
+    if os.environ != environment:
+        os.environ.clear()
+        os.environ.update(environment)
     while True:
         try:
             task = connection.recv()
@@ -98,23 +137,26 @@ def _exit_now() -> None:
 
 @dataclass
 class _Worker:
-    process: SpawnProcess
+    process: ForkServerProcess
     connection: Connection
     tasks: deque[int] = field(default_factory=deque)
     """Tasks sent and not answered yet, in order: the first is the one running."""
 
 
-def _start(context: SpawnContext, preload: tuple[str, ...] = ()) -> _Worker:
+def _start(context: ForkServerContext, lifeline: Connection) -> _Worker:
     ours, theirs = context.Pipe()
     process = context.Process(
-        target=_serve, args=(theirs, os.getpid(), preload), name="hybridlog-worker", daemon=True
+        target=_serve,
+        args=(theirs, lifeline, dict(os.environ)),
+        name="hybridlog-worker",
+        daemon=True,
     )
     process.start()
     theirs.close()
     return _Worker(process, ours)
 
 
-def _death(process: SpawnProcess) -> str:
+def _death(process: ForkServerProcess) -> str:
     process.join(timeout=5)
     code = process.exitcode
     if code is not None and code < 0:
@@ -136,24 +178,23 @@ def _stop(worker: _Worker) -> None:
 
 
 class WorkerPool:
-    """``jobs`` worker processes, started when the pool is entered (see the module docstring).
+    """``jobs`` worker processes forked from a warm forkserver (see the module docstring).
 
     Parameters
     ----------
     jobs:
-        Number of worker processes (``spawn`` start method: no state shared with the caller).
-    preload:
-        Modules each worker imports as soon as it starts (``module:function``: and calls).
+        Number of worker processes.
     """
 
-    def __init__(self, jobs: int, preload: Sequence[str] = ()) -> None:
+    def __init__(self, jobs: int) -> None:
         self.jobs = jobs
-        self.preload = tuple(preload)
-        self._context = multiprocessing.get_context("spawn")
+        self._context = multiprocessing.get_context("forkserver")
         self._workers: list[_Worker] = []
+        # only this process holds the writing end: the workers' reading ends close with it
+        self._lifeline, self._lifeline_writer = self._context.Pipe(duplex=False)
 
     def __enter__(self) -> WorkerPool:
-        self._workers = [_start(self._context, self.preload) for _ in range(self.jobs)]
+        start_forkserver()
         return self
 
     def __exit__(self, kind: object, error: object, trace: object) -> None:
@@ -165,6 +206,8 @@ class WorkerPool:
         for worker in self._workers:
             _stop(worker)
         self._workers = []
+        self._lifeline_writer.close()
+        self._lifeline.close()
 
     def run(
         self,
@@ -208,7 +251,7 @@ class WorkerPool:
 
         while pending or any(w.tasks for w in workers):
             while pending and len(workers) < self.jobs:
-                workers.append(_start(self._context, self.preload))
+                workers.append(_start(self._context, self._lifeline))
             for worker in workers:
                 # QUEUED tasks per worker, so that it never waits for this process between two
                 while pending and len(worker.tasks) < QUEUED:

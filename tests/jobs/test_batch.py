@@ -203,6 +203,15 @@ def _cmdline(pid: int) -> str:
         return ""
 
 
+def _is_worker(pid: int) -> bool:
+    """Whether ``pid`` is a batch worker: a process forked by multiprocessing's forkserver."""
+    try:
+        parent = int((Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[1])
+    except OSError:
+        return False
+    return "multiprocessing.forkserver" in _cmdline(parent)
+
+
 def _alive(pid: int) -> bool:
     try:
         state = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -218,8 +227,8 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
     def kill_the_first_worker() -> None:
         deadline = time.monotonic() + 120
         while not killed and time.monotonic() < deadline:
-            for pid, command in _children(os.getpid()).items():
-                if "spawn_main" in command:
+            for pid in _children(os.getpid()):
+                if _is_worker(pid):
                     os.kill(pid, signal.SIGKILL)
                     killed.append(pid)
                     return
@@ -265,6 +274,8 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
         family = _children(batch.pid)
         assert batch.poll() is None, "the batch ended before it could be killed"
         assert writers <= set(family)
+        for kind in ("multiprocessing.forkserver", "multiprocessing.resource_tracker"):
+            assert any(kind in command for command in family.values()), kind
         os.kill(batch.pid, signal.SIGKILL)
         batch.wait()
         killed_at = time.monotonic()
@@ -281,6 +292,31 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
         assert log.status == ("skipped" if Path(log.folder).name in finished else "done")
     # Temporaries the killed workers left are gone; only the batch folder's marker is hidden.
     assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MARKER]
+
+
+PARENT_RUNNER = """
+import json, sys
+from hybridlog.jobs.batch import run_batch
+
+outcome = run_batch(sys.argv[1:3], "three_tank_hstf", out_dir=sys.argv[3], estimator="imm", jobs=2)
+assert [log.status for log in outcome.logs] == ["done", "done"]
+print(json.dumps(sorted({name.split(".")[0] for name in sys.modules})))
+"""
+
+
+def test_with_workers_the_batch_process_loads_no_compiler(tmp_path: Path) -> None:
+    # numba's set-up is the workers' (done once, in their forkserver): the batch process
+    # only plans, waits and summarises, so its start-up stays short
+    logs = write_logs(tmp_path, ["a1", "a2"])
+    done = subprocess.run(
+        [sys.executable, "-c", PARENT_RUNNER, *map(str, logs), str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    loaded = set(json.loads(done.stdout.splitlines()[-1]))
+    assert not loaded & {"numba", "llvmlite", "scipy"}, loaded
 
 
 class _Terminal(io.StringIO):

@@ -1,0 +1,43 @@
+"""The warm-up every batch worker needs, done once by importing this module in the forkserver.
+
+:class:`hybridlog.jobs.workers.WorkerPool` forks its workers from a forkserver, a fresh
+interpreter that imports this module (multiprocessing's preload) before it forks any: each
+worker starts with numpy, numba with its CPU target set up (:func:`hybridlog.jit.set_up`,
+about 0.3 s of Python) and the modules of :data:`MODULES` imported, instead of paying for
+them itself.  The forkserver warms up while the batch process imports and checks its inputs.
+
+Unlike every other module, importing this one does work (it compiles numba's one-line
+set-up function), so nothing but the forkserver imports it.  It must leave the forkserver
+with no thread but its main one at fork time: so no polars, nor any module that imports it
+(the table readers, ``report/``'s writers, ``jobs/``), since importing polars starts threads
+that no fork handler stops; numpy's and scipy's OpenBLAS pools are stopped by their own
+fork handler (what was measured: :mod:`hybridlog.jobs.workers`).
+"""
+
+from __future__ import annotations
+
+import gc
+import importlib
+
+from hybridlog import jit
+
+__all__ = ["MODULES"]
+
+MODULES = (
+    "hybridlog.estimators.hstf",
+    "hybridlog.estimators.imm",
+    "hybridlog.io.load",
+    "hybridlog.model.cache",
+    "hybridlog.report.build",
+)
+"""What a batch worker's first log imports, less what imports polars: the model loader, the
+filters and their compiled loops' machinery, reading and aligning, the report's contents."""
+
+for module in MODULES:
+    importlib.import_module(module)
+jit.set_up()
+# The objects of these imports are never walked by a collector again: not by the workers'
+# (whose walks would also write to, and so copy, the pages they share with the forkserver)
+# nor by the forkserver's tear-down, which ends 0.12 s sooner (a caller reading the batch's
+# output through a pipe waits for it: the forkserver holds the batch's stdout and stderr).
+gc.freeze()
