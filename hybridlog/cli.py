@@ -988,8 +988,8 @@ def _one_bounded_job() -> None:
     Only when the process runs this one command and ends (:func:`main` without ``argv``):
     the collector's full passes over every object the libraries created took about 0.5 s
     of a 10^6-row ``analyze`` and free next to nothing; the process returns its memory at
-    exit.  ``batch`` keeps the collector: its parent runs as long as the logs last.  The
-    C allocators are set to return what the job frees at once
+    exit.  ``batch`` keeps the collector: its parent runs as long as the logs last.  Polars'
+    allocator is set to return what the job frees
     (:func:`hybridlog.allocators.return_freed_memory`: a lower peak resident set), which
     must happen before the job imports polars.
     """
