@@ -20,7 +20,8 @@ child process, one after the other:
    this process's clock).  The timers cost next to nothing; the main thread's stages add up
    to that run's wall time, which the notes give; stages run in a thread beside them (the
    log read while numba sets up, the plots drawn while the metrics and tables are made) are
-   listed as such, and the main thread's wait for them as ``waiting for a thread``.
+   listed as such (the plots, drawn in a forked child where the console script allows it, as
+   that), and the main thread's wait for them as ``waiting for a thread``.
 """
 
 from __future__ import annotations
@@ -103,12 +104,16 @@ def measure(rows: int, repeat: int) -> dict[str, Any]:
         child = json.loads(clock.read_text(encoding="utf-8"))
         size = log.stat().st_size / 2**20
         tables = sum(p.stat().st_size for p in (folder / "out").glob("*.parquet")) / 2**20
-    beside = set(child.get("beside", ()))
+    forked = set(child.get("forked", ()))
+    beside = set(child.get("beside", ())) | forked
+
+    def label(stage: str) -> str:
+        if stage in forked:
+            return f"{stage} (in a forked child, beside the others)"
+        return f"{stage} (in a thread, beside the others)" if stage in beside else stage
+
     stages = {"start-up (interpreter)": child["started"] - start}
-    stages |= {
-        f"{k} (in a thread, beside the others)" if k in beside else k: v
-        for k, v in child["stages"].items()
-    }
+    stages |= {label(k): v for k, v in child["stages"].items()}
     command_s = stages.pop("command")
     stages["other (in the command)"] = command_s - sum(
         v for k, v in child["stages"].items() if k not in ("command", "imports", *beside)

@@ -15,6 +15,9 @@ the main one (``analyze`` reads the log in a thread while numba sets up, and dra
 in a thread beside the metrics and tables: :mod:`hybridlog.background`) are listed in
 ``beside``: they overlap the main thread's stages, among which ``waiting for a thread`` is
 the time the main thread waited for them; the main thread's stages add up to the command.
+A stage run in a forked child (the plots, where the console script allows it) is timed in
+the child and its clock sent back with its value; it is listed in ``forked`` (its ``VmHWM``
+is the child's).
 ``benchmarks/analyze_e2e.py`` runs this child and the plain command and assembles the
 breakdown.
 """
@@ -35,6 +38,7 @@ _clock: dict[str, float] = {}
 _stacks = threading.local()
 _peak: dict[str, float] = {}
 _beside: set[str] = set()
+_forked: set[str] = set()
 
 
 def _vmhwm_mib() -> float:
@@ -73,6 +77,40 @@ def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
+_children: list[dict[str, float]] = []
+"""What functions run in a forked child (:class:`hybridlog.background.Forked`) timed there."""
+
+
+def _child_clocked(beside: Callable[..., Any]) -> Callable[..., Any]:
+    """``hybridlog.background.beside`` whose function, run in a forked child, brings back
+    its stages' clock (what the child's timers add), merged by :func:`_merge_children`."""
+
+    def clocked(function: Callable[[], Any], name: str) -> Any:
+        def run() -> Any:
+            _clock.clear()
+            value = function()
+            return value, dict(_clock), dict(_peak)
+
+        task = beside(run, name)
+        result, wait = task.result, task.wait
+
+        def unpack() -> Any:
+            value, clock, peak = result()
+            if not _children or _children[-1] is not clock:
+                _children.append(clock)
+                for stage, seconds in clock.items():
+                    _clock[stage] = _clock.get(stage, 0.0) + seconds
+                    _forked.add(stage)
+                    _peak[stage] = peak[stage]
+            return value
+
+        task.result = unpack
+        task.wait = lambda: (wait(), unpack())[0]
+        return task
+
+    return clocked
+
+
 def _patch(module: Any, name: str, stage: str) -> None:
     setattr(module, name, _timed(stage, getattr(module, name)))
 
@@ -87,7 +125,7 @@ def main() -> None:
     import hybridlog.estimators.common as common
     import hybridlog.jobs.analysis as analysis
     import hybridlog.report.writer as writer
-    from hybridlog.background import Background
+    from hybridlog.background import Background, Forked
     from hybridlog.estimators.registry import Prepared
     from hybridlog.report.document import Report
 
@@ -100,6 +138,9 @@ def main() -> None:
     _patch(analysis, "import_plotting", "import matplotlib")
     Background.wait = _timed("waiting for a thread", Background.wait)  # type: ignore[method-assign]
     Background.result = _timed("waiting for a thread", Background.result)  # type: ignore[method-assign]
+    Forked.wait = _timed("waiting for a thread", Forked.wait)  # type: ignore[method-assign]
+    Forked.result = _timed("waiting for a thread", Forked.result)  # type: ignore[method-assign]
+    writer.beside = _child_clocked(writer.beside)
     _patch(Prepared, "run", "estimate (filter)")
     _patch(common, "compile_generated", "compile (sympy source, numba cache)")
     _patch(common, "compile_model", "compile (sympy source, numba cache)")
@@ -129,6 +170,7 @@ def main() -> None:
                 "stages": _clock,
                 "peak_mib": _peak,
                 "beside": sorted(_beside),
+                "forked": sorted(_forked),
             },
             stream,
         )

@@ -9,6 +9,7 @@ both keep the machine code in numba's on-disk cache (``cache=True``).
 
 from __future__ import annotations
 
+import sys
 import threading
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar, cast
@@ -23,17 +24,37 @@ def _one(x: float) -> float:
     return x
 
 
+BLAS_PROBE = "scipy.linalg.cython_blas"
+"""What numba's array maths imports when its CPU target loads, to see whether BLAS is there."""
+
+
 def set_up() -> None:
     """Import numba and set up its CPU target now, not in the first compile or cache load.
 
-    That set-up takes about a second of Python (it holds the GIL), the same for every
-    kernel: a batch worker does it as it starts, while the batch process still checks the
-    inputs, and ``analyze`` while a thread reads the log.  Compiles a one-line function.
+    That set-up takes 0.3-1 s of Python (it holds the GIL), the same for every kernel: a
+    batch worker's forkserver does it once, while the batch process still checks the inputs,
+    and ``analyze`` while a thread reads the log.  Compiles a one-line function.
+
+    Loading the target imports ``numba.np.arraymath``, which probes for BLAS by importing
+    :data:`BLAS_PROBE` (all of ``scipy.linalg``: 0.17 s and 13 MiB measured here).  Only
+    numba's ``np.correlate``/``np.convolve`` read what the probe found (they then use a
+    plain loop); hybridlog's kernels call no BLAS, and a kernel that calls ``np.dot`` still
+    imports SciPy's BLAS when it is compiled (``numba.np.linalg.ensure_blas``).  So the probe
+    is made to fail fast here, where SciPy is not loaded yet: for the moment of the set-up
+    that one module is marked missing (``sys.modules[name] = None``).  Nothing else is
+    importing it meanwhile: the readers running beside ``analyze``'s set-up use no SciPy.
     """
     import numba
 
-    compiled: Any = numba.njit(_one)
-    compiled(1.0)
+    probe_skipped = "scipy.linalg" not in sys.modules and BLAS_PROBE not in sys.modules
+    if probe_skipped:
+        sys.modules[BLAS_PROBE] = None  # type: ignore[assignment]
+    try:
+        compiled: Any = numba.njit(_one)
+        compiled(1.0)
+    finally:
+        if probe_skipped and sys.modules.get(BLAS_PROBE, 0) is None:
+            del sys.modules[BLAS_PROBE]
 
 
 def jit(function: F) -> F:

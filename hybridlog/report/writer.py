@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from hybridlog.background import Background
+from hybridlog.background import Background, Forked, beside
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.outputs import atomic_output_dir
 from hybridlog.report.build import build_report
@@ -113,9 +113,10 @@ def write_report(
     fmt = check_table_format(table_format)
     with atomic_output_dir(out_dir, force=force) as tmp:
         plot_dir = Path(tmp / "plots")
-        # The plots are drawn in a thread while the metrics and tables are made (see
-        # :mod:`hybridlog.background`): matplotlib holds the GIL, numpy's reductions and
-        # polars' writers mostly do not.  Plots that depend on the report start after it.
+        # The plots are drawn beside the metrics and tables (see :mod:`hybridlog.background`:
+        # in a forked child where the process allows it, else in a thread: matplotlib holds
+        # the GIL, numpy's reductions and polars' writers mostly do not).  Plots that depend
+        # on the report start after it.
         drawing = _draw(plot_dir, result, signals) if plots is True else None
         try:
             report = build_report(
@@ -137,18 +138,22 @@ def write_report(
             if drawing is not None:
                 drawing.result()
         finally:
-            if drawing is not None:  # never leave the folder while a thread writes into it
+            if drawing is not None:  # never leave the folder while the drawing writes into it
                 drawing.wait()
     return report
 
 
 def _draw(
     plot_dir: Path, result: EstimationResult, signals: AlignedSignals
-) -> Background[list[Path]]:
-    """:func:`write_plots` into a new ``plot_dir``, in a thread."""
+) -> Background[list[Path]] | Forked[list[Path]]:
+    """:func:`write_plots` into a new ``plot_dir``, beside the caller.
+
+    :func:`hybridlog.background.beside`: in a forked child in a one-command process, else
+    in a thread.
+    """
 
     def draw() -> list[Path]:
         plot_dir.mkdir()
         return write_plots(plot_dir, result, signals)
 
-    return Background(draw, "hybridlog-plots")
+    return beside(draw, "hybridlog-plots")
