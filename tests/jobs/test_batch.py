@@ -30,6 +30,7 @@ from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import LogOutcome, folder_names, natural_key, run_batch
 from hybridlog.outputs import MARKER, write_marker
 from tests.support.logfiles import tank_run
+from tests.support.processes import descendants, is_worker, kill_and_expect_the_family_gone
 
 TANK = "three_tank_hstf"
 
@@ -175,51 +176,6 @@ def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.M
     )
 
 
-def _children(pid: int) -> dict[int, str]:
-    """Living descendants of ``pid`` and their command lines, from /proc."""
-    parents: dict[int, list[int]] = {}
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        parents.setdefault(int(fields[1]), []).append(int(entry.name))
-    found: dict[int, str] = {}
-    todo = list(parents.get(pid, []))
-    while todo:
-        child = todo.pop()
-        if _alive(child):
-            found[child] = _cmdline(child)
-        todo += parents.get(child, [])
-    return found
-
-
-def _cmdline(pid: int) -> str:
-    try:
-        return (Path("/proc") / str(pid) / "cmdline").read_bytes().replace(b"\0", b" ").decode()
-    except OSError:
-        return ""
-
-
-def _is_worker(pid: int) -> bool:
-    """Whether ``pid`` is a batch worker: a process forked by multiprocessing's forkserver."""
-    try:
-        parent = int((Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[1])
-    except OSError:
-        return False
-    return "multiprocessing.forkserver" in _cmdline(parent)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"  # a zombie has exited; only its parent's bookkeeping is left
-
-
 def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
     logs = write_logs(tmp_path, ["a1", "a2", "a3"])
     killed: list[int] = []
@@ -227,8 +183,8 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
     def kill_the_first_worker() -> None:
         deadline = time.monotonic() + 120
         while not killed and time.monotonic() < deadline:
-            for pid in _children(os.getpid()):
-                if _is_worker(pid):
+            for pid in descendants(os.getpid()):
+                if is_worker(pid):
                     os.kill(pid, signal.SIGKILL)
                     killed.append(pid)
                     return
@@ -271,17 +227,10 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
                 writers.add(json.loads(marker.read_text())["pid"])
             time.sleep(0.05)
         assert len(writers) == 2, "the batch never ran two workers"
-        family = _children(batch.pid)
+        family = descendants(batch.pid)
         assert batch.poll() is None, "the batch ended before it could be killed"
         assert writers <= set(family)
-        for kind in ("multiprocessing.forkserver", "multiprocessing.resource_tracker"):
-            assert any(kind in command for command in family.values()), kind
-        os.kill(batch.pid, signal.SIGKILL)
-        batch.wait()
-        killed_at = time.monotonic()
-        while any(_alive(pid) for pid in family) and time.monotonic() - killed_at < 5:
-            time.sleep(0.05)
-        assert not [family[pid] for pid in family if _alive(pid)]
+        kill_and_expect_the_family_gone(batch, family)
     finally:
         if batch.poll() is None:
             batch.kill()

@@ -21,6 +21,7 @@ from typing import Any
 import pytest
 
 from hybridlog.jobs.workers import WARMUP, WorkerPool
+from tests.support.processes import descendants, kill_and_expect_the_family_gone
 
 
 def _facts(_: int) -> dict[str, Any]:
@@ -106,29 +107,6 @@ def _sleep(folder: str) -> None:
     time.sleep(120)
 
 
-def _family(pid: int) -> dict[int, str]:
-    """Descendants of ``pid`` and their command lines, from /proc."""
-    parents: dict[int, list[int]] = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            parents.setdefault(int(fields[1]), []).append(int(entry.name))
-    found: dict[int, str] = {}
-    todo = list(parents.get(pid, []))
-    while todo:
-        child = todo.pop()
-        try:
-            command = (Path("/proc") / str(child) / "cmdline").read_bytes()
-            found[child] = command.decode(errors="replace")
-        except OSError:
-            continue
-        todo += parents.get(child, [])
-    return found
-
-
 def test_workers_forkserver_and_tracker_die_with_a_killed_caller(tmp_path: Path) -> None:
     root = Path(__file__).resolve().parents[2]
     caller = subprocess.Popen(
@@ -140,25 +118,10 @@ def test_workers_forkserver_and_tracker_die_with_a_killed_caller(tmp_path: Path)
             time.sleep(0.05)
         workers = {int(p.name) for p in tmp_path.iterdir()}
         assert len(workers) == 2, "the workers never started"
-        family = _family(caller.pid)
-        kinds = ["multiprocessing.forkserver", "multiprocessing.resource_tracker"]
-        assert all(any(kind in command for command in family.values()) for kind in kinds)
+        family = descendants(caller.pid)
         assert workers <= set(family)
-        os.kill(caller.pid, signal.SIGKILL)
-        caller.wait()
-        killed_at = time.monotonic()
-        while any(_alive(pid) for pid in family) and time.monotonic() - killed_at < 5:
-            time.sleep(0.05)
-        assert not [family[pid] for pid in family if _alive(pid)]
+        kill_and_expect_the_family_gone(caller, family)
     finally:
         if caller.poll() is None:
             caller.kill()
             caller.wait()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
