@@ -86,10 +86,9 @@ from hybridlog.estimators.common import (
 )
 from hybridlog.estimators.kernels import (
     argmax,
-    backward_solve,
     cholesky,
     congruence,
-    forward_solve,
+    gain,
     mat_mul,
     mixture_moments,
     record,
@@ -267,14 +266,7 @@ def rts_step(
         work[a, a] += GUARD_TOLERANCE * scale
     if not cholesky(work, IJF):
         return False
-    # J = P Fᵀ (P^-)⁻¹ = ((P^-)⁻¹ F P)ᵀ, column by column of F P.
-    for b in range(n):
-        for a in range(n):
-            column[a] = FP[a, b]
-        forward_solve(L, column, solved)
-        backward_solve(L, solved, column)
-        for a in range(n):
-            J[b, a] = column[a]
+    gain(P, F_x, L, FP, column, solved, J)  # J = P Fᵀ (P^-)⁻¹: a Kalman gain with H = F
     for a in range(n):
         acc = x[a]
         for b in range(n):
