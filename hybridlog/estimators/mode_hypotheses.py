@@ -39,6 +39,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from hybridlog.estimators.common import FilterRun
 from hybridlog.estimators.kernels import (
@@ -110,6 +111,103 @@ def predict(
         gamma[b] = y[b] - y_hat[b]
 
 
+@jit
+def start(
+    x0: FloatArray,
+    P0: FloatArray,
+    mu0: FloatArray,
+    x_h: FloatArray,
+    P_h: FloatArray,
+    mode_h: IntArray,
+    weight_h: FloatArray,
+    modes: npt.NDArray[np.int16],
+) -> int:
+    """The first hypotheses: one per mode the prior allows (the likeliest first), at ``x0``."""
+    order = np.argsort(-mu0, kind="mergesort")
+    kept = 0
+    for r in range(min(x_h.shape[0], mu0.shape[0])):
+        j = order[r]
+        if mu0[j] > 0.0:
+            x_h[kept] = x0
+            P_h[kept] = P0
+            mode_h[kept] = j
+            weight_h[kept] = math.log(mu0[j])
+            modes[0, kept] = j
+            kept += 1
+    return kept
+
+
+@jit
+def likelihood_caps(R: FloatArray) -> FloatArray:
+    """``cap_j = −(m log 2π + log det R_j)/2``, at least every ``log N(γ; 0, S)`` with ``S ⪰ R_j``.
+
+    ``+inf`` for an ``R_j`` that is not positive definite (no bound).  An extension whose prior
+    plus ``cap_j`` is below the beam-th best log weight already found cannot be kept, and is
+    not computed: exact pruning, the path is the same as without it.
+    """
+    n_q, m, _ = R.shape
+    caps = np.full(n_q, math.inf)
+    L = np.zeros((m, m))
+    for j in range(n_q):
+        if cholesky(R[j], L):
+            log_det = 0.0
+            for a in range(m):
+                log_det += 2.0 * math.log(L[a, a])
+            caps[j] = -0.5 * (m * math.log(2.0 * math.pi) + log_det)
+    return caps
+
+
+@jit
+def extension_priors(
+    kept: int,
+    weight_h: FloatArray,
+    mode_h: IntArray,
+    log_transitions: FloatArray,
+    prior_c: FloatArray,
+    weight_c: FloatArray,
+) -> IntArray:
+    """Each extension's prior log weight (hypothesis, then its Markov step); their order.
+
+    Extension ``c = i n_q + j`` extends hypothesis ``i`` by mode ``j``; its log weight is
+    reset to ``-inf`` until computed.  Returns the extensions by decreasing prior.
+    """
+    n_q = log_transitions.shape[0]
+    for i in range(kept):
+        for j in range(n_q):
+            c = i * n_q + j
+            prior_c[c] = weight_h[i] + log_transitions[mode_h[i], j]
+            weight_c[c] = -math.inf
+    return np.argsort(-prior_c[: kept * n_q], kind="mergesort")
+
+
+@jit
+def note_weight(weight: float, best_found: FloatArray, found: int) -> tuple[int, float]:
+    """Record a computed log weight among the beam best of the step; (found, threshold).
+
+    The threshold is the beam-th best once ``beam`` weights were found, else ``-inf``.
+    """
+    width = best_found.shape[0]
+    if found < width:
+        best_found[found] = weight
+        found += 1
+        return found, (best_found.min() if found == width else -math.inf)
+    if weight > best_found.min():
+        best_found[np.argmin(best_found)] = weight
+    return found, best_found.min()
+
+
+@jit
+def backtrack(modes: npt.NDArray[np.int16], parent: npt.NDArray[np.int32]) -> IntArray:
+    """The mode history of the best hypothesis at the last sample (hypothesis 0 there)."""
+    n_samples = modes.shape[0]
+    path = np.zeros(n_samples, dtype=np.int64)
+    index = 0
+    for k in range(n_samples - 1, -1, -1):
+        path[k] = modes[k, index]
+        index = parent[k, index]
+    return path
+
+
 def best_history(
     f: ModelFunction,
     F: ModelFunction,
@@ -149,17 +247,7 @@ def best_history(
     # the history: which hypothesis each kept one extends, and its mode
     parent = np.zeros((n_samples, width), dtype=np.int32)
     modes = np.zeros((n_samples, width), dtype=np.int16)
-    order0 = np.argsort(-mu0, kind="mergesort")
-    kept = 0
-    for r in range(min(width, n_q)):
-        j = order0[r]
-        if mu0[j] > 0.0:
-            x_h[kept] = x0
-            P_h[kept] = P0
-            mode_h[kept] = j
-            weight_h[kept] = math.log(mu0[j])
-            modes[0, kept] = j
-            kept += 1
+    kept = start(x0, P0, mu0, x_h, P_h, mode_h, weight_h, modes)
     # per extension: its EKF prediction, innovation and the Cholesky factor of S; the gain
     # and the Joseph update are computed only for the extensions kept
     P_c = np.zeros((candidates, n, n))
@@ -175,16 +263,7 @@ def best_history(
     gain_k = np.empty((n, m))
     vec_m = np.empty(m)
     vec_m2 = np.empty(m)
-    # Exact pruning: S = H P Hᵀ + R ⪰ R, so log N(γ; 0, S) <= cap_j = −(m log 2π + log det R_j)/2.
-    # An extension whose prior plus cap_j is below the beam-th best log weight already found
-    # cannot be kept, and is not computed (the path is the same as without the bound).
-    cap = np.full(n_q, math.inf)
-    for j in range(n_q):
-        if cholesky(R[j], S):
-            log_det = 0.0
-            for a in range(m):
-                log_det += 2.0 * math.log(S[a, a])
-            cap[j] = -0.5 * (m * math.log(2.0 * math.pi) + log_det)
+    cap = likelihood_caps(R)
     best_found = np.empty(width)  # the beam best log weights computed so far in a step
     for k in range(n_samples - 1):
         u = inputs[k]
@@ -192,12 +271,7 @@ def best_history(
         y = outputs[k + 1]
         any_finite = False
         used = kept * n_q
-        for i in range(kept):
-            for j in range(n_q):
-                c = i * n_q + j
-                prior_c[c] = weight_h[i] + log_transitions[mode_h[i], j]
-                weight_c[c] = -math.inf
-        by_prior = np.argsort(-prior_c[:used], kind="mergesort")
+        by_prior = extension_priors(kept, weight_h, mode_h, log_transitions, prior_c, weight_c)
         found = 0
         threshold = -math.inf  # the beam-th best of best_found once it is full
         for r in range(used):
@@ -219,14 +293,7 @@ def best_history(
                 weight = prior + gaussian_log_density(gamma_c[c], L_c[c], vec_m)
                 weight_c[c] = weight
                 any_finite = True
-                if found < width:
-                    best_found[found] = weight
-                    found += 1
-                    if found == width:
-                        threshold = best_found.min()
-                elif weight > threshold:
-                    best_found[np.argmin(best_found)] = weight
-                    threshold = best_found.min()
+                found, threshold = note_weight(weight, best_found, found)
         # every extension ruled out: rank by the prior alone, carry the predictions on
         scores = weight_c[:used] if any_finite else prior_c[:used]
         order = np.argsort(-scores, kind="mergesort")
@@ -252,11 +319,7 @@ def best_history(
             parent[k + 1, r] = c // n_q
             modes[k + 1, r] = c % n_q
             kept = r + 1
-    index = 0  # the best hypothesis at the last sample
-    for k in range(n_samples - 1, -1, -1):
-        path[k] = modes[k, index]
-        index = parent[k, index]
-    return path
+    return backtrack(modes, parent)
 
 
 def follow_path(
