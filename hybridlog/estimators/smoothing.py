@@ -69,9 +69,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -542,7 +542,7 @@ def post_process(
         result = replace(result, modes=path)
         descriptions.append(VITERBI_DESCRIPTION)
     elif mode_sequence == "kbest":
-        result, spent = _kbest(model, signals, result, transitions, beam, smooth, jit)
+        result, spent = _kbest(model, signals, result, transitions, beam, smooth, jit, kernel)
         compile_s += spent
         descriptions = [
             KBEST_DESCRIPTION.format(
@@ -575,12 +575,16 @@ def _kbest(
     beam: int,
     smooth: bool,
     jit: bool,
+    kernel: str,
 ) -> tuple[EstimationResult, float]:
     """``result`` with the ``kbest`` path as its modes and the states of the EKF along it.
 
-    :mod:`hybridlog.estimators.mode_hypotheses`: the path, then the EKF that follows it
-    (``smooth``: and the extended RTS smoother along it).  Returns the compile time too.
+    :mod:`hybridlog.estimators.mode_hypotheses`: the path (straight-line code where
+    ``kernel`` asks for it, :func:`~hybridlog.estimators.mode_hypotheses.generate_kbest_source`,
+    else the generic loop), then the EKF that follows it (``smooth``: and the extended RTS
+    smoother along it).  Returns the compile time too.
     """
+    from hybridlog.estimators import mode_hypotheses
     from hybridlog.estimators.mode_hypotheses import best_history, follow_path, smooth_path
 
     compiled = compile_model(model, jit=jit)
@@ -588,11 +592,24 @@ def _kbest(
     n, n_x = signals.n_samples, model.n_states
     means = np.zeros((n, n_x))
     covariances = np.zeros((n, n_x, n_x))
-    searched = (compiled.f, compiled.F, compiled.h, compiled.H, run, _log(transitions), beam)
     compile_start = time.perf_counter()
-    search = compile_for(best_history, searched) if jit else best_history
+    searched: tuple[Any, ...]
+    search: Callable[..., Any]
+    if jit and use_unrolled(model, kernel):
+        searched = (run, _log(transitions), beam)
+        search, _ = compile_generated(
+            model,
+            "kbest",
+            lambda: module_source(model, mode_hypotheses.generate_kbest_source(model)),
+            (mode_hypotheses.__name__, "hybridlog.estimators.unrolled"),
+            "kbest_run",
+            searched,
+        )
+    else:
+        searched = (compiled.f, compiled.F, compiled.h, compiled.H, run, _log(transitions), beam)
+        search = compile_for(best_history, searched) if jit else best_history
     compile_s = time.perf_counter() - compile_start
-    path = search(*searched)
+    path = cast(IntArray, search(*searched))
     followed = (compiled.f, compiled.F, compiled.h, compiled.H, run, path, means, covariances)
     compile_start = time.perf_counter()
     follow = compile_for(follow_path, followed) if jit else follow_path

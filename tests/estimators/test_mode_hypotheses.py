@@ -60,14 +60,16 @@ def _log_posterior(A, signals, path):
     return log_w
 
 
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
 @pytest.mark.parametrize("A", [(0.0, 0.0), (0.9, 0.6), (0.95, 0.95), (0.5, -0.8)])
-def test_an_unpruned_beam_gives_the_exact_most_likely_sequence(A):
+def test_an_unpruned_beam_gives_the_exact_most_likely_sequence(A, kernel):
     model = _model(A)
     viterbi_misses = 0
     for seed in range(12):
         signals = _log(A, seed)
         *_, exact = exact_posterior(A, signals.inputs[:, 0], signals.outputs[:, 0])
-        result = run_imm(model, signals, ImmOptions(mode_sequence="kbest", beam=ALL_HISTORIES))
+        options = ImmOptions(mode_sequence="kbest", beam=ALL_HISTORIES)
+        result = run_imm(model, signals, options, kernel=kernel)
         np.testing.assert_array_equal(result.modes, exact)
         viterbi = run_imm(model, signals, ImmOptions(mode_sequence="viterbi")).modes
         viterbi_misses += not np.array_equal(viterbi, exact)
@@ -185,3 +187,17 @@ def test_path_states_psd_and_last_sample_filtered_with_outliers(n_outliers, sigm
     np.testing.assert_array_equal(runs[True].modes, runs[False].modes)
     np.testing.assert_array_equal(runs[True].state_means[-1], runs[False].state_means[-1])
     np.testing.assert_array_equal(runs[True].covariances[-1], runs[False].covariances[-1])
+
+
+@pytest.mark.parametrize("name", ["three_tank_hstf", "double_cart_case1"])
+def test_the_straight_line_search_takes_the_generic_loops_path(name):
+    """The generated search (``generate_kbest_source``) against the generic loop it writes out:
+    the same path, and the same states along it (the path's EKF is one code)."""
+    model = load_model(name)
+    for seed in range(3):
+        signals = simulate(model, steps=400, seed=seed).signals(model)
+        options = ImmOptions(mode_sequence="kbest", beam=7)
+        unrolled = run_imm(model, signals, options, kernel="unrolled")
+        loops = run_imm(model, signals, options, kernel="loops")
+        np.testing.assert_array_equal(unrolled.modes, loops.modes)
+        np.testing.assert_array_equal(unrolled.state_means, loops.state_means)
