@@ -77,35 +77,31 @@ def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
-_children: list[dict[str, float]] = []
-"""What functions run in a forked child (:class:`hybridlog.background.Forked`) timed there."""
-
-
 def _child_clocked(beside: Callable[..., Any]) -> Callable[..., Any]:
     """``hybridlog.background.beside`` whose function, run in a forked child, brings back
-    its stages' clock (what the child's timers add), merged by :func:`_merge_children`."""
+    the clock its stages' timers kept there; it is added to this process's once."""
 
     def clocked(function: Callable[[], Any], name: str) -> Any:
         def run() -> Any:
             _clock.clear()
-            value = function()
-            return value, dict(_clock), dict(_peak)
+            return function(), dict(_clock), dict(_peak)
 
         task = beside(run, name)
-        result, wait = task.result, task.wait
+        result = task.result
+        merged = False
 
         def unpack() -> Any:
+            nonlocal merged
             value, clock, peak = result()
-            if not _children or _children[-1] is not clock:
-                _children.append(clock)
+            if not merged:
+                merged = True
                 for stage, seconds in clock.items():
                     _clock[stage] = _clock.get(stage, 0.0) + seconds
                     _forked.add(stage)
                     _peak[stage] = peak[stage]
             return value
 
-        task.result = unpack
-        task.wait = lambda: (wait(), unpack())[0]
+        task.result = task.wait = unpack
         return task
 
     return clocked

@@ -124,6 +124,57 @@ def predict(
         gamma[b] = y[b] - y_hat[b]
 
 
+class Beam(NamedTuple):
+    """The search's arrays (:func:`beam_for`).
+
+    The kept hypotheses (``_h``: estimate, covariance, mode, log weight), one step's
+    extensions (``_c``: prediction, its covariance, ``H``, innovation, Cholesky factor of
+    ``S``, log weight and prior log weight; extension ``c = i n_q + j`` extends hypothesis
+    ``i`` by mode ``j``), the beam best log weights found in a step, and the history (each
+    kept hypothesis' parent and mode at every sample).
+    """
+
+    x_h: FloatArray
+    P_h: FloatArray
+    mode_h: IntArray
+    weight_h: FloatArray
+    x_c: FloatArray
+    P_c: FloatArray
+    H_c: FloatArray
+    gamma_c: FloatArray
+    L_c: FloatArray
+    weight_c: FloatArray
+    prior_c: FloatArray
+    best_found: FloatArray
+    parent: npt.NDArray[np.int32]
+    modes: npt.NDArray[np.int16]
+
+
+@jit
+def beam_for(n_samples: int, n: int, m: int, n_q: int, width: int) -> Beam:
+    """The arrays of a search of ``width`` hypotheses (:class:`Beam`).
+
+    For ``n`` states, ``m`` outputs and ``n_q`` modes over ``n_samples`` samples.
+    """
+    candidates = width * n_q
+    return Beam(
+        np.zeros((width, n)),
+        np.zeros((width, n, n)),
+        np.zeros(width, dtype=np.int64),
+        np.full(width, -math.inf),
+        np.zeros((candidates, n)),
+        np.zeros((candidates, n, n)),
+        np.zeros((candidates, m, n)),
+        np.zeros((candidates, m)),
+        np.zeros((candidates, m, m)),
+        np.full(candidates, -math.inf),
+        np.full(candidates, -math.inf),
+        np.empty(width),
+        np.zeros((n_samples, width), dtype=np.int32),
+        np.zeros((n_samples, width), dtype=np.int16),
+    )
+
+
 @jit
 def start(
     x0: FloatArray,
@@ -243,30 +294,13 @@ def best_history(
     n_samples, m = outputs.shape
     n = x0.shape[0]
     n_q = mu0.shape[0]
-    path = np.zeros(n_samples, dtype=np.int64)
     if n_samples == 0:
-        return path
+        return np.zeros(0, dtype=np.int64)
     width = max(1, beam)
-    candidates = width * n_q
-    # the kept hypotheses: estimate, covariance, mode, log weight
-    x_h = np.zeros((width, n))
-    P_h = np.zeros((width, n, n))
-    mode_h = np.zeros(width, dtype=np.int64)
-    weight_h = np.full(width, -math.inf)
-    # the extensions of one step
-    x_c = np.zeros((candidates, n))
-    weight_c = np.full(candidates, -math.inf)
-    prior_c = np.full(candidates, -math.inf)
-    # the history: which hypothesis each kept one extends, and its mode
-    parent = np.zeros((n_samples, width), dtype=np.int32)
-    modes = np.zeros((n_samples, width), dtype=np.int16)
+    # the gain and the Joseph update are computed only for the extensions kept
+    x_h, P_h, mode_h, weight_h, x_c, P_c, H_c, gamma_c, L_c, weight_c, prior_c, best_found, \
+        parent, modes = beam_for(n_samples, n, m, n_q, width)  # fmt: skip
     kept = start(x0, P0, mu0, x_h, P_h, mode_h, weight_h, modes)
-    # per extension: its EKF prediction, innovation and the Cholesky factor of S; the gain
-    # and the Joseph update are computed only for the extensions kept
-    P_c = np.zeros((candidates, n, n))
-    H_c = np.zeros((candidates, m, n))
-    gamma_c = np.zeros((candidates, m))
-    L_c = np.zeros((candidates, m, m))
     S = np.empty((m, m))
     scratch = scratch_for(n, m)
     work_nn = np.empty((n, n))
@@ -277,7 +311,6 @@ def best_history(
     vec_m = np.empty(m)
     vec_m2 = np.empty(m)
     cap = likelihood_caps(R)
-    best_found = np.empty(width)  # the beam best log weights computed so far in a step
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
@@ -407,9 +440,10 @@ def generate_kbest_source(model: HybridModel) -> str:
 
     Defines ``kbest_run(run, log_transitions, beam)`` with :func:`best_history`'s meaning
     (its model functions, noise covariances and small matrix products written out per mode);
-    the fixed parts are the same kernels (:func:`start`, :func:`extension_priors`,
-    :func:`note_weight`, :func:`backtrack`).  A Cholesky factor that fails (a non-positive
-    pivot) gives NaN, taken as a ruled-out extension as in the generic loop.
+    the fixed parts are the same kernels (:func:`beam_for`, :func:`start`,
+    :func:`extension_priors`, :func:`note_weight`, :func:`backtrack`).  A Cholesky factor
+    that fails (a non-positive pivot) gives NaN, taken as a ruled-out extension as in the
+    generic loop.
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
     Q, R = noise_matrices(model)
@@ -421,22 +455,10 @@ def generate_kbest_source(model: HybridModel) -> str:
         "if n_samples == 0:",
         "    return np.zeros(0, dtype=np.int64)",
         "width = max(1, beam)",
-        f"candidates = width * {n_q}",
-        f"x_h = np.zeros((width, {n}))",
-        f"P_h = np.zeros((width, {n}, {n}))",
-        "mode_h = np.zeros(width, dtype=np.int64)",
-        "weight_h = np.full(width, -math.inf)",
-        f"x_c = np.zeros((candidates, {n}))",
-        f"P_c = np.zeros((candidates, {n}, {n}))",
-        f"gamma_c = np.zeros((candidates, {m}))",
-        f"L_c = np.zeros((candidates, {m}, {m}))",
-        "weight_c = np.full(candidates, -math.inf)",
-        "prior_c = np.full(candidates, -math.inf)",
-        "parent = np.zeros((n_samples, width), dtype=np.int32)",
-        "modes = np.zeros((n_samples, width), dtype=np.int16)",
+        "x_h, P_h, mode_h, weight_h, x_c, P_c, _, gamma_c, L_c, weight_c, prior_c, best_found, "
+        f"parent, modes = beam_for(n_samples, {n}, {m}, {n_q}, width)",
         "kept = start(run.x0, run.P0, run.mu0, x_h, P_h, mode_h, weight_h, modes)",
         "cap = likelihood_caps(run.R)",
-        "best_found = np.empty(width)",
     ):
         p.emit(line)
     u, v, y = p.open_time_loop(n_u, m)
@@ -537,7 +559,8 @@ def generate_kbest_source(model: HybridModel) -> str:
     return (
         "import numpy as np\n\n"
         "from hybridlog.estimators.mode_hypotheses import (\n"
-        "    backtrack,\n    extension_priors,\n    likelihood_caps,\n    note_weight,\n"
+        "    backtrack,\n    beam_for,\n    extension_priors,\n    likelihood_caps,\n"
+        "    note_weight,\n"
         "    start,\n)\n\n\n"
         f"def kbest_run(run, log_transitions, beam):\n{body}\n"
     )
