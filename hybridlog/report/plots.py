@@ -70,7 +70,8 @@ to use from two threads at once (a Dask worker runs several logs side by side)."
 _BLOCK = 1 << 16
 """Samples per block of the reductions (:func:`time_bins`, :func:`envelope`, the ±2σ band):
 their temporaries are 0.5 MB, not 8 MB per array of a 10^6-sample run.  The plots are drawn
-in a thread beside the metrics and tables, so what they hold adds to the run's peak."""
+beside the metrics and tables (in a thread, or a forked child whose resident set is the
+parent's at the fork plus its own), so what they hold adds to the run's peak."""
 _DPI = 100
 _WIDTH_IN = 10.0
 _LEFT, _RIGHT = 0.09, 0.98
