@@ -21,6 +21,7 @@ from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import fits_unrolled, module_source
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_generated, compile_model
+from hybridlog.prefault import arrays_in, populated_beside
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 if TYPE_CHECKING:
@@ -307,7 +308,8 @@ def run_filter(
         loop = compile_for(code.loop, arguments) if jit else code.loop
         compile_s = time.perf_counter() - start
     start = time.perf_counter()
-    loop(*arguments)
+    with populated_beside([*buffers, *arrays_in(settings)]):
+        loop(*arguments)
     runtime = time.perf_counter() - start
     finite = np.isfinite(buffers.state_means).all(axis=1)
     if not finite.all():

@@ -113,6 +113,7 @@ from hybridlog.estimators.unrolled import (
 from hybridlog.jit import compile_for, jit, jitable
 from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.prefault import populated_beside
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 __all__ = ["KIM_DESCRIPTION", "post_process", "viterbi"]
@@ -512,7 +513,8 @@ def post_process(
                 )
                 loop = compile_for(kim_backward, arguments) if jit else kim_backward
             compile_s += time.perf_counter() - compile_start
-            loop(*arguments)
+            with populated_beside(buffers):
+                loop(*arguments)
             last = n - 1
             buffers.modes[last] = int(np.argmax(filtered.mode_probabilities[last]))
             buffers.mode_probabilities[last] = filtered.mode_probabilities[last]

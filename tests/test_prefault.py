@@ -1,0 +1,56 @@
+"""``hybridlog.prefault``: pages faulted in beside a loop, never a value changed."""
+
+from __future__ import annotations
+
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+from hybridlog import prefault
+from hybridlog.estimators.common import ModeStore
+from hybridlog.prefault import MIN_BYTES, arrays_in, populated_beside
+
+linux_only = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="madvise advice")
+
+
+def _resident_mib() -> float:
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * 4096 / 2**20
+
+
+def test_arrays_in_finds_the_arrays_of_nested_named_tuples() -> None:
+    store = ModeStore(np.zeros((2, 3, 9)), np.zeros((0, 3)))
+    found = arrays_in((np.ones(2), (store, 3.0, "text"), None))
+    assert [a.shape for a in found] == [(2,), (2, 3, 9), (0, 3)]
+    assert found[1] is store.states
+
+
+@linux_only
+def test_the_pages_of_a_large_array_become_resident() -> None:
+    array = np.empty(64 * 2**20 // 8)  # 64 MiB, no page touched yet
+    before = _resident_mib()
+    with populated_beside([array]):
+        pass
+    assert prefault._usable, "this kernel has MADV_POPULATE_WRITE (Linux 5.14)"
+    assert _resident_mib() - before > 60
+
+
+@linux_only
+def test_small_arrays_start_no_thread() -> None:
+    started = threading.active_count()
+    with populated_beside([np.empty(MIN_BYTES // 8 - 1)]):
+        assert threading.active_count() == started
+
+
+def test_what_the_body_writes_is_kept_whatever_the_thread_does() -> None:
+    """The body writes rows while the thread populates the same pages: every value stays."""
+    n = 6 * 2**20 // 8
+    first, second = np.empty(n), np.empty((n // 4, 4))
+    with populated_beside([first, second]):
+        for lo in range(0, n, 4096):
+            first[lo : lo + 4096] = np.arange(lo, min(lo + 4096, n))
+        second[:] = 7.0
+    assert np.array_equal(first, np.arange(n, dtype=np.float64))
+    assert (second == 7.0).all()
