@@ -11,7 +11,7 @@ lowest first; a unit may import its own modules and units of lower layers only, 
 one layer are peers that never import each other:
 
 ==  ==============================================================================
-0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
+0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators`` | ``prefault``
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows)
 2   ``io`` | ``model``
 3   ``cluster``
@@ -43,7 +43,7 @@ from scipy.sparse.csgraph import connected_components
 PACKAGE = Path(__file__).resolve().parent.parent / "hybridlog"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("hybridlog", "errors", "lazy", "background", "allocators"),
+    ("hybridlog", "errors", "lazy", "background", "allocators", "prefault"),
     ("signals", "jit", "outputs"),
     ("io", "model"),
     ("cluster",),
