@@ -11,7 +11,8 @@ lowest first; a unit may import its own modules and units of lower layers only, 
 one layer are peers that never import each other:
 
 ==  ==============================================================================
-0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators`` | ``prefault``
+0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
+    | ``prefault``
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows)
 2   ``io`` | ``model``
 3   ``cluster``
