@@ -49,6 +49,9 @@ class Capabilities:
         discrete-time models only.
     supports_smoothing:
         A fixed-interval smoother can run after the filter (``--smooth``).
+    no_smoothing:
+        Why the method admits no offline pass, when it does not: the reason the one-line
+        refusal of ``--smooth`` and ``--mode-sequence`` gives (issue 12).
     needs_single_output:
         The model must have exactly one output (paper 004's observer, ``h`` maps to R).
     """
@@ -64,6 +67,7 @@ class Capabilities:
     continuous_time: bool = False
     supports_smoothing: bool = False
     needs_single_output: bool = False
+    no_smoothing: str = ""
 
     def needs(self) -> tuple[str, ...]:
         """The needs in words, for ``--help`` and the docs."""

@@ -159,6 +159,10 @@ ESTIMATORS: dict[str, Estimator] = {
             options="HstfOptions",
             options_module="hybridlog.estimators.filter_options",
             run="run_hstf",
+            capabilities=Capabilities(
+                no_smoothing="paper 000 predicts every mode with probability 1/n_q (eq. (20)); "
+                "under that uniform chain smoothed mode probabilities equal the filtered ones"
+            ),
         ),
         Estimator(
             name="imm",
@@ -178,7 +182,11 @@ ESTIMATORS: dict[str, Estimator] = {
             options="ChiuOptions",
             options_module="hybridlog.estimators.observer_options",
             run="run_chiu",
-            capabilities=Capabilities(needs_linear_model=True),
+            capabilities=Capabilities(
+                needs_linear_model=True,
+                no_smoothing="it classifies each sample from its own regressor (paper 001 "
+                "eqs. (2)-(3)): no mode chain and no likelihoods to smooth",
+            ),
         ),
         Estimator(
             name="kmeans",
@@ -188,7 +196,11 @@ ESTIMATORS: dict[str, Estimator] = {
             options="KMeansOptions",
             options_module="hybridlog.estimators.observer_options",
             run="run_kmeans",
-            capabilities=Capabilities(needs_linear_model=True),
+            capabilities=Capabilities(
+                needs_linear_model=True,
+                no_smoothing="it classifies each sample from its own regressor (paper 001 "
+                "eqs. (2)-(3)): no mode chain and no likelihoods to smooth",
+            ),
         ),
         Estimator(
             name="switching-observer",
@@ -203,6 +215,8 @@ ESTIMATORS: dict[str, Estimator] = {
                 applies_jump_maps=True,
                 continuous_time=True,
                 needs_single_output=True,
+                no_smoothing="it takes the modes from the log's switching signal and its "
+                "observer keeps no covariance (paper 004): no mode to decide, no RTS step",
             ),
         ),
         Estimator(
@@ -214,7 +228,11 @@ ESTIMATORS: dict[str, Estimator] = {
             options="UnknownModeOptions",
             options_module="hybridlog.estimators.cpha.options",
             run="run_unknown_mode",
-            capabilities=Capabilities(needs_components=True),
+            capabilities=Capabilities(
+                needs_components=True,
+                no_smoothing="its hypotheses do not keep their histories yet (the best "
+                "history at the end of the log would be an offline mode sequence)",
+            ),
         ),
         Estimator(
             name="sliding-mode",
@@ -225,7 +243,11 @@ ESTIMATORS: dict[str, Estimator] = {
             options_module="hybridlog.estimators.sliding_mode_options",
             run="run_sliding_mode",
             capabilities=Capabilities(
-                continuous_time=True, needs_boolean_affine=True, needs_measured_state=True
+                continuous_time=True,
+                needs_boolean_affine=True,
+                needs_measured_state=True,
+                no_smoothing="its modes are read from a sliding-mode observer's equivalent "
+                "output injection (paper 003), with no likelihoods or covariances to smooth",
             ),
         ),
     )

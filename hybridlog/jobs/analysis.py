@@ -125,8 +125,10 @@ def smoothing_overrides(
                 hint = ""
                 if len(chosen) > 1:
                     hint = f"; --set {option}={value} applies it only to the estimators that do"
+                why = estimator.capabilities.no_smoothing
                 raise OptionError(
-                    f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it "
+                    f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
+                    f"{': ' + why if why else ''} "
                     f"(estimators that do: {', '.join(having) or 'none'}){hint}"
                 )
             choices = next(i.type for i in estimator.describe_options() if i.name == option).split(

@@ -76,7 +76,7 @@ def test_smooth_on_an_estimator_without_a_smoother_is_one_line_before_the_log_is
     result = run([*args, "--smooth", "--out", str(out)], expect=2)
     (line,) = result.stderr.strip().splitlines()
     assert line.startswith("hybridlog: error: --smooth: estimator 'chiu'")
-    assert "does not offer it" in line and "imm" in line
+    assert "does not offer it: it classifies each sample" in line and "imm" in line
     result = run([*args, "--mode-sequence", "viterbi", "--out", str(out)], expect=2)
     assert "--mode-sequence: estimator 'chiu'" in result.stderr
     assert not out.exists()

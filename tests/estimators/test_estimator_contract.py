@@ -114,6 +114,8 @@ def test_entry_is_complete(name):
     # An estimator offers smoothing exactly when its options have the switch (issue 12).
     fields = {f.name for f in dataclasses.fields(entry.options_type)}
     assert entry.capabilities.supports_smoothing == ("smooth" in fields)
+    # ... and says why when it does not: the refusal's reason
+    assert bool(entry.capabilities.no_smoothing) != entry.capabilities.supports_smoothing
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))
