@@ -144,6 +144,13 @@ def _set_option(what: str) -> Callable[[F], F]:
 _SMOOTHING = ", ".join(e.name for e in ESTIMATORS.values() if e.capabilities.supports_smoothing)
 """The estimators that declare a fixed-interval smoother (``--smooth``), from the registry."""
 
+_SEQUENCES = ", ".join(
+    e.name
+    for e in ESTIMATORS.values()
+    if any(i.name == "mode_sequence" for i in e.describe_options())
+)
+"""The estimators with a ``mode_sequence`` option (``--mode-sequence``), from the registry."""
+
 
 def _analysis_options(function: F) -> F:
     """Options shared by analyze, compare and batch."""
@@ -180,7 +187,8 @@ def _analysis_options(function: F) -> F:
             "(argmax), the most likely sequence over the filter's per-mode likelihoods "
             "(viterbi), or the most likely of the best mode histories, each with its own "
             "EKF (kbest; --set beam=N keeps N, default 20) [default: the estimator's option "
-            "mode_sequence, argmax].",
+            f"mode_sequence, argmax]. Estimators with it: {_SEQUENCES} (unknown-mode: argmax "
+            "or kbest, the history of its best trajectory at the end of the log).",
         ),
         click.option(
             "--table-format",

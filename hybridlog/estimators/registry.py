@@ -230,8 +230,8 @@ ESTIMATORS: dict[str, Estimator] = {
             run="run_unknown_mode",
             capabilities=Capabilities(
                 needs_components=True,
-                no_smoothing="its hypotheses do not keep their histories yet (the best "
-                "history at the end of the log would be an offline mode sequence)",
+                no_smoothing="its cluster filters keep nothing for a backward pass; "
+                "--mode-sequence kbest gives its offline mode sequence",
             ),
         ),
         Estimator(

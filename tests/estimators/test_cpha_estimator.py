@@ -173,3 +173,71 @@ def test_a_component_starting_unknown_starts_in_its_known_modes_when_unknown_is_
     assert all(label.endswith("|m31") for label in off.mode_ids)
     on = run_unknown_mode(model, signals, UnknownModeOptions(beam=4))
     assert on.mode_ids[on.modes[0]].endswith("|unknown")
+
+
+def exhaustive_history(model, tracker, steps):
+    """The assignments, at every step, of the most likely whole trajectory (no pruning)."""
+    assignments = list(itertools.product(*(c.mode_ids for c in model.components)))
+    start = tuple(c.mode_ids[0] for c in model.components)
+    nan = np.full(model.n_outputs, np.nan)
+    trajectories = [
+        (Hypothesis(start, 0.0, model.initial_state.copy(), model.initial_covariance.copy(), nan),
+         [start])
+    ]  # fmt: skip
+    for k in range(1, steps):
+        extended = []
+        for parent, history in trajectories:
+            for a in assignments:
+                prior = parent.log_belief + sum(
+                    known_transition_log(c, s, t)
+                    for c, s, t in zip(model.components, parent.assignment, a, strict=True)
+                )
+                if prior == -math.inf:
+                    continue
+                child = tracker.successor(parent, a, k)
+                child.log_belief += prior
+                extended.append((child, [*history, a]))
+        trajectories = extended
+    return max(trajectories, key=lambda pair: pair[0].log_belief)[1]
+
+
+def test_kbest_with_a_beam_keeping_everything_is_the_most_likely_whole_trajectory(model):
+    """The offline mode sequence is the history of the final winner, found by enumeration;
+    on some of these logs the causal per-step winner differs from it (so the test is one the
+    per-step modes fail)."""
+    steps, differs = 6, 0
+    options = UnknownModeOptions(beam=4**5, candidates=10**6, unknown_mode=False)
+    offline = dataclasses.replace(options, mode_sequence="kbest")
+    for seed in range(8):
+        signals = cpha_log(model, steps, seed=seed, a2=lambda k: "m22" if k >= 3 else "m21")
+        exact = exhaustive_history(model, make_tracker(model, signals, options), steps)
+        result = run_unknown_mode(model, signals, offline)
+        assert [result.mode_ids[m] for m in result.modes] == ["|".join(a) for a in exact]
+        filtered = result.post_processing.filtered
+        differs += filtered.modes.tolist() != result.modes.tolist()
+        # the last sample is the final winner's, as the causal estimate's
+        assert result.modes[-1] == filtered.modes[-1]
+        np.testing.assert_array_equal(result.state_means[-1], filtered.state_means[-1])
+    assert differs > 0
+
+
+def test_kbest_reads_the_histories_back_and_keeps_the_causal_predictions(model):
+    drift = cpha_log(model, 150, seed=1, a1=lambda k: "drift" if 60 <= k < 100 else "m11")
+    filtered = run_unknown_mode(model, drift, UnknownModeOptions(beam=10))
+    result = run_unknown_mode(model, drift, UnknownModeOptions(beam=10, mode_sequence="kbest"))
+    extra = result.post_processing
+    assert extra.smoothing is None and extra.mode_sequence == "kbest"
+    assert "10 trajectories" in extra.description
+    # the filter's own result is the run without the option, bit for bit
+    np.testing.assert_array_equal(extra.filtered.modes, filtered.modes)
+    np.testing.assert_array_equal(extra.filtered.state_means, filtered.state_means)
+    np.testing.assert_array_equal(result.output_predictions, filtered.output_predictions)
+    np.testing.assert_array_equal(result.mode_probabilities, filtered.mode_probabilities)
+    # the component timelines follow the path's joint modes
+    a1 = {c.name: c for c in result.timeline_columns}["mode.A1"]
+    joint = [result.mode_ids[m].split("|")[0] for m in result.modes]
+    assert [a1.labels[v] for v in a1.values] == joint
+    # a path has one mode per sample, every step an allowed transition (prior > 0)
+    (component_a1,) = [c for c in model.components if c.name == "A1"]
+    for source, target in itertools.pairwise(joint):
+        assert component_a1.transition_probabilities(source).get(target, 0.0) > 0.0

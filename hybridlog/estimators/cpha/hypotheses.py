@@ -325,6 +325,9 @@ class Tracker:
         self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
         self.filtered = 0
         self.proposed = 0
+        self.parents: list[int] = []
+        """Per hypothesis the last :meth:`step` returned, its parent's index in the list that
+        step was given (the back-pointers of the trajectories, for an offline mode sequence)."""
         self.n_states = len(structure.names.states)
         self._no_prediction = np.full(outputs.shape[1], np.nan)
         # Per mode assignment (kept across steps): its successor table, its clusters' filters
@@ -593,7 +596,9 @@ class Tracker:
             pending = _Pending(hypotheses[j], layout, results, growth, no_prediction)
             kept.append(Hypothesis(assignment, score, None, None, None, sources, pending))
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
+            self.parents = list(range(len(hypotheses)))
             return _fallback(hypotheses)
+        self.parents = [j for _, _, j, _, _ in best]
         _normalise(kept)
         return kept
 

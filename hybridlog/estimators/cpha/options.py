@@ -6,6 +6,7 @@ The registry, ``--help`` and a batch's planning read them without loading the es
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from hybridlog.estimators.options import option
 
@@ -30,4 +31,8 @@ class UnknownModeOptions:
     )
     unknown_mode: bool = option(
         True, "every component has the unknown mode (false: only the modelled modes)"
+    )
+    mode_sequence: Literal["argmax", "kbest"] = option(
+        "argmax",
+        "per-sample mode: each step's most likely hypothesis, or kbest (the final one's history)",
     )

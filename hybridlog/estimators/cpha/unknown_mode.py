@@ -24,6 +24,13 @@ it predicts is NaN.  Timeline columns: ``mode.<component>`` (labels: the compone
 ``unknown``) of the most likely hypothesis, and ``p_unknown.<component>``, the summed belief
 of the kept hypotheses in which the component is unknown.
 
+With ``mode_sequence = "kbest"`` (``--mode-sequence kbest``, offline; issue 12) ``modes``,
+the ``mode.<component>`` columns, ``x̂`` and ``diag P`` are those of the most likely
+trajectory at the end of the log along its whole history (each step's kept hypotheses and
+their parents are recorded, :attr:`Tracker.parents`, and the final winner's ancestors read
+back) instead of each step's most likely hypothesis; the probabilities, ``p_unknown`` and
+``ŷ(k|k-1)`` stay the causal estimate's, which ``post_processing.filtered`` holds whole.
+
 Commands (``when`` in transition rules) are not read from logs in this version: the rules
 without ``when`` apply.  Notes list the decomposition and filter cache hit rates.
 
@@ -41,6 +48,7 @@ output — the unknown mode wins by default after a few dozen steps.  Entering i
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -49,10 +57,10 @@ from hybridlog.estimators.cpha.hypotheses import Hypothesis, Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
-from hybridlog.estimators.result import EstimationResult, TimelineColumn
+from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import AlignedSignals, FloatArray
 
 __all__ = ["NAME", "UnknownModeOptions", "assignment_label", "run_unknown_mode"]
 
@@ -138,10 +146,14 @@ def run_unknown_mode(
     known: dict[Assignment, tuple[int, tuple[int, ...]]] = {}
     rows: list[list[tuple[int, float]]] = []
     best: list[Hypothesis] = []
+    offline = options.mode_sequence == "kbest"
+    histories = _Histories(n_x) if offline else None
     p_unknown = np.zeros((n, len(components)))
     for k in range(n):
         if k > 0:
             hypotheses = tracker.step(hypotheses, k)
+        if histories is not None:
+            histories.keep(hypotheses, tracker.parents if k > 0 else [])
         row: dict[int, float] = {}
         beliefs = np.exp([h.log_belief for h in hypotheses]).tolist()
         p_row = p_unknown[k].tolist()
@@ -174,15 +186,11 @@ def run_unknown_mode(
     variances = np.array([np.diag(h.P) for h in best], dtype=np.float64).reshape(n, n_x)
     predictions = np.array([h.y_pred for h in best], dtype=np.float64).reshape(n, n_y)
     predictions[0] = np.nan
-    columns: list[TimelineColumn] = []
-    for c, component in enumerate(components):
-        mode_labels = (*component.mode_ids, UNKNOWN)
-        values = np.array([mode_labels.index(h.assignment[c]) for h in best], dtype=np.int64)
-        columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
-    for c, component in enumerate(components):
-        columns.append(
-            TimelineColumn(f"p_unknown.{component.name}", np.clip(p_unknown[:, c], 0.0, 1.0))
-        )
+    p_columns = [
+        TimelineColumn(f"p_unknown.{component.name}", np.clip(p_unknown[:, c], 0.0, 1.0))
+        for c, component in enumerate(components)
+    ]
+    columns = [*_component_columns(model, [h.assignment for h in best]), *p_columns]
     s_hits, s_misses = structure.hits - counts[0], structure.misses - counts[1]
     f_hits, f_misses = filters.hits - counts[2], filters.misses - counts[3]
     notes = (
@@ -190,7 +198,7 @@ def run_unknown_mode(
         f"({_rate(s_hits, s_misses)}); cluster filters: {f_misses} compiled, {f_hits} cache "
         f"hits ({_rate(f_hits, f_misses)}); {tracker.filtered} cluster EKF steps",
     )
-    return EstimationResult(
+    filtered = EstimationResult(
         estimator=NAME,
         options=options_dict(options),
         time=np.asarray(signals.time, dtype=np.float64),
@@ -207,6 +215,84 @@ def run_unknown_mode(
         notes=notes,
         timeline_columns=tuple(columns),
     )
+    if histories is None:
+        return filtered
+    offline_start = time.perf_counter()
+    path = histories.best_path()
+    assignments = [histories.assignments[k][i] for k, i in enumerate(path)]
+    path_means, path_variances = histories.states(path)
+    result = replace(
+        filtered,
+        modes=np.array([labels[a] for a in assignments], dtype=np.int64),
+        state_means=path_means,
+        state_variances=path_variances,
+        timeline_columns=(*_component_columns(model, assignments), *p_columns),
+        runtime_s=runtime + time.perf_counter() - offline_start,
+        post_processing=PostProcessing(
+            smoothing=None,
+            mode_sequence="kbest",
+            description=KBEST_DESCRIPTION.format(beam=options.beam),
+            filtered=filtered,
+        ),
+    )
+    return result
+
+
+KBEST_DESCRIPTION = (
+    "modes: the history of the most likely of the {beam} trajectories kept at the end of the "
+    "log (paper 002 eqs. (4)-(5), read offline); states: that trajectory's cluster filters; "
+    "mode probabilities and output predictions: the causal estimate's"
+)
+
+
+class _Histories:
+    """The kept hypotheses of every step, reduced to what their histories need.
+
+    Per step: each hypothesis' assignment, mean and variances, and its parent's index in the
+    step before (:attr:`Tracker.parents`).  About ``8 · beam · 2 n_x`` bytes per sample.
+    """
+
+    def __init__(self, n_x: int) -> None:
+        self.n_x = n_x
+        self.assignments: list[list[Assignment]] = []
+        self.parents: list[list[int]] = []
+        self.means: list[FloatArray] = []
+        self.variances: list[FloatArray] = []
+        self.last_beliefs: list[float] = []
+
+    def keep(self, hypotheses: list[Hypothesis], parents: list[int]) -> None:
+        """Record step k's hypotheses (``parents``: their parents' indices at k-1)."""
+        self.assignments.append([h.assignment for h in hypotheses])
+        self.parents.append(list(parents))
+        self.means.append(np.array([h.x for h in hypotheses], dtype=np.float64))
+        self.variances.append(np.array([np.diag(h.P) for h in hypotheses], dtype=np.float64))
+        self.last_beliefs = [h.log_belief for h in hypotheses]
+
+    def best_path(self) -> list[int]:
+        """Per step, the index of the most likely final hypothesis' ancestor (back-tracking)."""
+        index = int(np.argmax(self.last_beliefs))
+        path = [index]
+        for k in range(len(self.parents) - 1, 0, -1):
+            index = self.parents[k][index]
+            path.append(index)
+        return path[::-1]
+
+    def states(self, path: list[int]) -> tuple[FloatArray, FloatArray]:
+        """The means and variances along ``path``, shape ``(N, n_x)`` each."""
+        n = len(path)
+        means = np.array([self.means[k][i] for k, i in enumerate(path)]).reshape(n, self.n_x)
+        variances = np.array([self.variances[k][i] for k, i in enumerate(path)])
+        return means, variances.reshape(n, self.n_x)
+
+
+def _component_columns(model: HybridModel, assignments: list[Assignment]) -> list[TimelineColumn]:
+    """The timeline's ``mode.<component>`` columns of a sequence of joint assignments."""
+    columns = []
+    for c, component in enumerate(model.components):
+        mode_labels = (*component.mode_ids, UNKNOWN)
+        values = np.array([mode_labels.index(a[c]) for a in assignments], dtype=np.int64)
+        columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
+    return columns
 
 
 def _rate(hits: int, misses: int) -> str:
