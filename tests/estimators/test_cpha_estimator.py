@@ -29,17 +29,21 @@ def known_transition_log(component, source, target):
     return math.log(p[target] / sum(p.values())) if target in p else -math.inf
 
 
-def exhaustive(model, tracker, steps):
-    """Every trajectory of every known joint mode (no pruning): the most likely per step."""
+def enumerate_trajectories(model, tracker, steps):
+    """Every trajectory of every known joint mode (no pruning), step by step.
+
+    Yields, for k = 1 … steps-1, the list of ``(hypothesis, history)`` at step k, where the
+    history is the trajectory's joint assignments from step 0 and the beliefs are the
+    unnormalised log posteriors (prior transitions times ``P_O``, eq. (5) before normalising).
+    """
     assignments = list(itertools.product(*(c.mode_ids for c in model.components)))
-    x0, P0 = model.initial_state, model.initial_covariance
     start = tuple(c.mode_ids[0] for c in model.components)  # the initial modes (all known)
     nan = np.full(model.n_outputs, np.nan)
-    trajectories = [Hypothesis(start, 0.0, x0.copy(), P0.copy(), nan)]
-    best = []
+    first = Hypothesis(start, 0.0, model.initial_state.copy(), model.initial_covariance.copy(), nan)
+    trajectories = [(first, [start])]
     for k in range(1, steps):
         extended = []
-        for parent in trajectories:
+        for parent, history in trajectories:
             for a in assignments:
                 prior = parent.log_belief + sum(
                     known_transition_log(c, s, t)
@@ -49,15 +53,22 @@ def exhaustive(model, tracker, steps):
                     continue
                 child = tracker.successor(parent, a, k)
                 child.log_belief += prior
-                extended.append(child)
-        top = max(h.log_belief for h in extended)
-        total = top + math.log(sum(math.exp(h.log_belief - top) for h in extended))
-        for h in extended:
-            h.log_belief -= total
+                extended.append((child, [*history, a]))
         trajectories = extended
-        winner = max(trajectories, key=lambda h: h.log_belief)
-        best.append((winner.assignment, winner.log_belief, winner.x))
-    return best, len(assignments)
+        yield trajectories
+
+
+def exhaustive(model, tracker, steps):
+    """The most likely trajectory's (assignment, normalised log belief, x) per step."""
+    best = []
+    for trajectories in enumerate_trajectories(model, tracker, steps):
+        beliefs = [h.log_belief for h, _ in trajectories]
+        top = max(beliefs)
+        total = top + math.log(sum(math.exp(b - top) for b in beliefs))
+        winner = max(trajectories, key=lambda pair: pair[0].log_belief)[0]
+        best.append((winner.assignment, winner.log_belief - total, winner.x))
+    n_assignments = math.prod(len(c.mode_ids) for c in model.components)
+    return best, n_assignments
 
 
 def test_a_wide_beam_finds_the_most_likely_joint_mode_of_the_exhaustive_enumeration(model):
@@ -177,28 +188,8 @@ def test_a_component_starting_unknown_starts_in_its_known_modes_when_unknown_is_
 
 def exhaustive_history(model, tracker, steps):
     """The assignments, at every step, of the most likely whole trajectory (no pruning)."""
-    assignments = list(itertools.product(*(c.mode_ids for c in model.components)))
-    start = tuple(c.mode_ids[0] for c in model.components)
-    nan = np.full(model.n_outputs, np.nan)
-    trajectories = [
-        (Hypothesis(start, 0.0, model.initial_state.copy(), model.initial_covariance.copy(), nan),
-         [start])
-    ]  # fmt: skip
-    for k in range(1, steps):
-        extended = []
-        for parent, history in trajectories:
-            for a in assignments:
-                prior = parent.log_belief + sum(
-                    known_transition_log(c, s, t)
-                    for c, s, t in zip(model.components, parent.assignment, a, strict=True)
-                )
-                if prior == -math.inf:
-                    continue
-                child = tracker.successor(parent, a, k)
-                child.log_belief += prior
-                extended.append((child, [*history, a]))
-        trajectories = extended
-    return max(trajectories, key=lambda pair: pair[0].log_belief)[1]
+    *_, last = enumerate_trajectories(model, tracker, steps)
+    return max(last, key=lambda pair: pair[0].log_belief)[1]
 
 
 def test_kbest_with_a_beam_keeping_everything_is_the_most_likely_whole_trajectory(model):
