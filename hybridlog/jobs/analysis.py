@@ -263,7 +263,7 @@ def read_and_run(
     finally:
         reading.wait()
     signals = reading.result()
-    plotting = Background(import_plotting, "hybridlog-import-plotting")
+    plotting = Background(lambda: import_plotting(model), "hybridlog-import-plotting")
     try:
         return signals, run(signals)
     finally:

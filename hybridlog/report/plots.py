@@ -29,6 +29,8 @@ is imported when the first figure is made, so code that writes no plot does not 
 from __future__ import annotations
 
 import threading
+from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -214,19 +216,56 @@ def mode_bars(runs: ModeRuns, starts: IntArray, n_modes: int) -> list[tuple[IntA
     return bars
 
 
+_READY: dict[tuple[int, float], list[tuple[Figure, list[Axes]]]] = {}
+"""Empty figures made ahead by shape (:func:`prepare_figures`), each taken once by
+:func:`_new_figure`."""
+
+
+def figure_shapes(n_outputs: int, n_states: int, components: bool) -> list[tuple[int, float]]:
+    """The ``(panels, panel height)`` of the figures :func:`write_plots` draws for a model.
+
+    ``components``: the model describes concurrent components, whose ``modes.png`` (of
+    ``unknown-mode``) has a shape that depends on the result; it is left out.
+    """
+    shapes = [(min(n_outputs, MAX_PANELS), 2.0), (min(n_states, MAX_PANELS), 2.0)]
+    return shapes if components else [*shapes, (2, 2.4)]
+
+
+def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
+    """Make the empty figures (margins, panels, shared axes) of these shapes ahead.
+
+    ``analyze`` does it in the thread that imports matplotlib while the estimator's compiled
+    loop runs (:func:`hybridlog.report.writer.import_plotting`): 0.06-0.13 s of axes set-up
+    that is then not on the plots' path, which the command waits for at its end.  A figure
+    made ahead is the one :func:`_new_figure` would make; the same pixels are drawn on it.
+    """
+    wanted = Counter((max(n_panels, 1), panel_height) for n_panels, panel_height in shapes)
+    with _MATPLOTLIB:
+        for key, count in wanted.items():
+            ready = _READY.setdefault(key, [])
+            while len(ready) < count:  # as many as one run's plots take, however often asked
+                ready.append(_make_figure(*key))
+
+
 def _new_figure(n_panels: int, panel_height: float = 2.0) -> tuple[Figure, list[Axes]]:
+    key = (max(n_panels, 1), panel_height)
+    ready = _READY.get(key)
+    return ready.pop() if ready else _make_figure(*key)
+
+
+def _make_figure(n_panels: int, panel_height: float) -> tuple[Figure, list[Axes]]:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     # Fixed margins in inches rather than layout="constrained": the constrained layout
     # measured every tick label and took half of the report's writing time.
-    height = 0.8 + panel_height * max(n_panels, 1)
+    height = 0.8 + panel_height * n_panels
     fig = Figure(figsize=(_WIDTH_IN, height))
     FigureCanvasAgg(fig)
     fig.subplots_adjust(
         left=_LEFT, right=_RIGHT, top=1.0 - 0.45 / height, bottom=0.45 / height, hspace=0.12
     )
-    axes = fig.subplots(max(n_panels, 1), 1, sharex=True, squeeze=False)[:, 0]
+    axes = fig.subplots(n_panels, 1, sharex=True, squeeze=False)[:, 0]
     return fig, list(axes)
 
 

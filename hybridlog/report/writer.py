@@ -27,16 +27,23 @@ if TYPE_CHECKING:
 __all__ = ["import_plotting", "write_plots", "write_report"]
 
 
-def import_plotting() -> None:
+def import_plotting(model: HybridModel | None = None) -> None:
     """Import what :func:`write_plots` draws with (matplotlib's figure and Agg canvas).
 
     About 0.3 s of Python that ``analyze`` spends in a thread while the estimator's compiled
-    loop runs without the GIL, rather than before its first figure.
+    loop runs without the GIL, rather than before its first figure; with ``model``, the
+    empty figures of its plots are made there too
+    (:func:`hybridlog.report.plots.prepare_figures`).
     """
     import matplotlib.backends.backend_agg
     import matplotlib.figure  # noqa: F401
 
-    import hybridlog.report.plots  # noqa: F401
+    from hybridlog.report import plots
+
+    if model is not None:
+        plots.prepare_figures(
+            plots.figure_shapes(model.n_outputs, model.n_states, bool(model.components))
+        )
 
 
 def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:

@@ -150,3 +150,35 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     np.testing.assert_array_equal(band[1], np.repeat(band_low, 2))
     np.testing.assert_array_equal(band[2], np.repeat(band_high, 2))
     assert plots._sigma_band(time, values, np.full(n, np.nan), bins) is None
+
+
+def test_figures_made_ahead_draw_the_same_pngs_and_are_taken_once(tmp_path) -> None:
+    """``prepare_figures`` (made in ``analyze``'s import thread): the same bytes as figures
+    made on the spot, each taken by one plot, never more than one kept per shape."""
+    from hybridlog.estimators.filter_options import ImmOptions
+    from hybridlog.estimators.imm import run_imm
+    from hybridlog.model.loader import load_model
+    from hybridlog.report import plots
+    from hybridlog.simulate import simulate
+
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=400, seed=3).signals(model, source="test")
+    result = run_imm(model, signals, ImmOptions(smooth=True))
+    fresh, ahead = tmp_path / "fresh", tmp_path / "ahead"
+    fresh.mkdir()
+    ahead.mkdir()
+    plots._READY.clear()
+    plots.write_plots(fresh, result, signals)
+    shapes = plots.figure_shapes(model.n_outputs, model.n_states, bool(model.components))
+    assert shapes == [(3, 2.0), (3, 2.0), (2, 2.4)]
+    plots.prepare_figures(shapes)
+    plots.prepare_figures(shapes)
+    # as many per shape as the plots take, however often asked
+    assert {key: len(ready) for key, ready in plots._READY.items()} == {(3, 2.0): 2, (2, 2.4): 1}
+    ((made, _),) = plots._READY[(2, 2.4)]
+    assert plots._new_figure(2, panel_height=2.4)[0] is made and not plots._READY[(2, 2.4)]
+    plots.prepare_figures(shapes)
+    plots.write_plots(ahead, result, signals)
+    assert not any(plots._READY.values())  # the three plots took what was made for them
+    for name in ("outputs.png", "modes.png", "states.png"):
+        assert (ahead / name).read_bytes() == (fresh / name).read_bytes(), name
