@@ -75,9 +75,10 @@ def _populate(ranges: list[tuple[int, int]]) -> None:
     if madvise is None:
         _usable = False
         return
+    # whole pages per slice, so that every call starts on a page boundary
+    sizes = [-(-length // SLICES // mmap.PAGESIZE) * mmap.PAGESIZE for _, length in ranges]
     for index in range(SLICES):
-        for first, length in ranges:
-            size = -(-length // SLICES // mmap.PAGESIZE) * mmap.PAGESIZE
+        for (first, length), size in zip(ranges, sizes, strict=True):
             lo = first + index * size
             hi = min(lo + size, first + length)
             if hi > lo and madvise(lo, hi - lo, MADV_POPULATE_WRITE) != 0:

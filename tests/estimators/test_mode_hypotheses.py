@@ -25,7 +25,13 @@ from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.estimators.test_filter_properties import assert_filter_invariants
-from tests.estimators.test_smoothing import ONE_MODE, _filterpy_rts, _unforced
+from tests.estimators.test_smoothing import (
+    KNOWN_MODE_CASES,
+    ONE_MODE,
+    _filterpy_rts,
+    _unforced,
+    known_mode_log,
+)
 from tests.estimators.test_smoothing_modes import (
     PRIOR_MODES,
     PRIOR_STATE,
@@ -143,14 +149,9 @@ def test_one_mode_states_are_filterpys_kalman_filter_and_rts(smooth):
     np.testing.assert_allclose(result.state_variances, np.diagonal(P, axis1=1, axis2=2), atol=1e-8)
 
 
-@pytest.mark.parametrize(("true_mode", "prior"), [("slow", [1.0, 0.0]), ("fast", [0.0, 1.0])])
+@pytest.mark.parametrize(("true_mode", "prior"), KNOWN_MODE_CASES)
 def test_stay_one_and_known_mode_is_the_rts_of_that_mode(true_mode, prior):
-    text = LINEAR_TWO_MODE.replace(
-        "mode_probabilities = [0.6, 0.4]", f"mode_probabilities = {prior}"
-    )
-    text = text.replace('"slow:120,fast:80,slow:150,fast:150"', f'"{true_mode}:300"')
-    model = parse_model(text)
-    signals = _unforced(model, 300, seed=4)
+    model, signals = known_mode_log(true_mode, prior)
     options = ImmOptions(transition_stay=1.0, smooth=True, mode_sequence="kbest")
     result = run_imm(model, signals, options, store_covariances=True)
     index = model.mode_ids.index(true_mode)

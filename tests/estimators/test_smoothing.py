@@ -87,14 +87,23 @@ def test_one_mode_smoother_equals_filterpy_rts(kernel):
     assert np.abs(filtered.state_means - x).max() > 1e-3
 
 
-@pytest.mark.parametrize(("true_mode", "prior"), [("slow", [1.0, 0.0]), ("fast", [0.0, 1.0])])
-def test_two_modes_with_stay_one_and_known_mode_is_the_rts_of_that_mode(true_mode, prior):
+KNOWN_MODE_CASES = [("slow", [1.0, 0.0]), ("fast", [0.0, 1.0])]
+"""The true mode of a whole log and the prior that puts all weight on it."""
+
+
+def known_mode_log(true_mode, prior):
+    """The linear two-mode model with that prior, and a 300-sample log in that one mode."""
     text = LINEAR_TWO_MODE.replace(
         "mode_probabilities = [0.6, 0.4]", f"mode_probabilities = {prior}"
     )
     text = text.replace('"slow:120,fast:80,slow:150,fast:150"', f'"{true_mode}:300"')
     model = parse_model(text)
-    signals = _unforced(model, 300, seed=4)
+    return model, _unforced(model, 300, seed=4)
+
+
+@pytest.mark.parametrize(("true_mode", "prior"), KNOWN_MODE_CASES)
+def test_two_modes_with_stay_one_and_known_mode_is_the_rts_of_that_mode(true_mode, prior):
+    model, signals = known_mode_log(true_mode, prior)
     result = run_imm(
         model, signals, ImmOptions(transition_stay=1.0, smooth=True), store_covariances=True
     )

@@ -218,7 +218,7 @@ def run_unknown_mode(
     if histories is None:
         return filtered
     offline_start = time.perf_counter()
-    path = histories.best_path()
+    path = histories.best_path([h.log_belief for h in hypotheses])
     assignments = [histories.assignments[k][i] for k, i in enumerate(path)]
     path_means, path_variances = histories.states(path)
     result = replace(
@@ -258,7 +258,6 @@ class _Histories:
         self.parents: list[list[int]] = []
         self.means: list[FloatArray] = []
         self.variances: list[FloatArray] = []
-        self.last_beliefs: list[float] = []
 
     def keep(self, hypotheses: list[Hypothesis], parents: list[int]) -> None:
         """Record step k's hypotheses (``parents``: their parents' indices at k-1)."""
@@ -266,11 +265,10 @@ class _Histories:
         self.parents.append(list(parents))
         self.means.append(np.array([h.x for h in hypotheses], dtype=np.float64))
         self.variances.append(np.array([np.diag(h.P) for h in hypotheses], dtype=np.float64))
-        self.last_beliefs = [h.log_belief for h in hypotheses]
 
-    def best_path(self) -> list[int]:
+    def best_path(self, final_beliefs: list[float]) -> list[int]:
         """Per step, the index of the most likely final hypothesis' ancestor (back-tracking)."""
-        index = int(np.argmax(self.last_beliefs))
+        index = int(np.argmax(final_beliefs))
         path = [index]
         for k in range(len(self.parents) - 1, 0, -1):
             index = self.parents[k][index]
