@@ -16,7 +16,8 @@ child process, one after the other:
    ``wait4``, the kernel's ``VmHWM``) of those runs;
 3. one run of the same command under :mod:`benchmarks.analyze_stages`, which wraps each
    stage of the job with a timer: the breakdown (start-up = interpreter start before the
-   first line; shutdown = after the command returned until the process is gone, measured by
+   first line; shutdown = after the command ended (its atexit handlers) until the process is
+   gone, measured by
    this process's clock).  The timers cost next to nothing; the main thread's stages add up
    to that run's wall time, which the notes give; stages run in a thread beside them (the
    log read while numba sets up, the plots drawn while the metrics and tables are made) are

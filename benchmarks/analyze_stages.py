@@ -6,7 +6,8 @@ The arguments after ``--`` are the command line of ``hybridlog``; the command ru
 ``hybridlog.cli.main`` exactly as the console script does, with the job's stage functions
 wrapped by timers.  ``STAGES.json`` gets, in seconds since the epoch (``time.time()``, so
 the parent can place them against its own clock): ``started`` (this module's first line)
-and ``finished`` (after the command returned, before the interpreter shuts down); the
+and ``finished`` (when the command has ended: written by an atexit handler, which the
+console script's ending runs before ``os._exit``); the
 wall time of each stage in seconds (``stages``); and the resident high-water mark
 (``VmHWM``, MiB) when each stage last ended (``peak_mib``): the stage where it jumps made
 the peak.  A function that calls another timed one (a stage
@@ -28,6 +29,7 @@ import time
 
 STARTED = time.time()
 
+import atexit  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
 import threading  # noqa: E402
@@ -150,27 +152,28 @@ def main() -> None:
     ):
         _patch(writer, name, stage)
     Report.to_json = _timed("report.json + report.md", Report.to_json)  # type: ignore[method-assign]
-    code = 0
     command = time.perf_counter()
+
+    def write_clock() -> None:
+        # run by the console script's ending (atexit handlers, then os._exit: the command
+        # never returns to this caller)
+        _clock["command"] = time.perf_counter() - command
+        with open(out, "w", encoding="utf-8") as stream:
+            json.dump(
+                {
+                    "started": STARTED,
+                    "finished": time.time(),
+                    "stages": _clock,
+                    "peak_mib": _peak,
+                    "beside": sorted(_beside),
+                    "forked": sorted(_forked),
+                },
+                stream,
+            )
+
+    atexit.register(write_clock)
     sys.argv = ["hybridlog", *argv]
-    try:
-        cli.main()  # as the console script calls it: this process runs the one command
-    except SystemExit as done:
-        code = done.code if isinstance(done.code, int) else 1
-    _clock["command"] = time.perf_counter() - command
-    with open(out, "w", encoding="utf-8") as stream:
-        json.dump(
-            {
-                "started": STARTED,
-                "finished": time.time(),
-                "stages": _clock,
-                "peak_mib": _peak,
-                "beside": sorted(_beside),
-                "forked": sorted(_forked),
-            },
-            stream,
-        )
-    sys.exit(code)
+    cli.main()  # as the console script calls it: this process runs the one command and ends
 
 
 if __name__ == "__main__":

@@ -1096,7 +1096,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         for warning in caught:
             category = warning.category.__name__
             click.echo(_one_line(f"hybridlog: note: {category}: {warning.message}"), err=True)
-    if _PROCESS["one_command"]:
+    if _PROCESS["one_command"] and sys.getprofile() is None and sys.gettrace() is None:
         _end_process(code)
     if code:
         sys.exit(code)
@@ -1111,7 +1111,9 @@ def _end_process(code: int) -> NoReturn:
     by one: 0.06-0.09 s of a 10^6-row ``analyze`` (six runs each, interleaved: median wall
     1.80 → 1.73 s), and before the collector was frozen at exit 0.6 s.  What libraries ask
     to be done at exit (``atexit``) still runs, and both streams are flushed; a stream that
-    cannot be flushed (a closed pipe) does not change the exit code.
+    cannot be flushed (a closed pipe) does not change the exit code.  :func:`main` does not
+    call it under a profiler, tracer or debugger (``python -m cProfile -m hybridlog``,
+    coverage, pdb): they write their results after ``main`` returns.
     """
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):

@@ -56,3 +56,15 @@ def test_exit_codes_are_the_commands(tmp_path: Path) -> None:
     bad = _console("analyze", str(tmp_path / "missing.csv"), "--model", "three_tank_hstf")
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and "missing.csv" in bad.stderr
+
+
+def test_a_profiler_around_the_console_script_still_gets_its_output(tmp_path: Path) -> None:
+    """``python -m cProfile -m hybridlog ...`` writes its statistics after ``main`` returns."""
+    stats = tmp_path / "run.prof"
+    done = subprocess.run(
+        [sys.executable, "-m", "cProfile", "-o", str(stats), "-m", "hybridlog", "models"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "three_tank_hstf" in done.stdout and stats.stat().st_size > 0
