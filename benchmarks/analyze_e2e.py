@@ -17,11 +17,10 @@ child process, one after the other:
 3. one run of the same command under :mod:`benchmarks.analyze_stages`, which wraps each
    stage of the job with a timer: the breakdown (start-up = interpreter start before the
    first line; shutdown = after the command ended (its atexit handlers) until the process is
-   gone, measured by
-   this process's clock).  The timers cost next to nothing; the main thread's stages add up
-   to that run's wall time, which the notes give; stages run in a thread beside them (the
-   log read while numba sets up, the plots drawn while the metrics and tables are made) are
-   listed as such (the plots, drawn in a forked child where the console script allows it, as
+   gone, measured by this process's clock).  The timers cost next to nothing; the main
+   thread's stages add up to that run's wall time, which the notes give; stages run in a
+   thread beside them (the log read while numba sets up, the plots drawn while the metrics
+   and tables are made) are listed as such (the plots, drawn in a forked child where the console script allows it, as
    that), and the main thread's wait for them as ``waiting for a thread``.
 """
 
