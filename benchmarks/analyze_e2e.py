@@ -20,8 +20,9 @@ child process, one after the other:
    gone, measured by this process's clock).  The timers cost next to nothing; the main
    thread's stages add up to that run's wall time, which the notes give; stages run in a
    thread beside them (the log read while numba sets up, the plots drawn while the metrics
-   and tables are made) are listed as such (the plots, drawn in a forked child where the console script allows it, as
-   that), and the main thread's wait for them as ``waiting for a thread``.
+   and tables are made) are listed as such (the plots, drawn in a forked child where the
+   console script allows it, as that), and the main thread's wait for them as ``waiting for
+   a thread``.
 """
 
 from __future__ import annotations
