@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import importlib
 import json
 import os
 import re
@@ -489,17 +488,22 @@ def run_batch(
         )
         died = [_died(log, folder) for _, log, folder in tasks]
         outcomes: list[LogOutcome]
-        if client is not None:
-            outcomes = run_on_dask(
-                analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
+        if client is not None or pool is not None:
+            # this process needs no numba and only waits now (for the forkserver's warm-up,
+            # then for the results, or for the cluster's): it imports what the summary plot
+            # needs and makes its figure meanwhile (0.2 s less at the end)
+            plotting = threading.Thread(
+                target=_prepare_summary_plot, args=(len(tasks),), daemon=True
             )
-        elif pool is not None:
-            # this process needs no numba and only waits now, first for the forkserver's
-            # warm-up (the workers fork when it is done), then for the results: it imports
-            # what the summary plot needs meanwhile (0.2 s less at the end)
-            plotting = threading.Thread(target=_import_summary_plot, daemon=True)
             plotting.start()
-            outcomes = pool.run(analyze_log, tasks, died=lambda i, why: died[i](why), done=progress)
+            if client is not None:
+                outcomes = run_on_dask(
+                    analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
+                )
+            elif pool is not None:
+                outcomes = pool.run(
+                    analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
+                )
             plotting.join()
         else:
             outcomes = []
@@ -510,8 +514,10 @@ def run_batch(
     return _summarise(Path(os.path.abspath(out_dir)), model, job, gates, outcomes, junit)
 
 
-def _import_summary_plot() -> None:
-    importlib.import_module("hybridlog.report.summary_plot")
+def _prepare_summary_plot(n_rows: int) -> None:
+    from hybridlog.report.summary_plot import prepare_summary_figure
+
+    prepare_summary_figure(n_rows)
 
 
 def _plan(

@@ -9,21 +9,28 @@ state), like the per-log plots (:mod:`hybridlog.report.plots`).
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.report.summary import BatchRow
 
-__all__ = ["MAX_LABELS", "summary_figure", "write_summary_plot"]
+__all__ = ["MAX_LABELS", "prepare_summary_figure", "summary_figure", "write_summary_plot"]
 
 MAX_LABELS = 40
 """Up to this many logs, the x axis names each log; beyond it, it numbers them."""
 
 _OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
+_PANELS = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
+_TICKS_AHEAD = 10
+"""Major ticks made ahead per axis of a prepared figure (the axes draw 6-8)."""
+_READY: dict[int, tuple[Figure, list[Axes]]] = {}
+"""The empty figure made ahead for a number of logs (:func:`prepare_summary_figure`)."""
 
 
 def _value(row: BatchRow, metric: str) -> float | None:
@@ -43,20 +50,46 @@ def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None
     summary_figure(title, rows).savefig(path, dpi=100, format="png")
 
 
-def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
-    """The figure of ``summary.png``: one panel per key metric over the logs."""
-    panels = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
-    width = min(6.0 + 0.12 * len(rows), 16.0)
+def prepare_summary_figure(n_rows: int) -> None:
+    """Make the empty figure of ``summary.png`` for ``n_rows`` logs ahead, and draw once.
+
+    ``batch`` does it in a thread while its workers analyse the logs and the batch process
+    only waits (:func:`hybridlog.jobs.batch.run_batch`): the figure, its panels and their
+    ticks, and a first PNG drawn (a small figure with text: the font loaded, the PNG writer's
+    plugins imported) are then not on the command's path after the last log.  The figure
+    made ahead is the one :func:`summary_figure` would make for as many logs; the same
+    pixels are drawn on it.
+    """
+    fig, axes = _empty_figure(n_rows)
+    for ax in axes:
+        ax.xaxis.get_major_ticks(_TICKS_AHEAD)
+        ax.yaxis.get_major_ticks(_TICKS_AHEAD)
+    _READY.clear()
+    _READY[n_rows] = fig, axes
+    first = Figure(figsize=(1.0, 1.0))
+    FigureCanvasAgg(first)
+    first.suptitle("0123456789", fontsize=10)
+    first.savefig(io.BytesIO(), dpi=10, format="png")
+
+
+def _empty_figure(n_rows: int) -> tuple[Figure, list[Axes]]:
+    width = min(6.0 + 0.12 * n_rows, 16.0)
     height = 6.4
     fig = Figure(figsize=(width, height))
     FigureCanvasAgg(fig)
     # margins in inches (a layout engine costs more than the drawing): the y labels, the
     # two-line title, the rotated log names
-    below = 1.3 if len(rows) <= MAX_LABELS else 0.6
+    below = 1.3 if n_rows <= MAX_LABELS else 0.6
     fig.subplots_adjust(
         left=0.95 / width, right=1 - 0.2 / width, top=1 - 0.6 / height, bottom=below / height
     )
-    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    return fig, list(fig.subplots(len(_PANELS), 1, sharex=True, squeeze=False)[:, 0])
+
+
+def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
+    """The figure of ``summary.png``: one panel per key metric over the logs."""
+    ready = _READY.pop(len(rows), None)
+    fig, axes = ready if ready is not None else _empty_figure(len(rows))
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
     fig.suptitle(
@@ -64,7 +97,7 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
         fontsize=10,
     )
     positions = range(len(rows))
-    for ax, (metric, label) in zip(axes, panels, strict=True):
+    for ax, (metric, label) in zip(axes, _PANELS, strict=True):
         values = [_value(row, metric) for row in rows]
         groups = (
             (_OK, [row.passed for row in rows]),

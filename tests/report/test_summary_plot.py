@@ -56,3 +56,23 @@ def test_the_png_is_written(tmp_path):
     target = tmp_path / "summary.png"
     write_summary_plot(target, "model · imm", rows())
     assert target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_figure_made_ahead_draws_the_same_png_and_is_taken_once(tmp_path):
+    """``prepare_summary_figure`` (made while a batch's workers run): the same bytes as a
+    figure made on the spot, used only for as many logs as it was made for, taken once."""
+    from hybridlog.report import summary_plot
+
+    fresh, ahead, other = tmp_path / "fresh.png", tmp_path / "ahead.png", tmp_path / "o.png"
+    write_summary_plot(fresh, "model · imm", rows())
+    summary_plot.prepare_summary_figure(len(rows()) + 1)  # for another number of logs
+    write_summary_plot(other, "model · imm", rows())
+    assert summary_plot._READY  # not taken: made for four logs, not three
+    summary_plot.prepare_summary_figure(len(rows()))
+    made = summary_plot._READY[len(rows())][0]
+    assert list(summary_plot._READY) == [len(rows())]  # one kept, the latest
+    assert summary_figure("model · imm", rows()) is made and not summary_plot._READY
+    summary_plot.prepare_summary_figure(len(rows()))
+    write_summary_plot(ahead, "model · imm", rows())
+    assert not summary_plot._READY
+    assert ahead.read_bytes() == fresh.read_bytes() == other.read_bytes()
