@@ -148,6 +148,13 @@ class Estimator:
         return parse_options(self.options_type, values, estimator=self.name, sources=sources)
 
 
+_PER_SAMPLE_CLASSIFIER = Capabilities(
+    needs_linear_model=True,
+    no_smoothing="it classifies each sample from its own regressor (paper 001 eqs. (2)-(3)): "
+    "no mode chain and no likelihoods to smooth",
+)
+"""What paper 001's estimators (``chiu``, ``kmeans``) need and why they have no smoother."""
+
 ESTIMATORS: dict[str, Estimator] = {
     e.name: e
     for e in (
@@ -182,11 +189,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options="ChiuOptions",
             options_module="hybridlog.estimators.observer_options",
             run="run_chiu",
-            capabilities=Capabilities(
-                needs_linear_model=True,
-                no_smoothing="it classifies each sample from its own regressor (paper 001 "
-                "eqs. (2)-(3)): no mode chain and no likelihoods to smooth",
-            ),
+            capabilities=_PER_SAMPLE_CLASSIFIER,
         ),
         Estimator(
             name="kmeans",
@@ -196,11 +199,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options="KMeansOptions",
             options_module="hybridlog.estimators.observer_options",
             run="run_kmeans",
-            capabilities=Capabilities(
-                needs_linear_model=True,
-                no_smoothing="it classifies each sample from its own regressor (paper 001 "
-                "eqs. (2)-(3)): no mode chain and no likelihoods to smooth",
-            ),
+            capabilities=_PER_SAMPLE_CLASSIFIER,
         ),
         Estimator(
             name="switching-observer",

@@ -50,6 +50,7 @@ __all__ = [
     "Envelope",
     "ModeRuns",
     "envelope",
+    "make_ticks_ahead",
     "mode_bars",
     "mode_runs",
     "pixel_columns",
@@ -254,10 +255,20 @@ def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
             ready = _READY.setdefault(key, [])
             while len(ready) < count:  # as many as one run's plots take, however often asked
                 fig, axes = _make_figure(*key)
-                for ax in axes:  # made when drawn otherwise, each a copy of the first's props
-                    ax.xaxis.get_major_ticks(TICKS_AHEAD)
-                    ax.yaxis.get_major_ticks(TICKS_AHEAD)
+                make_ticks_ahead(axes)
                 ready.append((fig, axes))
+
+
+def make_ticks_ahead(axes: Sequence[Axes]) -> None:
+    """Make :data:`TICKS_AHEAD` major ticks on both axes of each of ``axes`` now.
+
+    matplotlib makes them when it first draws an axis (each a copy of the first tick's
+    properties) and reuses them after: made in a figure prepared ahead, they are not on the
+    drawing's path, and the same pixels are drawn.
+    """
+    for ax in axes:
+        ax.xaxis.get_major_ticks(TICKS_AHEAD)
+        ax.yaxis.get_major_ticks(TICKS_AHEAD)
 
 
 def _new_figure(n_panels: int, panel_height: float = 2.0) -> tuple[Figure, list[Axes]]:

@@ -18,6 +18,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from hybridlog.report.plots import make_ticks_ahead
 from hybridlog.report.summary import BatchRow
 
 __all__ = ["MAX_LABELS", "prepare_summary_figure", "summary_figure", "write_summary_plot"]
@@ -27,8 +28,6 @@ MAX_LABELS = 40
 
 _OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
 _PANELS = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
-_TICKS_AHEAD = 10
-"""Major ticks made ahead per axis of a prepared figure (the axes draw 6-8)."""
 _READY: dict[int, tuple[Figure, list[Axes]]] = {}
 """The empty figure made ahead for a number of logs (:func:`prepare_summary_figure`)."""
 
@@ -61,9 +60,7 @@ def prepare_summary_figure(n_rows: int) -> None:
     pixels are drawn on it.
     """
     fig, axes = _empty_figure(n_rows)
-    for ax in axes:
-        ax.xaxis.get_major_ticks(_TICKS_AHEAD)
-        ax.yaxis.get_major_ticks(_TICKS_AHEAD)
+    make_ticks_ahead(axes)
     _READY.clear()
     _READY[n_rows] = fig, axes
     first = Figure(figsize=(1.0, 1.0))
