@@ -731,6 +731,7 @@ def compare_command(
         "--schedule 3:60,1:60,2:60",
         "hybridlog batch runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
         "--jobs 2 --fail-under fit=60 --plots failed --junit nightly/junit.xml",
+        "hybridlog batch runs --model three_tank_hstf --estimator imm --out runs_all --jobs 2",
     ),
 )
 @_global_flags
@@ -790,11 +791,13 @@ def batch_command(
 ) -> None:
     """Analyse many logs; a failing log never stops the others.
 
-    A log is skipped when its report records the same log content, model, options and
-    hybridlog version (--force redoes all).  Exit status 1 when a log could not be analysed
-    or missed a gate, 2 for bad options, model or output folder.
+    LOGS are log files, ROS 2 bags or folders of logs: a folder without metadata.yaml is
+    searched, with its subfolders, for log files (by suffix) and bags, skipping names that
+    start with '.'.  A log is skipped when its report records the same log
+    content, model, options and hybridlog version (--force redoes all).  Exit status 1 when
+    a log could not be analysed or missed a gate, 2 for bad options, model or output folder.
     """
-    if jobs > 1 and len(logs) > 1 and scheduler is None:
+    if jobs > 1 and scheduler is None and (len(logs) > 1 or any(p.is_dir() for p in logs)):
         # run_batch's workers fork from this forkserver: started before the batch job's
         # imports, it warms up while this process imports polars and numpy
         from hybridlog.jobs.workers import start_forkserver

@@ -154,6 +154,51 @@ FORMATS: tuple[LogFormat, ...] = (
 )
 
 
+def indexed_log(folder: str | os.PathLike[str]) -> bool:
+    """Whether a folder is a log by a directory format's index file (``metadata.yaml``)."""
+    return any((Path(folder) / f.index_file).is_file() for f in FORMATS if f.index_file)
+
+
+def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
+    """The logs in a folder of logs and its subfolders, for ``hybridlog batch FOLDER``.
+
+    A log is a file with the suffix of a file format (any case), or a subfolder that
+    :func:`indexed_log` (one log, not searched further).  Other files (notes, images) and
+    names starting with ``.`` are skipped; a bag folder without its ``metadata.yaml`` is
+    searched like any other, its ``.db3`` or ``.mcap`` files each a log of its own.  Links to
+    files are followed, links to folders are not.  In the order of :func:`os.walk`, each
+    folder's entries sorted.
+
+    Raises
+    ------
+    LogError
+        When ``folder`` or one of its subfolders cannot be listed (never a silent gap).
+    """
+    suffixes = {s for f in FORMATS if not f.directory for s in f.suffixes}
+
+    def unreadable(err: OSError) -> None:
+        raise LogError(f"{err.filename}: cannot be listed ({err.strerror})") from err
+
+    found: list[Path] = []
+    for root, folders, files in os.walk(folder, onerror=unreadable):
+        here = Path(root)
+        searched = []
+        for name in sorted(folders):
+            if name.startswith("."):
+                continue
+            if indexed_log(here / name):
+                found.append(here / name)
+            else:
+                searched.append(name)
+        folders[:] = searched
+        found += [
+            here / name
+            for name in sorted(files)
+            if not name.startswith(".") and Path(name).suffix.lower() in suffixes
+        ]
+    return found
+
+
 def get_format(name: str) -> LogFormat:
     """The row of :data:`FORMATS` called ``name`` (a programming error if there is none)."""
     return next(f for f in FORMATS if f.name == name)

@@ -41,6 +41,7 @@ from hybridlog import __version__
 from hybridlog.errors import HybridlogError, OptionError, OutputError, ReportError, excerpt
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
+from hybridlog.io.formats import format_list, indexed_log, logs_in
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
@@ -76,6 +77,7 @@ __all__ = [
     "BatchOutcome",
     "LogOutcome",
     "analyze_log",
+    "batch_logs",
     "folder_names",
     "natural_key",
     "run_batch",
@@ -416,6 +418,38 @@ def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
     return lambda reason: LogOutcome(log, folder, "failed", None, f"worker process died ({reason})")
 
 
+def batch_logs(logs: Sequence[PathLike]) -> tuple[list[str], list[str]]:
+    """The logs ``hybridlog batch LOGS...`` names, in natural order, and the folders searched.
+
+    A log file or a ROS 2 bag (a folder with ``metadata.yaml``) is itself; any other folder
+    is a folder of logs, replaced by the logs in it and its subfolders
+    (:func:`hybridlog.io.formats.logs_in`).  Anything else (a missing path, a file of no
+    known format) stays, to fail as that log.
+
+    Raises
+    ------
+    OptionError
+        For a folder that holds no log.
+    LogError
+        For a folder that cannot be listed.
+    """
+    found: list[str] = []
+    folders: list[str] = []
+    for log in logs:
+        if os.path.isdir(log) and not indexed_log(log):
+            inside = logs_in(log)
+            if not inside:
+                raise OptionError(
+                    f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
+                    f"({format_list()}; names starting with '.' are skipped)"
+                )
+            folders.append(os.fspath(log))
+            found += map(str, inside)
+        else:
+            found.append(os.fspath(log))
+    return sorted(found, key=natural_key), folders
+
+
 def run_batch(
     logs: Sequence[PathLike],
     model_ref: str | Path,
@@ -452,7 +486,7 @@ def run_batch(
         raise OptionError("--jobs: must be at least 1")
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
-    paths = sorted((str(log) for log in logs), key=natural_key)
+    paths, searched = batch_logs(logs)
     pool = client = None
     if scheduler is not None:
         from hybridlog.jobs.dask_backend import connect, run_on_dask
@@ -472,6 +506,7 @@ def run_batch(
     with resource:
         job, model, gates, tasks = _plan(
             paths,
+            searched,
             model_ref,
             out_dir=out_dir,
             estimator=estimator,
@@ -522,6 +557,7 @@ def _prepare_summary_plot(n_rows: int) -> None:
 
 def _plan(
     paths: Sequence[str],
+    searched: Sequence[str],
     model_ref: str | Path,
     *,
     out_dir: PathLike,
@@ -553,7 +589,8 @@ def _plan(
         outputs.append(("--junit", junit))
         check_distinct(outputs[1:])
         check_junit_target(junit, force=force)
-    check_apart(outputs, input_paths(paths, model_ref, [prepared], read))
+    inputs = input_paths(paths, model_ref, [prepared], read)
+    check_apart(outputs, [*(("folder of logs", f) for f in searched), *inputs])
     job = BatchJob(
         model_ref=str(model_ref),
         model_sha256=model_hash(model_ref),

@@ -24,10 +24,11 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import main
-from hybridlog.errors import OptionError
+from hybridlog.errors import OptionError, OutputError
+from hybridlog.io.formats import logs_in
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import LogOutcome, folder_names, natural_key, run_batch
+from hybridlog.jobs.batch import LogOutcome, batch_logs, folder_names, natural_key, run_batch
 from hybridlog.outputs import MARKER, write_marker
 from tests.support.logfiles import tank_run
 from tests.support.processes import descendants, is_worker, kill_and_expect_the_family_gone
@@ -77,6 +78,56 @@ def test_natural_order_and_folder_names() -> None:
         folder_names([Path("a/x.csv"), Path("a/../a/x.csv")])
     with pytest.raises(OptionError, match="lies inside the log"):
         folder_names([Path("a/bag"), Path("a/bag/x.csv")])
+
+
+def test_a_folder_of_logs_is_searched_for_its_logs(tmp_path: Path) -> None:
+    """``batch FOLDER``: the logs in it and its subfolders (it was read as one ROS 2 bag and
+    failed as "a directory without metadata.yaml"); a bag with its metadata.yaml stays one log."""
+    runs = tmp_path / "runs"
+    for name in ("s10.csv", "s2.CSV", "deep/s1.parquet", "x.mcap", "raw/a.db3"):
+        (runs / name).parent.mkdir(parents=True, exist_ok=True)
+        (runs / name).write_bytes(b"")
+    for name in ("notes.txt", ".hidden.csv", ".git/old.csv", "plot.png"):
+        (runs / name).parent.mkdir(parents=True, exist_ok=True)
+        (runs / name).write_bytes(b"")
+    bag = runs / "bag"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    (bag / "bag_0.db3").write_bytes(b"")
+    (runs / "loop").symlink_to(runs, target_is_directory=True)  # not followed
+    found = [p.relative_to(runs).as_posix() for p in logs_in(runs)]
+    assert sorted(found) == ["bag", "deep/s1.parquet", "raw/a.db3", "s10.csv", "s2.CSV", "x.mcap"]
+    other = tmp_path / "other.csv"
+    logs, folders = batch_logs([runs, other, bag])
+    assert folders == [str(runs)]
+    assert logs == sorted([*(str(runs / f) for f in found), str(other), str(bag)], key=natural_key)
+    with pytest.raises(OptionError, match="given twice"):
+        folder_names(logs)  # the bag, given as itself and found in its folder
+    assert batch_logs([bag]) == ([str(bag)], [])
+    (tmp_path / "empty" / ".cache").mkdir(parents=True)
+    (tmp_path / "empty" / "readme.txt").write_text("")
+    with pytest.raises(OptionError, match=r"folder .*empty.* holds no log"):
+        batch_logs([tmp_path / "empty"])
+
+
+def test_batch_of_a_folder_names_folders_from_it_and_keeps_out_of_it(tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    write_logs(runs, ["b10", "b9"])
+    write_logs(runs / "sub", ["b9"])
+    out = tmp_path / "out"
+    outcome = run_batch([runs], "three_tank_hstf", out_dir=out, estimator="imm")
+    assert [o.status for o in outcome.logs] == ["done"] * 3
+    assert [Path(o.folder).relative_to(out).as_posix() for o in outcome.logs] == [
+        "b9.csv",
+        "b10.csv",
+        "sub/b9.csv",
+    ]
+    again = run_batch([runs], "three_tank_hstf", out_dir=out, estimator="imm")
+    assert [o.status for o in again.logs] == ["skipped"] * 3
+    # an output inside the folder would be searched as logs by the next run
+    with pytest.raises(OutputError, match="inside the folder of logs"):
+        run_batch([runs], "three_tank_hstf", out_dir=runs / "out", estimator="imm")
+    assert not (runs / "out").exists()
 
 
 def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
