@@ -33,8 +33,8 @@ def connect(address: str) -> Any:
     Raises
     ------
     OptionError
-        When Dask is not installed or the scheduler cannot be reached within
-        :data:`CONNECT_TIMEOUT_S`.
+        When Dask is not installed, ``address`` is not an address (no port, an unknown
+        scheme), or the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`.
     """
     try:
         from distributed import Client
@@ -45,10 +45,16 @@ def connect(address: str) -> Any:
     try:
         return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT_S)
     except Exception as err:  # refused, timed out, a bad address, or not a Dask scheduler
-        reason = " ".join(str(err).split()) or type(err).__name__
+        reason = excerpt(" ".join(str(err).split()) or type(err).__name__, 120)[1:-1]
+        shown = excerpt(address)[1:-1]
+        if isinstance(err, ValueError):  # distributed's parsing: no port, an unknown scheme
+            raise OptionError(
+                f"--scheduler {shown}: not a scheduler address ({reason}); "
+                "expected e.g. tcp://host:8786"
+            ) from err
         raise OptionError(
-            f"--scheduler {excerpt(address)[1:-1]}: cannot reach the Dask scheduler within "
-            f"{CONNECT_TIMEOUT_S:g} s ({excerpt(reason, 120)[1:-1]})"
+            f"--scheduler {shown}: cannot reach the Dask scheduler within "
+            f"{CONNECT_TIMEOUT_S:g} s ({reason})"
         ) from err
 
 

@@ -74,6 +74,11 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
     assert "\n" not in str(err.value)
     assert not (tmp_path / "out").exists()  # refused before anything was written
+    # an address that is none is not a connection that timed out (it said "cannot reach")
+    for address, why in (("host:xx", "invalid literal"), ("foo://h:1", "unknown address")):
+        with pytest.raises(OptionError, match=f"not a scheduler address \\({why}.*tcp://host"):
+            run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=address)
+    assert not (tmp_path / "out").exists()
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
     with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
