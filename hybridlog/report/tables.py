@@ -273,7 +273,8 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
 
     A :class:`Table` is streamed in batches of :data:`BATCH_ROWS` rows (polars' streaming
     sink); the file holds the same data as that of its whole :meth:`~Table.frame`, in
-    Parquet row groups of one batch each.
+    Parquet row groups of one batch each.  A table of one batch is written whole: the
+    sink's start-up took about 2 ms a table, 15-25 % of a 300-row log's time in ``batch``.
 
     Parameters
     ----------
@@ -291,6 +292,8 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
 
     """
     path = stem.with_name(f"{stem.name}.{table_format}")
+    if isinstance(frame, Table) and frame.height <= BATCH_ROWS:
+        frame = frame.frame()  # one batch: the eager writer, without the sink's start-up
     if isinstance(frame, Table):
         lazy = frame.lazy()
         if table_format == "csv":

