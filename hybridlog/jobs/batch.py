@@ -481,6 +481,11 @@ def run_batch(
     are ``--smooth`` and ``--mode-sequence``
     (:func:`hybridlog.jobs.analysis.smoothing_overrides`); as estimator options they are part
     of the settings a resumed batch compares, so changing them redoes every log.
+
+    With ``jobs > 1`` the workers are :mod:`multiprocessing` processes, which import the
+    calling script's main module: as for any multiprocessing code, a script that calls this
+    must run its own work under ``if __name__ == "__main__":`` (without it, each worker runs
+    the script again and every log fails with multiprocessing's "bootstrapping phase" error).
     """
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")

@@ -27,7 +27,8 @@ polars starts four threads with no such handler (jemalloc's two background threa
 ``tests/jobs/test_workers.py`` checks from a worker that the forkserver has one thread and
 no polars.  A worker starts in the caller's current folder (multiprocessing sends it) and
 with the caller's current environment (sent here: the forkserver keeps the one it started
-with).
+with), polars' thread pool sized to the worker's share of the cores
+(:func:`worker_environment`).
 
 **Parent watch.**  A forked worker's parent is the forkserver, and the forkserver does not
 exit when the pool's process dies while workers live: each worker inherits the write end of
@@ -61,7 +62,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.context import ForkServerContext, ForkServerProcess
 from typing import Any, TypeVar
 
-__all__ = ["WARMUP", "WorkerPool", "start_forkserver"]
+__all__ = ["POLARS_THREADS", "WARMUP", "WorkerPool", "start_forkserver", "worker_environment"]
 
 R = TypeVar("R")
 
@@ -143,11 +144,31 @@ class _Worker:
     """Tasks sent and not answered yet, in order: the first is the one running."""
 
 
-def _start(context: ForkServerContext, lifeline: Connection) -> _Worker:
+POLARS_THREADS = "POLARS_MAX_THREADS"
+"""Read by polars when it is imported: the size of its thread pool."""
+
+
+def worker_environment(jobs: int) -> dict[str, str]:
+    """The caller's current environment for a worker of a pool of ``jobs``.
+
+    Each worker imports polars itself, whose thread pool would otherwise have a thread per
+    core in every worker: with ``jobs`` workers busy, the threads that reading and writing
+    their tables start outnumber the cores.  A worker's pool gets its share of the cores this
+    process may run on instead (at least one), unless the caller set :data:`POLARS_THREADS`.
+    Measured on two cores, 200 logs of 300 samples, ``--jobs 2``, eight interleaved runs
+    each: best 2.98 → 2.78 s, median 3.29 → 3.24 s.
+    """
+    environment = dict(os.environ)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    environment.setdefault(POLARS_THREADS, str(max(1, (cores or 1) // jobs)))
+    return environment
+
+
+def _start(context: ForkServerContext, lifeline: Connection, jobs: int) -> _Worker:
     ours, theirs = context.Pipe()
     process = context.Process(
         target=_serve,
-        args=(theirs, lifeline, dict(os.environ)),
+        args=(theirs, lifeline, worker_environment(jobs)),
         name="hybridlog-worker",
         daemon=True,
     )
@@ -251,7 +272,7 @@ class WorkerPool:
 
         while pending or any(w.tasks for w in workers):
             while pending and len(workers) < self.jobs:
-                workers.append(_start(self._context, self._lifeline))
+                workers.append(_start(self._context, self._lifeline, self.jobs))
             for worker in workers:
                 # QUEUED tasks per worker, so that it never waits for this process between two
                 while pending and len(worker.tasks) < QUEUED:

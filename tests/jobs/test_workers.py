@@ -20,7 +20,7 @@ from typing import Any
 
 import pytest
 
-from hybridlog.jobs.workers import WARMUP, WorkerPool
+from hybridlog.jobs.workers import POLARS_THREADS, WARMUP, WorkerPool
 from tests.support.processes import descendants, kill_and_expect_the_family_gone
 
 
@@ -90,6 +90,26 @@ def test_workers_see_the_callers_current_environment_and_folder(
     assert after["forkserver"] == before["forkserver"]
     assert (before["variable"], after["variable"]) == (None, "changed")
     assert after["cwd"] == str(tmp_path)
+
+
+def _polars_threads(_: int) -> tuple[str | None, int]:
+    import polars as pl
+
+    return os.environ.get(POLARS_THREADS), pl.thread_pool_size()
+
+
+def test_each_workers_polars_gets_its_share_of_the_cores(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two workers on N cores: N // 2 polars threads each, not N each; the caller's wins."""
+    monkeypatch.delenv(POLARS_THREADS, raising=False)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    share = max(1, (cores or 1) // 2)
+    with WorkerPool(2) as pool:
+        results = pool.run(_polars_threads, [(k,) for k in range(4)], died=_died)
+    assert set(results) == {(str(share), share)}
+    monkeypatch.setenv(POLARS_THREADS, "3")
+    with WorkerPool(2) as pool:
+        (result,) = pool.run(_polars_threads, [(0,)], died=_died)
+    assert result == ("3", 3)
 
 
 KILLED_CALLER = """
