@@ -12,8 +12,13 @@ child process, one after the other:
    parquet`` (fills the model and numba caches of a first run; not timed);
 2. ``--repeat`` runs of the same command as a user runs it (``python -m hybridlog``): the
    time is the best wall time of the whole process (interpreter start to exit, measured
-   around it), the memory the largest peak resident set (``ru_maxrss`` of the child from
-   ``wait4``, the kernel's ``VmHWM``) of those runs;
+   around it), the memory the largest peak resident set of those runs (``ru_maxrss`` from
+   ``wait4``: the process's ``VmHWM``, the largest of it and of its forked plot child).  Each
+   command is started by a small launcher process (:data:`LAUNCHER`), which times it and
+   reports its ``ru_maxrss``: Linux carries into that number what the forking process had
+   resident when it forked, so started straight from ``benchmarks.run`` (775 MiB by then)
+   the command "peaked" at 516-547 MiB where it peaks at 453-460 MiB, and a ``python -c pass``
+   started by a process holding 700 MiB reports 726 MiB;
 3. one run of the same command under :mod:`benchmarks.analyze_stages`, which wraps each
    stage of the job with a timer: the breakdown (start-up = interpreter start before the
    first line; shutdown = after the command ended (its atexit handlers) until the process is
@@ -33,7 +38,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -52,22 +56,40 @@ Result = tuple[str, int | None, float | None, str, bool | None, str]
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _run(argv: Sequence[str], cwd: Path) -> tuple[float, float, float]:
-    """Run a child to completion: (start, end) on ``time.time()`` and its peak RSS in MiB."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+LAUNCHER = r"""
+import json, os, subprocess, sys, tempfile, time
+with tempfile.TemporaryFile() as errors:
     start = time.time()
-    child = subprocess.Popen(
-        argv, cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-    )
+    child = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=errors)
     _, status, usage = os.wait4(child.pid, 0)
     end = time.time()
-    child.returncode = os.waitstatus_to_exitcode(status)
-    if child.returncode != 0:
-        stderr = child.stderr.read().decode() if child.stderr else ""
-        raise RuntimeError(f"{' '.join(argv)} failed ({child.returncode}):\n{stderr}")
-    if child.stderr:
-        child.stderr.close()
-    return start, end, usage.ru_maxrss / 1024
+    errors.seek(0)
+    stderr = errors.read().decode(errors="replace")
+code = os.waitstatus_to_exitcode(status)
+print(json.dumps({"start": start, "end": end, "peak": usage.ru_maxrss, "code": code,
+                  "stderr": stderr}))
+"""
+"""Runs ``argv`` to completion; prints its (start, end) on ``time.time()``, its ``ru_maxrss``
+in KiB, its exit code and its standard error, as JSON.  A small process (about 10 MiB), so
+that its child's ``ru_maxrss`` counts next to nothing of the launcher's memory."""
+
+
+def _run(argv: Sequence[str], cwd: Path) -> tuple[float, float, float]:
+    """Run a child to completion (through :data:`LAUNCHER`): (start, end) on ``time.time()``
+    and its peak RSS in MiB."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    launched = subprocess.run(
+        [sys.executable, "-c", LAUNCHER, *argv],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        check=True,
+        text=True,
+    )
+    run = json.loads(launched.stdout)
+    if run["code"] != 0:
+        raise RuntimeError(f"{' '.join(argv)} failed ({run['code']}):\n{run['stderr']}")
+    return run["start"], run["end"], run["peak"] / 1024
 
 
 def _analyze_args(log: Path, out: Path) -> list[str]:
