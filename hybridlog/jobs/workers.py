@@ -155,8 +155,9 @@ def worker_environment(jobs: int) -> dict[str, str]:
     core in every worker: with ``jobs`` workers busy, the threads that reading and writing
     their tables start outnumber the cores.  A worker's pool gets its share of the cores this
     process may run on instead (at least one), unless the caller set :data:`POLARS_THREADS`.
-    Measured on two cores, 200 logs of 300 samples, ``--jobs 2``, eight interleaved runs
-    each: best 2.98 → 2.78 s, median 3.29 → 3.24 s.
+    On two cores, 200 logs of 300 samples, ``--jobs 2``, eight interleaved runs each: best
+    2.98 → 2.78 s, median 3.29 → 3.24 s, within the noise of this machine (an earlier round
+    of six found no effect); small logs keep polars' threads mostly idle, larger ones do not.
     """
     environment = dict(os.environ)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
