@@ -793,9 +793,9 @@ def batch_command(
 
     LOGS are log files, ROS 2 bags or folders of logs: a folder without metadata.yaml is
     searched, with its subfolders, for log files (by suffix) and bags, skipping names that
-    start with '.'.  A log is skipped when its report records the same log
-    content, model, options and hybridlog version (--force redoes all).  Exit status 1 when
-    a log could not be analysed or missed a gate, 2 for bad options, model or output folder.
+    start with '.'.  A log is skipped when its report records the same log content, model,
+    options and hybridlog version (--force redoes all).  Exit status 1 when a log could not
+    be analysed or missed a gate, 2 for bad options, model or output folder.
     """
     if jobs > 1 and scheduler is None and (len(logs) > 1 or any(p.is_dir() for p in logs)):
         # run_batch's workers fork from this forkserver: started before the batch job's
