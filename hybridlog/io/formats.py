@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, cast
 
 from hybridlog.errors import LogError
 from hybridlog.io.options import ReadOptions
+from hybridlog.outputs import MARKER
 
 if TYPE_CHECKING:
     from hybridlog.io.source import LogSource
@@ -163,8 +164,10 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
     """The logs in a folder of logs and its subfolders, for ``hybridlog batch FOLDER``.
 
     A log is a file with the suffix of a file format (any case), or a subfolder that
-    :func:`indexed_log` (one log, not searched further).  Other files (notes, images) and
-    names starting with ``.`` are skipped; a bag folder without its ``metadata.yaml`` is
+    :func:`indexed_log` (one log, not searched further).  Other files (notes, images), names
+    starting with ``.`` and folders hybridlog wrote (with its marker file
+    :data:`hybridlog.outputs.MARKER`: their tables are not logs) are skipped, ``folder``
+    itself too if it is one; a bag folder without its ``metadata.yaml`` is
     searched like any other, its ``.db3`` or ``.mcap`` files each a log of its own.  Links to
     files are followed, links to folders are not.  In the order of :func:`os.walk`, each
     folder's entries sorted.
@@ -180,11 +183,13 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
         raise LogError(f"{err.filename}: cannot be listed ({err.strerror})") from err
 
     found: list[Path] = []
+    if (Path(folder) / MARKER).exists():
+        return found
     for root, folders, files in os.walk(folder, onerror=unreadable):
         here = Path(root)
         searched = []
         for name in sorted(folders):
-            if name.startswith("."):
+            if name.startswith(".") or (here / name / MARKER).exists():
                 continue
             if indexed_log(here / name):
                 found.append(here / name)

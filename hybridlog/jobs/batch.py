@@ -441,7 +441,8 @@ def batch_logs(logs: Sequence[PathLike]) -> tuple[list[str], list[str]]:
             if not inside:
                 raise OptionError(
                     f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
-                    f"({format_list()}; names starting with '.' are skipped)"
+                    f"({format_list()}; names starting with '.' and hybridlog's output "
+                    "folders are skipped)"
                 )
             folders.append(os.fspath(log))
             found += map(str, inside)

@@ -95,6 +95,10 @@ def test_a_folder_of_logs_is_searched_for_its_logs(tmp_path: Path) -> None:
     (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
     (bag / "bag_0.db3").write_bytes(b"")
     (runs / "loop").symlink_to(runs, target_is_directory=True)  # not followed
+    (runs / "report").mkdir()
+    write_marker(runs / "report")  # an earlier batch's output: its tables are not logs
+    (runs / "report" / "s1.csv").mkdir()
+    (runs / "report" / "s1.csv" / "timeline.csv").write_text("t\n")
     found = [p.relative_to(runs).as_posix() for p in logs_in(runs)]
     assert sorted(found) == ["bag", "deep/s1.parquet", "raw/a.db3", "s10.csv", "s2.CSV", "x.mcap"]
     other = tmp_path / "other.csv"
@@ -108,6 +112,8 @@ def test_a_folder_of_logs_is_searched_for_its_logs(tmp_path: Path) -> None:
     (tmp_path / "empty" / "readme.txt").write_text("")
     with pytest.raises(OptionError, match=r"folder .*empty.* holds no log"):
         batch_logs([tmp_path / "empty"])
+    with pytest.raises(OptionError, match=r"folder .*report.* holds no log"):
+        batch_logs([runs / "report"])
 
 
 def test_batch_of_a_folder_names_folders_from_it_and_keeps_out_of_it(tmp_path: Path) -> None:
