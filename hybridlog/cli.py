@@ -797,7 +797,10 @@ def batch_command(
     options and hybridlog version (--force redoes all).  Exit status 1 when a log could not
     be analysed or missed a gate, 2 for bad options, model or output folder.
     """
-    if jobs > 1 and scheduler is None and (len(logs) > 1 or any(p.is_dir() for p in logs)):
+    from hybridlog.jobs.batch_logs import batch_logs
+
+    total = len(batch_logs(logs)[0])  # folders of logs counted (run_batch finds them again)
+    if jobs > 1 and scheduler is None and total > 1:
         # run_batch's workers fork from this forkserver: started before the batch job's
         # imports, it warms up while this process imports polars and numpy
         from hybridlog.jobs.workers import start_forkserver
@@ -806,7 +809,7 @@ def batch_command(
     from hybridlog.jobs.batch import run_batch
 
     read, common = _split_options(options)
-    with _batch_progress(ctx, len(logs)) as advance:
+    with _batch_progress(ctx, total) as advance:
         outcome = run_batch(
             list(logs),
             model_ref,
@@ -824,7 +827,7 @@ def batch_command(
     _say(ctx, f"summary: {out_dir / 'summary.md'}")
     if outcome.failed:
         click.echo(
-            f"hybridlog: {outcome.failed} of {len(logs)} logs failed "
+            f"hybridlog: {outcome.failed} of {len(outcome.logs)} logs failed "
             f"(see {out_dir / 'summary.md'})",
             err=True,
         )

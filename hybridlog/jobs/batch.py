@@ -30,7 +30,6 @@ import contextlib
 import dataclasses
 import json
 import os
-import re
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -41,7 +40,6 @@ from hybridlog import __version__
 from hybridlog.errors import HybridlogError, OptionError, OutputError, ReportError, excerpt
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
-from hybridlog.io.formats import format_list, indexed_log, logs_in
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
@@ -52,6 +50,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
+from hybridlog.jobs.batch_logs import batch_logs, natural_key
 from hybridlog.jobs.provenance import content_hash, model_hash
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -115,13 +114,6 @@ class BatchOutcome:
     def failed(self) -> int:
         """Number of logs that could not be analysed."""
         return sum(1 for log in self.logs if log.status == "failed")
-
-
-def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
-    """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``."""
-    return tuple(
-        (0, int(part)) if part.isdigit() else (1, part) for part in re.split(r"(\d+)", text) if part
-    )
 
 
 _RESERVED = frozenset({"summary.md", "summary.csv", "summary.png", MARKER})
@@ -416,39 +408,6 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
 
 def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
     return lambda reason: LogOutcome(log, folder, "failed", None, f"worker process died ({reason})")
-
-
-def batch_logs(logs: Sequence[PathLike]) -> tuple[list[str], list[str]]:
-    """The logs ``hybridlog batch LOGS...`` names, in natural order, and the folders searched.
-
-    A log file or a ROS 2 bag (a folder with ``metadata.yaml``) is itself; any other folder
-    is a folder of logs, replaced by the logs in it and its subfolders
-    (:func:`hybridlog.io.formats.logs_in`).  Anything else (a missing path, a file of no
-    known format) stays, to fail as that log.
-
-    Raises
-    ------
-    OptionError
-        For a folder that holds no log.
-    LogError
-        For a folder that cannot be listed.
-    """
-    found: list[str] = []
-    folders: list[str] = []
-    for log in logs:
-        if os.path.isdir(log) and not indexed_log(log):
-            inside = logs_in(log)
-            if not inside:
-                raise OptionError(
-                    f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
-                    f"({format_list()}; names starting with '.' and hybridlog's output "
-                    "folders are skipped)"
-                )
-            folders.append(os.fspath(log))
-            found += map(str, inside)
-        else:
-            found.append(os.fspath(log))
-    return sorted(found, key=natural_key), folders
 
 
 def run_batch(

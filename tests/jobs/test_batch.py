@@ -134,6 +134,10 @@ def test_batch_of_a_folder_names_folders_from_it_and_keeps_out_of_it(tmp_path: P
     with pytest.raises(OutputError, match="inside the folder of logs"):
         run_batch([runs], "three_tank_hstf", out_dir=runs / "out", estimator="imm")
     assert not (runs / "out").exists()
+    # the command counts the logs found, not its arguments (it said "1 of 1 logs failed")
+    (runs / "broken.csv").write_text("t,u,y1\n0,1,2\n")
+    args = ["batch", str(runs), "--model", "three_tank_hstf", "--out", str(tmp_path / "o2")]
+    assert "hybridlog: 1 of 4 logs failed" in run(args, expect=1).stderr
 
 
 def test_batch_keeps_going_skips_finished_and_reports(tmp_path):

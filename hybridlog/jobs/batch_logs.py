@@ -1,0 +1,59 @@
+"""Which logs ``hybridlog batch LOGS...`` names, in which order: folders of logs searched.
+
+Kept apart from :mod:`hybridlog.jobs.batch` so that the command line can count the logs (for
+its progress bar and to start the workers' forkserver) before it imports the batch job, which
+imports polars and numpy; this module uses the standard library and the table of log formats
+only.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Sequence
+
+from hybridlog.errors import OptionError, excerpt
+from hybridlog.io.formats import format_list, indexed_log, logs_in
+from hybridlog.outputs import PathLike
+
+__all__ = ["batch_logs", "natural_key"]
+
+
+def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
+    """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``."""
+    return tuple(
+        (0, int(part)) if part.isdigit() else (1, part) for part in re.split(r"(\d+)", text) if part
+    )
+
+
+def batch_logs(logs: Sequence[PathLike]) -> tuple[list[str], list[str]]:
+    """The logs ``hybridlog batch LOGS...`` names, in natural order, and the folders searched.
+
+    A log file or a ROS 2 bag (a folder with ``metadata.yaml``) is itself; any other folder
+    is a folder of logs, replaced by the logs in it and its subfolders
+    (:func:`hybridlog.io.formats.logs_in`).  Anything else (a missing path, a file of no
+    known format) stays, to fail as that log.
+
+    Raises
+    ------
+    OptionError
+        For a folder that holds no log.
+    LogError
+        For a folder that cannot be listed.
+    """
+    found: list[str] = []
+    folders: list[str] = []
+    for log in logs:
+        if os.path.isdir(log) and not indexed_log(log):
+            inside = logs_in(log)
+            if not inside:
+                raise OptionError(
+                    f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
+                    f"({format_list()}; names starting with '.' and hybridlog's output "
+                    "folders are skipped)"
+                )
+            folders.append(os.fspath(log))
+            found += map(str, inside)
+        else:
+            found.append(os.fspath(log))
+    return sorted(found, key=natural_key), folders
