@@ -42,6 +42,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from benchmarks import child_environment
+
 WALL_TARGET_S = 2.0
 """``analyze`` of 10^6 rows with parquet tables, whole process, must take at most this."""
 RSS_TARGET_MIB = 400.0
@@ -77,7 +79,7 @@ that its child's ``ru_maxrss`` counts next to nothing of the launcher's memory."
 def _run(argv: Sequence[str], cwd: Path) -> tuple[float, float, float]:
     """Run a child to completion (through :data:`LAUNCHER`): (start, end) on ``time.time()``
     and its peak RSS in MiB."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env = child_environment(PYTHONPATH=str(ROOT))
     launched = subprocess.run(
         [sys.executable, "-c", LAUNCHER, *argv],
         cwd=cwd,

@@ -35,6 +35,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from benchmarks import child_environment
+
 LOGS_PER_MIN_TARGET = 1000.0
 SPEEDUP_TARGET = 1.7
 SAMPLES = 300
@@ -62,7 +64,7 @@ def run_batch_command(logs: list[Path], out: Path, jobs: int) -> float:
     command += ["--model", "three_tank_hstf", "--estimator", "imm", "--out", str(out)]
     command += ["--force", "-q", "--jobs", str(jobs)]
     start = time.perf_counter()
-    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, env=child_environment())
     return time.perf_counter() - start
 
 

@@ -30,6 +30,8 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from benchmarks import child_environment
+
 APPROX_N = 10**6
 APPROX_TARGET_S = 2.0
 APPROX_MEMORY_MB = 500.0
@@ -96,7 +98,7 @@ class Case:
 
 
 def run_case(case: Case) -> Case:
-    env = dict(os.environ, NUMBA_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env = child_environment(NUMBA_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     if case.kind == "port":
         env["PYTHONPATH"] = os.pathsep.join(
             p for p in (os.environ.get("HYBRIDLOG_FLT_PATH", ""), env.get("PYTHONPATH", "")) if p

@@ -44,6 +44,8 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks import child_environment
+
 MCAP_RATIO_TARGET = 0.8
 """hybridlog must read + align at least this fraction of rosbags' messages/s."""
 CSV_ROWS_TARGET = 5_000_000
@@ -158,6 +160,7 @@ def measure(kind: str, path: Path, field: str, repeat: int) -> dict[str, Any]:
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", code, kind, str(path), field, str(repeat)],
+        env=child_environment(),
         capture_output=True,
         text=True,
         check=True,

@@ -32,6 +32,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from benchmarks import child_environment
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.model.hybrid_model import HybridModel
@@ -219,7 +220,7 @@ def bench_three_tank(sizes: Sizes, repeat: int) -> list[Row]:
 
 def run_child(env_overrides: dict[str, str]) -> tuple[dict[str, float], float]:
     """Run :data:`CHILD` in a fresh interpreter; its JSON and the wall time of the process."""
-    env = dict(os.environ, **env_overrides)
+    env = child_environment(**env_overrides)
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", CHILD], env=env, capture_output=True, text=True, check=False
