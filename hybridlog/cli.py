@@ -744,7 +744,7 @@ def compare_command(
     required=True,
     type=click.Path(path_type=Path),
     help="Output directory: one report folder per log (its path from the logs' common "
-    "folder, e.g. d2/run.csv/) and summary.md/.csv/.png.",
+    "folder, or from the folder of logs given, e.g. d2/run.csv/) and summary.md/.csv/.png.",
 )
 @click.option(
     "--jobs",

@@ -132,12 +132,14 @@ def _escaped(part: str, top: bool) -> str:
     return part
 
 
-def folder_names(logs: Sequence[PathLike]) -> list[str]:
+def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) -> list[str]:
     """Each log's report folder, relative to the batch folder: its path from the logs' root.
 
-    The root is the deepest folder holding every log, so ``d2/run.csv`` and
-    ``d2/run.parquet`` get ``d2/run.csv`` and ``d2/run.parquet`` (the suffix is kept), whatever
-    the order of the arguments.  Hidden names and names of the batch's own files are escaped
+    The root is the deepest folder holding every log and every folder of logs ``searched``
+    (:func:`~hybridlog.jobs.batch_logs.batch_logs`), so ``d2/run.csv`` and ``d2/run.parquet``
+    get ``run.csv`` and ``run.parquet`` (the suffix is kept), whatever the order of the
+    arguments, and the logs found in ``runs/`` are named from ``runs/``, whichever of its
+    subfolders hold them today.  Hidden names and names of the batch's own files are escaped
     (:func:`_escaped`).
 
     Raises
@@ -148,7 +150,8 @@ def folder_names(logs: Sequence[PathLike]) -> list[str]:
     absolute = [os.path.abspath(log) for log in logs]
     if not absolute:
         return []
-    root = os.path.commonpath([os.path.dirname(path) for path in absolute])
+    folders = [os.path.dirname(path) for path in absolute]
+    root = os.path.commonpath([*folders, *(os.path.abspath(f) for f in searched)])
     names: list[str] = []
     seen: dict[str, PathLike] = {}
     for log, path in zip(logs, absolute, strict=True):
@@ -547,7 +550,7 @@ def _plan(
     gates = gates_for(model, fail_under, fail_over)
     check_table_format(table_format)
     root = Path(os.path.abspath(out_dir))
-    names = folder_names(paths)
+    names = folder_names(paths, searched)
     summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
     if junit is not None:

@@ -130,6 +130,11 @@ def test_batch_of_a_folder_names_folders_from_it_and_keeps_out_of_it(tmp_path: P
     ]
     again = run_batch([runs], "three_tank_hstf", out_dir=out, estimator="imm")
     assert [o.status for o in again.logs] == ["skipped"] * 3
+    # named from the folder given, not from the deepest folder holding today's logs
+    assert folder_names(*batch_logs([runs / "sub"])) == ["b9.csv"]
+    (runs / "b9.csv").rename(runs / "sub" / "b8.csv")
+    (runs / "b10.csv").rename(runs / "sub" / "b10.csv")
+    assert folder_names(*batch_logs([runs])) == ["sub/b8.csv", "sub/b9.csv", "sub/b10.csv"]
     # an output inside the folder would be searched as logs by the next run
     with pytest.raises(OutputError, match="inside the folder of logs"):
         run_batch([runs], "three_tank_hstf", out_dir=runs / "out", estimator="imm")
