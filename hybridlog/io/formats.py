@@ -155,6 +155,11 @@ FORMATS: tuple[LogFormat, ...] = (
 )
 
 
+def _file_suffixes() -> set[str]:
+    """The suffixes of the file formats (``.csv``, ``.parquet``, ...)."""
+    return {s for f in FORMATS if not f.directory for s in f.suffixes}
+
+
 def indexed_log(folder: str | os.PathLike[str]) -> bool:
     """Whether a folder is a log by a directory format's index file (``metadata.yaml``)."""
     return any((Path(folder) / f.index_file).is_file() for f in FORMATS if f.index_file)
@@ -177,7 +182,7 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
     LogError
         When ``folder`` or one of its subfolders cannot be listed (never a silent gap).
     """
-    suffixes = {s for f in FORMATS if not f.directory for s in f.suffixes}
+    suffixes = _file_suffixes()
 
     def unreadable(err: OSError) -> None:
         raise LogError(f"{err.filename}: cannot be listed ({err.strerror})") from err
@@ -266,7 +271,9 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
         if chosen is None:
             wanted = " or ".join(f"{f.index_file} or bag files" for f in folders)
             what = " or ".join(f.what for f in folders)
-            raise LogError(f"{shown}: a directory without {wanted} is not {what}")
+            raise LogError(
+                f"{shown}: a directory without {wanted} is not {what}{_batch_hint(file, shown)}"
+            )
         return chosen
     suffix = file.suffix.lower()
     content = sniff(path)
@@ -283,6 +290,26 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
     if named.magic:
         raise LogError(f"{shown}: not {named.what} (wrong magic bytes)")
     return named
+
+
+def _batch_hint(folder: Path, shown: str) -> str:
+    """For a folder that is no log: how many log files it holds, and what reads them.
+
+    Its own entries only: a folder of many subfolders is not searched to word an error.
+    """
+    suffixes = _file_suffixes()
+    try:
+        held = sum(
+            1
+            for entry in os.scandir(folder)
+            if entry.is_file() and Path(entry.name).suffix.lower() in suffixes
+        )
+    except OSError:
+        return ""
+    if not held:
+        return ""
+    files = "1 log file" if held == 1 else f"{held} log files"
+    return f"; it holds {files}: 'hybridlog batch {shown}' analyses a folder of logs"
 
 
 def open_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -> LogSource:

@@ -368,7 +368,14 @@ def test_bag_folder_without_metadata(tmp_path: Path, capsys: pytest.CaptureFixtu
 
 def test_folder_that_is_no_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "empty_dir").mkdir()
-    refused(tmp_path / "empty_dir", capsys, "is not a ROS 2 bag")
+    err = refused(tmp_path / "empty_dir", capsys, "is not a ROS 2 bag")
+    assert "batch" not in err
+    # a folder of logs given to analyze: the error says what reads one
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name in ("a.csv", "b.PARQUET", "notes.txt"):
+        (runs / name).write_text("")
+    refused(runs, capsys, "is not a ROS 2 bag", f"it holds 2 log files: 'hybridlog batch {runs}'")
 
 
 # ------------------------------------------------------------------ paths and values
