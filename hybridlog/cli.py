@@ -799,7 +799,8 @@ def batch_command(
     """
     from hybridlog.jobs.batch_logs import batch_logs
 
-    total = len(batch_logs(logs)[0])  # folders of logs counted (run_batch finds them again)
+    found = batch_logs(logs)  # folders of logs searched once, before the job's imports
+    total = len(found.paths)
     if jobs > 1 and scheduler is None and total > 1:
         # run_batch's workers fork from this forkserver: started before the batch job's
         # imports, it warms up while this process imports polars and numpy
@@ -811,7 +812,7 @@ def batch_command(
     read, common = _split_options(options)
     with _batch_progress(ctx, total) as advance:
         outcome = run_batch(
-            list(logs),
+            found,
             model_ref,
             out_dir=out_dir,
             estimator=estimator,

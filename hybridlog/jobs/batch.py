@@ -50,7 +50,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
-from hybridlog.jobs.batch_logs import batch_logs, natural_key
+from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, natural_key
 from hybridlog.jobs.provenance import content_hash, model_hash
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -414,7 +414,7 @@ def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
 
 
 def run_batch(
-    logs: Sequence[PathLike],
+    logs: Sequence[PathLike] | FoundLogs,
     model_ref: str | Path,
     *,
     out_dir: PathLike,
@@ -435,6 +435,9 @@ def run_batch(
 ) -> BatchOutcome:
     """Analyse every log into ``<out>/<log path>/``; write ``summary.md``/``.csv``/``.png``.
 
+    ``logs`` are log files, bags and folders of logs (:func:`batch_logs`), or what
+    :func:`batch_logs` found already.
+
     Everything shared by the logs (model, options, gates, the output folder, the JUnit file)
     is checked before the first log is read: the outputs must not be, contain or sit inside
     any log, the model file, a centres file or a ``--msg-dir``.  ``progress`` is called with
@@ -454,7 +457,7 @@ def run_batch(
         raise OptionError("--jobs: must be at least 1")
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
-    paths, searched = batch_logs(logs)
+    paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
     pool = client = None
     if scheduler is not None:
         from hybridlog.jobs.dask_backend import connect, run_on_dask

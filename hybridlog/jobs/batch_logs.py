@@ -11,12 +11,13 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Sequence
+from typing import NamedTuple
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.io.formats import format_list, indexed_log, logs_in
 from hybridlog.outputs import PathLike
 
-__all__ = ["batch_logs", "natural_key"]
+__all__ = ["FoundLogs", "batch_logs", "natural_key"]
 
 
 def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
@@ -26,7 +27,16 @@ def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
     )
 
 
-def batch_logs(logs: Sequence[PathLike]) -> tuple[list[str], list[str]]:
+class FoundLogs(NamedTuple):
+    """What :func:`batch_logs` found (:func:`~hybridlog.jobs.batch.run_batch` takes it as is)."""
+
+    paths: list[str]
+    """The logs, in natural order."""
+    searched: list[str]
+    """The folders of logs searched for them (kept apart from the outputs)."""
+
+
+def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     """The logs ``hybridlog batch LOGS...`` names, in natural order, and the folders searched.
 
     A log file or a ROS 2 bag (a folder with ``metadata.yaml``) is itself; any other folder
@@ -56,4 +66,4 @@ def batch_logs(logs: Sequence[PathLike]) -> tuple[list[str], list[str]]:
             found += map(str, inside)
         else:
             found.append(os.fspath(log))
-    return sorted(found, key=natural_key), folders
+    return FoundLogs(sorted(found, key=natural_key), folders)
