@@ -9,7 +9,16 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from hybridlog.report import metrics
-from hybridlog.report.plots import envelope, mode_bars, mode_runs, pixel_columns, time_bins
+from hybridlog.report.plots import (
+    DASHED_BAND_ALPHA,
+    draw_curve,
+    envelope,
+    mode_bars,
+    mode_runs,
+    pixel_bins,
+    pixel_columns,
+    time_bins,
+)
 
 
 def _per_column(
@@ -65,6 +74,66 @@ def test_the_envelope_keeps_the_breaks_of_a_curve_and_a_short_curve_as_it_is() -
     assert gap.any() and np.isnan(reduced.values[gap]).all()
     short = envelope(t[:50], v[:50], time_bins(t[:50], pixel_columns()))
     assert short.values is v[:50] or np.array_equal(short.values, v[:50], equal_nan=True)
+
+
+def test_a_long_curve_is_drawn_as_the_band_of_each_pixel_column() -> None:
+    from matplotlib.figure import Figure
+
+    rng = np.random.default_rng(3)
+    t = np.arange(200_000) * 0.01
+    v = np.cumsum(rng.standard_normal(t.size))
+    v[50_000:60_000] = np.nan  # a gap of many pixel columns
+    columns = pixel_columns()
+    ax = Figure().add_subplot()
+    (line,) = draw_curve(ax, envelope(t, v, time_bins(t, columns)), lw=0.8, color="k", ls="--")
+    assert line.get_xydata().size == 0 and line.get_linestyle() == "--"  # the legend's entry
+    (band,) = ax.collections
+    assert band.get_alpha() == DASHED_BAND_ALPHA and band.get_linewidth()[0] == 0.8
+    vertices = np.concatenate([path.vertices for path in band.get_paths()])
+    t0, t1 = float(t[0]), float(t[-1])
+    drawn = _per_column(vertices[:, 0], vertices[:, 1], t0, t1, columns)
+    assert drawn == _per_column(t, v, t0, t1, columns)
+    # A curve with at most two points per pixel column stays a line, as given.
+    ax = Figure().add_subplot()
+    (line,) = draw_curve(ax, envelope(t[:1_000], v[:1_000], time_bins(t[:1_000], columns)))
+    assert np.array_equal(line.get_ydata(), v[:1_000]) and not ax.collections
+
+
+def test_the_band_paints_every_pixel_the_curve_reaches_in_each_column() -> None:
+    """No holes where the curve jumps within or between pixel columns, and no ink elsewhere."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    rng = np.random.default_rng(5)
+    n = 400_000
+    t = np.arange(n) * 1e-3
+    v = np.where((np.arange(n) // 7_919) % 2 == 0, 0.0, 100.0) + rng.standard_normal(n)
+    v[123_456:123_460] = 300.0  # a spike of four samples
+    v[200_000:] += np.cumsum(rng.standard_normal(n - 200_000))  # a random walk
+    v[300_000:310_000] = np.nan
+    fig = Figure(figsize=(10, 3), dpi=100)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.09, 0.1, 0.89, 0.85), frame_on=False)  # the panels' left and right
+    draw_curve(ax, envelope(t, v, pixel_bins(t, ax)), lw=0.8, color="k")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    canvas.draw()
+    ink = np.asarray(canvas.buffer_rgba())[..., 0] < 128
+    # Where each sample lands: pixel column, and its row counted from the top.
+    finite = np.isfinite(v)
+    x, y = ax.transData.transform(np.column_stack([t[finite], v[finite]])).T
+    column, row = np.floor(x).astype(np.int64), ink.shape[0] - y
+    top = np.full(ink.shape[1], np.inf)
+    bottom = np.full(ink.shape[1], -np.inf)
+    np.minimum.at(top, column, row)
+    np.maximum.at(bottom, column, row)
+    rows = np.arange(ink.shape[0])[:, None]
+    inner = (rows >= np.ceil(top) + 1) & (rows <= np.floor(bottom) - 1)  # 1 pixel of rounding
+    assert ink[inner].all()  # every pixel between a column's lowest and highest sample
+    # Ink only within the rows of the column and its neighbours (the lines joining columns).
+    highest = np.minimum(np.minimum(top, np.roll(top, 1)), np.roll(top, -1))
+    lowest = np.maximum(np.maximum(bottom, np.roll(bottom, 1)), np.roll(bottom, -1))
+    assert not ink[(rows < np.floor(highest) - 1) | (rows > np.ceil(lowest) + 1)].any()
 
 
 mode_seqs = hnp.arrays(np.int64, st.integers(1, 3_000), elements=st.integers(0, 2))
