@@ -8,12 +8,21 @@ counts, times and speeds the same way here and in the command line's messages.
 from __future__ import annotations
 
 import math
+import re
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from hybridlog.report.document import ModeReport, Report, Smoothing
 
-__all__ = ["DEFINITIONS", "MAX_LISTED_SWITCHES", "duration", "plural", "rate", "render_markdown"]
+__all__ = [
+    "DEFINITIONS",
+    "MAX_LISTED_SWITCHES",
+    "duration",
+    "escape_markdown",
+    "plural",
+    "rate",
+    "render_markdown",
+]
 
 MAX_LISTED_SWITCHES = 50
 """``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
@@ -27,8 +36,22 @@ def _fmt(value: Any, spec: str = ".6g") -> str:
     return str(value)
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
+_MARKUP = re.compile(r"[\\`*\[\]<>&|~$]|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
+"""What CommonMark and GitHub's Markdown read as markup inside a line: backslashes, code
+spans, emphasis, links, HTML and autolinks, entities, table cells, strikethrough and math.
+An underscore inside a word (``three_tank.csv``) is no emphasis and stays as it is."""
+
+
+def escape_markdown(text: str) -> str:
+    r"""``text`` (a log path, a name from a model, an error message) shown as itself in Markdown.
+
+    Each markup character gets a backslash (CommonMark shows any backslash-escaped ASCII
+    punctuation as the character), and line breaks are written ``\n``/``\r``, so that
+    ``<b>*x*</b> | y.csv`` stays one table cell of plain text in report.md, summary.md and a
+    CI job summary.
+    """
+    escaped = _MARKUP.sub(lambda found: "\\" + found.group(0), text)
+    return escaped.replace("\r", "\\r").replace("\n", "\\n")
 
 
 def plural(count: int, noun: str, plural_form: str | None = None) -> str:
@@ -113,7 +136,7 @@ def render_markdown(report: Report) -> str:
 
     """
     lines: list[str] = [
-        f"# hybridlog report: {_cell(report.log)}",
+        f"# hybridlog report: {escape_markdown(report.log)}",
         "",
         f"- model: `{report.model}`, estimator: `{report.estimator}`",
         f"- samples: {report.samples}, dt = {_fmt(report.dt)} s, "
@@ -127,7 +150,8 @@ def render_markdown(report: Report) -> str:
     ]
     for y, m in report.outputs.items():
         lines.append(
-            f"| {_cell(y)} | {_fmt(m.mse)} | {_fmt(m.vaf, '.4f')} | {_fmt(m.fit, '.4f')} |"
+            f"| {escape_markdown(y)} | {_fmt(m.mse)} | {_fmt(m.vaf, '.4f')} "
+            f"| {_fmt(m.fit, '.4f')} |"
         )
     lines.append(
         f"| **mean** | **{_fmt(report.mse)}** | **{_fmt(report.vaf, '.4f')}** "
@@ -151,7 +175,7 @@ def render_markdown(report: Report) -> str:
     modes = report.modes
     lines += ["", "## Modes", "", f"{plural(len(modes.switches), 'estimated mode switch')}.", ""]
     lines += ["| mode | dwell (s) |", "|---|---:|"]
-    lines += [f"| {_cell(m)} | {_fmt(modes.dwell_s.get(m))} |" for m in modes.labels]
+    lines += [f"| {escape_markdown(m)} | {_fmt(modes.dwell_s.get(m))} |" for m in modes.labels]
     lines.append("")
     if modes.accuracy is None:
         lines.append("No ground-truth mode in the log: accuracy and delays are not known.")
@@ -160,7 +184,7 @@ def render_markdown(report: Report) -> str:
 
     if report.states:
         lines += ["", "## States", "", "| state | RMSE |", "|---|---:|"]
-        lines += [f"| {_cell(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
+        lines += [f"| {escape_markdown(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
     if report.smoothing is not None:
         lines += ["", *_smoothing_lines(report.smoothing)]
 
@@ -231,7 +255,7 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     for name, before, after, spec in rows:
         shown = ".4f" if spec == ".4g" else spec
         lines.append(
-            f"| {_cell(name)} | {_fmt(before, shown) if before is not None else 'n/a'} "
+            f"| {escape_markdown(name)} | {_fmt(before, shown) if before is not None else 'n/a'} "
             f"| {_fmt(after, shown) if after is not None else 'n/a'} "
             f"| {_change(before, after, spec)} |"
         )
@@ -263,8 +287,8 @@ def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
             found = e.detected_t
             when = _fmt(found) if found is not None else f"missed: {e.miss_reason}"
             lines.append(
-                f"| {_fmt(e.t)} | {_cell(e.from_mode)} → {_cell(e.to_mode)} "
-                f"| {_cell(when)} | {_fmt(e.delay_s)} |"
+                f"| {_fmt(e.t)} | {escape_markdown(e.from_mode)} → {escape_markdown(e.to_mode)} "
+                f"| {escape_markdown(when)} | {_fmt(e.delay_s)} |"
             )
         if len(events) > MAX_LISTED_SWITCHES:
             lines.append(f"\n… and {len(events) - MAX_LISTED_SWITCHES:,} more in report.json.")
@@ -273,12 +297,14 @@ def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
         "",
         "Confusion (rows: true mode, columns: estimated mode, sample counts):",
         "",
-        "| true \\ estimated | " + " | ".join(_cell(m) for m in modes.labels) + " |",
+        "| true \\ estimated | " + " | ".join(escape_markdown(m) for m in modes.labels) + " |",
         "|---|" + "---:|" * len(modes.labels),
     ]
     for t_id in modes.labels:
         row = confusion.get(t_id, {})
         lines.append(
-            f"| {_cell(t_id)} | " + " | ".join(str(row.get(e, 0)) for e in modes.labels) + " |"
+            f"| {escape_markdown(t_id)} | "
+            + " | ".join(str(row.get(e, 0)) for e in modes.labels)
+            + " |"
         )
     return lines

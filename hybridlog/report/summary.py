@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 
 import polars as pl
 
+from hybridlog.report.markdown import escape_markdown
+
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
 
@@ -63,7 +65,7 @@ def _column_format(values: Sequence[object]) -> Callable[[object], str]:
             return f"{value:,}"
         if isinstance(value, float):
             return format(value, spec) if math.isfinite(value) else str(value)
-        return str(value).replace("|", "\\|")
+        return escape_markdown(str(value))
 
     return cell
 

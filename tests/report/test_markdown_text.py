@@ -1,0 +1,46 @@
+"""User text in report.md and summary.md reads as itself, checked by a CommonMark parser."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from markdown_it import MarkdownIt
+
+from hybridlog.report.markdown import escape_markdown
+from hybridlog.report.summary import markdown_table
+
+# CommonMark with GitHub's tables and strikethrough: how a CI job summary reads the files.
+PARSER = MarkdownIt("commonmark").enable(["table", "strikethrough"])
+HOSTILE = ["<b>*x*</b> | y.csv", "_draft_.csv", "[a](b).csv", "`c`", "~~s~~", "&amp;", "a\\|b"]
+
+
+def _cells(markdown: str) -> list[str]:
+    """The text of each body cell; a cell holding anything but plain text fails the test."""
+    tokens = PARSER.parse(markdown)
+    cells = []
+    for before, token in pairwise(tokens):
+        if before.type == "td_open" and token.type == "inline":
+            kinds = {child.type for child in token.children or []}
+            assert kinds <= {"text"}, (markdown, kinds)
+            cells.append("".join(child.content for child in token.children or []))
+    return cells
+
+
+text = st.text(
+    st.characters(codec="ascii", categories=["L", "N", "P", "S", "Zs"]), min_size=1, max_size=40
+).filter(lambda s: s.strip() == s)
+
+
+@given(st.lists(text, min_size=1, max_size=3))
+@settings(max_examples=300, deadline=None)
+def test_a_table_cell_shows_the_text_it_was_given(values: list[str]) -> None:
+    header = [f"c{i}" for i in range(len(values))]
+    assert _cells(markdown_table(header, [values])) == values
+
+
+def test_names_that_look_like_markup_stay_plain_and_a_line_break_stays_in_its_cell() -> None:
+    table = markdown_table(["log"], [[name] for name in [*HOSTILE, "two\nlines.csv"]])
+    assert _cells(table) == [*HOSTILE, "two\\nlines.csv"]
+    assert escape_markdown("three_tank_hstf.csv") == "three_tank_hstf.csv"  # no needless marks
