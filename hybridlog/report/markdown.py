@@ -17,6 +17,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFINITIONS",
     "MAX_LISTED_SWITCHES",
+    "code_span",
     "duration",
     "escape_markdown",
     "plural",
@@ -52,6 +53,18 @@ def escape_markdown(text: str) -> str:
     """
     escaped = _MARKUP.sub(lambda found: "\\" + found.group(0), text)
     return escaped.replace("\r", "\\r").replace("\n", "\\n")
+
+
+def code_span(text: str) -> str:
+    r"""``text`` as a Markdown code span: fenced by one backtick more than its longest run.
+
+    CommonMark shows a code span's content as it is; the space padding keeps a backtick at
+    either end off the fence, and line breaks are written ``\n`` as in :func:`escape_markdown`.
+    """
+    text = text.replace("\r", "\\r").replace("\n", "\\n")
+    fence = "`" * (max((len(run) for run in re.findall("`+", text)), default=0) + 1)
+    pad = " " if text.startswith("`") or text.endswith("`") else ""
+    return f"{fence}{pad}{text}{pad}{fence}"
 
 
 def plural(count: int, noun: str, plural_form: str | None = None) -> str:
@@ -138,7 +151,7 @@ def render_markdown(report: Report) -> str:
     lines: list[str] = [
         f"# hybridlog report: {escape_markdown(report.log)}",
         "",
-        f"- model: `{report.model}`, estimator: `{report.estimator}`",
+        f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
         f"- samples: {report.samples}, dt = {_fmt(report.dt)} s, "
         f"t = {_fmt(report.t_start)} … {_fmt(report.t_end)} s",
         f"- hybridlog {report.hybridlog_version}",
@@ -158,14 +171,14 @@ def render_markdown(report: Report) -> str:
         f"| **{_fmt(report.fit, '.4f')}** |"
     )
     undefined = [
-        f"- {name} is n/a: {why}"
+        f"- {name} is n/a: {escape_markdown(why)}"
         for name, why in report.null_reasons.items()
         if name.partition(".")[0] in ("mse", "vaf", "fit")
     ]
     expected = report.samples - 1  # every sample after the prior
     undefined += [
-        f"- {y}: metrics over {m.samples:,} of {expected:,} samples; the others have no "
-        "finite measurement or prediction"
+        f"- {escape_markdown(y)}: metrics over {m.samples:,} of {expected:,} samples; the others "
+        "have no finite measurement or prediction"
         for y, m in report.outputs.items()
         if m.samples is not None and m.samples < expected
     ]

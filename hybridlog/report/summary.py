@@ -92,7 +92,7 @@ def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> s
 
 def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -> str:
     """``comparison.md``: the table, where each report is, and each estimator's notes."""
-    lines = [f"# {title}", "", table, ""]
+    lines = [f"# {escape_markdown(title)}", "", table, ""]
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     for name, report in reports.items():
         if report.notes:
@@ -210,16 +210,25 @@ def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -
             for row in [*failed, *missed, *passed]
         ],
     )
-    lines = [f"# Batch: {title}", "", f"**{len(rows)} logs: {verdict}** ({counts})."]
+    lines = [
+        f"# Batch: {escape_markdown(title)}",
+        "",
+        f"**{len(rows)} logs: {verdict}** ({counts}).",
+    ]
     if gates:
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
     lines += ["", table]
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
-        lines += [f"- {row.log}: {row.error}" for row in failed]
+        lines += [
+            f"- {escape_markdown(row.log)}: {escape_markdown(row.error or '')}" for row in failed
+        ]
     if missed:
         lines += ["", f"## Missed gates ({len(missed)} of {len(rows)})", ""]
-        lines += [f"- {row.log}: {'; '.join(row.missed)}" for row in missed]
+        lines += [
+            f"- {escape_markdown(row.log)}: {escape_markdown('; '.join(row.missed))}"
+            for row in missed
+        ]
     return table, "\n".join(lines) + "\n"
 
 

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from markdown_it import MarkdownIt
 
-from hybridlog.report.markdown import escape_markdown
+from hybridlog.report.markdown import code_span, escape_markdown
 from hybridlog.report.summary import markdown_table
 
 # CommonMark with GitHub's tables and strikethrough: how a CI job summary reads the files.
@@ -44,3 +44,12 @@ def test_names_that_look_like_markup_stay_plain_and_a_line_break_stays_in_its_ce
     table = markdown_table(["log"], [[name] for name in [*HOSTILE, "two\nlines.csv"]])
     assert _cells(table) == [*HOSTILE, "two\\nlines.csv"]
     assert escape_markdown("three_tank_hstf.csv") == "three_tank_hstf.csv"  # no needless marks
+
+
+@given(text)
+@settings(max_examples=200, deadline=None)
+def test_a_code_span_shows_the_text_it_was_given(value: str) -> None:
+    (paragraph,) = [t for t in PARSER.parse(f"- model: {code_span(value)}") if t.type == "inline"]
+    kinds = [child.type for child in paragraph.children or []]
+    assert kinds == ["text", "code_inline"]
+    assert (paragraph.children or [])[1].content == value
