@@ -1088,6 +1088,18 @@ def main(argv: Sequence[str] | None = None) -> None:
         code = err.code
     except KeyboardInterrupt:
         raise
+    except MemoryError as err:  # past the checks made up front (hybridlog.memory)
+        if debug:
+            raise
+        click.echo(
+            _one_line(
+                f"hybridlog: error: out of memory{_where(err)}: {err or 'an allocation failed'}; "
+                "the process may be limited below the machine's free memory (ulimit -v, "
+                "a container); analyse a shorter log or free memory"
+            ),
+            err=True,
+        )
+        code = 2
     except Exception as err:  # the last guard: never a traceback without --debug
         if debug:
             raise

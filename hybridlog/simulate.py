@@ -43,15 +43,14 @@ sympy (the loops live in :mod:`hybridlog.simulation_kernels`).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
+from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
     compile_continuous,
     compile_guard,
@@ -189,47 +188,14 @@ def memory_needed(model: HybridModel, rows: int) -> int:
     return int(rows * values * 8 * COPIES)
 
 
-def available_memory() -> int | None:
-    """Bytes of memory this process can still get: ``MemAvailable``, capped by a cgroup limit.
-
-    ``None`` when the system says nothing (then no check is made).
-    """
-    available: int | None = None
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                available = int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    if available is None:
-        try:
-            available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-        except (OSError, ValueError, AttributeError):
-            return None
-    try:
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = Path("/sys/fs/cgroup/memory.current").read_text().strip()
-        if limit != "max":
-            available = min(available, max(int(limit) - int(used), 0))
-    except (OSError, ValueError):
-        pass
-    return available
-
-
-def _gigabytes(size: float) -> str:
-    return f"{size / 1e9:,.1f} GB" if size >= 1e8 else f"{size / 1e6:,.1f} MB"
-
-
 def _check_memory(model: HybridModel, rows: int, where: str) -> None:
     """Refuse up front a run that cannot fit in memory (naming the option or model key)."""
-    needed = memory_needed(model, rows)
-    available = available_memory()
-    if available is not None and needed > available:
-        error: type[HybridlogError] = OptionError if where.startswith("--") else ModelError
-        raise error(
-            f"{where}: {rows - 1:,} steps would need about {_gigabytes(needed)} of memory and "
-            f"{_gigabytes(available)} is available; simulate fewer steps"
-        )
+    check_fits(
+        [("the simulated rows and the log written from them", memory_needed(model, rows))],
+        what=f"{where}: {rows - 1:,} steps",
+        remedy="simulate fewer steps",
+        error=OptionError if where.startswith("--") else ModelError,
+    )
 
 
 def _check_seed(seed: object) -> int:

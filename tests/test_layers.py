@@ -13,7 +13,7 @@ one layer are peers that never import each other:
 ==  ==============================================================================
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
     | ``prefault``
-1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows)
+1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
 2   ``io`` | ``model``
 3   ``cluster``
 4   ``estimators`` | ``simulation``
@@ -45,7 +45,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "hybridlog"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("hybridlog", "errors", "lazy", "background", "allocators", "prefault"),
-    ("signals", "jit", "outputs"),
+    ("signals", "jit", "outputs", "memory"),
     ("io", "model"),
     ("cluster",),
     ("estimators", "simulation"),

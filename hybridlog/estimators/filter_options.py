@@ -8,11 +8,15 @@ loading the compiler.  ``hybridlog.estimators.hstf`` and ``.imm`` re-export them
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, get_args, get_type_hints
+from typing import TYPE_CHECKING, Literal, get_args, get_type_hints
 
+from hybridlog.estimators.footprint import Parts
 from hybridlog.estimators.options import option
 
-__all__ = ["MODE_SEQUENCES", "HstfOptions", "ImmOptions"]
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
+__all__ = ["MODE_SEQUENCES", "HstfOptions", "ImmOptions", "imm_memory"]
 
 
 @dataclass(frozen=True)
@@ -57,3 +61,26 @@ class ImmOptions:
 MODE_SEQUENCES: tuple[str, ...] = get_args(get_type_hints(ImmOptions)["mode_sequence"])
 """How the IMM's mode timeline can be read off, in order: ``--mode-sequence``'s choices and the
 values report.json's ``smoothing.mode_sequence`` may hold."""
+
+
+def imm_memory(model: HybridModel, options: ImmOptions, n: int) -> Parts:
+    """The arrays of the IMM's offline passes over ``n`` samples, beyond the filter's result.
+
+    ``smooth``: the smoothed modes, probabilities, means and variances, and the per-mode
+    store of the forward pass, ``8 n n_q (n_x + n_x(n_x+1)/2)`` bytes (``docs/smoothing.md``);
+    ``viterbi``: the path, and the per-mode likelihoods and back pointers, ``16 n n_q``;
+    ``kbest``: each sample's kept histories (a 4-byte parent and a 2-byte mode per history)
+    and the path's modes, means, variances and full covariances.  The filter's result is
+    kept beside them (its output prediction is the report's).
+    """
+    n_q, n_x = model.n_modes, model.n_states
+    parts: Parts = []
+    if options.smooth:
+        parts.append(("the smoothed estimates", 8 * n * (1 + n_q + 2 * n_x)))
+        parts.append(("the smoother's per-mode store", 8 * n * n_q * (n_x + n_x * (n_x + 1) // 2)))
+    if options.mode_sequence == "viterbi":
+        parts.append(("the Viterbi path, likelihoods and back pointers", 8 * n * (1 + 2 * n_q)))
+    if options.mode_sequence == "kbest":
+        parts.append(("the k-best histories", 6 * n * options.beam))
+        parts.append(("the k-best path's estimates", 8 * n * (1 + 2 * n_x + n_x * n_x)))
+    return parts

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 from hybridlog.errors import LogError, ModelError, OptionError, excerpt
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
+from hybridlog.estimators.footprint import REPORT_FACTOR, Parts, result_bytes
 from hybridlog.estimators.options import (
     OptionInfo,
     OptionSource,
@@ -80,6 +81,10 @@ class Estimator:
         A light module holding the options dataclass (no numba, scipy, cvxpy), so that
         ``--help`` and the checks made before any log is read do not load the compiler;
         empty: ``module``.
+    memory:
+        Name of ``memory(model, options, n) -> [(what, bytes), ...]`` in ``options_module``:
+        the arrays a run over ``n`` samples allocates beyond its result
+        (:mod:`hybridlog.estimators.footprint`); empty: none worth counting.
     """
 
     name: str
@@ -90,6 +95,7 @@ class Estimator:
     run: str
     capabilities: Capabilities = field(default_factory=Capabilities)
     options_module: str = ""
+    memory: str = ""
 
     def _attribute(self, name: str, module: str = "") -> Any:
         return getattr(importlib.import_module(module or self.module), name)
@@ -180,6 +186,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options_module="hybridlog.estimators.filter_options",
             run="run_imm",
             capabilities=Capabilities(uses_markov_matrix=True, supports_smoothing=True),
+            memory="imm_memory",
         ),
         Estimator(
             name="chiu",
@@ -227,6 +234,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options="UnknownModeOptions",
             options_module="hybridlog.estimators.cpha.options",
             run="run_unknown_mode",
+            memory="unknown_mode_memory",
             capabilities=Capabilities(
                 needs_components=True,
                 no_smoothing="its cluster filters keep nothing for a backward pass; "
@@ -326,6 +334,18 @@ class Prepared:
         if problem is not None:
             raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")
         return self.estimator.run_function(model, signals, self.options, **inputs)
+
+    def memory_needed(self, model: HybridModel, n_samples: int) -> Parts:
+        """What a run over ``n_samples`` needs at its peak: (what, bytes) of each part.
+
+        The result times :data:`~hybridlog.estimators.footprint.REPORT_FACTOR` (the report's
+        temporaries beside it), and the estimator's own arrays.
+        """
+        parts = [("the estimates", int(result_bytes(model, n_samples) * REPORT_FACTOR))]
+        if self.estimator.memory:
+            own = self.estimator._attribute(self.estimator.memory, self.estimator.options_module)
+            parts += own(model, self.options, n_samples)
+        return parts
 
     def options_dict(self) -> dict[str, Any]:
         """The options as the report's ``options`` (read back by :func:`prepare`)."""

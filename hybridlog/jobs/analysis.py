@@ -11,15 +11,22 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from hybridlog.background import Background
-from hybridlog.errors import OptionError, excerpt
-from hybridlog.estimators import ESTIMATORS, Estimator, Prepared, prepare, resolve_estimator
+from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.estimators import (
+    ESTIMATORS,
+    Estimator,
+    Prepared,
+    prepare,
+    resolve_estimator,
+)
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
+from hybridlog.memory import check_fits
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
@@ -29,6 +36,9 @@ from hybridlog.report.summary import comparison_markdown, markdown_table, write_
 from hybridlog.report.tables import check_table_format
 from hybridlog.report.writer import import_plotting
 from hybridlog.signals import AlignedSignals
+
+if TYPE_CHECKING:
+    from hybridlog.estimators.result import EstimationResult
 
 R = TypeVar("R")
 
@@ -243,6 +253,39 @@ def read_log(
     return load_signals(log, SignalSpec.of(model), read, notes=notes)
 
 
+def check_memory(
+    log: str | Path, model: HybridModel, prepared: Sequence[Prepared], signals: AlignedSignals
+) -> None:
+    """Refuse, before any estimator allocates, a run whose results cannot fit in memory.
+
+    The estimators' needs (:meth:`Prepared.memory_needed
+    <hybridlog.estimators.Prepared.memory_needed>`, all held together as ``compare`` holds
+    them) against what the machine can still give (:func:`hybridlog.memory.check_fits`).
+
+    Raises
+    ------
+    LogError
+        One line naming the log, its samples, the estimators, the largest parts, the memory
+        available and what to change.
+    """
+    n = signals.n_samples
+    parts = [
+        (f"{p.name}'s {what}" if len(prepared) > 1 else what, size)
+        for p in prepared
+        for what, size in p.memory_needed(model, n)
+    ]
+    offline = any(
+        p.options_dict().get(SMOOTH_OPTION) is True
+        or p.options_dict().get(MODE_SEQUENCE_OPTION, "argmax") != "argmax"
+        for p in prepared
+    )
+    remedy = "analyse a shorter log" + (
+        ", or without --smooth and --mode-sequence" if offline else ""
+    )
+    names = ", ".join(p.name for p in prepared)
+    check_fits(parts, what=f"{log}: {n:,} samples through {names}", remedy=remedy, error=LogError)
+
+
 def read_and_run(
     log: str | Path,
     model: HybridModel,
@@ -323,9 +366,12 @@ def analyze(
     gates = gates_for(model, fail_under, fail_over)
     inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
-    signals, result = read_and_run(
-        log, model, read, reading, lambda signals: prepared.run(model, signals, **inputs)
-    )
+
+    def run(signals: AlignedSignals) -> EstimationResult:
+        check_memory(log, model, [prepared], signals)
+        return prepared.run(model, signals, **inputs)
+
+    signals, result = read_and_run(log, model, read, reading, run)
     report = write_report(
         out_dir,
         result,
@@ -422,13 +468,12 @@ def compare(
     gates = gates_for(model, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
-    signals, results = read_and_run(
-        log,
-        model,
-        read,
-        reading,
-        lambda signals: {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared},
-    )
+
+    def run(signals: AlignedSignals) -> dict[str, EstimationResult]:
+        check_memory(log, model, prepared, signals)
+        return {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
+
+    signals, results = read_and_run(log, model, read, reading, run)
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for name, result in results.items():

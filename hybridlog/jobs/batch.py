@@ -43,6 +43,7 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
+    check_memory,
     estimator_inputs,
     gates_for,
     input_paths,
@@ -352,6 +353,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     warm = _warm(job)
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
+    check_memory(log, warm.model, [warm.prepared], signals)
     result = warm.prepared.run(warm.model, signals, **warm.inputs)
     report = write_report(
         path,

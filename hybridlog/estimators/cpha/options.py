@@ -6,11 +6,15 @@ The registry, ``--help`` and a batch's planning read them without loading the es
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
+from hybridlog.estimators.footprint import Parts
 from hybridlog.estimators.options import option
 
-__all__ = ["UnknownModeOptions"]
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
+__all__ = ["UnknownModeOptions", "unknown_mode_memory"]
 
 
 @dataclass(frozen=True)
@@ -36,3 +40,15 @@ class UnknownModeOptions:
         "argmax",
         "per-sample mode: each step's most likely hypothesis, or kbest (the final one's history)",
     )
+
+
+def unknown_mode_memory(model: HybridModel, options: UnknownModeOptions, n: int) -> Parts:
+    """``mode_sequence = "kbest"``: each step's kept hypotheses, to read the winner's history.
+
+    Their means, variances and parents, about ``8 · beam · 2 n_x`` bytes per sample
+    (:attr:`~hybridlog.estimators.cpha.hypotheses.Tracker.parents`), and their assignments.
+    """
+    if options.mode_sequence != "kbest":
+        return []
+    per_hypothesis = 8 * (2 * model.n_states + 2)
+    return [("the kept hypotheses of every step", n * options.beam * per_hypothesis)]
