@@ -270,7 +270,7 @@ def check_memory(
     """
     n = signals.n_samples
     parts = [
-        (f"{p.name}'s {what}" if len(prepared) > 1 else what, size)
+        (f"{what} of {p.name}" if len(prepared) > 1 else what, size)
         for p in prepared
         for what, size in p.memory_needed(model, n)
     ]

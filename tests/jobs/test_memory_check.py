@@ -72,7 +72,7 @@ def test_compare_counts_every_estimator_and_batch_fails_only_that_log(
 ) -> None:
     log = sample_copy("three_tank_hstf.csv")
     _available(monkeypatch, 10_000)
-    with pytest.raises(LogError, match=r"through imm, hstf would need .*imm's the estimates"):
+    with pytest.raises(LogError, match=r"through imm, hstf would need .*the estimates of imm"):
         compare(log, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "cmp")
     outcome = run_batch([log], "three_tank_hstf", out_dir=tmp_path / "batch", jobs=1)
     (row,) = outcome.logs
