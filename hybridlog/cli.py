@@ -1037,6 +1037,31 @@ def _single_threaded_blas() -> None:
     os.environ.setdefault(BLAS_THREADS, "1")
 
 
+def _failure(err: Exception) -> str:
+    """The one line for a failure past click's own exceptions.
+
+    What the user caused, numerical trouble, an allocation the memory could not hold (past
+    the checks made up front, :mod:`hybridlog.memory`), or anything unexpected.
+    """
+    if isinstance(err, HybridlogError):
+        return f"hybridlog: error: {err}"
+    if isinstance(err, RuntimeWarning):
+        return (
+            f"hybridlog: error: numerical trouble{_where(err)}: {err}; hybridlog reports no "
+            "number it cannot vouch for (--debug shows where)"
+        )
+    if isinstance(err, MemoryError):
+        return (
+            f"hybridlog: error: out of memory{_where(err)}: {err or 'an allocation failed'}; "
+            "the process may be limited below the machine's free memory (ulimit -v, "
+            "a container); analyse a shorter log or free memory"
+        )
+    return (
+        f"hybridlog: error: unexpected {type(err).__name__}{_where(err)}: {err} "
+        "(a bug, or an input hybridlog does not check yet; --debug shows the traceback)"
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Console entry point: run the CLI; every failure becomes one line and an exit code.
 
@@ -1066,50 +1091,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     except click.ClickException as err:
         click.echo(_one_line(f"hybridlog: error: {err.format_message()}"), err=True)
         code = 2 if err.exit_code in (1, 2) else err.exit_code
-    except HybridlogError as err:
-        if debug:
-            raise
-        click.echo(_one_line(f"hybridlog: error: {err}"), err=True)
-        code = 2
-    except RuntimeWarning as err:
-        if debug:
-            raise
-        click.echo(
-            _one_line(
-                f"hybridlog: error: numerical trouble{_where(err)}: {err}; hybridlog reports no "
-                "number it cannot vouch for (--debug shows where)"
-            ),
-            err=True,
-        )
-        code = 2
     except SystemExit as err:  # sys.exit inside a command (a missed gate, failed logs)
         if not isinstance(err.code, int):
             raise
         code = err.code
     except KeyboardInterrupt:
         raise
-    except MemoryError as err:  # past the checks made up front (hybridlog.memory)
-        if debug:
-            raise
-        click.echo(
-            _one_line(
-                f"hybridlog: error: out of memory{_where(err)}: {err or 'an allocation failed'}; "
-                "the process may be limited below the machine's free memory (ulimit -v, "
-                "a container); analyse a shorter log or free memory"
-            ),
-            err=True,
-        )
-        code = 2
     except Exception as err:  # the last guard: never a traceback without --debug
         if debug:
             raise
-        click.echo(
-            _one_line(
-                f"hybridlog: error: unexpected {type(err).__name__}{_where(err)}: {err} "
-                "(a bug, or an input hybridlog does not check yet; --debug shows the traceback)"
-            ),
-            err=True,
-        )
+        click.echo(_one_line(_failure(err)), err=True)
         code = 2
     finally:
         for warning in caught:

@@ -155,9 +155,10 @@ FORMATS: tuple[LogFormat, ...] = (
 )
 
 
-def _file_suffixes() -> set[str]:
-    """The suffixes of the file formats (``.csv``, ``.parquet``, ...)."""
-    return {s for f in FORMATS if not f.directory for s in f.suffixes}
+def _log_file_name(name: str) -> bool:
+    """Whether a file name has the suffix of a file format (``.csv``, ``.parquet``, ...)."""
+    suffix = Path(name).suffix.lower()
+    return any(suffix in f.suffixes for f in FORMATS if not f.directory)
 
 
 def indexed_log(folder: str | os.PathLike[str]) -> bool:
@@ -182,7 +183,6 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
     LogError
         When ``folder`` or one of its subfolders cannot be listed (never a silent gap).
     """
-    suffixes = _file_suffixes()
 
     def unreadable(err: OSError) -> None:
         raise LogError(f"{err.filename}: cannot be listed ({err.strerror})") from err
@@ -204,7 +204,7 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
         found += [
             here / name
             for name in sorted(files)
-            if not name.startswith(".") and Path(name).suffix.lower() in suffixes
+            if not name.startswith(".") and _log_file_name(name)
         ]
     return found
 
@@ -297,12 +297,9 @@ def _batch_hint(folder: Path, shown: str) -> str:
 
     Its own entries only: a folder of many subfolders is not searched to word an error.
     """
-    suffixes = _file_suffixes()
     try:
         held = sum(
-            1
-            for entry in os.scandir(folder)
-            if entry.is_file() and Path(entry.name).suffix.lower() in suffixes
+            1 for entry in os.scandir(folder) if entry.is_file() and _log_file_name(entry.name)
         )
     except OSError:
         return ""
