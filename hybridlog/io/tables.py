@@ -20,6 +20,7 @@ from types import TracebackType
 from typing import Any, Self
 
 import numpy as np
+import numpy.typing as npt
 import polars as pl
 
 from hybridlog.errors import LogError, OptionError, excerpt
@@ -218,10 +219,16 @@ class TableSource:
         if all(name in later for name in numeric):
             del frame  # time and labels are NumPy arrays now: polars frees their columns
 
-        # A column without an empty cell (the common case) shares the time and row arrays
-        # and hands over its values without a copy (copying each Parquet column out of
-        # polars' memory as decoded did not lower the peak of a 10^6-row `analyze`).
+        # A column without an empty cell (the common case) shares the time and row arrays;
+        # its values are copied into one NumPy block for all columns and the polars column
+        # is dropped at once.  Polars' allocator keeps what it frees for a while (its
+        # decay), so columns handed over as they were decoded stayed resident until after
+        # alignment had copied them, and their pages were still resident while the
+        # estimator filled its result; decoded and dropped one at a time, polars reuses the
+        # same pages for every column, and the block, one allocation, goes back to the
+        # system as soon as alignment has copied it.
         numeric_series: dict[str, Series] = {}
+        block = _ColumnBlock(len(numeric), rows.size)
         for name in numeric:
             if name in later:
                 taken = self._parquet_column(name, rows if rows.size < height or sort else None)
@@ -230,7 +237,7 @@ class TableSource:
             column = self._to_float(taken, rows)
             del taken
             if column.null_count() == 0:
-                values: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)
+                values: FloatArray = block.take(column.to_numpy())
                 numeric_series[name] = Series(name, time_ns, values)
                 self._rows[name] = rows
                 continue
@@ -450,6 +457,28 @@ class TableSource:
                     f"{self.path}: not a readable Parquet file ({_first_line(err)})"
                 ) from err
         return _read_csv_strings(self._file, list(self._columns))
+
+
+class _ColumnBlock:
+    """One NumPy allocation holding the numeric columns of a read, a row per column.
+
+    Allocated on the first :meth:`take` (a read whose columns all have empty cells needs
+    none), uninitialised: every row used is written once.
+    """
+
+    def __init__(self, columns: int, length: int) -> None:
+        self._shape = (columns, length)
+        self._block: FloatArray | None = None
+        self._used = 0
+
+    def take(self, values: npt.NDArray[Any]) -> FloatArray:
+        """A copy of ``values`` (float64) in the next row of the block."""
+        if self._block is None:
+            self._block = np.empty(self._shape, dtype=np.float64)
+        row: FloatArray = self._block[self._used]
+        row[:] = values
+        self._used += 1
+        return row
 
 
 # ---------------------------------------------------------------------- CSV helpers
