@@ -23,11 +23,11 @@ child process, one after the other:
    stage of the job with a timer: the breakdown (start-up = interpreter start before the
    first line; shutdown = after the command ended (its atexit handlers) until the process is
    gone, measured by this process's clock).  The timers cost next to nothing; the main
-   thread's stages add up to that run's wall time, which the notes give; stages run in a
-   thread beside them (the log read while numba sets up, the plots drawn while the metrics
-   and tables are made) are listed as such (the plots, drawn in a forked child where the
-   console script allows it, as that), and the main thread's wait for them as ``waiting for
-   a thread``.
+   thread's stages add up to that run's wall time, which the notes give; stages run beside
+   them (the log read in a thread while numba sets up, the estimator's compiled loop in a
+   thread while the report takes its chunks, matplotlib's import and the plots in the
+   command's worker process) are listed as such, and the main thread's waits for them as
+   ``waiting for a thread``, ``waiting for the filter`` and ``waiting for the worker``.
 """
 
 from __future__ import annotations
@@ -134,7 +134,7 @@ def measure(rows: int, repeat: int) -> dict[str, Any]:
 
     def label(stage: str) -> str:
         if stage in forked:
-            return f"{stage} (in a forked child, beside the others)"
+            return f"{stage} (in the worker process, beside the others)"
         return f"{stage} (in a thread, beside the others)" if stage in beside else stage
 
     stages = {"start-up (interpreter)": child["started"] - start}

@@ -16,9 +16,12 @@ the main one (``analyze`` reads the log in a thread while numba sets up, and dra
 in a thread beside the metrics and tables: :mod:`hybridlog.background`) are listed in
 ``beside``: they overlap the main thread's stages, among which ``waiting for a thread`` is
 the time the main thread waited for them; the main thread's stages add up to the command.
-A stage run in a forked child (the plots, where the console script allows it) is timed in
-the child and its clock sent back with its value; it is listed in ``forked`` (its ``VmHWM``
-is the child's).
+The estimator streams its result (the next chunk computed in a thread while the report
+takes this one): ``estimate (filter)`` is its compiled loop's time, beside the others, and
+``waiting for the filter`` the main thread's wait for chunks.  Stages run in the command's
+worker process (matplotlib's import and the plots: :class:`hybridlog.background.Worker`)
+are timed there, into ``STAGES.json.worker``, and listed in ``forked`` (their ``VmHWM`` is
+the worker's).
 ``benchmarks/analyze_e2e.py`` runs this child and the plain command and assembles the
 breakdown.
 """
@@ -30,6 +33,7 @@ import time
 STARTED = time.time()
 
 import atexit  # noqa: E402
+import functools  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
 import threading  # noqa: E402
@@ -79,32 +83,68 @@ def _timed(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
-def _child_clocked(beside: Callable[..., Any]) -> Callable[..., Any]:
-    """``hybridlog.background.beside`` whose function, run in a forked child, brings back
-    the clock its stages' timers kept there; it is added to this process's once."""
+def _worker_clocked(stage: str, function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function``, run in the process's worker (forked after these patches, so it has them),
+    appending its wall time and the worker's ``VmHWM`` to the file ``_WORKER_CLOCK`` names:
+    the worker's clock, merged into this process's at exit."""
 
-    def clocked(function: Callable[[], Any], name: str) -> Any:
-        def run() -> Any:
-            _clock.clear()
-            return function(), dict(_clock), dict(_peak)
+    @functools.wraps(function)
+    def clocked(*args: Any, **kwargs: Any) -> Any:
+        start = time.perf_counter()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            spent = time.perf_counter() - start
+            with open(_WORKER_CLOCK[0], "a", encoding="utf-8") as clock:
+                clock.write(json.dumps([stage, spent, _vmhwm_mib()]) + "\n")
 
-        task = beside(run, name)
-        result = task.result
-        merged = False
+    return clocked
 
-        def unpack() -> Any:
-            nonlocal merged
-            value, clock, peak = result()
-            if not merged:
-                merged = True
-                for stage, seconds in clock.items():
-                    _clock[stage] = _clock.get(stage, 0.0) + seconds
-                    _forked.add(stage)
-                    _peak[stage] = peak[stage]
-            return value
 
-        task.result = task.wait = unpack
-        return task
+def _merge_worker_clock() -> None:
+    try:
+        with open(_WORKER_CLOCK[0], encoding="utf-8") as clock:
+            entries = [json.loads(line) for line in clock]
+    except OSError:
+        return
+    for stage, spent, peak in entries:
+        _clock[stage] = _clock.get(stage, 0.0) + spent
+        _forked.add(stage)
+        _peak[stage] = max(_peak.get(stage, 0.0), peak)
+
+
+_WORKER_CLOCK = [""]
+"""The file the worker's stages are clocked into (``STAGES.json.worker``)."""
+
+
+def _stream_clocked(stream: Callable[..., Any]) -> Callable[..., Any]:
+    """``Prepared.stream`` whose chunks are clocked: the main thread's wait for each chunk is
+    ``waiting for the filter``; the filter's compiled loop itself (its chunks' ``runtime_s``,
+    run beside the report's work) is ``estimate (filter)``."""
+
+    @functools.wraps(stream)
+    def clocked(*args: Any, **kwargs: Any) -> Any:
+        chunks = _timed("compile (sympy source, numba cache)", stream)(*args, **kwargs)
+
+        def timed() -> Any:
+            runtime = 0.0
+            while True:
+                start = time.perf_counter()
+                try:
+                    chunk = next(chunks)
+                except StopIteration:
+                    break
+                finally:
+                    _clock["waiting for the filter"] = _clock.get("waiting for the filter", 0.0) + (
+                        time.perf_counter() - start
+                    )
+                    _peak["waiting for the filter"] = _vmhwm_mib()
+                runtime = chunk.runtime_s
+                yield chunk
+            _clock["estimate (filter)"] = _clock.get("estimate (filter)", 0.0) + runtime
+            _beside.add("estimate (filter)")
+
+        return timed()
 
     return clocked
 
@@ -122,42 +162,47 @@ def main() -> None:
     import hybridlog.cli as cli
     import hybridlog.estimators.common as common
     import hybridlog.jobs.analysis as analysis
+    import hybridlog.report.build as build
+    import hybridlog.report.plot_data as plot_data
+    import hybridlog.report.plots as plots
     import hybridlog.report.writer as writer
-    from hybridlog.background import Background, Forked
+    from hybridlog.background import Background, Task
     from hybridlog.estimators.registry import Prepared
     from hybridlog.report.document import Report
 
     _clock["imports"] = time.perf_counter() - start
     _peak["imports"] = _vmhwm_mib()
+    _WORKER_CLOCK[0] = f"{out}.worker"
     _patch(analysis, "parse_sets", "model (load, sympy)")
     _patch(analysis, "prepare_estimators", "estimator options")
     _patch(analysis, "read_log", "read log")
     _patch(analysis, "set_up", "numba set-up")
-    _patch(analysis, "import_plotting", "import matplotlib")
     Background.wait = _timed("waiting for a thread", Background.wait)  # type: ignore[method-assign]
     Background.result = _timed("waiting for a thread", Background.result)  # type: ignore[method-assign]
-    Forked.wait = _timed("waiting for a thread", Forked.wait)  # type: ignore[method-assign]
-    Forked.result = _timed("waiting for a thread", Forked.result)  # type: ignore[method-assign]
-    writer.beside = _child_clocked(writer.beside)
-    _patch(Prepared, "run", "estimate (filter)")
+    Task.wait = _timed("waiting for the worker", Task.wait)  # type: ignore[method-assign]
+    Task.result = _timed("waiting for the worker", Task.result)  # type: ignore[method-assign]
+    Prepared.stream = _stream_clocked(Prepared.stream)  # type: ignore[method-assign]
     _patch(common, "compile_generated", "compile (sympy source, numba cache)")
     _patch(common, "compile_model", "compile (sympy source, numba cache)")
-    for name, stage in (
-        ("build_report", "metrics"),
-        ("render_markdown", "report.json + report.md"),
-        ("timeline_table", "tables"),
-        ("estimates_table", "tables"),
-        ("write_table", "tables"),
-        ("write_plots", "plots"),
-    ):
-        _patch(writer, name, stage)
+    _patch(build.ReportBuilder, "add", "metrics")
+    _patch(build.ReportBuilder, "report", "metrics")
+    _patch(writer._RunTables, "add", "tables")
+    _patch(writer._RunTables, "close", "tables")
+    _patch(plot_data.PlotReducer, "add", "plot reductions")
+    _patch(plot_data.PlotReducer, "finish", "plot reductions")
+    _patch(writer, "render_markdown", "report.json + report.md")
     Report.to_json = _timed("report.json + report.md", Report.to_json)  # type: ignore[method-assign]
+    plots.prepare_plotting = _worker_clocked("import matplotlib", plots.prepare_plotting)
+    plots.draw_into = _worker_clocked("plots", plots.draw_into)
+    writer.prepare_plotting = plots.prepare_plotting
+    writer.draw_into = plots.draw_into
     command = time.perf_counter()
 
     def write_clock() -> None:
         # run by the console script's ending (atexit handlers, then os._exit: the command
         # never returns to this caller)
         _clock["command"] = time.perf_counter() - command
+        _merge_worker_clock()
         with open(out, "w", encoding="utf-8") as stream:
             json.dump(
                 {

@@ -29,7 +29,7 @@ import click
 
 from hybridlog import __version__
 from hybridlog.allocators import return_freed_memory
-from hybridlog.background import allow_fork
+from hybridlog.background import start_worker
 from hybridlog.errors import HybridlogError, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
@@ -1009,14 +1009,15 @@ def _one_bounded_job() -> None:
     exit.  ``batch`` keeps the collector: its parent runs as long as the logs last.  Polars'
     allocator is set to return what the job frees
     (:func:`hybridlog.allocators.return_freed_memory`: a lower peak resident set), which
-    must happen before the job imports polars; and the plots may be drawn in a forked child
-    (:func:`hybridlog.background.allow_fork`: the other core, not a thread that shares the
-    GIL with the metrics and tables).
+    must happen before the job imports polars; and the plots are drawn by a worker process
+    forked now, while this one is small and has one thread
+    (:func:`hybridlog.background.start_worker`: the other core, not a thread that shares the
+    GIL with the report, and matplotlib never imported here).
     """
     if _PROCESS["one_command"]:
         gc.disable()
         return_freed_memory()
-        allow_fork()
+        start_worker()
 
 
 BLAS_THREADS = "OPENBLAS_NUM_THREADS"

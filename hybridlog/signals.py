@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -58,3 +58,36 @@ class AlignedSignals:
     def n_samples(self) -> int:
         """Number of rows on the grid."""
         return int(self.time.shape[0])
+
+    def rows(self, start: int, stop: int) -> AlignedSignals:
+        """Rows ``start:stop`` of every per-sample array, as views (nothing is copied).
+
+        For the tables of a chunk of a run's result: the chunk's rows of the signals, whose
+        arrays stay those of the whole run.
+
+        Parameters
+        ----------
+        start, stop:
+            The rows, ``0 <= start <= stop <= n_samples``.
+
+        Returns
+        -------
+        AlignedSignals
+            The same names and source; ``stop - start`` samples.
+
+        Raises
+        ------
+        ValueError
+            For rows outside the signals (a slice would silently shorten them).
+
+        """
+        if not 0 <= start <= stop <= self.n_samples:
+            raise ValueError(f"rows {start}:{stop} of {self.n_samples} samples")
+        return replace(
+            self,
+            time=self.time[start:stop],
+            inputs=self.inputs[start:stop],
+            outputs=self.outputs[start:stop],
+            truth_modes=None if self.truth_modes is None else self.truth_modes[start:stop],
+            truth_states=None if self.truth_states is None else self.truth_states[start:stop],
+        )

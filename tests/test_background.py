@@ -1,15 +1,16 @@
-"""hybridlog.background: a function in a thread or a forked child, its value or error back."""
+"""hybridlog.background: a function in a thread or a worker process, its value or error back."""
 
 from __future__ import annotations
 
 import os
 import signal
 import threading
+from collections.abc import Iterator
 
 import pytest
 
 from hybridlog import background
-from hybridlog.background import Background, Forked, beside
+from hybridlog.background import Background, Task, Worker, beside
 from hybridlog.errors import ReportError
 
 
@@ -35,48 +36,83 @@ def test_the_error_is_raised_in_the_caller_and_wait_only_waits() -> None:
         task.result()
 
 
-def test_a_forked_child_sees_the_callers_memory_and_sends_the_value_back() -> None:
-    big = list(range(100_000))  # not copied: the child reads it as it was at the fork
+def _pid_and_sum(values: list[int]) -> tuple[int, int]:
+    return os.getpid(), sum(values)
 
-    def work() -> tuple[int, int]:
-        return os.getpid(), sum(big)
 
-    pid, total = Forked(work, "test").result()
+def _fail(message: str) -> None:
+    raise ReportError(message)
+
+
+class UnpicklableError(Exception):
+    def __reduce__(self) -> object:
+        raise TypeError("no")
+
+
+def _fail_unpicklably() -> None:
+    raise UnpicklableError("odd")
+
+
+def _die() -> None:
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+@pytest.fixture
+def worker() -> Iterator[Worker]:
+    started = Worker("test")
+    yield started
+    started.close()
+
+
+def test_a_worker_runs_functions_in_its_own_process_and_sends_the_values_back(
+    worker: Worker,
+) -> None:
+    big = list(range(100_000))  # sent pickled: the worker was forked before it existed
+    first = worker.submit(_pid_and_sum, big)
+    second = worker.submit(_pid_and_sum, [1, 2])
+    assert second.result()[1] == 3  # outcomes may be asked for in any order
+    pid, total = first.result()
     assert pid != os.getpid() and total == sum(big)
+    assert first.result() == (pid, total)  # kept: asking again reads nothing more
 
 
-def test_a_forked_childs_error_is_raised_in_the_caller_and_wait_only_waits() -> None:
-    def fail() -> None:
-        raise ReportError("plots: bad axis")
-
-    task = Forked(fail, "test")
+def test_a_workers_error_is_raised_in_the_caller_and_wait_only_waits(worker: Worker) -> None:
+    task = worker.submit(_fail, "plots: bad axis")
     task.wait()
     with pytest.raises(ReportError, match="bad axis"):
         task.result()
+    assert worker.submit(_pid_and_sum, [4]).result()[1] == 4  # it goes on serving
 
 
-def test_an_error_that_cannot_be_pickled_still_arrives_as_one_line() -> None:
-    class UnpicklableError(Exception):
-        def __reduce__(self) -> object:
-            raise TypeError("no")
-
-    def fail() -> None:
-        raise UnpicklableError("odd")
-
+def test_an_error_that_cannot_be_pickled_still_arrives_as_one_line(worker: Worker) -> None:
     with pytest.raises(RuntimeError, match="UnpicklableError: odd"):
-        Forked(fail, "test").result()
+        worker.submit(_fail_unpicklably).result()
 
 
-def test_a_killed_child_is_an_error_naming_the_signal() -> None:
-    def die() -> None:
-        os.kill(os.getpid(), signal.SIGKILL)
-
+def test_a_killed_worker_is_an_error_naming_the_signal_for_every_task_owed(
+    worker: Worker,
+) -> None:
+    dying = worker.submit(_die)
+    after = worker.submit(_pid_and_sum, [1])
     with pytest.raises(ChildProcessError, match="test: the process was killed by signal SIGKILL"):
-        Forked(die, "test").result()
+        dying.result()
+    with pytest.raises(ChildProcessError, match="SIGKILL"):
+        after.result()
 
 
-def test_beside_forks_only_where_the_process_allowed_it(monkeypatch: pytest.MonkeyPatch) -> None:
-    assert isinstance(beside(lambda: 1, "test"), Background)  # a library caller: a thread
-    monkeypatch.setitem(background._POLICY, "fork", True)
-    task = beside(os.getpid, "test")
-    assert isinstance(task, Forked) and task.result() != os.getpid()
+def test_a_closed_worker_ends_and_takes_no_more(worker: Worker) -> None:
+    worker.close()
+    worker.close()  # idempotent
+    with pytest.raises(RuntimeError, match="closed"):
+        worker.submit(_pid_and_sum, [1])
+
+
+def test_beside_uses_the_worker_where_one_was_started(
+    monkeypatch: pytest.MonkeyPatch, worker: Worker
+) -> None:
+    task = beside(_pid_and_sum, [1], name="test")
+    assert isinstance(task, Background)  # a library caller: a thread
+    assert task.result() == (os.getpid(), 1)
+    monkeypatch.setitem(background._WORKER, "worker", worker)
+    task = beside(_pid_and_sum, [2], name="test")
+    assert isinstance(task, Task) and task.result()[0] != os.getpid()

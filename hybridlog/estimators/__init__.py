@@ -6,6 +6,7 @@ only the registry, never an estimator's module (numba, sympy, cvxpy ...) until i
 
 from hybridlog.estimators.capabilities import Capabilities
 from hybridlog.estimators.registry import (
+    CHUNK_ROWS,
     ESTIMATORS,
     Estimator,
     Prepared,
@@ -15,6 +16,7 @@ from hybridlog.estimators.registry import (
 )
 
 __all__ = [
+    "CHUNK_ROWS",
     "ESTIMATORS",
     "Capabilities",
     "Estimator",

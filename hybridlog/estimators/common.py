@@ -4,18 +4,24 @@ A filter is a generic time loop over the model's compiled functions (mandatory, 
 :class:`FilterCode`) and may add an :class:`Accelerator`: straight-line code generated for
 the model, which :func:`run_filter` picks for the models it applies to.  Both compute the
 same thing (``tests/estimators/test_kernels.py`` checks every accelerator against the plain path).
+Both compute any run of consecutive rows from the state the rows before left (a
+:class:`Chunk`): :func:`run_filter_chunks` yields a log's result chunk after chunk in buffers
+of one chunk, and :func:`run_filter` is its one chunk (``tests/estimators/test_filter_chunks.py``
+checks that the chunks put end to end are the whole result, bit for bit).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, NamedTuple
+from functools import partial
+from typing import TYPE_CHECKING, Any, Generic, NamedTuple, TypeVar
 
 import numpy as np
 
+from hybridlog.background import Background
 from hybridlog.errors import ModelError
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import fits_unrolled, module_source
@@ -107,22 +113,35 @@ class FilterBuffers(NamedTuple):
             covariances=np.zeros((n_samples if store_covariances else 0, n_x, n_x)),
         )
 
+    def head(self, rows: int) -> FilterBuffers:
+        """The first ``rows`` rows (views), or the buffers themselves when they have as many."""
+        if rows == self.modes.shape[0]:
+            return self
+        return FilterBuffers(
+            self.modes[:rows],
+            self.mode_probabilities[:rows],
+            self.state_means[:rows],
+            self.state_variances[:rows],
+            self.output_predictions[:rows],
+            self.covariances[:rows],
+        )
+
     def result(
         self,
         name: str,
         options: dict[str, Any],
         model: HybridModel,
-        signals: AlignedSignals,
+        time: FloatArray,
         *,
         runtime_s: float,
         compile_s: float,
         notes: tuple[str, ...] = (),
     ) -> EstimationResult:
-        """Package the filled buffers as the common result type."""
+        """Package the filled buffers, the rows at ``time``, as the common result type."""
         return EstimationResult(
             estimator=name,
             options=options,
-            time=signals.time,
+            time=time,
             mode_ids=model.mode_ids,
             state_names=model.states,
             output_names=model.outputs,
@@ -210,12 +229,33 @@ KERNELS = ("auto", "unrolled", "loops")
 ``auto`` the accelerator where it applies."""
 
 
+State = TypeVar("State", bound=tuple[Any, ...])
+"""A filter's loop-carried state: a named tuple of arrays (:attr:`FilterCode.prior`)."""
+
+
+class Chunk(NamedTuple, Generic[State]):
+    """The rows one call of a filter's loop computes, and the state it resumes from.
+
+    The loop computes rows ``first … stop−1`` of the log (row 0 is the prior, row ``k+1``
+    the step from sample ``k``) into rows ``0 … stop−first−1`` of its
+    :class:`FilterBuffers`.  ``state`` is the filter's loop-carried state, a named tuple of
+    arrays (:attr:`FilterCode.prior`): on entry the state after row ``first−1`` (the prior
+    when ``first`` is 0), on return the state after row ``stop−1``, which the next chunk
+    resumes from.  Nothing else crosses a step, so the chunks of a log compute, operation
+    for operation, what one call over the whole log computes (:func:`run_filter_chunks`).
+    """
+
+    first: int
+    stop: int
+    state: State
+
+
 @dataclass(frozen=True)
 class Accelerator:
     """Straight-line code a filter generates for a model: optional, faster, the same result.
 
     ``generate(model)`` returns the source of one function named ``function`` taking the
-    frame of the generic loop without the model functions, ``(run, settings, out)``
+    frame of the generic loop without the model functions, ``(run, settings, chunk, out)``
     (:class:`FilterCode`), written by :meth:`~hybridlog.estimators.unrolled.Program.function`;
     it runs in a module with ``math`` and ``LOG_2PI``
     (:func:`~hybridlog.estimators.unrolled.module_source`).  The generated module is cached by
@@ -235,17 +275,20 @@ class FilterCode:
     """The code of one filter (see ``docs/architecture.md``, "Compiled code").
 
     ``loop`` is the generic time loop, plain Python that numba compiles on first use (its
-    signature derived from the arguments): ``(f, F, h, H, run, settings, out)``, the model's
-    mode functions (first-class functions: one machine code for every model), the
-    :class:`FilterRun`, the filter's own settings (a named tuple) and the
-    :class:`FilterBuffers`.  ``accelerator`` is optional and takes the same frame.  The mode
-    functions stay four arguments: numba types a tuple of first-class functions only through
-    its experimental unification of function types (it warns, and a named tuple of them does
-    not match the compiled signature at the call).
+    signature derived from the arguments): ``(f, F, h, H, run, settings, chunk, out)``, the
+    model's mode functions (first-class functions: one machine code for every model), the
+    :class:`FilterRun`, the filter's own settings (a named tuple), the :class:`Chunk` of rows
+    to compute with the state it resumes from, and the :class:`FilterBuffers`.
+    ``accelerator`` is optional and takes the same frame.  The mode functions stay four
+    arguments: numba types a tuple of first-class functions only through its experimental
+    unification of function types (it warns, and a named tuple of them does not match the
+    compiled signature at the call).
     """
 
     name: str
     loop: Callable[..., None]
+    prior: Callable[[FilterRun], tuple[Any, ...]]
+    """The loop-carried state before the first step (:class:`Chunk`): the run's prior."""
     accelerator: Accelerator | None = None
 
 
@@ -259,6 +302,135 @@ def _diverged(
     )
 
 
+def _compiled_loop(
+    code: FilterCode, model: HybridModel, frame: tuple[Any, ...], *, jit: bool, kernel: str
+) -> tuple[Callable[..., None], tuple[Fn, ...], float]:
+    """The loop of the code path ``kernel`` and ``jit`` pick, compiled for ``frame``.
+
+    Returns the loop, the model functions it takes before the frame (none for an
+    accelerator) and the seconds spent generating, compiling or loading them.
+    """
+    accelerator = code.accelerator
+    if (
+        jit
+        and accelerator is not None
+        and (kernel == "unrolled" or (kernel == "auto" and accelerator.applies(model)))
+    ):
+        modules = (accelerator.generate.__module__, *accelerator.modules)
+        loop, compile_s = compile_generated(
+            model,
+            code.name,
+            lambda: module_source(model, accelerator.generate(model)),
+            modules,
+            accelerator.function,
+            frame,
+        )
+        return loop, (), compile_s
+    start = time.perf_counter()
+    compiled = compile_model(model, jit=jit)
+    functions = (compiled.f, compiled.F, compiled.h, compiled.H)
+    loop = compile_for(code.loop, (*functions, *frame)) if jit else code.loop
+    return loop, functions, time.perf_counter() - start
+
+
+def run_filter_chunks(
+    code: FilterCode,
+    model: HybridModel,
+    signals: AlignedSignals,
+    settings: tuple[Any, ...],
+    options: dict[str, Any],
+    *,
+    jit: bool,
+    kernel: str,
+    store_covariances: bool,
+    rows: int,
+) -> Iterator[EstimationResult]:
+    """Run a filter over the aligned signals in consecutive chunks of at most ``rows`` rows.
+
+    Yields results covering rows ``[0, N)`` in order, each ``rows`` long but the last (an
+    empty log: one empty result), so that a consumer holds one chunk, not the whole result.
+    Each call of the loop resumes from the state the one before left (:class:`Chunk`), so
+    the chunks put end to end are, bit for bit, :func:`run_filter`'s result, which is this
+    run in one chunk.  Row 0 of the first chunk is the prior.
+
+    The chunks' arrays are views of buffers of ``min(rows, N)`` rows allocated once, which
+    a later chunk overwrites: a consumer copies what it keeps before asking for the next.
+    While the consumer takes a chunk, the next one is computed in a thread (the compiled
+    loop releases the GIL) into a second set of buffers, so a streamed run costs the time
+    of the longer of the filter and its consumer, not their sum; the chunk after it waits
+    until the consumer asks for the next, whose buffers are then free again.
+    Each chunk's ``time`` is its slice of ``signals.time``; its ``runtime_s`` is the loop's
+    time so far and its ``compile_s`` the set-up's, so the last chunk carries the run's
+    totals.  The checks (``kernel``, the noise covariances) and the compilation happen at
+    the call, the loop as the chunks are asked for.  ``kernel``, ``jit``: as for
+    :func:`run_filter`.
+
+    Raises
+    ------
+    ModelError
+        When the state estimate stops being finite: the chunk that holds that sample names
+        it by its index in the log (:func:`_diverged`), and no chunk follows.
+    """
+    if rows < 1:
+        raise ValueError(f"rows must be at least 1, got {rows}")
+    if kernel not in KERNELS:
+        raise ValueError(f"unknown kernel {kernel!r}")
+    if kernel == "unrolled" and code.accelerator is None:
+        raise ValueError(f"{code.name} has no accelerator")
+    n = signals.n_samples
+    run = FilterRun.of(model, signals, code.name)
+    size = min(rows, n)
+    buffers = [FilterBuffers.allocate(model, size, store_covariances=store_covariances)]
+    if n > rows:  # a second set: the next chunk is computed while the caller takes this one
+        buffers.append(FilterBuffers.allocate(model, size, store_covariances=store_covariances))
+    opening: Chunk[tuple[Any, ...]] = Chunk(0, size, code.prior(run))
+    loop, functions, compile_s = _compiled_loop(
+        code, model, (run, settings, opening, buffers[0]), jit=jit, kernel=kernel
+    )
+
+    def compute(chunk: Chunk[tuple[Any, ...]], into: FilterBuffers) -> float:
+        start = time.perf_counter()
+        with populated_beside([*into, *arrays_in(settings)]):
+            loop(*functions, run, settings, chunk, into)
+        return time.perf_counter() - start
+
+    def chunks() -> Iterator[EstimationResult]:
+        chunk, which, runtime = opening, 0, 0.0
+        pending: Background[float] | None = None
+        try:
+            spent = compute(chunk, buffers[which])
+            while True:
+                runtime += spent
+                filled = buffers[which].head(chunk.stop - chunk.first)
+                finite = np.isfinite(filled.state_means).all(axis=1)
+                if not finite.all():
+                    raise _diverged(code, model, signals, chunk.first + int(np.argmin(finite)))
+                if chunk.stop < n:  # the compiled loop releases the GIL: it runs beside
+                    following = chunk._replace(first=chunk.stop, stop=min(chunk.stop + rows, n))
+                    into = buffers[1 - which]
+                    pending = Background(
+                        partial(compute, following, into), f"hybridlog-{code.name}-chunk"
+                    )
+                yield filled.result(
+                    code.name,
+                    options,
+                    model,
+                    signals.time[chunk.first : chunk.stop],
+                    runtime_s=runtime,
+                    compile_s=compile_s,
+                )
+                if pending is None:
+                    return
+                spent = pending.result()
+                pending = None
+                chunk, which = following, 1 - which
+        finally:
+            if pending is not None:  # the caller stopped early: the loop still writes
+                pending.wait()
+
+    return chunks()
+
+
 def run_filter(
     code: FilterCode,
     model: HybridModel,
@@ -270,50 +442,22 @@ def run_filter(
     kernel: str,
     store_covariances: bool,
 ) -> EstimationResult:
-    """Run a filter over the aligned signals with the chosen code path.
+    """Run a filter over the aligned signals with the chosen code path: the whole result.
 
     ``kernel``: ``unrolled`` (the filter's accelerator), ``loops`` (the generic compiled
     loop) or ``auto`` (the accelerator where it applies, see :class:`Accelerator`);
     ``jit=False`` runs the generic loop as plain Python on plain-Python mode functions, the
-    tests' reference.
+    tests' reference.  The one chunk of :func:`run_filter_chunks`.
     """
-    if kernel not in KERNELS:
-        raise ValueError(f"unknown kernel {kernel!r}")
-    accelerator = code.accelerator
-    if kernel == "unrolled" and accelerator is None:
-        raise ValueError(f"{code.name} has no accelerator")
-    buffers = FilterBuffers.allocate(model, signals.n_samples, store_covariances=store_covariances)
-    frame = (FilterRun.of(model, signals, code.name), settings, buffers)
-    loop: Callable[..., None]
-    arguments: tuple[Any, ...]
-    if (
-        jit
-        and accelerator is not None
-        and (kernel == "unrolled" or (kernel == "auto" and accelerator.applies(model)))
-    ):
-        arguments = frame
-        modules = (accelerator.generate.__module__, *accelerator.modules)
-        loop, compile_s = compile_generated(
-            model,
-            code.name,
-            lambda: module_source(model, accelerator.generate(model)),
-            modules,
-            accelerator.function,
-            arguments,
-        )
-    else:
-        start = time.perf_counter()
-        compiled = compile_model(model, jit=jit)
-        arguments = (compiled.f, compiled.F, compiled.h, compiled.H, *frame)
-        loop = compile_for(code.loop, arguments) if jit else code.loop
-        compile_s = time.perf_counter() - start
-    start = time.perf_counter()
-    with populated_beside([*buffers, *arrays_in(settings)]):
-        loop(*arguments)
-    runtime = time.perf_counter() - start
-    finite = np.isfinite(buffers.state_means).all(axis=1)
-    if not finite.all():
-        raise _diverged(code, model, signals, int(np.argmin(finite)))
-    return buffers.result(
-        code.name, options, model, signals, runtime_s=runtime, compile_s=compile_s
+    (whole,) = run_filter_chunks(
+        code,
+        model,
+        signals,
+        settings,
+        options,
+        jit=jit,
+        kernel=kernel,
+        store_covariances=store_covariances,
+        rows=max(signals.n_samples, 1),
     )
+    return whole

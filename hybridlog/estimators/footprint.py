@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["REPORT_FACTOR", "Parts", "result_bytes"]
+__all__ = ["MODE_BYTES", "REPORT_FACTOR", "Parts", "result_bytes"]
 
 Parts = list[tuple[str, int]]
 """What is allocated and how many bytes, largest first where it matters to the reader."""
@@ -32,10 +32,15 @@ against 346 MiB, ``viterbi`` 202 against 185, ``kbest`` 385 against 193, ``kbest
 a run refused needs at least about half of what the message says."""
 
 
+MODE_BYTES = 8
+"""Bytes a sample of the estimated mode sequence (an int64 index), which the report of a
+streamed run keeps whole for its mode metrics."""
+
+
 def result_bytes(model: HybridModel, n: int) -> int:
     """An :class:`~hybridlog.estimators.result.EstimationResult` of ``n`` samples.
 
     Per sample the mode index, the mode probabilities, the state means and variances and the
     output prediction.
     """
-    return 8 * n * (1 + model.n_modes + 2 * model.n_states + model.n_outputs)
+    return MODE_BYTES * n + 8 * n * (model.n_modes + 2 * model.n_states + model.n_outputs)

@@ -40,6 +40,7 @@ unknown mode transitions. ``papers/000_e6c6af29d4167a70.txt``.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -47,11 +48,13 @@ import numpy as np
 
 from hybridlog.estimators.common import (
     Accelerator,
+    Chunk,
     FilterBuffers,
     FilterCode,
     FilterRun,
     Fn,
     run_filter,
+    run_filter_chunks,
 )
 from hybridlog.estimators.filter_options import HstfOptions
 from hybridlog.estimators.kernels import (
@@ -76,12 +79,13 @@ from hybridlog.estimators.unrolled import (
     noise_matrices,
     product,
     reshape,
+    state_slots,
     term,
     upper,
     vector_names,
 )
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 NAME = "hstf"
 
@@ -105,19 +109,62 @@ class HstfSettings(NamedTuple):
     unfaded_likelihood: bool
 
 
+class HstfState(NamedTuple):
+    """What the HSTF carries from one step to the next (a :class:`~.common.Chunk`'s state).
+
+    ``x̂(k|k)``, ``P(k|k)``, the output residual covariance ``S(k)`` of eq. (38) that eq. (30)
+    reads at the next step, the mode probabilities and the decided mode ``q̂(k)`` of eq. (40)
+    (one entry).  ``L`` is the generic loop's Cholesky factor: a factorisation that fails
+    (an innovation covariance not positive definite) leaves part of the one before in it,
+    which the EKF update then reads; the straight-line code's failed factor is NaN instead,
+    and it leaves ``L`` alone.
+    """
+
+    x: FloatArray
+    P: FloatArray
+    S: FloatArray
+    mu: FloatArray
+    q_hat: IntArray
+    L: FloatArray
+
+    @classmethod
+    def prior(cls, run: FilterRun) -> HstfState:
+        """The state before the first step: the model's prior, ``S = 0``, ``q̂`` its likeliest mode.
+
+        Eq. (40) needs ``q̂(k)``: it starts from the most probable mode.
+        """
+        m = run.outputs.shape[1]
+        return cls(
+            run.x0.copy(),
+            run.P0.copy(),
+            np.zeros((m, m)),
+            run.mu0.copy(),
+            np.array([argmax(run.mu0)], dtype=np.int64),
+            np.zeros((m, m)),
+        )
+
+
 def _hstf_steps(
-    f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: HstfSettings, out: FilterBuffers
+    f: Fn,
+    F: Fn,
+    h: Fn,
+    H: Fn,
+    run: FilterRun,
+    settings: HstfSettings,
+    chunk: Chunk[HstfState],
+    out: FilterBuffers,
 ) -> None:
-    """The generic HSTF time loop (compiled on first use; the docstring of the module)."""
+    """The generic HSTF time loop (compiled on first use; the docstring of the module).
+
+    Computes the rows of ``chunk`` from its :class:`HstfState`, worked on in place.
+    """
     inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R
     rho, beta, theta, fading, unfaded_likelihood = settings
-    n_samples, n, m, n_q = dimensions(run)
+    first, stop, state = chunk
+    _, n, m, n_q = dimensions(run)
 
-    x = run.x0.copy()
-    P = run.P0.copy()
-    S = np.zeros((m, m))  # output residual covariance of eq. (38), previous step
-    mu = run.mu0.copy()
-    q_hat = argmax(mu)  # eq. (40) needs q̂(k): start from the most probable mode
+    x, P, S, mu = state.x, state.P, state.S, state.mu
+    q_hat = state.q_hat[0]
 
     x_i_pred = np.empty((n_q, n))
     F_i = np.empty((n_q, n, n))
@@ -136,13 +183,16 @@ def _hstf_steps(
     y_mix = np.empty(m)
     work = workspace(n, m)
     work_nn, work_mn, L, vec_m = work.nn, work.mn, work.L, work.m
+    L[:, :] = state.L
     predictions_out = out.output_predictions
     HQH = np.empty((m, m))
     M = np.empty((m, m))
 
-    record(out, 0, q_hat, mu, x, P)
+    if first == 0 and stop > 0:
+        record(out, 0, q_hat, mu, x, P)
 
-    for k in range(n_samples - 1):
+    for k in range(max(first, 1) - 1, stop - 1):
+        row = k + 1 - first
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
@@ -166,7 +216,7 @@ def _hstf_steps(
             acc = 0.0
             for i in range(n_q):
                 acc += y_i[i, b]
-            predictions_out[k + 1, b] = acc / n_q
+            predictions_out[row, b] = acc / n_q
         for i in range(n_q):
             congruence(F_i[i], P, work_nn, FPF[i])  # F̄_i P(k|k) F̄_iᵀ
             lam = 1.0
@@ -215,7 +265,26 @@ def _hstf_steps(
         best = argmax(mu)  # (40)
         if mu[best] >= theta:
             q_hat = best
-        record(out, k + 1, q_hat, mu, x, P)
+        record(out, row, q_hat, mu, x, P)
+    state.q_hat[0] = q_hat
+    state.L[:, :] = L
+
+
+def _settings(options: HstfOptions) -> HstfSettings:
+    return HstfSettings(
+        options.rho,
+        options.beta,
+        options.theta,
+        options.fading,
+        options.likelihood == "unfaded",
+    )
+
+
+def _noted(result: EstimationResult, options: HstfOptions) -> EstimationResult:
+    """``result`` with :data:`FADED_LIKELIHOOD_NOTE` where the likelihood is the paper's."""
+    if options.likelihood == "faded":
+        return replace(result, notes=(*result.notes, FADED_LIKELIHOOD_NOTE))
+    return result
 
 
 def run_hstf(
@@ -232,26 +301,46 @@ def run_hstf(
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_hstf_source` for small models, else the generic :func:`_hstf_steps`.
     """
-    settings = HstfSettings(
-        options.rho,
-        options.beta,
-        options.theta,
-        options.fading,
-        options.likelihood == "unfaded",
-    )
     result = run_filter(
         CODE,
         model,
         signals,
-        settings,
+        _settings(options),
         options_dict(options),
         jit=jit,
         kernel=kernel,
         store_covariances=store_covariances,
     )
-    if options.likelihood == "faded":
-        result = replace(result, notes=(*result.notes, FADED_LIKELIHOOD_NOTE))
-    return result
+    return _noted(result, options)
+
+
+def stream_hstf(
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: HstfOptions,
+    *,
+    rows: int,
+    jit: bool = True,
+    kernel: str = "auto",
+    store_covariances: bool = False,
+) -> Iterator[EstimationResult]:
+    """:func:`run_hstf`'s result in consecutive chunks of at most ``rows`` rows.
+
+    The chunks of :func:`~hybridlog.estimators.common.run_filter_chunks` (views of buffers
+    the next chunk overwrites), each with :func:`run_hstf`'s notes.
+    """
+    chunks = run_filter_chunks(
+        CODE,
+        model,
+        signals,
+        _settings(options),
+        options_dict(options),
+        jit=jit,
+        kernel=kernel,
+        store_covariances=store_covariances,
+        rows=rows,
+    )
+    return (_noted(chunk, options) for chunk in chunks)
 
 
 def hstf_options(values: dict[str, object]) -> HstfOptions:
@@ -262,9 +351,11 @@ def hstf_options(values: dict[str, object]) -> HstfOptions:
 def generate_hstf_source(model: HybridModel) -> str:
     """Straight-line source of the whole HSTF time loop for ``model`` (see ``unrolled.py``).
 
-    Defines ``hstf_run(run, settings, out)``, the frame of :func:`_hstf_steps` without the
-    model functions, computing exactly what :func:`_hstf_steps` does, with the mode functions,
-    noise covariances and small matrix products written out.
+    Defines ``hstf_run(run, settings, chunk, out)``, the frame of :func:`_hstf_steps`
+    without the model functions, computing exactly what :func:`_hstf_steps` does, with the
+    mode functions, noise covariances and small matrix products written out.  The carried
+    variables are loaded from the chunk's :class:`HstfState` before the time loop and
+    stored back after it (``L`` is the generic loop's only).
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
     p = Program(indent="    ")
@@ -275,14 +366,19 @@ def generate_hstf_source(model: HybridModel) -> str:
     Q, R = noise_matrices(model)
     uniform = 1.0 / n_q
 
+    carried = [
+        *state_slots("x", x),
+        *state_slots("P", P),
+        *state_slots("S", S),
+        *state_slots("mu", mu),
+        *state_slots("q_hat", ["q_hat"]),
+    ]
+
     p.prologue(HstfSettings._fields)
-    p.carry(x, [f"x0[{a}]" for a in range(n)])
-    p.carry(upper(P), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
-    p.carry(upper(S), ["0.0"] * (m * (m + 1) // 2))
-    p.carry(mu, [f"mu0[{i}]" for i in range(n_q)])
-    p.emit(f"q_hat = {p.argmax(mu)}")  # eq. (40) needs q̂(k): the most probable prior mode
-    p.record("0", "q_hat", mu, x, P)
-    u, v, y = p.open_time_loop(n_u, m)
+    p.resume(carried)
+    with p.block("if first == 0 and stop > 0:"):  # row 0: the prior
+        p.record("0", "q_hat", mu, x, P)
+    u, v, y = p.open_time_loop(n_u, m, chunk=True)
     x_names = list(x)
     x_i = [p.mode_values(model, i, "f", x_names, u) for i in range(n_q)]  # (10)
     F_i = [reshape(p.mode_values(model, i, "F", x_names, u), n, n) for i in range(n_q)]  # (25)
@@ -295,7 +391,7 @@ def generate_hstf_source(model: HybridModel) -> str:
     gamma = [[p.difference("g", y[b], y_i[i][b]) for b in range(m)] for i in range(n_q)]  # (31)
     for b in range(m):
         prediction = p.let("yp", [product(uniform, y_i[i][b]) for i in range(n_q)])
-        p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
+        p.emit(f"predictions_out[row, {b}] = {term(prediction)}")
     FPF = [p.congruence(f"fpf{i}_", F_i[i], P) for i in range(n_q)]
     lam: list[str] = []
     for i in range(n_q):
@@ -350,9 +446,11 @@ def generate_hstf_source(model: HybridModel) -> str:
     p.carry(upper(P), upper(P_new))
     p.carry(upper(S), upper(S_new))
     p.carry(mu, mu_new)
-    p.record("k + 1", "q_hat", mu, x, P)
+    p.record("row", "q_hat", mu, x, P)
+    p.close_time_loop()
+    p.suspend(carried)
     return p.function("hstf_run")
 
 
-CODE = FilterCode(NAME, _hstf_steps, Accelerator(generate_hstf_source, "hstf_run"))
+CODE = FilterCode(NAME, _hstf_steps, HstfState.prior, Accelerator(generate_hstf_source, "hstf_run"))
 """The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

@@ -25,12 +25,14 @@ The mode estimate is the most probable mode; the one-step-ahead output predictio
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Iterator
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from hybridlog.estimators.common import (
     Accelerator,
+    Chunk,
     FilterBuffers,
     FilterCode,
     FilterRun,
@@ -38,6 +40,7 @@ from hybridlog.estimators.common import (
     ModeStore,
     contiguous,
     run_filter,
+    run_filter_chunks,
     upper_pairs,
 )
 from hybridlog.estimators.filter_options import ImmOptions
@@ -63,6 +66,7 @@ from hybridlog.estimators.unrolled import (
     noise_matrices,
     product,
     reshape,
+    state_slots,
     term,
     upper,
     vector_names,
@@ -80,7 +84,32 @@ class ImmSettings(NamedTuple):
     transitions: FloatArray
     """The Markov matrix ``Π`` (:func:`transition_matrix`), C-contiguous."""
     store: ModeStore
-    """Per-mode filtered estimates and likelihoods for the smoother (no rows: not kept)."""
+    """Per-mode filtered estimates and likelihoods for the smoother (no rows: not kept).
+
+    Its rows are the log's: kept only by a run in one chunk (offline passes are not streamed).
+    """
+
+
+class ImmState(NamedTuple):
+    """What the IMM carries from one step to the next (a :class:`~.common.Chunk`'s state).
+
+    The mode-matched estimates ``x̂_i(k|k)``, ``P_i(k|k)`` and the mode probabilities
+    ``μ(k)``; the combined estimate is made from them at every step.
+    """
+
+    x_i: FloatArray
+    P_i: FloatArray
+    mu: FloatArray
+
+    @classmethod
+    def prior(cls, run: FilterRun) -> ImmState:
+        """The state before the first step: every mode starts from the model's prior."""
+        n_q = run.mu0.shape[0]
+        return cls(
+            np.repeat(run.x0[None], n_q, axis=0),
+            np.repeat(run.P0[None], n_q, axis=0),
+            run.mu0.copy(),
+        )
 
 
 @jit
@@ -96,23 +125,29 @@ def pack_state(x: FloatArray, P: FloatArray, out: FloatArray) -> None:
 
 
 def _imm_steps(
-    f: Fn, F: Fn, h: Fn, H: Fn, run: FilterRun, settings: ImmSettings, out: FilterBuffers
+    f: Fn,
+    F: Fn,
+    h: Fn,
+    H: Fn,
+    run: FilterRun,
+    settings: ImmSettings,
+    chunk: Chunk[ImmState],
+    out: FilterBuffers,
 ) -> None:
-    """The generic IMM time loop (compiled on first use; the docstring of the module)."""
-    inputs, outputs, Q, R, x0, P0 = run.inputs, run.outputs, run.Q, run.R, run.x0, run.P0
+    """The generic IMM time loop (compiled on first use; the docstring of the module).
+
+    Computes the rows of ``chunk`` from its :class:`ImmState`, worked on in place.
+    """
+    inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R
     transitions, store = settings
+    first, stop, state = chunk
     keep_states = store.states.shape[0] > 0
     keep_likelihoods = store.log_likelihoods.shape[0] > 0
     n_samples, n, m, n_q = dimensions(run)
 
-    x_i = np.empty((n_q, n))
-    P_i = np.empty((n_q, n, n))
-    for i in range(n_q):
-        x_i[i] = x0
-        P_i[i] = P0
-    mu = run.mu0.copy()
-    x = x0.copy()
-    P = P0.copy()
+    x_i, P_i, mu = state
+    x = np.empty(n)
+    P = np.empty((n, n))
 
     c_bar = np.empty(n_q)
     weights = np.empty(n_q)
@@ -128,13 +163,15 @@ def _imm_steps(
     work_nn, L, vec_m = work.nn, work.L, work.m
     log_posterior = np.empty(n_q)
 
-    record(out, 0, argmax(mu), mu, x, P)
-    if keep_states:  # row 0 when the log has one sample; else the mixing of step 0 replaces it
-        for i in range(n_q):
-            pack_state(x_i[i], P_i[i], store.states[0, i])
-    if keep_likelihoods:
-        store.log_likelihoods[0] = 0.0
-    for k in range(n_samples - 1):
+    if first == 0 and stop > 0:  # row 0: the prior
+        record(out, 0, argmax(mu), mu, run.x0, run.P0)
+        if keep_states:  # row 0 when the log has one sample; else the mixing of step 0 replaces it
+            for i in range(n_q):
+                pack_state(x_i[i], P_i[i], store.states[0, i])
+        if keep_likelihoods:
+            store.log_likelihoods[0] = 0.0
+    for k in range(max(first, 1) - 1, stop - 1):
+        row = k + 1 - first
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
@@ -155,7 +192,7 @@ def _imm_steps(
         if keep_states:
             for j in range(n_q):
                 pack_state(x_mix[j], P_mix[j], store.states[k, j])
-        predictions = out.output_predictions[k + 1]
+        predictions = out.output_predictions[row]
         for b in range(m):
             predictions[b] = 0.0
         for j in range(n_q):
@@ -187,7 +224,7 @@ def _imm_steps(
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
-        record(out, k + 1, argmax(mu), mu, x, P)
+        record(out, row, argmax(mu), mu, x, P)
         if keep_states and k == n_samples - 2:  # the last row; the others get the mixing
             for i in range(n_q):
                 pack_state(x_i[i], P_i[i], store.states[k + 1, i])
@@ -200,6 +237,29 @@ def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
     if model.transitions is not None:
         return model.transitions
     return markov_matrix(0.95, model.n_modes)
+
+
+def _filtered_model(
+    model: HybridModel, options: ImmOptions
+) -> tuple[HybridModel, FloatArray, dict[str, Any]]:
+    """The model the IMM runs on, its Markov matrix and the options the result reports.
+
+    A ``[components]`` model runs on its enumerated joint known modes
+    (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).
+    """
+    if model.has_components:
+        from hybridlog.estimators.cpha.joint import joint_mode_model
+
+        model = joint_mode_model(model)
+    transitions = contiguous(transition_matrix(model, options))
+    used = options_dict(options)
+    used["transition_matrix"] = transitions.tolist()
+    return model, transitions, used
+
+
+def _offline(options: ImmOptions) -> bool:
+    """Whether an offline pass follows the filter (``smooth``, a ``mode_sequence`` to decode)."""
+    return options.smooth or options.mode_sequence != "argmax"
 
 
 def run_imm(
@@ -224,14 +284,7 @@ def run_imm(
     A ``[components]`` model runs on its enumerated joint known modes
     (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).
     """
-    if model.has_components:
-        from hybridlog.estimators.cpha.joint import joint_mode_model
-
-        model = joint_mode_model(model)
-    transitions = contiguous(transition_matrix(model, options))
-    used = options_dict(options)
-    offline = options.smooth or options.mode_sequence != "argmax"
-    used["transition_matrix"] = transitions.tolist()
+    model, transitions, used = _filtered_model(model, options)
     store = ModeStore.allocate(
         model,
         signals.n_samples,
@@ -248,7 +301,7 @@ def run_imm(
         kernel=kernel,
         store_covariances=store_covariances,
     )
-    if not offline:
+    if not _offline(options):
         return filtered
     from hybridlog.estimators.smoothing import post_process
 
@@ -263,6 +316,49 @@ def run_imm(
         jit=jit,
         kernel=kernel,
         beam=options.beam,
+    )
+
+
+def stream_imm(
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: ImmOptions,
+    *,
+    rows: int,
+    jit: bool = True,
+    kernel: str = "auto",
+    store_covariances: bool = False,
+) -> Iterator[EstimationResult]:
+    """:func:`run_imm`'s result in consecutive chunks of at most ``rows`` rows.
+
+    Without an offline pass, the filter's chunks
+    (:func:`~hybridlog.estimators.common.run_filter_chunks`: views of buffers the next chunk
+    overwrites; no :class:`~hybridlog.estimators.common.ModeStore` kept).  With one, the one
+    whole result of :func:`run_imm`: the smoother and the mode-sequence decoders read the
+    whole forward pass, so nothing of it is streamed.
+    """
+    if _offline(options):
+        whole = run_imm(
+            model,
+            signals,
+            options,
+            jit=jit,
+            kernel=kernel,
+            store_covariances=store_covariances,
+        )
+        return iter((whole,))
+    model, transitions, used = _filtered_model(model, options)
+    store = ModeStore.allocate(model, signals.n_samples, states=False, likelihoods=False)
+    return run_filter_chunks(
+        CODE,
+        model,
+        signals,
+        ImmSettings(transitions, store),
+        used,
+        jit=jit,
+        kernel=kernel,
+        store_covariances=store_covariances,
+        rows=rows,
     )
 
 
@@ -283,9 +379,11 @@ def _store_record(p: Program, row: str, mode: int, x: Vector, P: Matrix) -> None
 def generate_imm_source(model: HybridModel) -> str:
     """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_run(run, settings, out)``, the frame of :func:`_imm_steps` without the
-    model functions, with the same meaning; the mode functions, the noise covariances and every
-    small matrix product are written out for the model's dimensions.
+    Defines ``imm_run(run, settings, chunk, out)``, the frame of :func:`_imm_steps` without
+    the model functions, with the same meaning; the mode functions, the noise covariances and
+    every small matrix product are written out for the model's dimensions.  The carried
+    variables are loaded from the chunk's :class:`ImmState` before the time loop and stored
+    back after it.
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
     p = Program(indent="    ")
@@ -295,26 +393,31 @@ def generate_imm_source(model: HybridModel) -> str:
     T = matrix_names("T", n_q, n_q)
     Q, R = noise_matrices(model)
 
+    carried = [
+        *(pair for i in range(n_q) for pair in state_slots("x_i", X[i], i)),
+        *(pair for i in range(n_q) for pair in state_slots("P_i", P[i], i)),
+        *state_slots("mu", mu),
+    ]
+
     p.prologue(ImmSettings._fields)
+    p.resume(carried)
     for i in range(n_q):
-        p.carry(X[i], [f"x0[{a}]" for a in range(n)])
-        p.carry(upper(P[i]), [f"P0[{a}, {b}]" for a in range(n) for b in range(a, n)])
-        p.emit(f"{mu[i]} = mu0[{i}]")
         p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
-    p.record("0", p.argmax(mu), mu, X[0], P[0])
     p.emit("keep_states = store.states.shape[0] > 0")
     p.emit("keep_likelihoods = store.log_likelihoods.shape[0] > 0")
-    p.emit("if keep_states:")
-    pairs = upper_pairs(n)
-    for i in range(n_q):
-        for a in range(n):
-            p.emit(f"    store.states[0, {i}, {a}] = x0[{a}]")
-        for index, (a, b) in enumerate(pairs, start=n):
-            p.emit(f"    store.states[0, {i}, {index}] = P0[{a}, {b}]")
-    p.emit("if keep_likelihoods:")
-    for i in range(n_q):
-        p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
-    u, v, y = p.open_time_loop(n_u, m)
+    with p.block("if first == 0 and stop > 0:"):  # row 0: the prior
+        p.record("0", p.argmax(mu), mu, X[0], P[0])
+        p.emit("if keep_states:")
+        pairs = upper_pairs(n)
+        for i in range(n_q):
+            for a in range(n):
+                p.emit(f"    store.states[0, {i}, {a}] = x0[{a}]")
+            for index, (a, b) in enumerate(pairs, start=n):
+                p.emit(f"    store.states[0, {i}, {index}] = P0[{a}, {b}]")
+        p.emit("if keep_likelihoods:")
+        for i in range(n_q):
+            p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
+    u, v, y = p.open_time_loop(n_u, m, chunk=True)
     # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
     c_bar = [p.let("c", [product(T[i][j], mu[i]) for i in range(n_q)]) for j in range(n_q)]
     x_post: list[Vector] = []
@@ -362,7 +465,7 @@ def generate_imm_source(model: HybridModel) -> str:
     x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)
     for b in range(m):
         prediction = p.let("yp", prediction_parts[b])
-        p.emit(f"predictions_out[k + 1, {b}] = {term(prediction)}")
+        p.emit(f"predictions_out[row, {b}] = {term(prediction)}")
     p.emit("if keep_likelihoods:")
     for j in range(n_q):
         p.emit(f"    store.log_likelihoods[k + 1, {j}] = {log_likelihoods[j]}")
@@ -373,9 +476,11 @@ def generate_imm_source(model: HybridModel) -> str:
         p.carry(X[i], x_post[i])
         p.carry(upper(P[i]), upper(P_post[i]))
     p.carry(mu, mu_new)
-    p.record("k + 1", p.argmax(mu), mu, x_combined, P_combined)
+    p.record("row", p.argmax(mu), mu, x_combined, P_combined)
+    p.close_time_loop()
+    p.suspend(carried)
     return p.function("imm_run")
 
 
-CODE = FilterCode(NAME, _imm_steps, Accelerator(generate_imm_source, "imm_run"))
+CODE = FilterCode(NAME, _imm_steps, ImmState.prior, Accelerator(generate_imm_source, "imm_run"))
 """The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

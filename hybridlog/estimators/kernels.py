@@ -222,7 +222,7 @@ def mixture_moments(
 
 @jit
 def dimensions(run: FilterRun) -> tuple[int, int, int, int]:
-    """Samples, states, outputs and modes of a filter run."""
+    """Samples (of the whole log), states, outputs and modes of a filter run."""
     return run.outputs.shape[0], run.x0.shape[0], run.outputs.shape[1], run.mu0.shape[0]
 
 
@@ -242,8 +242,9 @@ def record(
 ) -> None:
     """Write row ``row`` of a filter's output: mode, mode probabilities, mean, covariance.
 
-    The full covariance only where the buffers hold them (``covariances`` has no rows
-    otherwise).
+    ``row`` is the buffers' row: the log's row less the chunk's first
+    (:class:`~hybridlog.estimators.common.Chunk`).  The full covariance only where the
+    buffers hold them (``covariances`` has no rows otherwise).
     """
     out.modes[row] = mode
     out.mode_probabilities[row, :] = mu

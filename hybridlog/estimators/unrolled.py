@@ -14,7 +14,8 @@ compare the generated code against.  The model's own functions are written inlin
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 from hybridlog.signals import FloatArray
@@ -35,6 +36,7 @@ __all__ = [
     "noise_matrices",
     "product",
     "reshape",
+    "state_slots",
     "term",
     "upper",
     "use_unrolled",
@@ -81,6 +83,14 @@ class Program:
     def emit(self, line: str) -> None:
         """Append one line at the current indentation."""
         self.lines.append(f"{self.indent}{line}")
+
+    @contextmanager
+    def block(self, header: str) -> Iterator[None]:
+        """Lines emitted inside the ``with`` are the body of ``header`` (an ``if …:``)."""
+        self.emit(header)
+        self.indent += "    "
+        yield
+        self.indent = self.indent[:-4]
 
     def fresh(self, hint: str) -> str:
         """A new variable name."""
@@ -301,35 +311,70 @@ class Program:
         """First lines of every generated loop function: its frame, unpacked.
 
         The function takes the generic loop's frame without the model functions,
-        ``(run, settings, out)`` (:class:`~hybridlog.estimators.common.FilterCode`); the
-        ``settings`` record's fields are bound to their names.
+        ``(run, settings, chunk, out)`` (:class:`~hybridlog.estimators.common.FilterCode`);
+        the ``settings`` record's fields are bound to their names, the chunk's rows to
+        ``first`` and ``stop`` and its loop-carried state to ``state``
+        (:class:`~hybridlog.estimators.common.Chunk`).
         """
         for name in ("inputs", "outputs", "x0", "P0", "mu0"):
             self.emit(f"{name} = run.{name}")
         for name in settings:
             self.emit(f"{name} = settings.{name}")
+        for name in ("first", "stop", "state"):
+            self.emit(f"{name} = chunk.{name}")
         for name, field in _OUTPUT_NAMES:
             self.emit(f"{name} = out.{field}")
         self.emit("n_samples = outputs.shape[0]")
-        self.emit("store_covariances = covariances_out.shape[0] == n_samples")
+        self.emit("store_covariances = covariances_out.shape[0] > 0")
 
     def function(self, name: str) -> str:
-        """The emitted lines as the source of the loop function ``name(run, settings, out)``."""
-        return f"def {name}(run, settings, out):\n{self.source()}\n"
+        """The emitted lines as the source of ``name(run, settings, chunk, out)``."""
+        return f"def {name}(run, settings, chunk, out):\n{self.source()}\n"
 
-    def open_time_loop(self, n_inputs: int, n_outputs: int) -> tuple[Vector, Vector, Vector]:
-        """Open the time loop and load ``u(k)``, ``u(k+1)`` and ``y(k+1)`` into scalars."""
+    def resume(self, carried: Sequence[tuple[str, Entry]]) -> None:
+        """Load the loop-carried variables from the chunk's state: ``(slot, name)`` pairs.
+
+        A name given twice (both triangles of a symmetric matrix, :func:`state_slots`) is
+        loaded once.
+        """
+        loaded: set[Entry] = set()
+        for slot, name in carried:
+            if name not in loaded:
+                loaded.add(name)
+                self.emit(f"{term(name)} = {slot}")
+
+    def suspend(self, carried: Sequence[tuple[str, Entry]]) -> None:
+        """Store the loop-carried variables into the chunk's state, for the next chunk."""
+        for slot, name in carried:
+            self.emit(f"{slot} = {term(name)}")
+
+    def open_time_loop(
+        self, n_inputs: int, n_outputs: int, *, chunk: bool = False
+    ) -> tuple[Vector, Vector, Vector]:
+        """Open the time loop and load ``u(k)``, ``u(k+1)`` and ``y(k+1)`` into scalars.
+
+        Over every step of the log, or with ``chunk`` over the steps that compute the rows
+        ``first … stop−1`` past row 0 (:meth:`prologue`), with ``row``, the output row of
+        sample ``k+1`` in the chunk's buffers.
+        """
         u, v, y = (
             vector_names("u", n_inputs),
             vector_names("v", n_inputs),
             vector_names("y", n_outputs),
         )
-        self.emit("for k in range(n_samples - 1):")
+        steps = "range(max(first, 1) - 1, stop - 1)" if chunk else "range(n_samples - 1)"
+        self.emit(f"for k in {steps}:")
         self.indent += "    "
+        if chunk:
+            self.emit("row = k + 1 - first")
         self.carry(u, [f"inputs[k, {c}]" for c in range(n_inputs)])
         self.carry(v, [f"inputs[k + 1, {c}]" for c in range(n_inputs)])
         self.carry(y, [f"outputs[k + 1, {b}]" for b in range(n_outputs)])
         return u, v, y
+
+    def close_time_loop(self) -> None:
+        """End the time loop: the lines after it run once, after the last step."""
+        self.indent = self.indent[:-4]
 
     def carry(self, targets: Sequence[Entry], values: Sequence[Entry | str]) -> None:
         """Assign the new values to the loop-carried variables (``targets`` are names)."""
@@ -372,7 +417,7 @@ class Program:
     def record(
         self, row: str, mode: str, probabilities: Vector, mean: Vector, covariance: Matrix
     ) -> None:
-        """Write one row of the estimator's output arrays."""
+        """Write one row of the estimator's output arrays (``row``: its index there)."""
         self.emit(f"modes_out[{row}] = {mode}")
         for i, value in enumerate(probabilities):
             self.emit(f"probabilities_out[{row}, {i}] = {term(value)}")
@@ -447,6 +492,25 @@ def matrix_names(prefix: str, rows: int, cols: int, *, symmetric: bool = False) 
 def vector_names(prefix: str, size: int) -> Vector:
     """Variable names ``prefix_i``."""
     return [f"{prefix}_{i}" for i in range(size)]
+
+
+def state_slots(
+    field: str, entries: Sequence[Entry] | Matrix, *leading: int
+) -> list[tuple[str, Entry]]:
+    """``(slot, name)`` pairs of loop-carried variables and their places in ``state.<field>``.
+
+    ``entries`` are the names of a vector or matrix (every entry of a matrix, so the state
+    holds a symmetric one whole), stored at ``state.<field>[*leading, ...]`` (``leading``:
+    the mode, for per-mode arrays); for :meth:`Program.resume` and :meth:`Program.suspend`.
+    """
+    head = "".join(f"{index}, " for index in leading)
+    pairs: list[tuple[str, Entry]] = []
+    for a, item in enumerate(entries):
+        if isinstance(item, list):
+            pairs += [(f"state.{field}[{head}{a}, {b}]", name) for b, name in enumerate(item)]
+        else:
+            pairs.append((f"state.{field}[{head}{a}]", item))
+    return pairs
 
 
 def constant_matrix(values: FloatArray) -> Matrix:

@@ -11,7 +11,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any
 
 from hybridlog.background import Background
 from hybridlog.errors import LogError, OptionError, excerpt
@@ -34,13 +34,7 @@ from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
-from hybridlog.report.writer import import_plotting
 from hybridlog.signals import AlignedSignals
-
-if TYPE_CHECKING:
-    from hybridlog.estimators.result import EstimationResult
-
-R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -229,13 +223,13 @@ def input_paths(
     return paths
 
 
-def estimator_inputs(prepared: Prepared) -> dict[str, object]:
+def estimator_inputs(prepared: Prepared) -> dict[str, Any]:
     """The files the estimator's options name (:data:`FILE_OPTIONS`), read and parsed.
 
-    The keyword arguments of :meth:`Prepared.run <hybridlog.estimators.Prepared.run>`;
-    errors name the file (and the key at fault).
+    The keyword arguments of :meth:`Prepared.run <hybridlog.estimators.Prepared.run>` (and
+    ``stream``); errors name the file (and the key at fault).
     """
-    inputs: dict[str, object] = {}
+    inputs: dict[str, Any] = {}
     for name, (_, read) in FILE_OPTIONS.items():
         value = getattr(prepared.options, name, None)
         if value:
@@ -259,8 +253,9 @@ def check_memory(
     """Refuse, before any estimator allocates, a run whose results cannot fit in memory.
 
     The estimators' needs (:meth:`Prepared.memory_needed
-    <hybridlog.estimators.Prepared.memory_needed>`, all held together as ``compare`` holds
-    them) against what the machine can still give (:func:`hybridlog.memory.check_fits`).
+    <hybridlog.estimators.Prepared.memory_needed>`; ``compare`` runs them one after the
+    other, so the largest counts) against what the machine can still give
+    (:func:`hybridlog.memory.check_fits`).
 
     Raises
     ------
@@ -269,16 +264,13 @@ def check_memory(
         available and what to change.
     """
     n = signals.n_samples
-    parts = [
-        (f"{what} of {p.name}" if len(prepared) > 1 else what, size)
+    needs = [
+        [(f"{what} of {p.name}" if len(prepared) > 1 else what, size) for what, size in parts]
         for p in prepared
-        for what, size in p.memory_needed(model, n)
+        for parts in (p.memory_needed(model, n),)
     ]
-    offline = any(
-        p.options_dict().get(SMOOTH_OPTION) is True
-        or p.options_dict().get(MODE_SEQUENCE_OPTION, "argmax") != "argmax"
-        for p in prepared
-    )
+    parts = max(needs, key=lambda need: sum(size for _, size in need), default=[])
+    offline = any(p.offline for p in prepared)
     remedy = "analyse a shorter log" + (
         ", or without --smooth and --mode-sequence" if offline else ""
     )
@@ -286,31 +278,22 @@ def check_memory(
     check_fits(parts, what=f"{log}: {n:,} samples through {names}", remedy=remedy, error=LogError)
 
 
-def read_and_run(
-    log: str | Path,
-    model: HybridModel,
-    read: ReadOptions,
-    notes: dict[str, Any],
-    run: Callable[[AlignedSignals], R],
-) -> tuple[AlignedSignals, R]:
-    """The log's signals and ``run(signals)``, with the set-up they wait for done beside them.
+def read_beside_set_up(
+    log: str | Path, model: HybridModel, read: ReadOptions, notes: dict[str, Any]
+) -> AlignedSignals:
+    """The log's signals, read in a thread while this one sets up numba.
 
-    The log is read in a thread (polars' readers release the GIL) while this one sets up
-    numba (:func:`hybridlog.jit.set_up`, which holds it); then matplotlib is imported in a
-    thread while ``run`` runs the estimators' compiled loops, which release it.  On two
-    cores each pair costs the time of the longer.  ``notes`` gets what reading did.
+    Polars' readers release the GIL, numba's set-up (:func:`hybridlog.jit.set_up`) holds
+    it: on two cores the pair costs the time of the longer.  ``notes`` gets what reading
+    did.  The estimators' compiled loops then run while the report takes their chunks
+    (:func:`hybridlog.report.write_report`, which imports matplotlib beside them).
     """
     reading = Background(lambda: read_log(log, model, read, notes), "hybridlog-read")
     try:
         set_up()
     finally:
         reading.wait()
-    signals = reading.result()
-    plotting = Background(lambda: import_plotting(model), "hybridlog-import-plotting")
-    try:
-        return signals, run(signals)
-    finally:
-        plotting.wait()
+    return reading.result()
 
 
 @dataclass(frozen=True)
@@ -366,15 +349,11 @@ def analyze(
     gates = gates_for(model, fail_under, fail_over)
     inputs = estimator_inputs(prepared)
     reading: dict[str, Any] = {}
-
-    def run(signals: AlignedSignals) -> EstimationResult:
-        check_memory(log, model, [prepared], signals)
-        return prepared.run(model, signals, **inputs)
-
-    signals, result = read_and_run(log, model, read, reading, run)
+    signals = read_beside_set_up(log, model, read, reading)
+    check_memory(log, model, [prepared], signals)
     report = write_report(
         out_dir,
-        result,
+        prepared.stream(model, signals, **inputs),
         signals,
         log=str(log),
         model_name=model.name,
@@ -468,18 +447,14 @@ def compare(
     gates = gates_for(model, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p) for p in prepared}
     reading: dict[str, Any] = {}
-
-    def run(signals: AlignedSignals) -> dict[str, EstimationResult]:
-        check_memory(log, model, prepared, signals)
-        return {p.name: p.run(model, signals, **inputs[p.name]) for p in prepared}
-
-    signals, results = read_and_run(log, model, read, reading, run)
+    signals = read_beside_set_up(log, model, read, reading)
+    check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
-        for name, result in results.items():
-            reports[name] = write_report(
-                folder / name,
-                result,
+        for estimator in prepared:  # one after the other: one estimator's chunks at a time
+            reports[estimator.name] = write_report(
+                folder / estimator.name,
+                estimator.stream(model, signals, **inputs[estimator.name]),
                 signals,
                 log=str(log),
                 model_name=model.name,

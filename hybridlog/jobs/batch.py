@@ -254,7 +254,7 @@ class _Warm:
 
     model: HybridModel
     prepared: Prepared
-    inputs: dict[str, object]
+    inputs: dict[str, Any]
     gates: list[Gate]
 
 
@@ -300,13 +300,20 @@ def _warm(job: BatchJob) -> _Warm:
         return warm
 
 
-def _wants_plots(job: BatchJob, gates: Sequence[Gate]) -> Callable[[Report], bool]:
-    def wanted(report: Report) -> bool:
-        if job.plots == "all":
-            return True
-        return job.plots == "failed" and bool(evaluate_gates(report, gates))
+def _plots(job: BatchJob, gates: Sequence[Gate]) -> bool | Callable[[Report], bool]:
+    """``write_report``'s ``plots`` for a log of the batch: none, all, or where a gate missed.
 
-    return wanted
+    ``none`` is ``False``, so that nothing is reduced for plots no one draws.
+    """
+    if job.plots == "failed":
+        return lambda report: bool(evaluate_gates(report, gates))
+    return job.plots == "all"
+
+
+def _wants_plots(job: BatchJob, gates: Sequence[Gate], report: Report) -> bool:
+    """Whether the log of ``report`` gets plots (:func:`_plots`)."""
+    plots = _plots(job, gates)
+    return plots(report) if callable(plots) else plots
 
 
 # --- one log ------------------------------------------------------------------------------------
@@ -334,7 +341,7 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
         return None
     # checked without loading the model, so that resuming a finished batch costs no start-up
     gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []
-    if _wants_plots(job, gates)(report) and not (folder / "plots").is_dir():
+    if _wants_plots(job, gates, report) and not (folder / "plots").is_dir():
         return None
     return LogOutcome(log, str(folder), "skipped", report, None)
 
@@ -354,10 +361,9 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
     check_memory(log, warm.model, [warm.prepared], signals)
-    result = warm.prepared.run(warm.model, signals, **warm.inputs)
     report = write_report(
         path,
-        result,
+        warm.prepared.stream(warm.model, signals, **warm.inputs),
         signals,
         log=log,
         model_name=warm.model.name,
@@ -366,7 +372,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         force=True,
         reading=reading,
         extra={PROVENANCE_KEY: job.provenance(log_sha256)},
-        plots=_wants_plots(job, warm.gates),
+        plots=_plots(job, warm.gates),
         model=warm.model,
     )
     return LogOutcome(log, folder, "done", report, None)

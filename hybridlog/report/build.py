@@ -29,12 +29,19 @@ from hybridlog.report.document import (
     StateReport,
 )
 from hybridlog.report.markdown import plural
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["MIN_SAMPLES", "build_report", "check_compatible", "jsonable", "smoothing_report"]
+__all__ = [
+    "MIN_SAMPLES",
+    "ReportBuilder",
+    "build_report",
+    "check_compatible",
+    "jsonable",
+    "smoothing_report",
+]
 
 MIN_SAMPLES = 3
 """Fewest samples a run must have to be reported: row 0 is the estimators' prior (no
@@ -118,33 +125,222 @@ def check_compatible(result: EstimationResult, signals: AlignedSignals) -> None:
         )
 
 
-def _modes(result: EstimationResult, signals: AlignedSignals, dt: float) -> ModeReport:
-    ids = tuple(str(m) for m in result.mode_ids)
-    dwell = metrics.dwell_times(result.time, result.modes, len(ids), dt)
-    modes = ModeReport(
+def _modes(
+    ids: tuple[str, ...], time: FloatArray, modes: IntArray, truth: IntArray | None, dt: float
+) -> ModeReport:
+    """The mode part of a report: switches and dwell, and against the truth when known."""
+    dwell = metrics.dwell_times(time, modes, len(ids), dt)
+    report = ModeReport(
         labels=ids,
         switches=tuple(
             ModeSwitch(t=s["t"], from_mode=s["from"], to_mode=s["to"])
-            for s in metrics.mode_switches(result.time, result.modes, ids)
+            for s in metrics.mode_switches(time, modes, ids)
         ),
         dwell_s={m: _num(float(d)) for m, d in zip(ids, dwell, strict=True)},
     )
-    truth = signals.truth_modes
     if truth is None:
-        return modes
-    counts = metrics.confusion_matrix(result.modes, truth, len(ids))
-    det = metrics.detection_delays(result.time, result.modes, truth, ids)
+        return report
+    counts = metrics.confusion_matrix(modes, truth, len(ids))
+    det = metrics.detection_delays(time, modes, truth, ids)
     return ModeReport(
-        labels=modes.labels,
-        switches=modes.switches,
-        dwell_s=modes.dwell_s,
-        accuracy=_num(metrics.mode_accuracy(result.modes, truth)),
+        labels=report.labels,
+        switches=report.switches,
+        dwell_s=report.dwell_s,
+        accuracy=_num(metrics.mode_accuracy(modes, truth)),
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)
         },
         detection=Detection(mean_s=_num(det.mean_s), max_s=_num(det.max_s), events=det.events),
     )
+
+
+def _same_run(first: EstimationResult, chunk: EstimationResult) -> bool:
+    """Whether a chunk belongs to the run whose first chunk is ``first`` (names, options)."""
+    return (
+        chunk.estimator == first.estimator
+        and chunk.mode_ids == first.mode_ids
+        and chunk.state_names == first.state_names
+        and chunk.output_names == first.output_names
+        and chunk.options == first.options
+    )
+
+
+class ReportBuilder:
+    """The report of one run, its result taken a chunk of rows at a time.
+
+    An estimator may give its result in consecutive chunks whose arrays the next chunk
+    overwrites (:meth:`hybridlog.estimators.Prepared.stream`): each :meth:`add` takes what
+    the report needs of a chunk and keeps none of its arrays.  The output and state metrics
+    are accumulated (:class:`~hybridlog.report.metrics.OutputAccumulator`,
+    :class:`~hybridlog.report.metrics.StateAccumulator`: the same numbers however the rows
+    were split); the estimated modes, one index a sample (8 bytes, where the whole result
+    holds about a hundred), are kept for the mode metrics, which follow switches across the
+    run.  A whole result is one chunk (:func:`build_report`).
+
+    Parameters
+    ----------
+    signals:
+        The aligned signals of the whole run.
+    log:
+        Path or name of the log, as the user gave it.
+    dt:
+        The model's sample time in seconds.
+    model:
+        The model the result was estimated with (for a smoothed result's explained
+        outputs, :func:`smoothing_report`); ``None`` when not given.
+
+    Raises
+    ------
+    LogError
+        When the run has fewer than :data:`MIN_SAMPLES` samples (naming ``log``): before
+        any estimate is taken, so a run too short to report is refused before it runs.
+
+    """
+
+    def __init__(
+        self, signals: AlignedSignals, *, log: str, dt: float, model: HybridModel | None = None
+    ) -> None:
+        n = signals.n_samples
+        if n < MIN_SAMPLES:
+            raise LogError(
+                f"{log}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
+                f"a report needs at least {MIN_SAMPLES}: the first sample is the prior, and "
+                "VAF and fit need the spread of at least two predicted samples"
+            )
+        self._signals = signals
+        self._log = str(log)
+        self._dt = float(dt)
+        self._model = model
+        self._rows = 0
+        self._modes: IntArray = np.empty(n, dtype=np.int64)
+        self._outputs = metrics.OutputAccumulator(len(signals.output_names))
+        self._states: metrics.StateAccumulator | None = None
+        self._first: EstimationResult | None = None
+        self._last: EstimationResult | None = None
+        self._smoothing: Smoothing | None = None
+
+    @property
+    def rows(self) -> int:
+        """Rows taken so far: the first row of the next chunk."""
+        return self._rows
+
+    def add(self, chunk: EstimationResult) -> None:
+        """Take the next rows of the run's result (a chunk, or the whole result).
+
+        Raises
+        ------
+        ValueError
+            When the chunk does not line up with the signals' next rows or with the run's
+            earlier chunks, or an offline pass's result (``post_processing``) comes in
+            parts (programming errors of the estimator, not user errors).
+
+        """
+        start, stop = self._rows, self._rows + chunk.n_samples
+        if stop > self._signals.n_samples:
+            raise ValueError(
+                f"{chunk.estimator}: rows {start}:{stop} past the run's "
+                f"{self._signals.n_samples} samples"
+            )
+        part = self._signals.rows(start, stop)
+        check_compatible(chunk, part)
+        if self._first is None:
+            self._first = chunk
+            if part.truth_states is not None:
+                self._states = metrics.StateAccumulator(len(chunk.state_names))
+        elif not _same_run(self._first, chunk):
+            raise ValueError(f"{chunk.estimator}: a chunk of another run (names or options)")
+        self._outputs.add(part.outputs, chunk.output_predictions)
+        if self._states is not None and part.truth_states is not None:
+            self._states.add(chunk.state_means, part.truth_states)
+        self._modes[start:stop] = chunk.modes
+        if chunk.post_processing is not None:
+            if (start, stop) != (0, self._signals.n_samples):
+                raise ValueError(
+                    f"{chunk.estimator}: the result of an offline pass comes whole, not in "
+                    f"rows {start}:{stop}"
+                )
+            self._smoothing = smoothing_report(chunk, self._signals, self._model)
+        self._last = chunk
+        self._rows = stop
+
+    def report(
+        self,
+        *,
+        model_name: str,
+        reading: Mapping[str, Any] | None = None,
+        extra: Mapping[str, Any] | None = None,
+    ) -> Report:
+        """The report of every row taken (they must be the whole run).
+
+        Parameters
+        ----------
+        model_name:
+            Name of the model.
+        reading:
+            What reading the log did (the ``notes`` of :func:`hybridlog.io.load_signals`).
+        extra:
+            Further top-level keys of ``report.json``; a key naming a report attribute
+            replaces the computed value (checked like a key of a ``report.json``).
+
+        Raises
+        ------
+        ValueError
+            When rows of the run were not taken.
+
+        """
+        signals, first, last = self._signals, self._first, self._last
+        if first is None or last is None or self._rows != signals.n_samples:
+            raise ValueError(f"{self._rows} of the run's {signals.n_samples} rows were taken")
+        n = signals.n_samples
+        per_output = dict(zip(first.output_names, self._outputs.result(), strict=True))
+        rmse = np.full(len(first.state_names), np.nan)
+        if self._states is not None:
+            rmse = self._states.result()
+        runtime = float(last.runtime_s)
+        ids = tuple(str(m) for m in first.mode_ids)
+        modes = _modes(ids, signals.time, self._modes, signals.truth_modes, self._dt)
+        states = {
+            x: StateReport(rmse=_num(float(r)))
+            for x, r in zip(first.state_names, rmse, strict=True)
+        }
+        means = {
+            name: _num(metrics.mean_of_finite([getattr(m, name) for m in per_output.values()]))
+            for name in ("mse", "vaf", "fit")
+        }
+        samples_per_s = _num(n / runtime) if runtime > 0.0 else None
+        report = Report(
+            hybridlog_version=__version__,
+            log=self._log,
+            model=model_name,
+            estimator=first.estimator,
+            options=_json_object(first.options),
+            samples=n,
+            dt=self._dt,
+            t_start=_num(float(signals.time[0])),
+            t_end=_num(float(signals.time[-1])),
+            outputs={
+                y: OutputReport(
+                    mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples
+                )
+                for y, m in per_output.items()
+            },
+            mse=means["mse"],
+            vaf=means["vaf"],
+            fit=means["fit"],
+            modes=modes,
+            states=states,
+            runtime_s=_num(runtime),
+            compile_s=_num(float(last.compile_s)),
+            samples_per_s=samples_per_s,
+            notes=tuple(str(note) for note in last.notes),
+            null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
+            smoothing=self._smoothing,
+            reading=None if reading is None else _json_object(reading),
+        )
+        if extra:
+            report = Report.from_dict({**report.to_dict(), **_json_object(extra)}, source=self._log)
+        return report
 
 
 def build_report(
@@ -165,7 +361,7 @@ def build_report(
     tables hold the smoothed values; the output metrics stay the filter's one-step-ahead
     prediction, which ``output_predictions`` holds either way), and its ``smoothing`` holds
     the mode, state and output metrics of the filter's estimates and of the smoothed ones
-    (:func:`smoothing_report`).
+    (:func:`smoothing_report`).  The whole result as one chunk of a :class:`ReportBuilder`.
 
     Parameters
     ----------
@@ -201,63 +397,9 @@ def build_report(
 
     """
     check_compatible(result, signals)
-    n = result.n_samples
-    if n < MIN_SAMPLES:
-        raise LogError(
-            f"{log}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
-            f"a report needs at least {MIN_SAMPLES}: the first sample is the prior, and VAF "
-            "and fit need the spread of at least two predicted samples"
-        )
-    per_output = dict(
-        zip(
-            result.output_names,
-            metrics.output_metrics(signals.outputs, result.output_predictions),
-            strict=True,
-        )
-    )
-    rmse = np.full(len(result.state_names), np.nan)
-    if signals.truth_states is not None:
-        rmse = metrics.state_rmse(result.state_means, signals.truth_states)
-    runtime = float(result.runtime_s)
-    modes = _modes(result, signals, dt)
-    states = {
-        x: StateReport(rmse=_num(float(r))) for x, r in zip(result.state_names, rmse, strict=True)
-    }
-    means = {
-        name: _num(metrics.mean_of_finite([getattr(m, name) for m in per_output.values()]))
-        for name in ("mse", "vaf", "fit")
-    }
-    samples_per_s = _num(n / runtime) if runtime > 0.0 else None
-    report = Report(
-        hybridlog_version=__version__,
-        log=str(log),
-        model=model_name,
-        estimator=result.estimator,
-        options=_json_object(result.options),
-        samples=n,
-        dt=float(dt),
-        t_start=_num(float(result.time[0])),
-        t_end=_num(float(result.time[-1])),
-        outputs={
-            y: OutputReport(mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples)
-            for y, m in per_output.items()
-        },
-        mse=means["mse"],
-        vaf=means["vaf"],
-        fit=means["fit"],
-        modes=modes,
-        states=states,
-        runtime_s=_num(runtime),
-        compile_s=_num(float(result.compile_s)),
-        samples_per_s=samples_per_s,
-        notes=tuple(str(note) for note in result.notes),
-        null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
-        smoothing=smoothing_report(result, signals, model),
-        reading=None if reading is None else _json_object(reading),
-    )
-    if extra:
-        report = Report.from_dict({**report.to_dict(), **_json_object(extra)}, source=str(log))
-    return report
+    builder = ReportBuilder(signals, log=log, dt=dt, model=model)
+    builder.add(result)
+    return builder.report(model_name=model_name, reading=reading, extra=extra)
 
 
 def _side(

@@ -15,18 +15,15 @@ causal filter's own over them, thin and dashed: its mode runs as a thin bar insi
 estimated one, its mode probabilities and state estimates as dashed curves (translucent
 bands where a long run is drawn as bands, below).
 
-A PNG cannot show more than one value range per pixel column, so long runs are reduced to
-what it can show before drawing (:func:`envelope`): the samples are cut into time bins, one
-per pixel column of the panel (whose x range is the run's time span: :func:`pixel_bins`),
-and each bin is drawn through its first sample, its minimum, its maximum and its last
-sample (the "M4" reduction: every extreme the full curve reaches in a column is kept, so
-the picture is the same).  Such a reduced curve, with more than two points per pixel
-column, fills each column from its minimum to its maximum and is drawn as that band
-(:func:`draw_curve`).  The mode timelines are drawn from their runs (:func:`mode_runs`),
-the runs of each mode merged where they touch the same pixel column (:func:`mode_bars`): a
-run shorter than a pixel still shows as one pixel column.  At most ``MAX_PANELS``
-outputs/states are drawn.  matplotlib
-is imported when the first figure is made, so code that writes no plot does not load it.
+The figures are drawn from a run's :class:`~hybridlog.report.plot_data.PlotData` alone
+(:func:`draw_plots`): its curves reduced to first/min/max/last per pixel column, its mode
+timelines to the pixel columns each mode occupies (:mod:`hybridlog.report.plot_data`, which
+imports no matplotlib; :func:`write_plots` reduces a whole result and draws it).  A reduced
+curve with more than two points per pixel column fills each column from its minimum to its
+maximum and is drawn as that band (:func:`draw_curve`); each panel's x range is the run's
+time span exactly, so that the bins are its pixel columns (:func:`set_time_span`).
+matplotlib is imported when the first figure is made, so code that writes no plot does not
+load it.
 """
 
 from __future__ import annotations
@@ -35,11 +32,25 @@ import threading
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.report.plot_data import (
+    FIGURE_DPI,
+    FIGURE_WIDTH_IN,
+    MAX_PANELS,
+    PANEL_LEFT,
+    PANEL_RIGHT,
+    Bars,
+    Components,
+    Envelope,
+    ModeTimelines,
+    PlotData,
+    pixel_columns,
+    reduce_result,
+)
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 if TYPE_CHECKING:
@@ -48,25 +59,21 @@ if TYPE_CHECKING:
     from matplotlib.lines import Line2D
 
 __all__ = [
-    "MAX_PANELS",
+    "DASHED_BAND_ALPHA",
     "PNG_COMPRESS_LEVEL",
-    "Envelope",
-    "ModeRuns",
     "draw_curve",
-    "envelope",
+    "draw_plots",
+    "figure_shapes",
     "make_ticks_ahead",
-    "mode_bars",
-    "mode_runs",
-    "pixel_bins",
-    "pixel_columns",
+    "plot_components",
     "plot_modes",
     "plot_outputs",
     "plot_states",
-    "time_bins",
+    "prepare_figures",
+    "set_time_span",
     "write_plots",
 ]
 
-MAX_PANELS = 16
 PNG_COMPRESS_LEVEL = 1
 """zlib level of the PNG files (Pillow's default is 6).  The pixels are the same at any level;
 on the three figures of a 10^6-sample run level 1 encoded in half the time (0.10 s against
@@ -75,111 +82,18 @@ _MATPLOTLIB = threading.Lock()
 """Held while one run's figures are drawn: the report may draw them in a thread
 (:func:`hybridlog.report.writer.write_report`), and matplotlib's font cache is not safe
 to use from two threads at once (a Dask worker runs several logs side by side)."""
-_BLOCK = 1 << 16
-"""Samples per block of the reductions (:func:`time_bins`, :func:`envelope`, the ±2σ band):
-their temporaries are 0.5 MB, not 8 MB per array of a 10^6-sample run.  The plots are drawn
-beside the metrics and tables (in a thread, or a forked child whose resident set is the
-parent's at the fork plus its own), so what they hold adds to the run's peak."""
-_DPI = 100
-_WIDTH_IN = 10.0
-_LEFT, _RIGHT = 0.09, 0.98
-
-
-def pixel_columns() -> int:
-    """Width in pixels of a panel's plotting area: the bins of :func:`time_bins`."""
-    return int(np.ceil(_WIDTH_IN * _DPI * (_RIGHT - _LEFT)))
-
-
-def time_bins(time: FloatArray, columns: int) -> IntArray:
-    """Start index of each non-empty bin when ``[t_0, t_end]`` is cut into ``columns`` equal bins.
-
-    ``time`` must not decrease; sample ``k`` is in bin ``⌊(t_k − t_0) / (t_end − t_0) ·
-    columns⌋`` (the last sample in the last bin).  A panel's x range is ``[t_0, t_end]``
-    (:func:`pixel_bins`), so each bin is one of its pixel columns.  Returns the
-    indices (ascending, starting with 0) where a new bin begins; empty for no samples.
-    """
-    n = time.shape[0]
-    if n == 0:
-        return np.zeros(0, dtype=np.int64)
-    t0, t1 = float(time[0]), float(time[-1])
-    if not t1 > t0:
-        return np.zeros(1, dtype=np.int64)
-    starts = [np.zeros(1, dtype=np.int64)]
-    previous = None  # the last bin of the block before: a new bin may begin at a block's start
-    for lo in range(0, n, _BLOCK):
-        block = time[lo : lo + _BLOCK]
-        column = np.minimum(((block - t0) / (t1 - t0) * columns).astype(np.int64), columns - 1)
-        if previous is not None and column[0] != previous:
-            starts.append(np.array([lo], dtype=np.int64))
-        starts.append(np.flatnonzero(column[1:] != column[:-1]) + 1 + lo)
-        previous = column[-1]
-    return np.concatenate(starts)
-
-
-def _bin_blocks(starts: IntArray, n: int) -> list[tuple[int, int]]:
-    """Ranges ``[a, b)`` of the bins beginning at ``starts``, about :data:`_BLOCK` samples each.
-
-    A reduction over one range of bins needs only that range's samples: its temporaries are
-    about a block long, whatever the run's length (a bin longer than a block is one range).
-    """
-    per_block = max(1, _BLOCK * starts.shape[0] // max(n, 1))
-    return [(a, min(a + per_block, starts.shape[0])) for a in range(0, starts.shape[0], per_block)]
-
-
-class Envelope(NamedTuple):
-    """A curve, ``reduced`` to four points per bin (first, extreme, extreme, last; see module)."""
-
-    time: FloatArray
-    values: FloatArray
-    reduced: bool = False
-
-
-def envelope(time: FloatArray, values: FloatArray, starts: IntArray) -> Envelope:
-    """Reduce ``values`` over the bins beginning at ``starts`` (:func:`time_bins`) to M4 points.
-
-    Per bin: the first sample, the minimum and the maximum of its finite samples (in the
-    order that makes the shorter path from the first to the last sample), and the last
-    sample, each at its own time (minimum and maximum at the bin's middle time).  A
-    non-finite first or last sample stays non-finite, so the curve breaks there as the full
-    curve does; a bin without a finite sample is all NaN.  When the bins hold at most four
-    samples each on average, nothing is gained and the curve is returned as it is.
-    """
-    n = values.shape[0]
-    if n <= 4 * starts.shape[0]:
-        return Envelope(time, values)
-    ends = np.append(starts[1:], n) - 1
-    low = np.empty(starts.shape[0], dtype=np.float64)
-    high = np.empty(starts.shape[0], dtype=np.float64)
-    for a, b in _bin_blocks(starts, n):  # a block of bins at a time (:func:`_bin_blocks`)
-        lo = int(starts[a])
-        chunk = values[lo : int(ends[b - 1]) + 1]
-        usable = np.isfinite(chunk)
-        finite = chunk if usable.all() else np.where(usable, chunk, np.nan)  # no copy if all are
-        with np.errstate(invalid="ignore"):
-            low[a:b] = np.fmin.reduceat(finite, starts[a:b] - lo)
-            high[a:b] = np.fmax.reduceat(finite, starts[a:b] - lo)
-    first, last = values[starts], values[ends]
-    rising = ~(first > last)  # down to the minimum first, then up, when the bin rises
-    points = np.empty((starts.shape[0], 4), dtype=np.float64)
-    points[:, 0] = first
-    points[:, 1] = np.where(rising, low, high)
-    points[:, 2] = np.where(rising, high, low)
-    points[:, 3] = last
-    middle = 0.5 * (time[starts] + time[ends])
-    times = np.stack([time[starts], middle, middle, time[ends]], axis=1)
-    return Envelope(times.ravel(), points.ravel(), reduced=True)
 
 
 def draw_curve(ax: Axes, curve: Envelope, **style: Any) -> list[Line2D]:
     """Draw ``curve`` on ``ax``: a line, or a band where it is reduced and dense.
 
-    A reduced curve (:func:`envelope`) with over two points per pixel column is a long run:
-    its zigzag through each bin's first, minimum, maximum and last sample fills the bin's
-    column from minimum to maximum.  The band (:func:`_band`) fills the same columns as one
-    polygon, outlined with the line's width, instead of stroking thousands of column-high
-    segments: on a 10^6-sample run the three figures' 15 zigzags took 0.31 s to draw, the
-    bands 0.08 s.  The line returned carries the style (the legend shows it); for a band it
-    holds no points.
+    A reduced curve (:func:`~hybridlog.report.plot_data.envelope`) with over two points per
+    pixel column is a long run: its zigzag through each bin's first, minimum, maximum and
+    last sample fills the bin's column from minimum to maximum.  The band (:func:`_band`)
+    fills the same columns as one polygon, outlined with the line's width, instead of
+    stroking thousands of column-high segments: on a 10^6-sample run the three figures' 15
+    zigzags took 0.31 s to draw, the bands 0.08 s.  The line returned carries the style (the
+    legend shows it); for a band it holds no points.
     """
     if not curve.reduced or curve.time.shape[0] <= 2 * pixel_columns():
         return ax.plot(curve.time, curve.values, **style)
@@ -216,48 +130,6 @@ def _band(ax: Axes, curve: Envelope, line: Line2D) -> None:
     )  # fmt: skip
 
 
-class ModeRuns(NamedTuple):
-    """Maximal runs of one mode in a mode sequence: samples ``start[i] .. end[i] - 1``."""
-
-    start: IntArray
-    end: IntArray
-    mode: IntArray
-
-
-def mode_runs(modes: IntArray) -> ModeRuns:
-    """The runs of a mode sequence, from its change points (a run begins at each switch)."""
-    n = modes.shape[0]
-    if n == 0:
-        empty = np.zeros(0, dtype=np.int64)
-        return ModeRuns(empty, empty, empty)
-    start = np.concatenate(([0], np.flatnonzero(modes[1:] != modes[:-1]) + 1))
-    end = np.append(start[1:], n)
-    return ModeRuns(start, end, modes[start])
-
-
-def mode_bars(runs: ModeRuns, starts: IntArray, n_modes: int) -> list[tuple[IntArray, IntArray]]:
-    """Per mode, the runs of bins (:func:`time_bins` ``starts``) where the mode occurs.
-
-    A run covers every bin from the one holding its first sample to the one holding its
-    last; the bins a mode covers (exactly those it occurs in) are merged into maximal
-    ``(first bin, last bin)`` ranges, so every run lies inside a range of its mode and
-    runs are joined only where they occur in the same or adjacent pixel columns.
-    """
-    n_bins = starts.shape[0]
-    first = np.searchsorted(starts, runs.start, side="right") - 1
-    last = np.searchsorted(starts, runs.end - 1, side="right") - 1
-    bars = []
-    for m in range(n_modes):
-        mine = runs.mode == m
-        cover = np.zeros(n_bins + 1, dtype=np.int64)
-        np.add.at(cover, first[mine], 1)
-        np.add.at(cover, last[mine] + 1, -1)
-        inside = np.cumsum(cover[:-1]) > 0
-        edges = np.diff(np.concatenate(([0], inside.astype(np.int8), [0])))
-        bars.append((np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
-    return bars
-
-
 _READY: dict[tuple[int, float], list[tuple[Figure, list[Axes]]]] = {}
 """Empty figures made ahead by shape (:func:`prepare_figures`), each taken once by
 :func:`_new_figure`."""
@@ -271,7 +143,7 @@ rest when drawn."""
 
 
 def figure_shapes(n_outputs: int, n_states: int, components: bool) -> list[tuple[int, float]]:
-    """The ``(panels, panel height)`` of the figures :func:`write_plots` draws for a model.
+    """The ``(panels, panel height)`` of the figures :func:`draw_plots` draws for a model.
 
     ``components``: the model describes concurrent components, whose ``modes.png`` (of
     ``unknown-mode``) has a shape that depends on the result; it is left out.
@@ -283,9 +155,9 @@ def figure_shapes(n_outputs: int, n_states: int, components: bool) -> list[tuple
 def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
     """Make the empty figures (margins, panels, shared axes, tick marks) of these shapes ahead.
 
-    ``analyze`` does it in the thread that imports matplotlib while the estimator's compiled
-    loop runs (:func:`hybridlog.report.writer.import_plotting`): 0.06-0.13 s of axes set-up
-    that is then not on the plots' path, which the command waits for at its end.  A figure
+    ``analyze`` does it while the estimator's compiled loop runs (:func:`prepare_plotting`,
+    in the process's worker or a thread): 0.06-0.13 s of axes set-up that is then not on the
+    plots' path, which the command waits for at its end.  A figure
     made ahead is the one :func:`_new_figure` would make, with :data:`TICKS_AHEAD` major
     ticks per axis already made (matplotlib makes them when it first draws an axis, as many
     as its locator asks for, and reuses them after); the same pixels are drawn on it.
@@ -298,6 +170,29 @@ def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
                 fig, axes = _make_figure(*key)
                 make_ticks_ahead(axes)
                 ready.append((fig, axes))
+
+
+def prepare_plotting(shapes: Sequence[tuple[int, float]]) -> None:
+    """Import what the figures are drawn with, and make the empty figures of ``shapes`` ahead.
+
+    matplotlib's figure and Agg canvas (about 0.3 s of Python) and :func:`prepare_figures`:
+    what :func:`hybridlog.report.writer.write_report` has done beside the estimator's
+    compiled loop, before the first figure is drawn.
+    """
+    import matplotlib.backends.backend_agg
+    import matplotlib.figure  # noqa: F401
+
+    prepare_figures(shapes)
+
+
+def draw_into(plot_dir: Path, data: PlotData) -> list[Path]:
+    """Create ``plot_dir`` and draw the figures of ``data`` into it (:func:`draw_plots`).
+
+    A module-level function, so that a process's worker can be sent it
+    (:func:`hybridlog.background.beside`).
+    """
+    plot_dir.mkdir()
+    return draw_plots(plot_dir, data)
 
 
 def make_ticks_ahead(axes: Sequence[Axes]) -> None:
@@ -325,17 +220,21 @@ def _make_figure(n_panels: int, panel_height: float) -> tuple[Figure, list[Axes]
     # Fixed margins in inches rather than layout="constrained": the constrained layout
     # measured every tick label and took half of the report's writing time.
     height = 0.8 + panel_height * n_panels
-    fig = Figure(figsize=(_WIDTH_IN, height))
+    fig = Figure(figsize=(FIGURE_WIDTH_IN, height))
     FigureCanvasAgg(fig)
     fig.subplots_adjust(
-        left=_LEFT, right=_RIGHT, top=1.0 - 0.45 / height, bottom=0.45 / height, hspace=0.12
+        left=PANEL_LEFT,
+        right=PANEL_RIGHT,
+        top=1.0 - 0.45 / height,
+        bottom=0.45 / height,
+        hspace=0.12,
     )
     axes = fig.subplots(n_panels, 1, sharex=True, squeeze=False)[:, 0]
     return fig, list(axes)
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    fig.savefig(path, dpi=_DPI, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
+    fig.savefig(path, dpi=FIGURE_DPI, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return path
 
 
@@ -359,69 +258,52 @@ def _panels(what: str, names: tuple[str, ...]) -> tuple[Figure, list[Axes], tupl
     return fig, axes, drawn
 
 
-def pixel_bins(time: FloatArray, ax: Axes) -> IntArray:
-    """The bins of a run's samples (:func:`time_bins`), one per pixel column of ``ax``.
+def set_time_span(ax: Axes, span: tuple[float, float] | None) -> None:
+    """Set the x range of ``ax`` (and of the axes sharing it) to a run's time ``span`` exactly.
 
-    Sets the x range of ``ax`` (and of the axes sharing it) to the run's time span exactly,
-    without matplotlib's margins, so that the bins are the panel's pixel columns: a band
-    (:func:`draw_curve`) then paints the columns the curve reaches and no other.
+    Without matplotlib's margins, so that the bins of the reduction
+    (:class:`~hybridlog.report.plot_data.PixelBins`) are the panel's pixel columns: a band
+    (:func:`draw_curve`) then paints the columns the curve reaches and no other.  A run of
+    one sample time (or none) keeps matplotlib's range.
     """
-    t0, t1 = float(time[0]), float(time[-1])
-    if t1 > t0:
-        ax.set_xlim(t0, t1)
-    return time_bins(time, pixel_columns())
+    if span is not None and span[1] > span[0]:
+        ax.set_xlim(*span)
 
 
-def plot_outputs(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
+def plot_outputs(data: PlotData, path: Path) -> Path:
     """Draw measured outputs against their one-step-ahead predictions.
 
-    Writes ``path`` (PNG) and returns it; the measured outputs come from ``signals``.
+    Writes ``path`` (PNG) and returns it.
     """
     title = "Outputs: measured vs one-step-ahead prediction"
-    fig, axes, names = _panels(title, result.output_names)
+    fig, axes, names = _panels(title, data.output_names)
     if not names:
         _empty(fig, axes[0], "no outputs")
         return _save(fig, path)
-    bins = pixel_bins(result.time, axes[0])
-    for j, (ax, y) in enumerate(zip(axes, names, strict=True)):
-        draw_curve(
-            ax,
-            envelope(result.time, signals.outputs[:, j], bins),
-            lw=0.8,
-            color="0.3",
-            label=f"{y} measured",
-        )
-        draw_curve(
-            ax,
-            envelope(result.time, result.output_predictions[:, j], bins),
-            lw=0.8,
-            color="tab:blue",
-            ls="--",
-            label=f"{y} predicted",
-        )
+    set_time_span(axes[0], data.span)
+    for ax, curves in zip(axes, data.outputs, strict=True):
+        y = curves.name
+        draw_curve(ax, curves.measured, lw=0.8, color="0.3", label=f"{y} measured")
+        draw_curve(ax, curves.predicted, lw=0.8, color="tab:blue", ls="--", label=f"{y} predicted")
         ax.set_ylabel(y)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
     return _save(fig, path)
 
 
-def _draw_runs(
-    ax: Axes,
-    time: FloatArray,
-    modes: IntArray,
-    bins: IntArray,
-    n_modes: int,
-    *,
-    height: float,
-    color: str,
-    label: str,
+def _spans(edges: FloatArray, first: IntArray, last: IntArray) -> list[tuple[float, float]]:
+    """``(start, width)`` of the bars over pixel columns ``first[i] .. last[i]``."""
+    widths = edges[last + 1] - edges[first]
+    return list(zip(edges[first].tolist(), widths.tolist(), strict=True))
+
+
+def _draw_bars(
+    ax: Axes, edges: FloatArray, bars: Bars, *, height: float, color: str, label: str
 ) -> None:
     """One bar per range of pixel columns a mode occupies, on the mode's row."""
-    edges = np.append(time[bins], time[-1])
     labelled = False
-    for m, (first, last) in enumerate(mode_bars(mode_runs(modes), bins, n_modes)):
-        widths = edges[last + 1] - edges[first]
-        spans = list(zip(edges[first].tolist(), widths.tolist(), strict=True))
+    for m, (first, last) in enumerate(bars):
+        spans = _spans(edges, first, last)
         if spans:
             ax.broken_barh(
                 spans, (m - height / 2, height), color=color, label=None if labelled else label
@@ -429,61 +311,40 @@ def _draw_runs(
             labelled = True
 
 
-def _mode_label(result: EstimationResult) -> str:
-    """The legend of the estimated mode: ``estimated``, ``smoothed``, ``viterbi`` or ``kbest``."""
-    post = result.post_processing
-    if post is None:
-        return "estimated"
-    return "smoothed" if post.mode_sequence == "argmax" else post.mode_sequence
-
-
-def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
+def plot_modes(data: PlotData, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
-    Writes ``path`` (PNG) and returns it; the true mode comes from ``signals``.  A result
-    with per-component mode columns (``unknown-mode``: joint assignments as modes) gets
-    :func:`plot_components` instead.
+    Writes ``path`` (PNG) and returns it.  A result with per-component mode columns
+    (``unknown-mode``: joint assignments as modes) gets :func:`plot_components` instead.
     """
-    components = plot_components(result, path)
+    components = plot_components(data, path)
     if components is not None:
         return components
     fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=2.4)
     fig.suptitle("Modes")
-    ids = [str(m) for m in result.mode_ids]
-    if result.n_samples == 0:
+    modes = data.modes
+    if not isinstance(modes, ModeTimelines):  # no samples (components were drawn above)
         _empty(fig, ax_mode, "no samples")
         _empty(fig, ax_prob, "no samples")
         return _save(fig, path)
-    bins = pixel_bins(result.time, ax_mode)
-    n_modes = len(ids)
-    if signals.truth_modes is not None:
-        truth, t = signals.truth_modes, result.time
-        _draw_runs(ax_mode, t, truth, bins, n_modes, height=0.8, color="0.8", label="true")
-    filtered = None if result.post_processing is None else result.post_processing.filtered
-    _draw_runs(
-        ax_mode, result.time, result.modes, bins, n_modes, height=0.3, color="tab:red",
-        label=_mode_label(result),
-    )  # fmt: skip
-    if filtered is not None:
-        _draw_runs(
-            ax_mode, result.time, filtered.modes, bins, n_modes, height=0.08, color="k",
-            label="filtered",
-        )  # fmt: skip
+    ids = list(modes.mode_ids)
+    set_time_span(ax_mode, data.span)
+    n_modes, edges = len(ids), data.edges
+    if modes.truth is not None:
+        _draw_bars(ax_mode, edges, modes.truth, height=0.8, color="0.8", label="true")
+    _draw_bars(ax_mode, edges, modes.estimated, height=0.3, color="tab:red", label=modes.label)
+    if modes.filtered is not None:
+        _draw_bars(ax_mode, edges, modes.filtered, height=0.08, color="k", label="filtered")
     ax_mode.set_yticks(range(n_modes), ids)
     ax_mode.set_ylim(-0.5, n_modes - 0.5)
     ax_mode.set_ylabel("mode")
     ax_mode.legend(loc="upper right", fontsize="small")
     for j, m in enumerate(ids):
-        (line,) = draw_curve(
-            ax_prob,
-            envelope(result.time, result.mode_probabilities[:, j], bins),
-            lw=0.8,
-            label=f"p({m})",
-        )
-        if filtered is not None:
+        (line,) = draw_curve(ax_prob, modes.probabilities[j], lw=0.8, label=f"p({m})")
+        if modes.filtered_probabilities is not None:
             draw_curve(
                 ax_prob,
-                envelope(result.time, filtered.mode_probabilities[:, j], bins),
+                modes.filtered_probabilities[j],
                 lw=0.5,
                 ls="--",
                 color=line.get_color(),
@@ -495,161 +356,104 @@ def plot_modes(result: EstimationResult, signals: AlignedSignals, path: Path) ->
     return _save(fig, path)
 
 
-def _sigma_band(
-    time: FloatArray, mean: FloatArray, variance: FloatArray, bins: IntArray
-) -> tuple[FloatArray, FloatArray, FloatArray] | None:
-    """The ±2σ band of ``mean`` (times, lower and upper edge); ``None`` where it has none.
-
-    ``mean ± 2·sqrt(max(variance, 0))`` where both are finite (``max`` keeps NaN, no
-    variance defined, and clips tiny negative round-off), NaN elsewhere.  A long run gets
-    per bin its lowest and highest edge over the bin's time span, worked out a block of bins
-    at a time (:func:`_bin_blocks`): the temporaries are a block long, not the run's.
-    """
-    n = time.shape[0]
-    reduce = n > 4 * bins.shape[0]
-    blocks = _bin_blocks(bins, n) if reduce else [(0, bins.shape[0])]
-    ends = np.append(bins[1:], n) - 1
-    lows: list[FloatArray] = []
-    highs: list[FloatArray] = []
-    banded = False
-    for a, b in blocks:
-        lo, hi = (int(bins[a]), int(ends[b - 1]) + 1) if reduce else (0, n)
-        two_sigma = np.maximum(variance[lo:hi], 0.0)
-        np.sqrt(two_sigma, out=two_sigma)
-        two_sigma *= 2.0
-        band = np.isfinite(two_sigma) & np.isfinite(mean[lo:hi])
-        banded = banded or bool(band.any())
-        low = mean[lo:hi] - two_sigma
-        high = np.add(mean[lo:hi], two_sigma, out=two_sigma)
-        np.invert(band, out=band)
-        low[band] = np.nan
-        high[band] = np.nan
-        if reduce:
-            with np.errstate(invalid="ignore"):
-                low = np.fmin.reduceat(low, bins[a:b] - lo)
-                high = np.fmax.reduceat(high, bins[a:b] - lo)
-        lows.append(low)
-        highs.append(high)
-    if not banded:
-        return None
-    if not reduce:
-        return time, lows[0], highs[0]
-    t = np.stack([time[bins], time[ends]], axis=1).ravel()
-    return t, np.repeat(np.concatenate(lows), 2), np.repeat(np.concatenate(highs), 2)
-
-
-def plot_states(result: EstimationResult, signals: AlignedSignals, path: Path) -> Path:
+def plot_states(data: PlotData, path: Path) -> Path:
     """Draw state estimates with ±2σ bands, against the true states when known.
 
-    Writes ``path`` (PNG) and returns it; the true states come from ``signals``.
+    Writes ``path`` (PNG) and returns it.
     """
-    fig, axes, names = _panels("States: estimate ±2σ vs truth", result.state_names)
+    fig, axes, names = _panels("States: estimate ±2σ vs truth", data.state_names)
     if not names:
         _empty(fig, axes[0], "no states")
         return _save(fig, path)
-    bins = pixel_bins(result.time, axes[0])
-    for i, (ax, x) in enumerate(zip(axes, names, strict=True)):
-        mean = result.state_means[:, i]
-        sigma_band = _sigma_band(result.time, mean, result.state_variances[:, i], bins)
-        if sigma_band is not None:
-            t_band, lo, hi = sigma_band
+    set_time_span(axes[0], data.span)
+    for ax, curves in zip(axes, data.states, strict=True):
+        if curves.band is not None:
+            t_band, lo, hi = curves.band
             ax.fill_between(
                 t_band, np.nan_to_num(lo), np.nan_to_num(hi), where=np.isfinite(lo),
                 color="tab:blue", alpha=0.2, label="±2σ",
             )  # fmt: skip
-        if signals.truth_states is not None and np.isfinite(signals.truth_states[:, i]).any():
-            draw_curve(
-                ax,
-                envelope(result.time, signals.truth_states[:, i], bins),
-                lw=1.5,
-                color="0.5",
-                label="true",
-            )
-        smoothed = result.post_processing is not None and result.post_processing.smoothing
-        draw_curve(
-            ax,
-            envelope(result.time, mean, bins),
-            lw=0.8,
-            color="tab:blue",
-            label="smoothed" if smoothed else "estimate",
-        )
-        if result.post_processing is not None:
-            draw_curve(
-                ax,
-                envelope(result.time, result.post_processing.filtered.state_means[:, i], bins),
-                lw=0.5,
-                ls="--",
-                color="k",
-                label="filtered",
-            )
-        ax.set_ylabel(x)
+        if curves.truth is not None:
+            draw_curve(ax, curves.truth, lw=1.5, color="0.5", label="true")
+        draw_curve(ax, curves.estimate, lw=0.8, color="tab:blue", label=data.state_label)
+        if curves.filtered is not None:
+            draw_curve(ax, curves.filtered, lw=0.5, ls="--", color="k", label="filtered")
+        ax.set_ylabel(curves.name)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
     return _save(fig, path)
 
-
-COMPONENT_PREFIX = "mode."
-"""Timeline columns ``mode.<component>`` hold a ``[components]`` model's per-component modes."""
 
 UNKNOWN_LABEL = "unknown"
 UNKNOWN_COLOR = "tab:red"
 KNOWN_COLOR = "tab:blue"
 
 
-def plot_components(result: EstimationResult, path: Path) -> Path | None:
+def plot_components(data: PlotData, path: Path) -> Path | None:
     """Draw one mode timeline per component and the joint assignment (paper 002).
 
-    For results with labelled ``mode.<component>`` timeline columns (``unknown-mode``); the
-    ``unknown`` mode is drawn in its own colour.  The last panel shows the estimated joint
-    assignment over the assignments it visited.  Returns ``None`` (nothing written) when the
-    result has no such columns.
+    For results with labelled ``mode.<component>`` timeline columns (``unknown-mode``,
+    :class:`~hybridlog.report.plot_data.Components`); the ``unknown`` mode is drawn in its
+    own colour.  The last panel shows the estimated joint assignment over the assignments it
+    visited.  Returns ``None`` (nothing written) when the result has no such columns.
     """
-    columns = [
-        c for c in result.timeline_columns if c.name.startswith(COMPONENT_PREFIX) and c.labels
-    ]
-    if not columns or result.n_samples == 0:
+    components = data.modes
+    if not isinstance(components, Components):
         return None
-    visited = np.unique(result.modes)
-    fig, axes = _new_figure(len(columns) + 1, panel_height=max(1.0, 0.35 * len(visited)))
+    visited = components.joint_ids
+    fig, axes = _new_figure(len(components.columns) + 1, panel_height=max(1.0, 0.35 * len(visited)))
     fig.suptitle("Modes per component and joint assignment")
-    bins = pixel_bins(result.time, axes[0])
-    for ax, column in zip(axes, columns, strict=False):
-        values = np.asarray(column.values, dtype=np.int64)
+    set_time_span(axes[0], data.span)
+    for ax, column in zip(axes, components.columns, strict=False):
         n_labels = len(column.labels)
-        for label_index, label in enumerate(column.labels):
-            only = np.where(values == label_index, label_index, n_labels)
+        for label_index, (label, (first, last)) in enumerate(
+            zip(column.labels, column.bars, strict=True)
+        ):
             color = UNKNOWN_COLOR if label == UNKNOWN_LABEL else KNOWN_COLOR
-            edges = np.append(result.time[bins], result.time[-1])
-            bars = mode_bars(mode_runs(only), bins, n_labels)[label_index]
-            first, last = bars
-            spans = list(
-                zip(edges[first].tolist(), (edges[last + 1] - edges[first]).tolist(), strict=True)
-            )
+            spans = _spans(data.edges, first, last)
             if spans:
                 ax.broken_barh(spans, (label_index - 0.35, 0.7), color=color)
         ax.set_yticks(range(n_labels), column.labels)
         ax.set_ylim(-0.5, n_labels - 0.5)
-        ax.set_ylabel(column.name.removeprefix(COMPONENT_PREFIX))
+        ax.set_ylabel(column.name)
     joint = axes[-1]
-    rank = {int(m): i for i, m in enumerate(visited)}
-    rows = np.array([rank[int(m)] for m in result.modes], dtype=np.int64)
-    _draw_runs(
-        joint, result.time, rows, bins, len(visited), height=0.6, color="0.3", label="estimated"
-    )
-    joint.set_yticks(
-        range(len(visited)), [result.mode_ids[int(m)] for m in visited], fontsize="x-small"
-    )
+    _draw_bars(joint, data.edges, components.joint, height=0.6, color="0.3", label="estimated")
+    joint.set_yticks(range(len(visited)), list(visited), fontsize="x-small")
     joint.set_ylim(-0.5, len(visited) - 0.5)
     joint.set_ylabel("joint")
     joint.set_xlabel("t (s)")
     return _save(fig, path)
 
 
-def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
-    """Write ``outputs.png``, ``modes.png`` and ``states.png`` into a directory.
+def draw_plots(plot_dir: Path, data: PlotData) -> list[Path]:
+    """Write ``outputs.png``, ``modes.png`` and ``states.png`` of a run into a directory.
 
     For a result with per-component mode columns (``unknown-mode``) ``modes.png`` is
     :func:`plot_components`.
+
+    Parameters
+    ----------
+    plot_dir:
+        Existing directory to write into.
+    data:
+        The run's reduced plot data (:mod:`hybridlog.report.plot_data`): all that is drawn.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+
+    """
+    with _MATPLOTLIB:
+        return [
+            plot_outputs(data, plot_dir / "outputs.png"),
+            plot_modes(data, plot_dir / "modes.png"),
+            plot_states(data, plot_dir / "states.png"),
+        ]
+
+
+def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
+    """Reduce a whole result and draw its plots into a directory (:func:`draw_plots`).
 
     Parameters
     ----------
@@ -666,9 +470,4 @@ def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignal
         The files written.
 
     """
-    with _MATPLOTLIB:
-        return [
-            plot_outputs(result, signals, plot_dir / "outputs.png"),
-            plot_modes(result, signals, plot_dir / "modes.png"),
-            plot_states(result, signals, plot_dir / "states.png"),
-        ]
+    return draw_plots(plot_dir, reduce_result(result, signals))

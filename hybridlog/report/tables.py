@@ -23,23 +23,31 @@ nulls: an empty cell in CSV, a null in Parquet.  Floats are written with full ro
 precision.
 
 A table is a :class:`Table`: its columns as views of the result's arrays, turned into polars
-batches of :data:`BATCH_ROWS` rows only while :func:`write_table` streams them to the file.
+batches of :data:`BATCH_ROWS` rows only while a :class:`TableWriter` streams them to the file.
 A 10^6-row estimates table (16 columns, most of them strided columns of ``(N, n)`` arrays
 that polars would have to copy) is written without a second copy of the whole table in
-memory: the whole-frame write held 128 MB more at its peak.
+memory: the whole-frame write held 128 MB more at its peak.  A run whose result comes in
+chunks of rows writes each chunk's tables to the same :class:`TableWriter`s, one after the
+other (:func:`timeline_table` and :func:`estimates_table` of the chunk and
+``signals.rows(start, stop)``, the whole run's ``truth_states``): the files are those of the
+whole run's tables.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+import threading
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import TracebackType
 from typing import Literal
 
 import numpy as np
 import polars as pl
 from polars.io.plugins import register_io_source
 
+from hybridlog.background import Background
 from hybridlog.errors import OptionError
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
@@ -47,12 +55,15 @@ from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 __all__ = [
     "BATCH_ROWS",
     "PARQUET_COMPRESSION",
+    "QUEUED_BATCHES",
     "TABLE_FORMATS",
     "Table",
     "TableFormat",
+    "TableWriter",
     "check_table_format",
     "estimates_frame",
     "estimates_table",
+    "states_with_truth",
     "timeline_frame",
     "timeline_table",
     "write_table",
@@ -166,13 +177,17 @@ class _TableBuilder:
         array = np.asarray(values, dtype=np.float64)
 
         def rows(lo: int, hi: int) -> pl.Series:
-            return pl.Series(name, array[lo:hi], dtype=pl.Float64, nan_to_null=True)
+            # polars takes a contiguous float64 array as a view (a strided one it copies):
+            # copied here, always once, the batch owns its rows, and a chunk's arrays may be
+            # overwritten once :meth:`TableWriter.add` has returned.
+            return pl.Series(name, array[lo:hi].copy(), dtype=pl.Float64, nan_to_null=True)
 
         self.schema[name] = pl.Float64()
         self.columns[name] = rows
 
     def labels(self, name: str, ids: tuple[str, ...], index: IntArray) -> None:
-        # Gathered by polars from the mode ids: no Python string per row.
+        # Gathered by polars from the mode ids: no Python string per row, and a new series
+        # that owns its rows.
         categories = pl.Series(name, ids, dtype=pl.String)
 
         def rows(lo: int, hi: int) -> pl.Series:
@@ -191,9 +206,9 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
     Parameters
     ----------
     result:
-        The estimation result.
+        The estimation result (or a chunk of its rows).
     signals:
-        The aligned signals (for the ground-truth mode).
+        The aligned signals (for the ground-truth mode), the same rows as ``result``.
 
     Returns
     -------
@@ -222,22 +237,66 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
     return table.table()
 
 
-def estimates_table(result: EstimationResult, signals: AlignedSignals) -> Table:
+def states_with_truth(signals: AlignedSignals) -> tuple[int, ...]:
+    """The states the log has ground truth for: those whose truth column is not all NaN.
+
+    Parameters
+    ----------
+    signals:
+        The aligned signals of the whole run.
+
+    Returns
+    -------
+    tuple of int
+        Indices into ``signals.state_names``, ascending; empty without ground truth.
+
+    """
+    if signals.truth_states is None:
+        return ()
+    finite = np.isfinite(signals.truth_states).any(axis=0)
+    return tuple(int(i) for i in np.flatnonzero(finite))
+
+
+def estimates_table(
+    result: EstimationResult,
+    signals: AlignedSignals,
+    *,
+    truth_states: Sequence[int] | None = None,
+) -> Table:
     """The state and output estimates table (columns in the module docstring), streamed.
 
     Parameters
     ----------
     result:
-        The estimation result.
+        The estimation result (or a chunk of its rows).
     signals:
-        The aligned signals (measured outputs, ground-truth states).
+        The aligned signals (measured outputs, ground-truth states), the same rows as
+        ``result``.
+    truth_states:
+        The states that get a ``<x>_true`` column (indices into ``result.state_names``).
+        By default those :func:`states_with_truth` finds in ``signals``; a chunk of a run
+        passes the whole run's, so that every chunk's table has the same columns.
 
     Returns
     -------
     Table
         One row per sample.
 
+    Raises
+    ------
+    ValueError
+        When ``truth_states`` names a state that is not there, or ``signals`` have no
+        ground-truth states to take them from.
+
     """
+    chosen = frozenset(states_with_truth(signals) if truth_states is None else truth_states)
+    if not chosen <= frozenset(range(len(result.state_names))) or (
+        chosen and signals.truth_states is None
+    ):
+        raise ValueError(
+            f"truth_states {sorted(chosen)}: not indices of the {len(result.state_names)} "
+            "states, or the signals have no ground-truth states"
+        )
     table = _TableBuilder(result.time.shape[0])
     table.floats("t", result.time)
     filtered = None if result.post_processing is None else result.post_processing.filtered
@@ -252,9 +311,8 @@ def estimates_table(result: EstimationResult, signals: AlignedSignals) -> Table:
         table.floats(y, signals.outputs[:, j])
     if signals.truth_states is not None:
         for i, x in enumerate(result.state_names):
-            col = signals.truth_states[:, i]
-            if np.isfinite(col).any():
-                table.floats(f"{x}_true", col)
+            if i in chosen:
+                table.floats(f"{x}_true", signals.truth_states[:, i])
     return table.table()
 
 
@@ -268,14 +326,268 @@ def estimates_frame(result: EstimationResult, signals: AlignedSignals) -> pl.Dat
     return estimates_table(result, signals).frame()
 
 
-def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableFormat) -> Path:
-    """Write a table as ``<stem>.csv`` or ``<stem>.parquet``.
+QUEUED_BATCHES = 2
+"""Batches a :class:`TableWriter` holds for its sink at most: :meth:`TableWriter.add` waits
+while that many are queued.  Beside them are the batch being built and those polars' sink
+has taken: at its peak it held 8 batches (Parquet; 11 in CSV) of a 10^6-row estimates
+table, as many as when it pulled them from the :class:`Table` itself.  So the writer adds
+three batches (about 6 MiB for the estimates table) to what writing a whole table holds."""
 
-    A :class:`Table` is streamed in batches of :data:`BATCH_ROWS` rows (polars' streaming
-    sink); the file holds the same data as that of its whole :meth:`~Table.frame`, in
-    Parquet row groups of one batch each.  A table of one batch is written whole, without the
-    sink's start-up: both tables of a 300-row log in 2.1-2.6 ms against 2.7-2.8 ms (CSV, 200
-    logs, three rounds each in one process), 2-4 % of the log's time in ``batch``.
+
+class _AbandonedError(Exception):
+    """Raised into polars' sink by the batch source when the writer is abandoned."""
+
+
+class _Batches:
+    """The bounded queue between :meth:`TableWriter.add` (one caller) and the sink's source.
+
+    A condition variable rather than :class:`queue.Queue`, so that a caller waiting for room
+    wakes when the sink dies (:meth:`fail`), not only when a batch is taken.
+    """
+
+    def __init__(self) -> None:
+        self._ready = threading.Condition()
+        self._frames: deque[pl.DataFrame] = deque()
+        self._finished = False
+        self._abandoned = False
+        self._failure: BaseException | None = None
+
+    def put(self, frame: pl.DataFrame) -> None:
+        """Queue ``frame`` once there is room; raise what the sink died of instead."""
+        with self._ready:
+            while len(self._frames) >= QUEUED_BATCHES and self._failure is None:
+                self._ready.wait()
+            if self._failure is not None:
+                raise self._failure
+            self._frames.append(frame)
+            self._ready.notify_all()
+
+    def take(self) -> pl.DataFrame | None:
+        """The next frame, once there is one; ``None`` after the last (in the sink's source)."""
+        with self._ready:
+            while not self._frames and not self._finished and not self._abandoned:
+                self._ready.wait()
+            if self._abandoned:
+                raise _AbandonedError
+            if not self._frames:
+                return None
+            frame = self._frames.popleft()
+            self._ready.notify_all()
+            return frame
+
+    def finish(self) -> None:
+        """No more frames: the sink ends the file after those queued."""
+        with self._ready:
+            self._finished = True
+            self._ready.notify_all()
+
+    def abandon(self) -> None:
+        """Drop the queued frames and end the sink at its next :meth:`take`."""
+        with self._ready:
+            self._abandoned = True
+            self._frames.clear()
+            self._ready.notify_all()
+
+    def fail(self, failure: BaseException) -> None:
+        """The sink died of ``failure``: drop the queued frames, wake a waiting caller."""
+        with self._ready:
+            self._failure = failure
+            self._frames.clear()
+            self._ready.notify_all()
+
+
+class TableWriter:
+    """Writes the rows of tables of one schema, appended one table after another, to a file.
+
+    ``<stem>.csv`` or ``<stem>.parquet`` ends up holding what :func:`write_table` writes for
+    all the rows added, concatenated: the same bytes in CSV, the same frame read back from
+    Parquet, whose row groups hold :data:`BATCH_ROWS` rows (polars' sink gathers the
+    batches into row groups of that size, so this holds whatever the sizes of the tables
+    added, whose last batches are cut where each table ends).
+
+    :meth:`add` builds each table's rows into polars batches of at most :data:`BATCH_ROWS`
+    rows, in the caller's thread (a batch owns its rows: the table's arrays may be
+    overwritten once :meth:`add` has returned), and queues them, at most
+    :data:`QUEUED_BATCHES`, for polars' streaming sink, which runs in a thread of its own
+    over an IO source that takes them from the queue.  So two writers (timeline and
+    estimates) can be fed alternately by one thread, each encoding on the other core while
+    the caller builds the next batches.  The thread starts only once more than
+    :data:`BATCH_ROWS` rows have been added: a file of one batch is written whole by
+    :meth:`close`, without the sink's start-up (which counts for ``batch``'s 300-row logs,
+    :func:`write_table`), and a writer given no rows writes the schema's header alone.
+
+    An error of the thread (a folder that does not exist, a full disk) is raised, as it
+    was raised there, by the next :meth:`add` or by :meth:`close`.  Leaving the writer as a
+    context manager closes it, or, on an exception, abandons it: the queued batches are
+    dropped, the thread is ended and waited for, and the file is left incomplete (the
+    caller's atomic output folder discards it).
+
+    Parameters
+    ----------
+    stem:
+        Path without suffix, e.g. ``out/timeline``.
+    table_format:
+        ``"csv"`` or ``"parquet"``.
+    schema:
+        The schema of every table added.
+
+    Attributes
+    ----------
+    path:
+        The file written, ``<stem>.<table_format>``.
+
+    Examples
+    --------
+    >>> with TableWriter(out / "estimates", "parquet", schema) as writer:  # doctest: +SKIP
+    ...     for chunk in chunks:
+    ...         writer.add(estimates_table(chunk, signals.rows(...), truth_states=truth))
+    ...     path = writer.close()
+    """
+
+    def __init__(self, stem: Path, table_format: TableFormat, schema: pl.Schema) -> None:
+        self.path = stem.with_name(f"{stem.name}.{table_format}")
+        self._format = table_format
+        self._schema = schema
+        self._first: list[pl.DataFrame] = []
+        self._first_rows = 0
+        self._batches = _Batches()
+        self._sink: Background[None] | None = None
+        self._open = True
+
+    def __enter__(self) -> TableWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        if exc is None and self._open:
+            self.close()
+        else:
+            self._abandon()
+
+    def add(self, table: Table) -> None:
+        """Append the rows of ``table``; return once they are all in polars batches.
+
+        Parameters
+        ----------
+        table:
+            Rows to append, with the writer's schema.
+
+        Raises
+        ------
+        ValueError
+            When the table's schema is not the writer's, or the writer is closed.
+        Exception
+            What the writer's thread died of, if it did.
+
+        """
+        if not self._open:
+            raise ValueError(f"{self.path.name}: the table writer is closed")
+        if table.schema != self._schema:
+            raise ValueError(
+                f"{self.path.name}: a table with columns {list(table.schema)} added to a "
+                f"writer of {list(self._schema)}"
+            )
+        for lo in range(0, table.height, BATCH_ROWS):
+            frame = table.batch(lo, min(lo + BATCH_ROWS, table.height))
+            if self._sink is not None:
+                self._batches.put(frame)
+                continue
+            self._first.append(frame)
+            self._first_rows += frame.height
+            if self._first_rows > BATCH_ROWS:
+                self._start()
+
+    def close(self) -> Path:
+        """End the file: wait for the thread to write what is queued, or write the rows whole.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+
+        Raises
+        ------
+        ValueError
+            When the writer is already closed.
+        Exception
+            What the writer's thread died of, if it did, or what writing the file raised.
+
+        """
+        if not self._open:
+            raise ValueError(f"{self.path.name}: the table writer is closed")
+        self._open = False
+        if self._sink is None:
+            first = pl.concat(self._first) if self._first else pl.DataFrame(schema=self._schema)
+            self._first.clear()
+            _write_frame(first, self.path, self._format)
+        else:
+            self._batches.finish()
+            self._sink.result()
+        return self.path
+
+    def _start(self) -> None:
+        """Start the sink's thread and queue the batches held until then."""
+        self._sink = Background(self._write, f"hybridlog-{self.path.name}")
+        first, self._first = self._first, []
+        for frame in first:
+            self._batches.put(frame)
+
+    def _write(self) -> None:
+        """Run polars' streaming sink over the queued batches (in the writer's thread)."""
+        batches = self._batches
+
+        def frames(
+            with_columns: list[str] | None,
+            predicate: pl.Expr | None,
+            n_rows: int | None,
+            batch_size: int | None,
+        ) -> Iterator[pl.DataFrame]:
+            # Only ever sunk whole: polars pushes no projection, predicate or limit down.
+            while (frame := batches.take()) is not None:
+                yield frame
+
+        lazy = register_io_source(frames, schema=self._schema)
+        try:
+            if self._format == "csv":
+                lazy.sink_csv(self.path, null_value="")
+            else:
+                lazy.sink_parquet(
+                    self.path, compression=PARQUET_COMPRESSION, row_group_size=BATCH_ROWS
+                )
+        except BaseException as err:  # raised again in the caller by add or close
+            batches.fail(err)
+            raise
+
+    def _abandon(self) -> None:
+        """Drop what is queued and end the thread, if one runs; nothing more is written."""
+        self._open = False
+        self._first.clear()
+        if self._sink is not None:
+            self._batches.abandon()
+            self._sink.wait()
+
+
+def _write_frame(frame: pl.DataFrame, path: Path, table_format: TableFormat) -> None:
+    """Write a whole data frame with polars' eager writer."""
+    if table_format == "csv":
+        frame.write_csv(path, null_value="")
+    else:
+        frame.write_parquet(path, compression=PARQUET_COMPRESSION)
+
+
+def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableFormat) -> Path:
+    """Write a whole table as ``<stem>.csv`` or ``<stem>.parquet``.
+
+    A :class:`Table` goes through a :class:`TableWriter`: streamed in batches of
+    :data:`BATCH_ROWS` rows by polars' streaming sink, the file holding the same data as
+    that of its whole :meth:`~Table.frame`, in Parquet row groups of one batch each, or, for
+    a table of one batch, written whole, without the sink's start-up: both tables of a
+    300-row log in 2.1-2.6 ms against 2.7-2.8 ms (CSV, 200 logs, three rounds each in one
+    process), 2-4 % of the log's time in ``batch``.  A data frame is written whole.
 
     Parameters
     ----------
@@ -292,21 +604,10 @@ def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableForm
         The file written.
 
     """
-    path = stem.with_name(f"{stem.name}.{table_format}")
-    if isinstance(frame, Table) and frame.height <= BATCH_ROWS:
-        frame = frame.frame()  # one batch: the eager writer, without the sink's start-up
-    if isinstance(frame, Table):
-        lazy = frame.lazy()
-        if table_format == "csv":
-            lazy.sink_csv(path, null_value="")
-        else:
-            lazy.sink_parquet(
-                path,
-                compression=PARQUET_COMPRESSION,
-                row_group_size=BATCH_ROWS,
-            )
-    elif table_format == "csv":
-        frame.write_csv(path, null_value="")
-    else:
-        frame.write_parquet(path, compression=PARQUET_COMPRESSION)
-    return path
+    if isinstance(frame, pl.DataFrame):
+        path = stem.with_name(f"{stem.name}.{table_format}")
+        _write_frame(frame, path, table_format)
+        return path
+    with TableWriter(stem, table_format, frame.schema) as writer:
+        writer.add(frame)
+        return writer.close()

@@ -3,59 +3,93 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
+from contextlib import ExitStack
 from pathlib import Path
+from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from hybridlog.background import Background, Forked, beside
+from hybridlog.background import Background, Task, beside
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.outputs import atomic_output_dir
-from hybridlog.report.build import build_report
+from hybridlog.report.build import ReportBuilder
 from hybridlog.report.document import Report
 from hybridlog.report.markdown import render_markdown
+from hybridlog.report.plot_data import PlotReducer
+from hybridlog.report.plots import draw_into, figure_shapes, prepare_plotting
 from hybridlog.report.tables import (
+    TableFormat,
+    TableWriter,
     check_table_format,
     estimates_table,
+    states_with_truth,
     timeline_table,
-    write_table,
 )
 from hybridlog.signals import AlignedSignals
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["import_plotting", "write_plots", "write_report"]
+__all__ = ["write_report"]
 
 
-def import_plotting(model: HybridModel | None = None) -> None:
-    """Import what :func:`write_plots` draws with (matplotlib's figure and Agg canvas).
+class _RunTables:
+    """The timeline and estimates tables of one run, appended a chunk at a time.
 
-    About 0.3 s of Python that ``analyze`` spends in a thread while the estimator's compiled
-    loop runs without the GIL, rather than before its first figure; with ``model``, the
-    empty figures of its plots are made there too
-    (:func:`hybridlog.report.plots.prepare_figures`).
+    The writers open with the first chunk, whose tables give the schemas; every chunk's
+    tables have the same columns, the ``<x>_true`` ones decided on the whole run's truth
+    (:func:`~hybridlog.report.tables.states_with_truth`).  Each writer encodes in a thread
+    of its own (:class:`~hybridlog.report.tables.TableWriter`).  Used as a context manager:
+    leaving it with an exception abandons both writers (their threads ended, the files left
+    to the atomic output folder to discard).
     """
-    import matplotlib.backends.backend_agg
-    import matplotlib.figure  # noqa: F401
 
-    from hybridlog.report import plots
+    def __init__(self, folder: Path, table_format: TableFormat, signals: AlignedSignals) -> None:
+        self._folder = folder
+        self._format = table_format
+        self._signals = signals
+        self._truth = states_with_truth(signals)
+        self._writers: list[TableWriter] = []
+        self._stack = ExitStack()
 
-    if model is not None:
-        plots.prepare_figures(
-            plots.figure_shapes(model.n_outputs, model.n_states, bool(model.components))
+    def __enter__(self) -> _RunTables:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self._stack.__exit__(exc_type, exc, traceback)
+
+    def add(self, chunk: EstimationResult, start: int) -> None:
+        """Append a chunk of the run's result, which covers rows from ``start`` on."""
+        rows = self._signals.rows(start, start + chunk.n_samples)
+        tables = (
+            timeline_table(chunk, rows),
+            estimates_table(chunk, rows, truth_states=self._truth),
         )
+        if not self._writers:
+            self._writers = [
+                self._stack.enter_context(
+                    TableWriter(self._folder / name, self._format, table.schema)
+                )
+                for name, table in zip(("timeline", "estimates"), tables, strict=True)
+            ]
+        for writer, table in zip(self._writers, tables, strict=True):
+            writer.add(table)
 
-
-def write_plots(plot_dir: Path, result: EstimationResult, signals: AlignedSignals) -> list[Path]:
-    """:func:`hybridlog.report.plots.write_plots`, importing matplotlib only when called."""
-    from hybridlog.report.plots import write_plots as draw
-
-    return draw(plot_dir, result, signals)
+    def close(self) -> None:
+        """Finish both files (the writers' threads write what they still hold)."""
+        for writer in self._writers:
+            writer.close()
+        self._stack.pop_all()
 
 
 def write_report(
     out_dir: str | os.PathLike[str],
-    result: EstimationResult,
+    result: EstimationResult | Iterable[EstimationResult],
     signals: AlignedSignals,
     *,
     log: str,
@@ -75,12 +109,25 @@ def write_report(
     ``out_dir`` only when all of them are complete (see
     :func:`hybridlog.outputs.atomic_output_dir`).
 
+    The result may come whole or in consecutive chunks of rows
+    (:meth:`hybridlog.estimators.Prepared.stream`, whose arrays a later chunk overwrites):
+    each chunk is taken by the metrics (:class:`~hybridlog.report.build.ReportBuilder`),
+    appended to both tables and reduced for the plots
+    (:class:`~hybridlog.report.plot_data.PlotReducer`) before the next is asked for, so a
+    streamed run never holds its whole result.  When the plots are to be drawn, matplotlib
+    is imported and the empty figures are made meanwhile
+    (:func:`~hybridlog.report.plots.prepare_plotting`), and the figures are drawn from the
+    reduced data beside ``report.json``, ``report.md`` and the tables' last batches: both
+    :func:`hybridlog.background.beside`, in the process's worker (the console script's
+    ``analyze`` and ``compare``: the analysing process never imports matplotlib) or in a
+    thread.
+
     Parameters
     ----------
     out_dir:
         The output directory.
     result:
-        What the estimator returned.
+        What the estimator returned, or its chunks in order.
     signals:
         The aligned signals it ran on.
     log:
@@ -102,7 +149,7 @@ def write_report(
         report that decides it (``hybridlog batch --plots failed``: logs that miss a gate).
     model:
         The model the result was estimated with (for the outputs a smoothed run's estimates
-        explain, :func:`~hybridlog.report.build.build_report`).
+        explain, :func:`~hybridlog.report.build.build_report`, and the figures made ahead).
 
     Returns
     -------
@@ -115,52 +162,72 @@ def write_report(
         For an unknown ``table_format``.
     OutputError
         When ``out_dir`` exists and is not empty (without ``force``) or cannot be written.
+    LogError
+        When the run is too short to report (before any chunk is asked for).
 
     """
     fmt = check_table_format(table_format)
-    with atomic_output_dir(out_dir, force=force) as tmp:
-        plot_dir = Path(tmp / "plots")
-        # The plots are drawn beside the metrics and tables (see :mod:`hybridlog.background`:
-        # in a forked child where the process allows it, else in a thread: matplotlib holds
-        # the GIL, numpy's reductions and polars' writers mostly do not).  Plots that depend
-        # on the report start after it.
-        drawing = _draw(plot_dir, result, signals) if plots is True else None
-        try:
-            report = build_report(
-                result,
-                signals,
-                log=log,
-                model_name=model_name,
-                dt=dt,
-                reading=reading,
-                extra=extra,
-                model=model,
+    chunks = (result,) if isinstance(result, EstimationResult) else result
+    builder = ReportBuilder(signals, log=log, dt=dt, model=model)
+    preparing: Background[None] | Task[None] | None = None
+    if plots is True:
+        shapes = [] if model is None else _shapes(model)
+        preparing = beside(prepare_plotting, shapes, name="hybridlog-import-plotting")
+    try:
+        with atomic_output_dir(out_dir, force=force) as tmp:
+            report = _write_into(
+                tmp, chunks, signals, builder, fmt, plots, reading, extra, model_name
             )
-            (tmp / "report.json").write_text(report.to_json(), encoding="utf-8")
-            (tmp / "report.md").write_text(render_markdown(report), encoding="utf-8")
-            write_table(timeline_table(result, signals), tmp / "timeline", fmt)
-            write_table(estimates_table(result, signals), tmp / "estimates", fmt)
-            if callable(plots) and plots(report):
-                drawing = _draw(plot_dir, result, signals)
-            if drawing is not None:
-                drawing.result()
-        finally:
-            if drawing is not None:  # never leave the folder while the drawing writes into it
-                drawing.wait()
+    finally:
+        if preparing is not None:
+            preparing.wait()
+    if preparing is not None:
+        preparing.result()
     return report
 
 
-def _draw(
-    plot_dir: Path, result: EstimationResult, signals: AlignedSignals
-) -> Background[list[Path]] | Forked[list[Path]]:
-    """:func:`write_plots` into a new ``plot_dir``, beside the caller.
+def _shapes(model: HybridModel) -> list[tuple[int, float]]:
+    """The figures of a model's plots, made ahead (:func:`~.plots.figure_shapes`)."""
+    return figure_shapes(model.n_outputs, model.n_states, bool(model.components))
 
-    :func:`hybridlog.background.beside`: in a forked child in a one-command process, else
-    in a thread.
-    """
 
-    def draw() -> list[Path]:
-        plot_dir.mkdir()
-        return write_plots(plot_dir, result, signals)
-
-    return beside(draw, "hybridlog-plots")
+def _write_into(
+    folder: Path,
+    chunks: Iterable[EstimationResult],
+    signals: AlignedSignals,
+    builder: ReportBuilder,
+    fmt: TableFormat,
+    plots: bool | Callable[[Report], bool],
+    reading: Mapping[str, Any] | None,
+    extra: Mapping[str, Any] | None,
+    model_name: str,
+) -> Report:
+    """Everything :func:`write_report` writes, into the temporary ``folder``."""
+    reducer: PlotReducer | None = None
+    drawing: Background[list[Path]] | Task[list[Path]] | None = None
+    try:
+        with _RunTables(folder, fmt, signals) as tables:
+            for chunk in chunks:
+                start = builder.rows
+                builder.add(chunk)
+                tables.add(chunk, start)
+                if plots is not False:
+                    if reducer is None:
+                        reducer = PlotReducer(
+                            signals, chunk.mode_ids, chunk.state_names, chunk.output_names
+                        )
+                    reducer.add(chunk, start)
+            report = builder.report(model_name=model_name, reading=reading, extra=extra)
+            if reducer is not None and (plots is True or (callable(plots) and plots(report))):
+                drawing = beside(
+                    draw_into, folder / "plots", reducer.finish(), name="hybridlog-plots"
+                )
+            (folder / "report.json").write_text(report.to_json(), encoding="utf-8")
+            (folder / "report.md").write_text(render_markdown(report), encoding="utf-8")
+            tables.close()
+        if drawing is not None:
+            drawing.result()
+    finally:
+        if drawing is not None:  # never leave the folder while the drawing writes into it
+            drawing.wait()
+    return report

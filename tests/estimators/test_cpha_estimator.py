@@ -136,6 +136,7 @@ def test_the_registry_runs_it_on_a_components_model_only(model):
 
 
 def test_the_report_draws_one_timeline_per_component(model, tmp_path):
+    from hybridlog.report.plot_data import reduce_result
     from hybridlog.report.plots import plot_components, write_plots
 
     signals = cpha_log(model, 40, seed=3, a1=lambda k: "drift" if k >= 20 else "m11")
@@ -144,7 +145,7 @@ def test_the_report_draws_one_timeline_per_component(model, tmp_path):
     assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
     assert (tmp_path / "modes.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     bare = dataclasses.replace(result, timeline_columns=())
-    assert plot_components(bare, tmp_path / "none.png") is None
+    assert plot_components(reduce_result(bare, signals), tmp_path / "none.png") is None
     assert not (tmp_path / "none.png").exists()
 
 

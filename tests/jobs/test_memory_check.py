@@ -9,7 +9,7 @@ import pytest
 
 import hybridlog.memory
 from hybridlog.errors import LogError
-from hybridlog.estimators import prepare
+from hybridlog.estimators import CHUNK_ROWS, prepare
 from hybridlog.estimators.footprint import REPORT_FACTOR, result_bytes
 from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.batch import run_batch
@@ -25,17 +25,34 @@ def _available(monkeypatch: pytest.MonkeyPatch, size: int) -> None:
 
 def test_the_needs_count_the_result_and_each_offline_pass() -> None:
     model = load_model("three_tank_hstf")  # 3 modes, 3 states, 3 outputs
-    n = 1_000_000
+    n = CHUNK_ROWS  # one chunk: the result comes whole
     plain = prepare(model, "imm", {}).memory_needed(model, n)
     assert plain == [("the estimates", int(8 * n * 13 * REPORT_FACTOR))]
     assert result_bytes(model, n) == 8 * n * 13
+    assert prepare(model, "hstf", {}).memory_needed(model, n) == plain
+    n = 1_000_000
     smooth = dict(prepare(model, "imm", {"smooth": "true"}).memory_needed(model, n))
+    assert smooth["the estimates"] == int(8 * n * 13 * REPORT_FACTOR)
     assert smooth["the smoother's per-mode store"] == 8 * n * 3 * 9  # docs: 206 MiB
     kbest = dict(
         prepare(model, "imm", {"mode_sequence": "kbest", "beam": "50"}).memory_needed(model, n)
     )
     assert kbest["the k-best histories"] == 6 * n * 50
-    assert prepare(model, "hstf", {}).memory_needed(model, n) == plain
+
+
+def test_a_streamed_run_needs_one_chunk_and_the_mode_sequence() -> None:
+    """A filter without an offline pass gives its result a chunk at a time: the report keeps
+    the estimated modes, nothing else grows with the log."""
+    model = load_model("three_tank_hstf")
+    n = 1_000_000
+    for name in ("imm", "hstf"):
+        prepared = prepare(model, name, {})
+        assert prepared.streamed(n) and not prepared.streamed(CHUNK_ROWS)
+        assert prepared.memory_needed(model, n) == [
+            ("one chunk of the estimates", int(8 * CHUNK_ROWS * 13 * REPORT_FACTOR)),
+            ("the estimated modes", 8 * n),
+        ]
+    assert not prepare(model, "imm", {"mode_sequence": "viterbi"}).streamed(n)
 
 
 def test_check_fits_names_the_largest_parts_and_passes_what_fits() -> None:
@@ -67,13 +84,19 @@ def test_analyze_refuses_before_writing_and_says_what_to_change(
     assert (out / "report.json").is_file()
 
 
-def test_compare_counts_every_estimator_and_batch_fails_only_that_log(
+def test_compare_needs_its_largest_estimator_and_batch_fails_only_that_log(
     tmp_path: Path, sample_copy: Callable[[str], Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """``compare`` runs its estimators one after the other: the largest need counts."""
     log = sample_copy("three_tank_hstf.csv")
     _available(monkeypatch, 10_000)
-    with pytest.raises(LogError, match=r"through imm, hstf would need .*the estimates of imm"):
+    with pytest.raises(LogError, match=r"through imm, hstf would need about "):
         compare(log, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "cmp")
+    model = load_model("three_tank_hstf")
+    one = int(result_bytes(model, 301) * REPORT_FACTOR)
+    _available(monkeypatch, one + one // 2)  # one estimator's estimates, not both
+    compare(log, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "cmp")
+    _available(monkeypatch, 10_000)
     outcome = run_batch([log], "three_tank_hstf", out_dir=tmp_path / "batch", jobs=1)
     (row,) = outcome.logs
     assert row.status == "failed" and "samples through hstf would need about" in (row.error or "")

@@ -486,7 +486,7 @@ def test_failure_while_writing_leaves_nothing_behind(
     def broken(*args: object) -> list[Path]:
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(writer_module, "write_plots", broken)
+    monkeypatch.setattr(writer_module, "draw_into", broken)
     with pytest.raises(RuntimeError, match="disk on fire"):
         write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
     if existing:
@@ -499,8 +499,9 @@ def test_failure_while_writing_leaves_nothing_behind(
 def test_a_failure_beside_the_drawing_waits_for_it_and_leaves_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The plots are drawn in a thread; a failure of the tables meanwhile must not remove
-    the folder under the thread (nor leave what it writes afterwards)."""
+    """The plots are drawn in a thread; a failure meanwhile (report.md is written beside the
+    drawing) must not remove the folder under the thread (nor leave what it writes
+    afterwards)."""
     import threading
 
     out = tmp_path / "out"
@@ -508,7 +509,8 @@ def test_a_failure_beside_the_drawing_waits_for_it_and_leaves_nothing(
     drawn = threading.Event()
 
     def slow_plots(plot_dir: Path, *args: object) -> list[Path]:
-        time.sleep(0.2)  # still drawing when the tables fail
+        plot_dir.mkdir()
+        time.sleep(0.2)  # still drawing when report.md fails
         (plot_dir / "outputs.png").write_bytes(b"png")
         drawn.set()
         return [plot_dir / "outputs.png"]
@@ -516,8 +518,8 @@ def test_a_failure_beside_the_drawing_waits_for_it_and_leaves_nothing(
     def broken(*args: object) -> None:
         raise RuntimeError("disk on fire")
 
-    monkeypatch.setattr(writer_module, "write_plots", slow_plots)
-    monkeypatch.setattr(writer_module, "write_table", broken)
+    monkeypatch.setattr(writer_module, "draw_into", slow_plots)
+    monkeypatch.setattr(writer_module, "render_markdown", broken)
     with pytest.raises(RuntimeError, match="disk on fire"):
         write_report(out, result, signals, log="l", model_name="m", dt=DT)
     assert drawn.is_set()  # waited for, before the temporary folder was removed

@@ -9,16 +9,15 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from hybridlog.report import metrics
-from hybridlog.report.plots import (
-    DASHED_BAND_ALPHA,
-    draw_curve,
+from hybridlog.report.plot_data import (
+    PixelBins,
     envelope,
     mode_bars,
     mode_runs,
-    pixel_bins,
     pixel_columns,
     time_bins,
 )
+from hybridlog.report.plots import DASHED_BAND_ALPHA, draw_curve, set_time_span
 
 
 def _per_column(
@@ -49,7 +48,7 @@ def test_the_envelope_keeps_min_and_max_of_every_pixel_column(
     v = np.cumsum(rng.standard_normal(n)) * 10.0 ** rng.integers(-3, 4)
     v[rng.random(n) < missing] = np.nan
     bins = time_bins(t, columns)
-    reduced = envelope(t, v, bins)
+    reduced = envelope(v, PixelBins(t, bins))
     t0, t1 = float(t[0]), float(t[-1])
     assert np.all(np.diff(reduced.time) >= 0.0)
     assert reduced.time[0] == t0 and reduced.time[-1] == t1
@@ -68,11 +67,11 @@ def test_the_envelope_keeps_the_breaks_of_a_curve_and_a_short_curve_as_it_is() -
     v = np.sin(t / 50.0)
     v[0] = np.nan  # row 0 of a prediction
     v[5_000:5_200] = np.nan  # a gap wider than a pixel column
-    reduced = envelope(t, v, time_bins(t, 100))
+    reduced = envelope(v, PixelBins(t, time_bins(t, 100)))
     assert np.isnan(reduced.values[0])
     gap = (reduced.time > 5_000) & (reduced.time < 5_199)
     assert gap.any() and np.isnan(reduced.values[gap]).all()
-    short = envelope(t[:50], v[:50], time_bins(t[:50], pixel_columns()))
+    short = envelope(v[:50], PixelBins(t[:50], time_bins(t[:50], pixel_columns())))
     assert short.values is v[:50] or np.array_equal(short.values, v[:50], equal_nan=True)
 
 
@@ -85,7 +84,8 @@ def test_a_long_curve_is_drawn_as_the_band_of_each_pixel_column() -> None:
     v[50_000:60_000] = np.nan  # a gap of many pixel columns
     columns = pixel_columns()
     ax = Figure().add_subplot()
-    (line,) = draw_curve(ax, envelope(t, v, time_bins(t, columns)), lw=0.8, color="k", ls="--")
+    curve = envelope(v, PixelBins(t, time_bins(t, columns)))
+    (line,) = draw_curve(ax, curve, lw=0.8, color="k", ls="--")
     assert line.get_xydata().size == 0 and line.get_linestyle() == "--"  # the legend's entry
     (band,) = ax.collections
     assert band.get_alpha() == DASHED_BAND_ALPHA and band.get_linewidth()[0] == 0.8
@@ -95,7 +95,9 @@ def test_a_long_curve_is_drawn_as_the_band_of_each_pixel_column() -> None:
     assert drawn == _per_column(t, v, t0, t1, columns)
     # A curve with at most two points per pixel column stays a line, as given.
     ax = Figure().add_subplot()
-    (line,) = draw_curve(ax, envelope(t[:1_000], v[:1_000], time_bins(t[:1_000], columns)))
+    (line,) = draw_curve(
+        ax, envelope(v[:1_000], PixelBins(t[:1_000], time_bins(t[:1_000], columns)))
+    )
     assert np.array_equal(line.get_ydata(), v[:1_000]) and not ax.collections
 
 
@@ -114,7 +116,9 @@ def test_the_band_paints_every_pixel_the_curve_reaches_in_each_column() -> None:
     fig = Figure(figsize=(10, 3), dpi=100)
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_axes((0.09, 0.1, 0.89, 0.85), frame_on=False)  # the panels' left and right
-    draw_curve(ax, envelope(t, v, pixel_bins(t, ax)), lw=0.8, color="k")
+    bins = PixelBins.of_run(t)
+    set_time_span(ax, bins.span)
+    draw_curve(ax, envelope(v, bins), lw=0.8, color="k")
     ax.set_xticks([])
     ax.set_yticks([])
     canvas.draw()
@@ -178,7 +182,7 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     block: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # The reference: the whole-array reductions the block-wise ones replaced.
-    from hybridlog.report import plots
+    from hybridlog.report import plot_data
 
     rng = np.random.default_rng(9)
     n, columns = 20_011, 97
@@ -187,17 +191,18 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     values[rng.integers(0, n, 300)] = np.nan
     variance = rng.normal(1.0, 0.5, n)  # some negative (clipped), some NaN
     variance[rng.integers(0, n, 200)] = np.nan
-    monkeypatch.setattr(plots, "_BLOCK", block)
+    monkeypatch.setattr(plot_data, "_BLOCK", block)
 
     column = np.minimum(((time - time[0]) / (time[-1] - time[0]) * columns).astype(np.int64), 96)
     bins = np.concatenate(([0], np.flatnonzero(column[1:] != column[:-1]) + 1))
-    np.testing.assert_array_equal(plots.time_bins(time, columns), bins)
+    np.testing.assert_array_equal(plot_data.time_bins(time, columns), bins)
 
     ends = np.append(bins[1:], n) - 1
     finite = np.where(np.isfinite(values), values, np.nan)
     with np.errstate(invalid="ignore"):
         low, high = np.fmin.reduceat(finite, bins), np.fmax.reduceat(finite, bins)
-    curve = plots.envelope(time, values, bins)
+    pixels = plot_data.PixelBins(time, bins)
+    curve = plot_data.envelope(values, pixels)
     points = curve.values.reshape(-1, 4)
     np.testing.assert_array_equal(points[:, 0], values[bins])
     np.testing.assert_array_equal(points[:, 3], values[ends])
@@ -213,12 +218,18 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     with np.errstate(invalid="ignore"):
         band_low = np.fmin.reduceat(edge_low, bins)
         band_high = np.fmax.reduceat(edge_high, bins)
-    band = plots._sigma_band(time, values, variance, bins)
+
+    def sigma_band(mean: np.ndarray, variance: np.ndarray) -> plot_data.SigmaBand | None:
+        reducer = plot_data.BandReducer(pixels)
+        reducer.add(mean, variance, 0)
+        return reducer.finish()
+
+    band = sigma_band(values, variance)
     assert band is not None
     np.testing.assert_array_equal(band[0], np.stack([time[bins], time[ends]], axis=1).ravel())
     np.testing.assert_array_equal(band[1], np.repeat(band_low, 2))
     np.testing.assert_array_equal(band[2], np.repeat(band_high, 2))
-    assert plots._sigma_band(time, values, np.full(n, np.nan), bins) is None
+    assert sigma_band(values, np.full(n, np.nan)) is None
 
 
 def test_figures_made_ahead_draw_the_same_pngs_and_are_taken_once(tmp_path) -> None:

@@ -1,0 +1,319 @@
+"""The plots' data reduced chunk by chunk is that of the whole result, small, and drawn alike."""
+
+from __future__ import annotations
+
+import dataclasses
+import pickle
+import subprocess
+import sys
+from collections.abc import Iterator
+from itertools import pairwise
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
+from hybridlog.report import plot_data
+from hybridlog.report.plot_data import (
+    Components,
+    ModeTimelines,
+    PlotData,
+    PlotReducer,
+    pixel_columns,
+    reduce_result,
+)
+from hybridlog.report.plots import draw_plots, write_plots
+from hybridlog.signals import AlignedSignals
+
+MODES = ("a", "b", "c")
+STATES = ("x1", "x2", "x3")
+OUTPUTS = ("y1", "y2")
+LABELS = ("m1", "m2", "unknown")
+
+
+def _modes(rng: np.random.Generator, n: int, n_modes: int) -> np.ndarray:
+    """A mode sequence of runs from 1 to 400 samples long."""
+    lengths = rng.choice([1, 2, 3, 40, 400], size=n // 2 + 1)
+    return np.repeat(rng.integers(0, n_modes, lengths.size), lengths)[:n].astype(np.int64)
+
+
+def _walk(rng: np.random.Generator, n: int, k: int) -> np.ndarray:
+    return np.cumsum(rng.standard_normal((n, k)), axis=0)
+
+
+def _estimate(
+    rng: np.random.Generator,
+    time: np.ndarray,
+    outputs: tuple[str, ...] = OUTPUTS,
+    *,
+    components: bool = False,
+    spike: float = np.inf,
+) -> EstimationResult:
+    n = time.shape[0]
+    probabilities = rng.random((n, len(MODES)))
+    probabilities /= probabilities.sum(axis=1, keepdims=True)
+    variances = rng.normal(1.0, 0.6, (n, len(STATES)))  # some negative: clipped
+    variances[rng.random((n, len(STATES))) < 0.05] = np.nan
+    variances[:, 2] = np.nan  # a state without a variance: no band
+    predictions = _walk(rng, n, len(outputs))
+    predictions[:1] = np.nan  # row 0 of a prediction
+    predictions[rng.random((n, len(outputs))) < 0.01] = spike  # not finite: left out of min/max
+    columns = (
+        (
+            TimelineColumn("mode.A", _modes(rng, n, len(LABELS)), LABELS),
+            TimelineColumn("mode.B", _modes(rng, n, 2), LABELS[:2]),
+            TimelineColumn("delta.d1", rng.random(n)),  # not a component's
+        )
+        if components
+        else ()
+    )
+    return EstimationResult(
+        estimator="test",
+        options={},
+        time=time,
+        mode_ids=MODES,
+        state_names=STATES,
+        output_names=outputs,
+        modes=_modes(rng, n, len(MODES)),
+        mode_probabilities=probabilities,
+        state_means=_walk(rng, n, len(STATES)),
+        state_variances=variances,
+        output_predictions=predictions,
+        timeline_columns=columns,
+    )
+
+
+def _run(
+    n: int,
+    seed: int,
+    *,
+    smoothed: bool = False,
+    components: bool = False,
+    truth: bool = True,
+    mode_sequence: str = "argmax",
+    spike: float = np.inf,
+) -> tuple[EstimationResult, AlignedSignals]:
+    """A result and its signals, built from random arrays (no filter runs).
+
+    ``spike``: the non-finite predictions (matplotlib's autoscaling overflows on infinite
+    values: NaN for a run that is drawn).
+    """
+    rng = np.random.default_rng(seed)
+    time = 3.0 + np.cumsum(rng.uniform(0.2, 1.8, n))  # uneven: bins of different sizes
+    result = _estimate(rng, time, components=components, spike=spike)
+    if smoothed:
+        post = PostProcessing("kim-rts", mode_sequence, "test", _estimate(rng, time, spike=spike))
+        result = dataclasses.replace(result, post_processing=post)
+    states = _walk(rng, n, len(STATES))
+    states[:, 1] = np.nan  # a state the log does not have
+    signals = AlignedSignals(
+        source="test",
+        time=time,
+        input_names=(),
+        output_names=OUTPUTS,
+        inputs=np.zeros((n, 0)),
+        outputs=_walk(rng, n, len(OUTPUTS)),
+        truth_modes=_modes(rng, n, len(MODES)) if truth else None,
+        state_names=STATES,
+        truth_states=states if truth else None,
+    )
+    return result, signals
+
+
+def _rows(result: EstimationResult, start: int, stop: int) -> EstimationResult:
+    """Rows ``start:stop`` of a result, copied (as a streamed estimator's chunk)."""
+    post = result.post_processing
+    return dataclasses.replace(
+        result,
+        time=result.time[start:stop].copy(),
+        modes=result.modes[start:stop].copy(),
+        mode_probabilities=result.mode_probabilities[start:stop].copy(),
+        state_means=result.state_means[start:stop].copy(),
+        state_variances=result.state_variances[start:stop].copy(),
+        output_predictions=result.output_predictions[start:stop].copy(),
+        timeline_columns=tuple(
+            dataclasses.replace(c, values=c.values[start:stop].copy())
+            for c in result.timeline_columns
+        ),
+        post_processing=None
+        if post is None
+        else dataclasses.replace(post, filtered=_rows(post.filtered, start, stop)),
+    )
+
+
+def _overwrite(chunk: EstimationResult) -> None:
+    """What the next chunk does to this one's arrays."""
+    for array in (
+        chunk.time,
+        chunk.mode_probabilities,
+        chunk.state_means,
+        chunk.state_variances,
+        chunk.output_predictions,
+    ):
+        array.fill(-1e300)
+    chunk.modes.fill(0)
+    for column in chunk.timeline_columns:
+        column.values.fill(0)
+    if chunk.post_processing is not None:
+        _overwrite(chunk.post_processing.filtered)
+
+
+def _cuts(n: int, rng: np.random.Generator) -> list[int]:
+    """Chunk boundaries: runs of 1-row chunks, short chunks and long ones, in random order."""
+    cuts = [0]
+    while cuts[-1] < n:
+        kind = rng.integers(0, 3)
+        if kind == 0:
+            cuts.extend(cuts[-1] + 1 + np.arange(rng.integers(1, 5)))
+        else:
+            cuts.append(cuts[-1] + int(rng.integers(2, 30 if kind == 1 else 6_000)))
+    return [*(c for c in cuts if c < n), n] if n else [0, 0]
+
+
+def _chunked(result: EstimationResult, signals: AlignedSignals, cuts: list[int]) -> PlotData:
+    reducer = PlotReducer(signals, result.mode_ids, result.state_names, result.output_names)
+    for start, stop in pairwise(cuts):
+        chunk = _rows(result, start, stop)
+        reducer.add(chunk, start)
+        _overwrite(chunk)
+    return reducer.finish()
+
+
+def _leaves(value: Any, path: str = "data") -> Iterator[tuple[str, Any]]:
+    """Every array, string and number of a PlotData, by where it is."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+    elif isinstance(value, tuple) and hasattr(value, "_fields"):
+        value = value._asdict()
+    if isinstance(value, dict):
+        for key, item in value.items():
+            yield from _leaves(item, f"{path}.{key}")
+    elif isinstance(value, tuple):
+        yield f"{path}:len", len(value)
+        for i, item in enumerate(value):
+            yield from _leaves(item, f"{path}[{i}]")
+    else:
+        yield path, value
+
+
+def assert_same(a: PlotData, b: PlotData) -> None:
+    left, right = list(_leaves(a)), list(_leaves(b))
+    assert [p for p, _ in left] == [p for p, _ in right]
+    for (path, x), (_, y) in zip(left, right, strict=True):
+        if isinstance(x, np.ndarray):
+            assert isinstance(y, np.ndarray) and x.dtype == y.dtype, path
+            np.testing.assert_array_equal(x, y, err_msg=path)
+        else:
+            assert type(x) is type(y) and x == y, path
+
+
+KINDS = {
+    "plain": {},
+    "smoothed": {"smoothed": True},
+    "viterbi": {"smoothed": True, "mode_sequence": "viterbi"},
+    "components": {"components": True},
+    "no truth": {"truth": False},
+}
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("n", [1, 2, 57, 3_000, 3_561, 40_009])
+def test_chunks_give_the_data_of_the_whole_result(kind: str, n: int) -> None:
+    result, signals = _run(n, seed=n, **KINDS[kind])
+    whole = reduce_result(result, signals)
+    reduced = n > 4 * pixel_columns()
+    assert all(curves.predicted.reduced == reduced for curves in whole.outputs)
+    for seed in range(3):
+        cuts = _cuts(n, np.random.default_rng(seed))
+        assert_same(_chunked(result, signals, cuts), whole)
+    modes = whole.modes
+    if kind == "components":
+        assert isinstance(modes, Components)
+        assert [c.name for c in modes.columns] == ["A", "B"]
+        assert modes.joint_ids == tuple(MODES[m] for m in np.unique(result.modes))
+    else:
+        assert isinstance(modes, ModeTimelines)
+        assert modes.label == {"smoothed": "smoothed", "viterbi": "viterbi"}.get(kind, "estimated")
+        assert (modes.filtered is not None) == (kind in ("smoothed", "viterbi"))
+        assert (modes.truth is None) == (kind == "no truth")
+
+
+@pytest.mark.parametrize("block", [7, 1 << 16])
+def test_blocks_inside_a_chunk_give_the_same_data(
+    block: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    result, signals = _run(20_011, seed=4, smoothed=True)
+    whole = reduce_result(result, signals)
+    monkeypatch.setattr(plot_data, "_BLOCK", block)
+    assert_same(_chunked(result, signals, [0, 1, 9_000, 9_001, 20_011]), whole)
+
+
+@pytest.mark.parametrize("kind", ["smoothed", "components", "no truth"])
+def test_the_pngs_drawn_from_chunks_are_those_of_the_whole_result(
+    kind: str, tmp_path: Path
+) -> None:
+    result, signals = _run(40_009, seed=11, spike=np.nan, **KINDS[kind])
+    whole, chunked = tmp_path / "whole", tmp_path / "chunked"
+    whole.mkdir()
+    chunked.mkdir()
+    written = write_plots(whole, result, signals)
+    assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
+    data = _chunked(result, signals, _cuts(result.n_samples, np.random.default_rng(1)))
+    draw_plots(chunked, pickle.loads(pickle.dumps(data)))  # as another process receives it
+    for name in ("outputs.png", "modes.png", "states.png"):
+        assert (chunked / name).read_bytes() == (whole / name).read_bytes(), name
+
+
+def test_the_data_of_a_million_samples_is_small() -> None:
+    n, chunk, outputs = 1_000_000, 65_536, ("y1", "y2", "y3")
+    rng = np.random.default_rng(0)
+    time = np.arange(n) * 0.01
+    signals = AlignedSignals(
+        source="test",
+        time=time,
+        input_names=(),
+        output_names=outputs,
+        inputs=np.zeros((n, 0)),
+        outputs=rng.standard_normal((n, 3)),
+        truth_modes=_modes(rng, n, len(MODES)),
+        state_names=STATES,
+        truth_states=rng.standard_normal((n, 3)),
+    )
+    reducer = PlotReducer(signals, MODES, STATES, outputs)
+    for start in range(0, n, chunk):  # the whole run is never in memory
+        rows = time[start : start + chunk]
+        post = PostProcessing("kim-rts", "argmax", "test", _estimate(rng, rows, outputs))
+        estimate = dataclasses.replace(_estimate(rng, rows, outputs), post_processing=post)
+        reducer.add(estimate, start)
+    data = reducer.finish()
+    assert len(pickle.dumps(data)) < 1_000_000
+    arrays = [value for _, value in _leaves(data) if isinstance(value, np.ndarray)]
+    assert max(a.size for a in arrays) <= 4 * pixel_columns()
+
+
+def test_no_samples_and_chunks_out_of_order(tmp_path: Path) -> None:
+    result, signals = _run(0, seed=0)
+    data = reduce_result(result, signals)
+    assert data.modes is None and data.span is None
+    assert_same(PlotReducer(signals, MODES, STATES, OUTPUTS).finish(), data)
+    assert len(draw_plots(tmp_path, data)) == 3
+
+    result, signals = _run(100, seed=1, smoothed=True)
+    reducer = PlotReducer(signals, MODES, STATES, OUTPUTS)
+    with pytest.raises(ValueError, match=r"rows \[10, 20\) added where row 0 of 100"):
+        reducer.add(_rows(result, 10, 20), 10)
+    reducer.add(_rows(result, 0, 10), 0)
+    with pytest.raises(ValueError, match=r"rows \[10, 101\) added where row 10 of 100"):
+        reducer.add(_rows(result, 0, 91), 10)
+    with pytest.raises(ValueError, match="post-processing where the first chunk"):
+        reducer.add(dataclasses.replace(_rows(result, 10, 20), post_processing=None), 10)
+    with pytest.raises(ValueError, match=r"rows \[10, 100\) of the result were not added"):
+        reducer.finish()
+
+
+def test_the_reduction_imports_no_matplotlib() -> None:
+    code = "import sys, hybridlog.report.plot_data; print('matplotlib' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "False"
