@@ -134,7 +134,7 @@ def measure(rows: int, repeat: int) -> dict[str, Any]:
 
     def label(stage: str) -> str:
         if stage in forked:
-            return f"{stage} (in the worker process, beside the others)"
+            return f"{stage} (in a worker process, beside the others)"
         return f"{stage} (in a thread, beside the others)" if stage in beside else stage
 
     stages = {"start-up (interpreter)": child["started"] - start}

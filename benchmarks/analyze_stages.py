@@ -16,12 +16,13 @@ the main one (``analyze`` reads the log in a thread while numba sets up, and dra
 in a thread beside the metrics and tables: :mod:`hybridlog.background`) are listed in
 ``beside``: they overlap the main thread's stages, among which ``waiting for a thread`` is
 the time the main thread waited for them; the main thread's stages add up to the command.
-The estimator streams its result (the next chunk computed in a thread while the report
-takes this one): ``estimate (filter)`` is its compiled loop's time, beside the others, and
-``waiting for the filter`` the main thread's wait for chunks.  Stages run in the command's
-worker process (matplotlib's import and the plots: :class:`hybridlog.background.Worker`)
-are timed there, into ``STAGES.json.worker``, and listed in ``forked`` (their ``VmHWM`` is
-the worker's).
+The estimator streams its result from the estimators' worker process (the next chunk
+computed while the report takes this one): ``estimate (filter)`` is its compiled loop's
+time, and ``waiting for the filter`` this process's wait for chunks.  Stages run in the
+command's worker processes (numba's set-up and the loading of the compiled code in the
+estimators' worker, matplotlib's import and the plots in the plots' worker:
+:class:`hybridlog.background.Worker`) are timed there, into ``STAGES.json.worker``, and
+listed in ``forked`` (their ``VmHWM`` is the worker's).
 ``benchmarks/analyze_e2e.py`` runs this child and the plain command and assembles the
 breakdown.
 """
@@ -117,14 +118,15 @@ _WORKER_CLOCK = [""]
 """The file the worker's stages are clocked into (``STAGES.json.worker``)."""
 
 
-def _stream_clocked(stream: Callable[..., Any]) -> Callable[..., Any]:
-    """``Prepared.stream`` whose chunks are clocked: the main thread's wait for each chunk is
-    ``waiting for the filter``; the filter's compiled loop itself (its chunks' ``runtime_s``,
-    run beside the report's work) is ``estimate (filter)``."""
+def _estimates_clocked(estimates: Callable[..., Any]) -> Callable[..., Any]:
+    """``jobs.analysis.estimates`` whose chunks are clocked: this process's wait for each
+    chunk is ``waiting for the filter``; the filter's compiled loop itself (its chunks'
+    ``runtime_s``, run in the estimators' worker beside the report's work) is
+    ``estimate (filter)``."""
 
-    @functools.wraps(stream)
+    @functools.wraps(estimates)
     def clocked(*args: Any, **kwargs: Any) -> Any:
-        chunks = _timed("compile (sympy source, numba cache)", stream)(*args, **kwargs)
+        chunks = estimates(*args, **kwargs)
 
         def timed() -> Any:
             runtime = 0.0
@@ -142,7 +144,7 @@ def _stream_clocked(stream: Callable[..., Any]) -> Callable[..., Any]:
                 runtime = chunk.runtime_s
                 yield chunk
             _clock["estimate (filter)"] = _clock.get("estimate (filter)", 0.0) + runtime
-            _beside.add("estimate (filter)")
+            _forked.add("estimate (filter)")
 
         return timed()
 
@@ -161,13 +163,13 @@ def main() -> None:
     start = time.perf_counter()
     import hybridlog.cli as cli
     import hybridlog.estimators.common as common
+    import hybridlog.jit as jit
     import hybridlog.jobs.analysis as analysis
     import hybridlog.report.build as build
     import hybridlog.report.plot_data as plot_data
     import hybridlog.report.plots as plots
     import hybridlog.report.writer as writer
     from hybridlog.background import Background, Task
-    from hybridlog.estimators.registry import Prepared
     from hybridlog.report.document import Report
 
     _clock["imports"] = time.perf_counter() - start
@@ -177,13 +179,14 @@ def main() -> None:
     _patch(analysis, "prepare_estimators", "estimator options")
     _patch(analysis, "read_log", "read log")
     _patch(analysis, "set_up", "numba set-up")
+    jit.set_up = _worker_clocked("numba set-up", jit.set_up)
     Background.wait = _timed("waiting for a thread", Background.wait)  # type: ignore[method-assign]
     Background.result = _timed("waiting for a thread", Background.result)  # type: ignore[method-assign]
     Task.wait = _timed("waiting for the worker", Task.wait)  # type: ignore[method-assign]
     Task.result = _timed("waiting for the worker", Task.result)  # type: ignore[method-assign]
-    Prepared.stream = _stream_clocked(Prepared.stream)  # type: ignore[method-assign]
-    _patch(common, "compile_generated", "compile (sympy source, numba cache)")
-    _patch(common, "compile_model", "compile (sympy source, numba cache)")
+    analysis.estimates = _estimates_clocked(analysis.estimates)
+    common.compile_generated = _worker_clocked("compile (numba cache)", common.compile_generated)
+    common.compile_model = _worker_clocked("compile (numba cache)", common.compile_model)
     _patch(build.ReportBuilder, "add", "metrics")
     _patch(build.ReportBuilder, "report", "metrics")
     _patch(writer._RunTables, "add", "tables")

@@ -22,15 +22,29 @@ process, a batch worker or a Dask worker, which run their functions in threads.
 from __future__ import annotations
 
 import atexit
+import contextlib
+import fcntl
+import importlib
+import io
 import os
 import pickle
 import signal
 import struct
 import threading
-from collections.abc import Callable
-from typing import IO, Any, Generic, TypeVar
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any, Generic, TypeVar
 
-__all__ = ["Background", "Task", "Worker", "beside", "start_worker", "worker"]
+__all__ = [
+    "ESTIMATES",
+    "PLOTS",
+    "Background",
+    "Task",
+    "Worker",
+    "beside",
+    "start_worker",
+    "worker",
+]
 
 R = TypeVar("R")
 
@@ -80,7 +94,8 @@ class Task(Generic[R]):
 
     def _collect(self) -> tuple[bool, Any]:
         if self._outcome is None:
-            self._outcome = self._owner.outcome(self._index)
+            kind, value = self._owner.message(self._index)
+            self._outcome = (kind == "value", value)
         return self._outcome
 
     def wait(self) -> None:
@@ -97,7 +112,57 @@ class Task(Generic[R]):
 
 
 _HEADER = struct.Struct("<Q")
-"""Each message on the worker's pipes: its length, then that many bytes of pickle."""
+"""Lengths on the worker's pipes are unsigned 64-bit integers."""
+
+
+def _write_message(stream: io.BufferedIOBase, message: object) -> None:
+    """Write ``message`` pickled, its large buffers (NumPy arrays' data) out of band.
+
+    The pickle (protocol 5) is written after the number and the lengths of its parts, then
+    each out-of-band buffer straight from the memory it is in: an array of signals or
+    estimates crosses the pipe without a pickled copy of it in either process.
+    """
+    buffers: list[pickle.PickleBuffer] = []
+    payload = pickle.dumps(message, protocol=5, buffer_callback=buffers.append)
+    views = [buffer.raw() for buffer in buffers]
+    sizes = [len(payload), *(view.nbytes for view in views)]
+    stream.write(struct.pack(f"<Q{len(sizes)}Q", len(sizes), *sizes))
+    stream.write(payload)
+    for view in views:
+        stream.write(view)
+    stream.flush()
+
+
+def _read_message(stream: io.BufferedIOBase) -> tuple[bool, Any]:
+    """``(True, message)`` written by :func:`_write_message`, or ``(False, None)`` at the end.
+
+    Each out-of-band buffer is read into memory of its own, which the unpickled arrays
+    then use as it is.
+    """
+    header = stream.read(_HEADER.size)
+    if len(header) < _HEADER.size:
+        return False, None
+    (count,) = _HEADER.unpack(header)
+    sizes = struct.unpack(f"<{count}Q", stream.read(_HEADER.size * count))
+    parts = []
+    for size in sizes:
+        part = bytearray(size)
+        if stream.readinto(part) != size:
+            return False, None
+        parts.append(part)
+    return True, pickle.loads(parts[0], buffers=parts[1:])
+
+
+_PARENT_ENDS: set[int] = set()
+"""This process's ends of its workers' pipes: a worker forked later closes them, or a
+worker would never see the end of another's requests (its copy would keep them open)."""
+
+_PIPE_BYTES = 1 << 20
+"""Capacity asked of the pipes on Linux (``F_SETPIPE_SZ``; 64 KiB by default): a chunk of a
+streamed result (about 7 MB) then crosses in a few writes, not a hundred."""
+
+_DONE = ("value", "error", "end")
+"""The kinds of message that end a request's messages (``item`` does not)."""
 
 
 class Worker:
@@ -106,22 +171,31 @@ class Worker:
     :meth:`submit` pickles a module-level function and its arguments into the child's
     pipe and returns at once; the child runs them in the order sent and sends back each
     outcome: the pickled value, or the pickled exception (or, if that cannot be pickled, a
-    ``RuntimeError`` naming it).  A child that ends without sending (killed) makes every
-    outcome still owed a ``ChildProcessError`` naming how it ended.  :meth:`close` (also at
-    exit) closes the pipe, on which the child ends, and waits for it; the child ignores
-    ``SIGINT`` (an interrupted command ends it by closing the pipe) and leaves with
-    ``os._exit``: no clean-up of the parent's objects, no second flush of its buffered
-    output.
+    ``RuntimeError`` naming it).  :meth:`stream` sends a function that returns an iterator:
+    the child sends its items one at a time as it makes them, and the caller iterates over
+    them as they come (the pipe holds about one: the child makes the next while the caller
+    takes this one).  A child that ends without sending (killed) makes every outcome still
+    owed a ``ChildProcessError`` naming how it ended.  :meth:`close` (also at exit) closes
+    the pipe, on which the child ends, and waits for it; a caller that leaves a stream
+    before its end stops the child (:meth:`stop`), which is then gone for later work.  The
+    child ignores ``SIGINT`` (an interrupted command ends it by closing the pipe) and
+    leaves with ``os._exit``: no clean-up of the parent's objects, no second flush of its
+    buffered output.
     """
 
     def __init__(self, name: str) -> None:
         self._name = name
         requests_read, requests_write = os.pipe()
         replies_read, replies_write = os.pipe()
+        for end in (requests_write, replies_write):
+            with contextlib.suppress(AttributeError, OSError):
+                fcntl.fcntl(end, fcntl.F_SETPIPE_SZ, _PIPE_BYTES)
         pid = os.fork()
         if pid == 0:  # the child: serve until the pipe closes, then leave
             os.close(requests_write)
             os.close(replies_read)
+            for end in _PARENT_ENDS:  # another worker's: its child must see its pipe close
+                os.close(end)
             try:
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
                 _serve(requests_read, replies_write)
@@ -129,48 +203,104 @@ class Worker:
                 os._exit(0)
         os.close(requests_read)
         os.close(replies_write)
+        _PARENT_ENDS.update((requests_write, replies_read))
         self._pid = pid
-        self._requests: IO[bytes] | None = os.fdopen(requests_write, "wb")
-        self._replies = os.fdopen(replies_read, "rb")
+        # the pipes live as long as the worker: closed by close(), not by a with block
+        self._requests: io.BufferedWriter | None = open(requests_write, "wb")  # noqa: SIM115
+        self._replies: io.BufferedReader = open(replies_read, "rb")  # noqa: SIM115
         self._lock = threading.Lock()
         self._sent = 0
-        self._received = 0
-        self._outcomes: dict[int, tuple[bool, Any]] = {}
+        self._current = 0  # the request whose messages come next
+        self._messages: dict[int, deque[tuple[str, Any]]] = {}
         self._ended: str | None = None
 
-    def submit(self, function: Callable[..., R], *args: Any) -> Task[R]:
-        """Send ``function(*args)`` to the child; its outcome comes with :meth:`Task.result`."""
-        payload = pickle.dumps((function, args), protocol=pickle.HIGHEST_PROTOCOL)
+    @property
+    def alive(self) -> bool:
+        """Whether the child still takes work (not closed, stopped or found dead)."""
+        return self._requests is not None and self._ended is None
+
+    def submit(self, function: Callable[..., R] | str, *args: Any) -> Task[R]:
+        """Send ``function(*args)`` to the child; its outcome comes with :meth:`Task.result`.
+
+        ``function`` is picklable (module-level), or ``"module:name"`` to be imported only
+        in the child.
+        """
+        return Task(self, self._send("call", function, args))
+
+    def stream(self, function: Callable[..., Iterable[R]], *args: Any) -> Iterator[R]:
+        """Send ``function(*args)``, an iterable, to the child; iterate over its items here.
+
+        The child sends each item as it makes it; what the function raises is raised here
+        after the items before it.  The function runs when the request's turn comes,
+        whether or not the iterator returned is ever started.
+        """
+        index = self._send("stream", function, args)
+
+        def items() -> Iterator[R]:
+            finished = False
+            try:
+                while True:
+                    kind, value = self.message(index)
+                    if kind == "item":
+                        yield value
+                        continue
+                    finished = True
+                    if kind == "error":
+                        raise value
+                    return
+            finally:
+                if not finished:  # left before its end: the child is still making items
+                    self.stop()
+
+        return items()
+
+    def _send(self, kind: str, function: Callable[..., Any] | str, args: tuple[Any, ...]) -> int:
         with self._lock:
             if self._requests is None:
                 raise RuntimeError(f"{self._name}: the worker is closed")
-            self._requests.write(_HEADER.pack(len(payload)) + payload)
-            self._requests.flush()
+            _write_message(self._requests, (kind, function, args))
             index = self._sent
             self._sent += 1
-        return Task(self, index)
+            self._messages[index] = deque()
+        return index
 
-    def outcome(self, index: int) -> tuple[bool, Any]:
-        """``(ok, value or exception)`` of the function sent ``index``-th (0 first).
+    def message(self, index: int) -> tuple[str, Any]:
+        """The next message of the request sent ``index``-th (0 first): ``(kind, value)``.
 
-        Given once per function (its :class:`Task` keeps it).
+        ``value`` (the function's value), ``error`` (what it raised), ``item`` (one item of
+        a stream) or ``end`` (a stream's end).  Messages of earlier requests read meanwhile
+        are kept for them; a request's last message is given once.
         """
         with self._lock:
-            while index not in self._outcomes:
-                self._outcomes[self._received] = self._read_reply()
-                self._received += 1
-            return self._outcomes.pop(index)
+            queue = self._messages[index]
+            while not queue:
+                kind, value = self._read_message()
+                self._messages[self._current].append((kind, value))
+                if kind in _DONE:
+                    self._current += 1
+            kind, value = queue.popleft()
+            if kind in _DONE:
+                del self._messages[index]
+            return kind, value
 
-    def _read_reply(self) -> tuple[bool, Any]:
+    def _read_message(self) -> tuple[str, Any]:
         if self._ended is None:
-            header = self._replies.read(_HEADER.size)
-            if len(header) == _HEADER.size:
-                data = self._replies.read(_HEADER.unpack(header)[0])
-                outcome: tuple[bool, Any] = pickle.loads(data)
-                return outcome
+            read, message = _read_message(self._replies)
+            if read:
+                kind, value = message
+                return kind, value
             _, status = os.waitpid(self._pid, 0)
             self._ended = _ended(status)
-        return False, ChildProcessError(f"{self._name}: {self._ended}")
+        return "error", ChildProcessError(f"{self._name}: {self._ended}")
+
+    def stop(self) -> None:
+        """End the child now (``SIGKILL``), whatever it is doing, and wait for it."""
+        if self._ended is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self._pid, signal.SIGKILL)
+            os.waitpid(self._pid, 0)
+            self._ended = "the process was stopped"
+        self.close()
 
     def close(self) -> None:
         """Close the pipe (the child ends) and wait for the child; idempotent."""
@@ -178,7 +308,9 @@ class Worker:
             requests, self._requests = self._requests, None
         if requests is None:
             return
-        requests.close()
+        _PARENT_ENDS.difference_update((requests.fileno(), self._replies.fileno()))
+        with contextlib.suppress(OSError):
+            requests.close()  # a stopped child's pipe may be broken
         if self._ended is None:
             os.waitpid(self._pid, 0)
             self._ended = "closed"
@@ -186,28 +318,34 @@ class Worker:
 
 
 def _serve(requests: int, replies: int) -> None:
-    """The child's loop: read a function and its arguments, run it, send its outcome."""
-    with os.fdopen(requests, "rb") as incoming, os.fdopen(replies, "wb") as outgoing:
+    """The child's loop: read a request, run it, send its messages."""
+    with open(requests, "rb") as incoming, open(replies, "wb") as outgoing:
+
+        def send(kind: str, value: Any) -> None:
+            try:
+                _write_message(outgoing, (kind, value))
+            except Exception:
+                if kind != "error":
+                    raise  # an item or value that cannot be pickled: sent as the error
+                _write_message(outgoing, (kind, RuntimeError(f"{type(value).__name__}: {value}")))
+
         while True:
-            header = incoming.read(_HEADER.size)
-            if len(header) < _HEADER.size:
+            read, request = _read_message(incoming)
+            if not read:
                 return
-            data = incoming.read(_HEADER.unpack(header)[0])
-            payload = _outcome(data)
-            outgoing.write(_HEADER.pack(len(payload)) + payload)
-            outgoing.flush()
-
-
-def _outcome(data: bytes) -> bytes:
-    """Run the pickled ``(function, args)`` and pickle its outcome (in the child)."""
-    try:
-        function, args = pickle.loads(data)
-        return pickle.dumps((True, function(*args)), protocol=pickle.HIGHEST_PROTOCOL)
-    except BaseException as err:  # raised again by Task.result, in the caller
-        try:
-            return pickle.dumps((False, err), protocol=pickle.HIGHEST_PROTOCOL)
-        except Exception:
-            return pickle.dumps((False, RuntimeError(f"{type(err).__name__}: {err}")))
+            try:
+                kind, function, args = request
+                if isinstance(function, str):  # "module:name", imported here
+                    module, _, name = function.partition(":")
+                    function = getattr(importlib.import_module(module), name)
+                if kind == "stream":
+                    for item in function(*args):
+                        send("item", item)
+                    send("end", None)
+                else:
+                    send("value", function(*args))
+            except BaseException as err:  # raised again in the caller
+                send("error", err)
 
 
 def _ended(status: int) -> str:
@@ -220,33 +358,47 @@ def _ended(status: int) -> str:
     return f"the process ended with exit code {os.waitstatus_to_exitcode(status)} and no result"
 
 
-_WORKER: dict[str, Worker] = {}
-"""The process's worker, once :func:`start_worker` made it."""
+ESTIMATES = "estimates"
+"""The worker that runs the estimators (numba set up there, never in the command)."""
+PLOTS = "plots"
+"""The worker that draws the plots (matplotlib imported there, never in the command)."""
+
+_WORKERS: dict[str, Worker] = {}
+"""The process's workers by role, once :func:`start_worker` made them."""
 
 
-def start_worker() -> None:
-    """Fork this process's :class:`Worker` now; it is closed at exit.
+def start_worker(role: str, *warm_up: str) -> None:
+    """Fork this process's worker for ``role`` now; it is closed at exit.
 
     Only in a one-command process, while it is still small and has one thread (the console
-    script's ``analyze`` and ``compare``).
+    script's ``analyze`` and ``compare``).  ``warm_up``: functions, as ``"module:name"``
+    (imported in the worker, not here), the worker runs first while this process goes on
+    (numba's set-up, matplotlib's import); their outcomes are not waited for (an error
+    there shows again in the work that needs what failed).
     """
-    if "worker" not in _WORKER and hasattr(os, "fork"):
-        _WORKER["worker"] = Worker("hybridlog-worker")
-        atexit.register(_WORKER["worker"].close)
+    if role not in _WORKERS and hasattr(os, "fork"):
+        started = Worker(f"hybridlog-{role}")
+        _WORKERS[role] = started
+        atexit.register(started.close)
+        for function in warm_up:
+            started.submit(function)
 
 
-def worker() -> Worker | None:
-    """The process's worker, or ``None`` where none was started."""
-    return _WORKER.get("worker")
+def worker(role: str) -> Worker | None:
+    """The process's worker for ``role``, or ``None`` where none was started or it is gone."""
+    running = _WORKERS.get(role)
+    return running if running is not None and running.alive else None
 
 
-def beside(function: Callable[..., R], *args: Any, name: str) -> Background[R] | Task[R]:
+def beside(
+    function: Callable[..., R], *args: Any, name: str, role: str = PLOTS
+) -> Background[R] | Task[R]:
     """``function(*args)`` run beside the caller.
 
-    In the process's worker where there is one (``function`` then a module-level function,
-    it and ``args`` picklable), else in a thread.
+    In the process's worker for ``role`` where there is one (``function`` then a
+    module-level function, it and ``args`` picklable), else in a thread.
     """
-    running = worker()
+    running = worker(role)
     if running is not None:
         return running.submit(function, *args)
     return Background(lambda: function(*args), name)

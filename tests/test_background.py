@@ -7,6 +7,7 @@ import signal
 import threading
 from collections.abc import Iterator
 
+import numpy as np
 import pytest
 
 from hybridlog import background
@@ -113,6 +114,63 @@ def test_beside_uses_the_worker_where_one_was_started(
     task = beside(_pid_and_sum, [1], name="test")
     assert isinstance(task, Background)  # a library caller: a thread
     assert task.result() == (os.getpid(), 1)
-    monkeypatch.setitem(background._WORKER, "worker", worker)
+    monkeypatch.setitem(background._WORKERS, background.PLOTS, worker)
     task = beside(_pid_and_sum, [2], name="test")
     assert isinstance(task, Task) and task.result()[0] != os.getpid()
+    assert isinstance(beside(_pid_and_sum, [3], name="t", role="other"), Background)
+
+
+def _count(n: int) -> Iterator[tuple[int, int]]:
+    for k in range(n):
+        yield os.getpid(), k
+
+
+def _count_then_fail(n: int) -> Iterator[int]:
+    yield from range(n)
+    raise ReportError("chunk 3: bad")
+
+
+def test_a_stream_sends_its_items_as_they_come_and_its_error_after_them(
+    worker: Worker,
+) -> None:
+    before = worker.submit(_pid_and_sum, [5])
+    items = list(worker.stream(_count, 4))
+    assert [k for _, k in items] == [0, 1, 2, 3] and items[0][0] != os.getpid()
+    assert before.result()[1] == 5  # an earlier outcome read meanwhile is kept for it
+    received = []
+    with pytest.raises(ReportError, match="chunk 3: bad"):
+        for item in worker.stream(_count_then_fail, 3):
+            received.append(item)
+    assert received == [0, 1, 2]
+    assert worker.submit(_pid_and_sum, [6]).result()[1] == 6  # still serving
+
+
+def test_a_stream_left_before_its_end_stops_the_worker(worker: Worker) -> None:
+    items = worker.stream(_count, 10**9)
+    next(items)
+    items.close()
+    assert not worker.alive
+    with pytest.raises(RuntimeError, match="closed"):
+        worker.submit(_pid_and_sum, [1])
+
+
+def test_arrays_cross_out_of_band_and_functions_may_be_named(worker: Worker) -> None:
+    values = np.arange(300_000, dtype=np.float64)
+    (pid, total) = worker.submit(_pid_and_sum, values).result()
+    assert total == values.sum()
+    assert worker.submit("os:getpid").result() == pid  # imported in the worker
+
+
+def test_a_later_worker_does_not_keep_an_earlier_one_alive() -> None:
+    """A worker forked after another closes its copy of the other's pipe: closing the
+    first worker ends it even while the second lives."""
+    first = Worker("first")
+    second = Worker("second")
+    try:
+        pid = first.submit("os:getpid").result()
+        first.close()  # waits for the child: it would hang if the second held its pipe
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+        assert second.submit(_pid_and_sum, [1]).result()[1] == 1
+    finally:
+        second.close()

@@ -389,6 +389,34 @@ class Prepared:
         self._check(signals)
         return self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)
 
+    def warm_up(self, model: HybridModel, rows: int = 3) -> None:
+        """Load what a run needs for this model: a stream over a few rows of zeros.
+
+        Numba's cached machine code, for an entry with ``stream`` (the filters, whose
+        compiled loops take about 0.5 s to load), its chunks discarded: the console script
+        sends it to the estimators' worker as soon as the options are checked, so that the
+        loading happens while the command reads the log (``hybridlog.jobs.analysis``).
+        Other entries have nothing to load ahead.  What it raises is raised again by the run
+        itself.
+        """
+        if not self.estimator.stream:
+            return
+        import numpy as np
+
+        from hybridlog.signals import AlignedSignals
+
+        zeros = AlignedSignals(
+            source="warm-up",
+            time=np.arange(rows, dtype=np.float64) * np.float64(model.dt),
+            input_names=tuple(model.inputs),
+            output_names=tuple(model.outputs),
+            inputs=np.zeros((rows, len(model.inputs))),
+            outputs=np.zeros((rows, len(model.outputs))),
+            state_names=tuple(model.states),
+        )
+        for _ in self.stream(model, zeros):
+            pass
+
     @property
     def offline(self) -> bool:
         """Whether the options ask for an offline pass after the filter.

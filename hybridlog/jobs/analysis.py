@@ -7,13 +7,14 @@ the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogE
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from hybridlog.background import Background
+from hybridlog.background import ESTIMATES, Background, worker
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
@@ -35,6 +36,9 @@ from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
 from hybridlog.report.tables import check_table_format
 from hybridlog.signals import AlignedSignals
+
+if TYPE_CHECKING:
+    from hybridlog.estimators.result import EstimationResult
 
 
 @dataclass(frozen=True)
@@ -278,22 +282,59 @@ def check_memory(
     check_fits(parts, what=f"{log}: {n:,} samples through {names}", remedy=remedy, error=LogError)
 
 
-def read_beside_set_up(
+def read_for_estimation(
     log: str | Path, model: HybridModel, read: ReadOptions, notes: dict[str, Any]
 ) -> AlignedSignals:
-    """The log's signals, read in a thread while this one sets up numba.
+    """The log's signals, with numba set up meanwhile for the estimators.
 
-    Polars' readers release the GIL, numba's set-up (:func:`hybridlog.jit.set_up`) holds
-    it: on two cores the pair costs the time of the longer.  ``notes`` gets what reading
-    did.  The estimators' compiled loops then run while the report takes their chunks
-    (:func:`hybridlog.report.write_report`, which imports matplotlib beside them).
+    Where the process has a worker (the console script's ``analyze`` and ``compare``,
+    :func:`hybridlog.background.start_worker`), the estimators run there and the worker set
+    numba up from its start: the log is simply read.  Elsewhere the log is read in a thread
+    while this one sets up numba (:func:`hybridlog.jit.set_up`): polars' readers release
+    the GIL, numba's set-up holds it, and on two cores the pair costs the time of the
+    longer.  ``notes`` gets what reading did.
     """
+    if worker(ESTIMATES) is not None:
+        return read_log(log, model, read, notes)
     reading = Background(lambda: read_log(log, model, read, notes), "hybridlog-read")
     try:
         set_up()
     finally:
         reading.wait()
     return reading.result()
+
+
+def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
+    """Send the estimators' warm-up to the estimators' worker, where there is one.
+
+    :meth:`Prepared.warm_up <hybridlog.estimators.Prepared.warm_up>`: numba's cached
+    machine code of the model's filters is loaded there while this process reads the log.
+    """
+    running = worker(ESTIMATES)
+    if running is not None:
+        for estimator in prepared:
+            running.submit(estimator.warm_up, model)
+
+
+def estimates(
+    prepared: Prepared, model: HybridModel, signals: AlignedSignals, inputs: Mapping[str, Any]
+) -> Iterator[EstimationResult]:
+    """The estimator's result over the signals, as its chunks come (:meth:`Prepared.stream`).
+
+    Computed in the process's worker where there is one (the model and the signals but the
+    true states, which no estimator reads, are sent to it pickled, the arrays out of band;
+    the chunks come back as they are made, the worker making the next while this process
+    takes one), else here; sent when the first chunk is asked for (the report first sends
+    the plots' worker its preparation).  So the process that writes the report never
+    loads numba's compiler (its machine code and the loaded libraries, about 110 MiB, stay
+    in the worker), and the estimator's loop never shares an interpreter with the report.
+    """
+    running = worker(ESTIMATES)
+    if running is None:
+        yield from prepared.stream(model, signals, **inputs)
+        return
+    sent = replace(signals, truth_states=None)  # what no estimator reads stays here
+    yield from running.stream(partial(prepared.stream, **inputs), model, sent)
 
 
 @dataclass(frozen=True)
@@ -348,12 +389,13 @@ def analyze(
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
     inputs = estimator_inputs(prepared)
+    warm_up([prepared], model)
     reading: dict[str, Any] = {}
-    signals = read_beside_set_up(log, model, read, reading)
+    signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, [prepared], signals)
     report = write_report(
         out_dir,
-        prepared.stream(model, signals, **inputs),
+        estimates(prepared, model, signals, inputs),
         signals,
         log=str(log),
         model_name=model.name,
@@ -446,15 +488,16 @@ def compare(
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p) for p in prepared}
+    warm_up(prepared, model)
     reading: dict[str, Any] = {}
-    signals = read_beside_set_up(log, model, read, reading)
+    signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
         for estimator in prepared:  # one after the other: one estimator's chunks at a time
             reports[estimator.name] = write_report(
                 folder / estimator.name,
-                estimator.stream(model, signals, **inputs[estimator.name]),
+                estimates(estimator, model, signals, inputs[estimator.name]),
                 signals,
                 log=str(log),
                 model_name=model.name,

@@ -50,7 +50,6 @@ from hybridlog.model.compiled import (
     _write_once,
     cache_dir,
     model_key,
-    remember_key,
 )
 from hybridlog.model.hybrid_model import (
     BooleanAffine,
@@ -62,6 +61,7 @@ from hybridlog.model.hybrid_model import (
     Timebase,
     stored,
 )
+from hybridlog.model.keys import remember_key
 from hybridlog.signals import FloatArray
 
 FORMAT = 1

@@ -36,7 +36,6 @@ import os
 import sys
 import threading
 import time
-import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +44,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hybridlog.model.keys import known_key, remember_key
 from hybridlog.signals import FloatArray
 
 if TYPE_CHECKING:
@@ -172,35 +172,22 @@ def _feed(digest: Any, value: object) -> None:
         raise TypeError(f"model_key cannot serialise a {type(value).__qualname__}")
 
 
-_KEYS: dict[int, tuple[weakref.ref[HybridModel], str]] = {}
-
-
 def model_key(model: HybridModel) -> str:
     """Hash of the model's canonical content: every field but :data:`RUNTIME_FIELDS`.
 
     Equal models give equal keys in every process (sympy trees are canonical); any
     change to an equation, a parameter (substituted into the equations), a noise
-    covariance, a guard, a dimension or a name gives another key.
+    covariance, a guard, a dimension or a name gives another key.  Computed once per model
+    object (:mod:`hybridlog.model.keys`).
     """
-    known = _KEYS.get(id(model))
-    if known is not None and known[0]() is model:
-        return known[1]
+    known = known_key(model)
+    if known is not None:
+        return known
     digest = hashlib.sha256()
     _feed(digest, model)
     key = digest.hexdigest()
     remember_key(model, key)
     return key
-
-
-def remember_key(model: HybridModel, key: str) -> None:
-    """Record ``key`` as :func:`model_key` of ``model`` (the loaded-model cache stores it)."""
-    identity = id(model)
-
-    def forget(reference: weakref.ref[HybridModel]) -> None:
-        if _KEYS.get(identity, (None, ""))[0] is reference:
-            del _KEYS[identity]
-
-    _KEYS[identity] = (weakref.ref(model, forget), key)
 
 
 _FINGERPRINTS: dict[tuple[str, ...], str] = {}

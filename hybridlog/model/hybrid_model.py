@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, Generic, Literal, TypeVar, overload
 import numpy as np
 
 from hybridlog.errors import ModelError
+from hybridlog.model.keys import known_key, remember_key
 from hybridlog.signals import FloatArray
 
 if TYPE_CHECKING:
@@ -323,6 +324,10 @@ class BooleanAffine:
         return tuple((sigma >> (n - 1 - j)) & 1 for j in range(n))
 
 
+_KEY_STATE = "__content_key__"
+"""Where a pickled :class:`HybridModel` carries its content key (:mod:`hybridlog.model.keys`)."""
+
+
 @dataclass(frozen=True)
 class HybridModel:
     """A hybrid (switched) system read from a model file.
@@ -407,6 +412,22 @@ class HybridModel:
     variables: tuple[str, ...] = ()
     commands: tuple[str, ...] = ()
     scenario: Scenario | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The fields, and the content key when this process knows it.
+
+        The key is what a process that receives the model pickled (the estimators' worker)
+        would otherwise compute again, parsing every equation with sympy (about 0.5 s for
+        the three-tank model) before it can load the model's compiled code.
+        """
+        return {**self.__dict__, _KEY_STATE: known_key(self)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Restore the fields; record the content key that came with them."""
+        key = state.pop(_KEY_STATE, None)
+        self.__dict__.update(state)
+        if key is not None:
+            remember_key(self, key)
 
     @property
     def dt(self) -> float:

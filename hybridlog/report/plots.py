@@ -172,16 +172,24 @@ def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
                 ready.append((fig, axes))
 
 
-def prepare_plotting(shapes: Sequence[tuple[int, float]]) -> None:
-    """Import what the figures are drawn with, and make the empty figures of ``shapes`` ahead.
+def import_matplotlib() -> None:
+    """Import what the figures are drawn with: matplotlib's figure and Agg canvas.
 
-    matplotlib's figure and Agg canvas (about 0.3 s of Python) and :func:`prepare_figures`:
-    what :func:`hybridlog.report.writer.write_report` has done beside the estimator's
-    compiled loop, before the first figure is drawn.
+    About 0.3 s of Python: the console script's worker process does it first thing, while
+    the command imports its own modules and reads the log (``hybridlog.cli``).
     """
     import matplotlib.backends.backend_agg
     import matplotlib.figure  # noqa: F401
 
+
+def prepare_plotting(shapes: Sequence[tuple[int, float]]) -> None:
+    """Import what the figures are drawn with, and make the empty figures of ``shapes`` ahead.
+
+    :func:`import_matplotlib` and :func:`prepare_figures`: what
+    :func:`hybridlog.report.writer.write_report` has done beside the estimator, before the
+    first figure is drawn.
+    """
+    import_matplotlib()
     prepare_figures(shapes)
 
 

@@ -308,6 +308,31 @@ def test_a_warm_model_can_be_sent_to_another_process(tmp_path: Path):
     assert_same(pickle.loads(pickle.dumps(warm)), cold)
 
 
+def test_a_model_sent_to_another_process_carries_its_key(tmp_path: Path):
+    """The content key of a warm model, which the loaded-model cache stores, travels with it
+    pickled: the receiving process (the estimators' worker) loads the model's compiled code
+    without parsing an equation.  A model whose key was never known sends none."""
+    path = write_model(tmp_path, "pendulum", PENDULUM_ONE_MODE)
+    load_model(path)
+    warm = load_model(path)
+    code = textwrap.dedent(
+        """
+        import pickle, sys
+        from hybridlog.model.keys import known_key
+        model = pickle.loads(sys.stdin.buffer.read())
+        print(known_key(model), "sympy" in sys.modules)
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        input=pickle.dumps(warm),
+        capture_output=True,
+        check=True,
+    )
+    assert done.stdout.decode().split() == [model_key(warm), "False"]
+    assert parse_model(PENDULUM_ONE_MODE).__getstate__()["__content_key__"] is None
+
+
 def test_a_warm_analyze_and_simulate_import_no_sympy(tmp_path: Path):
     """Issue 8, must-hold 2: a warm run imports no sympy, loader or code generator.
 
