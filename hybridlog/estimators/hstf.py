@@ -53,7 +53,6 @@ from hybridlog.estimators.common import (
     FilterCode,
     FilterRun,
     Fn,
-    run_filter,
     run_filter_chunks,
 )
 from hybridlog.estimators.filter_options import HstfOptions
@@ -296,22 +295,21 @@ def run_hstf(
     kernel: str = "auto",
     store_covariances: bool = False,
 ) -> EstimationResult:
-    """Run the HSTF over the aligned signals.
+    """Run the HSTF over the aligned signals: :func:`stream_hstf` in one chunk.
 
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_hstf_source` for small models, else the generic :func:`_hstf_steps`.
     """
-    result = run_filter(
-        CODE,
+    (result,) = stream_hstf(
         model,
         signals,
-        _settings(options),
-        options_dict(options),
+        options,
+        rows=max(signals.n_samples, 1),
         jit=jit,
         kernel=kernel,
         store_covariances=store_covariances,
     )
-    return _noted(result, options)
+    return result
 
 
 def stream_hstf(
