@@ -31,6 +31,7 @@ import pickle
 import signal
 import struct
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, Generic, TypeVar
@@ -161,6 +162,9 @@ _PIPE_BYTES = 1 << 20
 """Capacity asked of the pipes on Linux (``F_SETPIPE_SZ``; 64 KiB by default): a chunk of a
 streamed result (about 7 MB) then crosses in a few writes, not a hundred."""
 
+_PATIENCE_S = 10.0
+"""How long :meth:`Worker.close` waits for a child to end once its pipes are closed."""
+
 _DONE = ("value", "error", "end")
 """The kinds of message that end a request's messages (``item`` does not)."""
 
@@ -285,7 +289,13 @@ class Worker:
 
     def _read_message(self) -> tuple[str, Any]:
         if self._ended is None:
-            read, message = _read_message(self._replies)
+            try:
+                read, message = _read_message(self._replies)
+            except BaseException:
+                # interrupted (Ctrl-C) inside a message: the pipe is no longer in step with
+                # the child, which is ended; every outcome still owed is an error now
+                self._kill("the process was stopped while its reply was read")
+                raise
             if read:
                 kind, value = message
                 return kind, value
@@ -293,28 +303,44 @@ class Worker:
             self._ended = _ended(status)
         return "error", ChildProcessError(f"{self._name}: {self._ended}")
 
-    def stop(self) -> None:
-        """End the child now (``SIGKILL``), whatever it is doing, and wait for it."""
+    def _kill(self, why: str) -> None:
+        """``SIGKILL`` the child and wait for it, unless it has ended already."""
         if self._ended is None:
             with contextlib.suppress(ProcessLookupError):
                 os.kill(self._pid, signal.SIGKILL)
             os.waitpid(self._pid, 0)
-            self._ended = "the process was stopped"
+            self._ended = why
+
+    def stop(self) -> None:
+        """End the child now (``SIGKILL``), whatever it is doing, and wait for it."""
+        self._kill("the process was stopped")
         self.close()
 
     def close(self) -> None:
-        """Close the pipe (the child ends) and wait for the child; idempotent."""
+        """Close both pipes and wait for the child to end; idempotent.
+
+        The child ends when it reads the end of its requests, or when it writes a reply
+        nobody will read (a broken pipe): a command that leaves in the middle of a stream
+        (an error, Ctrl-C) leaves its worker no reply to finish.  One still working after
+        :data:`_PATIENCE_S` seconds (a long computation between two writes) is killed.
+        """
         with self._lock:
             requests, self._requests = self._requests, None
         if requests is None:
             return
         _PARENT_ENDS.difference_update((requests.fileno(), self._replies.fileno()))
-        with contextlib.suppress(OSError):
-            requests.close()  # a stopped child's pipe may be broken
-        if self._ended is None:
-            os.waitpid(self._pid, 0)
-            self._ended = "closed"
-        self._replies.close()
+        for pipe in (self._replies, requests):
+            with contextlib.suppress(OSError):
+                pipe.close()  # a stopped child's pipe may be broken
+        deadline = time.monotonic() + _PATIENCE_S
+        while self._ended is None:
+            pid, _ = os.waitpid(self._pid, os.WNOHANG)
+            if pid:
+                self._ended = "closed"
+            elif time.monotonic() > deadline:
+                self._kill("the process was stopped: it did not end when its pipes closed")
+            else:
+                time.sleep(0.005)
 
 
 def _serve(requests: int, replies: int) -> None:

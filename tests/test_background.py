@@ -174,3 +174,21 @@ def test_a_later_worker_does_not_keep_an_earlier_one_alive() -> None:
         assert second.submit(_pid_and_sum, [1]).result()[1] == 1
     finally:
         second.close()
+
+
+def _big_items(n: int) -> Iterator[np.ndarray]:
+    for _ in range(n):
+        yield np.zeros(1 << 20)  # 8 MB: more than the pipe holds
+
+
+def test_closing_a_worker_in_the_middle_of_a_stream_ends_it() -> None:
+    """The command leaves while the child blocks on writing an item (an error, Ctrl-C): the
+    closed pipe ends the child, and close does not wait for the stream to finish."""
+    import time
+
+    worker = Worker("test")
+    items = worker.stream(_big_items, 10**6)
+    next(items)
+    start = time.monotonic()
+    worker.close()
+    assert time.monotonic() - start < 5 and not worker.alive

@@ -68,3 +68,79 @@ def test_a_profiler_around_the_console_script_still_gets_its_output(tmp_path: Pa
     )
     assert done.returncode == 0, done.stderr
     assert "three_tank_hstf" in done.stdout and stats.stat().st_size > 0
+
+
+POLE = """
+name = "pole"
+dt = 1
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+[modes.a]
+f = ["x / u"]
+h = ["x"]
+[modes.b]
+f = ["x / u"]
+h = ["x"]
+[noise]
+process = 0.1
+measurement = 0.1
+[initial]
+state = [2.0]
+"""
+"""A model whose prediction is infinite where the input is 0."""
+
+
+def _left_running(marker: str) -> list[str]:
+    """Processes whose command line holds ``marker``: the command's workers are its forks."""
+    left = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if marker in (entry / "cmdline").read_bytes().decode(errors="replace"):
+                    left.append(entry.name)
+            except OSError:
+                continue
+    return left
+
+
+def test_an_estimator_error_in_the_workers_process_is_one_line(tmp_path: Path) -> None:
+    """The estimator runs in the command's worker process: what it raises is the command's
+    one-line error, exit 2, no output, and no process left behind."""
+    model = tmp_path / "pole.toml"
+    model.write_text(POLE)
+    rows = ["t,u,y", *(f"{k},{0.0 if k == 11 else 1.0},{2.0}" for k in range(30))]
+    log = tmp_path / "pole.csv"
+    log.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "out"
+    done = _console("analyze", str(log), "--model", str(model), "--estimator", "hstf",
+                    "--out", str(out))  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and "diverged at t = 12 s (sample 12)" in done.stderr
+    assert not out.exists() and not _left_running(str(out))
+
+
+def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path) -> None:
+    """Ctrl-C (SIGINT to the command's process group) while the estimator streams: the
+    command and both its workers end, nothing is written."""
+    import signal
+    import time
+
+    log = tmp_path / "long.parquet"
+    made = _console("simulate", "three_tank_hstf", "--steps", "400000", "--out", str(log))
+    assert made.returncode == 0, made.stderr
+    out = tmp_path / "out"
+    command = subprocess.Popen(
+        [sys.executable, "-c", SCRIPT, "analyze", str(log), "--model", "three_tank_hstf",
+         "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+    )  # fmt: skip
+    time.sleep(2.5)
+    os.killpg(command.pid, signal.SIGINT)
+    command.communicate(timeout=60)
+    assert command.returncode in (130, -signal.SIGINT)
+    assert not out.exists()
+    deadline = time.monotonic() + 10
+    while _left_running(str(out)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not _left_running(str(out))
