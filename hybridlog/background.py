@@ -4,19 +4,21 @@
 spends its time in code that releases the GIL (polars' readers and writers, numpy's
 reductions, LLVM loading numba's cached machine code, the filters' compiled loops) beside
 code that holds it (numba's set-up, the report's Python): on two cores the two overlap.
-Where both hold the GIL much of the time (matplotlib drawing beside the report's Python), a
-thread only interleaves them; a :class:`Worker` runs functions in another process instead.
-:func:`beside` sends a function to the process's worker where one was started
-(:func:`start_worker`) and runs it in a thread elsewhere.
+Where both hold the GIL much of the time, or where what the work loads should stay out of
+the command (numba's compiler, matplotlib), a :class:`Worker` runs functions in another
+process instead: :func:`beside` sends a function to the process's worker of a role where
+one was started (:func:`start_worker`) and runs it in a thread elsewhere, and
+:meth:`Worker.stream` brings an iterator's items back as the worker makes them (the
+estimators' chunks).
 
-The worker is forked when the process is small and has one thread: the console script's
-``analyze`` and ``compare`` start it before they import numpy, polars or numba
-(``hybridlog.cli``), so the child inherits no thread that may hold a lock and no large
-memory, and imports what its functions need itself (matplotlib: about 36 MiB the
-analysing process then never holds).  It gets each function and its arguments pickled
-through a pipe (a module-level function and small data, such as the reduced data of the
-plots) and sends back the pickled value or exception.  Never in a library caller's
-process, a batch worker or a Dask worker, which run their functions in threads.
+Workers are forked when the process is small and has one thread: the console script's
+``analyze`` and ``compare`` start theirs (``ESTIMATES``, ``PLOTS``) before they import
+polars, numba or matplotlib (``hybridlog.cli``), so a child inherits no thread that may
+hold a lock and no large memory, and imports what its functions need itself.  Functions
+(module-level, or named ``"module:name"``) and their arguments are sent pickled through a
+pipe, NumPy arrays out of band, and the values or exceptions come back the same way.
+Never in a library caller's process, a batch worker or a Dask worker, which run their
+functions in threads.
 """
 
 from __future__ import annotations
