@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from hybridlog.model.builtins import builtin_text
+from tests.support.models import POLE
 
 SCRIPT = """
 import atexit, sys
@@ -68,27 +69,6 @@ def test_a_profiler_around_the_console_script_still_gets_its_output(tmp_path: Pa
     )
     assert done.returncode == 0, done.stderr
     assert "three_tank_hstf" in done.stdout and stats.stat().st_size > 0
-
-
-POLE = """
-name = "pole"
-dt = 1
-states = ["x"]
-inputs = ["u"]
-outputs = ["y"]
-[modes.a]
-f = ["x / u"]
-h = ["x"]
-[modes.b]
-f = ["x / u"]
-h = ["x"]
-[noise]
-process = 0.1
-measurement = 0.1
-[initial]
-state = [2.0]
-"""
-"""A model whose prediction is infinite where the input is 0."""
 
 
 def _left_running(marker: str) -> list[str]:

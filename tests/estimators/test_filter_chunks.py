@@ -23,6 +23,7 @@ from hybridlog.model.cache import load_model
 from hybridlog.model.loader import parse_model
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
+from tests.support.models import POLE
 
 MODELS = ("three_tank_hstf", "double_cart_case1")
 FILTERS = {
@@ -184,27 +185,6 @@ def test_the_hstf_chunks_carry_the_faded_likelihood_note_as_the_whole_run():
         notes = {chunk.notes for chunk in stream_hstf(model, signals, options, rows=300)}
         assert notes == {run_hstf(model, signals, options).notes}
         assert (FADED_LIKELIHOOD_NOTE in notes.pop()) == (options.likelihood == "faded")
-
-
-POLE = """
-name = "pole"
-dt = 1
-states = ["x"]
-inputs = ["u"]
-outputs = ["y"]
-[modes.a]
-f = ["x / u"]
-h = ["x"]
-[modes.b]
-f = ["x / u"]
-h = ["x"]
-[noise]
-process = 0.1
-measurement = 0.1
-[initial]
-state = [2.0]
-"""
-"""A model whose prediction is infinite where the input is 0."""
 
 
 @pytest.mark.parametrize("kernel", ["unrolled", "loops"])

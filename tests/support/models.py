@@ -69,3 +69,24 @@ state = [1.0, 0.5]
 [simulation.inputs]
 torque = "0.3*sin(0.5*t)"
 """
+
+
+POLE = """
+name = "pole"
+dt = 1
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+[modes.a]
+f = ["x / u"]
+h = ["x"]
+[modes.b]
+f = ["x / u"]
+h = ["x"]
+[noise]
+process = 0.1
+measurement = 0.1
+[initial]
+state = [2.0]
+"""
+"""A model whose prediction is infinite where the input is 0: a filter diverges there."""
