@@ -268,12 +268,12 @@ def check_memory(
         available and what to change.
     """
     n = signals.n_samples
-    needs = [
-        [(f"{what} of {p.name}" if len(prepared) > 1 else what, size) for what, size in parts]
-        for p in prepared
-        for parts in (p.memory_needed(model, n),)
-    ]
-    parts = max(needs, key=lambda need: sum(size for _, size in need), default=[])
+
+    def needs(estimator: Prepared) -> list[tuple[str, int]]:
+        name = f" of {estimator.name}" if len(prepared) > 1 else ""
+        return [(f"{what}{name}", size) for what, size in estimator.memory_needed(model, n)]
+
+    parts = max(map(needs, prepared), key=lambda need: sum(size for _, size in need), default=[])
     offline = any(p.offline for p in prepared)
     remedy = "analyse a shorter log" + (
         ", or without --smooth and --mode-sequence" if offline else ""
