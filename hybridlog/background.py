@@ -45,6 +45,7 @@ __all__ = [
     "Task",
     "Worker",
     "beside",
+    "forked",
     "start_worker",
     "worker",
 ]
@@ -204,6 +205,7 @@ class Worker:
                 os.close(end)
             try:
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
+                _IN_WORKER[0] = True
                 _serve(requests_read, replies_write)
             finally:
                 os._exit(0)
@@ -264,7 +266,10 @@ class Worker:
         with self._lock:
             if self._requests is None:
                 raise RuntimeError(f"{self._name}: the worker is closed")
-            _write_message(self._requests, (kind, function, args))
+            with contextlib.suppress(BrokenPipeError):
+                # a child that has ended reads no more: the request's outcome is the error
+                # naming how it ended (``_read_message``), as for every request it owed
+                _write_message(self._requests, (kind, function, args))
             index = self._sent
             self._sent += 1
             self._messages[index] = deque()
@@ -345,17 +350,25 @@ class Worker:
                 time.sleep(0.005)
 
 
+def _send_outcome(stream: io.BufferedIOBase, kind: str, value: Any) -> None:
+    """Write the message ``(kind, value)``; an error that cannot be pickled goes as one line.
+
+    An item or value that cannot be pickled raises here (the caller sends that as the error).
+    """
+    try:
+        _write_message(stream, (kind, value))
+    except Exception:
+        if kind != "error":
+            raise
+        _write_message(stream, (kind, RuntimeError(f"{type(value).__name__}: {value}")))
+
+
 def _serve(requests: int, replies: int) -> None:
     """The child's loop: read a request, run it, send its messages."""
     with open(requests, "rb") as incoming, open(replies, "wb") as outgoing:
 
         def send(kind: str, value: Any) -> None:
-            try:
-                _write_message(outgoing, (kind, value))
-            except Exception:
-                if kind != "error":
-                    raise  # an item or value that cannot be pickled: sent as the error
-                _write_message(outgoing, (kind, RuntimeError(f"{type(value).__name__}: {value}")))
+            _send_outcome(outgoing, kind, value)
 
         while True:
             read, request = _read_message(incoming)
@@ -384,6 +397,65 @@ def _ended(status: int) -> str:
         except ValueError:
             return f"the process was killed by signal {number}"
     return f"the process ended with exit code {os.waitstatus_to_exitcode(status)} and no result"
+
+
+_IN_WORKER = [False]
+"""Whether this process is a :class:`Worker`'s child (set there, right after the fork)."""
+
+
+def forked(function: Callable[[], R]) -> Callable[[], R]:
+    """Start ``function()`` in a child forked from this worker process; return its waiter.
+
+    Only in a :class:`Worker`'s process while it has one thread (the plots' worker, which
+    draws one figure in such a child while it draws the others: the command has little left
+    to do by then, so the other core is free): the child sends the value, or what it raised,
+    pickled (:func:`_write_message`) and ends with ``os._exit``; the waiter returns the value
+    or raises the error, or a ``ChildProcessError`` naming how the child ended if it ended
+    without sending.  Anywhere else ``function`` runs at once, and the waiter returns its
+    value or raises what it raised.
+    """
+    if not (_IN_WORKER[0] and threading.active_count() == 1 and hasattr(os, "fork")):
+        outcome: list[Any] = []
+        try:
+            outcome.append(function())
+        except Exception as err:  # raised again by the waiter
+            error = err
+
+            def failed() -> R:
+                raise error
+
+            return failed
+        value: R = outcome[0]
+        return lambda: value
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: run, send, leave (nothing of the worker's is flushed or run)
+        try:
+            os.close(read_end)
+            with open(write_end, "wb") as outgoing:
+                try:
+                    result = function()
+                except BaseException as err:
+                    _send_outcome(outgoing, "error", err)
+                else:
+                    _send_outcome(outgoing, "value", result)
+        finally:
+            os._exit(0)
+    os.close(write_end)
+
+    def wait() -> R:
+        with open(read_end, "rb") as incoming:
+            read, message = _read_message(incoming)
+        _, status = os.waitpid(pid, 0)
+        if not read:
+            raise ChildProcessError(f"a forked child: {_ended(status)}")
+        kind, value = message
+        if kind == "error":
+            raise value
+        returned: R = value
+        return returned
+
+    return wait
 
 
 ESTIMATES = "estimates"

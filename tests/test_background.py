@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hybridlog import background
-from hybridlog.background import Background, Task, Worker, beside
+from hybridlog.background import Background, Task, Worker, beside, forked
 from hybridlog.errors import ReportError
 
 
@@ -99,6 +99,8 @@ def test_a_killed_worker_is_an_error_naming_the_signal_for_every_task_owed(
         dying.result()
     with pytest.raises(ChildProcessError, match="SIGKILL"):
         after.result()
+    with pytest.raises(ChildProcessError, match="SIGKILL"):  # sent once it is gone: the same
+        worker.submit(_pid_and_sum, [2]).result()
 
 
 def test_a_closed_worker_ends_and_takes_no_more(worker: Worker) -> None:
@@ -192,3 +194,44 @@ def test_closing_a_worker_in_the_middle_of_a_stream_ends_it() -> None:
     start = time.monotonic()
     worker.close()
     assert time.monotonic() - start < 5 and not worker.alive
+
+
+def _pids_of_a_forked_call() -> tuple[int, int]:
+    """(this process, the process a forked call ran in)."""
+    return os.getpid(), forked(os.getpid)()
+
+
+def _forked_failure() -> None:
+    forked(lambda: _fail("states.png: bad axis"))()
+
+
+def _forked_exit() -> None:
+    forked(lambda: os._exit(3))()
+
+
+def test_forked_outside_a_worker_runs_at_once_and_its_waiter_gives_the_outcome() -> None:
+    ran_in: list[int] = []
+
+    def work() -> int:
+        ran_in.append(os.getpid())
+        return 7
+
+    wait = forked(work)
+    assert ran_in == [os.getpid()]  # run already, in this process
+    assert wait() == 7
+    failing = forked(lambda: _fail("late"))  # no error yet: the waiter raises it
+    with pytest.raises(ReportError, match="late"):
+        failing()
+
+
+def test_forked_in_a_worker_runs_in_a_child_of_the_worker(worker: Worker) -> None:
+    worker_pid, child_pid = worker.submit(_pids_of_a_forked_call).result()
+    assert len({os.getpid(), worker_pid, child_pid}) == 3
+
+
+def test_a_forked_childs_error_or_silent_end_is_raised_by_its_waiter(worker: Worker) -> None:
+    with pytest.raises(ReportError, match=r"states\.png: bad axis"):
+        worker.submit(_forked_failure).result()
+    with pytest.raises(ChildProcessError, match="exit code 3 and no result"):
+        worker.submit(_forked_exit).result()
+    assert worker.submit(_pid_and_sum, [2]).result()[1] == 2  # the worker goes on serving

@@ -408,13 +408,6 @@ class BarsReducer:
         )
 
 
-def _bars(modes: IntArray, bins: PixelBins, n_modes: int) -> Bars:
-    """The bars of a whole mode sequence (:class:`BarsReducer`)."""
-    reducer = BarsReducer(bins, n_modes)
-    reducer.add(modes, 0)
-    return reducer.finish()
-
-
 class OutputCurves(NamedTuple):
     """One panel of ``outputs.png``: the measured output and its one-step-ahead prediction."""
 
@@ -580,6 +573,13 @@ class PlotReducer:
         self._means = [CurveReducer(self._bins) for _ in range(n_states)]
         self._bands = [BandReducer(self._bins) for _ in range(n_states)]
         self._modes = BarsReducer(self._bins, len(self._mode_ids))
+        # The signals' curves are reduced with the result's rows, not all at once in finish:
+        # the drawing waits for finish, and the chunks come slower than they are reduced.
+        self._measured = [CurveReducer(self._bins) for _ in range(n_outputs)]
+        truth = signals.truth_states
+        self._truth = [] if truth is None else [CurveReducer(self._bins) for _ in range(n_states)]
+        self._truth_seen = [False] * len(self._truth)
+        self._truth_modes: BarsReducer | None = None
         # Set by the first chunk (:meth:`_begin`).
         self._begun = False
         self._mode_label = "estimated"
@@ -605,6 +605,8 @@ class PlotReducer:
         self._probabilities = [CurveReducer(self._bins) for _ in range(n_modes if timelines else 0)]
         if post is not None:
             self._filtered = _FilteredReducers(self._bins, n_modes, len(self._means), timelines)
+        if timelines and self._signals.truth_modes is not None:
+            self._truth_modes = BarsReducer(self._bins, n_modes)
 
     def add(self, chunk: EstimationResult, start: int) -> None:
         """Reduce ``chunk``: the result's rows ``start .. start + chunk.n_samples - 1``.
@@ -646,7 +648,22 @@ class PlotReducer:
                 bars.add(np.asarray(columns[name].values, dtype=np.int64), start)
         if post is not None and self._filtered is not None:
             self._filtered.add(post.filtered, start)
+        self._add_signals(start, stop)
         self._next = stop
+
+    def _add_signals(self, start: int, stop: int) -> None:
+        """Reduce the signals' rows ``start .. stop - 1``: measured outputs and the truth."""
+        signals = self._signals
+        for j, curve in enumerate(self._measured):
+            curve.add(signals.outputs[start:stop, j], start)
+        truth = signals.truth_states
+        if truth is not None:
+            for i, curve in enumerate(self._truth):
+                rows = truth[start:stop, i]
+                curve.add(rows, start)
+                self._truth_seen[i] = self._truth_seen[i] or bool(np.isfinite(rows).any())
+        if self._truth_modes is not None and signals.truth_modes is not None:
+            self._truth_modes.add(signals.truth_modes[start:stop], start)
 
     def finish(self) -> PlotData:
         """The run's :class:`PlotData`, once every row was added.
@@ -656,25 +673,22 @@ class PlotReducer:
         ValueError
             When rows of the run were not added.
         """
-        signals, bins = self._signals, self._bins
-        n = signals.n_samples
+        bins = self._bins
+        n = self._signals.n_samples
         if self._next != n:
             raise ValueError(f"plots: rows [{self._next}, {n}) of the result were not added")
         outputs = tuple(
-            OutputCurves(name, envelope(signals.outputs[:, j], bins), curve.finish())
-            for j, (name, curve) in enumerate(
-                zip(self._output_names, self._predicted, strict=False)
+            OutputCurves(name, measured.finish(), curve.finish())
+            for name, measured, curve in zip(
+                self._output_names, self._measured, self._predicted, strict=False
             )
         )
-        truth = signals.truth_states
         filtered = self._filtered
         states = tuple(
             StateCurves(
                 name,
                 band.finish(),
-                envelope(truth[:, i], bins)
-                if truth is not None and np.isfinite(truth[:, i]).any()
-                else None,
+                self._truth[i].finish() if self._truth and self._truth_seen[i] else None,
                 curve.finish(),
                 None if filtered is None else filtered.means[i].finish(),
             )
@@ -696,7 +710,6 @@ class PlotReducer:
 
     def _finish_modes(self) -> ModeTimelines | Components:
         """The mode timelines, or the per-component ones of a ``[components]`` result."""
-        bins, n_modes = self._bins, len(self._mode_ids)
         estimated = self._modes.finish()
         if self._components:
             visited = [m for m, (first, _) in enumerate(estimated) if first.size]
@@ -708,13 +721,13 @@ class PlotReducer:
                 joint_ids=tuple(self._mode_ids[m] for m in visited),
                 joint=tuple(estimated[m] for m in visited),
             )
-        truth = self._signals.truth_modes
+        truth = self._truth_modes
         filtered = self._filtered
         return ModeTimelines(
             mode_ids=self._mode_ids,
             label=self._mode_label,
             estimated=estimated,
-            truth=None if truth is None else _bars(truth, bins, n_modes),
+            truth=None if truth is None else truth.finish(),
             filtered=None
             if filtered is None or filtered.modes is None
             else filtered.modes.finish(),

@@ -191,6 +191,11 @@ def _shapes(model: HybridModel) -> list[tuple[int, float]]:
     return figure_shapes(model.n_outputs, model.n_states, bool(model.components))
 
 
+def _start_drawing(folder: Path, reducer: PlotReducer) -> Background[list[Path]] | Task[list[Path]]:
+    """Draw the plots of every row ``reducer`` took into ``folder / "plots"``, beside the caller."""
+    return beside(draw_into, folder / "plots", reducer.finish(), name="hybridlog-plots")
+
+
 def _write_into(
     folder: Path,
     chunks: Iterable[EstimationResult],
@@ -217,11 +222,12 @@ def _write_into(
                             signals, chunk.mode_ids, chunk.state_names, chunk.output_names
                         )
                     reducer.add(chunk, start)
+            if reducer is not None and plots is True:
+                # the longest step left: started before the report's last metrics
+                drawing = _start_drawing(folder, reducer)
             report = builder.report(model_name=model_name, reading=reading, extra=extra)
-            if reducer is not None and (plots is True or (callable(plots) and plots(report))):
-                drawing = beside(
-                    draw_into, folder / "plots", reducer.finish(), name="hybridlog-plots"
-                )
+            if reducer is not None and callable(plots) and plots(report):
+                drawing = _start_drawing(folder, reducer)
             (folder / "report.json").write_text(report.to_json(), encoding="utf-8")
             (folder / "report.md").write_text(render_markdown(report), encoding="utf-8")
             tables.close()

@@ -115,7 +115,13 @@ def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path) -> None:
          "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
     )  # fmt: skip
-    time.sleep(2.5)
+    # Ctrl-C once the tables are being written: the stream has begun (not a fixed delay,
+    # which a faster command outruns)
+    deadline = time.monotonic() + 60
+    while not any(tmp_path.glob(".out.hybridlog-tmp-*/timeline.csv")):
+        assert command.poll() is None, "the command ended before its tables were begun"
+        assert time.monotonic() < deadline, "no tables begun in 60 s"
+        time.sleep(0.005)
     os.killpg(command.pid, signal.SIGINT)
     command.communicate(timeout=60)
     assert command.returncode in (130, -signal.SIGINT)

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from hybridlog.background import Worker
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.report import plot_data
 from hybridlog.report.plot_data import (
@@ -24,7 +25,7 @@ from hybridlog.report.plot_data import (
     pixel_columns,
     reduce_result,
 )
-from hybridlog.report.plots import draw_plots, write_plots
+from hybridlog.report.plots import draw_into, draw_plots, write_plots
 from hybridlog.signals import AlignedSignals
 
 MODES = ("a", "b", "c")
@@ -262,8 +263,15 @@ def test_the_pngs_drawn_from_chunks_are_those_of_the_whole_result(
     assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
     data = _chunked(result, signals, _cuts(result.n_samples, np.random.default_rng(1)))
     draw_plots(chunked, pickle.loads(pickle.dumps(data)))  # as another process receives it
+    worker = Worker("test-plots")  # as the plots' worker draws them: states.png in a fork
+    try:
+        drawn = worker.submit(draw_into, tmp_path / "worker", data).result()
+    finally:
+        worker.close()
+    assert [p.name for p in drawn] == ["outputs.png", "modes.png", "states.png"]
     for name in ("outputs.png", "modes.png", "states.png"):
         assert (chunked / name).read_bytes() == (whole / name).read_bytes(), name
+        assert (tmp_path / "worker" / name).read_bytes() == (whole / name).read_bytes(), name
 
 
 def test_the_data_of_a_million_samples_is_small() -> None:
