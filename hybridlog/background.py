@@ -323,13 +323,12 @@ class Worker:
         self._kill("the process was stopped")
         self.close()
 
-    def close(self) -> None:
-        """Close both pipes and wait for the child to end; idempotent.
+    def release(self) -> None:
+        """Close both pipes, on which the child ends, without waiting for it; idempotent.
 
-        The child ends when it reads the end of its requests, or when it writes a reply
-        nobody will read (a broken pipe): a command that leaves in the middle of a stream
-        (an error, Ctrl-C) leaves its worker no reply to finish.  One still working after
-        :data:`_PATIENCE_S` seconds (a long computation between two writes) is killed.
+        For a caller done with the worker well before its own end: the child's exit (the
+        estimators' worker frees about 250 MiB) then overlaps the caller's remaining work,
+        and :meth:`close` (at exit) only collects it.
         """
         with self._lock:
             requests, self._requests = self._requests, None
@@ -339,6 +338,16 @@ class Worker:
         for pipe in (self._replies, requests):
             with contextlib.suppress(OSError):
                 pipe.close()  # a stopped child's pipe may be broken
+
+    def close(self) -> None:
+        """Close both pipes and wait for the child to end; idempotent.
+
+        The child ends when it reads the end of its requests, or when it writes a reply
+        nobody will read (a broken pipe): a command that leaves in the middle of a stream
+        (an error, Ctrl-C) leaves its worker no reply to finish.  One still working after
+        :data:`_PATIENCE_S` seconds (a long computation between two writes) is killed.
+        """
+        self.release()
         deadline = time.monotonic() + _PATIENCE_S
         while self._ended is None:
             pid, _ = os.waitpid(self._pid, os.WNOHANG)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import os
 import signal
 import threading
+import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -235,3 +237,26 @@ def test_a_forked_childs_error_or_silent_end_is_raised_by_its_waiter(worker: Wor
     with pytest.raises(ChildProcessError, match="exit code 3 and no result"):
         worker.submit(_forked_exit).result()
     assert worker.submit(_pid_and_sum, [2]).result()[1] == 2  # the worker goes on serving
+
+
+def _process_state(pid: int) -> str | None:
+    """The state letter of process ``pid`` (``Z``: ended, not collected), None once gone."""
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return None
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_released_worker_ends_by_itself_and_close_collects_it(worker: Worker) -> None:
+    pid, _ = worker.submit(_pid_and_sum, [1]).result()
+    worker.release()
+    assert not worker.alive
+    with pytest.raises(RuntimeError, match="closed"):
+        worker.submit(_pid_and_sum, [1])
+    deadline = time.monotonic() + 10
+    while _process_state(pid) != "Z" and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert _process_state(pid) == "Z"  # ended on its own, not waited for yet
+    worker.close()
+    assert _process_state(pid) is None

@@ -317,7 +317,12 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
 
 
 def estimates(
-    prepared: Prepared, model: HybridModel, signals: AlignedSignals, inputs: Mapping[str, Any]
+    prepared: Prepared,
+    model: HybridModel,
+    signals: AlignedSignals,
+    inputs: Mapping[str, Any],
+    *,
+    last: bool = True,
 ) -> Iterator[EstimationResult]:
     """The estimator's result over the signals, as its chunks come (:meth:`Prepared.stream`).
 
@@ -328,6 +333,9 @@ def estimates(
     the plots' worker its preparation).  So the process that writes the report never
     loads numba's compiler (its machine code and the loaded libraries, about 110 MiB, stay
     in the worker), and the estimator's loop never shares an interpreter with the report.
+    ``last``: no estimator runs after this one, so the worker is let go with the last chunk
+    (:meth:`~hybridlog.background.Worker.release`: its exit overlaps the drawing, not the
+    command's end).
     """
     running = worker(ESTIMATES)
     if running is None:
@@ -335,6 +343,8 @@ def estimates(
         return
     sent = replace(signals, truth_states=None)  # what no estimator reads stays here
     yield from running.stream(partial(prepared.stream, **inputs), model, sent)
+    if last:
+        running.release()
 
 
 @dataclass(frozen=True)
@@ -494,10 +504,16 @@ def compare(
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
     with atomic_output_dir(out_dir, force=force) as folder:
-        for estimator in prepared:  # one after the other: one estimator's chunks at a time
+        for i, estimator in enumerate(prepared):  # one after the other: one's chunks at a time
             reports[estimator.name] = write_report(
                 folder / estimator.name,
-                estimates(estimator, model, signals, inputs[estimator.name]),
+                estimates(
+                    estimator,
+                    model,
+                    signals,
+                    inputs[estimator.name],
+                    last=i == len(prepared) - 1,
+                ),
                 signals,
                 log=str(log),
                 model_name=model.name,
