@@ -346,7 +346,15 @@ class Worker:
         nobody will read (a broken pipe): a command that leaves in the middle of a stream
         (an error, Ctrl-C) leaves its worker no reply to finish.  One still working after
         :data:`_PATIENCE_S` seconds (a long computation between two writes) is killed.
+        A child still owing outcomes nobody read (a command that failed while the worker
+        still warmed up: numba's set-up, matplotlib's import) is stopped at once: nothing
+        can ask for them after this, and the command's end would wait for work it drops
+        (0.4-0.6 s after an error found in the log or the options).
         """
+        with self._lock:
+            owed = self._requests is not None and self._current < self._sent
+        if owed:
+            self._kill("the process was stopped: closed with work still owed")
         self.release()
         deadline = time.monotonic() + _PATIENCE_S
         while self._ended is None:

@@ -260,3 +260,15 @@ def test_a_released_worker_ends_by_itself_and_close_collects_it(worker: Worker) 
     assert _process_state(pid) == "Z"  # ended on its own, not waited for yet
     worker.close()
     assert _process_state(pid) is None
+
+
+def test_a_worker_closed_with_work_still_owed_is_stopped_at_once(worker: Worker) -> None:
+    """A command that fails while its workers still warm up does not wait for them."""
+    pid, _ = worker.submit(_pid_and_sum, [1]).result()
+    worker.submit(time.sleep, 30)  # a warm-up nobody will ask the outcome of
+    start = time.monotonic()
+    worker.close()
+    assert time.monotonic() - start < 5  # not the 30 s of the work, nor the 10 s of patience
+    assert not worker.alive
+    if Path("/proc/self/stat").exists():
+        assert _process_state(pid) is None
