@@ -25,6 +25,7 @@ from hybridlog.errors import ReportError
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import Report, build_report, read_report, render_markdown
 from hybridlog.report import build as build_module
+from hybridlog.report.document import indented_json
 from hybridlog.report.gates import METRICS, evaluate_gates, metric, parse_gates
 from hybridlog.signals import AlignedSignals
 from tests.report.test_report_files import DT, make_run
@@ -433,3 +434,38 @@ def test_any_damaged_file_is_read_or_refused_never_a_crash(flips: list[tuple[int
         assert str(err).startswith("r.json: ") and "\n" not in str(err)
     else:
         assert Report.from_json(report.to_json()) == report
+
+
+_JSON_VALUES = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers()
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(), inner, max_size=4),
+    max_leaves=25,
+)
+
+
+def _a_list_holds_a_container(value: Any) -> bool:
+    if isinstance(value, dict):
+        return any(_a_list_holds_a_container(item) for item in value.values())
+    if isinstance(value, list):
+        return any(isinstance(item, dict | list) for item in value)
+    return False
+
+
+@settings(max_examples=300, deadline=None)
+@given(_JSON_VALUES)
+def test_indented_json_is_the_value_and_indent_2_but_for_a_lists_items(value: Any) -> None:
+    text = indented_json(value)
+    assert json.loads(text) == value
+    if not _a_list_holds_a_container(value):  # only a list's items are written on one line
+        assert text == json.dumps(value, indent=2)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_indented_json_refuses_non_finite_numbers_anywhere(bad: float) -> None:
+    for value in ({"x": bad}, {"x": [{"y": bad}]}, [[bad]]):
+        with pytest.raises(ValueError, match="not JSON compliant"):
+            indented_json(value)
