@@ -429,7 +429,9 @@ def forked(function: Callable[[], R]) -> Callable[[], R]:
     pickled (:func:`_write_message`) and ends with ``os._exit``; the waiter returns the value
     or raises the error, or a ``ChildProcessError`` naming how the child ended if it ended
     without sending.  Anywhere else ``function`` runs at once, and the waiter returns its
-    value or raises what it raised.
+    value or raises what it raised.  A child whose worker is killed meanwhile (the command
+    interrupted while it draws) finishes its function, finds nobody to read its outcome and
+    ends: a fraction of a second, as long as one figure takes.
     """
     if not (_IN_WORKER[0] and threading.active_count() == 1 and hasattr(os, "fork")):
         outcome: list[Any] = []
