@@ -272,3 +272,33 @@ def test_a_worker_closed_with_work_still_owed_is_stopped_at_once(worker: Worker)
     assert not worker.alive
     if Path("/proc/self/stat").exists():
         assert _process_state(pid) is None
+
+
+def _slow_child_of_a_worker(marker: str) -> int:
+    """Fork a child that writes its pid to ``marker``, then works for 1 s; wait for it."""
+
+    def work() -> int:
+        Path(marker).write_text(str(os.getpid()))
+        time.sleep(1.0)
+        return os.getpid()
+
+    return forked(work)()
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_forked_child_ends_soon_after_its_worker_is_killed(
+    worker: Worker, tmp_path: Path
+) -> None:
+    marker = tmp_path / "child.pid"
+    task = worker.submit(_slow_child_of_a_worker, str(marker))
+    deadline = time.monotonic() + 10
+    while not (marker.exists() and marker.read_text()) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    child = int(marker.read_text())
+    worker.stop()  # the command interrupted while the child works
+    with pytest.raises(ChildProcessError):
+        task.result()
+    deadline = time.monotonic() + 10
+    while _process_state(child) not in (None, "Z") and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _process_state(child) in (None, "Z")  # it finished its work, found no reader, ended
