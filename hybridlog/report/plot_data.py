@@ -540,8 +540,9 @@ class PlotReducer:
     """Reduce a run's result, given in consecutive chunks of rows, to its :class:`PlotData`.
 
     The result's arrays are taken a chunk at a time (:meth:`add`; only their reductions are
-    kept, so a chunk's arrays may be reused for the next one); the aligned signals of the
-    whole run (times, measured outputs, truth) are read when :meth:`finish` makes the data.
+    kept, so a chunk's arrays may be reused for the next one), and with each chunk the same
+    rows of the aligned signals (measured outputs, truth): :meth:`finish` only assembles
+    the data, so the drawing that waits for it starts at once.
     The first chunk says whether the result has ``post_processing`` (the filter's curves are
     then reduced too, from each chunk's ``post_processing.filtered`` over the same rows) and
     per-component mode columns (``unknown-mode``: its timelines replace the modes'); a result
