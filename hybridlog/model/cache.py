@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import importlib.metadata
 import json
 import sys
 from collections.abc import Mapping
@@ -61,7 +60,7 @@ from hybridlog.model.hybrid_model import (
     Timebase,
     stored,
 )
-from hybridlog.model.keys import remember_key
+from hybridlog.model.keys import remember_key, sympy_release
 from hybridlog.signals import FloatArray
 
 FORMAT = 1
@@ -132,7 +131,7 @@ def _code_fingerprint() -> str:
     """Hash of what turns a text into a model: this package's code and the libraries."""
     digest = hashlib.sha256(
         f"format {FORMAT}; hybridlog {hybridlog.__version__}; python {sys.version}; "
-        f"sympy {importlib.metadata.version('sympy')}; numpy {np.__version__};".encode()
+        f"sympy {sympy_release()}; numpy {np.__version__};".encode()
     )
     for source in sorted(Path(__file__).parent.glob("*.py")):
         digest.update(f"{source.name}:".encode())

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import importlib.metadata
 import importlib.util
 import os
 import sys
@@ -44,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.model.keys import known_key, remember_key
+from hybridlog.model.keys import known_key, remember_key, sympy_release
 from hybridlog.signals import FloatArray
 
 if TYPE_CHECKING:
@@ -202,7 +201,7 @@ def code_fingerprint(modules: Sequence[str]) -> str:
     known = _FINGERPRINTS.get(names)
     if known is not None:
         return known
-    digest = hashlib.sha256(f"sympy {importlib.metadata.version('sympy')};".encode())
+    digest = hashlib.sha256(f"sympy {sympy_release()};".encode())
     for name in names:
         module = sys.modules.get(name)
         origin = getattr(module, "__file__", None)

@@ -136,10 +136,10 @@ def test_every_change_of_what_shapes_the_model_gives_a_new_key(
 
     assert changed(**{"hybridlog:__version__": "99.0"}) != key
 
-    def sympy_version(name: str) -> str:
-        return "0.0" if name == "sympy" else "1.0"
+    def another_sympy() -> str:
+        return '__version__ = "0.0"\n'
 
-    assert changed(**{"importlib.metadata:version": sympy_version}) != key
+    assert changed(**{"hybridlog.model.cache:sympy_release": another_sympy}) != key
     # An edit of any module of hybridlog.model (the loader, the grammar, the types ...).
     copies = tmp_path / "model"
     copies.mkdir()
@@ -366,3 +366,20 @@ def test_a_warm_analyze_and_simulate_import_no_sympy(tmp_path: Path):
             arguments, cwd=root, env=environment, capture_output=True, text=True, check=True
         )
     assert done.stdout.strip() == ""
+
+
+def test_the_sympy_release_in_the_keys_is_the_installed_one_read_without_sympy() -> None:
+    """``keys.sympy_release`` names the installed sympy (as its distribution's metadata
+    does) and imports neither sympy nor ``importlib.metadata`` (a fresh process)."""
+    import importlib.metadata
+
+    from hybridlog.model.keys import sympy_release
+
+    assert f'"{importlib.metadata.version("sympy")}"' in sympy_release()
+    probe = (
+        "import sys; from hybridlog.model.keys import sympy_release; sympy_release(); "
+        "print(sorted(m for m in ('sympy', 'importlib.metadata') if m in sys.modules))"
+    )
+    shown = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert shown.returncode == 0, shown.stderr
+    assert shown.stdout.strip() == "[]"
