@@ -1,5 +1,5 @@
 """``python -m hybridlog``: the same as the ``hybridlog`` command."""
 
-from hybridlog.cli import main
+from hybridlog.launch import main
 
 main()

@@ -19,7 +19,7 @@ one layer are peers that never import each other:
 4   ``estimators`` | ``simulation``
 5   ``report``
 6   ``jobs``
-7   ``cli`` (``cli``, ``__main__``)
+7   ``cli`` (``cli``, ``__main__``, ``launch``)
 ==  ==============================================================================
 
 A module that belongs to no unit of this table fails the test: a new top-level module or
@@ -61,6 +61,7 @@ UNIT_OF_MODULE = {
     "hybridlog.simulation_kernels": "simulation",
     "hybridlog.simulate_components": "simulation",
     "hybridlog.__main__": "cli",
+    "hybridlog.launch": "cli",
 }
 """Top-level modules whose unit is not their own name."""
 

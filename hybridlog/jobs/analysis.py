@@ -2,6 +2,13 @@
 
 This layer joins the others (``io`` → ``model`` → ``estimators`` → ``report``) and is what
 the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogError`.
+
+Importing it loads no polars: the batch process of ``batch --jobs N`` (and of
+``--scheduler``) imports this module to check the model, the options and the outputs but
+reads no log and writes no table, and polars' import costs 0.13-0.17 s of a core its
+workers need.  The readers (:func:`hybridlog.io.load_signals`) and the report's writer
+(:func:`hybridlog.report.write_report`) are imported where a log is read and a report
+written (``tests/jobs/test_batch_process.py``).
 """
 
 from __future__ import annotations
@@ -24,17 +31,17 @@ from hybridlog.estimators import (
     resolve_estimator,
 )
 from hybridlog.estimators.options import closest
-from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
 from hybridlog.memory import check_fits
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
-from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates, write_report
+from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
-from hybridlog.report.tables import check_table_format
+from hybridlog.report.table_format import check_table_format
 from hybridlog.signals import AlignedSignals
 
 if TYPE_CHECKING:
@@ -248,6 +255,8 @@ def read_log(
     notes: dict[str, Any] | None = None,
 ) -> AlignedSignals:
     """The log's signals for ``model`` on its grid; ``notes`` gets what reading did."""
+    from hybridlog.io import load_signals  # polars: see the module's docstring
+
     return load_signals(log, SignalSpec.of(model), read, notes=notes)
 
 
@@ -403,6 +412,8 @@ def analyze(
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, [prepared], signals)
+    from hybridlog.report import write_report  # polars: see the module's docstring
+
     report = write_report(
         out_dir,
         estimates(prepared, model, signals, inputs),
@@ -503,6 +514,8 @@ def compare(
     signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
+    from hybridlog.report import write_report  # polars: see the module's docstring
+
     with atomic_output_dir(out_dir, force=force) as folder:
         for i, estimator in enumerate(prepared):  # one after the other: one's chunks at a time
             reports[estimator.name] = write_report(

@@ -21,7 +21,11 @@ per-log plots are drawn only as ``plots`` asks (``none`` by default, ``failed``:
 a gate, ``all``).  ``jobs > 1`` analyses logs in worker processes
 (:mod:`hybridlog.jobs.workers`), ``scheduler`` on a Dask cluster
 (:mod:`hybridlog.jobs.dask_backend`); the results are the same.  Logs are processed and
-summarised in natural order (``s1, s2, s10``).
+summarised in natural order (``s1, s2, s10``).  The batch process of ``jobs > 1`` or of a
+cluster imports neither polars nor numba (``tests/jobs/test_batch_process.py``): it checks,
+hands out the logs and writes the summaries, whose CSV it writes with :mod:`csv`
+(:func:`hybridlog.report.summary.write_summary_csv`); the report's writer is imported
+where a log is analysed.
 """
 
 from __future__ import annotations
@@ -65,11 +69,11 @@ from hybridlog.outputs import (
     remove_stale_temporaries,
     write_marker,
 )
-from hybridlog.report import Report, evaluate_gates, parse_gates, read_report, write_report
+from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import check_junit_target, write_junit
 from hybridlog.report.summary import BatchRow, batch_markdown, batch_rows_csv
-from hybridlog.report.tables import check_table_format
+from hybridlog.report.table_format import check_table_format
 
 __all__ = [
     "PLOT_CHOICES",
@@ -361,6 +365,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
     check_memory(log, warm.model, [warm.prepared], signals)
+    from hybridlog.report import write_report  # polars: where a log is analysed only
+
     report = write_report(
         path,
         warm.prepared.stream(warm.model, signals, **warm.inputs),

@@ -9,13 +9,12 @@ same decimals down a column); :func:`write_summary_csv` keeps the raw values;
 
 from __future__ import annotations
 
+import csv
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import polars as pl
 
 from hybridlog.report.markdown import escape_markdown
 
@@ -101,14 +100,28 @@ def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -
 
 
 def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """A small summary table as CSV (empty cells for missing values)."""
-    frame = pl.DataFrame(
-        [[None if v is None else v for v in row] for row in rows],
-        schema=list(header),
-        orient="row",
-        infer_schema_length=None,
-    )
-    frame.write_csv(path)
+    """A small summary table as CSV: raw values, an empty cell for a missing one.
+
+    Written with :mod:`csv` (quoting as RFC 4180 asks, newline line ends), not polars: the
+    batch process of ``batch --jobs N`` writes ``summary.csv`` and otherwise needs no polars
+    (:mod:`hybridlog.jobs.batch`), for a table of one row per log.  Floats are written with
+    their shortest round-trip digits (``repr``), booleans as ``true``/``false``, non-finite
+    floats as ``NaN``/``inf``/``-inf``: what polars reads back as the same values.
+    """
+    with path.open("w", encoding="utf-8", newline="") as file:
+        writer = csv.writer(file, lineterminator="\n")
+        writer.writerow(header)
+        writer.writerows([_csv_cell(value) for value in row] for row in rows)
+
+
+def _csv_cell(value: object) -> object:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and math.isnan(value):
+        return "NaN"
+    return value
 
 
 # --- hybridlog batch ----------------------------------------------------------------------------

@@ -48,19 +48,16 @@ import polars as pl
 from polars.io.plugins import register_io_source
 
 from hybridlog.background import Background
-from hybridlog.errors import OptionError
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.report.table_format import TableFormat
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 __all__ = [
     "BATCH_ROWS",
     "PARQUET_COMPRESSION",
     "QUEUED_BATCHES",
-    "TABLE_FORMATS",
     "Table",
-    "TableFormat",
     "TableWriter",
-    "check_table_format",
     "estimates_frame",
     "estimates_table",
     "states_with_truth",
@@ -68,9 +65,6 @@ __all__ = [
     "timeline_table",
     "write_table",
 ]
-
-TableFormat = Literal["csv", "parquet"]
-TABLE_FORMATS: tuple[TableFormat, ...] = ("csv", "parquet")
 
 PARQUET_COMPRESSION: Literal["snappy"] = "snappy"
 """Codec of the Parquet tables (every Parquet reader has it; pyarrow's and Spark's default).
@@ -80,31 +74,6 @@ rounds), lz4 146 MiB in 0.28-0.32 s, uncompressed 153 MiB in 0.31-0.34 s, zstd l
 in 0.39-0.41 s (0.61-0.65 s of CPU; polars' default zstd level took three times as long as
 level 1).  ``analyze`` writes them while the plots are drawn on the other core, so the CPU
 counts: 0.2 s less of it, for 11 % larger files."""
-
-
-def check_table_format(table_format: str) -> TableFormat:
-    """Validate a ``--table-format`` value.
-
-    Parameters
-    ----------
-    table_format:
-        ``"csv"`` or ``"parquet"``.
-
-    Returns
-    -------
-    str
-        The same value, typed.
-
-    Raises
-    ------
-    OptionError
-        For any other value.
-
-    """
-    for fmt in TABLE_FORMATS:
-        if table_format == fmt:
-            return fmt
-    raise OptionError(f"--table-format {table_format!r} is not one of {', '.join(TABLE_FORMATS)}")
 
 
 BATCH_ROWS = 1 << 14

@@ -17,14 +17,8 @@ from hybridlog.report.document import Report
 from hybridlog.report.markdown import render_markdown
 from hybridlog.report.plot_data import PlotReducer
 from hybridlog.report.plots import draw_into, figure_shapes, prepare_plotting
-from hybridlog.report.tables import (
-    TableFormat,
-    TableWriter,
-    check_table_format,
-    estimates_table,
-    states_with_truth,
-    timeline_table,
-)
+from hybridlog.report.table_format import TableFormat, check_table_format
+from hybridlog.report.tables import TableWriter, estimates_table, states_with_truth, timeline_table
 from hybridlog.signals import AlignedSignals
 
 if TYPE_CHECKING:

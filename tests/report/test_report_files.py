@@ -18,6 +18,7 @@ from hybridlog.errors import OptionError, OutputError
 from hybridlog.estimators.result import EstimationResult, ResultShapeError, TimelineColumn
 from hybridlog.report import atomic_output_dir, write_report
 from hybridlog.report import writer as writer_module
+from hybridlog.report.table_format import check_table_format
 from hybridlog.signals import AlignedSignals
 
 DT = 0.05
@@ -350,7 +351,7 @@ def test_streamed_tables_equal_the_whole_frame(
     from hybridlog.report import tables
 
     result, signals = make_run(n=250)
-    fmt = tables.check_table_format(table_format)
+    fmt = check_table_format(table_format)
     for build in (tables.timeline_table, tables.estimates_table):
         table = build(result, signals)
         monkeypatch.setattr(tables, "BATCH_ROWS", 64)  # 250 rows: four batches, the last short

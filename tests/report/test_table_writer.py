@@ -14,6 +14,7 @@ import pytest
 
 from hybridlog.estimators.result import EstimationResult, TimelineColumn
 from hybridlog.report import tables
+from hybridlog.report.table_format import TABLE_FORMATS, check_table_format
 from hybridlog.signals import AlignedSignals
 from tests.report.test_report_files import make_run
 from tests.report.test_report_smoothing import smoothed_run
@@ -205,7 +206,7 @@ def test_chunks_written_alternately_make_the_whole_runs_files(
     """Timeline and estimates writers fed chunk after chunk, each chunk overwritten once added:
     the files are those write_table writes for the whole run."""
     monkeypatch.setattr(tables, "BATCH_ROWS", 64)
-    fmt = tables.check_table_format(table_format)
+    fmt = check_table_format(table_format)
     result, signals = full_run()
     n = 60 if sizes == [20, 20, 20] else result.n_samples
     result, signals = result_rows(result, 0, n), signals.rows(0, n)
@@ -270,7 +271,7 @@ def test_a_batch_owns_its_rows() -> None:
 
 @pytest.mark.parametrize("table_format", ["csv", "parquet"])
 def test_a_writer_given_no_rows_writes_the_header(tmp_path: Path, table_format: str) -> None:
-    fmt = tables.check_table_format(table_format)
+    fmt = check_table_format(table_format)
     result, signals = make_run(n=30)
     empty = tables.estimates_table(result_rows(result, 0, 0), signals.rows(0, 0))
     want = tables.write_table(empty, tmp_path / "want", fmt)
@@ -299,7 +300,7 @@ def test_a_table_of_one_batch_is_written_without_the_sink(
 
     monkeypatch.setattr(tables, "register_io_source", no_sink)
     result, signals = make_run(n=tables.BATCH_ROWS)
-    for fmt in tables.TABLE_FORMATS:
+    for fmt in TABLE_FORMATS:
         path = tables.write_table(tables.timeline_table(result, signals), tmp_path / "t", fmt)
         assert path.stat().st_size > 0
 
@@ -311,7 +312,7 @@ def test_a_missing_folder_is_raised_in_the_caller(
 ) -> None:
     """Whether the sink's thread failed (1,000 rows) or close writes the rows whole (10)."""
     monkeypatch.setattr(tables, "BATCH_ROWS", 64)
-    fmt = tables.check_table_format(table_format)
+    fmt = check_table_format(table_format)
     result, signals = make_run(n=rows)
     table = tables.estimates_table(result, signals)
     stem = tmp_path / "missing" / "estimates"
@@ -335,7 +336,7 @@ def test_a_full_disk_is_raised_in_the_caller(
     """Writes to /dev/full fail with ENOSPC, as on a full disk (polars' Parquet writer wraps
     the OSError in its ComputeError)."""
     monkeypatch.setattr(tables, "BATCH_ROWS", 64)
-    fmt = tables.check_table_format(table_format)
+    fmt = check_table_format(table_format)
     result, signals = make_run(n=4000)
     (tmp_path / f"estimates.{fmt}").symlink_to("/dev/full")
     table = tables.estimates_table(result, signals)
