@@ -144,7 +144,7 @@ def bench_batch(quick: bool, repeat: int) -> list[Result]:
 def main() -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.batch", description=__doc__)
     parser.add_argument("--quick", action="store_true", help="40 logs instead of 200")
-    parser.add_argument("--repeat", type=int, default=2, help="runs of each command (best kept)")
+    parser.add_argument("--repeat", type=int, default=3, help="runs of each command (best kept)")
     args = parser.parse_args()
     print("| benchmark | logs | time (s) | target | met | notes |")
     print("|---|---:|---:|---|---|---|")

@@ -460,7 +460,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             rows += [
                 Row(label, time_s=t, target=target, met=met, notes=notes)  # logs, not steps
-                for label, _, t, target, met, notes in bench_batch(args.quick, min(repeat, 2))
+                for label, _, t, target, met, notes in bench_batch(args.quick, repeat)
             ]
         elif name == "read":
             from benchmarks.read_logs import bench_read
