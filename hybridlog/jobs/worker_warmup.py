@@ -9,7 +9,7 @@ them itself.  The forkserver warms up while the batch process imports and checks
 Unlike every other module, importing this one does work (it compiles numba's one-line
 set-up function), so nothing but the forkserver imports it.  It must leave the forkserver
 with no thread but its main one at fork time: so no polars, nor any module that imports it
-(the table readers, ``report/``'s writers, ``jobs/``), since importing polars starts threads
+(the table readers, ``report/``'s writers and tables), since importing polars starts threads
 that no fork handler stops; numpy's and scipy's OpenBLAS pools are stopped by their own
 fork handler (what was measured: :mod:`hybridlog.jobs.workers`).
 """
@@ -27,11 +27,13 @@ MODULES = (
     "hybridlog.estimators.hstf",
     "hybridlog.estimators.imm",
     "hybridlog.io.load",
+    "hybridlog.jobs.batch",
     "hybridlog.model.cache",
     "hybridlog.report.build",
 )
 """What a batch worker's first log imports, less what imports polars: the model loader, the
-filters and their compiled loops' machinery, reading and aligning, the report's contents."""
+filters and their compiled loops' machinery, reading and aligning, the report's contents,
+the batch job itself (whose module imports no polars: its batch process has none)."""
 
 for module in MODULES:
     importlib.import_module(module)
