@@ -36,6 +36,7 @@ from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
 from hybridlog.io.formats import format_list
+from hybridlog.launch import single_threaded_blas
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
 
 if TYPE_CHECKING:
@@ -1039,24 +1040,6 @@ def _one_bounded_job() -> None:
         start_worker(PLOTS)
 
 
-BLAS_THREADS = "OPENBLAS_NUM_THREADS"
-"""Read by NumPy's OpenBLAS when it loads (:func:`_single_threaded_blas`)."""
-
-
-def _single_threaded_blas() -> None:
-    """Give NumPy's OpenBLAS one thread in the console script, unless the user set it.
-
-    hybridlog's BLAS calls are on matrices of a model's size (a covariance's eigenvalues when
-    a model is loaded, matplotlib's 3×3 transforms); a pool thread does none of their work
-    but spins after each call: 1.6 % of a 10^6-row ``analyze``'s CPU samples and 2.7 % of a
-    200-log ``batch --jobs 2``'s were in OpenBLAS's ``blas_thread_server`` (``perf``), on a
-    core the plots or the other worker needed.  NumPy is not imported yet when the console
-    script starts (the variable is read once, when OpenBLAS loads); batch workers and the
-    forkserver inherit it.  Only the console script sets it, never the library.
-    """
-    os.environ.setdefault(BLAS_THREADS, "1")
-
-
 def _failure(err: Exception) -> str:
     """The one line for a failure past click's own exceptions.
 
@@ -1091,7 +1074,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     """
     _PROCESS["one_command"] = argv is None
     if argv is None:
-        _single_threaded_blas()
+        single_threaded_blas()
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
     code = 0
