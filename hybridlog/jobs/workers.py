@@ -84,12 +84,8 @@ def start_forkserver() -> None:
     """
     multiprocessing.forkserver.set_forkserver_preload([WARMUP])
     multiprocessing.forkserver.ensure_running()
-    if _stop_forkserver not in _AT_EXIT:
-        _AT_EXIT.append(_stop_forkserver)
-        atexit.register(_stop_forkserver)
-
-
-_AT_EXIT: list[Callable[[], None]] = []
+    atexit.unregister(_stop_forkserver)  # registered once, however often it is called
+    atexit.register(_stop_forkserver)
 
 
 def _stop_forkserver() -> None:
