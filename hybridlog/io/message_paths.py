@@ -78,32 +78,12 @@ class UndecodableError(Exception):
     Attributes
     ----------
     row:
-        Index of the offending message in the batch.
+        Index of the offending message among those given to :func:`decode_each`.
     """
 
     def __init__(self, row: int, reason: str) -> None:
         super().__init__(reason)
         self.row = row
-
-
-class IndexRangeError(Exception):
-    """An array index outside the array of one message.
-
-    Attributes
-    ----------
-    row:
-        Index of the offending message in the batch.
-    length:
-        The array's length in that message.
-    path:
-        The path being read (set by the caller that knows it).
-    """
-
-    def __init__(self, row: int, length: int) -> None:
-        super().__init__(f"index out of range (the array has {length} elements)")
-        self.row = row
-        self.length = length
-        self.path = ""
 
 
 # ---------------------------------------------------------------------------- parsing

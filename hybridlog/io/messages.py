@@ -9,8 +9,9 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
 - Only the topics of the mapped paths are read, in one pass.  Their serialised messages are
   collected in batches (at most 65,536 messages or 16 MiB per topic); each batch is
   deserialised (rosbags' deserialisers for CDR and ROS 1, which refuse bytes that do not fit
-  the definition) and reduced to the requested numbers, so memory grows with the selected
-  signals, not with the file.
+  the definition) and reduced to the requested numbers, 512 messages at a time
+  (:data:`DECODED_AT_ONCE`), so memory grows with the selected signals, not with the file.
+  A message that cannot be decoded or read is named by its log time.
 - Time: ``--time log`` (default) takes the recorder's log time.  Messages are taken in log-time
   order, the order every ROS and MCAP player replays them; files read sequentially are put in
   that order (stably) when they are not already.  ``--time header`` takes each message's
@@ -36,7 +37,6 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.message_paths import (
-    IndexRangeError,
     MessagePath,
     PathError,
     Step,
@@ -66,6 +66,13 @@ from hybridlog.signals import FloatArray, IntArray
 
 BATCH_MESSAGES = 65_536
 BATCH_BYTES = 16 * 2**20
+DECODED_AT_ONCE = 512
+"""Messages of a batch decoded at a time, each part reduced to its values before the next.
+
+Decoded messages are objects the cyclic garbage collector tracks (a ``PointStamped`` is four);
+a whole batch of them alive at once made each of its collections walk up to 65,536 messages
+again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 s in parts of
+512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young."""
 HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
 GAP_FACTOR = 1.5
 MAX_LISTED_GAPS = 1000
@@ -486,67 +493,87 @@ class _TopicReader:
         return f"the message logged at t={format_ns(int(times[row]))} s"
 
     def add(self, datas: list[bytes], times: list[int]) -> None:
-        """Reduce one batch of serialised messages to the wanted values."""
-        log_times = np.asarray(times, dtype=np.int64)
-        try:
-            self._add_objects(datas, times)
-        except UndecodableError as err:
-            raise LogError(
-                f"{self.source.path}: topic {self.topic.label}: {self._where(times, err.row)} "
-                f"cannot be decoded ({err})"
-            ) from None
-        except IndexRangeError as err:
-            raise LogError(
-                f"{self.source.path}: {err.path!r}: index out of range in "
-                f"{self._where(times, err.row)} (the array has {err.length} elements)"
-            ) from None
-        self.log_times.append(log_times)
-        self.count += len(datas)
+        """Reduce one batch of serialised messages to the wanted values.
 
-    def _add_objects(self, datas: list[bytes], times: list[int]) -> None:
+        The batch is decoded :data:`DECODED_AT_ONCE` messages at a time, each part reduced to
+        its values before the next is decoded.
+        """
+        count = len(datas)
+        numbers = [np.empty(count) if w.kind == "number" else None for w in self.wanted]
+        texts: list[list[str]] = [[] for _ in self.wanted]
+        stamps = np.empty(count, dtype=np.int64) if self.header else None
+        for first in range(0, count, DECODED_AT_ONCE):
+            try:
+                messages = self._decode(datas[first : first + DECODED_AT_ONCE])
+            except UndecodableError as err:
+                raise LogError(
+                    f"{self.source.path}: topic {self.topic.label}: "
+                    f"{self._where(times, first + err.row)} cannot be decoded ({err})"
+                ) from None
+            part = slice(first, first + len(messages))
+            for wanted, values, labels in zip(self.wanted, numbers, texts, strict=True):
+                try:
+                    if values is not None:
+                        self._read_numbers(messages, wanted.path.steps, values[part])
+                    else:
+                        self._read_labels(messages, wanted.path.steps, labels)
+                except _RowError as err:
+                    reason = str(err.error)
+                    if not reason.startswith(("the message", ".", "[")):
+                        reason = f"the value {reason}"
+                    raise LogError(
+                        f"{self.source.path}: {wanted.text!r}: {reason} in "
+                        f"{self._where(times, first + err.row)}"
+                    ) from None
+            if stamps is not None:
+                try:
+                    _read_stamps(messages, stamps[part])
+                except _RowError as err:
+                    raise LogError(
+                        f"{self.source.path}: topic {self.topic.label}: header.stamp "
+                        f"{err.error} in {self._where(times, first + err.row)} (--time header "
+                        f"needs it)"
+                    ) from None
+        for wanted, values, labels in zip(self.wanted, numbers, texts, strict=True):
+            if values is not None:
+                wanted.values.append(values)
+            else:
+                unique, codes = np.unique(np.array(labels, dtype=object), return_inverse=True)
+                wanted.codes.append(codes.astype(np.int64).reshape(-1))
+                wanted.categories.append(tuple(str(u) for u in unique.tolist()))
+        if stamps is not None:
+            self.stamps.append(stamps)
+        self.log_times.append(np.asarray(times, dtype=np.int64))
+        self.count += count
+
+    def _decode(self, datas: list[bytes]) -> list[object]:
         decode = self.topic.decode
         if decode is None:
             raise LogError(
                 f"{self.source.path}: topic {self.topic.label}: no decoder for its messages"
             )
-        messages = decode_each(decode, datas)
-        for wanted in self.wanted:
-            row = 0
+        return decode_each(decode, datas)
+
+    def _read_numbers(self, messages: list[object], steps: Sequence[Step], out: FloatArray) -> None:
+        """Fill ``out`` with the numbers at ``steps``; a :class:`_RowError` names a bad one."""
+        values = self._numbers(messages, steps)
+        if values is not None:
+            out[:] = values
+            return
+        for row, message in enumerate(messages):  # the careful loop, which names what is wrong
             try:
-                if wanted.kind == "number":
-                    values = self._numbers(messages, wanted.path.steps)
-                    if values is None:  # the careful loop, which names what is wrong
-                        values = np.empty(len(messages), dtype=np.float64)
-                        for row, message in enumerate(messages):
-                            values[row] = as_number(evaluate(message, wanted.path.steps))
-                    wanted.values.append(values)
-                else:
-                    texts = [
-                        as_label(evaluate(message, wanted.path.steps))
-                        for row, message in enumerate(messages)
-                    ]
-                    unique, codes = np.unique(np.array(texts, dtype=object), return_inverse=True)
-                    wanted.codes.append(codes.astype(np.int64).reshape(-1))
-                    wanted.categories.append(tuple(str(u) for u in unique.tolist()))
+                out[row] = as_number(evaluate(message, steps))
             except PathError as err:
-                reason = str(err)
-                if not reason.startswith(("the message", ".", "[")):
-                    reason = f"the value {reason}"
-                raise LogError(
-                    f"{self.source.path}: {wanted.text!r}: {reason} in {self._where(times, row)}"
-                ) from None
-        if self.header:
-            stamps = np.empty(len(messages), dtype=np.int64)
-            row = 0
+                raise _RowError(row, err) from None
+
+    @staticmethod
+    def _read_labels(messages: list[object], steps: Sequence[Step], out: list[str]) -> None:
+        """Append the labels at ``steps`` to ``out``; a :class:`_RowError` names a bad one."""
+        for row, message in enumerate(messages):
             try:
-                for row, message in enumerate(messages):
-                    stamps[row] = stamp_ns(evaluate(message, HEADER_STAMP))
+                out.append(as_label(evaluate(message, steps)))
             except PathError as err:
-                raise LogError(
-                    f"{self.source.path}: topic {self.topic.label}: header.stamp "
-                    f"{err} in {self._where(times, row)} (--time header needs it)"
-                ) from None
-            self.stamps.append(stamps)
+                raise _RowError(row, err) from None
 
     def _numbers(self, messages: list[object], steps: Sequence[Step]) -> FloatArray | None:
         """The numbers at ``steps`` in one go, or ``None`` when any message needs a closer look.
@@ -625,6 +652,24 @@ class _TopicReader:
             keep = np.append(~same, True)
             source._notes.setdefault("duplicates_dropped", {})[topic.name] = int(same.sum())
         return order, keep
+
+
+class _RowError(Exception):
+    """A :class:`PathError` of the message at ``row`` of a decoded part."""
+
+    def __init__(self, row: int, error: PathError) -> None:
+        super().__init__(str(error))
+        self.row = row
+        self.error = error
+
+
+def _read_stamps(messages: list[object], out: IntArray) -> None:
+    """Fill ``out`` with the messages' ``header.stamp``; a :class:`_RowError` names a bad one."""
+    for row, message in enumerate(messages):
+        try:
+            out[row] = stamp_ns(evaluate(message, HEADER_STAMP))
+        except PathError as err:
+            raise _RowError(row, err) from None
 
 
 def _reorder(values: Any, order: IntArray | None, keep: Any) -> Any:
