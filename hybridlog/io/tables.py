@@ -47,6 +47,11 @@ GAP_FACTOR = 1.5
 # ``describe`` lists at most this many gaps (and always counts them all).
 MAX_LISTED_GAPS = 1000
 
+COUNTED_AT_ONCE = 1 << 18
+"""Bytes of a CSV file :func:`_count_separators` reads and counts at a time (256 KiB: of the
+sizes measured, the fastest; 1 MiB took a fifth longer, 4 MiB half as long again)."""
+COMMA, NEWLINE, QUOTE = (ord(c) for c in ',\n"')
+
 
 class TableSource:
     """A CSV or Parquet log (:class:`~hybridlog.io.source.LogSource` implementation).
@@ -609,21 +614,43 @@ def _check_record_widths(path: Path) -> None:
     """
     width = len(_read_csv_header(path))
     try:
-        data = path.read_bytes()
+        commas, newlines, quoted, last = _count_separators(path)
+        if quoted:
+            line, fields = _first_odd_record(path, width)
+        elif commas == (width - 1) * (newlines + (last != NEWLINE)):
+            return  # every line has width - 1 commas, unless a short and a long one cancel
+            # out, and a long one polars refuses in any case (the common case: one pass)
+        else:
+            line, fields = _first_odd_line(path.read_bytes(), width)
     except OSError as err:
         raise LogError(f"{path}: cannot be read ({err.strerror})") from err
-    if b'"' in data:
-        line, fields = _first_odd_record(path, width)
-    elif data.count(b",") == (width - 1) * (data.count(b"\n") + (not data.endswith(b"\n"))):
-        return  # every line has width - 1 commas, unless a short and a long one cancel out,
-        # and a long one polars refuses in any case (the common case: one fast pass)
-    else:
-        line, fields = _first_odd_line(data, width)
     if line:
         raise LogError(
             f"{path}, line {line}: {fields} field{'' if fields == 1 else 's'}, but the header "
             f"names {width} columns"
         )
+
+
+def _count_separators(path: Path) -> tuple[int, int, bool, int]:
+    """The file's commas, its newlines, whether it holds a quote, and its last byte (-1: none).
+
+    Read :data:`COUNTED_AT_ONCE` bytes at a time into one buffer and counted by NumPy: 35 ms
+    for a 112 MiB file, against 0.21 s for reading it whole and counting with ``bytes.count``
+    (which also held the file's bytes beside polars' reading of it).
+    """
+    buffer = bytearray(COUNTED_AT_ONCE)
+    block = np.frombuffer(buffer, dtype=np.uint8)  # a view: it sees what is read into buffer
+    commas = newlines = 0
+    quoted = False
+    last = -1
+    with path.open("rb", buffering=0) as handle:
+        while size := handle.readinto(buffer):
+            part = block[:size]
+            commas += int(np.count_nonzero(part == COMMA))
+            newlines += int(np.count_nonzero(part == NEWLINE))
+            quoted = quoted or bool((part == QUOTE).any())
+            last = int(part[-1])
+    return commas, newlines, quoted, last
 
 
 def _first_odd_line(data: bytes, width: int) -> tuple[int, int]:

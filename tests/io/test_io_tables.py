@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import json
+import tempfile
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
+from unittest import mock
 
 import numpy as np
 import polars as pl
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io import (
@@ -18,6 +22,7 @@ from hybridlog.io import (
     format_inspection,
     inspect_log,
     load_signals,
+    tables,
     write_table,
 )
 from hybridlog.io.tables import TableSource
@@ -232,6 +237,31 @@ def test_line_with_a_wrong_number_of_fields_is_an_error(
         load(path)
     with pytest.raises(LogError, match=rf"line {line}: {fields}"):
         inspect_log(path)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    data=st.binary(max_size=300).map(lambda b: bytes(b',\n"a1'[x % 5] for x in b)),
+    block=st.integers(1, 64),
+)
+def test_separators_are_counted_across_blocks(data: bytes, block: int) -> None:
+    """The record-width check counts a block at a time: the counts of the whole file."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "log.csv"
+        path.write_bytes(data)
+        with mock.patch.object(tables, "COUNTED_AT_ONCE", block):
+            counted = tables._count_separators(path)
+    last = data[-1] if data else -1
+    assert counted == (data.count(b","), data.count(b"\n"), b'"' in data, last)
+
+
+def test_a_short_line_beyond_the_first_block_is_found(tmp_path: Path) -> None:
+    rows = [f"{0.01 * k:.2f},1,1" for k in range(60_000)]
+    rows[50_000] = "500.00,1"
+    path = csv_file(tmp_path, "t,u,y\n" + "\n".join(rows) + "\n")
+    assert path.stat().st_size > 2 * tables.COUNTED_AT_ONCE
+    with pytest.raises(LogError, match=r"line 50002: 2 fields, but the header names 3 columns"):
+        load(path)
 
 
 def test_zeroed_or_binary_file_gives_a_short_error(tmp_path: Path) -> None:
