@@ -516,7 +516,7 @@ class _TopicReader:
                     if values is not None:
                         self._read_numbers(messages, wanted.path.steps, values[part])
                     else:
-                        self._read_labels(messages, wanted.path.steps, labels)
+                        _read_labels(messages, wanted.path.steps, labels)
                 except _RowError as err:
                     reason = str(err.error)
                     if not reason.startswith(("the message", ".", "[")):
@@ -563,15 +563,6 @@ class _TopicReader:
         for row, message in enumerate(messages):  # the careful loop, which names what is wrong
             try:
                 out[row] = as_number(evaluate(message, steps))
-            except PathError as err:
-                raise _RowError(row, err) from None
-
-    @staticmethod
-    def _read_labels(messages: list[object], steps: Sequence[Step], out: list[str]) -> None:
-        """Append the labels at ``steps`` to ``out``; a :class:`_RowError` names a bad one."""
-        for row, message in enumerate(messages):
-            try:
-                out.append(as_label(evaluate(message, steps)))
             except PathError as err:
                 raise _RowError(row, err) from None
 
@@ -661,6 +652,15 @@ class _RowError(Exception):
         super().__init__(str(error))
         self.row = row
         self.error = error
+
+
+def _read_labels(messages: list[object], steps: Sequence[Step], out: list[str]) -> None:
+    """Append the labels at ``steps`` to ``out``; a :class:`_RowError` names a bad one."""
+    for row, message in enumerate(messages):
+        try:
+            out.append(as_label(evaluate(message, steps)))
+        except PathError as err:
+            raise _RowError(row, err) from None
 
 
 def _read_stamps(messages: list[object], out: IntArray) -> None:
