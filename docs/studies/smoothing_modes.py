@@ -661,7 +661,13 @@ def three_tank_rows(
 
 
 def cart_rows(case: int, seeds: range) -> list[dict[str, dict[str, float]]]:
-    """Per seed: the mode error of every variant on a double-cart log."""
+    """Per seed: the mode error of every variant on a double-cart log.
+
+    The modes as the passes name them, the step into each sample: on this state-driven plant
+    every variant is one sample late at each switch, which ``analyze`` corrects by moving
+    them one sample earlier (``docs/smoothing.md``, "Which step a mode names"); the
+    comparisons between the variants are not changed by it.
+    """
     from smoothing import double_cart_log
 
     from hybridlog.model.loader import load_model

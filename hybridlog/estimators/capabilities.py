@@ -21,6 +21,16 @@ if TYPE_CHECKING:
 __all__ = ["Capabilities", "ModelTraits"]
 
 
+STEP_FROM_NOTE = (
+    "state-driven model: the mode of sample k governs the step from x(k) to x(k+1) (paper 001 "
+    "eq. (1)), so sample k shows the mode this estimator found for that step, at sample k+1 "
+    "(one sample of look-ahead); the last sample, whose step the log does not hold, keeps its "
+    "own"
+)
+"""What an estimator with :attr:`Capabilities.modes_of_the_step_into` does on a state-driven
+model: its report's note and its line in ``docs/estimators.md``."""
+
+
 @dataclass(frozen=True)
 class Capabilities:
     """What an estimator needs (checked before it runs) and what it offers.
@@ -54,6 +64,12 @@ class Capabilities:
         refusal of ``--smooth`` and ``--mode-sequence`` gives (issue 12).
     needs_single_output:
         The model must have exactly one output (paper 004's observer, ``h`` maps to R).
+    modes_of_the_step_into:
+        The estimator's mode of sample k is the one under which ``x(k)`` came from
+        ``x(k-1)``, as a Markov-jump filter's (paper 000 eq. (2)).  On a state-driven model,
+        whose mode of sample k governs the step from ``x(k)`` (paper 001 eq. (1)), its
+        modes are moved one sample earlier
+        (:meth:`~hybridlog.estimators.result.EstimationResult.with_modes_of_the_step_from`).
     """
 
     needs_linear_model: bool = False
@@ -68,6 +84,7 @@ class Capabilities:
     supports_smoothing: bool = False
     needs_single_output: bool = False
     no_smoothing: str = ""
+    modes_of_the_step_into: bool = False
 
     def needs(self) -> tuple[str, ...]:
         """The needs in words, for ``--help`` and the docs."""

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
 
 from hybridlog.errors import LogError, ModelError, OptionError, excerpt
-from hybridlog.estimators.capabilities import Capabilities, ModelTraits
+from hybridlog.estimators.capabilities import STEP_FROM_NOTE, Capabilities, ModelTraits
 from hybridlog.estimators.footprint import MODE_BYTES, REPORT_FACTOR, Parts, result_bytes
 from hybridlog.estimators.options import (
     OptionInfo,
@@ -166,7 +166,8 @@ class Estimator:
                 f"## {self.name}",
                 "",
                 f"{self.summary}. Source: {self.source}. Needs: "
-                f"{', '.join(self.capabilities.needs())}.",
+                f"{', '.join(self.capabilities.needs())}."
+                + (f" On a {STEP_FROM_NOTE}." if self.capabilities.modes_of_the_step_into else ""),
                 "",
                 "| option | type | default | range | help |",
                 "|---|---|---|---|---|",
@@ -202,7 +203,8 @@ ESTIMATORS: dict[str, Estimator] = {
             stream="stream_hstf",
             capabilities=Capabilities(
                 no_smoothing="paper 000 predicts every mode with probability 1/n_q (eq. (20)); "
-                "under that uniform chain smoothed mode probabilities equal the filtered ones"
+                "under that uniform chain smoothed mode probabilities equal the filtered ones",
+                modes_of_the_step_into=True,
             ),
         ),
         Estimator(
@@ -214,7 +216,9 @@ ESTIMATORS: dict[str, Estimator] = {
             options_module="hybridlog.estimators.filter_options",
             run="run_imm",
             stream="stream_imm",
-            capabilities=Capabilities(uses_markov_matrix=True, supports_smoothing=True),
+            capabilities=Capabilities(
+                uses_markov_matrix=True, supports_smoothing=True, modes_of_the_step_into=True
+            ),
             memory="imm_memory",
         ),
         Estimator(
@@ -360,7 +364,22 @@ class Prepared:
         estimators read no file.
         """
         self._check(signals)
-        return self.estimator.run_function(model, signals, self.options, **inputs)
+        result: EstimationResult = self.estimator.run_function(
+            model, signals, self.options, **inputs
+        )
+        if self.moves_modes(model):
+            result = result.with_modes_of_the_step_from()
+        return result
+
+    def moves_modes(self, model: HybridModel) -> bool:
+        """Whether the modes are moved one sample earlier for this model.
+
+        For an estimator whose modes are those of the step into each sample
+        (:attr:`~hybridlog.estimators.capabilities.Capabilities.modes_of_the_step_into`) on
+        a state-driven model.  The result then comes whole: a sample's mode is known only
+        with the next sample's.
+        """
+        return self.estimator.capabilities.modes_of_the_step_into and model.state_driven
 
     def _check(self, signals: AlignedSignals) -> None:
         """Refuse a log that lacks what the estimator needs of one (one line, ``LogError``)."""
@@ -384,7 +403,7 @@ class Prepared:
         the run's so far.  For the others, one chunk: :meth:`run`'s whole result.
         :meth:`streamed` says which for a log's length.
         """
-        if not self.estimator.stream:
+        if not self.estimator.stream or self.moves_modes(model):
             return iter((self.run(model, signals, **inputs),))
         self._check(signals)
         return self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)
@@ -427,16 +446,22 @@ class Prepared:
         options = self.options_dict()
         return options.get("smooth") is True or options.get("mode_sequence", "argmax") != "argmax"
 
-    def streamed(self, n_samples: int, rows: int = CHUNK_ROWS) -> bool:
+    def streamed(self, model: HybridModel, n_samples: int, rows: int = CHUNK_ROWS) -> bool:
         """Whether :meth:`stream` gives a log of ``n_samples`` rows in more than one chunk.
 
         Only an entry with ``stream`` does, for a log longer than ``rows``, and only when
         its options ask for no offline pass (:attr:`offline`): such a pass reads the whole
-        forward pass, so the result comes whole.
+        forward pass, so the result comes whole; so does one whose modes are moved
+        (:meth:`moves_modes`).
         """
         if rows < 1:
             raise ValueError(f"rows must be at least 1, got {rows}")
-        return bool(self.estimator.stream) and not self.offline and n_samples > rows
+        return (
+            bool(self.estimator.stream)
+            and not self.offline
+            and not self.moves_modes(model)
+            and n_samples > rows
+        )
 
     def memory_needed(self, model: HybridModel, n_samples: int) -> Parts:
         """What a run over ``n_samples`` needs at its peak: (what, bytes) of each part.
@@ -447,7 +472,7 @@ class Prepared:
         (:meth:`streamed`): one chunk of the result times the same factor, and the estimated
         mode of every sample, which the report keeps for its mode metrics.
         """
-        if self.streamed(n_samples):
+        if self.streamed(model, n_samples):
             return [
                 (
                     "one chunk of the estimates",

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from hybridlog.estimators.capabilities import STEP_FROM_NOTE
 from hybridlog.signals import FloatArray, IntArray
 
 
@@ -198,3 +199,32 @@ class EstimationResult:
     def n_samples(self) -> int:
         """Number of samples estimated."""
         return int(self.time.shape[0])
+
+    def with_modes_of_the_step_from(self) -> EstimationResult:
+        """The result with each sample's mode that of the step *from* it, not *into* it.
+
+        A Markov-jump filter's mode of sample k is the one under which ``x(k)`` came from
+        ``x(k-1)`` (paper 000 eq. (2)); a state-driven model's mode of sample k is the one
+        under which ``x(k+1)`` comes from ``x(k)`` (paper 001 eq. (1), the log's true mode).
+        So sample k takes the modes and mode probabilities the estimator gave sample k+1,
+        the offline estimate that has seen the step it governs; the last sample, whose step
+        the log does not hold, keeps its own.  States, variances and output predictions are
+        the estimator's.  The filter's own result (:attr:`post_processing`) is moved alike.
+        """
+        post = self.post_processing
+        if post is not None:
+            post = replace(post, filtered=post.filtered.with_modes_of_the_step_from())
+        return replace(
+            self,
+            modes=_one_earlier(self.modes),
+            mode_probabilities=_one_earlier(self.mode_probabilities),
+            notes=(*self.notes, STEP_FROM_NOTE),
+            post_processing=post,
+        )
+
+
+def _one_earlier(values: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+    """``values`` moved one row earlier, the last row kept (a copy)."""
+    moved = values.copy()
+    moved[:-1] = values[1:]
+    return moved

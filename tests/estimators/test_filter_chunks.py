@@ -218,7 +218,7 @@ def test_chunks_have_at_least_one_row():
     with pytest.raises(ValueError, match="rows must be at least 1"):
         stream_hstf(model, signals, HstfOptions(), rows=0)
     with pytest.raises(ValueError, match="rows must be at least 1"):
-        prepare(model, "hstf").streamed(10, rows=0)
+        prepare(model, "hstf").streamed(model, 10, rows=0)
 
 
 def test_prepared_stream_gives_the_filters_chunks_and_says_when():
@@ -229,12 +229,12 @@ def test_prepared_stream_gives_the_filters_chunks_and_says_when():
         whole = prepared.run(model, signals)
         for rows in (64, 999, 1000):
             chunks = list(prepared.stream(model, signals, rows=rows))
-            assert prepared.streamed(signals.n_samples, rows) == (len(chunks) > 1)
+            assert prepared.streamed(model, signals.n_samples, rows) == (len(chunks) > 1)
             assert chunks[-1].n_samples == signals.n_samples - (len(chunks) - 1) * rows
         (one,) = prepared.stream(model, signals)  # CHUNK_ROWS: more than the log
         for field in FIELDS:
             assert _same_bits(getattr(one, field), getattr(whole, field)), field
-        assert prepared.streamed(CHUNK_ROWS + 1) and not prepared.streamed(CHUNK_ROWS)
+        assert prepared.streamed(model, CHUNK_ROWS + 1) and not prepared.streamed(model, CHUNK_ROWS)
 
 
 def test_prepared_stream_of_an_estimator_without_stream_is_its_whole_result():
@@ -244,7 +244,7 @@ def test_prepared_stream_of_an_estimator_without_stream_is_its_whole_result():
     whole = whole_only.run(model, signals)
     for field in FIELDS:
         assert _same_bits(getattr(one, field), getattr(whole, field)), field
-    assert not whole_only.streamed(signals.n_samples, 7)
+    assert not whole_only.streamed(model, signals.n_samples, 7)
 
 
 @pytest.mark.parametrize("overrides", [{"smooth": True}, {"mode_sequence": "viterbi"}])
@@ -254,7 +254,7 @@ def test_an_imm_with_an_offline_pass_streams_its_one_whole_result(overrides):
     (one,) = prepared.stream(model, signals, rows=7)
     assert one.post_processing is not None and one.n_samples == signals.n_samples
     np.testing.assert_array_equal(one.modes, prepared.run(model, signals).modes)
-    assert not prepared.streamed(signals.n_samples, 7)
+    assert not prepared.streamed(model, signals.n_samples, 7)
 
 
 def test_prepared_stream_checks_the_log_at_the_call():

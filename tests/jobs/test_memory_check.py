@@ -47,12 +47,12 @@ def test_a_streamed_run_needs_one_chunk_and_the_mode_sequence() -> None:
     n = 1_000_000
     for name in ("imm", "hstf"):
         prepared = prepare(model, name, {})
-        assert prepared.streamed(n) and not prepared.streamed(CHUNK_ROWS)
+        assert prepared.streamed(model, n) and not prepared.streamed(model, CHUNK_ROWS)
         assert prepared.memory_needed(model, n) == [
             ("one chunk of the estimates", int(8 * CHUNK_ROWS * 13 * REPORT_FACTOR)),
             ("the estimated modes", 8 * n),
         ]
-    assert not prepare(model, "imm", {"mode_sequence": "viterbi"}).streamed(n)
+    assert not prepare(model, "imm", {"mode_sequence": "viterbi"}).streamed(model, n)
 
 
 def test_check_fits_names_the_largest_parts_and_passes_what_fits() -> None:
