@@ -297,6 +297,11 @@ def run_hstf(
 ) -> EstimationResult:
     """Run the HSTF over the aligned signals: :func:`stream_hstf` in one chunk.
 
+    The mode of sample k is the one under which ``x(k)`` came from ``x(k-1)``; for a
+    state-driven model, whose mode of sample k governs the step from ``x(k)``, the registry's
+    run (``prepare(model, ...).run``, what the commands use) moves the modes one sample
+    earlier (:meth:`~hybridlog.estimators.result.EstimationResult.with_modes_of_the_step_from`).
+
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_hstf_source` for small models, else the generic :func:`_hstf_steps`.
     """

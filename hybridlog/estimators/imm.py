@@ -273,6 +273,11 @@ def run_imm(
 ) -> EstimationResult:
     """Run the IMM over the aligned signals, then the offline passes its options ask for.
 
+    The mode of sample k is the one under which ``x(k)`` came from ``x(k-1)``; for a
+    state-driven model, whose mode of sample k governs the step from ``x(k)``, the registry's
+    run (``prepare(model, ...).run``, what the commands use) moves the modes one sample
+    earlier (:meth:`~hybridlog.estimators.result.EstimationResult.with_modes_of_the_step_from`).
+
     ``smooth``: the Kim smoother of :mod:`hybridlog.estimators.smoothing` (the forward pass
     then keeps its per-mode estimates, :class:`~hybridlog.estimators.common.ModeStore`);
     ``mode_sequence="viterbi"``: the Viterbi path as the modes; ``"kbest"``: the mode history
