@@ -9,6 +9,7 @@ from filterpy.kalman import KalmanFilter
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from hybridlog.estimators import smoothing
 from hybridlog.estimators.common import ModeStore, packed_width, run_filter
 from hybridlog.estimators.imm import (
     CODE,
@@ -350,3 +351,25 @@ def test_straight_line_smoother_equals_the_generic_loop_where_probabilities_unde
         a, b = getattr(fast, field), getattr(plain, field)
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
     np.testing.assert_array_equal(fast.modes, plain.modes)
+
+
+def test_skipping_negligible_next_modes_changes_nothing(monkeypatch):
+    """The RTS step of a next mode whose smoothed probability is below NEGLIGIBLE_WEIGHT is
+    skipped; its result would enter the output with that weight only.  Against the same pass
+    taking every step (the plain-Python loop, the threshold set to 0), on a log where a third
+    of the steps are skipped, both code paths agree to rounding."""
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=300, seed=2).signals(model)
+    options = ImmOptions(smooth=True)
+    skipping = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
+    looped = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
+    monkeypatch.setattr(smoothing, "NEGLIGIBLE_WEIGHT", 0.0)
+    every = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
+    skipped = (every.mode_probabilities[1:] < 1e-30).mean()
+    assert skipped > 0.2, skipped
+    for field in ("state_means", "covariances", "mode_probabilities"):
+        b = getattr(every, field)
+        for result in (skipping, looped):
+            a = getattr(result, field)
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
+    np.testing.assert_array_equal(skipping.modes, every.modes)
