@@ -361,7 +361,8 @@ class Prepared:
         """Run over the aligned log (checked first for what the estimator needs of a log).
 
         ``inputs`` are the parsed files the options name (``centers=``), read by the job:
-        estimators read no file.
+        estimators read no file.  A result with an offline pass carries the outputs its
+        estimates explain (:func:`~hybridlog.estimators.explained.with_explained_outputs`).
         """
         self._check(signals)
         result: EstimationResult = self.estimator.run_function(
@@ -369,7 +370,9 @@ class Prepared:
         )
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
-        return result
+        from hybridlog.estimators.explained import with_explained_outputs  # numpy: not at start-up
+
+        return with_explained_outputs(model, result, signals)
 
     def moves_modes(self, model: HybridModel) -> bool:
         """Whether the modes are moved one sample earlier for this model.
@@ -400,10 +403,11 @@ class Prepared:
         Checked first as :meth:`run` is.  For an entry with ``stream``, its chunks: each
         chunk's arrays are views of buffers the next chunk overwrites, so a consumer copies
         what it keeps before asking for the next one; ``runtime_s`` and ``compile_s`` are
-        the run's so far.  For the others, one chunk: :meth:`run`'s whole result.
-        :meth:`streamed` says which for a log's length.
+        the run's so far.  For the others, and for a run with an offline pass
+        (:attr:`offline`) or whose modes are moved (:meth:`moves_modes`), one chunk:
+        :meth:`run`'s whole result.  :meth:`streamed` says which for a log's length.
         """
-        if not self.estimator.stream or self.moves_modes(model):
+        if not self.estimator.stream or self.offline or self.moves_modes(model):
             return iter((self.run(model, signals, **inputs),))
         self._check(signals)
         return self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)

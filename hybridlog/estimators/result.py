@@ -59,12 +59,20 @@ class PostProcessing:
     filtered:
         The causal filter's own result over the same log, for the filtered-vs-smoothed
         comparison.
+    explained, filtered_explained:
+        The outputs the offline estimate and the filter's explain, ``ŷ(k) = h_q̂(k)(x̂(k),
+        u(k))``, shape ``(N, n_y)`` (:mod:`hybridlog.estimators.explained`), computed where
+        the estimate was made (the registry's run), so that the process writing the report
+        need not load the model's compiled functions; ``None`` where not computed (the
+        report then computes them) or where the model's ``h`` does not apply.
     """
 
     smoothing: str | None
     mode_sequence: str
     description: str
     filtered: EstimationResult
+    explained: FloatArray | None = None
+    filtered_explained: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -212,8 +220,13 @@ class EstimationResult:
         the estimator's.  The filter's own result (:attr:`post_processing`) is moved alike.
         """
         post = self.post_processing
-        if post is not None:
-            post = replace(post, filtered=post.filtered.with_modes_of_the_step_from())
+        if post is not None:  # the outputs explained depend on the modes: computed afresh
+            post = replace(
+                post,
+                filtered=post.filtered.with_modes_of_the_step_from(),
+                explained=None,
+                filtered_explained=None,
+            )
         return replace(
             self,
             modes=_one_earlier(self.modes),

@@ -15,6 +15,7 @@ import numpy as np
 
 from hybridlog import __version__
 from hybridlog.errors import LogError
+from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics
 from hybridlog.report.document import (
@@ -381,9 +382,10 @@ def build_report(
         Further top-level keys of ``report.json``; a key naming a report attribute
         replaces the computed value (checked like a key of a ``report.json``).
     model:
-        The model the result was estimated with: for a smoothed result, the outputs its
-        estimates explain are computed through the model's ``h``
-        (:func:`~hybridlog.report.explained.explained_outputs`); ``None`` when not given.
+        The model the result was estimated with: for a smoothed result that does not carry
+        the outputs its estimates explain, they are computed through the model's ``h``
+        (:func:`~hybridlog.estimators.explained.explained_outputs`); ``None`` when not
+        given.
 
     Returns
     -------
@@ -403,9 +405,16 @@ def build_report(
 
 
 def _side(
-    result: EstimationResult, signals: AlignedSignals, model: HybridModel | None
+    result: EstimationResult,
+    signals: AlignedSignals,
+    model: HybridModel | None,
+    explained: FloatArray | None,
 ) -> SmoothingMetrics:
-    """The metrics of one side (filtered or smoothed) of a smoothed run."""
+    """The metrics of one side (filtered or smoothed) of a smoothed run.
+
+    ``explained``: the outputs its estimates explain as the run computed them; where it did
+    not, they are computed here through ``model`` (given).
+    """
     ids = tuple(str(m) for m in result.mode_ids)
     truth = signals.truth_modes
     rmse = np.full(len(result.state_names), np.nan)
@@ -416,10 +425,7 @@ def _side(
     }
     outputs: dict[str, OutputReport] | None = None
     fit: float | None = None
-    explained = None
-    if model is not None:
-        from hybridlog.report.explained import explained_outputs
-
+    if explained is None and model is not None:
         explained = explained_outputs(model, result, signals)
     if explained is not None:
         per_output = metrics.output_metrics(signals.outputs, explained)
@@ -504,8 +510,8 @@ def smoothing_report(
         method=post.smoothing,
         mode_sequence=post.mode_sequence,
         description=post.description,
-        filtered=_side(filtered, signals, model),
-        smoothed=_side(result, signals, model),
+        filtered=_side(filtered, signals, model, post.filtered_explained),
+        smoothed=_side(result, signals, model, post.explained),
     )
 
 

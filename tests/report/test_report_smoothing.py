@@ -21,9 +21,7 @@ import pytest
 
 from hybridlog.errors import ReportError
 from hybridlog.estimators.result import EstimationResult, PostProcessing
-from hybridlog.model.cache import load_model
 from hybridlog.report import Report, build_report, read_report, render_markdown, write_report
-from hybridlog.report.explained import explained_outputs
 from hybridlog.signals import AlignedSignals
 from tests.report.test_report_files import DT, MODE_IDS, OUTPUTS, STATES, make_run
 
@@ -264,38 +262,3 @@ def test_a_malformed_smoothing_is_a_report_error_naming_the_key(
 def test_smoothing_null_reads_as_none() -> None:
     data = _set(_report_data(), "smoothing", None)
     assert Report.from_dict(data).smoothing is None
-
-
-def test_explained_outputs_are_h_of_the_estimate_in_its_mode() -> None:
-    """Through the compiled h of a linear model: y = C_q x + D_q u + d_q, and the plain loop."""
-    model = load_model("double_cart_case1")
-    n = 50
-    rng = np.random.default_rng(3)
-    modes = rng.integers(0, model.n_modes, size=n).astype(np.int64)
-    n_x, n_y = model.n_states, model.n_outputs
-    result = EstimationResult(
-        estimator="imm", options={}, time=np.arange(n) * model.dt, mode_ids=model.mode_ids,
-        state_names=tuple(model.states), output_names=tuple(model.outputs), modes=modes,
-        mode_probabilities=np.eye(model.n_modes)[modes], state_means=rng.normal(size=(n, n_x)),
-        state_variances=np.ones((n, n_x)), output_predictions=np.zeros((n, n_y)),
-    )  # fmt: skip
-    signals = AlignedSignals(
-        source="x.csv", time=result.time, input_names=tuple(model.inputs),
-        output_names=tuple(model.outputs), inputs=rng.normal(size=(n, model.n_inputs)),
-        outputs=np.zeros((n, model.n_outputs)),
-    )  # fmt: skip
-    linear = model.linear_modes()
-    expected = np.array(
-        [
-            linear[q].C @ result.state_means[k] + linear[q].D @ signals.inputs[k]
-            + linear[q].output_offset
-            for k, q in enumerate(modes)
-        ]
-    )  # fmt: skip
-    compiled = explained_outputs(model, result, signals)
-    plain = explained_outputs(model, result, signals, jit=False)
-    assert compiled is not None and plain is not None
-    np.testing.assert_allclose(compiled, expected, rtol=1e-12, atol=1e-12)
-    np.testing.assert_array_equal(compiled, plain)
-    other = dataclasses.replace(result, mode_ids=("a", "b"))
-    assert explained_outputs(model, other, signals) is None

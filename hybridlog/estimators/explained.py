@@ -15,6 +15,7 @@ function of one fixed signature, so it is compiled once for every model and cach
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,7 +27,7 @@ if TYPE_CHECKING:
     from hybridlog.estimators.result import EstimationResult
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["explained_outputs"]
+__all__ = ["explained_outputs", "with_explained_outputs"]
 
 
 def _through_h(h: Any, modes: IntArray, x: FloatArray, u: FloatArray, out: FloatArray) -> None:
@@ -87,3 +88,27 @@ def explained_outputs(
         _through_h(*arguments)
     out: FloatArray = arguments[-1]
     return out
+
+
+def with_explained_outputs(
+    model: HybridModel, result: EstimationResult, signals: AlignedSignals
+) -> EstimationResult:
+    """``result`` with the outputs its offline estimate and its filter's explain.
+
+    For a result with ``post_processing`` (a smoothed or re-sequenced run): its ``explained``
+    and ``filtered_explained`` (:func:`explained_outputs` of the result and of the filter's
+    result inside it).  The registry's run (:meth:`hybridlog.estimators.Prepared.run`) calls
+    it where the estimate is made, in the estimators' worker of a command, which has the
+    model's compiled ``h`` loaded already.  Other results are returned as they are.
+    """
+    post = result.post_processing
+    if post is None:
+        return result
+    return replace(
+        result,
+        post_processing=replace(
+            post,
+            explained=explained_outputs(model, result, signals),
+            filtered_explained=explained_outputs(model, post.filtered, signals),
+        ),
+    )
