@@ -472,9 +472,10 @@ class Prepared:
 
         A run whose result comes whole (:meth:`run`, or :meth:`stream` in one chunk): the
         result times :data:`~hybridlog.estimators.footprint.REPORT_FACTOR` (the report's
-        temporaries beside it), and the estimator's own arrays.  A streamed run
-        (:meth:`streamed`): one chunk of the result times the same factor, and the estimated
-        mode of every sample, which the report keeps for its mode metrics.
+        temporaries beside it), the estimator's own arrays, and with an offline pass
+        (:attr:`offline`) the outputs its estimate and the filter's explain (:meth:`run`).
+        A streamed run (:meth:`streamed`): one chunk of the result times the same factor, and
+        the estimated mode of every sample, which the report keeps for its mode metrics.
         """
         if self.streamed(model, n_samples):
             return [
@@ -488,6 +489,8 @@ class Prepared:
         if self.estimator.memory:
             own = self.estimator._attribute(self.estimator.memory, self.estimator.options_module)
             parts += own(model, self.options, n_samples)
+        if self.offline:
+            parts.append(("the outputs each side explains", 2 * 8 * n_samples * model.n_outputs))
         return parts
 
     def options_dict(self) -> dict[str, Any]:

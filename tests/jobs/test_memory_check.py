@@ -34,6 +34,7 @@ def test_the_needs_count_the_result_and_each_offline_pass() -> None:
     smooth = dict(prepare(model, "imm", {"smooth": "true"}).memory_needed(model, n))
     assert smooth["the estimates"] == int(8 * n * 13 * REPORT_FACTOR)
     assert smooth["the smoother's per-mode store"] == 8 * n * 3 * 9  # docs: 206 MiB
+    assert smooth["the outputs each side explains"] == 2 * 8 * n * 3
     kbest = dict(
         prepare(model, "imm", {"mode_sequence": "kbest", "beam": "50"}).memory_needed(model, n)
     )
