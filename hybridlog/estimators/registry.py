@@ -364,23 +364,29 @@ class Prepared:
         estimators read no file.  A result with an offline pass carries the outputs its
         estimates explain (:func:`~hybridlog.estimators.explained.with_explained_outputs`).
         """
+        from hybridlog.estimators.explained import with_explained_outputs  # numpy: not at start-up
+
+        return with_explained_outputs(model, self._whole(model, signals, inputs), signals)
+
+    def _whole(
+        self, model: HybridModel, signals: AlignedSignals, inputs: Mapping[str, Any]
+    ) -> EstimationResult:
+        """The estimator's whole result, its modes moved where :meth:`moves_modes` says."""
         self._check(signals)
         result: EstimationResult = self.estimator.run_function(
             model, signals, self.options, **inputs
         )
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
-        from hybridlog.estimators.explained import with_explained_outputs  # numpy: not at start-up
-
-        return with_explained_outputs(model, result, signals)
+        return result
 
     def moves_modes(self, model: HybridModel) -> bool:
         """Whether the modes are moved one sample earlier for this model.
 
         For an estimator whose modes are those of the step into each sample
         (:attr:`~hybridlog.estimators.capabilities.Capabilities.modes_of_the_step_into`) on
-        a state-driven model.  The result then comes whole: a sample's mode is known only
-        with the next sample's.
+        a state-driven model.  The result is then computed whole: a sample's mode is known
+        only with the next sample's.
         """
         return self.estimator.capabilities.modes_of_the_step_into and model.state_driven
 
@@ -404,13 +410,32 @@ class Prepared:
         chunk's arrays are views of buffers the next chunk overwrites, so a consumer copies
         what it keeps before asking for the next one; ``runtime_s`` and ``compile_s`` are
         the run's so far.  For the others, and for a run with an offline pass
-        (:attr:`offline`) or whose modes are moved (:meth:`moves_modes`), one chunk:
-        :meth:`run`'s whole result.  :meth:`streamed` says which for a log's length.
+        (:attr:`offline`) or whose modes are moved (:meth:`moves_modes`), the whole result
+        is computed first (here, before the first chunk is asked for) and given in chunks of
+        ``rows`` rows (:meth:`~hybridlog.estimators.result.EstimationResult.rows`, views),
+        each with the outputs its estimates explain as :meth:`run` gives them, computed as
+        the chunk is asked for: from the estimators' worker of a command the chunks cross
+        while the report takes the one before.  :meth:`streamed` says whether the
+        estimator itself streams (its memory is then a chunk's).
         """
         if not self.estimator.stream or self.offline or self.moves_modes(model):
-            return iter((self.run(model, signals, **inputs),))
+            return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self._check(signals)
         return self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)
+
+    @staticmethod
+    def _in_chunks(
+        model: HybridModel, signals: AlignedSignals, result: EstimationResult, rows: int
+    ) -> Iterator[EstimationResult]:
+        """``result`` in consecutive chunks of at most ``rows`` rows (one for an empty log)."""
+        from hybridlog.estimators.explained import with_explained_outputs
+
+        if rows < 1:
+            raise ValueError(f"rows must be at least 1, got {rows}")
+        n = result.n_samples
+        for start in range(0, max(n, 1), rows):
+            stop = min(start + rows, n)
+            yield with_explained_outputs(model, result.rows(start, stop), signals.rows(start, stop))
 
     def warm_up(self, model: HybridModel, rows: int = 3) -> None:
         """Load what a run needs for this model: a stream over a few rows of zeros.
@@ -451,12 +476,13 @@ class Prepared:
         return options.get("smooth") is True or options.get("mode_sequence", "argmax") != "argmax"
 
     def streamed(self, model: HybridModel, n_samples: int, rows: int = CHUNK_ROWS) -> bool:
-        """Whether :meth:`stream` gives a log of ``n_samples`` rows in more than one chunk.
+        """Whether the estimator computes a log of ``n_samples`` rows a chunk at a time.
 
         Only an entry with ``stream`` does, for a log longer than ``rows``, and only when
         its options ask for no offline pass (:attr:`offline`): such a pass reads the whole
-        forward pass, so the result comes whole; so does one whose modes are moved
-        (:meth:`moves_modes`).
+        forward pass, so the result is computed whole; so is one whose modes are moved
+        (:meth:`moves_modes`).  (:meth:`stream` gives a whole result in chunks too, but
+        it is all in memory first.)
         """
         if rows < 1:
             raise ValueError(f"rows must be at least 1, got {rows}")
@@ -470,7 +496,7 @@ class Prepared:
     def memory_needed(self, model: HybridModel, n_samples: int) -> Parts:
         """What a run over ``n_samples`` needs at its peak: (what, bytes) of each part.
 
-        A run whose result comes whole (:meth:`run`, or :meth:`stream` in one chunk): the
+        A run whose result is computed whole (:meth:`run`, or not :meth:`streamed`): the
         result times :data:`~hybridlog.estimators.footprint.REPORT_FACTOR` (the report's
         temporaries beside it), the estimator's own arrays, and with an offline pass
         (:attr:`offline`) the outputs its estimate and the filter's explain (:meth:`run`).

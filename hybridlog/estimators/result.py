@@ -208,6 +208,45 @@ class EstimationResult:
         """Number of samples estimated."""
         return int(self.time.shape[0])
 
+    def rows(self, start: int, stop: int) -> EstimationResult:
+        """Rows ``start:stop`` of every per-sample array, as views (nothing is copied).
+
+        The timeline columns and :attr:`post_processing` (the filter's result and the outputs
+        explained) are cut alike; ``runtime_s`` and ``compile_s`` stay the whole run's.
+
+        Raises
+        ------
+        ValueError
+            For rows outside the result (a slice would silently shorten it).
+        """
+        if not 0 <= start <= stop <= self.n_samples:
+            raise ValueError(f"rows {start}:{stop} of {self.n_samples} samples")
+        post = self.post_processing
+        if post is not None:
+            post = replace(
+                post,
+                filtered=post.filtered.rows(start, stop),
+                explained=None if post.explained is None else post.explained[start:stop],
+                filtered_explained=(
+                    None if post.filtered_explained is None else post.filtered_explained[start:stop]
+                ),
+            )
+        return replace(
+            self,
+            time=self.time[start:stop],
+            modes=self.modes[start:stop],
+            mode_probabilities=self.mode_probabilities[start:stop],
+            state_means=self.state_means[start:stop],
+            state_variances=self.state_variances[start:stop],
+            output_predictions=self.output_predictions[start:stop],
+            covariances=None if self.covariances is None else self.covariances[start:stop],
+            timeline_columns=tuple(
+                replace(column, values=column.values[start:stop])
+                for column in self.timeline_columns
+            ),
+            post_processing=post,
+        )
+
     def with_modes_of_the_step_from(self) -> EstimationResult:
         """The result with each sample's mode that of the step *from* it, not *into* it.
 

@@ -41,7 +41,6 @@ __all__ = [
     "build_report",
     "check_compatible",
     "jsonable",
-    "smoothing_report",
 ]
 
 MIN_SAMPLES = 3
@@ -177,7 +176,9 @@ class ReportBuilder:
     :class:`~hybridlog.report.metrics.StateAccumulator`: the same numbers however the rows
     were split); the estimated modes, one index a sample (8 bytes, where the whole result
     holds about a hundred), are kept for the mode metrics, which follow switches across the
-    run.  A whole result is one chunk (:func:`build_report`).
+    run.  A result with an offline pass (``post_processing``) also gets the ``smoothing``
+    part, its chunks taken alike (:class:`_OfflineSides`).  A whole result is one chunk
+    (:func:`build_report`).
 
     Parameters
     ----------
@@ -188,8 +189,9 @@ class ReportBuilder:
     dt:
         The model's sample time in seconds.
     model:
-        The model the result was estimated with (for a smoothed result's explained
-        outputs, :func:`smoothing_report`); ``None`` when not given.
+        The model the result was estimated with (for the outputs a smoothed result's
+        estimates explain, where its chunks do not carry them: :class:`_OfflineSides`);
+        ``None`` when not given.
 
     Raises
     ------
@@ -219,7 +221,7 @@ class ReportBuilder:
         self._states: metrics.StateAccumulator | None = None
         self._first: EstimationResult | None = None
         self._last: EstimationResult | None = None
-        self._smoothing: Smoothing | None = None
+        self._offline: _OfflineSides | None = None
 
     @property
     def rows(self) -> int:
@@ -233,8 +235,8 @@ class ReportBuilder:
         ------
         ValueError
             When the chunk does not line up with the signals' next rows or with the run's
-            earlier chunks, or an offline pass's result (``post_processing``) comes in
-            parts (programming errors of the estimator, not user errors).
+            earlier chunks (its names, options, whether it has ``post_processing``, or
+            its filter's result): programming errors of the estimator, not user errors.
 
         """
         start, stop = self._rows, self._rows + chunk.n_samples
@@ -249,19 +251,18 @@ class ReportBuilder:
             self._first = chunk
             if part.truth_states is not None:
                 self._states = metrics.StateAccumulator(len(chunk.state_names))
-        elif not _same_run(self._first, chunk):
+            if chunk.post_processing is not None:
+                self._offline = _OfflineSides(chunk, self._signals, self._model)
+        elif not _same_run(self._first, chunk) or (chunk.post_processing is None) != (
+            self._offline is None
+        ):
             raise ValueError(f"{chunk.estimator}: a chunk of another run (names or options)")
         self._outputs.add(part.outputs, chunk.output_predictions)
         if self._states is not None and part.truth_states is not None:
             self._states.add(chunk.state_means, part.truth_states)
         self._modes[start:stop] = chunk.modes
-        if chunk.post_processing is not None:
-            if (start, stop) != (0, self._signals.n_samples):
-                raise ValueError(
-                    f"{chunk.estimator}: the result of an offline pass comes whole, not in "
-                    f"rows {start}:{stop}"
-                )
-            self._smoothing = smoothing_report(chunk, self._signals, self._model)
+        if self._offline is not None:
+            self._offline.add(chunk, part, start)
         self._last = chunk
         self._rows = stop
 
@@ -336,7 +337,11 @@ class ReportBuilder:
             samples_per_s=samples_per_s,
             notes=tuple(str(note) for note in last.notes),
             null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
-            smoothing=self._smoothing,
+            smoothing=(
+                None
+                if self._offline is None
+                else self._offline.smoothing(first, signals, self._modes, rmse)
+            ),
             reading=None if reading is None else _json_object(reading),
         )
         if extra:
@@ -362,7 +367,7 @@ def build_report(
     tables hold the smoothed values; the output metrics stay the filter's one-step-ahead
     prediction, which ``output_predictions`` holds either way), and its ``smoothing`` holds
     the mode, state and output metrics of the filter's estimates and of the smoothed ones
-    (:func:`smoothing_report`).  The whole result as one chunk of a :class:`ReportBuilder`.
+    (:class:`_OfflineSides`).  The whole result as one chunk of a :class:`ReportBuilder`.
 
     Parameters
     ----------
@@ -405,36 +410,32 @@ def build_report(
 
 
 def _side(
-    result: EstimationResult,
+    ids: tuple[str, ...],
     signals: AlignedSignals,
-    model: HybridModel | None,
-    explained: FloatArray | None,
+    modes: IntArray,
+    rmse: FloatArray,
+    state_names: tuple[str, ...],
+    output_names: tuple[str, ...],
+    explained: metrics.OutputAccumulator | None,
 ) -> SmoothingMetrics:
-    """The metrics of one side (filtered or smoothed) of a smoothed run.
+    """The metrics of one side (filtered or offline) of a run with an offline pass.
 
-    ``explained``: the outputs its estimates explain as the run computed them; where it did
-    not, they are computed here through ``model`` (given).
+    ``modes`` of every sample, ``rmse`` per state (NaN without truth), ``explained`` the
+    errors of the outputs its estimates explain, accumulated over the run (``None``: not
+    evaluated).
     """
-    ids = tuple(str(m) for m in result.mode_ids)
-    truth = signals.truth_modes
-    rmse = np.full(len(result.state_names), np.nan)
-    if signals.truth_states is not None:
-        rmse = metrics.state_rmse(result.state_means, signals.truth_states)
-    states = {
-        x: StateReport(rmse=_num(float(r))) for x, r in zip(result.state_names, rmse, strict=True)
-    }
+    states = {x: StateReport(rmse=_num(float(r))) for x, r in zip(state_names, rmse, strict=True)}
     outputs: dict[str, OutputReport] | None = None
     fit: float | None = None
-    if explained is None and model is not None:
-        explained = explained_outputs(model, result, signals)
     if explained is not None:
-        per_output = metrics.output_metrics(signals.outputs, explained)
+        per_output = explained.result()
         outputs = {
             y: OutputReport(mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples)
-            for y, m in zip(result.output_names, per_output, strict=True)
+            for y, m in zip(output_names, per_output, strict=True)
         }
         fit = _num(metrics.mean_of_finite([m.fit for m in per_output]))
-    switches = int(np.count_nonzero(result.modes[1:] != result.modes[:-1]))
+    switches = int(np.count_nonzero(modes[1:] != modes[:-1]))
+    truth = signals.truth_modes
     if truth is None:
         return SmoothingMetrics(
             mode_accuracy=None,
@@ -448,11 +449,11 @@ def _side(
             outputs=outputs,
             fit=fit,
         )
-    counts = metrics.confusion_matrix(result.modes, truth, len(ids))
-    det = metrics.detection_delays(result.time, result.modes, truth, ids)
+    counts = metrics.confusion_matrix(modes, truth, len(ids))
+    det = metrics.detection_delays(signals.time, modes, truth, ids)
     detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
-        mode_accuracy=_num(metrics.mode_accuracy(result.modes, truth)),
+        mode_accuracy=_num(metrics.mode_accuracy(modes, truth)),
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)
@@ -468,51 +469,91 @@ def _side(
     )
 
 
-def smoothing_report(
-    result: EstimationResult, signals: AlignedSignals, model: HybridModel | None = None
-) -> Smoothing | None:
-    """The ``smoothing`` part of a report: what ran after the filter, metrics before and after.
+class _OfflineSides:
+    """The ``smoothing`` part of a report, a chunk of a run with an offline pass at a time.
 
-    Parameters
-    ----------
-    result:
-        The run's result; ``None`` is returned unless ``result.post_processing`` is set.
-    signals:
-        The aligned signals it ran on.
-    model:
-        The model, to compute the outputs each side's mode and state explain
-        (``ŷ = h_q̂(x̂, u)``); without it their ``outputs`` and ``fit`` are ``None``.
-
-    Raises
-    ------
-    ValueError
-        When the filter's result does not line up with the smoothed one (a programming
-        error of the estimator).
-
+    What the report does not keep of its own estimates (which are the offline ones): the
+    filter's modes (8 bytes a sample) and state errors, and for both sides the errors of the
+    outputs their estimates explain (``ŷ = h_q̂(x̂, u)``), all accumulated like the report's
+    own metrics, so the numbers do not depend on how the rows were split.  The explained
+    outputs are those the chunk carries (``post_processing.explained``,
+    ``filtered_explained``), else computed here through ``model``
+    (:func:`~hybridlog.estimators.explained.explained_outputs`); a side without them has no
+    output metrics.
     """
-    post = result.post_processing
-    if post is None:
-        return None
-    filtered = post.filtered
-    same = (
-        filtered.n_samples == result.n_samples
-        and filtered.mode_ids == result.mode_ids
-        and filtered.state_names == result.state_names
-        and filtered.output_names == result.output_names
-    )
-    if not same:
-        raise ValueError(
-            f"{result.estimator}: the filtered result does not line up with the smoothed one "
-            f"({filtered.n_samples} against {result.n_samples} samples, or other modes, "
-            "states or outputs)"
+
+    def __init__(
+        self, first: EstimationResult, signals: AlignedSignals, model: HybridModel | None
+    ) -> None:
+        post = first.post_processing
+        assert post is not None  # the caller's check
+        self._how = (post.smoothing, post.mode_sequence, post.description)
+        self._model = model
+        self._filtered_modes: IntArray = np.empty(signals.n_samples, dtype=np.int64)
+        self._filtered_states = (
+            None
+            if signals.truth_states is None
+            else metrics.StateAccumulator(len(first.state_names))
         )
-    return Smoothing(
-        method=post.smoothing,
-        mode_sequence=post.mode_sequence,
-        description=post.description,
-        filtered=_side(filtered, signals, model, post.filtered_explained),
-        smoothed=_side(result, signals, model, post.explained),
-    )
+        n_y = len(first.output_names)
+        self._explained: list[metrics.OutputAccumulator | None] = [
+            metrics.OutputAccumulator(n_y),
+            metrics.OutputAccumulator(n_y),
+        ]
+
+    def add(self, chunk: EstimationResult, part: AlignedSignals, start: int) -> None:
+        """Take a chunk's rows of both sides (``part``: the signals' rows from ``start``)."""
+        post = chunk.post_processing
+        assert post is not None  # the caller's check
+        filtered = post.filtered
+        if not (
+            filtered.n_samples == chunk.n_samples
+            and filtered.mode_ids == chunk.mode_ids
+            and filtered.state_names == chunk.state_names
+            and filtered.output_names == chunk.output_names
+        ):
+            raise ValueError(
+                f"{chunk.estimator}: the filtered result does not line up with the smoothed one "
+                f"({filtered.n_samples} against {chunk.n_samples} samples, or other modes, "
+                "states or outputs)"
+            )
+        self._filtered_modes[start : start + chunk.n_samples] = filtered.modes
+        if self._filtered_states is not None and part.truth_states is not None:
+            self._filtered_states.add(filtered.state_means, part.truth_states)
+        sides = ((filtered, post.filtered_explained), (chunk, post.explained))
+        for index, (side, carried) in enumerate(sides):
+            accumulator = self._explained[index]
+            if accumulator is None:
+                continue
+            explained = carried
+            if explained is None and self._model is not None:
+                explained = explained_outputs(self._model, side, part)
+            if explained is None:
+                self._explained[index] = None
+            else:
+                accumulator.add(part.outputs, explained)
+
+    def smoothing(
+        self, first: EstimationResult, signals: AlignedSignals, modes: IntArray, rmse: FloatArray
+    ) -> Smoothing:
+        """Both sides' metrics; ``modes`` and ``rmse`` are the report's own (the offline ones)."""
+        ids = tuple(str(m) for m in first.mode_ids)
+        names = (first.state_names, first.output_names)
+        filtered_rmse = (
+            np.full(len(first.state_names), np.nan)
+            if self._filtered_states is None
+            else self._filtered_states.result()
+        )
+        method, mode_sequence, description = self._how
+        return Smoothing(
+            method=method,
+            mode_sequence=mode_sequence,
+            description=description,
+            filtered=_side(
+                ids, signals, self._filtered_modes, filtered_rmse, *names, self._explained[0]
+            ),
+            smoothed=_side(ids, signals, modes, rmse, *names, self._explained[1]),
+        )
 
 
 def _json_object(value: Mapping[str, Any]) -> JsonObject:
