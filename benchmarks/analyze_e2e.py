@@ -94,7 +94,7 @@ def _run(argv: Sequence[str], cwd: Path) -> tuple[float, float, float]:
     return run["start"], run["end"], run["peak"] / 1024
 
 
-def _analyze_args(log: Path, out: Path) -> list[str]:
+def _analyze_args(log: Path, out: Path, *extra: str) -> list[str]:
     return [
         "analyze",
         str(log),
@@ -105,7 +105,12 @@ def _analyze_args(log: Path, out: Path) -> list[str]:
         "--out",
         str(out),
         "--force",
+        *extra,
     ]
+
+
+SMOOTHING = ("--estimator", "imm", "--smooth")
+"""The offline run timed beside the plain one (issue 12: what smoothing costs a user)."""
 
 
 def measure(rows: int, repeat: int) -> dict[str, Any]:
@@ -118,11 +123,21 @@ def measure(rows: int, repeat: int) -> dict[str, Any]:
         _run([python, "-m", "hybridlog", *simulate], folder)
         command = [python, "-m", "hybridlog", *_analyze_args(log, folder / "out")]
         _run(command, folder)  # warm-up: caches of a first run
+        # the same log with `--estimator imm`, with and without `--smooth`, alternating
+        imm = [python, "-m", "hybridlog", *_analyze_args(log, folder / "imm", *SMOOTHING[:2])]
+        smooth = [python, "-m", "hybridlog", *_analyze_args(log, folder / "smooth", *SMOOTHING)]
+        _run(smooth, folder)  # warm-up: the smoother's caches
         walls, peaks = [], []
+        offline: dict[str, list[float]] = {"imm": [], "smooth": [], "smooth_peak": []}
         for _ in range(repeat):
             start, end, peak = _run(command, folder)
             walls.append(end - start)
             peaks.append(peak)
+            start, end, _ = _run(imm, folder)
+            offline["imm"].append(end - start)
+            start, end, peak = _run(smooth, folder)
+            offline["smooth"].append(end - start)
+            offline["smooth_peak"].append(peak)
         clock = folder / "stages.json"
         staged = [python, "-m", "benchmarks.analyze_stages", str(clock), "--"]
         start, end, staged_peak = _run([*staged, *_analyze_args(log, folder / "out")], folder)
@@ -155,6 +170,7 @@ def measure(rows: int, repeat: int) -> dict[str, Any]:
         "staged_wall_s": end - start,
         "staged_peak_mib": staged_peak,
         "peak_after": child.get("peak_mib", {}),
+        "offline": offline,
     }
 
 
@@ -183,6 +199,21 @@ def bench_analyze(quick: bool = False, repeat: int = 3) -> list[Result]:
             f"{m['peak_mib']:,.0f} MiB (largest VmHWM of the timed runs)",
         ),
     ]
+    offline = m["offline"]
+    smooth, imm = min(offline["smooth"]), min(offline["imm"])
+    rows.append(
+        (
+            "analyze three-tank log --estimator imm --smooth · wall",
+            n,
+            smooth,
+            "",
+            None,
+            f"best of {len(offline['smooth'])} runs "
+            f"({', '.join(f'{w:.2f}' for w in offline['smooth'])} s), "
+            f"{smooth / imm:.2f}x `--estimator imm` without `--smooth` (best {imm:.2f} s; "
+            f"the runs alternate); peak RSS {max(offline['smooth_peak']):,.0f} MiB",
+        )
+    )
     total = m["staged_wall_s"]
     for stage, seconds in m["stages"].items():
         peak = m["peak_after"].get(stage)
