@@ -256,7 +256,9 @@ class ReportBuilder:
         elif not _same_run(self._first, chunk) or (chunk.post_processing is None) != (
             self._offline is None
         ):
-            raise ValueError(f"{chunk.estimator}: a chunk of another run (names or options)")
+            raise ValueError(
+                f"{chunk.estimator}: a chunk of another run (names, options or offline pass)"
+            )
         self._outputs.add(part.outputs, chunk.output_predictions)
         if self._states is not None and part.truth_states is not None:
             self._states.add(chunk.state_means, part.truth_states)

@@ -185,3 +185,15 @@ def test_a_whole_result_comes_in_chunks_of_its_rows(
         k: v for k, v in at_once.to_dict().items() if k not in timed
     }
     assert ("smoothing" in chunked) == (whole.post_processing is not None)
+
+
+def test_a_run_whose_chunks_differ_in_their_offline_pass_is_a_programming_error() -> None:
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=99, seed=2).signals(model, source="test")
+    smoothed = prepare(model, "imm", {"smooth": True}).run(model, signals)
+    plain = dataclasses.replace(smoothed, post_processing=None)
+    for first, second in ((smoothed, plain), (plain, smoothed)):
+        builder = ReportBuilder(signals, log="t.csv", dt=float(model.dt), model=model)
+        builder.add(first.rows(0, 50))
+        with pytest.raises(ValueError, match="offline pass"):
+            builder.add(second.rows(50, 100))
