@@ -11,6 +11,7 @@ state measurement is asked for): the registry, and through it ``--help``, import
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -18,7 +19,11 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
     from hybridlog.signals import AlignedSignals
 
-__all__ = ["Capabilities", "ModelTraits"]
+__all__ = ["MAX_JOINT_MODES", "Capabilities", "ModelTraits"]
+
+MAX_JOINT_MODES = 256
+"""The most joint modes a ``[components]`` model is enumerated into
+(:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`)."""
 
 
 STEP_FROM_NOTE = (
@@ -49,6 +54,10 @@ class Capabilities:
         The continuous state must be measured: the outputs are the states in every mode.
     needs_components:
         The model must describe ``[components]`` (concurrent probabilistic automata).
+    enumerates_components:
+        A ``[components]`` model is run on its enumerated joint known modes (at most
+        :data:`MAX_JOINT_MODES`); without it, and without ``needs_components``, such a
+        model is refused.
     needs_boolean_affine:
         The model must be boolean-affine (``booleans = [...]``, paper 003 eq. (48)).
     applies_jump_maps:
@@ -78,6 +87,7 @@ class Capabilities:
     needs_switching_signal: bool = False
     needs_measured_state: bool = False
     needs_components: bool = False
+    enumerates_components: bool = False
     needs_boolean_affine: bool = False
     applies_jump_maps: bool = False
     continuous_time: bool = False
@@ -97,6 +107,8 @@ class Capabilities:
             words.append("Markov matrix (optional)")
         if self.needs_components:
             words.append("[components]")
+        elif self.enumerates_components:
+            words.append(f"[components] as joint modes (optional, at most {MAX_JOINT_MODES})")
         if self.needs_boolean_affine:
             words.append("boolean-affine model")
         if self.applies_jump_maps:
@@ -117,6 +129,17 @@ class Capabilities:
             return f"needs a {wanted} model; the model's time is {has}"
         if self.needs_components and not traits.components:
             return "needs a model with [components]; the model has none"
+        if traits.components and not self.needs_components:
+            if not self.enumerates_components:
+                return (
+                    "needs a model with enumerated [modes]; the model describes concurrent "
+                    "[components] (paper 002)"
+                )
+            if traits.joint_modes > MAX_JOINT_MODES:
+                return (
+                    f"runs a [components] model on its joint modes, at most {MAX_JOINT_MODES}; "
+                    f"the model has {traits.joint_modes}"
+                )
         if self.needs_boolean_affine and not traits.booleans:
             return "needs a boolean-affine model (booleans = [...]); the model is not one"
         if traits.jumps and not self.applies_jump_maps:
@@ -162,6 +185,11 @@ class ModelTraits:
     def components(self) -> bool:
         """True when the model has ``[components]``."""
         return self.model.has_components
+
+    @property
+    def joint_modes(self) -> int:
+        """How many joint assignments of known modes the ``[components]`` have (1 if none)."""
+        return math.prod(len(c.modes) for c in self.model.components)
 
     @property
     def booleans(self) -> bool:

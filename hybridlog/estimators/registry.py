@@ -217,7 +217,10 @@ ESTIMATORS: dict[str, Estimator] = {
             run="run_imm",
             stream="stream_imm",
             capabilities=Capabilities(
-                uses_markov_matrix=True, supports_smoothing=True, modes_of_the_step_into=True
+                uses_markov_matrix=True,
+                supports_smoothing=True,
+                modes_of_the_step_into=True,
+                enumerates_components=True,
             ),
             memory="imm_memory",
         ),

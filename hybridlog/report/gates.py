@@ -76,6 +76,24 @@ _OUTPUT_METRICS: Final[Mapping[str, Callable[[OutputReport], float | None]]] = {
 _STATE_METRICS: Final[Mapping[str, Callable[[StateReport], float | None]]] = {
     "state_rmse": lambda s: s.rmse,
 }
+#: The values each metric can take (by its unqualified name), for bounds it can never meet.
+_RANGES: Final[Mapping[str, tuple[float, float]]] = {
+    "vaf": (0.0, 100.0),
+    "fit": (-math.inf, 100.0),
+    "mode_accuracy": (0.0, 1.0),
+    **{
+        name: (0.0, math.inf)
+        for name in (
+            "mse",
+            "detection_delay_s",
+            "missed_switches",
+            "runtime_s",
+            "samples_per_s",
+            "state_rmse",
+        )
+    },
+}
+_UNITS: Final[Mapping[str, str]] = {"vaf": " %", "fit": " %"}
 #: Metrics without a qualifier.
 METRICS: tuple[str, ...] = tuple(_REPORT_METRICS)
 
@@ -142,8 +160,9 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     Raises
     ------
     OptionError
-        When the spec has no ``=``, an unknown metric name or a bound that is not a finite
-        number; the message names the spec.
+        When the spec has no ``=``, an unknown metric name, a bound that is not a finite
+        number, or one the metric can never meet (``--fail-under mode_accuracy=99.5``: a
+        fraction is at most 1; ``--fail-over mse=-1``); the message names the spec.
 
     """
     option = f"--fail-{kind}"
@@ -165,7 +184,23 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
         raise OptionError(f"{option} {spec!r}: bound {value!r} is not a number") from None
     if not math.isfinite(bound):
         raise OptionError(f"{option} {spec!r}: bound {value!r} is not a finite number")
+    _check_attainable(spec, option, base, bound, kind)
     return Gate(metric=metric, bound=bound, kind=kind, spec=spec)
+
+
+def _check_attainable(spec: str, option: str, base: str, bound: float, kind: GateKind) -> None:
+    """Refuse a bound that no value of the metric meets: such a gate could only fail."""
+    low, high = _RANGES[base]
+    if (kind == "under" and bound <= high) or (kind == "over" and bound >= low):
+        return
+    unit = _UNITS.get(base, "")
+    where = f"at most {high:g}{unit}" if kind == "under" else f"at least {low:g}{unit}"
+    hint = (
+        f" (a fraction: for {bound:g} % write {bound / 100:g})"
+        if base == "mode_accuracy" and bound <= 100.0
+        else ""
+    )
+    raise OptionError(f"{option} {spec!r}: {base} is {where}{hint}, so this gate could never pass")
 
 
 def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -> list[Gate]:

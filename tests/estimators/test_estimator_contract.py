@@ -461,3 +461,36 @@ def test_models_of_kinds_no_estimator_handles_yet_are_refused_before_reading(tex
             prepare(model, name)
         assert "kind.toml" in str(caught.value)
         assert "\n" not in str(caught.value)
+
+
+def test_every_estimator_a_model_is_said_to_suit_runs_on_it(cases):
+    """The refusal's list "(estimators for this model: ...)" is the list that runs.
+
+    Each model case against each estimator: either :meth:`Capabilities.mismatch` names a
+    reason, or preparing and running it on the case's log succeeds (a ``[components]``
+    model once crashed ``hstf``, ``chiu`` and ``kmeans``, which the refusal listed).
+    """
+    for model_name, (model, signals) in cases.items():
+        traits = ModelTraits(model)
+        for name, entry in ESTIMATORS.items():
+            capabilities = entry.capabilities
+            if capabilities.mismatch(traits) or capabilities.signals_mismatch(signals):
+                with pytest.raises(HybridlogError):
+                    prepare(model, name).run(model, signals)
+                continue
+            result = prepare(model, name).run(model, signals)
+            assert result.n_samples == signals.n_samples, (model_name, name)
+
+
+def test_a_components_model_too_large_to_enumerate_is_refused_before_reading():
+    model = load_model("bioplex_pgc")
+    suited = [
+        n for n, e in ESTIMATORS.items() if e.capabilities.mismatch(ModelTraits(model)) is None
+    ]
+    assert suited == ["unknown-mode"]
+    with pytest.raises(ModelError, match=r"joint modes, at most 256; the model has 288"):
+        prepare(model, "imm")
+    for name in ("hstf", "chiu", "kmeans"):
+        with pytest.raises(ModelError, match=r"describes concurrent \[components\]") as caught:
+            prepare(model, name)
+        assert "\n" not in str(caught.value)

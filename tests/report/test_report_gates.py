@@ -15,7 +15,14 @@ from hybridlog.report.document import (
     StateReport,
     SwitchDetection,
 )
-from hybridlog.report.gates import Gate, evaluate_gates, parse_gate, parse_gates, validate_gates
+from hybridlog.report.gates import (
+    Gate,
+    GateKind,
+    evaluate_gates,
+    parse_gate,
+    parse_gates,
+    validate_gates,
+)
 
 
 def report(*, truth: bool = True) -> Report:
@@ -90,6 +97,35 @@ def test_bad_spec_is_an_option_error_naming_it(spec: str, fragment: str) -> None
     assert repr(spec) in message
     assert fragment in message
     assert "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("spec", "kind", "fragment"),
+    [
+        ("mode_accuracy=99.5", "under", "at most 1 (a fraction: for 99.5 % write 0.995)"),
+        ("mode_accuracy=101", "under", "mode_accuracy is at most 1,"),
+        ("vaf=101", "under", "vaf is at most 100 %"),
+        ("fit.y1=100.5", "under", "fit is at most 100 %"),
+        ("mse=-1", "over", "mse is at least 0"),
+        ("state_rmse.x1=-0.1", "over", "state_rmse is at least 0"),
+        ("vaf=-3", "over", "vaf is at least 0 %"),
+        ("missed_switches=-1", "over", "missed_switches is at least 0"),
+    ],
+)
+def test_a_bound_the_metric_can_never_meet_is_refused(
+    spec: str, kind: GateKind, fragment: str
+) -> None:
+    with pytest.raises(OptionError, match=f"--fail-{kind}") as info:
+        parse_gate(spec, kind)
+    assert fragment in str(info.value) and "could never pass" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("spec", "kind"),
+    [("vaf=100", "under"), ("fit=-500", "over"), ("mode_accuracy=1", "under"), ("mse=0", "over")],
+)
+def test_a_bound_at_the_edge_of_the_range_is_a_gate(spec: str, kind: GateKind) -> None:
+    assert parse_gate(spec, kind).bound == float(spec.split("=")[1])
 
 
 def test_all_gates_met_gives_no_messages() -> None:

@@ -8,7 +8,8 @@ the outputs.  The Markov matrix is the product of the components' transition pro
 (unknown removed, the rest renormalised; rules with ``when`` do not apply), the prior the
 product of their initial probabilities.  ``imm`` runs on it, so ``compare`` can put it beside
 ``unknown-mode``.  The number of joint modes grows as the product of the components' mode
-counts; above :data:`MAX_JOINT_MODES` the model is refused.
+counts; above
+:data:`~hybridlog.estimators.capabilities.MAX_JOINT_MODES` the model is refused.
 """
 
 from __future__ import annotations
@@ -20,14 +21,14 @@ import math
 import numpy as np
 import sympy
 
+from hybridlog.estimators.capabilities import MAX_JOINT_MODES
 from hybridlog.estimators.cpha.structure import Assignment, _causal_graph, _Names
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.hybrid_model import HybridModel, Mode
 
-__all__ = ["MAX_JOINT_MODES", "joint_label", "joint_mode_model"]
+__all__ = ["joint_label", "joint_mode_model"]
 
-MAX_JOINT_MODES = 256
 SEPARATOR = "|"
 
 
@@ -97,9 +98,9 @@ def joint_mode_model(model: HybridModel) -> HybridModel:
     Raises
     ------
     ModelError
-        More than :data:`MAX_JOINT_MODES` joint modes, or a joint mode whose equations do
-        not determine every state and output or cannot be solved explicitly (naming
-        ``components`` and the joint mode).
+        More than :data:`~hybridlog.estimators.capabilities.MAX_JOINT_MODES` joint modes, or
+        a joint mode whose equations do not determine every state and output or cannot be
+        solved explicitly (naming ``components`` and the joint mode).
     """
     components: tuple[Component, ...] = model.components
     count = math.prod(len(c.modes) for c in components)
