@@ -29,7 +29,7 @@ import secrets
 import shutil
 import socket
 import sys
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -42,12 +42,14 @@ __all__ = [
     "atomic_files",
     "atomic_output_dir",
     "check_apart",
+    "check_creatable",
     "check_dir_target",
     "check_distinct",
     "check_file_target",
     "is_ours",
     "publish_dir",
     "publish_file",
+    "recorded_files",
     "remove_stale_temporaries",
     "staging_dir",
     "temporary_name",
@@ -192,6 +194,41 @@ def write_marker(folder: Path) -> None:
     (folder / MARKER).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
 
 
+_FILES_KEY = "files"
+
+
+def recorded_files(folder: Path) -> Collection[str] | None:
+    """The files (``/``-separated, relative) ``folder``'s :data:`MARKER` lists, or None.
+
+    :func:`publish_dir` records them when it moves a finished folder into place; a folder
+    without the list (a batch folder, one of an older version) gives None: not known.
+    """
+    try:
+        record = json.loads((folder / MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    files = record.get(_FILES_KEY) if isinstance(record, dict) else None
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        return None
+    return frozenset(files)
+
+
+def _record_files(folder: Path) -> None:
+    """Add the list of the files in ``folder`` to its :data:`MARKER`, if it has one."""
+    marker = folder / MARKER
+    try:
+        record = json.loads(marker.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    record[_FILES_KEY] = sorted(
+        Path(parent, name).relative_to(folder).as_posix()
+        for parent, _, names in os.walk(folder)
+        for name in names
+        if Path(parent, name) != marker
+    )
+    marker.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
 def _starts_with(path: Path, start: str) -> bool:
     try:
         with path.open(encoding="utf-8") as handle:
@@ -224,7 +261,65 @@ def is_ours(folder: PathLike) -> bool:
     return (path / MARKER).is_file() or _legacy(path)
 
 
-# --- checks of existing targets ----------------------------------------------------------------
+# --- checks of targets ------------------------------------------------------------------------
+
+_TEMPORARY_OVERHEAD = len(".x.hybridlog-tmp-0000-4194304-00000000") - 1
+"""How much longer than its target's name a temporary name can be (:func:`temporary_name`)."""
+
+
+def _present(path: Path) -> bool:
+    """Whether ``path`` exists (a dangling link counts); an unusable name is an error."""
+    try:
+        os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    except OSError as err:
+        raise OutputError(f"{_shown(path)}: {err.strerror}") from None
+    return True
+
+
+def check_creatable(target: Path) -> None:
+    """Refuse an output path that cannot be created or replaced, before any work is done.
+
+    The nearest existing folder above ``target`` must be a folder this process can create a
+    file in (tried with a temporary name, removed at once), and every missing part of the
+    path, and the temporary name written next to ``target``, must fit the file system's
+    limit on a name.
+
+    Raises
+    ------
+    OutputError
+        Naming the path and what is wrong with it.
+    """
+    ancestor = target.parent
+    missing = [target.name]
+    while ancestor.parent != ancestor and not _present(ancestor):
+        missing.append(ancestor.name)
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise OutputError(
+            f"{_shown(target)}: cannot be created: {_shown(ancestor)} is not a folder"
+        )
+    try:
+        limit = os.pathconf(ancestor, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    for name in missing:
+        allowed = limit - _TEMPORARY_OVERHEAD if name == target.name else limit
+        if len(os.fsencode(name)) > allowed:
+            raise OutputError(
+                f"{_shown(target)}: the name {excerpt(name, 40)} is too long "
+                f"(at most {allowed} bytes here)"
+            )
+    probe = temporary_name(ancestor / "probe")
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(probe)
+    except OSError as err:
+        raise OutputError(
+            f"{_shown(target)}: cannot be created: no file can be made in "
+            f"{_shown(ancestor)} ({err.strerror})"
+        ) from None
 
 
 def _is_nonempty_dir(path: Path) -> bool:
@@ -233,13 +328,22 @@ def _is_nonempty_dir(path: Path) -> bool:
 
 
 def check_dir_target(
-    target: PathLike, *, force: bool, ours: Callable[[Path], bool] | None = None
+    target: PathLike,
+    *,
+    force: bool,
+    ours: Callable[[Path], bool] | None = None,
+    written: Callable[[Path], Collection[str] | None] = recorded_files,
+    replacing: bool = True,
 ) -> Path:
     """Check that an output folder may be created or replaced; return its absolute path.
 
-    A missing or empty folder is fine.  A non-empty one is replaced only with ``force`` and
-    only when hybridlog wrote it (:func:`is_ours`, or the test ``ours`` of a writer whose
-    folders record it another way): a user's own folder is never wiped.
+    A missing folder must be creatable (:func:`check_creatable`); an empty one is fine.  A
+    non-empty one is replaced only with ``force`` and only when hybridlog wrote it
+    (:func:`is_ours`, or the test ``ours`` of a writer whose folders record it another way),
+    and, when it is about to be replaced (``replacing``), only if it holds nothing but what
+    hybridlog wrote there (``written``: the files a folder's :data:`MARKER` lists,
+    :func:`recorded_files`): a user's own folder, or a note a user put into a report folder,
+    is never wiped.
 
     Raises
     ------
@@ -250,7 +354,8 @@ def check_dir_target(
     path = Path(os.path.abspath(target))
     if path.parent == path:
         raise OutputError(f"output directory {_shown(target)} cannot be replaced")
-    if not (path.exists() or path.is_symlink()):
+    check_creatable(path)
+    if not _present(path):
         return path
     if not path.is_dir() or path.is_symlink():
         raise OutputError(f"output path {_shown(path)} exists and is not a directory")
@@ -270,7 +375,30 @@ def check_dir_target(
             f"{MARKER} file), so --force will not delete it; choose another output "
             "directory or remove this one yourself"
         )
+    if replacing:
+        _check_only_ours(path, written(path))
     return path
+
+
+def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
+    """Refuse to replace ``path`` if it holds files besides ``written`` (None: not known)."""
+    if written is None:
+        return
+    expected = {*written, MARKER}
+    foreign: list[str] = []
+    for folder, folders, files in os.walk(path):
+        folders.sort()
+        for name in sorted(files):
+            relative = Path(folder, name).relative_to(path).as_posix()
+            if relative not in expected:
+                foreign.append(relative)
+    if foreign:
+        more = f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
+        raise OutputError(
+            f"output directory {_shown(path)} holds files hybridlog did not write "
+            f"({', '.join(excerpt(f, 60) for f in foreign[:3])}{more}), which replacing it "
+            "would delete; move them out, or choose another output directory"
+        )
 
 
 def check_file_target(target: PathLike, *, force: bool) -> Path:
@@ -279,12 +407,20 @@ def check_file_target(target: PathLike, *, force: bool) -> Path:
     Raises
     ------
     OutputError
-        When the target is a folder, or exists and ``force`` is false.
+        When the target is a folder or another file that is not a regular one (a device, a
+        pipe), exists and ``force`` is false, or cannot be created
+        (:func:`check_creatable`).
     """
     path = Path(os.path.abspath(target))
+    check_creatable(path)
     if path.is_dir():
         raise OutputError(f"{_shown(target)}: is a directory; name a file to write")
-    if (path.exists() or path.is_symlink()) and not force:
+    if path.exists() and not path.is_file():
+        raise OutputError(
+            f"{_shown(target)}: exists and is not a regular file (a device, pipe or socket); "
+            "hybridlog never replaces one"
+        )
+    if _present(path) and not force:
         raise OutputError(f"{_shown(target)}: already exists (use --force to replace it)")
     return path
 
@@ -425,11 +561,18 @@ def publish_file(staged: Path, target: Path, *, force: bool) -> None:
 
 
 def publish_dir(
-    staged: Path, target: Path, *, force: bool, ours: Callable[[Path], bool] | None = None
+    staged: Path,
+    target: Path,
+    *,
+    force: bool,
+    ours: Callable[[Path], bool] | None = None,
+    written: Callable[[Path], Collection[str] | None] = recorded_files,
 ) -> None:
     """Move the finished folder ``staged`` to ``target``, replacing an old one of ours.
 
-    The old folder is renamed aside first and deleted only once the new one is in place.
+    The files of ``staged`` are recorded in its :data:`MARKER` (:func:`recorded_files`), so
+    that a later run replaces the folder only while it holds nothing else.  The old folder
+    is renamed aside first and deleted only once the new one is in place.
 
     Raises
     ------
@@ -438,7 +581,8 @@ def publish_dir(
     meanwhile),
         or when a rename fails.
     """
-    check_dir_target(target, force=force, ours=ours)
+    check_dir_target(target, force=force, ours=ours, written=written)
+    _record_files(staged)
     try:
         if not target.exists():
             os.rename(staged, target)

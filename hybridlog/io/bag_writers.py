@@ -30,7 +30,7 @@ import json
 import os
 import re
 import struct
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -159,7 +159,7 @@ def check_log_target(
             raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
     check_apart([("--out", path)], inputs)
     if chosen.startswith("ros2-"):
-        check_dir_target(path, force=force, ours=written_by_hybridlog)
+        check_dir_target(path, force=force, ours=written_by_hybridlog, written=bag_files)
     else:
         check_file_target(path, force=force)
     return chosen
@@ -230,7 +230,11 @@ def write_log(
             staged = area / target.name  # rosbag2 names its storage file after the folder
             _written(target, lambda: writer(staged, topics, columns, time_ns))
             publish_dir(
-                staged, Path(os.path.abspath(target)), force=force, ours=written_by_hybridlog
+                staged,
+                Path(os.path.abspath(target)),
+                force=force,
+                ours=written_by_hybridlog,
+                written=bag_files,
             )
     else:
         with atomic_files([target], force=force) as (staged,):
@@ -257,6 +261,22 @@ def written_by_hybridlog(folder: Path) -> bool:
     return (
         re.search(rf"^  custom_data:\n(    \w+: .*\n)*    {key}: {value}$", text, re.M) is not None
     )
+
+
+def bag_files(folder: Path) -> Collection[str] | None:
+    """The files a ROS 2 bag folder consists of: ``metadata.yaml`` and its storage files.
+
+    Read from the ``relative_file_paths`` list of ``metadata.yaml``, as rosbags writes it;
+    None when there is no such list (then nothing is known to be foreign).
+    """
+    try:
+        text = (folder / "metadata.yaml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    listed = re.search(r"^  relative_file_paths:\n((?:  - .*\n)*)", text, re.M)
+    if listed is None:
+        return None
+    return {"metadata.yaml", *(line[4:].strip() for line in listed.group(1).splitlines())}
 
 
 def _written(target: Path, write: Callable[[], None]) -> None:

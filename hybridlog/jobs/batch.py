@@ -357,7 +357,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     log_sha256 = content_hash(log)
     if path.exists() or path.is_symlink():
         # A folder hybridlog did not write is never replaced, with or without --force.
-        check_dir_target(path, force=True)
+        check_dir_target(path, force=True, replacing=False)
         reused = _reusable(job, path, log, log_sha256)
         if reused is not None:
             return reused
@@ -403,7 +403,9 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
     """Create the batch folder and the folders holding log folders, or check they are ours."""
     if root.exists() or root.is_symlink():
-        check_dir_target(root, force=True)  # a file, a link, or a folder of someone else's
+        check_dir_target(
+            root, force=True, replacing=False
+        )  # a file, a link, or a folder of someone else's
         if any(root.iterdir()) and not is_ours(root):
             raise OutputError(
                 f"output directory {root} holds files hybridlog did not write (no {MARKER} "
@@ -572,10 +574,11 @@ def _plan(
     outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
     if junit is not None:
         outputs.append(("--junit", junit))
-        check_distinct(outputs[1:])
-        check_junit_target(junit, force=force)
+        check_distinct(outputs)
     inputs = input_paths(paths, model_ref, [prepared], read)
     check_apart(outputs, [*(("folder of logs", f) for f in searched), *inputs])
+    if junit is not None:
+        check_junit_target(junit)
     job = BatchJob(
         model_ref=str(model_ref),
         model_sha256=model_hash(model_ref),

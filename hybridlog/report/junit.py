@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 
-from hybridlog.errors import OutputError
+from hybridlog.errors import OutputError, excerpt
 from hybridlog.outputs import PathLike, check_file_target
 from hybridlog.report.summary import BatchRow
 
@@ -35,20 +35,28 @@ def _ours(path: Path) -> bool:
     return _SIGNATURE in head
 
 
-def check_junit_target(target: PathLike, *, force: bool) -> Path:
-    """Check that the JUnit file may be written: new, a JUnit file of a batch, or ``force``.
+def check_junit_target(target: PathLike) -> Path:
+    """Check that the JUnit file may be written: new, or a JUnit file of a batch.
 
     A CI job re-runs a batch into the same file, so a JUnit file hybridlog wrote is replaced
-    without ``--force``; any other existing file only with it.
+    (with or without ``--force``); any other existing file never (SPEC §9: ``--force``
+    replaces only what hybridlog wrote).
 
     Raises
     ------
     OutputError
-        When the target is a folder, or an existing file of someone else's without ``force``.
+        When the target is a folder, a device or pipe, an existing file of someone else's,
+        or cannot be created.
     """
     path = Path(target)
+    ours = path.is_file() and _ours(path)
+    if (path.exists() or path.is_symlink()) and not ours and not path.is_dir():
+        raise OutputError(
+            f"--junit {excerpt(str(target))[1:-1]}: exists and is not a JUnit file hybridlog "
+            "wrote, so it is not replaced (not even with --force); name another file"
+        )
     try:
-        return check_file_target(path, force=force or (path.is_file() and _ours(path)))
+        return check_file_target(path, force=ours)
     except OutputError as err:
         raise OutputError(f"--junit {err}") from None
 

@@ -138,12 +138,28 @@ def test_missed_gates_in_summary_and_junit(tmp_path: Path) -> None:
     assert (root.get("tests"), root.get("failures"), root.get("errors")) == ("3", "1", "0")
     (failure,) = root.iter("failure")
     assert "is under the bound" in (failure.get("message") or "")
-    # an existing file of someone else's is never replaced by --junit (without --force)
+    # an existing file of someone else's is never replaced by --junit, not even with
+    # --force, nor a device or a pipe; a bad --junit is refused before anything is written
     mine = tmp_path / "mine.xml"
     mine.write_text("<mine/>")
-    with pytest.raises(OutputError, match="already exists"):
-        run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", junit=mine)
-    assert mine.read_text() == "<mine/>"
+    os.mkfifo(tmp_path / "pipe.xml")
+    (tmp_path / "a_file").write_text("mine")
+    for target, words in (
+        (mine, "not a JUnit file hybridlog wrote"),
+        (tmp_path / "pipe.xml", "not a JUnit file hybridlog wrote"),
+        (tmp_path / "a_file" / "j.xml", "a_file is not a folder"),
+        (tmp_path / "new", "--out and --junit both name"),
+        (tmp_path / ("j" * 250 + ".xml"), "is too long"),
+    ):
+        for force in (False, True):
+            with pytest.raises(OutputError, match=words):
+                run_batch(
+                    logs, TANK, out_dir=tmp_path / "new", estimator="imm", junit=target, force=force
+                )
+            assert not (tmp_path / "new").exists()
+    assert mine.read_text() == "<mine/>" and (tmp_path / "pipe.xml").is_fifo()
+    # one of hybridlog's is replaced, with or without --force
+    run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", junit=junit)
 
 
 def test_resume_redoes_exactly_what_changed(
@@ -255,7 +271,7 @@ def test_junit_replaces_its_own_file_but_not_a_foreign_one(tmp_path: Path) -> No
     assert junit.read_bytes().startswith(first[:60])
     foreign = tmp_path / "results.xml"
     foreign.write_text("<mine/>", encoding="utf-8")
-    with pytest.raises(OutputError, match=r"^--junit .*results\.xml: already exists"):
+    with pytest.raises(OutputError, match=r"^--junit .*results\.xml: exists and is not a JUnit"):
         run_batch(logs, TANK, out_dir=tmp_path / "out2", estimator="imm", junit=foreign)
     assert foreign.read_text(encoding="utf-8") == "<mine/>"
     assert not (tmp_path / "out2").exists()

@@ -344,9 +344,19 @@ def test_force_replaces_only_hybridlogs_own_folders(tmp_path: Path) -> None:
     assert marker["pid"] == os.getpid() and isinstance(marker["command"], list)
     with pytest.raises(OutputError, match="not empty; use --force"):
         analyze(log, TANK, out_dir=out, estimator="imm")
-    (out / "notes.txt").write_text("mine, but inside hybridlog's folder")
+    # A file of the user's inside hybridlog's folder is never deleted (its MARKER lists
+    # what hybridlog wrote there), at any depth; without it the folder is replaced.
+    for mine in (out / "notes.txt", out / "plots" / "extra" / "mine.txt"):
+        mine.parent.mkdir(exist_ok=True)
+        mine.write_text("mine, but inside hybridlog's folder")
+        before = tree(out)
+        with pytest.raises(OutputError, match=f"did not write \\('{mine.relative_to(out)}'\\)"):
+            analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+        assert tree(out) == before
+        mine.unlink()
     analyze(log, TANK, out_dir=out, estimator="imm", force=True)
-    assert not (out / "notes.txt").exists() and (out / MARKER).is_file()
+    assert (out / MARKER).is_file() and not (out / "plots" / "extra").exists()
+    assert "report.json" in json.loads((out / MARKER).read_text())["files"]
     # A report folder of an earlier hybridlog (no marker yet) is hybridlog's too.
     (out / MARKER).unlink()
     assert is_ours(out)
@@ -369,6 +379,10 @@ def test_simulate_replaces_its_own_bag_folder_only(tmp_path: Path) -> None:
         write_log(bag, columns, format="ros2-sqlite3")
     write_log(bag, columns, format="ros2-mcap", force=True)
     assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
+    (bag / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match=r"did not write \('notes.txt'\)"):
+        write_log(bag, columns, format="ros2-mcap", force=True)
+    (bag / "notes.txt").unlink()
     recorded = write_ros2_bag(tmp_path / "recorded", scene(tank_run(steps=20)), "sqlite3")
     assert not written_by_hybridlog(recorded)
     with pytest.raises(OutputError, match="did not write"):
