@@ -19,7 +19,7 @@ format              content                    reader
 ``csv``             ``.csv``, any text         :class:`~hybridlog.io.tables.TableSource`
 ``parquet``         ``PAR1``                   :class:`~hybridlog.io.tables.TableSource`
 ``mcap``            ``\x89MCAP0\r\n``          :func:`~hybridlog.io.mcap_reader.open_mcap`:
-                                               rosbags for ``ros2``-profile files with a full
+                                               rosbags for ``ros2``-profile CDR files with a full
                                                summary, else the ``mcap`` library (also
                                                ``--recover``)
 ``ros1-bag``        ``#ROSBAG V2.0``, ``.bag`` :class:`~hybridlog.io.rosbag_reader.BagSource`

@@ -177,11 +177,17 @@ def summary_problem(summary: Any) -> str | None:
     return None
 
 
+_ROSBAGS_SCHEMAS = frozenset({"ros2msg", "ros2idl", "omgidl", ""})
+"""Schema encodings rosbags' MCAP storage reader takes (any other refuses the whole file)."""
+
+
 def rosbags_summary_problem(path: Path) -> str | None:
     """Why rosbags' MCAP reader would misread this finished ``ros2`` file, or ``None``.
 
     rosbags seeks with the summary only: it needs the channels and schemas repeated there
-    and, for chunked files, message indexes (without them it reads no message of a chunk).
+    and, for chunked files, message indexes (without them it reads no message of a chunk);
+    and it refuses a whole file for one channel of another encoding (a JSON or protobuf
+    topic beside the CDR ones), which the ``mcap`` reader reads topic by topic.
     """
     from mcap.reader import SeekingReader
 
@@ -191,13 +197,17 @@ def rosbags_summary_problem(path: Path) -> str | None:
     except Exception as err:  # a summary the mcap library cannot read: let the reader say why
         return f"its summary cannot be read ({excerpt(first_line(err))})"
     problem = summary_problem(summary)
-    if (
-        summary is not None
-        and problem is None
-        and any(not c.message_index_offsets for c in summary.chunk_indexes)
-    ):
-        problem = "its chunks have no message indexes"
-    return problem
+    if summary is None or problem is not None:
+        return problem
+    if any(not c.message_index_offsets for c in summary.chunk_indexes):
+        return "its chunks have no message indexes"
+    foreign = sorted(
+        {s.encoding for s in summary.schemas.values() if s.encoding not in _ROSBAGS_SCHEMAS}
+        | {c.message_encoding for c in summary.channels.values() if c.message_encoding != "cdr"}
+    )
+    if foreign:
+        return f"it has channels that are not ROS 2 CDR ({', '.join(foreign)})"
+    return None
 
 
 def recover_hint(path: Path, topic: str, found: int) -> str:

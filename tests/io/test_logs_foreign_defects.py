@@ -285,3 +285,40 @@ def test_a_topic_without_messages_missing_from_the_storage_is_no_problem(tmp_pat
     assert {t["name"]: t["count"] for t in info["topics"]} == {"/u": 30, "/y": 30, "/quiet": 0}
     assert info["problems"] == [] and "metadata" not in info["reading"]
     check_good_topics(bag)
+
+
+# ------------------------------------------------------------------ mixed encodings
+
+
+@pytest.mark.parametrize(
+    ("schema_encoding", "message_encoding", "data"),
+    [
+        ("jsonschema", "json", b'{"level": 1}'),
+        ("protobuf", "protobuf", b"\x08\x01"),
+        ("jsonschema", "json", None),  # a channel without messages
+    ],
+)
+def test_a_ros2_mcap_with_a_topic_of_another_encoding_reads_its_cdr_topics(
+    schema_encoding: str, message_encoding: str, data: bytes | None, tmp_path: Path
+) -> None:
+    """rosbags' MCAP reader refuses a whole file for one such channel; hybridlog does not."""
+    from mcap.writer import Writer
+
+    log = tmp_path / "mixed.mcap"
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="ros2", library="tests")
+        ids = []
+        for stream in good_streams():
+            schema = writer.register_schema(stream.msgtype, "ros2msg", stream.definition.encode())
+            ids.append((writer.register_channel(stream.topic, "cdr", schema), stream.messages))
+        other = writer.register_schema("Diagnostics", schema_encoding, b"{}")
+        diagnostics = writer.register_channel("/diagnostics", message_encoding, other)
+        if data is not None:
+            writer.add_message(diagnostics, 5 * 10**9, data, 5 * 10**9)
+        for channel, messages in ids:
+            for t, payload in messages:
+                writer.add_message(channel, t, payload, t)
+        writer.finish()
+    check_good_topics(log)
+    assert "/diagnostics" in format_inspection(inspect_log(log))
