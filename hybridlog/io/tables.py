@@ -683,28 +683,32 @@ def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
 
 
 def _check_truncated(path: Path) -> None:
-    """Reject a file whose last line has no newline and fewer fields than the header.
+    """Reject a file whose last line has no line ending.
 
-    That is what a log cut off while being written looks like; polars would silently read
-    the missing cells as empty.
+    That is what a log cut off while being written looks like: with fewer fields than the
+    header polars would read the missing cells as empty, and with all of them the last
+    number may itself be cut short (``69.78`` read as ``6``), which nothing in the line
+    shows.  Every CSV writer ends its last line; a file that does not cannot be vouched for.
     """
     with path.open("rb") as handle:
         handle.seek(0, 2)
         size = handle.tell()
         handle.seek(max(0, size - 65536))
         tail = handle.read()
-    if not tail or tail.endswith(b"\n"):
+    if not tail or tail.endswith((b"\n", b"\r")):
         return
     last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
     fields = next(csv.reader([last]), [])
     width = len(_read_csv_header(path))
-    if len(fields) < width:
-        with path.open("rb") as handle:
-            line = sum(chunk.count(b"\n") for chunk in iter(lambda: handle.read(1 << 20), b""))
-        raise LogError(
-            f"{path}, line {line + 1}: truncated last line ({len(fields)} of {width} fields "
-            "and no newline at the end of the file)"
-        )
+    with path.open("rb") as handle:
+        line = sum(chunk.count(b"\n") for chunk in iter(lambda: handle.read(1 << 20), b""))
+    if line == 0:
+        return  # the header alone: refused as a log without rows
+    shown = f"{len(fields)} of {width} fields" if len(fields) < width else "all its fields"
+    raise LogError(
+        f"{path}, line {line + 1}: the last line ({shown}) has no line ending, so the file "
+        "may have been cut off inside it; if that line is whole, end the file with a newline"
+    )
 
 
 def _as_labels(column: pl.Series) -> pl.Series:

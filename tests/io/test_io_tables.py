@@ -209,9 +209,22 @@ def test_blank_lines_are_skipped_but_counted(tmp_path: Path) -> None:
     np.testing.assert_array_equal(load(path).outputs[:, 0], [1, 2, 3])
 
 
-def test_truncated_last_line_is_an_error(tmp_path: Path) -> None:
-    with pytest.raises(LogError, match=r"line 4: truncated last line"):
-        load(csv_file(tmp_path, "t,u,y\n0.0,1,1\n0.1,1,1\n0.2,1"))
+@pytest.mark.parametrize(
+    ("text", "shown"),
+    [
+        ("t,u,y\n0.0,1,1\n0.1,1,1\n0.2,1", "2 of 3 fields"),
+        # cut inside the last number: every field is there, and 69.78 would read as 6
+        ("t,u,y\n0.0,1,1\n0.1,1,1\n0.2,1,6", "all its fields"),
+    ],
+)
+def test_a_last_line_without_line_ending_is_an_error(tmp_path: Path, text: str, shown: str) -> None:
+    path = csv_file(tmp_path, text)
+    with pytest.raises(LogError, match=rf"line 4: the last line \({shown}\) has no line ending"):
+        load(path)
+    if shown == "all its fields":  # the same line, ended, is read
+        for ending in ("\n", "\r\n"):
+            path.write_text(text + ending)
+            np.testing.assert_array_equal(load(path).time, [0.0, 0.1, 0.2])
 
 
 def test_line_with_too_many_fields_is_an_error(tmp_path: Path) -> None:
