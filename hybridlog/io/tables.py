@@ -508,6 +508,11 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
         raise LogError(f"{path}: empty file")
     if not line.strip():
         raise LogError(f"{path}, line 1: no header (the first line must name the columns)")
+    if line.endswith("\r"):  # newline="" ends a line at "\r\n", "\n" or a lone "\r"
+        raise LogError(
+            f"{path}, line 1: ends in a carriage return alone (classic Mac OS line endings); "
+            "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
+        )
     names = next(csv.reader([line]))
     if all(_is_number(name) for name in names):
         raise LogError(

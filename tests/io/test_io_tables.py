@@ -580,3 +580,13 @@ def test_fields_exclude_time(tmp_path: Path) -> None:
     with TableSource(csv_file(tmp_path, GOOD)) as source:
         assert source.fields() == ("u", "y", "mode")
         assert source.time_column == "t"
+
+
+@pytest.mark.parametrize("text", ["t,u,y\r0.0,1,1\r0.1,1,1\r", "t,u,y\r0.0,1,1\r0.1,1,1"])
+def test_carriage_returns_alone_as_line_endings_are_named(tmp_path: Path, text: str) -> None:
+    """Classic Mac OS line endings: one line to the csv module, an odd table to polars."""
+    path = csv_file(tmp_path, text)
+    with pytest.raises(LogError, match=r"line 1: ends in a carriage return alone"):
+        load(path)
+    with pytest.raises(LogError, match=r"carriage return alone"):
+        inspect_log(path)
