@@ -258,13 +258,19 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
     Raises
     ------
     LogError
-        When the log does not exist, is empty, its content does not match its suffix, or
-        its format is not supported (listing those that are).
+        When the log does not exist, is not a regular file or a folder (a pipe, which would
+        block, or a device), is empty, its content does not match its suffix, or its format
+        is not supported (listing those that are).
     """
     shown = os.fspath(path)
     file = Path(path)
     if not file.exists():
         raise LogError(f"{shown}: no such file")
+    if not (file.is_file() or file.is_dir()):
+        raise LogError(
+            f"{shown}: not a regular file (a pipe, device or socket); a log must be a file or "
+            "a bag folder, which hybridlog reads more than once"
+        )
     if file.is_dir():
         folders = [f for f in FORMATS if f.directory]
         chosen = next((f for f in folders if f.holds(file)), None)

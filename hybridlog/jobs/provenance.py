@@ -42,6 +42,8 @@ def content_hash(path: PathLike, *, what: str = "log") -> str:
         When the file or folder cannot be read (``what`` names it in the message).
     """
     target = Path(path)
+    if target.exists() and not (target.is_file() or target.is_dir()):
+        raise LogError(f"{what} {path}: not a regular file (a pipe, device or socket)")
     try:
         if not target.is_dir():
             return _file_digest(target).hex()

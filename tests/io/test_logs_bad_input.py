@@ -8,6 +8,7 @@ killed, bytes flipped, index records lost, definitions missing.
 from __future__ import annotations
 
 import json
+import os
 import sqlite3
 import struct
 from pathlib import Path
@@ -140,6 +141,23 @@ def test_empty_files(name: str, tmp_path: Path, capsys: pytest.CaptureFixture[st
     log = tmp_path / name
     log.write_bytes(b"")
     refused(log, capsys, name, "empty file")
+
+
+@pytest.mark.parametrize("name", ["pipe.csv", "pipe.mcap"])
+def test_a_pipe_is_refused_at_once_not_waited_on(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Opening a FIFO blocks until a writer comes: hybridlog hung; a batch hashed it first."""
+    from hybridlog.jobs.batch import run_batch
+
+    log = tmp_path / name
+    os.mkfifo(log)
+    refused(log, capsys, name, "not a regular file (a pipe, device or socket)")
+    (tmp_path / "zero.csv").symlink_to("/dev/zero")
+    refused(tmp_path / "zero.csv", capsys, "zero.csv: not a regular file")
+    outcome = run_batch([log], "three_tank_hstf", out_dir=tmp_path / "batch", estimator="imm")
+    (failed,) = outcome.logs
+    assert failed.status == "failed" and "not a regular file" in (failed.error or "")
 
 
 @pytest.mark.parametrize(
