@@ -356,13 +356,6 @@ def _notes(
             f"{int(bad.sum())} samples ({where}{more}; worst {condition[worst]:.3g} at "
             f"t = {time_s[worst]:.6g} s): the correction Q^-1 K (y - h) is unreliable there"
         )
-    broken = ~np.isfinite(states).all(axis=1)
-    if broken.any():
-        first = int(np.argmax(broken))
-        notes.append(
-            f"WARNING: the estimate is not finite from t = {time_s[first]:.6g} s on "
-            "(Q singular or the integration step too large for the gain)"
-        )
     return tuple(notes)
 
 
@@ -374,7 +367,8 @@ def run_switching_observer(
     Raises
     ------
     ModelError
-        The model has more than one output, or is not continuous-time.
+        The model has more than one output, or is not continuous-time; or the estimate
+        diverged (not finite at some sample: a report of it could vouch for nothing).
     LogError
         The log has no switching signal (the true mode column).
     OptionError
@@ -417,6 +411,15 @@ def run_switching_observer(
         observe(*arguments)
     runtime = time.perf_counter() - start
     states, predictions, condition, jumped = arguments[9:13]
+    broken = ~np.isfinite(states).all(axis=1)
+    if broken.any():  # no metric of a diverged run can be vouched for
+        first = int(np.argmax(broken))
+        raise ModelError(
+            f"{model.origin or model.name}: {NAME} diverged at t = {signals.time[first]:g} s "
+            f"(sample {first}): the estimate is not finite (Q singular, a jump map or the "
+            f"gain of eigenvalues {', '.join(f'{v:g}' for v in eigenvalues)} too large for "
+            f"the integration step)"
+        )
     probabilities = np.zeros((count, model.n_modes))
     probabilities[np.arange(count), modes] = 1.0
     switches = int(np.count_nonzero(np.diff(modes))) if count else 0

@@ -379,9 +379,26 @@ class Prepared:
         result: EstimationResult = self.estimator.run_function(
             model, signals, self.options, **inputs
         )
+        self._check_finite(model, result)
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
         return result
+
+    def _check_finite(self, model: HybridModel, result: EstimationResult) -> None:
+        """Refuse a result whose state estimate is not finite somewhere: it diverged.
+
+        No metric of such a run can be vouched for (a report would show, say, the prior's
+        error as the state RMSE); the streamed filters check each chunk the same way.
+        """
+        import numpy as np
+
+        finite = np.isfinite(result.state_means).all(axis=1)
+        if not finite.all():
+            row = int(np.argmin(finite))
+            raise ModelError(
+                f"{model.origin or model.name}: {self.name} diverged at t = "
+                f"{result.time[row]:g} s (sample {row}): the state estimate is not finite"
+            )
 
     def moves_modes(self, model: HybridModel) -> bool:
         """Whether the modes are moved one sample earlier for this model.

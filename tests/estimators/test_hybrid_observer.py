@@ -348,14 +348,15 @@ def test_analyze_a_clutch_log_end_to_end_and_without_the_mode_column(switched, t
     assert not (tmp_path / "none").exists()
 
 
-def test_a_singular_q_and_the_diverged_estimate_are_warnings_naming_the_time():
+def test_a_diverged_estimate_is_an_error_naming_the_time():
     # A stalled engine as the prior: at m = ω = T = 0, det Q = (β̄e/J²)(pω − (e'/e) L_f h) = 0
     stalled = builtin_text("ice_clutch").replace(
         "state = [0.1, 150.0, 12.0]", "state = [0.0, 0.0, 0.0]"
     )
-    _, _, _, result = clutch_run(stalled, "-4,-8,-12", [(0, 30), (1, 30)])
-    warnings = [note for note in result.notes if note.startswith("WARNING")]
-    assert len(warnings) == 2
-    assert "ill-conditioned (kappa_1 > 1e+06) on 1 samples (t = 0..0 s; worst inf" in warnings[0]
-    assert "the estimate is not finite from t = 0.01 s on" in warnings[1]
-    assert np.isnan(result.state_means[1:]).all()
+    with pytest.raises(
+        ModelError, match=r"switching-observer diverged at t = 0\.01 s \(sample 1\)"
+    ):
+        clutch_run(stalled, "-4,-8,-12", [(0, 30), (1, 30)])
+    # a gain too large for the integration step: was exit 0 with the prior's error as RMSE
+    with pytest.raises(ModelError, match=r"diverged at t = .* eigenvalues -10000\b"):
+        clutch_run(builtin_text("ice_clutch"), "-1e4", [(0, 30), (1, 30)])
