@@ -27,6 +27,13 @@ import sympy
 from hybridlog.errors import ModelError, excerpt
 
 
+_CONDITIONS = (
+    sympy.core.relational.Relational,
+    sympy.logic.boolalg.BooleanFunction,
+    sympy.logic.boolalg.BooleanAtom,
+)
+
+
 def _piecewise(*args: sympy.Expr) -> sympy.Expr:
     """``Piecewise(value, condition, value, condition, ..., otherwise)`` with flat arguments."""
     if len(args) < 3 or len(args) % 2 == 0:
@@ -35,6 +42,12 @@ def _piecewise(*args: sympy.Expr) -> sympy.Expr:
             f"got {len(args)} arguments"
         )
     pairs = [(args[i], args[i + 1]) for i in range(0, len(args) - 1, 2)]
+    for position, (_, condition) in enumerate(pairs, start=1):
+        if not isinstance(condition, _CONDITIONS):  # a Symbol is a sympy Boolean too
+            raise ValueError(
+                f"Piecewise: condition {position} ({excerpt(condition, 40)}) is a value, not "
+                "a comparison such as x1 > 0"
+            )
     return sympy.Piecewise(*pairs, (args[-1], True))
 
 
@@ -57,6 +70,16 @@ FUNCTIONS: Mapping[str, Callable[..., sympy.Expr]] = {
     "Piecewise": _piecewise,
 }
 """Functions a model expression may call.  ``Piecewise(a, c1, b, c2, ..., otherwise)``."""
+
+_ARITY: Mapping[str, tuple[int, int | None]] = {
+    "atan2": (2, 2),
+    "min": (1, None),
+    "max": (1, None),
+    "Piecewise": (3, None),
+}
+"""How many arguments each function takes, ``(at least, at most)``; the others take one.
+sympy's own functions take more (``sqrt(x, evaluate)``, ``log(x, base)``) with other
+meanings, so the count is checked before they are called."""
 
 CONSTANTS: Mapping[str, sympy.Expr] = {"pi": sympy.pi, "e": sympy.E}
 
@@ -201,12 +224,38 @@ def parse_expression(
         raise ModelError(f"{key}: {excerpt(text)} is a condition, not a value")
     if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
         raise ModelError(f"{key}: {excerpt(text)} is not finite (a division by zero?)")
+    overflow = _overflow(expression)
+    if overflow:
+        raise ModelError(
+            f"{key}: {excerpt(text)} is not finite in double precision ({overflow} overflows)"
+        )
     reason = _complex_reason(expression)
     if reason:
         raise ModelError(
             f"{key}: {excerpt(text)} is complex-valued ({reason}); model expressions must be real"
         )
     return expression
+
+
+def _overflow(expression: sympy.Expr) -> str:
+    """A constant of ``expression`` beyond float64 (``1e200*1e200``, ``exp(1000)``), or ``""``.
+
+    sympy's numbers have no limit, so such a constant passes its own checks and becomes
+    ``inf`` in the compiled code.
+    """
+    constants = expression.atoms(sympy.Number) | {
+        node for node in expression.atoms(sympy.Function, sympy.Pow) if node.is_number
+    }
+    for node in sorted(constants, key=sympy.default_sort_key):
+        try:
+            value = float(node)
+        except OverflowError:
+            return excerpt(node, 40)
+        except TypeError:  # complex: said by _complex_reason
+            continue
+        if not math.isfinite(value):
+            return excerpt(node, 40)
+    return ""
 
 
 def _complex_reason(expression: sympy.Expr) -> str:
@@ -355,4 +404,11 @@ class _Converter:
             raise self.fail("a keyword argument")
         if any(isinstance(arg, ast.Starred) for arg in node.args):
             raise self.fail("argument unpacking")
+        name, given = node.func.id, len(node.args)
+        least, most = _ARITY.get(name, (1, 1))
+        if given < least or (most is not None and given > most):
+            wanted = (
+                f"exactly {least}" if least == most else f"at least {least}"
+            ) + f" argument{'s' if least > 1 else ''}"
+            raise ModelError(f"{self.key}: {name} takes {wanted} ({given} given)")
         return function(*(self.visit(arg) for arg in node.args))

@@ -216,6 +216,26 @@ def test_complex_valued_expressions_are_refused_naming_the_key(expression):
         parse_model(text, origin="plant.toml")
 
 
+@pytest.mark.parametrize(
+    ("expression", "words"),
+    [
+        # sympy's numbers have no limit: these became inf in the compiled code
+        ("theta*1e200*1e200", r"not finite in double precision \('1\.0+e\+400' overflows\)"),
+        ("theta + exp(1000)", r"not finite in double precision \('exp\(1000\)' overflows\)"),
+        ("max(theta, 1e308*10)", "not finite in double precision"),
+        # sympy's own extra arguments mean something else: sqrt(x, evaluate), log(x, base)
+        ("theta + sqrt(4, 100)", r"sqrt takes exactly 1 argument \(2 given\)"),
+        ("theta + log(2, 0)", r"log takes exactly 1 argument \(2 given\)"),
+        ("atan2(theta)", r"atan2 takes exactly 2 arguments \(1 given\)"),
+        ("Piecewise(theta, omega, 0)", r"condition 1 \('omega'\) is a value, not a comparison"),
+    ],
+)
+def test_constants_beyond_float64_and_wrong_arguments_are_refused_naming_the_key(expression, words):
+    text = _replace(PENDULUM_ONE_MODE, _F0, f'"{expression}"')
+    with pytest.raises(ModelError, match=rf"^plant\.toml: modes\.only\.f\[0\]: .*{words}"):
+        parse_model(text, origin="plant.toml")
+
+
 def test_complex_simulation_input_and_matrix_entry_are_refused():
     text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
     with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
