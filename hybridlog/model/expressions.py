@@ -26,7 +26,6 @@ import sympy
 
 from hybridlog.errors import ModelError, excerpt
 
-
 _CONDITIONS = (
     sympy.core.relational.Relational,
     sympy.logic.boolalg.BooleanFunction,
