@@ -10,6 +10,15 @@ import numpy.typing as npt
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+SHORTEST_DT_S = 1e-9
+"""The shortest sample time: the grid counts whole nanoseconds."""
+LONGEST_DT_S = 1e7
+"""The longest sample time or gap (about 116 days): the grid counts nanoseconds in int64
+(up to 9.2e9 s), and a gap of several sample times must fit."""
+MAX_SUBSTEPS = 100_000
+"""The most integration steps per sample of a continuous-time model (``dt / step``); more
+would take hours on any log, with no gain in accuracy a log's sample time could show."""
+
 MAX_MAGNITUDE = 2.0**480
 """Largest magnitude (≈ 3.1e144) of a signal value hybridlog accepts from a log.
 

@@ -38,7 +38,7 @@ import numpy as np
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
 from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import LONGEST_DT_S, SHORTEST_DT_S, AlignedSignals, FloatArray, IntArray
 
 DEFAULT_MAX_GAP_STEPS = 5
 
@@ -54,10 +54,13 @@ def step_ns(dt: float) -> int:
     Raises
     ------
     OptionError
-        When ``dt`` is not finite or is shorter than a nanosecond.
+        When ``dt`` is not finite, or outside ``[SHORTEST_DT_S, LONGEST_DT_S]``.
     """
-    if not np.isfinite(dt) or round(dt * NS_PER_S) < 1:
-        raise OptionError(f"dt: sample time must be a positive number of seconds, got {dt}")
+    if not (np.isfinite(dt) and SHORTEST_DT_S <= dt <= LONGEST_DT_S):
+        raise OptionError(
+            f"dt: the sample time must be between {SHORTEST_DT_S:g} s and {LONGEST_DT_S:g} s, "
+            f"got {dt:g}"
+        )
     return round(dt * NS_PER_S)
 
 

@@ -36,10 +36,16 @@ def check_resample(resample: str) -> Resample:
     return "linear" if resample == "linear" else "nearest"
 
 
+LONGEST_GAP_S = 1e9
+"""The longest ``--max-gap``: the grid counts nanoseconds in int64 (up to 9.2e9 s)."""
+
+
 def check_max_gap(max_gap: float | None) -> None:
-    """Refuse a ``max_gap`` that is not ``None`` or a finite, non-negative number of seconds."""
-    if max_gap is not None and (not math.isfinite(max_gap) or max_gap < 0):
-        raise OptionError(f"max_gap: must be a non-negative number of seconds, got {max_gap}")
+    """Refuse a ``max_gap`` that is neither ``None`` nor seconds in ``[0, LONGEST_GAP_S]``."""
+    if max_gap is not None and not (math.isfinite(max_gap) and 0 <= max_gap <= LONGEST_GAP_S):
+        raise OptionError(
+            f"max_gap: must be between 0 and {LONGEST_GAP_S:g} seconds, got {max_gap:g}"
+        )
 
 
 @dataclass(frozen=True)

@@ -67,7 +67,7 @@ from hybridlog.model.values import (
     key_path,
     required,
 )
-from hybridlog.signals import FloatArray
+from hybridlog.signals import LONGEST_DT_S, MAX_SUBSTEPS, SHORTEST_DT_S, FloatArray
 
 __all__ = ["load_model", "parse_model"]
 
@@ -530,6 +530,11 @@ def _timebase(data: Mapping[str, Any]) -> Timebase:
             f"time: expected 'discrete' or 'continuous', got {excerpt(repr(time), 40)[1:-1]}"
         )
     dt = as_positive(required(data, "dt", ""), "dt")
+    if not SHORTEST_DT_S <= dt <= LONGEST_DT_S:
+        raise ModelError(
+            f"dt: the sample time must be between {SHORTEST_DT_S:g} s and {LONGEST_DT_S:g} s, "
+            f"got {dt:g}"
+        )
     if time == "discrete":
         if "integration" in data:
             raise ModelError(
@@ -551,6 +556,11 @@ def _timebase(data: Mapping[str, Any]) -> Timebase:
         raise ModelError(
             f"integration.step: dt = {dt:g} must be an integer multiple of the integration "
             f"step {step:g} (dt/step = {ratio:.6g})"
+        )
+    if round(ratio) > MAX_SUBSTEPS:
+        raise ModelError(
+            f"integration.step: {step:g} s gives {round(ratio):,} integration steps per sample "
+            f"of dt = {dt:g} s (at most {MAX_SUBSTEPS:,})"
         )
     checked: IntegrationMethod = "euler" if method == "euler" else "rk4"
     return Timebase(kind="continuous", dt=dt, step=step, method=checked)

@@ -241,9 +241,9 @@ def test_signals_that_do_not_overlap() -> None:
     ("options", "pattern"),
     [
         ({"resample": "cubic"}, "resample: unknown method 'cubic'"),
-        ({"max_gap": -1.0}, "max_gap: must be a non-negative"),
-        ({"dt": 0.0}, "dt: sample time must be a positive"),
-        ({"dt": float("nan")}, "dt: sample time must be a positive"),
+        ({"max_gap": -1.0}, "max_gap: must be between 0 and"),
+        ({"dt": 0.0}, "dt: the sample time must be between 1e-09 s and"),
+        ({"dt": float("nan")}, "dt: the sample time must be between 1e-09 s and"),
     ],
 )
 def test_bad_options(options: dict[str, object], pattern: str) -> None:

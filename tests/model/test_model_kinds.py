@@ -64,6 +64,25 @@ def test_continuous_model_has_dx_and_an_integration_step():
     assert spaced.mode_ids[1] == "valve closed"
 
 
+@pytest.mark.parametrize(
+    ("old", "new", "words"),
+    [
+        # nanoseconds of the grid overflowed int64: an unexpected OverflowError in align.py
+        ("dt = 0.01", "dt = 1e10", r"^m\.toml: dt: the sample time must be between 1e-09 s and"),
+        ("dt = 0.01", "dt = 1e-10", r"^m\.toml: dt: .* got 1e-10"),
+        # a billion substeps per sample: ran for hours without a word
+        (
+            "step = 0.001",
+            "step = 1e-11",
+            r"^m\.toml: integration\.step: 1e-11 s gives 1,000,000,000",
+        ),
+    ],
+)
+def test_time_steps_beyond_what_the_grid_and_integrator_can_take_are_refused(old, new, words):
+    with pytest.raises(ModelError, match=words):
+        parse_model(_replace(CONTINUOUS_TANK, old, new), origin="m.toml")
+
+
 # --- linear modes as matrices -------------------------------------------------------------
 
 
