@@ -118,6 +118,10 @@ class Topic:
         return f"{self.name!r} ({self.msgtype or 'no type'})"
 
 
+_LATEST_NS = 2**63 - 1
+"""The latest log time (ns) hybridlog holds: its time arrays are int64."""
+
+
 class MessageSource(abc.ABC):
     """Base of the message-log readers: a :class:`~hybridlog.io.source.LogSource`.
 
@@ -179,6 +183,12 @@ class MessageSource(abc.ABC):
                 raise
             except Exception as err:  # corrupt bytes make the libraries raise anything
                 raise self._damaged(err) from err
+            if item[1] > _LATEST_NS:  # an unsigned 64-bit log time int64 cannot hold
+                raise LogError(
+                    f"{self.path}: topic {item[0]!r}: a message's log time, {item[1]} ns, is "
+                    "after the year 2262 (2^63 ns), which no clock records: a damaged or "
+                    "mis-stamped log"
+                )
             yield item
 
     # ------------------------------------------------------------------ LogSource

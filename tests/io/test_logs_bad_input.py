@@ -143,6 +143,22 @@ def test_empty_files(name: str, tmp_path: Path, capsys: pytest.CaptureFixture[st
     refused(log, capsys, name, "empty file")
 
 
+@pytest.mark.parametrize("profile", ["ros2", ""])
+def test_a_log_time_beyond_int64_names_the_topic(
+    profile: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """MCAP log times are uint64: one past 2^63 was an unexpected OverflowError."""
+    run_ = tank_run()
+    channels = [Channel(f"/{name}") for name in ("u", "y1", "y2", "y3")]
+    messages = [
+        (j, t if (k, j) != (7, 1) else 2**64 - 1, float64_cdr(float(run_.columns[name][k])))
+        for k, t in enumerate(run_.time_ns.tolist())
+        for j, name in enumerate(("u", "y1", "y2", "y3"))
+    ]
+    log = write_mcap(tmp_path / "late.mcap", channels, messages, profile=profile)
+    refused(log, capsys, "topic '/y1': a message's log time, 18446744073709551615 ns, is after")
+
+
 @pytest.mark.parametrize("name", ["pipe.csv", "pipe.mcap"])
 def test_a_pipe_is_refused_at_once_not_waited_on(
     name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
