@@ -308,6 +308,23 @@ def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> Messag
     return McapSource(path, layout, options)
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object as a dict; a key given twice is refused (``json`` keeps the last)."""
+    result = dict(pairs)
+    if len(result) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise ValueError(f"the key {key!r} is given twice in one object")
+            seen.add(key)
+    return result
+
+
+def _decode_json(data: bytes) -> Any:
+    """A JSON message, refusing duplicate keys (which of the values is meant?)."""
+    return json.loads(data, object_pairs_hook=_unique_keys)
+
+
 class McapSource(MessageSource):
     """An MCAP file read with the ``mcap`` library (see the module docstring).
 
@@ -434,7 +451,7 @@ class McapSource(MessageSource):
         msgtype = normal_type(schema.name) if schema is not None else ""
         topic = Topic(name, msgtype, encoding, count)
         if encoding == "json":
-            topic.decode = json.loads
+            topic.decode = _decode_json
             if schema is not None and schema.encoding == "jsonschema":
                 topic.json_schema = parse_json_schema(schema.data)
             return topic

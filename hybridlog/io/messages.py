@@ -481,6 +481,8 @@ class _Wanted:
     values: list[FloatArray] = field(default_factory=list)
     codes: list[IntArray] = field(default_factory=list)
     categories: list[tuple[str, ...]] = field(default_factory=list)
+    booleans: bool | None = None
+    """JSON: whether this path's values are ``true``/``false`` (``None`` before the first)."""
 
 
 class _TopicReader:
@@ -524,7 +526,7 @@ class _TopicReader:
             for wanted, values, labels in zip(self.wanted, numbers, texts, strict=True):
                 try:
                     if values is not None:
-                        self._read_numbers(messages, wanted.path.steps, values[part])
+                        self._read_numbers(messages, wanted, values[part])
                     else:
                         _read_labels(messages, wanted.path.steps, labels)
                 except _RowError as err:
@@ -564,17 +566,44 @@ class _TopicReader:
             )
         return decode_each(decode, datas)
 
-    def _read_numbers(self, messages: list[object], steps: Sequence[Step], out: FloatArray) -> None:
-        """Fill ``out`` with the numbers at ``steps``; a :class:`_RowError` names a bad one."""
+    def _read_numbers(self, messages: list[object], wanted: _Wanted, out: FloatArray) -> None:
+        """Fill ``out`` with the numbers ``wanted`` names; a :class:`_RowError` names a bad one.
+
+        A boolean is read as 0/1 (a ROS ``bool``), but in JSON, which has both, only where
+        the path holds nothing else: ``true`` where the schema declares a number, or amid
+        numbers, is refused rather than read as 1.
+        """
+        steps = wanted.path.steps
         values = self._numbers(messages, steps)
         if values is not None:
             out[:] = values
             return
+        json = self.topic.encoding == "json"
         for row, message in enumerate(messages):  # the careful loop, which names what is wrong
             try:
-                out[row] = as_number(evaluate(message, steps))
+                value = evaluate(message, steps)
+                if json:
+                    self._check_json_kind(wanted, value)
+                out[row] = as_number(value)
             except PathError as err:
                 raise _RowError(row, err) from None
+
+    def _check_json_kind(self, wanted: _Wanted, value: object) -> None:
+        """Refuse a JSON boolean where numbers are meant, and a number among booleans."""
+        boolean = isinstance(value, bool)
+        if wanted.booleans is None:
+            schema = self.topic.json_schema
+            declared = None if schema is None else _json_type(schema, wanted.path.steps)
+            if boolean and declared in ("number", "integer"):
+                raise PathError(
+                    f"is a boolean ({str(value).lower()}) where the schema declares a {declared}"
+                )
+            wanted.booleans = boolean if declared != "boolean" else True
+        if boolean != wanted.booleans:
+            raise PathError(
+                f"is {'a boolean' if boolean else 'a number'} where the messages before held "
+                f"{'numbers' if boolean else 'booleans'}"
+            )
 
     def _numbers(self, messages: list[object], steps: Sequence[Step]) -> FloatArray | None:
         """The numbers at ``steps`` in one go, or ``None`` when any message needs a closer look.
@@ -724,6 +753,18 @@ def parse_json_schema(data: bytes) -> Mapping[str, Any] | None:
 
 def _json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     """What ``steps`` name in a JSON schema, or ``None`` where the schema does not say."""
+    return {
+        "number": "number",
+        "integer": "number",
+        "boolean": "number",
+        "string": "string",
+        "object": "message",
+        "array": "array",
+    }.get(str(_json_type(schema, steps)))
+
+
+def _json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
+    """The JSON type a schema gives ``steps`` (``"integer"``, ...), or ``None`` if none."""
     node: Any = schema
     done: list[Step] = []
     for step in steps:
@@ -750,14 +791,7 @@ def _json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     kind = node.get("type")
     if isinstance(kind, list):
         kind = next((k for k in kind if k != "null"), None)
-    return {
-        "number": "number",
-        "integer": "number",
-        "boolean": "number",
-        "string": "string",
-        "object": "message",
-        "array": "array",
-    }.get(str(kind))
+    return None if kind is None else str(kind)
 
 
 def _json_leaves(schema: Mapping[str, Any], prefix: str = "", depth: int = 0) -> list[str]:

@@ -322,3 +322,74 @@ def test_a_ros2_mcap_with_a_topic_of_another_encoding_reads_its_cdr_topics(
         writer.finish()
     check_good_topics(log)
     assert "/diagnostics" in format_inspection(inspect_log(log))
+
+
+def _json_log(path: Path, u_values: list[object], schema: dict[str, Any] | None) -> Path:
+    """``/u`` (with ``schema``) and ``/y`` as JSON messages, one per second (``y = 2k``)."""
+    from mcap.writer import Writer
+
+    with path.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="", library="tests")
+        text = json.dumps(schema or {}).encode()
+        sid = writer.register_schema("Value", "jsonschema" if schema else "", text)
+        u = writer.register_channel("/u", "json", sid)
+        y = writer.register_channel("/y", "json", 0)
+        for k, value in enumerate(u_values):
+            t = k * 10**9
+            writer.add_message(u, t, json.dumps({"data": value}).encode(), t)
+            writer.add_message(y, t, json.dumps({"data": 2.0 * k}).encode(), t)
+        writer.finish()
+    return path
+
+
+NUMBER = {"type": "object", "properties": {"data": {"type": "number"}}}
+BOOLEAN = {"type": "object", "properties": {"data": {"type": "boolean"}}}
+
+
+@pytest.mark.parametrize(
+    ("values", "schema", "words"),
+    [
+        ([0.0, 1.0, True, 3.0], NUMBER, "is a boolean where the messages before held numbers"),
+        (
+            [True, 1.0, 2.0, 3.0],
+            NUMBER,
+            r"is a boolean \(true\) where the schema declares a number",
+        ),
+        ([0.0, 1.0, False, 3.0], None, "is a boolean where the messages before held numbers"),
+        ([True, False, 2.0, True], None, "is a number where the messages before held booleans"),
+    ],
+)
+def test_a_json_boolean_among_numbers_is_refused_naming_the_message(
+    values: list[object], schema: dict[str, Any] | None, words: str, tmp_path: Path
+) -> None:
+    """``true`` was read as 1.0 where a number was meant (CSV and Parquet refuse it)."""
+    log = _json_log(tmp_path / "u.mcap", values, schema)
+    with pytest.raises(LogError, match=rf"'/u\.data': the value {words} in the message logged"):
+        load(log, "/y.data")
+
+
+@pytest.mark.parametrize("schema", [BOOLEAN, None])
+def test_json_booleans_alone_are_read_as_0_and_1(
+    schema: dict[str, Any] | None, tmp_path: Path
+) -> None:
+    log = _json_log(tmp_path / "valve.mcap", [True, False, True, True], schema)
+    np.testing.assert_array_equal(load(log, "/y.data").inputs[:, 0], [1.0, 0.0, 1.0, 1.0])
+
+
+def test_a_json_key_given_twice_is_refused_not_the_last_one_taken(tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    log = tmp_path / "twice.mcap"
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="", library="tests")
+        u = writer.register_channel("/u", "json", 0)
+        y = writer.register_channel("/y", "json", 0)
+        for k in range(3):
+            t = k * 10**9
+            writer.add_message(u, t, f'{{"data": {k}.0, "data": 999.0}}'.encode(), t)
+            writer.add_message(y, t, f'{{"data": {2 * k}.0}}'.encode(), t)
+        writer.finish()
+    with pytest.raises(LogError, match=r"t=0 s cannot be decoded \(the key 'data' is given twice"):
+        load(log, "/y.data")
