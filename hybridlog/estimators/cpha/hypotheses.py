@@ -40,7 +40,7 @@ from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["Hypothesis", "Tracker", "TransitionTable"]
+__all__ = ["ClusterStepError", "Hypothesis", "Tracker", "TransitionTable"]
 
 
 class TransitionTable:
@@ -282,6 +282,10 @@ class _Pending(NamedTuple):
     no_prediction: FloatArray
 
 
+class ClusterStepError(ArithmeticError):
+    """A cluster's EKF hit a point where its equations or their Jacobians are not finite."""
+
+
 class Tracker:
     """Hybrid estimation over one log: :meth:`start`, then :meth:`step` for k = 1, 2, ….
 
@@ -430,15 +434,23 @@ class Tracker:
             measured = self._measured.get(i)
             if measured is None:
                 measured = self._measured[i] = compiled.measured(u_prev, y_prev, u_now, y_now)
-            result = compiled.step(
-                x_parent,
-                P_parent.reshape(len(idx), len(idx)),
-                u_prev,
-                y_prev,
-                u_now,
-                y_now,
-                measured,
-            )
+            try:
+                result = compiled.step(
+                    x_parent,
+                    P_parent.reshape(len(idx), len(idx)),
+                    u_prev,
+                    y_prev,
+                    u_now,
+                    y_now,
+                    measured,
+                )
+            except (ArithmeticError, ValueError, RuntimeWarning) as err:  # 1/0, sqrt(-1)
+                cluster = compiled.cluster
+                raise ClusterStepError(
+                    f"the EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
+                    f"(components {', '.join(cluster.components)}) cannot step at sample {k} "
+                    f"({err}): a Jacobian of its equations is not finite there"
+                ) from err
             memo[key] = result
             self.filtered += 1
         if source is not None:

@@ -53,7 +53,7 @@ from dataclasses import replace
 import numpy as np
 
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
-from hybridlog.estimators.cpha.hypotheses import Hypothesis, Tracker
+from hybridlog.estimators.cpha.hypotheses import ClusterStepError, Hypothesis, Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
@@ -151,7 +151,10 @@ def run_unknown_mode(
     p_unknown = np.zeros((n, len(components)))
     for k in range(n):
         if k > 0:
-            hypotheses = tracker.step(hypotheses, k)
+            try:
+                hypotheses = tracker.step(hypotheses, k)
+            except ClusterStepError as err:
+                raise model.error("components", f"at t = {signals.time[k]:g} s {err}") from err
         if histories is not None:
             histories.keep(hypotheses, tracker.parents if k > 0 else [])
         row: dict[int, float] = {}
