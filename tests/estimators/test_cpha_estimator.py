@@ -250,3 +250,17 @@ def test_a_cluster_whose_jacobian_is_infinite_is_a_one_line_error_naming_the_key
     with pytest.raises(ModelError, match=r"^bent\.toml: components: at t = .* cannot step") as info:
         run_unknown_mode(bent, signals, UnknownModeOptions())
     assert "\n" not in str(info.value)
+
+
+def test_an_equation_that_determines_nothing_is_refused_not_dropped(model):
+    """``yc1 = 2*xc1`` beside ``yc1 = xc1``: the run ignored it and reported the model's fit."""
+    from hybridlog.errors import ModelError
+
+    signals = cpha_log(model, 20, seed=3)
+    contradicting = parse_model(
+        CPHA_EXAMPLE.replace('"yc1 = xc1"', '"yc1 = xc1", "yc1 = 2*xc1"', 1), origin="two.toml"
+    )
+    with pytest.raises(
+        ModelError, match=r"^two\.toml: components\..*equations\[2\]: determines nothing"
+    ):
+        run_unknown_mode(contradicting, signals, UnknownModeOptions())

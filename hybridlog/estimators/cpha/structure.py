@@ -10,8 +10,8 @@ into a *filter cluster*:
    outputs or internal variables (inputs are given, states are set by their difference
    equations).  A variable no equation determines is *exogenous*.  The causal graph has an
    edge ``v → w`` when ``w``'s equation uses ``v`` (Definition 4, Fig. 6).  An algebraic
-   equation left without a variable (a redundant relation among determined variables) is not
-   used; :attr:`Decomposition.unmatched` lists it.
+   equation left without a variable (a relation among variables other equations determine:
+   redundant, or contradicting them) is refused rather than silently dropped.
 2. **Slicing** at the observed variables: an observed variable's outgoing edges move to a new
    vertex, its *virtual input* ``u[y]`` (Fig. 7): downstream equations use the measurement.
 3. **Strongly connected components** of the sliced graph
@@ -292,12 +292,19 @@ def decompose(
     ------
     ModelError
         A cluster's algebraic equations cannot be solved explicitly for the variables they
-        determine (naming the equation's key and the assignment).
+        determine, or an equation determines nothing (naming the equation's key and the
+        assignment).
     """
     names = _Names(states, inputs, outputs, variables)
     owned = _owner_modes(components, assignment)
     equations = [e for e, _, _ in owned]
     graph, determined_by, unmatched = _causal_graph(names, equations)
+    if unmatched:
+        raise ModelError(
+            f"{unmatched[0]}: determines nothing at the mode assignment {'|'.join(assignment)}: "
+            "every variable it relates is determined by another equation, so it would be "
+            "ignored (remove it if it is redundant; as it stands it may contradict them)"
+        )
     sliced = _slice(graph, outputs)
     sccs, scc_of = _sccs(sliced)
     n_scc = len(sccs)

@@ -52,6 +52,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from hybridlog.errors import ModelError
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
 from hybridlog.estimators.cpha.hypotheses import ClusterStepError, Hypothesis, Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
@@ -128,7 +129,27 @@ def make_tracker(
 def run_unknown_mode(
     model: HybridModel, signals: AlignedSignals, options: UnknownModeOptions
 ) -> EstimationResult:
-    """Run hybrid estimation with unknown modes over the aligned log (module docstring)."""
+    """Run hybrid estimation with unknown modes over the aligned log (module docstring).
+
+    Raises
+    ------
+    ModelError
+        Naming the model file and key: what the structural analysis of a mode assignment
+        the run reaches refuses (an equation that determines nothing, one that cannot be
+        solved), or a cluster's EKF that cannot step.
+    """
+    try:
+        return _run(model, signals, options)
+    except ModelError as err:  # the analysis of a later assignment names only its key
+        origin = f"{model.origin or model.name}: "
+        if str(err).startswith(origin):
+            raise
+        raise ModelError(f"{origin}{err}") from err
+
+
+def _run(
+    model: HybridModel, signals: AlignedSignals, options: UnknownModeOptions
+) -> EstimationResult:
     tracker = make_tracker(model, signals, options)
     n = signals.n_samples
     n_x, n_y = model.n_states, model.n_outputs
