@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = [
+    "MAX_UNROLLED_MODES",
     "MAX_UNROLLED_SIZE",
     "Entry",
     "Matrix",
@@ -531,9 +532,21 @@ MAX_UNROLLED_SIZE = 6
 of the dimension, and beyond this the compiled loops of ``kernels.py`` compile faster."""
 
 
+MAX_UNROLLED_MODES = 8
+"""Most modes given straight-line code: the IMM's mixing and the searches grow with the
+square of the mode count; a 30-mode model's code took minutes to compile, then overflowed
+Python's recursion limit, where the compiled loops take seconds."""
+
+
 def fits_unrolled(model: HybridModel) -> bool:
-    """Whether straight-line code pays for ``model`` (at most :data:`MAX_UNROLLED_SIZE`)."""
-    return max(model.n_states, model.n_outputs) <= MAX_UNROLLED_SIZE
+    """Whether straight-line code pays for ``model``: it is small enough.
+
+    At most :data:`MAX_UNROLLED_SIZE` states and outputs and :data:`MAX_UNROLLED_MODES` modes.
+    """
+    return (
+        max(model.n_states, model.n_outputs) <= MAX_UNROLLED_SIZE
+        and model.n_modes <= MAX_UNROLLED_MODES
+    )
 
 
 def use_unrolled(model: HybridModel, kernel: str) -> bool:

@@ -494,3 +494,29 @@ def test_a_components_model_too_large_to_enumerate_is_refused_before_reading():
         with pytest.raises(ModelError, match=r"describes concurrent \[components\]") as caught:
             prepare(model, name)
         assert "\n" not in str(caught.value)
+
+
+def test_a_model_of_many_modes_runs_on_the_compiled_loops():
+    """30 modes: straight-line code took minutes to compile, then overflowed the recursion
+    limit (an unexpected RecursionError); beyond MAX_UNROLLED_MODES the loops run it."""
+    from hybridlog.estimators.unrolled import MAX_UNROLLED_MODES, fits_unrolled
+
+    modes = "".join(
+        f'[modes.m{i}]\nf = ["{0.5 + 0.4 * i / 30:.3f}*x + u"]\nh = ["x"]\n' for i in range(30)
+    )
+    model = parse_model(
+        'name = "many"\ntime = "discrete"\ndt = 1.0\nstates = ["x"]\ninputs = ["u"]\n'
+        f'outputs = ["y"]\n{modes}[noise]\nprocess = 0.1\nmeasurement = 0.1\n'
+        '[initial]\nstate = [0.0]\ncovariance = 1.0\nmode = "m0"\n'
+        '[simulation]\nstate = [0.0]\nschedule = "m0:30,m29:30"\n'
+        '[simulation.inputs]\nu = "sin(0.1*t)"\n'
+    )
+    assert model.n_modes > MAX_UNROLLED_MODES and not fits_unrolled(model)
+    signals = simulate(model, steps=60, seed=1).signals(model)
+    for name, sets in (
+        ("imm", {"smooth": "true"}),
+        ("imm", {"mode_sequence": "kbest"}),
+        ("hstf", {}),
+    ):
+        result = prepare(model, name, sets).run(model, signals)
+        assert result.n_samples == signals.n_samples and np.isfinite(result.state_means).all()
