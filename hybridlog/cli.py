@@ -17,6 +17,7 @@ import gc
 import importlib
 import json
 import os
+import signal
 import sys
 import time
 import traceback
@@ -1065,6 +1066,20 @@ def _failure(err: Exception) -> str:
     )
 
 
+class _Terminated(SystemExit):
+    """``SIGTERM`` (a CI job's timeout, ``kill``) in the console script."""
+
+
+def _terminate(signum: int, frame: object) -> NoReturn:
+    """End on ``SIGTERM`` as on an interrupt: unwinding removes what is half-written.
+
+    The default action ends the process at once, leaving the temporary output folder a
+    command was writing beside its target; raised here, the exception runs every ``with``
+    block's clean-up first.  Exit code 143 (128 + 15), as a shell reports it.
+    """
+    raise _Terminated(128 + signum)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     """Console entry point: run the CLI; every failure becomes one line and an exit code.
 
@@ -1075,6 +1090,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     _PROCESS["one_command"] = argv is None
     if argv is None:
         single_threaded_blas()
+        signal.signal(signal.SIGTERM, _terminate)
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
     code = 0
@@ -1094,6 +1110,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     except click.ClickException as err:
         click.echo(_one_line(f"hybridlog: error: {err.format_message()}"), err=True)
         code = 2 if err.exit_code in (1, 2) else err.exit_code
+    except _Terminated as err:
+        click.echo("hybridlog: terminated", err=True)
+        code = int(err.code or 0)
     except SystemExit as err:  # sys.exit inside a command (a missed gate, failed logs)
         if not isinstance(err.code, int):
             raise

@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from hybridlog.model.builtins import builtin_text
 from tests.support.models import POLE
 
@@ -100,9 +102,12 @@ def test_an_estimator_error_in_the_workers_process_is_one_line(tmp_path: Path) -
     assert not out.exists() and not _left_running(str(out))
 
 
-def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path) -> None:
-    """Ctrl-C (SIGINT to the command's process group) while the estimator streams: the
-    command and both its workers end, nothing is written."""
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
+def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path, how: str) -> None:
+    """Ctrl-C (SIGINT to the command's process group), or SIGTERM to the command alone (a
+    CI job's timeout, ``kill``), while the estimator streams: the command and both its
+    workers end, nothing is written and no temporary folder is left (SIGTERM's default
+    action left one)."""
     import signal
     import time
 
@@ -122,10 +127,16 @@ def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path) -> None:
         assert command.poll() is None, "the command ended before its tables were begun"
         assert time.monotonic() < deadline, "no tables begun in 60 s"
         time.sleep(0.005)
-    os.killpg(command.pid, signal.SIGINT)
-    command.communicate(timeout=60)
-    assert command.returncode in (130, -signal.SIGINT)
-    assert not out.exists()
+    if how == "ctrl-c":
+        os.killpg(command.pid, signal.SIGINT)
+    else:
+        os.kill(command.pid, signal.SIGTERM)
+    _, err = command.communicate(timeout=60)
+    if how == "ctrl-c":
+        assert command.returncode in (130, -signal.SIGINT)
+    else:
+        assert command.returncode == 143 and err.decode() == "hybridlog: terminated\n"
+    assert not out.exists() and not list(tmp_path.glob(".out.hybridlog-*"))
     deadline = time.monotonic() + 10
     while _left_running(str(out)) and time.monotonic() < deadline:
         time.sleep(0.1)
