@@ -674,12 +674,30 @@ def _first_odd_line(data: bytes, width: int) -> tuple[int, int]:
 
 
 def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
-    """Like :func:`_first_odd_line` for files with quoted fields, by the ``csv`` module."""
+    """Like :func:`_first_odd_line` for files with quoted fields, by the ``csv`` module.
+
+    A quoted field that runs over more than one line is refused here: no value of a log
+    needs a line break, so it is an unclosed quote (which swallows the rest of the file
+    into one record), and every line number reported later counts one record per line.
+
+    Raises
+    ------
+    LogError
+        Naming the line the multi-line field starts on and the line it runs to.
+    """
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             reader = csv.reader(handle)
             next(reader, [])
+            ended = reader.line_num
             for record in reader:
+                if reader.line_num > ended + 1:
+                    raise LogError(
+                        f"{path}, line {ended + 1}: a quoted field runs on to line "
+                        f"{reader.line_num}; a log's values fit on one line (an unclosed "
+                        "quote?)"
+                    )
+                ended = reader.line_num
                 if record and len(record) != width and any(f.strip() for f in record):
                     return reader.line_num, len(record)
     except (UnicodeDecodeError, csv.Error):

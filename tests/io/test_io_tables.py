@@ -590,3 +590,22 @@ def test_carriage_returns_alone_as_line_endings_are_named(tmp_path: Path, text: 
         load(path)
     with pytest.raises(LogError, match=r"carriage return alone"):
         inspect_log(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        # an unclosed quote swallows the rest: it was reported at the end of the file
+        (
+            't,u,y\n0.0,1,1\n0.1,"1,1\n0.2,1,1\n0.3,1,1\n',
+            "line 3: a quoted field runs on to line 5",
+        ),
+        # a field over two lines shifted every later line number by one
+        ('t,u,y\n0.0,1,"1\n"\n0.1,1,x\n', "line 2: a quoted field runs on to line 3"),
+    ],
+)
+def test_a_quoted_field_over_several_lines_names_where_it_starts(
+    tmp_path: Path, text: str, words: str
+) -> None:
+    with pytest.raises(LogError, match=rf"log\.csv, {words}; .* \(an unclosed quote\?\)"):
+        load(csv_file(tmp_path, text))
