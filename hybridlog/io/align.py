@@ -222,8 +222,8 @@ def resample_series(
     dt_ns: int,
     max_gap_ns: int,
     method: Resample,
-) -> tuple[FloatArray, IntArray]:
-    """Values of ``series`` on the grid, and the grid points in gaps longer than ``max_gap``.
+) -> tuple[FloatArray, IntArray, int]:
+    """Values of ``series`` on the grid, with the gaps it was bridged across or not.
 
     Returns
     -------
@@ -233,24 +233,27 @@ def resample_series(
     too_long:
         Indices of grid points with no sample within ``dt/2`` whose surrounding samples are
         more than ``max_gap`` apart, or that lie outside the series' span.
+    bridged:
+        How many grid points without a sample within ``dt/2`` took a value from the samples
+        around them (``nearest``: a sample the grid uses twice).
     """
     tolerance = clock_tolerance_ns(dt_ns)
     on = on_grid_values(series, grid_ns, tolerance)
     if on is not None:  # the common case: one view, no index, distance or gap arrays
-        return on, np.zeros(0, dtype=np.int64)
+        return on, np.zeros(0, dtype=np.int64), 0
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
     linear = method == "linear"
     values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
     in_gap = np.flatnonzero(2 * distance > dt_ns)
     if in_gap.size == 0:
-        return values, in_gap
+        return values, in_gap, 0
     time_ns = series.time_ns
     lo = np.searchsorted(time_ns, grid_ns[in_gap], side="right") - 1
     hi = lo + 1
     outside = (lo < 0) | (hi >= time_ns.size)
     span = time_ns[np.clip(hi, 0, time_ns.size - 1)] - time_ns[np.clip(lo, 0, time_ns.size - 1)]
     too_long: IntArray = in_gap[outside | (span > max_gap_ns)]
-    return values, too_long
+    return values, too_long, int(in_gap.size - too_long.size)
 
 
 def _gap_error(
@@ -333,7 +336,8 @@ def align_signals(
         Align the longest piece between longer gaps instead of refusing the log.
     notes:
         Filled with the pieces (``segments``) and the one analysed when ``split_gaps`` cut
-        the log.
+        the log, and per output the grid points bridged across short gaps (``bridged``:
+        ``{symbol: {points, of}}``).
 
     Returns
     -------
@@ -369,11 +373,13 @@ def align_signals(
 
     y = np.empty((n, len(outputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(outputs.items()):
-        values, too_long = resample_series(series, grid, dt_ns, max_gap_ns, method)
+        values, too_long, bridged = resample_series(series, grid, dt_ns, max_gap_ns, method)
         if too_long.size:
             raise _gap_error(
                 source, f"output {symbol!r}", series, grid, int(too_long[0]), max_gap_ns
             )
+        if bridged and notes is not None:
+            notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
         y[:, j] = values
 
     modes: IntArray | None = None
@@ -387,7 +393,7 @@ def align_signals(
             truth_series = truth_states.get(state)
             if truth_series is None or truth_series.time_ns.size == 0:
                 continue
-            values, too_long = resample_series(truth_series, grid, dt_ns, max_gap_ns, method)
+            values, too_long, _ = resample_series(truth_series, grid, dt_ns, max_gap_ns, method)
             x_true[:, j] = values
             x_true[too_long, j] = np.nan
 

@@ -337,7 +337,7 @@ class ReportBuilder:
             runtime_s=_num(runtime),
             compile_s=_num(float(last.compile_s)),
             samples_per_s=samples_per_s,
-            notes=tuple(str(note) for note in last.notes),
+            notes=(*(str(note) for note in last.notes), *_reading_notes(reading)),
             null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
             smoothing=(
                 None
@@ -561,6 +561,17 @@ class _OfflineSides:
 def _json_object(value: Mapping[str, Any]) -> JsonObject:
     converted: JsonObject = jsonable(value)
     return converted
+
+
+def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
+    """Warnings about the log's alignment: outputs bridged across gaps (``bridged``)."""
+    bridged = (reading or {}).get("bridged") or {}
+    return tuple(
+        f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
+        f"{count['of']} sample times, which took their values from the samples around (a "
+        "measurement used more than once, or interpolated; is the model's dt the log's?)"
+        for symbol, count in bridged.items()
+    )
 
 
 def _null_reasons(

@@ -303,6 +303,23 @@ def test_split_gaps_analyses_the_longest_piece_and_records_the_pieces() -> None:
     )
 
 
+def test_grid_points_bridged_across_short_gaps_are_counted_and_reported() -> None:
+    """A log sampled every 1 s on a model of dt 0.37 s: most grid points reuse a sample
+    more than dt/2 away (within max_gap), which the report now warns of."""
+    from hybridlog.report.build import _reading_notes
+
+    y = series("y", np.arange(11) * 1.0, np.arange(11) * 1.0)
+    notes: dict[str, object] = {}
+    aligned = align_signals(source="s", dt=0.37, inputs={}, outputs={"y": y}, notes=notes)
+    far = np.abs(aligned.time - np.round(aligned.time)) > 0.185
+    assert notes["bridged"] == {"y": {"points": int(far.sum()), "of": aligned.n_samples}}
+    (warning,) = _reading_notes(notes)
+    assert warning.startswith(f"WARNING: output y has no sample within dt/2 of {int(far.sum())} of")
+    plain: dict[str, object] = {}
+    align_signals(source="s", dt=1.0, inputs={}, outputs={"y": y}, notes=plain)
+    assert plain == {} and _reading_notes(plain) == ()
+
+
 def test_split_gaps_without_gaps_changes_nothing() -> None:
     y = series("y", np.arange(50) * 0.1, np.arange(50))
     notes: dict[str, object] = {}
