@@ -14,10 +14,32 @@ from typing import Literal
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators.options import option
 
-__all__ = ["DEFAULT_EIGENVALUES", "SwitchingObserverOptions"]
+__all__ = ["DEFAULT_EIGENVALUES", "SwitchingObserverOptions", "eigenvalue_values"]
 
 DEFAULT_EIGENVALUES = "-5"
 """One value ``λ``: the eigenvalues ``λ, 2λ, …, nλ`` of ``A_b − K C_b`` (distinct, real)."""
+
+
+def eigenvalue_values(text: str) -> list[float]:
+    """The numbers of an ``eigenvalues`` text: negative reals separated by commas.
+
+    Raises
+    ------
+    ValueError
+        With the reason, for text that is not that.
+    """
+    try:
+        values = [float(p.strip()) for p in text.split(",")]
+    except ValueError:
+        raise ValueError(
+            f"expected negative numbers separated by commas, got {excerpt(text)}"
+        ) from None
+    if not all(math.isfinite(v) and v < 0.0 for v in values):
+        raise ValueError(
+            f"every eigenvalue must be a finite negative real (Hurwitz A_b - K C_b), got "
+            f"{excerpt(text)}"
+        )
+    return values
 
 
 @dataclass(frozen=True)
@@ -34,6 +56,7 @@ class SwitchingObserverOptions:
         DEFAULT_EIGENVALUES,
         "eigenvalues of A_b - K C_b (sec. 5): n negative reals 'l1,l2,...', "
         "or one value l for l, 2l, ..., nl",
+        check=eigenvalue_values,
     )
     output_hold: Literal["first", "zero"] = option(
         "first",
@@ -54,19 +77,10 @@ class SwitchingObserverOptions:
             The text is not one negative number or ``n_states`` comma-separated ones.
         """
         what = "switching-observer option 'eigenvalues'"
-        parts = [p.strip() for p in self.eigenvalues.split(",")]
         try:
-            values = [float(p) for p in parts]
-        except ValueError:
-            raise OptionError(
-                f"{what}: expected negative numbers separated by commas, got "
-                f"{excerpt(self.eigenvalues)}"
-            ) from None
-        if not all(math.isfinite(v) and v < 0.0 for v in values):
-            raise OptionError(
-                f"{what}: every eigenvalue must be a finite negative real (Hurwitz A_b - K C_b), "
-                f"got {excerpt(self.eigenvalues)}"
-            )
+            values = eigenvalue_values(self.eigenvalues)
+        except ValueError as err:
+            raise OptionError(f"{what}: {err}") from None
         if len(values) == 1:
             values = [values[0] * (j + 1) for j in range(n_states)]
         elif len(values) != n_states:

@@ -30,7 +30,7 @@ import difflib
 import math
 import types
 import typing
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal, TypeVar, Union
 
@@ -55,7 +55,13 @@ _FALSE = {"false", "no", "off", "0"}
 _NONE = {"none", ""}
 
 
-def option(default: T, help: str, *, range: tuple[float, float] | None = None) -> T:
+def option(
+    default: T,
+    help: str,
+    *,
+    range: tuple[float, float] | None = None,
+    check: Callable[[Any], object] | None = None,
+) -> T:
     """A dataclass field for an estimator option.
 
     Parameters
@@ -67,10 +73,16 @@ def option(default: T, help: str, *, range: tuple[float, float] | None = None) -
         and equation where it has one).
     range:
         Inclusive ``(low, high)`` bounds of a number.
+    check:
+        Checks a value beyond its type and range (raising ``ValueError`` with the reason),
+        when the options are parsed: before any log is read, the error naming where the
+        value came from.
     """
     metadata: dict[str, Any] = {"help": help}
     if range is not None:
         metadata["range"] = range
+    if check is not None:
+        metadata["check"] = check
     field: T = dataclasses.field(default=default, metadata=metadata)
     return field
 
@@ -254,6 +266,9 @@ def _check(value: Any, kind: _Kind, field: dataclasses.Field[Any]) -> Any:
     bounds = field.metadata.get("range")
     if bounds is not None and not bounds[0] <= value <= bounds[1]:
         raise ValueError(f"{shown(value)} is outside [{shown(bounds[0])}, {shown(bounds[1])}]")
+    check = field.metadata.get("check")
+    if check is not None:
+        check(value)
     return value
 
 

@@ -140,6 +140,22 @@ def test_the_gain_places_the_eigenvalues_of_the_brunovsky_pair():
     assert SwitchingObserverOptions(eigenvalues="-9, -1,-4").eigenvalue_list(3) == (-1, -4, -9)
 
 
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [("10,20,30", "every eigenvalue must be a finite negative real"), ("a,b", "separated by")],
+)
+def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, words):
+    """Checked when the options are parsed (was: at run time, naming neither)."""
+    bad = builtin_text("ice_clutch").replace(
+        'eigenvalues = "-10,-20,-30"', f'eigenvalues = "{text}"'
+    )
+    model = parse_model(bad, origin="clutch.toml")
+    with pytest.raises(
+        ModelError, match=rf"^clutch\.toml: estimators\.switching-observer\.eigenvalues: .*{words}"
+    ):
+        prepare(model, "switching-observer")
+
+
 CLUTCH_DT = 0.01
 DWELL = 25  # samples between switches: 0.25 s
 SCALE = np.array([0.1, 100.0, 10.0])  # g, rad/s, N m: the error norm is ‖e / SCALE‖
