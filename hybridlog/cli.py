@@ -1067,15 +1067,16 @@ def _failure(err: Exception) -> str:
 
 
 class _Terminated(SystemExit):
-    """``SIGTERM`` (a CI job's timeout, ``kill``) in the console script."""
+    """``SIGTERM`` (a CI job's timeout, ``kill``) or ``SIGHUP`` (a closed terminal)."""
 
 
 def _terminate(signum: int, frame: object) -> NoReturn:
-    """End on ``SIGTERM`` as on an interrupt: unwinding removes what is half-written.
+    """End on ``SIGTERM`` or ``SIGHUP`` as on an interrupt: unwinding removes what is half-written.
 
     The default action ends the process at once, leaving the temporary output folder a
     command was writing beside its target; raised here, the exception runs every ``with``
-    block's clean-up first.  Exit code 143 (128 + 15), as a shell reports it.
+    block's clean-up first.  Exit code 128 + the signal's number (143, 129), as a shell
+    reports it.
     """
     raise _Terminated(128 + signum)
 
@@ -1090,7 +1091,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     _PROCESS["one_command"] = argv is None
     if argv is None:
         single_threaded_blas()
-        signal.signal(signal.SIGTERM, _terminate)
+        for ending in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(ending, _terminate)
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
     code = 0

@@ -381,10 +381,22 @@ def check_dir_target(
 
 
 def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
-    """Refuse to replace ``path`` if it holds files besides ``written`` (None: not known)."""
+    """Refuse to replace ``path`` if it holds anything besides ``written``.
+
+    ``written`` None (a marker without its list of files: a batch folder, an older
+    version's or an edited marker; a bag whose ``metadata.yaml`` lists no files) means that
+    what hybridlog wrote there is not known, and then nothing is replaced.  Folders count
+    too: one that holds no listed file, and a link to a folder, are the user's.
+    """
     if written is None:
-        return
+        raise OutputError(
+            f"output directory {_shown(path)} does not list what hybridlog wrote there (a "
+            f"batch folder, one of an older version, or an edited {MARKER}), so --force "
+            "will not replace it; remove it yourself or choose another output directory"
+        )
     expected = {*written, MARKER}
+    folders_expected = {str(Path(f).parent.as_posix()) for f in expected} - {"."}
+    folders_expected |= {p.as_posix() for f in folders_expected for p in Path(f).parents} - {"."}
     foreign: list[str] = []
     for folder, folders, files in os.walk(path):
         folders.sort()
@@ -392,6 +404,14 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
             relative = Path(folder, name).relative_to(path).as_posix()
             if relative not in expected:
                 foreign.append(relative)
+        for name in folders:
+            relative = Path(folder, name).relative_to(path).as_posix()
+            entry = Path(folder, name)
+            # a folder of the user's with files in it shows as those files
+            if entry.is_symlink() or (
+                relative not in folders_expected and not any(entry.iterdir())
+            ):
+                foreign.append(relative + "/")
     if foreign:
         more = f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
         raise OutputError(

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.errors import OptionError
+from hybridlog.errors import OptionError, excerpt
 from hybridlog.signals import FloatArray
 
 __all__ = [
@@ -126,6 +126,8 @@ def parse_centers(text: str, source: str) -> CentersFile:
         data = json.loads(text)
     except json.JSONDecodeError as err:
         raise OptionError(f"{source}: not JSON: {err.msg} (line {err.lineno})") from err
+    except (ValueError, RecursionError) as err:  # a 5,000-digit integer, 5,000 nested lists
+        raise OptionError(f"{source}: not a centres file ({excerpt(str(err), 80)})") from err
     reader = _Reader(source)
     if not isinstance(data, dict):
         raise reader.error("", "expected a JSON object")

@@ -192,12 +192,21 @@ def run_clustering_observer(
     ------
     OptionError
         ``options.centers`` names a file but ``centers`` (its parsed content) is missing:
-        the estimator reads no file, the job running it does.
+        the estimator reads no file, the job running it does; or the centres were fitted
+        for another model (their ``model`` key).
     """
     if options.centers and centers is None:
         raise OptionError(
             f"centers={options.centers}: the estimator reads no file; pass the parsed file "
             "as centers= (hybridlog.jobs.centers.read_centers)"
+        )
+    if centers is not None and centers.model != model.name:
+        fitted = (
+            f"model {centers.model!r}" if centers.model else "no model (its 'model' key is missing)"
+        )
+        raise OptionError(
+            f"centers={options.centers}: model: the centres were fitted for {fitted}, not "
+            f"{model.name!r}; fit them for this model with hybridlog cluster"
         )
     start = time.perf_counter()
     linear, gains = design_observer(model, options.decay_rate)

@@ -183,9 +183,15 @@ class MessageSource(abc.ABC):
                 raise
             except Exception as err:  # corrupt bytes make the libraries raise anything
                 raise self._damaged(err) from err
-            if item[1] > _LATEST_NS:  # an unsigned 64-bit log time int64 cannot hold
+            log_time = item[1]
+            if not isinstance(log_time, int | np.integer):  # a sqlite3 column holds anything
                 raise LogError(
-                    f"{self.path}: topic {item[0]!r}: a message's log time, {item[1]} ns, is "
+                    f"{self.path}: topic {item[0]!r}: a message's log time, "
+                    f"{excerpt(log_time, 40)}, is not a whole number of nanoseconds"
+                )
+            if log_time > _LATEST_NS:  # an unsigned 64-bit log time int64 cannot hold
+                raise LogError(
+                    f"{self.path}: topic {item[0]!r}: a message's log time, {log_time} ns, is "
                     "after the year 2262 (2^63 ns), which no clock records: a damaged or "
                     "mis-stamped log"
                 )

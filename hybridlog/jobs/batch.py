@@ -402,15 +402,13 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 
 def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
     """Create the batch folder and the folders holding log folders, or check they are ours."""
-    if root.exists() or root.is_symlink():
-        check_dir_target(
-            root, force=True, replacing=False
-        )  # a file, a link, or a folder of someone else's
-        if any(root.iterdir()) and not is_ours(root):
-            raise OutputError(
-                f"output directory {root} holds files hybridlog did not write (no {MARKER} "
-                "file); choose another --out or empty the folder yourself"
-            )
+    # creatable (its name, its parent), not a file or a link, not someone else's folder
+    check_dir_target(root, force=True, replacing=False)
+    if root.exists() and any(root.iterdir()) and not is_ours(root):
+        raise OutputError(
+            f"output directory {root} holds files hybridlog did not write (no {MARKER} "
+            "file); choose another --out or empty the folder yourself"
+        )
     parents = sorted({folder.parent for folder in folders} | {root})
     try:
         root.mkdir(parents=True, exist_ok=True)

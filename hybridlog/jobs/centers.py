@@ -29,6 +29,8 @@ def read_centers(path: str | os.PathLike[str]) -> CentersFile:
         is wrong; the message names the file and the key.
     """
     source = Path(path)
+    if source.exists() and not source.is_file():  # a pipe would block, /dev/zero never end
+        raise OptionError(f"{source}: not a regular file (a folder, pipe or device)")
     try:
         text = source.read_text(encoding="utf-8")
     except FileNotFoundError as err:

@@ -20,6 +20,7 @@ from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier
 from hybridlog.cluster.regressors import regression_vectors
 from hybridlog.errors import ModelError, OptionError, OutputError
+from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.io import ReadOptions
@@ -182,6 +183,11 @@ def discover_modes(
     target, picture = check_cluster_outputs(log, model_ref, out=out, plot=plot, force=force)
     chiu = chiu or ChiuOptions()
     model = load_model(os.fspath(model_ref))
+    # paper 001's regressors need a discrete-time model of enumerated modes (linear ones only
+    # to label the clusters as modes): refused before the log is read
+    problem = Capabilities().mismatch(ModelTraits(model))
+    if problem is not None:
+        raise ModelError(f"{model.origin or model.name}: hybridlog cluster {problem}")
     signals = read_log(os.fspath(log), model, ReadOptions(maps=maps))
     notes: list[str] = []
     try:

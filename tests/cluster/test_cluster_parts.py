@@ -2,6 +2,8 @@
 
 import dataclasses
 import json
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -114,6 +116,27 @@ def test_centers_file_round_trip_and_errors(tmp_path):
         read_centers(path)
     with pytest.raises(OptionError, match="no such centers file"):
         read_centers(tmp_path / "missing.json")
+    # what json itself refuses past its limits was an unexpected ValueError / RecursionError
+    for text in ('{"version": 1' + "0" * 4400 + "}", "[" * 5000 + "]" * 5000):
+        path.write_text(text)
+        with pytest.raises(OptionError, match=r"c\.json: not a centres file"):
+            read_centers(path)
+    # a pipe blocked the read until a writer came; a device never ends
+    os.mkfifo(tmp_path / "pipe.json")
+    for special in (tmp_path / "pipe.json", Path("/dev/zero")):
+        with pytest.raises(OptionError, match="not a regular file"):
+            read_centers(special)
+
+
+@pytest.mark.parametrize("model", ["ice_clutch", "three_tank_valves", "bioplex_pgc"])
+def test_cluster_refuses_a_model_it_cannot_regress_before_reading(model, tmp_path):
+    """Continuous-time and components models crashed in the observer design."""
+    from hybridlog.errors import ModelError
+    from hybridlog.jobs.cluster import discover_modes
+
+    with pytest.raises(ModelError, match=rf"^{model}: hybridlog cluster needs a"):
+        discover_modes(tmp_path / "never_read.csv", model, out=tmp_path / "c.json")
+    assert list(tmp_path.iterdir()) == []
 
 
 def _two_blobs():

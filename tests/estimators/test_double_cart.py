@@ -162,18 +162,18 @@ def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
     signals = signals_of(model, simulate(model, steps=300, seed=1))
     fitted = run_chiu(model, signals, ChiuOptions())
     classifier = mode_classifier(model, signals, ChiuOptions(), observer=design_observer(model, 1))
-    text = centers_json(
-        {
-            "regressors": list(classifier.regressors),
-            "output_lags": list(classifier.spec.output_lags),
-            "input_lags": list(classifier.spec.input_lags),
-            "scaling": {"lower": classifier.lower, "upper": classifier.upper},
-            "chiu": {
-                "centers": classifier.centers,
-                "modes": [model.mode_ids[m] for m in classifier.cluster_modes],
-            },
-        }
-    )
+    content = {
+        "model": model.name,
+        "regressors": list(classifier.regressors),
+        "output_lags": list(classifier.spec.output_lags),
+        "input_lags": list(classifier.spec.input_lags),
+        "scaling": {"lower": classifier.lower, "upper": classifier.upper},
+        "chiu": {
+            "centers": classifier.centers,
+            "modes": [model.mode_ids[m] for m in classifier.cluster_modes],
+        },
+    }
+    text = centers_json(content)
     missing = str(tmp_path / "never_written.json")
     options = ChiuOptions(centers=missing)
     with pytest.raises(OptionError, match=r"^centers=.*never_written.json: the estimator reads no"):
@@ -182,6 +182,11 @@ def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
     np.testing.assert_array_equal(stored.modes, fitted.modes)
     np.testing.assert_array_equal(stored.state_means, fitted.state_means)
     assert f"chiu: {len(classifier.centers)} centres loaded from {missing}" in stored.notes
+    # centres fitted for another model (or for none named) are refused, not applied
+    for other, words in (("double_cart_case2", "model 'double_cart_case2'"), ("", "no model")):
+        wrong = parse_centers(centers_json(dict(content, model=other)), missing)
+        with pytest.raises(OptionError, match=rf"model: the centres were fitted for {words}"):
+            run_chiu(model, signals, options, centers=wrong)
     assert list(tmp_path.iterdir()) == []
 
 

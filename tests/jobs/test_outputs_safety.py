@@ -354,13 +354,30 @@ def test_force_replaces_only_hybridlogs_own_folders(tmp_path: Path) -> None:
             analyze(log, TANK, out_dir=out, estimator="imm", force=True)
         assert tree(out) == before
         mine.unlink()
+    # nor a folder of the user's, empty or a link to one
+    (tmp_path / "theirs").mkdir()
+    for folder, shown in ((out / "plots" / "extra", "plots/extra/"), (out / "link", "link/")):
+        if shown == "link/":
+            folder.symlink_to(tmp_path / "theirs", target_is_directory=True)
+        with pytest.raises(OutputError, match=f"did not write \\('{shown}'\\)"):
+            analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+        folder.unlink() if folder.is_symlink() else folder.rmdir()
     analyze(log, TANK, out_dir=out, estimator="imm", force=True)
-    assert (out / MARKER).is_file() and not (out / "plots" / "extra").exists()
-    assert "report.json" in json.loads((out / MARKER).read_text())["files"]
-    # A report folder of an earlier hybridlog (no marker yet) is hybridlog's too.
-    (out / MARKER).unlink()
-    assert is_ours(out)
-    check_dir_target(out, force=True)
+    assert (out / MARKER).is_file() and "report.json" in json.loads((out / MARKER).read_text())[
+        "files"
+    ]
+    # A marker without its list of files (edited, or an older version's) or none at all (a
+    # report folder from before markers): hybridlog's, but what it wrote there is not known,
+    # so --force replaces nothing.
+    for marker in ("{", '{"written_by": "hybridlog"}', None):
+        if marker is None:
+            (out / MARKER).unlink()
+        else:
+            (out / MARKER).write_text(marker)
+        assert is_ours(out)
+        with pytest.raises(OutputError, match="does not list what hybridlog wrote there"):
+            check_dir_target(out, force=True)
+    (tmp_path / "theirs").rmdir()
     (out / "report.json").write_text('{"mine": 1}')
     assert not is_ours(out)
     with pytest.raises(OutputError, match="did not write"):
@@ -537,3 +554,14 @@ def test_a_failed_write_leaves_no_folder_behind(tmp_path: Path) -> None:
         (area / "bag").mkdir()
         raise RuntimeError("disk on fire")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_folder_name_too_long_for_its_temporaries_is_refused_at_once(
+    tmp_path: Path,
+) -> None:
+    """It was accepted, then every re-run failed on the name: resuming was impossible."""
+    log = write_table(tmp_path / "log.csv", tank_run().columns)
+    out = tmp_path / ("M" * 230)
+    with pytest.raises(OutputError, match="is too long"):
+        run_batch([log], TANK, out_dir=out, estimator="imm")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv"]
