@@ -395,8 +395,7 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
             "will not replace it; remove it yourself or choose another output directory"
         )
     expected = {*written, MARKER}
-    folders_expected = {str(Path(f).parent.as_posix()) for f in expected} - {"."}
-    folders_expected |= {p.as_posix() for f in folders_expected for p in Path(f).parents} - {"."}
+    folders_expected = {p.as_posix() for f in expected for p in Path(f).parents} - {"."}
     foreign: list[str] = []
     for folder, folders, files in os.walk(path):
         folders.sort()
