@@ -521,7 +521,7 @@ class _LogFormats(click.Choice[str]):
     metavar="A,OMEGA",
     help="Continuous time: add paper 003's eq. (49), A·(|x1|+...+|xn|)·sin(OMEGA·t), to dx.",
 )
-@_force_option("an existing file, or a ROS 2 bag folder hybridlog wrote (never the model)")
+@_force_option("a log file or ROS 2 bag folder hybridlog wrote (never a file of yours)")
 @click.pass_context
 def simulate(
     ctx: click.Context,
@@ -597,7 +597,7 @@ def simulate(
 )
 @click.option("--compare-kmeans", is_flag=True, help="Also fit k-means and compare.")
 @_map_option
-@_force_option("existing output files (never the log or the model)")
+@_force_option("centres and plot files hybridlog wrote (never a file of yours)")
 @click.pass_context
 def cluster_command(
     ctx: click.Context,

@@ -7,8 +7,11 @@ Every command that writes goes through this module, in two steps:
    ``--force``; paths are compared after resolving symbolic links, ``..`` and relative parts,
    and by device and inode, so hard links and bind mounts are caught too.
    :func:`check_dir_target` and :func:`check_file_target` refuse existing targets unless
-   ``--force`` and, for folders, unless hybridlog wrote them (they carry the :data:`MARKER`
-   file, or are legacy report folders of ours).
+   ``--force``, and then unless hybridlog wrote them: a folder carries the :data:`MARKER` file
+   listing what hybridlog wrote in it (or is a legacy report folder of ours); a file has a
+   record beside it, ``.<name>.hybridlog`` (:func:`record_file`), naming the exact file
+   hybridlog wrote (device, inode, size, modification time), so a file the user wrote, put
+   there or edited since is never replaced.
 2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
    temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
    rename them into
@@ -28,6 +31,7 @@ import re
 import secrets
 import shutil
 import socket
+import stat
 import sys
 from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -49,11 +53,14 @@ __all__ = [
     "is_ours",
     "publish_dir",
     "publish_file",
+    "record_file",
+    "record_path",
     "recorded_files",
     "remove_stale_temporaries",
     "staging_dir",
     "temporary_name",
     "write_marker",
+    "wrote_file",
 ]
 
 PathLike = str | os.PathLike[str]
@@ -227,6 +234,81 @@ def _record_files(folder: Path) -> None:
         if Path(parent, name) != marker
     )
     marker.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
+def record_path(target: Path) -> Path:
+    """Where the record of a file hybridlog wrote lies: ``.<name>.hybridlog`` beside it."""
+    return target.with_name(f".{target.name}{MARKER}")
+
+
+def _file_identity(path: Path) -> dict[str, int] | None:
+    """What tells this regular file from any other, or from itself edited: None if no file."""
+    try:
+        status = os.lstat(path)
+    except OSError:
+        return None
+    if not stat.S_ISREG(status.st_mode):
+        return None
+    return {
+        "device": status.st_dev,
+        "inode": status.st_ino,
+        "size": status.st_size,
+        "modified_ns": status.st_mtime_ns,
+    }
+
+
+def _file_record(path: Path) -> dict[str, object] | None:
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("written_by") != "hybridlog":
+        return None
+    return record
+
+
+def record_file(target: Path) -> None:
+    """Record beside ``target`` that hybridlog wrote it, as it is now (:func:`wrote_file`).
+
+    Written after ``target`` is in place.  A file of someone else's under the record's name
+    is left alone, and a record that cannot be written is not an error: ``target`` is then
+    simply never replaced (the safe side), as after a crash between the two.
+    """
+    identity = _file_identity(target)
+    sidecar = record_path(target)
+    if identity is None or (_present(sidecar) and _file_record(sidecar) is None):
+        return
+    record = {
+        "written_by": "hybridlog",
+        "version": __version__,
+        "file": target.name,
+        **identity,
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }
+    staged = temporary_name(sidecar)
+    try:
+        staged.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        os.replace(staged, sidecar)
+    except OSError:
+        with contextlib.suppress(OSError):
+            staged.unlink()
+
+
+def wrote_file(target: Path) -> bool:
+    """Whether hybridlog wrote the file ``target`` and nobody changed it since.
+
+    True when the record beside it (:func:`record_file`) names this very file: same name,
+    device, inode, size and modification time.  A file put in its place, edited, copied
+    from elsewhere or written before records existed is not hybridlog's to replace.
+    """
+    record = _file_record(record_path(target))
+    identity = _file_identity(target)
+    return (
+        record is not None
+        and identity is not None
+        and record.get("file") == target.name
+        and all(record.get(key) == value for key, value in identity.items())
+    )
 
 
 def _starts_with(path: Path, start: str) -> bool:
@@ -420,14 +502,20 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
         )
 
 
-def check_file_target(target: PathLike, *, force: bool) -> Path:
+def check_file_target(
+    target: PathLike, *, force: bool, ours: Callable[[Path], bool] = wrote_file
+) -> Path:
     """Check that an output file may be created, or replaced with ``force``.
+
+    ``force`` replaces only a file hybridlog wrote (SPEC §9): by default one with a record
+    beside it (:func:`wrote_file`); ``ours`` recognises the files of a command that knows
+    its own otherwise (a batch's summaries inside its folder, a JUnit file by its content).
 
     Raises
     ------
     OutputError
         When the target is a folder or another file that is not a regular one (a device, a
-        pipe), exists and ``force`` is false, or cannot be created
+        pipe), exists and ``force`` is false or it is not ``ours``, or cannot be created
         (:func:`check_creatable`).
     """
     path = Path(os.path.abspath(target))
@@ -441,6 +529,11 @@ def check_file_target(target: PathLike, *, force: bool) -> Path:
         )
     if _present(path) and not force:
         raise OutputError(f"{_shown(target)}: already exists (use --force to replace it)")
+    if _present(path) and not ours(path):
+        raise OutputError(
+            f"{_shown(target)}: exists and hybridlog did not write it (or it changed since), "
+            "so --force does not replace it; move it away or name another file"
+        )
     return path
 
 
@@ -547,36 +640,52 @@ def _remove_created(folders: Sequence[Path]) -> None:
 # --- publishing --------------------------------------------------------------------------------
 
 
-def publish_file(staged: Path, target: Path, *, force: bool) -> None:
-    """Move the finished ``staged`` file to ``target``; never clobber it unless ``force``.
+def publish_file(
+    staged: Path,
+    target: Path,
+    *,
+    force: bool,
+    ours: Callable[[Path], bool] = wrote_file,
+    record: bool = True,
+) -> None:
+    """Move the finished ``staged`` file to ``target`` and record it (:func:`record_file`).
+
+    ``record`` false is for files whose command recognises them otherwise (``ours``).
+
+    Never clobbers ``target`` unless ``force`` and ``ours`` (see :func:`check_file_target`).
 
     Raises
     ------
     OutputError
-        When ``target`` appeared meanwhile (without ``force``), is a folder, or the move fails.
+        When ``target`` appeared meanwhile (without ``force``), is a folder or someone
+        else's, or the move fails.
     """
-    check_file_target(target, force=force)
+    check_file_target(target, force=force, ours=ours)
     try:
-        if force:
-            os.replace(staged, target)
-            return
-        try:
-            # A hard link fails if ``target`` appeared meanwhile, unlike a rename.
-            os.link(staged, target)
-        except FileExistsError:
+        _move_file(staged, target, force=force)
+    except OSError as err:
+        raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
+    if record:
+        record_file(target)
+
+
+def _move_file(staged: Path, target: Path, *, force: bool) -> None:
+    if force:
+        os.replace(staged, target)
+        return
+    try:
+        # A hard link fails if ``target`` appeared meanwhile, unlike a rename.
+        os.link(staged, target)
+    except FileExistsError:
+        raise OutputError(f"{_shown(target)}: already exists (use --force to replace it)") from None
+    except OSError:
+        if target.exists():
             raise OutputError(
                 f"{_shown(target)}: already exists (use --force to replace it)"
             ) from None
-        except OSError:
-            if target.exists():
-                raise OutputError(
-                    f"{_shown(target)}: already exists (use --force to replace it)"
-                ) from None
-            os.replace(staged, target)
-        else:
-            staged.unlink()
-    except OSError as err:
-        raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
+        os.replace(staged, target)
+    else:
+        staged.unlink()
 
 
 def publish_dir(
@@ -693,7 +802,12 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
 
 
 @contextmanager
-def atomic_files(targets: Sequence[PathLike], *, force: bool = False) -> Iterator[list[Path]]:
+def atomic_files(
+    targets: Sequence[PathLike],
+    *,
+    force: bool = False,
+    ours: Callable[[Path], bool] | None = None,
+) -> Iterator[list[Path]]:
     """Write several output files so that they appear only when all were written.
 
     Yields one temporary path per target (next to it, same suffix, not yet created); when the
@@ -706,14 +820,18 @@ def atomic_files(targets: Sequence[PathLike], *, force: bool = False) -> Iterato
         Output files; existing ones are replaced only with ``force``.  Missing parent folders
         are created.
     force:
-        Replace existing files.
+        Replace existing files that hybridlog wrote (:func:`wrote_file`); each file written
+        is recorded beside it (:func:`record_file`).
+    ours:
+        Instead, how the command recognises its own files; they are then not recorded.
 
     Raises
     ------
     OutputError
         As :func:`check_file_target`, or when a file cannot be moved into place.
     """
-    paths = [check_file_target(target, force=force) for target in targets]
+    recognise = wrote_file if ours is None else ours
+    paths = [check_file_target(target, force=force, ours=recognise) for target in targets]
     created: list[Path] = []
     temporaries = [temporary_name(path, keep_suffix=True) for path in paths]
     try:
@@ -721,9 +839,9 @@ def atomic_files(targets: Sequence[PathLike], *, force: bool = False) -> Iterato
             created += _prepare_parent(path)
         yield temporaries
         for path in paths:  # all still writable before the first is replaced
-            check_file_target(path, force=force)
+            check_file_target(path, force=force, ours=recognise)
         for staged, path in zip(temporaries, paths, strict=True):
-            publish_file(staged, path, force=force)
+            publish_file(staged, path, force=force, ours=recognise, record=ours is None)
     except BaseException:
         for staged in temporaries:
             with contextlib.suppress(FileNotFoundError):

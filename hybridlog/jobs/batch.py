@@ -71,7 +71,7 @@ from hybridlog.outputs import (
 )
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
-from hybridlog.report.junit import check_junit_target, write_junit
+from hybridlog.report.junit import check_junit_target, is_junit_of_ours, write_junit
 from hybridlog.report.summary import BatchRow, batch_markdown, batch_rows_csv
 from hybridlog.report.table_format import check_table_format
 
@@ -639,7 +639,11 @@ def _summarise(
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:
         targets.append(junit)
-    with atomic_files(targets, force=True) as staged:
+
+    def replaceable(path: Path) -> bool:  # its summaries in its own folder, its JUnit file
+        return path.parent == root or is_junit_of_ours(path)
+
+    with atomic_files(targets, force=True, ours=replaceable) as staged:
         staged[0].write_text(text, encoding="utf-8")
         batch_rows_csv(staged[1], rows)
         from hybridlog.report.summary_plot import write_summary_plot

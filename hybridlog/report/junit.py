@@ -18,7 +18,7 @@ from hybridlog.errors import OutputError, excerpt
 from hybridlog.outputs import PathLike, check_file_target
 from hybridlog.report.summary import BatchRow
 
-__all__ = ["ROOT_NAME", "check_junit_target", "junit_tree", "write_junit"]
+__all__ = ["ROOT_NAME", "check_junit_target", "is_junit_of_ours", "junit_tree", "write_junit"]
 
 ROOT_NAME = "hybridlog batch"
 """``name`` of the ``testsuites`` element: how a JUnit file of hybridlog's is recognised."""
@@ -26,7 +26,8 @@ ROOT_NAME = "hybridlog batch"
 _SIGNATURE = f'<testsuites name="{ROOT_NAME}'
 
 
-def _ours(path: Path) -> bool:
+def is_junit_of_ours(path: Path) -> bool:
+    """Whether ``path`` is a JUnit file a batch wrote: its root element's name says so."""
     try:
         with path.open("rb") as handle:
             head = handle.read(256).decode("utf-8", "replace")
@@ -49,14 +50,14 @@ def check_junit_target(target: PathLike) -> Path:
         or cannot be created.
     """
     path = Path(target)
-    ours = path.is_file() and _ours(path)
+    ours = path.is_file() and is_junit_of_ours(path)
     if (path.exists() or path.is_symlink()) and not ours and not path.is_dir():
         raise OutputError(
             f"--junit {excerpt(str(target))[1:-1]}: exists and is not a JUnit file hybridlog "
             "wrote, so it is not replaced (not even with --force); name another file"
         )
     try:
-        return check_file_target(path, force=ours)
+        return check_file_target(path, force=ours, ours=is_junit_of_ours)
     except OutputError as err:
         raise OutputError(f"--junit {err}") from None
 

@@ -112,6 +112,14 @@ def test_simulate_writes_ground_truth_columns(tmp_path):
     assert pl.read_parquet(again).equals(frame)
     result = run(["simulate", "three_tank_hstf", "--out", str(out)], expect=2)
     assert "already exists" in result.stderr
+    # --force replaces the file hybridlog wrote, never one of the user's (SPEC §9)
+    run(["simulate", "three_tank_hstf", "--out", str(out), "--steps", "5", "--force"])
+    assert pl.read_parquet(out).height == 6
+    mine = tmp_path / "mine.parquet"
+    frame.write_parquet(mine)
+    result = run(["simulate", "three_tank_hstf", "--out", str(mine), "--force"], expect=2)
+    assert "hybridlog did not write it" in result.stderr and result.stderr.count("\n") == 1
+    assert pl.read_parquet(mine).equals(frame)
 
 
 def test_inspect_json(tank_log):

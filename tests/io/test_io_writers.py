@@ -43,9 +43,14 @@ def test_refuses_to_overwrite_unless_forced(tmp_path: Path) -> None:
     with pytest.raises(OutputError, match=r"log.csv: already exists"):
         write_table(path, {"x": np.zeros(2)})
     assert path.read_text() == "precious\n"
-    write_table(path, {"x": np.zeros(2)}, force=True)
-    assert path.read_text().startswith("x\n")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv"]
+    with pytest.raises(OutputError, match=r"log.csv: exists and hybridlog did not write it"):
+        write_table(path, {"x": np.zeros(2)}, force=True)  # --force: only what it wrote
+    assert path.read_text() == "precious\n"
+    path.unlink()
+    write_table(path, {"x": np.zeros(2)})
+    write_table(path, {"y": np.zeros(2)}, force=True)
+    assert path.read_text().startswith("y\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".log.csv.hybridlog", "log.csv"]
 
 
 def test_failed_write_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -117,9 +117,16 @@ def test_simulate_refuses_what_it_cannot_write(tmp_path: Path) -> None:
     existing.write_bytes(b"mine")
     result = runner.invoke(cli, ["simulate", "three_tank_hstf", "--out", str(existing)])
     assert result.exit_code != 0 and existing.read_bytes() == b"mine"
-    invoke(["simulate", "three_tank_hstf", "--out", str(existing), "--steps", "5", "--force"])
+    forced = [*("simulate", "three_tank_hstf", "--out", str(existing)), "--steps", "5", "--force"]
+    result = runner.invoke(cli, forced)  # not even with --force: the user's file
+    assert result.exit_code != 0 and existing.read_bytes() == b"mine"
+    existing.unlink()
+    invoke(forced)  # a new file, then one hybridlog wrote: replaced
+    invoke(forced)
     assert existing.read_bytes().startswith(b"\x89MCAP0\r\n")
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == [
+        ".exists.mcap.hybridlog"
+    ]
 
 
 def test_simulated_topics_hold_the_columns(tmp_path: Path) -> None:

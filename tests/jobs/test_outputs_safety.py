@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 from collections.abc import Callable
@@ -36,10 +37,12 @@ from hybridlog.outputs import (
     check_apart,
     check_dir_target,
     is_ours,
+    record_path,
     remove_stale_temporaries,
     staging_dir,
     temporary_name,
     write_marker,
+    wrote_file,
 )
 from tests.support.logfiles import scene, tank_run, write_msg_dir, write_ros2_bag
 from tests.support.paths import SAMPLE_LOGS
@@ -84,6 +87,9 @@ def ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (root / "theirs" / "thesis.tex").write_text("years of work\n")
     (root / "theirs_dir.json").mkdir()
     (root / "theirs_dir.mcap").mkdir()
+    for name in ("theirs.csv", "theirs.parquet", "theirs.mcap", "theirs.bag", "theirs.json"):
+        (root / name).write_text("a file of the user's\n")
+    (root / "theirs.png").write_bytes(b"\x89PNG of the user's")
     return root
 
 
@@ -268,6 +274,28 @@ REFUSED: list[tuple[str, Callable[[Path, bool], object], str]] = [
         lambda ws, f: write_log(ws / "theirs", tank_run().columns, format="ros2-mcap", force=f),
         "theirs",
     ),
+    *(
+        (
+            f"simulate over someone's {name}",
+            lambda ws, f, name=name: write_log(ws / name, tank_run().columns, force=f),
+            "did not write it",
+        )
+        for name in ("theirs.csv", "theirs.parquet", "theirs.mcap", "theirs.bag")
+    ),
+    (
+        "cluster --out over someone's file",
+        lambda ws, f: discover_modes(
+            ws / "p/log.csv", TANK, out=ws / "theirs.json", plot=ws / "new.png", force=f
+        ),
+        "did not write it",
+    ),
+    (
+        "cluster --plot over someone's file",
+        lambda ws, f: discover_modes(
+            ws / "p/log.csv", TANK, out=ws / "new.json", plot=ws / "theirs.png", force=f
+        ),
+        "did not write it",
+    ),
     (
         "simulate a file over a folder",
         lambda ws, f: write_log(ws / "theirs_dir.mcap", tank_run().columns, force=f),
@@ -300,6 +328,8 @@ def test_unsafe_outputs_are_refused_and_nothing_changes(
     assert "\n" not in message
     if words == "theirs" and not force:
         words = "not empty"
+    if words == "did not write it" and not force:
+        words = "already exists (use --force"
     assert words in message
     assert tree(ws) == before
 
@@ -382,7 +412,7 @@ def test_force_replaces_only_hybridlogs_own_folders(tmp_path: Path) -> None:
     assert not is_ours(out)
     with pytest.raises(OutputError, match="did not write"):
         check_dir_target(out, force=True)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv", "report"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".log.csv.hybridlog", "log.csv", "report"]
 
 
 def test_simulate_replaces_its_own_bag_folder_only(tmp_path: Path) -> None:
@@ -405,6 +435,51 @@ def test_simulate_replaces_its_own_bag_folder_only(tmp_path: Path) -> None:
     with pytest.raises(OutputError, match="did not write"):
         write_log(recorded, columns, format="ros2-sqlite3", force=True)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> None:
+    columns, fewer = tank_run(steps=30).columns, tank_run(steps=10).columns
+    log = tmp_path / "run.csv"
+    write_log(log, columns)
+    assert wrote_file(log) and record_path(log).name == ".run.csv.hybridlog"
+    with pytest.raises(OutputError, match="already exists"):
+        write_log(log, fewer)
+    write_log(log, fewer, force=True)  # its own file, unchanged since: replaced
+    assert wrote_file(log) and len(log.read_text().splitlines()) == 12
+
+    def refused(why: str) -> None:
+        before = tree(tmp_path)
+        with pytest.raises(OutputError, match=r"did not write it \(or it changed since\)"):
+            write_log(log, columns, force=True)
+        assert tree(tmp_path) == before, why
+
+    with log.open("a") as handle:  # edited in place (same file, longer)
+        handle.write("# checked by hand\n")
+    refused("edited")
+    log.unlink()
+    write_log(log, fewer)
+    mine = tmp_path / "mine.csv"
+    mine.write_text(log.read_text())
+    os.replace(mine, log)  # the same bytes, but the user's file put in its place
+    refused("put in its place")
+    log.unlink()
+    write_log(log, fewer)
+    shutil.copy(log, tmp_path / "copy.csv")
+    shutil.copy(record_path(log), record_path(tmp_path / "copy.csv"))
+    assert not wrote_file(tmp_path / "copy.csv")  # a copy, record and all, is not ours
+    record_path(log).unlink()
+    refused("no record")
+    # a file of the user's under the record's name is left alone; the output is then
+    # simply not replaceable
+    record_path(log).write_text("my notes\n")
+    log.unlink()
+    write_log(log, fewer)
+    assert record_path(log).read_text() == "my notes\n" and not wrote_file(log)
+    # centres and their picture are recorded too
+    centres = tmp_path / "c.json"
+    discover_modes(log, TANK, out=centres)
+    assert wrote_file(centres) and wrote_file(centres.with_suffix(".png"))
+    discover_modes(log, TANK, out=centres, force=True)
 
 
 # --- every output checked before anything is written -------------------------------------------
@@ -486,7 +561,12 @@ def test_cluster_writes_both_outputs_or_neither(
     assert json.loads(out.read_text())["format"] == "hybridlog-centers"
     assert outcome.plot_path == tmp_path / "c.svg"
     assert (tmp_path / "c.svg").read_text().lstrip().startswith("<?xml")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "c.svg"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".c.json.hybridlog",
+        ".c.svg.hybridlog",
+        "c.json",
+        "c.svg",
+    ]
 
 
 # --- temporaries of dead processes -------------------------------------------------------------
@@ -564,4 +644,4 @@ def test_a_batch_folder_name_too_long_for_its_temporaries_is_refused_at_once(
     out = tmp_path / ("M" * 230)
     with pytest.raises(OutputError, match="is too long"):
         run_batch([log], TANK, out_dir=out, estimator="imm")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["log.csv"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".log.csv.hybridlog", "log.csv"]
