@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +32,26 @@ value cannot be a measurement; it is what corrupt bytes decode to (``-1e271``).
 
 
 @dataclass(frozen=True)
+class ComponentTruth:
+    """The true mode of one component of a ``[components]`` model, sample by sample.
+
+    Attributes
+    ----------
+    labels:
+        The component's mode ids.
+    codes:
+        Index into ``labels`` of each sample's true mode, shape ``(N,)``.
+    """
+
+    labels: tuple[str, ...]
+    codes: IntArray
+
+
+def _no_components() -> Mapping[str, ComponentTruth]:
+    return MappingProxyType({})
+
+
+@dataclass(frozen=True)
 class AlignedSignals:
     """Input/output samples on the model's grid ``t0 + k*dt``.
 
@@ -51,6 +73,10 @@ class AlignedSignals:
         or ``None`` when the log has no ground-truth mode.
     truth_states:
         True states, shape ``(N, n_x)`` with NaN in columns the log does not have, or ``None``.
+    truth_components:
+        For a ``[components]`` model, the true mode of each component the log has (its
+        ``mode.<component>`` column or ``/truth/mode.<component>`` topic), in the model's
+        component order; empty otherwise.
     """
 
     source: str
@@ -62,6 +88,7 @@ class AlignedSignals:
     truth_modes: IntArray | None = None
     state_names: tuple[str, ...] = ()
     truth_states: FloatArray | None = None
+    truth_components: Mapping[str, ComponentTruth] = field(default_factory=_no_components)
 
     @property
     def n_samples(self) -> int:
@@ -99,4 +126,8 @@ class AlignedSignals:
             outputs=self.outputs[start:stop],
             truth_modes=None if self.truth_modes is None else self.truth_modes[start:stop],
             truth_states=None if self.truth_states is None else self.truth_states[start:stop],
+            truth_components={
+                name: ComponentTruth(truth.labels, truth.codes[start:stop])
+                for name, truth in self.truth_components.items()
+            },
         )

@@ -382,7 +382,25 @@ class Prepared:
         self._check_finite(model, result)
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
-        return result
+        return self._with_component_modes(model, result)
+
+    def _with_component_modes(
+        self, model: HybridModel, result: EstimationResult
+    ) -> EstimationResult:
+        """Run on a ``[components]`` model's joint modes: add each component's modes.
+
+        As timeline columns ``mode.<component>``
+        (:func:`~hybridlog.estimators.cpha.joint.component_mode_columns`), which the report
+        scores against the log's per-component truth.
+        """
+        if not (model.has_components and self.estimator.capabilities.enumerates_components):
+            return result
+        import dataclasses
+
+        from hybridlog.estimators.cpha.joint import component_mode_columns
+
+        columns = component_mode_columns(model, result.modes)
+        return dataclasses.replace(result, timeline_columns=(*result.timeline_columns, *columns))
 
     def _check_finite(self, model: HybridModel, result: EstimationResult) -> None:
         """Refuse a result whose state estimate is not finite somewhere: it diverged.
@@ -441,7 +459,8 @@ class Prepared:
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self._check(signals)
-        return self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)
+        chunks = self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)
+        return (self._with_component_modes(model, chunk) for chunk in chunks)
 
     @staticmethod
     def _in_chunks(

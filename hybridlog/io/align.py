@@ -38,7 +38,14 @@ import numpy as np
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
 from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns
-from hybridlog.signals import LONGEST_DT_S, SHORTEST_DT_S, AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import (
+    LONGEST_DT_S,
+    SHORTEST_DT_S,
+    AlignedSignals,
+    ComponentTruth,
+    FloatArray,
+    IntArray,
+)
 
 DEFAULT_MAX_GAP_STEPS = 5
 
@@ -303,6 +310,7 @@ def align_signals(
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
     truth_mode: LabelSeries | None = None,
+    truth_components: Mapping[str, LabelSeries] | None = None,
     states: Sequence[str] = (),
     truth_states: Mapping[str, Series] | None = None,
     resample: str = "nearest",
@@ -323,6 +331,9 @@ def align_signals(
     truth_mode:
         True-mode samples whose ``codes`` are indices into the model's mode ids
         (:func:`~hybridlog.io.source.labels_to_codes`), or ``None``.
+    truth_components:
+        ``{component: true-mode samples}`` whose ``codes`` index the component's mode ids,
+        held onto the grid like ``truth_mode``.
     states:
         The model's state names (order of ``truth_states`` columns).
     truth_states:
@@ -386,6 +397,11 @@ def align_signals(
     if truth_mode is not None:
         modes = _hold_modes(source, truth_mode, grid, dt_ns, tolerance)
 
+    components = {
+        name: ComponentTruth(series.categories, _hold_modes(source, series, grid, dt_ns, tolerance))
+        for name, series in (truth_components or {}).items()
+    }
+
     x_true: FloatArray | None = None
     if truth_states:
         x_true = np.full((n, len(states)), np.nan)
@@ -407,6 +423,7 @@ def align_signals(
         truth_modes=modes,
         state_names=tuple(states),
         truth_states=x_true,
+        truth_components=components,
     )
 
 

@@ -72,6 +72,10 @@ def _no_paths() -> Mapping[str, str]:
     return MappingProxyType({})
 
 
+def _no_components() -> Mapping[str, tuple[str, ...]]:
+    return MappingProxyType({})
+
+
 @dataclass(frozen=True, kw_only=True)
 class SignalSpec:
     """What a model asks of a log: its symbols, mode ids, sample time and default paths.
@@ -91,6 +95,9 @@ class SignalSpec:
         The model's state names, in vector order (for ground truth; default none).
     signals, truth:
         The model's ``[signals]`` and ``[truth]`` tables (symbol → message path).
+    components:
+        A ``[components]`` model's components and their mode ids (``{name: ids}``, in the
+        model's order): their true modes are read where the log has them.
     """
 
     inputs: tuple[str, ...]
@@ -100,6 +107,7 @@ class SignalSpec:
     states: tuple[str, ...] = ()
     signals: Mapping[str, str] = field(default_factory=_no_paths)
     truth: Mapping[str, str] = field(default_factory=_no_paths)
+    components: Mapping[str, tuple[str, ...]] = field(default_factory=_no_components)
 
     @classmethod
     def of(cls, model: ModelSignals) -> SignalSpec:
@@ -112,6 +120,13 @@ class SignalSpec:
             states=tuple(model.states),
             signals=MappingProxyType(dict(model.signals)),
             truth=MappingProxyType(dict(model.truth)),
+            components=MappingProxyType(
+                {
+                    # its modes, the implicit "unknown" too: the keys of its initial probabilities
+                    str(c.name): tuple(str(m) for m in c.initial_mode_probabilities)
+                    for c in getattr(model, "components", ())
+                }
+            ),
         )
 
 
@@ -156,7 +171,13 @@ def load_signals(
     """
     options = options or ReadOptions()
     check_alignment_options(spec.dt, options.resample, options.max_gap)
-    parsed = parse_maps(options.maps, inputs=spec.inputs, outputs=spec.outputs, states=spec.states)
+    parsed = parse_maps(
+        options.maps,
+        inputs=spec.inputs,
+        outputs=spec.outputs,
+        states=spec.states,
+        components=tuple(spec.components),
+    )
     notes = notes if notes is not None else {}
     with open_log(path, options) as source:
         info = source.info
@@ -166,6 +187,7 @@ def load_signals(
             inputs=spec.inputs,
             outputs=spec.outputs,
             states=spec.states,
+            components=tuple(spec.components),
             signals=spec.signals,
             truth=spec.truth,
             maps=parsed,
@@ -187,7 +209,14 @@ def load_signals(
                 ]
             )
         )
-        labels = [mapping.truth_mode] if mapping.truth_mode is not None else []
+        labels = list(
+            dict.fromkeys(
+                [
+                    *([mapping.truth_mode] if mapping.truth_mode is not None else []),
+                    *mapping.truth_components.values(),
+                ]
+            )
+        )
         reading = source.read(numeric, labels)
         numeric_series = dict(reading.numeric)
         dropped: dict[str, int] = {}
@@ -220,12 +249,21 @@ def load_signals(
             truth_mode = LabelSeries(
                 mode_series.name, mode_series.time_ns, codes, tuple(spec.mode_ids)
             )
+        truth_components: dict[str, LabelSeries] = {}
+        for component, name in mapping.truth_components.items():
+            ids = spec.components[component]
+            labelled = reading.labels[name]
+            codes = _truth_mode_codes(
+                info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
+            )
+            truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
         return align_signals(
             source=info.path,
             dt=spec.dt,
             inputs={u: numeric_series[f] for u, f in mapping.inputs.items()},
             outputs={y: numeric_series[f] for y, f in mapping.outputs.items()},
             truth_mode=truth_mode,
+            truth_components=truth_components,
             states=spec.states,
             truth_states={x: numeric_series[f] for x, f in mapping.truth_states.items()},
             resample=options.resample,
@@ -248,9 +286,14 @@ def _all_usable(values: npt.NDArray[np.float64]) -> bool:
 
 
 def _truth_mode_codes(
-    path: str, locate: Locate, series: LabelSeries, mode_ids: Sequence[str]
+    path: str,
+    locate: Locate,
+    series: LabelSeries,
+    mode_ids: Sequence[str],
+    *,
+    symbol: str = "truth.mode",
 ) -> IntArray:
-    """Translate the true-mode label series into indices of ``mode_ids``.
+    """Translate a true-mode label series (of ``symbol``) into indices of ``mode_ids``.
 
     Labels and mode ids are compared as text after stripping whitespace: ``"1"`` matches mode
     ``"1"`` but ``"1.0"`` does not.
@@ -267,9 +310,10 @@ def _truth_mode_codes(
     if bad.any():
         first = int(np.argmax(bad))
         label = series.categories[int(series.codes[first])]
+        owner = "the model" if symbol == "truth.mode" else f"component {symbol[11:]!r}"
         raise LogError(
-            f"{path}, {locate(series.name, first)}: truth.mode {label!r} at "
-            f"t={format_ns(int(series.time_ns[first]))} s is not a mode of the model "
+            f"{path}, {locate(series.name, first)}: {symbol} {label!r} at "
+            f"t={format_ns(int(series.time_ns[first]))} s is not a mode of {owner} "
             f"(mode ids: {', '.join(mode_ids)}; compared as text)"
         )
     return codes

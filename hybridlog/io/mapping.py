@@ -1,7 +1,8 @@
 """Which log field feeds which model symbol (SPEC §5).
 
 For each model input and output, and for the ground truth (``truth.mode``,
-``truth.<state>``), the field is chosen in this order:
+``truth.<state>``, and for a ``[components]`` model ``truth.mode.<component>``), the field is
+chosen in this order:
 
 1. ``--map SYMBOL=PATH`` given by the user (the field must exist);
 2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field;
@@ -14,6 +15,7 @@ For each model input and output, and for the ground truth (``truth.mode``,
    ==================== ==========================================
    input or output *s*  ``/s.data`` (``std_msgs/Float64``)
    ``truth.mode``       ``/truth/mode.data`` (``std_msgs/String``)
+   ``truth.mode.c``     ``/truth/mode.c.data`` (``std_msgs/String``): component ``c``
    ``truth.x`` (state)  ``/truth/x.data`` (``std_msgs/Float64``)
    ==================== ==========================================
 
@@ -45,12 +47,16 @@ class SignalMap:
         Field holding the true mode id, or ``None``.
     truth_states:
         ``{state: field}`` for the states the log has, in the model's order.
+    truth_components:
+        ``{component: field}`` holding the true mode of each component the log has, in
+        the model's order (``[components]`` models).
     """
 
     inputs: dict[str, str]
     outputs: dict[str, str]
     truth_mode: str | None = None
     truth_states: dict[str, str] = field(default_factory=dict)
+    truth_components: dict[str, str] = field(default_factory=dict)
 
 
 def default_field(symbol: str, *, message_paths: bool) -> str:
@@ -73,15 +79,24 @@ def default_field(symbol: str, *, message_paths: bool) -> str:
 
 
 def valid_map_symbols(
-    inputs: Sequence[str], outputs: Sequence[str], states: Sequence[str]
+    inputs: Sequence[str],
+    outputs: Sequence[str],
+    states: Sequence[str],
+    components: Sequence[str] = (),
 ) -> tuple[str, ...]:
     """Every symbol ``--map`` accepts on its left-hand side."""
     return (
         *inputs,
         *outputs,
         TRUTH_MODE,
+        *(component_truth_symbol(c) for c in components),
         *(f"{TRUTH_PREFIX}{state}" for state in states),
     )
+
+
+def component_truth_symbol(component: str) -> str:
+    """The symbol of a component's true mode: ``truth.mode.<component>``."""
+    return f"{TRUTH_MODE}.{component}"
 
 
 def parse_maps(
@@ -90,6 +105,7 @@ def parse_maps(
     inputs: Sequence[str],
     outputs: Sequence[str],
     states: Sequence[str],
+    components: Sequence[str] = (),
 ) -> dict[str, str]:
     """Parse ``--map SYMBOL=PATH`` options.
 
@@ -97,8 +113,8 @@ def parse_maps(
     ----------
     maps:
         The option values, e.g. ``["y=level_m", "truth.mode=/truth/mode.data"]``.
-    inputs, outputs, states:
-        The model's symbol names.
+    inputs, outputs, states, components:
+        The model's symbol names (and component names).
 
     Returns
     -------
@@ -111,7 +127,7 @@ def parse_maps(
         For a value without ``=``, an empty side, an unknown symbol (listing the valid ones)
         or a symbol mapped twice.
     """
-    valid = valid_map_symbols(inputs, outputs, states)
+    valid = valid_map_symbols(inputs, outputs, states, components)
     parsed: dict[str, str] = {}
     for item in maps:
         symbol, sep, path = item.partition("=")
@@ -135,6 +151,7 @@ def resolve_signal_map(
     inputs: Sequence[str],
     outputs: Sequence[str],
     states: Sequence[str],
+    components: Sequence[str] = (),
     signals: Mapping[str, str] | None = None,
     truth: Mapping[str, str] | None = None,
     maps: Mapping[str, str] | None = None,
@@ -152,6 +169,8 @@ def resolve_signal_map(
         The log's path, for messages.
     inputs, outputs, states:
         The model's symbol names.
+    components:
+        The components of a ``[components]`` model (whose true modes are looked for).
     signals, truth:
         The model's ``[signals]`` (symbol → path) and ``[truth]`` (``mode``/state → path).
     maps:
@@ -187,7 +206,7 @@ def resolve_signal_map(
         return None if name in available else closest_names([name], fields)
 
     def choose(symbol: str, model_path: str | None, default: str, required: bool) -> str | None:
-        numeric = symbol != TRUTH_MODE
+        numeric = not symbol.startswith(TRUTH_MODE)
         mapped = maps.get(symbol)
         if mapped is not None:
             reason = missing(mapped, numeric)
@@ -234,7 +253,14 @@ def resolve_signal_map(
         chosen = choose(symbol, truth.get(state), default(symbol), required=False)
         if chosen is not None:
             truth_states[state] = chosen
-    return SignalMap(input_fields, output_fields, truth_mode, truth_states)
+    truth_components: dict[str, str] = {}
+    for component in components:
+        symbol = component_truth_symbol(component)
+        key = symbol.removeprefix(TRUTH_PREFIX)
+        chosen = choose(symbol, truth.get(key), default(symbol), required=False)
+        if chosen is not None:
+            truth_components[component] = chosen
+    return SignalMap(input_fields, output_fields, truth_mode, truth_states, truth_components)
 
 
 def _describe(symbol: str, inputs: Sequence[str]) -> str:

@@ -370,7 +370,12 @@ def gates_for(
 ) -> list[Gate]:
     """Parse the CI gates and check that the outputs and states they name exist."""
     gates = parse_gates(fail_under, fail_over)
-    validate_gates(gates, output_names=model.outputs, state_names=model.states)
+    validate_gates(
+        gates,
+        output_names=model.outputs,
+        state_names=model.states,
+        component_names=[c.name for c in model.components],
+    )
     return gates
 
 

@@ -7,6 +7,7 @@ that is ``None`` is undefined (``null_reasons``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
@@ -30,7 +31,8 @@ from hybridlog.report.document import (
     StateReport,
 )
 from hybridlog.report.markdown import plural
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.report.plot_data import COMPONENT_PREFIX
+from hybridlog.signals import AlignedSignals, ComponentTruth, FloatArray, IntArray
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
@@ -155,6 +157,63 @@ def _modes(
     )
 
 
+class _ComponentModes:
+    """The estimated mode of each component with ground truth, gathered chunk by chunk.
+
+    A ``[components]`` result carries each component's mode as a timeline column
+    ``mode.<component>`` (labels); the log may carry each component's true mode
+    (``AlignedSignals.truth_components``).  Both are scored per component on the union of
+    their labels (the estimate may say ``unknown``), and jointly: a sample is right when
+    every component is.
+    """
+
+    def __init__(self, n: int, truth: Mapping[str, ComponentTruth]) -> None:
+        self._n = n
+        self._truth = truth
+        self._labels: dict[str, tuple[str, ...]] = {}
+        self._codes: dict[str, IntArray] = {}
+        self._components: set[str] = set()
+
+    def add(self, chunk: EstimationResult, start: int) -> None:
+        for column in chunk.timeline_columns:
+            name = column.name.removeprefix(COMPONENT_PREFIX)
+            if not column.name.startswith(COMPONENT_PREFIX) or not column.labels:
+                continue
+            self._components.add(name)
+            if name not in self._truth:
+                continue
+            if self._labels.setdefault(name, column.labels) != column.labels:
+                raise ValueError(f"{chunk.estimator}: the labels of {column.name} changed")
+            codes = self._codes.setdefault(name, np.empty(self._n, dtype=np.int64))
+            codes[start : start + chunk.n_samples] = column.values
+
+    def reports(self, time: FloatArray, dt: float) -> dict[str, ModeReport]:
+        """Per component with truth: its :class:`ModeReport` against the truth."""
+        reports = {}
+        for name, labels in self._labels.items():
+            truth = self._truth[name]
+            ids = tuple(dict.fromkeys((*truth.labels, *labels)))
+            where = {label: i for i, label in enumerate(ids)}
+            estimated = np.array([where[label] for label in labels], dtype=np.int64)
+            true = np.array([where[label] for label in truth.labels], dtype=np.int64)
+            reports[name] = _modes(ids, time, estimated[self._codes[name]], true[truth.codes], dt)
+        return reports
+
+    def joint_accuracy(self) -> float | None:
+        """Fraction of samples where every component's mode is right.
+
+        ``None`` unless the log has every component's true mode.
+        """
+        if not self._components or set(self._labels) != self._components:
+            return None
+        right = np.ones(self._n, dtype=bool)
+        for name, labels in self._labels.items():
+            truth = self._truth[name]
+            estimated = np.asarray(labels, dtype=object)[self._codes[name]]
+            right &= estimated == np.asarray(truth.labels, dtype=object)[truth.codes]
+        return float(right.mean())
+
+
 def _same_run(first: EstimationResult, chunk: EstimationResult) -> bool:
     """Whether a chunk belongs to the run whose first chunk is ``first`` (names, options)."""
     return (
@@ -222,6 +281,7 @@ class ReportBuilder:
         self._first: EstimationResult | None = None
         self._last: EstimationResult | None = None
         self._offline: _OfflineSides | None = None
+        self._components = _ComponentModes(n, signals.truth_components)
 
     @property
     def rows(self) -> int:
@@ -263,6 +323,7 @@ class ReportBuilder:
         if self._states is not None and part.truth_states is not None:
             self._states.add(chunk.state_means, part.truth_states)
         self._modes[start:stop] = chunk.modes
+        self._components.add(chunk, start)
         if self._offline is not None:
             self._offline.add(chunk, part, start)
         self._last = chunk
@@ -304,6 +365,12 @@ class ReportBuilder:
         runtime = float(last.runtime_s)
         ids = tuple(str(m) for m in first.mode_ids)
         modes = _modes(ids, signals.time, self._modes, signals.truth_modes, self._dt)
+        components = self._components.reports(signals.time, self._dt)
+        if components:
+            joint = self._components.joint_accuracy()
+            modes = dataclasses.replace(
+                modes, components=components, accuracy=None if joint is None else _num(joint)
+            )
         states = {
             x: StateReport(rmse=_num(float(r)))
             for x, r in zip(first.state_names, rmse, strict=True)
@@ -591,7 +658,15 @@ def _null_reasons(
         if means[name] is None and per_output:
             y, m = next(iter(per_output.items()))
             reasons[name] = f"undefined for every output ({y}: {m.undefined.get(name)})"
-    if signals.truth_modes is None:
+    if modes.components:
+        if modes.accuracy is None:
+            reasons["mode_accuracy"] = (
+                "the log has the true mode of only some components: "
+                f"{', '.join(modes.components)}; see modes.components"
+            )
+        for name in ("detection_delay_s", "missed_switches"):
+            reasons[name] = "a [components] model: switches are scored per component"
+    elif signals.truth_modes is None:
         for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
             reasons[name] = "the log has no ground-truth mode"
     elif modes.detection is not None and modes.detection_delay_s is None:

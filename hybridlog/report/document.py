@@ -196,6 +196,12 @@ class ModeReport:
         ``{true mode: {estimated mode: sample count}}``; ``None`` without truth.
     detection:
         Detection of every true switch; ``None`` without truth.
+    components:
+        For a ``[components]`` model and a log with the true mode of components: each such
+        component's own report (``labels`` the union of its modes and the estimated ones).
+        ``accuracy`` is then the fraction of samples where every component is right (``None``
+        unless the log has every component's), and ``confusion``/``detection`` are per
+        component only.
 
     """
 
@@ -205,6 +211,7 @@ class ModeReport:
     accuracy: float | None = None
     confusion: Mapping[str, Mapping[str, int]] | None = None
     detection: Detection | None = None
+    components: Mapping[str, ModeReport] = field(default_factory=dict)
 
     @property
     def detection_delay_s(self) -> float | None:
@@ -221,6 +228,11 @@ class ModeReport:
             "confusion": _confusion_dict(self.confusion),
             "detection_delay_s": self.detection_delay_s,
             "detection": None if self.detection is None else self.detection.to_dict(),
+            **(
+                {"components": {c: m.to_dict() for c, m in self.components.items()}}
+                if self.components
+                else {}
+            ),
         }
 
 
@@ -752,6 +764,7 @@ class _Reader:
             accuracy=self.at(data, path, "accuracy", self.optional_number),
             confusion=confusion,
             detection=self.at(data, path, "detection", self.or_null(self.detection), None),
+            components=self.at(data, path, "components", self.map_of(self.modes), {}),
         )
         delay = self.at(data, path, "detection_delay_s", self.optional_number)
         if delay != modes.detection_delay_s:

@@ -19,6 +19,10 @@ Metric names
     Number of true mode switches never detected.
 ``state_rmse.<x>``
     RMSE of state ``<x>``.
+``mode_accuracy.<c>``, ``detection_delay_s.<c>``, ``missed_switches.<c>``
+    Of one component ``<c>`` of a ``[components]`` model (``report.modes.components[c]``),
+    against the log's true mode of that component; ``mode_accuracy`` is then the fraction
+    of samples where every component is right.
 ``runtime_s``, ``samples_per_s``
     Estimation speed.
 
@@ -40,7 +44,7 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 from hybridlog.errors import OptionError
-from hybridlog.report.document import OutputReport, Report, StateReport
+from hybridlog.report.document import ModeReport, OutputReport, Report, StateReport
 
 __all__ = [
     "METRICS",
@@ -76,6 +80,12 @@ _OUTPUT_METRICS: Final[Mapping[str, Callable[[OutputReport], float | None]]] = {
 _STATE_METRICS: Final[Mapping[str, Callable[[StateReport], float | None]]] = {
     "state_rmse": lambda s: s.rmse,
 }
+#: ... or by a component of a ``[components]`` model (``mode_accuracy.fr2``).
+_COMPONENT_METRICS: Final[Mapping[str, Callable[[ModeReport], float | int | None]]] = {
+    "mode_accuracy": lambda m: m.accuracy,
+    "detection_delay_s": lambda m: m.detection_delay_s,
+    "missed_switches": lambda m: None if m.detection is None else m.detection.missed,
+}
 #: The values each metric can take (by its unqualified name), for bounds it can never meet.
 _RANGES: Final[Mapping[str, tuple[float, float]]] = {
     "vaf": (0.0, 100.0),
@@ -100,6 +110,10 @@ METRICS: tuple[str, ...] = tuple(_REPORT_METRICS)
 # Fallbacks for reports without ``null_reasons`` (written by older versions).
 _WHY_NULL = {
     "mode_accuracy": "the log has no ground-truth mode",
+    "detection_delay_s.": "the log has no true mode of this component, or none of its true "
+    "switches was detected",
+    "mode_accuracy.": "the log has no true mode of this component",
+    "missed_switches.": "the log has no true mode of this component",
     "missed_switches": "the log has no ground-truth mode",
     "detection_delay_s": "no ground-truth mode or no true switch was detected",
     "state_rmse": "the log has no ground truth for this state",
@@ -139,7 +153,14 @@ class Gate:
 
 
 def _known_names() -> str:
-    return ", ".join([*METRICS, *(f"{m}.<output>" for m in _OUTPUT_METRICS), "state_rmse.<state>"])
+    return ", ".join(
+        [
+            *METRICS,
+            *(f"{m}.<output>" for m in _OUTPUT_METRICS),
+            "state_rmse.<state>",
+            *(f"{m}.<component>" for m in _COMPONENT_METRICS),
+        ]
+    )
 
 
 def parse_gate(spec: str, kind: GateKind) -> Gate:
@@ -173,7 +194,7 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
         raise OptionError(f"{option} {spec!r} is not of the form METRIC=VALUE")
     base, dot, qualifier = metric.partition(".")
     if dot:
-        known = bool(qualifier) and base in (*_OUTPUT_METRICS, *_STATE_METRICS)
+        known = bool(qualifier) and base in (*_OUTPUT_METRICS, *_STATE_METRICS, *_COMPONENT_METRICS)
     else:
         known = base in METRICS
     if not known:
@@ -223,9 +244,13 @@ def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -
 
 
 def validate_gates(
-    gates: Iterable[Gate], *, output_names: Sequence[str], state_names: Sequence[str]
+    gates: Iterable[Gate],
+    *,
+    output_names: Sequence[str],
+    state_names: Sequence[str],
+    component_names: Sequence[str] = (),
 ) -> None:
-    """Check that qualified metrics name an output or state of the model.
+    """Check that qualified metrics name an output, state or component of the model.
 
     Call this before a long run so that ``--fail-under vaf.y9=90`` fails early.
 
@@ -233,13 +258,13 @@ def validate_gates(
     ----------
     gates:
         Parsed gates.
-    output_names, state_names:
-        The model's outputs and states.
+    output_names, state_names, component_names:
+        The model's outputs, states and components.
 
     Raises
     ------
     OptionError
-        Naming the first gate whose output or state is unknown.
+        Naming the first gate whose output, state or component is unknown.
 
     """
     for gate in gates:
@@ -255,6 +280,15 @@ def validate_gates(
             raise OptionError(
                 f"{gate.option} {gate.spec!r}: {qualifier!r} is not a state; "
                 f"states: {', '.join(state_names)}"
+            )
+        if base in _COMPONENT_METRICS and qualifier not in component_names:
+            known = (
+                f"components: {', '.join(component_names)}"
+                if component_names
+                else "the model has no [components]"
+            )
+            raise OptionError(
+                f"{gate.option} {gate.spec!r}: {qualifier!r} is not a component; {known}"
             )
 
 
@@ -291,6 +325,9 @@ def metric(report: Report, name: str) -> float | int | None:
         if qualifier not in report.states:
             raise OptionError(f"gate metric {name!r}: {qualifier!r} is not a state")
         return _STATE_METRICS[base](report.states[qualifier])
+    if dot and base in _COMPONENT_METRICS:
+        component = report.modes.components.get(qualifier)
+        return None if component is None else _COMPONENT_METRICS[base](component)
     raise OptionError(f"unknown gate metric {name!r}; known: {_known_names()}")
 
 
@@ -345,9 +382,11 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
     for gate in gates:
         value = metric_value(report, gate.metric)
         if value is None:
-            base = gate.metric.partition(".")[0]
-            why = report.null_reasons.get(gate.metric) or _WHY_NULL.get(
-                base, "the report has no value for it"
+            base, dot, _ = gate.metric.partition(".")
+            why = (
+                report.null_reasons.get(gate.metric)
+                or _WHY_NULL.get(base + dot if base in _COMPONENT_METRICS else base)
+                or "the report has no value for it"
             )
             failures.append(
                 f"{gate.metric} is not available ({why}), so the {gate.option} bound "

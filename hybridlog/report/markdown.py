@@ -190,7 +190,9 @@ def render_markdown(report: Report) -> str:
     lines += ["| mode | dwell (s) |", "|---|---:|"]
     lines += [f"| {escape_markdown(m)} | {_fmt(modes.dwell_s.get(m))} |" for m in modes.labels]
     lines.append("")
-    if modes.accuracy is None:
+    if modes.components:
+        lines += _component_lines(modes)
+    elif modes.accuracy is None:
         lines.append("No ground-truth mode in the log: accuracy and delays are not known.")
     else:
         lines += _truth_lines(modes, modes.accuracy)
@@ -275,6 +277,22 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     if f.mode_accuracy is None:
         lines += ["", "No ground-truth mode in the log: mode accuracy and delays are not known."]
     return lines
+
+
+def _component_lines(modes: ModeReport) -> list[str]:
+    """A ``[components]`` model's modes against the log's per-component truth."""
+    joint = (
+        f"- every component right: {_fmt(modes.accuracy, '.4%')} of the samples"
+        if modes.accuracy is not None
+        else "- the log has the true mode of only some components: no joint accuracy"
+    )
+    lines = [joint, ""]
+    for name, component in modes.components.items():
+        lines += [f"### Component {escape_markdown(name)}", ""]
+        assert component.accuracy is not None  # a component is listed only with its truth
+        lines += _truth_lines(component, component.accuracy)
+        lines.append("")
+    return lines[:-1]
 
 
 def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:

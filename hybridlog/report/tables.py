@@ -7,7 +7,9 @@ Columns
     probability or normalised score), then, for a smoothed run (``--smooth``,
     ``--mode-sequence viterbi``), ``mode_filtered`` and ``p_<mode>_filtered`` (the causal
     filter's own), ``truth_mode`` (true mode id) when the log has a ground-truth mode, then the
-    estimator's own columns (``EstimationResult.timeline_columns``).
+    estimator's own columns (``EstimationResult.timeline_columns``; ``mode.<component>`` for
+    a ``[components]`` model), then ``truth_mode.<component>`` for each component whose true
+    mode the log has.
 ``estimates``
     ``t``; for each state ``x``: ``<x>_hat`` (estimate) and ``<x>_var`` (diagonal of the
     error covariance), then for a smoothed run ``<x>_hat_filtered`` and ``<x>_var_filtered``
@@ -203,6 +205,8 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
             table.labels(column.name, column.labels, column.values.astype(np.int64, copy=False))
         else:
             table.floats(column.name, column.values.astype(np.float64, copy=False))
+    for name, truth in signals.truth_components.items():
+        table.labels(f"truth_mode.{name}", truth.labels, truth.codes)
     return table.table()
 
 

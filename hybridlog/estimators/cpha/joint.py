@@ -23,11 +23,13 @@ import sympy
 
 from hybridlog.estimators.capabilities import MAX_JOINT_MODES
 from hybridlog.estimators.cpha.structure import Assignment, _causal_graph, _Names
+from hybridlog.estimators.result import TimelineColumn
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.hybrid_model import HybridModel, Mode
+from hybridlog.signals import IntArray
 
-__all__ = ["joint_label", "joint_mode_model"]
+__all__ = ["component_mode_columns", "joint_label", "joint_mode_model"]
 
 SEPARATOR = "|"
 
@@ -132,4 +134,21 @@ def joint_mode_model(model: HybridModel) -> HybridModel:
         commands=(),
         transitions=transitions,
         initial_mode_probabilities=prior / prior.sum(),
+    )
+
+
+def component_mode_columns(model: HybridModel, modes: IntArray) -> tuple[TimelineColumn, ...]:
+    """Each component's mode of each sample, from indices of :func:`joint_mode_model`'s modes.
+
+    The timeline columns ``mode.<component>`` that ``unknown-mode`` gives too, so that an
+    estimator run on the joint modes is scored per component like it (labels: the
+    component's known mode ids).
+    """
+    components: tuple[Component, ...] = model.components
+    table = np.array(
+        list(itertools.product(*(range(len(c.modes)) for c in components))), dtype=np.int64
+    ).reshape(-1, len(components))
+    return tuple(
+        TimelineColumn(f"mode.{c.name}", np.ascontiguousarray(table[modes, j]), c.mode_ids)
+        for j, c in enumerate(components)
     )
