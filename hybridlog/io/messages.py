@@ -574,7 +574,7 @@ class _ValueCounter:
         for leaf in self.leaves:
             try:
                 values = _leaf_values(messages, leaf)
-            except PathError as err:
+            except (PathError, ValueError) as err:
                 self.problem = f"{leaf.text}: {err}; its values are not counted"
                 return
             entry = self._counts[leaf.text]
@@ -603,18 +603,22 @@ def _count_json(value: object, path: str, counts: dict[str, list[int]], depth: i
                 _count_json(item, f"{path}.{key}", counts, depth + 1)
     elif isinstance(value, list):
         if value and all(_is_json_number(item) for item in value):
-            array = np.asarray(value, dtype=np.float64)
             entry = counts.setdefault(f"{path}[]", [0, 0])
-            entry[0] += array.size
-            entry[1] += count_nonfinite(array)
+            entry[0] += len(value)
+            entry[1] += sum(map(_is_nonfinite, value))
     elif _is_json_number(value) and path:
         entry = counts.setdefault(path, [0, 0])
         entry[0] += 1
-        entry[1] += isinstance(value, float) and not math.isfinite(value)
+        entry[1] += _is_nonfinite(value)
 
 
 def _is_json_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _is_nonfinite(value: object) -> bool:
+    """A JSON float that is NaN or infinite (an integer never is, however many digits)."""
+    return isinstance(value, float) and not math.isfinite(value)
 
 
 # ---------------------------------------------------------------------- one topic
