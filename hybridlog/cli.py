@@ -404,7 +404,8 @@ def _say(ctx: click.Context, text: str) -> None:
 
 
 @cli.command(
-    help="Describe a log: columns or topics, types, counts, rates, time span and gaps.\n\n"
+    help="Describe a log: columns or topics, types, counts, NaN and infinite values, time "
+    "span, mean rates, median steps and gaps.\n\n"
     f"Reads {format_list(titles=True)}.",
     epilog=_examples(
         "hybridlog inspect sample_logs/three_tank_hstf.csv",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -27,15 +28,29 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     Returns
     -------
     dict
-        For tables: ``path, format, rows, columns`` (each ``name, dtype, count, min, max,
-        rate_hz``), ``time`` (``column, start, end, duration``) or ``None``, ``sample_time``
-        (median step, s), ``rate_hz``, ``gaps`` (``start, end, duration`` of every step
-        longer than 1.5 times the median; at most 1000 listed), ``gap_count`` and
-        ``problems`` (why the time column is unusable, if it is).  For bags and MCAP files:
-        ``path, format, messages, topics`` (each ``name, type, encoding, count,
-        indexed_count, start, end, duration, rate_hz, gap_count, gaps, fields``), ``time``
-        (``start, end, duration``), ``problems`` and ``reading``.  Only plain ``str``,
-        ``int``, ``float``, ``None``, lists and dicts, so ``json.dumps`` takes it as is.
+        For tables: ``path, format, rows, columns`` (each ``name, dtype, count, nonfinite,
+        min, max, rate_hz``), ``time`` (``column, start, end, duration``) or ``None``, the
+        time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
+        ``regular``, ``gaps``, ``gap_count``) and ``problems`` (why the time column is
+        unusable, if it is).  For bags and MCAP files: ``path, format, messages, topics``
+        (each ``name, type, encoding, count, indexed_count, start, end, duration``, the same
+        step keys, ``nonfinite``, ``values`` and ``fields``), ``time`` (``start, end,
+        duration``), ``problems`` and ``reading``.  Only plain ``str``, ``int``, ``float``,
+        ``bool``, ``None``, lists and dicts, so ``json.dumps`` takes it as is.
+
+        Timing (:func:`~hybridlog.io.summary.describe_steps`): ``rate_hz`` is the mean rate
+        over the span, ``(count - 1) / duration``; ``sample_time`` is the median step, with
+        ``min_step`` and ``max_step`` its spread; ``regular`` says whether every step lies
+        within a factor 1.5 of the median; a gap is a step longer than 1.5 times the median
+        (at most 1000 listed, all counted in ``gap_count``).
+
+        Values: ``count`` counts the samples (non-empty cells, or messages), ``nonfinite``
+        those that are NaN or infinite, which ``analyze`` refuses in a mapped signal (unless
+        ``--drop-nonfinite``).  A topic's ``values`` lists ``name, count, nonfinite`` per
+        field that can hold them (the ``float32``/``float64`` fields of ROS messages, every
+        number of JSON messages; arrays counted element by element); its ``nonfinite`` is
+        their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
+        ``None`` too for a column that is not numeric.
 
     Raises
     ------
@@ -77,38 +92,42 @@ def format_inspection(info: dict[str, Any]) -> str:
             f"time: column {span['column']!r}, {_at(span['start'])} s to {_at(span['end'])} s"
             f" ({_num(span['duration'])} s)"
         )
-        if info.get("sample_time") is not None:
-            text += f", sample time {_num(info['sample_time'])} s ({_num(info['rate_hz'])} Hz)"
-        lines.append(text)
+        if info.get("sample_time") is None:
+            lines.append(text)
+        elif info.get("regular", True):
+            lines.append(f"{text}, sample time {_num(info['sample_time'])} s ({_hz(info)})")
+        else:
+            lines.append(f"{text}, {_hz(info)} on average")
+            lines.append(f"timing irregular: {_steps(info)}")
     gaps = info.get("gaps") or []
     count = int(info.get("gap_count", len(gaps)))
     if span is not None:
         if count == 0:
             lines.append("gaps: none")
         else:
-            lines.append(f"gaps: {_count(count, 'step')} longer than 1.5 x the sample time")
+            lines.append(f"gaps: {_count(count, 'step')} longer than 1.5 x the median step")
             for gap in gaps[:10]:
                 lines.append(
                     f"  {_at(gap['start'])} s to {_at(gap['end'])} s ({_num(gap['duration'])} s)"
                 )
             if count > 10:
                 lines.append(f"  ... {count - 10} more")
-    header = ("column", "dtype", "count", "min", "max", "rate_hz")
+    columns = info.get("columns", [])
+    header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz")
     rows = [
         (
             str(c["name"]),
             str(c["dtype"]),
             str(c["count"]),
+            _num(c.get("nonfinite")),
             _num(c["min"]),
             _num(c["max"]),
             _num(c.get("rate_hz")),
         )
-        for c in info.get("columns", [])
+        for c in columns
     ]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    lines.append("")
-    for row in [header, *rows]:
-        lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    lines.extend(_table(header, rows))
+    lines.extend(_nonfinite_lines(columns))
     problems = info.get("problems") or []
     if problems:
         lines.append("")
@@ -128,12 +147,13 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append(
             f"time: {_at(span['start'])} s to {_at(span['end'])} s ({_num(span['duration'])} s)"
         )
-    header = ("topic", "type", "count", "rate_hz", "gaps", "start", "end")
+    header = ("topic", "type", "count", "nonfinite", "rate_hz", "gaps", "start", "end")
     rows = [
         (
             str(t["name"]),
             str(t["type"] or "-"),
             str(t["count"]),
+            _num(t.get("nonfinite")),
             _num(t["rate_hz"]),
             str(t["gap_count"]),
             "-" if t["start"] is None else _at(t["start"]),
@@ -141,10 +161,12 @@ def _format_messages(info: dict[str, Any]) -> str:
         )
         for t in topics
     ]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    lines.append("")
-    for row in [header, *rows]:
-        lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    lines.extend(_table(header, rows))
+    irregular = [t for t in topics if t.get("regular") is False]
+    if irregular:
+        lines.append("")
+        lines.append("irregular timing (rate_hz is the mean rate over the topic's span):")
+        lines.extend(f"  {t['name']}: {_steps(t)}" for t in irregular)
     gapped = [t for t in topics if t["gap_count"]]
     if gapped:
         lines.append("")
@@ -157,6 +179,7 @@ def _format_messages(info: dict[str, Any]) -> str:
                 )
             if topic["gap_count"] > 5:
                 lines.append(f"  {topic['name']}: ... {topic['gap_count'] - 5} more")
+    lines.extend(_nonfinite_lines([v for t in topics for v in t.get("values") or []]))
     fields = [f for t in topics for f in t["fields"]]
     if fields:
         lines.append("")
@@ -182,6 +205,44 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("problems:")
         lines.extend(f"  {p}" for p in problems)
     return "\n".join(lines)
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    """A blank line, then ``header`` and ``rows`` in left-aligned columns."""
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    lines = [""]
+    for row in [header, *rows]:
+        lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+    return lines
+
+
+def _hz(steps: dict[str, Any]) -> str:
+    """The mean rate of a description's steps, ``"- Hz"`` when it has none."""
+    return f"{_num(steps.get('rate_hz'))} Hz"
+
+
+def _steps(steps: dict[str, Any]) -> str:
+    """``median step 0.001 s (1000 Hz), steps 0.001 s to 3 s``: how irregular steps spread."""
+    median = steps["sample_time"]
+    rate = f" ({_num(1 / median)} Hz)" if median else ""
+    return (
+        f"median step {_num(median)} s{rate}, "
+        f"steps {_num(steps['min_step'])} s to {_num(steps['max_step'])} s"
+    )
+
+
+def _nonfinite_lines(entries: list[dict[str, Any]]) -> list[str]:
+    """The columns or message fields holding NaN or infinite values, with their counts."""
+    bad = [e for e in entries if e.get("nonfinite")]
+    if not bad:
+        return []
+    lines = [
+        "",
+        "non-finite values (NaN, inf; analyze refuses them in a mapped signal unless "
+        "--drop-nonfinite):",
+    ]
+    lines.extend(f"  {e['name']}: {e['nonfinite']} of {e['count']}" for e in bad)
+    return lines
 
 
 def _count(count: int, noun: str) -> str:

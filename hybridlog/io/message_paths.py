@@ -239,15 +239,43 @@ def _target(desc: Fielddesc) -> Target:
     return Target("message", "array")
 
 
-def leaf_fields(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[str]:
-    """Paths (steps only, e.g. ``.position[]``) of the numeric and text leaves of ``msgtype``.
+FLOAT_TYPES = frozenset(("float32", "float64"))
+"""The primitive types of ROS messages that can hold NaN and infinities."""
 
-    Arrays are shown as ``[]`` (their length is known only per message); nested messages
-    inside arrays are not expanded.  At most ``limit`` are returned.
+
+@dataclass(frozen=True)
+class Leaf:
+    """A numeric or text leaf of a message definition.
+
+    Attributes
+    ----------
+    steps:
+        Field names from the message down to the leaf.
+    type_name:
+        Its primitive type (of the elements, for an array), e.g. ``float64``.
+    array:
+        Whether it is an array of numbers (whose length is known only per message).
     """
-    out: list[str] = []
 
-    def walk(type_name: str, prefix: str, depth: int) -> None:
+    steps: tuple[str, ...]
+    type_name: str
+    array: bool
+
+    @property
+    def text(self) -> str:
+        """The path after the topic, e.g. ``.position[]`` (``[]`` marks an array)."""
+        return format_steps(self.steps) + ("[]" if self.array else "")
+
+
+def leaves(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[Leaf]:
+    """The numeric and text leaves of ``msgtype``, in definition order.
+
+    Arrays of numbers are leaves; nested messages inside arrays are not expanded, nor messages
+    nested deeper than 8 levels.  At most ``limit`` are returned.
+    """
+    out: list[Leaf] = []
+
+    def walk(type_name: str, prefix: tuple[str, ...], depth: int) -> None:
         if depth > 8 or type_name not in typedefs:
             return
         for name, desc in typedefs[type_name][1]:
@@ -255,16 +283,24 @@ def leaf_fields(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[st
                 continue
             node = int(desc[0])
             if node == BASE and (desc[1][0] in NUMERIC_TYPES or desc[1][0] in STRING_TYPES):
-                out.append(f"{prefix}.{name}")
+                out.append(Leaf((*prefix, name), desc[1][0], array=False))
             elif node == NAME:
-                walk(desc[1], f"{prefix}.{name}", depth + 1)
+                walk(desc[1], (*prefix, name), depth + 1)
             elif node in (ARRAY, SEQUENCE):
                 sub = desc[1][0]
                 if int(sub[0]) == BASE and sub[1][0] in NUMERIC_TYPES:
-                    out.append(f"{prefix}.{name}[]")
+                    out.append(Leaf((*prefix, name), sub[1][0], array=True))
 
-    walk(msgtype, "", 0)
+    walk(msgtype, (), 0)
     return out
+
+
+def leaf_fields(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[str]:
+    """Paths (steps only, e.g. ``.position[]``) of the numeric and text leaves of ``msgtype``.
+
+    Arrays are shown as ``[]`` (their length is known only per message); see :func:`leaves`.
+    """
+    return [leaf.text for leaf in leaves(typedefs, msgtype, limit=limit)]
 
 
 # ---------------------------------------------------------------------------- decoded messages

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import abc
 import json
+import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,12 +38,15 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.message_paths import (
+    FLOAT_TYPES,
+    Leaf,
     MessagePath,
     PathError,
     Step,
     Typedefs,
     UndecodableError,
     accessor,
+    as_float_array,
     as_label,
     as_number,
     check_path,
@@ -50,6 +54,8 @@ from hybridlog.io.message_paths import (
     evaluate,
     format_steps,
     leaf_fields,
+    leaf_value,
+    leaves,
     split_path,
     stamp_ns,
 )
@@ -62,6 +68,7 @@ from hybridlog.io.source import (
     closest_names,
     format_ns,
 )
+from hybridlog.io.summary import count_nonfinite, describe_steps
 from hybridlog.signals import FloatArray, IntArray
 
 BATCH_MESSAGES = 65_536
@@ -74,8 +81,6 @@ a whole batch of them alive at once made each of its collections walk up to 65,5
 again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 s in parts of
 512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young."""
 HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
-GAP_FACTOR = 1.5
-MAX_LISTED_GAPS = 1000
 
 
 @dataclass
@@ -381,23 +386,42 @@ class MessageSource(abc.ABC):
     def describe(self) -> dict[str, Any]:
         """Summarise the log for ``hybridlog inspect``.
 
+        One pass over every topic's messages: their log times are collected, and the
+        messages of topics with fields that can hold NaN or infinities are decoded (512 at a
+        time) to count those values (see :class:`_ValueCounter`).
+
         Returns
         -------
         dict
             ``path, format, messages, topics`` (each ``name, type, encoding, count,
-            indexed_count, start, end, duration, rate_hz, gap_count, gaps, fields``),
-            ``time`` (``start, end, duration`` over all messages, or ``None``), ``problems``
-            and ``reading`` (what reading did, e.g. recovery).  Times are seconds as floats.
+            indexed_count, start, end, duration``, the steps of its log times as
+            :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
+            rate over the span, ``sample_time``: the median step, ``min_step``,
+            ``max_step``, ``regular``, ``gap_count``, ``gaps``), ``nonfinite`` (NaN and
+            infinite values in its fields), ``values`` (per field that can hold them:
+            ``name, count, nonfinite``) and ``fields``), ``time`` (``start, end, duration``
+            over all messages, or ``None``), ``problems`` and ``reading`` (what reading did,
+            e.g. recovery).  Times are seconds as floats.  ``nonfinite`` and ``values`` are
+            ``None`` for a topic whose messages cannot be decoded.
         """
         problems = list(self._problems)
         times: dict[str, list[int]] = {name: [] for name in self._topics}
+        counters = {
+            name: counter
+            for name, topic in self._topics.items()
+            if (counter := _ValueCounter.of(topic)) is not None
+        }
         try:
-            for topic_name, log_time, _ in self._messages(set(self._topics)):
+            for topic_name, log_time, data in self._messages(set(self._topics)):
                 times[topic_name].append(log_time)
+                counter = counters.get(topic_name)
+                if counter is not None:
+                    counter.add(data, log_time)
         except LogError as err:
             problems.append(str(err).removeprefix(f"{self.path}: "))
         fields = self.fields()
         topics = []
+        undecodable: list[str] = []
         start, end = None, None
         for name in sorted(self._topics):
             topic = self._topics[name]
@@ -414,6 +438,12 @@ class MessageSource(abc.ABC):
                     f"topic {name!r}: {stamps.size} messages found but the index lists "
                     f"{topic.count}"
                 )
+            values: list[dict[str, Any]] | None = None  # not known: not decodable
+            counter = counters.get(name)
+            if counter is not None:
+                values = counter.result()
+                if counter.problem is not None:
+                    undecodable.append(f"topic {topic.label}: {counter.problem}")
             topics.append(
                 {
                     "name": name,
@@ -422,6 +452,8 @@ class MessageSource(abc.ABC):
                     "count": int(stamps.size),
                     "indexed_count": topic.count,
                     **info,
+                    "nonfinite": None if values is None else sum(v["nonfinite"] for v in values),
+                    "values": values,
                     "fields": [f for f in fields if f == name or _under(f, name)],
                 }
             )
@@ -435,7 +467,7 @@ class MessageSource(abc.ABC):
             "time": None
             if start is None or end is None
             else {"start": start / 1e9, "end": end / 1e9, "duration": (end - start) / 1e9},
-            "problems": problems,
+            "problems": [*problems, *undecodable],
             "reading": dict(self._notes),
         }
 
@@ -445,35 +477,148 @@ def _under(field_path: str, topic: str) -> bool:
 
 
 def _describe_times(stamps: IntArray) -> dict[str, Any]:
-    info: dict[str, Any] = {
-        "start": None,
-        "end": None,
-        "duration": None,
-        "rate_hz": None,
-        "gap_count": 0,
-        "gaps": [],
-    }
-    if not stamps.size:
-        return info
-    info["start"] = int(stamps[0]) / 1e9
-    info["end"] = int(stamps[-1]) / 1e9
-    info["duration"] = (int(stamps[-1]) - int(stamps[0])) / 1e9
-    steps = np.diff(stamps)
-    if steps.size:
-        median = float(np.median(steps))
-        if median > 0:
-            info["rate_hz"] = 1e9 / median
-            starts = np.flatnonzero(steps > GAP_FACTOR * median)
-            info["gap_count"] = int(starts.size)
-            info["gaps"] = [
-                {
-                    "start": int(stamps[i]) / 1e9,
-                    "end": int(stamps[i + 1]) / 1e9,
-                    "duration": int(steps[i]) / 1e9,
-                }
-                for i in starts[:MAX_LISTED_GAPS].tolist()
-            ]
-    return info
+    """Span and steps of one topic's sorted log times (``None`` where there are none)."""
+    span: dict[str, Any] = {"start": None, "end": None, "duration": None}
+    if stamps.size:
+        span["start"] = int(stamps[0]) / 1e9
+        span["end"] = int(stamps[-1]) / 1e9
+        span["duration"] = (int(stamps[-1]) - int(stamps[0])) / 1e9
+    return {**span, **describe_steps(stamps)}
+
+
+# ---------------------------------------------------------------------- values, for inspect
+
+
+class _ValueCounter:
+    """Counts the values of a topic's fields that can hold NaN or infinities, and those that do.
+
+    For :meth:`MessageSource.describe`: fed the topic's serialised messages one by one, it
+    decodes them :data:`DECODED_AT_ONCE` at a time and counts, per field, the values and the
+    non-finite ones (:func:`~hybridlog.io.summary.count_nonfinite`).  The fields are the
+    ``float32``/``float64`` leaves (scalars and arrays) of a ROS message definition, or every
+    number of a JSON message (JSON has one number type; Python's reader takes ``NaN`` and
+    ``Infinity``).  A message that cannot be decoded stops the count, with ``problem`` saying
+    why.
+
+    Parameters
+    ----------
+    topic:
+        The topic, with its decoder.
+    float_leaves:
+        Its floating-point leaves, or ``None`` for JSON messages, which are walked as they
+        come.
+    """
+
+    def __init__(self, topic: Topic, float_leaves: list[Leaf] | None) -> None:
+        self.topic = topic
+        self.leaves = float_leaves
+        self.problem: str | None = None
+        self._datas: list[bytes] = []
+        self._times: list[int] = []
+        # field path after the topic -> [values, non-finite values]
+        self._counts: dict[str, list[int]] = {leaf.text: [0, 0] for leaf in float_leaves or ()}
+
+    @classmethod
+    def of(cls, topic: Topic) -> _ValueCounter | None:
+        """A counter for ``topic``, or ``None`` when its messages cannot be decoded.
+
+        A topic whose definition has no floating-point field gets a counter that decodes
+        nothing (its count of non-finite values is 0).
+        """
+        if topic.problem or topic.decode is None:
+            return None
+        if topic.encoding == "json":
+            return cls(topic, None)
+        if topic.typedefs is None or topic.msgtype not in topic.typedefs:
+            return None
+        found = leaves(topic.typedefs, topic.msgtype)
+        return cls(topic, [leaf for leaf in found if leaf.type_name in FLOAT_TYPES])
+
+    def add(self, data: bytes, log_time: int) -> None:
+        """Take one serialised message; count a part when :data:`DECODED_AT_ONCE` are held."""
+        if self.problem is not None or self.leaves == []:
+            return
+        self._datas.append(data)
+        self._times.append(log_time)
+        if len(self._datas) >= DECODED_AT_ONCE:
+            self._count()
+
+    def result(self) -> list[dict[str, Any]] | None:
+        """``name, count, nonfinite`` per field, or ``None`` when a message was undecodable."""
+        self._count()
+        if self.problem is not None:
+            return None
+        return [
+            {"name": self.topic.name + path, "count": count, "nonfinite": nonfinite}
+            for path, (count, nonfinite) in self._counts.items()
+        ]
+
+    def _count(self) -> None:
+        datas, times = self._datas, self._times
+        self._datas, self._times = [], []
+        if not datas or self.problem is not None:
+            return
+        assert self.topic.decode is not None  # checked by ``of``
+        try:
+            messages = decode_each(self.topic.decode, datas)
+        except UndecodableError as err:
+            self.problem = (
+                f"the message logged at t={format_ns(times[err.row])} s cannot be decoded "
+                f"({err}); its values are not counted"
+            )
+            return
+        if self.leaves is None:
+            for message in messages:
+                _count_json(message, "", self._counts, 0)
+            return
+        for leaf in self.leaves:
+            try:
+                values = _leaf_values(messages, leaf)
+            except (PathError, ValueError) as err:
+                self.problem = f"{leaf.text}: {err}; its values are not counted"
+                return
+            entry = self._counts[leaf.text]
+            entry[0] += values.size
+            entry[1] += count_nonfinite(values)
+
+
+def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
+    """The numbers of ``leaf`` in decoded messages, arrays concatenated, as ``float64``."""
+    get = accessor(leaf.steps)
+    try:
+        if not leaf.array:
+            return np.fromiter(map(get, messages), dtype=np.float64, count=len(messages))
+        parts = [as_float_array(get(message)) for message in messages]
+    except (AttributeError, IndexError, KeyError, TypeError, ValueError, PathError):
+        # the careful path: renamed fields (``from_``) and containers of other decoders
+        parts = [np.asarray(leaf_value(m, leaf.steps), dtype=np.float64) for m in messages]
+    return np.concatenate([np.ravel(part) for part in parts]) if parts else np.zeros(0)
+
+
+def _count_json(value: object, path: str, counts: dict[str, list[int]], depth: int) -> None:
+    """Add the numbers of a decoded JSON value to ``counts`` (``path[]`` for arrays)."""
+    if isinstance(value, Mapping):
+        if depth < 8:
+            for key, item in value.items():
+                _count_json(item, f"{path}.{key}", counts, depth + 1)
+    elif isinstance(value, list):
+        if value and all(_is_json_number(item) for item in value):
+            entry = counts.setdefault(f"{path}[]", [0, 0])
+            entry[0] += len(value)
+            entry[1] += sum(map(_is_nonfinite, value))
+    elif _is_json_number(value) and path:
+        entry = counts.setdefault(path, [0, 0])
+        entry[0] += 1
+        entry[1] += _is_nonfinite(value)
+
+
+def _is_json_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _is_nonfinite(value: object) -> bool:
+    """A JSON float that is NaN or infinite (an integer never is, however many digits)."""
+    return isinstance(value, float) and not math.isfinite(value)
 
 
 # ---------------------------------------------------------------------- one topic

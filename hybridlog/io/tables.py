@@ -36,16 +36,12 @@ from hybridlog.io.source import (
     format_ns,
     seconds_to_ns,
 )
+from hybridlog.io.summary import count_nonfinite, describe_steps
 from hybridlog.signals import FloatArray, IntArray
 
 TIME_COLUMNS = ("t", "time")
 
 _TABLES = (get_format("csv"), get_format("parquet"))
-
-# Step larger than this multiple of the median step is reported as a gap by ``describe``.
-GAP_FACTOR = 1.5
-# ``describe`` lists at most this many gaps (and always counts them all).
-MAX_LISTED_GAPS = 1000
 
 COUNTED_AT_ONCE = 1 << 18
 """Bytes of a CSV file :func:`_count_separators` reads and counts at a time (256 KiB: of the
@@ -390,12 +386,14 @@ class TableSource:
         Returns
         -------
         dict
-            JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count, min,
-            max, rate_hz``), ``time`` (``column, start, end, duration`` in seconds, or
-            ``None``), ``sample_time``, ``rate_hz``, ``gaps`` (steps longer than 1.5 times the
-            median, at most 1000), ``gap_count`` and ``problems`` (why time is unusable).
-            Times are seconds as floats; statistics of columns that are not numeric are
-            ``None``.
+            JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count,
+            nonfinite, min, max, rate_hz``), ``time`` (``column, start, end, duration`` in
+            seconds, or ``None``), the time column's steps as
+            :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
+            rate over the span, ``sample_time``: the median step, ``min_step``,
+            ``max_step``, ``regular``, ``gaps``: steps longer than 1.5 times the median, at
+            most 1000, ``gap_count``) and ``problems`` (why time is unusable).  Times are
+            seconds as floats; statistics of columns that are not numeric are ``None``.
         """
         problems: list[str] = []
         frame = self._full_frame()
@@ -417,16 +415,14 @@ class TableSource:
         columns = [
             _describe_column(frame.get_column(c), time_ns, self._format) for c in self._columns
         ]
+        steps = describe_steps(time_ns if time_ns is not None else np.zeros(0, dtype=np.int64))
         info: dict[str, Any] = {
             "path": self.path,
             "format": self._format,
             "rows": frame.height,
             "columns": columns,
             "time": None,
-            "sample_time": None,
-            "rate_hz": None,
-            "gaps": [],
-            "gap_count": 0,
+            **steps,
             "problems": problems,
         }
         if time_ns is not None and time_ns.size:
@@ -436,21 +432,6 @@ class TableSource:
                 "end": time_ns[-1] / 1e9,
                 "duration": (time_ns[-1] - time_ns[0]) / 1e9,
             }
-            steps = np.diff(time_ns)
-            if steps.size:
-                median = float(np.median(steps))
-                info["sample_time"] = median / 1e9
-                info["rate_hz"] = 1e9 / median
-                starts = np.flatnonzero(steps > GAP_FACTOR * median)
-                info["gap_count"] = int(starts.size)
-                info["gaps"] = [
-                    {
-                        "start": time_ns[i] / 1e9,
-                        "end": time_ns[i + 1] / 1e9,
-                        "duration": (time_ns[i + 1] - time_ns[i]) / 1e9,
-                    }
-                    for i in starts[:MAX_LISTED_GAPS].tolist()
-                ]
         return info
 
     def _full_frame(self) -> pl.DataFrame:
@@ -786,7 +767,12 @@ def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
 def _describe_column(
     column: pl.Series, time_ns: IntArray | None, table_format: str
 ) -> dict[str, Any]:
-    """Name, dtype, non-null count, finite min/max and median rate of one column."""
+    """Name, dtype, non-empty and non-finite counts, finite min/max and mean rate of a column.
+
+    ``count`` counts every non-empty cell, ``nonfinite`` those of them that are NaN or
+    infinite (``None`` for a column that is not numeric); ``rate_hz`` is the mean rate of the
+    column's samples over their span, as :func:`~hybridlog.io.summary.describe_steps` has it.
+    """
     dtype = _dtype_name(column.dtype)
     values: FloatArray | None = None
     if table_format == "csv":
@@ -795,38 +781,32 @@ def _describe_column(
         parsed = text.cast(pl.Float64, strict=False)
         if parsed.null_count() == text.null_count():
             dtype = "float64"
-            values = parsed.to_numpy().astype(np.float64)
+            values = parsed.drop_nulls().to_numpy().astype(np.float64)
         else:
             dtype = "string"
         present = text.is_not_null().to_numpy()
     else:
         if column.dtype.is_numeric():
-            values = column.cast(pl.Float64).to_numpy().astype(np.float64)
+            values = column.drop_nulls().cast(pl.Float64).to_numpy().astype(np.float64)
         present = column.is_not_null().to_numpy()
     info: dict[str, Any] = {
         "name": column.name,
         "dtype": dtype,
         "count": int(present.sum()),
+        "nonfinite": None,
         "min": None,
         "max": None,
         "rate_hz": None,
     }
     if values is not None:
+        info["nonfinite"] = count_nonfinite(values)
         finite = values[np.isfinite(values)]
         if finite.size:
             info["min"] = float(finite.min())
             info["max"] = float(finite.max())
     if time_ns is not None and time_ns.size == present.size:
-        info["rate_hz"] = _rate(time_ns[present])
+        info["rate_hz"] = describe_steps(time_ns[present], gaps=False)["rate_hz"]
     return info
-
-
-def _rate(time_ns: IntArray) -> float | None:
-    steps = np.diff(time_ns)
-    if not steps.size:
-        return None
-    median = float(np.median(steps))
-    return 1e9 / median if median > 0 else None
 
 
 def _dtype_name(dtype: pl.DataType) -> str:

@@ -536,8 +536,10 @@ def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
     assert info["rows"] == 7
     assert info["problems"] == []
     assert info["time"] == {"column": "t", "start": 0.0, "end": 1.0, "duration": 1.0}
+    # 7 samples in 1 s: 6 Hz on average, though the median step is 0.1 s
     assert info["sample_time"] == pytest.approx(0.1)
-    assert info["rate_hz"] == pytest.approx(10.0)
+    assert info["rate_hz"] == pytest.approx(6.0)
+    assert (info["min_step"], info["max_step"], info["regular"]) == (0.1, 0.5, False)
     assert info["gap_count"] == 1
     assert info["gaps"][0]["start"] == pytest.approx(0.3)
     assert info["gaps"][0]["end"] == pytest.approx(0.8)
@@ -546,14 +548,16 @@ def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
         "name": "y",
         "dtype": "float64",
         "count": 7,
+        "nonfinite": 0,
         "min": 0.0,
         "max": 12.0,
-        "rate_hz": pytest.approx(10.0),
+        "rate_hz": pytest.approx(6.0),
     }
     assert by_name["note"]["dtype"] == "string"
     assert by_name["note"]["min"] is None
     text = format_inspection(info)
-    assert "sample time 0.1 s (10 Hz)" in text
+    assert "(1 s), 6 Hz on average" in text
+    assert "timing irregular: median step 0.1 s (10 Hz), steps 0.1 s to 0.5 s" in text
     assert "0.3 s to 0.8 s" in text
     assert "note" in text and "string" in text
 

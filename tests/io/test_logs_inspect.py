@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -12,8 +14,23 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import cli, main
+from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
 from hybridlog.io.bag_writers import write_log
-from tests.support.logfiles import tank_run
+from tests.support.logfiles import (
+    MAPS,
+    Channel,
+    Record,
+    float64_cdr,
+    scene,
+    tank_run,
+    write_mcap,
+    write_mcap_cdr,
+    write_mcap_json,
+    write_mcap_ros1,
+    write_mcap_ros2,
+    write_ros1_bag,
+    write_ros2_bag,
+)
 
 # --out name and extra simulate options, per format
 FORMATS = {
@@ -163,3 +180,176 @@ def test_table_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     assert report["reading"]["sorted"] == {"rows_out_of_order": 1}
     assert report["reading"]["duplicates_dropped"] == 1
     assert report["samples"] == 4
+
+
+# ------------------------------------------------------------------ timing and non-finite values
+
+# 20 samples over 9 s: four bursts of five samples 1 ms apart, 3 s between the bursts
+BURSTS = np.concatenate([start + np.arange(5) * 1e-3 for start in (0.0, 3.0, 6.0, 8.996)])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".mcap", ".bag"])
+def test_bursty_timing_reports_the_mean_rate_and_the_spread_of_steps(
+    suffix: str, tmp_path: Path
+) -> None:
+    log = write_log(tmp_path / f"bursts{suffix}", {"t": BURSTS, "y": np.ones(20)})
+    info = inspect_log(log)
+    for steps in info.get("topics", [info]):
+        assert steps["rate_hz"] == pytest.approx(19 / 9)  # not 1 / (1 ms)
+        assert steps["sample_time"] == pytest.approx(1e-3)
+        assert steps["min_step"] == pytest.approx(1e-3)
+        assert steps["max_step"] == pytest.approx(2.996)
+        assert steps["regular"] is False
+        assert steps["gap_count"] == 3
+    for column in info.get("columns", []):
+        assert column["rate_hz"] == pytest.approx(19 / 9)
+    text = format_inspection(info)
+    assert "1000 Hz" not in text.replace("median step 0.001 s (1000 Hz)", "")
+    assert "median step 0.001 s (1000 Hz), steps 0.001 s to 2.996 s" in text
+    if "topics" in info:
+        assert "irregular timing" in text
+    else:
+        assert "(9 s), 2.11111 Hz on average\ntiming irregular: median step" in text
+
+
+def test_regular_timing_keeps_its_sample_time(tmp_path: Path) -> None:
+    log = write_log(tmp_path / "even.csv", {"t": np.arange(11) * 0.1, "y": np.ones(11)})
+    info = inspect_log(log)
+    assert info["rate_hz"] == pytest.approx(10.0)
+    assert (info["sample_time"], info["min_step"], info["max_step"]) == (0.1, 0.1, 0.1)
+    assert info["regular"] is True
+    assert "(1 s), sample time 0.1 s (10 Hz)" in format_inspection(info)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_table_columns_count_nonfinite_values_apart(suffix: str, tmp_path: Path) -> None:
+    n = 8
+    y = np.arange(n, dtype=float)
+    y[[2, 5]] = np.nan
+    y[6] = -np.inf
+    columns = {"t": np.arange(n) * 0.1, "u": np.where(np.arange(n) == 3, np.inf, 1.0), "y": y}
+    log = write_log(tmp_path / f"log{suffix}", columns)
+    if suffix == ".parquet":  # an empty cell (null) is no sample; NaN is a sample
+        frame = pl.read_parquet(log).with_columns(
+            y=pl.when(pl.int_range(pl.len()) == 7).then(None).otherwise(pl.col("y"))
+        )
+        frame.write_parquet(log)
+    else:
+        log.write_text(log.read_text().replace("\n0.7000000000000001,1.0,7.0\n", "\n0.7,1.0,\n"))
+    info = inspect_log(log)
+    by_name = {c["name"]: c for c in info["columns"]}
+    assert [(by_name[c]["count"], by_name[c]["nonfinite"]) for c in ("t", "u", "y")] == [
+        (8, 0),
+        (8, 1),
+        (7, 3),
+    ]
+    assert (by_name["y"]["min"], by_name["y"]["max"]) == (0.0, 4.0)
+    # analyze refuses the same samples inspect counts (and counts them when dropping them)
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    notes: dict[str, Any] = {}
+    load_signals(log, spec, ReadOptions(drop_nonfinite=True), notes=notes)
+    assert notes["nonfinite_dropped"] == {"u": 1, "y": 3}
+    text = format_inspection(info)
+    assert "column  dtype    count  nonfinite  min  max" in text
+    assert "non-finite values (NaN, inf; analyze refuses them" in text
+    assert "  u: 1 of 8\n  y: 3 of 7" in text
+
+
+# writer of the recorded scene -> (file name, writer): every reader and decoder of messages
+SCENE_WRITERS: dict[str, tuple[str, Callable[[Path, list[Record]], Path]]] = {
+    "rosbags ROS 2 sqlite3": ("bag_sqlite", lambda p, r: write_ros2_bag(p, r, "sqlite3")),
+    "rosbags ROS 2 mcap": ("bag_mcap", lambda p, r: write_ros2_bag(p, r, "mcap")),
+    "rosbags ROS 1": ("run.bag", write_ros1_bag),
+    "mcap-ros2-support": ("ros2.mcap", write_mcap_ros2),
+    "mcap-ros1-support": ("ros1.mcap", write_mcap_ros1),
+    "mcap JSON": ("json.mcap", write_mcap_json),
+    "mcap CDR, no profile": ("cdr.mcap", write_mcap_cdr),
+}
+
+
+def nonfinite_scene() -> list[Record]:
+    """The recorded scene with NaN in two points, +inf in a state array, -inf in an input."""
+    records = scene(tank_run())
+    levels = [i for i, r in enumerate(records) if r.topic == "/levels"]
+    states = [i for i, r in enumerate(records) if r.topic == "/sim/state"]
+    inputs = [i for i, r in enumerate(records) if r.topic == "/pump/cmd"]
+    for i in levels[10], levels[40]:
+        records[i] = dataclasses.replace(records[i], value=(np.nan, records[i].value[1]))
+    x1, _, x3 = records[states[50]].value
+    records[states[50]] = dataclasses.replace(records[states[50]], value=[x1, np.inf, x3])
+    records[inputs[3]] = dataclasses.replace(records[inputs[3]], value=-np.inf)
+    return records
+
+
+@pytest.mark.parametrize("writer", list(SCENE_WRITERS))
+def test_message_fields_count_nonfinite_values_apart(writer: str, tmp_path: Path) -> None:
+    name, write = SCENE_WRITERS[writer]
+    log = write(tmp_path / name, nonfinite_scene())
+    info = inspect_log(log)
+    json.dumps(info, allow_nan=False)
+    topics = {t["name"]: t for t in info["topics"]}
+    assert {name: t["nonfinite"] for name, t in topics.items()} == {
+        "/chatter": 0,
+        "/imu": 0,
+        "/level3": 0,
+        "/levels": 2,
+        "/pump/cmd": 1,
+        "/sim/mode": 0,
+        "/sim/state": 1,
+    }
+    values = {v["name"]: v for t in info["topics"] for v in t["values"]}
+    assert values["/levels.point.x"] == {"name": "/levels.point.x", "count": 91, "nonfinite": 2}
+    assert values["/levels.point.y"]["nonfinite"] == 0
+    assert values["/sim/state.data[]"] == {
+        "name": "/sim/state.data[]",
+        "count": 273,
+        "nonfinite": 1,
+    }
+    assert values["/pump/cmd.data"] == {"name": "/pump/cmd.data", "count": 19, "nonfinite": 1}
+    assert topics["/levels"]["count"] == 91  # messages, NaN or not
+    # the samples analyze would refuse, one mapped path each
+    spec = SignalSpec(
+        states=("x1", "x2", "x3"),
+        inputs=("u",),
+        outputs=("y1", "y2", "y3"),
+        mode_ids=("1", "2", "3"),
+        dt=1.0,
+    )
+    notes: dict[str, Any] = {}
+    maps = tuple(m for m in MAPS if m != "--map")
+    load_signals(log, spec, ReadOptions(maps=maps, drop_nonfinite=True), notes=notes)
+    assert notes["nonfinite_dropped"] == {
+        "/pump/cmd.data": 1,
+        "/levels.point.x": 2,
+        "/sim/state.data[1]": 1,
+    }
+
+
+def test_undecodable_messages_leave_their_values_uncounted(tmp_path: Path) -> None:
+    messages = [(0, k * 10**8, float64_cdr(float(k))) for k in range(5)]
+    messages.append((1, 0, b"\x00\x01\x00\x00\x01"))  # four bytes short of a Float64
+    log = write_mcap(tmp_path / "bad.mcap", [Channel("/y"), Channel("/u")], messages)
+    info = inspect_log(log)
+    topics = {t["name"]: t for t in info["topics"]}
+    assert (topics["/u"]["count"], topics["/u"]["nonfinite"], topics["/u"]["values"]) == (
+        1,
+        None,
+        None,
+    )
+    assert topics["/y"]["nonfinite"] == 0
+    (problem,) = info["problems"]
+    assert problem.startswith("topic '/u' (std_msgs/msg/Float64): the message logged at t=0 s")
+    assert "cannot be decoded" in problem
+
+
+def test_inspect_shows_irregular_timing_and_nonfinite_values(tmp_path: Path) -> None:
+    y = np.ones(20)
+    y[[4, 11]] = np.nan
+    log = write_log(tmp_path / "bursts.mcap", {"t": BURSTS, "y": y})
+    text = invoke(["inspect", str(log)]).output
+    assert "topic  type                  count  nonfinite  rate_hz  gaps" in text
+    assert "/y     std_msgs/msg/Float64  20     2          2.11111  3" in text
+    assert "irregular timing (rate_hz is the mean rate over the topic's span):\n" in text
+    assert "  /y: median step 0.001 s (1000 Hz), steps 0.001 s to 2.996 s\n" in text
+    assert "non-finite values (NaN, inf; analyze refuses them in a mapped signal unless " in text
+    assert "  /y.data: 2 of 20\n" in text
