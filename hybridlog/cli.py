@@ -157,10 +157,74 @@ _SEQUENCES = ", ".join(
 """The estimators with a ``mode_sequence`` option (``--mode-sequence``), from the registry."""
 
 
-def _analysis_options(function: F) -> F:
-    """Options shared by analyze, compare and batch."""
+def _read_options(function: F) -> F:
+    """How a log is read (:class:`~hybridlog.io.ReadOptions`): every command that reads one.
+
+    analyze, compare, batch and cluster; :func:`_read_options_given` builds the options from
+    the values.  What reading did is recorded under ``reading`` in the command's JSON output
+    (``report.json``, ``centers.json``).
+    """
     decorators = [
         _map_option,
+        click.option(
+            "--resample",
+            type=click.Choice(["nearest", "linear"]),
+            default="nearest",
+            show_default=True,
+            help="How outputs are put on the model's grid: nearest sample within "
+            "half a step, or linear interpolation.",
+        ),
+        click.option(
+            "--max-gap",
+            type=float,
+            default=None,
+            metavar="SECONDS",
+            help="Longest tolerated gap in the outputs [default: 5*dt].",
+        ),
+        click.option(
+            "--split-gaps",
+            is_flag=True,
+            help="Cut the log at output gaps longer than --max-gap and use the longest "
+            "piece (the pieces are listed under reading in report.json or centers.json) "
+            "instead of refusing the log.",
+        ),
+        click.option(
+            "--time",
+            "time_source",
+            type=click.Choice(["log", "header"]),
+            default="log",
+            show_default=True,
+            help="Sample times of bag and MCAP messages: the recorder's log time, or each "
+            "message's header.stamp.",
+        ),
+        click.option(
+            "--sort",
+            is_flag=True,
+            help="Put samples whose times go backwards in order, and keep the last of "
+            "samples with equal times, instead of refusing the log.",
+        ),
+        click.option(
+            "--drop-nonfinite",
+            is_flag=True,
+            help="Drop NaN, infinite and out-of-range samples (counted under reading in "
+            "report.json or centers.json) instead of refusing the log.",
+        ),
+        click.option(
+            "--recover",
+            is_flag=True,
+            help="Read an unfinished or damaged MCAP file sequentially up to its first bad "
+            "record, and use that (recorded under reading in report.json or centers.json).",
+        ),
+        _msg_dir_option,
+    ]
+    for decorator in reversed(decorators):
+        function = decorator(function)
+    return function
+
+
+def _analysis_options(function: F) -> F:
+    """Options shared by analyze, compare and batch: the read options, estimation, gates."""
+    decorators = [
         _set_option("Override a model parameter or an estimator option."),
         click.option(
             "--fail-under",
@@ -202,55 +266,7 @@ def _analysis_options(function: F) -> F:
             show_default=True,
             help="Format of timeline and estimates tables.",
         ),
-        click.option(
-            "--resample",
-            type=click.Choice(["nearest", "linear"]),
-            default="nearest",
-            show_default=True,
-            help="How outputs are put on the model's grid: nearest sample within "
-            "half a step, or linear interpolation.",
-        ),
-        click.option(
-            "--max-gap",
-            type=float,
-            default=None,
-            metavar="SECONDS",
-            help="Longest tolerated gap in the outputs [default: 5*dt].",
-        ),
-        click.option(
-            "--split-gaps",
-            is_flag=True,
-            help="Cut the log at output gaps longer than --max-gap and analyse the longest "
-            "piece (report.json lists the pieces) instead of refusing the log.",
-        ),
-        click.option(
-            "--time",
-            "time_source",
-            type=click.Choice(["log", "header"]),
-            default="log",
-            show_default=True,
-            help="Sample times of bag and MCAP messages: the recorder's log time, or each "
-            "message's header.stamp.",
-        ),
-        click.option(
-            "--sort",
-            is_flag=True,
-            help="Put samples whose times go backwards in order, and keep the last of "
-            "samples with equal times, instead of refusing the log.",
-        ),
-        click.option(
-            "--drop-nonfinite",
-            is_flag=True,
-            help="Drop NaN and infinite samples (counted in report.json) instead of "
-            "refusing the log.",
-        ),
-        click.option(
-            "--recover",
-            is_flag=True,
-            help="Read an unfinished or damaged MCAP file sequentially up to its first bad "
-            "record, and analyse that (recorded in report.json).",
-        ),
-        _msg_dir_option,
+        _read_options,
         _force_option(
             "an output directory hybridlog wrote before (never a folder holding other "
             "files, never an input)"
@@ -597,7 +613,7 @@ def simulate(
     help="Picture of the clusters [default: --out with .png].",
 )
 @click.option("--compare-kmeans", is_flag=True, help="Also fit k-means and compare.")
-@_map_option
+@_read_options
 @_force_option("centres and plot files hybridlog wrote (never a file of yours)")
 @click.pass_context
 def cluster_command(
@@ -608,26 +624,26 @@ def cluster_command(
     out: Path,
     plot: Path | None,
     compare_kmeans: bool,
-    maps: tuple[str, ...],
     force: bool,
-    **clustering: Any,
+    **options: Any,
 ) -> None:
     """Fit Chiu subtractive clusters on regression vectors offline (paper 001).
 
     Clusters φ(k) = [y(k), y(k-1), u(k-1)] (or other lags), labels each cluster as a model
     mode from the data and the model alone, and writes the centres and classifier to a JSON
-    file, a plot, and a table.
+    file, a plot, and a table.  The log is read as analyze reads it (the same options).
     """
     from hybridlog.jobs.cluster import discover_modes
 
+    read = _read_options_given(options)  # what is left: the clustering options
     outcome = discover_modes(
         log,
         model_ref,
         out=out,
-        chiu=_CLUSTERING.parse(clustering),
+        chiu=_CLUSTERING.parse(options),
         compare_kmeans=compare_kmeans,
         plot=plot,
-        maps=maps,
+        read=read,
         force=force,
     )
     _say(ctx, outcome.table)
@@ -891,10 +907,11 @@ def _progress(
         yield lambda item: bar.update(1, item)
 
 
-def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
+def _read_options_given(options: dict[str, Any]) -> ReadOptions:
+    """The :func:`_read_options` values, taken out of ``options``, as a ``ReadOptions``."""
     from hybridlog.io import ReadOptions
 
-    read = ReadOptions(
+    return ReadOptions(
         maps=tuple(options.pop("maps")),
         resample=options.pop("resample"),
         max_gap=options.pop("max_gap"),
@@ -905,6 +922,11 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
         recover=options.pop("recover"),
         msg_dirs=tuple(str(d) for d in options.pop("msg_dirs")),
     )
+
+
+def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
+    """The :func:`_analysis_options` values: the read options and the job's keywords."""
+    read = _read_options_given(options)
     return read, {
         "sets": tuple(options.pop("sets")),
         "fail_under": tuple(options.pop("fail_under")),

@@ -22,6 +22,16 @@ class OptionError(HybridlogError):
     """A command-line option or estimator option has an invalid name or value."""
 
 
+class DataShortError(OptionError):
+    """Data too short for the options: lags as long as it, fewer distinct points than clusters.
+
+    Raised by the algorithms over arrays (:mod:`hybridlog.cluster`), which know no file: the
+    message names the option and the counts, and whoever knows where the data came from
+    raises a :class:`LogError` naming the log from it
+    (:func:`hybridlog.estimators.chiu.mode_classifier`).
+    """
+
+
 class OutputError(HybridlogError):
     """An output path cannot be written without destroying something the user has."""
 

@@ -19,7 +19,8 @@ Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estima
         "labelling": ["cluster 1 (...) -> mode '1' ...", ...],
         "potentials": [...], "potential_ratios": [...], "radii": [...], "sigmas": [...], ...
       },
-      "kmeans": {"parameters": {...}, "centers": [[...]], "modes": [...], ...}   # optional
+      "kmeans": {"parameters": {...}, "centers": [[...]], "modes": [...], ...},  # optional
+      "reading": {"format": "csv", "time": "log", ...}   # what reading the log did
     }
 
 Only the keys the estimators need are validated on reading; errors name the file and key.

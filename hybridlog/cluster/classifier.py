@@ -167,6 +167,12 @@ def fit_classifier(
         Names of the components of φ(k) (:meth:`RegressorSpec.names`).
     n_modes:
         Number of modes: the number of k-means centres unless ``clustering.clusters`` says.
+
+    Raises
+    ------
+    DataShortError
+        No more samples than the largest lag, or fewer distinct regression vectors than
+        k-means centres (the message names no file: the caller knows the log).
     """
     names = tuple(names)
     phi = regression_vectors(outputs, inputs, spec)

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.cluster.vq import kmeans2
 
 from hybridlog.cluster.subtractive import unit_box
-from hybridlog.errors import OptionError
+from hybridlog.errors import DataShortError, OptionError
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["KMeansClusters", "KMeansParameters", "kmeans_clustering"]
@@ -91,15 +91,26 @@ def kmeans_clustering(
     Raises
     ------
     OptionError
-        When there are fewer distinct points than clusters, or a setting is out of range.
+        When a setting is out of range.
+    DataShortError
+        When the data have fewer distinct points than clusters, or every run leaves a
+        cluster empty (the message names no file: the caller knows where the data came from).
+    ValueError
+        When ``data`` is not a 2-D array.
     """
     points = np.asarray(data, dtype=np.float64)
     if n_clusters < 1:
         raise OptionError(f"clusters: must be at least 1, got {n_clusters}")
     if restarts < 1:
         raise OptionError(f"restarts: must be at least 1, got {restarts}")
-    if points.ndim != 2 or np.unique(points, axis=0).shape[0] < n_clusters:
-        raise OptionError(f"clusters: the data have fewer than {n_clusters} distinct points")
+    if points.ndim != 2:
+        raise ValueError(f"data: expected an (N, d) array, got shape {points.shape}")
+    distinct = np.unique(points, axis=0).shape[0]
+    if distinct < n_clusters:
+        raise DataShortError(
+            f"clusters: the data have fewer than {n_clusters} distinct points "
+            f"({distinct} among {points.shape[0]})"
+        )
     unit, lower, upper = unit_box(points, bounds)
     best: tuple[float, FloatArray, IntArray] | None = None
     for run in range(restarts):
@@ -114,7 +125,7 @@ def kmeans_clustering(
         if best is None or inertia < best[0]:
             best = (inertia, np.asarray(centres, dtype=np.float64), counts.astype(np.int64))
     if best is None:
-        raise OptionError(f"clusters: every k-means run left one of {n_clusters} clusters empty")
+        raise DataShortError(f"clusters: every k-means run left one of {n_clusters} clusters empty")
     inertia, centres_unit, sizes = best
     span = np.where(upper > lower, upper - lower, 1.0)
     return KMeansClusters(

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hybridlog.errors import OptionError
+from hybridlog.errors import DataShortError, OptionError
 from hybridlog.signals import FloatArray
 
 __all__ = ["RegressorSpec", "parse_lags", "regression_vectors"]
@@ -113,15 +113,19 @@ def regression_vectors(outputs: FloatArray, inputs: FloatArray, spec: RegressorS
 
     Raises
     ------
-    OptionError
-        When the log is shorter than the largest lag plus one sample.
+    DataShortError
+        When there are no more samples than the largest lag (the message names no file: the
+        caller knows where the data came from).
     """
     y = np.asarray(outputs, dtype=np.float64)
     u = np.asarray(inputs, dtype=np.float64)
     n = y.shape[0]
     lag = spec.max_lag
     if n <= lag:
-        raise OptionError(f"output_lags, input_lags: {n} samples are too few for lags up to {lag}")
+        raise DataShortError(
+            f"output_lags, input_lags: too few samples for lags up to {lag}: {n}, at least "
+            f"{lag + 1} needed"
+        )
     columns = [y[lag - a : n - a, j] for j in range(y.shape[1]) for a in spec.output_lags]
     columns += [u[lag - b : n - b, i] for i in range(u.shape[1]) for b in spec.input_lags]
     return np.ascontiguousarray(np.stack(columns, axis=1))

@@ -46,7 +46,7 @@ from hybridlog.cluster.classifier import (
     stored_classifier,
 )
 from hybridlog.cluster.labels import label_clusters
-from hybridlog.errors import OptionError
+from hybridlog.errors import DataShortError, LogError, OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
 from hybridlog.estimators.observer_options import ChiuOptions, ObserverOptions
 from hybridlog.estimators.options import options_dict, parse_options
@@ -132,12 +132,21 @@ def mode_classifier(
     observer:
         Matrices and gains for the automatic labelling; ``None`` leaves the clusters
         unlabelled unless ``cluster_modes`` or the centres file gives labels.
+
+    Raises
+    ------
+    LogError
+        The log's regression vectors cannot be clustered: no more samples than the largest
+        lag, or fewer distinct vectors than k-means clusters (naming the log,
+        ``signals.source``, the algorithm and φ(k)).
+    OptionError
+        Centres or ``cluster_modes`` that do not fit the model and these lags.
     """
     spec = options.regressor_spec()
     names = tuple(spec.names(model.outputs, model.inputs))
+    algorithm = "chiu" if isinstance(options, ChiuOptions) else "kmeans"
     classifier: ModeClassifier
     if centers is not None:
-        algorithm = "chiu" if isinstance(options, ChiuOptions) else "kmeans"
         classifier = stored_classifier(
             centers,
             algorithm,
@@ -148,14 +157,20 @@ def mode_classifier(
             source=options.centers or centers.path,
         )
     else:
-        classifier = fit_classifier(
-            signals.outputs,
-            signals.inputs,
-            spec,
-            options.clustering(),
-            names=names,
-            n_modes=model.n_modes,
-        )
+        try:
+            classifier = fit_classifier(
+                signals.outputs,
+                signals.inputs,
+                spec,
+                options.clustering(),
+                names=names,
+                n_modes=model.n_modes,
+            )
+        except DataShortError as err:
+            raise LogError(
+                f"{signals.source}: {algorithm} cannot cluster its regression vectors "
+                f"φ(k) = [{', '.join(names)}]: {err}"
+            ) from err
     if options.cluster_modes:
         modes = manual_labels(options.cluster_modes, model.mode_ids, len(classifier.centers))
         return classifier.labelled(

@@ -15,8 +15,9 @@ from hybridlog.io.options import ReadOptions
 def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -> dict[str, Any]:
     """Describe a log: fields, types, counts, value ranges, time span, rate and gaps.
 
-    An unfinished MCAP file (no footer) is described as far as it can be read
-    sequentially, with the reason in ``problems``.
+    An unfinished MCAP file (no footer), or a ROS 2 bag whose MCAP storage file is
+    unfinished, is described as far as that file can be read sequentially (the file's own
+    description), with the reason in ``problems``.
 
     Parameters
     ----------
@@ -61,10 +62,11 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     try:
         source = open_log(path, options)
     except UnfinishedLogError as err:
-        source = open_log(path, replace(options, recover=True))
+        source = open_log(err.file, replace(options, recover=True))
         with source:
             info = source.describe()
-        info["problems"] = [str(err).removeprefix(f"{path}: "), *info["problems"]]
+        # err's message ends with a hint at --recover, an option inspect has no use for
+        info["problems"] = [err.finding, *info["problems"]]
         return info
     with source:
         return source.describe()

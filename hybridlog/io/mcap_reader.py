@@ -258,14 +258,24 @@ def _stop_reason(err: BaseException) -> str:
 class UnfinishedLogError(LogError):
     """An MCAP file without its footer (cut off, or the recorder was killed).
 
+    The message says what ``--recover`` would do; ``inspect``, which has no such option and
+    reads the file sequentially anyway, says what is wrong with ``finding`` alone.
+
     Attributes
     ----------
+    file:
+        The unfinished MCAP file: the log, or the storage file of a ROS 2 bag folder.
+    finding:
+        What is wrong and how many messages are readable, without the log's name and
+        without the hint.
     readable:
         How many messages a sequential read gets out of it.
     """
 
-    def __init__(self, message: str, readable: int) -> None:
+    def __init__(self, message: str, *, file: Path, finding: str, readable: int) -> None:
         super().__init__(message)
+        self.file = file
+        self.finding = finding
         self.readable = readable
 
 
@@ -287,15 +297,18 @@ def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> Messag
         return McapSource(path, layout, options)
     if not layout.finished:
         readable, stop = count_readable(path)
-        then = (
-            f"{readable} messages are readable, up to {stop}; --recover analyses them"
-            if readable
-            else f"no message is readable (the read stops at {stop}), so --recover cannot help"
+        finding = (
+            f"unfinished MCAP file ({layout.problem}: the recorder was killed or the file was "
+            "cut off); "
+            + (
+                f"{readable} messages are readable, up to {stop}"
+                if readable
+                else f"no message is readable (the read stops at {stop})"
+            )
         )
+        hint = "; --recover analyses them" if readable else ", so --recover cannot help"
         raise UnfinishedLogError(
-            f"{path}: unfinished MCAP file ({layout.problem}: the recorder was killed or the "
-            f"file was cut off); {then}",
-            readable,
+            f"{path}: {finding}{hint}", file=path, finding=finding, readable=readable
         )
     if (
         layout.profile == "ros2"

@@ -38,6 +38,7 @@ from hybridlog.io.definitions import (
 )
 from hybridlog.io.formats import LogFormat
 from hybridlog.io.mcap_reader import (
+    UnfinishedLogError,
     check_mcap,
     count_readable,
     recover_hint,
@@ -142,14 +143,18 @@ class BagSource(MessageSource):
             layout = check_mcap(file)
             if not layout.finished:
                 readable, _ = count_readable(file)
-                then = (
-                    f"{readable} messages are readable: analyse {file} with --recover"
-                    if readable
-                    else "no message in it is readable"
+                finding = (
+                    f"the bag's MCAP storage file {file.name} is unfinished ({layout.problem}: "
+                    "the recorder was killed?); "
+                    + (
+                        f"{readable} messages are readable"
+                        if readable
+                        else "no message in it is readable"
+                    )
                 )
-                raise LogError(
-                    f"{self.path}: its MCAP storage file {file.name} is unfinished "
-                    f"({layout.problem}: the recorder was killed?); {then}"
+                hint = f": analyse {file} with --recover" if readable else ""
+                raise UnfinishedLogError(
+                    f"{self.path}: {finding}{hint}", file=file, finding=finding, readable=readable
                 )
             problem = rosbags_summary_problem(file) if layout.profile == "ros2" else None
             if problem is not None:

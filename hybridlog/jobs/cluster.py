@@ -1,10 +1,12 @@
 """The ``hybridlog cluster`` job: fit the mode classifier of paper 001 on one log.
 
-Reads the log for the model, builds the regression vectors, runs subtractive clustering
-(and k-means with ``compare_kmeans``), labels the clusters as modes (when the model is
-linear: see :func:`hybridlog.estimators.chiu.mode_classifier`), writes ``centers.json``
-(:mod:`hybridlog.cluster.centers_file`) and a plot (:mod:`hybridlog.jobs.cluster_plot`), and
-returns a table for the terminal.  Prints nothing; errors are ``HybridlogError``.
+Reads the log for the model (with ``analyze``'s read options, :class:`~hybridlog.io.ReadOptions`),
+builds the regression vectors, runs subtractive clustering (and k-means with
+``compare_kmeans``), labels the clusters as modes (when the model is linear: see
+:func:`hybridlog.estimators.chiu.mode_classifier`), writes ``centers.json``
+(:mod:`hybridlog.cluster.centers_file`; what reading did under ``reading``) and a plot
+(:mod:`hybridlog.jobs.cluster_plot`), and returns a table for the terminal.  Prints nothing;
+errors are ``HybridlogError``.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.io import ReadOptions
-from hybridlog.jobs.analysis import read_log
+from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -110,8 +112,11 @@ def check_cluster_outputs(
     out: PathLike,
     plot: PathLike | None,
     force: bool,
+    read: ReadOptions | None = None,
 ) -> tuple[Path, Path]:
     """Check both outputs of ``hybridlog cluster`` before anything is read or written.
+
+    ``read`` names the ``--msg-dir`` folders, inputs like the log and the model file.
 
     Returns
     -------
@@ -124,8 +129,9 @@ def check_cluster_outputs(
         For a centres file not named ``*.json`` or a picture not named as one of
         :data:`PLOT_SUFFIXES`.
     OutputError
-        When an output is, contains or sits inside the log or the model file, both name the
-        same file, or one exists without ``force`` (see :mod:`hybridlog.outputs`).
+        When an output is, contains or sits inside the log, the model file or a ``--msg-dir``
+        folder, both name the same file, or one exists without ``force`` (see
+        :mod:`hybridlog.outputs`).
     """
     target = Path(out)
     picture = target.with_suffix(".png") if plot is None else Path(plot)
@@ -138,10 +144,7 @@ def check_cluster_outputs(
         )
     outputs = [("--out", target), ("--plot", picture)]
     check_distinct(outputs)
-    inputs: list[tuple[str, PathLike]] = [("log", log)]
-    if os.path.exists(model_ref):
-        inputs.append(("model file", model_ref))
-    check_apart(outputs, inputs)
+    check_apart(outputs, input_paths([log], model_ref, [], read or ReadOptions()))
     for path in (target, picture):
         check_file_target(path, force=force)
     return target, picture
@@ -156,7 +159,7 @@ def discover_modes(
     compare_kmeans: bool = False,
     kmeans: KMeansOptions | None = None,
     plot: str | os.PathLike[str] | None = None,
-    maps: tuple[str, ...] = (),
+    read: ReadOptions | None = None,
     force: bool = False,
 ) -> ClusterOutcome:
     """Fit, label and save the clusters of one log (``hybridlog cluster``).
@@ -175,12 +178,24 @@ def discover_modes(
         k-means options (its lags are taken from ``chiu``).
     plot:
         PNG to draw; ``None`` for ``out`` with the suffix ``.png``.
-    maps:
-        ``--map SYMBOL=PATH`` values.
+    read:
+        How to read the log (``--map``, ``--time``, ``--sort``, ``--drop-nonfinite``,
+        ``--recover``, ``--msg-dir``, …: the read options of ``analyze``); what reading did
+        is stored under ``reading`` in the centres file.
     force:
         Replace existing output files.
+
+    Raises
+    ------
+    LogError
+        For a log that cannot be read for the model, or whose regression vectors cannot be
+        clustered (too few samples for the lags, fewer distinct vectors than k-means
+        clusters); the message names the log.
     """
-    target, picture = check_cluster_outputs(log, model_ref, out=out, plot=plot, force=force)
+    read = read or ReadOptions()
+    target, picture = check_cluster_outputs(
+        log, model_ref, out=out, plot=plot, force=force, read=read
+    )
     chiu = chiu or ChiuOptions()
     model = load_model(os.fspath(model_ref))
     # paper 001's regressors need a discrete-time model of enumerated modes (linear ones only
@@ -188,7 +203,8 @@ def discover_modes(
     problem = Capabilities().mismatch(ModelTraits(model))
     if problem is not None:
         raise ModelError(f"{model.origin or model.name}: hybridlog cluster {problem}")
-    signals = read_log(os.fspath(log), model, ReadOptions(maps=maps))
+    reading: dict[str, Any] = {}
+    signals = read_log(os.fspath(log), model, read, reading)
     notes: list[str] = []
     try:
         observer = design_observer(model, chiu.decay_rate)
@@ -237,6 +253,7 @@ def discover_modes(
             "parameters": {"clusters": len(baseline.centers)},
             **_entry(baseline, model),
         }
+    content["reading"] = reading
     phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
     lag = fitted.spec.max_lag
     clusters = fitted.decide(signals.outputs)[lag:]

@@ -397,6 +397,37 @@ def test_other_commands_reject_bad_input_in_one_line(tmp_path, args, fragment):
     assert not (tmp_path / "s.csv").exists()
 
 
+def _cart_log(path, y, u=0.01):
+    """A double_cart_case1 log with the given cells of output y and input u = u * k."""
+    rows = [f"{0.5 * k},{u * k},{cell}" for k, cell in enumerate(y)]
+    path.write_text("t,u,y\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_cluster_takes_the_read_option_its_error_suggests(tmp_path):
+    cells = [f"{(-1) ** (k // 7) * (1 + 0.01 * k)}" for k in range(40)]
+    log = _cart_log(tmp_path / "spike.csv", [*cells[:9], "1e200", *cells[10:]])
+    args = ["cluster", str(log), "--model", "double_cart_case1", "--out", str(tmp_path / "c.json")]
+    _one_line_error(run(args, expect=2), "spike.csv, line 11", "--drop-nonfinite drops")
+    assert list(tmp_path.iterdir()) == [log]
+    run([*args, "--drop-nonfinite"])
+    reading = json.loads((tmp_path / "c.json").read_text())["reading"]
+    assert reading["out_of_range_dropped"] == {"y": 1}
+
+
+def test_cluster_compare_kmeans_on_one_repeated_regression_vector_names_the_log(tmp_path):
+    log = _cart_log(tmp_path / "flat.csv", ["1.0"] * 30, u=0.0)
+    args = ["cluster", str(log), "--model", "double_cart_case1", "--out", str(tmp_path / "c.json")]
+    _one_line_error(
+        run([*args, "--compare-kmeans"], expect=2),
+        f"hybridlog: error: {log}: kmeans cannot cluster its regression vectors",
+        "fewer than 2 distinct points",
+    )
+    assert list(tmp_path.iterdir()) == [log]
+    run(args)  # Chiu's clustering takes the one vector as one centre
+    assert len(json.loads((tmp_path / "c.json").read_text())["chiu"]["centers"]) == 1
+
+
 def test_log_without_truth_gives_null_truth_metrics_and_gates_say_so(tank_log, tmp_path):
     plain = tmp_path / "plain.csv"
     pl.read_csv(tank_log).select("t", "u", "y1", "y2", "y3").write_csv(plain)

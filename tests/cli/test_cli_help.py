@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import dataclasses
 import glob
 import shlex
 import shutil
@@ -17,6 +18,7 @@ from hybridlog.cli import _CLUSTERING, cli, main
 from hybridlog.errors import OptionError
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.options import describe_options, shown
+from hybridlog.io import ReadOptions
 from tests.support.paths import ROOT
 
 
@@ -114,3 +116,23 @@ def test_every_option_is_declared_once():
     )
     assert {"--map", "--msg-dir", "--model", "--estimator", "--force"} <= set(declared)
     assert {flag: n for flag, n in declared.items() if n > 1} == {"--out": 5}
+
+
+def test_every_command_that_reads_a_log_for_a_model_takes_every_read_option():
+    # cluster read with --map alone, yet its errors told it to use --drop-nonfinite: the read
+    # options are declared once and taken by every command whose reading can suggest them.
+    flags = {
+        "maps": "--map",
+        "resample": "--resample",
+        "max_gap": "--max-gap",
+        "split_gaps": "--split-gaps",
+        "time": "--time",
+        "sort": "--sort",
+        "drop_nonfinite": "--drop-nonfinite",
+        "recover": "--recover",
+        "msg_dirs": "--msg-dir",
+    }
+    assert set(flags) == {field.name for field in dataclasses.fields(ReadOptions)}
+    for name in ("analyze", "compare", "batch", "cluster"):
+        offered = {flag for p in cli.commands[name].params for flag in getattr(p, "opts", [])}
+        assert set(flags.values()) <= offered, name

@@ -3,6 +3,7 @@
 import dataclasses
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -213,3 +214,78 @@ def test_a_stored_classifier_comes_from_parsed_text_not_a_file():
         )
     with pytest.raises(OptionError, match=r"^mem.json: not JSON"):
         parse_centers("{", "mem.json")
+
+
+def _double_cart_csv(path: Path, y: list[str]) -> Path:
+    """A double_cart_case1 log (inputs u, outputs y) with the given y cells, dt = 0.5 s."""
+    rows = [f"{0.5 * k},{np.sin(0.3 * k):.6f},{cell}" for k, cell in enumerate(y)]
+    path.write_text("t,u,y\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_cluster_reads_its_log_with_the_read_options_of_analyze(tmp_path):
+    """`cluster` read with --map only; its own error suggested --drop-nonfinite."""
+    from hybridlog.errors import LogError
+    from hybridlog.io import ReadOptions
+    from hybridlog.jobs.cluster import discover_modes
+
+    cells = [f"{np.cos(0.7 * k):.6f}" for k in range(60)]
+    cells[20] = "nan"
+    log = _double_cart_csv(tmp_path / "nan.csv", cells)
+    with pytest.raises(LogError, match=r"nan\.csv, line 22.*must be finite"):
+        discover_modes(log, "double_cart_case1", out=tmp_path / "refused.json")
+    big = _double_cart_csv(tmp_path / "big.csv", [*cells[:20], "1e200", *cells[21:]])
+    with pytest.raises(LogError, match=r"big\.csv, line 22.*--drop-nonfinite drops"):
+        discover_modes(big, "double_cart_case1", out=tmp_path / "refused.json")
+    assert list(tmp_path.glob("refused*")) == []
+    read = ReadOptions(drop_nonfinite=True, resample="linear")
+    for source, dropped in ((log, "nonfinite_dropped"), (big, "out_of_range_dropped")):
+        out = tmp_path / f"{source.stem}_centers.json"
+        outcome = discover_modes(source, "double_cart_case1", out=out, read=read)
+        reading = json.loads(out.read_text())["reading"]
+        assert reading[dropped] == {"y": 1} and reading["format"] == "csv"
+        assert outcome.chiu.details["sizes"].sum() == 60
+
+
+def test_data_too_short_to_cluster_is_an_error_naming_the_log():
+    """k-means on fewer distinct regression vectors than modes named no log."""
+    from hybridlog.errors import DataShortError, LogError
+    from hybridlog.estimators.chiu import mode_classifier
+    from hybridlog.model.cache import load_model
+    from hybridlog.signals import AlignedSignals
+
+    model = load_model("double_cart_case1")
+
+    def signals(n: int) -> AlignedSignals:
+        return AlignedSignals(
+            source="runs/flat.csv",
+            time=0.5 * np.arange(n),
+            input_names=("u",),
+            output_names=("y",),
+            inputs=np.zeros((n, 1)),
+            outputs=np.ones((n, 1)),
+        )
+
+    # one regression vector, repeated: Chiu finds one centre, k-means cannot find two
+    assert len(mode_classifier(model, signals(40), ChiuOptions()).centers) == 1
+    phi = r"φ\(k\) = \[y\(k\), y\(k-1\), u\(k-1\)\]"
+    with pytest.raises(LogError) as caught:
+        mode_classifier(model, signals(40), KMeansOptions())
+    message = str(caught.value)
+    assert re.fullmatch(
+        rf"runs/flat\.csv: kmeans cannot cluster its regression vectors {phi}: clusters: the "
+        r"data have fewer than 2 distinct points \(1 among 39\)",
+        message,
+    ), message
+    assert isinstance(caught.value.__cause__, DataShortError)
+    for options in (ChiuOptions(), KMeansOptions()):
+        algorithm = "chiu" if isinstance(options, ChiuOptions) else "kmeans"
+        with pytest.raises(
+            LogError,
+            match=rf"^runs/flat\.csv: {algorithm} cannot cluster its regression vectors {phi}: "
+            r"output_lags, input_lags: too few samples for lags up to 1: 1, at least 2 needed$",
+        ):
+            mode_classifier(model, signals(1), options)
+    # the algorithms over arrays know no file: the error names the option and the counts
+    with pytest.raises(DataShortError, match=r"^clusters: .* \(1 among 3\)$"):
+        kmeans_clustering(np.zeros((3, 2)), 2)

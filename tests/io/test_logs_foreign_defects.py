@@ -16,6 +16,7 @@ Every file here is written by another tool's writer -- rosbags' ROS 2 bag writer
 from __future__ import annotations
 
 import json
+import shutil
 import sqlite3
 from pathlib import Path
 from typing import Any
@@ -254,6 +255,32 @@ def test_recover_is_suggested_only_when_it_reads_messages(
     report = json.loads((tmp_path / "c" / "report.json").read_text())
     assert report["reading"]["messages_readable"] == readable
     assert report["samples"] > 0
+
+
+def test_inspect_describes_unfinished_mcap_storage_and_names_no_option_it_lacks(
+    tmp_path: Path,
+) -> None:
+    # inspect has no --recover: it reads an unfinished MCAP file sequentially anyway, and
+    # refused a ROS 2 bag whose storage file is unfinished with a hint at --recover.
+    sample = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf_ros2mcap"
+    bag = tmp_path / "bag"
+    shutil.copytree(sample, bag)
+    storage = bag / f"{sample.name}.mcap"
+    data = storage.read_bytes()
+    storage.write_bytes(data[: len(data) * 9 // 10])
+    # the commands that read to analyse have --recover
+    with pytest.raises(LogError) as error:
+        load_signals(bag, SignalSpec(inputs=("u",), outputs=("y1",), mode_ids=("1",), dt=1.0))
+    message = str(error.value)
+    assert message.startswith(f"{bag}: the bag's MCAP storage file {storage.name} is unfinished")
+    assert message.endswith(f"messages are readable: analyse {storage} with --recover")
+    bare = tmp_path / "cut.mcap"
+    shutil.copyfile(storage, bare)
+    for log, inner in ((bag, storage), (bare, bare)):
+        info = inspect_log(log)
+        assert info["path"] == str(inner) and info["reading"]["recovered"] is True
+        assert info["messages"] > 0 and "unfinished" in info["problems"][0]
+        assert not any("--" in problem for problem in info["problems"]), info["problems"]
 
 
 def test_a_bag_folder_whose_mcap_rosbags_cannot_index_points_to_the_file(

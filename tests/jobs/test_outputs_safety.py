@@ -228,6 +228,18 @@ REFUSED: list[tuple[str, Callable[[Path, bool], object], str]] = [
         "--plot",
     ),
     (
+        "cluster --plot inside the --msg-dir",
+        lambda ws, f: discover_modes(
+            ws / "bag",
+            TANK,
+            out=ws / "c.json",
+            plot=ws / "msgs/pkg/c.png",
+            read=ReadOptions(msg_dirs=(str(ws / "msgs"),)),
+            force=f,
+        ),
+        "is inside the --msg-dir folder",
+    ),
+    (
         "cluster --out and --plot are one file",
         lambda ws, f: discover_modes(
             ws / "p/log.csv", TANK, out=ws / "plink/../c.json", plot=ws / "pic.png", force=f
