@@ -33,7 +33,7 @@ import shutil
 import socket
 import stat
 import sys
-from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -51,6 +51,7 @@ __all__ = [
     "check_distinct",
     "check_file_target",
     "is_ours",
+    "output_path",
     "publish_dir",
     "publish_file",
     "record_file",
@@ -77,6 +78,22 @@ _TEMPORARY = re.compile(
 def _shown(path: PathLike) -> str:
     """A path for an error message: escaped if it holds control characters, cut if huge."""
     return excerpt(os.fspath(path), _PATH_LIMIT)[1:-1]
+
+
+def output_path(target: PathLike) -> Path:
+    """The absolute path the system writes when given ``target``: what every writer uses.
+
+    The folder part is resolved as the system resolves it (symbolic links first, then
+    ``..``), the last name kept as given: ``link/../run.csv`` with ``link`` a link to
+    ``a/b`` is ``a/run.csv``, where ``open`` writes it, not ``./run.csv`` (which
+    :func:`os.path.abspath` would make of it, and which :func:`check_apart`, comparing
+    resolved paths, would not have checked).
+    """
+    path = os.path.join(os.getcwd(), os.fspath(target))
+    folder, name = os.path.split(path.rstrip(os.sep) or os.sep)
+    if name in ("", os.curdir, os.pardir):
+        return Path(os.path.realpath(path))
+    return Path(os.path.realpath(folder), name)
 
 
 # --- outputs are never inputs ------------------------------------------------------------------
@@ -210,10 +227,7 @@ def recorded_files(folder: Path) -> Collection[str] | None:
     :func:`publish_dir` records them when it moves a finished folder into place; a folder
     without the list (a batch folder, one of an older version) gives None: not known.
     """
-    try:
-        record = json.loads((folder / MARKER).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
+    record = _read_record(folder / MARKER)
     files = record.get(_FILES_KEY) if isinstance(record, dict) else None
     if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
         return None
@@ -257,26 +271,59 @@ def _file_identity(path: Path) -> dict[str, int] | None:
     }
 
 
-def _file_record(path: Path) -> dict[str, object] | None:
+_RECORD_LIMIT = 64 * 1024
+"""The most a record or marker of hybridlog's can hold; anything larger is not one."""
+
+
+def _read_record(path: Path) -> object:
+    """The JSON of a record or marker at ``path``, or None.
+
+    Read only from a regular file of at most :data:`_RECORD_LIMIT` bytes, never through a
+    symbolic link and without waiting: a pipe, a device (``/dev/zero``), a link or a huge
+    file under a record's name is not a record, and must neither hang nor exhaust memory.
+    """
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        handle = os.open(path, flags)
     except (OSError, ValueError):
         return None
+    try:
+        status = os.fstat(handle)
+        if not stat.S_ISREG(status.st_mode) or status.st_size > _RECORD_LIMIT:
+            return None
+        data = os.read(handle, _RECORD_LIMIT + 1)
+    except OSError:
+        return None
+    finally:
+        os.close(handle)
+    try:
+        return json.loads(data.decode("utf-8")) if len(data) <= _RECORD_LIMIT else None
+    except ValueError:  # UnicodeDecodeError too
+        return None
+
+
+def _file_record(path: Path) -> dict[str, object] | None:
+    record = _read_record(path)
     if not isinstance(record, dict) or record.get("written_by") != "hybridlog":
         return None
     return record
 
 
-def record_file(target: Path) -> None:
+def record_file(target: Path, *, written: Mapping[str, int] | None = None) -> None:
     """Record beside ``target`` that hybridlog wrote it, as it is now (:func:`wrote_file`).
 
-    Written after ``target`` is in place.  A file of someone else's under the record's name
-    is left alone, and a record that cannot be written is not an error: ``target`` is then
-    simply never replaced (the safe side), as after a crash between the two.
+    Written after ``target`` is in place.  ``written`` is the identity of the file this
+    process wrote (:func:`_file_identity` of it before it was moved, which a rename keeps):
+    if ``target`` is another file by now (someone put theirs there in between), nothing is
+    recorded.  A file of someone else's under the record's name is left alone, and a record
+    that cannot be written is not an error: ``target`` is then simply never replaced (the
+    safe side), as after a crash between the two.
     """
     identity = _file_identity(target)
     sidecar = record_path(target)
-    if identity is None or (_present(sidecar) and _file_record(sidecar) is None):
+    if identity is None or (written is not None and identity != dict(written)):
+        return
+    if _present(sidecar) and _file_record(sidecar) is None:
         return
     record = {
         "written_by": "hybridlog",
@@ -433,7 +480,7 @@ def check_dir_target(
         When the target exists and is not a folder (or is a symbolic link), is not empty
         (without ``force``), or holds files hybridlog did not write.
     """
-    path = Path(os.path.abspath(target))
+    path = output_path(target)
     if path.parent == path:
         raise OutputError(f"output directory {_shown(target)} cannot be replaced")
     check_creatable(path)
@@ -518,7 +565,7 @@ def check_file_target(
         pipe), exists and ``force`` is false or it is not ``ours``, or cannot be created
         (:func:`check_creatable`).
     """
-    path = Path(os.path.abspath(target))
+    path = output_path(target)
     check_creatable(path)
     if path.is_dir():
         raise OutputError(f"{_shown(target)}: is a directory; name a file to write")
@@ -661,12 +708,13 @@ def publish_file(
         else's, or the move fails.
     """
     check_file_target(target, force=force, ours=ours)
+    written = _file_identity(staged)
     try:
         _move_file(staged, target, force=force)
     except OSError as err:
         raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
-    if record:
-        record_file(target)
+    if record and written is not None:
+        record_file(target, written=written)
 
 
 def _move_file(staged: Path, target: Path, *, force: bool) -> None:
@@ -784,7 +832,7 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
     OutputError
         When the folder cannot be created.
     """
-    path = Path(os.path.abspath(target))
+    path = output_path(target)
     created = _prepare_parent(path)
     area = temporary_name(path)
     try:

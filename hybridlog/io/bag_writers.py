@@ -43,6 +43,7 @@ from hybridlog.outputs import (
     check_apart,
     check_dir_target,
     check_file_target,
+    output_path,
     publish_dir,
     staging_dir,
 )
@@ -231,7 +232,7 @@ def write_log(
             _written(target, lambda: writer(staged, topics, columns, time_ns))
             publish_dir(
                 staged,
-                Path(os.path.abspath(target)),
+                output_path(target),
                 force=force,
                 ours=written_by_hybridlog,
                 written=bag_files,

@@ -66,6 +66,7 @@ from hybridlog.outputs import (
     check_dir_target,
     check_distinct,
     is_ours,
+    output_path,
     remove_stale_temporaries,
     write_marker,
 )
@@ -531,7 +532,7 @@ def run_batch(
                 outcomes.append(analyze_log(*task))
                 if progress is not None:
                     progress(outcomes[-1])
-    return _summarise(Path(os.path.abspath(out_dir)), model, job, gates, outcomes, junit)
+    return _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
 
 
 def _prepare_summary_plot(n_rows: int) -> None:
@@ -566,7 +567,7 @@ def _plan(
     )
     gates = gates_for(model, fail_under, fail_over)
     check_table_format(table_format)
-    root = Path(os.path.abspath(out_dir))
+    root = output_path(out_dir)
     names = folder_names(paths, searched)
     summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
