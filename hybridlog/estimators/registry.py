@@ -400,7 +400,19 @@ class Prepared:
         from hybridlog.estimators.cpha.joint import component_mode_columns
 
         columns = component_mode_columns(model, result.modes)
-        return dataclasses.replace(result, timeline_columns=(*result.timeline_columns, *columns))
+        post = result.post_processing
+        if post is not None:  # the filter's own modes, which the report compares with these
+            filtered = post.filtered
+            own = component_mode_columns(model, filtered.modes)
+            post = dataclasses.replace(
+                post,
+                filtered=dataclasses.replace(
+                    filtered, timeline_columns=(*filtered.timeline_columns, *own)
+                ),
+            )
+        return dataclasses.replace(
+            result, timeline_columns=(*result.timeline_columns, *columns), post_processing=post
+        )
 
     def _check_finite(self, model: HybridModel, result: EstimationResult) -> None:
         """Refuse a result whose state estimate is not finite somewhere: it diverged.

@@ -1,8 +1,8 @@
 """Which log field feeds which model symbol (SPEC §5).
 
 For each model input and output, and for the ground truth (``truth.mode``,
-``truth.<state>``, and for a ``[components]`` model ``truth.mode.<component>``), the field is
-chosen in this order:
+``truth.<state>``, and for a ``[components]`` model ``truth.mode.<component>`` instead of
+``truth.mode``), the field is chosen in this order:
 
 1. ``--map SYMBOL=PATH`` given by the user (the field must exist);
 2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field;
@@ -84,11 +84,15 @@ def valid_map_symbols(
     states: Sequence[str],
     components: Sequence[str] = (),
 ) -> tuple[str, ...]:
-    """Every symbol ``--map`` accepts on its left-hand side."""
+    """Every symbol ``--map`` accepts on its left-hand side.
+
+    A ``[components]`` model has no mode of the whole model, only each component's: it
+    takes ``truth.mode.<component>`` and not ``truth.mode``.
+    """
     return (
         *inputs,
         *outputs,
-        TRUTH_MODE,
+        *(() if components else (TRUTH_MODE,)),
         *(component_truth_symbol(c) for c in components),
         *(f"{TRUTH_PREFIX}{state}" for state in states),
     )
@@ -246,7 +250,13 @@ def resolve_signal_map(
 
     input_fields = {u: required(u) for u in inputs}
     output_fields = {y: required(y) for y in outputs}
-    truth_mode = choose(TRUTH_MODE, truth.get("mode"), default(TRUTH_MODE), required=False)
+    # a [components] model enumerates no modes of its own: a ``mode`` field (a controller's
+    # mode, joint labels) is no truth of it, its components' true modes are
+    truth_mode = (
+        None
+        if components
+        else choose(TRUTH_MODE, truth.get("mode"), default(TRUTH_MODE), required=False)
+    )
     truth_states: dict[str, str] = {}
     for state in states:
         symbol = f"{TRUTH_PREFIX}{state}"

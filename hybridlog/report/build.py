@@ -409,7 +409,9 @@ class ReportBuilder:
             smoothing=(
                 None
                 if self._offline is None
-                else self._offline.smoothing(first, signals, self._modes, rmse)
+                else self._offline.smoothing(
+                    first, signals, self._modes, rmse, self._components.joint_accuracy()
+                )
             ),
             reading=None if reading is None else _json_object(reading),
         )
@@ -486,12 +488,15 @@ def _side(
     state_names: tuple[str, ...],
     output_names: tuple[str, ...],
     explained: metrics.OutputAccumulator | None,
+    component_accuracy: float | None = None,
 ) -> SmoothingMetrics:
     """The metrics of one side (filtered or offline) of a run with an offline pass.
 
     ``modes`` of every sample, ``rmse`` per state (NaN without truth), ``explained`` the
     errors of the outputs its estimates explain, accumulated over the run (``None``: not
-    evaluated).
+    evaluated).  ``component_accuracy``: for a ``[components]`` model, the fraction of
+    samples where this side has every component's mode right (the log's truth is per
+    component, so it is the side's mode accuracy; its switches are not scored jointly).
     """
     states = {x: StateReport(rmse=_num(float(r))) for x, r in zip(state_names, rmse, strict=True)}
     outputs: dict[str, OutputReport] | None = None
@@ -507,7 +512,7 @@ def _side(
     truth = signals.truth_modes
     if truth is None:
         return SmoothingMetrics(
-            mode_accuracy=None,
+            mode_accuracy=_num(component_accuracy) if component_accuracy is not None else None,
             confusion=None,
             detection_delay_s=None,
             detection_max_s=None,
@@ -559,6 +564,7 @@ class _OfflineSides:
         self._how = (post.smoothing, post.mode_sequence, post.description)
         self._model = model
         self._filtered_modes: IntArray = np.empty(signals.n_samples, dtype=np.int64)
+        self._filtered_components = _ComponentModes(signals.n_samples, signals.truth_components)
         self._filtered_states = (
             None
             if signals.truth_states is None
@@ -587,6 +593,7 @@ class _OfflineSides:
                 "states or outputs)"
             )
         self._filtered_modes[start : start + chunk.n_samples] = filtered.modes
+        self._filtered_components.add(filtered, start)
         if self._filtered_states is not None and part.truth_states is not None:
             self._filtered_states.add(filtered.state_means, part.truth_states)
         sides = ((filtered, post.filtered_explained), (chunk, post.explained))
@@ -603,9 +610,18 @@ class _OfflineSides:
                 accumulator.add(part.outputs, explained)
 
     def smoothing(
-        self, first: EstimationResult, signals: AlignedSignals, modes: IntArray, rmse: FloatArray
+        self,
+        first: EstimationResult,
+        signals: AlignedSignals,
+        modes: IntArray,
+        rmse: FloatArray,
+        component_accuracy: float | None = None,
     ) -> Smoothing:
-        """Both sides' metrics; ``modes`` and ``rmse`` are the report's own (the offline ones)."""
+        """Both sides' metrics.
+
+        ``modes``, ``rmse`` and ``component_accuracy`` (every component right,
+        :meth:`_ComponentModes.joint_accuracy`) are the report's own (the offline ones).
+        """
         ids = tuple(str(m) for m in first.mode_ids)
         names = (first.state_names, first.output_names)
         filtered_rmse = (
@@ -619,9 +635,17 @@ class _OfflineSides:
             mode_sequence=mode_sequence,
             description=description,
             filtered=_side(
-                ids, signals, self._filtered_modes, filtered_rmse, *names, self._explained[0]
+                ids,
+                signals,
+                self._filtered_modes,
+                filtered_rmse,
+                *names,
+                self._explained[0],
+                self._filtered_components.joint_accuracy(),
             ),
-            smoothed=_side(ids, signals, modes, rmse, *names, self._explained[1]),
+            smoothed=_side(
+                ids, signals, modes, rmse, *names, self._explained[1], component_accuracy
+            ),
         )
 
 

@@ -247,7 +247,9 @@ class SmoothingMetrics:
     Attributes
     ----------
     mode_accuracy:
-        Fraction of samples whose mode is the true one; ``None`` without a true mode.
+        Fraction of samples whose mode is the true one; ``None`` without a true mode.  For a
+        ``[components]`` model, the fraction with every component's mode right (the log's
+        truth is per component; ``confusion`` and the switches are then ``None``).
     confusion:
         ``{true mode: {estimated mode: sample count}}``; ``None`` without a true mode.
     detection_delay_s, detection_max_s:
@@ -797,11 +799,12 @@ class _Reader:
                 f"has keys {sorted(metrics.states)}; expected the report's states {sorted(states)}",
             )
         truth = (metrics.confusion is not None, metrics.detected is not None)
-        if truth[0] != truth[1] or (metrics.mode_accuracy is not None) != truth[0]:
+        if truth[0] != truth[1] or (truth[0] and metrics.mode_accuracy is None):
             raise self.error(
                 path,
                 "holds mode_accuracy, confusion and detected/missed only in part; all are "
-                "null without a true mode, all set with one",
+                "null without a true mode, all set with one (mode_accuracy alone: every "
+                "component right, for a [components] model)",
             )
         if (metrics.detected is None) != (metrics.missed is None):
             raise self.error(f"{path}.missed", "must be null exactly when detected is")

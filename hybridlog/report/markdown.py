@@ -276,6 +276,12 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         )
     if f.mode_accuracy is None:
         lines += ["", "No ground-truth mode in the log: mode accuracy and delays are not known."]
+    elif f.detected is None:
+        lines += [
+            "",
+            "Mode accuracy: the samples with every component's mode right; the log's true "
+            "modes are per component, so switches are not scored jointly.",
+        ]
     return lines
 
 

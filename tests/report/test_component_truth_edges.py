@@ -1,0 +1,101 @@
+"""Per-component ground truth at its edges: a ``mode`` field beside it, the offline passes.
+
+A ``[components]`` model has no mode of the whole model; a log may still hold a ``mode``
+column (a controller's mode, the joint label), which is no truth of the model.  With
+``--smooth`` or another mode sequence the report compares the filter's estimates with the
+offline ones, and with the components' truth that comparison has an accuracy too.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import polars as pl
+import pytest
+
+from hybridlog.errors import OptionError
+from hybridlog.io import ReadOptions
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.analysis import analyze
+from tests.support.cpha import CPHA_EXAMPLE, cpha_log
+
+N = 180
+COMPONENTS = ("A1", "A2", "A3")
+
+
+def _a2(k: int) -> str:
+    return "m22" if 60 <= k < 120 else "m21"
+
+
+@pytest.fixture(scope="module")
+def cpha(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The model file and a log with every component's true mode and a joint ``mode``."""
+    root = tmp_path_factory.mktemp("cpha_edges")
+    model_file = root / "cpha.toml"
+    model_file.write_text(CPHA_EXAMPLE)
+    from hybridlog.model.loader import load_model
+
+    signals = cpha_log(load_model(model_file), N, seed=3, a2=_a2)
+    truth = {"mode.A1": ["m11"] * N, "mode.A2": [_a2(k) for k in range(N)], "mode.A3": ["m31"] * N}
+    log = write_table(
+        root / "log.csv",
+        {
+            "t": signals.time,
+            "uc1": signals.inputs[:, 0],
+            "yc1": signals.outputs[:, 0],
+            "yc2": signals.outputs[:, 1],
+            **truth,
+            "mode": ["|".join(labels) for labels in zip(*truth.values(), strict=True)],
+        },
+    )
+    return model_file, log
+
+
+def test_a_mode_column_is_no_truth_of_a_components_model(
+    cpha: tuple[Path, Path], tmp_path: Path
+) -> None:
+    model_file, log = cpha
+    outcome = analyze(log, model_file, out_dir=tmp_path / "imm", estimator="imm")
+    assert set(outcome.report.modes.components) == set(COMPONENTS)
+    assert outcome.report.modes.accuracy is not None
+    with pytest.raises(OptionError, match=r"unknown symbol 'truth\.mode'.*truth\.mode\.A1"):
+        analyze(
+            log,
+            model_file,
+            out_dir=tmp_path / "r",
+            estimator="imm",
+            read=ReadOptions(maps=("truth.mode=mode",)),
+        )
+
+
+@pytest.mark.parametrize(
+    ("estimator", "options"),
+    [
+        ("imm", {"smooth": True}),
+        ("imm", {"smooth": True, "mode_sequence": "viterbi"}),
+        ("unknown-mode", {"mode_sequence": "kbest"}),
+    ],
+)
+def test_the_offline_pass_is_scored_against_the_components_truth(
+    cpha: tuple[Path, Path], tmp_path: Path, estimator: str, options: dict[str, object]
+) -> None:
+    model_file, log = cpha
+    out = tmp_path / "offline"
+    outcome = analyze(log, model_file, out_dir=out, estimator=estimator, **options)  # type: ignore[arg-type]
+    smoothing = outcome.report.smoothing
+    assert smoothing is not None
+    # the offline side is the report's own estimate; the filter's is scored from its columns
+    assert smoothing.smoothed.mode_accuracy == pytest.approx(outcome.report.modes.accuracy)
+    timeline = pl.read_csv(out / "timeline.csv", infer_schema=False)
+    truth = pl.read_csv(log, infer_schema=False)
+    filtered = [label.split("|") for label in timeline["mode_filtered"].to_list()]
+    right = [
+        all(parts[j] == truth[f"mode.{c}"][k] for j, c in enumerate(COMPONENTS))
+        for k, parts in enumerate(filtered)
+    ]
+    assert smoothing.filtered.mode_accuracy == pytest.approx(sum(right) / N, abs=1e-12)
+    data = json.loads((out / "report.json").read_text())
+    assert data["smoothing"]["filtered"]["mode_accuracy"] == smoothing.filtered.mode_accuracy
+    text = (out / "report.md").read_text()
+    assert "No ground-truth mode in the log" not in text
