@@ -753,6 +753,20 @@ class _Reader:
                 self.same_labels(row, labels, f"{path}.confusion.{t}")
         return confusion
 
+    def fraction(self, value: object, path: str) -> float | None:
+        """A number from 0 to 1 (an accuracy), or null."""
+        number = self.optional_number(value, path)
+        if number is not None and not 0.0 <= number <= 1.0:
+            raise self.error(path, f"is {number}; expected a fraction from 0 to 1, or null")
+        return number
+
+    def component_modes(self, value: object, path: str) -> ModeReport:
+        """One component's report: a :class:`ModeReport` of its own, without components."""
+        modes = self.modes(value, path)
+        if modes.components:
+            raise self.error(f"{path}.components", "is set; a component has no components")
+        return modes
+
     def modes(self, value: object, path: str) -> ModeReport:
         data = self.mapping(value, path)
         labels = self.at(data, path, "labels", self.list_of(self.string))
@@ -763,11 +777,24 @@ class _Reader:
             labels=labels,
             switches=self.at(data, path, "switches", self.list_of(self.switch)),
             dwell_s=dwell,
-            accuracy=self.at(data, path, "accuracy", self.optional_number),
+            accuracy=self.at(data, path, "accuracy", self.fraction),
             confusion=confusion,
             detection=self.at(data, path, "detection", self.or_null(self.detection), None),
-            components=self.at(data, path, "components", self.map_of(self.modes), {}),
+            components=self.at(data, path, "components", self.map_of(self.component_modes), {}),
         )
+        # every component right is at most as frequent as any one component right
+        for name, component in modes.components.items():
+            if (
+                modes.accuracy is not None
+                and component.accuracy is not None
+                and modes.accuracy > component.accuracy + 1e-9
+            ):
+                raise self.error(
+                    f"{path}.accuracy",
+                    f"is {modes.accuracy} but components.{name}.accuracy is only "
+                    f"{component.accuracy}; every component right cannot be more frequent "
+                    "than one component right",
+                )
         delay = self.at(data, path, "detection_delay_s", self.optional_number)
         if delay != modes.detection_delay_s:
             raise self.error(

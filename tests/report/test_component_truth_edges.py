@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import polars as pl
 import pytest
 
-from hybridlog.errors import OptionError
+from hybridlog.errors import OptionError, ReportError
 from hybridlog.io import ReadOptions
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.analysis import analyze
+from hybridlog.report import read_report
 from tests.support.cpha import CPHA_EXAMPLE, cpha_log
 
 N = 180
@@ -99,3 +101,30 @@ def test_the_offline_pass_is_scored_against_the_components_truth(
     assert data["smoothing"]["filtered"]["mode_accuracy"] == smoothing.filtered.mode_accuracy
     text = (out / "report.md").read_text()
     assert "No ground-truth mode in the log" not in text
+
+
+@pytest.mark.parametrize(
+    ("edit", "words"),
+    [
+        (lambda m: m["components"]["A2"].update(accuracy=7), "expected a fraction"),
+        (lambda m: m.update(accuracy=-0.5), "expected a fraction"),
+        (
+            lambda m: m["components"]["A2"].update(components={"A1": m["components"]["A1"]}),
+            "a component has no components",
+        ),
+        (lambda m: m.update(accuracy=1.0), "cannot be more frequent than one component right"),
+    ],
+)
+def test_a_hand_edited_components_report_is_refused(
+    cpha: tuple[Path, Path], tmp_path: Path, edit: Any, words: str
+) -> None:
+    model_file, log = cpha
+    out = tmp_path / "imm"
+    analyze(log, model_file, out_dir=out, estimator="imm")
+    data = json.loads((out / "report.json").read_text())
+    assert data["modes"]["components"]["A2"]["accuracy"] < 1.0  # so a joint 1.0 is a lie
+    edit(data["modes"])
+    edited = tmp_path / "edited.json"
+    edited.write_text(json.dumps(data))
+    with pytest.raises(ReportError, match=words):
+        read_report(edited)
