@@ -855,6 +855,7 @@ def atomic_files(
     *,
     force: bool = False,
     ours: Callable[[Path], bool] | None = None,
+    recorded: Callable[[Path], bool] | None = None,
 ) -> Iterator[list[Path]]:
     """Write several output files so that they appear only when all were written.
 
@@ -871,7 +872,11 @@ def atomic_files(
         Replace existing files that hybridlog wrote (:func:`wrote_file`); each file written
         is recorded beside it (:func:`record_file`).
     ours:
-        Instead, how the command recognises its own files; they are then not recorded.
+        Instead, how the command recognises its own files; they are then not recorded
+        unless ``recorded`` says so.
+    recorded:
+        Which of the targets (absolute, as :func:`output_path` gives them) to record beside
+        them (:func:`record_file`); default: all without ``ours``, none with it.
 
     Raises
     ------
@@ -879,6 +884,8 @@ def atomic_files(
         As :func:`check_file_target`, or when a file cannot be moved into place.
     """
     recognise = wrote_file if ours is None else ours
+    if recorded is None:
+        recorded = (lambda _: True) if ours is None else (lambda _: False)
     paths = [check_file_target(target, force=force, ours=recognise) for target in targets]
     created: list[Path] = []
     temporaries = [temporary_name(path, keep_suffix=True) for path in paths]
@@ -889,7 +896,7 @@ def atomic_files(
         for path in paths:  # all still writable before the first is replaced
             check_file_target(path, force=force, ours=recognise)
         for staged, path in zip(temporaries, paths, strict=True):
-            publish_file(staged, path, force=force, ours=recognise, record=ours is None)
+            publish_file(staged, path, force=force, ours=recognise, record=recorded(path))
     except BaseException:
         for staged in temporaries:
             with contextlib.suppress(FileNotFoundError):

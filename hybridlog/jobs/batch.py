@@ -644,7 +644,10 @@ def _summarise(
     def replaceable(path: Path) -> bool:  # its summaries in its own folder, its JUnit file
         return path.parent == root or is_junit_of_ours(path)
 
-    with atomic_files(targets, force=True, ours=replaceable) as staged:
+    junit_path = None if junit is None else output_path(junit)
+    with atomic_files(
+        targets, force=True, ours=replaceable, recorded=lambda path: path == junit_path
+    ) as staged:
         staged[0].write_text(text, encoding="utf-8")
         batch_rows_csv(staged[1], rows)
         from hybridlog.report.summary_plot import write_summary_plot

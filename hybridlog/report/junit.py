@@ -10,12 +10,13 @@ GitLab, Jenkins and Azure DevOps (``testsuites`` → ``testsuite`` → ``testcas
 
 from __future__ import annotations
 
+import os
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
 
 from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs import PathLike, check_file_target
+from hybridlog.outputs import PathLike, check_file_target, record_path, wrote_file
 from hybridlog.report.summary import BatchRow
 
 __all__ = ["ROOT_NAME", "check_junit_target", "is_junit_of_ours", "junit_tree", "write_junit"]
@@ -27,7 +28,15 @@ _SIGNATURE = f'<testsuites name="{ROOT_NAME}'
 
 
 def is_junit_of_ours(path: Path) -> bool:
-    """Whether ``path`` is a JUnit file a batch wrote: its root element's name says so."""
+    """Whether ``path`` is a JUnit file a batch wrote, unchanged since.
+
+    Its root element's name says so, and the record a batch leaves beside it
+    (:func:`~hybridlog.outputs.record_file`) names this very file: one edited since (a note
+    added by hand) is the user's.  A file without a record (written before batches recorded
+    their JUnit files) is known by its root element alone.
+    """
+    if os.path.lexists(record_path(path)) and not wrote_file(path):
+        return False
     try:
         with path.open("rb") as handle:
             head = handle.read(256).decode("utf-8", "replace")
@@ -54,7 +63,8 @@ def check_junit_target(target: PathLike) -> Path:
     if (path.exists() or path.is_symlink()) and not ours and not path.is_dir():
         raise OutputError(
             f"--junit {excerpt(str(target))[1:-1]}: exists and is not a JUnit file hybridlog "
-            "wrote, so it is not replaced (not even with --force); name another file"
+            "wrote (or it was edited since), so it is not replaced (not even with --force); "
+            "name another file"
         )
     try:
         return check_file_target(path, force=ours, ours=is_junit_of_ours)

@@ -96,3 +96,29 @@ def test_an_output_goes_where_the_system_resolves_its_path(tmp_path: Path) -> No
     write_table(named, COLUMNS)
     assert (tmp_path / "a" / "run.csv").is_file() and wrote_file(tmp_path / "a" / "run.csv")
     assert not (tmp_path / "run.csv").exists() and not record_path(tmp_path / "run.csv").exists()
+
+
+def test_a_batchs_junit_file_edited_since_is_the_users(tmp_path: Path) -> None:
+    from hybridlog.errors import OutputError
+    from hybridlog.jobs.batch import run_batch
+    from tests.support.logfiles import tank_run
+
+    log = write_table(tmp_path / "logs" / "run.csv", tank_run(steps=40).columns)
+    junit = tmp_path / "ci" / "junit.xml"
+    for _ in range(2):  # a CI job re-runs into its own JUnit file, with or without --force
+        run_batch([log], "three_tank_hstf", out_dir=tmp_path / "out", estimator="imm", junit=junit)
+    assert wrote_file(junit)
+    with junit.open("a") as handle:
+        handle.write("<!-- flaky on Tuesdays: ask Ana -->\n")
+    edited = junit.read_bytes()
+    for force in (False, True):
+        with pytest.raises(OutputError, match="edited since"):
+            run_batch(
+                [log],
+                "three_tank_hstf",
+                out_dir=tmp_path / "out",
+                estimator="imm",
+                junit=junit,
+                force=force,
+            )
+    assert junit.read_bytes() == edited
