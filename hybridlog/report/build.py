@@ -665,6 +665,16 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     )
 
 
+def _no_delay(modes: ModeReport, of: str = "") -> str | None:
+    """Why a report with a true mode (``of`` a component) has no detection delay, or None."""
+    if modes.detection is None or modes.detection_delay_s is not None:
+        return None
+    events = modes.detection.events
+    if not events:
+        return f"the true mode{of} never switches"
+    return f"every true switch{of} ({len(events)}) was missed"
+
+
 def _null_reasons(
     per_output: Mapping[str, metrics.OutputMetrics],
     means: Mapping[str, float | None],
@@ -690,16 +700,15 @@ def _null_reasons(
             )
         for name in ("detection_delay_s", "missed_switches"):
             reasons[name] = "a [components] model: switches are scored per component"
+        for component, report in modes.components.items():
+            why = _no_delay(report, f" of component {component}")
+            if why is not None:
+                reasons[f"detection_delay_s.{component}"] = why
     elif signals.truth_modes is None:
         for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
             reasons[name] = "the log has no ground-truth mode"
-    elif modes.detection is not None and modes.detection_delay_s is None:
-        events = modes.detection.events
-        reasons["detection_delay_s"] = (
-            "the true mode never switches"
-            if not events
-            else f"every true switch ({len(events)}) was missed"
-        )
+    elif (why := _no_delay(modes)) is not None:
+        reasons["detection_delay_s"] = why
     for x, state in states.items():
         if state.rmse is None:
             reasons[f"state_rmse.{x}"] = f"the log has no ground truth for state {x}"

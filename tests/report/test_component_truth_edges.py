@@ -128,3 +128,21 @@ def test_a_hand_edited_components_report_is_refused(
     edited.write_text(json.dumps(data))
     with pytest.raises(ReportError, match=words):
         read_report(edited)
+
+
+def test_a_gate_on_a_components_delay_says_why_it_has_none(
+    cpha: tuple[Path, Path], tmp_path: Path
+) -> None:
+    model_file, log = cpha
+    outcome = analyze(
+        log,
+        model_file,
+        out_dir=tmp_path / "imm",
+        estimator="imm",
+        fail_over=["detection_delay_s.A1=5", "detection_delay_s.A2=1000"],
+    )
+    # A1's true mode never switches: said so, not "no true mode of this component"
+    (failure,) = outcome.gate_failures
+    assert "detection_delay_s.A1 is not available" in failure
+    assert "the true mode of component A1 never switches" in failure
+    assert "detection_delay_s.A2" not in outcome.report.null_reasons
