@@ -10,7 +10,7 @@ Every command that writes goes through this module, in two steps:
    ``--force``, and then unless hybridlog wrote them: a folder carries the :data:`MARKER` file
    listing what hybridlog wrote in it (or is a legacy report folder of ours); a file has a
    record beside it, ``.<name>.hybridlog`` (:func:`record_file`), naming the exact file
-   hybridlog wrote (device, inode, size, modification time), so a file the user wrote, put
+   hybridlog wrote (inode, size, modification time), so a file the user wrote, put
    there or edited since is never replaced.
 2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
    temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
@@ -302,6 +302,10 @@ def _read_record(path: Path) -> object:
         return None
 
 
+_COMPARED = ("inode", "size", "modified_ns")
+"""What of a file's identity must match its record (:func:`wrote_file`)."""
+
+
 def _file_record(path: Path) -> dict[str, object] | None:
     record = _read_record(path)
     if not isinstance(record, dict) or record.get("written_by") != "hybridlog":
@@ -345,8 +349,13 @@ def wrote_file(target: Path) -> bool:
     """Whether hybridlog wrote the file ``target`` and nobody changed it since.
 
     True when the record beside it (:func:`record_file`) names this very file: same name,
-    device, inode, size and modification time.  A file put in its place, edited, copied
-    from elsewhere or written before records existed is not hybridlog's to replace.
+    inode, size and modification time.  A file put in its place, edited, copied from
+    elsewhere or written before records existed is not hybridlog's to replace.
+
+    The device is recorded but not compared: the record lies in the file's own folder, so
+    on its file system, and the number a system gives a file system is not stable (an NFS
+    or FUSE mount, a btrfs subvolume get a new one when mounted again), which would make
+    hybridlog's own unchanged file a stranger after a reboot.
     """
     record = _file_record(record_path(target))
     identity = _file_identity(target)
@@ -354,7 +363,7 @@ def wrote_file(target: Path) -> bool:
         record is not None
         and identity is not None
         and record.get("file") == target.name
-        and all(record.get(key) == value for key, value in identity.items())
+        and all(record.get(key) == identity[key] for key in _COMPARED)
     )
 
 

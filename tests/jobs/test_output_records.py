@@ -122,3 +122,18 @@ def test_a_batchs_junit_file_edited_since_is_the_users(tmp_path: Path) -> None:
                 force=force,
             )
     assert junit.read_bytes() == edited
+
+
+def test_a_remounted_file_system_keeps_hybridlogs_files_its_own(tmp_path: Path) -> None:
+    """A remount (NFS, FUSE, a btrfs subvolume) gives the file system a new device number;
+    the file and its record beside it are unchanged, so the file is still hybridlog's."""
+    import json
+
+    log = write_table(tmp_path / "run.csv", COLUMNS)
+    record = json.loads(record_path(log).read_text())
+    record_path(log).write_text(json.dumps({**record, "device": record["device"] + 1}))
+    assert wrote_file(log)
+    write_table(log, COLUMNS, force=True)
+    record = json.loads(record_path(log).read_text())
+    record_path(log).write_text(json.dumps({**record, "inode": record["inode"] + 1}))
+    assert not wrote_file(log)  # another file is not
