@@ -635,11 +635,14 @@ def _alive(pid: int) -> bool:
     return stat.rsplit(")", 1)[-1].split()[:1] != ["Z"]
 
 
-def remove_stale_temporaries(folder: PathLike) -> list[Path]:
+def remove_stale_temporaries(folder: PathLike, *, ours: Collection[int] = ()) -> list[Path]:
     """Remove temporaries that dead hybridlog processes left in ``folder``.
 
     Only names made by :func:`temporary_name` on this host whose process no longer runs are
-    touched, and of folders only those that are empty or carry :data:`MARKER`.
+    touched, and of folders only those that are empty or carry :data:`MARKER`, or were made
+    by a process of ``ours``: processes the caller started and saw end (a batch's workers),
+    whose folders are removed whatever they hold (a worker stopped while it removed its own
+    folder may have removed the marker first, and a thread of it written a file after).
 
     Returns
     -------
@@ -661,7 +664,11 @@ def remove_stale_temporaries(folder: PathLike) -> list[Path]:
         path = Path(entry.path)
         with contextlib.suppress(OSError):
             if entry.is_dir(follow_symlinks=False):
-                if (path / MARKER).is_file() or not _is_nonempty_dir(path):
+                if (
+                    int(match["pid"]) in ours
+                    or (path / MARKER).is_file()
+                    or not _is_nonempty_dir(path)
+                ):
                     shutil.rmtree(path)
                     removed.append(path)
             else:

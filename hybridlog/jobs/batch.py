@@ -424,6 +424,17 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
         remove_stale_temporaries(parent)
 
 
+def _remove_temporaries_left(folders: Sequence[Path], workers: Sequence[int]) -> None:
+    """Remove what the ended ``workers`` (process ids) left in ``folders``, and dead processes'.
+
+    A worker stopped by a signal removes its own temporary folder (:mod:`.workers`), unless
+    it is killed first (after :data:`~hybridlog.jobs.workers.STOP_GRACE_S`, or by the
+    system) or a thread of its task still writes into the folder while it is removed.
+    """
+    for folder in folders:
+        remove_stale_temporaries(folder, ours=frozenset(workers))
+
+
 def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
     return lambda reason: LogOutcome(log, folder, "failed", None, f"worker process died ({reason})")
 
@@ -474,6 +485,7 @@ def run_batch(
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
     pool = client = None
+    staging: list[Path] = []  # where the workers write: the report folders' parents
     if scheduler is not None:
         from hybridlog.jobs.dask_backend import connect, run_on_dask
 
@@ -482,8 +494,12 @@ def run_batch(
         from hybridlog.jobs.workers import WorkerPool
 
         # entered first, so that the forkserver warms up while this process checks the
-        # inputs (leaving the pool on an error kills its workers)
-        pool = WorkerPool(min(jobs, len(paths)))
+        # inputs; left on an error or a signal, it stops its workers, which remove their
+        # temporary folders, and then removes what a worker stopped mid-task left
+        pool = WorkerPool(
+            min(jobs, len(paths)),
+            clean_up=lambda workers: _remove_temporaries_left(staging, workers),
+        )
     resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
     if pool is not None:
         resource = pool
@@ -507,6 +523,7 @@ def run_batch(
             smooth=smooth,
             mode_sequence=mode_sequence,
         )
+        staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
         died = [_died(log, folder) for _, log, folder in tasks]
         outcomes: list[LogOutcome]
         if client is not None or pool is not None:

@@ -35,15 +35,32 @@ exit when the pool's process dies while workers live: each worker inherits the w
 the pipe whose end-of-file tells the forkserver that its clients are gone (measured: after
 ``kill -9`` of the caller, worker and forkserver stay until the worker exits).  So a worker
 watches the pool's process itself, through a pipe whose only writer is that process: the
-kernel closes it when the process ends, however it ends.  The workers then exit, the
-forkserver sees its clients gone and exits, and so does multiprocessing's resource tracker.
+kernel closes it when the process ends, however it ends.  The workers then stop (below),
+the forkserver sees its clients gone and exits, and so does multiprocessing's resource
+tracker.
+
+**Stopping.**  A worker ends on ``SIGTERM`` or ``SIGHUP`` as the console script does: the
+signal is raised in its task as an exception, so that the task's ``with`` blocks remove what
+it was writing (a report's temporary folder, :mod:`hybridlog.outputs`), and the worker then
+dies of that signal; further signals are ignored meanwhile.  ``SIGINT`` is blocked in it
+from its fork on (the forkserver's warm-up blocks it, :data:`WARMUP`; ignoring it would not
+last: importing polars installs polars' own handler, whose Ctrl-C aborts polars' running
+queries): Ctrl-C reaches every process of the terminal's group, and the pool's process
+decides.  A worker whose pool's process is gone sends its main thread ``SIGTERM`` (and exits
+regardless if its task does not begin to unwind within :data:`STOP_GRACE_S`).  Leaving the
+pool with an exception (Ctrl-C, the console script's ``SIGTERM``/``SIGHUP``, an error) sends
+every worker ``SIGTERM``, kills those still running after :data:`STOP_GRACE_S` (a compiled
+loop runs no signal handler until it returns), waits until each is gone (by process id: a
+forkserver killed with its process group reports its children ended while they still run),
+then calls the pool's ``clean_up`` with the workers' process ids, which removes what they
+left (a worker killed mid-task, or one whose task's thread wrote into the folder it was
+removing); further ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` wait until then.
 
 :class:`WorkerPool` forks the workers on the first :meth:`WorkerPool.run` (a fork request
 waits until the forkserver has finished its warm-up, which the caller should not wait for
 while it has work of its own); a worker runs every task it is given in the same process, so
-what a task function keeps between calls (a loaded model, compiled code) stays warm.
-Leaving the pool with an exception kills the workers at once.  The forkserver serves every
-pool of the calling process and lives until that process ends.
+what a task function keeps between calls (a loaded model, compiled code) stays warm.  The
+forkserver serves every pool of the calling process and lives until that process ends.
 """
 
 from __future__ import annotations
@@ -56,14 +73,23 @@ import os
 import signal
 import sys
 import threading
+import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from multiprocessing.context import ForkServerContext, ForkServerProcess
+from pathlib import Path
 from typing import Any, TypeVar
 
-__all__ = ["POLARS_THREADS", "WARMUP", "WorkerPool", "start_forkserver", "worker_environment"]
+__all__ = [
+    "POLARS_THREADS",
+    "STOP_GRACE_S",
+    "WARMUP",
+    "WorkerPool",
+    "start_forkserver",
+    "worker_environment",
+]
 
 R = TypeVar("R")
 
@@ -72,6 +98,22 @@ QUEUED = 2
 
 WARMUP = "hybridlog.jobs.worker_warmup"
 """The module the forkserver imports before it forks any worker (:func:`start_forkserver`)."""
+
+STOP_GRACE_S = 2.0
+"""How long a worker told to stop (``SIGTERM``) may take to remove what it was writing before
+it is killed.  Its task unwinds as soon as it runs Python code again, not from inside a
+compiled loop: a streaming estimator's chunk of 2^16 rows is milliseconds of one (a
+batch of 300,000-sample logs stopped in 0.03-0.15 s), a whole-log one may take longer and
+is then killed, its folder removed by the pool's ``clean_up``."""
+
+UNWIND_LIMIT_S = 30.0
+"""How long a worker whose pool's process is gone lets its task's clean-up run, once begun."""
+
+ENDING_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""What ends a worker after its task's clean-up (:func:`_stop_on_signals`)."""
+
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""What waits while the pool's process stops its workers and cleans up (:func:`_held`)."""
 
 
 def start_forkserver() -> None:
@@ -108,20 +150,77 @@ def _stop_forkserver() -> None:
 
 
 def _watch_parent(lifeline: Connection) -> None:
-    """Exit this process as soon as the pool's process is gone (``kill -9`` runs no clean-up).
+    """Stop this process as soon as the pool's process is gone (``kill -9`` runs no clean-up).
 
     ``lifeline`` is the reading end of a pipe nothing is ever written to; its one writer is
-    the pool's process, so reading it ends (end of file) when that process has ended.  Its
-    temporary outputs are left to the next run
+    the pool's process, so reading it ends (end of file) when that process has ended.  The
+    worker then stops as on ``SIGTERM`` (its task's temporary outputs removed), sent to its
+    main thread itself (a signal to the process may be taken by this thread, leaving the
+    main one asleep in a call); it exits at once if its task has not begun to unwind after
+    :data:`STOP_GRACE_S` (a compiled loop), and after :data:`UNWIND_LIMIT_S` if it has not
+    ended by then.  What it leaves is for the next run
     (:func:`hybridlog.outputs.remove_stale_temporaries`).
     """
 
     def watch() -> None:
         with contextlib.suppress(EOFError, OSError):
             lifeline.recv_bytes()
+        main = threading.main_thread().ident
+        if main is None:
+            os.kill(os.getpid(), signal.SIGTERM)
+        else:
+            signal.pthread_kill(main, signal.SIGTERM)
+        deadline = time.monotonic() + STOP_GRACE_S
+        while not _STOPPED_BY and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if _STOPPED_BY:  # unwinding: its clean-up ends the process
+            time.sleep(UNWIND_LIMIT_S)
         os._exit(1)
 
     threading.Thread(target=watch, name="hybridlog-parent-watch", daemon=True).start()
+
+
+class _Stopped(BaseException):
+    """A worker told to stop by a signal: raised in its task, so that the task unwinds.
+
+    Not an :class:`Exception`: a task catches what may fail, never this.
+    """
+
+
+_STOPPED_BY: list[int] = []
+"""The signal that stopped this worker, once one has (:func:`_raise_stopped`)."""
+
+
+def _raise_stopped(signum: int, frame: object) -> None:
+    """Raise :class:`_Stopped` in the task, silencing the worker for its clean-up.
+
+    Raised inside a library's own check for signals, the exception may come out of the task
+    as another: polars takes any exception there for Ctrl-C, aborts its running queries
+    (a table's streaming sink in its writer's thread panics, printing a message) and raises
+    ``KeyboardInterrupt``.  So the worker's standard error goes to ``/dev/null`` (nothing it
+    says while it is stopped is the user's concern) and whatever leaves the task ends the
+    worker as stopped (:func:`_serve`).
+    """
+    for held in (signal.SIGINT, *ENDING_SIGNALS):  # the clean-up must not be cut short
+        signal.signal(held, signal.SIG_IGN)
+    _STOPPED_BY.append(signum)
+    with contextlib.suppress(OSError):
+        sink = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(sink, 2)
+        os.close(sink)
+    raise _Stopped(signum)
+
+
+def _stop_on_signals() -> None:
+    """``SIGTERM``/``SIGHUP`` raise :class:`_Stopped` in this worker; ``SIGINT`` never arrives.
+
+    ``SIGINT`` is blocked, as by the forkserver's warm-up (:data:`WARMUP`), for a forkserver
+    started without it: ignoring it would not last, since importing polars installs polars'
+    own handler.  Every thread the worker starts keeps the mask.
+    """
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    for ending in ENDING_SIGNALS:
+        signal.signal(ending, _raise_stopped)
 
 
 def _serve(connection: Connection, lifeline: Connection, environment: dict[str, str]) -> None:
@@ -130,33 +229,48 @@ def _serve(connection: Connection, lifeline: Connection, environment: dict[str, 
     ``environment`` is the pool's process's when it started this worker.  Told to stop, the
     worker flushes its standard streams and exits at once: its tasks wrote their files and
     sent their results, so the interpreter's tear-down (freeing every module of numpy,
-    polars and numba one by one) would only make the parent wait.
+    polars and numba one by one) would only make the parent wait.  Stopped by a signal
+    (:func:`_stop_on_signals`), it dies of that signal once its task has unwound, whatever
+    exception the unwinding ends with.
     """
-    _watch_parent(lifeline)
-    if os.environ != environment:
-        os.environ.clear()
-        os.environ.update(environment)
-    while True:
-        try:
-            task = connection.recv()
-        except (EOFError, OSError):
-            return
-        if task is None:
-            _exit_now()
-        function, arguments = task
-        result = function(*arguments)
-        try:
-            connection.send(result)
-        except (OSError, ValueError):
-            return
+    try:
+        _stop_on_signals()
+        _watch_parent(lifeline)
+        if os.environ != environment:
+            os.environ.clear()
+            os.environ.update(environment)
+        while True:
+            try:
+                task = connection.recv()
+            except (EOFError, OSError):
+                return
+            if task is None:
+                _exit_now()
+            function, arguments = task
+            result = function(*arguments)
+            try:
+                connection.send(result)
+            except (OSError, ValueError):
+                return
+    except BaseException:
+        if _STOPPED_BY:  # _Stopped, or what a library made of it (_raise_stopped)
+            _exit_now(_STOPPED_BY[0])
+        raise
 
 
-def _exit_now() -> None:
-    """Exit the worker without the interpreter's tear-down, its output flushed."""
+def _exit_now(signum: int | None = None) -> None:
+    """Exit the worker without the interpreter's tear-down, its output flushed.
+
+    With ``signum``, die of that signal (how the pool's process tells a worker stopped
+    from one that failed: ``killed by signal SIGTERM``).
+    """
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
-    os._exit(0)
+    if signum is not None:
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+    os._exit(0 if signum is None else 128 + signum)
 
 
 @dataclass
@@ -222,6 +336,82 @@ def _stop(worker: _Worker) -> None:
     worker.connection.close()
 
 
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` runs (a zombie has ended: only its parent's bookkeeping is left)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        stat = (Path("/proc") / str(pid) / "stat").read_text()
+    except FileNotFoundError:
+        return False
+    except OSError:
+        return True  # no /proc (not Linux): the signal test above is all there is
+    return stat.rsplit(")", 1)[-1].split()[:1] != ["Z"]
+
+
+def _signal(pids: Sequence[int], signum: signal.Signals) -> None:
+    for pid in pids:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.kill(pid, signum)
+
+
+def _running_after(pids: Sequence[int], seconds: float) -> list[int]:
+    """Wait until every process of ``pids`` has ended, at most ``seconds``; those still running."""
+    deadline = time.monotonic() + seconds
+    while (left := [pid for pid in pids if _running(pid)]) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return left
+
+
+def _end(workers: Sequence[_Worker]) -> None:
+    """Stop ``workers`` mid-task: ``SIGTERM``, then ``SIGKILL`` after :data:`STOP_GRACE_S`.
+
+    Returns once each has ended.  Watched by process id, not through multiprocessing: its
+    exit codes come from the forkserver, which a signal to the whole process group (a CI
+    runner's) kills too, and a process whose forkserver is gone counts as ended (exit code
+    255) while it still runs.
+    """
+    pids = [w.process.pid for w in workers if w.process.pid is not None]
+    _signal(pids, signal.SIGTERM)
+    left = _running_after(pids, STOP_GRACE_S)
+    _signal(left, signal.SIGKILL)
+    _running_after(left, 5.0)
+    for worker in workers:
+        worker.process.join(timeout=1)
+        worker.connection.close()
+
+
+@contextlib.contextmanager
+def _held(*, raised_after: bool) -> Iterator[None]:
+    """``SIGINT``, ``SIGTERM`` and ``SIGHUP`` wait while the pool's process stops its workers.
+
+    A second Ctrl-C (or a ``SIGTERM`` after it) would otherwise cut short the wait for the
+    workers and the removal of what they left.  A signal that came meanwhile is raised again
+    afterwards if ``raised_after`` (the pool was left normally), else dropped: the pool is
+    being left with an exception already, the first signal's.  Only the main thread can
+    handle signals; elsewhere nothing is held.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+    previous: dict[signal.Signals, Any] = {}
+    for held in HELD_SIGNALS:
+        if signal.getsignal(held) is not None:  # None: set outside Python, left alone
+            previous[held] = signal.signal(held, lambda signum, frame: came.append(signum))
+    try:
+        yield
+    finally:
+        for held, handler in previous.items():
+            signal.signal(held, handler)
+    if came and raised_after:
+        signal.raise_signal(came[0])
+
+
 class WorkerPool:
     """``jobs`` worker processes forked from a warm forkserver (see the module docstring).
 
@@ -229,12 +419,20 @@ class WorkerPool:
     ----------
     jobs:
         Number of worker processes.
+    clean_up:
+        Called when the pool is left, once every worker has ended, with the process ids of
+        all the workers it started and ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` held
+        (:func:`_held`): removes what a worker stopped mid-task left (its temporary outputs).
     """
 
-    def __init__(self, jobs: int) -> None:
+    def __init__(
+        self, jobs: int, *, clean_up: Callable[[Sequence[int]], None] | None = None
+    ) -> None:
         self.jobs = jobs
+        self._clean_up = clean_up
         self._context = multiprocessing.get_context("forkserver")
         self._workers: list[_Worker] = []
+        self._started: list[int] = []
         # only this process holds the writing end: the workers' reading ends close with it
         self._lifeline, self._lifeline_writer = self._context.Pipe(duplex=False)
 
@@ -243,16 +441,20 @@ class WorkerPool:
         return self
 
     def __exit__(self, kind: object, error: object, trace: object) -> None:
-        for worker in self._workers:  # all told first, so that they stop side by side
+        with _held(raised_after=kind is None):
             if kind is not None:  # the caller failed: nothing the workers do is wanted
-                worker.process.kill()
-            with contextlib.suppress(OSError, ValueError):
-                worker.connection.send(None)
-        for worker in self._workers:
-            _stop(worker)
-        self._workers = []
-        self._lifeline_writer.close()
-        self._lifeline.close()
+                _end(self._workers)
+            else:
+                for worker in self._workers:  # all told first, so that they stop side by side
+                    with contextlib.suppress(OSError, ValueError):
+                        worker.connection.send(None)
+                for worker in self._workers:
+                    _stop(worker)
+            self._workers = []
+            self._lifeline_writer.close()
+            self._lifeline.close()
+            if self._clean_up is not None:
+                self._clean_up(self._started)
 
     def run(
         self,
@@ -297,6 +499,8 @@ class WorkerPool:
         while pending or any(w.tasks for w in workers):
             while pending and len(workers) < self.jobs:
                 workers.append(_start(self._context, self._lifeline, self.jobs))
+                if workers[-1].process.pid is not None:  # set once started
+                    self._started.append(workers[-1].process.pid)
             for worker in workers:
                 # QUEUED tasks per worker, so that it never waits for this process between two
                 while pending and len(worker.tasks) < QUEUED:

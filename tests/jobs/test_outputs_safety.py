@@ -634,6 +634,20 @@ def test_the_next_run_removes_temporaries_of_dead_processes(tmp_path: Path) -> N
     assert (tmp_path / "t.csv").read_text() == "x\n"
 
 
+def test_temporaries_of_ended_workers_are_removed_whatever_they_hold(tmp_path: Path) -> None:
+    """A batch removes its ended workers' temporaries, even one without its marker (the
+    worker was stopped while it removed the folder, a thread of its task still writing)."""
+    dead = _dead_pid()
+    host = temporary_name(tmp_path / "x").name.split("-")[2]
+    left = tmp_path / f".log.csv.hybridlog-tmp-{host}-{dead}-0123abcd"
+    left.mkdir()
+    (left / "estimates.csv").write_text("t,x\n")
+    assert remove_stale_temporaries(tmp_path) == []  # not known to be hybridlog's
+    assert remove_stale_temporaries(tmp_path, ours={os.getpid()}) == []
+    assert remove_stale_temporaries(tmp_path, ours={dead}) == [left]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_failed_write_leaves_no_folder_behind(tmp_path: Path) -> None:
     with pytest.raises(RuntimeError), atomic_output_dir(tmp_path / "a" / "b" / "out") as tmp:
         (tmp / "report.json").write_text("{")

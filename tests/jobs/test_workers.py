@@ -15,13 +15,14 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from hybridlog.jobs.workers import POLARS_THREADS, WARMUP, WorkerPool
-from tests.support.processes import descendants, kill_and_expect_the_family_gone
+from hybridlog.jobs.workers import POLARS_THREADS, STOP_GRACE_S, WARMUP, WorkerPool
+from tests.support.processes import alive, descendants, kill_and_expect_the_family_gone
 
 
 def _facts(_: int) -> dict[str, Any]:
@@ -112,6 +113,23 @@ def test_each_workers_polars_gets_its_share_of_the_cores(monkeypatch: pytest.Mon
     assert result == ("3", 3)
 
 
+def _ctrl_c_after_polars(folder: str) -> tuple[bool, int]:
+    """Ctrl-C reaching a worker that imported polars (which installs a SIGINT handler of its
+    own, aborting running queries), then a polars query."""
+    import polars as pl
+
+    os.kill(os.getpid(), signal.SIGINT)
+    pl.DataFrame({"a": [1, 2]}).lazy().sink_csv(Path(folder, "a.csv"))
+    return signal.SIGINT in signal.sigpending(), len(Path(folder, "a.csv").read_text())
+
+
+def test_ctrl_c_never_reaches_a_worker_not_even_through_polars(tmp_path: Path) -> None:
+    """The pool's process decides what Ctrl-C stops: it stays pending in its workers."""
+    with WorkerPool(1) as pool:
+        (result,) = pool.run(_ctrl_c_after_polars, [(str(tmp_path),)], died=_died)
+    assert result == (True, len("a\n1\n2\n"))
+
+
 KILLED_CALLER = """
 import sys
 from hybridlog.jobs.workers import WorkerPool
@@ -145,3 +163,128 @@ def test_workers_forkserver_and_tracker_die_with_a_killed_caller(tmp_path: Path)
         if caller.poll() is None:
             caller.kill()
             caller.wait()
+
+
+STAGING_CALLER = """
+import sys
+from hybridlog.jobs.workers import WorkerPool
+from tests.jobs.test_workers import _died, _stage_and_sleep
+
+with WorkerPool(2) as pool:
+    pool.run(_stage_and_sleep, [(sys.argv[1],)] * 4, died=_died)  # two queued per worker
+"""
+
+
+def _stage_and_sleep(folder: str) -> None:
+    """A task that removes what it wrote when it unwinds (as a report's temporary folder)."""
+    staged = Path(folder, str(os.getpid()))
+    staged.touch()
+    try:
+        time.sleep(120)
+    finally:
+        staged.unlink()
+
+
+def test_workers_of_a_killed_caller_unwind_their_tasks(tmp_path: Path) -> None:
+    """``kill -9`` of the caller runs no clean-up there; its workers still run their tasks'."""
+    root = Path(__file__).resolve().parents[2]
+    caller = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(STAGING_CALLER), str(tmp_path)], cwd=root
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(tmp_path.iterdir())) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert len(list(tmp_path.iterdir())) == 2, "the workers never started"
+        kill_and_expect_the_family_gone(caller, descendants(caller.pid))
+        assert list(tmp_path.iterdir()) == []
+    finally:
+        if caller.poll() is None:
+            caller.kill()
+            caller.wait()
+
+
+def _stubborn(folder: str, index: int) -> int:
+    """Task 0 ignores SIGTERM (as a compiled loop that never returns to Python would)."""
+    if index == 0:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        Path(folder, str(os.getpid())).touch()
+        time.sleep(120)
+    deadline = time.monotonic() + 120
+    while not any(Path(folder).iterdir()) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return index
+
+
+class _InterruptedError(Exception):
+    pass
+
+
+def test_leaving_the_pool_on_an_error_kills_a_stuck_worker_then_cleans_up(tmp_path: Path) -> None:
+    """A worker that does not end on SIGTERM is killed after the grace period; ``clean_up``
+    runs once every worker has ended (it removes what they left)."""
+    ended: list[tuple[bool, bool]] = []
+
+    def clean_up(workers: Sequence[int]) -> None:
+        stuck = {int(p.name) for p in tmp_path.iterdir()}
+        ended.append((stuck <= set(workers), not any(alive(pid) for pid in workers)))
+
+    def done(result: int) -> None:
+        raise _InterruptedError  # the caller fails while task 0 runs (a Ctrl-C)
+
+    started = time.monotonic()
+    with pytest.raises(_InterruptedError), WorkerPool(2, clean_up=clean_up) as pool:
+        # task 0 (and 1, queued behind it) to one worker, 2 and 3 to the other
+        pool.run(_stubborn, [(str(tmp_path), k) for k in range(4)], died=_died, done=done)
+    assert ended == [(True, True)]
+    assert STOP_GRACE_S <= time.monotonic() - started < 60
+
+
+INTERRUPTED_CALLER = """
+import os, signal, sys, threading, time
+from pathlib import Path
+from hybridlog.jobs.workers import WorkerPool
+from tests.jobs.test_workers import _died, _stage_and_translate
+
+folder = Path(sys.argv[1])
+
+def interrupt() -> None:  # Ctrl-C to this process once both workers are in their tasks
+    while len(list(folder.iterdir())) < 2:
+        time.sleep(0.01)
+    os.kill(os.getpid(), signal.SIGINT)
+
+threading.Thread(target=interrupt, daemon=True).start()
+try:
+    with WorkerPool(2) as pool:
+        pool.run(_stage_and_translate, [(str(folder),)] * 4, died=_died)
+except KeyboardInterrupt:
+    print("interrupted")
+"""
+
+
+def _stage_and_translate(folder: str) -> None:
+    """A task whose library turns the stop into another exception, talking as it does."""
+    staged = Path(folder, str(os.getpid()))
+    staged.touch()
+    try:
+        time.sleep(120)
+    except BaseException:  # as polars does with what a signal handler raises in its check
+        print("thread 'async-executor-0' panicked", file=sys.stderr, flush=True)
+        raise KeyboardInterrupt from None
+    finally:
+        staged.unlink()
+
+
+def test_a_stopped_worker_ends_silently_whatever_its_task_raises(tmp_path: Path) -> None:
+    """Ctrl-C of the caller: each worker unwinds its task and ends without a word, even when
+    the task ends with another exception than the stop's and prints while unwinding."""
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(INTERRUPTED_CALLER), str(tmp_path)],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert (done.stdout, done.stderr) == ("interrupted\n", "")
+    assert list(tmp_path.iterdir()) == []
