@@ -33,6 +33,10 @@ Scenarios (none tuned to a result: fixed before the first run):
 * ``three_tank, random schedules``: the same plant and noise, seeds 200..229, each with its own
   schedule of 7-9 segments of 50-150 steps in random modes (``random_schedule``; added after
   ``kbest`` was written, as a scenario of the kind the issue says will be tried);
+* ``three_tank, 80-step segments``: the same plant and noise, schedule
+  ``1:80,2:80,3:80,1:80,3:80,2:80,1:80``, seeds 501..520 (added 2026-12-04: first run through
+  the CLI, ``hybridlog models three_tank_hstf`` edited and ``hybridlog batch``, as a user
+  would try the issue's hidden scenarios; run once, nothing changed after);
 * ``double_cart_case1`` / ``_case2``: paper 001's state-driven double cart (its own input
   ``u = sin(0.3 t)``, sensor noise 0.001, no process noise), 600 steps, seeds 0..19; the true
   initial state is the model's ``[simulation] state`` plus N(0, 0.3²) per component (drawn
@@ -69,6 +73,7 @@ from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import SimulatedLog, simulate
 
 THREE_TANK_SCHEDULE = "1:100,2:100,3:100,1:100,3:100,2:100,1:100"
+SHORT_SCHEDULE = "1:80,2:80,3:80,1:80,3:80,2:80,1:80"
 VARIANTS = {
     "filtered": ImmOptions(),
     "viterbi": ImmOptions(mode_sequence="viterbi"),
@@ -275,6 +280,14 @@ def main() -> None:
     scenarios.append(
         ("three_tank, random schedules (seeds 200..229, 6-8 switches)", random_scenario,
          range(200, 230))
+    )  # fmt: skip
+
+    def short_scenario(seed: int) -> tuple[HybridModel, AlignedSignals]:
+        return tank, simulate(tank, schedule=SHORT_SCHEDULE, seed=seed).signals(tank)
+
+    scenarios.append(
+        ("three_tank, 80-step segments (seeds 501..520, 6 switches)", short_scenario,
+         range(501, 521))
     )  # fmt: skip
     for case in (1, 2):
         cart = load_model(f"double_cart_case{case}")
