@@ -12,7 +12,7 @@ one layer are peers that never import each other:
 
 ==  ==============================================================================
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
-    | ``prefault``
+    | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
 2   ``io`` | ``model``
 3   ``cluster``
@@ -44,7 +44,7 @@ from scipy.sparse.csgraph import connected_components
 PACKAGE = Path(__file__).resolve().parent.parent / "hybridlog"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("hybridlog", "errors", "lazy", "background", "allocators", "prefault"),
+    ("hybridlog", "errors", "lazy", "background", "allocators", "prefault", "polars_import"),
     ("signals", "jit", "outputs", "memory"),
     ("io", "model"),
     ("cluster",),

@@ -21,7 +21,6 @@ from typing import Any, Self
 
 import numpy as np
 import numpy.typing as npt
-import polars as pl
 
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.formats import LogFormat, get_format
@@ -37,6 +36,7 @@ from hybridlog.io.source import (
     seconds_to_ns,
 )
 from hybridlog.io.summary import count_nonfinite, describe_steps
+from hybridlog.polars_import import pl
 from hybridlog.signals import FloatArray, IntArray
 
 TIME_COLUMNS = ("t", "time")

@@ -8,10 +8,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import polars as pl
 
 from hybridlog.errors import OptionError, OutputError
 from hybridlog.outputs import atomic_files
+from hybridlog.polars_import import pl
 
 TABLE_FORMATS = (".csv", ".parquet")
 

@@ -14,6 +14,7 @@ written (``tests/jobs/test_batch_process.py``).
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -301,7 +302,8 @@ def read_for_estimation(
     numba up from its start: the log is simply read.  Elsewhere the log is read in a thread
     while this one sets up numba (:func:`hybridlog.jit.set_up`): polars' readers release
     the GIL, numba's set-up holds it, and on two cores the pair costs the time of the
-    longer.  ``notes`` gets what reading did.
+    longer.  ``notes`` gets what reading did.  polars, if that thread imported it first,
+    leaves ``SIGINT`` to Python from then on (:mod:`hybridlog.polars_import`).
     """
     if worker(ESTIMATES) is not None:
         return read_log(log, model, read, notes)
@@ -310,6 +312,8 @@ def read_for_estimation(
         set_up()
     finally:
         reading.wait()
+        if "hybridlog.polars_import" in sys.modules:  # first imported by the thread
+            sys.modules["hybridlog.polars_import"].take_back_sigint()
     return reading.result()
 
 

@@ -37,10 +37,11 @@ filters and their compiled loops' machinery, reading and aligning, the report's 
 the batch job itself (whose module imports no polars: its batch process has none)."""
 
 # Ctrl-C reaches every process of the terminal's group; the batch process decides and stops
-# its workers (hybridlog.jobs.workers).  Blocked, not only ignored: importing polars (as a
-# worker does) installs polars' own SIGINT handler, which makes its running queries abort;
-# a blocked signal reaches no handler, and a fork (every worker) and each thread started
-# after it keep the mask.  Before the imports, so that the warm-up is not cut short either.
+# its workers (hybridlog.jobs.workers).  Blocked, not only ignored: a library imported
+# later may install a SIGINT handler of its own (polars does, hybridlog.polars_import takes
+# it back, but only in the main thread); a blocked signal reaches no handler, and a fork
+# (every worker) and each thread started after it keep the mask.  Before the imports, so
+# that the warm-up is not cut short either.
 signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
 for module in MODULES:
     importlib.import_module(module)

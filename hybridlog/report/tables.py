@@ -46,11 +46,10 @@ from types import TracebackType
 from typing import Literal
 
 import numpy as np
-import polars as pl
-from polars.io.plugins import register_io_source
 
 from hybridlog.background import Background
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.polars_import import pl, register_io_source
 from hybridlog.report.table_format import TableFormat
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 

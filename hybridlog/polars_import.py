@@ -1,0 +1,48 @@
+"""polars as every hybridlog module imports it: with ``SIGINT`` left to Python.
+
+Importing polars (2.1) replaces the process's ``SIGINT`` action with its own (the
+``signal-hook`` crate's, with ``SA_RESTART``), chained to Python's, and does so even where
+``SIGINT`` is ignored (``nohup``, a script's background job).  A Ctrl-C then also sets
+polars' own flag, and polars' next streaming query (a log read, a table written) aborts with
+``KeyboardInterrupt`` or panics in its threads with a Rust backtrace on stderr:
+
+* an ignored ``SIGINT`` interrupts hybridlog all the same, with that backtrace;
+* a Ctrl-C raises ``KeyboardInterrupt`` twice, the second inside the ``except`` or
+  ``finally`` block that was removing a half-written output folder
+  (pola-rs/polars#23988).
+
+So polars is imported here and nowhere else, and the first import re-installs Python's own
+action for ``SIGINT``, whatever :func:`signal.getsignal` says it is: the default handler,
+``SIG_IGN`` or a caller's handler (:func:`take_back_sigint`).  A Ctrl-C then raises one
+``KeyboardInterrupt``, once the polars call running returns (a chunk read or written), and an
+ignored one stays ignored.  Only the main thread may set an action: where polars is first
+imported in another (a log read in a thread while numba sets up,
+:func:`hybridlog.jobs.analysis.read_for_estimation`), the main thread calls
+:func:`take_back_sigint` once that thread is done.  ``tests/test_polars_import.py``.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+
+import polars as pl
+from polars.io.plugins import register_io_source
+
+__all__ = ["pl", "register_io_source", "take_back_sigint"]
+
+
+def take_back_sigint() -> None:
+    """Re-install Python's own ``SIGINT`` action over polars' (module docstring).
+
+    Does nothing outside the main thread or where Python did not install the action
+    (:func:`signal.getsignal` gives ``None``).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return
+    action = signal.getsignal(signal.SIGINT)
+    if action is not None:
+        signal.signal(signal.SIGINT, action)
+
+
+take_back_sigint()
