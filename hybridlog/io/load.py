@@ -296,7 +296,8 @@ def _truth_mode_codes(
     """Translate a true-mode label series (of ``symbol``) into indices of ``mode_ids``.
 
     Labels and mode ids are compared as text after stripping whitespace: ``"1"`` matches mode
-    ``"1"`` but ``"1.0"`` does not.
+    ``"1"``, ``"01"`` does not; the readers give a whole number written as a float (``1.0``,
+    in a float column or field, or in a CSV column of numbers) as ``"1"``.
 
     Raises
     ------

@@ -716,7 +716,21 @@ def _check_truncated(path: Path) -> None:
 
 
 def _as_labels(column: pl.Series) -> pl.Series:
-    """Mode ids as stripped text; integer-valued floats (Parquet) lose their ``.0``."""
+    """Mode ids as stripped text; integer-valued floats lose their ``.0``.
+
+    A float column (Parquet), or a text column (CSV) whose every cell is a number and some
+    written as a float (``1.0``, ``2e0``: pandas writes an integer column with a gap so), is
+    read as numbers: if all are whole they are written as integers (``1.0`` is mode ``1``, as
+    in a message log, :func:`hybridlog.io.message_paths.as_label`), else as they were.
+    """
+    if column.dtype == pl.String:
+        text = column.str.strip_chars()
+        written = text.filter(text != "").drop_nulls()
+        numbers = written.cast(pl.Float64, strict=False)
+        if written.len() and not numbers.is_null().any() and written.str.contains("[.eE]").any():
+            whole = numbers.filter(numbers.is_finite())
+            if whole.len() == numbers.len() and bool((whole == whole.round(0)).all()):
+                column = text.cast(pl.Float64, strict=False)
     dtype = column.dtype
     if dtype.is_float():
         finite = column.drop_nulls()

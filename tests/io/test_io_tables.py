@@ -329,8 +329,39 @@ def test_mode_ids_are_compared_as_stripped_text(tmp_path: Path) -> None:
     signals = load(csv_file(tmp_path, "t,u,y,mode\n0.0,1,1, 1 \n0.1,1,1,valve_open\n"))
     assert signals.truth_modes is not None
     np.testing.assert_array_equal(signals.truth_modes, [0, 1])
-    with pytest.raises(LogError, match=r"'1.0' at t=0 s is not a mode"):
-        load(csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,1.0\n", name="float.csv"))
+    with pytest.raises(LogError, match=r"'01' at t=0 s is not a mode"):
+        load(csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,01\n", name="zero.csv"))
+
+
+@pytest.mark.parametrize(
+    ("cells", "modes"),
+    [
+        (["1.0", "", " 1.0 ", "1"], [0, 0, 0, 0]),  # pandas' integers with a gap (held)
+        (["1e0", "1"], [0, 0]),
+    ],
+)
+def test_whole_numbers_written_as_floats_are_mode_ids(
+    tmp_path: Path, cells: list[str], modes: list[int]
+) -> None:
+    """A CSV mode column of numbers reads as a float column of Parquet or a message field."""
+    rows = "".join(f"{0.1 * k:.1f},1,1,{cell}\n" for k, cell in enumerate(cells))
+    signals = load(csv_file(tmp_path, "t,u,y,mode\n" + rows), dt=0.1)
+    assert signals.truth_modes is not None
+    kept = [code for code in signals.truth_modes.tolist() if code >= 0]
+    assert kept == modes
+
+
+@pytest.mark.parametrize(
+    ("cells", "label"),
+    [(["1.0", "valve_open"], "1.0"), (["1.5", "1.0"], "1.5"), (["1.0", "nan"], "1.0")],
+    ids=["beside text", "beside a fraction", "beside nan"],
+)
+def test_floats_that_are_not_all_whole_numbers_stay_as_written(
+    tmp_path: Path, cells: list[str], label: str
+) -> None:
+    rows = "".join(f"{0.1 * k:.1f},1,1,{cell}\n" for k, cell in enumerate(cells))
+    with pytest.raises(LogError, match=rf"'{label}' at t=0.* s is not a mode"):
+        load(csv_file(tmp_path, "t,u,y,mode\n" + rows), dt=0.1)
 
 
 @pytest.mark.parametrize(
