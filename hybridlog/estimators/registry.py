@@ -203,7 +203,8 @@ ESTIMATORS: dict[str, Estimator] = {
             stream="stream_hstf",
             capabilities=Capabilities(
                 no_smoothing="paper 000 predicts every mode with probability 1/n_q (eq. (20)); "
-                "under that uniform chain smoothed mode probabilities equal the filtered ones",
+                "under that uniform chain smoothed mode probabilities equal the filtered ones "
+                "and the Viterbi path is each sample's most probable mode",
                 modes_of_the_step_into=True,
             ),
         ),

@@ -103,6 +103,18 @@ def _admits(estimator: Estimator, option: str) -> bool:
     return option in names
 
 
+def _choices(estimator: Estimator, option: str) -> list[str]:
+    """The values an estimator's option of a ``Literal`` type takes."""
+    return next(i.type for i in estimator.describe_options() if i.name == option).split("|")
+
+
+def _offers(estimator: Estimator, option: str, value: str) -> bool:
+    """Whether the estimator has the option and, for ``mode_sequence``, that value of it."""
+    if not _admits(estimator, option):
+        return False
+    return option != MODE_SEQUENCE_OPTION or value in _choices(estimator, option)
+
+
 def smoothing_overrides(
     chosen: Sequence[Estimator],
     overrides: Overrides,
@@ -137,7 +149,7 @@ def smoothing_overrides(
             )
         for estimator in chosen:
             if not _admits(estimator, option):
-                having = [e.name for e in ESTIMATORS.values() if _admits(e, option)]
+                having = [e.name for e in ESTIMATORS.values() if _offers(e, option, value)]
                 hint = ""
                 if len(chosen) > 1:
                     hint = f"; --set {option}={value} applies it only to the estimators that do"
@@ -147,12 +159,10 @@ def smoothing_overrides(
                     f"{': ' + why if why else ''} "
                     f"(estimators that do: {', '.join(having) or 'none'}){hint}"
                 )
-            choices = next(i.type for i in estimator.describe_options() if i.name == option).split(
-                "|"
-            )
-            if option == MODE_SEQUENCE_OPTION and value not in choices:
+            if not _offers(estimator, option, value):
                 raise OptionError(
-                    f"{flag} {value}: estimator '{estimator.name}' offers {', '.join(choices)}"
+                    f"{flag} {value}: estimator '{estimator.name}' offers "
+                    f"{', '.join(_choices(estimator, option))}"
                 )
         options[option] = value
     return Overrides(overrides.parameters, MappingProxyType(options))

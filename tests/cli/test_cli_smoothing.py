@@ -122,3 +122,19 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
     assert row["smoothing"][0] == f"{imm.method}, argmax"
     if done.reports["hstf"].smoothing is None:  # hstf has no smoother (yet)
         assert table.filter(pl.col("estimator") == "hstf")["smoothing"][0] == "none"
+
+
+@pytest.mark.parametrize(
+    ("mode_sequence", "offered_by"), [("viterbi", "imm"), ("kbest", "imm, unknown-mode")]
+)
+def test_a_refusal_lists_the_estimators_that_offer_the_value_asked_for(
+    mode_sequence: str, offered_by: str
+) -> None:
+    """unknown-mode has kbest but no viterbi: only the estimators with the value are named."""
+    model, overrides = parse_sets([], "three_tank_hstf")
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, ["hstf"], overrides, mode_sequence=mode_sequence)
+    message = str(caught.value)
+    assert message.startswith("--mode-sequence: estimator 'hstf' (--estimator) does not offer")
+    assert message.endswith(f"(estimators that do: {offered_by})")
+    assert "the Viterbi path is each sample's most probable mode" in message
