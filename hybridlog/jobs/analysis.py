@@ -287,6 +287,15 @@ def check_memory(
     remedy = "analyse a shorter log" + (
         ", or without --smooth and --mode-sequence" if offline else ""
     )
+    beams: list[int] = sorted(
+        {
+            int(p.options.beam)
+            for p in prepared
+            if getattr(p.options, "mode_sequence", None) == "kbest" and hasattr(p.options, "beam")
+        }
+    )
+    if beams:  # the k-best histories grow with the beam as with the log
+        remedy += f", or a smaller beam (--set beam=N, now {', '.join(map(str, beams))})"
     names = ", ".join(p.name for p in prepared)
     check_fits(parts, what=f"{log}: {n:,} samples through {names}", remedy=remedy, error=LogError)
 
