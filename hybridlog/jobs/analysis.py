@@ -91,7 +91,11 @@ SMOOTH_OPTION = "smooth"
 """The estimator option ``--smooth`` sets (``smooth = true`` under ``[estimators.<name>]``)."""
 
 MODE_SEQUENCE_OPTION = "mode_sequence"
-"""The estimator option ``--mode-sequence`` sets (``argmax`` or ``viterbi``)."""
+"""The estimator option ``--mode-sequence`` sets (``argmax``, ``viterbi`` or ``kbest``)."""
+
+OFFLINE_OPTIONS = (SMOOTH_OPTION, MODE_SEQUENCE_OPTION, "beam")
+"""The options of the offline passes (``docs/smoothing.md``): ``--set`` of one that no chosen
+estimator has is refused as ``--smooth`` is, with the reason (:func:`_not_offered`)."""
 
 
 def _admits(estimator: Estimator, option: str) -> bool:
@@ -136,16 +140,10 @@ def smoothing_overrides(
             )
         for estimator in chosen:
             if not _admits(estimator, option):
-                having = [e.name for e in ESTIMATORS.values() if _admits(e, option)]
                 hint = ""
                 if len(chosen) > 1:
                     hint = f"; --set {option}={value} applies it only to the estimators that do"
-                why = estimator.capabilities.no_smoothing
-                raise OptionError(
-                    f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
-                    f"{': ' + why if why else ''} "
-                    f"(estimators that do: {', '.join(having) or 'none'}){hint}"
-                )
+                raise _not_offered(flag, estimator, option, given_by, hint)
             choices = next(i.type for i in estimator.describe_options() if i.name == option).split(
                 "|"
             )
@@ -155,6 +153,18 @@ def smoothing_overrides(
                 )
         options[option] = value
     return Overrides(overrides.parameters, MappingProxyType(options))
+
+
+def _not_offered(
+    flag: str, estimator: Estimator, option: str, given_by: str, hint: str = ""
+) -> OptionError:
+    """One line: ``flag`` sets ``option``, which ``estimator`` lacks; why, and who has it."""
+    having = [e.name for e in ESTIMATORS.values() if _admits(e, option)]
+    why = estimator.capabilities.no_smoothing
+    return OptionError(
+        f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
+        f"{': ' + why if why else ''} (estimators that do: {', '.join(having) or 'none'}){hint}"
+    )
 
 
 def prepare_estimators(
@@ -181,6 +191,9 @@ def prepare_estimators(
     declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
+            if name in OFFLINE_OPTIONS:  # as --smooth and --mode-sequence are refused
+                flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
+                raise _not_offered(flag, chosen[0], name, given_by)
             options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
             candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
             raise OptionError(
