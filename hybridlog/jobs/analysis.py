@@ -185,15 +185,21 @@ def prepare_estimators(
     have them (:func:`smoothing_overrides`).
     """
     chosen = [resolve_estimator(model, name, given_by=given_by) for name in names]
+    # what a refusal names as the estimator's origin: the option, or the model's default
+    chosen_by = (
+        given_by
+        if any(name is not None for name in names)
+        else f"the default_estimator of {model.origin or model.name}"
+    )
     overrides = smoothing_overrides(
-        chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=given_by
+        chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=chosen_by
     )
     declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
             if name in OFFLINE_OPTIONS:  # as --smooth and --mode-sequence are refused
                 flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
-                raise _not_offered(flag, chosen[0], name, given_by)
+                raise _not_offered(flag, chosen[0], name, chosen_by)
             options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
             candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
             raise OptionError(

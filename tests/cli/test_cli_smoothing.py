@@ -122,6 +122,20 @@ def test_set_of_an_offline_option_no_estimator_has_is_refused_as_the_flag_is(
     message = str(caught.value)
     assert message.startswith(f"--set {option}: estimator '") and "does not offer it: " in message
     assert why in message and "(estimators that do: imm" in message
+    # an estimator nobody named is the model's default, which the line says
+    default = f"(the default_estimator of {model_name}) does not offer it"
+    assert (default in message) == (names == [None])
+
+
+def test_smooth_on_the_models_default_estimator_names_the_default_not_the_option() -> None:
+    model, overrides = parse_sets([], "double_cart_case1")
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, [None], overrides, smooth=True)
+    assert str(caught.value).startswith(
+        "--smooth: estimator 'chiu' (the default_estimator of double_cart_case1) does not offer"
+    )
+    with pytest.raises(OptionError, match=r"^--smooth: estimator 'chiu' \(--estimator\) does"):
+        prepare_estimators(model, ["chiu"], overrides, smooth=True)
 
 
 def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> None:
