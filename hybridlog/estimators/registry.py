@@ -326,14 +326,22 @@ def resolve_estimator(
     ------
     ModelError
         The model file names an unknown estimator in ``default_estimator`` (when it is used)
-        or in an ``[estimators.<x>]`` table.
+        or in an ``[estimators.<x>]`` table, or such a table has an option ``x`` does not
+        have: every table, not only the chosen estimator's (``smooth = true`` under
+        ``[estimators.hstf]`` is an error of the file whichever estimator runs).  Values are
+        checked when their estimator is prepared, where ``--set`` may replace them.
     OptionError
         ``name`` is unknown (``<given_by>: unknown estimator ...``).
     """
     origin = model.origin or model.name
-    for table in model.estimator_options:
+    for table, values in model.estimator_options.items():
         if table not in ESTIMATORS:
             raise ModelError(f"{origin}: estimators.{table}: {_unknown(table, ESTIMATORS)}")
+        known = {info.name for info in ESTIMATORS[table].describe_options()}
+        unknown = {k: v for k, v in values.items() if k not in known}
+        if unknown:  # parsed alone, they raise the one-line error naming file, key, options
+            sources = {k: OptionSource.model_file(origin, table, k) for k in unknown}
+            ESTIMATORS[table].parse_options(unknown, sources)
     if name is None:
         name = model.default_estimator
         if name not in ESTIMATORS:

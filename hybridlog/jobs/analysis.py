@@ -92,7 +92,11 @@ SMOOTH_OPTION = "smooth"
 """The estimator option ``--smooth`` sets (``smooth = true`` under ``[estimators.<name>]``)."""
 
 MODE_SEQUENCE_OPTION = "mode_sequence"
-"""The estimator option ``--mode-sequence`` sets (``argmax`` or ``viterbi``)."""
+"""The estimator option ``--mode-sequence`` sets (``argmax``, ``viterbi`` or ``kbest``)."""
+
+OFFLINE_OPTIONS = (SMOOTH_OPTION, MODE_SEQUENCE_OPTION, "beam")
+"""The options of the offline passes (``docs/smoothing.md``): ``--set`` of one that no chosen
+estimator has is refused as ``--smooth`` is, with the reason (:func:`_not_offered`)."""
 
 
 def _admits(estimator: Estimator, option: str) -> bool:
@@ -149,16 +153,10 @@ def smoothing_overrides(
             )
         for estimator in chosen:
             if not _admits(estimator, option):
-                having = [e.name for e in ESTIMATORS.values() if _offers(e, option, value)]
                 hint = ""
                 if len(chosen) > 1:
                     hint = f"; --set {option}={value} applies it only to the estimators that do"
-                why = estimator.capabilities.no_smoothing
-                raise OptionError(
-                    f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
-                    f"{': ' + why if why else ''} "
-                    f"(estimators that do: {', '.join(having) or 'none'}){hint}"
-                )
+                raise _not_offered(flag, estimator, option, value, given_by, hint)
             if not _offers(estimator, option, value):
                 raise OptionError(
                     f"{flag} {value}: estimator '{estimator.name}' offers "
@@ -166,6 +164,21 @@ def smoothing_overrides(
                 )
         options[option] = value
     return Overrides(overrides.parameters, MappingProxyType(options))
+
+
+def _not_offered(
+    flag: str, estimator: Estimator, option: str, value: object, given_by: str, hint: str = ""
+) -> OptionError:
+    """One line: ``flag`` sets ``option``, which ``estimator`` lacks; why, and who offers it.
+
+    Those who offer it have the option and, for ``mode_sequence``, ``value`` among its values.
+    """
+    having = [e.name for e in ESTIMATORS.values() if _offers(e, option, str(value))]
+    why = estimator.capabilities.no_smoothing
+    return OptionError(
+        f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
+        f"{': ' + why if why else ''} (estimators that do: {', '.join(having) or 'none'}){hint}"
+    )
 
 
 def prepare_estimators(
@@ -186,12 +199,21 @@ def prepare_estimators(
     have them (:func:`smoothing_overrides`).
     """
     chosen = [resolve_estimator(model, name, given_by=given_by) for name in names]
+    # what a refusal names as the estimator's origin: the option, or the model's default
+    chosen_by = (
+        given_by
+        if any(name is not None for name in names)
+        else f"the default_estimator of {model.origin or model.name}"
+    )
     overrides = smoothing_overrides(
-        chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=given_by
+        chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=chosen_by
     )
     declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
+            if name in OFFLINE_OPTIONS:  # as --smooth and --mode-sequence are refused
+                flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
+                raise _not_offered(flag, chosen[0], name, value, chosen_by)
             options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
             candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
             raise OptionError(
@@ -298,6 +320,15 @@ def check_memory(
     remedy = "analyse a shorter log" + (
         ", or without --smooth and --mode-sequence" if offline else ""
     )
+    beams: list[int] = sorted(
+        {
+            int(p.options.beam)
+            for p in prepared
+            if getattr(p.options, "mode_sequence", None) == "kbest" and hasattr(p.options, "beam")
+        }
+    )
+    if beams:  # the k-best histories grow with the beam as with the log
+        remedy += f", or a smaller beam (--set beam=N, now {', '.join(map(str, beams))})"
     names = ", ".join(p.name for p in prepared)
     check_fits(parts, what=f"{log}: {n:,} samples through {names}", remedy=remedy, error=LogError)
 

@@ -229,6 +229,7 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     """The "Smoothing" section: what ran after the filter and the metrics before and after."""
     method = f"`{smoothing.method}`" if smoothing.method else "none (the filter's estimates)"
     f, s = smoothing.filtered, smoothing.smoothed
+    explained = f.outputs is not None and s.outputs is not None
     lines = [
         "## Smoothing",
         "",
@@ -237,9 +238,13 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         "- The modes, states and tables of this report hold these estimates (the causal "
         "filter's own are in the `_filtered` columns). The output MSE, VAF and fit above stay "
         "the filter's one-step-ahead prediction ŷ(k|k−1): an offline pass uses y(k) and the "
-        "samples after it, so it predicts nothing. The output fit below is of ŷ(k) = "
-        "h(x̂(k), u(k)) in the estimated mode: how well each side's estimates explain the "
-        "measurements.",
+        "samples after it, so it predicts nothing."
+        + (
+            " The output fit below is of ŷ(k) = h(x̂(k), u(k)) in the estimated mode: how well "
+            "each side's estimates explain the measurements."
+            if explained
+            else ""
+        ),
         "",
         f"| metric | filtered | {'smoothed' if smoothing.method else smoothing.mode_sequence} "
         "| change |",
@@ -261,7 +266,7 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         for x, state in s.states.items()
         if x in f.states
     ]
-    if f.outputs is not None and s.outputs is not None:
+    if explained and f.outputs is not None and s.outputs is not None:
         rows += [
             (f"fit of h(x̂) {y} (%)", f.outputs[y].fit, out.fit, ".4g")
             for y, out in s.outputs.items()

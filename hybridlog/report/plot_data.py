@@ -35,8 +35,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hybridlog.estimators.result import EstimationResult
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.estimators.result import EstimationResult, TimelineColumn
+from hybridlog.signals import AlignedSignals, ComponentTruth, FloatArray, IntArray
 
 __all__ = [
     "COMPONENT_PREFIX",
@@ -457,23 +457,35 @@ class ModeTimelines(NamedTuple):
 
 
 class ComponentTimeline(NamedTuple):
-    """The bars of one component's modes (its ``mode.<component>`` column), one row per label."""
+    """The bars of one component's modes (its ``mode.<component>`` column), one row per label.
+
+    ``labels`` are the column's, then those of the log's true modes of the component that
+    the column does not have; ``truth`` the bars of the true mode (``None`` when the log has
+    none), ``filtered`` those of the causal filter's own column (``None`` without
+    ``post_processing``).
+    """
 
     name: str
     labels: tuple[str, ...]
     bars: Bars
+    truth: Bars | None = None
+    filtered: Bars | None = None
 
 
 class Components(NamedTuple):
     """``modes.png`` of a ``[components]`` result: a timeline per component, and the joint one.
 
-    ``joint_ids`` are the joint assignments the estimate visited (in the model's order),
-    ``joint`` their bars.
+    ``joint_ids`` are the joint assignments the estimate or the causal filter visited (in
+    the model's order), ``joint`` the estimate's bars of them, ``joint_filtered`` the
+    filter's (``None`` without ``post_processing``); ``label`` the estimate's legend, as
+    :attr:`ModeTimelines.label`.
     """
 
     columns: tuple[ComponentTimeline, ...]
     joint_ids: tuple[str, ...]
     joint: Bars
+    joint_filtered: Bars | None = None
+    label: str = "estimated"
 
 
 @dataclass(frozen=True)
@@ -522,18 +534,53 @@ class _FilteredReducers:
     """The reductions of a smoothed result's causal filter (``post_processing.filtered``)."""
 
     def __init__(self, bins: PixelBins, n_modes: int, n_states: int, timelines: bool) -> None:
-        self.modes = BarsReducer(bins, n_modes) if timelines else None
+        self.modes = BarsReducer(bins, n_modes)  # or, of a [components] result, the joint ones
         self.probabilities = [CurveReducer(bins) for _ in range(n_modes if timelines else 0)]
         self.means = [CurveReducer(bins) for _ in range(n_states)]
 
     def add(self, filtered: EstimationResult, start: int) -> None:
         """Take the filter's rows ``start .. start + filtered.n_samples - 1``."""
-        if self.modes is not None:
-            self.modes.add(filtered.modes, start)
+        self.modes.add(filtered.modes, start)
         for j, curve in enumerate(self.probabilities):
             curve.add(filtered.mode_probabilities[:, j], start)
         for i, curve in enumerate(self.means):
             curve.add(filtered.state_means[:, i], start)
+
+
+class _ComponentReducers:
+    """The bars of one component of a ``[components]`` result: estimated, true and filtered.
+
+    Rows are the column's labels, then the true ones it lacks (:class:`ComponentTimeline`);
+    ``truth_rows`` and ``filtered_rows`` take the truth's and the filter's label codes there.
+    """
+
+    def __init__(
+        self,
+        bins: PixelBins,
+        column: TimelineColumn,
+        truth: ComponentTruth | None,
+        filtered: TimelineColumn | None,
+    ) -> None:
+        self.column = column.name
+        self.labels = tuple(dict.fromkeys((*column.labels, *(truth.labels if truth else ()))))
+        row = {label: i for i, label in enumerate(self.labels)}
+        self.estimated = BarsReducer(bins, len(self.labels))
+        self.truth = None if truth is None else BarsReducer(bins, len(self.labels))
+        self.truth_rows = np.array([row[label] for label in truth.labels] if truth else [])
+        self.filtered = None
+        self.filtered_rows = np.zeros(0, dtype=np.int64)
+        if filtered is not None and all(label in row for label in filtered.labels):
+            self.filtered = BarsReducer(bins, len(self.labels))
+            self.filtered_rows = np.array([row[label] for label in filtered.labels])
+
+    def finish(self) -> ComponentTimeline:
+        return ComponentTimeline(
+            self.column.removeprefix(COMPONENT_PREFIX),
+            self.labels,
+            self.estimated.finish(),
+            None if self.truth is None else self.truth.finish(),
+            None if self.filtered is None else self.filtered.finish(),
+        )
 
 
 class PlotReducer:
@@ -586,7 +633,7 @@ class PlotReducer:
         self._mode_label = "estimated"
         self._state_label = "estimate"
         self._probabilities: list[CurveReducer] = []
-        self._components: list[tuple[str, tuple[str, ...], BarsReducer]] = []
+        self._components: list[_ComponentReducers] = []
         self._filtered: _FilteredReducers | None = None
         self._next = 0
 
@@ -596,8 +643,14 @@ class PlotReducer:
         post = first.post_processing
         self._mode_label = _mode_label(first)
         self._state_label = "smoothed" if post is not None and post.smoothing else "estimate"
+        filtered = {} if post is None else {c.name: c for c in post.filtered.timeline_columns}
         self._components = [
-            (column.name, column.labels, BarsReducer(self._bins, len(column.labels)))
+            _ComponentReducers(
+                self._bins,
+                column,
+                self._signals.truth_components.get(column.name.removeprefix(COMPONENT_PREFIX)),
+                filtered.get(column.name),
+            )
             for column in first.timeline_columns
             if column.name.startswith(COMPONENT_PREFIX) and column.labels
         ]
@@ -645,8 +698,13 @@ class PlotReducer:
             curve.add(chunk.mode_probabilities[:, j], start)
         if self._components:
             columns = {column.name: column for column in chunk.timeline_columns}
-            for name, _, bars in self._components:
-                bars.add(np.asarray(columns[name].values, dtype=np.int64), start)
+            filtered = {} if post is None else {c.name: c for c in post.filtered.timeline_columns}
+            for component in self._components:
+                values = columns[component.column].values
+                component.estimated.add(np.asarray(values, dtype=np.int64), start)
+                if component.filtered is not None:
+                    codes = np.asarray(filtered[component.column].values, dtype=np.int64)
+                    component.filtered.add(component.filtered_rows[codes], start)
         if post is not None and self._filtered is not None:
             self._filtered.add(post.filtered, start)
         self._add_signals(start, stop)
@@ -665,6 +723,11 @@ class PlotReducer:
                 self._truth_seen[i] = self._truth_seen[i] or bool(np.isfinite(rows).any())
         if self._truth_modes is not None and signals.truth_modes is not None:
             self._truth_modes.add(signals.truth_modes[start:stop], start)
+        for component in self._components:
+            name = component.column.removeprefix(COMPONENT_PREFIX)
+            if component.truth is not None:
+                codes = signals.truth_components[name].codes[start:stop]
+                component.truth.add(component.truth_rows[codes], start)
 
     def finish(self) -> PlotData:
         """The run's :class:`PlotData`, once every row was added.
@@ -712,26 +775,30 @@ class PlotReducer:
     def _finish_modes(self) -> ModeTimelines | Components:
         """The mode timelines, or the per-component ones of a ``[components]`` result."""
         estimated = self._modes.finish()
+        filtered = self._filtered
         if self._components:
-            visited = [m for m, (first, _) in enumerate(estimated) if first.size]
+            joint_filtered = None if filtered is None else filtered.modes.finish()
+            visited = [
+                m
+                for m, (first, _) in enumerate(estimated)
+                if first.size or (joint_filtered is not None and joint_filtered[m][0].size)
+            ]
             return Components(
-                columns=tuple(
-                    ComponentTimeline(name.removeprefix(COMPONENT_PREFIX), labels, bars.finish())
-                    for name, labels, bars in self._components
-                ),
+                columns=tuple(component.finish() for component in self._components),
                 joint_ids=tuple(self._mode_ids[m] for m in visited),
                 joint=tuple(estimated[m] for m in visited),
+                joint_filtered=None
+                if joint_filtered is None
+                else tuple(joint_filtered[m] for m in visited),
+                label=self._mode_label,
             )
         truth = self._truth_modes
-        filtered = self._filtered
         return ModeTimelines(
             mode_ids=self._mode_ids,
             label=self._mode_label,
             estimated=estimated,
             truth=None if truth is None else truth.finish(),
-            filtered=None
-            if filtered is None or filtered.modes is None
-            else filtered.modes.finish(),
+            filtered=None if filtered is None else filtered.modes.finish(),
             probabilities=tuple(curve.finish() for curve in self._probabilities),
             filtered_probabilities=None
             if filtered is None

@@ -403,8 +403,11 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
 
     For results with labelled ``mode.<component>`` timeline columns (``unknown-mode``,
     :class:`~hybridlog.report.plot_data.Components`); the ``unknown`` mode is drawn in its
-    own colour.  The last panel shows the estimated joint assignment over the assignments it
-    visited.  Returns ``None`` (nothing written) when the result has no such columns.
+    own colour, over the component's true mode where the log has it, with the causal
+    filter's own modes as a thin black line over an offline pass's (``--mode-sequence
+    kbest``), as in :func:`plot_modes`.  The last panel shows the estimated joint
+    assignment over the assignments it (or the filter) visited.  Returns ``None`` (nothing
+    written) when the result has no such columns.
     """
     components = data.modes
     if not isinstance(components, Components):
@@ -415,18 +418,38 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
     set_time_span(axes[0], data.span)
     for ax, column in zip(axes, components.columns, strict=False):
         n_labels = len(column.labels)
+        if column.truth is not None:
+            _draw_bars(ax, data.edges, column.truth, height=0.8, color="0.8", label="true")
+        height = 0.7 if column.truth is None else 0.3
+        labelled: set[str] = set()
         for label_index, (label, (first, last)) in enumerate(
             zip(column.labels, column.bars, strict=True)
         ):
             color = UNKNOWN_COLOR if label == UNKNOWN_LABEL else KNOWN_COLOR
+            legend = components.label if label != UNKNOWN_LABEL else f"{components.label} unknown"
             spans = _spans(data.edges, first, last)
             if spans:
-                ax.broken_barh(spans, (label_index - 0.35, 0.7), color=color)
+                ax.broken_barh(
+                    spans,
+                    (label_index - height / 2, height),
+                    color=color,
+                    label=None if legend in labelled else legend,
+                )
+                labelled.add(legend)
+        if column.filtered is not None:
+            _draw_bars(ax, data.edges, column.filtered, height=0.08, color="k", label="filtered")
         ax.set_yticks(range(n_labels), column.labels)
         ax.set_ylim(-0.5, n_labels - 0.5)
         ax.set_ylabel(column.name)
+        if column.truth is not None or column.filtered is not None:
+            ax.legend(loc="upper right", fontsize="x-small")
     joint = axes[-1]
-    _draw_bars(joint, data.edges, components.joint, height=0.6, color="0.3", label="estimated")
+    _draw_bars(joint, data.edges, components.joint, height=0.6, color="0.3", label=components.label)
+    if components.joint_filtered is not None:
+        _draw_bars(
+            joint, data.edges, components.joint_filtered, height=0.08, color="k", label="filtered"
+        )
+        joint.legend(loc="upper right", fontsize="x-small")
     joint.set_yticks(range(len(visited)), list(visited), fontsize="x-small")
     joint.set_ylim(-0.5, len(visited) - 0.5)
     joint.set_ylabel("joint")

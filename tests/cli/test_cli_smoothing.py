@@ -102,6 +102,42 @@ def test_the_flags_are_the_estimator_options(tmp_path: Path) -> None:
     assert both.options == from_file.options
 
 
+@pytest.mark.parametrize(
+    ("model_name", "names", "option", "why"),
+    [
+        ("ice_clutch", [None], "smooth=true", "it takes the modes from the log's switching"),
+        ("three_tank_hstf", ["hstf"], "beam=3", "paper 000 predicts every mode"),
+        ("double_cart_case1", ["hstf", "chiu"], "mode_sequence=viterbi", "paper 000 predicts"),
+    ],
+)
+def test_set_of_an_offline_option_no_estimator_has_is_refused_as_the_flag_is(
+    model_name: str, names: list[str | None], option: str, why: str
+) -> None:
+    """``--set smooth=true`` (or ``mode_sequence``, ``beam``) on estimators without it: the
+    reason and the estimators that have it, as ``--smooth``; not 'neither a parameter nor an
+    estimator option'."""
+    model, overrides = parse_sets([option], model_name)
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, names, overrides)
+    message = str(caught.value)
+    assert message.startswith(f"--set {option}: estimator '") and "does not offer it: " in message
+    assert why in message and "(estimators that do: imm" in message
+    # an estimator nobody named is the model's default, which the line says
+    default = f"(the default_estimator of {model_name}) does not offer it"
+    assert (default in message) == (names == [None])
+
+
+def test_smooth_on_the_models_default_estimator_names_the_default_not_the_option() -> None:
+    model, overrides = parse_sets([], "double_cart_case1")
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, [None], overrides, smooth=True)
+    assert str(caught.value).startswith(
+        "--smooth: estimator 'chiu' (the default_estimator of double_cart_case1) does not offer"
+    )
+    with pytest.raises(OptionError, match=r"^--smooth: estimator 'chiu' \(--estimator\) does"):
+        prepare_estimators(model, ["chiu"], overrides, smooth=True)
+
+
 def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> None:
     with pytest.raises(OptionError) as caught:
         compare(DC1, "double_cart_case1", ["imm", "chiu"], out_dir=tmp_path / "c", smooth=True)

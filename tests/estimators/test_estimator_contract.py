@@ -243,6 +243,22 @@ def test_unknown_estimator_tables_and_names(tmp_path):
         prepare(load_model(path), "hstf")
     path.write_text(f"{TANK_TEXT}\n[estimators.imm]\ntransition_stay = 0.9\n")  # another's
     assert prepare(load_model(path), "hstf").name == "hstf"
+    # every table's option names are checked, not only the chosen estimator's: another's
+    # unknown option is an error of the file whichever estimator runs (it was ignored);
+    # values are checked when their estimator runs, where --set may replace them
+    hstf_smooth = TANK_TEXT.replace("[estimators.hstf]", "[estimators.hstf]\nsmooth = true")
+    for text, error in (
+        (hstf_smooth, r"estimators\.hstf\.smooth: hstf has no option 'smooth' \(options: rho"),
+        (f"{TANK_TEXT}\n[estimators.imm]\nsmoth = true\n", r"estimators\.imm\.smoth: .*'smooth'"),
+    ):
+        path.write_text(text)
+        model = load_model(path)
+        for chosen in ("hstf", "imm"):
+            with pytest.raises(ModelError, match=rf"^{path}: {error}"):
+                prepare(model, chosen)
+    path.write_text(f"{TANK_TEXT}\n[estimators.imm]\nbeam = 0\n")
+    assert prepare(load_model(path), "hstf").name == "hstf"
+    assert prepare(load_model(path), "imm", {"beam": "5"}).options.beam == 5
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")
 

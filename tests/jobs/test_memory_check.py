@@ -83,6 +83,19 @@ def test_analyze_refuses_before_writing_and_says_what_to_change(
     _available(monkeypatch, 10**12)
     analyze(log, "three_tank_hstf", out_dir=out, estimator="imm", smooth=True)
     assert (out / "report.json").is_file()
+    # the k-best histories grow with the beam: a smaller one is named too
+    _available(monkeypatch, 1_000_000)
+    kbest = tmp_path / "kbest"
+    with pytest.raises(LogError, match=r"the k-best histories 18\.1 MB") as raised:
+        analyze(
+            log, "three_tank_hstf", out_dir=kbest, estimator="imm", mode_sequence="kbest",
+            sets=["beam=10000"],
+        )  # fmt: skip
+    assert str(raised.value).endswith(
+        "analyse a shorter log, or without --smooth and --mode-sequence, "
+        "or a smaller beam (--set beam=N, now 10000)"
+    )
+    assert not kbest.exists()
 
 
 def test_compare_needs_its_largest_estimator_and_batch_fails_only_that_log(

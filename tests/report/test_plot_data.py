@@ -18,20 +18,23 @@ from hybridlog.background import Worker
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.report import plot_data
 from hybridlog.report.plot_data import (
+    BarsReducer,
     Components,
     ModeTimelines,
+    PixelBins,
     PlotData,
     PlotReducer,
     pixel_columns,
     reduce_result,
 )
 from hybridlog.report.plots import draw_into, draw_plots, write_plots
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import AlignedSignals, ComponentTruth
 
 MODES = ("a", "b", "c")
 STATES = ("x1", "x2", "x3")
 OUTPUTS = ("y1", "y2")
 LABELS = ("m1", "m2", "unknown")
+TRUE_LABELS = ("m2", "m0", "m1")
 
 
 def _modes(rng: np.random.Generator, n: int, n_modes: int) -> np.ndarray:
@@ -105,7 +108,8 @@ def _run(
     time = 3.0 + np.cumsum(rng.uniform(0.2, 1.8, n))  # uneven: bins of different sizes
     result = _estimate(rng, time, components=components, spike=spike)
     if smoothed:
-        post = PostProcessing("kim-rts", mode_sequence, "test", _estimate(rng, time, spike=spike))
+        filtered = _estimate(rng, time, components=components, spike=spike)
+        post = PostProcessing("kim-rts", mode_sequence, "test", filtered)
         result = dataclasses.replace(result, post_processing=post)
     states = _walk(rng, n, len(STATES))
     states[:, 1] = np.nan  # a state the log does not have
@@ -119,6 +123,10 @@ def _run(
         truth_modes=_modes(rng, n, len(MODES)) if truth else None,
         state_names=STATES,
         truth_states=states if truth else None,
+        # component A's true modes: one label its column lacks; component B has none
+        truth_components={"A": ComponentTruth(TRUE_LABELS, _modes(rng, n, len(TRUE_LABELS)))}
+        if truth and components
+        else {},
     )
     return result, signals
 
@@ -215,6 +223,7 @@ KINDS = {
     "smoothed": {"smoothed": True},
     "viterbi": {"smoothed": True, "mode_sequence": "viterbi"},
     "components": {"components": True},
+    "components kbest": {"components": True, "smoothed": True, "mode_sequence": "kbest"},
     "no truth": {"truth": False},
 }
 
@@ -230,10 +239,22 @@ def test_chunks_give_the_data_of_the_whole_result(kind: str, n: int) -> None:
         cuts = _cuts(n, np.random.default_rng(seed))
         assert_same(_chunked(result, signals, cuts), whole)
     modes = whole.modes
-    if kind == "components":
+    if kind.startswith("components"):
         assert isinstance(modes, Components)
         assert [c.name for c in modes.columns] == ["A", "B"]
-        assert modes.joint_ids == tuple(MODES[m] for m in np.unique(result.modes))
+        a, b = modes.columns
+        assert a.labels == (*LABELS, "m0") and b.labels == LABELS[:2]
+        assert a.truth is not None and b.truth is None
+        post = result.post_processing
+        if post is None:
+            assert modes.joint_ids == tuple(MODES[m] for m in np.unique(result.modes))
+            assert modes.label == "estimated" and modes.joint_filtered is None
+            assert a.filtered is None and b.filtered is None
+        else:
+            both = np.union1d(result.modes, post.filtered.modes)
+            assert modes.joint_ids == tuple(MODES[m] for m in both)
+            assert modes.label == "kbest" and modes.joint_filtered is not None
+            assert a.filtered is not None and b.filtered is not None
     else:
         assert isinstance(modes, ModeTimelines)
         assert modes.label == {"smoothed": "smoothed", "viterbi": "viterbi"}.get(kind, "estimated")
@@ -251,7 +272,7 @@ def test_blocks_inside_a_chunk_give_the_same_data(
     assert_same(_chunked(result, signals, [0, 1, 9_000, 9_001, 20_011]), whole)
 
 
-@pytest.mark.parametrize("kind", ["smoothed", "components", "no truth"])
+@pytest.mark.parametrize("kind", ["smoothed", "components", "components kbest", "no truth"])
 def test_the_pngs_drawn_from_chunks_are_those_of_the_whole_result(
     kind: str, tmp_path: Path
 ) -> None:
@@ -272,6 +293,34 @@ def test_the_pngs_drawn_from_chunks_are_those_of_the_whole_result(
     for name in ("outputs.png", "modes.png", "states.png"):
         assert (chunked / name).read_bytes() == (whole / name).read_bytes(), name
         assert (tmp_path / "worker" / name).read_bytes() == (whole / name).read_bytes(), name
+
+
+def test_a_components_result_shows_its_truth_and_its_filters_modes() -> None:
+    """Each component's bars: the estimate's, the log's true modes (relabelled into the
+    component's rows, a true label the column lacks added) and the causal filter's own."""
+    result, signals = _run(3_000, seed=5, smoothed=True, components=True, mode_sequence="kbest")
+    data = reduce_result(result, signals)
+    assert isinstance(data.modes, Components)
+    a, b = data.modes.columns
+    bins = PixelBins.of_run(signals.time)
+
+    def bars(codes: np.ndarray, n_labels: int) -> Any:
+        reducer = BarsReducer(bins, n_labels)
+        reducer.add(codes, 0)
+        return reducer.finish()
+
+    rows = np.array([a.labels.index(label) for label in TRUE_LABELS])
+    expected = {
+        "A truth": bars(rows[signals.truth_components["A"].codes], 4),
+        "A filtered": bars(result.post_processing.filtered.timeline_columns[0].values, 4),
+        "B filtered": bars(result.post_processing.filtered.timeline_columns[1].values, 2),
+        "A": bars(result.timeline_columns[0].values, 4),
+    }
+    got = {"A truth": a.truth, "A filtered": a.filtered, "B filtered": b.filtered, "A": a.bars}
+    for name, want in expected.items():
+        for (first, last), (g_first, g_last) in zip(want, got[name], strict=True):
+            np.testing.assert_array_equal(g_first, first, err_msg=name)
+            np.testing.assert_array_equal(g_last, last, err_msg=name)
 
 
 def test_the_data_of_a_million_samples_is_small() -> None:

@@ -185,6 +185,18 @@ def test_report_md_has_a_smoothing_section_with_the_gain(tmp_path: Path) -> None
     for name in ("outputs.png", "modes.png", "states.png"):
         assert (tmp_path / "out" / "plots" / name).stat().st_size > 1000
     assert "| metric | filtered | smoothed | change |" in section
+    # no model, so no outputs each side explains (as for a [components] model): no rows of
+    # them, and no sentence announcing them
+    assert s.outputs is None and "| fit of h(x̂)" not in section
+    assert "output fit below" not in section
+    post = result.post_processing
+    assert post is not None
+    carried = dataclasses.replace(  # each side's explained outputs carried: rows and sentence
+        post, explained=signals.outputs + 0.1, filtered_explained=signals.outputs - 0.3
+    )
+    explained = dataclasses.replace(result, post_processing=carried)
+    text = render_markdown(build_report(explained, signals, log="run.csv", model_name="m", dt=DT))
+    assert "output fit below" in text and all(f"| fit of h(x̂) {y} (%) |" in text for y in OUTPUTS)
     only, signals = smoothed_run(mode_sequence="viterbi", smoothing=None)
     text = render_markdown(build_report(only, signals, log="run.csv", model_name="m", dt=DT))
     assert "| metric | filtered | viterbi | change |" in text
