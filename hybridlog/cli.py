@@ -956,7 +956,7 @@ def _summary_line(report: Report) -> str:
     detection = report.modes.detection
     if detection is not None:
         switches = plural(detection.detected + detection.missed, "true switch")
-        text += f", {switches}: {detection.detected} detected, {detection.missed} missed"
+        text += f", {switches}: {detection.detected:,} detected, {detection.missed:,} missed"
     return text
 
 

@@ -557,3 +557,18 @@ def test_corrupt_parquet_value_and_short_log_are_refused(tmp_path):
     result = run(["analyze", str(short), *args, "--out", str(tmp_path / "s")], expect=2)
     _one_line_error(result, "short.csv: too short: 2 samples", "at least 3")
     assert not (tmp_path / "s").exists()
+
+
+def test_the_summary_line_groups_the_thousands_of_its_counts() -> None:
+    """``9,999 true switches: 9,980 detected, 19 missed``: every count grouped alike."""
+    from dataclasses import replace
+
+    from hybridlog.cli import _summary_line
+    from hybridlog.report.document import read_report
+
+    report = read_report(ROOT / "tests/data/reports/double_cart_case1_chiu.report.json")
+    detection = report.modes.detection
+    assert detection is not None and (detection.detected, detection.missed) == (24, 24)
+    many = replace(detection, events=detection.events * 50)
+    line = _summary_line(replace(report, modes=replace(report.modes, detection=many)))
+    assert line.endswith(", 2,400 true switches: 1,200 detected, 1,200 missed")
