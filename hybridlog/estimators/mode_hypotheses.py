@@ -31,7 +31,7 @@ Memory: the back pointer (int32) and mode (int16) of every kept hypothesis at ev
 ``6 N beam`` bytes (120 MB for 10^6 samples at beam 20); time: ``beam · n_q`` EKF predictions
 and likelihoods per sample and ``beam`` updates, less what an exact bound rules out; for small
 models the search is straight-line code per model (:func:`generate_kbest_source`): about
-8 µs per sample for the three-tank model at beam 20, 38 µs with the generic loop
+5 µs per sample for the three-tank model at beam 20, 38 µs with the generic loop
 (``docs/smoothing.md``).
 """
 
