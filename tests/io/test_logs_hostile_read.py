@@ -1,0 +1,120 @@
+"""Logs of other tools that a hostile user brought, one defect per test.
+
+Every file is written here by another tool's writer (rosbags' ROS 1 bag writer, the
+``mcap_ros2`` writer, polars' CSV and Parquet writers, or plain text), never by hybridlog's.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from mcap_ros2.writer import Writer as Ros2McapWriter
+from rosbags.rosbag1 import Writer as Ros1Writer
+from rosbags.typesys import Stores, get_typestore
+
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
+
+SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
+N = 40
+
+
+def load(log: Path, *maps: str, **options: Any) -> Any:
+    return load_signals(log, SPEC, ReadOptions(maps=maps, **options))
+
+
+# ------------------------------------------------------------------ header stamps never set
+
+_STAMPED = """std_msgs/Header header
+float64 x
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+"""
+
+
+def _ros2_mcap_with_stamps(path: Path, stamps_ns: list[int]) -> Path:
+    with path.open("wb") as stream:
+        writer = Ros2McapWriter(stream)
+        schema = writer.register_msgdef("my_pkg/msg/Stamped", _STAMPED)
+        for k, stamp in enumerate(stamps_ns):
+            log_time = 2_000_000_000 + k * 100_000_000
+            for topic, value in (("/u", float(k)), ("/y", -float(k))):
+                message = {
+                    "header": {
+                        "stamp": {"sec": stamp // 10**9, "nanosec": stamp % 10**9},
+                        "frame_id": "",
+                    },
+                    "x": value,
+                }
+                writer.write_message(topic, schema, message, log_time=log_time)
+        writer.finish()
+    return path
+
+
+def _ros1_bag_with_stamps(path: Path, stamps_ns: list[int]) -> Path:
+    store = get_typestore(Stores.ROS1_NOETIC)
+    point_stamped = store.types["geometry_msgs/msg/PointStamped"]
+    header = store.types["std_msgs/msg/Header"]
+    time = store.types["builtin_interfaces/msg/Time"]
+    point = store.types["geometry_msgs/msg/Point"]
+    with Ros1Writer(path) as writer:
+        connections = [
+            writer.add_connection(topic, "geometry_msgs/msg/PointStamped", typestore=store)
+            for topic in ("/u", "/y")
+        ]
+        for k, stamp in enumerate(stamps_ns):
+            log_time = 2_000_000_000 + k * 100_000_000
+            for connection, value in zip(connections, (float(k), -float(k)), strict=True):
+                message = point_stamped(
+                    header=header(
+                        seq=k, stamp=time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id=""
+                    ),
+                    point=point(x=value, y=0.0, z=0.0),
+                )
+                data = store.serialize_ros1(message, "geometry_msgs/msg/PointStamped")
+                writer.write(connection, log_time, data)
+    return path
+
+
+_WRITERS = {
+    "ros2 mcap": (_ros2_mcap_with_stamps, "stamped.mcap", ("u=/u.x", "y=/y.x")),
+    "ros1 bag": (_ros1_bag_with_stamps, "stamped.bag", ("u=/u.point.x", "y=/y.point.x")),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(_WRITERS))
+@pytest.mark.parametrize("sort", [False, True])
+def test_header_stamps_never_set_are_refused_with_the_remedy(
+    tmp_path: Path, kind: str, sort: bool
+) -> None:
+    # Read as times, N zero stamps were "the same header.stamp as the one before", and
+    # the remedy offered, --sort, kept one message of each topic.
+    write, name, maps = _WRITERS[kind]
+    log = write(tmp_path / name, [0] * N)
+    with pytest.raises(LogError) as error:
+        load(log, *maps, time="header", sort=sort)
+    message = str(error.value)
+    assert f"topic '/u': header.stamp is 0 in {N} of {N} messages" in message
+    assert "(first logged at t=2 s)" in message and "use --time log" in message
+    assert "--sort" not in message and "\n" not in message
+    signals = load(log, *maps)  # the log times are good
+    np.testing.assert_array_equal(signals.outputs[:, 0], -np.arange(N, dtype=float))
+
+
+@pytest.mark.parametrize("kind", sorted(_WRITERS))
+def test_one_stamp_of_zero_is_a_time_like_any_other(tmp_path: Path, kind: str) -> None:
+    # simulated time starting at 0: only the first message is stamped 0
+    write, name, maps = _WRITERS[kind]
+    log = write(tmp_path / name, [k * 100_000_000 for k in range(N)])
+    signals = load(log, *maps, time="header")
+    np.testing.assert_allclose(signals.time, 0.1 * np.arange(N), atol=1e-12)
+    np.testing.assert_array_equal(signals.outputs[:, 0], -np.arange(N, dtype=float))
