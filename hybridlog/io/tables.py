@@ -30,6 +30,7 @@ from hybridlog.io.source import (
     Reading,
     Series,
     SourceInfo,
+    bad_seconds,
     check_seconds_range,
     closest_names,
     format_ns,
@@ -361,7 +362,7 @@ class TableSource:
             if bad >= 0:
                 raise LogError(
                     f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
-                    f"time {seconds[bad]} is not a finite number of seconds"
+                    f"{bad_seconds(float(seconds[bad]))}"
                 )
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences

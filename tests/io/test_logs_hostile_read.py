@@ -10,13 +10,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import polars as pl
 import pytest
 from mcap_ros2.writer import Writer as Ros2McapWriter
 from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 N = 40
@@ -118,3 +119,31 @@ def test_one_stamp_of_zero_is_a_time_like_any_other(tmp_path: Path, kind: str) -
     signals = load(log, *maps, time="header")
     np.testing.assert_allclose(signals.time, 0.1 * np.arange(N), atol=1e-12)
     np.testing.assert_array_equal(signals.outputs[:, 0], -np.arange(N, dtype=float))
+
+
+# ------------------------------------------------------------------ times in another unit
+
+
+@pytest.mark.parametrize(("suffix", "scale"), [("csv", 10**9), ("parquet", 10**6)])
+def test_a_time_column_in_nanoseconds_or_milliseconds_is_named_as_such(
+    tmp_path: Path, suffix: str, scale: int
+) -> None:
+    # 1.7e18 is a finite number: "is not a finite number of seconds" sent the user looking
+    # for NaN in a column that has none
+    frame = pl.DataFrame(
+        {
+            "t": 1_700_000_000 * scale + np.arange(N, dtype=np.int64) * (scale // 10),
+            "u": np.arange(N, dtype=float),
+            "y": -np.arange(N, dtype=float),
+        }
+    )
+    log = tmp_path / f"epoch.{suffix}"
+    frame.write_csv(log) if suffix == "csv" else frame.write_parquet(log)
+    with pytest.raises(LogError) as error:
+        load(log)
+    where = "line 2" if suffix == "csv" else "row 1"
+    assert str(error.value) == (
+        f"{log}, {where}, column 't': time {1.7e9 * scale:g} is beyond the 9.2e+09 s the "
+        "nanosecond grid holds (times are in seconds: a column of milliseconds or nanoseconds?)"
+    )
+    assert "finite" not in str(inspect_log(log)["problems"])
