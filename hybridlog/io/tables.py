@@ -496,6 +496,16 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
             "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
         )
     names = next(csv.reader([line]))
+    if len(names) == 1:
+        # Excel in locales with a decimal comma writes ';', other tools tabs: one column
+        # named 't;u;y' would be listed as the only column, or as text that is not printable
+        for separator, word in ((";", "semicolons"), ("\t", "tabs")):
+            if separator in line:
+                raise LogError(
+                    f"{path}, line 1: the header {excerpt(line.strip(), 40)} is separated by "
+                    f"{word}; hybridlog reads comma-separated CSV (and a point as the "
+                    "decimal separator): convert the file"
+                )
     if all(_is_number(name) for name in names):
         raise LogError(
             f"{path}, line 1: no header; {excerpt(line.strip(), 40)} looks like data "

@@ -147,3 +147,26 @@ def test_a_time_column_in_nanoseconds_or_milliseconds_is_named_as_such(
         "nanosecond grid holds (times are in seconds: a column of milliseconds or nanoseconds?)"
     )
     assert "finite" not in str(inspect_log(log)["problems"])
+
+
+# ------------------------------------------------------------------ CSV of other separators
+
+
+@pytest.mark.parametrize(("separator", "word"), [(";", "semicolons"), ("\t", "tabs")])
+def test_a_csv_separated_otherwise_than_by_commas_is_named_so(
+    tmp_path: Path, separator: str, word: str
+) -> None:
+    # was "no column for input 'u' ... available: 't;u;y'", and for tabs "column 1 of the
+    # header ... is not printable text (a zeroed or binary file?)"
+    frame = pl.DataFrame({"t": 0.1 * np.arange(N), "u": np.zeros(N), "y": np.ones(N)})
+    log = tmp_path / "excel.csv"
+    frame.write_csv(log, separator=separator)
+    header = repr(separator.join(frame.columns))
+    expected = (
+        f"{log}, line 1: the header {header} is separated by {word}; hybridlog reads "
+        "comma-separated CSV (and a point as the decimal separator): convert the file"
+    )
+    for read in (load, inspect_log):
+        with pytest.raises(LogError) as error:
+            read(log)
+        assert str(error.value) == expected
