@@ -170,3 +170,24 @@ def test_a_csv_separated_otherwise_than_by_commas_is_named_so(
         with pytest.raises(LogError) as error:
             read(log)
         assert str(error.value) == expected
+
+
+# ------------------------------------------------------------------ Parquet booleans
+
+
+def test_a_parquet_boolean_column_reads_as_0_and_1_like_a_message_bool(tmp_path: Path) -> None:
+    # a valve's open/closed input: a ROS bool or a JSON boolean read as 0 and 1, the same
+    # column in Parquet was refused ("has type Boolean, expected a number")
+    opened = np.arange(N) % 3 == 0
+    log = tmp_path / "valve.parquet"
+    pl.DataFrame(
+        {"t": 0.1 * np.arange(N), "open": opened, "y": -np.arange(N, dtype=float)}
+    ).write_parquet(log)
+    signals = load(log, "u=open")
+    np.testing.assert_array_equal(signals.inputs[:, 0], opened.astype(float))
+    column = {c["name"]: c for c in inspect_log(log)["columns"]}["open"]
+    assert (column["nonfinite"], column["min"], column["max"]) == (0, 0.0, 1.0)
+    # a time column stays a number proper
+    pl.DataFrame({"t": opened, "u": np.zeros(N), "y": np.zeros(N)}).write_parquet(log)
+    with pytest.raises(LogError, match=r"column 't' has type Boolean, expected a number$"):
+        load(log)
