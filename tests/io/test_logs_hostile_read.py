@@ -6,12 +6,14 @@ Every file is written here by another tool's writer (rosbags' ROS 1 bag writer, 
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import polars as pl
 import pytest
+from mcap.writer import Writer as McapWriter
 from mcap_ros2.writer import Writer as Ros2McapWriter
 from rosbags.rosbag1 import Writer as Ros1Writer
 from rosbags.typesys import Stores, get_typestore
@@ -191,3 +193,49 @@ def test_a_parquet_boolean_column_reads_as_0_and_1_like_a_message_bool(tmp_path:
     pl.DataFrame({"t": opened, "u": np.zeros(N), "y": np.zeros(N)}).write_parquet(log)
     with pytest.raises(LogError, match=r"column 't' has type Boolean, expected a number$"):
         load(log)
+
+
+# ------------------------------------------------------------------ one topic, two schemas
+
+
+def test_a_topic_of_two_schemas_names_both_with_their_counts(tmp_path: Path) -> None:
+    # inspect's table shows the first channel's type; the problem said only "has channels
+    # with different schemas or encodings", so 20 messages of /y were of a type never named
+    log = tmp_path / "two.mcap"
+    with log.open("wb") as stream:
+        writer = McapWriter(stream)
+        writer.start("x", "test")
+        number = {"type": "object", "properties": {"data": {"type": "number"}}}
+        text = {"type": "object", "properties": {"data": {"type": "string"}}}
+        schema_ids = {
+            name: writer.register_schema(
+                name=name, encoding="jsonschema", data=json.dumps(schema).encode()
+            )
+            for name, schema in (("Number", number), ("Text", text))
+        }
+        channels = {
+            key: writer.register_channel(
+                topic=topic, message_encoding="json", schema_id=schema_ids[name]
+            )
+            for key, topic, name in (
+                ("Number", "/y", "Number"),
+                ("Text", "/y", "Text"),
+                ("u", "/u", "Number"),
+            )
+        }
+        for k in range(N):
+            t = 10**9 + k * 10**8
+            kind = "Number" if k < 30 else "Text"
+            value: object = float(k) if kind == "Number" else str(k)
+            for channel, data in ((channels[kind], value), (channels["u"], float(k))):
+                message = json.dumps({"data": data}).encode()
+                writer.add_message(channel, log_time=t, publish_time=t, data=message)
+        writer.finish()
+    problem = (
+        "topic '/y' (Number): has channels with different schemas or encodings: "
+        "'Number' in 'json' (30 messages), 'Text' in 'json' (10 messages)"
+    )
+    assert inspect_log(log)["problems"] == [problem]
+    with pytest.raises(LogError) as error:
+        load(log, "u=/u.data", "y=/y.data")
+    assert str(error.value).endswith(problem)
