@@ -239,3 +239,31 @@ def test_a_topic_of_two_schemas_names_both_with_their_counts(tmp_path: Path) -> 
     with pytest.raises(LogError) as error:
         load(log, "u=/u.data", "y=/y.data")
     assert str(error.value).endswith(problem)
+
+
+# ------------------------------------------------------------------ fields are not columns
+
+
+def test_errors_of_alignment_call_a_message_path_a_field_not_a_column(tmp_path: Path) -> None:
+    # "truth.mode (column '/mode.data') has no samples" of a bag, which has no columns
+    store = get_typestore(Stores.ROS1_NOETIC)
+    number, text = store.types["std_msgs/msg/Float64"], "std_msgs/msg/Float64"
+    log = tmp_path / "gappy.bag"
+    with Ros1Writer(log) as writer:
+        u = writer.add_connection("/u", text, typestore=store)
+        y = writer.add_connection("/y", text, typestore=store)
+        writer.add_connection("/mode", "std_msgs/msg/String", typestore=store)  # no messages
+        for k in range(N):
+            t = 10**9 + k * 10**8
+            writer.write(u, t, store.serialize_ros1(number(data=float(k)), text))
+            if not 10 <= k < 20:
+                writer.write(y, t, store.serialize_ros1(number(data=-float(k)), text))
+    with pytest.raises(LogError) as error:
+        load(log, "u=/u.data", "y=/y.data", "truth.mode=/mode.data", max_gap=10.0)
+    assert str(error.value) == f"{log}: truth.mode (field '/mode.data') has no samples"
+    with pytest.raises(LogError) as error:
+        load(log, "u=/u.data", "y=/y.data")
+    assert str(error.value) == (
+        f"{log}: gap in output 'y' (field '/y.data'): no sample from t=1.9 s to t=3 s "
+        "(1.1 s > max_gap 0.5 s)"
+    )
