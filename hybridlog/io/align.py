@@ -264,7 +264,13 @@ def resample_series(
 
 
 def _gap_error(
-    source: str, label: str, series: Series, grid_ns: IntArray, point: int, max_gap_ns: int
+    source: str,
+    label: str,
+    field_word: str,
+    series: Series,
+    grid_ns: IntArray,
+    point: int,
+    max_gap_ns: int,
 ) -> LogError:
     time_ns = series.time_ns
     hi = int(np.searchsorted(time_ns, grid_ns[point], side="right"))
@@ -277,7 +283,7 @@ def _gap_error(
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
-    return LogError(f"{source}: gap in {label} (column {series.name!r}): no sample {where}")
+    return LogError(f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}")
 
 
 def check_alignment_options(
@@ -317,6 +323,7 @@ def align_signals(
     max_gap: float | None = None,
     split_gaps: bool = False,
     notes: dict[str, Any] | None = None,
+    field_word: str = "column",
 ) -> AlignedSignals:
     """Put mapped series onto the grid ``t0 + k*dt`` (rules in the module docstring).
 
@@ -349,6 +356,9 @@ def align_signals(
         Filled with the pieces (``segments``) and the one analysed when ``split_gaps`` cut
         the log, and per output the grid points bridged across short gaps (``bridged``:
         ``{symbol: {points, of}}``).
+    field_word:
+        What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
+        (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
 
     Returns
     -------
@@ -387,7 +397,7 @@ def align_signals(
         values, too_long, bridged = resample_series(series, grid, dt_ns, max_gap_ns, method)
         if too_long.size:
             raise _gap_error(
-                source, f"output {symbol!r}", series, grid, int(too_long[0]), max_gap_ns
+                source, f"output {symbol!r}", field_word, series, grid, int(too_long[0]), max_gap_ns
             )
         if bridged and notes is not None:
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
@@ -395,10 +405,13 @@ def align_signals(
 
     modes: IntArray | None = None
     if truth_mode is not None:
-        modes = _hold_modes(source, truth_mode, grid, dt_ns, tolerance)
+        modes = _hold_modes(f"{source}: truth.mode", field_word, truth_mode, grid, dt_ns, tolerance)
 
     components = {
-        name: ComponentTruth(series.categories, _hold_modes(source, series, grid, dt_ns, tolerance))
+        name: ComponentTruth(
+            series.categories,
+            _hold_modes(f"{source}: mode.{name}", field_word, series, grid, dt_ns, tolerance),
+        )
         for name, series in (truth_components or {}).items()
     }
 
@@ -428,14 +441,15 @@ def align_signals(
 
 
 def _hold_modes(
-    source: str,
+    what: str,
+    field_word: str,
     series: LabelSeries,
     grid: IntArray,
     dt_ns: int,
     tolerance: int,
 ) -> IntArray:
     if series.time_ns.size == 0:
-        raise LogError(f"{source}: truth.mode (column {series.name!r}) has no samples")
+        raise LogError(f"{what} ({field_word} {series.name!r}) has no samples")
     start = on_grid(series.time_ns, grid, tolerance)
     if start >= 0:  # the codes at the grid points, without an index array
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
@@ -446,7 +460,7 @@ def _hold_modes(
         first = int(series.time_ns[0])
         if 2 * (first - int(grid[0])) > dt_ns:
             raise LogError(
-                f"{source}: truth.mode (column {series.name!r}) starts at t={format_ns(first)} s, "
+                f"{what} ({field_word} {series.name!r}) starts at t={format_ns(first)} s, "
                 f"after the first sample time t={format_ns(int(grid[0]))} s"
             )
         index[before] = 0

@@ -270,6 +270,7 @@ def load_signals(
             max_gap=options.max_gap,
             split_gaps=options.split_gaps,
             notes=notes,
+            field_word=info.field_word,
         )
 
 

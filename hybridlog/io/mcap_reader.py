@@ -453,9 +453,24 @@ class McapSource(MessageSource):
             schema = schemas.get(channel.schema_id) if channel.schema_id else None
             count = None if counts is None else sum(counts.get(c.id, 0) for c in group)
             topic = self._topic(name, channel, schema, count)
-            kinds = {(c.schema_id, c.message_encoding) for c in group}
+            kinds: dict[tuple[int, str], int | None] = {}
+            for member in group:
+                kind = (member.schema_id, member.message_encoding)
+                got = None if counts is None else counts.get(member.id, 0)
+                known = kinds.get(kind, 0)
+                kinds[kind] = None if got is None or known is None else known + got
             if len(kinds) > 1 and topic.problem is None:
-                topic.problem = "has channels with different schemas or encodings"
+                # the table shows the first channel's type: say what else the topic holds
+                described = []
+                for (schema_id, encoding), kind_count in kinds.items():
+                    other = schemas.get(schema_id) if schema_id else None
+                    named = normal_type(other.name) if other is not None else "no schema"
+                    text = f"{excerpt(named, 60)} in {excerpt(encoding, 20)}"
+                    if kind_count is not None:
+                        text += f" ({kind_count} message{'' if kind_count == 1 else 's'})"
+                    described.append(text)
+                listed = ", ".join(described)
+                topic.problem = f"has channels with different schemas or encodings: {listed}"
             topics[name] = topic
         return topics
 

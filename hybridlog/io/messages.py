@@ -804,6 +804,8 @@ class _TopicReader:
         sort = source.options.sort
         word = "header.stamp" if self.header else "log time"
         order: IntArray | None = None
+        if self.header:
+            _refuse_unset_stamps(source.path, topic.name, time_ns, log_times)
         steps = np.diff(time_ns)
         backwards = steps < 0
         if backwards.any():
@@ -833,6 +835,25 @@ class _TopicReader:
             keep = np.append(~same, True)
             source._notes.setdefault("duplicates_dropped", {})[topic.name] = int(same.sum())
         return order, keep
+
+
+def _refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: IntArray) -> None:
+    """Refuse ``--time header`` on a topic whose ``header.stamp`` is 0 in several messages.
+
+    A publisher that never fills the header sends 0 in every message; a zero can be a real
+    stamp only once (simulated time starting at 0).  Read as times, repeated zeros were
+    "the same header.stamp as the one before", whose remedy, ``--sort``, kept one message.
+    """
+    unset = stamps == 0
+    count = int(np.count_nonzero(unset))
+    if count < 2:
+        return
+    first = int(np.argmax(unset))
+    raise LogError(
+        f"{path}: topic {topic!r}: header.stamp is 0 in {count} of {stamps.size} messages "
+        f"(first logged at t={format_ns(int(log_times[first]))} s): the publisher did not "
+        "set it; use --time log"
+    )
 
 
 class _RowError(Exception):

@@ -11,6 +11,7 @@ resolution at Unix-epoch magnitudes and make "is this sample on the grid" compar
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -227,6 +228,17 @@ def check_seconds_range(seconds: FloatArray) -> int:
             return -1  # every time is in range, found without a full-size mask
     bad = ~(np.abs(seconds) < _MAX_SECONDS)
     return int(np.argmax(bad)) if bad.any() else -1
+
+
+def bad_seconds(value: float) -> str:
+    """Why ``value`` (found by :func:`check_seconds_range`) is not a time in seconds."""
+    if not math.isfinite(value):
+        return f"time {value} is not a finite number of seconds"
+    # 1.7e18 is now in nanoseconds since 1970, 1.7e12 in milliseconds: a unit, not a time
+    return (
+        f"time {value:g} is beyond the {_MAX_SECONDS:.2g} s the nanosecond grid holds "
+        "(times are in seconds: a column of milliseconds or nanoseconds?)"
+    )
 
 
 def format_ns(ns: int) -> str:

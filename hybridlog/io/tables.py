@@ -30,6 +30,7 @@ from hybridlog.io.source import (
     Reading,
     Series,
     SourceInfo,
+    bad_seconds,
     check_seconds_range,
     closest_names,
     format_ns,
@@ -251,7 +252,7 @@ class TableSource:
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:
             return column
-        if column.dtype.is_numeric():
+        if _holds_numbers(column.dtype):
             return column.cast(pl.Float64)
         return _parse_floats(self._file, column, rows)
 
@@ -272,7 +273,8 @@ class TableSource:
             dtype = self._schema[name]
             if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
                 continue
-            if (name in numeric or name == time_column) and not dtype.is_numeric():
+            numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
+            if (name in numeric or name == time_column) and not numbers:
                 raise LogError(
                     f"{self.path}: column {excerpt(name)} has type {dtype}, expected a number"
                 )
@@ -361,7 +363,7 @@ class TableSource:
             if bad >= 0:
                 raise LogError(
                     f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
-                    f"time {seconds[bad]} is not a finite number of seconds"
+                    f"{bad_seconds(float(seconds[bad]))}"
                 )
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
@@ -495,6 +497,16 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
             "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
         )
     names = next(csv.reader([line]))
+    if len(names) == 1:
+        # Excel in locales with a decimal comma writes ';', other tools tabs: one column
+        # named 't;u;y' would be listed as the only column, or as text that is not printable
+        for separator, word in ((";", "semicolons"), ("\t", "tabs")):
+            if separator in line:
+                raise LogError(
+                    f"{path}, line 1: the header {excerpt(line.strip(), 40)} is separated by "
+                    f"{word}; hybridlog reads comma-separated CSV (and a point as the "
+                    "decimal separator): convert the file"
+                )
     if all(_is_number(name) for name in names):
         raise LogError(
             f"{path}, line 1: no header; {excerpt(line.strip(), 40)} looks like data "
@@ -800,7 +812,7 @@ def _describe_column(
             dtype = "string"
         present = text.is_not_null().to_numpy()
     else:
-        if column.dtype.is_numeric():
+        if _holds_numbers(column.dtype):
             values = column.drop_nulls().cast(pl.Float64).to_numpy().astype(np.float64)
         present = column.is_not_null().to_numpy()
     info: dict[str, Any] = {
@@ -821,6 +833,15 @@ def _describe_column(
     if time_ns is not None and time_ns.size == present.size:
         info["rate_hz"] = describe_steps(time_ns[present], gaps=False)["rate_hz"]
     return info
+
+
+def _holds_numbers(dtype: pl.DataType) -> bool:
+    """Whether a Parquet column of ``dtype`` is read as numbers: booleans are 0 and 1.
+
+    A valve's open/closed input is a boolean in Parquet as in a ROS message (``bool``) or a
+    JSON one, where it reads as 0 and 1; only a time column must be numeric proper.
+    """
+    return dtype.is_numeric() or dtype == pl.Boolean
 
 
 def _dtype_name(dtype: pl.DataType) -> str:
