@@ -16,6 +16,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFINITIONS",
+    "FIXED_LIMIT",
     "MAX_LISTED_SWITCHES",
     "code_span",
     "duration",
@@ -29,11 +30,16 @@ MAX_LISTED_SWITCHES = 50
 """``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
 
 
+FIXED_LIMIT = 1e12
+"""Beyond this magnitude a number is written in scientific notation whatever its column's
+format: a fit of -1e201 (a diverged prediction) was a cell of 200 digits."""
+
+
 def _fmt(value: Any, spec: str = ".6g") -> str:
     if value is None:
         return "n/a"
     if isinstance(value, float):
-        return format(value, spec)
+        return format(value, ".6g" if abs(value) >= FIXED_LIMIT else spec)
     return str(value)
 
 
