@@ -65,3 +65,25 @@ def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
         keep = max(limit - 1, 2)
         shown = shown[: keep - keep // 3] + "…" + shown[len(shown) - keep // 3 :]
     return "'" + shown + "'"
+
+
+def as_text(text: object) -> str:
+    r"""``text`` (a path as the system gave it) as text that UTF-8 can hold.
+
+    A file name that is not UTF-8 reaches Python with each undecodable byte as a lone
+    surrogate (``surrogateescape``), which no UTF-8 file, JSON, XML or terminal can take;
+    such a byte is written ``\xNN`` instead, as ``ls`` shows it.  Every other character,
+    line breaks included, is kept: a report and a summary name the log as it was given.
+
+    Examples
+    --------
+    >>> as_text("run\udcff.csv")
+    'run\\xff.csv'
+    >>> as_text("sub/run.csv")
+    'sub/run.csv'
+    """
+    shown = str(text)
+    try:
+        return shown.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a surrogate that is no escaped byte
+        return shown.encode("utf-8", "backslashreplace").decode("utf-8")

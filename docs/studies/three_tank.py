@@ -83,13 +83,15 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
     rmse = metrics.state_rmse(r.state_means[K0:], log.states[K0:])
     for name, value in zip(model.states, rmse, strict=True):
         out[f"RMSE {name} k>={K0}"] = float(value)
-    out["VAF % (mean of y)"] = metrics.mean_of_finite(
+    out["VAF % (mean of y)"] = metrics.mean_where_defined(
         metrics.vaf(log.outputs, r.output_predictions)
     )
-    out["Fit % (mean of y)"] = metrics.mean_of_finite(
+    out["Fit % (mean of y)"] = metrics.mean_where_defined(
         metrics.fit(log.outputs, r.output_predictions)
     )
-    out["MSE (mean of y)"] = metrics.mean_of_finite(metrics.mse(log.outputs, r.output_predictions))
+    out["MSE (mean of y)"] = metrics.mean_where_defined(
+        metrics.mse(log.outputs, r.output_predictions)
+    )
     det = metrics.detection_delays(log.time, r.modes, truth, model.mode_ids)
     for event in det.events:
         key = f"delay {event.from_mode}->{event.to_mode} s"

@@ -23,7 +23,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.errors import LogError, OptionError, as_text, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
     Estimator,
@@ -468,7 +468,7 @@ def analyze(
         out_dir,
         estimates(prepared, model, signals, inputs),
         signals,
-        log=str(log),
+        log=as_text(log),
         model_name=model.name,
         dt=model.dt,
         table_format=table_format,
@@ -578,7 +578,7 @@ def compare(
                     last=i == len(prepared) - 1,
                 ),
                 signals,
-                log=str(log),
+                log=as_text(log),
                 model_name=model.name,
                 dt=model.dt,
                 table_format=table_format,

@@ -41,7 +41,14 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog import __version__
-from hybridlog.errors import HybridlogError, OptionError, OutputError, ReportError, excerpt
+from hybridlog.errors import (
+    HybridlogError,
+    OptionError,
+    OutputError,
+    ReportError,
+    as_text,
+    excerpt,
+)
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
@@ -372,7 +379,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         path,
         warm.prepared.stream(warm.model, signals, **warm.inputs),
         signals,
-        log=log,
+        log=as_text(log),
         model_name=warm.model.name,
         dt=warm.model.dt,
         table_format=job.table_format,
@@ -631,11 +638,11 @@ def _summarise(
     """Write the summary files (and the JUnit file) from the outcomes, in natural order."""
     rows = [
         BatchRow(
-            log=o.log,
-            folder=Path(o.folder).relative_to(root).as_posix(),
+            log=as_text(o.log),  # a name that is not UTF-8: its bytes as \xNN
+            folder=as_text(Path(o.folder).relative_to(root).as_posix()),
             status=o.status,
             report=o.report,
-            error=o.error,
+            error=None if o.error is None else as_text(o.error),
             gates=tuple(
                 (f"{gate.option} {gate.spec}", next(iter(evaluate_gates(o.report, [gate])), None))
                 for gate in gates

@@ -376,7 +376,7 @@ class ReportBuilder:
             for x, r in zip(first.state_names, rmse, strict=True)
         }
         means = {
-            name: _num(metrics.mean_of_finite([getattr(m, name) for m in per_output.values()]))
+            name: _num(metrics.mean_where_defined([getattr(m, name) for m in per_output.values()]))
             for name in ("mse", "vaf", "fit")
         }
         samples_per_s = _num(n / runtime) if runtime > 0.0 else None
@@ -507,7 +507,7 @@ def _side(
             y: OutputReport(mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples)
             for y, m in zip(output_names, per_output, strict=True)
         }
-        fit = _num(metrics.mean_of_finite([m.fit for m in per_output]))
+        fit = _num(metrics.mean_where_defined([m.fit for m in per_output]))
     switches = int(np.count_nonzero(modes[1:] != modes[:-1]))
     truth = signals.truth_modes
     if truth is None:
@@ -690,8 +690,14 @@ def _null_reasons(
             if name in m.undefined:
                 reasons[f"{name}.{y}"] = m.undefined[name]
         if means[name] is None and per_output:
-            y, m = next(iter(per_output.items()))
-            reasons[name] = f"undefined for every output ({y}: {m.undefined.get(name)})"
+            diverged = [y for y, m in per_output.items() if math.isinf(getattr(m, name))]
+            y = diverged[0] if diverged else next(iter(per_output))
+            why = per_output[y].undefined.get(name)
+            reasons[name] = (
+                f"the mean over the outputs is infinite: {name}.{y}: {why}"
+                if diverged
+                else f"undefined for every output ({y}: {why})"
+            )
     if modes.components:
         if modes.accuracy is None:
             reasons["mode_accuracy"] = (

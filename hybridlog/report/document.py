@@ -30,7 +30,8 @@ when the model was not at hand to evaluate ``h``.
 Everything that needs ground truth is ``null`` when the log has none, and every number that
 is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` counts the rows the
 output metrics use (a measurement and a one-step-ahead prediction); ``mse``, ``vaf`` and
-``fit`` at the top are the means over the outputs where the metric is defined.
+``fit`` at the top are the means over the outputs where the metric is defined (``null``
+when one output's is infinite: a prediction that diverged is never left out).
 ``null_reasons`` maps gate metric names (``vaf``, ``fit.y1``, ``mode_accuracy``,
 ``state_rmse.x2``, ...; see :mod:`hybridlog.report.gates`) to why the report holds ``null``
 for them.  ``modes.detection`` (``null`` without a true mode) holds the details behind

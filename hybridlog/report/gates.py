@@ -239,8 +239,26 @@ def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -
     list of Gate
         ``--fail-under`` gates first, each group in the order given.
 
+    Raises
+    ------
+    OptionError
+        As :func:`parse_gate`, and when a ``--fail-under`` bound of a metric is above one of
+        its ``--fail-over`` bounds: no value meets both, so every run would fail.
+
     """
-    return [parse_gate(s, "under") for s in fail_under] + [parse_gate(s, "over") for s in fail_over]
+    gates = [parse_gate(s, "under") for s in fail_under]
+    gates += [parse_gate(s, "over") for s in fail_over]
+    for low in gates:
+        for high in gates:
+            if (low.kind, high.kind, low.metric) == ("under", "over", high.metric) and (
+                low.bound > high.bound
+            ):
+                raise OptionError(
+                    f"{low.option} {low.spec!r} and {high.option} {high.spec!r}: {low.metric} "
+                    f"cannot be at least {_fmt(low.bound)} and at most {_fmt(high.bound)}, "
+                    "so these gates could never both pass"
+                )
+    return gates
 
 
 def validate_gates(

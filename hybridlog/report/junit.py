@@ -11,6 +11,7 @@ GitLab, Jenkins and Azure DevOps (``testsuites`` → ``testsuite`` → ``testcas
 from __future__ import annotations
 
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from pathlib import Path
@@ -72,22 +73,38 @@ def check_junit_target(target: PathLike) -> Path:
         raise OutputError(f"--junit {err}") from None
 
 
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+"""Characters XML 1.0 cannot hold, not even as references: the C0 controls but tab and
+line breaks, lone surrogates, U+FFFE and U+FFFF."""
+
+
+def _xml(text: str) -> str:
+    r"""``text`` with each character XML cannot hold written ``\xNN`` or ``\uNNNN``.
+
+    A log named with an escape sequence (``\x1b[31m``) or a NUL byte would otherwise make
+    the whole file unreadable to a CI system's parser, every other log's result with it.
+    """
+    return _NOT_XML.sub(lambda found: found.group().encode("unicode_escape").decode(), text)
+
+
 def _case(suite: ET.Element, classname: str, name: str, seconds: float) -> ET.Element:
     return ET.SubElement(
-        suite, "testcase", {"classname": classname, "name": name, "time": f"{seconds:.3f}"}
+        suite,
+        "testcase",
+        {"classname": _xml(classname), "name": _xml(name), "time": f"{seconds:.3f}"},
     )
 
 
 def junit_tree(suite_name: str, rows: Sequence[BatchRow]) -> ET.ElementTree[ET.Element]:
     """The JUnit document of a batch (see the module docstring)."""
     root = ET.Element("testsuites", {"name": ROOT_NAME})
-    suite = ET.SubElement(root, "testsuite", {"name": suite_name})
+    suite = ET.SubElement(root, "testsuite", {"name": _xml(suite_name)})
     tests = failures = errors = 0
     total = 0.0
     for row in rows:
         if row.report is None:
             case = _case(suite, row.log, "analysis", 0.0)
-            message = row.error or "could not be analysed"
+            message = _xml(row.error or "could not be analysed")
             ET.SubElement(case, "error", {"message": message, "type": "hybridlog"}).text = message
             tests, errors = tests + 1, errors + 1
             continue
@@ -101,7 +118,8 @@ def junit_tree(suite_name: str, rows: Sequence[BatchRow]) -> ET.ElementTree[ET.E
             case = _case(suite, row.log, gate, seconds / len(row.gates))
             tests += 1
             if failure is not None:
-                ET.SubElement(case, "failure", {"message": failure, "type": "gate"}).text = failure
+                message = _xml(failure)
+                ET.SubElement(case, "failure", {"message": message, "type": "gate"}).text = message
                 failures += 1
     counts = {"tests": str(tests), "failures": str(failures), "errors": str(errors)}
     for element in (root, suite):

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFINITIONS",
+    "FIXED_LIMIT",
     "MAX_LISTED_SWITCHES",
     "code_span",
     "duration",
@@ -29,11 +30,16 @@ MAX_LISTED_SWITCHES = 50
 """``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
 
 
+FIXED_LIMIT = 1e12
+"""Beyond this magnitude a number is written in scientific notation whatever its column's
+format: a fit of -1e201 (a diverged prediction) was a cell of 200 digits."""
+
+
 def _fmt(value: Any, spec: str = ".6g") -> str:
     if value is None:
         return "n/a"
     if isinstance(value, float):
-        return format(value, spec)
+        return format(value, ".6g" if abs(value) >= FIXED_LIMIT else spec)
     return str(value)
 
 
@@ -43,16 +49,25 @@ spans, emphasis, links, HTML and autolinks, entities, table cells, strikethrough
 An underscore inside a word (``three_tank.csv``) is no emphasis and stays as it is."""
 
 
+_CONTROL = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f]")
+"""Control characters but tab and line breaks: a terminal runs ``\\x1b[31m`` as a command."""
+
+
+def _controls_escaped(text: str) -> str:
+    return _CONTROL.sub(lambda found: found.group().encode("unicode_escape").decode(), text)
+
+
 def escape_markdown(text: str) -> str:
     r"""``text`` (a log path, a name from a model, an error message) shown as itself in Markdown.
 
     Each markup character gets a backslash (CommonMark shows any backslash-escaped ASCII
-    punctuation as the character), and line breaks are written ``\n``/``\r``, so that
+    punctuation as the character), line breaks are written ``\n``/``\r`` and other control
+    characters ``\xNN`` (summary.md's table is printed on the terminal too), so that
     ``<b>*x*</b> | y.csv`` stays one table cell of plain text in report.md, summary.md and a
     CI job summary.
     """
     escaped = _MARKUP.sub(lambda found: "\\" + found.group(0), text)
-    return escaped.replace("\r", "\\r").replace("\n", "\\n")
+    return _controls_escaped(escaped.replace("\r", "\\r").replace("\n", "\\n"))
 
 
 def code_span(text: str) -> str:
@@ -61,7 +76,7 @@ def code_span(text: str) -> str:
     CommonMark shows a code span's content as it is; the space padding keeps a backtick at
     either end off the fence, and line breaks are written ``\n`` as in :func:`escape_markdown`.
     """
-    text = text.replace("\r", "\\r").replace("\n", "\\n")
+    text = _controls_escaped(text.replace("\r", "\\r").replace("\n", "\\n"))
     fence = "`" * (max((len(run) for run in re.findall("`+", text)), default=0) + 1)
     pad = " " if text.startswith("`") or text.endswith("`") else ""
     return f"{fence}{pad}{text}{pad}{fence}"

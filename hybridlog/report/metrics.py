@@ -36,7 +36,7 @@ __all__ = [
     "detection_delays",
     "dwell_times",
     "fit",
-    "mean_of_finite",
+    "mean_where_defined",
     "mode_accuracy",
     "mode_switches",
     "mse",
@@ -781,8 +781,13 @@ def output_metrics(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> tuple[OutputMetric
     return accumulator.result()
 
 
-def mean_of_finite(values: npt.ArrayLike) -> float:
-    """Mean of the finite entries (the summary MSE/VAF over outputs); NaN when there is none.
+def mean_where_defined(values: npt.ArrayLike) -> float:
+    """Mean over the outputs (or states) where a metric is defined: the summary MSE/VAF/fit.
+
+    An undefined entry (NaN: VAF of a constant prediction, fit of a constant measurement)
+    is left out; an infinite one (MSE or fit of a prediction that diverged so far that its
+    error overflows) makes the mean that infinity: the worst output is never left out, so
+    a gate on the mean cannot pass while one output diverged.
 
     Parameters
     ----------
@@ -792,10 +797,13 @@ def mean_of_finite(values: npt.ArrayLike) -> float:
     Returns
     -------
     float
-        The arithmetic mean of the finite values, or NaN.
+        The arithmetic mean of the defined values (infinite if one is); NaN when none is.
 
     """
     arr = np.asarray(values, dtype=np.float64).ravel()
+    infinite = set(arr[np.isinf(arr)].tolist())
+    if infinite:
+        return infinite.pop() if len(infinite) == 1 else float("nan")
     finite = arr[np.isfinite(arr)]
     return float(np.mean(finite)) if finite.size else float("nan")
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hybridlog.report.markdown import escape_markdown
+from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
@@ -41,7 +41,8 @@ def _column_format(values: Sequence[object]) -> Callable[[object], str]:
     Integers get thousands separators.  Floats get the same number of decimals, enough for
     :data:`SIGNIFICANT_DIGITS` digits of the smallest non-zero magnitude (``1,668,410``,
     ``87.39``, ``0.6013``), with thousands separators; a column spanning more than six
-    decades, or needing more than six decimals, is written in scientific notation.
+    decades, needing more than six decimals, or reaching :data:`FIXED_LIMIT`, is written in
+    scientific notation.
     """
     floats = [
         abs(float(v))
@@ -52,7 +53,7 @@ def _column_format(values: Sequence[object]) -> Callable[[object], str]:
     if floats:
         small, big = min(floats), max(floats)
         decimals = SIGNIFICANT_DIGITS - 1 - math.floor(math.log10(small))
-        wide = decimals > 6 or big / small > 1e6
+        wide = decimals > 6 or big / small > 1e6 or big >= FIXED_LIMIT
         spec = ".3e" if wide else f",.{max(decimals, 0)}f"
 
     def cell(value: object) -> str:

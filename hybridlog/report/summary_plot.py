@@ -18,6 +18,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from hybridlog.errors import excerpt
 from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead
 from hybridlog.report.summary import BatchRow
 
@@ -132,7 +133,9 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))
     if len(rows) <= MAX_LABELS:
         axes[-1].set_xticks(list(positions))
-        names = [f"…{row.folder[-23:]}" if len(row.folder) > 24 else row.folder for row in rows]
+        # control characters escaped: the font has no glyph for them (matplotlib warned)
+        folders = [excerpt(row.folder, len(row.folder) * 6)[1:-1] for row in rows]
+        names = [f"…{name[-23:]}" if len(name) > 24 else name for name in folders]
         axes[-1].set_xticklabels(names, rotation=60, fontsize=7)  # long paths: their ends
     else:
         axes[-1].set_xlabel("log (natural order; summary.csv lists them)")

@@ -37,13 +37,15 @@ whole run's tables.
 
 from __future__ import annotations
 
+import contextlib
+import os
 import threading
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Literal
+from typing import BinaryIO, Literal
 
 import numpy as np
 
@@ -524,12 +526,13 @@ class TableWriter:
 
         lazy = register_io_source(frames, schema=self._schema)
         try:
-            if self._format == "csv":
-                lazy.sink_csv(self.path, null_value="")
-            else:
-                lazy.sink_parquet(
-                    self.path, compression=PARQUET_COMPRESSION, row_group_size=BATCH_ROWS
-                )
+            with _polars_target(self.path) as target:
+                if self._format == "csv":
+                    lazy.sink_csv(target, null_value="")
+                else:
+                    lazy.sink_parquet(
+                        target, compression=PARQUET_COMPRESSION, row_group_size=BATCH_ROWS
+                    )
         except BaseException as err:  # raised again in the caller by add or close
             batches.fail(err)
             raise
@@ -543,12 +546,29 @@ class TableWriter:
             self._sink.wait()
 
 
+@contextlib.contextmanager
+def _polars_target(path: Path) -> Iterator[Path | BinaryIO]:
+    """``path`` as polars' writers take it: the path, or the file opened here.
+
+    polars takes only paths that are UTF-8; a folder named after a log whose name is not
+    (a batch's report folder) is opened by Python, which takes any name the system does.
+    """
+    try:
+        os.fsencode(path).decode("utf-8")
+    except UnicodeDecodeError:
+        with path.open("wb") as handle:
+            yield handle
+        return
+    yield path
+
+
 def _write_frame(frame: pl.DataFrame, path: Path, table_format: TableFormat) -> None:
     """Write a whole data frame with polars' eager writer."""
-    if table_format == "csv":
-        frame.write_csv(path, null_value="")
-    else:
-        frame.write_parquet(path, compression=PARQUET_COMPRESSION)
+    with _polars_target(path) as target:
+        if table_format == "csv":
+            frame.write_csv(target, null_value="")
+        else:
+            frame.write_parquet(target, compression=PARQUET_COMPRESSION)
 
 
 def write_table(frame: pl.DataFrame | Table, stem: Path, table_format: TableFormat) -> Path:

@@ -16,6 +16,7 @@ import subprocess
 import sys
 import threading
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import click
@@ -31,6 +32,7 @@ from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import LogOutcome, batch_logs, folder_names, natural_key, run_batch
 from hybridlog.outputs import MARKER, write_marker
 from tests.support.logfiles import tank_run
+from tests.support.paths import SAMPLE_LOGS
 from tests.support.processes import descendants, is_worker, kill_and_expect_the_family_gone
 
 TANK = "three_tank_hstf"
@@ -143,6 +145,31 @@ def test_batch_of_a_folder_names_folders_from_it_and_keeps_out_of_it(tmp_path: P
     (runs / "broken.csv").write_text("t,u,y1\n0,1,2\n")
     args = ["batch", str(runs), "--model", "three_tank_hstf", "--out", str(tmp_path / "o2")]
     assert "hybridlog: 1 of 4 logs failed" in run(args, expect=1).stderr
+
+
+def test_logs_named_with_bytes_and_controls_get_reports_and_summaries(tmp_path: Path) -> None:
+    """A log whose name is not UTF-8 crashed the whole batch after its last log (summary.md
+    could not be encoded: no summary, exit 2) and its own report (polars took no such
+    path); a name with control characters made junit.xml unreadable XML."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    odd = Path(os.fsdecode(bytes(runs) + b"/m\xff.mcap"))
+    shutil.copyfile(SAMPLE_LOGS / "three_tank_hstf.mcap", odd)
+    write_logs(runs, ["ctl\x01\x1b"])
+    out, junit = tmp_path / "out", tmp_path / "junit.xml"
+    outcome = run_batch([runs], TANK, out_dir=out, estimator="imm", junit=junit)
+    assert [o.status for o in outcome.logs] == ["done", "done"]
+    summary = (out / "summary.csv").read_text(encoding="utf-8")
+    assert "m\\xff.mcap,done," in summary
+    assert "\x1b" not in (out / "summary.md").read_text(encoding="utf-8")
+    assert "ctl\\x01\\x1b.csv" in outcome.table
+    shown = ET.parse(junit).getroot().iter("testcase")  # raised ParseError
+    assert [case.get("classname") for case in shown] == [
+        f"{runs}/ctl\\x01\\x1b.csv",
+        f"{runs}/m\\xff.mcap",
+    ]
+    report = json.loads((Path(outcome.logs[1].folder) / "report.json").read_text("utf-8"))
+    assert report["log"] == f"{runs}/m\\xff.mcap"
 
 
 def test_batch_keeps_going_skips_finished_and_reports(tmp_path):

@@ -53,3 +53,12 @@ def test_a_code_span_shows_the_text_it_was_given(value: str) -> None:
     kinds = [child.type for child in paragraph.children or []]
     assert kinds == ["text", "code_inline"]
     assert (paragraph.children or [])[1].content == value
+
+
+def test_control_characters_are_written_out_not_sent_to_the_terminal() -> None:
+    """batch prints summary.md's table: a log named with ESC[31m coloured the terminal."""
+    name = "ctl\x01\x1b[31mred\x7f.csv"
+    (cell,) = _cells(markdown_table(["log"], [[name]]))
+    assert cell == "ctl\\x01\\x1b[31mred\\x7f.csv"
+    assert code_span("a\x1bb") == "`a\\x1bb`"
+    assert escape_markdown("tab\there") == "tab\there"  # a tab is no command

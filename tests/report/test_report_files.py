@@ -613,6 +613,38 @@ def test_undefined_metrics_are_null_with_their_reason(tmp_path: Path) -> None:
     assert "| y1 | " in md and "| n/a |" in md
 
 
+def test_a_diverged_output_is_never_left_out_of_the_means(tmp_path: Path) -> None:
+    """MSE of a prediction whose error overflows is infinite, not undefined: the mean MSE
+    left y2 out (0.04 from y1 alone, so --fail-over mse=1 passed on a diverged run), and
+    report.md wrote fit -1.3e201 as a number of 200 digits."""
+    from dataclasses import replace
+
+    from hybridlog.report.gates import evaluate_gates, parse_gates
+
+    result, signals = make_run(n=30)
+    diverged = result.output_predictions.copy()
+    diverged[1:, 1] = 1e200 * np.arange(1.0, 30.0)  # y2's error overflows float64
+    written = write_report(
+        tmp_path / "o",
+        replace(result, output_predictions=diverged),
+        signals,
+        log="l",
+        model_name="m",
+        dt=DT,
+    )
+    report = written.to_dict()
+    assert report["outputs"]["y2"]["mse"] is None and report["outputs"]["y1"]["mse"] < 1
+    assert report["mse"] is None
+    assert report["null_reasons"]["mse"].startswith("the mean over the outputs is infinite: mse.y2")
+    assert report["vaf"] is not None  # VAF 0 for y2: its variance ratio overflows, defined
+    (failure,) = evaluate_gates(written, parse_gates([], ["mse=1"]))
+    assert failure.startswith("mse is not available (the mean over the outputs is infinite")
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert report["fit"] < -1e199 and "e+20" in md
+    cells = [cell for line in md.splitlines() if line.startswith("|") for cell in line.split("|")]
+    assert max(map(len, cells)) < 30  # no number of 200 digits
+
+
 def test_report_md_reads_well(tmp_path: Path) -> None:
     from dataclasses import replace
 
@@ -665,6 +697,8 @@ def test_tables_for_people_format_numbers_per_column() -> None:
     ]
     spread = markdown_table(("mse",), [[9.76e-6], [0.1419]])  # paper 001: would need 9 decimals
     assert spread.splitlines()[2:] == ["| 9.760e-06 |", "| 1.419e-01 |"]
+    huge = markdown_table(("fit",), [[-1.346e201]])  # a diverged run: it was 201 digits
+    assert huge.splitlines()[2:] == ["| -1.346e+201 |"]
     assert [duration(s) for s in (0.00031, 2.5e-6, 12.345, 0.0, None)] == [
         "310 µs",
         "2.5 µs",

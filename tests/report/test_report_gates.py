@@ -120,6 +120,18 @@ def test_a_bound_the_metric_can_never_meet_is_refused(
     assert fragment in str(info.value) and "could never pass" in str(info.value)
 
 
+def test_gates_no_value_can_meet_together_are_refused() -> None:
+    """--fail-under vaf=50 --fail-over vaf=40 failed every log of a batch (exit 1)."""
+    with pytest.raises(OptionError) as info:
+        parse_gates(["vaf=90", "vaf=50"], ["mse=3", "vaf=40"])
+    assert str(info.value) == (
+        "--fail-under 'vaf=90' and --fail-over 'vaf=40': vaf cannot be at least 90 and at "
+        "most 40, so these gates could never both pass"
+    )
+    # a band, the same bound from both sides, the same gate twice, other metrics: gates
+    assert len(parse_gates(["vaf=40", "vaf=40", "fit.y1=70"], ["vaf=40", "fit.y2=60"])) == 5
+
+
 @pytest.mark.parametrize(
     ("spec", "kind"),
     [("vaf=100", "under"), ("fit=-500", "over"), ("mode_accuracy=1", "under"), ("mse=0", "over")],

@@ -109,8 +109,11 @@ def test_metrics_per_column_and_empty_column() -> None:
     assert out_mse[0] == pytest.approx(0.5)
     assert math.isnan(out_mse[1])
     assert math.isnan(metrics.vaf(y, y_hat)[1])
-    assert metrics.mean_of_finite(out_mse) == pytest.approx(0.5)
-    assert math.isnan(metrics.mean_of_finite([NAN, NAN]))
+    assert metrics.mean_where_defined(out_mse) == pytest.approx(0.5)
+    assert math.isnan(metrics.mean_where_defined([NAN, NAN]))
+    # a diverged output (its error overflows) is the worst, never left out of the mean
+    assert metrics.mean_where_defined([0.5, math.inf, NAN]) == math.inf
+    assert metrics.mean_where_defined([-math.inf, 50.0]) == -math.inf
 
 
 def test_shape_mismatch_is_an_error() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -303,6 +304,29 @@ def test_a_table_of_one_batch_is_written_without_the_sink(
     for fmt in TABLE_FORMATS:
         path = tables.write_table(tables.timeline_table(result, signals), tmp_path / "t", fmt)
         assert path.stat().st_size > 0
+
+
+@pytest.mark.parametrize("table_format", ["csv", "parquet"])
+@pytest.mark.parametrize("rows", [10, 1000])
+def test_a_folder_whose_name_is_not_utf8_takes_the_tables(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, table_format: str, rows: int
+) -> None:
+    """A batch names a log's folder after the log: polars took no path that is not UTF-8
+    (a log named with byte 0xff failed with 'Object does not have a .write() method')."""
+    monkeypatch.setattr(tables, "BATCH_ROWS", 64)  # 1000 rows: through the streaming sink
+    fmt = check_table_format(table_format)
+    folder = Path(os.fsdecode(bytes(tmp_path) + b"/run\xff.csv"))
+    folder.mkdir()
+    result, signals = make_run(n=rows)
+    table = tables.timeline_table(result, signals)
+    path = tables.write_table(table, folder / "timeline", fmt)
+    want = tables.write_table(table, tmp_path / "timeline", fmt)
+    if fmt == "csv":
+        assert path.read_bytes() == want.read_bytes()
+    else:
+        with path.open("rb") as handle:
+            assert pl.read_parquet(handle).equals(pl.read_parquet(want))
+        assert row_groups(path) == row_groups(want)
 
 
 @pytest.mark.parametrize("table_format", ["csv", "parquet"])
