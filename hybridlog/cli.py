@@ -32,7 +32,7 @@ import click
 from hybridlog import __version__
 from hybridlog.allocators import return_freed_memory
 from hybridlog.background import ESTIMATES, PLOTS, start_worker
-from hybridlog.errors import HybridlogError, excerpt
+from hybridlog.errors import HybridlogError, as_text, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
@@ -416,7 +416,20 @@ def cli(ctx: click.Context) -> None:
 def _say(ctx: click.Context, text: str) -> None:
     settings = ctx.find_object(_Context)
     if settings is None or not settings.quiet:
-        click.echo(text)
+        click.echo(_for_terminal(text))
+
+
+def _for_terminal(text: str) -> str:
+    r"""Lines for stdout: names as the system gave them, but nothing a terminal acts on.
+
+    A log named with bytes that are not UTF-8 or with control characters (an escape
+    sequence) is shown ``\xNN`` (:func:`~hybridlog.errors.as_text`, :func:`excerpt`'s
+    escapes); line breaks and tabs stay.
+    """
+    return "\n".join(
+        "".join(c if c.isprintable() or c == "\t" else excerpt(c)[1:-1] for c in as_text(line))
+        for line in text.split("\n")
+    )
 
 
 @cli.command(
@@ -439,7 +452,7 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
     from hybridlog.io.inspect import format_inspection, inspect_log
 
     info = inspect_log(log, ReadOptions(msg_dirs=tuple(str(d) for d in msg_dirs)))
-    click.echo(json.dumps(info, indent=2) if as_json else format_inspection(info))
+    click.echo(json.dumps(info, indent=2) if as_json else _for_terminal(format_inspection(info)))
 
 
 @cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))

@@ -23,13 +23,18 @@ imported in another (a log read in a thread while numba sets up,
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import BinaryIO, Literal
 
 import polars as pl
 from polars.io.plugins import register_io_source
 
-__all__ = ["pl", "register_io_source", "take_back_sigint"]
+__all__ = ["pl", "polars_file", "register_io_source", "take_back_sigint"]
 
 
 def take_back_sigint() -> None:
@@ -46,3 +51,22 @@ def take_back_sigint() -> None:
 
 
 take_back_sigint()
+
+
+@contextmanager
+def polars_file(path: Path, mode: Literal["rb", "wb"]) -> Iterator[Path | BinaryIO]:
+    """``path`` as polars' readers and writers take it: the path, or the file opened here.
+
+    polars takes only names that are UTF-8 (a log named in another encoding, a batch's report
+    folder named after it): those are opened by Python, which takes any name the system
+    does.  Readers given the path must also be told ``glob=False``: polars otherwise expands
+    ``*``, ``?`` and ``[...]`` in it (``run[1].csv`` matched nothing, ``run?.csv`` another
+    log).
+    """
+    try:
+        os.fsencode(path).decode("utf-8")
+    except UnicodeDecodeError:
+        with path.open(mode) as handle:
+            yield handle
+        return
+    yield path

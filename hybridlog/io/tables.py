@@ -37,7 +37,7 @@ from hybridlog.io.source import (
     seconds_to_ns,
 )
 from hybridlog.io.summary import count_nonfinite, describe_steps
-from hybridlog.polars_import import pl
+from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
 
 TIME_COLUMNS = ("t", "time")
@@ -290,7 +290,7 @@ class TableSource:
             # low_memory: decoded a row group at a time, 10^6 rows of 9 columns (82 MB of
             # values) peak about 25 MiB lower, in about the same time
             read = [name for name in wanted if name not in skip]
-            frame = pl.read_parquet(self._file, columns=read, low_memory=True)
+            frame = _read_parquet(self._file, columns=read, low_memory=True)
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
@@ -305,7 +305,7 @@ class TableSource:
     def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
         """One numeric column of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
         try:
-            column = pl.read_parquet(self._file, columns=[name], low_memory=True).to_series()
+            column = _read_parquet(self._file, columns=[name], low_memory=True).to_series()
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
@@ -439,7 +439,7 @@ class TableSource:
     def _full_frame(self) -> pl.DataFrame:
         if self._format == "parquet":
             try:
-                return pl.read_parquet(self._file)
+                return _read_parquet(self._file)
             except pl.exceptions.PolarsError as err:
                 raise LogError(
                     f"{self.path}: not a readable Parquet file ({_first_line(err)})"
@@ -536,6 +536,12 @@ def _is_number(text: str) -> bool:
     return True
 
 
+def _read_csv(path: Path, **options: Any) -> pl.DataFrame:
+    """``pl.read_csv`` of a log, its name taken as it is (:func:`polars_file`)."""
+    with polars_file(path, "rb") as source:
+        return pl.read_csv(source, glob=False, **options)
+
+
 def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:
     """Read ``columns`` as text; raise :class:`LogError` for a file polars cannot parse.
 
@@ -546,7 +552,7 @@ def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) 
         _check_truncated(path)
         _check_record_widths(path)
     try:
-        frame = pl.read_csv(path, columns=columns, infer_schema=False)
+        frame = _read_csv(path, columns=columns, infer_schema=False)
     except pl.exceptions.PolarsError as err:
         raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
     return frame
@@ -562,7 +568,7 @@ def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.Da
     _check_truncated(path)
     _check_record_widths(path)
     try:
-        frame = pl.read_csv(path, columns=columns, schema_overrides=schema, infer_schema=False)
+        frame = _read_csv(path, columns=columns, schema_overrides=schema, infer_schema=False)
     except pl.exceptions.PolarsError:
         text = _read_csv_strings(path, columns, checked=True)
         rows: IntArray = np.arange(text.height, dtype=np.int64)
@@ -777,9 +783,16 @@ def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
 # ---------------------------------------------------------------------- Parquet helpers
 
 
+def _read_parquet(path: Path, **options: Any) -> pl.DataFrame:
+    """``pl.read_parquet`` of a log, its name taken as it is (:func:`polars_file`)."""
+    with polars_file(path, "rb") as source:
+        return pl.read_parquet(source, glob=False, **options)
+
+
 def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
     try:
-        schema = pl.read_parquet_schema(path)
+        with polars_file(path, "rb") as source:
+            schema = pl.scan_parquet(source, glob=False).collect_schema()
     except (pl.exceptions.PolarsError, OSError) as err:
         raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
     if not schema:

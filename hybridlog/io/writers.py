@@ -11,7 +11,7 @@ import numpy as np
 
 from hybridlog.errors import OptionError, OutputError
 from hybridlog.outputs import atomic_files
-from hybridlog.polars_import import pl
+from hybridlog.polars_import import pl, polars_file
 
 TABLE_FORMATS = (".csv", ".parquet")
 
@@ -66,10 +66,11 @@ def write_table(
     frame = _frame(columns)
     with atomic_files([target], force=force) as (temporary,):
         try:
-            if suffix == ".csv":
-                frame.write_csv(temporary)
-            else:
-                frame.write_parquet(temporary)
+            with polars_file(temporary, "wb") as file:
+                if suffix == ".csv":
+                    frame.write_csv(file)
+                else:
+                    frame.write_parquet(file)
         except (OSError, pl.exceptions.PolarsError) as err:
             raise OutputError(f"{path}: cannot be written ({err})") from err
     return target

@@ -37,21 +37,19 @@ whole run's tables.
 
 from __future__ import annotations
 
-import contextlib
-import os
 import threading
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO, Literal
+from typing import Literal
 
 import numpy as np
 
 from hybridlog.background import Background
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.polars_import import pl, register_io_source
+from hybridlog.polars_import import pl, polars_file, register_io_source
 from hybridlog.report.table_format import TableFormat
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -526,7 +524,7 @@ class TableWriter:
 
         lazy = register_io_source(frames, schema=self._schema)
         try:
-            with _polars_target(self.path) as target:
+            with polars_file(self.path, "wb") as target:
                 if self._format == "csv":
                     lazy.sink_csv(target, null_value="")
                 else:
@@ -546,25 +544,9 @@ class TableWriter:
             self._sink.wait()
 
 
-@contextlib.contextmanager
-def _polars_target(path: Path) -> Iterator[Path | BinaryIO]:
-    """``path`` as polars' writers take it: the path, or the file opened here.
-
-    polars takes only paths that are UTF-8; a folder named after a log whose name is not
-    (a batch's report folder) is opened by Python, which takes any name the system does.
-    """
-    try:
-        os.fsencode(path).decode("utf-8")
-    except UnicodeDecodeError:
-        with path.open("wb") as handle:
-            yield handle
-        return
-    yield path
-
-
 def _write_frame(frame: pl.DataFrame, path: Path, table_format: TableFormat) -> None:
     """Write a whole data frame with polars' eager writer."""
-    with _polars_target(path) as target:
+    with polars_file(path, "wb") as target:
         if table_format == "csv":
             frame.write_csv(target, null_value="")
         else:

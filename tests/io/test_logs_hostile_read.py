@@ -7,6 +7,7 @@ Every file is written here by another tool's writer (rosbags' ROS 1 bag writer, 
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -267,3 +268,44 @@ def test_errors_of_alignment_call_a_message_path_a_field_not_a_column(tmp_path: 
         f"{log}: gap in output 'y' (field '/y.data'): no sample from t=1.9 s to t=3 s "
         "(1.1 s > max_gap 0.5 s)"
     )
+
+
+# ------------------------------------------------------------------ names polars would glob
+
+
+def _tables(folder: Path, name: str, sign: float = -1.0) -> list[Path]:
+    """``name`` as a CSV and a Parquet log written by polars (through files Python opens)."""
+    y = sign * np.arange(N)
+    frame = pl.DataFrame({"t": np.arange(N) * 0.1, "u": np.arange(N) * 1.0, "y": y})
+    paths = []
+    for suffix in (".csv", ".parquet"):
+        path = Path(os.fsdecode(os.fsencode(folder) + b"/" + os.fsencode(name) + suffix.encode()))
+        with path.open("wb") as stream:
+            frame.write_csv(stream) if suffix == ".csv" else frame.write_parquet(stream)
+        paths.append(path)
+    return paths
+
+
+@pytest.mark.parametrize(
+    "name", ["run[1]", "run?", "run*", "run\udcff"], ids=["brackets", "?", "*", "not UTF-8"]
+)
+def test_a_log_s_name_is_a_name_not_a_pattern(tmp_path: Path, name: str) -> None:
+    """polars globbed the path it was given (run[1].csv matched nothing, run?.csv any run1.csv)
+    and took no name that is not UTF-8 (an unexpected TypeError)."""
+    _tables(tmp_path, "run1", sign=1.0)  # what run?, run* and run[1] match as patterns
+    for log in _tables(tmp_path, name):
+        signals = load(log)
+        np.testing.assert_array_equal(signals.outputs[:, 0], -np.arange(N))
+        info = inspect_log(log)
+        assert {c["name"] for c in info["columns"]} == {"t", "u", "y"}
+
+
+def test_simulate_s_writer_takes_a_name_that_is_not_utf8(tmp_path: Path) -> None:
+    from hybridlog.io.writers import write_table
+
+    for suffix in (".csv", ".parquet"):
+        path = tmp_path / f"sim\udcff{suffix}"
+        write_table(path, {"t": np.arange(3.0), "y": np.ones(3)})
+        with path.open("rb") as stream:
+            frame = pl.read_csv(stream) if suffix == ".csv" else pl.read_parquet(stream)
+        assert frame["y"].to_list() == [1.0, 1.0, 1.0]
