@@ -297,7 +297,7 @@ def simulate(
                 f"model; {origin} is discrete-time"
             )
     if model.state_driven:
-        if schedule:
+        if schedule is not None:
             raise OptionError(
                 f"--schedule: {origin} switches by its mode guards (modes.<id>.guard); "
                 "a schedule does not apply"
@@ -308,7 +308,7 @@ def simulate(
         _check_memory(model, rows, "--steps")
         modes = np.zeros(rows, dtype=np.int64)
     else:
-        if schedule:
+        if schedule is not None:  # given, if empty: refused, never the model's schedule
             parsed = parse_schedule(schedule, model.mode_ids)
         elif model.simulation_schedule:
             where = f"{origin}: simulation.schedule"
@@ -321,7 +321,7 @@ def simulate(
             _check_memory(model, steps + 1, "--steps")
         else:
             total = sum(count for _, count in parsed)
-            where = "--schedule" if schedule else f"{origin}: simulation.schedule"
+            where = "--schedule" if schedule is not None else f"{origin}: simulation.schedule"
             _check_memory(model, total + 1, where)
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]

@@ -80,7 +80,7 @@ def simulate_log(
     check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
     values = _settings(settings)
     if model.has_components:
-        if schedule:
+        if schedule is not None:
             raise OptionError(
                 f"--schedule: {model.origin or model.name} is a components model; its "
                 "components' modes are scheduled in simulation.modes"
