@@ -247,7 +247,10 @@ def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -
 
 
 def batch_rows_csv(path: Path, rows: Sequence[BatchRow]) -> None:
-    """``summary.csv`` of a batch: one row per log in natural order, raw values."""
+    """``summary.csv`` of a batch: one row per log in natural order, raw values.
+
+    ``folder`` is empty for a failed log, as summary.md's link is ``n/a``: it has no report.
+    """
     header = ("log", "status", *BATCH_METRICS, "gate_failures", "error", "folder")
     write_summary_csv(
         path,
@@ -259,7 +262,7 @@ def batch_rows_csv(path: Path, rows: Sequence[BatchRow]) -> None:
                 *row.metrics(),
                 "; ".join(row.missed) or None,
                 row.error,
-                row.folder,
+                row.folder if row.report is not None else None,  # a failed log has none
             ]
             for row in rows
         ],

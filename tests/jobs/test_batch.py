@@ -201,6 +201,8 @@ def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
     assert summary["log"].to_list() == [str(broken), *logs]
     assert summary["status"].to_list() == ["failed", "done", "done"]
     assert "y2" in summary["error"][0]
+    # a failed log has no report folder: empty, as summary.md's link is n/a
+    assert summary["folder"].to_list() == [None, "run1.csv", "run2.csv"]
     stamp = (out / "run1.csv" / "report.json").stat().st_mtime_ns
     result = run(args, expect=1)
     assert pl.read_csv(out / "summary.csv")["status"].to_list() == ["failed", "skipped", "skipped"]
