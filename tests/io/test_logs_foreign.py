@@ -11,7 +11,6 @@ and ``mcap-ros1-support`` -- and its analysis must equal that of the run's CSV.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -26,29 +25,17 @@ from hybridlog.io.writers import write_table
 from tests.support.logfiles import (
     MAPS,
     OUTPUT_DELAY_NS,
-    Record,
+    SCENE_WRITERS,
     header_scene_records,
     scene,
     tank_run,
-    write_mcap_cdr,
     write_mcap_json,
-    write_mcap_ros1,
-    write_mcap_ros2,
-    write_ros1_bag,
     write_ros2_bag,
 )
 
 SAME = ("samples", "dt", "outputs", "mse", "vaf", "states")
 
-WRITERS: dict[str, tuple[str, Callable[[Path, list[Record]], Path]]] = {
-    "rosbags ROS 2 sqlite3": ("bag_sqlite", lambda p, r: write_ros2_bag(p, r, "sqlite3")),
-    "rosbags ROS 2 mcap": ("bag_mcap", lambda p, r: write_ros2_bag(p, r, "mcap")),
-    "rosbags ROS 1": ("run.bag", write_ros1_bag),
-    "mcap-ros2-support": ("ros2.mcap", write_mcap_ros2),
-    "mcap-ros1-support": ("ros1.mcap", write_mcap_ros1),
-    "mcap JSON": ("json.mcap", write_mcap_json),
-    "mcap CDR, no profile": ("cdr.mcap", write_mcap_cdr),
-}
+WRITERS = SCENE_WRITERS
 
 
 def run_cli(args: list[str]) -> int:

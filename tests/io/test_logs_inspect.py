@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,18 +17,13 @@ from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log
 from hybridlog.io.bag_writers import write_log
 from tests.support.logfiles import (
     MAPS,
+    SCENE_WRITERS,
     Channel,
     Record,
     float64_cdr,
     scene,
     tank_run,
     write_mcap,
-    write_mcap_cdr,
-    write_mcap_json,
-    write_mcap_ros1,
-    write_mcap_ros2,
-    write_ros1_bag,
-    write_ros2_bag,
 )
 
 # --out name and extra simulate options, per format
@@ -253,18 +247,6 @@ def test_table_columns_count_nonfinite_values_apart(suffix: str, tmp_path: Path)
     assert "column  dtype    count  nonfinite  min  max" in text
     assert "non-finite values (NaN, inf; analyze refuses them" in text
     assert "  u: 1 of 8\n  y: 3 of 7" in text
-
-
-# writer of the recorded scene -> (file name, writer): every reader and decoder of messages
-SCENE_WRITERS: dict[str, tuple[str, Callable[[Path, list[Record]], Path]]] = {
-    "rosbags ROS 2 sqlite3": ("bag_sqlite", lambda p, r: write_ros2_bag(p, r, "sqlite3")),
-    "rosbags ROS 2 mcap": ("bag_mcap", lambda p, r: write_ros2_bag(p, r, "mcap")),
-    "rosbags ROS 1": ("run.bag", write_ros1_bag),
-    "mcap-ros2-support": ("ros2.mcap", write_mcap_ros2),
-    "mcap-ros1-support": ("ros1.mcap", write_mcap_ros1),
-    "mcap JSON": ("json.mcap", write_mcap_json),
-    "mcap CDR, no profile": ("cdr.mcap", write_mcap_cdr),
-}
 
 
 def nonfinite_scene() -> list[Record]:

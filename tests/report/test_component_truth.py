@@ -17,45 +17,19 @@ import pytest
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io import ReadOptions
-from hybridlog.io.writers import write_table
 from hybridlog.jobs.analysis import analyze
 from hybridlog.report import read_report
-from tests.support.cpha import CPHA_EXAMPLE, cpha_log
+from tests.support.cpha import TRUTH_STEPS, cpha_truth_log
 from tests.support.paths import SAMPLE_LOGS
 
-N = 180
+N = TRUTH_STEPS
 COMPONENTS = ("A1", "A2", "A3")
-
-
-def _a2(k: int) -> str:
-    return "m22" if 60 <= k < 120 else "m21"
 
 
 @pytest.fixture(scope="module")
 def cpha(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """The model file and a log of it with every component's true mode."""
-    root = tmp_path_factory.mktemp("cpha")
-    model_file = root / "cpha.toml"
-    model_file.write_text(CPHA_EXAMPLE)
-    from hybridlog.model.loader import load_model
-
-    signals = cpha_log(load_model(model_file), N, seed=3, a2=_a2)
-    truth = {
-        "mode.A1": ["m11"] * N,
-        "mode.A2": [_a2(k) for k in range(N)],
-        "mode.A3": ["m31"] * N,
-    }
-    log = write_table(
-        root / "log.csv",
-        {
-            "t": signals.time,
-            "uc1": signals.inputs[:, 0],
-            "yc1": signals.outputs[:, 0],
-            "yc2": signals.outputs[:, 1],
-            **truth,
-        },
-    )
-    return model_file, log
+    return cpha_truth_log(tmp_path_factory.mktemp("cpha"))
 
 
 def _scored_by_hand(out: Path, log: Path, components: tuple[str, ...]) -> dict[str, float]:

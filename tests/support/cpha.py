@@ -111,3 +111,43 @@ def cpha_log(model, n, seed, *, a1=None, a2=None):
         u[:, None].copy(),
         np.array(ys),
     )
+
+
+TRUTH_STEPS = 180
+"""Samples of :func:`cpha_truth_log`."""
+
+
+def _a2_switching(k):
+    """A2's true mode: m22 on steps 60..119, else m21."""
+    return "m22" if 60 <= k < 120 else "m21"
+
+
+def cpha_truth_log(root, *, joint_mode=False):
+    """``CPHA_EXAMPLE`` as a model file and a CSV log of it with every component's true mode.
+
+    A1 in m11, A2 in m22 on steps 60..119 (else m21), A3 in m31, over :data:`TRUTH_STEPS`
+    samples, in columns ``mode.A1``..``mode.A3``; ``joint_mode`` adds the joint labels as a
+    ``mode`` column (``m11|m21|m31``).  Returns ``(model file, log)``.
+    """
+    from hybridlog.io.writers import write_table
+    from hybridlog.model.loader import load_model
+
+    model_file = root / "cpha.toml"
+    model_file.write_text(CPHA_EXAMPLE)
+    n = TRUTH_STEPS
+    signals = cpha_log(load_model(model_file), n, seed=3, a2=_a2_switching)
+    truth = {
+        "mode.A1": ["m11"] * n,
+        "mode.A2": [_a2_switching(k) for k in range(n)],
+        "mode.A3": ["m31"] * n,
+    }
+    if joint_mode:
+        truth["mode"] = ["|".join(labels) for labels in zip(*truth.values(), strict=True)]
+    columns = {
+        "t": signals.time,
+        "uc1": signals.inputs[:, 0],
+        "yc1": signals.outputs[:, 0],
+        "yc2": signals.outputs[:, 1],
+        **truth,
+    }
+    return model_file, write_table(root / "log.csv", columns)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import struct
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -735,3 +735,16 @@ def reliable_qos(depth: int = 10) -> Any:
         liveliness_lease_duration=never,
         avoid_ros_namespace_conventions=False,
     )
+
+
+SCENE_WRITERS: dict[str, tuple[str, Callable[[Path, list[Record]], Path]]] = {
+    "rosbags ROS 2 sqlite3": ("bag_sqlite", lambda p, r: write_ros2_bag(p, r, "sqlite3")),
+    "rosbags ROS 2 mcap": ("bag_mcap", lambda p, r: write_ros2_bag(p, r, "mcap")),
+    "rosbags ROS 1": ("run.bag", write_ros1_bag),
+    "mcap-ros2-support": ("ros2.mcap", write_mcap_ros2),
+    "mcap-ros1-support": ("ros1.mcap", write_mcap_ros1),
+    "mcap JSON": ("json.mcap", write_mcap_json),
+    "mcap CDR, no profile": ("cdr.mcap", write_mcap_cdr),
+}
+"""Each other tool's writer of a recorded scene (its name, file name and writer): every
+message-log reader and decoder hybridlog has."""
