@@ -277,6 +277,12 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
         ('inputs = ["torque"]', 'inputs = ["t"]', r"inputs: 't' is the time \(t\) or step \(k\)"),
         ('inputs = ["torque"]', 'inputs = ["1u"]', r"inputs: '1u' is not a valid symbol name"),
         ('inputs = ["torque"]', 'inputs = ["u u"]', r"inputs: 'u u' is not a valid symbol name"),
+        (
+            'states = ["theta", "omega"]',
+            'states = ["theta", "\ufb01"]',
+            r"states: '\ufb01' is read as 'fi' in expressions \(Unicode NFKC form\); write 'fi'",
+        ),
+        ("l = 1.3", '"\u212b" = 1.3', r"parameters\.\u212b: '\u212b' is read as '\xc5'"),
         ("l = 1.3", "lambda = 1.3", r"parameters\.lambda: 'lambda' is a Python keyword"),
         ("l = 1.3", "exp = 1.3", r"parameters\.exp: 'exp' is a function or constant"),
         ("c = 0.2", "torque = 0.2", r"parameters\.torque: the name is already one of the inputs"),
@@ -286,6 +292,15 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
 def test_names_the_grammar_cannot_use_are_refused_in_their_key(old, new, message):
     with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
         parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+
+
+def test_a_name_the_parser_reads_as_another_is_refused_not_silently_rebound():
+    # Python's parser reads names in NFKC form: with states fi and \ufb01 (a ligature), the
+    # expression "\ufb01" meant the state fi, and the model ran with the wrong equation.
+    text = _replace(PENDULUM_ONE_MODE, 'states = ["theta", "omega"]', 'states = ["fi", "\ufb01"]')
+    text = text.replace("theta", "fi").replace("omega", "\ufb01")
+    with pytest.raises(ModelError, match=r"^plant\.toml: states: '\ufb01' is read as 'fi'"):
+        parse_model(text, origin="plant.toml")
 
 
 @pytest.mark.parametrize(
