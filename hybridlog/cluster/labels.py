@@ -182,10 +182,8 @@ def label_clusters(
         )
         shared = int(np.count_nonzero((chosen == chosen[c]) & (sizes > 0)))
         role = "" if shared == 1 else f" (one of {shared} clusters of that mode)"
-        notes.append(
-            f"cluster {c + 1} ({sizes[c]} samples) -> mode '{mode}'{role}; {what} with it in "
-            f"mode {others}"
-        )
+        alternative = f"; {what} with it in mode {others}" if others else ""
+        notes.append(f"cluster {c + 1} ({sizes[c]} samples) -> mode '{mode}'{role}{alternative}")
     for m in range(n_modes):
         if not np.any((chosen == m) & (sizes > 0)):
             notes.append(f"mode '{mode_ids[m]}' has no cluster: it is never decided")

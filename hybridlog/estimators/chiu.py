@@ -32,6 +32,7 @@ labelled and what happened to surplus clusters.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -192,6 +193,23 @@ def mode_classifier(
     return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))
 
 
+def _refuse_unused_fitting(options: ChiuOptions | KMeansOptions, source: str) -> None:
+    """Refuse a clustering option set beside ``centers``: loaded centres are not refitted.
+
+    ``--set radius=0.3 --set centers=c.json`` ran with the file's centres, fitted with
+    whatever radius ``hybridlog cluster`` was given, and the report recorded radius 0.3.
+    """
+    shared = {f.name for f in dataclasses.fields(ObserverOptions)}
+    for field in dataclasses.fields(options):
+        value = getattr(options, field.name)
+        if field.name not in shared and value != field.default:
+            raise OptionError(
+                f"centers={source}: {field.name}={value} has no effect: the file's centres "
+                f"are used as they are; fit them so with hybridlog cluster, or leave "
+                f"{field.name} unset"
+            )
+
+
 def run_clustering_observer(
     name: str,
     model: HybridModel,
@@ -208,7 +226,8 @@ def run_clustering_observer(
     OptionError
         ``options.centers`` names a file but ``centers`` (its parsed content) is missing:
         the estimator reads no file, the job running it does; or the centres were fitted
-        for another model (their ``model`` key).
+        for another model (their ``model`` key); or a clustering option (``radius``,
+        ``clusters`` ...) is set beside them, which loaded centres would ignore.
     """
     if options.centers and centers is None:
         raise OptionError(
@@ -223,6 +242,8 @@ def run_clustering_observer(
             f"centers={options.centers}: model: the centres were fitted for {fitted}, not "
             f"{model.name!r}; fit them for this model with hybridlog cluster"
         )
+    if centers is not None:
+        _refuse_unused_fitting(options, options.centers or centers.path)
     start = time.perf_counter()
     linear, gains = design_observer(model, options.decay_rate)
     classifier = mode_classifier(model, signals, options, centers=centers, observer=(linear, gains))

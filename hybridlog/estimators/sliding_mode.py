@@ -217,6 +217,42 @@ def sliding_mode_steps(
                     w[i] -= step * scale * gains[i]
 
 
+def _refuse_runaway_error(
+    model: HybridModel, signals: AlignedSignals, means: FloatArray, v_max: float
+) -> None:
+    r"""Refuse a run whose observer error outgrew the measured state: it never slid.
+
+    The observer exists to drive :math:`e = x - z` to zero after every switch (eqs.
+    (14)-(21)), and ``x`` is measured, so its error is known at every sample.  Where
+    :math:`|e_i|` exceeds the largest :math:`|x_i|` of the log the estimate ``z_i`` is
+    further from the state than zero is: the gain is too large for the step (the
+    discretised eq. (20) chatters with an amplitude of about :math:`4 V_M h^2`), or too
+    small to hold the drift (:math:`V_M < \bar\Phi`, eq. (19)), and neither ``z`` nor
+    :math:`\tilde\delta` (30) can be vouched for.
+
+    Raises
+    ------
+    ModelError
+        Naming the model, the state, the time and size of the error, and ``V_M h^2``.
+    """
+    measured = signals.outputs
+    error = np.abs(measured - means)
+    scale = np.abs(measured).max(axis=0, initial=0.0)
+    runaway = error > scale
+    if not runaway.any():
+        return
+    row, column = divmod(int(np.argmax(runaway)), runaway.shape[1])
+    step = model.timebase.step
+    raise ModelError(
+        f"{model.origin or model.name}: sliding-mode diverged at t = {signals.time[row]:g} s "
+        f"(sample {row}): the observer error |x - z| of {model.states[column]} reached "
+        f"{error[row, column]:.3g}, more than the largest |{model.states[column]}| measured "
+        f"({scale[column]:.3g}); V_M = {v_max:.3g}, V_M*h^2 = {v_max * step * step:.3g} at "
+        f"h = {step:g} s (eq. (20) discretised chatters by about 4*V_M*h^2; a V_M too small "
+        "lets e drift): change v_max, or gamma and drift_bound"
+    )
+
+
 def run_sliding_mode(
     model: HybridModel,
     signals: AlignedSignals,
@@ -241,7 +277,9 @@ def run_sliding_mode(
     ------
     ModelError
         The model is not continuous-time and boolean-affine, its state is not measured, it
-        has more booleans than states (eq. (2)), or no gain is set.
+        has more booleans than states (eq. (2)), or no gain is set; or the observer
+        diverged: its state not finite, or its error larger than the measured state
+        (:func:`_refuse_runaway_error`).
     """
     options = options or SlidingModeOptions()
     affine = model.boolean_affine
@@ -300,6 +338,7 @@ def run_sliding_mode(
             f"{model.origin or model.name}: sliding-mode diverged at t = "
             f"{signals.time[row]:g} s (sample {row}): the observer state is not finite"
         )
+    _refuse_runaway_error(model, signals, means, v_max)
     probabilities = np.zeros((n_samples, model.n_modes))
     probabilities[np.arange(n_samples), modes] = 1.0
     singular = int(np.isnan(deltas).any(axis=1).sum())

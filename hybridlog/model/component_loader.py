@@ -46,6 +46,7 @@ from hybridlog.model.components import (
 from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.values import (
     as_label,
+    as_mode_id,
     as_number,
     as_probability,
     as_string,
@@ -192,7 +193,7 @@ def _component(
     modes = []
     for raw_id, mode_spec in modes_table.items():
         mode_key = key_path(f"{key}.modes", raw_id)
-        mode_id = as_label(raw_id, mode_key, "mode id")
+        mode_id = as_mode_id(raw_id, mode_key)
         if mode_id == UNKNOWN:
             raise ModelError(
                 f"{mode_key}: '{UNKNOWN}' is every component's implicit unknown mode "

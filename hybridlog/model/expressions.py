@@ -20,6 +20,7 @@ from __future__ import annotations
 import ast
 import keyword
 import math
+import unicodedata
 from collections.abc import Callable, Mapping
 
 import sympy
@@ -99,10 +100,20 @@ def symbol_name_problem(name: str) -> str | None:
 
     A symbol must be a Python identifier that is not a keyword (``lambda``) and not a name
     the grammar already uses (``sqrt``, ``pi``, ``t``): either would make every expression
-    that uses it fail to parse or mean something else.
+    that uses it fail to parse or mean something else.  It must also be in Unicode NFKC
+    form: the parser reads ``ﬁ`` (a ligature) as ``fi``, so with states ``fi`` and ``ﬁ``
+    an expression naming ``ﬁ`` would silently mean ``fi``.
     """
     if not name.isidentifier():
         return "is not a valid symbol name (letters, digits and _, not starting with a digit)"
+    normal = unicodedata.normalize("NFKC", name)
+    if normal != name:
+        # Python's parser reads every name in NFKC form (PEP 3131), so an expression could
+        # only ever name ``normal``: another symbol of that name, or an unknown one.
+        return (
+            f"is read as {excerpt(normal, 40)} in expressions (Unicode NFKC form); "
+            f"write {excerpt(normal, 40)}"
+        )
     if keyword.iskeyword(name):
         return "is a Python keyword and cannot be a symbol name"
     if name in ("t", "k"):

@@ -54,7 +54,7 @@ from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
 from hybridlog.model.values import (
     as_covariance,
     as_expressions,
-    as_label,
+    as_mode_id,
     as_names,
     as_number,
     as_positive,
@@ -361,7 +361,7 @@ class _Builder:
             raise ModelError("modes: at least one mode is required")
         modes = tuple(
             self.mode(
-                as_label(str(mode_id), key_path("modes", str(mode_id)), "mode id"),
+                as_mode_id(str(mode_id), key_path("modes", str(mode_id))),
                 as_table(spec, key_path("modes", str(mode_id))),
                 symbols,
                 default_q,

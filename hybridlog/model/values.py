@@ -9,6 +9,7 @@ so an error stays one short line whatever the file holds.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -105,6 +106,33 @@ def as_label(value: str, key: str, what: str) -> str:
             "characters, no leading or trailing space, no ',', ':', '*' or '->')"
         )
     return value
+
+
+_DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+"""A number written in decimal or exponent notation, as a log's number cell is."""
+
+
+def as_mode_id(value: str, key: str) -> str:
+    """A mode id (:func:`as_label`) that a log can hold: a number only as logs write it.
+
+    A log's true mode may be a number (a Parquet or message field, a CSV column of numbers),
+    which the readers write back as text the one way (a whole number without ``.0``, else
+    Python's shortest form; :func:`hybridlog.io.message_paths.as_label`).  A mode id such as
+    ``1.0``, ``1e3`` or ``2.50`` would never be found in such a log, and beside mode ``1``
+    the true mode ``1.0`` of a CSV column of numbers was silently read as mode ``1``.
+    """
+    label = as_label(value, key, "mode id")
+    if _DECIMAL.fullmatch(label) and any(c in label for c in ".eE"):
+        number = float(label)
+        if math.isfinite(number):
+            written = str(int(number)) if number.is_integer() else repr(number)
+            if written != label:
+                raise ModelError(
+                    f"{key}: {excerpt(label, 40)} is not a valid mode id: a log holding the "
+                    f"mode as a number reads it as {excerpt(written, 40)} (whole numbers "
+                    f"without '.0'); write {excerpt(written, 40)}"
+                )
+    return label
 
 
 def as_names(value: Any, key: str, *, allow_empty: bool = False) -> tuple[str, ...]:

@@ -83,6 +83,12 @@ def test_labelling_by_score_gives_every_mode_a_cluster():
     big = label_clusters(13, ["a", "b"], lambda labels: float(labels.sum()), np.ones(13, dtype=int))
     assert "coordinate descent" in big.notes[0]
     assert set(big.modes.tolist()) == {0, 1}
+    # one mode: no other mode to compare with (the note ended in 'SSE with it in mode ')
+    single = label_clusters(2, ["only"], lambda labels: 1.0, np.array([3, 2]))
+    assert single.notes[1:] == (
+        "cluster 1 (3 samples) -> mode 'only' (one of 2 clusters of that mode)",
+        "cluster 2 (2 samples) -> mode 'only' (one of 2 clusters of that mode)",
+    )
 
 
 def test_centers_file_round_trip_and_errors(tmp_path):

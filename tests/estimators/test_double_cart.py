@@ -187,6 +187,25 @@ def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
         wrong = parse_centers(centers_json(dict(content, model=other)), missing)
         with pytest.raises(OptionError, match=rf"model: the centres were fitted for {words}"):
             run_chiu(model, signals, options, centers=wrong)
+    # a clustering option beside loaded centres would be ignored (and reported as used)
+    loaded = parse_centers(text, missing)
+    for option, value in (("radius", 0.3), ("method", "exact"), ("self_potential", False)):
+        with pytest.raises(
+            OptionError, match=rf"^centers=.*never_written.json: {option}={value} has no effect"
+        ):
+            run_chiu(
+                model, signals, chiu_options({"centers": missing, option: value}), centers=loaded
+            )
+    kmeans_loaded = parse_centers(text.replace('"chiu"', '"kmeans"'), missing)
+    for option, value in (("clusters", 2), ("restarts", 3), ("seed", 1)):
+        with pytest.raises(OptionError, match=rf"{option}={value} has no effect"):
+            run_kmeans(
+                model,
+                signals,
+                KMeansOptions(centers=missing, **{option: value}),
+                centers=kmeans_loaded,
+            )
+    run_kmeans(model, signals, KMeansOptions(centers=missing), centers=kmeans_loaded)
     assert list(tmp_path.iterdir()) == []
 
 

@@ -1,6 +1,8 @@
 """``sliding-mode`` (paper 003) on the valve three-tank: TEST 1-3 of §V on scenarios other
 than the sample logs' (other seeds, schedules and inflows), and its refusals."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -188,3 +190,25 @@ def test_a_scalar_switch_is_reconstructed_exactly_once_the_observer_slides():
     error = np.abs(column.values - log.modes)[settled]
     assert error.max() < 8 * 0.025 and np.median(error) < 2 * 0.025
     np.testing.assert_array_equal(result.modes[settled], log.modes[settled])
+
+
+@pytest.mark.parametrize("v_max", [1e5, 1e12])
+def test_a_gain_too_large_for_the_step_is_refused_as_diverged(test1, v_max):
+    # V_M = 1e12 at h = 1 ms exited 0 with level estimates of 1e6 m (MSE 1e12): the
+    # discretised eq. (20) chatters by about 4*V_M*h^2, finite but no estimate at all.
+    model, log = test1
+    with pytest.raises(ModelError) as caught:
+        prepare(model, None, {"v_max": v_max}).run(model, log.signals(model))
+    message = str(caught.value)
+    assert message.startswith("valves.toml: sliding-mode diverged at t = ")
+    assert re.search(r"the observer error \|x - z\| of H[123] reached", message)
+    assert f"V_M*h^2 = {v_max * 1e-6:.3g} at h = 0.001 s" in message
+    assert "\n" not in message and len(message) < 400
+
+
+def test_a_gain_that_slides_is_not_refused(test1):
+    model, log = test1
+    for v_max in (1e-12, 0.5, 1e4):  # too small (drifts), the paper's order, coarse chatter
+        result = prepare(model, None, {"v_max": v_max}).run(model, log.signals(model))
+        error = np.abs(result.state_means - log.outputs).max(axis=0)
+        assert np.all(error <= np.abs(log.outputs).max(axis=0))

@@ -1,6 +1,7 @@
 """Model files: the restricted expression grammar and errors that name the key."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -11,8 +12,10 @@ from hypothesis import strategies as st
 from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.estimators.common import noise_stacks
+from hybridlog.io import SignalSpec, load_signals, write_table
 from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
+from hybridlog.simulate import simulate
 from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 X = {"x": sympy.Symbol("x", real=True), "k_p": sympy.Float(2.0)}
@@ -277,6 +280,12 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
         ('inputs = ["torque"]', 'inputs = ["t"]', r"inputs: 't' is the time \(t\) or step \(k\)"),
         ('inputs = ["torque"]', 'inputs = ["1u"]', r"inputs: '1u' is not a valid symbol name"),
         ('inputs = ["torque"]', 'inputs = ["u u"]', r"inputs: 'u u' is not a valid symbol name"),
+        (
+            'states = ["theta", "omega"]',
+            'states = ["theta", "\ufb01"]',
+            r"states: '\ufb01' is read as 'fi' in expressions \(Unicode NFKC form\); write 'fi'",
+        ),
+        ("l = 1.3", '"\u212b" = 1.3', r"parameters\.\u212b: '\u212b' is read as '\xc5'"),
         ("l = 1.3", "lambda = 1.3", r"parameters\.lambda: 'lambda' is a Python keyword"),
         ("l = 1.3", "exp = 1.3", r"parameters\.exp: 'exp' is a function or constant"),
         ("c = 0.2", "torque = 0.2", r"parameters\.torque: the name is already one of the inputs"),
@@ -286,6 +295,15 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
 def test_names_the_grammar_cannot_use_are_refused_in_their_key(old, new, message):
     with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
         parse_model(_replace(PENDULUM_ONE_MODE, old, new), origin="plant.toml")
+
+
+def test_a_name_the_parser_reads_as_another_is_refused_not_silently_rebound():
+    # Python's parser reads names in NFKC form: with states fi and \ufb01 (a ligature), the
+    # expression "\ufb01" meant the state fi, and the model ran with the wrong equation.
+    text = _replace(PENDULUM_ONE_MODE, 'states = ["theta", "omega"]', 'states = ["fi", "\ufb01"]')
+    text = text.replace("theta", "fi").replace("omega", "\ufb01")
+    with pytest.raises(ModelError, match=r"^plant\.toml: states: '\ufb01' is read as 'fi'"):
+        parse_model(text, origin="plant.toml")
 
 
 @pytest.mark.parametrize(
@@ -396,3 +414,30 @@ def test_time_indices_only_where_asked_for():
     ]:
         with pytest.raises(ModelError, match=r"^e: " + message):
             parse_expression(text, Y, key="e", previous=Y_BEFORE)
+
+
+@pytest.mark.parametrize(
+    ("mode_id", "written"), [("1.0", "1"), ("2.", "2"), ("1e3", "1000"), ("2.50", "2.5")]
+)
+def test_a_mode_id_a_log_would_read_as_another_number_is_refused(mode_id, written):
+    # A log's numeric true mode is read back as '1' for 1.0: mode '1.0' beside mode '1' was
+    # silently scored as mode '1', and alone it refused the log simulate had just written.
+    text = _replace(LINEAR_TWO_MODE, "[modes.fast]", f'[modes."{mode_id}"]')
+    text = text.replace("fast", mode_id)
+    with pytest.raises(
+        ModelError,
+        match=rf"^plant\.toml: modes\.'?{re.escape(mode_id)}'?: '{re.escape(mode_id)}' is not a "
+        rf"valid mode id: a log holding the mode as a number reads it as '{written}'",
+    ):
+        parse_model(text, origin="plant.toml")
+
+
+@pytest.mark.parametrize("mode_id", ["2.5", "0.1", "-3", "01", "1e", "v1.0", "nan", "inf"])
+def test_mode_ids_that_read_back_as_themselves_are_kept(tmp_path, mode_id):
+    text = _replace(LINEAR_TWO_MODE, "[modes.fast]", f'[modes."{mode_id}"]')
+    model = parse_model(text.replace("fast", mode_id))
+    assert model.mode_ids == ("slow", mode_id)
+    path = tmp_path / "log.csv"
+    write_table(path, simulate(model, schedule=f"slow:10,{mode_id}:10").columns(model))
+    signals = load_signals(path, SignalSpec.of(model))
+    assert signals.truth_modes is not None and set(signals.truth_modes) == {0, 1}

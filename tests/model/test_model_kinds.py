@@ -580,6 +580,12 @@ _COMPONENT_ERRORS = [
         r"components\.'A,3': 'A,3' is not a valid component name",
     ),
     (
+        "[components.A1.modes.m12]",
+        '[components.A1.modes."12.0"]',
+        r"components\.A1\.modes\.'12\.0': '12\.0' is not a valid mode id: a log holding the "
+        r"mode as a number reads it as '12'",
+    ),
+    (
         "covariance = 1.0",
         'covariance = 1.0\nmode = "m11"',
         r"initial\.mode: a components model gives its initial modes per component",
