@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import errno
 import hashlib
 import json
 import os
@@ -693,6 +694,47 @@ def _prepare_parent(target: Path) -> list[Path]:
     return missing
 
 
+_STORAGE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
+"""What the file system answers a write it cannot take: full, over quota, over the size
+limit (``ulimit -f``), read-only (remounted so)."""
+
+_OS_ERROR = re.compile(r"\(os error (\d+)\)")
+"""How polars (Rust's ``std::io::Error``) names the system's error number in its messages."""
+
+
+def _storage_error(target: PathLike, err: BaseException) -> OutputError | None:
+    """``err`` as the one-line :class:`OutputError` it is, if the file system refused a write.
+
+    A full disk, a quota, a file size limit or a read-only file system met while writing
+    the outputs is the user's condition, not a bug: the error names the output and the
+    system's reason.  Python's writers give the number (``errno``); polars' give it in
+    their text only (``... (os error 28)``), in an ``OSError`` or an error of their own.
+    """
+    number = err.errno if isinstance(err, OSError) else None
+    if number is None and isinstance(err, Exception):
+        found = _OS_ERROR.search(str(err))
+        number = int(found[1]) if found else None
+    if number not in _STORAGE_ERRORS:
+        return None
+    # an output written inside another's temporary folder (compare's per estimator) is
+    # named where it was to go
+    shown = Path(*(_target_name(part) for part in Path(target).parts))
+    return OutputError(f"{_shown(shown)}: cannot be written ({os.strerror(number)})")
+
+
+def _target_name(name: str) -> str:
+    """The name of the output a temporary name of :func:`temporary_name` stands for."""
+    if _TEMPORARY.match(name) is None:
+        return name
+    stem, _, rest = name[1:].rpartition(".hybridlog-")
+    return stem + rest[rest.find(".") :] if "." in rest else stem
+
+
+def _names(err: BaseException, path: Path) -> bool:
+    """Whether ``err`` is an ``OSError`` about ``path``."""
+    return isinstance(err, OSError) and err.filename is not None and Path(err.filename) == path
+
+
 def _remove_created(folders: Sequence[Path]) -> None:
     """Remove folders made for outputs that were never written (deepest first)."""
     for folder in sorted(folders, key=lambda f: len(f.parts), reverse=True):
@@ -858,9 +900,11 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
         except OSError as err:
             raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
         yield area
-    except BaseException:
+    except BaseException as err:
         shutil.rmtree(area, ignore_errors=True)
         _remove_created(created)
+        if (refused := _storage_error(target, err)) is not None:
+            raise refused from err
         raise
     shutil.rmtree(area, ignore_errors=True)
 
@@ -913,9 +957,12 @@ def atomic_files(
             check_file_target(path, force=force, ours=recognise)
         for staged, path in zip(temporaries, paths, strict=True):
             publish_file(staged, path, force=force, ours=recognise, record=recorded(path))
-    except BaseException:
+    except BaseException as err:
         for staged in temporaries:
             with contextlib.suppress(FileNotFoundError):
                 staged.unlink()
         _remove_created(created)
+        named = [p for p, t in zip(paths, temporaries, strict=True) if _names(err, t)]
+        if (refused := _storage_error(named[0] if named else paths[0], err)) is not None:
+            raise refused from err
         raise
