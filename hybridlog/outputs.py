@@ -220,6 +220,7 @@ def write_marker(folder: Path) -> None:
 
 
 _FILES_KEY = "files"
+_IDENTITIES_KEY = "identities"
 
 
 def recorded_files(folder: Path) -> Collection[str] | None:
@@ -242,13 +243,44 @@ def _record_files(folder: Path) -> None:
         record = json.loads(marker.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return
-    record[_FILES_KEY] = sorted(
+    files = sorted(
         Path(parent, name).relative_to(folder).as_posix()
         for parent, _, names in os.walk(folder)
         for name in names
         if Path(parent, name) != marker
     )
+    record[_FILES_KEY] = files
+    identities = {name: _file_identity(folder / name) for name in files}
+    record[_IDENTITIES_KEY] = {
+        name: [identity[key] for key in _COMPARED]
+        for name, identity in identities.items()
+        if identity is not None
+    }
     marker.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
+def _edited_files(folder: Path) -> list[str]:
+    """The files ``folder``'s :data:`MARKER` lists that changed since hybridlog wrote them.
+
+    Compared as :func:`wrote_file` compares a single file (inode, size, modification time):
+    a report.md the user annotated, a table replaced by another file of the same name.  A
+    listed file that is gone is not a change (nothing of the user's is in it), nor is a
+    file of a marker written before identities were recorded (not known).
+    """
+    record = _read_record(folder / MARKER)
+    identities = record.get(_IDENTITIES_KEY) if isinstance(record, dict) else None
+    if not isinstance(identities, dict):
+        return []
+    edited = []
+    for name, recorded in sorted(identities.items()):
+        identity = _file_identity(folder / name)
+        if identity is None:
+            if _present(folder / name):  # a folder or link now stands under its name
+                edited.append(name)
+            continue
+        if recorded != [identity[key] for key in _COMPARED]:
+            edited.append(name)
+    return edited
 
 
 def record_path(target: Path) -> Path:
@@ -481,8 +513,9 @@ def check_dir_target(
     (:func:`is_ours`, or the test ``ours`` of a writer whose folders record it another way),
     and, when it is about to be replaced (``replacing``), only if it holds nothing but what
     hybridlog wrote there (``written``: the files a folder's :data:`MARKER` lists,
-    :func:`recorded_files`): a user's own folder, or a note a user put into a report folder,
-    is never wiped.
+    :func:`recorded_files`) and none of those changed since (a user's notes appended to
+    report.md): a user's own folder, or a note a user put into a report folder, is never
+    wiped.
 
     Raises
     ------
@@ -516,6 +549,13 @@ def check_dir_target(
         )
     if replacing:
         _check_only_ours(path, written(path))
+        if edited := _edited_files(path):
+            more = f" and {len(edited) - 3} more" if len(edited) > 3 else ""
+            raise OutputError(
+                f"output directory {_shown(path)} holds files changed since hybridlog wrote "
+                f"them ({', '.join(excerpt(f, 60) for f in edited[:3])}{more}), which "
+                "replacing it would lose; move them out, or choose another output directory"
+            )
     return path
 
 

@@ -735,3 +735,28 @@ def test_the_system_refusing_a_write_is_an_output_error_naming_where_it_was_to_g
     with pytest.raises(RuntimeError), atomic_output_dir(out):  # any other failure: itself
         raise RuntimeError("No such file or directory (os error 2)")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_force_never_replaces_a_report_folder_whose_files_the_user_edited(tmp_path: Path) -> None:
+    """A user annotates report.md (or puts another table under timeline.csv's name) in a
+    folder hybridlog wrote: ``--force`` refuses to replace it, naming the file (the folder's
+    marker listed names only, and the edit was deleted); a file the user removed is no loss."""
+    log = write_table(tmp_path / "log.csv", tank_run().columns)
+    out = tmp_path / "out"
+    analyze(log, TANK, out_dir=out, estimator="imm")
+    with (out / "report.md").open("a") as notes:
+        notes.write("\nMy notes: the valve stuck at t = 40 s.\n")
+    before = tree(out)
+    with pytest.raises(OutputError, match=r"changed since hybridlog wrote them \('report.md'\)"):
+        analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+    assert tree(out) == before
+    (out / "report.md").unlink()
+    other = tmp_path / "timeline.csv"
+    shutil.copy2(out / "timeline.csv", other)  # same size and time, another file
+    os.replace(other, out / "timeline.csv")
+    with pytest.raises(OutputError, match=r"\('timeline.csv'\)"):
+        analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+    (out / "timeline.csv").unlink()
+    analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # nothing of the user's
+    analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # its own, unchanged
+    assert (out / "report.md").is_file()
