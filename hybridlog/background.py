@@ -161,6 +161,9 @@ _PARENT_ENDS: set[int] = set()
 """This process's ends of its workers' pipes: a worker forked later closes them, or a
 worker would never see the end of another's requests (its copy would keep them open)."""
 
+_ENDING_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals a worker dies of, whatever handler the process it was forked from had."""
+
 _PIPE_BYTES = 1 << 20
 """Capacity asked of the pipes on Linux (``F_SETPIPE_SZ``; 64 KiB by default): a chunk of a
 streamed result (about 7 MB) then crosses in a few writes, not a hundred."""
@@ -185,9 +188,13 @@ class Worker:
     owed a ``ChildProcessError`` naming how it ended.  :meth:`close` (also at exit) closes
     the pipe, on which the child ends, and waits for it; a caller that leaves a stream
     before its end stops the child (:meth:`stop`), which is then gone for later work.  The
-    child ignores ``SIGINT`` (an interrupted command ends it by closing the pipe) and
-    leaves with ``os._exit``: no clean-up of the parent's objects, no second flush of its
-    buffered output.
+    child ignores ``SIGINT`` (an interrupted command ends it by closing the pipe), dies of
+    ``SIGTERM`` and ``SIGHUP`` at once and silently (the console script's handler, which
+    raises them as an exception to unwind the command, would be inherited by the fork: sent
+    to the whole process group, the exception ended the worker's task, or, raised inside a
+    library's callback (numba's cache), was printed on the shared standard error with a
+    traceback while the worker went on), and leaves with ``os._exit``: no clean-up of the
+    parent's objects, no second flush of its buffered output.
     """
 
     def __init__(self, name: str) -> None:
@@ -205,6 +212,8 @@ class Worker:
                 os.close(end)
             try:
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
+                for ending in _ENDING_SIGNALS:  # not the command's handler: die of it
+                    signal.signal(ending, signal.SIG_DFL)
                 _IN_WORKER[0] = True
                 _serve(requests_read, replies_write)
             finally:

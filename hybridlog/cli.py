@@ -1106,15 +1106,43 @@ class _Terminated(SystemExit):
     """``SIGTERM`` (a CI job's timeout, ``kill``) or ``SIGHUP`` (a closed terminal)."""
 
 
-def _terminate(signum: int, frame: object) -> NoReturn:
-    """End on ``SIGTERM`` or ``SIGHUP`` as on an interrupt: unwinding removes what is half-written.
+_ENDING: list[int] = []
+"""The signal the console script's command is ending on, once one came."""
 
-    The default action ends the process at once, leaving the temporary output folder a
-    command was writing beside its target; raised here, the exception runs every ``with``
-    block's clean-up first.  Exit code 128 + the signal's number (143, 129), as a shell
-    reports it.
+
+def _end_on_signal(signum: int, frame: object) -> None:
+    """End on the first ``SIGINT``, ``SIGTERM`` or ``SIGHUP``; let the clean-up finish after it.
+
+    ``SIGINT`` raises ``KeyboardInterrupt`` (click's abort, exit 130); ``SIGTERM`` and
+    ``SIGHUP`` raise :class:`_Terminated`, whose default action would end the process at
+    once, leaving the temporary output folder a command was writing beside its target:
+    raised here, the exception runs every ``with`` block's clean-up first.  Exit code 128 +
+    the signal's number (143, 129), as a shell reports it.
+
+    Every later signal is dropped: the command is already ending.  Raised again, it cut
+    the clean-up short, inside the removal of the temporary folder or the wait for the plots
+    still drawn into it, and left the folder (Ctrl-C twice, or a CI runner's ``SIGTERM``
+    followed by another).  The clean-up is bounded (a worker that does not end is killed,
+    :meth:`hybridlog.background.Worker.close`); ``SIGKILL`` still ends the process at once.
     """
+    if _ENDING:
+        return
+    _ENDING.append(signum)
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
     raise _Terminated(128 + signum)
+
+
+def _handle_ending_signals() -> None:
+    """Install :func:`_end_on_signal` for ``SIGTERM``, ``SIGHUP`` and a ``SIGINT`` not ignored.
+
+    A ``SIGINT`` the caller ignores (``nohup``, a script's background job) stays ignored, as
+    does one whose action was set outside Python (:func:`signal.getsignal` gives None).
+    """
+    for ending in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(ending, _end_on_signal)
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _end_on_signal)
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -1127,8 +1155,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     _PROCESS["one_command"] = argv is None
     if argv is None:
         single_threaded_blas()
-        for ending in (signal.SIGTERM, signal.SIGHUP):
-            signal.signal(ending, _terminate)
+        _handle_ending_signals()
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
     code = 0

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import errno
 import hashlib
 import json
 import os
@@ -219,6 +220,7 @@ def write_marker(folder: Path) -> None:
 
 
 _FILES_KEY = "files"
+_IDENTITIES_KEY = "identities"
 
 
 def recorded_files(folder: Path) -> Collection[str] | None:
@@ -241,13 +243,44 @@ def _record_files(folder: Path) -> None:
         record = json.loads(marker.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return
-    record[_FILES_KEY] = sorted(
+    files = sorted(
         Path(parent, name).relative_to(folder).as_posix()
         for parent, _, names in os.walk(folder)
         for name in names
         if Path(parent, name) != marker
     )
+    record[_FILES_KEY] = files
+    identities = {name: _file_identity(folder / name) for name in files}
+    record[_IDENTITIES_KEY] = {
+        name: [identity[key] for key in _COMPARED]
+        for name, identity in identities.items()
+        if identity is not None
+    }
     marker.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+
+
+def _edited_files(folder: Path) -> list[str]:
+    """The files ``folder``'s :data:`MARKER` lists that changed since hybridlog wrote them.
+
+    Compared as :func:`wrote_file` compares a single file (inode, size, modification time):
+    a report.md the user annotated, a table replaced by another file of the same name.  A
+    listed file that is gone is not a change (nothing of the user's is in it), nor is a
+    file of a marker written before identities were recorded (not known).
+    """
+    record = _read_record(folder / MARKER)
+    identities = record.get(_IDENTITIES_KEY) if isinstance(record, dict) else None
+    if not isinstance(identities, dict):
+        return []
+    edited = []
+    for name, recorded in sorted(identities.items()):
+        identity = _file_identity(folder / name)
+        if identity is None:
+            if _present(folder / name):  # a folder or link now stands under its name
+                edited.append(name)
+            continue
+        if recorded != [identity[key] for key in _COMPARED]:
+            edited.append(name)
+    return edited
 
 
 def record_path(target: Path) -> Path:
@@ -480,8 +513,9 @@ def check_dir_target(
     (:func:`is_ours`, or the test ``ours`` of a writer whose folders record it another way),
     and, when it is about to be replaced (``replacing``), only if it holds nothing but what
     hybridlog wrote there (``written``: the files a folder's :data:`MARKER` lists,
-    :func:`recorded_files`): a user's own folder, or a note a user put into a report folder,
-    is never wiped.
+    :func:`recorded_files`) and none of those changed since (a user's notes appended to
+    report.md): a user's own folder, or a note a user put into a report folder, is never
+    wiped.
 
     Raises
     ------
@@ -515,6 +549,13 @@ def check_dir_target(
         )
     if replacing:
         _check_only_ours(path, written(path))
+        if edited := _edited_files(path):
+            more = f" and {len(edited) - 3} more" if len(edited) > 3 else ""
+            raise OutputError(
+                f"output directory {_shown(path)} holds files changed since hybridlog wrote "
+                f"them ({', '.join(excerpt(f, 60) for f in edited[:3])}{more}), which "
+                "replacing it would lose; move them out, or choose another output directory"
+            )
     return path
 
 
@@ -693,6 +734,47 @@ def _prepare_parent(target: Path) -> list[Path]:
     return missing
 
 
+_STORAGE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS})
+"""What the file system answers a write it cannot take: full, over quota, over the size
+limit (``ulimit -f``), read-only (remounted so)."""
+
+_OS_ERROR = re.compile(r"\(os error (\d+)\)")
+"""How polars (Rust's ``std::io::Error``) names the system's error number in its messages."""
+
+
+def _storage_error(target: PathLike, err: BaseException) -> OutputError | None:
+    """``err`` as the one-line :class:`OutputError` it is, if the file system refused a write.
+
+    A full disk, a quota, a file size limit or a read-only file system met while writing
+    the outputs is the user's condition, not a bug: the error names the output and the
+    system's reason.  Python's writers give the number (``errno``); polars' give it in
+    their text only (``... (os error 28)``), in an ``OSError`` or an error of their own.
+    """
+    number = err.errno if isinstance(err, OSError) else None
+    if number is None and isinstance(err, Exception):
+        found = _OS_ERROR.search(str(err))
+        number = int(found[1]) if found else None
+    if number not in _STORAGE_ERRORS:
+        return None
+    # an output written inside another's temporary folder (compare's per estimator) is
+    # named where it was to go
+    shown = Path(*(_target_name(part) for part in Path(target).parts))
+    return OutputError(f"{_shown(shown)}: cannot be written ({os.strerror(number)})")
+
+
+def _target_name(name: str) -> str:
+    """The name of the output a temporary name of :func:`temporary_name` stands for."""
+    if _TEMPORARY.match(name) is None:
+        return name
+    stem, _, rest = name[1:].rpartition(".hybridlog-")
+    return stem + rest[rest.find(".") :] if "." in rest else stem
+
+
+def _names(err: BaseException, path: Path) -> bool:
+    """Whether ``err`` is an ``OSError`` about ``path``."""
+    return isinstance(err, OSError) and err.filename is not None and Path(err.filename) == path
+
+
 def _remove_created(folders: Sequence[Path]) -> None:
     """Remove folders made for outputs that were never written (deepest first)."""
     for folder in sorted(folders, key=lambda f: len(f.parts), reverse=True):
@@ -858,9 +940,11 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
         except OSError as err:
             raise OutputError(f"{_shown(target)}: cannot be written ({err.strerror})") from err
         yield area
-    except BaseException:
+    except BaseException as err:
         shutil.rmtree(area, ignore_errors=True)
         _remove_created(created)
+        if (refused := _storage_error(target, err)) is not None:
+            raise refused from err
         raise
     shutil.rmtree(area, ignore_errors=True)
 
@@ -913,9 +997,12 @@ def atomic_files(
             check_file_target(path, force=force, ours=recognise)
         for staged, path in zip(temporaries, paths, strict=True):
             publish_file(staged, path, force=force, ours=recognise, record=recorded(path))
-    except BaseException:
+    except BaseException as err:
         for staged in temporaries:
             with contextlib.suppress(FileNotFoundError):
                 staged.unlink()
         _remove_created(created)
+        named = [p for p, t in zip(paths, temporaries, strict=True) if _names(err, t)]
+        if (refused := _storage_error(named[0] if named else paths[0], err)) is not None:
+            raise refused from err
         raise

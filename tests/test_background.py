@@ -302,3 +302,41 @@ def test_a_forked_child_ends_soon_after_its_worker_is_killed(
     while _process_state(child) not in (None, "Z") and time.monotonic() < deadline:
         time.sleep(0.05)
     assert _process_state(child) in (None, "Z")  # it finished its work, found no reader, ended
+
+
+class _Ended(SystemExit):
+    """What the console script's handler raises on ``SIGTERM`` (``hybridlog.cli``)."""
+
+
+def _raise_ended(signum: int, frame: object) -> None:
+    raise _Ended(128 + signum)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
+def test_a_worker_dies_of_sigterm_and_sighup_whatever_its_parents_handler(
+    signum: signal.Signals,
+) -> None:
+    """A command's SIGTERM (or SIGHUP) to its process group reaches its workers too: each
+    dies of it, silently, instead of raising the handler the command installed before the
+    fork (an exception that ended the task, or, in a library's callback, was printed with
+    a traceback while the worker went on)."""
+    previous = signal.signal(signum, _raise_ended)
+    try:
+        started = Worker("test")
+    finally:
+        signal.signal(signum, previous)
+    try:
+        task = started.submit(_signal_self, int(signum))
+        with pytest.raises(ChildProcessError, match=f"killed by signal {signum.name}"):
+            task.result()
+    finally:
+        started.close()
+
+
+def _signal_self(signum: int) -> str:
+    try:
+        os.kill(os.getpid(), signum)
+        time.sleep(5)
+    except BaseException as err:  # what the command's handler, inherited, would raise
+        return f"went on after {type(err).__name__}"
+    return "went on"

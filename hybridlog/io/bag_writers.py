@@ -282,9 +282,11 @@ def bag_files(folder: Path) -> Collection[str] | None:
 
 def _written(target: Path, write: Callable[[], None]) -> None:
     """Run ``write``, turning what the writers raise on a failed write into ``OutputError``."""
+    import sqlite3  # a ROS 2 bag's storage: "database or disk is full"
+
     try:
         write()
-    except (OSError, ValueError) as err:
+    except (OSError, ValueError, sqlite3.Error) as err:
         raise OutputError(f"{target}: cannot be written ({err})") from err
     except Exception as err:  # the bag writers raise their own WriterError classes
         if type(err).__name__ != "WriterError":

@@ -9,9 +9,13 @@ These run it in a child process, with stdout and stderr on pipes and
 from __future__ import annotations
 
 import os
+import shutil
+import signal
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -141,3 +145,51 @@ def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path, how: str) 
     while _left_running(str(out)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not _left_running(str(out))
+
+
+@pytest.fixture
+def ending_signals() -> Iterator[None]:
+    """The console script's handlers of SIGINT, SIGTERM and SIGHUP, in this process."""
+    from hybridlog import cli
+
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    cli._ENDING.clear()
+    cli._handle_ending_signals()
+    try:
+        yield
+    finally:
+        cli._ENDING.clear()
+        for signum, handler in saved.items():
+            signal.signal(signum, handler)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ending_signals: None, signum: int
+) -> None:
+    """Ctrl-C twice, or SIGTERM then another (a CI runner, a user's second ``kill``): the
+    second arrives while the first one's unwinding removes the half-written folder.  It is
+    dropped: the folder is removed all the same and the command ends on the first (it was
+    raised inside the removal, and left the folder)."""
+    from hybridlog import cli, outputs
+
+    real_rmtree = shutil.rmtree
+
+    def rmtree_interrupted(path: Any, *args: Any, **kwargs: Any) -> None:
+        signal.raise_signal(signum)  # the second signal, in the clean-up
+        real_rmtree(path, *args, **kwargs)
+
+    monkeypatch.setattr(outputs.shutil, "rmtree", rmtree_interrupted)
+    expected = KeyboardInterrupt if signum == signal.SIGINT else cli._Terminated
+    with pytest.raises(expected), outputs.atomic_output_dir(tmp_path / "out") as folder:
+        (folder / "report.json").write_text("{}")
+        signal.raise_signal(signum)  # the first
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_ignored_sigint_stays_ignored(ending_signals: None) -> None:
+    from hybridlog import cli
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    cli._handle_ending_signals()
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN

@@ -8,13 +8,16 @@ that not one byte of it changed and that nothing was left behind.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import hashlib
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -671,3 +674,89 @@ def test_a_batch_folder_name_too_long_for_its_temporaries_is_refused_at_once(
     with pytest.raises(OutputError, match="is too long"):
         run_batch([log], TANK, out_dir=out, estimator="imm")
     assert sorted(p.name for p in tmp_path.iterdir()) == [".log.csv.hybridlog", "log.csv"]
+
+
+@contextlib.contextmanager
+def _file_size_limit(limit: int) -> Iterator[None]:
+    """``ulimit -f``: a write past ``limit`` bytes fails with EFBIG (Python ignores SIGXFSZ)."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+
+
+def test_a_write_the_file_system_refuses_is_one_line_naming_the_output(tmp_path: Path) -> None:
+    """A full disk, a quota, ``ulimit -f`` or a read-only remount met while writing: an
+    ``OutputError`` naming the output and the system's reason, nothing left behind and the
+    previous outputs untouched (it was an 'unexpected OSError ... (a bug ...)', from
+    polars' table sink, report.json, the plots' worker, or a ROS 2 bag's sqlite3)."""
+    log = write_table(tmp_path / "log.csv", tank_run(steps=3000).columns)
+    before = tree(tmp_path)
+    with _file_size_limit(64 * 1024):
+        for run in (
+            lambda: analyze(log, TANK, out_dir=tmp_path / "a", estimator="imm"),
+            lambda: compare(log, TANK, ["imm", "hstf"], out_dir=tmp_path / "c"),
+            lambda: write_log(tmp_path / "bag", tank_run(steps=3000).columns,
+                              format="ros2-sqlite3"),
+        ):  # fmt: skip
+            with pytest.raises(OutputError, match=r"(/a|/c/\w+|/bag): cannot be written \("):
+                run()
+    assert tree(tmp_path) == before
+
+
+@pytest.mark.parametrize(
+    "error",
+    [
+        OSError(errno.ENOSPC, "No space left on device"),
+        OSError("No space left on device (os error 28)"),  # polars' sinks
+        RuntimeError("parquet: underlying IO error: Disk quota exceeded (os error 122)"),
+    ],
+)
+def test_the_system_refusing_a_write_is_an_output_error_naming_where_it_was_to_go(
+    tmp_path: Path, error: Exception
+) -> None:
+    out = tmp_path / "c"
+    inner = rf"^{out / 'imm'}: cannot be written \("
+    with (
+        pytest.raises(OutputError, match=inner) as refused,
+        atomic_output_dir(out) as folder,
+        atomic_output_dir(folder / "imm"),
+    ):
+        raise error
+    assert refused.value.__cause__ is error
+    picture = rf"^{tmp_path / 'x.png'}: cannot be written"
+    with (
+        pytest.raises(OutputError, match=picture),
+        atomic_files([tmp_path / "x.json", tmp_path / "x.png"]) as (_, staged),
+    ):
+        raise OSError(errno.EROFS, "Read-only file system", str(staged))
+    with pytest.raises(RuntimeError), atomic_output_dir(out):  # any other failure: itself
+        raise RuntimeError("No such file or directory (os error 2)")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_force_never_replaces_a_report_folder_whose_files_the_user_edited(tmp_path: Path) -> None:
+    """A user annotates report.md (or puts another table under timeline.csv's name) in a
+    folder hybridlog wrote: ``--force`` refuses to replace it, naming the file (the folder's
+    marker listed names only, and the edit was deleted); a file the user removed is no loss."""
+    log = write_table(tmp_path / "log.csv", tank_run().columns)
+    out = tmp_path / "out"
+    analyze(log, TANK, out_dir=out, estimator="imm")
+    with (out / "report.md").open("a") as notes:
+        notes.write("\nMy notes: the valve stuck at t = 40 s.\n")
+    before = tree(out)
+    with pytest.raises(OutputError, match=r"changed since hybridlog wrote them \('report.md'\)"):
+        analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+    assert tree(out) == before
+    (out / "report.md").unlink()
+    other = tmp_path / "timeline.csv"
+    shutil.copy2(out / "timeline.csv", other)  # same size and time, another file
+    os.replace(other, out / "timeline.csv")
+    with pytest.raises(OutputError, match=r"\('timeline.csv'\)"):
+        analyze(log, TANK, out_dir=out, estimator="imm", force=True)
+    (out / "timeline.csv").unlink()
+    analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # nothing of the user's
+    analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # its own, unchanged
+    assert (out / "report.md").is_file()

@@ -457,11 +457,16 @@ def test_force_replaces_an_existing_dir(tmp_path: Path) -> None:
     out = tmp_path / "out"
     result, signals = make_run(n=20)
     write_report(out, result, signals, log="l", model_name="m", dt=DT)
-    (out / "report.md").write_text("edited")  # a file hybridlog wrote, changed: replaced
+    (out / "report.md").unlink()  # a file hybridlog wrote, gone: nothing of the user's lost
     write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
-    assert (out / "report.md").read_text() != "edited"
-    assert (out / "report.json").is_file()
+    assert (out / "report.md").is_file() and (out / "report.json").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    # a file hybridlog wrote there and the user edited is the user's: never replaced
+    (out / "report.md").write_text("edited")
+    with pytest.raises(OutputError, match=r"changed since hybridlog wrote them \('report.md'\)"):
+        write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
+    assert (out / "report.md").read_text() == "edited"
+    (out / "report.md").unlink()
     # a file hybridlog did not write there is never deleted with the folder
     (out / "old.txt").write_text("old")
     with pytest.raises(OutputError, match=r"holds files hybridlog did not write \('old.txt'\)"):
@@ -486,7 +491,6 @@ def test_failure_while_writing_leaves_nothing_behind(
     result, signals = make_run(n=20)
     if existing:  # an earlier report (--force replaces only what hybridlog wrote)
         write_report(out, result, signals, log="l", model_name="m", dt=DT)
-        (out / "report.md").write_text("mine")
         before = snapshot(out)
 
     def broken(*args: object) -> list[Path]:
