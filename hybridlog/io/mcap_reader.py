@@ -6,8 +6,8 @@ whose recorder was killed or that was cut off, and validates the summary and dat
 CRCs when the writer stored them (the libraries' readers check chunk CRCs at most, and only
 when asked).
 
-``ros2``-profile files whose summary repeats every channel and schema and indexes every
-chunk's messages -- what rosbag2 writes -- are then read by rosbags
+``ros2``-profile files of chunks whose summary repeats every channel and schema and indexes
+every chunk's messages -- what rosbag2 writes -- are then read by rosbags
 (:mod:`.rosbag_reader`), which is faster; :func:`rosbags_summary_problem` says when a file is
 not like that (rosbags then lists no topics or reads no messages).  :class:`McapSource` reads
 everything else with the ``mcap`` library -- ROS 2 CDR, ROS 1 and JSON messages with any
@@ -181,13 +181,23 @@ _ROSBAGS_SCHEMAS = frozenset({"ros2msg", "ros2idl", "omgidl", ""})
 """Schema encodings rosbags' MCAP storage reader takes (any other refuses the whole file)."""
 
 
-def rosbags_summary_problem(path: Path) -> str | None:
+def rosbags_summary_problem(path: Path, *, storage: bool = False) -> str | None:
     """Why rosbags' MCAP reader would misread this finished ``ros2`` file, or ``None``.
 
     rosbags seeks with the summary only: it needs the channels and schemas repeated there
     and, for chunked files, message indexes (without them it reads no message of a chunk);
-    and it refuses a whole file for one channel of another encoding (a JSON or protobuf
-    topic beside the CDR ones), which the ``mcap`` reader reads topic by topic.
+    it refuses a whole file for one channel of another encoding (a JSON or protobuf
+    topic beside the CDR ones), which the ``mcap`` reader reads topic by topic; and it reads
+    a file without chunks in file order, refusing it part way through at the first message
+    logged before the one ahead of it (the MCAP specification allows any order), which the
+    ``mcap`` reader's messages are put in log-time order after.
+
+    Parameters
+    ----------
+    storage:
+        ``path`` is a storage file of a bag folder, which only rosbags reads: a file without
+        chunks is left to it (one out of log-time order is then refused naming the file,
+        :meth:`~hybridlog.io.rosbag_reader.BagSource._damaged`).
     """
     from mcap.reader import SeekingReader
 
@@ -201,6 +211,8 @@ def rosbags_summary_problem(path: Path) -> str | None:
         return problem
     if any(not c.message_index_offsets for c in summary.chunk_indexes):
         return "its chunks have no message indexes"
+    if not summary.chunk_indexes and not storage:
+        return "its messages are not in chunks, which rosbags reads only in log-time order"
     foreign = sorted(
         {s.encoding for s in summary.schemas.values() if s.encoding not in _ROSBAGS_SCHEMAS}
         | {c.message_encoding for c in summary.channels.values() if c.message_encoding != "cdr"}

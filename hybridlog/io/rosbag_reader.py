@@ -156,7 +156,9 @@ class BagSource(MessageSource):
                 raise UnfinishedLogError(
                     f"{self.path}: {finding}{hint}", file=file, finding=finding, readable=readable
                 )
-            problem = rosbags_summary_problem(file) if layout.profile == "ros2" else None
+            problem = (
+                rosbags_summary_problem(file, storage=True) if layout.profile == "ros2" else None
+            )
             if problem is not None:
                 raise LogError(
                     f"{self.path}: rosbags' bag reader cannot index its MCAP storage file "
@@ -345,6 +347,17 @@ class BagSource(MessageSource):
         text = excerpt(first_line(err)).strip("'")
         if "checksum" in text.lower() or "crc" in text.lower():
             return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({text})")
+        if self._directory and "not in timestamp order" in text:
+            # A storage file without chunks, its messages in another order than log time
+            # (which MCAP allows): rosbags reads such a file only in order; the mcap
+            # reader takes it as a file of its own.
+            files = sorted(self._file.glob("*.mcap"))
+            file = str(files[0]) if len(files) == 1 else "its .mcap files one by one"
+            return LogError(
+                f"{self.path}: an MCAP storage file of this bag has no chunks and its messages "
+                f"are not in log-time order, which rosbags' bag reader cannot read; "
+                f"analyse {file}"
+            )
         return LogError(f"{self.path}: damaged {self._format} file ({text})")
 
     def _recover_hint(self, topic: str, found: int) -> str:

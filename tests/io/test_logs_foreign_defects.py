@@ -420,3 +420,37 @@ def test_a_json_key_given_twice_is_refused_not_the_last_one_taken(tmp_path: Path
         writer.finish()
     with pytest.raises(LogError, match=r"t=0 s cannot be decoded \(the key 'data' is given twice"):
         load(log, "/y.data")
+
+
+# ------------------------------------------------------------------ messages out of order
+
+
+@pytest.mark.parametrize("chunked", [True, False])
+def test_an_mcap_written_newest_first_is_read_in_log_time_order(
+    chunked: bool, tmp_path: Path
+) -> None:
+    # MCAP allows messages in any order; without chunks there is no index to sort them by,
+    # and rosbags (which read ros2-profile files) refused such a file as damaged part way
+    # through, after inspect had counted the messages read so far.
+    log = write_streams_mcap(
+        tmp_path / "late.mcap", good_streams(), newest_first=True, use_chunking=chunked
+    )
+    check_good_topics(log)
+    info = inspect_log(log)
+    assert [(t["name"], t["count"]) for t in info["topics"]] == [("/u", 30), ("/y", 30)]
+    assert info["problems"] == []
+
+
+def test_a_bag_whose_unchunked_storage_is_out_of_order_names_the_file_to_read(
+    tmp_path: Path,
+) -> None:
+    bag = write_streams_bag(tmp_path / "late", good_streams(), storage="mcap")
+    storage = bag / "late.mcap"
+    write_streams_mcap(storage, good_streams(), newest_first=True, use_chunking=False)
+    with pytest.raises(LogError) as error:
+        load(bag)
+    assert str(error.value) == (
+        f"{bag}: an MCAP storage file of this bag has no chunks and its messages are not in "
+        f"log-time order, which rosbags' bag reader cannot read; analyse {storage}"
+    )
+    check_good_topics(storage)  # the remedy works
