@@ -139,14 +139,12 @@ def check_log_target(
     ------
     OptionError
         For an unknown format or encoding, an encoding given for a format without one, or a
-        table log whose suffix is not its format's.
+        log file named otherwise than its format (:func:`_check_file_name`).
     OutputError
         When the target is, contains or sits inside an input; exists without ``force``; is
         a folder where a file is written (or the reverse); or is a folder hybridlog did not
         write (see :mod:`hybridlog.outputs`).
     """
-    from hybridlog.io.writers import TABLE_FORMATS
-
     chosen = log_format(path, format)
     if encoding not in MCAP_ENCODINGS:
         raise OptionError(
@@ -154,16 +152,38 @@ def check_log_target(
         )
     if encoding != "cdr" and chosen != "mcap":
         raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
-    if chosen in ("csv", "parquet"):
-        suffix = Path(path).suffix.lower()
-        if f".{chosen}" != suffix or suffix not in TABLE_FORMATS:
-            raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
+    if not chosen.startswith("ros2-"):
+        _check_file_name(path, chosen)
     check_apart([("--out", path)], inputs)
     if chosen.startswith("ros2-"):
         check_dir_target(path, force=force, ours=written_by_hybridlog, written=bag_files)
     else:
         check_file_target(path, force=force)
     return chosen
+
+
+#: The row of :data:`hybridlog.io.formats.FORMATS` that reads each file format written.
+_READ_AS = {"csv": "csv", "parquet": "parquet", "mcap": "mcap", "bag": "ros1-bag"}
+
+
+def _check_file_name(path: PathLike, chosen: str) -> None:
+    """Refuse a log file named so that hybridlog would not read it as what it holds.
+
+    Its suffix must not be another format's (``--format bag --out run.mcap`` made a bag that
+    reading then refused, as rosbags reads bags by their names), and a format told by its
+    name -- ROS 1 bags, and CSV and Parquet files, whose writer picks the table format by
+    the suffix -- must have its own.  An MCAP file is known by its content and may have any
+    other name.
+    """
+    from hybridlog.io.formats import FORMATS, get_format
+
+    row = get_format(_READ_AS[chosen])
+    suffix = Path(path).suffix.lower()
+    named = next((f for f in FORMATS if not f.directory and suffix in f.suffixes), None)
+    if named is row or (named is None and chosen == "mcap"):
+        return
+    other = f", not *{suffix} (the suffix of {named.what})" if named is not None else ""
+    raise OptionError(f"{path}: {row.what} must be named *{row.suffixes[0]}{other}")
 
 
 def write_log(

@@ -505,6 +505,11 @@ def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> 
     [
         ("run.txt", {}, OptionError, "cannot tell the log format"),
         ("run.parquet", {"format": "csv"}, OptionError, "must be named *.csv"),
+        # a bag named otherwise is one reading refuses; another format's suffix misleads
+        ("run.mcap", {"format": "bag"}, OptionError, "bag must be named *.bag, not *.mcap"),
+        ("run", {"format": "bag"}, OptionError, "a ROS 1 bag must be named *.bag"),
+        ("run.bag", {"format": "mcap"}, OptionError, "must be named *.mcap, not *.bag"),
+        ("run.db3", {"format": "mcap"}, OptionError, "not *.db3 (the suffix of a ROS 2"),
         ("run.csv", {"encoding": "json"}, OptionError, "only MCAP files"),
         ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
         ("exists.mcap", {}, OutputError, "already exists"),
@@ -519,6 +524,31 @@ def test_simulate_outputs_are_checked_up_front(
         check_log_target(tmp_path / target, **options)  # type: ignore[arg-type]
     assert words in str(info.value)
     assert [p.name for p in tmp_path.iterdir()] == ["exists.mcap"]
+
+
+@pytest.mark.parametrize(
+    ("name", "format", "read_as"),
+    [
+        ("run.bag", "bag", "ros1-bag"),
+        ("run.BAG", "bag", "ros1-bag"),
+        ("run.mcap", "mcap", "mcap"),
+        ("run", "mcap", "mcap"),
+        ("run.log", "mcap", "mcap"),
+        ("run.csv", "csv", "csv"),
+        ("run.parquet", "parquet", "parquet"),
+    ],
+)
+def test_every_log_name_simulate_takes_is_read_back_as_its_format(
+    tmp_path: Path, name: str, format: str, read_as: str
+) -> None:
+    import numpy as np
+
+    from hybridlog.io.formats import log_format
+
+    log = tmp_path / name
+    columns = {"t": np.arange(3.0), "u": np.ones(3)}
+    write_log(log, columns, format=format)
+    assert log_format(log).name == read_as
 
 
 def test_simulate_checks_before_simulating(
