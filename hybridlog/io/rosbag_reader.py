@@ -272,7 +272,13 @@ class BagSource(MessageSource):
             topic.problem = str(err)
             return
         if encoding:
-            problem = digest_problem(store, topic.msgtype, connection.digest, ros1=self._ros1)
+            problem = digest_problem(
+                store,
+                topic.msgtype,
+                connection.digest,
+                ros1=self._ros1,
+                stored=bool(definition.data.strip()),
+            )
             if problem is not None:
                 topic.problem = problem
                 return

@@ -37,6 +37,7 @@ from tests.support.logfiles import (
     msgdef,
     reliable_qos,
     rosout_stream,
+    write_msg_dir,
     write_streams_bag,
     write_streams_mcap,
 )
@@ -454,3 +455,21 @@ def test_a_bag_whose_unchunked_storage_is_out_of_order_names_the_file_to_read(
         f"log-time order, which rosbags' bag reader cannot read; analyse {storage}"
     )
     check_good_topics(storage)  # the remedy works
+
+
+def test_a_msg_dir_definition_that_does_not_fit_the_type_hash_is_named_as_such(
+    tmp_path: Path,
+) -> None:
+    # A bag storing the type hash but no definition text: the definition comes from --msg-dir,
+    # so the error must point there, not at a "stored" definition the log does not have.
+    log = write_streams_bag(tmp_path / "talker", [*good_streams(), rosout_stream("")])
+    assert set(load(log, "/rosout.level").outputs[:, 0]) == {20.0}  # the standard type fits
+    msg_dir = write_msg_dir(tmp_path / "msgs", "rcl_interfaces", "Log", PLACEHOLDER)
+    options = ReadOptions(maps=("u=/u.data", "y=/rosout.level"), msg_dirs=(str(msg_dir),))
+    with pytest.raises(LogError) as error:
+        load_signals(
+            log, SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0), options
+        )
+    message = str(error.value)
+    assert "the log stores no message definition, and the one from --msg-dir" in message
+    assert "stored message definition" not in message
