@@ -119,6 +119,7 @@ def parse_schedule(
     for part in text.split(","):
         part = part.strip()
         mode, sep, count = part.rpartition(":")
+        mode = mode.strip()  # "1 : 100, 2 : 50" as written in a model file
         if not sep or not mode:
             raise error(f"{where}: '{part}' is not MODE:STEPS")
         if mode not in mode_ids:

@@ -52,6 +52,8 @@ def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
     with pytest.raises(OptionError, match=r"^--schedule: 'ten' in '1:ten' is not a whole number$"):
         simulate(model, schedule="1:ten")
     assert simulate(model, schedule="2:4").modes.tolist() == [1] * 5
+    # spaces around the colon as around the commas (the mode '1 ' was unknown)
+    assert simulate(model, schedule=" 1 : 2 , 2 :1 ").modes.tolist() == [0, 0, 0, 1]
     # given empty (a script's unset variable), never taken for the model's own schedule
     with pytest.raises(OptionError, match=r"^--schedule: '' is not MODE:STEPS$"):
         simulate(model, schedule="")
