@@ -184,12 +184,35 @@ def test_the_same_seed_gives_the_same_run(model, short_run):
 def test_settings_and_steps_are_checked(model):
     with pytest.raises(OptionError, match=r"^--set nope: not a scenario parameter of bioplex_pgc"):
         simulate_components(model, steps=5, settings={"nope": 1.0})
-    with pytest.raises(OptionError, match=r"^--set light_fault: light_fault = 1\.5 is used as a"):
+    at = r"bioplex_pgc: simulation\.modes\.ls: "
+    with pytest.raises(OptionError, match=rf"^--set light_fault: {at}light_fault = 1\.5 is used"):
         simulate_components(model, steps=5, settings={"light_fault": 1.5})
-    with pytest.raises(ModelError, match=r"simulation\.modes\.ls: the steps must increase"):
-        simulate_components(model, steps=5, settings={"light_fault": 20, "light_repair": 10})
-    with pytest.raises(ModelError, match=r"simulation\.unmodelled\[0\]: end \(5\) must come"):
-        simulate_components(model, steps=5, settings={"drift_end": 5, "drift_start": 5})
+    # steps out of order because of a --set: the error names it and the model file, and
+    # gives each step with the parameter that set it (it named neither option nor file)
+    with pytest.raises(OptionError) as error:
+        simulate_components(model, steps=5, settings={"light_fault": 2000})
+    assert str(error.value) == (
+        "--set light_fault: bioplex_pgc: simulation.modes.ls: the steps must increase "
+        "(light_fault = 2000 then light_repair = 1300)"
+    )
+    with pytest.raises(OptionError, match=r"\(light_fault = 1e\+300 then light_repair = 1300\)$"):
+        simulate_components(model, steps=5, settings={"light_fault": 1e300})  # not 301 digits
+    with pytest.raises(OptionError) as error:
+        simulate_components(model, steps=5, settings={"drift_start": 1200})
+    assert str(error.value) == (
+        "--set drift_start: bioplex_pgc: simulation.unmodelled[0]: end (drift_end = 1100) "
+        "must come after start (drift_start = 1200)"
+    )
+
+
+def test_steps_out_of_order_in_the_model_file_name_it(tmp_path):
+    path = tmp_path / "plant.toml"
+    path.write_text(_replace("full@light_repair", "full@800"))
+    with pytest.raises(ModelError) as error:
+        simulate_components(load_model(path), steps=5)
+    assert str(error.value) == (
+        f"{path}: simulation.modes.ls: the steps must increase (light_fault = 900 then 800)"
+    )
 
 
 def _replace(old, new):
