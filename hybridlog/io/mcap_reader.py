@@ -209,7 +209,12 @@ def rosbags_summary_problem(path: Path, *, storage: bool = False) -> str | None:
     problem = summary_problem(summary)
     if summary is None or problem is not None:
         return problem
-    if any(not c.message_index_offsets for c in summary.chunk_indexes):
+    # A chunk of schemas and channels only (rosbags' writer makes one for a bag without
+    # messages) has no messages to index: its start time is after its end time.
+    if any(
+        not c.message_index_offsets and c.message_start_time <= c.message_end_time
+        for c in summary.chunk_indexes
+    ):
         return "its chunks have no message indexes"
     if not summary.chunk_indexes and not storage:
         return "its messages are not in chunks, which rosbags reads only in log-time order"

@@ -15,6 +15,7 @@ Every file here is written by another tool's writer -- rosbags' ROS 2 bag writer
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import sqlite3
@@ -473,3 +474,14 @@ def test_a_msg_dir_definition_that_does_not_fit_the_type_hash_is_named_as_such(
     message = str(error.value)
     assert "the log stores no message definition, and the one from --msg-dir" in message
     assert "stored message definition" not in message
+
+
+def test_a_bag_without_messages_is_listed_not_refused(tmp_path: Path) -> None:
+    # rosbags writes one chunk of schemas and channels only, with no message index since
+    # there is no message: it was taken for a chunk whose index is missing.
+    silent = [dataclasses.replace(s, messages=()) for s in good_streams()]
+    bag = write_streams_bag(tmp_path / "silent", silent, storage="mcap")
+    info = inspect_log(bag)
+    assert info["format"] == "ros2-bag (mcap)"
+    assert [(t["name"], t["count"]) for t in info["topics"]] == [("/u", 0), ("/y", 0)]
+    assert info["problems"] == []
