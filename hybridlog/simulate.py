@@ -189,8 +189,23 @@ def memory_needed(model: HybridModel, rows: int) -> int:
     return int(rows * values * 8 * COPIES)
 
 
-def _check_memory(model: HybridModel, rows: int, where: str) -> None:
-    """Refuse up front a run that cannot fit in memory (naming the option or model key)."""
+LATEST_S = 9.2e9
+"""The latest time of a log: hybridlog reads times as int64 nanoseconds (up to 9.2e9 s,
+:func:`hybridlog.io.source.seconds_to_ns`), and MCAP files and ROS 2 bags store them so."""
+
+
+def _check_run(model: HybridModel, rows: int, where: str) -> None:
+    """Refuse up front a run that ends later than a log holds, or cannot fit in memory.
+
+    Either names the option or model key that set the number of steps.
+    """
+    end = (rows - 1) * model.dt
+    if end >= LATEST_S:
+        raise (OptionError if where.startswith("--") else ModelError)(
+            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {end:.3g} s, later "
+            f"than the {LATEST_S:.2g} s a log holds (times in integer nanoseconds); simulate "
+            "fewer steps"
+        )
     check_fits(
         [("the simulated rows and the log written from them", memory_needed(model, rows))],
         what=f"{where}: {rows - 1:,} steps",
@@ -306,7 +321,7 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         rows = (steps or 100) + 1
-        _check_memory(model, rows, "--steps")
+        _check_run(model, rows, "--steps")
         modes = np.zeros(rows, dtype=np.int64)
     else:
         if schedule is not None:  # given, if empty: refused, never the model's schedule
@@ -319,11 +334,11 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         if steps is not None:
-            _check_memory(model, steps + 1, "--steps")
+            _check_run(model, steps + 1, "--steps")
         else:
             total = sum(count for _, count in parsed)
             where = "--schedule" if schedule is not None else f"{origin}: simulation.schedule"
-            _check_memory(model, total + 1, where)
+            _check_run(model, total + 1, where)
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt

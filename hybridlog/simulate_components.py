@@ -180,7 +180,7 @@ def simulate_components(
         A scenario the model cannot play: a joint mode whose equations do not determine
         every variable, an algebraic loop through the controller, a diverging run.
     """
-    from hybridlog.simulate import _check_memory, _check_seed
+    from hybridlog.simulate import _check_run, _check_seed
 
     seed = _check_seed(seed)
     origin = _origin(model)
@@ -199,7 +199,7 @@ def simulate_components(
         raise OptionError("--steps: must be positive")
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
-    _check_memory(model, rows, "--steps" if steps else f"{origin}: simulation.steps")
+    _check_run(model, rows, "--steps" if steps else f"{origin}: simulation.steps")
 
     at = _Steps(origin, values, tuple(settings or ()))
     labels = _mode_labels(model, scenario, rows, at)

@@ -14,7 +14,8 @@ text column (e.g. the true ``mode``)     ``/truth/mode``       ``std_msgs/String
 ======================================== ===================== ============================
 
 Every message of row *k* is logged at ``t_k`` (integer nanoseconds, exact for the float
-seconds of the table), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
+seconds of the table; times from 0 to 9.2e9 s, a ROS 1 bag's to 2^32 s, others refused
+before anything is written), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
 ``/truth/x1.data`` are the default mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
 ``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
@@ -232,11 +233,13 @@ def write_log(
     from hybridlog.io.writers import write_table
 
     chosen = check_log_target(path, format=format, encoding=encoding, force=force, inputs=inputs)
-    if chosen in ("csv", "parquet"):
-        return write_table(path, columns, force=force)
     if "t" not in columns:
         raise ValueError("columns: a time column 't' is needed")
-    time_ns = seconds_to_ns(np.asarray(columns["t"], dtype=np.float64))
+    time = np.asarray(columns["t"], dtype=np.float64)
+    _check_times(path, chosen, time)
+    if chosen in ("csv", "parquet"):
+        return write_table(path, columns, force=force)
+    time_ns = seconds_to_ns(time)
     topics = log_topics(columns, truth)
     writer: Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
     if chosen == "mcap":
@@ -261,6 +264,33 @@ def write_log(
         with atomic_files([target], force=force) as (staged,):
             _written(target, lambda: writer(staged, topics, columns, time_ns))
     return target
+
+
+#: Times a log holds, in seconds, from 0 to before these: int64 nanoseconds, as hybridlog
+#: reads every log (and MCAP files and ROS 2 bags store times), up to 9.2e9 s; a ROS 1 bag's
+#: seconds are unsigned 32-bit.
+_TIMES_BEFORE_S = {"bag": float(2**32)}
+_NS_TIMES_BEFORE_S = 9.2e9
+
+
+def _check_times(path: PathLike, chosen: str, time: Any) -> None:
+    """Refuse times a log of format ``chosen`` cannot hold, or hybridlog could not read back.
+
+    Raises
+    ------
+    OptionError
+        For a time before 0 or too late for the format, naming the file and the time.
+    """
+    from hybridlog.io.formats import get_format
+
+    before = _TIMES_BEFORE_S.get(chosen, _NS_TIMES_BEFORE_S)
+    held = (time >= 0.0) & (time < before)
+    if not held.all():
+        what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
+        raise OptionError(
+            f"{path}: t = {float(time[~held][0]):.6g} s is beyond the times {what} holds "
+            f"(from 0 to before {before:.10g} s)"
+        )
 
 
 #: ``custom_data`` entry of the ``metadata.yaml`` of every ROS 2 bag ``simulate`` writes: a

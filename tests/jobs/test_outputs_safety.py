@@ -551,6 +551,30 @@ def test_every_log_name_simulate_takes_is_read_back_as_its_format(
     assert log_format(log).name == read_as
 
 
+@pytest.mark.parametrize(
+    ("name", "last", "words"),
+    [
+        ("run.bag", 2.0**32, "t = 4.29497e+09 s is beyond the times a ROS 1 bag holds"),
+        ("run.mcap", 1e10, "t = 1e+10 s is beyond the times an MCAP file holds"),
+        ("run.csv", 1e10, "t = 1e+10 s is beyond the times a CSV file holds"),
+        ("run.mcap", -1.0, "t = -1 s is beyond the times an MCAP file holds (from 0 to"),
+    ],
+)
+def test_times_a_log_cannot_hold_are_refused_before_writing(
+    tmp_path: Path, name: str, last: float, words: str
+) -> None:
+    # A ROS 1 bag's seconds are 32-bit, the others' nanoseconds 64-bit: the writers failed
+    # with an internal error part way through, or wrote a CSV hybridlog refused to read.
+    import numpy as np
+
+    log = tmp_path / name
+    with pytest.raises(OptionError) as error:
+        write_log(log, {"t": np.array([0.0, 1.0, last]), "u": np.ones(3)})
+    assert str(error.value).startswith(f"{log}: {words}")
+    assert list(tmp_path.iterdir()) == []
+    write_log(log, {"t": np.array([0.0, 1.0, 2.0**32 - 1]), "u": np.ones(3)})  # just fits
+
+
 def test_simulate_checks_before_simulating(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -205,6 +205,12 @@ def test_settings_and_steps_are_checked(model):
     )
 
 
+def test_a_run_ending_later_than_a_log_holds_is_refused(model):
+    # 2e8 steps of 60 s: 1.2e10 s, beyond the 9.2e9 s of int64 nanoseconds
+    with pytest.raises(OptionError, match=r"^--steps: 200,000,000 steps of 60 s end at t = 1\.2e"):
+        simulate_components(model, steps=200_000_000)
+
+
 def test_steps_out_of_order_in_the_model_file_name_it(tmp_path):
     path = tmp_path / "plant.toml"
     path.write_text(_replace("full@light_repair", "full@800"))

@@ -35,12 +35,37 @@ def test_more_steps_than_memory_are_refused_up_front_with_the_size(tmp_path):
     model = load_model("three_tank_hstf")
     # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws).
     assert memory_needed(model, 1000) == 1000 * 15 * 8 * 9
-    with pytest.raises(OptionError, match=r"^--steps: 1,000,000,000,000 steps would need about"):
-        simulate(model, steps=10**12)
+    # 10^9 steps of 1 s: a time a log holds (< 9.2e9 s), about 1 TB
+    with pytest.raises(OptionError, match=r"^--steps: 1,000,000,000 steps would need about"):
+        simulate(model, steps=10**9)
     with pytest.raises(OptionError, match=r"^--schedule: .* GB of memory and .* is available"):
-        simulate(model, schedule=f"1:{10**12}")
-    path = _model_file(tmp_path, TANK, 'schedule = "', f'schedule = "2:{10**12},')
+        simulate(model, schedule=f"1:{10**9}")
+    path = _model_file(tmp_path, TANK, 'schedule = "', f'schedule = "2:{10**9},')
     with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: .* steps would need"):
+        simulate(load_model(path))
+
+
+def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monkeypatch):
+    # 10^4 steps of 10^6 s end at 10^10 s, beyond the int64 nanoseconds of every log: the
+    # MCAP and bag writers failed after simulating ("unexpected error ... argument out of
+    # range") and the CSV was written, for hybridlog to refuse reading it.
+    def never(*args, **kwargs):
+        raise AssertionError("simulated a run no log holds")
+
+    monkeypatch.setattr("hybridlog.simulation_kernels.simulate_steps", never)
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
+    model = load_model(path)
+    with pytest.raises(OptionError) as error:
+        simulate(model, steps=10_000)
+    assert str(error.value) == (
+        "--steps: 10,000 steps of 1e+06 s end at t = 1e+10 s, later than the 9.2e+09 s a log "
+        "holds (times in integer nanoseconds); simulate fewer steps"
+    )
+    with pytest.raises(OptionError, match=r"^--schedule: 10,000 steps of 1e\+06 s end at"):
+        simulate(model, schedule="1:10000")
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
+    path.write_text(path.read_text().replace('schedule = "1:100,', 'schedule = "1:9800,'))
+    with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: 10,000 steps of"):
         simulate(load_model(path))
 
 
