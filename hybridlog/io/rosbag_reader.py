@@ -10,7 +10,9 @@ What this adds to rosbags' readers:
 - Each topic's message definition is parsed on its own (:mod:`.definitions`), where
   rosbags' ``AnyReader`` parses them all at once and refuses the bag when one fails: a
   definition rosbags cannot parse, or whose stored type hash does not match it, makes only
-  its topic undecodable.
+  its topic undecodable.  So does a topic whose connections store different definitions of
+  its type (two nodes built from different versions of a message): one definition decodes a
+  topic, and would read the other's bytes as wrong numbers.
 - In a bag directory, topics are matched between ``metadata.yaml`` and the storage files by
   name and type (rosbags also compares their QoS text, so a bag whose metadata was written
   by another ROS version reads as empty); where the two disagree (QoS, counts, topics),
@@ -238,8 +240,16 @@ class BagSource(MessageSource):
             count = sum(counts) if all(c >= 0 for c in counts) else None
             topic = Topic(name, msgtype, "ros1" if self._ros1 else "cdr", count)
             formats = {getattr(c.ext, "serialization_format", "ros1") for c in connections}
+            definitions = _definitions(connections)
             if len(msgtypes) > 1:
                 topic.problem = f"has several message types ({', '.join(sorted(msgtypes))})"
+            elif len(definitions) > 1:
+                # One definition decodes the topic: another's messages would be read with it.
+                listed = ", ".join(
+                    f"{label}{'' if n is None else f' ({n} message' + 's' * (n != 1) + ')'}"
+                    for label, n in definitions.items()
+                )
+                topic.problem = f"has connections with different definitions of it: {listed}"
             elif msgtype == SCHEMALESS:
                 topic.msgtype = ""
                 topic.problem = "schemaless channel: its messages cannot be decoded"
@@ -378,6 +388,25 @@ class BagSource(MessageSource):
                 continue
             for connection, timestamp, data in storage.messages(chosen):
                 yield connection.topic, timestamp, data if decompress is None else decompress(data)
+
+
+def _definitions(connections: list[Any]) -> dict[str, int | None]:
+    """The different message definitions of a topic's connections, with their counts.
+
+    Told apart by the stored hash (a ROS 1 MD5 sum, a ROS 2 ``RIHS01_`` type hash), else by
+    the definition text; labelled by the hash for messages.
+    """
+    found: dict[str, int | None] = {}
+    labels: dict[str, str] = {}
+    for connection in connections:
+        key = connection.digest or connection.msgdef.data
+        if key not in labels:
+            shown = connection.digest or f"definition {len(labels) + 1}"
+            labels[key] = excerpt(shown, 24)
+        label = labels[key]
+        known, count = found.get(label, 0), connection.msgcount
+        found[label] = None if known is None or count < 0 else known + count
+    return found
 
 
 def _zstd_decompress() -> Any:

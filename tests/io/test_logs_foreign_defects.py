@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import shutil
 import sqlite3
 from pathlib import Path
@@ -31,6 +32,7 @@ from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log
 from tests.support.logfiles import (
     EVENT_TYPE,
     LOG_TYPE,
+    NS,
     PLACEHOLDER,
     event_stream,
     forget_type_hashes,
@@ -485,3 +487,46 @@ def test_a_bag_without_messages_is_listed_not_refused(tmp_path: Path) -> None:
     assert info["format"] == "ros2-bag (mcap)"
     assert [(t["name"], t["count"]) for t in info["topics"]] == [("/u", 0), ("/y", 0)]
     assert info["problems"] == []
+
+
+# ------------------------------------------------------------------ one topic, two definitions
+
+
+def test_a_bag_topic_whose_connections_differ_in_definition_is_refused(tmp_path: Path) -> None:
+    # Two nodes publishing one topic with different versions of a message (fields swapped):
+    # every message was decoded with the first connection's definition, so half of /s.a
+    # silently read the other node's b.
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    stores = []
+    for text in ("float64 a\nfloat64 b\n", "float64 b\nfloat64 a\n"):
+        store = get_typestore(Stores.EMPTY)
+        store.register(get_types_from_msg(text, "my_pkg/msg/Pair"))
+        stores.append(store)
+    log = tmp_path / "pairs.bag"
+    with Writer(log) as writer:
+        old, new = (
+            writer.add_connection("/s", "my_pkg/msg/Pair", typestore=store, callerid=node)
+            for store, node in zip(stores, ("/old", "/new"), strict=True)
+        )
+        steady = writer.add_connection("/u", "my_pkg/msg/Pair", typestore=stores[0])
+        for k in range(30):
+            first = stores[0].types["my_pkg/msg/Pair"](a=float(k), b=-float(k))
+            writer.write(steady, k * NS, stores[0].serialize_ros1(first, "my_pkg/msg/Pair"))
+            store, connection = (stores[0], old) if k % 3 else (stores[1], new)
+            pair = store.types["my_pkg/msg/Pair"](a=float(k), b=-float(k))
+            writer.write(connection, k * NS, store.serialize_ros1(pair, "my_pkg/msg/Pair"))
+    (problem,) = inspect_log(log)["problems"]
+    md5 = "'[0-9a-f]{16}…[0-9a-f]{7}'"  # each connection's MD5 sum, shortened
+    assert re.fullmatch(
+        rf"topic '/s' \(my_pkg/msg/Pair\): has connections with different definitions of it: "
+        rf"{md5} \(20 messages\), {md5} \(10 messages\)",
+        problem,
+    ), problem
+    with pytest.raises(LogError, match="has connections with different definitions"):
+        load_signals(
+            log,
+            SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
+            ReadOptions(maps=("u=/u.a", "y=/s.a")),
+        )
