@@ -470,18 +470,21 @@ class McapSource(MessageSource):
             schema = schemas.get(channel.schema_id) if channel.schema_id else None
             count = None if counts is None else sum(counts.get(c.id, 0) for c in group)
             topic = self._topic(name, channel, schema, count)
-            kinds: dict[tuple[int, str], int | None] = {}
+            # Channels are told apart by what their schemas say, not by the schemas' ids: a
+            # writer may record the same schema twice, which decodes the same.
+            kinds: dict[tuple[tuple[str, str, bytes] | None, str], int | None] = {}
             for member in group:
-                kind = (member.schema_id, member.message_encoding)
+                held = schemas.get(member.schema_id) if member.schema_id else None
+                content = None if held is None else (held.name, held.encoding, bytes(held.data))
+                kind = (content, member.message_encoding)
                 got = None if counts is None else counts.get(member.id, 0)
                 known = kinds.get(kind, 0)
                 kinds[kind] = None if got is None or known is None else known + got
             if len(kinds) > 1 and topic.problem is None:
                 # the table shows the first channel's type: say what else the topic holds
                 described = []
-                for (schema_id, encoding), kind_count in kinds.items():
-                    other = schemas.get(schema_id) if schema_id else None
-                    named = normal_type(other.name) if other is not None else "no schema"
+                for (content, encoding), kind_count in kinds.items():
+                    named = normal_type(content[0]) if content is not None else "no schema"
                     text = f"{excerpt(named, 60)} in {excerpt(encoding, 20)}"
                     if kind_count is not None:
                         text += f" ({kind_count} message{'' if kind_count == 1 else 's'})"

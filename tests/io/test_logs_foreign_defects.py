@@ -35,6 +35,7 @@ from tests.support.logfiles import (
     NS,
     PLACEHOLDER,
     event_stream,
+    float64_cdr,
     forget_type_hashes,
     good_streams,
     msgdef,
@@ -530,3 +531,28 @@ def test_a_bag_topic_whose_connections_differ_in_definition_is_refused(tmp_path:
             SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
             ReadOptions(maps=("u=/u.a", "y=/s.a")),
         )
+
+
+@pytest.mark.parametrize("profile", ["", "ros2"])
+def test_one_schema_recorded_twice_is_one_definition(profile: str, tmp_path: Path) -> None:
+    # A writer may record the same schema under two ids (one per channel): the mcap reader
+    # refused /y as "has channels with different schemas: 'std_msgs/msg/Float64' in 'cdr'
+    # (15 messages), 'std_msgs/msg/Float64' in 'cdr' (15 messages)".
+    from mcap.writer import Writer
+
+    log = tmp_path / "twice.mcap"
+    definition = msgdef("std_msgs/msg/Float64").encode()
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile=profile, library="tests")
+        first, second = (
+            writer.register_schema("std_msgs/msg/Float64", "ros2msg", definition) for _ in "ab"
+        )
+        u = writer.register_channel("/u", "cdr", first)
+        ys = [writer.register_channel("/y", "cdr", schema) for schema in (first, second)]
+        for k in range(30):
+            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
+            writer.add_message(ys[k % 2], k * NS, float64_cdr(2.0 * k), k * NS)
+        writer.finish()
+    assert inspect_log(log)["problems"] == []
+    check_good_topics(log)
