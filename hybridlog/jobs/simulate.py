@@ -74,7 +74,7 @@ def simulate_log(
     parsed = parse_disturbance(disturbance) if disturbance is not None else None
     model = load_model(model_ref)
     inputs: list[tuple[str, PathLike]] = (
-        [("model file", model_ref)] if Path(model_ref).exists() else []
+        [("model file", model_ref)] if Path(model_ref).is_file() else []
     )
     # Every check of the output runs before the simulation.
     check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)

@@ -1,5 +1,7 @@
 """``simulate`` refuses bad input up front, naming the option or the model file and key."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -129,3 +131,19 @@ def test_the_command_refuses_in_one_line_before_writing(tmp_path, capsys, args, 
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in lines[0], lines
     assert not out.exists()
+
+
+def test_a_folder_named_like_a_built_in_is_not_taken_for_the_model(tmp_path, monkeypatch):
+    # Outputs kept in a folder named after the model: "three_tank_hstf: no such model file"
+    # for the built-in, and a log written into the folder "touched the model file".
+    from hybridlog.jobs.analysis import analyze
+    from hybridlog.jobs.simulate import simulate_log
+
+    monkeypatch.chdir(tmp_path)
+    Path("three_tank_hstf").mkdir()
+    assert load_model("three_tank_hstf").origin == "three_tank_hstf"
+    simulate_log("three_tank_hstf", "three_tank_hstf/run.csv", steps=20)
+    analyze("three_tank_hstf/run.csv", "three_tank_hstf", out_dir="three_tank_hstf/report")
+    assert (tmp_path / "three_tank_hstf/report/report.json").is_file()
+    with pytest.raises(ModelError, match=r"^plant\.toml: no such model file$"):
+        load_model("plant.toml")  # a file's name is still a file's, found or not
