@@ -170,23 +170,39 @@ def _noise_factor(covariance: FloatArray) -> FloatArray:
     return factor
 
 
-COPIES = 9.0
+COPIES = 3.0
 """Copies of every simulated value alive at the peak of ``hybridlog simulate``: the arrays of
 :func:`simulate` and what the log writer builds from them.  Measured (peak RSS growth of
-three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4,
-ROS 1 bag 8 copies; the check uses the worst case, with a margin."""
+three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4
+copies; the check uses the worst case, with a margin."""
+
+MESSAGE_BYTES = 128
+"""Bytes a message of the log costs its writer beyond the values: rosbags' ROS 1 bag writer
+keeps an index entry per message until the bag is closed (measured: 104 bytes a message,
+three-tank runs of 8 topics and ``bioplex_pgc`` runs of 18); the check uses that worst case,
+with a margin."""
 
 
 def memory_needed(model: HybridModel, rows: int) -> int:
     """Bytes a simulation of ``rows`` rows needs at its peak, writing the log included.
 
     Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per output and
-    per state and integration step (``dt / step`` steps a row in continuous time, else 1),
-    8 bytes each, times :data:`COPIES`.
+    per state and integration step (``dt / step`` steps a row in continuous time, else 1);
+    a components model's rows also hold the commands, the controller's memory, every plant
+    variable, and per component its scheduled mode, override, joint-mode entry and log
+    entry (:mod:`hybridlog.simulate_components`): 8 bytes each, times :data:`COPIES`.  And
+    every column of the log but ``t`` is a message a row, :data:`MESSAGE_BYTES` each.
     """
     substeps = model.timebase.substeps
     values = 2 + model.n_inputs + 2 * model.n_outputs + model.n_states * (1 + substeps)
-    return int(rows * values * 8 * COPIES)
+    messages = model.n_inputs + model.n_outputs + model.n_states + 1  # 1: the true mode
+    if model.has_components:
+        memory = len(model.scenario.controller_states) if model.scenario is not None else 0
+        plant = model.n_states + model.n_inputs + model.n_outputs + len(model.variables)
+        components = len(model.components)
+        values += len(model.commands) + memory + plant + 4 * components + 7  # 7: a tuple
+        messages += len(model.commands) + components - 1  # a true mode per component
+    return int(rows * (values * 8 * COPIES + messages * MESSAGE_BYTES))
 
 
 LATEST_S = 9.2e9

@@ -205,6 +205,18 @@ def test_settings_and_steps_are_checked(model):
     )
 
 
+def test_the_memory_a_run_needs_counts_every_column_and_message(model):
+    # bioplex_pgc as a ROS 1 bag grew by 2256 bytes a row (18 topics: an index entry per
+    # message), where the check counted 1080 (the three-tank's 15 values a row, 8 topics):
+    # a run twice what fits was let through to be killed for memory.
+    from hybridlog.simulate import memory_needed
+
+    assert memory_needed(model, 1000) > 1000 * 2256  # at least what the bag writer took
+    # 62 values (15 of the plain model, 5 commands, the controller's integral, 10 plant
+    # variables, 4 per component and the joint mode's tuple), 18 messages
+    assert memory_needed(model, 1000) == 1000 * (62 * 8 * 3 + 18 * 128)
+
+
 def test_a_run_ending_later_than_a_log_holds_is_refused(model):
     # 2e8 steps of 60 s: 1.2e10 s, beyond the 9.2e9 s of int64 nanoseconds
     with pytest.raises(OptionError, match=r"^--steps: 200,000,000 steps of 60 s end at t = 1\.2e"):

@@ -35,8 +35,8 @@ def test_a_bad_seed_is_an_option_error(seed):
 
 def test_more_steps_than_memory_are_refused_up_front_with_the_size(tmp_path):
     model = load_model("three_tank_hstf")
-    # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws).
-    assert memory_needed(model, 1000) == 1000 * 15 * 8 * 9
+    # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws), 8 messages
+    assert memory_needed(model, 1000) == 1000 * (15 * 8 * 3 + 8 * 128)
     # 10^9 steps of 1 s: a time a log holds (< 9.2e9 s), about 1 TB
     with pytest.raises(OptionError, match=r"^--steps: 1,000,000,000 steps would need about"):
         simulate(model, steps=10**9)
