@@ -55,7 +55,8 @@ def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
     for folder in folders:
         root = Path(folder)
         if not root.is_dir():
-            raise LogError(f"--msg-dir {folder}: no such folder")
+            why = "a file, not a folder of .msg files" if root.exists() else "no such folder"
+            raise LogError(f"--msg-dir {folder}: {why}")
         for file in sorted(root.rglob("*.msg")):
             parent = file.parent
             package = parent.parent.name if parent.name == "msg" else parent.name
