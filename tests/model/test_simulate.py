@@ -147,3 +147,23 @@ def test_a_folder_named_like_a_built_in_is_not_taken_for_the_model(tmp_path, mon
     assert (tmp_path / "three_tank_hstf/report/report.json").is_file()
     with pytest.raises(ModelError, match=r"^plant\.toml: no such model file$"):
         load_model("plant.toml")  # a file's name is still a file's, found or not
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "group"),
+    [
+        ('states = ["x1", "x2", "x3"]', 'states = ["x1", "x2", "mode"]', "states"),
+        ('outputs = ["y1", "y2", "y3"]', 'outputs = ["y1", "y2", "mode"]', "outputs"),
+        ('inputs = ["u"]', 'inputs = ["mode"]', "inputs"),
+    ],
+)
+def test_no_signal_can_take_the_true_mode_s_column(tmp_path, old, new, group):
+    # simulate's CSV held the state's values under 'mode' and no true mode (or the mode ids
+    # over the output's values): one column written over the other, without a word.
+    path = _model_file(tmp_path, TANK, old, new)
+    with pytest.raises(ModelError) as error:
+        load_model(path)
+    assert str(error.value) == (
+        f"{path}: {group}: 'mode' is the true mode's column of a log (/truth/mode in a bag) "
+        "and cannot name a signal; choose another name"
+    )
