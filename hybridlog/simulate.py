@@ -210,17 +210,16 @@ LATEST_S = 9.2e9
 :func:`hybridlog.io.source.seconds_to_ns`), and MCAP files and ROS 2 bags store them so."""
 
 
-def _check_run(model: HybridModel, rows: int, where: str) -> None:
-    """Refuse up front a run that ends later than a log holds, or cannot fit in memory.
+def _check_run(model: HybridModel, rows: int, where: str, ends_before: float) -> None:
+    """Refuse up front a run that ends later than its log holds, or cannot fit in memory.
 
     Either names the option or model key that set the number of steps.
     """
     end = (rows - 1) * model.dt
-    if end >= LATEST_S:
+    if end >= ends_before:
         raise (OptionError if where.startswith("--") else ModelError)(
-            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {end:.3g} s, later "
-            f"than the {LATEST_S:.2g} s a log holds (times in integer nanoseconds); simulate "
-            "fewer steps"
+            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {end:.4g} s, later "
+            f"than the log holds (times before {ends_before:.4g} s); simulate fewer steps"
         )
     check_fits(
         [("the simulated rows and the log written from them", memory_needed(model, rows))],
@@ -281,6 +280,7 @@ def simulate(
     jit: bool = True,
     noise: bool = True,
     disturbance: Disturbance | None = None,
+    ends_before: float = LATEST_S,
 ) -> SimulatedLog:
     """Simulate ``model`` with Gaussian process and measurement noise.
 
@@ -302,6 +302,9 @@ def simulate(
         run (the draws are made all the same, so they do not shift with this flag).
     disturbance:
         The disturbance of paper 003 eq. (49) on a continuous-time model; ``None``: none.
+    ends_before:
+        The time (s) the run must end before: what its log holds (:data:`LATEST_S`; a ROS 1
+        bag's less, :func:`hybridlog.io.bag_writers.times_before`).
 
     Raises
     ------
@@ -337,7 +340,7 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         rows = (steps or 100) + 1
-        _check_run(model, rows, "--steps")
+        _check_run(model, rows, "--steps", ends_before)
         modes = np.zeros(rows, dtype=np.int64)
     else:
         if schedule is not None:  # given, if empty: refused, never the model's schedule
@@ -350,11 +353,11 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         if steps is not None:
-            _check_run(model, steps + 1, "--steps")
+            _check_run(model, steps + 1, "--steps", ends_before)
         else:
             total = sum(count for _, count in parsed)
             where = "--schedule" if schedule is not None else f"{origin}: simulation.schedule"
-            _check_run(model, total + 1, where)
+            _check_run(model, total + 1, where, ends_before)
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt

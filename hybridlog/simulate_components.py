@@ -158,6 +158,7 @@ def simulate_components(
     steps: int | None = None,
     seed: int = 0,
     settings: Mapping[str, float] | None = None,
+    ends_before: float | None = None,
 ) -> ComponentsLog:
     """Play the scenario of a components model (see the module doc).
 
@@ -171,6 +172,9 @@ def simulate_components(
         Seed of the noise (NumPy PCG64): the same seed and settings give the same log.
     settings:
         Scenario parameter values (``--set NAME=VALUE``): fault times, drift rate, gains.
+    ends_before:
+        The time (s) the run must end before, as for :func:`hybridlog.simulate.simulate`
+        (default :data:`~hybridlog.simulate.LATEST_S`).
 
     Raises
     ------
@@ -180,7 +184,7 @@ def simulate_components(
         A scenario the model cannot play: a joint mode whose equations do not determine
         every variable, an algebraic loop through the controller, a diverging run.
     """
-    from hybridlog.simulate import _check_run, _check_seed
+    from hybridlog.simulate import LATEST_S, _check_run, _check_seed
 
     seed = _check_seed(seed)
     origin = _origin(model)
@@ -199,7 +203,8 @@ def simulate_components(
         raise OptionError("--steps: must be positive")
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
-    _check_run(model, rows, "--steps" if steps else f"{origin}: simulation.steps")
+    where = "--steps" if steps else f"{origin}: simulation.steps"
+    _check_run(model, rows, where, LATEST_S if ends_before is None else ends_before)
 
     at = _Steps(origin, values, tuple(settings or ()))
     labels = _mode_labels(model, scenario, rows, at)

@@ -273,6 +273,11 @@ _TIMES_BEFORE_S = {"bag": float(2**32)}
 _NS_TIMES_BEFORE_S = 9.2e9
 
 
+def times_before(format: str) -> float:
+    """The time (s) every time of a log of ``format`` (:data:`LOG_FORMATS`) comes before."""
+    return _TIMES_BEFORE_S.get(format, _NS_TIMES_BEFORE_S)
+
+
 def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     """Refuse times a log of format ``chosen`` cannot hold, or hybridlog could not read back.
 
@@ -283,7 +288,7 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     """
     from hybridlog.io.formats import get_format
 
-    before = _TIMES_BEFORE_S.get(chosen, _NS_TIMES_BEFORE_S)
+    before = times_before(chosen)
     held = (time >= 0.0) & (time < before)
     if not held.all():
         what = get_format(_READ_AS.get(chosen, "ros2-bag")).what

@@ -60,8 +60,8 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
     with pytest.raises(OptionError) as error:
         simulate(model, steps=10_000)
     assert str(error.value) == (
-        "--steps: 10,000 steps of 1e+06 s end at t = 1e+10 s, later than the 9.2e+09 s a log "
-        "holds (times in integer nanoseconds); simulate fewer steps"
+        "--steps: 10,000 steps of 1e+06 s end at t = 1e+10 s, later than the log holds "
+        "(times before 9.2e+09 s); simulate fewer steps"
     )
     with pytest.raises(OptionError, match=r"^--schedule: 10,000 steps of 1e\+06 s end at"):
         simulate(model, schedule="1:10000")
@@ -69,6 +69,23 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
     path.write_text(path.read_text().replace('schedule = "1:100,', 'schedule = "1:9800,'))
     with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: 10,000 steps of"):
         simulate(load_model(path))
+
+
+def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
+    tmp_path, monkeypatch
+):
+    # A ROS 1 bag's seconds are 32-bit: 5000 steps of 10^6 s (5e9 s) fit an MCAP file, not
+    # a bag, and the bag was refused only once simulated.
+    from hybridlog.jobs.simulate import simulate_log
+
+    def never(*args, **kwargs):
+        raise AssertionError("simulated a run the bag cannot hold")
+
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
+    monkeypatch.setattr("hybridlog.simulation_kernels.simulate_steps", never)
+    with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\); simulate fewer"):
+        simulate_log(path, tmp_path / "run.bag", steps=5000)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plant.toml"]
 
 
 def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
