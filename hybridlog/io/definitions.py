@@ -39,6 +39,18 @@ def normal_type(name: str) -> str:
     return name
 
 
+def definition_key(encoding: str, text: str) -> str:
+    """What tells two stored definitions apart, comments and layout aside.
+
+    A ``.msg`` text without its comments and blank space (two recorders may lay out one
+    definition differently); any other as it is.  ``encoding``: the schema's (``ros2msg``,
+    ``ros1msg``, ``ros2idl`` ...) or ``"msg"``.
+    """
+    if encoding not in ("msg", "ros1msg", "ros2msg"):
+        return text
+    return " ".join(word for line in text.splitlines() for word in line.partition("#")[0].split())
+
+
 def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
     """Message types defined by the ``.msg`` files under ``folders``.
 

@@ -37,6 +37,7 @@ from typing import IO, Any
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import (
     DefinitionError,
+    definition_key,
     first_line,
     normal_type,
     types_from_msg_dirs,
@@ -338,6 +339,12 @@ def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> Messag
     return McapSource(path, layout, options)
 
 
+def _schema_key(schema: Any) -> tuple[str, str, str]:
+    """A schema by what it says (:func:`~hybridlog.io.definitions.definition_key`)."""
+    text = bytes(schema.data).decode("utf-8", errors="replace")
+    return (schema.name, schema.encoding, definition_key(schema.encoding, text))
+
+
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     """A JSON object as a dict; a key given twice is refused (``json`` keeps the last)."""
     result = dict(pairs)
@@ -472,10 +479,10 @@ class McapSource(MessageSource):
             topic = self._topic(name, channel, schema, count)
             # Channels are told apart by what their schemas say, not by the schemas' ids: a
             # writer may record the same schema twice, which decodes the same.
-            kinds: dict[tuple[tuple[str, str, bytes] | None, str], int | None] = {}
+            kinds: dict[tuple[tuple[str, str, str] | None, str], int | None] = {}
             for member in group:
                 held = schemas.get(member.schema_id) if member.schema_id else None
-                content = None if held is None else (held.name, held.encoding, bytes(held.data))
+                content = None if held is None else _schema_key(held)
                 kind = (content, member.message_encoding)
                 got = None if counts is None else counts.get(member.id, 0)
                 known = kinds.get(kind, 0)

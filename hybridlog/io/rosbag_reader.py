@@ -33,6 +33,7 @@ from typing import Any
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import (
     DefinitionError,
+    definition_key,
     digest_problem,
     first_line,
     types_from_msg_dirs,
@@ -394,12 +395,16 @@ def _definitions(connections: list[Any]) -> dict[str, int | None]:
     """The different message definitions of a topic's connections, with their counts.
 
     Told apart by the stored hash (a ROS 1 MD5 sum, a ROS 2 ``RIHS01_`` type hash), else by
-    the definition text; labelled by the hash for messages.
+    the definition text without comments and blank space (two recorders may lay out the
+    same definition differently); labelled by the hash for messages.
     """
     found: dict[str, int | None] = {}
     labels: dict[str, str] = {}
     for connection in connections:
-        key = connection.digest or connection.msgdef.data
+        definition = connection.msgdef
+        key = connection.digest or definition_key(
+            definition.format.name.lower(), str(definition.data)
+        )
         if key not in labels:
             shown = connection.digest or f"definition {len(labels) + 1}"
             labels[key] = excerpt(shown, 24)

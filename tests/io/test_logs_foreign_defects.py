@@ -556,3 +556,37 @@ def test_one_schema_recorded_twice_is_one_definition(profile: str, tmp_path: Pat
         writer.finish()
     assert inspect_log(log)["problems"] == []
     check_good_topics(log)
+
+
+@pytest.mark.parametrize("profile", ["", "ros2"])  # the mcap reader, rosbags
+@pytest.mark.parametrize(
+    ("second", "problem"),
+    [("# the level\nfloat64   data  # m\n\n", False), ("float32 data\n", True)],
+)
+def test_schemas_of_a_topic_differing_only_in_comments_are_one_definition(
+    profile: str, second: str, problem: bool, tmp_path: Path
+) -> None:
+    # Two recorders may store one .msg with other comments or layout: the same definition.
+    from mcap.writer import Writer
+
+    log = tmp_path / "layouts.mcap"
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile=profile, library="tests")
+        first, other = (
+            writer.register_schema("std_msgs/msg/Float64", "ros2msg", text.encode())
+            for text in ("float64 data\n", second)
+        )
+        u = writer.register_channel("/u", "cdr", first)
+        ys = [writer.register_channel("/y", "cdr", schema) for schema in (first, other)]
+        for k in range(30):
+            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
+            writer.add_message(ys[k % 2], k * NS, float64_cdr(2.0 * k), k * NS)
+        writer.finish()
+    problems = inspect_log(log)["problems"]
+    if problem:
+        assert len(problems) == 1 and "'/y'" in problems[0], problems
+        assert "different" in problems[0], problems
+    else:
+        assert problems == []
+        check_good_topics(log)
