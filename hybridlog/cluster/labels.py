@@ -35,7 +35,13 @@ import numpy as np
 
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["EXHAUSTIVE_MAX", "ClusterLabels", "decide_clusters", "label_clusters"]
+__all__ = [
+    "EXHAUSTIVE_MAX",
+    "ClusterLabels",
+    "cluster_notes",
+    "decide_clusters",
+    "label_clusters",
+]
 
 
 def decide_clusters(
@@ -171,22 +177,59 @@ def label_clusters(
         for m in range(n_modes):
             alternatives[c, m] = evaluate([*best[:c], m, *best[c + 1 :]])
     total = evaluate(best)
-    notes = [f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}"]
-    for c in range(n_clusters):
-        mode = mode_ids[chosen[c]]
+    notes = (
+        f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}",
+        *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what),
+    )
+    return ClusterLabels(
+        modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=notes
+    )
+
+
+def cluster_notes(
+    modes: IntArray,
+    sizes: IntArray,
+    mode_ids: Sequence[str],
+    *,
+    alternatives: FloatArray | None = None,
+    what: str = "score",
+) -> list[str]:
+    """One line per cluster (its samples and mode) and per mode that no cluster decides.
+
+    Parameters
+    ----------
+    modes:
+        Mode index of each cluster, shape ``(c,)``.
+    sizes:
+        Samples decided for each cluster on the log at hand, shape ``(c,)``.
+    mode_ids:
+        The model's mode ids.
+    alternatives:
+        ``alternatives[c, i]``: the score with cluster ``c`` alone in mode ``i``, quoted for
+        the other modes; ``None`` for labels not chosen by a score (a centres file's).
+    what:
+        Name of the score.
+    """
+    notes: list[str] = []
+    for c, chosen in enumerate(modes):
+        mode = mode_ids[chosen]
         if sizes[c] == 0:
             notes.append(f"cluster {c + 1} decides no sample: unused (labelled '{mode}')")
             continue
-        others = ", ".join(
-            f"'{mode_ids[m]}' {alternatives[c, m]:.4g}" for m in range(n_modes) if m != chosen[c]
+        others = (
+            ""
+            if alternatives is None
+            else ", ".join(
+                f"'{mode_ids[m]}' {alternatives[c, m]:.4g}"
+                for m in range(len(mode_ids))
+                if m != chosen
+            )
         )
-        shared = int(np.count_nonzero((chosen == chosen[c]) & (sizes > 0)))
+        shared = int(np.count_nonzero((modes == chosen) & (sizes > 0)))
         role = "" if shared == 1 else f" (one of {shared} clusters of that mode)"
         alternative = f"; {what} with it in mode {others}" if others else ""
         notes.append(f"cluster {c + 1} ({sizes[c]} samples) -> mode '{mode}'{role}{alternative}")
-    for m in range(n_modes):
-        if not np.any((chosen == m) & (sizes > 0)):
-            notes.append(f"mode '{mode_ids[m]}' has no cluster: it is never decided")
-    return ClusterLabels(
-        modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=tuple(notes)
-    )
+    for m, mode in enumerate(mode_ids):
+        if not np.any((modes == m) & (sizes > 0)):
+            notes.append(f"mode '{mode}' has no cluster: it is never decided")
+    return notes
