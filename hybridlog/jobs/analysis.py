@@ -593,7 +593,8 @@ def compare(
                 row += _smoothing_cells(report)
         table = markdown_table(columns, rows)
         (folder / "comparison.md").write_text(
-            comparison_markdown(f"{model.name} on {log}", table, reports), encoding="utf-8"
+            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports),
+            encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
     failures = [

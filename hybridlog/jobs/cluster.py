@@ -21,7 +21,7 @@ import numpy as np
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier
 from hybridlog.cluster.regressors import regression_vectors
-from hybridlog.errors import ModelError, OptionError, OutputError
+from hybridlog.errors import ModelError, OptionError, OutputError, as_text
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
@@ -229,7 +229,7 @@ def discover_modes(
         accuracy["kmeans"] = _accuracy(baseline, model, signals)
     content: dict[str, Any] = {
         "model": model.name,
-        "log": str(log),
+        "log": as_text(log),
         "mode_ids": list(model.mode_ids),
         "regressors": list(fitted.regressors),
         "output_lags": list(fitted.spec.output_lags),

@@ -1,0 +1,59 @@
+"""``hybridlog compare`` and ``hybridlog cluster`` as a demanding user runs them."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+from pathlib import Path
+
+from hybridlog.jobs.analysis import compare
+from hybridlog.jobs.cluster import discover_modes
+from hybridlog.report.markdown import escape_markdown
+from tests.support.paths import ROOT
+
+CART = ROOT / "sample_logs" / "double_cart_case1.csv"
+
+
+def _oddly_named(tmp_path: Path) -> Path:
+    """The double-cart sample under a name that is not UTF-8 (``b\\xffd.csv``)."""
+    log = Path(os.fsdecode(os.fsencode(tmp_path) + b"/b\xffd.csv"))
+    shutil.copyfile(CART, log)
+    return log
+
+
+def test_a_log_named_in_bytes_that_are_not_utf8_is_named_as_ls_shows_it(tmp_path: Path) -> None:
+    """compare ended in 'unexpected UnicodeEncodeError' writing comparison.md's title, and
+    cluster wrote the lone surrogate into centers.json's log key (JSON that strict readers
+    refuse)."""
+    log = _oddly_named(tmp_path)
+    shown = str(tmp_path / "b\\xffd.csv")
+    out = tmp_path / "cmp"
+    compare(log, "double_cart_case1", ["imm", "chiu"], out_dir=out)
+    title = (out / "comparison.md").read_text(encoding="utf-8").splitlines()[0]
+    assert title == f"# double_cart_case1 on {escape_markdown(shown)}"
+    centres = tmp_path / "c.json"
+    discover_modes(log, "double_cart_case1", out=centres)
+    text = centres.read_text(encoding="utf-8")
+    assert json.loads(text)["log"] == shown and "\\udcff" not in text
+
+
+def test_the_comparison_holds_each_estimators_own_numbers(tmp_path: Path) -> None:
+    """comparison.csv's raw values are those of each estimator's report.json, bit for bit."""
+    out = tmp_path / "cmp"
+    outcome = compare(CART, "double_cart_case1", ["chiu", "kmeans", "imm"], out_dir=out)
+    with (out / "comparison.csv").open(newline="") as file:
+        rows = {row["estimator"]: row for row in csv.DictReader(file)}
+    assert list(rows) == ["chiu", "kmeans", "imm"]
+    for name, report in outcome.reports.items():
+        stored = json.loads((out / name / "report.json").read_text())
+        for column, value in (
+            ("vaf", stored["vaf"]),
+            ("fit", stored["fit"]),
+            ("mse", stored["mse"]),
+            ("mode_accuracy", stored["modes"]["accuracy"]),
+            ("detection_delay_s", stored["modes"]["detection_delay_s"]),
+        ):
+            assert rows[name][column] == ("" if value is None else repr(value)), (name, column)
+        assert report.mse == stored["mse"]
