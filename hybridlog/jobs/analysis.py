@@ -23,7 +23,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.errors import LogError, OptionError, as_text, excerpt
+from hybridlog.errors import HybridlogError, LogError, OptionError, as_text, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
     Estimator,
@@ -517,6 +517,18 @@ def _smoothing_cells(report: Report) -> list[Any]:
     return [name, smoothing.filtered.mode_accuracy]
 
 
+def _naming(name: str, chunks: Iterator[EstimationResult]) -> Iterator[EstimationResult]:
+    """The chunks of one of several compared estimators; an error of its run names it.
+
+    ``cluster_modes: 2 mode ids for 3 clusters`` did not say which of ``chiu,kmeans`` failed
+    (the option reaches both); it becomes ``--estimators chiu: cluster_modes: ...``.
+    """
+    try:
+        yield from chunks
+    except HybridlogError as err:
+        raise type(err)(f"--estimators {name}: {err}") from err
+
+
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -568,15 +580,12 @@ def compare(
 
     with atomic_output_dir(out_dir, force=force) as folder:
         for i, estimator in enumerate(prepared):  # one after the other: one's chunks at a time
+            chunks = estimates(
+                estimator, model, signals, inputs[estimator.name], last=i == len(prepared) - 1
+            )
             reports[estimator.name] = write_report(
                 folder / estimator.name,
-                estimates(
-                    estimator,
-                    model,
-                    signals,
-                    inputs[estimator.name],
-                    last=i == len(prepared) - 1,
-                ),
+                _naming(estimator.name, chunks) if len(prepared) > 1 else chunks,
                 signals,
                 log=as_text(log),
                 model_name=model.name,

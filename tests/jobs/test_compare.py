@@ -8,6 +8,9 @@ import os
 import shutil
 from pathlib import Path
 
+import pytest
+
+from hybridlog.errors import OptionError
 from hybridlog.jobs.analysis import compare
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.report.markdown import escape_markdown
@@ -57,3 +60,19 @@ def test_the_comparison_holds_each_estimators_own_numbers(tmp_path: Path) -> Non
         ):
             assert rows[name][column] == ("" if value is None else repr(value)), (name, column)
         assert report.mse == stored["mse"]
+
+
+def test_an_error_of_one_compared_estimator_names_it(tmp_path: Path) -> None:
+    """``--set cluster_modes=2,1`` reaches chiu (3 clusters) and kmeans (2): the error named
+    neither, and nothing is written."""
+    out = tmp_path / "cmp"
+    with pytest.raises(
+        OptionError, match=r"^--estimators chiu: cluster_modes: 2 mode ids for 3 clusters"
+    ):
+        compare(
+            CART, "double_cart_case1", ["kmeans", "chiu"], out_dir=out, sets=["cluster_modes=2,1"]
+        )
+    assert not out.exists()
+    # one estimator is named by the command already: the message stays as analyze gives it
+    with pytest.raises(OptionError, match=r"^cluster_modes: 2 mode ids for 3 clusters"):
+        compare(CART, "double_cart_case1", ["chiu"], out_dir=out, sets=["cluster_modes=2,1"])
