@@ -257,15 +257,9 @@ def discover_modes(
     phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
     lag = fitted.spec.max_lag
     clusters = fitted.decide(signals.outputs)[lag:]
-    labels = [
-        f"cluster {c + 1}"
-        + (
-            ""
-            if fitted.cluster_modes is None
-            else f" -> mode '{model.mode_ids[fitted.cluster_modes[c]]}'"
-        )
-        for c in range(len(fitted.centers))
-    ]
+    cluster_modes = (
+        None if fitted.cluster_modes is None else [model.mode_ids[m] for m in fitted.cluster_modes]
+    )
     truth = (
         None
         if signals.truth_modes is None
@@ -281,7 +275,7 @@ def discover_modes(
                 names=fitted.regressors,
                 clusters=clusters,
                 centers=fitted.centers,
-                cluster_labels=labels,
+                cluster_modes=cluster_modes,
                 decision_values=fitted.decision_values[:, 0],
                 kmeans_centers=None if baseline is None else baseline.centers,
                 truth=truth,

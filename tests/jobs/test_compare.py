@@ -76,3 +76,15 @@ def test_an_error_of_one_compared_estimator_names_it(tmp_path: Path) -> None:
     # one estimator is named by the command already: the message stays as analyze gives it
     with pytest.raises(OptionError, match=r"^cluster_modes: 2 mode ids for 3 clusters"):
         compare(CART, "double_cart_case1", ["chiu"], out_dir=out, sets=["cluster_modes=2,1"])
+
+
+def test_a_small_radius_still_gives_a_readable_plot(tmp_path: Path) -> None:
+    """r_a = 0.001 gave 840 clusters, each its own legend entry and dashed line: the legend
+    pushed the axes to nothing (matplotlib's 'constrained_layout not applied' on stderr) and
+    ten colours repeated over 840 clusters.  Now the samples are coloured by mode."""
+    from hybridlog.estimators.chiu import ChiuOptions
+
+    out = tmp_path / "c.json"
+    outcome = discover_modes(CART, "double_cart_case1", out=out, chiu=ChiuOptions(radius=0.001))
+    assert len(outcome.chiu.centers) > 100
+    assert (tmp_path / "c.png").stat().st_size > 0
