@@ -19,10 +19,11 @@ Labelling
     one-step output prediction errors, i.e. the labelling under which the model best
     predicts the log).  Every mode must receive at least one cluster when there are at
     least as many clusters as modes (paper 001 assumes the number of modes ``s`` is known and
-    every mode occurs); surplus clusters go wherever they fit best.  With fewer clusters than
-    modes each cluster gets its own mode.  The search is exhaustive up to
-    :data:`EXHAUSTIVE_MAX` maps, else coordinate descent (one cluster at a time, until no
-    change lowers the score) from the best of the round-robin maps.
+    every mode occurs; where a lower score would leave a mode without a cluster, as on a log
+    in which a mode never occurs, the notes say so); surplus clusters go wherever they fit
+    best.  With fewer clusters than modes each cluster gets its own mode.  The search is
+    exhaustive up to :data:`EXHAUSTIVE_MAX` maps, else coordinate descent (one cluster at a
+    time, until no change lowers the score) from the best of the round-robin maps.
 """
 
 from __future__ import annotations
@@ -180,10 +181,38 @@ def label_clusters(
     notes = (
         f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}",
         *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what),
+        *_kept_modes(chosen, alternatives, total, sizes, mode_ids, what),
     )
     return ClusterLabels(
         modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=notes
     )
+
+
+def _kept_modes(
+    chosen: IntArray,
+    alternatives: FloatArray,
+    total: float,
+    sizes: IntArray,
+    mode_ids: Sequence[str],
+    what: str,
+) -> list[str]:
+    """Notes on the moves that fit better but would leave a mode without a cluster.
+
+    The chosen map admits no better single move but one that empties a mode: on a log where a
+    mode never occurs, its cluster would be labelled otherwise, and the notes say so.
+    """
+    notes: list[str] = []
+    populated = sizes > 0
+    for c, m in zip(*np.nonzero(alternatives < total), strict=True):
+        if np.count_nonzero((chosen == chosen[c]) & populated) != 1:
+            continue  # not what kept it: a move of one cluster among several empties no mode
+        notes.append(
+            f"cluster {c + 1} in mode '{mode_ids[m]}' would give a lower {what} "
+            f"({alternatives[c, m]:.4g}) but leave mode '{mode_ids[chosen[c]]}' without a "
+            "cluster; kept, as paper 001 assumes that every mode occurs in the log (--set "
+            "cluster_modes= sets the labels by hand)"
+        )
+    return notes
 
 
 def cluster_notes(

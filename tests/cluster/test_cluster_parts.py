@@ -74,6 +74,11 @@ def test_labelling_by_score_gives_every_mode_a_cluster():
     # the best map would use only mode 'b', but every mode must get a cluster
     lazy = label_clusters(2, ["a", "b"], lambda labels: float(labels.sum() == 1), np.array([3, 3]))
     assert sorted(lazy.modes.tolist()) == [0, 1]
+    # ... and the notes say which better fit was given up for it (the notes quoted a lower
+    # score for the other mode without a word on why it was not taken)
+    kept = [n for n in lazy.notes if "would give a lower score (0)" in n]
+    assert len(kept) == 2 and all("without a cluster; kept, as paper 001" in n for n in kept)
+    assert not any("would give" in n for n in found.notes)
     # fewer clusters than modes: one mode stays without a cluster, and the notes say so
     few = label_clusters(1, ["a", "b", "c"], lambda labels: float(labels[0] != 2), np.array([4]))
     assert few.modes.tolist() == [2] and any("'a' has no cluster" in n for n in few.notes)
