@@ -41,7 +41,12 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
-from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
+from hybridlog.report.summary import (
+    comparison_markdown,
+    gate_cell,
+    markdown_table,
+    write_summary_csv,
+)
 from hybridlog.report.table_format import check_table_format
 from hybridlog.signals import AlignedSignals
 
@@ -547,10 +552,11 @@ def compare(
     """Run several estimators on one log: ``<out>/<estimator>/`` reports and a table.
 
     The table (``comparison.md`` and ``comparison.csv``) has one row per estimator; CI gates
-    apply to every estimator.  ``smooth`` (``--smooth``) and ``mode_sequence`` apply to every
-    estimator, each of which must offer them (:func:`smoothing_overrides`); when any
-    estimator's estimates were smoothed, the table gets a ``smoothing`` column and the
-    filter's own mode accuracy beside the smoothed one.
+    apply to every estimator, and with gates the table gets a ``gates`` column (``pass (2)``
+    or the gates the estimator missed).  ``smooth`` (``--smooth``) and ``mode_sequence``
+    apply to every estimator, each of which must offer them (:func:`smoothing_overrides`);
+    when any estimator's estimates were smoothed, the table gets a ``smoothing`` column and
+    the filter's own mode accuracy beside the smoothed one.
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
@@ -594,21 +600,22 @@ def compare(
                 reading=reading,
                 model=model,
             )
+        missed = {name: evaluate_gates(report, gates) for name, report in reports.items()}
         columns: tuple[str, ...] = ("estimator", *_COLUMNS)
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         if any(report.smoothing is not None for report in reports.values()):
             columns += _SMOOTHING_COLUMNS
             for row, report in zip(rows, reports.values(), strict=True):
                 row += _smoothing_cells(report)
+        if gates:  # which estimator missed which gate, as a batch's summary shows per log
+            columns += ("gates",)
+            for row, name in zip(rows, reports, strict=True):
+                row.append(gate_cell(len(gates), missed[name]))
         table = markdown_table(columns, rows)
         (folder / "comparison.md").write_text(
             comparison_markdown(f"{model.name} on {as_text(log)}", table, reports),
             encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
-    failures = [
-        f"{name}: {failure}"
-        for name, report in reports.items()
-        for failure in evaluate_gates(report, gates)
-    ]
+    failures = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
     return Comparison(reports=reports, table=table, gate_failures=failures)

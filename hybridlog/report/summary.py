@@ -27,6 +27,7 @@ __all__ = [
     "batch_markdown",
     "batch_rows_csv",
     "comparison_markdown",
+    "gate_cell",
     "markdown_table",
     "write_summary_csv",
 ]
@@ -178,15 +179,22 @@ BATCH_METRICS = ("samples", "vaf", "mse", "mode_accuracy")
 """The metrics of each log in the batch summaries (report keys)."""
 
 
+def gate_cell(n_gates: int, missed: Sequence[str]) -> str:
+    """The gates of one run in a summary table: ``pass (2)``, ``FAIL: vaf = 87.2 is ...``.
+
+    Empty when no gate was given.
+    """
+    if not n_gates:
+        return ""
+    if not missed:
+        return f"pass ({n_gates})"
+    return "FAIL: " + "; ".join(missed)
+
+
 def _gate_cell(row: BatchRow) -> str:
     if row.status == "failed":
         return "not analysed"
-    if not row.gates:
-        return ""
-    missed = row.missed
-    if not missed:
-        return f"pass ({len(row.gates)})"
-    return "FAIL: " + "; ".join(missed)
+    return gate_cell(len(row.gates), row.missed)
 
 
 def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -> tuple[str, str]:

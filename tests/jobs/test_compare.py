@@ -88,3 +88,34 @@ def test_a_small_radius_still_gives_a_readable_plot(tmp_path: Path) -> None:
     outcome = discover_modes(CART, "double_cart_case1", out=out, chiu=ChiuOptions(radius=0.001))
     assert len(outcome.chiu.centers) > 100
     assert (tmp_path / "c.png").stat().st_size > 0
+
+
+def test_the_comparison_says_which_estimator_missed_which_gate(tmp_path: Path) -> None:
+    """The gates' outcome was only on stderr: comparison.md, a CI job's summary, had none."""
+    out = tmp_path / "cmp"
+    outcome = compare(
+        CART,
+        "double_cart_case1",
+        ["imm", "hstf"],
+        out_dir=out,
+        fail_under=["vaf=99.97"],
+        fail_over=["detection_delay_s=10"],
+    )
+    assert outcome.gate_failures == [
+        "hstf: vaf = 99.9655 is under the bound 99.97",
+        "hstf: detection_delay_s is not available (every true switch (48) was missed), so the "
+        "--fail-over bound 10 cannot be met",
+    ]
+    with (out / "comparison.csv").open(newline="") as file:
+        gates = {row["estimator"]: row["gates"] for row in csv.DictReader(file)}
+    assert gates == {
+        "imm": "pass (2)",
+        "hstf": "FAIL: "
+        + "; ".join(failure.removeprefix("hstf: ") for failure in outcome.gate_failures),
+    }
+    table = (out / "comparison.md").read_text().splitlines()
+    assert table[2].startswith("| estimator |") and table[2].endswith("| gates |")
+    assert table[4].endswith("| pass (2) |") and "| FAIL: vaf = 99.9655" in table[5]
+    # no gates, no column
+    compare(CART, "double_cart_case1", ["imm"], out_dir=tmp_path / "plain")
+    assert "gates" not in (tmp_path / "plain" / "comparison.csv").read_text()
