@@ -203,6 +203,10 @@ def discover_modes(
     problem = Capabilities().mismatch(ModelTraits(model))
     if problem is not None:
         raise ModelError(f"{model.origin or model.name}: hybridlog cluster {problem}")
+    # the lags and the clustering settings too: --squash 1 or --output-lags 1 was refused
+    # only after a long log had been read and the observer's LMI solved
+    chiu.regressor_spec()
+    chiu.clustering().validate(dimensions=1)
     reading: dict[str, Any] = {}
     signals = read_log(os.fspath(log), model, read, reading)
     notes: list[str] = []

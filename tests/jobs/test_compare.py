@@ -119,3 +119,19 @@ def test_the_comparison_says_which_estimator_missed_which_gate(tmp_path: Path) -
     # no gates, no column
     compare(CART, "double_cart_case1", ["imm"], out_dir=tmp_path / "plain")
     assert "gates" not in (tmp_path / "plain" / "comparison.csv").read_text()
+
+
+def test_cluster_refuses_its_settings_before_reading_the_log(tmp_path: Path) -> None:
+    """``--squash 1`` and ``--output-lags 1`` were refused after the log was read (and the
+    LMI solved): here the log is a folder no reader could read."""
+    from hybridlog.estimators.chiu import ChiuOptions
+
+    folder = tmp_path / "not_a_log.csv"
+    folder.mkdir()
+    for options, message in (
+        (ChiuOptions(squash=1.0), r"^squash: r_b/r_a must be greater than 1"),
+        (ChiuOptions(output_lags="1"), r"^output_lags: must contain 0"),
+        (ChiuOptions(accept=0.1, reject=0.2), r"^accept, reject: need 0 < reject < accept"),
+    ):
+        with pytest.raises(OptionError, match=message):
+            discover_modes(folder, "double_cart_case1", out=tmp_path / "c.json", chiu=options)
