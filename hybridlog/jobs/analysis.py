@@ -611,7 +611,7 @@ def compare(
             columns += ("gates",)
             for row, name in zip(rows, reports, strict=True):
                 row.append(gate_cell(len(gates), missed[name]))
-        table = markdown_table(columns, rows)
+        table = markdown_table(columns, rows, distinct=True)  # estimators side by side
         (folder / "comparison.md").write_text(
             comparison_markdown(f"{model.name} on {as_text(log)}", table, reports),
             encoding="utf-8",

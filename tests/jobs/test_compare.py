@@ -135,3 +135,27 @@ def test_cluster_refuses_its_settings_before_reading_the_log(tmp_path: Path) -> 
     ):
         with pytest.raises(OptionError, match=message):
             discover_modes(folder, "double_cart_case1", out=tmp_path / "c.json", chiu=options)
+
+
+def test_different_numbers_side_by_side_never_read_alike(tmp_path: Path) -> None:
+    """imm's VAF 99.9721 and hstf's 99.9655 both read '99.97' in comparison.md (and hstf
+    missed a gate at 99.97 its cell seemed to meet)."""
+    from hybridlog.report.summary import markdown_table
+
+    outcome = compare(CART, "double_cart_case1", ["imm", "hstf"], out_dir=tmp_path / "cmp")
+    vaf = {name: report.vaf for name, report in outcome.reports.items()}
+    assert f"{vaf['imm']:.2f}" == f"{vaf['hstf']:.2f}"  # the case at hand
+    rows = (tmp_path / "cmp" / "comparison.md").read_text().splitlines()[4:6]
+    cells = [row.split(" | ")[1] for row in rows]
+    assert cells == [f"{vaf['imm']:.3f}", f"{vaf['hstf']:.3f}"] and cells[0] != cells[1]
+    # the digits grow only as far as needed, in either notation; equal values stay as they were
+    rows = [[0.5, 1.00001e-9], [0.5, 1.00002e-9], [0.25, 3e-3]]
+    table = markdown_table(("x", "y"), rows, distinct=True)
+    assert table.splitlines()[2:] == [
+        "| 0.5000 | 1.00001e-09 |",
+        "| 0.5000 | 1.00002e-09 |",
+        "| 0.2500 | 3.00000e-03 |",
+    ]
+    # a batch's many logs keep the digits of the column's smallest value
+    many = markdown_table(("y",), [[y] for _, y in rows[:2]])
+    assert many.splitlines()[2:] == ["| 1.000e-09 |"] * 2
