@@ -560,8 +560,9 @@ def compare(
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
-    if len(set(estimators)) != len(estimators):
-        raise OptionError("--estimators: an estimator is named twice")
+    twice = sorted({name for name in estimators if list(estimators).count(name) > 1})
+    if twice:  # two reports under one folder name
+        raise OptionError(f"--estimators: {', '.join(map(excerpt, twice))} named twice")
     model, overrides = parse_sets(sets, model_ref)
     prepared = prepare_estimators(
         model,

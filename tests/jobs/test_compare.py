@@ -159,3 +159,10 @@ def test_different_numbers_side_by_side_never_read_alike(tmp_path: Path) -> None
     # a batch's many logs keep the digits of the column's smallest value
     many = markdown_table(("y",), [[y] for _, y in rows[:2]])
     assert many.splitlines()[2:] == ["| 1.000e-09 |"] * 2
+
+
+def test_an_estimator_named_twice_is_named(tmp_path: Path) -> None:
+    """``imm,chiu,imm`` was refused as 'an estimator is named twice', not saying which."""
+    with pytest.raises(OptionError, match=r"^--estimators: 'imm' named twice$"):
+        compare(CART, "double_cart_case1", ["imm", "chiu", "imm"], out_dir=tmp_path / "c")
+    assert not (tmp_path / "c").exists()
