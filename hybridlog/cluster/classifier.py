@@ -36,7 +36,7 @@ from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
 from hybridlog.cluster.labels import cluster_notes, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
-from hybridlog.errors import OptionError, excerpt
+from hybridlog.errors import OptionError, as_text, excerpt
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -262,7 +262,8 @@ def stored_classifier(
             + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
         )
     entry = stored.clusters[algorithm]
-    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {source}",)
+    named = as_text(source)  # a name that is not UTF-8: no report could hold its note
+    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {named}",)
     classifier = _unlabelled(
         algorithm, spec, names, entry.centers, stored.lower, stored.upper, notes, {}, outputs
     )
@@ -271,7 +272,7 @@ def stored_classifier(
     modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
     sizes = classifier.details["sizes"]
     return classifier.labelled(
-        modes, (f"labels loaded from {source}", *cluster_notes(modes, sizes, mode_ids))
+        modes, (f"labels loaded from {named}", *cluster_notes(modes, sizes, mode_ids))
     )
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from hybridlog.errors import as_text
 from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown
 
 if TYPE_CHECKING:
@@ -114,7 +115,7 @@ def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     for name, report in reports.items():
         if report.notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in report.notes)]
+            lines += ["", f"## Notes on `{name}`", "", *(f"- {as_text(n)}" for n in report.notes)]
     return "\n".join(lines) + "\n"
 
 

@@ -166,3 +166,22 @@ def test_an_estimator_named_twice_is_named(tmp_path: Path) -> None:
     with pytest.raises(OptionError, match=r"^--estimators: 'imm' named twice$"):
         compare(CART, "double_cart_case1", ["imm", "chiu", "imm"], out_dir=tmp_path / "c")
     assert not (tmp_path / "c").exists()
+
+
+def test_a_centres_file_named_in_bytes_that_are_not_utf8(tmp_path: Path) -> None:
+    """Its name went into the notes as a lone surrogate: analyze and compare ended in
+    'unexpected UnicodeEncodeError in writer.py' writing report.md, after the estimators ran."""
+    from hybridlog.jobs.analysis import analyze
+
+    fitted = tmp_path / "fitted.json"
+    discover_modes(CART, "double_cart_case1", out=fitted)
+    centres = Path(os.fsdecode(os.fsencode(tmp_path) + b"/c\xff.json"))
+    shutil.copyfile(fitted, centres)
+    shown = f"{tmp_path}/c\\xff.json"
+    sets = [f"centers={centres}"]
+    analyze(CART, "double_cart_case1", estimator="chiu", sets=sets, out_dir=tmp_path / "a")
+    text = (tmp_path / "a" / "report.md").read_text(encoding="utf-8")
+    assert f"- chiu: 3 centres loaded from {shown}" in text
+    compare(CART, "double_cart_case1", ["chiu", "imm"], sets=sets, out_dir=tmp_path / "c")
+    text = (tmp_path / "c" / "comparison.md").read_text(encoding="utf-8")
+    assert f"- labels loaded from {shown}" in text
