@@ -244,7 +244,7 @@ def stored_classifier(
         )
     if stored.regressors != names:
         lags = ", ".join(
-            f"{key}={','.join(map(str, value))}"
+            f"{key}={','.join(map(str, value)) if value else ' (no lag)'}"
             for key, value in (
                 ("output_lags", stored.output_lags),
                 ("input_lags", stored.input_lags),
@@ -254,7 +254,7 @@ def stored_classifier(
         raise OptionError(
             f"{source}: regressors {list(stored.regressors)} do not match this "
             f"model and these lags ({list(names)})"
-            + (f"; the file was fitted with {lags}" if lags else "")
+            + (f"; the file was fitted with {lags}: set the same" if lags else "")
         )
     if algorithm not in stored.clusters:
         raise OptionError(

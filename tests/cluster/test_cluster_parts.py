@@ -220,6 +220,21 @@ def test_a_stored_classifier_comes_from_parsed_text_not_a_file():
         stored_classifier(
             stored, "chiu", spec, y, names=["z(k)"], mode_ids=["a", "b"], source="mem.json"
         )
+    # the lags the centres were fitted with, when they are not the ones given
+    with pytest.raises(
+        OptionError,
+        match=r"^mem.json: regressors .* the file was fitted with output_lags=0, input_lags= "
+        r"\(no lag\): set the same$",
+    ):
+        stored_classifier(
+            stored,
+            "chiu",
+            RegressorSpec(),
+            y,
+            names=["y(k)", "y(k-1)", "u(k-1)"],
+            mode_ids=["a", "b"],
+            source="mem.json",
+        )
     with pytest.raises(
         OptionError, match=r"^mem.json: kmeans: no kmeans centres .*--compare-kmeans"
     ):
