@@ -185,3 +185,51 @@ def test_a_centres_file_named_in_bytes_that_are_not_utf8(tmp_path: Path) -> None
     compare(CART, "double_cart_case1", ["chiu", "imm"], sets=sets, out_dir=tmp_path / "c")
     text = (tmp_path / "c" / "comparison.md").read_text(encoding="utf-8")
     assert f"- labels loaded from {shown}" in text
+
+
+def test_cluster_fits_what_the_chiu_estimator_fits_for_the_model(tmp_path: Path) -> None:
+    """A model file's ``[estimators.chiu] radius = 0.3`` set the chiu estimator's fit, but
+    ``hybridlog cluster`` ignored it and fitted r_a = 0.5: other centres than analyze's."""
+    from hybridlog.errors import ModelError
+    from hybridlog.estimators.chiu import ChiuOptions
+    from hybridlog.jobs.analysis import analyze
+    from hybridlog.model.builtins import builtin_text
+
+    model = tmp_path / "cart.toml"
+    text = builtin_text("double_cart_case1")
+    tables = "[estimators.chiu]\nradius = 0.3\n[estimators.kmeans]\nclusters = 3\n"
+    tables += 'cluster_modes = "2,1,1"'
+    model.write_text(f"{text}\n{tables}\n")
+    out = tmp_path / "c.json"
+    outcome = discover_modes(CART, model, out=out, compare_kmeans=True)
+    stored = json.loads(out.read_text())
+    assert stored["chiu"]["parameters"]["radius"] == 0.3
+    assert len(stored["kmeans"]["centers"]) == 3 and stored["kmeans"]["modes"] == ["2", "1", "1"]
+    report = analyze(CART, model, estimator="chiu", out_dir=tmp_path / "a").report
+    assert stored["chiu"]["centers"] == report.options["classifier"]["centers"]
+    assert stored["chiu"]["modes"] == report.options["classifier"]["cluster_modes"]
+    assert len(outcome.chiu.centers) == 6
+    # what the user gives wins over the model file, and so does a whole ChiuOptions
+    for chiu, given in ((ChiuOptions(radius=0.5), ["radius"]), (ChiuOptions(radius=0.5), None)):
+        discover_modes(CART, model, out=out, chiu=chiu, given=given, force=True)
+        assert json.loads(out.read_text())["chiu"]["parameters"]["radius"] == 0.5
+    model.write_text(text + '\n[estimators.chiu]\nradius = "big"\n')
+    with pytest.raises(ModelError, match=r"cart\.toml: estimators\.chiu\.radius: chiu option"):
+        discover_modes(CART, model, out=tmp_path / "never.json")
+    assert not (tmp_path / "never.json").exists()
+
+
+def test_cluster_command_gives_its_options_over_the_model_files(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from hybridlog.cli import cli
+    from hybridlog.model.builtins import builtin_text
+
+    model = tmp_path / "cart.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\nradius = 0.3\n")
+    out = tmp_path / "c.json"
+    for extra, radius in (([], 0.3), (["--radius", "0.5"], 0.5), (["--radius", "0.4"], 0.4)):
+        args = ["cluster", str(CART), "--model", str(model), "--out", str(out), "--force"]
+        result = CliRunner().invoke(cli, [*args, *extra])
+        assert result.exit_code == 0, result.output
+        assert json.loads(out.read_text())["chiu"]["parameters"]["radius"] == radius
