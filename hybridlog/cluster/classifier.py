@@ -171,8 +171,9 @@ def fit_classifier(
     Raises
     ------
     DataShortError
-        No more samples than the largest lag, or fewer distinct regression vectors than
-        k-means centres (the message names no file: the caller knows the log).
+        No more samples than the largest lag, fewer distinct regression vectors than k-means
+        centres, or (eq. (5) without the self term) none within reach of another (the message
+        names no file: the caller knows the log).
     """
     names = tuple(names)
     phi = regression_vectors(outputs, inputs, spec)
