@@ -654,6 +654,7 @@ def cluster_command(
         model_ref,
         out=out,
         chiu=_CLUSTERING.parse(options),
+        given=[name for name, value in options.items() if value is not None],
         compare_kmeans=compare_kmeans,
         plot=plot,
         read=read,

@@ -33,10 +33,10 @@ import numpy as np
 
 from hybridlog.cluster.centers_file import CentersFile
 from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
-from hybridlog.cluster.labels import decide_clusters
+from hybridlog.cluster.labels import cluster_notes, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
-from hybridlog.errors import OptionError
+from hybridlog.errors import OptionError, as_text, excerpt
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -171,8 +171,9 @@ def fit_classifier(
     Raises
     ------
     DataShortError
-        No more samples than the largest lag, or fewer distinct regression vectors than
-        k-means centres (the message names no file: the caller knows the log).
+        No more samples than the largest lag, fewer distinct regression vectors than k-means
+        centres, or (eq. (5) without the self term) none within reach of another (the message
+        names no file: the caller knows the log).
     """
     names = tuple(names)
     phi = regression_vectors(outputs, inputs, spec)
@@ -225,19 +226,36 @@ def stored_classifier(
 ) -> ModeClassifier:
     """The classifier of ``algorithm`` in a parsed ``centers.json``, applied to ``outputs``.
 
-    Labelled with the file's modes when the file has them and they are modes of the model.
+    Labelled with the file's modes when it has them; the notes say what each cluster decides
+    on ``outputs`` (the file's own notes describe the log it was fitted on).
 
     Raises
     ------
     OptionError
-        The file's regressors are not φ(k) of this model and these lags, or it holds no
-        centres of ``algorithm`` (the message starts with ``source``, the file's name).
+        The file's modes are not the model's, its regressors are not φ(k) of this model and
+        these lags, or it holds no centres of ``algorithm`` (the message starts with
+        ``source``, the file's name).
     """
     names = tuple(names)
+    if set(stored.mode_ids) != set(mode_ids):
+        raise OptionError(
+            f"{source}: mode_ids: the centres were fitted for the modes "
+            f"{excerpt(', '.join(stored.mode_ids))[1:-1]}, the model has "
+            f"{', '.join(mode_ids)}; fit them for this model with hybridlog cluster"
+        )
     if stored.regressors != names:
+        lags = ", ".join(
+            f"{key}={','.join(map(str, value)) if value else ' (no lag)'}"
+            for key, value in (
+                ("output_lags", stored.output_lags),
+                ("input_lags", stored.input_lags),
+            )
+            if value != getattr(spec, key)
+        )
         raise OptionError(
             f"{source}: regressors {list(stored.regressors)} do not match this "
             f"model and these lags ({list(names)})"
+            + (f"; the file was fitted with {lags}: set the same" if lags else "")
         )
     if algorithm not in stored.clusters:
         raise OptionError(
@@ -245,14 +263,18 @@ def stored_classifier(
             + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
         )
     entry = stored.clusters[algorithm]
-    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {source}",)
+    named = as_text(source)  # a name that is not UTF-8: no report could hold its note
+    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {named}",)
     classifier = _unlabelled(
         algorithm, spec, names, entry.centers, stored.lower, stored.upper, notes, {}, outputs
     )
-    if entry.modes is not None and set(entry.modes) <= set(mode_ids):
-        modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
-        return classifier.labelled(modes, (f"labels loaded from {source}", *entry.labelling))
-    return classifier
+    if entry.modes is None:
+        return classifier
+    modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
+    sizes = classifier.details["sizes"]
+    return classifier.labelled(
+        modes, (f"labels loaded from {named}", *cluster_notes(modes, sizes, mode_ids))
+    )
 
 
 def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArray:

@@ -23,7 +23,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.errors import LogError, OptionError, as_text, excerpt
+from hybridlog.errors import HybridlogError, LogError, OptionError, as_text, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
     Estimator,
@@ -41,7 +41,12 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
-from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
+from hybridlog.report.summary import (
+    comparison_markdown,
+    gate_cell,
+    markdown_table,
+    write_summary_csv,
+)
 from hybridlog.report.table_format import check_table_format
 from hybridlog.signals import AlignedSignals
 
@@ -517,6 +522,18 @@ def _smoothing_cells(report: Report) -> list[Any]:
     return [name, smoothing.filtered.mode_accuracy]
 
 
+def _naming(name: str, chunks: Iterator[EstimationResult]) -> Iterator[EstimationResult]:
+    """The chunks of one of several compared estimators; an error of its run names it.
+
+    ``cluster_modes: 2 mode ids for 3 clusters`` did not say which of ``chiu,kmeans`` failed
+    (the option reaches both); it becomes ``--estimators chiu: cluster_modes: ...``.
+    """
+    try:
+        yield from chunks
+    except HybridlogError as err:
+        raise type(err)(f"--estimators {name}: {err}") from err
+
+
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -535,15 +552,17 @@ def compare(
     """Run several estimators on one log: ``<out>/<estimator>/`` reports and a table.
 
     The table (``comparison.md`` and ``comparison.csv``) has one row per estimator; CI gates
-    apply to every estimator.  ``smooth`` (``--smooth``) and ``mode_sequence`` apply to every
-    estimator, each of which must offer them (:func:`smoothing_overrides`); when any
-    estimator's estimates were smoothed, the table gets a ``smoothing`` column and the
-    filter's own mode accuracy beside the smoothed one.
+    apply to every estimator, and with gates the table gets a ``gates`` column (``pass (2)``
+    or the gates the estimator missed).  ``smooth`` (``--smooth``) and ``mode_sequence``
+    apply to every estimator, each of which must offer them (:func:`smoothing_overrides`);
+    when any estimator's estimates were smoothed, the table gets a ``smoothing`` column and
+    the filter's own mode accuracy beside the smoothed one.
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
-    if len(set(estimators)) != len(estimators):
-        raise OptionError("--estimators: an estimator is named twice")
+    twice = sorted({name for name in estimators if list(estimators).count(name) > 1})
+    if twice:  # two reports under one folder name
+        raise OptionError(f"--estimators: {', '.join(map(excerpt, twice))} named twice")
     model, overrides = parse_sets(sets, model_ref)
     prepared = prepare_estimators(
         model,
@@ -568,15 +587,12 @@ def compare(
 
     with atomic_output_dir(out_dir, force=force) as folder:
         for i, estimator in enumerate(prepared):  # one after the other: one's chunks at a time
+            chunks = estimates(
+                estimator, model, signals, inputs[estimator.name], last=i == len(prepared) - 1
+            )
             reports[estimator.name] = write_report(
                 folder / estimator.name,
-                estimates(
-                    estimator,
-                    model,
-                    signals,
-                    inputs[estimator.name],
-                    last=i == len(prepared) - 1,
-                ),
+                _naming(estimator.name, chunks) if len(prepared) > 1 else chunks,
                 signals,
                 log=as_text(log),
                 model_name=model.name,
@@ -585,20 +601,22 @@ def compare(
                 reading=reading,
                 model=model,
             )
+        missed = {name: evaluate_gates(report, gates) for name, report in reports.items()}
         columns: tuple[str, ...] = ("estimator", *_COLUMNS)
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         if any(report.smoothing is not None for report in reports.values()):
             columns += _SMOOTHING_COLUMNS
             for row, report in zip(rows, reports.values(), strict=True):
                 row += _smoothing_cells(report)
-        table = markdown_table(columns, rows)
+        if gates:  # which estimator missed which gate, as a batch's summary shows per log
+            columns += ("gates",)
+            for row, name in zip(rows, reports, strict=True):
+                row.append(gate_cell(len(gates), missed[name]))
+        table = markdown_table(columns, rows, distinct=True)  # estimators side by side
         (folder / "comparison.md").write_text(
-            comparison_markdown(f"{model.name} on {log}", table, reports), encoding="utf-8"
+            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports),
+            encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
-    failures = [
-        f"{name}: {failure}"
-        for name, report in reports.items()
-        for failure in evaluate_gates(report, gates)
-    ]
+    failures = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
     return Comparison(reports=reports, table=table, gate_failures=failures)

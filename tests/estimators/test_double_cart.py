@@ -164,6 +164,7 @@ def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
     classifier = mode_classifier(model, signals, ChiuOptions(), observer=design_observer(model, 1))
     content = {
         "model": model.name,
+        "mode_ids": list(model.mode_ids),
         "regressors": list(classifier.regressors),
         "output_lags": list(classifier.spec.output_lags),
         "input_lags": list(classifier.spec.input_lags),
@@ -267,7 +268,10 @@ def test_cluster_command_then_analyze_with_the_centres(tmp_path):
 
 def test_cluster_command_errors(tmp_path):
     bad = tmp_path / "bad.json"
-    bad.write_text('{"format": "hybridlog-centers", "version": 1, "regressors": ["y(k)"]}')
+    bad.write_text(
+        '{"format": "hybridlog-centers", "version": 1, "mode_ids": ["1", "2"], '
+        '"regressors": ["y(k)"]}'
+    )
     result = run_cli(
         [
             "analyze",
