@@ -24,8 +24,11 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 
 A sample up to ``dt/1000`` (at least 1 µs, at most ``dt/4``) away from a grid point counts as
 *at* it: float seconds at Unix-epoch magnitudes carry ~0.2 µs of rounding, and a log sampled
-at ``dt`` must come out unchanged.  With that, a log already on the grid is reproduced
-bit for bit: every value is one of the log's samples, never recomputed.
+at ``dt`` must come out unchanged.  For the same reason a gap is longer than ``max_gap`` only
+when it exceeds it by more than that tolerance (:func:`longer_than_max_gap`): a gap of exactly
+``5*dt`` is accepted whether the log's clock starts at 0 or at 1.7e9 s.  With that, a log
+already on the grid is reproduced bit for bit: every value is one of the log's samples, never
+recomputed.
 """
 
 from __future__ import annotations
@@ -53,6 +56,16 @@ DEFAULT_MAX_GAP_STEPS = 5
 def clock_tolerance_ns(dt_ns: int) -> int:
     """How far (ns) a sample may sit from a grid point and still count as at it."""
     return max(min(max(dt_ns // 1000, 1000), dt_ns // 4), 0)
+
+
+def longer_than_max_gap(span_ns: Any, max_gap_ns: int, dt_ns: int) -> Any:
+    """Whether a time span between two samples (ns; a number or an array) exceeds ``max_gap``.
+
+    By more than :func:`clock_tolerance_ns`: both ends carry the rounding of the log's
+    clock, so a gap of exactly ``max_gap`` measures up to a few hundred nanoseconds longer
+    at Unix-epoch times, and would be refused or not depending on where in the log it lies.
+    """
+    return span_ns > max_gap_ns + clock_tolerance_ns(dt_ns)
 
 
 def step_ns(dt: float) -> int:
@@ -259,7 +272,7 @@ def resample_series(
     hi = lo + 1
     outside = (lo < 0) | (hi >= time_ns.size)
     span = time_ns[np.clip(hi, 0, time_ns.size - 1)] - time_ns[np.clip(lo, 0, time_ns.size - 1)]
-    too_long: IntArray = in_gap[outside | (span > max_gap_ns)]
+    too_long: IntArray = in_gap[outside | longer_than_max_gap(span, max_gap_ns, dt_ns)]
     return values, too_long, int(in_gap.size - too_long.size)
 
 
@@ -376,7 +389,7 @@ def align_signals(
     tolerance = clock_tolerance_ns(dt_ns)
     if split_gaps and outputs:
         outputs = _longest_piece(
-            source, inputs, outputs, max_gap_ns, notes if notes is not None else {}
+            source, inputs, outputs, max_gap_ns, dt_ns, notes if notes is not None else {}
         )
 
     output_list = list(outputs.values())
@@ -473,6 +486,7 @@ def _longest_piece(
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
     max_gap_ns: int,
+    dt_ns: int,
     notes: dict[str, Any],
 ) -> dict[str, Series]:
     """The outputs cut to the longest stretch without a gap longer than ``max_gap``."""
@@ -484,7 +498,7 @@ def _longest_piece(
     gaps: list[tuple[int, int]] = []
     for series in outputs.values():
         steps = np.diff(series.time_ns)
-        for i in np.flatnonzero(steps > max_gap_ns).tolist():
+        for i in np.flatnonzero(longer_than_max_gap(steps, max_gap_ns, dt_ns)).tolist():
             gaps.append((int(series.time_ns[i]), int(series.time_ns[i + 1])))
     if not gaps:
         return dict(outputs)

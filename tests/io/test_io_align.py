@@ -371,3 +371,23 @@ def test_on_grid_shortcut_agrees_with_the_search(
     np.testing.assert_array_equal(fast.inputs, slow.inputs)
     np.testing.assert_array_equal(fast.outputs, slow.outputs)
     np.testing.assert_array_equal(fast.truth_states, slow.truth_states)  # NaN where it stopped
+
+
+@pytest.mark.parametrize("split_gaps", [False, True])
+def test_a_gap_of_exactly_max_gap_is_accepted_at_epoch_times(split_gaps: bool) -> None:
+    """Times written to 10 ms at 1.7e9 s: a hole of exactly 5*dt measured up to 190 ns
+    longer, and was refused at some places in the log and not at others."""
+    epoch = 1_700_000_000.0
+    for k in range(4980, 5000):  # 4987 -> 4992 measures 50000190 ns
+        steps = [j for j in range(k - 5, k + 10) if not k < j < k + 5]
+        seconds = np.array([float(f"{epoch + j * 0.01:.2f}") for j in steps])
+        y = series("y", seconds, np.arange(seconds.size))
+        notes: dict[str, object] = {}
+        aligned = align_signals(
+            source="s", dt=0.01, inputs={}, outputs={"y": y}, split_gaps=split_gaps, notes=notes
+        )
+        assert aligned.n_samples == 15 and "segments" not in notes
+    # a gap longer than max_gap by more than the clock's rounding is still one
+    y = series("y", [0.0, 0.01, 0.06002, 0.07], [0.0, 1.0, 2.0, 3.0])
+    with pytest.raises(LogError, match=r"from t=0\.01 s to t=0\.06002 s"):
+        align_signals(source="s", dt=0.01, inputs={}, outputs={"y": y})
