@@ -158,9 +158,10 @@ class Target:
     Attributes
     ----------
     kind:
-        ``"number"``, ``"string"``, ``"array"`` (of numbers, no index given) or ``"message"``.
+        ``"number"``, ``"string"``, ``"array"`` (no index given) or ``"message"``.
     type_name:
-        The primitive or message type at the end of the path.
+        The primitive or message type at the end of the path (of the elements, for an
+        array).
     """
 
     kind: str
@@ -233,10 +234,9 @@ def _target(desc: Fielddesc) -> Target:
         return Target("string" if name in STRING_TYPES else "number", name)
     if node == NAME:
         return Target("message", desc[1])
+    # an array of numbers, of strings or of messages: an index picks one element
     sub = desc[1][0]
-    if int(sub[0]) == BASE and sub[1][0] not in STRING_TYPES:
-        return Target("array", sub[1][0])
-    return Target("message", "array")
+    return Target("array", sub[1][0] if int(sub[0]) == BASE else sub[1])
 
 
 FLOAT_TYPES = frozenset(("float32", "float64"))

@@ -8,6 +8,7 @@ in ROS 1 serialisation; bytes that do not fit their definition are refused.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,8 +20,11 @@ from mcap_ros1.decoder import DecoderFactory as Ros1Decoders
 from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from hybridlog.io import ReadOptions
+from hybridlog.io.formats import open_log
 from hybridlog.io.message_paths import (
     PathError,
+    Target,
     UndecodableError,
     accessor,
     as_float_array,
@@ -33,7 +37,14 @@ from hybridlog.io.message_paths import (
     split_path,
     stamp_ns,
 )
-from tests.support.logfiles import msgdef, ros1_store, ros2_store, stamped_point
+from tests.support.logfiles import (
+    header_scene_records,
+    msgdef,
+    ros1_store,
+    ros2_store,
+    stamped_point,
+    write_ros2_bag,
+)
 
 TOPICS = ["/truth", "/truth/x1", "/joint_states", "/a.b"]
 
@@ -76,6 +87,26 @@ def test_definitions_check_paths_and_name_the_fields() -> None:
         check_path(defs, "sensor_msgs/msg/JointState", ("position", "x"))
     with pytest.raises(PathError, match="index out of range"):
         check_path(defs, "sensor_msgs/msg/Imu", ("orientation_covariance", 9))
+
+
+def test_arrays_of_strings_and_of_messages_are_arrays_of_their_element_type(
+    tmp_path: Path,
+) -> None:
+    """``/tf.transforms`` was 'a message (array), not a number; name a field in it', and
+    naming a field in it was then refused for want of an index."""
+    defs = ros2_store().fielddefs
+    assert check_path(defs, "tf2_msgs/msg/TFMessage", ("transforms",)) == Target(
+        "array", "geometry_msgs/msg/TransformStamped"
+    )
+    assert check_path(defs, "sensor_msgs/msg/JointState", ("name",)) == Target("array", "string")
+    assert check_path(defs, "sensor_msgs/msg/JointState", ("name", 0)) == Target("string", "string")
+    bag = write_ros2_bag(tmp_path / "bag", header_scene_records(), "sqlite3")
+    with open_log(bag, ReadOptions()) as source:
+        assert source.explain_missing("/sim/state.layout.dim", numeric=True) == (
+            "'/sim/state.layout.dim' is an array of std_msgs/msg/MultiArrayDimension; "
+            "add an index, e.g. /sim/state.layout.dim[0]"
+        )
+        assert source.explain_missing("/sim/state.layout.dim[-1].size", numeric=True) is None
 
 
 def _point_schema(ros1: bool) -> Schema:
