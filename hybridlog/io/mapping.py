@@ -19,7 +19,9 @@ For each model input and output, and for the ground truth (``truth.mode``,
    ``truth.x`` (state)  ``/truth/x.data`` (``std_msgs/Float64``)
    ==================== ==========================================
 
-Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``.
+Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``
+(and a ground-truth field found by default that holds no sample is no truth either:
+:func:`~hybridlog.io.load.load_signals` drops it).
 """
 
 from __future__ import annotations

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from hybridlog.errors import LogError, OptionError
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
 
 SYMBOLS: dict[str, Any] = {"inputs": ("u1", "u2"), "outputs": ("y",), "states": ("h1", "h2")}
@@ -72,4 +75,27 @@ def test_mapped_truth_must_exist() -> None:
     with pytest.raises(LogError, match=r"no column 'phse' for truth.mode.*closest: 'phase'"):
         resolve_signal_map(
             ("u1", "u2", "y", "phase"), source="log.csv", maps={"truth.mode": "phse"}, **SYMBOLS
+        )
+
+
+def test_ground_truth_without_samples_is_no_truth_unless_mapped(tmp_path: Path) -> None:
+    """An empty ``mode`` column refused the log ('truth.mode (column 'mode') has no
+    samples') while an empty state column was no truth; and ``--map truth.x=x`` to an
+    empty column gave a report without its RMSE instead of an error."""
+    log = tmp_path / "log.csv"
+    log.write_text("t,u,y,mode,x,z\n" + "".join(f"{k / 10},{k},{k},,,{k}\n" for k in range(20)))
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a", "b"), dt=0.1, states=("x", "z"))
+    notes: dict[str, Any] = {}
+    aligned = load_signals(log, spec, notes=notes)
+    assert aligned.truth_modes is None
+    assert aligned.truth_states is not None
+    assert np.isnan(aligned.truth_states[:, 0]).all()
+    np.testing.assert_array_equal(aligned.truth_states[:, 1], np.arange(20))
+    assert notes["truth_without_samples"] == ["truth.mode (column 'mode')", "truth.x (column 'x')"]
+    for symbol, column in (("truth.mode", "mode"), ("truth.x", "x")):
+        options = ReadOptions(maps=(f"{symbol}={column}",))
+        with pytest.raises(LogError) as error:
+            load_signals(log, spec, options)
+        assert str(error.value) == (
+            f"{log}: {symbol} (column {column!r}, from --map {symbol}={column}) has no samples"
         )
