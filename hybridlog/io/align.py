@@ -382,11 +382,18 @@ def align_signals(
     OptionError
         For an unknown ``resample``, a negative ``max_gap`` or an unusable ``dt``.
     LogError
-        For an output gap longer than ``max_gap`` (naming the time span), signals that do
-        not overlap, or a true mode that starts too late.
+        For an input or output without samples, an output gap longer than ``max_gap``
+        (naming the time span), signals that do not overlap, or a true mode that starts too
+        late.
     """
     dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
+    for kind, signals in (("input", inputs), ("output", outputs)):
+        for symbol, series in signals.items():
+            if series.time_ns.size == 0:
+                raise LogError(
+                    f"{source}: {kind} {symbol!r} ({field_word} {series.name!r}) has no samples"
+                )
     if split_gaps and outputs:
         outputs = _longest_piece(
             source, inputs, outputs, max_gap_ns, dt_ns, notes if notes is not None else {}
@@ -489,10 +496,7 @@ def _longest_piece(
     dt_ns: int,
     notes: dict[str, Any],
 ) -> dict[str, Series]:
-    """The outputs cut to the longest stretch without a gap longer than ``max_gap``."""
-    for series in (*inputs.values(), *outputs.values()):
-        if series.time_ns.size == 0:
-            raise LogError(f"{source}: {series.name!r} has no samples")
+    """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``."""
     start = max(int(s.time_ns[0]) for s in (*inputs.values(), *outputs.values()))
     end = min(int(s.time_ns[-1]) for s in outputs.values())
     gaps: list[tuple[int, int]] = []

@@ -391,3 +391,23 @@ def test_a_gap_of_exactly_max_gap_is_accepted_at_epoch_times(split_gaps: bool) -
     y = series("y", [0.0, 0.01, 0.06002, 0.07], [0.0, 1.0, 2.0, 3.0])
     with pytest.raises(LogError, match=r"from t=0\.01 s to t=0\.06002 s"):
         align_signals(source="s", dt=0.01, inputs={}, outputs={"y": y})
+
+
+@pytest.mark.parametrize("split_gaps", [False, True])
+def test_a_signal_without_samples_is_named_by_its_symbol(split_gaps: bool) -> None:
+    """'log.bag: '/level.data' has no samples' did not say which symbol needed it."""
+    u = series("u", [0.0, 1.0, 2.0], [1.0, 2.0, 3.0])
+    empty = series("/level.data", [], [])
+    with pytest.raises(LogError) as error:
+        align_signals(
+            source="log.bag",
+            dt=1.0,
+            inputs={"u": u},
+            outputs={"y": empty},
+            split_gaps=split_gaps,
+            field_word="field",
+        )
+    assert str(error.value) == "log.bag: output 'y' (field '/level.data') has no samples"
+    with pytest.raises(LogError) as error:
+        align_signals(source="log.csv", dt=1.0, inputs={"u": empty}, outputs={"y": u})
+    assert str(error.value) == "log.csv: input 'u' (column '/level.data') has no samples"
