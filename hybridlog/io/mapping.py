@@ -100,6 +100,14 @@ def valid_map_symbols(
     )
 
 
+def is_mode_symbol(symbol: str) -> bool:
+    """Whether ``symbol`` is a true mode, read as labels: ``truth.mode``, ``truth.mode.<c>``.
+
+    Not a true state whose name starts with ``mode`` (``truth.modes``): a number.
+    """
+    return symbol == TRUTH_MODE or symbol.startswith(f"{TRUTH_MODE}.")
+
+
 def component_truth_symbol(component: str) -> str:
     """The symbol of a component's true mode: ``truth.mode.<component>``."""
     return f"{TRUTH_MODE}.{component}"
@@ -212,7 +220,7 @@ def resolve_signal_map(
         return None if name in available else closest_names([name], fields)
 
     def choose(symbol: str, model_path: str | None, default: str, required: bool) -> str | None:
-        numeric = not symbol.startswith(TRUTH_MODE)
+        numeric = not is_mode_symbol(symbol)
         mapped = maps.get(symbol)
         if mapped is not None:
             reason = missing(mapped, numeric)

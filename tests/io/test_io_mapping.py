@@ -99,3 +99,28 @@ def test_ground_truth_without_samples_is_no_truth_unless_mapped(tmp_path: Path) 
         assert str(error.value) == (
             f"{log}: {symbol} (column {column!r}, from --map {symbol}={column}) has no samples"
         )
+
+
+def test_a_state_named_like_mode_is_read_as_a_number() -> None:
+    """A state ``modes``: its truth ``truth.modes`` was checked as a label (its name starts
+    with ``truth.mode``), so a text field by the default name was taken and the log then
+    refused as 'is a string, not a number', where a state ``x`` had no truth."""
+    text = {"/truth/mode.data", "/truth/modes.data", "/truth/x.data"}
+    fields = ("/u.data", "/y.data", *sorted(text))
+
+    def explain(name: str, numeric: bool) -> str | None:
+        if name not in fields:
+            return f"{name!r}: no such field"
+        return f"{name!r} is a string, not a number" if numeric and name in text else None
+
+    chosen = resolve_signal_map(
+        fields,
+        source="log.bag",
+        inputs=("u",),
+        outputs=("y",),
+        states=("modes", "x"),
+        message_paths=True,
+        explain=explain,
+    )
+    assert chosen.truth_mode == "/truth/mode.data"
+    assert chosen.truth_states == {}
