@@ -284,6 +284,7 @@ def _gap_error(
     grid_ns: IntArray,
     point: int,
     max_gap_ns: int,
+    dt_ns: int,
 ) -> LogError:
     time_ns = series.time_ns
     hi = int(np.searchsorted(time_ns, grid_ns[point], side="right"))
@@ -296,7 +297,27 @@ def _gap_error(
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
-    return LogError(f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}")
+    return LogError(
+        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}"
+        f"{_slower_than_max_gap(series, max_gap_ns, dt_ns)}"
+    )
+
+
+def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
+    """A hint when ``series`` is sampled slower than ``max_gap`` allows, else ``""``.
+
+    Then (nearly) every step is a gap, and the likely cause is a model whose ``dt`` is not
+    the log's sample time.
+    """
+    if series.time_ns.size < 2:
+        return ""
+    median = round(float(np.median(np.diff(series.time_ns))))
+    if not longer_than_max_gap(median, max_gap_ns, dt_ns):
+        return ""
+    return (
+        f"; it is sampled every {format_ns(median)} s (its median step), slower than max_gap "
+        f"{format_ns(max_gap_ns)} s allows: is the model's dt ({format_ns(dt_ns)} s) the log's?"
+    )
 
 
 def check_alignment_options(
@@ -396,7 +417,13 @@ def align_signals(
                 )
     if split_gaps and outputs:
         outputs = _longest_piece(
-            source, inputs, outputs, max_gap_ns, dt_ns, notes if notes is not None else {}
+            source,
+            field_word,
+            inputs,
+            outputs,
+            max_gap_ns,
+            dt_ns,
+            notes if notes is not None else {},
         )
 
     output_list = list(outputs.values())
@@ -417,7 +444,14 @@ def align_signals(
         values, too_long, bridged = resample_series(series, grid, dt_ns, max_gap_ns, method)
         if too_long.size:
             raise _gap_error(
-                source, f"output {symbol!r}", field_word, series, grid, int(too_long[0]), max_gap_ns
+                source,
+                f"output {symbol!r}",
+                field_word,
+                series,
+                grid,
+                int(too_long[0]),
+                max_gap_ns,
+                dt_ns,
             )
         if bridged and notes is not None:
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
@@ -490,6 +524,7 @@ def _hold_modes(
 
 def _longest_piece(
     source: str,
+    field_word: str,
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
     max_gap_ns: int,
@@ -497,6 +532,13 @@ def _longest_piece(
     notes: dict[str, Any],
 ) -> dict[str, Series]:
     """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``."""
+    for symbol, series in outputs.items():
+        hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
+        if hint:  # every step a gap: no piece longer than one sample
+            raise LogError(
+                f"{source}: --split-gaps: output {symbol!r} ({field_word} {series.name!r}) "
+                f"leaves no piece of more than one sample{hint}"
+            )
     start = max(int(s.time_ns[0]) for s in (*inputs.values(), *outputs.values()))
     end = min(int(s.time_ns[-1]) for s in outputs.values())
     gaps: list[tuple[int, int]] = []

@@ -411,3 +411,30 @@ def test_a_signal_without_samples_is_named_by_its_symbol(split_gaps: bool) -> No
     with pytest.raises(LogError) as error:
         align_signals(source="log.csv", dt=1.0, inputs={"u": empty}, outputs={"y": u})
     assert str(error.value) == "log.csv: input 'u' (column '/level.data') has no samples"
+
+
+def test_an_output_slower_than_max_gap_says_so() -> None:
+    """A log at 1 s on a model of dt 0.1 s was 'gap ... from t=0 s to t=1 s', and with
+    --split-gaps 'too short: 1 sample' (every step was a gap, every piece one sample)."""
+    u = series("u", np.arange(20) * 1.0, np.arange(20))
+    y = series("y", np.arange(20) * 1.0, np.arange(20))
+    hint = (
+        "; it is sampled every 1 s (its median step), slower than max_gap 0.5 s allows: "
+        "is the model's dt (0.1 s) the log's?"
+    )
+    with pytest.raises(LogError) as error:
+        align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": y})
+    assert str(error.value) == (
+        "s: gap in output 'y' (column 'y'): no sample from t=0 s to t=1 s "
+        f"(1 s > max_gap 0.5 s){hint}"
+    )
+    with pytest.raises(LogError) as error:
+        align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": y}, split_gaps=True)
+    assert str(error.value) == (
+        f"s: --split-gaps: output 'y' (column 'y') leaves no piece of more than one sample{hint}"
+    )
+    # a log at the model's rate with one hole gets no hint
+    holed = series("y", np.delete(np.arange(200) * 0.1, range(50, 60)), np.arange(190))
+    with pytest.raises(LogError) as error:
+        align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": holed})
+    assert str(error.value).endswith("(1.1 s > max_gap 0.5 s)")
