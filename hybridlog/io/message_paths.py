@@ -267,40 +267,44 @@ class Leaf:
         return format_steps(self.steps) + ("[]" if self.array else "")
 
 
-def leaves(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[Leaf]:
-    """The numeric and text leaves of ``msgtype``, in definition order.
+def leaves(typedefs: Typedefs, msgtype: str) -> list[Leaf]:
+    """Every numeric and text leaf of ``msgtype``, in definition order.
 
-    Arrays of numbers are leaves; nested messages inside arrays are not expanded, nor messages
-    nested deeper than 8 levels.  At most ``limit`` are returned.
+    Arrays of numbers are leaves; nested messages inside arrays are not expanded.  All of
+    them, however many: ``inspect`` lists them as the fields a symbol can be mapped to, and
+    counts the NaN and infinite values of each floating-point one (a cap left the fields
+    past it unlisted and their values uncounted).  A definition that contains itself (no
+    ROS type can, a damaged one might) is not followed into itself.
     """
     out: list[Leaf] = []
 
-    def walk(type_name: str, prefix: tuple[str, ...], depth: int) -> None:
-        if depth > 8 or type_name not in typedefs:
+    def walk(type_name: str, prefix: tuple[str, ...], within: frozenset[str]) -> None:
+        if type_name in within or type_name not in typedefs:
             return
+        within = within | {type_name}
         for name, desc in typedefs[type_name][1]:
-            if len(out) >= limit or name == "structure_needs_at_least_one_member":
+            if name == "structure_needs_at_least_one_member":
                 continue
             node = int(desc[0])
             if node == BASE and (desc[1][0] in NUMERIC_TYPES or desc[1][0] in STRING_TYPES):
                 out.append(Leaf((*prefix, name), desc[1][0], array=False))
             elif node == NAME:
-                walk(desc[1], (*prefix, name), depth + 1)
+                walk(desc[1], (*prefix, name), within)
             elif node in (ARRAY, SEQUENCE):
                 sub = desc[1][0]
                 if int(sub[0]) == BASE and sub[1][0] in NUMERIC_TYPES:
                     out.append(Leaf((*prefix, name), sub[1][0], array=True))
 
-    walk(msgtype, (), 0)
+    walk(msgtype, (), frozenset())
     return out
 
 
-def leaf_fields(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[str]:
+def leaf_fields(typedefs: Typedefs, msgtype: str) -> list[str]:
     """Paths (steps only, e.g. ``.position[]``) of the numeric and text leaves of ``msgtype``.
 
     Arrays are shown as ``[]`` (their length is known only per message); see :func:`leaves`.
     """
-    return [leaf.text for leaf in leaves(typedefs, msgtype, limit=limit)]
+    return [leaf.text for leaf in leaves(typedefs, msgtype)]
 
 
 # ---------------------------------------------------------------------------- decoded messages

@@ -335,3 +335,34 @@ def test_inspect_shows_irregular_timing_and_nonfinite_values(tmp_path: Path) -> 
     assert "  /y: median step 0.001 s (1000 Hz), steps 0.001 s to 2.996 s\n" in text
     assert "non-finite values (NaN, inf; analyze refuses them in a mapped signal unless " in text
     assert "  /y.data: 2 of 20\n" in text
+
+
+def test_every_field_of_a_large_message_is_listed_and_counted(tmp_path: Path) -> None:
+    """A message of 80 float64 fields (a PX4 status has as many): inspect listed 64 of them
+    and counted NaN in those only, so a field full of NaN past the 64th showed nonfinite 0."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    text = "\n".join(f"float64 f{i}" for i in range(80))
+    store = get_typestore(Stores.LATEST)
+    store.register(get_types_from_msg(text, "my_msgs/msg/Big"))
+    big = store.types["my_msgs/msg/Big"]
+    messages = [
+        (
+            0,
+            k * 10**8,
+            bytes(
+                store.serialize_cdr(
+                    big(**{f"f{i}": np.nan if i == 70 else float(k) for i in range(80)}),
+                    "my_msgs/msg/Big",
+                )
+            ),
+        )
+        for k in range(10)
+    ]
+    channel = Channel("/big", schema_name="my_msgs/msg/Big", schema_text=text)
+    info = inspect_log(write_mcap(tmp_path / "big.mcap", [channel], messages))
+    (topic,) = info["topics"]
+    assert topic["fields"] == [f"/big.f{i}" for i in range(80)]
+    assert topic["nonfinite"] == 10
+    assert {"name": "/big.f70", "count": 10, "nonfinite": 10} in topic["values"]
+    assert "  /big.f70: 10 of 10" in format_inspection(info).splitlines()
