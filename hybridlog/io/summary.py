@@ -44,13 +44,14 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
     -------
     dict
         JSON-serialisable, times in seconds: ``rate_hz`` (mean rate over the span,
-        ``(n - 1) / duration``), ``sample_time`` (median step), ``min_step``, ``max_step``,
+        ``(n - 1) / duration``), ``sample_time`` (median step; times that repeat are no
+        step, so a message published twice hides no gap), ``min_step``, ``max_step``,
         ``regular`` (every step within a factor :data:`GAP_FACTOR` of the median), and with
         ``gaps`` also ``gap_count`` and ``gaps`` (``start, end, duration`` of every step longer
         than :data:`GAP_FACTOR` times the median, at most :data:`MAX_LISTED_GAPS` listed).
         Each is ``None`` (``0`` and ``[]`` for the gaps) when fewer than two samples give no
-        step, and ``rate_hz`` also when the span is zero; with a median step of zero (times
-        that repeat) nothing is a gap and the timing is irregular unless every step is zero.
+        step, and ``rate_hz`` also when the span is zero; times that repeat make the timing
+        irregular, unless every time is the same (median step zero, nothing is a gap).
     """
     info: dict[str, Any] = {
         "rate_hz": None,
@@ -65,7 +66,10 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
         return info
     steps = np.diff(time_ns)
     span = int(time_ns[-1]) - int(time_ns[0])
-    median = float(np.median(steps))
+    # times that repeat (a message published twice) are no step in time: with as many
+    # repeats as steps, a median of zero would hide every gap
+    forward = steps[steps > 0]
+    median = float(np.median(forward)) if forward.size else 0.0
     shortest, longest = int(steps.min()), int(steps.max())
     if span > 0:
         info["rate_hz"] = (time_ns.size - 1) * 1e9 / span

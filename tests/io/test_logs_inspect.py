@@ -21,6 +21,7 @@ from tests.support.logfiles import (
     Channel,
     Record,
     float64_cdr,
+    float_messages,
     scene,
     tank_run,
     write_mcap,
@@ -366,3 +367,18 @@ def test_every_field_of_a_large_message_is_listed_and_counted(tmp_path: Path) ->
     assert topic["nonfinite"] == 10
     assert {"name": "/big.f70", "count": 10, "nonfinite": 10} in topic["values"]
     assert "  /big.f70: 10 of 10" in format_inspection(info).splitlines()
+
+
+def test_a_topic_published_twice_per_step_still_shows_its_gaps(tmp_path: Path) -> None:
+    """Every message sent twice, and a 10.1 s hole: the median step was 0 (as many repeats as
+    steps), so no step was a gap and inspect showed 'gaps 0', 'median step 0 s'."""
+    times = [k * 10**8 for k in (*range(20), *range(121, 140)) for _ in range(2)]
+    log = write_mcap(tmp_path / "twice.mcap", [Channel("/y")], float_messages(times, times))
+    (topic,) = inspect_log(log)["topics"]
+    assert topic["sample_time"] == pytest.approx(0.1)
+    assert (topic["min_step"], topic["regular"]) == (0.0, False)
+    assert topic["gap_count"] == 1
+    assert topic["gaps"] == [{"start": 1.9, "end": 12.1, "duration": pytest.approx(10.2)}]
+    same = write_mcap(tmp_path / "same.mcap", [Channel("/y")], float_messages([5] * 3, [0] * 3))
+    (topic,) = inspect_log(same)["topics"]
+    assert (topic["sample_time"], topic["regular"], topic["gap_count"]) == (0.0, True, 0)
