@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import cli, main
+from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
 from hybridlog.io.bag_writers import write_log
 from tests.support.logfiles import (
@@ -382,3 +383,24 @@ def test_a_topic_published_twice_per_step_still_shows_its_gaps(tmp_path: Path) -
     same = write_mcap(tmp_path / "same.mcap", [Channel("/y")], float_messages([5] * 3, [0] * 3))
     (topic,) = inspect_log(same)["topics"]
     assert (topic["sample_time"], topic["regular"], topic["gap_count"]) == (0.0, True, 0)
+
+
+def test_repeated_log_times_that_analyze_refuses_are_shown(tmp_path: Path) -> None:
+    """inspect called a topic sent twice per step merely irregular; analyze refused it."""
+    times = [k * 10**8 for k in range(20) for _ in range(2)]
+    channels = [Channel("/y"), Channel("/u")]
+    messages = [*float_messages(times, times), *float_messages(times[::2], times[::2], 1)]
+    log = write_mcap(tmp_path / "twice.mcap", channels, sorted(messages, key=lambda m: m[1]))
+    info = inspect_log(log)
+    assert {t["name"]: t["repeated"] for t in info["topics"]} == {"/u": 0, "/y": 20}
+    text = format_inspection(info)
+    assert (
+        "repeated log times (analyze refuses them unless --sort, which keeps the last):\n"
+        "  /y: 20 messages at the time of the one before\n"
+    ) in text
+    assert "/u: 0" not in text
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(LogError, match="20 message"):
+        load_signals(log, spec, ReadOptions(maps=("u=/u.data", "y=/y.data")))
+    table = write_log(tmp_path / "even.csv", {"t": np.arange(5) * 0.1, "y": np.ones(5)})
+    assert inspect_log(table)["repeated"] == 0
