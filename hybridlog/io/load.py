@@ -228,6 +228,7 @@ def load_signals(
         numeric_series = dict(reading.numeric)
         dropped: dict[str, int] = {}
         out_of_range: dict[str, int] = {}
+        emptied: dict[str, int] = {}  # fields of which --drop-nonfinite dropped every sample
         for name, series in list(numeric_series.items()):
             if _all_usable(series.values):
                 continue
@@ -243,6 +244,15 @@ def load_signals(
             if (finite & ~usable).any():
                 out_of_range[name] = int((finite & ~usable).sum())
             numeric_series[name] = Series(name, series.time_ns[usable], series.values[usable])
+            if not usable.any():
+                emptied[name] = int(usable.size)
+                needed = [f"input {u!r}" for u, f in mapping.inputs.items() if f == name]
+                needed += [f"output {y!r}" for y, f in mapping.outputs.items() if f == name]
+                if needed:
+                    raise LogError(
+                        f"{info.path}: {needed[0]} ({info.field_word} {name!r}) has no "
+                        f"usable samples: {_all_dropped(usable.size)}"
+                    )
         notes.update({"format": info.format, "time": options.time})
         notes.update(reading.notes)
         if dropped:
@@ -250,7 +260,14 @@ def load_signals(
         if out_of_range:
             notes["out_of_range_dropped"] = out_of_range
         mapping = _without_empty_truth(
-            mapping, numeric_series, reading.labels, parsed, info.path, info.field_word, notes
+            mapping,
+            numeric_series,
+            reading.labels,
+            parsed,
+            info.path,
+            info.field_word,
+            notes,
+            emptied,
         )
         truth_mode = None
         if mapping.truth_mode is not None:
@@ -292,6 +309,7 @@ def _without_empty_truth(
     path: str,
     field_word: str,
     notes: dict[str, Any],
+    emptied: Mapping[str, int],
 ) -> SignalMap:
     """``mapping`` without the ground truth whose field has no samples.
 
@@ -299,7 +317,7 @@ def _without_empty_truth(
     that holds no sample (an empty ``mode`` column, a state column whose every value was
     dropped by ``--drop-nonfinite``) is no truth, as a field that is not there (recorded in
     ``notes["truth_without_samples"]``).  A field the user named with ``--map`` must have
-    samples.
+    samples.  ``emptied`` counts the samples of the fields ``--drop-nonfinite`` emptied.
 
     Raises
     ------
@@ -312,9 +330,10 @@ def _without_empty_truth(
         if count:
             return True
         if symbol in maps:
+            why = f"usable samples: {_all_dropped(emptied[name])}" if name in emptied else "samples"
             raise LogError(
                 f"{path}: {symbol} ({field_word} {name!r}, from --map {symbol}={maps[symbol]}) "
-                "has no samples"
+                f"has no {why}"
             )
         empty.append(f"{symbol} ({field_word} {name!r})")
         return False
@@ -337,6 +356,13 @@ def _without_empty_truth(
     if empty:
         notes["truth_without_samples"] = empty
     return replace(mapping, truth_mode=truth_mode, truth_states=states, truth_components=components)
+
+
+def _all_dropped(count: int) -> str:
+    """Why a field emptied by ``--drop-nonfinite`` has no samples."""
+    return (
+        f"--drop-nonfinite dropped all {count} (NaN, infinite, or out of range: |value| >= 2^480)"
+    )
 
 
 def _all_usable(values: npt.NDArray[np.float64]) -> bool:
