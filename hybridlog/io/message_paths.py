@@ -322,7 +322,8 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
     done: list[Step] = []
     for step in steps:
         if isinstance(step, int):
-            if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__len__"):
+            # bytes are a uint8[] as mcap-ros1-support decodes it: indexed like any array
+            if isinstance(value, (str, Mapping)) or not hasattr(value, "__len__"):
                 raise PathError(f"{format_steps(done) or 'the message'} is not an array")
             length = len(value)
             if not -length <= step < length:

@@ -211,6 +211,13 @@ def test_numeric_arrays_become_float_arrays_whatever_the_container() -> None:
         assert result.dtype == np.float64
         np.testing.assert_array_equal(result, [1.0, 2.0, 3.0])
     np.testing.assert_array_equal(as_float_array(b"\x01\x02"), [1.0, 2.0])
+    # a uint8[] decoded as bytes is an array element by element too, not only as a whole
+    # (its [-1] was 'is not an array' where leaf_value took the whole as [1.0, 2.0])
+    assert leaf_value({"data": b"\x01\x02"}, ("data", -1)) == 2.0
+    with pytest.raises(PathError, match="index out of range"):
+        leaf_value({"data": b"\x01\x02"}, ("data", 2))
+    with pytest.raises(PathError, match="is not an array"):
+        leaf_value({"data": "text"}, ("data", 0))
     message = {"position": [0.5, 1.5, 2.5]}
     assert as_number(evaluate(message, ("position", -1))) == 2.5
     with pytest.raises(PathError, match="index out of range"):
