@@ -216,6 +216,8 @@ def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Targe
             where = f"{where}.{step}" if where != msgtype else f".{step}"
         elif node in (ARRAY, SEQUENCE):
             if not isinstance(step, int):
+                if step.removeprefix("-").isdigit():  # PlotJuggler's .0 for [0]
+                    raise PathError(f"{where} is an array; write its index in brackets: [{step}]")
                 raise PathError(f"{where} is an array; index it before .{step}, e.g. [0].{step}")
             sub, length = desc[1]
             if node == ARRAY and not -length <= step < length:

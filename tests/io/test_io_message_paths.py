@@ -85,6 +85,11 @@ def test_definitions_check_paths_and_name_the_fields() -> None:
         check_path(defs, "sensor_msgs/msg/JointState", ("postion", 0))
     with pytest.raises(PathError, match="is an array"):
         check_path(defs, "sensor_msgs/msg/JointState", ("position", "x"))
+    # /joint_states/position/1 was told 'index it before .1, e.g. [0].1'
+    with pytest.raises(
+        PathError, match=r"^\.position is an array; write its index in brackets: \[1\]$"
+    ):
+        check_path(defs, "sensor_msgs/msg/JointState", split_path("/j/position/1", ["/j"]).steps)
     with pytest.raises(PathError, match="index out of range"):
         check_path(defs, "sensor_msgs/msg/Imu", ("orientation_covariance", 9))
 
