@@ -306,18 +306,21 @@ def _gap_error(
 def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
     """A hint when ``series`` is sampled slower than ``max_gap`` allows, else ``""``.
 
-    Then (nearly) every step is a gap, and the likely cause is a model whose ``dt`` is not
-    the log's sample time.
+    Then (nearly) every step is a gap: ``max_gap`` is shorter than the log's sample time, or
+    (asked when the series is slower than ``dt``) the model's ``dt`` is not the log's.
     """
     if series.time_ns.size < 2:
         return ""
     median = round(float(np.median(np.diff(series.time_ns))))
     if not longer_than_max_gap(median, max_gap_ns, dt_ns):
         return ""
-    return (
+    hint = (
         f"; it is sampled every {format_ns(median)} s (its median step), slower than max_gap "
-        f"{format_ns(max_gap_ns)} s allows: is the model's dt ({format_ns(dt_ns)} s) the log's?"
+        f"{format_ns(max_gap_ns)} s allows"
     )
+    if median > dt_ns + clock_tolerance_ns(dt_ns):
+        hint += f": is the model's dt ({format_ns(dt_ns)} s) the log's?"
+    return hint
 
 
 def check_alignment_options(
