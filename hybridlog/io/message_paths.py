@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.io.source import closest_names
+from hybridlog.io.source import MAX_SECONDS, NS_PER_S, closest_names
 from hybridlog.signals import FloatArray, IntArray
 
 Step = str | int
@@ -511,23 +511,34 @@ def stamp_ns(value: object) -> int:
     Raises
     ------
     PathError
-        When the value is none of these.
+        When the value is none of these, or the time is beyond the
+        :data:`~hybridlog.io.source.MAX_SECONDS` the nanosecond grid holds.
     """
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if not math.isfinite(value):
             raise PathError(f"is {value}, not a time")
-        return round(value * 1_000_000_000)
+        seconds = f"{value:g} s (a stamp in nanoseconds or milliseconds, where seconds are meant?)"
+        return _on_the_grid(round(value * 1_000_000_000), seconds)
     for sec_name, nsec_name in (("sec", "nanosec"), ("secs", "nsecs"), ("sec", "nsec")):
         if isinstance(value, Mapping):
             sec, nsec = value.get(sec_name), value.get(nsec_name)
         else:
             sec, nsec = getattr(value, sec_name, None), getattr(value, nsec_name, None)
         if isinstance(sec, (int, np.integer)) and isinstance(nsec, (int, np.integer)):
-            return int(sec) * 1_000_000_000 + int(nsec)
+            ns = int(sec) * 1_000_000_000 + int(nsec)
+            return _on_the_grid(ns, f"{int(sec)} s and {int(nsec)} ns")
     to_nsec = getattr(value, "to_nsec", None)
     if callable(to_nsec):
-        return int(to_nsec())
+        ns = int(to_nsec())
+        return _on_the_grid(ns, f"{ns} ns")
     raise PathError(f"is {_kind(value)}, not a time stamp (sec and nanosec)")
+
+
+def _on_the_grid(ns: int, shown: str) -> int:
+    """``ns``, if it fits the int64 nanoseconds of the grid (``|t| <`` ``MAX_SECONDS``)."""
+    if not abs(ns) < MAX_SECONDS * NS_PER_S:
+        raise PathError(f"is beyond the {MAX_SECONDS:.2g} s the nanosecond grid holds: {shown}")
+    return ns
 
 
 def decode_each(decode: Callable[[bytes], object], messages: Sequence[bytes]) -> list[object]:

@@ -20,7 +20,8 @@ from mcap_ros1.decoder import DecoderFactory as Ros1Decoders
 from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from hybridlog.io import ReadOptions
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.io.formats import open_log
 from hybridlog.io.message_paths import (
     PathError,
@@ -38,11 +39,13 @@ from hybridlog.io.message_paths import (
     stamp_ns,
 )
 from tests.support.logfiles import (
+    Channel,
     header_scene_records,
     msgdef,
     ros1_store,
     ros2_store,
     stamped_point,
+    write_mcap,
     write_ros2_bag,
 )
 
@@ -392,3 +395,28 @@ def test_accessor_follows_attributes_and_indices_like_evaluate() -> None:
     assert accessor(("data", -1))(array) == evaluate(array, ("data", -1)) == 4.0
     with pytest.raises(IndexError):
         accessor(("data", 3))(array)
+
+
+def test_a_stamp_beyond_the_nanosecond_grid_is_refused_not_an_overflow(tmp_path: Path) -> None:
+    """--time header on a JSON stamp written in nanoseconds (1.7e18 'seconds'), or a nanosec
+    of 2^70, was 'unexpected OverflowError in messages.py' (the int64 array of times)."""
+    with pytest.raises(PathError, match=r"beyond the 9\.2e\+09 s .*: 1\.7e\+18 s \(a stamp in"):
+        stamp_ns(1_700_000_000_000_000_000)
+    with pytest.raises(PathError, match=r"beyond .*: 0 s and 1180591620717411303424 ns$"):
+        stamp_ns({"sec": 0, "nanosec": 2**70})
+    assert stamp_ns({"sec": 9_100_000_000, "nanosec": 5}) == 9_100_000_000 * 10**9 + 5
+    assert stamp_ns(-1.5) == -1_500_000_000
+    log = tmp_path / "stamped.mcap"
+    channels = [
+        Channel(t, encoding="json", schema_name="x", schema_encoding="jsonschema", schema_text="{}")
+        for t in ("/u", "/y")
+    ]
+    messages = [
+        (c, k * 10**8, json.dumps({"header": {"stamp": 1.7e18 + k}, "data": k}).encode())
+        for k in range(5)
+        for c in (0, 1)
+    ]
+    write_mcap(log, channels, messages, profile="")
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(LogError, match=r"topic '/u' \(x\): header\.stamp is beyond the 9\.2e\+09"):
+        load_signals(log, spec, ReadOptions(time="header"))
