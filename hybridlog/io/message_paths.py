@@ -415,11 +415,18 @@ def as_number(value: object) -> float:
     Raises
     ------
     PathError
-        When the value is a string, an array or a nested message.
+        When the value is a string, an array, a nested message, or an integer beyond the
+        range of a float (JSON integers have no bound).
     """
     if isinstance(value, (bool, int, float, np.number, np.bool_)):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:
+            raise PathError(f"is an integer {_BEYOND_FLOAT}") from None
     raise PathError(f"is {_kind(value)}, not a number")
+
+
+_BEYOND_FLOAT = "beyond the range of a float64 (about 1.8e308)"
 
 
 def as_float_array(value: object) -> FloatArray:
@@ -428,13 +435,16 @@ def as_float_array(value: object) -> FloatArray:
     Raises
     ------
     PathError
-        When the value is not an array of numbers.
+        When the value is not an array of numbers, or holds an integer beyond the range of
+        a float.
     """
     if isinstance(value, (bytes, bytearray)):
         return np.frombuffer(value, dtype=np.uint8).astype(np.float64)
     if isinstance(value, (np.ndarray, array.array, list, tuple)):
         try:
             result: FloatArray = np.asarray(value, dtype=np.float64).reshape(-1)
+        except OverflowError:
+            raise PathError(f"holds an integer {_BEYOND_FLOAT}") from None
         except (TypeError, ValueError) as err:
             raise PathError(f"is {_kind(value)}, not an array of numbers") from err
         return result

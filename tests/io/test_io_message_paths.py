@@ -420,3 +420,28 @@ def test_a_stamp_beyond_the_nanosecond_grid_is_refused_not_an_overflow(tmp_path:
     spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
     with pytest.raises(LogError, match=r"topic '/u' \(x\): header\.stamp is beyond the 9\.2e\+09"):
         load_signals(log, spec, ReadOptions(time="header"))
+
+
+def test_a_json_integer_beyond_a_float_is_refused_not_an_overflow(tmp_path: Path) -> None:
+    """JSON integers have no bound: 10^400 was 'unexpected OverflowError in
+    message_paths.py' (float() of it), alone or in an array."""
+    with pytest.raises(PathError, match=r"^is an integer beyond the range of a float64"):
+        as_number(10**400)
+    with pytest.raises(PathError, match=r"^holds an integer beyond the range of a float64"):
+        leaf_value({"d": [1, 10**400]}, ("d",))
+    assert as_number(10**300) == 1e300
+    log = tmp_path / "big.mcap"
+    channels = [
+        Channel(t, encoding="json", schema_name="x", schema_encoding="jsonschema", schema_text="{}")
+        for t in ("/u", "/y")
+    ]
+    texts = ["1" + "0" * 400 if k == 3 else str(k) for k in range(6)]
+    messages = [
+        (c, k * 10**8, b'{"data": %s}' % t.encode()) for k, t in enumerate(texts) for c in (0, 1)
+    ]
+    write_mcap(log, channels, messages, profile="")
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(
+        LogError, match=r"'/u\.data': the value is an integer beyond .* at t=0\.3 s"
+    ):
+        load_signals(log, spec)
