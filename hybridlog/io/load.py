@@ -332,8 +332,7 @@ def _without_empty_truth(
         if symbol in maps:
             why = f"usable samples: {_all_dropped(emptied[name])}" if name in emptied else "samples"
             raise LogError(
-                f"{path}: {symbol} ({field_word} {name!r}, from --map {symbol}={maps[symbol]}) "
-                f"has no {why}"
+                f"{path}: {symbol} ({field_word} {name!r}, from --map {symbol}={name}) has no {why}"
             )
         empty.append(f"{symbol} ({field_word} {name!r})")
         return False

@@ -133,7 +133,9 @@ def parse_maps(
     Returns
     -------
     dict
-        ``{symbol: path}`` with ``truth.``-prefixed keys for ground truth.
+        ``{symbol: path}`` with ``truth.``-prefixed keys for ground truth; the path as
+        written, spaces and all (:func:`resolve_signal_map` takes it so if the log has such a
+        field, else without the spaces around it).
 
     Raises
     ------
@@ -145,8 +147,8 @@ def parse_maps(
     parsed: dict[str, str] = {}
     for item in maps:
         symbol, sep, path = item.partition("=")
-        symbol, path = symbol.strip(), path.strip()
-        if not sep or not symbol or not path:
+        symbol = symbol.strip()
+        if not sep or not symbol or not path.strip():
             raise OptionError(f"--map {item!r}: expected SYMBOL=PATH, e.g. y=level")
         if symbol not in valid:
             raise OptionError(
@@ -223,6 +225,11 @@ def resolve_signal_map(
         numeric = not is_mode_symbol(symbol)
         mapped = maps.get(symbol)
         if mapped is not None:
+            # as written, so that a column named ' u' (a header 't, u, y') can be named; else
+            # without the spaces around it (--map 'y = level')
+            if mapped != mapped.strip() and missing(mapped, numeric) is None:
+                return mapped
+            mapped = mapped.strip()
             reason = missing(mapped, numeric)
             if reason is not None:
                 raise LogError(

@@ -17,7 +17,10 @@ SYMBOLS: dict[str, Any] = {"inputs": ("u1", "u2"), "outputs": ("y",), "states": 
 
 def test_parse_maps() -> None:
     parsed = parse_maps([" y = /level.data ", "truth.mode=/truth/mode.data"], **SYMBOLS)
-    assert parsed == {"y": "/level.data", "truth.mode": "/truth/mode.data"}
+    assert parsed == {"y": " /level.data ", "truth.mode": "/truth/mode.data"}
+    fields = ("u1", "u2", "/level.data", "/truth/mode.data")
+    chosen = resolve_signal_map(fields, source="log.csv", maps=parsed, **SYMBOLS)
+    assert chosen.outputs == {"y": "/level.data"}
 
 
 @pytest.mark.parametrize(
@@ -147,3 +150,18 @@ def test_a_field_emptied_by_drop_nonfinite_says_so(tmp_path: Path) -> None:
     aligned = load_signals(log, spec, ReadOptions(maps=("y=u",), drop_nonfinite=True), notes=notes)
     assert aligned.truth_states is None
     assert notes["truth_without_samples"] == ["truth.x (column 'x')"]
+
+
+def test_a_column_named_with_spaces_can_be_mapped(tmp_path: Path) -> None:
+    """A header 't, u, y' names columns ' u' and ' y': the error suggested ' u', and
+    --map 'u= u' was stripped to 'u', so no --map could name the column."""
+    log = tmp_path / "log.csv"
+    log.write_text("t, u, y\n" + "".join(f"{k / 10},{k},{2 * k}\n" for k in range(10)))
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(LogError, match=r"no column for input 'u' .*closest: ' u'"):
+        load_signals(log, spec)
+    aligned = load_signals(log, spec, ReadOptions(maps=("u= u", "y = y")))
+    np.testing.assert_array_equal(aligned.inputs[:, 0], np.arange(10))
+    np.testing.assert_array_equal(aligned.outputs[:, 0], 2 * np.arange(10))
+    with pytest.raises(LogError, match=r"no column 'z' for output 'y' \(from --map y=z\)"):
+        load_signals(log, spec, ReadOptions(maps=("u= u", "y= z ")))
