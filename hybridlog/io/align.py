@@ -467,7 +467,7 @@ def align_signals(
     components = {
         name: ComponentTruth(
             series.categories,
-            _hold_modes(f"{source}: mode.{name}", field_word, series, grid, dt_ns, tolerance),
+            _hold_modes(f"{source}: truth.mode.{name}", field_word, series, grid, dt_ns, tolerance),
         )
         for name, series in (truth_components or {}).items()
     }

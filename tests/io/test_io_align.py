@@ -225,6 +225,18 @@ def test_truth_mode_starting_late_is_an_error() -> None:
             outputs={"y": series("y", grid, grid)},
             truth_mode=mode,
         )
+    # a component's true mode is named as --map names it (it was 'mode.valve')
+    with pytest.raises(LogError) as error:
+        align_signals(
+            source="s",
+            dt=1.0,
+            inputs={"u": series("u", grid, grid)},
+            outputs={"y": series("y", grid, grid)},
+            truth_components={"valve": mode},
+        )
+    assert str(error.value) == (
+        "s: truth.mode.valve (column 'mode') starts at t=2 s, after the first sample time t=0 s"
+    )
 
 
 def test_signals_that_do_not_overlap() -> None:
