@@ -655,14 +655,60 @@ def _json_object(value: Mapping[str, Any]) -> JsonObject:
 
 
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
-    """Warnings about the log's alignment: outputs bridged across gaps (``bridged``)."""
-    bridged = (reading or {}).get("bridged") or {}
-    return tuple(
+    """What report.md must say of how the log was read, beside report.json's ``reading``.
+
+    Warnings about the alignment (outputs bridged across gaps, ``bridged``), and what the
+    user's repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
+    ``--drop-nonfinite`` and ``--sort`` dropped or moved, an MCAP file read by ``--recover``.
+    A report of a tenth of a log, or of one with samples taken out, said only its sample
+    count and time span, which read like the whole log's.
+    """
+    reading = reading or {}
+    notes = [
         f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
         f"{count['of']} sample times, which took their values from the samples around (a "
         "measurement used more than once, or interpolated; is the model's dt the log's?)"
-        for symbol, count in bridged.items()
-    )
+        for symbol, count in (reading.get("bridged") or {}).items()
+    ]
+    segments = reading.get("segments")
+    if segments:
+        kept = segments[reading["analysed_segment"]]
+        others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
+        gaps = reading.get("gaps") or []
+        notes.append(
+            f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
+            f"({_spans(gaps)}) cut the log into {len(segments)} pieces; this report is of "
+            f"the longest, t = {kept['start']:g} … {kept['end']:g} s; not analysed: "
+            f"{_spans(others)}"
+        )
+    for key, what in (
+        ("nonfinite_dropped", "--drop-nonfinite dropped NaN or infinite samples"),
+        ("out_of_range_dropped", "--drop-nonfinite dropped out-of-range samples"),
+        ("sorted", "--sort put samples that went back in time in order"),
+        ("duplicates_dropped", "--sort dropped samples of a time already seen, keeping the last"),
+    ):
+        if key in reading:
+            notes.append(f"NOTE: {what}: {_counts(reading[key])}")
+    if reading.get("recovered"):
+        notes.append(
+            f"NOTE: --recover: the MCAP file was read sequentially, "
+            f"{plural(reading.get('messages_readable', 0), 'message')} up to "
+            f"{reading.get('stopped_at')}"
+        )
+    return tuple(notes)
+
+
+def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:
+    """``t = a … b s, ...`` for at most ``most`` spans, then how many more."""
+    shown = ", ".join(f"t = {p['start']:g} … {p['end']:g} s" for p in spans[:most])
+    return shown + (f" and {len(spans) - most} more" if len(spans) > most else "")
+
+
+def _counts(value: object) -> str:
+    """A count, or per signal (topic, column) its count: ``y1 556, y2 3``."""
+    if isinstance(value, Mapping):
+        return ", ".join(f"{name} {count}" for name, count in value.items())
+    return str(value)
 
 
 def _no_delay(modes: ModeReport, of: str = "") -> str | None:
