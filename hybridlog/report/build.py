@@ -20,6 +20,7 @@ from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics
 from hybridlog.report.document import (
+    ComponentSide,
     Detection,
     JsonObject,
     ModeReport,
@@ -410,7 +411,7 @@ class ReportBuilder:
                 None
                 if self._offline is None
                 else self._offline.smoothing(
-                    first, signals, self._modes, rmse, self._components.joint_accuracy()
+                    first, signals, self._modes, rmse, self._components, self._dt
                 )
             ),
             reading=None if reading is None else _json_object(reading),
@@ -489,6 +490,7 @@ def _side(
     output_names: tuple[str, ...],
     explained: metrics.OutputAccumulator | None,
     component_accuracy: float | None = None,
+    components: Mapping[str, ModeReport] | None = None,
 ) -> SmoothingMetrics:
     """The metrics of one side (filtered or offline) of a run with an offline pass.
 
@@ -496,7 +498,8 @@ def _side(
     errors of the outputs its estimates explain, accumulated over the run (``None``: not
     evaluated).  ``component_accuracy``: for a ``[components]`` model, the fraction of
     samples where this side has every component's mode right (the log's truth is per
-    component, so it is the side's mode accuracy; its switches are not scored jointly).
+    component, so it is the side's mode accuracy; its switches are not scored jointly),
+    ``components`` the side's report of each component with a true mode.
     """
     states = {x: StateReport(rmse=_num(float(r))) for x, r in zip(state_names, rmse, strict=True)}
     outputs: dict[str, OutputReport] | None = None
@@ -509,6 +512,7 @@ def _side(
         }
         fit = _num(metrics.mean_where_defined([m.fit for m in per_output]))
     switches = int(np.count_nonzero(modes[1:] != modes[:-1]))
+    sides = {c: ComponentSide.of(m) for c, m in (components or {}).items()}
     truth = signals.truth_modes
     if truth is None:
         return SmoothingMetrics(
@@ -522,6 +526,7 @@ def _side(
             states=states,
             outputs=outputs,
             fit=fit,
+            components=sides,
         )
     counts = metrics.confusion_matrix(modes, truth, len(ids))
     det = metrics.detection_delays(signals.time, modes, truth, ids)
@@ -540,6 +545,7 @@ def _side(
         states=states,
         outputs=outputs,
         fit=fit,
+        components=sides,
     )
 
 
@@ -615,12 +621,13 @@ class _OfflineSides:
         signals: AlignedSignals,
         modes: IntArray,
         rmse: FloatArray,
-        component_accuracy: float | None = None,
+        components: _ComponentModes,
+        dt: float,
     ) -> Smoothing:
         """Both sides' metrics.
 
-        ``modes``, ``rmse`` and ``component_accuracy`` (every component right,
-        :meth:`_ComponentModes.joint_accuracy`) are the report's own (the offline ones).
+        ``modes``, ``rmse`` and ``components`` (each component's modes) are the report's
+        own (the offline ones).
         """
         ids = tuple(str(m) for m in first.mode_ids)
         names = (first.state_names, first.output_names)
@@ -642,9 +649,17 @@ class _OfflineSides:
                 *names,
                 self._explained[0],
                 self._filtered_components.joint_accuracy(),
+                self._filtered_components.reports(signals.time, dt),
             ),
             smoothed=_side(
-                ids, signals, modes, rmse, *names, self._explained[1], component_accuracy
+                ids,
+                signals,
+                modes,
+                rmse,
+                *names,
+                self._explained[1],
+                components.joint_accuracy(),
+                components.reports(signals.time, dt),
             ),
         )
 

@@ -281,6 +281,31 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         for x, state in s.states.items()
         if x in f.states
     ]
+    for c, side in s.components.items():
+        own = f.components.get(c)
+        rows += [
+            (
+                f"component {c}: mode accuracy (%)",
+                percent(None if own is None else own.mode_accuracy),
+                percent(side.mode_accuracy),
+                ".4g",
+            ),
+            (
+                f"component {c}: detection delay, mean (s)",
+                None if own is None else own.detection_delay_s,
+                side.detection_delay_s,
+                ".6g",
+            ),
+        ]
+        if side.missed or (own is not None and own.missed):
+            rows.append(
+                (
+                    f"component {c}: true switches missed",
+                    None if own is None else own.missed,
+                    side.missed,
+                    "d",
+                )
+            )
     if explained and f.outputs is not None and s.outputs is not None:
         rows += [
             (f"fit of h(x̂) {y} (%)", f.outputs[y].fit, out.fit, ".4g")

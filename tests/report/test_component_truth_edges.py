@@ -78,6 +78,22 @@ def test_the_offline_pass_is_scored_against_the_components_truth(
     assert data["smoothing"]["filtered"]["mode_accuracy"] == smoothing.filtered.mode_accuracy
     text = (out / "report.md").read_text()
     assert "No ground-truth mode in the log" not in text
+    # Each component on each side: report.json carried the joint accuracy alone, so the
+    # gain per component (what mode_accuracy.<c> gates) was not there to see.
+    for j, c in enumerate(COMPONENTS):
+        own = [parts[j] == truth[f"mode.{c}"][k] for k, parts in enumerate(filtered)]
+        side = smoothing.filtered.components[c]
+        assert side.mode_accuracy == pytest.approx(sum(own) / N, abs=1e-12)
+        offline = smoothing.smoothed.components[c]
+        report = outcome.report.modes.components[c]
+        assert offline.mode_accuracy == report.accuracy
+        assert offline.detection_delay_s == report.detection_delay_s
+        assert report.detection is not None and offline.missed == report.detection.missed
+        assert data["smoothing"]["filtered"]["components"][c]["mode_accuracy"] == (
+            side.mode_accuracy
+        )
+        assert f"| component {c}: mode accuracy (%) | {100 * side.mode_accuracy:.4f} |" in text
+    assert read_report(out / "report.json").smoothing == smoothing
 
 
 @pytest.mark.parametrize(
