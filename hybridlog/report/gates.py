@@ -382,11 +382,20 @@ _OFFLINE_METRICS: Final = frozenset({"mode_accuracy", "detection_delay_s", "miss
 
 def _filtered_metric(smoothing: Smoothing, name: str) -> float | int | None:
     """The filter's own value of a metric an offline pass changes (``smoothing.filtered``)."""
-    base, _, qualifier = name.partition(".")
+    base, dot, qualifier = name.partition(".")
     filtered = smoothing.filtered
     if base in _STATE_METRICS:
         state = filtered.states.get(qualifier)
         return None if state is None else state.rmse
+    if dot:
+        component = filtered.components.get(qualifier)
+        if component is None:
+            return None
+        return {
+            "mode_accuracy": component.mode_accuracy,
+            "detection_delay_s": component.detection_delay_s,
+            "missed_switches": component.missed,
+        }[base]
     return {
         "mode_accuracy": filtered.mode_accuracy,
         "detection_delay_s": filtered.detection_delay_s,
@@ -398,20 +407,18 @@ def _which_side(report: Report, name: str) -> str:
     """For a report of offline estimates, which estimates a gated metric is of.
 
     ``""`` for a filter's report.  A mode or state metric is of the offline estimates (named
-    by the smoother and the mode sequence), the filter's own value beside it where the report
-    has it (not per component); ``vaf``, ``mse`` and ``fit`` are the filter's prediction.
+    by the smoother and the mode sequence), the filter's own value beside it (``n/a`` where
+    it has none); ``vaf``, ``mse`` and ``fit`` are the filter's prediction.
     """
     smoothing = report.smoothing
     if smoothing is None:
         return ""
-    base, dot, _ = name.partition(".")
+    base = name.partition(".")[0]
     if base in _OUTPUT_METRICS:
         return " (the filter's one-step-ahead prediction)"
     if base not in _OFFLINE_METRICS and base not in _STATE_METRICS:
         return ""
     label = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
-    if dot and base in _COMPONENT_METRICS:
-        return f" (of the offline estimates: {label})"
     filtered = _filtered_metric(smoothing, name)
     own = "n/a" if filtered is None else _fmt(float(filtered))
     return f" (of the offline estimates: {label}; the filter's own: {own})"

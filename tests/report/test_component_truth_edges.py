@@ -18,7 +18,7 @@ import pytest
 from hybridlog.errors import OptionError, ReportError
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import analyze
-from hybridlog.report import read_report
+from hybridlog.report import evaluate_gates, parse_gates, read_report
 from tests.support.cpha import TRUTH_STEPS, cpha_truth_log
 
 N = TRUTH_STEPS
@@ -94,6 +94,12 @@ def test_the_offline_pass_is_scored_against_the_components_truth(
         )
         assert f"| component {c}: mode accuracy (%) | {100 * side.mode_accuracy:.4f} |" in text
     assert read_report(out / "report.json").smoothing == smoothing
+    # a gate on a component names the side it read and the filter's own value
+    (failure,) = evaluate_gates(outcome.report, parse_gates([], ["mode_accuracy.A2=0"]))
+    label = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
+    own = smoothing.filtered.components["A2"].mode_accuracy
+    assert own is not None
+    assert f"(of the offline estimates: {label}; the filter's own: {own:.6g})" in failure
 
 
 @pytest.mark.parametrize(
