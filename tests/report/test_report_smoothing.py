@@ -207,6 +207,29 @@ def test_report_md_has_a_smoothing_section_with_the_gain(tmp_path: Path) -> None
     )
 
 
+def _section(text: str, name: str) -> str:
+    return text.split(f"## {name}\n", 1)[1].split("\n## ", 1)[0]
+
+
+def test_report_md_says_under_each_table_which_estimates_it_is_of() -> None:
+    """Only the Smoothing section, after the tables, said the output metrics were the
+    filter's prediction and the modes and states the offline estimates'."""
+    result, signals = smoothed_run(mode_sequence="viterbi")
+    text = render_markdown(build_report(result, signals, log="run.csv", model_name="m", dt=DT))
+    assert _section(text, "Outputs").startswith(
+        "\nThe causal filter's one-step-ahead prediction ŷ(k|k−1), with or without an offline "
+        "pass: it is the basis of MSE, VAF and fit (see Smoothing).\n\n| output |"
+    )
+    for name, what in (("Modes", "modes"), ("States", "states")):
+        assert _section(text, name).startswith(
+            f"\nOf the offline estimates (`kim-rts`, `viterbi`); the causal filter's own {what} "
+            "are compared with them under Smoothing.\n"
+        )
+    plain, signals = make_run()
+    text = render_markdown(build_report(plain, signals, log="run.csv", model_name="m", dt=DT))
+    assert "offline" not in text and "causal filter's" not in text
+
+
 def test_a_filtered_result_that_does_not_line_up_is_a_programming_error() -> None:
     result, signals = smoothed_run()
     assert result.post_processing is not None
