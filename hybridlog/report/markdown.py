@@ -258,6 +258,8 @@ def _offline_caveat(report: Report, section: str) -> list[str]:
             "offline pass: it is the basis of MSE, VAF and fit (see Smoothing).",
             "",
         ]
+    if section == "states" and smoothing.method is None and smoothing.mode_sequence == "viterbi":
+        return ["The causal filter's own: the Viterbi path changes only the modes.", ""]
     how = ", ".join(f"`{n}`" for n in (smoothing.method, smoothing.mode_sequence) if n)
     return [
         f"Of the offline estimates ({how}); the causal filter's own {section} are compared "

@@ -225,6 +225,12 @@ def test_report_md_says_under_each_table_which_estimates_it_is_of() -> None:
             f"\nOf the offline estimates (`kim-rts`, `viterbi`); the causal filter's own {what} "
             "are compared with them under Smoothing.\n"
         )
+    only, signals = smoothed_run(mode_sequence="viterbi", smoothing=None)
+    text = render_markdown(build_report(only, signals, log="run.csv", model_name="m", dt=DT))
+    assert _section(text, "Modes").startswith("\nOf the offline estimates (`viterbi`);")
+    assert _section(text, "States").startswith(
+        "\nThe causal filter's own: the Viterbi path changes only the modes.\n"
+    )
     plain, signals = make_run()
     text = render_markdown(build_report(plain, signals, log="run.csv", model_name="m", dt=DT))
     assert "offline" not in text and "causal filter's" not in text
