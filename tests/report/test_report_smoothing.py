@@ -19,7 +19,7 @@ import numpy as np
 import polars as pl
 import pytest
 
-from hybridlog.errors import ReportError
+from hybridlog.errors import ModelError, ReportError
 from hybridlog.estimators.result import EstimationResult, PostProcessing
 from hybridlog.report import Report, build_report, read_report, render_markdown, write_report
 from hybridlog.signals import AlignedSignals
@@ -303,3 +303,47 @@ def test_a_malformed_smoothing_is_a_report_error_naming_the_key(
 def test_smoothing_null_reads_as_none() -> None:
     data = _set(_report_data(), "smoothing", None)
     assert Report.from_dict(data).smoothing is None
+
+
+def test_a_model_whose_names_make_one_column_name_twice_is_refused(tmp_path: Path) -> None:
+    """A mode 'low_filtered' beside a mode 'low': timeline.csv's p_low_filtered held the
+    filter's probability of mode 'low' and the smoothed one of mode 'low_filtered' was not
+    written; a state 'x1' beside an output 'x1_hat': estimates.csv's x1_hat held the measured
+    output, the state's estimate was not written."""
+    result, signals = smoothed_run()
+
+    def renamed(**names: Any) -> EstimationResult:
+        post = result.post_processing
+        assert post is not None
+        filtered = dataclasses.replace(post.filtered, **names)
+        return dataclasses.replace(
+            result, **names, post_processing=dataclasses.replace(post, filtered=filtered)
+        )
+
+    out = tmp_path / "out"
+    with pytest.raises(ModelError) as caught:
+        write_report(
+            out,
+            renamed(mode_ids=("off", "low", "low_filtered")),
+            signals,
+            log="run.csv",
+            model_name="m",
+            dt=DT,
+        )
+    assert str(caught.value) == (
+        "the timeline table: two columns would be named 'p_low_filtered': the probability of "
+        "mode 'low_filtered' and the filter's probability of mode 'low'; rename a mode, state "
+        "or output of the model"
+    )
+    assert not out.exists()
+    outputs = ("x1_hat", *OUTPUTS[1:])
+    with pytest.raises(ModelError, match="'x1_hat': the estimate of state 'x1' and the measured"):
+        write_report(
+            out,
+            renamed(output_names=outputs),
+            dataclasses.replace(signals, output_names=outputs),
+            log="run.csv",
+            model_name="m",
+            dt=DT,
+        )
+    assert not out.exists()
