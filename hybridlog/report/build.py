@@ -720,10 +720,12 @@ def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:
 
 
 def _counts(value: object) -> str:
-    """A count, or per signal (topic, column) its count: ``y1 556, y2 3``."""
+    """A count of rows, or per signal (topic, column) its count: ``y1 556, /odom 3``."""
+    if isinstance(value, Mapping) and set(value) == {"rows_out_of_order"}:  # a table's rows
+        value = value["rows_out_of_order"]
     if isinstance(value, Mapping):
         return ", ".join(f"{name} {count}" for name, count in value.items())
-    return str(value)
+    return plural(int(value), "row") if isinstance(value, int) else str(value)
 
 
 def _no_delay(modes: ModeReport, of: str = "") -> str | None:

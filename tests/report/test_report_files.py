@@ -755,3 +755,14 @@ def test_report_md_says_what_the_users_repairs_of_the_log_changed(tmp_path: Path
     written = json.loads((tmp_path / "h" / "report.json").read_text())
     assert written["reading"]["nonfinite_dropped"] == {"y1": 3}
     assert "NOTE: --drop-nonfinite dropped NaN or infinite samples: y1 3" in written["notes"]
+    shuffled = tmp_path / "shuffled.csv"
+    pl.concat([frame[:10], frame[12:13], frame[10:12], frame[12:]]).write_csv(shuffled)
+    done = analyze(
+        shuffled, "three_tank_hstf", out_dir=tmp_path / "s", estimator="imm",
+        read=ReadOptions(sort=True),
+    )  # fmt: skip
+    assert done.report is not None
+    assert done.report.notes[-2:] == (
+        "NOTE: --sort put samples that went back in time in order: 1 row",
+        "NOTE: --sort dropped samples of a time already seen, keeping the last: 1 row",
+    )
