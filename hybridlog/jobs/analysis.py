@@ -227,7 +227,7 @@ def prepare_estimators(
                 f"{', '.join(model.parameters) or 'none'}) nor an estimator option ({options})"
                 f"{closest(name, candidates)}"
             )
-    return [
+    prepared = [
         prepare(
             model,
             e.name,
@@ -236,6 +236,34 @@ def prepare_estimators(
         )
         for e in chosen
     ]
+    _refuse_inert(prepared, overrides.options, declared)
+    return prepared
+
+
+def _inert(options: object) -> Mapping[str, str]:
+    """The options an options dataclass says the others' values make inert (name → why)."""
+    inert: Callable[[], Mapping[str, str]] | None = getattr(options, "inert", None)
+    return {} if inert is None else inert()
+
+
+def _refuse_inert(
+    prepared: Sequence[Prepared], options: Mapping[str, str], declared: Mapping[str, list[str]]
+) -> None:
+    """Refuse a ``--set`` option that no chosen estimator having it would read.
+
+    An options dataclass may say which of its options the others' values make inert
+    (``inert() -> {name: why}``, e.g. ``imm``'s ``beam`` without ``mode_sequence = kbest``);
+    ``--set`` of one is refused when every chosen estimator that has it says so (``compare
+    --estimators imm,unknown-mode --set beam=50`` sets unknown-mode's beam, and runs).
+    """
+    for name, value in options.items():
+        having = [p for p in prepared if name in declared[p.name]]
+        why = [_inert(p.options).get(name) for p in having]
+        if having and all(why):
+            raise OptionError(
+                f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}: has no effect on "
+                f"estimator '{having[0].name}': {why[0]}"
+            )
 
 
 FILE_OPTIONS: Mapping[str, tuple[str, Callable[[str], object]]] = MappingProxyType(
