@@ -34,7 +34,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -69,10 +69,15 @@ class StoredClusters:
     modes:
         Mode id of each cluster (one of the file's ``mode_ids``), or ``None`` when the file
         has no labels.
+    parameters:
+        The clustering options the centres were fitted with (``radius``, ``clusters`` ...),
+        as ``hybridlog cluster`` recorded them; empty when the file records none (a file
+        made by hand).
     """
 
     centers: FloatArray
     modes: tuple[str, ...] | None
+    parameters: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -88,6 +93,50 @@ class CentersFile:
     lower: FloatArray
     upper: FloatArray
     clusters: dict[str, StoredClusters]
+
+    def entry(
+        self,
+        algorithm: str,
+        regressors: Sequence[str],
+        lags: Mapping[str, tuple[int, ...]],
+        mode_ids: Sequence[str],
+        source: str,
+    ) -> StoredClusters:
+        """The centres of ``algorithm``, checked against a model's modes and regressors.
+
+        ``regressors`` are the names of φ(k) for the model and the options' ``lags``
+        (``output_lags``, ``input_lags``); ``source`` names the file in messages.
+
+        Raises
+        ------
+        OptionError
+            The file's modes are not ``mode_ids``, its regressors are not ``regressors``
+            (naming the lags it was fitted with), or it holds no centres of ``algorithm``.
+        """
+        if set(self.mode_ids) != set(mode_ids):
+            raise OptionError(
+                f"{source}: mode_ids: the centres were fitted for the modes "
+                f"{excerpt(', '.join(self.mode_ids))[1:-1]}, the model has "
+                f"{', '.join(mode_ids)}; fit them for this model with hybridlog cluster"
+            )
+        if self.regressors != tuple(regressors):
+            fitted = {"output_lags": self.output_lags, "input_lags": self.input_lags}
+            differ = ", ".join(
+                f"{key}={','.join(map(str, value)) if value else ' (no lag)'}"
+                for key, value in fitted.items()
+                if value != lags.get(key)
+            )
+            raise OptionError(
+                f"{source}: regressors {list(self.regressors)} do not match this "
+                f"model and these lags ({list(regressors)})"
+                + (f"; the file was fitted with {differ}: set the same" if differ else "")
+            )
+        if algorithm not in self.clusters:
+            raise OptionError(
+                f"{source}: {algorithm}: no {algorithm} centres in the file"
+                + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
+            )
+        return self.clusters[algorithm]
 
 
 def centers_json(content: Mapping[str, Any]) -> str:
@@ -173,7 +222,10 @@ def parse_centers(text: str, source: str) -> CentersFile:
                     f"cluster {c + 1}'s mode {excerpt(mode)} is not one of mode_ids "
                     f"({excerpt(', '.join(mode_ids))[1:-1]})",
                 )
-        clusters[name] = StoredClusters(centers=centers, modes=modes)
+        parameters = (
+            {} if table.get("parameters") is None else reader.table(table, f"{name}.parameters")
+        )
+        clusters[name] = StoredClusters(centers=centers, modes=modes, parameters=parameters)
     if not clusters:
         raise reader.error("chiu", "the file holds no centres (neither 'chiu' nor 'kmeans')")
     return CentersFile(

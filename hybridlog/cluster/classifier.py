@@ -36,7 +36,7 @@ from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
 from hybridlog.cluster.labels import cluster_notes, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
-from hybridlog.errors import OptionError, as_text, excerpt
+from hybridlog.errors import OptionError, as_text
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -237,32 +237,8 @@ def stored_classifier(
         ``source``, the file's name).
     """
     names = tuple(names)
-    if set(stored.mode_ids) != set(mode_ids):
-        raise OptionError(
-            f"{source}: mode_ids: the centres were fitted for the modes "
-            f"{excerpt(', '.join(stored.mode_ids))[1:-1]}, the model has "
-            f"{', '.join(mode_ids)}; fit them for this model with hybridlog cluster"
-        )
-    if stored.regressors != names:
-        lags = ", ".join(
-            f"{key}={','.join(map(str, value)) if value else ' (no lag)'}"
-            for key, value in (
-                ("output_lags", stored.output_lags),
-                ("input_lags", stored.input_lags),
-            )
-            if value != getattr(spec, key)
-        )
-        raise OptionError(
-            f"{source}: regressors {list(stored.regressors)} do not match this "
-            f"model and these lags ({list(names)})"
-            + (f"; the file was fitted with {lags}: set the same" if lags else "")
-        )
-    if algorithm not in stored.clusters:
-        raise OptionError(
-            f"{source}: {algorithm}: no {algorithm} centres in the file"
-            + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
-        )
-    entry = stored.clusters[algorithm]
+    lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
+    entry = stored.entry(algorithm, names, lags, mode_ids, source)
     named = as_text(source)  # a name that is not UTF-8: no report could hold its note
     notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {named}",)
     classifier = _unlabelled(

@@ -300,17 +300,28 @@ def input_paths(
     return paths
 
 
-def estimator_inputs(prepared: Prepared) -> dict[str, Any]:
-    """The files the estimator's options name (:data:`FILE_OPTIONS`), read and parsed.
+def estimator_inputs(prepared: Prepared, model: HybridModel) -> dict[str, Any]:
+    """The files the estimator's options name (:data:`FILE_OPTIONS`), read, parsed and checked.
 
     The keyword arguments of :meth:`Prepared.run <hybridlog.estimators.Prepared.run>` (and
-    ``stream``); errors name the file (and the key at fault).
+    ``stream``), checked against ``model`` and the options before any log is read
+    (:meth:`Prepared.check_inputs <hybridlog.estimators.Prepared.check_inputs>`); errors
+    name the file and the key at fault, and a file a model file names is named by its key
+    (``m.toml: estimators.chiu.centers: ...``), a relative path there being relative to the
+    model file's folder.
     """
     inputs: dict[str, Any] = {}
     for name, (_, read) in FILE_OPTIONS.items():
         value = getattr(prepared.options, name, None)
         if value:
-            inputs[name] = read(value)
+            origin = prepared.origins.get(name, "")
+            try:
+                inputs[name] = read(value)
+            except OptionError as err:
+                if origin.startswith("--set"):
+                    raise
+                raise OptionError(f"{origin}: {err}") from err
+    prepared.check_inputs(model, **inputs)
     return inputs
 
 
@@ -490,7 +501,7 @@ def analyze(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
-    inputs = estimator_inputs(prepared)
+    inputs = estimator_inputs(prepared, model)
     warm_up([prepared], model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
@@ -605,7 +616,7 @@ def compare(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
-    inputs = {p.name: estimator_inputs(p) for p in prepared}
+    inputs = {p.name: estimator_inputs(p, model) for p in prepared}
     warm_up(prepared, model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)

@@ -293,7 +293,11 @@ def discover_modes(
     }
     if baseline is not None:
         content["kmeans"] = {
-            "parameters": {"clusters": len(baseline.centers)},
+            "parameters": {
+                "clusters": len(baseline.centers),
+                "restarts": options.restarts,
+                "seed": options.seed,
+            },
             **_entry(baseline, model),
         }
     content["reading"] = reading
