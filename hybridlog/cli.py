@@ -231,7 +231,10 @@ def _analysis_options(function: F) -> F:
             multiple=True,
             metavar="METRIC=VALUE",
             help="CI gate: exit 1 when METRIC (vaf, fit, mse, mode_accuracy, "
-            "missed_switches, fit.y1, state_rmse.x1, ...) is below VALUE. Repeatable.",
+            "missed_switches, fit.y1, state_rmse.x1, ...) is below VALUE. Repeatable. With "
+            "--smooth or --mode-sequence the mode and state metrics are the offline "
+            "estimates' (the filter's own are not gated), vaf, fit and mse the filter's "
+            "one-step-ahead prediction.",
         ),
         click.option(
             "--fail-over",
@@ -654,6 +657,7 @@ def cluster_command(
         model_ref,
         out=out,
         chiu=_CLUSTERING.parse(options),
+        given=[name for name, value in options.items() if value is not None],
         compare_kmeans=compare_kmeans,
         plot=plot,
         read=read,

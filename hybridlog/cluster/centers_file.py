@@ -23,7 +23,10 @@ Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estima
       "reading": {"format": "csv", "time": "log", ...}   # what reading the log did
     }
 
-Only the keys the estimators need are validated on reading; errors name the file and key.
+The keys the estimators need are validated on reading, against each other too (labels among
+``mode_ids``, centres inside ``scaling``: where a fitted file puts them); errors name the file
+and key.  The rest (``labelling``, ``potentials``, ``notes`` ...) records how the centres were
+fitted and is not read back.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -51,6 +54,9 @@ __all__ = [
 FORMAT = "hybridlog-centers"
 VERSION = 1
 
+_BOX_SLACK = 1e-9
+"""Relative rounding allowed when a centre is checked against the box ``scaling``."""
+
 
 @dataclass(frozen=True)
 class StoredClusters:
@@ -61,14 +67,17 @@ class StoredClusters:
     centers:
         Centres in data units, shape ``(c, d)``.
     modes:
-        Mode id of each cluster, or ``None`` when the file has no labels.
-    labelling:
-        How the labels were chosen (for reports).
+        Mode id of each cluster (one of the file's ``mode_ids``), or ``None`` when the file
+        has no labels.
+    parameters:
+        The clustering options the centres were fitted with (``radius``, ``clusters`` ...),
+        as ``hybridlog cluster`` recorded them; empty when the file records none (a file
+        made by hand).
     """
 
     centers: FloatArray
     modes: tuple[str, ...] | None
-    labelling: tuple[str, ...]
+    parameters: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -84,6 +93,50 @@ class CentersFile:
     lower: FloatArray
     upper: FloatArray
     clusters: dict[str, StoredClusters]
+
+    def entry(
+        self,
+        algorithm: str,
+        regressors: Sequence[str],
+        lags: Mapping[str, tuple[int, ...]],
+        mode_ids: Sequence[str],
+        source: str,
+    ) -> StoredClusters:
+        """The centres of ``algorithm``, checked against a model's modes and regressors.
+
+        ``regressors`` are the names of φ(k) for the model and the options' ``lags``
+        (``output_lags``, ``input_lags``); ``source`` names the file in messages.
+
+        Raises
+        ------
+        OptionError
+            The file's modes are not ``mode_ids``, its regressors are not ``regressors``
+            (naming the lags it was fitted with), or it holds no centres of ``algorithm``.
+        """
+        if set(self.mode_ids) != set(mode_ids):
+            raise OptionError(
+                f"{source}: mode_ids: the centres were fitted for the modes "
+                f"{excerpt(', '.join(self.mode_ids))[1:-1]}, the model has "
+                f"{', '.join(mode_ids)}; fit them for this model with hybridlog cluster"
+            )
+        if self.regressors != tuple(regressors):
+            fitted = {"output_lags": self.output_lags, "input_lags": self.input_lags}
+            differ = ", ".join(
+                f"{key}={','.join(map(str, value)) if value else ' (no lag)'}"
+                for key, value in fitted.items()
+                if value != lags.get(key)
+            )
+            raise OptionError(
+                f"{source}: regressors {list(self.regressors)} do not match this "
+                f"model and these lags ({list(regressors)})"
+                + (f"; the file was fitted with {differ}: set the same" if differ else "")
+            )
+        if algorithm not in self.clusters:
+            raise OptionError(
+                f"{source}: {algorithm}: no {algorithm} centres in the file"
+                + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
+            )
+        return self.clusters[algorithm]
 
 
 def centers_json(content: Mapping[str, Any]) -> str:
@@ -134,8 +187,10 @@ def parse_centers(text: str, source: str) -> CentersFile:
         raise reader.error("", "expected a JSON object")
     if data.get("format") != FORMAT:
         raise reader.error("format", f"expected {FORMAT!r}, got {data.get('format')!r}")
-    if data.get("version") != VERSION:
-        raise reader.error("version", f"unsupported version {data.get('version')!r}")
+    version = data.get("version")
+    if type(version) is not int or version != VERSION:  # not true, not 1.0
+        raise reader.error("version", f"unsupported version {version!r}")
+    mode_ids = tuple(reader.strings(data, "mode_ids"))
     regressors = tuple(reader.strings(data, "regressors"))
     d = len(regressors)
     scaling = reader.table(data, "scaling")
@@ -143,26 +198,40 @@ def parse_centers(text: str, source: str) -> CentersFile:
     upper = reader.vector(scaling, "scaling.upper", d)
     if np.any(upper < lower):
         raise reader.error("scaling", "every upper bound must be at least the lower one")
+    with np.errstate(over="ignore"):
+        span = upper - lower
+    if not np.all(np.isfinite(span)):
+        raise reader.error("scaling", "the range upper - lower must be a finite number")
     clusters: dict[str, StoredClusters] = {}
     for name in ("chiu", "kmeans"):
         if name not in data or data[name] is None:
             continue
         table = reader.table(data, name)
         centers = reader.matrix(table, f"{name}.centers", d)
+        reader.inside(centers, lower, span, f"{name}.centers", regressors)
         modes_value = table.get("modes")
         modes = (
             None
             if modes_value is None
             else tuple(reader.strings(table, "modes", f"{name}.modes", length=len(centers)))
         )
-        labelling = tuple(str(v) for v in table.get("labelling") or [])
-        clusters[name] = StoredClusters(centers=centers, modes=modes, labelling=labelling)
+        for c, mode in enumerate(modes or ()):
+            if mode not in mode_ids:
+                raise reader.error(
+                    f"{name}.modes",
+                    f"cluster {c + 1}'s mode {excerpt(mode)} is not one of mode_ids "
+                    f"({excerpt(', '.join(mode_ids))[1:-1]})",
+                )
+        parameters = (
+            {} if table.get("parameters") is None else reader.table(table, f"{name}.parameters")
+        )
+        clusters[name] = StoredClusters(centers=centers, modes=modes, parameters=parameters)
     if not clusters:
         raise reader.error("chiu", "the file holds no centres (neither 'chiu' nor 'kmeans')")
     return CentersFile(
         path=source,
         model=str(data.get("model", "")),
-        mode_ids=tuple(str(m) for m in data.get("mode_ids") or []),
+        mode_ids=mode_ids,
         regressors=regressors,
         output_lags=reader.lags(data, "output_lags"),
         input_lags=reader.lags(data, "input_lags"),
@@ -229,6 +298,33 @@ class _Reader:
         ):
             raise self.error(key, f"expected a non-empty list of rows of {columns} numbers")
         return self._numbers(value, key)
+
+    def inside(
+        self,
+        centers: FloatArray,
+        lower: FloatArray,
+        span: FloatArray,
+        key: str,
+        regressors: Sequence[str],
+    ) -> None:
+        """Refuse a centre outside the box ``scaling`` (fitted centres lie in their data's box).
+
+        Subtractive clustering's centres are data points and k-means' centres means of data
+        points, so both lie in the box of the data they were fitted on (up to rounding).
+        """
+        slack = _BOX_SLACK * np.maximum(span, np.maximum(np.abs(lower), np.abs(lower + span)))
+        with np.errstate(over="ignore", invalid="ignore"):
+            below = centers < lower - slack
+            above = centers > lower + span + slack
+        outside = np.argwhere(below | above)
+        if outside.size:
+            c, j = (int(i) for i in outside[0])
+            raise self.error(
+                key,
+                f"centre {c + 1}'s {excerpt(regressors[j])[1:-1]} = {centers[c, j]:.6g} lies "
+                f"outside the data's range in scaling [{lower[j]:.6g}, "
+                f"{lower[j] + span[j]:.6g}], in which fitted centres lie",
+            )
 
     def _numbers(self, value: list[Any], key: str) -> FloatArray:
         flat = np.asarray(value, dtype=object).ravel()

@@ -33,10 +33,10 @@ import numpy as np
 
 from hybridlog.cluster.centers_file import CentersFile
 from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
-from hybridlog.cluster.labels import decide_clusters
+from hybridlog.cluster.labels import cluster_notes, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
-from hybridlog.errors import OptionError
+from hybridlog.errors import OptionError, as_text
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -171,8 +171,9 @@ def fit_classifier(
     Raises
     ------
     DataShortError
-        No more samples than the largest lag, or fewer distinct regression vectors than
-        k-means centres (the message names no file: the caller knows the log).
+        No more samples than the largest lag, fewer distinct regression vectors than k-means
+        centres, or (eq. (5) without the self term) none within reach of another (the message
+        names no file: the caller knows the log).
     """
     names = tuple(names)
     phi = regression_vectors(outputs, inputs, spec)
@@ -225,34 +226,31 @@ def stored_classifier(
 ) -> ModeClassifier:
     """The classifier of ``algorithm`` in a parsed ``centers.json``, applied to ``outputs``.
 
-    Labelled with the file's modes when the file has them and they are modes of the model.
+    Labelled with the file's modes when it has them; the notes say what each cluster decides
+    on ``outputs`` (the file's own notes describe the log it was fitted on).
 
     Raises
     ------
     OptionError
-        The file's regressors are not φ(k) of this model and these lags, or it holds no
-        centres of ``algorithm`` (the message starts with ``source``, the file's name).
+        The file's modes are not the model's, its regressors are not φ(k) of this model and
+        these lags, or it holds no centres of ``algorithm`` (the message starts with
+        ``source``, the file's name).
     """
     names = tuple(names)
-    if stored.regressors != names:
-        raise OptionError(
-            f"{source}: regressors {list(stored.regressors)} do not match this "
-            f"model and these lags ({list(names)})"
-        )
-    if algorithm not in stored.clusters:
-        raise OptionError(
-            f"{source}: {algorithm}: no {algorithm} centres in the file"
-            + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
-        )
-    entry = stored.clusters[algorithm]
-    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {source}",)
+    lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
+    entry = stored.entry(algorithm, names, lags, mode_ids, source)
+    named = as_text(source)  # a name that is not UTF-8: no report could hold its note
+    notes = (f"{algorithm}: {len(entry.centers)} centres loaded from {named}",)
     classifier = _unlabelled(
         algorithm, spec, names, entry.centers, stored.lower, stored.upper, notes, {}, outputs
     )
-    if entry.modes is not None and set(entry.modes) <= set(mode_ids):
-        modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
-        return classifier.labelled(modes, (f"labels loaded from {source}", *entry.labelling))
-    return classifier
+    if entry.modes is None:
+        return classifier
+    modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
+    sizes = classifier.details["sizes"]
+    return classifier.labelled(
+        modes, (f"labels loaded from {named}", *cluster_notes(modes, sizes, mode_ids))
+    )
 
 
 def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArray:

@@ -19,10 +19,11 @@ Labelling
     one-step output prediction errors, i.e. the labelling under which the model best
     predicts the log).  Every mode must receive at least one cluster when there are at
     least as many clusters as modes (paper 001 assumes the number of modes ``s`` is known and
-    every mode occurs); surplus clusters go wherever they fit best.  With fewer clusters than
-    modes each cluster gets its own mode.  The search is exhaustive up to
-    :data:`EXHAUSTIVE_MAX` maps, else coordinate descent (one cluster at a time, until no
-    change lowers the score) from the best of the round-robin maps.
+    every mode occurs; where a lower score would leave a mode without a cluster, as on a log
+    in which a mode never occurs, the notes say so); surplus clusters go wherever they fit
+    best.  With fewer clusters than modes each cluster gets its own mode.  The search is
+    exhaustive up to :data:`EXHAUSTIVE_MAX` maps, else coordinate descent (one cluster at a
+    time, until no change lowers the score) from the best of the round-robin maps.
 """
 
 from __future__ import annotations
@@ -35,7 +36,13 @@ import numpy as np
 
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["EXHAUSTIVE_MAX", "ClusterLabels", "decide_clusters", "label_clusters"]
+__all__ = [
+    "EXHAUSTIVE_MAX",
+    "ClusterLabels",
+    "cluster_notes",
+    "decide_clusters",
+    "label_clusters",
+]
 
 
 def decide_clusters(
@@ -171,22 +178,87 @@ def label_clusters(
         for m in range(n_modes):
             alternatives[c, m] = evaluate([*best[:c], m, *best[c + 1 :]])
     total = evaluate(best)
-    notes = [f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}"]
-    for c in range(n_clusters):
-        mode = mode_ids[chosen[c]]
+    notes = (
+        f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}",
+        *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what),
+        *_kept_modes(chosen, alternatives, total, sizes, mode_ids, what),
+    )
+    return ClusterLabels(
+        modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=notes
+    )
+
+
+def _kept_modes(
+    chosen: IntArray,
+    alternatives: FloatArray,
+    total: float,
+    sizes: IntArray,
+    mode_ids: Sequence[str],
+    what: str,
+) -> list[str]:
+    """Notes on the moves that fit better but would leave a mode without a cluster.
+
+    The chosen map admits no better single move but one that empties a mode: on a log where a
+    mode never occurs, its cluster would be labelled otherwise, and the notes say so.
+    """
+    notes: list[str] = []
+    populated = sizes > 0
+    for c, m in zip(*np.nonzero(alternatives < total), strict=True):
+        if np.count_nonzero((chosen == chosen[c]) & populated) != 1:
+            continue  # not what kept it: a move of one cluster among several empties no mode
+        notes.append(
+            f"cluster {c + 1} in mode '{mode_ids[m]}' would give a lower {what} "
+            f"({alternatives[c, m]:.4g}) but leave mode '{mode_ids[chosen[c]]}' without a "
+            "cluster; kept, as paper 001 assumes that every mode occurs in the log (--set "
+            "cluster_modes= sets the labels by hand)"
+        )
+    return notes
+
+
+def cluster_notes(
+    modes: IntArray,
+    sizes: IntArray,
+    mode_ids: Sequence[str],
+    *,
+    alternatives: FloatArray | None = None,
+    what: str = "score",
+) -> list[str]:
+    """One line per cluster (its samples and mode) and per mode that no cluster decides.
+
+    Parameters
+    ----------
+    modes:
+        Mode index of each cluster, shape ``(c,)``.
+    sizes:
+        Samples decided for each cluster on the log at hand, shape ``(c,)``.
+    mode_ids:
+        The model's mode ids.
+    alternatives:
+        ``alternatives[c, i]``: the score with cluster ``c`` alone in mode ``i``, quoted for
+        the other modes; ``None`` for labels not chosen by a score (a centres file's).
+    what:
+        Name of the score.
+    """
+    notes: list[str] = []
+    for c, chosen in enumerate(modes):
+        mode = mode_ids[chosen]
         if sizes[c] == 0:
             notes.append(f"cluster {c + 1} decides no sample: unused (labelled '{mode}')")
             continue
-        others = ", ".join(
-            f"'{mode_ids[m]}' {alternatives[c, m]:.4g}" for m in range(n_modes) if m != chosen[c]
+        others = (
+            ""
+            if alternatives is None
+            else ", ".join(
+                f"'{mode_ids[m]}' {alternatives[c, m]:.4g}"
+                for m in range(len(mode_ids))
+                if m != chosen
+            )
         )
-        shared = int(np.count_nonzero((chosen == chosen[c]) & (sizes > 0)))
+        shared = int(np.count_nonzero((modes == chosen) & (sizes > 0)))
         role = "" if shared == 1 else f" (one of {shared} clusters of that mode)"
         alternative = f"; {what} with it in mode {others}" if others else ""
         notes.append(f"cluster {c + 1} ({sizes[c]} samples) -> mode '{mode}'{role}{alternative}")
-    for m in range(n_modes):
-        if not np.any((chosen == m) & (sizes > 0)):
-            notes.append(f"mode '{mode_ids[m]}' has no cluster: it is never decided")
-    return ClusterLabels(
-        modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=tuple(notes)
-    )
+    for m, mode in enumerate(mode_ids):
+        if not np.any((modes == m) & (sizes > 0)):
+            notes.append(f"mode '{mode}' has no cluster: it is never decided")
+    return notes

@@ -46,6 +46,7 @@ from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
     "GRID_CELLS_MAX",
+    "PAIR_TERM_FLOOR",
     "exact_potentials",
     "grid_nodes_per_axis",
     "grid_potentials",
@@ -59,6 +60,10 @@ _LN2_LO = 1.90821492927058770002e-10
 _MAGIC = 6755399441055744.0  # 1.5 * 2**52: adding it rounds to an integer held in the low bits
 _MAGIC_BITS = int(np.array([_MAGIC]).view(np.int64)[0])
 _EXP_FLOOR = -700.0  # exp(-700) ≈ 1e-304: still a normal number, so 2**n needs no special case
+
+PAIR_TERM_FLOOR = math.exp(_EXP_FLOOR)
+"""The least a pair of points adds to each other's exact potential: a term exp(−4 d²) that
+underflows is counted as this (≈ 9.9e-305), so that the compiled exp needs no special case."""
 
 GRID_CELLS_MAX = 1 << 22
 """Largest number of grid nodes ``(G+1)^d`` of the approximate potentials (32 MiB a grid)."""

@@ -63,11 +63,12 @@ import numpy as np
 
 from hybridlog.cluster.potentials import (
     GRID_CELLS_MAX,
+    PAIR_TERM_FLOOR,
     exact_potentials,
     grid_nodes_per_axis,
     grid_potentials,
 )
-from hybridlog.errors import OptionError
+from hybridlog.errors import DataShortError, OptionError
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray, IntArray
 
@@ -425,6 +426,9 @@ def subtractive_clustering(
     ------
     OptionError
         On invalid options, an empty or non-finite data set.
+    DataShortError
+        Without the self term, when no two points lie within reach of each other: every
+        potential is zero (the message names no file: the caller knows the data).
     """
     options = options or SubtractiveOptions()
     points = np.asarray(data, dtype=np.float64)
@@ -443,6 +447,16 @@ def subtractive_clustering(
     else:
         assert intervals is not None
         initial = grid_potentials(unit, radii, intervals, self_potential=options.self_potential)
+    if not options.self_potential and not initial.max() > 2.0 * (n - 1) * PAIR_TERM_FLOOR:
+        # every potential is the floor of underflowed terms (or, for one point, zero): their
+        # ratios would pick "centres" from rounding, and one point gave none at all
+        radius = ", ".join(f"{r:g}" for r in np.unique(radii))
+        alone = "one point alone" if n == 1 else f"no two of the {n} points within reach"
+        raise DataShortError(
+            f"radius: {alone} at r_a = {radius}: without the self term (self_potential = "
+            "false, eq. (5) as printed) every potential is zero; use a larger radius or "
+            "self_potential = true"
+        )
     indices, peaks, final = select_centres(scaled, initial, options, jit=jit)
     span = upper - lower
     ratios = peaks / peaks[0] if peaks.shape[0] else peaks

@@ -32,7 +32,6 @@ labelled and what happened to surplus clusters.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -47,9 +46,9 @@ from hybridlog.cluster.classifier import (
     stored_classifier,
 )
 from hybridlog.cluster.labels import label_clusters
-from hybridlog.errors import DataShortError, LogError, OptionError
+from hybridlog.errors import DataShortError, LogError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
-from hybridlog.estimators.observer_options import ChiuOptions, ObserverOptions
+from hybridlog.estimators.observer_options import ChiuOptions, check_centers
 from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
@@ -61,7 +60,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ChiuOptions",
-    "ObserverOptions",
     "chiu_options",
     "design_observer",
     "mode_classifier",
@@ -193,23 +191,6 @@ def mode_classifier(
     return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))
 
 
-def _refuse_unused_fitting(options: ChiuOptions | KMeansOptions, source: str) -> None:
-    """Refuse a clustering option set beside ``centers``: loaded centres are not refitted.
-
-    ``--set radius=0.3 --set centers=c.json`` ran with the file's centres, fitted with
-    whatever radius ``hybridlog cluster`` was given, and the report recorded radius 0.3.
-    """
-    shared = {f.name for f in dataclasses.fields(ObserverOptions)}
-    for field in dataclasses.fields(options):
-        value = getattr(options, field.name)
-        if field.name not in shared and value != field.default:
-            raise OptionError(
-                f"centers={source}: {field.name}={value} has no effect: the file's centres "
-                f"are used as they are; fit them so with hybridlog cluster, or leave "
-                f"{field.name} unset"
-            )
-
-
 def run_clustering_observer(
     name: str,
     model: HybridModel,
@@ -226,24 +207,12 @@ def run_clustering_observer(
     OptionError
         ``options.centers`` names a file but ``centers`` (its parsed content) is missing:
         the estimator reads no file, the job running it does; or the centres were fitted
-        for another model (their ``model`` key); or a clustering option (``radius``,
-        ``clusters`` ...) is set beside them, which loaded centres would ignore.
+        for another model, modes or regressors, or with another value of a clustering
+        option (``radius``, ``clusters`` ...) set here
+        (:func:`~hybridlog.estimators.observer_options.check_centers`, which the jobs also
+        run before reading the log).
     """
-    if options.centers and centers is None:
-        raise OptionError(
-            f"centers={options.centers}: the estimator reads no file; pass the parsed file "
-            "as centers= (hybridlog.jobs.centers.read_centers)"
-        )
-    if centers is not None and centers.model != model.name:
-        fitted = (
-            f"model {centers.model!r}" if centers.model else "no model (its 'model' key is missing)"
-        )
-        raise OptionError(
-            f"centers={options.centers}: model: the centres were fitted for {fitted}, not "
-            f"{model.name!r}; fit them for this model with hybridlog cluster"
-        )
-    if centers is not None:
-        _refuse_unused_fitting(options, options.centers or centers.path)
+    fitted_with = check_centers(model, options, centers=centers)
     start = time.perf_counter()
     linear, gains = design_observer(model, options.decay_rate)
     classifier = mode_classifier(model, signals, options, centers=centers, observer=(linear, gains))
@@ -262,7 +231,7 @@ def run_clustering_observer(
     runtime = time.perf_counter() - start
     probabilities = np.zeros((signals.n_samples, model.n_modes))
     probabilities[np.arange(signals.n_samples), modes] = 1.0
-    used = options_dict(options)
+    used = {**options_dict(options), **fitted_with}  # loaded centres: as the file was fitted
     used["classifier"] = {
         "regressors": list(classifier.regressors),
         "centers": classifier.centers,

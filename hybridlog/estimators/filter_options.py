@@ -57,6 +57,19 @@ class ImmOptions:
         20, "mode histories kept by kbest, each with its own EKF (never mixed)", range=(1, 10000)
     )
 
+    def inert(self) -> dict[str, str]:
+        """Options that have no effect with the others' values: name → why.
+
+        ``beam`` is read by ``mode_sequence = "kbest"`` alone; ``--set beam=N`` without it
+        ran the same pass while report.json recorded the beam as the option used.
+        """
+        if self.mode_sequence == "kbest":
+            return {}
+        return {
+            "beam": f"only mode_sequence = kbest keeps mode histories (here "
+            f"{self.mode_sequence}); add --mode-sequence kbest, or leave beam unset"
+        }
+
 
 MODE_SEQUENCES: tuple[str, ...] = get_args(get_type_hints(ImmOptions)["mode_sequence"])
 """How the IMM's mode timeline can be read off, in order: ``--mode-sequence``'s choices and the

@@ -8,17 +8,22 @@ conversion is asked for.
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
-from hybridlog.estimators.options import option
+from hybridlog.errors import OptionError, excerpt
+from hybridlog.estimators.options import option, shown
 
 if TYPE_CHECKING:
+    from hybridlog.cluster.centers_file import CentersFile
     from hybridlog.cluster.kmeans import KMeansParameters
     from hybridlog.cluster.regressors import RegressorSpec
     from hybridlog.cluster.subtractive import SubtractiveOptions
+    from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["ChiuOptions", "KMeansOptions", "ObserverOptions"]
+__all__ = ["ChiuOptions", "KMeansOptions", "ObserverOptions", "check_centers"]
 
 
 @dataclass(frozen=True)
@@ -27,13 +32,20 @@ class ObserverOptions:
 
     output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
     input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
-    centers: str = option("", "centers.json of hybridlog cluster to load instead of fitting")
+    centers: str = option(
+        "",
+        "centers.json of hybridlog cluster to use instead of fitting (from a model file's folder)",
+        path=True,
+    )
     cluster_modes: str = option(
         "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
     )
     decay_rate: float = option(
         1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)
     )
+
+    algorithm: ClassVar[str]
+    """The clustering's name: its key in a ``centers.json``."""
 
     def regressor_spec(self) -> RegressorSpec:
         """The lags of φ(k) (``output_lags``, ``input_lags``)."""
@@ -48,6 +60,8 @@ class ObserverOptions:
 @dataclass(frozen=True)
 class ChiuOptions(ObserverOptions):
     """Options of the ``chiu`` estimator (clustering defaults: MATLAB ``subclust``)."""
+
+    algorithm: ClassVar[str] = "chiu"
 
     radius: float = option(
         0.5, "cluster radius r_a of eq. (5), in unit-box units", range=(1e-3, 100.0)
@@ -80,6 +94,8 @@ class ChiuOptions(ObserverOptions):
 class KMeansOptions(ObserverOptions):
     """Options of the ``kmeans`` estimator; the lags, centres and labels are as for ``chiu``."""
 
+    algorithm: ClassVar[str] = "kmeans"
+
     clusters: int | None = option(
         None, "number of k-means centres (none: the number of modes)", range=(1, 1000)
     )
@@ -91,3 +107,80 @@ class KMeansOptions(ObserverOptions):
         from hybridlog.cluster.kmeans import KMeansParameters
 
         return KMeansParameters(clusters=self.clusters, restarts=self.restarts, seed=self.seed)
+
+
+def check_centers(
+    model: HybridModel,
+    options: ChiuOptions | KMeansOptions,
+    *,
+    centers: CentersFile | None = None,
+    origins: Mapping[str, str] | None = None,
+) -> dict[str, Any]:
+    """Check a loaded ``centers=FILE`` against the model and the options; before any log is read.
+
+    Loaded centres are used as they are, not refitted, so a clustering option (``radius``,
+    ``clusters`` ...) set to other than its default must be the one the file records its
+    centres were fitted with: ``--set radius=0.3`` beside centres fitted with 0.5 would have
+    run with the file's and been reported as 0.3.  A model file's ``[estimators.chiu]`` value
+    that ``hybridlog cluster`` fitted the centres with (it starts from that table) agrees.
+
+    ``origins`` (:attr:`~hybridlog.estimators.registry.Prepared.origins`) names where a
+    contradicting option was set.
+
+    Returns
+    -------
+    dict
+        The clustering options as the file records them (``None`` for one it does not), which
+        the report gives in place of the options' own; empty without a file.
+
+    Raises
+    ------
+    OptionError
+        ``options.centers`` names a file but ``centers`` (its parsed content) is missing (the
+        estimator reads no file, the job running it does); or the centres were fitted for
+        another model, other modes or other regressors, or with another value of a clustering
+        option set here.
+    """
+    if centers is None:
+        if options.centers:
+            raise OptionError(
+                f"centers={options.centers}: the estimator reads no file; pass the parsed file "
+                "as centers= (hybridlog.jobs.centers.read_centers)"
+            )
+        return {}
+    source = options.centers or centers.path
+    if centers.model != model.name:
+        fitted = (
+            f"model {centers.model!r}" if centers.model else "no model (its 'model' key is missing)"
+        )
+        raise OptionError(
+            f"centers={source}: model: the centres were fitted for {fitted}, not "
+            f"{model.name!r}; fit them for this model with hybridlog cluster"
+        )
+    spec = options.regressor_spec()
+    lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
+    names = spec.names(model.outputs, model.inputs)
+    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
+    shared = {f.name for f in dataclasses.fields(ObserverOptions)}
+    recorded: dict[str, Any] = {}
+    for field in dataclasses.fields(options):
+        if field.name in shared:
+            continue
+        value = getattr(options, field.name)
+        fitted_with = entry.parameters.get(field.name)
+        if value != field.default and value != fitted_with:
+            what = (
+                f"fitted with {field.name}={excerpt(shown(fitted_with), 40)[1:-1]}"
+                if field.name in entry.parameters
+                else f"which do not record the {field.name} they were fitted with"
+            )
+            origin = (origins or {}).get(field.name, "")  # --set radius=0.3, or m.toml's key
+            given = origin if origin.startswith("--set") else f"{field.name}={shown(value)}"
+            given += f" ({origin})" if origin and not origin.startswith("--set") else ""
+            raise OptionError(
+                f"centers={source}: {given} does not match the file's {options.algorithm} "
+                f"centres, {what}: loaded centres are used as they are; leave "
+                f"{field.name} unset or fit the centres so with hybridlog cluster"
+            )
+        recorded[field.name] = fitted_with
+    return recorded

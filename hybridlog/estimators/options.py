@@ -18,6 +18,10 @@ value of the model file's ``[estimators.<name>]`` table:
 ``X | None``
     ``none`` (or an empty value) for ``None``, otherwise as ``X``.
 
+An option made with ``path=True`` names a file: a relative path given in a model file is
+taken from the model file's folder (:attr:`OptionSource.base`), as the file's author wrote it
+beside the model; one given with ``--set`` from the working directory.
+
 :func:`parse_options` builds the dataclass, :func:`describe_options` lists the options for
 ``--help``, ``--set`` errors and the docs.  Errors are one line naming the estimator, the
 option and where the value came from (:class:`OptionSource`).
@@ -28,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import os
 import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
@@ -61,6 +66,7 @@ def option(
     *,
     range: tuple[float, float] | None = None,
     check: Callable[[Any], object] | None = None,
+    path: bool = False,
 ) -> T:
     """A dataclass field for an estimator option.
 
@@ -77,8 +83,12 @@ def option(
         Checks a value beyond its type and range (raising ``ValueError`` with the reason),
         when the options are parsed: before any log is read, the error naming where the
         value came from.
+    path:
+        The value names a file: relative to :attr:`OptionSource.base` of where it came from.
     """
     metadata: dict[str, Any] = {"help": help}
+    if path:
+        metadata["path"] = True
     if range is not None:
         metadata["range"] = range
     if check is not None:
@@ -98,10 +108,14 @@ class OptionSource:
     error:
         The error class to raise: :class:`OptionError` for the command line,
         :class:`ModelError` for a model file.
+    base:
+        The folder a relative path in the value is taken from (options made with
+        ``path=True``): the model file's; empty for the working directory.
     """
 
     label: str
     error: type[HybridlogError] = OptionError
+    base: str = ""
 
     @classmethod
     def command_line(cls, flag: str, name: str, raw: object) -> OptionSource:
@@ -111,7 +125,7 @@ class OptionSource:
     @classmethod
     def model_file(cls, origin: str, estimator: str, name: str) -> OptionSource:
         """A value from the ``[estimators.<estimator>]`` table of the model file ``origin``."""
-        return cls(f"{origin}: estimators.{estimator}.{name}", ModelError)
+        return cls(f"{origin}: estimators.{estimator}.{name}", ModelError, os.path.dirname(origin))
 
 
 @dataclass(frozen=True)
@@ -216,9 +230,12 @@ def parse_options(
         field, kind = kinds[name]
         what = f"{prefix}{estimator} option '{name}'"
         try:
-            converted[name] = _check(_convert(raw, kind), kind, field)
+            value = _check(_convert(raw, kind), kind, field)
         except ValueError as err:
             raise source.error(f"{what}: {err}") from None
+        if field.metadata.get("path") and value and source.base and not os.path.isabs(value):
+            value = os.path.join(source.base, value)
+        converted[name] = value
     return cls(**converted)
 
 

@@ -106,6 +106,11 @@ class Estimator:
         in ``module``: the run's result in consecutive chunks of at most ``rows`` rows, each
         a view the next one overwrites (:meth:`Prepared.stream`); empty: the estimator
         gives its result whole.
+    inputs_check:
+        Name of ``check(model, options, *, origins, **inputs)`` in ``options_module``
+        (``origins``: :attr:`Prepared.origins`, for messages): checks the parsed
+        files the options name (``centers=``) against the model and the options, before
+        any log is read (:meth:`Prepared.check_inputs`); empty: nothing to check.
     """
 
     name: str
@@ -118,6 +123,7 @@ class Estimator:
     options_module: str = ""
     memory: str = ""
     stream: str = ""
+    inputs_check: str = ""
 
     def _attribute(self, name: str, module: str = "") -> Any:
         return getattr(importlib.import_module(module or self.module), name)
@@ -234,6 +240,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options_module="hybridlog.estimators.observer_options",
             run="run_chiu",
             capabilities=_PER_SAMPLE_CLASSIFIER,
+            inputs_check="check_centers",
         ),
         Estimator(
             name="kmeans",
@@ -244,6 +251,7 @@ ESTIMATORS: dict[str, Estimator] = {
             options_module="hybridlog.estimators.observer_options",
             run="run_kmeans",
             capabilities=_PER_SAMPLE_CLASSIFIER,
+            inputs_check="check_centers",
         ),
         Estimator(
             name="switching-observer",
@@ -359,15 +367,31 @@ class Prepared:
         The registry entry.
     options:
         Its options dataclass, defaults filled in.
+    origins:
+        Where each option given came from, as errors name it (``--set centers=c.json``,
+        ``m.toml: estimators.chiu.centers``); an option left at its default has none.
     """
 
     estimator: Estimator
     options: Any
+    origins: Mapping[str, str] = field(default_factory=dict, compare=False)
 
     @property
     def name(self) -> str:
         """The estimator's registry name."""
         return self.estimator.name
+
+    def check_inputs(self, model: HybridModel, **inputs: Any) -> None:
+        """Check the parsed files the options name against ``model`` (``Estimator.inputs_check``).
+
+        Run by the jobs before any log is read, so that a centres file fitted for another
+        model fails at once, not after a long log was read (or, in a batch, on every log).
+        """
+        if self.estimator.inputs_check:
+            check = self.estimator._attribute(
+                self.estimator.inputs_check, self.estimator.options_module
+            )
+            check(model, self.options, origins=self.origins, **inputs)
 
     def run(self, model: HybridModel, signals: AlignedSignals, **inputs: Any) -> EstimationResult:
         """Run over the aligned log (checked first for what the estimator needs of a log).
@@ -629,7 +653,7 @@ def prepare(
     overrides = overrides or {}
     sources.update({k: OptionSource.command_line(overrides_by, k, v) for k, v in overrides.items()})
     options = estimator.parse_options({**from_file, **overrides}, sources)
-    return Prepared(estimator, options)
+    return Prepared(estimator, options, {k: source.label for k, source in sources.items()})
 
 
 def reference_markdown() -> str:

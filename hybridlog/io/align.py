@@ -24,8 +24,11 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 
 A sample up to ``dt/1000`` (at least 1 µs, at most ``dt/4``) away from a grid point counts as
 *at* it: float seconds at Unix-epoch magnitudes carry ~0.2 µs of rounding, and a log sampled
-at ``dt`` must come out unchanged.  With that, a log already on the grid is reproduced
-bit for bit: every value is one of the log's samples, never recomputed.
+at ``dt`` must come out unchanged.  For the same reason a gap is longer than ``max_gap`` only
+when it exceeds it by more than that tolerance (:func:`longer_than_max_gap`): a gap of exactly
+``5*dt`` is accepted whether the log's clock starts at 0 or at 1.7e9 s.  With that, a log
+already on the grid is reproduced bit for bit: every value is one of the log's samples, never
+recomputed.
 """
 
 from __future__ import annotations
@@ -53,6 +56,16 @@ DEFAULT_MAX_GAP_STEPS = 5
 def clock_tolerance_ns(dt_ns: int) -> int:
     """How far (ns) a sample may sit from a grid point and still count as at it."""
     return max(min(max(dt_ns // 1000, 1000), dt_ns // 4), 0)
+
+
+def longer_than_max_gap(span_ns: Any, max_gap_ns: int, dt_ns: int) -> Any:
+    """Whether a time span between two samples (ns; a number or an array) exceeds ``max_gap``.
+
+    By more than :func:`clock_tolerance_ns`: both ends carry the rounding of the log's
+    clock, so a gap of exactly ``max_gap`` measures up to a few hundred nanoseconds longer
+    at Unix-epoch times, and would be refused or not depending on where in the log it lies.
+    """
+    return span_ns > max_gap_ns + clock_tolerance_ns(dt_ns)
 
 
 def step_ns(dt: float) -> int:
@@ -259,7 +272,7 @@ def resample_series(
     hi = lo + 1
     outside = (lo < 0) | (hi >= time_ns.size)
     span = time_ns[np.clip(hi, 0, time_ns.size - 1)] - time_ns[np.clip(lo, 0, time_ns.size - 1)]
-    too_long: IntArray = in_gap[outside | (span > max_gap_ns)]
+    too_long: IntArray = in_gap[outside | longer_than_max_gap(span, max_gap_ns, dt_ns)]
     return values, too_long, int(in_gap.size - too_long.size)
 
 
@@ -271,6 +284,7 @@ def _gap_error(
     grid_ns: IntArray,
     point: int,
     max_gap_ns: int,
+    dt_ns: int,
 ) -> LogError:
     time_ns = series.time_ns
     hi = int(np.searchsorted(time_ns, grid_ns[point], side="right"))
@@ -283,7 +297,30 @@ def _gap_error(
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
-    return LogError(f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}")
+    return LogError(
+        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}"
+        f"{_slower_than_max_gap(series, max_gap_ns, dt_ns)}"
+    )
+
+
+def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
+    """A hint when ``series`` is sampled slower than ``max_gap`` allows, else ``""``.
+
+    Then (nearly) every step is a gap: ``max_gap`` is shorter than the log's sample time, or
+    (asked when the series is slower than ``dt``) the model's ``dt`` is not the log's.
+    """
+    if series.time_ns.size < 2:
+        return ""
+    median = round(float(np.median(np.diff(series.time_ns))))
+    if not longer_than_max_gap(median, max_gap_ns, dt_ns):
+        return ""
+    hint = (
+        f"; it is sampled every {format_ns(median)} s (its median step), slower than max_gap "
+        f"{format_ns(max_gap_ns)} s allows"
+    )
+    if median > dt_ns + clock_tolerance_ns(dt_ns):
+        hint += f": is the model's dt ({format_ns(dt_ns)} s) the log's?"
+    return hint
 
 
 def check_alignment_options(
@@ -369,14 +406,27 @@ def align_signals(
     OptionError
         For an unknown ``resample``, a negative ``max_gap`` or an unusable ``dt``.
     LogError
-        For an output gap longer than ``max_gap`` (naming the time span), signals that do
-        not overlap, or a true mode that starts too late.
+        For an input or output without samples, an output gap longer than ``max_gap``
+        (naming the time span), signals that do not overlap, or a true mode that starts too
+        late.
     """
     dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
+    for kind, signals in (("input", inputs), ("output", outputs)):
+        for symbol, series in signals.items():
+            if series.time_ns.size == 0:
+                raise LogError(
+                    f"{source}: {kind} {symbol!r} ({field_word} {series.name!r}) has no samples"
+                )
     if split_gaps and outputs:
         outputs = _longest_piece(
-            source, inputs, outputs, max_gap_ns, notes if notes is not None else {}
+            source,
+            field_word,
+            inputs,
+            outputs,
+            max_gap_ns,
+            dt_ns,
+            notes if notes is not None else {},
         )
 
     output_list = list(outputs.values())
@@ -397,7 +447,14 @@ def align_signals(
         values, too_long, bridged = resample_series(series, grid, dt_ns, max_gap_ns, method)
         if too_long.size:
             raise _gap_error(
-                source, f"output {symbol!r}", field_word, series, grid, int(too_long[0]), max_gap_ns
+                source,
+                f"output {symbol!r}",
+                field_word,
+                series,
+                grid,
+                int(too_long[0]),
+                max_gap_ns,
+                dt_ns,
             )
         if bridged and notes is not None:
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
@@ -410,7 +467,7 @@ def align_signals(
     components = {
         name: ComponentTruth(
             series.categories,
-            _hold_modes(f"{source}: mode.{name}", field_word, series, grid, dt_ns, tolerance),
+            _hold_modes(f"{source}: truth.mode.{name}", field_word, series, grid, dt_ns, tolerance),
         )
         for name, series in (truth_components or {}).items()
     }
@@ -470,21 +527,27 @@ def _hold_modes(
 
 def _longest_piece(
     source: str,
+    field_word: str,
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
     max_gap_ns: int,
+    dt_ns: int,
     notes: dict[str, Any],
 ) -> dict[str, Series]:
-    """The outputs cut to the longest stretch without a gap longer than ``max_gap``."""
-    for series in (*inputs.values(), *outputs.values()):
-        if series.time_ns.size == 0:
-            raise LogError(f"{source}: {series.name!r} has no samples")
+    """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``."""
+    for symbol, series in outputs.items():
+        hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
+        if hint:  # every step a gap: no piece longer than one sample
+            raise LogError(
+                f"{source}: --split-gaps: output {symbol!r} ({field_word} {series.name!r}) "
+                f"leaves no piece of more than one sample{hint}"
+            )
     start = max(int(s.time_ns[0]) for s in (*inputs.values(), *outputs.values()))
     end = min(int(s.time_ns[-1]) for s in outputs.values())
     gaps: list[tuple[int, int]] = []
     for series in outputs.values():
         steps = np.diff(series.time_ns)
-        for i in np.flatnonzero(steps > max_gap_ns).tolist():
+        for i in np.flatnonzero(longer_than_max_gap(steps, max_gap_ns, dt_ns)).tolist():
             gaps.append((int(series.time_ns[i]), int(series.time_ns[i + 1])))
     if not gaps:
         return dict(outputs)

@@ -32,18 +32,20 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         For tables: ``path, format, rows, columns`` (each ``name, dtype, count, nonfinite,
         min, max, rate_hz``), ``time`` (``column, start, end, duration``) or ``None``, the
         time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
-        ``regular``, ``gaps``, ``gap_count``) and ``problems`` (why the time column is
-        unusable, if it is).  For bags and MCAP files: ``path, format, messages, topics``
-        (each ``name, type, encoding, count, indexed_count, start, end, duration``, the same
-        step keys, ``nonfinite``, ``values`` and ``fields``), ``time`` (``start, end,
-        duration``), ``problems`` and ``reading``.  Only plain ``str``, ``int``, ``float``,
-        ``bool``, ``None``, lists and dicts, so ``json.dumps`` takes it as is.
+        ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
+        column is unusable, if it is).  For bags and MCAP files: ``path, format, messages,
+        topics`` (each ``name, type, encoding, count, indexed_count, start, end,
+        duration``, the same step keys, ``nonfinite``, ``values`` and ``fields``), ``time``
+        (``start, end, duration``), ``problems`` and ``reading``.  Only plain ``str``,
+        ``int``, ``float``, ``bool``, ``None``, lists and dicts, so ``json.dumps`` takes it as
+        is.
 
         Timing (:func:`~hybridlog.io.summary.describe_steps`): ``rate_hz`` is the mean rate
         over the span, ``(count - 1) / duration``; ``sample_time`` is the median step, with
         ``min_step`` and ``max_step`` its spread; ``regular`` says whether every step lies
         within a factor 1.5 of the median; a gap is a step longer than 1.5 times the median
-        (at most 1000 listed, all counted in ``gap_count``).
+        (at most 1000 listed, all counted in ``gap_count``); ``repeated`` counts the samples
+        logged at the time of the one before (``analyze`` refuses them unless ``--sort``).
 
         Values: ``count`` counts the samples (non-empty cells, or messages), ``nonfinite``
         those that are NaN or infinite, which ``analyze`` refuses in a mapped signal (unless
@@ -169,6 +171,16 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("")
         lines.append("irregular timing (rate_hz is the mean rate over the topic's span):")
         lines.extend(f"  {t['name']}: {_steps(t)}" for t in irregular)
+    repeated = [t for t in topics if t.get("repeated")]
+    if repeated:
+        lines.append("")
+        lines.append(
+            "repeated log times (analyze refuses them unless --sort, which keeps the last):"
+        )
+        lines.extend(
+            f"  {t['name']}: {_count(t['repeated'], 'message')} at the time of the one before"
+            for t in repeated
+        )
     gapped = [t for t in topics if t["gap_count"]]
     if gapped:
         lines.append("")

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any, Protocol
 
@@ -21,7 +21,14 @@ import numpy.typing as npt
 from hybridlog.errors import LogError
 from hybridlog.io.align import align_signals, check_alignment_options
 from hybridlog.io.formats import open_log
-from hybridlog.io.mapping import parse_maps, resolve_signal_map
+from hybridlog.io.mapping import (
+    TRUTH_MODE,
+    TRUTH_PREFIX,
+    SignalMap,
+    component_truth_symbol,
+    parse_maps,
+    resolve_signal_map,
+)
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import LabelSeries, Series, format_ns
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
@@ -221,6 +228,7 @@ def load_signals(
         numeric_series = dict(reading.numeric)
         dropped: dict[str, int] = {}
         out_of_range: dict[str, int] = {}
+        emptied: dict[str, int] = {}  # fields of which --drop-nonfinite dropped every sample
         for name, series in list(numeric_series.items()):
             if _all_usable(series.values):
                 continue
@@ -236,12 +244,31 @@ def load_signals(
             if (finite & ~usable).any():
                 out_of_range[name] = int((finite & ~usable).sum())
             numeric_series[name] = Series(name, series.time_ns[usable], series.values[usable])
+            if not usable.any():
+                emptied[name] = int(usable.size)
+                needed = [f"input {u!r}" for u, f in mapping.inputs.items() if f == name]
+                needed += [f"output {y!r}" for y, f in mapping.outputs.items() if f == name]
+                if needed:
+                    raise LogError(
+                        f"{info.path}: {needed[0]} ({info.field_word} {name!r}) has no "
+                        f"usable samples: {_all_dropped(usable.size)}"
+                    )
         notes.update({"format": info.format, "time": options.time})
         notes.update(reading.notes)
         if dropped:
             notes["nonfinite_dropped"] = dropped
         if out_of_range:
             notes["out_of_range_dropped"] = out_of_range
+        mapping = _without_empty_truth(
+            mapping,
+            numeric_series,
+            reading.labels,
+            parsed,
+            info.path,
+            info.field_word,
+            notes,
+            emptied,
+        )
         truth_mode = None
         if mapping.truth_mode is not None:
             mode_series = reading.labels[mapping.truth_mode]
@@ -272,6 +299,69 @@ def load_signals(
             notes=notes,
             field_word=info.field_word,
         )
+
+
+def _without_empty_truth(
+    mapping: SignalMap,
+    numeric: Mapping[str, Series],
+    labels: Mapping[str, LabelSeries],
+    maps: Mapping[str, str],
+    path: str,
+    field_word: str,
+    notes: dict[str, Any],
+    emptied: Mapping[str, int],
+) -> SignalMap:
+    """``mapping`` without the ground truth whose field has no samples.
+
+    Ground truth is optional: a field found by default or by the model's ``[truth]`` table
+    that holds no sample (an empty ``mode`` column, a state column whose every value was
+    dropped by ``--drop-nonfinite``) is no truth, as a field that is not there (recorded in
+    ``notes["truth_without_samples"]``).  A field the user named with ``--map`` must have
+    samples.  ``emptied`` counts the samples of the fields ``--drop-nonfinite`` emptied.
+
+    Raises
+    ------
+    LogError
+        For a ground-truth symbol mapped with ``--map`` to a field without samples.
+    """
+    empty: list[str] = []
+
+    def has_samples(symbol: str, name: str, count: int) -> bool:
+        if count:
+            return True
+        if symbol in maps:
+            why = f"usable samples: {_all_dropped(emptied[name])}" if name in emptied else "samples"
+            raise LogError(
+                f"{path}: {symbol} ({field_word} {name!r}, from --map {symbol}={name}) has no {why}"
+            )
+        empty.append(f"{symbol} ({field_word} {name!r})")
+        return False
+
+    truth_mode = mapping.truth_mode
+    if truth_mode is not None and not has_samples(
+        TRUTH_MODE, truth_mode, labels[truth_mode].time_ns.size
+    ):
+        truth_mode = None
+    states = {
+        x: name
+        for x, name in mapping.truth_states.items()
+        if has_samples(f"{TRUTH_PREFIX}{x}", name, numeric[name].time_ns.size)
+    }
+    components = {
+        c: name
+        for c, name in mapping.truth_components.items()
+        if has_samples(component_truth_symbol(c), name, labels[name].time_ns.size)
+    }
+    if empty:
+        notes["truth_without_samples"] = empty
+    return replace(mapping, truth_mode=truth_mode, truth_states=states, truth_components=components)
+
+
+def _all_dropped(count: int) -> str:
+    """Why a field emptied by ``--drop-nonfinite`` has no samples."""
+    return (
+        f"--drop-nonfinite dropped all {count} (NaN, infinite, or out of range: |value| >= 2^480)"
+    )
 
 
 def _all_usable(values: npt.NDArray[np.float64]) -> bool:

@@ -19,7 +19,9 @@ For each model input and output, and for the ground truth (``truth.mode``,
    ``truth.x`` (state)  ``/truth/x.data`` (``std_msgs/Float64``)
    ==================== ==========================================
 
-Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``.
+Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``
+(and a ground-truth field found by default that holds no sample is no truth either:
+:func:`~hybridlog.io.load.load_signals` drops it).
 """
 
 from __future__ import annotations
@@ -98,6 +100,14 @@ def valid_map_symbols(
     )
 
 
+def is_mode_symbol(symbol: str) -> bool:
+    """Whether ``symbol`` is a true mode, read as labels: ``truth.mode``, ``truth.mode.<c>``.
+
+    Not a true state whose name starts with ``mode`` (``truth.modes``): a number.
+    """
+    return symbol == TRUTH_MODE or symbol.startswith(f"{TRUTH_MODE}.")
+
+
 def component_truth_symbol(component: str) -> str:
     """The symbol of a component's true mode: ``truth.mode.<component>``."""
     return f"{TRUTH_MODE}.{component}"
@@ -123,7 +133,9 @@ def parse_maps(
     Returns
     -------
     dict
-        ``{symbol: path}`` with ``truth.``-prefixed keys for ground truth.
+        ``{symbol: path}`` with ``truth.``-prefixed keys for ground truth; the path as
+        written, spaces and all (:func:`resolve_signal_map` takes it so if the log has such a
+        field, else without the spaces around it).
 
     Raises
     ------
@@ -135,8 +147,8 @@ def parse_maps(
     parsed: dict[str, str] = {}
     for item in maps:
         symbol, sep, path = item.partition("=")
-        symbol, path = symbol.strip(), path.strip()
-        if not sep or not symbol or not path:
+        symbol = symbol.strip()
+        if not sep or not symbol or not path.strip():
             raise OptionError(f"--map {item!r}: expected SYMBOL=PATH, e.g. y=level")
         if symbol not in valid:
             raise OptionError(
@@ -210,9 +222,14 @@ def resolve_signal_map(
         return None if name in available else closest_names([name], fields)
 
     def choose(symbol: str, model_path: str | None, default: str, required: bool) -> str | None:
-        numeric = not symbol.startswith(TRUTH_MODE)
+        numeric = not is_mode_symbol(symbol)
         mapped = maps.get(symbol)
         if mapped is not None:
+            # as written, so that a column named ' u' (a header 't, u, y') can be named; else
+            # without the spaces around it (--map 'y = level')
+            if mapped != mapped.strip() and missing(mapped, numeric) is None:
+                return mapped
+            mapped = mapped.strip()
             reason = missing(mapped, numeric)
             if reason is not None:
                 raise LogError(

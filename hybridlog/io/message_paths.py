@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.io.source import closest_names
+from hybridlog.io.source import MAX_SECONDS, NS_PER_S, closest_names
 from hybridlog.signals import FloatArray, IntArray
 
 Step = str | int
@@ -158,9 +158,10 @@ class Target:
     Attributes
     ----------
     kind:
-        ``"number"``, ``"string"``, ``"array"`` (of numbers, no index given) or ``"message"``.
+        ``"number"``, ``"string"``, ``"array"`` (no index given) or ``"message"``.
     type_name:
-        The primitive or message type at the end of the path.
+        The primitive or message type at the end of the path (of the elements, for an
+        array).
     """
 
     kind: str
@@ -215,6 +216,8 @@ def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Targe
             where = f"{where}.{step}" if where != msgtype else f".{step}"
         elif node in (ARRAY, SEQUENCE):
             if not isinstance(step, int):
+                if step.removeprefix("-").isdigit():  # PlotJuggler's .0 for [0]
+                    raise PathError(f"{where} is an array; write its index in brackets: [{step}]")
                 raise PathError(f"{where} is an array; index it before .{step}, e.g. [0].{step}")
             sub, length = desc[1]
             if node == ARRAY and not -length <= step < length:
@@ -233,10 +236,9 @@ def _target(desc: Fielddesc) -> Target:
         return Target("string" if name in STRING_TYPES else "number", name)
     if node == NAME:
         return Target("message", desc[1])
+    # an array of numbers, of strings or of messages: an index picks one element
     sub = desc[1][0]
-    if int(sub[0]) == BASE and sub[1][0] not in STRING_TYPES:
-        return Target("array", sub[1][0])
-    return Target("message", "array")
+    return Target("array", sub[1][0] if int(sub[0]) == BASE else sub[1])
 
 
 FLOAT_TYPES = frozenset(("float32", "float64"))
@@ -267,40 +269,44 @@ class Leaf:
         return format_steps(self.steps) + ("[]" if self.array else "")
 
 
-def leaves(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[Leaf]:
-    """The numeric and text leaves of ``msgtype``, in definition order.
+def leaves(typedefs: Typedefs, msgtype: str) -> list[Leaf]:
+    """Every numeric and text leaf of ``msgtype``, in definition order.
 
-    Arrays of numbers are leaves; nested messages inside arrays are not expanded, nor messages
-    nested deeper than 8 levels.  At most ``limit`` are returned.
+    Arrays of numbers are leaves; nested messages inside arrays are not expanded.  All of
+    them, however many: ``inspect`` lists them as the fields a symbol can be mapped to, and
+    counts the NaN and infinite values of each floating-point one (a cap left the fields
+    past it unlisted and their values uncounted).  A definition that contains itself (no
+    ROS type can, a damaged one might) is not followed into itself.
     """
     out: list[Leaf] = []
 
-    def walk(type_name: str, prefix: tuple[str, ...], depth: int) -> None:
-        if depth > 8 or type_name not in typedefs:
+    def walk(type_name: str, prefix: tuple[str, ...], within: frozenset[str]) -> None:
+        if type_name in within or type_name not in typedefs:
             return
+        within = within | {type_name}
         for name, desc in typedefs[type_name][1]:
-            if len(out) >= limit or name == "structure_needs_at_least_one_member":
+            if name == "structure_needs_at_least_one_member":
                 continue
             node = int(desc[0])
             if node == BASE and (desc[1][0] in NUMERIC_TYPES or desc[1][0] in STRING_TYPES):
                 out.append(Leaf((*prefix, name), desc[1][0], array=False))
             elif node == NAME:
-                walk(desc[1], (*prefix, name), depth + 1)
+                walk(desc[1], (*prefix, name), within)
             elif node in (ARRAY, SEQUENCE):
                 sub = desc[1][0]
                 if int(sub[0]) == BASE and sub[1][0] in NUMERIC_TYPES:
                     out.append(Leaf((*prefix, name), sub[1][0], array=True))
 
-    walk(msgtype, (), 0)
+    walk(msgtype, (), frozenset())
     return out
 
 
-def leaf_fields(typedefs: Typedefs, msgtype: str, *, limit: int = 64) -> list[str]:
+def leaf_fields(typedefs: Typedefs, msgtype: str) -> list[str]:
     """Paths (steps only, e.g. ``.position[]``) of the numeric and text leaves of ``msgtype``.
 
     Arrays are shown as ``[]`` (their length is known only per message); see :func:`leaves`.
     """
-    return [leaf.text for leaf in leaves(typedefs, msgtype, limit=limit)]
+    return [leaf.text for leaf in leaves(typedefs, msgtype)]
 
 
 # ---------------------------------------------------------------------------- decoded messages
@@ -318,7 +324,8 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
     done: list[Step] = []
     for step in steps:
         if isinstance(step, int):
-            if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__len__"):
+            # bytes are a uint8[] as mcap-ros1-support decodes it: indexed like any array
+            if isinstance(value, (str, Mapping)) or not hasattr(value, "__len__"):
                 raise PathError(f"{format_steps(done) or 'the message'} is not an array")
             length = len(value)
             if not -length <= step < length:
@@ -408,11 +415,18 @@ def as_number(value: object) -> float:
     Raises
     ------
     PathError
-        When the value is a string, an array or a nested message.
+        When the value is a string, an array, a nested message, or an integer beyond the
+        range of a float (JSON integers have no bound).
     """
     if isinstance(value, (bool, int, float, np.number, np.bool_)):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:
+            raise PathError(f"is an integer {_BEYOND_FLOAT}") from None
     raise PathError(f"is {_kind(value)}, not a number")
+
+
+_BEYOND_FLOAT = "beyond the range of a float64 (about 1.8e308)"
 
 
 def as_float_array(value: object) -> FloatArray:
@@ -421,13 +435,16 @@ def as_float_array(value: object) -> FloatArray:
     Raises
     ------
     PathError
-        When the value is not an array of numbers.
+        When the value is not an array of numbers, or holds an integer beyond the range of
+        a float.
     """
     if isinstance(value, (bytes, bytearray)):
         return np.frombuffer(value, dtype=np.uint8).astype(np.float64)
     if isinstance(value, (np.ndarray, array.array, list, tuple)):
         try:
             result: FloatArray = np.asarray(value, dtype=np.float64).reshape(-1)
+        except OverflowError:
+            raise PathError(f"holds an integer {_BEYOND_FLOAT}") from None
         except (TypeError, ValueError) as err:
             raise PathError(f"is {_kind(value)}, not an array of numbers") from err
         return result
@@ -504,23 +521,34 @@ def stamp_ns(value: object) -> int:
     Raises
     ------
     PathError
-        When the value is none of these.
+        When the value is none of these, or the time is beyond the
+        :data:`~hybridlog.io.source.MAX_SECONDS` the nanosecond grid holds.
     """
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if not math.isfinite(value):
             raise PathError(f"is {value}, not a time")
-        return round(value * 1_000_000_000)
+        seconds = f"{value:g} s (a stamp in nanoseconds or milliseconds, where seconds are meant?)"
+        return _on_the_grid(round(value * 1_000_000_000), seconds)
     for sec_name, nsec_name in (("sec", "nanosec"), ("secs", "nsecs"), ("sec", "nsec")):
         if isinstance(value, Mapping):
             sec, nsec = value.get(sec_name), value.get(nsec_name)
         else:
             sec, nsec = getattr(value, sec_name, None), getattr(value, nsec_name, None)
         if isinstance(sec, (int, np.integer)) and isinstance(nsec, (int, np.integer)):
-            return int(sec) * 1_000_000_000 + int(nsec)
+            ns = int(sec) * 1_000_000_000 + int(nsec)
+            return _on_the_grid(ns, f"{int(sec)} s and {int(nsec)} ns")
     to_nsec = getattr(value, "to_nsec", None)
     if callable(to_nsec):
-        return int(to_nsec())
+        ns = int(to_nsec())
+        return _on_the_grid(ns, f"{ns} ns")
     raise PathError(f"is {_kind(value)}, not a time stamp (sec and nanosec)")
+
+
+def _on_the_grid(ns: int, shown: str) -> int:
+    """``ns``, if it fits the int64 nanoseconds of the grid (``|t| <`` ``MAX_SECONDS``)."""
+    if not abs(ns) < MAX_SECONDS * NS_PER_S:
+        raise PathError(f"is beyond the {MAX_SECONDS:.2g} s the nanosecond grid holds: {shown}")
+    return ns
 
 
 def decode_each(decode: Callable[[bytes], object], messages: Sequence[bytes]) -> list[object]:

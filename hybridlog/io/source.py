@@ -23,8 +23,8 @@ from hybridlog.signals import FloatArray, IntArray
 
 NS_PER_S = 1_000_000_000
 
-# |t| beyond this many seconds does not fit into int64 nanoseconds (about 292 years).
-_MAX_SECONDS = 9.2e9
+MAX_SECONDS = 9.2e9
+"""|t| beyond this many seconds does not fit into int64 nanoseconds (about 292 years)."""
 
 BLOCK = 1 << 16
 """Elements per block where a full-size array is converted or checked in blocks."""
@@ -224,9 +224,9 @@ def check_seconds_range(seconds: FloatArray) -> int:
     """Index of the first time that is not finite or too large for nanoseconds, else -1."""
     if seconds.size:
         lo, hi = float(seconds.min()), float(seconds.max())  # NaN when any is NaN
-        if lo > -_MAX_SECONDS and hi < _MAX_SECONDS:
+        if lo > -MAX_SECONDS and hi < MAX_SECONDS:
             return -1  # every time is in range, found without a full-size mask
-    bad = ~(np.abs(seconds) < _MAX_SECONDS)
+    bad = ~(np.abs(seconds) < MAX_SECONDS)
     return int(np.argmax(bad)) if bad.any() else -1
 
 
@@ -236,7 +236,7 @@ def bad_seconds(value: float) -> str:
         return f"time {value} is not a finite number of seconds"
     # 1.7e18 is now in nanoseconds since 1970, 1.7e12 in milliseconds: a unit, not a time
     return (
-        f"time {value:g} is beyond the {_MAX_SECONDS:.2g} s the nanosecond grid holds "
+        f"time {value:g} is beyond the {MAX_SECONDS:.2g} s the nanosecond grid holds "
         "(times are in seconds: a column of milliseconds or nanoseconds?)"
     )
 

@@ -44,13 +44,16 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
     -------
     dict
         JSON-serialisable, times in seconds: ``rate_hz`` (mean rate over the span,
-        ``(n - 1) / duration``), ``sample_time`` (median step), ``min_step``, ``max_step``,
-        ``regular`` (every step within a factor :data:`GAP_FACTOR` of the median), and with
-        ``gaps`` also ``gap_count`` and ``gaps`` (``start, end, duration`` of every step longer
-        than :data:`GAP_FACTOR` times the median, at most :data:`MAX_LISTED_GAPS` listed).
+        ``(n - 1) / duration``), ``sample_time`` (median step; times that repeat are no
+        step, so a message published twice hides no gap), ``min_step``, ``max_step``,
+        ``regular`` (every step within a factor :data:`GAP_FACTOR` of the median),
+        ``repeated`` (how many samples have the time of the one before, which ``analyze``
+        refuses unless ``--sort``), and with ``gaps`` also ``gap_count`` and ``gaps``
+        (``start, end, duration`` of every step longer than :data:`GAP_FACTOR` times the
+        median, at most :data:`MAX_LISTED_GAPS` listed).
         Each is ``None`` (``0`` and ``[]`` for the gaps) when fewer than two samples give no
-        step, and ``rate_hz`` also when the span is zero; with a median step of zero (times
-        that repeat) nothing is a gap and the timing is irregular unless every step is zero.
+        step, and ``rate_hz`` also when the span is zero; times that repeat make the timing
+        irregular, unless every time is the same (median step zero, nothing is a gap).
     """
     info: dict[str, Any] = {
         "rate_hz": None,
@@ -58,6 +61,7 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
         "min_step": None,
         "max_step": None,
         "regular": None,
+        "repeated": None,
     }
     if gaps:
         info.update(gap_count=0, gaps=[])
@@ -65,7 +69,10 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
         return info
     steps = np.diff(time_ns)
     span = int(time_ns[-1]) - int(time_ns[0])
-    median = float(np.median(steps))
+    # times that repeat (a message published twice) are no step in time: with as many
+    # repeats as steps, a median of zero would hide every gap
+    forward = steps[steps > 0]
+    median = float(np.median(forward)) if forward.size else 0.0
     shortest, longest = int(steps.min()), int(steps.max())
     if span > 0:
         info["rate_hz"] = (time_ns.size - 1) * 1e9 / span
@@ -73,6 +80,7 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
     info["min_step"] = shortest / 1e9
     info["max_step"] = longest / 1e9
     info["regular"] = median / GAP_FACTOR <= shortest and longest <= GAP_FACTOR * median
+    info["repeated"] = int(steps.size - forward.size)
     if gaps and median > 0:
         starts = np.flatnonzero(steps > GAP_FACTOR * median)
         info["gap_count"] = int(starts.size)

@@ -23,7 +23,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.errors import LogError, OptionError, as_text, excerpt
+from hybridlog.errors import HybridlogError, LogError, OptionError, as_text, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
     Estimator,
@@ -41,7 +41,12 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
-from hybridlog.report.summary import comparison_markdown, markdown_table, write_summary_csv
+from hybridlog.report.summary import (
+    comparison_markdown,
+    gate_cell,
+    markdown_table,
+    write_summary_csv,
+)
 from hybridlog.report.table_format import check_table_format
 from hybridlog.signals import AlignedSignals
 
@@ -222,7 +227,7 @@ def prepare_estimators(
                 f"{', '.join(model.parameters) or 'none'}) nor an estimator option ({options})"
                 f"{closest(name, candidates)}"
             )
-    return [
+    prepared = [
         prepare(
             model,
             e.name,
@@ -231,6 +236,34 @@ def prepare_estimators(
         )
         for e in chosen
     ]
+    _refuse_inert(prepared, overrides.options, declared)
+    return prepared
+
+
+def _inert(options: object) -> Mapping[str, str]:
+    """The options an options dataclass says the others' values make inert (name → why)."""
+    inert: Callable[[], Mapping[str, str]] | None = getattr(options, "inert", None)
+    return {} if inert is None else inert()
+
+
+def _refuse_inert(
+    prepared: Sequence[Prepared], options: Mapping[str, str], declared: Mapping[str, list[str]]
+) -> None:
+    """Refuse a ``--set`` option that no chosen estimator having it would read.
+
+    An options dataclass may say which of its options the others' values make inert
+    (``inert() -> {name: why}``, e.g. ``imm``'s ``beam`` without ``mode_sequence = kbest``);
+    ``--set`` of one is refused when every chosen estimator that has it says so (``compare
+    --estimators imm,unknown-mode --set beam=50`` sets unknown-mode's beam, and runs).
+    """
+    for name, value in options.items():
+        having = [p for p in prepared if name in declared[p.name]]
+        why = [_inert(p.options).get(name) for p in having]
+        if having and all(why):
+            raise OptionError(
+                f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}: has no effect on "
+                f"estimator '{having[0].name}': {why[0]}"
+            )
 
 
 FILE_OPTIONS: Mapping[str, tuple[str, Callable[[str], object]]] = MappingProxyType(
@@ -267,17 +300,28 @@ def input_paths(
     return paths
 
 
-def estimator_inputs(prepared: Prepared) -> dict[str, Any]:
-    """The files the estimator's options name (:data:`FILE_OPTIONS`), read and parsed.
+def estimator_inputs(prepared: Prepared, model: HybridModel) -> dict[str, Any]:
+    """The files the estimator's options name (:data:`FILE_OPTIONS`), read, parsed and checked.
 
     The keyword arguments of :meth:`Prepared.run <hybridlog.estimators.Prepared.run>` (and
-    ``stream``); errors name the file (and the key at fault).
+    ``stream``), checked against ``model`` and the options before any log is read
+    (:meth:`Prepared.check_inputs <hybridlog.estimators.Prepared.check_inputs>`); errors
+    name the file and the key at fault, and a file a model file names is named by its key
+    (``m.toml: estimators.chiu.centers: ...``), a relative path there being relative to the
+    model file's folder.
     """
     inputs: dict[str, Any] = {}
     for name, (_, read) in FILE_OPTIONS.items():
         value = getattr(prepared.options, name, None)
         if value:
-            inputs[name] = read(value)
+            origin = prepared.origins.get(name, "")
+            try:
+                inputs[name] = read(value)
+            except OptionError as err:
+                if origin.startswith("--set"):
+                    raise
+                raise OptionError(f"{origin}: {err}") from err
+    prepared.check_inputs(model, **inputs)
     return inputs
 
 
@@ -457,7 +501,7 @@ def analyze(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
-    inputs = estimator_inputs(prepared)
+    inputs = estimator_inputs(prepared, model)
     warm_up([prepared], model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
@@ -517,6 +561,18 @@ def _smoothing_cells(report: Report) -> list[Any]:
     return [name, smoothing.filtered.mode_accuracy]
 
 
+def _naming(name: str, chunks: Iterator[EstimationResult]) -> Iterator[EstimationResult]:
+    """The chunks of one of several compared estimators; an error of its run names it.
+
+    ``cluster_modes: 2 mode ids for 3 clusters`` did not say which of ``chiu,kmeans`` failed
+    (the option reaches both); it becomes ``--estimators chiu: cluster_modes: ...``.
+    """
+    try:
+        yield from chunks
+    except HybridlogError as err:
+        raise type(err)(f"--estimators {name}: {err}") from err
+
+
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -535,15 +591,17 @@ def compare(
     """Run several estimators on one log: ``<out>/<estimator>/`` reports and a table.
 
     The table (``comparison.md`` and ``comparison.csv``) has one row per estimator; CI gates
-    apply to every estimator.  ``smooth`` (``--smooth``) and ``mode_sequence`` apply to every
-    estimator, each of which must offer them (:func:`smoothing_overrides`); when any
-    estimator's estimates were smoothed, the table gets a ``smoothing`` column and the
-    filter's own mode accuracy beside the smoothed one.
+    apply to every estimator, and with gates the table gets a ``gates`` column (``pass (2)``
+    or the gates the estimator missed).  ``smooth`` (``--smooth``) and ``mode_sequence``
+    apply to every estimator, each of which must offer them (:func:`smoothing_overrides`);
+    when any estimator's estimates were smoothed, the table gets a ``smoothing`` column and
+    the filter's own mode accuracy beside the smoothed one.
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
-    if len(set(estimators)) != len(estimators):
-        raise OptionError("--estimators: an estimator is named twice")
+    twice = sorted({name for name in estimators if list(estimators).count(name) > 1})
+    if twice:  # two reports under one folder name
+        raise OptionError(f"--estimators: {', '.join(map(excerpt, twice))} named twice")
     model, overrides = parse_sets(sets, model_ref)
     prepared = prepare_estimators(
         model,
@@ -558,7 +616,7 @@ def compare(
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
     gates = gates_for(model, fail_under, fail_over)
-    inputs = {p.name: estimator_inputs(p) for p in prepared}
+    inputs = {p.name: estimator_inputs(p, model) for p in prepared}
     warm_up(prepared, model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
@@ -568,15 +626,12 @@ def compare(
 
     with atomic_output_dir(out_dir, force=force) as folder:
         for i, estimator in enumerate(prepared):  # one after the other: one's chunks at a time
+            chunks = estimates(
+                estimator, model, signals, inputs[estimator.name], last=i == len(prepared) - 1
+            )
             reports[estimator.name] = write_report(
                 folder / estimator.name,
-                estimates(
-                    estimator,
-                    model,
-                    signals,
-                    inputs[estimator.name],
-                    last=i == len(prepared) - 1,
-                ),
+                _naming(estimator.name, chunks) if len(prepared) > 1 else chunks,
                 signals,
                 log=as_text(log),
                 model_name=model.name,
@@ -585,20 +640,22 @@ def compare(
                 reading=reading,
                 model=model,
             )
+        missed = {name: evaluate_gates(report, gates) for name, report in reports.items()}
         columns: tuple[str, ...] = ("estimator", *_COLUMNS)
         rows = [[name, *_row(report).values()] for name, report in reports.items()]
         if any(report.smoothing is not None for report in reports.values()):
             columns += _SMOOTHING_COLUMNS
             for row, report in zip(rows, reports.values(), strict=True):
                 row += _smoothing_cells(report)
-        table = markdown_table(columns, rows)
+        if gates:  # which estimator missed which gate, as a batch's summary shows per log
+            columns += ("gates",)
+            for row, name in zip(rows, reports, strict=True):
+                row.append(gate_cell(len(gates), missed[name]))
+        table = markdown_table(columns, rows, distinct=True)  # estimators side by side
         (folder / "comparison.md").write_text(
-            comparison_markdown(f"{model.name} on {log}", table, reports), encoding="utf-8"
+            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports),
+            encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
-    failures = [
-        f"{name}: {failure}"
-        for name, report in reports.items()
-        for failure in evaluate_gates(report, gates)
-    ]
+    failures = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
     return Comparison(reports=reports, table=table, gate_failures=failures)

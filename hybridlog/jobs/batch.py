@@ -306,7 +306,7 @@ def _warm(job: BatchJob) -> _Warm:
                 mode_sequence=job.mode_sequence,
             )
             gates = gates_for(model, job.fail_under, job.fail_over)
-            warm = _Warm(model, prepared, estimator_inputs(prepared), gates)
+            warm = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
             _WARM.clear()
             _WARM[key] = warm
         return warm
@@ -622,7 +622,7 @@ def _plan(
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
-        _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared), gates)
+        _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
 

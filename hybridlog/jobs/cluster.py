@@ -11,20 +11,23 @@ errors are ``HybridlogError``.
 
 from __future__ import annotations
 
+import dataclasses
 import os
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier
 from hybridlog.cluster.regressors import regression_vectors
-from hybridlog.errors import ModelError, OptionError, OutputError
+from hybridlog.errors import ModelError, OptionError, OutputError, as_text
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
+from hybridlog.estimators.options import OptionSource, parse_options
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
@@ -41,6 +44,8 @@ from hybridlog.report.summary import markdown_table
 from hybridlog.signals import AlignedSignals
 
 __all__ = ["PLOT_SUFFIXES", "ClusterOutcome", "check_cluster_outputs", "discover_modes"]
+
+_Options = TypeVar("_Options", ChiuOptions, KMeansOptions)
 
 #: Picture formats of ``--plot`` (written by matplotlib's Agg canvas, no external tools).
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
@@ -105,6 +110,30 @@ def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
     return rows
 
 
+def _model_defaults(
+    model: HybridModel, estimator: str, options: _Options, given: Collection[str]
+) -> _Options:
+    """``options`` with the values the model file sets under ``[estimators.<estimator>]``.
+
+    The options in ``given`` (the user's) and ``centers`` are kept: ``hybridlog cluster``
+    fits what the estimator would fit on this log (it ignored ``radius = 0.3`` there and
+    fitted 0.5), and fits it rather than loading it.
+
+    Raises
+    ------
+    ModelError
+        A value of the table is not one of the option (naming the file and key).
+    """
+    names = {f.name for f in dataclasses.fields(options)} - {"centers", *given}
+    table = {k: v for k, v in model.estimator_options.get(estimator, {}).items() if k in names}
+    if not table:
+        return options
+    origin = model.origin or model.name
+    sources = {k: OptionSource.model_file(origin, estimator, k) for k in table}
+    parsed = parse_options(type(options), table, estimator=estimator, sources=sources)
+    return dataclasses.replace(options, **{k: getattr(parsed, k) for k in table})
+
+
 def check_cluster_outputs(
     log: PathLike,
     model_ref: PathLike,
@@ -156,6 +185,7 @@ def discover_modes(
     *,
     out: str | os.PathLike[str] = "centers.json",
     chiu: ChiuOptions | None = None,
+    given: Collection[str] | None = None,
     compare_kmeans: bool = False,
     kmeans: KMeansOptions | None = None,
     plot: str | os.PathLike[str] | None = None,
@@ -172,10 +202,16 @@ def discover_modes(
         ``centers.json`` to write.
     chiu:
         Subtractive-clustering options (radius, squash, method, lags …).
+    given:
+        The options of ``chiu`` the user set (``None``: all of them, or none when ``chiu``
+        is ``None``); the others come from the model file's ``[estimators.chiu]`` table
+        where it sets them, as the ``chiu`` estimator takes them (but ``centers``: the
+        clusters are fitted here).
     compare_kmeans:
         Also fit k-means (same lags) and store it in the file.
     kmeans:
-        k-means options (its lags are taken from ``chiu``).
+        k-means options (its lags are taken from ``chiu``); ``None``: the model file's
+        ``[estimators.kmeans]`` values, else the defaults.
     plot:
         PNG to draw; ``None`` for ``out`` with the suffix ``.png``.
     read:
@@ -196,13 +232,19 @@ def discover_modes(
     target, picture = check_cluster_outputs(
         log, model_ref, out=out, plot=plot, force=force, read=read
     )
-    chiu = chiu or ChiuOptions()
     model = load_model(os.fspath(model_ref))
+    if given is None:
+        given = () if chiu is None else [f.name for f in dataclasses.fields(ChiuOptions)]
+    chiu = _model_defaults(model, "chiu", chiu or ChiuOptions(), given)
     # paper 001's regressors need a discrete-time model of enumerated modes (linear ones only
     # to label the clusters as modes): refused before the log is read
     problem = Capabilities().mismatch(ModelTraits(model))
     if problem is not None:
         raise ModelError(f"{model.origin or model.name}: hybridlog cluster {problem}")
+    # the lags and the clustering settings too: --squash 1 or --output-lags 1 was refused
+    # only after a long log had been read and the observer's LMI solved
+    chiu.regressor_spec()
+    chiu.clustering().validate(dimensions=1)
     reading: dict[str, Any] = {}
     signals = read_log(os.fspath(log), model, read, reading)
     notes: list[str] = []
@@ -214,11 +256,12 @@ def discover_modes(
     fitted = mode_classifier(model, signals, chiu, observer=observer)
     baseline = None
     if compare_kmeans:
-        options = kmeans or KMeansOptions()
+        options = kmeans or _model_defaults(model, "kmeans", KMeansOptions(), ())
         options = KMeansOptions(
             clusters=options.clusters,
             restarts=options.restarts,
             seed=options.seed,
+            cluster_modes=options.cluster_modes,
             output_lags=chiu.output_lags,
             input_lags=chiu.input_lags,
             decay_rate=chiu.decay_rate,
@@ -229,7 +272,7 @@ def discover_modes(
         accuracy["kmeans"] = _accuracy(baseline, model, signals)
     content: dict[str, Any] = {
         "model": model.name,
-        "log": str(log),
+        "log": as_text(log),
         "mode_ids": list(model.mode_ids),
         "regressors": list(fitted.regressors),
         "output_lags": list(fitted.spec.output_lags),
@@ -250,22 +293,20 @@ def discover_modes(
     }
     if baseline is not None:
         content["kmeans"] = {
-            "parameters": {"clusters": len(baseline.centers)},
+            "parameters": {
+                "clusters": len(baseline.centers),
+                "restarts": options.restarts,
+                "seed": options.seed,
+            },
             **_entry(baseline, model),
         }
     content["reading"] = reading
     phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
     lag = fitted.spec.max_lag
     clusters = fitted.decide(signals.outputs)[lag:]
-    labels = [
-        f"cluster {c + 1}"
-        + (
-            ""
-            if fitted.cluster_modes is None
-            else f" -> mode '{model.mode_ids[fitted.cluster_modes[c]]}'"
-        )
-        for c in range(len(fitted.centers))
-    ]
+    cluster_modes = (
+        None if fitted.cluster_modes is None else [model.mode_ids[m] for m in fitted.cluster_modes]
+    )
     truth = (
         None
         if signals.truth_modes is None
@@ -281,7 +322,7 @@ def discover_modes(
                 names=fitted.regressors,
                 clusters=clusters,
                 centers=fitted.centers,
-                cluster_labels=labels,
+                cluster_modes=cluster_modes,
                 decision_values=fitted.decision_values[:, 0],
                 kmeans_centers=None if baseline is None else baseline.centers,
                 truth=truth,

@@ -4,7 +4,11 @@ Left: the regression vectors φ(k) in the plane of their first two components (`
 the next one), coloured by the cluster the decision rule (eqs. (2)–(3)) gives them, with the
 subtractive-clustering centres (black crosses) and the k-means centres (red pluses).
 Right: ``y(k)`` over time coloured the same way, the decision variables ``y_i*`` as
-horizontal lines, and the true mode when the log has it.  Agg canvas, no pyplot.
+horizontal lines, and the true mode when the log has it.  With more than
+:data:`MAX_CLUSTER_COLOURS` clusters (a small radius gives hundreds) one colour and one legend
+entry per cluster would repeat colours and bury the axes under the legend: the samples are
+then coloured by the mode their cluster decides (grey when unlabelled), and the decision
+variables are ticks at the right edge.  Agg canvas, no pyplot.
 """
 
 from __future__ import annotations
@@ -18,9 +22,31 @@ from matplotlib.figure import Figure
 
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["plot_clusters"]
+__all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters"]
 
 _MAX_POINTS = 20_000
+
+MAX_CLUSTER_COLOURS = 10
+"""Most clusters drawn one colour and one legend entry each (matplotlib's ten colours)."""
+
+
+def _groups(
+    n_clusters: int, cluster_modes: Sequence[str] | None
+) -> tuple[list[int], list[str], list[str]]:
+    """Group of each cluster, and each group's colour and legend text."""
+    if n_clusters <= MAX_CLUSTER_COLOURS:
+        labels = [
+            f"cluster {c + 1}" + ("" if cluster_modes is None else f" -> mode '{cluster_modes[c]}'")
+            for c in range(n_clusters)
+        ]
+        return list(range(n_clusters)), [f"C{c}" for c in range(n_clusters)], labels
+    if cluster_modes is None:
+        return [0] * n_clusters, ["grey"], [f"{n_clusters} clusters (not labelled)"]
+    modes = list(dict.fromkeys(cluster_modes))
+    group = [modes.index(m) for m in cluster_modes]
+    counts = [group.count(g) for g in range(len(modes))]
+    labels = [f"mode '{m}' ({n} clusters)" for m, n in zip(modes, counts, strict=True)]
+    return group, [f"C{g % 10}" for g in range(len(modes))], labels
 
 
 def plot_clusters(
@@ -31,12 +57,12 @@ def plot_clusters(
     names: Sequence[str],
     clusters: IntArray,
     centers: FloatArray,
-    cluster_labels: Sequence[str],
+    cluster_modes: Sequence[str] | None,
     decision_values: FloatArray,
     kmeans_centers: FloatArray | None = None,
     truth: Sequence[str] | None = None,
 ) -> Path:
-    """Draw the clusters to ``path`` (PNG).
+    """Draw the clusters to ``path`` (PNG, SVG or PDF, from its suffix).
 
     Parameters
     ----------
@@ -50,8 +76,8 @@ def plot_clusters(
         Cluster of each row (decision rule).
     centers:
         Subtractive-clustering centres ``(c, d)``.
-    cluster_labels:
-        Legend text of each cluster (e.g. ``"1 → mode '2'"``).
+    cluster_modes:
+        Mode id of each cluster, or ``None`` when the clusters are not labelled.
     decision_values:
         ``y_i*`` of the first output, shape ``(c,)``.
     kmeans_centers:
@@ -64,14 +90,26 @@ def plot_clusters(
     left, right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.0, 1.6]})
     step = max(1, phi.shape[0] // _MAX_POINTS)
     other = 1 if phi.shape[1] > 1 else 0
-    colours = [f"C{c % 10}" for c in range(len(centers))]
-    for c in range(len(centers)):
-        chosen = np.flatnonzero(clusters == c)[::step]
-        left.scatter(
-            phi[chosen, 0], phi[chosen, other], s=4, color=colours[c], label=cluster_labels[c]
-        )
-        right.scatter(time[chosen], phi[chosen, 0], s=3, color=colours[c])
-        right.axhline(float(decision_values[c]), color=colours[c], lw=0.8, ls="--")
+    group, colours, labels = _groups(len(centers), cluster_modes)
+    of_group = np.asarray(group, dtype=np.int64)[clusters]
+    for g, (colour, label) in enumerate(zip(colours, labels, strict=True)):
+        chosen = np.flatnonzero(of_group == g)[::step]
+        left.scatter(phi[chosen, 0], phi[chosen, other], s=4, color=colour, label=label)
+        right.scatter(time[chosen], phi[chosen, 0], s=3, color=colour)
+    few = len(centers) <= MAX_CLUSTER_COLOURS
+    for c, value in enumerate(np.asarray(decision_values, dtype=float)):
+        colour = colours[group[c]]
+        if few:
+            right.axhline(float(value), color=colour, lw=0.8, ls="--")
+        else:  # hundreds of lines would hide the samples: a tick at the right edge each
+            right.plot(
+                [1.0, 1.02],
+                [value, value],
+                color=colour,
+                lw=0.8,
+                transform=right.get_yaxis_transform(),
+                clip_on=False,
+            )
     left.scatter(
         centers[:, 0], centers[:, other], marker="x", s=90, color="black", label="Chiu centres"
     )
@@ -90,7 +128,8 @@ def plot_clusters(
     left.set_title("regression vectors and centres")
     right.set_xlabel("t (s)")
     right.set_ylabel(names[0])
-    right.set_title("decided cluster per sample (dashed: decision variables y*)")
+    where = "dashed" if few else "ticks at the right edge"
+    right.set_title(f"decided cluster per sample ({where}: decision variables y*)")
     if truth is not None:
         ids = sorted(set(truth))
         twin = right.twinx()

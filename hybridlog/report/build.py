@@ -20,6 +20,7 @@ from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics
 from hybridlog.report.document import (
+    ComponentSide,
     Detection,
     JsonObject,
     ModeReport,
@@ -410,7 +411,7 @@ class ReportBuilder:
                 None
                 if self._offline is None
                 else self._offline.smoothing(
-                    first, signals, self._modes, rmse, self._components.joint_accuracy()
+                    first, signals, self._modes, rmse, self._components, self._dt
                 )
             ),
             reading=None if reading is None else _json_object(reading),
@@ -489,6 +490,7 @@ def _side(
     output_names: tuple[str, ...],
     explained: metrics.OutputAccumulator | None,
     component_accuracy: float | None = None,
+    components: Mapping[str, ModeReport] | None = None,
 ) -> SmoothingMetrics:
     """The metrics of one side (filtered or offline) of a run with an offline pass.
 
@@ -496,7 +498,8 @@ def _side(
     errors of the outputs its estimates explain, accumulated over the run (``None``: not
     evaluated).  ``component_accuracy``: for a ``[components]`` model, the fraction of
     samples where this side has every component's mode right (the log's truth is per
-    component, so it is the side's mode accuracy; its switches are not scored jointly).
+    component, so it is the side's mode accuracy; its switches are not scored jointly),
+    ``components`` the side's report of each component with a true mode.
     """
     states = {x: StateReport(rmse=_num(float(r))) for x, r in zip(state_names, rmse, strict=True)}
     outputs: dict[str, OutputReport] | None = None
@@ -509,6 +512,7 @@ def _side(
         }
         fit = _num(metrics.mean_where_defined([m.fit for m in per_output]))
     switches = int(np.count_nonzero(modes[1:] != modes[:-1]))
+    sides = {c: ComponentSide.of(m) for c, m in (components or {}).items()}
     truth = signals.truth_modes
     if truth is None:
         return SmoothingMetrics(
@@ -522,6 +526,7 @@ def _side(
             states=states,
             outputs=outputs,
             fit=fit,
+            components=sides,
         )
     counts = metrics.confusion_matrix(modes, truth, len(ids))
     det = metrics.detection_delays(signals.time, modes, truth, ids)
@@ -540,6 +545,7 @@ def _side(
         states=states,
         outputs=outputs,
         fit=fit,
+        components=sides,
     )
 
 
@@ -615,12 +621,13 @@ class _OfflineSides:
         signals: AlignedSignals,
         modes: IntArray,
         rmse: FloatArray,
-        component_accuracy: float | None = None,
+        components: _ComponentModes,
+        dt: float,
     ) -> Smoothing:
         """Both sides' metrics.
 
-        ``modes``, ``rmse`` and ``component_accuracy`` (every component right,
-        :meth:`_ComponentModes.joint_accuracy`) are the report's own (the offline ones).
+        ``modes``, ``rmse`` and ``components`` (each component's modes) are the report's
+        own (the offline ones).
         """
         ids = tuple(str(m) for m in first.mode_ids)
         names = (first.state_names, first.output_names)
@@ -642,9 +649,17 @@ class _OfflineSides:
                 *names,
                 self._explained[0],
                 self._filtered_components.joint_accuracy(),
+                self._filtered_components.reports(signals.time, dt),
             ),
             smoothed=_side(
-                ids, signals, modes, rmse, *names, self._explained[1], component_accuracy
+                ids,
+                signals,
+                modes,
+                rmse,
+                *names,
+                self._explained[1],
+                components.joint_accuracy(),
+                components.reports(signals.time, dt),
             ),
         )
 
@@ -655,14 +670,62 @@ def _json_object(value: Mapping[str, Any]) -> JsonObject:
 
 
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
-    """Warnings about the log's alignment: outputs bridged across gaps (``bridged``)."""
-    bridged = (reading or {}).get("bridged") or {}
-    return tuple(
+    """What report.md must say of how the log was read, beside report.json's ``reading``.
+
+    Warnings about the alignment (outputs bridged across gaps, ``bridged``), and what the
+    user's repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
+    ``--drop-nonfinite`` and ``--sort`` dropped or moved, an MCAP file read by ``--recover``.
+    A report of a tenth of a log, or of one with samples taken out, said only its sample
+    count and time span, which read like the whole log's.
+    """
+    reading = reading or {}
+    notes = [
         f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
         f"{count['of']} sample times, which took their values from the samples around (a "
         "measurement used more than once, or interpolated; is the model's dt the log's?)"
-        for symbol, count in bridged.items()
-    )
+        for symbol, count in (reading.get("bridged") or {}).items()
+    ]
+    segments = reading.get("segments")
+    if segments:
+        kept = segments[reading["analysed_segment"]]
+        others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
+        gaps = reading.get("gaps") or []
+        notes.append(
+            f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
+            f"({_spans(gaps)}) cut the log into {len(segments)} pieces; this report is of "
+            f"the longest, t = {kept['start']:g} … {kept['end']:g} s; not analysed: "
+            f"{_spans(others)}"
+        )
+    for key, what in (
+        ("nonfinite_dropped", "--drop-nonfinite dropped NaN or infinite samples"),
+        ("out_of_range_dropped", "--drop-nonfinite dropped out-of-range samples"),
+        ("sorted", "--sort put samples that went back in time in order"),
+        ("duplicates_dropped", "--sort dropped samples of a time already seen, keeping the last"),
+    ):
+        if key in reading:
+            notes.append(f"NOTE: {what}: {_counts(reading[key])}")
+    if reading.get("recovered"):
+        notes.append(
+            f"NOTE: --recover: the MCAP file was read sequentially, "
+            f"{plural(reading.get('messages_readable', 0), 'message')} up to "
+            f"{reading.get('stopped_at')}"
+        )
+    return tuple(notes)
+
+
+def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:
+    """``t = a … b s, ...`` for at most ``most`` spans, then how many more."""
+    shown = ", ".join(f"t = {p['start']:g} … {p['end']:g} s" for p in spans[:most])
+    return shown + (f" and {len(spans) - most} more" if len(spans) > most else "")
+
+
+def _counts(value: object) -> str:
+    """A count of rows, or per signal (topic, column) its count: ``y1 556, /odom 3``."""
+    if isinstance(value, Mapping) and set(value) == {"rows_out_of_order"}:  # a table's rows
+        value = value["rows_out_of_order"]
+    if isinstance(value, Mapping):
+        return ", ".join(f"{name} {count}" for name, count in value.items())
+    return plural(int(value), "row") if isinstance(value, int) else str(value)
 
 
 def _no_delay(modes: ModeReport, of: str = "") -> str | None:

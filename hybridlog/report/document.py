@@ -22,8 +22,11 @@ mode sequence was changed), ``mode_sequence`` is ``argmax`` or ``viterbi``, and 
 and ``smoothed`` hold the same metrics (:class:`SmoothingMetrics`) of the causal filter's
 estimates and of the report's own: ``mode_accuracy, confusion, detection_delay_s,
 detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse}}, outputs: {<y>:
-{mse, vaf, fit, samples}}, fit``.  Their ``outputs`` are not the one-step-ahead prediction of
-the top-level ``outputs`` (which stays the filter's either way): they are
+{mse, vaf, fit, samples}}, fit``, and for a ``[components]`` model with the log's true mode
+of components ``components: {<c>: {mode_accuracy, detection_delay_s, detection_max_s,
+detected, missed}}`` (:class:`ComponentSide`; absent otherwise).  Their ``outputs`` are not
+the one-step-ahead prediction of the top-level ``outputs`` (which stays the filter's either
+way): they are
 ``ŷ(k) = h_q̂(k)(x̂(k), u(k))``, the outputs the estimated mode and state explain, ``null``
 when the model was not at hand to evaluate ``h``.
 
@@ -61,6 +64,7 @@ from hybridlog.report.metrics import SwitchDetection
 
 __all__ = [
     "MODE_SEQUENCES",
+    "ComponentSide",
     "Detection",
     "JsonValue",
     "ModeReport",
@@ -242,6 +246,44 @@ def _confusion_dict(confusion: Mapping[str, Mapping[str, int]] | None) -> JsonVa
 
 
 @dataclass(frozen=True)
+class ComponentSide:
+    """One component's mode metrics on one side (filtered or offline) of a smoothed run.
+
+    As the component's :class:`ModeReport` (``modes.components``): the fraction of samples
+    with its mode right, and its true switches detected and missed, the mean and largest
+    delay of those detected (``None`` when none was).
+    """
+
+    mode_accuracy: float | None
+    detection_delay_s: float | None
+    detection_max_s: float | None
+    detected: int
+    missed: int
+
+    @classmethod
+    def of(cls, modes: ModeReport) -> ComponentSide:
+        """The side's metrics from the component's :class:`ModeReport`."""
+        detection = modes.detection
+        return cls(
+            mode_accuracy=modes.accuracy,
+            detection_delay_s=modes.detection_delay_s,
+            detection_max_s=None if detection is None else detection.max_s,
+            detected=0 if detection is None else detection.detected,
+            missed=0 if detection is None else detection.missed,
+        )
+
+    def to_dict(self) -> JsonObject:
+        """The JSON object ``smoothing.<side>.components.<c>``."""
+        return {
+            "mode_accuracy": self.mode_accuracy,
+            "detection_delay_s": self.detection_delay_s,
+            "detection_max_s": self.detection_max_s,
+            "detected": self.detected,
+            "missed": self.missed,
+        }
+
+
+@dataclass(frozen=True)
 class SmoothingMetrics:
     """Metrics of one side of a smoothed run: the causal filter's estimates or the smoothed.
 
@@ -267,6 +309,9 @@ class SmoothingMetrics:
         mode and state explain, not a prediction); ``None`` when ``h`` was not evaluated.
     fit:
         Mean of ``outputs``' fit over the outputs where it is defined.
+    components:
+        For a ``[components]`` model, each component with a true mode in the log: its own
+        accuracy and detections on this side (empty otherwise).
 
     """
 
@@ -280,10 +325,11 @@ class SmoothingMetrics:
     states: Mapping[str, StateReport]
     outputs: Mapping[str, OutputReport] | None
     fit: float | None
+    components: Mapping[str, ComponentSide] = field(default_factory=dict)
 
     def to_dict(self) -> JsonObject:
         """The JSON object ``smoothing.filtered`` or ``smoothing.smoothed``."""
-        return {
+        data: JsonObject = {
             "mode_accuracy": self.mode_accuracy,
             "confusion": _confusion_dict(self.confusion),
             "detection_delay_s": self.detection_delay_s,
@@ -297,6 +343,9 @@ class SmoothingMetrics:
             else {y: o.to_dict() for y, o in self.outputs.items()},
             "fit": self.fit,
         }
+        if self.components:
+            data["components"] = {c: side.to_dict() for c, side in self.components.items()}
+        return data
 
 
 @dataclass(frozen=True)
@@ -820,6 +869,7 @@ class _Reader:
             states=self.at(data, path, "states", self.map_of(self.state)),
             outputs=outputs,
             fit=self.at(data, path, "fit", self.optional_number),
+            components=self.at(data, path, "components", self.map_of(self.component_side), {}),
         )
         if set(metrics.states) != set(states):
             raise self.error(
@@ -837,6 +887,16 @@ class _Reader:
         if (metrics.detected is None) != (metrics.missed is None):
             raise self.error(f"{path}.missed", "must be null exactly when detected is")
         return metrics
+
+    def component_side(self, value: object, path: str) -> ComponentSide:
+        data = self.mapping(value, path)
+        return ComponentSide(
+            mode_accuracy=self.at(data, path, "mode_accuracy", self.fraction),
+            detection_delay_s=self.at(data, path, "detection_delay_s", self.optional_number),
+            detection_max_s=self.at(data, path, "detection_max_s", self.optional_number),
+            detected=self.at(data, path, "detected", self.count),
+            missed=self.at(data, path, "missed", self.count),
+        )
 
     def smoothing(
         self, value: object, path: str, labels: tuple[str, ...], states: tuple[str, ...]

@@ -173,6 +173,7 @@ def render_markdown(report: Report) -> str:
         "",
         "## Outputs",
         "",
+        *_offline_caveat(report, "outputs"),
         "| output | MSE | VAF (%) | fit (%) |",
         "|---|---:|---:|---:|",
     ]
@@ -201,7 +202,8 @@ def render_markdown(report: Report) -> str:
         lines += ["", *undefined]
 
     modes = report.modes
-    lines += ["", "## Modes", "", f"{plural(len(modes.switches), 'estimated mode switch')}.", ""]
+    lines += ["", "## Modes", "", *_offline_caveat(report, "modes")]
+    lines += [f"{plural(len(modes.switches), 'estimated mode switch')}.", ""]
     lines += ["| mode | dwell (s) |", "|---|---:|"]
     lines += [f"| {escape_markdown(m)} | {_fmt(modes.dwell_s.get(m))} |" for m in modes.labels]
     lines.append("")
@@ -213,7 +215,8 @@ def render_markdown(report: Report) -> str:
         lines += _truth_lines(modes, modes.accuracy)
 
     if report.states:
-        lines += ["", "## States", "", "| state | RMSE |", "|---|---:|"]
+        lines += ["", "## States", "", *_offline_caveat(report, "states")]
+        lines += ["| state | RMSE |", "|---|---:|"]
         lines += [f"| {escape_markdown(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
     if report.smoothing is not None:
         lines += ["", *_smoothing_lines(report.smoothing)]
@@ -238,6 +241,31 @@ def _change(before: float | int | None, after: float | int | None, spec: str) ->
     if before is None or after is None:
         return "n/a"
     return format(after - before, "+" + spec)
+
+
+def _offline_caveat(report: Report, section: str) -> list[str]:
+    """For a report of offline estimates, which estimates a section's numbers are of.
+
+    The "Smoothing" section, at the end, said it; a reader of the tables above it took the
+    output metrics for the smoothed estimates' and the modes and states for the filter's.
+    """
+    smoothing = report.smoothing
+    if smoothing is None:
+        return []
+    if section == "outputs":
+        return [
+            "The causal filter's one-step-ahead prediction ŷ(k|k−1), with or without an "
+            "offline pass: it is the basis of MSE, VAF and fit (see Smoothing).",
+            "",
+        ]
+    if section == "states" and smoothing.method is None and smoothing.mode_sequence == "viterbi":
+        return ["The causal filter's own: the Viterbi path changes only the modes.", ""]
+    how = ", ".join(f"`{n}`" for n in (smoothing.method, smoothing.mode_sequence) if n)
+    return [
+        f"Of the offline estimates ({how}); the causal filter's own {section} are compared "
+        "with them under Smoothing.",
+        "",
+    ]
 
 
 def _smoothing_lines(smoothing: Smoothing) -> list[str]:
@@ -281,6 +309,31 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         for x, state in s.states.items()
         if x in f.states
     ]
+    for c, side in s.components.items():
+        own = f.components.get(c)
+        rows += [
+            (
+                f"component {c}: mode accuracy (%)",
+                percent(None if own is None else own.mode_accuracy),
+                percent(side.mode_accuracy),
+                ".4g",
+            ),
+            (
+                f"component {c}: detection delay, mean (s)",
+                None if own is None else own.detection_delay_s,
+                side.detection_delay_s,
+                ".6g",
+            ),
+        ]
+        if side.missed or (own is not None and own.missed):
+            rows.append(
+                (
+                    f"component {c}: true switches missed",
+                    None if own is None else own.missed,
+                    side.missed,
+                    "d",
+                )
+            )
     if explained and f.outputs is not None and s.outputs is not None:
         rows += [
             (f"fit of h(x̂) {y} (%)", f.outputs[y].fit, out.fit, ".4g")

@@ -247,11 +247,48 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
+#: Where a figure's title hangs: this far (inches) below the top, whatever the figure's
+#: height (the panels start 0.45 in below it); at the default 0.98 of the height, the title
+#: of a tall figure (a ``[components]`` model's modes.png) ran into its first panel.
+TITLE_TOP_IN = 0.1
+
+
+def _title(fig: Figure, text: str) -> None:
+    fig.suptitle(text, y=1.0 - TITLE_TOP_IN / fig.get_figheight(), va="top")
+
+
 def _panel_title(fig: Figure, what: str, total: int) -> None:
     if total > MAX_PANELS:
-        fig.suptitle(f"{what} (first {MAX_PANELS} of {total})")
+        _title(fig, f"{what} (first {MAX_PANELS} of {total})")
     else:
-        fig.suptitle(what)
+        _title(fig, what)
+
+
+#: The ticks, the pads beside the tick labels and the y label, and a margin, in inches.
+LABEL_PADS_IN = 0.25
+
+
+def _fit_labels_left(fig: Figure, axes: Sequence[Axes]) -> None:
+    """Widen the figure's left margin to the widest y tick label and y label of ``axes``.
+
+    For figures of mode bars only (no curve reduced to the pixel columns, whose count the
+    panels' width fixes): a component's modes (``one_bank_out``) and the joint assignments
+    (``partly_open|partly_open|closed|closed|full|growth``) were cut off at the fixed margin.
+    Text is measured by the Agg renderer, without a layout pass; the margin is at most half
+    the width.
+    """
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    dpi = fig.dpi
+    need = 0.0
+    for ax in axes:
+        ticks = max(
+            (t.get_window_extent(renderer).width for t in ax.get_yticklabels()), default=0.0
+        )
+        label = ax.yaxis.label.get_window_extent(renderer).width if ax.get_ylabel() else 0.0
+        need = max(need, (ticks + label) / dpi + LABEL_PADS_IN)
+    left = min(max(PANEL_LEFT, need / fig.get_figwidth()), 0.5)
+    if left > PANEL_LEFT:
+        fig.subplots_adjust(left=left)
 
 
 def _empty(fig: Figure, ax: Axes, text: str) -> None:
@@ -330,7 +367,7 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     if components is not None:
         return components
     fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=2.4)
-    fig.suptitle("Modes")
+    _title(fig, "Modes")
     modes = data.modes
     if not isinstance(modes, ModeTimelines):  # no samples (components were drawn above)
         _empty(fig, ax_mode, "no samples")
@@ -414,7 +451,7 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
         return None
     visited = components.joint_ids
     fig, axes = _new_figure(len(components.columns) + 1, panel_height=max(1.0, 0.35 * len(visited)))
-    fig.suptitle("Modes per component and joint assignment")
+    _title(fig, "Modes per component and joint assignment")
     set_time_span(axes[0], data.span)
     for ax, column in zip(axes, components.columns, strict=False):
         n_labels = len(column.labels)
@@ -454,6 +491,7 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
     joint.set_ylim(-0.5, len(visited) - 0.5)
     joint.set_ylabel("joint")
     joint.set_xlabel("t (s)")
+    _fit_labels_left(fig, axes)
     return _save(fig, path)
 
 

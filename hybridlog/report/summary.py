@@ -16,17 +16,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from hybridlog.errors import as_text
 from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
 
 __all__ = [
+    "MAX_EXTRA_DIGITS",
     "SIGNIFICANT_DIGITS",
     "BatchRow",
     "batch_markdown",
     "batch_rows_csv",
     "comparison_markdown",
+    "gate_cell",
     "markdown_table",
     "write_summary_csv",
 ]
@@ -34,27 +37,37 @@ __all__ = [
 SIGNIFICANT_DIGITS = 4
 """Markdown tables show every number of a column with at least this many significant digits."""
 
+MAX_EXTRA_DIGITS = 4
+"""Digits a column of a Markdown table gains, at most, so that different values differ."""
 
-def _column_format(values: Sequence[object]) -> Callable[[object], str]:
+
+def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[object], str]:
     """One format for a whole column of a table for people (CSV files keep raw values).
 
     Integers get thousands separators.  Floats get the same number of decimals, enough for
     :data:`SIGNIFICANT_DIGITS` digits of the smallest non-zero magnitude (``1,668,410``,
     ``87.39``, ``0.6013``), with thousands separators; a column spanning more than six
     decades, needing more than six decimals, or reaching :data:`FIXED_LIMIT`, is written in
-    scientific notation.
+    scientific notation.  With ``distinct``, then more digits, up to
+    :data:`MAX_EXTRA_DIGITS`, while two different values of the column would print alike:
+    side by side, a VAF of 99.9721 and one of 99.9655 must not both read ``99.97``.
     """
-    floats = [
-        abs(float(v))
+    finite = {
+        float(v)
         for v in values
-        if isinstance(v, float) and not isinstance(v, bool) and math.isfinite(v) and v != 0.0
-    ]
+        if isinstance(v, float) and not isinstance(v, bool) and math.isfinite(v)
+    }
+    floats = [abs(v) for v in finite if v != 0.0]
     spec = ",.0f"
     if floats:
         small, big = min(floats), max(floats)
         decimals = SIGNIFICANT_DIGITS - 1 - math.floor(math.log10(small))
         wide = decimals > 6 or big / small > 1e6 or big >= FIXED_LIMIT
-        spec = ".3e" if wide else f",.{max(decimals, 0)}f"
+        digits = SIGNIFICANT_DIGITS - 1 if wide else max(decimals, 0)
+        for extra in range(MAX_EXTRA_DIGITS + 1 if distinct else 1):
+            spec = f".{digits + extra}e" if wide else f",.{digits + extra}f"
+            if len({format(v, spec) for v in finite}) == len(finite):
+                break
 
     def cell(value: object) -> str:
         if value is None:
@@ -70,12 +83,18 @@ def _column_format(values: Sequence[object]) -> Callable[[object], str]:
     return cell
 
 
-def markdown_table(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
+def markdown_table(
+    header: Sequence[str], rows: Sequence[Sequence[object]], *, distinct: bool = False
+) -> str:
     """A GitHub-flavoured Markdown table, numbers formatted per column for people.
 
     Columns holding numbers are right-aligned; see :func:`_column_format` for the digits.
+    ``distinct``: different values of a column never print alike (a few rows compared side by
+    side, as ``compare``'s; a batch of many logs would grow every column's digits).
     """
-    formats = [_column_format([row[j] for row in rows]) for j in range(len(header))]
+    formats = [
+        _column_format([row[j] for row in rows], distinct=distinct) for j in range(len(header))
+    ]
     numeric = [
         any(isinstance(row[j], int | float) and not isinstance(row[j], bool) for row in rows)
         for j in range(len(header))
@@ -96,7 +115,7 @@ def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     for name, report in reports.items():
         if report.notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {note}" for note in report.notes)]
+            lines += ["", f"## Notes on `{name}`", "", *(f"- {as_text(n)}" for n in report.notes)]
     return "\n".join(lines) + "\n"
 
 
@@ -178,15 +197,22 @@ BATCH_METRICS = ("samples", "vaf", "mse", "mode_accuracy")
 """The metrics of each log in the batch summaries (report keys)."""
 
 
+def gate_cell(n_gates: int, missed: Sequence[str]) -> str:
+    """The gates of one run in a summary table: ``pass (2)``, ``FAIL: vaf = 87.2 is ...``.
+
+    Empty when no gate was given.
+    """
+    if not n_gates:
+        return ""
+    if not missed:
+        return f"pass ({n_gates})"
+    return "FAIL: " + "; ".join(missed)
+
+
 def _gate_cell(row: BatchRow) -> str:
     if row.status == "failed":
         return "not analysed"
-    if not row.gates:
-        return ""
-    missed = row.missed
-    if not missed:
-        return f"pass ({len(row.gates)})"
-    return "FAIL: " + "; ".join(missed)
+    return gate_cell(len(row.gates), row.missed)
 
 
 def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -> tuple[str, str]:

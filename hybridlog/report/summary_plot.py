@@ -1,7 +1,9 @@
 """``summary.png`` of a batch: each log's key metrics side by side, failures marked.
 
 Three panels over the logs in natural order: VAF (%), mode accuracy (%) and MSE (log scale
-when it spans more than a decade).
+when it spans more than a decade).  In a batch with ``--smooth`` or ``--mode-sequence`` the
+mode accuracy is that of the offline estimates (what a ``mode_accuracy`` gate reads), and
+its panel says so; VAF and MSE are the filter's one-step-ahead prediction either way.
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
 at the bottom of every panel.  Drawn with matplotlib's Agg canvas (no pyplot, no global
 state), like the per-log plots (:mod:`hybridlog.report.plots`).
@@ -101,7 +103,10 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
         fontsize=10,
     )
     positions = range(len(rows))
+    offline = any(row.report is not None and row.report.smoothing is not None for row in rows)
     for ax, (metric, label) in zip(axes, _PANELS, strict=True):
+        if metric == "mode_accuracy" and offline:
+            label = "offline mode\naccuracy (%)"
         values = [_value(row, metric) for row in rows]
         groups = (
             (_OK, [row.passed for row in rows]),

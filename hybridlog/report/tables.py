@@ -18,7 +18,9 @@ Columns
     ``<x>_true`` for each state the log has ground truth for (a column that is not all NaN).
 
 In a smoothed run ``mode``, ``p_<mode>``, ``<x>_hat`` and ``<x>_var`` hold the smoothed (or
-Viterbi) values; ``<y>_hat`` is the filter's one-step-ahead prediction either way.
+Viterbi) values; ``<y>_hat`` is the filter's one-step-ahead prediction either way.  A model
+whose names would give two columns one name (a mode ``a_filtered`` beside a mode ``a`` in a
+smoothed run, a state ``a`` beside an output ``a_hat``) is refused, naming both columns.
 
 Missing values (no prediction in row 0, no variance, a gap in the truth) are written as
 nulls: an empty cell in CSV, a null in Parquet.  Floats are written with full round-trip
@@ -48,6 +50,7 @@ from typing import Literal
 import numpy as np
 
 from hybridlog.background import Background
+from hybridlog.errors import ModelError, excerpt
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.polars_import import pl, polars_file, register_io_source
 from hybridlog.report.table_format import TableFormat
@@ -135,14 +138,33 @@ class Table:
 
 
 class _TableBuilder:
-    """Collects the columns of a :class:`Table`, each a view of an array of the result."""
+    """Collects the columns of a :class:`Table`, each a view of an array of the result.
 
-    def __init__(self, height: int) -> None:
+    Each column is added with what it holds; a second column of a name already taken is a
+    :class:`~hybridlog.errors.ModelError` naming both: the names come from the model's
+    modes, states and outputs (a mode ``a_filtered`` beside a mode ``a`` in a smoothed run,
+    a state ``a`` beside an output ``a_hat``), and the second column silently replaced the
+    first (timeline.csv's ``p_a_filtered`` held the filter's probability of mode ``a``, the
+    smoothed one of mode ``a_filtered`` was not written).
+    """
+
+    def __init__(self, height: int, file: str) -> None:
         self.height = height
+        self.file = file
         self.schema: dict[str, pl.DataType] = {}
         self.columns: dict[str, Column] = {}
+        self.holds: dict[str, str] = {}
 
-    def floats(self, name: str, values: FloatArray) -> None:
+    def _take(self, name: str, what: str) -> None:
+        if name in self.holds:
+            raise ModelError(
+                f"{self.file}: two columns would be named {excerpt(name)}: "
+                f"{self.holds[name]} and {what}; rename a mode, state or output of the model"
+            )
+        self.holds[name] = what
+
+    def floats(self, name: str, values: FloatArray, what: str) -> None:
+        self._take(name, what)
         # NaN becomes null so CSV gets an empty cell rather than the text "NaN".
         array = np.asarray(values, dtype=np.float64)
 
@@ -155,7 +177,8 @@ class _TableBuilder:
         self.schema[name] = pl.Float64()
         self.columns[name] = rows
 
-    def labels(self, name: str, ids: tuple[str, ...], index: IntArray) -> None:
+    def labels(self, name: str, ids: tuple[str, ...], index: IntArray, what: str) -> None:
+        self._take(name, what)
         # Gathered by polars from the mode ids: no Python string per row, and a new series
         # that owns its rows.
         categories = pl.Series(name, ids, dtype=pl.String)
@@ -187,25 +210,33 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
 
     """
     ids = tuple(str(m) for m in result.mode_ids)
-    table = _TableBuilder(result.time.shape[0])
-    table.floats("t", result.time)
-    table.labels("mode", ids, result.modes)
+    table = _TableBuilder(result.time.shape[0], "the timeline table")
+    table.floats("t", result.time, "the time")
+    table.labels("mode", ids, result.modes, "the estimated mode")
     for j, m in enumerate(ids):
-        table.floats(f"p_{m}", result.mode_probabilities[:, j])
+        table.floats(f"p_{m}", result.mode_probabilities[:, j], f"the probability of mode {m!r}")
     if result.post_processing is not None:
         filtered = result.post_processing.filtered
-        table.labels("mode_filtered", ids, filtered.modes)
+        table.labels("mode_filtered", ids, filtered.modes, "the filter's mode")
         for j, m in enumerate(ids):
-            table.floats(f"p_{m}_filtered", filtered.mode_probabilities[:, j])
+            table.floats(
+                f"p_{m}_filtered",
+                filtered.mode_probabilities[:, j],
+                f"the filter's probability of mode {m!r}",
+            )
     if signals.truth_modes is not None:
-        table.labels("truth_mode", ids, signals.truth_modes)
+        table.labels("truth_mode", ids, signals.truth_modes, "the true mode")
     for column in result.timeline_columns:
+        what = f"the estimator's column {column.name!r}"
         if column.labels:
-            table.labels(column.name, column.labels, column.values.astype(np.int64, copy=False))
+            values = column.values.astype(np.int64, copy=False)
+            table.labels(column.name, column.labels, values, what)
         else:
-            table.floats(column.name, column.values.astype(np.float64, copy=False))
+            table.floats(column.name, column.values.astype(np.float64, copy=False), what)
     for name, truth in signals.truth_components.items():
-        table.labels(f"truth_mode.{name}", truth.labels, truth.codes)
+        table.labels(
+            f"truth_mode.{name}", truth.labels, truth.codes, f"the true mode of component {name!r}"
+        )
     return table.table()
 
 
@@ -269,22 +300,28 @@ def estimates_table(
             f"truth_states {sorted(chosen)}: not indices of the {len(result.state_names)} "
             "states, or the signals have no ground-truth states"
         )
-    table = _TableBuilder(result.time.shape[0])
-    table.floats("t", result.time)
+    table = _TableBuilder(result.time.shape[0], "the estimates table")
+    table.floats("t", result.time, "the time")
     filtered = None if result.post_processing is None else result.post_processing.filtered
     for i, x in enumerate(result.state_names):
-        table.floats(f"{x}_hat", result.state_means[:, i])
-        table.floats(f"{x}_var", result.state_variances[:, i])
+        table.floats(f"{x}_hat", result.state_means[:, i], f"the estimate of state {x!r}")
+        table.floats(f"{x}_var", result.state_variances[:, i], f"the variance of state {x!r}")
         if filtered is not None:
-            table.floats(f"{x}_hat_filtered", filtered.state_means[:, i])
-            table.floats(f"{x}_var_filtered", filtered.state_variances[:, i])
+            table.floats(
+                f"{x}_hat_filtered", filtered.state_means[:, i], f"the filter's state {x!r}"
+            )
+            table.floats(
+                f"{x}_var_filtered",
+                filtered.state_variances[:, i],
+                f"the filter's variance of state {x!r}",
+            )
     for j, y in enumerate(result.output_names):
-        table.floats(f"{y}_hat", result.output_predictions[:, j])
-        table.floats(y, signals.outputs[:, j])
+        table.floats(f"{y}_hat", result.output_predictions[:, j], f"the prediction of output {y!r}")
+        table.floats(y, signals.outputs[:, j], f"the measured output {y!r}")
     if signals.truth_states is not None:
         for i, x in enumerate(result.state_names):
             if i in chosen:
-                table.floats(f"{x}_true", signals.truth_states[:, i])
+                table.floats(f"{x}_true", signals.truth_states[:, i], f"the true state {x!r}")
     return table.table()
 
 

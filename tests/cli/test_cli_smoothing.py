@@ -174,3 +174,43 @@ def test_a_refusal_lists_the_estimators_that_offer_the_value_asked_for(
     assert message.startswith("--mode-sequence: estimator 'hstf' (--estimator) does not offer")
     assert message.endswith(f"(estimators that do: {offered_by})")
     assert "the Viterbi path is each sample's most probable mode" in message
+
+
+def test_set_beam_without_kbest_is_refused_as_having_no_effect(tmp_path: Path) -> None:
+    """``--set beam=5`` without ``mode_sequence = kbest`` ran imm's usual pass while
+    report.json recorded beam 5 as the option used; now one line says why it has no effect.
+    """
+    model, overrides = parse_sets(["beam=5"], "three_tank_hstf")
+    for flags in ({}, {"smooth": True}, {"mode_sequence": "viterbi"}):
+        with pytest.raises(OptionError) as caught:
+            prepare_estimators(model, ["imm"], overrides, **flags)  # type: ignore[arg-type]
+        assert str(caught.value).startswith(
+            "--set beam=5: has no effect on estimator 'imm': only mode_sequence = kbest keeps "
+            "mode histories (here "
+        )
+    (kbest,) = prepare_estimators(model, ["imm"], overrides, mode_sequence="kbest")
+    assert kbest.options.beam == 5
+    # a model file's mode_sequence = "kbest" makes it count too
+    path = tmp_path / "tank.toml"
+    path.write_text(
+        builtin_text("three_tank_hstf") + '\n[estimators.imm]\nmode_sequence = "kbest"\n'
+    )
+    model, overrides = parse_sets(["beam=5"], str(path))
+    (from_file,) = prepare_estimators(model, ["imm"], overrides)
+    assert from_file.options.beam == 5
+    # compare: beam is refused only where no estimator having it reads it
+    with pytest.raises(OptionError, match=r"^--set beam=5: has no effect on estimator 'imm'"):
+        compare(
+            TANK_CSV, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "c", sets=["beam=5"]
+        )
+    assert not (tmp_path / "c").exists()
+
+
+def test_set_beam_read_by_another_estimator_is_not_refused(tmp_path: Path) -> None:
+    from tests.support.cpha import CPHA_EXAMPLE
+
+    path = tmp_path / "cpha.toml"
+    path.write_text(CPHA_EXAMPLE)
+    model, overrides = parse_sets(["beam=7"], str(path))
+    imm, unknown = prepare_estimators(model, ["imm", "unknown-mode"], overrides)
+    assert imm.options.beam == 7 and unknown.options.beam == 7

@@ -74,6 +74,11 @@ def test_labelling_by_score_gives_every_mode_a_cluster():
     # the best map would use only mode 'b', but every mode must get a cluster
     lazy = label_clusters(2, ["a", "b"], lambda labels: float(labels.sum() == 1), np.array([3, 3]))
     assert sorted(lazy.modes.tolist()) == [0, 1]
+    # ... and the notes say which better fit was given up for it (the notes quoted a lower
+    # score for the other mode without a word on why it was not taken)
+    kept = [n for n in lazy.notes if "would give a lower score (0)" in n]
+    assert len(kept) == 2 and all("without a cluster; kept, as paper 001" in n for n in kept)
+    assert not any("would give" in n for n in found.notes)
     # fewer clusters than modes: one mode stays without a cluster, and the notes say so
     few = label_clusters(1, ["a", "b", "c"], lambda labels: float(labels[0] != 2), np.array([4]))
     assert few.modes.tolist() == [2] and any("'a' has no cluster" in n for n in few.notes)
@@ -94,6 +99,7 @@ def test_labelling_by_score_gives_every_mode_a_cluster():
 def test_centers_file_round_trip_and_errors(tmp_path):
     path = tmp_path / "c.json"
     content = {
+        "mode_ids": ["1", "2"],
         "regressors": ["y(k)", "y(k-1)"],
         "output_lags": [0, 1],
         "input_lags": [],
@@ -111,7 +117,7 @@ def test_centers_file_round_trip_and_errors(tmp_path):
         ("format", "x", "format: expected"),
         ("scaling", {"lower": [0.0]}, "scaling.lower: expected a list of 2"),
         ("chiu", {"centers": [[1.0]]}, "chiu.centers: expected a non-empty list of rows of 2"),
-        ("chiu", {"centers": [[1.0, 2.0]], "modes": ["1", "2"]}, "chiu.modes: expected 1"),
+        ("chiu", {"centers": [[1.0, 0.5]], "modes": ["1", "2"]}, "chiu.modes: expected 1"),
         ("output_lags", [-1], "output_lags: expected a list"),
     ):
         broken = dict(data, **{key: value})
@@ -183,43 +189,119 @@ def test_estimator_options_default_to_the_clustering_defaults():
     assert ChiuOptions().regressor_spec() == KMeansOptions().regressor_spec() == RegressorSpec()
 
 
+_STORED = {
+    "mode_ids": ["a", "b"],
+    "regressors": ["y(k)"],
+    "output_lags": [0],
+    "input_lags": [],
+    "scaling": {"lower": [-0.5], "upper": [4.5]},
+    "chiu": {"centers": [[4.0], [0.0]], "modes": ["b", "a"], "labelling": ["why"]},
+}
+
+
 def test_a_stored_classifier_comes_from_parsed_text_not_a_file():
     y, _ = _two_blobs()
     spec = RegressorSpec(output_lags=(0,), input_lags=())
-    text = centers_json(
-        {
-            "regressors": ["y(k)"],
-            "output_lags": [0],
-            "input_lags": [],
-            "scaling": {"lower": [-0.5], "upper": [4.5]},
-            "chiu": {"centers": [[4.0], [0.0]], "modes": ["b", "a"], "labelling": ["why"]},
-        }
-    )
-    stored = parse_centers(text, "mem.json")
+    stored = parse_centers(centers_json(_STORED), "mem.json")
     found = stored_classifier(
         stored, "chiu", spec, y, names=["y(k)"], mode_ids=["a", "b"], source="mem.json"
     )
     assert found.cluster_modes.tolist() == [1, 0]
-    assert found.labelling == ("labels loaded from mem.json", "why")
     assert found.notes == ("chiu: 2 centres loaded from mem.json",)
     assert found.details["sizes"].tolist() == [150, 150]
-    # labels of modes the model does not have are dropped, not guessed
-    other = stored_classifier(
-        stored, "chiu", spec, y, names=["y(k)"], mode_ids=["1", "2"], source="mem.json"
+    # the notes say what each cluster decides on this log, not what the file's notes said
+    # of the log the centres were fitted on
+    assert found.labelling == (
+        "labels loaded from mem.json",
+        "cluster 1 (150 samples) -> mode 'b'",
+        "cluster 2 (150 samples) -> mode 'a'",
     )
-    assert other.cluster_modes is None and other.labelling == ()
     with pytest.raises(OptionError, match=r"^mem.json: regressors \['y\(k\)'\] do not match"):
         stored_classifier(
-            stored, "chiu", spec, y, names=["z(k)"], mode_ids=["a"], source="mem.json"
+            stored, "chiu", spec, y, names=["z(k)"], mode_ids=["a", "b"], source="mem.json"
+        )
+    # the lags the centres were fitted with, when they are not the ones given
+    with pytest.raises(
+        OptionError,
+        match=r"^mem.json: regressors .* the file was fitted with output_lags=0, input_lags= "
+        r"\(no lag\): set the same$",
+    ):
+        stored_classifier(
+            stored,
+            "chiu",
+            RegressorSpec(),
+            y,
+            names=["y(k)", "y(k-1)", "u(k-1)"],
+            mode_ids=["a", "b"],
+            source="mem.json",
         )
     with pytest.raises(
         OptionError, match=r"^mem.json: kmeans: no kmeans centres .*--compare-kmeans"
     ):
         stored_classifier(
-            stored, "kmeans", spec, y, names=["y(k)"], mode_ids=["a"], source="mem.json"
+            stored, "kmeans", spec, y, names=["y(k)"], mode_ids=["a", "b"], source="mem.json"
         )
     with pytest.raises(OptionError, match=r"^mem.json: not JSON"):
         parse_centers("{", "mem.json")
+
+
+def test_stored_labels_are_the_models_modes_or_refused():
+    """Labels of modes the model lacks were dropped and the clusters relabelled by the fit."""
+    y, _ = _two_blobs()
+    spec = RegressorSpec(output_lags=(0,), input_lags=())
+    stored = parse_centers(centers_json(_STORED), "mem.json")
+    with pytest.raises(
+        OptionError,
+        match=r"^mem.json: mode_ids: the centres were fitted for the modes a, b, the model has "
+        r"1, 2; fit them for this model with hybridlog cluster$",
+    ):
+        stored_classifier(
+            stored, "chiu", spec, y, names=["y(k)"], mode_ids=["1", "2"], source="mem.json"
+        )
+    # a label edited to a mode the file does not list
+    edited = dict(_STORED, chiu={"centers": [[4.0], [0.0]], "modes": ["b", "7"]})
+    with pytest.raises(
+        OptionError, match=r"^mem.json: chiu.modes: cluster 2's mode '7' is not one of mode_ids"
+    ):
+        parse_centers(centers_json(edited), "mem.json")
+    missing = {k: v for k, v in _STORED.items() if k != "mode_ids"}
+    with pytest.raises(OptionError, match=r"^mem.json: mode_ids: expected a list of strings$"):
+        parse_centers(centers_json(missing), "mem.json")
+    # a duplicated centre decides nothing: the notes say so, and which mode is never decided
+    twice = dict(_STORED, chiu={"centers": [[4.0], [4.0]], "modes": ["b", "a"]})
+    found = stored_classifier(
+        parse_centers(centers_json(twice), "mem.json"),
+        "chiu",
+        spec,
+        y,
+        names=["y(k)"],
+        mode_ids=["a", "b"],
+        source="mem.json",
+    )
+    assert found.labelling[1:] == (
+        "cluster 1 (300 samples) -> mode 'b'",
+        "cluster 2 decides no sample: unused (labelled 'a')",
+        "mode 'a' has no cluster: it is never decided",
+    )
+
+
+def test_a_stored_file_at_odds_with_itself_is_refused_naming_the_key():
+    """An edited centre far outside the data's box overflowed ('numerical trouble in ...')."""
+    for edit, message in (
+        (
+            {"chiu": {"centers": [[1e308], [0.0]]}},
+            r"chiu.centers: centre 1's y\(k\) = 1e\+308 lies outside the data's range in "
+            r"scaling \[-0.5, 4.5\]",
+        ),
+        ({"scaling": {"lower": [-1e308], "upper": [1e308]}}, r"scaling: the range upper - lower"),
+        ({"version": True}, r"version: unsupported version True"),
+        ({"version": 1.0}, r"version: unsupported version 1.0"),
+    ):
+        with pytest.raises(OptionError, match=rf"^mem.json: {message}"):
+            parse_centers(centers_json(dict(_STORED, **edit)), "mem.json")
+    # rounding at the box's edge is not an edit
+    edge = dict(_STORED, chiu={"centers": [[4.5 * (1 + 1e-12)], [-0.5]]})
+    assert parse_centers(centers_json(edge), "mem.json").clusters["chiu"].centers.shape == (2, 1)
 
 
 def _double_cart_csv(path: Path, y: list[str]) -> Path:

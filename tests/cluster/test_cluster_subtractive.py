@@ -17,7 +17,7 @@ from hybridlog.cluster.subtractive import (
     SubtractiveOptions,
     subtractive_clustering,
 )
-from hybridlog.errors import OptionError
+from hybridlog.errors import DataShortError, OptionError
 from hybridlog.model.loader import load_model
 from hybridlog.simulate import simulate
 
@@ -180,6 +180,22 @@ def test_bad_data():
         subtractive_clustering(np.zeros((0, 2)))
 
 
+def test_without_the_self_term_isolated_points_have_no_potential():
+    """Eq. (5) as printed (no self term) on points farther apart than r_a reaches: every
+    potential was the floor of underflowed terms (1e-304), their ratios 1, and each point a
+    'centre'; one point alone gave no centre, and the decision rule an argmin of nothing."""
+    spread = np.array([[0.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    lone = SubtractiveOptions(radius=0.001, self_potential=False)
+    with pytest.raises(DataShortError, match=r"^radius: no two of the 3 points within reach"):
+        subtractive_clustering(spread, lone)
+    with pytest.raises(DataShortError, match=r"^radius: one point alone at r_a = 0\.5"):
+        subtractive_clustering(spread[:1], SubtractiveOptions(self_potential=False))
+    # with the self term, or within reach, they cluster as before
+    assert len(subtractive_clustering(spread, SubtractiveOptions(radius=0.001)).centers) == 3
+    near = SubtractiveOptions(radius=0.5, self_potential=False)
+    assert len(subtractive_clustering(spread, near).centers) >= 1
+
+
 def test_constant_dimension_and_per_dimension_radius():
     data = np.stack([np.linspace(0, 1, 50), np.full(50, 3.0)], axis=1)
     found = subtractive_clustering(data, SubtractiveOptions(radius=(0.3, 0.5)))
@@ -200,7 +216,11 @@ points = st.lists(
 def test_properties(rows, radius, self_term):
     data = np.array(rows)
     options = SubtractiveOptions(radius=radius, self_potential=self_term, method="exact")
-    found = subtractive_clustering(data, options)
+    try:
+        found = subtractive_clustering(data, options)
+    except DataShortError:  # only eq. (5) without the self term, every pair out of reach
+        assert not self_term
+        return
     top = found.initial_potentials.max()
     assume(np.unique(np.round(found.initial_potentials / top, 9)).size == len(rows))  # no ties
     # every exact centre is a data point

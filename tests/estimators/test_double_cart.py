@@ -164,6 +164,7 @@ def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
     classifier = mode_classifier(model, signals, ChiuOptions(), observer=design_observer(model, 1))
     content = {
         "model": model.name,
+        "mode_ids": list(model.mode_ids),
         "regressors": list(classifier.regressors),
         "output_lags": list(classifier.spec.output_lags),
         "input_lags": list(classifier.spec.input_lags),
@@ -187,24 +188,45 @@ def test_the_estimator_takes_parsed_centres_and_reads_no_file(tmp_path):
         wrong = parse_centers(centers_json(dict(content, model=other)), missing)
         with pytest.raises(OptionError, match=rf"model: the centres were fitted for {words}"):
             run_chiu(model, signals, options, centers=wrong)
-    # a clustering option beside loaded centres would be ignored (and reported as used)
+    # a clustering option beside loaded centres would be ignored (and reported as used):
+    # refused unless it is the one the file records its centres were fitted with (this
+    # file records none)
     loaded = parse_centers(text, missing)
-    for option, value in (("radius", 0.3), ("method", "exact"), ("self_potential", False)):
+    for option, value, text_ in (
+        ("radius", 0.3, "0.3"),
+        ("method", "exact", "exact"),
+        ("self_potential", False, "false"),
+    ):
         with pytest.raises(
-            OptionError, match=rf"^centers=.*never_written.json: {option}={value} has no effect"
+            OptionError,
+            match=rf"^centers=.*never_written.json: {option}={text_} does not match the file's "
+            rf"chiu centres, which do not record the {option} they were fitted with",
         ):
             run_chiu(
                 model, signals, chiu_options({"centers": missing, option: value}), centers=loaded
             )
     kmeans_loaded = parse_centers(text.replace('"chiu"', '"kmeans"'), missing)
     for option, value in (("clusters", 2), ("restarts", 3), ("seed", 1)):
-        with pytest.raises(OptionError, match=rf"{option}={value} has no effect"):
+        with pytest.raises(OptionError, match=rf"{option}={value} does not match"):
             run_kmeans(
                 model,
                 signals,
                 KMeansOptions(centers=missing, **{option: value}),
                 centers=kmeans_loaded,
             )
+    # ... and taken where the file records it; the report gives the file's values
+    recorded = dict(content, chiu={**content["chiu"], "parameters": {"radius": 0.3}})
+    with_radius = parse_centers(centers_json(recorded), missing)
+    same = run_chiu(
+        model, signals, chiu_options({"centers": missing, "radius": 0.3}), centers=with_radius
+    )
+    np.testing.assert_array_equal(same.modes, stored.modes)
+    assert same.options["radius"] == 0.3
+    assert same.options["squash"] is None  # not recorded: not known, not the default
+    with pytest.raises(OptionError, match=r"radius=0.4 does not match .* fitted with radius=0.3"):
+        run_chiu(
+            model, signals, chiu_options({"centers": missing, "radius": 0.4}), centers=with_radius
+        )
     run_kmeans(model, signals, KMeansOptions(centers=missing), centers=kmeans_loaded)
     assert list(tmp_path.iterdir()) == []
 
@@ -267,7 +289,10 @@ def test_cluster_command_then_analyze_with_the_centres(tmp_path):
 
 def test_cluster_command_errors(tmp_path):
     bad = tmp_path / "bad.json"
-    bad.write_text('{"format": "hybridlog-centers", "version": 1, "regressors": ["y(k)"]}')
+    bad.write_text(
+        '{"format": "hybridlog-centers", "version": 1, "mode_ids": ["1", "2"], '
+        '"regressors": ["y(k)"]}'
+    )
     result = run_cli(
         [
             "analyze",

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from hybridlog.errors import LogError, OptionError
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
 
 SYMBOLS: dict[str, Any] = {"inputs": ("u1", "u2"), "outputs": ("y",), "states": ("h1", "h2")}
@@ -14,7 +17,10 @@ SYMBOLS: dict[str, Any] = {"inputs": ("u1", "u2"), "outputs": ("y",), "states": 
 
 def test_parse_maps() -> None:
     parsed = parse_maps([" y = /level.data ", "truth.mode=/truth/mode.data"], **SYMBOLS)
-    assert parsed == {"y": "/level.data", "truth.mode": "/truth/mode.data"}
+    assert parsed == {"y": " /level.data ", "truth.mode": "/truth/mode.data"}
+    fields = ("u1", "u2", "/level.data", "/truth/mode.data")
+    chosen = resolve_signal_map(fields, source="log.csv", maps=parsed, **SYMBOLS)
+    assert chosen.outputs == {"y": "/level.data"}
 
 
 @pytest.mark.parametrize(
@@ -73,3 +79,89 @@ def test_mapped_truth_must_exist() -> None:
         resolve_signal_map(
             ("u1", "u2", "y", "phase"), source="log.csv", maps={"truth.mode": "phse"}, **SYMBOLS
         )
+
+
+def test_ground_truth_without_samples_is_no_truth_unless_mapped(tmp_path: Path) -> None:
+    """An empty ``mode`` column refused the log ('truth.mode (column 'mode') has no
+    samples') while an empty state column was no truth; and ``--map truth.x=x`` to an
+    empty column gave a report without its RMSE instead of an error."""
+    log = tmp_path / "log.csv"
+    log.write_text("t,u,y,mode,x,z\n" + "".join(f"{k / 10},{k},{k},,,{k}\n" for k in range(20)))
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a", "b"), dt=0.1, states=("x", "z"))
+    notes: dict[str, Any] = {}
+    aligned = load_signals(log, spec, notes=notes)
+    assert aligned.truth_modes is None
+    assert aligned.truth_states is not None
+    assert np.isnan(aligned.truth_states[:, 0]).all()
+    np.testing.assert_array_equal(aligned.truth_states[:, 1], np.arange(20))
+    assert notes["truth_without_samples"] == ["truth.mode (column 'mode')", "truth.x (column 'x')"]
+    for symbol, column in (("truth.mode", "mode"), ("truth.x", "x")):
+        options = ReadOptions(maps=(f"{symbol}={column}",))
+        with pytest.raises(LogError) as error:
+            load_signals(log, spec, options)
+        assert str(error.value) == (
+            f"{log}: {symbol} (column {column!r}, from --map {symbol}={column}) has no samples"
+        )
+
+
+def test_a_state_named_like_mode_is_read_as_a_number() -> None:
+    """A state ``modes``: its truth ``truth.modes`` was checked as a label (its name starts
+    with ``truth.mode``), so a text field by the default name was taken and the log then
+    refused as 'is a string, not a number', where a state ``x`` had no truth."""
+    text = {"/truth/mode.data", "/truth/modes.data", "/truth/x.data"}
+    fields = ("/u.data", "/y.data", *sorted(text))
+
+    def explain(name: str, numeric: bool) -> str | None:
+        if name not in fields:
+            return f"{name!r}: no such field"
+        return f"{name!r} is a string, not a number" if numeric and name in text else None
+
+    chosen = resolve_signal_map(
+        fields,
+        source="log.bag",
+        inputs=("u",),
+        outputs=("y",),
+        states=("modes", "x"),
+        message_paths=True,
+        explain=explain,
+    )
+    assert chosen.truth_mode == "/truth/mode.data"
+    assert chosen.truth_states == {}
+
+
+def test_a_field_emptied_by_drop_nonfinite_says_so(tmp_path: Path) -> None:
+    """'output 'y' (column 'y') has no samples' of a column of three NaN and inf."""
+    log = tmp_path / "log.csv"
+    log.write_text("t,u,y,x\n0,1,nan,nan\n0.1,1,inf,1e500\n0.2,1,nan,nan\n")
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1, states=("x",))
+    dropped = "--drop-nonfinite dropped all 3 (NaN, infinite, or out of range: |value| >= 2^480)"
+    for maps, message in (
+        ((), f"output 'y' (column 'y') has no usable samples: {dropped}"),
+        (("u=y", "y=u"), f"input 'u' (column 'y') has no usable samples: {dropped}"),
+        (
+            ("y=u", "truth.x=x"),
+            f"truth.x (column 'x', from --map truth.x=x) has no usable samples: {dropped}",
+        ),
+    ):
+        with pytest.raises(LogError) as error:
+            load_signals(log, spec, ReadOptions(maps=maps, drop_nonfinite=True))
+        assert str(error.value) == f"{log}: {message}"
+    notes: dict[str, Any] = {}
+    aligned = load_signals(log, spec, ReadOptions(maps=("y=u",), drop_nonfinite=True), notes=notes)
+    assert aligned.truth_states is None
+    assert notes["truth_without_samples"] == ["truth.x (column 'x')"]
+
+
+def test_a_column_named_with_spaces_can_be_mapped(tmp_path: Path) -> None:
+    """A header 't, u, y' names columns ' u' and ' y': the error suggested ' u', and
+    --map 'u= u' was stripped to 'u', so no --map could name the column."""
+    log = tmp_path / "log.csv"
+    log.write_text("t, u, y\n" + "".join(f"{k / 10},{k},{2 * k}\n" for k in range(10)))
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(LogError, match=r"no column for input 'u' .*closest: ' u'"):
+        load_signals(log, spec)
+    aligned = load_signals(log, spec, ReadOptions(maps=("u= u", "y = y")))
+    np.testing.assert_array_equal(aligned.inputs[:, 0], np.arange(10))
+    np.testing.assert_array_equal(aligned.outputs[:, 0], 2 * np.arange(10))
+    with pytest.raises(LogError, match=r"no column 'z' for output 'y' \(from --map y=z\)"):
+        load_signals(log, spec, ReadOptions(maps=("u= u", "y= z ")))

@@ -8,6 +8,7 @@ in ROS 1 serialisation; bytes that do not fit their definition are refused.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,8 +20,12 @@ from mcap_ros1.decoder import DecoderFactory as Ros1Decoders
 from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.io.formats import open_log
 from hybridlog.io.message_paths import (
     PathError,
+    Target,
     UndecodableError,
     accessor,
     as_float_array,
@@ -33,7 +38,16 @@ from hybridlog.io.message_paths import (
     split_path,
     stamp_ns,
 )
-from tests.support.logfiles import msgdef, ros1_store, ros2_store, stamped_point
+from tests.support.logfiles import (
+    Channel,
+    header_scene_records,
+    msgdef,
+    ros1_store,
+    ros2_store,
+    stamped_point,
+    write_mcap,
+    write_ros2_bag,
+)
 
 TOPICS = ["/truth", "/truth/x1", "/joint_states", "/a.b"]
 
@@ -74,8 +88,33 @@ def test_definitions_check_paths_and_name_the_fields() -> None:
         check_path(defs, "sensor_msgs/msg/JointState", ("postion", 0))
     with pytest.raises(PathError, match="is an array"):
         check_path(defs, "sensor_msgs/msg/JointState", ("position", "x"))
+    # /joint_states/position/1 was told 'index it before .1, e.g. [0].1'
+    with pytest.raises(
+        PathError, match=r"^\.position is an array; write its index in brackets: \[1\]$"
+    ):
+        check_path(defs, "sensor_msgs/msg/JointState", split_path("/j/position/1", ["/j"]).steps)
     with pytest.raises(PathError, match="index out of range"):
         check_path(defs, "sensor_msgs/msg/Imu", ("orientation_covariance", 9))
+
+
+def test_arrays_of_strings_and_of_messages_are_arrays_of_their_element_type(
+    tmp_path: Path,
+) -> None:
+    """``/tf.transforms`` was 'a message (array), not a number; name a field in it', and
+    naming a field in it was then refused for want of an index."""
+    defs = ros2_store().fielddefs
+    assert check_path(defs, "tf2_msgs/msg/TFMessage", ("transforms",)) == Target(
+        "array", "geometry_msgs/msg/TransformStamped"
+    )
+    assert check_path(defs, "sensor_msgs/msg/JointState", ("name",)) == Target("array", "string")
+    assert check_path(defs, "sensor_msgs/msg/JointState", ("name", 0)) == Target("string", "string")
+    bag = write_ros2_bag(tmp_path / "bag", header_scene_records(), "sqlite3")
+    with open_log(bag, ReadOptions()) as source:
+        assert source.explain_missing("/sim/state.layout.dim", numeric=True) == (
+            "'/sim/state.layout.dim' is an array of std_msgs/msg/MultiArrayDimension; "
+            "add an index, e.g. /sim/state.layout.dim[0]"
+        )
+        assert source.explain_missing("/sim/state.layout.dim[-1].size", numeric=True) is None
 
 
 def _point_schema(ros1: bool) -> Schema:
@@ -180,6 +219,13 @@ def test_numeric_arrays_become_float_arrays_whatever_the_container() -> None:
         assert result.dtype == np.float64
         np.testing.assert_array_equal(result, [1.0, 2.0, 3.0])
     np.testing.assert_array_equal(as_float_array(b"\x01\x02"), [1.0, 2.0])
+    # a uint8[] decoded as bytes is an array element by element too, not only as a whole
+    # (its [-1] was 'is not an array' where leaf_value took the whole as [1.0, 2.0])
+    assert leaf_value({"data": b"\x01\x02"}, ("data", -1)) == 2.0
+    with pytest.raises(PathError, match="index out of range"):
+        leaf_value({"data": b"\x01\x02"}, ("data", 2))
+    with pytest.raises(PathError, match="is not an array"):
+        leaf_value({"data": "text"}, ("data", 0))
     message = {"position": [0.5, 1.5, 2.5]}
     assert as_number(evaluate(message, ("position", -1))) == 2.5
     with pytest.raises(PathError, match="index out of range"):
@@ -349,3 +395,53 @@ def test_accessor_follows_attributes_and_indices_like_evaluate() -> None:
     assert accessor(("data", -1))(array) == evaluate(array, ("data", -1)) == 4.0
     with pytest.raises(IndexError):
         accessor(("data", 3))(array)
+
+
+def test_a_stamp_beyond_the_nanosecond_grid_is_refused_not_an_overflow(tmp_path: Path) -> None:
+    """--time header on a JSON stamp written in nanoseconds (1.7e18 'seconds'), or a nanosec
+    of 2^70, was 'unexpected OverflowError in messages.py' (the int64 array of times)."""
+    with pytest.raises(PathError, match=r"beyond the 9\.2e\+09 s .*: 1\.7e\+18 s \(a stamp in"):
+        stamp_ns(1_700_000_000_000_000_000)
+    with pytest.raises(PathError, match=r"beyond .*: 0 s and 1180591620717411303424 ns$"):
+        stamp_ns({"sec": 0, "nanosec": 2**70})
+    assert stamp_ns({"sec": 9_100_000_000, "nanosec": 5}) == 9_100_000_000 * 10**9 + 5
+    assert stamp_ns(-1.5) == -1_500_000_000
+    log = tmp_path / "stamped.mcap"
+    channels = [
+        Channel(t, encoding="json", schema_name="x", schema_encoding="jsonschema", schema_text="{}")
+        for t in ("/u", "/y")
+    ]
+    messages = [
+        (c, k * 10**8, json.dumps({"header": {"stamp": 1.7e18 + k}, "data": k}).encode())
+        for k in range(5)
+        for c in (0, 1)
+    ]
+    write_mcap(log, channels, messages, profile="")
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(LogError, match=r"topic '/u' \(x\): header\.stamp is beyond the 9\.2e\+09"):
+        load_signals(log, spec, ReadOptions(time="header"))
+
+
+def test_a_json_integer_beyond_a_float_is_refused_not_an_overflow(tmp_path: Path) -> None:
+    """JSON integers have no bound: 10^400 was 'unexpected OverflowError in
+    message_paths.py' (float() of it), alone or in an array."""
+    with pytest.raises(PathError, match=r"^is an integer beyond the range of a float64"):
+        as_number(10**400)
+    with pytest.raises(PathError, match=r"^holds an integer beyond the range of a float64"):
+        leaf_value({"d": [1, 10**400]}, ("d",))
+    assert as_number(10**300) == 1e300
+    log = tmp_path / "big.mcap"
+    channels = [
+        Channel(t, encoding="json", schema_name="x", schema_encoding="jsonschema", schema_text="{}")
+        for t in ("/u", "/y")
+    ]
+    texts = ["1" + "0" * 400 if k == 3 else str(k) for k in range(6)]
+    messages = [
+        (c, k * 10**8, b'{"data": %s}' % t.encode()) for k, t in enumerate(texts) for c in (0, 1)
+    ]
+    write_mcap(log, channels, messages, profile="")
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(
+        LogError, match=r"'/u\.data': the value is an integer beyond .* at t=0\.3 s"
+    ):
+        load_signals(log, spec)

@@ -261,7 +261,9 @@ def test_errors_of_alignment_call_a_message_path_a_field_not_a_column(tmp_path: 
                 writer.write(y, t, store.serialize_ros1(number(data=-float(k)), text))
     with pytest.raises(LogError) as error:
         load(log, "u=/u.data", "y=/y.data", "truth.mode=/mode.data", max_gap=10.0)
-    assert str(error.value) == f"{log}: truth.mode (field '/mode.data') has no samples"
+    assert str(error.value) == (
+        f"{log}: truth.mode (field '/mode.data', from --map truth.mode=/mode.data) has no samples"
+    )
     with pytest.raises(LogError) as error:
         load(log, "u=/u.data", "y=/y.data")
     assert str(error.value) == (

@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import cli, main
+from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
 from hybridlog.io.bag_writers import write_log
 from tests.support.logfiles import (
@@ -21,6 +22,7 @@ from tests.support.logfiles import (
     Channel,
     Record,
     float64_cdr,
+    float_messages,
     scene,
     tank_run,
     write_mcap,
@@ -335,3 +337,70 @@ def test_inspect_shows_irregular_timing_and_nonfinite_values(tmp_path: Path) -> 
     assert "  /y: median step 0.001 s (1000 Hz), steps 0.001 s to 2.996 s\n" in text
     assert "non-finite values (NaN, inf; analyze refuses them in a mapped signal unless " in text
     assert "  /y.data: 2 of 20\n" in text
+
+
+def test_every_field_of_a_large_message_is_listed_and_counted(tmp_path: Path) -> None:
+    """A message of 80 float64 fields (a PX4 status has as many): inspect listed 64 of them
+    and counted NaN in those only, so a field full of NaN past the 64th showed nonfinite 0."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    text = "\n".join(f"float64 f{i}" for i in range(80))
+    store = get_typestore(Stores.LATEST)
+    store.register(get_types_from_msg(text, "my_msgs/msg/Big"))
+    big = store.types["my_msgs/msg/Big"]
+    messages = [
+        (
+            0,
+            k * 10**8,
+            bytes(
+                store.serialize_cdr(
+                    big(**{f"f{i}": np.nan if i == 70 else float(k) for i in range(80)}),
+                    "my_msgs/msg/Big",
+                )
+            ),
+        )
+        for k in range(10)
+    ]
+    channel = Channel("/big", schema_name="my_msgs/msg/Big", schema_text=text)
+    info = inspect_log(write_mcap(tmp_path / "big.mcap", [channel], messages))
+    (topic,) = info["topics"]
+    assert topic["fields"] == [f"/big.f{i}" for i in range(80)]
+    assert topic["nonfinite"] == 10
+    assert {"name": "/big.f70", "count": 10, "nonfinite": 10} in topic["values"]
+    assert "  /big.f70: 10 of 10" in format_inspection(info).splitlines()
+
+
+def test_a_topic_published_twice_per_step_still_shows_its_gaps(tmp_path: Path) -> None:
+    """Every message sent twice, and a 10.1 s hole: the median step was 0 (as many repeats as
+    steps), so no step was a gap and inspect showed 'gaps 0', 'median step 0 s'."""
+    times = [k * 10**8 for k in (*range(20), *range(121, 140)) for _ in range(2)]
+    log = write_mcap(tmp_path / "twice.mcap", [Channel("/y")], float_messages(times, times))
+    (topic,) = inspect_log(log)["topics"]
+    assert topic["sample_time"] == pytest.approx(0.1)
+    assert (topic["min_step"], topic["regular"]) == (0.0, False)
+    assert topic["gap_count"] == 1
+    assert topic["gaps"] == [{"start": 1.9, "end": 12.1, "duration": pytest.approx(10.2)}]
+    same = write_mcap(tmp_path / "same.mcap", [Channel("/y")], float_messages([5] * 3, [0] * 3))
+    (topic,) = inspect_log(same)["topics"]
+    assert (topic["sample_time"], topic["regular"], topic["gap_count"]) == (0.0, True, 0)
+
+
+def test_repeated_log_times_that_analyze_refuses_are_shown(tmp_path: Path) -> None:
+    """inspect called a topic sent twice per step merely irregular; analyze refused it."""
+    times = [k * 10**8 for k in range(20) for _ in range(2)]
+    channels = [Channel("/y"), Channel("/u")]
+    messages = [*float_messages(times, times), *float_messages(times[::2], times[::2], 1)]
+    log = write_mcap(tmp_path / "twice.mcap", channels, sorted(messages, key=lambda m: m[1]))
+    info = inspect_log(log)
+    assert {t["name"]: t["repeated"] for t in info["topics"]} == {"/u": 0, "/y": 20}
+    text = format_inspection(info)
+    assert (
+        "repeated log times (analyze refuses them unless --sort, which keeps the last):\n"
+        "  /y: 20 messages at the time of the one before\n"
+    ) in text
+    assert "/u: 0" not in text
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    with pytest.raises(LogError, match="20 message"):
+        load_signals(log, spec, ReadOptions(maps=("u=/u.data", "y=/y.data")))
+    table = write_log(tmp_path / "even.csv", {"t": np.arange(5) * 0.1, "y": np.ones(5)})
+    assert inspect_log(table)["repeated"] == 0

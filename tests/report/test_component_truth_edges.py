@@ -18,7 +18,7 @@ import pytest
 from hybridlog.errors import OptionError, ReportError
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import analyze
-from hybridlog.report import read_report
+from hybridlog.report import evaluate_gates, parse_gates, read_report
 from tests.support.cpha import TRUTH_STEPS, cpha_truth_log
 
 N = TRUTH_STEPS
@@ -78,6 +78,28 @@ def test_the_offline_pass_is_scored_against_the_components_truth(
     assert data["smoothing"]["filtered"]["mode_accuracy"] == smoothing.filtered.mode_accuracy
     text = (out / "report.md").read_text()
     assert "No ground-truth mode in the log" not in text
+    # Each component on each side: report.json carried the joint accuracy alone, so the
+    # gain per component (what mode_accuracy.<c> gates) was not there to see.
+    for j, c in enumerate(COMPONENTS):
+        own = [parts[j] == truth[f"mode.{c}"][k] for k, parts in enumerate(filtered)]
+        side = smoothing.filtered.components[c]
+        assert side.mode_accuracy == pytest.approx(sum(own) / N, abs=1e-12)
+        offline = smoothing.smoothed.components[c]
+        report = outcome.report.modes.components[c]
+        assert offline.mode_accuracy == report.accuracy
+        assert offline.detection_delay_s == report.detection_delay_s
+        assert report.detection is not None and offline.missed == report.detection.missed
+        assert data["smoothing"]["filtered"]["components"][c]["mode_accuracy"] == (
+            side.mode_accuracy
+        )
+        assert f"| component {c}: mode accuracy (%) | {100 * side.mode_accuracy:.4f} |" in text
+    assert read_report(out / "report.json").smoothing == smoothing
+    # a gate on a component names the side it read and the filter's own value
+    (failure,) = evaluate_gates(outcome.report, parse_gates([], ["mode_accuracy.A2=0"]))
+    label = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
+    own = smoothing.filtered.components["A2"].mode_accuracy
+    assert own is not None
+    assert f"(of the offline estimates: {label}; the filter's own: {own:.6g})" in failure
 
 
 @pytest.mark.parametrize(

@@ -374,3 +374,47 @@ def test_the_reduction_imports_no_matplotlib() -> None:
     code = "import sys, hybridlog.report.plot_data; print('matplotlib' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"
+
+
+def test_a_components_modes_png_keeps_its_labels_and_title_inside(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """bioplex's modes.png (unknown-mode --mode-sequence kbest): the modes of a component
+    (``one_bank_out``), the component's name and the joint assignments
+    (``partly_open|partly_open|closed|closed|full|growth``) were cut off at the figure's
+    left edge, and the title of the tall figure ran into its first panel."""
+    from hybridlog.report import plots
+
+    result, signals = _run(3_000, seed=5, smoothed=True, components=True, mode_sequence="kbest")
+    data = reduce_result(result, signals)
+    assert isinstance(data.modes, Components)
+    long = "partly_open|partly_open|closed|closed|one_bank_out|growth"
+    columns = tuple(  # panels enough for a figure as tall as bioplex's
+        c._replace(
+            name=f"component_{c.name}{k}", labels=tuple(f"{x}_one_bank_out" for x in c.labels)
+        )
+        for k in range(6)
+        for c in data.modes.columns
+    )
+    joint_ids = tuple(f"{long}_{j}" for j in data.modes.joint_ids)
+    data = dataclasses.replace(
+        data, modes=data.modes._replace(columns=columns, joint_ids=joint_ids)
+    )
+    drawn: list[Any] = []
+    save = plots._save
+    monkeypatch.setattr(plots, "_save", lambda fig, path: (drawn.append(fig), save(fig, path))[1])
+    plots.plot_modes(data, tmp_path / "modes.png")
+    (fig,) = drawn
+    renderer = fig.canvas.get_renderer()
+    texts = [
+        text
+        for ax in fig.axes
+        for text in (*ax.get_yticklabels(), ax.yaxis.label)
+        if text.get_text()
+    ]
+    assert len(texts) >= len(joint_ids) + 3
+    for text in texts:
+        assert text.get_window_extent(renderer).x0 >= 0.0, text.get_text()
+    title = fig._suptitle.get_window_extent(renderer)
+    top = max(ax.get_window_extent(renderer).y1 for ax in fig.axes)
+    assert title.y0 > top and title.y1 <= fig.bbox.height

@@ -716,3 +716,53 @@ def test_tables_for_people_format_numbers_per_column() -> None:
         "2 switches",
         "1,500 switches",
     ]
+
+
+def test_report_md_says_what_the_users_repairs_of_the_log_changed(tmp_path: Path) -> None:
+    """--split-gaps analysed one piece of a log and --drop-nonfinite took samples out, which
+    report.json's ``reading`` recorded but report.md did not say: its sample count and time
+    span read like the whole log's."""
+    from hybridlog.io import ReadOptions
+    from hybridlog.jobs.analysis import analyze
+    from tests.support.paths import TANK_CSV
+
+    frame = pl.read_csv(TANK_CSV)
+    gapped = tmp_path / "gapped.csv"
+    frame.filter((pl.col("t") < 100) | (pl.col("t") >= 130)).write_csv(gapped)
+    done = analyze(
+        gapped, "three_tank_hstf", out_dir=tmp_path / "g", estimator="imm", smooth=True,
+        read=ReadOptions(split_gaps=True),
+    )  # fmt: skip
+    assert done.report is not None
+    end = frame["t"][-1]
+    note = (
+        "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 99 … 130 s) cut the log "
+        f"into 2 pieces; this report is of the longest, t = 130 … {end:g} s; not analysed: "
+        "t = 0 … 99 s"
+    )
+    assert note in done.report.notes
+    assert f"- {note}" in (tmp_path / "g" / "report.md").read_text()
+    y1 = frame["y1"].to_numpy().copy()
+    y1[[5, 17, 40]] = np.nan
+    holed = tmp_path / "holed.csv"
+    frame.with_columns(pl.Series("y1", y1)).write_csv(holed)
+    done = analyze(
+        holed, "three_tank_hstf", out_dir=tmp_path / "h", estimator="imm",
+        read=ReadOptions(drop_nonfinite=True),
+    )  # fmt: skip
+    assert done.report is not None
+    assert "NOTE: --drop-nonfinite dropped NaN or infinite samples: y1 3" in done.report.notes
+    written = json.loads((tmp_path / "h" / "report.json").read_text())
+    assert written["reading"]["nonfinite_dropped"] == {"y1": 3}
+    assert "NOTE: --drop-nonfinite dropped NaN or infinite samples: y1 3" in written["notes"]
+    shuffled = tmp_path / "shuffled.csv"
+    pl.concat([frame[:10], frame[12:13], frame[10:12], frame[12:]]).write_csv(shuffled)
+    done = analyze(
+        shuffled, "three_tank_hstf", out_dir=tmp_path / "s", estimator="imm",
+        read=ReadOptions(sort=True),
+    )  # fmt: skip
+    assert done.report is not None
+    assert done.report.notes[-2:] == (
+        "NOTE: --sort put samples that went back in time in order: 1 row",
+        "NOTE: --sort dropped samples of a time already seen, keeping the last: 1 row",
+    )

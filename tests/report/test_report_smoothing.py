@@ -19,7 +19,7 @@ import numpy as np
 import polars as pl
 import pytest
 
-from hybridlog.errors import ReportError
+from hybridlog.errors import ModelError, ReportError
 from hybridlog.estimators.result import EstimationResult, PostProcessing
 from hybridlog.report import Report, build_report, read_report, render_markdown, write_report
 from hybridlog.signals import AlignedSignals
@@ -207,6 +207,35 @@ def test_report_md_has_a_smoothing_section_with_the_gain(tmp_path: Path) -> None
     )
 
 
+def _section(text: str, name: str) -> str:
+    return text.split(f"## {name}\n", 1)[1].split("\n## ", 1)[0]
+
+
+def test_report_md_says_under_each_table_which_estimates_it_is_of() -> None:
+    """Only the Smoothing section, after the tables, said the output metrics were the
+    filter's prediction and the modes and states the offline estimates'."""
+    result, signals = smoothed_run(mode_sequence="viterbi")
+    text = render_markdown(build_report(result, signals, log="run.csv", model_name="m", dt=DT))
+    assert _section(text, "Outputs").startswith(
+        "\nThe causal filter's one-step-ahead prediction ŷ(k|k−1), with or without an offline "
+        "pass: it is the basis of MSE, VAF and fit (see Smoothing).\n\n| output |"
+    )
+    for name, what in (("Modes", "modes"), ("States", "states")):
+        assert _section(text, name).startswith(
+            f"\nOf the offline estimates (`kim-rts`, `viterbi`); the causal filter's own {what} "
+            "are compared with them under Smoothing.\n"
+        )
+    only, signals = smoothed_run(mode_sequence="viterbi", smoothing=None)
+    text = render_markdown(build_report(only, signals, log="run.csv", model_name="m", dt=DT))
+    assert _section(text, "Modes").startswith("\nOf the offline estimates (`viterbi`);")
+    assert _section(text, "States").startswith(
+        "\nThe causal filter's own: the Viterbi path changes only the modes.\n"
+    )
+    plain, signals = make_run()
+    text = render_markdown(build_report(plain, signals, log="run.csv", model_name="m", dt=DT))
+    assert "offline" not in text and "causal filter's" not in text
+
+
 def test_a_filtered_result_that_does_not_line_up_is_a_programming_error() -> None:
     result, signals = smoothed_run()
     assert result.post_processing is not None
@@ -274,3 +303,47 @@ def test_a_malformed_smoothing_is_a_report_error_naming_the_key(
 def test_smoothing_null_reads_as_none() -> None:
     data = _set(_report_data(), "smoothing", None)
     assert Report.from_dict(data).smoothing is None
+
+
+def test_a_model_whose_names_make_one_column_name_twice_is_refused(tmp_path: Path) -> None:
+    """A mode 'low_filtered' beside a mode 'low': timeline.csv's p_low_filtered held the
+    filter's probability of mode 'low' and the smoothed one of mode 'low_filtered' was not
+    written; a state 'x1' beside an output 'x1_hat': estimates.csv's x1_hat held the measured
+    output, the state's estimate was not written."""
+    result, signals = smoothed_run()
+
+    def renamed(**names: Any) -> EstimationResult:
+        post = result.post_processing
+        assert post is not None
+        filtered = dataclasses.replace(post.filtered, **names)
+        return dataclasses.replace(
+            result, **names, post_processing=dataclasses.replace(post, filtered=filtered)
+        )
+
+    out = tmp_path / "out"
+    with pytest.raises(ModelError) as caught:
+        write_report(
+            out,
+            renamed(mode_ids=("off", "low", "low_filtered")),
+            signals,
+            log="run.csv",
+            model_name="m",
+            dt=DT,
+        )
+    assert str(caught.value) == (
+        "the timeline table: two columns would be named 'p_low_filtered': the probability of "
+        "mode 'low_filtered' and the filter's probability of mode 'low'; rename a mode, state "
+        "or output of the model"
+    )
+    assert not out.exists()
+    outputs = ("x1_hat", *OUTPUTS[1:])
+    with pytest.raises(ModelError, match="'x1_hat': the estimate of state 'x1' and the measured"):
+        write_report(
+            out,
+            renamed(output_names=outputs),
+            dataclasses.replace(signals, output_names=outputs),
+            log="run.csv",
+            model_name="m",
+            dt=DT,
+        )
+    assert not out.exists()

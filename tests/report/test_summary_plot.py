@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 from matplotlib.colors import to_hex
 
-from hybridlog.report.document import read_report
+from hybridlog.report.document import Smoothing, read_report
 from hybridlog.report.summary import BatchRow
 from hybridlog.report.summary_plot import summary_figure, write_summary_plot
+from tests.report.test_report_gates import _side
 
 REPORT = Path(__file__).parents[1] / "data" / "reports" / "synthetic_extra.report.json"
 
@@ -76,3 +77,15 @@ def test_a_figure_made_ahead_draws_the_same_png_and_is_taken_once(tmp_path):
     write_summary_plot(ahead, "model · imm", rows())
     assert not summary_plot._READY
     assert ahead.read_bytes() == fresh.read_bytes() == other.read_bytes()
+
+
+def test_the_mode_accuracy_of_a_smoothed_batch_is_labelled_offline():
+    """batch --smooth drew the smoothed mode accuracy under the label of the filter's."""
+    batch = rows()
+    fig = summary_figure("model · imm", batch)
+    assert fig.axes[1].get_ylabel() == "mode accuracy (%)"
+    smoothing = Smoothing("kim-rts", "argmax", "d", _side(0.5, 0, 1.0), _side(0.6, 0, 1.0))
+    batch[0] = replace(batch[0], report=replace(batch[0].report, smoothing=smoothing))
+    fig = summary_figure("model · imm · kim-rts, argmax", batch)
+    assert fig.axes[1].get_ylabel() == "offline mode\naccuracy (%)"
+    assert fig.axes[0].get_ylabel() == "VAF (%)"

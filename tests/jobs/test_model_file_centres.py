@@ -1,0 +1,106 @@
+"""A centres file named by a model file, and centres checked before any log is read."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.cluster import discover_modes
+from hybridlog.model.builtins import builtin_text as builtin_source
+from tests.support.paths import SAMPLE_LOGS
+
+LOG = SAMPLE_LOGS / "double_cart_case1.csv"
+
+
+def _model_beside_centres(tmp_path: Path, table: str) -> Path:
+    """double_cart_case1 as a file in models/, its [estimators.chiu] ``table``; centres there."""
+    folder = tmp_path / "models"
+    folder.mkdir()
+    model = folder / "dc1.toml"
+    model.write_text(builtin_source("double_cart_case1"))
+    discover_modes(LOG, model, out=folder / "c.json", compare_kmeans=True)
+    model.write_text(builtin_source("double_cart_case1") + f"\n[estimators.chiu]\n{table}\n")
+    return model
+
+
+def test_a_relative_centres_path_in_a_model_file_is_from_its_folder(tmp_path, monkeypatch):
+    """`centers = "c.json"` beside the model was looked for in the working directory."""
+    model = _model_beside_centres(tmp_path, 'centers = "c.json"')
+    elsewhere = tmp_path / "work"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    analyze(LOG, model, estimator="chiu", out_dir="out")
+    report = json.loads(Path("out/report.json").read_text())
+    assert report["options"]["centers"] == str(model.parent / "c.json")
+    assert report["notes"][0].endswith(f"centres loaded from {model.parent / 'c.json'}")
+    # a missing file is named with the model's key; --set stays from the working directory
+    model.write_text(model.read_text().replace('"c.json"', '"gone.json"'))
+    with pytest.raises(OptionError, match=r"dc1.toml: estimators.chiu.centers: .*gone.json: no"):
+        analyze(LOG, model, estimator="chiu", out_dir="refused")
+    with pytest.raises(OptionError, match=r"^c.json: no such centers file"):
+        analyze(LOG, model, estimator="chiu", sets=["centers=c.json"], out_dir="refused")
+    assert not Path("refused").exists()
+
+
+def test_a_clustering_option_must_be_the_one_the_centres_were_fitted_with(tmp_path):
+    """`radius = 0.3` in the model file made every centres file unusable ("has no effect")."""
+    model = _model_beside_centres(tmp_path, 'centers = "c.json"\nradius = 0.3')
+    # the file was fitted (by cluster, from that table) before radius was added: refused,
+    # naming the model's key and the file's value
+    with pytest.raises(
+        OptionError,
+        match=r"radius=0.3 \(.*dc1.toml: estimators.chiu.radius\) does not match the file's "
+        r"chiu centres, fitted with radius=0.5",
+    ):
+        analyze(LOG, model, estimator="chiu", out_dir=tmp_path / "refused")
+    with pytest.raises(OptionError, match=r"--set radius=0.4 does not match"):
+        analyze(LOG, model, estimator="chiu", sets=["radius=0.4"], out_dir=tmp_path / "refused")
+    # fitted again (cluster starts from the model's table): they agree, and the report says 0.3
+    discover_modes(LOG, model, out=model.parent / "c.json", force=True, compare_kmeans=True)
+    analyze(LOG, model, estimator="chiu", out_dir=tmp_path / "ok")
+    options = json.loads((tmp_path / "ok" / "report.json").read_text())["options"]
+    assert options["radius"] == 0.3 and options["squash"] == 1.25
+    # k-means records what it was fitted with too, restarts and seed included
+    stored = json.loads((model.parent / "c.json").read_text())["kmeans"]["parameters"]
+    assert stored == {"clusters": 2, "restarts": 10, "seed": 0}
+    with pytest.raises(OptionError, match=r"--set seed=3 does not match .* fitted with seed=0"):
+        analyze(
+            LOG,
+            model,
+            estimator="kmeans",
+            sets=[f"centers={model.parent / 'c.json'}", "seed=3"],
+            out_dir=tmp_path / "refused",
+        )
+    assert not (tmp_path / "refused").exists()
+
+
+def test_centres_for_another_model_are_refused_before_the_log_is_read(tmp_path):
+    """A wrong centres file failed only after the whole log had been read (in a batch: on
+    every log); the corrupt log here would fail first if it were read."""
+    model = _model_beside_centres(tmp_path, 'centers = "c.json"')
+    corrupt = tmp_path / "corrupt.csv"
+    corrupt.write_text("t,u,y\n0,1\n")
+    other = tmp_path / "dc2.toml"
+    other.write_text(
+        builtin_source("double_cart_case2")
+        + f'\n[estimators.chiu]\ncenters = "{model.parent}/c.json"\n'
+    )
+    with pytest.raises(
+        OptionError, match=r"model: the centres were fitted for model 'double_cart_case1'"
+    ):
+        analyze(corrupt, other, estimator="chiu", out_dir=tmp_path / "refused")
+    with pytest.raises(OptionError, match=r"--set output_lags=0 does not match|regressors"):
+        compare(
+            corrupt,
+            model,
+            ["imm", "chiu"],
+            sets=["output_lags=0"],
+            out_dir=tmp_path / "refused",
+        )
+    assert not (tmp_path / "refused").exists()
+    with pytest.raises(ModelError):  # the refusal of a bad model file still comes first
+        bad = tmp_path / "bad.toml"
+        bad.write_text("name = 1\n")
+        analyze(LOG, bad, estimator="chiu", out_dir=tmp_path / "refused")
