@@ -119,6 +119,7 @@ def parse_schedule(
     for part in text.split(","):
         part = part.strip()
         mode, sep, count = part.rpartition(":")
+        mode = mode.strip()  # "1 : 100, 2 : 50" as written in a model file
         if not sep or not mode:
             raise error(f"{where}: '{part}' is not MODE:STEPS")
         if mode not in mode_ids:
@@ -169,27 +170,57 @@ def _noise_factor(covariance: FloatArray) -> FloatArray:
     return factor
 
 
-COPIES = 9.0
+COPIES = 3.0
 """Copies of every simulated value alive at the peak of ``hybridlog simulate``: the arrays of
 :func:`simulate` and what the log writer builds from them.  Measured (peak RSS growth of
-three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4,
-ROS 1 bag 8 copies; the check uses the worst case, with a margin."""
+three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4
+copies; the check uses the worst case, with a margin."""
+
+MESSAGE_BYTES = 128
+"""Bytes a message of the log costs its writer beyond the values: rosbags' ROS 1 bag writer
+keeps an index entry per message until the bag is closed (measured: 104 bytes a message,
+three-tank runs of 8 topics and ``bioplex_pgc`` runs of 18); the check uses that worst case,
+with a margin."""
 
 
 def memory_needed(model: HybridModel, rows: int) -> int:
     """Bytes a simulation of ``rows`` rows needs at its peak, writing the log included.
 
     Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per output and
-    per state and integration step (``dt / step`` steps a row in continuous time, else 1),
-    8 bytes each, times :data:`COPIES`.
+    per state and integration step (``dt / step`` steps a row in continuous time, else 1);
+    a components model's rows also hold the commands, the controller's memory, every plant
+    variable, and per component its scheduled mode, override, joint-mode entry and log
+    entry (:mod:`hybridlog.simulate_components`): 8 bytes each, times :data:`COPIES`.  And
+    every column of the log but ``t`` is a message a row, :data:`MESSAGE_BYTES` each.
     """
     substeps = model.timebase.substeps
     values = 2 + model.n_inputs + 2 * model.n_outputs + model.n_states * (1 + substeps)
-    return int(rows * values * 8 * COPIES)
+    messages = model.n_inputs + model.n_outputs + model.n_states + 1  # 1: the true mode
+    if model.has_components:
+        memory = len(model.scenario.controller_states) if model.scenario is not None else 0
+        plant = model.n_states + model.n_inputs + model.n_outputs + len(model.variables)
+        components = len(model.components)
+        values += len(model.commands) + memory + plant + 4 * components + 7  # 7: a tuple
+        messages += len(model.commands) + components - 1  # a true mode per component
+    return int(rows * (values * 8 * COPIES + messages * MESSAGE_BYTES))
 
 
-def _check_memory(model: HybridModel, rows: int, where: str) -> None:
-    """Refuse up front a run that cannot fit in memory (naming the option or model key)."""
+LATEST_S = 9.2e9
+"""The latest time of a log: hybridlog reads times as int64 nanoseconds (up to 9.2e9 s,
+:func:`hybridlog.io.source.seconds_to_ns`), and MCAP files and ROS 2 bags store them so."""
+
+
+def _check_run(model: HybridModel, rows: int, where: str, ends_before: float) -> None:
+    """Refuse up front a run that ends later than its log holds, or cannot fit in memory.
+
+    Either names the option or model key that set the number of steps.
+    """
+    end = (rows - 1) * model.dt
+    if end >= ends_before:
+        raise (OptionError if where.startswith("--") else ModelError)(
+            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {end:.4g} s, later "
+            f"than the log holds (times before {ends_before:.4g} s); simulate fewer steps"
+        )
     check_fits(
         [("the simulated rows and the log written from them", memory_needed(model, rows))],
         what=f"{where}: {rows - 1:,} steps",
@@ -249,6 +280,7 @@ def simulate(
     jit: bool = True,
     noise: bool = True,
     disturbance: Disturbance | None = None,
+    ends_before: float = LATEST_S,
 ) -> SimulatedLog:
     """Simulate ``model`` with Gaussian process and measurement noise.
 
@@ -270,6 +302,9 @@ def simulate(
         run (the draws are made all the same, so they do not shift with this flag).
     disturbance:
         The disturbance of paper 003 eq. (49) on a continuous-time model; ``None``: none.
+    ends_before:
+        The time (s) the run must end before: what its log holds (:data:`LATEST_S`; a ROS 1
+        bag's less, :func:`hybridlog.io.bag_writers.times_before`).
 
     Raises
     ------
@@ -305,7 +340,7 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         rows = (steps or 100) + 1
-        _check_memory(model, rows, "--steps")
+        _check_run(model, rows, "--steps", ends_before)
         modes = np.zeros(rows, dtype=np.int64)
     else:
         if schedule is not None:  # given, if empty: refused, never the model's schedule
@@ -318,11 +353,11 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         if steps is not None:
-            _check_memory(model, steps + 1, "--steps")
+            _check_run(model, steps + 1, "--steps", ends_before)
         else:
             total = sum(count for _, count in parsed)
             where = "--schedule" if schedule is not None else f"{origin}: simulation.schedule"
-            _check_memory(model, total + 1, where)
+            _check_run(model, total + 1, where, ends_before)
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt

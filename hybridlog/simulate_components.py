@@ -28,13 +28,13 @@ from __future__ import annotations
 
 import hashlib
 import itertools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import ModelError, OptionError
+from hybridlog.errors import HybridlogError, ModelError, OptionError
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
@@ -115,12 +115,50 @@ def _origin(model: HybridModel) -> str:
     return model.origin or model.name
 
 
+@dataclass(frozen=True)
+class _Steps:
+    """The scenario's steps resolved: a number, or a parameter (its value, maybe ``--set``).
+
+    Errors about a step name what set it: ``--set NAME`` (an :class:`OptionError`) when the
+    user's setting is involved, else the model file and key (a :class:`ModelError`).
+    """
+
+    origin: str
+    values: Mapping[str, float]
+    settings: Collection[str]
+
+    def at(self, step: Step, key: str) -> int:
+        """The row a step names; a parameter used as one must be a whole number >= 0."""
+        if isinstance(step, int):
+            return step
+        value = self.values[step]
+        if value < 0 or value != int(value):
+            raise self.error(
+                (step,),
+                key,
+                f"{step} = {value:g} is used as a step; it must be a whole number >= 0",
+            )
+        return int(value)
+
+    def text(self, step: Step, key: str) -> str:
+        """A step for messages: ``1300`` or ``light_repair = 1300``."""
+        return str(step) if isinstance(step, int) else f"{step} = {self.at(step, key):.15g}"
+
+    def error(self, steps: Sequence[Step | None], key: str, problem: str) -> HybridlogError:
+        """The error ``problem`` at ``key``, naming the ``--set`` of ``steps`` if there is one."""
+        given = [s for s in steps if isinstance(s, str) and s in self.settings]
+        if given:
+            return OptionError(f"--set {given[0]}: {self.origin}: {key}: {problem}")
+        return ModelError(f"{self.origin}: {key}: {problem}")
+
+
 def simulate_components(
     model: HybridModel,
     *,
     steps: int | None = None,
     seed: int = 0,
     settings: Mapping[str, float] | None = None,
+    ends_before: float | None = None,
 ) -> ComponentsLog:
     """Play the scenario of a components model (see the module doc).
 
@@ -134,6 +172,9 @@ def simulate_components(
         Seed of the noise (NumPy PCG64): the same seed and settings give the same log.
     settings:
         Scenario parameter values (``--set NAME=VALUE``): fault times, drift rate, gains.
+    ends_before:
+        The time (s) the run must end before, as for :func:`hybridlog.simulate.simulate`
+        (default :data:`~hybridlog.simulate.LATEST_S`).
 
     Raises
     ------
@@ -143,7 +184,7 @@ def simulate_components(
         A scenario the model cannot play: a joint mode whose equations do not determine
         every variable, an algebraic loop through the controller, a diverging run.
     """
-    from hybridlog.simulate import _check_memory, _check_seed
+    from hybridlog.simulate import LATEST_S, _check_run, _check_seed
 
     seed = _check_seed(seed)
     origin = _origin(model)
@@ -162,19 +203,10 @@ def simulate_components(
         raise OptionError("--steps: must be positive")
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
-    _check_memory(model, rows, "--steps" if steps else f"{origin}: simulation.steps")
+    where = "--steps" if steps else f"{origin}: simulation.steps"
+    _check_run(model, rows, where, LATEST_S if ends_before is None else ends_before)
 
-    def at(step: Step, key: str) -> int:
-        if isinstance(step, int):
-            return step
-        value = values[step]
-        if value < 0 or value != int(value):
-            where = f"--set {step}" if step in (settings or {}) else f"{origin}: {key}"
-            raise (OptionError if where.startswith("--") else ModelError)(
-                f"{where}: {step} = {value:g} is used as a step; it must be a whole number >= 0"
-            )
-        return int(value)
-
+    at = _Steps(origin, values, tuple(settings or ()))
     labels = _mode_labels(model, scenario, rows, at)
     overrides = _overrides(model, scenario, rows, at, labels)
     commands = np.zeros((rows, len(model.commands)))
@@ -276,19 +308,21 @@ def _unmodelled_index(entry: str) -> int:
     return int(entry[1:].partition(":")[0])
 
 
-def _sorted(
-    entries: Sequence[tuple[Any, Step]], at: Callable[[Step, str], int], key: str
-) -> list[tuple[Any, int]]:
+def _sorted(entries: Sequence[tuple[Any, Step]], at: _Steps, key: str) -> list[tuple[Any, int]]:
     """Schedule entries with their steps resolved; the steps must increase."""
-    resolved = [(value, at(step, key)) for value, step in entries]
-    for (_, before), (_, after) in itertools.pairwise(resolved):
-        if after <= before:
-            raise ModelError(f"{key}: the steps must increase ({before} then {after})")
+    resolved = [(value, at.at(step, key)) for value, step in entries]
+    for (_, before), (_, after) in itertools.pairwise(entries):
+        if at.at(after, key) <= at.at(before, key):
+            raise at.error(
+                (before, after),
+                key,
+                f"the steps must increase ({at.text(before, key)} then {at.text(after, key)})",
+            )
     return resolved
 
 
 def _mode_labels(
-    model: HybridModel, scenario: Scenario, rows: int, at: Callable[[Step, str], int]
+    model: HybridModel, scenario: Scenario, rows: int, at: _Steps
 ) -> dict[str, list[str]]:
     """Each component's scheduled mode per row (default: its most likely initial mode)."""
     labels: dict[str, list[str]] = {}
@@ -307,17 +341,20 @@ def _overrides(
     model: HybridModel,
     scenario: Scenario,
     rows: int,
-    at: Callable[[Step, str], int],
+    at: _Steps,
     labels: Mapping[str, list[str]],
 ) -> dict[str, list[int]]:
     """Per component and row, the index of the unmodelled behaviour in force, or −1."""
     overrides = {c.name: [-1] * rows for c in model.components}
     for index, behaviour in enumerate(scenario.unmodelled):
-        start = at(behaviour.start, f"{behaviour.key}.start")
-        end = rows if behaviour.end is None else at(behaviour.end, f"{behaviour.key}.end")
-        if end <= start:
-            raise ModelError(
-                f"{_origin(model)}: {behaviour.key}: end ({end}) must come after start ({start})"
+        start = at.at(behaviour.start, f"{behaviour.key}.start")
+        end = rows if behaviour.end is None else at.at(behaviour.end, f"{behaviour.key}.end")
+        if behaviour.end is not None and end <= start:
+            ends = f"{at.text(behaviour.end, behaviour.key)}"
+            raise at.error(
+                (behaviour.start, behaviour.end),
+                behaviour.key,
+                f"end ({ends}) must come after start ({at.text(behaviour.start, behaviour.key)})",
             )
         row = overrides[behaviour.component]
         for k in range(min(start, rows), min(end, rows)):

@@ -14,7 +14,8 @@ text column (e.g. the true ``mode``)     ``/truth/mode``       ``std_msgs/String
 ======================================== ===================== ============================
 
 Every message of row *k* is logged at ``t_k`` (integer nanoseconds, exact for the float
-seconds of the table), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
+seconds of the table; times from 0 to 9.2e9 s, a ROS 1 bag's to 2^32 s, others refused
+before anything is written), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
 ``/truth/x1.data`` are the default mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
 ``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
@@ -139,14 +140,12 @@ def check_log_target(
     ------
     OptionError
         For an unknown format or encoding, an encoding given for a format without one, or a
-        table log whose suffix is not its format's.
+        log file named otherwise than its format (:func:`_check_file_name`).
     OutputError
         When the target is, contains or sits inside an input; exists without ``force``; is
         a folder where a file is written (or the reverse); or is a folder hybridlog did not
         write (see :mod:`hybridlog.outputs`).
     """
-    from hybridlog.io.writers import TABLE_FORMATS
-
     chosen = log_format(path, format)
     if encoding not in MCAP_ENCODINGS:
         raise OptionError(
@@ -154,16 +153,38 @@ def check_log_target(
         )
     if encoding != "cdr" and chosen != "mcap":
         raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
-    if chosen in ("csv", "parquet"):
-        suffix = Path(path).suffix.lower()
-        if f".{chosen}" != suffix or suffix not in TABLE_FORMATS:
-            raise OptionError(f"{path}: a {chosen} log must be named *.{chosen}")
+    if not chosen.startswith("ros2-"):
+        _check_file_name(path, chosen)
     check_apart([("--out", path)], inputs)
     if chosen.startswith("ros2-"):
         check_dir_target(path, force=force, ours=written_by_hybridlog, written=bag_files)
     else:
         check_file_target(path, force=force)
     return chosen
+
+
+#: The row of :data:`hybridlog.io.formats.FORMATS` that reads each file format written.
+_READ_AS = {"csv": "csv", "parquet": "parquet", "mcap": "mcap", "bag": "ros1-bag"}
+
+
+def _check_file_name(path: PathLike, chosen: str) -> None:
+    """Refuse a log file named so that hybridlog would not read it as what it holds.
+
+    Its suffix must not be another format's (``--format bag --out run.mcap`` made a bag that
+    reading then refused, as rosbags reads bags by their names), and a format told by its
+    name -- ROS 1 bags, and CSV and Parquet files, whose writer picks the table format by
+    the suffix -- must have its own.  An MCAP file is known by its content and may have any
+    other name.
+    """
+    from hybridlog.io.formats import FORMATS, get_format
+
+    row = get_format(_READ_AS[chosen])
+    suffix = Path(path).suffix.lower()
+    named = next((f for f in FORMATS if not f.directory and suffix in f.suffixes), None)
+    if named is row or (named is None and chosen == "mcap"):
+        return
+    other = f", not *{suffix} (the suffix of {named.what})" if named is not None else ""
+    raise OptionError(f"{path}: {row.what} must be named *{row.suffixes[0]}{other}")
 
 
 def write_log(
@@ -212,11 +233,13 @@ def write_log(
     from hybridlog.io.writers import write_table
 
     chosen = check_log_target(path, format=format, encoding=encoding, force=force, inputs=inputs)
-    if chosen in ("csv", "parquet"):
-        return write_table(path, columns, force=force)
     if "t" not in columns:
         raise ValueError("columns: a time column 't' is needed")
-    time_ns = seconds_to_ns(np.asarray(columns["t"], dtype=np.float64))
+    time = np.asarray(columns["t"], dtype=np.float64)
+    _check_times(path, chosen, time)
+    if chosen in ("csv", "parquet"):
+        return write_table(path, columns, force=force)
+    time_ns = seconds_to_ns(time)
     topics = log_topics(columns, truth)
     writer: Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
     if chosen == "mcap":
@@ -241,6 +264,38 @@ def write_log(
         with atomic_files([target], force=force) as (staged,):
             _written(target, lambda: writer(staged, topics, columns, time_ns))
     return target
+
+
+#: Times a log holds, in seconds, from 0 to before these: int64 nanoseconds, as hybridlog
+#: reads every log (and MCAP files and ROS 2 bags store times), up to 9.2e9 s; a ROS 1 bag's
+#: seconds are unsigned 32-bit.
+_TIMES_BEFORE_S = {"bag": float(2**32)}
+_NS_TIMES_BEFORE_S = 9.2e9
+
+
+def times_before(format: str) -> float:
+    """The time (s) every time of a log of ``format`` (:data:`LOG_FORMATS`) comes before."""
+    return _TIMES_BEFORE_S.get(format, _NS_TIMES_BEFORE_S)
+
+
+def _check_times(path: PathLike, chosen: str, time: Any) -> None:
+    """Refuse times a log of format ``chosen`` cannot hold, or hybridlog could not read back.
+
+    Raises
+    ------
+    OptionError
+        For a time before 0 or too late for the format, naming the file and the time.
+    """
+    from hybridlog.io.formats import get_format
+
+    before = times_before(chosen)
+    held = (time >= 0.0) & (time < before)
+    if not held.all():
+        what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
+        raise OptionError(
+            f"{path}: t = {float(time[~held][0]):.6g} s is beyond the times {what} holds "
+            f"(from 0 to before {before:.10g} s)"
+        )
 
 
 #: ``custom_data`` entry of the ``metadata.yaml`` of every ROS 2 bag ``simulate`` writes: a

@@ -39,6 +39,18 @@ def normal_type(name: str) -> str:
     return name
 
 
+def definition_key(encoding: str, text: str) -> str:
+    """What tells two stored definitions apart, comments and layout aside.
+
+    A ``.msg`` text without its comments and blank space (two recorders may lay out one
+    definition differently); any other as it is.  ``encoding``: the schema's (``ros2msg``,
+    ``ros1msg``, ``ros2idl`` ...) or ``"msg"``.
+    """
+    if encoding not in ("msg", "ros1msg", "ros2msg"):
+        return text
+    return " ".join(word for line in text.splitlines() for word in line.partition("#")[0].split())
+
+
 def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
     """Message types defined by the ``.msg`` files under ``folders``.
 
@@ -55,7 +67,8 @@ def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
     for folder in folders:
         root = Path(folder)
         if not root.is_dir():
-            raise LogError(f"--msg-dir {folder}: no such folder")
+            why = "a file, not a folder of .msg files" if root.exists() else "no such folder"
+            raise LogError(f"--msg-dir {folder}: {why}")
         for file in sorted(root.rglob("*.msg")):
             parent = file.parent
             package = parent.parent.name if parent.name == "msg" else parent.name
@@ -198,11 +211,15 @@ def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: 
     return store
 
 
-def digest_problem(store: Any, msgtype: str, digest: str, *, ros1: bool) -> str | None:
-    """Why a stored type hash does not fit the stored definition, or ``None``.
+def digest_problem(
+    store: Any, msgtype: str, digest: str, *, ros1: bool, stored: bool = True
+) -> str | None:
+    """Why a stored type hash does not fit the definition used, or ``None``.
 
     ROS 1 bags store each definition's MD5 sum, ROS 2 bags (Iron and later) a ``RIHS01_``
     type hash; a mismatch means the definition is not the one the messages were written with.
+    ``stored``: the definition is the log's own; else it came from ``--msg-dir`` or the
+    standard types (the log stores only the hash), and the message says so.
     """
     if not digest or (not ros1 and not digest.startswith("RIHS01_")):
         return None
@@ -212,7 +229,13 @@ def digest_problem(store: Any, msgtype: str, digest: str, *, ros1: bool) -> str 
         return None
     if have == digest:
         return None
+    if stored:
+        return (
+            f"its stored message definition does not match its type hash "
+            f"({excerpt(digest, 24)}); the messages were written with another definition"
+        )
     return (
-        f"its stored message definition does not match its type hash ({excerpt(digest, 24)}); "
-        "the messages were written with another definition"
+        f"the log stores no message definition, and the one from --msg-dir or the standard "
+        f"types does not match its type hash ({excerpt(digest, 24)}); pass --msg-dir DIR with "
+        f"the {msgtype}.msg the messages were written with"
     )

@@ -19,9 +19,9 @@ format              content                    reader
 ``csv``             ``.csv``, any text         :class:`~hybridlog.io.tables.TableSource`
 ``parquet``         ``PAR1``                   :class:`~hybridlog.io.tables.TableSource`
 ``mcap``            ``\x89MCAP0\r\n``          :func:`~hybridlog.io.mcap_reader.open_mcap`:
-                                               rosbags for ``ros2``-profile CDR files with a full
-                                               summary, else the ``mcap`` library (also
-                                               ``--recover``)
+                                               rosbags for ``ros2``-profile CDR files of chunks
+                                               with a full summary, else the ``mcap`` library
+                                               (also ``--recover``)
 ``ros1-bag``        ``#ROSBAG V2.0``, ``.bag`` :class:`~hybridlog.io.rosbag_reader.BagSource`
 ``ros2-db3``        SQLite, ``.db3``           :class:`~hybridlog.io.rosbag_reader.BagSource`
 ``ros2-bag``        a directory with           :class:`~hybridlog.io.rosbag_reader.BagSource`

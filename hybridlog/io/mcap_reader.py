@@ -6,8 +6,8 @@ whose recorder was killed or that was cut off, and validates the summary and dat
 CRCs when the writer stored them (the libraries' readers check chunk CRCs at most, and only
 when asked).
 
-``ros2``-profile files whose summary repeats every channel and schema and indexes every
-chunk's messages -- what rosbag2 writes -- are then read by rosbags
+``ros2``-profile files of chunks whose summary repeats every channel and schema and indexes
+every chunk's messages -- what rosbag2 writes -- are then read by rosbags
 (:mod:`.rosbag_reader`), which is faster; :func:`rosbags_summary_problem` says when a file is
 not like that (rosbags then lists no topics or reads no messages).  :class:`McapSource` reads
 everything else with the ``mcap`` library -- ROS 2 CDR, ROS 1 and JSON messages with any
@@ -37,6 +37,7 @@ from typing import IO, Any
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import (
     DefinitionError,
+    definition_key,
     first_line,
     normal_type,
     types_from_msg_dirs,
@@ -181,13 +182,23 @@ _ROSBAGS_SCHEMAS = frozenset({"ros2msg", "ros2idl", "omgidl", ""})
 """Schema encodings rosbags' MCAP storage reader takes (any other refuses the whole file)."""
 
 
-def rosbags_summary_problem(path: Path) -> str | None:
+def rosbags_summary_problem(path: Path, *, storage: bool = False) -> str | None:
     """Why rosbags' MCAP reader would misread this finished ``ros2`` file, or ``None``.
 
     rosbags seeks with the summary only: it needs the channels and schemas repeated there
     and, for chunked files, message indexes (without them it reads no message of a chunk);
-    and it refuses a whole file for one channel of another encoding (a JSON or protobuf
-    topic beside the CDR ones), which the ``mcap`` reader reads topic by topic.
+    it refuses a whole file for one channel of another encoding (a JSON or protobuf
+    topic beside the CDR ones), which the ``mcap`` reader reads topic by topic; and it reads
+    a file without chunks in file order, refusing it part way through at the first message
+    logged before the one ahead of it (the MCAP specification allows any order), which the
+    ``mcap`` reader's messages are put in log-time order after.
+
+    Parameters
+    ----------
+    storage:
+        ``path`` is a storage file of a bag folder, which only rosbags reads: a file without
+        chunks is left to it (one out of log-time order is then refused naming the file,
+        :meth:`~hybridlog.io.rosbag_reader.BagSource._damaged`).
     """
     from mcap.reader import SeekingReader
 
@@ -199,8 +210,15 @@ def rosbags_summary_problem(path: Path) -> str | None:
     problem = summary_problem(summary)
     if summary is None or problem is not None:
         return problem
-    if any(not c.message_index_offsets for c in summary.chunk_indexes):
+    # A chunk of schemas and channels only (rosbags' writer makes one for a bag without
+    # messages) has no messages to index: its start time is after its end time.
+    if any(
+        not c.message_index_offsets and c.message_start_time <= c.message_end_time
+        for c in summary.chunk_indexes
+    ):
         return "its chunks have no message indexes"
+    if not summary.chunk_indexes and not storage:
+        return "its messages are not in chunks, which rosbags reads only in log-time order"
     foreign = sorted(
         {s.encoding for s in summary.schemas.values() if s.encoding not in _ROSBAGS_SCHEMAS}
         | {c.message_encoding for c in summary.channels.values() if c.message_encoding != "cdr"}
@@ -319,6 +337,12 @@ def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> Messag
 
         return BagSource(path, options, log_format)
     return McapSource(path, layout, options)
+
+
+def _schema_key(schema: Any) -> tuple[str, str, str]:
+    """A schema by what it says (:func:`~hybridlog.io.definitions.definition_key`)."""
+    text = bytes(schema.data).decode("utf-8", errors="replace")
+    return (schema.name, schema.encoding, definition_key(schema.encoding, text))
 
 
 def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -453,18 +477,21 @@ class McapSource(MessageSource):
             schema = schemas.get(channel.schema_id) if channel.schema_id else None
             count = None if counts is None else sum(counts.get(c.id, 0) for c in group)
             topic = self._topic(name, channel, schema, count)
-            kinds: dict[tuple[int, str], int | None] = {}
+            # Channels are told apart by what their schemas say, not by the schemas' ids: a
+            # writer may record the same schema twice, which decodes the same.
+            kinds: dict[tuple[tuple[str, str, str] | None, str], int | None] = {}
             for member in group:
-                kind = (member.schema_id, member.message_encoding)
+                held = schemas.get(member.schema_id) if member.schema_id else None
+                content = None if held is None else _schema_key(held)
+                kind = (content, member.message_encoding)
                 got = None if counts is None else counts.get(member.id, 0)
                 known = kinds.get(kind, 0)
                 kinds[kind] = None if got is None or known is None else known + got
             if len(kinds) > 1 and topic.problem is None:
                 # the table shows the first channel's type: say what else the topic holds
                 described = []
-                for (schema_id, encoding), kind_count in kinds.items():
-                    other = schemas.get(schema_id) if schema_id else None
-                    named = normal_type(other.name) if other is not None else "no schema"
+                for (content, encoding), kind_count in kinds.items():
+                    named = normal_type(content[0]) if content is not None else "no schema"
                     text = f"{excerpt(named, 60)} in {excerpt(encoding, 20)}"
                     if kind_count is not None:
                         text += f" ({kind_count} message{'' if kind_count == 1 else 's'})"

@@ -10,7 +10,9 @@ What this adds to rosbags' readers:
 - Each topic's message definition is parsed on its own (:mod:`.definitions`), where
   rosbags' ``AnyReader`` parses them all at once and refuses the bag when one fails: a
   definition rosbags cannot parse, or whose stored type hash does not match it, makes only
-  its topic undecodable.
+  its topic undecodable.  So does a topic whose connections store different definitions of
+  its type (two nodes built from different versions of a message): one definition decodes a
+  topic, and would read the other's bytes as wrong numbers.
 - In a bag directory, topics are matched between ``metadata.yaml`` and the storage files by
   name and type (rosbags also compares their QoS text, so a bag whose metadata was written
   by another ROS version reads as empty); where the two disagree (QoS, counts, topics),
@@ -31,6 +33,7 @@ from typing import Any
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import (
     DefinitionError,
+    definition_key,
     digest_problem,
     first_line,
     types_from_msg_dirs,
@@ -156,7 +159,9 @@ class BagSource(MessageSource):
                 raise UnfinishedLogError(
                     f"{self.path}: {finding}{hint}", file=file, finding=finding, readable=readable
                 )
-            problem = rosbags_summary_problem(file) if layout.profile == "ros2" else None
+            problem = (
+                rosbags_summary_problem(file, storage=True) if layout.profile == "ros2" else None
+            )
             if problem is not None:
                 raise LogError(
                     f"{self.path}: rosbags' bag reader cannot index its MCAP storage file "
@@ -236,8 +241,16 @@ class BagSource(MessageSource):
             count = sum(counts) if all(c >= 0 for c in counts) else None
             topic = Topic(name, msgtype, "ros1" if self._ros1 else "cdr", count)
             formats = {getattr(c.ext, "serialization_format", "ros1") for c in connections}
+            definitions = _definitions(connections)
             if len(msgtypes) > 1:
                 topic.problem = f"has several message types ({', '.join(sorted(msgtypes))})"
+            elif len(definitions) > 1:
+                # One definition decodes the topic: another's messages would be read with it.
+                listed = ", ".join(
+                    f"{label}{'' if n is None else f' ({n} message' + 's' * (n != 1) + ')'}"
+                    for label, n in definitions.items()
+                )
+                topic.problem = f"has connections with different definitions of it: {listed}"
             elif msgtype == SCHEMALESS:
                 topic.msgtype = ""
                 topic.problem = "schemaless channel: its messages cannot be decoded"
@@ -270,7 +283,13 @@ class BagSource(MessageSource):
             topic.problem = str(err)
             return
         if encoding:
-            problem = digest_problem(store, topic.msgtype, connection.digest, ros1=self._ros1)
+            problem = digest_problem(
+                store,
+                topic.msgtype,
+                connection.digest,
+                ros1=self._ros1,
+                stored=bool(definition.data.strip()),
+            )
             if problem is not None:
                 topic.problem = problem
                 return
@@ -345,6 +364,17 @@ class BagSource(MessageSource):
         text = excerpt(first_line(err)).strip("'")
         if "checksum" in text.lower() or "crc" in text.lower():
             return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({text})")
+        if self._directory and "not in timestamp order" in text:
+            # A storage file without chunks, its messages in another order than log time
+            # (which MCAP allows): rosbags reads such a file only in order; the mcap
+            # reader takes it as a file of its own.
+            files = sorted(self._file.glob("*.mcap"))
+            file = str(files[0]) if len(files) == 1 else "its .mcap files one by one"
+            return LogError(
+                f"{self.path}: an MCAP storage file of this bag has no chunks and its messages "
+                f"are not in log-time order, which rosbags' bag reader cannot read; "
+                f"analyse {file}"
+            )
         return LogError(f"{self.path}: damaged {self._format} file ({text})")
 
     def _recover_hint(self, topic: str, found: int) -> str:
@@ -359,6 +389,29 @@ class BagSource(MessageSource):
                 continue
             for connection, timestamp, data in storage.messages(chosen):
                 yield connection.topic, timestamp, data if decompress is None else decompress(data)
+
+
+def _definitions(connections: list[Any]) -> dict[str, int | None]:
+    """The different message definitions of a topic's connections, with their counts.
+
+    Told apart by the stored hash (a ROS 1 MD5 sum, a ROS 2 ``RIHS01_`` type hash), else by
+    the definition text without comments and blank space (two recorders may lay out the
+    same definition differently); labelled by the hash for messages.
+    """
+    found: dict[str, int | None] = {}
+    labels: dict[str, str] = {}
+    for connection in connections:
+        definition = connection.msgdef
+        key = connection.digest or definition_key(
+            definition.format.name.lower(), str(definition.data)
+        )
+        if key not in labels:
+            shown = connection.digest or f"definition {len(labels) + 1}"
+            labels[key] = excerpt(shown, 24)
+        label = labels[key]
+        known, count = found.get(label, 0), connection.msgcount
+        found[label] = None if known is None or count < 0 else known + count
+    return found
 
 
 def _zstd_decompress() -> Any:

@@ -289,7 +289,7 @@ def input_paths(
     ``--msg-dir``.
     """
     paths: list[tuple[str, PathLike]] = [("log", log) for log in logs]
-    if os.path.exists(model_ref):
+    if os.path.isfile(model_ref):  # a folder named like a built-in is not the model
         paths.append(("model file", model_ref))
     for estimator in prepared:
         for name, (what, _) in FILE_OPTIONS.items():

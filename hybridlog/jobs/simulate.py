@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hybridlog.errors import OptionError, excerpt
-from hybridlog.io.bag_writers import check_log_target, write_log
+from hybridlog.io.bag_writers import check_log_target, times_before, write_log
 from hybridlog.model.cache import load_model
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import parse_disturbance
@@ -74,10 +74,11 @@ def simulate_log(
     parsed = parse_disturbance(disturbance) if disturbance is not None else None
     model = load_model(model_ref)
     inputs: list[tuple[str, PathLike]] = (
-        [("model file", model_ref)] if Path(model_ref).exists() else []
+        [("model file", model_ref)] if Path(model_ref).is_file() else []
     )
     # Every check of the output runs before the simulation.
-    check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
+    chosen = check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
+    ends_before = times_before(chosen)  # a ROS 1 bag's seconds are 32-bit
     values = _settings(settings)
     if model.has_components:
         if schedule is not None:
@@ -93,7 +94,9 @@ def simulate_log(
             )
         from hybridlog.simulate_components import simulate_components
 
-        played = simulate_components(model, steps=steps, seed=seed, settings=values)
+        played = simulate_components(
+            model, steps=steps, seed=seed, settings=values, ends_before=ends_before
+        )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
     else:
@@ -104,7 +107,13 @@ def simulate_log(
                 "(only a components model's [simulation.parameters])"
             )
         log = simulate_model(
-            model, schedule=schedule, steps=steps, seed=seed, noise=noise, disturbance=parsed
+            model,
+            schedule=schedule,
+            steps=steps,
+            seed=seed,
+            noise=noise,
+            disturbance=parsed,
+            ends_before=ends_before,
         )
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])

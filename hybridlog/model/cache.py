@@ -89,7 +89,11 @@ def load_model(
         the file or built-in name.
     """
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
+    name = str(name_or_path)
+    # A folder of the user's named like a built-in (outputs kept in "three_tank_hstf/") is
+    # no model file: the name is the built-in's.
+    builtin_folder = path.is_dir() and name in builtin_names()
+    if path.suffix == ".toml" or (path.exists() and not builtin_folder):
         if not path.is_file():
             raise ModelError(f"{path}: no such model file")
         try:
@@ -97,7 +101,6 @@ def load_model(
         except (OSError, UnicodeDecodeError) as err:
             raise ModelError(f"{path}: cannot read model file: {err}") from err
         return cached_model(text, origin=str(path), parameters=parameters)
-    name = str(name_or_path)
     if name in builtin_names():
         return cached_model(builtin_text(name), origin=name, parameters=parameters)
     known = ", ".join(builtin_names())

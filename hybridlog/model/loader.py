@@ -192,6 +192,13 @@ class _Builder:
             "commands": commands,
         }
         check_disjoint(groups)
+        for group in ("states", "inputs", "outputs", "commands"):
+            if "mode" in groups[group]:
+                # a log's column or topic of its own: simulate wrote one over the other
+                raise ModelError(
+                    f"{group}: 'mode' is the true mode's column of a log (/truth/mode in a "
+                    "bag) and cannot name a signal; choose another name"
+                )
         params = self.parameters(groups)
         x = tuple(sympy.Symbol(s, real=True) for s in states)
         u = tuple(sympy.Symbol(s, real=True) for s in inputs)

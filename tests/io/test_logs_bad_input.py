@@ -317,6 +317,10 @@ def test_type_without_definition_suggests_msg_dir(
     folder = write_msg_dir(tmp_path / "msgs", "tank_msgs", "Level", "float64 cm\n")
     report = accepted(log, capsys, "--map", "y3=/y3.cm", "--msg-dir", str(folder))
     assert report["samples"] == 20
+    # the .msg file itself given: it exists, so "no such folder" sent the user looking
+    file = folder / "tank_msgs" / "msg" / "Level.msg"
+    message = refused(log, capsys, extra=("--map", "y3=/y3.cm", "--msg-dir", str(file)))
+    assert message == (f"hybridlog: error: --msg-dir {file}: a file, not a folder of .msg files\n")
 
 
 def test_bag_without_definitions_takes_msg_dir(

@@ -15,7 +15,9 @@ Every file here is written by another tool's writer -- rosbags' ROS 2 bag writer
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import re
 import shutil
 import sqlite3
 from pathlib import Path
@@ -30,13 +32,16 @@ from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log
 from tests.support.logfiles import (
     EVENT_TYPE,
     LOG_TYPE,
+    NS,
     PLACEHOLDER,
     event_stream,
+    float64_cdr,
     forget_type_hashes,
     good_streams,
     msgdef,
     reliable_qos,
     rosout_stream,
+    write_msg_dir,
     write_streams_bag,
     write_streams_mcap,
 )
@@ -420,3 +425,168 @@ def test_a_json_key_given_twice_is_refused_not_the_last_one_taken(tmp_path: Path
         writer.finish()
     with pytest.raises(LogError, match=r"t=0 s cannot be decoded \(the key 'data' is given twice"):
         load(log, "/y.data")
+
+
+# ------------------------------------------------------------------ messages out of order
+
+
+@pytest.mark.parametrize("chunked", [True, False])
+def test_an_mcap_written_newest_first_is_read_in_log_time_order(
+    chunked: bool, tmp_path: Path
+) -> None:
+    # MCAP allows messages in any order; without chunks there is no index to sort them by,
+    # and rosbags (which read ros2-profile files) refused such a file as damaged part way
+    # through, after inspect had counted the messages read so far.
+    log = write_streams_mcap(
+        tmp_path / "late.mcap", good_streams(), newest_first=True, use_chunking=chunked
+    )
+    check_good_topics(log)
+    info = inspect_log(log)
+    assert [(t["name"], t["count"]) for t in info["topics"]] == [("/u", 30), ("/y", 30)]
+    assert info["problems"] == []
+
+
+def test_a_bag_whose_unchunked_storage_is_out_of_order_names_the_file_to_read(
+    tmp_path: Path,
+) -> None:
+    bag = write_streams_bag(tmp_path / "late", good_streams(), storage="mcap")
+    storage = bag / "late.mcap"
+    write_streams_mcap(storage, good_streams(), newest_first=True, use_chunking=False)
+    with pytest.raises(LogError) as error:
+        load(bag)
+    assert str(error.value) == (
+        f"{bag}: an MCAP storage file of this bag has no chunks and its messages are not in "
+        f"log-time order, which rosbags' bag reader cannot read; analyse {storage}"
+    )
+    check_good_topics(storage)  # the remedy works
+
+
+def test_a_msg_dir_definition_that_does_not_fit_the_type_hash_is_named_as_such(
+    tmp_path: Path,
+) -> None:
+    # A bag storing the type hash but no definition text: the definition comes from --msg-dir,
+    # so the error must point there, not at a "stored" definition the log does not have.
+    log = write_streams_bag(tmp_path / "talker", [*good_streams(), rosout_stream("")])
+    assert set(load(log, "/rosout.level").outputs[:, 0]) == {20.0}  # the standard type fits
+    msg_dir = write_msg_dir(tmp_path / "msgs", "rcl_interfaces", "Log", PLACEHOLDER)
+    options = ReadOptions(maps=("u=/u.data", "y=/rosout.level"), msg_dirs=(str(msg_dir),))
+    with pytest.raises(LogError) as error:
+        load_signals(
+            log, SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0), options
+        )
+    message = str(error.value)
+    assert "the log stores no message definition, and the one from --msg-dir" in message
+    assert "stored message definition" not in message
+
+
+def test_a_bag_without_messages_is_listed_not_refused(tmp_path: Path) -> None:
+    # rosbags writes one chunk of schemas and channels only, with no message index since
+    # there is no message: it was taken for a chunk whose index is missing.
+    silent = [dataclasses.replace(s, messages=()) for s in good_streams()]
+    bag = write_streams_bag(tmp_path / "silent", silent, storage="mcap")
+    info = inspect_log(bag)
+    assert info["format"] == "ros2-bag (mcap)"
+    assert [(t["name"], t["count"]) for t in info["topics"]] == [("/u", 0), ("/y", 0)]
+    assert info["problems"] == []
+
+
+# ------------------------------------------------------------------ one topic, two definitions
+
+
+def test_a_bag_topic_whose_connections_differ_in_definition_is_refused(tmp_path: Path) -> None:
+    # Two nodes publishing one topic with different versions of a message (fields swapped):
+    # every message was decoded with the first connection's definition, so half of /s.a
+    # silently read the other node's b.
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    stores = []
+    for text in ("float64 a\nfloat64 b\n", "float64 b\nfloat64 a\n"):
+        store = get_typestore(Stores.EMPTY)
+        store.register(get_types_from_msg(text, "my_pkg/msg/Pair"))
+        stores.append(store)
+    log = tmp_path / "pairs.bag"
+    with Writer(log) as writer:
+        old, new = (
+            writer.add_connection("/s", "my_pkg/msg/Pair", typestore=store, callerid=node)
+            for store, node in zip(stores, ("/old", "/new"), strict=True)
+        )
+        steady = writer.add_connection("/u", "my_pkg/msg/Pair", typestore=stores[0])
+        for k in range(30):
+            first = stores[0].types["my_pkg/msg/Pair"](a=float(k), b=-float(k))
+            writer.write(steady, k * NS, stores[0].serialize_ros1(first, "my_pkg/msg/Pair"))
+            store, connection = (stores[0], old) if k % 3 else (stores[1], new)
+            pair = store.types["my_pkg/msg/Pair"](a=float(k), b=-float(k))
+            writer.write(connection, k * NS, store.serialize_ros1(pair, "my_pkg/msg/Pair"))
+    (problem,) = inspect_log(log)["problems"]
+    md5 = "'[0-9a-f]{16}…[0-9a-f]{7}'"  # each connection's MD5 sum, shortened
+    assert re.fullmatch(
+        rf"topic '/s' \(my_pkg/msg/Pair\): has connections with different definitions of it: "
+        rf"{md5} \(20 messages\), {md5} \(10 messages\)",
+        problem,
+    ), problem
+    with pytest.raises(LogError, match="has connections with different definitions"):
+        load_signals(
+            log,
+            SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
+            ReadOptions(maps=("u=/u.a", "y=/s.a")),
+        )
+
+
+@pytest.mark.parametrize("profile", ["", "ros2"])
+def test_one_schema_recorded_twice_is_one_definition(profile: str, tmp_path: Path) -> None:
+    # A writer may record the same schema under two ids (one per channel): the mcap reader
+    # refused /y as "has channels with different schemas: 'std_msgs/msg/Float64' in 'cdr'
+    # (15 messages), 'std_msgs/msg/Float64' in 'cdr' (15 messages)".
+    from mcap.writer import Writer
+
+    log = tmp_path / "twice.mcap"
+    definition = msgdef("std_msgs/msg/Float64").encode()
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile=profile, library="tests")
+        first, second = (
+            writer.register_schema("std_msgs/msg/Float64", "ros2msg", definition) for _ in "ab"
+        )
+        u = writer.register_channel("/u", "cdr", first)
+        ys = [writer.register_channel("/y", "cdr", schema) for schema in (first, second)]
+        for k in range(30):
+            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
+            writer.add_message(ys[k % 2], k * NS, float64_cdr(2.0 * k), k * NS)
+        writer.finish()
+    assert inspect_log(log)["problems"] == []
+    check_good_topics(log)
+
+
+@pytest.mark.parametrize("profile", ["", "ros2"])  # the mcap reader, rosbags
+@pytest.mark.parametrize(
+    ("second", "problem"),
+    [("# the level\nfloat64   data  # m\n\n", False), ("float32 data\n", True)],
+)
+def test_schemas_of_a_topic_differing_only_in_comments_are_one_definition(
+    profile: str, second: str, problem: bool, tmp_path: Path
+) -> None:
+    # Two recorders may store one .msg with other comments or layout: the same definition.
+    from mcap.writer import Writer
+
+    log = tmp_path / "layouts.mcap"
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile=profile, library="tests")
+        first, other = (
+            writer.register_schema("std_msgs/msg/Float64", "ros2msg", text.encode())
+            for text in ("float64 data\n", second)
+        )
+        u = writer.register_channel("/u", "cdr", first)
+        ys = [writer.register_channel("/y", "cdr", schema) for schema in (first, other)]
+        for k in range(30):
+            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
+            writer.add_message(ys[k % 2], k * NS, float64_cdr(2.0 * k), k * NS)
+        writer.finish()
+    problems = inspect_log(log)["problems"]
+    if problem:
+        assert len(problems) == 1 and "'/y'" in problems[0], problems
+        assert "different" in problems[0], problems
+    else:
+        assert problems == []
+        check_good_topics(log)

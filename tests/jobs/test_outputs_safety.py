@@ -505,6 +505,11 @@ def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> 
     [
         ("run.txt", {}, OptionError, "cannot tell the log format"),
         ("run.parquet", {"format": "csv"}, OptionError, "must be named *.csv"),
+        # a bag named otherwise is one reading refuses; another format's suffix misleads
+        ("run.mcap", {"format": "bag"}, OptionError, "bag must be named *.bag, not *.mcap"),
+        ("run", {"format": "bag"}, OptionError, "a ROS 1 bag must be named *.bag"),
+        ("run.bag", {"format": "mcap"}, OptionError, "must be named *.mcap, not *.bag"),
+        ("run.db3", {"format": "mcap"}, OptionError, "not *.db3 (the suffix of a ROS 2"),
         ("run.csv", {"encoding": "json"}, OptionError, "only MCAP files"),
         ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
         ("exists.mcap", {}, OutputError, "already exists"),
@@ -519,6 +524,55 @@ def test_simulate_outputs_are_checked_up_front(
         check_log_target(tmp_path / target, **options)  # type: ignore[arg-type]
     assert words in str(info.value)
     assert [p.name for p in tmp_path.iterdir()] == ["exists.mcap"]
+
+
+@pytest.mark.parametrize(
+    ("name", "format", "read_as"),
+    [
+        ("run.bag", "bag", "ros1-bag"),
+        ("run.BAG", "bag", "ros1-bag"),
+        ("run.mcap", "mcap", "mcap"),
+        ("run", "mcap", "mcap"),
+        ("run.log", "mcap", "mcap"),
+        ("run.csv", "csv", "csv"),
+        ("run.parquet", "parquet", "parquet"),
+    ],
+)
+def test_every_log_name_simulate_takes_is_read_back_as_its_format(
+    tmp_path: Path, name: str, format: str, read_as: str
+) -> None:
+    import numpy as np
+
+    from hybridlog.io.formats import log_format
+
+    log = tmp_path / name
+    columns = {"t": np.arange(3.0), "u": np.ones(3)}
+    write_log(log, columns, format=format)
+    assert log_format(log).name == read_as
+
+
+@pytest.mark.parametrize(
+    ("name", "last", "words"),
+    [
+        ("run.bag", 2.0**32, "t = 4.29497e+09 s is beyond the times a ROS 1 bag holds"),
+        ("run.mcap", 1e10, "t = 1e+10 s is beyond the times an MCAP file holds"),
+        ("run.csv", 1e10, "t = 1e+10 s is beyond the times a CSV file holds"),
+        ("run.mcap", -1.0, "t = -1 s is beyond the times an MCAP file holds (from 0 to"),
+    ],
+)
+def test_times_a_log_cannot_hold_are_refused_before_writing(
+    tmp_path: Path, name: str, last: float, words: str
+) -> None:
+    # A ROS 1 bag's seconds are 32-bit, the others' nanoseconds 64-bit: the writers failed
+    # with an internal error part way through, or wrote a CSV hybridlog refused to read.
+    import numpy as np
+
+    log = tmp_path / name
+    with pytest.raises(OptionError) as error:
+        write_log(log, {"t": np.array([0.0, 1.0, last]), "u": np.ones(3)})
+    assert str(error.value).startswith(f"{log}: {words}")
+    assert list(tmp_path.iterdir()) == []
+    write_log(log, {"t": np.array([0.0, 1.0, 2.0**32 - 1]), "u": np.ones(3)})  # just fits
 
 
 def test_simulate_checks_before_simulating(

@@ -184,12 +184,56 @@ def test_the_same_seed_gives_the_same_run(model, short_run):
 def test_settings_and_steps_are_checked(model):
     with pytest.raises(OptionError, match=r"^--set nope: not a scenario parameter of bioplex_pgc"):
         simulate_components(model, steps=5, settings={"nope": 1.0})
-    with pytest.raises(OptionError, match=r"^--set light_fault: light_fault = 1\.5 is used as a"):
+    at = r"bioplex_pgc: simulation\.modes\.ls: "
+    with pytest.raises(OptionError, match=rf"^--set light_fault: {at}light_fault = 1\.5 is used"):
         simulate_components(model, steps=5, settings={"light_fault": 1.5})
-    with pytest.raises(ModelError, match=r"simulation\.modes\.ls: the steps must increase"):
-        simulate_components(model, steps=5, settings={"light_fault": 20, "light_repair": 10})
-    with pytest.raises(ModelError, match=r"simulation\.unmodelled\[0\]: end \(5\) must come"):
-        simulate_components(model, steps=5, settings={"drift_end": 5, "drift_start": 5})
+    # steps out of order because of a --set: the error names it and the model file, and
+    # gives each step with the parameter that set it (it named neither option nor file)
+    with pytest.raises(OptionError) as error:
+        simulate_components(model, steps=5, settings={"light_fault": 2000})
+    assert str(error.value) == (
+        "--set light_fault: bioplex_pgc: simulation.modes.ls: the steps must increase "
+        "(light_fault = 2000 then light_repair = 1300)"
+    )
+    with pytest.raises(OptionError, match=r"\(light_fault = 1e\+300 then light_repair = 1300\)$"):
+        simulate_components(model, steps=5, settings={"light_fault": 1e300})  # not 301 digits
+    with pytest.raises(OptionError) as error:
+        simulate_components(model, steps=5, settings={"drift_start": 1200})
+    assert str(error.value) == (
+        "--set drift_start: bioplex_pgc: simulation.unmodelled[0]: end (drift_end = 1100) "
+        "must come after start (drift_start = 1200)"
+    )
+
+
+def test_the_memory_a_run_needs_counts_every_column_and_message(model):
+    # bioplex_pgc as a ROS 1 bag grew by 2256 bytes a row (18 topics: an index entry per
+    # message), where the check counted 1080 (the three-tank's 15 values a row, 8 topics):
+    # a run twice what fits was let through to be killed for memory.
+    from hybridlog.simulate import memory_needed
+
+    assert memory_needed(model, 1000) > 1000 * 2256  # at least what the bag writer took
+    # 62 values (15 of the plain model, 5 commands, the controller's integral, 10 plant
+    # variables, 4 per component and the joint mode's tuple), 18 messages
+    assert memory_needed(model, 1000) == 1000 * (62 * 8 * 3 + 18 * 128)
+
+
+def test_a_run_ending_later_than_a_log_holds_is_refused(model):
+    # 2e8 steps of 60 s: 1.2e10 s, beyond the 9.2e9 s of int64 nanoseconds; 8e7 steps,
+    # beyond a ROS 1 bag's 32-bit seconds
+    with pytest.raises(OptionError, match=r"^--steps: 200,000,000 steps of 60 s end at t = 1\.2e"):
+        simulate_components(model, steps=200_000_000)
+    with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\)"):
+        simulate_components(model, steps=80_000_000, ends_before=2.0**32)
+
+
+def test_steps_out_of_order_in_the_model_file_name_it(tmp_path):
+    path = tmp_path / "plant.toml"
+    path.write_text(_replace("full@light_repair", "full@800"))
+    with pytest.raises(ModelError) as error:
+        simulate_components(load_model(path), steps=5)
+    assert str(error.value) == (
+        f"{path}: simulation.modes.ls: the steps must increase (light_fault = 900 then 800)"
+    )
 
 
 def _replace(old, new):

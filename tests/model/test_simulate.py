@@ -1,5 +1,7 @@
 """``simulate`` refuses bad input up front, naming the option or the model file and key."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -33,15 +35,57 @@ def test_a_bad_seed_is_an_option_error(seed):
 
 def test_more_steps_than_memory_are_refused_up_front_with_the_size(tmp_path):
     model = load_model("three_tank_hstf")
-    # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws).
-    assert memory_needed(model, 1000) == 1000 * 15 * 8 * 9
-    with pytest.raises(OptionError, match=r"^--steps: 1,000,000,000,000 steps would need about"):
-        simulate(model, steps=10**12)
+    # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws), 8 messages
+    assert memory_needed(model, 1000) == 1000 * (15 * 8 * 3 + 8 * 128)
+    # 10^9 steps of 1 s: a time a log holds (< 9.2e9 s), about 1 TB
+    with pytest.raises(OptionError, match=r"^--steps: 1,000,000,000 steps would need about"):
+        simulate(model, steps=10**9)
     with pytest.raises(OptionError, match=r"^--schedule: .* GB of memory and .* is available"):
-        simulate(model, schedule=f"1:{10**12}")
-    path = _model_file(tmp_path, TANK, 'schedule = "', f'schedule = "2:{10**12},')
+        simulate(model, schedule=f"1:{10**9}")
+    path = _model_file(tmp_path, TANK, 'schedule = "', f'schedule = "2:{10**9},')
     with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: .* steps would need"):
         simulate(load_model(path))
+
+
+def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monkeypatch):
+    # 10^4 steps of 10^6 s end at 10^10 s, beyond the int64 nanoseconds of every log: the
+    # MCAP and bag writers failed after simulating ("unexpected error ... argument out of
+    # range") and the CSV was written, for hybridlog to refuse reading it.
+    def never(*args, **kwargs):
+        raise AssertionError("simulated a run no log holds")
+
+    monkeypatch.setattr("hybridlog.simulation_kernels.simulate_steps", never)
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
+    model = load_model(path)
+    with pytest.raises(OptionError) as error:
+        simulate(model, steps=10_000)
+    assert str(error.value) == (
+        "--steps: 10,000 steps of 1e+06 s end at t = 1e+10 s, later than the log holds "
+        "(times before 9.2e+09 s); simulate fewer steps"
+    )
+    with pytest.raises(OptionError, match=r"^--schedule: 10,000 steps of 1e\+06 s end at"):
+        simulate(model, schedule="1:10000")
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
+    path.write_text(path.read_text().replace('schedule = "1:100,', 'schedule = "1:9800,'))
+    with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: 10,000 steps of"):
+        simulate(load_model(path))
+
+
+def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
+    tmp_path, monkeypatch
+):
+    # A ROS 1 bag's seconds are 32-bit: 5000 steps of 10^6 s (5e9 s) fit an MCAP file, not
+    # a bag, and the bag was refused only once simulated.
+    from hybridlog.jobs.simulate import simulate_log
+
+    def never(*args, **kwargs):
+        raise AssertionError("simulated a run the bag cannot hold")
+
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
+    monkeypatch.setattr("hybridlog.simulation_kernels.simulate_steps", never)
+    with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\); simulate fewer"):
+        simulate_log(path, tmp_path / "run.bag", steps=5000)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plant.toml"]
 
 
 def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
@@ -52,6 +96,8 @@ def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
     with pytest.raises(OptionError, match=r"^--schedule: 'ten' in '1:ten' is not a whole number$"):
         simulate(model, schedule="1:ten")
     assert simulate(model, schedule="2:4").modes.tolist() == [1] * 5
+    # spaces around the colon as around the commas (the mode '1 ' was unknown)
+    assert simulate(model, schedule=" 1 : 2 , 2 :1 ").modes.tolist() == [0, 0, 0, 1]
     # given empty (a script's unset variable), never taken for the model's own schedule
     with pytest.raises(OptionError, match=r"^--schedule: '' is not MODE:STEPS$"):
         simulate(model, schedule="")
@@ -102,3 +148,39 @@ def test_the_command_refuses_in_one_line_before_writing(tmp_path, capsys, args, 
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0] and "Traceback" not in lines[0], lines
     assert not out.exists()
+
+
+def test_a_folder_named_like_a_built_in_is_not_taken_for_the_model(tmp_path, monkeypatch):
+    # Outputs kept in a folder named after the model: "three_tank_hstf: no such model file"
+    # for the built-in, and a log written into the folder "touched the model file".
+    from hybridlog.jobs.analysis import analyze
+    from hybridlog.jobs.simulate import simulate_log
+
+    monkeypatch.chdir(tmp_path)
+    Path("three_tank_hstf").mkdir()
+    assert load_model("three_tank_hstf").origin == "three_tank_hstf"
+    simulate_log("three_tank_hstf", "three_tank_hstf/run.csv", steps=20)
+    analyze("three_tank_hstf/run.csv", "three_tank_hstf", out_dir="three_tank_hstf/report")
+    assert (tmp_path / "three_tank_hstf/report/report.json").is_file()
+    with pytest.raises(ModelError, match=r"^plant\.toml: no such model file$"):
+        load_model("plant.toml")  # a file's name is still a file's, found or not
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "group"),
+    [
+        ('states = ["x1", "x2", "x3"]', 'states = ["x1", "x2", "mode"]', "states"),
+        ('outputs = ["y1", "y2", "y3"]', 'outputs = ["y1", "y2", "mode"]', "outputs"),
+        ('inputs = ["u"]', 'inputs = ["mode"]', "inputs"),
+    ],
+)
+def test_no_signal_can_take_the_true_mode_s_column(tmp_path, old, new, group):
+    # simulate's CSV held the state's values under 'mode' and no true mode (or the mode ids
+    # over the output's values): one column written over the other, without a word.
+    path = _model_file(tmp_path, TANK, old, new)
+    with pytest.raises(ModelError) as error:
+        load_model(path)
+    assert str(error.value) == (
+        f"{path}: {group}: 'mode' is the true mode's column of a log (/truth/mode in a bag) "
+        "and cannot name a signal; choose another name"
+    )

@@ -653,8 +653,14 @@ def event_stream(steps: int = 30) -> Stream:
     )
 
 
-def write_streams_mcap(path: Path, streams: Sequence[Stream], **writer_options: Any) -> Path:
-    """A ``ros2``-profile MCAP with the ``mcap`` writer, each stream with its own schema."""
+def write_streams_mcap(
+    path: Path, streams: Sequence[Stream], *, newest_first: bool = False, **writer_options: Any
+) -> Path:
+    """A ``ros2``-profile MCAP with the ``mcap`` writer, each stream with its own schema.
+
+    Messages are written in log-time order, or with ``newest_first`` in the reverse order
+    (which the MCAP specification allows).
+    """
     with path.open("wb") as handle:
         writer = Writer(handle, **writer_options)
         writer.start(profile="ros2", library="tests")
@@ -663,7 +669,8 @@ def write_streams_mcap(path: Path, streams: Sequence[Stream], **writer_options: 
             schema = writer.register_schema(stream.msgtype, "ros2msg", stream.definition.encode())
             ids.append(writer.register_channel(stream.topic, "cdr", schema))
         messages = sorted(
-            (t, i, data) for i, stream in enumerate(streams) for t, data in stream.messages
+            ((t, i, data) for i, stream in enumerate(streams) for t, data in stream.messages),
+            reverse=newest_first,
         )
         for t, i, data in messages:
             writer.add_message(ids[i], t, data, t)
