@@ -84,6 +84,37 @@ def step_ns(dt: float) -> int:
     return round(dt * NS_PER_S)
 
 
+def grid_span(
+    dt_ns: int, starts: Sequence[Series], ends: Sequence[Series], *, source: str = "log"
+) -> tuple[int, int]:
+    """First and last time (ns) the grid of :func:`make_grid` may reach: ``t0`` and ``t_end``.
+
+    Raises
+    ------
+    LogError
+        When the series do not overlap or one of them is empty.
+    """
+    for series in (*starts, *ends):
+        if series.time_ns.size == 0:
+            raise LogError(f"{source}: {series.name!r} has no samples")
+    if not starts:
+        raise LogError(f"{source}: no input or output signal to align")
+    first = max(starts, key=lambda s: int(s.time_ns[0]))
+    t0 = int(first.time_ns[0])
+    if ends:
+        last = min(ends, key=lambda s: int(s.time_ns[-1]))
+        t_end = int(last.time_ns[-1]) + dt_ns // 2
+    else:
+        last = min(starts, key=lambda s: int(s.time_ns[-1]))
+        t_end = int(last.time_ns[-1])
+    if t_end < t0:
+        raise LogError(
+            f"{source}: signals do not overlap in time ({first.name!r} starts at "
+            f"t={format_ns(t0)} s, {last.name!r} ends at t={format_ns(int(last.time_ns[-1]))} s)"
+        )
+    return t0, t_end
+
+
 def make_grid(
     dt: float,
     starts: Sequence[Series],
@@ -110,25 +141,7 @@ def make_grid(
     LogError
         When the series do not overlap or one of them is empty.
     """
-    dt_ns = step_ns(dt)
-    for series in (*starts, *ends):
-        if series.time_ns.size == 0:
-            raise LogError(f"{source}: {series.name!r} has no samples")
-    if not starts:
-        raise LogError(f"{source}: no input or output signal to align")
-    first = max(starts, key=lambda s: int(s.time_ns[0]))
-    t0 = int(first.time_ns[0])
-    if ends:
-        last = min(ends, key=lambda s: int(s.time_ns[-1]))
-        t_end = int(last.time_ns[-1]) + dt_ns // 2
-    else:
-        last = min(starts, key=lambda s: int(s.time_ns[-1]))
-        t_end = int(last.time_ns[-1])
-    if t_end < t0:
-        raise LogError(
-            f"{source}: signals do not overlap in time ({first.name!r} starts at "
-            f"t={format_ns(t0)} s, {last.name!r} ends at t={format_ns(int(last.time_ns[-1]))} s)"
-        )
+    t0, t_end = grid_span(step_ns(dt), starts, ends, source=source)
     step = dt * NS_PER_S
     n = int((t_end - t0) // step) + 1
     # Built in place (one array; the same values as t0 + offsets), then cut to the points
@@ -276,6 +289,37 @@ def resample_series(
     return values, too_long, int(in_gap.size - too_long.size)
 
 
+def _gap_on_the_grid(
+    series: Series, span: tuple[int, int], dt_ns: int, max_gap_ns: int
+) -> IntArray | None:
+    """A time inside the first gap of ``series`` that the grid check is sure to refuse.
+
+    :func:`resample_series` finds every gap longer than ``max_gap``, but on the grid, whose
+    size follows from the log's span: a log whose times are not seconds (nanoseconds from
+    0, 10^9 times too long) would have a grid of hundreds of GiB made before its first
+    gap was seen.  Between consecutive samples more than ``max(max_gap, 2 dt)`` apart, a
+    stretch longer than ``dt`` of the grid's span ``(t0, t_end)`` lies more than ``dt/2``
+    from both, so it holds a grid point that check refuses (with the same message); a
+    shorter gap is left to it.  ``None`` when there is no such gap.
+    """
+    time_ns = series.time_ns
+    if time_ns.size < 2:
+        return None
+    half = dt_ns // 2 + 1  # strictly more than dt/2 from a sample
+    steps = np.diff(time_ns)
+    candidates = np.flatnonzero(longer_than_max_gap(steps, max(max_gap_ns, 2 * dt_ns), dt_ns))
+    if candidates.size == 0:
+        return None
+    t0, t_end = span
+    lo = np.maximum(time_ns[candidates] + half, t0)
+    hi = np.minimum(time_ns[candidates + 1] - half, t_end)
+    inside = np.flatnonzero(hi - lo > dt_ns + 1)  # a grid step is dt rounded to 1 ns
+    if inside.size == 0:
+        return None
+    k = int(inside[0])
+    return np.array([(int(lo[k]) + int(hi[k])) // 2], dtype=np.int64)
+
+
 def _gap_error(
     source: str,
     label: str,
@@ -320,6 +364,8 @@ def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
     )
     if median > dt_ns + clock_tolerance_ns(dt_ns):
         hint += f": is the model's dt ({format_ns(dt_ns)} s) the log's?"
+    if median >= 500 * dt_ns:  # 1000 dt for a log in milliseconds, 10^9 dt in nanoseconds
+        hint += " Or are its times not in seconds (milliseconds, nanoseconds)?"
     return hint
 
 
@@ -430,9 +476,15 @@ def align_signals(
         )
 
     output_list = list(outputs.values())
-    grid = make_grid(
-        dt, [*inputs.values(), *output_list], output_list or list(inputs.values()), source=source
-    )
+    starts, ends = [*inputs.values(), *output_list], output_list or list(inputs.values())
+    span = grid_span(dt_ns, starts, ends, source=source)
+    for symbol, series in outputs.items():
+        gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
+        if gap is not None:  # before the grid: times not in seconds would ask for GiBs
+            raise _gap_error(
+                source, f"output {symbol!r}", field_word, series, gap, 0, max_gap_ns, dt_ns
+            )
+    grid = make_grid(dt, starts, ends, source=source)
     n = grid.size
 
     u = np.empty((n, len(inputs)), dtype=np.float64)

@@ -459,3 +459,69 @@ def test_an_output_slower_than_max_gap_says_so() -> None:
     with pytest.raises(LogError) as error:
         align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": holed})
     assert str(error.value).endswith("(1.1 s > max_gap 0.5 s)")
+
+
+def test_a_log_in_nanoseconds_is_refused_before_its_grid_is_made(monkeypatch) -> None:
+    """Times in ns read as seconds (50 rows from 0) asked numpy for a grid of 365 GiB and
+    ended as 'out of memory in align.py'; the gap is now seen before the grid is made."""
+    import hybridlog.io.align as align
+
+    def no_grid(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("the grid was made before the gap was seen")
+
+    monkeypatch.setattr(align, "make_grid", no_grid)
+    stamps = np.arange(50) * 100_000_000.0  # nanoseconds, taken as seconds
+    with pytest.raises(
+        LogError,
+        match=r"gap in output 'y' \(column 'y'\): no sample from t=0 s to t=100000000 s .*"
+        r"Or are its times not in seconds",
+    ):
+        align_signals(
+            source="ns.csv",
+            dt=0.1,
+            inputs={"u": series("u", stamps, np.zeros(50))},
+            outputs={"y": series("y", stamps, np.ones(50))},
+        )
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    steps=st.lists(st.integers(1, 40), min_size=2, max_size=30),
+    max_gap=st.sampled_from([None, 0.05, 0.1, 0.25, 0.35]),
+    start=st.integers(0, 5),
+    method=st.sampled_from(["nearest", "linear"]),
+)
+def test_the_early_gap_check_refuses_only_what_the_grid_check_refuses(
+    steps: list[int],
+    max_gap: float | None,
+    start: int,
+    method: str,
+) -> None:
+    """With the check before the grid, and without it, the same logs are refused or aligned."""
+    import hybridlog.io.align as align
+
+    out_times = np.cumsum([0, *steps]) * 0.025  # outputs every 0.025..1 s, dt 0.1
+    in_times = np.arange(start, 80) * 0.1
+
+    def run() -> Any:
+        try:
+            return align_signals(
+                source="log",
+                dt=0.1,
+                inputs={"u": series("u", in_times, np.sin(in_times))},
+                outputs={"y": series("y", out_times, np.cos(out_times))},
+                resample=method,
+                max_gap=max_gap,
+            )
+        except LogError as err:
+            return str(err).split(": no sample")[0]
+
+    early = run()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(align, "_gap_on_the_grid", lambda *args: None)
+        late = run()
+    if isinstance(early, str) or isinstance(late, str):
+        assert early == late
+    else:
+        np.testing.assert_array_equal(early.outputs, late.outputs)
+        np.testing.assert_array_equal(early.time, late.time)
