@@ -105,6 +105,8 @@ _NOISE_KEYS = {"process", "measurement"}
 _INITIAL_KEYS = {"state", "covariance", "mode", "mode_probabilities"}
 _TRANSITION_KEYS = {"matrix", "stay"}
 _SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule", *COMPONENT_KEYS}
+_MODE_KEY = "mode"
+"""The true mode's key in ``[truth]`` (``mode.<component>`` per component)."""
 MAX_BOOLEANS = 10
 """Most booleans of a boolean-affine model (2^10 = 1024 modes)."""
 _STEP_TOLERANCE = 1e-9
@@ -285,8 +287,7 @@ class _Builder:
                 "a schedule does not apply"
             )
         estimators = as_table(data.get("estimators", {}), "estimators")
-        truth_keys = {"mode", *states} if kind != "components" else set(states)
-        truth_keys |= {f"mode.{c.name}" for c in components}
+        signals, truth = _paths(data, groups, tuple(c.name for c in components))
         return HybridModel(
             name=as_string(data.get("name", "unnamed"), "name"),
             description=as_string(data.get("description", ""), "description"),
@@ -301,10 +302,8 @@ class _Builder:
             initial_covariance=p0,
             initial_mode_probabilities=mu0,
             transitions=transitions,
-            signals=_string_map(
-                data.get("signals", {}), "signals", {*states, *inputs, *outputs, *commands}
-            ),
-            truth=_string_map(data.get("truth", {}), "truth", truth_keys),
+            signals=signals,
+            truth=truth,
             default_estimator=as_string(data.get("default_estimator", "imm"), "default_estimator"),
             estimator_options={
                 str(k): dict(as_table(v, key_path("estimators", str(k))))
@@ -881,13 +880,84 @@ def _markov_rows(value: Any, n: int) -> FloatArray:
     return matrix
 
 
-def _string_map(value: Any, key: str, allowed: set[str]) -> dict[str, str]:
-    table = as_table(value, key)
+def _paths(
+    data: Mapping[str, Any], groups: Mapping[str, tuple[str, ...]], components: tuple[str, ...]
+) -> tuple[dict[str, str], dict[str, str]]:
+    """``[signals]`` (inputs and outputs) and ``[truth]`` (true mode and states): symbol → path.
+
+    Every key must be one the log mapping reads (:mod:`hybridlog.io.mapping`): a key it
+    would skip (a state under ``[signals]``, a command, an input under ``[truth]``) is
+    refused, naming where the key belongs, rather than silently ignored.  In ``[truth]``,
+    a components model maps each component's true mode as ``"mode.<component>"``, which
+    TOML also reads from the dotted key ``mode.<component> = ...`` (a table ``mode``).
+    """
+    modes = tuple(f"{_MODE_KEY}.{c}" for c in components) or (_MODE_KEY,)
+    truth = dict(as_table(data.get("truth", {}), "truth"))
+    if isinstance(truth.get(_MODE_KEY), dict):
+        for component, path in as_table(truth.pop(_MODE_KEY), "truth.mode").items():
+            name = f"{_MODE_KEY}.{component}"
+            if name in truth:
+                raise ModelError(
+                    f"{key_path('truth', name)}: given twice (also as mode.{component})"
+                )
+            truth[name] = path
+    return (
+        _path_table(data.get("signals", {}), "signals", groups, modes),
+        _path_table(truth, "truth", groups, modes),
+    )
+
+
+def _path_table(
+    value: Any, table: str, groups: Mapping[str, tuple[str, ...]], modes: tuple[str, ...]
+) -> dict[str, str]:
+    """``[signals]`` or ``[truth]``: keys the log mapping reads, non-empty path strings."""
     result: dict[str, str] = {}
-    for name, path in table.items():
-        if name not in allowed:
-            raise ModelError(
-                f"{key_path(key, name)}: unknown symbol (allowed: {', '.join(sorted(allowed))})"
-            )
-        result[name] = as_string(path, key_path(key, name))
+    for name, path in as_table(value, table).items():
+        _refuse_misplaced(name, table, groups, modes)
+        text = as_string(path, key_path(table, name))
+        if not text:
+            raise ModelError(f"{key_path(table, name)}: an empty path names no field of a log")
+        result[name] = text
     return result
+
+
+def _refuse_misplaced(
+    name: str, table: str, groups: Mapping[str, tuple[str, ...]], modes: tuple[str, ...]
+) -> None:
+    """Refuse a ``[signals]``/``[truth]`` key the log mapping would not read, saying why."""
+    key = key_path(table, name)
+    signal_names = (*groups["inputs"], *groups["outputs"])
+    if table == "signals" and name in signal_names:
+        return
+    if table == "truth" and name in (*modes, *groups["states"]):
+        return
+    if table == "signals" and name in groups["states"]:
+        reason = f"a state; true states map under [truth] ({key_path('truth', name)} = ...)"
+    elif table == "signals" and (name == _MODE_KEY or name.startswith(f"{_MODE_KEY}.")):
+        reason = "the true mode maps under [truth]"
+    elif table == "truth" and name in signal_names:
+        reason = f"{_role(name, groups)}; inputs and outputs map under [signals]"
+    elif table == "truth" and name == _MODE_KEY:
+        reason = (
+            "a components model has no mode of the whole model; map each component's "
+            'true mode as "mode.<component>"'
+        )
+    elif name in groups["commands"]:
+        reason = (
+            "a command; commands are not read from a log (the estimators apply no "
+            "transition rule with 'when')"
+        )
+    elif name in (*groups["variables"], *groups["booleans"]):
+        reason = f"{_role(name, groups)}, which no log holds"
+    else:
+        allowed = signal_names if table == "signals" else (*modes, *groups["states"])
+        what = "an input or output" if table == "signals" else "a true mode or state"
+        reason = f"not {what} of the model (allowed: {', '.join(allowed) or 'none'})"
+    raise ModelError(f"{key}: {reason}")
+
+
+def _role(name: str, groups: Mapping[str, tuple[str, ...]]) -> str:
+    """``an input``, ``an output``, ``a variable``: the group a symbol belongs to."""
+    group = next(g for g, names in groups.items() if name in names)
+    singular = group.removesuffix("s")
+    return f"{'an' if singular[0] in 'aeiou' else 'a'} {singular}"
