@@ -107,6 +107,22 @@ _TRANSITION_KEYS = {"matrix", "stay"}
 _SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule", *COMPONENT_KEYS}
 _MODE_KEY = "mode"
 """The true mode's key in ``[truth]`` (``mode.<component>`` per component)."""
+_LOGGED_GROUPS = ("states", "inputs", "outputs", "commands")
+"""The symbols a log holds a field of (true states, inputs, outputs, commands)."""
+_LOG_FIELD_NAMES = {
+    "mode": (
+        "is the true mode's field of a log (a CSV/Parquet column 'mode', [truth] mode, "
+        "--map truth.mode)"
+    ),
+    "time": "is a time column of a CSV/Parquet log ('t' or 'time')",
+}
+"""Field names a log gives another meaning (:mod:`hybridlog.io.mapping`, ``io/tables.py``).
+
+A symbol of that name would be read from the same field as that meaning: a state ``mode``
+read the true mode's column as its true value and the true mode's as a number (the log was
+refused), and ``simulate`` wrote one column for both.  (``t``, the other time column, is a
+name of the expression grammar, refused for every symbol.)
+"""
 MAX_BOOLEANS = 10
 """Most booleans of a boolean-affine model (2^10 = 1024 modes)."""
 _STEP_TOLERANCE = 1e-9
@@ -194,6 +210,7 @@ class _Builder:
             "commands": commands,
         }
         check_disjoint(groups)
+        _refuse_log_field_names(groups)
         params = self.parameters(groups)
         x = tuple(sympy.Symbol(s, real=True) for s in states)
         u = tuple(sympy.Symbol(s, real=True) for s in inputs)
@@ -878,6 +895,16 @@ def _markov_rows(value: Any, n: int) -> FloatArray:
         bad = int(np.argmax(np.abs(matrix.sum(axis=1) - 1.0)))
         raise ModelError(f"{key}[{bad}]: each row must be non-negative and sum to 1")
     return matrix
+
+
+def _refuse_log_field_names(groups: Mapping[str, tuple[str, ...]]) -> None:
+    """Refuse a logged symbol named like a field a log gives another meaning (``mode``)."""
+    for group in _LOGGED_GROUPS:
+        for name in groups[group]:
+            if name in _LOG_FIELD_NAMES:
+                raise ModelError(
+                    f"{group}: '{name}' {_LOG_FIELD_NAMES[name]} and cannot be a symbol name"
+                )
 
 
 def _paths(

@@ -1,11 +1,14 @@
-"""A model file's ``[signals]`` and ``[truth]``: every key is one the log mapping reads."""
+"""How a model file names log fields: ``[signals]``, ``[truth]`` and the symbols they map."""
 
 import numpy as np
 import pytest
 
 from hybridlog.errors import ModelError
 from hybridlog.io import SignalSpec, load_signals, write_table
-from hybridlog.model.loader import parse_model
+from hybridlog.io.mapping import DEFAULT_MODE_FIELD
+from hybridlog.io.tables import TIME_COLUMNS
+from hybridlog.model.expressions import symbol_name_problem
+from hybridlog.model.loader import _LOG_FIELD_NAMES, parse_model
 from hybridlog.simulate import simulate
 from tests.support.models import LINEAR_TWO_MODE
 
@@ -75,3 +78,29 @@ def test_every_key_the_loader_accepts_is_read_from_the_log(tmp_path):
     assert np.array_equal(signals.truth_states, np.column_stack([columns["p"], columns["v"]]))
     assert signals.truth_modes is not None
     assert [model.mode_ids[m] for m in signals.truth_modes] == list(columns["mode"])
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "group", "name"),
+    [
+        ('states = ["p", "v"]', 'states = ["p", "mode"]', "states", "mode"),
+        ('inputs = ["a"]', 'inputs = ["mode"]', "inputs", "mode"),
+        ('outputs = ["y1", "y2"]', 'outputs = ["y1", "time"]', "outputs", "time"),
+        ('states = ["p", "v"]', 'states = ["time", "v"]', "states", "time"),
+    ],
+)
+def test_a_symbol_named_like_a_field_a_log_gives_another_meaning_is_refused(old, new, group, name):
+    # A state 'mode' was read from the true mode's column, and the true mode from the
+    # state's numbers: the log was refused ("truth.mode '0.0' is not a mode"), and simulate
+    # wrote one 'mode' column for both.
+    text = LINEAR_TWO_MODE.replace(old, new, 1)
+    with pytest.raises(
+        ModelError, match=rf"^plant\.toml: {group}: '{name}' is .* log .*cannot be a symbol name$"
+    ):
+        parse_model(text, origin="plant.toml")
+
+
+def test_the_refused_field_names_are_the_logs_own():
+    # the loader cannot import io (peers): its list must follow io's names
+    assert set(TIME_COLUMNS) - {"t"} | {DEFAULT_MODE_FIELD} == set(_LOG_FIELD_NAMES)
+    assert symbol_name_problem("t") is not None  # t is refused by the grammar already
