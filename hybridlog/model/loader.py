@@ -26,7 +26,7 @@ import ast
 import json
 import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -107,6 +107,14 @@ _TRANSITION_KEYS = {"matrix", "stay"}
 _SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule", *COMPONENT_KEYS}
 _MODE_KEY = "mode"
 """The true mode's key in ``[truth]`` (``mode.<component>`` per component)."""
+_STATE_COLUMNS = (
+    ("_hat", "estimate"),
+    ("_var", "variance"),
+    ("_hat_filtered", "filtered estimate"),
+    ("_var_filtered", "filtered variance"),
+    ("_true", "true value"),
+)
+"""The columns of ``estimates`` a state gives (report/tables.py), and what they hold."""
 _LOGGED_GROUPS = ("states", "inputs", "outputs", "commands")
 """The symbols a log holds a field of (true states, inputs, outputs, commands)."""
 _LOG_FIELD_NAMES = {
@@ -268,6 +276,7 @@ class _Builder:
             mu0 = _initial_modes(initial, mode_ids)
             transitions = _transitions(data.get("transitions"), mode_ids)
             jumps = _jumps(data.get("jumps", {}), mode_ids, symbols)
+        _check_report_columns(states, outputs, tuple(m.id for m in modes))
         x0 = as_vector(required(initial, "state", "initial"), len(states), "initial.state")
         p0 = as_covariance(initial.get("covariance", 1.0), len(states), "initial.covariance")
         simulation = as_table(data.get("simulation", {}), "simulation")
@@ -905,6 +914,48 @@ def _refuse_log_field_names(groups: Mapping[str, tuple[str, ...]]) -> None:
                 raise ModelError(
                     f"{group}: '{name}' {_LOG_FIELD_NAMES[name]} and cannot be a symbol name"
                 )
+
+
+def _report_columns(
+    states: tuple[str, ...], outputs: tuple[str, ...], mode_ids: tuple[str, ...]
+) -> Iterator[tuple[str, str, str, str]]:
+    """``(table, column, key, what)`` for every column a run's tables may have.
+
+    The columns the model's names make in ``timeline`` and ``estimates``
+    (report/tables.py; with ``--smooth`` and ground truth, in the tables' order), the
+    model-file key naming each, and what the column holds.  The other columns (``t``,
+    ``mode``, ``truth_mode``, ``mode.<component>``) have names no symbol or ``p_<mode>`` has.
+    """
+    for m in mode_ids:
+        yield "timeline", f"p_{m}", key_path("modes", m), f"the probability of mode {m!r}"
+    for m in mode_ids:
+        what = f"the filtered probability of mode {m!r}"
+        yield "timeline", f"p_{m}_filtered", key_path("modes", m), what
+    for x in states:
+        for suffix, what in _STATE_COLUMNS:
+            yield "estimates", f"{x}{suffix}", "states", f"the {what} of state {x!r}"
+    for y in outputs:
+        yield "estimates", f"{y}_hat", "outputs", f"the prediction of output {y!r}"
+        yield "estimates", y, "outputs", f"the measurement of output {y!r}"
+
+
+def _check_report_columns(
+    states: tuple[str, ...], outputs: tuple[str, ...], mode_ids: tuple[str, ...]
+) -> None:
+    """Refuse names whose report columns coincide: the later column replaced the first.
+
+    With an output ``x1_var`` beside a state ``x1``, ``estimates.csv`` held the measured
+    output under ``x1_var`` and the state's variance nowhere; with modes ``a`` and
+    ``a_filtered``, a smoothed run's ``p_a_filtered`` was the filter's probability of ``a``.
+    """
+    seen: dict[tuple[str, str], str] = {}
+    for table, column, key, what in _report_columns(states, outputs, mode_ids):
+        if (table, column) in seen:
+            raise ModelError(
+                f"{key}: {table} column {excerpt(column, 40)} would hold both "
+                f"{seen[table, column]} and {what}; rename one of them"
+            )
+        seen[table, column] = what
 
 
 def _paths(

@@ -3,12 +3,13 @@
 import numpy as np
 import pytest
 
+from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.io import SignalSpec, load_signals, write_table
 from hybridlog.io.mapping import DEFAULT_MODE_FIELD
 from hybridlog.io.tables import TIME_COLUMNS
 from hybridlog.model.expressions import symbol_name_problem
-from hybridlog.model.loader import _LOG_FIELD_NAMES, parse_model
+from hybridlog.model.loader import _LOG_FIELD_NAMES, _report_columns, parse_model
 from hybridlog.simulate import simulate
 from tests.support.models import LINEAR_TWO_MODE
 
@@ -104,3 +105,71 @@ def test_the_refused_field_names_are_the_logs_own():
     # the loader cannot import io (peers): its list must follow io's names
     assert set(TIME_COLUMNS) - {"t"} | {DEFAULT_MODE_FIELD} == set(_LOG_FIELD_NAMES)
     assert symbol_name_problem("t") is not None  # t is refused by the grammar already
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            'outputs = ["y1", "y2"]',
+            'outputs = ["y1", "p_var"]',
+            r"outputs: estimates column 'p_var' would hold both the variance of state 'p' and "
+            r"the measurement of output 'p_var'; rename one of them$",
+        ),
+        (
+            'outputs = ["y1", "y2"]',
+            'outputs = ["y1", "v_true"]',
+            r"outputs: estimates column 'v_true' would hold both the true value of state 'v'",
+        ),
+        (
+            'outputs = ["y1", "y2"]',
+            'outputs = ["y1", "p_hat_filtered"]',
+            r"outputs: estimates column 'p_hat_filtered' would hold both the filtered estimate",
+        ),
+        (
+            'outputs = ["y1", "y2"]',
+            'outputs = ["y1", "y1_hat"]',
+            r"outputs: estimates column 'y1_hat' would hold both the prediction of output 'y1' "
+            r"and the measurement of output 'y1_hat'",
+        ),
+        (
+            "[modes.fast]",
+            "[modes.slow_filtered]",
+            r"modes\.slow: timeline column 'p_slow_filtered' would hold both the probability of "
+            r"mode 'slow_filtered' and the filtered probability of mode 'slow'",
+        ),
+    ],
+)
+def test_names_whose_report_columns_coincide_are_refused(old, new, message):
+    # The later column silently replaced the first: estimates.csv's p_var held the output,
+    # and the variance of p was nowhere.
+    with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
+        parse_model(LINEAR_TWO_MODE.replace(old, new, 1), origin="plant.toml")
+
+
+def test_names_whose_columns_live_in_different_tables_are_kept():
+    # p_slow is an estimates column (an output) and a timeline column (a mode probability)
+    model = parse_model(
+        LINEAR_TWO_MODE.replace('outputs = ["y1", "y2"]', 'outputs = ["y1", "p_slow"]')
+    )
+    assert model.outputs == ("y1", "p_slow")
+
+
+def test_the_checked_columns_are_those_a_smoothed_run_writes(tmp_path):
+    model_path = tmp_path / "plant.toml"
+    model_path.write_text(LINEAR_TWO_MODE)
+    model = parse_model(LINEAR_TWO_MODE)
+    log = tmp_path / "run.csv"
+    main(["simulate", str(model_path), "--out", str(log), "--steps", "60", "-q"])
+    out = tmp_path / "report"
+    analyze = ["analyze", str(log), "--model", str(model_path), "--estimator", "imm"]
+    main([*analyze, "--smooth", "--out", str(out), "-q"])
+    expected: dict[str, set[str]] = {"timeline": set(), "estimates": set()}
+    for table, column, _, _ in _report_columns(model.states, model.outputs, model.mode_ids):
+        expected[table].add(column)
+    for table, fixed in (
+        ("timeline", {"t", "mode", "mode_filtered", "truth_mode"}),
+        ("estimates", {"t"}),
+    ):
+        header = (out / f"{table}.csv").read_text().splitlines()[0].split(",")
+        assert set(header) == expected[table] | fixed
