@@ -302,6 +302,11 @@ class _Builder:
         else:
             for key in sorted(COMPONENT_KEYS & set(simulation)):
                 raise ModelError(f"simulation.{key}: only a components model's scenario has {key}")
+        if "state_min" in simulation and kind == "components":
+            raise ModelError(
+                "simulation.state_min: a components model's scenario does not bound its states; "
+                "bound them in the equations (e.g. max(..., 0))"
+            )
         if "schedule" in simulation and kind == "components":
             raise ModelError(
                 "simulation.schedule: a components model has no joint mode schedule; "

@@ -614,6 +614,11 @@ _COMPONENT_ERRORS = [
     ),
     (
         "covariance = 1.0",
+        "covariance = 1.0\n[simulation]\nstate_min = [0.0, 0.0, 0.0]",
+        r"simulation\.state_min: a components model's scenario does not bound its states",
+    ),
+    (
+        "covariance = 1.0",
         'covariance = 1.0\n[signals]\nud1 = "/cmd.data"',
         r"signals\.ud1: a command; commands are not read from a log",
     ),
