@@ -25,7 +25,9 @@ from __future__ import annotations
 import ast
 import json
 import math
+import re
 import tomllib
+import unicodedata
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -220,6 +222,7 @@ class _Builder:
         check_disjoint(groups)
         _refuse_log_field_names(groups)
         params = self.parameters(groups)
+        _refuse_unused_overrides(data, self.overrides)
         x = tuple(sympy.Symbol(s, real=True) for s in states)
         u = tuple(sympy.Symbol(s, real=True) for s in inputs)
         symbols = _Symbols(
@@ -909,6 +912,44 @@ def _markov_rows(value: Any, n: int) -> FloatArray:
         bad = int(np.argmax(np.abs(matrix.sum(axis=1) - 1.0)))
         raise ModelError(f"{key}[{bad}]: each row must be non-negative and sum to 1")
     return matrix
+
+
+_FREE_TEXT_KEYS = {"name", "description", "reference"}
+"""Top-level keys whose strings are prose, not expressions."""
+_IDENTIFIER = re.compile(r"[^\W\d]\w*")
+
+
+def _refuse_unused_overrides(data: Mapping[str, Any], overrides: Mapping[str, float]) -> None:
+    """Refuse ``--set`` of a parameter no string of the model names: it would change nothing.
+
+    Parameters are used only in expressions, which are strings; a parameter named in no
+    string outside the prose keys (read as the parser reads names, in NFKC form) is used
+    nowhere, and a run with it changed would be the run without, silently.  (A name in other
+    text, a scenario's description, counts as used.)
+    """
+    if not overrides:
+        return
+    named: set[str] = set()
+    for value in _strings({k: v for k, v in data.items() if k not in _FREE_TEXT_KEYS}):
+        named.update(_IDENTIFIER.findall(unicodedata.normalize("NFKC", value)))
+    for name in overrides:
+        if name not in named:
+            raise ModelError(
+                f"{key_path('parameters', name)}: used by no expression of the model, so "
+                f"--set {name}=... would change nothing"
+            )
+
+
+def _strings(value: Any) -> Iterator[str]:
+    """Every string in a parsed TOML value, keys excepted."""
+    if isinstance(value, str):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _strings(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _strings(item)
 
 
 def _refuse_log_field_names(groups: Mapping[str, tuple[str, ...]]) -> None:

@@ -172,6 +172,21 @@ def test_parameter_override_changes_the_equations():
         parse_model(PENDULUM_ONE_MODE, parameters={"length": 1.0})
 
 
+def test_an_override_of_a_parameter_no_expression_uses_is_refused():
+    # --set c=... of a parameter the equations no longer use gave the unchanged run, silently
+    text = _replace(PENDULUM_ONE_MODE, "- 0.05*c*omega", "")
+    assert parse_model(text).parameters["c"] == 0.2  # kept in the file, as a note
+    with pytest.raises(
+        ModelError,
+        match=r"^plant\.toml: parameters\.c: used by no expression of the model, so "
+        r"--set c=\.\.\. would change nothing$",
+    ):
+        parse_model(text, parameters={"c": 0.5}, origin="plant.toml")
+    # a name the parser reads in NFKC form is a use: "\ufb01" is the parameter fi
+    ligature = _replace(text, "c = 0.2", "fi = 0.2").replace("0.05*(g/l)", "0.05*(g/l)*\ufb01")
+    assert parse_model(ligature, parameters={"fi": 0.5}).parameters["fi"] == 0.5
+
+
 def test_linear_modes_become_affine_expressions():
     model = parse_model(LINEAR_TWO_MODE)
     fast = model.modes[1]
