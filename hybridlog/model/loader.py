@@ -268,6 +268,7 @@ class _Builder:
                 process_variances=_variances(default_q, "noise.process"),
                 measurement_variances=_variances(default_r, "noise.measurement"),
             )
+            _refuse_joint_separator(components)
             mu0 = np.zeros(0)
             transitions = None
         else:
@@ -950,6 +951,28 @@ def _strings(value: Any) -> Iterator[str]:
     elif isinstance(value, list):
         for item in value:
             yield from _strings(item)
+
+
+_JOINT_SEPARATOR = "|"
+"""What joins the components' mode ids into a joint mode's id (``m11|m21``, the joint-mode
+model ``imm`` runs on a components model: ``estimators/cpha/joint.py``)."""
+
+
+def _refuse_joint_separator(components: tuple[Component, ...]) -> None:
+    """Refuse a component mode id holding ``|``: two joint modes would get one id.
+
+    With modes ``a|b`` and ``a`` of one component and ``c`` and ``b|c`` of another, the joint
+    modes (``a|b``, ``c``) and (``a``, ``b|c``) were both ``a|b|c``: the timeline kept one
+    ``p_a|b|c`` column of the two and its ``mode`` column could not tell them apart.
+    """
+    for component in components:
+        for mode_id in component.mode_ids:
+            if _JOINT_SEPARATOR in mode_id:
+                key = key_path(key_path("components", component.name) + ".modes", mode_id)
+                raise ModelError(
+                    f"{key}: a component's mode id may not hold {_JOINT_SEPARATOR!r}, which joins "
+                    "the components' mode ids into a joint mode's id (m11|m21)"
+                )
 
 
 def _refuse_log_field_names(groups: Mapping[str, tuple[str, ...]]) -> None:

@@ -8,11 +8,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import ModelError
+from hybridlog.estimators.cpha.joint import SEPARATOR
 from hybridlog.estimators.switched_observer import linear_modes
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.expressions import previous_symbol
-from hybridlog.model.loader import load_model, parse_model
+from hybridlog.model.loader import _JOINT_SEPARATOR, load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.support.model_kinds import (
     CLUTCH_JUMPS,
@@ -613,6 +614,11 @@ _COMPONENT_ERRORS = [
         r"component's true mode as \"mode\.<component>\"$",
     ),
     (
+        "[components.A3.modes.m31]",
+        '[components.A3.modes."m3|1"]',
+        r"components\.A3\.modes\.'m3\|1': a component's mode id may not hold '\|', which joins",
+    ),
+    (
         "covariance = 1.0",
         "covariance = 1.0\n[simulation]\nstate_min = [0.0, 0.0, 0.0]",
         r"simulation\.state_min: a components model's scenario does not bound its states",
@@ -634,6 +640,11 @@ _COMPONENT_ERRORS = [
 def test_bad_components_name_the_key(old, new, message):
     with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
         parse_model(_replace(THREE_COMPONENTS, old, new), origin="plant.toml")
+
+
+def test_the_refused_mode_id_character_is_the_joint_modes_separator():
+    # the loader cannot import the estimators: its separator must follow joint.py's
+    assert _JOINT_SEPARATOR == SEPARATOR
 
 
 @pytest.mark.parametrize("key", ['"mode.A2"', "mode.A2"])
