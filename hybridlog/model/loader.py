@@ -142,9 +142,12 @@ _STEP_TOLERANCE = 1e-9
 def parse_model(
     text: str, *, origin: str = "<model>", parameters: Mapping[str, float] | None = None
 ) -> HybridModel:
-    """Parse and validate the text of a model file; ``origin`` prefixes every error."""
+    """Parse and validate the text of a model file; ``origin`` prefixes every error.
+
+    A byte-order mark at the start (which Windows editors write) is no part of the TOML.
+    """
     try:
-        data = tomllib.loads(text)
+        data = tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as err:
         raise ModelError(f"{origin}: invalid TOML: {err}") from err
     try:

@@ -158,6 +158,13 @@ def test_invalid_toml_names_the_file_and_line():
         parse_model("name = 'x'\ndt = = 1\n", origin="bad.toml")
 
 
+def test_a_model_file_saved_with_a_byte_order_mark_loads(tmp_path):
+    # Notepad's "UTF-8 with BOM": was "invalid TOML: Invalid statement (at line 1, column 1)"
+    path = tmp_path / "plant.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + LINEAR_TWO_MODE.encode())
+    assert load_model(path).states == ("p", "v")
+
+
 def test_unknown_model_name_lists_builtins():
     with pytest.raises(ModelError, match="three_tank_hstf"):
         load_model("no_such_model")
