@@ -2,6 +2,7 @@
 
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.estimators.common import noise_stacks
 from hybridlog.io import SignalSpec, load_signals, write_table
+from hybridlog.model.cache import model_file
 from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
@@ -168,6 +170,22 @@ def test_a_model_file_saved_with_a_byte_order_mark_loads(tmp_path):
 def test_unknown_model_name_lists_builtins():
     with pytest.raises(ModelError, match="three_tank_hstf"):
         load_model("no_such_model")
+
+
+def test_a_builtin_name_beside_a_folder_of_that_name_is_the_builtin(tmp_path, monkeypatch):
+    # analyze --model ice_clutch --out ice_clutch, then any run with --model ice_clutch in
+    # that folder's parent: was "ice_clutch: no such model file"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ice_clutch").mkdir()
+    assert model_file("ice_clutch") is None
+    assert load_model("ice_clutch").origin == "ice_clutch"
+    (tmp_path / "plant.toml").mkdir()
+    with pytest.raises(ModelError, match=r"^plant\.toml: not a model file \(a folder"):
+        load_model("plant.toml")
+    with pytest.raises(ModelError, match=r"^gone\.toml: no such model file$"):
+        load_model("gone.toml")
+    (tmp_path / "ice_clutch.toml").write_text(LINEAR_TWO_MODE)
+    assert model_file("ice_clutch.toml") == Path("ice_clutch.toml")
 
 
 def test_parameter_override_changes_the_equations():
