@@ -1102,8 +1102,21 @@ def _refuse_misplaced(
     else:
         allowed = signal_names if table == "signals" else (*modes, *groups["states"])
         what = "an input or output" if table == "signals" else "a true mode or state"
-        reason = f"not {what} of the model (allowed: {', '.join(allowed) or 'none'})"
+        reason = f"not {what} of the model (allowed: {_names(allowed)})"
     raise ModelError(f"{key}: {reason}")
+
+
+_LISTED_NAMES = 12
+"""Most names an error lists (a model may have hundreds of outputs)."""
+
+
+def _names(names: tuple[str, ...]) -> str:
+    """``a, b, c`` for an error; past :data:`_LISTED_NAMES` names, how many more."""
+    if not names:
+        return "none"
+    shown = ", ".join(names[:_LISTED_NAMES])
+    more = len(names) - _LISTED_NAMES
+    return f"{shown} and {more} more" if more > 0 else shown
 
 
 def _role(name: str, groups: Mapping[str, tuple[str, ...]]) -> str:

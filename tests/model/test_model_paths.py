@@ -16,8 +16,8 @@ from tests.support.models import LINEAR_TWO_MODE
 # LINEAR_TWO_MODE: states p, v; input a; outputs y1, y2; modes slow, fast.
 
 
-def _with(table: str) -> str:
-    return LINEAR_TWO_MODE + "\n" + table + "\n"
+def _with(model: str, table: str) -> str:
+    return model + "\n" + table + "\n"
 
 
 @pytest.mark.parametrize(
@@ -56,7 +56,22 @@ def _with(table: str) -> str:
 )
 def test_a_key_the_log_mapping_would_skip_is_refused_naming_where_it_belongs(table, message):
     with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
-        parse_model(_with(table), origin="plant.toml")
+        parse_model(_with(LINEAR_TWO_MODE, table), origin="plant.toml")
+
+
+def test_the_allowed_keys_of_a_large_model_stay_a_short_line():
+    outputs = [f"y{i}" for i in range(300)]
+    text = (
+        LINEAR_TWO_MODE.replace('outputs = ["y1", "y2"]', f"outputs = {outputs}".replace("'", '"'))
+        .replace("C = [[1.0, 0.0], [0.0, 1.0]]", f"C = {[[1.0, 0.0]] * 300}")
+        .replace("C = [[1.0, 0.0], [0.5, 2.0]]", f"C = {[[1.0, 0.0]] * 300}")
+        .replace("measurement = [[0.05, 0.01], [0.01, 0.08]]", "measurement = 0.05")
+    )
+    with pytest.raises(ModelError) as caught:
+        parse_model(_with(text, '[signals]\nz = "/z.data"'), origin="plant.toml")
+    line = str(caught.value)
+    assert line.startswith("plant.toml: signals.z: not an input or output of the model")
+    assert line.endswith("y10 and 289 more)") and len(line) < 200, line
 
 
 def test_every_key_the_loader_accepts_is_read_from_the_log(tmp_path):
@@ -64,8 +79,9 @@ def test_every_key_the_loader_accepts_is_read_from_the_log(tmp_path):
     # every one of them is used, and the values are those of the renamed columns.
     model = parse_model(
         _with(
+            LINEAR_TWO_MODE,
             '[signals]\na = "force N"\ny1 = "pos"\ny2 = "vel"\n'
-            '[truth]\nmode = "phase"\np = "pos_true"\nv = "vel_true"'
+            '[truth]\nmode = "phase"\np = "pos_true"\nv = "vel_true"',
         )
     )
     columns = simulate(model, steps=40, seed=1).columns(model)
