@@ -88,21 +88,38 @@ def load_model(
         invalid (:func:`~hybridlog.model.loader.parse_model`); every message starts with
         the file or built-in name.
     """
-    path = Path(name_or_path)
-    name = str(name_or_path)
-    # A folder of the user's named like a built-in (outputs kept in "three_tank_hstf/") is
-    # no model file: the name is the built-in's.
-    builtin_folder = path.is_dir() and name in builtin_names()
-    if path.suffix == ".toml" or (path.exists() and not builtin_folder):
-        if not path.is_file():
-            raise ModelError(f"{path}: no such model file")
+    path = model_file(name_or_path)
+    if path is not None:
         try:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as err:
             raise ModelError(f"{path}: cannot read model file: {err}") from err
         return cached_model(text, origin=str(path), parameters=parameters)
+    name = str(name_or_path)
+    return cached_model(builtin_text(name), origin=name, parameters=parameters)
+
+
+def model_file(name_or_path: str | Path) -> Path | None:
+    """The model file ``name_or_path`` names, or ``None`` when it names a built-in.
+
+    A file of that path wins; else a built-in of that name, also beside a folder of its name
+    (an ``--out`` folder named after the model).
+
+    Raises
+    ------
+    ModelError
+        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file).
+    """
+    path = Path(name_or_path)
+    name = str(name_or_path)
+    if path.is_file():
+        return path
     if name in builtin_names():
-        return cached_model(builtin_text(name), origin=name, parameters=parameters)
+        return None
+    if path.exists():
+        raise ModelError(f"{path}: not a model file (a folder or a special file)")
+    if path.suffix == ".toml":
+        raise ModelError(f"{path}: no such model file")
     known = ", ".join(builtin_names())
     raise ModelError(
         f"{excerpt(name)[1:-1]}: neither a model file nor a built-in model (built-ins: {known})"

@@ -350,7 +350,9 @@ class HybridModel:
     transitions:
         Markov matrix ``Π[i, j] = Pr(q(k+1)=j | q(k)=i)``, or ``None`` when the file has none.
     signals, truth:
-        Default message paths for symbols, and for ground truth (``mode`` and state names).
+        The model file's log paths (``[signals]``, ``[truth]``): ``signals`` of inputs and
+        outputs, ``truth`` of the true mode (``mode``; ``mode.<component>`` in a components
+        model) and of states.  No other key (the loader refuses them).
     default_estimator:
         Estimator used by ``analyze`` when none is named.
     estimator_options:

@@ -25,8 +25,10 @@ from __future__ import annotations
 import ast
 import json
 import math
+import re
 import tomllib
-from collections.abc import Mapping
+import unicodedata
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -105,6 +107,32 @@ _NOISE_KEYS = {"process", "measurement"}
 _INITIAL_KEYS = {"state", "covariance", "mode", "mode_probabilities"}
 _TRANSITION_KEYS = {"matrix", "stay"}
 _SIMULATION_KEYS = {"state", "state_min", "inputs", "schedule", *COMPONENT_KEYS}
+_MODE_KEY = "mode"
+"""The true mode's key in ``[truth]`` (``mode.<component>`` per component)."""
+_STATE_COLUMNS = (
+    ("_hat", "estimate"),
+    ("_var", "variance"),
+    ("_hat_filtered", "filtered estimate"),
+    ("_var_filtered", "filtered variance"),
+    ("_true", "true value"),
+)
+"""The columns of ``estimates`` a state gives (report/tables.py), and what they hold."""
+_LOGGED_GROUPS = ("states", "inputs", "outputs", "commands")
+"""The symbols a log holds a field of (true states, inputs, outputs, commands)."""
+_LOG_FIELD_NAMES = {
+    "mode": (
+        "is the true mode's field of a log (a CSV/Parquet column 'mode', [truth] mode, "
+        "--map truth.mode)"
+    ),
+    "time": "is a time column of a CSV/Parquet log ('t' or 'time')",
+}
+"""Field names a log gives another meaning (:mod:`hybridlog.io.mapping`, ``io/tables.py``).
+
+A symbol of that name would be read from the same field as that meaning: a state ``mode``
+read the true mode's column as its true value and the true mode's as a number (the log was
+refused), and ``simulate`` wrote one column for both.  (``t``, the other time column, is a
+name of the expression grammar, refused for every symbol.)
+"""
 MAX_BOOLEANS = 10
 """Most booleans of a boolean-affine model (2^10 = 1024 modes)."""
 _STEP_TOLERANCE = 1e-9
@@ -114,9 +142,12 @@ _STEP_TOLERANCE = 1e-9
 def parse_model(
     text: str, *, origin: str = "<model>", parameters: Mapping[str, float] | None = None
 ) -> HybridModel:
-    """Parse and validate the text of a model file; ``origin`` prefixes every error."""
+    """Parse and validate the text of a model file; ``origin`` prefixes every error.
+
+    A byte-order mark at the start (which Windows editors write) is no part of the TOML.
+    """
     try:
-        data = tomllib.loads(text)
+        data = tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as err:
         raise ModelError(f"{origin}: invalid TOML: {err}") from err
     try:
@@ -192,14 +223,9 @@ class _Builder:
             "commands": commands,
         }
         check_disjoint(groups)
-        for group in ("states", "inputs", "outputs", "commands"):
-            if "mode" in groups[group]:
-                # a log's column or topic of its own: simulate wrote one over the other
-                raise ModelError(
-                    f"{group}: 'mode' is the true mode's column of a log (/truth/mode in a "
-                    "bag) and cannot name a signal; choose another name"
-                )
+        _refuse_log_field_names(groups)
         params = self.parameters(groups)
+        _refuse_unused_overrides(data, self.overrides)
         x = tuple(sympy.Symbol(s, real=True) for s in states)
         u = tuple(sympy.Symbol(s, real=True) for s in inputs)
         symbols = _Symbols(
@@ -245,6 +271,7 @@ class _Builder:
                 process_variances=_variances(default_q, "noise.process"),
                 measurement_variances=_variances(default_r, "noise.measurement"),
             )
+            _refuse_joint_separator(components)
             mu0 = np.zeros(0)
             transitions = None
         else:
@@ -256,6 +283,7 @@ class _Builder:
             mu0 = _initial_modes(initial, mode_ids)
             transitions = _transitions(data.get("transitions"), mode_ids)
             jumps = _jumps(data.get("jumps", {}), mode_ids, symbols)
+        _check_report_columns(states, outputs, tuple(m.id for m in modes))
         x0 = as_vector(required(initial, "state", "initial"), len(states), "initial.state")
         p0 = as_covariance(initial.get("covariance", 1.0), len(states), "initial.covariance")
         simulation = as_table(data.get("simulation", {}), "simulation")
@@ -281,6 +309,11 @@ class _Builder:
         else:
             for key in sorted(COMPONENT_KEYS & set(simulation)):
                 raise ModelError(f"simulation.{key}: only a components model's scenario has {key}")
+        if "state_min" in simulation and kind == "components":
+            raise ModelError(
+                "simulation.state_min: a components model's scenario does not bound its states; "
+                "bound them in the equations (e.g. max(..., 0))"
+            )
         if "schedule" in simulation and kind == "components":
             raise ModelError(
                 "simulation.schedule: a components model has no joint mode schedule; "
@@ -292,8 +325,7 @@ class _Builder:
                 "a schedule does not apply"
             )
         estimators = as_table(data.get("estimators", {}), "estimators")
-        truth_keys = {"mode", *states} if kind != "components" else set(states)
-        truth_keys |= {f"mode.{c.name}" for c in components}
+        signals, truth = _paths(data, groups, tuple(c.name for c in components))
         return HybridModel(
             name=as_string(data.get("name", "unnamed"), "name"),
             description=as_string(data.get("description", ""), "description"),
@@ -308,10 +340,8 @@ class _Builder:
             initial_covariance=p0,
             initial_mode_probabilities=mu0,
             transitions=transitions,
-            signals=_string_map(
-                data.get("signals", {}), "signals", {*states, *inputs, *outputs, *commands}
-            ),
-            truth=_string_map(data.get("truth", {}), "truth", truth_keys),
+            signals=signals,
+            truth=truth,
             default_estimator=as_string(data.get("default_estimator", "imm"), "default_estimator"),
             estimator_options={
                 str(k): dict(as_table(v, key_path("estimators", str(k))))
@@ -888,13 +918,209 @@ def _markov_rows(value: Any, n: int) -> FloatArray:
     return matrix
 
 
-def _string_map(value: Any, key: str, allowed: set[str]) -> dict[str, str]:
-    table = as_table(value, key)
-    result: dict[str, str] = {}
-    for name, path in table.items():
-        if name not in allowed:
+_FREE_TEXT_KEYS = {"name", "description", "reference"}
+"""Top-level keys whose strings are prose, not expressions."""
+_IDENTIFIER = re.compile(r"[^\W\d]\w*")
+
+
+def _refuse_unused_overrides(data: Mapping[str, Any], overrides: Mapping[str, float]) -> None:
+    """Refuse ``--set`` of a parameter no string of the model names: it would change nothing.
+
+    Parameters are used only in expressions, which are strings; a parameter named in no
+    string outside the prose keys (read as the parser reads names, in NFKC form) is used
+    nowhere, and a run with it changed would be the run without, silently.  (A name in other
+    text, a scenario's description, counts as used.)
+    """
+    if not overrides:
+        return
+    named: set[str] = set()
+    for value in _strings({k: v for k, v in data.items() if k not in _FREE_TEXT_KEYS}):
+        named.update(_IDENTIFIER.findall(unicodedata.normalize("NFKC", value)))
+    for name in overrides:
+        if name not in named:
             raise ModelError(
-                f"{key_path(key, name)}: unknown symbol (allowed: {', '.join(sorted(allowed))})"
+                f"{key_path('parameters', name)}: used by no expression of the model, so "
+                f"--set {name}=... would change nothing"
             )
-        result[name] = as_string(path, key_path(key, name))
+
+
+def _strings(value: Any) -> Iterator[str]:
+    """Every string in a parsed TOML value, keys excepted."""
+    if isinstance(value, str):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _strings(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _strings(item)
+
+
+_JOINT_SEPARATOR = "|"
+"""What joins the components' mode ids into a joint mode's id (``m11|m21``, the joint-mode
+model ``imm`` runs on a components model: ``estimators/cpha/joint.py``)."""
+
+
+def _refuse_joint_separator(components: tuple[Component, ...]) -> None:
+    """Refuse a component mode id holding ``|``: two joint modes would get one id.
+
+    With modes ``a|b`` and ``a`` of one component and ``c`` and ``b|c`` of another, the joint
+    modes (``a|b``, ``c``) and (``a``, ``b|c``) were both ``a|b|c``: the timeline kept one
+    ``p_a|b|c`` column of the two and its ``mode`` column could not tell them apart.
+    """
+    for component in components:
+        for mode_id in component.mode_ids:
+            if _JOINT_SEPARATOR in mode_id:
+                key = key_path(key_path("components", component.name) + ".modes", mode_id)
+                raise ModelError(
+                    f"{key}: a component's mode id may not hold {_JOINT_SEPARATOR!r}, which joins "
+                    "the components' mode ids into a joint mode's id (m11|m21)"
+                )
+
+
+def _refuse_log_field_names(groups: Mapping[str, tuple[str, ...]]) -> None:
+    """Refuse a logged symbol named like a field a log gives another meaning (``mode``)."""
+    for group in _LOGGED_GROUPS:
+        for name in groups[group]:
+            if name in _LOG_FIELD_NAMES:
+                raise ModelError(
+                    f"{group}: '{name}' {_LOG_FIELD_NAMES[name]} and cannot be a symbol name"
+                )
+
+
+def _report_columns(
+    states: tuple[str, ...], outputs: tuple[str, ...], mode_ids: tuple[str, ...]
+) -> Iterator[tuple[str, str, str, str]]:
+    """``(table, column, key, what)`` for every column a run's tables may have.
+
+    The columns the model's names make in ``timeline`` and ``estimates``
+    (report/tables.py; with ``--smooth`` and ground truth, in the tables' order), the
+    model-file key naming each, and what the column holds.  The other columns (``t``,
+    ``mode``, ``truth_mode``, ``mode.<component>``) have names no symbol or ``p_<mode>`` has.
+    """
+    for m in mode_ids:
+        yield "timeline", f"p_{m}", key_path("modes", m), f"the probability of mode {m!r}"
+    for m in mode_ids:
+        what = f"the filtered probability of mode {m!r}"
+        yield "timeline", f"p_{m}_filtered", key_path("modes", m), what
+    for x in states:
+        for suffix, what in _STATE_COLUMNS:
+            yield "estimates", f"{x}{suffix}", "states", f"the {what} of state {x!r}"
+    for y in outputs:
+        yield "estimates", f"{y}_hat", "outputs", f"the prediction of output {y!r}"
+        yield "estimates", y, "outputs", f"the measurement of output {y!r}"
+
+
+def _check_report_columns(
+    states: tuple[str, ...], outputs: tuple[str, ...], mode_ids: tuple[str, ...]
+) -> None:
+    """Refuse names whose report columns coincide: the later column replaced the first.
+
+    With an output ``x1_var`` beside a state ``x1``, ``estimates.csv`` held the measured
+    output under ``x1_var`` and the state's variance nowhere; with modes ``a`` and
+    ``a_filtered``, a smoothed run's ``p_a_filtered`` was the filter's probability of ``a``.
+    """
+    seen: dict[tuple[str, str], str] = {}
+    for table, column, key, what in _report_columns(states, outputs, mode_ids):
+        if (table, column) in seen:
+            raise ModelError(
+                f"{key}: {table} column {excerpt(column, 40)} would hold both "
+                f"{seen[table, column]} and {what}; rename one of them"
+            )
+        seen[table, column] = what
+
+
+def _paths(
+    data: Mapping[str, Any], groups: Mapping[str, tuple[str, ...]], components: tuple[str, ...]
+) -> tuple[dict[str, str], dict[str, str]]:
+    """``[signals]`` (inputs and outputs) and ``[truth]`` (true mode and states): symbol → path.
+
+    Every key must be one the log mapping reads (:mod:`hybridlog.io.mapping`): a key it
+    would skip (a state under ``[signals]``, a command, an input under ``[truth]``) is
+    refused, naming where the key belongs, rather than silently ignored.  In ``[truth]``,
+    a components model maps each component's true mode as ``"mode.<component>"``, which
+    TOML also reads from the dotted key ``mode.<component> = ...`` (a table ``mode``).
+    """
+    modes = tuple(f"{_MODE_KEY}.{c}" for c in components) or (_MODE_KEY,)
+    truth = dict(as_table(data.get("truth", {}), "truth"))
+    if isinstance(truth.get(_MODE_KEY), dict):
+        for component, path in as_table(truth.pop(_MODE_KEY), "truth.mode").items():
+            name = f"{_MODE_KEY}.{component}"
+            if name in truth:
+                raise ModelError(
+                    f"{key_path('truth', name)}: given twice (also as mode.{component})"
+                )
+            truth[name] = path
+    return (
+        _path_table(data.get("signals", {}), "signals", groups, modes),
+        _path_table(truth, "truth", groups, modes),
+    )
+
+
+def _path_table(
+    value: Any, table: str, groups: Mapping[str, tuple[str, ...]], modes: tuple[str, ...]
+) -> dict[str, str]:
+    """``[signals]`` or ``[truth]``: keys the log mapping reads, non-empty path strings."""
+    result: dict[str, str] = {}
+    for name, path in as_table(value, table).items():
+        _refuse_misplaced(name, table, groups, modes)
+        text = as_string(path, key_path(table, name))
+        if not text:
+            raise ModelError(f"{key_path(table, name)}: an empty path names no field of a log")
+        result[name] = text
     return result
+
+
+def _refuse_misplaced(
+    name: str, table: str, groups: Mapping[str, tuple[str, ...]], modes: tuple[str, ...]
+) -> None:
+    """Refuse a ``[signals]``/``[truth]`` key the log mapping would not read, saying why."""
+    key = key_path(table, name)
+    signal_names = (*groups["inputs"], *groups["outputs"])
+    if table == "signals" and name in signal_names:
+        return
+    if table == "truth" and name in (*modes, *groups["states"]):
+        return
+    if table == "signals" and name in groups["states"]:
+        reason = f"a state; true states map under [truth] ({key_path('truth', name)} = ...)"
+    elif table == "signals" and (name == _MODE_KEY or name.startswith(f"{_MODE_KEY}.")):
+        reason = "the true mode maps under [truth]"
+    elif table == "truth" and name in signal_names:
+        reason = f"{_role(name, groups)}; inputs and outputs map under [signals]"
+    elif table == "truth" and name == _MODE_KEY:
+        reason = (
+            "a components model has no mode of the whole model; map each component's "
+            'true mode as "mode.<component>"'
+        )
+    elif name in groups["commands"]:
+        reason = (
+            "a command; commands are not read from a log (the estimators apply no "
+            "transition rule with 'when')"
+        )
+    elif name in (*groups["variables"], *groups["booleans"]):
+        reason = f"{_role(name, groups)}, which no log holds"
+    else:
+        allowed = signal_names if table == "signals" else (*modes, *groups["states"])
+        what = "an input or output" if table == "signals" else "a true mode or state"
+        reason = f"not {what} of the model (allowed: {_names(allowed)})"
+    raise ModelError(f"{key}: {reason}")
+
+
+_LISTED_NAMES = 12
+"""Most names an error lists (a model may have hundreds of outputs)."""
+
+
+def _names(names: tuple[str, ...]) -> str:
+    """``a, b, c`` for an error; past :data:`_LISTED_NAMES` names, how many more."""
+    if not names:
+        return "none"
+    shown = ", ".join(names[:_LISTED_NAMES])
+    more = len(names) - _LISTED_NAMES
+    return f"{shown} and {more} more" if more > 0 else shown
+
+
+def _role(name: str, groups: Mapping[str, tuple[str, ...]]) -> str:
+    """``an input``, ``an output``, ``a variable``: the group a symbol belongs to."""
+    group = next(g for g, names in groups.items() if name in names)
+    singular = group.removesuffix("s")
+    return f"{'an' if singular[0] in 'aeiou' else 'a'} {singular}"

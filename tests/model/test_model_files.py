@@ -2,6 +2,7 @@
 
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.estimators.common import noise_stacks
 from hybridlog.io import SignalSpec, load_signals, write_table
+from hybridlog.model.cache import model_file
 from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
@@ -158,9 +160,32 @@ def test_invalid_toml_names_the_file_and_line():
         parse_model("name = 'x'\ndt = = 1\n", origin="bad.toml")
 
 
+def test_a_model_file_saved_with_a_byte_order_mark_loads(tmp_path):
+    # Notepad's "UTF-8 with BOM": was "invalid TOML: Invalid statement (at line 1, column 1)"
+    path = tmp_path / "plant.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + LINEAR_TWO_MODE.encode())
+    assert load_model(path).states == ("p", "v")
+
+
 def test_unknown_model_name_lists_builtins():
     with pytest.raises(ModelError, match="three_tank_hstf"):
         load_model("no_such_model")
+
+
+def test_a_builtin_name_beside_a_folder_of_that_name_is_the_builtin(tmp_path, monkeypatch):
+    # analyze --model ice_clutch --out ice_clutch, then any run with --model ice_clutch in
+    # that folder's parent: was "ice_clutch: no such model file"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ice_clutch").mkdir()
+    assert model_file("ice_clutch") is None
+    assert load_model("ice_clutch").origin == "ice_clutch"
+    (tmp_path / "plant.toml").mkdir()
+    with pytest.raises(ModelError, match=r"^plant\.toml: not a model file \(a folder"):
+        load_model("plant.toml")
+    with pytest.raises(ModelError, match=r"^gone\.toml: no such model file$"):
+        load_model("gone.toml")
+    (tmp_path / "ice_clutch.toml").write_text(LINEAR_TWO_MODE)
+    assert model_file("ice_clutch.toml") == Path("ice_clutch.toml")
 
 
 def test_parameter_override_changes_the_equations():
@@ -170,6 +195,21 @@ def test_parameter_override_changes_the_equations():
     assert changed.parameters["l"] == 2.6
     with pytest.raises(ModelError, match=r"parameters\.length: no such parameter"):
         parse_model(PENDULUM_ONE_MODE, parameters={"length": 1.0})
+
+
+def test_an_override_of_a_parameter_no_expression_uses_is_refused():
+    # --set c=... of a parameter the equations no longer use gave the unchanged run, silently
+    text = _replace(PENDULUM_ONE_MODE, "- 0.05*c*omega", "")
+    assert parse_model(text).parameters["c"] == 0.2  # kept in the file, as a note
+    with pytest.raises(
+        ModelError,
+        match=r"^plant\.toml: parameters\.c: used by no expression of the model, so "
+        r"--set c=\.\.\. would change nothing$",
+    ):
+        parse_model(text, parameters={"c": 0.5}, origin="plant.toml")
+    # a name the parser reads in NFKC form is a use: "\ufb01" is the parameter fi
+    ligature = _replace(text, "c = 0.2", "fi = 0.2").replace("0.05*(g/l)", "0.05*(g/l)*\ufb01")
+    assert parse_model(ligature, parameters={"fi": 0.5}).parameters["fi"] == 0.5
 
 
 def test_linear_modes_become_affine_expressions():

@@ -8,11 +8,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import ModelError
+from hybridlog.estimators.cpha.joint import SEPARATOR
 from hybridlog.estimators.switched_observer import linear_modes
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.expressions import previous_symbol
-from hybridlog.model.loader import load_model, parse_model
+from hybridlog.model.loader import _JOINT_SEPARATOR, load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.support.model_kinds import (
     CLUTCH_JUMPS,
@@ -606,7 +607,32 @@ _COMPONENT_ERRORS = [
         'covariance = 1.0\n[simulation]\nschedule = "m11:3"',
         r"simulation\.schedule: a components model has no joint mode schedule",
     ),
-    ("covariance = 1.0", 'covariance = 1.0\n[truth]\nmode = "/m"', r"truth\.mode: unknown symbol"),
+    (
+        "covariance = 1.0",
+        'covariance = 1.0\n[truth]\nmode = "/m"',
+        r"truth\.mode: a components model has no mode of the whole model; map each "
+        r"component's true mode as \"mode\.<component>\"$",
+    ),
+    (
+        "[components.A3.modes.m31]",
+        '[components.A3.modes."m3|1"]',
+        r"components\.A3\.modes\.'m3\|1': a component's mode id may not hold '\|', which joins",
+    ),
+    (
+        "covariance = 1.0",
+        "covariance = 1.0\n[simulation]\nstate_min = [0.0, 0.0, 0.0]",
+        r"simulation\.state_min: a components model's scenario does not bound its states",
+    ),
+    (
+        "covariance = 1.0",
+        'covariance = 1.0\n[signals]\nud1 = "/cmd.data"',
+        r"signals\.ud1: a command; commands are not read from a log",
+    ),
+    (
+        "covariance = 1.0",
+        'covariance = 1.0\n[truth]\nwc1 = "/w.data"',
+        r"truth\.wc1: a variable, which no log holds$",
+    ),
 ]
 
 
@@ -616,14 +642,22 @@ def test_bad_components_name_the_key(old, new, message):
         parse_model(_replace(THREE_COMPONENTS, old, new), origin="plant.toml")
 
 
-def test_components_model_takes_per_component_truth_and_command_signals():
+def test_the_refused_mode_id_character_is_the_joint_modes_separator():
+    # the loader cannot import the estimators: its separator must follow joint.py's
+    assert _JOINT_SEPARATOR == SEPARATOR
+
+
+@pytest.mark.parametrize("key", ['"mode.A2"', "mode.A2"])
+def test_components_model_takes_per_component_truth_quoted_or_dotted(key):
     text = _replace(
         THREE_COMPONENTS,
         "covariance = 1.0",
-        'covariance = 1.0\n[truth]\n"mode.A2" = "/truth/a2.data"\n[signals]\nud1 = "/cmd.data"',
+        f'covariance = 1.0\n[truth]\n{key} = "/truth/a2.data"\nxc1 = "/truth/x1.data"\n'
+        '[signals]\nyc1 = "/y1.data"',
     )
     model = parse_model(text)
-    assert model.truth == {"mode.A2": "/truth/a2.data"} and model.signals == {"ud1": "/cmd.data"}
+    assert model.truth == {"mode.A2": "/truth/a2.data", "xc1": "/truth/x1.data"}
+    assert model.signals == {"yc1": "/y1.data"}
 
 
 @pytest.mark.parametrize(
