@@ -333,7 +333,8 @@ def resolve_estimator(
     Raises
     ------
     ModelError
-        The model file names an unknown estimator in ``default_estimator`` (when it is used)
+        The model file names an unknown estimator in ``default_estimator`` (also when
+        ``name`` is given: a typo there is an error of the file whichever estimator runs)
         or in an ``[estimators.<x>]`` table, or such a table has an option ``x`` does not
         have: every table, not only the chosen estimator's (``smooth = true`` under
         ``[estimators.hstf]`` is an error of the file whichever estimator runs).  Values are
@@ -342,6 +343,10 @@ def resolve_estimator(
         ``name`` is unknown (``<given_by>: unknown estimator ...``).
     """
     origin = model.origin or model.name
+    if model.default_estimator not in ESTIMATORS:
+        raise ModelError(
+            f"{origin}: default_estimator: {_unknown(model.default_estimator, ESTIMATORS)}"
+        )
     for table, values in model.estimator_options.items():
         if table not in ESTIMATORS:
             raise ModelError(f"{origin}: estimators.{table}: {_unknown(table, ESTIMATORS)}")
@@ -350,11 +355,7 @@ def resolve_estimator(
         if unknown:  # parsed alone, they raise the one-line error naming file, key, options
             sources = {k: OptionSource.model_file(origin, table, k) for k in unknown}
             ESTIMATORS[table].parse_options(unknown, sources)
-    if name is None:
-        name = model.default_estimator
-        if name not in ESTIMATORS:
-            raise ModelError(f"{origin}: default_estimator: {_unknown(name, ESTIMATORS)}")
-    return get_estimator(name, given_by=given_by)
+    return get_estimator(model.default_estimator if name is None else name, given_by=given_by)
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,8 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     """Load the model and split ``--set`` values into parameters and estimator options.
 
     Names of model parameters change the model; all other names are estimator options,
-    checked against the chosen estimators by :func:`prepare_estimators`.
+    checked against the chosen estimators by :func:`prepare_estimators` (which refuses a
+    parameter's name that is also an option of one of them).
     """
     model = load_model(model_ref)
     parameters: dict[str, float] = {}
@@ -214,6 +215,15 @@ def prepare_estimators(
         chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=chosen_by
     )
     declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
+    for name, number in overrides.parameters.items():
+        owners = [e for e, known in declared.items() if name in known]
+        if owners:  # the parameter took it: hstf's rho stayed 0.95 without a word
+            raise OptionError(
+                f"--set {name}={number:g}: {name!r} is both a parameter of model "
+                f"{model.origin or model.name} and an option of {', '.join(owners)}, and "
+                f"--set would change the parameter only; rename the parameter, or set the "
+                f"option under [estimators.{owners[0]}] in the model file"
+            )
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
             if name in OFFLINE_OPTIONS:  # as --smooth and --mode-sequence are refused

@@ -68,8 +68,10 @@ def model_hash(model_ref: PathLike) -> str:
     ModelError
         When the model file cannot be read.
     """
-    path = Path(model_ref)
-    if path.suffix == ".toml" or path.exists():
+    from hybridlog.model.cache import model_file
+
+    path = model_file(os.fspath(model_ref))  # a folder named like a built-in is not the model
+    if path is not None:
         try:
             return _file_digest(path).hex()
         except OSError as err:
