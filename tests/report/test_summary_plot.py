@@ -87,5 +87,5 @@ def test_the_mode_accuracy_of_a_smoothed_batch_is_labelled_offline():
     smoothing = Smoothing("kim-rts", "argmax", "d", _side(0.5, 0, 1.0), _side(0.6, 0, 1.0))
     batch[0] = replace(batch[0], report=replace(batch[0].report, smoothing=smoothing))
     fig = summary_figure("model · imm · kim-rts, argmax", batch)
-    assert fig.axes[1].get_ylabel() == "offline mode\naccuracy (%)"
+    assert fig.axes[1].get_ylabel() == "mode accuracy (%)\n● offline ○ filter"
     assert fig.axes[0].get_ylabel() == "VAF (%)"
