@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.errors import as_text
-from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown
+from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report, Smoothing, SmoothingMetrics
@@ -488,7 +488,7 @@ def batch_markdown(
     lines = [
         f"# Batch: {escape_markdown(title)}",
         "",
-        f"**{len(rows)} logs: {verdict}** ({counts}).",
+        f"**{plural(len(rows), 'log')}: {verdict}** ({counts}).",
     ]
     if gates:
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]

@@ -23,6 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.errors import excerpt
+from hybridlog.report.markdown import plural
 from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead
 from hybridlog.report.summary import BatchRow
 
@@ -122,7 +123,8 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
     fig.suptitle(
-        f"{title}\n{len(rows)} logs, {failed} not analysed (crosses), {missed} missed a gate (red)",
+        f"{title}\n{plural(len(rows), 'log')}, {failed} not analysed (crosses), "
+        f"{missed} missed a gate (red)",
         fontsize=10,
     )
     positions = range(len(rows))
