@@ -248,7 +248,8 @@ def _analysis_options(function: F) -> F:
             help="After the filter, run its fixed-interval smoother over the whole log "
             f"(estimators with one: {_SMOOTHING or 'none yet'}; the option smooth = true). "
             "Modes, states and tables then hold the smoothed estimates; report.json's "
-            "smoothing key has the filter's metrics beside them. In compare, every "
+            "smoothing key has the filter's metrics beside them (batch's summaries too: "
+            "filtered_* columns, the gain over the logs). In compare, every "
             "estimator must have a smoother (--set smooth=true smooths those that do).",
         ),
         click.option(

@@ -80,7 +80,13 @@ from hybridlog.outputs import (
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import check_junit_target, is_junit_of_ours, write_junit
-from hybridlog.report.summary import BatchRow, batch_markdown, batch_rows_csv
+from hybridlog.report.summary import (
+    BatchRow,
+    batch_markdown,
+    batch_rows_csv,
+    offline_label,
+    offline_metrics,
+)
 from hybridlog.report.table_format import check_table_format
 
 __all__ = [
@@ -207,6 +213,10 @@ class BatchJob:
         The run's options (``plots``: one of :data:`PLOT_CHOICES`).
     smooth, mode_sequence:
         ``--smooth`` and ``--mode-sequence`` (estimator options: recorded in ``settings``).
+    offline:
+        Whether the estimator's options ask for an offline pass
+        (:attr:`~hybridlog.estimators.Prepared.offline`, also from ``--set`` or the model
+        file): the summaries then show the filter's own metrics beside the offline ones.
     settings:
         The settings that change results, as canonical JSON (part of :func:`provenance`).
     """
@@ -225,6 +235,7 @@ class BatchJob:
     settings: str
     smooth: bool = False
     mode_sequence: str | None = None
+    offline: bool = False
 
     def provenance(self, log_sha256: str) -> dict[str, Any]:
         """What a report of this batch for a log of this content records (key ``batch``)."""
@@ -617,6 +628,7 @@ def _plan(
         settings=_settings(prepared, overrides, read, table_format),
         smooth=smooth,
         mode_sequence=mode_sequence,
+        offline=prepared.offline,
     )
     folders = [root / name for name in names]
     _prepare_root(root, folders)
@@ -654,13 +666,17 @@ def _summarise(
     ]
     title = f"{model.name} · {job.estimator}"
     smoothed = {
-        ", ".join(n for n in (o.report.smoothing.method, o.report.smoothing.mode_sequence) if n)
+        offline_label(o.report.smoothing)
         for o in outcomes
         if o.report is not None and o.report.smoothing is not None
     }
     if smoothed:  # the modes and states summarised are then the smoothed ones
         title += f" · {' / '.join(sorted(smoothed))}"
-    table, text = batch_markdown(title, rows, [f"{g.option} {g.spec}" for g in gates])
+    # with an offline pass, each log's filter's own metrics beside the offline ones
+    compared = (
+        offline_metrics(model.states, [c.name for c in model.components]) if job.offline else None
+    )
+    table, text = batch_markdown(title, rows, [f"{g.option} {g.spec}" for g in gates], compared)
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:
         targets.append(junit)
@@ -673,12 +689,12 @@ def _summarise(
         targets, force=True, ours=replaceable, recorded=lambda path: path == junit_path
     ) as staged:
         staged[0].write_text(text, encoding="utf-8")
-        batch_rows_csv(staged[1], rows)
+        batch_rows_csv(staged[1], rows, compared)
         from hybridlog.report.summary_plot import write_summary_plot
 
         write_summary_plot(staged[2], title, rows)
         if junit is not None:
-            write_junit(staged[3], f"hybridlog batch: {title}", rows)
+            write_junit(staged[3], f"hybridlog batch: {title}", rows, compared)
     failures = [
         f"{row.log}: {failure}" for row in rows for _, failure in row.gates if failure is not None
     ]

@@ -5,32 +5,46 @@ same decimals down a column); :func:`write_summary_csv` keeps the raw values;
 :func:`comparison_markdown` is ``comparison.md`` of ``hybridlog compare``;
 :func:`batch_markdown` and :func:`batch_rows_csv` are ``summary.md`` and ``summary.csv`` of
 ``hybridlog batch``, from one :class:`BatchRow` per log.
+
+A batch with an offline pass (``--smooth``, ``--mode-sequence``; ``offline`` given)
+shows beside each log's offline mode accuracy the filter's own, and per state both RMSEs
+(:data:`OFFLINE_COLUMNS`, :meth:`BatchRow.offline_metrics`), and summary.md the gain over
+the batch (:func:`offline_gains`): per metric the medians, the median change and the logs
+where the offline estimate is worse than the filter's, by name.  A batch without one writes
+the same columns as before.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+import statistics
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.errors import as_text
-from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown
+from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
 
 if TYPE_CHECKING:
-    from hybridlog.report.document import Report
+    from hybridlog.report.document import Report, Smoothing, SmoothingMetrics
 
 __all__ = [
     "MAX_EXTRA_DIGITS",
+    "MAX_NAMED",
     "SIGNIFICANT_DIGITS",
     "BatchRow",
+    "OfflineGain",
     "batch_markdown",
     "batch_rows_csv",
     "comparison_markdown",
     "gate_cell",
     "markdown_table",
+    "offline_columns",
+    "offline_gains",
+    "offline_label",
+    "offline_metrics",
     "write_summary_csv",
 ]
 
@@ -192,9 +206,219 @@ class BatchRow:
             return [None, None, None, None]
         return [r.samples, r.vaf, r.mse, r.modes.accuracy]
 
+    def offline_pairs(self, metrics: Sequence[str]) -> list[tuple[str, float | None, float | None]]:
+        """``(metric, offline, filter's own)`` for each of ``metrics`` (:func:`offline_metrics`).
+
+        Read from the report's ``smoothing`` block (``smoothed``, ``filtered``); ``None``
+        where a side is unknown (no true mode or state, a failed log, a report of the filter
+        alone).
+        """
+        smoothing = None if self.report is None else self.report.smoothing
+        if smoothing is None:
+            return [(metric, None, None) for metric in metrics]
+        return [
+            (
+                metric,
+                _side_value(smoothing.smoothed, metric),
+                _side_value(smoothing.filtered, metric),
+            )
+            for metric in metrics
+        ]
+
+    def offline_cells(self, metrics: Sequence[str]) -> list[object]:
+        """The cells of :func:`offline_columns` (empty for a failed log)."""
+        smoothing = None if self.report is None else self.report.smoothing
+        cells: list[object] = []
+        for metric, offline, own in self.offline_pairs(metrics):
+            cells += [own] if metric == "mode_accuracy" else [offline, own]
+        return [*cells, None if smoothing is None else offline_label(smoothing)]
+
 
 BATCH_METRICS = ("samples", "vaf", "mse", "mode_accuracy")
 """The metrics of each log in the batch summaries (report keys)."""
+
+MAX_NAMED = 20
+"""summary.md names at most this many logs per metric where the offline estimate is worse
+than the filter's (the worst first); summary.csv has every log's values."""
+
+
+def offline_label(smoothing: Smoothing) -> str:
+    """The offline pass in a few words: ``kim-rts, argmax``, ``viterbi``."""
+    return ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
+
+
+def offline_metrics(states: Sequence[str], components: Sequence[str] = ()) -> tuple[str, ...]:
+    """The metrics a batch with an offline pass compares, named as the gates name them.
+
+    ``mode_accuracy``, then ``mode_accuracy.<c>`` per component of a ``[components]`` model
+    (where the joint accuracy hides most of a gain: docs/smoothing.md), then
+    ``state_rmse.<x>`` per state.
+    """
+    return (
+        "mode_accuracy",
+        *(f"mode_accuracy.{c}" for c in components),
+        *(f"state_rmse.{x}" for x in states),
+    )
+
+
+def _side_value(side: SmoothingMetrics, metric: str) -> float | None:
+    """One side's value of a metric of :func:`offline_metrics` (``None`` when unknown)."""
+    base, _, qualifier = metric.partition(".")
+    if base == "state_rmse":
+        state = side.states.get(qualifier)
+        return None if state is None else state.rmse
+    if qualifier:
+        component = side.components.get(qualifier)
+        return None if component is None else component.mode_accuracy
+    return side.mode_accuracy
+
+
+def offline_columns(metrics: Sequence[str]) -> tuple[str, ...]:
+    """summary.csv's columns of a batch with an offline pass, after ``mode_accuracy``.
+
+    For ``metrics`` (:func:`offline_metrics`): ``filtered_mode_accuracy`` (the filter's
+    own, beside ``mode_accuracy``, which is the offline estimates'), then for each further
+    metric ``m`` (``mode_accuracy.<c>``, ``state_rmse.<x>``) ``m`` and ``filtered_m`` (empty
+    without a true mode or state), and ``smoothing``, the pass (:func:`offline_label`).
+    """
+    columns: list[str] = []
+    for metric in metrics:
+        columns += (
+            [f"filtered_{metric}"]
+            if metric == "mode_accuracy"
+            else [
+                metric,
+                f"filtered_{metric}",
+            ]
+        )
+    return (*columns, "smoothing")
+
+
+@dataclass(frozen=True)
+class OfflineGain:
+    """One metric of a batch with an offline pass: the offline estimates against the filter's.
+
+    Attributes
+    ----------
+    metric:
+        ``mode_accuracy`` or ``state_rmse.<x>``.
+    logs:
+        Analysed logs where both sides are known.
+    filtered, offline:
+        Medians over those logs of the filter's own value and of the offline one.
+    change:
+        Median over those logs of offline minus filter's (a gain for the accuracy, a
+        loss for an RMSE).
+    better, equal:
+        Logs where the offline value is better than the filter's, and exactly equal.
+    worse:
+        ``(log, offline, filter's)`` of each log where it is worse, the worst first.
+    """
+
+    metric: str
+    logs: int
+    filtered: float
+    offline: float
+    change: float
+    better: int
+    equal: int
+    worse: tuple[tuple[str, float, float], ...]
+
+
+def offline_gains(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[OfflineGain]:
+    """Per metric with both sides known on at least one log, the gain over the batch.
+
+    Higher is better for a mode accuracy, lower for a state's RMSE.
+    """
+    gains = []
+    per_metric: dict[str, list[tuple[str, float, float]]] = {}
+    for row in rows:
+        for metric, offline, own in row.offline_pairs(metrics):
+            known = per_metric.setdefault(metric, [])
+            if offline is not None and own is not None:
+                known.append((row.log, offline, own))
+    for metric, known in per_metric.items():
+        if not known:
+            continue
+        sign = -1.0 if metric.startswith("state_rmse.") else 1.0
+        worse = sorted(
+            (entry for entry in known if sign * (entry[1] - entry[2]) < 0),
+            key=lambda entry: sign * (entry[1] - entry[2]),
+        )
+        gains.append(
+            OfflineGain(
+                metric=metric,
+                logs=len(known),
+                filtered=statistics.median(own for _, _, own in known),
+                offline=statistics.median(offline for _, offline, _ in known),
+                change=statistics.median(offline - own for _, offline, own in known),
+                better=sum(sign * (offline - own) > 0 for _, offline, own in known),
+                equal=sum(offline == own for _, offline, own in known),
+                worse=tuple(worse),
+            )
+        )
+    return gains
+
+
+def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[str]:
+    """summary.md's lines on the offline pass against the filter (:func:`offline_gains`)."""
+    passes = sorted(
+        {offline_label(r.report.smoothing) for r in rows if r.report and r.report.smoothing}
+    )
+    lines = [
+        "",
+        "## Offline estimates against the filter's own",
+        "",
+        "The mode accuracies and state RMSEs of the reports (and of the gates) are those of "
+        f"the offline estimates ({escape_markdown(' / '.join(passes) or 'none analysed')}); "
+        "`filtered_mode_accuracy` and summary.csv's other `filtered_*` columns are the "
+        "filter's own. VAF and MSE are the filter's one-step-ahead prediction either way.",
+    ]
+    gains = offline_gains(rows, metrics)
+    if not gains:
+        return [
+            *lines,
+            "",
+            "No analysed log has a true mode or state: the offline estimates cannot be "
+            "compared with the filter's here.",
+        ]
+    table = markdown_table(
+        (
+            "metric",
+            "logs",
+            "filter's median",
+            "offline median",
+            "median change",
+            "better",
+            "equal",
+            "worse",
+        ),
+        [
+            [g.metric, g.logs, g.filtered, g.offline, g.change, g.better, g.equal, len(g.worse)]
+            for g in gains
+        ],
+    )
+    lines += [
+        "",
+        table,
+        "",
+        "Per metric over the analysed logs where both are known (a true mode, a true state); "
+        "the change is offline minus the filter's, per log (better: a higher accuracy, a "
+        "lower RMSE).",
+    ]
+    worse = [g for g in gains if g.worse]
+    if worse:
+        lines += ["", "### Logs where the offline estimate is worse than the filter's", ""]
+    for g in worse:
+        named = ", ".join(
+            f"{escape_markdown(log)} ({offline:.6g} against the filter's {own:.6g})"
+            for log, offline, own in g.worse[:MAX_NAMED]
+        )
+        more = len(g.worse) - MAX_NAMED
+        if more > 0:
+            named += f"; and {more} more (summary.csv)"
+        lines.append(f"- {escape_markdown(g.metric)} ({len(g.worse)} of {g.logs}): {named}")
+    return lines
 
 
 def gate_cell(n_gates: int, missed: Sequence[str]) -> str:
@@ -215,12 +439,21 @@ def _gate_cell(row: BatchRow) -> str:
     return gate_cell(len(row.gates), row.missed)
 
 
-def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -> tuple[str, str]:
+def batch_markdown(
+    title: str,
+    rows: Sequence[BatchRow],
+    gates: Sequence[str],
+    offline: Sequence[str] | None = None,
+) -> tuple[str, str]:
     """``summary.md`` of a batch: failures first, then natural order; and its table alone.
 
     ``rows`` come in natural order; the table lists the logs that could not be analysed,
     then those that missed a gate, then the others, each group in that order, with the gate
     results per log.  Fit for a CI job summary (GitHub-flavoured Markdown).
+    ``offline``: the metrics compared when the run has an offline pass
+    (:func:`offline_metrics`; ``None`` otherwise): the table then has the filter's own mode
+    accuracy beside the offline one, and a section compares the two sides over the batch
+    (:func:`_offline_section`).
     """
     failed = [row for row in rows if row.status == "failed"]
     missed = [row for row in rows if row.status != "failed" and row.missed]
@@ -236,7 +469,8 @@ def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -
         if n
     )
     verdict = "all passed" if len(passed) == len(rows) else f"{len(rows) - len(passed)} not passed"
-    header = ("log", "status", "gates", *BATCH_METRICS, "report")
+    filtered = ("filtered_mode_accuracy",) if offline is not None else ()
+    header = ("log", "status", "gates", *BATCH_METRICS, *filtered, "report")
     table = markdown_table(
         header,
         [
@@ -245,6 +479,7 @@ def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -
                 row.status,
                 _gate_cell(row),
                 *row.metrics(),
+                *(row.offline_pairs(["mode_accuracy"])[0][2] for _ in filtered),
                 "n/a" if row.report is None else f"{row.folder}/report.md",
             ]
             for row in [*failed, *missed, *passed]
@@ -253,11 +488,13 @@ def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -
     lines = [
         f"# Batch: {escape_markdown(title)}",
         "",
-        f"**{len(rows)} logs: {verdict}** ({counts}).",
+        f"**{plural(len(rows), 'log')}: {verdict}** ({counts}).",
     ]
     if gates:
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
     lines += ["", table]
+    if offline is not None:
+        lines += _offline_section(rows, offline)
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
         lines += [
@@ -272,12 +509,18 @@ def batch_markdown(title: str, rows: Sequence[BatchRow], gates: Sequence[str]) -
     return table, "\n".join(lines) + "\n"
 
 
-def batch_rows_csv(path: Path, rows: Sequence[BatchRow]) -> None:
+def batch_rows_csv(
+    path: Path, rows: Sequence[BatchRow], offline: Sequence[str] | None = None
+) -> None:
     """``summary.csv`` of a batch: one row per log in natural order, raw values.
 
     ``folder`` is empty for a failed log, as summary.md's link is ``n/a``: it has no report.
+    ``offline``: the metrics compared when the run has an offline pass
+    (:func:`offline_metrics`), which adds :func:`offline_columns` after ``mode_accuracy``
+    (empty cells for a failed log); ``None`` otherwise (no column added).
     """
-    header = ("log", "status", *BATCH_METRICS, "gate_failures", "error", "folder")
+    columns = () if offline is None else offline_columns(offline)
+    header = ("log", "status", *BATCH_METRICS, *columns, "gate_failures", "error", "folder")
     write_summary_csv(
         path,
         header,
@@ -286,6 +529,7 @@ def batch_rows_csv(path: Path, rows: Sequence[BatchRow]) -> None:
                 row.log,
                 row.status,
                 *row.metrics(),
+                *(() if offline is None else row.offline_cells(offline)),
                 "; ".join(row.missed) or None,
                 row.error,
                 row.folder if row.report is not None else None,  # a failed log has none

@@ -3,7 +3,9 @@
 Three panels over the logs in natural order: VAF (%), mode accuracy (%) and MSE (log scale
 when it spans more than a decade).  In a batch with ``--smooth`` or ``--mode-sequence`` the
 mode accuracy is that of the offline estimates (what a ``mode_accuracy`` gate reads), and
-its panel says so; VAF and MSE are the filter's one-step-ahead prediction either way.
+its panel says so and shows the filter's own beside it (grey rings, a line to the offline
+value: the gain of each log); VAF and MSE are the filter's one-step-ahead prediction either
+way.
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
 at the bottom of every panel.  Drawn with matplotlib's Agg canvas (no pyplot, no global
 state), like the per-log plots (:mod:`hybridlog.report.plots`).
@@ -21,6 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.errors import excerpt
+from hybridlog.report.markdown import plural
 from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead
 from hybridlog.report.summary import BatchRow
 
@@ -45,6 +48,27 @@ def _value(row: BatchRow, metric: str) -> float | None:
         "mse": report.mse,
     }[metric]
     return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _filtered_beside(ax: Axes, rows: Sequence[BatchRow], offline: Sequence[float | None]) -> None:
+    """The filter's own mode accuracy of each log (a grey ring), joined to the offline one."""
+    shown = [
+        (k, 100 * own, offline[k])
+        for k, row in enumerate(rows)
+        if (own := row.offline_pairs(["mode_accuracy"])[0][2]) is not None and math.isfinite(own)
+    ]
+    if not shown:
+        return
+    xs, owns, offs = zip(*shown, strict=True)
+    ax.vlines(
+        [x for x, off in zip(xs, offs, strict=True) if off is not None],
+        [own for own, off in zip(owns, offs, strict=True) if off is not None],
+        [off for off in offs if off is not None],
+        color="#7f7f7f",
+        linewidth=0.8,
+        zorder=2,
+    )
+    ax.scatter(xs, owns, s=16, facecolors="none", edgecolors="#7f7f7f", zorder=2)
 
 
 def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None:
@@ -99,14 +123,15 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
     fig.suptitle(
-        f"{title}\n{len(rows)} logs, {failed} not analysed (crosses), {missed} missed a gate (red)",
+        f"{title}\n{plural(len(rows), 'log')}, {failed} not analysed (crosses), "
+        f"{missed} missed a gate (red)",
         fontsize=10,
     )
     positions = range(len(rows))
     offline = any(row.report is not None and row.report.smoothing is not None for row in rows)
     for ax, (metric, label) in zip(axes, _PANELS, strict=True):
         if metric == "mode_accuracy" and offline:
-            label = "offline mode\naccuracy (%)"
+            label = "mode accuracy (%)\n● offline ○ filter"
         values = [_value(row, metric) for row in rows]
         groups = (
             (_OK, [row.passed for row in rows]),
@@ -117,6 +142,8 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             if shown:
                 xs, ys = zip(*shown, strict=True)
                 ax.scatter(xs, ys, s=16, color=colour, zorder=3)
+        if metric == "mode_accuracy" and offline:  # before the limits are fixed below
+            _filtered_beside(ax, rows, values)
         crosses = [k for k, row in enumerate(rows) if row.status == "failed"]
         if crosses:
             ax.scatter(

@@ -67,6 +67,40 @@ def test_dask_and_local_batches_write_the_same_summaries(tmp_path: Path) -> None
     assert not [p for p in (tmp_path / "dask").iterdir() if ".hybridlog-tmp" in p.name]
 
 
+def test_a_smoothed_batch_on_dask_writes_the_same_filtered_and_offline_columns(
+    tmp_path: Path,
+) -> None:
+    """The summaries' offline columns come from the reports the workers return."""
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=40, seed=k).columns)
+        for k in (1, 2)
+    ]
+    broken = tmp_path / "logs" / "s3.csv"
+    broken.write_text("t,u,y1\n0,1,2\n")
+    logs.append(broken)
+    run_batch(logs, TANK, out_dir=tmp_path / "local", estimator="imm", smooth=True)
+    with distributed.LocalCluster(
+        n_workers=1,
+        threads_per_worker=2,
+        processes=False,
+        protocol="tcp",
+        host="127.0.0.1",
+        dashboard_address=None,
+    ) as cluster:
+        run_batch(
+            logs,
+            TANK,
+            out_dir=tmp_path / "dask",
+            estimator="imm",
+            scheduler=cluster.scheduler_address,
+            smooth=True,
+        )
+    for name in ("summary.md", "summary.csv"):
+        text = (tmp_path / "dask" / name).read_text()
+        assert text == (tmp_path / "local" / name).read_text()
+        assert "filtered_mode_accuracy" in text and "state_rmse.x1" in text
+
+
 def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
     monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 0.5)

@@ -87,5 +87,15 @@ def test_the_mode_accuracy_of_a_smoothed_batch_is_labelled_offline():
     smoothing = Smoothing("kim-rts", "argmax", "d", _side(0.5, 0, 1.0), _side(0.6, 0, 1.0))
     batch[0] = replace(batch[0], report=replace(batch[0].report, smoothing=smoothing))
     fig = summary_figure("model · imm · kim-rts, argmax", batch)
-    assert fig.axes[1].get_ylabel() == "offline mode\naccuracy (%)"
+    assert fig.axes[1].get_ylabel() == "mode accuracy (%)\n● offline ○ filter"
     assert fig.axes[0].get_ylabel() == "VAF (%)"
+
+
+def test_a_batch_of_one_log_is_counted_in_the_singular():
+    """summary.md and summary.png said '1 logs'."""
+    from hybridlog.report.summary import batch_markdown
+
+    one = rows()[:1]
+    assert summary_figure("m · imm", one).get_suptitle().split("\n")[1].startswith("1 log, ")
+    assert "**1 log: all passed** (1 analysed)." in batch_markdown("m", one, [])[1]
+    assert "**3 logs: 2 not passed**" in batch_markdown("m", rows(), [])[1]
