@@ -232,8 +232,10 @@ def test_a_bad_default_estimator_names_the_model_file_and_key(tmp_path):
     assert message.startswith(f"{path}: default_estimator: unknown estimator 'hsft'")
     assert "did you mean 'hstf'" in message and "--estimator" not in message
     assert not (tmp_path / "out").exists()
-    # naming an estimator does not use the default, so the bad default does not matter
-    assert prepare(load_model(path), "imm").name == "imm"
+    # naming another estimator does not hide it: the typo is an error of the file, as an
+    # unknown option of an [estimators.<x>] table is whichever estimator runs
+    with pytest.raises(ModelError, match=r"default_estimator: unknown estimator 'hsft'"):
+        prepare(load_model(path), "imm")
 
 
 def test_unknown_estimator_tables_and_names(tmp_path):
