@@ -142,6 +142,28 @@ def test_approximate_centres_within_tolerance(radius):
         assert distance.max() <= CENTRE_TOLERANCE, (name, distance)
 
 
+@pytest.mark.parametrize(
+    ("dimensions", "radius"), [(2, 0.2), (3, 0.5), (4, 0.5), (4, 0.35), (5, 0.5), (6, 0.5)]
+)
+def test_approximate_potentials_run_only_within_the_tolerance(dimensions, radius):
+    # The grid's error grows as (h/σ)²: it once ran at h/σ up to 0.5 (4-D, 5-D: G = 44, 20),
+    # 2-5 % off the exact potentials against a documented 0.2 %.  Whenever it runs now, it
+    # is within the tolerance; otherwise it refuses and auto is exact.
+    rng = np.random.default_rng(dimensions)
+    centres = rng.uniform(0, 3, (3, dimensions))
+    data = centres[rng.integers(0, 3, 4000)] + rng.normal(0, 0.4, (4000, dimensions))
+    exact = subtractive_clustering(data, SubtractiveOptions(radius=radius, method="exact"))
+    try:
+        approx = subtractive_clustering(
+            data, SubtractiveOptions(radius=radius, method="approximate")
+        )
+    except OptionError as err:
+        assert "method: the approximate potentials" in str(err)
+        return
+    error = np.abs(approx.initial_potentials - exact.initial_potentials).max()
+    assert error <= POTENTIAL_TOLERANCE * exact.initial_potentials.max()
+
+
 def test_auto_picks_by_size_and_says_so():
     rng = np.random.default_rng(5)
     small = subtractive_clustering(rng.normal(size=(500, 2)))
