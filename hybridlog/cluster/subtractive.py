@@ -448,13 +448,24 @@ def subtractive_clustering(
     n, d = points.shape
     radii = options.validate(d)
     unit, lower, upper = unit_box(points, bounds)
-    method, intervals, note = _choose_method(options, n, radii)
-    scaled = np.ascontiguousarray((unit / radii).T)
+    # a dimension in which every point sits at the same place adds 0 to every distance: left
+    # out, it no longer makes the grid too coarse (u(k-1) of a log with a constant input)
+    varying = unit.max(axis=0) > unit.min(axis=0)
+    varying[0] |= not varying.any()
+    method, intervals, note = _choose_method(options, n, radii[varying])
+    if not varying.all():
+        note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
+    scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":
         initial = exact_potentials(scaled, self_potential=options.self_potential, jit=jit)
     else:
         assert intervals is not None
-        initial = grid_potentials(unit, radii, intervals, self_potential=options.self_potential)
+        initial = grid_potentials(
+            unit[:, varying],
+            radii[varying],
+            intervals,
+            self_potential=options.self_potential,
+        )
     if not options.self_potential and not initial.max() > 2.0 * (n - 1) * PAIR_TERM_FLOOR:
         # every potential is the floor of underflowed terms (or, for one point, zero): their
         # ratios would pick "centres" from rounding, and one point gave none at all

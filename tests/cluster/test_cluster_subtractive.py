@@ -218,6 +218,28 @@ def test_without_the_self_term_isolated_points_have_no_potential():
     assert len(subtractive_clustering(spread, near).centers) >= 1
 
 
+def test_constant_dimensions_are_left_out_of_the_potentials():
+    # φ(k) of a log with a constant input: u(k-1) never varies.  It once counted as a
+    # dimension of the grid, which made the grid too coarse (auto fell back to the O(N²)
+    # exact potentials); it adds nothing to any distance.
+    rng = np.random.default_rng(11)
+    varying = np.concatenate(
+        [rng.normal(0, 0.3, (AUTO_EXACT_MAX, 2)), rng.normal(2, 0.5, (AUTO_EXACT_MAX // 2, 2))]
+    )
+    data = np.column_stack([varying[:, :1], np.full((len(varying), 5), 20.0), varying[:, 1:]])
+    options = SubtractiveOptions(radius=0.5)
+    found = subtractive_clustering(data, options)
+    assert found.method == "approximate"
+    assert "5 of 7 dimensions constant, left out" in found.notes[0]
+    alone = subtractive_clustering(varying, options)
+    np.testing.assert_array_equal(found.initial_potentials, alone.initial_potentials)
+    np.testing.assert_array_equal(found.center_indices, alone.center_indices)
+    np.testing.assert_array_equal(found.centers[:, 1:6], 20.0)
+    small = subtractive_clustering(data[::50], SubtractiveOptions(radius=0.5, method="exact"))
+    reference, _ = naive_subtractive_clustering(data[::50], 0.5)
+    np.testing.assert_array_equal(small.center_indices, reference)
+
+
 def test_constant_dimension_and_per_dimension_radius():
     data = np.stack([np.linspace(0, 1, 50), np.full(50, 3.0)], axis=1)
     found = subtractive_clustering(data, SubtractiveOptions(radius=(0.3, 0.5)))
