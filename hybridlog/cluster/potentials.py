@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterator
 
 import numba
 import numpy as np
@@ -46,7 +47,9 @@ from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
     "GRID_CELLS_MAX",
+    "PAIRS_PER_STEP",
     "PAIR_TERM_FLOOR",
+    "exact_potential_rows",
     "exact_potentials",
     "grid_nodes_per_axis",
     "grid_potentials",
@@ -65,6 +68,9 @@ PAIR_TERM_FLOOR = math.exp(_EXP_FLOOR)
 """The least a pair of points adds to each other's exact potential: a term exp(−4 d²) that
 underflows is counted as this (≈ 9.9e-305), so that the compiled exp needs no special case."""
 
+PAIRS_PER_STEP = 1 << 27
+"""Pairs of one step of :func:`exact_potential_rows` (about 0.1-0.2 s on one core)."""
+
 GRID_CELLS_MAX = 1 << 22
 """Largest number of grid nodes ``(G+1)^d`` of the approximate potentials (32 MiB a grid)."""
 
@@ -79,16 +85,14 @@ _KERNEL_OPTIONS = {
 }
 
 
-def _exact_steps(X: FloatArray, self_term: float, P: FloatArray) -> None:  # compiled below
+def _exact_steps(X: FloatArray, P: FloatArray, start: int, stop: int) -> None:  # compiled below
     d, n = X.shape
     squared = np.empty(_BLOCK)
     poly = np.empty(_BLOCK)
     scaled = np.empty(_BLOCK)
     bits = scaled.view(np.int64)
     row = np.empty(_BLOCK)
-    for k in range(n):
-        P[k] = self_term
-    for i in range(n):
+    for i in range(start, stop):
         # Pairs (i, j > i) in blocks: both P[i] and P[j] receive exp(-4 |X_i - X_j|^2).
         row[:] = 0.0
         for j0 in range(i + 1, n, _BLOCK):
@@ -141,6 +145,36 @@ def _exact_steps(X: FloatArray, self_term: float, P: FloatArray) -> None:  # com
 _exact_kernel = numba.njit(**_KERNEL_OPTIONS)(_exact_steps)  # type: ignore[call-overload]
 
 
+def exact_potential_rows(
+    X: FloatArray, P: FloatArray, *, self_potential: bool = True, jit: bool = True
+) -> Iterator[tuple[int, int]]:
+    """Exact potentials (eq. (5)) into ``P`` in steps of about :data:`PAIRS_PER_STEP` pairs.
+
+    Yields ``(pairs done, all pairs)`` after each step (``N(N-1)/2`` pairs in all), so a
+    caller can time the first steps, say how long the rest will take and show progress;
+    ``P`` (shape ``(N,)``, overwritten) is complete after the last step.  ``X``,
+    ``self_potential`` and ``jit`` as in :func:`exact_potentials`.
+    """
+    data = np.ascontiguousarray(X, dtype=np.float64)
+    n = data.shape[1]
+    P[:] = 1.0 if self_potential else 0.0
+    kernel = _exact_kernel if jit else _exact_steps
+    total = n * (n - 1) // 2
+    # row i pairs with the n - 1 - i rows after it: cut the rows where the pairs so far
+    # pass a multiple of the step
+    done_after = np.cumsum(np.arange(n - 1, -1, -1, dtype=np.int64))
+    cuts = np.searchsorted(done_after, np.arange(PAIRS_PER_STEP, total, PAIRS_PER_STEP))
+    start = 0
+    for stop in [*np.unique(cuts + 1).tolist(), n]:
+        if stop <= start:
+            continue
+        kernel(data, P, start, stop)
+        start = stop
+        yield int(done_after[stop - 1]), total
+    if n == 0:
+        yield 0, 0
+
+
 def exact_potentials(X: FloatArray, *, self_potential: bool = True, jit: bool = True) -> FloatArray:
     """Exact potentials (eq. (5)) of points given in radius units.
 
@@ -158,10 +192,9 @@ def exact_potentials(X: FloatArray, *, self_potential: bool = True, jit: bool = 
     FloatArray
         ``P``, shape ``(N,)``.
     """
-    data = np.ascontiguousarray(X, dtype=np.float64)
-    P = np.empty(data.shape[1])
-    kernel = _exact_kernel if jit else _exact_steps
-    kernel(data, 1.0 if self_potential else 0.0, P)
+    P = np.empty(np.shape(X)[1])
+    for _ in exact_potential_rows(X, P, self_potential=self_potential, jit=jit):
+        pass
     return P
 
 

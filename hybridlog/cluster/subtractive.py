@@ -60,6 +60,7 @@ Paper 001 (``papers/001_73b6a953d073a2d8.txt``), §4.A, eqs. (5)–(7).
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -68,10 +69,11 @@ import numpy as np
 from hybridlog.cluster.potentials import (
     GRID_CELLS_MAX,
     PAIR_TERM_FLOOR,
-    exact_potentials,
+    exact_potential_rows,
     grid_nodes_per_axis,
     grid_potentials,
 )
+from hybridlog.cluster.progress import current_reporter
 from hybridlog.errors import DataShortError, OptionError
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray, IntArray
@@ -80,6 +82,7 @@ __all__ = [
     "AUTO_EXACT_MAX",
     "CENTRE_TOLERANCE",
     "GRID_H_OVER_SIGMA_MAX",
+    "LONG_WORK_S",
     "METHODS",
     "POTENTIAL_TOLERANCE",
     "SubtractiveClusters",
@@ -99,6 +102,13 @@ POTENTIAL_TOLERANCE = 2e-3
 """Documented agreement of approximate and exact potentials, relative to the largest."""
 
 METHODS = ("auto", "exact", "approximate")
+
+LONG_WORK_S = 10.0
+"""Exact potentials expected to take longer than this (timed on their first steps) are
+announced with one line and followed by a progress bar, where a
+:class:`~hybridlog.cluster.progress.WorkReporter` is installed."""
+
+_CALIBRATION_S = 1.0
 
 GRID_H_OVER_SIGMA_MAX = 0.1
 """Coarsest grid of the approximate potentials, as grid spacing ``h = 1/G`` over the kernel's
@@ -401,8 +411,55 @@ def _choose_method(
     return (
         "exact",
         None,
-        f"exact potentials (auto: {n} points, but the grid would be too coarse: {grid_text})",
+        f"exact potentials (auto: {n} points, but the grid would be too coarse: {grid_text} "
+        f"> {GRID_H_OVER_SIGMA_MAX})",
     )
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90.0:
+        return f"{seconds:.0f} s"
+    if seconds < 5400.0:
+        return f"{seconds / 60.0:.0f} min"
+    return f"{seconds / 3600.0:.1f} h"
+
+
+def _reported_exact_potentials(
+    scaled: FloatArray, options: SubtractiveOptions, *, jit: bool, why: str
+) -> FloatArray:
+    """Exact potentials; when long, a note with the expected time and a progress bar first.
+
+    The first steps are timed (after the first, which may load the compiled kernel); when
+    the whole would take more than :data:`LONG_WORK_S`, the installed reporter gets one line
+    (points, dimensions, pairs, expected time and ``why`` the exact path runs) and a bar.
+    """
+    reporter = current_reporter()
+    d, n = scaled.shape
+    P = np.empty(n)
+    steps = exact_potential_rows(scaled, P, self_potential=options.self_potential, jit=jit)
+    first, total = next(steps)
+    done = first
+    if reporter is not None and first < total:
+        started = time.perf_counter()
+        for done, _ in steps:
+            elapsed = time.perf_counter() - started
+            if done == total or elapsed >= _CALIBRATION_S:
+                break
+        expected = elapsed * (total - first) / (done - first)
+        if done < total and expected > LONG_WORK_S:
+            reporter.note(
+                f"exact potentials of {n:,} points in {d} dimensions ({total:.2g} pairs, "
+                f"O(N²)): about {_duration(expected)} on this machine "
+                f"{why.removeprefix('exact potentials ')}"
+            )
+            with reporter.bar(total, "cluster potentials") as advance:
+                advance(done)
+                for now, _ in steps:
+                    advance(now - done)
+                    done = now
+    for _ in steps:
+        pass
+    return P
 
 
 def subtractive_clustering(
@@ -457,7 +514,7 @@ def subtractive_clustering(
         note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
     scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":
-        initial = exact_potentials(scaled, self_potential=options.self_potential, jit=jit)
+        initial = _reported_exact_potentials(scaled, options, jit=jit, why=note)
     else:
         assert intervals is not None
         initial = grid_potentials(

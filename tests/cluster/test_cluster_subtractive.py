@@ -1,13 +1,17 @@
 """Subtractive clustering (paper 001, eqs. (5)-(7)): hand case, naive reference, grid, laws."""
 
+import contextlib
 import math
+import re
 
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from hybridlog.cluster import potentials, subtractive
 from hybridlog.cluster.potentials import exact_potentials, naive_potentials
+from hybridlog.cluster.progress import WorkReporter, reporting
 from hybridlog.cluster.reference import naive_subtractive_clustering
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import (
@@ -238,6 +242,45 @@ def test_constant_dimensions_are_left_out_of_the_potentials():
     small = subtractive_clustering(data[::50], SubtractiveOptions(radius=0.5, method="exact"))
     reference, _ = naive_subtractive_clustering(data[::50], 0.5)
     np.testing.assert_array_equal(small.center_indices, reference)
+
+
+def test_long_exact_potentials_say_how_long_first_and_show_progress(monkeypatch):
+    # 10^6 points in 7-D ran the exact potentials for a quarter of an hour without a word.
+    # A reporter now gets, before the rest of the work, one line with the expected time,
+    # then a bar advanced to every pair; the potentials are the same.
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 5_000)
+    monkeypatch.setattr(subtractive, "_CALIBRATION_S", 0.0)
+    monkeypatch.setattr(subtractive, "LONG_WORK_S", 0.0)
+    events = []
+
+    @contextlib.contextmanager
+    def bar(total, label):
+        events.append(("bar", total, label))
+        yield lambda done: events.append(("advance", done))
+
+    data = np.random.default_rng(2).normal(size=(600, 7))
+    options = SubtractiveOptions(radius=0.5, method="exact")
+    with reporting(WorkReporter(note=lambda text: events.append(("note", text)), bar=bar)):
+        found = subtractive_clustering(data, options)
+    assert events[0][0] == "note"
+    assert re.match(
+        r"exact potentials of 600 points in 7 dimensions \(1\.8e\+05 pairs, O\(N²\)\): "
+        r"about \d+ s on this machine \(600 points, requested\)",
+        events[0][1],
+    ), events[0][1]
+    assert events[1] == ("bar", 600 * 599 // 2, "cluster potentials")
+    advances = [e[1] for e in events[2:]]
+    assert len(advances) > 10 and sum(advances) == 600 * 599 // 2
+    silent = subtractive_clustering(data, options)
+    np.testing.assert_array_equal(found.initial_potentials, silent.initial_potentials)
+    unit = (data - data.min(0)) / (data.max(0) - data.min(0)) / 0.5
+    np.testing.assert_allclose(found.initial_potentials, naive_potentials(unit.T), rtol=1e-12)
+    # short work stays silent
+    monkeypatch.setattr(subtractive, "LONG_WORK_S", 1e9)
+    events.clear()
+    with reporting(WorkReporter(note=lambda text: events.append(("note", text)), bar=bar)):
+        subtractive_clustering(data, options)
+    assert events == []
 
 
 def test_constant_dimension_and_per_dimension_radius():
