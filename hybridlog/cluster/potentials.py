@@ -36,9 +36,11 @@ Fuzzy Systems 2 (1994) 267-278.  Paper 001 (``papers/001_73b6a953d073a2d8.txt``)
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -146,7 +148,12 @@ _exact_kernel = numba.njit(**_KERNEL_OPTIONS)(_exact_steps)  # type: ignore[call
 
 
 def exact_potential_rows(
-    X: FloatArray, P: FloatArray, *, self_potential: bool = True, jit: bool = True
+    X: FloatArray,
+    P: FloatArray,
+    *,
+    self_potential: bool = True,
+    jit: bool = True,
+    threads: int = 1,
 ) -> Iterator[tuple[int, int]]:
     """Exact potentials (eq. (5)) into ``P`` in steps of about :data:`PAIRS_PER_STEP` pairs.
 
@@ -154,23 +161,51 @@ def exact_potential_rows(
     caller can time the first steps, say how long the rest will take and show progress;
     ``P`` (shape ``(N,)``, overwritten) is complete after the last step.  ``X``,
     ``self_potential`` and ``jit`` as in :func:`exact_potentials`.
+
+    With ``threads > 1`` each step (``threads`` times as many pairs) is cut into ``threads``
+    row ranges of as many pairs, run at once by the compiled kernel (which releases the
+    GIL), each into its own ``(N,)`` sums (``8·threads·N`` bytes); the sums are added at
+    the end, so ``P`` differs from one thread's only by rounding (a few units in the last
+    place).
     """
     data = np.ascontiguousarray(X, dtype=np.float64)
     n = data.shape[1]
-    P[:] = 1.0 if self_potential else 0.0
     kernel = _exact_kernel if jit else _exact_steps
     total = n * (n - 1) // 2
+    threads = max(1, min(threads, n))
     # row i pairs with the n - 1 - i rows after it: cut the rows where the pairs so far
     # pass a multiple of the step
     done_after = np.cumsum(np.arange(n - 1, -1, -1, dtype=np.int64))
-    cuts = np.searchsorted(done_after, np.arange(PAIRS_PER_STEP, total, PAIRS_PER_STEP))
-    start = 0
-    for stop in [*np.unique(cuts + 1).tolist(), n]:
-        if stop <= start:
-            continue
-        kernel(data, P, start, stop)
-        start = stop
-        yield int(done_after[stop - 1]), total
+    step = PAIRS_PER_STEP * threads
+    cuts = (np.searchsorted(done_after, np.arange(step, total, step)) + 1).tolist()
+    sums = np.zeros((threads, n))
+    sums[0] = 1.0 if self_potential else 0.0
+    with contextlib.ExitStack() as stack:
+        pool = None
+        if threads > 1:
+            pool = stack.enter_context(ThreadPoolExecutor(threads, "hybridlog-potentials"))
+        start = 0
+        for stop in [*cuts, n]:
+            if stop <= start:
+                continue
+            if pool is None:
+                kernel(data, sums[0], start, stop)
+            else:
+                before = int(done_after[start - 1]) if start else 0
+                shares = np.linspace(before, int(done_after[stop - 1]), threads + 1)[1:-1]
+                inner = np.searchsorted(done_after, shares) + 1
+                bounds = [start, *np.clip(inner, start, stop).tolist(), stop]
+                futures = [
+                    pool.submit(kernel, data, sums[t], bounds[t], bounds[t + 1])
+                    for t in range(threads)
+                    if bounds[t + 1] > bounds[t]
+                ]
+                for future in futures:
+                    future.result()
+            start = stop
+            if stop == n:
+                np.sum(sums, axis=0, out=P)
+            yield int(done_after[stop - 1]), total
     if n == 0:
         yield 0, 0
 

@@ -60,15 +60,18 @@ Paper 001 (``papers/001_73b6a953d073a2d8.txt``), §4.A, eqs. (5)–(7).
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from hybridlog.cluster.potentials import (
     GRID_CELLS_MAX,
     PAIR_TERM_FLOOR,
+    PAIRS_PER_STEP,
     exact_potential_rows,
     grid_nodes_per_axis,
     grid_potentials,
@@ -87,6 +90,7 @@ __all__ = [
     "POTENTIAL_TOLERANCE",
     "SubtractiveClusters",
     "SubtractiveOptions",
+    "exact_threads",
     "select_centres",
     "subtractive_clustering",
     "unit_box",
@@ -416,6 +420,19 @@ def _choose_method(
     )
 
 
+def exact_threads(n: int) -> int:
+    """Threads of the exact potentials of ``n`` points: the usable cores for long work.
+
+    One below ``4·PAIRS_PER_STEP`` pairs (about half a second: small logs give the same
+    potentials, bit for bit, on every machine); else the cores this process may run on,
+    at most numba's thread count (``NUMBA_NUM_THREADS``, which the benchmarks set to 1).
+    """
+    if n * (n - 1) // 2 < 4 * PAIRS_PER_STEP:
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(cores or 1, int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
+
+
 def _duration(seconds: float) -> str:
     if seconds < 90.0:
         return f"{seconds:.0f} s"
@@ -436,7 +453,10 @@ def _reported_exact_potentials(
     reporter = current_reporter()
     d, n = scaled.shape
     P = np.empty(n)
-    steps = exact_potential_rows(scaled, P, self_potential=options.self_potential, jit=jit)
+    threads = exact_threads(n)
+    steps = exact_potential_rows(
+        scaled, P, self_potential=options.self_potential, jit=jit, threads=threads
+    )
     first, total = next(steps)
     done = first
     if reporter is not None and first < total:
@@ -449,7 +469,8 @@ def _reported_exact_potentials(
         if done < total and expected > LONG_WORK_S:
             reporter.note(
                 f"exact potentials of {n:,} points in {d} dimensions ({total:.2g} pairs, "
-                f"O(N²)): about {_duration(expected)} on this machine "
+                f"O(N²)): about {_duration(expected)} on this machine with "
+                f"{threads} thread{'s' if threads > 1 else ''} "
                 f"{why.removeprefix('exact potentials ')}"
             )
             with reporter.bar(total, "cluster potentials") as advance:

@@ -25,5 +25,5 @@ def test_cluster_says_how_long_the_exact_potentials_take(tmp_path, monkeypatch, 
     else:
         note = result.stderr.splitlines()
         assert len(note) == 1 and note[0].startswith("exact potentials of "), result.stderr
-        assert "on this machine (" in note[0] and "requested)" in note[0]
+        assert " on this machine with " in note[0] and "requested)" in note[0]
         assert "| chiu | 1 |" in result.stdout

@@ -265,7 +265,7 @@ def test_long_exact_potentials_say_how_long_first_and_show_progress(monkeypatch)
     assert events[0][0] == "note"
     assert re.match(
         r"exact potentials of 600 points in 7 dimensions \(1\.8e\+05 pairs, O\(N²\)\): "
-        r"about \d+ s on this machine \(600 points, requested\)",
+        r"about \d+ s on this machine with \d+ threads? \(600 points, requested\)",
         events[0][1],
     ), events[0][1]
     assert events[1] == ("bar", 600 * 599 // 2, "cluster potentials")
@@ -281,6 +281,26 @@ def test_long_exact_potentials_say_how_long_first_and_show_progress(monkeypatch)
     with reporting(WorkReporter(note=lambda text: events.append(("note", text)), bar=bar)):
         subtractive_clustering(data, options)
     assert events == []
+
+
+@pytest.mark.parametrize("threads", [2, 3, 7])
+def test_exact_potentials_on_several_threads(monkeypatch, threads):
+    # long exact work runs on every usable core (the kernel releases the GIL), each thread
+    # into its own sums: the same potentials but for rounding, and every pair counted once
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 997)
+    X = np.random.default_rng(threads).normal(size=(5, 900))
+    P = np.empty(900)
+    steps = list(potentials.exact_potential_rows(X, P, threads=threads))
+    assert len(steps) > 10 and steps[-1] == (900 * 899 // 2, 900 * 899 // 2)
+    assert [done for done, _ in steps] == sorted({done for done, _ in steps})
+    np.testing.assert_allclose(P, naive_potentials(X), rtol=1e-12)
+    Q = np.empty(900)
+    for _ in potentials.exact_potential_rows(X, Q, self_potential=False, threads=threads):
+        pass
+    np.testing.assert_allclose(Q, P - 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(exact_potentials(X), P, rtol=1e-13)
+    # short work runs on one thread: the same potentials bit for bit on every machine
+    assert subtractive.exact_threads(900) == 1
 
 
 def test_constant_dimension_and_per_dimension_radius():
