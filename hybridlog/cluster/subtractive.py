@@ -28,7 +28,11 @@ eq. (5) as printed (``l ≠ k``), and ``squash`` sets ``r_b/r_a`` (Chiu 1994 sug
 Two ways to compute the potentials (5) (:mod:`hybridlog.cluster.potentials`):
 
 ``exact``
-    All pairs, compiled and blocked: ``O(N²)`` time, ``O(N)`` memory.
+    All pairs, compiled and blocked: ``O(N²)`` time, ``O(N)`` memory; long work on every
+    usable core (:func:`exact_threads`), announced with its expected time and followed by a
+    progress bar where a command installed a reporter (:mod:`hybridlog.cluster.progress`).
+    Dimensions in which every point sits at the same place are left out (they add 0 to
+    every distance).
 ``approximate``
     Multilinear deposit on a ``(G+1)^d`` grid, separable Gaussian convolution, interpolation
     back to the points: ``O(N·2^d + d·G^{d+1})``.  The selection and the revisions (6)–(7)
