@@ -163,6 +163,10 @@ def test_approximate_potentials_run_only_within_the_tolerance(dimensions, radius
         )
     except OptionError as err:
         assert "method: the approximate potentials" in str(err)
+        # the radius it suggests is one the grid takes
+        suggested = float(re.search(r"radius >= ([0-9.]+)$", str(err)).group(1))
+        larger = SubtractiveOptions(radius=suggested, method="approximate", max_centres=1)
+        assert subtractive_clustering(data[:50], larger).method == "approximate"
         return
     error = np.abs(approx.initial_potentials - exact.initial_potentials).max()
     assert error <= POTENTIAL_TOLERANCE * exact.initial_potentials.max()
