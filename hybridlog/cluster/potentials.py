@@ -17,6 +17,9 @@ Exact potentials
     partners held in small buffers, and evaluates ``exp`` with a Cody–Waite range reduction
     and a degree-11 polynomial that LLVM vectorises (numba's ``math.exp`` is a scalar libm
     call, about 3x slower here); the relative error of that ``exp`` is below 1e-15.
+    :func:`exact_potential_rows` runs the rows in steps of about :data:`PAIRS_PER_STEP`
+    pairs (for a note with the expected time and a progress bar), optionally on several
+    threads, each step cut into row ranges of equal pairs (the kernel releases the GIL).
 Approximate potentials
     :func:`grid_potentials`: the data are deposited on a regular grid of ``(G+1)^d`` nodes
     spanning the unit box with multilinear (cloud-in-cell) weights, the node masses are
