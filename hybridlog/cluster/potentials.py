@@ -54,6 +54,7 @@ __all__ = [
     "GRID_CELLS_MAX",
     "PAIRS_PER_STEP",
     "PAIR_TERM_FLOOR",
+    "distinct_points",
     "exact_potential_rows",
     "exact_potentials",
     "grid_nodes_per_axis",
@@ -90,7 +91,9 @@ _KERNEL_OPTIONS = {
 }
 
 
-def _exact_steps(X: FloatArray, P: FloatArray, start: int, stop: int) -> None:  # compiled below
+def _exact_steps(
+    X: FloatArray, W: FloatArray | None, P: FloatArray, start: int, stop: int
+) -> None:  # compiled below; W None (unweighted) is its own specialisation, pruned by numba
     d, n = X.shape
     squared = np.empty(_BLOCK)
     poly = np.empty(_BLOCK)
@@ -137,10 +140,18 @@ def _exact_steps(X: FloatArray, P: FloatArray, start: int, stop: int) -> None:  
             for jj in range(m):
                 bits[jj] = ((bits[jj] - _MAGIC_BITS) + 1023) << 52
             target = P[j0 : j0 + m]
-            for jj in range(m):
-                e = poly[jj] * scaled[jj]
-                row[jj] += e
-                target[jj] += e
+            if W is None:
+                for jj in range(m):
+                    e = poly[jj] * scaled[jj]
+                    row[jj] += e
+                    target[jj] += e
+            else:
+                weights = W[j0 : j0 + m]
+                wi = W[i]
+                for jj in range(m):
+                    e = poly[jj] * scaled[jj]
+                    row[jj] += e * weights[jj]
+                    target[jj] += e * wi
         total = 0.0
         for jj in range(_BLOCK):
             total += row[jj]
@@ -157,6 +168,7 @@ def exact_potential_rows(
     self_potential: bool = True,
     jit: bool = True,
     threads: int = 1,
+    weights: FloatArray | None = None,
 ) -> Iterator[tuple[int, int]]:
     """Exact potentials (eq. (5)) into ``P`` in steps of about :data:`PAIRS_PER_STEP` pairs.
 
@@ -170,8 +182,13 @@ def exact_potential_rows(
     GIL), each into its own ``(N,)`` sums (``8·threads·N`` bytes); the sums are added at
     the end, so ``P`` differs from one thread's only by rounding (a few units in the last
     place).
+
+    ``weights`` (shape ``(N,)``): each point stands for that many identical points
+    (:func:`distinct_points`); ``P`` is then the potential of each of them, as if every copy
+    were there, and the pairs are those of the distinct points.
     """
     data = np.ascontiguousarray(X, dtype=np.float64)
+    W = None if weights is None else np.ascontiguousarray(weights, dtype=np.float64)
     n = data.shape[1]
     kernel = _exact_kernel if jit else _exact_steps
     total = n * (n - 1) // 2
@@ -182,7 +199,8 @@ def exact_potential_rows(
     step = PAIRS_PER_STEP * threads
     cuts = (np.searchsorted(done_after, np.arange(step, total, step)) + 1).tolist()
     sums = np.zeros((threads, n))
-    sums[0] = 1.0 if self_potential else 0.0
+    # the self term, and the copies of a point (at distance 0) but the point itself
+    sums[0] = (1.0 if self_potential else 0.0) + (0.0 if W is None else W - 1.0)
     with contextlib.ExitStack() as stack:
         pool = None
         if threads > 1:
@@ -192,14 +210,14 @@ def exact_potential_rows(
             if stop <= start:
                 continue
             if pool is None:
-                kernel(data, sums[0], start, stop)
+                kernel(data, W, sums[0], start, stop)
             else:
                 before = int(done_after[start - 1]) if start else 0
                 shares = np.linspace(before, int(done_after[stop - 1]), threads + 1)[1:-1]
                 inner = np.searchsorted(done_after, shares) + 1
                 bounds = [start, *np.clip(inner, start, stop).tolist(), stop]
                 futures = [
-                    pool.submit(kernel, data, sums[t], bounds[t], bounds[t + 1])
+                    pool.submit(kernel, data, W, sums[t], bounds[t], bounds[t + 1])
                     for t in range(threads)
                     if bounds[t + 1] > bounds[t]
                 ]
@@ -211,6 +229,24 @@ def exact_potential_rows(
             yield int(done_after[stop - 1]), total
     if n == 0:
         yield 0, 0
+
+
+def distinct_points(X: FloatArray) -> tuple[FloatArray, FloatArray, IntArray]:
+    """The distinct columns of ``X`` ``(d, N)``, how often each occurs, and where each point went.
+
+    Returns
+    -------
+    tuple
+        ``(distinct (d, M), counts (M,) as floats, index (N,) of each point's column)``.
+    """
+    distinct, index, counts = np.unique(
+        np.asarray(X).T, axis=0, return_inverse=True, return_counts=True
+    )
+    return (
+        np.ascontiguousarray(distinct.T),
+        counts.astype(np.float64),
+        index.reshape(-1).astype(np.int64),
+    )
 
 
 def exact_potentials(X: FloatArray, *, self_potential: bool = True, jit: bool = True) -> FloatArray:

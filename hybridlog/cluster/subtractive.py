@@ -76,6 +76,7 @@ from hybridlog.cluster.potentials import (
     GRID_CELLS_MAX,
     PAIR_TERM_FLOOR,
     PAIRS_PER_STEP,
+    distinct_points,
     exact_potential_rows,
     grid_nodes_per_axis,
     grid_potentials,
@@ -88,6 +89,7 @@ from hybridlog.signals import FloatArray, IntArray
 __all__ = [
     "AUTO_EXACT_MAX",
     "CENTRE_TOLERANCE",
+    "DISTINCT_SHARE_MAX",
     "GRID_H_OVER_SIGMA_MAX",
     "LONG_WORK_S",
     "METHODS",
@@ -117,6 +119,9 @@ announced with one line and followed by a progress bar, where a
 :class:`~hybridlog.cluster.progress.WorkReporter` is installed."""
 
 _CALIBRATION_S = 1.0
+
+DISTINCT_SHARE_MAX = 0.9
+"""Long exact work pairs only the distinct points when at most this share of them is."""
 
 GRID_H_OVER_SIGMA_MAX = 0.1
 """Coarsest grid of the approximate potentials, as grid spacing ``h = 1/G`` over the kernel's
@@ -428,6 +433,11 @@ def _choose_method(
     )
 
 
+def _long_work(n: int) -> bool:
+    """``n`` points have at least ``4·PAIRS_PER_STEP`` pairs (about half a second)."""
+    return n * (n - 1) // 2 >= 4 * PAIRS_PER_STEP
+
+
 def exact_threads(n: int) -> int:
     """Threads of the exact potentials of ``n`` points: the usable cores for long work.
 
@@ -435,7 +445,7 @@ def exact_threads(n: int) -> int:
     potentials, bit for bit, on every machine); else the cores this process may run on,
     at most numba's thread count (``NUMBA_NUM_THREADS``, which the benchmarks set to 1).
     """
-    if n * (n - 1) // 2 < 4 * PAIRS_PER_STEP:
+    if not _long_work(n):
         return 1
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return max(1, min(cores or 1, int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
@@ -451,19 +461,40 @@ def _duration(seconds: float) -> str:
 
 def _reported_exact_potentials(
     scaled: FloatArray, options: SubtractiveOptions, *, jit: bool, why: str
-) -> FloatArray:
+) -> tuple[FloatArray, str]:
     """Exact potentials; when long, a note with the expected time and a progress bar first.
 
-    The first steps are timed (after the first, which may load the compiled kernel); when
-    the whole would take more than :data:`LONG_WORK_S`, the installed reporter gets one line
-    (points, dimensions, pairs, expected time and ``why`` the exact path runs) and a bar.
+    Long work (:func:`exact_threads`) pairs the distinct points only, each weighted by its
+    copies, when at most :data:`DISTINCT_SHARE_MAX` of the points are distinct (quantised
+    sensors, a plant at rest): the same potentials up to rounding, in ``(M/N)²`` of the
+    time.  The first steps are timed (after the first, which may load the compiled kernel);
+    when the whole would take more than :data:`LONG_WORK_S`, the installed reporter gets
+    one line (points, dimensions, pairs, expected time and ``why`` the exact path runs) and
+    a bar.
+
+    Returns
+    -------
+    tuple
+        ``(P, a note on the distinct points or "")``.
     """
     reporter = current_reporter()
     d, n = scaled.shape
-    P = np.empty(n)
-    threads = exact_threads(n)
+    points, weights, index, said = scaled, None, None, ""
+    if _long_work(n):
+        distinct, counts, where = distinct_points(scaled)
+        if distinct.shape[1] <= DISTINCT_SHARE_MAX * n:
+            points, weights, index = distinct, counts, where
+            said = f"{distinct.shape[1]:,} distinct of {n:,} points, weighted by their copies"
+    m = points.shape[1]
+    P = np.empty(m)
+    threads = exact_threads(m)
     steps = exact_potential_rows(
-        scaled, P, self_potential=options.self_potential, jit=jit, threads=threads
+        points,
+        P,
+        self_potential=options.self_potential,
+        jit=jit,
+        threads=threads,
+        weights=weights,
     )
     first, total = next(steps)
     done = first
@@ -476,9 +507,9 @@ def _reported_exact_potentials(
         expected = elapsed * (total - first) / (done - first)
         if done < total and expected > LONG_WORK_S:
             reporter.note(
-                f"exact potentials of {n:,} points in {d} dimensions ({total:.2g} pairs, "
-                f"O(N²)): about {_duration(expected)} on this machine with "
-                f"{threads} thread{'s' if threads > 1 else ''} "
+                f"exact potentials of {n:,} points{f' ({said})' if said else ''} in {d} "
+                f"dimensions ({total:.2g} pairs, O(N²)): about {_duration(expected)} on this "
+                f"machine with {threads} thread{'s' if threads > 1 else ''} "
                 f"{why.removeprefix('exact potentials ')}"
             )
             with reporter.bar(total, "cluster potentials") as advance:
@@ -488,7 +519,7 @@ def _reported_exact_potentials(
                     done = now
     for _ in steps:
         pass
-    return P
+    return (P if index is None else P[index]), said
 
 
 def subtractive_clustering(
@@ -543,7 +574,8 @@ def subtractive_clustering(
         note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
     scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":
-        initial = _reported_exact_potentials(scaled, options, jit=jit, why=note)
+        initial, said = _reported_exact_potentials(scaled, options, jit=jit, why=note)
+        note += f"; {said}" if said else ""
     else:
         assert intervals is not None
         initial = grid_potentials(

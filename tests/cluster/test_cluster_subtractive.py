@@ -268,7 +268,8 @@ def test_long_exact_potentials_say_how_long_first_and_show_progress(monkeypatch)
         found = subtractive_clustering(data, options)
     assert events[0][0] == "note"
     assert re.match(
-        r"exact potentials of 600 points in 7 dimensions \(1\.8e\+05 pairs, O\(N²\)\): "
+        r"exact potentials of 600 points in 7 dimensions "
+        r"\(1\.8e\+05 pairs, O\(N²\)\): "
         r"about \d+ s on this machine with \d+ threads? \(600 points, requested\)",
         events[0][1],
     ), events[0][1]
@@ -305,6 +306,27 @@ def test_exact_potentials_on_several_threads(monkeypatch, threads):
     np.testing.assert_allclose(exact_potentials(X), P, rtol=1e-13)
     # short work runs on one thread: the same potentials bit for bit on every machine
     assert subtractive.exact_threads(900) == 1
+
+
+def test_long_exact_work_pairs_the_distinct_points_once(monkeypatch):
+    # quantised sensors: a 10^6-row log may hold far fewer distinct φ(k).  Long exact work
+    # pairs the distinct points only, each weighted by its copies: the same potentials and
+    # centres as every pair of the naive port, in (M/N)² of the time.
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 1_000)
+    monkeypatch.setattr(subtractive, "PAIRS_PER_STEP", 1_000)
+    rng = np.random.default_rng(4)
+    blobs = np.concatenate([rng.normal(0, 1, (2000, 3)), rng.normal(4, 1, (1000, 3))])
+    data = np.round(blobs * 2) / 2  # a sensor of resolution 0.5
+    for self_term in (True, False):
+        options = SubtractiveOptions(radius=0.3, method="exact", self_potential=self_term)
+        found = subtractive_clustering(data, options)
+        distinct = np.unique(data, axis=0).shape[0]
+        assert f"{distinct:,} distinct of 3,000 points, weighted by their copies" in found.notes[0]
+        unit = (data - data.min(0)) / (data.max(0) - data.min(0)) / 0.3
+        expected = naive_potentials(unit.T, self_potential=self_term)
+        np.testing.assert_allclose(found.initial_potentials, expected, rtol=1e-12)
+        reference, _ = naive_subtractive_clustering(data, 0.3, self_potential=self_term)
+        np.testing.assert_array_equal(found.centers, data[reference])
 
 
 def test_constant_dimension_and_per_dimension_radius():
