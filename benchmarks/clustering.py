@@ -135,7 +135,7 @@ def run_case(case: Case, seconds: float = ESTIMATE_S) -> Case:
             case.kind,
             str(case.n),
             str(case.dimensions),
-            str(ESTIMATE_S),
+            str(seconds),
         ],
         env=env,
         capture_output=True,
