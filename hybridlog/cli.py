@@ -650,20 +650,27 @@ def cluster_command(
     mode from the data and the model alone, and writes the centres and classifier to a JSON
     file, a plot, and a table.  The log is read as analyze reads it (the same options).
     """
+    from hybridlog.cluster.progress import WorkReporter, reporting
     from hybridlog.jobs.cluster import discover_modes
 
     read = _read_options_given(options)  # what is left: the clustering options
-    outcome = discover_modes(
-        log,
-        model_ref,
-        out=out,
-        chiu=_CLUSTERING.parse(options),
-        given=[name for name, value in options.items() if value is not None],
-        compare_kmeans=compare_kmeans,
-        plot=plot,
-        read=read,
-        force=force,
+    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    reporter = WorkReporter(
+        note=lambda text: None if quiet else click.echo(_for_terminal(text), err=True),
+        bar=lambda total, label: _work_progress(ctx, total, label),
     )
+    with reporting(reporter):
+        outcome = discover_modes(
+            log,
+            model_ref,
+            out=out,
+            chiu=_CLUSTERING.parse(options),
+            given=[name for name, value in options.items() if value is not None],
+            compare_kmeans=compare_kmeans,
+            plot=plot,
+            read=read,
+            force=force,
+        )
     _say(ctx, outcome.table)
     for note in outcome.notes:
         _say(ctx, f"- {note}")
@@ -923,6 +930,18 @@ def _progress(
         item_show_func=None if show is None else lambda item: show(item),
     ) as bar:
         yield lambda item: bar.update(1, item)
+
+
+@contextlib.contextmanager
+def _work_progress(ctx: click.Context, total: int, label: str) -> Iterator[Callable[[int], None]]:
+    """A progress bar on stderr of ``total`` units of work, advanced by the units done."""
+    settings = ctx.find_object(_Context)
+    if (settings is not None and settings.quiet) or not sys.stderr.isatty():
+        yield lambda done: None
+        return
+    bar: Any
+    with click.progressbar(length=total, label=label, file=sys.stderr, show_eta=True) as bar:
+        yield bar.update
 
 
 def _read_options_given(options: dict[str, Any]) -> ReadOptions:

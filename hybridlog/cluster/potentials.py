@@ -17,6 +17,9 @@ Exact potentials
     partners held in small buffers, and evaluates ``exp`` with a Cody–Waite range reduction
     and a degree-11 polynomial that LLVM vectorises (numba's ``math.exp`` is a scalar libm
     call, about 3x slower here); the relative error of that ``exp`` is below 1e-15.
+    :func:`exact_potential_rows` runs the rows in steps of about :data:`PAIRS_PER_STEP`
+    pairs (for a note with the expected time and a progress bar), optionally on several
+    threads, each step cut into row ranges of equal pairs (the kernel releases the GIL).
 Approximate potentials
     :func:`grid_potentials`: the data are deposited on a regular grid of ``(G+1)^d`` nodes
     spanning the unit box with multilinear (cloud-in-cell) weights, the node masses are
@@ -36,8 +39,11 @@ Fuzzy Systems 2 (1994) 267-278.  Paper 001 (``papers/001_73b6a953d073a2d8.txt``)
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -46,7 +52,10 @@ from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
     "GRID_CELLS_MAX",
+    "PAIRS_PER_STEP",
     "PAIR_TERM_FLOOR",
+    "distinct_points",
+    "exact_potential_rows",
     "exact_potentials",
     "grid_nodes_per_axis",
     "grid_potentials",
@@ -65,6 +74,9 @@ PAIR_TERM_FLOOR = math.exp(_EXP_FLOOR)
 """The least a pair of points adds to each other's exact potential: a term exp(−4 d²) that
 underflows is counted as this (≈ 9.9e-305), so that the compiled exp needs no special case."""
 
+PAIRS_PER_STEP = 1 << 27
+"""Pairs of one step of :func:`exact_potential_rows` (about 0.1-0.2 s on one core)."""
+
 GRID_CELLS_MAX = 1 << 22
 """Largest number of grid nodes ``(G+1)^d`` of the approximate potentials (32 MiB a grid)."""
 
@@ -79,16 +91,16 @@ _KERNEL_OPTIONS = {
 }
 
 
-def _exact_steps(X: FloatArray, self_term: float, P: FloatArray) -> None:  # compiled below
+def _exact_steps(
+    X: FloatArray, W: FloatArray | None, P: FloatArray, start: int, stop: int
+) -> None:  # compiled below; W None (unweighted) is its own specialisation, pruned by numba
     d, n = X.shape
     squared = np.empty(_BLOCK)
     poly = np.empty(_BLOCK)
     scaled = np.empty(_BLOCK)
     bits = scaled.view(np.int64)
     row = np.empty(_BLOCK)
-    for k in range(n):
-        P[k] = self_term
-    for i in range(n):
+    for i in range(start, stop):
         # Pairs (i, j > i) in blocks: both P[i] and P[j] receive exp(-4 |X_i - X_j|^2).
         row[:] = 0.0
         for j0 in range(i + 1, n, _BLOCK):
@@ -128,10 +140,18 @@ def _exact_steps(X: FloatArray, self_term: float, P: FloatArray) -> None:  # com
             for jj in range(m):
                 bits[jj] = ((bits[jj] - _MAGIC_BITS) + 1023) << 52
             target = P[j0 : j0 + m]
-            for jj in range(m):
-                e = poly[jj] * scaled[jj]
-                row[jj] += e
-                target[jj] += e
+            if W is None:
+                for jj in range(m):
+                    e = poly[jj] * scaled[jj]
+                    row[jj] += e
+                    target[jj] += e
+            else:
+                weights = W[j0 : j0 + m]
+                wi = W[i]
+                for jj in range(m):
+                    e = poly[jj] * scaled[jj]
+                    row[jj] += e * weights[jj]
+                    target[jj] += e * wi
         total = 0.0
         for jj in range(_BLOCK):
             total += row[jj]
@@ -139,6 +159,94 @@ def _exact_steps(X: FloatArray, self_term: float, P: FloatArray) -> None:  # com
 
 
 _exact_kernel = numba.njit(**_KERNEL_OPTIONS)(_exact_steps)  # type: ignore[call-overload]
+
+
+def exact_potential_rows(
+    X: FloatArray,
+    P: FloatArray,
+    *,
+    self_potential: bool = True,
+    jit: bool = True,
+    threads: int = 1,
+    weights: FloatArray | None = None,
+) -> Iterator[tuple[int, int]]:
+    """Exact potentials (eq. (5)) into ``P`` in steps of about :data:`PAIRS_PER_STEP` pairs.
+
+    Yields ``(pairs done, all pairs)`` after each step (``N(N-1)/2`` pairs in all), so a
+    caller can time the first steps, say how long the rest will take and show progress;
+    ``P`` (shape ``(N,)``, overwritten) is complete after the last step.  ``X``,
+    ``self_potential`` and ``jit`` as in :func:`exact_potentials`.
+
+    With ``threads > 1`` each step (``threads`` times as many pairs) is cut into ``threads``
+    row ranges of as many pairs, run at once by the compiled kernel (which releases the
+    GIL), each into its own ``(N,)`` sums (``8·threads·N`` bytes); the sums are added at
+    the end, so ``P`` differs from one thread's only by rounding (a few units in the last
+    place).
+
+    ``weights`` (shape ``(N,)``): each point stands for that many identical points
+    (:func:`distinct_points`); ``P`` is then the potential of each of them, as if every copy
+    were there, and the pairs are those of the distinct points.
+    """
+    data = np.ascontiguousarray(X, dtype=np.float64)
+    W = None if weights is None else np.ascontiguousarray(weights, dtype=np.float64)
+    n = data.shape[1]
+    kernel = _exact_kernel if jit else _exact_steps
+    total = n * (n - 1) // 2
+    threads = max(1, min(threads, n))
+    # row i pairs with the n - 1 - i rows after it: cut the rows where the pairs so far
+    # pass a multiple of the step
+    done_after = np.cumsum(np.arange(n - 1, -1, -1, dtype=np.int64))
+    step = PAIRS_PER_STEP * threads
+    cuts = (np.searchsorted(done_after, np.arange(step, total, step)) + 1).tolist()
+    sums = np.zeros((threads, n))
+    # the self term, and the copies of a point (at distance 0) but the point itself
+    sums[0] = (1.0 if self_potential else 0.0) + (0.0 if W is None else W - 1.0)
+    with contextlib.ExitStack() as stack:
+        pool = None
+        if threads > 1:
+            pool = stack.enter_context(ThreadPoolExecutor(threads, "hybridlog-potentials"))
+        start = 0
+        for stop in [*cuts, n]:
+            if stop <= start:
+                continue
+            if pool is None:
+                kernel(data, W, sums[0], start, stop)
+            else:
+                before = int(done_after[start - 1]) if start else 0
+                shares = np.linspace(before, int(done_after[stop - 1]), threads + 1)[1:-1]
+                inner = np.searchsorted(done_after, shares) + 1
+                bounds = [start, *np.clip(inner, start, stop).tolist(), stop]
+                futures = [
+                    pool.submit(kernel, data, W, sums[t], bounds[t], bounds[t + 1])
+                    for t in range(threads)
+                    if bounds[t + 1] > bounds[t]
+                ]
+                for future in futures:
+                    future.result()
+            start = stop
+            if stop == n:
+                np.sum(sums, axis=0, out=P)
+            yield int(done_after[stop - 1]), total
+    if n == 0:
+        yield 0, 0
+
+
+def distinct_points(X: FloatArray) -> tuple[FloatArray, FloatArray, IntArray]:
+    """The distinct columns of ``X`` ``(d, N)``, how often each occurs, and where each point went.
+
+    Returns
+    -------
+    tuple
+        ``(distinct (d, M), counts (M,) as floats, index (N,) of each point's column)``.
+    """
+    distinct, index, counts = np.unique(
+        np.asarray(X).T, axis=0, return_inverse=True, return_counts=True
+    )
+    return (
+        np.ascontiguousarray(distinct.T),
+        counts.astype(np.float64),
+        index.reshape(-1).astype(np.int64),
+    )
 
 
 def exact_potentials(X: FloatArray, *, self_potential: bool = True, jit: bool = True) -> FloatArray:
@@ -158,10 +266,9 @@ def exact_potentials(X: FloatArray, *, self_potential: bool = True, jit: bool = 
     FloatArray
         ``P``, shape ``(N,)``.
     """
-    data = np.ascontiguousarray(X, dtype=np.float64)
-    P = np.empty(data.shape[1])
-    kernel = _exact_kernel if jit else _exact_steps
-    kernel(data, 1.0 if self_potential else 0.0, P)
+    P = np.empty(np.shape(X)[1])
+    for _ in exact_potential_rows(X, P, self_potential=self_potential, jit=jit):
+        pass
     return P
 
 

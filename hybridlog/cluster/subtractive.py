@@ -28,7 +28,11 @@ eq. (5) as printed (``l ≠ k``), and ``squash`` sets ``r_b/r_a`` (Chiu 1994 sug
 Two ways to compute the potentials (5) (:mod:`hybridlog.cluster.potentials`):
 
 ``exact``
-    All pairs, compiled and blocked: ``O(N²)`` time, ``O(N)`` memory.
+    All pairs, compiled and blocked: ``O(N²)`` time, ``O(N)`` memory; long work on every
+    usable core (:func:`exact_threads`), announced with its expected time and followed by a
+    progress bar where a command installed a reporter (:mod:`hybridlog.cluster.progress`).
+    Dimensions in which every point sits at the same place are left out (they add 0 to
+    every distance).
 ``approximate``
     Multilinear deposit on a ``(G+1)^d`` grid, separable Gaussian convolution, interpolation
     back to the points: ``O(N·2^d + d·G^{d+1})``.  The selection and the revisions (6)–(7)
@@ -43,8 +47,12 @@ Two ways to compute the potentials (5) (:mod:`hybridlog.cluster.potentials`):
     even the exact centres depend on differences far below the grid's error.
 ``auto`` (default)
     ``exact`` up to :data:`AUTO_EXACT_MAX` points, ``approximate`` above when the grid is
-    fine enough (``h ≤ σ/2`` with ``h = 1/G`` and ``σ = r_a/√8``), else ``exact``; the result
-    says which ran and why.
+    fine enough (``h/σ ≤`` :data:`GRID_H_OVER_SIGMA_MAX` with ``h = 1/G`` and
+    ``σ = r_a/√8``), else ``exact``; the result says which ran and why.  The grid's error
+    grows as ``(h/σ)²``: over the six shapes above at ``r_a`` = 0.5, 0.3 and 0.2 it was at
+    most 1.9e-3 ``· P_max`` at ``h/σ = 0.1``, 4.4e-3 at 0.15 and 4.7e-2 at 0.5, so the grid
+    runs only where the documented tolerance holds: in practice up to three dimensions at
+    ``r_a = 0.5`` (``G = 128``); with more, ``(G+1)^d`` nodes fine enough do not fit.
 
 References
 ----------
@@ -56,18 +64,24 @@ Paper 001 (``papers/001_73b6a953d073a2d8.txt``), §4.A, eqs. (5)–(7).
 from __future__ import annotations
 
 import math
+import os
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from hybridlog.cluster.potentials import (
     GRID_CELLS_MAX,
     PAIR_TERM_FLOOR,
-    exact_potentials,
+    PAIRS_PER_STEP,
+    distinct_points,
+    exact_potential_rows,
     grid_nodes_per_axis,
     grid_potentials,
 )
+from hybridlog.cluster.progress import current_reporter
 from hybridlog.errors import DataShortError, OptionError
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray, IntArray
@@ -75,10 +89,14 @@ from hybridlog.signals import FloatArray, IntArray
 __all__ = [
     "AUTO_EXACT_MAX",
     "CENTRE_TOLERANCE",
+    "DISTINCT_SHARE_MAX",
+    "GRID_H_OVER_SIGMA_MAX",
+    "LONG_WORK_S",
     "METHODS",
     "POTENTIAL_TOLERANCE",
     "SubtractiveClusters",
     "SubtractiveOptions",
+    "exact_threads",
     "select_centres",
     "subtractive_clustering",
     "unit_box",
@@ -95,7 +113,20 @@ POTENTIAL_TOLERANCE = 2e-3
 
 METHODS = ("auto", "exact", "approximate")
 
-_GRID_H_OVER_SIGMA_MAX = 0.5
+LONG_WORK_S = 10.0
+"""Exact potentials expected to take longer than this (timed on their first steps) are
+announced with one line and followed by a progress bar, where a
+:class:`~hybridlog.cluster.progress.WorkReporter` is installed."""
+
+_CALIBRATION_S = 1.0
+
+DISTINCT_SHARE_MAX = 0.9
+"""Long exact work pairs only the distinct points when at most this share of them is."""
+
+GRID_H_OVER_SIGMA_MAX = 0.1
+"""Coarsest grid of the approximate potentials, as grid spacing ``h = 1/G`` over the kernel's
+``σ = r_a/√8`` in the finest dimension: the largest at which the potentials were measured
+within :data:`POTENTIAL_TOLERANCE` (at 0.5 they were up to 5 % off)."""
 
 
 @dataclass(frozen=True)
@@ -370,16 +401,20 @@ def _choose_method(
     intervals = grid_nodes_per_axis(d, options.grid)
     h_over_sigma = (1.0 / intervals) / (float(radii.min()) / math.sqrt(8.0))
     grid_ok = (intervals + 1) ** d <= GRID_CELLS_MAX or options.grid is not None
-    grid_fine = h_over_sigma <= _GRID_H_OVER_SIGMA_MAX
+    grid_fine = h_over_sigma <= GRID_H_OVER_SIGMA_MAX
     grid_text = f"{intervals + 1}^{d} grid nodes, h/σ = {h_over_sigma:.3f}"
     if options.method == "exact":
         return "exact", None, f"exact potentials ({n} points, requested)"
     if options.method == "approximate":
         if not (grid_ok and grid_fine):
+            # h/σ = √8 / (G r_a): the radius at which the grid that fits would be fine enough
+            needed = math.sqrt(8.0) / (intervals * GRID_H_OVER_SIGMA_MAX)
             raise OptionError(
                 f"method: the approximate potentials need a grid with h/σ <= "
-                f"{_GRID_H_OVER_SIGMA_MAX} ({grid_text}); use a larger radius, fewer "
-                "dimensions or method=exact"
+                f"{GRID_H_OVER_SIGMA_MAX} to stay within {POTENTIAL_TOLERANCE:g} of the exact "
+                f"ones; {d} varying dimensions at r_a = {float(radii.min()):g} give "
+                f"{grid_text}: use method=exact (O(N²)), fewer lags, or radius >= "
+                f"{math.ceil(needed * 100) / 100:g}"
             )
         return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})"
     if n <= AUTO_EXACT_MAX:
@@ -393,8 +428,98 @@ def _choose_method(
     return (
         "exact",
         None,
-        f"exact potentials (auto: {n} points, but the grid would be too coarse: {grid_text})",
+        f"exact potentials (auto: {n} points, but the grid would be too coarse: {grid_text} "
+        f"> {GRID_H_OVER_SIGMA_MAX})",
     )
+
+
+def _long_work(n: int) -> bool:
+    """``n`` points have at least ``4·PAIRS_PER_STEP`` pairs (about half a second)."""
+    return n * (n - 1) // 2 >= 4 * PAIRS_PER_STEP
+
+
+def exact_threads(n: int) -> int:
+    """Threads of the exact potentials of ``n`` points: the usable cores for long work.
+
+    One below ``4·PAIRS_PER_STEP`` pairs (about half a second: small logs give the same
+    potentials, bit for bit, on every machine); else the cores this process may run on,
+    at most numba's thread count (``NUMBA_NUM_THREADS``, which the benchmarks set to 1).
+    """
+    if not _long_work(n):
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(cores or 1, int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 90.0:
+        return f"{seconds:.0f} s"
+    if seconds < 5400.0:
+        return f"{seconds / 60.0:.0f} min"
+    return f"{seconds / 3600.0:.1f} h"
+
+
+def _reported_exact_potentials(
+    scaled: FloatArray, options: SubtractiveOptions, *, jit: bool, why: str
+) -> tuple[FloatArray, str]:
+    """Exact potentials; when long, a note with the expected time and a progress bar first.
+
+    Long work (:func:`exact_threads`) pairs the distinct points only, each weighted by its
+    copies, when at most :data:`DISTINCT_SHARE_MAX` of the points are distinct (quantised
+    sensors, a plant at rest): the same potentials up to rounding, in ``(M/N)²`` of the
+    time.  The first steps are timed (after the first, which may load the compiled kernel);
+    when the whole would take more than :data:`LONG_WORK_S`, the installed reporter gets
+    one line (points, dimensions, pairs, expected time and ``why`` the exact path runs) and
+    a bar.
+
+    Returns
+    -------
+    tuple
+        ``(P, a note on the distinct points or "")``.
+    """
+    reporter = current_reporter()
+    d, n = scaled.shape
+    points, weights, index, said = scaled, None, None, ""
+    if _long_work(n):
+        distinct, counts, where = distinct_points(scaled)
+        if distinct.shape[1] <= DISTINCT_SHARE_MAX * n:
+            points, weights, index = distinct, counts, where
+            said = f"{distinct.shape[1]:,} distinct of {n:,} points, weighted by their copies"
+    m = points.shape[1]
+    P = np.empty(m)
+    threads = exact_threads(m)
+    steps = exact_potential_rows(
+        points,
+        P,
+        self_potential=options.self_potential,
+        jit=jit,
+        threads=threads,
+        weights=weights,
+    )
+    first, total = next(steps)
+    done = first
+    if reporter is not None and first < total:
+        started = time.perf_counter()
+        for done, _ in steps:
+            elapsed = time.perf_counter() - started
+            if done == total or elapsed >= _CALIBRATION_S:
+                break
+        expected = elapsed * (total - first) / (done - first)
+        if done < total and expected > LONG_WORK_S:
+            reporter.note(
+                f"exact potentials of {n:,} points{f' ({said})' if said else ''} in {d} "
+                f"dimensions ({total:.2g} pairs, O(N²)): about {_duration(expected)} on this "
+                f"machine with {threads} thread{'s' if threads > 1 else ''} "
+                f"{why.removeprefix('exact potentials ')}"
+            )
+            with reporter.bar(total, "cluster potentials") as advance:
+                advance(done)
+                for now, _ in steps:
+                    advance(now - done)
+                    done = now
+    for _ in steps:
+        pass
+    return (P if index is None else P[index]), said
 
 
 def subtractive_clustering(
@@ -440,13 +565,25 @@ def subtractive_clustering(
     n, d = points.shape
     radii = options.validate(d)
     unit, lower, upper = unit_box(points, bounds)
-    method, intervals, note = _choose_method(options, n, radii)
-    scaled = np.ascontiguousarray((unit / radii).T)
+    # a dimension in which every point sits at the same place adds 0 to every distance: left
+    # out, it no longer makes the grid too coarse (u(k-1) of a log with a constant input)
+    varying = unit.max(axis=0) > unit.min(axis=0)
+    varying[0] |= not varying.any()
+    method, intervals, note = _choose_method(options, n, radii[varying])
+    if not varying.all():
+        note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
+    scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":
-        initial = exact_potentials(scaled, self_potential=options.self_potential, jit=jit)
+        initial, said = _reported_exact_potentials(scaled, options, jit=jit, why=note)
+        note += f"; {said}" if said else ""
     else:
         assert intervals is not None
-        initial = grid_potentials(unit, radii, intervals, self_potential=options.self_potential)
+        initial = grid_potentials(
+            unit[:, varying],
+            radii[varying],
+            intervals,
+            self_potential=options.self_potential,
+        )
     if not options.self_potential and not initial.max() > 2.0 * (n - 1) * PAIR_TERM_FLOOR:
         # every potential is the floor of underflowed terms (or, for one point, zero): their
         # ratios would pick "centres" from rounding, and one point gave none at all

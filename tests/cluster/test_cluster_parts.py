@@ -44,6 +44,32 @@ def test_paper_regression_vectors_and_generalisation():
         regression_vectors(y[:2], u[:2], RegressorSpec(output_lags=(0, 3)))
 
 
+def test_kmeans_stops_at_its_fixed_point_with_kmeans2s_result(monkeypatch):
+    # scipy's kmeans2 runs all 100 iterations: 10 restarts on 10^6 6-D points took minutes.
+    # Stopped where the labels repeat, the result is kmeans2's, bit for bit.
+    import scipy.cluster.vq as vq
+
+    from hybridlog.cluster.subtractive import unit_box
+
+    rng = np.random.default_rng(8)
+    centres = rng.uniform(0, 4, (4, 3))
+    data = centres[rng.integers(0, 4, 3000)] + rng.normal(0, 0.6, (3000, 3))
+    calls = []
+    counted = vq.vq
+    monkeypatch.setattr(vq, "vq", lambda *a, **k: calls.append(1) or counted(*a, **k))
+    for k in (2, 3, 5):
+        found = kmeans_clustering(data, k, restarts=4, seed=k)
+        unit = unit_box(data)[0]
+        runs = [vq.kmeans2(unit, k, iter=100, minit="++", rng=k + r) for r in range(4)]
+        inertia = [((unit - c[lab]) ** 2).sum() for c, lab in runs]
+        best = runs[int(np.argmin(inertia))]
+        np.testing.assert_array_equal(found.centers_unit, best[0])
+        np.testing.assert_array_equal(found.sizes, np.bincount(best[1], minlength=k))
+        assert found.inertia == min(inertia)
+    # 3 × 4 runs by hybridlog, then the same by kmeans2 itself (100 iterations each)
+    assert len(calls) - 12 * 100 < 12 * 40
+
+
 def test_kmeans_finds_separated_blobs_deterministically():
     rng = np.random.default_rng(0)
     data = np.concatenate([rng.normal(0, 0.1, (200, 2)), rng.normal(5, 0.1, (100, 2))])

@@ -1,13 +1,17 @@
 """Subtractive clustering (paper 001, eqs. (5)-(7)): hand case, naive reference, grid, laws."""
 
+import contextlib
 import math
+import re
 
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from hybridlog.cluster import potentials, subtractive
 from hybridlog.cluster.potentials import exact_potentials, naive_potentials
+from hybridlog.cluster.progress import WorkReporter, reporting
 from hybridlog.cluster.reference import naive_subtractive_clustering
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import (
@@ -142,6 +146,32 @@ def test_approximate_centres_within_tolerance(radius):
         assert distance.max() <= CENTRE_TOLERANCE, (name, distance)
 
 
+@pytest.mark.parametrize(
+    ("dimensions", "radius"), [(2, 0.2), (3, 0.5), (4, 0.5), (4, 0.35), (5, 0.5), (6, 0.5)]
+)
+def test_approximate_potentials_run_only_within_the_tolerance(dimensions, radius):
+    # The grid's error grows as (h/σ)²: it once ran at h/σ up to 0.5 (4-D, 5-D: G = 44, 20),
+    # 2-5 % off the exact potentials against a documented 0.2 %.  Whenever it runs now, it
+    # is within the tolerance; otherwise it refuses and auto is exact.
+    rng = np.random.default_rng(dimensions)
+    centres = rng.uniform(0, 3, (3, dimensions))
+    data = centres[rng.integers(0, 3, 4000)] + rng.normal(0, 0.4, (4000, dimensions))
+    exact = subtractive_clustering(data, SubtractiveOptions(radius=radius, method="exact"))
+    try:
+        approx = subtractive_clustering(
+            data, SubtractiveOptions(radius=radius, method="approximate")
+        )
+    except OptionError as err:
+        assert "method: the approximate potentials" in str(err)
+        # the radius it suggests is one the grid takes
+        suggested = float(re.search(r"radius >= ([0-9.]+)$", str(err)).group(1))
+        larger = SubtractiveOptions(radius=suggested, method="approximate", max_centres=1)
+        assert subtractive_clustering(data[:50], larger).method == "approximate"
+        return
+    error = np.abs(approx.initial_potentials - exact.initial_potentials).max()
+    assert error <= POTENTIAL_TOLERANCE * exact.initial_potentials.max()
+
+
 def test_auto_picks_by_size_and_says_so():
     rng = np.random.default_rng(5)
     small = subtractive_clustering(rng.normal(size=(500, 2)))
@@ -194,6 +224,109 @@ def test_without_the_self_term_isolated_points_have_no_potential():
     assert len(subtractive_clustering(spread, SubtractiveOptions(radius=0.001)).centers) == 3
     near = SubtractiveOptions(radius=0.5, self_potential=False)
     assert len(subtractive_clustering(spread, near).centers) >= 1
+
+
+def test_constant_dimensions_are_left_out_of_the_potentials():
+    # φ(k) of a log with a constant input: u(k-1) never varies.  It once counted as a
+    # dimension of the grid, which made the grid too coarse (auto fell back to the O(N²)
+    # exact potentials); it adds nothing to any distance.
+    rng = np.random.default_rng(11)
+    varying = np.concatenate(
+        [rng.normal(0, 0.3, (AUTO_EXACT_MAX, 2)), rng.normal(2, 0.5, (AUTO_EXACT_MAX // 2, 2))]
+    )
+    data = np.column_stack([varying[:, :1], np.full((len(varying), 5), 20.0), varying[:, 1:]])
+    options = SubtractiveOptions(radius=0.5)
+    found = subtractive_clustering(data, options)
+    assert found.method == "approximate"
+    assert "5 of 7 dimensions constant, left out" in found.notes[0]
+    alone = subtractive_clustering(varying, options)
+    np.testing.assert_array_equal(found.initial_potentials, alone.initial_potentials)
+    np.testing.assert_array_equal(found.center_indices, alone.center_indices)
+    np.testing.assert_array_equal(found.centers[:, 1:6], 20.0)
+    small = subtractive_clustering(data[::50], SubtractiveOptions(radius=0.5, method="exact"))
+    reference, _ = naive_subtractive_clustering(data[::50], 0.5)
+    np.testing.assert_array_equal(small.center_indices, reference)
+
+
+def test_long_exact_potentials_say_how_long_first_and_show_progress(monkeypatch):
+    # 10^6 points in 7-D ran the exact potentials for a quarter of an hour without a word.
+    # A reporter now gets, before the rest of the work, one line with the expected time,
+    # then a bar advanced to every pair; the potentials are the same.
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 5_000)
+    monkeypatch.setattr(subtractive, "_CALIBRATION_S", 0.0)
+    monkeypatch.setattr(subtractive, "LONG_WORK_S", 0.0)
+    events = []
+
+    @contextlib.contextmanager
+    def bar(total, label):
+        events.append(("bar", total, label))
+        yield lambda done: events.append(("advance", done))
+
+    data = np.random.default_rng(2).normal(size=(600, 7))
+    options = SubtractiveOptions(radius=0.5, method="exact")
+    with reporting(WorkReporter(note=lambda text: events.append(("note", text)), bar=bar)):
+        found = subtractive_clustering(data, options)
+    assert events[0][0] == "note"
+    assert re.match(
+        r"exact potentials of 600 points in 7 dimensions "
+        r"\(1\.8e\+05 pairs, O\(N²\)\): "
+        r"about \d+ s on this machine with \d+ threads? \(600 points, requested\)",
+        events[0][1],
+    ), events[0][1]
+    assert events[1] == ("bar", 600 * 599 // 2, "cluster potentials")
+    advances = [e[1] for e in events[2:]]
+    assert len(advances) > 10 and sum(advances) == 600 * 599 // 2
+    silent = subtractive_clustering(data, options)
+    np.testing.assert_array_equal(found.initial_potentials, silent.initial_potentials)
+    unit = (data - data.min(0)) / (data.max(0) - data.min(0)) / 0.5
+    np.testing.assert_allclose(found.initial_potentials, naive_potentials(unit.T), rtol=1e-12)
+    # short work stays silent
+    monkeypatch.setattr(subtractive, "LONG_WORK_S", 1e9)
+    events.clear()
+    with reporting(WorkReporter(note=lambda text: events.append(("note", text)), bar=bar)):
+        subtractive_clustering(data, options)
+    assert events == []
+
+
+@pytest.mark.parametrize("threads", [2, 3, 7])
+def test_exact_potentials_on_several_threads(monkeypatch, threads):
+    # long exact work runs on every usable core (the kernel releases the GIL), each thread
+    # into its own sums: the same potentials but for rounding, and every pair counted once
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 997)
+    X = np.random.default_rng(threads).normal(size=(5, 900))
+    P = np.empty(900)
+    steps = list(potentials.exact_potential_rows(X, P, threads=threads))
+    assert len(steps) > 10 and steps[-1] == (900 * 899 // 2, 900 * 899 // 2)
+    assert [done for done, _ in steps] == sorted({done for done, _ in steps})
+    np.testing.assert_allclose(P, naive_potentials(X), rtol=1e-12)
+    Q = np.empty(900)
+    for _ in potentials.exact_potential_rows(X, Q, self_potential=False, threads=threads):
+        pass
+    np.testing.assert_allclose(Q, P - 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(exact_potentials(X), P, rtol=1e-13)
+    # short work runs on one thread: the same potentials bit for bit on every machine
+    assert subtractive.exact_threads(900) == 1
+
+
+def test_long_exact_work_pairs_the_distinct_points_once(monkeypatch):
+    # quantised sensors: a 10^6-row log may hold far fewer distinct φ(k).  Long exact work
+    # pairs the distinct points only, each weighted by its copies: the same potentials and
+    # centres as every pair of the naive port, in (M/N)² of the time.
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 1_000)
+    monkeypatch.setattr(subtractive, "PAIRS_PER_STEP", 1_000)
+    rng = np.random.default_rng(4)
+    blobs = np.concatenate([rng.normal(0, 1, (2000, 3)), rng.normal(4, 1, (1000, 3))])
+    data = np.round(blobs * 2) / 2  # a sensor of resolution 0.5
+    for self_term in (True, False):
+        options = SubtractiveOptions(radius=0.3, method="exact", self_potential=self_term)
+        found = subtractive_clustering(data, options)
+        distinct = np.unique(data, axis=0).shape[0]
+        assert f"{distinct:,} distinct of 3,000 points, weighted by their copies" in found.notes[0]
+        unit = (data - data.min(0)) / (data.max(0) - data.min(0)) / 0.3
+        expected = naive_potentials(unit.T, self_potential=self_term)
+        np.testing.assert_allclose(found.initial_potentials, expected, rtol=1e-12)
+        reference, _ = naive_subtractive_clustering(data, 0.3, self_potential=self_term)
+        np.testing.assert_array_equal(found.centers, data[reference])
 
 
 def test_constant_dimension_and_per_dimension_radius():
