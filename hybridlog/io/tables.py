@@ -205,9 +205,11 @@ class TableSource:
             frame = frame[pl.Series(rows)]
         sort = self.options.sort
         time_ns = self._time_ns(frame.get_column(time_column), rows, check=not sort)
+        repeats = False
         if sort:
             frame, rows, time_ns = self._sorted(frame, rows, time_ns)
             self._rows[time_column] = rows
+            repeats = self._count_repeats(time_ns)
 
         label_series: dict[str, LabelSeries] = {}
         for name in labels:
@@ -216,6 +218,9 @@ class TableSource:
             present = codes >= 0
             if not present.all():
                 codes, label_time, label_rows = codes[present], time_ns[present], rows[present]
+            last = self._last_at_each_time(name, label_time, repeats)
+            if last is not None:
+                codes, label_time, label_rows = codes[last], label_time[last], label_rows[last]
             label_series[name] = LabelSeries(name, label_time, codes, categories)
             self._rows[name] = label_rows
         if all(name in later for name in numeric):
@@ -238,15 +243,20 @@ class TableSource:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
             del taken
-            if column.null_count() == 0:
+            if column.null_count() == 0 and not repeats:
                 values: FloatArray = block.take(column.to_numpy())
                 numeric_series[name] = Series(name, time_ns, values)
                 self._rows[name] = rows
                 continue
             present = column.is_not_null().to_numpy()
             values = column.filter(pl.Series(present)).to_numpy().astype(np.float64)
-            numeric_series[name] = Series(name, time_ns[present], values)
-            self._rows[name] = rows[present]
+            column_time, column_rows = time_ns[present], rows[present]
+            last = self._last_at_each_time(name, column_time, repeats)
+            if last is not None:
+                values, column_time = values[last], column_time[last]
+                column_rows = column_rows[last]
+            numeric_series[name] = Series(name, column_time, values)
+            self._rows[name] = column_rows
         return Reading(numeric_series, label_series, dict(self._notes), self._locate)
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
@@ -336,19 +346,42 @@ class TableSource:
     def _sorted(
         self, frame: pl.DataFrame, rows: IntArray, time_ns: IntArray
     ) -> tuple[pl.DataFrame, IntArray, IntArray]:
-        """``--sort``: rows in time order (stable), the last of rows with equal times kept."""
+        """``--sort``: rows in time order (stable: rows of one time stay in file order)."""
         steps = np.diff(time_ns)
         if steps.size and (steps < 0).any():
             order = np.argsort(time_ns, kind="stable")
             self._notes["sorted"] = {"rows_out_of_order": int((steps < 0).sum())}
             frame, rows, time_ns = frame[pl.Series(order)], rows[order], time_ns[order]
-            steps = np.diff(time_ns)
-        same = steps == 0
-        if same.any():
-            keep = np.append(~same, True)
-            self._notes["duplicates_dropped"] = int(same.sum())
-            frame, rows, time_ns = frame.filter(pl.Series(keep)), rows[keep], time_ns[keep]
         return frame, rows, time_ns
+
+    def _count_repeats(self, time_ns: IntArray) -> bool:
+        """Whether sorted ``time_ns`` repeats a time; notes how many rows are combined.
+
+        Rows of one time are one sample per column (:meth:`_last_at_each_time`): a logger of
+        sparse signals writes a row per signal, ``0.1,1,`` then ``0.1,,10``, and both values
+        are samples at t = 0.1.
+        """
+        repeated = int(np.count_nonzero(time_ns[1:] == time_ns[:-1]))
+        if repeated:
+            self._notes["rows_combined"] = repeated
+        return repeated > 0
+
+    def _last_at_each_time(
+        self, name: str, time_ns: IntArray, repeats: bool
+    ) -> np.ndarray[Any, np.dtype[np.bool_]] | None:
+        """Which of a column's samples (sorted ``time_ns``) to keep: its last at each time.
+
+        ``None`` when every time is kept; else the count of the others is noted under
+        ``duplicates_dropped`` for the column.
+        """
+        if not repeats or time_ns.size < 2:
+            return None
+        last = np.append(time_ns[1:] != time_ns[:-1], True)
+        dropped = int(last.size - np.count_nonzero(last))
+        if not dropped:
+            return None
+        self._notes.setdefault("duplicates_dropped", {})[name] = dropped
+        return last
 
     def _time_ns(self, column: pl.Series, rows: IntArray, *, check: bool = True) -> IntArray:
         name = column.name
@@ -375,7 +408,8 @@ class TableSource:
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[i]))}, column {excerpt(name)}: time {how} "
                 f"(t={format_ns(int(time_ns[i]))} s after t={format_ns(int(time_ns[i - 1]))} s "
-                f"on {self._row_label(int(rows[i - 1]))}); time must be strictly increasing"
+                f"on {self._row_label(int(rows[i - 1]))}); time must be strictly increasing "
+                "(--sort puts rows in time order, rows of one time as one sample per column)"
             )
         self._rows[name] = rows
         return time_ns

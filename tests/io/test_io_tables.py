@@ -315,6 +315,38 @@ def test_empty_cells_are_missing_samples(tmp_path: Path) -> None:
     np.testing.assert_array_equal(signals.outputs[:, 0], [10, 30, 50])
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_sort_combines_rows_of_one_time_per_column(tmp_path: Path, suffix: str) -> None:
+    """A long-format table (a row per signal) read with ``--sort``: one sample per column."""
+    frame = pl.DataFrame(
+        {
+            "t": [0.0, 0.0, 0.2, 0.1, 0.1, 0.2, 0.2],
+            "u": [1.0, None, 3.0, 2.0, None, None, 33.0],
+            "y": [None, 10.0, None, None, 20.0, 30.0, None],
+            "mode": ["1", None, None, None, "valve_open", "1", None],
+        }
+    )
+    path = tmp_path / f"long{suffix}"
+    frame.write_csv(path) if suffix == ".csv" else frame.write_parquet(path)
+    with pytest.raises(LogError, match=r"time repeats .* \(--sort puts rows in time order"):
+        TableSource(path).read(["u", "y"], ["mode"])
+    with TableSource(path, ReadOptions(sort=True)) as source:
+        reading = source.read(["u", "y"], ["mode"])
+    u, y, mode = reading.numeric["u"], reading.numeric["y"], reading.labels["mode"]
+    np.testing.assert_array_equal(u.time_ns, [0, 100_000_000, 200_000_000])
+    np.testing.assert_array_equal(u.values, [1.0, 2.0, 33.0])  # the last of 3 and 33 at 0.2
+    np.testing.assert_array_equal(y.time_ns, [0, 100_000_000, 200_000_000])
+    np.testing.assert_array_equal(y.values, [10.0, 20.0, 30.0])
+    assert [mode.categories[c] for c in mode.codes] == ["1", "valve_open", "1"]
+    assert reading.notes["rows_combined"] == 4
+    assert reading.notes["duplicates_dropped"] == {"u": 1}
+    # 33 was on the last row (row 7: line 8 of the CSV) of the table
+    assert reading.locate("u", 2) == ("line 8" if suffix == ".csv" else "row 7") + ", column 'u'"
+    signals = load(path, sort=True, dt=0.1)
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1.0, 2.0, 33.0])
+    np.testing.assert_array_equal(signals.outputs[:, 0], [10.0, 20.0, 30.0])
+
+
 def test_unknown_truth_mode_names_value_line_and_time(tmp_path: Path) -> None:
     path = csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,1\n0.1,1,1,valve_shut\n")
     with pytest.raises(LogError) as info:
@@ -414,7 +446,8 @@ def test_parquet_columns_read_one_by_one_follow_the_kept_rows(tmp_path: Path, so
     frame.write_parquet(path, row_group_size=2)  # several row groups
     with TableSource(path, ReadOptions(sort=sort)) as source:
         reading = source.read(["u", "y"], ["mode"])
-    # the reference: the rows in time order, the last of equal times kept
+    # the reference: the rows in time order, the last of equal times kept (every column
+    # has a value at both rows of t = 0.4: y's empty cell is at row 2)
     order = sorted(range(n), key=lambda k: t[k])
     kept = [k for i, k in enumerate(order) if i + 1 == n or t[order[i + 1]] != t[k]]
     u, y = reading.numeric["u"], reading.numeric["y"]
