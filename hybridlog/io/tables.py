@@ -423,7 +423,8 @@ class TableSource:
         -------
         dict
             JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count,
-            nonfinite, min, max, rate_hz``), ``time`` (``column, start, end, duration`` in
+            nonfinite, min, max`` and the steps of the column's own samples, its non-empty
+            cells, as for the time column below), ``time`` (``column, start, end, duration`` in
             seconds, or ``None``), the time column's steps as
             :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
             rate over the span, ``sample_time``: the median step, ``min_step``,
@@ -840,11 +841,14 @@ def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
 def _describe_column(
     column: pl.Series, time_ns: IntArray | None, table_format: str
 ) -> dict[str, Any]:
-    """Name, dtype, non-empty and non-finite counts, finite min/max and mean rate of a column.
+    """Name, dtype, non-empty and non-finite counts, finite min/max and timing of a column.
 
     ``count`` counts every non-empty cell, ``nonfinite`` those of them that are NaN or
-    infinite (``None`` for a column that is not numeric); ``rate_hz`` is the mean rate of the
-    column's samples over their span, as :func:`~hybridlog.io.summary.describe_steps` has it.
+    infinite (``None`` for a column that is not numeric); the column's own sample times (the
+    times of its non-empty cells) are described by
+    :func:`~hybridlog.io.summary.describe_steps`, gaps included: an empty stretch in one
+    column of a table whose time column has no gap is that column's gap, which ``analyze``
+    refuses in an output.  Without usable times (``time_ns`` ``None``) the timing is ``None``.
     """
     dtype = _dtype_name(column.dtype)
     values: FloatArray | None = None
@@ -869,7 +873,6 @@ def _describe_column(
         "nonfinite": None,
         "min": None,
         "max": None,
-        "rate_hz": None,
     }
     if values is not None:
         info["nonfinite"] = count_nonfinite(values)
@@ -877,8 +880,10 @@ def _describe_column(
         if finite.size:
             info["min"] = float(finite.min())
             info["max"] = float(finite.max())
+    times = np.zeros(0, dtype=np.int64)
     if time_ns is not None and time_ns.size == present.size:
-        info["rate_hz"] = describe_steps(time_ns[present], gaps=False)["rate_hz"]
+        times = time_ns[present]
+    info.update(describe_steps(times))
     return info
 
 

@@ -616,6 +616,13 @@ def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
         "min": 0.0,
         "max": 12.0,
         "rate_hz": pytest.approx(6.0),
+        "sample_time": pytest.approx(0.1),
+        "min_step": pytest.approx(0.1),
+        "max_step": pytest.approx(0.5),
+        "regular": False,
+        "repeated": 0,
+        "gap_count": 1,
+        "gaps": [{"start": 0.3, "end": 0.8, "duration": pytest.approx(0.5)}],
     }
     assert by_name["note"]["dtype"] == "string"
     assert by_name["note"]["min"] is None
@@ -624,6 +631,32 @@ def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
     assert "timing irregular: median step 0.1 s (10 Hz), steps 0.1 s to 0.5 s" in text
     assert "0.3 s to 0.8 s" in text
     assert "note" in text and "string" in text
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_inspect_finds_a_gap_in_one_column(tmp_path: Path, suffix: str) -> None:
+    """Empty cells of ``y`` for 3 s in a 10 Hz table: y's gap, though time has none."""
+    t = np.arange(100) * 0.1
+    y = np.where((t > 3.0) & (t < 6.05), np.nan, t)
+    frame = pl.DataFrame({"t": t, "u": t, "y": y}).with_columns(pl.col("y").fill_nan(None))
+    path = tmp_path / f"hole{suffix}"
+    frame.write_csv(path) if suffix == ".csv" else frame.write_parquet(path)
+    info = inspect_log(path)
+    assert info["gap_count"] == 0
+    by_name = {c["name"]: c for c in info["columns"]}
+    assert by_name["u"]["gap_count"] == 0
+    assert by_name["y"]["count"] == 70
+    assert by_name["y"]["gap_count"] == 1
+    assert by_name["y"]["gaps"] == [
+        {"start": pytest.approx(3.0), "end": pytest.approx(6.1), "duration": pytest.approx(3.1)}
+    ]
+    assert by_name["y"]["sample_time"] == pytest.approx(0.1)
+    text = format_inspection(info)
+    assert "time gaps: none" in text
+    assert "  y: 3 s to 6.1 s (3.1 s)" in text
+    assert "  u:" not in text
+    with pytest.raises(LogError, match="gap"):
+        load(path, dt=0.1)
 
 
 def test_inspect_lists_time_problems_instead_of_failing(tmp_path: Path) -> None:
