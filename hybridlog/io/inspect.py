@@ -52,7 +52,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         those that are NaN or infinite, which ``analyze`` refuses in a mapped signal (unless
         ``--drop-nonfinite``).  A topic's ``values`` lists ``name, count, nonfinite`` per
         field that can hold them (the ``float32``/``float64`` fields of ROS messages, every
-        number of JSON messages; arrays counted element by element); its ``nonfinite`` is
+        number of JSON messages, inside arrays of messages or objects too, named with ``[]``;
+        arrays counted element by element); its ``nonfinite`` is
         their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
         ``None`` too for a column that is not numeric.
 

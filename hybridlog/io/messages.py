@@ -38,7 +38,10 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.message_paths import (
+    ARRAY,
     FLOAT_TYPES,
+    NAME,
+    SEQUENCE,
     Leaf,
     MessagePath,
     PathError,
@@ -81,6 +84,10 @@ a whole batch of them alive at once made each of its collections walk up to 65,5
 again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 s in parts of
 512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young."""
 HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
+MAX_JSON_DEPTH = 256
+"""Nesting of a JSON message or schema (objects and arrays) that ``inspect`` walks; deeper
+is reported as a problem of the topic, never cut silently.  Real documents are a few levels
+deep; this guards the walk (Python's recursion) against a pathological one."""
 
 
 @dataclass
@@ -245,7 +252,7 @@ class MessageSource(abc.ABC):
             if topic.typedefs is not None and topic.msgtype in topic.typedefs:
                 leaves = leaf_fields(topic.typedefs, topic.msgtype)
             elif topic.json_schema is not None:
-                leaves = _json_leaves(topic.json_schema)
+                leaves = _json_leaves(topic.json_schema).leaves
             out.extend([name + leaf for leaf in leaves] or [name])
         return tuple(out)
 
@@ -433,6 +440,14 @@ class MessageSource(abc.ABC):
                 end = last if end is None else max(end, last)
             if topic.problem:
                 problems.append(f"topic {topic.label}: {topic.problem}")
+            elif topic.json_schema is not None and topic.typedefs is None:
+                too_deep = _json_leaves(topic.json_schema).too_deep
+                if too_deep is not None:
+                    problems.append(
+                        f"topic {topic.label}: its JSON schema nests deeper than "
+                        f"{MAX_JSON_DEPTH} levels at {excerpt(too_deep, 80)}; the fields below "
+                        "are not listed"
+                    )
             if topic.count is not None and topic.count != stamps.size and not problems:
                 problems.append(
                     f"topic {name!r}: {stamps.size} messages found but the index lists "
@@ -495,10 +510,12 @@ class _ValueCounter:
     For :meth:`MessageSource.describe`: fed the topic's serialised messages one by one, it
     decodes them :data:`DECODED_AT_ONCE` at a time and counts, per field, the values and the
     non-finite ones (:func:`~hybridlog.io.summary.count_nonfinite`).  The fields are the
-    ``float32``/``float64`` leaves (scalars and arrays) of a ROS message definition, or every
-    number of a JSON message (JSON has one number type; Python's reader takes ``NaN`` and
-    ``Infinity``).  A message that cannot be decoded stops the count, with ``problem`` saying
-    why.
+    ``float32``/``float64`` leaves (scalars and arrays) of a ROS message definition, those
+    inside arrays of messages included (``/tf.transforms[].transform.translation.x``, every
+    element counted), or every number of a JSON message, inside arrays of objects too (JSON
+    has one number type; Python's reader takes ``NaN`` and ``Infinity``).  A message that
+    cannot be decoded, or a JSON message nested deeper than :data:`MAX_JSON_DEPTH`, stops the
+    count, with ``problem`` saying why.
 
     Parameters
     ----------
@@ -509,7 +526,7 @@ class _ValueCounter:
         come.
     """
 
-    def __init__(self, topic: Topic, float_leaves: list[Leaf] | None) -> None:
+    def __init__(self, topic: Topic, float_leaves: list[_Counted] | None) -> None:
         self.topic = topic
         self.leaves = float_leaves
         self.problem: str | None = None
@@ -531,8 +548,7 @@ class _ValueCounter:
             return cls(topic, None)
         if topic.typedefs is None or topic.msgtype not in topic.typedefs:
             return None
-        found = leaves(topic.typedefs, topic.msgtype)
-        return cls(topic, [leaf for leaf in found if leaf.type_name in FLOAT_TYPES])
+        return cls(topic, _float_leaves(topic.typedefs, topic.msgtype))
 
     def add(self, data: bytes, log_time: int) -> None:
         """Take one serialised message; count a part when :data:`DECODED_AT_ONCE` are held."""
@@ -568,12 +584,23 @@ class _ValueCounter:
             )
             return
         if self.leaves is None:
-            for message in messages:
-                _count_json(message, "", self._counts, 0)
+            for row, message in enumerate(messages):
+                too_deep = _count_json(message, "", self._counts, 0)
+                if too_deep is not None:
+                    self.problem = (
+                        f"the message logged at t={format_ns(times[row])} s nests deeper than "
+                        f"{MAX_JSON_DEPTH} levels at {excerpt(too_deep, 80)}; its values are "
+                        "not counted"
+                    )
+                    return
             return
         for leaf in self.leaves:
             try:
-                values = _leaf_values(messages, leaf)
+                values = (
+                    _leaf_values(messages, leaf.leaf)
+                    if not leaf.arrays
+                    else _nested_values(messages, leaf)
+                )
             except (PathError, ValueError) as err:
                 self.problem = f"{leaf.text}: {err}; its values are not counted"
                 return
@@ -595,21 +622,116 @@ def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
     return np.concatenate([np.ravel(part) for part in parts]) if parts else np.zeros(0)
 
 
-def _count_json(value: object, path: str, counts: dict[str, list[int]], depth: int) -> None:
-    """Add the numbers of a decoded JSON value to ``counts`` (``path[]`` for arrays)."""
+@dataclass(frozen=True)
+class _Counted:
+    """A floating-point leaf of a ROS message whose values ``inspect`` counts.
+
+    ``arrays``: the steps to each array of messages on the way to it (from the message, then
+    from an element of the array before), every element followed; ``leaf``: the leaf in the
+    innermost element (in the message itself when ``arrays`` is empty).
+    """
+
+    arrays: tuple[tuple[str, ...], ...]
+    leaf: Leaf
+
+    @property
+    def text(self) -> str:
+        """The path after the topic, e.g. ``.transforms[].transform.translation.x``."""
+        return "".join(format_steps(steps) + "[]" for steps in self.arrays) + self.leaf.text
+
+
+def _float_leaves(typedefs: Typedefs, msgtype: str) -> list[_Counted]:
+    """The ``float32``/``float64`` leaves of ``msgtype``, inside arrays of messages too.
+
+    :func:`~hybridlog.io.message_paths.leaves` stops at an array of messages (a path into one
+    takes an index); the values of its elements are counted all the same.  An element type
+    already on the way is not followed into itself.
+    """
+    out: list[_Counted] = []
+
+    def walk(type_name: str, arrays: tuple[tuple[str, ...], ...], within: frozenset[str]) -> None:
+        out.extend(
+            _Counted(arrays, leaf)
+            for leaf in leaves(typedefs, type_name)
+            if leaf.type_name in FLOAT_TYPES
+        )
+        for steps, element in _message_arrays(typedefs, type_name):
+            if element not in within:
+                walk(element, (*arrays, steps), within | {element})
+
+    walk(msgtype, (), frozenset({msgtype}))
+    return out
+
+
+def _message_arrays(typedefs: Typedefs, msgtype: str) -> list[tuple[tuple[str, ...], str]]:
+    """Steps to, and element type of, every array of messages in ``msgtype`` (not in arrays)."""
+    out: list[tuple[tuple[str, ...], str]] = []
+
+    def walk(type_name: str, prefix: tuple[str, ...], within: frozenset[str]) -> None:
+        if type_name in within or type_name not in typedefs:
+            return
+        within = within | {type_name}
+        for name, desc in typedefs[type_name][1]:
+            node = int(desc[0])
+            if node == NAME:
+                walk(desc[1], (*prefix, name), within)
+            elif node in (ARRAY, SEQUENCE) and int(desc[1][0][0]) == NAME:
+                out.append(((*prefix, name), str(desc[1][0][1])))
+
+    walk(msgtype, (), frozenset())
+    return out
+
+
+def _nested_values(messages: list[object], counted: _Counted) -> FloatArray:
+    """The numbers of a leaf inside arrays of messages, every element's, as ``float64``."""
+    parts: list[FloatArray] = []
+
+    def collect(value: object, depth: int) -> None:
+        if depth == len(counted.arrays):
+            found = leaf_value(value, counted.leaf.steps)
+            parts.append(np.ravel(np.asarray(found, dtype=np.float64)))
+            return
+        elements = evaluate(value, counted.arrays[depth])
+        if not isinstance(elements, Sequence) or isinstance(elements, str):
+            raise PathError(f"{format_steps(counted.arrays[depth])} is not an array")
+        for element in elements:
+            collect(element, depth + 1)
+
+    for message in messages:
+        collect(message, 0)
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _count_json(value: object, path: str, counts: dict[str, list[int]], depth: int) -> str | None:
+    """Add the numbers of a decoded JSON value to ``counts``; ``[]`` marks array elements.
+
+    Objects inside arrays are walked as the array's elements (``.poses[].x``), every number
+    counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  Returns ``None``, or
+    the path at which the value nests deeper than that (nothing more is counted).
+    """
+    if depth > MAX_JSON_DEPTH:
+        return path or "the message"
     if isinstance(value, Mapping):
-        if depth < 8:
-            for key, item in value.items():
-                _count_json(item, f"{path}.{key}", counts, depth + 1)
+        for key, item in value.items():
+            too_deep = _count_json(item, f"{path}.{key}", counts, depth + 1)
+            if too_deep is not None:
+                return too_deep
     elif isinstance(value, list):
-        if value and all(_is_json_number(item) for item in value):
+        numbers = [item for item in value if _is_json_number(item)]
+        if numbers:
             entry = counts.setdefault(f"{path}[]", [0, 0])
-            entry[0] += len(value)
-            entry[1] += sum(map(_is_nonfinite, value))
+            entry[0] += len(numbers)
+            entry[1] += sum(map(_is_nonfinite, numbers))
+        for item in value:
+            if isinstance(item, Mapping | list):
+                too_deep = _count_json(item, f"{path}[]", counts, depth + 1)
+                if too_deep is not None:
+                    return too_deep
     elif _is_json_number(value) and path:
         entry = counts.setdefault(path, [0, 0])
         entry[0] += 1
         entry[1] += _is_nonfinite(value)
+    return None
 
 
 def _is_json_number(value: object) -> bool:
@@ -966,21 +1088,44 @@ def _json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     return None if kind is None else str(kind)
 
 
-def _json_leaves(schema: Mapping[str, Any], prefix: str = "", depth: int = 0) -> list[str]:
+@dataclass(frozen=True)
+class _JsonLeaves:
+    """The leaves a JSON schema lists, and where it nests too deep to follow (or ``None``)."""
+
+    leaves: list[str]
+    too_deep: str | None
+
+
+def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
+    """The numeric and text leaves of a JSON schema's objects, at any depth.
+
+    Arrays of numbers are leaves (``.name[]``); arrays of objects are not expanded (a path
+    into one takes an index), as for ROS messages.  Objects nested deeper than
+    :data:`MAX_JSON_DEPTH` are not followed, and the first such path is returned.
+    """
     out: list[str] = []
-    properties = schema.get("properties")
-    if depth > 8 or not isinstance(properties, Mapping):
-        return out
-    for name, node in properties.items():
-        if not isinstance(node, Mapping):
-            continue
-        kind = node.get("type")
-        if kind in ("number", "integer", "boolean", "string"):
-            out.append(f"{prefix}.{name}")
-        elif kind == "object":
-            out.extend(_json_leaves(node, f"{prefix}.{name}", depth + 1))
-        elif kind == "array":
-            items = node.get("items")
-            if isinstance(items, Mapping) and items.get("type") in ("number", "integer"):
-                out.append(f"{prefix}.{name}[]")
-    return out
+    too_deep: str | None = None
+
+    def walk(node: Mapping[str, Any], prefix: str, depth: int) -> None:
+        nonlocal too_deep
+        properties = node.get("properties")
+        if not isinstance(properties, Mapping):
+            return
+        if depth > MAX_JSON_DEPTH:
+            too_deep = too_deep or prefix or "the message"
+            return
+        for name, child in properties.items():
+            if not isinstance(child, Mapping):
+                continue
+            kind = child.get("type")
+            if kind in ("number", "integer", "boolean", "string"):
+                out.append(f"{prefix}.{name}")
+            elif kind == "object":
+                walk(child, f"{prefix}.{name}", depth + 1)
+            elif kind == "array":
+                items = child.get("items")
+                if isinstance(items, Mapping) and items.get("type") in ("number", "integer"):
+                    out.append(f"{prefix}.{name}[]")
+
+    walk(schema, "", 0)
+    return _JsonLeaves(out, too_deep)
