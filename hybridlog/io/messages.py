@@ -56,7 +56,6 @@ from hybridlog.io.message_paths import (
     decode_each,
     evaluate,
     format_steps,
-    leaf_fields,
     leaf_value,
     leaves,
     split_path,
@@ -247,13 +246,7 @@ class MessageSource(abc.ABC):
         """Numeric and text leaves of every topic's messages, as message paths."""
         out: list[str] = []
         for name in sorted(self._topics):
-            topic = self._topics[name]
-            leaves: list[str] = []
-            if topic.typedefs is not None and topic.msgtype in topic.typedefs:
-                leaves = leaf_fields(topic.typedefs, topic.msgtype)
-            elif topic.json_schema is not None:
-                leaves = _json_leaves(topic.json_schema).leaves
-            out.extend([name + leaf for leaf in leaves] or [name])
+            out.extend([name + leaf for leaf in _topic_fields(self._topics[name])] or [name])
         return tuple(out)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
@@ -296,8 +289,7 @@ class MessageSource(abc.ABC):
             raise PathError(f"{text!r}: {err}") from None
         if not path.steps:
             raise PathError(
-                f"{text!r} names a whole message of topic {topic.label}; add a field, "
-                f"e.g. {text}.data"
+                f"{text!r} names a whole message of topic {topic.label}; {_field_hint(topic)}"
             )
         if kind == "message":
             raise PathError(
@@ -426,7 +418,6 @@ class MessageSource(abc.ABC):
                     counter.add(data, log_time)
         except LogError as err:
             problems.append(str(err).removeprefix(f"{self.path}: "))
-        fields = self.fields()
         topics = []
         undecodable: list[str] = []
         start, end = None, None
@@ -454,11 +445,14 @@ class MessageSource(abc.ABC):
                     f"{topic.count}"
                 )
             values: list[dict[str, Any]] | None = None  # not known: not decodable
+            fields = _topic_fields(topic)
             counter = counters.get(name)
             if counter is not None:
                 values = counter.result()
                 if counter.problem is not None:
                     undecodable.append(f"topic {topic.label}: {counter.problem}")
+                # JSON without a schema: the fields its messages hold
+                fields = fields or list(counter.fields)
             topics.append(
                 {
                     "name": name,
@@ -469,7 +463,7 @@ class MessageSource(abc.ABC):
                     **info,
                     "nonfinite": None if values is None else sum(v["nonfinite"] for v in values),
                     "values": values,
-                    "fields": [f for f in fields if f == name or _under(f, name)],
+                    "fields": [name + f for f in fields],
                 }
             )
         total = sum(t["count"] for t in topics)
@@ -487,8 +481,31 @@ class MessageSource(abc.ABC):
         }
 
 
-def _under(field_path: str, topic: str) -> bool:
-    return field_path.startswith(topic) and field_path[len(topic) : len(topic) + 1] in (".", "[")
+def _topic_fields(topic: Topic) -> list[str]:
+    """The paths (after the topic name) of the numeric and text leaves its definition has."""
+    if topic.typedefs is not None and topic.msgtype in topic.typedefs:
+        return [leaf.text for leaf in _deep_leaves(topic.typedefs, topic.msgtype)]
+    if topic.json_schema is not None:
+        return _json_leaves(topic.json_schema).leaves
+    return []
+
+
+def _field_hint(topic: Topic) -> str:
+    """How to name a field of ``topic``: an example it has, else why none can be given."""
+    fields = _topic_fields(topic)
+    if topic.typedefs is not None and topic.msgtype in topic.typedefs:
+        found = _deep_leaves(topic.typedefs, topic.msgtype)
+        fields = [leaf.text for leaf in found if leaf.leaf.type_name in FLOAT_TYPES] or fields
+    if fields:
+        example = topic.name + fields[0].replace("[]", "[0]")
+        more = f" ({len(fields)} fields; hybridlog inspect lists them)" if len(fields) > 1 else ""
+        return f"add a field, e.g. {example}{more}"
+    if topic.encoding == "json":
+        return (
+            "add a field of its JSON messages (the topic has no JSON schema listing them; "
+            "hybridlog inspect lists the fields found in the messages)"
+        )
+    return f"its type {topic.msgtype or '(unknown)'} has no numeric or text field to map"
 
 
 def _describe_times(stamps: IntArray) -> dict[str, Any]:
@@ -526,7 +543,7 @@ class _ValueCounter:
         come.
     """
 
-    def __init__(self, topic: Topic, float_leaves: list[_Counted] | None) -> None:
+    def __init__(self, topic: Topic, float_leaves: list[_DeepLeaf] | None) -> None:
         self.topic = topic
         self.leaves = float_leaves
         self.problem: str | None = None
@@ -534,6 +551,8 @@ class _ValueCounter:
         self._times: list[int] = []
         # field path after the topic -> [values, non-finite values]
         self._counts: dict[str, list[int]] = {leaf.text: [0, 0] for leaf in float_leaves or ()}
+        # JSON: the paths of the numbers and text the messages hold, in order of appearance
+        self.fields: dict[str, None] = {}
 
     @classmethod
     def of(cls, topic: Topic) -> _ValueCounter | None:
@@ -548,7 +567,8 @@ class _ValueCounter:
             return cls(topic, None)
         if topic.typedefs is None or topic.msgtype not in topic.typedefs:
             return None
-        return cls(topic, _float_leaves(topic.typedefs, topic.msgtype))
+        found = _deep_leaves(topic.typedefs, topic.msgtype)
+        return cls(topic, [leaf for leaf in found if leaf.leaf.type_name in FLOAT_TYPES])
 
     def add(self, data: bytes, log_time: int) -> None:
         """Take one serialised message; count a part when :data:`DECODED_AT_ONCE` are held."""
@@ -585,7 +605,7 @@ class _ValueCounter:
             return
         if self.leaves is None:
             for row, message in enumerate(messages):
-                too_deep = _count_json(message, "", self._counts, 0)
+                too_deep = _count_json(message, "", self._counts, self.fields, 0)
                 if too_deep is not None:
                     self.problem = (
                         f"the message logged at t={format_ns(times[row])} s nests deeper than "
@@ -623,8 +643,8 @@ def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
 
 
 @dataclass(frozen=True)
-class _Counted:
-    """A floating-point leaf of a ROS message whose values ``inspect`` counts.
+class _DeepLeaf:
+    """A numeric or text leaf of a ROS message, possibly inside arrays of messages.
 
     ``arrays``: the steps to each array of messages on the way to it (from the message, then
     from an element of the array before), every element followed; ``leaf``: the leaf in the
@@ -640,21 +660,18 @@ class _Counted:
         return "".join(format_steps(steps) + "[]" for steps in self.arrays) + self.leaf.text
 
 
-def _float_leaves(typedefs: Typedefs, msgtype: str) -> list[_Counted]:
-    """The ``float32``/``float64`` leaves of ``msgtype``, inside arrays of messages too.
+def _deep_leaves(typedefs: Typedefs, msgtype: str) -> list[_DeepLeaf]:
+    """The numeric and text leaves of ``msgtype``, inside arrays of messages too.
 
     :func:`~hybridlog.io.message_paths.leaves` stops at an array of messages (a path into one
-    takes an index); the values of its elements are counted all the same.  An element type
-    already on the way is not followed into itself.
+    takes an index); the leaves of its elements are fields all the same (listed with ``[]``,
+    ``/tf.transforms[].transform.translation.x``) and ``inspect`` counts their values.  An
+    element type already on the way is not followed into itself.
     """
-    out: list[_Counted] = []
+    out: list[_DeepLeaf] = []
 
     def walk(type_name: str, arrays: tuple[tuple[str, ...], ...], within: frozenset[str]) -> None:
-        out.extend(
-            _Counted(arrays, leaf)
-            for leaf in leaves(typedefs, type_name)
-            if leaf.type_name in FLOAT_TYPES
-        )
+        out.extend(_DeepLeaf(arrays, leaf) for leaf in leaves(typedefs, type_name))
         for steps, element in _message_arrays(typedefs, type_name):
             if element not in within:
                 walk(element, (*arrays, steps), within | {element})
@@ -682,7 +699,7 @@ def _message_arrays(typedefs: Typedefs, msgtype: str) -> list[tuple[tuple[str, .
     return out
 
 
-def _nested_values(messages: list[object], counted: _Counted) -> FloatArray:
+def _nested_values(messages: list[object], counted: _DeepLeaf) -> FloatArray:
     """The numbers of a leaf inside arrays of messages, every element's, as ``float64``."""
     parts: list[FloatArray] = []
 
@@ -702,35 +719,46 @@ def _nested_values(messages: list[object], counted: _Counted) -> FloatArray:
     return np.concatenate(parts) if parts else np.zeros(0)
 
 
-def _count_json(value: object, path: str, counts: dict[str, list[int]], depth: int) -> str | None:
+def _count_json(
+    value: object,
+    path: str,
+    counts: dict[str, list[int]],
+    fields: dict[str, None],
+    depth: int,
+) -> str | None:
     """Add the numbers of a decoded JSON value to ``counts``; ``[]`` marks array elements.
 
     Objects inside arrays are walked as the array's elements (``.poses[].x``), every number
-    counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  Returns ``None``, or
-    the path at which the value nests deeper than that (nothing more is counted).
+    counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  The paths of numbers
+    (booleans too) and text are added to ``fields``.  Returns ``None``, or the path at which
+    the value nests deeper than that (nothing more is counted).
     """
     if depth > MAX_JSON_DEPTH:
         return path or "the message"
     if isinstance(value, Mapping):
         for key, item in value.items():
-            too_deep = _count_json(item, f"{path}.{key}", counts, depth + 1)
+            too_deep = _count_json(item, f"{path}.{key}", counts, fields, depth + 1)
             if too_deep is not None:
                 return too_deep
     elif isinstance(value, list):
         numbers = [item for item in value if _is_json_number(item)]
         if numbers:
+            fields[f"{path}[]"] = None
             entry = counts.setdefault(f"{path}[]", [0, 0])
             entry[0] += len(numbers)
             entry[1] += sum(map(_is_nonfinite, numbers))
         for item in value:
             if isinstance(item, Mapping | list):
-                too_deep = _count_json(item, f"{path}[]", counts, depth + 1)
+                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1)
                 if too_deep is not None:
                     return too_deep
     elif _is_json_number(value) and path:
+        fields[path] = None
         entry = counts.setdefault(path, [0, 0])
         entry[0] += 1
         entry[1] += _is_nonfinite(value)
+    elif isinstance(value, str | bool) and path:
+        fields[path] = None
     return None
 
 

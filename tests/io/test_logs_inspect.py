@@ -509,3 +509,35 @@ def test_json_nested_past_the_guard_is_reported(tmp_path: Path) -> None:
         "levels at '.v[][]"
     )
     assert "values are not counted" in message_problem
+
+
+def test_whole_message_hints_and_fields_name_what_the_topic_has(tmp_path: Path) -> None:
+    """'/tf' mapped as a whole: the hint said 'e.g. /tf.data', a field TFMessage lacks, and
+    inspect listed no field of /tf (nor of a JSON topic without a schema) but the bare topic."""
+    from rosbags.typesys import Stores, get_typestore
+
+    from hybridlog.io.formats import open_log
+    from hybridlog.io.message_paths import PathError
+
+    store = get_typestore(Stores.LATEST)
+    messages = [(0, k * 10**8, tf_message(store, k, [float(k)])) for k in range(3)]
+    tf = write_mcap(
+        tmp_path / "tf.mcap", [Channel("/tf", schema_name="tf2_msgs/msg/TFMessage")], messages
+    )
+    (topic,) = inspect_log(tf)["topics"]
+    assert "/tf.transforms[].transform.translation.x" in topic["fields"]
+    assert "/tf" not in topic["fields"]
+    with open_log(tf) as source, pytest.raises(PathError) as info:
+        source.resolve("/tf", "number")
+    assert "e.g. /tf.transforms[0].transform.translation.x (" in str(info.value)
+    assert ".data" not in str(info.value)
+    source_path = source.resolve("/tf.transforms[0].transform.translation.x", "number")
+    assert source_path.steps == ("transforms", 0, "transform", "translation", "x")
+
+    documents = [{"pose": {"x": 1.0, "frame": "map"}, "ok": True, "w": [1, 2]}] * 3
+    schemaless = json_mcap(tmp_path / "j.mcap", documents)
+    (topic,) = inspect_log(schemaless)["topics"]
+    assert topic["fields"] == ["/j.pose.x", "/j.pose.frame", "/j.ok", "/j.w[]"]
+    with open_log(schemaless) as source, pytest.raises(PathError) as info:
+        source.resolve("/j", "number")
+    assert "the topic has no JSON schema listing them" in str(info.value)
