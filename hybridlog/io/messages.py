@@ -250,11 +250,19 @@ class MessageSource(abc.ABC):
         return tuple(out)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
-        """``None`` when ``name`` is a usable path (a number, with ``numeric``), else why not."""
+        """``None`` when ``name`` is a usable path (a number, with ``numeric``), else why not.
+
+        With ``--time header``, a path is usable only on a topic with ``header.stamp``.
+        """
         try:
-            self.resolve(name, "number" if numeric else "any")
+            path = self.resolve(name, "number" if numeric else "any")
         except PathError as err:
             return str(err)
+        if self.options.time == "header":
+            try:
+                self._check_header(self._topics[path.topic])
+            except LogError as err:
+                return str(err).removeprefix(f"{self.path}: ")
         return None
 
     def resolve(self, text: str, want: str) -> MessagePath:
