@@ -127,12 +127,18 @@ class TableSource:
         return tuple(c for c in self._columns if c != self._time_column)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
-        """``None`` for a column of the table, else the closest column names.
+        """``None`` for a column of the table, else why not: the time column, or the closest.
 
         Whether a column holds numbers is checked when it is read (``numeric`` is unused).
         """
         if name in self.fields():
             return None
+        if name == self._time_column:
+            return (
+                f"{excerpt(name)} is the table's time column (the first of "
+                f"{', '.join(map(repr, TIME_COLUMNS))} in the header, in seconds), "
+                f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
+            )
         return closest_names([name], self.fields())
 
     def __enter__(self) -> Self:

@@ -496,6 +496,21 @@ def test_map_to_a_missing_column_lists_closest(tmp_path: Path) -> None:
         load(path, maps=["y=levle"])
 
 
+@pytest.mark.parametrize("time_column", ["t", "time"])
+def test_mapping_the_time_column_says_it_is_the_time(tmp_path: Path, time_column: str) -> None:
+    """--map u=t: 'no column 't' ... available: u, y', as if the file had no such column."""
+    path = csv_file(tmp_path, f"{time_column},u,y\n0.0,1,10\n0.1,2,20\n")
+    with pytest.raises(LogError) as info:
+        load(path, maps=[f"u={time_column}"])
+    assert f"(from --map u={time_column}); '{time_column}' is the table's time column" in str(
+        info.value
+    )
+    assert "not a signal; other columns: 'u', 'y'" in str(info.value)
+    # a model input named like the time column: its default column is the time
+    with pytest.raises(LogError, match=rf"looked for '{time_column}'.*is the table's time column"):
+        load(path, inputs=(time_column,))
+
+
 def test_map_unknown_symbol_is_an_option_error(tmp_path: Path) -> None:
     path = csv_file(tmp_path, GOOD)
     with pytest.raises(OptionError, match=r"unknown symbol 'z'.*u, y, truth.mode, truth.x1"):
