@@ -622,13 +622,13 @@ class _ValueCounter:
                     )
                     return
             return
+        # the elements of each array of messages, gathered once for all the leaves in them
+        elements: dict[tuple[tuple[str, ...], ...], list[object]] = {(): messages}
         for leaf in self.leaves:
             try:
-                values = (
-                    _leaf_values(messages, leaf.leaf)
-                    if not leaf.arrays
-                    else _nested_values(messages, leaf)
-                )
+                if leaf.arrays not in elements:
+                    elements[leaf.arrays] = _elements(messages, leaf.arrays)
+                values = _leaf_values(elements[leaf.arrays], leaf.leaf)
             except (PathError, ValueError) as err:
                 self.problem = f"{leaf.text}: {err}; its values are not counted"
                 return
@@ -707,24 +707,18 @@ def _message_arrays(typedefs: Typedefs, msgtype: str) -> list[tuple[tuple[str, .
     return out
 
 
-def _nested_values(messages: list[object], counted: _DeepLeaf) -> FloatArray:
-    """The numbers of a leaf inside arrays of messages, every element's, as ``float64``."""
-    parts: list[FloatArray] = []
-
-    def collect(value: object, depth: int) -> None:
-        if depth == len(counted.arrays):
-            found = leaf_value(value, counted.leaf.steps)
-            parts.append(np.ravel(np.asarray(found, dtype=np.float64)))
-            return
-        elements = evaluate(value, counted.arrays[depth])
-        if not isinstance(elements, Sequence) or isinstance(elements, str):
-            raise PathError(f"{format_steps(counted.arrays[depth])} is not an array")
-        for element in elements:
-            collect(element, depth + 1)
-
-    for message in messages:
-        collect(message, 0)
-    return np.concatenate(parts) if parts else np.zeros(0)
+def _elements(messages: list[object], arrays: tuple[tuple[str, ...], ...]) -> list[object]:
+    """Every element of the arrays of messages ``arrays`` lead to in ``messages``, in order."""
+    items = messages
+    for steps in arrays:
+        found: list[object] = []
+        for item in items:
+            value = evaluate(item, steps)
+            if not isinstance(value, Sequence) or isinstance(value, str):
+                raise PathError(f"{format_steps(steps)} is not an array of messages")
+            found.extend(value)
+        items = found
+    return items
 
 
 def _count_json(
