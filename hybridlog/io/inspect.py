@@ -118,6 +118,12 @@ def format_inspection(info: dict[str, Any]) -> str:
                 )
             if count > 10:
                 lines.append(f"  ... {count - 10} more")
+        if info.get("repeated"):
+            lines.append(
+                f"repeated times: {_count(info['repeated'], 'row')} at the time of the one "
+                "before (analyze refuses them unless --sort, which combines the rows of a time "
+                "into one sample per column)"
+            )
     columns = info.get("columns", [])
     header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz", "gaps")
     rows = [

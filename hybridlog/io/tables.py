@@ -389,7 +389,14 @@ class TableSource:
         self._notes.setdefault("duplicates_dropped", {})[name] = dropped
         return last
 
-    def _time_ns(self, column: pl.Series, rows: IntArray, *, check: bool = True) -> IntArray:
+    def _time_ns(
+        self, column: pl.Series, rows: IntArray, *, check: bool = True, repeats: bool = False
+    ) -> IntArray:
+        """The time column in integer nanoseconds.
+
+        With ``check``, refused unless increasing (non-decreasing with ``repeats``), naming
+        the line or row where it is not.
+        """
         name = column.name
         if isinstance(column.dtype, pl.Datetime):
             time_ns: IntArray = column.dt.epoch("ns").to_numpy().astype(np.int64)
@@ -407,7 +414,7 @@ class TableSource:
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
         # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
-        not_after = time_ns[1:] <= time_ns[:-1]
+        not_after = time_ns[1:] < time_ns[:-1] if repeats else time_ns[1:] <= time_ns[:-1]
         if check and not_after.size and not_after.any():
             i = int(np.argmax(not_after)) + 1
             how = "repeats" if time_ns[i] == time_ns[i - 1] else "goes backwards"
@@ -435,7 +442,9 @@ class TableSource:
             :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
             rate over the span, ``sample_time``: the median step, ``min_step``,
             ``max_step``, ``regular``, ``gaps``: steps longer than 1.5 times the median, at
-            most 1000, ``gap_count``) and ``problems`` (why time is unusable).  Times are
+            most 1000, ``gap_count``, ``repeated``: rows at the time of the one before, which
+            ``analyze`` refuses unless ``--sort``) and ``problems`` (why time is unusable:
+            a time that goes backwards, a missing or bad time).  Times are
             seconds as floats; statistics of columns that are not numeric are ``None``.
         """
         problems: list[str] = []
@@ -449,7 +458,9 @@ class TableSource:
         else:
             try:
                 rows = self._kept_rows(frame, self._time_column)
-                time_ns = self._time_ns(frame.get_column(self._time_column)[pl.Series(rows)], rows)
+                time_ns = self._time_ns(
+                    frame.get_column(self._time_column)[pl.Series(rows)], rows, repeats=True
+                )
             except LogError as err:
                 problems.append(str(err).removeprefix(f"{self.path}, "))
                 rows = np.arange(frame.height, dtype=np.int64)

@@ -674,6 +674,25 @@ def test_inspect_finds_a_gap_in_one_column(tmp_path: Path, suffix: str) -> None:
         load(path, dt=0.1)
 
 
+def test_inspect_describes_a_long_format_table(tmp_path: Path) -> None:
+    """A row per signal (times repeat): inspect gave up on time ('time repeats') and showed
+    no rate or gap of any column; repeats are counted, as for a topic, and each column timed."""
+    rows = [f"{k / 10},{k},\n{k / 10},,{2 * k}\n" for k in range(10)]
+    info = inspect_log(csv_file(tmp_path, "t,u,y\n" + "".join(rows)))
+    assert info["problems"] == []
+    assert info["repeated"] == 10
+    by_name = {c["name"]: c for c in info["columns"]}
+    for name in ("u", "y"):
+        assert by_name[name]["count"] == 10
+        assert by_name[name]["rate_hz"] == pytest.approx(10.0)
+        assert by_name[name]["regular"] is True
+    text = format_inspection(info)
+    assert "repeated times: 10 rows at the time of the one before (analyze refuses them" in text
+    backwards = inspect_log(csv_file(tmp_path, "t,u\n0.0,1\n0.1,1\n0.05,1\n", "b.csv"))
+    assert backwards["time"] is None
+    assert "line 4, column 't': time goes backwards" in backwards["problems"][0]
+
+
 def test_inspect_lists_time_problems_instead_of_failing(tmp_path: Path) -> None:
     path = csv_file(tmp_path, "t,y\n0.0,1\n0.2,nan\n0.1,3\n")
     info = inspect_log(path)
