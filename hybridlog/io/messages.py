@@ -1129,9 +1129,10 @@ class _JsonLeaves:
 def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
     """The numeric and text leaves of a JSON schema's objects, at any depth.
 
-    Arrays of numbers are leaves (``.name[]``); arrays of objects are not expanded (a path
-    into one takes an index), as for ROS messages.  Objects nested deeper than
-    :data:`MAX_JSON_DEPTH` are not followed, and the first such path is returned.
+    Arrays of numbers are leaves (``.name[]``); the leaves of arrays of objects are listed
+    with ``[]`` where a path takes an index (``.poses[].x``), as for ROS messages.  Objects
+    nested deeper than :data:`MAX_JSON_DEPTH` are not followed, and the first such path is
+    returned.
     """
     out: list[str] = []
     too_deep: str | None = None
@@ -1154,8 +1155,12 @@ def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
                 walk(child, f"{prefix}.{name}", depth + 1)
             elif kind == "array":
                 items = child.get("items")
-                if isinstance(items, Mapping) and items.get("type") in ("number", "integer"):
+                if not isinstance(items, Mapping):
+                    continue
+                if items.get("type") in ("number", "integer"):
                     out.append(f"{prefix}.{name}[]")
+                elif items.get("type") == "object":
+                    walk(items, f"{prefix}.{name}[]", depth + 1)
 
     walk(schema, "", 0)
     return _JsonLeaves(out, too_deep)

@@ -541,3 +541,14 @@ def test_whole_message_hints_and_fields_name_what_the_topic_has(tmp_path: Path) 
     with open_log(schemaless) as source, pytest.raises(PathError) as info:
         source.resolve("/j", "number")
     assert "the topic has no JSON schema listing them" in str(info.value)
+
+    # a JSON schema's arrays of objects are listed as a ROS message's arrays of messages are
+    point = {"type": "object", "properties": {"x": {"type": "number"}}}
+    schema = {"type": "object", "properties": {"poses": {"type": "array", "items": point}}}
+    with_schema = json_mcap(tmp_path / "js.mcap", [{"poses": [{"x": 1.0}]}] * 3, schema)
+    (topic,) = inspect_log(with_schema)["topics"]
+    assert topic["fields"] == ["/j.poses[].x"]
+    with open_log(with_schema) as source, pytest.raises(PathError) as info:
+        source.resolve("/j", "number")
+    assert str(info.value).endswith("add a field, e.g. /j.poses[0].x")
+    assert source.resolve("/j.poses[0].x", "number").steps == ("poses", 0, "x")
