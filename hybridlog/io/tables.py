@@ -101,6 +101,8 @@ class TableSource:
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
+        # ``--sort``: per column, the rows of its samples superseded at a repeated time
+        self._superseded: dict[str, IntArray] = {}
 
     @property
     def info(self) -> SourceInfo:
@@ -212,6 +214,8 @@ class TableSource:
         sort = self.options.sort
         time_ns = self._time_ns(frame.get_column(time_column), rows, check=not sort)
         repeats = False
+        superseded: dict[str, IntArray] = {}  # per column, the rows of its samples not kept
+        self._superseded = superseded
         if sort:
             frame, rows, time_ns = self._sorted(frame, rows, time_ns)
             self._rows[time_column] = rows
@@ -224,7 +228,7 @@ class TableSource:
             present = codes >= 0
             if not present.all():
                 codes, label_time, label_rows = codes[present], time_ns[present], rows[present]
-            last = self._last_at_each_time(name, label_time, repeats)
+            last = self._last_at_each_time(name, label_time, label_rows, repeats)
             if last is not None:
                 codes, label_time, label_rows = codes[last], label_time[last], label_rows[last]
             label_series[name] = LabelSeries(name, label_time, codes, categories)
@@ -257,12 +261,14 @@ class TableSource:
             present = column.is_not_null().to_numpy()
             values = column.filter(pl.Series(present)).to_numpy().astype(np.float64)
             column_time, column_rows = time_ns[present], rows[present]
-            last = self._last_at_each_time(name, column_time, repeats)
+            last = self._last_at_each_time(name, column_time, column_rows, repeats)
             if last is not None:
                 values, column_time = values[last], column_time[last]
                 column_rows = column_rows[last]
             numeric_series[name] = Series(name, column_time, values)
             self._rows[name] = column_rows
+        if superseded:
+            self._note_superseded(superseded, [self._rows[n] for n in dict.fromkeys(wanted[1:])])
         return Reading(numeric_series, label_series, dict(self._notes), self._locate)
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
@@ -373,21 +379,40 @@ class TableSource:
         return repeated > 0
 
     def _last_at_each_time(
-        self, name: str, time_ns: IntArray, repeats: bool
+        self, name: str, time_ns: IntArray, rows: IntArray, repeats: bool
     ) -> np.ndarray[Any, np.dtype[np.bool_]] | None:
-        """Which of a column's samples (sorted ``time_ns``) to keep: its last at each time.
+        """Which of a column's samples (sorted ``time_ns``, on ``rows``) to keep.
 
-        ``None`` when every time is kept; else the count of the others is noted under
-        ``duplicates_dropped`` for the column.
+        The last at each time; ``None`` when every time is kept; else the rows of the others
+        are kept for :meth:`_note_superseded`.
         """
         if not repeats or time_ns.size < 2:
             return None
         last = np.append(time_ns[1:] != time_ns[:-1], True)
-        dropped = int(last.size - np.count_nonzero(last))
-        if not dropped:
+        if last.all():
             return None
-        self._notes.setdefault("duplicates_dropped", {})[name] = dropped
+        self._superseded[name] = rows[~last]
         return last
+
+    def _note_superseded(self, superseded: dict[str, IntArray], kept: list[IntArray]) -> None:
+        """Note what ``--sort`` dropped of the rows of a repeated time.
+
+        ``duplicates_dropped``: rows none of whose cells read was kept (a row written twice);
+        ``values_superseded``: per column, the values replaced by a later row's at the same
+        time in rows that gave others.  Rows that each give other columns (a row per signal)
+        lose nothing and are only counted in ``rows_combined``.
+        """
+        giving = np.unique(np.concatenate(kept)) if kept else np.zeros(0, dtype=np.int64)
+        dropped_rows = np.setdiff1d(np.unique(np.concatenate(list(superseded.values()))), giving)
+        if dropped_rows.size:
+            self._notes["duplicates_dropped"] = int(dropped_rows.size)
+        replaced = {
+            name: int(np.count_nonzero(~np.isin(rows, dropped_rows)))
+            for name, rows in superseded.items()
+        }
+        replaced = {name: count for name, count in replaced.items() if count}
+        if replaced:
+            self._notes["values_superseded"] = replaced
 
     def _time_ns(
         self, column: pl.Series, rows: IntArray, *, check: bool = True, repeats: bool = False

@@ -339,12 +339,20 @@ def test_sort_combines_rows_of_one_time_per_column(tmp_path: Path, suffix: str) 
     np.testing.assert_array_equal(y.values, [10.0, 20.0, 30.0])
     assert [mode.categories[c] for c in mode.codes] == ["1", "valve_open", "1"]
     assert reading.notes["rows_combined"] == 4
-    assert reading.notes["duplicates_dropped"] == {"u": 1}
+    assert reading.notes["duplicates_dropped"] == 1  # the row of u = 3 gave nothing
+    assert "values_superseded" not in reading.notes
     # 33 was on the last row (row 7: line 8 of the CSV) of the table
     assert reading.locate("u", 2) == ("line 8" if suffix == ".csv" else "row 7") + ", column 'u'"
     signals = load(path, sort=True, dt=0.1)
     np.testing.assert_array_equal(signals.inputs[:, 0], [1.0, 2.0, 33.0])
     np.testing.assert_array_equal(signals.outputs[:, 0], [10.0, 20.0, 30.0])
+    # a row that gives y but whose u a later row replaces: u's value is counted as replaced
+    partial = csv_file(tmp_path, "t,u,y\n0,1,2\n0,3,\n0.1,4,5\n", "partial.csv")
+    with TableSource(partial, ReadOptions(sort=True)) as source:
+        reading = source.read(["u", "y"])
+    np.testing.assert_array_equal(reading.numeric["u"].values, [3.0, 4.0])
+    np.testing.assert_array_equal(reading.numeric["y"].values, [2.0, 5.0])
+    assert reading.notes == {"rows_combined": 1, "values_superseded": {"u": 1}}
 
 
 def test_unknown_truth_mode_names_value_line_and_time(tmp_path: Path) -> None:

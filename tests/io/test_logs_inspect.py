@@ -175,7 +175,8 @@ def test_table_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
     report = json.loads((out / "report.json").read_text())
     assert report["reading"]["sorted"] == {"rows_out_of_order": 1}
     assert report["reading"]["rows_combined"] == 1
-    assert report["reading"]["duplicates_dropped"] == {"u": 1, "y1": 1, "y2": 1, "y3": 1}
+    assert report["reading"]["duplicates_dropped"] == 1
+    assert "values_superseded" not in report["reading"]
     assert report["samples"] == 4
 
 
