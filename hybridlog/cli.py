@@ -201,7 +201,8 @@ def _read_options(function: F) -> F:
             "--sort",
             is_flag=True,
             help="Put samples whose times go backwards in order, and keep the last of "
-            "samples with equal times, instead of refusing the log.",
+            "samples with equal times (per column: a table's rows of one time are "
+            "combined), instead of refusing the log.",
         ),
         click.option(
             "--drop-nonfinite",

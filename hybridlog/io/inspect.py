@@ -30,7 +30,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     -------
     dict
         For tables: ``path, format, rows, columns`` (each ``name, dtype, count, nonfinite,
-        min, max, rate_hz``), ``time`` (``column, start, end, duration``) or ``None``, the
+        min, max`` and the step keys below of the column's own samples, its non-empty
+        cells), ``time`` (``column, start, end, duration``) or ``None``, the
         time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
         ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
         column is unusable, if it is).  For bags and MCAP files: ``path, format, messages,
@@ -51,7 +52,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         those that are NaN or infinite, which ``analyze`` refuses in a mapped signal (unless
         ``--drop-nonfinite``).  A topic's ``values`` lists ``name, count, nonfinite`` per
         field that can hold them (the ``float32``/``float64`` fields of ROS messages, every
-        number of JSON messages; arrays counted element by element); its ``nonfinite`` is
+        number of JSON messages, inside arrays of messages or objects too, named with ``[]``;
+        arrays counted element by element); its ``nonfinite`` is
         their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
         ``None`` too for a column that is not numeric.
 
@@ -107,17 +109,23 @@ def format_inspection(info: dict[str, Any]) -> str:
     count = int(info.get("gap_count", len(gaps)))
     if span is not None:
         if count == 0:
-            lines.append("gaps: none")
+            lines.append("time gaps: none")
         else:
-            lines.append(f"gaps: {_count(count, 'step')} longer than 1.5 x the median step")
+            lines.append(f"time gaps: {_count(count, 'step')} longer than 1.5 x the median step")
             for gap in gaps[:10]:
                 lines.append(
                     f"  {_at(gap['start'])} s to {_at(gap['end'])} s ({_num(gap['duration'])} s)"
                 )
             if count > 10:
                 lines.append(f"  ... {count - 10} more")
+        if info.get("repeated"):
+            lines.append(
+                f"repeated times: {_count(info['repeated'], 'row')} at the time of the one "
+                "before (analyze refuses them unless --sort, which combines the rows of a time "
+                "into one sample per column)"
+            )
     columns = info.get("columns", [])
-    header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz")
+    header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz", "gaps")
     rows = [
         (
             str(c["name"]),
@@ -127,10 +135,19 @@ def format_inspection(info: dict[str, Any]) -> str:
             _num(c["min"]),
             _num(c["max"]),
             _num(c.get("rate_hz")),
+            str(c.get("gap_count", 0)),
         )
         for c in columns
     ]
     lines.extend(_table(header, rows))
+    time_column = span["column"] if span is not None else None
+    lines.extend(
+        _gap_lines(
+            [c for c in columns if c["name"] != time_column],
+            "gaps in columns (steps between a column's non-empty cells longer than 1.5 x "
+            "its median step):",
+        )
+    )
     lines.extend(_nonfinite_lines(columns))
     problems = info.get("problems") or []
     if problems:
@@ -181,18 +198,7 @@ def _format_messages(info: dict[str, Any]) -> str:
             f"  {t['name']}: {_count(t['repeated'], 'message')} at the time of the one before"
             for t in repeated
         )
-    gapped = [t for t in topics if t["gap_count"]]
-    if gapped:
-        lines.append("")
-        lines.append("gaps (steps longer than 1.5 x the topic's median step):")
-        for topic in gapped:
-            for gap in topic["gaps"][:5]:
-                lines.append(
-                    f"  {topic['name']}: {_at(gap['start'])} s to {_at(gap['end'])} s "
-                    f"({_num(gap['duration'])} s)"
-                )
-            if topic["gap_count"] > 5:
-                lines.append(f"  {topic['name']}: ... {topic['gap_count'] - 5} more")
+    lines.extend(_gap_lines(topics, "gaps (steps longer than 1.5 x the topic's median step):"))
     lines.extend(_nonfinite_lines([v for t in topics for v in t.get("values") or []]))
     fields = [f for t in topics for f in t["fields"]]
     if fields:
@@ -219,6 +225,23 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("problems:")
         lines.extend(f"  {p}" for p in problems)
     return "\n".join(lines)
+
+
+def _gap_lines(entries: list[dict[str, Any]], title: str) -> list[str]:
+    """``title``, then at most five gaps of each topic or column that has some."""
+    gapped = [e for e in entries if e.get("gap_count")]
+    if not gapped:
+        return []
+    lines = ["", title]
+    for entry in gapped:
+        for gap in entry["gaps"][:5]:
+            lines.append(
+                f"  {entry['name']}: {_at(gap['start'])} s to {_at(gap['end'])} s "
+                f"({_num(gap['duration'])} s)"
+            )
+        if entry["gap_count"] > 5:
+            lines.append(f"  {entry['name']}: ... {entry['gap_count'] - 5} more")
+    return lines
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:

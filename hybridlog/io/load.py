@@ -255,6 +255,10 @@ def load_signals(
                     )
         notes.update({"format": info.format, "time": options.time})
         notes.update(reading.notes)
+        if mapping.unusable_truth:
+            notes["truth_unusable"] = [
+                f"{symbol} ({why})" for symbol, why in mapping.unusable_truth.items()
+            ]
         if dropped:
             notes["nonfinite_dropped"] = dropped
         if out_of_range:

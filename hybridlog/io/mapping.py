@@ -21,7 +21,10 @@ For each model input and output, and for the ground truth (``truth.mode``,
 
 Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``
 (and a ground-truth field found by default that holds no sample is no truth either:
-:func:`~hybridlog.io.load.load_signals` drops it).
+:func:`~hybridlog.io.load.load_signals` drops it).  A ground-truth field the log has (in
+``fields``) but that cannot be used as asked -- text for a state, a topic without
+``header.stamp`` read with ``--time header`` -- is no truth either, unless mapped with
+``--map``; :attr:`SignalMap.unusable_truth` says why, for the report.
 """
 
 from __future__ import annotations
@@ -52,6 +55,9 @@ class SignalMap:
     truth_components:
         ``{component: field}`` holding the true mode of each component the log has, in
         the model's order (``[components]`` models).
+    unusable_truth:
+        ``{symbol: "field: why"}`` for ground truth not mapped with ``--map`` whose field
+        the log has but that cannot be used (so the symbol has no truth).
     """
 
     inputs: dict[str, str]
@@ -59,6 +65,7 @@ class SignalMap:
     truth_mode: str | None = None
     truth_states: dict[str, str] = field(default_factory=dict)
     truth_components: dict[str, str] = field(default_factory=dict)
+    unusable_truth: dict[str, str] = field(default_factory=dict)
 
 
 def default_field(symbol: str, *, message_paths: bool) -> str:
@@ -214,6 +221,7 @@ def resolve_signal_map(
     signals = signals or {}
     truth = truth or {}
     maps = maps or {}
+    unusable: dict[str, str] = {}
 
     def missing(name: str, numeric: bool) -> str | None:
         if explain is not None:
@@ -242,6 +250,10 @@ def resolve_signal_map(
         if missing(default, numeric) is None:
             return default
         if not required:
+            for name in dict.fromkeys([p for p in (model_path, default) if p is not None]):
+                reason = missing(name, numeric) if name in available else None
+                if reason is not None:
+                    unusable.setdefault(symbol, f"{field_word} {name!r}: {reason}")
             return None
         looked = [default] if model_path is None else [model_path, default]
         why = closest_names(looked, fields)
@@ -287,7 +299,9 @@ def resolve_signal_map(
         chosen = choose(symbol, truth.get(key), default(symbol), required=False)
         if chosen is not None:
             truth_components[component] = chosen
-    return SignalMap(input_fields, output_fields, truth_mode, truth_states, truth_components)
+    return SignalMap(
+        input_fields, output_fields, truth_mode, truth_states, truth_components, unusable
+    )
 
 
 def _describe(symbol: str, inputs: Sequence[str]) -> str:

@@ -38,7 +38,10 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.message_paths import (
+    ARRAY,
     FLOAT_TYPES,
+    NAME,
+    SEQUENCE,
     Leaf,
     MessagePath,
     PathError,
@@ -53,7 +56,6 @@ from hybridlog.io.message_paths import (
     decode_each,
     evaluate,
     format_steps,
-    leaf_fields,
     leaf_value,
     leaves,
     split_path,
@@ -81,6 +83,10 @@ a whole batch of them alive at once made each of its collections walk up to 65,5
 again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 s in parts of
 512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young."""
 HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
+MAX_JSON_DEPTH = 256
+"""Nesting of a JSON message or schema (objects and arrays) that ``inspect`` walks; deeper
+is reported as a problem of the topic, never cut silently.  Real documents are a few levels
+deep; this guards the walk (Python's recursion) against a pathological one."""
 
 
 @dataclass
@@ -240,21 +246,23 @@ class MessageSource(abc.ABC):
         """Numeric and text leaves of every topic's messages, as message paths."""
         out: list[str] = []
         for name in sorted(self._topics):
-            topic = self._topics[name]
-            leaves: list[str] = []
-            if topic.typedefs is not None and topic.msgtype in topic.typedefs:
-                leaves = leaf_fields(topic.typedefs, topic.msgtype)
-            elif topic.json_schema is not None:
-                leaves = _json_leaves(topic.json_schema)
-            out.extend([name + leaf for leaf in leaves] or [name])
+            out.extend([name + leaf for leaf in _topic_fields(self._topics[name])] or [name])
         return tuple(out)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
-        """``None`` when ``name`` is a usable path (a number, with ``numeric``), else why not."""
+        """``None`` when ``name`` is a usable path (a number, with ``numeric``), else why not.
+
+        With ``--time header``, a path is usable only on a topic with ``header.stamp``.
+        """
         try:
-            self.resolve(name, "number" if numeric else "any")
+            path = self.resolve(name, "number" if numeric else "any")
         except PathError as err:
             return str(err)
+        if self.options.time == "header":
+            try:
+                self._check_header(self._topics[path.topic])
+            except LogError as err:
+                return str(err).removeprefix(f"{self.path}: ")
         return None
 
     def resolve(self, text: str, want: str) -> MessagePath:
@@ -289,8 +297,7 @@ class MessageSource(abc.ABC):
             raise PathError(f"{text!r}: {err}") from None
         if not path.steps:
             raise PathError(
-                f"{text!r} names a whole message of topic {topic.label}; add a field, "
-                f"e.g. {text}.data"
+                f"{text!r} names a whole message of topic {topic.label}; {_field_hint(topic)}"
             )
         if kind == "message":
             raise PathError(
@@ -419,7 +426,6 @@ class MessageSource(abc.ABC):
                     counter.add(data, log_time)
         except LogError as err:
             problems.append(str(err).removeprefix(f"{self.path}: "))
-        fields = self.fields()
         topics = []
         undecodable: list[str] = []
         start, end = None, None
@@ -433,17 +439,28 @@ class MessageSource(abc.ABC):
                 end = last if end is None else max(end, last)
             if topic.problem:
                 problems.append(f"topic {topic.label}: {topic.problem}")
+            elif topic.json_schema is not None and topic.typedefs is None:
+                too_deep = _json_leaves(topic.json_schema).too_deep
+                if too_deep is not None:
+                    problems.append(
+                        f"topic {topic.label}: its JSON schema nests deeper than "
+                        f"{MAX_JSON_DEPTH} levels at {excerpt(too_deep, 80)}; the fields below "
+                        "are not listed"
+                    )
             if topic.count is not None and topic.count != stamps.size and not problems:
                 problems.append(
                     f"topic {name!r}: {stamps.size} messages found but the index lists "
                     f"{topic.count}"
                 )
             values: list[dict[str, Any]] | None = None  # not known: not decodable
+            fields = _topic_fields(topic)
             counter = counters.get(name)
             if counter is not None:
                 values = counter.result()
                 if counter.problem is not None:
                     undecodable.append(f"topic {topic.label}: {counter.problem}")
+                # JSON without a schema: the fields its messages hold
+                fields = fields or list(counter.fields)
             topics.append(
                 {
                     "name": name,
@@ -454,7 +471,7 @@ class MessageSource(abc.ABC):
                     **info,
                     "nonfinite": None if values is None else sum(v["nonfinite"] for v in values),
                     "values": values,
-                    "fields": [f for f in fields if f == name or _under(f, name)],
+                    "fields": [name + f for f in fields],
                 }
             )
         total = sum(t["count"] for t in topics)
@@ -472,8 +489,31 @@ class MessageSource(abc.ABC):
         }
 
 
-def _under(field_path: str, topic: str) -> bool:
-    return field_path.startswith(topic) and field_path[len(topic) : len(topic) + 1] in (".", "[")
+def _topic_fields(topic: Topic) -> list[str]:
+    """The paths (after the topic name) of the numeric and text leaves its definition has."""
+    if topic.typedefs is not None and topic.msgtype in topic.typedefs:
+        return [leaf.text for leaf in _deep_leaves(topic.typedefs, topic.msgtype)]
+    if topic.json_schema is not None:
+        return _json_leaves(topic.json_schema).leaves
+    return []
+
+
+def _field_hint(topic: Topic) -> str:
+    """How to name a field of ``topic``: an example it has, else why none can be given."""
+    fields = _topic_fields(topic)
+    if topic.typedefs is not None and topic.msgtype in topic.typedefs:
+        found = _deep_leaves(topic.typedefs, topic.msgtype)
+        fields = [leaf.text for leaf in found if leaf.leaf.type_name in FLOAT_TYPES] or fields
+    if fields:
+        example = topic.name + fields[0].replace("[]", "[0]")
+        more = f" ({len(fields)} fields; hybridlog inspect lists them)" if len(fields) > 1 else ""
+        return f"add a field, e.g. {example}{more}"
+    if topic.encoding == "json":
+        return (
+            "add a field of its JSON messages (the topic has no JSON schema listing them; "
+            "hybridlog inspect lists the fields found in the messages)"
+        )
+    return f"its type {topic.msgtype or '(unknown)'} has no numeric or text field to map"
 
 
 def _describe_times(stamps: IntArray) -> dict[str, Any]:
@@ -495,10 +535,12 @@ class _ValueCounter:
     For :meth:`MessageSource.describe`: fed the topic's serialised messages one by one, it
     decodes them :data:`DECODED_AT_ONCE` at a time and counts, per field, the values and the
     non-finite ones (:func:`~hybridlog.io.summary.count_nonfinite`).  The fields are the
-    ``float32``/``float64`` leaves (scalars and arrays) of a ROS message definition, or every
-    number of a JSON message (JSON has one number type; Python's reader takes ``NaN`` and
-    ``Infinity``).  A message that cannot be decoded stops the count, with ``problem`` saying
-    why.
+    ``float32``/``float64`` leaves (scalars and arrays) of a ROS message definition, those
+    inside arrays of messages included (``/tf.transforms[].transform.translation.x``, every
+    element counted), or every number of a JSON message, inside arrays of objects too (JSON
+    has one number type; Python's reader takes ``NaN`` and ``Infinity``).  A message that
+    cannot be decoded, or a JSON message nested deeper than :data:`MAX_JSON_DEPTH`, stops the
+    count, with ``problem`` saying why.
 
     Parameters
     ----------
@@ -509,7 +551,7 @@ class _ValueCounter:
         come.
     """
 
-    def __init__(self, topic: Topic, float_leaves: list[Leaf] | None) -> None:
+    def __init__(self, topic: Topic, float_leaves: list[_DeepLeaf] | None) -> None:
         self.topic = topic
         self.leaves = float_leaves
         self.problem: str | None = None
@@ -517,6 +559,8 @@ class _ValueCounter:
         self._times: list[int] = []
         # field path after the topic -> [values, non-finite values]
         self._counts: dict[str, list[int]] = {leaf.text: [0, 0] for leaf in float_leaves or ()}
+        # JSON: the paths of the numbers and text the messages hold, in order of appearance
+        self.fields: dict[str, None] = {}
 
     @classmethod
     def of(cls, topic: Topic) -> _ValueCounter | None:
@@ -531,8 +575,8 @@ class _ValueCounter:
             return cls(topic, None)
         if topic.typedefs is None or topic.msgtype not in topic.typedefs:
             return None
-        found = leaves(topic.typedefs, topic.msgtype)
-        return cls(topic, [leaf for leaf in found if leaf.type_name in FLOAT_TYPES])
+        found = _deep_leaves(topic.typedefs, topic.msgtype)
+        return cls(topic, [leaf for leaf in found if leaf.leaf.type_name in FLOAT_TYPES])
 
     def add(self, data: bytes, log_time: int) -> None:
         """Take one serialised message; count a part when :data:`DECODED_AT_ONCE` are held."""
@@ -568,12 +612,23 @@ class _ValueCounter:
             )
             return
         if self.leaves is None:
-            for message in messages:
-                _count_json(message, "", self._counts, 0)
+            for row, message in enumerate(messages):
+                too_deep = _count_json(message, "", self._counts, self.fields, 0)
+                if too_deep is not None:
+                    self.problem = (
+                        f"the message logged at t={format_ns(times[row])} s nests deeper than "
+                        f"{MAX_JSON_DEPTH} levels at {excerpt(too_deep, 80)}; its values are "
+                        "not counted"
+                    )
+                    return
             return
+        # the elements of each array of messages, gathered once for all the leaves in them
+        elements: dict[tuple[tuple[str, ...], ...], list[object]] = {(): messages}
         for leaf in self.leaves:
             try:
-                values = _leaf_values(messages, leaf)
+                if leaf.arrays not in elements:
+                    elements[leaf.arrays] = _elements(messages, leaf.arrays)
+                values = _leaf_values(elements[leaf.arrays], leaf.leaf)
             except (PathError, ValueError) as err:
                 self.problem = f"{leaf.text}: {err}; its values are not counted"
                 return
@@ -595,21 +650,118 @@ def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
     return np.concatenate([np.ravel(part) for part in parts]) if parts else np.zeros(0)
 
 
-def _count_json(value: object, path: str, counts: dict[str, list[int]], depth: int) -> None:
-    """Add the numbers of a decoded JSON value to ``counts`` (``path[]`` for arrays)."""
+@dataclass(frozen=True)
+class _DeepLeaf:
+    """A numeric or text leaf of a ROS message, possibly inside arrays of messages.
+
+    ``arrays``: the steps to each array of messages on the way to it (from the message, then
+    from an element of the array before), every element followed; ``leaf``: the leaf in the
+    innermost element (in the message itself when ``arrays`` is empty).
+    """
+
+    arrays: tuple[tuple[str, ...], ...]
+    leaf: Leaf
+
+    @property
+    def text(self) -> str:
+        """The path after the topic, e.g. ``.transforms[].transform.translation.x``."""
+        return "".join(format_steps(steps) + "[]" for steps in self.arrays) + self.leaf.text
+
+
+def _deep_leaves(typedefs: Typedefs, msgtype: str) -> list[_DeepLeaf]:
+    """The numeric and text leaves of ``msgtype``, inside arrays of messages too.
+
+    :func:`~hybridlog.io.message_paths.leaves` stops at an array of messages (a path into one
+    takes an index); the leaves of its elements are fields all the same (listed with ``[]``,
+    ``/tf.transforms[].transform.translation.x``) and ``inspect`` counts their values.  An
+    element type already on the way is not followed into itself.
+    """
+    out: list[_DeepLeaf] = []
+
+    def walk(type_name: str, arrays: tuple[tuple[str, ...], ...], within: frozenset[str]) -> None:
+        out.extend(_DeepLeaf(arrays, leaf) for leaf in leaves(typedefs, type_name))
+        for steps, element in _message_arrays(typedefs, type_name):
+            if element not in within:
+                walk(element, (*arrays, steps), within | {element})
+
+    walk(msgtype, (), frozenset({msgtype}))
+    return out
+
+
+def _message_arrays(typedefs: Typedefs, msgtype: str) -> list[tuple[tuple[str, ...], str]]:
+    """Steps to, and element type of, every array of messages in ``msgtype`` (not in arrays)."""
+    out: list[tuple[tuple[str, ...], str]] = []
+
+    def walk(type_name: str, prefix: tuple[str, ...], within: frozenset[str]) -> None:
+        if type_name in within or type_name not in typedefs:
+            return
+        within = within | {type_name}
+        for name, desc in typedefs[type_name][1]:
+            node = int(desc[0])
+            if node == NAME:
+                walk(desc[1], (*prefix, name), within)
+            elif node in (ARRAY, SEQUENCE) and int(desc[1][0][0]) == NAME:
+                out.append(((*prefix, name), str(desc[1][0][1])))
+
+    walk(msgtype, (), frozenset())
+    return out
+
+
+def _elements(messages: list[object], arrays: tuple[tuple[str, ...], ...]) -> list[object]:
+    """Every element of the arrays of messages ``arrays`` lead to in ``messages``, in order."""
+    items = messages
+    for steps in arrays:
+        found: list[object] = []
+        for item in items:
+            value = evaluate(item, steps)
+            if not isinstance(value, Sequence) or isinstance(value, str):
+                raise PathError(f"{format_steps(steps)} is not an array of messages")
+            found.extend(value)
+        items = found
+    return items
+
+
+def _count_json(
+    value: object,
+    path: str,
+    counts: dict[str, list[int]],
+    fields: dict[str, None],
+    depth: int,
+) -> str | None:
+    """Add the numbers of a decoded JSON value to ``counts``; ``[]`` marks array elements.
+
+    Objects inside arrays are walked as the array's elements (``.poses[].x``), every number
+    counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  The paths of numbers
+    (booleans too) and text are added to ``fields``.  Returns ``None``, or the path at which
+    the value nests deeper than that (nothing more is counted).
+    """
+    if depth > MAX_JSON_DEPTH:
+        return path or "the message"
     if isinstance(value, Mapping):
-        if depth < 8:
-            for key, item in value.items():
-                _count_json(item, f"{path}.{key}", counts, depth + 1)
+        for key, item in value.items():
+            too_deep = _count_json(item, f"{path}.{key}", counts, fields, depth + 1)
+            if too_deep is not None:
+                return too_deep
     elif isinstance(value, list):
-        if value and all(_is_json_number(item) for item in value):
+        numbers = [item for item in value if _is_json_number(item)]
+        if numbers:
+            fields[f"{path}[]"] = None
             entry = counts.setdefault(f"{path}[]", [0, 0])
-            entry[0] += len(value)
-            entry[1] += sum(map(_is_nonfinite, value))
+            entry[0] += len(numbers)
+            entry[1] += sum(map(_is_nonfinite, numbers))
+        for item in value:
+            if isinstance(item, Mapping | list):
+                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1)
+                if too_deep is not None:
+                    return too_deep
     elif _is_json_number(value) and path:
+        fields[path] = None
         entry = counts.setdefault(path, [0, 0])
         entry[0] += 1
         entry[1] += _is_nonfinite(value)
+    elif isinstance(value, str | bool) and path:
+        fields[path] = None
+    return None
 
 
 def _is_json_number(value: object) -> bool:
@@ -966,21 +1118,49 @@ def _json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     return None if kind is None else str(kind)
 
 
-def _json_leaves(schema: Mapping[str, Any], prefix: str = "", depth: int = 0) -> list[str]:
+@dataclass(frozen=True)
+class _JsonLeaves:
+    """The leaves a JSON schema lists, and where it nests too deep to follow (or ``None``)."""
+
+    leaves: list[str]
+    too_deep: str | None
+
+
+def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
+    """The numeric and text leaves of a JSON schema's objects, at any depth.
+
+    Arrays of numbers are leaves (``.name[]``); the leaves of arrays of objects are listed
+    with ``[]`` where a path takes an index (``.poses[].x``), as for ROS messages.  Objects
+    nested deeper than :data:`MAX_JSON_DEPTH` are not followed, and the first such path is
+    returned.
+    """
     out: list[str] = []
-    properties = schema.get("properties")
-    if depth > 8 or not isinstance(properties, Mapping):
-        return out
-    for name, node in properties.items():
-        if not isinstance(node, Mapping):
-            continue
-        kind = node.get("type")
-        if kind in ("number", "integer", "boolean", "string"):
-            out.append(f"{prefix}.{name}")
-        elif kind == "object":
-            out.extend(_json_leaves(node, f"{prefix}.{name}", depth + 1))
-        elif kind == "array":
-            items = node.get("items")
-            if isinstance(items, Mapping) and items.get("type") in ("number", "integer"):
-                out.append(f"{prefix}.{name}[]")
-    return out
+    too_deep: str | None = None
+
+    def walk(node: Mapping[str, Any], prefix: str, depth: int) -> None:
+        nonlocal too_deep
+        properties = node.get("properties")
+        if not isinstance(properties, Mapping):
+            return
+        if depth > MAX_JSON_DEPTH:
+            too_deep = too_deep or prefix or "the message"
+            return
+        for name, child in properties.items():
+            if not isinstance(child, Mapping):
+                continue
+            kind = child.get("type")
+            if kind in ("number", "integer", "boolean", "string"):
+                out.append(f"{prefix}.{name}")
+            elif kind == "object":
+                walk(child, f"{prefix}.{name}", depth + 1)
+            elif kind == "array":
+                items = child.get("items")
+                if not isinstance(items, Mapping):
+                    continue
+                if items.get("type") in ("number", "integer"):
+                    out.append(f"{prefix}.{name}[]")
+                elif items.get("type") == "object":
+                    walk(items, f"{prefix}.{name}[]", depth + 1)
+
+    walk(schema, "", 0)
+    return _JsonLeaves(out, too_deep)

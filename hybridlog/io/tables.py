@@ -101,6 +101,8 @@ class TableSource:
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
+        # ``--sort``: per column, the rows of its samples superseded at a repeated time
+        self._superseded: dict[str, IntArray] = {}
 
     @property
     def info(self) -> SourceInfo:
@@ -127,12 +129,18 @@ class TableSource:
         return tuple(c for c in self._columns if c != self._time_column)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
-        """``None`` for a column of the table, else the closest column names.
+        """``None`` for a column of the table, else why not: the time column, or the closest.
 
         Whether a column holds numbers is checked when it is read (``numeric`` is unused).
         """
         if name in self.fields():
             return None
+        if name == self._time_column:
+            return (
+                f"{excerpt(name)} is the table's time column (the first of "
+                f"{', '.join(map(repr, TIME_COLUMNS))} in the header, in seconds), "
+                f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
+            )
         return closest_names([name], self.fields())
 
     def __enter__(self) -> Self:
@@ -205,9 +213,13 @@ class TableSource:
             frame = frame[pl.Series(rows)]
         sort = self.options.sort
         time_ns = self._time_ns(frame.get_column(time_column), rows, check=not sort)
+        repeats = False
+        superseded: dict[str, IntArray] = {}  # per column, the rows of its samples not kept
+        self._superseded = superseded
         if sort:
             frame, rows, time_ns = self._sorted(frame, rows, time_ns)
             self._rows[time_column] = rows
+            repeats = self._count_repeats(time_ns)
 
         label_series: dict[str, LabelSeries] = {}
         for name in labels:
@@ -216,6 +228,9 @@ class TableSource:
             present = codes >= 0
             if not present.all():
                 codes, label_time, label_rows = codes[present], time_ns[present], rows[present]
+            last = self._last_at_each_time(name, label_time, label_rows, repeats)
+            if last is not None:
+                codes, label_time, label_rows = codes[last], label_time[last], label_rows[last]
             label_series[name] = LabelSeries(name, label_time, codes, categories)
             self._rows[name] = label_rows
         if all(name in later for name in numeric):
@@ -238,15 +253,22 @@ class TableSource:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
             del taken
-            if column.null_count() == 0:
+            if column.null_count() == 0 and not repeats:
                 values: FloatArray = block.take(column.to_numpy())
                 numeric_series[name] = Series(name, time_ns, values)
                 self._rows[name] = rows
                 continue
             present = column.is_not_null().to_numpy()
             values = column.filter(pl.Series(present)).to_numpy().astype(np.float64)
-            numeric_series[name] = Series(name, time_ns[present], values)
-            self._rows[name] = rows[present]
+            column_time, column_rows = time_ns[present], rows[present]
+            last = self._last_at_each_time(name, column_time, column_rows, repeats)
+            if last is not None:
+                values, column_time = values[last], column_time[last]
+                column_rows = column_rows[last]
+            numeric_series[name] = Series(name, column_time, values)
+            self._rows[name] = column_rows
+        if superseded:
+            self._note_superseded(superseded, [self._rows[n] for n in dict.fromkeys(wanted[1:])])
         return Reading(numeric_series, label_series, dict(self._notes), self._locate)
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
@@ -336,21 +358,70 @@ class TableSource:
     def _sorted(
         self, frame: pl.DataFrame, rows: IntArray, time_ns: IntArray
     ) -> tuple[pl.DataFrame, IntArray, IntArray]:
-        """``--sort``: rows in time order (stable), the last of rows with equal times kept."""
+        """``--sort``: rows in time order (stable: rows of one time stay in file order)."""
         steps = np.diff(time_ns)
         if steps.size and (steps < 0).any():
             order = np.argsort(time_ns, kind="stable")
             self._notes["sorted"] = {"rows_out_of_order": int((steps < 0).sum())}
             frame, rows, time_ns = frame[pl.Series(order)], rows[order], time_ns[order]
-            steps = np.diff(time_ns)
-        same = steps == 0
-        if same.any():
-            keep = np.append(~same, True)
-            self._notes["duplicates_dropped"] = int(same.sum())
-            frame, rows, time_ns = frame.filter(pl.Series(keep)), rows[keep], time_ns[keep]
         return frame, rows, time_ns
 
-    def _time_ns(self, column: pl.Series, rows: IntArray, *, check: bool = True) -> IntArray:
+    def _count_repeats(self, time_ns: IntArray) -> bool:
+        """Whether sorted ``time_ns`` repeats a time; notes how many rows are combined.
+
+        Rows of one time are one sample per column (:meth:`_last_at_each_time`): a logger of
+        sparse signals writes a row per signal, ``0.1,1,`` then ``0.1,,10``, and both values
+        are samples at t = 0.1.
+        """
+        repeated = int(np.count_nonzero(time_ns[1:] == time_ns[:-1]))
+        if repeated:
+            self._notes["rows_combined"] = repeated
+        return repeated > 0
+
+    def _last_at_each_time(
+        self, name: str, time_ns: IntArray, rows: IntArray, repeats: bool
+    ) -> np.ndarray[Any, np.dtype[np.bool_]] | None:
+        """Which of a column's samples (sorted ``time_ns``, on ``rows``) to keep.
+
+        The last at each time; ``None`` when every time is kept; else the rows of the others
+        are kept for :meth:`_note_superseded`.
+        """
+        if not repeats or time_ns.size < 2:
+            return None
+        last = np.append(time_ns[1:] != time_ns[:-1], True)
+        if last.all():
+            return None
+        self._superseded[name] = rows[~last]
+        return last
+
+    def _note_superseded(self, superseded: dict[str, IntArray], kept: list[IntArray]) -> None:
+        """Note what ``--sort`` dropped of the rows of a repeated time.
+
+        ``duplicates_dropped``: rows none of whose cells read was kept (a row written twice);
+        ``values_superseded``: per column, the values replaced by a later row's at the same
+        time in rows that gave others.  Rows that each give other columns (a row per signal)
+        lose nothing and are only counted in ``rows_combined``.
+        """
+        giving = np.unique(np.concatenate(kept)) if kept else np.zeros(0, dtype=np.int64)
+        dropped_rows = np.setdiff1d(np.unique(np.concatenate(list(superseded.values()))), giving)
+        if dropped_rows.size:
+            self._notes["duplicates_dropped"] = int(dropped_rows.size)
+        replaced = {
+            name: int(np.count_nonzero(~np.isin(rows, dropped_rows)))
+            for name, rows in superseded.items()
+        }
+        replaced = {name: count for name, count in replaced.items() if count}
+        if replaced:
+            self._notes["values_superseded"] = replaced
+
+    def _time_ns(
+        self, column: pl.Series, rows: IntArray, *, check: bool = True, repeats: bool = False
+    ) -> IntArray:
+        """The time column in integer nanoseconds.
+
+        With ``check``, refused unless increasing (non-decreasing with ``repeats``), naming
+        the line or row where it is not.
+        """
         name = column.name
         if isinstance(column.dtype, pl.Datetime):
             time_ns: IntArray = column.dt.epoch("ns").to_numpy().astype(np.int64)
@@ -368,14 +439,15 @@ class TableSource:
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
         # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
-        not_after = time_ns[1:] <= time_ns[:-1]
+        not_after = time_ns[1:] < time_ns[:-1] if repeats else time_ns[1:] <= time_ns[:-1]
         if check and not_after.size and not_after.any():
             i = int(np.argmax(not_after)) + 1
             how = "repeats" if time_ns[i] == time_ns[i - 1] else "goes backwards"
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[i]))}, column {excerpt(name)}: time {how} "
                 f"(t={format_ns(int(time_ns[i]))} s after t={format_ns(int(time_ns[i - 1]))} s "
-                f"on {self._row_label(int(rows[i - 1]))}); time must be strictly increasing"
+                f"on {self._row_label(int(rows[i - 1]))}); time must be strictly increasing "
+                "(--sort puts rows in time order, rows of one time as one sample per column)"
             )
         self._rows[name] = rows
         return time_ns
@@ -389,12 +461,15 @@ class TableSource:
         -------
         dict
             JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count,
-            nonfinite, min, max, rate_hz``), ``time`` (``column, start, end, duration`` in
+            nonfinite, min, max`` and the steps of the column's own samples, its non-empty
+            cells, as for the time column below), ``time`` (``column, start, end, duration`` in
             seconds, or ``None``), the time column's steps as
             :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
             rate over the span, ``sample_time``: the median step, ``min_step``,
             ``max_step``, ``regular``, ``gaps``: steps longer than 1.5 times the median, at
-            most 1000, ``gap_count``) and ``problems`` (why time is unusable).  Times are
+            most 1000, ``gap_count``, ``repeated``: rows at the time of the one before, which
+            ``analyze`` refuses unless ``--sort``) and ``problems`` (why time is unusable:
+            a time that goes backwards, a missing or bad time).  Times are
             seconds as floats; statistics of columns that are not numeric are ``None``.
         """
         problems: list[str] = []
@@ -408,7 +483,9 @@ class TableSource:
         else:
             try:
                 rows = self._kept_rows(frame, self._time_column)
-                time_ns = self._time_ns(frame.get_column(self._time_column)[pl.Series(rows)], rows)
+                time_ns = self._time_ns(
+                    frame.get_column(self._time_column)[pl.Series(rows)], rows, repeats=True
+                )
             except LogError as err:
                 problems.append(str(err).removeprefix(f"{self.path}, "))
                 rows = np.arange(frame.height, dtype=np.int64)
@@ -806,11 +883,14 @@ def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
 def _describe_column(
     column: pl.Series, time_ns: IntArray | None, table_format: str
 ) -> dict[str, Any]:
-    """Name, dtype, non-empty and non-finite counts, finite min/max and mean rate of a column.
+    """Name, dtype, non-empty and non-finite counts, finite min/max and timing of a column.
 
     ``count`` counts every non-empty cell, ``nonfinite`` those of them that are NaN or
-    infinite (``None`` for a column that is not numeric); ``rate_hz`` is the mean rate of the
-    column's samples over their span, as :func:`~hybridlog.io.summary.describe_steps` has it.
+    infinite (``None`` for a column that is not numeric); the column's own sample times (the
+    times of its non-empty cells) are described by
+    :func:`~hybridlog.io.summary.describe_steps`, gaps included: an empty stretch in one
+    column of a table whose time column has no gap is that column's gap, which ``analyze``
+    refuses in an output.  Without usable times (``time_ns`` ``None``) the timing is ``None``.
     """
     dtype = _dtype_name(column.dtype)
     values: FloatArray | None = None
@@ -835,7 +915,6 @@ def _describe_column(
         "nonfinite": None,
         "min": None,
         "max": None,
-        "rate_hz": None,
     }
     if values is not None:
         info["nonfinite"] = count_nonfinite(values)
@@ -843,8 +922,10 @@ def _describe_column(
         if finite.size:
             info["min"] = float(finite.min())
             info["max"] = float(finite.max())
+    times = np.zeros(0, dtype=np.int64)
     if time_ns is not None and time_ns.size == present.size:
-        info["rate_hz"] = describe_steps(time_ns[present], gaps=False)["rate_hz"]
+        times = time_ns[present]
+    info.update(describe_steps(times))
     return info
 
 

@@ -176,7 +176,7 @@ def test_inspect_counts_agree_with_their_nouns(tmp_path: Path) -> None:
     gap.write_text("t,y\n0,1\n1,1\n2,1\n5,1\n")
     text = format_inspection(inspect_log(gap))
     assert f"{gap} (csv, 4 rows)" in text
-    assert "gaps: 1 step longer than 1.5 x the median step" in text
+    assert "time gaps: 1 step longer than 1.5 x the median step" in text
     single = write_mcap(tmp_path / "one.mcap", [Channel("/y")], [(0, 0, float64_cdr(1.0))])
     first = format_inspection(inspect_log(single)).splitlines()[0]
     assert first == f"{single} (mcap, profile 'ros2', 1 message, 1 topic)"

@@ -445,3 +445,51 @@ def test_a_json_integer_beyond_a_float_is_refused_not_an_overflow(tmp_path: Path
         LogError, match=r"'/u\.data': the value is an integer beyond .* at t=0\.3 s"
     ):
         load_signals(log, spec)
+
+
+def test_default_truth_without_header_stamp_is_no_truth_with_time_header(tmp_path: Path) -> None:
+    """--time header on stamped /u and /y beside a std_msgs/String /truth/mode (no header):
+    the unmapped default truth refused the whole run, and the user could not unmap it."""
+    stamped = {
+        "type": "object",
+        "properties": {
+            "header": {"type": "object", "properties": {"stamp": {"type": "number"}}},
+            "data": {"type": "number"},
+        },
+    }
+    channels = [
+        Channel(
+            t,
+            encoding="json",
+            schema_name="Stamped",
+            schema_encoding="jsonschema",
+            schema_text=json.dumps(stamped),
+        )
+        for t in ("/u", "/y")
+    ]
+    channels.append(Channel("/truth/mode", schema_name="std_msgs/msg/String"))
+    store = get_typestore(Stores.LATEST)
+    mode = bytes(
+        store.serialize_cdr(store.types["std_msgs/msg/String"](data="a"), "std_msgs/msg/String")
+    )
+    messages = [
+        (c, k * 10**8, json.dumps({"header": {"stamp": 5.0 + k / 10}, "data": k}).encode())
+        for k in range(5)
+        for c in (0, 1)
+    ]
+    messages += [(2, k * 10**8, mode) for k in range(5)]
+    log = write_mcap(tmp_path / "stamped.mcap", channels, sorted(messages, key=lambda m: m[1]))
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+    notes: dict[str, Any] = {}
+    signals = load_signals(log, spec, ReadOptions(time="header"), notes=notes)
+    assert signals.truth_modes is None
+    np.testing.assert_allclose(signals.time, [5.0, 5.1, 5.2, 5.3, 5.4])
+    (note,) = notes["truth_unusable"]
+    assert note.startswith("truth.mode (field '/truth/mode.data': topic '/truth/mode' (std_msgs")
+    assert "has no header.stamp" in note
+    # by log time it is truth; mapped with --map it must be usable
+    assert load_signals(log, spec, ReadOptions()).truth_modes is not None
+    with pytest.raises(
+        LogError, match=r"from --map truth.mode=/truth/mode.data\); topic .* no header"
+    ):
+        load_signals(log, spec, ReadOptions(time="header", maps=("truth.mode=/truth/mode.data",)))

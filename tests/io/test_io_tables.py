@@ -315,6 +315,46 @@ def test_empty_cells_are_missing_samples(tmp_path: Path) -> None:
     np.testing.assert_array_equal(signals.outputs[:, 0], [10, 30, 50])
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_sort_combines_rows_of_one_time_per_column(tmp_path: Path, suffix: str) -> None:
+    """A long-format table (a row per signal) read with ``--sort``: one sample per column."""
+    frame = pl.DataFrame(
+        {
+            "t": [0.0, 0.0, 0.2, 0.1, 0.1, 0.2, 0.2],
+            "u": [1.0, None, 3.0, 2.0, None, None, 33.0],
+            "y": [None, 10.0, None, None, 20.0, 30.0, None],
+            "mode": ["1", None, None, None, "valve_open", "1", None],
+        }
+    )
+    path = tmp_path / f"long{suffix}"
+    frame.write_csv(path) if suffix == ".csv" else frame.write_parquet(path)
+    with pytest.raises(LogError, match=r"time repeats .* \(--sort puts rows in time order"):
+        TableSource(path).read(["u", "y"], ["mode"])
+    with TableSource(path, ReadOptions(sort=True)) as source:
+        reading = source.read(["u", "y"], ["mode"])
+    u, y, mode = reading.numeric["u"], reading.numeric["y"], reading.labels["mode"]
+    np.testing.assert_array_equal(u.time_ns, [0, 100_000_000, 200_000_000])
+    np.testing.assert_array_equal(u.values, [1.0, 2.0, 33.0])  # the last of 3 and 33 at 0.2
+    np.testing.assert_array_equal(y.time_ns, [0, 100_000_000, 200_000_000])
+    np.testing.assert_array_equal(y.values, [10.0, 20.0, 30.0])
+    assert [mode.categories[c] for c in mode.codes] == ["1", "valve_open", "1"]
+    assert reading.notes["rows_combined"] == 4
+    assert reading.notes["duplicates_dropped"] == 1  # the row of u = 3 gave nothing
+    assert "values_superseded" not in reading.notes
+    # 33 was on the last row (row 7: line 8 of the CSV) of the table
+    assert reading.locate("u", 2) == ("line 8" if suffix == ".csv" else "row 7") + ", column 'u'"
+    signals = load(path, sort=True, dt=0.1)
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1.0, 2.0, 33.0])
+    np.testing.assert_array_equal(signals.outputs[:, 0], [10.0, 20.0, 30.0])
+    # a row that gives y but whose u a later row replaces: u's value is counted as replaced
+    partial = csv_file(tmp_path, "t,u,y\n0,1,2\n0,3,\n0.1,4,5\n", "partial.csv")
+    with TableSource(partial, ReadOptions(sort=True)) as source:
+        reading = source.read(["u", "y"])
+    np.testing.assert_array_equal(reading.numeric["u"].values, [3.0, 4.0])
+    np.testing.assert_array_equal(reading.numeric["y"].values, [2.0, 5.0])
+    assert reading.notes == {"rows_combined": 1, "values_superseded": {"u": 1}}
+
+
 def test_unknown_truth_mode_names_value_line_and_time(tmp_path: Path) -> None:
     path = csv_file(tmp_path, "t,u,y,mode\n0.0,1,1,1\n0.1,1,1,valve_shut\n")
     with pytest.raises(LogError) as info:
@@ -414,7 +454,8 @@ def test_parquet_columns_read_one_by_one_follow_the_kept_rows(tmp_path: Path, so
     frame.write_parquet(path, row_group_size=2)  # several row groups
     with TableSource(path, ReadOptions(sort=sort)) as source:
         reading = source.read(["u", "y"], ["mode"])
-    # the reference: the rows in time order, the last of equal times kept
+    # the reference: the rows in time order, the last of equal times kept (every column
+    # has a value at both rows of t = 0.4: y's empty cell is at row 2)
     order = sorted(range(n), key=lambda k: t[k])
     kept = [k for i, k in enumerate(order) if i + 1 == n or t[order[i + 1]] != t[k]]
     u, y = reading.numeric["u"], reading.numeric["y"]
@@ -461,6 +502,21 @@ def test_map_to_a_missing_column_lists_closest(tmp_path: Path) -> None:
     path = csv_file(tmp_path, "t,u,y,level\n0.0,1,10,100\n")
     with pytest.raises(LogError, match=r"no column 'levle'.*--map y=levle.*closest: 'level'"):
         load(path, maps=["y=levle"])
+
+
+@pytest.mark.parametrize("time_column", ["t", "time"])
+def test_mapping_the_time_column_says_it_is_the_time(tmp_path: Path, time_column: str) -> None:
+    """--map u=t: 'no column 't' ... available: u, y', as if the file had no such column."""
+    path = csv_file(tmp_path, f"{time_column},u,y\n0.0,1,10\n0.1,2,20\n")
+    with pytest.raises(LogError) as info:
+        load(path, maps=[f"u={time_column}"])
+    assert f"(from --map u={time_column}); '{time_column}' is the table's time column" in str(
+        info.value
+    )
+    assert "not a signal; other columns: 'u', 'y'" in str(info.value)
+    # a model input named like the time column: its default column is the time
+    with pytest.raises(LogError, match=rf"looked for '{time_column}'.*is the table's time column"):
+        load(path, inputs=(time_column,))
 
 
 def test_map_unknown_symbol_is_an_option_error(tmp_path: Path) -> None:
@@ -583,6 +639,13 @@ def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
         "min": 0.0,
         "max": 12.0,
         "rate_hz": pytest.approx(6.0),
+        "sample_time": pytest.approx(0.1),
+        "min_step": pytest.approx(0.1),
+        "max_step": pytest.approx(0.5),
+        "regular": False,
+        "repeated": 0,
+        "gap_count": 1,
+        "gaps": [{"start": 0.3, "end": 0.8, "duration": pytest.approx(0.5)}],
     }
     assert by_name["note"]["dtype"] == "string"
     assert by_name["note"]["min"] is None
@@ -591,6 +654,51 @@ def test_inspect_reports_columns_rate_and_gaps(tmp_path: Path) -> None:
     assert "timing irregular: median step 0.1 s (10 Hz), steps 0.1 s to 0.5 s" in text
     assert "0.3 s to 0.8 s" in text
     assert "note" in text and "string" in text
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_inspect_finds_a_gap_in_one_column(tmp_path: Path, suffix: str) -> None:
+    """Empty cells of ``y`` for 3 s in a 10 Hz table: y's gap, though time has none."""
+    t = np.arange(100) * 0.1
+    y = np.where((t > 3.0) & (t < 6.05), np.nan, t)
+    frame = pl.DataFrame({"t": t, "u": t, "y": y}).with_columns(pl.col("y").fill_nan(None))
+    path = tmp_path / f"hole{suffix}"
+    frame.write_csv(path) if suffix == ".csv" else frame.write_parquet(path)
+    info = inspect_log(path)
+    assert info["gap_count"] == 0
+    by_name = {c["name"]: c for c in info["columns"]}
+    assert by_name["u"]["gap_count"] == 0
+    assert by_name["y"]["count"] == 70
+    assert by_name["y"]["gap_count"] == 1
+    assert by_name["y"]["gaps"] == [
+        {"start": pytest.approx(3.0), "end": pytest.approx(6.1), "duration": pytest.approx(3.1)}
+    ]
+    assert by_name["y"]["sample_time"] == pytest.approx(0.1)
+    text = format_inspection(info)
+    assert "time gaps: none" in text
+    assert "  y: 3 s to 6.1 s (3.1 s)" in text
+    assert "  u:" not in text
+    with pytest.raises(LogError, match="gap"):
+        load(path, dt=0.1)
+
+
+def test_inspect_describes_a_long_format_table(tmp_path: Path) -> None:
+    """A row per signal (times repeat): inspect gave up on time ('time repeats') and showed
+    no rate or gap of any column; repeats are counted, as for a topic, and each column timed."""
+    rows = [f"{k / 10},{k},\n{k / 10},,{2 * k}\n" for k in range(10)]
+    info = inspect_log(csv_file(tmp_path, "t,u,y\n" + "".join(rows)))
+    assert info["problems"] == []
+    assert info["repeated"] == 10
+    by_name = {c["name"]: c for c in info["columns"]}
+    for name in ("u", "y"):
+        assert by_name[name]["count"] == 10
+        assert by_name[name]["rate_hz"] == pytest.approx(10.0)
+        assert by_name[name]["regular"] is True
+    text = format_inspection(info)
+    assert "repeated times: 10 rows at the time of the one before (analyze refuses them" in text
+    backwards = inspect_log(csv_file(tmp_path, "t,u\n0.0,1\n0.1,1\n0.05,1\n", "b.csv"))
+    assert backwards["time"] is None
+    assert "line 4, column 't': time goes backwards" in backwards["problems"][0]
 
 
 def test_inspect_lists_time_problems_instead_of_failing(tmp_path: Path) -> None:

@@ -174,7 +174,9 @@ def test_table_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> No
         assert message in capsys.readouterr().err
     report = json.loads((out / "report.json").read_text())
     assert report["reading"]["sorted"] == {"rows_out_of_order": 1}
+    assert report["reading"]["rows_combined"] == 1
     assert report["reading"]["duplicates_dropped"] == 1
+    assert "values_superseded" not in report["reading"]
     assert report["samples"] == 4
 
 
@@ -404,3 +406,150 @@ def test_repeated_log_times_that_analyze_refuses_are_shown(tmp_path: Path) -> No
         load_signals(log, spec, ReadOptions(maps=("u=/u.data", "y=/y.data")))
     table = write_log(tmp_path / "even.csv", {"t": np.arange(5) * 0.1, "y": np.ones(5)})
     assert inspect_log(table)["repeated"] == 0
+
+
+def tf_message(store: Any, stamp: int, xs: list[float]) -> bytes:
+    """A ``tf2_msgs/msg/TFMessage`` of one transform per ``xs`` (its translation.x)."""
+    types = store.types
+    transforms = [
+        types["geometry_msgs/msg/TransformStamped"](
+            header=types["std_msgs/msg/Header"](
+                stamp=types["builtin_interfaces/msg/Time"](sec=stamp, nanosec=0), frame_id="map"
+            ),
+            child_frame_id=f"link{i}",
+            transform=types["geometry_msgs/msg/Transform"](
+                translation=types["geometry_msgs/msg/Vector3"](x=x, y=0.0, z=0.0),
+                rotation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+            ),
+        )
+        for i, x in enumerate(xs)
+    ]
+    message = types["tf2_msgs/msg/TFMessage"](transforms=transforms)
+    return bytes(store.serialize_cdr(message, "tf2_msgs/msg/TFMessage"))
+
+
+def test_nonfinite_values_inside_arrays_of_messages_are_counted(tmp_path: Path) -> None:
+    """/tf with a NaN translation in one transform: inspect showed nonfinite 0, counting
+    only leaves outside arrays of messages."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    messages = [
+        (0, k * 10**8, tf_message(store, k, [1.0, np.nan if k in (3, 7) else float(k)]))
+        for k in range(10)
+    ]
+    channel = Channel("/tf", schema_name="tf2_msgs/msg/TFMessage")
+    info = inspect_log(write_mcap(tmp_path / "tf.mcap", [channel], messages))
+    json.dumps(info, allow_nan=False)
+    (topic,) = info["topics"]
+    assert topic["nonfinite"] == 2
+    values = {v["name"]: v for v in topic["values"]}
+    assert values["/tf.transforms[].transform.translation.x"] == {
+        "name": "/tf.transforms[].transform.translation.x",
+        "count": 20,
+        "nonfinite": 2,
+    }
+    assert values["/tf.transforms[].transform.rotation.w"]["count"] == 20
+    text = format_inspection(info).splitlines()
+    assert "  /tf.transforms[].transform.translation.x: 2 of 20" in text
+
+
+def json_mcap(path: Path, documents: list[Any], schema: dict[str, Any] | None = None) -> Path:
+    """An MCAP of one JSON topic ``/j``, a message per document, 0.1 s apart."""
+    channel = Channel(
+        "/j",
+        encoding="json",
+        schema_name="j",
+        schema_encoding="jsonschema",
+        schema_text=json.dumps(schema or {}),
+    )
+    messages = [(0, k * 10**8, json.dumps(d).encode()) for k, d in enumerate(documents)]
+    return write_mcap(path, [channel], messages)
+
+
+def test_nonfinite_values_inside_json_arrays_of_objects_are_counted(tmp_path: Path) -> None:
+    """NaN in ``poses[1].x`` and 10 levels down: inspect counted numbers 8 levels deep at
+    most, and none inside arrays of objects."""
+    deep: Any = float("nan")
+    for level in range(10):
+        deep = {f"l{level}": deep}
+    documents = [
+        {"poses": [{"x": 1.0}, {"x": float("nan") if k == 2 else 2.0}], "deep": deep}
+        for k in range(4)
+    ]
+    info = inspect_log(json_mcap(tmp_path / "j.mcap", documents))
+    json.dumps(info, allow_nan=False)
+    (topic,) = info["topics"]
+    values = {v["name"]: (v["count"], v["nonfinite"]) for v in topic["values"]}
+    assert values["/j.poses[].x"] == (8, 1)
+    deep_path = "/j.deep" + "".join(f".l{level}" for level in reversed(range(10)))
+    assert values[deep_path] == (4, 4)
+    assert topic["nonfinite"] == 5
+    assert info["problems"] == []
+
+
+def test_json_nested_past_the_guard_is_reported(tmp_path: Path) -> None:
+    """A pathological nesting is a problem of the topic, its values not counted."""
+    from hybridlog.io.messages import MAX_JSON_DEPTH
+
+    deep: Any = [1.0]
+    for _ in range(MAX_JSON_DEPTH + 5):
+        deep = [deep]
+    schema: Any = {"type": "number"}
+    for _ in range(MAX_JSON_DEPTH + 5):
+        schema = {"type": "object", "properties": {"a": schema}}
+    info = inspect_log(json_mcap(tmp_path / "deep.mcap", [{"v": deep}] * 2, schema))
+    (topic,) = info["topics"]
+    assert topic["values"] is None and topic["nonfinite"] is None
+    schema_problem, message_problem = info["problems"]
+    assert schema_problem.startswith(
+        f"topic '/j' (j): its JSON schema nests deeper than {MAX_JSON_DEPTH} levels at '.a.a."
+    )
+    assert message_problem.startswith(
+        f"topic '/j' (j): the message logged at t=0 s nests deeper than {MAX_JSON_DEPTH} "
+        "levels at '.v[][]"
+    )
+    assert "values are not counted" in message_problem
+
+
+def test_whole_message_hints_and_fields_name_what_the_topic_has(tmp_path: Path) -> None:
+    """'/tf' mapped as a whole: the hint said 'e.g. /tf.data', a field TFMessage lacks, and
+    inspect listed no field of /tf (nor of a JSON topic without a schema) but the bare topic."""
+    from rosbags.typesys import Stores, get_typestore
+
+    from hybridlog.io.formats import open_log
+    from hybridlog.io.message_paths import PathError
+
+    store = get_typestore(Stores.LATEST)
+    messages = [(0, k * 10**8, tf_message(store, k, [float(k)])) for k in range(3)]
+    tf = write_mcap(
+        tmp_path / "tf.mcap", [Channel("/tf", schema_name="tf2_msgs/msg/TFMessage")], messages
+    )
+    (topic,) = inspect_log(tf)["topics"]
+    assert "/tf.transforms[].transform.translation.x" in topic["fields"]
+    assert "/tf" not in topic["fields"]
+    with open_log(tf) as source, pytest.raises(PathError) as info:
+        source.resolve("/tf", "number")
+    assert "e.g. /tf.transforms[0].transform.translation.x (" in str(info.value)
+    assert ".data" not in str(info.value)
+    source_path = source.resolve("/tf.transforms[0].transform.translation.x", "number")
+    assert source_path.steps == ("transforms", 0, "transform", "translation", "x")
+
+    documents = [{"pose": {"x": 1.0, "frame": "map"}, "ok": True, "w": [1, 2]}] * 3
+    schemaless = json_mcap(tmp_path / "j.mcap", documents)
+    (topic,) = inspect_log(schemaless)["topics"]
+    assert topic["fields"] == ["/j.pose.x", "/j.pose.frame", "/j.ok", "/j.w[]"]
+    with open_log(schemaless) as source, pytest.raises(PathError) as info:
+        source.resolve("/j", "number")
+    assert "the topic has no JSON schema listing them" in str(info.value)
+
+    # a JSON schema's arrays of objects are listed as a ROS message's arrays of messages are
+    point = {"type": "object", "properties": {"x": {"type": "number"}}}
+    schema = {"type": "object", "properties": {"poses": {"type": "array", "items": point}}}
+    with_schema = json_mcap(tmp_path / "js.mcap", [{"poses": [{"x": 1.0}]}] * 3, schema)
+    (topic,) = inspect_log(with_schema)["topics"]
+    assert topic["fields"] == ["/j.poses[].x"]
+    with open_log(with_schema) as source, pytest.raises(PathError) as info:
+        source.resolve("/j", "number")
+    assert str(info.value).endswith("add a field, e.g. /j.poses[0].x")
+    assert source.resolve("/j.poses[0].x", "number").steps == ("poses", 0, "x")
