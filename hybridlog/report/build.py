@@ -674,7 +674,9 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
 
     Warnings about the alignment (outputs bridged across gaps, ``bridged``), and what the
     user's repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
-    ``--drop-nonfinite`` and ``--sort`` dropped or moved, an MCAP file read by ``--recover``.
+    ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged or replaced, an MCAP file read
+    by ``--recover``; and the ground truth found by default but not used (no samples, or
+    unreadable: ``truth_without_samples``, ``truth_unusable``).
     A report of a tenth of a log, or of one with samples taken out, said only its sample
     count and time span, which read like the whole log's.
     """
@@ -704,6 +706,23 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ):
         if key in reading:
             notes.append(f"NOTE: {what}: {_counts(reading[key])}")
+    merged = int(reading.get("rows_combined", 0)) - int(reading.get("duplicates_dropped", 0))
+    if merged > 0:  # rows of one time giving other columns (a row per signal): nothing lost
+        notes.append(
+            f"NOTE: --sort merged rows of a time already seen into that time's sample, column "
+            f"by column: {plural(merged, 'row')}"
+        )
+    if reading.get("values_superseded"):
+        notes.append(
+            "NOTE: --sort replaced values by a later row's at the same time: "
+            f"{_counts(reading['values_superseded'])}"
+        )
+    for key, what in (
+        ("truth_without_samples", "ground truth fields without samples, not used"),
+        ("truth_unusable", "ground truth fields found by default that cannot be read, not used"),
+    ):
+        if reading.get(key):
+            notes.append(f"NOTE: {what}: {', '.join(map(str, reading[key]))}")
     if reading.get("recovered"):
         notes.append(
             f"NOTE: --recover: the MCAP file was read sequentially, "

@@ -766,3 +766,39 @@ def test_report_md_says_what_the_users_repairs_of_the_log_changed(tmp_path: Path
         "NOTE: --sort put samples that went back in time in order: 1 row",
         "NOTE: --sort dropped samples of a time already seen, keeping the last: 1 row",
     )
+
+
+def test_report_md_says_what_sort_merged_and_which_truth_was_not_used(tmp_path: Path) -> None:
+    """--sort merging a long-format CSV's rows (a row per signal), and ground truth found by
+    default but without samples, were in report.json's ``reading`` only."""
+    from hybridlog.io import ReadOptions
+    from hybridlog.jobs.analysis import analyze
+    from tests.support.paths import TANK_CSV
+
+    frame = pl.read_csv(TANK_CSV).select("t", "u", "y1", "y2", "y3")
+    # a row per signal: the input at each time, then the outputs at the same time
+    empty = {name: pl.lit(None, dtype=pl.Float64) for name in ("u", "y1", "y2", "y3")}
+    inputs = frame.select("t", "u").with_columns(**{k: v for k, v in empty.items() if k != "u"})
+    outputs = frame.select("t", "y1", "y2", "y3").with_columns(u=empty["u"])
+    columns = ["t", "u", "y1", "y2", "y3"]
+    long = pl.concat([inputs.select(columns), outputs.select(columns)]).sort(
+        "t", maintain_order=True
+    )
+    long = long.with_columns(mode=pl.lit(None, dtype=pl.Int64))
+    path = tmp_path / "long.csv"
+    long.write_csv(path)
+    done = analyze(
+        path, "three_tank_hstf", out_dir=tmp_path / "out", estimator="imm",
+        read=ReadOptions(sort=True),
+    )  # fmt: skip
+    assert done.report is not None
+    rows = frame.height
+    assert done.report.samples == rows
+    expected = (
+        "NOTE: --sort merged rows of a time already seen into that time's sample, column by "
+        f"column: {rows:,} rows",
+        "NOTE: ground truth fields without samples, not used: truth.mode (column 'mode')",
+    )
+    assert all(note in done.report.notes for note in expected), done.report.notes
+    text = (tmp_path / "out" / "report.md").read_text()
+    assert all(f"- {note}" in text for note in expected)
