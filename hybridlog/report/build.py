@@ -706,7 +706,9 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ):
         if key in reading:
             notes.append(f"NOTE: {what}: {_counts(reading[key])}")
-    merged = int(reading.get("rows_combined", 0)) - int(reading.get("duplicates_dropped", 0))
+    # a table's rows (counts; a message log's duplicates are counted per topic, never merged)
+    combined, dropped = reading.get("rows_combined", 0), reading.get("duplicates_dropped", 0)
+    merged = combined - (dropped if isinstance(dropped, int) else 0)
     if merged > 0:  # rows of one time giving other columns (a row per signal): nothing lost
         notes.append(
             f"NOTE: --sort merged rows of a time already seen into that time's sample, column "
