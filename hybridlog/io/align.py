@@ -438,7 +438,7 @@ def align_signals(
     notes:
         Filled with the pieces (``segments``) and the one analysed when ``split_gaps`` cut
         the log, and per output the grid points bridged across short gaps (``bridged``:
-        ``{symbol: {points, of}}``).
+        ``{symbol: {points, of}}``), per true state the same (``truth_bridged``).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -531,7 +531,11 @@ def align_signals(
             truth_series = truth_states.get(state)
             if truth_series is None or truth_series.time_ns.size == 0:
                 continue
-            values, too_long, _ = resample_series(truth_series, grid, dt_ns, max_gap_ns, method)
+            values, too_long, bridged = resample_series(
+                truth_series, grid, dt_ns, max_gap_ns, method
+            )
+            if bridged and notes is not None:
+                notes.setdefault("truth_bridged", {})[state] = {"points": bridged, "of": n}
             x_true[:, j] = values
             x_true[too_long, j] = np.nan
 

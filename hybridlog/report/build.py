@@ -672,7 +672,8 @@ def _json_object(value: Mapping[str, Any]) -> JsonObject:
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
-    Warnings about the alignment (outputs bridged across gaps, ``bridged``), and what the
+    Warnings about the alignment (outputs and true states bridged across gaps, ``bridged``,
+    ``truth_bridged``), and what the
     user's repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
     ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged or replaced, an MCAP file read
     by ``--recover``; and the ground truth found by default but not used (no samples, or
@@ -682,10 +683,11 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """
     reading = reading or {}
     notes = [
-        f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
+        f"WARNING: {what} {symbol} has no sample within dt/2 of {count['points']} of "
         f"{count['of']} sample times, which took their values from the samples around (a "
         "measurement used more than once, or interpolated; is the model's dt the log's?)"
-        for symbol, count in (reading.get("bridged") or {}).items()
+        for key, what in (("bridged", "output"), ("truth_bridged", "true state"))
+        for symbol, count in (reading.get(key) or {}).items()
     ]
     segments = reading.get("segments")
     if segments:

@@ -525,3 +525,27 @@ def test_the_early_gap_check_refuses_only_what_the_grid_check_refuses(
     else:
         np.testing.assert_array_equal(early.outputs, late.outputs)
         np.testing.assert_array_equal(early.time, late.time)
+
+
+def test_true_states_bridged_across_short_gaps_are_counted_and_reported() -> None:
+    """A true state with a 3 s hole (within max_gap) took its values from the samples around
+    it, as an output does, but with no note: the scores against it read as measured."""
+    from hybridlog.report.build import _reading_notes
+
+    grid = np.arange(11) * 1.0
+    kept = np.delete(grid, [4, 5])
+    notes: dict[str, object] = {}
+    aligned = align_signals(
+        source="s",
+        dt=1.0,
+        inputs={"u": series("u", grid, grid)},
+        outputs={"y": series("y", grid, grid)},
+        states=("x1", "x2"),
+        truth_states={"x1": series("x1", kept, kept), "x2": series("x2", grid, grid)},
+        notes=notes,
+    )
+    assert aligned.truth_states is not None
+    np.testing.assert_array_equal(aligned.truth_states[3:7, 0], [3, 3, 6, 6])
+    assert notes == {"truth_bridged": {"x1": {"points": 2, "of": 11}}}
+    (warning,) = _reading_notes(notes)
+    assert warning.startswith("WARNING: true state x1 has no sample within dt/2 of 2 of 11")
