@@ -673,11 +673,11 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
     Warnings about the alignment (outputs and true states bridged across gaps, ``bridged``,
-    ``truth_bridged``), and what the
-    user's repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
-    ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged or replaced, an MCAP file read
-    by ``--recover``; and the ground truth found by default but not used (no samples, or
-    unreadable: ``truth_without_samples``, ``truth_unusable``).
+    ``truth_bridged``), the signal that started the analysed span late or ended it early
+    (``span``), and what the user's repairs changed: the piece ``--split-gaps`` kept
+    (``segments``), the samples ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged
+    or replaced, an MCAP file read by ``--recover``; and the ground truth found by default
+    but not used (no samples, or unreadable: ``truth_without_samples``, ``truth_unusable``).
     A report of a tenth of a log, or of one with samples taken out, said only its sample
     count and time span, which read like the whole log's.
     """
@@ -689,6 +689,14 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for key, what in (("bridged", "output"), ("truth_bridged", "true state"))
         for symbol, count in (reading.get(key) or {}).items()
     ]
+    for side, bound in (reading.get("span") or {}).items():
+        first = side == "start"
+        notes.append(
+            f"NOTE: the analysed span {side}s at t = {bound['at']:g} s, the "
+            f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
+            f"outputs {'begin at' if first else 'run on to'} t = {bound['log']:g} s: "
+            f"{bound['left_out']:g} s of the log not analysed"
+        )
     segments = reading.get("segments")
     if segments:
         kept = segments[reading["analysed_segment"]]
