@@ -702,11 +702,16 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         kept = segments[reading["analysed_segment"]]
         others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
         gaps = reading.get("gaps") or []
+        span = f"t = {kept['start']:g} … {kept['end']:g} s"
         notes.append(
             f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
-            f"({_spans(gaps)}) cut the log into {len(segments)} pieces; this report is of "
-            f"the longest, t = {kept['start']:g} … {kept['end']:g} s; not analysed: "
-            f"{_spans(others)}"
+            f"({_spans(gaps)}) "
+            + (
+                f"cut the log into {len(segments)} pieces; this report is of the longest, "
+                f"{span}; not analysed: {_spans(others)}"
+                if others  # else the gaps are at the ends: one piece, and they are left out
+                else f"left out; this report is of {span}"
+            )
         )
     for key, what in (
         ("nonfinite_dropped", "--drop-nonfinite dropped NaN or infinite samples"),

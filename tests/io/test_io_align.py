@@ -527,6 +527,22 @@ def test_the_early_gap_check_refuses_only_what_the_grid_check_refuses(
         np.testing.assert_array_equal(early.time, late.time)
 
 
+def test_the_split_gaps_note_of_a_gap_at_an_end_of_the_log() -> None:
+    """A long gap only at an end of the log left one piece, and the note read 'cut the log
+    into 1 pieces; ... not analysed: ' with nothing after it."""
+    from hybridlog.report.build import _reading_notes
+
+    notes = {
+        "segments": [{"start": 0.0, "end": 10.0}],
+        "analysed_segment": 0,
+        "gaps": [{"start": 10.0, "end": 40.0}],
+    }
+    assert _reading_notes(notes) == (
+        "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 10 … 40 s) left out; this "
+        "report is of t = 0 … 10 s",
+    )
+
+
 def test_true_states_bridged_across_short_gaps_are_counted_and_reported() -> None:
     """A true state with a 3 s hole (within max_gap) took its values from the samples around
     it, as an output does, but with no note: the scores against it read as measured."""
