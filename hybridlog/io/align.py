@@ -15,6 +15,9 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 - True mode: zero-order hold; grid points before its first sample take that sample if it is
   within ``dt/2``.
 - True states: like outputs, but NaN instead of an error where no sample is usable.
+- The signal that starts the grid more than ``max_gap`` after the log's first input or output
+  sample, or ends it that long before the last one, is recorded (``notes["span"]``): the
+  report's span alone would not say that part of the log was left out.
 - ``split_gaps``: instead of refusing a log with an output gap longer than ``max_gap``, cut it
   at every such gap and align the longest piece (the earliest of equally long ones).  The
   estimators need one continuous grid, and a filter carried across a gap would start the next
@@ -436,9 +439,11 @@ def align_signals(
     split_gaps:
         Align the longest piece between longer gaps instead of refusing the log.
     notes:
-        Filled with the pieces (``segments``) and the one analysed when ``split_gaps`` cut
-        the log, and per output the grid points bridged across short gaps (``bridged``:
-        ``{symbol: {points, of}}``).
+        Filled with the signals that start the grid late or end it early by more than
+        ``max_gap`` (``span``), the pieces (``segments``) and the one analysed when
+        ``split_gaps`` cut the log, and per output the grid points bridged across short
+        gaps (``bridged``: ``{symbol: {points, of}}``), per true state the same
+        (``truth_bridged``).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -464,6 +469,8 @@ def align_signals(
                 raise LogError(
                     f"{source}: {kind} {symbol!r} ({field_word} {series.name!r}) has no samples"
                 )
+    if notes is not None:
+        _record_span_bounds(inputs, outputs, field_word, dt_ns, max_gap_ns, notes)
     if split_gaps and outputs:
         outputs = _longest_piece(
             source,
@@ -531,7 +538,11 @@ def align_signals(
             truth_series = truth_states.get(state)
             if truth_series is None or truth_series.time_ns.size == 0:
                 continue
-            values, too_long, _ = resample_series(truth_series, grid, dt_ns, max_gap_ns, method)
+            values, too_long, bridged = resample_series(
+                truth_series, grid, dt_ns, max_gap_ns, method
+            )
+            if bridged and notes is not None:
+                notes.setdefault("truth_bridged", {})[state] = {"points": bridged, "of": n}
             x_true[:, j] = values
             x_true[too_long, j] = np.nan
 
@@ -547,6 +558,46 @@ def align_signals(
         truth_states=x_true,
         truth_components=components,
     )
+
+
+def _record_span_bounds(
+    inputs: Mapping[str, Series],
+    outputs: Mapping[str, Series],
+    field_word: str,
+    dt_ns: int,
+    max_gap_ns: int,
+    notes: dict[str, Any],
+) -> None:
+    """Record the signal that starts the grid late or ends it early, by more than ``max_gap``.
+
+    The grid runs from the latest first sample of the inputs and outputs to the earliest last
+    sample of the outputs: one output ending at 10 s of a 100 s log leaves 90 s unanalysed,
+    which the report's span alone does not say.  ``notes["span"]`` gets ``{"start"|"end":
+    {signal, at, log, left_out}}`` (seconds; ``log`` is where the other signals begin or end).
+    """
+    named = [
+        (f"{kind} {symbol!r} ({field_word} {series.name!r})", series)
+        for kind, group in (("input", inputs), ("output", outputs))
+        for symbol, series in group.items()
+    ]
+    if not named:
+        return
+    bounding = named[len(inputs) :] or named  # the outputs end the grid (the inputs, if none)
+    first = min(int(series.time_ns[0]) for _, series in named)
+    last = max(int(series.time_ns[-1]) for _, series in named)
+    start_by, start = max(((n, int(s.time_ns[0])) for n, s in named), key=lambda p: p[1])
+    end_by, end = min(((n, int(s.time_ns[-1])) for n, s in bounding), key=lambda p: p[1])
+    span: dict[str, dict[str, Any]] = {}
+    for side, by, at, log in (("start", start_by, start, first), ("end", end_by, end, last)):
+        if longer_than_max_gap(abs(at - log), max_gap_ns, dt_ns):
+            span[side] = {
+                "signal": by,
+                "at": at / NS_PER_S,
+                "log": log / NS_PER_S,
+                "left_out": abs(at - log) / NS_PER_S,
+            }
+    if span:
+        notes["span"] = span
 
 
 def _hold_modes(

@@ -672,31 +672,46 @@ def _json_object(value: Mapping[str, Any]) -> JsonObject:
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
-    Warnings about the alignment (outputs bridged across gaps, ``bridged``), and what the
-    user's repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
-    ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged or replaced, an MCAP file read
-    by ``--recover``; and the ground truth found by default but not used (no samples, or
-    unreadable: ``truth_without_samples``, ``truth_unusable``).
+    Warnings about the alignment (outputs and true states bridged across gaps, ``bridged``,
+    ``truth_bridged``), the signal that started the analysed span late or ended it early
+    (``span``), and what the user's repairs changed: the piece ``--split-gaps`` kept
+    (``segments``), the samples ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged
+    or replaced, an MCAP file read by ``--recover``; and the ground truth found by default
+    but not used (no samples, or unreadable: ``truth_without_samples``, ``truth_unusable``).
     A report of a tenth of a log, or of one with samples taken out, said only its sample
     count and time span, which read like the whole log's.
     """
     reading = reading or {}
     notes = [
-        f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
+        f"WARNING: {what} {symbol} has no sample within dt/2 of {count['points']} of "
         f"{count['of']} sample times, which took their values from the samples around (a "
         "measurement used more than once, or interpolated; is the model's dt the log's?)"
-        for symbol, count in (reading.get("bridged") or {}).items()
+        for key, what in (("bridged", "output"), ("truth_bridged", "true state"))
+        for symbol, count in (reading.get(key) or {}).items()
     ]
+    for side, bound in (reading.get("span") or {}).items():
+        first = side == "start"
+        notes.append(
+            f"NOTE: the analysed span {side}s at t = {bound['at']:g} s, the "
+            f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
+            f"outputs {'begin at' if first else 'run on to'} t = {bound['log']:g} s: "
+            f"{bound['left_out']:g} s of the log not analysed"
+        )
     segments = reading.get("segments")
     if segments:
         kept = segments[reading["analysed_segment"]]
         others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
         gaps = reading.get("gaps") or []
+        span = f"t = {kept['start']:g} … {kept['end']:g} s"
         notes.append(
             f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
-            f"({_spans(gaps)}) cut the log into {len(segments)} pieces; this report is of "
-            f"the longest, t = {kept['start']:g} … {kept['end']:g} s; not analysed: "
-            f"{_spans(others)}"
+            f"({_spans(gaps)}) "
+            + (
+                f"cut the log into {len(segments)} pieces; this report is of the longest, "
+                f"{span}; not analysed: {_spans(others)}"
+                if others  # else the gaps are at the ends: one piece, and they are left out
+                else f"left out; this report is of {span}"
+            )
         )
     for key, what in (
         ("nonfinite_dropped", "--drop-nonfinite dropped NaN or infinite samples"),

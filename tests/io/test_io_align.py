@@ -525,3 +525,96 @@ def test_the_early_gap_check_refuses_only_what_the_grid_check_refuses(
     else:
         np.testing.assert_array_equal(early.outputs, late.outputs)
         np.testing.assert_array_equal(early.time, late.time)
+
+
+def test_the_split_gaps_note_of_a_gap_at_an_end_of_the_log() -> None:
+    """A long gap only at an end of the log left one piece, and the note read 'cut the log
+    into 1 pieces; ... not analysed: ' with nothing after it."""
+    from hybridlog.report.build import _reading_notes
+
+    notes = {
+        "segments": [{"start": 0.0, "end": 10.0}],
+        "analysed_segment": 0,
+        "gaps": [{"start": 10.0, "end": 40.0}],
+    }
+    assert _reading_notes(notes) == (
+        "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 10 … 40 s) left out; this "
+        "report is of t = 0 … 10 s",
+    )
+
+
+def test_true_states_bridged_across_short_gaps_are_counted_and_reported() -> None:
+    """A true state with a 3 s hole (within max_gap) took its values from the samples around
+    it, as an output does, but with no note: the scores against it read as measured."""
+    from hybridlog.report.build import _reading_notes
+
+    grid = np.arange(11) * 1.0
+    kept = np.delete(grid, [4, 5])
+    notes: dict[str, object] = {}
+    aligned = align_signals(
+        source="s",
+        dt=1.0,
+        inputs={"u": series("u", grid, grid)},
+        outputs={"y": series("y", grid, grid)},
+        states=("x1", "x2"),
+        truth_states={"x1": series("x1", kept, kept), "x2": series("x2", grid, grid)},
+        notes=notes,
+    )
+    assert aligned.truth_states is not None
+    np.testing.assert_array_equal(aligned.truth_states[3:7, 0], [3, 3, 6, 6])
+    assert notes == {"truth_bridged": {"x1": {"points": 2, "of": 11}}}
+    (warning,) = _reading_notes(notes)
+    assert warning.startswith("WARNING: true state x1 has no sample within dt/2 of 2 of 11")
+
+
+def test_a_signal_that_ends_the_grid_early_is_named_in_the_reading_notes() -> None:
+    """One output ending at 10 s of a 40 s log cut the report's span to 10 s, which read as
+    the whole log's; a late start the same (the other end of the grid)."""
+    from hybridlog.report.build import _reading_notes
+
+    seconds = np.round(np.arange(0.0, 40.01, 0.1), 10)
+    early = seconds[seconds <= 10.0]
+    late = seconds[seconds >= 2.0]
+    notes: dict[str, Any] = {}
+    aligned = align_signals(
+        source="s",
+        dt=0.1,
+        inputs={"u": series("cmd", late, late)},
+        outputs={"y1": series("y1", seconds, seconds), "y2": series("level", early, early)},
+        notes=notes,
+        field_word="field",
+    )
+    assert (aligned.time[0], aligned.time[-1]) == (2.0, 10.0)
+    assert notes == {
+        "span": {
+            "start": {
+                "signal": "input 'u' (field 'cmd')",
+                "at": 2.0,
+                "log": 0.0,
+                "left_out": 2.0,
+            },
+            "end": {
+                "signal": "output 'y2' (field 'level')",
+                "at": 10.0,
+                "log": 40.0,
+                "left_out": 30.0,
+            },
+        }
+    }
+    assert _reading_notes(notes) == (
+        "NOTE: the analysed span starts at t = 2 s, the first sample of input 'u' (field "
+        "'cmd'); the inputs and outputs begin at t = 0 s: 2 s of the log not analysed",
+        "NOTE: the analysed span ends at t = 10 s, the last sample of output 'y2' (field "
+        "'level'); the inputs and outputs run on to t = 40 s: 30 s of the log not analysed",
+    )
+    # ends within max_gap of each other: nothing to say
+    plain: dict[str, Any] = {}
+    near = seconds[(seconds >= 0.3) & (seconds <= 39.5)]
+    align_signals(
+        source="s",
+        dt=0.1,
+        inputs={"u": series("cmd", seconds, seconds)},
+        outputs={"y1": series("y1", seconds, seconds), "y2": series("level", near, near)},
+        notes=plain,
+    )
+    assert plain == {}
