@@ -155,3 +155,56 @@ def test_gate_bounds_are_read_strictly(tmp_path, option, spec):
     args = ["analyze", str(TANK_CSV), "--model", "three_tank_hstf", "--out", str(out)]
     _refused([*args, option, spec], option, repr(spec), "expected a finite number")
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "fragments"),
+    [
+        (["--schedule", "1:1_0"], ("--schedule: '1_0' in '1:1_0' is not a whole number",)),
+        (["--schedule", "1:٣"], ("--schedule: '٣' in '1:٣' is not a whole number",)),
+    ],
+)
+def test_simulate_schedule_steps_are_read_strictly(tmp_path, args, fragments):
+    out = tmp_path / "s.csv"
+    _refused(["simulate", "three_tank_hstf", "--out", str(out), *args], *fragments)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("value", ["2e-4,6_28", "inf,1", "2e-4,٦"])
+def test_simulate_disturbance_is_read_strictly(tmp_path, value):
+    out = tmp_path / "s.csv"
+    _refused(
+        ["simulate", "three_tank_valves", "--out", str(out), "--disturbance", value],
+        "--disturbance: expected A,OMEGA (two finite numbers)",
+        repr(value),
+    )
+    assert not out.exists()
+
+
+def test_simulate_scenario_parameters_are_read_strictly(tmp_path):
+    out = tmp_path / "s.csv"
+    _refused(
+        ["simulate", "bioplex_pgc", "--out", str(out), "--set", "light_fault=9_50"],
+        "--set light_fault: expected a finite number, got '9_50'",
+    )
+    assert not out.exists()
+
+
+def test_cluster_lags_are_read_strictly(tmp_path):
+    out = tmp_path / "c.json"
+    log = SAMPLE_LOGS / "double_cart_case1.csv"
+    args = ["cluster", str(log), "--model", "double_cart_case1", "--out", str(out)]
+    _refused([*args, "--input-lags", "0,1_0"], "input_lags: '1_0' is not a whole number")
+    assert not out.exists()
+
+
+def test_switching_observer_eigenvalues_are_read_strictly(tmp_path):
+    out = tmp_path / "r"
+    log = SAMPLE_LOGS / "ice_clutch.csv"
+    args = ["analyze", str(log), "--model", "ice_clutch", "--out", str(out)]
+    _refused(
+        [*args, "--estimator", "switching-observer", "--set", "eigenvalues=-5,-1_0"],
+        "switching-observer option 'eigenvalues'",
+        "expected negative numbers separated by commas, got '-5,-1_0'",
+    )
+    assert not out.exists()
