@@ -39,6 +39,7 @@ from hybridlog.estimators.options import OptionSource, describe_options, parse_o
 from hybridlog.io.formats import format_list
 from hybridlog.launch import single_threaded_blas
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
+from hybridlog.numbers import parse_float, parse_int
 
 if TYPE_CHECKING:
     from hybridlog.io import ReadOptions
@@ -176,7 +177,7 @@ def _read_options(function: F) -> F:
         ),
         click.option(
             "--max-gap",
-            type=float,
+            type=_Number(),
             default=None,
             metavar="SECONDS",
             help="Longest tolerated gap in the outputs [default: 5*dt].",
@@ -472,6 +473,38 @@ def models(name: str | None) -> None:
         click.echo(f"{builtin:20s} {builtin_reference(builtin)}")
 
 
+class _WholeNumber(click.IntRange):
+    """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused).
+
+    click's ``INT`` reads with Python's ``int()``, which takes underscores and any Unicode
+    digits; the range check and ``--help`` text stay click's.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str):
+            try:
+                value = parse_int(value)
+            except ValueError as err:
+                self.fail(f"{err}, got {excerpt(value)}", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+class _Number(click.types.FloatParamType):
+    """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only).
+
+    click's ``FLOAT`` reads with Python's ``float()``, which takes ``inf``, ``nan``,
+    underscores and any Unicode digits.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str):
+            try:
+                value = parse_float(value)
+            except ValueError as err:
+                self.fail(f"{err}, got {excerpt(value)}", param, ctx)
+        return super().convert(value, param, ctx)
+
+
 class _LogFormats(click.Choice[str]):
     """``--format`` or ``--encoding``: choices read from the log writers when first needed.
 
@@ -536,12 +569,12 @@ class _LogFormats(click.Choice[str]):
 )
 @click.option(
     "--steps",
-    type=click.IntRange(min=1),
+    type=_WholeNumber(min=1),
     default=None,
     help="Number of steps [default: the schedule's total].",
 )
 @click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
+    "--seed", type=_WholeNumber(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
 )
 @_set_option("A scenario parameter of a components model (a fault time, a drift rate).")
 @click.option(
@@ -794,7 +827,7 @@ def compare_command(
 )
 @click.option(
     "--jobs",
-    type=click.IntRange(min=1),
+    type=_WholeNumber(min=1),
     default=1,
     show_default=True,
     help="Logs analysed in parallel (processes).",

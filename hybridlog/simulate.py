@@ -57,6 +57,7 @@ from hybridlog.model.compiled import (
     compile_model,
     input_functions,
 )
+from hybridlog.numbers import parse_float, parse_int
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 if TYPE_CHECKING:
@@ -125,9 +126,9 @@ def parse_schedule(
         if mode not in mode_ids:
             raise error(f"{where}: unknown mode '{mode}' (modes: {', '.join(mode_ids)})")
         try:
-            steps = int(count)
-        except ValueError as err:
-            raise error(f"{where}: '{count}' in '{part}' is not a whole number") from err
+            steps = parse_int(count)
+        except ValueError:
+            raise error(f"{where}: '{count}' in '{part}' is not a whole number") from None
         if steps <= 0:
             raise error(f"{where}: the step count in '{part}' must be positive")
         schedule.append((mode_ids.index(mode), steps))
@@ -261,13 +262,11 @@ def parse_disturbance(text: str) -> Disturbance:
     """``"A,OMEGA"`` (``--disturbance``) as a :class:`Disturbance`; an :class:`OptionError` else."""
     parts = text.split(",")
     try:
-        amplitude, frequency = (float(part) for part in parts)
+        amplitude, frequency = (parse_float(part) for part in parts)
     except ValueError as err:
         raise OptionError(
-            f"--disturbance: expected A,OMEGA (two numbers), got {excerpt(text)}"
+            f"--disturbance: expected A,OMEGA (two finite numbers), got {excerpt(text)}"
         ) from err
-    if not (np.isfinite(amplitude) and np.isfinite(frequency)):
-        raise OptionError(f"--disturbance: A and OMEGA must be finite, got {excerpt(text)}")
     return Disturbance(amplitude, frequency)
 
 

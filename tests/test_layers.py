@@ -12,7 +12,8 @@ one layer are peers that never import each other:
 
 ==  ==============================================================================
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
-    | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python)
+    | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python) | ``numbers``
+    (numbers typed on the command line, read strictly)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
 2   ``io`` | ``model``
 3   ``cluster``
@@ -44,7 +45,16 @@ from scipy.sparse.csgraph import connected_components
 PACKAGE = Path(__file__).resolve().parent.parent / "hybridlog"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("hybridlog", "errors", "lazy", "background", "allocators", "prefault", "polars_import"),
+    (
+        "hybridlog",
+        "errors",
+        "lazy",
+        "background",
+        "allocators",
+        "prefault",
+        "polars_import",
+        "numbers",
+    ),
     ("signals", "jit", "outputs", "memory"),
     ("io", "model"),
     ("cluster",),

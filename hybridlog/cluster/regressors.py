@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hybridlog.errors import DataShortError, OptionError
+from hybridlog.numbers import parse_int
 from hybridlog.signals import FloatArray
 
 __all__ = ["RegressorSpec", "parse_lags", "regression_vectors"]
@@ -91,9 +92,9 @@ def parse_lags(text: str | Sequence[int], key: str) -> tuple[int, ...]:
         values = []
         for part in parts:
             try:
-                values.append(int(part))
-            except ValueError as err:
-                raise OptionError(f"{key}: '{part}' is not a whole number") from err
+                values.append(parse_int(part))
+            except ValueError:
+                raise OptionError(f"{key}: '{part}' is not a whole number") from None
     if any(isinstance(v, bool) or not isinstance(v, int | np.integer) for v in values):
         raise OptionError(f"{key}: expected whole numbers, got {values!r}")
     return tuple(int(v) for v in values)

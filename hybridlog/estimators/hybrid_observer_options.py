@@ -7,12 +7,12 @@ loading either.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Literal
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators.options import option
+from hybridlog.numbers import parse_float
 
 __all__ = ["DEFAULT_EIGENVALUES", "SwitchingObserverOptions", "eigenvalue_values"]
 
@@ -29,12 +29,12 @@ def eigenvalue_values(text: str) -> list[float]:
         With the reason, for text that is not that.
     """
     try:
-        values = [float(p.strip()) for p in text.split(",")]
+        values = [parse_float(p) for p in text.split(",")]
     except ValueError:
         raise ValueError(
             f"expected negative numbers separated by commas, got {excerpt(text)}"
         ) from None
-    if not all(math.isfinite(v) and v < 0.0 for v in values):
+    if not all(v < 0.0 for v in values):
         raise ValueError(
             f"every eigenvalue must be a finite negative real (Hurwitz A_b - K C_b), got "
             f"{excerpt(text)}"

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 from typing import Any, Literal, TypeVar, Union
 
 from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
+from hybridlog.numbers import parse_float, parse_int
 
 __all__ = [
     "OptionInfo",
@@ -254,23 +255,30 @@ def _convert(raw: Any, kind: _Kind) -> Any:
         if text is None:
             raise ValueError(f"expected text, got {excerpt(raw)}")
         return text
-    if isinstance(raw, bool) or not isinstance(raw, int | float | str):
+    if isinstance(raw, str):
+        try:
+            return parse_float(raw) if kind.base is float else parse_int(raw)
+        except ValueError as err:
+            raise ValueError(f"{err}, got {excerpt(raw)}") from None
+    if isinstance(raw, bool) or not isinstance(raw, int | float):
         raise ValueError(f"expected a number, got {excerpt(raw)}")
-    try:
-        number = float(raw)
-    except ValueError:
-        raise ValueError(f"expected a number, got {excerpt(raw)}") from None
-    if not math.isfinite(number):
+    if isinstance(raw, int) and kind.base is int:
+        return raw
+    if not math.isfinite(number := _as_float(raw)):
         raise ValueError(f"expected a finite number, got {excerpt(raw)}")
     if kind.base is float:
         return number
-    if isinstance(raw, int):
-        return raw
-    if text is not None and text.lstrip("+-").isdigit():
-        return int(text)
     if not number.is_integer():
         raise ValueError(f"expected a whole number, got {excerpt(raw)}")
     return int(number)
+
+
+def _as_float(value: float) -> float:
+    """A TOML number as a float; infinite for an integer beyond the range of floats."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
 
 
 def _check(value: Any, kind: _Kind, field: dataclasses.Field[Any]) -> Any:

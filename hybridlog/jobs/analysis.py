@@ -38,6 +38,7 @@ from hybridlog.jobs.centers import read_centers
 from hybridlog.memory import check_fits
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
@@ -84,9 +85,9 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
             raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
         if name in model.parameters:
             try:
-                parameters[name] = float(value)
+                parameters[name] = parse_float(value)
             except ValueError as err:
-                raise OptionError(f"--set {name}: {excerpt(value)} is not a number") from err
+                raise OptionError(f"--set {name}: {err}, got {excerpt(value)}") from None
         else:
             options[name] = value.strip()
     if parameters:

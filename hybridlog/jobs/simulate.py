@@ -8,7 +8,6 @@ truth (:func:`hybridlog.io.bag_writers.write_log`).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +15,7 @@ from pathlib import Path
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.io.bag_writers import check_log_target, times_before, write_log
 from hybridlog.model.cache import load_model
+from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import parse_disturbance
 from hybridlog.simulate import simulate as simulate_model
@@ -140,12 +140,8 @@ def _settings(texts: Sequence[str]) -> dict[str, float]:
         if name in values:
             raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
         try:
-            number = float(value)
+            number = parse_float(value)
         except ValueError as err:
-            raise OptionError(
-                f"--set {excerpt(name)[1:-1]}: {excerpt(value)} is not a number"
-            ) from err
-        if not math.isfinite(number):
-            raise OptionError(f"--set {excerpt(name)[1:-1]}: {excerpt(value)} is not finite")
+            raise OptionError(f"--set {excerpt(name)[1:-1]}: {err}, got {excerpt(value)}") from None
         values[name] = number
     return values

@@ -46,6 +46,7 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 from hybridlog.errors import OptionError
+from hybridlog.numbers import parse_float
 from hybridlog.report.document import ModeReport, OutputReport, Report, Smoothing, StateReport
 
 __all__ = [
@@ -202,11 +203,9 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     if not known:
         raise OptionError(f"{option} {spec!r}: unknown metric {metric!r}; known: {_known_names()}")
     try:
-        bound = float(value)
-    except ValueError:
-        raise OptionError(f"{option} {spec!r}: bound {value!r} is not a number") from None
-    if not math.isfinite(bound):
-        raise OptionError(f"{option} {spec!r}: bound {value!r} is not a finite number")
+        bound = parse_float(value)
+    except ValueError as err:
+        raise OptionError(f"{option} {spec!r}: bound {value!r}: {err}") from None
     _check_attainable(spec, option, base, bound, kind)
     return Gate(metric=metric, bound=bound, kind=kind, spec=spec)
 

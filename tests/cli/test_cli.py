@@ -462,7 +462,7 @@ def test_log_without_truth_gives_null_truth_metrics_and_gates_say_so(tank_log, t
     [
         (
             ["analyze", "{log}", "--model", "three_tank_hstf", "--max-gap", "abc"],
-            "hybridlog analyze: --max-gap: 'abc' is not a valid float "
+            "hybridlog analyze: --max-gap: expected a finite number, got 'abc' "
             "(see hybridlog analyze --help)",
         ),
         (

@@ -175,7 +175,8 @@ def bad_values(estimator):
         elif typing.get_origin(base) is typing.Literal:
             yield field.name, "no-such-choice", "is not one of"
         elif base in (int, float):
-            yield field.name, "abc", "expected a number"
+            number = "a whole number" if base is int else "a finite number"
+            yield field.name, "abc", f"expected {number}"
             if "range" in field.metadata:
                 yield field.name, str(2 * field.metadata["range"][1] + 1), "is outside"
 

@@ -45,7 +45,6 @@ def parse(**values):
         ("count", 4, 4),
         ("count", 4.0, 4),  # TOML `count = 4.0`
         ("count", " 7 ", 7),
-        ("count", "5.0", 5),
         ("gain", "0.25", 0.25),
         ("gain", 1, 1.0),
         ("on", "no", False),
@@ -70,11 +69,22 @@ def test_values_are_read_by_their_type_hint(name, raw, value):
     [
         ("count", "3.5", "expected a whole number, got '3.5'"),
         ("count", True, "expected a number, got 'True'"),
-        ("count", "many", "expected a number, got 'many'"),
+        ("count", "many", "expected a whole number, got 'many'"),
         ("count", "11", "11 is outside [1, 10]"),
-        ("count", "none", "expected a number, got 'none'"),
+        ("count", "none", "expected a whole number, got 'none'"),
+        # Python's int() and float() read these; a typo must not run another analysis
+        ("count", "5.0", "expected a whole number, got '5.0'"),
+        ("count", "1_0", "expected a whole number, got '1_0'"),
+        ("count", "٣", "expected a whole number, got '٣'"),
+        ("count", "0x3", "expected a whole number, got '0x3'"),
+        ("count", 3.5, "expected a whole number, got '3.5'"),
+        ("gain", "0_5", "expected a finite number, got '0_5'"),
+        ("gain", "٠.٥", "expected a finite number, got '٠.٥'"),
+        ("gain", "\u00a00.5", "expected a finite number, got '\\xa00.5'"),
         ("gain", "nan", "expected a finite number, got 'nan'"),
         ("gain", "inf", "expected a finite number, got 'inf'"),
+        ("gain", "-Infinity", "expected a finite number, got '-Infinity'"),
+        ("gain", "1e999", "expected a finite number, got '1e999'"),
         ("gain", "-0.1", "-0.1 is outside [0, 1]"),
         ("gain", [1], "expected a number, got '[1]'"),
         ("on", "maybe", "expected true or false, got 'maybe'"),
@@ -88,6 +98,12 @@ def test_bad_values_are_one_line_naming_estimator_and_option(name, raw, reason):
     with pytest.raises(OptionError) as caught:
         parse(**{name: raw})
     assert str(caught.value) == f"toy option '{name}': {reason}"
+
+
+def test_a_toml_integer_beyond_floats_is_not_a_finite_number():
+    """``gain = 1000…0`` (400 digits) in a model file: float() raised OverflowError."""
+    with pytest.raises(OptionError, match=r"^toy option 'gain': expected a finite number, got"):
+        parse(gain=10**400)
 
 
 def test_unknown_names_list_the_options_and_suggest_the_closest():

@@ -168,7 +168,7 @@ def test_cli_simulates_a_continuous_model_with_the_disturbance_and_refuses_a_bad
         main(["simulate", "three_tank_valves", "--out", str(out), "--disturbance", "0.1"])
     assert exit_.value.code == 2 and not out.exists()
     assert capsys.readouterr().err.strip() == (
-        "hybridlog: error: --disturbance: expected A,OMEGA (two numbers), got '0.1'"
+        "hybridlog: error: --disturbance: expected A,OMEGA (two finite numbers), got '0.1'"
     )
     args = ["--steps", "40", "--no-noise", "--disturbance", "2e-4,6.28", "--schedule", "3:20"]
     main(["simulate", "three_tank_valves", "--out", str(out), *args])

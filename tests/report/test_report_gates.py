@@ -87,9 +87,11 @@ def test_parse_gate() -> None:
         ("accuracy=0.9", "unknown metric 'accuracy'"),
         ("vaf.=90", "unknown metric"),
         ("rmse.x1=1", "unknown metric"),
-        ("vaf=ninety", "not a number"),
-        ("vaf=nan", "not a finite number"),
-        ("mse=inf", "not a finite number"),
+        ("vaf=ninety", "bound 'ninety': expected a finite number"),
+        ("vaf=nan", "bound 'nan': expected a finite number"),
+        ("mse=inf", "bound 'inf': expected a finite number"),
+        ("vaf=9_0", "bound '9_0': expected a finite number"),
+        ("vaf=٩٠", "bound '٩٠': expected a finite number"),
     ],
 )
 def test_bad_spec_is_an_option_error_naming_it(spec: str, fragment: str) -> None:

@@ -1,0 +1,82 @@
+"""Numbers a user typed on the command line, read strictly.
+
+Python's ``int()`` and ``float()`` are lenient: they accept underscores (``1_0`` is 10), any
+Unicode decimal digits (``٣`` is 3), surrounding Unicode whitespace, and ``float()`` also
+``inf``, ``infinity`` and ``nan``.  A typo read so runs a different analysis without a word,
+so every number hybridlog reads from text the user typed (numeric options, ``--set``
+values, gate bounds) goes through :func:`parse_int` or :func:`parse_float`, which accept
+only:
+
+* a whole number: ASCII digits with an optional sign (``42``, ``-3``, ``+7``);
+* a number: the same with an optional decimal point and exponent (``0.5``, ``.5``, ``5.``,
+  ``1e-3``, ``-2.5E+4``), finite.
+
+ASCII whitespace around the text is ignored (``' 2'`` is 2); nothing else is: ``0x10``,
+``1_000``, ``1,5``, non-ASCII digits and ``inf``/``nan`` are refused.  Numbers in model
+files are typed by the TOML parser and do not come here.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+_WHITESPACE = " \t\n\r\f\v"
+"""The ASCII whitespace ignored around a number."""
+
+_WHOLE = re.compile(r"[+-]?[0-9]+", re.ASCII)
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)
+
+
+def parse_int(text: str) -> int:
+    """``text`` as a whole number: ASCII digits with an optional sign.
+
+    Raises
+    ------
+    ValueError
+        ``expected a whole number`` for anything else (the caller names the option and
+        the value).
+
+    Examples
+    --------
+    >>> parse_int(" -12 ")
+    -12
+    >>> parse_int("1_0")
+    Traceback (most recent call last):
+    ...
+    ValueError: expected a whole number
+    """
+    stripped = text.strip(_WHITESPACE)
+    if _WHOLE.fullmatch(stripped) is None:
+        raise ValueError("expected a whole number")
+    try:
+        return int(stripped)
+    except ValueError:  # more digits than Python converts (sys.get_int_max_str_digits)
+        raise ValueError("expected a whole number of fewer digits") from None
+
+
+def parse_float(text: str) -> float:
+    """``text`` as a finite number: ASCII digits, sign, decimal point and exponent.
+
+    Raises
+    ------
+    ValueError
+        ``expected a finite number`` for anything else, ``inf``, ``nan`` and a value beyond
+        the range of a float (``1e999``) included.
+
+    Examples
+    --------
+    >>> parse_float("1e-3")
+    0.001
+    >>> parse_float("infinity")
+    Traceback (most recent call last):
+    ...
+    ValueError: expected a finite number
+    """
+    stripped = text.strip(_WHITESPACE)
+    if _DECIMAL.fullmatch(stripped) is None:
+        raise ValueError("expected a finite number")
+    value = float(stripped)
+    if not math.isfinite(value):
+        raise ValueError("expected a finite number")
+    return value
