@@ -292,6 +292,32 @@ def resample_series(
     return values, too_long, int(in_gap.size - too_long.size)
 
 
+def _longest_hold(
+    series: Series, grid_ns: IntArray, dt_ns: int, max_gap_ns: int
+) -> dict[str, float] | None:
+    """The longest stretch of the grid over which the hold carries an input, if over ``max_gap``.
+
+    Inputs are held (SPEC §5: a command published only when it changes is held so), across
+    a gap between two samples or past the last one to the grid's end; a hold longer than
+    ``max_gap`` is recorded, ``{start, end, seconds}`` in seconds, for the report to say,
+    not refused.  ``None`` when every hold is shorter.
+    """
+    time_ns = series.time_ns
+    if grid_ns.size == 0 or time_ns.size == 0:
+        return None
+    first, last = int(grid_ns[0]), int(grid_ns[-1])
+    starts, ends = time_ns[:-1], time_ns[1:]
+    long = longer_than_max_gap(ends - starts, max_gap_ns, dt_ns) & (ends > first) & (starts < last)
+    pairs = zip(starts[long], ends[long], strict=True)
+    candidates = [(int(b - a), int(a), int(b)) for a, b in pairs]
+    if last > int(time_ns[-1]) and longer_than_max_gap(last - int(time_ns[-1]), max_gap_ns, dt_ns):
+        candidates.append((last - int(time_ns[-1]), int(time_ns[-1]), last))
+    if not candidates:
+        return None
+    _, start, end = max(candidates)  # the longest; of equal ones the latest
+    return {"start": start / NS_PER_S, "end": end / NS_PER_S, "seconds": (end - start) / NS_PER_S}
+
+
 def _gap_on_the_grid(
     series: Series, span: tuple[int, int], dt_ns: int, max_gap_ns: int
 ) -> IntArray | None:
@@ -443,7 +469,8 @@ def align_signals(
         ``max_gap`` (``span``), the pieces (``segments``) and the one analysed when
         ``split_gaps`` cut the log, and per output the grid points bridged across short
         gaps (``bridged``: ``{symbol: {points, of}}``), per true state the same
-        (``truth_bridged``).
+        (``truth_bridged``), and per input its longest hold over ``max_gap`` (``held``:
+        ``{symbol: {start, end, seconds}}``).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -495,11 +522,14 @@ def align_signals(
     n = grid.size
 
     u = np.empty((n, len(inputs)), dtype=np.float64)
-    for j, series in enumerate(inputs.values()):
+    for j, (symbol, series) in enumerate(inputs.items()):
         on = on_grid_values(series, grid, tolerance)
         u[:, j] = (
             on if on is not None else series.values[hold_index(series.time_ns, grid, tolerance)]
         )
+        held = _longest_hold(series, grid, dt_ns, max_gap_ns)
+        if held is not None and notes is not None:
+            notes.setdefault("held", {})[symbol] = held
 
     y = np.empty((n, len(outputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(outputs.items()):

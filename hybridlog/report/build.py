@@ -689,6 +689,12 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for key, what in (("bridged", "output"), ("truth_bridged", "true state"))
         for symbol, count in (reading.get(key) or {}).items()
     ]
+    notes += [
+        f"WARNING: input {symbol} has no sample from t = {hold['start']:g} to "
+        f"{hold['end']:g} s ({hold['seconds']:g} s, longer than max_gap): held at its last "
+        "value, as an input published only when it changes is (zero-order hold)"
+        for symbol, hold in (reading.get("held") or {}).items()
+    ]
     for side, bound in (reading.get("span") or {}).items():
         first = side == "start"
         notes.append(

@@ -618,3 +618,30 @@ def test_a_signal_that_ends_the_grid_early_is_named_in_the_reading_notes() -> No
         notes=plain,
     )
     assert plain == {}
+
+
+def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
+    """An input whose topic stopped at 10 s while the outputs ran to 40 s was held for 30 s
+    without a word; held it stays (SPEC §5: a command published on change is held so), and the
+    reading notes the longest hold over max_gap for the report to say."""
+    from hybridlog.report.build import _reading_notes
+
+    seconds = np.round(np.arange(0.0, 40.01, 0.1), 10)
+    y = series("level", seconds, np.cos(seconds))
+    on_change = np.array([0.0, 5.0, 6.0, 10.0])  # then silent to the end
+    u = series("cmd", on_change, np.array([1.0, 2.0, 3.0, 4.0]))
+    notes: dict[str, Any] = {}
+    aligned = align_signals(source="log", dt=0.1, inputs={"u": u}, outputs={"y": y}, notes=notes)
+    assert aligned.inputs[-1, 0] == 4.0 and aligned.inputs[55, 0] == 2.0
+    assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0}}
+    assert _reading_notes(notes) == (
+        "WARNING: input u has no sample from t = 10 to 40 s (30 s, longer than max_gap): held "
+        "at its last value, as an input published only when it changes is (zero-order hold)",
+    )
+    # every hold within max_gap: nothing to say
+    notes = {}
+    align_signals(
+        source="log", dt=0.1, inputs={"u": series("cmd", seconds, seconds)}, outputs={"y": y},
+        notes=notes,
+    )  # fmt: skip
+    assert "held" not in notes
