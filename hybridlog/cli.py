@@ -473,36 +473,35 @@ def models(name: str | None) -> None:
         click.echo(f"{builtin:20s} {builtin_reference(builtin)}")
 
 
-class _WholeNumber(click.IntRange):
-    """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused).
+class _Strict(click.ParamType[Any]):
+    """A click type whose text is read by a strict parser of :mod:`hybridlog.numbers` first.
 
-    click's ``INT`` reads with Python's ``int()``, which takes underscores and any Unicode
-    digits; the range check and ``--help`` text stay click's.
+    click's ``INT`` and ``FLOAT`` read with Python's ``int()`` and ``float()``, which take
+    underscores, any Unicode digits, and ``inf``/``nan``; the subclass' click base then does
+    the rest (a range check, the ``--help`` text).
     """
+
+    parse: Callable[[str], object]
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, str):
             try:
-                value = parse_int(value)
+                value = type(self).parse(value)
             except ValueError as err:
                 self.fail(f"{err}, got {excerpt(value)}", param, ctx)
         return super().convert(value, param, ctx)
 
 
-class _Number(click.types.FloatParamType):
-    """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only).
+class _WholeNumber(_Strict, click.IntRange):
+    """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused)."""
 
-    click's ``FLOAT`` reads with Python's ``float()``, which takes ``inf``, ``nan``,
-    underscores and any Unicode digits.
-    """
+    parse = staticmethod(parse_int)
 
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, str):
-            try:
-                value = parse_float(value)
-            except ValueError as err:
-                self.fail(f"{err}, got {excerpt(value)}", param, ctx)
-        return super().convert(value, param, ctx)
+
+class _Number(_Strict, click.types.FloatParamType):
+    """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only)."""
+
+    parse = staticmethod(parse_float)
 
 
 class _LogFormats(click.Choice[str]):
