@@ -22,7 +22,8 @@ zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (pro
 ``ros1``, ``ros1msg`` schemas) on request.  Files appear complete or not at all: they are
 written under a temporary name and renamed (:mod:`hybridlog.outputs`); a ROS 2 bag records
 in its ``custom_data`` that hybridlog wrote it (:data:`BAG_WRITER`), so ``--force`` may
-replace it later.
+replace it later.  ROS 2 bags have ``metadata.yaml`` version 8 (:data:`BAG_VERSION`), which
+``ros2 bag`` reads from ROS 2 Humble on.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import struct
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final, Literal
 
 from hybridlog import __version__
 from hybridlog.errors import OptionError, OutputError
@@ -298,6 +299,14 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
         )
 
 
+#: ``version`` of the ``metadata.yaml`` of the ROS 2 bags written: 8, which every ROS 2
+#: distribution from Humble on reads.  rosbags writes 8 or 9; version 9 (rosbag2 of Jazzy on)
+#: writes a topic's ``offered_qos_profiles`` as a YAML list, which Humble's and Iron's
+#: ``ros2 bag`` cannot parse ("yaml-cpp: ... bad conversion"), while version 8 writes it as
+#: the string they expect (empty: default QoS) and later distributions still read it.  A bag
+#: of ours has no QoS profiles to record, so version 9 would hold nothing more.
+BAG_VERSION: Final[Literal[8]] = 8
+
 #: ``custom_data`` entry of the ``metadata.yaml`` of every ROS 2 bag ``simulate`` writes: a
 #: bag folder carries no file of hybridlog's own, so ``--force`` knows it by this.
 BAG_WRITER = ("written_by", "hybridlog")
@@ -459,7 +468,7 @@ def _ros2_writer(
 
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
         store = _typestore(ros1=False)
-        with Writer(path, version=Writer.VERSION_LATEST, storage_plugin=plugin) as writer:
+        with Writer(path, version=BAG_VERSION, storage_plugin=plugin) as writer:
             writer.set_custom_data(*BAG_WRITER)
             connections = [
                 writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics
