@@ -11,12 +11,17 @@ column                                   topic                 message type
 numeric column *c* (inputs, outputs)     ``/c``                ``std_msgs/Float64``
 ground-truth column *c* (``truth=``)     ``/truth/c``          ``std_msgs/Float64``
 text column (e.g. the true ``mode``)     ``/truth/mode``       ``std_msgs/String``
+a component's true mode ``mode.fr1``     ``/truth/mode/fr1``   ``std_msgs/String``
 ======================================== ===================== ============================
 
-Every message of row *k* is logged at ``t_k`` (integer nanoseconds, exact for the float
-seconds of the table; times from 0 to 9.2e9 s, a ROS 1 bag's to 2^32 s, others refused
-before anything is written), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
-``/truth/x1.data`` are the default mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
+Topics are ROS names, which ``ros2 bag play`` and rclcpp require: a column name that is not a
+ROS name token is written as one (:func:`hybridlog.io.mapping.column_topic`: ``θ`` →
+``/truth/theta``); columns that would share a topic, or a name with nothing ASCII in it, are
+refused before anything is written (:func:`log_topics`).  Every message of row *k* is logged
+at ``t_k`` (integer nanoseconds, exact for the float seconds of the table; times from 0 to
+9.2e9 s, a ROS 1 bag's to 2^32 s, others refused before anything is written), so the message
+paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``, ``/truth/x1.data`` are the default
+mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
 ``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
 ``ros1``, ``ros1msg`` schemas) on request.  Files appear complete or not at all: they are
@@ -38,7 +43,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final, Literal
 
 from hybridlog import __version__
-from hybridlog.errors import OptionError, OutputError
+from hybridlog.errors import OptionError, OutputError, excerpt
 from hybridlog.outputs import (
     PathLike,
     atomic_files,
@@ -105,18 +110,68 @@ def log_format(path: str | os.PathLike[str], format: str | None) -> str:
     )
 
 
-def log_topics(columns: Mapping[str, Column], truth: Sequence[str] = ()) -> list[TopicColumn]:
-    """The topic of every column but ``t`` (see the module docstring)."""
+def log_topics(
+    columns: Mapping[str, Column], truth: Sequence[str] = (), *, path: PathLike = "log"
+) -> list[TopicColumn]:
+    """The topic of every column but ``t`` (see the module docstring).
+
+    Raises
+    ------
+    OptionError
+        As :func:`check_topic_names`.
+    """
     import numpy as np
 
+    topics = check_topic_names(path, [name for name in columns if name != "t"], truth)
     out = []
-    for name, values in columns.items():
-        if name == "t":
-            continue
+    for name, topic in topics.items():
+        values = columns[name]
         numeric = isinstance(values, np.ndarray) and values.dtype.kind in "biuf"
-        topic = f"/truth/{name}" if name in truth else f"/{name}"
         out.append(TopicColumn(topic, name, FLOAT64 if numeric else STRING))
     return out
+
+
+def check_topic_names(
+    path: PathLike, names: Sequence[str], truth: Sequence[str] = ()
+) -> dict[str, str]:
+    """``{column: topic}``: the ROS topic each column is written to in a bag or MCAP file.
+
+    Checked before a run is simulated (``hybridlog simulate``) as well as when it is written.
+
+    Raises
+    ------
+    OptionError
+        For a column whose name has no ROS name (nothing ASCII in it), two columns that
+        would be one topic (states ``θ`` and ``theta``), or a topic longer than ROS 2 takes;
+        naming the log, the columns and the topic.
+    """
+    from hybridlog.io.mapping import MAX_TOPIC_LENGTH, ROS_TOPIC, column_topic
+
+    hint = "rename it in the model, or write a CSV or Parquet log"
+    topics: dict[str, str] = {}
+    owners: dict[str, str] = {}
+    for name in names:
+        topic = column_topic(name, truth=name in truth)
+        if topic is None:
+            raise OptionError(
+                f"{path}: column {excerpt(name, 40)} has no ROS topic name (ROS names are "
+                f"ASCII letters, digits and _); {hint}"
+            )
+        assert ROS_TOPIC.fullmatch(topic), topic  # column_topic makes nothing else
+        if len(topic) > MAX_TOPIC_LENGTH:
+            raise OptionError(
+                f"{path}: the topic of column {excerpt(name, 40)} is {len(topic)} characters "
+                f"long, longer than ROS 2 takes ({MAX_TOPIC_LENGTH}); {hint}"
+            )
+        if topic in owners:
+            raise OptionError(
+                f"{path}: columns {excerpt(owners[topic], 40)} and {excerpt(name, 40)} would "
+                f"both be topic {excerpt(topic, 60)} (ROS names are ASCII letters, digits and "
+                f"_); rename one in the model, or write a CSV or Parquet log"
+            )
+        owners[topic] = name
+        topics[name] = topic
+    return topics
 
 
 def check_log_target(
@@ -240,8 +295,8 @@ def write_log(
     _check_times(path, chosen, time)
     if chosen in ("csv", "parquet"):
         return write_table(path, columns, force=force)
+    topics = log_topics(columns, truth, path=path)
     time_ns = seconds_to_ns(time)
-    topics = log_topics(columns, truth)
     writer: Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
     if chosen == "mcap":
         writer = _MCAP_WRITERS[encoding]
