@@ -18,8 +18,9 @@ Topics are ROS names, which ``ros2 bag play`` and rclcpp require: a column name 
 ROS name token is written as one (:func:`hybridlog.io.mapping.column_topic`: ``θ`` →
 ``/truth/theta``); columns that would share a topic, or a name with nothing ASCII in it, are
 refused before anything is written (:func:`log_topics`).  Every message of row *k* is logged
-at ``t_k`` (integer nanoseconds, exact for the float seconds of the table; times from 0 to
-9.2e9 s, a ROS 1 bag's to 2^32 s, others refused before anything is written), so the message
+at ``t_k`` (integer nanoseconds, the nearest to the float seconds of the table; times from 0
+to 9.2e9 s, a ROS 1 bag's to 2^32 s, and times whose rounding moves them by more than a
+thousandth of a step, a step of 1.5 ns, refused before anything is written), so the message
 paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``, ``/truth/x1.data`` are the default
 mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
@@ -342,16 +343,40 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     OptionError
         For a time before 0 or too late for the format, naming the file and the time.
     """
+    import numpy as np
+
     from hybridlog.io.formats import get_format
+    from hybridlog.io.source import seconds_to_ns
 
     before = times_before(chosen)
     held = (time >= 0.0) & (time < before)
+    what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
     if not held.all():
-        what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
         raise OptionError(
             f"{path}: t = {float(time[~held][0]):.6g} s is beyond the times {what} holds "
             f"(from 0 to before {before:.10g} s)"
         )
+    steps = np.diff(time)
+    steps = steps[steps > 0.0]
+    if chosen in ("csv", "parquet") or not steps.size or steps.min() >= _EXACT_STEP_S:
+        return
+    # Messages are logged at integer nanoseconds: a step of 1.5 ns became 2, 1, 2, 1 ns.
+    whole = np.floor(time)
+    off = np.abs((seconds_to_ns(time) - seconds_to_ns(whole)) * 1e-9 - (time - whole))
+    worst = int(np.argmax(off))
+    smallest = float(steps.min())
+    if off[worst] > _NS_TOLERANCE * smallest:
+        raise OptionError(
+            f"{path}: t = {float(time[worst]):.6g} s is {float(off[worst]) * 1e9:.2g} ns off "
+            f"the whole nanoseconds {what} holds its times in, too much for steps of "
+            f"{smallest:.6g} s; use a dt of whole nanoseconds, or write a CSV or Parquet log"
+        )
+
+
+_NS_TOLERANCE = 1e-3
+#: Steps (s) from which the nanosecond rounding of message times (at most 0.5 ns) is always
+#: within :data:`_NS_TOLERANCE` of a step, as the readers' clock tolerance (dt/1000) takes it.
+_EXACT_STEP_S = 0.5e-9 / _NS_TOLERANCE
 
 
 #: ``version`` of the ``metadata.yaml`` of the ROS 2 bags written: 8, which every ROS 2
