@@ -94,7 +94,8 @@ def ros_token(name: str) -> str | None:
     written: accents dropped (``é`` → ``e``, Unicode NFKD), a Greek letter by its name (``θ``
     → ``theta``, ``Ω`` → ``Omega``), any other character but an ASCII letter, digit or ``_``
     as ``_`` (``fr-1`` → ``fr_1``); a leading digit gets a ``_`` before it.  Two names can so
-    become one token: the writer refuses that (:func:`hybridlog.io.bag_writers.log_topics`).
+    become one token: the writer refuses that
+    (:func:`hybridlog.io.bag_writers.check_topic_names`).
     """
     if _TOKEN.fullmatch(name):
         return name
