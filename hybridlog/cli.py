@@ -611,7 +611,9 @@ def simulate(
     commands and the true mode of each component (mode.<component>).
 
     In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
-    true mode a std_msgs/String topic /truth/mode and every true state /truth/<state>.
+    true mode a std_msgs/String topic /truth/mode (/truth/mode/<component>) and every true
+    state /truth/<state>, as ROS names (θ is /truth/theta). ROS 2 bags: metadata version 8,
+    which ros2 bag reads from Humble on.
     """
     from hybridlog.jobs.simulate import simulate_log
     from hybridlog.report.markdown import plural

@@ -13,7 +13,8 @@ only:
 
 ASCII whitespace around the text is ignored (``' 2'`` is 2); nothing else is: ``0x10``,
 ``1_000``, ``1,5``, non-ASCII digits and ``inf``/``nan`` are refused.  Numbers in model
-files are typed by the TOML parser and do not come here.
+files are typed by the TOML parser, but those written inside text (a ``[simulation]``
+schedule, a scenario's command values and steps) come here too.
 """
 
 from __future__ import annotations

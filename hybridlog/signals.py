@@ -75,7 +75,7 @@ class AlignedSignals:
         True states, shape ``(N, n_x)`` with NaN in columns the log does not have, or ``None``.
     truth_components:
         For a ``[components]`` model, the true mode of each component the log has (its
-        ``mode.<component>`` column or ``/truth/mode.<component>`` topic), in the model's
+        ``mode.<component>`` column or ``/truth/mode/<component>`` topic), in the model's
         component order; empty otherwise.
     """
 

@@ -11,18 +11,25 @@ column                                   topic                 message type
 numeric column *c* (inputs, outputs)     ``/c``                ``std_msgs/Float64``
 ground-truth column *c* (``truth=``)     ``/truth/c``          ``std_msgs/Float64``
 text column (e.g. the true ``mode``)     ``/truth/mode``       ``std_msgs/String``
+a component's true mode ``mode.fr1``     ``/truth/mode/fr1``   ``std_msgs/String``
 ======================================== ===================== ============================
 
-Every message of row *k* is logged at ``t_k`` (integer nanoseconds, exact for the float
-seconds of the table; times from 0 to 9.2e9 s, a ROS 1 bag's to 2^32 s, others refused
-before anything is written), so the message paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``,
-``/truth/x1.data`` are the default mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
+Topics are ROS names, which ``ros2 bag play`` and rclcpp require: a column name that is not a
+ROS name token is written as one (:func:`hybridlog.io.mapping.column_topic`: ``θ`` →
+``/truth/theta``); columns that would share a topic, or a name with nothing ASCII in it, are
+refused before anything is written (:func:`log_topics`).  Every message of row *k* is logged
+at ``t_k`` (integer nanoseconds, the nearest to the float seconds of the table; times from 0
+to 9.2e9 s, a ROS 1 bag's to 2^32 s, and times whose rounding moves them by more than a
+thousandth of a step, a step of 1.5 ns, refused before anything is written), so the message
+paths ``/u.data``, ``/y1.data``, ``/truth/mode.data``, ``/truth/x1.data`` are the default
+mapping of :mod:`~hybridlog.io.mapping`.  MCAP files are
 zstd-compressed with chunk and data-section CRCs; the encoding is ROS 2 CDR (profile ``ros2``,
 ``ros2msg`` schemas) by default, JSON (``jsonschema`` schemas, no profile) or ROS 1 (profile
 ``ros1``, ``ros1msg`` schemas) on request.  Files appear complete or not at all: they are
 written under a temporary name and renamed (:mod:`hybridlog.outputs`); a ROS 2 bag records
 in its ``custom_data`` that hybridlog wrote it (:data:`BAG_WRITER`), so ``--force`` may
-replace it later.
+replace it later.  ROS 2 bags have ``metadata.yaml`` version 8 (:data:`BAG_VERSION`), which
+``ros2 bag`` reads from ROS 2 Humble on.
 """
 
 from __future__ import annotations
@@ -34,10 +41,10 @@ import struct
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final, Literal
 
 from hybridlog import __version__
-from hybridlog.errors import OptionError, OutputError
+from hybridlog.errors import OptionError, OutputError, excerpt
 from hybridlog.outputs import (
     PathLike,
     atomic_files,
@@ -104,18 +111,68 @@ def log_format(path: str | os.PathLike[str], format: str | None) -> str:
     )
 
 
-def log_topics(columns: Mapping[str, Column], truth: Sequence[str] = ()) -> list[TopicColumn]:
-    """The topic of every column but ``t`` (see the module docstring)."""
+def log_topics(
+    columns: Mapping[str, Column], truth: Sequence[str] = (), *, path: PathLike = "log"
+) -> list[TopicColumn]:
+    """The topic of every column but ``t`` (see the module docstring).
+
+    Raises
+    ------
+    OptionError
+        As :func:`check_topic_names`.
+    """
     import numpy as np
 
+    topics = check_topic_names(path, [name for name in columns if name != "t"], truth)
     out = []
-    for name, values in columns.items():
-        if name == "t":
-            continue
+    for name, topic in topics.items():
+        values = columns[name]
         numeric = isinstance(values, np.ndarray) and values.dtype.kind in "biuf"
-        topic = f"/truth/{name}" if name in truth else f"/{name}"
         out.append(TopicColumn(topic, name, FLOAT64 if numeric else STRING))
     return out
+
+
+def check_topic_names(
+    path: PathLike, names: Sequence[str], truth: Sequence[str] = ()
+) -> dict[str, str]:
+    """``{column: topic}``: the ROS topic each column is written to in a bag or MCAP file.
+
+    Checked before a run is simulated (``hybridlog simulate``) as well as when it is written.
+
+    Raises
+    ------
+    OptionError
+        For a column whose name has no ROS name (nothing ASCII in it), two columns that
+        would be one topic (states ``θ`` and ``theta``), or a topic longer than ROS 2 takes;
+        naming the log, the columns and the topic.
+    """
+    from hybridlog.io.mapping import MAX_TOPIC_LENGTH, ROS_TOPIC, column_topic
+
+    hint = "rename it in the model, or write a CSV or Parquet log"
+    topics: dict[str, str] = {}
+    owners: dict[str, str] = {}
+    for name in names:
+        topic = column_topic(name, truth=name in truth)
+        if topic is None:
+            raise OptionError(
+                f"{path}: column {excerpt(name, 40)} has no ROS topic name (ROS names are "
+                f"ASCII letters, digits and _); {hint}"
+            )
+        assert ROS_TOPIC.fullmatch(topic), topic  # column_topic makes nothing else
+        if len(topic) > MAX_TOPIC_LENGTH:
+            raise OptionError(
+                f"{path}: the topic of column {excerpt(name, 40)} is {len(topic)} characters "
+                f"long, longer than ROS 2 takes ({MAX_TOPIC_LENGTH}); {hint}"
+            )
+        if topic in owners:
+            raise OptionError(
+                f"{path}: columns {excerpt(owners[topic], 40)} and {excerpt(name, 40)} would "
+                f"both be topic {excerpt(topic, 60)} (ROS names are ASCII letters, digits and "
+                f"_); rename one in the model, or write a CSV or Parquet log"
+            )
+        owners[topic] = name
+        topics[name] = topic
+    return topics
 
 
 def check_log_target(
@@ -239,8 +296,8 @@ def write_log(
     _check_times(path, chosen, time)
     if chosen in ("csv", "parquet"):
         return write_table(path, columns, force=force)
+    topics = log_topics(columns, truth, path=path)
     time_ns = seconds_to_ns(time)
-    topics = log_topics(columns, truth)
     writer: Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
     if chosen == "mcap":
         writer = _MCAP_WRITERS[encoding]
@@ -286,17 +343,49 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     OptionError
         For a time before 0 or too late for the format, naming the file and the time.
     """
+    import numpy as np
+
     from hybridlog.io.formats import get_format
+    from hybridlog.io.source import seconds_to_ns
 
     before = times_before(chosen)
     held = (time >= 0.0) & (time < before)
+    what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
     if not held.all():
-        what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
         raise OptionError(
             f"{path}: t = {float(time[~held][0]):.6g} s is beyond the times {what} holds "
             f"(from 0 to before {before:.10g} s)"
         )
+    steps = np.diff(time)
+    steps = steps[steps > 0.0]
+    if chosen in ("csv", "parquet") or not steps.size or steps.min() >= _EXACT_STEP_S:
+        return
+    # Messages are logged at integer nanoseconds: a step of 1.5 ns became 2, 1, 2, 1 ns.
+    whole = np.floor(time)
+    off = np.abs((seconds_to_ns(time) - seconds_to_ns(whole)) * 1e-9 - (time - whole))
+    worst = int(np.argmax(off))
+    smallest = float(steps.min())
+    if off[worst] > _NS_TOLERANCE * smallest:
+        raise OptionError(
+            f"{path}: t = {float(time[worst]):.6g} s is {float(off[worst]) * 1e9:.2g} ns off "
+            f"the whole nanoseconds {what} holds its times in, too much for steps of "
+            f"{smallest:.6g} s; use a dt of whole nanoseconds, or write a CSV or Parquet log"
+        )
 
+
+_NS_TOLERANCE = 1e-3
+#: Steps (s) from which the nanosecond rounding of message times (at most 0.5 ns) is always
+#: within :data:`_NS_TOLERANCE` of a step, as the readers' clock tolerance (dt/1000) takes it.
+_EXACT_STEP_S = 0.5e-9 / _NS_TOLERANCE
+
+
+#: ``version`` of the ``metadata.yaml`` of the ROS 2 bags written: 8, which every ROS 2
+#: distribution from Humble on reads.  rosbags writes 8 or 9; version 9 (rosbag2 of Jazzy on)
+#: writes a topic's ``offered_qos_profiles`` as a YAML list, which Humble's and Iron's
+#: ``ros2 bag`` cannot parse ("yaml-cpp: ... bad conversion"), while version 8 writes it as
+#: the string they expect (empty: default QoS) and later distributions still read it.  A bag
+#: of ours has no QoS profiles to record, so version 9 would hold nothing more.
+BAG_VERSION: Final[Literal[8]] = 8
 
 #: ``custom_data`` entry of the ``metadata.yaml`` of every ROS 2 bag ``simulate`` writes: a
 #: bag folder carries no file of hybridlog's own, so ``--force`` knows it by this.
@@ -459,7 +548,7 @@ def _ros2_writer(
 
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
         store = _typestore(ros1=False)
-        with Writer(path, version=Writer.VERSION_LATEST, storage_plugin=plugin) as writer:
+        with Writer(path, version=BAG_VERSION, storage_plugin=plugin) as writer:
             writer.set_custom_data(*BAG_WRITER)
             connections = [
                 writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics

@@ -15,9 +15,15 @@ For each model input and output, and for the ground truth (``truth.mode``,
    ==================== ==========================================
    input or output *s*  ``/s.data`` (``std_msgs/Float64``)
    ``truth.mode``       ``/truth/mode.data`` (``std_msgs/String``)
-   ``truth.mode.c``     ``/truth/mode.c.data`` (``std_msgs/String``): component ``c``
+   ``truth.mode.c``     ``/truth/mode/c.data`` (``std_msgs/String``): component ``c``
    ``truth.x`` (state)  ``/truth/x.data`` (``std_msgs/Float64``)
    ==================== ==========================================
+
+   Topics are ROS names (:func:`column_topic`: ``/``-separated tokens of ASCII letters,
+   digits and ``_``, none starting with a digit, as ``ros2 bag`` and rclcpp require): a
+   name that is not a token is written as one (``θ`` → ``theta``, ``fr-1`` → ``fr_1``).
+   The topics hybridlog wrote before (``/truth/mode.c``, ``/truth/θ``) are looked for
+   when the log has no topic of the ROS name.
 
 Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``
 (and a ground-truth field found by default that holds no sample is no truth either:
@@ -29,6 +35,9 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 
 from __future__ import annotations
 
+import re
+import unicodedata
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -68,23 +77,109 @@ class SignalMap:
     unusable_truth: dict[str, str] = field(default_factory=dict)
 
 
+ROS_TOPIC = re.compile(r"(?:/[A-Za-z_][A-Za-z0-9_]*)+", re.ASCII)
+"""A fully qualified ROS topic name, as rmw's ``rmw_validate_full_topic_name`` (ROS 2) and ROS 1
+take one: ``/`` and a token of ASCII letters, digits and ``_`` not starting with a digit,
+any number of times (no empty token, no trailing ``/``)."""
+MAX_TOPIC_LENGTH = 247
+"""Longest ROS 2 topic name (rmw's ``RMW_TOPIC_MAX_NAME_LENGTH``: 255 less 8 for prefixes)."""
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*", re.ASCII)
+_GREEK = re.compile(r"GREEK (SMALL|CAPITAL) LETTER ([A-Z]+)")
+
+
+def ros_token(name: str) -> str | None:
+    """``name`` as one token of a ROS name, or ``None`` when nothing of it is ASCII.
+
+    A token (``[A-Za-z_][A-Za-z0-9_]*``) is kept as it is.  Otherwise each character is
+    written: accents dropped (``é`` → ``e``, Unicode NFKD), a Greek letter by its name (``θ``
+    → ``theta``, ``Ω`` → ``Omega``), any other character but an ASCII letter, digit or ``_``
+    as ``_`` (``fr-1`` → ``fr_1``); a leading digit gets a ``_`` before it.  Two names can so
+    become one token: the writer refuses that
+    (:func:`hybridlog.io.bag_writers.check_topic_names`).
+    """
+    if _TOKEN.fullmatch(name):
+        return name
+    parts: list[str] = []
+    for char in unicodedata.normalize("NFKD", name):
+        if char.isascii() and (char.isalnum() or char == "_"):
+            parts.append(char)
+        elif unicodedata.combining(char):
+            continue
+        elif (greek := _GREEK.fullmatch(unicodedata.name(char, ""))) is not None:
+            letter = greek.group(2)
+            parts.append(letter.lower() if greek.group(1) == "SMALL" else letter.capitalize())
+        else:
+            parts.append("_")
+    token = "".join(parts)
+    if not any(char.isalnum() for char in token):
+        return None
+    return f"_{token}" if token[0].isdigit() else token
+
+
+def column_topic(column: str, *, truth: bool) -> str | None:
+    """The ROS topic of a log column (:func:`ros_token`), ``None`` if it has none.
+
+    ``/<column>``, or ``/truth/<column>`` for ground truth; a column ``<a>.<b>`` (the true
+    mode of a component, ``mode.fr1``) is the topic ``/truth/<a>/<b>``.
+    """
+    head, dot, rest = column.partition(".")
+    tokens: list[str] = ["truth"] if truth else []
+    for part in (head, rest) if dot else (head,):
+        token = ros_token(part)
+        if token is None:
+            return None
+        tokens.append(token)
+    return "/" + "/".join(tokens)
+
+
 def default_field(symbol: str, *, message_paths: bool) -> str:
     """The field a symbol maps to when neither ``--map`` nor the model names one.
 
     Parameters
     ----------
     symbol:
-        An input or output name, ``truth.mode`` or ``truth.<state>``.
+        An input or output name, ``truth.mode``, ``truth.mode.<component>`` or
+        ``truth.<state>``.
     message_paths:
         ``True`` for bags and MCAP files (topic defaults), ``False`` for tables (columns).
+
+    Returns
+    -------
+    str
+        The column, or the ``data`` field of the topic ``hybridlog simulate`` writes (its
+        ROS name, :func:`column_topic`; the name as written if it has none).
     """
+    return default_fields([symbol], message_paths=message_paths)[symbol][0]
+
+
+def default_fields(symbols: Sequence[str], *, message_paths: bool) -> dict[str, tuple[str, ...]]:
+    """The fields each symbol is looked for in when neither ``--map`` nor the model names one.
+
+    For a table, the column (:func:`default_field`).  For a bag or MCAP file, the ``data``
+    field of the topic of the symbol's ROS name (:func:`column_topic`), then of the topic
+    hybridlog wrote before it wrote ROS names (``/truth/mode.fr1``, ``/truth/θ``), when
+    that differs.  A ROS name shared by two of ``symbols`` (states ``θ`` and ``theta``) is
+    no symbol's but its own (the writer refuses to write such a pair).
+    """
+    out: dict[str, tuple[str, ...]] = {}
     if not message_paths:
-        if symbol == TRUTH_MODE:
-            return DEFAULT_MODE_FIELD
-        return symbol.removeprefix(TRUTH_PREFIX)
-    if symbol.startswith(TRUTH_PREFIX):
-        return f"/truth/{symbol.removeprefix(TRUTH_PREFIX)}.data"
-    return f"/{symbol}.data"
+        for symbol in symbols:
+            column = symbol.removeprefix(TRUTH_PREFIX)
+            out[symbol] = (DEFAULT_MODE_FIELD if symbol == TRUTH_MODE else column,)
+        return out
+    written: dict[str, tuple[str, str | None]] = {}
+    for symbol in symbols:
+        truth = symbol.startswith(TRUTH_PREFIX)
+        column = symbol.removeprefix(TRUTH_PREFIX)
+        old = f"/truth/{column}" if truth else f"/{column}"
+        written[symbol] = (old, column_topic(column, truth=truth))
+    shared = Counter(new for _, new in written.values() if new is not None)
+    for symbol, (old, new) in written.items():
+        topics = [old]
+        if new is not None and new != old and shared[new] == 1:
+            topics.insert(0, new)
+        out[symbol] = tuple(f"{topic}.data" for topic in topics)
+    return out
 
 
 def valid_map_symbols(
@@ -229,7 +324,9 @@ def resolve_signal_map(
             return None if reason is None else reason.removeprefix(f"{name!r}: ")
         return None if name in available else closest_names([name], fields)
 
-    def choose(symbol: str, model_path: str | None, default: str, required: bool) -> str | None:
+    def choose(
+        symbol: str, model_path: str | None, defaults: tuple[str, ...], required: bool
+    ) -> str | None:
         numeric = not is_mode_symbol(symbol)
         mapped = maps.get(symbol)
         if mapped is not None:
@@ -247,15 +344,16 @@ def resolve_signal_map(
             return mapped
         if model_path is not None and missing(model_path, numeric) is None:
             return model_path
-        if missing(default, numeric) is None:
-            return default
+        for default in defaults:
+            if missing(default, numeric) is None:
+                return default
+        looked = list(dict.fromkeys([*([] if model_path is None else [model_path]), *defaults]))
         if not required:
-            for name in dict.fromkeys([p for p in (model_path, default) if p is not None]):
+            for name in looked:
                 reason = missing(name, numeric) if name in available else None
                 if reason is not None:
                     unusable.setdefault(symbol, f"{field_word} {name!r}: {reason}")
             return None
-        looked = [default] if model_path is None else [model_path, default]
         why = closest_names(looked, fields)
         for name in looked if explain is not None else ():
             # A field that exists but cannot be used (e.g. its topic cannot be decoded) is
@@ -269,8 +367,17 @@ def resolve_signal_map(
             f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); {why}"
         )
 
-    def default(symbol: str) -> str:
-        return default_field(symbol, message_paths=message_paths)
+    every = [
+        *inputs,
+        *outputs,
+        *([] if components else [TRUTH_MODE]),
+        *(component_truth_symbol(c) for c in components),
+        *(f"{TRUTH_PREFIX}{x}" for x in states),
+    ]
+    defaults = default_fields(every, message_paths=message_paths)
+
+    def default(symbol: str) -> tuple[str, ...]:
+        return defaults[symbol]
 
     def required(symbol: str) -> str:
         chosen = choose(symbol, signals.get(symbol), default(symbol), required=True)

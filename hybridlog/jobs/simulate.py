@@ -11,16 +11,25 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from hybridlog.errors import OptionError, excerpt
-from hybridlog.io.bag_writers import check_log_target, times_before, write_log
+from hybridlog.io.bag_writers import (
+    check_log_target,
+    check_topic_names,
+    times_before,
+    write_log,
+)
 from hybridlog.model.cache import load_model
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import parse_disturbance
 from hybridlog.simulate import simulate as simulate_model
 
-__all__ = ["SimulationOutcome", "simulate_log"]
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
+__all__ = ["SimulationOutcome", "log_columns", "simulate_log"]
 
 
 @dataclass(frozen=True)
@@ -78,6 +87,8 @@ def simulate_log(
     )
     # Every check of the output runs before the simulation.
     chosen = check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
+    if chosen not in ("csv", "parquet"):  # every name a ROS name, no two one topic
+        check_topic_names(out, *log_columns(model))
     ends_before = times_before(chosen)  # a ROS 1 bag's seconds are 32-bit
     values = _settings(settings)
     if model.has_components:
@@ -127,6 +138,19 @@ def simulate_log(
         inputs=inputs,
     )
     return SimulationOutcome(path=path, samples=samples)
+
+
+def log_columns(model: HybridModel) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The columns of the log ``simulate`` writes of ``model`` but ``t``, and those that are truth.
+
+    As :meth:`hybridlog.simulate.SimulatedLog.columns` (and ``truth_columns`` of a
+    components model's run) name them, known before the run.
+    """
+    if model.has_components:
+        truth = (*(f"mode.{c.name}" for c in model.components), *model.states)
+        return (*model.inputs, *model.outputs, *model.commands, *truth), truth
+    truth = ("mode", *model.states)
+    return (*model.inputs, *model.outputs, *truth), truth
 
 
 def _settings(texts: Sequence[str]) -> dict[str, float]:

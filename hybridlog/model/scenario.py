@@ -59,6 +59,7 @@ from hybridlog.model.values import (
     key_path,
     required,
 )
+from hybridlog.numbers import parse_float, parse_int
 
 if TYPE_CHECKING:
     import sympy
@@ -183,7 +184,7 @@ def load_scenario(
                 known = ", ".join(scenario_parameters) or "none"
                 raise ModelError(
                     f"{key}: {excerpt(value, 40)} is not a scenario parameter "
-                    f"(simulation.parameters: {known})"
+                    f"(simulation.parameters: {known}) nor a step (a whole number >= 0)"
                 )
             return value
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
@@ -214,9 +215,11 @@ def load_scenario(
         entries_c = []
         for label, at in _entries(as_string(raw, key), key, step):
             try:
-                entries_c.append((float(label), at))
-            except ValueError as err:
-                raise ModelError(f"{key}: {excerpt(label, 40)} is not a number") from err
+                entries_c.append((parse_float(label), at))
+            except ValueError:  # strictly: not 1_0, ٣, inf or nan (hybridlog.numbers)
+                raise ModelError(
+                    f"{key}: {excerpt(label, 40)} is not a number (ASCII digits, finite)"
+                ) from None
         command_values[name] = tuple(entries_c)
     unmodelled = []
     raw_list = table.get("unmodelled", [])
@@ -340,7 +343,11 @@ def _entries(text: str, key: str, step: Any) -> list[tuple[str, Step]]:
             entries.append((label, 0))
             continue
         at = at.strip()
-        entries.append((label, step(int(at) if at.isdigit() else at, key)))
+        try:  # strictly: ASCII digits (not 1_0 or ١٠); anything else is a parameter's name
+            number: Step = parse_int(at)
+        except ValueError:
+            number = at
+        entries.append((label, step(number, key)))
     if not entries or entries[0][1] != 0:
         raise ModelError(f"{key}: the first entry must start at step 0 (write it without @STEP)")
     return entries

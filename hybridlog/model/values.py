@@ -108,8 +108,9 @@ def as_label(value: str, key: str, what: str) -> str:
     return value
 
 
-_DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
-"""A number written in decimal or exponent notation, as a log's number cell is."""
+_DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+"""A number written in decimal or exponent notation, as a log's number cell is (ASCII digits:
+no reader takes ``١.٥`` for a number, so such a mode id is a label like any other)."""
 
 
 def as_mode_id(value: str, key: str) -> str:

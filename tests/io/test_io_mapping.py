@@ -2,15 +2,24 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.io.mapping import SignalMap, parse_maps, resolve_signal_map
+from hybridlog.io.mapping import (
+    SignalMap,
+    column_topic,
+    default_fields,
+    parse_maps,
+    resolve_signal_map,
+)
 
 SYMBOLS: dict[str, Any] = {"inputs": ("u1", "u2"), "outputs": ("y",), "states": ("h1", "h2")}
 
@@ -165,3 +174,72 @@ def test_a_column_named_with_spaces_can_be_mapped(tmp_path: Path) -> None:
     np.testing.assert_array_equal(aligned.outputs[:, 0], 2 * np.arange(10))
     with pytest.raises(LogError, match=r"no column 'z' for output 'y' \(from --map y=z\)"):
         load_signals(log, spec, ReadOptions(maps=("u= u", "y= z ")))
+
+
+# --- default topics are ROS names (hybridlog simulate writes them so) -----------------------
+
+_RMW_FULL_TOPIC = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")  # rmw_validate_full_topic_name
+
+
+@pytest.mark.parametrize(
+    ("column", "truth", "topic"),
+    [
+        ("u1", False, "/u1"),
+        ("x1", True, "/truth/x1"),
+        ("mode", True, "/truth/mode"),
+        ("mode.fr1", True, "/truth/mode/fr1"),
+        ("mode.fr-1", True, "/truth/mode/fr_1"),
+        ("mode.1st", True, "/truth/mode/_1st"),
+        ("mode.fr.1", True, "/truth/mode/fr_1"),
+        ("θ", True, "/truth/theta"),
+        ("Ω_é", False, "/Omega_e"),
+        ("温度", True, None),
+    ],
+)
+def test_column_topics_are_ros_names(column: str, truth: bool, topic: str | None) -> None:
+    assert column_topic(column, truth=truth) == topic
+
+
+@given(st.text(max_size=30), st.booleans())
+def test_column_topic_is_a_ros_name_or_none(column: str, truth: bool) -> None:
+    topic = column_topic(column, truth=truth)
+    assert topic is None or _RMW_FULL_TOPIC.fullmatch(topic) is not None
+
+
+def test_default_topics_new_then_old_and_never_another_symbols() -> None:
+    chosen = default_fields(
+        ["u", "truth.mode.fr1", "truth.θ", "truth.φ", "truth.theta", "truth.ψ"],
+        message_paths=True,
+    )
+    assert chosen["u"] == ("/u.data",)
+    assert chosen["truth.mode.fr1"] == ("/truth/mode/fr1.data", "/truth/mode.fr1.data")
+    # θ's ROS name is theta's topic: θ is looked for only where older versions wrote it
+    assert chosen["truth.θ"] == ("/truth/θ.data",)
+    assert chosen["truth.theta"] == ("/truth/theta.data",)
+    assert chosen["truth.ψ"] == ("/truth/psi.data", "/truth/ψ.data")
+    assert default_fields(["truth.mode.fr1"], message_paths=False) == {
+        "truth.mode.fr1": ("mode.fr1",)
+    }
+
+
+def test_an_old_topic_name_is_found_when_the_new_is_missing() -> None:
+    chosen = resolve_signal_map(
+        ("/u.data", "/y.data", "/truth/φ.data", "/truth/mode.data"),
+        source="old.mcap",
+        inputs=("u",),
+        outputs=("y",),
+        states=("φ",),
+        message_paths=True,
+        field_word="field",
+    )
+    assert chosen.truth_states == {"φ": "/truth/φ.data"}
+    newer = resolve_signal_map(
+        ("/u.data", "/y.data", "/truth/φ.data", "/truth/phi.data"),
+        source="new.mcap",
+        inputs=("u",),
+        outputs=("y",),
+        states=("φ",),
+        message_paths=True,
+        field_word="field",
+    )
+    assert newer.truth_states == {"φ": "/truth/phi.data"}

@@ -1,0 +1,120 @@
+"""Hostile ``hybridlog simulate`` input: one line, exit 2, nothing written or replaced.
+
+Found in the pass: a model with a sample time that is no whole number of nanoseconds
+(``dt = 1.5e-9``) was written to bags and MCAP files, whose times are integer nanoseconds,
+as steps of 2, 1, 2, 1 ns without a word; it is refused for those formats now (CSV and
+Parquet keep the float seconds).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hybridlog.cli import main
+from hybridlog.model.builtins import builtin_text
+
+
+def _run(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    try:
+        main(args)
+    except SystemExit as exit_:
+        code = int(exit_.code or 0)
+    else:
+        code = 0
+    captured = capsys.readouterr()
+    return code, captured.out + captured.err
+
+
+def _tank(tmp_path: Path, dt: str) -> Path:
+    text = builtin_text("three_tank_hstf")
+    assert text.count("\ndt = 1.0\n") == 1
+    path = tmp_path / "tank.toml"
+    path.write_text(text.replace("\ndt = 1.0\n", f"\ndt = {dt}\n"), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("out", ["run.mcap", "run.bag", "bag"])
+def test_times_off_whole_nanoseconds_are_refused_for_message_logs(
+    out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = _tank(tmp_path, "1.5e-9")
+    extra = ["--format", "ros2-sqlite3"] if out == "bag" else []
+    log = tmp_path / out
+    code, output = _run(
+        ["simulate", str(model), "--out", str(log), "--steps", "10", *extra], capsys
+    )
+    assert code == 2, output
+    assert output.count("\n") == 1
+    assert "ns off the whole nanoseconds" in output and "dt of whole nanoseconds" in output
+    assert not log.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tank.toml"]
+
+
+@pytest.mark.parametrize(("dt", "out"), [("1.5e-9", "run.csv"), ("2e-9", "run.mcap")])
+def test_times_a_log_holds_are_written(
+    dt: str, out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = _tank(tmp_path, dt)
+    code, output = _run(
+        ["simulate", str(model), "--out", str(tmp_path / out), "--steps", "10"], capsys
+    )
+    assert code == 0, output
+
+
+BAD = {
+    "steps 0": ["--steps", "0"],
+    "negative steps": ["--steps", "-3"],
+    "steps beyond the log's times": ["--steps", "99999999999999"],
+    "empty schedule": ["--schedule", ""],
+    "empty schedule item": ["--schedule", "1:5,,2:5"],
+    "zero count": ["--schedule", "1:0"],
+    "unknown mode": ["--schedule", "9:5"],
+    "underscored count": ["--schedule", "1:1_0"],
+    "negative seed": ["--seed", "-1"],
+    "underscored seed": ["--seed", "1_0"],
+    "unknown format": ["--format", "xlsx"],
+    "format against suffix": ["--format", "mcap"],
+    "encoding of a table": ["--encoding", "json"],
+    "disturbance of discrete time": ["--disturbance", "1,2"],
+    "setting of a plain model": ["--set", "a=1"],
+}
+
+
+@pytest.mark.parametrize("name", list(BAD))
+def test_bad_options_are_one_line_and_write_nothing(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / "run.csv"
+    code, output = _run(["simulate", "three_tank_hstf", "--out", str(log), *BAD[name]], capsys)
+    assert code == 2, output
+    assert output.count("\n") == 1 and "unexpected" not in output
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("out", "extra"),
+    [("run.csv", []), ("run.mcap", []), ("bag", ["--format", "ros2-mcap"])],
+)
+def test_existing_outputs_are_replaced_only_with_force_and_only_ours(
+    out: str, extra: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / out
+    args = ["simulate", "three_tank_hstf", "--out", str(log), "--steps", "5", *extra]
+    assert _run(args, capsys)[0] == 0
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    code, output = _run([*args, "--seed", "7"], capsys)
+    assert code == 2 and output.count("\n") == 1
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert _run([*args, "--seed", "7", "--force"], capsys)[0] == 0
+    # a file of the user's in its place is never replaced, with --force or not
+    mine = tmp_path / f"mine_{out}"
+    if extra:
+        mine.mkdir()
+        (mine / "notes.txt").write_text("mine")
+    else:
+        mine.write_text("mine")
+    code, output = _run([*args[:3], str(mine), *args[4:], "--force"], capsys)
+    assert code == 2 and output.count("\n") == 1
+    assert (mine / "notes.txt" if extra else mine).read_text() == "mine"
