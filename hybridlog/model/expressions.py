@@ -20,6 +20,7 @@ from __future__ import annotations
 import ast
 import keyword
 import math
+import re
 import unicodedata
 from collections.abc import Callable, Mapping
 
@@ -225,7 +226,7 @@ def parse_expression(
     if _depth(tree.body) > MAX_DEPTH:
         raise ModelError(f"{key}: expression nested more than {MAX_DEPTH} levels deep")
     try:
-        expression = _Converter(symbols, key, previous).visit(tree.body)
+        expression = _Converter(symbols, key, previous, text.strip()).visit(tree.body)
     except (TypeError, ValueError, ArithmeticError) as err:
         raise ModelError(f"{key}: {_unquoted(err, 200)}") from err
     except RecursionError as err:
@@ -283,6 +284,10 @@ def _complex_reason(expression: sympy.Expr) -> str:
     return ""
 
 
+_PLAIN_NUMBER = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)
+"""A number literal as a model expression may write it (its sign is an operator)."""
+
+
 class _Converter:
     """Walks a restricted Python AST and builds the sympy expression."""
 
@@ -291,16 +296,19 @@ class _Converter:
         symbols: Mapping[str, sympy.Expr],
         key: str,
         previous: Mapping[str, sympy.Expr] | None,
+        source: str,
     ) -> None:
         self.symbols = symbols
         self.key = key
         self.previous = previous
+        self.source = source
 
     def fail(self, what: str) -> ModelError:
         return ModelError(f"{self.key}: {what} is not allowed in a model expression")
 
     def visit(self, node: ast.expr) -> sympy.Expr:
         if isinstance(node, ast.Constant):
+            self.check_written(node)
             return self.constant(node.value)
         if isinstance(node, ast.Name):
             return self.name(node.id)
@@ -344,6 +352,24 @@ class _Converter:
             terms.append(value)
         return sympy.Add(*terms) if group is ast.Add else sympy.Mul(*terms)
 
+    def check_written(self, node: ast.Constant) -> None:
+        """Refuse a number not written in plain decimal.
+
+        Python's literals also read ``1_0`` as 10, ``0x10`` as 16, ``0o7`` and ``0b1``, which a
+        model file's reader would take for other numbers (or typos) than the parser does.
+        """
+        written = ast.get_source_segment(self.source, node)
+        if (
+            isinstance(node.value, int | float)
+            and not isinstance(node.value, bool)
+            and written is not None
+            and _PLAIN_NUMBER.fullmatch(written) is None
+        ):
+            raise ModelError(
+                f"{self.key}: the number {excerpt(written, 40)} is not written in plain decimal "
+                "digits (no '_', no 0x/0o/0b prefix)"
+            )
+
     def constant(self, value: object) -> sympy.Expr:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(f"the constant {excerpt(value, 40)}")
@@ -382,8 +408,7 @@ class _Converter:
             and isinstance(index.left, ast.Name)
             and index.left.id == "k"
             and isinstance(index.right, ast.Constant)
-            and index.right.value == 1
-            and not isinstance(index.right.value, bool)
+            and ast.get_source_segment(self.source, index.right) == "1"
         ):
             return self.previous[name]
         raise ModelError(

@@ -61,6 +61,18 @@ def test_whitelisted_functions_and_piecewise_parse():
     assert math.isclose(value, 2.0 + 4.0 - 4.0 + 2.0 * math.tanh(4.0))
 
 
+@pytest.mark.parametrize("text", ["1_0*x", "0x10*x", "0o7 + x", "0b1*x", "x + 1_000.5", "1e1_0*x"])
+def test_numbers_not_written_in_plain_decimal_are_refused(text):
+    """Python's literal syntax read ``1_0`` as 10 and ``0x10`` as 16 without a word."""
+    with pytest.raises(ModelError, match=r"^k: the number '.+' is not written in plain decimal"):
+        parse_expression(text, X, key="k")
+
+
+@pytest.mark.parametrize(("text", "value"), [("10*x", 40.0), ("1.5e1 + x", 19.0), (".5*x", 2.0)])
+def test_plain_decimal_numbers_parse(text, value):
+    assert float(parse_expression(text, X, key="k").subs(X["x"], 4.0)) == value
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.text(max_size=40))
 def test_any_text_parses_or_fails_with_a_model_error(text):
