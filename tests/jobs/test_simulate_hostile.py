@@ -12,19 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.cli import main
 from hybridlog.model.builtins import builtin_text
-
-
-def _run(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    try:
-        main(args)
-    except SystemExit as exit_:
-        code = int(exit_.code or 0)
-    else:
-        code = 0
-    captured = capsys.readouterr()
-    return code, captured.out + captured.err
+from tests.support.cli import run_main as _run
 
 
 def _tank(tmp_path: Path, dt: str) -> Path:

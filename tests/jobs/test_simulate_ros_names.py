@@ -25,6 +25,7 @@ from hybridlog.jobs.simulate import log_columns, simulate_log
 from hybridlog.model.cache import load_model
 from hybridlog.simulate import simulate
 from hybridlog.simulate_components import simulate_components
+from tests.support.cli import run_main as _run
 from tests.support.models import PENDULUM_ONE_MODE
 
 # rmw_validate_full_topic_name: absolute, alphanumerics, '_' and '/', no '//', no trailing '/',
@@ -40,18 +41,6 @@ MESSAGE_FORMATS = {
     "ros2-sqlite3": ("run", ["--format", "ros2-sqlite3"]),
     "ros2-mcap": ("run", ["--format", "ros2-mcap"]),
 }
-
-
-def _run(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    """``hybridlog ARGS`` through ``main``: the exit code and what was printed."""
-    try:
-        main(args)
-    except SystemExit as exit_:
-        code = int(exit_.code or 0)
-    else:
-        code = 0
-    captured = capsys.readouterr()
-    return code, captured.out + captured.err
 
 
 def _topics(log: Path) -> set[str]:

@@ -13,23 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import load_model
 from hybridlog.model.values import as_mode_id
-
-
-def _run(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    """``hybridlog ARGS`` through ``main``: the exit code and what was printed."""
-    try:
-        main(args)
-    except SystemExit as exit_:
-        code = int(exit_.code or 0)
-    else:
-        code = 0
-    captured = capsys.readouterr()
-    return code, captured.out + captured.err
+from tests.support.cli import run_main as _run
 
 
 def _variant(tmp_path: Path, name: str, old: str, new: str) -> Path:
