@@ -31,7 +31,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     dict
         For tables: ``path, format, rows, columns`` (each ``name, dtype, count, nonfinite,
         min, max`` and the step keys below of the column's own samples, its non-empty
-        cells), ``time`` (``column, start, end, duration``) or ``None``, the
+        cells; an entry per field and element of a Parquet struct, list or array column),
+        ``time`` (``column, start, end, duration``) or ``None``, the
         time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
         ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
         column is unusable, if it is).  For bags and MCAP files: ``path, format, messages,

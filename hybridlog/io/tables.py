@@ -24,6 +24,7 @@ import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.formats import LogFormat, get_format
+from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
     LabelSeries,
@@ -37,6 +38,8 @@ from hybridlog.io.source import (
     seconds_to_ns,
 )
 from hybridlog.io.summary import count_nonfinite, describe_steps
+from hybridlog.io.table_paths import ColumnPath, expand, field_names, is_nested, leaf_values
+from hybridlog.io.table_paths import resolve as resolve_path
 from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
 
@@ -99,6 +102,8 @@ class TableSource:
             self._schema = _read_parquet_schema(self._file)
             self._columns = tuple(self._schema)
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
+        # Parquet: the fields inside struct, list and array columns (``pose.x``, ``q[1]``)
+        self._paths: dict[str, ColumnPath] = {}
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
         # ``--sort``: per column, the rows of its samples superseded at a repeated time
@@ -125,23 +130,54 @@ class TableSource:
         return self._time_column
 
     def fields(self) -> tuple[str, ...]:
-        """Columns a symbol can be mapped to: all but the time column."""
-        return tuple(c for c in self._columns if c != self._time_column)
+        """Columns a symbol can be mapped to: all but the time column.
+
+        Inside a Parquet struct, list or array column, its fields as
+        :mod:`~hybridlog.io.table_paths` names them: ``pose.x``, ``q[]`` (``[]`` takes an
+        index).
+        """
+        return tuple(
+            name
+            for c in self._columns
+            if c != self._time_column
+            for name in (field_names(c, self._schema[c]) if c in self._schema else [c])
+        )
+
+    def _path(self, name: str) -> ColumnPath:
+        """The field ``name`` names (a column, or a leaf of a nested Parquet column).
+
+        Raises
+        ------
+        PathError
+            Why ``name`` names no number or text of the table.
+        """
+        path = self._paths.get(name)
+        if path is None:
+            if self._format == "csv":
+                if name not in self._columns:
+                    raise PathError(closest_names([name], self.fields()))
+                path = ColumnPath(name, name, (), (), pl.String())
+            else:
+                path = resolve_path(name, self._schema, list(self.fields()))
+            self._paths[name] = path
+        return path
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
-        """``None`` for a column of the table, else why not: the time column, or the closest.
+        """``None`` for a field of the table, else why not: the time column, or the closest.
 
         Whether a column holds numbers is checked when it is read (``numeric`` is unused).
         """
-        if name in self.fields():
-            return None
         if name == self._time_column:
             return (
                 f"{excerpt(name)} is the table's time column (the first of "
                 f"{', '.join(map(repr, TIME_COLUMNS))} in the header, in seconds), "
                 f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
             )
-        return closest_names([name], self.fields())
+        try:
+            self._path(name)
+        except PathError as err:
+            return str(err)
+        return None
 
     def __enter__(self) -> Self:
         """Return the source itself; the file is read eagerly."""
@@ -190,11 +226,10 @@ class TableSource:
         """
         time_column = self._require_time()
         for name in (*numeric, *labels):
-            if name not in self._columns:
-                raise LogError(
-                    f"{self.path}: no column {excerpt(name)}; "
-                    f"{closest_names([name], self.fields())}"
-                )
+            try:
+                self._path(name)
+            except PathError as err:
+                raise LogError(f"{self.path}: no column {excerpt(name)}; {err}") from None
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
         # Parquet numeric columns are decoded one at a time once the rows are known (below):
@@ -292,7 +327,7 @@ class TableSource:
         """The ``wanted`` columns but ``skip`` (all of them checked for their type)."""
         time_column = self._require_time()
         for name in wanted:
-            dtype = self._schema[name]
+            dtype = self._path(name).dtype
             if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
                 continue
             numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
@@ -312,26 +347,43 @@ class TableSource:
             # low_memory: decoded a row group at a time, 10^6 rows of 9 columns (82 MB of
             # values) peak about 25 MiB lower, in about the same time
             read = [name for name in wanted if name not in skip]
-            frame = _read_parquet(self._file, columns=read, low_memory=True)
+            paths = [self._path(name) for name in read]
+            frame = _read_parquet(
+                self._file,
+                columns=list(dict.fromkeys(p.column for p in paths)),
+                low_memory=True,
+            )
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
             ) from err
+        if any(p.nested for p in paths):
+            frame = pl.DataFrame([self._leaf_values(frame, p) for p in paths])
         casts = [
             pl.col(name).cast(pl.Float64)
             for name in read
-            if name in numeric and name not in labels and self._schema[name] != pl.Float64
+            if name in numeric and name not in labels and frame.schema[name] != pl.Float64
         ]
         return frame.with_columns(casts) if casts else frame
 
-    def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
-        """One numeric column of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+    def _leaf_values(self, frame: pl.DataFrame, path: ColumnPath) -> pl.Series:
+        """:func:`~hybridlog.io.table_paths.leaf_values`, its error a :class:`LogError`."""
         try:
-            column = _read_parquet(self._file, columns=[name], low_memory=True).to_series()
+            return leaf_values(frame, path, self.path, self._row_label)
+        except PathError as err:
+            raise LogError(str(err)) from None
+
+    def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
+        """One numeric field of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+        path = self._path(name)
+        try:
+            frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
             ) from err
+        column = self._leaf_values(frame, path)
+        del frame
         if column.dtype != pl.Float64:
             column = column.cast(pl.Float64)
         return column if rows is None else column.gather(rows)
@@ -462,7 +514,9 @@ class TableSource:
         dict
             JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count,
             nonfinite, min, max`` and the steps of the column's own samples, its non-empty
-            cells, as for the time column below), ``time`` (``column, start, end, duration`` in
+            cells, as for the time column below; a Parquet struct, list or array column gives
+            an entry per field and element, ``pose.x``, ``q[0]``, or ``q[]`` for lists of
+            different lengths, named in ``problems``), ``time`` (``column, start, end, duration`` in
             seconds, or ``None``), the time column's steps as
             :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
             rate over the span, ``sample_time``: the median step, ``min_step``,
@@ -489,10 +543,11 @@ class TableSource:
             except LogError as err:
                 problems.append(str(err).removeprefix(f"{self.path}, "))
                 rows = np.arange(frame.height, dtype=np.int64)
+        frame = self._leaves_of(frame, problems)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
         columns = [
-            _describe_column(frame.get_column(c), time_ns, self._format) for c in self._columns
+            _describe_column(frame.get_column(c), time_ns, self._format) for c in frame.columns
         ]
         steps = describe_steps(time_ns if time_ns is not None else np.zeros(0, dtype=np.int64))
         info: dict[str, Any] = {
@@ -512,6 +567,43 @@ class TableSource:
                 "duration": (time_ns[-1] - time_ns[0]) / 1e9,
             }
         return info
+
+    def _leaves_of(self, frame: pl.DataFrame, problems: list[str]) -> pl.DataFrame:
+        """``frame`` with each struct, list or array column replaced by its leaves.
+
+        A list whose rows differ in length stays whole (``q[]``) and a null inside a list is
+        noted: both are what ``analyze`` refuses (:mod:`~hybridlog.io.table_paths`).
+        """
+        if not any(is_nested(dtype) for dtype in frame.schema.values()):
+            return frame
+        columns: list[pl.Series] = []
+        for name, dtype in frame.schema.items():
+            if not is_nested(dtype):
+                columns.append(frame.get_column(name))
+                continue
+            leaves, found = expand(frame, name)
+            problems.extend(found)
+            cell = frame.get_column(name).is_not_null()
+            for leaf in leaves:
+                if leaf.text in frame.schema:  # a flat column of that name is what it names
+                    problems.append(
+                        f"column {excerpt(leaf.text)} hides the field of that name inside "
+                        f"column {excerpt(name)}, which therefore cannot be mapped"
+                    )
+                    continue
+                if leaf.text.endswith("[]"):
+                    columns.append(frame.select(leaf.expr().alias(leaf.text)).to_series())
+                    continue
+                values = frame.select(leaf.expr().alias(leaf.text)).to_series()
+                hole = (values.is_null() & cell).to_numpy() if leaf.in_list else None
+                if hole is not None and hole.any():
+                    problems.append(
+                        f"{self._row_label(int(np.argmax(hole)))}, column {excerpt(name)}: "
+                        f"{excerpt(leaf.text)} is null inside the row's list "
+                        f"({int(hole.sum())} such rows; analyze refuses them)"
+                    )
+                columns.append(values)
+        return pl.DataFrame(columns)
 
     def _full_frame(self) -> pl.DataFrame:
         if self._format == "parquet":
