@@ -200,6 +200,20 @@ def _format_messages(info: dict[str, Any]) -> str:
             for t in repeated
         )
     lines.extend(_gap_lines(topics, "gaps (steps longer than 1.5 x the topic's median step):"))
+    sparse = [
+        (v, t["count"])
+        for t in topics
+        if t.get("encoding") == "json"
+        for v in t.get("values") or []
+        if "[]" not in v["name"] and v["count"] < t["count"]
+    ]
+    if sparse:
+        lines.append("")
+        lines.append(
+            "fields with a number in only some JSON messages (a field a message leaves out is "
+            "read from the messages that carry it, at their times; a null is refused):"
+        )
+        lines.extend(f"  {v['name']}: {v['count']} of {count} messages" for v, count in sparse)
     lines.extend(_nonfinite_lines([v for t in topics for v in t.get("values") or []]))
     fields = [f for t in topics for f in t["fields"]]
     if fields:
