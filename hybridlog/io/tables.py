@@ -27,6 +27,8 @@ from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
+    MAX_SECONDS,
+    NS_PER_S,
     LabelSeries,
     Reading,
     Series,
@@ -475,10 +477,8 @@ class TableSource:
         the line or row where it is not.
         """
         name = column.name
-        if isinstance(column.dtype, pl.Datetime):
-            time_ns: IntArray = column.dt.epoch("ns").to_numpy().astype(np.int64)
-        elif isinstance(column.dtype, pl.Duration):
-            time_ns = column.dt.total_nanoseconds().to_numpy().astype(np.int64)
+        if isinstance(column.dtype, pl.Datetime | pl.Duration):
+            time_ns: IntArray = self._temporal_ns(column, rows)
         else:
             column = self._to_float(column, rows)
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
@@ -502,6 +502,32 @@ class TableSource:
                 "(--sort puts rows in time order, rows of one time as one sample per column)"
             )
         self._rows[name] = rows
+        return time_ns
+
+    def _temporal_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
+        """A ``Datetime`` (since 1970, UTC) or ``Duration`` time column in nanoseconds.
+
+        Taken from the stored integers in the column's own unit, so that a time beyond what
+        int64 nanoseconds hold (before 1678 or after 2262; a duration over 292 years) is
+        refused naming its row, not wrapped or turned into NaN by the conversion.
+        """
+        unit = str(getattr(column.dtype, "time_unit", "ns"))
+        factor = {"ns": 1, "us": 1_000, "ms": 1_000_000}[unit]
+        stored = column.to_physical().to_numpy().astype(np.int64)
+        limit = int(MAX_SECONDS * NS_PER_S) // factor
+        bad = (stored >= limit) | (stored <= -limit)
+        if bad.any():
+            row = int(np.argmax(bad))
+            if isinstance(column.dtype, pl.Datetime):
+                what, held = "date", "the years 1678 to 2262"
+            else:
+                what, held = "duration", f"{MAX_SECONDS:.2g} s either way"
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[row]))}, column "
+                f"{excerpt(column.name)}: the {what} {excerpt(str(column[row]), 40)} is beyond "
+                f"what the nanosecond grid holds ({held})"
+            )
+        time_ns: IntArray = stored * factor
         return time_ns
 
     # ------------------------------------------------------------------ inspect

@@ -1,0 +1,88 @@
+"""Tables as other tools write them, with types and text a reader must not guess at.
+
+Every input is read correctly or refused with one line naming the file, the column and the
+row (or line).  Parquet files are written by polars (as pyarrow and pandas write them), CSV
+files as text, never by hybridlog's own writers.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import polars as pl
+import pytest
+
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+
+N = 30
+T = np.round(np.arange(N) * 0.1, 10)
+U = np.sin(T)
+Y = np.cos(T)
+SPEC = SignalSpec(inputs=("u",), outputs=("y",), states=("x",), mode_ids=("1", "2"), dt=0.1)
+
+
+def parquet(tmp_path: Path, name: str = "log.parquet", **columns: Any) -> Path:
+    path = tmp_path / name
+    pl.DataFrame({"t": T, "u": U, "y": Y, **columns}).write_parquet(path)
+    return path
+
+
+def load(path: Path, *maps: str, **options: Any) -> Any:
+    return load_signals(path, SPEC, ReadOptions(maps=maps, **options))
+
+
+# ------------------------------------------------------------------ Parquet time columns
+
+
+START = dt.datetime(2024, 1, 1)
+
+
+@pytest.mark.parametrize(
+    "column",
+    [
+        pl.Series([START + dt.timedelta(seconds=0.1 * k) for k in range(N)]).dt.cast_time_unit(
+            "ms"
+        ),
+        pl.Series(
+            [START.replace(tzinfo=dt.UTC) + dt.timedelta(seconds=0.1 * k) for k in range(N)]
+        ).dt.convert_time_zone("Europe/Berlin"),
+        pl.Series([dt.timedelta(seconds=0.1 * k) for k in range(N)]),
+    ],
+    ids=["datetime-ms", "datetime-tz", "duration"],
+)
+def test_datetime_and_duration_time_columns_are_read(column: pl.Series, tmp_path: Path) -> None:
+    signals = load(parquet(tmp_path, t=column))
+    np.testing.assert_array_equal(signals.outputs[:, 0], Y)
+    offset = 0.0 if column.dtype == pl.Duration else START.replace(tzinfo=dt.UTC).timestamp()
+    np.testing.assert_allclose(signals.time - offset, T, atol=1e-6)  # float64 at 1.7e9 s
+
+
+@pytest.mark.parametrize(
+    ("column", "what"),
+    [
+        (
+            pl.Series(
+                [dt.datetime(2300, 1, 1) + dt.timedelta(seconds=0.1 * k) for k in range(N)]
+            ).dt.cast_time_unit("us"),
+            r"the date '2300-01-01 00:00:00'",
+        ),
+        (
+            pl.Series([dt.timedelta(days=200 * 365 * (k - 15)) for k in range(N)]),
+            r"the duration '-1095000 days, 0:00:00'",
+        ),
+    ],
+    ids=["datetime-2300", "duration-3000-years"],
+)
+def test_a_time_beyond_the_nanosecond_grid_is_refused_naming_the_row(
+    column: pl.Series, what: str, tmp_path: Path
+) -> None:
+    """A date after 2262 became NaN in the conversion: "numerical trouble" and no file."""
+    log = parquet(tmp_path, t=column)
+    with pytest.raises(LogError, match=rf"^{re.escape(str(log))}, row 1, column 't': {what} is "):
+        load(log)
+    assert "row 1, column 't'" in inspect_log(log)["problems"][0]
