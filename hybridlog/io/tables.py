@@ -480,6 +480,7 @@ class TableSource:
         if isinstance(column.dtype, pl.Datetime | pl.Duration):
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
+            stored = column.dtype
             column = self._to_float(column, rows)
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
@@ -488,6 +489,8 @@ class TableSource:
                     f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
                     f"{bad_seconds(float(seconds[bad]))}"
                 )
+            if stored in (pl.Float32, pl.Float16):
+                self._check_resolution(name, stored, seconds, rows)
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
         # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
@@ -503,6 +506,37 @@ class TableSource:
             )
         self._rows[name] = rows
         return time_ns
+
+    def _check_resolution(
+        self, name: str, stored: pl.DataType, seconds: FloatArray, rows: IntArray
+    ) -> None:
+        """Refuse a float32 (or float16) time column too coarse for its own steps.
+
+        float32 holds about seven digits: near t = 1.7e9 s (Unix time) its values are 128 s
+        apart, near 1000 s 61 µs.  Times rounded by more than a thousandth of the mean step
+        (the clock tolerance the alignment allows) would put samples on the wrong side of a
+        grid point without a word, or collapse into repeats that say nothing of why.
+        """
+        if seconds.size < 2:
+            return
+        magnitude = np.abs(seconds)
+        row = int(np.argmax(magnitude))
+        kind = np.float32 if stored == pl.Float32 else np.float16
+        resolution = float(np.spacing(kind(magnitude[row])))
+        step = float(seconds.max() - seconds.min()) / (seconds.size - 1)
+        if resolution > step / 1000:
+            steps = (
+                f"too coarse for its steps of {step:.3g} s on average (times would be rounded "
+                "by more than a thousandth of a step)"
+                if step > 0
+                else "so every row holds that one time"
+            )
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(name)}: the "
+                f"time column is {_dtype_name(stored)}, whose values near t={seconds[row]:g} s "
+                f"are {resolution:.3g} s apart, {steps}: write the time as float64 (or as a "
+                "Datetime)"
+            )
 
     def _temporal_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
         """A ``Datetime`` (since 1970, UTC) or ``Duration`` time column in nanoseconds.

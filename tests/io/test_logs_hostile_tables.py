@@ -86,3 +86,28 @@ def test_a_time_beyond_the_nanosecond_grid_is_refused_naming_the_row(
     with pytest.raises(LogError, match=rf"^{re.escape(str(log))}, row 1, column 't': {what} is "):
         load(log)
     assert "row 1, column 't'" in inspect_log(log)["problems"][0]
+
+
+@pytest.mark.parametrize(
+    ("start", "step", "words"),
+    [
+        (1.7e9, 0.1, r"values near t=1\.7e\+09 s are 128 s apart, so every row holds that one"),
+        (1000.0, 0.01, r"are 6\.1e-05 s apart, too coarse for its steps of 0\.01 s on average"),
+    ],
+)
+def test_a_float32_time_column_too_coarse_for_its_steps_is_refused(
+    start: float, step: float, words: str, tmp_path: Path
+) -> None:
+    """Unix time in float32 collapsed into "time repeats"; at 1000 s it rounded silently."""
+    column = pl.Series(start + np.arange(N) * step, dtype=pl.Float32)
+    log = parquet(tmp_path, t=column)
+    with pytest.raises(LogError, match=r", row \d+, column 't': the time column is float32, "):
+        load(log)
+    with pytest.raises(LogError, match=words):
+        load(log)
+
+
+def test_a_float32_time_column_fine_enough_is_read(tmp_path: Path) -> None:
+    signals = load(parquet(tmp_path, t=pl.Series(T, dtype=pl.Float32)))
+    np.testing.assert_array_equal(signals.outputs[:, 0], Y)
+    np.testing.assert_allclose(signals.time, T, atol=1e-7)
