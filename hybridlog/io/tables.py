@@ -980,9 +980,16 @@ def _as_labels(column: pl.Series) -> pl.Series:
                 column = text.cast(pl.Float64, strict=False)
     dtype = column.dtype
     if dtype.is_float():
-        finite = column.drop_nulls()
+        # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is
+        # refused with its row: cast to an integer they became empty cells, no sample,
+        # and so did a whole number beyond int64
+        finite = column.filter(column.is_finite())
         if finite.len() and bool((finite == finite.round(0)).all()):
-            column = column.cast(pl.Int64, strict=False)
+            whole = column.cast(pl.Int64, strict=False)
+            exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
+            column = pl.select(
+                pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
+            ).to_series()
     text = column.cast(pl.String).str.strip_chars()
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
 

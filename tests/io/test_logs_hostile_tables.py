@@ -111,3 +111,31 @@ def test_a_float32_time_column_fine_enough_is_read(tmp_path: Path) -> None:
     signals = load(parquet(tmp_path, t=pl.Series(T, dtype=pl.Float32)))
     np.testing.assert_array_equal(signals.outputs[:, 0], Y)
     np.testing.assert_allclose(signals.time, T, atol=1e-7)
+
+
+# ------------------------------------------------------------------ mode columns
+
+
+@pytest.mark.parametrize(
+    ("bad", "shown"),
+    [(float("nan"), "NaN"), (float("inf"), "inf"), (1e20, r"1e\+20")],
+)
+def test_a_float_mode_column_s_odd_cell_is_refused_not_taken_for_empty(
+    bad: float, shown: str, tmp_path: Path
+) -> None:
+    """NaN, inf or 1e20 among whole mode ids became an empty cell, and truth was bridged."""
+    modes = [1.0, 2.0] * (N // 2)
+    modes[7] = bad
+    log = parquet(tmp_path, mode=modes)
+    with pytest.raises(
+        LogError, match=rf", row 8, column 'mode': truth\.mode '{shown}' at t=0\.7 s is not a mode"
+    ):
+        load(log)
+
+
+def test_empty_cells_of_a_float_mode_column_are_no_samples(tmp_path: Path) -> None:
+    modes: list[float | None] = [1.0, 2.0] * (N // 2)
+    modes[7] = None
+    signals = load(parquet(tmp_path, mode=modes))
+    assert signals.truth_modes is not None
+    assert signals.truth_modes[6] == 0 and signals.truth_modes[8] == 0
