@@ -1,9 +1,12 @@
 """CSV and Parquet logs: one row per time stamp, one column per signal.
 
 The time column is ``t`` (or ``time``) in seconds; Parquet may also store it as a
-``Datetime``/``Duration``.  Every other column is a field a symbol can be mapped to.  An empty
-cell means "no sample of this column at this time", which is how a multi-rate table is written;
-a cell that is not a number is an error naming its line, never a silent string column.
+``Datetime``/``Duration``, and CSV as ISO 8601 dates and times (``2024-01-01T00:00:00.5``, a
+space for the ``T``, an offset such as ``Z`` or ``+01:00``; zoned times are taken in UTC).
+Every other column is a field a symbol can be mapped to (inside a Parquet struct, list or
+array column, as :mod:`~hybridlog.io.table_paths` names them).  An empty cell means "no
+sample of this column at this time", which is how a multi-rate table is written; a cell that
+is not a number is an error naming its line, never a silent string column.
 
 CSV files are read with an explicit schema: the header line is parsed first, then the wanted
 columns are read as ``Float64`` (label columns such as ``mode`` as strings).  Line numbers in
@@ -14,6 +17,7 @@ breaks); blank lines are skipped but counted.
 from __future__ import annotations
 
 import csv
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -238,6 +242,8 @@ class TableSource:
         # polars' memory then peaks at about one column, not all of them.
         later: list[str] = []
         if self._format == "csv":
+            if _iso_format(_first_cell(self._file, self._columns.index(time_column))):
+                as_float.discard(time_column)  # dates and times: parsed by _time_ns
             frame = _read_csv_frame(self._file, wanted, as_float)
         else:
             later = [n for n in dict.fromkeys(numeric) if n not in labels and n != time_column]
@@ -477,6 +483,11 @@ class TableSource:
         the line or row where it is not.
         """
         name = column.name
+        if column.dtype == pl.String and self._format == "csv":
+            written = column.drop_nulls()
+            iso = _iso_format(written[0] if written.len() else None)
+            if iso is not None:
+                column = self._parse_iso(column, iso, rows)
         if isinstance(column.dtype, pl.Datetime | pl.Duration):
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
@@ -537,6 +548,29 @@ class TableSource:
                 f"are {resolution:.3g} s apart, {steps}: write the time as float64 (or as a "
                 "Datetime)"
             )
+
+    def _parse_iso(self, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
+        """A CSV time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
+
+        The format is the first cell's (``T`` or a space between date and time, with or
+        without an offset such as ``Z`` or ``+01:00``); every cell must have it.  Parsed to
+        microseconds first, which hold any year, so that a date past 2262 is refused by
+        :meth:`_temporal_ns` and not wrapped around by a parse to nanoseconds; then to
+        nanoseconds, for the digits past the microsecond.
+        """
+        text = column.str.strip_chars()
+        coarse = text.str.to_datetime(iso, strict=False, time_unit="us")
+        failed = (coarse.is_null() & text.is_not_null()).to_numpy()
+        if failed.any():
+            row = int(np.argmax(failed))
+            first = int(np.argmax(text.is_not_null().to_numpy()))
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(column.name)}: "
+                f"{excerpt(text[row], 40)} is not a date and time written like "
+                f"{excerpt(text[first], 40)} on {self._row_label(int(rows[first]))} (ISO 8601)"
+            )
+        self._temporal_ns(coarse, rows)
+        return text.str.to_datetime(iso, strict=True, time_unit="ns").alias(column.name)
 
     def _temporal_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
         """A ``Datetime`` (since 1970, UTC) or ``Duration`` time column in nanoseconds.
@@ -755,6 +789,36 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
             raise LogError(f"{path}, line 1: duplicate column name {excerpt(name)} in the header")
         seen.add(name)
     return tuple(names)
+
+
+_ISO_DATE = re.compile(r"\d{4}-\d{2}-\d{2}([T ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})?$")
+
+
+def _iso_format(text: str | None) -> str | None:
+    """The polars format of an ISO 8601 date and time like ``text``, or ``None`` if not one.
+
+    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), either with ``Z`` or an
+    offset (``+01:00``, ``+0100``); seconds are needed.
+    """
+    match = _ISO_DATE.match(text.strip()) if text else None
+    if match is None or match.group(2) is None:
+        return None
+    zone = "%#z" if match.group(4) else ""
+    return f"%Y-%m-%d{match.group(1)}%H:%M:%S%.f{zone}"
+
+
+def _first_cell(path: Path, index: int) -> str | None:
+    """The first non-empty cell of column ``index`` in the first 1000 data lines of a CSV."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            reader = csv.reader(handle)
+            next(reader, None)
+            for record, _ in zip(reader, range(1000), strict=False):
+                if len(record) > index and record[index].strip():
+                    return record[index]
+    except (UnicodeDecodeError, csv.Error, OSError):
+        return None  # the reading proper says what is wrong
+    return None
 
 
 def _is_number(text: str) -> bool:

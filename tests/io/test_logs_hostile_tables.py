@@ -18,6 +18,7 @@ import pytest
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+from hybridlog.io.tables import TableSource
 
 N = 30
 T = np.round(np.arange(N) * 0.1, 10)
@@ -139,3 +140,69 @@ def test_empty_cells_of_a_float_mode_column_are_no_samples(tmp_path: Path) -> No
     signals = load(parquet(tmp_path, mode=modes))
     assert signals.truth_modes is not None
     assert signals.truth_modes[6] == 0 and signals.truth_modes[8] == 0
+
+
+# ------------------------------------------------------------------ CSV time columns
+
+
+def csv_log(tmp_path: Path, times: list[str], name: str = "log.csv") -> Path:
+    path = tmp_path / name
+    lines = [
+        "t,u,y",
+        *(f"{t},{float(u)!r},{float(y)!r}" for t, u, y in zip(times, U, Y, strict=True)),
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+UTC_START = START.replace(tzinfo=dt.UTC).timestamp()
+
+
+@pytest.mark.parametrize(
+    ("written", "offset_s"),
+    [
+        (lambda k: (START + dt.timedelta(seconds=0.1 * k)).isoformat(), 0.0),
+        (lambda k: str(START + dt.timedelta(seconds=0.1 * k)), 0.0),  # pandas: a space
+        (lambda k: (START + dt.timedelta(seconds=0.1 * k)).isoformat() + "Z", 0.0),
+        (lambda k: (START + dt.timedelta(seconds=0.1 * k)).isoformat() + "+01:00", -3600.0),
+    ],
+    ids=["T", "space", "Z", "offset"],
+)
+def test_an_iso_8601_time_column_is_read_as_dates_and_times(
+    written: Any, offset_s: float, tmp_path: Path
+) -> None:
+    """It was refused: "'2024-01-01T00:00:00' is not a number"."""
+    log = csv_log(tmp_path, [written(k) for k in range(N)])
+    signals = load(log)
+    np.testing.assert_array_equal(signals.outputs[:, 0], Y)
+    np.testing.assert_allclose(signals.time - (UTC_START + offset_s), T, atol=1e-6)
+    assert inspect_log(log)["time"]["start"] == pytest.approx(UTC_START + offset_s)
+
+
+def test_nanoseconds_of_an_iso_time_are_kept(tmp_path: Path) -> None:
+    times = [f"2024-01-01T00:00:{k // 10:02d}.{(k % 10) * 100_000_000 + k:09d}" for k in range(N)]
+    series = TableSource(csv_log(tmp_path, times)).read(["y"]).numeric["y"]
+    expected = int(UTC_START) * 10**9 + np.arange(N) * 100_000_000 + np.arange(N)
+    np.testing.assert_array_equal(series.time_ns, expected)
+
+
+@pytest.mark.parametrize(
+    ("bad", "words"),
+    [
+        (
+            "2024-01-01 00:00:00.7",
+            r"'2024-01-01 00:00:00\.7' is not a date and time written like "
+            r"'2024-01-01T00:00:00' on line 2 \(ISO 8601\)",
+        ),
+        ("01/01/2024 00:00:00", r"'01/01/2024 00:00:00' is not a date and time written like"),
+        ("2300-01-01T00:00:00", r"the date '2300-01-01 00:00:00' is beyond what the nanosecond"),
+    ],
+)
+def test_an_iso_time_column_with_an_odd_cell_is_refused_naming_the_line(
+    bad: str, words: str, tmp_path: Path
+) -> None:
+    times = [(START + dt.timedelta(seconds=0.1 * k)).isoformat() for k in range(N)]
+    times[7] = bad
+    log = csv_log(tmp_path, times)
+    with pytest.raises(LogError, match=rf"^{re.escape(str(log))}, line 9, column 't': {words}"):
+        load(log)
