@@ -847,8 +847,37 @@ def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) 
     try:
         frame = _read_csv(path, columns=columns, infer_schema=False)
     except pl.exceptions.PolarsError as err:
+        _refuse_stray_quote(path)
         raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
     return frame
+
+
+_FIELD = r'(?:[^",\r\n]*|\s*"(?:[^"]|"")*"\s*)'
+_RECORD = re.compile(rf"{_FIELD}(?:,{_FIELD})*")
+
+
+def _refuse_stray_quote(path: Path) -> None:
+    """Name the first line with a quote inside an unquoted field (``a"b``), if there is one.
+
+    polars refuses such a file ("CSV malformed") without saying where; the ``csv`` module
+    takes the quote as text.  Only called once polars has refused the file.
+
+    Raises
+    ------
+    LogError
+        Naming the line.
+    """
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            for number, line in enumerate(handle, start=1):
+                text = line.rstrip("\r\n")
+                if '"' in text and _RECORD.fullmatch(text) is None:
+                    raise LogError(
+                        f"{path}, line {number}: a quote inside a field that is not quoted "
+                        f'({excerpt(text, 60)}); a field is quoted whole, e.g. "1.5"'
+                    )
+    except (UnicodeDecodeError, OSError):
+        return
 
 
 def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.DataFrame:
@@ -972,29 +1001,45 @@ def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
     needs a line break, so it is an unclosed quote (which swallows the rest of the file
     into one record), and every line number reported later counts one record per line.
 
+    A quote where a field cannot hold one (``"1.5"x``: text after a closing quote) is refused
+    here too, naming its line: polars refuses it without saying where.
+
     Raises
     ------
     LogError
-        Naming the line the multi-line field starts on and the line it runs to.
+        Naming the line the multi-line field starts on and the line it runs to, or the line
+        of a misplaced quote.
     """
+    ended = 0
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle)
+            reader = csv.reader(handle, strict=True)
             next(reader, [])
             ended = reader.line_num
             for record in reader:
                 if reader.line_num > ended + 1:
-                    raise LogError(
-                        f"{path}, line {ended + 1}: a quoted field runs on to line "
-                        f"{reader.line_num}; a log's values fit on one line (an unclosed "
-                        "quote?)"
-                    )
+                    _runs_on(path, ended, reader.line_num)
                 ended = reader.line_num
                 if record and len(record) != width and any(f.strip() for f in record):
                     return reader.line_num, len(record)
-    except (UnicodeDecodeError, csv.Error):
+    except UnicodeDecodeError:
         return 0, 0  # polars then says what it cannot parse
+    except csv.Error as err:
+        if reader.line_num > ended + 1:
+            _runs_on(path, ended, reader.line_num)
+        raise LogError(
+            f"{path}, line {reader.line_num}: a quote where a field cannot hold one ({err}); "
+            'a field is quoted whole, e.g. "1.5"'
+        ) from None
     return 0, 0
+
+
+def _runs_on(path: Path, ended: int, line: int) -> None:
+    """Refuse a quoted field that runs from the line after ``ended`` on to ``line``."""
+    raise LogError(
+        f"{path}, line {ended + 1}: a quoted field runs on to line {line}; a log's values "
+        "fit on one line (an unclosed quote?)"
+    )
 
 
 def _check_truncated(path: Path) -> None:

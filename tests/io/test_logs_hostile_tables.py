@@ -206,3 +206,89 @@ def test_an_iso_time_column_with_an_odd_cell_is_refused_naming_the_line(
     log = csv_log(tmp_path, times)
     with pytest.raises(LogError, match=rf"^{re.escape(str(log))}, line 9, column 't': {words}"):
         load(log)
+
+
+# ------------------------------------------------------------------ CSV text
+
+
+def csv_text(tmp_path: Path, header: str, row: Any, *, newline: str = "\n") -> Path:
+    """A CSV file of ``header`` and ``row(k, u, y)`` for every k (``row`` gives a line)."""
+    path = tmp_path / "log.csv"
+    lines = [header, *(row(k, float(U[k]), float(Y[k])) for k in range(N))]
+    path.write_bytes((newline.join(lines) + newline).encode())
+    return path
+
+
+def plain(k: int, u: float, y: float) -> str:
+    return f"{float(T[k])!r},{u!r},{y!r}"
+
+
+@pytest.mark.parametrize(
+    ("header", "row", "newline"),
+    [
+        ("t,u,y", lambda k, u, y: f'"{float(T[k])!r}","{u!r}","{y!r}"', "\n"),
+        ('"t","u","y"', plain, "\n"),
+        ("t,u,y", plain, "\r\n"),
+        ("\ufefft,u,y", plain, "\n"),
+        ("t,u,y", lambda k, u, y: f" {float(T[k])!r} , +{u!r}\t,{y!r}", "\n"),
+        ("t,u,y,note", lambda k, u, y: f'{plain(k, u, y)},"said ""hi"", twice"', "\n"),
+    ],
+    ids=["quoted-numbers", "quoted-header", "crlf", "bom", "blanks-and-plus", "quoted-text"],
+)
+def test_csv_text_as_other_tools_write_it_is_read(
+    header: str, row: Any, newline: str, tmp_path: Path
+) -> None:
+    signals = load(csv_text(tmp_path, header, row, newline=newline))
+    np.testing.assert_array_equal(signals.inputs[:, 0], U)
+    np.testing.assert_array_equal(signals.outputs[:, 0], Y)
+
+
+def odd_at_7(cell: str, column: int = 1) -> Any:
+    """Rows whose ``column`` (0: t, 1: u, 2: y) is ``cell`` at k = 7."""
+
+    def row(k: int, u: float, y: float) -> str:
+        cells = [repr(float(T[k])), repr(u), repr(y)]
+        if k == 7:
+            cells[column] = cell
+        return ",".join(cells)
+
+    return row
+
+
+@pytest.mark.parametrize(
+    ("header", "row", "words"),
+    [
+        ("t,u,y", odd_at_7('"1,234.5"'), r", line 9, column 'u': '1,234\.5' is not a number"),
+        ("t,u,y", odd_at_7("NaN"), r", line 9, column 'u': nan for input 'u' at t=0\.7 s"),
+        ("t,u,y", odd_at_7("nan", 2), r", line 9, column 'y': nan for output 'y' at t=0\.7 s"),
+        ("t,u,y", odd_at_7("-inf"), r", line 9, column 'u': -inf for input 'u' at t=0\.7 s"),
+        ("t,u,y", odd_at_7("NA"), r", line 9, column 'u': 'NA' is not a number"),
+        ("t,u,y", odd_at_7("1_000"), r", line 9, column 'u': '1_000' is not a number"),
+        ("t,u,y", odd_at_7('"0.5"x'), r", line 9: a quote where a field cannot hold one"),
+        ("t,u,y", odd_at_7('a"b'), r", line 9: a quote inside a field that is not quoted"),
+        (
+            "t;u;y",
+            lambda k, u, y: f"{float(T[k])!r};{u!r};{y!r}",
+            r", line 1: .* separated by semicolons",
+        ),
+        ("t,u,y,u", lambda k, u, y: plain(k, u, y) + ",0", r", line 1: duplicate column name 'u'"),
+    ],
+    ids=[
+        "thousands",
+        "NaN",
+        "nan",
+        "-inf",
+        "NA",
+        "underscore",
+        "text-after-quote",
+        "quote-inside",
+        "semicolons",
+        "duplicate",
+    ],
+)
+def test_csv_text_hybridlog_cannot_vouch_for_is_refused_naming_the_line(
+    header: str, row: Any, words: str, tmp_path: Path
+) -> None:
+    log = csv_text(tmp_path, header, row)
+    with pytest.raises(LogError, match=rf"^{re.escape(str(log))}{words}"):
+        load(log)
