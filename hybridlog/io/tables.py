@@ -777,7 +777,12 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
         )
     for position, name in enumerate(names, start=1):
         if not name.strip():
-            raise LogError(f"{path}, line 1: column {position} of the header has no name")
+            why = ""
+            if position == len(names):
+                why = " (a separator at the end of the line?)"
+            elif position == 1:
+                why = " (pandas' to_csv writes its index so: write with index=False)"
+            raise LogError(f"{path}, line 1: column {position} of the header has no name{why}")
         if not name.isprintable():
             raise LogError(
                 f"{path}, line 1: column {position} of the header, {excerpt(name, 40)}, is not "

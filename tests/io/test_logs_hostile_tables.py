@@ -271,6 +271,16 @@ def odd_at_7(cell: str, column: int = 1) -> Any:
             lambda k, u, y: f"{float(T[k])!r};{u!r};{y!r}",
             r", line 1: .* separated by semicolons",
         ),
+        (
+            "t,u,y,",
+            lambda k, u, y: plain(k, u, y) + ",",
+            r", line 1: column 4 of the header has no name \(",
+        ),
+        (
+            ",t,u,y",
+            lambda k, u, y: f"{k}," + plain(k, u, y),
+            r", line 1: column 1 .* no name \(pandas' to_csv writes",
+        ),
         ("t,u,y,u", lambda k, u, y: plain(k, u, y) + ",0", r", line 1: duplicate column name 'u'"),
     ],
     ids=[
@@ -283,6 +293,8 @@ def odd_at_7(cell: str, column: int = 1) -> Any:
         "text-after-quote",
         "quote-inside",
         "semicolons",
+        "trailing-separator",
+        "pandas-index",
         "duplicate",
     ],
 )
