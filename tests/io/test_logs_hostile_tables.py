@@ -304,3 +304,68 @@ def test_csv_text_hybridlog_cannot_vouch_for_is_refused_naming_the_line(
     log = csv_text(tmp_path, header, row)
     with pytest.raises(LogError, match=rf"^{re.escape(str(log))}{words}"):
         load(log)
+
+
+# ------------------------------------------------------------------ Parquet value types
+
+
+@pytest.mark.parametrize(
+    ("column", "expected"),
+    [
+        (pl.Series([f"{v:.6f}" for v in U]).str.to_decimal(scale=6), np.round(U, 6)),
+        (pl.Series(U, dtype=pl.Float16), U.astype(np.float16).astype(np.float64)),
+        (
+            pl.Series([2**53 + 1 + k for k in range(N)], dtype=pl.UInt64),
+            [float(2**53 + 1 + k) for k in range(N)],
+        ),
+        (pl.Series([1, -1] * (N // 2), dtype=pl.Int8), np.array([1.0, -1.0] * (N // 2))),
+        (pl.Series([True, False] * (N // 2)), np.array([1.0, 0.0] * (N // 2))),
+    ],
+    ids=["decimal", "float16", "uint64-beyond-2^53", "int8", "boolean"],
+)
+def test_numeric_parquet_types_are_read_as_their_nearest_float64(
+    column: pl.Series, expected: Any, tmp_path: Path
+) -> None:
+    """A uint64 beyond 2^53 is its nearest float64, as every other integer of a log."""
+    signals = load(parquet(tmp_path, u=column))
+    np.testing.assert_array_equal(signals.inputs[:, 0], np.asarray(expected, dtype=np.float64))
+
+
+@pytest.mark.parametrize(
+    ("column", "type_name"),
+    [
+        (pl.Series([f"{v:.3f}" for v in U]).cast(pl.Categorical), "Categorical"),
+        (pl.Series([f"{v}" for v in U]), "String"),
+        (pl.Series([dt.timedelta(seconds=float(v)) for v in U]), r"Duration\(time_unit='us'\)"),
+        (pl.Series([b"1"] * N), "Binary"),
+        (pl.Series([None] * N, dtype=pl.Null), "Null"),
+    ],
+    ids=["categorical", "large-string-numbers", "duration", "binary", "all-null"],
+)
+def test_parquet_columns_of_other_types_are_refused_naming_the_column(
+    column: pl.Series, type_name: str, tmp_path: Path
+) -> None:
+    log = parquet(tmp_path, u=column)
+    with pytest.raises(
+        LogError,
+        match=rf"^{re.escape(str(log))}: column 'u' has type {type_name}, expected a number$",
+    ):
+        load(log)
+
+
+@pytest.mark.parametrize(
+    ("column", "type_name"),
+    [
+        (pl.Series([True, False] * (N // 2)), "Boolean"),
+        (pl.Series([dt.date(2024, 1, 1) + dt.timedelta(days=k) for k in range(N)]), "Date"),
+        (pl.Series([dt.time(0, 0, k) for k in range(N)]), "Time"),
+        (pl.Series([f"{t}" for t in T]), "String"),
+    ],
+    ids=["boolean", "date", "time-of-day", "string"],
+)
+def test_a_time_column_of_another_type_is_refused(
+    column: pl.Series, type_name: str, tmp_path: Path
+) -> None:
+    log = parquet(tmp_path, t=column)
+    with pytest.raises(LogError, match=rf"column 't' has type {type_name}, expected a number"):
+        load(log)
