@@ -296,6 +296,12 @@ class TableSource:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
             del taken
+            if (
+                self._format == "csv"
+                and not self.options.drop_nonfinite
+                and column.is_infinite().any()
+            ):
+                self._refuse_overflow(column, rows)
             if column.null_count() == 0 and not repeats:
                 values: FloatArray = block.take(column.to_numpy())
                 numeric_series[name] = Series(name, time_ns, values)
@@ -313,6 +319,30 @@ class TableSource:
         if superseded:
             self._note_superseded(superseded, [self._rows[n] for n in dict.fromkeys(wanted[1:])])
         return Reading(numeric_series, label_series, dict(self._notes), self._locate)
+
+    def _refuse_overflow(self, column: pl.Series, rows: IntArray) -> None:
+        """Refuse a CSV number too large for a float64 (``1e400``), which parsed as infinite.
+
+        A number beyond 1.8e308 was reported as ``inf``, which the cell does not say; with
+        ``--drop-nonfinite`` it is dropped as infinite (it is out of range in any case).
+
+        Raises
+        ------
+        LogError
+            Naming the line and column of the first such cell.
+        """
+        name = column.name
+        infinite = column.is_infinite().fill_null(False).to_numpy()
+        text = _read_csv_strings(self._file, [name], checked=True).get_column(name)
+        cells = text.gather(rows[infinite]).str.strip_chars().str.to_lowercase()
+        spelled = cells.str.strip_chars_start("+-").is_in(["inf", "infinity"]).to_numpy()
+        if not spelled.all():
+            first = int(np.argmin(spelled))
+            row = int(rows[infinite][first])
+            raise LogError(
+                f"{self.path}, {self._row_label(row)}, column {excerpt(name)}: "
+                f"{excerpt(text[row], 40)} is beyond the range of a float64 (about 1.8e308)"
+            )
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:

@@ -369,3 +369,26 @@ def test_a_time_column_of_another_type_is_refused(
     log = parquet(tmp_path, t=column)
     with pytest.raises(LogError, match=rf"column 't' has type {type_name}, expected a number"):
         load(log)
+
+
+@pytest.mark.parametrize("cell", ["1e400", "-" + "9" * 400, '"1e999"'])
+def test_a_csv_number_beyond_a_float64_is_refused_as_such_not_as_inf(
+    cell: str, tmp_path: Path
+) -> None:
+    """It was refused as "inf for input 'u'", which the cell does not say."""
+    log = csv_text(tmp_path, "t,u,y", odd_at_7(cell))
+    shown = re.escape(cell.strip('"')[:25])
+    with pytest.raises(
+        LogError, match=rf", line 9, column 'u': '{shown}.*' is beyond the range of a float64"
+    ):
+        load(log)
+    notes: dict[str, Any] = {}
+    load_signals(log, SPEC, ReadOptions(drop_nonfinite=True), notes=notes)
+    assert notes["nonfinite_dropped"] == {"u": 1}  # out of range whatever it is taken for
+
+
+def test_an_infinity_written_as_one_is_still_dropped_on_request(tmp_path: Path) -> None:
+    log = csv_text(tmp_path, "t,u,y", odd_at_7("-Infinity"))
+    notes: dict[str, Any] = {}
+    load_signals(log, SPEC, ReadOptions(drop_nonfinite=True), notes=notes)
+    assert notes["nonfinite_dropped"] == {"u": 1}
