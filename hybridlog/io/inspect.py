@@ -31,7 +31,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     dict
         For tables: ``path, format, rows, columns`` (each ``name, dtype, count, nonfinite,
         min, max`` and the step keys below of the column's own samples, its non-empty
-        cells), ``time`` (``column, start, end, duration``) or ``None``, the
+        cells; an entry per field and element of a Parquet struct, list or array column),
+        ``time`` (``column, start, end, duration``) or ``None``, the
         time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
         ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
         column is unusable, if it is).  For bags and MCAP files: ``path, format, messages,
@@ -199,6 +200,20 @@ def _format_messages(info: dict[str, Any]) -> str:
             for t in repeated
         )
     lines.extend(_gap_lines(topics, "gaps (steps longer than 1.5 x the topic's median step):"))
+    sparse = [
+        (v, t["count"])
+        for t in topics
+        if t.get("encoding") == "json"
+        for v in t.get("values") or []
+        if "[]" not in v["name"] and v["count"] < t["count"]
+    ]
+    if sparse:
+        lines.append("")
+        lines.append(
+            "fields with a number in only some JSON messages (a field a message leaves out is "
+            "read from the messages that carry it, at their times; a null is refused):"
+        )
+        lines.extend(f"  {v['name']}: {v['count']} of {count} messages" for v, count in sparse)
     lines.extend(_nonfinite_lines([v for t in topics for v in t.get("values") or []]))
     fields = [f for t in topics for f in t["fields"]]
     if fields:

@@ -18,6 +18,12 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
   ``header.stamp``; a topic whose stamps go backwards (in log-time order) is refused unless
   ``--sort``.  Two messages of one topic with the same time are refused unless ``--sort``,
   which keeps the last of them.
+- A JSON message may leave a field out: a logger of sparse signals writes ``{"u": 1}``, then
+  ``{"y": 10}`` on one topic.  A field is then read from the messages that carry it, at their
+  times, as a signal of its own (times checked, sorted and de-duplicated per field); a key the
+  topic's JSON schema lists as ``required`` must be in every message, and a field no message
+  carries is an error listing the fields found.  ``null`` is never "no sample": JSON writes
+  NaN so, and it is refused like one.
 - When the file says how many messages a topic has (MCAP summary, bag index, ``metadata.yaml``),
   the messages read must add up to it: a damaged index that hides messages is an error.
 """
@@ -786,6 +792,14 @@ class _Wanted:
     categories: list[tuple[str, ...]] = field(default_factory=list)
     booleans: bool | None = None
     """JSON: whether this path's values are ``true``/``false`` (``None`` before the first)."""
+    present: list[np.ndarray[Any, np.dtype[np.bool_]]] = field(default_factory=list)
+    """JSON: per batch, which messages carry the path (see :func:`_absent_key`)."""
+    sparse: bool = False
+    """JSON: whether some message lacks the path (it is then read from those that carry it)."""
+    keys_seen: dict[str, None] = field(default_factory=dict)
+    """JSON: the keys found where the path's missing key was looked for, for the message."""
+    missing: str = ""
+    """JSON: the first key of the path found missing."""
 
 
 class _TopicReader:
@@ -816,6 +830,8 @@ class _TopicReader:
         count = len(datas)
         numbers = [np.empty(count) if w.kind == "number" else None for w in self.wanted]
         texts: list[list[str]] = [[] for _ in self.wanted]
+        json = self.topic.encoding == "json"
+        present = [np.ones(count, dtype=np.bool_) if json else None for _ in self.wanted]
         stamps = np.empty(count, dtype=np.int64) if self.header else None
         for first in range(0, count, DECODED_AT_ONCE):
             try:
@@ -826,12 +842,15 @@ class _TopicReader:
                     f"{self._where(times, first + err.row)} cannot be decoded ({err})"
                 ) from None
             part = slice(first, first + len(messages))
-            for wanted, values, labels in zip(self.wanted, numbers, texts, strict=True):
+            for wanted, values, labels, carried in zip(
+                self.wanted, numbers, texts, present, strict=True
+            ):
+                here = None if carried is None else carried[part]
                 try:
                     if values is not None:
-                        self._read_numbers(messages, wanted, values[part])
+                        self._read_numbers(messages, wanted, values[part], here)
                     else:
-                        _read_labels(messages, wanted.path.steps, labels)
+                        self._read_labels(messages, wanted, labels, here)
                 except _RowError as err:
                     reason = str(err.error)
                     if not reason.startswith(("the message", ".", "[")):
@@ -849,7 +868,12 @@ class _TopicReader:
                         f"{err.error} in {self._where(times, first + err.row)} (--time header "
                         f"needs it)"
                     ) from None
-        for wanted, values, labels in zip(self.wanted, numbers, texts, strict=True):
+        for wanted, values, labels, carried in zip(
+            self.wanted, numbers, texts, present, strict=True
+        ):
+            if carried is not None:
+                wanted.present.append(carried)
+                wanted.sparse = wanted.sparse or not bool(carried.all())
             if values is not None:
                 wanted.values.append(values)
             else:
@@ -869,12 +893,19 @@ class _TopicReader:
             )
         return decode_each(decode, datas)
 
-    def _read_numbers(self, messages: list[object], wanted: _Wanted, out: FloatArray) -> None:
+    def _read_numbers(
+        self,
+        messages: list[object],
+        wanted: _Wanted,
+        out: FloatArray,
+        present: np.ndarray[Any, np.dtype[np.bool_]] | None = None,
+    ) -> None:
         """Fill ``out`` with the numbers ``wanted`` names; a :class:`_RowError` names a bad one.
 
         A boolean is read as 0/1 (a ROS ``bool``), but in JSON, which has both, only where
         the path holds nothing else: ``true`` where the schema declares a number, or amid
-        numbers, is refused rather than read as 1.
+        numbers, is refused rather than read as 1.  A JSON message without the path's key
+        (:func:`_absent_key`) is marked in ``present`` and given no value.
         """
         steps = wanted.path.steps
         values = self._numbers(messages, steps)
@@ -884,12 +915,70 @@ class _TopicReader:
         json = self.topic.encoding == "json"
         for row, message in enumerate(messages):  # the careful loop, which names what is wrong
             try:
-                value = evaluate(message, steps)
+                try:
+                    value = evaluate(message, steps)
+                except PathError:
+                    if present is None or not self._absent(message, wanted):
+                        raise
+                    present[row] = False
+                    out[row] = np.nan
+                    continue
                 if json:
                     self._check_json_kind(wanted, value)
                 out[row] = as_number(value)
             except PathError as err:
                 raise _RowError(row, err) from None
+
+    def _read_labels(
+        self,
+        messages: list[object],
+        wanted: _Wanted,
+        out: list[str],
+        present: np.ndarray[Any, np.dtype[np.bool_]] | None = None,
+    ) -> None:
+        """Append the labels ``wanted`` names to ``out``, as :meth:`_read_numbers` does."""
+        for row, message in enumerate(messages):
+            try:
+                try:
+                    value = evaluate(message, wanted.path.steps)
+                except PathError:
+                    if present is None or not self._absent(message, wanted):
+                        raise
+                    present[row] = False
+                    out.append("")
+                    continue
+                out.append(as_label(value))
+            except PathError as err:
+                raise _RowError(row, err) from None
+
+    def _absent(self, message: object, wanted: _Wanted) -> bool:
+        """Whether a JSON message leaves out a key of ``wanted``'s path (not required).
+
+        A logger of sparse signals writes each message with the fields it has at that
+        moment (``{"u": 1}``, then ``{"y": 10}``): a field is read from the messages that
+        carry it, at their times.  A key the topic's JSON schema lists as ``required`` is
+        not optional: a message without it is refused.
+
+        Raises
+        ------
+        PathError
+            For a key the schema requires.
+        """
+        found = _absent_key(message, wanted.path.steps)
+        if found is None:
+            return False
+        depth, keys = found
+        wanted.missing = wanted.missing or str(wanted.path.steps[depth])
+        for key in keys[:64]:
+            wanted.keys_seen.setdefault(key, None)
+        schema = self.topic.json_schema
+        if schema is not None and _json_required(schema, wanted.path.steps[: depth + 1]):
+            step = wanted.path.steps[depth]
+            raise PathError(
+                f"{format_steps(wanted.path.steps[:depth]) or 'the message'} has no field "
+                f"{step!r}, which the topic's JSON schema lists as required"
+            )
+        return True
 
     def _check_json_kind(self, wanted: _Wanted, value: object) -> None:
         """Refuse a JSON boolean where numbers are meant, and a number among booleans."""
@@ -929,30 +1018,62 @@ class _TopicReader:
     def series(self) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
         """The wanted paths as series, in time order (see the module docstring)."""
         log_times = _concat_int(self.log_times)
-        time_ns = _concat_int(self.stamps) if self.header else log_times
-        order, keep = self._order(time_ns, log_times)
-        if order is not None:
-            time_ns = time_ns[order]
-        if keep is not None:
-            time_ns = time_ns[keep]
+        all_times = _concat_int(self.stamps) if self.header else log_times
+        shared: tuple[IntArray, Any, Any] | None = None
         numbers: dict[str, Series] = {}
         labels: dict[str, LabelSeries] = {}
         for wanted in self.wanted:
             if wanted.kind == "number":
-                values = np.concatenate(wanted.values) if wanted.values else np.zeros(0, np.float64)
-                values = _reorder(values, order, keep)
+                values: Any = (
+                    np.concatenate(wanted.values) if wanted.values else np.zeros(0, np.float64)
+                )
+            else:
+                values, categories = _merge_labels(wanted.codes, wanted.categories)
+            if wanted.sparse:
+                # a field only some messages carry: its own times (the module docstring)
+                carried = np.concatenate(wanted.present)
+                if not carried.any():
+                    found = closest_names([wanted.missing], list(wanted.keys_seen))
+                    raise LogError(
+                        f"{self.source.path}: {wanted.text!r}: none of the {carried.size} "
+                        f"messages of topic {self.topic.label} has field "
+                        f"{format_steps(wanted.path.steps).removeprefix('.')!r}; "
+                        + found.replace("available", "fields found")
+                    )
+                time_ns = all_times[carried]
+                order, keep = self._order(time_ns, log_times[carried], field=wanted.text)
+                time_ns, values = _reorder(time_ns, order, keep), values[carried]
+                if wanted.kind == "label":  # without the absent messages' placeholder
+                    used, inverse = np.unique(values, return_inverse=True)
+                    values = inverse.astype(np.int64).reshape(-1)
+                    categories = tuple(categories[int(code)] for code in used)
+            else:
+                if shared is None:
+                    order, keep = self._order(all_times, log_times)
+                    shared = (_reorder(all_times, order, keep), order, keep)
+                time_ns, order, keep = shared
+            values = _reorder(values, order, keep)
+            if wanted.kind == "number":
                 numbers[wanted.text] = Series(wanted.text, time_ns, values)
             else:
-                codes, categories = _merge_labels(wanted.codes, wanted.categories)
-                labels[wanted.text] = LabelSeries(
-                    wanted.text, time_ns, _reorder(codes, order, keep), categories
-                )
+                labels[wanted.text] = LabelSeries(wanted.text, time_ns, values, categories)
         return numbers, labels
 
     def _order(
-        self, time_ns: IntArray, log_times: IntArray
+        self, time_ns: IntArray, log_times: IntArray, field: str | None = None
     ) -> tuple[IntArray | None, np.ndarray[Any, np.dtype[np.bool_]] | None]:
+        """The order and the kept messages of a topic's times (or of a sparse ``field``'s).
+
+        Raises
+        ------
+        LogError
+            For header stamps that go backwards or times that repeat, without ``--sort``.
+        """
         source, topic = self.source, self.topic
+        # a field only some JSON messages carry is checked, sorted and noted on its own
+        what = f"topic {topic.name!r}" if field is None else f"{field!r}"
+        key = topic.name if field is None else field
+        among = "" if field is None else " (among the messages that carry it)"
         sort = source.options.sort
         word = "header.stamp" if self.header else "log time"
         order: IntArray | None = None
@@ -964,14 +1085,14 @@ class _TopicReader:
             if self.header and not sort:
                 i = int(np.argmax(backwards)) + 1
                 raise LogError(
-                    f"{source.path}: topic {topic.name!r}: header.stamp goes backwards "
+                    f"{source.path}: {what}: header.stamp goes backwards{among} "
                     f"(t={format_ns(int(time_ns[i]))} s in the message logged at "
                     f"t={format_ns(int(log_times[i]))} s, after "
                     f"t={format_ns(int(time_ns[i - 1]))} s); --sort puts messages in time order"
                 )
             order = np.argsort(time_ns, kind="stable")
             if sort:
-                source._notes.setdefault("sorted", {})[topic.name] = int(backwards.sum())
+                source._notes.setdefault("sorted", {})[key] = int(backwards.sum())
             time_ns = time_ns[order]
             steps = np.diff(time_ns)
         same = steps == 0
@@ -980,12 +1101,12 @@ class _TopicReader:
             first = int(np.argmax(same)) + 1
             if not sort:
                 raise LogError(
-                    f"{source.path}: topic {topic.name!r}: {int(same.sum())} message(s) have "
+                    f"{source.path}: {what}: {int(same.sum())} message(s){among} have "
                     f"the same {word} as the one before (first at "
                     f"t={format_ns(int(time_ns[first]))} s); --sort keeps the last of each"
                 )
             keep = np.append(~same, True)
-            source._notes.setdefault("duplicates_dropped", {})[topic.name] = int(same.sum())
+            source._notes.setdefault("duplicates_dropped", {})[key] = int(same.sum())
         return order, keep
 
 
@@ -1017,13 +1138,42 @@ class _RowError(Exception):
         self.error = error
 
 
-def _read_labels(messages: list[object], steps: Sequence[Step], out: list[str]) -> None:
-    """Append the labels at ``steps`` to ``out``; a :class:`_RowError` names a bad one."""
-    for row, message in enumerate(messages):
-        try:
-            out.append(as_label(evaluate(message, steps)))
-        except PathError as err:
-            raise _RowError(row, err) from None
+def _absent_key(message: object, steps: Sequence[Step]) -> tuple[int, list[str]] | None:
+    """Where a decoded JSON message leaves out a key of ``steps``: ``(step index, its keys)``.
+
+    ``None`` when every key is there (what is wrong is then something else: an index out of
+    range, a step into a number), or when ``steps`` run into something not an object first.
+    """
+    value = message
+    for depth, step in enumerate(steps):
+        if isinstance(step, int):
+            if not isinstance(value, list) or not -len(value) <= step < len(value):
+                return None
+            value = value[step]
+        elif isinstance(value, Mapping):
+            if step not in value:
+                return depth, [str(k) for k in value]
+            value = value[step]
+        else:
+            return None
+    return None
+
+
+def _json_required(schema: Mapping[str, Any], steps: Sequence[Step]) -> bool:
+    """Whether a JSON schema lists the last key of ``steps`` as ``required`` in its object."""
+    node: Any = schema
+    for depth, step in enumerate(steps):
+        if not isinstance(node, Mapping):
+            return False
+        if isinstance(step, int):
+            node = node.get("items")
+            continue
+        required = node.get("required")
+        if depth == len(steps) - 1:
+            return isinstance(required, list) and step in required
+        properties = node.get("properties")
+        node = properties.get(step) if isinstance(properties, Mapping) else None
+    return False
 
 
 def _read_stamps(messages: list[object], out: IntArray) -> None:

@@ -1,9 +1,12 @@
 """CSV and Parquet logs: one row per time stamp, one column per signal.
 
 The time column is ``t`` (or ``time``) in seconds; Parquet may also store it as a
-``Datetime``/``Duration``.  Every other column is a field a symbol can be mapped to.  An empty
-cell means "no sample of this column at this time", which is how a multi-rate table is written;
-a cell that is not a number is an error naming its line, never a silent string column.
+``Datetime``/``Duration``, and CSV as ISO 8601 dates and times (``2024-01-01T00:00:00.5``, a
+space for the ``T``, an offset such as ``Z`` or ``+01:00``; zoned times are taken in UTC).
+Every other column is a field a symbol can be mapped to (inside a Parquet struct, list or
+array column, as :mod:`~hybridlog.io.table_paths` names them).  An empty cell means "no
+sample of this column at this time", which is how a multi-rate table is written; a cell that
+is not a number is an error naming its line, never a silent string column.
 
 CSV files are read with an explicit schema: the header line is parsed first, then the wanted
 columns are read as ``Float64`` (label columns such as ``mode`` as strings).  Line numbers in
@@ -14,6 +17,7 @@ breaks); blank lines are skipped but counted.
 from __future__ import annotations
 
 import csv
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -24,8 +28,11 @@ import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.formats import LogFormat, get_format
+from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
+    MAX_SECONDS,
+    NS_PER_S,
     LabelSeries,
     Reading,
     Series,
@@ -37,6 +44,8 @@ from hybridlog.io.source import (
     seconds_to_ns,
 )
 from hybridlog.io.summary import count_nonfinite, describe_steps
+from hybridlog.io.table_paths import ColumnPath, expand, field_names, is_nested, leaf_values
+from hybridlog.io.table_paths import resolve as resolve_path
 from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
 
@@ -99,6 +108,8 @@ class TableSource:
             self._schema = _read_parquet_schema(self._file)
             self._columns = tuple(self._schema)
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
+        # Parquet: the fields inside struct, list and array columns (``pose.x``, ``q[1]``)
+        self._paths: dict[str, ColumnPath] = {}
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
         # ``--sort``: per column, the rows of its samples superseded at a repeated time
@@ -125,23 +136,54 @@ class TableSource:
         return self._time_column
 
     def fields(self) -> tuple[str, ...]:
-        """Columns a symbol can be mapped to: all but the time column."""
-        return tuple(c for c in self._columns if c != self._time_column)
+        """Columns a symbol can be mapped to: all but the time column.
+
+        Inside a Parquet struct, list or array column, its fields as
+        :mod:`~hybridlog.io.table_paths` names them: ``pose.x``, ``q[]`` (``[]`` takes an
+        index).
+        """
+        return tuple(
+            name
+            for c in self._columns
+            if c != self._time_column
+            for name in (field_names(c, self._schema[c]) if c in self._schema else [c])
+        )
+
+    def _path(self, name: str) -> ColumnPath:
+        """The field ``name`` names (a column, or a leaf of a nested Parquet column).
+
+        Raises
+        ------
+        PathError
+            Why ``name`` names no number or text of the table.
+        """
+        path = self._paths.get(name)
+        if path is None:
+            if self._format == "csv":
+                if name not in self._columns:
+                    raise PathError(closest_names([name], self.fields()))
+                path = ColumnPath(name, name, (), (), pl.String())
+            else:
+                path = resolve_path(name, self._schema, list(self.fields()))
+            self._paths[name] = path
+        return path
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
-        """``None`` for a column of the table, else why not: the time column, or the closest.
+        """``None`` for a field of the table, else why not: the time column, or the closest.
 
         Whether a column holds numbers is checked when it is read (``numeric`` is unused).
         """
-        if name in self.fields():
-            return None
         if name == self._time_column:
             return (
                 f"{excerpt(name)} is the table's time column (the first of "
                 f"{', '.join(map(repr, TIME_COLUMNS))} in the header, in seconds), "
                 f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
             )
-        return closest_names([name], self.fields())
+        try:
+            self._path(name)
+        except PathError as err:
+            return str(err)
+        return None
 
     def __enter__(self) -> Self:
         """Return the source itself; the file is read eagerly."""
@@ -190,17 +232,18 @@ class TableSource:
         """
         time_column = self._require_time()
         for name in (*numeric, *labels):
-            if name not in self._columns:
-                raise LogError(
-                    f"{self.path}: no column {excerpt(name)}; "
-                    f"{closest_names([name], self.fields())}"
-                )
+            try:
+                self._path(name)
+            except PathError as err:
+                raise LogError(f"{self.path}: no column {excerpt(name)}; {err}") from None
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
         # Parquet numeric columns are decoded one at a time once the rows are known (below):
         # polars' memory then peaks at about one column, not all of them.
         later: list[str] = []
         if self._format == "csv":
+            if _iso_format(_first_cell(self._file, self._columns.index(time_column))):
+                as_float.discard(time_column)  # dates and times: parsed by _time_ns
             frame = _read_csv_frame(self._file, wanted, as_float)
         else:
             later = [n for n in dict.fromkeys(numeric) if n not in labels and n != time_column]
@@ -253,6 +296,12 @@ class TableSource:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
             del taken
+            if (
+                self._format == "csv"
+                and not self.options.drop_nonfinite
+                and column.is_infinite().any()
+            ):
+                self._refuse_overflow(column, rows)
             if column.null_count() == 0 and not repeats:
                 values: FloatArray = block.take(column.to_numpy())
                 numeric_series[name] = Series(name, time_ns, values)
@@ -270,6 +319,30 @@ class TableSource:
         if superseded:
             self._note_superseded(superseded, [self._rows[n] for n in dict.fromkeys(wanted[1:])])
         return Reading(numeric_series, label_series, dict(self._notes), self._locate)
+
+    def _refuse_overflow(self, column: pl.Series, rows: IntArray) -> None:
+        """Refuse a CSV number too large for a float64 (``1e400``), which parsed as infinite.
+
+        A number beyond 1.8e308 was reported as ``inf``, which the cell does not say; with
+        ``--drop-nonfinite`` it is dropped as infinite (it is out of range in any case).
+
+        Raises
+        ------
+        LogError
+            Naming the line and column of the first such cell.
+        """
+        name = column.name
+        infinite = column.is_infinite().fill_null(False).to_numpy()
+        text = _read_csv_strings(self._file, [name], checked=True).get_column(name)
+        cells = text.gather(rows[infinite]).str.strip_chars().str.to_lowercase()
+        spelled = cells.str.strip_chars_start("+-").is_in(["inf", "infinity"]).to_numpy()
+        if not spelled.all():
+            first = int(np.argmin(spelled))
+            row = int(rows[infinite][first])
+            raise LogError(
+                f"{self.path}, {self._row_label(row)}, column {excerpt(name)}: "
+                f"{excerpt(text[row], 40)} is beyond the range of a float64 (about 1.8e308)"
+            )
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:
@@ -292,7 +365,7 @@ class TableSource:
         """The ``wanted`` columns but ``skip`` (all of them checked for their type)."""
         time_column = self._require_time()
         for name in wanted:
-            dtype = self._schema[name]
+            dtype = self._path(name).dtype
             if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
                 continue
             numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
@@ -312,26 +385,43 @@ class TableSource:
             # low_memory: decoded a row group at a time, 10^6 rows of 9 columns (82 MB of
             # values) peak about 25 MiB lower, in about the same time
             read = [name for name in wanted if name not in skip]
-            frame = _read_parquet(self._file, columns=read, low_memory=True)
+            paths = [self._path(name) for name in read]
+            frame = _read_parquet(
+                self._file,
+                columns=list(dict.fromkeys(p.column for p in paths)),
+                low_memory=True,
+            )
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
             ) from err
+        if any(p.nested for p in paths):
+            frame = pl.DataFrame([self._leaf_values(frame, p) for p in paths])
         casts = [
             pl.col(name).cast(pl.Float64)
             for name in read
-            if name in numeric and name not in labels and self._schema[name] != pl.Float64
+            if name in numeric and name not in labels and frame.schema[name] != pl.Float64
         ]
         return frame.with_columns(casts) if casts else frame
 
-    def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
-        """One numeric column of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+    def _leaf_values(self, frame: pl.DataFrame, path: ColumnPath) -> pl.Series:
+        """:func:`~hybridlog.io.table_paths.leaf_values`, its error a :class:`LogError`."""
         try:
-            column = _read_parquet(self._file, columns=[name], low_memory=True).to_series()
+            return leaf_values(frame, path, self.path, self._row_label)
+        except PathError as err:
+            raise LogError(str(err)) from None
+
+    def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
+        """One numeric field of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+        path = self._path(name)
+        try:
+            frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
         except pl.exceptions.PolarsError as err:
             raise LogError(
                 f"{self.path}: not a readable Parquet file ({_first_line(err)})"
             ) from err
+        column = self._leaf_values(frame, path)
+        del frame
         if column.dtype != pl.Float64:
             column = column.cast(pl.Float64)
         return column if rows is None else column.gather(rows)
@@ -423,11 +513,15 @@ class TableSource:
         the line or row where it is not.
         """
         name = column.name
-        if isinstance(column.dtype, pl.Datetime):
-            time_ns: IntArray = column.dt.epoch("ns").to_numpy().astype(np.int64)
-        elif isinstance(column.dtype, pl.Duration):
-            time_ns = column.dt.total_nanoseconds().to_numpy().astype(np.int64)
+        if column.dtype == pl.String and self._format == "csv":
+            written = column.drop_nulls()
+            iso = _iso_format(written[0] if written.len() else None)
+            if iso is not None:
+                column = self._parse_iso(column, iso, rows)
+        if isinstance(column.dtype, pl.Datetime | pl.Duration):
+            time_ns: IntArray = self._temporal_ns(column, rows)
         else:
+            stored = column.dtype
             column = self._to_float(column, rows)
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
@@ -436,6 +530,8 @@ class TableSource:
                     f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
                     f"{bad_seconds(float(seconds[bad]))}"
                 )
+            if stored in (pl.Float32, pl.Float16):
+                self._check_resolution(name, stored, seconds, rows)
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
         # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
@@ -452,6 +548,86 @@ class TableSource:
         self._rows[name] = rows
         return time_ns
 
+    def _check_resolution(
+        self, name: str, stored: pl.DataType, seconds: FloatArray, rows: IntArray
+    ) -> None:
+        """Refuse a float32 (or float16) time column too coarse for its own steps.
+
+        float32 holds about seven digits: near t = 1.7e9 s (Unix time) its values are 128 s
+        apart, near 1000 s 61 µs.  Times rounded by more than a thousandth of the mean step
+        (the clock tolerance the alignment allows) would put samples on the wrong side of a
+        grid point without a word, or collapse into repeats that say nothing of why.
+        """
+        if seconds.size < 2:
+            return
+        magnitude = np.abs(seconds)
+        row = int(np.argmax(magnitude))
+        kind = np.float32 if stored == pl.Float32 else np.float16
+        resolution = float(np.spacing(kind(magnitude[row])))
+        step = float(seconds.max() - seconds.min()) / (seconds.size - 1)
+        if resolution > step / 1000:
+            steps = (
+                f"too coarse for its steps of {step:.3g} s on average (times would be rounded "
+                "by more than a thousandth of a step)"
+                if step > 0
+                else "so every row holds that one time"
+            )
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(name)}: the "
+                f"time column is {_dtype_name(stored)}, whose values near t={seconds[row]:g} s "
+                f"are {resolution:.3g} s apart, {steps}: write the time as float64 (or as a "
+                "Datetime)"
+            )
+
+    def _parse_iso(self, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
+        """A CSV time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
+
+        The format is the first cell's (``T`` or a space between date and time, with or
+        without an offset such as ``Z`` or ``+01:00``); every cell must have it.  Parsed to
+        microseconds first, which hold any year, so that a date past 2262 is refused by
+        :meth:`_temporal_ns` and not wrapped around by a parse to nanoseconds; then to
+        nanoseconds, for the digits past the microsecond.
+        """
+        text = column.str.strip_chars()
+        coarse = text.str.to_datetime(iso, strict=False, time_unit="us")
+        failed = (coarse.is_null() & text.is_not_null()).to_numpy()
+        if failed.any():
+            row = int(np.argmax(failed))
+            first = int(np.argmax(text.is_not_null().to_numpy()))
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(column.name)}: "
+                f"{excerpt(text[row], 40)} is not a date and time written like "
+                f"{excerpt(text[first], 40)} on {self._row_label(int(rows[first]))} (ISO 8601)"
+            )
+        self._temporal_ns(coarse, rows)
+        return text.str.to_datetime(iso, strict=True, time_unit="ns").alias(column.name)
+
+    def _temporal_ns(self, column: pl.Series, rows: IntArray) -> IntArray:
+        """A ``Datetime`` (since 1970, UTC) or ``Duration`` time column in nanoseconds.
+
+        Taken from the stored integers in the column's own unit, so that a time beyond what
+        int64 nanoseconds hold (before 1678 or after 2262; a duration over 292 years) is
+        refused naming its row, not wrapped or turned into NaN by the conversion.
+        """
+        unit = str(getattr(column.dtype, "time_unit", "ns"))
+        factor = {"ns": 1, "us": 1_000, "ms": 1_000_000}[unit]
+        stored = column.to_physical().to_numpy().astype(np.int64)
+        limit = int(MAX_SECONDS * NS_PER_S) // factor
+        bad = (stored >= limit) | (stored <= -limit)
+        if bad.any():
+            row = int(np.argmax(bad))
+            if isinstance(column.dtype, pl.Datetime):
+                what, held = "date", "the years 1678 to 2262"
+            else:
+                what, held = "duration", f"{MAX_SECONDS:.2g} s either way"
+            raise LogError(
+                f"{self.path}, {self._row_label(int(rows[row]))}, column "
+                f"{excerpt(column.name)}: the {what} {excerpt(str(column[row]), 40)} is beyond "
+                f"what the nanosecond grid holds ({held})"
+            )
+        time_ns: IntArray = stored * factor
+        return time_ns
+
     # ------------------------------------------------------------------ inspect
 
     def describe(self) -> dict[str, Any]:
@@ -462,7 +638,9 @@ class TableSource:
         dict
             JSON-serialisable: ``path, format, rows, columns`` (``name, dtype, count,
             nonfinite, min, max`` and the steps of the column's own samples, its non-empty
-            cells, as for the time column below), ``time`` (``column, start, end, duration`` in
+            cells, as for the time column below; a Parquet struct, list or array column gives
+            an entry per field and element, ``pose.x``, ``q[0]``, or ``q[]`` for lists of
+            different lengths, named in ``problems``), ``time`` (``column, start, end, duration`` in
             seconds, or ``None``), the time column's steps as
             :func:`~hybridlog.io.summary.describe_steps` gives them (``rate_hz``: the mean
             rate over the span, ``sample_time``: the median step, ``min_step``,
@@ -489,10 +667,11 @@ class TableSource:
             except LogError as err:
                 problems.append(str(err).removeprefix(f"{self.path}, "))
                 rows = np.arange(frame.height, dtype=np.int64)
+        frame = self._leaves_of(frame, problems)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
         columns = [
-            _describe_column(frame.get_column(c), time_ns, self._format) for c in self._columns
+            _describe_column(frame.get_column(c), time_ns, self._format) for c in frame.columns
         ]
         steps = describe_steps(time_ns if time_ns is not None else np.zeros(0, dtype=np.int64))
         info: dict[str, Any] = {
@@ -512,6 +691,43 @@ class TableSource:
                 "duration": (time_ns[-1] - time_ns[0]) / 1e9,
             }
         return info
+
+    def _leaves_of(self, frame: pl.DataFrame, problems: list[str]) -> pl.DataFrame:
+        """``frame`` with each struct, list or array column replaced by its leaves.
+
+        A list whose rows differ in length stays whole (``q[]``) and a null inside a list is
+        noted: both are what ``analyze`` refuses (:mod:`~hybridlog.io.table_paths`).
+        """
+        if not any(is_nested(dtype) for dtype in frame.schema.values()):
+            return frame
+        columns: list[pl.Series] = []
+        for name, dtype in frame.schema.items():
+            if not is_nested(dtype):
+                columns.append(frame.get_column(name))
+                continue
+            leaves, found = expand(frame, name)
+            problems.extend(found)
+            cell = frame.get_column(name).is_not_null()
+            for leaf in leaves:
+                if leaf.text in frame.schema:  # a flat column of that name is what it names
+                    problems.append(
+                        f"column {excerpt(leaf.text)} hides the field of that name inside "
+                        f"column {excerpt(name)}, which therefore cannot be mapped"
+                    )
+                    continue
+                if leaf.text.endswith("[]"):
+                    columns.append(frame.select(leaf.expr().alias(leaf.text)).to_series())
+                    continue
+                values = frame.select(leaf.expr().alias(leaf.text)).to_series()
+                hole = (values.is_null() & cell).to_numpy() if leaf.in_list else None
+                if hole is not None and hole.any():
+                    problems.append(
+                        f"{self._row_label(int(np.argmax(hole)))}, column {excerpt(name)}: "
+                        f"{excerpt(leaf.text)} is null inside the row's list "
+                        f"({int(hole.sum())} such rows; analyze refuses them)"
+                    )
+                columns.append(values)
+        return pl.DataFrame(columns)
 
     def _full_frame(self) -> pl.DataFrame:
         if self._format == "parquet":
@@ -591,7 +807,12 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
         )
     for position, name in enumerate(names, start=1):
         if not name.strip():
-            raise LogError(f"{path}, line 1: column {position} of the header has no name")
+            why = ""
+            if position == len(names):
+                why = " (a separator at the end of the line?)"
+            elif position == 1:
+                why = " (pandas' to_csv writes its index so: write with index=False)"
+            raise LogError(f"{path}, line 1: column {position} of the header has no name{why}")
         if not name.isprintable():
             raise LogError(
                 f"{path}, line 1: column {position} of the header, {excerpt(name, 40)}, is not "
@@ -603,6 +824,36 @@ def _read_csv_header(path: Path) -> tuple[str, ...]:
             raise LogError(f"{path}, line 1: duplicate column name {excerpt(name)} in the header")
         seen.add(name)
     return tuple(names)
+
+
+_ISO_DATE = re.compile(r"\d{4}-\d{2}-\d{2}([T ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})?$")
+
+
+def _iso_format(text: str | None) -> str | None:
+    """The polars format of an ISO 8601 date and time like ``text``, or ``None`` if not one.
+
+    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), either with ``Z`` or an
+    offset (``+01:00``, ``+0100``); seconds are needed.
+    """
+    match = _ISO_DATE.match(text.strip()) if text else None
+    if match is None or match.group(2) is None:
+        return None
+    zone = "%#z" if match.group(4) else ""
+    return f"%Y-%m-%d{match.group(1)}%H:%M:%S%.f{zone}"
+
+
+def _first_cell(path: Path, index: int) -> str | None:
+    """The first non-empty cell of column ``index`` in the first 1000 data lines of a CSV."""
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            reader = csv.reader(handle)
+            next(reader, None)
+            for record, _ in zip(reader, range(1000), strict=False):
+                if len(record) > index and record[index].strip():
+                    return record[index]
+    except (UnicodeDecodeError, csv.Error, OSError):
+        return None  # the reading proper says what is wrong
+    return None
 
 
 def _is_number(text: str) -> bool:
@@ -631,8 +882,37 @@ def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) 
     try:
         frame = _read_csv(path, columns=columns, infer_schema=False)
     except pl.exceptions.PolarsError as err:
+        _refuse_stray_quote(path)
         raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
     return frame
+
+
+_FIELD = r'(?:[^",\r\n]*|\s*"(?:[^"]|"")*"\s*)'
+_RECORD = re.compile(rf"{_FIELD}(?:,{_FIELD})*")
+
+
+def _refuse_stray_quote(path: Path) -> None:
+    """Name the first line with a quote inside an unquoted field (``a"b``), if there is one.
+
+    polars refuses such a file ("CSV malformed") without saying where; the ``csv`` module
+    takes the quote as text.  Only called once polars has refused the file.
+
+    Raises
+    ------
+    LogError
+        Naming the line.
+    """
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            for number, line in enumerate(handle, start=1):
+                text = line.rstrip("\r\n")
+                if '"' in text and _RECORD.fullmatch(text) is None:
+                    raise LogError(
+                        f"{path}, line {number}: a quote inside a field that is not quoted "
+                        f'({excerpt(text, 60)}); a field is quoted whole, e.g. "1.5"'
+                    )
+    except (UnicodeDecodeError, OSError):
+        return
 
 
 def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.DataFrame:
@@ -756,29 +1036,45 @@ def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
     needs a line break, so it is an unclosed quote (which swallows the rest of the file
     into one record), and every line number reported later counts one record per line.
 
+    A quote where a field cannot hold one (``"1.5"x``: text after a closing quote) is refused
+    here too, naming its line: polars refuses it without saying where.
+
     Raises
     ------
     LogError
-        Naming the line the multi-line field starts on and the line it runs to.
+        Naming the line the multi-line field starts on and the line it runs to, or the line
+        of a misplaced quote.
     """
+    ended = 0
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle)
+            reader = csv.reader(handle, strict=True)
             next(reader, [])
             ended = reader.line_num
             for record in reader:
                 if reader.line_num > ended + 1:
-                    raise LogError(
-                        f"{path}, line {ended + 1}: a quoted field runs on to line "
-                        f"{reader.line_num}; a log's values fit on one line (an unclosed "
-                        "quote?)"
-                    )
+                    _runs_on(path, ended, reader.line_num)
                 ended = reader.line_num
                 if record and len(record) != width and any(f.strip() for f in record):
                     return reader.line_num, len(record)
-    except (UnicodeDecodeError, csv.Error):
+    except UnicodeDecodeError:
         return 0, 0  # polars then says what it cannot parse
+    except csv.Error as err:
+        if reader.line_num > ended + 1:
+            _runs_on(path, ended, reader.line_num)
+        raise LogError(
+            f"{path}, line {reader.line_num}: a quote where a field cannot hold one ({err}); "
+            'a field is quoted whole, e.g. "1.5"'
+        ) from None
     return 0, 0
+
+
+def _runs_on(path: Path, ended: int, line: int) -> None:
+    """Refuse a quoted field that runs from the line after ``ended`` on to ``line``."""
+    raise LogError(
+        f"{path}, line {ended + 1}: a quoted field runs on to line {line}; a log's values "
+        "fit on one line (an unclosed quote?)"
+    )
 
 
 def _check_truncated(path: Path) -> None:
@@ -828,9 +1124,16 @@ def _as_labels(column: pl.Series) -> pl.Series:
                 column = text.cast(pl.Float64, strict=False)
     dtype = column.dtype
     if dtype.is_float():
-        finite = column.drop_nulls()
+        # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is
+        # refused with its row: cast to an integer they became empty cells, no sample,
+        # and so did a whole number beyond int64
+        finite = column.filter(column.is_finite())
         if finite.len() and bool((finite == finite.round(0)).all()):
-            column = column.cast(pl.Int64, strict=False)
+            whole = column.cast(pl.Int64, strict=False)
+            exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
+            column = pl.select(
+                pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
+            ).to_series()
     text = column.cast(pl.String).str.strip_chars()
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
 

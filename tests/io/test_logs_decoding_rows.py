@@ -24,7 +24,14 @@ COUNT = 3 * DECODED_AT_ONCE + 17
 """Messages per topic: more than three decoding chunks, the last one short."""
 STEP_NS = 10_000_000
 SPEC = SignalSpec(inputs=("u",), outputs=("y1", "y2"), mode_ids=("a", "b"), dt=0.01)
-JSON = Channel("/m", "json", "demo/Mode", "jsonschema", json.dumps({"type": "object"}))
+REQUIRED = {
+    "type": "object",
+    "properties": {"mode": {"type": "string"}, "level": {"type": "number"}},
+    "required": ["mode", "level"],
+}
+"""Fields every message must carry (a JSON message without a field is otherwise no sample
+of it, a sparse logger's message: ``tests/io/test_logs_sparse_json.py``)."""
+JSON = Channel("/m", "json", "demo/Mode", "jsonschema", json.dumps(REQUIRED))
 
 
 def _log(path: Path, channel: Channel, payload: dict[int, bytes], default: bytes) -> Path:
@@ -65,9 +72,9 @@ def test_undecodable_message_is_named(row: int, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("target", "bad"),
     [
-        ("y2=/m.level", {"mode": "a"}),  # a number path, the message lacks the field
+        ("y2=/m.level", {"mode": "a"}),  # a number path, the message lacks a required field
         ("y2=/m.level", {"mode": "a", "level": "high"}),  # ... or holds no number there
-        ("truth.mode=/m.mode", {"level": 1.0}),  # a label path, the message lacks the field
+        ("truth.mode=/m.mode", {"level": 1.0}),  # a label path, it lacks a required field
     ],
 )
 def test_unreadable_path_names_the_message(

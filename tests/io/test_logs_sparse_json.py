@@ -1,0 +1,174 @@
+"""JSON topics whose messages carry only the fields their logger had at that moment.
+
+A logger of sparse signals writes ``{"u": 1}`` then ``{"y": 10}`` on one topic: each field is
+a signal with its own times, read from the messages that carry it (SPEC §5 aligns signals
+of any rates).  Logs written with mcap's own ``Writer``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
+
+S = 10**9
+N = 20
+DT = 0.1
+
+
+def write(
+    path: Path,
+    messages: list[tuple[int, dict[str, Any]]],
+    schema: dict[str, Any] | None = None,
+) -> Path:
+    """``(log time ns, document)`` on topic ``/io`` (JSON, with ``schema`` if given)."""
+    from mcap.writer import Writer
+
+    with path.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="", library="tests")
+        sid = 0
+        if schema is not None:
+            sid = writer.register_schema("io", "jsonschema", json.dumps(schema).encode())
+        channel = writer.register_channel("/io", "json", sid)
+        for t, document in messages:
+            writer.add_message(channel, t, json.dumps(document).encode(), t)
+        writer.finish()
+    return path
+
+
+def interleaved(offset_ns: int = S // 20) -> list[tuple[int, dict[str, Any]]]:
+    """``{"u": k}`` at k*dt and ``{"y": 10 k}`` ``offset_ns`` later."""
+    out: list[tuple[int, dict[str, Any]]] = []
+    for k in range(N):
+        t = k * S // 10
+        out.append((t, {"u": float(k)}))
+        out.append((t + offset_ns, {"y": 10.0 * k}))
+    return out
+
+
+def load(log: Path, *maps: str, **options: Any) -> Any:
+    spec = SignalSpec(inputs=("u",), outputs=("y",), states=("x",), mode_ids=("a", "b"), dt=DT)
+    return load_signals(log, spec, ReadOptions(maps=maps, **options))
+
+
+def test_fields_of_a_sparse_topic_are_read_from_the_messages_carrying_them(
+    tmp_path: Path,
+) -> None:
+    log = write(tmp_path / "sparse.mcap", interleaved())
+    signals = load(log, "u=/io.u", "y=/io.y")
+    # the grid starts at the first output (0.05 s); u(k) is held from 0.0 + k*dt
+    np.testing.assert_allclose(signals.time, 0.05 + DT * np.arange(N))
+    np.testing.assert_array_equal(signals.outputs[:, 0], 10.0 * np.arange(N))
+    np.testing.assert_array_equal(signals.inputs[:, 0], np.arange(N, dtype=float))
+
+
+def test_fields_logged_at_one_time_in_separate_messages_are_not_repeats(
+    tmp_path: Path,
+) -> None:
+    log = write(tmp_path / "same_time.mcap", interleaved(offset_ns=0))
+    signals = load(log, "u=/io.u", "y=/io.y")
+    np.testing.assert_array_equal(signals.outputs[:, 0], 10.0 * np.arange(N))
+    np.testing.assert_array_equal(signals.inputs[:, 0], np.arange(N, dtype=float))
+
+
+def test_nested_and_label_fields_may_be_sparse(tmp_path: Path) -> None:
+    messages: list[tuple[int, dict[str, Any]]] = []
+    for k in range(N):
+        t = k * S // 10
+        messages.append((t, {"cmd": {"u": float(k)}, "mode": "a" if k < N // 2 else "b"}))
+        messages.append((t + S // 20, {"meas": {"y": 10.0 * k}}))
+    log = write(tmp_path / "nested.mcap", messages)
+    signals = load(log, "u=/io.cmd.u", "y=/io.meas.y", "truth.mode=/io.mode")
+    np.testing.assert_array_equal(signals.outputs[:, 0], 10.0 * np.arange(N))
+    assert signals.truth_modes is not None
+    np.testing.assert_array_equal(signals.truth_modes, [0] * (N // 2) + [1] * (N // 2))
+
+
+def test_a_field_no_message_carries_is_refused_listing_those_found(tmp_path: Path) -> None:
+    log = write(tmp_path / "sparse.mcap", interleaved())
+    with pytest.raises(
+        LogError,
+        match=r"'/io\.yy': none of the 40 messages of topic '/io' .*has field 'yy'; "
+        r"closest: 'y'",
+    ):
+        load(log, "u=/io.u", "y=/io.yy")
+
+
+def test_a_key_the_schema_requires_is_refused_where_a_message_lacks_it(
+    tmp_path: Path,
+) -> None:
+    schema = {
+        "type": "object",
+        "properties": {"u": {"type": "number"}, "y": {"type": "number"}},
+        "required": ["u", "y"],
+    }
+    messages = [(k * S // 10, {"u": float(k), "y": 10.0 * k}) for k in range(N)]
+    messages[7] = (messages[7][0], {"u": 7.0})
+    log = write(tmp_path / "required.mcap", messages, schema)
+    with pytest.raises(
+        LogError,
+        match=r"'/io\.y': the message has no field 'y', which the topic's JSON schema lists as "
+        r"required in the message logged at t=0\.7 s",
+    ):
+        load(log, "u=/io.u", "y=/io.y")
+    schema["required"] = ["u"]
+    log = write(tmp_path / "optional.mcap", messages, schema)
+    signals = load(log, "u=/io.u", "y=/io.y", max_gap=0.25)
+    assert 10.0 * 7 not in signals.outputs[:, 0]
+
+
+def test_repeated_times_among_a_sparse_field_s_messages_are_its_own(tmp_path: Path) -> None:
+    messages = interleaved()
+    messages.insert(5, (messages[4][0], {"u": 99.0}))  # u twice at t = 0.2 s
+    log = write(tmp_path / "twice.mcap", messages)
+    with pytest.raises(
+        LogError,
+        match=r"'/io\.u': 1 message\(s\) \(among the messages that carry it\) have the same "
+        r"log time as the one before \(first at t=0\.2 s\); --sort",
+    ):
+        load(log, "u=/io.u", "y=/io.y")
+    notes: dict[str, Any] = {}
+    signals = load_signals(
+        log,
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=DT),
+        ReadOptions(maps=("u=/io.u", "y=/io.y"), sort=True),
+        notes=notes,
+    )
+    assert signals.inputs[2, 0] == 99.0
+    assert notes["duplicates_dropped"] == {"/io.u": 1}
+
+
+def test_a_null_value_is_still_refused(tmp_path: Path) -> None:
+    messages = interleaved()
+    messages[6] = (messages[6][0], {"u": None})
+    log = write(tmp_path / "null.mcap", messages)
+    with pytest.raises(LogError, match=r"'/io\.u': the value is null, not a number"):
+        load(log, "u=/io.u", "y=/io.y")
+
+
+def test_inspect_names_the_fields_only_some_messages_carry(tmp_path: Path) -> None:
+    log = write(tmp_path / "sparse.mcap", interleaved())
+    text = format_inspection(inspect_log(log))
+    assert "fields with a number in only some JSON messages" in text
+    assert "/io.u: 20 of 40 messages" in text and "/io.y: 20 of 40 messages" in text
+
+
+def test_a_sparse_label_field_lists_only_the_labels_its_messages_hold(tmp_path: Path) -> None:
+    from hybridlog.io.formats import open_log
+
+    messages: list[tuple[int, dict[str, Any]]] = []
+    for k in range(N):
+        t = k * S // 10
+        messages += [(t, {"mode": "b" if k % 3 else "a"}), (t + S // 20, {"y": 1.0})]
+    with open_log(write(tmp_path / "labels.mcap", messages)) as source:
+        series = source.read([], ["/io.mode"]).labels["/io.mode"]
+    assert series.categories == ("a", "b")
+    np.testing.assert_array_equal(series.codes, [0 if k % 3 == 0 else 1 for k in range(N)])
+    np.testing.assert_array_equal(series.time_ns, np.arange(N) * S // 10)
