@@ -293,16 +293,15 @@ def resample_series(
 
 
 def _longest_hold(
-    series: Series, grid_ns: IntArray, dt_ns: int, max_gap_ns: int
+    time_ns: IntArray, grid_ns: IntArray, dt_ns: int, max_gap_ns: int
 ) -> dict[str, float] | None:
     """The longest stretch of the grid over which the hold carries an input, if over ``max_gap``.
 
     Inputs are held (SPEC §5: a command published only when it changes is held so), across
     a gap between two samples or past the last one to the grid's end; a hold longer than
     ``max_gap`` is recorded, ``{start, end, seconds}`` in seconds, for the report to say,
-    not refused.  ``None`` when every hold is shorter.
+    not refused.  ``None`` when every hold is shorter.  ``time_ns``: the signal's sample times.
     """
-    time_ns = series.time_ns
     if grid_ns.size == 0 or time_ns.size == 0:
         return None
     first, last = int(grid_ns[0]), int(grid_ns[-1])
@@ -469,8 +468,9 @@ def align_signals(
         ``max_gap`` (``span``), the pieces (``segments``) and the one analysed when
         ``split_gaps`` cut the log, and per output the grid points bridged across short
         gaps (``bridged``: ``{symbol: {points, of}}``), per true state the same
-        (``truth_bridged``), and per input its longest hold over ``max_gap`` (``held``:
-        ``{symbol: {start, end, seconds}}``).
+        (``truth_bridged``), per input its longest hold over ``max_gap`` (``held``:
+        ``{symbol: {start, end, seconds}}``), and the same for the true mode and each
+        component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end, seconds}}``).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -527,7 +527,7 @@ def align_signals(
         u[:, j] = (
             on if on is not None else series.values[hold_index(series.time_ns, grid, tolerance)]
         )
-        held = _longest_hold(series, grid, dt_ns, max_gap_ns)
+        held = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
         if held is not None and notes is not None:
             notes.setdefault("held", {})[symbol] = held
 
@@ -560,6 +560,13 @@ def align_signals(
         )
         for name, series in (truth_components or {}).items()
     }
+    if notes is not None:  # a true mode is held like an input; the mode metrics score the hold
+        labelled = {"mode": truth_mode} if truth_mode is not None else {}
+        labelled |= {f"mode.{name}": series for name, series in (truth_components or {}).items()}
+        for label, label_series in labelled.items():
+            held = _longest_hold(label_series.time_ns, grid, dt_ns, max_gap_ns)
+            if held is not None:
+                notes.setdefault("truth_held", {})[label] = held
 
     x_true: FloatArray | None = None
     if truth_states:

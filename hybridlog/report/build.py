@@ -695,6 +695,13 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         "value, as an input published only when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
+    notes += [
+        f"NOTE: the true {label} has no sample from t = {hold['start']:g} to {hold['end']:g} s "
+        f"({hold['seconds']:g} s, longer than max_gap): held at its last value, against which "
+        "the mode metrics score those samples (right for a mode published only when it "
+        "changes; if the log stopped recording it, they score a guess)"
+        for label, hold in (reading.get("truth_held") or {}).items()
+    ]
     for side, bound in (reading.get("span") or {}).items():
         first = side == "start"
         notes.append(

@@ -645,3 +645,32 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
         notes=notes,
     )  # fmt: skip
     assert "held" not in notes
+
+
+def test_a_true_mode_held_longer_than_max_gap_is_noted() -> None:
+    """A true mode that stopped at 10 s of a 40 s log was held for 30 s, and the mode accuracy
+    scored those samples against the held label without a word; the hold is now noted."""
+    from hybridlog.report.build import _reading_notes
+
+    seconds = np.round(np.arange(0.0, 40.01, 0.1), 10)
+    y = series("level", seconds, np.cos(seconds))
+    stopped = LabelSeries(
+        "mode", seconds_to_ns(np.array([0.0, 5.0, 10.0])), np.array([0, 1, 0]), ("a", "b")
+    )
+    notes: dict[str, Any] = {}
+    aligned = align_signals(
+        source="log", dt=0.1, inputs={"u": series("u", seconds, seconds)}, outputs={"y": y},
+        truth_mode=stopped, notes=notes,
+    )  # fmt: skip
+    assert aligned.truth_modes is not None and aligned.truth_modes[-1] == 0  # still held
+    assert notes["truth_held"] == {"mode": {"start": 10.0, "end": 40.0, "seconds": 30.0}}
+    (note,) = _reading_notes(notes)
+    assert note.startswith("NOTE: the true mode has no sample from t = 10 to 40 s (30 s, longer")
+    # sampled with every output sample (as simulate writes it): nothing to say
+    notes = {}
+    every = LabelSeries("mode", seconds_to_ns(seconds), np.zeros(seconds.size, np.int64), ("a",))
+    align_signals(
+        source="log", dt=0.1, inputs={"u": series("u", seconds, seconds)}, outputs={"y": y},
+        truth_mode=every, notes=notes,
+    )  # fmt: skip
+    assert "truth_held" not in notes
