@@ -42,6 +42,7 @@ from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_t
 from hybridlog.numbers import parse_float, parse_int
 
 if TYPE_CHECKING:
+    from hybridlog.cluster.progress import WorkReporter
     from hybridlog.io import ReadOptions
     from hybridlog.report.document import Report
 
@@ -683,16 +684,11 @@ def cluster_command(
     mode from the data and the model alone, and writes the centres and classifier to a JSON
     file, a plot, and a table.  The log is read as analyze reads it (the same options).
     """
-    from hybridlog.cluster.progress import WorkReporter, reporting
+    from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.cluster import discover_modes
 
     read = _read_options_given(options)  # what is left: the clustering options
-    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
-    reporter = WorkReporter(
-        note=lambda text: None if quiet else click.echo(_for_terminal(text), err=True),
-        bar=lambda total, label: _work_progress(ctx, total, label),
-    )
-    with reporting(reporter):
+    with reporting(_work_reporter(ctx)):
         outcome = discover_modes(
             log,
             model_ref,
@@ -746,10 +742,12 @@ def analyze_command(
 ) -> None:
     """Run one estimator over one log and write report, tables and plots."""
     _one_bounded_job()  # before the job's imports: polars' allocator reads its options
+    from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.analysis import analyze
 
     read, common = _split_options(options)
-    outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
+    with reporting(_work_reporter(ctx)):  # chiu's clustering of a long log says how long
+        outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
     report = outcome.report
     _say(ctx, _summary_line(report))
     _say(ctx, f"report: {outcome.out_dir / 'report.md'}")
@@ -788,11 +786,13 @@ def compare_command(
 ) -> None:
     """Run several estimators on one log and write a side-by-side table."""
     _one_bounded_job()  # before the job's imports: polars' allocator reads its options
+    from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.analysis import compare
 
     read, common = _split_options(options)
     names = [name.strip() for name in estimators.split(",") if name.strip()]
-    outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
+    with reporting(_work_reporter(ctx)):  # chiu's clustering of a long log says how long
+        outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
     _say(ctx, outcome.table)
     _say(ctx, f"reports: {', '.join(str(out_dir / name / 'report.md') for name in names)}")
     _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
@@ -965,16 +965,39 @@ def _progress(
         yield lambda item: bar.update(1, item)
 
 
+def _work_note(quiet: bool, text: str) -> None:
+    """A note on stderr that long work is coming and how long it will take (not ``--quiet``)."""
+    if not quiet:
+        click.echo(_for_terminal(text), err=True)
+
+
 @contextlib.contextmanager
-def _work_progress(ctx: click.Context, total: int, label: str) -> Iterator[Callable[[int], None]]:
-    """A progress bar on stderr of ``total`` units of work, advanced by the units done."""
-    settings = ctx.find_object(_Context)
-    if (settings is not None and settings.quiet) or not sys.stderr.isatty():
+def _work_progress(quiet: bool, total: int, label: str) -> Iterator[Callable[[int], None]]:
+    """A progress bar on stderr of ``total`` units of work, advanced by the units done.
+
+    Only on a terminal and without ``--quiet``.
+    """
+    if quiet or not sys.stderr.isatty():
         yield lambda done: None
         return
     bar: Any
     with click.progressbar(length=total, label=label, file=sys.stderr, show_eta=True) as bar:
         yield bar.update
+
+
+def _work_reporter(ctx: click.Context) -> WorkReporter:
+    """How long work (the exact clustering potentials) reports itself on stderr.
+
+    A note with the expected time first, then a bar (:mod:`hybridlog.cluster.progress`).
+    Made of module-level functions, so that it is sent pickled to the estimators' worker of
+    ``analyze`` and ``compare``, where ``chiu`` clusters (it writes on the same stderr).
+    """
+    from functools import partial
+
+    from hybridlog.cluster.progress import WorkReporter
+
+    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    return WorkReporter(note=partial(_work_note, quiet), bar=partial(_work_progress, quiet))
 
 
 def _read_options_given(options: dict[str, Any]) -> ReadOptions:

@@ -23,6 +23,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
+from hybridlog.cluster.progress import WorkReporter, current_reporter, reporting
 from hybridlog.errors import HybridlogError, LogError, OptionError, as_text, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
@@ -451,9 +452,26 @@ def estimates(
         yield from prepared.stream(model, signals, **inputs)
         return
     sent = replace(signals, truth_states=None)  # what no estimator reads stays here
-    yield from running.stream(partial(prepared.stream, **inputs), model, sent)
+    stream: Callable[..., Iterator[EstimationResult]] = partial(prepared.stream, **inputs)
+    reporter = current_reporter()
+    if reporter is not None:  # the worker's long work (chiu's clustering) says how long
+        stream = partial(_reported, reporter, stream)
+    yield from running.stream(stream, model, sent)
     if last:
         running.release()
+
+
+def _reported(
+    reporter: WorkReporter,
+    stream: Callable[..., Iterator[EstimationResult]],
+    *args: Any,
+) -> Iterator[EstimationResult]:
+    """``stream(*args)`` with ``reporter`` installed (:mod:`hybridlog.cluster.progress`).
+
+    Run in the estimators' worker, whose stderr is the command's.
+    """
+    with reporting(reporter):
+        yield from stream(*args)
 
 
 @dataclass(frozen=True)
