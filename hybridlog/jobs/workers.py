@@ -501,13 +501,16 @@ class WorkerPool:
                 workers.append(_start(self._context, self._lifeline, self.jobs))
                 if workers[-1].process.pid is not None:  # set once started
                     self._started.append(workers[-1].process.pid)
-            for worker in workers:
-                # QUEUED tasks per worker, so that it never waits for this process between two
-                while pending and len(worker.tasks) < QUEUED:
-                    worker.tasks.append(pending.popleft())
-                    # A worker that died is found below through its sentinel.
-                    with contextlib.suppress(OSError, ValueError):
-                        worker.connection.send((function, tasks[worker.tasks[-1]]))
+            # QUEUED tasks per worker, so that it never waits for this process between two;
+            # dealt one round at a time: filled one worker after the other, the first took
+            # both logs of a two-log batch and the second none
+            for depth in range(1, QUEUED + 1):
+                for worker in workers:
+                    if pending and len(worker.tasks) < depth:
+                        worker.tasks.append(pending.popleft())
+                        # A worker that died is found below through its sentinel.
+                        with contextlib.suppress(OSError, ValueError):
+                            worker.connection.send((function, tasks[worker.tasks[-1]]))
             busy = [w for w in workers if w.tasks]
             ready = set(wait([w.connection for w in busy] + [w.process.sentinel for w in busy]))
             for worker in busy:

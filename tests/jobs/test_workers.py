@@ -67,6 +67,19 @@ def test_workers_start_warm_from_a_single_threaded_forkserver_without_polars() -
         assert facts["forkserver_threads"] == 1
 
 
+def _pid(_: int) -> int:
+    return os.getpid()
+
+
+def test_as_many_tasks_as_workers_run_in_different_workers() -> None:
+    # the first worker was given QUEUED tasks before the next got any: a batch of two logs
+    # with --jobs 2 ran both in one worker, one after the other
+    for jobs in (2, 3):
+        with WorkerPool(jobs) as pool:
+            pids = pool.run(_pid, [(k,) for k in range(jobs)], died=_died)
+        assert len(set(pids)) == jobs, pids
+
+
 def test_a_worker_killed_mid_task_is_replaced_by_a_warm_one() -> None:
     with WorkerPool(1) as pool:
         results = pool.run(_facts_or_die, [(k,) for k in range(4)], died=_died)
