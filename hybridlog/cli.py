@@ -904,6 +904,16 @@ def batch_command(
         )
     _say(ctx, outcome.table)
     _say(ctx, f"summary: {out_dir / 'summary.md'}")
+    waited = outcome.waited_for_memory
+    settings = ctx.find_object(_Context)
+    if waited and not (settings is not None and settings.quiet):
+        seconds = sum(log.memory_wait_s for log in waited)
+        click.echo(
+            f"hybridlog: note: {len(waited)} of {len(outcome.logs)} logs waited {seconds:.0f} s "
+            f"in all for memory held by the other workers' logs: --jobs {jobs} ran fewer "
+            "logs at once where all would not fit",
+            err=True,
+        )
     if outcome.failed:
         click.echo(
             f"hybridlog: {outcome.failed} of {len(outcome.logs)} logs failed "

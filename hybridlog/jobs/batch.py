@@ -54,10 +54,10 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
-    check_memory,
     estimator_inputs,
     gates_for,
     input_paths,
+    memory_reserved,
     parse_sets,
     prepare_estimators,
     read_log,
@@ -119,6 +119,8 @@ class LogOutcome:
     status: str
     report: Report | None
     error: str | None
+    memory_wait_s: float = 0.0
+    """How long the log waited for memory the other workers' logs held (``--jobs N``)."""
 
 
 @dataclass(frozen=True)
@@ -133,6 +135,11 @@ class BatchOutcome:
     def failed(self) -> int:
         """Number of logs that could not be analysed."""
         return sum(1 for log in self.logs if log.status == "failed")
+
+    @property
+    def waited_for_memory(self) -> list[LogOutcome]:
+        """The logs that waited for memory the other workers' logs held (``--jobs N``)."""
+        return [log for log in self.logs if log.memory_wait_s > 0.0]
 
 
 _RESERVED = frozenset({"summary.md", "summary.csv", "summary.png", MARKER})
@@ -383,24 +390,25 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     warm = _warm(job)
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
-    check_memory(log, warm.model, [warm.prepared], signals)
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
-    report = write_report(
-        path,
-        warm.prepared.stream(warm.model, signals, **warm.inputs),
-        signals,
-        log=as_text(log),
-        model_name=warm.model.name,
-        dt=warm.model.dt,
-        table_format=job.table_format,
-        force=True,
-        reading=reading,
-        extra={PROVENANCE_KEY: job.provenance(log_sha256)},
-        plots=_plots(job, warm.gates),
-        model=warm.model,
-    )
-    return LogOutcome(log, folder, "done", report, None)
+    # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)
+    with memory_reserved(log, warm.model, [warm.prepared], signals) as waited:
+        report = write_report(
+            path,
+            warm.prepared.stream(warm.model, signals, **warm.inputs),
+            signals,
+            log=as_text(log),
+            model_name=warm.model.name,
+            dt=warm.model.dt,
+            table_format=job.table_format,
+            force=True,
+            reading=reading,
+            extra={PROVENANCE_KEY: job.provenance(log_sha256)},
+            plots=_plots(job, warm.gates),
+            model=warm.model,
+        )
+    return LogOutcome(log, folder, "done", report, None, memory_wait_s=waited)
 
 
 def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
