@@ -99,12 +99,30 @@ def _estimators_epilog(*examples: str) -> str:
     return listing + "\n".join(rows) + "\n\n" + _examples(*examples)
 
 
+class _PathName(click.Path):
+    """A file or folder name; an empty one is refused (pathlib reads ``""`` as ``.``).
+
+    ``--out ""`` was the working folder (``--out . contains the log``), ``analyze ""`` the
+    log ``.``, ``cluster --out ""`` an unexpected error.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and not value:
+            self.fail("an empty name", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+_PATH = _PathName(path_type=Path)
+"""The type of every file or folder argument and option."""
+
+
 # Options shared by several commands: each is defined here once.
 
 _model_option = click.option(
     "--model",
     "model_ref",
     required=True,
+    type=_PathName(path_type=str),
     metavar="MODEL",
     help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
 )
@@ -129,7 +147,7 @@ _msg_dir_option = click.option(
     "--msg-dir",
     "msg_dirs",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=_PATH,
     metavar="DIR",
     help="Folder of .msg files (pkg/msg/Name.msg) for message types the log does "
     "not define. Repeatable.",
@@ -486,7 +504,7 @@ def _for_terminal(text: str) -> str:
     ),
 )
 @_global_flags
-@click.argument("log", type=click.Path(path_type=Path))
+@click.argument("log", type=_PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
 @_msg_dir_option
 def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
@@ -575,12 +593,12 @@ class _LogFormats(click.Choice[str]):
     )
 )
 @_global_flags
-@click.argument("model_ref", metavar="MODEL")
+@click.argument("model_ref", type=_PathName(path_type=str), metavar="MODEL")
 @click.option(
     "--out",
     "out",
     required=True,
-    type=click.Path(path_type=Path),
+    type=_PATH,
     help="Log to write: .csv, .parquet, .mcap, .bag, or a ROS 2 bag folder with --format.",
 )
 @click.option(
@@ -683,19 +701,19 @@ def simulate(
     ),
 )
 @_global_flags
-@click.argument("log", type=click.Path(path_type=Path))
+@click.argument("log", type=_PATH)
 @_model_option
 @click.option(
     "--out",
     "out",
-    type=click.Path(path_type=Path),
+    type=_PATH,
     default=Path("centers.json"),
     show_default=True,
     help="Centres and classifier to write (read by analyze --set centers=FILE).",
 )
 @click.option(
     "--plot",
-    type=click.Path(path_type=Path),
+    type=_PATH,
     default=None,
     help="Picture of the clusters [default: --out with .png].",
 )
@@ -755,13 +773,13 @@ def cluster_command(
     ),
 )
 @_global_flags
-@click.argument("log", type=click.Path(path_type=Path))
+@click.argument("log", type=_PATH)
 @_model_option
 @_estimator_option
 @click.option(
     "--out",
     "out_dir",
-    type=click.Path(path_type=Path),
+    type=_PATH,
     default=None,
     help="Output directory [default: <log name>_<estimator> here].",
 )
@@ -800,7 +818,7 @@ def analyze_command(
     ),
 )
 @_global_flags
-@click.argument("log", type=click.Path(path_type=Path))
+@click.argument("log", type=_PATH)
 @_model_option
 @click.option(
     "--estimators",
@@ -812,7 +830,7 @@ def analyze_command(
     "--out",
     "out_dir",
     required=True,
-    type=click.Path(path_type=Path),
+    type=_PATH,
     help="Output directory: one report per estimator and comparison.md/.csv.",
 )
 @_analysis_options
@@ -849,14 +867,14 @@ def compare_command(
     ),
 )
 @_global_flags
-@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("logs", nargs=-1, required=True, type=_PATH)
 @_model_option
 @_estimator_option
 @click.option(
     "--out",
     "out_dir",
     required=True,
-    type=click.Path(path_type=Path),
+    type=_PATH,
     help="Output directory: one report folder per log (its path from the logs' common "
     "folder, or from the folder of logs given, e.g. d2/run.csv/) and summary.md/.csv/.png.",
 )
@@ -884,7 +902,7 @@ def compare_command(
 @click.option(
     "--junit",
     default=None,
-    type=click.Path(path_type=Path),
+    type=_PATH,
     metavar="FILE",
     help="Write JUnit XML: a test case per log per gate, an error per log not analysed.",
 )
@@ -1128,12 +1146,12 @@ def _usage_message(err: click.UsageError) -> str:
             hint = param.human_readable_name
         else:
             hint = "value"
-        message = f"{hint}: {err.message}"
+        prefix, message = f"{hint}: ", err.message
     else:
-        message = err.format_message()
+        prefix, message = "", err.format_message()
     message = message.strip().rstrip(".")
-    message = message[:1].lower() + message[1:]
-    return f"{command}: {message} (see {command} --help)"
+    message = message[:1].lower() + message[1:]  # the hint as it is: LOG, not lOG
+    return f"{command}: {prefix}{message} (see {command} --help)"
 
 
 def _where(err: BaseException) -> str:

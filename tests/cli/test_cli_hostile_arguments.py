@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import click
+import pytest
 
 from hybridlog.cli import cli
 
@@ -53,3 +54,27 @@ def test_an_option_of_one_value_given_twice_is_refused_in_every_command(
     # repeatable options and plain switches repeated are taken
     code, err = hybridlog_main(["models", "--quiet", "--quiet"])
     assert code == 0 and err == ""
+
+
+@pytest.mark.parametrize(
+    ("args", "hint"),
+    [
+        (["analyze", "", "--model", "three_tank_hstf"], "LOG"),
+        (["analyze", "log.csv", "--model", "three_tank_hstf", "--out", ""], "--out"),
+        (["analyze", "log.csv", "--model", ""], "--model"),
+        (["batch", "log.csv", "", "--model", "m", "--out", "o"], "LOGS"),
+        (["cluster", "log.csv", "--model", "m", "--out", ""], "--out"),
+        (["cluster", "log.csv", "--model", "m", "--plot", ""], "--plot"),
+        (["compare", "log.csv", "--model", "m", "--estimators", "imm", "--out", ""], "--out"),
+        (["inspect", ""], "LOG"),
+        (["simulate", "", "--out", "x.csv"], "MODEL"),
+        (["analyze", "log.csv", "--model", "m", "--msg-dir", ""], "--msg-dir"),
+    ],
+)
+def test_an_empty_name_is_refused_not_read_as_the_working_folder(
+    hybridlog_main: Main, args: list[str], hint: str
+) -> None:
+    # pathlib reads "" as ".": --out "" was the working folder, analyze "" the log "."
+    code, err = hybridlog_main(args)
+    command = f"hybridlog {args[0]}"
+    assert (code, err) == (2, f"{command}: {hint}: an empty name (see {command} --help)\n")
