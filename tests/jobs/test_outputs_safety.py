@@ -814,3 +814,11 @@ def test_force_never_replaces_a_report_folder_whose_files_the_user_edited(tmp_pa
     analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # nothing of the user's
     analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # its own, unchanged
     assert (out / "report.md").is_file()
+
+
+@pytest.mark.parametrize("out", [".", "/", "..", "runs/..", "./"])
+def test_a_centres_file_named_without_a_file_name_is_refused(tmp_path: Path, out: str) -> None:
+    # cluster --out . (or /) failed with an unexpected ValueError making the plot's name
+    log = SAMPLE_LOGS / "double_cart_case1.csv"
+    with pytest.raises(OptionError, match=r"the centres file is JSON; name it \*\.json$"):
+        cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
