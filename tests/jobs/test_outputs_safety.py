@@ -324,7 +324,7 @@ REFUSED: list[tuple[str, Callable[[Path, bool], object], str]] = [
     (
         "analyze --out is a link to a folder",
         lambda ws, f: analyze(ws / "bag", TANK, out_dir=ws / "plink", force=f),
-        "not a directory",
+        "is a symbolic link",
     ),
 ]
 
@@ -822,3 +822,21 @@ def test_a_centres_file_named_without_a_file_name_is_refused(tmp_path: Path, out
     log = SAMPLE_LOGS / "double_cart_case1.csv"
     with pytest.raises(OptionError, match=r"the centres file is JSON; name it \*\.json$"):
         cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
+
+
+def test_an_output_folder_that_is_a_link_is_refused_saying_so(tmp_path: Path) -> None:
+    # a link to a folder, to a file or to nothing was "exists and is not a directory"
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("mine")
+    for pointed, what in (("folder", "a folder"), ("file", "a file"), ("nowhere", "nothing")):
+        link = tmp_path / f"to_{pointed}"
+        link.symlink_to(tmp_path / pointed)
+        for force in (False, True):
+            with pytest.raises(OutputError) as raised:
+                check_dir_target(link, force=force)
+            assert str(raised.value) == (
+                f"output path {link} is a symbolic link (to '{tmp_path / pointed}', {what}), "
+                "which hybridlog does not write through; name the folder itself or another path"
+            )
+        assert link.is_symlink() and os.readlink(link) == str(tmp_path / pointed)
+    assert (tmp_path / "file").read_text() == "mine"
