@@ -74,6 +74,7 @@ from hybridlog.outputs import (
     check_distinct,
     is_ours,
     output_path,
+    recorded_files,
     remove_stale_temporaries,
     write_marker,
 )
@@ -435,6 +436,13 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
         raise OutputError(
             f"output directory {root} holds files hybridlog did not write (no {MARKER} "
             "file); choose another --out or empty the folder yourself"
+        )
+    if root.exists() and recorded_files(root) is not None:
+        # its marker lists the files of one run (analyze, compare, a simulated bag): the
+        # batch's folders and summaries went in among them, without --force and without a word
+        raise OutputError(
+            f"output directory {root} is the output of another hybridlog command (an analyze "
+            "or compare report, a simulated bag), not a batch folder; choose another --out"
         )
     parents = sorted({folder.parent for folder in folders} | {root})
     try:

@@ -840,3 +840,20 @@ def test_an_output_folder_that_is_a_link_is_refused_saying_so(tmp_path: Path) ->
             )
         assert link.is_symlink() and os.readlink(link) == str(tmp_path / pointed)
     assert (tmp_path / "file").read_text() == "mine"
+
+
+def test_a_batch_never_writes_into_another_commands_output_folder(tmp_path: Path) -> None:
+    # batch --out <an analyze report> put its folders and summaries in among the report's
+    # files, without --force and without a word
+    log = SAMPLE_LOGS / "three_tank_hstf.csv"
+    for kind, make in (
+        ("analyze", lambda out: analyze(log, TANK, out_dir=out, estimator="imm")),
+        ("compare", lambda out: compare(log, TANK, ["imm"], out_dir=out)),
+    ):
+        out = tmp_path / kind
+        make(out)
+        before = tree(out)
+        for force in (False, True):
+            with pytest.raises(OutputError, match="is the output of another hybridlog command"):
+                run_batch([log], TANK, out_dir=out, estimator="imm", force=force)
+            assert tree(out) == before
