@@ -72,6 +72,7 @@ import multiprocessing.forkserver
 import os
 import signal
 import sys
+import tempfile
 import threading
 import time
 from collections import deque
@@ -82,6 +83,7 @@ from multiprocessing.context import ForkServerContext, ForkServerProcess
 from pathlib import Path
 from typing import Any, TypeVar
 
+from hybridlog.errors import OptionError, excerpt
 from hybridlog.memory import MemoryLedger
 
 __all__ = [
@@ -125,9 +127,23 @@ def start_forkserver() -> None:
     process started earlier, for a pool or for other code, is reused as it is (with the
     modules it preloaded; workers forked from one without :data:`WARMUP` start cold).  It
     is stopped when this process ends (:func:`_stop_forkserver`).
+
+    Raises
+    ------
+    OptionError
+        When the forkserver cannot start: its socket goes in the temporary folder
+        (``TMPDIR``), whose path may be too long for one (``AF_UNIX path too long``, a
+        traceback before), or which may refuse it.
     """
     multiprocessing.forkserver.set_forkserver_preload([WARMUP])
-    multiprocessing.forkserver.ensure_running()
+    try:
+        multiprocessing.forkserver.ensure_running()
+    except OSError as err:
+        raise OptionError(
+            f"--jobs: cannot start the worker processes: {err.strerror or err} for their "
+            f"socket in the temporary folder {excerpt(tempfile.gettempdir())} (TMPDIR); set "
+            "TMPDIR to a shorter writable folder, or use --jobs 1"
+        ) from err
     atexit.unregister(_stop_forkserver)  # registered once, however often it is called
     atexit.register(_stop_forkserver)
 

@@ -301,3 +301,27 @@ def test_a_stopped_worker_ends_silently_whatever_its_task_raises(tmp_path: Path)
     )
     assert (done.stdout, done.stderr) == ("interrupted\n", "")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_temporary_folder_too_long_for_the_workers_socket_is_one_line(tmp_path: Path) -> None:
+    # the forkserver's socket goes in TMPDIR: a long path was a traceback and exit code 1
+    from tests.support.paths import ROOT, SAMPLE_LOGS
+
+    long = tmp_path / ("t" * 120)
+    long.mkdir()
+    logs = [str(SAMPLE_LOGS / name) for name in ("three_tank_hstf.csv", "ice_clutch.csv")]
+    done = subprocess.run(
+        [sys.executable, "-m", "hybridlog", "batch", *logs, "--model", "three_tank_hstf",
+         "--out", str(tmp_path / "out"), "--jobs", "2"],
+        cwd=ROOT, capture_output=True, text=True, timeout=120,
+        env={**os.environ, "TMPDIR": str(long)},
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert (
+        done.stderr.startswith(
+            "hybridlog: error: --jobs: cannot start the worker processes: AF_UNIX path too long"
+        )
+        and done.stderr.count("\n") == 1
+    ), done.stderr
+    assert "set TMPDIR to a shorter writable folder, or use --jobs 1" in done.stderr
+    assert not (tmp_path / "out").exists()
