@@ -72,11 +72,14 @@ from hybridlog.outputs import (
     check_apart,
     check_dir_target,
     check_distinct,
+    check_file_target,
     is_ours,
     output_path,
+    record_path,
     recorded_files,
     remove_stale_temporaries,
     write_marker,
+    wrote_file,
 )
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
@@ -646,6 +649,14 @@ def _plan(
         mode_sequence=mode_sequence,
         offline=prepared.offline,
     )
+    ours = _summaries_ours(root)
+    for summary in summaries:  # refused now, not once every log has been analysed
+        if summary.is_file() and not summary.is_symlink() and not ours(summary):
+            raise OutputError(
+                f"{summary} changed since a batch wrote it, and every run of the batch "
+                "rewrites it; move it out of the folder to keep it"
+            )
+        check_file_target(summary, force=True, ours=ours)
     folders = [root / name for name in names]
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
@@ -653,6 +664,24 @@ def _plan(
         _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
+
+
+def _summaries_ours(root: Path) -> Callable[[Path], bool]:
+    """Whether a summary file (or the JUnit file) may be replaced by this batch's.
+
+    The summaries in the batch folder are rewritten by every run, but not one a user changed
+    since the batch wrote it (notes added to summary.md: gone at the next nightly run):
+    recorded beside it when written (:func:`~hybridlog.outputs.record_file`), it must be
+    that very file still; one without a record (an older version's) is the batch's.  A JUnit
+    file elsewhere is the batch's by its content.
+    """
+
+    def ours(path: Path) -> bool:
+        if path.parent != root:
+            return is_junit_of_ours(path)
+        return wrote_file(path) if record_path(path).exists() else True
+
+    return ours
 
 
 def _summarise(
@@ -697,12 +726,12 @@ def _summarise(
     if junit is not None:
         targets.append(junit)
 
-    def replaceable(path: Path) -> bool:  # its summaries in its own folder, its JUnit file
-        return path.parent == root or is_junit_of_ours(path)
-
     junit_path = None if junit is None else output_path(junit)
     with atomic_files(
-        targets, force=True, ours=replaceable, recorded=lambda path: path == junit_path
+        targets,
+        force=True,
+        ours=_summaries_ours(root),
+        recorded=lambda path: path == junit_path or path.parent == root,
     ) as staged:
         staged[0].write_text(text, encoding="utf-8")
         batch_rows_csv(staged[1], rows, compared)

@@ -857,3 +857,26 @@ def test_a_batch_never_writes_into_another_commands_output_folder(tmp_path: Path
             with pytest.raises(OutputError, match="is the output of another hybridlog command"):
                 run_batch([log], TANK, out_dir=out, estimator="imm", force=force)
             assert tree(out) == before
+
+
+def test_a_batch_does_not_overwrite_a_summary_the_user_changed(tmp_path: Path) -> None:
+    # every run rewrote summary.md/.csv/.png: notes added to summary.md were gone at the next
+    log = SAMPLE_LOGS / "three_tank_hstf.csv"
+    out = tmp_path / "nightly"
+    run_batch([log], TANK, out_dir=out, estimator="imm")
+    run_batch([log], TANK, out_dir=out, estimator="imm")  # its own summaries: rewritten
+    for name in ("summary.md", "summary.csv"):
+        summary = out / name
+        with summary.open("a", encoding="utf-8") as file:
+            file.write("my notes\n")
+        before = tree(out)
+        for force in (False, True):
+            with pytest.raises(OutputError, match=f"{name} changed since a batch wrote it"):
+                run_batch([log], TANK, out_dir=out, estimator="imm", force=force)
+            assert tree(out) == before
+        summary.unlink()
+    run_batch([log], TANK, out_dir=out, estimator="imm")
+    # a batch folder of an older version (summaries without records) is still the batch's
+    for record in out.glob(".summary.*.hybridlog"):
+        record.unlink()
+    run_batch([log], TANK, out_dir=out, estimator="imm")
