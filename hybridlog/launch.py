@@ -16,6 +16,7 @@ the other core's time: a forkserver nobody uses is stopped when the process ends
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from collections.abc import Sequence
@@ -60,9 +61,12 @@ def main() -> None:
     """The console script ``hybridlog`` and ``python -m hybridlog``: :func:`hybridlog.cli.main`."""
     single_threaded_blas()
     if local_batch_jobs(sys.argv[1:]) > 1:
+        from hybridlog.errors import HybridlogError
         from hybridlog.jobs.workers import start_forkserver
 
-        start_forkserver()
+        # a head start only: where it fails, the command tries again and says why
+        with contextlib.suppress(HybridlogError):
+            start_forkserver()
     from hybridlog.cli import main as run_cli
 
     run_cli()

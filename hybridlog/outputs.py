@@ -529,7 +529,14 @@ def check_dir_target(
     check_creatable(path)
     if not _present(path):
         return path
-    if not path.is_dir() or path.is_symlink():
+    if path.is_symlink():  # the folder is renamed into place: it would replace the link
+        pointed = os.readlink(path)
+        where = "a folder" if path.is_dir() else "nothing" if not path.exists() else "a file"
+        raise OutputError(
+            f"output path {_shown(path)} is a symbolic link (to {excerpt(pointed)}, {where}), "
+            "which hybridlog does not write through; name the folder itself or another path"
+        )
+    if not path.is_dir():
         raise OutputError(f"output path {_shown(path)} exists and is not a directory")
     try:
         nonempty = _is_nonempty_dir(path)

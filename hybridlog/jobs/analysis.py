@@ -13,6 +13,7 @@ written (``tests/jobs/test_batch_process.py``).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -23,6 +24,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
+from hybridlog.cluster.progress import WorkReporter, current_reporter, reporting
 from hybridlog.errors import HybridlogError, LogError, OptionError, as_text, excerpt
 from hybridlog.estimators import (
     ESTIMATORS,
@@ -35,7 +37,7 @@ from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
-from hybridlog.memory import check_fits
+from hybridlog.memory import check_fits, reserved
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.numbers import parse_float
@@ -348,21 +350,12 @@ def read_log(
     return load_signals(log, SignalSpec.of(model), read, notes=notes)
 
 
-def check_memory(
+def _memory_needs(
     log: str | Path, model: HybridModel, prepared: Sequence[Prepared], signals: AlignedSignals
-) -> None:
-    """Refuse, before any estimator allocates, a run whose results cannot fit in memory.
+) -> tuple[list[tuple[str, int]], str, str]:
+    """What the estimators need of memory: ``(parts, what, remedy)`` for :func:`check_fits`.
 
-    The estimators' needs (:meth:`Prepared.memory_needed
-    <hybridlog.estimators.Prepared.memory_needed>`; ``compare`` runs them one after the
-    other, so the largest counts) against what the machine can still give
-    (:func:`hybridlog.memory.check_fits`).
-
-    Raises
-    ------
-    LogError
-        One line naming the log, its samples, the estimators, the largest parts, the memory
-        available and what to change.
+    ``compare`` runs them one after the other, so the largest counts.
     """
     n = signals.n_samples
 
@@ -385,7 +378,41 @@ def check_memory(
     if beams:  # the k-best histories grow with the beam as with the log
         remedy += f", or a smaller beam (--set beam=N, now {', '.join(map(str, beams))})"
     names = ", ".join(p.name for p in prepared)
-    check_fits(parts, what=f"{log}: {n:,} samples through {names}", remedy=remedy, error=LogError)
+    return parts, f"{log}: {n:,} samples through {names}", remedy
+
+
+def check_memory(
+    log: str | Path, model: HybridModel, prepared: Sequence[Prepared], signals: AlignedSignals
+) -> None:
+    """Refuse, before any estimator allocates, a run whose results cannot fit in memory.
+
+    The estimators' needs (:meth:`Prepared.memory_needed
+    <hybridlog.estimators.Prepared.memory_needed>`; ``compare`` runs them one after the
+    other, so the largest counts) against what the machine can still give
+    (:func:`hybridlog.memory.check_fits`).
+
+    Raises
+    ------
+    LogError
+        One line naming the log, its samples, the estimators, the largest parts, the memory
+        available and what to change.
+    """
+    parts, what, remedy = _memory_needs(log, model, prepared, signals)
+    check_fits(parts, what=what, remedy=remedy, error=LogError)
+
+
+def memory_reserved(
+    log: str | Path, model: HybridModel, prepared: Sequence[Prepared], signals: AlignedSignals
+) -> contextlib.AbstractContextManager[float]:
+    """:func:`check_memory` for a ``with`` block that counts a pool's other workers too.
+
+    In a worker of a local ``batch --jobs N`` the needs are held in the pool's ledger for the
+    block, and a log that fits alone but not beside the logs the other workers run waits for
+    them (:func:`hybridlog.memory.reserved`); elsewhere it is :func:`check_memory`.  The
+    context gives the seconds waited.
+    """
+    parts, what, remedy = _memory_needs(log, model, prepared, signals)
+    return reserved(parts, what=what, remedy=remedy, error=LogError)
 
 
 def read_for_estimation(
@@ -451,9 +478,26 @@ def estimates(
         yield from prepared.stream(model, signals, **inputs)
         return
     sent = replace(signals, truth_states=None)  # what no estimator reads stays here
-    yield from running.stream(partial(prepared.stream, **inputs), model, sent)
+    stream: Callable[..., Iterator[EstimationResult]] = partial(prepared.stream, **inputs)
+    reporter = current_reporter()
+    if reporter is not None:  # the worker's long work (chiu's clustering) says how long
+        stream = partial(_reported, reporter, stream)
+    yield from running.stream(stream, model, sent)
     if last:
         running.release()
+
+
+def _reported(
+    reporter: WorkReporter,
+    stream: Callable[..., Iterator[EstimationResult]],
+    *args: Any,
+) -> Iterator[EstimationResult]:
+    """``stream(*args)`` with ``reporter`` installed (:mod:`hybridlog.cluster.progress`).
+
+    Run in the estimators' worker, whose stderr is the command's.
+    """
+    with reporting(reporter):
+        yield from stream(*args)
 
 
 @dataclass(frozen=True)

@@ -54,10 +54,10 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
-    check_memory,
     estimator_inputs,
     gates_for,
     input_paths,
+    memory_reserved,
     parse_sets,
     prepare_estimators,
     read_log,
@@ -72,10 +72,14 @@ from hybridlog.outputs import (
     check_apart,
     check_dir_target,
     check_distinct,
+    check_file_target,
     is_ours,
     output_path,
+    record_path,
+    recorded_files,
     remove_stale_temporaries,
     write_marker,
+    wrote_file,
 )
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
@@ -119,6 +123,8 @@ class LogOutcome:
     status: str
     report: Report | None
     error: str | None
+    memory_wait_s: float = 0.0
+    """How long the log waited for memory the other workers' logs held (``--jobs N``)."""
 
 
 @dataclass(frozen=True)
@@ -133,6 +139,11 @@ class BatchOutcome:
     def failed(self) -> int:
         """Number of logs that could not be analysed."""
         return sum(1 for log in self.logs if log.status == "failed")
+
+    @property
+    def waited_for_memory(self) -> list[LogOutcome]:
+        """The logs that waited for memory the other workers' logs held (``--jobs N``)."""
+        return [log for log in self.logs if log.memory_wait_s > 0.0]
 
 
 _RESERVED = frozenset({"summary.md", "summary.csv", "summary.png", MARKER})
@@ -383,24 +394,25 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     warm = _warm(job)
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
-    check_memory(log, warm.model, [warm.prepared], signals)
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
-    report = write_report(
-        path,
-        warm.prepared.stream(warm.model, signals, **warm.inputs),
-        signals,
-        log=as_text(log),
-        model_name=warm.model.name,
-        dt=warm.model.dt,
-        table_format=job.table_format,
-        force=True,
-        reading=reading,
-        extra={PROVENANCE_KEY: job.provenance(log_sha256)},
-        plots=_plots(job, warm.gates),
-        model=warm.model,
-    )
-    return LogOutcome(log, folder, "done", report, None)
+    # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)
+    with memory_reserved(log, warm.model, [warm.prepared], signals) as waited:
+        report = write_report(
+            path,
+            warm.prepared.stream(warm.model, signals, **warm.inputs),
+            signals,
+            log=as_text(log),
+            model_name=warm.model.name,
+            dt=warm.model.dt,
+            table_format=job.table_format,
+            force=True,
+            reading=reading,
+            extra={PROVENANCE_KEY: job.provenance(log_sha256)},
+            plots=_plots(job, warm.gates),
+            model=warm.model,
+        )
+    return LogOutcome(log, folder, "done", report, None, memory_wait_s=waited)
 
 
 def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
@@ -427,6 +439,13 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
         raise OutputError(
             f"output directory {root} holds files hybridlog did not write (no {MARKER} "
             "file); choose another --out or empty the folder yourself"
+        )
+    if root.exists() and recorded_files(root) is not None:
+        # its marker lists the files of one run (analyze, compare, a simulated bag): the
+        # batch's folders and summaries went in among them, without --force and without a word
+        raise OutputError(
+            f"output directory {root} is the output of another hybridlog command (an analyze "
+            "or compare report, a simulated bag), not a batch folder; choose another --out"
         )
     parents = sorted({folder.parent for folder in folders} | {root})
     try:
@@ -630,6 +649,14 @@ def _plan(
         mode_sequence=mode_sequence,
         offline=prepared.offline,
     )
+    ours = _summaries_ours(root)
+    for summary in summaries:  # refused now, not once every log has been analysed
+        if summary.is_file() and not summary.is_symlink() and not ours(summary):
+            raise OutputError(
+                f"{summary} changed since a batch wrote it, and every run of the batch "
+                "rewrites it; move it out of the folder to keep it"
+            )
+        check_file_target(summary, force=True, ours=ours)
     folders = [root / name for name in names]
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
@@ -637,6 +664,24 @@ def _plan(
         _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
+
+
+def _summaries_ours(root: Path) -> Callable[[Path], bool]:
+    """Whether a summary file (or the JUnit file) may be replaced by this batch's.
+
+    The summaries in the batch folder are rewritten by every run, but not one a user changed
+    since the batch wrote it (notes added to summary.md: gone at the next nightly run):
+    recorded beside it when written (:func:`~hybridlog.outputs.record_file`), it must be
+    that very file still; one without a record (an older version's) is the batch's.  A JUnit
+    file elsewhere is the batch's by its content.
+    """
+
+    def ours(path: Path) -> bool:
+        if path.parent != root:
+            return is_junit_of_ours(path)
+        return wrote_file(path) if record_path(path).exists() else True
+
+    return ours
 
 
 def _summarise(
@@ -681,12 +726,12 @@ def _summarise(
     if junit is not None:
         targets.append(junit)
 
-    def replaceable(path: Path) -> bool:  # its summaries in its own folder, its JUnit file
-        return path.parent == root or is_junit_of_ours(path)
-
     junit_path = None if junit is None else output_path(junit)
     with atomic_files(
-        targets, force=True, ours=replaceable, recorded=lambda path: path == junit_path
+        targets,
+        force=True,
+        ours=_summaries_ours(root),
+        recorded=lambda path: path == junit_path or path.parent == root,
     ) as staged:
         staged[0].write_text(text, encoding="utf-8")
         batch_rows_csv(staged[1], rows, compared)

@@ -163,9 +163,9 @@ def check_cluster_outputs(
         :mod:`hybridlog.outputs`).
     """
     target = Path(out)
-    picture = target.with_suffix(".png") if plot is None else Path(plot)
-    if target.suffix.lower() != ".json":
+    if target.suffix.lower() != ".json":  # first: "." or "/" has no name to give a suffix
         raise OptionError(f"--out {target}: the centres file is JSON; name it *.json")
+    picture = target.with_suffix(".png") if plot is None else Path(plot)
     if picture.suffix.lower() not in PLOT_SUFFIXES:
         raise OptionError(
             f"--plot {picture}: cannot draw a {picture.suffix or 'suffix-less'} file; "

@@ -72,6 +72,7 @@ import multiprocessing.forkserver
 import os
 import signal
 import sys
+import tempfile
 import threading
 import time
 from collections import deque
@@ -81,6 +82,9 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.context import ForkServerContext, ForkServerProcess
 from pathlib import Path
 from typing import Any, TypeVar
+
+from hybridlog.errors import OptionError, excerpt
+from hybridlog.memory import MemoryLedger
 
 __all__ = [
     "POLARS_THREADS",
@@ -123,9 +127,23 @@ def start_forkserver() -> None:
     process started earlier, for a pool or for other code, is reused as it is (with the
     modules it preloaded; workers forked from one without :data:`WARMUP` start cold).  It
     is stopped when this process ends (:func:`_stop_forkserver`).
+
+    Raises
+    ------
+    OptionError
+        When the forkserver cannot start: its socket goes in the temporary folder
+        (``TMPDIR``), whose path may be too long for one (``AF_UNIX path too long``, a
+        traceback before), or which may refuse it.
     """
     multiprocessing.forkserver.set_forkserver_preload([WARMUP])
-    multiprocessing.forkserver.ensure_running()
+    try:
+        multiprocessing.forkserver.ensure_running()
+    except OSError as err:
+        raise OptionError(
+            f"--jobs: cannot start the worker processes: {err.strerror or err} for their "
+            f"socket in the temporary folder {excerpt(tempfile.gettempdir())} (TMPDIR); set "
+            "TMPDIR to a shorter writable folder, or use --jobs 1"
+        ) from err
     atexit.unregister(_stop_forkserver)  # registered once, however often it is called
     atexit.register(_stop_forkserver)
 
@@ -223,10 +241,18 @@ def _stop_on_signals() -> None:
         signal.signal(ending, _raise_stopped)
 
 
-def _serve(connection: Connection, lifeline: Connection, environment: dict[str, str]) -> None:
+def _serve(
+    connection: Connection,
+    lifeline: Connection,
+    environment: dict[str, str],
+    ledger: MemoryLedger,
+    slot: int,
+) -> None:
     """Worker process: run ``(function, arguments)`` tasks until told to stop (``None``).
 
-    ``environment`` is the pool's process's when it started this worker.  Told to stop, the
+    ``environment`` is the pool's process's when it started this worker; ``ledger`` and
+    ``slot`` where its tasks reserve memory (:func:`hybridlog.memory.reserved`), counting the
+    other workers'.  Told to stop, the
     worker flushes its standard streams and exits at once: its tasks wrote their files and
     sent their results, so the interpreter's tear-down (freeing every module of numpy,
     polars and numba one by one) would only make the parent wait.  Stopped by a signal
@@ -236,6 +262,7 @@ def _serve(connection: Connection, lifeline: Connection, environment: dict[str, 
     try:
         _stop_on_signals()
         _watch_parent(lifeline)
+        ledger.install(slot)
         if os.environ != environment:
             os.environ.clear()
             os.environ.update(environment)
@@ -277,6 +304,8 @@ def _exit_now(signum: int | None = None) -> None:
 class _Worker:
     process: ForkServerProcess
     connection: Connection
+    slot: int
+    """Its slot in the pool's :class:`~hybridlog.memory.MemoryLedger`."""
     tasks: deque[int] = field(default_factory=deque)
     """Tasks sent and not answered yet, in order: the first is the one running."""
 
@@ -302,17 +331,19 @@ def worker_environment(jobs: int) -> dict[str, str]:
     return environment
 
 
-def _start(context: ForkServerContext, lifeline: Connection, jobs: int) -> _Worker:
+def _start(
+    context: ForkServerContext, lifeline: Connection, jobs: int, ledger: MemoryLedger, slot: int
+) -> _Worker:
     ours, theirs = context.Pipe()
     process = context.Process(
         target=_serve,
-        args=(theirs, lifeline, worker_environment(jobs)),
+        args=(theirs, lifeline, worker_environment(jobs), ledger, slot),
         name="hybridlog-worker",
         daemon=True,
     )
     process.start()
     theirs.close()
-    return _Worker(process, ours)
+    return _Worker(process, ours, slot)
 
 
 def _death(process: ForkServerProcess) -> str:
@@ -418,7 +449,9 @@ class WorkerPool:
     Parameters
     ----------
     jobs:
-        Number of worker processes.
+        Number of worker processes.  Their tasks reserve memory in the pool's
+        :attr:`ledger` (:func:`hybridlog.memory.reserved`), so that the logs the workers run
+        at once are checked together against the memory available.
     clean_up:
         Called when the pool is left, once every worker has ended, with the process ids of
         all the workers it started and ``SIGINT``, ``SIGTERM`` and ``SIGHUP`` held
@@ -435,6 +468,8 @@ class WorkerPool:
         self._started: list[int] = []
         # only this process holds the writing end: the workers' reading ends close with it
         self._lifeline, self._lifeline_writer = self._context.Pipe(duplex=False)
+        # each log's memory is checked beside what the other workers' logs hold
+        self.ledger = MemoryLedger(jobs)
 
     def __enter__(self) -> WorkerPool:
         start_forkserver()
@@ -453,6 +488,7 @@ class WorkerPool:
             self._workers = []
             self._lifeline_writer.close()
             self._lifeline.close()
+            self.ledger.close()
             if self._clean_up is not None:
                 self._clean_up(self._started)
 
@@ -498,16 +534,20 @@ class WorkerPool:
 
         while pending or any(w.tasks for w in workers):
             while pending and len(workers) < self.jobs:
-                workers.append(_start(self._context, self._lifeline, self.jobs))
+                slot = min(set(range(self.jobs)) - {w.slot for w in workers})
+                workers.append(_start(self._context, self._lifeline, self.jobs, self.ledger, slot))
                 if workers[-1].process.pid is not None:  # set once started
                     self._started.append(workers[-1].process.pid)
-            for worker in workers:
-                # QUEUED tasks per worker, so that it never waits for this process between two
-                while pending and len(worker.tasks) < QUEUED:
-                    worker.tasks.append(pending.popleft())
-                    # A worker that died is found below through its sentinel.
-                    with contextlib.suppress(OSError, ValueError):
-                        worker.connection.send((function, tasks[worker.tasks[-1]]))
+            # QUEUED tasks per worker, so that it never waits for this process between two;
+            # dealt one round at a time: filled one worker after the other, the first took
+            # both logs of a two-log batch and the second none
+            for depth in range(1, QUEUED + 1):
+                for worker in workers:
+                    if pending and len(worker.tasks) < depth:
+                        worker.tasks.append(pending.popleft())
+                        # A worker that died is found below through its sentinel.
+                        with contextlib.suppress(OSError, ValueError):
+                            worker.connection.send((function, tasks[worker.tasks[-1]]))
             busy = [w for w in workers if w.tasks]
             ready = set(wait([w.connection for w in busy] + [w.process.sentinel for w in busy]))
             for worker in busy:
@@ -524,6 +564,7 @@ class WorkerPool:
                     # ones queued behind it never started and go to another worker
                     index = worker.tasks.popleft()
                     finish(index, died(index, _death(worker.process)))
+                    self.ledger.release(worker.slot)  # what it held died with it
                     pending.extendleft(reversed(worker.tasks))
                     worker.tasks.clear()
                     workers.remove(worker)

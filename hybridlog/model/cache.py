@@ -46,9 +46,9 @@ from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.compiled import (
     _framed,
     _intact,
-    _write_once,
     cache_dir,
     model_key,
+    store,
 )
 from hybridlog.model.hybrid_model import (
     BooleanAffine,
@@ -141,8 +141,7 @@ def cached_model(
     model = parse_model(text, origin=origin, parameters=overrides)
     body = _encode(model)
     if body is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        _write_once(path, _framed(KIND, key, body), replace=path.exists())
+        store(path, _framed(KIND, key, body), replace=path.exists())
     return model
 
 

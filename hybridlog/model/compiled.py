@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hybridlog.errors import OutputError
 from hybridlog.model.keys import known_key, remember_key, sympy_release
 from hybridlog.signals import FloatArray
 
@@ -93,8 +94,32 @@ def cache_dir() -> Path:
     override = os.environ.get("HYBRIDLOG_CACHE_DIR")
     if override:
         return Path(override)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    try:
+        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    except RuntimeError as err:  # no HOME and a user the system does not know
+        raise OutputError(
+            f"no cache folder: {str(err).rstrip('.')}; set HYBRIDLOG_CACHE_DIR to a writable folder"
+        ) from err
     return Path(base) / "hybridlog"
+
+
+def store(path: Path, text: str, *, replace: bool) -> None:
+    """Write ``text`` into the cache at ``path`` (:func:`_write_once`), its folder made first.
+
+    Raises
+    ------
+    OutputError
+        When the cache folder cannot be written (a read-only or full home, a file in its
+        place): one line naming it and what to set, not the system's exception.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        _write_once(path, text, replace=replace)
+    except OSError as err:
+        raise OutputError(
+            f"cache folder {cache_dir()}: cannot write {path.name} ({err.strerror or err}); "
+            "set HYBRIDLOG_CACHE_DIR to a writable folder"
+        ) from err
 
 
 def _sympy_text(expression: Any) -> str:
@@ -290,8 +315,7 @@ def load_generated(
         except (FileNotFoundError, UnicodeDecodeError):
             text = ""
         if not _intact(kind, key, text):
-            path.parent.mkdir(parents=True, exist_ok=True)
-            _write_once(path, _framed(kind, key, generate()), replace=path.exists())
+            store(path, _framed(kind, key, generate()), replace=path.exists())
         name = f"hybridlog_generated_{kind}_{key}"
         spec = importlib.util.spec_from_file_location(name, path)
         if spec is None or spec.loader is None:  # pragma: no cover - the file exists

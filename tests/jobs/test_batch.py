@@ -37,6 +37,11 @@ from tests.support.processes import descendants, is_worker, kill_and_expect_the_
 
 TANK = "three_tank_hstf"
 
+RECORDS = [f".summary.{kind}{MARKER}" for kind in ("csv", "md", "png")]
+"""The records a batch keeps of the summaries it wrote (a user's edits are not overwritten)."""
+
+SUMMARIES = ["summary.csv", "summary.md", "summary.png"]
+
 
 class _Main:
     """Click-runner adapter for ``main`` so the error → exit-code mapping is exercised."""
@@ -267,7 +272,7 @@ def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.M
     text = (out / "summary.md").read_text()
     assert "## Failed logs (2 of 4)" in text and "KeyError: 'reader bug" in text
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        [MARKER, "s1.csv", "s10.csv", "s2.csv", "summary.csv", "summary.md", "summary.png"]
+        [MARKER, *RECORDS, "s1.csv", "s10.csv", "s2.csv", *SUMMARIES]
     )
 
 
@@ -334,8 +339,9 @@ def test_workers_die_with_a_killed_batch_and_the_next_run_cleans_up(tmp_path: Pa
     outcome = run_batch(logs, TANK, out_dir=out, estimator="imm")
     for log in outcome.logs:
         assert log.status == ("skipped" if Path(log.folder).name in finished else "done")
-    # Temporaries the killed workers left are gone; only the batch folder's marker is hidden.
-    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [MARKER]
+    # Temporaries the killed workers left are gone; only the batch folder's marker and the
+    # records of its summaries are hidden.
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [MARKER, *RECORDS]
 
 
 PARENT_RUNNER = """

@@ -324,7 +324,7 @@ REFUSED: list[tuple[str, Callable[[Path, bool], object], str]] = [
     (
         "analyze --out is a link to a folder",
         lambda ws, f: analyze(ws / "bag", TANK, out_dir=ws / "plink", force=f),
-        "not a directory",
+        "is a symbolic link",
     ),
 ]
 
@@ -814,3 +814,69 @@ def test_force_never_replaces_a_report_folder_whose_files_the_user_edited(tmp_pa
     analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # nothing of the user's
     analyze(log, TANK, out_dir=out, estimator="imm", force=True)  # its own, unchanged
     assert (out / "report.md").is_file()
+
+
+@pytest.mark.parametrize("out", [".", "/", "..", "runs/..", "./"])
+def test_a_centres_file_named_without_a_file_name_is_refused(tmp_path: Path, out: str) -> None:
+    # cluster --out . (or /) failed with an unexpected ValueError making the plot's name
+    log = SAMPLE_LOGS / "double_cart_case1.csv"
+    with pytest.raises(OptionError, match=r"the centres file is JSON; name it \*\.json$"):
+        cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
+
+
+def test_an_output_folder_that_is_a_link_is_refused_saying_so(tmp_path: Path) -> None:
+    # a link to a folder, to a file or to nothing was "exists and is not a directory"
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("mine")
+    for pointed, what in (("folder", "a folder"), ("file", "a file"), ("nowhere", "nothing")):
+        link = tmp_path / f"to_{pointed}"
+        link.symlink_to(tmp_path / pointed)
+        for force in (False, True):
+            with pytest.raises(OutputError) as raised:
+                check_dir_target(link, force=force)
+            assert str(raised.value) == (
+                f"output path {link} is a symbolic link (to '{tmp_path / pointed}', {what}), "
+                "which hybridlog does not write through; name the folder itself or another path"
+            )
+        assert link.is_symlink() and os.readlink(link) == str(tmp_path / pointed)
+    assert (tmp_path / "file").read_text() == "mine"
+
+
+def test_a_batch_never_writes_into_another_commands_output_folder(tmp_path: Path) -> None:
+    # batch --out <an analyze report> put its folders and summaries in among the report's
+    # files, without --force and without a word
+    log = SAMPLE_LOGS / "three_tank_hstf.csv"
+    for kind, make in (
+        ("analyze", lambda out: analyze(log, TANK, out_dir=out, estimator="imm")),
+        ("compare", lambda out: compare(log, TANK, ["imm"], out_dir=out)),
+    ):
+        out = tmp_path / kind
+        make(out)
+        before = tree(out)
+        for force in (False, True):
+            with pytest.raises(OutputError, match="is the output of another hybridlog command"):
+                run_batch([log], TANK, out_dir=out, estimator="imm", force=force)
+            assert tree(out) == before
+
+
+def test_a_batch_does_not_overwrite_a_summary_the_user_changed(tmp_path: Path) -> None:
+    # every run rewrote summary.md/.csv/.png: notes added to summary.md were gone at the next
+    log = SAMPLE_LOGS / "three_tank_hstf.csv"
+    out = tmp_path / "nightly"
+    run_batch([log], TANK, out_dir=out, estimator="imm")
+    run_batch([log], TANK, out_dir=out, estimator="imm")  # its own summaries: rewritten
+    for name in ("summary.md", "summary.csv"):
+        summary = out / name
+        with summary.open("a", encoding="utf-8") as file:
+            file.write("my notes\n")
+        before = tree(out)
+        for force in (False, True):
+            with pytest.raises(OutputError, match=f"{name} changed since a batch wrote it"):
+                run_batch([log], TANK, out_dir=out, estimator="imm", force=force)
+            assert tree(out) == before
+        summary.unlink()
+    run_batch([log], TANK, out_dir=out, estimator="imm")
+    # a batch folder of an older version (summaries without records) is still the batch's
+    for record in out.glob(".summary.*.hybridlog"):
+        record.unlink()
+    run_batch([log], TANK, out_dir=out, estimator="imm")

@@ -67,6 +67,19 @@ def test_workers_start_warm_from_a_single_threaded_forkserver_without_polars() -
         assert facts["forkserver_threads"] == 1
 
 
+def _pid(_: int) -> int:
+    return os.getpid()
+
+
+def test_as_many_tasks_as_workers_run_in_different_workers() -> None:
+    # the first worker was given QUEUED tasks before the next got any: a batch of two logs
+    # with --jobs 2 ran both in one worker, one after the other
+    for jobs in (2, 3):
+        with WorkerPool(jobs) as pool:
+            pids = pool.run(_pid, [(k,) for k in range(jobs)], died=_died)
+        assert len(set(pids)) == jobs, pids
+
+
 def test_a_worker_killed_mid_task_is_replaced_by_a_warm_one() -> None:
     with WorkerPool(1) as pool:
         results = pool.run(_facts_or_die, [(k,) for k in range(4)], died=_died)
@@ -288,3 +301,27 @@ def test_a_stopped_worker_ends_silently_whatever_its_task_raises(tmp_path: Path)
     )
     assert (done.stdout, done.stderr) == ("interrupted\n", "")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_temporary_folder_too_long_for_the_workers_socket_is_one_line(tmp_path: Path) -> None:
+    # the forkserver's socket goes in TMPDIR: a long path was a traceback and exit code 1
+    from tests.support.paths import ROOT, SAMPLE_LOGS
+
+    long = tmp_path / ("t" * 120)
+    long.mkdir()
+    logs = [str(SAMPLE_LOGS / name) for name in ("three_tank_hstf.csv", "ice_clutch.csv")]
+    done = subprocess.run(
+        [sys.executable, "-m", "hybridlog", "batch", *logs, "--model", "three_tank_hstf",
+         "--out", str(tmp_path / "out"), "--jobs", "2"],
+        cwd=ROOT, capture_output=True, text=True, timeout=120,
+        env={**os.environ, "TMPDIR": str(long)},
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert (
+        done.stderr.startswith(
+            "hybridlog: error: --jobs: cannot start the worker processes: AF_UNIX path too long"
+        )
+        and done.stderr.count("\n") == 1
+    ), done.stderr
+    assert "set TMPDIR to a shorter writable folder, or use --jobs 1" in done.stderr
+    assert not (tmp_path / "out").exists()

@@ -1,0 +1,80 @@
+"""Arguments a careless or hostile user gives: one line naming what is wrong, exit 2.
+
+Checked for every command at once, from click's own description of the commands: the
+parsing refuses before any work, so these cost no start-up of a job.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import click
+import pytest
+
+from hybridlog.cli import cli
+
+Main = Callable[[list[str]], tuple[int, str]]
+
+
+def _options(command: click.Command) -> list[click.Option]:
+    ctx = click.Context(command)
+    return [p for p in command.get_params(ctx) if isinstance(p, click.Option)]
+
+
+def _once_only(option: click.Option) -> bool:
+    """An option whose second occurrence would replace the first."""
+    plain_switch = option.is_flag and not option.secondary_opts
+    return not (option.multiple or option.count or plain_switch or option.is_eager)
+
+
+def test_an_option_of_one_value_given_twice_is_refused_in_every_command(
+    hybridlog_main: Main, tmp_path: Path
+) -> None:
+    # click kept the last of --out a --out b, --model A --model B, --exact --approximate
+    checked = 0
+    for name, command in cli.commands.items():
+        for option in filter(_once_only, _options(command)):
+            first = option.opts[0]
+            second = option.secondary_opts[0] if option.secondary_opts else first
+            if option.is_flag:
+                given = [first, second]
+            else:
+                value = "1" if not isinstance(option.type, click.Choice) else option.type.choices[0]
+                given = [first, str(value), second, str(value)]
+            code, err = hybridlog_main([name, str(tmp_path / "log.csv"), *given])
+            hint = "/".join([*option.opts, *option.secondary_opts])
+            assert code == 2, (name, given, err)
+            assert err == (
+                f"hybridlog {name}: {hint}: given twice; give it once "
+                f"(see hybridlog {name} --help)\n"
+            ), (name, given)
+            checked += 1
+    assert checked > 40
+    # repeatable options and plain switches repeated are taken
+    code, err = hybridlog_main(["models", "--quiet", "--quiet"])
+    assert code == 0 and err == ""
+
+
+@pytest.mark.parametrize(
+    ("args", "hint"),
+    [
+        (["analyze", "", "--model", "three_tank_hstf"], "LOG"),
+        (["analyze", "log.csv", "--model", "three_tank_hstf", "--out", ""], "--out"),
+        (["analyze", "log.csv", "--model", ""], "--model"),
+        (["batch", "log.csv", "", "--model", "m", "--out", "o"], "LOGS"),
+        (["cluster", "log.csv", "--model", "m", "--out", ""], "--out"),
+        (["cluster", "log.csv", "--model", "m", "--plot", ""], "--plot"),
+        (["compare", "log.csv", "--model", "m", "--estimators", "imm", "--out", ""], "--out"),
+        (["inspect", ""], "LOG"),
+        (["simulate", "", "--out", "x.csv"], "MODEL"),
+        (["analyze", "log.csv", "--model", "m", "--msg-dir", ""], "--msg-dir"),
+    ],
+)
+def test_an_empty_name_is_refused_not_read_as_the_working_folder(
+    hybridlog_main: Main, args: list[str], hint: str
+) -> None:
+    # pathlib reads "" as ".": --out "" was the working folder, analyze "" the log "."
+    code, err = hybridlog_main(args)
+    command = f"hybridlog {args[0]}"
+    assert (code, err) == (2, f"{command}: {hint}: an empty name (see {command} --help)\n")
