@@ -50,6 +50,7 @@ from hybridlog.report.plot_data import (
     ModeTimelines,
     PlotData,
     pixel_columns,
+    plain_text,
     reduce_result,
 )
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
@@ -328,7 +329,7 @@ def plot_outputs(data: PlotData, path: Path) -> Path:
         return _save(fig, path)
     set_time_span(axes[0], data.span)
     for ax, curves in zip(axes, data.outputs, strict=True):
-        y = curves.name
+        y = plain_text(curves.name)
         draw_curve(ax, curves.measured, lw=0.8, color="0.3", label=f"{y} measured")
         draw_curve(ax, curves.predicted, lw=0.8, color="tab:blue", ls="--", label=f"{y} predicted")
         ax.set_ylabel(y)
@@ -373,7 +374,7 @@ def plot_modes(data: PlotData, path: Path) -> Path:
         _empty(fig, ax_mode, "no samples")
         _empty(fig, ax_prob, "no samples")
         return _save(fig, path)
-    ids = list(modes.mode_ids)
+    ids = [plain_text(m) for m in modes.mode_ids]
     set_time_span(ax_mode, data.span)
     n_modes, edges = len(ids), data.edges
     if modes.truth is not None:
@@ -424,7 +425,7 @@ def plot_states(data: PlotData, path: Path) -> Path:
         draw_curve(ax, curves.estimate, lw=0.8, color="tab:blue", label=data.state_label)
         if curves.filtered is not None:
             draw_curve(ax, curves.filtered, lw=0.5, ls="--", color="k", label="filtered")
-        ax.set_ylabel(curves.name)
+        ax.set_ylabel(plain_text(curves.name))
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
     return _save(fig, path)
@@ -475,9 +476,9 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
                 labelled.add(legend)
         if column.filtered is not None:
             _draw_bars(ax, data.edges, column.filtered, height=0.08, color="k", label="filtered")
-        ax.set_yticks(range(n_labels), column.labels)
+        ax.set_yticks(range(n_labels), [plain_text(label) for label in column.labels])
         ax.set_ylim(-0.5, n_labels - 0.5)
-        ax.set_ylabel(column.name)
+        ax.set_ylabel(plain_text(column.name))
         if column.truth is not None or column.filtered is not None:
             ax.legend(loc="upper right", fontsize="x-small")
     joint = axes[-1]
@@ -487,7 +488,7 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
             joint, data.edges, components.joint_filtered, height=0.08, color="k", label="filtered"
         )
         joint.legend(loc="upper right", fontsize="x-small")
-    joint.set_yticks(range(len(visited)), list(visited), fontsize="x-small")
+    joint.set_yticks(range(len(visited)), [plain_text(v) for v in visited], fontsize="x-small")
     joint.set_ylim(-0.5, len(visited) - 0.5)
     joint.set_ylabel("joint")
     joint.set_xlabel("t (s)")

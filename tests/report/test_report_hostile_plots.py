@@ -1,0 +1,87 @@
+"""Plots of runs whose names a hostile user chose: text is drawn as it is, never as mathtext."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hybridlog.estimators.result import EstimationResult
+from hybridlog.report.plot_data import plain_text
+from hybridlog.signals import AlignedSignals
+
+from .test_report_files import make_run
+
+#: Mode ids (model files allow any printable text) that matplotlib took for mathtext: drawn
+#: as other text, or refused by its parser while the figure was saved.
+MATHTEXT_IDS = [
+    ("$x_1$", "a_b^c", "plain"),
+    (r"$\frac$", r"$\undefinedcmd{$", "c"),
+    ("$", "$$", r"\$x$"),
+    ("$^$", "${}$", r"a\$b$c$"),
+]
+
+
+@given(st.text(alphabet=st.sampled_from("$\\^_{}ab x1"), max_size=12) | st.text(max_size=12))
+@settings(max_examples=300, deadline=None)
+def test_plain_text_is_shown_as_it_is(text: str) -> None:
+    from matplotlib.text import Text
+
+    label = Text(text=plain_text(text))
+    shown, math = label._preprocess_math(label.get_text())
+    assert (shown, math) == (text, False)
+
+
+def _run_with_modes(ids: tuple[str, str, str]) -> tuple[EstimationResult, AlignedSignals]:
+    result, signals = make_run(300)
+    return dataclasses.replace(result, mode_ids=ids), signals
+
+
+@pytest.mark.parametrize("ids", MATHTEXT_IDS, ids=lambda ids: "|".join(ids))
+def test_mode_ids_with_dollars_are_drawn_as_written(
+    ids: tuple[str, str, str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from matplotlib.figure import Figure
+
+    from hybridlog.report import plots
+
+    drawn: list[str] = []
+    save = plots._save
+
+    def texts_then_save(fig: Figure, path: Path) -> Path:
+        drawn.extend(t.get_text() for ax in fig.axes for t in ax.get_yticklabels())
+        drawn.extend(
+            t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
+        )
+        return save(fig, path)
+
+    monkeypatch.setattr(plots, "_save", texts_then_save)
+    result, signals = _run_with_modes(ids)
+    written = plots.write_plots(tmp_path, result, signals)
+    assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
+    for mode in ids:
+        assert plain_text(mode) in drawn
+        assert f"p({plain_text(mode)})" in drawn
+
+
+def test_a_batch_summary_of_a_model_named_in_mathtext_is_drawn(tmp_path: Path) -> None:
+    from hybridlog.report.summary import BatchRow
+    from hybridlog.report.summary_plot import summary_figure, write_summary_plot
+
+    rows = [
+        BatchRow(
+            log=f"run_${k}$.csv", folder=rf"run_$\frac{k}$", status="failed", report=None, error="x"
+        )
+        for k in range(3)
+    ]
+    title = r"$\undefinedcmd{$ · imm"
+    write_summary_plot(tmp_path / "summary.png", title, rows)
+    fig = summary_figure(title, rows)
+    assert fig.get_suptitle().startswith(plain_text(title))
+    shown = [t.get_text() for t in fig.axes[-1].get_xticklabels()]
+    assert shown == [plain_text(rf"run_$\frac{k}$") for k in range(3)]
+    assert np.all([not t._preprocess_math(t.get_text())[1] for t in fig.axes[-1].get_xticklabels()])
