@@ -218,6 +218,7 @@ def render_markdown(report: Report) -> str:
         lines += ["", "## States", "", *_offline_caveat(report, "states")]
         lines += ["| state | RMSE |", "|---|---:|"]
         lines += [f"| {escape_markdown(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
+        lines += _state_caveats(report)
     if report.smoothing is not None:
         lines += ["", *_smoothing_lines(report.smoothing)]
 
@@ -235,6 +236,24 @@ def render_markdown(report: Report) -> str:
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
     return "\n".join(lines) + "\n"
+
+
+def _state_caveats(report: Report) -> list[str]:
+    """Why a state's RMSE is n/a, and over how many samples one of a partial truth is."""
+    caveats = [
+        f"- {escape_markdown(name)} is n/a: {escape_markdown(why)}"
+        for name, why in report.null_reasons.items()
+        if name.partition(".")[0] == "state_rmse"
+        # no line per state of a log without any true state: "n/a" says it
+        and any(s.samples for s in report.states.values())
+    ]
+    caveats += [
+        f"- {escape_markdown(x)}: RMSE over {s.samples:,} of {report.samples:,} samples; the "
+        "others have no true value or no finite estimate of it"
+        for x, s in report.states.items()
+        if s.samples and s.samples < report.samples
+    ]
+    return ["", *caveats] if caveats else []
 
 
 def _change(before: float | int | None, after: float | int | None, spec: str) -> str:

@@ -1182,6 +1182,17 @@ class StateAccumulator:
         mean_squares = [math.nan if p is None else p.mean_square for p in parts]
         return np.sqrt(np.array(mean_squares, dtype=np.float64))
 
+    def samples(self) -> tuple[int, ...]:
+        """Rows the RMSE of each state is over so far: where estimate and truth are finite.
+
+        Returns
+        -------
+        tuple of int
+            One count per state; 0 for a state without a usable row (RMSE NaN).
+
+        """
+        return tuple(0 if p is None else p.rows for p in self._columns.parts())
+
 
 def state_rmse(state_means: npt.ArrayLike, truth_states: npt.ArrayLike) -> FloatArray:
     r"""Root mean square state error per state.
