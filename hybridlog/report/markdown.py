@@ -232,7 +232,7 @@ def render_markdown(report: Report) -> str:
         lines.append(f"- compilation: {duration(report.compile_s)}")
     if report.notes:
         lines += ["", "## Notes", ""]
-        lines += [f"- {note}" for note in report.notes]
+        lines += [f"- {escape_markdown(note)}" for note in report.notes]
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
     return "\n".join(lines) + "\n"
