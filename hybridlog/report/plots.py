@@ -272,9 +272,11 @@ LABEL_PADS_IN = 0.25
 def _fit_labels_left(fig: Figure, axes: Sequence[Axes]) -> None:
     """Widen the figure's left margin to the widest y tick label and y label of ``axes``.
 
-    For figures of mode bars only (no curve reduced to the pixel columns, whose count the
-    panels' width fixes): a component's modes (``one_bank_out``) and the joint assignments
-    (``partly_open|partly_open|closed|closed|full|growth``) were cut off at the fixed margin.
+    For figures of mode bars and curves of a few values per pixel column (a curve reduced
+    to the fixed panel width's pixel columns then has bins finer than the narrower panel's,
+    which it draws as faithfully): a component's modes (``one_bank_out``), the joint
+    assignments (``partly_open|partly_open|closed|closed|full|growth``) and long mode ids
+    were cut off at the fixed margin.
     Text is measured by the Agg renderer, without a layout pass; the margin is at most half
     the width.
     """
@@ -400,6 +402,10 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     ax_prob.set_ylabel("probability")
     ax_prob.set_xlabel("t (s)")
     ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, 6))
+    # Long mode ids were cut off at the fixed margin.  The probabilities' bins, cut for the
+    # fixed panel width, are then finer than the narrower panel's pixel columns: each column
+    # still shows every extreme of its samples.
+    _fit_labels_left(fig, [ax_mode, ax_prob])
     return _save(fig, path)
 
 

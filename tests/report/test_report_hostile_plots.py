@@ -85,3 +85,34 @@ def test_a_batch_summary_of_a_model_named_in_mathtext_is_drawn(tmp_path: Path) -
     shown = [t.get_text() for t in fig.axes[-1].get_xticklabels()]
     assert shown == [plain_text(rf"run_$\frac{k}$") for k in range(3)]
     assert np.all([not t._preprocess_math(t.get_text())[1] for t in fig.axes[-1].get_xticklabels()])
+
+
+@pytest.mark.parametrize("width", [1, 16, 32])
+def test_every_mode_id_is_inside_the_modes_figure(
+    width: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Long mode ids were cut off at the fixed margin (up to half the figure now fits)."""
+    from matplotlib.figure import Figure
+
+    from hybridlog.report import plots
+
+    lefts: list[float] = []
+    save = plots._save
+
+    def measured_then_save(fig: Figure, path: Path) -> Path:
+        if path.name == "modes.png":
+            fig.canvas.draw()  # labels placed as in the PNG
+            renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+            for ax in fig.axes:
+                labels = [*ax.get_yticklabels(), ax.yaxis.label]
+                lefts.extend(
+                    t.get_window_extent(renderer).x0
+                    for t in labels
+                    if t.get_text() and t.get_visible()
+                )
+        return save(fig, path)
+
+    monkeypatch.setattr(plots, "_save", measured_then_save)
+    ids = ("q" * width, "m" * max(width - 1, 1) + "2", "i")
+    plots.write_plots(tmp_path, *_run_with_modes(ids))
+    assert len(lefts) >= 5 and min(lefts) >= 0.0
