@@ -116,3 +116,57 @@ def test_every_mode_id_is_inside_the_modes_figure(
     ids = ("q" * width, "m" * max(width - 1, 1) + "2", "i")
     plots.write_plots(tmp_path, *_run_with_modes(ids))
     assert len(lefts) >= 5 and min(lefts) >= 0.0
+
+
+def _extreme(case: str) -> tuple[EstimationResult, AlignedSignals]:
+    result, signals = make_run(300)
+    means, variances = result.state_means.copy(), result.state_variances.copy()
+    predicted, truth = result.output_predictions.copy(), signals.truth_states.copy()  # type: ignore[union-attr]
+    sign = np.where(np.arange(300) % 2, 1.0, -1.0)
+    if case == "diverged":  # finite, but the range of a panel overflows float64
+        means[:, 0] = 1.7e308 * sign
+        variances[:, 0] = 1.7e308
+        predicted[1:, 0] = 1e308 * sign[1:]
+    elif case == "subnormal":
+        means[:, 0] = 1e-310 * np.arange(300)
+        variances[:, 0] = 1e-320
+        predicted[1:, 0] = 5e-324 * sign[1:]
+    elif case == "constant":
+        means[:, 0] = truth[:, 0] = 3.0
+        variances[:, 0] = 0.0
+        predicted[1:, 0] = 7.0
+    else:  # far apart: 1e300 against 1e-300
+        means[:, 0] = 1e300
+        truth[:, 0] = 1e-300
+    return (
+        dataclasses.replace(
+            result, state_means=means, state_variances=variances, output_predictions=predicted
+        ),
+        dataclasses.replace(signals, truth_states=truth),
+    )
+
+
+@pytest.mark.parametrize(
+    ("case", "unit"),
+    [("diverged", " (×1e308)"), ("subnormal", ""), ("constant", ""), ("apart", "")],
+)
+def test_extreme_values_are_drawn_in_a_unit_that_keeps_the_axes_finite(
+    case: str, unit: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Values near ±1.8e308 overflowed matplotlib's autoscaling (a RuntimeWarning: no report)."""
+    from matplotlib.figure import Figure
+
+    from hybridlog.report import plots
+
+    labels: dict[str, list[str]] = {}
+    save = plots._save
+
+    def labelled_then_save(fig: Figure, path: Path) -> Path:
+        labels[path.name] = [ax.get_ylabel() for ax in fig.axes]
+        return save(fig, path)
+
+    monkeypatch.setattr(plots, "_save", labelled_then_save)
+    plots.write_plots(tmp_path, *_extreme(case))
+    assert labels["states.png"][0] == f"x1{unit}"
+    assert labels["outputs.png"][0] == f"y1{unit}"
+    assert labels["states.png"][1:] == ["x2", "x3"]
