@@ -170,3 +170,24 @@ def test_extreme_values_are_drawn_in_a_unit_that_keeps_the_axes_finite(
     assert labels["states.png"][0] == f"x1{unit}"
     assert labels["outputs.png"][0] == f"y1{unit}"
     assert labels["states.png"][1:] == ["x2", "x3"]
+
+
+def test_the_cluster_plot_draws_mode_ids_as_written(tmp_path: Path) -> None:
+    """``hybridlog cluster``'s picture (jobs/cluster_plot.py) quotes the modes too."""
+    from hybridlog.jobs.cluster_plot import plot_clusters
+
+    rng = np.random.default_rng(1)
+    phi = rng.normal(size=(60, 2))
+    modes = (r"$\undefinedcmd{$", "$x_1$")
+    written = plot_clusters(
+        tmp_path / "clusters.png",
+        time=np.arange(60.0),
+        phi=phi,
+        names=("y(k)", "y(k-1)"),
+        clusters=np.arange(60) % 2,
+        centers=phi[:2],
+        cluster_modes=modes,
+        decision_values=np.array([0.5, 1.5]),
+        truth=[modes[k % 2] for k in range(60)],
+    )
+    assert written.stat().st_size > 0
