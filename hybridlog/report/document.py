@@ -120,8 +120,8 @@ class StateReport:
         Root mean square error over ``samples`` rows; ``None`` where undefined (no truth, or
         a diverged estimate: the report's :attr:`~Report.null_reasons` says why).
     samples:
-        Rows the RMSE is over: where both the true state and its estimate are finite (a
-        log's true state may cover only part of the run); ``None`` in reports of versions
+        Rows the RMSE is over: where the true state is finite and its estimate is not NaN
+        (a log's true state may cover only part of the run); ``None`` in reports of versions
         that did not record it.
 
     """
