@@ -62,3 +62,23 @@ def test_a_note_in_report_md_and_comparison_md_shows_the_text_it_was_given(note:
 @settings(max_examples=100, deadline=None)
 def test_any_note_shows_the_text_it_was_given(note: str) -> None:
     assert _notes_shown(render_markdown(_report((note,)))) == [note]
+
+
+#: Text that opens a block where it starts a line: a heading, a list, a rule.
+BLOCK_STARTS = ["# 0", "###### h", "- a", "+ b", "1. x", "12) y", "---", "= x", "-", "2."]
+
+
+@pytest.mark.parametrize("start", BLOCK_STARTS)
+def test_text_that_starts_a_list_item_stays_its_text(start: str) -> None:
+    """A note ``# 0`` was a heading inside report.md's Notes, a log ``1. run.csv`` an
+    ordered list inside summary.md's failed logs."""
+    from hybridlog.report.summary import BatchRow, batch_markdown
+
+    assert _notes_shown(render_markdown(_report((start,)))) == [start]
+    failed = BatchRow(log=start, folder="f", status="failed", report=None, error=start)
+    _, summary = batch_markdown("m · imm", [failed], [])
+    tokens = PARSER.parse(summary)
+    heading = next(i for i, t in enumerate(tokens) if t.content.startswith("Failed logs"))
+    (item,) = [t for t in tokens[heading:] if t.type == "inline"][1:]
+    assert {child.type for child in item.children or []} <= {"text"}
+    assert "".join(child.content for child in item.children or []) == f"{start}: {start}"
