@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from hybridlog.report.plot_data import plain_text
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters"]
@@ -94,7 +95,7 @@ def plot_clusters(
     of_group = np.asarray(group, dtype=np.int64)[clusters]
     for g, (colour, label) in enumerate(zip(colours, labels, strict=True)):
         chosen = np.flatnonzero(of_group == g)[::step]
-        left.scatter(phi[chosen, 0], phi[chosen, other], s=4, color=colour, label=label)
+        left.scatter(phi[chosen, 0], phi[chosen, other], s=4, color=colour, label=plain_text(label))
         right.scatter(time[chosen], phi[chosen, 0], s=3, color=colour)
     few = len(centers) <= MAX_CLUSTER_COLOURS
     for c, value in enumerate(np.asarray(decision_values, dtype=float)):
@@ -134,6 +135,6 @@ def plot_clusters(
         ids = sorted(set(truth))
         twin = right.twinx()
         twin.step(time, [ids.index(m) for m in truth], where="post", color="grey", lw=0.8)
-        twin.set_yticks(range(len(ids)), [f"true {m}" for m in ids])
+        twin.set_yticks(range(len(ids)), [plain_text(f"true {m}") for m in ids])
     fig.savefig(path, dpi=100)
     return path

@@ -360,9 +360,6 @@ class ReportBuilder:
             raise ValueError(f"{self._rows} of the run's {signals.n_samples} rows were taken")
         n = signals.n_samples
         per_output = dict(zip(first.output_names, self._outputs.result(), strict=True))
-        rmse = np.full(len(first.state_names), np.nan)
-        if self._states is not None:
-            rmse = self._states.result()
         runtime = float(last.runtime_s)
         ids = tuple(str(m) for m in first.mode_ids)
         modes = _modes(ids, signals.time, self._modes, signals.truth_modes, self._dt)
@@ -372,10 +369,7 @@ class ReportBuilder:
             modes = dataclasses.replace(
                 modes, components=components, accuracy=None if joint is None else _num(joint)
             )
-        states = {
-            x: StateReport(rmse=_num(float(r)))
-            for x, r in zip(first.state_names, rmse, strict=True)
-        }
+        states = _state_reports(first.state_names, self._states)
         means = {
             name: _num(metrics.mean_where_defined([getattr(m, name) for m in per_output.values()]))
             for name in ("mse", "vaf", "fit")
@@ -411,7 +405,7 @@ class ReportBuilder:
                 None
                 if self._offline is None
                 else self._offline.smoothing(
-                    first, signals, self._modes, rmse, self._components, self._dt
+                    first, signals, self._modes, states, self._components, self._dt
                 )
             ),
             reading=None if reading is None else _json_object(reading),
@@ -481,12 +475,24 @@ def build_report(
     return builder.report(model_name=model_name, reading=reading, extra=extra)
 
 
+def _state_reports(
+    names: tuple[str, ...], accumulator: metrics.StateAccumulator | None
+) -> dict[str, StateReport]:
+    """Each state's RMSE and the rows it is over (``accumulator``: ``None`` without truth)."""
+    if accumulator is None:
+        return {x: StateReport(rmse=None, samples=0) for x in names}
+    rmse, samples = accumulator.result(), accumulator.samples()
+    return {
+        x: StateReport(rmse=_num(float(r)), samples=k)
+        for x, r, k in zip(names, rmse, samples, strict=True)
+    }
+
+
 def _side(
     ids: tuple[str, ...],
     signals: AlignedSignals,
     modes: IntArray,
-    rmse: FloatArray,
-    state_names: tuple[str, ...],
+    states: Mapping[str, StateReport],
     output_names: tuple[str, ...],
     explained: metrics.OutputAccumulator | None,
     component_accuracy: float | None = None,
@@ -494,14 +500,13 @@ def _side(
 ) -> SmoothingMetrics:
     """The metrics of one side (filtered or offline) of a run with an offline pass.
 
-    ``modes`` of every sample, ``rmse`` per state (NaN without truth), ``explained`` the
+    ``modes`` of every sample, ``states`` the RMSE of each state, ``explained`` the
     errors of the outputs its estimates explain, accumulated over the run (``None``: not
     evaluated).  ``component_accuracy``: for a ``[components]`` model, the fraction of
     samples where this side has every component's mode right (the log's truth is per
     component, so it is the side's mode accuracy; its switches are not scored jointly),
     ``components`` the side's report of each component with a true mode.
     """
-    states = {x: StateReport(rmse=_num(float(r))) for x, r in zip(state_names, rmse, strict=True)}
     outputs: dict[str, OutputReport] | None = None
     fit: float | None = None
     if explained is not None:
@@ -620,22 +625,17 @@ class _OfflineSides:
         first: EstimationResult,
         signals: AlignedSignals,
         modes: IntArray,
-        rmse: FloatArray,
+        states: Mapping[str, StateReport],
         components: _ComponentModes,
         dt: float,
     ) -> Smoothing:
         """Both sides' metrics.
 
-        ``modes``, ``rmse`` and ``components`` (each component's modes) are the report's
+        ``modes``, ``states`` and ``components`` (each component's modes) are the report's
         own (the offline ones).
         """
         ids = tuple(str(m) for m in first.mode_ids)
-        names = (first.state_names, first.output_names)
-        filtered_rmse = (
-            np.full(len(first.state_names), np.nan)
-            if self._filtered_states is None
-            else self._filtered_states.result()
-        )
+        filtered_states = _state_reports(first.state_names, self._filtered_states)
         method, mode_sequence, description = self._how
         return Smoothing(
             method=method,
@@ -645,8 +645,8 @@ class _OfflineSides:
                 ids,
                 signals,
                 self._filtered_modes,
-                filtered_rmse,
-                *names,
+                filtered_states,
+                first.output_names,
                 self._explained[0],
                 self._filtered_components.joint_accuracy(),
                 self._filtered_components.reports(signals.time, dt),
@@ -655,8 +655,8 @@ class _OfflineSides:
                 ids,
                 signals,
                 modes,
-                rmse,
-                *names,
+                states,
+                first.output_names,
                 self._explained[1],
                 components.joint_accuracy(),
                 components.reports(signals.time, dt),
@@ -827,9 +827,17 @@ def _null_reasons(
             reasons[name] = "the log has no ground-truth mode"
     elif (why := _no_delay(modes)) is not None:
         reasons["detection_delay_s"] = why
-    for x, state in states.items():
-        if state.rmse is None:
-            reasons[f"state_rmse.{x}"] = f"the log has no ground truth for state {x}"
+    for j, (x, state) in enumerate(states.items()):
+        if state.rmse is not None:
+            continue
+        truth = signals.truth_states
+        if state.samples:  # finite rows whose squared errors overflowed
+            why = f"the estimate of state {x} diverged: its error overflows float64"
+        elif truth is None or not np.isfinite(truth[:, j]).any():
+            why = f"the log has no ground truth for state {x}"
+        else:
+            why = f"no sample has both a true value and a finite estimate of state {x}"
+        reasons[f"state_rmse.{x}"] = why
     if samples_per_s is None:
         reasons["samples_per_s"] = "the runtime was too short to measure"
     return reasons

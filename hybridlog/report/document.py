@@ -11,7 +11,7 @@ Keys of ``report.json``
 outputs: {<y>: {mse, vaf, fit, samples}}, mse, vaf, fit,
 modes: {labels, switches: [{t, from, to}], dwell_s: {<mode>: s}, accuracy,
 confusion: {<true mode>: {<estimated mode>: count}}, detection_delay_s, detection},
-states: {<x>: {rmse}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``, then
+states: {<x>: {rmse, samples}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``, then
 ``smoothing`` when the estimates are not the causal filter's own (``--smooth``,
 ``--mode-sequence viterbi``; absent otherwise), then ``reading`` (what reading the log did)
 when known, then any further keys (:attr:`Report.extra`).
@@ -21,18 +21,19 @@ when known, then any further keys (:attr:`Report.extra`).
 mode sequence was changed), ``mode_sequence`` is ``argmax`` or ``viterbi``, and ``filtered``
 and ``smoothed`` hold the same metrics (:class:`SmoothingMetrics`) of the causal filter's
 estimates and of the report's own: ``mode_accuracy, confusion, detection_delay_s,
-detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse}}, outputs: {<y>:
-{mse, vaf, fit, samples}}, fit``, and for a ``[components]`` model with the log's true mode
-of components ``components: {<c>: {mode_accuracy, detection_delay_s, detection_max_s,
-detected, missed}}`` (:class:`ComponentSide`; absent otherwise).  Their ``outputs`` are not
-the one-step-ahead prediction of the top-level ``outputs`` (which stays the filter's either
-way): they are
+detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse, samples}},
+outputs: {<y>: {mse, vaf, fit, samples}}, fit``, and for a ``[components]`` model with the
+log's true mode of components ``components: {<c>: {mode_accuracy, detection_delay_s,
+detection_max_s, detected, missed}}`` (:class:`ComponentSide`; absent otherwise).  Their
+``outputs`` are not the one-step-ahead prediction of the top-level ``outputs`` (which stays
+the filter's either way): they are
 ``ŷ(k) = h_q̂(k)(x̂(k), u(k))``, the outputs the estimated mode and state explain, ``null``
 when the model was not at hand to evaluate ``h``.
 
 Everything that needs ground truth is ``null`` when the log has none, and every number that
 is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` counts the rows the
-output metrics use (a measurement and a one-step-ahead prediction); ``mse``, ``vaf`` and
+output metrics use (a measurement and a one-step-ahead prediction), ``states.<x>.samples``
+those the state RMSE uses (a true state and an estimate); ``mse``, ``vaf`` and
 ``fit`` at the top are the means over the outputs where the metric is defined (``null``
 when one output's is infinite: a prediction that diverged is never left out).
 ``null_reasons`` maps gate metric names (``vaf``, ``fit.y1``, ``mode_accuracy``,
@@ -43,8 +44,8 @@ to, detected, detected_t, delay_s, miss_reason}]}``, see
 :func:`hybridlog.report.metrics.detection_delays`.
 
 Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
-``null_reasons``, ``outputs.<y>.samples`` or ``miss_reason``; they are read with ``None``
-(or empty) in their place.
+``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples`` or ``miss_reason``; they
+are read with ``None`` (or empty) in their place.
 """
 
 from __future__ import annotations
@@ -111,13 +112,26 @@ class OutputReport:
 
 @dataclass(frozen=True)
 class StateReport:
-    """Error of one state estimate: ``rmse`` against the true state (``None`` without truth)."""
+    """Error of one state estimate against the true state.
+
+    Attributes
+    ----------
+    rmse:
+        Root mean square error over ``samples`` rows; ``None`` where undefined (no truth, or
+        a diverged estimate: the report's :attr:`~Report.null_reasons` says why).
+    samples:
+        Rows the RMSE is over: where the true state is finite and its estimate is not NaN
+        (a log's true state may cover only part of the run); ``None`` in reports of versions
+        that did not record it.
+
+    """
 
     rmse: float | None
+    samples: int | None = None
 
     def to_dict(self) -> JsonObject:
-        """The JSON object ``{rmse}``."""
-        return {"rmse": self.rmse}
+        """The JSON object ``{rmse, samples}``."""
+        return {"rmse": self.rmse, "samples": self.samples}
 
 
 @dataclass(frozen=True)
@@ -749,7 +763,10 @@ class _Reader:
 
     def state(self, value: object, path: str) -> StateReport:
         data = self.mapping(value, path)
-        return StateReport(rmse=self.at(data, path, "rmse", self.optional_number))
+        return StateReport(
+            rmse=self.at(data, path, "rmse", self.optional_number),
+            samples=self.at(data, path, "samples", self.or_null(self.count), None),
+        )
 
     def switch(self, value: object, path: str) -> ModeSwitch:
         data = self.mapping(value, path)

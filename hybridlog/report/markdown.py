@@ -53,6 +53,13 @@ _CONTROL = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f]")
 """Control characters but tab and line breaks: a terminal runs ``\\x1b[31m`` as a command."""
 
 
+_BLOCK_START = re.compile(r"\A(?P<lead>\d{1,9}(?=[.)](?:[ \t]|\Z))|(?=[#+=-]))")
+"""What opens a block where the text starts a line (a note, or a failed log, in a list item):
+a heading (``# x``), a list (``- x``, ``+ x``, ``1. x``, ``1) x``), a rule (``---``) or a
+setext underline; its punctuation gets a backslash (the rest of the line is :data:`_MARKUP`'s:
+``*``, ``_``, ``>``, backticks and ``~`` are escaped wherever they are)."""
+
+
 def _controls_escaped(text: str) -> str:
     return _CONTROL.sub(lambda found: found.group().encode("unicode_escape").decode(), text)
 
@@ -64,9 +71,11 @@ def escape_markdown(text: str) -> str:
     punctuation as the character), line breaks are written ``\n``/``\r`` and other control
     characters ``\xNN`` (summary.md's table is printed on the terminal too), so that
     ``<b>*x*</b> | y.csv`` stays one table cell of plain text in report.md, summary.md and a
-    CI job summary.
+    CI job summary, and ``# 1. run.csv`` the text of a list item, not a heading
+    (:data:`_BLOCK_START`).
     """
     escaped = _MARKUP.sub(lambda found: "\\" + found.group(0), text)
+    escaped = _BLOCK_START.sub(r"\g<lead>\\", escaped, count=1)
     return _controls_escaped(escaped.replace("\r", "\\r").replace("\n", "\\n"))
 
 
@@ -218,6 +227,7 @@ def render_markdown(report: Report) -> str:
         lines += ["", "## States", "", *_offline_caveat(report, "states")]
         lines += ["| state | RMSE |", "|---|---:|"]
         lines += [f"| {escape_markdown(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
+        lines += _state_caveats(report)
     if report.smoothing is not None:
         lines += ["", *_smoothing_lines(report.smoothing)]
 
@@ -231,10 +241,28 @@ def render_markdown(report: Report) -> str:
         lines.append(f"- compilation: {duration(report.compile_s)}")
     if report.notes:
         lines += ["", "## Notes", ""]
-        lines += [f"- {note}" for note in report.notes]
+        lines += [f"- {escape_markdown(note)}" for note in report.notes]
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
     return "\n".join(lines) + "\n"
+
+
+def _state_caveats(report: Report) -> list[str]:
+    """Why a state's RMSE is n/a, and over how many samples one of a partial truth is."""
+    caveats = [
+        f"- {escape_markdown(name)} is n/a: {escape_markdown(why)}"
+        for name, why in report.null_reasons.items()
+        if name.partition(".")[0] == "state_rmse"
+        # no line per state of a log without any true state: "n/a" says it
+        and any(s.samples for s in report.states.values())
+    ]
+    caveats += [
+        f"- {escape_markdown(x)}: RMSE over {s.samples:,} of {report.samples:,} samples; the "
+        "others have no true value or no finite estimate of it"
+        for x, s in report.states.items()
+        if s.samples and s.samples < report.samples
+    ]
+    return ["", *caveats] if caveats else []
 
 
 def _change(before: float | int | None, after: float | int | None, spec: str) -> str:

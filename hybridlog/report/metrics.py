@@ -313,7 +313,7 @@ class _OutputPart:
 
     @classmethod
     def of(cls, y: FloatArray, y_hat: FloatArray, scratch: FloatArray) -> _OutputPart:
-        """The part of one block's usable rows (both finite); ``y`` and ``y_hat`` are kept."""
+        """The part of one block's usable rows (``y`` finite, ``y_hat`` not NaN); both kept."""
         error, scratch = scratch[0, : y.size], scratch[1, : y.size]
         with np.errstate(over="ignore", invalid="ignore"):
             np.subtract(y, y_hat, out=error)
@@ -406,8 +406,11 @@ class _Column(Generic[_Part]):
 
         ``work``: ``(4, _BLOCK_ROWS)`` scratch, shared by the columns.
         """
+        # An infinite ŷ is a prediction that diverged, not a missing one (NaN): it is used,
+        # and its error makes MSE and fit infinite (null, "diverged") and VAF 0, so that a
+        # filter that blew up is never scored on the rows before it did.
         usable = np.isfinite(y)
-        usable &= np.isfinite(y_hat)
+        usable &= ~np.isnan(y_hat)
         count = int(np.count_nonzero(usable))
         if complete and not self._filled:  # the whole block: reduced from the caller's rows
             if count:
@@ -499,6 +502,8 @@ def _scaled_ratio(a: _Squares, b: _Squares, size: Callable[[float], float]) -> f
 
 
 def _vaf(part: _OutputPart) -> float:
+    if math.isinf(part.predicted.magnitude):
+        return 0.0  # an infinite prediction: var(y − ŷ) is too (the ratio inf, as below)
     if part.predicted.high == part.predicted.low:
         return math.nan  # var(ŷ) = 0: undefined
     rows = part.power.rows
@@ -523,7 +528,7 @@ def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
 
         \mathrm{MSE} = \frac{1}{N} \sum_{k} \bigl(y(k) - \hat y(k)\bigr)^2
 
-    taken over the rows where both ``y`` and ``y_hat`` are finite (row 0 of an
+    taken over the rows where ``y`` is finite and ``y_hat`` is not NaN (row 0 of an
     :class:`~hybridlog.estimators.result.EstimationResult` has no prediction).  Computed by
     :class:`OutputAccumulator`.
 
@@ -553,10 +558,11 @@ def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
                        \cdot 100\,\%
 
     The denominator is the variance of the *prediction*, as in the paper (not of ``y``).
-    Variances are population variances (``ddof=0``) over the rows where both ``y`` and
-    ``y_hat`` are finite.  When ``var(ŷ) = 0`` (a constant prediction, or a single usable
-    row) the ratio is undefined and so is VAF: NaN, never a guessed 0 or 100
-    (:func:`output_metrics` says why).  Computed by :class:`OutputAccumulator`.
+    Variances are population variances (``ddof=0``) over the rows where ``y`` is finite
+    and ``y_hat`` is not NaN (an infinite ``y_hat`` diverged: VAF 0).  When ``var(ŷ) = 0``
+    (a constant prediction, or a single usable row) the ratio is undefined and so is VAF:
+    NaN, never a guessed 0 or 100 (:func:`output_metrics` says why).  Computed by
+    :class:`OutputAccumulator`.
 
     Parameters
     ----------
@@ -582,7 +588,7 @@ def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
         \mathrm{fit} = \Bigl(1 - \frac{\lVert y - \hat y\rVert_2}
                                       {\lVert y - \bar y\rVert_2}\Bigr) \cdot 100\,\%
 
-    over the rows where both ``y`` and ``y_hat`` are finite, ``ȳ`` the mean of ``y`` over
+    over the rows where ``y`` is finite and ``y_hat`` is not NaN, ``ȳ`` the mean of ``y`` over
     those rows.  100 is a perfect prediction, 0 is no better than predicting the mean, and
     a worse prediction is negative (not clamped, as in ``compare``).  Unlike VAF, the
     denominator does not depend on the prediction, so a worse predictor never scores
@@ -613,7 +619,8 @@ class OutputMetrics:
     Attributes
     ----------
     samples:
-        Rows used: where both the measurement and the one-step-ahead prediction are finite.
+        Rows used: where the measurement is finite and the one-step-ahead prediction is
+        not NaN (none was made); an infinite prediction diverged, and counts.
     mse, vaf, fit:
         See :func:`mse`, :func:`vaf`, :func:`fit`; NaN where undefined.
     undefined:
@@ -650,9 +657,11 @@ def _output_metrics(part: _OutputPart | None) -> OutputMetrics:
         )
     for name in ("mse", "fit"):
         if math.isinf(values[name]):
+            largest = part.predicted.magnitude
             undefined[name] = (
-                f"the prediction diverged (|ŷ| up to {part.predicted.magnitude:.3g}): its "
-                "error overflows float64"
+                "the prediction diverged ("
+                + ("infinite in some rows" if math.isinf(largest) else f"|ŷ| up to {largest:.3g}")
+                + "): its error overflows float64"
             )
     return OutputMetrics(samples=n, **values, undefined=undefined)
 
@@ -1182,6 +1191,17 @@ class StateAccumulator:
         mean_squares = [math.nan if p is None else p.mean_square for p in parts]
         return np.sqrt(np.array(mean_squares, dtype=np.float64))
 
+    def samples(self) -> tuple[int, ...]:
+        """Rows the RMSE of each state is over so far: a finite truth and an estimate not NaN.
+
+        Returns
+        -------
+        tuple of int
+            One count per state; 0 for a state without a usable row (RMSE NaN).
+
+        """
+        return tuple(0 if p is None else p.rows for p in self._columns.parts())
+
 
 def state_rmse(state_means: npt.ArrayLike, truth_states: npt.ArrayLike) -> FloatArray:
     r"""Root mean square state error per state.
@@ -1190,8 +1210,8 @@ def state_rmse(state_means: npt.ArrayLike, truth_states: npt.ArrayLike) -> Float
 
         \mathrm{RMSE}_i = \sqrt{\tfrac{1}{N_i} \sum_k (\hat x_i(k) - x_i(k))^2}
 
-    over the ``N_i`` rows where both the estimate and the truth of state ``i`` are finite;
-    computed by :class:`StateAccumulator`.
+    over the ``N_i`` rows where the truth of state ``i`` is finite and its estimate is not
+    NaN (an infinite estimate diverged: RMSE inf); computed by :class:`StateAccumulator`.
 
     Parameters
     ----------

@@ -64,6 +64,7 @@ __all__ = [
     "mode_bars",
     "mode_runs",
     "pixel_columns",
+    "plain_text",
     "reduce_result",
     "time_bins",
 ]
@@ -77,6 +78,21 @@ PANEL_LEFT, PANEL_RIGHT = 0.09, 0.98
 resolution, it fixes the pixel columns the curves are reduced to (:func:`pixel_columns`)."""
 COMPONENT_PREFIX = "mode."
 """Timeline columns ``mode.<component>`` hold a ``[components]`` model's per-component modes."""
+
+
+def plain_text(text: str) -> str:
+    r"""``text`` (a mode id, a name from a model, a log path) as matplotlib shows it, as it is.
+
+    matplotlib reads a text with an even number of unescaped ``$`` as mathtext: the mode
+    ``$x_1$`` was drawn as x₁ (beside a mode ``x_1``, two identical tick labels), and one
+    mathtext cannot parse (``$\frac$``, ``$\undefined{$``) raised while the figure was
+    saved, which lost the whole report.  Every ``$`` written ``\$`` is a text without math,
+    shown with the dollars as they were (matplotlib unescapes ``\$`` there and nothing else).
+    Every label, tick label and title of user text in a figure goes through this.
+    """
+    return text.replace("$", r"\$")
+
+
 _BLOCK = 1 << 16
 """Samples per block of the reductions (:func:`time_bins` and the reducers' ``add``): their
 temporaries are 0.5 MB, not 8 MB per array of a 10^6-sample run.  The plots are reduced

@@ -28,6 +28,7 @@ load it.
 
 from __future__ import annotations
 
+import math
 import threading
 from collections import Counter
 from collections.abc import Sequence
@@ -50,6 +51,7 @@ from hybridlog.report.plot_data import (
     ModeTimelines,
     PlotData,
     pixel_columns,
+    plain_text,
     reduce_result,
 )
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
@@ -271,9 +273,11 @@ LABEL_PADS_IN = 0.25
 def _fit_labels_left(fig: Figure, axes: Sequence[Axes]) -> None:
     """Widen the figure's left margin to the widest y tick label and y label of ``axes``.
 
-    For figures of mode bars only (no curve reduced to the pixel columns, whose count the
-    panels' width fixes): a component's modes (``one_bank_out``) and the joint assignments
-    (``partly_open|partly_open|closed|closed|full|growth``) were cut off at the fixed margin.
+    For figures of mode bars and curves of a few values per pixel column (a curve reduced
+    to the fixed panel width's pixel columns then has bins finer than the narrower panel's,
+    which it draws as faithfully): a component's modes (``one_bank_out``), the joint
+    assignments (``partly_open|partly_open|closed|closed|full|growth``) and long mode ids
+    were cut off at the fixed margin.
     Text is measured by the Agg renderer, without a layout pass; the margin is at most half
     the width.
     """
@@ -304,6 +308,37 @@ def _panels(what: str, names: tuple[str, ...]) -> tuple[Figure, list[Axes], tupl
     return fig, axes, drawn
 
 
+LARGEST_DRAWN = 1e300
+"""Largest magnitude drawn as it is.  matplotlib's autoscaling and tick locators take the
+difference of a panel's limits: values near ±1.8e308 (a prediction or an estimate that
+diverged without overflowing) overflowed there, and the RuntimeWarning lost the report.
+A panel with a larger value is drawn in units of a power of ten (:func:`_panel_unit`)."""
+
+
+def _panel_unit(*curves: FloatArray) -> tuple[float, str]:
+    """The unit a panel's ``curves`` are drawn in, and what its y label says of it.
+
+    ``(1.0, "")`` while every finite value is at most :data:`LARGEST_DRAWN` in magnitude,
+    else ``(10**e, " (×1e<e>)")`` for the power of ten at or below the largest.
+    """
+    largest = 0.0
+    for values in curves:
+        finite = values[np.isfinite(values)]
+        if finite.size:
+            largest = max(largest, float(np.max(np.abs(finite))))
+    if largest <= LARGEST_DRAWN:
+        return 1.0, ""
+    exponent = math.floor(math.log10(largest))
+    return 10.0**exponent, f" (×1e{exponent})"
+
+
+def _in_unit(curve: Envelope, unit: float) -> Envelope:
+    if unit == 1.0:
+        return curve
+    with np.errstate(under="ignore"):
+        return curve._replace(values=curve.values / unit)
+
+
 def set_time_span(ax: Axes, span: tuple[float, float] | None) -> None:
     """Set the x range of ``ax`` (and of the axes sharing it) to a run's time ``span`` exactly.
 
@@ -328,10 +363,12 @@ def plot_outputs(data: PlotData, path: Path) -> Path:
         return _save(fig, path)
     set_time_span(axes[0], data.span)
     for ax, curves in zip(axes, data.outputs, strict=True):
-        y = curves.name
-        draw_curve(ax, curves.measured, lw=0.8, color="0.3", label=f"{y} measured")
-        draw_curve(ax, curves.predicted, lw=0.8, color="tab:blue", ls="--", label=f"{y} predicted")
-        ax.set_ylabel(y)
+        y = plain_text(curves.name)
+        unit, in_unit = _panel_unit(curves.measured.values, curves.predicted.values)
+        measured, predicted = (_in_unit(c, unit) for c in (curves.measured, curves.predicted))
+        draw_curve(ax, measured, lw=0.8, color="0.3", label=f"{y} measured")
+        draw_curve(ax, predicted, lw=0.8, color="tab:blue", ls="--", label=f"{y} predicted")
+        ax.set_ylabel(y + in_unit)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
     return _save(fig, path)
@@ -373,7 +410,7 @@ def plot_modes(data: PlotData, path: Path) -> Path:
         _empty(fig, ax_mode, "no samples")
         _empty(fig, ax_prob, "no samples")
         return _save(fig, path)
-    ids = list(modes.mode_ids)
+    ids = [plain_text(m) for m in modes.mode_ids]
     set_time_span(ax_mode, data.span)
     n_modes, edges = len(ids), data.edges
     if modes.truth is not None:
@@ -399,6 +436,10 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     ax_prob.set_ylabel("probability")
     ax_prob.set_xlabel("t (s)")
     ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, 6))
+    # Long mode ids were cut off at the fixed margin.  The probabilities' bins, cut for the
+    # fixed panel width, are then finer than the narrower panel's pixel columns: each column
+    # still shows every extreme of its samples.
+    _fit_labels_left(fig, [ax_mode, ax_prob])
     return _save(fig, path)
 
 
@@ -413,18 +454,25 @@ def plot_states(data: PlotData, path: Path) -> Path:
         return _save(fig, path)
     set_time_span(axes[0], data.span)
     for ax, curves in zip(axes, data.states, strict=True):
+        drawn = [c for c in (curves.truth, curves.estimate, curves.filtered) if c is not None]
+        band = () if curves.band is None else curves.band[1:]
+        unit, in_unit = _panel_unit(*band, *(c.values for c in drawn))
         if curves.band is not None:
             t_band, lo, hi = curves.band
+            with np.errstate(under="ignore"):
+                lo, hi = lo / unit, hi / unit
             ax.fill_between(
                 t_band, np.nan_to_num(lo), np.nan_to_num(hi), where=np.isfinite(lo),
                 color="tab:blue", alpha=0.2, label="±2σ",
             )  # fmt: skip
         if curves.truth is not None:
-            draw_curve(ax, curves.truth, lw=1.5, color="0.5", label="true")
-        draw_curve(ax, curves.estimate, lw=0.8, color="tab:blue", label=data.state_label)
+            draw_curve(ax, _in_unit(curves.truth, unit), lw=1.5, color="0.5", label="true")
+        estimate = _in_unit(curves.estimate, unit)
+        draw_curve(ax, estimate, lw=0.8, color="tab:blue", label=data.state_label)
         if curves.filtered is not None:
-            draw_curve(ax, curves.filtered, lw=0.5, ls="--", color="k", label="filtered")
-        ax.set_ylabel(curves.name)
+            filtered = _in_unit(curves.filtered, unit)
+            draw_curve(ax, filtered, lw=0.5, ls="--", color="k", label="filtered")
+        ax.set_ylabel(plain_text(curves.name) + in_unit)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
     return _save(fig, path)
@@ -475,9 +523,9 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
                 labelled.add(legend)
         if column.filtered is not None:
             _draw_bars(ax, data.edges, column.filtered, height=0.08, color="k", label="filtered")
-        ax.set_yticks(range(n_labels), column.labels)
+        ax.set_yticks(range(n_labels), [plain_text(label) for label in column.labels])
         ax.set_ylim(-0.5, n_labels - 0.5)
-        ax.set_ylabel(column.name)
+        ax.set_ylabel(plain_text(column.name))
         if column.truth is not None or column.filtered is not None:
             ax.legend(loc="upper right", fontsize="x-small")
     joint = axes[-1]
@@ -487,7 +535,7 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
             joint, data.edges, components.joint_filtered, height=0.08, color="k", label="filtered"
         )
         joint.legend(loc="upper right", fontsize="x-small")
-    joint.set_yticks(range(len(visited)), list(visited), fontsize="x-small")
+    joint.set_yticks(range(len(visited)), [plain_text(v) for v in visited], fontsize="x-small")
     joint.set_ylim(-0.5, len(visited) - 0.5)
     joint.set_ylabel("joint")
     joint.set_xlabel("t (s)")

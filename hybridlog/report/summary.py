@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hybridlog.errors import as_text
 from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
 
 if TYPE_CHECKING:
@@ -129,7 +128,8 @@ def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     for name, report in reports.items():
         if report.notes:
-            lines += ["", f"## Notes on `{name}`", "", *(f"- {as_text(n)}" for n in report.notes)]
+            notes = [f"- {escape_markdown(note)}" for note in report.notes]
+            lines += ["", f"## Notes on `{name}`", "", *notes]
     return "\n".join(lines) + "\n"
 
 

@@ -24,6 +24,7 @@ from matplotlib.figure import Figure
 
 from hybridlog.errors import excerpt
 from hybridlog.report.markdown import plural
+from hybridlog.report.plot_data import plain_text
 from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead
 from hybridlog.report.summary import BatchRow
 
@@ -123,7 +124,7 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     missed = sum(1 for row in rows if row.status != "failed" and row.missed)
     failed = sum(1 for row in rows if row.status == "failed")
     fig.suptitle(
-        f"{title}\n{plural(len(rows), 'log')}, {failed} not analysed (crosses), "
+        f"{plain_text(title)}\n{plural(len(rows), 'log')}, {failed} not analysed (crosses), "
         f"{missed} missed a gate (red)",
         fontsize=10,
     )
@@ -167,7 +168,7 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
         axes[-1].set_xticks(list(positions))
         # control characters escaped: the font has no glyph for them (matplotlib warned)
         folders = [excerpt(row.folder, len(row.folder) * 6)[1:-1] for row in rows]
-        names = [f"…{name[-23:]}" if len(name) > 24 else name for name in folders]
+        names = [plain_text(f"…{name[-23:]}" if len(name) > 24 else name) for name in folders]
         axes[-1].set_xticklabels(names, rotation=60, fontsize=7)  # long paths: their ends
     else:
         axes[-1].set_xlabel("log (natural order; summary.csv lists them)")

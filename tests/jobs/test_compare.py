@@ -177,7 +177,7 @@ def test_a_centres_file_named_in_bytes_that_are_not_utf8(tmp_path: Path) -> None
     discover_modes(CART, "double_cart_case1", out=fitted)
     centres = Path(os.fsdecode(os.fsencode(tmp_path) + b"/c\xff.json"))
     shutil.copyfile(fitted, centres)
-    shown = f"{tmp_path}/c\\xff.json"
+    shown = escape_markdown(f"{tmp_path}/c\\xff.json")  # the notes, as report.md shows text
     sets = [f"centers={centres}"]
     analyze(CART, "double_cart_case1", estimator="chiu", sets=sets, out_dir=tmp_path / "a")
     text = (tmp_path / "a" / "report.md").read_text(encoding="utf-8")

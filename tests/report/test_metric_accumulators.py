@@ -91,7 +91,7 @@ def _usable(y2: FloatArray, yh2: FloatArray) -> Iterator[_Column]:
     for j in range(y2.shape[1]):
         y_col, yh_col = y2[:, j], yh2[:, j]
         ok = np.isfinite(y_col)
-        ok &= np.isfinite(yh_col)
+        ok &= ~np.isnan(yh_col)  # an infinite prediction diverged: used
         yield _Column(y_col[ok], yh_col[ok])
         del ok
 
@@ -107,6 +107,8 @@ def _mse(c: _Column) -> float:
 
 def _vaf(c: _Column) -> float:
     h = c.y_hat
+    if np.isinf(h).any():
+        return 0.0
     if not h.size or np.all(h == h[0]):
         return np.nan
     with np.errstate(over="ignore", invalid="ignore"):
@@ -147,9 +149,11 @@ def _reference_output_metrics(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> list[Ou
             for name in ("mse", "fit"):
                 if np.isinf(values[name]):
                     largest = float(np.max(np.abs(column.y_hat)))
+                    size = (
+                        "infinite in some rows" if np.isinf(largest) else f"|ŷ| up to {largest:.3g}"
+                    )
                     undefined[name] = (
-                        f"the prediction diverged (|ŷ| up to {largest:.3g}): its error "
-                        "overflows float64"
+                        f"the prediction diverged ({size}): its error overflows float64"
                     )
         out.append(OutputMetrics(samples=n, **values, undefined=undefined))
         del column
@@ -209,9 +213,10 @@ def _accumulated_rmse(means: FloatArray, truth: FloatArray, cuts: Sequence[int])
     return acc.result()
 
 
-# Values that reach every branch: NaN and inf rows (skipped), zeros and repeats (constant
-# signals), magnitudes whose squares underflow or overflow float64, and predictions whose
-# error overflows (|ŷ| 1.79e308 against |y| up to 1e306, so no sum of y overflows).
+# Values that reach every branch: NaN rows (skipped), inf (a measurement: skipped; a
+# prediction: diverged), zeros and repeats (constant signals), magnitudes whose squares
+# underflow or overflow float64, and predictions whose error overflows (|ŷ| 1.79e308
+# against |y| up to 1e306, so no sum of y overflows).
 special = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, NAN, np.inf, -np.inf])
 measured = st.one_of(
     special,
