@@ -1098,10 +1098,10 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
 
 
 def _summary_line(report: Report) -> str:
-    from hybridlog.report.markdown import duration, plural
+    from hybridlog.report.markdown import duration, format_number, plural
 
     def number(value: object, digits: str, unit: str = "") -> str:
-        return "n/a" if value is None else format(value, digits) + unit
+        return "n/a" if value is None else format_number(value, digits) + unit
 
     text = (
         f"{report.estimator} on {report.log}: {plural(report.samples, 'sample')} "

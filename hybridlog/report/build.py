@@ -222,8 +222,22 @@ def _same_run(first: EstimationResult, chunk: EstimationResult) -> bool:
         and chunk.mode_ids == first.mode_ids
         and chunk.state_names == first.state_names
         and chunk.output_names == first.output_names
-        and chunk.options == first.options
+        and _same_value(chunk.options, first.options)
     )
+
+
+def _same_value(a: object, b: object) -> bool:
+    """``a == b`` for option values, which may hold NumPy arrays (``chiu``'s centres).
+
+    An array's ``==`` is elementwise and has no truth value.
+    """
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and np.array_equal(a, b)
+    if isinstance(a, Mapping) and isinstance(b, Mapping):
+        return a.keys() == b.keys() and all(_same_value(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same_value, a, b))
+    return bool(a == b)
 
 
 class ReportBuilder:

@@ -21,6 +21,7 @@ __all__ = [
     "code_span",
     "duration",
     "escape_markdown",
+    "format_number",
     "plural",
     "rate",
     "render_markdown",
@@ -35,7 +36,8 @@ FIXED_LIMIT = 1e12
 format: a fit of -1e201 (a diverged prediction) was a cell of 200 digits."""
 
 
-def _fmt(value: Any, spec: str = ".6g") -> str:
+def format_number(value: Any, spec: str = ".6g") -> str:
+    """``value`` by ``spec``; in scientific notation beyond :data:`FIXED_LIMIT`, None as n/a."""
     if value is None:
         return "n/a"
     if isinstance(value, float):
@@ -176,8 +178,8 @@ def render_markdown(report: Report) -> str:
         f"# hybridlog report: {escape_markdown(report.log)}",
         "",
         f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
-        f"- samples: {report.samples}, dt = {_fmt(report.dt)} s, "
-        f"t = {_fmt(report.t_start)} … {_fmt(report.t_end)} s",
+        f"- samples: {report.samples}, dt = {format_number(report.dt)} s, "
+        f"t = {format_number(report.t_start)} … {format_number(report.t_end)} s",
         f"- hybridlog {report.hybridlog_version}",
         "",
         "## Outputs",
@@ -188,12 +190,12 @@ def render_markdown(report: Report) -> str:
     ]
     for y, m in report.outputs.items():
         lines.append(
-            f"| {escape_markdown(y)} | {_fmt(m.mse)} | {_fmt(m.vaf, '.4f')} "
-            f"| {_fmt(m.fit, '.4f')} |"
+            f"| {escape_markdown(y)} | {format_number(m.mse)} | {format_number(m.vaf, '.4f')} "
+            f"| {format_number(m.fit, '.4f')} |"
         )
     lines.append(
-        f"| **mean** | **{_fmt(report.mse)}** | **{_fmt(report.vaf, '.4f')}** "
-        f"| **{_fmt(report.fit, '.4f')}** |"
+        f"| **mean** | **{format_number(report.mse)}** | **{format_number(report.vaf, '.4f')}** "
+        f"| **{format_number(report.fit, '.4f')}** |"
     )
     undefined = [
         f"- {name} is n/a: {escape_markdown(why)}"
@@ -214,7 +216,9 @@ def render_markdown(report: Report) -> str:
     lines += ["", "## Modes", "", *_offline_caveat(report, "modes")]
     lines += [f"{plural(len(modes.switches), 'estimated mode switch')}.", ""]
     lines += ["| mode | dwell (s) |", "|---|---:|"]
-    lines += [f"| {escape_markdown(m)} | {_fmt(modes.dwell_s.get(m))} |" for m in modes.labels]
+    lines += [
+        f"| {escape_markdown(m)} | {format_number(modes.dwell_s.get(m))} |" for m in modes.labels
+    ]
     lines.append("")
     if modes.components:
         lines += _component_lines(modes)
@@ -226,7 +230,9 @@ def render_markdown(report: Report) -> str:
     if report.states:
         lines += ["", "## States", "", *_offline_caveat(report, "states")]
         lines += ["| state | RMSE |", "|---|---:|"]
-        lines += [f"| {escape_markdown(x)} | {_fmt(s.rmse)} |" for x, s in report.states.items()]
+        lines += [
+            f"| {escape_markdown(x)} | {format_number(s.rmse)} |" for x, s in report.states.items()
+        ]
         lines += _state_caveats(report)
     if report.smoothing is not None:
         lines += ["", *_smoothing_lines(report.smoothing)]
@@ -371,8 +377,8 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     for name, before, after, spec in rows:
         shown = ".4f" if spec == ".4g" else spec
         lines.append(
-            f"| {escape_markdown(name)} | {_fmt(before, shown) if before is not None else 'n/a'} "
-            f"| {_fmt(after, shown) if after is not None else 'n/a'} "
+            f"| {escape_markdown(name)} | {format_number(before, shown)} "
+            f"| {format_number(after, shown)} "
             f"| {_change(before, after, spec)} |"
         )
     if f.mode_accuracy is None:
@@ -389,7 +395,7 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
 def _component_lines(modes: ModeReport) -> list[str]:
     """A ``[components]`` model's modes against the log's per-component truth."""
     joint = (
-        f"- every component right: {_fmt(modes.accuracy, '.4%')} of the samples"
+        f"- every component right: {format_number(modes.accuracy, '.4%')} of the samples"
         if modes.accuracy is not None
         else "- the log has the true mode of only some components: no joint accuracy"
     )
@@ -409,11 +415,11 @@ def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
     detected, missed = (det.detected, det.missed) if det is not None else (0, 0)
     delay = modes.detection_delay_s
     lines = [
-        f"- mode accuracy: {_fmt(accuracy, '.4%')}",
+        f"- mode accuracy: {format_number(accuracy, '.4%')}",
         f"- {plural(len(events), 'true mode switch')}: {detected:,} detected, {missed:,} missed"
         + (
-            f"; detection delay mean {_fmt(delay)} s, "
-            f"max {_fmt(det.max_s if det is not None else None)} s"
+            f"; detection delay mean {format_number(delay)} s, "
+            f"max {format_number(det.max_s if det is not None else None)} s"
             if delay is not None
             else ""
         ),
@@ -423,10 +429,11 @@ def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
         lines.append("|---:|---|---|---:|")
         for e in events[:MAX_LISTED_SWITCHES]:
             found = e.detected_t
-            when = _fmt(found) if found is not None else f"missed: {e.miss_reason}"
+            when = format_number(found) if found is not None else f"missed: {e.miss_reason}"
             lines.append(
-                f"| {_fmt(e.t)} | {escape_markdown(e.from_mode)} → {escape_markdown(e.to_mode)} "
-                f"| {escape_markdown(when)} | {_fmt(e.delay_s)} |"
+                f"| {format_number(e.t)} "
+                f"| {escape_markdown(e.from_mode)} → {escape_markdown(e.to_mode)} "
+                f"| {escape_markdown(when)} | {format_number(e.delay_s)} |"
             )
         if len(events) > MAX_LISTED_SWITCHES:
             lines.append(f"\n… and {len(events) - MAX_LISTED_SWITCHES:,} more in report.json.")
