@@ -410,7 +410,7 @@ class Prepared:
         from hybridlog.estimators.vouch import check_explained
 
         result = with_explained_outputs(model, self._whole(model, signals, inputs), signals)
-        check_explained(model, result)
+        check_explained(model, signals, result)
         return result
 
     def _whole(
@@ -573,10 +573,9 @@ class Prepared:
         n = result.n_samples
         for start in range(0, max(n, 1), rows):
             stop = min(start + rows, n)
-            chunk = with_explained_outputs(
-                model, result.rows(start, stop), signals.rows(start, stop)
-            )
-            check_explained(model, chunk, first=start)
+            rows_of_log = signals.rows(start, stop)
+            chunk = with_explained_outputs(model, result.rows(start, stop), rows_of_log)
+            check_explained(model, rows_of_log, chunk, first=start)
             yield chunk
 
     def warm_up(self, model: HybridModel, rows: int = 3) -> None:

@@ -440,34 +440,45 @@ def _point(model: HybridModel, at: FloatArray, inputs: FloatArray) -> str:
     return ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
 
 
-def check_explained(model: HybridModel, result: EstimationResult, *, first: int = 0) -> None:
+def check_explained(
+    model: HybridModel, signals: AlignedSignals, result: EstimationResult, *, first: int = 0
+) -> None:
     """Refuse outputs an offline estimate explains that are not finite (``h`` out of its domain).
 
     :attr:`~hybridlog.estimators.result.PostProcessing.explained` (and the filter's), which
     the report's ``smoothing`` block scores: ``h`` of the estimated mode at a smoothed state
     that left its domain (``sqrt`` of a negative level) would drop the sample from the scores.
+    ``signals`` are the rows of ``result`` (a chunk's, whose row 0 is the log's ``first``).
 
     Raises
     ------
     ModelError
-        Naming the estimator, the time and sample, the output and the mode.
+        Naming the estimator, the time and sample, the mode, the expression and the state.
     """
     post = result.post_processing
     if post is None:
         return
-    for outputs, modes, whose in (
-        (post.explained, result.modes, "the offline estimate"),
-        (post.filtered_explained, post.filtered.modes, "the filter's estimate"),
+    for outputs, estimate, whose in (
+        (post.explained, result, "the offline estimate"),
+        (post.filtered_explained, post.filtered, "the filter's estimate"),
     ):
         if outputs is None or np.isfinite(outputs).all():
             continue
         finite = np.isfinite(outputs)
         row = _first_row(~finite.all(axis=1))
         column = int(np.argmin(finite[row]))
-        mode = result.mode_ids[int(modes[row])]
+        mode = int(estimate.modes[row])
+        expression = _expression(
+            model,
+            mode,
+            "h",
+            column,
+            float(outputs[row, column]),
+            estimate.state_means[row],
+            signals.inputs[row],
+        )
         raise ModelError(
             f"{model.origin or model.name}: {result.estimator} diverged at t = "
-            f"{result.time[row]:g} s (sample {first + row}): output {result.output_names[column]} "
-            f"explained by {whose} through h of its mode '{mode}' is "
-            f"{outputs[row, column]:g} (h is not defined at that state)"
+            f"{result.time[row]:g} s (sample {first + row}): {expression}, the state and mode "
+            f"{whose} holds there (h is not defined at that state)"
         )

@@ -434,3 +434,46 @@ def test_analyze_says_it_in_one_line_and_writes_nothing(tmp_path, hybridlog_main
         assert code == 2 and err.count("\n") == 1, err
         assert "imm diverged at t = " in err and "modes.a.h[0] = 'sqrt(x1)'" in err
         assert "Traceback" not in err and not out.exists()
+
+
+LOG_OUTPUT = """
+name = "log_output"
+dt = 1.0
+states = ["x1"]
+inputs = ["u"]
+outputs = ["y"]
+[modes.m0]
+f = ["exp(x1)"]
+h = ["log(x1)"]
+[noise]
+process = 0.1
+measurement = 0.1
+[initial]
+state = [1.0]
+covariance = 1e200
+"""
+
+
+@pytest.mark.parametrize("sets", [{"smooth": "true"}, {"mode_sequence": "viterbi"}])
+@pytest.mark.parametrize("rows", [None, 2])
+def test_outputs_an_offline_estimate_explains_out_of_h_s_domain_are_refused(sets, rows):
+    # The smoothed state left log's domain: the report's smoothing block scored the
+    # outputs the estimate explains over the samples left.
+    model = parse_model(LOG_OUTPUT, origin="models/log.toml")
+    signals = AlignedSignals(
+        source="zero.csv",
+        time=np.arange(4, dtype=float),
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.full((4, 1), -1.0),
+        outputs=np.zeros((4, 1)),
+    )
+    prepared = prepare(model, "imm", sets)
+    with pytest.raises(ModelError) as caught:
+        if rows is None:
+            prepared.run(model, signals)
+        else:
+            list(prepared.stream(model, signals, rows=rows))
+    message = str(caught.value)
+    assert message.startswith("models/log.toml: imm diverged at t = ")
+    assert "modes.m0.h[0] = 'log(x1)' is " in message and "the offline estimate" in message
