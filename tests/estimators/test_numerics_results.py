@@ -477,3 +477,30 @@ def test_outputs_an_offline_estimate_explains_out_of_h_s_domain_are_refused(sets
     message = str(caught.value)
     assert message.startswith("models/log.toml: imm diverged at t = ")
     assert "modes.m0.h[0] = 'log(x1)' is " in message and "the offline estimate" in message
+
+
+@pytest.mark.parametrize("rows", [5, 6, 30])
+@pytest.mark.parametrize("name", ["imm", "hstf"])
+def test_a_division_by_zero_names_the_expression_inside_or_at_the_start_of_a_chunk(name, rows):
+    # x(12) = x(11)/u(11) with u(11) = 0; with rows=6 sample 12 opens a chunk, and the
+    # estimate it is diagnosed from is the last row of the chunk before.
+    from tests.estimators.test_filter_chunks import POLE
+
+    model = parse_model(POLE, origin="models/pole.toml")
+    n = 30
+    inputs = np.ones((n, 1))
+    inputs[11] = 0.0
+    signals = AlignedSignals(
+        source="sim",
+        time=np.arange(n, dtype=float),
+        input_names=("u",),
+        output_names=("y",),
+        inputs=inputs,
+        outputs=np.full((n, 1), 2.0),
+    )
+    with pytest.raises(ModelError) as caught:
+        list(prepare(model, name).stream(model, signals, rows=rows))
+    assert str(caught.value) == (
+        f"models/pole.toml: {name} diverged at t = 12 s (sample 12): the state estimate is not "
+        "finite; modes.a.f[0] = 'x/u' is inf at x = 2, u = 0"
+    )
