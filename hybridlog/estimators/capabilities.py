@@ -79,6 +79,13 @@ class Capabilities:
         whose mode of sample k governs the step from ``x(k)`` (paper 001 eq. (1)), its
         modes are moved one sample earlier
         (:meth:`~hybridlog.estimators.result.EstimationResult.with_modes_of_the_step_from`).
+    state_variances:
+        The estimator computes state variances (``False``: its result holds NaN for them,
+        which are then not read); a defined one must be finite and not negative
+        (:mod:`hybridlog.estimators.vouch`).
+    unpredicted_outputs:
+        The estimator may leave an output without a one-step-ahead prediction (NaN: an
+        output no hypothesis predicts); otherwise every sample after the first has one.
     """
 
     needs_linear_model: bool = False
@@ -95,6 +102,8 @@ class Capabilities:
     needs_single_output: bool = False
     no_smoothing: str = ""
     modes_of_the_step_into: bool = False
+    state_variances: bool = True
+    unpredicted_outputs: bool = False
 
     def needs(self) -> tuple[str, ...]:
         """The needs in words, for ``--help`` and the docs."""

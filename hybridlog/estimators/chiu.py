@@ -75,7 +75,11 @@ def design_observer(model: HybridModel, decay_rate: float) -> tuple[LinearModes,
     """The model's matrices and certified gains ``L_i`` from the LMI (15)."""
     linear = linear_modes(model)
     gains = observer_gains(
-        linear.A, linear.C, model.mode_ids, decay_rate=decay_rate, model_name=model.name
+        linear.A,
+        linear.C,
+        model.mode_ids,
+        decay_rate=decay_rate,
+        model_name=model.origin or model.name,
     )
     return linear, gains
 

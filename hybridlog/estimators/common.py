@@ -22,9 +22,9 @@ from typing import TYPE_CHECKING, Any, Generic, NamedTuple, TypeVar
 import numpy as np
 
 from hybridlog.background import Background
-from hybridlog.errors import ModelError
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import fits_unrolled, module_source
+from hybridlog.estimators.vouch import check_result
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_generated, compile_model
 from hybridlog.prefault import arrays_in, populated_beside
@@ -292,16 +292,6 @@ class FilterCode:
     accelerator: Accelerator | None = None
 
 
-def _diverged(
-    code: FilterCode, model: HybridModel, signals: AlignedSignals, row: int
-) -> ModelError:
-    return ModelError(
-        f"{model.origin or model.name}: {code.name} diverged at t = {signals.time[row]:g} s "
-        f"(sample {row}): the state estimate is not finite; a Jacobian of the model may be "
-        "infinite there"
-    )
-
-
 def _compiled_loop(
     code: FilterCode, model: HybridModel, frame: tuple[Any, ...], *, jit: bool, kernel: str
 ) -> tuple[Callable[..., None], tuple[Fn, ...], float]:
@@ -368,8 +358,10 @@ def run_filter_chunks(
     Raises
     ------
     ModelError
-        When the state estimate stops being finite: the chunk that holds that sample names
-        it by its index in the log (:func:`_diverged`), and no chunk follows.
+        When a chunk holds a number nobody can vouch for (a state or variance not finite, a
+        negative variance, ...: :func:`~hybridlog.estimators.vouch.check_result`), naming
+        the sample by its index in the log and the model's expression that broke where it
+        can tell; no chunk follows.
     """
     if rows < 1:
         raise ValueError(f"rows must be at least 1, got {rows}")
@@ -396,22 +388,14 @@ def run_filter_chunks(
 
     def chunks() -> Iterator[EstimationResult]:
         chunk, which, runtime = opening, 0, 0.0
+        before: FloatArray | None = None
         pending: Background[float] | None = None
         try:
             spent = compute(chunk, buffers[which])
             while True:
                 runtime += spent
                 filled = buffers[which].head(chunk.stop - chunk.first)
-                finite = np.isfinite(filled.state_means).all(axis=1)
-                if not finite.all():
-                    raise _diverged(code, model, signals, chunk.first + int(np.argmin(finite)))
-                if chunk.stop < n:  # the compiled loop releases the GIL: it runs beside
-                    following = chunk._replace(first=chunk.stop, stop=min(chunk.stop + rows, n))
-                    into = buffers[1 - which]
-                    pending = Background(
-                        partial(compute, following, into), f"hybridlog-{code.name}-chunk"
-                    )
-                yield filled.result(
+                result = filled.result(
                     code.name,
                     options,
                     model,
@@ -419,6 +403,16 @@ def run_filter_chunks(
                     runtime_s=runtime,
                     compile_s=compile_s,
                 )
+                check_result(model, signals, result, first=chunk.first, before=before)
+                if chunk.stop > chunk.first:  # the next chunk's diagnosis starts from here
+                    before = filled.state_means[-1].copy()
+                if chunk.stop < n:  # the compiled loop releases the GIL: it runs beside
+                    following = chunk._replace(first=chunk.stop, stop=min(chunk.stop + rows, n))
+                    into = buffers[1 - which]
+                    pending = Background(
+                        partial(compute, following, into), f"hybridlog-{code.name}-chunk"
+                    )
+                yield result
                 if pending is None:
                     return
                 spent = pending.result()

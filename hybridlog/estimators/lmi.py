@@ -178,7 +178,10 @@ def _solve(
     if float(t.value) <= 0.0:
         return f"{solver}: infeasible (best margin {float(t.value):.3g})"
     values = [(_value(G[i]), _value(F[i]), _value(S[i])) for i in range(s)]
-    gains = np.stack([np.linalg.solve(g.T, f.T) for g, f, _ in values])
+    try:
+        gains = np.stack([np.linalg.solve(g.T, f.T) for g, f, _ in values])
+    except np.linalg.LinAlgError:  # an inaccurate "solution" of a badly scaled model
+        return f"{solver}: a G_i of its solution is singular"
     lyapunov = np.stack([(v + v.T) / 2 for _, _, v in values])
     return gains, lyapunov
 

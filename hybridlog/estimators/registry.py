@@ -19,6 +19,7 @@ each error naming the file and key or the command-line option the user must chan
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -190,6 +191,7 @@ class Estimator:
 
 _PER_SAMPLE_CLASSIFIER = Capabilities(
     needs_linear_model=True,
+    state_variances=False,
     no_smoothing="it classifies each sample from its own regressor (paper 001 eqs. (2)-(3)): "
     "no mode chain and no likelihoods to smooth",
 )
@@ -266,6 +268,7 @@ ESTIMATORS: dict[str, Estimator] = {
                 applies_jump_maps=True,
                 continuous_time=True,
                 needs_single_output=True,
+                state_variances=False,
                 no_smoothing="it takes the modes from the log's switching signal and its "
                 "observer keeps no covariance (paper 004): no mode to decide, no RTS step",
             ),
@@ -282,6 +285,7 @@ ESTIMATORS: dict[str, Estimator] = {
             memory="unknown_mode_memory",
             capabilities=Capabilities(
                 needs_components=True,
+                unpredicted_outputs=True,
                 no_smoothing="its cluster filters keep nothing for a backward pass; "
                 "--mode-sequence kbest gives its offline mode sequence",
             ),
@@ -298,6 +302,7 @@ ESTIMATORS: dict[str, Estimator] = {
                 continuous_time=True,
                 needs_boolean_affine=True,
                 needs_measured_state=True,
+                state_variances=False,
                 no_smoothing="its modes are read from a sliding-mode observer's equivalent "
                 "output injection (paper 003), with no likelihoods or covariances to smooth",
             ),
@@ -402,18 +407,22 @@ class Prepared:
         estimates explain (:func:`~hybridlog.estimators.explained.with_explained_outputs`).
         """
         from hybridlog.estimators.explained import with_explained_outputs  # numpy: not at start-up
+        from hybridlog.estimators.vouch import check_explained
 
-        return with_explained_outputs(model, self._whole(model, signals, inputs), signals)
+        result = with_explained_outputs(model, self._whole(model, signals, inputs), signals)
+        check_explained(model, signals, result)
+        return result
 
     def _whole(
         self, model: HybridModel, signals: AlignedSignals, inputs: Mapping[str, Any]
     ) -> EstimationResult:
         """The estimator's whole result, its modes moved where :meth:`moves_modes` says."""
         self._check(signals)
-        result: EstimationResult = self.estimator.run_function(
-            model, signals, self.options, **inputs
-        )
-        self._check_finite(model, result)
+        with self._numerical_trouble(model):
+            result: EstimationResult = self.estimator.run_function(
+                model, signals, self.options, **inputs
+            )
+        self._vouch(model, signals, result)
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
         return self._with_component_modes(model, result)
@@ -448,21 +457,46 @@ class Prepared:
             result, timeline_columns=(*result.timeline_columns, *columns), post_processing=post
         )
 
-    def _check_finite(self, model: HybridModel, result: EstimationResult) -> None:
-        """Refuse a result whose state estimate is not finite somewhere: it diverged.
+    def _vouch(
+        self,
+        model: HybridModel,
+        signals: AlignedSignals,
+        result: EstimationResult,
+        *,
+        first: int = 0,
+        before: Any = None,
+    ) -> None:
+        """Refuse a result holding a number nobody can vouch for (:mod:`.vouch`).
 
-        No metric of such a run can be vouched for (a report would show, say, the prior's
-        error as the state RMSE); the streamed filters check each chunk the same way.
+        A state or a defined variance that is not finite, a negative variance, mode
+        probabilities that are no distribution, an output prediction that is not finite (NaN
+        only where the estimator may leave an output unpredicted): no metric of such a run
+        can be vouched for.  ``first`` is the log's row of the result's row 0 (a chunk),
+        ``before`` the state estimate of the row before it.
         """
-        import numpy as np
+        from hybridlog.estimators.vouch import check_result
 
-        finite = np.isfinite(result.state_means).all(axis=1)
-        if not finite.all():
-            row = int(np.argmin(finite))
+        capabilities = self.estimator.capabilities
+        check_result(
+            model,
+            signals,
+            result,
+            variances=capabilities.state_variances,
+            unpredicted=capabilities.unpredicted_outputs,
+            first=first,
+            before=before,
+        )
+
+    @contextlib.contextmanager
+    def _numerical_trouble(self, model: HybridModel) -> Iterator[None]:
+        """A numerical warning raised as an error (as the commands do) names the estimator."""
+        try:
+            yield
+        except RuntimeWarning as err:
             raise ModelError(
-                f"{model.origin or model.name}: {self.name} diverged at t = "
-                f"{result.time[row]:g} s (sample {row}): the state estimate is not finite"
-            )
+                f"{model.origin or model.name}: {self.name} stopped on numerical trouble "
+                f"({err}): the model or the log drive it past double precision"
+            ) from err
 
     def moves_modes(self, model: HybridModel) -> bool:
         """Whether the modes are moved one sample earlier for this model.
@@ -505,8 +539,26 @@ class Prepared:
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self._check(signals)
-        chunks = self.estimator.stream_function(model, signals, self.options, rows=rows, **inputs)
-        return (self._with_component_modes(model, chunk) for chunk in chunks)
+        with self._numerical_trouble(model):
+            chunks = self.estimator.stream_function(
+                model, signals, self.options, rows=rows, **inputs
+            )
+        return self._vouched_chunks(model, signals, chunks)
+
+    def _vouched_chunks(
+        self, model: HybridModel, signals: AlignedSignals, chunks: Iterator[EstimationResult]
+    ) -> Iterator[EstimationResult]:
+        """The estimator's own chunks, each checked (:meth:`_vouch`) before it is given."""
+        first, before = 0, None
+        while True:
+            with self._numerical_trouble(model):
+                chunk = next(chunks, None)
+            if chunk is None:
+                return
+            self._vouch(model, signals, chunk, first=first, before=before)
+            if chunk.n_samples:
+                first, before = first + chunk.n_samples, chunk.state_means[-1].copy()
+            yield self._with_component_modes(model, chunk)
 
     @staticmethod
     def _in_chunks(
@@ -514,13 +566,17 @@ class Prepared:
     ) -> Iterator[EstimationResult]:
         """``result`` in consecutive chunks of at most ``rows`` rows (one for an empty log)."""
         from hybridlog.estimators.explained import with_explained_outputs
+        from hybridlog.estimators.vouch import check_explained
 
         if rows < 1:
             raise ValueError(f"rows must be at least 1, got {rows}")
         n = result.n_samples
         for start in range(0, max(n, 1), rows):
             stop = min(start + rows, n)
-            yield with_explained_outputs(model, result.rows(start, stop), signals.rows(start, stop))
+            rows_of_log = signals.rows(start, stop)
+            chunk = with_explained_outputs(model, result.rows(start, stop), rows_of_log)
+            check_explained(model, rows_of_log, chunk, first=start)
+            yield chunk
 
     def warm_up(self, model: HybridModel, rows: int = 3) -> None:
         """Load what a run needs for this model: a stream over a few rows of zeros.

@@ -14,6 +14,7 @@ compare the generated code against.  The model's own functions are written inlin
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
@@ -51,7 +52,17 @@ Vector = list[Entry]
 
 
 def _literal(value: float) -> str:
-    text = repr(float(value))
+    """Source text of a float; a constant folded past the range of floats is ``math.inf``.
+
+    ``repr`` writes it ``inf``/``nan``, names the generated module does not define (a model
+    whose ``H Q Hᵀ`` overflowed at generation failed to compile with numba's ``NameError``);
+    written so, the code computes what the generic loops compute.
+    """
+    number = float(value)
+    if not math.isfinite(number):
+        text = "math.nan" if math.isnan(number) else f"{'-' if number < 0 else ''}math.inf"
+    else:
+        text = repr(number)
     return f"({text})" if text.startswith("-") else text
 
 

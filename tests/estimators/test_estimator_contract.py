@@ -452,6 +452,8 @@ def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypa
         module=__name__,
         options="PersistOptions",
         run="run_persist",
+        # its first `lag` samples have no prediction (NaN): said, or the run is refused
+        capabilities=Capabilities(unpredicted_outputs=True),
     )
     monkeypatch.setitem(ESTIMATORS, "persist", entry)
     outcome = analyze(

@@ -262,8 +262,9 @@ class Hypothesis:
                 y_pred[layout.outputs] = np.concatenate([result.y_pred for result in results])
             P = P_flat.reshape(n, n)
             held = layout.held
-            if len(held):
-                P[held, held] = parent._P[held, held] * pending.variance_growth
+            if len(held):  # past double precision: infinite, which the run's result refuses
+                with np.errstate(over="ignore"):
+                    P[held, held] = parent._P[held, held] * pending.variance_growth
             h._x, h._P, h._y_pred = x, P, y_pred
             h._pending = None
 
@@ -446,10 +447,16 @@ class Tracker:
                 )
             except (ArithmeticError, ValueError, RuntimeWarning) as err:  # 1/0, sqrt(-1)
                 cluster = compiled.cluster
+                why = (
+                    "a Jacobian of its equations is not finite there"
+                    if np.isfinite(x_parent).all() and np.isfinite(P_parent).all()
+                    else "its prior is not finite (a variance grown past double precision "
+                    "while its states were held: variance_growth, the initial covariance)"
+                )
                 raise ClusterStepError(
                     f"the EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
                     f"(components {', '.join(cluster.components)}) cannot step at sample {k} "
-                    f"({err}): a Jacobian of its equations is not finite there"
+                    f"({err}): {why}"
                 ) from err
             memo[key] = result
             self.filtered += 1

@@ -1,0 +1,484 @@
+"""The numbers an estimator's result must hold before they leave the estimators (SPEC §9).
+
+A hostile plant model or log (``sqrt`` of a state that noise drives negative, ``1/x`` across
+zero, ``exp`` overflow, covariances of ``1e300``, an unobservable unstable state) makes a
+filter compute numbers it cannot vouch for: a state or variance that is not finite, a
+negative variance, mode probabilities that are not a distribution, an output prediction
+that is not finite.  The report would take them over the finite rows, or print them.
+:func:`check_result` refuses such a result with one line naming the model file, the
+estimator, the time and sample, what is wrong and, where it can tell, why: the expression of
+the model (mode, key and text) that is not finite at the estimate of the sample before
+(:func:`_why`), or a covariance grown past what double precision holds.
+
+It is one pass over the finished arrays (no cost inside the compiled loops), made where a
+result leaves the estimators (:meth:`hybridlog.estimators.Prepared.run`, each chunk of
+:meth:`~hybridlog.estimators.Prepared.stream`) and by the filters' chunk runner before an
+offline pass reads the forward pass (:func:`hybridlog.estimators.common.run_filter_chunks`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hybridlog.errors import ModelError, excerpt
+from hybridlog.jit import jit
+
+if TYPE_CHECKING:
+    from hybridlog.estimators.result import EstimationResult
+    from hybridlog.model.hybrid_model import HybridModel
+    from hybridlog.signals import AlignedSignals, FloatArray
+
+__all__ = ["Flaw", "check_explained", "check_result", "first_flaw"]
+
+PROBABILITY_TOLERANCE = 1e-6
+"""How far a row of mode probabilities may sum from 1 (or an entry leave [0, 1])."""
+
+NEGATIVE_VARIANCE_TOLERANCE = 1e-9
+"""A variance below ``-tolerance × (the row's largest |variance|)`` is refused (rounding of
+a covariance's update leaves a state known exactly at about ``-1e-17`` of the others)."""
+
+MAX_SHOWN = 6
+"""Most states and inputs a message shows of the point where an expression is not finite."""
+
+OVERFLOWING = 1e150
+"""A Jacobian entry times the largest standard deviation past this: its square, which the
+predicted covariance holds, leaves double precision."""
+
+HUGE_VARIANCE = 1e100
+"""A variance above this at the sample before a failure is named as its cause: its square,
+as the filters' products form it, leaves double precision."""
+
+
+@dataclass(frozen=True)
+class Flaw:
+    """The first row of a result holding a number nobody can vouch for, and what it is."""
+
+    row: int
+    what: str
+
+
+def _first_row(bad: Any) -> int:
+    """The first row where a per-row flag is set."""
+    return int(np.argmax(bad))
+
+
+def first_flaw(
+    result: EstimationResult,
+    *,
+    variances: bool = True,
+    unpredicted: bool = False,
+    first: int = 0,
+) -> Flaw | None:
+    """The earliest row of ``result`` (and of the filter's result inside it) with a flaw.
+
+    Parameters
+    ----------
+    result:
+        An estimator's result, or a chunk of one whose row 0 is row ``first`` of the log.
+    variances:
+        Whether the estimator defines state variances (else they are NaN and not read).
+    unpredicted:
+        Whether the estimator may leave an output without prediction (NaN; never infinite).
+    first:
+        The log's row of the result's row 0: the log's row 0 is the prior and predicts
+        nothing.
+    """
+    flaws = [
+        flaw
+        for flaw in (
+            _own_flaw(result, variances=variances, unpredicted=unpredicted, first=first),
+            _filtered_flaw(result, variances=variances, unpredicted=unpredicted, first=first),
+        )
+        if flaw is not None
+    ]
+    return min(flaws, key=lambda flaw: flaw.row) if flaws else None
+
+
+def _filtered_flaw(
+    result: EstimationResult, *, variances: bool, unpredicted: bool, first: int
+) -> Flaw | None:
+    post = result.post_processing
+    if post is None:
+        return None
+    flaw = _own_flaw(post.filtered, variances=variances, unpredicted=unpredicted, first=first)
+    return None if flaw is None else Flaw(flaw.row, f"{flaw.what} (the filter's own estimate)")
+
+
+def _own_flaw(
+    result: EstimationResult, *, variances: bool, unpredicted: bool, first: int
+) -> Flaw | None:
+    found: list[Flaw] = []
+    row = _first_not_finite(result.state_means)
+    if row >= 0:
+        found.append(Flaw(row, "the state estimate is not finite"))
+    if variances:
+        found.extend(_variance_flaws(result.state_variances, result.state_names))
+    found.extend(_probability_flaws(result.mode_probabilities))
+    found.extend(_prediction_flaws(result, unpredicted=unpredicted, first=first))
+    return min(found, key=lambda flaw: flaw.row) if found else None
+
+
+def _variance_flaws(values: FloatArray, names: tuple[str, ...]) -> list[Flaw]:
+    found = []
+    row = _first_not_finite(values)
+    if row >= 0:
+        column = int(np.argmin(np.isfinite(values[row])))
+        found.append(Flaw(row, f"the variance of {names[column]} is {values[row, column]:g}"))
+    row = _first_negative(values, NEGATIVE_VARIANCE_TOLERANCE)
+    if row >= 0:
+        column = int(np.argmin(values[row]))
+        found.append(
+            Flaw(
+                row,
+                f"the variance of {names[column]} is negative ({values[row, column]:.3g}), "
+                "its covariance no longer positive semi-definite",
+            )
+        )
+    return found
+
+
+def _probability_flaws(p: FloatArray) -> list[Flaw]:
+    not_finite = _first_not_finite(p)
+    row = _first_no_distribution(p if not_finite < 0 else p[:not_finite], PROBABILITY_TOLERANCE)
+    if row >= 0:
+        return [
+            Flaw(
+                row,
+                f"the mode probabilities are no distribution (sum {p[row].sum():.6g}, "
+                f"smallest {p[row].min():.3g})",
+            )
+        ]
+    if not_finite >= 0:
+        return [Flaw(not_finite, "the mode probabilities are not finite")]
+    return []
+
+
+def _prediction_flaws(result: EstimationResult, *, unpredicted: bool, first: int) -> list[Flaw]:
+    y = result.output_predictions
+    # the log's row 0 is the prior: it predicts nothing
+    row = _first_unpredicted(y, 1 if first == 0 else 0, unpredicted)
+    if row < 0:
+        return []
+    bad = np.isinf(y[row]) if unpredicted else ~np.isfinite(y[row])
+    column = int(np.argmax(bad))
+    return [
+        Flaw(row, f"the output prediction of {result.output_names[column]} is {y[row, column]:g}")
+    ]
+
+
+def _bounds(values: FloatArray) -> tuple[float, float]:
+    """The smallest and largest value (NaN when one is): two vectorised passes, no copy."""
+    if not values.size:
+        return 0.0, 0.0
+    return float(values.min()), float(values.max())
+
+
+def _first_not_finite(values: FloatArray) -> int:
+    """The first row holding a value that is not finite; -1 when there is none."""
+    low, high = _bounds(values)
+    if math.isfinite(low) and math.isfinite(high):
+        return -1
+    return _first_not_finite_row(values)
+
+
+@jit
+def _first_not_finite_row(values: FloatArray) -> int:
+    for row in range(values.shape[0]):
+        for column in range(values.shape[1]):
+            if not math.isfinite(values[row, column]):
+                return row
+    return -1
+
+
+def _first_negative(values: FloatArray, tolerance: float) -> int:
+    """The first row with a value below ``-tolerance`` times its largest finite magnitude."""
+    if not values.size or values.min() >= 0.0:  # NaN compares false: searched
+        return -1
+    return _first_negative_row(values, tolerance)
+
+
+@jit
+def _first_negative_row(values: FloatArray, tolerance: float) -> int:
+    for row in range(values.shape[0]):
+        smallest = 0.0
+        largest = 0.0
+        for column in range(values.shape[1]):
+            value = values[row, column]
+            if value < smallest:
+                smallest = value
+            if math.isfinite(value) and abs(value) > largest:
+                largest = abs(value)
+        if smallest < -tolerance * largest:
+            return row
+    return -1
+
+
+def _first_no_distribution(p: FloatArray, tolerance: float) -> int:
+    """The first row of finite ``p`` leaving [0, 1] or not summing to 1 (within ``tolerance``)."""
+    low, high = _bounds(p)
+    if low >= -tolerance and high <= 1.0 + tolerance and _worst_sum(p) <= tolerance:
+        return -1
+    return _first_no_distribution_row(p, tolerance)
+
+
+@jit
+def _worst_sum(p: FloatArray) -> float:
+    """``max_k |Σ_j p[k, j] − 1|`` (one pass, no branch to leave it)."""
+    worst = 0.0
+    for row in range(p.shape[0]):
+        total = 0.0
+        for column in range(p.shape[1]):
+            total += p[row, column]
+        worst = max(worst, abs(total - 1.0))
+    return worst
+
+
+@jit
+def _first_no_distribution_row(p: FloatArray, tolerance: float) -> int:
+    for row in range(p.shape[0]):
+        total = 0.0
+        for column in range(p.shape[1]):
+            value = p[row, column]
+            if value < -tolerance or value > 1.0 + tolerance:
+                return row
+            total += value
+        if abs(total - 1.0) > tolerance:
+            return row
+    return -1
+
+
+def _first_unpredicted(y: FloatArray, start: int, nan_allowed: bool) -> int:
+    """The first row from ``start`` with an infinite prediction (or NaN, unless allowed)."""
+    low, high = _bounds(y[start:])
+    if math.isfinite(low) and math.isfinite(high):
+        return -1
+    return _first_unpredicted_row(y, start, nan_allowed)
+
+
+@jit
+def _first_unpredicted_row(y: FloatArray, start: int, nan_allowed: bool) -> int:
+    for row in range(start, y.shape[0]):
+        for column in range(y.shape[1]):
+            value = y[row, column]
+            if math.isinf(value) or (not nan_allowed and math.isnan(value)):
+                return row
+    return -1
+
+
+def check_result(
+    model: HybridModel,
+    signals: AlignedSignals,
+    result: EstimationResult,
+    *,
+    variances: bool = True,
+    unpredicted: bool = False,
+    first: int = 0,
+    before: FloatArray | None = None,
+) -> None:
+    """Refuse ``result`` when it holds a number nobody can vouch for (:func:`first_flaw`).
+
+    ``first`` is the log's row of the result's row 0 (a chunk of a streamed run) and
+    ``before`` the state estimate of the row before it, for the diagnosis.
+
+    Raises
+    ------
+    ModelError
+        ``<model file>: <estimator> diverged at t = <t> s (sample <k>): <what>[; <why>]``.
+    """
+    flaw = first_flaw(result, variances=variances, unpredicted=unpredicted, first=first)
+    if flaw is None:
+        return
+    row = first + flaw.row
+    if flaw.row > 0:
+        before = result.state_means[flaw.row - 1]
+        variance = result.state_variances[flaw.row - 1] if variances else None
+    else:
+        variance = None
+    why = _why(model, signals, row, before, variance) if row > 0 and before is not None else ""
+    raise ModelError(
+        f"{model.origin or model.name}: {result.estimator} diverged at t = "
+        f"{result.time[flaw.row]:g} s (sample {row}): {flaw.what}" + (f"; {why}" if why else "")
+    )
+
+
+def _why(
+    model: HybridModel,
+    signals: AlignedSignals,
+    row: int,
+    before: FloatArray,
+    variance: FloatArray | None,
+) -> str:
+    """Why the step into sample ``row`` from the estimate ``before`` of the sample before broke.
+
+    The first expression of the model's modes (``f``, its Jacobian, then ``h`` and its
+    Jacobian at the predicted state) that is not finite there, or a variance past
+    :data:`HUGE_VARIANCE` at the sample before; empty when neither explains it.
+    """
+    if not np.isfinite(before).all():
+        return ""
+    found = _expression_not_finite(model, signals, row, before, variance)
+    if found:
+        return found
+    if variance is not None and np.isfinite(variance).all() and variance.size:
+        column = int(np.argmax(variance))
+        if variance[column] > HUGE_VARIANCE:
+            return (
+                f"the variance of {model.states[column]} was {variance[column]:.3g} at the "
+                "sample before, too large for double precision (the model's noise or initial "
+                "covariance, or the estimator's options)"
+            )
+    if _evaluable(model, signals, row):
+        return (
+            f"every expression of the model is finite at the estimate of sample {row - 1} "
+            f"({_point(model, before, signals.inputs[row - 1])})"
+        )
+    return ""
+
+
+def _evaluable(model: HybridModel, signals: AlignedSignals, row: int) -> bool:
+    """Whether :func:`_expression_not_finite` evaluates the model's discrete-time modes."""
+    return not (model.is_continuous or model.has_components) and signals.inputs.shape[0] > row
+
+
+def _expression_not_finite(
+    model: HybridModel,
+    signals: AlignedSignals,
+    row: int,
+    before: FloatArray,
+    variance: FloatArray | None,
+) -> str:
+    """The first mode expression not finite on the step from ``before`` into ``row``.
+
+    Or, with the ``variance`` of the sample before, the first Jacobian entry so large that
+    the covariance it propagates (``F P Fᵀ``, ``H P Hᵀ``) overflows.
+    """
+    if not _evaluable(model, signals, row):
+        return ""
+    from hybridlog.model.compiled import compile_model
+
+    try:
+        compiled = compile_model(model)
+    except ModelError:
+        return ""
+    n, m = model.n_states, model.n_outputs
+    x = np.ascontiguousarray(before, dtype=np.float64)
+    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
+    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
+    with np.errstate(all="ignore"):
+        for index in range(model.n_modes):
+            x_next = np.zeros(n)
+            compiled.f(index, x, u_before, x_next)
+            F = np.zeros((n, n))
+            compiled.F(index, x, u_before, F)
+            y = np.zeros(m)
+            H = np.zeros((m, n))
+            if np.isfinite(x_next).all():
+                compiled.h(index, x_next, u_now, y)
+                compiled.H(index, x_next, u_now, H)
+            for name, values, at, inputs in (
+                ("f", x_next, x, u_before),
+                ("F", F, x, u_before),
+                ("h", y, x_next, u_now),
+                ("H", H, x_next, u_now),
+            ):
+                finite = np.isfinite(values)
+                if not finite.all():
+                    flat = int(np.argmin(finite.reshape(-1)))
+                    value = float(values.reshape(-1)[flat])
+                    return _expression(model, index, name, flat, value, at, inputs)
+            if variance is None or not np.isfinite(variance).all():
+                continue
+            spread = float(np.sqrt(max(float(variance.max()), 1.0)))
+            for name, values, at, inputs in (("F", F, x, u_before), ("H", H, x_next, u_now)):
+                flat = int(np.argmax(np.abs(values)))
+                value = float(values.reshape(-1)[flat])
+                if abs(value) * spread > OVERFLOWING:
+                    found = _expression(model, index, name, flat, value, at, inputs)
+                    return f"{found}: the covariance it propagates overflows"
+    return ""
+
+
+def _expression(
+    model: HybridModel,
+    mode_index: int,
+    name: str,
+    flat: int,
+    value: float,
+    at: FloatArray,
+    inputs: FloatArray,
+) -> str:
+    """``modes.<id>.h[0] = 'sqrt(x1)' is nan at x1 = -0.3, u = 0`` (or its derivative)."""
+    mode = model.modes[mode_index]
+    n = model.n_states
+    function = name.lower()
+    component, by = (flat // n, model.states[flat % n]) if name in "FH" else (flat, "")
+    expressions = mode.f if function == "f" else mode.h
+    text = excerpt(expressions[component])
+    key = (
+        f"dynamics.{function}[{component}] of mode '{mode.id}'"
+        if model.has_booleans
+        else f"modes.{mode.id}.{function}[{component}]"
+    )
+    what = f"the derivative by {by} of {key} = {text}" if by else f"{key} = {text}"
+    shown = "nan" if math.isnan(value) else f"{value:g}"
+    return f"{what} is {shown} at {_point(model, at, inputs)}"
+
+
+def _point(model: HybridModel, at: FloatArray, inputs: FloatArray) -> str:
+    """``x1 = -0.3, u = 0``: the states and inputs, the first :data:`MAX_SHOWN` of them."""
+    values = [
+        f"{symbol} = {number:.6g}"
+        for symbol, number in (
+            *zip(model.states, at.tolist(), strict=True),
+            *zip(model.inputs, inputs.tolist(), strict=True),
+        )
+    ]
+    return ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+
+
+def check_explained(
+    model: HybridModel, signals: AlignedSignals, result: EstimationResult, *, first: int = 0
+) -> None:
+    """Refuse outputs an offline estimate explains that are not finite (``h`` out of its domain).
+
+    :attr:`~hybridlog.estimators.result.PostProcessing.explained` (and the filter's), which
+    the report's ``smoothing`` block scores: ``h`` of the estimated mode at a smoothed state
+    that left its domain (``sqrt`` of a negative level) would drop the sample from the scores.
+    ``signals`` are the rows of ``result`` (a chunk's, whose row 0 is the log's ``first``).
+
+    Raises
+    ------
+    ModelError
+        Naming the estimator, the time and sample, the mode, the expression and the state.
+    """
+    post = result.post_processing
+    if post is None:
+        return
+    for outputs, estimate, whose in (
+        (post.explained, result, "the offline estimate"),
+        (post.filtered_explained, post.filtered, "the filter's estimate"),
+    ):
+        if outputs is None or np.isfinite(outputs).all():
+            continue
+        finite = np.isfinite(outputs)
+        row = _first_row(~finite.all(axis=1))
+        column = int(np.argmin(finite[row]))
+        mode = int(estimate.modes[row])
+        expression = _expression(
+            model,
+            mode,
+            "h",
+            column,
+            float(outputs[row, column]),
+            estimate.state_means[row],
+            signals.inputs[row],
+        )
+        raise ModelError(
+            f"{model.origin or model.name}: {result.estimator} diverged at t = "
+            f"{result.time[row]:g} s (sample {first + row}): {expression}, the state and mode "
+            f"{whose} holds there (h is not defined at that state)"
+        )
