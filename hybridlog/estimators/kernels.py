@@ -85,6 +85,42 @@ def cholesky(S: FloatArray, L: FloatArray) -> bool:
     return True
 
 
+PSD_TOLERANCE = 1e-12
+""":func:`keep_psd` takes a symmetric matrix whose ``P + tolerance·trace(P)·I`` is positive
+definite as it is: its smallest eigenvalue is at least ``-tolerance·trace``, the rounding of
+a covariance update, well inside what :mod:`hybridlog.estimators.vouch` accepts."""
+
+
+@jit
+def keep_psd(P: FloatArray, shifted: FloatArray, L: FloatArray) -> bool:
+    """Make the symmetric ``P`` positive semi-definite in place; True if it had to be changed.
+
+    A ``P`` within :data:`PSD_TOLERANCE` is left alone (a Cholesky factorisation of the
+    shifted matrix, ``shifted`` and ``L`` its workspaces); otherwise its negative eigenvalues
+    are set to 0 (the nearest PSD matrix in the Frobenius norm; Higham 1988).
+    """
+    n = P.shape[0]
+    trace = 0.0
+    for a in range(n):
+        trace += abs(P[a, a])
+    for a in range(n):
+        for b in range(n):
+            shifted[a, b] = P[a, b]
+        shifted[a, a] += PSD_TOLERANCE * trace
+    if cholesky(shifted, L):
+        return False
+    values, vectors = np.linalg.eigh(P)
+    for a in range(n):
+        for b in range(n):
+            acc = 0.0
+            for c in range(n):
+                if values[c] > 0.0:
+                    acc += vectors[a, c] * values[c] * vectors[b, c]
+            P[a, b] = acc
+    symmetrize(P)
+    return True
+
+
 @jit
 def forward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
     """Solve ``L out = b`` for lower-triangular ``L``."""

@@ -51,6 +51,7 @@ from hybridlog.estimators.kernels import (
     gaussian_log_density,
     joseph_update,
     kalman_update,
+    keep_psd,
     workspace,
 )
 from hybridlog.estimators.smoothing import rts_step, rts_work
@@ -442,19 +443,26 @@ def smooth_path(
     Each step is :func:`hybridlog.estimators.smoothing.rts_step` with ``f, F`` of mode
     ``path[k+1]`` linearised at ``x̂(k|k)`` (Rauch, Tung, Striebel 1965); where it does not
     apply (``P^-(k+1)`` not positive definite, or its guard) the filtered estimate stands.  The
-    last row is the filter's.
+    last row is the filter's.  Each smoothed covariance is kept PSD (:func:`keep_psd`): along
+    one path of a plant without process noise the EKF's covariances shrink to a condition of
+    10^9 and more, the gain ``J`` grows, and the rounding of one step's ``P^s(k+1)`` (an
+    eigenvalue of -1e-18 against 1e-9) came back through ``J P^s Jᵀ`` amplified at every step
+    before it, to variances of -3e-8 against 4e-7 a hundred steps earlier.
     """
     inputs, _, Q, _, _, _, _ = run
     n_samples, n = means.shape
     w = rts_work(n)
     x_f = np.empty(n)
     P_f = np.empty((n, n))
+    shifted = np.empty((n, n))
+    factor = np.empty((n, n))
     for k in range(n_samples - 2, -1, -1):
         j = path[k + 1]
         x_f[:] = means[k]
         P_f[:, :] = covariances[k]
-        rts_step(f, F, j, x_f, P_f, inputs[k], Q[j], means[k + 1], covariances[k + 1],
-                 means[k], covariances[k], w)  # fmt: skip
+        if rts_step(f, F, j, x_f, P_f, inputs[k], Q[j], means[k + 1], covariances[k + 1],
+                    means[k], covariances[k], w):  # fmt: skip
+            keep_psd(covariances[k], shifted, factor)
 
 
 def generate_kbest_source(model: HybridModel) -> str:

@@ -221,3 +221,26 @@ def test_the_threshold_is_the_beam_th_best_weight_found(weights, width):
         seen = sorted(weights[:k], reverse=True)
         assert found == min(k, width)
         assert threshold == (seen[width - 1] if k >= width else -math.inf)
+
+
+def test_the_path_smoother_keeps_covariances_psd_without_process_noise():
+    """Along one path of the double cart (no process noise, R = 1e-6) the EKF's covariances
+    reach a condition of 10^9 and more; the RTS step's rounding of one step's smoothed
+    covariance came back amplified at every earlier step, to variances of -3e-8 against 4e-7,
+    which the estimators' check refused as a divergence (``analyze --smooth --mode-sequence
+    kbest``, exit 2)."""
+    from hybridlog.model.builtins import builtin_text
+
+    text = builtin_text("double_cart_case1").replace(
+        "state = [0.5, 0.0, -0.5, 0.0]", "state = [0.30446, -0.05242, -0.00088, 0.19774]"
+    )
+    model = parse_model(text)
+    signals = simulate(model, steps=600, seed=4).signals(model)
+    options = ImmOptions(mode_sequence="kbest", smooth=True)
+    result = run_imm(model, signals, options, store_covariances=True)
+    assert result.covariances is not None
+    eigenvalues = np.linalg.eigvalsh(result.covariances)
+    assert (eigenvalues[:, 0] >= -1e-11 * np.abs(eigenvalues).max(axis=1)).all()
+    filtered = run_imm(model, signals, dataclasses.replace(options, smooth=False))
+    # the smoothed variances are no wider than the filter's along the path (exact RTS)
+    assert (result.state_variances <= filtered.state_variances * (1 + 1e-6) + 1e-15).all()
