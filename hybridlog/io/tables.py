@@ -103,7 +103,11 @@ class TableSource:
             raise LogError(f"{path}: no such file")
         self._schema: dict[str, pl.DataType] = {}
         if self._format == "csv":
-            self._columns = _read_csv_header(self._file)
+            names = _header_names(self._file)
+            self._columns = tuple(names)
+            stripped = [name for name, as_written in names.items() if name != as_written]
+            if stripped:  # ``t, u, y``: the names are read as ``u``, not `` u``
+                self._notes["csv_names_stripped"] = stripped
         else:
             self._schema = _read_parquet_schema(self._file)
             self._columns = tuple(self._schema)
@@ -772,7 +776,37 @@ def _first_line(err: BaseException) -> str:
 
 
 def _read_csv_header(path: Path) -> tuple[str, ...]:
-    """Parse line 1 of a CSV file into column names, checking them."""
+    """The column names of a CSV file, without the spaces around them (:func:`_header_names`)."""
+    return tuple(_header_names(path))
+
+
+def _header_names(path: Path) -> dict[str, str]:
+    """``{name: name as written}`` for the columns of a CSV file, in file order.
+
+    Loggers that write ``t, u, y`` (a space after each comma) give the names ``" u"`` and
+    ``" y"``, which no user means: names are taken without the ASCII spaces around them
+    (the reading notes say so), unless that would make two of them the same.
+
+    Raises
+    ------
+    LogError
+        As :func:`_header_as_written`, and when two names differ only in spaces around them.
+    """
+    written = _header_as_written(path)
+    names: dict[str, str] = {}
+    for as_written in written:
+        name = as_written.strip(" ")
+        if name in names:
+            raise LogError(
+                f"{path}, line 1: the header's columns {excerpt(names[name])} and "
+                f"{excerpt(as_written)} differ only in the spaces around them: rename one"
+            )
+        names[name] = as_written
+    return names
+
+
+def _header_as_written(path: Path) -> tuple[str, ...]:
+    """Parse line 1 of a CSV file into column names as written, checking them."""
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             line = handle.readline()
@@ -865,9 +899,25 @@ def _is_number(text: str) -> bool:
 
 
 def _read_csv(path: Path, **options: Any) -> pl.DataFrame:
-    """``pl.read_csv`` of a log, its name taken as it is (:func:`polars_file`)."""
+    """``pl.read_csv`` of a log, its name taken as it is (:func:`polars_file`).
+
+    ``columns`` and ``schema_overrides`` name columns as :func:`_read_csv_header` does (no
+    spaces around), and so do the frame's columns.
+    """
+    names = _header_names(path)
+    written = {name: w for name, w in names.items() if name != w}
+    if written:
+        if "columns" in options:
+            options["columns"] = [written.get(c, c) for c in options["columns"]]
+        if "schema_overrides" in options:
+            options["schema_overrides"] = {
+                written.get(c, c): t for c, t in options["schema_overrides"].items()
+            }
     with polars_file(path, "rb") as source:
-        return pl.read_csv(source, glob=False, **options)
+        frame = pl.read_csv(source, glob=False, **options)
+    if written:
+        frame = frame.rename({w: name for name, w in written.items() if w in frame.columns})
+    return frame
 
 
 def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:
