@@ -1,8 +1,8 @@
 """CSV and Parquet logs: one row per time stamp, one column per signal.
 
 The time column is ``t`` (or ``time``) in seconds; Parquet may also store it as a
-``Datetime``/``Duration``, and CSV as ISO 8601 dates and times (``2024-01-01T00:00:00.5``, a
-space for the ``T``, an offset such as ``Z`` or ``+01:00``; zoned times are taken in UTC).
+``Datetime``/``Duration``, and both as ISO 8601 dates and times in text (``2024-01-01T00:00:00.5``,
+a space for the ``T``, an offset such as ``Z`` or ``+01:00``; zoned times are taken in UTC).
 Every other column is a field a symbol can be mapped to (inside a Parquet struct, list or
 array column, as :mod:`~hybridlog.io.table_paths` names them).  An empty cell means "no
 sample of this column at this time", which is how a multi-rate table is written; a cell that
@@ -370,8 +370,10 @@ class TableSource:
         time_column = self._require_time()
         for name in wanted:
             dtype = self._path(name).dtype
-            if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
-                continue
+            if name == time_column and (
+                isinstance(dtype, pl.Datetime | pl.Duration) or _holds_text(dtype)
+            ):
+                continue  # text: ISO 8601 dates and times, as in a CSV file (_time_ns)
             numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
             if (name in numeric or name == time_column) and not numbers:
                 raise LogError(
@@ -517,11 +519,20 @@ class TableSource:
         the line or row where it is not.
         """
         name = column.name
-        if column.dtype == pl.String and self._format == "csv":
+        if _holds_text(column.dtype):
+            column = column.cast(pl.String)
             written = column.drop_nulls()
             iso = _iso_format(written[0] if written.len() else None)
             if iso is not None:
                 column = self._parse_iso(column, iso, rows)
+            elif self._format != "csv":  # a CSV cell is text whatever it holds
+                raise LogError(
+                    f"{self.path}: column {excerpt(name)} has type {column.dtype}, expected "
+                    "seconds as numbers or ISO 8601 dates and times (e.g. "
+                    f"2024-01-01T00:00:00.5), and its first value is {excerpt(written[0], 40)}"
+                    if written.len()
+                    else f"{self.path}: column {excerpt(name)} has no value"
+                )
         if isinstance(column.dtype, pl.Datetime | pl.Duration):
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
@@ -584,7 +595,9 @@ class TableSource:
             )
 
     def _parse_iso(self, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
-        """A CSV time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
+        """A text time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
+
+        CSV cells and Parquet string columns alike.
 
         The format is the first cell's (``T`` or a space between date and time, with or
         without an offset such as ``Z`` or ``+01:00``); every cell must have it.  Parsed to
@@ -1280,6 +1293,11 @@ def _describe_column(
         times = time_ns[present]
     info.update(describe_steps(times))
     return info
+
+
+def _holds_text(dtype: pl.DataType) -> bool:
+    """Whether a column of ``dtype`` holds text: strings, categories (pyarrow dictionaries)."""
+    return dtype == pl.String or isinstance(dtype, pl.Categorical | pl.Enum)
 
 
 def _holds_numbers(dtype: pl.DataType) -> bool:
