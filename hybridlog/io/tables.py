@@ -16,9 +16,13 @@ breaks); blank lines are skipped but counted.
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import os
 import re
-from collections.abc import Sequence
+import sys
+import tempfile
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -779,6 +783,43 @@ class _ColumnBlock:
         return row
 
 
+# ---------------------------------------------------------------------- polars' panics
+
+
+@contextlib.contextmanager
+def _panics_refused(path: Path, kind: str) -> Iterator[None]:
+    """Refuse a file on which polars panics (a damaged Parquet page), as a :class:`LogError`.
+
+    A panic is a ``BaseException`` (``pyo3_runtime.PanicException``), which escaped as a
+    traceback, after Rust's own message and, with ``RUST_BACKTRACE`` set, its stack printed
+    to the process's standard error: that is held while polars reads, and written out unless
+    polars panicked.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    panicked = False
+    try:
+        with tempfile.TemporaryFile() as held:
+            os.dup2(held.fileno(), 2)
+            try:
+                yield
+            except pl.exceptions.PanicException as err:
+                panicked = True
+                raise LogError(
+                    f"{path}: not a readable {kind} file (damaged? polars failed on it: "
+                    f"{_first_line(err)})"
+                ) from None
+            finally:
+                os.dup2(saved, 2)
+                if not panicked:
+                    held.seek(0)
+                    written = held.read()
+                    if written:
+                        os.write(2, written)
+    finally:
+        os.close(saved)
+
+
 # ---------------------------------------------------------------------- CSV helpers
 
 
@@ -926,7 +967,7 @@ def _read_csv(path: Path, **options: Any) -> pl.DataFrame:
             options["schema_overrides"] = {
                 written.get(c, c): t for c, t in options["schema_overrides"].items()
             }
-    with polars_file(path, "rb") as source:
+    with _panics_refused(path, "CSV"), polars_file(path, "rb") as source:
         frame = pl.read_csv(source, glob=False, **options)
     if written:
         frame = frame.rename({w: name for name, w in written.items() if w in frame.columns})
@@ -1228,13 +1269,13 @@ def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
 
 def _read_parquet(path: Path, **options: Any) -> pl.DataFrame:
     """``pl.read_parquet`` of a log, its name taken as it is (:func:`polars_file`)."""
-    with polars_file(path, "rb") as source:
+    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
         return pl.read_parquet(source, glob=False, **options)
 
 
 def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
     try:
-        with polars_file(path, "rb") as source:
+        with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
             schema = pl.scan_parquet(source, glob=False).collect_schema()
     except (pl.exceptions.PolarsError, OSError) as err:
         raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
