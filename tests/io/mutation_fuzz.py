@@ -146,13 +146,13 @@ def read_case(log: str, target: str, model: str | None) -> str | None:
     if model is not None:
         spec = SignalSpec.of(load_model(model))
         recover = [False, True] if path.suffix == ".mcap" or path.is_dir() else [False]
-        for flag in recover:
-            calls.append(
-                (
-                    f"load(recover={flag})",
-                    lambda flag=flag: load_signals(path, spec, ReadOptions(recover=flag)),
-                )
-            )
+        options = [ReadOptions(recover=flag) for flag in recover]
+        # and what the other options read differently: out-of-order and repeated times,
+        # non-finite samples, header stamps
+        header = "header" if path.suffix in (".mcap", ".bag") or path.is_dir() else "log"
+        options.append(ReadOptions(sort=True, drop_nonfinite=True, time=header))
+        for option in options:
+            calls.append((f"load({option})", lambda o=option: load_signals(path, spec, o)))
     for name, call in calls:
         try:
             result = call()

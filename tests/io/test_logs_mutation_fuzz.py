@@ -25,7 +25,7 @@ from tests.io.mutation_fuzz import (
 
 
 def test_damaged_sample_logs_read_or_are_refused_in_one_line(tmp_path: Path) -> None:
-    failures = run_cases(SUBJECTS, 13 * 20, tmp_path, seed=7)
+    failures = run_cases(SUBJECTS, 13 * 30, tmp_path, seed=7)
     assert not failures, "\n".join(failures)
 
 
