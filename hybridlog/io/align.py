@@ -169,18 +169,25 @@ def make_grid(
 
 
 def _last_grid_index(dt: float, span_ns: int, bounded_by_ends: bool) -> int:
-    """The largest ``k`` whose exact time ``k*dt`` is within the log's span.
+    """The largest ``k`` whose time ``k*dt`` is within the log's span.
 
-    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series.  The
-    bound is exact, with ``dt`` as the decimal the user wrote: ``dt`` rounded to whole
-    nanoseconds (2 ns for 1.5e-9 s) would let a half step reach a point past the last sample
-    (11 rows at 1.5 ns gave 12 grid points).  Outputs may end half a step before the last
-    grid point; inputs alone end it at their last sample, which is known to the nanosecond
-    (half a nanosecond of rounding).
+    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series.
+    Outputs may end half a step before the last grid point; inputs alone end it at their
+    last sample, known to the nanosecond (half a nanosecond of rounding).  A step of whole
+    nanoseconds is counted exactly in integers.  Otherwise the bound is exact with ``dt`` as
+    the decimal it prints as, not rounded to nanoseconds (2 ns for 1.5e-9 s let a 12th
+    grid point, at 16.5 ns, count as within half a step of the 11th sample, at 15 ns), and
+    a trillionth of the span more absorbs a ``dt`` computed in floating point (``243 *
+    1e-10`` s prints as 2.4300000000000002e-08), whose last sample, rounded down by half a
+    nanosecond, lost its grid point.
     """
-    step = Fraction(str(float(dt))) * NS_PER_S
-    slack = step / 2 if bounded_by_ends else Fraction(1, 2)
-    return max(math.floor((span_ns + slack) / step), 0)
+    step = dt * NS_PER_S
+    if step == round(step):
+        whole = round(step)
+        return (span_ns + (whole // 2 if bounded_by_ends else 0)) // whole
+    exact = Fraction(str(float(dt))) * NS_PER_S
+    reach = span_ns + (exact / 2 if bounded_by_ends else Fraction(1, 2))
+    return max(math.floor(reach * (1 + Fraction(1, 10**12)) / exact), 0)
 
 
 def on_grid(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> int:
