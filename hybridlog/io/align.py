@@ -36,7 +36,9 @@ recomputed.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -97,6 +99,14 @@ def grid_span(
     LogError
         When the series do not overlap or one of them is empty.
     """
+    t0, t_last = _first_and_last(starts, ends, source)
+    return t0, t_last + (dt_ns // 2 if ends else 0)
+
+
+def _first_and_last(
+    starts: Sequence[Series], ends: Sequence[Series], source: str
+) -> tuple[int, int]:
+    """``t0`` and the earliest last sample of the series that bound the grid's end (ns)."""
     for series in (*starts, *ends):
         if series.time_ns.size == 0:
             raise LogError(f"{source}: {series.name!r} has no samples")
@@ -104,18 +114,14 @@ def grid_span(
         raise LogError(f"{source}: no input or output signal to align")
     first = max(starts, key=lambda s: int(s.time_ns[0]))
     t0 = int(first.time_ns[0])
-    if ends:
-        last = min(ends, key=lambda s: int(s.time_ns[-1]))
-        t_end = int(last.time_ns[-1]) + dt_ns // 2
-    else:
-        last = min(starts, key=lambda s: int(s.time_ns[-1]))
-        t_end = int(last.time_ns[-1])
-    if t_end < t0:
+    last = min(ends or starts, key=lambda s: int(s.time_ns[-1]))
+    t_last = int(last.time_ns[-1])
+    if t_last < t0:
         raise LogError(
             f"{source}: signals do not overlap in time ({first.name!r} starts at "
-            f"t={format_ns(t0)} s, {last.name!r} ends at t={format_ns(int(last.time_ns[-1]))} s)"
+            f"t={format_ns(t0)} s, {last.name!r} ends at t={format_ns(t_last)} s)"
         )
-    return t0, t_end
+    return t0, t_last
 
 
 def make_grid(
@@ -144,22 +150,44 @@ def make_grid(
     LogError
         When the series do not overlap or one of them is empty.
     """
-    t0, t_end = grid_span(step_ns(dt), starts, ends, source=source)
+    step_ns(dt)
+    t0, t_last = _first_and_last(starts, ends, source)
     step = dt * NS_PER_S
-    n = int((t_end - t0) // step) + 1
-    # Built in place (one array; the same values as t0 + offsets), then cut to the points
-    # up to t_end: the grid never decreases, so those are a prefix, found by bisection.
+    n = _last_grid_index(dt, t_last - t0, bool(ends)) + 1
+    # Built in place: one array, the same values as t0 + offsets.
     if step == round(step):  # whole nanoseconds: exact integer steps, and faster
-        grid: IntArray = np.arange(n + 1, dtype=np.int64)
+        grid: IntArray = np.arange(n, dtype=np.int64)
         grid *= round(step)
     else:
-        scaled = np.arange(n + 1, dtype=np.float64)
+        scaled = np.arange(n, dtype=np.float64)
         scaled *= step
         np.rint(scaled, out=scaled)
         grid = scaled.astype(np.int64)
         del scaled
     grid += t0
-    return grid[: int(np.searchsorted(grid, t_end, side="right"))]
+    return grid
+
+
+def _last_grid_index(dt: float, span_ns: int, bounded_by_ends: bool) -> int:
+    """The largest ``k`` whose time ``k*dt`` is within the log's span.
+
+    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series.
+    Outputs may end half a step before the last grid point; inputs alone end it at their
+    last sample, known to the nanosecond (half a nanosecond of rounding).  A step of whole
+    nanoseconds is counted exactly in integers.  Otherwise the bound is exact with ``dt`` as
+    the decimal it prints as, not rounded to nanoseconds (2 ns for 1.5e-9 s let a 12th
+    grid point, at 16.5 ns, count as within half a step of the 11th sample, at 15 ns), and
+    a trillionth of the span more absorbs a ``dt`` computed in floating point (``243 *
+    1e-10`` s prints as 2.4300000000000002e-08), whose last sample, rounded down by half a
+    nanosecond, lost its grid point.
+    """
+    step = dt * NS_PER_S
+    if step == round(step):
+        whole = round(step)
+        return (span_ns + (whole // 2 if bounded_by_ends else 0)) // whole
+    exact = Fraction(str(float(dt))) * NS_PER_S
+    reach = span_ns + (exact / 2 if bounded_by_ends else Fraction(1, 2))
+    return max(math.floor(reach * (1 + Fraction(1, 10**12)) / exact), 0)
 
 
 def on_grid(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> int:

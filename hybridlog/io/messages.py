@@ -95,6 +95,22 @@ is reported as a problem of the topic, never cut silently.  Real documents are a
 deep; this guards the walk (Python's recursion) against a pathological one."""
 
 
+class _BeyondFloat(float):
+    """A JSON number too large for a float64: infinite, with the text it was written as."""
+
+    written: str
+
+
+def _float_or_written(text: str) -> float:
+    """``json``'s ``parse_float`` keeping the text of a number that overflows to infinity."""
+    value = float(text)
+    if math.isfinite(value):
+        return value
+    beyond = _BeyondFloat(value)
+    beyond.written = text
+    return beyond
+
+
 @dataclass
 class Topic:
     """One topic of a message log.
@@ -849,6 +865,8 @@ class _TopicReader:
                 try:
                     if values is not None:
                         self._read_numbers(messages, wanted, values[part], here)
+                        if json and not self.source.options.drop_nonfinite:
+                            self._refuse_overflow(wanted, values[part], datas, times, first)
                     else:
                         self._read_labels(messages, wanted, labels, here)
                 except _RowError as err:
@@ -884,6 +902,43 @@ class _TopicReader:
             self.stamps.append(stamps)
         self.log_times.append(np.asarray(times, dtype=np.int64))
         self.count += count
+
+    def _refuse_overflow(
+        self,
+        wanted: _Wanted,
+        values: FloatArray,
+        datas: list[bytes],
+        times: list[int],
+        first: int,
+    ) -> None:
+        """Refuse a JSON number too large for a float64 (``1e400``), which decoded as infinite.
+
+        It was reported as ``inf``, which the message does not say.  Only a message whose
+        value came out infinite is decoded again, keeping its numbers' text: the check costs
+        one pass over the values, not the decoding.  ``Infinity``, which Python's ``json``
+        reads, stays infinite (refused as such when mapped, or dropped with
+        ``--drop-nonfinite``, as a number out of range is then).
+
+        Raises
+        ------
+        LogError
+            Naming the topic, the field, the message and the number as written.
+        """
+        infinite = np.flatnonzero(np.isinf(values))
+        for row in infinite[:16].tolist():  # a file of Infinity tokens is not decoded anew
+            try:
+                message = json.loads(datas[first + row], parse_float=_float_or_written)
+                value = evaluate(message, wanted.path.steps)
+            except (ValueError, PathError):
+                continue  # decoded once already: the first decoding said what was wrong
+            if isinstance(value, _BeyondFloat):
+                index = self.count + first + row + 1
+                raise LogError(
+                    f"{self.source.path}: topic {self.topic.label}, field {wanted.text!r}: "
+                    f"{excerpt(value.written, 40)[1:-1]} in {self._where(times, first + row)} "
+                    f"(message {index} of the topic) is beyond the range of a float64 "
+                    "(about 1.8e308)"
+                )
 
     def _decode(self, datas: list[bytes]) -> list[object]:
         decode = self.topic.decode

@@ -1,8 +1,8 @@
 """CSV and Parquet logs: one row per time stamp, one column per signal.
 
 The time column is ``t`` (or ``time``) in seconds; Parquet may also store it as a
-``Datetime``/``Duration``, and CSV as ISO 8601 dates and times (``2024-01-01T00:00:00.5``, a
-space for the ``T``, an offset such as ``Z`` or ``+01:00``; zoned times are taken in UTC).
+``Datetime``/``Duration``, and both as ISO 8601 dates and times in text (``2024-01-01T00:00:00.5``,
+a space for the ``T``, an offset such as ``Z`` or ``+01:00``; zoned times are taken in UTC).
 Every other column is a field a symbol can be mapped to (inside a Parquet struct, list or
 array column, as :mod:`~hybridlog.io.table_paths` names them).  An empty cell means "no
 sample of this column at this time", which is how a multi-rate table is written; a cell that
@@ -16,9 +16,13 @@ breaks); blank lines are skipped but counted.
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import os
 import re
-from collections.abc import Sequence
+import sys
+import tempfile
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -103,7 +107,11 @@ class TableSource:
             raise LogError(f"{path}: no such file")
         self._schema: dict[str, pl.DataType] = {}
         if self._format == "csv":
-            self._columns = _read_csv_header(self._file)
+            names = _header_names(self._file)
+            self._columns = tuple(names)
+            stripped = [name for name, as_written in names.items() if name != as_written]
+            if stripped:  # ``t, u, y``: the names are read as ``u``, not `` u``
+                self._notes["csv_names_stripped"] = stripped
         else:
             self._schema = _read_parquet_schema(self._file)
             self._columns = tuple(self._schema)
@@ -366,8 +374,10 @@ class TableSource:
         time_column = self._require_time()
         for name in wanted:
             dtype = self._path(name).dtype
-            if name == time_column and isinstance(dtype, pl.Datetime | pl.Duration):
-                continue
+            if name == time_column and (
+                isinstance(dtype, pl.Datetime | pl.Duration) or _holds_text(dtype)
+            ):
+                continue  # text: ISO 8601 dates and times, as in a CSV file (_time_ns)
             numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
             if (name in numeric or name == time_column) and not numbers:
                 raise LogError(
@@ -513,11 +523,20 @@ class TableSource:
         the line or row where it is not.
         """
         name = column.name
-        if column.dtype == pl.String and self._format == "csv":
+        if _holds_text(column.dtype):
+            column = column.cast(pl.String)
             written = column.drop_nulls()
             iso = _iso_format(written[0] if written.len() else None)
             if iso is not None:
                 column = self._parse_iso(column, iso, rows)
+            elif self._format != "csv":  # a CSV cell is text whatever it holds
+                raise LogError(
+                    f"{self.path}: column {excerpt(name)} has type {column.dtype}, expected "
+                    "seconds as numbers or ISO 8601 dates and times (e.g. "
+                    f"2024-01-01T00:00:00.5), and its first value is {excerpt(written[0], 40)}"
+                    if written.len()
+                    else f"{self.path}: column {excerpt(name)} has no value"
+                )
         if isinstance(column.dtype, pl.Datetime | pl.Duration):
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
@@ -580,7 +599,9 @@ class TableSource:
             )
 
     def _parse_iso(self, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
-        """A CSV time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
+        """A text time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
+
+        CSV cells and Parquet string columns alike.
 
         The format is the first cell's (``T`` or a space between date and time, with or
         without an offset such as ``Z`` or ``+01:00``); every cell must have it.  Parsed to
@@ -762,6 +783,43 @@ class _ColumnBlock:
         return row
 
 
+# ---------------------------------------------------------------------- polars' panics
+
+
+@contextlib.contextmanager
+def _panics_refused(path: Path, kind: str) -> Iterator[None]:
+    """Refuse a file on which polars panics (a damaged Parquet page), as a :class:`LogError`.
+
+    A panic is a ``BaseException`` (``pyo3_runtime.PanicException``), which escaped as a
+    traceback, after Rust's own message and, with ``RUST_BACKTRACE`` set, its stack printed
+    to the process's standard error: that is held while polars reads, and written out unless
+    polars panicked.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    panicked = False
+    try:
+        with tempfile.TemporaryFile() as held:
+            os.dup2(held.fileno(), 2)
+            try:
+                yield
+            except pl.exceptions.PanicException as err:
+                panicked = True
+                raise LogError(
+                    f"{path}: not a readable {kind} file (damaged? polars failed on it: "
+                    f"{_first_line(err)})"
+                ) from None
+            finally:
+                os.dup2(saved, 2)
+                if not panicked:
+                    held.seek(0)
+                    written = held.read()
+                    if written:
+                        os.write(2, written)
+    finally:
+        os.close(saved)
+
+
 # ---------------------------------------------------------------------- CSV helpers
 
 
@@ -772,7 +830,37 @@ def _first_line(err: BaseException) -> str:
 
 
 def _read_csv_header(path: Path) -> tuple[str, ...]:
-    """Parse line 1 of a CSV file into column names, checking them."""
+    """The column names of a CSV file, without the spaces around them (:func:`_header_names`)."""
+    return tuple(_header_names(path))
+
+
+def _header_names(path: Path) -> dict[str, str]:
+    """``{name: name as written}`` for the columns of a CSV file, in file order.
+
+    Loggers that write ``t, u, y`` (a space after each comma) give the names ``" u"`` and
+    ``" y"``, which no user means: names are taken without the ASCII spaces around them
+    (the reading notes say so), unless that would make two of them the same.
+
+    Raises
+    ------
+    LogError
+        As :func:`_header_as_written`, and when two names differ only in spaces around them.
+    """
+    written = _header_as_written(path)
+    names: dict[str, str] = {}
+    for as_written in written:
+        name = as_written.strip(" ")
+        if name in names:
+            raise LogError(
+                f"{path}, line 1: the header's columns {excerpt(names[name])} and "
+                f"{excerpt(as_written)} differ only in the spaces around them: rename one"
+            )
+        names[name] = as_written
+    return names
+
+
+def _header_as_written(path: Path) -> tuple[str, ...]:
+    """Parse line 1 of a CSV file into column names as written, checking them."""
     try:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             line = handle.readline()
@@ -865,9 +953,25 @@ def _is_number(text: str) -> bool:
 
 
 def _read_csv(path: Path, **options: Any) -> pl.DataFrame:
-    """``pl.read_csv`` of a log, its name taken as it is (:func:`polars_file`)."""
-    with polars_file(path, "rb") as source:
-        return pl.read_csv(source, glob=False, **options)
+    """``pl.read_csv`` of a log, its name taken as it is (:func:`polars_file`).
+
+    ``columns`` and ``schema_overrides`` name columns as :func:`_read_csv_header` does (no
+    spaces around), and so do the frame's columns.
+    """
+    names = _header_names(path)
+    written = {name: w for name, w in names.items() if name != w}
+    if written:
+        if "columns" in options:
+            options["columns"] = [written.get(c, c) for c in options["columns"]]
+        if "schema_overrides" in options:
+            options["schema_overrides"] = {
+                written.get(c, c): t for c, t in options["schema_overrides"].items()
+            }
+    with _panics_refused(path, "CSV"), polars_file(path, "rb") as source:
+        frame = pl.read_csv(source, glob=False, **options)
+    if written:
+        frame = frame.rename({w: name for name, w in written.items() if w in frame.columns})
+    return frame
 
 
 def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:
@@ -1165,13 +1269,13 @@ def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
 
 def _read_parquet(path: Path, **options: Any) -> pl.DataFrame:
     """``pl.read_parquet`` of a log, its name taken as it is (:func:`polars_file`)."""
-    with polars_file(path, "rb") as source:
+    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
         return pl.read_parquet(source, glob=False, **options)
 
 
 def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
     try:
-        with polars_file(path, "rb") as source:
+        with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
             schema = pl.scan_parquet(source, glob=False).collect_schema()
     except (pl.exceptions.PolarsError, OSError) as err:
         raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
@@ -1230,6 +1334,11 @@ def _describe_column(
         times = time_ns[present]
     info.update(describe_steps(times))
     return info
+
+
+def _holds_text(dtype: pl.DataType) -> bool:
+    """Whether a column of ``dtype`` holds text: strings, categories (pyarrow dictionaries)."""
+    return dtype == pl.String or isinstance(dtype, pl.Categorical | pl.Enum)
 
 
 def _holds_numbers(dtype: pl.DataType) -> bool:

@@ -764,6 +764,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     for key, what in (
         ("truth_without_samples", "ground truth fields without samples, not used"),
         ("truth_unusable", "ground truth fields found by default that cannot be read, not used"),
+        ("csv_names_stripped", "CSV header names read without the spaces around them"),
     ):
         if reading.get(key):
             notes.append(f"NOTE: {what}: {', '.join(map(str, reading[key]))}")

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import LogError, OptionError
@@ -674,3 +674,44 @@ def test_a_true_mode_held_longer_than_max_gap_is_noted() -> None:
         truth_mode=every, notes=notes,
     )  # fmt: skip
     assert "truth_held" not in notes
+
+
+def test_a_log_at_a_fractional_nanosecond_step_keeps_its_row_count(tmp_path: Path) -> None:
+    # dt = 1.5 ns rounds to a 2 ns step, whose half (1 ns) let a 12th grid point at 16.5 ns
+    # (rounded to 16) count as within half a step of the last sample at 15 ns.
+    n = 11
+    path = write_table(
+        tmp_path / "log.csv",
+        {"t": np.arange(n) * 1.5e-9, "u": np.ones(n), "y": np.arange(n, dtype=np.float64)},
+    )
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.5e-9)
+    signals = load_signals(path, spec)
+    assert signals.n_samples == n
+    np.testing.assert_array_equal(signals.outputs[:, 0], np.arange(n))
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    step_tenths=st.integers(10, 10_000_000),
+    n=st.integers(1, 400),
+    t0_ns=st.integers(0, 2_000_000_000_000_000_000),
+    outputs=st.booleans(),
+)
+# dt computed in floating point, 2.4300000000000002e-08 s; the last sample, at 2794.5 ns, is
+# rounded down: its grid point is at the bound exactly
+@example(step_tenths=243, n=116, t0_ns=0, outputs=False)
+def test_the_grid_has_one_point_per_sample_of_a_log_sampled_at_dt(
+    step_tenths: int, n: int, t0_ns: int, outputs: bool
+) -> None:
+    # dt in tenths of a nanosecond, from 1 ns to 1 ms: the log's times are the nearest
+    # nanoseconds to k*dt, as a writer at that rate records them.
+    from hybridlog.io.align import make_grid
+
+    dt = step_tenths * 1e-10
+    time_ns = t0_ns + seconds_to_ns(np.arange(n) * dt)
+    signal = Series("s", time_ns, np.zeros(n))
+    grid = make_grid(dt, [signal], [signal] if outputs else [])
+    assert grid.size == n
+    assert grid[0] == time_ns[0]
+    # Never a point more than half a step (plus the nanosecond rounding) past the last sample.
+    assert (grid[-1] - time_ns[-1]) <= dt * 5e8 + 0.5

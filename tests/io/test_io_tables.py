@@ -752,3 +752,37 @@ def test_a_quoted_field_over_several_lines_names_where_it_starts(
 ) -> None:
     with pytest.raises(LogError, match=rf"log\.csv, {words}; .* \(an unclosed quote\?\)"):
         load(csv_file(tmp_path, text))
+
+
+@pytest.mark.parametrize(
+    "header",
+    ["t, u, y, mode", "t ,u ,y ,mode", " t , u , y , mode ", "t,  u,y,mode"],
+)
+def test_header_names_are_read_without_the_spaces_around_them(tmp_path: Path, header: str) -> None:
+    # Loggers that write "t, u, y" gave the columns " u" and " y", which no user means.
+    body = "0.0, 1, 10, 1\n0.1, 2, 20, 1\n0.2, 3, 30, valve_open\n0.3, 4, oops, 1\n"
+    path = csv_file(tmp_path, f"{header}\n{body}")
+    notes: dict[str, Any] = {}
+    with pytest.raises(LogError, match=r"line 5, column 'y': 'oops' is not a number"):
+        load(path)
+    path.write_text(f"{header}\n{body.replace('oops', '40')}")
+    signals = load(path, notes)
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2, 3, 4])
+    np.testing.assert_array_equal(signals.outputs[:, 0], [10, 20, 30, 40])
+    np.testing.assert_array_equal(signals.truth_modes, [0, 0, 1, 0])
+    written = header.split(",")
+    assert notes["csv_names_stripped"] == [n.strip() for n in written if n != n.strip()]
+    assert [c["name"] for c in inspect_log(path)["columns"]] == ["t", "u", "y", "mode"]
+    assert load(path, sort=True).n_samples == 4
+    assert load(path, signals={"u": "u"}).n_samples == 4
+
+    from hybridlog.report.build import _reading_notes
+
+    assert any("CSV header names read without the spaces" in n for n in _reading_notes(notes))
+
+
+@pytest.mark.parametrize("header", ["t,u,y, y", "t,u , u,y", "t, t,u,y"])
+def test_header_names_that_differ_only_in_spaces_are_refused(tmp_path: Path, header: str) -> None:
+    path = csv_file(tmp_path, f"{header}\n0,1,2,3\n")
+    with pytest.raises(LogError, match=r"line 1: the header's columns '.*' and '.*' differ only"):
+        load(path)

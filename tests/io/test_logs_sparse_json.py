@@ -172,3 +172,65 @@ def test_a_sparse_label_field_lists_only_the_labels_its_messages_hold(tmp_path: 
     assert series.categories == ("a", "b")
     np.testing.assert_array_equal(series.codes, [0 if k % 3 == 0 else 1 for k in range(N)])
     np.testing.assert_array_equal(series.time_ns, np.arange(N) * S // 10)
+
+
+def write_raw(path: Path, documents: list[str]) -> Path:
+    """Messages as written text (``1e400`` is no Python float ``json.dumps`` could write)."""
+    from mcap.writer import Writer
+
+    with path.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="", library="tests")
+        channel = writer.register_channel("/io", "json", 0)
+        for k, text in enumerate(documents):
+            writer.add_message(channel, k * S // 10, text.encode(), k * S // 10)
+        writer.finish()
+    return path
+
+
+@pytest.mark.parametrize(
+    ("written", "field", "number"),
+    [
+        ('{"u": 1, "y": 1e400}', "y", "1e400"),
+        ('{"u": 1, "y": -2.5E+309}', "y", "-2.5E+309"),
+        ('{"u": 1e999, "y": 1}', "u", "1e999"),
+        ('{"u": 1, "y": 1, "v": [1, 1e400]}', "y", None),  # not mapped: read as usual
+        ('{"u": 1, "y": 1, "p": {"q": [0, 1e400]}}', "p.q[1]", "1e400"),
+    ],
+)
+def test_a_json_number_beyond_float_range_is_named_as_written(
+    tmp_path: Path, written: str, field: str, number: str | None
+) -> None:
+    # 1e400 decodes to inf and was reported as "inf", which the message does not say.
+    documents = ['{"u": 1, "y": 1, "p": {"q": [0, 1]}}'] * N
+    documents[7] = written
+    log = write_raw(tmp_path / "log.mcap", documents)
+    maps = ("u=/io/u", "y=/io/y") if field in "uy" else ("u=/io/u", f"y=/io/{field}")
+    if number is None:
+        assert load(log, *maps).n_samples == N
+        return
+    with pytest.raises(LogError) as info:
+        load(log, *maps)
+    message = str(info.value)
+    assert message.startswith(f"{log}: topic '/io'")
+    assert f"field '/io/{field}'" in message
+    assert f"{number} in the message logged at t=0.7 s (message 8 of the topic)" in message
+    assert message.endswith("is beyond the range of a float64 (about 1.8e308)")
+    # --drop-nonfinite drops it, as it does an infinite number
+    notes: dict[str, Any] = {}
+    signals = load_signals(
+        log,
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=DT),
+        ReadOptions(maps=maps, drop_nonfinite=True),
+        notes=notes,
+    )
+    assert signals.n_samples == N
+    assert notes["nonfinite_dropped"] == {f"/io/{field}": 1}
+
+
+def test_a_json_infinity_token_is_still_reported_as_infinite(tmp_path: Path) -> None:
+    documents = ['{"u": 1, "y": 1}'] * N
+    documents[3] = '{"u": 1, "y": Infinity}'
+    log = write_raw(tmp_path / "log.mcap", documents)
+    with pytest.raises(LogError, match=r"inf for output 'y' at t=0\.3 s"):
+        load(log, "u=/io/u", "y=/io/y")
