@@ -799,7 +799,7 @@ def _panics_refused(path: Path, kind: str) -> Iterator[None]:
     saved = os.dup(2)
     panicked = False
     try:
-        with tempfile.TemporaryFile() as held:
+        with _held_file() as held:
             os.dup2(held.fileno(), 2)
             try:
                 yield
@@ -818,6 +818,13 @@ def _panics_refused(path: Path, kind: str) -> Iterator[None]:
                         os.write(2, written)
     finally:
         os.close(saved)
+
+
+def _held_file() -> Any:
+    """A file in memory (no disk, no ``TMPDIR``), or a temporary file where there is none."""
+    if hasattr(os, "memfd_create"):
+        return os.fdopen(os.memfd_create("hybridlog-polars-stderr"), "w+b")
+    return tempfile.TemporaryFile()  # pragma: no cover - not Linux
 
 
 # ---------------------------------------------------------------------- CSV helpers
