@@ -207,7 +207,7 @@ def render_markdown(report: Report) -> str:
     expected = report.samples - 1  # every sample after the prior
     undefined += [
         f"- {escape_markdown(y)}: metrics over {m.samples:,} of {expected:,} samples; the others "
-        "have no finite measurement or prediction"
+        "have no finite measurement or no prediction (NaN)"
         for y, m in report.outputs.items()
         if m.samples is not None and m.samples < expected
     ]
