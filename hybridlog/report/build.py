@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -384,10 +384,7 @@ class ReportBuilder:
                 modes, components=components, accuracy=None if joint is None else _num(joint)
             )
         states = _state_reports(first.state_names, self._states)
-        means = {
-            name: _num(metrics.mean_where_defined([getattr(m, name) for m in per_output.values()]))
-            for name in ("mse", "vaf", "fit")
-        }
+        means = {name: _output_mean(per_output.values(), name) for name in ("mse", "vaf", "fit")}
         samples_per_s = _num(n / runtime) if runtime > 0.0 else None
         report = Report(
             hybridlog_version=__version__,
@@ -414,7 +411,17 @@ class ReportBuilder:
             compile_s=_num(float(last.compile_s)),
             samples_per_s=samples_per_s,
             notes=(*(str(note) for note in last.notes), *_reading_notes(reading)),
-            null_reasons=_null_reasons(per_output, means, modes, states, signals, samples_per_s),
+            null_reasons=_null_reasons(
+                per_output,
+                means,
+                modes,
+                states,
+                signals,
+                samples_per_s,
+                {}
+                if self._states is None
+                else dict(zip(states, self._states.undefined(), strict=True)),
+            ),
             smoothing=(
                 None
                 if self._offline is None
@@ -489,6 +496,19 @@ def build_report(
     return builder.report(model_name=model_name, reading=reading, extra=extra)
 
 
+def _output_mean(per_output: Iterable[metrics.OutputMetrics], name: str) -> float | None:
+    """The top-level ``mse``, ``vaf`` or ``fit``: the mean over the outputs where it is defined.
+
+    ``None`` when no output's is, and when one output's is a number float64 cannot hold
+    (:attr:`~hybridlog.report.metrics.OutputMetrics.out_of_range`) or infinite (a
+    prediction that diverged): the worst output is never left out of the mean.
+    """
+    per_output = list(per_output)
+    if any(name in m.out_of_range for m in per_output):
+        return None
+    return _num(metrics.mean_where_defined([getattr(m, name) for m in per_output]))
+
+
 def _state_reports(
     names: tuple[str, ...], accumulator: metrics.StateAccumulator | None
 ) -> dict[str, StateReport]:
@@ -529,7 +549,7 @@ def _side(
             y: OutputReport(mse=_num(m.mse), vaf=_num(m.vaf), fit=_num(m.fit), samples=m.samples)
             for y, m in zip(output_names, per_output, strict=True)
         }
-        fit = _num(metrics.mean_where_defined([m.fit for m in per_output]))
+        fit = _output_mean(per_output, "fit")
     switches = int(np.count_nonzero(modes[1:] != modes[:-1]))
     sides = {c: ComponentSide.of(m) for c, m in (components or {}).items()}
     truth = signals.truth_modes
@@ -809,22 +829,35 @@ def _null_reasons(
     states: Mapping[str, StateReport],
     signals: AlignedSignals,
     samples_per_s: float | None,
+    state_reasons: Mapping[str, str | None],
 ) -> dict[str, str]:
-    """Why each gate metric that is ``None`` in the report is (keys as in the gates)."""
+    """Why each gate metric that is ``None`` in the report is (keys as in the gates).
+
+    ``state_reasons``: why a state's RMSE over some rows is not a number
+    (:meth:`~hybridlog.report.metrics.StateAccumulator.undefined`).
+    """
     reasons: dict[str, str] = {}
     for name in ("mse", "vaf", "fit"):
         for y, m in per_output.items():
             if name in m.undefined:
                 reasons[f"{name}.{y}"] = m.undefined[name]
         if means[name] is None and per_output:
+            beyond = [y for y, m in per_output.items() if name in m.out_of_range]
             diverged = [y for y, m in per_output.items() if math.isinf(getattr(m, name))]
-            y = diverged[0] if diverged else next(iter(per_output))
-            why = per_output[y].undefined.get(name)
-            reasons[name] = (
-                f"the mean over the outputs is infinite: {name}.{y}: {why}"
-                if diverged
-                else f"undefined for every output ({y}: {why})"
-            )
+            if beyond:
+                y = beyond[0]
+                reasons[name] = (
+                    f"a mean over the outputs cannot leave out {name}.{y}, which float64 "
+                    f"cannot hold: {per_output[y].undefined.get(name)}"
+                )
+            elif diverged:
+                y = diverged[0]
+                why = per_output[y].undefined.get(name)
+                reasons[name] = f"the mean over the outputs is infinite: {name}.{y}: {why}"
+            else:
+                y = next(iter(per_output))
+                why = per_output[y].undefined.get(name)
+                reasons[name] = f"undefined for every output ({y}: {why})"
     if modes.components:
         if modes.accuracy is None:
             reasons["mode_accuracy"] = (
@@ -846,8 +879,8 @@ def _null_reasons(
         if state.rmse is not None:
             continue
         truth = signals.truth_states
-        if state.samples:  # finite rows whose squared errors overflowed
-            why = f"the estimate of state {x} diverged: its error overflows float64"
+        if state.samples:  # rows whose RMSE float64 cannot hold, or an estimate went infinite
+            why = f"the estimate of state {x} {state_reasons.get(x) or 'is not a finite number'}"
         elif truth is None or not np.isfinite(truth[:, j]).any():
             why = f"the log has no ground truth for state {x}"
         else:

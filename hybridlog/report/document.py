@@ -35,7 +35,8 @@ is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` count
 output metrics use (a measurement and a one-step-ahead prediction), ``states.<x>.samples``
 those the state RMSE uses (a true state and an estimate); ``mse``, ``vaf`` and
 ``fit`` at the top are the means over the outputs where the metric is defined (``null``
-when one output's is infinite: a prediction that diverged is never left out).
+when one output's is infinite or beyond float64's range: a prediction that diverged is
+never left out).
 ``null_reasons`` maps gate metric names (``vaf``, ``fit.y1``, ``mode_accuracy``,
 ``state_rmse.x2``, ...; see :mod:`hybridlog.report.gates`) to why the report holds ``null``
 for them.  ``modes.detection`` (``null`` without a true mode) holds the details behind
@@ -92,8 +93,8 @@ class OutputReport:
     Attributes
     ----------
     mse, vaf, fit:
-        See :func:`hybridlog.report.metrics.output_metrics`; ``None`` where undefined (the
-        report's :attr:`~Report.null_reasons` says why).
+        See :func:`hybridlog.report.metrics.output_metrics`; ``None`` where undefined or
+        beyond float64's range (the report's :attr:`~Report.null_reasons` says why).
     samples:
         Rows the metrics use (a finite measurement and prediction); ``None`` in reports of
         versions that did not record it.
@@ -117,8 +118,9 @@ class StateReport:
     Attributes
     ----------
     rmse:
-        Root mean square error over ``samples`` rows; ``None`` where undefined (no truth, or
-        a diverged estimate: the report's :attr:`~Report.null_reasons` says why).
+        Root mean square error over ``samples`` rows; ``None`` where undefined (no truth, a
+        diverged estimate, or an RMSE float64 cannot hold: the report's
+        :attr:`~Report.null_reasons` says why).
     samples:
         Rows the RMSE is over: where the true state is finite and its estimate is not NaN
         (a log's true state may cover only part of the run); ``None`` in reports of versions

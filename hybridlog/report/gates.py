@@ -8,7 +8,9 @@ Metric names
 ------------
 ``vaf``, ``mse``, ``fit``
     Mean over the outputs where the metric is defined (``report.vaf``, ...); ``fit`` is
-    MATLAB ``compare``'s NRMSE fit in percent.
+    MATLAB ``compare``'s NRMSE fit in percent.  A gate on the mean fails while any
+    output's value is ``null`` (a stuck sensor's VAF or fit is undefined): a mean over the
+    other outputs would pass a run on the outputs it left out.
 ``vaf.<y>``, ``mse.<y>``, ``fit.<y>``
     Of one output ``<y>`` (``report.outputs[y].vaf``, ...).
 ``mode_accuracy``
@@ -423,6 +425,24 @@ def _which_side(report: Report, name: str) -> str:
     return f" (of the offline estimates: {label}; the filter's own: {own})"
 
 
+def _outputs_left_out(report: Report, name: str) -> str | None:
+    """For a mean over the outputs (``vaf``, ``mse``, ``fit``), the outputs it left out.
+
+    ``None`` for another metric or when every output's value is there; else the outputs
+    whose value is ``null``, each with why (``vaf.y2 (var(ŷ) = 0: ...)``).
+    """
+    if name not in _OUTPUT_METRICS:
+        return None
+    read = _OUTPUT_METRICS[name]
+    missing = [y for y, output in report.outputs.items() if read(output) is None]
+    if not missing:
+        return None
+    reasons = [
+        f"{name}.{y} ({report.null_reasons.get(f'{name}.{y}') or _WHY_NULL[name]})" for y in missing
+    ]
+    return f"{len(missing)} of {len(report.outputs)} outputs: " + "; ".join(reasons)
+
+
 def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
     """Check gates against a report.
 
@@ -437,9 +457,13 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
     -------
     list of str
         One message per failed gate, e.g. ``"vaf = 87.2 is under the bound 90"``; empty
-        when every gate is met.  For a report of offline estimates (``smoothing``) the
-        value says which it is: ``"mode_accuracy = 0.92 (of the offline estimates:
-        kim-rts, argmax; the filter's own: 0.86) is under the bound 0.95"``.
+        when every gate is met.  A gate on a mean over the outputs (``vaf``, ``mse``,
+        ``fit``) fails while any output's value is ``null``, naming those outputs and why:
+        ``"vaf = 95.1 is a mean that leaves out 1 of 2 outputs: vaf.y2 (var(ŷ) = 0: ...),
+        so the --fail-under bound 90 cannot be met"``.  For a report of offline estimates
+        (``smoothing``) the value says which it is: ``"mode_accuracy = 0.92 (of the
+        offline estimates: kim-rts, argmax; the filter's own: 0.86) is under the bound
+        0.95"``.
 
     Raises
     ------
@@ -460,6 +484,12 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
             failures.append(
                 f"{gate.metric} is not available ({why}), so the {gate.option} bound "
                 f"{_fmt(gate.bound)} cannot be met"
+            )
+        elif (partial := _outputs_left_out(report, gate.metric)) is not None:
+            failures.append(
+                f"{gate.metric} = {_fmt(value)}{_which_side(report, gate.metric)} is a mean "
+                f"that leaves out {partial}, so the {gate.option} bound {_fmt(gate.bound)} "
+                "cannot be met"
             )
         elif (gate.kind == "under" and value < gate.bound) or (
             gate.kind == "over" and value > gate.bound

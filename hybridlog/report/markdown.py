@@ -148,7 +148,9 @@ DEFINITIONS = (
     "0 no better than the mean of y, negative worse. Unlike VAF, its denominator does not "
     "depend on the prediction, so a worse predictor cannot score higher.",
     "A metric is n/a (null) when undefined, with the reason given: VAF when var(ŷ) = 0, fit "
-    "when y is constant. The top rows are the means over the outputs where it is defined.",
+    "when y is constant; so is one float64 cannot hold (the MSE of errors of 1e200 or "
+    "1e-300). The top rows are the means over the outputs where it is defined; a gate on the "
+    "mean fails while any output's is n/a.",
     "Mode accuracy: the fraction of all samples whose estimated mode is the true one.",
     "Detection delay: from a true switch to the first estimated change *into* the new mode at "
     "or after it, before the next true switch. An estimate that was already in that mode "
@@ -205,7 +207,7 @@ def render_markdown(report: Report) -> str:
     expected = report.samples - 1  # every sample after the prior
     undefined += [
         f"- {escape_markdown(y)}: metrics over {m.samples:,} of {expected:,} samples; the others "
-        "have no finite measurement or prediction"
+        "have no finite measurement or no prediction (NaN)"
         for y, m in report.outputs.items()
         if m.samples is not None and m.samples < expected
     ]

@@ -2,9 +2,12 @@
 
 Pure functions over NumPy arrays, and accumulators of the output and state metrics for a
 run whose rows come in chunks; they never warn, print or touch files.  A metric that
-cannot be computed (no usable sample, no ground truth, a zero denominator, a diverged
-prediction whose squares overflow float64) is NaN here and ``null`` in ``report.json``,
-with the reason from :func:`output_metrics`.
+cannot be computed (no usable sample, no ground truth, a zero denominator, an infinite
+prediction) is NaN or infinite here and ``null`` in ``report.json``, with the reason from
+:func:`output_metrics`; so is one whose value float64 cannot hold (MSE of errors of 1e200
+or 1e-300), the reason saying so.  The errors are scaled before they are squared where
+their squares would leave float64's range, so no metric depends on the units of the
+signals: VAF and fit not at all, MSE and RMSE as the square and the unit.
 
 References
 ----------
@@ -16,6 +19,7 @@ MATLAB System Identification Toolbox, ``compare``: the fit (NRMSE) formula.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Generic, Protocol, Self, TypedDict, TypeVar
@@ -266,50 +270,164 @@ def _centred_spread(v: FloatArray, scratch: FloatArray) -> _Spread:
     return _Spread(n, low, high, mean / unit, correction, _Squares(scale, total))
 
 
+_SAFE_LOW = 2.0**-480
+"""Smallest largest error whose plain sum of squares is accurate where it is finite (none
+overflowed): the largest square is then a normal number, and what the smaller ones lose by
+underflowing is below 2^-1074 each, against a sum of at least 2^-960."""
+
+
+@dataclass(frozen=True)
+class _InRange:
+    r"""A positive number :math:`f \cdot 2^e` (``fraction`` in [0.5, 1)), held or not.
+
+    ``value`` is the float, ``inf`` above float64's range, NaN below its normal range (a
+    subnormal float keeps fewer than 52 bits: a number no one can vouch for).
+    """
+
+    fraction: float
+    exponent: int
+
+    @classmethod
+    def product(cls, scale: float, power: int, factor: float) -> _InRange:
+        r""":math:`\mathrm{scale}^{\mathrm{power}} \cdot \mathrm{factor}` (both positive).
+
+        Both finite; the product may be as far beyond float64's range as it is.
+        """
+        fraction, exponent = math.frexp(scale)
+        fraction, extra = math.frexp(fraction**power * factor)
+        return cls(fraction, extra + power * exponent)
+
+    @property
+    def above(self) -> bool:
+        return self.exponent > 1024
+
+    @property
+    def below(self) -> bool:
+        return self.exponent < -1021
+
+    @property
+    def value(self) -> float:
+        if self.above:
+            return math.inf
+        if self.below:
+            return math.nan
+        return math.ldexp(self.fraction, self.exponent)
+
+    def times(self, factor: float) -> _InRange:
+        """The number times a positive ``factor`` of moderate size."""
+        fraction, extra = math.frexp(self.fraction * factor)
+        return _InRange(fraction, self.exponent + extra)
+
+    def decimal(self) -> str:
+        """The number in scientific notation, two digits (``1.2e+403``), out of range too."""
+        digits = math.log10(self.fraction) + self.exponent * math.log10(2.0)
+        power = math.floor(digits)
+        mantissa = round(10.0 ** (digits - power), 1)
+        if mantissa >= 10.0:
+            mantissa, power = mantissa / 10.0, power + 1
+        return f"{mantissa:.2g}e{power:+03d}"
+
+    def beyond(self, what: str, sign: str = "", unit: str = "") -> str:
+        """Why ``what`` (``sign`` times this number) is null: which side of the range it is."""
+        if self.above:
+            return (
+                f"{what} ≈ {sign}{self.decimal()}{unit} is beyond float64's range "
+                f"(at most {sys.float_info.max:.2g})"
+            )
+        return (
+            f"{what} ≈ {sign}{self.decimal()}{unit} is below float64's range "
+            f"(normal numbers from {sys.float_info.min:.2g})"
+        )
+
+
 @dataclass(frozen=True)
 class _ErrorPower:
-    r"""Rows and :math:`\sum_k e_k^2` of an error :math:`e = y - \hat y` (unscaled: may be inf)."""
+    r"""Rows and :math:`\sum_k e_k^2` of an error :math:`e = y - \hat y`, plain and scaled.
+
+    ``squares``: the plain sum (it overflows to inf or underflows to 0 with the squares);
+    ``size``: the same sum scaled by :math:`\max|e|` (:class:`_Squares`), which neither
+    does.  The mean square is the plain one where that is accurate (finite, and
+    :data:`_SAFE_LOW`: the bits of the whole-column code), the scaled one otherwise,
+    so that it does not depend on the units of the signals.  ``infinite``: some ``ŷ`` was
+    infinite (a prediction or estimate that diverged), not merely too large to subtract.
+    """
 
     rows: int
     squares: float
-
-    @classmethod
-    def of(cls, error: FloatArray, out: FloatArray) -> _ErrorPower:
-        """The power of ``error``, its squares written to ``out`` (``error`` itself or not)."""
-        return cls(error.size, float(np.sum(np.multiply(error, error, out=out))))
+    size: _Squares
+    infinite: bool = False
 
     @classmethod
     def between(cls, y: FloatArray, y_hat: FloatArray, scratch: FloatArray) -> _ErrorPower:
         """The power of ``y - y_hat``: a block's part of :class:`StateAccumulator`."""
+        error, work = scratch[0, : y.size], scratch[1, : y.size]
         with np.errstate(over="ignore", invalid="ignore"):
-            error = np.subtract(y, y_hat, out=scratch[0, : y.size])
-            return cls.of(error, error)
+            np.subtract(y, y_hat, out=error)
+            squares = float(np.sum(np.multiply(error, error, out=work)))
+            size = _error_size(error, squares, work)
+        infinite = size.scale == math.inf and bool(np.isinf(y_hat).any())
+        return cls(error.size, squares, size, infinite)
 
-    @property
-    def mean_square(self) -> float:
-        r""":math:`\frac1n \sum_k e_k^2` (``rows`` >= 1)."""
-        return self.squares / self.rows
+    def _mean_of(self, power: int) -> tuple[float, _InRange | None]:
+        scale = self.size.scale
+        if (scale >= _SAFE_LOW and self.squares < math.inf) or scale in (0.0, math.inf):
+            mean = self.squares / self.rows
+            return (mean if power == 2 else math.sqrt(mean)), None
+        factor = self.size.total / self.rows
+        number = _InRange.product(scale, power, factor if power == 2 else math.sqrt(factor))
+        return number.value, (number if number.above or number.below else None)
+
+    def mean_square(self) -> tuple[float, _InRange | None]:
+        r""":math:`\frac1n \sum_k e_k^2` (``rows`` >= 1), and the number if float64 lacks it.
+
+        The float is then inf above the range, NaN below; inf without that number where an
+        error itself overflowed (``size.scale`` inf).
+        """
+        return self._mean_of(2)
+
+    def root_mean_square(self) -> tuple[float, _InRange | None]:
+        r""":math:`\sqrt{\frac1n \sum_k e_k^2}`, as :meth:`mean_square` gives it."""
+        return self._mean_of(1)
 
     def merged(self, later: _ErrorPower) -> _ErrorPower:
         """The power of both parts' rows."""
-        return _ErrorPower(self.rows + later.rows, self.squares + later.squares)
+        return _ErrorPower(
+            self.rows + later.rows,
+            self.squares + later.squares,
+            self.size.merged(later.size),
+            self.infinite or later.infinite,
+        )
+
+
+def _error_size(error: FloatArray, squares: float, work: FloatArray) -> _Squares:
+    r"""``squares`` (:math:`\sum e^2` of a block) scaled by :math:`\max|e|`.
+
+    Where the plain sum is accurate (:data:`_SAFE_LOW`) it is only re-expressed; else the
+    errors are scaled before they are squared (``work``: scratch).
+    """
+    size = _range(error)[2]
+    if not 0.0 < size < math.inf:
+        return _Squares(size, 0.0 if size == 0.0 else math.nan)
+    if size >= _SAFE_LOW and squares < math.inf:
+        return _Squares(size, squares / size / size)
+    unit = np.divide(error, size, out=work)
+    return _Squares(size, float(np.sum(np.square(unit, out=unit))))
 
 
 @dataclass(frozen=True)
 class _OutputPart:
     r"""What MSE, VAF and fit need of some usable rows of one output.
 
-    ``power``: :math:`\sum e^2` (MSE); ``measured``: the spread of ``y`` centred first
+    ``power``: :math:`\sum e^2`, plain and scaled by :math:`\max|e|` (MSE, and
+    :math:`\lVert e\rVert^2` of fit); ``measured``: the spread of ``y`` centred first
     (fit's :math:`\lVert y - \bar y\rVert`); ``predicted`` and ``error``: the spreads of
-    ``ŷ`` and :math:`e = y - \hat y` scaled first (VAF's standard deviations);
-    ``error_size``: :math:`\lVert e\rVert^2` scaled by :math:`\max|e|` (fit).
+    ``ŷ`` and :math:`e = y - \hat y` scaled first (VAF's standard deviations).
     """
 
     power: _ErrorPower
     measured: _Spread
     predicted: _Spread
     error: _Spread
-    error_size: _Squares
 
     @classmethod
     def of(cls, y: FloatArray, y_hat: FloatArray, scratch: FloatArray) -> _OutputPart:
@@ -317,7 +435,7 @@ class _OutputPart:
         error, scratch = scratch[0, : y.size], scratch[1, : y.size]
         with np.errstate(over="ignore", invalid="ignore"):
             np.subtract(y, y_hat, out=error)
-            power = _ErrorPower.of(error, scratch)
+            squares = float(np.sum(np.multiply(error, error, out=scratch)))
             low, high, size = _range(error)
             if 0.0 < size < math.inf:
                 unit = np.divide(error, size, out=error)
@@ -327,11 +445,10 @@ class _OutputPart:
                 error_spread = _flat_spread(error.size, low, high, size)
                 error_size = error_spread.deviations
             return cls(
-                power=power,
+                power=_ErrorPower(error.size, squares, error_size),
                 measured=_centred_spread(y, scratch),
                 predicted=_scaled_spread(y_hat, scratch),
                 error=error_spread,
-                error_size=error_size,
             )
 
     def merged(self, later: _OutputPart) -> _OutputPart:
@@ -341,7 +458,6 @@ class _OutputPart:
             measured=self.measured.merged(later.measured),
             predicted=self.predicted.merged(later.predicted),
             error=self.error.merged(later.error),
-            error_size=self.error_size.merged(later.error_size),
         )
 
 
@@ -503,22 +619,41 @@ def _scaled_ratio(a: _Squares, b: _Squares, size: Callable[[float], float]) -> f
 
 def _vaf(part: _OutputPart) -> float:
     if math.isinf(part.predicted.magnitude):
-        return 0.0  # an infinite prediction: var(y − ŷ) is too (the ratio inf, as below)
+        return 0.0  # an infinite prediction: var(y − ŷ) is too (the ratio inf)
     if part.predicted.high == part.predicted.low:
         return math.nan  # var(ŷ) = 0: undefined
+    if math.isinf(part.error.magnitude):
+        return math.nan  # y − ŷ overflows float64 in some row: not a number to vouch for
     rows = part.power.rows
-    # An error that overflows float64 (a diverged prediction) gives a ratio inf: VAF 0.
     ratio = _scaled_ratio(
         part.error.deviations, part.predicted.deviations, lambda q: math.sqrt(q / rows)
     )
     return max(1.0 - ratio * ratio, 0.0) * 100.0
 
 
-def _fit(part: _OutputPart) -> float:
+def _fit(part: _OutputPart) -> tuple[float, _InRange | None]:
+    r"""Fit, and where float64 cannot hold it the number :math:`100 r` it is short of 100."""
     if part.measured.high == part.measured.low:
-        return math.nan  # ‖y − ȳ‖ = 0: undefined
-    # An error that overflows float64 (a diverged prediction) gives -inf.
-    return (1.0 - _scaled_ratio(part.error_size, part.measured.deviations, math.sqrt)) * 100.0
+        return math.nan, None  # ‖y − ȳ‖ = 0: undefined
+    error, measured = part.power.size, part.measured.deviations
+    if error.scale == math.inf:  # an infinite prediction (diverged), or y − ŷ overflowed
+        return (-math.inf if math.isinf(part.predicted.magnitude) else math.nan), None
+    if error.scale == 0.0:
+        return 100.0, None
+    if not measured.total > 0.0:  # a spread lost to rounding: numerically constant
+        return math.nan, None
+    # r = ‖e‖ / ‖y − ȳ‖ as (s_e / s_y)·(√q_e / √q_y), the scales' ratio kept as a power of
+    # two: a ratio of 1e200-sized errors to a spread of 1e-200 is a number, not inf.
+    ratio = math.sqrt(error.total) / math.sqrt(measured.total)
+    error_fraction, error_exponent = math.frexp(error.scale)
+    measured_fraction, measured_exponent = math.frexp(measured.scale)
+    fraction, exponent = math.frexp(error_fraction / measured_fraction * ratio)
+    exponent += error_exponent - measured_exponent
+    hundred_r = _InRange(fraction, exponent).times(100.0)
+    if hundred_r.above:
+        return -math.inf, hundred_r
+    # the same roundings as (s_e / s_y)·ratio where that is a normal number
+    return (1.0 - math.ldexp(fraction, exponent)) * 100.0, None
 
 
 def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
@@ -529,8 +664,9 @@ def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
         \mathrm{MSE} = \frac{1}{N} \sum_{k} \bigl(y(k) - \hat y(k)\bigr)^2
 
     taken over the rows where ``y`` is finite and ``y_hat`` is not NaN (row 0 of an
-    :class:`~hybridlog.estimators.result.EstimationResult` has no prediction).  Computed by
-    :class:`OutputAccumulator`.
+    :class:`~hybridlog.estimators.result.EstimationResult` has no prediction), the errors
+    scaled by the largest before they are squared where the plain squares would overflow
+    or underflow float64.  Computed by :class:`OutputAccumulator`.
 
     Parameters
     ----------
@@ -542,7 +678,9 @@ def mse(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_y,)``; NaN for a column without a single usable row.
+        Shape ``(n_y,)``; NaN for a column without a single usable row and for an MSE
+        below float64's normal numbers (2.2e-308), inf for one above its range or of an
+        infinite prediction (:func:`output_metrics` says which).
 
     """
     return np.array([m.mse for m in output_metrics(y, y_hat)], dtype=np.float64)
@@ -605,8 +743,8 @@ def fit(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
     Returns
     -------
     numpy.ndarray
-        Shape ``(n_y,)``, values in ``(-inf, 100]`` (``-inf`` when the prediction diverged
-        so far that its error overflows float64); NaN where undefined.
+        Shape ``(n_y,)``, values in ``(-inf, 100]`` (``-inf`` when the prediction is
+        infinite in some row, or the fit is below float64's range); NaN where undefined.
 
     """
     return np.array([m.fit for m in output_metrics(y, y_hat)], dtype=np.float64)
@@ -624,7 +762,11 @@ class OutputMetrics:
     mse, vaf, fit:
         See :func:`mse`, :func:`vaf`, :func:`fit`; NaN where undefined.
     undefined:
-        ``{metric: reason}`` for each of ``mse``, ``vaf``, ``fit`` that is NaN.
+        ``{metric: reason}`` for each of ``mse``, ``vaf``, ``fit`` that is not finite.
+    out_of_range:
+        The metrics among them whose value exists but float64 cannot hold (MSE of errors
+        of 1e200, inf; of errors of 1e-300, NaN; a fit below -1.8e308, -inf): never left
+        out of a mean over outputs as an undefined one is.
 
     """
 
@@ -633,6 +775,7 @@ class OutputMetrics:
     vaf: float
     fit: float
     undefined: Mapping[str, str]
+    out_of_range: frozenset[str] = frozenset()
 
 
 def _output_metrics(part: _OutputPart | None) -> OutputMetrics:
@@ -641,29 +784,57 @@ def _output_metrics(part: _OutputPart | None) -> OutputMetrics:
         why = "no sample has both a measurement and a one-step-ahead prediction"
         undefined = {"mse": why, "vaf": why, "fit": why}
         return OutputMetrics(0, math.nan, math.nan, math.nan, undefined=undefined)
-    values = {"mse": part.power.mean_square, "vaf": _vaf(part), "fit": _fit(part)}
+    mse, mse_number = part.power.mean_square()
+    fit, fit_number = _fit(part)
+    values = {"mse": mse, "vaf": _vaf(part), "fit": fit}
     n = part.power.rows
     rows = "the only row" if n == 1 else f"all {n:,} rows"
     undefined = {}
-    if not math.isfinite(values["vaf"]):
+    if part.predicted.high == part.predicted.low and not math.isinf(part.predicted.magnitude):
         undefined["vaf"] = (
             f"var(ŷ) = 0: the prediction is the same in {rows} with a prediction, "
             "so VAF = 1 − var(y − ŷ)/var(ŷ) is undefined"
         )
-    if not math.isfinite(values["fit"]):
+    if part.measured.high == part.measured.low or not part.measured.deviations.total > 0.0:
         undefined["fit"] = (
             f"‖y − mean(y)‖ = 0: the measurement is the same in {rows} with a "
             "prediction, so fit = 1 − ‖y − ŷ‖/‖y − mean(y)‖ is undefined"
         )
-    for name in ("mse", "fit"):
-        if math.isinf(values[name]):
-            largest = part.predicted.magnitude
-            undefined[name] = (
-                "the prediction diverged ("
-                + ("infinite in some rows" if math.isinf(largest) else f"|ŷ| up to {largest:.3g}")
-                + "): its error overflows float64"
+    out_of_range: set[str] = set()
+    if math.isinf(part.predicted.magnitude):
+        for name in ("mse", "fit"):
+            if math.isinf(values[name]):
+                undefined[name] = (
+                    "the prediction diverged (infinite in some rows): its error overflows float64"
+                )
+    elif math.isinf(part.error.magnitude):
+        # finite y and ŷ whose difference is not a float64: no error metric can be computed
+        why = (
+            f"y − ŷ is beyond float64's range in some rows (|ŷ| up to "
+            f"{part.predicted.magnitude:.3g}, |y| up to {part.measured.magnitude:.3g}), so "
+            "its metrics cannot be computed"
+        )
+        for name in ("mse", "vaf", "fit"):
+            if name not in undefined:
+                undefined[name] = why
+                out_of_range.add(name)
+    else:
+        if mse_number is not None:
+            errors = f"errors |y − ŷ| up to {part.error.magnitude:.3g}"
+            undefined["mse"] = f"{mse_number.beyond('MSE')}: {errors}"
+            out_of_range.add("mse")
+        if fit_number is not None:
+            error, measured = part.power.size, part.measured.deviations
+            norm = _InRange.product(error.scale, 1, math.sqrt(error.total)).decimal()
+            spread = _InRange.product(measured.scale, 1, math.sqrt(measured.total)).decimal()
+            undefined["fit"] = (
+                f"{fit_number.beyond('fit', '−', ' %')}: ‖y − ŷ‖ ≈ {norm} against "
+                f"‖y − mean(y)‖ ≈ {spread}"
             )
-    return OutputMetrics(samples=n, **values, undefined=undefined)
+            out_of_range.add("fit")
+    return OutputMetrics(
+        samples=n, **values, undefined=undefined, out_of_range=frozenset(out_of_range)
+    )
 
 
 class OutputAccumulator:
@@ -680,8 +851,9 @@ class OutputAccumulator:
     other temporary is larger than one output's block, whatever the rows of one call.
 
     A block's usable rows are reduced to their error power :math:`\sum e^2`
-    (:math:`e = y - \hat y`, unscaled, as MSE always was: it overflows to inf with the
-    squares), to :math:`\lVert e\rVert^2` as :math:`\max|e|^2 \sum (e / \max|e|)^2`, and
+    (:math:`e = y - \hat y`, plain, the bits of MSE as it always was, and scaled where the
+    plain sum over- or underflows: :class:`_ErrorPower`), which is also
+    :math:`\lVert e\rVert^2` as :math:`\max|e|^2 \sum (e / \max|e|)^2`, and
     to count, range, corrected mean and sum of squared deviations of ``y`` (centred, then
     scaled by the largest deviation, as fit takes it), ``ŷ`` and ``e`` (scaled by the
     largest magnitude, then centred, as VAF's standard deviations take it).  Blocks merge
@@ -1147,6 +1319,24 @@ def detection_delays(
     return DetectionDelays(events=tuple(events))
 
 
+def _rmse(part: _ErrorPower) -> tuple[float, str | None]:
+    """A state's RMSE from the power of its errors, and why it is not finite (or ``None``).
+
+    The reason follows "the estimate of state x" in a sentence.
+    """
+    value, number = part.root_mean_square()
+    if number is not None:
+        largest = f"{part.size.scale:.3g}"
+        return value, f"is off by at most {largest}: {number.beyond('RMSE')}"
+    if part.infinite:
+        return math.inf, "diverged: its error overflows float64"
+    if not math.isfinite(value):  # finite estimate and truth whose difference overflowed
+        return math.nan, (
+            "and the truth differ by more than float64 holds in some rows, so RMSE is not computed"
+        )
+    return value, None
+
+
 class StateAccumulator:
     r"""The state RMSE of a run whose rows arrive in consecutive chunks (:func:`state_rmse`).
 
@@ -1184,12 +1374,27 @@ class StateAccumulator:
         Returns
         -------
         numpy.ndarray
-            Shape ``(n_states,)``; NaN for a state without a usable row.
+            Shape ``(n_states,)``; NaN for a state without a usable row or whose RMSE
+            float64 cannot hold, inf for one whose estimate went infinite (diverged);
+            :meth:`undefined` says why.
 
         """
-        parts = self._columns.parts()
-        mean_squares = [math.nan if p is None else p.mean_square for p in parts]
-        return np.sqrt(np.array(mean_squares, dtype=np.float64))
+        values = [math.nan if p is None else _rmse(p)[0] for p in self._columns.parts()]
+        return np.array(values, dtype=np.float64)
+
+    def undefined(self) -> tuple[str | None, ...]:
+        """Why each state's RMSE is not a finite number though it has usable rows.
+
+        Returns
+        -------
+        tuple of str or None
+            Per state: ``None`` for a finite RMSE or one without a usable row (the caller
+            knows why: no truth, or no estimate where there is); else why, a phrase that
+            follows "the estimate of state x" ("diverged: its error overflows float64",
+            "is off by at most 1e-320: RMSE ≈ 1e-320 is below float64's range ...").
+
+        """
+        return tuple(None if p is None else _rmse(p)[1] for p in self._columns.parts())
 
     def samples(self) -> tuple[int, ...]:
         """Rows the RMSE of each state is over so far: a finite truth and an estimate not NaN.
@@ -1211,7 +1416,9 @@ def state_rmse(state_means: npt.ArrayLike, truth_states: npt.ArrayLike) -> Float
         \mathrm{RMSE}_i = \sqrt{\tfrac{1}{N_i} \sum_k (\hat x_i(k) - x_i(k))^2}
 
     over the ``N_i`` rows where the truth of state ``i`` is finite and its estimate is not
-    NaN (an infinite estimate diverged: RMSE inf); computed by :class:`StateAccumulator`.
+    NaN (an infinite estimate diverged: RMSE inf); computed by :class:`StateAccumulator`,
+    with the errors scaled before they are squared where their squares would leave
+    float64's range (errors of 1e200 or 1e-300: RMSE 1e200 or 1e-300, not inf or 0).
 
     Parameters
     ----------

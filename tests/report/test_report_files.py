@@ -618,7 +618,8 @@ def test_undefined_metrics_are_null_with_their_reason(tmp_path: Path) -> None:
 
 
 def test_a_diverged_output_is_never_left_out_of_the_means(tmp_path: Path) -> None:
-    """MSE of a prediction whose error overflows is infinite, not undefined: the mean MSE
+    """MSE of a prediction whose squared error overflows is beyond float64's range, not
+    undefined: the mean MSE
     left y2 out (0.04 from y1 alone, so --fail-over mse=1 passed on a diverged run), and
     report.md wrote fit -1.3e201 as a number of 200 digits."""
     from dataclasses import replace
@@ -639,10 +640,12 @@ def test_a_diverged_output_is_never_left_out_of_the_means(tmp_path: Path) -> Non
     report = written.to_dict()
     assert report["outputs"]["y2"]["mse"] is None and report["outputs"]["y1"]["mse"] < 1
     assert report["mse"] is None
-    assert report["null_reasons"]["mse"].startswith("the mean over the outputs is infinite: mse.y2")
+    assert report["null_reasons"]["mse"].startswith(
+        "a mean over the outputs cannot leave out mse.y2, which float64 cannot hold: MSE ≈ "
+    )
     assert report["vaf"] is not None  # VAF 0 for y2: its variance ratio overflows, defined
     (failure,) = evaluate_gates(written, parse_gates([], ["mse=1"]))
-    assert failure.startswith("mse is not available (the mean over the outputs is infinite")
+    assert failure.startswith("mse is not available (a mean over the outputs cannot leave out")
     md = (tmp_path / "o" / "report.md").read_text()
     assert report["fit"] < -1e199 and "e+20" in md
     cells = [cell for line in md.splitlines() if line.startswith("|") for cell in line.split("|")]

@@ -149,12 +149,18 @@ def test_all_gates_met_gives_no_messages() -> None:
         ["vaf=80", "vaf.y1=87.2", "mode_accuracy=0.9", "samples_per_s=1000"],
         ["mse=0.3", "mse.y2=0.5", "state_rmse.x1=0.2", "detection_delay_s=1", "missed_switches=1"],
     )
-    assert evaluate_gates(report(), gates) == []
+    every_output = replace(
+        report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 4)}
+    )
+    assert evaluate_gates(every_output, gates) == []
 
 
 def test_missed_gates_name_metric_value_and_bound() -> None:
     gates = parse_gates(["vaf=90", "mode_accuracy=0.95"], ["mse.y2=0.1", "runtime_s=1"])
-    assert evaluate_gates(report(), gates) == [
+    every_output = replace(
+        report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 4)}
+    )
+    assert evaluate_gates(every_output, gates) == [
         "vaf = 87.2 is under the bound 90",
         "mode_accuracy = 0.93 is under the bound 0.95",
         "mse.y2 = 0.5 is over the bound 0.1",
@@ -199,8 +205,12 @@ def test_fit_gates_overall_and_per_output() -> None:
         fit=92.5,
         null_reasons={"fit.y2": "‖y − mean(y)‖ = 0: the measurement is constant"},
     )
-    assert evaluate_gates(fitted, parse_gates(["fit=80", "fit.y1=90"])) == []
-    assert evaluate_gates(fitted, parse_gates(["fit=95"])) == ["fit = 92.5 is under the bound 95"]
+    assert evaluate_gates(fitted, parse_gates(["fit.y1=90"])) == []
+    # the mean leaves y2 out (a stuck sensor): a gate on it cannot pass, whatever its value
+    assert evaluate_gates(fitted, parse_gates(["fit=80"])) == [
+        "fit = 92.5 is a mean that leaves out 1 of 2 outputs: fit.y2 (‖y − mean(y)‖ = 0: the "
+        "measurement is constant), so the --fail-under bound 80 cannot be met"
+    ]
     (message,) = evaluate_gates(fitted, parse_gates(["fit.y2=50"]))
     # the report's own reason is quoted
     assert message.startswith("fit.y2 is not available (‖y − mean(y)‖ = 0")

@@ -65,7 +65,17 @@ def _no_estimate() -> tuple[np.ndarray, np.ndarray]:
 
 
 def _diverged() -> tuple[np.ndarray, np.ndarray]:
-    return np.full(N, -1e300), np.full(N, 1e300)
+    estimate = np.ones(N)
+    estimate[N // 2 :] = np.inf
+    return np.zeros(N), estimate
+
+
+def _apart() -> tuple[np.ndarray, np.ndarray]:  # finite, but their difference overflows
+    return np.full(N, -1.7e308), np.full(N, 1.7e308)
+
+
+def _tiny() -> tuple[np.ndarray, np.ndarray]:  # an RMSE below float64's normal numbers
+    return np.zeros(N), np.full(N, 1e-310)
 
 
 @pytest.mark.parametrize(
@@ -74,6 +84,18 @@ def _diverged() -> tuple[np.ndarray, np.ndarray]:
         (_no_truth, 0, "the log has no ground truth for state x1"),
         (_no_estimate, 0, "no sample has both a true value and a finite estimate of state x1"),
         (_diverged, N, "the estimate of state x1 diverged: its error overflows float64"),
+        (
+            _apart,
+            N,
+            "the estimate of state x1 and the truth differ by more than float64 holds in some "
+            "rows, so RMSE is not computed",
+        ),
+        (
+            _tiny,
+            N,
+            "the estimate of state x1 is off by at most 1e-310: RMSE ≈ 1e-310 is below "
+            "float64's range (normal numbers from 2.2e-308)",
+        ),
     ],
 )
 def test_an_undefined_rmse_says_why_and_fails_its_gates(case, samples: int, why: str) -> None:  # type: ignore[no-untyped-def]
@@ -90,3 +112,15 @@ def test_an_undefined_rmse_says_why_and_fails_its_gates(case, samples: int, why:
         (failure,) = evaluate_gates(report, gates)
         assert failure.startswith(f"state_rmse.x1 is not available ({why})")
     json.loads(report.to_json(), parse_constant=lambda c: pytest.fail(c))
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-200, 1e-150, 1.0, 1e150, 1e200, 1e300])
+def test_an_rmse_scales_with_the_state_however_small_or_large(scale: float) -> None:
+    """Errors of 1e-300 gave an RMSE of 0 (their squares underflow) and errors of 1e200
+    an RMSE of null, "diverged" (their squares overflow): it is the error's size."""
+    truth = np.linspace(0.0, 1.0, N)
+    estimate = truth + np.where(np.arange(N) % 2, 0.5, -0.5)
+    report, _ = _report(truth * scale, estimate * scale)
+    rmse = report.states["x1"].rmse
+    assert rmse is not None and math.isclose(rmse, 0.5 * scale, rel_tol=1e-12), (rmse, scale)
+    assert "state_rmse.x1" not in report.null_reasons

@@ -94,12 +94,18 @@ def test_metrics_without_a_usable_row_say_so() -> None:
     assert math.isnan(m.mse) and math.isnan(m.vaf) and math.isnan(m.fit)
 
 
-def test_a_diverged_prediction_gives_null_metrics_without_a_warning() -> None:
+def test_a_prediction_far_off_gives_null_metrics_beyond_float_range_without_a_warning() -> None:
     y = np.array([NAN, 1.0, 2.0, 3.0])
     y_hat = np.array([NAN, 1e300, -1e300, 1e300])
     (m,) = metrics.output_metrics(y, y_hat)  # filterwarnings = error: an overflow would raise
-    assert not math.isfinite(m.mse)
-    assert "diverged" in m.undefined["mse"]
+    assert not math.isfinite(m.mse) and m.out_of_range == {"mse"}
+    assert m.undefined == {
+        "mse": "MSE ≈ 1e+600 is beyond float64's range (at most 1.8e+308): errors |y − ŷ| "
+        "up to 1e+300"
+    }
+    # ‖e‖/‖y − ȳ‖ = √3·1e300/√2: a number (the squares overflow, the ratio does not)
+    assert m.fit == pytest.approx(100.0 * (1.0 - math.sqrt(1.5) * 1e300), rel=1e-12)
+    assert 0.0 <= m.vaf <= 100.0
 
 
 def test_metrics_per_column_and_empty_column() -> None:
@@ -146,7 +152,9 @@ def test_vaf_is_within_0_and_100(y: np.ndarray, data: st.DataObject) -> None:
     defined = ~np.isnan(v)
     assert np.all((v[defined] >= 0.0) & (v[defined] <= 100.0))
     assert np.array_equal(defined, np.ptp(y_hat, axis=0) > 0.0)  # undefined: constant ŷ
-    assert np.all(metrics.mse(y, y_hat) >= 0.0)
+    mse_values = metrics.mse(y, y_hat)  # NaN where below float64's normal numbers
+    below = [m.out_of_range == {"mse"} for m in metrics.output_metrics(y, y_hat)]
+    assert np.all((mse_values >= 0.0) | (np.isnan(mse_values) & below))
     f = metrics.fit(y, y_hat)
     assert np.all(f[~np.isnan(f)] <= 100.0)
 
