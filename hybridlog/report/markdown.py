@@ -66,7 +66,7 @@ def _controls_escaped(text: str) -> str:
     return _CONTROL.sub(lambda found: found.group().encode("unicode_escape").decode(), text)
 
 
-def escape_markdown(text: str) -> str:
+def escape_markdown(text: str, *, line_start: bool = True) -> str:
     r"""``text`` (a log path, a name from a model, an error message) shown as itself in Markdown.
 
     Each markup character gets a backslash (CommonMark shows any backslash-escaped ASCII
@@ -74,10 +74,12 @@ def escape_markdown(text: str) -> str:
     characters ``\xNN`` (summary.md's table is printed on the terminal too), so that
     ``<b>*x*</b> | y.csv`` stays one table cell of plain text in report.md, summary.md and a
     CI job summary, and ``# 1. run.csv`` the text of a list item, not a heading
-    (:data:`_BLOCK_START`).
+    (:data:`_BLOCK_START`).  ``line_start=False`` for text that cannot start a block (a
+    table cell): a cell ``-1.2, 0.5`` stays as it is, on the terminal too.
     """
     escaped = _MARKUP.sub(lambda found: "\\" + found.group(0), text)
-    escaped = _BLOCK_START.sub(r"\g<lead>\\", escaped, count=1)
+    if line_start:
+        escaped = _BLOCK_START.sub(r"\g<lead>\\", escaped, count=1)
     return _controls_escaped(escaped.replace("\r", "\\r").replace("\n", "\\n"))
 
 

@@ -91,7 +91,7 @@ def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[obj
             return f"{value:,}"
         if isinstance(value, float):
             return format(value, spec) if math.isfinite(value) else str(value)
-        return escape_markdown(str(value))
+        return escape_markdown(str(value), line_start=False)  # a cell starts no block
 
     return cell
 

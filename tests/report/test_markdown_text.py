@@ -46,6 +46,16 @@ def test_names_that_look_like_markup_stay_plain_and_a_line_break_stays_in_its_ce
     assert escape_markdown("three_tank_hstf.csv") == "three_tank_hstf.csv"  # no needless marks
 
 
+def test_a_cell_that_would_open_a_block_at_a_line_start_is_written_as_it_is() -> None:
+    """``hybridlog cluster`` printed its centres as ``\\-1.208, …`` on the terminal: a table
+    cell cannot start a list or a heading, so only a line's start needs the backslash."""
+    cells = ["-1.208, 0.5", "# 0", "1. run.csv", "+x"]
+    table = markdown_table(["a", "b", "c", "d"], [cells])
+    assert table.splitlines()[-1] == "| -1.208, 0.5 | # 0 | 1. run.csv | +x |"
+    assert _cells(table) == cells
+    assert escape_markdown("-1.208") == "\\-1.208"  # where it starts a list item
+
+
 @given(text)
 @settings(max_examples=200, deadline=None)
 def test_a_code_span_shows_the_text_it_was_given(value: str) -> None:
