@@ -166,6 +166,8 @@ def _new_fit(c: _Column, fit: float, undefined: dict[str, str]) -> tuple[float, 
     """Fit now: beyond float64's range where 100·‖y − ŷ‖/‖y − ȳ‖ is."""
     if math.isnan(fit) or np.isinf(c.y_hat).any():
         return fit, False
+    if abs(fit) < 1e300:  # the float ratio is 10^8 times inside the range: so is the exact one
+        return fit, False
     with np.errstate(over="ignore"):
         err = c.y - c.y_hat
     if np.isinf(err).any():
