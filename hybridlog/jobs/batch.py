@@ -62,7 +62,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
-from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, natural_key
+from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, missing_pattern_hint, natural_key
 from hybridlog.jobs.provenance import content_hash, model_hash
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -423,7 +423,8 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
     try:
         return _analyze_checked(job, log, folder)
     except HybridlogError as err:
-        return LogOutcome(log, folder, "failed", None, _one_line(str(err)))
+        error = _one_line(str(err))
+        return LogOutcome(log, folder, "failed", None, error + missing_pattern_hint(log))
     except Exception as err:  # a reader or estimator bug must not stop the other logs
         return LogOutcome(log, folder, "failed", None, _one_line(f"{type(err).__name__}: {err}"))
 
