@@ -965,6 +965,9 @@ def batch_command(
     _say(ctx, f"summary: {out_dir / 'summary.md'}")
     waited = outcome.waited_for_memory
     settings = ctx.find_object(_Context)
+    if not (settings is not None and settings.quiet):
+        for note in outcome.notes:
+            click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
     if waited and not (settings is not None and settings.quiet):
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(

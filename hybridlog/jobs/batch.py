@@ -64,6 +64,7 @@ from hybridlog.jobs.analysis import (
 )
 from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, missing_pattern_hint, natural_key
 from hybridlog.jobs.provenance import content_hash, model_hash
+from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
     MARKER,
@@ -134,6 +135,8 @@ class BatchOutcome:
     logs: list[LogOutcome]
     table: str
     gate_failures: list[str]
+    notes: list[str] = dataclasses.field(default_factory=list)
+    """What the user should know of how the batch ran (``--jobs`` capped, Dask's memory)."""
 
     @property
     def failed(self) -> int:
@@ -473,6 +476,36 @@ def _remove_temporaries_left(folders: Sequence[Path], workers: Sequence[int]) ->
         remove_stale_temporaries(folder, ours=frozenset(workers))
 
 
+WORKER_BASELINE_BYTES = 150_000_000
+"""What a local worker process holds before its first log: numpy, numba's compiler set up,
+the filters, polars, the loaded model (70-150 MB measured; the larger figure is assumed)."""
+
+
+def pool_size(jobs: int, logs: int) -> tuple[int, list[str]]:
+    """The worker processes for ``--jobs jobs`` over ``logs`` logs, and a note per cap applied.
+
+    Never more workers than logs, nor more than the memory available holds at
+    :data:`WORKER_BASELINE_BYTES` each (``--jobs 500`` started 500 processes, which the
+    kernel then killed or the machine swapped): each worker's logs need memory on top.
+    """
+    notes: list[str] = []
+    size = jobs
+    if size > logs > 0:
+        size = logs
+        notes.append(f"--jobs {jobs}: {logs} log{'s' if logs > 1 else ''}, so {logs} at once")
+    available = available_memory()
+    if available is not None and size > 1:
+        fits = max(1, available // WORKER_BASELINE_BYTES)
+        if size > fits:
+            size = fits
+            notes.append(
+                f"--jobs {jobs}: {fits} worker process{'es' if fits > 1 else ''}, as many as "
+                f"the memory available ({size_text(available)}) holds at about "
+                f"{WORKER_BASELINE_BYTES / 1e6:.0f} MB each before their logs"
+            )
+    return size, notes
+
+
 def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
     return lambda reason: LogOutcome(log, folder, "failed", None, f"worker process died ({reason})")
 
@@ -522,6 +555,9 @@ def run_batch(
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
+    notes: list[str] = []
+    if scheduler is None and jobs > 1:
+        jobs, notes = pool_size(jobs, len(paths))
     pool = client = None
     staging: list[Path] = []  # where the workers write: the report folders' parents
     if scheduler is not None:
@@ -535,7 +571,7 @@ def run_batch(
         # inputs; left on an error or a signal, it stops its workers, which remove their
         # temporary folders, and then removes what a worker stopped mid-task left
         pool = WorkerPool(
-            min(jobs, len(paths)),
+            jobs,
             clean_up=lambda workers: _remove_temporaries_left(staging, workers),
         )
     resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
@@ -587,7 +623,8 @@ def run_batch(
                 outcomes.append(analyze_log(*task))
                 if progress is not None:
                     progress(outcomes[-1])
-    return _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
+    summary = _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
+    return dataclasses.replace(summary, notes=notes)
 
 
 def _prepare_summary_plot(n_rows: int) -> None:
