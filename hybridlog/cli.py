@@ -32,6 +32,7 @@ import click
 from hybridlog import __version__
 from hybridlog.allocators import return_freed_memory
 from hybridlog.background import ESTIMATES, PLOTS, start_worker
+from hybridlog.environment import check_environment
 from hybridlog.errors import HybridlogError, as_text, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
@@ -472,6 +473,8 @@ def cli(ctx: click.Context) -> None:
     naming the file, option or line).
     """
     ctx.ensure_object(_Context)
+    # before any command imports numba or polars, here or in its workers
+    check_environment()
 
 
 def _say(ctx: click.Context, text: str) -> None:
@@ -962,6 +965,9 @@ def batch_command(
     _say(ctx, f"summary: {out_dir / 'summary.md'}")
     waited = outcome.waited_for_memory
     settings = ctx.find_object(_Context)
+    if not (settings is not None and settings.quiet):
+        for note in outcome.notes:
+            click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
     if waited and not (settings is not None and settings.quiet):
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(

@@ -15,6 +15,7 @@ one layer are peers that never import each other:
     | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python) | ``numbers``
     (numbers typed on the command line, read strictly)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
+    | ``environment`` (the libraries' settings from the environment, checked up front)
 2   ``io`` | ``model``
 3   ``cluster``
 4   ``estimators`` | ``simulation``
@@ -55,7 +56,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "polars_import",
         "numbers",
     ),
-    ("signals", "jit", "outputs", "memory"),
+    ("signals", "jit", "outputs", "memory", "environment"),
     ("io", "model"),
     ("cluster",),
     ("estimators", "simulation"),

@@ -35,6 +35,7 @@ import dataclasses
 import json
 import os
 import threading
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,8 +63,9 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
-from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, natural_key
+from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, missing_pattern_hint, natural_key
 from hybridlog.jobs.provenance import content_hash, model_hash
+from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
     MARKER,
@@ -78,6 +80,7 @@ from hybridlog.outputs import (
     record_path,
     recorded_files,
     remove_stale_temporaries,
+    temporary_name,
     write_marker,
     wrote_file,
 )
@@ -134,6 +137,8 @@ class BatchOutcome:
     logs: list[LogOutcome]
     table: str
     gate_failures: list[str]
+    notes: list[str] = dataclasses.field(default_factory=list)
+    """What the user should know of how the batch ran (``--jobs`` capped, Dask's memory)."""
 
     @property
     def failed(self) -> int:
@@ -420,10 +425,14 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 
     The task a worker runs (a local process or a Dask worker): it returns, never raises.
     """
+    from hybridlog.jobs.dask_backend import worker_memory
+
     try:
-        return _analyze_checked(job, log, folder)
+        with worker_memory():  # on a Dask worker: its logs' memory against its limit
+            return _analyze_checked(job, log, folder)
     except HybridlogError as err:
-        return LogOutcome(log, folder, "failed", None, _one_line(str(err)))
+        error = _one_line(str(err))
+        return LogOutcome(log, folder, "failed", None, error + missing_pattern_hint(log))
     except Exception as err:  # a reader or estimator bug must not stop the other logs
         return LogOutcome(log, folder, "failed", None, _one_line(f"{type(err).__name__}: {err}"))
 
@@ -470,6 +479,66 @@ def _remove_temporaries_left(folders: Sequence[Path], workers: Sequence[int]) ->
     """
     for folder in folders:
         remove_stale_temporaries(folder, ours=frozenset(workers))
+
+
+WORKER_BASELINE_BYTES = 150_000_000
+"""What a local worker process holds before its first log: numpy, numba's compiler set up,
+the filters, polars, the loaded model (70-150 MB measured; the larger figure is assumed)."""
+
+
+def pool_size(jobs: int, logs: int) -> tuple[int, list[str]]:
+    """The worker processes for ``--jobs jobs`` over ``logs`` logs, and a note per cap applied.
+
+    Never more workers than logs, nor more than the memory available holds at
+    :data:`WORKER_BASELINE_BYTES` each (``--jobs 500`` started 500 processes, which the
+    kernel then killed or the machine swapped): each worker's logs need memory on top.
+    """
+    notes: list[str] = []
+    size = jobs
+    if size > logs > 0:
+        size = logs
+        notes.append(f"--jobs {jobs}: {logs} log{'s' if logs > 1 else ''}, so {logs} at once")
+    available = available_memory()
+    if available is not None and size > 1:
+        fits = max(1, available // WORKER_BASELINE_BYTES)
+        if size > fits:
+            size = fits
+            notes.append(
+                f"--jobs {jobs}: {fits} worker process{'es' if fits > 1 else ''}, as many as "
+                f"the memory available ({size_text(available)}) holds at about "
+                f"{WORKER_BASELINE_BYTES / 1e6:.0f} MB each before their logs"
+            )
+    return size, notes
+
+
+DASK_GRACE_S = 5.0
+"""How long an interrupted ``--scheduler`` batch waits for its workers' temporaries to go."""
+
+
+def _remove_dask_temporaries(folders: Sequence[Path]) -> None:
+    """Remove what Dask workers on this host that ended with the batch left in ``folders``.
+
+    A Ctrl-C in a terminal, or a script, that also runs the cluster reaches its workers too:
+    Dask ends them, and a task still writing leaves its temporary report folder (a worker
+    process ends without unwinding its threads).  They end within moments: until
+    :data:`DASK_GRACE_S` has passed or no temporary is left, those of ended processes on this
+    host are removed (:func:`~hybridlog.outputs.remove_stale_temporaries`); another
+    machine's are not waited for.  A worker that runs on (another machine, a cluster the
+    signal did not reach) finishes its log and puts its folder in place itself.
+    """
+    # this host's temporaries: ".<name>.hybridlog-tmp-<host>-<pid>-<hex>" (outputs.py)
+    here = "-".join(temporary_name(Path("x")).name.split("-")[:3]).removeprefix(".x.") + "-"
+    deadline = time.monotonic() + DASK_GRACE_S
+    while True:
+        for folder in folders:
+            remove_stale_temporaries(folder)
+        left = False
+        for folder in folders:
+            with contextlib.suppress(OSError):
+                left = left or any(here in name for name in os.listdir(folder))
+        if not left or time.monotonic() >= deadline:
+            return
+        time.sleep(0.05)
 
 
 def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
@@ -521,6 +590,9 @@ def run_batch(
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
+    notes: list[str] = []
+    if scheduler is None and jobs > 1:
+        jobs, notes = pool_size(jobs, len(paths))
     pool = client = None
     staging: list[Path] = []  # where the workers write: the report folders' parents
     if scheduler is not None:
@@ -534,7 +606,7 @@ def run_batch(
         # inputs; left on an error or a signal, it stops its workers, which remove their
         # temporary folders, and then removes what a worker stopped mid-task left
         pool = WorkerPool(
-            min(jobs, len(paths)),
+            jobs,
             clean_up=lambda workers: _remove_temporaries_left(staging, workers),
         )
     resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
@@ -572,9 +644,13 @@ def run_batch(
             )
             plotting.start()
             if client is not None:
-                outcomes = run_on_dask(
-                    analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
-                )
+                try:
+                    outcomes = run_on_dask(
+                        analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
+                    )
+                except BaseException:  # Ctrl-C, SIGTERM: the tasks' folders are the workers'
+                    _remove_dask_temporaries(staging)
+                    raise
             elif pool is not None:
                 outcomes = pool.run(
                     analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
@@ -586,7 +662,8 @@ def run_batch(
                 outcomes.append(analyze_log(*task))
                 if progress is not None:
                     progress(outcomes[-1])
-    return _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
+    summary = _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
+    return dataclasses.replace(summary, notes=notes)
 
 
 def _prepare_summary_plot(n_rows: int) -> None:

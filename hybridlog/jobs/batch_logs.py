@@ -17,13 +17,32 @@ from hybridlog.errors import OptionError, excerpt
 from hybridlog.io.formats import format_list, indexed_log, logs_in
 from hybridlog.outputs import PathLike
 
-__all__ = ["FoundLogs", "batch_logs", "natural_key"]
+__all__ = ["FoundLogs", "batch_logs", "missing_pattern_hint", "natural_key"]
+
+GLOB_CHARACTERS = frozenset("*?[")
+"""What a shell expands in a word it is given unquoted."""
 
 
 def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
     """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``."""
     return tuple(
         (0, int(part)) if part.isdigit() else (1, part) for part in re.split(r"(\d+)", text) if part
+    )
+
+
+def missing_pattern_hint(log: PathLike) -> str:
+    """A hint for a log that does not exist and whose name holds ``*``, ``?`` or ``[``; or ``""``.
+
+    ``hybridlog batch 'logs/*.csv'`` (quoted, or a pattern that matched nothing in a shell
+    that then passes it on) names one log called ``*.csv``: it fails as that log, and this
+    says why.  hybridlog does not expand patterns itself (``run[1].csv`` is a file's name).
+    """
+    name = os.fsdecode(log)
+    if GLOB_CHARACTERS.isdisjoint(name) or os.path.lexists(log):
+        return ""
+    return (
+        "; a pattern the shell did not expand (quoted, or it matched nothing)? "
+        "give it unquoted, or give the folder of logs"
     )
 
 

@@ -1,0 +1,128 @@
+"""Environment variables hybridlog's libraries read as numbers, checked before a command runs.
+
+numba and polars read their settings from the environment when they are imported, in the
+command's worker processes, and take a malformed value badly: numba warns with a
+``RuntimeWarning`` (``NUMBA_NUM_THREADS=abc``: hybridlog, which reports no number it cannot
+vouch for, stopped on "numerical trouble"), ``NUMBA_NUM_THREADS=0`` raised a ``ValueError``
+at numba's import (a batch's forkserver printed its traceback), ``POLARS_MAX_THREADS=0``
+panicked in polars' first query, and ``POLARS_MAX_THREADS=abc`` was dropped with a warning.
+:func:`check_environment` refuses them up front, with one line naming the variable and its
+value.
+
+What was tried and needs no check: ``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS`` (OpenBLAS
+takes a malformed value as unset), ``NUMBA_CACHE_DIR``, ``NUMBA_THREADING_LAYER`` (read as
+text; used only by numba's parallel code, which hybridlog does not run), ``TMPDIR``
+(Python's :mod:`tempfile` falls back to ``/tmp``; one too long for a batch's socket is named
+by :func:`hybridlog.jobs.workers.start_forkserver`) and ``HYBRIDLOG_CACHE_DIR`` (a folder
+that cannot be written is named by :func:`hybridlog.model.compiled.store`).
+
+Importing this module imports neither numba nor polars: numba's own table of the settings it
+reads as whole numbers is read from its source (:func:`numba_whole_numbers`), and only when a
+``NUMBA_`` variable is set.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import importlib.util
+import os
+import re
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from hybridlog.errors import OptionError, excerpt
+
+__all__ = ["check_environment", "numba_whole_numbers"]
+
+
+def _python_int(value: str) -> int | None:
+    """``value`` as numba reads a whole number (Python's ``int``), or ``None``."""
+    try:
+        return int(value)
+    except ValueError:
+        return None
+
+
+def _threads(value: str) -> bool:
+    number = _python_int(value)
+    return number is not None and number >= 1
+
+
+def _polars_threads(value: str) -> bool:
+    # polars parses the trimmed text as an unsigned integer (Rust's usize: a '+' allowed)
+    return re.fullmatch(r"\+?[0-9]+", value.strip()) is not None and int(value) >= 1
+
+
+RULES: dict[str, tuple[Callable[[str], bool], str]] = {
+    "NUMBA_NUM_THREADS": (_threads, "a whole number of threads, at least 1"),
+    "NUMBA_OPT": (
+        lambda value: value in {"0", "1", "2", "3", "max"},
+        "an optimisation level 0, 1, 2, 3 or max",
+    ),
+    "POLARS_MAX_THREADS": (_polars_threads, "a whole number of threads, at least 1"),
+}
+"""Variables with a rule of their own: (check, what is expected)."""
+
+
+@functools.cache
+def numba_whole_numbers() -> frozenset[str]:
+    """The ``NUMBA_`` settings numba reads with ``int`` (its ``_readenv(name, int, ...)`` calls).
+
+    Read from ``numba/core/config.py`` with :mod:`ast`, without importing numba (its import
+    loads LLVM: seconds of a command that may never use it).  Empty when numba is not
+    installed or its file no longer reads so; then only :data:`RULES` are checked.
+    """
+    spec = importlib.util.find_spec("numba")
+    if spec is None or not spec.submodule_search_locations:
+        return frozenset()
+    try:
+        source = (Path(spec.submodule_search_locations[0]) / "core" / "config.py").read_text()
+        tree = ast.parse(source)
+    except (OSError, SyntaxError, ValueError):
+        return frozenset()
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id == "_readenv"
+            and len(node.args) >= 2
+            and isinstance(name := node.args[0], ast.Constant)
+            and isinstance(name.value, str)
+            and isinstance(ctor := node.args[1], ast.Name)
+            and ctor.id == "int"
+        ):
+            names.add(name.value)
+    return frozenset(names)
+
+
+def check_environment(environ: Mapping[str, str] | None = None) -> None:
+    """Refuse a malformed value of a variable numba or polars reads as a number.
+
+    ``environ`` defaults to :data:`os.environ`.
+
+    Raises
+    ------
+    OptionError
+        ``environment variable NUMBA_NUM_THREADS='abc': expected a whole number of threads,
+        at least 1; unset it or set it so``: the first malformed one.
+    """
+    environ = os.environ if environ is None else environ
+    numba_set = sorted(name for name in environ if name.startswith("NUMBA_"))
+    whole = numba_whole_numbers() if numba_set else frozenset()
+    for name in [*numba_set, *(n for n in RULES if not n.startswith("NUMBA_"))]:
+        value = environ.get(name)
+        if value is None:
+            continue
+        if name in RULES:
+            check, expected = RULES[name]
+        elif name in whole:
+            check, expected = (lambda v: _python_int(v) is not None), "a whole number"
+        else:
+            continue
+        if not check(value):
+            raise OptionError(
+                f"environment variable {name}={excerpt(value)}: expected {expected}; "
+                "unset it or give it such a value"
+            )
