@@ -8,9 +8,7 @@ without a word.
 
 The workers of a local ``batch --jobs N`` run side by side: each log is checked against the
 memory the others have reserved too (:class:`MemoryLedger`, :func:`reserved`), or N logs that
-each fit alone were all let through together.  The threads of one process that run logs
-side by side, a Dask worker's (:func:`shared_between_threads`), share a ledger the same way,
-against the memory that process may still take (a Dask worker's memory limit).
+each fit alone were all let through together.
 """
 
 from __future__ import annotations
@@ -22,20 +20,13 @@ import os
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 from hybridlog.errors import HybridlogError
 
-__all__ = [
-    "MemoryLedger",
-    "available_memory",
-    "check_fits",
-    "reserved",
-    "shared_between_threads",
-    "size_text",
-]
+__all__ = ["MemoryLedger", "available_memory", "check_fits", "reserved", "size_text"]
 
 
 def available_memory() -> int | None:
@@ -77,13 +68,12 @@ def check_fits(
     remedy: str,
     error: type[HybridlogError],
     available: int | None = None,
-    limited_by: str = "",
 ) -> None:
     """Raise ``error`` when the ``parts`` (what, bytes) need more than the memory available.
 
     ``available`` defaults to :func:`available_memory`; when the system says nothing, no check
     is made.  The message: ``<what> would need about <total> of memory (<the three largest
-    parts, when there are several>) and <available> is available<limited_by>; <remedy>``.
+    parts, when there are several>) and <available> is available; <remedy>``.
     """
     if available is None:
         available = available_memory()
@@ -94,8 +84,7 @@ def check_fits(
     shares = ", ".join(f"{name} {size_text(size)}" for name, size in largest if size > 0)
     raise error(
         f"{what} would need about {size_text(needed)} of memory"
-        f"{f' ({shares})' if len(parts) > 1 else ''} and {size_text(available)} is available"
-        f"{limited_by}; "
+        f"{f' ({shares})' if len(parts) > 1 else ''} and {size_text(available)} is available; "
         f"{remedy}"
     )
 
@@ -125,18 +114,8 @@ class MemoryLedger:
     the whole process group (a CI runner's ``SIGTERM``) left it printing a traceback.
     """
 
-    def __init__(
-        self,
-        slots: int,
-        fd: int | None = None,
-        *,
-        limit: Callable[[], int | None] | None = None,
-        limited_by: str = "",
-    ) -> None:
+    def __init__(self, slots: int, fd: int | None = None) -> None:
         self.slots = slots
-        self._limit = limit
-        self.limited_by = limited_by
-        """Said after the memory available when a log cannot fit (``limit``'s name)."""
         self._fd = _anonymous_file((slots + 1) * 8) if fd is None else fd
         self._map = mmap.mmap(self._fd, (slots + 1) * 8)
         self._words = memoryview(self._map).cast("q")  # the slots, then the budget
@@ -187,9 +166,6 @@ class MemoryLedger:
             held = self._words
             others = sum(held[: self.slots]) - held[slot]
             available = available_memory()
-            limit = None if self._limit is None else self._limit()
-            if limit is not None:
-                available = limit if available is None else min(available, limit)
             if available is None:
                 return True, None
             if others == 0:
@@ -223,14 +199,7 @@ class MemoryLedger:
             if fits:
                 break
             if alone is not None and need > alone:
-                check_fits(
-                    parts,
-                    what=what,
-                    remedy=remedy,
-                    error=error,
-                    available=alone,
-                    limited_by=self.limited_by,
-                )
+                check_fits(parts, what=what, remedy=remedy, error=error, available=alone)
             time.sleep(WAIT_POLL_S)
             waited = time.monotonic() - started
         try:
@@ -258,56 +227,6 @@ def _ledger_of(duplicate: Any, slots: int) -> MemoryLedger:
 _INSTALLED: list[tuple[MemoryLedger, int]] = []
 """This process's ledger and slot, in a worker of a pool (:meth:`MemoryLedger.install`)."""
 
-_SHARED: dict[tuple[object, ...], tuple[MemoryLedger, dict[int, int]]] = {}
-"""The ledger this process's threads share (:func:`shared_between_threads`), by what it was
-made for, with each thread's slot (thread identity → slot)."""
-_SHARED_LOCK = threading.Lock()
-_TAKING_PART = threading.local()
-"""The shared ledger of this thread's running task, if it takes part in one."""
-
-
-@contextlib.contextmanager
-def shared_between_threads(
-    threads: int, limit: Callable[[], int | None], *, limited_by: str = ""
-) -> Iterator[None]:
-    """In the ``with`` block, :func:`reserved` reserves in a ledger this process's threads share.
-
-    For a process whose ``threads`` threads run logs side by side (a Dask worker's): a log
-    is checked against ``limit()`` (the memory the process may still take, ``None`` for no
-    limit) and the memory available, beside what its other threads' logs hold.  The ledger
-    is made once per ``(threads, limit, limited_by)`` and kept for the process.
-    """
-    key = (threads, limit, limited_by)
-    with _SHARED_LOCK:
-        if key not in _SHARED:
-            _SHARED.clear()
-            _SHARED[key] = (MemoryLedger(threads, limit=limit, limited_by=limited_by), {})
-        shared = _SHARED[key]
-    _TAKING_PART.shared = shared
-    try:
-        yield
-    finally:
-        _TAKING_PART.shared = None
-
-
-def _thread_slot() -> tuple[MemoryLedger, int] | None:
-    """The calling thread's slot in the ledger of :func:`shared_between_threads`, if any."""
-    shared: tuple[MemoryLedger, dict[int, int]] | None = getattr(_TAKING_PART, "shared", None)
-    if shared is None:
-        return None
-    ledger, slots = shared
-    with _SHARED_LOCK:
-        me = threading.get_ident()
-        if me not in slots:
-            alive = {thread.ident for thread in threading.enumerate()}
-            for gone in [t for t in slots if t not in alive]:  # a thread replaced
-                del slots[gone]
-            free = sorted(set(range(ledger.slots)) - set(slots.values()))
-            if not free:  # more threads than it was made for: checked alone
-                return None
-            slots[me] = free[0]
-        return ledger, slots[me]
-
 
 @contextlib.contextmanager
 def reserved(
@@ -320,15 +239,13 @@ def reserved(
     """:func:`check_fits` for the ``with`` block, counting the pool's other workers.
 
     In a worker of a pool (a ledger installed), the parts are reserved in its ledger
-    (:meth:`MemoryLedger.reserve`: waiting while the others hold what they would need), in a
-    thread of a process whose threads share one (:func:`shared_between_threads`) in that;
+    (:meth:`MemoryLedger.reserve`: waiting while the others hold what they would need);
     elsewhere they are checked against the memory available.  Yields the seconds waited.
     """
-    found = _INSTALLED[0] if _INSTALLED else _thread_slot()
-    if found is None:
+    if not _INSTALLED:
         check_fits(parts, what=what, remedy=remedy, error=error)
         yield 0.0
         return
-    ledger, slot = found
+    ledger, slot = _INSTALLED[0]
     with ledger.reserve(slot, parts, what=what, remedy=remedy, error=error) as waited:
         yield waited

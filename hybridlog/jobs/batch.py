@@ -425,11 +425,8 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 
     The task a worker runs (a local process or a Dask worker): it returns, never raises.
     """
-    from hybridlog.jobs.dask_backend import worker_memory
-
     try:
-        with worker_memory():  # on a Dask worker: its logs' memory against its limit
-            return _analyze_checked(job, log, folder)
+        return _analyze_checked(job, log, folder)
     except HybridlogError as err:
         error = _one_line(str(err))
         return LogOutcome(log, folder, "failed", None, error + missing_pattern_hint(log))

@@ -8,30 +8,19 @@ the workers must see the logs, the model file and the output folder at the same 
 client (a shared file system), and have the same hybridlog installed.  A worker keeps the
 loaded model and compiled code between the logs it analyses, like a local worker process.
 
-**Memory.**  Each log's memory is checked on the Dask worker that runs it, against what that
-worker may still take before its nanny restarts it (its ``memory_limit`` times Dask's
-``distributed.worker.memory.terminate`` fraction, less what the process holds), and beside
-the logs its other threads run at the same time, as a local ``--jobs N`` pool checks its
-workers together (:func:`worker_memory`): a log that would fit alone waits for them, one
-that cannot fit even alone fails with one line naming the limit.  Workers do not pool their
-memory with one another: each has its own limit, as Dask itself manages it (several workers
-on one machine with limits adding up to more than it has are the cluster's configuration).
-
 Needs the optional extra ``hybridlog[dask]`` (``dask[distributed]``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import sys
 import uuid
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar, cast
 
 from hybridlog.errors import OptionError, excerpt
 
-__all__ = ["CONNECT_TIMEOUT_S", "connect", "run_on_dask", "worker_memory"]
+__all__ = ["CONNECT_TIMEOUT_S", "connect", "run_on_dask"]
 
 R = TypeVar("R")
 
@@ -130,52 +119,3 @@ def run_on_dask(
     finally:
         client.close()
         dask_logs.setLevel(level)
-
-
-def worker_memory() -> contextlib.AbstractContextManager[None]:
-    """On a Dask worker, a ``with`` block in which a log reserves memory against its limit.
-
-    Elsewhere (a local worker process, the batch process), or on a worker without a memory
-    limit (each log then checked against the machine's memory alone), it does nothing.  See
-    the module docstring; :func:`hybridlog.memory.shared_between_threads`.
-    """
-    if "distributed" not in sys.modules:  # never imported here: no Dask worker
-        return contextlib.nullcontext()
-    from distributed import get_worker
-
-    try:
-        worker = get_worker()
-    except ValueError:  # not in a Dask worker's task
-        return contextlib.nullcontext()
-    memory_limit = worker.memory_manager.memory_limit
-    if not memory_limit:
-        return contextlib.nullcontext()
-    import dask.config
-
-    fraction = dask.config.get("distributed.worker.memory.terminate", default=False) or 1.0
-    usable = int(memory_limit * float(fraction))
-    from hybridlog.memory import shared_between_threads, size_text
-
-    return shared_between_threads(
-        int(worker.state.nthreads),
-        _room_below(usable),
-        limited_by=f" to this Dask worker (memory limit {size_text(memory_limit)})",
-    )
-
-
-_ROOM: dict[int, Callable[[], int | None]] = {}
-
-
-def _room_below(usable: int) -> Callable[[], int | None]:
-    """What this process may still take below ``usable`` bytes (one function per ``usable``)."""
-    if usable not in _ROOM:
-        import psutil  # type: ignore[import-untyped]  # a dependency of distributed
-
-        process = psutil.Process()
-
-        def room() -> int | None:
-            return max(usable - int(process.memory_info().rss), 0)
-
-        _ROOM.clear()
-        _ROOM[usable] = room
-    return _ROOM[usable]
