@@ -35,7 +35,6 @@ import dataclasses
 import json
 import os
 import threading
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -80,7 +79,6 @@ from hybridlog.outputs import (
     record_path,
     recorded_files,
     remove_stale_temporaries,
-    temporary_name,
     write_marker,
     wrote_file,
 )
@@ -508,36 +506,6 @@ def pool_size(jobs: int, logs: int) -> tuple[int, list[str]]:
     return size, notes
 
 
-DASK_GRACE_S = 5.0
-"""How long an interrupted ``--scheduler`` batch waits for its workers' temporaries to go."""
-
-
-def _remove_dask_temporaries(folders: Sequence[Path]) -> None:
-    """Remove what Dask workers on this host that ended with the batch left in ``folders``.
-
-    A Ctrl-C in a terminal, or a script, that also runs the cluster reaches its workers too:
-    Dask ends them, and a task still writing leaves its temporary report folder (a worker
-    process ends without unwinding its threads).  They end within moments: until
-    :data:`DASK_GRACE_S` has passed or no temporary is left, those of ended processes on this
-    host are removed (:func:`~hybridlog.outputs.remove_stale_temporaries`); another
-    machine's are not waited for.  A worker that runs on (another machine, a cluster the
-    signal did not reach) finishes its log and puts its folder in place itself.
-    """
-    # this host's temporaries: ".<name>.hybridlog-tmp-<host>-<pid>-<hex>" (outputs.py)
-    here = "-".join(temporary_name(Path("x")).name.split("-")[:3]).removeprefix(".x.") + "-"
-    deadline = time.monotonic() + DASK_GRACE_S
-    while True:
-        for folder in folders:
-            remove_stale_temporaries(folder)
-        left = False
-        for folder in folders:
-            with contextlib.suppress(OSError):
-                left = left or any(here in name for name in os.listdir(folder))
-        if not left or time.monotonic() >= deadline:
-            return
-        time.sleep(0.05)
-
-
 def _died(log: str, folder: str) -> Callable[[str], LogOutcome]:
     return lambda reason: LogOutcome(log, folder, "failed", None, f"worker process died ({reason})")
 
@@ -641,13 +609,9 @@ def run_batch(
             )
             plotting.start()
             if client is not None:
-                try:
-                    outcomes = run_on_dask(
-                        analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
-                    )
-                except BaseException:  # Ctrl-C, SIGTERM: the tasks' folders are the workers'
-                    _remove_dask_temporaries(staging)
-                    raise
+                outcomes = run_on_dask(
+                    analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
+                )
             elif pool is not None:
                 outcomes = pool.run(
                     analyze_log, tasks, died=lambda i, why: died[i](why), done=progress

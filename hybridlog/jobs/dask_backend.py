@@ -13,7 +13,6 @@ Needs the optional extra ``hybridlog[dask]`` (``dask[distributed]``).
 
 from __future__ import annotations
 
-import logging
 import uuid
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar, cast
@@ -91,12 +90,6 @@ def run_on_dask(
     """
     from distributed import as_completed
 
-    # What goes wrong reaches the user as the tasks' outcomes ("on the Dask cluster: ...");
-    # the client's own log, a scheduler lost when the same Ctrl-C ended it, was tracebacks
-    # on the batch's stderr, at times before the interrupt reached this thread.
-    dask_logs = logging.getLogger("distributed")
-    level = dask_logs.level
-    dask_logs.setLevel(logging.CRITICAL + 1)
     try:
         batch = uuid.uuid4().hex
         futures = [
@@ -118,4 +111,3 @@ def run_on_dask(
         return [results[k] for k in range(len(tasks))]
     finally:
         client.close()
-        dask_logs.setLevel(level)
