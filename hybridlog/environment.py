@@ -5,7 +5,8 @@ command's worker processes, and take a malformed value badly: numba warns with a
 ``RuntimeWarning`` (``NUMBA_NUM_THREADS=abc``: hybridlog, which reports no number it cannot
 vouch for, stopped on "numerical trouble"), ``NUMBA_NUM_THREADS=0`` raised a ``ValueError``
 at numba's import (a batch's forkserver printed its traceback), ``POLARS_MAX_THREADS=0``
-panicked in polars' first query, and ``POLARS_MAX_THREADS=abc`` was dropped with a warning.
+panicked in polars' first query, ``POLARS_MAX_THREADS=abc`` was dropped with a warning, and
+``POLARS_MAX_THREADS=100000`` left every command starting polars' threads for minutes.
 :func:`check_environment` refuses them up front, with one line naming the variable and its
 value.
 
@@ -49,9 +50,20 @@ def _threads(value: str) -> bool:
     return number is not None and number >= 1
 
 
+POLARS_THREADS_MAX = 1024
+"""The most threads :data:`RULES` lets polars start.  polars starts its whole pool at its first
+query, one thread after another: on the 2-core development machine 512 threads took 0.8 s,
+1,024 3.8 s, 4,096 21 s and 32,768 more than a minute, in every process that reads a table
+(a batch's workers each have their own pool).  A value past the bound is a slip, not a
+machine."""
+
+
 def _polars_threads(value: str) -> bool:
     # polars parses the trimmed text as an unsigned integer (Rust's usize: a '+' allowed)
-    return re.fullmatch(r"\+?[0-9]+", value.strip()) is not None and int(value) >= 1
+    return (
+        re.fullmatch(r"\+?[0-9]+", value.strip()) is not None
+        and 1 <= int(value) <= POLARS_THREADS_MAX
+    )
 
 
 RULES: dict[str, tuple[Callable[[str], bool], str]] = {
@@ -60,7 +72,11 @@ RULES: dict[str, tuple[Callable[[str], bool], str]] = {
         lambda value: value in {"0", "1", "2", "3", "max"},
         "an optimisation level 0, 1, 2, 3 or max",
     ),
-    "POLARS_MAX_THREADS": (_polars_threads, "a whole number of threads, at least 1"),
+    "POLARS_MAX_THREADS": (
+        _polars_threads,
+        f"a whole number of threads from 1 to {POLARS_THREADS_MAX} "
+        "(polars starts them all at once)",
+    ),
 }
 """Variables with a rule of their own: (check, what is expected)."""
 

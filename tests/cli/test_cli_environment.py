@@ -18,6 +18,7 @@ from hybridlog.errors import OptionError
 from tests.support.paths import SAMPLE_LOGS
 
 Main = Callable[[list[str]], tuple[int, str]]
+POLARS = "a whole number of threads from 1 to 1024 (polars starts them all at once)"
 
 
 @pytest.mark.parametrize(
@@ -28,9 +29,11 @@ Main = Callable[[list[str]], tuple[int, str]]
         ("NUMBA_OPT", "x", "an optimisation level 0, 1, 2, 3 or max"),
         ("NUMBA_DISABLE_JIT", "yes", "a whole number"),  # any setting numba reads with int
         ("NUMBA_ENABLE_AVX", "1.5", "a whole number"),
-        ("POLARS_MAX_THREADS", "0", "a whole number of threads, at least 1"),
-        ("POLARS_MAX_THREADS", "abc", "a whole number of threads, at least 1"),
-        ("POLARS_MAX_THREADS", "-1", "a whole number of threads, at least 1"),
+        ("POLARS_MAX_THREADS", "0", POLARS),
+        ("POLARS_MAX_THREADS", "abc", POLARS),
+        ("POLARS_MAX_THREADS", "-1", POLARS),
+        ("POLARS_MAX_THREADS", "1025", POLARS),  # polars would start them all: minutes
+        ("POLARS_MAX_THREADS", "100000", POLARS),
     ],
 )
 def test_a_malformed_setting_is_named_with_its_value(name: str, value: str, expected: str) -> None:
@@ -47,6 +50,7 @@ def test_a_malformed_setting_is_named_with_its_value(name: str, value: str, expe
     [
         {"NUMBA_NUM_THREADS": "2", "NUMBA_OPT": "max", "POLARS_MAX_THREADS": "+1"},
         {"NUMBA_DISABLE_JIT": " 0 ", "POLARS_MAX_THREADS": " 3 "},
+        {"POLARS_MAX_THREADS": "1024"},
         # what no library reads as a number, or takes malformed as unset
         {"NUMBA_CACHE_DIR": "/nowhere", "NUMBA_THREADING_LAYER": "x", "NUMBA_NO_SUCH": "x"},
         {"OMP_NUM_THREADS": "abc", "OPENBLAS_NUM_THREADS": "abc", "TMPDIR": "/nowhere"},
