@@ -89,7 +89,16 @@ def plain_text(text: str) -> str:
     saved, which lost the whole report.  Every ``$`` written ``\$`` is a text without math,
     shown with the dollars as they were (matplotlib unescapes ``\$`` there and nothing else).
     Every label, tick label and title of user text in a figure goes through this.
+
+    A character the figures' fonts cannot draw (``閉``, ``🚰``: matplotlib's fonts have no
+    CJK or emoji) is written as its escape, ``\u9589``: drawn, it was an empty box, and two
+    ids of as many such characters looked the same (:mod:`hybridlog.report.glyphs`, which
+    loads matplotlib's fonts, is imported only for text that is not ASCII).
     """
+    if not text.isascii():
+        from hybridlog.report.glyphs import escape_undrawable
+
+        text = escape_undrawable(text)
     return text.replace("$", r"\$")
 
 

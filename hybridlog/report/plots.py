@@ -29,6 +29,7 @@ load it.
 from __future__ import annotations
 
 import math
+import textwrap
 import threading
 from collections import Counter
 from collections.abc import Sequence
@@ -279,20 +280,133 @@ def _fit_labels_left(fig: Figure, axes: Sequence[Axes]) -> None:
     assignments (``partly_open|partly_open|closed|closed|full|growth``) and long mode ids
     were cut off at the fixed margin.
     Text is measured by the Agg renderer, without a layout pass; the margin is at most half
-    the width.
+    the width (mode ids wider than :data:`KEYED_LABELS_WIDTH` are drawn as keys instead:
+    :func:`_row_labels`).
     """
-    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
-    dpi = fig.dpi
-    need = 0.0
-    for ax in axes:
-        ticks = max(
-            (t.get_window_extent(renderer).width for t in ax.get_yticklabels()), default=0.0
-        )
-        label = ax.yaxis.label.get_window_extent(renderer).width if ax.get_ylabel() else 0.0
-        need = max(need, (ticks + label) / dpi + LABEL_PADS_IN)
+    need = max((_labels_width_in(fig, ax) for ax in axes), default=0.0)
     left = min(max(PANEL_LEFT, need / fig.get_figwidth()), 0.5)
     if left > PANEL_LEFT:
         fig.subplots_adjust(left=left)
+
+
+KEYED_LABELS_WIDTH = 0.4
+"""Widest a panel's row labels (mode ids) and y label may stand beside it, as a fraction of
+the figure's width; wider ones are drawn as keys (:func:`_row_labels`).  A 60-character mode
+id needed more than the half :func:`_fit_labels_left` allows and was cut off at the
+figure's left edge; widening the margin further would leave the panels no room."""
+KEY_WRAP_CHARS = 90
+"""A mode id in the key below the panels is wrapped to lines of at most this many
+characters (a joint assignment of a ``[components]`` model joins one id per component)."""
+LEGEND_INSIDE = 6
+"""Most entries the mode probabilities' legend holds inside its panel; with more (8 modes,
+or 4 of a smoothed run beside the filter's) it covered the curves near 1, the most probable
+mode's, and goes below the panels instead (:func:`_legend_below`)."""
+
+
+class _Keys:
+    """Short keys ``[1]``, ``[2]``, ... of the mode ids too long to label a panel's rows.
+
+    One key per id in a figure, in the order they are first asked for; the figure lists
+    them below its panels (:func:`_key_entries`, :func:`_legend_below`).
+    """
+
+    def __init__(self) -> None:
+        self.ids: dict[str, str] = {}
+
+    def __call__(self, mode_id: str) -> str:
+        return self.ids.setdefault(mode_id, f"[{len(self.ids) + 1}]")
+
+
+def _labels_width_in(fig: Figure, ax: Axes) -> float:
+    """Inches the y tick labels and the y label of ``ax`` take beside it (with the pads)."""
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    ticks = max((t.get_window_extent(renderer).width for t in ax.get_yticklabels()), default=0.0)
+    label = ax.yaxis.label.get_window_extent(renderer).width if ax.get_ylabel() else 0.0
+    return float((ticks + label) / fig.dpi + LABEL_PADS_IN)
+
+
+def _row_labels(
+    fig: Figure, panels: Sequence[tuple[Axes, Sequence[str], str | None]], keys: _Keys
+) -> list[list[str]]:
+    """Label the rows of each panel ``(ax, mode_ids, fontsize)``, row ``j`` ``mode_ids[j]``.
+
+    ``fontsize`` ``None`` is the tick labels' own size.  The ids as written
+    (:func:`plain_text`) while every panel's fit in :data:`KEYED_LABELS_WIDTH` of the
+    figure's width beside its y label (set it first), else, in every panel, their
+    :class:`_Keys`, which the figure lists below its panels with the ids in full.  Returns
+    the labels drawn, per panel.
+    """
+
+    def label(texts: list[list[str]]) -> list[list[str]]:
+        for (ax, _, fontsize), labels in zip(panels, texts, strict=True):
+            ax.set_yticks(range(len(labels)), labels)
+            if fontsize is not None:
+                ax.tick_params(axis="y", labelsize=fontsize)
+        return texts
+
+    shown = label([[plain_text(m) for m in mode_ids] for _, mode_ids, _ in panels])
+    widest = max((_labels_width_in(fig, ax) for ax, _, _ in panels), default=0.0)
+    if widest <= KEYED_LABELS_WIDTH * fig.get_figwidth():
+        return shown
+    return label([[keys(m) for m in mode_ids] for _, mode_ids, _ in panels])
+
+
+def _key_entry(key: str, mode_id: str) -> str:
+    """``[1]: <mode id>``, the id wrapped at :data:`KEY_WRAP_CHARS` and drawn as written."""
+    lines = textwrap.wrap(
+        mode_id, KEY_WRAP_CHARS, break_long_words=True, break_on_hyphens=False
+    ) or [mode_id]
+    return f"{key}: " + "\n".join(plain_text(line) for line in lines)
+
+
+#: Space between the lowest panel's x label and a legend below the panels, in inches.
+LEGEND_GAP_IN = 0.1
+
+
+def _legend_below(
+    fig: Figure,
+    handles: Sequence[Any],
+    labels: Sequence[str],
+    *,
+    title: str | None = None,
+    text_only: bool = False,
+) -> None:
+    """Put a legend below the panels, in as many columns as the panels' width holds.
+
+    The figure grows by the legend's height, the panels keeping their size and place
+    (in inches from the top); its width, and so the pixel columns the curves were reduced
+    to, is unchanged.  Call it after the left margin is final (:func:`_fit_labels_left`).
+    """
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    pars = fig.subplotpars
+    room = (pars.right - pars.left) * fig.bbox.width
+    style: dict[str, Any] = {"fontsize": "small", "title_fontsize": "small", "frameon": False}
+    if text_only:
+        style.update(handlelength=0.0, handletextpad=0.0)
+    for ncol in range(min(len(labels), LEGEND_INSIDE), 0, -1):
+        legend = fig.legend(
+            handles, labels, loc="lower left", bbox_to_anchor=(pars.left, 0.0), ncol=ncol,
+            title=title, alignment="left", **style,
+        )  # fmt: skip
+        if ncol == 1 or legend.get_window_extent(renderer).width <= room:
+            break
+        legend.remove()
+    extra = legend.get_window_extent(renderer).height / fig.dpi + LEGEND_GAP_IN
+    old = fig.get_figheight()
+    top_in, bottom_in = (1.0 - pars.top) * old, pars.bottom * old
+    new = old + extra
+    fig.set_size_inches(fig.get_figwidth(), new)
+    fig.subplots_adjust(top=1.0 - top_in / new, bottom=(bottom_in + extra) / new)
+    if fig.get_suptitle():
+        _title(fig, fig.get_suptitle())
+
+
+def _key_handles(keys: _Keys) -> tuple[list[Any], list[str]]:
+    """Text-only legend entries ``[k]: <mode id>`` of a figure's keys."""
+    from matplotlib.lines import Line2D
+
+    labels = [_key_entry(key, mode_id) for mode_id, key in keys.ids.items()]
+    return [Line2D([], [], linestyle="none") for _ in labels], labels
 
 
 def _empty(fig: Figure, ax: Axes, text: str) -> None:
@@ -394,6 +508,28 @@ def _draw_bars(
             labelled = True
 
 
+LINE_STYLES = ("-", "-.", ":")
+"""Line styles of the mode probabilities, each with every colour before the next is used."""
+
+
+def _mode_styles(n_modes: int) -> list[dict[str, Any]]:
+    """Colour and line style of each mode's probability curve, distinct for up to 60 modes.
+
+    matplotlib's colour cycle has 10 colours: the 11th mode's curve took the 1st's colour,
+    two curves of one legend entry's look.  Up to 10 modes the cycle's colours (``tab10``),
+    up to 20 ``tab20``'s, beyond that ``tab20``'s again in :data:`LINE_STYLES` (dash-dot,
+    then dotted); the filter's own curves are dashed in their mode's colour.
+    """
+    from matplotlib import colormaps
+
+    colours = 10 if n_modes <= 10 else 20
+    cmap = colormaps[f"tab{colours}"]
+    return [
+        {"color": cmap(j % colours), "ls": LINE_STYLES[(j // colours) % len(LINE_STYLES)]}
+        for j in range(n_modes)
+    ]
+
+
 def plot_modes(data: PlotData, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
@@ -410,36 +546,60 @@ def plot_modes(data: PlotData, path: Path) -> Path:
         _empty(fig, ax_mode, "no samples")
         _empty(fig, ax_prob, "no samples")
         return _save(fig, path)
-    ids = [plain_text(m) for m in modes.mode_ids]
     set_time_span(ax_mode, data.span)
-    n_modes, edges = len(ids), data.edges
+    n_modes, edges = len(modes.mode_ids), data.edges
     if modes.truth is not None:
         _draw_bars(ax_mode, edges, modes.truth, height=0.8, color="0.8", label="true")
     _draw_bars(ax_mode, edges, modes.estimated, height=0.3, color="tab:red", label=modes.label)
     if modes.filtered is not None:
         _draw_bars(ax_mode, edges, modes.filtered, height=0.08, color="k", label="filtered")
-    ax_mode.set_yticks(range(n_modes), ids)
-    ax_mode.set_ylim(-0.5, n_modes - 0.5)
     ax_mode.set_ylabel("mode")
-    ax_mode.legend(loc="upper right", fontsize="small")
-    for j, m in enumerate(ids):
-        (line,) = draw_curve(ax_prob, modes.probabilities[j], lw=0.8, label=f"p({m})")
-        if modes.filtered_probabilities is not None:
+    keys = _Keys()
+    (shown,) = _row_labels(fig, [(ax_mode, modes.mode_ids, None)], keys)
+    ax_mode.set_ylim(-0.5, n_modes - 0.5)
+    filtered = modes.filtered_probabilities
+    below = bool(keys.ids) or n_modes * (1 if filtered is None else 2) > LEGEND_INSIDE
+    if below:  # above the panel, out of the rows' way
+        ax_mode.legend(
+            loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize="small",
+            frameon=False, borderaxespad=0.1,
+        )  # fmt: skip
+    else:
+        ax_mode.legend(loc="upper right", fontsize="small")
+    lines = []
+    for j, (m, style) in enumerate(zip(shown, _mode_styles(n_modes), strict=True)):
+        (line,) = draw_curve(ax_prob, modes.probabilities[j], lw=0.8, label=f"p({m})", **style)
+        lines.append(line)
+        if filtered is not None:
             draw_curve(
                 ax_prob,
-                modes.filtered_probabilities[j],
+                filtered[j],
                 lw=0.5,
                 ls="--",
                 color=line.get_color(),
-                label=f"p({m}) filtered",
+                label=None if below else f"p({m}) filtered",
             )
     ax_prob.set_ylabel("probability")
     ax_prob.set_xlabel("t (s)")
-    ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, 6))
     # Long mode ids were cut off at the fixed margin.  The probabilities' bins, cut for the
     # fixed panel width, are then finer than the narrower panel's pixel columns: each column
     # still shows every extreme of its samples.
     _fit_labels_left(fig, [ax_mode, ax_prob])
+    if not below:
+        ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, LEGEND_INSIDE))
+        return _save(fig, path)
+    labels = [
+        _key_entry(keys(m), m) if keys.ids else f"p({label})"
+        for m, label in zip(modes.mode_ids, shown, strict=True)
+    ]
+    handles: list[Any] = list(lines)
+    if filtered is not None:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], lw=0.5, ls="--", color="0.3"))
+        labels.append("filtered (dashed, same colours)")
+    title = "mode ids of the keys (line: the mode's probability)" if keys.ids else None
+    _legend_below(fig, handles, labels, title=title)
     return _save(fig, path)
 
 
@@ -501,6 +661,7 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
     fig, axes = _new_figure(len(components.columns) + 1, panel_height=max(1.0, 0.35 * len(visited)))
     _title(fig, "Modes per component and joint assignment")
     set_time_span(axes[0], data.span)
+    keys = _Keys()
     for ax, column in zip(axes, components.columns, strict=False):
         n_labels = len(column.labels)
         if column.truth is not None:
@@ -523,9 +684,8 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
                 labelled.add(legend)
         if column.filtered is not None:
             _draw_bars(ax, data.edges, column.filtered, height=0.08, color="k", label="filtered")
-        ax.set_yticks(range(n_labels), [plain_text(label) for label in column.labels])
-        ax.set_ylim(-0.5, n_labels - 0.5)
         ax.set_ylabel(plain_text(column.name))
+        ax.set_ylim(-0.5, n_labels - 0.5)
         if column.truth is not None or column.filtered is not None:
             ax.legend(loc="upper right", fontsize="x-small")
     joint = axes[-1]
@@ -535,11 +695,16 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
             joint, data.edges, components.joint_filtered, height=0.08, color="k", label="filtered"
         )
         joint.legend(loc="upper right", fontsize="x-small")
-    joint.set_yticks(range(len(visited)), [plain_text(v) for v in visited], fontsize="x-small")
-    joint.set_ylim(-0.5, len(visited) - 0.5)
     joint.set_ylabel("joint")
+    joint.set_ylim(-0.5, len(visited) - 0.5)
+    panels = [
+        (ax, column.labels, None) for ax, column in zip(axes, components.columns, strict=False)
+    ]
+    _row_labels(fig, [*panels, (joint, visited, "x-small")], keys)
     joint.set_xlabel("t (s)")
     _fit_labels_left(fig, axes)
+    if keys.ids:
+        _legend_below(fig, *_key_handles(keys), title="mode ids of the keys", text_only=True)
     return _save(fig, path)
 
 
