@@ -1137,7 +1137,8 @@ class SwitchDetection:
         Mode ids before and after the switch.
     detected_t:
         Time of the first estimated change *into* ``to_mode`` at or after ``t`` and before
-        the next true switch; ``None`` when there is none (a missed switch).
+        the next true switch; ``None`` when there is none, or when the estimate was already
+        in ``to_mode`` before ``t`` (a missed switch).
     miss_reason:
         Why the switch counts as missed (one sentence), ``None`` when it was detected.
 
@@ -1205,11 +1206,15 @@ def _seconds(t: float) -> str:
     return f"{t:.9g} s"
 
 
-def _miss_reason(window_end: float | None, mode_id: str, since: float | None) -> str:
+def _miss_reason(
+    window_end: float | None, mode_id: str, since: float | None, back: float | None
+) -> str:
     """Why no estimated change into ``mode_id`` detected a true switch into it.
 
     ``window_end``: time of the next true switch (``None``: the end of the log);
-    ``since``: when the estimate already sat in the mode, the start of that stay.
+    ``since``: when the estimate already sat in the mode, the start of that stay;
+    ``back``: then, the time the estimate, having left the mode, changed back into it before
+    ``window_end`` (``None``: it did not).
     """
     window = (
         f"before the next true switch at t={_seconds(window_end)}"
@@ -1218,9 +1223,15 @@ def _miss_reason(window_end: float | None, mode_id: str, since: float | None) ->
     )
     if since is None:
         return f"the estimate never changed into mode {mode_id} {window}"
-    return (
+    already = (
         f"the estimate was already in mode {mode_id} (since t={_seconds(since)}) when the "
-        f"truth switched to it, and no estimated change into mode {mode_id} followed {window}"
+        "truth switched to it"
+    )
+    if back is None:
+        return f"{already}, and no estimated change into mode {mode_id} followed {window}"
+    return (
+        f"{already}; its change back into mode {mode_id} at t={_seconds(back)}, after "
+        "leaving it, does not detect the switch"
     )
 
 
@@ -1238,11 +1249,14 @@ def detection_delays(
     ``estimated[k] == m`` and ``estimated[k-1] != m``.  The delay is ``time[k] - time[s]``
     (0 when the estimate changes into ``m`` at the very sample the truth does).
 
-    An estimate that already sat in ``m`` before the true switch has not detected it, even
-    though it agrees with the truth from ``s`` on: a filter stuck in a wrong mode would
-    otherwise be credited with a perfect, instant detection whenever the truth happens to
-    enter the mode it is stuck in.  Such a switch, and one the estimate never changes into
-    ``m`` for, is *missed*: counted, given a reason, and not given a delay.
+    An estimate that already sat in ``m`` before the true switch (``estimated[s-1] == m``)
+    has not detected it (SPEC §8: "a miss"), even though it agrees with the truth from ``s``
+    on, and neither does a later change back into ``m`` after leaving it: a filter stuck in
+    a wrong mode would otherwise be credited with a perfect, instant detection whenever the
+    truth happens to enter the mode it is stuck in, and one that flickered out of it and
+    back, or a smoother that entered ``m`` a sample early and left it again, with the delay
+    of its own recovery.  Such a switch, and one the estimate never changes into ``m`` for,
+    is *missed*: counted, given a reason, and not given a delay.
 
     Parameters
     ----------
@@ -1300,11 +1314,12 @@ def detection_delays(
         strict=True,
     ):
         reason = None
-        if k < 0:
+        if k < 0 or sat:
             reason = _miss_reason(
                 float(t[e]) if e < est.size else None,
                 ids[m],
                 float(t[first_in_mode]) if sat else None,
+                float(t[k]) if k >= 0 else None,
             )
         # float(t[i]) per event, not t.tolist(): 10^6 samples would be 32 MB of floats
         events.append(
@@ -1312,7 +1327,7 @@ def detection_delays(
                 t=float(t[s]),
                 from_mode=ids[before],
                 to_mode=ids[m],
-                detected_t=float(t[k]) if k >= 0 else None,
+                detected_t=float(t[k]) if k >= 0 and not sat else None,
                 miss_reason=reason,
             )
         )
