@@ -1100,7 +1100,9 @@ def sample_durations(time: npt.ArrayLike, dt: float) -> FloatArray:
     return durations
 
 
-def dwell_times(time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: float) -> FloatArray:
+def dwell_times(
+    time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: float, *, on_grid: bool = False
+) -> FloatArray:
     """Total time spent in each mode.
 
     Parameters
@@ -1113,15 +1115,20 @@ def dwell_times(time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: flo
         Number of modes.
     dt:
         The model's sample time (duration of the last sample, see :func:`sample_durations`).
+    on_grid:
+        ``time`` is the model's grid ``t0 + k*dt``: every sample stands for ``dt``, which
+        the differences of large times (Unix times, held to 2.4e-7 s) cannot give exactly.
 
     Returns
     -------
     numpy.ndarray
         Seconds per mode, shape ``(n_modes,)``: the sum of :func:`sample_durations` over the
-        samples in that mode.
+        samples in that mode (``dt`` times their number ``on_grid``).
 
     """
     m = _check_modes(modes, n_modes, "modes")
+    if on_grid:
+        return np.bincount(m, minlength=n_modes).astype(np.float64) * dt
     return np.bincount(m, weights=sample_durations(time, dt), minlength=n_modes).astype(np.float64)
 
 
@@ -1141,6 +1148,11 @@ class SwitchDetection:
         in ``to_mode`` before ``t`` (a missed switch).
     miss_reason:
         Why the switch counts as missed (one sentence), ``None`` when it was detected.
+    delay_s:
+        Detection delay in seconds, ``None`` when missed; by default ``detected_t - t``.
+        On the model's grid ``t0 + k*dt`` it is given as the steps between the two samples
+        times ``dt`` (see :func:`detection_delays`), which the difference of two absolute
+        times cannot hold: a Unix time of 1.7e9 s is stored to 2.4e-7 s.
 
     """
 
@@ -1149,16 +1161,20 @@ class SwitchDetection:
     to_mode: str
     detected_t: float | None
     miss_reason: str | None = None
+    delay_s: float | None = None
+
+    def __post_init__(self) -> None:
+        """Fill in ``delay_s`` from the times; refuse a delay of a missed switch."""
+        if self.detected_t is None:
+            if self.delay_s is not None:
+                raise ValueError(f"a missed switch (t={self.t}) has no delay ({self.delay_s})")
+        elif self.delay_s is None:
+            object.__setattr__(self, "delay_s", self.detected_t - self.t)
 
     @property
     def detected(self) -> bool:
         """Whether an estimated change into the new mode detected the switch."""
         return self.detected_t is not None
-
-    @property
-    def delay_s(self) -> float | None:
-        """Detection delay in seconds, ``None`` when missed."""
-        return None if self.detected_t is None else self.detected_t - self.t
 
 
 @dataclass(frozen=True)
@@ -1240,6 +1256,7 @@ def detection_delays(
     estimated: npt.ArrayLike,
     truth: npt.ArrayLike,
     mode_ids: tuple[str, ...] | list[str],
+    dt: float | None = None,
 ) -> DetectionDelays:
     """Delay from each true mode switch to the estimate *changing into* the new mode (SPEC §8).
 
@@ -1266,6 +1283,12 @@ def detection_delays(
         Mode indices per sample, shape ``(N,)``.
     mode_ids:
         Mode id of each index.
+    dt:
+        The step of ``time`` when it is the model's grid ``t0 + k*dt``: a delay is then
+        ``(k - s) * dt``, what ``time[k] - time[s]`` means but cannot hold when the times
+        are large (Unix times: ``1700000008.03 - 1700000008.01`` is 0.020000219 in float64,
+        a two-step delay a gate ``detection_delay_s <= 0.02`` would fail).  ``None``: the
+        difference of the times.
 
     Returns
     -------
@@ -1329,6 +1352,7 @@ def detection_delays(
                 to_mode=ids[m],
                 detected_t=float(t[k]) if k >= 0 and not sat else None,
                 miss_reason=reason,
+                delay_s=(k - s) * dt if dt is not None and k >= 0 and not sat else None,
             )
         )
     return DetectionDelays(events=tuple(events))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,7 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import metrics
+from hybridlog.report import Report, build_report, metrics
+
+from .test_report_files import DT, make_run
 
 NAN = float("nan")
 
@@ -271,6 +274,34 @@ def test_detection_delays_mean_and_max() -> None:
     assert det.delays_s.tolist() == [1.0, 3.0]
     assert det.mean_s == 2.0
     assert det.max_s == 3.0
+
+
+def test_delays_and_dwell_of_unix_times_are_whole_steps_of_the_grid() -> None:
+    # A ROS bag's times are Unix times: float64 holds 1.7e9 s to 2.4e-7 s, and the difference
+    # of two of them made a two-step delay on a 10 ms grid 0.020000219 s (a gate
+    # detection_delay_s <= 0.02 failed) and a mode's dwell 9.860000134 s.
+    result, signals = make_run(400, seed=1)
+    epoch = 1.7e9
+    late = build_report(
+        dataclasses.replace(result, time=result.time + epoch),
+        dataclasses.replace(signals, time=signals.time + epoch),
+        log="run.csv",
+        model_name="m",
+        dt=DT,
+    )
+    assert late.modes.detection is not None
+    delays = [e.delay_s for e in late.modes.detection.events if e.delay_s is not None]
+    assert delays and all(d == round(d / DT) * DT for d in delays), delays
+    counts = np.bincount(result.modes, minlength=len(late.modes.labels))
+    assert list(late.modes.dwell_s.values()) == (counts * DT).tolist()
+    # the grid's steps, whatever the times' offset
+    early = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
+    assert early.modes.detection is not None
+    assert late.modes.detection.mean_s == early.modes.detection.mean_s
+    assert late.modes.dwell_s == early.modes.dwell_s
+    # and a report read back keeps them
+    again = Report.from_dict(late.to_dict(), source="report.json")
+    assert again.modes.detection == late.modes.detection
 
 
 def test_no_true_switch_gives_nan_delay() -> None:
