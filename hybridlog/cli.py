@@ -590,7 +590,7 @@ class _LogFormats(click.Choice[str]):
         "hybridlog simulate three_tank_hstf --out sim/tank.csv --seed 1",
         "hybridlog simulate three_tank_hstf --out sim/tank.parquet --schedule 1:50,3:50 "
         "--steps 400",
-        "hybridlog simulate three_tank_hstf --out sim/tank.mcap --encoding json",
+        "hybridlog simulate three_tank_hstf --out sim/tank_json.mcap --encoding json",
         "hybridlog simulate three_tank_hstf --out sim/tank_bag --format ros2-sqlite3",
         "hybridlog simulate bioplex_pgc --out sim/bioplex.csv --seed 3 --set light_fault=950",
     )
@@ -769,12 +769,12 @@ def cluster_command(
     "analyze",
     epilog=_estimators_epilog(
         "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
-        "--estimator imm --out tank_imm",
+        "--estimator imm --out imm_report",
         "hybridlog analyze sample_logs/three_tank_hstf.mcap --model three_tank_hstf "
         "--estimator imm --set transition_stay=0.9 --out tank_gated "
         "--fail-under mode_accuracy=0.9 --fail-under fit=60",
         "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
-        "--estimator imm --smooth --mode-sequence viterbi --out tank_smooth",
+        "--estimator imm --smooth --mode-sequence viterbi --out imm_smoothed",
     ),
 )
 @_global_flags
@@ -817,7 +817,7 @@ def analyze_command(
     "compare",
     epilog=_estimators_epilog(
         "hybridlog compare sample_logs/three_tank_hstf.csv --model three_tank_hstf "
-        "--estimators hstf,imm --out tank_compare",
+        "--estimators hstf,imm --out hstf_vs_imm",
         "hybridlog compare sample_logs/double_cart_case1.csv --model double_cart_case1 "
         "--estimators chiu,kmeans --out dc1_compare",
     ),
@@ -863,12 +863,13 @@ def compare_command(
     epilog=_estimators_epilog(
         "hybridlog batch sample_logs/three_tank_hstf.csv sample_logs/three_tank_hstf.mcap "
         "--model three_tank_hstf --estimator imm --out tank_formats",
-        "hybridlog simulate three_tank_hstf --out runs/seed1.csv --seed 1",
-        "hybridlog simulate three_tank_hstf --out runs/seed2.csv --seed 2 "
+        "hybridlog simulate three_tank_hstf --out nightly_runs/seed1.csv --seed 1",
+        "hybridlog simulate three_tank_hstf --out nightly_runs/seed2.csv --seed 2 "
         "--schedule 3:60,1:60,2:60",
-        "hybridlog batch runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
+        "hybridlog batch nightly_runs/*.csv --model three_tank_hstf --estimator imm --out nightly "
         "--jobs 2 --fail-under fit=60 --plots failed --junit nightly/junit.xml",
-        "hybridlog batch runs --model three_tank_hstf --estimator imm --out runs_all --jobs 2",
+        "hybridlog batch nightly_runs --model three_tank_hstf --estimator imm --out nightly_all "
+        "--jobs 2",
     ),
 )
 @_global_flags

@@ -132,7 +132,7 @@ def _modes(
     ids: tuple[str, ...], time: FloatArray, modes: IntArray, truth: IntArray | None, dt: float
 ) -> ModeReport:
     """The mode part of a report: switches and dwell, and against the truth when known."""
-    dwell = metrics.dwell_times(time, modes, len(ids), dt)
+    dwell = metrics.dwell_times(time, modes, len(ids), dt, on_grid=True)
     report = ModeReport(
         labels=ids,
         switches=tuple(
@@ -144,7 +144,7 @@ def _modes(
     if truth is None:
         return report
     counts = metrics.confusion_matrix(modes, truth, len(ids))
-    det = metrics.detection_delays(time, modes, truth, ids)
+    det = metrics.detection_delays(time, modes, truth, ids, dt)
     return ModeReport(
         labels=report.labels,
         switches=report.switches,
@@ -525,6 +525,7 @@ def _state_reports(
 def _side(
     ids: tuple[str, ...],
     signals: AlignedSignals,
+    dt: float,
     modes: IntArray,
     states: Mapping[str, StateReport],
     output_names: tuple[str, ...],
@@ -534,12 +535,13 @@ def _side(
 ) -> SmoothingMetrics:
     """The metrics of one side (filtered or offline) of a run with an offline pass.
 
-    ``modes`` of every sample, ``states`` the RMSE of each state, ``explained`` the
-    errors of the outputs its estimates explain, accumulated over the run (``None``: not
-    evaluated).  ``component_accuracy``: for a ``[components]`` model, the fraction of
-    samples where this side has every component's mode right (the log's truth is per
-    component, so it is the side's mode accuracy; its switches are not scored jointly),
-    ``components`` the side's report of each component with a true mode.
+    ``dt`` the step of the signals' grid, ``modes`` of every sample, ``states`` the RMSE
+    of each state, ``explained`` the errors of the outputs its estimates explain,
+    accumulated over the run (``None``: not evaluated).  ``component_accuracy``: for a
+    ``[components]`` model, the fraction of samples where this side has every component's
+    mode right (the log's truth is per component, so it is the side's mode accuracy; its
+    switches are not scored jointly), ``components`` the side's report of each component
+    with a true mode.
     """
     outputs: dict[str, OutputReport] | None = None
     fit: float | None = None
@@ -568,7 +570,7 @@ def _side(
             components=sides,
         )
     counts = metrics.confusion_matrix(modes, truth, len(ids))
-    det = metrics.detection_delays(signals.time, modes, truth, ids)
+    det = metrics.detection_delays(signals.time, modes, truth, ids, dt)
     detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
         mode_accuracy=_num(metrics.mode_accuracy(modes, truth)),
@@ -678,6 +680,7 @@ class _OfflineSides:
             filtered=_side(
                 ids,
                 signals,
+                dt,
                 self._filtered_modes,
                 filtered_states,
                 first.output_names,
@@ -688,6 +691,7 @@ class _OfflineSides:
             smoothed=_side(
                 ids,
                 signals,
+                dt,
                 modes,
                 states,
                 first.output_names,

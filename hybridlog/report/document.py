@@ -780,12 +780,17 @@ class _Reader:
 
     def event(self, value: object, path: str) -> SwitchDetection:
         data = self.mapping(value, path)
+        detected_t = self.at(data, path, "detected_t", self.optional_number)
+        delay_s = self.at(data, path, "delay_s", self.optional_number, None)
+        if detected_t is None and delay_s is not None:
+            raise self.error(f"{path}.delay_s", f"is {delay_s} but detected_t is None")
         event = SwitchDetection(
             t=self.at(data, path, "t", self.number),
             from_mode=self.at(data, path, "from", self.string),
             to_mode=self.at(data, path, "to", self.string),
-            detected_t=self.at(data, path, "detected_t", self.optional_number),
+            detected_t=detected_t,
             miss_reason=self.at(data, path, "miss_reason", self.or_null(self.string), None),
+            delay_s=delay_s,
         )
         detected = self.at(data, path, "detected", self.boolean)
         if detected != event.detected:

@@ -1100,7 +1100,9 @@ def sample_durations(time: npt.ArrayLike, dt: float) -> FloatArray:
     return durations
 
 
-def dwell_times(time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: float) -> FloatArray:
+def dwell_times(
+    time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: float, *, on_grid: bool = False
+) -> FloatArray:
     """Total time spent in each mode.
 
     Parameters
@@ -1113,15 +1115,20 @@ def dwell_times(time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: flo
         Number of modes.
     dt:
         The model's sample time (duration of the last sample, see :func:`sample_durations`).
+    on_grid:
+        ``time`` is the model's grid ``t0 + k*dt``: every sample stands for ``dt``, which
+        the differences of large times (Unix times, held to 2.4e-7 s) cannot give exactly.
 
     Returns
     -------
     numpy.ndarray
         Seconds per mode, shape ``(n_modes,)``: the sum of :func:`sample_durations` over the
-        samples in that mode.
+        samples in that mode (``dt`` times their number ``on_grid``).
 
     """
     m = _check_modes(modes, n_modes, "modes")
+    if on_grid:
+        return np.bincount(m, minlength=n_modes).astype(np.float64) * dt
     return np.bincount(m, weights=sample_durations(time, dt), minlength=n_modes).astype(np.float64)
 
 
@@ -1137,9 +1144,15 @@ class SwitchDetection:
         Mode ids before and after the switch.
     detected_t:
         Time of the first estimated change *into* ``to_mode`` at or after ``t`` and before
-        the next true switch; ``None`` when there is none (a missed switch).
+        the next true switch; ``None`` when there is none, or when the estimate was already
+        in ``to_mode`` before ``t`` (a missed switch).
     miss_reason:
         Why the switch counts as missed (one sentence), ``None`` when it was detected.
+    delay_s:
+        Detection delay in seconds, ``None`` when missed; by default ``detected_t - t``.
+        On the model's grid ``t0 + k*dt`` it is given as the steps between the two samples
+        times ``dt`` (see :func:`detection_delays`), which the difference of two absolute
+        times cannot hold: a Unix time of 1.7e9 s is stored to 2.4e-7 s.
 
     """
 
@@ -1148,16 +1161,20 @@ class SwitchDetection:
     to_mode: str
     detected_t: float | None
     miss_reason: str | None = None
+    delay_s: float | None = None
+
+    def __post_init__(self) -> None:
+        """Fill in ``delay_s`` from the times; refuse a delay of a missed switch."""
+        if self.detected_t is None:
+            if self.delay_s is not None:
+                raise ValueError(f"a missed switch (t={self.t}) has no delay ({self.delay_s})")
+        elif self.delay_s is None:
+            object.__setattr__(self, "delay_s", self.detected_t - self.t)
 
     @property
     def detected(self) -> bool:
         """Whether an estimated change into the new mode detected the switch."""
         return self.detected_t is not None
-
-    @property
-    def delay_s(self) -> float | None:
-        """Detection delay in seconds, ``None`` when missed."""
-        return None if self.detected_t is None else self.detected_t - self.t
 
 
 @dataclass(frozen=True)
@@ -1205,11 +1222,15 @@ def _seconds(t: float) -> str:
     return f"{t:.9g} s"
 
 
-def _miss_reason(window_end: float | None, mode_id: str, since: float | None) -> str:
+def _miss_reason(
+    window_end: float | None, mode_id: str, since: float | None, back: float | None
+) -> str:
     """Why no estimated change into ``mode_id`` detected a true switch into it.
 
     ``window_end``: time of the next true switch (``None``: the end of the log);
-    ``since``: when the estimate already sat in the mode, the start of that stay.
+    ``since``: when the estimate already sat in the mode, the start of that stay;
+    ``back``: then, the time the estimate, having left the mode, changed back into it before
+    ``window_end`` (``None``: it did not).
     """
     window = (
         f"before the next true switch at t={_seconds(window_end)}"
@@ -1218,9 +1239,15 @@ def _miss_reason(window_end: float | None, mode_id: str, since: float | None) ->
     )
     if since is None:
         return f"the estimate never changed into mode {mode_id} {window}"
-    return (
+    already = (
         f"the estimate was already in mode {mode_id} (since t={_seconds(since)}) when the "
-        f"truth switched to it, and no estimated change into mode {mode_id} followed {window}"
+        "truth switched to it"
+    )
+    if back is None:
+        return f"{already}, and no estimated change into mode {mode_id} followed {window}"
+    return (
+        f"{already}; its change back into mode {mode_id} at t={_seconds(back)}, after "
+        "leaving it, does not detect the switch"
     )
 
 
@@ -1229,6 +1256,7 @@ def detection_delays(
     estimated: npt.ArrayLike,
     truth: npt.ArrayLike,
     mode_ids: tuple[str, ...] | list[str],
+    dt: float | None = None,
 ) -> DetectionDelays:
     """Delay from each true mode switch to the estimate *changing into* the new mode (SPEC §8).
 
@@ -1238,11 +1266,14 @@ def detection_delays(
     ``estimated[k] == m`` and ``estimated[k-1] != m``.  The delay is ``time[k] - time[s]``
     (0 when the estimate changes into ``m`` at the very sample the truth does).
 
-    An estimate that already sat in ``m`` before the true switch has not detected it, even
-    though it agrees with the truth from ``s`` on: a filter stuck in a wrong mode would
-    otherwise be credited with a perfect, instant detection whenever the truth happens to
-    enter the mode it is stuck in.  Such a switch, and one the estimate never changes into
-    ``m`` for, is *missed*: counted, given a reason, and not given a delay.
+    An estimate that already sat in ``m`` before the true switch (``estimated[s-1] == m``)
+    has not detected it (SPEC §8: "a miss"), even though it agrees with the truth from ``s``
+    on, and neither does a later change back into ``m`` after leaving it: a filter stuck in
+    a wrong mode would otherwise be credited with a perfect, instant detection whenever the
+    truth happens to enter the mode it is stuck in, and one that flickered out of it and
+    back, or a smoother that entered ``m`` a sample early and left it again, with the delay
+    of its own recovery.  Such a switch, and one the estimate never changes into ``m`` for,
+    is *missed*: counted, given a reason, and not given a delay.
 
     Parameters
     ----------
@@ -1252,6 +1283,12 @@ def detection_delays(
         Mode indices per sample, shape ``(N,)``.
     mode_ids:
         Mode id of each index.
+    dt:
+        The step of ``time`` when it is the model's grid ``t0 + k*dt``: a delay is then
+        ``(k - s) * dt``, what ``time[k] - time[s]`` means but cannot hold when the times
+        are large (Unix times: ``1700000008.03 - 1700000008.01`` is 0.020000219 in float64,
+        a two-step delay a gate ``detection_delay_s <= 0.02`` would fail).  ``None``: the
+        difference of the times.
 
     Returns
     -------
@@ -1300,11 +1337,12 @@ def detection_delays(
         strict=True,
     ):
         reason = None
-        if k < 0:
+        if k < 0 or sat:
             reason = _miss_reason(
                 float(t[e]) if e < est.size else None,
                 ids[m],
                 float(t[first_in_mode]) if sat else None,
+                float(t[k]) if k >= 0 else None,
             )
         # float(t[i]) per event, not t.tolist(): 10^6 samples would be 32 MB of floats
         events.append(
@@ -1312,8 +1350,9 @@ def detection_delays(
                 t=float(t[s]),
                 from_mode=ids[before],
                 to_mode=ids[m],
-                detected_t=float(t[k]) if k >= 0 else None,
+                detected_t=float(t[k]) if k >= 0 and not sat else None,
                 miss_reason=reason,
+                delay_s=(k - s) * dt if dt is not None and k >= 0 and not sat else None,
             )
         )
     return DetectionDelays(events=tuple(events))

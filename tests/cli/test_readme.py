@@ -1,12 +1,15 @@
 """Every command in the README's tour runs as written (from a copy of the repository root)."""
 
+import itertools
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
+from tests.cli.test_cli_help import help_examples
 from tests.support.paths import ROOT
 
 
@@ -68,3 +71,27 @@ def test_the_ci_recipe_runs_the_tested_commands():
     for line in runs:
         tested = line.replace('"$GITHUB_STEP_SUMMARY"', '"${GITHUB_STEP_SUMMARY:-ci_summary.md}"')
         assert tested in commands, line
+
+
+def _written_paths(command: str) -> set[PurePosixPath]:
+    """The files and folders one example names as outputs (``--out``, ``--junit``, ``--plot``)."""
+    words = shlex.split(command)
+    return {
+        PurePosixPath(value)
+        for option, value in itertools.pairwise(words)
+        if option in ("--out", "--junit", "--plot")
+    }
+
+
+def test_the_tour_and_the_help_examples_write_different_paths():
+    """A user who ran the tour can then run every ``--help`` example in the same folder.
+
+    Both promise to run as written from the repository root; an example that writes where
+    the tour already wrote stops with "already exists" or "not empty; use --force".
+    """
+    tour = set().union(*(_written_paths(c) for c in tour_commands()))
+    examples = set().union(*(_written_paths(line) for _, line in help_examples()))
+    clashes = sorted(
+        f"{a} / {b}" for a in tour for b in examples if a == b or a in b.parents or b in a.parents
+    )
+    assert not clashes, clashes

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,7 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import metrics
+from hybridlog.report import Report, build_report, metrics
+
+from .test_report_files import DT, make_run
 
 NAN = float("nan")
 
@@ -240,10 +243,27 @@ def test_a_filter_stuck_in_a_mode_the_truth_enters_detects_nothing() -> None:
     assert "before the next true switch at t=6 s" in first.miss_reason
     assert second.miss_reason is not None and "never changed into mode c" in second.miss_reason
     assert "before the end of the log" in second.miss_reason
-    # Leaving the mode and changing back into it after the switch is a detection.
+    # Leaving the mode and changing back into it after the switch is no detection either
+    # (SPEC §8: an estimate that already sat in the new mode is a miss); the switch into
+    # mode c, which the estimate was not in, is detected.
     est = np.array([1, 1, 1, 1, 0, 1, 1, 2, 2])
     det = metrics.detection_delays(t, est, truth, IDS)
-    assert det.delays_s.tolist() == [2.0, 1.0]
+    assert det.delays_s.tolist() == [1.0]
+    first, _ = det.events
+    assert first.detected_t is None and first.miss_reason is not None
+    assert "already in mode b (since t=0 s)" in first.miss_reason
+    assert "change back into mode b at t=5 s" in first.miss_reason
+
+
+def test_a_switch_entered_early_is_missed_not_timed_by_the_recovery() -> None:
+    # A smoother a sample early into mode b, out of it again and back 5 samples later: the
+    # switch was not missed by 5 s, and the recovery must not be reported as its delay.
+    t = np.arange(12, dtype=float)
+    truth = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1])
+    est = np.array([0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1, 1])
+    det = metrics.detection_delays(t, est, truth, IDS)
+    assert (det.detected, det.missed) == (0, 1)
+    assert math.isnan(det.mean_s)
 
 
 def test_detection_delays_mean_and_max() -> None:
@@ -254,6 +274,34 @@ def test_detection_delays_mean_and_max() -> None:
     assert det.delays_s.tolist() == [1.0, 3.0]
     assert det.mean_s == 2.0
     assert det.max_s == 3.0
+
+
+def test_delays_and_dwell_of_unix_times_are_whole_steps_of_the_grid() -> None:
+    # A ROS bag's times are Unix times: float64 holds 1.7e9 s to 2.4e-7 s, and the difference
+    # of two of them made a two-step delay on a 10 ms grid 0.020000219 s (a gate
+    # detection_delay_s <= 0.02 failed) and a mode's dwell 9.860000134 s.
+    result, signals = make_run(400, seed=1)
+    epoch = 1.7e9
+    late = build_report(
+        dataclasses.replace(result, time=result.time + epoch),
+        dataclasses.replace(signals, time=signals.time + epoch),
+        log="run.csv",
+        model_name="m",
+        dt=DT,
+    )
+    assert late.modes.detection is not None
+    delays = [e.delay_s for e in late.modes.detection.events if e.delay_s is not None]
+    assert delays and all(d == round(d / DT) * DT for d in delays), delays
+    counts = np.bincount(result.modes, minlength=len(late.modes.labels))
+    assert list(late.modes.dwell_s.values()) == (counts * DT).tolist()
+    # the grid's steps, whatever the times' offset
+    early = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
+    assert early.modes.detection is not None
+    assert late.modes.detection.mean_s == early.modes.detection.mean_s
+    assert late.modes.dwell_s == early.modes.dwell_s
+    # and a report read back keeps them
+    again = Report.from_dict(late.to_dict(), source="report.json")
+    assert again.modes.detection == late.modes.detection
 
 
 def test_no_true_switch_gives_nan_delay() -> None:
@@ -289,24 +337,30 @@ def _detections_by_definition(
     for s, end in zip(starts, [*starts[1:], truth.size][: len(starts)], strict=True):
         m = truth[s]
         hits = [k for k in range(s, end) if est[k] == m and est[k - 1] != m]
+        already = est[s - 1] == m
         window = (
             f"before the next true switch at t={t[end]:.9g} s"
             if end < truth.size
             else "before the end of the log"
         )
         reason = None
-        if not hits and est[s - 1] != m:
+        if not hits and not already:
             reason = f"the estimate never changed into mode {IDS[m]} {window}"
-        elif not hits:
+        elif already:
             stay = s - 1
             while stay > 0 and est[stay - 1] == m:
                 stay -= 1
             reason = (
                 f"the estimate was already in mode {IDS[m]} (since t={t[stay]:.9g} s) when the "
-                f"truth switched to it, and no estimated change into mode {IDS[m]} followed "
-                f"{window}"
+                "truth switched to it"
             )
-        detected = float(t[hits[0]]) if hits else None
+            reason += (
+                f"; its change back into mode {IDS[m]} at t={t[hits[0]]:.9g} s, after leaving "
+                "it, does not detect the switch"
+                if hits
+                else f", and no estimated change into mode {IDS[m]} followed {window}"
+            )
+        detected = float(t[hits[0]]) if hits and not already else None
         events.append((float(t[s]), IDS[truth[s - 1]], IDS[m], detected, reason))
     return events
 
