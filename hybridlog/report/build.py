@@ -711,6 +711,10 @@ def _json_object(value: Mapping[str, Any]) -> JsonObject:
     return converted
 
 
+_MOST_TWINS_NAMED = 10
+"""Most modes of one group of twins a note names (the rest counted)."""
+
+
 def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
     """What report.md must say of the model: modes no log can tell apart (``twin_modes``).
 
@@ -722,7 +726,12 @@ def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
         return ()
     notes = []
     for twins in model.twin_modes:
-        names = ", ".join(f"'{m}'" for m in twins[:-1]) + f" and '{twins[-1]}'"
+        quoted = [f"'{m}'" for m in twins]
+        if len(twins) <= _MOST_TWINS_NAMED:
+            names = ", ".join(quoted[:-1]) + f" and {quoted[-1]}"
+        else:  # many twins (booleans no equation uses): the first and the last named
+            shown = ", ".join(quoted[: _MOST_TWINS_NAMED - 1])
+            names = f"{shown}, ... and {quoted[-1]} ({len(twins)} modes)"
         notes.append(
             f"NOTE: modes {names} have the same equations and noise (f, h, process and "
             "measurement noise; guards and jump maps alike): no log can tell them apart"

@@ -108,3 +108,21 @@ def test_a_model_without_twins_gets_no_such_note() -> None:
     modes = {"a": MODES["a"], "b": MODES["e"], "e": MODES["sq"]}
     notes, _ = _report_notes(model_text(modes))
     assert not any("no log can tell them apart" in n for n in notes)
+
+
+def test_a_large_group_of_twins_is_named_by_its_first_and_last() -> None:
+    modes = {**{f"m{i}": MODES["a"] for i in range(12)}, "e": MODES["e"]}
+    model = parse_model(model_text(modes))
+    log = simulate(model, schedule="m0:5,e:5", jit=False)
+    signals = log.signals(model)
+    report = build_report(
+        prepare(model, "imm").run(model, signals),
+        signals,
+        log="run.csv",
+        model_name=model.name,
+        dt=model.dt,
+        model=model,
+    )
+    [note] = [n for n in report.notes if "no log can tell them apart" in n]
+    assert note.startswith("NOTE: modes 'm0', 'm1', 'm2', 'm3', 'm4', 'm5', 'm6', 'm7', 'm8', ")
+    assert "... and 'm11' (12 modes) have the same equations" in note
