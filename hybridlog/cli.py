@@ -690,6 +690,10 @@ def simulate(
         settings=sets,
     )
     _say(ctx, f"wrote {out} ({plural(outcome.samples, 'sample')})")
+    settings = ctx.find_object(_Context)
+    if not (settings is not None and settings.quiet):
+        for note in outcome.notes:
+            click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
 
 
 @cli.command(

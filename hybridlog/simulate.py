@@ -73,6 +73,7 @@ class SimulatedLog:
     outputs: FloatArray
     modes: IntArray
     states: FloatArray
+    notes: tuple[str, ...] = ()
 
     def signals(self, model: HybridModel, source: str = "simulation") -> AlignedSignals:
         """The run as the estimators' input, ground truth (modes and states) included."""
@@ -459,4 +460,56 @@ def simulate(
     if not np.all(np.isfinite(states)) or not np.all(np.isfinite(outputs)):
         row = int(np.argmax(~np.all(np.isfinite(np.hstack([states, outputs])), axis=1)))
         raise ModelError(f"{origin}: the simulation diverged (non-finite at t = {time[row]})")
-    return SimulatedLog(time=time, inputs=inputs, outputs=outputs, modes=modes, states=states)
+    notes = () if model.state_driven else impossible_switches(model, modes, time, schedule)
+    return SimulatedLog(
+        time=time, inputs=inputs, outputs=outputs, modes=modes, states=states, notes=notes
+    )
+
+
+def impossible_switches(
+    model: HybridModel, modes: IntArray, time: FloatArray, schedule: str | None
+) -> tuple[str, ...]:
+    """What a scheduled run does that the model gives probability 0, one note per kind.
+
+    A switch ``a → b`` whose ``[transitions]`` entry is 0 (the first time, and how many
+    more), and a first mode that ``[initial]`` gives probability 0: the log is valid, but
+    an estimator that weighs the model's Markov matrix or prior (``imm``, its Viterbi and
+    k-best passes) cannot follow the run there, which its mode metrics then count as
+    errors.  ``schedule``: the ``--schedule`` given, if any (else the model's
+    ``[simulation] schedule`` or its first mode throughout was followed), named in the notes.
+    """
+    if schedule is not None:
+        where = "--schedule"
+    elif model.simulation_schedule:
+        where = f"{_origin(model)}: simulation.schedule"
+    else:
+        where = f"{_origin(model)}: the first mode throughout (no schedule)"
+    notes = []
+    prior = model.initial_mode_probabilities
+    ids = model.mode_ids
+    if prior.shape == (model.n_modes,) and modes.size and prior[modes[0]] == 0.0:
+        notes.append(
+            f"{where}: the run starts in mode '{ids[modes[0]]}', which [initial] gives "
+            "probability 0: an estimator that starts from the model's prior cannot begin there"
+        )
+    markov = model.transitions
+    if markov is None or modes.size < 2:
+        return tuple(notes)
+    rows = np.flatnonzero(modes[1:] != modes[:-1]) + 1  # the first row of each new mode
+    impossible = rows[markov[modes[rows - 1], modes[rows]] == 0.0]
+    # one note per switch a -> b, at its first row (a repeated schedule makes millions)
+    pairs = modes[impossible - 1] * model.n_modes + modes[impossible]
+    _, first, counts = np.unique(pairs, return_index=True, return_counts=True)
+    for index, count in sorted(zip(first.tolist(), counts.tolist(), strict=True)):
+        row = int(impossible[index])
+        source, target = int(modes[row - 1]), int(modes[row])
+        more = count - 1
+        notes.append(
+            f"{where}: switches from mode '{ids[source]}' to '{ids[target]}' at "
+            f"t = {time[row]:g} s (row {row})"
+            + (f" and {more} more time{'s' if more > 1 else ''}" if more else "")
+            + f", which [transitions] gives probability 0 (transitions.matrix[{source}]"
+            f"[{target}]): the model rules it out, so imm weighs it as impossible and its "
+            "Viterbi and k-best mode sequences cannot take it"
+        )
+    return tuple(notes)

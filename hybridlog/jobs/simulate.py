@@ -34,10 +34,15 @@ __all__ = ["SimulationOutcome", "log_columns", "simulate_log"]
 
 @dataclass(frozen=True)
 class SimulationOutcome:
-    """What ``hybridlog simulate`` wrote: the log and its number of samples (rows)."""
+    """What ``hybridlog simulate`` wrote: the log, its number of samples (rows), and notes.
+
+    ``notes``: what the run did that the model gives probability 0
+    (:func:`hybridlog.simulate.impossible_switches`), which the CLI prints on stderr.
+    """
 
     path: Path
     samples: int
+    notes: tuple[str, ...] = ()
 
 
 def simulate_log(
@@ -110,6 +115,7 @@ def simulate_log(
         )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
+        notes: tuple[str, ...] = ()
     else:
         if values:
             name = next(iter(values))
@@ -128,6 +134,7 @@ def simulate_log(
         )
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
+        notes = log.notes
     path = write_log(
         out,
         columns,
@@ -137,7 +144,7 @@ def simulate_log(
         force=force,
         inputs=inputs,
     )
-    return SimulationOutcome(path=path, samples=samples)
+    return SimulationOutcome(path=path, samples=samples, notes=notes)
 
 
 def log_columns(model: HybridModel) -> tuple[tuple[str, ...], tuple[str, ...]]:

@@ -289,6 +289,7 @@ def _encode(model: HybridModel) -> str | None:
         "boolean_affine": None if affine is None else [list(affine.booleans), affine.key],
         "variables": list(model.variables),
         "commands": list(model.commands),
+        "twin_modes": [list(ids) for ids in model.twin_modes],
         "model_key": model_key(model),
     }
     try:
@@ -398,6 +399,7 @@ def _decode(content: dict[str, Any], source: _Source) -> HybridModel:
         ),
         variables=tuple(map(str, content["variables"])),
         commands=tuple(map(str, content["commands"])),
+        twin_modes=tuple(tuple(map(str, ids)) for ids in content["twin_modes"]),
     )
     stored_key = content["model_key"]
     if not isinstance(stored_key, str):

@@ -383,6 +383,10 @@ class HybridModel:
     scenario:
         A components model's ``[simulation]`` scenario (:mod:`hybridlog.model.scenario`);
         ``None`` for the other kinds.
+    twin_modes:
+        Groups of modes with the same equations, noise, guard and jump maps
+        (:func:`hybridlog.model.twins.twin_modes`), which no log can tell apart; empty
+        when every mode differs.
     """
 
     name: str
@@ -414,6 +418,7 @@ class HybridModel:
     variables: tuple[str, ...] = ()
     commands: tuple[str, ...] = ()
     scenario: Scenario | None = None
+    twin_modes: tuple[tuple[str, ...], ...] = ()
 
     def __getstate__(self) -> dict[str, Any]:
         """The fields, and the content key when this process knows it.

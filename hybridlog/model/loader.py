@@ -53,6 +53,7 @@ from hybridlog.model.hybrid_model import (
     markov_matrix,
 )
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
+from hybridlog.model.twins import twin_modes
 from hybridlog.model.values import (
     as_covariance,
     as_expressions,
@@ -363,6 +364,7 @@ class _Builder:
             variables=variables,
             commands=commands,
             scenario=scenario,
+            twin_modes=twin_modes(modes, jumps),
         )
 
     def parameters(self, groups: Mapping[str, tuple[str, ...]]) -> dict[str, sympy.Expr]:

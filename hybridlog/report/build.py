@@ -410,7 +410,11 @@ class ReportBuilder:
             runtime_s=_num(runtime),
             compile_s=_num(float(last.compile_s)),
             samples_per_s=samples_per_s,
-            notes=(*(str(note) for note in last.notes), *_reading_notes(reading)),
+            notes=(
+                *(str(note) for note in last.notes),
+                *_model_notes(self._model),
+                *_reading_notes(reading),
+            ),
             null_reasons=_null_reasons(
                 per_output,
                 means,
@@ -705,6 +709,64 @@ class _OfflineSides:
 def _json_object(value: Mapping[str, Any]) -> JsonObject:
     converted: JsonObject = jsonable(value)
     return converted
+
+
+_MOST_TWINS_NAMED = 10
+"""Most modes of one group of twins a note names (the rest counted)."""
+
+
+def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
+    """What report.md must say of the model: modes no log can tell apart (``twin_modes``).
+
+    Such modes give the same log, so an estimate picks among them by their order or their
+    Markov rows, never by the data, and the mode metrics score the log's samples of the
+    one not picked as errors; said in every report of such a model, whatever the estimator.
+    """
+    if model is None:
+        return ()
+    notes = []
+    for twins in model.twin_modes:
+        quoted = [f"'{m}'" for m in twins]
+        if len(twins) <= _MOST_TWINS_NAMED:
+            names = ", ".join(quoted[:-1]) + f" and {quoted[-1]}"
+        else:  # many twins (booleans no equation uses): the first and the last named
+            shown = ", ".join(quoted[: _MOST_TWINS_NAMED - 1])
+            names = f"{shown}, ... and {quoted[-1]} ({len(twins)} modes)"
+        notes.append(
+            f"NOTE: modes {names} have the same equations and noise (f, h, process and "
+            "measurement noise; guards and jump maps alike): no log can tell them apart"
+            + (
+                ""
+                if _interchangeable(model, twins)
+                else " (their [transitions] rows or initial probabilities differ: only the "
+                "estimators' priors on the switches set them apart)"
+            )
+            + ". Between them the estimate follows the modes' order and Markov rows, not the "
+            f"data (imm's argmax takes '{twins[0]}', the first listed, where their "
+            "probabilities tie), so the mode accuracy, confusion and detection delays count "
+            "the log's samples of the one not picked as errors; merge them, or give them "
+            "different equations or noise if they are to be told apart"
+        )
+    return tuple(notes)
+
+
+def _interchangeable(model: HybridModel, twins: tuple[str, ...]) -> bool:
+    """Whether swapping the first twin with any other leaves the priors as they are.
+
+    The priors: ``[transitions]`` and ``[initial]``; when they are symmetric in the twins,
+    nothing at all sets the twins apart.
+    """
+    first = model.mode_index(twins[0])
+    markov, prior = model.transitions, model.initial_mode_probabilities
+    for twin in twins[1:]:
+        order = np.arange(model.n_modes)
+        other = model.mode_index(twin)
+        order[[first, other]] = order[[other, first]]
+        if not np.array_equal(prior[order], prior):
+            return False
+        if markov is not None and not np.array_equal(markov[np.ix_(order, order)], markov):
+            return False
+    return True
 
 
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:

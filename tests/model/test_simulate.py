@@ -9,7 +9,7 @@ from hybridlog.cli import main
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
-from hybridlog.model.loader import load_model
+from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import memory_needed, simulate
 from tests.support.models import PENDULUM_ONE_MODE
@@ -182,3 +182,67 @@ def test_no_signal_can_take_the_true_mode_s_column(tmp_path, old, new, group):
         load_model(path)
     assert str(error.value).startswith(f"{path}: {group}: 'mode' ")
     assert str(error.value).endswith("and cannot be a symbol name")
+
+
+RULED_OUT = """
+name = "ruled_out"
+time = "discrete"
+dt = 0.1
+states = ["x1"]
+inputs = ["u"]
+outputs = ["y"]
+[modes.a]
+f = ["0.9*x1 + u"]
+h = ["x1"]
+[modes.b]
+f = ["0.5*x1 + u"]
+h = ["x1"]
+[modes.c]
+f = ["0.2*x1 + u"]
+h = ["2*x1"]
+[noise]
+process = 0.01
+measurement = 0.01
+[initial]
+state = [0.0]
+mode = "a"
+[transitions]
+matrix = [[0.98, 0.02, 0.0], [0.0, 0.98, 0.02], [0.02, 0.0, 0.98]]
+[simulation]
+inputs = { u = "sin(t)" }
+schedule = "a:10,b:10,c:10"
+"""
+
+
+def test_a_schedule_through_a_switch_the_markov_matrix_rules_out_is_noted():
+    # Before: the log was written without a word, and imm's Viterbi path could not follow it.
+    model = parse_model(RULED_OUT, origin="ruled_out.toml")
+    assert simulate(model, jit=False).notes == ()  # a -> b -> c -> ... as the matrix allows
+    log = simulate(model, schedule="a:10,c:10,b:10", steps=60, jit=False)
+    assert log.notes == (
+        "--schedule: switches from mode 'a' to 'c' at t = 1.1 s (row 11) and 1 more time, "
+        "which [transitions] gives probability 0 (transitions.matrix[0][2]): the model rules "
+        "it out, so imm weighs it as impossible and its Viterbi and k-best mode sequences "
+        "cannot take it",
+        "--schedule: switches from mode 'c' to 'b' at t = 2.1 s (row 21) and 1 more time, "
+        "which [transitions] gives probability 0 (transitions.matrix[2][1]): the model rules "
+        "it out, so imm weighs it as impossible and its Viterbi and k-best mode sequences "
+        "cannot take it",
+        "--schedule: switches from mode 'b' to 'a' at t = 3.1 s (row 31), which [transitions] "
+        "gives probability 0 (transitions.matrix[1][0]): the model rules it out, so imm "
+        "weighs it as impossible and its Viterbi and k-best mode sequences cannot take it",
+    )
+    [start] = simulate(model, schedule="b:5", jit=False).notes
+    assert start.startswith("--schedule: the run starts in mode 'b', which [initial] gives")
+
+
+def test_the_command_prints_the_note_on_stderr_and_writes_the_log(tmp_path, capsys):
+    model = _model_file(tmp_path, RULED_OUT)
+    out = tmp_path / "s.csv"
+    main(["simulate", str(model), "--out", str(out), "--schedule", "a:3,c:3"])  # exit 0
+    assert out.exists()
+    captured = capsys.readouterr()
+    assert captured.err.startswith("hybridlog: note: --schedule: switches from mode 'a' to 'c'")
+    assert len(captured.err.splitlines()) == 1 and "wrote" in captured.out
+    main(["simulate", str(model), "--out", str(out), "--schedule", "a:3,c:3", "-q", "--force"])
+    assert capsys.readouterr().err == ""
