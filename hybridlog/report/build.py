@@ -31,7 +31,7 @@ from hybridlog.report.document import (
     SmoothingMetrics,
     StateReport,
 )
-from hybridlog.report.markdown import plural
+from hybridlog.report.markdown import format_time, plural
 from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.signals import AlignedSignals, ComponentTruth, FloatArray, IntArray
 
@@ -728,13 +728,14 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for symbol, count in (reading.get(key) or {}).items()
     ]
     notes += [
-        f"WARNING: input {symbol} has no sample from t = {hold['start']:g} to "
-        f"{hold['end']:g} s ({hold['seconds']:g} s, longer than max_gap): held at its last "
-        "value, as an input published only when it changes is (zero-order hold)"
+        f"WARNING: input {symbol} has no sample from t = {format_time(hold['start'])} to "
+        f"{format_time(hold['end'])} s ({hold['seconds']:g} s, longer than max_gap): held at "
+        "its last value, as an input published only when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
     notes += [
-        f"NOTE: the true {label} has no sample from t = {hold['start']:g} to {hold['end']:g} s "
+        f"NOTE: the true {label} has no sample from t = {format_time(hold['start'])} to "
+        f"{format_time(hold['end'])} s "
         f"({hold['seconds']:g} s, longer than max_gap): held at its last value, against which "
         "the mode metrics score those samples (right for a mode published only when it "
         "changes; if the log stopped recording it, they score a guess)"
@@ -743,9 +744,9 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     for side, bound in (reading.get("span") or {}).items():
         first = side == "start"
         notes.append(
-            f"NOTE: the analysed span {side}s at t = {bound['at']:g} s, the "
+            f"NOTE: the analysed span {side}s at t = {format_time(bound['at'])} s, the "
             f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
-            f"outputs {'begin at' if first else 'run on to'} t = {bound['log']:g} s: "
+            f"outputs {'begin at' if first else 'run on to'} t = {format_time(bound['log'])} s: "
             f"{bound['left_out']:g} s of the log not analysed"
         )
     segments = reading.get("segments")
@@ -753,7 +754,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         kept = segments[reading["analysed_segment"]]
         others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
         gaps = reading.get("gaps") or []
-        span = f"t = {kept['start']:g} … {kept['end']:g} s"
+        span = f"t = {format_time(kept['start'])} … {format_time(kept['end'])} s"
         notes.append(
             f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
             f"({_spans(gaps)}) "
@@ -803,7 +804,9 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
 
 def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:
     """``t = a … b s, ...`` for at most ``most`` spans, then how many more."""
-    shown = ", ".join(f"t = {p['start']:g} … {p['end']:g} s" for p in spans[:most])
+    shown = ", ".join(
+        f"t = {format_time(p['start'])} … {format_time(p['end'])} s" for p in spans[:most]
+    )
     return shown + (f" and {len(spans) - most} more" if len(spans) > most else "")
 
 

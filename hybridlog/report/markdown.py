@@ -22,6 +22,7 @@ __all__ = [
     "duration",
     "escape_markdown",
     "format_number",
+    "format_time",
     "plural",
     "rate",
     "render_markdown",
@@ -43,6 +44,32 @@ def format_number(value: Any, spec: str = ".6g") -> str:
     if isinstance(value, float):
         return format(value, ".6g" if abs(value) >= FIXED_LIMIT else spec)
     return str(value)
+
+
+def format_time(seconds: float | None) -> str:
+    """A time in fixed point, to the digits its float holds (at most the nanosecond).
+
+    ``format_number``'s six significant digits wrote every time of a log stamped in Unix
+    time as ``1.7e+09``: switches 100 s apart read alike.  Near 1.7e9 s a float holds the
+    microsecond (its spacing is 238 ns), so ``1700000101.01``; small times to the
+    nanosecond, so ``0.2`` for 0.1999999999999993.  ``None`` is ``n/a``.
+
+    Examples
+    --------
+    >>> format_time(1700000101.01)
+    '1700000101.01'
+    >>> format_time(0.1999999999999993)
+    '0.2'
+    """
+    if seconds is None:
+        return "n/a"
+    if not math.isfinite(seconds):
+        return str(seconds)
+    spacing = math.ulp(abs(seconds))
+    decimals = 9 if spacing <= 1e-9 else max(0, math.floor(-math.log10(spacing)))
+    text = f"{seconds:.{decimals}f}"
+    text = text.rstrip("0").rstrip(".") if "." in text else text
+    return "0" if text in ("-0", "") else text
 
 
 _MARKUP = re.compile(r"[\\`*\[\]<>&|~$]|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
@@ -183,7 +210,7 @@ def render_markdown(report: Report) -> str:
         "",
         f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
         f"- samples: {report.samples}, dt = {format_number(report.dt)} s, "
-        f"t = {format_number(report.t_start)} … {format_number(report.t_end)} s",
+        f"t = {format_time(report.t_start)} … {format_time(report.t_end)} s",
         f"- hybridlog {report.hybridlog_version}",
         "",
         "## Outputs",
@@ -433,9 +460,9 @@ def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
         lines.append("|---:|---|---|---:|")
         for e in events[:MAX_LISTED_SWITCHES]:
             found = e.detected_t
-            when = format_number(found) if found is not None else f"missed: {e.miss_reason}"
+            when = format_time(found) if found is not None else f"missed: {e.miss_reason}"
             lines.append(
-                f"| {format_number(e.t)} "
+                f"| {format_time(e.t)} "
                 f"| {escape_markdown(e.from_mode)} → {escape_markdown(e.to_mode)} "
                 f"| {escape_markdown(when)} | {format_number(e.delay_s)} |"
             )

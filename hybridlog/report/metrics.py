@@ -27,6 +27,7 @@ from typing import Generic, Protocol, Self, TypedDict, TypeVar
 import numpy as np
 import numpy.typing as npt
 
+from hybridlog.report.markdown import format_time
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -1219,7 +1220,8 @@ class DetectionDelays:
 
 
 def _seconds(t: float) -> str:
-    return f"{t:.9g} s"
+    """A time as ``1700000101.01 s``: to the digits it holds, at Unix times too."""
+    return f"{format_time(t)} s"
 
 
 def _miss_reason(
