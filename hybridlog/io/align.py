@@ -47,7 +47,7 @@ import numpy as np
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
-from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns
+from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns, ns_to_seconds
 from hybridlog.signals import (
     LONGEST_DT_S,
     NO_TRUE_MODE,
@@ -625,7 +625,7 @@ def align_signals(
 
     return AlignedSignals(
         source=source,
-        time=grid / NS_PER_S,
+        time=ns_to_seconds(grid),
         input_names=tuple(inputs),
         output_names=tuple(outputs),
         inputs=u,

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from hybridlog.io.source import seconds_of
 from hybridlog.signals import IntArray
 
 GAP_FACTOR = 1.5
@@ -140,8 +141,8 @@ def describe_steps(
         info["gap_count"] = int(starts.size)
         info["gaps"] = [
             {
-                "start": int(time_ns[i]) / 1e9,
-                "end": int(time_ns[i + 1]) / 1e9,
+                "start": seconds_of(time_ns[i]),
+                "end": seconds_of(time_ns[i + 1]),
                 "duration": round_span(int(steps[i]), resolution_ns),
             }
             for i in starts[:MAX_LISTED_GAPS].tolist()

@@ -45,6 +45,7 @@ from hybridlog.io.source import (
     check_seconds_range,
     closest_names,
     format_ns,
+    seconds_of,
     seconds_to_ns,
 )
 from hybridlog.io.summary import (
@@ -726,8 +727,8 @@ class TableSource:
         if time_ns is not None and time_ns.size:
             info["time"] = {
                 "column": self._time_column,
-                "start": time_ns[0] / 1e9,
-                "end": time_ns[-1] / 1e9,
+                "start": seconds_of(time_ns[0]),
+                "end": seconds_of(time_ns[-1]),
                 "duration": round_span(int(time_ns[-1]) - int(time_ns[0]), resolution),
             }
         return info

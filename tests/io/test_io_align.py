@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals, write_table
 from hybridlog.io.align import align_signals
-from hybridlog.io.source import LabelSeries, Series, format_ns, seconds_to_ns
+from hybridlog.io.source import LabelSeries, Series, format_ns, ns_to_seconds, seconds_to_ns
 from hybridlog.signals import MAX_MAGNITUDE, NO_TRUE_MODE
 
 ArrayLike = np.ndarray | list[float]
@@ -722,3 +722,18 @@ def test_the_grid_has_one_point_per_sample_of_a_log_sampled_at_dt(
     assert grid[0] == time_ns[0]
     # Never a point more than half a step (plus the nanosecond rounding) past the last sample.
     assert (grid[-1] - time_ns[-1]) <= dt * 5e8 + 0.5
+
+
+def test_grid_times_at_unix_magnitudes_are_the_floats_nearest_to_them() -> None:
+    """``grid / 1e9`` rounded twice (the count to float64, then the quotient): a 100 Hz
+    grid from 1.7e9 s had its sample at 1700000001.51 s at 1700000001.5100002 s, in
+    report.json's switches and timeline.csv's t column.  Each time is now the float nearest
+    to its nanoseconds, which for these is the float of the decimal written."""
+    seconds = 1.7e9 + np.arange(300) * 0.01
+    aligned = align_signals(
+        source="s", dt=0.01, inputs={"u": series("u", seconds, seconds)},
+        outputs={"y": series("y", seconds, seconds)},
+    )  # fmt: skip
+    written = [float(f"{1_700_000_000 + k / 100:.2f}") for k in range(300)]
+    assert aligned.time.tolist() == written
+    assert ns_to_seconds(np.array([-1_500_000_001, 0, 7])).tolist() == [-1.500000001, 0.0, 7e-9]
