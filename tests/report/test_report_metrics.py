@@ -292,9 +292,9 @@ def test_delays_and_dwell_of_unix_times_are_whole_steps_of_the_grid() -> None:
     )
     assert late.modes.detection is not None
     delays = [e.delay_s for e in late.modes.detection.events if e.delay_s is not None]
-    assert delays and all(d == round(d / DT) * DT for d in delays), delays
+    assert delays and all(d == metrics.steps_seconds(round(d / DT), DT) for d in delays), delays
     counts = np.bincount(result.modes, minlength=len(late.modes.labels))
-    assert list(late.modes.dwell_s.values()) == (counts * DT).tolist()
+    assert list(late.modes.dwell_s.values()) == [metrics.steps_seconds(c, DT) for c in counts]
     # the grid's steps, whatever the times' offset
     early = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
     assert early.modes.detection is not None
@@ -338,6 +338,23 @@ def test_times_at_unix_magnitudes_are_written_in_full() -> None:
         "to it, and no estimated change into mode b followed before the next true switch at "
         "t=1700000000.2 s"
     )
+
+
+def test_steps_on_the_grid_are_dt_as_written_times_their_number() -> None:
+    """351 samples of 10 ms dwelt 3.5100000000000002 s in report.json, a delay of 3 steps of
+    50 ms was 0.15000000000000002 s: float products, whose last digits say nothing."""
+    assert metrics.steps_seconds(351, 0.01) == 3.51
+    assert metrics.steps_seconds(3, 0.05) == 0.15
+    assert metrics.steps_seconds(0, 0.05) == 0.0
+    assert metrics.steps_seconds(3, 0.1) == 0.3  # not 0.30000000000000004
+    modes = np.array([0] * 351 + [1] * 3)
+    dwell = metrics.dwell_times(np.zeros(354), modes, 2, 0.01, on_grid=True)
+    assert dwell.tolist() == [3.51, 0.03]
+    det = metrics.detection_delays(
+        np.arange(8) * 0.05, np.array([0, 0, 0, 0, 0, 1, 1, 1]), np.array([0, 0, 1, 1, 1, 1, 1, 1]),
+        ("a", "b"), 0.05,
+    )  # fmt: skip
+    assert [e.delay_s for e in det.events] == [0.15]
 
 
 @pytest.mark.parametrize(
