@@ -1120,6 +1120,9 @@ def _summary_line(report: Report) -> str:
         f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}, "
         f"mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
     )
+    scored = report.modes.samples
+    if report.modes.accuracy is not None and scored is not None and scored < report.samples:
+        text += f" (over the {plural(scored, 'sample')} with a true mode)"
     smoothing = report.smoothing
     if smoothing is not None and smoothing.filtered.mode_accuracy is not None:
         text += f" (filtered {number(_percent(smoothing.filtered.mode_accuracy), '.1f', ' %')})"

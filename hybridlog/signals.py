@@ -30,6 +30,25 @@ difference is below ``2**481`` and its square below ``2**962``, so a sum over up
 value cannot be a measurement; it is what corrupt bytes decode to (``-1e271``).
 """
 
+NO_TRUE_MODE = -1
+"""The true-mode code of a sample before the log's first true-mode sample: no truth there.
+
+A true mode (or a component's) that starts after the first sample time leaves the samples
+before it without truth, as a true state that starts late does; the mode metrics score the
+samples from its first on (:func:`covered_from`).  Every reader of true-mode codes masks
+it: as an index it would pick the last mode without a word.
+"""
+
+
+def covered_from(codes: IntArray) -> int:
+    """Index of the first sample with a true mode (``codes.size`` when none has one).
+
+    The samples without one (:data:`NO_TRUE_MODE`) lead: a true mode is held from its first
+    sample on, so none is missing after it.
+    """
+    covered = np.flatnonzero(codes != NO_TRUE_MODE)
+    return int(covered[0]) if covered.size else int(codes.size)
+
 
 @dataclass(frozen=True)
 class ComponentTruth:
@@ -40,7 +59,8 @@ class ComponentTruth:
     labels:
         The component's mode ids.
     codes:
-        Index into ``labels`` of each sample's true mode, shape ``(N,)``.
+        Index into ``labels`` of each sample's true mode, shape ``(N,)``;
+        :data:`NO_TRUE_MODE` before the component's first true-mode sample.
     """
 
     labels: tuple[str, ...]
@@ -70,7 +90,8 @@ class AlignedSignals:
         ``y``, shape ``(N, n_y)``, columns in the order of ``output_names``.
     truth_modes:
         True mode of each sample as an index into ``mode_ids`` of the model, shape ``(N,)``,
-        or ``None`` when the log has no ground-truth mode.
+        or ``None`` when the log has no ground-truth mode; :data:`NO_TRUE_MODE` for the
+        samples before a true mode that starts late (:func:`covered_from`).
     truth_states:
         True states, shape ``(N, n_x)`` with NaN in columns the log does not have, or ``None``.
     truth_components:

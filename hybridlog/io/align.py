@@ -13,7 +13,9 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   between two samples more than ``max_gap`` apart is an error, shorter gaps are bridged by the
   same rule (nearest or linear) from the samples around them.
 - True mode: zero-order hold; grid points before its first sample take that sample if it is
-  within ``dt/2``.
+  within ``dt/2``, and have no true mode (``NO_TRUE_MODE``, not scored) if not: a true mode
+  that starts late is scored over the samples from its first on, as a true state that starts
+  late is (``notes["truth_starts"]``).
 - True states: like outputs, but NaN instead of an error where no sample is usable.
 - The signal that starts the grid more than ``max_gap`` after the log's first input or output
   sample, or ends it that long before the last one, is recorded (``notes["span"]``): the
@@ -45,14 +47,16 @@ import numpy as np
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
-from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns
+from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns, ns_to_seconds
 from hybridlog.signals import (
     LONGEST_DT_S,
+    NO_TRUE_MODE,
     SHORTEST_DT_S,
     AlignedSignals,
     ComponentTruth,
     FloatArray,
     IntArray,
+    covered_from,
 )
 
 DEFAULT_MAX_GAP_STEPS = 5
@@ -498,7 +502,10 @@ def align_signals(
         gaps (``bridged``: ``{symbol: {points, of}}``), per true state the same
         (``truth_bridged``), per input its longest hold over ``max_gap`` (``held``:
         ``{symbol: {start, end, seconds}}``), and the same for the true mode and each
-        component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end, seconds}}``).
+        component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end, seconds}}``),
+        and for a true mode that starts more than half a step after the first sample time
+        where it starts and how many samples it covers (``truth_starts``: ``{"mode" |
+        "mode.<component>": {at, samples, of}}``).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -513,8 +520,7 @@ def align_signals(
         For an unknown ``resample``, a negative ``max_gap`` or an unusable ``dt``.
     LogError
         For an input or output without samples, an output gap longer than ``max_gap``
-        (naming the time span), signals that do not overlap, or a true mode that starts too
-        late.
+        (naming the time span), or signals that do not overlap.
     """
     dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
@@ -591,10 +597,16 @@ def align_signals(
     if notes is not None:  # a true mode is held like an input; the mode metrics score the hold
         labelled = {"mode": truth_mode} if truth_mode is not None else {}
         labelled |= {f"mode.{name}": series for name, series in (truth_components or {}).items()}
+        codes_of = {f"mode.{n}": c.codes for n, c in components.items()}
+        if modes is not None:
+            codes_of["mode"] = modes
         for label, label_series in labelled.items():
             held = _longest_hold(label_series.time_ns, grid, dt_ns, max_gap_ns)
             if held is not None:
                 notes.setdefault("truth_held", {})[label] = held
+            late = _truth_start(label_series, codes_of[label], grid)
+            if late is not None:
+                notes.setdefault("truth_starts", {})[label] = late
 
     x_true: FloatArray | None = None
     if truth_states:
@@ -613,7 +625,7 @@ def align_signals(
 
     return AlignedSignals(
         source=source,
-        time=grid / NS_PER_S,
+        time=ns_to_seconds(grid),
         input_names=tuple(inputs),
         output_names=tuple(outputs),
         inputs=u,
@@ -681,16 +693,28 @@ def _hold_modes(
         return on
     index = hold_index(series.time_ns, grid, tolerance)
     before = index < 0
-    if before.any():
-        first = int(series.time_ns[0])
-        if 2 * (first - int(grid[0])) > dt_ns:
-            raise LogError(
-                f"{what} ({field_word} {series.name!r}) starts at t={format_ns(first)} s, "
-                f"after the first sample time t={format_ns(int(grid[0]))} s"
-            )
-        index[before] = 0
-    modes: IntArray = series.codes[index].astype(np.int64)
+    modes: IntArray = series.codes[np.maximum(index, 0)].astype(np.int64)
+    # a grid point within half a step of the first sample takes it, as the nearest sample;
+    # before that there is no truth to hold: those samples are not scored
+    first = int(series.time_ns[0])
+    modes[before & (2 * (first - grid) > dt_ns)] = NO_TRUE_MODE
     return modes
+
+
+def _truth_start(series: LabelSeries, codes: IntArray, grid: IntArray) -> dict[str, Any] | None:
+    """Where a true mode that starts late starts: ``{at, samples, of}``, else ``None``.
+
+    ``at``: its first sample's time (s); ``samples``: the samples it covers, from the first
+    it is held at; ``of``: all samples.
+    """
+    start = covered_from(codes)
+    if start == 0:
+        return None
+    return {
+        "at": int(series.time_ns[0]) / NS_PER_S,
+        "samples": int(grid.size - start),
+        "of": int(grid.size),
+    }
 
 
 def _longest_piece(

@@ -48,6 +48,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         within a factor 1.5 of the median; a gap is a step longer than 1.5 times the median
         (at most 1000 listed, all counted in ``gap_count``); ``repeated`` counts the samples
         logged at the time of the one before (``analyze`` refuses them unless ``--sort``).
+        Steps, spans and gap lengths of float seconds are rounded to the digits the times
+        hold (:func:`~hybridlog.io.summary.round_span`: to the microsecond near 1.7e9 s).
 
         Values: ``count`` counts the samples (non-empty cells, or messages), ``nonfinite``
         those that are NaN or infinite, which ``analyze`` refuses in a mapped signal (unless
@@ -126,22 +128,25 @@ def format_inspection(info: dict[str, Any]) -> str:
                 "into one sample per column)"
             )
     columns = info.get("columns", [])
-    header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz", "gaps")
-    rows = [
-        (
-            str(c["name"]),
-            str(c["dtype"]),
-            str(c["count"]),
-            _num(c.get("nonfinite")),
-            _num(c["min"]),
-            _num(c["max"]),
-            _num(c.get("rate_hz")),
-            str(c.get("gap_count", 0)),
-        )
-        for c in columns
-    ]
-    lines.extend(_table(header, rows))
     time_column = span["column"] if span is not None else None
+    header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz", "gaps")
+    rows = []
+    for c in columns:
+        # the time column's range as times: 1.7e+09 to 1.7e+09 said nothing of a Unix time
+        extreme = _at_or_dash if c["name"] == time_column else _num
+        rows.append(
+            (
+                str(c["name"]),
+                str(c["dtype"]),
+                str(c["count"]),
+                _num(c.get("nonfinite")),
+                extreme(c["min"]),
+                extreme(c["max"]),
+                _num(c.get("rate_hz")),
+                str(c.get("gap_count", 0)),
+            )
+        )
+    lines.extend(_table(header, rows))
     lines.extend(
         _gap_lines(
             [c for c in columns if c["name"] != time_column],
@@ -308,6 +313,11 @@ def _num(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
     return str(value)
+
+
+def _at_or_dash(seconds: float | None) -> str:
+    """:func:`_at` of a time, ``"-"`` for ``None``."""
+    return "-" if seconds is None else _at(seconds)
 
 
 def _at(seconds: float) -> str:

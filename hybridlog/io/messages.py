@@ -75,6 +75,7 @@ from hybridlog.io.source import (
     SourceInfo,
     closest_names,
     format_ns,
+    seconds_of,
 )
 from hybridlog.io.summary import count_nonfinite, describe_steps
 from hybridlog.signals import FloatArray, IntArray
@@ -505,7 +506,11 @@ class MessageSource(abc.ABC):
             "topics": topics,
             "time": None
             if start is None or end is None
-            else {"start": start / 1e9, "end": end / 1e9, "duration": (end - start) / 1e9},
+            else {
+                "start": seconds_of(start),
+                "end": seconds_of(end),
+                "duration": seconds_of(end - start),
+            },
             "problems": [*problems, *undecodable],
             "reading": dict(self._notes),
         }
@@ -542,9 +547,9 @@ def _describe_times(stamps: IntArray) -> dict[str, Any]:
     """Span and steps of one topic's sorted log times (``None`` where there are none)."""
     span: dict[str, Any] = {"start": None, "end": None, "duration": None}
     if stamps.size:
-        span["start"] = int(stamps[0]) / 1e9
-        span["end"] = int(stamps[-1]) / 1e9
-        span["duration"] = (int(stamps[-1]) - int(stamps[0])) / 1e9
+        span["start"] = seconds_of(stamps[0])
+        span["end"] = seconds_of(stamps[-1])
+        span["duration"] = seconds_of(int(stamps[-1]) - int(stamps[0]))
     return {**span, **describe_steps(stamps)}
 
 

@@ -220,6 +220,31 @@ def seconds_to_ns(seconds: FloatArray) -> IntArray:
     return result
 
 
+def ns_to_seconds(ns: IntArray) -> FloatArray:
+    """Convert integer nanoseconds to float seconds, the float nearest to each time.
+
+    ``ns / 1e9`` converts each count to float64 first, which holds 1.7e18 ns (a Unix time) to
+    256 ns, then divides: two roundings put 1700000001510000000 ns at 1700000001.5100002 s, a
+    time the log never had, written so into report.json and timeline.csv.  The whole seconds
+    (exact in float64) and the fraction (a count below 1e9, exact too) are divided apart and
+    added once, as Python's ``int / int`` rounds (:func:`seconds_of` for one time).
+
+    Examples
+    --------
+    >>> ns_to_seconds(np.array([1_700_000_001_510_000_000])).tolist()
+    [1700000001.51]
+    """
+    whole, fraction = np.divmod(np.asarray(ns, dtype=np.int64), NS_PER_S)
+    seconds: FloatArray = whole.astype(np.float64)
+    seconds += fraction / 1e9
+    return seconds
+
+
+def seconds_of(ns: int | np.integer[Any]) -> float:
+    """One time in integer nanoseconds as float seconds, correctly rounded (``int / int``)."""
+    return int(ns) / NS_PER_S
+
+
 def check_seconds_range(seconds: FloatArray) -> int:
     """Index of the first time that is not finite or too large for nanoseconds, else -1."""
     if seconds.size:

@@ -12,15 +12,23 @@ a gap or a count of NaNs means the same whatever the format.
   when every step lies within a factor :data:`GAP_FACTOR` of the median step.
 - Non-finite values (NaN, +inf, -inf) are counted apart from the samples, because
   ``analyze`` refuses them in a mapped signal (unless ``--drop-nonfinite``).
+- Steps, spans and gap lengths are differences of times, and hold no more digits than the
+  times do: seconds stored as float64 near a Unix time (1.7e9 s) are 238 ns apart, so the
+  difference of two of them is off by as much, and a 100 Hz log's step read 0.00999999 s.
+  Each is rounded to the power of ten of nanoseconds at or above that resolution
+  (:func:`seconds_resolution_ns`, :func:`round_span`): 0.01 s, to the microsecond there.
+  Integer nanoseconds (bags, MCAP, dates) are exact and kept whole.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from hybridlog.io.source import seconds_of
 from hybridlog.signals import IntArray
 
 GAP_FACTOR = 1.5
@@ -30,7 +38,49 @@ MAX_LISTED_GAPS = 1000
 """At most this many gaps are listed (all are counted)."""
 
 
-def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
+def seconds_resolution_ns(
+    seconds: npt.NDArray[np.floating[Any]], kind: type[np.floating[Any]] = np.float64
+) -> float:
+    """How far apart, in nanoseconds, times stored as ``seconds`` can be told.
+
+    The spacing of ``kind`` (the type the times were stored as) at the largest magnitude
+    among them, at least 1 ns.
+
+    Examples
+    --------
+    >>> round(seconds_resolution_ns(np.array([1.7e9])), 1)
+    238.4
+    >>> seconds_resolution_ns(np.array([0.0, 12.5]))
+    1.0
+    """
+    if seconds.size == 0:
+        return 1.0
+    largest = float(np.max(np.abs(seconds)))
+    spacing = float(np.spacing(kind(largest)))
+    return max(spacing * 1e9, 1.0) if math.isfinite(spacing) else 1.0
+
+
+def round_span(ns: float, resolution_ns: float = 1.0) -> float:
+    """A difference of two times (``ns`` nanoseconds) in seconds, to the digits it holds.
+
+    Rounded to the smallest power of ten of nanoseconds at or above ``resolution_ns``, the
+    resolution of the times it is the difference of: 9999990 ns read from float64 seconds
+    near 1.7e9 s (resolution 238 ns) is 0.01 s, to the microsecond.
+
+    Examples
+    --------
+    >>> round_span(9_999_990, 238.4)
+    0.01
+    >>> round_span(9_999_990)
+    0.00999999
+    """
+    quantum = 10 ** max(math.ceil(math.log10(resolution_ns) - 1e-12), 0)
+    return float(round(ns / quantum) * quantum / 1e9)
+
+
+def describe_steps(
+    time_ns: IntArray, *, gaps: bool = True, resolution_ns: float = 1.0
+) -> dict[str, Any]:
     """Rate, median step, spread of the steps and gaps of increasing sample times.
 
     Parameters
@@ -39,6 +89,10 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
         Sample times in integer nanoseconds, non-decreasing.
     gaps:
         Whether to find the gaps (``gap_count`` and ``gaps`` are left out without).
+    resolution_ns:
+        How far apart the times could be told where they were read from
+        (:func:`seconds_resolution_ns`); steps, spans and gap lengths are rounded to it
+        (:func:`round_span`).  1 for integer nanoseconds.
 
     Returns
     -------
@@ -74,11 +128,12 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
     forward = steps[steps > 0]
     median = float(np.median(forward)) if forward.size else 0.0
     shortest, longest = int(steps.min()), int(steps.max())
-    if span > 0:
-        info["rate_hz"] = (time_ns.size - 1) * 1e9 / span
-    info["sample_time"] = median / 1e9
-    info["min_step"] = shortest / 1e9
-    info["max_step"] = longest / 1e9
+    seconds = round_span(span, resolution_ns)
+    if seconds > 0:
+        info["rate_hz"] = (time_ns.size - 1) / seconds
+    info["sample_time"] = round_span(median, resolution_ns)
+    info["min_step"] = round_span(shortest, resolution_ns)
+    info["max_step"] = round_span(longest, resolution_ns)
     info["regular"] = median / GAP_FACTOR <= shortest and longest <= GAP_FACTOR * median
     info["repeated"] = int(steps.size - forward.size)
     if gaps and median > 0:
@@ -86,9 +141,9 @@ def describe_steps(time_ns: IntArray, *, gaps: bool = True) -> dict[str, Any]:
         info["gap_count"] = int(starts.size)
         info["gaps"] = [
             {
-                "start": int(time_ns[i]) / 1e9,
-                "end": int(time_ns[i + 1]) / 1e9,
-                "duration": int(steps[i]) / 1e9,
+                "start": seconds_of(time_ns[i]),
+                "end": seconds_of(time_ns[i + 1]),
+                "duration": round_span(int(steps[i]), resolution_ns),
             }
             for i in starts[:MAX_LISTED_GAPS].tolist()
         ]

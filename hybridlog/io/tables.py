@@ -45,9 +45,15 @@ from hybridlog.io.source import (
     check_seconds_range,
     closest_names,
     format_ns,
+    seconds_of,
     seconds_to_ns,
 )
-from hybridlog.io.summary import count_nonfinite, describe_steps
+from hybridlog.io.summary import (
+    count_nonfinite,
+    describe_steps,
+    round_span,
+    seconds_resolution_ns,
+)
 from hybridlog.io.table_paths import ColumnPath, expand, field_names, is_nested, leaf_values
 from hybridlog.io.table_paths import resolve as resolve_path
 from hybridlog.polars_import import pl, polars_file
@@ -120,6 +126,8 @@ class TableSource:
         self._paths: dict[str, ColumnPath] = {}
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
+        self._time_resolution_ns = 1.0
+        """How far apart the times last read could be told (``summary.seconds_resolution_ns``)."""
         # ``--sort``: per column, the rows of its samples superseded at a repeated time
         self._superseded: dict[str, IntArray] = {}
 
@@ -538,6 +546,7 @@ class TableSource:
                     else f"{self.path}: column {excerpt(name)} has no value"
                 )
         if isinstance(column.dtype, pl.Datetime | pl.Duration):
+            self._time_resolution_ns = 1.0
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
             stored = column.dtype
@@ -551,6 +560,12 @@ class TableSource:
                 )
             if stored in (pl.Float32, pl.Float16):
                 self._check_resolution(name, stored, seconds, rows)
+            kind: type[np.floating[Any]] = np.float64
+            if stored == pl.Float32:
+                kind = np.float32
+            elif stored == pl.Float16:
+                kind = np.float16
+            self._time_resolution_ns = seconds_resolution_ns(seconds, kind)
             time_ns = seconds_to_ns(seconds)
         # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
         # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
@@ -691,10 +706,15 @@ class TableSource:
         frame = self._leaves_of(frame, problems)
         if rows.size < frame.height:
             frame = frame[pl.Series(rows)]
+        resolution = self._time_resolution_ns
         columns = [
-            _describe_column(frame.get_column(c), time_ns, self._format) for c in frame.columns
+            _describe_column(frame.get_column(c), time_ns, self._format, resolution)
+            for c in frame.columns
         ]
-        steps = describe_steps(time_ns if time_ns is not None else np.zeros(0, dtype=np.int64))
+        steps = describe_steps(
+            time_ns if time_ns is not None else np.zeros(0, dtype=np.int64),
+            resolution_ns=resolution,
+        )
         info: dict[str, Any] = {
             "path": self.path,
             "format": self._format,
@@ -707,9 +727,9 @@ class TableSource:
         if time_ns is not None and time_ns.size:
             info["time"] = {
                 "column": self._time_column,
-                "start": time_ns[0] / 1e9,
-                "end": time_ns[-1] / 1e9,
-                "duration": (time_ns[-1] - time_ns[0]) / 1e9,
+                "start": seconds_of(time_ns[0]),
+                "end": seconds_of(time_ns[-1]),
+                "duration": round_span(int(time_ns[-1]) - int(time_ns[0]), resolution),
             }
         return info
 
@@ -1295,7 +1315,7 @@ def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
 
 
 def _describe_column(
-    column: pl.Series, time_ns: IntArray | None, table_format: str
+    column: pl.Series, time_ns: IntArray | None, table_format: str, resolution_ns: float
 ) -> dict[str, Any]:
     """Name, dtype, non-empty and non-finite counts, finite min/max and timing of a column.
 
@@ -1304,7 +1324,8 @@ def _describe_column(
     times of its non-empty cells) are described by
     :func:`~hybridlog.io.summary.describe_steps`, gaps included: an empty stretch in one
     column of a table whose time column has no gap is that column's gap, which ``analyze``
-    refuses in an output.  Without usable times (``time_ns`` ``None``) the timing is ``None``.
+    refuses in an output.  Without usable times (``time_ns`` ``None``) the timing is ``None``;
+    ``resolution_ns`` is how far apart they could be told where they were read from.
     """
     dtype = _dtype_name(column.dtype)
     values: FloatArray | None = None
@@ -1339,7 +1360,7 @@ def _describe_column(
     times = np.zeros(0, dtype=np.int64)
     if time_ns is not None and time_ns.size == present.size:
         times = time_ns[present]
-    info.update(describe_steps(times))
+    info.update(describe_steps(times, resolution_ns=resolution_ns))
     return info
 
 

@@ -41,7 +41,7 @@ from hybridlog.outputs import (
     check_file_target,
 )
 from hybridlog.report.summary import markdown_table
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
 
 __all__ = ["PLOT_SUFFIXES", "ClusterOutcome", "check_cluster_outputs", "discover_modes"]
 
@@ -70,7 +70,8 @@ def _accuracy(
     if classifier.cluster_modes is None or signals.truth_modes is None:
         return None
     decided = classifier.cluster_modes[classifier.decide(signals.outputs)]
-    return float(np.mean(decided == signals.truth_modes))
+    known = signals.truth_modes != NO_TRUE_MODE  # a true mode that starts late: from its first
+    return float(np.mean(decided[known] == signals.truth_modes[known])) if known.any() else None
 
 
 def _entry(classifier: ModeClassifier, model: HybridModel) -> dict[str, Any]:
@@ -310,7 +311,7 @@ def discover_modes(
     truth = (
         None
         if signals.truth_modes is None
-        else [model.mode_ids[q] for q in signals.truth_modes[lag:]]
+        else [None if q == NO_TRUE_MODE else model.mode_ids[q] for q in signals.truth_modes[lag:]]
     )
     with atomic_files([target, picture], force=force) as (centers_file, picture_file):
         try:

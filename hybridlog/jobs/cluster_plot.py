@@ -13,6 +13,7 @@ variables are ticks at the right edge.  Agg canvas, no pyplot.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -61,7 +62,7 @@ def plot_clusters(
     cluster_modes: Sequence[str] | None,
     decision_values: FloatArray,
     kmeans_centers: FloatArray | None = None,
-    truth: Sequence[str] | None = None,
+    truth: Sequence[str | None] | None = None,
 ) -> Path:
     """Draw the clusters to ``path`` (PNG, SVG or PDF, from its suffix).
 
@@ -84,7 +85,8 @@ def plot_clusters(
     kmeans_centers:
         k-means centres, or ``None``.
     truth:
-        True mode id of each row, or ``None``.
+        True mode id of each row (``None`` for a row before a true mode that starts late:
+        no line there), or ``None``.
     """
     fig = Figure(figsize=(12.0, 4.8), layout="constrained")
     FigureCanvasAgg(fig)
@@ -132,9 +134,10 @@ def plot_clusters(
     where = "dashed" if few else "ticks at the right edge"
     right.set_title(f"decided cluster per sample ({where}: decision variables y*)")
     if truth is not None:
-        ids = sorted(set(truth))
+        ids = sorted({m for m in truth if m is not None})
+        levels = [math.nan if m is None else ids.index(m) for m in truth]
         twin = right.twinx()
-        twin.step(time, [ids.index(m) for m in truth], where="post", color="grey", lw=0.8)
+        twin.step(time, levels, where="post", color="grey", lw=0.8)
         twin.set_yticks(range(len(ids)), [plain_text(f"true {m}") for m in ids])
     fig.savefig(path, dpi=100)
     return path

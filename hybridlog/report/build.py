@@ -31,9 +31,16 @@ from hybridlog.report.document import (
     SmoothingMetrics,
     StateReport,
 )
-from hybridlog.report.markdown import plural
+from hybridlog.report.markdown import format_time, plural
 from hybridlog.report.plot_data import COMPONENT_PREFIX
-from hybridlog.signals import AlignedSignals, ComponentTruth, FloatArray, IntArray
+from hybridlog.signals import (
+    NO_TRUE_MODE,
+    AlignedSignals,
+    ComponentTruth,
+    FloatArray,
+    IntArray,
+    covered_from,
+)
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
@@ -143,6 +150,9 @@ def _modes(
     )
     if truth is None:
         return report
+    time, modes, truth = _scored(time, modes, truth)
+    if truth.size == 0:  # the true mode starts after the last sample
+        return dataclasses.replace(report, samples=0)
     counts = metrics.confusion_matrix(modes, truth, len(ids))
     det = metrics.detection_delays(time, modes, truth, ids, dt)
     return ModeReport(
@@ -150,12 +160,33 @@ def _modes(
         switches=report.switches,
         dwell_s=report.dwell_s,
         accuracy=_num(metrics.mode_accuracy(modes, truth)),
+        samples=int(truth.size),
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)
         },
         detection=Detection(mean_s=_num(det.mean_s), max_s=_num(det.max_s), events=det.events),
     )
+
+
+def _scored(
+    time: FloatArray, modes: IntArray, truth: IntArray
+) -> tuple[FloatArray, IntArray, IntArray]:
+    """The samples the mode metrics score: those from the true mode's first on.
+
+    A true mode that starts late leaves the samples before it without truth
+    (:data:`~hybridlog.signals.NO_TRUE_MODE`); accuracy, confusion and switches are of the
+    rest, as a true state's RMSE is of the samples it covers.
+
+    Raises
+    ------
+    ValueError
+        When a sample after the first with truth has none (the readers hold a true mode).
+    """
+    start = covered_from(truth)
+    if (truth[start:] == NO_TRUE_MODE).any():
+        raise ValueError("a true mode without truth after its first sample")
+    return time[start:], modes[start:], truth[start:]
 
 
 class _ComponentModes:
@@ -197,22 +228,36 @@ class _ComponentModes:
             where = {label: i for i, label in enumerate(ids)}
             estimated = np.array([where[label] for label in labels], dtype=np.int64)
             true = np.array([where[label] for label in truth.labels], dtype=np.int64)
-            reports[name] = _modes(ids, time, estimated[self._codes[name]], true[truth.codes], dt)
+            # NO_TRUE_MODE stays so: as an index it would pick the last label
+            codes = np.where(truth.codes == NO_TRUE_MODE, NO_TRUE_MODE, true[truth.codes])
+            reports[name] = _modes(ids, time, estimated[self._codes[name]], codes, dt)
         return reports
+
+    def joint_samples(self) -> int | None:
+        """How many samples :meth:`joint_accuracy` scores; ``None`` when it scores none."""
+        if not self._components or set(self._labels) != self._components:
+            return None
+        known = np.ones(self._n, dtype=bool)
+        for name in self._labels:
+            known &= self._truth[name].codes != NO_TRUE_MODE
+        return int(np.count_nonzero(known))
 
     def joint_accuracy(self) -> float | None:
         """Fraction of samples where every component's mode is right.
 
-        ``None`` unless the log has every component's true mode.
+        Over the samples where every component has a true mode (one that starts late leaves
+        those before it out); ``None`` unless the log has every component's true mode.
         """
         if not self._components or set(self._labels) != self._components:
             return None
         right = np.ones(self._n, dtype=bool)
+        known = np.ones(self._n, dtype=bool)  # every component has a true mode
         for name, labels in self._labels.items():
             truth = self._truth[name]
             estimated = np.asarray(labels, dtype=object)[self._codes[name]]
             right &= estimated == np.asarray(truth.labels, dtype=object)[truth.codes]
-        return float(right.mean())
+            known &= truth.codes != NO_TRUE_MODE
+        return float(right[known].mean()) if known.any() else None
 
 
 def _same_run(first: EstimationResult, chunk: EstimationResult) -> bool:
@@ -381,7 +426,10 @@ class ReportBuilder:
         if components:
             joint = self._components.joint_accuracy()
             modes = dataclasses.replace(
-                modes, components=components, accuracy=None if joint is None else _num(joint)
+                modes,
+                components=components,
+                accuracy=None if joint is None else _num(joint),
+                samples=self._components.joint_samples(),
             )
         states = _state_reports(first.state_names, self._states)
         means = {name: _output_mean(per_output.values(), name) for name in ("mse", "vaf", "fit")}
@@ -573,11 +621,12 @@ def _side(
             fit=fit,
             components=sides,
         )
+    time, modes, truth = _scored(signals.time, modes, truth)
     counts = metrics.confusion_matrix(modes, truth, len(ids))
-    det = metrics.detection_delays(signals.time, modes, truth, ids, dt)
+    det = metrics.detection_delays(time, modes, truth, ids, dt)
     detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
-        mode_accuracy=_num(metrics.mode_accuracy(modes, truth)),
+        mode_accuracy=_num(metrics.mode_accuracy(modes, truth)) if truth.size else None,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)
@@ -790,24 +839,32 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for symbol, count in (reading.get(key) or {}).items()
     ]
     notes += [
-        f"WARNING: input {symbol} has no sample from t = {hold['start']:g} to "
-        f"{hold['end']:g} s ({hold['seconds']:g} s, longer than max_gap): held at its last "
-        "value, as an input published only when it changes is (zero-order hold)"
+        f"WARNING: input {symbol} has no sample from t = {format_time(hold['start'])} to "
+        f"{format_time(hold['end'])} s ({hold['seconds']:g} s, longer than max_gap): held at "
+        "its last value, as an input published only when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
     notes += [
-        f"NOTE: the true {label} has no sample from t = {hold['start']:g} to {hold['end']:g} s "
+        f"NOTE: the true {label} has no sample from t = {format_time(hold['start'])} to "
+        f"{format_time(hold['end'])} s "
         f"({hold['seconds']:g} s, longer than max_gap): held at its last value, against which "
         "the mode metrics score those samples (right for a mode published only when it "
         "changes; if the log stopped recording it, they score a guess)"
         for label, hold in (reading.get("truth_held") or {}).items()
     ]
+    notes += [
+        f"NOTE: the true {label} starts at t = {format_time(late['at'])} s, after the first "
+        f"sample time: the mode metrics score the {late['samples']:,} of {late['of']:,} samples "
+        "from it on (the samples before have no true mode, as a true state that starts late "
+        "has no true value)"
+        for label, late in (reading.get("truth_starts") or {}).items()
+    ]
     for side, bound in (reading.get("span") or {}).items():
         first = side == "start"
         notes.append(
-            f"NOTE: the analysed span {side}s at t = {bound['at']:g} s, the "
+            f"NOTE: the analysed span {side}s at t = {format_time(bound['at'])} s, the "
             f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
-            f"outputs {'begin at' if first else 'run on to'} t = {bound['log']:g} s: "
+            f"outputs {'begin at' if first else 'run on to'} t = {format_time(bound['log'])} s: "
             f"{bound['left_out']:g} s of the log not analysed"
         )
     segments = reading.get("segments")
@@ -815,7 +872,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         kept = segments[reading["analysed_segment"]]
         others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
         gaps = reading.get("gaps") or []
-        span = f"t = {kept['start']:g} … {kept['end']:g} s"
+        span = f"t = {format_time(kept['start'])} … {format_time(kept['end'])} s"
         notes.append(
             f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
             f"({_spans(gaps)}) "
@@ -865,7 +922,9 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
 
 def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:
     """``t = a … b s, ...`` for at most ``most`` spans, then how many more."""
-    shown = ", ".join(f"t = {p['start']:g} … {p['end']:g} s" for p in spans[:most])
+    shown = ", ".join(
+        f"t = {format_time(p['start'])} … {format_time(p['end'])} s" for p in spans[:most]
+    )
     return shown + (f" and {len(spans) - most} more" if len(spans) > most else "")
 
 
@@ -933,12 +992,21 @@ def _null_reasons(
         for name in ("detection_delay_s", "missed_switches"):
             reasons[name] = "a [components] model: switches are scored per component"
         for component, report in modes.components.items():
+            if report.samples == 0:
+                for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
+                    reasons[f"{name}.{component}"] = (
+                        f"the true mode of component {component} starts after the last sample"
+                    )
+                continue
             why = _no_delay(report, f" of component {component}")
             if why is not None:
                 reasons[f"detection_delay_s.{component}"] = why
     elif signals.truth_modes is None:
         for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
             reasons[name] = "the log has no ground-truth mode"
+    elif modes.samples == 0:
+        for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
+            reasons[name] = "the true mode starts after the last sample"
     elif (why := _no_delay(modes)) is not None:
         reasons["detection_delay_s"] = why
     for j, (x, state) in enumerate(states.items()):

@@ -9,7 +9,7 @@ Keys of ``report.json``
 -----------------------
 ``hybridlog_version, log, model, estimator, options, samples, dt, t_start, t_end,
 outputs: {<y>: {mse, vaf, fit, samples}}, mse, vaf, fit,
-modes: {labels, switches: [{t, from, to}], dwell_s: {<mode>: s}, accuracy,
+modes: {labels, switches: [{t, from, to}], dwell_s: {<mode>: s}, accuracy, samples,
 confusion: {<true mode>: {<estimated mode>: count}}, detection_delay_s, detection},
 states: {<x>: {rmse, samples}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``, then
 ``smoothing`` when the estimates are not the causal filter's own (``--smooth``,
@@ -33,7 +33,9 @@ when the model was not at hand to evaluate ``h``.
 Everything that needs ground truth is ``null`` when the log has none, and every number that
 is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` counts the rows the
 output metrics use (a measurement and a one-step-ahead prediction), ``states.<x>.samples``
-those the state RMSE uses (a true state and an estimate); ``mse``, ``vaf`` and
+those the state RMSE uses (a true state and an estimate), ``modes.samples`` those the mode
+metrics score (the samples a true mode covers: from its first sample on, when it starts
+late; ``null`` without one); ``mse``, ``vaf`` and
 ``fit`` at the top are the means over the outputs where the metric is defined (``null``
 when one output's is infinite or beyond float64's range: a prediction that diverged is
 never left out).
@@ -45,7 +47,8 @@ to, detected, detected_t, delay_s, miss_reason}]}``, see
 :func:`hybridlog.report.metrics.detection_delays`.
 
 Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
-``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples`` or ``miss_reason``; they
+``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples``, ``modes.samples`` or
+``miss_reason``; they
 are read with ``None`` (or empty) in their place.
 """
 
@@ -212,7 +215,13 @@ class ModeReport:
     dwell_s:
         Seconds spent in each mode (``{label: s}``).
     accuracy:
-        Fraction of samples whose estimated mode is the true one; ``None`` without truth.
+        Fraction of the scored samples (``samples``) whose estimated mode is the true one;
+        ``None`` without truth.
+    samples:
+        How many samples the true mode covers and the accuracy, confusion and detection
+        score: all of them, or those from the first of a true mode that starts late (as
+        ``states.<x>.samples``); for a ``[components]`` model those where every component
+        has one; ``None`` without truth (or in a report of an older version).
     confusion:
         ``{true mode: {estimated mode: sample count}}``; ``None`` without truth.
     detection:
@@ -233,6 +242,7 @@ class ModeReport:
     confusion: Mapping[str, Mapping[str, int]] | None = None
     detection: Detection | None = None
     components: Mapping[str, ModeReport] = field(default_factory=dict)
+    samples: int | None = None
 
     @property
     def detection_delay_s(self) -> float | None:
@@ -246,6 +256,7 @@ class ModeReport:
             "switches": [s.to_dict() for s in self.switches],
             "dwell_s": dict(self.dwell_s),
             "accuracy": self.accuracy,
+            "samples": self.samples,
             "confusion": _confusion_dict(self.confusion),
             "detection_delay_s": self.detection_delay_s,
             "detection": None if self.detection is None else self.detection.to_dict(),
@@ -855,12 +866,15 @@ class _Reader:
             confusion=confusion,
             detection=self.at(data, path, "detection", self.or_null(self.detection), None),
             components=self.at(data, path, "components", self.map_of(self.component_modes), {}),
+            samples=self.at(data, path, "samples", self.or_null(self.count), None),
         )
-        # every component right is at most as frequent as any one component right
+        # every component right is at most as frequent as any one component right (over
+        # the same samples: a component's true mode that starts late scores fewer)
         for name, component in modes.components.items():
             if (
                 modes.accuracy is not None
                 and component.accuracy is not None
+                and component.samples == modes.samples
                 and modes.accuracy > component.accuracy + 1e-9
             ):
                 raise self.error(

@@ -109,6 +109,8 @@ _RANGES: Final[Mapping[str, tuple[float, float]]] = {
     },
 }
 _UNITS: Final[Mapping[str, str]] = {"vaf": " %", "fit": " %"}
+#: Metrics that are fractions in ``[0, 1]`` (a bound such as 95 was meant as a percentage).
+_FRACTIONS: Final[frozenset[str]] = frozenset({"mode_accuracy"})
 #: Metrics without a qualifier.
 METRICS: tuple[str, ...] = tuple(_REPORT_METRICS)
 
@@ -207,7 +209,8 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     try:
         bound = parse_float(value)
     except ValueError as err:
-        raise OptionError(f"{option} {spec!r}: bound {value!r}: {err}") from None
+        hint = _percent_sign_hint(base, value)
+        raise OptionError(f"{option} {spec!r}: bound {value!r}: {err}{hint}") from None
     _check_attainable(spec, option, base, bound, kind)
     return Gate(metric=metric, bound=bound, kind=kind, spec=spec)
 
@@ -219,12 +222,40 @@ def _check_attainable(spec: str, option: str, base: str, bound: float, kind: Gat
         return
     unit = _UNITS.get(base, "")
     where = f"at most {high:g}{unit}" if kind == "under" else f"at least {low:g}{unit}"
-    hint = (
-        f" (a fraction: for {bound:g} % write {bound / 100:g})"
-        if base == "mode_accuracy" and bound <= 100.0
-        else ""
-    )
+    hint = _fraction_hint(base, bound)
     raise OptionError(f"{option} {spec!r}: {base} is {where}{hint}, so this gate could never pass")
+
+
+def _fraction_hint(base: str, bound: float) -> str:
+    """`` (a fraction: for 95 % write 0.95)`` where ``bound`` reads as a percentage of a fraction.
+
+    Only a bound above 1 and at most 100 of a metric that is a fraction reads so: a negative
+    bound, or one above 100, is no percentage the metric could take, and a hint would offer a
+    bound refused in turn.
+    """
+    if base in _FRACTIONS and 1.0 < bound <= 100.0:
+        return f" (a fraction: for {bound:g} % write {bound / 100:g})"
+    return ""
+
+
+def _percent_sign_hint(base: str, value: str) -> str:
+    """What to write instead of a bound with a percent sign (``vaf=95%``), or ``""``.
+
+    A percent metric takes the number alone, a fraction the number over 100 (when that is a
+    fraction it can take); a metric of neither kind gets no hint.
+    """
+    number, sign, rest = value.rpartition("%")
+    if not sign or rest.strip():
+        return ""
+    try:
+        percent = parse_float(number)
+    except ValueError:
+        return ""
+    if base in _UNITS and _RANGES[base][0] <= percent <= _RANGES[base][1]:
+        return f" ({base} is in percent already: write {percent:g})"
+    if base in _FRACTIONS and 0.0 <= percent <= 100.0:
+        return f" ({base} is a fraction: for {percent:g} % write {percent / 100:g})"
+    return ""
 
 
 def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -> list[Gate]:

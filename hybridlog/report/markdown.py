@@ -22,6 +22,7 @@ __all__ = [
     "duration",
     "escape_markdown",
     "format_number",
+    "format_time",
     "plural",
     "rate",
     "render_markdown",
@@ -43,6 +44,32 @@ def format_number(value: Any, spec: str = ".6g") -> str:
     if isinstance(value, float):
         return format(value, ".6g" if abs(value) >= FIXED_LIMIT else spec)
     return str(value)
+
+
+def format_time(seconds: float | None) -> str:
+    """A time in fixed point, to the digits its float holds (at most the nanosecond).
+
+    ``format_number``'s six significant digits wrote every time of a log stamped in Unix
+    time as ``1.7e+09``: switches 100 s apart read alike.  Near 1.7e9 s a float holds the
+    microsecond (its spacing is 238 ns), so ``1700000101.01``; small times to the
+    nanosecond, so ``0.2`` for 0.1999999999999993.  ``None`` is ``n/a``.
+
+    Examples
+    --------
+    >>> format_time(1700000101.01)
+    '1700000101.01'
+    >>> format_time(0.1999999999999993)
+    '0.2'
+    """
+    if seconds is None:
+        return "n/a"
+    if not math.isfinite(seconds):
+        return str(seconds)
+    spacing = math.ulp(abs(seconds))
+    decimals = 9 if spacing <= 1e-9 else max(0, math.floor(-math.log10(spacing)))
+    text = f"{seconds:.{decimals}f}"
+    text = text.rstrip("0").rstrip(".") if "." in text else text
+    return "0" if text in ("-0", "") else text
 
 
 _MARKUP = re.compile(r"[\\`*\[\]<>&|~$]|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
@@ -153,7 +180,8 @@ DEFINITIONS = (
     "when y is constant; so is one float64 cannot hold (the MSE of errors of 1e200 or "
     "1e-300). The top rows are the means over the outputs where it is defined; a gate on the "
     "mean fails while any output's is n/a.",
-    "Mode accuracy: the fraction of all samples whose estimated mode is the true one.",
+    "Mode accuracy: the fraction of the samples with a true mode (all of them, or those from "
+    "the first of a true mode that starts late) whose estimated mode is the true one.",
     "Detection delay: from a true switch to the first estimated change *into* the new mode at "
     "or after it, before the next true switch. An estimate that was already in that mode "
     "before the switch has not detected it: a miss, as is a switch never followed by such a "
@@ -183,7 +211,7 @@ def render_markdown(report: Report) -> str:
         "",
         f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
         f"- samples: {report.samples}, dt = {format_number(report.dt)} s, "
-        f"t = {format_number(report.t_start)} … {format_number(report.t_end)} s",
+        f"t = {format_time(report.t_start)} … {format_time(report.t_end)} s",
         f"- hybridlog {report.hybridlog_version}",
         "",
         "## Outputs",
@@ -225,11 +253,13 @@ def render_markdown(report: Report) -> str:
     ]
     lines.append("")
     if modes.components:
-        lines += _component_lines(modes)
+        lines += _component_lines(modes, report.samples)
+    elif modes.accuracy is None and modes.samples == 0:
+        lines.append(_NOT_COVERED[0].upper() + _NOT_COVERED[1:] + ".")
     elif modes.accuracy is None:
         lines.append("No ground-truth mode in the log: accuracy and delays are not known.")
     else:
-        lines += _truth_lines(modes, modes.accuracy)
+        lines += _truth_lines(modes, modes.accuracy, report.samples)
 
     if report.states:
         lines += ["", "## States", "", *_offline_caveat(report, "states")]
@@ -396,30 +426,47 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     return lines
 
 
-def _component_lines(modes: ModeReport) -> list[str]:
+def _component_lines(modes: ModeReport, samples: int) -> list[str]:
     """A ``[components]`` model's modes against the log's per-component truth."""
     joint = (
         f"- every component right: {format_number(modes.accuracy, '.4%')} of the samples"
+        + (
+            f" ({modes.samples:,} of {samples:,}: those where every component has a true mode)"
+            if modes.samples is not None and modes.samples < samples
+            else ""
+        )
         if modes.accuracy is not None
         else "- the log has the true mode of only some components: no joint accuracy"
     )
     lines = [joint, ""]
     for name, component in modes.components.items():
         lines += [f"### Component {escape_markdown(name)}", ""]
-        assert component.accuracy is not None  # a component is listed only with its truth
-        lines += _truth_lines(component, component.accuracy)
+        if component.accuracy is None:  # listed with its truth, which covers no sample
+            lines.append(f"- {_NOT_COVERED}")
+        else:
+            lines += _truth_lines(component, component.accuracy, samples)
         lines.append("")
     return lines[:-1]
 
 
-def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
-    """Accuracy, detection of every true switch, and the confusion matrix."""
+_NOT_COVERED = "the true mode starts after the last sample: accuracy and delays are not known"
+
+
+def _scored_samples(modes: ModeReport, samples: int) -> str:
+    """`` over 371 of 401 samples (...)`` when the true mode covers only some samples."""
+    if modes.samples is None or modes.samples >= samples:
+        return ""
+    return f" over {modes.samples:,} of {samples:,} samples (those with a true mode)"
+
+
+def _truth_lines(modes: ModeReport, accuracy: float, samples: int) -> list[str]:
+    """Accuracy (over how many of the ``samples``), detection of every switch, confusion."""
     det = modes.detection
     events = det.events if det is not None else ()
     detected, missed = (det.detected, det.missed) if det is not None else (0, 0)
     delay = modes.detection_delay_s
     lines = [
-        f"- mode accuracy: {format_number(accuracy, '.4%')}",
+        f"- mode accuracy: {format_number(accuracy, '.4%')}" + _scored_samples(modes, samples),
         f"- {plural(len(events), 'true mode switch')}: {detected:,} detected, {missed:,} missed"
         + (
             f"; detection delay mean {format_number(delay)} s, "
@@ -433,9 +480,9 @@ def _truth_lines(modes: ModeReport, accuracy: float) -> list[str]:
         lines.append("|---:|---|---|---:|")
         for e in events[:MAX_LISTED_SWITCHES]:
             found = e.detected_t
-            when = format_number(found) if found is not None else f"missed: {e.miss_reason}"
+            when = format_time(found) if found is not None else f"missed: {e.miss_reason}"
             lines.append(
-                f"| {format_number(e.t)} "
+                f"| {format_time(e.t)} "
                 f"| {escape_markdown(e.from_mode)} → {escape_markdown(e.to_mode)} "
                 f"| {escape_markdown(when)} | {format_number(e.delay_s)} |"
             )

@@ -22,11 +22,13 @@ import math
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Generic, Protocol, Self, TypedDict, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
+from hybridlog.report.markdown import format_time
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -1100,6 +1102,22 @@ def sample_durations(time: npt.ArrayLike, dt: float) -> FloatArray:
     return durations
 
 
+def steps_seconds(steps: int, dt: float) -> float:
+    """``steps`` sample times ``dt``, in seconds, as the decimal ``dt`` is written.
+
+    ``351 * 0.01`` is 3.5100000000000002 in floating point (the float 0.01 is a little
+    above a hundredth, and the product keeps it): a dwell of 351 samples at 10 ms read so
+    in report.json.  ``dt`` is taken as its shortest decimal (``repr``: 0.01, as the model
+    file writes it), multiplied exactly, then rounded once: 3.51.
+
+    Examples
+    --------
+    >>> steps_seconds(351, 0.01), steps_seconds(3, 0.1), steps_seconds(2, 1 / 3)
+    (3.51, 0.3, 0.6666666666666666)
+    """
+    return float(Fraction(repr(float(dt))) * steps)
+
+
 def dwell_times(
     time: npt.ArrayLike, modes: npt.ArrayLike, n_modes: int, dt: float, *, on_grid: bool = False
 ) -> FloatArray:
@@ -1128,7 +1146,8 @@ def dwell_times(
     """
     m = _check_modes(modes, n_modes, "modes")
     if on_grid:
-        return np.bincount(m, minlength=n_modes).astype(np.float64) * dt
+        counts = np.bincount(m, minlength=n_modes).tolist()
+        return np.array([steps_seconds(int(c), dt) for c in counts], dtype=np.float64)
     return np.bincount(m, weights=sample_durations(time, dt), minlength=n_modes).astype(np.float64)
 
 
@@ -1219,7 +1238,8 @@ class DetectionDelays:
 
 
 def _seconds(t: float) -> str:
-    return f"{t:.9g} s"
+    """A time as ``1700000101.01 s``: to the digits it holds, at Unix times too."""
+    return f"{format_time(t)} s"
 
 
 def _miss_reason(
@@ -1352,7 +1372,7 @@ def detection_delays(
                 to_mode=ids[m],
                 detected_t=float(t[k]) if k >= 0 and not sat else None,
                 miss_reason=reason,
-                delay_s=(k - s) * dt if dt is not None and k >= 0 and not sat else None,
+                delay_s=steps_seconds(k - s, dt) if dt is not None and k >= 0 and not sat else None,
             )
         )
     return DetectionDelays(events=tuple(events))

@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from hybridlog.estimators.result import EstimationResult, TimelineColumn
-from hybridlog.signals import AlignedSignals, ComponentTruth, FloatArray, IntArray
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, ComponentTruth, FloatArray, IntArray
 
 __all__ = [
     "COMPONENT_PREFIX",
@@ -752,7 +752,10 @@ class PlotReducer:
             name = component.column.removeprefix(COMPONENT_PREFIX)
             if component.truth is not None:
                 codes = signals.truth_components[name].codes[start:stop]
-                component.truth.add(component.truth_rows[codes], start)
+                known = codes != NO_TRUE_MODE
+                true_rows: IntArray = np.full(codes.shape, NO_TRUE_MODE, dtype=np.int64)
+                true_rows[known] = component.truth_rows[codes[known]]
+                component.truth.add(true_rows, start)  # mode_bars draws no NO_TRUE_MODE bar
 
     def finish(self) -> PlotData:
         """The run's :class:`PlotData`, once every row was added.

@@ -54,7 +54,7 @@ from hybridlog.errors import ModelError, excerpt
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.polars_import import pl, polars_file, register_io_source
 from hybridlog.report.table_format import TableFormat
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, FloatArray, IntArray
 
 __all__ = [
     "BATCH_ROWS",
@@ -184,7 +184,12 @@ class _TableBuilder:
         categories = pl.Series(name, ids, dtype=pl.String)
 
         def rows(lo: int, hi: int) -> pl.Series:
-            return categories.gather(index[lo:hi])
+            part = index[lo:hi]
+            if part.size and int(part.min()) == NO_TRUE_MODE:  # no true mode: an empty cell
+                return categories.gather(
+                    pl.select(pl.when(pl.lit(part) >= 0).then(pl.lit(part))).to_series()
+                )
+            return categories.gather(part)
 
         self.schema[name] = pl.String()
         self.columns[name] = rows

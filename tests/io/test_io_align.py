@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals, write_table
 from hybridlog.io.align import align_signals
-from hybridlog.io.source import LabelSeries, Series, format_ns, seconds_to_ns
-from hybridlog.signals import MAX_MAGNITUDE
+from hybridlog.io.source import LabelSeries, Series, format_ns, ns_to_seconds, seconds_to_ns
+from hybridlog.signals import MAX_MAGNITUDE, NO_TRUE_MODE
 
 ArrayLike = np.ndarray | list[float]
 
@@ -214,29 +214,36 @@ def test_truth_mode_is_held_and_truth_states_are_nan_outside() -> None:
     )
 
 
-def test_truth_mode_starting_late_is_an_error() -> None:
+def test_a_true_mode_starting_late_leaves_the_samples_before_it_without_truth() -> None:
+    """A true mode that starts late was an error ('truth.mode starts at t=2 s, after the
+    first sample time'), while a true state that starts late is scored over the samples it
+    covers.  The samples before the first true-mode sample now have no true mode
+    (NO_TRUE_MODE), the rest hold it as before, and where it starts is noted."""
     grid = np.arange(6) * 1.0
-    mode = LabelSeries("mode", seconds_to_ns(np.array([2.0])), np.array([0]), ("a",))
-    with pytest.raises(LogError, match=r"truth.mode .* starts at t=2 s"):
-        align_signals(
-            source="s",
-            dt=1.0,
-            inputs={"u": series("u", grid, grid)},
-            outputs={"y": series("y", grid, grid)},
-            truth_mode=mode,
-        )
-    # a component's true mode is named as --map names it (it was 'mode.valve')
-    with pytest.raises(LogError) as error:
-        align_signals(
-            source="s",
-            dt=1.0,
-            inputs={"u": series("u", grid, grid)},
-            outputs={"y": series("y", grid, grid)},
-            truth_components={"valve": mode},
-        )
-    assert str(error.value) == (
-        "s: truth.mode.valve (column 'mode') starts at t=2 s, after the first sample time t=0 s"
-    )
+    mode = LabelSeries("mode", seconds_to_ns(np.array([2.0, 3.6])), np.array([0, 1]), ("a", "b"))
+    notes: dict[str, Any] = {}
+    aligned = align_signals(
+        source="s", dt=1.0, inputs={"u": series("u", grid, grid)},
+        outputs={"y": series("y", grid, grid)}, truth_mode=mode,
+        truth_components={"valve": mode}, notes=notes,
+    )  # fmt: skip
+    late = [NO_TRUE_MODE, NO_TRUE_MODE, 0, 0, 1, 1]  # 3.6 s is within half a step of 4
+    assert aligned.truth_modes is not None
+    np.testing.assert_array_equal(aligned.truth_modes, late)
+    np.testing.assert_array_equal(aligned.truth_components["valve"].codes, late)
+    assert notes["truth_starts"] == {
+        "mode": {"at": 2.0, "samples": 4, "of": 6},
+        "mode.valve": {"at": 2.0, "samples": 4, "of": 6},
+    }
+    # within half a step of the first sample time it is the nearest sample: no note
+    notes = {}
+    early = LabelSeries("mode", seconds_to_ns(np.array([0.5])), np.array([1]), ("a", "b"))
+    aligned = align_signals(
+        source="s", dt=1.0, inputs={"u": series("u", grid, grid)},
+        outputs={"y": series("y", grid, grid)}, truth_mode=early, notes=notes,
+    )  # fmt: skip
+    assert aligned.truth_modes is not None and (aligned.truth_modes == 1).all()
+    assert "truth_starts" not in notes
 
 
 def test_signals_that_do_not_overlap() -> None:
@@ -715,3 +722,18 @@ def test_the_grid_has_one_point_per_sample_of_a_log_sampled_at_dt(
     assert grid[0] == time_ns[0]
     # Never a point more than half a step (plus the nanosecond rounding) past the last sample.
     assert (grid[-1] - time_ns[-1]) <= dt * 5e8 + 0.5
+
+
+def test_grid_times_at_unix_magnitudes_are_the_floats_nearest_to_them() -> None:
+    """``grid / 1e9`` rounded twice (the count to float64, then the quotient): a 100 Hz
+    grid from 1.7e9 s had its sample at 1700000001.51 s at 1700000001.5100002 s, in
+    report.json's switches and timeline.csv's t column.  Each time is now the float nearest
+    to its nanoseconds, which for these is the float of the decimal written."""
+    seconds = 1.7e9 + np.arange(300) * 0.01
+    aligned = align_signals(
+        source="s", dt=0.01, inputs={"u": series("u", seconds, seconds)},
+        outputs={"y": series("y", seconds, seconds)},
+    )  # fmt: skip
+    written = [float(f"{1_700_000_000 + k / 100:.2f}") for k in range(300)]
+    assert aligned.time.tolist() == written
+    assert ns_to_seconds(np.array([-1_500_000_001, 0, 7])).tolist() == [-1.500000001, 0.0, 7e-9]

@@ -16,6 +16,8 @@ from hybridlog.cli import cli, main
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
 from hybridlog.io.bag_writers import write_log
+from hybridlog.io.source import seconds_to_ns
+from hybridlog.io.summary import round_span, seconds_resolution_ns
 from tests.support.logfiles import (
     MAPS,
     SCENE_WRITERS,
@@ -217,6 +219,53 @@ def test_regular_timing_keeps_its_sample_time(tmp_path: Path) -> None:
     assert (info["sample_time"], info["min_step"], info["max_step"]) == (0.1, 0.1, 0.1)
     assert info["regular"] is True
     assert "(1 s), sample time 0.1 s (10 Hz)" in format_inspection(info)
+
+
+# a 100 Hz log stamped in Unix time, 0.51 s without a row after the 50th
+UNIX_TIMES = np.concatenate([1.7e9 + np.arange(50) * 0.01, 1.7e9 + 1.0 + np.arange(20) * 0.01])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_steps_of_unix_times_hold_only_the_digits_the_times_do(suffix: str, tmp_path: Path) -> None:
+    """Float64 seconds near 1.7e9 are 238 ns apart: the steps read 0.00999999 s, the gap
+    0.50999999 s and the span 1.18999999 s, differences of the floats to the nanosecond.
+    Rounded to the microsecond the times resolve, they are 0.01 s, 0.51 s and 1.19 s."""
+    log = write_log(tmp_path / f"unix{suffix}", {"t": UNIX_TIMES, "y": np.ones(70)})
+    info = inspect_log(log)
+    for steps in (info, *info["columns"]):
+        assert (steps["sample_time"], steps["min_step"], steps["max_step"]) == (0.01, 0.01, 0.51)
+        assert steps["rate_hz"] == 69 / 1.19
+        assert [gap["duration"] for gap in steps["gaps"]] == [0.51]
+    assert info["time"]["duration"] == 1.19
+    text = format_inspection(info)
+    assert "(1.19 s), 57.9832 Hz on average" in text
+    assert "median step 0.01 s (100 Hz), steps 0.01 s to 0.51 s" in text
+    assert "1700000000.49 s to 1700000001 s (0.51 s)" in text
+    assert "1700000000  1700000001.19" in text  # the time column's range, not 1.7e+09
+    assert "0.0099999" not in text and "0.5099999" not in text
+
+
+def test_steps_of_small_times_and_of_nanoseconds_are_kept_whole(tmp_path: Path) -> None:
+    """Times that resolve the nanosecond lose nothing to the rounding: a 7 ns step of a
+    table stays 7 ns, and a message log's integer nanoseconds are exact at Unix times."""
+    fine = 12.0 + np.arange(4) * 7e-9
+    table = write_log(tmp_path / "fine.parquet", {"t": fine, "y": np.ones(4)})
+    assert inspect_log(table)["sample_time"] == 7e-9
+    bag = write_log(tmp_path / "unix.mcap", {"t": UNIX_TIMES, "y": np.ones(70)})
+    topic = inspect_log(bag)["topics"][0]
+    stamps = seconds_to_ns(UNIX_TIMES)
+    assert topic["duration"] == int(stamps[-1] - stamps[0]) / 1e9
+    assert topic["max_step"] == int(stamps[50] - stamps[49]) / 1e9
+
+
+def test_spans_are_rounded_to_the_resolution_of_the_times() -> None:
+    assert seconds_resolution_ns(np.array([1.7e9])) == pytest.approx(238.4, abs=0.1)
+    assert seconds_resolution_ns(np.array([1.7e9], dtype=np.float32), np.float32) == 128e9
+    assert seconds_resolution_ns(np.array([-3.0, 2.0])) == 1.0
+    assert round_span(9_999_990, 238.4) == 0.01
+    assert round_span(9_999_990, 1000.0) == 0.01
+    assert round_span(9_999_990, 1.0) == 0.00999999
+    assert round_span(1_190_000_238, 238.4) == 1.19
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])

@@ -16,7 +16,7 @@ import pytest
 
 from hybridlog.background import Worker
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
-from hybridlog.report import plot_data
+from hybridlog.report import Report, build_report, plot_data
 from hybridlog.report.plot_data import (
     BarsReducer,
     Components,
@@ -28,7 +28,7 @@ from hybridlog.report.plot_data import (
     reduce_result,
 )
 from hybridlog.report.plots import draw_into, draw_plots, write_plots
-from hybridlog.signals import AlignedSignals, ComponentTruth
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, ComponentTruth
 
 MODES = ("a", "b", "c")
 STATES = ("x1", "x2", "x3")
@@ -321,6 +321,44 @@ def test_a_components_result_shows_its_truth_and_its_filters_modes() -> None:
         for (first, last), (g_first, g_last) in zip(want, got[name], strict=True):
             np.testing.assert_array_equal(g_first, first, err_msg=name)
             np.testing.assert_array_equal(g_last, last, err_msg=name)
+
+
+def test_a_component_whose_true_mode_starts_late_is_scored_and_drawn_from_it_on() -> None:
+    """Before a component's first true-mode sample its codes are NO_TRUE_MODE (-1): as an
+    index into the labels it would draw and score the last label there.  The truth's bars
+    start where it does, its report scores the samples from there (modes.components.A
+    .samples), the joint accuracy the samples where every component has a true mode."""
+    result, signals = _run(600, seed=5, components=True)
+    start = 200
+    codes = signals.truth_components["A"].codes.copy()
+    codes[:start] = NO_TRUE_MODE
+    late = dataclasses.replace(signals, truth_components={"A": ComponentTruth(TRUE_LABELS, codes)})
+    data = reduce_result(result, late)
+    assert isinstance(data.modes, Components)
+    a = data.modes.columns[0]
+    assert a.truth is not None
+    first_bin = PixelBins.of_run(signals.time).spanned(start, 1)[0]
+    assert min(int(first.min()) for first, _ in a.truth if first.size) == first_bin
+    report = build_report(result, late, log="l", model_name="m", dt=1.0)
+    component = report.modes.components["A"]
+    assert component.samples == 600 - start
+    alone = build_report(
+        result.rows(start, 600),
+        dataclasses.replace(
+            signals.rows(start, 600),
+            truth_components={"A": ComponentTruth(TRUE_LABELS, codes[start:])},
+        ),
+        log="l", model_name="m", dt=1.0,
+    )  # fmt: skip
+    scored = alone.modes.components["A"]  # the estimate's switches and dwell stay the run's
+    assert (component.accuracy, component.confusion, component.detection) == (
+        scored.accuracy,
+        scored.confusion,
+        scored.detection,
+    )
+    # component B has no truth: no joint accuracy, as before
+    assert report.modes.accuracy is None and report.modes.samples is None
+    assert Report.from_dict(report.to_dict(), source="r").modes == report.modes
 
 
 def test_the_data_of_a_million_samples_is_small() -> None:

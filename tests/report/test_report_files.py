@@ -16,10 +16,11 @@ import pytest
 import hybridlog
 from hybridlog.errors import OptionError, OutputError
 from hybridlog.estimators.result import EstimationResult, ResultShapeError, TimelineColumn
-from hybridlog.report import atomic_output_dir, write_report
+from hybridlog.report import atomic_output_dir, build_report, write_report
 from hybridlog.report import writer as writer_module
+from hybridlog.report.markdown import render_markdown
 from hybridlog.report.table_format import check_table_format
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
 
 DT = 0.05
 T0 = 12.5
@@ -805,3 +806,40 @@ def test_report_md_says_what_sort_merged_and_which_truth_was_not_used(tmp_path: 
     assert all(note in done.report.notes for note in expected), done.report.notes
     text = (tmp_path / "out" / "report.md").read_text()
     assert all(f"- {note}" in text for note in expected)
+
+
+def test_a_true_mode_starting_late_is_scored_over_the_samples_it_covers(tmp_path: Path) -> None:
+    """A true mode that starts late was refused when read, while a true state that starts
+    late is scored over the samples it covers (states.<x>.samples).  The samples before its
+    first have no true mode (NO_TRUE_MODE): accuracy, confusion and switches are of the rest,
+    counted in modes.samples, said in report.md, and the timeline leaves their truth empty."""
+    result, signals = make_run(seed=3)
+    assert signals.truth_modes is not None
+    start = 57
+    late = signals.truth_modes.copy()
+    late[:start] = NO_TRUE_MODE
+    report = write_report(
+        tmp_path / "o", result, dataclasses.replace(signals, truth_modes=late),
+        log="run.csv", model_name="m", dt=DT,
+    )  # fmt: skip
+    covered = dataclasses.replace(signals.rows(start, 400), truth_modes=late[start:])
+    alone = build_report(result.rows(start, 400), covered, log="run.csv", model_name="m", dt=DT)
+    modes = report.modes
+    assert modes.samples == 400 - start and alone.modes.samples == 400 - start
+    # the same as the covered samples scored alone: no switch from the uncovered part
+    assert modes.accuracy == alone.modes.accuracy
+    assert modes.confusion == alone.modes.confusion
+    assert modes.detection == alone.modes.detection
+    assert sum(sum(row.values()) for row in (modes.confusion or {}).values()) == 400 - start
+    assert modes.detection is not None
+    assert all(e.t >= signals.time[start] for e in modes.detection.events)
+    assert strict_json(tmp_path / "o" / "report.json")["modes"]["samples"] == 400 - start
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert f"% over {400 - start} of 400 samples (those with a true mode)" in md
+    timeline = pl.read_csv(tmp_path / "o" / "timeline.csv")
+    assert timeline["truth_mode"].null_count() == start
+    assert timeline["truth_mode"][start:].to_list() == [MODE_IDS[m] for m in late[start:]]
+    # a truth that covers every sample: no count in report.md
+    whole = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
+    assert whole.modes.samples == 400
+    assert " samples (those with a true mode)" not in render_markdown(whole)

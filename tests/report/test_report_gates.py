@@ -124,6 +124,51 @@ def test_a_bound_the_metric_can_never_meet_is_refused(
     assert fragment in str(info.value) and "could never pass" in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("spec", "kind", "hint"),
+    [
+        # a bound that reads as a percentage of a fraction: the hint gives the fraction
+        ("mode_accuracy=95", "under", " (a fraction: for 95 % write 0.95)"),
+        ("mode_accuracy.c1=100", "under", " (a fraction: for 100 % write 1)"),
+        # negative, or beyond 100: no percentage the metric takes, so no hint (it offered
+        # "for -1 % write -0.01", a bound refused in turn)
+        ("mode_accuracy=-1", "over", ""),
+        ("mode_accuracy=-0.5", "over", ""),
+        ("mode_accuracy=150", "under", ""),
+        ("vaf=101", "under", ""),
+        ("vaf=-3", "over", ""),
+        ("mse=-1", "over", ""),
+    ],
+)
+def test_the_hint_of_a_bound_never_met_fits_its_value(spec: str, kind: GateKind, hint: str) -> None:
+    with pytest.raises(OptionError) as info:
+        parse_gate(spec, kind)
+    message = str(info.value)
+    assert message.endswith(f"{hint}, so this gate could never pass"), message
+    assert message.count("(") == hint.count("(")
+
+
+@pytest.mark.parametrize(
+    ("value", "hint"),
+    [
+        ("vaf=95%", " (vaf is in percent already: write 95)"),
+        ("fit.y1=-20 %", " (fit is in percent already: write -20)"),
+        ("mode_accuracy=95%", " (mode_accuracy is a fraction: for 95 % write 0.95)"),
+        ("mode_accuracy=0.5%", " (mode_accuracy is a fraction: for 0.5 % write 0.005)"),
+        # a percentage the metric cannot take, or a metric with no percent: no hint
+        ("mode_accuracy=150%", ""),
+        ("vaf=150%", ""),
+        ("mse=5%", ""),
+        ("vaf=%", ""),
+        ("vaf=5%%", ""),
+    ],
+)
+def test_a_bound_with_a_percent_sign_gets_a_hint_that_fits(value: str, hint: str) -> None:
+    with pytest.raises(OptionError) as info:
+        parse_gate(value, "under")
+    assert str(info.value).endswith(f"expected a finite number{hint}"), str(info.value)
+
+
 def test_gates_no_value_can_meet_together_are_refused() -> None:
     """--fail-under vaf=50 --fail-over vaf=40 failed every log of a batch (exit 1)."""
     with pytest.raises(OptionError) as info:

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from hybridlog.report import Report, build_report, metrics
+from hybridlog.report.markdown import format_time, render_markdown
 
 from .test_report_files import DT, make_run
 
@@ -291,9 +292,9 @@ def test_delays_and_dwell_of_unix_times_are_whole_steps_of_the_grid() -> None:
     )
     assert late.modes.detection is not None
     delays = [e.delay_s for e in late.modes.detection.events if e.delay_s is not None]
-    assert delays and all(d == round(d / DT) * DT for d in delays), delays
+    assert delays and all(d == metrics.steps_seconds(round(d / DT), DT) for d in delays), delays
     counts = np.bincount(result.modes, minlength=len(late.modes.labels))
-    assert list(late.modes.dwell_s.values()) == (counts * DT).tolist()
+    assert list(late.modes.dwell_s.values()) == [metrics.steps_seconds(c, DT) for c in counts]
     # the grid's steps, whatever the times' offset
     early = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
     assert early.modes.detection is not None
@@ -302,6 +303,77 @@ def test_delays_and_dwell_of_unix_times_are_whole_steps_of_the_grid() -> None:
     # and a report read back keeps them
     again = Report.from_dict(late.to_dict(), source="report.json")
     assert again.modes.detection == late.modes.detection
+
+
+def test_times_at_unix_magnitudes_are_written_in_full() -> None:
+    """report.md wrote every time of a Unix-time log as 1.7e+09 (six significant digits):
+    the span 't = 1.7e+09 … 1.7e+09 s', every switch, 'since t=1.7e+09 s' in a miss reason,
+    and 1.7000002e+09 at nine.  Times are now fixed point, to the digits a float holds."""
+    result, signals = make_run(400, seed=1)
+    shift = 1.7e9 + 0.25
+    late = build_report(
+        dataclasses.replace(result, time=result.time + shift),
+        dataclasses.replace(signals, time=signals.time + shift),
+        log="run.csv",
+        model_name="m",
+        dt=DT,
+    )
+    text = render_markdown(late)
+    assert "e+09" not in text
+
+    def fixed(t: float) -> str:  # the grid's times (dt = 0.05 s) to the hundredth
+        return f"{t:.2f}".rstrip("0").rstrip(".")
+
+    first, last = signals.time[0] + shift, signals.time[-1] + shift
+    assert f"t = {fixed(first)} … {fixed(last)} s" in text
+    assert late.modes.detection is not None
+    for event in late.modes.detection.events:
+        assert f"| {fixed(event.t)} | " in text
+        assert "e+09" not in (event.miss_reason or "")
+    # the times a miss reason names
+    t = 1.7e9 + np.arange(6) * 0.05
+    det = metrics.detection_delays(t, np.ones(6, int), np.array([0, 0, 1, 1, 0, 1]), IDS)
+    assert det.events[0].miss_reason == (
+        "the estimate was already in mode b (since t=1700000000 s) when the truth switched "
+        "to it, and no estimated change into mode b followed before the next true switch at "
+        "t=1700000000.2 s"
+    )
+
+
+def test_steps_on_the_grid_are_dt_as_written_times_their_number() -> None:
+    """351 samples of 10 ms dwelt 3.5100000000000002 s in report.json, a delay of 3 steps of
+    50 ms was 0.15000000000000002 s: float products, whose last digits say nothing."""
+    assert metrics.steps_seconds(351, 0.01) == 3.51
+    assert metrics.steps_seconds(3, 0.05) == 0.15
+    assert metrics.steps_seconds(0, 0.05) == 0.0
+    assert metrics.steps_seconds(3, 0.1) == 0.3  # not 0.30000000000000004
+    modes = np.array([0] * 351 + [1] * 3)
+    dwell = metrics.dwell_times(np.zeros(354), modes, 2, 0.01, on_grid=True)
+    assert dwell.tolist() == [3.51, 0.03]
+    det = metrics.detection_delays(
+        np.arange(8) * 0.05, np.array([0, 0, 0, 0, 0, 1, 1, 1]), np.array([0, 0, 1, 1, 1, 1, 1, 1]),
+        ("a", "b"), 0.05,
+    )  # fmt: skip
+    assert [e.delay_s for e in det.events] == [0.15]
+
+
+@pytest.mark.parametrize(
+    ("seconds", "text"),
+    [
+        (1700000101.01, "1700000101.01"),
+        (1.7e9 + 1e-6, "1700000000.000001"),
+        (1.7e9 + 0.1, "1700000000.1"),  # the float is 1700000000.0999999046
+        (0.1999999999999993, "0.2"),
+        (0.1, "0.1"),
+        (2e-9, "0.000000002"),
+        (0.0, "0"),
+        (-2.5, "-2.5"),
+        (-1e-12, "0"),
+        (None, "n/a"),
+    ],
+)
+def test_a_time_is_written_to_the_digits_it_holds(seconds: float | None, text: str) -> None:
+    assert format_time(seconds) == text
 
 
 def test_no_true_switch_gives_nan_delay() -> None:
@@ -339,7 +411,7 @@ def _detections_by_definition(
         hits = [k for k in range(s, end) if est[k] == m and est[k - 1] != m]
         already = est[s - 1] == m
         window = (
-            f"before the next true switch at t={t[end]:.9g} s"
+            f"before the next true switch at t={format_time(t[end])} s"
             if end < truth.size
             else "before the end of the log"
         )
@@ -351,12 +423,12 @@ def _detections_by_definition(
             while stay > 0 and est[stay - 1] == m:
                 stay -= 1
             reason = (
-                f"the estimate was already in mode {IDS[m]} (since t={t[stay]:.9g} s) when the "
-                "truth switched to it"
+                f"the estimate was already in mode {IDS[m]} (since t={format_time(t[stay])} s) "
+                "when the truth switched to it"
             )
             reason += (
-                f"; its change back into mode {IDS[m]} at t={t[hits[0]]:.9g} s, after leaving "
-                "it, does not detect the switch"
+                f"; its change back into mode {IDS[m]} at t={format_time(t[hits[0]])} s, after "
+                "leaving it, does not detect the switch"
                 if hits
                 else f", and no estimated change into mode {IDS[m]} followed {window}"
             )
