@@ -59,6 +59,7 @@ from hybridlog.model.compiled import (
 )
 from hybridlog.numbers import parse_float, parse_int
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
@@ -220,7 +221,7 @@ def _check_run(model: HybridModel, rows: int, where: str, ends_before: float) ->
     end = (rows - 1) * model.dt
     if end >= ends_before:
         raise (OptionError if where.startswith("--") else ModelError)(
-            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {end:.4g} s, later "
+            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {format_time(end)} s, later "
             f"than the log holds (times before {ends_before:.4g} s); simulate fewer steps"
         )
     check_fits(
@@ -437,7 +438,8 @@ def simulate(
         stuck = (compile_for(guarded, arguments) if jit else guarded)(*arguments)
         if stuck >= 0:
             raise ModelError(
-                f"{origin}: no mode's guard (modes.<id>.guard) holds at t = {time[stuck]} "
+                f"{origin}: no mode's guard (modes.<id>.guard) holds at t = "
+                f"{format_time(time[stuck])} s "
                 f"(x = {states[stuck].tolist()})"
             )
     else:
@@ -459,7 +461,9 @@ def simulate(
         (compile_for(scheduled, arguments) if jit else scheduled)(*arguments)
     if not np.all(np.isfinite(states)) or not np.all(np.isfinite(outputs)):
         row = int(np.argmax(~np.all(np.isfinite(np.hstack([states, outputs])), axis=1)))
-        raise ModelError(f"{origin}: the simulation diverged (non-finite at t = {time[row]})")
+        raise ModelError(
+            f"{origin}: the simulation diverged (non-finite at t = {format_time(time[row])} s)"
+        )
     notes = () if model.state_driven else impossible_switches(model, modes, time, schedule)
     return SimulatedLog(
         time=time, inputs=inputs, outputs=outputs, modes=modes, states=states, notes=notes
@@ -503,7 +507,7 @@ def impossible_switches(
         more = count - 1
         notes.append(
             f"{where}: switches from mode '{ids[source]}' to '{ids[target]}' at "
-            f"t = {time[row]:g} s (row {row})"
+            f"t = {format_time(time[row])} s (row {row})"
             + (f" and {more} more time{'s' if more > 1 else ''}" if more else "")
             + f", which [transitions] gives probability 0 (transitions.matrix[{source}]"
             f"[{target}]): the model rules it out, so imm weighs it as impossible and its "

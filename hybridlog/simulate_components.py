@@ -38,6 +38,7 @@ from hybridlog.errors import HybridlogError, ModelError, OptionError
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
+from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     import sympy
@@ -275,7 +276,9 @@ def simulate_components(
             joint.algebraic(now, parameters)
             memory_log[k] = memory
         if not np.all(np.isfinite(now)) or not np.all(np.isfinite(measured[k])):
-            raise ModelError(f"{origin}: the simulation diverged (non-finite at t = {time[k]})")
+            raise ModelError(
+                f"{origin}: the simulation diverged (non-finite at t = {format_time(time[k])} s)"
+            )
     modes = {
         c.name: tuple(
             UNKNOWN if overrides[c.name][k] >= 0 else labels[c.name][k] for k in range(rows)

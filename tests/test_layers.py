@@ -13,7 +13,7 @@ one layer are peers that never import each other:
 ==  ==============================================================================
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
     | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python) | ``numbers``
-    (numbers typed on the command line, read strictly)
+    (numbers typed on the command line, read strictly) | ``times`` (times written for people)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
     | ``environment`` (the libraries' settings from the environment, checked up front)
 2   ``io`` | ``model``
@@ -55,6 +55,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "prefault",
         "polars_import",
         "numbers",
+        "times",
     ),
     ("signals", "jit", "outputs", "memory", "environment"),
     ("io", "model"),

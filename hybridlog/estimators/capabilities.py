@@ -167,11 +167,31 @@ class Capabilities:
         return None
 
     def signals_mismatch(self, signals: AlignedSignals) -> str | None:
-        """The first reason the aligned log cannot be used, or None."""
-        if self.needs_switching_signal and signals.truth_modes is None:
+        """The first reason the aligned log cannot be used, or None.
+
+        An estimator that takes every sample's mode from the switching signal
+        (:attr:`needs_switching_signal`) needs one that covers the log: a true mode that
+        starts late leaves the samples before it without one
+        (:data:`~hybridlog.signals.NO_TRUE_MODE`), which the mode metrics leave out but such
+        an estimator would read as a mode.
+        """
+        if not self.needs_switching_signal:
+            return None
+        if signals.truth_modes is None:
             return (
                 "needs the switching signal in the log; map it with --map truth.mode=PATH "
                 "(or a 'mode' column)"
+            )
+        from hybridlog.signals import covered_from  # numpy: only where a log is analysed
+        from hybridlog.times import format_time
+
+        first = covered_from(signals.truth_modes)
+        if first > 0:
+            return (
+                "needs the switching signal at every sample; the true mode starts at "
+                f"t={format_time(float(signals.time[first]))} s (sample {first}), after the "
+                f"first sample time t={format_time(float(signals.time[0]))} s (map a switching "
+                "signal that covers the log with --map truth.mode=PATH)"
             )
         return None
 

@@ -55,6 +55,7 @@ from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.signals import FloatArray
+from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     import sympy
@@ -344,17 +345,20 @@ def _notes(
     notes.append(
         f"condition number kappa_1(Q) along the run: median "
         f"{np.median(condition[finite]) if finite.any() else np.inf:.3g}, "
-        f"max {condition[worst]:.3g} at t = {time_s[worst]:.6g} s"
+        f"max {condition[worst]:.3g} at t = {format_time(time_s[worst])} s"
     )
     bad = valid & ~(condition <= limit)
     if bad.any():
         runs = _runs(bad)
-        where = "; ".join(f"t = {time_s[a]:.6g}..{time_s[b]:.6g} s" for a, b in runs[:3])
+        where = "; ".join(
+            f"t = {format_time(time_s[a])}..{format_time(time_s[b])} s" for a, b in runs[:3]
+        )
         more = f" and {len(runs) - 3} more intervals" if len(runs) > 3 else ""
         notes.append(
             f"WARNING: Q(sigma, x) is ill-conditioned (kappa_1 > {limit:.3g}) on "
-            f"{int(bad.sum())} samples ({where}{more}; worst {condition[worst]:.3g} at "
-            f"t = {time_s[worst]:.6g} s): the correction Q^-1 K (y - h) is unreliable there"
+            f"{int(bad.sum())} samples ({where}{more}; worst {condition[worst]:.3g} at t = "
+            f"{format_time(time_s[worst])} s): the correction Q^-1 K (y - h) is unreliable "
+            "there"
         )
     return tuple(notes)
 
@@ -415,7 +419,8 @@ def run_switching_observer(
     if broken.any():  # no metric of a diverged run can be vouched for
         first = int(np.argmax(broken))
         raise ModelError(
-            f"{model.origin or model.name}: {NAME} diverged at t = {signals.time[first]:g} s "
+            f"{model.origin or model.name}: {NAME} diverged at t = "
+            f"{format_time(signals.time[first])} s "
             f"(sample {first}): the estimate is not finite (Q singular, a jump map or the "
             f"gain of eigenvalues {', '.join(f'{v:g}' for v in eigenvalues)} too large for "
             f"the integration step)"

@@ -59,6 +59,7 @@ from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_continuous
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.times import format_time
 
 __all__ = ["channel_gains", "gain", "run_sliding_mode", "sliding_mode_steps"]
 
@@ -244,7 +245,8 @@ def _refuse_runaway_error(
     row, column = divmod(int(np.argmax(runaway)), runaway.shape[1])
     step = model.timebase.step
     raise ModelError(
-        f"{model.origin or model.name}: sliding-mode diverged at t = {signals.time[row]:g} s "
+        f"{model.origin or model.name}: sliding-mode diverged at t = "
+        f"{format_time(signals.time[row])} s "
         f"(sample {row}): the observer error |x - z| of {model.states[column]} reached "
         f"{error[row, column]:.3g}, more than the largest |{model.states[column]}| measured "
         f"({scale[column]:.3g}); V_M = {v_max:.3g}, V_M*h^2 = {v_max * step * step:.3g} at "
@@ -336,7 +338,7 @@ def run_sliding_mode(
         row = int(np.argmin(np.isfinite(means).all(axis=1)))
         raise ModelError(
             f"{model.origin or model.name}: sliding-mode diverged at t = "
-            f"{signals.time[row]:g} s (sample {row}): the observer state is not finite"
+            f"{format_time(signals.time[row])} s (sample {row}): the observer state is not finite"
         )
     _refuse_runaway_error(model, signals, means, v_max)
     probabilities = np.zeros((n_samples, model.n_modes))

@@ -26,6 +26,7 @@ import numpy as np
 
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.jit import jit
+from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     from hybridlog.estimators.result import EstimationResult
@@ -301,7 +302,8 @@ def check_result(
     why = _why(model, signals, row, before, variance) if row > 0 and before is not None else ""
     raise ModelError(
         f"{model.origin or model.name}: {result.estimator} diverged at t = "
-        f"{result.time[flaw.row]:g} s (sample {row}): {flaw.what}" + (f"; {why}" if why else "")
+        f"{format_time(result.time[flaw.row])} s (sample {row}): {flaw.what}"
+        + (f"; {why}" if why else "")
     )
 
 
@@ -479,6 +481,6 @@ def check_explained(
         )
         raise ModelError(
             f"{model.origin or model.name}: {result.estimator} diverged at t = "
-            f"{result.time[row]:g} s (sample {first + row}): {expression}, the state and mode "
-            f"{whose} holds there (h is not defined at that state)"
+            f"{format_time(result.time[row])} s (sample {first + row}): {expression}, the state "
+            f"and mode {whose} holds there (h is not defined at that state)"
         )

@@ -55,6 +55,7 @@ from hybridlog.outputs import (
     publish_dir,
     staging_dir,
 )
+from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     from hybridlog.io.writers import Column
@@ -353,7 +354,7 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     what = get_format(_READ_AS.get(chosen, "ros2-bag")).what
     if not held.all():
         raise OptionError(
-            f"{path}: t = {float(time[~held][0]):.6g} s is beyond the times {what} holds "
+            f"{path}: t = {format_time(time[~held][0])} s is beyond the times {what} holds "
             f"(from 0 to before {before:.10g} s)"
         )
     steps = np.diff(time)
@@ -367,7 +368,7 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     smallest = float(steps.min())
     if off[worst] > _NS_TOLERANCE * smallest:
         raise OptionError(
-            f"{path}: t = {float(time[worst]):.6g} s is {float(off[worst]) * 1e9:.2g} ns off "
+            f"{path}: t = {format_time(time[worst])} s is {float(off[worst]) * 1e9:.2g} ns off "
             f"the whole nanoseconds {what} holds its times in, too much for steps of "
             f"{smallest:.6g} s; use a dt of whole nanoseconds, or write a CSV or Parquet log"
         )

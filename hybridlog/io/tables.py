@@ -58,6 +58,7 @@ from hybridlog.io.table_paths import ColumnPath, expand, field_names, is_nested,
 from hybridlog.io.table_paths import resolve as resolve_path
 from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
+from hybridlog.times import format_time
 
 TIME_COLUMNS = ("t", "time")
 
@@ -608,7 +609,8 @@ class TableSource:
             )
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(name)}: the "
-                f"time column is {_dtype_name(stored)}, whose values near t={seconds[row]:g} s "
+                f"time column is {_dtype_name(stored)}, whose values near t="
+                f"{format_time(seconds[row])} s "
                 f"are {resolution:.3g} s apart, {steps}: write the time as float64 (or as a "
                 "Datetime)"
             )

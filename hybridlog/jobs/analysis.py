@@ -44,7 +44,6 @@ from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.gates import Gate, metric
-from hybridlog.report.markdown import format_time
 from hybridlog.report.summary import (
     comparison_markdown,
     gate_cell,
@@ -52,7 +51,7 @@ from hybridlog.report.summary import (
     write_summary_csv,
 )
 from hybridlog.report.table_format import check_table_format
-from hybridlog.signals import AlignedSignals, covered_from
+from hybridlog.signals import AlignedSignals
 
 if TYPE_CHECKING:
     from hybridlog.estimators.result import EstimationResult
@@ -402,35 +401,6 @@ def check_memory(
     check_fits(parts, what=what, remedy=remedy, error=LogError)
 
 
-def check_switching_signal(
-    prepared: Sequence[Prepared], signals: AlignedSignals, reading: Mapping[str, Any]
-) -> None:
-    """Refuse a switching signal that starts late to an estimator that runs on it.
-
-    A true mode that starts after the first sample time leaves the samples before it
-    without one (:data:`~hybridlog.signals.NO_TRUE_MODE`): the mode metrics score the rest,
-    but ``switching-observer`` takes the mode of every sample from it and has none to take.
-
-    Raises
-    ------
-    LogError
-        Naming the log, the estimator and where the true mode starts.
-    """
-    truth = signals.truth_modes
-    if truth is None or covered_from(truth) == 0:
-        return
-    late = (reading.get("truth_starts") or {}).get("mode") or {}
-    where = f" at t={format_time(late['at'])} s" if "at" in late else " late"
-    for estimator in prepared:
-        if estimator.estimator.capabilities.needs_switching_signal:
-            raise LogError(
-                f"{signals.source}: estimator '{estimator.name}' needs the switching signal at "
-                f"every sample; the true mode starts{where}, after the first sample time "
-                f"t={format_time(float(signals.time[0]))} s (map a switching signal that "
-                "covers the log with --map truth.mode=PATH)"
-            )
-
-
 def memory_reserved(
     log: str | Path, model: HybridModel, prepared: Sequence[Prepared], signals: AlignedSignals
 ) -> contextlib.AbstractContextManager[float]:
@@ -591,7 +561,6 @@ def analyze(
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, [prepared], signals)
-    check_switching_signal([prepared], signals, reading)
     from hybridlog.report import write_report  # polars: see the module's docstring
 
     report = write_report(
@@ -707,7 +676,6 @@ def compare(
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, prepared, signals)
-    check_switching_signal(prepared, signals, reading)
     reports: dict[str, Report] = {}
     from hybridlog.report import write_report  # polars: see the module's docstring
 

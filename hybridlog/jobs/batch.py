@@ -54,7 +54,6 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
-    check_switching_signal,
     estimator_inputs,
     gates_for,
     input_paths,
@@ -398,7 +397,6 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     warm = _warm(job)
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
-    check_switching_signal([warm.prepared], signals, reading)
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
     # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)

@@ -31,7 +31,7 @@ from hybridlog.report.document import (
     SmoothingMetrics,
     StateReport,
 )
-from hybridlog.report.markdown import format_time, plural
+from hybridlog.report.markdown import plural
 from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.signals import (
     NO_TRUE_MODE,
@@ -41,6 +41,7 @@ from hybridlog.signals import (
     IntArray,
     covered_from,
 )
+from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel

@@ -11,6 +11,8 @@ import math
 import re
 from typing import TYPE_CHECKING, Any
 
+from hybridlog.times import format_time
+
 if TYPE_CHECKING:
     from hybridlog.report.document import ModeReport, Report, Smoothing
 
@@ -22,7 +24,6 @@ __all__ = [
     "duration",
     "escape_markdown",
     "format_number",
-    "format_time",
     "plural",
     "rate",
     "render_markdown",
@@ -44,32 +45,6 @@ def format_number(value: Any, spec: str = ".6g") -> str:
     if isinstance(value, float):
         return format(value, ".6g" if abs(value) >= FIXED_LIMIT else spec)
     return str(value)
-
-
-def format_time(seconds: float | None) -> str:
-    """A time in fixed point, to the digits its float holds (at most the nanosecond).
-
-    ``format_number``'s six significant digits wrote every time of a log stamped in Unix
-    time as ``1.7e+09``: switches 100 s apart read alike.  Near 1.7e9 s a float holds the
-    microsecond (its spacing is 238 ns), so ``1700000101.01``; small times to the
-    nanosecond, so ``0.2`` for 0.1999999999999993.  ``None`` is ``n/a``.
-
-    Examples
-    --------
-    >>> format_time(1700000101.01)
-    '1700000101.01'
-    >>> format_time(0.1999999999999993)
-    '0.2'
-    """
-    if seconds is None:
-        return "n/a"
-    if not math.isfinite(seconds):
-        return str(seconds)
-    spacing = math.ulp(abs(seconds))
-    decimals = 9 if spacing <= 1e-9 else max(0, math.floor(-math.log10(spacing)))
-    text = f"{seconds:.{decimals}f}"
-    text = text.rstrip("0").rstrip(".") if "." in text else text
-    return "0" if text in ("-0", "") else text
 
 
 _MARKUP = re.compile(r"[\\`*\[\]<>&|~$]|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")

@@ -28,8 +28,8 @@ from typing import Generic, Protocol, Self, TypedDict, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from hybridlog.report.markdown import format_time
 from hybridlog.signals import FloatArray, IntArray
+from hybridlog.times import format_time
 
 __all__ = [
     "DetectionDelays",
@@ -1186,7 +1186,9 @@ class SwitchDetection:
         """Fill in ``delay_s`` from the times; refuse a delay of a missed switch."""
         if self.detected_t is None:
             if self.delay_s is not None:
-                raise ValueError(f"a missed switch (t={self.t}) has no delay ({self.delay_s})")
+                raise ValueError(
+                    f"a missed switch (t={format_time(self.t)} s) has no delay ({self.delay_s})"
+                )
         elif self.delay_s is None:
             object.__setattr__(self, "delay_s", self.detected_t - self.t)
 

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import polars as pl
 
+from hybridlog.times import format_time
 from tests.cli.test_cli import run
 from tests.support.paths import SAMPLE_LOGS
 
@@ -27,9 +28,9 @@ def test_a_switching_signal_that_starts_late_is_refused_to_the_estimator_on_it(
     message = result.stderr.strip().splitlines()[-1]
     assert message == (
         f"hybridlog: error: {log}: estimator 'switching-observer' needs the switching signal "
-        f"at every sample; the true mode starts at t={first[30]:g} s, after the first sample "
-        f"time t={first[0]:g} s (map a switching signal that covers the log with "
-        "--map truth.mode=PATH)"
+        f"at every sample; the true mode starts at t={format_time(first[30])} s (sample 30), "
+        f"after the first sample time t={format_time(first[0])} s (map a switching signal "
+        "that covers the log with --map truth.mode=PATH)"
     )
     assert not out.exists()
 

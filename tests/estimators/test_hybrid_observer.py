@@ -20,7 +20,8 @@ from hybridlog.estimators.hybrid_observer import brunovsky_gain, run_switching_o
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.signals import AlignedSignals
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
+from hybridlog.times import format_time
 from tests.support import clutch, model_kinds
 
 MU = 1.0
@@ -335,6 +336,16 @@ def test_refusals_name_the_model_and_why(switched, tmp_path):
         prepare(model, "switching-observer").run(model, blind)
     with pytest.raises(LogError, match="needs the switching signal"):
         run_switching_observer(model, blind, SwitchingObserverOptions())
+    # a switching signal that starts late: its first samples have no mode to take (-1)
+    late_modes = signals.truth_modes.copy()
+    late_modes[:5] = NO_TRUE_MODE
+    late = AlignedSignals(**{**signals.__dict__, "truth_modes": late_modes})
+    with pytest.raises(
+        LogError,
+        match=rf"needs the switching signal at every sample; the true mode starts at "
+        rf"t={format_time(signals.time[5])} s \(sample 5\), after the first sample time",
+    ):
+        list(prepare(model, "switching-observer").stream(model, late))
     with pytest.raises(OptionError, match=r"'eigenvalues': the model has 3 states, so give 3"):
         run_switching_observer(model, signals, SwitchingObserverOptions(eigenvalues="-1,-2"))
     with pytest.raises(OptionError, match=r"'eigenvalues': every eigenvalue must be .* negative"):

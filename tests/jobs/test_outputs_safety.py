@@ -554,9 +554,9 @@ def test_every_log_name_simulate_takes_is_read_back_as_its_format(
 @pytest.mark.parametrize(
     ("name", "last", "words"),
     [
-        ("run.bag", 2.0**32, "t = 4.29497e+09 s is beyond the times a ROS 1 bag holds"),
-        ("run.mcap", 1e10, "t = 1e+10 s is beyond the times an MCAP file holds"),
-        ("run.csv", 1e10, "t = 1e+10 s is beyond the times a CSV file holds"),
+        ("run.bag", 2.0**32, "t = 4294967296 s is beyond the times a ROS 1 bag holds"),
+        ("run.mcap", 1e10, "t = 10000000000 s is beyond the times an MCAP file holds"),
+        ("run.csv", 1e10, "t = 10000000000 s is beyond the times a CSV file holds"),
         ("run.mcap", -1.0, "t = -1 s is beyond the times an MCAP file holds (from 0 to"),
     ],
 )

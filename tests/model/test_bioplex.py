@@ -220,7 +220,9 @@ def test_the_memory_a_run_needs_counts_every_column_and_message(model):
 def test_a_run_ending_later_than_a_log_holds_is_refused(model):
     # 2e8 steps of 60 s: 1.2e10 s, beyond the 9.2e9 s of int64 nanoseconds; 8e7 steps,
     # beyond a ROS 1 bag's 32-bit seconds
-    with pytest.raises(OptionError, match=r"^--steps: 200,000,000 steps of 60 s end at t = 1\.2e"):
+    with pytest.raises(
+        OptionError, match=r"^--steps: 200,000,000 steps of 60 s end at t = 12000000000 s"
+    ):
         simulate_components(model, steps=200_000_000)
     with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\)"):
         simulate_components(model, steps=80_000_000, ends_before=2.0**32)

@@ -60,7 +60,7 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
     with pytest.raises(OptionError) as error:
         simulate(model, steps=10_000)
     assert str(error.value) == (
-        "--steps: 10,000 steps of 1e+06 s end at t = 1e+10 s, later than the log holds "
+        "--steps: 10,000 steps of 1e+06 s end at t = 10000000000 s, later than the log holds "
         "(times before 9.2e+09 s); simulate fewer steps"
     )
     with pytest.raises(OptionError, match=r"^--schedule: 10,000 steps of 1e\+06 s end at"):

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from hybridlog.report import Report, build_report, metrics
-from hybridlog.report.markdown import format_time, render_markdown
+from hybridlog.report.markdown import render_markdown
+from hybridlog.times import format_time
 
 from .test_report_files import DT, make_run
 

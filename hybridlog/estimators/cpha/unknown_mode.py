@@ -62,6 +62,7 @@ from hybridlog.estimators.result import EstimationResult, PostProcessing, Timeli
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray
+from hybridlog.times import format_time
 
 __all__ = ["NAME", "UnknownModeOptions", "assignment_label", "run_unknown_mode"]
 
@@ -175,7 +176,9 @@ def _run(
             try:
                 hypotheses = tracker.step(hypotheses, k)
             except ClusterStepError as err:
-                raise model.error("components", f"at t = {signals.time[k]:g} s {err}") from err
+                raise model.error(
+                    "components", f"at t = {format_time(signals.time[k])} s {err}"
+                ) from err
         if histories is not None:
             histories.keep(hypotheses, tracker.parents if k > 0 else [])
         row: dict[int, float] = {}
