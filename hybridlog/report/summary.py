@@ -19,11 +19,12 @@ from __future__ import annotations
 import csv
 import math
 import statistics
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
 
 if TYPE_CHECKING:
@@ -37,6 +38,7 @@ __all__ = [
     "OfflineGain",
     "batch_markdown",
     "batch_rows_csv",
+    "common_notes",
     "comparison_markdown",
     "gate_cell",
     "markdown_table",
@@ -123,14 +125,32 @@ def markdown_table(
 
 
 def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -> str:
-    """``comparison.md``: the table, where each report is, and each estimator's notes."""
+    """``comparison.md``: the table, where each report is, and the notes.
+
+    Notes every report has (the log's: a true mode that starts late; the model's: twin
+    modes) are written once, under "Notes on every estimator"; each estimator's own after.
+    """
     lines = [f"# {escape_markdown(title)}", "", table, ""]
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
+    shared = common_notes(reports.values()) if len(reports) > 1 else []
+    if shared:
+        lines += ["", "## Notes on every estimator", ""]
+        lines += [f"- {escape_markdown(note)}" for note in shared]
     for name, report in reports.items():
-        if report.notes:
-            notes = [f"- {escape_markdown(note)}" for note in report.notes]
+        own = [note for note in report.notes if note not in shared]
+        if own:
+            notes = [f"- {escape_markdown(note)}" for note in own]
             lines += ["", f"## Notes on `{name}`", "", *notes]
     return "\n".join(lines) + "\n"
+
+
+def common_notes(reports: Iterable[Report]) -> list[str]:
+    """The notes every one of ``reports`` has, in the first one's order (none: ``[]``)."""
+    reports = list(reports)
+    if not reports:
+        return []
+    others = [set(report.notes) for report in reports[1:]]
+    return [note for note in dict.fromkeys(reports[0].notes) if all(note in o for o in others)]
 
 
 def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
@@ -421,6 +441,53 @@ def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[s
     return lines
 
 
+def _partial_section(rows: Sequence[BatchRow]) -> list[str]:
+    """summary.md's logs whose mode accuracy is over part of the log (a late true mode)."""
+    partial = [
+        (row.log, part)
+        for row in rows
+        if row.report is not None and (part := mode_coverage(row.report)) is not None
+    ]
+    if not partial:
+        return []
+    analysed = sum(row.report is not None for row in rows)
+    lines = [
+        "",
+        f"## Mode accuracy over part of the log ({len(partial)} of {analysed})",
+        "",
+        "These logs' true mode starts after their first sample: `mode_accuracy` (and the "
+        "gates on it, and with an offline pass the filter's own too) is over the samples from "
+        "it on, counted in summary.csv's `mode_samples`.",
+        "",
+    ]
+    lines += [
+        f"- {escape_markdown(log)}: over {escape_markdown(part)}"
+        for log, part in partial[:MAX_NAMED]
+    ]
+    if len(partial) > MAX_NAMED:
+        lines.append(f"- and {len(partial) - MAX_NAMED} more (summary.csv's `mode_samples`)")
+    return lines
+
+
+def _notes_section(rows: Sequence[BatchRow]) -> list[str]:
+    """summary.md's notes every analysed log's report has (the model's: twin modes), once.
+
+    A log's own notes stay in its report.md: a batch of 100 logs would repeat a model's
+    note 100 times.
+    """
+    shared = common_notes(row.report for row in rows if row.report is not None)
+    if not shared:
+        return []
+    return [
+        "",
+        "## Notes on every analysed log",
+        "",
+        *(f"- {escape_markdown(note)}" for note in shared),
+        "",
+        "Each log's other notes are in its report.md.",
+    ]
+
+
 def gate_cell(n_gates: int, missed: Sequence[str]) -> str:
     """The gates of one run in a summary table: ``pass (2)``, ``FAIL: vaf = 87.2 is ...``.
 
@@ -493,8 +560,10 @@ def batch_markdown(
     if gates:
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
     lines += ["", table]
+    lines += _partial_section(rows)
     if offline is not None:
         lines += _offline_section(rows, offline)
+    lines += _notes_section(rows)
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
         lines += [
@@ -515,12 +584,23 @@ def batch_rows_csv(
     """``summary.csv`` of a batch: one row per log in natural order, raw values.
 
     ``folder`` is empty for a failed log, as summary.md's link is ``n/a``: it has no report.
+    ``mode_samples``, after ``mode_accuracy``: the samples it is over (``modes.samples``:
+    fewer than ``samples`` where the true mode starts late; empty without a true mode).
     ``offline``: the metrics compared when the run has an offline pass
     (:func:`offline_metrics`), which adds :func:`offline_columns` after ``mode_accuracy``
     (empty cells for a failed log); ``None`` otherwise (no column added).
     """
     columns = () if offline is None else offline_columns(offline)
-    header = ("log", "status", *BATCH_METRICS, *columns, "gate_failures", "error", "folder")
+    header = (
+        "log",
+        "status",
+        *BATCH_METRICS,
+        "mode_samples",
+        *columns,
+        "gate_failures",
+        "error",
+        "folder",
+    )
     write_summary_csv(
         path,
         header,
@@ -529,6 +609,7 @@ def batch_rows_csv(
                 row.log,
                 row.status,
                 *row.metrics(),
+                None if row.report is None else row.report.modes.samples,
                 *(() if offline is None else row.offline_cells(offline)),
                 "; ".join(row.missed) or None,
                 row.error,

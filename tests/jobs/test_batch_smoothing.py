@@ -73,7 +73,7 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
     # without an offline pass: the columns as ever, no comparison, no properties
     with (out / "summary.csv").open() as file:
         assert next(csv.reader(file)) == [
-            "log", "status", "samples", "vaf", "mse", "mode_accuracy",
+            "log", "status", "samples", "vaf", "mse", "mode_accuracy", "mode_samples",
             "gate_failures", "error", "folder",
         ]  # fmt: skip
     assert "filter's own" not in (out / "summary.md").read_text()
@@ -90,8 +90,8 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
     expected = {name: _offline_values(report) for name, report in reports.items()}
     with (out / "summary.csv").open() as file:
         table = list(csv.DictReader(file))
-    assert list(table[0])[5:15] == [
-        "mode_accuracy", "filtered_mode_accuracy",
+    assert list(table[0])[5:16] == [
+        "mode_accuracy", "mode_samples", "filtered_mode_accuracy",
         "state_rmse.x1", "filtered_state_rmse.x1", "state_rmse.x2", "filtered_state_rmse.x2",
         "state_rmse.x3", "filtered_state_rmse.x3", "smoothing", "gate_failures",
     ]  # fmt: skip

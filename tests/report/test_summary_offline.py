@@ -92,15 +92,15 @@ def test_summary_csv_adds_the_columns_only_with_an_offline_pass(tmp_path: Path) 
     batch_rows_csv(path, rows())
     with path.open() as file:
         assert next(csv.reader(file)) == [
-            "log", "status", "samples", "vaf", "mse", "mode_accuracy",
+            "log", "status", "samples", "vaf", "mse", "mode_accuracy", "mode_samples",
             "gate_failures", "error", "folder",
         ]  # fmt: skip
     batch_rows_csv(path, rows(), METRICS)
     with path.open() as file:
         table = list(csv.DictReader(file))
-    assert list(table[0])[5:11] == [
-        "mode_accuracy", "filtered_mode_accuracy", "state_rmse.x1", "filtered_state_rmse.x1",
-        "smoothing", "gate_failures",
+    assert list(table[0])[5:12] == [
+        "mode_accuracy", "mode_samples", "filtered_mode_accuracy", "state_rmse.x1",
+        "filtered_state_rmse.x1", "smoothing", "gate_failures",
     ]  # fmt: skip
     b = table[1]
     assert [b["filtered_mode_accuracy"], b["state_rmse.x1"], b["filtered_state_rmse.x1"]] == [

@@ -1,0 +1,56 @@
+"""How much of a log the mode metrics of a report cover, in words for the summaries.
+
+A true mode that starts after the first sample time is scored from its first sample on
+(``modes.samples``, ``reading.truth_starts``).  report.md says so; the summaries of ``batch``
+(summary.csv's ``mode_samples``, summary.md, JUnit) and a missed gate's message say it with
+:func:`mode_coverage`, so that a log's 100 % over its last third does not read as a whole
+log's 100 % beside the others.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from hybridlog.times import format_time
+
+if TYPE_CHECKING:
+    from hybridlog.report.document import Report
+
+__all__ = ["component_coverage", "mode_coverage"]
+
+
+def _starts(report: Report) -> list[str]:
+    """``the true mode.fr2 starts at t = 30000 s`` per true mode that starts late."""
+    reading = report.reading or {}
+    starts = reading.get("truth_starts")
+    if not isinstance(starts, dict):
+        return []
+    said = []
+    for label, late in starts.items():
+        at = late.get("at") if isinstance(late, dict) else None
+        if isinstance(at, int | float) and not isinstance(at, bool):
+            said.append(f"the true {label} starts at t = {format_time(at)} s")
+    return said
+
+
+def mode_coverage(report: Report) -> str | None:
+    """``1,001 of 1,501 samples (the true mode.fr2 starts at t = 30000 s)``, or ``None``.
+
+    ``None`` when the mode metrics (``mode_accuracy``: for a ``[components]`` model the
+    joint one) score every sample, or without a true mode.
+    """
+    scored = report.modes.samples
+    if scored is None or scored >= report.samples:
+        return None
+    where = "; ".join(_starts(report))
+    return f"{scored:,} of {report.samples:,} samples" + (f" ({where})" if where else "")
+
+
+def component_coverage(report: Report, component: str) -> str | None:
+    """As :func:`mode_coverage` for one component's own metrics (``mode_accuracy.<c>``)."""
+    modes = report.modes.components.get(component)
+    scored = None if modes is None else modes.samples
+    if scored is None or scored >= report.samples:
+        return None
+    late = [s for s in _starts(report) if s.startswith(f"the true mode.{component} ")]
+    return f"{scored:,} of {report.samples:,} samples" + (f" ({late[0]})" if late else "")
