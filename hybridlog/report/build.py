@@ -792,8 +792,8 @@ def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
                 "estimators' priors on the switches set them apart)"
             )
             + ". Between them the estimate follows the modes' order and Markov rows, not the "
-            f"data (imm's argmax takes '{twins[0]}', the first listed, where their "
-            "probabilities tie), so the mode accuracy, confusion and detection delays count "
+            f"data (where their probabilities or errors tie, '{twins[0]}', the first listed, "
+            "is taken), so the mode accuracy, confusion and detection delays count "
             "the log's samples of the one not picked as errors; merge them, or give them "
             "different equations or noise if they are to be told apart"
         )

@@ -94,7 +94,7 @@ def test_every_report_names_the_twins_and_what_follows() -> None:
     notes, markdown = _report_notes(model_text(modes))
     [note] = [n for n in notes if "no log can tell them apart" in n]
     assert "modes 'a' and 'b' have the same equations and noise" in note
-    assert "imm's argmax takes 'a'" in note and "mode accuracy" in note
+    assert "tie, 'a', the first listed, is taken" in note and "mode accuracy" in note
     assert "[transitions] rows" not in note  # uniform prior, no Markov matrix: nothing differs
     assert "no log can tell them apart" in markdown.split("## Notes", 1)[1]
     # apart only by their Markov rows (legitimate for imm): said so
