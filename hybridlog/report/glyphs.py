@@ -41,9 +41,9 @@ def drawable(character: str) -> bool:
 
 
 def escape_undrawable(text: str) -> str:
-    r"""``text`` with each character the figures' fonts cannot draw written ``\uXXXX``.
+    r"""``text`` with each character the figures' fonts cannot draw as its escape (``\u9589``).
 
-    Characters beyond the Basic Multilingual Plane are written ``\UXXXXXXXX``, as Python
+    Characters beyond the Basic Multilingual Plane are written ``\U0001f600``-style, as Python
     writes them; ASCII is always drawn (the fonts hold it), so it is returned at once.
     """
     if text.isascii():
