@@ -58,6 +58,7 @@ from hybridlog.signals import (
     IntArray,
     covered_from,
 )
+from hybridlog.times import round_duration
 
 DEFAULT_MAX_GAP_STEPS = 5
 
@@ -346,7 +347,17 @@ def _longest_hold(
     if not candidates:
         return None
     _, start, end = max(candidates)  # the longest; of equal ones the latest
-    return {"start": start / NS_PER_S, "end": end / NS_PER_S, "seconds": (end - start) / NS_PER_S}
+    return {"start": start / NS_PER_S, "end": end / NS_PER_S, "seconds": _seconds(start, end)}
+
+
+def _seconds(start_ns: int, end_ns: int) -> float:
+    """``end - start`` in seconds, to the digits the two times hold as float seconds.
+
+    The times were float seconds (most logs), good at 1.7e9 s to 238 ns: a 0.51 s hold read
+    0.509999762 in report.json (:func:`~hybridlog.times.round_duration`).
+    """
+    start, end = start_ns / NS_PER_S, end_ns / NS_PER_S
+    return round_duration((end_ns - start_ns) / NS_PER_S, start, end)
 
 
 def _gap_on_the_grid(
@@ -671,7 +682,7 @@ def _record_span_bounds(
                 "signal": by,
                 "at": at / NS_PER_S,
                 "log": log / NS_PER_S,
-                "left_out": abs(at - log) / NS_PER_S,
+                "left_out": _seconds(min(at, log), max(at, log)),
             }
     if span:
         notes["span"] = span
@@ -757,8 +768,7 @@ def _longest_piece(
     best = max(range(len(pieces)), key=lambda i: (pieces[i][1] - pieces[i][0], -i))
     lo, hi = pieces[best]
     notes["segments"] = [
-        {"start": a / NS_PER_S, "end": b / NS_PER_S, "duration": (b - a) / NS_PER_S}
-        for a, b in pieces
+        {"start": a / NS_PER_S, "end": b / NS_PER_S, "duration": _seconds(a, b)} for a, b in pieces
     ]
     notes["analysed_segment"] = best
     notes["gaps"] = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in sorted(set(gaps))]

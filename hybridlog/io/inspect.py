@@ -10,6 +10,7 @@ from typing import Any
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.io.options import ReadOptions
+from hybridlog.times import format_duration
 
 
 def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -> dict[str, Any]:
@@ -99,12 +100,12 @@ def format_inspection(info: dict[str, Any]) -> str:
     if span is not None:
         text = (
             f"time: column {span['column']!r}, {_at(span['start'])} s to {_at(span['end'])} s"
-            f" ({_num(span['duration'])} s)"
+            f" ({_duration(span['duration'])} s)"
         )
         if info.get("sample_time") is None:
             lines.append(text)
         elif info.get("regular", True):
-            lines.append(f"{text}, sample time {_num(info['sample_time'])} s ({_hz(info)})")
+            lines.append(f"{text}, sample time {_duration(info['sample_time'])} s ({_hz(info)})")
         else:
             lines.append(f"{text}, {_hz(info)} on average")
             lines.append(f"timing irregular: {_steps(info)}")
@@ -117,7 +118,8 @@ def format_inspection(info: dict[str, Any]) -> str:
             lines.append(f"time gaps: {_count(count, 'step')} longer than 1.5 x the median step")
             for gap in gaps[:10]:
                 lines.append(
-                    f"  {_at(gap['start'])} s to {_at(gap['end'])} s ({_num(gap['duration'])} s)"
+                    f"  {_at(gap['start'])} s to {_at(gap['end'])} s "
+                    f"({_duration(gap['duration'])} s)"
                 )
             if count > 10:
                 lines.append(f"  ... {count - 10} more")
@@ -172,7 +174,8 @@ def _format_messages(info: dict[str, Any]) -> str:
     span = info.get("time")
     if span is not None:
         lines.append(
-            f"time: {_at(span['start'])} s to {_at(span['end'])} s ({_num(span['duration'])} s)"
+            f"time: {_at(span['start'])} s to {_at(span['end'])} s "
+            f"({_duration(span['duration'])} s)"
         )
     header = ("topic", "type", "count", "nonfinite", "rate_hz", "gaps", "start", "end")
     rows = [
@@ -257,7 +260,7 @@ def _gap_lines(entries: list[dict[str, Any]], title: str) -> list[str]:
         for gap in entry["gaps"][:5]:
             lines.append(
                 f"  {entry['name']}: {_at(gap['start'])} s to {_at(gap['end'])} s "
-                f"({_num(gap['duration'])} s)"
+                f"({_duration(gap['duration'])} s)"
             )
         if entry["gap_count"] > 5:
             lines.append(f"  {entry['name']}: ... {entry['gap_count'] - 5} more")
@@ -283,8 +286,8 @@ def _steps(steps: dict[str, Any]) -> str:
     median = steps["sample_time"]
     rate = f" ({_num(1 / median)} Hz)" if median else ""
     return (
-        f"median step {_num(median)} s{rate}, "
-        f"steps {_num(steps['min_step'])} s to {_num(steps['max_step'])} s"
+        f"median step {_duration(median)} s{rate}, "
+        f"steps {_duration(steps['min_step'])} s to {_duration(steps['max_step'])} s"
     )
 
 
@@ -313,6 +316,16 @@ def _num(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
     return str(value)
+
+
+def _duration(seconds: float | None) -> str:
+    """A step, span or gap length in fixed point (``-`` for ``None``).
+
+    Already rounded to the digits its times hold (:func:`~hybridlog.io.summary.round_span`);
+    ``.6g`` wrote a gap of 123456.25 s as 123456 s, and 1.5e-05 s in exponent form
+    (:func:`~hybridlog.times.format_duration`).
+    """
+    return "-" if seconds is None else format_duration(seconds)
 
 
 def _at_or_dash(seconds: float | None) -> str:

@@ -63,6 +63,7 @@ def plot_clusters(
     decision_values: FloatArray,
     kmeans_centers: FloatArray | None = None,
     truth: Sequence[str | None] | None = None,
+    accuracy: str | None = None,
 ) -> Path:
     """Draw the clusters to ``path`` (PNG, SVG or PDF, from its suffix).
 
@@ -87,6 +88,9 @@ def plot_clusters(
     truth:
         True mode id of each row (``None`` for a row before a true mode that starts late:
         no line there), or ``None``.
+    accuracy:
+        The decision rule's mode accuracy on the log in words (over which samples, for a
+        true mode that starts late), drawn above both panels; ``None``: none.
     """
     fig = Figure(figsize=(12.0, 4.8), layout="constrained")
     FigureCanvasAgg(fig)
@@ -139,5 +143,7 @@ def plot_clusters(
         twin = right.twinx()
         twin.step(time, levels, where="post", color="grey", lw=0.8)
         twin.set_yticks(range(len(ids)), [plain_text(f"true {m}") for m in ids])
+    if accuracy is not None:
+        fig.suptitle(plain_text(accuracy), fontsize=9)
     fig.savefig(path, dpi=100)
     return path

@@ -41,7 +41,7 @@ from hybridlog.signals import (
     IntArray,
     covered_from,
 )
-from hybridlog.times import format_time
+from hybridlog.times import format_duration, format_time
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
@@ -841,14 +841,14 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     notes += [
         f"WARNING: input {symbol} has no sample from t = {format_time(hold['start'])} to "
-        f"{format_time(hold['end'])} s ({hold['seconds']:g} s, longer than max_gap): held at "
+        f"{format_time(hold['end'])} s ({_held_for(hold)} s, longer than max_gap): held at "
         "its last value, as an input published only when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
     notes += [
         f"NOTE: the true {label} has no sample from t = {format_time(hold['start'])} to "
         f"{format_time(hold['end'])} s "
-        f"({hold['seconds']:g} s, longer than max_gap): held at its last value, against which "
+        f"({_held_for(hold)} s, longer than max_gap): held at its last value, against which "
         "the mode metrics score those samples (right for a mode published only when it "
         "changes; if the log stopped recording it, they score a guess)"
         for label, hold in (reading.get("truth_held") or {}).items()
@@ -866,7 +866,8 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"NOTE: the analysed span {side}s at t = {format_time(bound['at'])} s, the "
             f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
             f"outputs {'begin at' if first else 'run on to'} t = {format_time(bound['log'])} s: "
-            f"{bound['left_out']:g} s of the log not analysed"
+            f"{format_duration(bound['left_out'], bound['at'], bound['log'])} s of the log "
+            "not analysed"
         )
     segments = reading.get("segments")
     if segments:
@@ -919,6 +920,11 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"{reading.get('stopped_at')}"
         )
     return tuple(notes)
+
+
+def _held_for(hold: Mapping[str, float]) -> str:
+    """How long a hold of ``reading.held`` or ``truth_held`` lasts, to the digits its times hold."""
+    return format_duration(hold["seconds"], hold["start"], hold["end"])
 
 
 def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:

@@ -9,28 +9,54 @@ log's 100 % beside the others.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
 
-__all__ = ["component_coverage", "mode_coverage"]
+__all__ = ["component_coverage", "mode_coverage", "samples_coverage"]
 
 
-def _starts(report: Report) -> list[str]:
-    """``the true mode.fr2 starts at t = 30000 s`` per true mode that starts late."""
-    reading = report.reading or {}
-    starts = reading.get("truth_starts")
+def _starts(reading: Mapping[str, Any] | None, only: str | None = None) -> list[str]:
+    """``the true mode.fr2 starts at t = 30000 s`` per true mode that starts late.
+
+    ``only``: that true mode's alone (``"mode.fr2"``).
+    """
+    starts = (reading or {}).get("truth_starts")
     if not isinstance(starts, dict):
         return []
     said = []
     for label, late in starts.items():
+        if only not in (None, label):
+            continue
         at = late.get("at") if isinstance(late, dict) else None
         if isinstance(at, int | float) and not isinstance(at, bool):
             said.append(f"the true {label} starts at t = {format_time(at)} s")
     return said
+
+
+def samples_coverage(
+    scored: int | None,
+    samples: int,
+    reading: Mapping[str, Any] | None,
+    *,
+    only: str | None = None,
+) -> str | None:
+    """``1,001 of 1,501 samples (the true mode.fr2 starts at t = 30000 s)``, or ``None``.
+
+    The words of :func:`mode_coverage` for a mode accuracy over ``scored`` of ``samples``
+    samples, where ``reading`` is what reading the log recorded (``truth_starts``); ``only``
+    names the one true mode whose start to give (``"mode.fr2"``; ``None``: every one).
+    ``None`` when ``scored`` is ``None`` or every sample.  ``hybridlog cluster`` says its
+    decision rule's accuracy over part of a log with it.
+    """
+    if scored is None or scored >= samples:
+        return None
+    where = "; ".join(_starts(reading, only))
+    return f"{scored:,} of {samples:,} samples" + (f" ({where})" if where else "")
 
 
 def mode_coverage(report: Report) -> str | None:
@@ -39,18 +65,11 @@ def mode_coverage(report: Report) -> str | None:
     ``None`` when the mode metrics (``mode_accuracy``: for a ``[components]`` model the
     joint one) score every sample, or without a true mode.
     """
-    scored = report.modes.samples
-    if scored is None or scored >= report.samples:
-        return None
-    where = "; ".join(_starts(report))
-    return f"{scored:,} of {report.samples:,} samples" + (f" ({where})" if where else "")
+    return samples_coverage(report.modes.samples, report.samples, report.reading)
 
 
 def component_coverage(report: Report, component: str) -> str | None:
     """As :func:`mode_coverage` for one component's own metrics (``mode_accuracy.<c>``)."""
     modes = report.modes.components.get(component)
     scored = None if modes is None else modes.samples
-    if scored is None or scored >= report.samples:
-        return None
-    late = [s for s in _starts(report) if s.startswith(f"the true mode.{component} ")]
-    return f"{scored:,} of {report.samples:,} samples" + (f" ({late[0]})" if late else "")
+    return samples_coverage(scored, report.samples, report.reading, only=f"mode.{component}")
