@@ -45,12 +45,7 @@ def format_time(seconds: float | None) -> str:
     >>> format_time(0.1999999999999993)
     '0.2'
     """
-    if seconds is None:
-        return "n/a"
-    seconds = float(seconds)
-    if not math.isfinite(seconds):
-        return str(seconds)
-    return _fixed(seconds, _decimals(seconds))
+    return format_duration(seconds)
 
 
 def round_duration(seconds: float, *times: float) -> float:
@@ -76,7 +71,8 @@ def format_duration(seconds: float | None, *times: float) -> str:
     """A duration for people: :func:`round_duration`'s digits in fixed point.
 
     ``:g`` wrote a 123456.75 s hold 123457 and one of 1.5e-05 s in exponent form; ``None``
-    is ``n/a``.
+    is ``n/a``.  Without ``times`` it is :func:`format_time`'s form: the digits ``seconds``
+    itself holds.
 
     Examples
     --------
