@@ -9,7 +9,8 @@ folder), of the model file (or built-in model text), the settings that change re
 (estimator and its options, ``--set`` parameters, read options with the content of every
 ``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
 is skipped (its report reused) only when its folder's report records exactly the provenance
-of the run about to be made; otherwise it is redone.  ``force`` redoes every log.
+of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
+(:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.
 
 **Folder names** (:func:`folder_names`) are the log paths relative to their common folder,
 suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They depend on each log's own path and
@@ -74,6 +75,7 @@ from hybridlog.outputs import (
     check_dir_target,
     check_distinct,
     check_file_target,
+    edited_files,
     is_ours,
     output_path,
     record_path,
@@ -356,6 +358,19 @@ def _wants_plots(job: BatchJob, gates: Sequence[Gate], report: Report) -> bool:
 # --- one log ------------------------------------------------------------------------------------
 
 
+def _intact(folder: Path) -> bool:
+    """Whether ``folder`` still holds every file hybridlog wrote there, each unchanged.
+
+    A report folder missing its timeline, or whose report.json was edited since (a VAF
+    raised by hand), is not a report of this run whatever its provenance says: reused, its
+    numbers would reach the summaries and the gates.
+    """
+    written = recorded_files(folder)
+    if written is None:
+        return False
+    return all((folder / name).is_file() for name in written) and not edited_files(folder)
+
+
 def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutcome | None:
     """The finished outcome of a log whose folder holds a report of this very run, if any."""
     report_file = folder / "report.json"
@@ -376,6 +391,8 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
         )
     if report.extra.get(PROVENANCE_KEY) != job.provenance(log_sha256):
         return None
+    if not _intact(folder):
+        return None  # redone: replaced if only a file is gone, refused if one was edited
     # checked without loading the model, so that resuming a finished batch costs no start-up
     gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []
     if _wants_plots(job, gates, report) and not (folder / "plots").is_dir():
