@@ -713,12 +713,44 @@ def _plan(
             )
         check_file_target(summary, force=True, ours=ours)
     folders = [root / name for name in names]
+    if junit is not None:
+        _check_junit_apart(junit, root, paths, folders)
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
         _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
+
+
+def _check_junit_apart(
+    junit: PathLike, root: Path, logs: Sequence[str], folders: Sequence[Path]
+) -> None:
+    """Refuse a JUnit file that is, lies in or holds a log's report folder.
+
+    The batch folder may hold it beside the summaries, but a log's folder is replaced
+    whole when the log is analysed (a file of the same name as one of its reports is
+    refused only after every log was analysed, the summaries unwritten), and a JUnit file
+    put in one is a stranger there that keeps the log from ever being redone.
+    """
+    target = str(output_path(junit))
+    for log, folder in zip(logs, folders, strict=True):
+        name = str(folder)
+        relation = (
+            "is"
+            if target == name
+            else "lies in"
+            if target.startswith(name + os.sep)
+            else "holds"
+            if name.startswith(target + os.sep)
+            else None
+        )
+        if relation is not None:
+            raise OutputError(
+                f"--junit {excerpt(os.fspath(junit))} {relation} the report folder "
+                f"{excerpt(name)} of the log {excerpt(log)}; name a file outside the logs' "
+                f"folders (e.g. {excerpt(str(root / 'junit.xml'))})"
+            )
 
 
 def _summaries_ours(root: Path) -> Callable[[Path], bool]:
