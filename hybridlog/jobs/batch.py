@@ -808,7 +808,10 @@ def _summarise(
     compared = (
         offline_metrics(model.states, [c.name for c in model.components]) if job.offline else None
     )
-    table, text = batch_markdown(title, rows, [f"{g.option} {g.spec}" for g in gates], compared)
+    gated = [g.metric for g in gates]
+    table, text = batch_markdown(
+        title, rows, [f"{g.option} {g.spec}" for g in gates], compared, gated
+    )
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:
         targets.append(junit)
@@ -821,7 +824,7 @@ def _summarise(
         recorded=lambda path: path == junit_path or path.parent == root,
     ) as staged:
         staged[0].write_text(text, encoding="utf-8")
-        batch_rows_csv(staged[1], rows, compared)
+        batch_rows_csv(staged[1], rows, compared, gated)
         from hybridlog.report.summary_plot import write_summary_plot
 
         write_summary_plot(staged[2], title, rows)
