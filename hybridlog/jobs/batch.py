@@ -704,6 +704,8 @@ def _plan(
         mode_sequence=mode_sequence,
         offline=prepared.offline,
     )
+    # the folder itself first (not a file, not a link): its summaries are checked as in it
+    check_dir_target(root, force=True, replacing=False)
     ours = _summaries_ours(root)
     for summary in summaries:  # refused now, not once every log has been analysed
         if summary.is_file() and not summary.is_symlink() and not ours(summary):
