@@ -64,3 +64,12 @@ def test_an_edited_report_is_never_reused_for_the_summary_or_the_gates(tmp_path:
     assert rows["s2.csv"]["status"] == "failed"
     assert rows["s2.csv"]["vaf"] == ""
     assert json.loads(report.read_text(encoding="utf-8"))["vaf"] == 99.5  # the user's, kept
+
+
+def test_a_folder_whose_marker_is_gone_is_still_reused(tmp_path: Path) -> None:
+    """Hidden files left out (a CI artifact): nothing to check against, reused as before."""
+    logs = _logs(tmp_path / "logs")
+    out = tmp_path / "out"
+    assert set(_statuses(logs, out).values()) == {"done"}
+    (out / "s1.csv" / ".hybridlog").unlink()
+    assert _statuses(logs, out)["s1.csv"] == "skipped"
