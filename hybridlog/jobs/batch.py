@@ -209,8 +209,16 @@ def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) ->
 
 
 def _one_line(text: str) -> str:
+    """A log's error on one line of at most :data:`_ERROR_LIMIT` characters.
+
+    A longer one is cut in the middle, not at the end: an error starts with the log's path
+    (or the report folder's, as long) and ends with what is wrong, which must stay.
+    """
     line = " ".join(text.split())
-    return line if len(line) <= _ERROR_LIMIT else line[: _ERROR_LIMIT - 1] + "…"
+    if len(line) <= _ERROR_LIMIT:
+        return line
+    tail = (_ERROR_LIMIT - 1) // 3
+    return line[: _ERROR_LIMIT - 1 - tail] + "…" + line[len(line) - tail :]
 
 
 # --- what is shared by the logs -----------------------------------------------------------------
