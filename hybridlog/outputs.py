@@ -51,6 +51,7 @@ __all__ = [
     "check_dir_target",
     "check_distinct",
     "check_file_target",
+    "edited_files",
     "is_ours",
     "output_path",
     "publish_dir",
@@ -259,7 +260,7 @@ def _record_files(folder: Path) -> None:
     marker.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
 
 
-def _edited_files(folder: Path) -> list[str]:
+def edited_files(folder: Path) -> list[str]:
     """The files ``folder``'s :data:`MARKER` lists that changed since hybridlog wrote them.
 
     Compared as :func:`wrote_file` compares a single file (inode, size, modification time):
@@ -556,7 +557,7 @@ def check_dir_target(
         )
     if replacing:
         _check_only_ours(path, written(path))
-        if edited := _edited_files(path):
+        if edited := edited_files(path):
             more = f" and {len(edited) - 3} more" if len(edited) > 3 else ""
             raise OutputError(
                 f"output directory {_shown(path)} holds files changed since hybridlog wrote "

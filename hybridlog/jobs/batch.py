@@ -9,7 +9,8 @@ folder), of the model file (or built-in model text), the settings that change re
 (estimator and its options, ``--set`` parameters, read options with the content of every
 ``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
 is skipped (its report reused) only when its folder's report records exactly the provenance
-of the run about to be made; otherwise it is redone.  ``force`` redoes every log.
+of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
+(:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.
 
 **Folder names** (:func:`folder_names`) are the log paths relative to their common folder,
 suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They depend on each log's own path and
@@ -74,6 +75,7 @@ from hybridlog.outputs import (
     check_dir_target,
     check_distinct,
     check_file_target,
+    edited_files,
     is_ours,
     output_path,
     record_path,
@@ -207,8 +209,16 @@ def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) ->
 
 
 def _one_line(text: str) -> str:
+    """A log's error on one line of at most :data:`_ERROR_LIMIT` characters.
+
+    A longer one is cut in the middle, not at the end: an error starts with the log's path
+    (or the report folder's, as long) and ends with what is wrong, which must stay.
+    """
     line = " ".join(text.split())
-    return line if len(line) <= _ERROR_LIMIT else line[: _ERROR_LIMIT - 1] + "…"
+    if len(line) <= _ERROR_LIMIT:
+        return line
+    tail = (_ERROR_LIMIT - 1) // 3
+    return line[: _ERROR_LIMIT - 1 - tail] + "…" + line[len(line) - tail :]
 
 
 # --- what is shared by the logs -----------------------------------------------------------------
@@ -356,6 +366,20 @@ def _wants_plots(job: BatchJob, gates: Sequence[Gate], report: Report) -> bool:
 # --- one log ------------------------------------------------------------------------------------
 
 
+def _intact(folder: Path) -> bool:
+    """Whether ``folder`` still holds every file hybridlog wrote there, each unchanged.
+
+    A report folder missing its timeline, or whose report.json was edited since (a VAF
+    raised by hand), is not a report of this run whatever its provenance says: reused, its
+    numbers would reach the summaries and the gates.  A folder whose marker lists no files
+    (hidden files left out of a CI artifact) cannot be checked, and is taken as before.
+    """
+    written = recorded_files(folder)
+    if written is None:
+        return True
+    return all((folder / name).is_file() for name in written) and not edited_files(folder)
+
+
 def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutcome | None:
     """The finished outcome of a log whose folder holds a report of this very run, if any."""
     report_file = folder / "report.json"
@@ -376,6 +400,8 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
         )
     if report.extra.get(PROVENANCE_KEY) != job.provenance(log_sha256):
         return None
+    if not _intact(folder):
+        return None  # redone: replaced if only a file is gone, refused if one was edited
     # checked without loading the model, so that resuming a finished batch costs no start-up
     gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []
     if _wants_plots(job, gates, report) and not (folder / "plots").is_dir():
@@ -687,6 +713,8 @@ def _plan(
         mode_sequence=mode_sequence,
         offline=prepared.offline,
     )
+    # the folder itself first (not a file, not a link): its summaries are checked as in it
+    check_dir_target(root, force=True, replacing=False)
     ours = _summaries_ours(root)
     for summary in summaries:  # refused now, not once every log has been analysed
         if summary.is_file() and not summary.is_symlink() and not ours(summary):
@@ -696,12 +724,44 @@ def _plan(
             )
         check_file_target(summary, force=True, ours=ours)
     folders = [root / name for name in names]
+    if junit is not None:
+        _check_junit_apart(junit, root, paths, folders)
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
         _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
+
+
+def _check_junit_apart(
+    junit: PathLike, root: Path, logs: Sequence[str], folders: Sequence[Path]
+) -> None:
+    """Refuse a JUnit file that is, lies in or holds a log's report folder.
+
+    The batch folder may hold it beside the summaries, but a log's folder is replaced
+    whole when the log is analysed (a file of the same name as one of its reports is
+    refused only after every log was analysed, the summaries unwritten), and a JUnit file
+    put in one is a stranger there that keeps the log from ever being redone.
+    """
+    target = str(output_path(junit))
+    for log, folder in zip(logs, folders, strict=True):
+        name = str(folder)
+        relation = (
+            "is"
+            if target == name
+            else "lies in"
+            if target.startswith(name + os.sep)
+            else "holds"
+            if name.startswith(target + os.sep)
+            else None
+        )
+        if relation is not None:
+            raise OutputError(
+                f"--junit {excerpt(os.fspath(junit))} {relation} the report folder "
+                f"{excerpt(name)} of the log {excerpt(log)}; name a file outside the logs' "
+                f"folders (e.g. {excerpt(str(root / 'junit.xml'))})"
+            )
 
 
 def _summaries_ours(root: Path) -> Callable[[Path], bool]:
@@ -759,7 +819,10 @@ def _summarise(
     compared = (
         offline_metrics(model.states, [c.name for c in model.components]) if job.offline else None
     )
-    table, text = batch_markdown(title, rows, [f"{g.option} {g.spec}" for g in gates], compared)
+    gated = [g.metric for g in gates]
+    table, text = batch_markdown(
+        title, rows, [f"{g.option} {g.spec}" for g in gates], compared, gated
+    )
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:
         targets.append(junit)
@@ -772,7 +835,7 @@ def _summarise(
         recorded=lambda path: path == junit_path or path.parent == root,
     ) as staged:
         staged[0].write_text(text, encoding="utf-8")
-        batch_rows_csv(staged[1], rows, compared)
+        batch_rows_csv(staged[1], rows, compared, gated)
         from hybridlog.report.summary_plot import write_summary_plot
 
         write_summary_plot(staged[2], title, rows)

@@ -288,9 +288,10 @@ def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -
             if (low.kind, high.kind, low.metric) == ("under", "over", high.metric) and (
                 low.bound > high.bound
             ):
+                least, most = _fmt_apart(low.bound, high.bound)
                 raise OptionError(
                     f"{low.option} {low.spec!r} and {high.option} {high.spec!r}: {low.metric} "
-                    f"cannot be at least {_fmt(low.bound)} and at most {_fmt(high.bound)}, "
+                    f"cannot be at least {least} and at most {most}, "
                     "so these gates could never both pass"
                 )
     return gates
@@ -407,6 +408,19 @@ def metric_value(report: Report, name: str) -> float | None:
 
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
+
+
+def _fmt_apart(x: float, y: float) -> tuple[str, str]:
+    """``x`` and ``y`` as :func:`_fmt` writes them, with more digits while they print alike.
+
+    A value just under its bound must not read ``vaf = 21.7984 is under the bound 21.7984``:
+    two different numbers get the digits that tell them apart (up to the 17 of a float).
+    """
+    for digits in range(6, 18):
+        shown = f"{x:.{digits}g}", f"{y:.{digits}g}"
+        if x == y or shown[0] != shown[1]:
+            return shown
+    return f"{x!r}", f"{y!r}"
 
 
 #: Metrics an offline pass changes: read from the report's own (offline) modes and states.
@@ -541,8 +555,9 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
         elif (gate.kind == "under" and value < gate.bound) or (
             gate.kind == "over" and value > gate.bound
         ):
+            shown, bound = _fmt_apart(value, gate.bound)
             failures.append(
-                f"{gate.metric} = {_fmt(value)}{_which_side(report, gate.metric)}"
-                f"{_over_part(report, gate.metric)} is {gate.kind} the bound {_fmt(gate.bound)}"
+                f"{gate.metric} = {shown}{_which_side(report, gate.metric)}"
+                f"{_over_part(report, gate.metric)} is {gate.kind} the bound {bound}"
             )
     return failures

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.report.coverage import mode_coverage
+from hybridlog.report.gates import metric as report_metric
 from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
 
 if TYPE_CHECKING:
@@ -41,6 +42,7 @@ __all__ = [
     "common_notes",
     "comparison_markdown",
     "gate_cell",
+    "gated_columns",
     "markdown_table",
     "offline_columns",
     "offline_gains",
@@ -226,6 +228,14 @@ class BatchRow:
             return [None, None, None, None]
         return [r.samples, r.vaf, r.mse, r.modes.accuracy]
 
+    def values(self, metrics: Sequence[str]) -> list[object]:
+        """The report's value of each of ``metrics`` (gate names: ``fit``, ``state_rmse.x1``).
+
+        ``None`` where the report holds ``null``, and for a failed log.
+        """
+        r = self.report
+        return [None if r is None else report_metric(r, name) for name in metrics]
+
     def offline_pairs(self, metrics: Sequence[str]) -> list[tuple[str, float | None, float | None]]:
         """``(metric, offline, filter's own)`` for each of ``metrics`` (:func:`offline_metrics`).
 
@@ -256,6 +266,16 @@ class BatchRow:
 
 BATCH_METRICS = ("samples", "vaf", "mse", "mode_accuracy")
 """The metrics of each log in the batch summaries (report keys)."""
+
+
+def gated_columns(gated: Sequence[str], shown: Sequence[str]) -> tuple[str, ...]:
+    """The gated metrics a batch summary adds as columns: those it does not show already.
+
+    Once each, in the gates' order: a batch gated on ``fit`` or ``state_rmse.x1`` shows each
+    log's value, not only, for a log that missed the gate, the message that says so.
+    """
+    return tuple(dict.fromkeys(name for name in gated if name not in shown))
+
 
 MAX_NAMED = 20
 """summary.md names at most this many logs per metric where the offline estimate is worse
@@ -511,6 +531,7 @@ def batch_markdown(
     rows: Sequence[BatchRow],
     gates: Sequence[str],
     offline: Sequence[str] | None = None,
+    gated: Sequence[str] = (),
 ) -> tuple[str, str]:
     """``summary.md`` of a batch: failures first, then natural order; and its table alone.
 
@@ -520,7 +541,8 @@ def batch_markdown(
     ``offline``: the metrics compared when the run has an offline pass
     (:func:`offline_metrics`; ``None`` otherwise): the table then has the filter's own mode
     accuracy beside the offline one, and a section compares the two sides over the batch
-    (:func:`_offline_section`).
+    (:func:`_offline_section`).  ``gated``: the metrics of the gates, those not shown already
+    each a column (:func:`gated_columns`).
     """
     failed = [row for row in rows if row.status == "failed"]
     missed = [row for row in rows if row.status != "failed" and row.missed]
@@ -537,7 +559,8 @@ def batch_markdown(
     )
     verdict = "all passed" if len(passed) == len(rows) else f"{len(rows) - len(passed)} not passed"
     filtered = ("filtered_mode_accuracy",) if offline is not None else ()
-    header = ("log", "status", "gates", *BATCH_METRICS, *filtered, "report")
+    extra = gated_columns(gated, (*BATCH_METRICS, *filtered))
+    header = ("log", "status", "gates", *BATCH_METRICS, *filtered, *extra, "report")
     table = markdown_table(
         header,
         [
@@ -547,6 +570,7 @@ def batch_markdown(
                 _gate_cell(row),
                 *row.metrics(),
                 *(row.offline_pairs(["mode_accuracy"])[0][2] for _ in filtered),
+                *row.values(extra),
                 "n/a" if row.report is None else f"{row.folder}/report.md",
             ]
             for row in [*failed, *missed, *passed]
@@ -579,7 +603,10 @@ def batch_markdown(
 
 
 def batch_rows_csv(
-    path: Path, rows: Sequence[BatchRow], offline: Sequence[str] | None = None
+    path: Path,
+    rows: Sequence[BatchRow],
+    offline: Sequence[str] | None = None,
+    gated: Sequence[str] = (),
 ) -> None:
     """``summary.csv`` of a batch: one row per log in natural order, raw values.
 
@@ -588,15 +615,19 @@ def batch_rows_csv(
     fewer than ``samples`` where the true mode starts late; empty without a true mode).
     ``offline``: the metrics compared when the run has an offline pass
     (:func:`offline_metrics`), which adds :func:`offline_columns` after ``mode_accuracy``
-    (empty cells for a failed log); ``None`` otherwise (no column added).
+    (empty cells for a failed log); ``None`` otherwise (no column added).  ``gated``: the
+    metrics of the gates; those without a column yet get one before ``gate_failures``
+    (:func:`gated_columns`), the report's raw value.
     """
     columns = () if offline is None else offline_columns(offline)
+    extra = gated_columns(gated, (*BATCH_METRICS, *columns))
     header = (
         "log",
         "status",
         *BATCH_METRICS,
         "mode_samples",
         *columns,
+        *extra,
         "gate_failures",
         "error",
         "folder",
@@ -611,6 +642,7 @@ def batch_rows_csv(
                 *row.metrics(),
                 None if row.report is None else row.report.modes.samples,
                 *(() if offline is None else row.offline_cells(offline)),
+                *row.values(extra),
                 "; ".join(row.missed) or None,
                 row.error,
                 row.folder if row.report is not None else None,  # a failed log has none
