@@ -3,8 +3,9 @@
 ``kbest`` without ``smooth`` has no smoother, yet brings its own states (the EKF along its
 path); report.md said "smoother: none (the filter's estimates)" under a States table of
 those other estimates, whose ``_hat`` columns in estimates.csv differ from the
-``_hat_filtered`` ones.  Here each offline pass is run and what report.md says is checked
-against the table.
+``_hat_filtered`` ones; nor did its description, or the Viterbi path's, say that the
+timeline's mode probabilities stay the filter's.  Here each offline pass is run and what
+report.md says is checked against the tables.
 """
 
 from __future__ import annotations
@@ -48,3 +49,14 @@ def test_report_md_says_the_states_are_the_filters_only_when_they_are(
     assert says_filters == same, smoother
     assert (FILTERS_OWN in states_section) == same, states_section
     assert same == (flags == ["--mode-sequence", "viterbi"])
+    # the description says whose mode probabilities the timeline's p_<mode> columns hold
+    timeline = pl.read_csv(out / "timeline.csv")
+    probabilities = [
+        c for c in timeline.columns if c.startswith("p_") and f"{c}_filtered" in timeline.columns
+    ]
+    assert probabilities
+    kept = all(timeline[p].equals(timeline[f"{p}_filtered"]) for p in probabilities)
+    description = text.split(smoother + "\n- ", 1)[1].splitlines()[0]
+    says_kept = "mode probabilities: the filter's" in description
+    assert says_kept == kept, description
+    assert kept == ("--smooth" not in flags)
