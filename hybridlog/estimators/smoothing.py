@@ -141,6 +141,10 @@ KBEST_DESCRIPTION = (
     "modes: the most likely of the {beam} best mode histories, each with its own EKF, never "
     "mixed (k-best trajectory tracking, paper 002 eqs. (4)-(5)); states: {states}"
 )
+FILTERS_OWN = "states and mode probabilities: the filter's"
+"""What a Viterbi path without ``smooth`` leaves as it was: its description says so, as
+``kbest``'s without ``smooth`` says its mode probabilities are the filter's (the timeline's
+``p_<mode>`` columns equal the ``_filtered`` ones, while its ``mode`` column is the path)."""
 PATH_RTS = "kim-rts+path-rts"
 """``PostProcessing.smoothing`` with ``kbest``: Kim's mode probabilities, the states smoothed
 along the path."""
@@ -554,7 +558,9 @@ def post_process(
         compile_s += time.perf_counter() - compile_start
         path = decode(*inputs_v)
         result = replace(result, modes=path)
-        descriptions.append(VITERBI_DESCRIPTION)
+        descriptions.append(
+            VITERBI_DESCRIPTION if smooth else f"{VITERBI_DESCRIPTION}; {FILTERS_OWN}"
+        )
     elif mode_sequence == "kbest":
         result, spent = _kbest(model, signals, result, transitions, beam, smooth, jit, kernel)
         compile_s += spent
@@ -564,7 +570,7 @@ def post_process(
                 states="the extended RTS smoother along that path; mode probabilities: Kim's "
                 "smoother"
                 if smooth
-                else "the EKF along that path",
+                else "the EKF along that path; mode probabilities: the filter's",
             )
         ]
     elapsed = time.perf_counter() - start - compile_s

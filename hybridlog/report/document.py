@@ -385,7 +385,8 @@ class Smoothing:
         The fixed-interval smoother (e.g. ``kim-rts``), or ``None`` when only the mode
         sequence was chosen differently.
     mode_sequence:
-        ``argmax`` (of the mode probabilities) or ``viterbi`` (the most likely sequence).
+        ``argmax`` (of the mode probabilities), ``viterbi`` (the most likely sequence) or
+        ``kbest`` (the best of the k best mode histories, each with its own filters).
     description:
         One line: the algorithm, its paper and equations.
     filtered:
@@ -401,6 +402,17 @@ class Smoothing:
     description: str
     filtered: SmoothingMetrics
     smoothed: SmoothingMetrics
+
+    @property
+    def keeps_filter_states(self) -> bool:
+        """Whether the report's states are the causal filter's own.
+
+        Only without a smoother and with the Viterbi path, which changes the modes alone:
+        ``kbest`` brings the states of its own filters along the path it chose (the path's
+        EKF for ``imm``, the trajectory's cluster filters for ``unknown-mode``), with or
+        without a smoother.
+        """
+        return self.method is None and self.mode_sequence == "viterbi"
 
     def to_dict(self) -> JsonObject:
         """The JSON object ``smoothing`` of ``report.json``."""

@@ -301,7 +301,7 @@ def _offline_caveat(report: Report, section: str) -> list[str]:
             "offline pass: it is the basis of MSE, VAF and fit (see Smoothing).",
             "",
         ]
-    if section == "states" and smoothing.method is None and smoothing.mode_sequence == "viterbi":
+    if section == "states" and smoothing.keeps_filter_states:
         return ["The causal filter's own: the Viterbi path changes only the modes.", ""]
     how = ", ".join(f"`{n}`" for n in (smoothing.method, smoothing.mode_sequence) if n)
     return [
@@ -313,7 +313,12 @@ def _offline_caveat(report: Report, section: str) -> list[str]:
 
 def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     """The "Smoothing" section: what ran after the filter and the metrics before and after."""
-    method = f"`{smoothing.method}`" if smoothing.method else "none (the filter's estimates)"
+    if smoothing.method:
+        method = f"`{smoothing.method}`"
+    elif smoothing.keeps_filter_states:
+        method = "none (the filter's estimates)"
+    else:  # kbest: the states of the filters along its path, run forward only
+        method = "none (the states: the path's own filters, forward only)"
     f, s = smoothing.filtered, smoothing.smoothed
     explained = f.outputs is not None and s.outputs is not None
     lines = [

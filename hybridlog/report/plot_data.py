@@ -445,7 +445,8 @@ class StateCurves(NamedTuple):
     """One panel of ``states.png``: the estimate, its ±2σ band, the truth and the filter's.
 
     ``band`` is ``None`` where no variance is defined, ``truth`` where the log has no finite
-    true value of the state, ``filtered`` for a result without ``post_processing``.
+    true value of the state, ``filtered`` for a result without ``post_processing`` or whose
+    pass left the filter's estimate of the state as it was (the Viterbi path alone).
     """
 
     name: str
@@ -469,7 +470,9 @@ class ModeTimelines(NamedTuple):
         The bars of the estimated mode, of the true one (``None`` when unknown), and of the
         causal filter's own (``None`` without ``post_processing``).
     probabilities, filtered_probabilities:
-        One curve per mode; the filter's are ``None`` without ``post_processing``.
+        One curve per mode; the filter's are ``None`` without ``post_processing`` or where
+        the pass left the filter's probabilities as they were (``viterbi``, ``kbest``
+        without ``smooth``).
     """
 
     mode_ids: tuple[str, ...]
@@ -556,20 +559,41 @@ def _mode_label(result: EstimationResult) -> str:
 
 
 class _FilteredReducers:
-    """The reductions of a smoothed result's causal filter (``post_processing.filtered``)."""
+    """The reductions of a smoothed result's causal filter (``post_processing.filtered``).
+
+    A pass may leave some of the filter's estimates as they were: the Viterbi path changes
+    only the modes, ``kbest`` without ``smooth`` keeps the filter's mode probabilities.  Such
+    a curve would be drawn twice, once labelled as the filter's, as if the pass had changed
+    it; ``states_differ`` and ``probabilities_differ`` record whether any row of the filter's
+    differs from the estimate's, and only those curves are overlaid (:meth:`PlotReducer.finish`).
+    """
 
     def __init__(self, bins: PixelBins, n_modes: int, n_states: int, timelines: bool) -> None:
         self.modes = BarsReducer(bins, n_modes)  # or, of a [components] result, the joint ones
         self.probabilities = [CurveReducer(bins) for _ in range(n_modes if timelines else 0)]
         self.means = [CurveReducer(bins) for _ in range(n_states)]
+        self.states_differ = [False] * n_states
+        self.probabilities_differ = False
 
-    def add(self, filtered: EstimationResult, start: int) -> None:
-        """Take the filter's rows ``start .. start + filtered.n_samples - 1``."""
+    def add(self, filtered: EstimationResult, estimate: EstimationResult, start: int) -> None:
+        """Take the filter's rows ``start .. start + filtered.n_samples - 1``.
+
+        ``estimate``: the offline estimate's same rows, against which each curve of the
+        filter's is compared.
+        """
         self.modes.add(filtered.modes, start)
         for j, curve in enumerate(self.probabilities):
             curve.add(filtered.mode_probabilities[:, j], start)
+        if self.probabilities and not self.probabilities_differ:
+            self.probabilities_differ = not np.array_equal(
+                filtered.mode_probabilities, estimate.mode_probabilities, equal_nan=True
+            )
         for i, curve in enumerate(self.means):
             curve.add(filtered.state_means[:, i], start)
+            if not self.states_differ[i]:
+                self.states_differ[i] = not np.array_equal(
+                    filtered.state_means[:, i], estimate.state_means[:, i], equal_nan=True
+                )
 
 
 class _ComponentReducers:
@@ -731,7 +755,7 @@ class PlotReducer:
                     codes = np.asarray(filtered[component.column].values, dtype=np.int64)
                     component.filtered.add(component.filtered_rows[codes], start)
         if post is not None and self._filtered is not None:
-            self._filtered.add(post.filtered, start)
+            self._filtered.add(post.filtered, chunk, start)
         self._add_signals(start, stop)
         self._next = stop
 
@@ -782,7 +806,9 @@ class PlotReducer:
                 band.finish(),
                 self._truth[i].finish() if self._truth and self._truth_seen[i] else None,
                 curve.finish(),
-                None if filtered is None else filtered.means[i].finish(),
+                filtered.means[i].finish()
+                if filtered is not None and filtered.states_differ[i]
+                else None,
             )
             for i, (name, curve, band) in enumerate(
                 zip(self._state_names, self._means, self._bands, strict=False)
@@ -828,9 +854,9 @@ class PlotReducer:
             truth=None if truth is None else truth.finish(),
             filtered=None if filtered is None else filtered.modes.finish(),
             probabilities=tuple(curve.finish() for curve in self._probabilities),
-            filtered_probabilities=None
-            if filtered is None
-            else tuple(curve.finish() for curve in filtered.probabilities),
+            filtered_probabilities=tuple(curve.finish() for curve in filtered.probabilities)
+            if filtered is not None and filtered.probabilities_differ
+            else None,
         )
 
 

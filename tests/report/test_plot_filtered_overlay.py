@@ -1,0 +1,115 @@
+"""The plots overlay the filter's curve only where the offline pass changed it.
+
+The Viterbi path alone changes only the modes (report.md: "the causal filter's own: the
+Viterbi path changes only the modes"), and ``kbest`` without ``smooth`` keeps the filter's
+mode probabilities; states.png and modes.png drew those curves a second time, labelled
+``filtered``, as if the pass had made other estimates.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from itertools import pairwise
+
+import numpy as np
+
+from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.report.plot_data import ModeTimelines, PlotReducer, reduce_result
+from hybridlog.signals import AlignedSignals
+
+N = 500
+
+
+def _result(rng: np.random.Generator) -> EstimationResult:
+    probabilities = rng.random((N, 2))
+    probabilities /= probabilities.sum(axis=1, keepdims=True)
+    return EstimationResult(
+        estimator="test",
+        options={},
+        time=np.arange(N, dtype=np.float64),
+        mode_ids=("a", "b"),
+        state_names=("x1", "x2"),
+        output_names=("y",),
+        modes=rng.integers(0, 2, N).astype(np.int64),
+        mode_probabilities=probabilities,
+        state_means=np.cumsum(rng.standard_normal((N, 2)), axis=0),
+        state_variances=np.ones((N, 2)),
+        output_predictions=np.cumsum(rng.standard_normal((N, 1)), axis=0),
+    )
+
+
+def _signals() -> AlignedSignals:
+    return AlignedSignals(
+        source="test",
+        time=np.arange(N, dtype=np.float64),
+        input_names=(),
+        output_names=("y",),
+        inputs=np.zeros((N, 0)),
+        outputs=np.zeros((N, 1)),
+        truth_modes=np.zeros(N, dtype=np.int64),
+        state_names=("x1", "x2"),
+        truth_states=np.zeros((N, 2)),
+    )
+
+
+def _offline(filtered: EstimationResult, **changed: np.ndarray) -> EstimationResult:
+    """``filtered`` with ``changed`` arrays, and ``filtered`` as its post-processing's."""
+    post = PostProcessing(None, "viterbi", "test", filtered)
+    return dataclasses.replace(filtered, post_processing=post, **changed)
+
+
+def _chunked(result: EstimationResult, cuts: list[int]) -> ModeTimelines:
+    reducer = PlotReducer(_signals(), result.mode_ids, result.state_names, result.output_names)
+    post = result.post_processing
+    assert post is not None
+    for start, stop in pairwise(cuts):
+        rows = slice(start, stop)
+        part = dataclasses.replace(
+            result,
+            time=result.time[rows],
+            modes=result.modes[rows],
+            mode_probabilities=result.mode_probabilities[rows],
+            state_means=result.state_means[rows],
+            state_variances=result.state_variances[rows],
+            output_predictions=result.output_predictions[rows],
+            post_processing=dataclasses.replace(
+                post,
+                filtered=dataclasses.replace(
+                    post.filtered,
+                    time=post.filtered.time[rows],
+                    modes=post.filtered.modes[rows],
+                    mode_probabilities=post.filtered.mode_probabilities[rows],
+                    state_means=post.filtered.state_means[rows],
+                    state_variances=post.filtered.state_variances[rows],
+                    output_predictions=post.filtered.output_predictions[rows],
+                ),
+            ),
+        )
+        reducer.add(part, start)
+    data = reducer.finish()
+    assert isinstance(data.modes, ModeTimelines)
+    assert [s.filtered is not None for s in data.states] == [False, True]
+    return data.modes
+
+
+def test_a_pass_that_changes_only_the_modes_overlays_only_the_filters_modes() -> None:
+    rng = np.random.default_rng(1)
+    filtered = _result(rng)
+    viterbi = _offline(filtered, modes=1 - filtered.modes)
+    data = reduce_result(viterbi, _signals())
+    assert isinstance(data.modes, ModeTimelines)
+    assert data.modes.filtered is not None  # the modes differ: both drawn
+    assert data.modes.filtered_probabilities is None
+    assert all(state.filtered is None for state in data.states)
+
+
+def test_a_curve_the_pass_changed_in_one_late_row_is_overlaid() -> None:
+    rng = np.random.default_rng(2)
+    filtered = _result(rng)
+    means = filtered.state_means.copy()
+    means[N - 3, 1] += 1e-9  # x2 differs in one row of the last chunk only
+    modes = _chunked(_offline(filtered, state_means=means), [0, 200, 400, N])
+    assert modes.filtered_probabilities is None
+    probabilities = filtered.mode_probabilities[:, ::-1].copy()
+    changed = _offline(filtered, state_means=means, mode_probabilities=probabilities)
+    assert _chunked(changed, [0, 1, N]).filtered_probabilities is not None
