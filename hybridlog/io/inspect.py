@@ -10,7 +10,7 @@ from typing import Any
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.io.options import ReadOptions
-from hybridlog.times import format_duration
+from hybridlog.times import format_duration, format_time
 
 
 def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -> dict[str, Any]:
@@ -334,5 +334,10 @@ def _at_or_dash(seconds: float | None) -> str:
 
 
 def _at(seconds: float) -> str:
-    """A time stamp to the microsecond, readable also at Unix-epoch magnitudes."""
-    return f"{seconds:.6f}".rstrip("0").rstrip(".")
+    """A time stamp in fixed point, to the digits its float holds (at most the nanosecond).
+
+    Written to the microsecond, a bag's times logged 500 ns or 4 ns apart read as one
+    (``time: 1 s to 1 s (0.000000004 s)``) beside a span that says otherwise
+    (:func:`~hybridlog.times.format_time`: the microsecond near the Unix epoch's 1.7e9 s).
+    """
+    return format_time(seconds)

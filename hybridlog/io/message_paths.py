@@ -4,7 +4,9 @@ A path is ``/topic.field.sub[index]`` (Foxglove style); ``[-1]`` counts from the
 array.  The PlotJuggler/rqt spelling ``/topic/field/sub[0]`` is accepted too: the topic is
 the *longest* topic of the log that the path starts with (followed by ``.``, ``/``, ``[`` or
 the end), so ``/truth/x1/data`` on a log with topics ``/truth/x1`` and ``/truth`` means field
-``data`` of ``/truth/x1``.
+``data`` of ``/truth/x1``.  A topic in double quotes (``"/a.b".v``) is that topic exactly;
+:func:`split_paths` gives every reading of a path on nested topics, of which
+:meth:`~hybridlog.io.messages.MessageSource.resolve` keeps the one that names a field.
 
 The same path works on every kind of message hybridlog reads:
 
@@ -116,23 +118,61 @@ def format_steps(steps: Sequence[Step]) -> str:
 def split_path(text: str, topics: Sequence[str]) -> MessagePath:
     """Split ``text`` into the longest matching topic and the steps after it.
 
+    A topic written in double quotes (``"/a.b".v``) is that topic exactly.
+
     Raises
     ------
     PathError
         When no topic of the log starts the path (listing the closest), or the rest is not
         a sequence of ``.field``, ``/field`` and ``[index]``.
     """
+    return split_paths(text, topics)[0]
+
+
+def split_paths(text: str, topics: Sequence[str]) -> list[MessagePath]:
+    """Every way ``text`` splits into a topic of ``topics`` and steps, longest topic first.
+
+    A path names one topic unless topics nest (``/truth`` and ``/truth/x1``, or ``/a`` and
+    ``/a.b`` in an MCAP file): the caller checks which readings name a field.  A quoted topic
+    (``"/a.b".v``) gives one reading.  A shorter topic whose rest is not a sequence of steps
+    gives no reading.
+
+    Raises
+    ------
+    PathError
+        As :func:`split_path`, for the longest topic.
+    """
     text = text.strip()
-    best = ""
-    for topic in topics:
-        if len(topic) > len(best) and text.startswith(topic):
-            rest = text[len(topic) :]
-            if not rest or rest[0] in "./[" or topic.endswith("/"):
-                best = topic
-    if not best:
+    quoted = [t for t in topics if text.startswith(f'"{t}"')]
+    candidates = sorted(
+        quoted or (t for t in topics if _starts(text, t)),
+        key=len,
+        reverse=True,
+    )
+    if not candidates:
         guess = text.split(".", 1)[0].split("[", 1)[0]
         raise PathError(f"no topic for {text!r}; {closest_names([guess], list(topics))}")
-    rest = text[len(best) :]
+    readings: list[MessagePath] = []
+    for topic in candidates:
+        rest = text[len(topic) + 2 :] if quoted else text[len(topic) :]
+        try:
+            readings.append(MessagePath(text, topic, _steps(text, rest)))
+        except PathError:
+            if not readings:
+                raise
+    return readings
+
+
+def _starts(text: str, topic: str) -> bool:
+    """Whether ``text`` is ``topic`` or the topic followed by a step."""
+    if not topic or not text.startswith(topic):
+        return False
+    rest = text[len(topic) :]
+    return not rest or rest[0] in "./[" or topic.endswith("/")
+
+
+def _steps(text: str, rest: str) -> tuple[Step, ...]:
+    """The steps of ``rest`` (``.a/b[0]``), the part of path ``text`` after its topic."""
     steps: list[Step] = []
     position = 0
     while position < len(rest):
@@ -145,7 +185,7 @@ def split_path(text: str, topics: Sequence[str]) -> MessagePath:
         field, index = match.groups()
         steps.append(int(index) if index is not None else field.strip())
         position = match.end()
-    return MessagePath(text, best, tuple(steps))
+    return tuple(steps)
 
 
 # ---------------------------------------------------------------------------- static check

@@ -33,6 +33,7 @@ from __future__ import annotations
 import abc
 import json
 import math
+from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,7 +65,7 @@ from hybridlog.io.message_paths import (
     format_steps,
     leaf_value,
     leaves,
-    split_path,
+    split_paths,
     stamp_ns,
 )
 from hybridlog.io.options import ReadOptions
@@ -267,9 +268,11 @@ class MessageSource(abc.ABC):
 
     def fields(self) -> tuple[str, ...]:
         """Numeric and text leaves of every topic's messages, as message paths."""
+        leaves = {name: _topic_fields(self._topics[name]) for name in sorted(self._topics)}
+        shared = _shared_paths(leaves)
         out: list[str] = []
-        for name in sorted(self._topics):
-            out.extend([name + leaf for leaf in _topic_fields(self._topics[name])] or [name])
+        for name, found in leaves.items():
+            out.extend([_spell(name, leaf, shared) for leaf in found] or [name])
         return tuple(out)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
@@ -291,6 +294,12 @@ class MessageSource(abc.ABC):
     def resolve(self, text: str, want: str) -> MessagePath:
         """Parse a path and check it against the topic's definition.
 
+        Where topics nest (``/robot`` and ``/robot/pose``; ``/a`` and ``/a.b`` in an MCAP
+        file), the path is read on the longest topic it starts with, or on the one topic
+        whose definition has the field, the Foxglove form (``/robot/pose.pose``) before the
+        ``/field`` alias (``/robot`` + ``/pose.pose``); a path that still names a field of two
+        topics is refused, with each reading spelled with its topic quoted (``"/a.b".v``).
+
         Parameters
         ----------
         text:
@@ -303,7 +312,41 @@ class MessageSource(abc.ABC):
         PathError
             Naming the path and what is wrong, with close names where that helps.
         """
-        path = split_path(text, list(self._topics))
+        readings = split_paths(text, list(self._topics))
+        fitting: list[MessagePath] = []
+        errors: list[PathError] = []
+        for rank, path in enumerate(readings):
+            try:
+                known = self._check(text, path, want)
+            except PathError as err:
+                errors.append(err)
+                continue
+            if known or rank == 0:  # a shorter topic counts where its definition says so
+                fitting.append(path)
+        if not fitting:  # the longest reading failed: its error
+            raise errors[0]
+        foxglove = [p for p in fitting if _foxglove_form(p)]
+        fitting = foxglove or fitting  # the /field alias only where Foxglove's form fits none
+        if len(fitting) > 1:
+            spelled = [
+                f"field {format_steps(p.steps).removeprefix('.')!r} of topic {p.topic!r} "
+                f'("{p.topic}"{format_steps(p.steps)})'
+                for p in fitting
+            ]
+            raise PathError(
+                f"{text!r} names {len(fitting)} fields: {' and '.join(spelled)}; "
+                "quote the topic of the one meant"
+            )
+        return fitting[0]
+
+    def _check(self, text: str, path: MessagePath, want: str) -> bool:
+        """Check one reading of a path; whether the topic's definition knows the field.
+
+        Raises
+        ------
+        PathError
+            When the reading names no usable field of its topic.
+        """
         topic = self._topics[path.topic]
         if topic.problem:
             raise PathError(f"topic {topic.label}: {topic.problem}")
@@ -330,7 +373,7 @@ class MessageSource(abc.ABC):
             raise PathError(f"{text!r} is an array of {type_name}; add an index, e.g. {text}[0]")
         if kind == "string" and want == "number":
             raise PathError(f"{text!r} is a string, not a number")
-        return path
+        return kind is not None
 
     # ------------------------------------------------------------------ reading
 
@@ -494,9 +537,15 @@ class MessageSource(abc.ABC):
                     **info,
                     "nonfinite": None if values is None else sum(v["nonfinite"] for v in values),
                     "values": values,
-                    "fields": [name + f for f in fields],
+                    "fields": fields,
                 }
             )
+        shared = _shared_paths({t["name"]: t["fields"] for t in topics})
+        for entry in topics:  # a path two nested topics make alike: its topic quoted
+            name = entry["name"]
+            entry["fields"] = [_spell(name, leaf, shared) for leaf in entry["fields"]]
+            for value in entry["values"] or []:
+                value["name"] = _spell(name, value["name"].removeprefix(name), shared)
         total = sum(t["count"] for t in topics)
         return {
             "path": self.path,
@@ -514,6 +563,25 @@ class MessageSource(abc.ABC):
             "problems": [*problems, *undecodable],
             "reading": dict(self._notes),
         }
+
+
+def _shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
+    """Paths two topics of ``{topic: leaves}`` make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``)."""
+    counts = Counter(name + leaf for name, found in leaves.items() for leaf in set(found))
+    return {path for path, count in counts.items() if count > 1}
+
+
+def _spell(topic: str, leaf: str, shared: set[str]) -> str:
+    """``topic + leaf``, with the topic quoted (``"/a".b.v``) where another topic makes it too."""
+    return f'"{topic}"{leaf}' if topic + leaf in shared else topic + leaf
+
+
+def _foxglove_form(path: MessagePath) -> bool:
+    """Whether ``path`` follows its topic with ``.field`` or ``[index]`` (not the ``/`` alias)."""
+    text = path.text.strip()
+    quoted = f'"{path.topic}"'
+    rest = text[len(quoted) :] if text.startswith(quoted) else text[len(path.topic) :]
+    return not rest.startswith("/")
 
 
 def _topic_fields(topic: Topic) -> list[str]:
