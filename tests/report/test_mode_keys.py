@@ -29,8 +29,9 @@ def _with_modes(
     probabilities = rng.random((300, len(ids))) + 2.0 * np.eye(len(ids))[result.modes]
     probabilities /= probabilities.sum(axis=1, keepdims=True)
     result = dataclasses.replace(result, mode_ids=ids, mode_probabilities=probabilities)
-    if smoothed:
-        post = PostProcessing("kim-rts", "argmax", "test", result)
+    if smoothed:  # the filter's own probabilities differ, as a smoother's input does
+        filtered = dataclasses.replace(result, mode_probabilities=probabilities[::-1].copy())
+        post = PostProcessing("kim-rts", "argmax", "test", filtered)
         result = dataclasses.replace(result, post_processing=post)
     return result, signals
 
