@@ -51,6 +51,14 @@ CONTINUOUS_FUNCTION_NAMES = ("dx", "DX", "h", "H")
 _NAN_GUARDED = (sympy.Max, sympy.Min, sympy.sign)
 """Functions printed so that a NaN argument gives NaN (:class:`_ModelPrinter`)."""
 
+_OPPOSITE: Mapping[type, type] = {
+    sympy.StrictGreaterThan: sympy.LessThan,
+    sympy.GreaterThan: sympy.StrictLessThan,
+    sympy.StrictLessThan: sympy.GreaterThan,
+    sympy.LessThan: sympy.StrictGreaterThan,
+}
+"""The comparison that holds exactly when one does not, unless a side is NaN."""
+
 
 class _ModelPrinter(PythonCodePrinter):  # type: ignore[misc]  # sympy is untyped
     """sympy's Python printer with ``max``, ``min`` and ``sign`` that keep a NaN.
@@ -58,9 +66,10 @@ class _ModelPrinter(PythonCodePrinter):  # type: ignore[misc]  # sympy is untype
     A NaN in a mode function (``sqrt`` or ``log`` of a negative value) is how the
     simulation and the estimators find that a model left its domain, and they report it.
     Python's (and numba's) ``max(0, nan)`` is 0 while ``max(nan, 0)`` is NaN (which one
-    depends on sympy's order of the arguments, not on the user's), and sympy prints
-    ``sign(x)`` as ``math.copysign(1, x)``, +1 or -1 for a NaN: either turned a value outside
-    the model's domain into a plausible number.  Here a NaN argument gives NaN.
+    depends on sympy's order of the arguments, not on the user's), sympy prints
+    ``sign(x)`` as ``math.copysign(1, x)``, +1 or -1 for a NaN, and a ``Piecewise`` whose
+    condition compares a NaN took its next branch: each turned a value outside the model's
+    domain into a plausible number.  Here a NaN argument or condition gives NaN.
 
     The arguments are printed twice (the test and the value): :func:`assignments` binds
     each one that is not a name or a number to a temporary first, so none is computed twice.
@@ -81,6 +90,27 @@ class _ModelPrinter(PythonCodePrinter):  # type: ignore[misc]  # sympy is untype
 
     def _print_sign(self, expr: sympy.sign) -> str:
         return self._guarded("(0.0 if {0} == 0 else math.copysign(1.0, {0}))", expr.args)
+
+    def _print_Piecewise(self, expr: sympy.Piecewise) -> str:
+        """Branches tested in order, NaN where a condition compares a NaN.
+
+        Neither such a comparison nor its opposite holds: the value is NaN instead of the
+        next branch's.
+        """
+        *pairs, last = expr.args
+        if last.cond != sympy.true or not all(
+            isinstance(pair.cond, tuple(_OPPOSITE)) for pair in pairs
+        ):
+            return str(super()._print_Piecewise(expr))
+        printed = f"({self._print(last.expr)})"
+        for pair in reversed(pairs):
+            condition = pair.cond
+            opposite = _OPPOSITE[type(condition)](condition.lhs, condition.rhs, evaluate=False)
+            printed = (
+                f"(({self._print(pair.expr)}) if {self._print(condition)} "
+                f"else {printed} if {self._print(opposite)} else math.nan)"
+            )
+        return printed
 
 
 def _printer() -> PythonCodePrinter:

@@ -3,7 +3,8 @@
 ``sqrt`` or ``log`` of a negative value is NaN in the compiled code, and the simulation and
 the estimators report a NaN as the model leaving its domain.  ``max``, ``min`` and ``sign``
 used to turn that NaN into a plausible number (Python's ``max(0, nan)`` is 0, sympy's
-``sign`` printed as ``math.copysign(1, x)`` is ±1 for a NaN), and the Jacobian of ``sign`` or
+``sign`` printed as ``math.copysign(1, x)`` is ±1 for a NaN, a ``Piecewise`` condition
+comparing a NaN took the next branch), and the Jacobian of ``sign`` or
 ``abs`` of an argument sympy cannot prove real was unprintable or 0/0.
 """
 
@@ -23,11 +24,11 @@ time = "discrete"
 dt = 1.0
 states = ["x1", "x2"]
 inputs = ["u"]
-outputs = ["y"]
+outputs = ["y", "z"]
 
 [modes.clamped]
 f = ["max(sqrt(x1), 0)", "min(0, log(x1), x2)"]
-h = ["sign(sqrt(x1)) + abs(sqrt(x1) - 1)"]
+h = ["sign(sqrt(x1)) + abs(sqrt(x1) - 1)", "Piecewise(1, sqrt(x1) > 1, 2, x2 < 0, 3)"]
 
 [noise]
 process = 0.1
@@ -48,7 +49,7 @@ def model():
 def test_a_value_outside_the_domain_stays_nan(model):
     functions = compile_model(model)  # numba: sqrt and log of a negative value are NaN
     u = np.zeros(1)
-    f, h, H = np.zeros(2), np.zeros(1), np.zeros((1, 2))
+    f, h, H = np.zeros(2), np.zeros(2), np.zeros((2, 2))
     outside = np.array([-0.25, 3.0])
     functions.f(0, outside, u, f)
     functions.h(0, outside, u, h)
@@ -61,15 +62,15 @@ def test_a_value_outside_the_domain_stays_nan(model):
 def test_values_inside_the_domain(model, jit):
     functions = compile_model(model, jit=jit)
     u = np.zeros(1)
-    f, h, H = np.zeros(2), np.zeros(1), np.zeros((1, 2))
+    f, h, H = np.zeros(2), np.zeros(2), np.zeros((2, 2))
     inside = np.array([0.25, -3.0])
     functions.f(0, inside, u, f)
     functions.h(0, inside, u, h)
     functions.H(0, inside, u, H)
     np.testing.assert_allclose(f, [0.5, -3.0])
-    np.testing.assert_allclose(h, [1.5])
+    np.testing.assert_allclose(h, [1.5, 2.0])
     # d/dx1 (sign(sqrt(x1)) + |sqrt(x1) - 1|) = -1/(2 sqrt(x1)) below x1 = 1
-    np.testing.assert_allclose(H, [[-1.0, 0.0]])
+    np.testing.assert_allclose(H, [[-1.0, 0.0], [0.0, 0.0]])
 
 
 def test_sign_and_abs_of_arguments_sympy_cannot_prove_real_differentiate():
