@@ -313,6 +313,11 @@ def _jump_function(model: HybridModel) -> list[str]:
 
 
 def _input_functions(model: HybridModel) -> list[str]:
+    """``input_<j>(t, k)`` of the ``[simulation.inputs]``, after the modules their code calls.
+
+    Every module the printer used is imported: ``max`` prints as
+    ``functools.reduce(numpy.maximum, ...)``, and ``functools`` was imported nowhere.
+    """
     # The NumPy printer of sympy.lambdify(modules="numpy"): the same calls, the same values.
     printer = NumPyPrinter({"fully_qualified_modules": True, "inline": True})
     lines: list[str] = []
@@ -320,7 +325,8 @@ def _input_functions(model: HybridModel) -> list[str]:
         if name in model.simulation_inputs:
             expression = printer.doprint(model.simulation_inputs[name])
             lines += ["", "", f"def input_{index}(t, k):  # {name}", f"    return {expression}"]
-    return lines
+    imports = [f"import {module}" for module in sorted(printer.module_imports)]
+    return ["", *imports, *lines] if lines else []
 
 
 def model_source(model: HybridModel) -> str:
