@@ -29,7 +29,7 @@ already holds a model's module.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import sympy
@@ -48,9 +48,101 @@ CONTINUOUS_FUNCTION_NAMES = ("dx", "DX", "h", "H")
 """The mode functions every continuous-time model module defines (``dx`` in place of ``f``)."""
 
 
+_NAN_GUARDED = (sympy.Max, sympy.Min, sympy.sign)
+"""Functions printed so that a NaN argument gives NaN (:class:`_ModelPrinter`)."""
+
+_OPPOSITE: Mapping[type, type] = {
+    sympy.StrictGreaterThan: sympy.LessThan,
+    sympy.GreaterThan: sympy.StrictLessThan,
+    sympy.StrictLessThan: sympy.GreaterThan,
+    sympy.LessThan: sympy.StrictGreaterThan,
+}
+"""The comparison that holds exactly when one does not, unless a side is NaN."""
+
+
+class _ModelPrinter(PythonCodePrinter):  # type: ignore[misc]  # sympy is untyped
+    """sympy's Python printer with ``max``, ``min`` and ``sign`` that keep a NaN.
+
+    A NaN in a mode function (``sqrt`` or ``log`` of a negative value) is how the
+    simulation and the estimators find that a model left its domain, and they report it.
+    Python's (and numba's) ``max(0, nan)`` is 0 while ``max(nan, 0)`` is NaN (which one
+    depends on sympy's order of the arguments, not on the user's), sympy prints
+    ``sign(x)`` as ``math.copysign(1, x)``, +1 or -1 for a NaN, and a ``Piecewise`` whose
+    condition compares a NaN took its next branch: each turned a value outside the model's
+    domain into a plausible number.  Here a NaN argument or condition gives NaN.
+
+    The arguments are printed twice (the test and the value): :func:`assignments` binds
+    each one that is not a name or a number to a temporary first, so none is computed twice.
+    """
+
+    def _guarded(self, value: str, arguments: Sequence[sympy.Expr]) -> str:
+        printed = [self._print(argument) for argument in arguments]
+        tests = [f"{a} == {a}" for a, e in zip(printed, arguments, strict=True) if not e.is_Number]
+        if not tests:
+            return f"({value.format(*printed)})"
+        return f"({value.format(*printed)} if {' and '.join(tests)} else math.nan)"
+
+    def _print_Max(self, expr: sympy.Max) -> str:
+        return self._guarded(f"max({', '.join(['{}'] * len(expr.args))})", expr.args)
+
+    def _print_Min(self, expr: sympy.Min) -> str:
+        return self._guarded(f"min({', '.join(['{}'] * len(expr.args))})", expr.args)
+
+    def _print_sign(self, expr: sympy.sign) -> str:
+        return self._guarded("(0.0 if {0} == 0 else math.copysign(1.0, {0}))", expr.args)
+
+    def _print_Piecewise(self, expr: sympy.Piecewise) -> str:
+        """Branches tested in order, NaN where a condition compares a NaN.
+
+        Neither such a comparison nor its opposite holds: the value is NaN instead of the
+        next branch's.
+        """
+        *pairs, last = expr.args
+        if last.cond != sympy.true or not all(
+            isinstance(pair.cond, tuple(_OPPOSITE)) for pair in pairs
+        ):
+            return str(super()._print_Piecewise(expr))
+        printed = f"({self._print(last.expr)})"
+        for pair in reversed(pairs):
+            condition = pair.cond
+            opposite = _OPPOSITE[type(condition)](condition.lhs, condition.rhs, evaluate=False)
+            printed = (
+                f"(({self._print(pair.expr)}) if {self._print(condition)} "
+                f"else {printed} if {self._print(opposite)} else math.nan)"
+            )
+        return printed
+
+
 def _printer() -> PythonCodePrinter:
     """Python printer whose output numba compiles: ``math`` functions, ternaries for Piecewise."""
-    return PythonCodePrinter({"fully_qualified_modules": True, "standard": "python3"})
+    return _ModelPrinter({"fully_qualified_modules": True, "standard": "python3"})
+
+
+def _hoisted(
+    expression: sympy.Basic,
+    temporaries: Iterator[sympy.Symbol],
+    bound: list[tuple[sympy.Symbol, sympy.Basic]],
+) -> sympy.Basic:
+    """``expression`` with each argument of max, min and sign that is not an atom bound first.
+
+    Appends ``(temporary, argument)`` to ``bound`` for each (innermost first), so the
+    printed code computes the argument once although :class:`_ModelPrinter` names it twice.
+    """
+    if not expression.args:
+        return expression
+    arguments = [_hoisted(argument, temporaries, bound) for argument in expression.args]
+    if isinstance(expression, _NAN_GUARDED):
+        named = []
+        for argument in arguments:
+            if not argument.is_Atom:
+                temporary = next(temporaries)
+                bound.append((temporary, argument))
+                argument = temporary
+            named.append(argument)
+        return expression.func(*named, evaluate=False)
+    if arguments == list(expression.args):
+        return expression
+    return expression.func(*arguments)
 
 
 def assignments(
@@ -63,17 +155,26 @@ def assignments(
     """Lines assigning ``expressions`` to ``targets``, sharing common subexpressions.
 
     ``names`` renames the model's symbols to the generated code's scalar variables; the
-    shared subexpressions are bound to ``<temporaries>0``, ``<temporaries>1`` ...
+    shared subexpressions are bound to ``<temporaries>0``, ``<temporaries>1`` ..., the
+    arguments of max, min and sign (:func:`_hoisted`) to ``<temporaries>n0`` ...
     """
     printer = _printer()
     replacements, reduced = sympy.cse(
         list(expressions), symbols=sympy.numbered_symbols(temporaries), optimizations="basic"
     )
-    lines = [
-        f"{indent}{sym} = {printer.doprint(value.xreplace(names))}" for sym, value in replacements
-    ]
+    guarded = sympy.numbered_symbols(f"{temporaries}n", real=True)
+    lines: list[str] = []
+
+    def assign(target: object, value: sympy.Basic) -> None:
+        bound: list[tuple[sympy.Symbol, sympy.Basic]] = []
+        value = _hoisted(sympy.sympify(value).xreplace(names), guarded, bound)
+        lines.extend(f"{indent}{sym} = {printer.doprint(argument)}" for sym, argument in bound)
+        lines.append(f"{indent}{target} = {printer.doprint(value)}")
+
+    for sym, value in replacements:
+        assign(sym, value)
     for target, value in zip(targets, reduced, strict=True):
-        lines.append(f"{indent}{target} = {printer.doprint(sympy.sympify(value).xreplace(names))}")
+        assign(target, value)
     return lines
 
 
@@ -212,6 +313,11 @@ def _jump_function(model: HybridModel) -> list[str]:
 
 
 def _input_functions(model: HybridModel) -> list[str]:
+    """``input_<j>(t, k)`` of the ``[simulation.inputs]``, after the modules their code calls.
+
+    Every module the printer used is imported: ``max`` prints as
+    ``functools.reduce(numpy.maximum, ...)``, and ``functools`` was imported nowhere.
+    """
     # The NumPy printer of sympy.lambdify(modules="numpy"): the same calls, the same values.
     printer = NumPyPrinter({"fully_qualified_modules": True, "inline": True})
     lines: list[str] = []
@@ -219,7 +325,8 @@ def _input_functions(model: HybridModel) -> list[str]:
         if name in model.simulation_inputs:
             expression = printer.doprint(model.simulation_inputs[name])
             lines += ["", "", f"def input_{index}(t, k):  # {name}", f"    return {expression}"]
-    return lines
+    imports = [f"import {module}" for module in sorted(printer.module_imports)]
+    return ["", *imports, *lines] if lines else []
 
 
 def model_source(model: HybridModel) -> str:

@@ -145,16 +145,26 @@ def load_components(
             owner[state] = key
         components.append(component)
     used = set(owner)
+    related: set[str] = set()  # used at step k by an algebraic equation
     for component in components:
         for mode in component.modes:
             for equation in mode.equations:
                 used |= equation.variables | equation.previous
+                if equation.kind == "algebraic":
+                    related |= equation.variables
     for group, group_names in (("states", states), ("outputs", outputs), ("variables", variables)):
         for name in group_names:
             if group == "states" and name not in owner:
                 raise ModelError(f"states: '{name}' has no difference equation in any component")
             if name not in used:
                 raise ModelError(f"{group}: '{name}' appears in no component equation")
+            if group != "states" and name not in related:
+                # Only an algebraic equation at step k can give it a value: without one, no
+                # joint mode determines it and everything computed from it is left out.
+                raise ModelError(
+                    f"{group}: '{name}' is used but appears in no algebraic equation of any "
+                    "component, so no mode gives it a value (is its component missing?)"
+                )
     return tuple(components)
 
 

@@ -5,6 +5,13 @@ derivatives of ``abs``, ``sign``, ``max`` and ``min`` are distributions
 (``Heaviside``, ``DiracDelta``), replaced by the functions a compiled step can evaluate
 (:func:`printable`).
 
+A model expression is real-valued, but sympy cannot always prove that an argument is real
+(``sqrt(x1)``, ``log(x1)`` of a real ``x1`` may be complex to it).  It then leaves the
+derivative of ``sign(sqrt(x1))`` unevaluated (``Derivative(...)``, which no printer can
+write) and differentiates ``abs(sqrt(x1) - 1)`` through ``re`` and ``im`` into an expression
+that is 0/0 where the argument is 0.  So :func:`jacobian` differentiates ``abs`` and
+``sign`` as the real functions they are in a model: ``d|g| = sign(g) dg``, ``d sign(g) = 0``.
+
 The Lie derivative of an output map :math:`h` along a vector field :math:`f` is
 
 .. math::
@@ -33,6 +40,27 @@ def _dirac(*_: sympy.Expr) -> sympy.Expr:
     return sympy.S.Zero
 
 
+class _RealAbs(sympy.Function):  # type: ignore[misc]  # sympy is untyped
+    """``abs(g)`` of a real-valued ``g``: its derivative is ``sign(g) * g'``."""
+
+    def fdiff(self, argindex: int = 1) -> sympy.Expr:
+        return _RealSign(self.args[0])
+
+
+class _RealSign(sympy.Function):  # type: ignore[misc]  # sympy is untyped
+    """``sign(g)`` of a real-valued ``g``: its derivative is 0 away from ``g = 0``."""
+
+    def fdiff(self, argindex: int = 1) -> sympy.Expr:
+        return sympy.S.Zero
+
+
+def _derivative(expression: sympy.Expr, variable: sympy.Symbol) -> sympy.Expr:
+    """``∂expression/∂variable`` with ``abs`` and ``sign`` of real arguments (module doc)."""
+    real = expression.replace(sympy.Abs, _RealAbs).replace(sympy.sign, _RealSign)
+    derivative = sympy.diff(real, variable)
+    return derivative.replace(_RealAbs, sympy.Abs).replace(_RealSign, sympy.sign)
+
+
 def printable(expression: sympy.Expr) -> sympy.Expr:
     """``expression`` with ``DiracDelta`` set to 0 and ``Heaviside(x)`` to ``x > 0``."""
     return expression.replace(sympy.DiracDelta, _dirac).replace(sympy.Heaviside, _heaviside)
@@ -48,8 +76,10 @@ def jacobian(
     >>> x, y = sympy.symbols("x y", real=True)
     >>> jacobian([x * y, abs(x)], [x, y])
     [[y, x], [sign(x), 0]]
+    >>> jacobian([sign(sqrt(x)), abs(sqrt(x) - 1)], [x])
+    [[0], [sign(sqrt(x) - 1)/(2*sqrt(x))]]
     """
-    return [[printable(sympy.diff(e, v)) for v in variables] for e in expressions]
+    return [[printable(_derivative(e, v)) for v in variables] for e in expressions]
 
 
 def lie_derivative(

@@ -27,7 +27,15 @@ from hybridlog.model.derivatives import jacobian, lie_derivative
 from hybridlog.model.loader import load_model, parse_model
 from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
+# Simulation inputs calling every function of the grammar: the NumPy printer writes some
+# with other modules than numpy (max as functools.reduce(numpy.maximum, ...)).
+EVERY_FUNCTION_INPUTS = LINEAR_TWO_MODE.replace(
+    'a = "sin(0.7*t) + 0.5*cos(0.13*t)"',
+    'a = "max(sin(t), 0) + min(t, 3, k) + Piecewise(1, t > 5, 2, k < 3, 0) + sign(cos(t))"',
+)
+
 MODELS = {
+    "every_function_inputs": lambda: parse_model(EVERY_FUNCTION_INPUTS),
     "three_tank_hstf": lambda: load_model("three_tank_hstf"),
     "double_cart_case1": lambda: load_model("double_cart_case1"),
     "double_cart_case2": lambda: load_model("double_cart_case2"),

@@ -493,6 +493,14 @@ _COMPONENT_ERRORS = [
         r"states: 'xc4' has no difference equation",
     ),
     (
+        # A1, the one component relating wc1 at step k, taken out: wc1 is then only read at
+        # k-1 by A2, no joint mode gives it a value, and the estimator ran without xc1.
+        ('equations = ["uc1 = 5.0*wc1"]', 'equations = ["wc1 = 0"]'),
+        ('equations = ["uc1 = 5.0*uc1"]', 'equations = ["uc1 = 0"]'),
+        r"variables: 'wc1' is used but appears in no algebraic equation of any component, so "
+        r"no mode gives it a value \(is its component missing\?\)",
+    ),
+    (
         ('outputs = ["yc1", "yc2"]', "measurement = [0.04, 0.05]"),
         ('outputs = ["yc1", "yc2", "yc3"]', "measurement = [0.04, 0.05, 0.06]"),
         r"outputs: 'yc3' appears in no component equation",
