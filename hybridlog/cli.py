@@ -377,6 +377,25 @@ class _DataclassOptions:
         return parse_options(self.load(), values, estimator=self.owner, sources=sources)
 
 
+def _comma_list(value: str) -> tuple[str, ...]:
+    """A comma-separated option's items, stripped; an empty one (``a,,b``, ``a,``) refused.
+
+    An empty item is a typo (a name left out, a stray comma), never a name: dropping it
+    silently ran less than the user asked for.  A wholly empty value gives no items (the
+    command says what it needs).
+    """
+    if not value.strip():
+        return ()
+    items = tuple(item.strip() for item in value.split(","))
+    if "" in items:
+        where = items.index("")
+        raise click.BadParameter(
+            f"item {where + 1} of {excerpt(value, 60)} is empty; separate the names with "
+            "single commas"
+        )
+    return items
+
+
 class _Command(click.Command):
     """A command whose options that take one value are given at most once.
 
@@ -833,6 +852,7 @@ def analyze_command(
     "--estimators",
     required=True,
     metavar="A,B,...",
+    callback=lambda ctx, param, value: _comma_list(value),
     help="Comma-separated estimator names (listed below).",
 )
 @click.option(
@@ -845,7 +865,13 @@ def analyze_command(
 @_analysis_options
 @click.pass_context
 def compare_command(
-    ctx: click.Context, /, log: Path, model_ref: str, estimators: str, out_dir: Path, **options: Any
+    ctx: click.Context,
+    /,
+    log: Path,
+    model_ref: str,
+    estimators: tuple[str, ...],
+    out_dir: Path,
+    **options: Any,
 ) -> None:
     """Run several estimators on one log and write a side-by-side table."""
     _one_bounded_job()  # before the job's imports: polars' allocator reads its options
@@ -853,7 +879,7 @@ def compare_command(
     from hybridlog.jobs.analysis import compare
 
     read, common = _split_options(options)
-    names = [name.strip() for name in estimators.split(",") if name.strip()]
+    names = list(estimators)
     with reporting(_work_reporter(ctx)):  # chiu's clustering of a long log says how long
         outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
     _say(ctx, outcome.table)

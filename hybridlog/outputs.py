@@ -10,8 +10,11 @@ Every command that writes goes through this module, in two steps:
    ``--force``, and then unless hybridlog wrote them: a folder carries the :data:`MARKER` file
    listing what hybridlog wrote in it (or is a legacy report folder of ours); a file has a
    record beside it, ``.<name>.hybridlog`` (:func:`record_file`), naming the exact file
-   hybridlog wrote (inode, size, modification time), so a file the user wrote, put
-   there or edited since is never replaced.
+   hybridlog wrote (inode, size, modification time, and the SHA-256 of a small file or a
+   report document), so a file the user wrote, put there or edited since is never
+   replaced, while the same file in a copy of its folder that kept its content and times
+   (``cp -a``, ``rsync -a``, a tar archive or CI cache restored) is still hybridlog's
+   (:func:`_unchanged`).
 2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
    temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
    rename them into
@@ -253,7 +256,7 @@ def _record_files(folder: Path) -> None:
     record[_FILES_KEY] = files
     identities = {name: _file_identity(folder / name) for name in files}
     record[_IDENTITIES_KEY] = {
-        name: [identity[key] for key in _COMPARED]
+        name: _listed_entry(folder / name, identity)
         for name, identity in identities.items()
         if identity is not None
     }
@@ -263,10 +266,11 @@ def _record_files(folder: Path) -> None:
 def edited_files(folder: Path) -> list[str]:
     """The files ``folder``'s :data:`MARKER` lists that changed since hybridlog wrote them.
 
-    Compared as :func:`wrote_file` compares a single file (inode, size, modification time):
-    a report.md the user annotated, a table replaced by another file of the same name.  A
-    listed file that is gone is not a change (nothing of the user's is in it), nor is a
-    file of a marker written before identities were recorded (not known).
+    Compared as :func:`wrote_file` compares a single file (:func:`_unchanged`): a report.md
+    the user annotated, a table replaced by another file of the same name, but not the same
+    files in a copy of the folder (``cp -a``, ``rsync -a``, a tar archive or CI cache
+    restored).  A listed file that is gone is not a change (nothing of the user's is in
+    it), nor is a file of a marker written before identities were recorded (not known).
     """
     record = _read_record(folder / MARKER)
     identities = record.get(_IDENTITIES_KEY) if isinstance(record, dict) else None
@@ -279,9 +283,28 @@ def edited_files(folder: Path) -> list[str]:
             if _present(folder / name):  # a folder or link now stands under its name
                 edited.append(name)
             continue
-        if recorded != [identity[key] for key in _COMPARED]:
+        if not _listed_unchanged(recorded, identity, folder / name):
             edited.append(name)
     return edited
+
+
+def _listed_entry(path: Path, identity: Mapping[str, int]) -> list[int | str]:
+    """A marker's entry for a file: ``[inode, size, modified_ns]``, and its SHA-256 if worth it."""
+    digest = _digest_worth_keeping(path, identity["size"])
+    return [*(identity[key] for key in _COMPARED), *([] if digest is None else [digest])]
+
+
+def _listed_unchanged(recorded: object, identity: Mapping[str, int], path: Path) -> bool:
+    """:func:`_unchanged` for a marker's entry ``[inode, size, modified_ns(, sha256)]``.
+
+    An entry of any other shape (an edited marker) is not hybridlog's record: changed.
+    """
+    if not isinstance(recorded, list) or len(recorded) not in (3, 4):
+        return False
+    numbers, digest = recorded[:3], recorded[3] if len(recorded) == 4 else None
+    if not all(type(n) is int for n in numbers) or not isinstance(digest, str | None):
+        return False
+    return _unchanged(dict(zip(_COMPARED, numbers, strict=True)), digest, identity, path)
 
 
 def record_path(target: Path) -> Path:
@@ -337,7 +360,88 @@ def _read_record(path: Path) -> object:
 
 
 _COMPARED = ("inode", "size", "modified_ns")
-"""What of a file's identity must match its record (:func:`wrote_file`)."""
+"""What of a file's identity is recorded to recognise it (:func:`_unchanged`)."""
+
+_DIGESTED_LIMIT = 1 << 20
+"""Files up to this size get their SHA-256 recorded when written (:func:`_digest_worth_keeping`)."""
+
+_DIGESTED_SUFFIXES = frozenset({".json", ".md"})
+"""Files recorded with their SHA-256 whatever their size: the documents a batch reuses
+(report.json's numbers reach the summaries and the gates) and a user annotates."""
+
+
+def _sha256(path: Path) -> str | None:
+    """The SHA-256 of the regular file ``path`` (never through a link, never waiting)."""
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    try:
+        with os.fdopen(os.open(path, flags), "rb") as handle:
+            if not stat.S_ISREG(os.fstat(handle.fileno()).st_mode):
+                return None
+            return hashlib.file_digest(handle, "sha256").hexdigest()
+    except (OSError, ValueError):
+        return None
+
+
+def _digest_worth_keeping(path: Path, size: int) -> str | None:
+    """The SHA-256 to record for a file hybridlog just wrote, or None: not worth its cost.
+
+    Recorded for every file of at most :data:`_DIGESTED_LIMIT` bytes (a report, a plot,
+    the tables of a short log, a summary: at most about a millisecond each) and for every
+    report document (:data:`_DIGESTED_SUFFIXES`), not for the large tables of a long log:
+    hashing the 145 MiB of tables of a 10^6-sample log costs 0.11 s (1.3 GB/s here), 8 % of
+    the whole ``analyze`` (benchmarks/results.md).  Such a file is recognised by its size
+    and modification time alone (:func:`_unchanged`).
+    """
+    if size > _DIGESTED_LIMIT and path.suffix not in _DIGESTED_SUFFIXES:
+        return None
+    return _sha256(path)
+
+
+_SUB_SECOND_NS = 1_000
+"""How far a copy's modification time may lie from the original's, below whole seconds:
+a copy kept in microseconds, or as a float (Python's ``tarfile``, PAX: tens of ns off)."""
+
+
+def _kept_time(recorded_ns: int, current_ns: int) -> bool:
+    """Whether ``current_ns`` is ``recorded_ns`` as a copy that kept it would give it back.
+
+    ``cp -a``, ``rsync -a``, ``shutil.copy2`` and GNU tar's PAX archives keep nanoseconds;
+    Python's PAX archives keep them as a float (:data:`_SUB_SECOND_NS`); GNU and ustar tar
+    archives keep whole seconds only (a time of ``…:53.359`` comes back as ``…:53.000``,
+    or rounded by other archivers).  Any other time is a change: an edit or a new file.
+    """
+    if abs(current_ns - recorded_ns) <= _SUB_SECOND_NS:
+        return True
+    return current_ns % 1_000_000_000 == 0 and abs(current_ns - recorded_ns) < 1_000_000_000
+
+
+def _unchanged(
+    recorded: Mapping[str, object], digest: object, identity: Mapping[str, int], path: Path
+) -> bool:
+    """Whether the file ``path`` (``identity`` now) is the one ``recorded``, or a copy of it.
+
+    The cheap identity decides first: another size is a change; the same inode must have
+    the very modification time recorded (the file itself, not edited since), and another
+    inode (a copy: ``cp -a``, ``rsync -a``, a tar archive or CI cache restored) a time a
+    copy keeps (:func:`_kept_time`).  Then, where a SHA-256 was recorded
+    (:func:`_digest_worth_keeping`), the content must have it: an edit of the same size
+    whose time was put back (``touch -d``) is caught.  A large table recorded without one is
+    taken on its size and time: an edit of the same size whose time was forged back is
+    not seen in it (as it was not before digests, by inode, for an edit in place).
+    """
+    if recorded.get("size") != identity["size"]:
+        return False
+    modified = recorded.get("modified_ns")
+    if type(modified) is not int:
+        return False
+    if recorded.get("inode") == identity["inode"]:
+        if modified != identity["modified_ns"]:
+            return False
+    elif not _kept_time(modified, identity["modified_ns"]):
+        return False
+    if digest is None:
+        return True
+    return isinstance(digest, str) and _sha256(path) == digest
 
 
 def _file_record(path: Path) -> dict[str, object] | None:
@@ -363,11 +467,13 @@ def record_file(target: Path, *, written: Mapping[str, int] | None = None) -> No
         return
     if _present(sidecar) and _file_record(sidecar) is None:
         return
+    digest = _digest_worth_keeping(target, identity["size"])
     record = {
         "written_by": "hybridlog",
         "version": __version__,
         "file": target.name,
         **identity,
+        **({} if digest is None else {"sha256": digest}),
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
     staged = temporary_name(sidecar)
@@ -382,9 +488,12 @@ def record_file(target: Path, *, written: Mapping[str, int] | None = None) -> No
 def wrote_file(target: Path) -> bool:
     """Whether hybridlog wrote the file ``target`` and nobody changed it since.
 
-    True when the record beside it (:func:`record_file`) names this very file: same name,
-    inode, size and modification time.  A file put in its place, edited, copied from
-    elsewhere or written before records existed is not hybridlog's to replace.
+    True when the record beside it (:func:`record_file`) names this file under this name,
+    unchanged (:func:`_unchanged`: size, modification time, content where its SHA-256 was
+    recorded), itself or a copy of it that kept its time along with its record (the
+    folder copied with ``cp -a``, ``rsync -a``, restored from a tar archive or CI cache).
+    A file put in its place, edited, copied from elsewhere without its time or its record,
+    or written before records existed is not hybridlog's to replace.
 
     The device is recorded but not compared: the record lies in the file's own folder, so
     on its file system, and the number a system gives a file system is not stable (an NFS
@@ -397,7 +506,7 @@ def wrote_file(target: Path) -> bool:
         record is not None
         and identity is not None
         and record.get("file") == target.name
-        and all(record.get(key) == identity[key] for key in _COMPARED)
+        and _unchanged(record, record.get("sha256"), identity, target)
     )
 
 

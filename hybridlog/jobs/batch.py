@@ -726,6 +726,8 @@ def _plan(
     folders = [root / name for name in names]
     if junit is not None:
         _check_junit_apart(junit, root, paths, folders)
+    if not force:
+        _check_same_run_kind(root, folders, job)
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
@@ -762,6 +764,48 @@ def _check_junit_apart(
                 f"{excerpt(name)} of the log {excerpt(log)}; name a file outside the logs' "
                 f"folders (e.g. {excerpt(str(root / 'junit.xml'))})"
             )
+
+
+def _report_kind(report: Path) -> tuple[str, str] | None:
+    """The model and estimator a report.json names, or None if it is none of ours to read."""
+    try:
+        with report.open(encoding="utf-8") as handle:
+            data = json.load(handle)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    model, estimator = data.get("model"), data.get("estimator")
+    return (model, estimator) if isinstance(model, str) and isinstance(estimator, str) else None
+
+
+def _check_same_run_kind(root: Path, folders: Sequence[Path], job: BatchJob) -> None:
+    """Refuse, before any log is read, a batch folder holding another estimator's reports.
+
+    Each such log would fail (its folder is not replaced without ``--force``), and the
+    summaries of that run, every such log failed, would replace the previous run's: the
+    user's summaries lost for a run that wrote nothing.  Reports of the same estimator and
+    model made with other options are redone as usual (:func:`_reusable`).
+    """
+    other: dict[tuple[str, str], list[str]] = {}
+    for folder in folders:
+        report = folder / "report.json"
+        if folder.is_symlink() or not report.is_file():
+            continue
+        kind = _report_kind(report)
+        if kind is not None and kind != (job.model_name, job.estimator):
+            other.setdefault(kind, []).append(folder.relative_to(root).as_posix())
+    if not other:
+        return
+    (model, estimator), names = next(iter(other.items()))
+    count = sum(len(n) for n in other.values())
+    more = f" and {count - 1} more" if count > 1 else ""
+    raise OutputError(
+        f"--out {excerpt(str(root), 240)[1:-1]} holds reports of {excerpt(estimator, 40)} "
+        f"with model {excerpt(model, 60)} ({excerpt(names[0], 60)[1:-1]}{more}), not of "
+        f"{job.estimator} with model {job.model_name}; use --force to replace them, or "
+        "another --out"
+    )
 
 
 def _summaries_ours(root: Path) -> Callable[[Path], bool]:

@@ -136,4 +136,6 @@ def test_a_remounted_file_system_keeps_hybridlogs_files_its_own(tmp_path: Path) 
     write_table(log, COLUMNS, force=True)
     record = json.loads(record_path(log).read_text())
     record_path(log).write_text(json.dumps({**record, "inode": record["inode"] + 1}))
-    assert not wrote_file(log)  # another file is not
+    assert wrote_file(log)  # a copy that kept its content and time (cp -a) is still ours
+    record_path(log).write_text(json.dumps({**record, "sha256": "0" * 64}))
+    assert not wrote_file(log)  # another content is not

@@ -806,7 +806,14 @@ def test_force_never_replaces_a_report_folder_whose_files_the_user_edited(tmp_pa
     assert tree(out) == before
     (out / "report.md").unlink()
     other = tmp_path / "timeline.csv"
-    shutil.copy2(out / "timeline.csv", other)  # same size and time, another file
+    shutil.copy2(out / "timeline.csv", other)  # another table: same size and time
+    with other.open("r+b") as table:
+        table.seek(-2, os.SEEK_END)
+        digit = table.read(1)
+        table.seek(-2, os.SEEK_END)
+        table.write(b"1" if digit != b"1" else b"2")
+    status = (out / "timeline.csv").stat()
+    os.utime(other, ns=(status.st_atime_ns, status.st_mtime_ns))
     os.replace(other, out / "timeline.csv")
     with pytest.raises(OutputError, match=r"\('timeline.csv'\)"):
         analyze(log, TANK, out_dir=out, estimator="imm", force=True)
