@@ -445,7 +445,8 @@ def _choose_method(
             )
         return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})"
     if n <= AUTO_EXACT_MAX:
-        return "exact", None, f"exact potentials (auto: {n} points <= {AUTO_EXACT_MAX})"
+        points = "1 point" if n == 1 else f"{n} points"
+        return "exact", None, f"exact potentials (auto: {points} <= {AUTO_EXACT_MAX})"
     if grid_ok and grid_fine:
         return (
             "approximate",
@@ -595,9 +596,13 @@ def subtractive_clustering(
     # a dimension in which every point sits at the same place adds 0 to every distance: left
     # out, it no longer makes the grid too coarse (u(k-1) of a log with a constant input)
     varying = unit.max(axis=0) > unit.min(axis=0)
-    varying[0] |= not varying.any()
+    constant = not varying.any()
+    varying[0] |= constant
     method, intervals, note = _choose_method(options, n, radii[varying])
-    if not varying.all():
+    if constant:  # the one dimension kept above is constant too
+        which = "the only dimension" if d == 1 else f"all {d} dimensions"
+        note += f"; {which} constant: every point the same"
+    elif not varying.all():
         note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
     scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":

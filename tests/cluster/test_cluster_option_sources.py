@@ -1,7 +1,8 @@
-"""``hybridlog cluster``: clustering options out of bounds are named where they were set."""
+"""``hybridlog cluster``: options out of bounds named where they were set; notes that say it."""
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hybridlog.model.builtins import builtin_text
@@ -44,3 +45,30 @@ def test_a_model_file_value_out_of_bounds_names_its_key(tmp_path, capsys):
     # the flag overrides the table, and is what is named when it is out of bounds too
     code, stderr = _cluster(tmp_path, capsys, str(model), "--squash", "1")
     assert code == 2 and stderr.startswith("hybridlog: error: --squash 1: r_b/r_a")
+
+
+def test_notes_on_a_log_at_rest_say_what_was_found():
+    """A log at rest (y and u constant) was said to have '2 of 3 dimensions constant, left
+    out' (all 3 were; one is kept), and one vector gave '1 centres from 1 regression
+    vectors', '(auto: 1 points ...)' and 'cluster 1 (1 samples)'."""
+    from hybridlog.cluster.classifier import fit_classifier
+    from hybridlog.cluster.labels import cluster_notes
+    from hybridlog.cluster.regressors import RegressorSpec
+    from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
+
+    y, u = np.ones((50, 1)), np.zeros((50, 1))
+    names = ["y(k)", "y(k-1)", "u(k-1)"]
+    fitted = fit_classifier(y, u, RegressorSpec(), SubtractiveOptions(), names=names, n_modes=2)
+    assert "; all 3 dimensions constant: every point the same;" in fitted.notes[0]
+    assert fitted.notes[0].startswith("chiu: 1 centre from 49 regression vectors ")
+    one = fit_classifier(
+        y[:2], u[:2], RegressorSpec(), SubtractiveOptions(), names=names, n_modes=2
+    )
+    assert one.notes[0].startswith("chiu: 1 centre from 1 regression vector φ(k)")
+    assert "(auto: 1 point <= " in one.notes[0]
+    single = subtractive_clustering(np.ones((5, 1)))
+    assert "; the only dimension constant: every point the same" in single.notes[0]
+    varying = subtractive_clustering(np.c_[np.arange(5.0), np.ones(5)])
+    assert "; 1 of 2 dimensions constant, left out" in varying.notes[0]
+    notes = cluster_notes(np.array([0, 1]), np.array([1, 2]), ("a", "b"))
+    assert notes[:2] == ["cluster 1 (1 sample) -> mode 'a'", "cluster 2 (2 samples) -> mode 'b'"]
