@@ -107,3 +107,24 @@ def test_existing_outputs_are_replaced_only_with_force_and_only_ours(
     code, output = _run([*args[:3], str(mine), *args[4:], "--force"], capsys)
     assert code == 2 and output.count("\n") == 1
     assert (mine / "notes.txt" if extra else mine).read_text() == "mine"
+
+
+@pytest.mark.parametrize("out", [".", "..", "./"])
+def test_a_bag_folder_holding_the_working_directory_is_refused(
+    out: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--out .`` in an empty folder failed with "…hybridlog-tmp-… exists already" (the
+    bag's storage file was named after ``.``); written, the folder would have been renamed
+    over the working one, leaving the shell in a deleted folder."""
+    here = tmp_path / "bag" / "inner"
+    here.mkdir(parents=True)
+    monkeypatch.chdir(here if out == ".." else here.parent)
+    if out != "..":
+        here.rmdir()  # an empty folder: nothing else would refuse it
+    args = ["simulate", "three_tank_hstf", "--out", out, "--format", "ros2-sqlite3"]
+    code, output = _run([*args, "--steps", "3", "--force"], capsys)
+    assert code == 2 and output.count("\n") == 1, output
+    assert f"--out {out.rstrip('/')}: is " in output and "run from outside it" in output
+    assert sorted(p.name for p in tmp_path.rglob("*")) == (
+        ["bag", "inner"] if out == ".." else ["bag"]
+    )
