@@ -267,10 +267,14 @@ def simulate_components(
         joint.algebraic(now, parameters)
         measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
         if controller is not None:
-            update, compute = controller
-            update(measured[k], memory, parameters, time[k], float(k), new_memory)
-            memory[:] = new_memory
-            compute(measured[k], memory, parameters, time[k], float(k), control)
+            try:
+                with np.errstate(divide="raise", invalid="raise", over="raise"):
+                    update, compute = controller
+                    update(measured[k], memory, parameters, time[k], float(k), new_memory)
+                    memory[:] = new_memory
+                    compute(measured[k], memory, parameters, time[k], float(k), control)
+            except (ArithmeticError, ValueError) as err:  # 1/0, overflow, log(-1), 0*inf
+                raise ModelError(_controller_failed(origin, err, time[k], settings)) from None
             inputs[k, controlled] = control
             now[input_slice] = inputs[k]
             joint.algebraic(now, parameters)
@@ -533,6 +537,22 @@ def _joint_source(
     )
     lines.append("    return None")
     return "\n".join(lines) + "\n"
+
+
+def _controller_failed(
+    origin: str, err: BaseException, at: float, settings: Mapping[str, float] | None
+) -> str:
+    """Why the controller gave no number at time ``at``, with the ``--set`` values in play.
+
+    ``--set ki=0`` of bioplex_pgc's ``u_max/ki`` was "numerical trouble in
+    simulate_components.py:271: divide by zero", naming neither the controller nor the value.
+    """
+    given = ", ".join(f"{name}={value:g}" for name, value in (settings or {}).items())
+    return (
+        f"{origin}: simulation.controller: {err} at t = {format_time(at)} s"
+        + (f" (with --set {given})" if given else "")
+        + "; the controller gives no number to simulate with"
+    )
 
 
 def _controller(

@@ -128,3 +128,17 @@ def test_a_bag_folder_holding_the_working_directory_is_refused(
     assert sorted(p.name for p in tmp_path.rglob("*")) == (
         ["bag", "inner"] if out == ".." else ["bag"]
     )
+
+
+def test_a_controller_without_a_number_names_itself_and_the_settings(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--set ki=0`` (bioplex_pgc's anti-windup divides by it) said "numerical trouble in
+    simulate_components.py:271: divide by zero ..."; the controller and the value are named."""
+    log = tmp_path / "run.csv"
+    args = ["simulate", "bioplex_pgc", "--out", str(log), "--steps", "3", "--set", "ki=0"]
+    code, output = _run(args, capsys)
+    assert code == 2 and output.count("\n") == 1, output
+    assert output.startswith("hybridlog: error: bioplex_pgc: simulation.controller: divide by zero")
+    assert "at t = 0 s (with --set ki=0)" in output
+    assert list(tmp_path.iterdir()) == []
