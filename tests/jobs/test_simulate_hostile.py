@@ -142,3 +142,22 @@ def test_a_controller_without_a_number_names_itself_and_the_settings(
     assert output.startswith("hybridlog: error: bioplex_pgc: simulation.controller: divide by zero")
     assert "at t = 0 s (with --set ki=0)" in output
     assert list(tmp_path.iterdir()) == []
+
+
+def test_steps_that_cut_the_schedule_before_a_mode_say_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--schedule 1:10,2:10,3:10 --steps 5`` wrote a log of mode 1 alone without a word."""
+    log = tmp_path / "run.csv"
+    args = ["simulate", "three_tank_hstf", "--out", str(log), "--schedule", "1:10,2:10,3:10"]
+    code, output = _run([*args, "--steps", "5"], capsys)
+    assert code == 0 and log.read_text().count("\n") == 7
+    assert (
+        "note: --steps 5 ends the run within the schedule's 30 steps (--schedule): "
+        "modes '2', '3' never run"
+    ) in output
+    # the model's own schedule is named as such; a run through every mode says nothing
+    code, output = _run([*args[:4], "--steps", "150", "--force"], capsys)
+    assert code == 0 and "(three_tank_hstf: simulation.schedule): mode '3' never run" in output
+    code, output = _run([*args, "--steps", "21", "--force"], capsys)
+    assert code == 0 and "never run" not in output
