@@ -116,7 +116,7 @@ def simulate_log(
         )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
-        notes: tuple[str, ...] = ()
+        notes: tuple[str, ...] = played.notes
     else:
         if values:
             name = next(iter(values))

@@ -161,3 +161,24 @@ def test_steps_that_cut_the_schedule_before_a_mode_say_so(
     assert code == 0 and "(three_tank_hstf: simulation.schedule): mode '3' never run" in output
     code, output = _run([*args, "--steps", "21", "--force"], capsys)
     assert code == 0 and "never run" not in output
+
+
+def test_steps_that_end_a_scenario_before_its_events_say_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``bioplex_pgc --steps 500`` wrote a run without its drift (step 700) or its light
+    fault (900), without a word."""
+    log = tmp_path / "run.csv"
+    args = ["simulate", "bioplex_pgc", "--out", str(log), "--steps", "500"]
+    code, output = _run(args, capsys)
+    assert code == 0 and log.exists()
+    assert (
+        "note: --steps 500 ends the run before these events of bioplex_pgc's scenario, which "
+        "never run: simulation.unmodelled[0] (fr2) from drift_start = 700; "
+        "simulation.modes.ls: one_bank_out at light_fault = 900\n"
+    ) in output
+    # a fault moved into the run is no longer noted; a repair to a mode the run had is no news
+    code, output = _run([*args, "--force", "--set", "light_fault=500"], capsys)
+    assert code == 0 and "light_fault" not in output and "drift_start = 700" in output
+    code, output = _run([*args[:5], "1000", "--force"], capsys)
+    assert code == 0 and "note" not in output
