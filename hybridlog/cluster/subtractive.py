@@ -436,12 +436,13 @@ def _choose_method(
         if not (grid_ok and grid_fine):
             # h/σ = √8 / (G r_a): the radius at which the grid that fits would be fine enough
             needed = math.sqrt(8.0) / (intervals * GRID_H_OVER_SIGMA_MAX)
-            raise OptionError(
+            raise ClusteringOptionError(
+                ("method", "radius"),
                 f"method: the approximate potentials need a grid with h/σ <= "
                 f"{GRID_H_OVER_SIGMA_MAX} to stay within {POTENTIAL_TOLERANCE:g} of the exact "
                 f"ones; {d} varying dimensions at r_a = {float(radii.min()):g} give "
                 f"{grid_text}: use method=exact (O(N²)), fewer lags, or radius >= "
-                f"{math.ceil(needed * 100) / 100:g}"
+                f"{math.ceil(needed * 100) / 100:g}",
             )
         return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})"
     if n <= AUTO_EXACT_MAX:

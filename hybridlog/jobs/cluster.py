@@ -24,7 +24,7 @@ from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier
 from hybridlog.cluster.regressors import regression_vectors
 from hybridlog.cluster.subtractive import ClusteringOptionError
-from hybridlog.errors import ModelError, OptionError, OutputError, as_text
+from hybridlog.errors import HybridlogError, ModelError, OptionError, OutputError, as_text
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
@@ -182,23 +182,40 @@ def _check_clustering(
     try:
         chiu.clustering().validate(dimensions=1)
     except ClusteringOptionError as err:
-        table = model.estimator_options.get("chiu", {})
-        if not flags and not any(key in table and key not in given for key in err.keys):
-            raise
-        origin = model.origin or model.name
-        named: list[str] = []
-        for key in err.keys:
-            value = shown(getattr(chiu, key))
-            if key in given:
-                named.append(f"--{key.replace('_', '-')} {value}")
-            elif key in table:
-                named.append(f"{origin}: estimators.chiu.{key} = {value}")
-            else:
-                named.append(f"{key} {value} (the default)")
-        message = f"{', '.join(named)}: {err.reason}"
-        if not any(key in given for key in err.keys) and any(key in table for key in err.keys):
-            raise ModelError(message) from None
-        raise OptionError(message) from None
+        raise _named(err, chiu, model, given, flags=flags) from None
+
+
+def _named(
+    err: ClusteringOptionError,
+    chiu: ChiuOptions,
+    model: HybridModel,
+    given: Collection[str],
+    *,
+    flags: bool,
+) -> HybridlogError:
+    """``err`` with each of its options named where its value came from (see above).
+
+    A library caller's options (``flags`` false) are named as ``err`` names them, unless a
+    model file set one of them.
+    """
+    table = model.estimator_options.get("chiu", {})
+    if not flags and not any(key in table and key not in given for key in err.keys):
+        return err
+    origin = model.origin or model.name
+    named: list[str] = []
+    for key in err.keys:
+        value = shown(getattr(chiu, key))
+        if key in given:  # --exact, --approximate: the switches of method
+            named.append(f"--{value}" if key == "method" else f"--{key.replace('_', '-')} {value}")
+        elif key in table:
+            named.append(f"{origin}: estimators.chiu.{key} = {value}")
+        else:
+            named.append(f"{key} {value} (the default)")
+    reason = err.reason.replace("method=exact", "--exact") if flags else err.reason
+    message = f"{', '.join(named)}: {reason}"
+    if not any(key in given for key in err.keys) and any(key in table for key in err.keys):
+        return ModelError(message)
+    return OptionError(message)
 
 
 def check_cluster_outputs(
@@ -321,7 +338,10 @@ def discover_modes(
     except ModelError as err:
         observer = None
         notes.append(f"clusters not labelled as modes: {err}")
-    fitted = mode_classifier(model, signals, chiu, observer=observer)
+    try:  # the grid of method = approximate is chosen on the data
+        fitted = mode_classifier(model, signals, chiu, observer=observer)
+    except ClusteringOptionError as err:
+        raise _named(err, chiu, model, given, flags=flags) from None
     baseline = None
     if compare_kmeans:
         options = kmeans or _model_defaults(model, "kmeans", KMeansOptions(), ())

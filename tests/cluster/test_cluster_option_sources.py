@@ -7,6 +7,7 @@ import pytest
 
 from hybridlog.model.builtins import builtin_text
 from tests.support.cli import run_main
+from tests.support.paths import SAMPLE_LOGS
 
 # never read: the options are refused before the log is
 LOG = "no_such_log.csv"
@@ -45,6 +46,17 @@ def test_a_model_file_value_out_of_bounds_names_its_key(tmp_path, capsys):
     # the flag overrides the table, and is what is named when it is out of bounds too
     code, stderr = _cluster(tmp_path, capsys, str(model), "--squash", "1")
     assert code == 2 and stderr.startswith("hybridlog: error: --squash 1: r_b/r_a")
+
+
+def test_an_approximate_grid_too_coarse_names_the_flags(tmp_path, capsys):
+    """Found on the data: it said "method: ... use method=exact", a key the command line
+    does not have (its flags are --exact and --approximate)."""
+    log = str(SAMPLE_LOGS / "double_cart_case1.csv")
+    args = ["cluster", log, "--model", "double_cart_case1", "--out", str(tmp_path / "c.json")]
+    code, stderr = run_main([*args, "--approximate", "--radius", "0.001"], capsys)
+    assert code == 2 and len(stderr.splitlines()) == 1
+    assert stderr.startswith("hybridlog: error: --approximate, --radius 0.001: the approximate")
+    assert "use --exact (O(N²))" in stderr and not (tmp_path / "c.json").exists()
 
 
 def test_notes_on_a_log_at_rest_say_what_was_found():
