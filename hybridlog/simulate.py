@@ -470,6 +470,37 @@ def simulate(
     )
 
 
+def cut_schedule(
+    model: HybridModel, modes: IntArray, steps: int | None, schedule: str | None
+) -> tuple[str, ...]:
+    """A note when ``steps`` stops a scheduled run before one of its modes is reached.
+
+    ``--schedule 1:100,2:100 --steps 50`` wrote a log of mode 1 alone without a word, which
+    a user who asked for both modes took for a run through both.  ``modes``: the run's
+    (:attr:`SimulatedLog.modes`); ``schedule``: the ``--schedule`` given, else the model's
+    ``[simulation] schedule`` is meant (none: nothing was scheduled, nothing to note).
+    """
+    if steps is None or model.state_driven:
+        return ()
+    if schedule is not None:
+        where = "--schedule"
+        parsed = parse_schedule(schedule, model.mode_ids)
+    elif model.simulation_schedule:
+        where = f"{_origin(model)}: simulation.schedule"
+        parsed = parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
+    else:
+        return ()
+    missing = [m for m in dict.fromkeys(m for m, _ in parsed) if not np.any(modes == m)]
+    if not missing:
+        return ()
+    total = sum(count for _, count in parsed)
+    named = ", ".join(f"'{model.mode_ids[m]}'" for m in missing)
+    return (
+        f"--steps {steps:,} ends the run within the schedule's {total:,} steps ({where}): "
+        f"{'mode' if len(missing) == 1 else 'modes'} {named} never run",
+    )
+
+
 def impossible_switches(
     model: HybridModel, modes: IntArray, time: FloatArray, schedule: str | None
 ) -> tuple[str, ...]:

@@ -70,6 +70,8 @@ class ComponentsLog:
         Per component, its true mode per row (``unknown`` during an unmodelled behaviour).
     controller:
         The controller's memory per row, ``(N, n_memory)``.
+    notes:
+        Scenario events ``steps`` cut off (:func:`_cut_events`), printed by the CLI.
     """
 
     time: FloatArray
@@ -80,6 +82,7 @@ class ComponentsLog:
     commands: FloatArray
     modes: Mapping[str, tuple[str, ...]]
     controller: FloatArray
+    notes: tuple[str, ...] = ()
 
     def truth_columns(self, model: HybridModel) -> tuple[str, ...]:
         """Columns that are ground truth: ``mode.<component>`` and the states."""
@@ -267,10 +270,14 @@ def simulate_components(
         joint.algebraic(now, parameters)
         measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
         if controller is not None:
-            update, compute = controller
-            update(measured[k], memory, parameters, time[k], float(k), new_memory)
-            memory[:] = new_memory
-            compute(measured[k], memory, parameters, time[k], float(k), control)
+            try:
+                with np.errstate(divide="raise", invalid="raise", over="raise"):
+                    update, compute = controller
+                    update(measured[k], memory, parameters, time[k], float(k), new_memory)
+                    memory[:] = new_memory
+                    compute(measured[k], memory, parameters, time[k], float(k), control)
+            except (ArithmeticError, ValueError) as err:  # 1/0, overflow, log(-1), 0*inf
+                raise ModelError(_controller_failed(origin, err, time[k], settings)) from None
             inputs[k, controlled] = control
             now[input_slice] = inputs[k]
             joint.algebraic(now, parameters)
@@ -294,6 +301,41 @@ def simulate_components(
         commands=commands,
         modes=modes,
         controller=memory_log,
+        notes=_cut_events(scenario, rows, at, labels) if steps is not None else (),
+    )
+
+
+def _cut_events(
+    scenario: Scenario, rows: int, at: _Steps, labels: Mapping[str, list[str]]
+) -> tuple[str, ...]:
+    """A note naming the scheduled modes and unmodelled behaviours ``--steps`` cuts off.
+
+    ``bioplex_pgc --steps 500`` wrote a run without its drift (from step 700) or its light
+    fault (900), without a word: a user who asked for the scenario took it for one.  As for
+    a plain model's schedule (:func:`hybridlog.simulate.cut_schedule`), what is noted is
+    what never runs: a component's scheduled mode it never takes, a behaviour that never
+    starts (a repair back to a mode the run already had is no news).
+    """
+    cut: list[tuple[int, str]] = []
+    for name, entries in scenario.modes.items():
+        key = f"simulation.modes.{name}"
+        cut += [
+            (at.at(step, key), f"{key}: {mode} at {at.text(step, key)}")
+            for mode, step in entries
+            if mode not in labels[name]
+        ]
+    cut += [
+        (at.at(b.start, b.key), f"{b.key} ({b.component}) from {at.text(b.start, b.key)}")
+        for b in scenario.unmodelled
+        if at.at(b.start, b.key) >= rows
+    ]
+    if not cut:
+        return ()
+    cut.sort()
+    more = f" and {len(cut) - 5} more" if len(cut) > 5 else ""
+    return (
+        f"--steps {rows - 1:,} ends the run before these events of {at.origin}'s scenario, "
+        f"which never run: {'; '.join(what for _, what in cut[:5])}{more}",
     )
 
 
@@ -533,6 +575,22 @@ def _joint_source(
     )
     lines.append("    return None")
     return "\n".join(lines) + "\n"
+
+
+def _controller_failed(
+    origin: str, err: BaseException, at: float, settings: Mapping[str, float] | None
+) -> str:
+    """Why the controller gave no number at time ``at``, with the ``--set`` values in play.
+
+    ``--set ki=0`` of bioplex_pgc's ``u_max/ki`` was "numerical trouble in
+    simulate_components.py:271: divide by zero", naming neither the controller nor the value.
+    """
+    given = ", ".join(f"{name}={value:g}" for name, value in (settings or {}).items())
+    return (
+        f"{origin}: simulation.controller: {err} at t = {format_time(at)} s"
+        + (f" (with --set {given})" if given else "")
+        + "; the controller gives no number to simulate with"
+    )
 
 
 def _controller(

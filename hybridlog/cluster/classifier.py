@@ -113,6 +113,11 @@ class ModeClassifier:
         )
 
 
+def _count(count: int, noun: str) -> str:
+    """``"1 centre"``, ``"3 centres"``: a count with its (regular) noun in agreement."""
+    return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
+
+
 def _unlabelled(
     algorithm: str,
     spec: RegressorSpec,
@@ -195,8 +200,9 @@ def fit_classifier(
         self_term = "included" if clustering.self_potential else "excluded (eq. (5) as printed)"
         radius = np.atleast_1d(np.asarray(clustering.radius, dtype=float))
         notes = (
-            f"chiu: {found.n_clusters} centres from {phi.shape[0]} regression vectors "
-            f"φ(k) = [{text}]; {found.notes[0]}; r_a = {', '.join(f'{r:g}' for r in radius)}, "
+            f"chiu: {_count(found.n_clusters, 'centre')} from "
+            f"{_count(phi.shape[0], 'regression vector')} φ(k) = [{text}]; {found.notes[0]}; "
+            f"r_a = {', '.join(f'{r:g}' for r in radius)}, "
             f"squash {clustering.squash:g}, accept {clustering.accept:g}, reject "
             f"{clustering.reject:g}, self term {self_term}",
         )
@@ -207,7 +213,8 @@ def fit_classifier(
         centers, lower, upper = km.centers, km.lower, km.upper
         details = {"inertia": km.inertia, "seed": km.seed, "restarts": km.restarts}
         notes = (
-            f"kmeans: {k} centres from {phi.shape[0]} regression vectors φ(k) = [{text}] "
+            f"kmeans: {_count(k, 'centre')} from {_count(phi.shape[0], 'regression vector')} "
+            f"φ(k) = [{text}] "
             f"(scipy kmeans2, k-means++, best of {km.restarts} runs from seed {km.seed}, "
             f"inertia {km.inertia:.4g})",
         )

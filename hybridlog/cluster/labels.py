@@ -257,7 +257,8 @@ def cluster_notes(
         shared = int(np.count_nonzero((modes == chosen) & (sizes > 0)))
         role = "" if shared == 1 else f" (one of {shared} clusters of that mode)"
         alternative = f"; {what} with it in mode {others}" if others else ""
-        notes.append(f"cluster {c + 1} ({sizes[c]} samples) -> mode '{mode}'{role}{alternative}")
+        samples = f"{sizes[c]} sample{'' if sizes[c] == 1 else 's'}"
+        notes.append(f"cluster {c + 1} ({samples}) -> mode '{mode}'{role}{alternative}")
     for m, mode in enumerate(mode_ids):
         if not np.any((modes == m) & (sizes > 0)):
             notes.append(f"mode '{mode}' has no cluster: it is never decided")

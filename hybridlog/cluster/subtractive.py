@@ -94,6 +94,7 @@ __all__ = [
     "LONG_WORK_S",
     "METHODS",
     "POTENTIAL_TOLERANCE",
+    "ClusteringOptionError",
     "SubtractiveClusters",
     "SubtractiveOptions",
     "exact_threads",
@@ -127,6 +128,20 @@ GRID_H_OVER_SIGMA_MAX = 0.1
 """Coarsest grid of the approximate potentials, as grid spacing ``h = 1/G`` over the kernel's
 ``σ = r_a/√8`` in the finest dimension: the largest at which the potentials were measured
 within :data:`POTENTIAL_TOLERANCE` (at 0.5 they were up to 5 % off)."""
+
+
+class ClusteringOptionError(OptionError):
+    """A value of :class:`SubtractiveOptions` out of its bounds; ``keys`` names the options.
+
+    The algorithm knows no flag or file: whoever knows where each value came from
+    (``--squash``, a model file's ``estimators.chiu.squash``) names it
+    (:func:`hybridlog.jobs.cluster.discover_modes`).
+    """
+
+    def __init__(self, keys: tuple[str, ...], message: str) -> None:
+        super().__init__(message)
+        self.keys = keys
+        self.reason = message.partition(": ")[2]
 
 
 @dataclass(frozen=True)
@@ -165,24 +180,36 @@ class SubtractiveOptions:
         """Check every value; return ``r_a`` per dimension, shape ``(dimensions,)``."""
         radii = np.atleast_1d(np.asarray(self.radius, dtype=float))
         if radii.ndim != 1 or radii.shape[0] not in (1, dimensions):
-            raise OptionError(
-                f"radius: expected one value or {dimensions} values, got {radii.shape[0]}"
+            raise ClusteringOptionError(
+                ("radius",),
+                f"radius: expected one value or {dimensions} values, got {radii.shape[0]}",
             )
         if not np.all(np.isfinite(radii)) or np.any(radii <= 0.0):
-            raise OptionError(f"radius: must be positive, got {self.radius!r}")
+            raise ClusteringOptionError(
+                ("radius",), f"radius: must be positive, got {self.radius!r}"
+            )
         if not (math.isfinite(self.squash) and self.squash > 1.0):
-            raise OptionError(f"squash: r_b/r_a must be greater than 1, got {self.squash!r}")
+            raise ClusteringOptionError(
+                ("squash",), f"squash: r_b/r_a must be greater than 1, got {self.squash!r}"
+            )
         if not 0.0 < self.reject < self.accept <= 1.0:
-            raise OptionError(
+            raise ClusteringOptionError(
+                ("accept", "reject"),
                 f"accept, reject: need 0 < reject < accept <= 1, got accept={self.accept!r}, "
-                f"reject={self.reject!r}"
+                f"reject={self.reject!r}",
             )
         if self.method not in METHODS:
-            raise OptionError(f"method: {self.method!r} is not one of {', '.join(METHODS)}")
+            raise ClusteringOptionError(
+                ("method",), f"method: {self.method!r} is not one of {', '.join(METHODS)}"
+            )
         if self.grid is not None and not 2 <= self.grid <= 4096:
-            raise OptionError(f"grid: must be between 2 and 4096 intervals, got {self.grid!r}")
+            raise ClusteringOptionError(
+                ("grid",), f"grid: must be between 2 and 4096 intervals, got {self.grid!r}"
+            )
         if self.max_centres is not None and self.max_centres < 1:
-            raise OptionError(f"max_centres: must be at least 1, got {self.max_centres!r}")
+            raise ClusteringOptionError(
+                ("max_centres",), f"max_centres: must be at least 1, got {self.max_centres!r}"
+            )
         return np.broadcast_to(radii, (dimensions,)).copy()
 
 
@@ -409,16 +436,18 @@ def _choose_method(
         if not (grid_ok and grid_fine):
             # h/σ = √8 / (G r_a): the radius at which the grid that fits would be fine enough
             needed = math.sqrt(8.0) / (intervals * GRID_H_OVER_SIGMA_MAX)
-            raise OptionError(
+            raise ClusteringOptionError(
+                ("method", "radius"),
                 f"method: the approximate potentials need a grid with h/σ <= "
                 f"{GRID_H_OVER_SIGMA_MAX} to stay within {POTENTIAL_TOLERANCE:g} of the exact "
                 f"ones; {d} varying dimensions at r_a = {float(radii.min()):g} give "
                 f"{grid_text}: use method=exact (O(N²)), fewer lags, or radius >= "
-                f"{math.ceil(needed * 100) / 100:g}"
+                f"{math.ceil(needed * 100) / 100:g}",
             )
         return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})"
     if n <= AUTO_EXACT_MAX:
-        return "exact", None, f"exact potentials (auto: {n} points <= {AUTO_EXACT_MAX})"
+        points = "1 point" if n == 1 else f"{n} points"
+        return "exact", None, f"exact potentials (auto: {points} <= {AUTO_EXACT_MAX})"
     if grid_ok and grid_fine:
         return (
             "approximate",
@@ -568,9 +597,13 @@ def subtractive_clustering(
     # a dimension in which every point sits at the same place adds 0 to every distance: left
     # out, it no longer makes the grid too coarse (u(k-1) of a log with a constant input)
     varying = unit.max(axis=0) > unit.min(axis=0)
-    varying[0] |= not varying.any()
+    constant = not varying.any()
+    varying[0] |= constant
     method, intervals, note = _choose_method(options, n, radii[varying])
-    if not varying.all():
+    if constant:  # the one dimension kept above is constant too
+        which = "the only dimension" if d == 1 else f"all {d} dimensions"
+        note += f"; {which} constant: every point the same"
+    elif not varying.all():
         note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
     scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":

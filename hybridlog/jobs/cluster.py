@@ -23,11 +23,12 @@ import numpy as np
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier
 from hybridlog.cluster.regressors import regression_vectors
-from hybridlog.errors import ModelError, OptionError, OutputError, as_text
+from hybridlog.cluster.subtractive import ClusteringOptionError
+from hybridlog.errors import HybridlogError, ModelError, OptionError, OutputError, as_text
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
-from hybridlog.estimators.options import OptionSource, parse_options
+from hybridlog.estimators.options import OptionSource, parse_options, shown
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
@@ -159,6 +160,64 @@ def _model_defaults(
     return dataclasses.replace(options, **{k: getattr(parsed, k) for k in table})
 
 
+def _check_clustering(
+    chiu: ChiuOptions, model: HybridModel, given: Collection[str], *, flags: bool
+) -> None:
+    """Refuse clustering options out of bounds, naming where each value came from.
+
+    Their declared ranges are wider than what the algorithm takes (``squash`` 1, ``accept``
+    0, ``reject`` no smaller than ``accept``): the error said ``squash: …`` or ``accept,
+    reject: …``, naming neither the flag nor the model file's key that set the value.
+    ``flags``: ``given`` are the command line's options (else a library caller's
+    :class:`ChiuOptions`, whose fields the error names as they are).
+
+    Raises
+    ------
+    OptionError
+        A value given on the command line (``--squash 1``), or a default beside one.
+    ModelError
+        Only values of the model file's ``[estimators.chiu]`` table (``m.toml:
+        estimators.chiu.squash``).
+    """
+    try:
+        chiu.clustering().validate(dimensions=1)
+    except ClusteringOptionError as err:
+        raise _named(err, chiu, model, given, flags=flags) from None
+
+
+def _named(
+    err: ClusteringOptionError,
+    chiu: ChiuOptions,
+    model: HybridModel,
+    given: Collection[str],
+    *,
+    flags: bool,
+) -> HybridlogError:
+    """``err`` with each of its options named where its value came from (see above).
+
+    A library caller's options (``flags`` false) are named as ``err`` names them, unless a
+    model file set one of them.
+    """
+    table = model.estimator_options.get("chiu", {})
+    if not flags and not any(key in table and key not in given for key in err.keys):
+        return err
+    origin = model.origin or model.name
+    named: list[str] = []
+    for key in err.keys:
+        value = shown(getattr(chiu, key))
+        if key in given:  # --exact, --approximate: the switches of method
+            named.append(f"--{value}" if key == "method" else f"--{key.replace('_', '-')} {value}")
+        elif key in table:
+            named.append(f"{origin}: estimators.chiu.{key} = {value}")
+        else:
+            named.append(f"{key} {value} (the default)")
+    reason = err.reason.replace("method=exact", "--exact") if flags else err.reason
+    message = f"{', '.join(named)}: {reason}"
+    if not any(key in given for key in err.keys) and any(key in table for key in err.keys):
+        return ModelError(message)
+    return OptionError(message)
+
+
 def check_cluster_outputs(
     log: PathLike,
     model_ref: PathLike,
@@ -258,6 +317,7 @@ def discover_modes(
         log, model_ref, out=out, plot=plot, force=force, read=read
     )
     model = load_model(os.fspath(model_ref))
+    flags = given is not None  # the command line's: named as its flags in errors
     if given is None:
         given = () if chiu is None else [f.name for f in dataclasses.fields(ChiuOptions)]
     chiu = _model_defaults(model, "chiu", chiu or ChiuOptions(), given)
@@ -269,7 +329,7 @@ def discover_modes(
     # the lags and the clustering settings too: --squash 1 or --output-lags 1 was refused
     # only after a long log had been read and the observer's LMI solved
     chiu.regressor_spec()
-    chiu.clustering().validate(dimensions=1)
+    _check_clustering(chiu, model, given, flags=flags)
     reading: dict[str, Any] = {}
     signals = read_log(os.fspath(log), model, read, reading)
     notes: list[str] = []
@@ -278,7 +338,10 @@ def discover_modes(
     except ModelError as err:
         observer = None
         notes.append(f"clusters not labelled as modes: {err}")
-    fitted = mode_classifier(model, signals, chiu, observer=observer)
+    try:  # the grid of method = approximate is chosen on the data
+        fitted = mode_classifier(model, signals, chiu, observer=observer)
+    except ClusteringOptionError as err:
+        raise _named(err, chiu, model, given, flags=flags) from None
     baseline = None
     if compare_kmeans:
         options = kmeans or _model_defaults(model, "kmeans", KMeansOptions(), ())

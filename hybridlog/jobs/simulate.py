@@ -23,7 +23,7 @@ from hybridlog.io.bag_writers import (
 from hybridlog.model.cache import load_model
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
-from hybridlog.simulate import parse_disturbance
+from hybridlog.simulate import cut_schedule, parse_disturbance
 from hybridlog.simulate import simulate as simulate_model
 
 if TYPE_CHECKING:
@@ -36,7 +36,8 @@ __all__ = ["SimulationOutcome", "log_columns", "simulate_log"]
 class SimulationOutcome:
     """What ``hybridlog simulate`` wrote: the log, its number of samples (rows), and notes.
 
-    ``notes``: what the run did that the model gives probability 0
+    ``notes``: scheduled modes ``--steps`` cut off (:func:`hybridlog.simulate.cut_schedule`)
+    and what the run did that the model gives probability 0
     (:func:`hybridlog.simulate.impossible_switches`), which the CLI prints on stderr.
     """
 
@@ -115,7 +116,7 @@ def simulate_log(
         )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
-        notes: tuple[str, ...] = ()
+        notes: tuple[str, ...] = played.notes
     else:
         if values:
             name = next(iter(values))
@@ -134,7 +135,7 @@ def simulate_log(
         )
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
-        notes = log.notes
+        notes = (*cut_schedule(model, log.modes, steps, schedule), *log.notes)
     path = write_log(
         out,
         columns,

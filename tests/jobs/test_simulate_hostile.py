@@ -107,3 +107,78 @@ def test_existing_outputs_are_replaced_only_with_force_and_only_ours(
     code, output = _run([*args[:3], str(mine), *args[4:], "--force"], capsys)
     assert code == 2 and output.count("\n") == 1
     assert (mine / "notes.txt" if extra else mine).read_text() == "mine"
+
+
+@pytest.mark.parametrize("out", [".", "..", "./"])
+def test_a_bag_folder_holding_the_working_directory_is_refused(
+    out: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--out .`` in an empty folder failed with "…hybridlog-tmp-… exists already" (the
+    bag's storage file was named after ``.``); written, the folder would have been renamed
+    over the working one, leaving the shell in a deleted folder."""
+    here = tmp_path / "bag" / "inner"
+    here.mkdir(parents=True)
+    monkeypatch.chdir(here if out == ".." else here.parent)
+    if out != "..":
+        here.rmdir()  # an empty folder: nothing else would refuse it
+    args = ["simulate", "three_tank_hstf", "--out", out, "--format", "ros2-sqlite3"]
+    code, output = _run([*args, "--steps", "3", "--force"], capsys)
+    assert code == 2 and output.count("\n") == 1, output
+    assert f"--out {out.rstrip('/')}: is " in output and "run from outside it" in output
+    assert sorted(p.name for p in tmp_path.rglob("*")) == (
+        ["bag", "inner"] if out == ".." else ["bag"]
+    )
+
+
+def test_a_controller_without_a_number_names_itself_and_the_settings(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--set ki=0`` (bioplex_pgc's anti-windup divides by it) said "numerical trouble in
+    simulate_components.py:271: divide by zero ..."; the controller and the value are named."""
+    log = tmp_path / "run.csv"
+    args = ["simulate", "bioplex_pgc", "--out", str(log), "--steps", "3", "--set", "ki=0"]
+    code, output = _run(args, capsys)
+    assert code == 2 and output.count("\n") == 1, output
+    assert output.startswith("hybridlog: error: bioplex_pgc: simulation.controller: divide by zero")
+    assert "at t = 0 s (with --set ki=0)" in output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_steps_that_cut_the_schedule_before_a_mode_say_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--schedule 1:10,2:10,3:10 --steps 5`` wrote a log of mode 1 alone without a word."""
+    log = tmp_path / "run.csv"
+    args = ["simulate", "three_tank_hstf", "--out", str(log), "--schedule", "1:10,2:10,3:10"]
+    code, output = _run([*args, "--steps", "5"], capsys)
+    assert code == 0 and log.read_text().count("\n") == 7
+    assert (
+        "note: --steps 5 ends the run within the schedule's 30 steps (--schedule): "
+        "modes '2', '3' never run"
+    ) in output
+    # the model's own schedule is named as such; a run through every mode says nothing
+    code, output = _run([*args[:4], "--steps", "150", "--force"], capsys)
+    assert code == 0 and "(three_tank_hstf: simulation.schedule): mode '3' never run" in output
+    code, output = _run([*args, "--steps", "21", "--force"], capsys)
+    assert code == 0 and "never run" not in output
+
+
+def test_steps_that_end_a_scenario_before_its_events_say_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``bioplex_pgc --steps 500`` wrote a run without its drift (step 700) or its light
+    fault (900), without a word."""
+    log = tmp_path / "run.csv"
+    args = ["simulate", "bioplex_pgc", "--out", str(log), "--steps", "500"]
+    code, output = _run(args, capsys)
+    assert code == 0 and log.exists()
+    assert (
+        "note: --steps 500 ends the run before these events of bioplex_pgc's scenario, which "
+        "never run: simulation.unmodelled[0] (fr2) from drift_start = 700; "
+        "simulation.modes.ls: one_bank_out at light_fault = 900\n"
+    ) in output
+    # a fault moved into the run is no longer noted; a repair to a mode the run had is no news
+    code, output = _run([*args, "--force", "--set", "light_fault=500"], capsys)
+    assert code == 0 and "light_fault" not in output and "drift_start = 700" in output
+    code, output = _run([*args[:5], "1000", "--force"], capsys)
+    assert code == 0 and "note" not in output

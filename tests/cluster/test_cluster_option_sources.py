@@ -1,0 +1,86 @@
+"""``hybridlog cluster``: options out of bounds named where they were set; notes that say it."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hybridlog.model.builtins import builtin_text
+from tests.support.cli import run_main
+from tests.support.paths import SAMPLE_LOGS
+
+# never read: the options are refused before the log is
+LOG = "no_such_log.csv"
+
+
+def _cluster(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], model: str, *options: str
+) -> tuple[int, str]:
+    args = ["cluster", LOG, "--model", model, "--out", str(tmp_path / "c.json"), *options]
+    return run_main(args, capsys)
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        # --help gives squash "in [1, 100]" and accept, reject "in [0, 1]"; these edges said
+        # "squash: ..." and "accept, reject: ...", naming no flag the user gave
+        (["--squash", "1"], "--squash 1: r_b/r_a must be greater than 1"),
+        (["--accept", "0"], "--accept 0, reject 0.15 (the default): need 0 < reject < accept"),
+        (["--reject", "0.5"], "accept 0.5 (the default), --reject 0.5: need 0 < reject"),
+        (["--accept", "0.2", "--reject", "0.3"], "--accept 0.2, --reject 0.3: need 0 < reject"),
+    ],
+)
+def test_a_flag_out_of_bounds_is_named(tmp_path, capsys, options, named):
+    code, stderr = _cluster(tmp_path, capsys, "double_cart_case1", *options)
+    assert code == 2 and stderr.startswith(f"hybridlog: error: {named}")
+    assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
+
+
+def test_a_model_file_value_out_of_bounds_names_its_key(tmp_path, capsys):
+    model = tmp_path / "dc.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\nsquash = 1.0\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model))
+    assert code == 2
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.squash = 1: r_b/r_a")
+    # the flag overrides the table, and is what is named when it is out of bounds too
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--squash", "1")
+    assert code == 2 and stderr.startswith("hybridlog: error: --squash 1: r_b/r_a")
+
+
+def test_an_approximate_grid_too_coarse_names_the_flags(tmp_path, capsys):
+    """Found on the data: it said "method: ... use method=exact", a key the command line
+    does not have (its flags are --exact and --approximate)."""
+    log = str(SAMPLE_LOGS / "double_cart_case1.csv")
+    args = ["cluster", log, "--model", "double_cart_case1", "--out", str(tmp_path / "c.json")]
+    code, stderr = run_main([*args, "--approximate", "--radius", "0.001"], capsys)
+    assert code == 2 and len(stderr.splitlines()) == 1
+    assert stderr.startswith("hybridlog: error: --approximate, --radius 0.001: the approximate")
+    assert "use --exact (O(N²))" in stderr and not (tmp_path / "c.json").exists()
+
+
+def test_notes_on_a_log_at_rest_say_what_was_found():
+    """A log at rest (y and u constant) was said to have '2 of 3 dimensions constant, left
+    out' (all 3 were; one is kept), and one vector gave '1 centres from 1 regression
+    vectors', '(auto: 1 points ...)' and 'cluster 1 (1 samples)'."""
+    from hybridlog.cluster.classifier import fit_classifier
+    from hybridlog.cluster.labels import cluster_notes
+    from hybridlog.cluster.regressors import RegressorSpec
+    from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
+
+    y, u = np.ones((50, 1)), np.zeros((50, 1))
+    names = ["y(k)", "y(k-1)", "u(k-1)"]
+    fitted = fit_classifier(y, u, RegressorSpec(), SubtractiveOptions(), names=names, n_modes=2)
+    assert "; all 3 dimensions constant: every point the same;" in fitted.notes[0]
+    assert fitted.notes[0].startswith("chiu: 1 centre from 49 regression vectors ")
+    one = fit_classifier(
+        y[:2], u[:2], RegressorSpec(), SubtractiveOptions(), names=names, n_modes=2
+    )
+    assert one.notes[0].startswith("chiu: 1 centre from 1 regression vector φ(k)")
+    assert "(auto: 1 point <= " in one.notes[0]
+    single = subtractive_clustering(np.ones((5, 1)))
+    assert "; the only dimension constant: every point the same" in single.notes[0]
+    varying = subtractive_clustering(np.c_[np.arange(5.0), np.ones(5)])
+    assert "; 1 of 2 dimensions constant, left out" in varying.notes[0]
+    notes = cluster_notes(np.array([0, 1]), np.array([1, 2]), ("a", "b"))
+    assert notes[:2] == ["cluster 1 (1 sample) -> mode 'a'", "cluster 2 (2 samples) -> mode 'b'"]
