@@ -8,9 +8,10 @@ that is not finite.  The report would take them over the finite rows, or print t
 :func:`check_result` refuses such a result with one line naming the model file, the
 estimator, the time and sample, what is wrong and, where it can tell, why: the expression of
 the model (mode, key and text) that is not finite at the estimate of the sample before
-(:func:`_why`), a covariance grown past what double precision holds, or a derivative so
-steep there that the covariance it propagates rounds by more than the variances
-(:func:`_precision_lost`).
+(:func:`_why`; for the HSTF also each mode's output Jacobian at the modes' mean prediction,
+:func:`_combined_not_finite`), a covariance grown past what double precision holds, or a
+derivative so steep there that the covariance it propagates rounds by more than the
+variances (:func:`_precision_lost`).
 
 It is one pass over the finished arrays (no cost inside the compiled loops), made where a
 result leaves the estimators (:meth:`hybridlog.estimators.Prepared.run`, each chunk of
@@ -305,7 +306,11 @@ def check_result(
         variance = result.state_variances[flaw.row - 1] if variances else None
     else:
         variance = None
-    why = _why(model, signals, row, before, variance) if row > 0 and before is not None else ""
+    why = (
+        _why(model, signals, row, before, variance, combined=result.estimator == "hstf")
+        if row > 0 and before is not None
+        else ""
+    )
     raise ModelError(
         f"{model.origin or model.name}: {result.estimator} diverged at t = "
         f"{format_time(result.time[flaw.row])} s (sample {row}): {flaw.what}"
@@ -319,16 +324,22 @@ def _why(
     row: int,
     before: FloatArray,
     variance: FloatArray | None,
+    *,
+    combined: bool = False,
 ) -> str:
     """Why the step into sample ``row`` from the estimate ``before`` of the sample before broke.
 
     The first expression of the model's modes (``f``, its Jacobian, then ``h`` and its
     Jacobian at the predicted state) that is not finite there, or a variance past
-    :data:`HUGE_VARIANCE` at the sample before; empty when neither explains it.
+    :data:`HUGE_VARIANCE` at the sample before; empty when neither explains it.  With
+    ``combined`` (the HSTF, whose eq. (12) takes every mode's ``∂h/∂x`` at the mean of the
+    modes' predictions) also ``∂h/∂x`` there (:func:`_combined_not_finite`).
     """
     if not np.isfinite(before).all():
         return ""
     found = _expression_not_finite(model, signals, row, before, variance)
+    if not found and combined:
+        found = _combined_not_finite(model, signals, row, before)
     if found:
         return found
     if variance is not None and np.isfinite(variance).all() and variance.size:
@@ -410,6 +421,46 @@ def _expression_not_finite(
                 if abs(value) * spread > OVERFLOWING:
                     found = _expression(model, index, name, flat, value, at, inputs)
                     return f"{found}: the covariance it propagates overflows"
+    return ""
+
+
+def _combined_not_finite(
+    model: HybridModel, signals: AlignedSignals, row: int, before: FloatArray
+) -> str:
+    """A mode's ``∂h/∂x`` not finite at the mean of the modes' predictions from ``before``.
+
+    The HSTF's eq. (12) takes every mode's output Jacobian at the combined prediction
+    ``x̂(k+1|k) = Σ f_i(x̂(k|k), u(k)) / n_q``, a point none of the modes predicts: ``sqrt``
+    of a level that only the mean of the modes takes below zero.
+    """
+    if not _evaluable(model, signals, row):
+        return ""
+    from hybridlog.model.compiled import compile_model
+
+    try:
+        compiled = compile_model(model)
+    except ModelError:
+        return ""
+    n, m = model.n_states, model.n_outputs
+    x = np.ascontiguousarray(before, dtype=np.float64)
+    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
+    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
+    with np.errstate(all="ignore"):
+        predictions = np.zeros((model.n_modes, n))
+        for index in range(model.n_modes):
+            compiled.f(index, x, u_before, predictions[index])
+        mean = np.ascontiguousarray(predictions.mean(axis=0))
+        if not np.isfinite(mean).all():
+            return ""
+        for index in range(model.n_modes):
+            H = np.zeros((m, n))
+            compiled.H(index, mean, u_now, H)
+            finite = np.isfinite(H)
+            if not finite.all():
+                flat = int(np.argmin(finite.reshape(-1)))
+                value = float(H.reshape(-1)[flat])
+                found = _expression(model, index, "H", flat, value, mean, u_now)
+                return f"{found}, the modes' mean prediction (eq. (12))"
     return ""
 
 
