@@ -54,6 +54,7 @@ import numpy as np
 from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.vouch import MAX_SHOWN
 from hybridlog.signals import FloatArray
 from hybridlog.times import format_time
 
@@ -316,6 +317,35 @@ def _check_model(model: HybridModel) -> None:
     model.check_supported(f"estimator '{NAME}'", continuous=True, jumps=True)
 
 
+def _last_interval(
+    model: HybridModel,
+    signals: AlignedSignals,
+    states: FloatArray,
+    predictions: FloatArray,
+    first: int,
+) -> str:
+    """What drove the interval into the first non-finite sample: ``y`` against ``ŷ`` there.
+
+    ``x̂(t_k)`` comes from ``x̂(t_{k-1})`` corrected by ``y(k-1) − h(x̂(t_{k-1}))``: an
+    outlier of the log (``1e6`` where ``h`` predicts 140), not the model, is then the cause,
+    which the numbers show.  The prior (sample 0) predicts nothing: no ``ŷ`` for it.
+    """
+    if first < 1:
+        return ""
+    before = first - 1
+    values = [
+        f"{name} = {value:.6g}"
+        for name, value in zip(model.states, states[before].tolist(), strict=True)
+    ]
+    shown = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+    predicted = float(predictions[before])
+    against = f" against {predicted:.6g} predicted" if np.isfinite(predicted) else ""
+    return (
+        f"; the interval before corrected with {model.outputs[0]} = "
+        f"{float(signals.outputs[before, 0]):.6g} measured{against} at the estimate {shown}"
+    )
+
+
 def _runs(mask: Any) -> list[tuple[int, int]]:
     """``(first, last)`` index of every run of True in ``mask``."""
     padded = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
@@ -423,7 +453,7 @@ def run_switching_observer(
             f"{format_time(signals.time[first])} s "
             f"(sample {first}): the estimate is not finite (Q singular, a jump map or the "
             f"gain of eigenvalues {', '.join(f'{v:g}' for v in eigenvalues)} too large for "
-            f"the integration step)"
+            f"the integration step){_last_interval(model, signals, states, predictions, first)}"
         )
     probabilities = np.zeros((count, model.n_modes))
     probabilities[np.arange(count), modes] = 1.0

@@ -55,6 +55,7 @@ from hybridlog.errors import ModelError
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, TimelineColumn
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
+from hybridlog.estimators.vouch import MAX_SHOWN
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_continuous
 from hybridlog.model.hybrid_model import HybridModel
@@ -255,6 +256,47 @@ def _refuse_runaway_error(
     )
 
 
+def _refuse_no_reconstruction(
+    model: HybridModel, signals: AlignedSignals, deltas: FloatArray, D: ModelFunction
+) -> None:
+    r"""Refuse a run where eq. (30) gave :math:`\tilde\delta` at no sample at all.
+
+    Where :math:`D(x, u)^\top D(x, u)` is singular (or ``D`` is not finite: a measured state
+    outside the model's domain, ``sqrt`` of a negative level) :math:`\hat\sigma` is held
+    from the sample before.  Held at every sample, the mode timeline is the observer's
+    initial :math:`\hat\sigma = 0` throughout: no reconstruction, whose mode accuracy and
+    switches would be reported as if it were one.
+
+    Raises
+    ------
+    ModelError
+        Naming the model, the measured state and input of the first sample, and whether
+        ``D`` is not finite or rank-deficient there.
+    """
+    if deltas.shape[1] == 0 or not np.isnan(deltas).any(axis=1).all():
+        return
+    x = np.ascontiguousarray(signals.outputs[0], dtype=np.float64)
+    u = np.ascontiguousarray(signals.inputs[0], dtype=np.float64)
+    d = np.zeros((model.n_states, deltas.shape[1]))
+    with np.errstate(all="ignore"):
+        D(0, x, u, d)
+    why = "not finite" if not np.isfinite(d).all() else "not of full column rank"
+    values = [
+        f"{name} = {value:.6g}"
+        for name, value in (
+            *zip(model.states, x.tolist(), strict=True),
+            *zip(model.inputs, u.tolist(), strict=True),
+        )
+    ]
+    point = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+    raise ModelError(
+        f"{model.origin or model.name}: sliding-mode reconstructed no discrete state: "
+        f"D(x, u) of eq. (30) is singular or not finite at all {signals.n_samples:,} samples "
+        f"({why} at t = {format_time(signals.time[0])} s: {point}), so σ̂ would stay at its "
+        "initial value; eq. (47) needs D of full column rank at the measured state"
+    )
+
+
 def run_sliding_mode(
     model: HybridModel,
     signals: AlignedSignals,
@@ -281,7 +323,8 @@ def run_sliding_mode(
         The model is not continuous-time and boolean-affine, its state is not measured, it
         has more booleans than states (eq. (2)), or no gain is set; or the observer
         diverged: its state not finite, or its error larger than the measured state
-        (:func:`_refuse_runaway_error`).
+        (:func:`_refuse_runaway_error`); or ``D`` was singular or not finite at every sample
+        (:func:`_refuse_no_reconstruction`).
     """
     options = options or SlidingModeOptions()
     affine = model.boolean_affine
@@ -340,6 +383,7 @@ def run_sliding_mode(
             f"{model.origin or model.name}: sliding-mode diverged at t = "
             f"{format_time(signals.time[row])} s (sample {row}): the observer state is not finite"
         )
+    _refuse_no_reconstruction(model, signals, deltas, code.D)
     _refuse_runaway_error(model, signals, means, v_max)
     probabilities = np.zeros((n_samples, model.n_modes))
     probabilities[np.arange(n_samples), modes] = 1.0

@@ -8,7 +8,10 @@ that is not finite.  The report would take them over the finite rows, or print t
 :func:`check_result` refuses such a result with one line naming the model file, the
 estimator, the time and sample, what is wrong and, where it can tell, why: the expression of
 the model (mode, key and text) that is not finite at the estimate of the sample before
-(:func:`_why`), or a covariance grown past what double precision holds.
+(:func:`_why`; for the HSTF also each mode's output Jacobian at the modes' mean prediction,
+:func:`_combined_not_finite`), a covariance grown past what double precision holds, or a
+derivative so steep there that the covariance it propagates rounds by more than the
+variances (:func:`_precision_lost`).
 
 It is one pass over the finished arrays (no cost inside the compiled loops), made where a
 result leaves the estimators (:meth:`hybridlog.estimators.Prepared.run`, each chunk of
@@ -52,6 +55,10 @@ predicted covariance holds, leaves double precision."""
 HUGE_VARIANCE = 1e100
 """A variance above this at the sample before a failure is named as its cause: its square,
 as the filters' products form it, leaves double precision."""
+
+ROUNDING = 2.0**-52
+"""Double precision's relative rounding: a covariance ``F P Fᵀ`` rounds by this times its
+size, which the update then subtracts down to variances it can no longer resolve."""
 
 
 @dataclass(frozen=True)
@@ -299,7 +306,11 @@ def check_result(
         variance = result.state_variances[flaw.row - 1] if variances else None
     else:
         variance = None
-    why = _why(model, signals, row, before, variance) if row > 0 and before is not None else ""
+    why = (
+        _why(model, signals, row, before, variance, combined=result.estimator == "hstf")
+        if row > 0 and before is not None
+        else ""
+    )
     raise ModelError(
         f"{model.origin or model.name}: {result.estimator} diverged at t = "
         f"{format_time(result.time[flaw.row])} s (sample {row}): {flaw.what}"
@@ -313,16 +324,22 @@ def _why(
     row: int,
     before: FloatArray,
     variance: FloatArray | None,
+    *,
+    combined: bool = False,
 ) -> str:
     """Why the step into sample ``row`` from the estimate ``before`` of the sample before broke.
 
     The first expression of the model's modes (``f``, its Jacobian, then ``h`` and its
     Jacobian at the predicted state) that is not finite there, or a variance past
-    :data:`HUGE_VARIANCE` at the sample before; empty when neither explains it.
+    :data:`HUGE_VARIANCE` at the sample before; empty when neither explains it.  With
+    ``combined`` (the HSTF, whose eq. (12) takes every mode's ``∂h/∂x`` at the mean of the
+    modes' predictions) also ``∂h/∂x`` there (:func:`_combined_not_finite`).
     """
     if not np.isfinite(before).all():
         return ""
     found = _expression_not_finite(model, signals, row, before, variance)
+    if not found and combined:
+        found = _combined_not_finite(model, signals, row, before)
     if found:
         return found
     if variance is not None and np.isfinite(variance).all() and variance.size:
@@ -333,6 +350,9 @@ def _why(
                 "sample before, too large for double precision (the model's noise or initial "
                 "covariance, or the estimator's options)"
             )
+    found = _precision_lost(model, signals, row, before, variance)
+    if found:
+        return found
     if _evaluable(model, signals, row):
         return (
             f"every expression of the model is finite at the estimate of sample {row - 1} "
@@ -402,6 +422,105 @@ def _expression_not_finite(
                     found = _expression(model, index, name, flat, value, at, inputs)
                     return f"{found}: the covariance it propagates overflows"
     return ""
+
+
+def _combined_not_finite(
+    model: HybridModel, signals: AlignedSignals, row: int, before: FloatArray
+) -> str:
+    """A mode's ``∂h/∂x`` not finite at the mean of the modes' predictions from ``before``.
+
+    The HSTF's eq. (12) takes every mode's output Jacobian at the combined prediction
+    ``x̂(k+1|k) = Σ f_i(x̂(k|k), u(k)) / n_q``, a point none of the modes predicts: ``sqrt``
+    of a level that only the mean of the modes takes below zero.
+    """
+    if not _evaluable(model, signals, row):
+        return ""
+    from hybridlog.model.compiled import compile_model
+
+    try:
+        compiled = compile_model(model)
+    except ModelError:
+        return ""
+    n, m = model.n_states, model.n_outputs
+    x = np.ascontiguousarray(before, dtype=np.float64)
+    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
+    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
+    with np.errstate(all="ignore"):
+        predictions = np.zeros((model.n_modes, n))
+        for index in range(model.n_modes):
+            compiled.f(index, x, u_before, predictions[index])
+        mean = np.ascontiguousarray(predictions.mean(axis=0))
+        if not np.isfinite(mean).all():
+            return ""
+        for index in range(model.n_modes):
+            H = np.zeros((m, n))
+            compiled.H(index, mean, u_now, H)
+            finite = np.isfinite(H)
+            if not finite.all():
+                flat = int(np.argmin(finite.reshape(-1)))
+                value = float(H.reshape(-1)[flat])
+                found = _expression(model, index, "H", flat, value, mean, u_now)
+                return f"{found}, the modes' mean prediction (eq. (12))"
+    return ""
+
+
+def _precision_lost(
+    model: HybridModel,
+    signals: AlignedSignals,
+    row: int,
+    before: FloatArray,
+    variance: FloatArray | None,
+) -> str:
+    """The Jacobian entry whose propagated covariance rounds by more than the variances.
+
+    A finite but steep derivative (``sqrt`` of a difference of levels that are nearly
+    equal: ``1e9``) makes ``F P Fᵀ`` so large that its rounding (:data:`ROUNDING` times its
+    size) exceeds the smallest variance of the sample before, which the update must then
+    recover by cancellation: the covariance comes out negative or not finite.  The largest
+    ``|∂f/∂x_j| σ_j`` (or ``∂h/∂x_j``) of any mode at the estimate of the sample before,
+    when it is that large; empty otherwise.
+    """
+    if variance is None or not _evaluable(model, signals, row):
+        return ""
+    if not np.isfinite(variance).all() or not (variance > 0.0).all():
+        return ""
+    from hybridlog.model.compiled import compile_model
+
+    try:
+        compiled = compile_model(model)
+    except ModelError:
+        return ""
+    n, m = model.n_states, model.n_outputs
+    x = np.ascontiguousarray(before, dtype=np.float64)
+    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
+    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
+    sigma = np.sqrt(variance)
+    worst: tuple[float, int, str, int, float, FloatArray, FloatArray] | None = None
+    with np.errstate(all="ignore"):
+        for index in range(model.n_modes):
+            x_next = np.zeros(n)
+            compiled.f(index, x, u_before, x_next)
+            F = np.zeros((n, n))
+            compiled.F(index, x, u_before, F)
+            H = np.zeros((m, n))
+            if np.isfinite(x_next).all():
+                compiled.H(index, x_next, u_now, H)
+            for name, values, at, inputs in (("F", F, x, u_before), ("H", H, x_next, u_now)):
+                scaled = np.abs(values) * sigma
+                if not np.isfinite(scaled).all():
+                    continue
+                flat = int(np.argmax(scaled))
+                size = float(scaled.reshape(-1)[flat]) ** 2
+                if worst is None or size > worst[0]:
+                    value = float(values.reshape(-1)[flat])
+                    worst = (size, index, name, flat, value, at, inputs)
+    smallest = float(variance.min())
+    if worst is None or worst[0] * ROUNDING <= smallest:
+        return ""
+    size, index, name, flat, value, at, inputs = worst
+    expression = _expression(model, index, name, flat, value, at, inputs)
+    product = "F P Fᵀ" if name == "F" else "H P Hᵀ"
+    return f"{expression}: {product} = {size:.3g} swamps variances of {smallest:.3g}"
 
 
 def _expression(

@@ -305,12 +305,15 @@ def test_an_output_map_out_of_its_domain_names_the_mode_and_expression(kernel):
     message = str(caught.value)
     assert message.startswith("models/sqrt.toml: imm diverged at t = 12 s (sample 12): ")
     assert "modes.a.h[0] = 'sqrt(x1)' is nan at x1 = -" in message, message
-    # the HSTF breaks inside its own arithmetic (mode a ruled out): where is still said
+    # the HSTF takes every mode's ∂h/∂x at the modes' mean prediction (eq. (12)), below
+    # zero where neither mode's own prediction is: the refusal said "every expression of
+    # the model is finite at the estimate of sample 10"; it names that Jacobian now
     with pytest.raises(ModelError) as caught:
         run_hstf(model, falling(), HstfOptions(), kernel=kernel)
     message = str(caught.value)
     assert message.startswith("models/sqrt.toml: hstf diverged at t = 11 s (sample 11): ")
-    assert "every expression of the model is finite at the estimate of sample 10" in message
+    assert "; the derivative by x1 of modes.a.h[0] = 'sqrt(x1)' is nan at x1 = -0.0017" in message
+    assert message.endswith(", u = 0.1, the modes' mean prediction (eq. (12))"), message
 
 
 def test_an_exp_that_overflows_names_its_expression():

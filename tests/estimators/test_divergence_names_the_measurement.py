@@ -1,0 +1,59 @@
+"""A diverged ``switching-observer`` run names the measurement that drove it there.
+
+One sample of 1e6 in the clutch's engine speed (about 150 rad/s) made the observer's next
+estimate not finite; the refusal blamed "Q singular, a jump map or the gain ... too large
+for the integration step", all of which were fine, and showed nothing of the log: a user
+searched the model for a fault of the log.  The refusal now also gives the output measured
+on the interval before and the prediction it corrected, and the estimate there.
+"""
+
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hybridlog.errors import ModelError
+from hybridlog.estimators import prepare
+from hybridlog.model.loader import load_model
+from hybridlog.simulate import simulate
+
+SPIKE = 60
+
+
+@pytest.fixture(scope="module")
+def clutch():
+    model = load_model("ice_clutch")
+    return model, simulate(model, steps=SPIKE + 20, noise=False).signals(model)
+
+
+def test_an_outlier_that_breaks_the_observer_is_shown_beside_its_prediction(clutch):
+    model, signals = clutch
+    outputs = signals.outputs.copy()
+    outputs[SPIKE, 0] = 1e6
+    with pytest.raises(ModelError) as caught:
+        prepare(model, "switching-observer").run(model, replace(signals, outputs=outputs))
+    message = str(caught.value)
+    assert message.startswith(
+        f"ice_clutch: switching-observer diverged at t = 0.{SPIKE + 1} s (sample {SPIKE + 1}): "
+    )
+    predicted = re.search(
+        r"; the interval before corrected with y = 1e\+06 measured against "
+        r"(\S+) predicted at the estimate m = \S+, omega = \S+, T = \S+$",
+        message,
+    )
+    assert predicted is not None, message
+    assert abs(float(predicted.group(1))) < 1e3
+    assert "\n" not in message and len(message) < 400
+
+
+def test_a_broken_first_step_has_no_prediction_to_show(clutch):
+    model, signals = clutch
+    with pytest.raises(ModelError) as caught:
+        prepare(model, "switching-observer").run(
+            model, replace(signals, outputs=np.ascontiguousarray(signals.outputs * 1e12))
+        )
+    message = str(caught.value)
+    assert "(sample 1): " in message
+    assert "; the interval before corrected with y = 1.4" in message
+    assert " measured at the estimate m = " in message and "predicted" not in message
