@@ -8,6 +8,7 @@ Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estima
     {
       "format": "hybridlog-centers", "version": 1,
       "model": "double_cart_case1", "log": "sample_logs/double_cart_case1.csv",
+      "model_key": "3f5c…",                            # the model's content key (below)
       "mode_ids": ["1", "2"],
       "regressors": ["y(k)", "y(k-1)", "u(k-1)"],
       "output_lags": [0, 1], "input_lags": [1],
@@ -23,6 +24,14 @@ Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estima
       "reading": {"format": "csv", "time": "log", ...}   # what reading the log did
     }
 
+``model_key`` is the content key of the model the centres were fitted for
+(:func:`hybridlog.model.compiled.model_key`: its equations, parameters, noise and names):
+the clusters are labelled as modes by how well each mode's equations predict the log, and
+the switched observer then runs those equations, so centres of a model whose equations were
+edited since (two modes' dynamics swapped) would be used with the wrong labels.  A file
+without it (made by hand, or by a hybridlog before it was written) is checked on its name,
+modes and regressors alone.
+
 The keys the estimators need are validated on reading, against each other too (labels among
 ``mode_ids``, centres inside ``scaling``: where a fitted file puts them); errors name the file
 and key.  The rest (``labelling``, ``potentials``, ``notes`` ...) records how the centres were
@@ -33,6 +42,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -93,6 +103,8 @@ class CentersFile:
     lower: FloatArray
     upper: FloatArray
     clusters: dict[str, StoredClusters]
+    model_key: str | None = None
+    """The content key of the model the centres were fitted for; ``None`` if not recorded."""
 
     def entry(
         self,
@@ -238,6 +250,7 @@ def parse_centers(text: str, source: str) -> CentersFile:
         lower=lower,
         upper=upper,
         clusters=clusters,
+        model_key=reader.key(data, "model_key"),
     )
 
 
@@ -273,6 +286,15 @@ class _Reader:
             raise self.error(key, f"expected {length} entries, got {len(value)}")
         if not value:
             raise self.error(key, "must not be empty")
+        return value
+
+    def key(self, data: Mapping[str, Any], key: str) -> str | None:
+        """A content key (64 hexadecimal digits), or ``None`` where the file records none."""
+        value = data.get(key)
+        if value is None:
+            return None
+        if not isinstance(value, str) or re.fullmatch(r"[0-9a-f]{64}", value) is None:
+            raise self.error(key, "expected 64 hexadecimal digits (the model's content key)")
         return value
 
     def lags(self, data: Mapping[str, Any], key: str) -> tuple[int, ...]:

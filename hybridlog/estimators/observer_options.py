@@ -157,6 +157,15 @@ def check_centers(
             f"centers={source}: model: the centres were fitted for {fitted}, not "
             f"{model.name!r}; fit them for this model with hybridlog cluster"
         )
+    from hybridlog.model.compiled import model_key
+
+    if centers.model_key is not None and centers.model_key != model_key(model):
+        raise OptionError(
+            f"centers={source}: model_key: the centres were fitted for another version of "
+            f"model {model.name!r} (its equations, parameters, noise or names differ from "
+            "this one's), whose modes label the clusters; fit them again for this model "
+            "with hybridlog cluster"
+        )
     spec = options.regressor_spec()
     lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
     names = spec.names(model.outputs, model.inputs)

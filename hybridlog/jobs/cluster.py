@@ -33,6 +33,7 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.model.cache import load_model
+from hybridlog.model.compiled import model_key
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
     PathLike,
@@ -363,6 +364,7 @@ def discover_modes(
     over = samples_coverage(_scored(signals), signals.time.size, reading)
     content: dict[str, Any] = {
         "model": model.name,
+        "model_key": model_key(model),
         "log": as_text(log),
         "mode_ids": list(model.mode_ids),
         "regressors": list(fitted.regressors),

@@ -104,3 +104,38 @@ def test_centres_for_another_model_are_refused_before_the_log_is_read(tmp_path):
         bad = tmp_path / "bad.toml"
         bad.write_text("name = 1\n")
         analyze(LOG, bad, estimator="chiu", out_dir=tmp_path / "refused")
+
+
+def test_centres_of_an_edited_model_of_the_same_name_are_refused(tmp_path):
+    """Centres of a model whose two modes' dynamics were swapped since were used silently.
+
+    The clusters are labelled as modes by how well each mode's equations predict the log, so
+    after the swap every sample was classified into the mode whose equations are now the
+    other's (VAF 99.74 % → 99.09 %, exit 0).  centers.json records the model's content key.
+    """
+    text = builtin_source("double_cart_case1")
+    model = tmp_path / "dc1.toml"
+    model.write_text(text)
+    centres = tmp_path / "c.json"
+    discover_modes(LOG, model, out=centres)
+    assert len(json.loads(centres.read_text())["model_key"]) == 64
+    analyze(LOG, model, estimator="chiu", sets=[f"centers={centres}"], out_dir=tmp_path / "ok")
+    first, second = text.index("[modes.1]"), text.index("[modes.2]")
+    end = text.index("[noise]")
+    one = text[first:second].replace("[modes.1]", "[modes.2]").replace("x3 <= 0", "x3 > 0")
+    two = text[second:end].replace("[modes.2]", "[modes.1]").replace("x3 > 0", "x3 <= 0")
+    model.write_text(text[:first] + two + one + text[end:])
+    with pytest.raises(
+        OptionError, match=r"c.json: model_key: .* another version of model 'double_cart_case1'"
+    ):
+        analyze(LOG, model, estimator="chiu", sets=[f"centers={centres}"], out_dir=tmp_path / "no")
+    assert not (tmp_path / "no").exists()
+    # a file without the key (made by hand) is checked on its name, modes and regressors
+    content = json.loads(centres.read_text())
+    del content["model_key"]
+    centres.write_text(json.dumps(content))
+    analyze(LOG, model, estimator="chiu", sets=[f"centers={centres}"], out_dir=tmp_path / "hand")
+    content["model_key"] = "not a key"
+    centres.write_text(json.dumps(content))
+    with pytest.raises(OptionError, match=r"c.json: model_key: expected 64 hexadecimal digits"):
+        analyze(LOG, model, estimator="chiu", sets=[f"centers={centres}"], out_dir=tmp_path / "no")
