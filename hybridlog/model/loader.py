@@ -350,7 +350,7 @@ class _Builder:
             },
             simulation_state=sim_state,
             simulation_inputs=sim_inputs,
-            simulation_schedule=as_string(simulation.get("schedule", ""), "simulation.schedule"),
+            simulation_schedule=_schedule_text(simulation),
             simulation_state_min=(
                 as_vector(simulation["state_min"], len(states), "simulation.state_min")
                 if "state_min" in simulation
@@ -1126,3 +1126,21 @@ def _role(name: str, groups: Mapping[str, tuple[str, ...]]) -> str:
     group = next(g for g, names in groups.items() if name in names)
     singular = group.removesuffix("s")
     return f"{'an' if singular[0] in 'aeiou' else 'a'} {singular}"
+
+
+def _schedule_text(simulation: Mapping[str, Any]) -> str:
+    """``[simulation] schedule`` as written; ``""`` where the key is absent.
+
+    An empty or blank value was taken as no schedule at all (the first mode for 100 steps),
+    where ``--schedule ""`` is refused: given, it must say something.
+    """
+    if "schedule" not in simulation:
+        return ""
+    text = as_string(simulation["schedule"], "simulation.schedule")
+    if not text.strip():
+        raise ModelError(
+            "simulation.schedule: empty; write MODE:STEPS,... (e.g. \"1:100,2:100\") or "
+            "leave the key out"
+        )
+    return text
+

@@ -302,6 +302,14 @@ def test_complex_simulation_input_and_matrix_entry_are_refused():
         parse_model(text, origin="m.toml")
 
 
+@pytest.mark.parametrize("value", ['""', '"  "'])
+def test_an_empty_simulation_schedule_is_refused_not_taken_as_none(value):
+    """`schedule = ""` simulated the first mode for 100 steps, where `--schedule ""` is refused."""
+    text = _replace(LINEAR_TWO_MODE, '"slow:120,fast:80,slow:150,fast:150"', value)
+    with pytest.raises(ModelError, match=r"^m\.toml: simulation\.schedule: empty; write MODE"):
+        parse_model(text, origin="m.toml")
+
+
 @pytest.mark.parametrize(
     "expression", ["sqrt(theta)", "log(1 + theta**2)", "theta**0.5", "sqrt(g)"]
 )
