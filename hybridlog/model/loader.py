@@ -1139,8 +1139,7 @@ def _schedule_text(simulation: Mapping[str, Any]) -> str:
     text = as_string(simulation["schedule"], "simulation.schedule")
     if not text.strip():
         raise ModelError(
-            "simulation.schedule: empty; write MODE:STEPS,... (e.g. \"1:100,2:100\") or "
+            'simulation.schedule: empty; write MODE:STEPS,... (e.g. "1:100,2:100") or '
             "leave the key out"
         )
     return text
-
