@@ -378,22 +378,18 @@ class _DataclassOptions:
 
 
 def _comma_list(value: str) -> tuple[str, ...]:
-    """A comma-separated option's items, stripped; an empty one (``a,,b``, ``a,``) refused.
+    """A comma-separated option's names (:func:`hybridlog.numbers.comma_items`).
 
     An empty item is a typo (a name left out, a stray comma), never a name: dropping it
     silently ran less than the user asked for.  A wholly empty value gives no items (the
     command says what it needs).
     """
-    if not value.strip():
-        return ()
-    items = tuple(item.strip() for item in value.split(","))
-    if "" in items:
-        where = items.index("")
-        raise click.BadParameter(
-            f"item {where + 1} of {excerpt(value, 60)} is empty; separate the names with "
-            "single commas"
-        )
-    return items
+    from hybridlog.numbers import comma_items
+
+    try:
+        return comma_items(value, "names")
+    except ValueError as err:
+        raise click.BadParameter(str(err)) from None
 
 
 class _Command(click.Command):

@@ -15,6 +15,10 @@ ASCII whitespace around the text is ignored (``' 2'`` is 2); nothing else is: ``
 ``1_000``, ``1,5``, non-ASCII digits and ``inf``/``nan`` are refused.  Numbers in model
 files are typed by the TOML parser, but those written inside text (a ``[simulation]``
 schedule, a scenario's command values and steps) come here too.
+
+Comma-separated lists a user types (``--estimators``, ``output_lags``, ``cluster_modes``)
+are split by :func:`comma_items`, which refuses an empty item (``a,,b``, ``a,``): a name or
+number left out, which skipping would hide.
 """
 
 from __future__ import annotations
@@ -81,3 +85,23 @@ def parse_float(text: str) -> float:
     if not math.isfinite(value):
         raise ValueError("expected a finite number")
     return value
+
+
+def comma_items(text: str, what: str) -> tuple[str, ...]:
+    """The items of a comma-separated list, stripped; no items for a blank ``text``.
+
+    Raises
+    ------
+    ValueError
+        An empty item: ``item 2 of '0,,1' is empty; separate the <what> with single commas``.
+    """
+    if not text.strip():
+        return ()
+    items = tuple(item.strip() for item in text.split(","))
+    if "" in items:
+        shown = text if len(text) <= 60 else text[:59] + "…"
+        raise ValueError(
+            f"item {items.index('') + 1} of {shown!r} is empty; separate the {what} with "
+            "single commas"
+        )
+    return items

@@ -37,6 +37,7 @@ from hybridlog.cluster.labels import cluster_notes, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
 from hybridlog.errors import OptionError, as_text
+from hybridlog.numbers import comma_items
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -268,7 +269,10 @@ def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArr
     OptionError
         Not one known mode id per cluster.
     """
-    ids = [part.strip() for part in text.split(",") if part.strip()]
+    try:
+        ids = comma_items(text, "mode ids")
+    except ValueError as err:
+        raise OptionError(f"cluster_modes: {err}") from None
     if len(ids) != n_clusters:
         raise OptionError(
             f"cluster_modes: {len(ids)} mode ids for {n_clusters} clusters ('{text}')"

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hybridlog.errors import DataShortError, OptionError
-from hybridlog.numbers import parse_int
+from hybridlog.numbers import comma_items, parse_int
 from hybridlog.signals import FloatArray
 
 __all__ = ["RegressorSpec", "parse_lags", "regression_vectors"]
@@ -84,11 +84,18 @@ class RegressorSpec:
 
 
 def parse_lags(text: str | Sequence[int], key: str) -> tuple[int, ...]:
-    """``"0,1"`` (or a list) → ``(0, 1)``; an empty string is no lag at all."""
+    """``"0,1"`` (or a list) → ``(0, 1)``; an empty string is no lag at all.
+
+    An empty item between commas (``"0,,1"``, ``"0,"``) is refused, not skipped: it is a
+    lag left out or a typo, which the user must see.
+    """
     if not isinstance(text, str):
         values = list(text)
     else:
-        parts = [p.strip() for p in text.replace(";", ",").split(",") if p.strip()]
+        try:
+            parts = comma_items(text.replace(";", ","), "lags")
+        except ValueError as err:
+            raise OptionError(f"{key}: {err}") from None
         values = []
         for part in parts:
             try:

@@ -38,6 +38,9 @@ def test_paper_regression_vectors_and_generalisation():
     assert parse_lags("0, 1,2", "output_lags") == (0, 1, 2) and parse_lags("", "x") == ()
     with pytest.raises(OptionError, match="output_lags: 'a' is not a whole number"):
         parse_lags("0,a", "output_lags")
+    for text, item in (("0,,1", 2), ("0,", 2), (",1", 1), (" , ", 1)):  # were skipped
+        with pytest.raises(OptionError, match=rf"output_lags: item {item} of .* is empty"):
+            parse_lags(text, "output_lags")
     with pytest.raises(OptionError, match="input_lags: a lag is listed twice"):
         RegressorSpec(input_lags=(1, 1))
     with pytest.raises(OptionError, match="too few"):
@@ -205,6 +208,8 @@ def test_the_classifier_is_immutable_and_labelling_returns_a_new_one():
     assert manual_labels(" 2, 1", ["1", "2"], 2).tolist() == [1, 0]
     with pytest.raises(OptionError, match=r"cluster_modes: 1 mode ids for 2 clusters \('2'\)"):
         manual_labels("2", ["1", "2"], 2)
+    with pytest.raises(OptionError, match=r"cluster_modes: item 2 of '2,,1' is empty"):
+        manual_labels("2,,1", ["1", "2"], 2)  # was read as "2,1"
 
 
 def test_estimator_options_default_to_the_clustering_defaults():
