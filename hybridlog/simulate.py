@@ -157,9 +157,17 @@ def input_signals(model: HybridModel, time: FloatArray) -> FloatArray:
             raise ModelError(
                 f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with"
             )
-        values = np.broadcast_to(np.asarray(functions[name](time, steps), dtype=float), time.shape)
-        if not np.all(np.isfinite(values)):
-            raise ModelError(f"{_origin(model)}: simulation.inputs.{name}: non-finite values")
+        with np.errstate(all="ignore"):  # a NaN or inf is found below, named by its key
+            values = np.broadcast_to(
+                np.asarray(functions[name](time, steps), dtype=float), time.shape
+            )
+        if not np.all(finite := np.isfinite(values)):
+            first = int(np.argmin(finite))
+            raise ModelError(
+                f"{_origin(model)}: simulation.inputs.{name}: {values[first]} at t = "
+                f"{format_time(float(time[first]))} s (k = {first}); the input must be a "
+                "finite number at every step"
+            )
         columns.append(values)
     if not columns:
         return np.zeros((time.shape[0], 0))

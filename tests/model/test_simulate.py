@@ -114,6 +114,26 @@ def test_divergence_and_missing_inputs_name_the_model_file(tmp_path):
         simulate(load_model(path), steps=20)
 
 
+@pytest.mark.parametrize(
+    ("expression", "value", "time"),
+    [
+        ("sqrt(t - 0.5)", "nan", "0"),
+        ("1/(t - 0.1)", "inf", "0.1"),
+        ("log(k)", "-inf", "0"),
+        ("1/(k - 1)", "inf", "0.05"),
+    ],
+)
+def test_an_input_expression_outside_its_domain_names_its_key_and_time(
+    tmp_path, expression, value, time
+):
+    """`sqrt(t - 5)` gave "numerical trouble in simulate.py:160: invalid value in sqrt"."""
+    path = _model_file(tmp_path, PENDULUM_ONE_MODE.replace('"0.3*sin(0.5*t)"', f'"{expression}"'))
+    with pytest.raises(
+        ModelError, match=rf"^{path}: simulation\.inputs\.torque: {value} at t = {time} s \(k = "
+    ):
+        simulate(load_model(path), steps=20)
+
+
 def test_a_singular_measurement_noise_names_the_file_mode_and_estimator(tmp_path):
     text = PENDULUM_ONE_MODE.replace("measurement = [0.01, 0.02]", "measurement = [0.0, 0.02]")
     model = load_model(_model_file(tmp_path, text))
