@@ -33,6 +33,7 @@ from hybridlog.times import format_time
 
 if TYPE_CHECKING:
     from hybridlog.estimators.result import EstimationResult
+    from hybridlog.model.compiled import CompiledModel
     from hybridlog.model.hybrid_model import HybridModel
     from hybridlog.signals import AlignedSignals, FloatArray
 
@@ -366,6 +367,54 @@ def _evaluable(model: HybridModel, signals: AlignedSignals, row: int) -> bool:
     return not (model.is_continuous or model.has_components) and signals.inputs.shape[0] > row
 
 
+@dataclass(frozen=True)
+class _Step:
+    """The step into sample ``row`` from the estimate ``x`` of the sample before, evaluable."""
+
+    compiled: CompiledModel
+    n_outputs: int
+    x: FloatArray
+    u_before: FloatArray
+    u_now: FloatArray
+
+    def mode(self, index: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Mode ``index``'s ``f``, ``∂f/∂x`` at ``x``, and ``h``, ``∂h/∂x`` at its prediction.
+
+        ``h`` and ``∂h/∂x`` stay zero where the prediction is not finite.
+        """
+        n, m = self.x.shape[0], self.n_outputs
+        x_next, F = np.zeros(n), np.zeros((n, n))
+        y, H = np.zeros(m), np.zeros((m, n))
+        with np.errstate(all="ignore"):
+            self.compiled.f(index, self.x, self.u_before, x_next)
+            self.compiled.F(index, self.x, self.u_before, F)
+            if np.isfinite(x_next).all():
+                self.compiled.h(index, x_next, self.u_now, y)
+                self.compiled.H(index, x_next, self.u_now, H)
+        return x_next, F, y, H
+
+
+def _step(
+    model: HybridModel, signals: AlignedSignals, row: int, before: FloatArray
+) -> _Step | None:
+    """The model's compiled modes on the step into ``row``; ``None`` where not evaluable."""
+    if not _evaluable(model, signals, row):
+        return None
+    from hybridlog.model.compiled import compile_model
+
+    try:
+        compiled = compile_model(model)
+    except ModelError:
+        return None
+    return _Step(
+        compiled,
+        model.n_outputs,
+        np.ascontiguousarray(before, dtype=np.float64),
+        np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64),
+        np.ascontiguousarray(signals.inputs[row], dtype=np.float64),
+    )
+
+
 def _expression_not_finite(
     model: HybridModel,
     signals: AlignedSignals,
@@ -378,29 +427,13 @@ def _expression_not_finite(
     Or, with the ``variance`` of the sample before, the first Jacobian entry so large that
     the covariance it propagates (``F P Fᵀ``, ``H P Hᵀ``) overflows.
     """
-    if not _evaluable(model, signals, row):
+    step = _step(model, signals, row, before)
+    if step is None:
         return ""
-    from hybridlog.model.compiled import compile_model
-
-    try:
-        compiled = compile_model(model)
-    except ModelError:
-        return ""
-    n, m = model.n_states, model.n_outputs
-    x = np.ascontiguousarray(before, dtype=np.float64)
-    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
-    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
+    x, u_before, u_now = step.x, step.u_before, step.u_now
     with np.errstate(all="ignore"):
         for index in range(model.n_modes):
-            x_next = np.zeros(n)
-            compiled.f(index, x, u_before, x_next)
-            F = np.zeros((n, n))
-            compiled.F(index, x, u_before, F)
-            y = np.zeros(m)
-            H = np.zeros((m, n))
-            if np.isfinite(x_next).all():
-                compiled.h(index, x_next, u_now, y)
-                compiled.H(index, x_next, u_now, H)
+            x_next, F, y, H = step.mode(index)
             for name, values, at, inputs in (
                 ("f", x_next, x, u_before),
                 ("F", F, x, u_before),
@@ -433,22 +466,15 @@ def _combined_not_finite(
     ``x̂(k+1|k) = Σ f_i(x̂(k|k), u(k)) / n_q``, a point none of the modes predicts: ``sqrt``
     of a level that only the mean of the modes takes below zero.
     """
-    if not _evaluable(model, signals, row):
+    step = _step(model, signals, row, before)
+    if step is None:
         return ""
-    from hybridlog.model.compiled import compile_model
-
-    try:
-        compiled = compile_model(model)
-    except ModelError:
-        return ""
+    compiled, u_now = step.compiled, step.u_now
     n, m = model.n_states, model.n_outputs
-    x = np.ascontiguousarray(before, dtype=np.float64)
-    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
-    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
     with np.errstate(all="ignore"):
         predictions = np.zeros((model.n_modes, n))
         for index in range(model.n_modes):
-            compiled.f(index, x, u_before, predictions[index])
+            compiled.f(index, step.x, step.u_before, predictions[index])
         mean = np.ascontiguousarray(predictions.mean(axis=0))
         if not np.isfinite(mean).all():
             return ""
@@ -480,31 +506,17 @@ def _precision_lost(
     ``|∂f/∂x_j| σ_j`` (or ``∂h/∂x_j``) of any mode at the estimate of the sample before,
     when it is that large; empty otherwise.
     """
-    if variance is None or not _evaluable(model, signals, row):
+    if variance is None or not np.isfinite(variance).all() or not (variance > 0.0).all():
         return ""
-    if not np.isfinite(variance).all() or not (variance > 0.0).all():
+    step = _step(model, signals, row, before)
+    if step is None:
         return ""
-    from hybridlog.model.compiled import compile_model
-
-    try:
-        compiled = compile_model(model)
-    except ModelError:
-        return ""
-    n, m = model.n_states, model.n_outputs
-    x = np.ascontiguousarray(before, dtype=np.float64)
-    u_before = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
-    u_now = np.ascontiguousarray(signals.inputs[row], dtype=np.float64)
+    x, u_before, u_now = step.x, step.u_before, step.u_now
     sigma = np.sqrt(variance)
     worst: tuple[float, int, str, int, float, FloatArray, FloatArray] | None = None
     with np.errstate(all="ignore"):
         for index in range(model.n_modes):
-            x_next = np.zeros(n)
-            compiled.f(index, x, u_before, x_next)
-            F = np.zeros((n, n))
-            compiled.F(index, x, u_before, F)
-            H = np.zeros((m, n))
-            if np.isfinite(x_next).all():
-                compiled.H(index, x_next, u_now, H)
+            x_next, F, _, H = step.mode(index)
             for name, values, at, inputs in (("F", F, x, u_before), ("H", H, x_next, u_now)):
                 scaled = np.abs(values) * sigma
                 if not np.isfinite(scaled).all():
