@@ -31,6 +31,11 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 ``fields``) but that cannot be used as asked -- text for a state, a topic without
 ``header.stamp`` read with ``--time header`` -- is no truth either, unless mapped with
 ``--map``; :attr:`SignalMap.unusable_truth` says why, for the report.
+
+An error names the symbol and the field as a place, then the cause: ``output 'y1' (field
+'/a.b.v', from --map y1=/a.b.v): '/a.b.v' names 2 fields ...``; ``input 'u' (field
+'/u.data', the default; ...): topic '/u' (...) has no header.stamp``.  "no field" (or "no
+column") is said only of a field the log lacks.
 """
 
 from __future__ import annotations
@@ -322,7 +327,9 @@ def resolve_signal_map(
         if explain is not None:
             reason = explain(name, numeric)
             return None if reason is None else reason.removeprefix(f"{name!r}: ")
-        return None if name in available else closest_names([name], fields)
+        if name in available:
+            return None
+        return f"no {field_word} {name!r}; {closest_names([name], fields)}"
 
     def choose(
         symbol: str, model_path: str | None, defaults: tuple[str, ...], required: bool
@@ -337,10 +344,7 @@ def resolve_signal_map(
             mapped = mapped.strip()
             reason = missing(mapped, numeric)
             if reason is not None:
-                raise LogError(
-                    f"{source}: no {field_word} {mapped!r} for {_describe(symbol, inputs)} "
-                    f"(from --map {symbol}={mapped}); {reason}"
-                )
+                raise unusable_field(symbol, mapped, f"from --map {symbol}={mapped}", reason)
             return mapped
         if model_path is not None and missing(model_path, numeric) is None:
             return model_path
@@ -354,17 +358,26 @@ def resolve_signal_map(
                 if reason is not None:
                     unusable.setdefault(symbol, f"{field_word} {name!r}: {reason}")
             return None
-        why = closest_names(looked, fields)
         for name in looked if explain is not None else ():
             # A field that exists but cannot be used (e.g. its topic cannot be decoded) is
-            # worth more to the user than a list of names.
+            # worth more to the user than a list of names, and is the cause to name first.
             reason = missing(name, numeric)
             if reason is not None and not reason.startswith("no topic"):
-                why = reason
-                break
+                where = "from the model's [signals]" if name == model_path else "the default"
+                origin = f"{where}; use --map {symbol}=... for another"
+                raise unusable_field(symbol, name, origin, reason)
         raise LogError(
             f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
-            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); {why}"
+            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "
+            f"{closest_names(looked, fields)}"
+        )
+
+    def unusable_field(symbol: str, name: str, origin: str, reason: str) -> LogError:
+        # The symbol and field as a place, then the cause: "output 'y1' (field '/a.b.v',
+        # from --map y1=/a.b.v): '/a.b.v' names 2 fields ..." -- not "no field '/a.b.v'"
+        # before a reason that says the field is there but cannot be used.
+        return LogError(
+            f"{source}: {_describe(symbol, inputs)} ({field_word} {name!r}, {origin}): {reason}"
         )
 
     every = [

@@ -178,7 +178,9 @@ class TableSource:
         if path is None:
             if self._format == "csv":
                 if name not in self._columns:
-                    raise PathError(closest_names([name], self.fields()))
+                    raise PathError(
+                        f"no column {excerpt(name)}; {closest_names([name], self.fields())}"
+                    )
                 path = ColumnPath(name, name, (), (), pl.String())
             else:
                 path = resolve_path(name, self._schema, list(self.fields()))
@@ -188,7 +190,8 @@ class TableSource:
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
         """``None`` for a field of the table, else why not: the time column, or the closest.
 
-        Whether a column holds numbers is checked when it is read (``numeric`` is unused).
+        With ``numeric``, a Parquet column whose type holds no numbers (text, a date) is
+        explained as such; whether a CSV column holds numbers is known when it is read.
         """
         if name == self._time_column:
             return (
@@ -197,9 +200,11 @@ class TableSource:
                 f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
             )
         try:
-            self._path(name)
+            dtype = self._path(name).dtype
         except PathError as err:
             return str(err)
+        if numeric and self._format == "parquet" and not _holds_numbers(dtype):
+            return f"column {excerpt(name)} has type {dtype}, expected a number"
         return None
 
     def __enter__(self) -> Self:
@@ -252,7 +257,7 @@ class TableSource:
             try:
                 self._path(name)
             except PathError as err:
-                raise LogError(f"{self.path}: no column {excerpt(name)}; {err}") from None
+                raise LogError(f"{self.path}: {err}") from None
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
         # Parquet numeric columns are decoded one at a time once the rows are known (below):
