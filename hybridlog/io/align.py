@@ -739,8 +739,11 @@ def _longest_piece(
 ) -> dict[str, Series]:
     """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``."""
     for symbol, series in outputs.items():
-        hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
-        if hint:  # every step a gap: no piece longer than one sample
+        # every step a gap: no piece longer than one sample (counted, not judged from the
+        # median step: a log mostly sampled slowly can still hold a piece sampled at dt)
+        steps = np.diff(series.time_ns)
+        if steps.size and bool(np.all(longer_than_max_gap(steps, max_gap_ns, dt_ns))):
+            hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
             raise LogError(
                 f"{source}: --split-gaps: output {symbol!r} ({field_word} {series.name!r}) "
                 f"leaves no piece of more than one sample{hint}"
