@@ -362,7 +362,7 @@ def resolve_signal_map(
             # A field that exists but cannot be used (e.g. its topic cannot be decoded) is
             # worth more to the user than a list of names, and is the cause to name first.
             reason = missing(name, numeric)
-            if reason is not None and not reason.startswith("no topic"):
+            if reason is not None and not reason.startswith(("no topic", f"no {field_word} ")):
                 where = "from the model's [signals]" if name == model_path else "the default"
                 origin = f"{where}; use --map {symbol}=... for another"
                 raise unusable_field(symbol, name, origin, reason)

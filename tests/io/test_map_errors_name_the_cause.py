@@ -90,3 +90,13 @@ def test_without_a_log_source_a_missing_mapped_name_is_called_missing() -> None:
         resolve_signal_map(
             ("u", "y"), source="log.csv", inputs=("u",), outputs=("y",), states=(), maps={"u": "v"}
         )
+
+
+@pytest.mark.parametrize("suffix", ["csv", "parquet"])
+def test_a_missing_default_column_is_still_called_missing(tmp_path: Path, suffix: str) -> None:
+    log = tmp_path / f"log.{suffix}"
+    frame = pl.DataFrame({"t": [0.0, 0.1], "u": [1.0, 2.0], "y2": [1.0, 2.0]})
+    frame.write_csv(log) if suffix == "csv" else frame.write_parquet(log)
+    assert refusal(log) == (
+        f"{log}: no column for output 'y1' (looked for 'y1'; use --map y1=...); closest: 'y2'"
+    )
