@@ -5,7 +5,10 @@ For each model input and output, and for the ground truth (``truth.mode``,
 ``truth.mode``), the field is chosen in this order:
 
 1. ``--map SYMBOL=PATH`` given by the user (the field must exist);
-2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field;
+2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field (a field the
+   log has but that cannot be used -- text, the time column, a path naming two fields -- is
+   an error for an input or output, and no truth for ground truth: never replaced by the
+   default field, which the model did not name);
 3. the default name: in CSV/Parquet, a column named like the symbol (``u1``, ``y``; ``mode``
    for the true mode; the state's name for a true state); in bags and MCAP files, the topics
    ``hybridlog simulate`` writes (:func:`default_field`):
@@ -346,8 +349,19 @@ def resolve_signal_map(
             if reason is not None:
                 raise unusable_field(symbol, mapped, f"from --map {symbol}={mapped}", reason)
             return mapped
-        if model_path is not None and missing(model_path, numeric) is None:
-            return model_path
+        if model_path is not None:
+            reason = missing(model_path, numeric)
+            if reason is None:
+                return model_path
+            if not absent(reason):
+                # the log has the model's field but it cannot be used: reading the default
+                # field instead would analyse a signal the model did not name
+                table = "[truth]" if symbol.startswith(TRUTH_PREFIX) else "[signals]"
+                if required:
+                    origin = f"from the model's {table}; use --map {symbol}=... for another"
+                    raise unusable_field(symbol, model_path, origin, reason)
+                unusable[symbol] = f"{field_word} {model_path!r}, the model's {table}: {reason}"
+                return None
         for default in defaults:
             if missing(default, numeric) is None:
                 return default
@@ -363,14 +377,19 @@ def resolve_signal_map(
             # worth more to the user than a list of names, and is the cause to name first.
             reason = missing(name, numeric)
             if reason is not None and not reason.startswith(("no topic", f"no {field_word} ")):
-                where = "from the model's [signals]" if name == model_path else "the default"
-                origin = f"{where}; use --map {symbol}=... for another"
-                raise unusable_field(symbol, name, origin, reason)
+                raise unusable_field(
+                    symbol, name, f"the default; use --map {symbol}=... for another", reason
+                )
         raise LogError(
             f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
             f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "
             f"{closest_names(looked, fields)}"
         )
+
+    def absent(reason: str) -> bool:
+        # why a name is no field: the log lacks it (a topic, a column, a field of a message),
+        # rather than has it in a form that cannot be used
+        return reason.startswith(("no topic", f"no {field_word} ")) or " has no field " in reason
 
     def unusable_field(symbol: str, name: str, origin: str, reason: str) -> LogError:
         # The symbol and field as a place, then the cause: "output 'y1' (field '/a.b.v',
