@@ -259,8 +259,8 @@ def test_signals_that_do_not_overlap() -> None:
 @pytest.mark.parametrize(
     ("options", "pattern"),
     [
-        ({"resample": "cubic"}, "resample: unknown method 'cubic'"),
-        ({"max_gap": -1.0}, "max_gap: must be between 0 and"),
+        ({"resample": "cubic"}, "--resample: unknown method 'cubic'"),
+        ({"max_gap": -1.0}, "--max-gap: must be between 0 and"),
         ({"dt": 0.0}, "dt: the sample time must be between 1e-09 s and"),
         ({"dt": float("nan")}, "dt: the sample time must be between 1e-09 s and"),
     ],
