@@ -1247,10 +1247,11 @@ def _check_truncated(path: Path) -> None:
 def _as_labels(column: pl.Series) -> pl.Series:
     """Mode ids as stripped text; integer-valued floats lose their ``.0``.
 
-    A float column (Parquet), or a text column (CSV) whose every cell is a number and some
-    written as a float (``1.0``, ``2e0``: pandas writes an integer column with a gap so), is
-    read as numbers: if all are whole they are written as integers (``1.0`` is mode ``1``, as
-    in a message log, :func:`hybridlog.io.message_paths.as_label`), else as they were.
+    A float column (Parquet) holds numbers: each whole one is written as an integer (``1.0``
+    is mode ``1`` beside ``2.5``, as in a message log,
+    :func:`hybridlog.io.message_paths.as_label`).  A text column (CSV) whose every cell is a
+    number and some written as a float (``1.0``, ``2e0``: pandas writes an integer column
+    with a gap so) is read so if all are whole, else as written.
     """
     if column.dtype == pl.String:
         text = column.str.strip_chars()
@@ -1261,17 +1262,15 @@ def _as_labels(column: pl.Series) -> pl.Series:
             if whole.len() == numbers.len() and bool((whole == whole.round(0)).all()):
                 column = text.cast(pl.Float64, strict=False)
     dtype = column.dtype
-    if dtype.is_float():
-        # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is
-        # refused with its row: cast to an integer they became empty cells, no sample,
-        # and so did a whole number beyond int64
-        finite = column.filter(column.is_finite())
-        if finite.len() and bool((finite == finite.round(0)).all()):
-            whole = column.cast(pl.Int64, strict=False)
-            exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
-            column = pl.select(
-                pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
-            ).to_series()
+    # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is refused
+    # with its row: cast to an integer they became empty cells, no sample, and so did a
+    # whole number beyond int64
+    if dtype.is_float() and bool(column.is_finite().any()):
+        whole = column.cast(pl.Int64, strict=False)
+        exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
+        column = pl.select(
+            pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
+        ).to_series()
     text = column.cast(pl.String).str.strip_chars()
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
 
