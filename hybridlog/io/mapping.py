@@ -50,7 +50,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io.source import closest_names
+from hybridlog.io.source import closest_names, non_ascii
 
 TRUTH_PREFIX = "truth."
 TRUTH_MODE = "truth.mode"
@@ -261,8 +261,11 @@ def parse_maps(
         if not sep or not symbol or not path.strip():
             raise OptionError(f"--map {item!r}: expected SYMBOL=PATH, e.g. y=level")
         if symbol not in valid:
+            # a symbol that prints like a valid one ('у1', Cyrillic у) names its odd characters
+            hint = f"; {non_ascii(symbol)}" if not symbol.isascii() else ""
             raise OptionError(
-                f"--map {item!r}: unknown symbol {symbol!r}; valid symbols: {', '.join(valid)}"
+                f"--map {item!r}: unknown symbol {symbol!r}{hint}; valid symbols: "
+                f"{', '.join(valid)}"
             )
         if symbol in parsed:
             raise OptionError(f"--map: symbol {symbol!r} is mapped twice")

@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.io.mapping import parse_maps
 from hybridlog.io.source import closest_names
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y1",), mode_ids=("1",), dt=0.1)
@@ -47,3 +48,12 @@ def test_names_alike_but_in_ascii_get_no_note() -> None:
     assert closest_names(["levle"], ["level"]) == "closest: 'level'"
     # a non-ASCII character both names share tells them not apart
     assert closest_names(["θ2"], ["θ1"]) == "closest: 'θ1'"
+
+
+def test_a_mapped_symbol_with_a_lookalike_names_it() -> None:
+    with pytest.raises(OptionError) as info:
+        parse_maps(["у1=y2"], inputs=("u",), outputs=("y1", "y2"), states=())
+    assert str(info.value) == (
+        "--map 'у1=y2': unknown symbol 'у1'; 'у1' has U+0443 CYRILLIC SMALL LETTER U; "
+        "valid symbols: u, y1, y2, truth.mode"
+    )
