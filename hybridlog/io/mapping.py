@@ -380,9 +380,9 @@ def resolve_signal_map(
             # worth more to the user than a list of names, and is the cause to name first.
             reason = missing(name, numeric)
             if reason is not None and not reason.startswith(("no topic", f"no {field_word} ")):
-                raise unusable_field(
-                    symbol, name, f"the default; use --map {symbol}=... for another", reason
-                )
+                where = "from the model's [signals]" if name == model_path else "the default"
+                origin = f"{where}; use --map {symbol}=... for another"
+                raise unusable_field(symbol, name, origin, reason)
         raise LogError(
             f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
             f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "

@@ -100,3 +100,20 @@ def test_a_missing_default_column_is_still_called_missing(tmp_path: Path, suffix
     assert refusal(log) == (
         f"{log}: no column for output 'y1' (looked for 'y1'; use --map y1=...); closest: 'y2'"
     )
+
+
+def test_a_signals_path_missing_from_its_topic_is_named_as_the_model_s(tmp_path: Path) -> None:
+    log = dotted_mcap(tmp_path / "dotted.mcap")
+    spec = SignalSpec(
+        inputs=("u",),
+        outputs=("y1",),
+        mode_ids=("1",),
+        dt=0.1,
+        signals={"u": '"/a.b".w', "y1": '"/a.b".v'},
+    )
+    message = refusal(log, spec)
+    assert message.startswith(
+        f"{log}: input 'u' (field '\"/a.b\".w', from the model's [signals]; use --map u=... "
+        "for another): "
+    )
+    assert "has no field 'w'" in message
