@@ -49,3 +49,24 @@ def test_a_log_whose_every_step_is_a_gap_is_still_refused(tmp_path: Path) -> Non
         r"sample; it is sampled every 1 s",
     ):
         load_signals(log, SPEC, ReadOptions(split_gaps=True))
+
+
+def test_a_max_gap_under_dt_cuts_no_step_of_dt(tmp_path: Path) -> None:
+    """--max-gap 0 --split-gaps refused a log sampled at dt ('leaves no piece of more than
+    one sample'), which --max-gap 0 alone reads whole; and every input sample held for its
+    one step was recorded as a hold longer than max_gap."""
+    log = write(tmp_path / "log.csv", [0.1 * k for k in range(10)])
+    for split in (False, True):
+        notes: dict[str, Any] = {}
+        signals = load_signals(log, SPEC, ReadOptions(max_gap=0.0, split_gaps=split), notes=notes)
+        np.testing.assert_array_equal(signals.outputs[:, 0], 10 * np.arange(10))
+        assert notes == {"format": "csv", "time": "log"}
+
+
+def test_a_max_gap_under_dt_still_cuts_a_real_gap(tmp_path: Path) -> None:
+    times = [0.1 * k for k in range(5)] + [1.0 + 0.1 * k for k in range(8)]
+    log = write(tmp_path / "log.csv", times)
+    notes: dict[str, Any] = {}
+    signals = load_signals(log, SPEC, ReadOptions(max_gap=0.0, split_gaps=True), notes=notes)
+    np.testing.assert_allclose(signals.time, [1.0 + 0.1 * k for k in range(8)])
+    assert notes["gaps"] == [{"start": 0.4, "end": 1.0}]
