@@ -377,7 +377,8 @@ class TableSource:
         if self._time_column is None:
             raise LogError(
                 f"{self.path}: no time column (expected 't' or 'time' in seconds); "
-                f"{closest_names(list(TIME_COLUMNS), self._columns)}"
+                f"{closest_names(list(TIME_COLUMNS), self._columns)}; rename the time column "
+                "to 't' (no option names another)"
             )
         return self._time_column
 
