@@ -339,10 +339,11 @@ def _longest_hold(
         return None
     first, last = int(grid_ns[0]), int(grid_ns[-1])
     starts, ends = time_ns[:-1], time_ns[1:]
-    long = longer_than_max_gap(ends - starts, max_gap_ns, dt_ns) & (ends > first) & (starts < last)
+    threshold = _gap_threshold(max_gap_ns, dt_ns)  # a sample held for one step is no hold
+    long = longer_than_max_gap(ends - starts, threshold, dt_ns) & (ends > first) & (starts < last)
     pairs = zip(starts[long], ends[long], strict=True)
     candidates = [(int(b - a), int(a), int(b)) for a, b in pairs]
-    if last > int(time_ns[-1]) and longer_than_max_gap(last - int(time_ns[-1]), max_gap_ns, dt_ns):
+    if last > int(time_ns[-1]) and longer_than_max_gap(last - int(time_ns[-1]), threshold, dt_ns):
         candidates.append((last - int(time_ns[-1]), int(time_ns[-1]), last))
     if not candidates:
         return None
@@ -427,7 +428,7 @@ def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
     if series.time_ns.size < 2:
         return ""
     median = round(float(np.median(np.diff(series.time_ns))))
-    if not longer_than_max_gap(median, max_gap_ns, dt_ns):
+    if not longer_than_max_gap(median, _gap_threshold(max_gap_ns, dt_ns), dt_ns):
         return ""
     hint = (
         f"; it is sampled every {format_ns(median)} s (its median step), slower than max_gap "
@@ -438,6 +439,16 @@ def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
     if median >= 500 * dt_ns:  # 1000 dt for a log in milliseconds, 10^9 dt in nanoseconds
         hint += " Or are its times not in seconds (milliseconds, nanoseconds)?"
     return hint
+
+
+def _gap_threshold(max_gap_ns: int, dt_ns: int) -> int:
+    """The step between two samples beyond which ``--split-gaps`` cuts: ``max(max_gap, dt)``.
+
+    Samples ``dt`` apart leave no grid point without a sample within ``dt/2``, which is what
+    the reading refuses as a gap: with ``--max-gap 0`` (or anything under ``dt``) a log
+    sampled at ``dt`` is read whole, and ``--split-gaps`` must not cut it at every step.
+    """
+    return max(max_gap_ns, dt_ns)
 
 
 def check_alignment_options(
@@ -737,10 +748,17 @@ def _longest_piece(
     dt_ns: int,
     notes: dict[str, Any],
 ) -> dict[str, Series]:
-    """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``."""
+    """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``.
+
+    (Or than ``dt``, whichever is longer: :func:`_gap_threshold`.)
+    """
+    threshold = _gap_threshold(max_gap_ns, dt_ns)
     for symbol, series in outputs.items():
-        hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
-        if hint:  # every step a gap: no piece longer than one sample
+        # every step a gap: no piece longer than one sample (counted, not judged from the
+        # median step: a log mostly sampled slowly can still hold a piece sampled at dt)
+        steps = np.diff(series.time_ns)
+        if steps.size and bool(np.all(longer_than_max_gap(steps, threshold, dt_ns))):
+            hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
             raise LogError(
                 f"{source}: --split-gaps: output {symbol!r} ({field_word} {series.name!r}) "
                 f"leaves no piece of more than one sample{hint}"
@@ -750,7 +768,7 @@ def _longest_piece(
     gaps: list[tuple[int, int]] = []
     for series in outputs.values():
         steps = np.diff(series.time_ns)
-        for i in np.flatnonzero(longer_than_max_gap(steps, max_gap_ns, dt_ns)).tolist():
+        for i in np.flatnonzero(longer_than_max_gap(steps, threshold, dt_ns)).tolist():
             gaps.append((int(series.time_ns[i]), int(series.time_ns[i + 1])))
     if not gaps:
         return dict(outputs)

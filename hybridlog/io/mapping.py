@@ -5,7 +5,10 @@ For each model input and output, and for the ground truth (``truth.mode``,
 ``truth.mode``), the field is chosen in this order:
 
 1. ``--map SYMBOL=PATH`` given by the user (the field must exist);
-2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field;
+2. the model's ``[signals]`` / ``[truth]`` path, when the log has that field (a field the
+   log has but that cannot be used -- text, the time column, a path naming two fields -- is
+   an error for an input or output, and no truth for ground truth: never replaced by the
+   default field, which the model did not name);
 3. the default name: in CSV/Parquet, a column named like the symbol (``u1``, ``y``; ``mode``
    for the true mode; the state's name for a true state); in bags and MCAP files, the topics
    ``hybridlog simulate`` writes (:func:`default_field`):
@@ -31,6 +34,11 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 ``fields``) but that cannot be used as asked -- text for a state, a topic without
 ``header.stamp`` read with ``--time header`` -- is no truth either, unless mapped with
 ``--map``; :attr:`SignalMap.unusable_truth` says why, for the report.
+
+An error names the symbol and the field as a place, then the cause: ``output 'y1' (field
+'/a.b.v', from --map y1=/a.b.v): '/a.b.v' names 2 fields ...``; ``input 'u' (field
+'/u.data', the default; ...): topic '/u' (...) has no header.stamp``.  "no field" (or "no
+column") is said only of a field the log lacks.
 """
 
 from __future__ import annotations
@@ -42,7 +50,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io.source import closest_names
+from hybridlog.io.source import closest_names, non_ascii
 
 TRUTH_PREFIX = "truth."
 TRUTH_MODE = "truth.mode"
@@ -253,8 +261,11 @@ def parse_maps(
         if not sep or not symbol or not path.strip():
             raise OptionError(f"--map {item!r}: expected SYMBOL=PATH, e.g. y=level")
         if symbol not in valid:
+            # a symbol that prints like a valid one ('у1', Cyrillic у) names its odd characters
+            hint = f"; {non_ascii(symbol)}" if not symbol.isascii() else ""
             raise OptionError(
-                f"--map {item!r}: unknown symbol {symbol!r}; valid symbols: {', '.join(valid)}"
+                f"--map {item!r}: unknown symbol {symbol!r}{hint}; valid symbols: "
+                f"{', '.join(valid)}"
             )
         if symbol in parsed:
             raise OptionError(f"--map: symbol {symbol!r} is mapped twice")
@@ -322,7 +333,9 @@ def resolve_signal_map(
         if explain is not None:
             reason = explain(name, numeric)
             return None if reason is None else reason.removeprefix(f"{name!r}: ")
-        return None if name in available else closest_names([name], fields)
+        if name in available:
+            return None
+        return f"no {field_word} {name!r}; {closest_names([name], fields)}"
 
     def choose(
         symbol: str, model_path: str | None, defaults: tuple[str, ...], required: bool
@@ -337,13 +350,21 @@ def resolve_signal_map(
             mapped = mapped.strip()
             reason = missing(mapped, numeric)
             if reason is not None:
-                raise LogError(
-                    f"{source}: no {field_word} {mapped!r} for {_describe(symbol, inputs)} "
-                    f"(from --map {symbol}={mapped}); {reason}"
-                )
+                raise unusable_field(symbol, mapped, f"from --map {symbol}={mapped}", reason)
             return mapped
-        if model_path is not None and missing(model_path, numeric) is None:
-            return model_path
+        if model_path is not None:
+            reason = missing(model_path, numeric)
+            if reason is None:
+                return model_path
+            if not absent(reason):
+                # the log has the model's field but it cannot be used: reading the default
+                # field instead would analyse a signal the model did not name
+                table = "[truth]" if symbol.startswith(TRUTH_PREFIX) else "[signals]"
+                if required:
+                    origin = f"from the model's {table}; use --map {symbol}=... for another"
+                    raise unusable_field(symbol, model_path, origin, reason)
+                unusable[symbol] = f"{field_word} {model_path!r}, the model's {table}: {reason}"
+                return None
         for default in defaults:
             if missing(default, numeric) is None:
                 return default
@@ -354,17 +375,31 @@ def resolve_signal_map(
                 if reason is not None:
                     unusable.setdefault(symbol, f"{field_word} {name!r}: {reason}")
             return None
-        why = closest_names(looked, fields)
         for name in looked if explain is not None else ():
             # A field that exists but cannot be used (e.g. its topic cannot be decoded) is
-            # worth more to the user than a list of names.
+            # worth more to the user than a list of names, and is the cause to name first.
             reason = missing(name, numeric)
-            if reason is not None and not reason.startswith("no topic"):
-                why = reason
-                break
+            if reason is not None and not reason.startswith(("no topic", f"no {field_word} ")):
+                where = "from the model's [signals]" if name == model_path else "the default"
+                origin = f"{where}; use --map {symbol}=... for another"
+                raise unusable_field(symbol, name, origin, reason)
         raise LogError(
             f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
-            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); {why}"
+            f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "
+            f"{closest_names(looked, fields)}"
+        )
+
+    def absent(reason: str) -> bool:
+        # why a name is no field: the log lacks it (a topic, a column, a field of a message),
+        # rather than has it in a form that cannot be used
+        return reason.startswith(("no topic", f"no {field_word} ")) or " has no field " in reason
+
+    def unusable_field(symbol: str, name: str, origin: str, reason: str) -> LogError:
+        # The symbol and field as a place, then the cause: "output 'y1' (field '/a.b.v',
+        # from --map y1=/a.b.v): '/a.b.v' names 2 fields ..." -- not "no field '/a.b.v'"
+        # before a reason that says the field is there but cannot be used.
+        return LogError(
+            f"{source}: {_describe(symbol, inputs)} ({field_word} {name!r}, {origin}): {reason}"
         )
 
     every = [

@@ -31,7 +31,7 @@ def check_resample(resample: str) -> Resample:
     """``resample`` as a method name, or :class:`OptionError` naming the choices."""
     if resample not in RESAMPLE_METHODS:
         raise OptionError(
-            f"resample: unknown method {resample!r}; choose one of {', '.join(RESAMPLE_METHODS)}"
+            f"--resample: unknown method {resample!r}; choose one of {', '.join(RESAMPLE_METHODS)}"
         )
     return "linear" if resample == "linear" else "nearest"
 
@@ -44,7 +44,7 @@ def check_max_gap(max_gap: float | None) -> None:
     """Refuse a ``max_gap`` that is neither ``None`` nor seconds in ``[0, LONGEST_GAP_S]``."""
     if max_gap is not None and not (math.isfinite(max_gap) and 0 <= max_gap <= LONGEST_GAP_S):
         raise OptionError(
-            f"max_gap: must be between 0 and {LONGEST_GAP_S:g} seconds, got {max_gap:g}"
+            f"--max-gap: must be between 0 and {LONGEST_GAP_S:g} seconds, got {max_gap:g}"
         )
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import unicodedata
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -274,6 +275,29 @@ def format_ns(ns: int) -> str:
     return f"{sign}{whole}.{fraction}" if fraction else f"{sign}{whole}"
 
 
+def non_ascii(name: str, besides: str = "") -> str:
+    """The non-ASCII characters of ``name`` that ``besides`` lacks, by code point and name.
+
+    ``"'у1' has U+0443 CYRILLIC SMALL LETTER U"``; ``""`` when there are none.
+    """
+    odd = [c for c in dict.fromkeys(name) if not c.isascii() and c not in besides]
+    if not odd:
+        return ""
+    named = ", ".join(f"U+{ord(c):04X} {unicodedata.name(c, '(unnamed)')}" for c in odd)
+    return f"{name!r} has {named}"
+
+
+def lookalikes(wanted: Sequence[str], match: str) -> str:
+    """Name the non-ASCII characters that tell ``match`` from the wanted name closest to it.
+
+    ``'dаta'`` with a Cyrillic ``а`` and ``'data'`` print alike: "no field 'dаta'; closest:
+    'data'" reads as nonsense unless the character is named.
+    """
+    word = max(wanted, key=lambda w: difflib.SequenceMatcher(None, w, match).ratio())
+    parts = [p for p in (non_ascii(word, match), non_ascii(match, word)) if p]
+    return f" ({'; '.join(parts)})" if parts else ""
+
+
 def closest_names(wanted: Sequence[str], available: Sequence[str], limit: int = 3) -> str:
     """Describe the available names closest to any of ``wanted``, for error messages.
 
@@ -288,7 +312,8 @@ def closest_names(wanted: Sequence[str], available: Sequence[str], limit: int = 
             if match not in matches:
                 matches.append(match)
     if matches:
-        return "closest: " + ", ".join(repr(m) for m in matches[:limit])
+        closest = "closest: " + ", ".join(repr(m) for m in matches[:limit])
+        return closest + lookalikes(wanted, matches[0])
     if not available:
         return "the log has none"
     shown = ", ".join(repr(a) for a in available[:8])

@@ -163,7 +163,7 @@ def resolve(text: str, schema: Mapping[str, pl.DataType], fields: list[str]) -> 
             c for c in schema if text.startswith(c) and len(text) > len(c) and text[len(c)] in ".[/"
         ]
         if not starts:
-            raise PathError(closest_names([text], fields))
+            raise PathError(f"no column {excerpt(text)}; {closest_names([text], fields)}")
         column = max(starts, key=len)
         steps = split_path(text, [column]).steps
     dtype: Any = schema[column]

@@ -178,7 +178,9 @@ class TableSource:
         if path is None:
             if self._format == "csv":
                 if name not in self._columns:
-                    raise PathError(closest_names([name], self.fields()))
+                    raise PathError(
+                        f"no column {excerpt(name)}; {closest_names([name], self.fields())}"
+                    )
                 path = ColumnPath(name, name, (), (), pl.String())
             else:
                 path = resolve_path(name, self._schema, list(self.fields()))
@@ -188,7 +190,8 @@ class TableSource:
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
         """``None`` for a field of the table, else why not: the time column, or the closest.
 
-        Whether a column holds numbers is checked when it is read (``numeric`` is unused).
+        With ``numeric``, a Parquet column whose type holds no numbers (text, a date) is
+        explained as such; whether a CSV column holds numbers is known when it is read.
         """
         if name == self._time_column:
             return (
@@ -197,9 +200,11 @@ class TableSource:
                 f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
             )
         try:
-            self._path(name)
+            dtype = self._path(name).dtype
         except PathError as err:
             return str(err)
+        if numeric and self._format == "parquet" and not _holds_numbers(dtype):
+            return f"column {excerpt(name)} has type {dtype}, expected a number"
         return None
 
     def __enter__(self) -> Self:
@@ -252,7 +257,7 @@ class TableSource:
             try:
                 self._path(name)
             except PathError as err:
-                raise LogError(f"{self.path}: no column {excerpt(name)}; {err}") from None
+                raise LogError(f"{self.path}: {err}") from None
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)
         # Parquet numeric columns are decoded one at a time once the rows are known (below):
@@ -372,7 +377,8 @@ class TableSource:
         if self._time_column is None:
             raise LogError(
                 f"{self.path}: no time column (expected 't' or 'time' in seconds); "
-                f"{closest_names(list(TIME_COLUMNS), self._columns)}"
+                f"{closest_names(list(TIME_COLUMNS), self._columns)}; rename the time column "
+                "to 't' (no option names another)"
             )
         return self._time_column
 
@@ -1242,10 +1248,11 @@ def _check_truncated(path: Path) -> None:
 def _as_labels(column: pl.Series) -> pl.Series:
     """Mode ids as stripped text; integer-valued floats lose their ``.0``.
 
-    A float column (Parquet), or a text column (CSV) whose every cell is a number and some
-    written as a float (``1.0``, ``2e0``: pandas writes an integer column with a gap so), is
-    read as numbers: if all are whole they are written as integers (``1.0`` is mode ``1``, as
-    in a message log, :func:`hybridlog.io.message_paths.as_label`), else as they were.
+    A float column (Parquet) holds numbers: each whole one is written as an integer (``1.0``
+    is mode ``1`` beside ``2.5``, as in a message log,
+    :func:`hybridlog.io.message_paths.as_label`).  A text column (CSV) whose every cell is a
+    number and some written as a float (``1.0``, ``2e0``: pandas writes an integer column
+    with a gap so) is read so if all are whole, else as written.
     """
     if column.dtype == pl.String:
         text = column.str.strip_chars()
@@ -1256,17 +1263,15 @@ def _as_labels(column: pl.Series) -> pl.Series:
             if whole.len() == numbers.len() and bool((whole == whole.round(0)).all()):
                 column = text.cast(pl.Float64, strict=False)
     dtype = column.dtype
-    if dtype.is_float():
-        # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is
-        # refused with its row: cast to an integer they became empty cells, no sample,
-        # and so did a whole number beyond int64
-        finite = column.filter(column.is_finite())
-        if finite.len() and bool((finite == finite.round(0)).all()):
-            whole = column.cast(pl.Int64, strict=False)
-            exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
-            column = pl.select(
-                pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
-            ).to_series()
+    # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is refused
+    # with its row: cast to an integer they became empty cells, no sample, and so did a
+    # whole number beyond int64
+    if dtype.is_float() and bool(column.is_finite().any()):
+        whole = column.cast(pl.Int64, strict=False)
+        exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
+        column = pl.select(
+            pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
+        ).to_series()
     text = column.cast(pl.String).str.strip_chars()
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
 

@@ -259,8 +259,8 @@ def test_signals_that_do_not_overlap() -> None:
 @pytest.mark.parametrize(
     ("options", "pattern"),
     [
-        ({"resample": "cubic"}, "resample: unknown method 'cubic'"),
-        ({"max_gap": -1.0}, "max_gap: must be between 0 and"),
+        ({"resample": "cubic"}, "--resample: unknown method 'cubic'"),
+        ({"max_gap": -1.0}, "--max-gap: must be between 0 and"),
         ({"dt": 0.0}, "dt: the sample time must be between 1e-09 s and"),
         ({"dt": float("nan")}, "dt: the sample time must be between 1e-09 s and"),
     ],
@@ -452,15 +452,13 @@ def test_an_output_slower_than_max_gap_says_so() -> None:
     assert str(error.value) == (
         f"s: --split-gaps: output 'y' (column 'y') leaves no piece of more than one sample{hint}"
     )
-    # a --max-gap shorter than the log's (and the model's) step: no question about dt
+    # a --max-gap shorter than the log's (and the model's) step: steps of dt are no gaps
+    # (the log is read whole without the hole), so the hole alone is named, without a hint
     seconds = np.delete(np.arange(20) * 1.0, [5, 6, 7])
     holed_at_dt = series("y", seconds, seconds)
     with pytest.raises(LogError) as error:
         align_signals(source="s", dt=1.0, inputs={"u": u}, outputs={"y": holed_at_dt}, max_gap=0.5)
-    assert str(error.value).endswith(
-        "(4 s > max_gap 0.5 s); it is sampled every 1 s (its median step), slower than "
-        "max_gap 0.5 s allows"
-    )
+    assert str(error.value).endswith("(4 s > max_gap 0.5 s)")
     # a log at the model's rate with one hole gets no hint
     holed = series("y", np.delete(np.arange(200) * 0.1, range(50, 60)), np.arange(190))
     with pytest.raises(LogError) as error:

@@ -84,7 +84,10 @@ def test_missing_input_names_what_was_looked_for() -> None:
 
 
 def test_mapped_truth_must_exist() -> None:
-    with pytest.raises(LogError, match=r"no column 'phse' for truth.mode.*closest: 'phase'"):
+    with pytest.raises(
+        LogError,
+        match=r"truth.mode \(column 'phse', from --map .*\): no column 'phse'; closest: 'phase'",
+    ):
         resolve_signal_map(
             ("u1", "u2", "y", "phase"), source="log.csv", maps={"truth.mode": "phse"}, **SYMBOLS
         )
@@ -173,7 +176,7 @@ def test_a_column_named_with_spaces_can_be_mapped(tmp_path: Path) -> None:
     aligned = load_signals(log, spec, ReadOptions(maps=("u= u", "y = y")))
     np.testing.assert_array_equal(aligned.inputs[:, 0], np.arange(10))
     np.testing.assert_array_equal(aligned.outputs[:, 0], 2 * np.arange(10))
-    with pytest.raises(LogError, match=r"no column 'z' for output 'y' \(from --map y=z\)"):
+    with pytest.raises(LogError, match=r"output 'y' \(column 'z', from --map y=z\): no column 'z'"):
         load_signals(log, spec, ReadOptions(maps=("u= u", "y= z ")))
 
 

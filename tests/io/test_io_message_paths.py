@@ -490,6 +490,6 @@ def test_default_truth_without_header_stamp_is_no_truth_with_time_header(tmp_pat
     # by log time it is truth; mapped with --map it must be usable
     assert load_signals(log, spec, ReadOptions()).truth_modes is not None
     with pytest.raises(
-        LogError, match=r"from --map truth.mode=/truth/mode.data\); topic .* no header"
+        LogError, match=r"from --map truth.mode=/truth/mode.data\): topic .* no header"
     ):
         load_signals(log, spec, ReadOptions(time="header", maps=("truth.mode=/truth/mode.data",)))

@@ -21,12 +21,15 @@ SAMPLE = TANK_CSV
     ("values", "message"),
     [
         ({"time": "wall"}, "--time: expected one of log, header, got 'wall'"),
-        ({"resample": "cubic"}, "resample: unknown method 'cubic'; choose one of nearest, linear"),
-        ({"max_gap": -1.0}, "max_gap: must be between 0 and 1e+09 seconds, got -1"),
-        ({"max_gap": math.nan}, "max_gap: must be between 0 and 1e+09 seconds, got nan"),
-        ({"max_gap": math.inf}, "max_gap: must be between 0 and 1e+09 seconds, got inf"),
+        (
+            {"resample": "cubic"},
+            "--resample: unknown method 'cubic'; choose one of nearest, linear",
+        ),
+        ({"max_gap": -1.0}, "--max-gap: must be between 0 and 1e+09 seconds, got -1"),
+        ({"max_gap": math.nan}, "--max-gap: must be between 0 and 1e+09 seconds, got nan"),
+        ({"max_gap": math.inf}, "--max-gap: must be between 0 and 1e+09 seconds, got inf"),
         # its nanoseconds overflowed int64 in the alignment
-        ({"max_gap": 1e300}, "max_gap: must be between 0 and 1e+09 seconds, got 1e+300"),
+        ({"max_gap": 1e300}, "--max-gap: must be between 0 and 1e+09 seconds, got 1e+300"),
     ],
 )
 def test_bad_values_are_refused_when_built(values: dict[str, object], message: str) -> None:
@@ -59,7 +62,7 @@ def test_the_command_line_builds_the_checked_options(
         main([*args, "--max-gap", "-2"])
     assert exit_.value.code == 2
     err = capsys.readouterr().err
-    assert err == "hybridlog: error: max_gap: must be between 0 and 1e+09 seconds, got -2\n"
+    assert err == "hybridlog: error: --max-gap: must be between 0 and 1e+09 seconds, got -2\n"
     assert not out.exists()
 
 

@@ -148,7 +148,7 @@ def test_inspect_lists_every_element_and_field(tmp_path: Path) -> None:
         ("pose.z", r"'pose' has no field 'z'; fields: 'x', 'y'"),
         ("pose[0]", r"'pose' is a struct .*, not a list; name a field"),
         ("q.1", r"'q' is a list of float64; index it, e\.g\. q\[1\]"),
-        ("f[2]", r"u=f\[2\]\); index out of range \(the arrays of 'f' hold 2 elements\)"),
+        ("f[2]", r"u=f\[2\]\): index out of range \(the arrays of 'f' hold 2 elements\)"),
         ("q[0].a", r"'q\[0\]' is a float64; it has no \.a"),
         ("wheels[0]", r"'wheels\[0\]' is a struct \(fields 'speed'\); name a field"),
         ("qq[0]", r"closest: 'q\[\]'"),

@@ -348,7 +348,8 @@ def test_parquet_columns_of_other_types_are_refused_naming_the_column(
     log = parquet(tmp_path, u=column)
     with pytest.raises(
         LogError,
-        match=rf"^{re.escape(str(log))}: column 'u' has type {type_name}, expected a number$",
+        match=rf"^{re.escape(str(log))}: input 'u' \(column 'u', the default; use --map u=\.\.\. "
+        rf"for another\): column 'u' has type {type_name}, expected a number$",
     ):
         load(log)
 
