@@ -6,7 +6,10 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   latest first sample among them), and ends at the last grid point where every output still
   has a sample within half a step.  ``t_k = t0 + round(k * dt)`` in nanoseconds, so ``dt`` is
   not rounded once and the error multiplied by ``k``.
-- Inputs: zero-order hold, the last sample at or before ``t_k``.
+- Inputs: zero-order hold, the last sample at or before ``t_k``; but a series recorded once
+  per step on a jittering clock (one sample within ``dt/4`` of each grid point, some late,
+  some not) takes each point's own sample, where the hold would delay about half of them by
+  a step at random (:func:`jittered_start`, ``notes["jitter"]``).  The true mode likewise.
 - Outputs: the nearest sample, if it is within ``dt/2`` (``resample="nearest"``; ties go to
   the earlier sample), or linear interpolation between the samples around ``t_k``
   (``resample="linear"``).  A grid point without a sample within ``dt/2`` is a gap; a gap
@@ -236,6 +239,43 @@ def hold_index(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> IntAr
         return np.arange(start, start + grid_ns.size, dtype=np.int64)
     index: IntArray = np.searchsorted(time_ns, grid_ns + tolerance_ns, side="right") - 1
     return index
+
+
+def jittered_start(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, dt_ns: int) -> int:
+    """Where a series sampled once per step on a jittering clock starts, else -1.
+
+    A series with exactly one sample within ``dt/4`` of each grid point, some of them after
+    it by more than ``tolerance_ns`` and some not, was recorded at the model's rate by a
+    clock that jitters.  The zero-order hold would take each grid point's own sample where
+    it came early and the one before where it came late: a random one-step delay on about
+    half the samples, which no estimate could tell from the plant.  Such a series is taken
+    on the grid, each point its own sample (``notes["jitter"]``, said in the report).  A
+    series whose samples all come late (a constant latency) keeps the hold's consistent
+    one-step delay, as SPEC §5 says; one on the grid within ``tolerance_ns`` never gets here.
+    The first sample is not counted: the grid may start at it.
+    """
+    start = on_grid(time_ns, grid_ns, max(tolerance_ns, dt_ns // 4))
+    if start < 0:
+        return -1
+    late = on_time = False
+    for lo in range(1, grid_ns.size, BLOCK):  # from the second: the grid may start at the first
+        offset = (
+            time_ns[start + lo : start + min(lo + BLOCK, grid_ns.size)] - grid_ns[lo : lo + BLOCK]
+        )
+        late = late or bool((offset > tolerance_ns).any())
+        on_time = on_time or bool((offset <= tolerance_ns).any())
+    return start if late and on_time else -1
+
+
+def _jitter_of(time_ns: IntArray, grid_ns: IntArray, start: int) -> float:
+    """The largest distance, in seconds, of a jittered series' samples from their grid points."""
+    worst = 0
+    for lo in range(0, grid_ns.size, BLOCK):
+        offset = (
+            time_ns[start + lo : start + min(lo + BLOCK, grid_ns.size)] - grid_ns[lo : lo + BLOCK]
+        )
+        worst = max(worst, int(np.abs(offset).max()))
+    return worst / NS_PER_S
 
 
 def nearest_index(
@@ -580,6 +620,11 @@ def align_signals(
     u = np.empty((n, len(inputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(inputs.items()):
         on = on_grid_values(series, grid, tolerance)
+        if on is None and (start := jittered_start(series.time_ns, grid, tolerance, dt_ns)) >= 0:
+            on = series.values[start : start + n]
+            if notes is not None:
+                jitter = _jitter_of(series.time_ns, grid, start)
+                notes.setdefault("jitter", {})[f"input {symbol}"] = jitter
         u[:, j] = (
             on if on is not None else series.values[hold_index(series.time_ns, grid, tolerance)]
         )
@@ -605,17 +650,31 @@ def align_signals(
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
         y[:, j] = values
 
+    jittered: dict[str, float] = {}
     modes: IntArray | None = None
     if truth_mode is not None:
-        modes = _hold_modes(f"{source}: truth.mode", field_word, truth_mode, grid, dt_ns, tolerance)
+        modes = _hold_modes(
+            f"{source}: truth.mode", field_word, truth_mode, grid, dt_ns, tolerance, jittered
+        )
 
     components = {
         name: ComponentTruth(
             series.categories,
-            _hold_modes(f"{source}: truth.mode.{name}", field_word, series, grid, dt_ns, tolerance),
+            _hold_modes(
+                f"{source}: truth.mode.{name}",
+                field_word,
+                series,
+                grid,
+                dt_ns,
+                tolerance,
+                jittered,
+                f"mode.{name}",
+            ),
         )
         for name, series in (truth_components or {}).items()
     }
+    if jittered and notes is not None:
+        notes.setdefault("jitter", {}).update(jittered)
     if notes is not None:  # a true mode is held like an input; the mode metrics score the hold
         labelled = {"mode": truth_mode} if truth_mode is not None else {}
         labelled |= {f"mode.{name}": series for name, series in (truth_components or {}).items()}
@@ -706,10 +765,20 @@ def _hold_modes(
     grid: IntArray,
     dt_ns: int,
     tolerance: int,
+    jitter: dict[str, float] | None = None,
+    label: str = "mode",
 ) -> IntArray:
+    """The true mode (code) at each grid point, held like an input (:func:`jittered_start`).
+
+    A jittered series' largest offset goes into ``jitter`` under ``the true <label>``.
+    """
     if series.time_ns.size == 0:
         raise LogError(f"{what} ({field_word} {series.name!r}) has no samples")
     start = on_grid(series.time_ns, grid, tolerance)
+    if start < 0:
+        start = jittered_start(series.time_ns, grid, tolerance, dt_ns)
+        if start >= 0 and jitter is not None:
+            jitter[f"the true {label}"] = _jitter_of(series.time_ns, grid, start)
     if start >= 0:  # the codes at the grid points, without an index array
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
         return on

@@ -846,6 +846,13 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for symbol, hold in (reading.get("held") or {}).items()
     ]
     notes += [
+        f"NOTE: {signal} was recorded once per sample time by a clock that jitters (samples "
+        f"up to {jitter * 1e3:.3g} ms from their sample times, some after them): "
+        "each sample time takes its own sample, where the zero-order hold would have taken "
+        "the one before for every late one, a one-step delay at random"
+        for signal, jitter in (reading.get("jitter") or {}).items()
+    ]
+    notes += [
         f"NOTE: the true {label} has no sample from t = {format_time(hold['start'])} to "
         f"{format_time(hold['end'])} s "
         f"({_held_for(hold)} s, longer than max_gap): held at its last value, against which "

@@ -360,8 +360,12 @@ def test_on_grid_shortcut_agrees_with_the_search(
     jitter_ns: list[int], skip: int, resample: str
 ) -> None:
     # Samples within the clock tolerance (10 µs at dt = 10 ms) of the grid take the shortcut,
-    # others the search; both must give what the search alone gives.
+    # others the search; both must give what the search alone gives.  (A jittered series,
+    # which the hold takes on the grid, is tested on its own below.)
     from hybridlog.io import align as align_module
+
+    monkeypatch = pytest.MonkeyPatch()
+    monkeypatch.setattr(align_module, "jittered_start", lambda *args: -1)
 
     n = len(jitter_ns)
     time_ns = np.arange(n, dtype=np.int64) * 10_000_000 + np.array(jitter_ns, dtype=np.int64)
@@ -390,6 +394,46 @@ def test_on_grid_shortcut_agrees_with_the_search(
     np.testing.assert_array_equal(fast.inputs, slow.inputs)
     np.testing.assert_array_equal(fast.outputs, slow.outputs)
     np.testing.assert_array_equal(fast.truth_states, slow.truth_states)  # NaN where it stopped
+    monkeypatch.undo()
+
+
+@pytest.mark.parametrize("late", [True, False])
+def test_an_input_on_a_jittering_clock_takes_each_step_s_own_sample(late: bool) -> None:
+    """±1 % jitter held about half the inputs from the step before, without a word.
+
+    Recorded once per step with a clock that jitters, the input's sample of step k comes
+    sometimes a little before ``t_k``, sometimes a little after; the zero-order hold took
+    ``u(k-1)`` for every late one.  Now each step takes its own sample and the notes say so.
+    A series whose samples all come late (a constant latency) keeps the hold's delay.
+    """
+    rng = np.random.default_rng(4)
+    n, dt_ns = 200, 10_000_000
+    jitter = rng.integers(-100_000, 100_000, n)  # ±1 % of dt
+    jitter[0] = 0
+    if not late:
+        jitter = np.abs(jitter) + 200_000  # all 2-3 % late: the hold's consistent delay
+        jitter[0] = 0
+    grid = np.arange(n, dtype=np.int64) * dt_ns
+    values = np.arange(n, dtype=np.float64) * 3.0
+    u = Series("u", grid + jitter, values)
+    y = Series("y", grid, values)
+    notes: dict[str, Any] = {}
+    truth = LabelSeries(
+        "mode", grid + jitter, (np.arange(n) // 50).astype(np.int32), ("a", "b", "c", "d")
+    )
+    aligned = align_signals(
+        source="s", dt=0.01, inputs={"u": u}, outputs={"y": y}, truth_mode=truth, notes=notes
+    )
+    if late:
+        np.testing.assert_array_equal(aligned.inputs[:, 0], values)
+        np.testing.assert_array_equal(aligned.truth_modes, np.arange(n) // 50)
+        assert notes["jitter"] == {
+            "input u": pytest.approx(np.abs(jitter).max() / 1e9),
+            "the true mode": pytest.approx(np.abs(jitter).max() / 1e9),
+        }
+    else:
+        np.testing.assert_array_equal(aligned.inputs[1:, 0], values[:-1])
+        assert "jitter" not in notes
 
 
 @pytest.mark.parametrize("split_gaps", [False, True])
