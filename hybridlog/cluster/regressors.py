@@ -29,7 +29,7 @@ from hybridlog.errors import DataShortError, OptionError
 from hybridlog.numbers import comma_items, parse_int
 from hybridlog.signals import FloatArray
 
-__all__ = ["RegressorSpec", "parse_lags", "regression_vectors"]
+__all__ = ["RegressorSpec", "check_lags", "lag_values", "parse_lags", "regression_vectors"]
 
 
 @dataclass(frozen=True)
@@ -48,15 +48,11 @@ class RegressorSpec:
     input_lags: tuple[int, ...] = (1,)
 
     def __post_init__(self) -> None:
-        if 0 not in self.output_lags:
-            raise OptionError(
-                "output_lags: must contain 0 (y(k) holds the decision variables of eq. (3))"
-            )
         for name, lags in (("output_lags", self.output_lags), ("input_lags", self.input_lags)):
-            if any(lag < 0 for lag in lags):
-                raise OptionError(f"{name}: lags must be non-negative, got {list(lags)}")
-            if len(set(lags)) != len(lags):
-                raise OptionError(f"{name}: a lag is listed twice in {list(lags)}")
+            try:
+                check_lags(lags, output=name == "output_lags")
+            except ValueError as err:
+                raise OptionError(f"{name}: {err}") from None
 
     @property
     def max_lag(self) -> int:
@@ -83,6 +79,49 @@ class RegressorSpec:
         return [j * len(self.output_lags) + zero for j in range(n_outputs)]
 
 
+def check_lags(lags: Sequence[int], *, output: bool) -> None:
+    """Refuse lags φ(k) cannot be built from: negative, repeated, or outputs' without 0.
+
+    Raises
+    ------
+    ValueError
+        With the reason alone: the caller names the option and where its value was set.
+    """
+    if output and 0 not in lags:
+        raise ValueError("must contain 0 (y(k) holds the decision variables of eq. (3))")
+    if any(lag < 0 for lag in lags):
+        raise ValueError(f"lags must be non-negative, got {list(lags)}")
+    if len(set(lags)) != len(lags):
+        raise ValueError(f"a lag is listed twice in {list(lags)}")
+
+
+def lag_values(text: str, *, output: bool) -> tuple[int, ...]:
+    """The lags of an option's text (``"0,1"``), checked as :class:`RegressorSpec` checks them.
+
+    The options' own check (``output_lags``, ``input_lags``): a value refused here is named
+    where it was set (``--output-lags 1``, ``--set output_lags=1``, a model file's key).
+
+    Raises
+    ------
+    ValueError
+        With the reason alone.
+    """
+    values = _lag_items(text)
+    check_lags(values, output=output)
+    return values
+
+
+def _lag_items(text: str) -> tuple[int, ...]:
+    """The whole numbers of a comma list (``;`` too); ``ValueError`` naming a bad item."""
+    values: list[int] = []
+    for part in comma_items(text.replace(";", ","), "lags"):
+        try:
+            values.append(parse_int(part))
+        except ValueError:
+            raise ValueError(f"'{part}' is not a whole number") from None
+    return tuple(values)
+
+
 def parse_lags(text: str | Sequence[int], key: str) -> tuple[int, ...]:
     """``"0,1"`` (or a list) → ``(0, 1)``; an empty string is no lag at all.
 
@@ -93,15 +132,9 @@ def parse_lags(text: str | Sequence[int], key: str) -> tuple[int, ...]:
         values = list(text)
     else:
         try:
-            parts = comma_items(text.replace(";", ","), "lags")
+            values = list(_lag_items(text))
         except ValueError as err:
             raise OptionError(f"{key}: {err}") from None
-        values = []
-        for part in parts:
-            try:
-                values.append(parse_int(part))
-            except ValueError:
-                raise OptionError(f"{key}: '{part}' is not a whole number") from None
     if any(isinstance(v, bool) or not isinstance(v, int | np.integer) for v in values):
         raise OptionError(f"{key}: expected whole numbers, got {values!r}")
     return tuple(int(v) for v in values)

@@ -26,12 +26,28 @@ if TYPE_CHECKING:
 __all__ = ["ChiuOptions", "KMeansOptions", "ObserverOptions", "check_centers"]
 
 
+def _output_lags(text: str) -> None:
+    """``output_lags``' check, so that a bad value is named where it was set."""
+    from hybridlog.cluster.regressors import lag_values
+
+    lag_values(text, output=True)
+
+
+def _input_lags(text: str) -> None:
+    """``input_lags``' check (see :func:`_output_lags`)."""
+    from hybridlog.cluster.regressors import lag_values
+
+    lag_values(text, output=False)
+
+
 @dataclass(frozen=True)
 class ObserverOptions:
     """Options of paper 001's pipeline shared by ``chiu`` and ``kmeans``."""
 
-    output_lags: str = option("0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0")
-    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1")
+    output_lags: str = option(
+        "0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0", check=_output_lags
+    )
+    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1", check=_input_lags)
     centers: str = option(
         "",
         "centers.json of hybridlog cluster to use instead of fitting (from a model file's folder)",

@@ -194,7 +194,10 @@ def test_cluster_lags_are_read_strictly(tmp_path):
     out = tmp_path / "c.json"
     log = SAMPLE_LOGS / "double_cart_case1.csv"
     args = ["cluster", str(log), "--model", "double_cart_case1", "--out", str(out)]
-    _refused([*args, "--input-lags", "0,1_0"], "input_lags: '1_0' is not a whole number")
+    _refused(
+        [*args, "--input-lags", "0,1_0"],
+        "--input-lags 0,1_0: chiu option 'input_lags': '1_0' is not a whole number",
+    )
     assert not out.exists()
 
 

@@ -37,6 +37,36 @@ def test_a_flag_out_of_bounds_is_named(tmp_path, capsys, options, named):
     assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
 
 
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        # the lags were checked only when φ(k) was built: "output_lags: must contain 0",
+        # naming neither --output-lags nor --set output_lags nor the model file's key
+        (["--output-lags", "1"], "--output-lags 1: chiu option 'output_lags': must contain 0"),
+        (["--input-lags", "0,0"], "--input-lags 0,0: chiu option 'input_lags': a lag is listed"),
+        (["--input-lags", "-1"], "--input-lags -1: chiu option 'input_lags': lags must be non"),
+    ],
+)
+def test_lags_are_named_where_they_were_set(tmp_path, capsys, options, named):
+    code, stderr = _cluster(tmp_path, capsys, "double_cart_case1", *options)
+    assert code == 2 and stderr.startswith(f"hybridlog: error: {named}"), stderr
+    assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
+
+
+def test_lags_set_elsewhere_are_named_there(tmp_path, capsys):
+    model = tmp_path / "dc.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\noutput_lags = '1'\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model))
+    assert code == 2
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.output_lags: chiu")
+    args = ["analyze", LOG, "--model", "double_cart_case1", "--estimator", "kmeans"]
+    code, stderr = run_main(
+        [*args, "--set", "output_lags=1,2", "--out", str(tmp_path / "r")], capsys
+    )
+    assert code == 2
+    assert stderr.startswith("hybridlog: error: --set output_lags=1,2: kmeans option 'output_lags'")
+
+
 def test_a_model_file_value_out_of_bounds_names_its_key(tmp_path, capsys):
     model = tmp_path / "dc.toml"
     model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\nsquash = 1.0\n")
