@@ -161,7 +161,9 @@ def load_signals(
         (:data:`~hybridlog.signals.MAX_MAGNITUDE`): no measurement is that large, and the
         squares the metrics sum would overflow float64; corrupt bytes decode to such values.
     notes:
-        Filled with what reading did, for the report: the format, the time source, and
+        Filled with what reading did, for the report: the format, the time source, the
+        field read for each symbol and where it came from (``fields``: ``{symbol:
+        {"field": ..., "from": "--map" | "[signals]" | "[truth]" | "default"}}``), and
         recovery, sorting, dropped samples and gap pieces where they apply.
 
     Returns
@@ -254,6 +256,7 @@ def load_signals(
                         f"usable samples: {_all_dropped(usable.size)}"
                     )
         notes.update({"format": info.format, "time": options.time})
+        notes["fields"] = mapping.fields_read()  # again below, without truth left unused
         notes.update(reading.notes)
         if mapping.unusable_truth:
             notes["truth_unusable"] = [
@@ -273,6 +276,7 @@ def load_signals(
             notes,
             emptied,
         )
+        notes["fields"] = mapping.fields_read()
         truth_mode = None
         if mapping.truth_mode is not None:
             mode_series = reading.labels[mapping.truth_mode]
