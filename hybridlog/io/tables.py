@@ -1371,9 +1371,14 @@ def _describe_column(
         text = column.str.strip_chars()
         text = pl.select(pl.when(text != "").then(text)).to_series()
         parsed = text.cast(pl.Float64, strict=False)
+        lowered = text.str.to_lowercase()
         if parsed.null_count() == text.null_count():
             dtype = "float64"
             values = parsed.drop_nulls().to_numpy().astype(np.float64)
+        elif text.null_count() < text.len() and bool(lowered.drop_nulls().is_in(_BOOLEANS).all()):
+            # read as 1 and 0, as a Parquet boolean column (_parse_floats)
+            dtype = "boolean"
+            values = (lowered.drop_nulls() == "true").cast(pl.Float64).to_numpy()
         else:
             dtype = "string"
         present = text.is_not_null().to_numpy()

@@ -10,7 +10,7 @@ import polars as pl
 import pytest
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
 N = 20
@@ -77,3 +77,16 @@ def test_a_boolean_time_column_is_no_time(tmp_path: Path) -> None:
     log.write_text("t,u,y\n" + "".join(f"true,1,{k}\n" for k in range(N)))
     with pytest.raises(LogError, match=r"'true' is not a number$"):
         load_signals(log, SPEC)
+
+
+def test_inspect_describes_a_csv_boolean_column_as_the_parquet_one(tmp_path: Path) -> None:
+    on = np.arange(N) % 3 == 0
+    frame = pl.DataFrame({"t": np.arange(N) / 10, "u": on, "y": np.arange(N, dtype=float)})
+    frame.write_parquet(tmp_path / "log.parquet")
+    frame.write_csv(tmp_path / "log.csv")
+    described = [
+        next(c for c in inspect_log(tmp_path / f"log.{kind}")["columns"] if c["name"] == "u")
+        for kind in ("csv", "parquet")
+    ]
+    assert described[0] == described[1]
+    assert (described[0]["dtype"], described[0]["min"], described[0]["max"]) == ("boolean", 0, 1)
