@@ -203,6 +203,7 @@ def load_signals(
             field_word=info.field_word,
             message_paths=info.message_paths,
             explain=source.explain_missing,
+            field_key=source.field_key,
         )
         symbols = {
             **{field: f"input {u!r}" for u, field in mapping.inputs.items()},

@@ -310,6 +310,7 @@ def resolve_signal_map(
     field_word: str = "column",
     message_paths: bool = False,
     explain: Callable[[str, bool], str | None] | None = None,
+    field_key: Callable[[str], str] | None = None,
 ) -> SignalMap:
     """Choose the log field of every symbol (see the module docstring for the order).
 
@@ -335,6 +336,9 @@ def resolve_signal_map(
         ``explain(name, numeric)`` is ``None`` when the log has field ``name`` (holding
         numbers, if ``numeric``), else why not (``LogSource.explain_missing``); default:
         membership in ``fields``.
+    field_key:
+        What a field name names, the same for every spelling of one field
+        (``LogSource.field_key``: ``/y1/data`` and ``/y1.data``); default: the name.
 
     Returns
     -------
@@ -449,7 +453,14 @@ def resolve_signal_map(
 
     input_fields = {u: required(u) for u in inputs}
     output_fields = {y: required(y) for y in outputs}
-    _refuse_shared(source, field_word, {**input_fields, **output_fields}, inputs, origins)
+    _refuse_shared(
+        source,
+        field_word,
+        {**input_fields, **output_fields},
+        inputs,
+        origins,
+        field_key or (lambda name: name),
+    )
     # a [components] model enumerates no modes of its own: a ``mode`` field (a controller's
     # mode, joint labels) is no truth of it, its components' true modes are
     truth_mode = (
@@ -481,6 +492,7 @@ def _refuse_shared(
     chosen: Mapping[str, str],
     inputs: Sequence[str],
     origins: Mapping[str, str],
+    field_key: Callable[[str], str],
 ) -> None:
     """Refuse one field feeding two inputs or outputs (``--map u=y1`` with an output ``y1``).
 
@@ -497,15 +509,20 @@ def _refuse_shared(
     """
     owner: dict[str, str] = {}
     for symbol, name in chosen.items():
-        first = owner.setdefault(name, symbol)
+        first = owner.setdefault(field_key(name), symbol)
         if first == symbol:
             continue
         both = [
-            f"{_describe(s, inputs)} {_origin(s, name, origins.get(s, 'default'))}"
+            f"{_describe(s, inputs)} {_origin(s, chosen[s], origins.get(s, 'default'))}"
             for s in (first, symbol)
         ]
+        named = (
+            repr(name)
+            if chosen[first] == name
+            else f"({chosen[first]!r} and {name!r} name one {field_word})"
+        )
         raise LogError(
-            f"{source}: {both[0]} and {both[1]} read the same {field_word} {name!r}: one "
+            f"{source}: {both[0]} and {both[1]} read the same {field_word} {named}: one "
             f"{field_word} feeds one input or output (an input equal to an output, or one "
             f"measurement counted twice, is a mapping slip); map one of them to another "
             f"{field_word} with --map"

@@ -158,6 +158,15 @@ class LogSource(Protocol):
         """
         ...
 
+    def field_key(self, name: str) -> str:
+        """What ``name`` names, the same for every spelling of one field.
+
+        ``/y1/data`` and ``/y1.data`` of a message log name one field, as a path with spaces
+        around it names the field without; mapping compares these to find one field given
+        to two symbols.  ``name`` itself when it names no field.
+        """
+        ...
+
     def read(self, numeric: Sequence[str], labels: Sequence[str] = ()) -> Reading:
         """Read the named fields: ``numeric`` as float series, ``labels`` as label series.
 

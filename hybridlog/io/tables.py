@@ -187,6 +187,14 @@ class TableSource:
             self._paths[name] = path
         return path
 
+    def field_key(self, name: str) -> str:
+        """The column and steps ``name`` reads (:meth:`LogSource.field_key`)."""
+        try:
+            path = self._path(name)
+        except PathError:
+            return name
+        return repr((path.column, path.steps))
+
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
         """``None`` for a field of the table, else why not: the time column, or the closest.
 

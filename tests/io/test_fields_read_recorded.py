@@ -91,3 +91,16 @@ def test_ground_truth_may_share_an_outputs_field(tmp_path: Path) -> None:
     assert notes["fields"]["truth.x2"] == {"field": "y1", "from": "--map"}
     assert signals.truth_states is not None
     np.testing.assert_array_equal(signals.truth_states[:, 1], signals.outputs[:, 0])
+
+
+def test_two_spellings_of_one_message_field_are_one_field() -> None:
+    # '/y1/data' and '/y1.data' (and the path with spaces around it) read one field of a bag
+    log = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf.bag"
+    spec = SignalSpec(inputs=("u",), outputs=("y1",), mode_ids=("1",), dt=1.0)
+    for mapped in ("/y1/data", " /y1.data"):
+        with pytest.raises(LogError) as error:
+            load_signals(log, spec, ReadOptions(maps=(f"u={mapped}",)))
+        assert str(error.value).startswith(
+            f"{log}: input 'u' (from --map u={mapped}) and output 'y1' (the default) read the "
+            f"same field ({mapped!r} and '/y1.data' name one field): "
+        )
