@@ -10,7 +10,7 @@ import polars as pl
 import pytest
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
 N = 20
@@ -90,3 +90,15 @@ def test_inspect_describes_a_csv_boolean_column_as_the_parquet_one(tmp_path: Pat
     ]
     assert described[0] == described[1]
     assert (described[0]["dtype"], described[0]["min"], described[0]["max"]) == ("boolean", 0, 1)
+
+
+def test_inspect_says_a_non_finite_time_is_not_dropped(tmp_path: Path) -> None:
+    # it listed the time column's NaN under "refused unless --drop-nonfinite", which
+    # analyze --drop-nonfinite then refused
+    t = np.arange(N) / 10
+    t[4] = np.nan
+    frame = pl.DataFrame({"t": t, "u": np.ones(N), "y": np.full(N, np.nan)})
+    frame.write_parquet(tmp_path / "log.parquet")
+    text = format_inspection(inspect_log(tmp_path / "log.parquet")).splitlines()
+    assert "  t: 1 of 20 (the time: refused even with --drop-nonfinite)" in text
+    assert "  y: 20 of 20" in text
