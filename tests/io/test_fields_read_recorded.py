@@ -54,6 +54,7 @@ def test_truth_found_but_without_samples_is_not_listed(tmp_path: Path) -> None:
     load_signals(log, SignalSpec(inputs=("u",), outputs=("y1", "y2"), mode_ids=("a",), dt=0.1,
                                  states=("x1",)), notes=notes)  # fmt: skip
     assert "truth.x1" not in notes["fields"]
+    assert "truth_shared" not in notes
     assert notes["truth_without_samples"] == ["truth.x1 (column 'x1')"]
 
 
@@ -85,10 +86,11 @@ def test_one_field_feeding_two_inputs_or_outputs_is_refused(
 
 
 def test_ground_truth_may_share_an_outputs_field(tmp_path: Path) -> None:
-    # a state measured directly: its truth is the output's column, which reading.fields shows
+    # a state measured directly: its truth is the output's column, which the reading says
     notes: dict[str, Any] = {}
     signals = load_signals(_log(tmp_path), SPEC, ReadOptions(maps=("truth.x2=y1",)), notes=notes)
     assert notes["fields"]["truth.x2"] == {"field": "y1", "from": "--map"}
+    assert notes["truth_shared"] == ["truth.x2 (column 'y1', also output 'y1')"]
     assert signals.truth_states is not None
     np.testing.assert_array_equal(signals.truth_states[:, 1], signals.outputs[:, 0])
 
