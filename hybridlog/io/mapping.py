@@ -35,6 +35,11 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 ``header.stamp`` read with ``--time header`` -- is no truth either, unless mapped with
 ``--map``; :attr:`SignalMap.unusable_truth` says why, for the report.
 
+One field never feeds two inputs or outputs (by ``--map``, ``[signals]`` or default; two
+spellings of one field are one, ``LogSource.field_key``): refused, naming both.  Where each
+symbol's field came from is kept (:attr:`SignalMap.origins`) for the report's
+``reading.fields``.
+
 An error names the symbol and the field as a place, then the cause: ``output 'y1' (field
 '/a.b.v', from --map y1=/a.b.v): '/a.b.v' names 2 fields ...``; ``input 'u' (field
 '/u.data', the default; ...): topic '/u' (...) has no header.stamp``.  "no field" (or "no
@@ -500,7 +505,7 @@ def _refuse_shared(
     perfect fit that says nothing); two outputs read from one field are one measurement
     counted twice.  Either is almost always a slip of ``--map`` or ``[signals]``, never
     what a log of distinct signals means.  Ground truth may share a field with an output (a
-    state measured directly): the report's ``reading.fields`` shows it.
+    state measured directly): the report notes it (``reading.truth_shared``).
 
     Raises
     ------
