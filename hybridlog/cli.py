@@ -229,7 +229,8 @@ def _read_options(function: F) -> F:
             "--drop-nonfinite",
             is_flag=True,
             help="Drop NaN, infinite and out-of-range samples (counted under reading in "
-            "report.json or centers.json) instead of refusing the log.",
+            "report.json or centers.json) instead of refusing the log. Values only: a "
+            "time that is NaN or infinite is refused still.",
         ),
         click.option(
             "--recover",

@@ -156,7 +156,7 @@ def format_inspection(info: dict[str, Any]) -> str:
             "its median step):",
         )
     )
-    lines.extend(_nonfinite_lines(columns))
+    lines.extend(_nonfinite_lines(columns, time_column or _time_named(columns)))
     problems = info.get("problems") or []
     if problems:
         lines.append("")
@@ -291,8 +291,19 @@ def _steps(steps: dict[str, Any]) -> str:
     )
 
 
-def _nonfinite_lines(entries: list[dict[str, Any]]) -> list[str]:
-    """The columns or message fields holding NaN or infinite values, with their counts."""
+def _time_named(columns: list[dict[str, Any]]) -> str | None:
+    """The table's time column when its times could not be read (no span to name it)."""
+    from hybridlog.io.tables import TIME_COLUMNS
+
+    names = {c["name"] for c in columns}
+    return next((name for name in TIME_COLUMNS if name in names), None)
+
+
+def _nonfinite_lines(entries: list[dict[str, Any]], time_column: str | None = None) -> list[str]:
+    """The columns or message fields holding NaN or infinite values, with their counts.
+
+    ``--drop-nonfinite`` drops values, never a time: the time column's count says so.
+    """
     bad = [e for e in entries if e.get("nonfinite")]
     if not bad:
         return []
@@ -301,7 +312,11 @@ def _nonfinite_lines(entries: list[dict[str, Any]]) -> list[str]:
         "non-finite values (NaN, inf; analyze refuses them in a mapped signal unless "
         "--drop-nonfinite):",
     ]
-    lines.extend(f"  {e['name']}: {e['nonfinite']} of {e['count']}" for e in bad)
+    lines.extend(
+        f"  {e['name']}: {e['nonfinite']} of {e['count']}"
+        + (" (the time: refused even with --drop-nonfinite)" if e["name"] == time_column else "")
+        for e in bad
+    )
     return lines
 
 

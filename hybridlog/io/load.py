@@ -161,7 +161,9 @@ def load_signals(
         (:data:`~hybridlog.signals.MAX_MAGNITUDE`): no measurement is that large, and the
         squares the metrics sum would overflow float64; corrupt bytes decode to such values.
     notes:
-        Filled with what reading did, for the report: the format, the time source, and
+        Filled with what reading did, for the report: the format, the time source, the
+        field read for each symbol and where it came from (``fields``: ``{symbol:
+        {"field": ..., "from": "--map" | "[signals]" | "[truth]" | "default"}}``), and
         recovery, sorting, dropped samples and gap pieces where they apply.
 
     Returns
@@ -201,6 +203,7 @@ def load_signals(
             field_word=info.field_word,
             message_paths=info.message_paths,
             explain=source.explain_missing,
+            field_key=source.field_key,
         )
         symbols = {
             **{field: f"input {u!r}" for u, field in mapping.inputs.items()},
@@ -254,6 +257,7 @@ def load_signals(
                         f"usable samples: {_all_dropped(usable.size)}"
                     )
         notes.update({"format": info.format, "time": options.time})
+        notes["fields"] = mapping.fields_read()  # again below, without truth left unused
         notes.update(reading.notes)
         if mapping.unusable_truth:
             notes["truth_unusable"] = [
@@ -273,6 +277,10 @@ def load_signals(
             notes,
             emptied,
         )
+        notes["fields"] = mapping.fields_read()
+        shared = _truth_sharing(mapping, source.field_key, spec.inputs, info.field_word)
+        if shared:
+            notes["truth_shared"] = shared
         truth_mode = None
         if mapping.truth_mode is not None:
             mode_series = reading.labels[mapping.truth_mode]
@@ -359,6 +367,30 @@ def _without_empty_truth(
     if empty:
         notes["truth_without_samples"] = empty
     return replace(mapping, truth_mode=truth_mode, truth_states=states, truth_components=components)
+
+
+def _truth_sharing(
+    mapping: SignalMap, field_key: Callable[[str], str], inputs: Sequence[str], field_word: str
+) -> list[str]:
+    """Ground truth read from the field of an input or output, one entry each.
+
+    Allowed (a state measured directly), but such truth is the measurement, not independent
+    of it: the report says so (``truth_shared``), beside ``reading.fields``.
+    """
+    signal_of = {
+        field_key(name): f"{'input' if symbol in inputs else 'output'} {symbol!r}"
+        for symbol, name in {**mapping.inputs, **mapping.outputs}.items()
+    }
+    truth = {
+        **{component_truth_symbol(c): name for c, name in mapping.truth_components.items()},
+        **({} if mapping.truth_mode is None else {TRUTH_MODE: mapping.truth_mode}),
+        **{f"{TRUTH_PREFIX}{x}": name for x, name in mapping.truth_states.items()},
+    }
+    return [
+        f"{symbol} ({field_word} {name!r}, also {signal_of[field_key(name)]})"
+        for symbol, name in truth.items()
+        if field_key(name) in signal_of
+    ]
 
 
 def _all_dropped(count: int) -> str:

@@ -35,6 +35,11 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 ``header.stamp`` read with ``--time header`` -- is no truth either, unless mapped with
 ``--map``; :attr:`SignalMap.unusable_truth` says why, for the report.
 
+One field never feeds two inputs or outputs (by ``--map``, ``[signals]`` or default; two
+spellings of one field are one, ``LogSource.field_key``): refused, naming both.  Where each
+symbol's field came from is kept (:attr:`SignalMap.origins`) for the report's
+``reading.fields``.
+
 An error names the symbol and the field as a place, then the cause: ``output 'y1' (field
 '/a.b.v', from --map y1=/a.b.v): '/a.b.v' names 2 fields ...``; ``input 'u' (field
 '/u.data', the default; ...): topic '/u' (...) has no header.stamp``.  "no field" (or "no
@@ -75,6 +80,10 @@ class SignalMap:
     unusable_truth:
         ``{symbol: "field: why"}`` for ground truth not mapped with ``--map`` whose field
         the log has but that cannot be used (so the symbol has no truth).
+    origins:
+        ``{symbol: origin}`` for every symbol given a field: where its field came from,
+        ``"--map"``, ``"[signals]"``, ``"[truth]"`` or ``"default"`` (ground truth as
+        ``truth.mode``, ``truth.mode.<component>``, ``truth.<state>``).
     """
 
     inputs: dict[str, str]
@@ -83,6 +92,25 @@ class SignalMap:
     truth_states: dict[str, str] = field(default_factory=dict)
     truth_components: dict[str, str] = field(default_factory=dict)
     unusable_truth: dict[str, str] = field(default_factory=dict)
+    origins: dict[str, str] = field(default_factory=dict)
+
+    def fields_read(self) -> dict[str, dict[str, str]]:
+        """``{symbol: {"field": ..., "from": origin}}`` of every symbol given a field.
+
+        Inputs, outputs, then ground truth (``truth.mode``, ``truth.mode.<component>``,
+        ``truth.<state>``), for the report: which log field fed which symbol, and why.
+        """
+        chosen = {
+            **self.inputs,
+            **self.outputs,
+            **({} if self.truth_mode is None else {TRUTH_MODE: self.truth_mode}),
+            **{component_truth_symbol(c): f for c, f in self.truth_components.items()},
+            **{f"{TRUTH_PREFIX}{x}": f for x, f in self.truth_states.items()},
+        }
+        return {
+            symbol: {"field": name, "from": self.origins.get(symbol, "default")}
+            for symbol, name in chosen.items()
+        }
 
 
 ROS_TOPIC = re.compile(r"(?:/[A-Za-z_][A-Za-z0-9_]*)+", re.ASCII)
@@ -287,6 +315,7 @@ def resolve_signal_map(
     field_word: str = "column",
     message_paths: bool = False,
     explain: Callable[[str, bool], str | None] | None = None,
+    field_key: Callable[[str], str] | None = None,
 ) -> SignalMap:
     """Choose the log field of every symbol (see the module docstring for the order).
 
@@ -312,6 +341,9 @@ def resolve_signal_map(
         ``explain(name, numeric)`` is ``None`` when the log has field ``name`` (holding
         numbers, if ``numeric``), else why not (``LogSource.explain_missing``); default:
         membership in ``fields``.
+    field_key:
+        What a field name names, the same for every spelling of one field
+        (``LogSource.field_key``: ``/y1/data`` and ``/y1.data``); default: the name.
 
     Returns
     -------
@@ -328,6 +360,7 @@ def resolve_signal_map(
     truth = truth or {}
     maps = maps or {}
     unusable: dict[str, str] = {}
+    origins: dict[str, str] = {}
 
     def missing(name: str, numeric: bool) -> str | None:
         if explain is not None:
@@ -346,20 +379,23 @@ def resolve_signal_map(
             # as written, so that a column named ' u' (a header 't, u, y') can be named; else
             # without the spaces around it (--map 'y = level')
             if mapped != mapped.strip() and missing(mapped, numeric) is None:
+                origins[symbol] = "--map"
                 return mapped
             mapped = mapped.strip()
             reason = missing(mapped, numeric)
             if reason is not None:
                 raise unusable_field(symbol, mapped, f"from --map {symbol}={mapped}", reason)
+            origins[symbol] = "--map"
             return mapped
+        table = "[truth]" if symbol.startswith(TRUTH_PREFIX) else "[signals]"
         if model_path is not None:
             reason = missing(model_path, numeric)
             if reason is None:
+                origins[symbol] = table
                 return model_path
             if not absent(reason):
                 # the log has the model's field but it cannot be used: reading the default
                 # field instead would analyse a signal the model did not name
-                table = "[truth]" if symbol.startswith(TRUTH_PREFIX) else "[signals]"
                 if required:
                     origin = f"from the model's {table}; use --map {symbol}=... for another"
                     raise unusable_field(symbol, model_path, origin, reason)
@@ -367,6 +403,7 @@ def resolve_signal_map(
                 return None
         for default in defaults:
             if missing(default, numeric) is None:
+                origins[symbol] = "default"
                 return default
         looked = list(dict.fromkeys([*([] if model_path is None else [model_path]), *defaults]))
         if not required:
@@ -421,6 +458,14 @@ def resolve_signal_map(
 
     input_fields = {u: required(u) for u in inputs}
     output_fields = {y: required(y) for y in outputs}
+    _refuse_shared(
+        source,
+        field_word,
+        {**input_fields, **output_fields},
+        inputs,
+        origins,
+        field_key or (lambda name: name),
+    )
     # a [components] model enumerates no modes of its own: a ``mode`` field (a controller's
     # mode, joint labels) is no truth of it, its components' true modes are
     truth_mode = (
@@ -442,8 +487,60 @@ def resolve_signal_map(
         if chosen is not None:
             truth_components[component] = chosen
     return SignalMap(
-        input_fields, output_fields, truth_mode, truth_states, truth_components, unusable
+        input_fields, output_fields, truth_mode, truth_states, truth_components, unusable, origins
     )
+
+
+def _refuse_shared(
+    source: str,
+    field_word: str,
+    chosen: Mapping[str, str],
+    inputs: Sequence[str],
+    origins: Mapping[str, str],
+    field_key: Callable[[str], str],
+) -> None:
+    """Refuse one field feeding two inputs or outputs (``--map u=y1`` with an output ``y1``).
+
+    An input read from an output's field makes the model predict the output from itself (a
+    perfect fit that says nothing); two outputs read from one field are one measurement
+    counted twice.  Either is almost always a slip of ``--map`` or ``[signals]``, never
+    what a log of distinct signals means.  Ground truth may share a field with an output (a
+    state measured directly): the report notes it (``reading.truth_shared``).
+
+    Raises
+    ------
+    LogError
+        Naming both symbols, the field and where each came from.
+    """
+    owner: dict[str, str] = {}
+    for symbol, name in chosen.items():
+        first = owner.setdefault(field_key(name), symbol)
+        if first == symbol:
+            continue
+        both = [
+            f"{_describe(s, inputs)} {_origin(s, chosen[s], origins.get(s, 'default'))}"
+            for s in (first, symbol)
+        ]
+        named = (
+            repr(name)
+            if chosen[first] == name
+            else f"({chosen[first]!r} and {name!r} name one {field_word})"
+        )
+        raise LogError(
+            f"{source}: {both[0]} and {both[1]} read the same {field_word} {named}: one "
+            f"{field_word} feeds one input or output (an input equal to an output, or one "
+            f"measurement counted twice, is a mapping slip); map one of them to another "
+            f"{field_word} with --map"
+        )
+
+
+def _origin(symbol: str, name: str, origin: str) -> str:
+    """Where a symbol's field came from, as a clause: ``(from --map u=y1)``."""
+    if origin == "--map":
+        return f"(from --map {symbol}={name})"
+    if origin == "default":
+        return "(the default)"
+    return f"(from the model's {origin})"
 
 
 def _describe(symbol: str, inputs: Sequence[str]) -> str:

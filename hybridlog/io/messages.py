@@ -291,6 +291,14 @@ class MessageSource(abc.ABC):
                 return str(err).removeprefix(f"{self.path}: ")
         return None
 
+    def field_key(self, name: str) -> str:
+        """The topic and steps ``name`` reads (:meth:`LogSource.field_key`)."""
+        try:
+            path = self.resolve(name, "any")
+        except PathError:
+            return name
+        return f'"{path.topic}"{format_steps(path.steps)}'
+
     def resolve(self, text: str, want: str) -> MessagePath:
         """Parse a path and check it against the topic's definition.
 

@@ -158,6 +158,15 @@ class LogSource(Protocol):
         """
         ...
 
+    def field_key(self, name: str) -> str:
+        """What ``name`` names, the same for every spelling of one field.
+
+        ``/y1/data`` and ``/y1.data`` of a message log name one field, as a path with spaces
+        around it names the field without; mapping compares these to find one field given
+        to two symbols.  ``name`` itself when it names no field.
+        """
+        ...
+
     def read(self, numeric: Sequence[str], labels: Sequence[str] = ()) -> Reading:
         """Read the named fields: ``numeric`` as float series, ``labels`` as label series.
 
@@ -256,10 +265,22 @@ def check_seconds_range(seconds: FloatArray) -> int:
     return int(np.argmax(bad)) if bad.any() else -1
 
 
-def bad_seconds(value: float) -> str:
-    """Why ``value`` (found by :func:`check_seconds_range`) is not a time in seconds."""
+def bad_seconds(value: float, written: str | None = None) -> str:
+    """Why ``value`` (found by :func:`check_seconds_range`) is not a time in seconds.
+
+    ``written`` is the cell as the log has it (a CSV ``1e400`` parses as ``inf``): said
+    instead of the parsed value.  A time that is not finite is refused even with
+    ``--drop-nonfinite``, which drops samples at known times: the message says so.
+    """
+    shown = str(value) if written is None else written
+    spelled = written is None or written.strip("'\"+-").lower() in ("inf", "infinity")
+    if math.isinf(value) and not spelled:
+        return f"time {written} is beyond the range of a float64 (about 1.8e308)"
     if not math.isfinite(value):
-        return f"time {value} is not a finite number of seconds"
+        return (
+            f"time {shown} is not a finite number of seconds (--drop-nonfinite drops "
+            "values, never a row without a finite time)"
+        )
     # 1.7e18 is now in nanoseconds since 1970, 1.7e12 in milliseconds: a unit, not a time
     return (
         f"time {value:g} is beyond the {MAX_SECONDS:.2g} s the nanosecond grid holds "

@@ -187,6 +187,14 @@ class TableSource:
             self._paths[name] = path
         return path
 
+    def field_key(self, name: str) -> str:
+        """The column and steps ``name`` reads (:meth:`LogSource.field_key`)."""
+        try:
+            path = self._path(name)
+        except PathError:
+            return name
+        return repr((path.column, path.steps))
+
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
         """``None`` for a field of the table, else why not: the time column, or the closest.
 
@@ -266,7 +274,7 @@ class TableSource:
         if self._format == "csv":
             if _iso_format(_first_cell(self._file, self._columns.index(time_column))):
                 as_float.discard(time_column)  # dates and times: parsed by _time_ns
-            frame = _read_csv_frame(self._file, wanted, as_float)
+            frame = _read_csv_frame(self._file, wanted, as_float, time_column)
         else:
             later = [n for n in dict.fromkeys(numeric) if n not in labels and n != time_column]
             frame = self._read_parquet_frame(wanted, set(numeric), set(labels), skip=later)
@@ -561,9 +569,14 @@ class TableSource:
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
             if bad >= 0:
+                as_written = None
+                if self._format == "csv" and not np.isfinite(seconds[bad]):
+                    # the cell as written: a CSV '1e400' parsed as inf, which it does not say
+                    cells = _read_csv_strings(self._file, [name], checked=True).get_column(name)
+                    as_written = excerpt(str(cells[int(rows[bad])]).strip(), 40)
                 raise LogError(
                     f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
-                    f"{bad_seconds(float(seconds[bad]))}"
+                    f"{bad_seconds(float(seconds[bad]), as_written)}"
                 )
             if stored in (pl.Float32, pl.Float16):
                 self._check_resolution(name, stored, seconds, rows)
@@ -1054,8 +1067,13 @@ def _refuse_stray_quote(path: Path) -> None:
         return
 
 
-def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.DataFrame:
+def _read_csv_frame(
+    path: Path, columns: list[str], as_float: set[str], time_column: str
+) -> pl.DataFrame:
     """Read ``columns``: those in ``as_float`` as ``Float64``, the others as text.
+
+    A column of ``true`` and ``false`` reads as 1 and 0, but for ``time_column``
+    (:func:`_parse_floats`).
 
     The fast path lets polars parse the numbers; when that fails the columns are read as
     text and converted here, which tolerates surrounding blanks and finds the bad cell.
@@ -1069,22 +1087,43 @@ def _read_csv_frame(path: Path, columns: list[str], as_float: set[str]) -> pl.Da
         text = _read_csv_strings(path, columns, checked=True)
         rows: IntArray = np.arange(text.height, dtype=np.int64)
         return text.with_columns(
-            [_parse_floats(path, text.get_column(c), rows) for c in columns if c in as_float]
+            [
+                _parse_floats(path, text.get_column(c), rows, booleans=c != time_column)
+                for c in columns
+                if c in as_float
+            ]
         )
     return frame
 
 
-def _parse_floats(path: Path, column: pl.Series, rows: IntArray) -> pl.Series:
-    """Convert a text column to ``Float64``; empty cells become nulls, others must parse."""
+_BOOLEANS = ("true", "false")
+
+
+def _parse_floats(
+    path: Path, column: pl.Series, rows: IntArray, *, booleans: bool = False
+) -> pl.Series:
+    """Convert a text column to ``Float64``; empty cells become nulls, others must parse.
+
+    With ``booleans`` (a signal, not the time), a column whose every cell is ``true`` or
+    ``false`` (any case: polars and pandas write booleans so) reads as 1 and 0, as a
+    Parquet boolean column, a ROS ``bool`` or a JSON ``true`` do; such a cell among numbers
+    is refused, as any other text.
+    """
     text = column.cast(pl.String).str.strip_chars()
     text = pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
     values = text.cast(pl.Float64, strict=False)
     bad = (values.is_null() & text.is_not_null()).to_numpy()
     if bad.any():
+        lowered = text.str.to_lowercase()
+        if booleans and bool(lowered.drop_nulls().is_in(_BOOLEANS).all()):
+            return (lowered == "true").cast(pl.Float64).alias(column.name)
         first = int(np.argmax(bad))
+        hint = ""
+        if booleans and str(lowered[first]) in _BOOLEANS:
+            hint = " (true and false read as 1 and 0 only in a column of nothing else)"
         raise LogError(
             f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
-            f"{excerpt(text[first])} is not a number"
+            f"{excerpt(text[first])} is not a number{hint}"
         )
     return values
 
@@ -1340,9 +1379,14 @@ def _describe_column(
         text = column.str.strip_chars()
         text = pl.select(pl.when(text != "").then(text)).to_series()
         parsed = text.cast(pl.Float64, strict=False)
+        lowered = text.str.to_lowercase()
         if parsed.null_count() == text.null_count():
             dtype = "float64"
             values = parsed.drop_nulls().to_numpy().astype(np.float64)
+        elif text.null_count() < text.len() and bool(lowered.drop_nulls().is_in(_BOOLEANS).all()):
+            # read as 1 and 0, as a Parquet boolean column (_parse_floats)
+            dtype = "boolean"
+            values = (lowered.drop_nulls() == "true").cast(pl.Float64).to_numpy()
         else:
             dtype = "string"
         present = text.is_not_null().to_numpy()

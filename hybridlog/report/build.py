@@ -827,7 +827,8 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     (``span``), and what the user's repairs changed: the piece ``--split-gaps`` kept
     (``segments``), the samples ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged
     or replaced, an MCAP file read by ``--recover``; and the ground truth found by default
-    but not used (no samples, or unreadable: ``truth_without_samples``, ``truth_unusable``).
+    but not used (no samples, or unreadable: ``truth_without_samples``, ``truth_unusable``),
+    and ground truth read from an input's or output's field (``truth_shared``).
     A report of a tenth of a log, or of one with samples taken out, said only its sample
     count and time span, which read like the whole log's.
     """
@@ -916,6 +917,11 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     for key, what in (
         ("truth_without_samples", "ground truth fields without samples, not used"),
         ("truth_unusable", "ground truth fields found by default that cannot be read, not used"),
+        (
+            "truth_shared",
+            "ground truth read from the field of an input or output (the measurement itself, "
+            "not independent of it)",
+        ),
         ("csv_names_stripped", "CSV header names read without the spaces around them"),
     ):
         if reading.get(key):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.times import format_time
@@ -187,6 +188,7 @@ def render_markdown(report: Report) -> str:
         f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
         f"- samples: {report.samples}, dt = {format_number(report.dt)} s, "
         f"t = {format_time(report.t_start)} … {format_time(report.t_end)} s",
+        *_fields_line(report.reading),
         f"- hybridlog {report.hybridlog_version}",
         "",
         "## Outputs",
@@ -260,6 +262,30 @@ def render_markdown(report: Report) -> str:
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
     return "\n".join(lines) + "\n"
+
+
+def _fields_line(reading: Mapping[str, Any] | None) -> list[str]:
+    """The log field read for each symbol (``reading.fields``), as one list item.
+
+    ``u ← `u`, y1 ← `level` (--map)``: where a field came from is said unless it is the
+    default name; nothing for a report without the record (older, or built without a log).
+    """
+    fields = (reading or {}).get("fields")
+    if not isinstance(fields, Mapping) or not fields:
+        return []
+    parts = []
+    for symbol, chosen in fields.items():
+        if not isinstance(chosen, Mapping) or not isinstance(chosen.get("field"), str):
+            continue
+        origin = chosen.get("from")
+        where = (
+            "" if origin == "default" else f" ({escape_markdown(str(origin), line_start=False)})"
+        )
+        symbol_text = escape_markdown(str(symbol), line_start=False)
+        parts.append(f"{symbol_text} ← {code_span(chosen['field'])}{where}")
+    if not parts:
+        return []
+    return [f"- log fields: {', '.join(parts)} (unmarked: the default name)"]
 
 
 def _state_caveats(report: Report) -> list[str]:

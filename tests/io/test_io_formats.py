@@ -75,7 +75,7 @@ WRITERS: dict[str, Callable[[Path], Path]] = {
     "ros2-db3": _db3,
     "ros2-bag": lambda d: write_ros2_bag(d / "bag", scene(tank_run()), "sqlite3"),
 }
-PROTOCOL = {"info", "fields", "explain_missing", "read", "describe"}
+PROTOCOL = {"info", "fields", "explain_missing", "field_key", "read", "describe"}
 
 
 def test_every_row_has_a_file_here() -> None:

@@ -63,6 +63,14 @@ def test_resolution_order() -> None:
         outputs={"y": "level"},
         truth_mode="phase",
         truth_states={"h1": "tank1", "h2": "h2"},
+        origins={
+            "u1": "default",
+            "u2": "[signals]",
+            "y": "--map",
+            "truth.mode": "[truth]",
+            "truth.h1": "--map",
+            "truth.h2": "default",
+        },
     )
 
 
@@ -144,14 +152,14 @@ def test_a_state_named_like_mode_is_read_as_a_number() -> None:
 def test_a_field_emptied_by_drop_nonfinite_says_so(tmp_path: Path) -> None:
     """'output 'y' (column 'y') has no samples' of a column of three NaN and inf."""
     log = tmp_path / "log.csv"
-    log.write_text("t,u,y,x\n0,1,nan,nan\n0.1,1,inf,1e500\n0.2,1,nan,nan\n")
+    log.write_text("t,u,y,x,w\n0,1,nan,nan,2\n0.1,1,inf,1e500,2\n0.2,1,nan,nan,2\n")
     spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1, states=("x",))
     dropped = "--drop-nonfinite dropped all 3 (NaN, infinite, or out of range: |value| >= 2^480)"
     for maps, message in (
         ((), f"output 'y' (column 'y') has no usable samples: {dropped}"),
         (("u=y", "y=u"), f"input 'u' (column 'y') has no usable samples: {dropped}"),
         (
-            ("y=u", "truth.x=x"),
+            ("y=w", "truth.x=x"),
             f"truth.x (column 'x', from --map truth.x=x) has no usable samples: {dropped}",
         ),
     ):
@@ -159,7 +167,7 @@ def test_a_field_emptied_by_drop_nonfinite_says_so(tmp_path: Path) -> None:
             load_signals(log, spec, ReadOptions(maps=maps, drop_nonfinite=True))
         assert str(error.value) == f"{log}: {message}"
     notes: dict[str, Any] = {}
-    aligned = load_signals(log, spec, ReadOptions(maps=("y=u",), drop_nonfinite=True), notes=notes)
+    aligned = load_signals(log, spec, ReadOptions(maps=("y=w",), drop_nonfinite=True), notes=notes)
     assert aligned.truth_states is None
     assert notes["truth_without_samples"] == ["truth.x (column 'x')"]
 

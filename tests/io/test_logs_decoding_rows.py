@@ -90,14 +90,15 @@ def test_unreadable_path_names_the_message(
 @pytest.mark.parametrize("row", ROWS)
 def test_missing_header_stamp_names_the_message(row: int, tmp_path: Path) -> None:
     def stamped(k: int) -> bytes:
-        return _json({"header": {"stamp": {"sec": k // 100, "nsec": (k % 100) * STEP_NS}}, "v": 1})
+        stamp = {"sec": k // 100, "nsec": (k % 100) * STEP_NS}
+        return _json({"header": {"stamp": stamp}, "v": 1, "w": 2, "z": 3})
 
     payload = {k: stamped(k) for k in range(COUNT)}
-    payload[row] = _json({"header": {}, "v": 1})
+    payload[row] = _json({"header": {}, "v": 1, "w": 2, "z": 3})
     channel = Channel("/s", "json", "demo/Stamped", "jsonschema", json.dumps({"type": "object"}))
     log = _log(tmp_path / "stamp.mcap", channel, payload, b"")
     with pytest.raises(LogError, match=r"header\.stamp") as caught:
-        load_signals(log, SPEC, ReadOptions(maps=("u=/s.v", "y1=/s.v", "y2=/s.v"), time="header"))
+        load_signals(log, SPEC, ReadOptions(maps=("u=/s.v", "y1=/s.w", "y2=/s.z"), time="header"))
     assert _named_time(caught.value) == pytest.approx(row * STEP_NS / 1e9)
 
 

@@ -60,7 +60,14 @@ def test_a_max_gap_under_dt_cuts_no_step_of_dt(tmp_path: Path) -> None:
         notes: dict[str, Any] = {}
         signals = load_signals(log, SPEC, ReadOptions(max_gap=0.0, split_gaps=split), notes=notes)
         np.testing.assert_array_equal(signals.outputs[:, 0], 10 * np.arange(10))
-        assert notes == {"format": "csv", "time": "log"}
+        assert notes == {
+            "format": "csv",
+            "time": "log",
+            "fields": {
+                "u": {"field": "u", "from": "default"},
+                "y": {"field": "y", "from": "default"},
+            },
+        }
 
 
 def test_a_max_gap_under_dt_still_cuts_a_real_gap(tmp_path: Path) -> None:

@@ -110,11 +110,20 @@ def _synthetic(n: int = 400, seed: int = 0, truth: bool = True, **kw: Any) -> Re
     return build_report(result, signals, log="run.csv", model_name="tanks", dt=DT, **kw)
 
 
+NO_TRUTH_READING: dict[str, Any] = {
+    "format": "csv",
+    "fields": {  # which field fed each symbol, and who chose it (reading.fields)
+        "u": {"field": "u", "from": "default"},
+        "y1": {"field": "level | `1`", "from": "--map"},
+        "y2": {"field": "/y2.data", "from": "[signals]"},
+    },
+    "dropped": {"x1": 1},
+}
+
+
 SYNTHETIC: dict[str, Callable[[], Report]] = {
     "synthetic_truth": lambda: _synthetic(seed=3),
-    "synthetic_no_truth": lambda: _synthetic(
-        seed=3, truth=False, reading={"format": "csv", "dropped": {"x1": 1}}
-    ),
+    "synthetic_no_truth": lambda: _synthetic(seed=3, truth=False, reading=NO_TRUTH_READING),
     "synthetic_stuck": _stuck,
     "synthetic_undefined": _undefined,
     "synthetic_long": lambda: _synthetic(n=4000, seed=5),  # more than 50 true switches
