@@ -47,6 +47,7 @@ from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import (
     comparison_markdown,
     gate_cell,
+    gated_columns,
     markdown_table,
     write_summary_csv,
 )
@@ -647,10 +648,11 @@ def compare(
 
     The table (``comparison.md`` and ``comparison.csv``) has one row per estimator; CI gates
     apply to every estimator, and with gates the table gets a ``gates`` column (``pass (2)``
-    or the gates the estimator missed).  ``smooth`` (``--smooth``) and ``mode_sequence``
-    apply to every estimator, each of which must offer them (:func:`smoothing_overrides`);
-    when any estimator's estimates were smoothed, the table gets a ``smoothing`` column and
-    the filter's own mode accuracy beside the smoothed one.
+    or the gates the estimator missed) and a column per gated metric it does not show
+    already (``state_rmse.x1``: each estimator's value).  ``smooth`` (``--smooth``) and
+    ``mode_sequence`` apply to every estimator, each of which must offer them
+    (:func:`smoothing_overrides`); when any estimator's estimates were smoothed, the table
+    gets a ``smoothing`` column and the filter's own mode accuracy beside the smoothed one.
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
@@ -702,6 +704,12 @@ def compare(
             columns += _SMOOTHING_COLUMNS
             for row, report in zip(rows, reports.values(), strict=True):
                 row += _smoothing_cells(report)
+        # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
+        # summaries show it: 'pass (1)' alone did not say by how much
+        extra = gated_columns([gate.metric for gate in gates], columns)
+        columns += extra
+        for row, report in zip(rows, reports.values(), strict=True):
+            row += [metric(report, name) for name in extra]
         if gates:  # which estimator missed which gate, as a batch's summary shows per log
             columns += ("gates",)
             for row, name in zip(rows, reports, strict=True):

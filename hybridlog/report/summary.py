@@ -54,8 +54,12 @@ __all__ = [
 SIGNIFICANT_DIGITS = 4
 """Markdown tables show every number of a column with at least this many significant digits."""
 
-MAX_EXTRA_DIGITS = 4
-"""Digits a column of a Markdown table gains, at most, so that different values differ."""
+MAX_EXTRA_DIGITS = 17 - SIGNIFICANT_DIGITS
+"""Digits a column of a Markdown table gains, at most, so that different values differ.
+
+With them its smallest non-zero magnitude has 17 significant digits, which tell any two
+different float64 values apart (the cap was 4: VAFs of 99.9999999912 and 99.9999999934
+both read ``100.000000``, neither being 100).  A column gains only the digits it needs."""
 
 
 def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[object], str]:
