@@ -442,7 +442,13 @@ def _component_lines(modes: ModeReport, samples: int) -> list[str]:
             else ""
         )
         if modes.accuracy is not None
-        else "- the log has the true mode of only some components: no joint accuracy"
+        else "- the log has the true mode of only some components"
+        + (
+            f" (not of {', '.join(escape_markdown(c) for c in modes.components_without_truth)})"
+            if modes.components_without_truth
+            else ""
+        )
+        + ": no joint accuracy"
     )
     lines = [joint, ""]
     for name, component in modes.components.items():
@@ -452,7 +458,12 @@ def _component_lines(modes: ModeReport, samples: int) -> list[str]:
         else:
             lines += _truth_lines(component, component.accuracy, samples)
         lines.append("")
+    for name in modes.components_without_truth:
+        lines += [f"### Component {escape_markdown(name)}", "", f"- {_NO_TRUTH}", ""]
     return lines[:-1]
+
+
+_NO_TRUTH = "the log has no true mode of this component: it is not scored"
 
 
 _NOT_COVERED = "the true mode starts after the last sample: accuracy and delays are not known"
