@@ -421,7 +421,13 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
             f"| {format_number(after, shown)} "
             f"| {_change(before, after, spec)} |"
         )
-    if f.mode_accuracy is None:
+    if f.mode_accuracy is None and (f.components or s.components):
+        lines += [
+            "",
+            "The log has the true mode of only some components: mode accuracy, missed "
+            "switches and delays are per component (the component rows), none jointly.",
+        ]
+    elif f.mode_accuracy is None:
         lines += ["", "No ground-truth mode in the log: mode accuracy and delays are not known."]
     elif f.detected is None:
         lines += [
