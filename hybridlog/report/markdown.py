@@ -459,6 +459,9 @@ def _component_lines(modes: ModeReport, samples: int) -> list[str]:
     lines = [joint, ""]
     for name, component in modes.components.items():
         lines += [f"### Component {escape_markdown(name)}", ""]
+        # said for every component: one whose true mode never switches may still be
+        # estimated to (false alarms, which no detection count shows)
+        lines.append(f"- {plural(len(component.switches), 'estimated mode switch')}")
         if component.accuracy is None:  # listed with its truth, which covers no sample
             lines.append(f"- {_NOT_COVERED}")
         else:

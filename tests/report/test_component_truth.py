@@ -8,6 +8,7 @@ and the log's own truth), counted here without the report's code.
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -76,6 +77,13 @@ def test_joint_modes_are_scored_per_component(cpha: tuple[Path, Path], tmp_path:
     )
     text = (out / "report.md").read_text()
     assert "### Component A2" in text and "every component right" in text
+    # each component's estimated switches are said, as counted in its timeline column
+    for c in COMPONENTS:
+        column = timeline[f"mode.{c}"].to_list()
+        changes = sum(a != b for a, b in itertools.pairwise(column))
+        section = text.split(f"### Component {c}\n\n", 1)[1]
+        noun = "switch" if changes == 1 else "switches"
+        assert section.startswith(f"- {changes} estimated mode {noun}\n")
 
 
 def test_a_log_with_only_some_components_truth(cpha: tuple[Path, Path], tmp_path: Path) -> None:
