@@ -205,14 +205,14 @@ class _ComponentModes:
         self._truth = truth
         self._labels: dict[str, tuple[str, ...]] = {}
         self._codes: dict[str, IntArray] = {}
-        self._components: set[str] = set()
+        self._components: dict[str, None] = {}  # every component, in the result's order
 
     def add(self, chunk: EstimationResult, start: int) -> None:
         for column in chunk.timeline_columns:
             name = column.name.removeprefix(COMPONENT_PREFIX)
             if not column.name.startswith(COMPONENT_PREFIX) or not column.labels:
                 continue
-            self._components.add(name)
+            self._components[name] = None
             if name not in self._truth:
                 continue
             if self._labels.setdefault(name, column.labels) != column.labels:
@@ -234,9 +234,13 @@ class _ComponentModes:
             reports[name] = _modes(ids, time, estimated[self._codes[name]], codes, dt)
         return reports
 
+    def without_truth(self) -> tuple[str, ...]:
+        """The components whose true mode the log does not have, in the result's order."""
+        return tuple(name for name in self._components if name not in self._labels)
+
     def joint_samples(self) -> int | None:
         """How many samples :meth:`joint_accuracy` scores; ``None`` when it scores none."""
-        if not self._components or set(self._labels) != self._components:
+        if not self._components or set(self._labels) != set(self._components):
             return None
         known = np.ones(self._n, dtype=bool)
         for name in self._labels:
@@ -249,7 +253,7 @@ class _ComponentModes:
         Over the samples where every component has a true mode (one that starts late leaves
         those before it out); ``None`` unless the log has every component's true mode.
         """
-        if not self._components or set(self._labels) != self._components:
+        if not self._components or set(self._labels) != set(self._components):
             return None
         right = np.ones(self._n, dtype=bool)
         known = np.ones(self._n, dtype=bool)  # every component has a true mode
@@ -431,6 +435,7 @@ class ReportBuilder:
                 components=components,
                 accuracy=None if joint is None else _num(joint),
                 samples=self._components.joint_samples(),
+                components_without_truth=self._components.without_truth(),
             )
         states = _state_reports(first.state_names, self._states)
         means = {name: _output_mean(per_output.values(), name) for name in ("mse", "vaf", "fit")}
@@ -1005,9 +1010,12 @@ def _null_reasons(
                 reasons[name] = f"undefined for every output ({y}: {why})"
     if modes.components:
         if modes.accuracy is None:
+            missing = modes.components_without_truth
             reasons["mode_accuracy"] = (
                 "the log has the true mode of only some components: "
-                f"{', '.join(modes.components)}; see modes.components"
+                f"{', '.join(modes.components)}"
+                + (f" (not of {', '.join(missing)})" if missing else "")
+                + "; see modes.components"
             )
         for name in ("detection_delay_s", "missed_switches"):
             reasons[name] = "a [components] model: switches are scored per component"

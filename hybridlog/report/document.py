@@ -232,6 +232,10 @@ class ModeReport:
         ``accuracy`` is then the fraction of samples where every component is right (``None``
         unless the log has every component's), and ``confusion``/``detection`` are per
         component only.
+    components_without_truth:
+        For a ``[components]`` model: the components whose true mode the log does not have
+        (not in ``components``, not scored), so a reader is told rather than left to notice
+        one missing.
 
     """
 
@@ -243,6 +247,7 @@ class ModeReport:
     detection: Detection | None = None
     components: Mapping[str, ModeReport] = field(default_factory=dict)
     samples: int | None = None
+    components_without_truth: tuple[str, ...] = ()
 
     @property
     def detection_delay_s(self) -> float | None:
@@ -263,6 +268,11 @@ class ModeReport:
             **(
                 {"components": {c: m.to_dict() for c, m in self.components.items()}}
                 if self.components
+                else {}
+            ),
+            **(
+                {"components_without_truth": list(self.components_without_truth)}
+                if self.components_without_truth
                 else {}
             ),
         }
@@ -862,6 +872,10 @@ class _Reader:
         modes = self.modes(value, path)
         if modes.components:
             raise self.error(f"{path}.components", "is set; a component has no components")
+        if modes.components_without_truth:
+            raise self.error(
+                f"{path}.components_without_truth", "is set; a component has no components"
+            )
         return modes
 
     def modes(self, value: object, path: str) -> ModeReport:
@@ -879,7 +893,16 @@ class _Reader:
             detection=self.at(data, path, "detection", self.or_null(self.detection), None),
             components=self.at(data, path, "components", self.map_of(self.component_modes), {}),
             samples=self.at(data, path, "samples", self.or_null(self.count), None),
+            components_without_truth=self.at(
+                data, path, "components_without_truth", self.list_of(self.string), []
+            ),
         )
+        scored = sorted(set(modes.components) & set(modes.components_without_truth))
+        if scored:
+            raise self.error(
+                f"{path}.components_without_truth",
+                f"names {', '.join(scored)}, which modes.components scores",
+            )
         # every component right is at most as frequent as any one component right (over
         # the same samples: a component's true mode that starts late scores fewer)
         for name, component in modes.components.items():

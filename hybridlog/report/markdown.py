@@ -421,7 +421,13 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
             f"| {format_number(after, shown)} "
             f"| {_change(before, after, spec)} |"
         )
-    if f.mode_accuracy is None:
+    if f.mode_accuracy is None and (f.components or s.components):
+        lines += [
+            "",
+            "The log has the true mode of only some components: mode accuracy, missed "
+            "switches and delays are per component (the component rows), none jointly.",
+        ]
+    elif f.mode_accuracy is None:
         lines += ["", "No ground-truth mode in the log: mode accuracy and delays are not known."]
     elif f.detected is None:
         lines += [
@@ -442,17 +448,31 @@ def _component_lines(modes: ModeReport, samples: int) -> list[str]:
             else ""
         )
         if modes.accuracy is not None
-        else "- the log has the true mode of only some components: no joint accuracy"
+        else "- the log has the true mode of only some components"
+        + (
+            f" (not of {', '.join(escape_markdown(c) for c in modes.components_without_truth)})"
+            if modes.components_without_truth
+            else ""
+        )
+        + ": no joint accuracy"
     )
     lines = [joint, ""]
     for name, component in modes.components.items():
         lines += [f"### Component {escape_markdown(name)}", ""]
+        # said for every component: one whose true mode never switches may still be
+        # estimated to (false alarms, which no detection count shows)
+        lines.append(f"- {plural(len(component.switches), 'estimated mode switch')}")
         if component.accuracy is None:  # listed with its truth, which covers no sample
             lines.append(f"- {_NOT_COVERED}")
         else:
             lines += _truth_lines(component, component.accuracy, samples)
         lines.append("")
+    for name in modes.components_without_truth:
+        lines += [f"### Component {escape_markdown(name)}", "", f"- {_NO_TRUTH}", ""]
     return lines[:-1]
+
+
+_NO_TRUTH = "the log has no true mode of this component: it is not scored"
 
 
 _NOT_COVERED = "the true mode starts after the last sample: accuracy and delays are not known"

@@ -8,6 +8,7 @@ and the log's own truth), counted here without the report's code.
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import numpy as np
 import polars as pl
 import pytest
 
-from hybridlog.errors import LogError, OptionError
+from hybridlog.errors import LogError, OptionError, ReportError
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import analyze
 from hybridlog.report import read_report
@@ -76,6 +77,13 @@ def test_joint_modes_are_scored_per_component(cpha: tuple[Path, Path], tmp_path:
     )
     text = (out / "report.md").read_text()
     assert "### Component A2" in text and "every component right" in text
+    # each component's estimated switches are said, as counted in its timeline column
+    for c in COMPONENTS:
+        column = timeline[f"mode.{c}"].to_list()
+        changes = sum(a != b for a, b in itertools.pairwise(column))
+        section = text.split(f"### Component {c}\n\n", 1)[1]
+        noun = "switch" if changes == 1 else "switches"
+        assert section.startswith(f"- {changes} estimated mode {noun}\n")
 
 
 def test_a_log_with_only_some_components_truth(cpha: tuple[Path, Path], tmp_path: Path) -> None:
@@ -89,6 +97,20 @@ def test_a_log_with_only_some_components_truth(cpha: tuple[Path, Path], tmp_path
     assert set(report["modes"]["components"]) == {"A1", "A2"}
     assert report["modes"]["accuracy"] is None
     assert "only some components" in report["null_reasons"]["mode_accuracy"]
+    # the component without truth is named, not silently left out of report.md and .json
+    assert report["modes"]["components_without_truth"] == ["A3"]
+    assert "(not of A3)" in report["null_reasons"]["mode_accuracy"]
+    assert read_report(out / "report.json").modes.components_without_truth == ("A3",)
+    text = (out / "report.md").read_text()
+    assert "only some components (not of A3): no joint accuracy" in text
+    a3 = text.split("### Component A3\n\n", 1)[1].splitlines()[0]
+    assert a3 == "- the log has no true mode of this component: it is not scored"
+    # a report.json that says A2 has no truth while scoring it is refused on reading
+    report["modes"]["components_without_truth"] = ["A2"]
+    tampered = tmp_path / "tampered.json"
+    tampered.write_text(json.dumps(report))
+    with pytest.raises(ReportError, match=r"components_without_truth.*A2"):
+        read_report(tampered)
 
 
 def test_unknown_mode_on_the_sample_log_matches_its_own_tables(tmp_path: Path) -> None:

@@ -102,6 +102,23 @@ def test_the_offline_pass_is_scored_against_the_components_truth(
     assert f"(of the offline estimates: {label}; the filter's own: {own:.6g})" in failure
 
 
+def test_the_offline_pass_with_only_some_components_truth(
+    cpha: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """Its Smoothing section says the truth is partial, not that there is none."""
+    model_file, log = cpha
+    partial = tmp_path / "partial.csv"
+    pl.read_csv(log).drop("mode.A3").write_csv(partial)
+    out = tmp_path / "offline"
+    outcome = analyze(partial, model_file, out_dir=out, estimator="imm", smooth=True)
+    smoothing = outcome.report.smoothing
+    assert smoothing is not None and smoothing.filtered.mode_accuracy is None
+    assert set(smoothing.filtered.components) == {"A1", "A2"}
+    smoothing_text = (out / "report.md").read_text().split("## Smoothing", 1)[1]
+    assert "No ground-truth mode in the log" not in smoothing_text
+    assert "The log has the true mode of only some components" in smoothing_text
+
+
 @pytest.mark.parametrize(
     ("edit", "words"),
     [
