@@ -241,8 +241,10 @@ def hold_index(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> IntAr
     return index
 
 
-def jittered_start(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, dt_ns: int) -> int:
-    """Where a series sampled once per step on a jittering clock starts, else -1.
+def jittered_start(
+    time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, dt_ns: int
+) -> tuple[int, float]:
+    """Where a series sampled once per step on a jittering clock starts (else -1), and its jitter.
 
     A series with exactly one sample within ``dt/4`` of each grid point, some of them after
     it by more than ``tolerance_ns`` and some not, was recorded at the model's rate by a
@@ -252,30 +254,23 @@ def jittered_start(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, dt_n
     on the grid, each point its own sample (``notes["jitter"]``, said in the report).  A
     series whose samples all come late (a constant latency) keeps the hold's consistent
     one-step delay, as SPEC §5 says; one on the grid within ``tolerance_ns`` never gets here.
-    The first sample is not counted: the grid may start at it.
+    The first sample is not counted: the grid may start at it.  The jitter is the largest
+    distance, in seconds, of a sample from its grid point (0 where the series is not such).
     """
     start = on_grid(time_ns, grid_ns, max(tolerance_ns, dt_ns // 4))
     if start < 0:
-        return -1
+        return -1, 0.0
     late = on_time = False
-    for lo in range(1, grid_ns.size, BLOCK):  # from the second: the grid may start at the first
-        offset = (
-            time_ns[start + lo : start + min(lo + BLOCK, grid_ns.size)] - grid_ns[lo : lo + BLOCK]
-        )
-        late = late or bool((offset > tolerance_ns).any())
-        on_time = on_time or bool((offset <= tolerance_ns).any())
-    return start if late and on_time else -1
-
-
-def _jitter_of(time_ns: IntArray, grid_ns: IntArray, start: int) -> float:
-    """The largest distance, in seconds, of a jittered series' samples from their grid points."""
     worst = 0
     for lo in range(0, grid_ns.size, BLOCK):
         offset = (
             time_ns[start + lo : start + min(lo + BLOCK, grid_ns.size)] - grid_ns[lo : lo + BLOCK]
         )
         worst = max(worst, int(np.abs(offset).max()))
-    return worst / NS_PER_S
+        counted = offset[1:] if lo == 0 else offset  # the grid may start at the first sample
+        late = late or bool((counted > tolerance_ns).any())
+        on_time = on_time or bool((counted <= tolerance_ns).any())
+    return (start, worst / NS_PER_S) if late and on_time else (-1, 0.0)
 
 
 def nearest_index(
@@ -620,10 +615,12 @@ def align_signals(
     u = np.empty((n, len(inputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(inputs.items()):
         on = on_grid_values(series, grid, tolerance)
-        if on is None and (start := jittered_start(series.time_ns, grid, tolerance, dt_ns)) >= 0:
+        start, jitter = (
+            jittered_start(series.time_ns, grid, tolerance, dt_ns) if on is None else (-1, 0.0)
+        )
+        if start >= 0:
             on = series.values[start : start + n]
             if notes is not None:
-                jitter = _jitter_of(series.time_ns, grid, start)
                 notes.setdefault("jitter", {})[f"input {symbol}"] = jitter
         u[:, j] = (
             on if on is not None else series.values[hold_index(series.time_ns, grid, tolerance)]
@@ -776,9 +773,9 @@ def _hold_modes(
         raise LogError(f"{what} ({field_word} {series.name!r}) has no samples")
     start = on_grid(series.time_ns, grid, tolerance)
     if start < 0:
-        start = jittered_start(series.time_ns, grid, tolerance, dt_ns)
+        start, offset = jittered_start(series.time_ns, grid, tolerance, dt_ns)
         if start >= 0 and jitter is not None:
-            jitter[f"the true {label}"] = _jitter_of(series.time_ns, grid, start)
+            jitter[f"the true {label}"] = offset
     if start >= 0:  # the codes at the grid points, without an index array
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
         return on
