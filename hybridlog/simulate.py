@@ -397,6 +397,7 @@ def simulate(
     arguments: tuple[object, ...]
     if model.is_continuous:
         from hybridlog.model.integration import METHOD_CODES, step_function
+        from hybridlog.model.stability import check_run
 
         functions = compile_continuous(model, jit=jit)
         timebase = model.timebase
@@ -426,6 +427,7 @@ def simulate(
         )
         continuous: Callable[..., None] = kernels.simulate_continuous_steps
         (compile_for(continuous, arguments) if jit else continuous)(*arguments)
+        check_run(model, functions.DX, modes, states, inputs, time)
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)
         arguments = (

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import LogError, ModelError
+from hybridlog.errors import LogError, ModelError, OptionError
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.vouch import MAX_SHOWN
@@ -317,6 +317,28 @@ def _check_model(model: HybridModel) -> None:
     model.check_supported(f"estimator '{NAME}'", continuous=True, jumps=True)
 
 
+def _check_step(model: HybridModel, eigenvalues: tuple[float, ...]) -> None:
+    """Refuse eigenvalues Λ the model's integration step cannot follow.
+
+    Linearised, observer (20)'s error decays in the coordinates Φ with ``A_b − K C_b``,
+    whose eigenvalues are Λ; the fixed step of ``integration`` must keep each of them
+    inside its method's stability region (:mod:`hybridlog.model.stability`), or the
+    estimate grows, or rings, where the design has it decay.
+    """
+    from hybridlog.model.stability import step_flaw
+
+    timebase = model.timebase
+    if timebase.method is None:
+        return
+    flaw = step_flaw(timebase.method, timebase.step, np.diag(eigenvalues))
+    if flaw is not None:
+        raise OptionError(
+            f"switching-observer option 'eigenvalues': λ = {flaw.eigenvalue.real:g} 1/s is too "
+            f"fast for integration.step = {timebase.step:g} s of {model.origin or model.name}: "
+            f"{flaw.describe(timebase.method)}"
+        )
+
+
 def _last_interval(
     model: HybridModel,
     signals: AlignedSignals,
@@ -406,7 +428,8 @@ def run_switching_observer(
     LogError
         The log has no switching signal (the true mode column).
     OptionError
-        ``eigenvalues`` is not one or ``n`` negative reals.
+        ``eigenvalues`` is not one or ``n`` negative reals, or the integration step cannot
+        follow one of them (:func:`_check_step`).
     """
     from hybridlog.model.compiled import compile_generated
     from hybridlog.signals import IntArray
@@ -418,6 +441,7 @@ def run_switching_observer(
             "it with --map truth.mode=PATH (or a 'mode' column)"
         )
     eigenvalues = options.eigenvalue_list(model.n_states)
+    _check_step(model, eigenvalues)
     gain = brunovsky_gain(eigenvalues)
     count, n = signals.n_samples, model.n_states
     modes: IntArray = np.ascontiguousarray(signals.truth_modes, dtype=np.int64)

@@ -1,0 +1,211 @@
+r"""Whether a continuous-time model's integration step suits its modes (linear stability).
+
+A fixed-step explicit method applied to :math:`\dot x = f_q(x, u)` near a point advances
+each eigen-direction of the Jacobian :math:`J = \partial f_q / \partial x` by the method's
+*stability function* :math:`R(z)`, :math:`z = h\lambda`, per step (Hairer and Wanner,
+*Solving Ordinary Differential Equations II*, §IV.2), where the exact solution advances by
+:math:`e^{z}`:
+
+* ``euler``: :math:`R(z) = 1 + z`;
+* ``rk4``: :math:`R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`.
+
+Two outcomes make every later number the integration gives one hybridlog cannot vouch for,
+whatever the tolerance a user would choose, and :func:`step_flaw` names them:
+
+* **unstable**: :math:`\operatorname{Re}\lambda < 0` (the mode decays there) but
+  :math:`|R(z)| > 1`: the integration grows where the model decays;
+* **alternating**: :math:`\lambda` real and negative, but :math:`R(z) < 0` with
+  :math:`|R(z)| > e^{z}`: the integration flips the sign of the mode's transient every step
+  and lets it die out more slowly than the model does (explicit Euler with
+  :math:`-2 < h\lambda < -1.278`: ``dx = -1990*(x - 1)`` from 0 at a 1 ms step reaches 0.096
+  after ten steps where the model reaches 1.0).  A flip that dies out faster than the model
+  (Euler at :math:`h\lambda = -1.1`: :math:`R = -0.1` against :math:`e^{z} = 0.33`) damps the
+  transient more than the model, as implicit methods do, and is accepted.
+
+An eigenvalue within rounding of the imaginary axis (an undamped oscillator) is neither:
+the model neither decays nor grows there.  The longest step that avoids both is found by
+bisection of the same conditions, so the message can say what step would do.  Pure NumPy:
+the caller evaluates the Jacobian (the model's compiled ``DX``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hybridlog.model.compiled import ModelFunction
+from hybridlog.model.hybrid_model import HybridModel, IntegrationMethod
+from hybridlog.signals import FloatArray, IntArray
+from hybridlog.times import format_time
+
+__all__ = ["StepFlaw", "amplification", "check_run", "step_flaw"]
+
+_ROUNDING = 1e-9
+"""An eigenvalue's real part within this fraction of its modulus counts as zero, and an
+imaginary part as zero for the sign test: ``eigvals`` of an undamped oscillator's Jacobian
+returns real parts of about 1e-16 × its modulus."""
+
+_SHOWN = 6
+"""Most states an error shows of the point where the step fails."""
+
+_BISECTIONS = 60
+"""Halvings of the interval of steps searched for the longest admissible one."""
+
+
+def amplification(method: IntegrationMethod, z: complex) -> complex:
+    """The stability function :math:`R(z)` of ``method``: one step's factor on ``e^{λt}``."""
+    if method == "euler":
+        return 1.0 + z
+    return 1.0 + z + z * z / 2.0 + z**3 / 6.0 + z**4 / 24.0
+
+
+def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> str | None:
+    """``"unstable"``, ``"alternating"`` or ``None`` for one eigenvalue at one step."""
+    size = abs(eigenvalue)
+    if not eigenvalue.real < -_ROUNDING * size:
+        return None
+    factor = amplification(method, step * eigenvalue)
+    if abs(factor) > 1.0:
+        return "unstable"
+    real = abs(eigenvalue.imag) <= _ROUNDING * size
+    if real and factor.real < 0.0 and abs(factor) > np.exp(step * eigenvalue.real):
+        return "alternating"
+    return None
+
+
+def _longest_step(method: IntegrationMethod, step: float, eigenvalue: complex) -> float:
+    """The longest step up to ``step`` at which ``eigenvalue`` has no flaw (bisection)."""
+    good, bad = 0.0, step
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (good + bad)
+        if _flaw_kind(method, middle, eigenvalue) is None:
+            good = middle
+        else:
+            bad = middle
+    return good
+
+
+@dataclass(frozen=True)
+class StepFlaw:
+    r"""An eigenvalue of a mode's Jacobian the integration step mistreats.
+
+    Attributes
+    ----------
+    kind:
+        ``"unstable"`` or ``"alternating"`` (module docstring).
+    eigenvalue:
+        The eigenvalue :math:`\lambda` (1/s).
+    factor:
+        The method's factor per step, :math:`R(h\lambda)`.
+    exact:
+        The model's own factor per step, :math:`e^{h\lambda}`.
+    longest_step:
+        The longest step (s) at which this eigenvalue has no flaw.
+    """
+
+    kind: str
+    eigenvalue: complex
+    factor: complex
+    exact: complex
+    longest_step: float
+
+    def describe(self, method: IntegrationMethod) -> str:
+        """One clause: what the method does to the eigenvalue's component, the step that would do.
+
+        The caller names the eigenvalue and where it comes from.
+        """
+        name = "explicit Euler" if method == "euler" else "RK4"
+        what = (
+            "grows where it should decay"
+            if self.kind == "unstable"
+            else "flips its sign every step and decays more slowly than it should"
+        )
+        return (
+            f"{name} multiplies its component by {_number(self.factor)} a step where "
+            f"e^(h·λ) = {_number(self.exact)}: the integration {what}; a step of at most "
+            f"{self.longest_step:.3g} s avoids it"
+        )
+
+
+def _number(value: complex) -> str:
+    """A real or complex number to four significant digits."""
+    if value.imag == 0.0:
+        return f"{value.real:.4g}"
+    sign = "+" if value.imag >= 0 else "-"
+    return f"{value.real:.4g}{sign}{abs(value.imag):.4g}j"
+
+
+def step_flaw(method: IntegrationMethod, step: float, jacobian: FloatArray) -> StepFlaw | None:
+    """The worst-treated eigenvalue of ``jacobian`` at ``step``, or ``None`` when none is.
+
+    A Jacobian that is not finite (``sqrt`` at 0) gives ``None``: its linearisation says
+    nothing about the step.  Of several flawed eigenvalues, the one needing the shortest
+    step is named.
+    """
+    if not np.all(np.isfinite(jacobian)):
+        return None
+    worst: StepFlaw | None = None
+    for eigenvalue in np.linalg.eigvals(jacobian):
+        value = complex(eigenvalue)
+        kind = _flaw_kind(method, step, value)
+        if kind is None:
+            continue
+        longest = _longest_step(method, step, value)
+        if worst is None or longest < worst.longest_step:
+            z = step * value
+            worst = StepFlaw(kind, value, amplification(method, z), complex(np.exp(z)), longest)
+    return worst
+
+
+MAX_POINTS = 256
+"""Most samples of a run :func:`check_run` linearises at (evenly spaced, the first included):
+stiffness lives mostly in a model's linear part, the same at every sample, and 256
+evaluations of the Jacobian and its eigenvalues cost milliseconds."""
+
+
+def check_run(
+    model: HybridModel,
+    jacobian: ModelFunction,
+    modes: IntArray,
+    states: FloatArray,
+    inputs: FloatArray,
+    time: FloatArray,
+) -> None:
+    """Refuse a run whose integration step mistreats a mode where the run went.
+
+    The interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` from ``states[k-1]`` with
+    ``inputs[k-1]`` held (:func:`hybridlog.model.integration.integrate_log`); the Jacobian
+    ``jacobian(q, x, u, out)`` (the compiled ``DX``) is evaluated at up to
+    :data:`MAX_POINTS` such starts whose state is finite.
+
+    Raises
+    ------
+    ModelError
+        Naming ``integration.step``, the mode, the time and state, and the eigenvalue
+        (:meth:`StepFlaw.describe`).
+    """
+    timebase = model.timebase
+    if timebase.method is None or states.shape[0] < 2:
+        return
+    rows = np.unique(np.linspace(1, states.shape[0] - 1, MAX_POINTS).astype(np.int64))
+    out = np.zeros((model.n_states, model.n_states))
+    for row in rows:
+        start = states[row - 1]
+        if not np.all(np.isfinite(start)):
+            continue
+        q = int(modes[row])
+        jacobian(q, np.ascontiguousarray(start), np.ascontiguousarray(inputs[row - 1]), out)
+        flaw = step_flaw(timebase.method, timebase.step, out)
+        if flaw is not None:
+            pairs = list(zip(model.states, start, strict=True))[:_SHOWN]
+            shown = ", ".join(f"{name} = {value:.4g}" for name, value in pairs)
+            if model.n_states > _SHOWN:
+                shown += ", …"
+            raise model.error(
+                "integration.step",
+                f"{timebase.step:g} s is too long for mode '{model.modes[q].id}' at t = "
+                f"{format_time(float(time[row - 1]))} s ({shown}): the Jacobian of dx there has "
+                f"the eigenvalue λ = {_number(flaw.eigenvalue)} 1/s; "
+                f"{flaw.describe(timebase.method)}",
+            )

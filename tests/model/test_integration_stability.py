@@ -1,0 +1,133 @@
+"""The integration step against its method's stability region (``hybridlog.model.stability``).
+
+Independent references: one step of the integrator itself on ``dx = λ x`` (the stability
+function must be what the code does), the real stability boundaries found as roots with
+NumPy and SciPy, and the exact solution of a stiff linear model.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.optimize import brentq
+
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.estimators.hybrid_observer import run_switching_observer
+from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
+from hybridlog.model.integration import EULER, RK4, integrate_step, work_buffer
+from hybridlog.model.loader import parse_model
+from hybridlog.model.stability import amplification, step_flaw
+from hybridlog.signals import AlignedSignals
+from hybridlog.simulate import simulate
+
+STIFF = """
+name = "stiff"
+time = "continuous"
+dt = 0.01
+integration = {{method = "{method}", step = {step}}}
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+dx = ["u - x1", "-1990*(x2 - x1)"]
+h = ["x2"]
+
+[noise]
+process = 0.0
+measurement = 0.01
+
+[initial]
+state = [1.0, 0.0]
+mode = "a"
+
+[simulation.inputs]
+u = "1"
+"""
+
+
+def _scalar(rate):
+    def dx(_q, x, _u, out):
+        out[0] = rate * x[0]
+
+    return dx
+
+
+@given(
+    rate=st.floats(-5000.0, 5000.0, allow_nan=False),
+    step=st.floats(1e-5, 1e-2),
+    method=st.sampled_from(["euler", "rk4"]),
+)
+def test_the_stability_function_is_one_step_of_the_integrator(rate, step, method):
+    x = np.array([1.0])
+    code = EULER if method == "euler" else RK4
+    integrate_step(_scalar(rate), code, 0, x, np.zeros(0), step, work_buffer(1))
+    expected = amplification(method, step * rate)
+    assert x[0] == pytest.approx(expected.real, rel=1e-12, abs=1e-12)
+
+
+def test_real_boundaries_are_the_roots_of_the_stability_functions():
+    # explicit Euler: the flips outlive the model where -(1 + z) > e^z, i.e. z < z*
+    euler_edge = brentq(lambda z: 1 + z + math.exp(z), -2.0, -1.0)
+    # RK4 is positive on the real axis; it leaves |R| <= 1 at the real root of R(z) = 1
+    roots = np.roots([1 / 24, 1 / 6, 1 / 2, 1])
+    rk4_edge = min(r.real for r in roots if abs(r.imag) < 1e-12)
+    assert rk4_edge == pytest.approx(-2.785, abs=1e-3)
+    for method, edge in (("euler", euler_edge), ("rk4", rk4_edge)):
+        rate = -1000.0
+        inside = step_flaw(method, 0.999 * edge / rate, np.array([[rate]]))
+        outside = step_flaw(method, 1.001 * edge / rate, np.array([[rate]]))
+        assert inside is None
+        assert outside is not None
+        assert outside.longest_step == pytest.approx(edge / rate, rel=1e-9)
+    assert step_flaw("euler", 1.5 / 1000, np.array([[-1000.0]])).kind == "alternating"
+    assert step_flaw("euler", 2.5 / 1000, np.array([[-1000.0]])).kind == "unstable"
+    # a flip that dies out faster than the model (R = -0.1 against e^z = 0.33) is accepted
+    assert step_flaw("euler", 1.1 / 1000, np.array([[-1000.0]])) is None
+
+
+def test_oscillators():
+    omega = 100.0
+    undamped = np.array([[0.0, 1.0], [-(omega**2), 0.0]])
+    # an undamped mode neither decays nor grows: no flaw, although Euler grows on it
+    assert step_flaw("euler", 1e-3, undamped) is None
+    damped = np.array([[0.0, 1.0], [-(omega**2), -2 * 0.01 * omega]])  # ζ = 0.01
+    flaw = step_flaw("euler", 1e-3, damped)  # |1 + hλ|² = 1 - 2ζωh + (ωh)² > 1
+    assert flaw is not None and flaw.kind == "unstable"
+    assert flaw.longest_step == pytest.approx(2 * 0.01 / omega, rel=1e-6)
+    assert step_flaw("rk4", 1e-3, damped) is None
+    assert step_flaw("euler", 1e-3, np.array([[np.inf]])) is None
+
+
+def test_simulate_refuses_a_step_too_long_for_a_stiff_mode():
+    model = parse_model(STIFF.format(method="euler", step=0.001), origin="stiff.toml")
+    with pytest.raises(ModelError) as err:
+        simulate(model, steps=20, jit=False)
+    message = str(err.value)
+    assert message.startswith("stiff.toml: integration.step: 0.001 s is too long for mode 'a'")
+    assert "λ = -1990 1/s" in message and "at most 0.000642 s" in message
+    # RK4 at the same step, and Euler at half of it, follow the exact solution
+    for method, step in (("rk4", 0.001), ("euler", 0.0005)):
+        model = parse_model(STIFF.format(method=method, step=step), origin="stiff.toml")
+        log = simulate(model, steps=20, noise=False, jit=False)
+        exact = 1.0 - np.exp(-1990 * log.time)  # x1 stays at 1 under u = 1
+        assert np.abs(log.states[:, 1] - exact).max() < 1e-4  # the refused run: 0.90
+
+
+def test_the_switching_observer_refuses_eigenvalues_its_step_cannot_follow():
+    model = parse_model(STIFF.format(method="rk4", step=0.001), origin="stiff.toml")
+    count = 5
+    signals = AlignedSignals(
+        source="log.csv",
+        time=np.arange(count) * 0.01,
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.ones((count, 1)),
+        outputs=np.zeros((count, 1)),
+        truth_modes=np.zeros(count, dtype=np.int64),
+    )
+    options = SwitchingObserverOptions(eigenvalues="-1000,-3000")
+    with pytest.raises(OptionError, match=r"'eigenvalues': λ = -3000 1/s is too fast for "):
+        run_switching_observer(model, signals, options)
