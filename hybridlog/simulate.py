@@ -140,13 +140,27 @@ def parse_schedule(
 
 
 def mode_sequence(schedule: list[tuple[int, int]], steps: int | None) -> IntArray:
-    """Mode of every row (``steps + 1`` rows); the schedule repeats when ``steps`` is longer."""
-    pattern = np.concatenate([np.full(count, mode, dtype=np.int64) for mode, count in schedule])
-    total = len(pattern) if steps is None else steps
+    """Mode of every row (``steps + 1`` rows); the schedule repeats when ``steps`` is longer.
+
+    Only the rows run are built: ``--steps 5`` of a schedule ``1:10000000000,2:5`` takes
+    5 rows of memory, not the schedule's 10^10 (which ran out of memory).
+    """
+    period = sum(count for _, count in schedule)
+    total = period if steps is None else steps
     if total <= 0:
         raise OptionError("--steps: must be positive")
-    repeated = np.resize(pattern, total)
-    return np.concatenate([repeated[:1], repeated])
+    rows = np.empty(total + 1, dtype=np.int64)
+    filled = 0
+    for mode, count in schedule:
+        take = min(count, total - filled)
+        if take <= 0:
+            break
+        rows[1 + filled : 1 + filled + take] = mode
+        filled += take
+    if filled < total:  # the schedule repeats
+        rows[1:] = np.resize(rows[1 : 1 + filled], total)
+    rows[0] = rows[1]
+    return rows
 
 
 def input_signal(

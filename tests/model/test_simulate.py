@@ -268,3 +268,15 @@ def test_the_command_prints_the_note_on_stderr_and_writes_the_log(tmp_path, caps
     assert len(captured.err.splitlines()) == 1 and "wrote" in captured.out
     main(["simulate", str(model), "--out", str(out), "--schedule", "a:3,c:3", "-q", "--force"])
     assert capsys.readouterr().err == ""
+
+
+def test_steps_within_a_huge_schedule_build_only_the_rows_run():
+    # --steps 5 of "1:10^12,2:5" allocated the whole schedule (8 TB) and ran out of memory
+    model = load_model("three_tank_hstf")
+    log = simulate(model, schedule=f"1:{10**12},2:5", steps=5, noise=False)
+    assert log.modes.tolist() == [0] * 6
+    # a schedule shorter than --steps repeats, cut where the steps end
+    assert simulate(model, schedule="1:2,3:3", steps=12).modes.tolist() == [
+        0, 0, 0, 2, 2, 2, 0, 0, 2, 2, 2, 0, 0,
+    ]  # fmt: skip
+    assert simulate(model, schedule="1:2,3:3", steps=3).modes.tolist() == [0, 0, 0, 2]
