@@ -513,7 +513,12 @@ def simulate(
         )
         guarded: Callable[..., int] = kernels.simulate_guarded_steps
         stuck = (compile_for(guarded, arguments) if jit else guarded)(*arguments)
-        if stuck >= 0:
+        if stuck >= 0:  # a NaN state holds no guard: the run diverged, which is said first
+            check_columns(
+                origin,
+                time,
+                {name: states[: stuck + 1, j] for j, name in enumerate(model.states)},
+            )
             raise ModelError(
                 f"{origin}: no mode's guard (modes.<id>.guard) holds at t = "
                 f"{format_time(time[stuck])} s "

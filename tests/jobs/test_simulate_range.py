@@ -105,3 +105,52 @@ def test_a_components_run_beyond_the_bound_names_the_value(
     assert code == 2, output
     assert "bioplex_pgc: the simulation diverged: uc1 = 1e+160 at t = 0 s is out of range" in output
     assert not log.exists()
+
+
+GUARDED = """
+name = "guarded"
+time = "discrete"
+dt = 1.0
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.low]
+guard = "x <= 5"
+f = ["F"]
+h = ["x"]
+
+[modes.high]
+guard = "x > 5"
+f = ["F"]
+h = ["x"]
+
+[noise]
+process = 0.0
+measurement = 0.0
+
+[initial]
+state = [1.0]
+covariance = 1.0
+
+[simulation.inputs]
+u = "0"
+"""
+
+
+@pytest.mark.parametrize(
+    ("f", "high", "message"),
+    [
+        # a NaN state holds no guard: it was reported as "no mode's guard holds (x = [nan])"
+        ("sqrt(x - 2)", "x > 5", "the simulation diverged: x = nan at t = 1 s is not a finite"),
+        ("x*1e100", "x > 5", r"the simulation diverged: x = 1e\+200 at t = 2 s is out of range"),
+        ("x + 10", "x > 20", r"no mode's guard \(modes.<id>.guard\) holds at t = 1 s"),
+    ],
+)
+def test_a_state_driven_run_that_diverges_says_so(
+    f: str, high: str, message: str, tmp_path: Path
+) -> None:
+    path = tmp_path / "guarded.toml"
+    path.write_text(GUARDED.replace('"F"', f'"{f}"').replace('"x > 5"', f'"{high}"'))
+    with pytest.raises(ModelError, match=rf"^{path}: {message}"):
+        simulate(load_model(path), steps=10)
