@@ -48,17 +48,19 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
+    InputFunction,
     compile_continuous,
     compile_guard,
     compile_model,
     input_functions,
 )
 from hybridlog.numbers import parse_float, parse_int
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, FloatArray, IntArray
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
@@ -138,40 +140,107 @@ def parse_schedule(
 
 
 def mode_sequence(schedule: list[tuple[int, int]], steps: int | None) -> IntArray:
-    """Mode of every row (``steps + 1`` rows); the schedule repeats when ``steps`` is longer."""
-    pattern = np.concatenate([np.full(count, mode, dtype=np.int64) for mode, count in schedule])
-    total = len(pattern) if steps is None else steps
+    """Mode of every row (``steps + 1`` rows); the schedule repeats when ``steps`` is longer.
+
+    Only the rows run are built: ``--steps 5`` of a schedule ``1:10000000000,2:5`` takes
+    5 rows of memory, not the schedule's 10^10 (which ran out of memory).
+    """
+    period = sum(count for _, count in schedule)
+    total = period if steps is None else steps
     if total <= 0:
         raise OptionError("--steps: must be positive")
-    repeated = np.resize(pattern, total)
-    return np.concatenate([repeated[:1], repeated])
+    rows = np.empty(total + 1, dtype=np.int64)
+    filled = 0
+    for mode, count in schedule:
+        take = min(count, total - filled)
+        if take <= 0:
+            break
+        rows[1 + filled : 1 + filled + take] = mode
+        filled += take
+    if filled < total:  # the schedule repeats
+        rows[1:] = np.resize(rows[1 : 1 + filled], total)
+    rows[0] = rows[1]
+    return rows
+
+
+def input_signal(
+    model: HybridModel, name: str, function: InputFunction, time: FloatArray
+) -> FloatArray:
+    """Input ``name``'s ``u(k)`` at ``time`` from its expression ``function`` of ``t`` and ``k``.
+
+    A value out of :func:`within_range` (NaN, infinite, or beyond what a log holds) is a
+    :class:`ModelError` naming the key ``simulation.inputs.<name>``, the time and the step.
+    """
+    steps = np.arange(time.shape[0], dtype=float)
+    with np.errstate(all="ignore"):  # a NaN or inf is found below, named by its key
+        values = np.broadcast_to(np.asarray(function(time, steps), dtype=float), time.shape)
+    if not np.all(readable := within_range(values)):
+        first = int(np.argmin(readable))
+        raise ModelError(
+            f"{_origin(model)}: simulation.inputs.{name}: {values[first]:.6g} at t = "
+            f"{format_time(float(time[first]))} s (k = {first}); the input must be a "
+            f"finite number below {RANGE} in magnitude at every step"
+        )
+    return values
 
 
 def input_signals(model: HybridModel, time: FloatArray) -> FloatArray:
     """Inputs ``u(k)`` from the model's ``[simulation.inputs]`` expressions of ``t`` and ``k``."""
     functions = input_functions(model)
-    steps = np.arange(time.shape[0], dtype=float)
     columns = []
     for name in model.inputs:
         if name not in functions:
             raise ModelError(
                 f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with"
             )
-        with np.errstate(all="ignore"):  # a NaN or inf is found below, named by its key
-            values = np.broadcast_to(
-                np.asarray(functions[name](time, steps), dtype=float), time.shape
-            )
-        if not np.all(finite := np.isfinite(values)):
-            first = int(np.argmin(finite))
-            raise ModelError(
-                f"{_origin(model)}: simulation.inputs.{name}: {values[first]} at t = "
-                f"{format_time(float(time[first]))} s (k = {first}); the input must be a "
-                "finite number at every step"
-            )
-        columns.append(values)
+        columns.append(input_signal(model, name, functions[name], time))
     if not columns:
         return np.zeros((time.shape[0], 0))
     return np.ascontiguousarray(np.stack(columns, axis=1))
+
+
+RANGE = f"2^480 = {MAX_MAGNITUDE:.3g}"
+"""What every value of a simulated log stays below (:data:`~hybridlog.signals.MAX_MAGNITUDE`)."""
+
+
+def within_range(values: FloatArray) -> npt.NDArray[np.bool_]:
+    """Where ``values`` are numbers a log hybridlog reads may hold: finite, below 2^480.
+
+    The readers refuse a larger magnitude as corrupt (:data:`~hybridlog.signals.MAX_MAGNITUDE`),
+    so a simulation that writes one has written a log that ``analyze`` refuses; NaN is out.
+    """
+    return np.asarray(np.abs(values) < MAX_MAGNITUDE)
+
+
+def out_of_range(origin: str, name: str, value: float, time: float) -> ModelError:
+    """The error of a run that reached ``value`` in column ``name`` at ``time``: diverged."""
+    problem = (
+        "not a finite number"
+        if not np.isfinite(value)
+        else f"out of range (|value| >= {RANGE}, more than a log hybridlog reads may hold)"
+    )
+    return ModelError(
+        f"{origin}: the simulation diverged: {name} = {value:.6g} at t = {format_time(time)} s "
+        f"is {problem}; nothing was written"
+    )
+
+
+def check_columns(origin: str, time: FloatArray, columns: dict[str, FloatArray]) -> None:
+    """Refuse the run at its first value out of :func:`within_range`, naming its column.
+
+    ``columns``: every simulated column of the log (row ``k`` at ``time[k]``); of the
+    columns out of range at the earliest row, the first is named.
+    """
+    first: tuple[int, str] | None = None
+    for name, values in columns.items():
+        readable = within_range(values)
+        if not np.all(readable):
+            row = int(np.argmin(readable))
+            if first is None or row < first[0]:
+                first = (row, name)
+    if first is not None:
+        row, name = first
+        raise out_of_range(origin, name, float(columns[name][row]), float(time[row]))
 
 
 def _noise_factor(covariance: FloatArray) -> FloatArray:
@@ -446,7 +515,12 @@ def simulate(
         )
         guarded: Callable[..., int] = kernels.simulate_guarded_steps
         stuck = (compile_for(guarded, arguments) if jit else guarded)(*arguments)
-        if stuck >= 0:
+        if stuck >= 0:  # a NaN state holds no guard: the run diverged, which is said first
+            check_columns(
+                origin,
+                time,
+                {name: states[: stuck + 1, j] for j, name in enumerate(model.states)},
+            )
             raise ModelError(
                 f"{origin}: no mode's guard (modes.<id>.guard) holds at t = "
                 f"{format_time(time[stuck])} s "
@@ -469,11 +543,14 @@ def simulate(
         )
         scheduled: Callable[..., None] = kernels.simulate_steps
         (compile_for(scheduled, arguments) if jit else scheduled)(*arguments)
-    if not np.all(np.isfinite(states)) or not np.all(np.isfinite(outputs)):
-        row = int(np.argmax(~np.all(np.isfinite(np.hstack([states, outputs])), axis=1)))
-        raise ModelError(
-            f"{origin}: the simulation diverged (non-finite at t = {format_time(time[row])} s)"
-        )
+    check_columns(
+        origin,
+        time,
+        {
+            **{name: states[:, j] for j, name in enumerate(model.states)},
+            **{name: outputs[:, j] for j, name in enumerate(model.outputs)},
+        },
+    )
     notes = () if model.state_driven else impossible_switches(model, modes, time, schedule)
     return SimulatedLog(
         time=time, inputs=inputs, outputs=outputs, modes=modes, states=states, notes=notes

@@ -188,7 +188,7 @@ def simulate_components(
         A scenario the model cannot play: a joint mode whose equations do not determine
         every variable, an algebraic loop through the controller, a diverging run.
     """
-    from hybridlog.simulate import LATEST_S, _check_run, _check_seed
+    from hybridlog.simulate import LATEST_S, _check_run, _check_seed, out_of_range, within_range
 
     seed = _check_seed(seed)
     origin = _origin(model)
@@ -282,10 +282,10 @@ def simulate_components(
             now[input_slice] = inputs[k]
             joint.algebraic(now, parameters)
             memory_log[k] = memory
-        if not np.all(np.isfinite(now)) or not np.all(np.isfinite(measured[k])):
-            raise ModelError(
-                f"{origin}: the simulation diverged (non-finite at t = {format_time(time[k])} s)"
-            )
+        for names, row in ((universe, now), (model.outputs, measured[k])):
+            if not np.all(readable := within_range(row)):  # a log holds none, 2^480 on
+                j = int(np.argmin(readable))
+                raise out_of_range(origin, names[j], float(row[j]), float(time[k]))
     modes = {
         c.name: tuple(
             UNKNOWN if overrides[c.name][k] >= 0 else labels[c.name][k] for k in range(rows)
@@ -414,8 +414,9 @@ def _overrides(
 
 def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) -> FloatArray:
     """``u(k)`` of the inputs ``[simulation.inputs]`` gives; the controller fills the rest."""
+    from hybridlog.simulate import input_signal
+
     functions = input_functions(model)
-    steps = np.arange(time.shape[0], dtype=float)
     inputs = np.zeros((time.shape[0], model.n_inputs))
     for j, name in enumerate(model.inputs):
         if name in scenario.controller_inputs:
@@ -425,10 +426,7 @@ def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) 
                 f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with "
                 "(nor simulation.controller.inputs)"
             )
-        values = np.broadcast_to(np.asarray(functions[name](time, steps), dtype=float), time.shape)
-        if not np.all(np.isfinite(values)):
-            raise ModelError(f"{_origin(model)}: simulation.inputs.{name}: non-finite values")
-        inputs[:, j] = values
+        inputs[:, j] = input_signal(model, name, functions[name], time)
     return inputs
 
 
