@@ -466,7 +466,7 @@ def simulate(
     arguments: tuple[object, ...]
     if model.is_continuous:
         from hybridlog.model.integration import METHOD_CODES, step_function
-        from hybridlog.model.stability import check_run
+        from hybridlog.model.stability import check_step
 
         functions = compile_continuous(model, jit=jit)
         timebase = model.timebase
@@ -496,7 +496,7 @@ def simulate(
         )
         continuous: Callable[..., None] = kernels.simulate_continuous_steps
         (compile_for(continuous, arguments) if jit else continuous)(*arguments)
-        check_run(model, functions.DX, modes, states, inputs, time)
+        check_step(model, functions.DX, modes, states, inputs, time)
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)
         arguments = (

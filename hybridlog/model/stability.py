@@ -39,7 +39,7 @@ from hybridlog.model.hybrid_model import HybridModel, IntegrationMethod
 from hybridlog.signals import FloatArray, IntArray
 from hybridlog.times import format_time
 
-__all__ = ["StepFlaw", "amplification", "check_run", "step_flaw"]
+__all__ = ["StepFlaw", "amplification", "check_step", "step_flaw"]
 
 _ROUNDING = 1e-9
 """An eigenvalue's real part within this fraction of its modulus counts as zero, and an
@@ -159,12 +159,12 @@ def step_flaw(method: IntegrationMethod, step: float, jacobian: FloatArray) -> S
 
 
 MAX_POINTS = 256
-"""Most samples of a run :func:`check_run` linearises at (evenly spaced, the first included):
+"""Most samples of a run :func:`check_step` linearises at (evenly spaced, the first included):
 stiffness lives mostly in a model's linear part, the same at every sample, and 256
 evaluations of the Jacobian and its eigenvalues cost milliseconds."""
 
 
-def check_run(
+def check_step(
     model: HybridModel,
     jacobian: ModelFunction,
     modes: IntArray,
