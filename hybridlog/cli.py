@@ -485,8 +485,9 @@ def cli(ctx: click.Context) -> None:
     """Mode and state estimation for hybrid (switched) systems from recorded logs.
 
     Every command has --help with examples, which run as written from the repository root.
-    Exit codes: 0 success, 1 a CI gate failed, 2 bad usage or bad input (one line on stderr
-    naming the file, option or line).
+    Exit codes: 0 success, 1 a CI gate failed (or a batch's log or a compared estimator
+    failed on its log), 2 bad usage or bad input (one line on stderr naming the file, option
+    or line).
     """
     ctx.ensure_object(_Context)
     # before any command imports numba or polars, here or in its workers
@@ -880,9 +881,14 @@ def compare_command(
     with reporting(_work_reporter(ctx)):  # chiu's clustering of a long log says how long
         outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
     _say(ctx, outcome.table)
-    _say(ctx, f"reports: {', '.join(str(out_dir / name / 'report.md') for name in names)}")
+    if outcome.reports:
+        _say(ctx, f"reports: {', '.join(str(out_dir / n / 'report.md') for n in outcome.reports)}")
     _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
+    for name, reason in outcome.failures.items():  # a result, as a batch's failed log: exit 1
+        click.echo(_one_line(f"hybridlog: estimator failed: {name}: {reason}"), err=True)
     _gate_exit(outcome.gate_failures)
+    if outcome.failures:
+        sys.exit(1)
 
 
 @cli.command(
@@ -1331,7 +1337,8 @@ def _handle_ending_signals() -> None:
 def main(argv: Sequence[str] | None = None) -> None:
     """Console entry point: run the CLI; every failure becomes one line and an exit code.
 
-    Exit codes: 0 success, 1 a CI gate failed, 2 bad usage or bad input (hybridlog's
+    Exit codes: 0 success, 1 a CI gate failed (or a batch's log or a compared estimator
+    failed on its log), 2 bad usage or bad input (hybridlog's
     errors, click's usage errors, numerical trouble, anything unexpected), 130 interrupted.
     ``--debug`` (anywhere on the line) re-raises instead, with the traceback.
     """

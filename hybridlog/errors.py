@@ -14,6 +14,17 @@ class ModelError(HybridlogError):
     """A model file (TOML) is malformed, names an unknown symbol or has a wrong shape."""
 
 
+class DivergenceError(ModelError):
+    """An estimator's run broke on a log every check accepted: the result cannot be vouched for.
+
+    Its estimate or a variance went non-finite or negative, the model left its domain at an
+    estimate, or the run met numerical trouble (:mod:`hybridlog.estimators.vouch`).  For one
+    estimator (``analyze``) it is an error like any other; ``compare`` reports it as that
+    estimator's result, its row saying why, and writes the others'.  A model that is wrong
+    whatever the log (a singular covariance) is a plain :class:`ModelError`.
+    """
+
+
 class LogError(HybridlogError):
     """A log is unreadable, lacks a mapped signal or holds values that cannot be used."""
 

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import LogError, ModelError, OptionError
+from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.vouch import MAX_SHOWN
@@ -423,8 +423,9 @@ def run_switching_observer(
     Raises
     ------
     ModelError
-        The model has more than one output, or is not continuous-time; or the estimate
-        diverged (not finite at some sample: a report of it could vouch for nothing).
+        The model has more than one output, or is not continuous-time; or (its subclass
+        :class:`~hybridlog.errors.DivergenceError`) the estimate diverged (not finite at
+        some sample: a report of it could vouch for nothing).
     LogError
         The log has no switching signal (the true mode column).
     OptionError
@@ -472,7 +473,7 @@ def run_switching_observer(
     broken = ~np.isfinite(states).all(axis=1)
     if broken.any():  # no metric of a diverged run can be vouched for
         first = int(np.argmax(broken))
-        raise ModelError(
+        raise DivergenceError(
             f"{model.origin or model.name}: {NAME} diverged at t = "
             f"{format_time(signals.time[first])} s "
             f"(sample {first}): the estimate is not finite (Q singular, a jump map or the "

@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
 
-from hybridlog.errors import LogError, ModelError, OptionError, excerpt
+from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError, excerpt
 from hybridlog.estimators.capabilities import STEP_FROM_NOTE, Capabilities, ModelTraits
 from hybridlog.estimators.footprint import MODE_BYTES, REPORT_FACTOR, Parts, result_bytes
 from hybridlog.estimators.options import (
@@ -493,7 +493,7 @@ class Prepared:
         try:
             yield
         except RuntimeWarning as err:
-            raise ModelError(
+            raise DivergenceError(
                 f"{model.origin or model.name}: {self.name} stopped on numerical trouble "
                 f"({err}): the model or the log drive it past double precision"
             ) from err

@@ -51,7 +51,7 @@ import time
 
 import numpy as np
 
-from hybridlog.errors import ModelError
+from hybridlog.errors import DivergenceError
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, TimelineColumn
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
@@ -234,7 +234,7 @@ def _refuse_runaway_error(
 
     Raises
     ------
-    ModelError
+    DivergenceError
         Naming the model, the state, the time and size of the error, and ``V_M h^2``.
     """
     measured = signals.outputs
@@ -245,7 +245,7 @@ def _refuse_runaway_error(
         return
     row, column = divmod(int(np.argmax(runaway)), runaway.shape[1])
     step = model.timebase.step
-    raise ModelError(
+    raise DivergenceError(
         f"{model.origin or model.name}: sliding-mode diverged at t = "
         f"{format_time(signals.time[row])} s "
         f"(sample {row}): the observer error |x - z| of {model.states[column]} reached "
@@ -269,7 +269,7 @@ def _refuse_no_reconstruction(
 
     Raises
     ------
-    ModelError
+    DivergenceError
         Naming the model, the measured state and input of the first sample, and whether
         ``D`` is not finite or rank-deficient there.
     """
@@ -289,7 +289,7 @@ def _refuse_no_reconstruction(
         )
     ]
     point = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
-    raise ModelError(
+    raise DivergenceError(
         f"{model.origin or model.name}: sliding-mode reconstructed no discrete state: "
         f"D(x, u) of eq. (30) is singular or not finite at all {signals.n_samples:,} samples "
         f"({why} at t = {format_time(signals.time[0])} s: {point}), so σ̂ would stay at its "
@@ -321,9 +321,10 @@ def run_sliding_mode(
     ------
     ModelError
         The model is not continuous-time and boolean-affine, its state is not measured, it
-        has more booleans than states (eq. (2)), or no gain is set; or the observer
-        diverged: its state not finite, or its error larger than the measured state
-        (:func:`_refuse_runaway_error`); or ``D`` was singular or not finite at every sample
+        has more booleans than states (eq. (2)), or no gain is set; or (its subclass
+        :class:`~hybridlog.errors.DivergenceError`) the observer diverged: its state not
+        finite, or its error larger than the measured state (:func:`_refuse_runaway_error`);
+        or ``D`` was singular or not finite at every sample
         (:func:`_refuse_no_reconstruction`).
     """
     options = options or SlidingModeOptions()
@@ -379,7 +380,7 @@ def run_sliding_mode(
     runtime = time.perf_counter() - start
     if not np.isfinite(means).all():
         row = int(np.argmin(np.isfinite(means).all(axis=1)))
-        raise ModelError(
+        raise DivergenceError(
             f"{model.origin or model.name}: sliding-mode diverged at t = "
             f"{format_time(signals.time[row])} s (sample {row}): the observer state is not finite"
         )

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import ModelError, excerpt
+from hybridlog.errors import DivergenceError, ModelError, excerpt
 from hybridlog.jit import jit
 from hybridlog.times import format_time
 
@@ -295,7 +295,7 @@ def check_result(
 
     Raises
     ------
-    ModelError
+    DivergenceError
         ``<model file>: <estimator> diverged at t = <t> s (sample <k>): <what>[; <why>]``.
     """
     flaw = first_flaw(result, variances=variances, unpredicted=unpredicted, first=first)
@@ -312,7 +312,7 @@ def check_result(
         if row > 0 and before is not None
         else ""
     )
-    raise ModelError(
+    raise DivergenceError(
         f"{model.origin or model.name}: {result.estimator} diverged at t = "
         f"{format_time(result.time[flaw.row])} s (sample {row}): {flaw.what}"
         + (f"; {why}" if why else "")
@@ -585,7 +585,7 @@ def check_explained(
 
     Raises
     ------
-    ModelError
+    DivergenceError
         Naming the estimator, the time and sample, the mode, the expression and the state.
     """
     post = result.post_processing
@@ -610,7 +610,7 @@ def check_explained(
             estimate.state_means[row],
             signals.inputs[row],
         )
-        raise ModelError(
+        raise DivergenceError(
             f"{model.origin or model.name}: {result.estimator} diverged at t = "
             f"{format_time(result.time[row])} s (sample {first + row}): {expression}, the state "
             f"and mode {whose} holds there (h is not defined at that state)"

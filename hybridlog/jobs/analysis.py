@@ -25,7 +25,14 @@ from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
 from hybridlog.cluster.progress import WorkReporter, current_reporter, reporting
-from hybridlog.errors import HybridlogError, LogError, OptionError, as_text, excerpt
+from hybridlog.errors import (
+    DivergenceError,
+    HybridlogError,
+    LogError,
+    OptionError,
+    as_text,
+    excerpt,
+)
 from hybridlog.estimators import (
     ESTIMATORS,
     Estimator,
@@ -483,9 +490,11 @@ def estimates(
     reporter = current_reporter()
     if reporter is not None:  # the worker's long work (chiu's clustering) says how long
         stream = partial(_reported, reporter, stream)
-    yield from running.stream(stream, model, sent)
-    if last:
-        running.release()
+    try:
+        yield from running.stream(stream, model, sent)
+    finally:  # also after the run's error: compare reports a failed last estimator and goes on
+        if last:
+            running.release()
 
 
 def _reported(
@@ -581,11 +590,16 @@ def analyze(
 
 @dataclass(frozen=True)
 class Comparison:
-    """What ``compare`` produced: one report per estimator and the side-by-side table."""
+    """What ``compare`` produced: one report per estimator and the side-by-side table.
+
+    ``failures``: the estimators whose run failed on the log (it diverged, or could not be
+    computed on this log), each with its one-line reason; they have no report.
+    """
 
     reports: dict[str, Report]
     table: str
     gate_failures: list[str]
+    failures: dict[str, str] = field(default_factory=dict)
 
 
 _COLUMNS = (
@@ -617,15 +631,44 @@ def _smoothing_cells(report: Report) -> list[Any]:
     return [name, smoothing.filtered.mode_accuracy]
 
 
-def _naming(name: str, chunks: Iterator[EstimationResult]) -> Iterator[EstimationResult]:
-    """The chunks of one of several compared estimators; an error of its run names it.
+RUN_FAILURES: tuple[type[HybridlogError], ...] = (DivergenceError,)
+"""What an estimator's run raises when it fails on a log every check accepted: it diverged, its
+model left its domain at an estimate, or it met numerical trouble.  In ``compare`` that is the
+estimator's result, its row saying why.  Every other error of a run stays bad input (exit 2,
+nothing written): a singular covariance (``ModelError``), a log without the switching signal
+the estimator needs (``LogError``), ``cluster_modes`` naming fewer modes than chiu finds
+clusters (``OptionError``)."""
 
-    ``cluster_modes: 2 mode ids for 3 clusters`` did not say which of ``chiu,kmeans`` failed
-    (the option reaches both); it becomes ``--estimators chiu: cluster_modes: ...``.
+
+class _RunFailedError(Exception):
+    """An estimator's run failed on the log (:data:`RUN_FAILURES`).
+
+    Raised under ``write_report``, which removes the estimator's half-written folder and lets
+    it through to :func:`compare`.
+    """
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def _watched(
+    name: str, chunks: Iterator[EstimationResult], *, named: bool
+) -> Iterator[EstimationResult]:
+    """The chunks of one of the compared estimators, its failure on the log told apart.
+
+    A run failure becomes :class:`_RunFailedError`; another error of its run is raised naming the
+    estimator when several are compared (``named``): ``cluster_modes: 2 mode ids for 3
+    clusters`` did not say which of ``chiu,kmeans`` failed (the option reaches both); it
+    becomes ``--estimators chiu: cluster_modes: ...``.
     """
     try:
         yield from chunks
+    except RUN_FAILURES as err:
+        raise _RunFailedError(str(err)) from err
     except HybridlogError as err:
+        if not named:
+            raise
         raise type(err)(f"--estimators {name}: {err}") from err
 
 
@@ -653,6 +696,11 @@ def compare(
     ``mode_sequence`` apply to every estimator, each of which must offer them
     (:func:`smoothing_overrides`); when any estimator's estimates were smoothed, the table
     gets a ``smoothing`` column and the filter's own mode accuracy beside the smoothed one.
+
+    Everything the user gave is checked before any estimator runs.  An estimator whose run
+    then fails on the log (:data:`RUN_FAILURES`: it diverged) gets no folder, and its row
+    empty metrics and, in an ``error`` column, the one-line reason; the others' reports are
+    written (:attr:`Comparison.failures`; the command exits 1, as for a batch's failed log).
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
@@ -679,6 +727,7 @@ def compare(
     signals = read_for_estimation(log, model, read, reading)
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
+    failures: dict[str, str] = {}
     from hybridlog.report import write_report  # polars: see the module's docstring
 
     with atomic_output_dir(out_dir, force=force) as folder:
@@ -686,39 +735,71 @@ def compare(
             chunks = estimates(
                 estimator, model, signals, inputs[estimator.name], last=i == len(prepared) - 1
             )
-            reports[estimator.name] = write_report(
-                folder / estimator.name,
-                _naming(estimator.name, chunks) if len(prepared) > 1 else chunks,
-                signals,
-                log=as_text(log),
-                model_name=model.name,
-                dt=model.dt,
-                table_format=table_format,
-                reading=reading,
-                model=model,
-            )
+            try:
+                reports[estimator.name] = write_report(
+                    folder / estimator.name,
+                    _watched(estimator.name, chunks, named=len(prepared) > 1),
+                    signals,
+                    log=as_text(log),
+                    model_name=model.name,
+                    dt=model.dt,
+                    table_format=table_format,
+                    reading=reading,
+                    model=model,
+                )
+            except _RunFailedError as failed:  # a result: the others are still compared
+                failures[estimator.name] = failed.reason
         missed = {name: evaluate_gates(report, gates) for name, report in reports.items()}
-        columns: tuple[str, ...] = ("estimator", *_COLUMNS)
-        rows = [[name, *_row(report).values()] for name, report in reports.items()]
-        if any(report.smoothing is not None for report in reports.values()):
-            columns += _SMOOTHING_COLUMNS
-            for row, report in zip(rows, reports.values(), strict=True):
-                row += _smoothing_cells(report)
-        # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
-        # summaries show it: 'pass (1)' alone did not say by how much
-        extra = gated_columns([gate.metric for gate in gates], columns)
-        columns += extra
-        for row, report in zip(rows, reports.values(), strict=True):
-            row += [metric(report, name) for name in extra]
-        if gates:  # which estimator missed which gate, as a batch's summary shows per log
-            columns += ("gates",)
-            for row, name in zip(rows, reports, strict=True):
-                row.append(gate_cell(len(gates), missed[name]))
+        names = [p.name for p in prepared]
+        columns, rows = _comparison_rows(names, reports, failures, gates, missed)
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side
         (folder / "comparison.md").write_text(
-            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports),
+            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports, failures),
             encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
-    failures = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
-    return Comparison(reports=reports, table=table, gate_failures=failures)
+    failing = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
+    return Comparison(reports=reports, table=table, gate_failures=failing, failures=failures)
+
+
+def _comparison_rows(
+    names: Sequence[str],
+    reports: Mapping[str, Report],
+    failures: Mapping[str, str],
+    gates: Sequence[Gate],
+    missed: Mapping[str, Sequence[str]],
+) -> tuple[tuple[str, ...], list[list[Any]]]:
+    """The comparison's columns and its rows, one per estimator in the order given.
+
+    A failed estimator's cells are empty (``n/a``) but its gates (``not analysed``) and the
+    ``error`` column, added when any estimator failed, which holds its reason.
+    """
+    columns: tuple[str, ...] = ("estimator", *_COLUMNS)
+    smoothed = any(report.smoothing is not None for report in reports.values())
+    if smoothed:
+        columns += _SMOOTHING_COLUMNS
+    # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
+    # summaries show it: 'pass (1)' alone did not say by how much
+    extra = gated_columns([gate.metric for gate in gates], columns)
+    columns += extra
+    rows: list[list[Any]] = []
+    for name in names:
+        report = reports.get(name)
+        if report is None:
+            width = len(_COLUMNS) + (len(_SMOOTHING_COLUMNS) if smoothed else 0) + len(extra)
+            row: list[Any] = [name, *[None] * width]
+        else:
+            row = [name, *_row(report).values()]
+            if smoothed:
+                row += _smoothing_cells(report)
+            row += [metric(report, column) for column in extra]
+        if gates:  # which estimator missed which gate, as a batch's summary shows per log
+            row.append("not analysed" if report is None else gate_cell(len(gates), missed[name]))
+        if failures:
+            row.append(failures.get(name, ""))
+        rows.append(row)
+    if gates:
+        columns += ("gates",)
+    if failures:
+        columns += ("error",)
+    return columns, rows

@@ -130,14 +130,26 @@ def markdown_table(
     return "\n".join(lines)
 
 
-def comparison_markdown(title: str, table: str, reports: Mapping[str, Report]) -> str:
+def comparison_markdown(
+    title: str,
+    table: str,
+    reports: Mapping[str, Report],
+    failures: Mapping[str, str] | None = None,
+) -> str:
     """``comparison.md``: the table, where each report is, and the notes.
 
     Notes every report has (the log's: a true mode that starts late; the model's: twin
     modes) are written once, under "Notes on every estimator"; each estimator's own after.
+    ``failures``: the estimators whose run failed (no report), each with its reason, listed
+    under "Failed estimators" as a batch's summary lists its failed logs.
     """
+    failures = failures or {}
     lines = [f"# {escape_markdown(title)}", "", table, ""]
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
+    if failures:
+        count = f"{len(failures)} of {len(reports) + len(failures)}"
+        lines += ["", f"## Failed estimators ({count})", ""]
+        lines += [f"- `{name}`: {escape_markdown(why)}" for name, why in failures.items()]
     shared = common_notes(reports.values()) if len(reports) > 1 else []
     if shared:
         lines += ["", "## Notes on every estimator", ""]
