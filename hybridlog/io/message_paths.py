@@ -31,7 +31,7 @@ import operator
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -556,13 +556,17 @@ def stamp_ns(value: object) -> int:
     """A decoded ``header.stamp`` in integer nanoseconds.
 
     Accepts ROS 2 (``sec``/``nanosec``), ROS 1 (``secs``/``nsecs``, or rosbags' ``sec``/
-    ``nanosec``), Foxglove JSON (``sec``/``nsec``) and a plain number of seconds.
+    ``nanosec``), Foxglove JSON (``sec``/``nsec``) and a plain number of seconds.  The
+    nanoseconds must be a fraction of a second (0 to 999999999, as ROS's ``Time`` says): a
+    stamp of 10 s and 1500000000 ns comes from a publisher that did not carry into the
+    seconds, and which time it meant is a guess; booleans (JSON ``true``) are no numbers.
 
     Raises
     ------
     PathError
-        When the value is none of these, or the time is beyond the
-        :data:`~hybridlog.io.source.MAX_SECONDS` the nanosecond grid holds.
+        When the value is none of these, the nanoseconds are not a fraction of a second, or
+        the time is beyond the :data:`~hybridlog.io.source.MAX_SECONDS` the nanosecond grid
+        holds.
     """
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if not math.isfinite(value):
@@ -574,14 +578,24 @@ def stamp_ns(value: object) -> int:
             sec, nsec = value.get(sec_name), value.get(nsec_name)
         else:
             sec, nsec = getattr(value, sec_name, None), getattr(value, nsec_name, None)
-        if isinstance(sec, (int, np.integer)) and isinstance(nsec, (int, np.integer)):
-            ns = int(sec) * 1_000_000_000 + int(nsec)
+        if _whole(sec) and _whole(nsec):
+            if not 0 <= int(nsec) < NS_PER_S:
+                raise PathError(
+                    f"has {nsec_name} = {int(nsec)}, not a fraction of a second ({sec_name} = "
+                    f"{int(sec)}; {nsec_name} is 0 to {NS_PER_S - 1})"
+                )
+            ns = int(sec) * NS_PER_S + int(nsec)
             return _on_the_grid(ns, f"{int(sec)} s and {int(nsec)} ns")
     to_nsec = getattr(value, "to_nsec", None)
     if callable(to_nsec):
         ns = int(to_nsec())
         return _on_the_grid(ns, f"{ns} ns")
     raise PathError(f"is {_kind(value)}, not a time stamp (sec and nanosec)")
+
+
+def _whole(value: object) -> TypeGuard[int | np.integer[Any]]:
+    """Whether ``value`` is an integer (Python's or NumPy's), a boolean not counted."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 def _on_the_grid(ns: int, shown: str) -> int:
