@@ -574,9 +574,26 @@ class MessageSource(abc.ABC):
 
 
 def _shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
-    """Paths two topics of ``{topic: leaves}`` make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``)."""
+    """Paths of ``{topic: leaves}`` that must be written with their topic quoted.
+
+    Those two topics make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``), and those that
+    :func:`split_paths` reads on another topic first, as ``--map`` would: ``/a`` + ``.v``
+    where the log also has a topic ``/a.v``, and every path of a topic named ``""``.
+    """
     counts = Counter(name + leaf for name, found in leaves.items() for leaf in set(found))
-    return {path for path, count in counts.items() if count > 1}
+    shared = {path for path, count in counts.items() if count > 1}
+    topics = list(leaves)
+    for name, found in leaves.items():
+        if name and not any(o != name and o.startswith(name) for o in topics):
+            continue  # no other topic starts its paths: each reads on it
+        for leaf in found:
+            try:
+                first = split_paths(name + leaf, topics)[0].topic
+            except PathError:
+                first = None
+            if first != name:
+                shared.add(name + leaf)
+    return shared
 
 
 def _spell(topic: str, leaf: str, shared: set[str]) -> str:
