@@ -452,39 +452,40 @@ def _public_names(value: object) -> list[str]:
 def as_number(value: object) -> float:
     """A decoded leaf as a float (booleans as 0/1).
 
+    A JSON integer beyond the range of a float64 (JSON integers have no bound) is infinite,
+    as ``1e400`` is: the reader names either as written, or drops it with
+    ``--drop-nonfinite``, and ``inspect`` counts it as non-finite.
+
     Raises
     ------
     PathError
-        When the value is a string, an array, a nested message, or an integer beyond the
-        range of a float (JSON integers have no bound).
+        When the value is a string, an array or a nested message.
     """
     if isinstance(value, (bool, int, float, np.number, np.bool_)):
         try:
             return float(value)
-        except OverflowError:
-            raise PathError(f"is an integer {_BEYOND_FLOAT}") from None
+        except OverflowError:  # only a Python int overflows
+            return math.inf if value > 0 else -math.inf
     raise PathError(f"is {_kind(value)}, not a number")
-
-
-_BEYOND_FLOAT = "beyond the range of a float64 (about 1.8e308)"
 
 
 def as_float_array(value: object) -> FloatArray:
     """A decoded numeric array (list, tuple, ``array.array``, bytes or NumPy) as ``float64``.
 
+    An integer beyond the range of a float64 is infinite there, as in :func:`as_number`.
+
     Raises
     ------
     PathError
-        When the value is not an array of numbers, or holds an integer beyond the range of
-        a float.
+        When the value is not an array of numbers.
     """
     if isinstance(value, (bytes, bytearray)):
         return np.frombuffer(value, dtype=np.uint8).astype(np.float64)
     if isinstance(value, (np.ndarray, array.array, list, tuple)):
         try:
             result: FloatArray = np.asarray(value, dtype=np.float64).reshape(-1)
-        except OverflowError:
-            raise PathError(f"holds an integer {_BEYOND_FLOAT}") from None
+        except OverflowError:  # a JSON integer of more than 308 digits
+            return np.array([as_number(v) for v in value], dtype=np.float64)
         except (TypeError, ValueError) as err:
             raise PathError(f"is {_kind(value)}, not an array of numbers") from err
         return result

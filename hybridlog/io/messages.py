@@ -113,6 +113,18 @@ def _float_or_written(text: str) -> float:
     return beyond
 
 
+def _int_or_written(text: str) -> int | float:
+    """``json``'s ``parse_int``: an integer beyond a float64's range kept as its text."""
+    value = int(text)
+    try:
+        float(value)
+    except OverflowError:
+        beyond = _BeyondFloat(math.inf if value > 0 else -math.inf)
+        beyond.written = text
+        return beyond
+    return value
+
+
 @dataclass
 class Topic:
     """One topic of a message log.
@@ -889,7 +901,17 @@ def _is_json_number(value: object) -> bool:
 
 
 def _is_nonfinite(value: object) -> bool:
-    """A JSON float that is NaN or infinite (an integer never is, however many digits)."""
+    """A JSON number that is NaN or infinite as a float64, as analyze reads it.
+
+    An integer of more than 308 digits is infinite there (analyze refuses it as beyond the
+    range of a float64, as the CSV reader does a cell of such digits, which inspect counts).
+    """
+    if isinstance(value, int):
+        try:
+            float(value)
+        except OverflowError:
+            return True
+        return False
     return isinstance(value, float) and not math.isfinite(value)
 
 
@@ -1009,13 +1031,14 @@ class _TopicReader:
         times: list[int],
         first: int,
     ) -> None:
-        """Refuse a JSON number too large for a float64 (``1e400``), which decoded as infinite.
+        """Refuse a JSON number too large for a float64, which is read as infinite.
 
-        It was reported as ``inf``, which the message does not say.  Only a message whose
-        value came out infinite is decoded again, keeping its numbers' text: the check costs
-        one pass over the values, not the decoding.  ``Infinity``, which Python's ``json``
-        reads, stays infinite (refused as such when mapped, or dropped with
-        ``--drop-nonfinite``, as a number out of range is then).
+        ``1e400``, or an integer of more than 308 digits.  It was reported as ``inf``, which
+        the message does not say.  Only a message whose value came out infinite is decoded
+        again, keeping its numbers' text: the check costs one pass over the values, not the
+        decoding.  ``Infinity``, which Python's ``json`` reads, stays infinite (refused as
+        such when mapped, or dropped with ``--drop-nonfinite``, as a number out of range is
+        then).
 
         Raises
         ------
@@ -1025,7 +1048,9 @@ class _TopicReader:
         infinite = np.flatnonzero(np.isinf(values))
         for row in infinite[:16].tolist():  # a file of Infinity tokens is not decoded anew
             try:
-                message = json.loads(datas[first + row], parse_float=_float_or_written)
+                message = json.loads(
+                    datas[first + row], parse_float=_float_or_written, parse_int=_int_or_written
+                )
                 value = evaluate(message, wanted.path.steps)
             except (ValueError, PathError):
                 continue  # decoded once already: the first decoding said what was wrong
