@@ -1257,6 +1257,7 @@ class _TopicReader:
         order: IntArray | None = None
         if self.header:
             _refuse_unset_stamps(source.path, topic.name, time_ns, log_times)
+        self._refuse_one_time(time_ns, f"{what}{among}")
         steps = np.diff(time_ns)
         backwards = steps < 0
         if backwards.any():
@@ -1286,6 +1287,32 @@ class _TopicReader:
             keep = np.append(~same, True)
             source._notes.setdefault("duplicates_dropped", {})[key] = int(same.sum())
         return order, keep
+
+    def _refuse_one_time(self, time_ns: IntArray, what: str) -> None:
+        """Refuse a topic whose every message (three or more) has one and the same time.
+
+        A recorder that never set the log time (an MCAP writer leaving it 0), or a publisher
+        stamping every message alike, gives no time to tell the messages apart: refused as
+        "the same log time as the one before", the remedy offered, ``--sort``, kept one
+        message of all.  Refused whatever the options, with the other time to read.
+        """
+        if time_ns.size < 3 or not bool((time_ns == time_ns[0]).all()):
+            return
+        at = f"t={format_ns(int(time_ns[0]))} s"
+        if self.header:
+            cause = "the publisher stamped them all alike; use --time log"
+        else:
+            cause = "the recorder did not set log times"
+            try:
+                self.source._check_header(self.topic)
+                cause += "; --time header reads each message's header.stamp instead"
+            except LogError:
+                pass  # no other time in these messages
+        word = "header.stamp" if self.header else "log time"
+        raise LogError(
+            f"{self.source.path}: {what}: all {time_ns.size} messages have the same {word}, "
+            f"{at}: {cause}"
+        )
 
 
 def _refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: IntArray) -> None:
