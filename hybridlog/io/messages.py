@@ -1001,10 +1001,11 @@ class _TopicReader:
                 try:
                     _read_stamps(messages, stamps[part])
                 except _RowError as err:
+                    reason = str(err.error)  # "is 1.7e+18 s ...", or what the path lacks
+                    said = f" {reason}" if reason.startswith(("is ", "has ")) else f": {reason}"
                     raise LogError(
-                        f"{self.source.path}: topic {self.topic.label}: header.stamp "
-                        f"{err.error} in {self._where(times, first + err.row)} (--time header "
-                        f"needs it)"
+                        f"{self.source.path}: topic {self.topic.label}: header.stamp{said} "
+                        f"in {self._where(times, first + err.row)} (--time header needs it)"
                     ) from None
         for wanted, values, labels, carried in zip(
             self.wanted, numbers, texts, present, strict=True

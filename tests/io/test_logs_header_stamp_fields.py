@@ -77,7 +77,8 @@ def _ros1_bag(path: Path) -> tuple[Path, tuple[str, ...]]:
     return path, ("u=/u.point.x", "y=/y.point.x")
 
 
-def _json_mcap(path: Path, bad: dict[str, object]) -> tuple[Path, tuple[str, ...]]:
+def _json_mcap(path: Path, bad: dict[str, object] | None) -> tuple[Path, tuple[str, ...]]:
+    """JSON topics ``/u``, ``/y``; message ``BAD`` stamped ``bad`` (no header: ``None``)."""
     with path.open("wb") as stream:
         writer = McapWriter(stream)
         writer.start()
@@ -87,7 +88,10 @@ def _json_mcap(path: Path, bad: dict[str, object]) -> tuple[Path, tuple[str, ...
             sec, nsec = _stamp(k)
             stamp = bad if k == BAD else {"sec": sec, "nsec": nsec}
             for channel, value in zip(channels, (k, -k), strict=True):
-                data = json.dumps({"header": {"stamp": stamp}, "x": value}).encode()
+                document = (
+                    {"x": value} if stamp is None else {"header": {"stamp": stamp}, "x": value}
+                )
+                data = json.dumps(document).encode()
                 writer.add_message(channel, k * 100_000_000, data, k * 100_000_000)
         writer.finish()
     return path, ("u=/u.x", "y=/y.x")
@@ -127,3 +131,13 @@ def test_a_json_stamp_of_booleans_or_negative_nanoseconds_is_refused(
     log, maps = _json_mcap(tmp_path / "stamped.mcap", stamp)
     with pytest.raises(LogError, match=said):
         load_signals(log, SPEC, ReadOptions(maps=maps, time="header", sort=True))
+
+
+def test_a_message_without_a_stamp_is_named_in_a_sentence(tmp_path: Path) -> None:
+    # It read 'header.stamp the message has no field 'header'; fields: ...'.
+    log, maps = _json_mcap(tmp_path / "stamped.mcap", None)
+    with pytest.raises(LogError) as error:
+        load_signals(log, SPEC, ReadOptions(maps=maps, time="header"))
+    assert "topic '/u' (Stamped): header.stamp: the message has no field 'header'" in str(
+        error.value
+    )
