@@ -291,11 +291,23 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
     if named is None:
         raise LogError(
             f"{shown}: unsupported log format (suffix {file.suffix or '(none)'!r}); "
-            f"supported: {format_list()}"
+            f"supported: {format_list()}{_inside_bag_hint(file)}"
         )
     if named.magic:
         raise LogError(f"{shown}: not {named.what} (wrong magic bytes)")
     return named
+
+
+def _inside_bag_hint(file: Path) -> str:
+    """For a file of a bag folder no reader takes alone: the folder that is the log.
+
+    A ROS 2 bag's ``metadata.yaml``, or its storage compressed per file
+    (``bag_0.db3.zstd``, ``bag_0.mcap.zstd``), is read through the folder only.
+    """
+    folder = file.parent
+    if not indexed_log(folder):
+        return ""
+    return f"; it is part of the ROS 2 bag {str(folder)!r}: give that folder as the log"
 
 
 def _batch_hint(folder: Path, shown: str) -> str:

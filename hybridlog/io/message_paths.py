@@ -31,7 +31,7 @@ import operator
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -452,39 +452,40 @@ def _public_names(value: object) -> list[str]:
 def as_number(value: object) -> float:
     """A decoded leaf as a float (booleans as 0/1).
 
+    A JSON integer beyond the range of a float64 (JSON integers have no bound) is infinite,
+    as ``1e400`` is: the reader names either as written, or drops it with
+    ``--drop-nonfinite``, and ``inspect`` counts it as non-finite.
+
     Raises
     ------
     PathError
-        When the value is a string, an array, a nested message, or an integer beyond the
-        range of a float (JSON integers have no bound).
+        When the value is a string, an array or a nested message.
     """
     if isinstance(value, (bool, int, float, np.number, np.bool_)):
         try:
             return float(value)
-        except OverflowError:
-            raise PathError(f"is an integer {_BEYOND_FLOAT}") from None
+        except OverflowError:  # only a Python int overflows
+            return math.inf if value > 0 else -math.inf
     raise PathError(f"is {_kind(value)}, not a number")
-
-
-_BEYOND_FLOAT = "beyond the range of a float64 (about 1.8e308)"
 
 
 def as_float_array(value: object) -> FloatArray:
     """A decoded numeric array (list, tuple, ``array.array``, bytes or NumPy) as ``float64``.
 
+    An integer beyond the range of a float64 is infinite there, as in :func:`as_number`.
+
     Raises
     ------
     PathError
-        When the value is not an array of numbers, or holds an integer beyond the range of
-        a float.
+        When the value is not an array of numbers.
     """
     if isinstance(value, (bytes, bytearray)):
         return np.frombuffer(value, dtype=np.uint8).astype(np.float64)
     if isinstance(value, (np.ndarray, array.array, list, tuple)):
         try:
             result: FloatArray = np.asarray(value, dtype=np.float64).reshape(-1)
-        except OverflowError:
-            raise PathError(f"holds an integer {_BEYOND_FLOAT}") from None
+        except OverflowError:  # a JSON integer of more than 308 digits
+            return np.array([as_number(v) for v in value], dtype=np.float64)
         except (TypeError, ValueError) as err:
             raise PathError(f"is {_kind(value)}, not an array of numbers") from err
         return result
@@ -556,13 +557,17 @@ def stamp_ns(value: object) -> int:
     """A decoded ``header.stamp`` in integer nanoseconds.
 
     Accepts ROS 2 (``sec``/``nanosec``), ROS 1 (``secs``/``nsecs``, or rosbags' ``sec``/
-    ``nanosec``), Foxglove JSON (``sec``/``nsec``) and a plain number of seconds.
+    ``nanosec``), Foxglove JSON (``sec``/``nsec``) and a plain number of seconds.  The
+    nanoseconds must be a fraction of a second (0 to 999999999, as ROS's ``Time`` says): a
+    stamp of 10 s and 1500000000 ns comes from a publisher that did not carry into the
+    seconds, and which time it meant is a guess; booleans (JSON ``true``) are no numbers.
 
     Raises
     ------
     PathError
-        When the value is none of these, or the time is beyond the
-        :data:`~hybridlog.io.source.MAX_SECONDS` the nanosecond grid holds.
+        When the value is none of these, the nanoseconds are not a fraction of a second, or
+        the time is beyond the :data:`~hybridlog.io.source.MAX_SECONDS` the nanosecond grid
+        holds.
     """
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if not math.isfinite(value):
@@ -574,14 +579,24 @@ def stamp_ns(value: object) -> int:
             sec, nsec = value.get(sec_name), value.get(nsec_name)
         else:
             sec, nsec = getattr(value, sec_name, None), getattr(value, nsec_name, None)
-        if isinstance(sec, (int, np.integer)) and isinstance(nsec, (int, np.integer)):
-            ns = int(sec) * 1_000_000_000 + int(nsec)
+        if _whole(sec) and _whole(nsec):
+            if not 0 <= int(nsec) < NS_PER_S:
+                raise PathError(
+                    f"has {nsec_name} = {int(nsec)}, not a fraction of a second ({sec_name} = "
+                    f"{int(sec)}; {nsec_name} is 0 to {NS_PER_S - 1})"
+                )
+            ns = int(sec) * NS_PER_S + int(nsec)
             return _on_the_grid(ns, f"{int(sec)} s and {int(nsec)} ns")
     to_nsec = getattr(value, "to_nsec", None)
     if callable(to_nsec):
         ns = int(to_nsec())
         return _on_the_grid(ns, f"{ns} ns")
     raise PathError(f"is {_kind(value)}, not a time stamp (sec and nanosec)")
+
+
+def _whole(value: object) -> TypeGuard[int | np.integer[Any]]:
+    """Whether ``value`` is an integer (Python's or NumPy's), a boolean not counted."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 def _on_the_grid(ns: int, shown: str) -> int:

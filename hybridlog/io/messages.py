@@ -113,6 +113,18 @@ def _float_or_written(text: str) -> float:
     return beyond
 
 
+def _int_or_written(text: str) -> int | float:
+    """``json``'s ``parse_int``: an integer beyond a float64's range kept as its text."""
+    value = int(text)
+    try:
+        float(value)
+    except OverflowError:
+        beyond = _BeyondFloat(math.inf if value > 0 else -math.inf)
+        beyond.written = text
+        return beyond
+    return value
+
+
 @dataclass
 class Topic:
     """One topic of a message log.
@@ -574,9 +586,26 @@ class MessageSource(abc.ABC):
 
 
 def _shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
-    """Paths two topics of ``{topic: leaves}`` make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``)."""
+    """Paths of ``{topic: leaves}`` that must be written with their topic quoted.
+
+    Those two topics make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``), and those that
+    :func:`split_paths` reads on another topic first, as ``--map`` would: ``/a`` + ``.v``
+    where the log also has a topic ``/a.v``, and every path of a topic named ``""``.
+    """
     counts = Counter(name + leaf for name, found in leaves.items() for leaf in set(found))
-    return {path for path, count in counts.items() if count > 1}
+    shared = {path for path, count in counts.items() if count > 1}
+    topics = list(leaves)
+    for name, found in leaves.items():
+        if name and not any(o != name and o.startswith(name) for o in topics):
+            continue  # no other topic starts its paths: each reads on it
+        for leaf in found:
+            try:
+                first = split_paths(name + leaf, topics)[0].topic
+            except PathError:
+                first = None
+            if first != name:
+                shared.add(name + leaf)
+    return shared
 
 
 def _spell(topic: str, leaf: str, shared: set[str]) -> str:
@@ -872,7 +901,17 @@ def _is_json_number(value: object) -> bool:
 
 
 def _is_nonfinite(value: object) -> bool:
-    """A JSON float that is NaN or infinite (an integer never is, however many digits)."""
+    """A JSON number that is NaN or infinite as a float64, as analyze reads it.
+
+    An integer of more than 308 digits is infinite there (analyze refuses it as beyond the
+    range of a float64, as the CSV reader does a cell of such digits, which inspect counts).
+    """
+    if isinstance(value, int):
+        try:
+            float(value)
+        except OverflowError:
+            return True
+        return False
     return isinstance(value, float) and not math.isfinite(value)
 
 
@@ -962,10 +1001,11 @@ class _TopicReader:
                 try:
                     _read_stamps(messages, stamps[part])
                 except _RowError as err:
+                    reason = str(err.error)  # "is 1.7e+18 s ...", or what the path lacks
+                    said = f" {reason}" if reason.startswith(("is ", "has ")) else f": {reason}"
                     raise LogError(
-                        f"{self.source.path}: topic {self.topic.label}: header.stamp "
-                        f"{err.error} in {self._where(times, first + err.row)} (--time header "
-                        f"needs it)"
+                        f"{self.source.path}: topic {self.topic.label}: header.stamp{said} "
+                        f"in {self._where(times, first + err.row)} (--time header needs it)"
                     ) from None
         for wanted, values, labels, carried in zip(
             self.wanted, numbers, texts, present, strict=True
@@ -992,13 +1032,14 @@ class _TopicReader:
         times: list[int],
         first: int,
     ) -> None:
-        """Refuse a JSON number too large for a float64 (``1e400``), which decoded as infinite.
+        """Refuse a JSON number too large for a float64, which is read as infinite.
 
-        It was reported as ``inf``, which the message does not say.  Only a message whose
-        value came out infinite is decoded again, keeping its numbers' text: the check costs
-        one pass over the values, not the decoding.  ``Infinity``, which Python's ``json``
-        reads, stays infinite (refused as such when mapped, or dropped with
-        ``--drop-nonfinite``, as a number out of range is then).
+        ``1e400``, or an integer of more than 308 digits.  It was reported as ``inf``, which
+        the message does not say.  Only a message whose value came out infinite is decoded
+        again, keeping its numbers' text: the check costs one pass over the values, not the
+        decoding.  ``Infinity``, which Python's ``json`` reads, stays infinite (refused as
+        such when mapped, or dropped with ``--drop-nonfinite``, as a number out of range is
+        then).
 
         Raises
         ------
@@ -1008,7 +1049,9 @@ class _TopicReader:
         infinite = np.flatnonzero(np.isinf(values))
         for row in infinite[:16].tolist():  # a file of Infinity tokens is not decoded anew
             try:
-                message = json.loads(datas[first + row], parse_float=_float_or_written)
+                message = json.loads(
+                    datas[first + row], parse_float=_float_or_written, parse_int=_int_or_written
+                )
                 value = evaluate(message, wanted.path.steps)
             except (ValueError, PathError):
                 continue  # decoded once already: the first decoding said what was wrong
@@ -1215,6 +1258,7 @@ class _TopicReader:
         order: IntArray | None = None
         if self.header:
             _refuse_unset_stamps(source.path, topic.name, time_ns, log_times)
+        self._refuse_one_time(time_ns, f"{what}{among}")
         steps = np.diff(time_ns)
         backwards = steps < 0
         if backwards.any():
@@ -1244,6 +1288,32 @@ class _TopicReader:
             keep = np.append(~same, True)
             source._notes.setdefault("duplicates_dropped", {})[key] = int(same.sum())
         return order, keep
+
+    def _refuse_one_time(self, time_ns: IntArray, what: str) -> None:
+        """Refuse a topic whose every message (three or more) has one and the same time.
+
+        A recorder that never set the log time (an MCAP writer leaving it 0), or a publisher
+        stamping every message alike, gives no time to tell the messages apart: refused as
+        "the same log time as the one before", the remedy offered, ``--sort``, kept one
+        message of all.  Refused whatever the options, with the other time to read.
+        """
+        if time_ns.size < 3 or not bool((time_ns == time_ns[0]).all()):
+            return
+        at = f"t={format_ns(int(time_ns[0]))} s"
+        if self.header:
+            cause = "the publisher stamped them all alike; use --time log"
+        else:
+            cause = "the recorder did not set log times"
+            try:
+                self.source._check_header(self.topic)
+                cause += "; --time header reads each message's header.stamp instead"
+            except LogError:
+                pass  # no other time in these messages
+        word = "header.stamp" if self.header else "log time"
+        raise LogError(
+            f"{self.source.path}: {what}: all {time_ns.size} messages have the same {word}, "
+            f"{at}: {cause}"
+        )
 
 
 def _refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: IntArray) -> None:

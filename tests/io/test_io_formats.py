@@ -17,6 +17,9 @@ import numpy as np
 import polars as pl
 import pytest
 from click.testing import CliRunner
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
+from rosbags.rosbag2 import Writer as Rosbag2Writer
+from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.cli import cli
 from hybridlog.errors import LogError
@@ -146,6 +149,34 @@ def test_suffix_cross_check(tmp_path: Path) -> None:
         f"{other}: unsupported log format (suffix '.txt'); supported: "
         ".csv, .parquet, .mcap, .bag, .db3 and ROS 2 bag directories"
     )
+
+
+@pytest.mark.parametrize(
+    "storage", [StoragePlugin.SQLITE3, StoragePlugin.MCAP], ids=["sqlite3", "mcap"]
+)
+def test_a_file_of_a_ros2_bag_read_only_through_its_folder_names_the_folder(
+    storage: StoragePlugin, tmp_path: Path
+) -> None:
+    # Its metadata.yaml, or its storage compressed per file (rosbags' and ros2 bag record's
+    # --compression-mode file), was only an 'unsupported log format'.
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    folder = tmp_path / "bag"
+    writer = Rosbag2Writer(folder, version=9, storage_plugin=storage)
+    writer.set_compression(CompressionMode.FILE, CompressionFormat.ZSTD)
+    with writer:
+        connection = writer.add_connection("/y", "std_msgs/msg/Float64", typestore=store)
+        for k in range(5):
+            message = store.types["std_msgs/msg/Float64"](data=float(k))
+            writer.write(connection, k, store.serialize_cdr(message, "std_msgs/msg/Float64"))
+    (compressed,) = folder.glob("*.zstd")
+    for part in (folder / "metadata.yaml", compressed):
+        with pytest.raises(LogError) as error:
+            open_log(part)
+        assert str(error.value).endswith(
+            f"and ROS 2 bag directories; it is part of the ROS 2 bag {str(folder)!r}: give "
+            "that folder as the log"
+        )
+    assert inspect_log(folder)["messages"] == 5
 
 
 def test_parquet_content_is_read_whatever_its_name(tmp_path: Path) -> None:

@@ -175,6 +175,33 @@ def test_inspect_lists_a_path_two_topics_make_with_its_topic_quoted(tmp_path: Pa
     assert listed == {"/a": (['"/a".b.v'], ['"/a".b.v']), "/a.b": (['"/a.b".v'], ['"/a.b".v'])}
 
 
+def test_every_path_inspect_lists_reads_its_own_topic(tmp_path: Path) -> None:
+    # JSON topics without schema fields: '/a' ({"v": k}), '/a.v' ({"v": -k}) and '' ({"v": 2k}).
+    # inspect listed /a's field as '/a.v', which --map reads as the whole of topic '/a.v'
+    # (refused), and the field of topic '' as '.v', which names no topic.
+    from mcap.writer import Writer
+
+    log = tmp_path / "dotted.mcap"
+    with log.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="test")
+        schema = writer.register_schema("Any", "jsonschema", b"{}")
+        scales = {"/a": 1, "/a.v": -1, "": 2}
+        channels = {name: writer.register_channel(name, "json", schema) for name in scales}
+        for k in range(STEPS):
+            for name, scale in scales.items():
+                data = json.dumps({"v": scale * k}).encode()
+                writer.add_message(channels[name], k * 10**8, data, k * 10**8)
+        writer.finish()
+    with open_log(log, ReadOptions()) as source:
+        described = source.describe()
+    listed = {t["name"]: t["fields"] for t in described["topics"]}
+    assert listed == {"": ['"".v'], "/a": ['"/a".v'], "/a.v": ["/a.v.v"]}
+    for name, scale in scales.items():
+        (path,) = listed[name]
+        assert values(log, path) == [float(scale * k) for k in range(STEPS)]
+
+
 def test_quoted_topics_split_exactly() -> None:
     topics = ["/a", "/a.b", "/x[0]"]
     assert [(p.topic, p.steps) for p in split_paths("/a.b.v", topics)] == [

@@ -234,3 +234,32 @@ def test_a_json_infinity_token_is_still_reported_as_infinite(tmp_path: Path) -> 
     log = write_raw(tmp_path / "log.mcap", documents)
     with pytest.raises(LogError, match=r"inf for output 'y' at t=0\.3 s"):
         load(log, "u=/io/u", "y=/io/y")
+
+
+@pytest.mark.parametrize("written", ['{"u": 1, "y": -1%s}', '{"u": 1, "y": [1%s]}'])
+def test_a_json_integer_beyond_float_range_is_one_with_1e400(tmp_path: Path, written: str) -> None:
+    # JSON integers have no bound. One of 401 digits was refused as 'an integer beyond the
+    # range of a float64' even with --drop-nonfinite (which drops 1e400), and inspect
+    # counted it as finite (it counted 1e400, and a CSV cell of those digits, as not).
+    documents = ['{"u": 1, "y": %s}' % ("[1]" if "[" in written else "1")] * N
+    documents[7] = written % ("0" * 400)
+    log = write_raw(tmp_path / "log.mcap", documents)
+    field = "/io/y[0]" if "[" in written else "/io/y"
+    with pytest.raises(LogError) as info:
+        load(log, "u=/io/u", f"y={field}")
+    message = str(info.value)
+    assert f"field {field!r}: " in message and "\n" not in message
+    assert "in the message logged at t=0.7 s (message 8 of the topic)" in message
+    assert message.endswith("is beyond the range of a float64 (about 1.8e308)")
+    notes: dict[str, Any] = {}
+    signals = load_signals(
+        log,
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=DT),
+        ReadOptions(maps=("u=/io/u", f"y={field}"), drop_nonfinite=True),
+        notes=notes,
+    )
+    assert signals.n_samples == N and np.isfinite(signals.outputs).all()
+    assert notes["nonfinite_dropped"] == {field: 1}
+    (topic,) = inspect_log(log)["topics"]
+    counted = {v["name"]: v["nonfinite"] for v in topic["values"]}
+    assert counted[field.replace("[0]", "[]").replace("/io/", "/io.")] == 1
