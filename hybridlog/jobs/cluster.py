@@ -29,6 +29,7 @@ from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.estimators.options import OptionSource, parse_options, shown
+from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
@@ -308,6 +309,9 @@ def discover_modes(
 
     Raises
     ------
+    ModelError
+        The model file's ``[estimators.<x>]`` tables name an unknown estimator or option
+        (as ``analyze`` refuses them), or a value there is wrong.
     LogError
         For a log that cannot be read for the model, or whose regression vectors cannot be
         clustered (too few samples for the lags, fewer distinct vectors than k-means
@@ -318,6 +322,9 @@ def discover_modes(
         log, model_ref, out=out, plot=plot, force=force, read=read
     )
     model = load_model(os.fspath(model_ref))
+    # every [estimators.<x>] table as analyze checks it: cluster read only the chiu (and
+    # kmeans) keys it knew, so a misspelt `radiuss = 0.3` fitted 0.5 without a word
+    resolve_estimator(model, "chiu")
     flags = given is not None  # the command line's: named as its flags in errors
     if given is None:
         given = () if chiu is None else [f.name for f in dataclasses.fields(ChiuOptions)]

@@ -114,3 +114,22 @@ def test_notes_on_a_log_at_rest_say_what_was_found():
     assert "; 1 of 2 dimensions constant, left out" in varying.notes[0]
     notes = cluster_notes(np.array([0, 1]), np.array([1, 2]), ("a", "b"))
     assert notes[:2] == ["cluster 1 (1 sample) -> mode 'a'", "cluster 2 (2 samples) -> mode 'b'"]
+
+
+@pytest.mark.parametrize(
+    ("table", "named"),
+    [
+        # cluster read only the keys it knew: `radiuss` fitted the default 0.5 silently,
+        # where analyze refuses the model file
+        ("[estimators.chiu]\nradiuss = 0.3\n", "estimators.chiu.radiuss: chiu has no option"),
+        ("[estimators.kmeans]\nclusterz = 3\n", "estimators.kmeans.clusterz: kmeans has no"),
+        ("[estimators.chu]\nradius = 0.3\n", "estimators.chu: unknown estimator"),
+    ],
+)
+def test_a_model_file_table_analyze_refuses_is_refused(tmp_path, capsys, table, named):
+    model = tmp_path / "dc.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n" + table)
+    code, stderr = _cluster(tmp_path, capsys, str(model))
+    assert code == 2, stderr
+    assert stderr.startswith(f"hybridlog: error: {model}: {named}"), stderr
+    assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
