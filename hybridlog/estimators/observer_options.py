@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from hybridlog.errors import OptionError, excerpt
-from hybridlog.estimators.options import option, shown
+from hybridlog.estimators.options import OptionSource, option, parse_options, shown
 
 if TYPE_CHECKING:
     from hybridlog.cluster.centers_file import CentersFile
@@ -125,6 +125,53 @@ class KMeansOptions(ObserverOptions):
         return KMeansParameters(clusters=self.clusters, restarts=self.restarts, seed=self.seed)
 
 
+def _check_consistent(
+    model: HybridModel, options: ObserverOptions, centers: CentersFile, source: str
+) -> None:
+    """Refuse a file whose recorded keys contradict its centres (edited by hand).
+
+    ``output_lags``/``input_lags`` must give its ``regressors``, ``decision_values`` must be
+    its centres' ``y(k)`` components (eq. (3) decides by those, so an edited
+    ``decision_values`` was ignored without a word), and its ``parameters`` must be values of
+    the options (``"radius": "big"`` was reported as the radius the centres were fitted with),
+    ``clusters`` the number of centres.
+    """
+    from hybridlog.cluster.regressors import RegressorSpec
+
+    entry = centers.clusters[options.algorithm]
+    try:
+        own = RegressorSpec(centers.output_lags, centers.input_lags)
+    except OptionError:
+        own = None
+    if own is None or own.names(model.outputs, model.inputs) != list(centers.regressors):
+        raise OptionError(
+            f"centers={source}: output_lags {list(centers.output_lags)}, input_lags "
+            f"{list(centers.input_lags)} do not give the file's regressors "
+            f"{list(centers.regressors)}"
+        )
+    key = f"{options.algorithm}.decision_values"
+    if entry.decision_values is not None:
+        columns = own.decision_columns(len(model.outputs))
+        if (
+            entry.decision_values.shape != (len(entry.centers), len(columns))
+            or not (entry.decision_values == entry.centers[:, columns]).all()
+        ):
+            raise OptionError(
+                f"centers={source}: {key}: not the y(k) components of the file's "
+                f"{options.algorithm}.centers (eq. (3) decides by those): edit both alike, or "
+                f"leave {key} out"
+            )
+    prefix = f"centers={source}: {options.algorithm}.parameters"
+    sources = {k: OptionSource(f"{prefix}.{k}") for k in entry.parameters}
+    parse_options(type(options), entry.parameters, estimator=options.algorithm, sources=sources)
+    recorded = entry.parameters.get("clusters")
+    if recorded is not None and recorded != len(entry.centers):
+        raise OptionError(
+            f"{prefix}.clusters: {shown(recorded)}, but the file holds "
+            f"{len(entry.centers)} {options.algorithm} centres"
+        )
+
+
 def check_centers(
     model: HybridModel,
     options: ChiuOptions | KMeansOptions,
@@ -186,6 +233,7 @@ def check_centers(
     lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
     names = spec.names(model.outputs, model.inputs)
     entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
+    _check_consistent(model, options, centers, source)
     shared = {f.name for f in dataclasses.fields(ObserverOptions)}
     recorded: dict[str, Any] = {}
     for field in dataclasses.fields(options):
