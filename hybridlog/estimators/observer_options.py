@@ -23,7 +23,13 @@ if TYPE_CHECKING:
     from hybridlog.cluster.subtractive import SubtractiveOptions
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["ChiuOptions", "KMeansOptions", "ObserverOptions", "check_centers"]
+__all__ = [
+    "ChiuOptions",
+    "KMeansOptions",
+    "ObserverOptions",
+    "check_centers",
+    "check_cluster_modes",
+]
 
 
 def _output_lags(text: str) -> None:
@@ -172,6 +178,52 @@ def _check_consistent(
         )
 
 
+def check_cluster_modes(
+    model: HybridModel,
+    options: ObserverOptions,
+    *,
+    clusters: int | None = None,
+    origin: str = "",
+) -> None:
+    """Refuse ``cluster_modes`` that cannot label clusters of ``model``; before any log is read.
+
+    Its mode ids must be the model's, listed with single commas, and (``clusters``: the
+    number of centres, loaded or fitted) one per cluster: ``cluster_modes=7,1`` was refused
+    only after the log had been read and its clusters fitted, naming neither ``--set`` nor
+    the model file's key.  ``origin``
+    (:attr:`~hybridlog.estimators.registry.Prepared.origins`) names where the value was set:
+    ``--set cluster_modes=7,1`` (an :class:`OptionError`) or
+    ``m.toml: estimators.chiu.cluster_modes`` (a :class:`~hybridlog.errors.ModelError`).
+    """
+    from hybridlog.errors import ModelError
+    from hybridlog.numbers import comma_items
+
+    text = options.cluster_modes
+    if not text:
+        return
+    error: type[OptionError] | type[ModelError] = OptionError
+    if origin.startswith("--set"):
+        given = origin
+    elif origin:
+        given, error = f"{origin} = {excerpt(text)}", ModelError
+    else:
+        given = f"cluster_modes={excerpt(text)[1:-1]}"
+    try:
+        ids = comma_items(text, "mode ids")
+    except ValueError as err:
+        raise error(f"{given}: {err}") from None
+    unknown = [mode for mode in ids if mode not in model.mode_ids]
+    if unknown:
+        raise error(
+            f"{given}: unknown mode {excerpt(unknown[0])} (modes: {', '.join(model.mode_ids)})"
+        )
+    if clusters is not None and len(ids) != clusters:
+        raise error(
+            f"{given}: {len(ids)} mode ids for {clusters} {options.algorithm} centres; give "
+            "one per centre"
+        )
+
+
 def check_centers(
     model: HybridModel,
     options: ChiuOptions | KMeansOptions,
@@ -202,9 +254,12 @@ def check_centers(
         ``options.centers`` names a file but ``centers`` (its parsed content) is missing (the
         estimator reads no file, the job running it does); or the centres were fitted for
         another model, other modes or other regressors, or with another value of a clustering
-        option set here.
+        option set here; or ``cluster_modes`` cannot label them (:func:`check_cluster_modes`:
+        a :class:`~hybridlog.errors.ModelError` when a model file set it).
     """
+    cluster_modes = (origins or {}).get("cluster_modes", "")
     if centers is None:
+        check_cluster_modes(model, options, origin=cluster_modes)
         if options.centers:
             raise OptionError(
                 f"centers={options.centers}: the estimator reads no file; pass the parsed file "
@@ -234,6 +289,7 @@ def check_centers(
     names = spec.names(model.outputs, model.inputs)
     entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
     _check_consistent(model, options, centers, source)
+    check_cluster_modes(model, options, clusters=len(entry.centers), origin=cluster_modes)
     shared = {f.name for f in dataclasses.fields(ObserverOptions)}
     recorded: dict[str, Any] = {}
     for field in dataclasses.fields(options):

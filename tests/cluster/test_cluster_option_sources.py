@@ -133,3 +133,47 @@ def test_a_model_file_table_analyze_refuses_is_refused(tmp_path, capsys, table, 
     assert code == 2, stderr
     assert stderr.startswith(f"hybridlog: error: {model}: {named}"), stderr
     assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        # refused only once the log was read and clustered, as "cluster_modes: unknown mode"
+        (["--set", "cluster_modes=7,1"], "--set cluster_modes=7,1: unknown mode '7' (modes: 1"),
+        (["--set", "cluster_modes=1,,2"], "--set cluster_modes=1,,2: item 2 of '1,,2' is empty"),
+    ],
+)
+def test_cluster_modes_are_checked_before_the_log_is_read(tmp_path, capsys, options, named):
+    for estimator in ("chiu", "kmeans"):
+        args = ["analyze", LOG, "--model", "double_cart_case1", "--estimator", estimator]
+        code, stderr = run_main([*args, *options, "--out", str(tmp_path / "r")], capsys)
+        assert code == 2 and stderr.startswith(f"hybridlog: error: {named}"), stderr
+
+
+def test_cluster_modes_of_a_model_file_are_named_by_their_key(tmp_path, capsys):
+    model = tmp_path / "dc.toml"
+    text = builtin_text("double_cart_case1")
+    model.write_text(text + "\n[estimators.chiu]\ncluster_modes = '2,1'\n")
+    # the sample log gives 3 chiu centres: the message named neither the file nor the key
+    args = ["cluster", str(SAMPLE_LOGS / "double_cart_case1.csv"), "--model", str(model)]
+    code, stderr = run_main([*args, "--out", str(tmp_path / "c.json")], capsys)
+    assert code == 2 and not (tmp_path / "c.json").exists()
+    assert stderr == (
+        f"hybridlog: error: {model}: estimators.chiu.cluster_modes = '2,1': 2 mode ids for 3 "
+        "chiu centres; give one per centre\n"
+    )
+    # with centres loaded, the count is checked before the log is read
+    centres = tmp_path / "c3.json"
+    code, _ = run_main([*args[:3], "double_cart_case1", "--out", str(centres)], capsys)
+    assert code == 0
+    model.write_text(text + f"\n[estimators.chiu]\ncluster_modes = '2,1'\ncenters = '{centres}'\n")
+    code, stderr = run_main(
+        ["analyze", LOG, "--model", str(model), "--out", str(tmp_path / "r")], capsys
+    )
+    assert code == 2
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.cluster_modes = '2,1'")
+    # kmeans' labels, from its own table, are checked before the log is read
+    model.write_text(text + "\n[estimators.kmeans]\ncluster_modes = '2,7'\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--compare-kmeans")
+    assert code == 2
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.kmeans.cluster_modes = '2,7'")
