@@ -207,6 +207,27 @@ def _plain(value: Any) -> Any:
     return value
 
 
+class _DuplicateKeyError(Exception):
+    """A JSON object names a key twice (``json`` keeps the last without a word)."""
+
+    def __init__(self, key: str) -> None:
+        super().__init__(key)
+        self.key = key
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """The object of ``pairs``; a key named twice raises :class:`_DuplicateKeyError`.
+
+    A second ``"modes"`` added by hand above the first was overridden by it, silently.
+    """
+    data: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in data:
+            raise _DuplicateKeyError(key)
+        data[key] = value
+    return data
+
+
 def parse_centers(text: str, source: str) -> CentersFile:
     """Parse and validate the text of a ``centers.json``.
 
@@ -224,7 +245,11 @@ def parse_centers(text: str, source: str) -> CentersFile:
         names ``source`` and the key.
     """
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_unique_keys)
+    except _DuplicateKeyError as err:
+        raise OptionError(
+            f"{source}: the key {excerpt(err.key)} is given twice in one object; keep one"
+        ) from None
     except json.JSONDecodeError as err:
         raise OptionError(f"{source}: not JSON: {err.msg} (line {err.lineno})") from err
     except (ValueError, RecursionError) as err:  # a 5,000-digit integer, 5,000 nested lists

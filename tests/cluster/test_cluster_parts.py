@@ -490,3 +490,14 @@ def test_recorded_keys_that_contradict_the_centres_are_refused(edit, message):
         options = KMeansOptions(output_lags="0", input_lags="")
     with pytest.raises(OptionError, match=r"^centers=mem.json: " + message):
         check_centers(model, options, centers=parse_centers(centers_json(content), "mem.json"))
+
+
+def test_a_key_given_twice_is_refused():
+    # json keeps the last of two "modes": the labels added by hand above it were dropped
+    text = centers_json(_STORED)
+    doubled = text.replace('"modes": [', '"modes": ["a", "a"],\n    "modes": [', 1)
+    assert doubled != text
+    with pytest.raises(
+        OptionError, match=r"^mem.json: the key 'modes' is given twice in one object; keep one$"
+    ):
+        parse_centers(doubled, "mem.json")
