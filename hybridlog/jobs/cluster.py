@@ -22,9 +22,16 @@ import numpy as np
 
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier, manual_labels
-from hybridlog.cluster.regressors import regression_vectors
+from hybridlog.cluster.regressors import parse_lags, regression_vectors
 from hybridlog.cluster.subtractive import ClusteringOptionError
-from hybridlog.errors import HybridlogError, ModelError, OptionError, OutputError, as_text
+from hybridlog.errors import (
+    HybridlogError,
+    ModelError,
+    OptionError,
+    OutputError,
+    as_text,
+    excerpt,
+)
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
@@ -226,8 +233,29 @@ def _named(
 def _kmeans_options(
     model: HybridModel, kmeans: KMeansOptions | None, chiu: ChiuOptions
 ) -> KMeansOptions:
-    """``kmeans`` (else the model file's ``[estimators.kmeans]``) with ``chiu``'s lags."""
-    options = kmeans or _model_defaults(model, "kmeans", KMeansOptions(), ())
+    """``kmeans`` (else the model file's ``[estimators.kmeans]``) with ``chiu``'s lags.
+
+    Raises
+    ------
+    ModelError
+        The model file's ``[estimators.kmeans]`` sets lags other than ``chiu``'s: the file
+        holds one φ(k), so its k-means centres were fitted on chiu's and the kmeans estimator,
+        which takes that table's lags, refused them (after cluster had said nothing).
+    """
+    if kmeans is None:
+        kmeans = _model_defaults(model, "kmeans", KMeansOptions(), ())
+        table = model.estimator_options.get("kmeans", {})
+        for key in ("output_lags", "input_lags"):
+            mine = parse_lags(getattr(kmeans, key), key)
+            theirs = parse_lags(getattr(chiu, key), key)
+            if key in table and mine != theirs:
+                raise ModelError(
+                    f"{model.origin or model.name}: estimators.kmeans.{key} = "
+                    f"{excerpt(getattr(kmeans, key))}: --compare-kmeans fits k-means on "
+                    f"chiu's φ(k) ({key} {','.join(map(str, theirs)) or '(none)'}), the one "
+                    "the centres file holds; set the same lags for chiu and kmeans"
+                )
+    options = kmeans
     return KMeansOptions(
         clusters=options.clusters,
         restarts=options.restarts,

@@ -177,3 +177,23 @@ def test_cluster_modes_of_a_model_file_are_named_by_their_key(tmp_path, capsys):
     code, stderr = _cluster(tmp_path, capsys, str(model), "--compare-kmeans")
     assert code == 2
     assert stderr.startswith(f"hybridlog: error: {model}: estimators.kmeans.cluster_modes = '2,7'")
+
+
+def test_kmeans_lags_of_a_model_file_that_are_not_chius_are_refused(tmp_path, capsys):
+    # --compare-kmeans fitted k-means on chiu's φ(k) without a word; the kmeans estimator,
+    # taking its table's lags, then refused the file it had written
+    model = tmp_path / "dc.toml"
+    text = builtin_text("double_cart_case1")
+    model.write_text(text + "\n[estimators.kmeans]\noutput_lags = '0'\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--compare-kmeans")
+    assert code == 2 and not (tmp_path / "c.json").exists()
+    assert stderr == (
+        f"hybridlog: error: {model}: estimators.kmeans.output_lags = '0': --compare-kmeans "
+        "fits k-means on chiu's φ(k) (output_lags 0,1), the one the centres file holds; set "
+        "the same lags for chiu and kmeans\n"
+    )
+    # the same lags, written otherwise, are the same
+    model.write_text(text + "\n[estimators.kmeans]\noutput_lags = ' 0, 1'\n")
+    args = ["cluster", str(SAMPLE_LOGS / "double_cart_case1.csv"), "--model", str(model)]
+    code, _ = run_main([*args, "--out", str(tmp_path / "c.json"), "--compare-kmeans"], capsys)
+    assert code == 0
