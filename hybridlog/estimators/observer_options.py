@@ -20,7 +20,8 @@ if TYPE_CHECKING:
     from hybridlog.cluster.centers_file import CentersFile
     from hybridlog.cluster.kmeans import KMeansParameters
     from hybridlog.cluster.regressors import RegressorSpec
-    from hybridlog.cluster.subtractive import SubtractiveOptions
+    from hybridlog.cluster.subtractive import ClusteringOptionError, SubtractiveOptions
+    from hybridlog.errors import HybridlogError
     from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = [
@@ -29,6 +30,7 @@ __all__ = [
     "ObserverOptions",
     "check_centers",
     "check_cluster_modes",
+    "clustering_error",
 ]
 
 
@@ -178,6 +180,40 @@ def _check_consistent(
         )
 
 
+def clustering_error(
+    err: ClusteringOptionError, options: ChiuOptions, origins: Mapping[str, str]
+) -> HybridlogError:
+    """``err`` with each option it names said where its value was set.
+
+    ``origins``: option → ``--set squash=1`` (or a flag, ``--squash 1``: named as it is) or
+    ``m.toml: estimators.chiu.squash`` (named with its value); an option without one is
+    named as the default.  Subtractive clustering knows no flag or file: its errors said
+    ``squash: …`` or ``accept, reject: …``.
+
+    Returns
+    -------
+    OptionError, ModelError
+        A :class:`~hybridlog.errors.ModelError` when only a model file set the values named.
+    """
+    from hybridlog.errors import ModelError
+
+    named: list[str] = []
+    for key in err.keys:
+        origin = origins.get(key, "")
+        value = shown(getattr(options, key))
+        if origin.startswith("--"):
+            named.append(origin)
+        elif origin:
+            named.append(f"{origin} = {value}")
+        else:
+            named.append(f"{key} {value} (the default)")
+    message = f"{', '.join(named)}: {err.reason}"
+    given = [origins.get(key, "") for key in err.keys]
+    if any(given) and not any(origin.startswith("--") for origin in given):
+        return ModelError(message)
+    return OptionError(message)
+
+
 def check_cluster_modes(
     model: HybridModel,
     options: ObserverOptions,
@@ -257,6 +293,15 @@ def check_centers(
         option set here; or ``cluster_modes`` cannot label them (:func:`check_cluster_modes`:
         a :class:`~hybridlog.errors.ModelError` when a model file set it).
     """
+    if isinstance(options, ChiuOptions) and origins is not None:
+        # the job's check, before the log is read: the estimator found squash = 1 after it,
+        # and said 'squash: ...' without --set or the model file's key
+        from hybridlog.cluster.subtractive import ClusteringOptionError
+
+        try:
+            options.clustering().validate(dimensions=1)
+        except ClusteringOptionError as err:
+            raise clustering_error(err, options, origins) from None
     cluster_modes = (origins or {}).get("cluster_modes", "")
     if centers is None:
         check_cluster_modes(model, options, origin=cluster_modes)

@@ -36,7 +36,7 @@ from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.estimators.lmi import ObserverGains
-from hybridlog.estimators.observer_options import check_cluster_modes
+from hybridlog.estimators.observer_options import check_cluster_modes, clustering_error
 from hybridlog.estimators.options import OptionSource, parse_options, shown
 from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.estimators.switched_observer import LinearModes
@@ -214,20 +214,16 @@ def _named(
     if not flags and not any(key in table and key not in given for key in err.keys):
         return err
     origin = model.origin or model.name
-    named: list[str] = []
+    origins: dict[str, str] = {}
     for key in err.keys:
         value = shown(getattr(chiu, key))
         if key in given:  # --exact, --approximate: the switches of method
-            named.append(f"--{value}" if key == "method" else f"--{key.replace('_', '-')} {value}")
+            origins[key] = f"--{value}" if key == "method" else f"--{key.replace('_', '-')} {value}"
         elif key in table:
-            named.append(f"{origin}: estimators.chiu.{key} = {value}")
-        else:
-            named.append(f"{key} {value} (the default)")
-    reason = err.reason.replace("method=exact", "--exact") if flags else err.reason
-    message = f"{', '.join(named)}: {reason}"
-    if not any(key in given for key in err.keys) and any(key in table for key in err.keys):
-        return ModelError(message)
-    return OptionError(message)
+            origins[key] = f"{origin}: estimators.chiu.{key}"
+    if flags:
+        err = ClusteringOptionError(err.keys, str(err).replace("method=exact", "--exact"))
+    return clustering_error(err, chiu, origins)
 
 
 def _kmeans_options(
