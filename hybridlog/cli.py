@@ -330,12 +330,16 @@ class _DataclassOptions:
         Whose options they are, for messages (``chiu option 'radius': ...``).
     switches:
         Field → (choice of ``--on``, choice of ``--off``), the flags named after the choices.
+    table:
+        The model-file table (``estimators.chiu``) whose values replace the dataclass's
+        defaults, as the help says; empty: none does.
     """
 
     load: Callable[[], type[Any]]
     names: tuple[str, ...]
     owner: str
     switches: Mapping[str, tuple[str, str]]
+    table: str = ""
 
     def params(self) -> list[click.Parameter]:
         """The click options, one per field."""
@@ -344,6 +348,10 @@ class _DataclassOptions:
         for name in self.names:
             info = infos[name]
             default = f"default: {shown(info.default)}"
+            if self.table:  # the help cannot know the model: say where a value comes from
+                default = (
+                    f"default: the model file's {self.table}.{name}, else {shown(info.default)}"
+                )
             if name in self.switches:
                 on, off = self.switches[name]
                 params.append(
@@ -465,6 +473,7 @@ _CLUSTERING = _DataclassOptions(
     names=("radius", "squash", "accept", "reject", "method", "output_lags", "input_lags"),
     owner="chiu",
     switches={"method": ("exact", "approximate")},
+    table="estimators.chiu",
 )
 """``hybridlog cluster``'s clustering options, from the ``chiu`` estimator's options."""
 

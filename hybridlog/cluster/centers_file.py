@@ -33,17 +33,22 @@ without it (made by hand, or by a hybridlog before it was written) is checked on
 modes and regressors alone.
 
 The keys the estimators need are validated on reading, against each other too (labels among
-``mode_ids``, centres inside ``scaling``: where a fitted file puts them); errors name the file
-and key.  The rest (``labelling``, ``potentials``, ``notes`` ...) records how the centres were
-fitted and is not read back.
+``mode_ids``, centres inside ``scaling``: where a fitted file puts them, ``output_lags`` and
+``input_lags`` those the ``regressors`` name, ``decision_values`` the centres' ``y(k)``
+components); errors name the file and key.  The rest (``labelling``, ``potentials``,
+``notes`` ...) records how the centres were fitted and is not read back.  A key
+``hybridlog cluster`` does not write is refused, naming the keys it does: a misspelt
+``"moeds"`` left the clusters unlabelled, and the estimator labelled them from the log
+instead of by the file's hand-written labels, without a word.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -63,6 +68,34 @@ __all__ = [
 
 FORMAT = "hybridlog-centers"
 VERSION = 1
+
+_KEYS = frozenset(
+    {
+        *("format", "version", "model", "model_key", "log", "mode_ids", "regressors"),
+        *("output_lags", "input_lags", "scaling", "chiu", "kmeans", "reading"),
+        *("mode_accuracy_on_log", "mode_accuracy_over"),
+    }
+)
+"""The top-level keys of a ``centers.json`` (:func:`parse_centers` refuses others)."""
+
+_ENTRY_KEYS = ("parameters", "centers", "decision_values", "modes", "labelling", "notes", "sizes")
+_ALGORITHM_KEYS = {
+    "chiu": frozenset(
+        {
+            *_ENTRY_KEYS,
+            *("method", "grid", "potentials", "potential_ratios", "radii", "sigmas"),
+            "center_rows",
+        }
+    ),
+    "kmeans": frozenset({*_ENTRY_KEYS, "inertia", "seed", "restarts"}),
+}
+"""The keys of each algorithm's table."""
+
+_PARAMETER_KEYS = {
+    "chiu": frozenset({"radius", "squash", "accept", "reject", "self_potential", "method"}),
+    "kmeans": frozenset({"clusters", "restarts", "seed"}),
+}
+"""The clustering options each algorithm's ``parameters`` record."""
 
 _BOX_SLACK = 1e-9
 """Relative rounding allowed when a centre is checked against the box ``scaling``."""
@@ -88,6 +121,8 @@ class StoredClusters:
     centers: FloatArray
     modes: tuple[str, ...] | None
     parameters: Mapping[str, Any] = field(default_factory=dict)
+    decision_values: FloatArray | None = None
+    """The ``y(k)`` components of the centres as the file records them (``None``: not)."""
 
 
 @dataclass(frozen=True)
@@ -172,6 +207,27 @@ def _plain(value: Any) -> Any:
     return value
 
 
+class _DuplicateKeyError(Exception):
+    """A JSON object names a key twice (``json`` keeps the last without a word)."""
+
+    def __init__(self, key: str) -> None:
+        super().__init__(key)
+        self.key = key
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """The object of ``pairs``; a key named twice raises :class:`_DuplicateKeyError`.
+
+    A second ``"modes"`` added by hand above the first was overridden by it, silently.
+    """
+    data: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in data:
+            raise _DuplicateKeyError(key)
+        data[key] = value
+    return data
+
+
 def parse_centers(text: str, source: str) -> CentersFile:
     """Parse and validate the text of a ``centers.json``.
 
@@ -189,7 +245,11 @@ def parse_centers(text: str, source: str) -> CentersFile:
         names ``source`` and the key.
     """
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_unique_keys)
+    except _DuplicateKeyError as err:
+        raise OptionError(
+            f"{source}: the key {excerpt(err.key)} is given twice in one object; keep one"
+        ) from None
     except json.JSONDecodeError as err:
         raise OptionError(f"{source}: not JSON: {err.msg} (line {err.lineno})") from err
     except (ValueError, RecursionError) as err:  # a 5,000-digit integer, 5,000 nested lists
@@ -197,6 +257,7 @@ def parse_centers(text: str, source: str) -> CentersFile:
     reader = _Reader(source)
     if not isinstance(data, dict):
         raise reader.error("", "expected a JSON object")
+    reader.known(data, "", _KEYS)
     if data.get("format") != FORMAT:
         raise reader.error("format", f"expected {FORMAT!r}, got {data.get('format')!r}")
     version = data.get("version")
@@ -206,6 +267,7 @@ def parse_centers(text: str, source: str) -> CentersFile:
     regressors = tuple(reader.strings(data, "regressors"))
     d = len(regressors)
     scaling = reader.table(data, "scaling")
+    reader.known(scaling, "scaling", {"lower", "upper"})
     lower = reader.vector(scaling, "scaling.lower", d)
     upper = reader.vector(scaling, "scaling.upper", d)
     if np.any(upper < lower):
@@ -237,7 +299,16 @@ def parse_centers(text: str, source: str) -> CentersFile:
         parameters = (
             {} if table.get("parameters") is None else reader.table(table, f"{name}.parameters")
         )
-        clusters[name] = StoredClusters(centers=centers, modes=modes, parameters=parameters)
+        reader.known(table, name, _ALGORITHM_KEYS[name])
+        reader.known(parameters, f"{name}.parameters", _PARAMETER_KEYS[name])
+        decision = (
+            None
+            if table.get("decision_values") is None
+            else reader.matrix(table, f"{name}.decision_values", None, rows=len(centers))
+        )
+        clusters[name] = StoredClusters(
+            centers=centers, modes=modes, parameters=parameters, decision_values=decision
+        )
     if not clusters:
         raise reader.error("chiu", "the file holds no centres (neither 'chiu' nor 'kmeans')")
     return CentersFile(
@@ -311,15 +382,35 @@ class _Reader:
             raise self.error(key, f"expected a list of {length} numbers")
         return self._numbers(value, key)
 
-    def matrix(self, data: Mapping[str, Any], key: str, columns: int) -> FloatArray:
+    def matrix(
+        self, data: Mapping[str, Any], key: str, columns: int | None, *, rows: int | None = None
+    ) -> FloatArray:
+        """A list of rows of ``columns`` numbers (``None``: as many as the first row has)."""
         value = data.get(key.rsplit(".", 1)[-1])
+        width = "numbers" if columns is None else f"{columns} numbers"
+        if columns is None and isinstance(value, list) and value and isinstance(value[0], list):
+            columns = len(value[0]) or -1
         if (
             not isinstance(value, list)
             or not value
+            or (rows is not None and len(value) != rows)
             or any(not isinstance(row, list) or len(row) != columns for row in value)
         ):
-            raise self.error(key, f"expected a non-empty list of rows of {columns} numbers")
+            count = "a non-empty list of" if rows is None else f"a list of {rows}"
+            raise self.error(key, f"expected {count} rows of {width}")
         return self._numbers(value, key)
+
+    def known(self, data: Mapping[str, Any], key: str, keys: Collection[str]) -> None:
+        """Refuse a key of the object ``data`` (at ``key``) that is not one of ``keys``."""
+        for name in data:
+            if name not in keys:
+                close = difflib.get_close_matches(str(name), sorted(keys), n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise self.error(
+                    f"{key}.{name}" if key else str(name),
+                    f"not a key of {'a centres file' if not key else repr(key)} "
+                    f"({', '.join(sorted(keys))}){hint}",
+                )
 
     def inside(
         self,

@@ -68,6 +68,7 @@ import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numba
 import numpy as np
@@ -142,6 +143,15 @@ class ClusteringOptionError(OptionError):
         super().__init__(message)
         self.keys = keys
         self.reason = message.partition(": ")[2]
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle with both arguments: analyze runs chiu in a worker and gets its errors back.
+
+        The default pickles ``args`` (the message alone), and unpickling called
+        ``__init__(message)``: the worker's "approximate potentials need a grid ..." arrived as
+        an unexpected TypeError.
+        """
+        return (type(self), (self.keys, str(self)))
 
 
 @dataclass(frozen=True)

@@ -46,10 +46,11 @@ from hybridlog.cluster.classifier import (
     stored_classifier,
 )
 from hybridlog.cluster.labels import label_clusters
-from hybridlog.errors import DataShortError, LogError
+from hybridlog.cluster.subtractive import ClusteringOptionError
+from hybridlog.errors import DataShortError, LogError, OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
 from hybridlog.estimators.observer_options import ChiuOptions, check_centers
-from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.options import options_dict, parse_options, shown
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
 from hybridlog.model.hybrid_model import HybridModel
@@ -214,12 +215,21 @@ def run_clustering_observer(
         for another model, modes or regressors, or with another value of a clustering
         option (``radius``, ``clusters`` ...) set here
         (:func:`~hybridlog.estimators.observer_options.check_centers`, which the jobs also
-        run before reading the log).
+        run before reading the log); or the clustering options do not suit this log (the
+        grid of ``method = approximate``, chosen on the data, is too coarse).
     """
     fitted_with = check_centers(model, options, centers=centers)
     start = time.perf_counter()
     linear, gains = design_observer(model, options.decay_rate)
-    classifier = mode_classifier(model, signals, options, centers=centers, observer=(linear, gains))
+    try:
+        classifier = mode_classifier(
+            model, signals, options, centers=centers, observer=(linear, gains)
+        )
+    except ClusteringOptionError as err:
+        # a plain OptionError naming the values: the subclass's (keys, message) signature
+        # broke compare's re-raise with the estimator's name (an unexpected TypeError)
+        values = ", ".join(f"{key}={shown(getattr(options, key))}" for key in err.keys)
+        raise OptionError(f"{name} option {values}: {err.reason}") from None
     assert classifier.cluster_modes is not None
     decided = classifier.decide(signals.outputs)
     modes = classifier.cluster_modes[decided]

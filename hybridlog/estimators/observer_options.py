@@ -14,16 +14,24 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from hybridlog.errors import OptionError, excerpt
-from hybridlog.estimators.options import option, shown
+from hybridlog.estimators.options import OptionSource, option, parse_options, shown
 
 if TYPE_CHECKING:
     from hybridlog.cluster.centers_file import CentersFile
     from hybridlog.cluster.kmeans import KMeansParameters
     from hybridlog.cluster.regressors import RegressorSpec
-    from hybridlog.cluster.subtractive import SubtractiveOptions
+    from hybridlog.cluster.subtractive import ClusteringOptionError, SubtractiveOptions
+    from hybridlog.errors import HybridlogError
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["ChiuOptions", "KMeansOptions", "ObserverOptions", "check_centers"]
+__all__ = [
+    "ChiuOptions",
+    "KMeansOptions",
+    "ObserverOptions",
+    "check_centers",
+    "check_cluster_modes",
+    "clustering_error",
+]
 
 
 def _output_lags(text: str) -> None:
@@ -125,6 +133,133 @@ class KMeansOptions(ObserverOptions):
         return KMeansParameters(clusters=self.clusters, restarts=self.restarts, seed=self.seed)
 
 
+def _check_consistent(
+    model: HybridModel, options: ObserverOptions, centers: CentersFile, source: str
+) -> None:
+    """Refuse a file whose recorded keys contradict its centres (edited by hand).
+
+    ``output_lags``/``input_lags`` must give its ``regressors``, ``decision_values`` must be
+    its centres' ``y(k)`` components (eq. (3) decides by those, so an edited
+    ``decision_values`` was ignored without a word), and its ``parameters`` must be values of
+    the options (``"radius": "big"`` was reported as the radius the centres were fitted with),
+    ``clusters`` the number of centres.
+    """
+    from hybridlog.cluster.regressors import RegressorSpec
+
+    entry = centers.clusters[options.algorithm]
+    try:
+        own = RegressorSpec(centers.output_lags, centers.input_lags)
+    except OptionError:
+        own = None
+    if own is None or own.names(model.outputs, model.inputs) != list(centers.regressors):
+        raise OptionError(
+            f"centers={source}: output_lags {list(centers.output_lags)}, input_lags "
+            f"{list(centers.input_lags)} do not give the file's regressors "
+            f"{list(centers.regressors)}"
+        )
+    key = f"{options.algorithm}.decision_values"
+    if entry.decision_values is not None:
+        columns = own.decision_columns(len(model.outputs))
+        if (
+            entry.decision_values.shape != (len(entry.centers), len(columns))
+            or not (entry.decision_values == entry.centers[:, columns]).all()
+        ):
+            raise OptionError(
+                f"centers={source}: {key}: not the y(k) components of the file's "
+                f"{options.algorithm}.centers (eq. (3) decides by those): edit both alike, or "
+                f"leave {key} out"
+            )
+    prefix = f"centers={source}: {options.algorithm}.parameters"
+    sources = {k: OptionSource(f"{prefix}.{k}") for k in entry.parameters}
+    parse_options(type(options), entry.parameters, estimator=options.algorithm, sources=sources)
+    recorded = entry.parameters.get("clusters")
+    if recorded is not None and recorded != len(entry.centers):
+        raise OptionError(
+            f"{prefix}.clusters: {shown(recorded)}, but the file holds "
+            f"{len(entry.centers)} {options.algorithm} centres"
+        )
+
+
+def clustering_error(
+    err: ClusteringOptionError, options: ChiuOptions, origins: Mapping[str, str]
+) -> HybridlogError:
+    """``err`` with each option it names said where its value was set.
+
+    ``origins``: option → ``--set squash=1`` (or a flag, ``--squash 1``: named as it is) or
+    ``m.toml: estimators.chiu.squash`` (named with its value); an option without one is
+    named as the default.  Subtractive clustering knows no flag or file: its errors said
+    ``squash: …`` or ``accept, reject: …``.
+
+    Returns
+    -------
+    OptionError, ModelError
+        A :class:`~hybridlog.errors.ModelError` when only a model file set the values named.
+    """
+    from hybridlog.errors import ModelError
+
+    named: list[str] = []
+    for key in err.keys:
+        origin = origins.get(key, "")
+        value = shown(getattr(options, key))
+        if origin.startswith("--"):
+            named.append(origin)
+        elif origin:
+            named.append(f"{origin} = {value}")
+        else:
+            named.append(f"{key} {value} (the default)")
+    message = f"{', '.join(named)}: {err.reason}"
+    given = [origins.get(key, "") for key in err.keys]
+    if any(given) and not any(origin.startswith("--") for origin in given):
+        return ModelError(message)
+    return OptionError(message)
+
+
+def check_cluster_modes(
+    model: HybridModel,
+    options: ObserverOptions,
+    *,
+    clusters: int | None = None,
+    origin: str = "",
+) -> None:
+    """Refuse ``cluster_modes`` that cannot label clusters of ``model``; before any log is read.
+
+    Its mode ids must be the model's, listed with single commas, and (``clusters``: the
+    number of centres, loaded or fitted) one per cluster: ``cluster_modes=7,1`` was refused
+    only after the log had been read and its clusters fitted, naming neither ``--set`` nor
+    the model file's key.  ``origin``
+    (:attr:`~hybridlog.estimators.registry.Prepared.origins`) names where the value was set:
+    ``--set cluster_modes=7,1`` (an :class:`OptionError`) or
+    ``m.toml: estimators.chiu.cluster_modes`` (a :class:`~hybridlog.errors.ModelError`).
+    """
+    from hybridlog.errors import ModelError
+    from hybridlog.numbers import comma_items
+
+    text = options.cluster_modes
+    if not text:
+        return
+    error: type[OptionError] | type[ModelError] = OptionError
+    if origin.startswith("--set"):
+        given = origin
+    elif origin:
+        given, error = f"{origin} = {excerpt(text)}", ModelError
+    else:
+        given = f"cluster_modes={excerpt(text)[1:-1]}"
+    try:
+        ids = comma_items(text, "mode ids")
+    except ValueError as err:
+        raise error(f"{given}: {err}") from None
+    unknown = [mode for mode in ids if mode not in model.mode_ids]
+    if unknown:
+        raise error(
+            f"{given}: unknown mode {excerpt(unknown[0])} (modes: {', '.join(model.mode_ids)})"
+        )
+    if clusters is not None and len(ids) != clusters:
+        raise error(
+            f"{given}: {len(ids)} mode ids for {clusters} {options.algorithm} centres; give "
+            "one per centre"
+        )
+
+
 def check_centers(
     model: HybridModel,
     options: ChiuOptions | KMeansOptions,
@@ -155,9 +290,21 @@ def check_centers(
         ``options.centers`` names a file but ``centers`` (its parsed content) is missing (the
         estimator reads no file, the job running it does); or the centres were fitted for
         another model, other modes or other regressors, or with another value of a clustering
-        option set here.
+        option set here; or ``cluster_modes`` cannot label them (:func:`check_cluster_modes`:
+        a :class:`~hybridlog.errors.ModelError` when a model file set it).
     """
+    if isinstance(options, ChiuOptions) and origins is not None:
+        # the job's check, before the log is read: the estimator found squash = 1 after it,
+        # and said 'squash: ...' without --set or the model file's key
+        from hybridlog.cluster.subtractive import ClusteringOptionError
+
+        try:
+            options.clustering().validate(dimensions=1)
+        except ClusteringOptionError as err:
+            raise clustering_error(err, options, origins) from None
+    cluster_modes = (origins or {}).get("cluster_modes", "")
     if centers is None:
+        check_cluster_modes(model, options, origin=cluster_modes)
         if options.centers:
             raise OptionError(
                 f"centers={options.centers}: the estimator reads no file; pass the parsed file "
@@ -186,6 +333,8 @@ def check_centers(
     lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
     names = spec.names(model.outputs, model.inputs)
     entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
+    _check_consistent(model, options, centers, source)
+    check_cluster_modes(model, options, clusters=len(entry.centers), origin=cluster_modes)
     shared = {f.name for f in dataclasses.fields(ObserverOptions)}
     recorded: dict[str, Any] = {}
     for field in dataclasses.fields(options):

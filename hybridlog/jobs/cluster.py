@@ -21,14 +21,25 @@ from typing import Any, TypeVar
 import numpy as np
 
 from hybridlog.cluster.centers_file import centers_json
-from hybridlog.cluster.classifier import ModeClassifier
-from hybridlog.cluster.regressors import regression_vectors
+from hybridlog.cluster.classifier import ModeClassifier, manual_labels
+from hybridlog.cluster.regressors import parse_lags, regression_vectors
 from hybridlog.cluster.subtractive import ClusteringOptionError
-from hybridlog.errors import HybridlogError, ModelError, OptionError, OutputError, as_text
+from hybridlog.errors import (
+    HybridlogError,
+    ModelError,
+    OptionError,
+    OutputError,
+    as_text,
+    excerpt,
+)
 from hybridlog.estimators.capabilities import Capabilities, ModelTraits
 from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classifier
 from hybridlog.estimators.kmeans import KMeansOptions
+from hybridlog.estimators.lmi import ObserverGains
+from hybridlog.estimators.observer_options import check_cluster_modes, clustering_error
 from hybridlog.estimators.options import OptionSource, parse_options, shown
+from hybridlog.estimators.registry import resolve_estimator
+from hybridlog.estimators.switched_observer import LinearModes
 from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
@@ -203,20 +214,87 @@ def _named(
     if not flags and not any(key in table and key not in given for key in err.keys):
         return err
     origin = model.origin or model.name
-    named: list[str] = []
+    origins: dict[str, str] = {}
     for key in err.keys:
         value = shown(getattr(chiu, key))
         if key in given:  # --exact, --approximate: the switches of method
-            named.append(f"--{value}" if key == "method" else f"--{key.replace('_', '-')} {value}")
+            origins[key] = f"--{value}" if key == "method" else f"--{key.replace('_', '-')} {value}"
         elif key in table:
-            named.append(f"{origin}: estimators.chiu.{key} = {value}")
-        else:
-            named.append(f"{key} {value} (the default)")
-    reason = err.reason.replace("method=exact", "--exact") if flags else err.reason
-    message = f"{', '.join(named)}: {reason}"
-    if not any(key in given for key in err.keys) and any(key in table for key in err.keys):
-        return ModelError(message)
-    return OptionError(message)
+            origins[key] = f"{origin}: estimators.chiu.{key}"
+    if flags:
+        err = ClusteringOptionError(err.keys, str(err).replace("method=exact", "--exact"))
+    return clustering_error(err, chiu, origins)
+
+
+def _kmeans_options(
+    model: HybridModel, kmeans: KMeansOptions | None, chiu: ChiuOptions
+) -> KMeansOptions:
+    """``kmeans`` (else the model file's ``[estimators.kmeans]``) with ``chiu``'s lags.
+
+    Raises
+    ------
+    ModelError
+        The model file's ``[estimators.kmeans]`` sets lags other than ``chiu``'s: the file
+        holds one φ(k), so its k-means centres were fitted on chiu's and the kmeans estimator,
+        which takes that table's lags, refused them (after cluster had said nothing).
+    """
+    if kmeans is None:
+        kmeans = _model_defaults(model, "kmeans", KMeansOptions(), ())
+        table = model.estimator_options.get("kmeans", {})
+        for key in ("output_lags", "input_lags"):
+            mine = parse_lags(getattr(kmeans, key), key)
+            theirs = parse_lags(getattr(chiu, key), key)
+            if key in table and mine != theirs:
+                raise ModelError(
+                    f"{model.origin or model.name}: estimators.kmeans.{key} = "
+                    f"{excerpt(getattr(kmeans, key))}: --compare-kmeans fits k-means on "
+                    f"chiu's φ(k) ({key} {','.join(map(str, theirs)) or '(none)'}), the one "
+                    "the centres file holds; set the same lags for chiu and kmeans"
+                )
+    options = kmeans
+    return KMeansOptions(
+        clusters=options.clusters,
+        restarts=options.restarts,
+        seed=options.seed,
+        cluster_modes=options.cluster_modes,
+        output_lags=chiu.output_lags,
+        input_lags=chiu.input_lags,
+        decay_rate=chiu.decay_rate,
+    )
+
+
+def _labels_origin(
+    model: HybridModel, options: ChiuOptions | KMeansOptions, given: Collection[str]
+) -> str:
+    """Where ``cluster_modes`` was set: the model file's key, or ``""`` (a library caller's)."""
+    table = model.estimator_options.get(options.algorithm, {})
+    if "cluster_modes" not in table or (options.algorithm == "chiu" and "cluster_modes" in given):
+        return ""
+    return f"{model.origin or model.name}: estimators.{options.algorithm}.cluster_modes"
+
+
+def _classifier(
+    model: HybridModel,
+    signals: AlignedSignals,
+    options: _Options,
+    observer: tuple[LinearModes, ObserverGains] | None,
+    given: Collection[str],
+) -> ModeClassifier:
+    """The clusters of ``options`` fitted on the log, labelled (see ``mode_classifier``).
+
+    Labels given by ``cluster_modes`` are checked against the number of clusters fitted
+    here, naming where they were set (``m.toml: estimators.chiu.cluster_modes = '2,1': 2 mode
+    ids for 3 chiu centres``; the estimator's own message named neither the file nor the
+    key); the automatic labelling is not run for them.
+    """
+    text = options.cluster_modes
+    if not text:
+        return mode_classifier(model, signals, options, observer=observer)
+    fitted = mode_classifier(model, signals, dataclasses.replace(options, cluster_modes=""))
+    origin = _labels_origin(model, options, given)
+    check_cluster_modes(model, options, clusters=len(fitted.centers), origin=origin)
+    modes = manual_labels(text, model.mode_ids, len(fitted.centers))
+    return fitted.labelled(modes, (f"labels given by cluster_modes={text}",))
 
 
 def check_cluster_outputs(
@@ -308,6 +386,9 @@ def discover_modes(
 
     Raises
     ------
+    ModelError
+        The model file's ``[estimators.<x>]`` tables name an unknown estimator or option
+        (as ``analyze`` refuses them), or a value there is wrong.
     LogError
         For a log that cannot be read for the model, or whose regression vectors cannot be
         clustered (too few samples for the lags, fewer distinct vectors than k-means
@@ -318,6 +399,9 @@ def discover_modes(
         log, model_ref, out=out, plot=plot, force=force, read=read
     )
     model = load_model(os.fspath(model_ref))
+    # every [estimators.<x>] table as analyze checks it: cluster read only the chiu (and
+    # kmeans) keys it knew, so a misspelt `radiuss = 0.3` fitted 0.5 without a word
+    resolve_estimator(model, "chiu")
     flags = given is not None  # the command line's: named as its flags in errors
     if given is None:
         given = () if chiu is None else [f.name for f in dataclasses.fields(ChiuOptions)]
@@ -331,6 +415,10 @@ def discover_modes(
     # only after a long log had been read and the observer's LMI solved
     chiu.regressor_spec()
     _check_clustering(chiu, model, given, flags=flags)
+    kmeans = _kmeans_options(model, kmeans, chiu) if compare_kmeans else None
+    for options in (chiu, kmeans):
+        if options is not None:
+            check_cluster_modes(model, options, origin=_labels_origin(model, options, given))
     reading: dict[str, Any] = {}
     signals = read_log(os.fspath(log), model, read, reading)
     notes: list[str] = []
@@ -340,22 +428,12 @@ def discover_modes(
         observer = None
         notes.append(f"clusters not labelled as modes: {err}")
     try:  # the grid of method = approximate is chosen on the data
-        fitted = mode_classifier(model, signals, chiu, observer=observer)
+        fitted = _classifier(model, signals, chiu, observer, given)
     except ClusteringOptionError as err:
         raise _named(err, chiu, model, given, flags=flags) from None
     baseline = None
-    if compare_kmeans:
-        options = kmeans or _model_defaults(model, "kmeans", KMeansOptions(), ())
-        options = KMeansOptions(
-            clusters=options.clusters,
-            restarts=options.restarts,
-            seed=options.seed,
-            cluster_modes=options.cluster_modes,
-            output_lags=chiu.output_lags,
-            input_lags=chiu.input_lags,
-            decay_rate=chiu.decay_rate,
-        )
-        baseline = mode_classifier(model, signals, options, observer=observer)
+    if kmeans is not None:
+        baseline = _classifier(model, signals, kmeans, observer, given)
     accuracy = {"chiu": _accuracy(fitted, model, signals)}
     if baseline is not None:
         accuracy["kmeans"] = _accuracy(baseline, model, signals)
@@ -386,12 +464,12 @@ def discover_modes(
     }
     if over is not None and any(v is not None for v in accuracy.values()):
         content["mode_accuracy_over"] = over
-    if baseline is not None:
+    if baseline is not None and kmeans is not None:
         content["kmeans"] = {
             "parameters": {
                 "clusters": len(baseline.centers),
-                "restarts": options.restarts,
-                "seed": options.seed,
+                "restarts": kmeans.restarts,
+                "seed": kmeans.seed,
             },
             **_entry(baseline, model),
         }

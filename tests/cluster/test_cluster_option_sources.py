@@ -114,3 +114,133 @@ def test_notes_on_a_log_at_rest_say_what_was_found():
     assert "; 1 of 2 dimensions constant, left out" in varying.notes[0]
     notes = cluster_notes(np.array([0, 1]), np.array([1, 2]), ("a", "b"))
     assert notes[:2] == ["cluster 1 (1 sample) -> mode 'a'", "cluster 2 (2 samples) -> mode 'b'"]
+
+
+@pytest.mark.parametrize(
+    ("table", "named"),
+    [
+        # cluster read only the keys it knew: `radiuss` fitted the default 0.5 silently,
+        # where analyze refuses the model file
+        ("[estimators.chiu]\nradiuss = 0.3\n", "estimators.chiu.radiuss: chiu has no option"),
+        ("[estimators.kmeans]\nclusterz = 3\n", "estimators.kmeans.clusterz: kmeans has no"),
+        ("[estimators.chu]\nradius = 0.3\n", "estimators.chu: unknown estimator"),
+    ],
+)
+def test_a_model_file_table_analyze_refuses_is_refused(tmp_path, capsys, table, named):
+    model = tmp_path / "dc.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n" + table)
+    code, stderr = _cluster(tmp_path, capsys, str(model))
+    assert code == 2, stderr
+    assert stderr.startswith(f"hybridlog: error: {model}: {named}"), stderr
+    assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        # refused only once the log was read and clustered, as "cluster_modes: unknown mode"
+        (["--set", "cluster_modes=7,1"], "--set cluster_modes=7,1: unknown mode '7' (modes: 1"),
+        (["--set", "cluster_modes=1,,2"], "--set cluster_modes=1,,2: item 2 of '1,,2' is empty"),
+    ],
+)
+def test_cluster_modes_are_checked_before_the_log_is_read(tmp_path, capsys, options, named):
+    for estimator in ("chiu", "kmeans"):
+        args = ["analyze", LOG, "--model", "double_cart_case1", "--estimator", estimator]
+        code, stderr = run_main([*args, *options, "--out", str(tmp_path / "r")], capsys)
+        assert code == 2 and stderr.startswith(f"hybridlog: error: {named}"), stderr
+
+
+def test_cluster_modes_of_a_model_file_are_named_by_their_key(tmp_path, capsys):
+    model = tmp_path / "dc.toml"
+    text = builtin_text("double_cart_case1")
+    model.write_text(text + "\n[estimators.chiu]\ncluster_modes = '2,1'\n")
+    # the sample log gives 3 chiu centres: the message named neither the file nor the key
+    args = ["cluster", str(SAMPLE_LOGS / "double_cart_case1.csv"), "--model", str(model)]
+    code, stderr = run_main([*args, "--out", str(tmp_path / "c.json")], capsys)
+    assert code == 2 and not (tmp_path / "c.json").exists()
+    assert stderr == (
+        f"hybridlog: error: {model}: estimators.chiu.cluster_modes = '2,1': 2 mode ids for 3 "
+        "chiu centres; give one per centre\n"
+    )
+    # with centres loaded, the count is checked before the log is read
+    centres = tmp_path / "c3.json"
+    code, _ = run_main([*args[:3], "double_cart_case1", "--out", str(centres)], capsys)
+    assert code == 0
+    model.write_text(text + f"\n[estimators.chiu]\ncluster_modes = '2,1'\ncenters = '{centres}'\n")
+    code, stderr = run_main(
+        ["analyze", LOG, "--model", str(model), "--out", str(tmp_path / "r")], capsys
+    )
+    assert code == 2
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.cluster_modes = '2,1'")
+    # kmeans' labels, from its own table, are checked before the log is read
+    model.write_text(text + "\n[estimators.kmeans]\ncluster_modes = '2,7'\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--compare-kmeans")
+    assert code == 2
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.kmeans.cluster_modes = '2,7'")
+
+
+def test_kmeans_lags_of_a_model_file_that_are_not_chius_are_refused(tmp_path, capsys):
+    # --compare-kmeans fitted k-means on chiu's φ(k) without a word; the kmeans estimator,
+    # taking its table's lags, then refused the file it had written
+    model = tmp_path / "dc.toml"
+    text = builtin_text("double_cart_case1")
+    model.write_text(text + "\n[estimators.kmeans]\noutput_lags = '0'\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--compare-kmeans")
+    assert code == 2 and not (tmp_path / "c.json").exists()
+    assert stderr == (
+        f"hybridlog: error: {model}: estimators.kmeans.output_lags = '0': --compare-kmeans "
+        "fits k-means on chiu's φ(k) (output_lags 0,1), the one the centres file holds; set "
+        "the same lags for chiu and kmeans\n"
+    )
+    # the same lags, written otherwise, are the same
+    model.write_text(text + "\n[estimators.kmeans]\noutput_lags = ' 0, 1'\n")
+    args = ["cluster", str(SAMPLE_LOGS / "double_cart_case1.csv"), "--model", str(model)]
+    code, _ = run_main([*args, "--out", str(tmp_path / "c.json"), "--compare-kmeans"], capsys)
+    assert code == 0
+
+
+def test_analyze_names_clustering_bounds_before_the_log_is_read(tmp_path, capsys):
+    # analyze found squash = 1 only in the estimator, after reading the log, and said
+    # "squash: ..." without --set or the model file's key
+    args = ["analyze", LOG, "--model", "double_cart_case1", "--estimator", "chiu"]
+    code, stderr = run_main([*args, "--set", "squash=1", "--out", str(tmp_path / "r")], capsys)
+    assert code == 2
+    assert stderr == "hybridlog: error: --set squash=1: r_b/r_a must be greater than 1, got 1.0\n"
+    model = tmp_path / "dc.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\naccept = 0.1\n")
+    code, stderr = run_main(
+        ["analyze", LOG, "--model", str(model), "--out", str(tmp_path / "r")], capsys
+    )
+    assert code == 2
+    assert stderr.startswith(
+        f"hybridlog: error: {model}: estimators.chiu.accept = 0.1, reject 0.15 (the default): "
+    )
+
+
+@pytest.mark.parametrize("command", ["analyze", "compare"])
+def test_a_grid_too_coarse_for_the_log_is_an_option_error_of_chiu(tmp_path, capsys, command):
+    # the grid is chosen on the data: the error comes from the estimator's run, whose
+    # ClusteringOptionError did not survive the worker's pickle (analyze) nor compare's
+    # re-raise with the estimator's name: "unexpected TypeError"
+    log = str(SAMPLE_LOGS / "double_cart_case1.csv")
+    which = ["--estimator", "chiu"] if command == "analyze" else ["--estimators", "chiu,kmeans"]
+    sets = ["--set", "method=approximate", "--set", "radius=0.001"]
+    args = [command, log, "--model", "double_cart_case1", *which, *sets]
+    code, stderr = run_main([*args, "--out", str(tmp_path / "r")], capsys)
+    prefix = "" if command == "analyze" else "--estimators chiu: "
+    assert code == 2 and not (tmp_path / "r").exists()
+    assert stderr.startswith(
+        f"hybridlog: error: {prefix}chiu option method=approximate, radius=0.001: the "
+        "approximate potentials need a grid"
+    ), stderr
+
+
+def test_a_clustering_option_error_survives_a_pickle():
+    import pickle
+
+    from hybridlog.cluster.subtractive import ClusteringOptionError
+
+    err = ClusteringOptionError(("squash",), "squash: r_b/r_a must be greater than 1, got 1.0")
+    back = pickle.loads(pickle.dumps(err))
+    assert type(back) is ClusteringOptionError and back.keys == ("squash",)
+    assert str(back) == str(err) and back.reason == err.reason

@@ -1,5 +1,6 @@
 """Regression vectors, k-means baseline, decision rule, labelling, classifier, centers.json."""
 
+import copy
 import dataclasses
 import json
 import os
@@ -408,3 +409,95 @@ def test_data_too_short_to_cluster_is_an_error_naming_the_log():
     # the algorithms over arrays know no file: the error names the option and the counts
     with pytest.raises(DataShortError, match=r"^clusters: .* \(1 among 3\)$"):
         kmeans_clustering(np.zeros((3, 2)), 2)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        # a misspelt key was ignored: the labels came from the log, not from the file
+        (
+            lambda d: d["chiu"].update(moeds=d["chiu"].pop("modes")),
+            r"^mem.json: chiu.moeds: not a key of 'chiu' \(.*\); did you mean 'modes'\?$",
+        ),
+        (lambda d: d.update(centres=[[0.0]]), r"^mem.json: centres: not a key of a centres file"),
+        (lambda d: d["scaling"].update(mid=[0.0]), r"^mem.json: scaling.mid: not a key of"),
+        (
+            lambda d: d["chiu"]["parameters"].update(radious=0.3),
+            r"^mem.json: chiu.parameters.radious: not a key .*; did you mean 'radius'\?$",
+        ),
+        (
+            lambda d: d["chiu"].update(decision_values=[[4.0]]),
+            r"^mem.json: chiu.decision_values: expected a list of 2 rows of numbers$",
+        ),
+    ],
+)
+def test_a_key_hybridlog_does_not_write_is_refused(edit, message):
+    content = copy.deepcopy({**_STORED, "chiu": {**_STORED["chiu"], "parameters": {"radius": 0.5}}})
+    edit(content)
+    with pytest.raises(OptionError, match=message):
+        parse_centers(centers_json(content), "mem.json")
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        # each was taken without a word: the edited decision values or lags ignored, the
+        # recorded radius reported as what the centres were fitted with
+        (
+            lambda d: d["chiu"].update(decision_values=[[4.0], [1.0]]),
+            r"chiu.decision_values: not the y\(k\) components of the file's chiu.centers",
+        ),
+        (
+            lambda d: d.update(output_lags=[0, 2]),
+            r"output_lags \[0, 2\], input_lags \[\] do not give the file's regressors",
+        ),
+        (
+            lambda d: d.update(output_lags=[1]),
+            r"output_lags \[1\], input_lags \[\] do not give the file's regressors",
+        ),
+        (
+            lambda d: d["chiu"]["parameters"].update(radius="big"),
+            r"chiu.parameters.radius: chiu option 'radius': expected a finite number, got 'big'",
+        ),
+        (
+            lambda d: d.update(kmeans={**d["chiu"], "parameters": {"clusters": 3}}),
+            r"kmeans.parameters.clusters: 3, but the file holds 2 kmeans centres",
+        ),
+    ],
+)
+def test_recorded_keys_that_contradict_the_centres_are_refused(edit, message):
+    from hybridlog.estimators.observer_options import check_centers
+    from hybridlog.model.cache import load_model
+
+    model = load_model("double_cart_case1")  # one output y, one input u
+    content = copy.deepcopy(
+        {
+            **_STORED,
+            "model": model.name,
+            "mode_ids": list(model.mode_ids),
+            "chiu": {
+                "centers": [[4.0], [0.0]],
+                "decision_values": [[4.0], [0.0]],
+                "modes": ["2", "1"],
+                "parameters": {"radius": 0.5},
+            },
+        }
+    )
+    options: ChiuOptions | KMeansOptions = ChiuOptions(output_lags="0", input_lags="")
+    check_centers(model, options, centers=parse_centers(centers_json(content), "mem.json"))
+    edit(content)
+    if "kmeans" in content:
+        options = KMeansOptions(output_lags="0", input_lags="")
+    with pytest.raises(OptionError, match=r"^centers=mem.json: " + message):
+        check_centers(model, options, centers=parse_centers(centers_json(content), "mem.json"))
+
+
+def test_a_key_given_twice_is_refused():
+    # json keeps the last of two "modes": the labels added by hand above it were dropped
+    text = centers_json(_STORED)
+    doubled = text.replace('"modes": [', '"modes": ["a", "a"],\n    "modes": [', 1)
+    assert doubled != text
+    with pytest.raises(
+        OptionError, match=r"^mem.json: the key 'modes' is given twice in one object; keep one$"
+    ):
+        parse_centers(doubled, "mem.json")

@@ -47,6 +47,27 @@ def test_hand_computable_case():
     np.testing.assert_allclose(paper.initial_potentials[3], 3 * e16, rtol=1e-14)
 
 
+def test_hand_computable_case_in_two_dimensions_of_unequal_spans():
+    # Each dimension is scaled to [0, 1] by its own span (2 and 10): the unit points are
+    # (0,0) twice, (1,1) and (.5,.5).  r_a = 0.5: kernel exp(-16 d²); r_b = 0.625: exp(-10.24 d²).
+    data = np.array([[0.0, 0.0], [0.0, 0.0], [2.0, 10.0], [1.0, 5.0]])
+    a, b = math.exp(-16.0 * 2.0), math.exp(-16.0 * 0.5)  # d² = 2 and 0.5
+    initial = [2 + a + b, 2 + a + b, 1 + 2 * a + b, 1 + 3 * b]
+    found = subtractive_clustering(data, SubtractiveOptions(radius=0.5))
+    np.testing.assert_allclose(found.initial_potentials, initial, rtol=1e-14)
+    first = initial[0]  # eq. (6): every potential loses P1* exp(-10.24 d²) to centre 1
+    corner = initial[2] - first * math.exp(-10.24 * 2.0)
+    middle = initial[3] - first * math.exp(-10.24 * 0.5)
+    assert corner > middle and corner / first > 0.5  # accepted outright (ε₁ = 0.5)
+    middle -= corner * math.exp(-10.24 * 0.5)
+    # ratio 0.49 is in the grey zone: accepted, as d_min/r_a = √0.5/0.5 ≥ 1 − 0.49
+    assert 0.15 < middle / first < 0.5
+    assert found.center_indices.tolist() == [0, 2, 3]
+    np.testing.assert_allclose(found.potentials, [first, corner, middle], rtol=1e-13)
+    np.testing.assert_allclose(found.centers, data[[0, 2, 3]])
+    np.testing.assert_allclose(found.radii, [1.0, 5.0])  # r_a times each span, data units
+
+
 def _blobs(rng, n, d, k=3):
     centres = rng.uniform(-3, 3, (k, d))
     labels = rng.integers(0, k, n)

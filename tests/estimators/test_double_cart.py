@@ -147,7 +147,7 @@ def test_manual_labels_and_option_errors():
     signals = signals_of(model, simulate(model, steps=300, seed=1))
     swapped = run_kmeans(model, signals, KMeansOptions(cluster_modes="1,2"))
     assert any("cluster_modes=1,2" in note for note in swapped.notes)
-    with pytest.raises(OptionError, match="cluster_modes: unknown mode '7'"):
+    with pytest.raises(OptionError, match="cluster_modes=1,7: unknown mode '7'"):
         run_kmeans(model, signals, KMeansOptions(cluster_modes="1,7"))
     with pytest.raises(OptionError, match="output_lags: must contain 0"):
         run_chiu(model, signals, ChiuOptions(output_lags="1,2"))
