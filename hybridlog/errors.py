@@ -51,6 +51,19 @@ class ReportError(HybridlogError):
     """A ``report.json`` cannot be read back: not JSON, not a hybridlog report, or malformed."""
 
 
+def prefixed(err: HybridlogError, prefix: str) -> HybridlogError:
+    """``err``'s message after ``prefix``, as an error of its kind in this module's family.
+
+    A subclass elsewhere may take more than a message (``UnfinishedLogError``'s file and
+    counts); the copy is of the nearest class here, whose constructor takes the message
+    alone, so that the exit code and the handling of the kind stay the same.
+    """
+    kind = next(
+        c for c in type(err).__mro__ if c.__module__ == __name__ and issubclass(c, HybridlogError)
+    )
+    return kind(f"{prefix}{err}")
+
+
 EXCERPT_LIMIT = 80
 """Longest excerpt of user-supplied text quoted in an error message."""
 

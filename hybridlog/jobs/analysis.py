@@ -32,6 +32,7 @@ from hybridlog.errors import (
     OptionError,
     as_text,
     excerpt,
+    prefixed,
 )
 from hybridlog.estimators import (
     ESTIMATORS,
@@ -669,7 +670,7 @@ def _watched(
     except HybridlogError as err:
         if not named:
             raise
-        raise type(err)(f"--estimators {name}: {err}") from err
+        raise prefixed(err, f"--estimators {name}: ") from err
 
 
 def compare(
