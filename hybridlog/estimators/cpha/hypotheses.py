@@ -299,7 +299,7 @@ class Tracker:
     beam:
         Number of hypotheses kept.
     candidates:
-        Most successors filtered per step.
+        Most successors filtered per step, at least ``beam``.
     variance_growth:
         Factor on the variance of a held (unobservable or undetermined) state per step.
     unknown_mode:
@@ -324,8 +324,10 @@ class Tracker:
         self.filters = filters
         self.inputs = inputs
         self.outputs = outputs
+        if candidates < beam:  # was raised to the beam without a word
+            raise ValueError(f"candidates ({candidates}) below the beam ({beam})")
         self.beam = beam
-        self.candidates = max(candidates, beam)
+        self.candidates = candidates
         self.variance_growth = variance_growth
         self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
         self.filtered = 0
