@@ -191,9 +191,19 @@ def _kinds(cls: type[Any]) -> dict[str, tuple[dataclasses.Field[Any], _Kind]]:
 
 
 def closest(name: str, candidates: Iterable[str]) -> str:
-    """``"; did you mean 'x'?"`` for the candidate most like ``name``, or ``""``."""
-    found = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
-    return f"; did you mean '{found[0]}'?" if found else ""
+    """``"; did you mean 'x'?"`` for the candidate most like ``name``, or ``""``.
+
+    Case is ignored in the likeness (``RHO`` suggested nothing for ``rho``); a candidate
+    spelled as ``name`` but for case is suggested first.
+    """
+    spelled: dict[str, str] = {}
+    for candidate in candidates:
+        spelled.setdefault(candidate.casefold(), candidate)
+    key = name.casefold()
+    if key in spelled:
+        return f"; did you mean '{spelled[key]}'?"
+    found = difflib.get_close_matches(key, list(spelled), n=1, cutoff=0.6)
+    return f"; did you mean '{spelled[found[0]]}'?" if found else ""
 
 
 def parse_options(
