@@ -31,6 +31,23 @@ class HstfOptions:
         "faded", "S_i of eq. (35) from the faded P_i (the paper) or from λ_i = 1 (a variant)"
     )
 
+    def inert(self) -> dict[str, str]:
+        """Options that have no effect with the others' values: name → why.
+
+        ``fading = false`` fixes λ_i = 1: ``rho`` and ``beta`` enter only the fading factor
+        (eqs. (26)-(30)), and ``likelihood`` chooses between the faded and the λ_i = 1
+        covariance, then equal.  ``--set rho=0.5 --set fading=false`` ran the plain EKF while
+        report.json recorded rho = 0.5 as the option used.
+        """
+        if self.fading:
+            return {}
+        why = "fading = false fixes λ_i = 1, {}; leave it unset, or drop fading=false"
+        return {
+            "rho": why.format("and rho enters only λ_i (eq. (30))"),
+            "beta": why.format("and beta enters only λ_i (eq. (29))"),
+            "likelihood": why.format("so the faded and unfaded S_i of eq. (35) are the same"),
+        }
+
 
 @dataclass(frozen=True)
 class ImmOptions:

@@ -280,8 +280,11 @@ def _settings(options: HstfOptions) -> HstfSettings:
 
 
 def _noted(result: EstimationResult, options: HstfOptions) -> EstimationResult:
-    """``result`` with :data:`FADED_LIKELIHOOD_NOTE` where the likelihood is the paper's."""
-    if options.likelihood == "faded":
+    """``result`` with :data:`FADED_LIKELIHOOD_NOTE` where the likelihood is the faded one.
+
+    Not with ``fading = false``: λ_i = 1 fades nothing, and the note's 45 % is not this run's.
+    """
+    if options.fading and options.likelihood == "faded":
         return replace(result, notes=(*result.notes, FADED_LIKELIHOOD_NOTE))
     return result
 

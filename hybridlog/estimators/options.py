@@ -18,6 +18,13 @@ value of the model file's ``[estimators.<name>]`` table:
 ``X | None``
     ``none`` (or an empty value) for ``None``, otherwise as ``X``.
 
+An options dataclass may refuse a combination of values with a method ``conflicts(self)``
+returning ``(option, other, why)`` triples: ``option``'s value cannot go with ``other``'s
+(e.g. ``unknown-mode``'s ``candidates`` below its ``beam``), ``{other}`` in ``why`` standing
+for ``other``'s value and where it came from.  :func:`parse_options` raises the
+one-line error naming ``option``'s source (``other``'s when ``option`` was not given) and
+where ``other``'s value came from, instead of the estimator quietly running another value.
+
 An option made with ``path=True`` names a file: a relative path given in a model file is
 taken from the model file's folder (:attr:`OptionSource.base`), as the file's author wrote it
 beside the model; one given with ``--set`` from the working directory.
@@ -184,9 +191,19 @@ def _kinds(cls: type[Any]) -> dict[str, tuple[dataclasses.Field[Any], _Kind]]:
 
 
 def closest(name: str, candidates: Iterable[str]) -> str:
-    """``"; did you mean 'x'?"`` for the candidate most like ``name``, or ``""``."""
-    found = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
-    return f"; did you mean '{found[0]}'?" if found else ""
+    """``"; did you mean 'x'?"`` for the candidate most like ``name``, or ``""``.
+
+    Case is ignored in the likeness (``RHO`` suggested nothing for ``rho``); a candidate
+    spelled as ``name`` but for case is suggested first.
+    """
+    spelled: dict[str, str] = {}
+    for candidate in candidates:
+        spelled.setdefault(candidate.casefold(), candidate)
+    key = name.casefold()
+    if key in spelled:
+        return f"; did you mean '{spelled[key]}'?"
+    found = difflib.get_close_matches(key, list(spelled), n=1, cutoff=0.6)
+    return f"; did you mean '{spelled[found[0]]}'?" if found else ""
 
 
 def parse_options(
@@ -237,7 +254,28 @@ def parse_options(
         if field.metadata.get("path") and value and source.base and not os.path.isabs(value):
             value = os.path.join(source.base, value)
         converted[name] = value
-    return cls(**converted)
+    built = cls(**converted)
+    _refuse_conflicts(built, estimator, sources)
+    return built
+
+
+def _refuse_conflicts(options: object, estimator: str, sources: Mapping[str, OptionSource]) -> None:
+    """Raise for the first ``(option, other, why)`` of ``options.conflicts()``, if any.
+
+    The error is ``option``'s source's (``other``'s when only that was given), and names
+    where ``other``'s value came from: its ``--set`` or model file key, or its default.
+    """
+    conflicts: Callable[[], Iterable[tuple[str, str, str]]] | None = getattr(
+        options, "conflicts", None
+    )
+    for name, other, why in conflicts() if conflicts is not None else ():
+        blamed = name if name in sources or other not in sources else other
+        source = sources.get(blamed, OptionSource(""))
+        prefix = f"{source.label}: " if source.label else ""
+        origin = sources[other].label if other in sources else ""
+        value = shown(getattr(options, other))
+        given = f"{other} = {value} ({origin or 'its default'})"
+        raise source.error(f"{prefix}{estimator} option '{name}': {why.format(other=given)}")
 
 
 def _convert(raw: Any, kind: _Kind) -> Any:

@@ -264,3 +264,31 @@ def test_an_equation_that_determines_nothing_is_refused_not_dropped(model):
         ModelError, match=r"^two\.toml: components\..*equations\[2\]: determines nothing"
     ):
         run_unknown_mode(contradicting, signals, UnknownModeOptions())
+
+
+def test_a_step_the_candidates_bound_cut_short_is_counted_and_noted(model):
+    """``candidates`` below what the beam needs made it approximate without a word: the
+    report claimed nothing either way.  A step not counted keeps exactly the unbounded beam."""
+    signals = cpha_log(model, 40, seed=4, a1=lambda k: "drift" if k >= 20 else "m11")
+    bounded = make_tracker(model, signals, UnknownModeOptions(beam=3, candidates=3))
+    exact = make_tracker(model, signals, UnknownModeOptions(beam=3, candidates=10**6))
+    hypotheses = bounded.start(model.initial_state, model.initial_covariance)
+    differing = 0
+    for k in range(1, 40):
+        before = bounded.truncated
+        kept = bounded.step(hypotheses, k)
+        reference = exact.step(hypotheses, k)
+        same = [(h.assignment, h.log_belief) for h in kept] == [
+            (h.assignment, h.log_belief) for h in reference
+        ]
+        differing += not same
+        if bounded.truncated == before:
+            assert same, k
+        hypotheses = kept
+    assert differing > 0 and exact.truncated == 0
+    notes = run_unknown_mode(model, signals, UnknownModeOptions(beam=3, candidates=3)).notes
+    assert notes[-1].startswith(
+        f"the beam is approximate at {bounded.truncated} of 39 steps: the bound of 3 candidates "
+    )
+    wide = run_unknown_mode(model, signals, UnknownModeOptions(beam=3, candidates=10**6))
+    assert not any("approximate" in note for note in wide.notes)

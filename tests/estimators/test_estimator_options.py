@@ -14,6 +14,7 @@ from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.options import (
     OptionSource,
+    closest,
     describe_options,
     format_options,
     option,
@@ -114,6 +115,15 @@ def test_unknown_names_list_the_options_and_suggest_the_closest():
     with pytest.raises(OptionError) as caught:
         parse(zzzz="1")
     assert "did you mean" not in str(caught.value)
+
+
+def test_a_name_wrong_only_in_case_is_suggested():
+    """``--set RHO=0.5`` suggested nothing: the likeness was case-sensitive."""
+    with pytest.raises(OptionError, match=r"did you mean 'gain'\?$"):
+        parse(GAIN="1")
+    with pytest.raises(OptionError, match=r"did you mean 'label'\?$"):
+        parse(Lable="x")
+    assert closest("A", ["a2", "a"]) == "; did you mean 'a'?"
 
 
 def test_errors_name_where_the_value_came_from():

@@ -299,7 +299,7 @@ class Tracker:
     beam:
         Number of hypotheses kept.
     candidates:
-        Most successors filtered per step.
+        Most successors filtered per step, at least ``beam``.
     variance_growth:
         Factor on the variance of a held (unobservable or undetermined) state per step.
     unknown_mode:
@@ -324,12 +324,16 @@ class Tracker:
         self.filters = filters
         self.inputs = inputs
         self.outputs = outputs
+        if candidates < beam:  # was raised to the beam without a word
+            raise ValueError(f"candidates ({candidates}) below the beam ({beam})")
         self.beam = beam
-        self.candidates = max(candidates, beam)
+        self.candidates = candidates
         self.variance_growth = variance_growth
         self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
         self.filtered = 0
         self.proposed = 0
+        self.truncated = 0
+        """Steps at which ``candidates`` stopped the search before the beam was exact."""
         self.parents: list[int] = []
         """Per hypothesis the last :meth:`step` returned, its parent's index in the list that
         step was given (the back-pointers of the trajectories, for an offline mode sequence)."""
@@ -600,6 +604,8 @@ class Tracker:
                 floor = best[0][0]
         proposals.counter = counter
         self.proposed += tried
+        if heap and tried >= self.candidates and (len(best) < beam or -heap[0][0] > floor):
+            self.truncated += 1  # a successor not filtered might have entered the beam
         self.structure.hits += hits
         self.filters.hits += filter_hits
         best.sort(key=lambda e: (-e[0], e[1]))

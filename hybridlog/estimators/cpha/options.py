@@ -24,8 +24,8 @@ class UnknownModeOptions:
     beam: int = option(20, "number of hypotheses (trajectories) kept per step", range=(1, 10000))
     candidates: int | None = option(
         None,
-        "most successors filtered per step (none: 10 x beam); the beam is exact when the "
-        "bound is not reached",
+        "most successors filtered per step, at least beam (none: 10 x beam); the beam is "
+        "exact below it",
         range=(1, 1000000),
     )
     variance_growth: float = option(
@@ -40,6 +40,25 @@ class UnknownModeOptions:
         "argmax",
         "per-sample mode: each step's most likely hypothesis, or kbest (the final one's history)",
     )
+
+    def conflicts(self) -> list[tuple[str, str, str]]:
+        """``candidates`` below ``beam``: fewer successors filtered than hypotheses kept.
+
+        The tracker raised the bound to the beam without a word while report.json recorded
+        the smaller value as the one used (:func:`~hybridlog.estimators.options.parse_options`
+        refuses the pair instead).
+        """
+        if self.candidates is not None and self.candidates < self.beam:
+            return [
+                (
+                    "candidates",
+                    "beam",
+                    f"{self.candidates} is below the beam, {{other}}: fewer successors would "
+                    "be filtered per step than hypotheses kept; give candidates >= beam, or "
+                    "none for 10 x beam",
+                )
+            ]
+        return []
 
 
 def unknown_mode_memory(model: HybridModel, options: UnknownModeOptions, n: int) -> Parts:

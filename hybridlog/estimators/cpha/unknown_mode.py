@@ -32,7 +32,9 @@ back) instead of each step's most likely hypothesis; the probabilities, ``p_unkn
 ``ŷ(k|k-1)`` stay the causal estimate's, which ``post_processing.filtered`` holds whole.
 
 Commands (``when`` in transition rules) are not read from logs in this version: the rules
-without ``when`` apply.  Notes list the decomposition and filter cache hit rates.
+without ``when`` apply.  Notes list the decomposition and filter cache hit rates and, when
+``candidates`` stopped a step's search while an unfiltered successor might still have
+entered the beam, at how many steps the beam is approximate.
 
 Modelling the unknown mode
 --------------------------
@@ -220,11 +222,18 @@ def _run(
     columns = [*_component_columns(model, [h.assignment for h in best]), *p_columns]
     s_hits, s_misses = structure.hits - counts[0], structure.misses - counts[1]
     f_hits, f_misses = filters.hits - counts[2], filters.misses - counts[3]
-    notes = (
+    notes: tuple[str, ...] = (
         f"decompositions: {s_misses} computed, {s_hits} cache hits "
         f"({_rate(s_hits, s_misses)}); cluster filters: {f_misses} compiled, {f_hits} cache "
         f"hits ({_rate(f_hits, f_misses)}); {tracker.filtered} cluster EKF steps",
     )
+    if tracker.truncated:
+        bound = options.candidates if options.candidates is not None else 10 * options.beam
+        notes += (
+            f"the beam is approximate at {tracker.truncated} of {n - 1} steps: the bound of "
+            f"{bound} candidates was reached while a successor not filtered might still have "
+            "entered it; a larger candidates searches further",
+        )
     filtered = EstimationResult(
         estimator=NAME,
         options=options_dict(options),
