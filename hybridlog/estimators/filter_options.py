@@ -18,6 +18,9 @@ if TYPE_CHECKING:
 
 __all__ = ["MODE_SEQUENCES", "HstfOptions", "ImmOptions", "imm_memory"]
 
+_ONE_MODE = "{} has one mode, and {}"
+"""Why an option that weighs modes against each other does nothing on a one-mode model."""
+
 
 @dataclass(frozen=True)
 class HstfOptions:
@@ -31,18 +34,22 @@ class HstfOptions:
         "faded", "S_i of eq. (35) from the faded P_i (the paper) or from λ_i = 1 (a variant)"
     )
 
-    def inert(self) -> dict[str, str]:
-        """Options that have no effect with the others' values: name → why.
+    def inert(self, model: HybridModel) -> dict[str, str]:
+        """Options that have no effect with the others' values on ``model``: name → why.
 
         ``fading = false`` fixes λ_i = 1: ``rho`` and ``beta`` enter only the fading factor
         (eqs. (26)-(30)), and ``likelihood`` chooses between the faded and the λ_i = 1
         covariance, then equal.  ``--set rho=0.5 --set fading=false`` ran the plain EKF while
-        report.json recorded rho = 0.5 as the option used.
+        report.json recorded rho = 0.5 as the option used.  With one mode, ``theta``
+        decides between no modes (eq. (40)).
         """
+        inert: dict[str, str] = {}
+        if model.n_modes == 1:
+            inert["theta"] = _ONE_MODE.format(model.name, "θ decides between modes (eq. (40))")
         if self.fading:
-            return {}
+            return inert
         why = "fading = false fixes λ_i = 1, {}; leave it unset, or drop fading=false"
-        return {
+        return inert | {
             "rho": why.format("and rho enters only λ_i (eq. (30))"),
             "beta": why.format("and beta enters only λ_i (eq. (29))"),
             "likelihood": why.format("so the faded and unfaded S_i of eq. (35) are the same"),
@@ -74,18 +81,24 @@ class ImmOptions:
         20, "mode histories kept by kbest, each with its own EKF (never mixed)", range=(1, 10000)
     )
 
-    def inert(self) -> dict[str, str]:
-        """Options that have no effect with the others' values: name → why.
+    def inert(self, model: HybridModel) -> dict[str, str]:
+        """Options that have no effect with the others' values on ``model``: name → why.
 
         ``beam`` is read by ``mode_sequence = "kbest"`` alone; ``--set beam=N`` without it
-        ran the same pass while report.json recorded the beam as the option used.
+        ran the same pass while report.json recorded the beam as the option used.  With one
+        mode the Markov matrix is ``[[1]]`` whatever ``transition_stay`` says.
         """
-        if self.mode_sequence == "kbest":
-            return {}
-        return {
-            "beam": f"only mode_sequence = kbest keeps mode histories (here "
-            f"{self.mode_sequence}); add --mode-sequence kbest, or leave beam unset"
-        }
+        inert: dict[str, str] = {}
+        if model.n_modes == 1:
+            inert["transition_stay"] = _ONE_MODE.format(
+                model.name, "the Markov matrix is [[1]] whatever its diagonal"
+            )
+        if self.mode_sequence != "kbest":
+            inert["beam"] = (
+                f"only mode_sequence = kbest keeps mode histories (here "
+                f"{self.mode_sequence}); add --mode-sequence kbest, or leave beam unset"
+            )
+        return inert
 
 
 MODE_SEQUENCES: tuple[str, ...] = get_args(get_type_hints(ImmOptions)["mode_sequence"])

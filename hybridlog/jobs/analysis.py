@@ -258,29 +258,33 @@ def prepare_estimators(
         )
         for e in chosen
     ]
-    _refuse_inert(prepared, overrides.options, declared)
+    _refuse_inert(model, prepared, overrides.options, declared)
     return prepared
 
 
-def _inert(options: object) -> Mapping[str, str]:
-    """The options an options dataclass says the others' values make inert (name → why)."""
-    inert: Callable[[], Mapping[str, str]] | None = getattr(options, "inert", None)
-    return {} if inert is None else inert()
+def _inert(options: object, model: HybridModel) -> Mapping[str, str]:
+    """The options an options dataclass says are inert on ``model`` (name → why)."""
+    inert: Callable[[HybridModel], Mapping[str, str]] | None = getattr(options, "inert", None)
+    return {} if inert is None else inert(model)
 
 
 def _refuse_inert(
-    prepared: Sequence[Prepared], options: Mapping[str, str], declared: Mapping[str, list[str]]
+    model: HybridModel,
+    prepared: Sequence[Prepared],
+    options: Mapping[str, str],
+    declared: Mapping[str, list[str]],
 ) -> None:
     """Refuse a ``--set`` option that no chosen estimator having it would read.
 
-    An options dataclass may say which of its options the others' values make inert
-    (``inert() -> {name: why}``, e.g. ``imm``'s ``beam`` without ``mode_sequence = kbest``);
+    An options dataclass may say which of its options the others' values, or the model,
+    make inert (``inert(model) -> {name: why}``, e.g. ``imm``'s ``beam`` without
+    ``mode_sequence = kbest``, its ``transition_stay`` on a one-mode model);
     ``--set`` of one is refused when every chosen estimator that has it says so (``compare
     --estimators imm,unknown-mode --set beam=50`` sets unknown-mode's beam, and runs).
     """
     for name, value in options.items():
         having = [p for p in prepared if name in declared[p.name]]
-        why = [_inert(p.options).get(name) for p in having]
+        why = [_inert(p.options, model).get(name) for p in having]
         if having and all(why):
             raise OptionError(
                 f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}: has no effect on "

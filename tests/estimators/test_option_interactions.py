@@ -16,6 +16,7 @@ from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.cpha.hypotheses import Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.hstf import FADED_LIKELIHOOD_NOTE, HstfOptions, run_hstf
+from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.options import OptionSource, option, parse_options
 from hybridlog.jobs.analysis import parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model
@@ -102,8 +103,8 @@ def test_what_hstf_calls_inert_without_fading_changes_nothing_and_with_it_change
     three_tank,
 ) -> None:
     model, signals = three_tank
-    inert = HstfOptions(fading=False).inert()
-    assert set(inert) == {"rho", "beta", "likelihood"} and HstfOptions().inert() == {}
+    inert = HstfOptions(fading=False).inert(model)
+    assert set(inert) == {"rho", "beta", "likelihood"} and HstfOptions().inert(model) == {}
     changed = {"rho": 0.3, "beta": 50.0, "likelihood": "unfaded"}
     for fading in (False, True):
         base = run_hstf(model, signals, HstfOptions(fading=fading))
@@ -131,3 +132,52 @@ def test_set_of_an_hstf_option_fading_false_ignores_is_refused(name: str, value:
     model, overrides = parse_sets([f"{name}={value}"], "three_tank_hstf")
     (prepared,) = prepare_estimators(model, ["hstf"], overrides)
     assert prepared.options != HstfOptions()  # with fading, the value is the run's
+
+
+ONE_MODE = """
+name = "one_mode"
+dt = 1.0
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.only]
+A = [[0.9]]
+B = [[1.0]]
+C = [[1.0]]
+
+[noise]
+process = 0.01
+measurement = 0.1
+
+[initial]
+state = [0.0]
+covariance = [[1.0]]
+mode = "only"
+
+[simulation.inputs]
+u = "sin(t/5)"
+"""
+
+
+@pytest.mark.parametrize(
+    ("estimator", "name", "value"), [("imm", "transition_stay", "0.3"), ("hstf", "theta", "0.7")]
+)
+def test_a_set_option_weighing_modes_is_refused_on_a_one_mode_model(
+    tmp_path: Path, estimator: str, name: str, value: str
+) -> None:
+    path = tmp_path / "one.toml"
+    path.write_text(ONE_MODE, encoding="utf-8")
+    model, overrides = parse_sets([f"{name}={value}"], path)
+    # inert indeed: the run is the same with and without the value
+    signals = simulate(model, steps=40, seed=1).signals(model)
+    run, options = (run_imm, ImmOptions) if estimator == "imm" else (run_hstf, HstfOptions)
+    given = run(model, signals, options(**{name: float(value)}))  # type: ignore[operator]
+    default = run(model, signals, options())  # type: ignore[operator]
+    np.testing.assert_array_equal(given.state_means, default.state_means)
+    np.testing.assert_array_equal(given.state_variances, default.state_variances)
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, [estimator], overrides)
+    assert str(caught.value).startswith(
+        f"--set {name}={value}: has no effect on estimator '{estimator}': one_mode has one mode"
+    )
