@@ -156,10 +156,12 @@ class PixelBins:
         Whether the curves are reduced (:func:`envelope`): not when the bins hold at most
         four samples each on average, where nothing is gained.
     span:
-        ``(t_0, t_end)``, the panels' x range; ``None`` for no samples.
+        ``(t_0, t_end)``, the panels' x range; ``None`` for no samples.  Unreduced, the
+        end is one step (the last sampling interval) past the last sample, the time its
+        mode is drawn over.
     edges:
-        The time at each bin's start, then the run's end: the mode bars' edges
-        (:func:`mode_bars`).
+        The time at each bin's start, then the run's end (``span``'s): the mode bars'
+        edges (:func:`mode_bars`).
     curve_time:
         The times of a reduced curve's four points per bin (first sample, the bin's middle
         twice, last sample), or ``time``.
@@ -173,8 +175,14 @@ class PixelBins:
         self.starts = starts
         self.ends: IntArray = np.append(starts[1:], n) - 1
         self.reduced = n > 4 * starts.shape[0]
-        self.span = (float(time[0]), float(time[-1])) if n else None
-        self.edges: FloatArray = np.append(time[starts], time[-1:])
+        end = time[-1:]
+        if not self.reduced and n >= 2 and time[-1] > time[-2]:
+            # A sample's mode is drawn up to the next sample: the last one's, up to the end,
+            # had no width, and a switch at the last sample was not drawn at all (a third
+            # of a 3-sample log).  It holds for one step more, like the one before it.
+            end = time[-1:] + (time[-1] - time[-2])
+        self.span = (float(time[0]), float(end[0])) if n else None
+        self.edges: FloatArray = np.append(time[starts], end)
         self.curve_time = time
         self.band_time = time
         if self.reduced:

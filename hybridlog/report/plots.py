@@ -297,10 +297,8 @@ figure's left edge; widening the margin further would leave the panels no room."
 KEY_WRAP_CHARS = 90
 """A mode id in the key below the panels is wrapped to lines of at most this many
 characters (a joint assignment of a ``[components]`` model joins one id per component)."""
-LEGEND_INSIDE = 6
-"""Most entries the mode probabilities' legend holds inside its panel; with more (8 modes,
-or 4 of a smoothed run beside the filter's) it covered the curves near 1, the most probable
-mode's, and goes below the panels instead (:func:`_legend_below`)."""
+LEGEND_COLUMNS = 6
+"""Most columns of a legend below the panels (:func:`_legend_below`)."""
 
 
 class _Keys:
@@ -383,7 +381,7 @@ def _legend_below(
     style: dict[str, Any] = {"fontsize": "small", "title_fontsize": "small", "frameon": False}
     if text_only:
         style.update(handlelength=0.0, handletextpad=0.0)
-    for ncol in range(min(len(labels), LEGEND_INSIDE), 0, -1):
+    for ncol in range(min(len(labels), LEGEND_COLUMNS), 0, -1):
         legend = fig.legend(
             handles, labels, loc="lower left", bbox_to_anchor=(pars.left, 0.0), ncol=ncol,
             title=title, alignment="left", **style,
@@ -399,6 +397,46 @@ def _legend_below(
     fig.subplots_adjust(top=1.0 - top_in / new, bottom=(bottom_in + extra) / new)
     if fig.get_suptitle():
         _title(fig, fig.get_suptitle())
+
+
+def _legend_above(fig: Figure, axes: Sequence[Axes]) -> None:
+    """One legend of the entries of every panel of ``axes``, above the first, right-aligned.
+
+    Off the data: a legend in a panel's corner hid the curves and mode bars under it (a
+    state's estimate ending at its largest value ran under ``upper right``), and the styles
+    are the same in every panel, whose y label names what it shows.  The entries are in one
+    row while the panels' width holds them, else in as many rows as needed; where the
+    legend reaches the figure's title, the figure grows at its top by the legend's height,
+    the panels keeping their size (the pixel columns the curves were reduced to unchanged).
+    Call it after the left margin is final (:func:`_fit_labels_left`).
+    """
+    entries: dict[str, Any] = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    if not entries:
+        return
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    first = axes[0]
+    room = first.get_window_extent(renderer).width
+    for ncol in range(len(entries), 0, -1):
+        legend = first.legend(
+            list(entries.values()), list(entries), loc="lower right", bbox_to_anchor=(1.0, 1.0),
+            ncol=ncol, fontsize="small", frameon=False, borderaxespad=0.1,
+        )  # fmt: skip
+        if ncol == 1 or legend.get_window_extent(renderer).width <= room:
+            break
+    title: Any = getattr(fig, "_suptitle", None)  # matplotlib's: suptitle()'s Text, or None
+    box = legend.get_window_extent(renderer)
+    if title is None or not box.overlaps(title.get_window_extent(renderer)):
+        return
+    extra = box.height / fig.dpi
+    pars, old = fig.subplotpars, fig.get_figheight()
+    top_in, bottom_in = (1.0 - pars.top) * old, pars.bottom * old
+    new = old + extra
+    fig.set_size_inches(fig.get_figwidth(), new)
+    fig.subplots_adjust(top=1.0 - (top_in + extra) / new, bottom=bottom_in / new)
+    _title(fig, title.get_text())
 
 
 def _key_handles(keys: _Keys) -> tuple[list[Any], list[str]]:
@@ -480,11 +518,11 @@ def plot_outputs(data: PlotData, path: Path) -> Path:
         y = plain_text(curves.name)
         unit, in_unit = _panel_unit(curves.measured.values, curves.predicted.values)
         measured, predicted = (_in_unit(c, unit) for c in (curves.measured, curves.predicted))
-        draw_curve(ax, measured, lw=0.8, color="0.3", label=f"{y} measured")
-        draw_curve(ax, predicted, lw=0.8, color="tab:blue", ls="--", label=f"{y} predicted")
+        draw_curve(ax, measured, lw=0.8, color="0.3", label="measured")
+        draw_curve(ax, predicted, lw=0.8, color="tab:blue", ls="--", label="predicted")
         ax.set_ylabel(y + in_unit)
-        ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
+    _legend_above(fig, axes)
     return _save(fig, path)
 
 
@@ -558,36 +596,21 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     (shown,) = _row_labels(fig, [(ax_mode, modes.mode_ids, None)], keys)
     ax_mode.set_ylim(-0.5, n_modes - 0.5)
     filtered = modes.filtered_probabilities
-    below = bool(keys.ids) or n_modes * (1 if filtered is None else 2) > LEGEND_INSIDE
-    if below:  # above the panel, out of the rows' way
-        ax_mode.legend(
-            loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize="small",
-            frameon=False, borderaxespad=0.1,
-        )  # fmt: skip
-    else:
-        ax_mode.legend(loc="upper right", fontsize="small")
     lines = []
     for j, (m, style) in enumerate(zip(shown, _mode_styles(n_modes), strict=True)):
         (line,) = draw_curve(ax_prob, modes.probabilities[j], lw=0.8, label=f"p({m})", **style)
         lines.append(line)
         if filtered is not None:
-            draw_curve(
-                ax_prob,
-                filtered[j],
-                lw=0.5,
-                ls="--",
-                color=line.get_color(),
-                label=None if below else f"p({m}) filtered",
-            )
+            draw_curve(ax_prob, filtered[j], lw=0.5, ls="--", color=line.get_color())
     ax_prob.set_ylabel("probability")
     ax_prob.set_xlabel("t (s)")
     # Long mode ids were cut off at the fixed margin.  The probabilities' bins, cut for the
     # fixed panel width, are then finer than the narrower panel's pixel columns: each column
     # still shows every extreme of its samples.
     _fit_labels_left(fig, [ax_mode, ax_prob])
-    if not below:
-        ax_prob.legend(loc="upper right", fontsize="small", ncol=min(n_modes, LEGEND_INSIDE))
-        return _save(fig, path)
+    # Both legends off the panels: the bars' above them, the probabilities' below (inside,
+    # in the upper right corner, it hid the most probable mode's curve near 1).
+    _legend_above(fig, [ax_mode])
     labels = [
         _key_entry(keys(m), m) if keys.ids else f"p({label})"
         for m, label in zip(modes.mode_ids, shown, strict=True)
@@ -608,7 +631,11 @@ def plot_states(data: PlotData, path: Path) -> Path:
 
     Writes ``path`` (PNG) and returns it.
     """
-    fig, axes, names = _panels("States: estimate ±2σ vs truth", data.state_names)
+    panels = data.states[:MAX_PANELS]
+    sigma = " ±2σ" if any(c.band is not None for c in panels) else ""
+    truth = " vs truth" if any(c.truth is not None for c in panels) else ""
+    # what the panels show: a Luenberger observer has no σ, a log without truth no truth
+    fig, axes, names = _panels(f"States: {data.state_label}{sigma}{truth}", data.state_names)
     if not names:
         _empty(fig, axes[0], "no states")
         return _save(fig, path)
@@ -633,8 +660,8 @@ def plot_states(data: PlotData, path: Path) -> Path:
             filtered = _in_unit(curves.filtered, unit)
             draw_curve(ax, filtered, lw=0.5, ls="--", color="k", label="filtered")
         ax.set_ylabel(plain_text(curves.name) + in_unit)
-        ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel("t (s)")
+    _legend_above(fig, axes)
     return _save(fig, path)
 
 
@@ -686,15 +713,12 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
             _draw_bars(ax, data.edges, column.filtered, height=0.08, color="k", label="filtered")
         ax.set_ylabel(plain_text(column.name))
         ax.set_ylim(-0.5, n_labels - 0.5)
-        if column.truth is not None or column.filtered is not None:
-            ax.legend(loc="upper right", fontsize="x-small")
     joint = axes[-1]
     _draw_bars(joint, data.edges, components.joint, height=0.6, color="0.3", label=components.label)
     if components.joint_filtered is not None:
         _draw_bars(
             joint, data.edges, components.joint_filtered, height=0.08, color="k", label="filtered"
         )
-        joint.legend(loc="upper right", fontsize="x-small")
     joint.set_ylabel("joint")
     joint.set_ylim(-0.5, len(visited) - 0.5)
     panels = [
@@ -703,6 +727,8 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
     _row_labels(fig, [*panels, (joint, visited, "x-small")], keys)
     joint.set_xlabel("t (s)")
     _fit_labels_left(fig, axes)
+    # the components' entries (the joint panel's bars, dark grey, are their own key)
+    _legend_above(fig, [*axes[:-1], *([joint] if components.joint_filtered is not None else [])])
     if keys.ids:
         _legend_below(fig, *_key_handles(keys), title="mode ids of the keys", text_only=True)
     return _save(fig, path)

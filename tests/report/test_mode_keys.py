@@ -97,16 +97,20 @@ def test_long_mode_ids_are_keys_listed_in_full_below_the_panels(
     _assert_inside(fig)
 
 
-def test_short_mode_ids_label_their_rows_with_the_legend_inside(
+def test_short_mode_ids_label_their_rows_with_the_legend_below(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """The probabilities' legend of up to 6 entries sat in the panel's upper right corner,
+    over the most probable mode's curve near 1."""
     from hybridlog.report import plots
 
     result, signals = _with_modes(("open", "closed", "m" * 20), smoothed=True)
     fig = _drawn_modes(monkeypatch, lambda: plots.write_plots(tmp_path, result, signals))
     assert [t.get_text() for t in fig.axes[0].get_yticklabels()] == ["open", "closed", "m" * 20]
-    assert not fig.legends
-    assert "p(closed) filtered" in [t.get_text() for t in fig.axes[1].get_legend().get_texts()]
+    assert fig.axes[1].get_legend() is None
+    assert _legend_below_panels(fig) == [
+        "p(open)", "p(closed)", f"p({'m' * 20})", "filtered (dashed, same colours)"
+    ]  # fmt: skip
     _assert_inside(fig)
 
 

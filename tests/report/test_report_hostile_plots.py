@@ -58,9 +58,8 @@ def test_mode_ids_with_dollars_are_drawn_as_written(
 
     def texts_then_save(fig: Figure, path: Path) -> Path:
         drawn.extend(t.get_text() for ax in fig.axes for t in ax.get_yticklabels())
-        drawn.extend(
-            t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
-        )
+        legends = [*fig.legends, *(ax.get_legend() for ax in fig.axes)]
+        drawn.extend(t.get_text() for legend in legends if legend for t in legend.get_texts())
         return save(fig, path)
 
     monkeypatch.setattr(plots, "_save", texts_then_save)
