@@ -851,11 +851,18 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         "its last value, as an input published only when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
+    dropped = reading.get("jitter_held") or {}
     notes += [
         f"NOTE: {signal} was recorded once per sample time by a clock that jitters (samples "
         f"up to {jitter * 1e3:.3g} ms from their sample times, some after them): "
         "each sample time takes its own sample, where the zero-order hold would have taken "
         "the one before for every late one, a one-step delay at random"
+        + (
+            f"; {dropped[signal]['points']:,} of {dropped[signal]['of']:,} sample times have "
+            "no sample of their own (dropped by the log) and hold the one before"
+            if signal in dropped
+            else ""
+        )
         for signal, jitter in (reading.get("jitter") or {}).items()
     ]
     notes += [
