@@ -392,8 +392,10 @@ def _longest_hold(
 
     Inputs are held (SPEC §5: a command published only when it changes is held so), across
     a gap between two samples or past the last one to the grid's end; a hold longer than
-    ``max_gap`` is recorded, ``{start, end, seconds}`` in seconds, for the report to say,
-    not refused.  ``None`` when every hold is shorter.  ``time_ns``: the signal's sample times.
+    ``max_gap`` is recorded, ``{start, end, seconds, holds}`` (seconds; ``holds``: how many
+    such holds there are, the longest named), for the report to say, not refused: an input
+    sampled every ``10*dt`` read "no sample from t = 290 to 300 s", as if it had one gap.
+    ``None`` when every hold is shorter.  ``time_ns``: the signal's sample times.
     """
     if grid_ns.size == 0 or time_ns.size == 0:
         return None
@@ -408,7 +410,12 @@ def _longest_hold(
     if not candidates:
         return None
     _, start, end = max(candidates)  # the longest; of equal ones the latest
-    return {"start": start / NS_PER_S, "end": end / NS_PER_S, "seconds": _seconds(start, end)}
+    return {
+        "start": start / NS_PER_S,
+        "end": end / NS_PER_S,
+        "seconds": _seconds(start, end),
+        "holds": len(candidates),
+    }
 
 
 def _seconds(start_ns: int, end_ns: int) -> float:
