@@ -480,9 +480,12 @@ def _gap_error(
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
+    hint = _slower_than_max_gap(series, max_gap_ns, dt_ns) or (
+        "; --max-gap SECONDS accepts longer gaps, --split-gaps analyses the longest piece "
+        "between them"
+    )
     return LogError(
-        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}"
-        f"{_slower_than_max_gap(series, max_gap_ns, dt_ns)}"
+        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}{hint}"
     )
 
 

@@ -497,17 +497,22 @@ def test_an_output_slower_than_max_gap_says_so() -> None:
         f"s: --split-gaps: output 'y' (column 'y') leaves no piece of more than one sample{hint}"
     )
     # a --max-gap shorter than the log's (and the model's) step: steps of dt are no gaps
-    # (the log is read whole without the hole), so the hole alone is named, without a hint
+    # (the log is read whole without the hole), so the hole alone is named, without the dt
+    # hint: the options that take a log with a hole are named instead
+    remedy = (
+        "; --max-gap SECONDS accepts longer gaps, --split-gaps analyses the longest piece "
+        "between them"
+    )
     seconds = np.delete(np.arange(20) * 1.0, [5, 6, 7])
     holed_at_dt = series("y", seconds, seconds)
     with pytest.raises(LogError) as error:
         align_signals(source="s", dt=1.0, inputs={"u": u}, outputs={"y": holed_at_dt}, max_gap=0.5)
-    assert str(error.value).endswith("(4 s > max_gap 0.5 s)")
-    # a log at the model's rate with one hole gets no hint
+    assert str(error.value).endswith(f"(4 s > max_gap 0.5 s){remedy}")
+    # a log at the model's rate with one hole gets no dt hint
     holed = series("y", np.delete(np.arange(200) * 0.1, range(50, 60)), np.arange(190))
     with pytest.raises(LogError) as error:
         align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": holed})
-    assert str(error.value).endswith("(1.1 s > max_gap 0.5 s)")
+    assert str(error.value).endswith(f"(1.1 s > max_gap 0.5 s){remedy}")
 
 
 def test_a_log_in_nanoseconds_is_refused_before_its_grid_is_made(monkeypatch) -> None:
