@@ -857,8 +857,10 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         "each sample time takes its own sample, where the zero-order hold would have taken "
         "the one before for every late one, a one-step delay at random"
         + (
-            f"; {dropped[signal]['points']:,} of {dropped[signal]['of']:,} sample times have "
-            "no sample of their own (dropped by the log) and hold the one before"
+            f"; {dropped[signal]['points']:,} of {dropped[signal]['of']:,} sample times "
+            f"{'has' if dropped[signal]['points'] == 1 else 'have'} no sample of "
+            f"{'its' if dropped[signal]['points'] == 1 else 'their'} own (dropped by the log) "
+            f"and {'holds' if dropped[signal]['points'] == 1 else 'hold'} the one before"
             if signal in dropped
             else ""
         )

@@ -59,7 +59,10 @@ def test_dropped_samples_hold_the_one_before_and_the_others_take_their_own() -> 
         "the true mode": {"points": 4, "of": N},
     }
     said = " ".join(_reading_notes(notes))
-    assert "4 of 300 sample times have no sample of their own" in said
+    assert "4 of 300 sample times have no sample of their own (dropped by the log) and hold" in said
+    notes["jitter_held"]["input u"]["points"] = 1
+    said = " ".join(_reading_notes(notes))
+    assert "1 of 300 sample times has no sample of its own (dropped by the log) and holds" in said
 
 
 @pytest.mark.parametrize(
