@@ -134,6 +134,8 @@ class TableSource:
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
         # Parquet: the fields inside struct, list and array columns (``pose.x``, ``q[1]``)
         self._paths: dict[str, ColumnPath] = {}
+        # Parquet: the one length of each list indexed from its end (``field_key``), or None
+        self._list_lengths: dict[tuple[str, tuple[str | int, ...]], int | None] = {}
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
         self._time_resolution_ns = 1.0
@@ -221,10 +223,16 @@ class TableSource:
         return path.column, tuple(steps)
 
     def _list_length(self, path: ColumnPath, depth: int) -> int | None:
-        """The one length of the lists ``path`` indexes at ``depth``; ``None`` if not one."""
-        frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
-        lengths = frame.select(path.expr(depth).list.len()).to_series().drop_nulls().unique()
-        return int(lengths[0]) if lengths.len() == 1 else None
+        """The one length of the lists ``path`` indexes at ``depth``; ``None`` if not one.
+
+        Read once per list (mapping asks for every symbol's key more than once).
+        """
+        key = (path.column, path.steps[:depth])
+        if key not in self._list_lengths:
+            frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
+            lengths = frame.select(path.expr(depth).list.len()).to_series().drop_nulls().unique()
+            self._list_lengths[key] = int(lengths[0]) if lengths.len() == 1 else None
+        return self._list_lengths[key]
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
         """``None`` for a field of the table, else why not: the time column, or the closest.
