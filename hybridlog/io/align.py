@@ -7,9 +7,11 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   has a sample within half a step.  ``t_k = t0 + round(k * dt)`` in nanoseconds, so ``dt`` is
   not rounded once and the error multiplied by ``k``.
 - Inputs: zero-order hold, the last sample at or before ``t_k``; but a series recorded once
-  per step on a jittering clock (one sample within ``dt/4`` of each grid point, some late,
-  some not) takes each point's own sample, where the hold would delay about half of them by
-  a step at random (:func:`jittered_start`, ``notes["jitter"]``).  The true mode likewise.
+  per step on a jittering clock (every sample within ``dt/4`` of a grid point of its own,
+  more than half the points with one, some late, some not) takes each point's own sample,
+  where the hold would delay about half of them by a step at random (:func:`jittered_index`,
+  ``notes["jitter"]``); a point whose sample was dropped holds the one before, counted
+  (``notes["jitter_held"]``).  The true mode likewise.
 - Outputs: the nearest sample, if it is within ``dt/2`` (``resample="nearest"``; ties go to
   the earlier sample), or linear interpolation between the samples around ``t_k``
   (``resample="linear"``).  A grid point without a sample within ``dt/2`` is a gap; a gap
@@ -44,7 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -241,36 +243,80 @@ def hold_index(time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int) -> IntAr
     return index
 
 
-def jittered_start(
-    time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, dt_ns: int
-) -> tuple[int, float]:
-    """Where a series sampled once per step on a jittering clock starts (else -1), and its jitter.
+class Jittered(NamedTuple):
+    """A series recorded once per step on a jittering clock, taken on the grid.
 
-    A series with exactly one sample within ``dt/4`` of each grid point, some of them after
-    it by more than ``tolerance_ns`` and some not, was recorded at the model's rate by a
-    clock that jitters.  The zero-order hold would take each grid point's own sample where
-    it came early and the one before where it came late: a random one-step delay on about
-    half the samples, which no estimate could tell from the plant.  Such a series is taken
-    on the grid, each point its own sample (``notes["jitter"]``, said in the report).  A
-    series whose samples all come late (a constant latency) keeps the hold's consistent
-    one-step delay, as SPEC §5 says; one on the grid within ``tolerance_ns`` never gets here.
-    The first sample is not counted: the grid may start at it.  The jitter is the largest
-    distance, in seconds, of a sample from its grid point (0 where the series is not such).
+    ``taken``: the index of the sample each grid point takes (its own, else the hold's);
+    ``jitter``: the largest distance (s) of a sample from its grid point; ``held``: the grid
+    points without a sample of their own, which hold the one before.
     """
-    start = on_grid(time_ns, grid_ns, max(tolerance_ns, dt_ns // 4))
-    if start < 0:
-        return -1, 0.0
+
+    taken: IntArray
+    jitter: float
+    held: int
+
+
+def jittered_index(
+    time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, dt_ns: int
+) -> Jittered | None:
+    """The samples a series recorded once per step on a jittering clock gives the grid, else None.
+
+    A series whose samples each lie within ``dt/4`` of a grid point of their own (at most one
+    per point), covering more than half the grid's points, some after their point by more
+    than ``tolerance_ns`` and some not, was recorded at the model's rate by a clock that
+    jitters.  The zero-order hold would take each grid point's own sample where it came early
+    and the one before where it came late: a random one-step delay on about half the samples,
+    which no estimate could tell from the plant.  Such a series gives each grid point its own
+    sample (``notes["jitter"]``, said in the report); a point whose sample the log dropped
+    holds the one before, as the hold would (``Jittered.held``, ``notes["jitter_held"]``): one
+    dropped sample no longer sends the whole series back to the hold's random delays.  A
+    series whose samples all come late (a constant latency) keeps the hold's consistent
+    one-step delay, as SPEC §5 says; one on the grid within ``tolerance_ns`` never gets here;
+    one published only when it changes, at its own times, is held.  The first grid point's
+    sample is not counted among the late or on-time ones: the grid may start at it.
+    """
+    n = grid_ns.size
+    quarter = max(tolerance_ns, dt_ns // 4)
+    if n == 0 or time_ns.size == 0:
+        return None
+    start = on_grid(time_ns, grid_ns, quarter)
+    if start >= 0:  # no sample dropped: checked a block at a time, no search
+        return _jittered_on_grid(time_ns, grid_ns, tolerance_ns, start)
+    lo = int(np.searchsorted(time_ns, grid_ns[0] - quarter, side="left"))
+    hi = int(np.searchsorted(time_ns, grid_ns[-1] + quarter, side="right"))
+    if not n < 2 * (hi - lo) <= 2 * n:  # not once per step: slower, at its own times, or faster
+        return None
+    inner = time_ns[lo:hi]
+    right = np.minimum(np.searchsorted(grid_ns, inner, side="left"), n - 1)
+    left = np.maximum(right - 1, 0)
+    owner = np.where(np.abs(inner - grid_ns[left]) < np.abs(grid_ns[right] - inner), left, right)
+    offset = inner - grid_ns[owner]
+    if int(np.abs(offset).max()) > quarter or bool((np.diff(owner) <= 0).any()):
+        return None  # a sample between grid points, or two at one point
+    counted = offset[owner > 0]  # the grid may start at the first sample
+    if not (bool((counted > tolerance_ns).any()) and bool((counted <= tolerance_ns).any())):
+        return None
+    index = hold_index(time_ns, grid_ns, tolerance_ns)
+    index[owner] = np.arange(lo, hi, dtype=np.int64)
+    return Jittered(index, int(np.abs(offset).max()) / NS_PER_S, int(n - inner.size))
+
+
+def _jittered_on_grid(
+    time_ns: IntArray, grid_ns: IntArray, tolerance_ns: int, start: int
+) -> Jittered | None:
+    """:func:`jittered_index` of a series with one sample within ``dt/4`` of every grid point."""
     late = on_time = False
     worst = 0
-    for lo in range(0, grid_ns.size, BLOCK):
-        offset = (
-            time_ns[start + lo : start + min(lo + BLOCK, grid_ns.size)] - grid_ns[lo : lo + BLOCK]
-        )
+    n = grid_ns.size
+    for lo in range(0, n, BLOCK):
+        offset = time_ns[start + lo : start + min(lo + BLOCK, n)] - grid_ns[lo : lo + BLOCK]
         worst = max(worst, int(np.abs(offset).max()))
         counted = offset[1:] if lo == 0 else offset  # the grid may start at the first sample
         late = late or bool((counted > tolerance_ns).any())
         on_time = on_time or bool((counted <= tolerance_ns).any())
-    return (start, worst / NS_PER_S) if late and on_time else (-1, 0.0)
+    if not (late and on_time):
+        return None
+    return Jittered(np.arange(start, start + n, dtype=np.int64), worst / NS_PER_S, 0)
 
 
 def nearest_index(
@@ -367,8 +413,10 @@ def _longest_hold(
 
     Inputs are held (SPEC §5: a command published only when it changes is held so), across
     a gap between two samples or past the last one to the grid's end; a hold longer than
-    ``max_gap`` is recorded, ``{start, end, seconds}`` in seconds, for the report to say,
-    not refused.  ``None`` when every hold is shorter.  ``time_ns``: the signal's sample times.
+    ``max_gap`` is recorded, ``{start, end, seconds, holds}`` (seconds; ``holds``: how many
+    such holds there are, the longest named), for the report to say, not refused: an input
+    sampled every ``10*dt`` read "no sample from t = 290 to 300 s", as if it had one gap.
+    ``None`` when every hold is shorter.  ``time_ns``: the signal's sample times.
     """
     if grid_ns.size == 0 or time_ns.size == 0:
         return None
@@ -383,7 +431,12 @@ def _longest_hold(
     if not candidates:
         return None
     _, start, end = max(candidates)  # the longest; of equal ones the latest
-    return {"start": start / NS_PER_S, "end": end / NS_PER_S, "seconds": _seconds(start, end)}
+    return {
+        "start": start / NS_PER_S,
+        "end": end / NS_PER_S,
+        "seconds": _seconds(start, end),
+        "holds": len(candidates),
+    }
 
 
 def _seconds(start_ns: int, end_ns: int) -> float:
@@ -448,9 +501,12 @@ def _gap_error(
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
+    hint = _slower_than_max_gap(series, max_gap_ns, dt_ns) or (
+        "; --max-gap SECONDS accepts longer gaps, --split-gaps analyses the longest piece "
+        "between them"
+    )
     return LogError(
-        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}"
-        f"{_slower_than_max_gap(series, max_gap_ns, dt_ns)}"
+        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}{hint}"
     )
 
 
@@ -615,16 +671,15 @@ def align_signals(
     u = np.empty((n, len(inputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(inputs.items()):
         on = on_grid_values(series, grid, tolerance)
-        start, jitter = (
-            jittered_start(series.time_ns, grid, tolerance, dt_ns) if on is None else (-1, 0.0)
-        )
-        if start >= 0:
-            on = series.values[start : start + n]
-            if notes is not None:
-                notes.setdefault("jitter", {})[f"input {symbol}"] = jitter
-        u[:, j] = (
-            on if on is not None else series.values[hold_index(series.time_ns, grid, tolerance)]
-        )
+        if on is None:
+            found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
+            if found is not None:
+                _note_jitter(notes, f"input {symbol}", found, n)
+            index = (
+                found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
+            )
+            on = series.values[index]
+        u[:, j] = on
         held = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
         if held is not None and notes is not None:
             notes.setdefault("held", {})[symbol] = held
@@ -647,7 +702,7 @@ def align_signals(
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
         y[:, j] = values
 
-    jittered: dict[str, float] = {}
+    jittered: dict[str, Any] = {}
     modes: IntArray | None = None
     if truth_mode is not None:
         modes = _hold_modes(
@@ -670,8 +725,8 @@ def align_signals(
         )
         for name, series in (truth_components or {}).items()
     }
-    if jittered and notes is not None:
-        notes.setdefault("jitter", {}).update(jittered)
+    for signal, found in jittered.items():
+        _note_jitter(notes, signal, found, n)
     if notes is not None:  # a true mode is held like an input; the mode metrics score the hold
         labelled = {"mode": truth_mode} if truth_mode is not None else {}
         labelled |= {f"mode.{name}": series for name, series in (truth_components or {}).items()}
@@ -762,24 +817,23 @@ def _hold_modes(
     grid: IntArray,
     dt_ns: int,
     tolerance: int,
-    jitter: dict[str, float] | None = None,
+    jitter: dict[str, Any] | None = None,
     label: str = "mode",
 ) -> IntArray:
-    """The true mode (code) at each grid point, held like an input (:func:`jittered_start`).
+    """The true mode (code) at each grid point, held like an input (:func:`jittered_index`).
 
-    A jittered series' largest offset goes into ``jitter`` under ``the true <label>``.
+    A jittered series' :class:`Jittered` goes into ``jitter`` under ``the true <label>``.
     """
     if series.time_ns.size == 0:
         raise LogError(f"{what} ({field_word} {series.name!r}) has no samples")
     start = on_grid(series.time_ns, grid, tolerance)
-    if start < 0:
-        start, offset = jittered_start(series.time_ns, grid, tolerance, dt_ns)
-        if start >= 0 and jitter is not None:
-            jitter[f"the true {label}"] = offset
     if start >= 0:  # the codes at the grid points, without an index array
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
         return on
-    index = hold_index(series.time_ns, grid, tolerance)
+    found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
+    if found is not None and jitter is not None:
+        jitter[f"the true {label}"] = found
+    index = found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
     before = index < 0
     modes: IntArray = series.codes[np.maximum(index, 0)].astype(np.int64)
     # a grid point within half a step of the first sample takes it, as the nearest sample;
@@ -787,6 +841,15 @@ def _hold_modes(
     first = int(series.time_ns[0])
     modes[before & (2 * (first - grid) > dt_ns)] = NO_TRUE_MODE
     return modes
+
+
+def _note_jitter(notes: dict[str, Any] | None, signal: str, found: Jittered, n: int) -> None:
+    """Record a jittered series: its jitter (s), and the grid points it held, if any."""
+    if notes is None:
+        return
+    notes.setdefault("jitter", {})[signal] = found.jitter
+    if found.held:
+        notes.setdefault("jitter_held", {})[signal] = {"points": found.held, "of": n}
 
 
 def _truth_start(series: LabelSeries, codes: IntArray, grid: IntArray) -> dict[str, Any] | None:

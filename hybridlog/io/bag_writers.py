@@ -106,6 +106,12 @@ def log_format(path: str | os.PathLike[str], format: str | None) -> str:
     suffix = Path(path).suffix.lower()
     if suffix in SUFFIX_FORMATS:
         return SUFFIX_FORMATS[suffix]
+    if suffix == ".db3":  # read alone, written only inside a bag folder
+        stem = Path(path).with_suffix("")
+        raise OptionError(
+            f"{path}: a ROS 2 sqlite3 bag is written as a folder (metadata.yaml and its .db3 "
+            f"file): --out {stem} --format ros2-sqlite3 writes {stem / stem.name}.db3"
+        )
     raise OptionError(
         f"{path}: cannot tell the log format from suffix {suffix or '(none)'!r}; use "
         f"{', '.join(SUFFIX_FORMATS)} or --format ros2-sqlite3|ros2-mcap for a ROS 2 bag folder"
@@ -217,6 +223,7 @@ def check_log_target(
     if chosen.startswith("ros2-"):
         _check_outside(path)
         check_dir_target(path, force=force, ours=written_by_hybridlog, written=bag_files)
+        _check_folder_name(path, chosen)
     else:
         check_file_target(path, force=force)
     return chosen
@@ -242,6 +249,29 @@ def _check_outside(path: PathLike) -> None:
 
 #: The row of :data:`hybridlog.io.formats.FORMATS` that reads each file format written.
 _READ_AS = {"csv": "csv", "parquet": "parquet", "mcap": "mcap", "bag": "ros1-bag"}
+
+
+def _check_folder_name(path: PathLike, chosen: str) -> None:
+    """Refuse a ROS 2 bag folder named like a log file (``x.db3``, ``x.mcap``).
+
+    The folder's storage file is named after it: ``--out x.db3 --format ros2-sqlite3`` made
+    a folder ``x.db3/`` holding ``x.db3.db3``, where a user asking for ``x.db3`` meant the
+    file (which hybridlog reads alone, but writes only inside a bag folder).
+    """
+    from hybridlog.io.formats import FORMATS
+
+    name = Path(path)
+    suffix = name.suffix.lower()
+    named = next((f for f in FORMATS if not f.directory and suffix in f.suffixes), None)
+    if named is None:
+        return
+    storage = ".db3" if chosen == "ros2-sqlite3" else ".mcap"
+    stem = name.with_suffix("")
+    raise OptionError(
+        f"{path}: a ROS 2 bag is a folder (metadata.yaml and the {storage} file named after "
+        f"the folder), not a file named *{suffix} like {named.what}; name the folder without "
+        f"{suffix}: --out {stem} writes {stem / stem.name}{storage}"
+    )
 
 
 def _check_file_name(path: PathLike, chosen: str) -> None:

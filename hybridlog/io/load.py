@@ -30,7 +30,7 @@ from hybridlog.io.mapping import (
     resolve_signal_map,
 )
 from hybridlog.io.options import ReadOptions
-from hybridlog.io.source import LabelSeries, Series, format_ns
+from hybridlog.io.source import FieldKey, LabelSeries, Series, format_ns
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
 
 Locate = Callable[[str, int], str]
@@ -370,7 +370,10 @@ def _without_empty_truth(
 
 
 def _truth_sharing(
-    mapping: SignalMap, field_key: Callable[[str], str], inputs: Sequence[str], field_word: str
+    mapping: SignalMap,
+    field_key: Callable[[str], FieldKey],
+    inputs: Sequence[str],
+    field_word: str,
 ) -> list[str]:
     """Ground truth read from the field of an input or output, one entry each.
 

@@ -36,7 +36,9 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 ``--map``; :attr:`SignalMap.unusable_truth` says why, for the report.
 
 One field never feeds two inputs or outputs (by ``--map``, ``[signals]`` or default; two
-spellings of one field are one, ``LogSource.field_key``): refused, naming both.  Where each
+spellings of one field are one, ``LogSource.field_key``: ``q[2]`` and ``q[-1]`` of an array
+of three): refused, naming both; so are indices from both ends of an array whose length is
+known only per message, one element in messages of some length.  Where each
 symbol's field came from is kept (:attr:`SignalMap.origins`) for the report's
 ``reading.fields``.
 
@@ -55,7 +57,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.io.source import closest_names, non_ascii
+from hybridlog.io.source import FieldKey, closest_names, non_ascii
 
 TRUTH_PREFIX = "truth."
 TRUTH_MODE = "truth.mode"
@@ -315,7 +317,7 @@ def resolve_signal_map(
     field_word: str = "column",
     message_paths: bool = False,
     explain: Callable[[str, bool], str | None] | None = None,
-    field_key: Callable[[str], str] | None = None,
+    field_key: Callable[[str], FieldKey] | None = None,
 ) -> SignalMap:
     """Choose the log field of every symbol (see the module docstring for the order).
 
@@ -464,7 +466,7 @@ def resolve_signal_map(
         {**input_fields, **output_fields},
         inputs,
         origins,
-        field_key or (lambda name: name),
+        field_key or (lambda name: (name, ())),
     )
     # a [components] model enumerates no modes of its own: a ``mode`` field (a controller's
     # mode, joint labels) is no truth of it, its components' true modes are
@@ -497,7 +499,7 @@ def _refuse_shared(
     chosen: Mapping[str, str],
     inputs: Sequence[str],
     origins: Mapping[str, str],
-    field_key: Callable[[str], str],
+    field_key: Callable[[str], FieldKey],
 ) -> None:
     """Refuse one field feeding two inputs or outputs (``--map u=y1`` with an output ``y1``).
 
@@ -507,31 +509,66 @@ def _refuse_shared(
     what a log of distinct signals means.  Ground truth may share a field with an output (a
     state measured directly): the report notes it (``reading.truth_shared``).
 
+    Two spellings of one field are one (``LogSource.field_key``): ``q[2]`` and ``q[-1]`` of
+    an array of three.  Into an array whose length is known only per message (a sequence),
+    an index from the start and one from the end read one element in messages of some
+    length (``q[2]`` and ``q[-1]`` in those of three): refused too, asking for both indices
+    counted from one end.
+
     Raises
     ------
     LogError
         Naming both symbols, the field and where each came from.
     """
-    owner: dict[str, str] = {}
+    owner: dict[FieldKey, str] = {}
+
+    def described(symbol: str) -> str:
+        origin = _origin(symbol, chosen[symbol], origins.get(symbol, "default"))
+        return f"{_describe(symbol, inputs)} {origin}"
+
     for symbol, name in chosen.items():
-        first = owner.setdefault(field_key(name), symbol)
+        key = field_key(name)
+        for other_key, other in owner.items():
+            length = _one_element_at(key, other_key)
+            if length is not None:
+                raise LogError(
+                    f"{source}: {described(other)} and {described(symbol)} index one array "
+                    f"from its start and from its end ({chosen[other]!r} and {name!r}), one "
+                    f"element where the array holds {length}; count both indices from one end"
+                )
+        first = owner.setdefault(key, symbol)
         if first == symbol:
             continue
-        both = [
-            f"{_describe(s, inputs)} {_origin(s, chosen[s], origins.get(s, 'default'))}"
-            for s in (first, symbol)
-        ]
         named = (
             repr(name)
             if chosen[first] == name
             else f"({chosen[first]!r} and {name!r} name one {field_word})"
         )
         raise LogError(
-            f"{source}: {both[0]} and {both[1]} read the same {field_word} {named}: one "
-            f"{field_word} feeds one input or output (an input equal to an output, or one "
-            f"measurement counted twice, is a mapping slip); map one of them to another "
-            f"{field_word} with --map"
+            f"{source}: {described(first)} and {described(symbol)} read the same {field_word} "
+            f"{named}: one {field_word} feeds one input or output (an input equal to an "
+            f"output, or one measurement counted twice, is a mapping slip); map one of them "
+            f"to another {field_word} with --map"
         )
+
+
+def _one_element_at(a: FieldKey, b: FieldKey) -> int | None:
+    """The array length at which two fields that index one array from both ends meet.
+
+    ``("/q", ("data", 2))`` and ``("/q", ("data", -1))``: 3.  ``None`` when the two differ in
+    a name or in an index counted from the same end (never one element), or are equal.
+    """
+    (column_a, steps_a), (column_b, steps_b) = a, b
+    if column_a != column_b or len(steps_a) != len(steps_b) or steps_a == steps_b:
+        return None
+    meets: int | None = None
+    for x, y in zip(steps_a, steps_b, strict=True):
+        if x == y:
+            continue
+        if not (isinstance(x, int) and isinstance(y, int)) or (x < 0) == (y < 0):
+            return None
+        meets = meets or max(x, y) - min(x, y)
+    return meets
 
 
 def _origin(symbol: str, name: str, origin: str) -> str:

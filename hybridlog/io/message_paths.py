@@ -269,6 +269,28 @@ def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Targe
     return _target(desc)
 
 
+def from_the_start(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> tuple[Step, ...]:
+    """``steps`` with every negative index into a fixed-size array counted from its start.
+
+    ``q[-1]`` of a ``float64[3]`` is ``q[2]``: one element, two spellings.  An index into a
+    sequence, whose length is known only per message, stays as written.  ``steps`` fit the
+    definition (:func:`check_path` passed them).
+    """
+    desc: Fielddesc = (NAME, msgtype)
+    counted: list[Step] = []
+    for step in steps:
+        node = int(desc[0])
+        if node == NAME:
+            desc = dict(typedefs[desc[1]][1])[str(step)]
+        else:  # an array or a sequence: check_path let nothing else take a step
+            sub, length = desc[1]
+            if node == ARRAY and isinstance(step, int) and step < 0:
+                step += int(length)
+            desc = sub
+        counted.append(step)
+    return tuple(counted)
+
+
 def _target(desc: Fielddesc) -> Target:
     node = int(desc[0])
     if node == BASE:

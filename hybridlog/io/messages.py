@@ -63,6 +63,7 @@ from hybridlog.io.message_paths import (
     decode_each,
     evaluate,
     format_steps,
+    from_the_start,
     leaf_value,
     leaves,
     split_paths,
@@ -70,6 +71,7 @@ from hybridlog.io.message_paths import (
 )
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
+    FieldKey,
     LabelSeries,
     Reading,
     Series,
@@ -303,13 +305,16 @@ class MessageSource(abc.ABC):
                 return str(err).removeprefix(f"{self.path}: ")
         return None
 
-    def field_key(self, name: str) -> str:
+    def field_key(self, name: str) -> FieldKey:
         """The topic and steps ``name`` reads (:meth:`LogSource.field_key`)."""
         try:
             path = self.resolve(name, "any")
         except PathError:
-            return name
-        return f'"{path.topic}"{format_steps(path.steps)}'
+            return name, ()
+        topic = self._topics[path.topic]
+        if topic.typedefs is None:  # JSON: arrays of any length
+            return path.topic, path.steps
+        return path.topic, from_the_start(topic.typedefs, topic.msgtype, path.steps)
 
     def resolve(self, text: str, want: str) -> MessagePath:
         """Parse a path and check it against the topic's definition.

@@ -30,6 +30,11 @@ MAX_SECONDS = 9.2e9
 BLOCK = 1 << 16
 """Elements per block where a full-size array is converted or checked in blocks."""
 
+FieldKey = tuple[str, tuple[str | int, ...]]
+"""What a field name names (:meth:`LogSource.field_key`): its column or topic, and the steps
+into it (field names and indices, each index into an array of known length counted from its
+start)."""
+
 
 @dataclass(frozen=True)
 class Series:
@@ -158,12 +163,13 @@ class LogSource(Protocol):
         """
         ...
 
-    def field_key(self, name: str) -> str:
+    def field_key(self, name: str) -> FieldKey:
         """What ``name`` names, the same for every spelling of one field.
 
         ``/y1/data`` and ``/y1.data`` of a message log name one field, as a path with spaces
-        around it names the field without; mapping compares these to find one field given
-        to two symbols.  ``name`` itself when it names no field.
+        around it names the field without, and ``q[-1]`` names ``q[2]`` of an array of three;
+        mapping compares these to find one field given to two symbols.  ``(name, ())`` when
+        it names no field.
         """
         ...
 

@@ -37,6 +37,7 @@ from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import (
     MAX_SECONDS,
     NS_PER_S,
+    FieldKey,
     LabelSeries,
     Reading,
     Series,
@@ -54,7 +55,15 @@ from hybridlog.io.summary import (
     round_span,
     seconds_resolution_ns,
 )
-from hybridlog.io.table_paths import ColumnPath, expand, field_names, is_nested, leaf_values
+from hybridlog.io.table_paths import (
+    ARRAY,
+    STRUCT,
+    ColumnPath,
+    expand,
+    field_names,
+    is_nested,
+    leaf_values,
+)
 from hybridlog.io.table_paths import resolve as resolve_path
 from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
@@ -125,6 +134,8 @@ class TableSource:
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
         # Parquet: the fields inside struct, list and array columns (``pose.x``, ``q[1]``)
         self._paths: dict[str, ColumnPath] = {}
+        # Parquet: the one length of each list indexed from its end (``field_key``), or None
+        self._list_lengths: dict[tuple[str, tuple[str | int, ...]], int | None] = {}
         # Row (0-based, data rows only) of every sample returned by ``read``, per column.
         self._rows: dict[str, IntArray] = {}
         self._time_resolution_ns = 1.0
@@ -187,13 +198,41 @@ class TableSource:
             self._paths[name] = path
         return path
 
-    def field_key(self, name: str) -> str:
-        """The column and steps ``name`` reads (:meth:`LogSource.field_key`)."""
+    def field_key(self, name: str) -> FieldKey:
+        """The column and steps ``name`` reads (:meth:`LogSource.field_key`).
+
+        A negative index counts from the start of its fixed-size array, or of its lists when
+        they hold one length (as reading them requires): ``q[-1]`` of lists of three is
+        ``q[2]``.
+        """
         try:
             path = self._path(name)
         except PathError:
-            return name
-        return repr((path.column, path.steps))
+            return name, ()
+        steps: list[str | int] = []
+        dtype: Any = self._schema.get(path.column)
+        for depth, (step, kind) in enumerate(zip(path.steps, path.kinds, strict=True)):
+            if kind == STRUCT:
+                dtype = {f.name: f.dtype for f in dtype.fields}[step]
+            else:
+                if isinstance(step, int) and step < 0:
+                    length = dtype.size if kind == ARRAY else self._list_length(path, depth)
+                    step += length or 0
+                dtype = dtype.inner
+            steps.append(step)
+        return path.column, tuple(steps)
+
+    def _list_length(self, path: ColumnPath, depth: int) -> int | None:
+        """The one length of the lists ``path`` indexes at ``depth``; ``None`` if not one.
+
+        Read once per list (mapping asks for every symbol's key more than once).
+        """
+        key = (path.column, path.steps[:depth])
+        if key not in self._list_lengths:
+            frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
+            lengths = frame.select(path.expr(depth).list.len()).to_series().drop_nulls().unique()
+            self._list_lengths[key] = int(lengths[0]) if lengths.len() == 1 else None
+        return self._list_lengths[key]
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
         """``None`` for a field of the table, else why not: the time column, or the closest.

@@ -846,22 +846,29 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for symbol, count in (reading.get(key) or {}).items()
     ]
     notes += [
-        f"WARNING: input {symbol} has no sample from t = {format_time(hold['start'])} to "
-        f"{format_time(hold['end'])} s ({_held_for(hold)} s, longer than max_gap): held at "
-        "its last value, as an input published only when it changes is (zero-order hold)"
+        f"WARNING: input {symbol} has no sample {_hold_span(hold)}: held at its last value, "
+        "as an input published only when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
+    dropped = reading.get("jitter_held") or {}
     notes += [
         f"NOTE: {signal} was recorded once per sample time by a clock that jitters (samples "
         f"up to {jitter * 1e3:.3g} ms from their sample times, some after them): "
         "each sample time takes its own sample, where the zero-order hold would have taken "
         "the one before for every late one, a one-step delay at random"
+        + (
+            f"; {dropped[signal]['points']:,} of {dropped[signal]['of']:,} sample times "
+            f"{'has' if dropped[signal]['points'] == 1 else 'have'} no sample of "
+            f"{'its' if dropped[signal]['points'] == 1 else 'their'} own (dropped by the log) "
+            f"and {'holds' if dropped[signal]['points'] == 1 else 'hold'} the one before"
+            if signal in dropped
+            else ""
+        )
         for signal, jitter in (reading.get("jitter") or {}).items()
     ]
     notes += [
-        f"NOTE: the true {label} has no sample from t = {format_time(hold['start'])} to "
-        f"{format_time(hold['end'])} s "
-        f"({_held_for(hold)} s, longer than max_gap): held at its last value, against which "
+        f"NOTE: the true {label} has no sample {_hold_span(hold)}: held at its last value, "
+        "against which "
         "the mode metrics score those samples (right for a mode published only when it "
         "changes; if the log stopped recording it, they score a guess)"
         for label, hold in (reading.get("truth_held") or {}).items()
@@ -938,6 +945,21 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"{reading.get('stopped_at')}"
         )
     return tuple(notes)
+
+
+def _hold_span(hold: Mapping[str, float]) -> str:
+    """Where a signal of ``reading.held`` or ``truth_held`` has no sample, and how often.
+
+    ``from t = 10 to 40 s (30 s, longer than max_gap)``; ``in 30 stretches longer than
+    max_gap, the longest from t = 290 to 300 s (10 s)`` where there are several.
+    """
+    span = f"from t = {format_time(hold['start'])} to {format_time(hold['end'])} s"
+    count = int(hold.get("holds", 1))
+    if count > 1:
+        return (
+            f"in {count:,} stretches longer than max_gap, the longest {span} ({_held_for(hold)} s)"
+        )
+    return f"{span} ({_held_for(hold)} s, longer than max_gap)"
 
 
 def _held_for(hold: Mapping[str, float]) -> str:

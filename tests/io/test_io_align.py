@@ -365,7 +365,7 @@ def test_on_grid_shortcut_agrees_with_the_search(
     from hybridlog.io import align as align_module
 
     monkeypatch = pytest.MonkeyPatch()
-    monkeypatch.setattr(align_module, "jittered_start", lambda *args: (-1, 0.0))
+    monkeypatch.setattr(align_module, "jittered_index", lambda *args: None)
 
     n = len(jitter_ns)
     time_ns = np.arange(n, dtype=np.int64) * 10_000_000 + np.array(jitter_ns, dtype=np.int64)
@@ -497,17 +497,22 @@ def test_an_output_slower_than_max_gap_says_so() -> None:
         f"s: --split-gaps: output 'y' (column 'y') leaves no piece of more than one sample{hint}"
     )
     # a --max-gap shorter than the log's (and the model's) step: steps of dt are no gaps
-    # (the log is read whole without the hole), so the hole alone is named, without a hint
+    # (the log is read whole without the hole), so the hole alone is named, without the dt
+    # hint: the options that take a log with a hole are named instead
+    remedy = (
+        "; --max-gap SECONDS accepts longer gaps, --split-gaps analyses the longest piece "
+        "between them"
+    )
     seconds = np.delete(np.arange(20) * 1.0, [5, 6, 7])
     holed_at_dt = series("y", seconds, seconds)
     with pytest.raises(LogError) as error:
         align_signals(source="s", dt=1.0, inputs={"u": u}, outputs={"y": holed_at_dt}, max_gap=0.5)
-    assert str(error.value).endswith("(4 s > max_gap 0.5 s)")
-    # a log at the model's rate with one hole gets no hint
+    assert str(error.value).endswith(f"(4 s > max_gap 0.5 s){remedy}")
+    # a log at the model's rate with one hole gets no dt hint
     holed = series("y", np.delete(np.arange(200) * 0.1, range(50, 60)), np.arange(190))
     with pytest.raises(LogError) as error:
         align_signals(source="s", dt=0.1, inputs={"u": u}, outputs={"y": holed})
-    assert str(error.value).endswith("(1.1 s > max_gap 0.5 s)")
+    assert str(error.value).endswith(f"(1.1 s > max_gap 0.5 s){remedy}")
 
 
 def test_a_log_in_nanoseconds_is_refused_before_its_grid_is_made(monkeypatch) -> None:
@@ -682,10 +687,27 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
     notes: dict[str, Any] = {}
     aligned = align_signals(source="log", dt=0.1, inputs={"u": u}, outputs={"y": y}, notes=notes)
     assert aligned.inputs[-1, 0] == 4.0 and aligned.inputs[55, 0] == 2.0
-    assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0}}
+    assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 4}}
     assert _reading_notes(notes) == (
-        "WARNING: input u has no sample from t = 10 to 40 s (30 s, longer than max_gap): held "
-        "at its last value, as an input published only when it changes is (zero-order hold)",
+        "WARNING: input u has no sample in 4 stretches longer than max_gap, the longest from "
+        "t = 10 to 40 s (30 s): held at its last value, as an input published only when it "
+        "changes is (zero-order hold)",
+    )
+    notes = {}
+    align_signals(
+        source="log", dt=0.1, inputs={"u": series("cmd", [0.0, 0.3, 10.0], [1.0, 2.0, 3.0])},
+        outputs={"y": y}, notes=notes,
+    )  # fmt: skip
+    assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 2}}
+    notes = {}
+    align_signals(
+        source="log", dt=0.1, inputs={"u": series("cmd", [0.0, 0.3, 0.6], [1.0, 2.0, 3.0])},
+        outputs={"y": y}, notes=notes,
+    )  # fmt: skip
+    assert _reading_notes(notes) == (
+        "WARNING: input u has no sample from t = 0.6 to 40 s (39.4 s, longer than max_gap): "
+        "held at its last value, as an input published only when it changes is (zero-order "
+        "hold)",
     )
     # every hold within max_gap: nothing to say
     notes = {}
@@ -694,6 +716,34 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
         notes=notes,
     )  # fmt: skip
     assert "held" not in notes
+
+
+def test_an_input_held_over_many_stretches_is_counted_not_named_as_one_gap() -> None:
+    """An input sampled every 10 steps (max_gap 5) read "no sample from t = 290 to 300 s",
+    its last hold, as if it had one gap; the note now counts the holds over max_gap."""
+    from hybridlog.report.build import _reading_notes
+
+    seconds = np.arange(0.0, 301.0)
+    y = series("level", seconds, np.cos(seconds))
+    u = series("cmd", seconds[::10], seconds[::10])
+    truth = LabelSeries(
+        "mode", seconds_to_ns(np.array([0.0, 101.0, 201.0])), np.array([0, 1, 0]), ("a", "b")
+    )
+    notes: dict[str, Any] = {}
+    align_signals(
+        source="log", dt=1.0, inputs={"u": u}, outputs={"y": y}, truth_mode=truth, notes=notes
+    )
+    assert notes["held"] == {"u": {"start": 290.0, "end": 300.0, "seconds": 10.0, "holds": 30}}
+    assert notes["truth_held"]["mode"]["holds"] == 3
+    said = _reading_notes(notes)
+    assert said[0].startswith(
+        "WARNING: input u has no sample in 30 stretches longer than max_gap, the longest from "
+        "t = 290 to 300 s (10 s): held"
+    )
+    assert said[1].startswith(
+        "NOTE: the true mode has no sample in 3 stretches longer than max_gap, the longest "
+        "from t = 0 to 101 s (101 s): held"
+    )
 
 
 def test_a_true_mode_held_longer_than_max_gap_is_noted() -> None:
@@ -712,9 +762,14 @@ def test_a_true_mode_held_longer_than_max_gap_is_noted() -> None:
         truth_mode=stopped, notes=notes,
     )  # fmt: skip
     assert aligned.truth_modes is not None and aligned.truth_modes[-1] == 0  # still held
-    assert notes["truth_held"] == {"mode": {"start": 10.0, "end": 40.0, "seconds": 30.0}}
+    assert notes["truth_held"] == {
+        "mode": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 3}
+    }
     (note,) = _reading_notes(notes)
-    assert note.startswith("NOTE: the true mode has no sample from t = 10 to 40 s (30 s, longer")
+    assert note.startswith(
+        "NOTE: the true mode has no sample in 3 stretches longer than max_gap, the longest "
+        "from t = 10 to 40 s (30 s): held"
+    )
     # sampled with every output sample (as simulate writes it): nothing to say
     notes = {}
     every = LabelSeries("mode", seconds_to_ns(seconds), np.zeros(seconds.size, np.int64), ("a",))

@@ -268,7 +268,8 @@ def test_errors_of_alignment_call_a_message_path_a_field_not_a_column(tmp_path: 
         load(log, "u=/u.data", "y=/y.data")
     assert str(error.value) == (
         f"{log}: gap in output 'y' (field '/y.data'): no sample from t=1.9 s to t=3 s "
-        "(1.1 s > max_gap 0.5 s)"
+        "(1.1 s > max_gap 0.5 s); --max-gap SECONDS accepts longer gaps, --split-gaps analyses "
+        "the longest piece between them"
     )
 
 
