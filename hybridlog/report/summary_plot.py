@@ -7,8 +7,10 @@ its panel says so and shows the filter's own beside it (grey rings, a line to th
 value: the gain of each log); VAF and MSE are the filter's one-step-ahead prediction either
 way.
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
-at the bottom of every panel.  Drawn with matplotlib's Agg canvas (no pyplot, no global
-state), like the per-log plots (:mod:`hybridlog.report.plots`).
+at the bottom of every panel; a mode accuracy over part of its log (a true mode that starts
+late: summary.csv's ``mode_samples``) is a triangle, not a dot.  Drawn with matplotlib's
+Agg canvas (no pyplot, no global state), like the per-log plots
+(:mod:`hybridlog.report.plots`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.errors import excerpt
+from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.markdown import plural
 from hybridlog.report.plot_data import plain_text
 from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead
@@ -35,6 +38,8 @@ MAX_LABELS = 40
 
 _OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
 _PANELS = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
+_PARTIAL_MARKER, _PARTIAL_GLYPH = "^", "▲"
+"""How a mode accuracy over part of its log is drawn, and named in the panel's label."""
 _READY: dict[int, tuple[Figure, list[Axes]]] = {}
 """The empty figure made ahead for a number of logs (:func:`prepare_summary_figure`)."""
 
@@ -49,6 +54,11 @@ def _value(row: BatchRow, metric: str) -> float | None:
         "mse": report.mse,
     }[metric]
     return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _partial(row: BatchRow) -> bool:
+    """Whether the log's mode accuracy is over part of it (:func:`mode_coverage`)."""
+    return row.report is not None and mode_coverage(row.report) is not None
 
 
 def _filtered_beside(ax: Axes, rows: Sequence[BatchRow], offline: Sequence[float | None]) -> None:
@@ -138,11 +148,20 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             (_OK, [row.passed for row in rows]),
             (_MISSED, [row.status != "failed" and bool(row.missed) for row in rows]),
         )
+        # a mode accuracy over part of its log (a true mode that starts late) is a triangle
+        partial = [metric == "mode_accuracy" and _partial(row) for row in rows]
+        if any(partial):
+            label += f"\n{_PARTIAL_GLYPH} over part of the log"
         for colour, keep in groups:
-            shown = [(k, v) for k, v in enumerate(values) if keep[k] and v is not None]
-            if shown:
-                xs, ys = zip(*shown, strict=True)
-                ax.scatter(xs, ys, s=16, color=colour, zorder=3)
+            for marker, over_part in (("o", False), (_PARTIAL_MARKER, True)):
+                shown = [
+                    (k, v)
+                    for k, v in enumerate(values)
+                    if keep[k] and v is not None and partial[k] == over_part
+                ]
+                if shown:
+                    xs, ys = zip(*shown, strict=True)
+                    ax.scatter(xs, ys, s=16, color=colour, marker=marker, zorder=3)
         if metric == "mode_accuracy" and offline:  # before the limits are fixed below
             _filtered_beside(ax, rows, values)
         crosses = [k for k, row in enumerate(rows) if row.status == "failed"]

@@ -105,3 +105,32 @@ def test_a_note_every_report_has_is_written_once() -> None:
     alone = comparison_markdown("m on log", "| table |", {"imm": reports["imm"]})
     assert "## Notes on every estimator" not in alone
     assert f"## Notes on `imm`\n\n- {TWINS}\n- imm's" in alone
+
+
+def test_summary_png_draws_a_mode_accuracy_over_part_of_its_log_as_a_triangle() -> None:
+    from matplotlib.markers import MarkerStyle
+
+    from hybridlog.report.summary_plot import summary_figure
+
+    whole = read_report(REPORT)
+    rows = [
+        BatchRow("whole.csv", "whole.csv", "done", whole, None, ()),
+        BatchRow("late.csv", "late.csv", "done", late(whole), None, ()),
+    ]
+    fig = summary_figure("m · imm", rows)
+    vaf_axes, accuracy_axes, _ = fig.axes
+    triangle = MarkerStyle("^").get_path().vertices  # scatter draws it at half this size
+
+    def drawn(ax, shape) -> list[float]:
+        return [
+            float(x)
+            for c in ax.collections
+            if c.get_paths()[0].vertices.shape == shape.shape
+            and (2 * c.get_paths()[0].vertices == shape).all()
+            for x, _ in c.get_offsets()
+        ]
+
+    assert drawn(accuracy_axes, triangle) == [1.0]  # the late log alone
+    assert drawn(vaf_axes, triangle) == []  # its VAF is over the whole log
+    assert "▲ over part of the log" in accuracy_axes.get_ylabel()
+    assert "over part" not in summary_figure("m · imm", rows[:1]).axes[1].get_ylabel()
