@@ -6,7 +6,7 @@ import re
 import numpy as np
 import pytest
 
-from hybridlog.errors import ModelError
+from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators import prepare
 from hybridlog.estimators.sliding_mode import run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
@@ -212,3 +212,24 @@ def test_a_gain_that_slides_is_not_refused(test1):
         result = prepare(model, None, {"v_max": v_max}).run(model, log.signals(model))
         error = np.abs(result.state_means - log.outputs).max(axis=0)
         assert np.all(error <= np.abs(log.outputs).max(axis=0))
+
+
+@pytest.mark.parametrize("threshold", [0.0, 1.0])
+def test_a_threshold_that_leaves_no_margin_is_refused(threshold):
+    # threshold = 0 (or 1) was accepted by the inclusive range [0, 1]: every δ̃_j chattering
+    # around 0 (or 1) was a coin toss, mode accuracy 46 % on TEST 1, exit 0.  Lemma 1's margin
+    # is min(τ, 1 - τ): zero at either end.
+    model = load_model("three_tank_valves")
+    with pytest.raises(
+        OptionError,
+        match=r"^--set threshold=.*: sliding-mode option "
+        r"'threshold': .* leaves no margin .* strictly between 0 and 1",
+    ):
+        prepare(model, None, {"threshold": threshold})
+    text = f"{VALVES}threshold = {threshold}\n"  # the last table: [estimators.sliding-mode]
+    with pytest.raises(
+        ModelError, match=r"^v\.toml: estimators\.sliding-mode\.threshold: .* no margin"
+    ):
+        prepare(parse_model(text, origin="v.toml"), None)
+    for inside in (1e-3, 0.999):
+        assert prepare(model, None, {"threshold": inside}).options.threshold == inside
