@@ -71,3 +71,9 @@ class SlidingModeOptions:
         range=(0.0, 1.0),
         check=inside_the_unit_interval,
     )
+    max_unvouched: float = option(
+        0.5,
+        "largest share of samples whose σ̂ Lemma 1 cannot vouch for (33) before a refusal "
+        "(1: never)",
+        range=(0.0, 1.0),
+    )
