@@ -7,9 +7,12 @@ registry and ``--help`` read them without loading the compiler.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from hybridlog.estimators.options import option
+
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = ["SlidingModeOptions", "inside_the_unit_interval"]
 
@@ -77,3 +80,26 @@ class SlidingModeOptions:
         "(1: never)",
         range=(0.0, 1.0),
     )
+
+    def inert(self, model: HybridModel) -> dict[str, str]:
+        """Options that have no effect with the others' values on ``model``: name → why.
+
+        ``v_max`` is V_M itself: ``gamma`` and ``drift_bound`` give V_M = Γ·Φ̄ (21) only
+        without it; ``--set v_max=0.5 --set gamma=1000`` ran with V_M = 0.5 while
+        report.json recorded gamma = 1000 as an option used.  With one state there is one
+        channel, and ``rows`` gives it V_M as ``uniform`` does.
+        """
+        inert: dict[str, str] = {}
+        if self.v_max is not None:
+            why = (
+                f"v_max = {self.v_max:g} is V_M itself, and {{}} enters only V_M = Γ·Φ̄ (eq. "
+                "(21)) without it; leave it unset, or drop v_max"
+            )
+            inert["gamma"] = why.format("gamma (Γ)")
+            inert["drift_bound"] = why.format("drift_bound (Φ̄)")
+        if model.n_states == 1:
+            inert["channel_gains"] = (
+                f"{model.name} has one state, one channel of eq. (16), whose gain is V_M "
+                "whether uniform or rows"
+            )
+        return inert

@@ -11,6 +11,7 @@ from hybridlog.errors import DivergenceError, ModelError, OptionError
 from hybridlog.estimators import prepare
 from hybridlog.estimators.sliding_mode import run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
+from hybridlog.jobs.analysis import parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import Disturbance, simulate
 from tests.support.model_kinds import CONTINUOUS_TANK, VALVES_BOOLEAN
@@ -287,3 +288,35 @@ def test_a_log_too_short_to_slide_is_refused_as_such(short_log):
     assert message.startswith("three_tank_valves: sliding-mode cannot vouch for σ̂ on 4 of 4 ")
     assert "the log is too short for the observer to slide" in message
     assert "a log of more than 40 samples is needed" in message and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("model_text", "sets", "inert"),
+    [
+        (VALVES, ["v_max=0.5", "gamma=1000"], "gamma"),
+        (VALVES, ["drift_bound=1", "v_max=0.5"], "drift_bound"),
+        (SCALAR, ["channel_gains=rows"], "channel_gains"),
+    ],
+)
+def test_a_set_option_the_others_make_inert_is_refused(tmp_path, model_text, sets, inert):
+    # --set v_max=0.5 --set gamma=1000 ran with V_M = 0.5 and report.json recorded
+    # gamma = 1000 as an option used; on a one-state model rows is uniform
+    path = tmp_path / "m.toml"
+    path.write_text(model_text, encoding="utf-8")
+    model, overrides = parse_sets(sets, path)
+    given = dict(s.split("=") for s in sets)
+    kept = {k: v for k, v in given.items() if k != inert}
+    log = simulate(model, steps=600, seed=2, noise=False)
+    with_it = prepare(model, "sliding-mode", {**kept, inert: given[inert], "max_unvouched": 1.0})
+    without = prepare(model, "sliding-mode", {**kept, "max_unvouched": 1.0})
+    np.testing.assert_array_equal(  # inert indeed: the same run
+        with_it.run(model, log.signals(model)).state_means,
+        without.run(model, log.signals(model)).state_means,
+    )
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, ["sliding-mode"], overrides)
+    assert str(caught.value).startswith(
+        f"--set {inert}={given[inert]}: has no effect on estimator 'sliding-mode': "
+    )
+    kept_model, kept_overrides = parse_sets([f"{k}={v}" for k, v in kept.items()], path)
+    prepare_estimators(kept_model, ["sliding-mode"], kept_overrides)
