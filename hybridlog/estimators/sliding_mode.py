@@ -110,22 +110,28 @@ def channel_gains(
     ``uniform``: ``V_M`` for all (eq. (20) as printed).  ``rows``: each SISO subsystem (16)
     gets its own bound, eq. (17) being per channel (:math:`|\varphi_i| \le \Phi_i`):
     :math:`V_{M,i} = V_M\,\|D_{i,:}\|_1 / \max_l \|D_{l,:}\|_1` with ``D`` at the first
-    sample; :math:`\|D_{i,:}\|_1` bounds the jump of :math:`\dot e_i` at a switch (25), so
-    every channel's transient (26) scales alike, and a channel whose column of ``D`` is small
-    does not chatter more than its share into :math:`\tilde\delta` (30).
+    sample where it is finite and of full column rank (47); :math:`\|D_{i,:}\|_1` bounds the jump of
+    :math:`\dot e_i` at a switch (25), so every channel's transient (26) scales alike, and a
+    channel whose column of ``D`` is small does not chatter more than its share into
+    :math:`\tilde\delta` (30).  (A log starting at an empty tank, ``D`` not finite or
+    rank-deficient there, fell back to ``uniform`` silently, or gave tank 3 all of V_M.)
+    Where no sample has such a ``D`` the gains are ``uniform`` and the run is refused
+    (:func:`_refuse_no_reconstruction`).
     """
-    x = np.ascontiguousarray(signals.outputs[0], dtype=np.float64)
-    n = x.shape[0]
-    if mode == "uniform" or signals.n_samples == 0:
+    x = np.ascontiguousarray(signals.outputs, dtype=np.float64)
+    n = x.shape[1]
+    if mode == "uniform":
         return np.full(n, float(v_max))
-    u = np.ascontiguousarray(signals.inputs[0], dtype=np.float64)
+    u = np.ascontiguousarray(signals.inputs, dtype=np.float64)
     d = np.zeros((n, n_booleans))
-    D(0, x, u, d)
-    rows = np.abs(d).sum(axis=1)
-    if not np.all(np.isfinite(rows)) or rows.max() <= 0.0:
-        return np.full(n, float(v_max))
-    scaled: FloatArray = float(v_max) * rows / rows.max()
-    return scaled
+    for k in range(signals.n_samples):
+        with np.errstate(all="ignore"):
+            D(0, x[k], u[k], d)
+        rows = np.abs(d).sum(axis=1)
+        if np.all(np.isfinite(rows)) and np.linalg.matrix_rank(d) == n_booleans:
+            scaled: FloatArray = float(v_max) * rows / rows.max()
+            return scaled
+    return np.full(n, float(v_max))
 
 
 def sliding_mode_steps(

@@ -9,9 +9,10 @@ import pytest
 
 from hybridlog.errors import DivergenceError, ModelError, OptionError
 from hybridlog.estimators import prepare
-from hybridlog.estimators.sliding_mode import run_sliding_mode
+from hybridlog.estimators.sliding_mode import channel_gains, run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
 from hybridlog.jobs.analysis import parse_sets, prepare_estimators
+from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import Disturbance, simulate
 from tests.support.model_kinds import CONTINUOUS_TANK, VALVES_BOOLEAN
@@ -320,3 +321,18 @@ def test_a_set_option_the_others_make_inert_is_refused(tmp_path, model_text, set
     )
     kept_model, kept_overrides = parse_sets([f"{k}={v}" for k, v in kept.items()], path)
     prepare_estimators(kept_model, ["sliding-mode"], kept_overrides)
+
+
+@pytest.mark.parametrize("first", [0.0, -1e-6])
+def test_rows_gains_are_read_where_d_is_finite_not_at_an_empty_first_sample(test1, first):
+    # A log starting with tank 3 empty (β_3 = 0: D not finite) or just below 0 (noise) ran
+    # channel_gains = "rows" as uniform (V_M on every channel) without a word
+    model, log = test1
+    signals = log.signals(model)
+    outputs = signals.outputs.copy()
+    outputs[0, 2] = first
+    D = compile_continuous(model).D
+    gains = channel_gains(D, replace(signals, outputs=outputs), 3, 0.5, "rows")
+    expected = channel_gains(D, signals, 3, 0.5, "rows")
+    assert expected[0] == 0.5 and expected[2] < 0.2
+    np.testing.assert_allclose(gains, expected, rtol=1e-3)
