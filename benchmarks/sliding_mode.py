@@ -63,7 +63,9 @@ def bench_sliding_mode(quick: bool, repeat: int) -> list[Result]:
     assert code.G is not None and code.D is not None
     n = min(REFERENCE_STEPS, steps)
     h = model.timebase.step
-    deltas = np.stack([c.values for c in result.timeline_columns], axis=1)
+    deltas = np.stack(
+        [c.values for c in result.timeline_columns if c.name.startswith("delta_tilde.")], axis=1
+    )
     w = np.zeros((n + 1, 3))
     matrix = np.zeros((3, 3))
     for k in range(n + 1):

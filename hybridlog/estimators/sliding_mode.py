@@ -42,7 +42,9 @@ Result: the mode is :math:`\hat\sigma`; the mode probabilities are the one-hot v
 :math:`\hat\sigma` (the observer computes no probabilities); the state estimate is the
 observer state ``z``; the output prediction of sample ``k`` is ``h`` at ``z(k)`` (made from
 the samples before ``k``) in the mode :math:`\hat\sigma(k-1)`; the timeline has the
-unthresholded :math:`\tilde\delta` columns ``delta_tilde.<boolean>``.
+unthresholded :math:`\tilde\delta` columns ``delta_tilde.<boolean>`` and ``vouched``: 1
+where Lemma 1 can vouch for :math:`\hat\sigma`, 0 where the log shows that it cannot
+(:func:`unvouched`); a run with more than ``max_unvouched`` of its samples at 0 is refused.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import numpy.typing as npt
 
 from hybridlog.errors import DivergenceError
 from hybridlog.estimators.options import options_dict
@@ -62,7 +65,22 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 from hybridlog.times import format_time
 
-__all__ = ["channel_gains", "gain", "run_sliding_mode", "sliding_mode_steps"]
+__all__ = [
+    "MARGIN",
+    "SLIP_WINDOW_S",
+    "channel_gains",
+    "gain",
+    "run_sliding_mode",
+    "sliding_mode_steps",
+    "unvouched",
+]
+
+MARGIN = 0.5
+"""Lemma 1's margin (33): the thresholded δ̂ is exact where ``|δ̃_j - δ_j| < 0.5``."""
+
+SLIP_WINDOW_S = 0.02
+"""Window of the slip (s): longer than the sampled observer's chattering (a few steps), so
+that it averages out, and far shorter than a dwell (0.5 s in the paper's example)."""
 
 
 def gain(model: HybridModel, options: SlidingModeOptions) -> float:
@@ -92,22 +110,28 @@ def channel_gains(
     ``uniform``: ``V_M`` for all (eq. (20) as printed).  ``rows``: each SISO subsystem (16)
     gets its own bound, eq. (17) being per channel (:math:`|\varphi_i| \le \Phi_i`):
     :math:`V_{M,i} = V_M\,\|D_{i,:}\|_1 / \max_l \|D_{l,:}\|_1` with ``D`` at the first
-    sample; :math:`\|D_{i,:}\|_1` bounds the jump of :math:`\dot e_i` at a switch (25), so
-    every channel's transient (26) scales alike, and a channel whose column of ``D`` is small
-    does not chatter more than its share into :math:`\tilde\delta` (30).
+    sample where it is finite and of full column rank (47); :math:`\|D_{i,:}\|_1` bounds the jump of
+    :math:`\dot e_i` at a switch (25), so every channel's transient (26) scales alike, and a
+    channel whose column of ``D`` is small does not chatter more than its share into
+    :math:`\tilde\delta` (30).  (A log starting at an empty tank, ``D`` not finite or
+    rank-deficient there, fell back to ``uniform`` silently, or gave tank 3 all of V_M.)
+    Where no sample has such a ``D`` the gains are ``uniform`` and the run is refused
+    (:func:`_refuse_no_reconstruction`).
     """
-    x = np.ascontiguousarray(signals.outputs[0], dtype=np.float64)
-    n = x.shape[0]
-    if mode == "uniform" or signals.n_samples == 0:
+    x = np.ascontiguousarray(signals.outputs, dtype=np.float64)
+    n = x.shape[1]
+    if mode == "uniform":
         return np.full(n, float(v_max))
-    u = np.ascontiguousarray(signals.inputs[0], dtype=np.float64)
+    u = np.ascontiguousarray(signals.inputs, dtype=np.float64)
     d = np.zeros((n, n_booleans))
-    D(0, x, u, d)
-    rows = np.abs(d).sum(axis=1)
-    if not np.all(np.isfinite(rows)) or rows.max() <= 0.0:
-        return np.full(n, float(v_max))
-    scaled: FloatArray = float(v_max) * rows / rows.max()
-    return scaled
+    for k in range(signals.n_samples):
+        with np.errstate(all="ignore"):
+            D(0, x[k], u[k], d)
+        rows = np.abs(d).sum(axis=1)
+        if np.all(np.isfinite(rows)) and np.linalg.matrix_rank(d) == n_booleans:
+            scaled: FloatArray = float(v_max) * rows / rows.max()
+            return scaled
+    return np.full(n, float(v_max))
 
 
 def sliding_mode_steps(
@@ -121,17 +145,23 @@ def sliding_mode_steps(
     gains: FloatArray,
     alpha: float,
     threshold: float,
+    window: int,
     means: FloatArray,
     predictions: FloatArray,
     deltas: FloatArray,
+    slips: FloatArray,
     modes: IntArray,
 ) -> None:
-    """The observer over a whole log (see the module doc); compiled with ``compile_for``.
+    r"""The observer over a whole log (see the module doc); compiled with ``compile_for``.
 
     ``measured`` is the state ``x(k)`` of every sample, ``(N, n)``; ``gains`` the
     ``V_M`` of every channel (:func:`channel_gains`); writes ``z(k)``
     (``means``), ``h(σ̂(k-1), z(k), u(k))`` (``predictions``, row 0 left as it is),
-    ``δ̃(k)`` (``deltas``, NaN where ``DᵀD`` is singular) and ``σ̂(k)`` (``modes``).
+    ``δ̃(k)`` (``deltas``, NaN where ``DᵀD`` is singular), ``σ̂(k)`` (``modes``) and the
+    slip ``D⁺ (e(k) - e(k - window)) / (window dt)`` (``slips``: the mean of :math:`D^+\dot e`
+    over the last ``window`` samples; infinite before the first full window, where the
+    observer has had no time to slide and its σ̂ is its initial 0; NaN where ``DᵀD`` is
+    singular; :func:`unvouched`).
     """
     n_samples, n = measured.shape
     n_b = deltas.shape[1]
@@ -142,7 +172,8 @@ def sliding_mode_steps(
     rise = np.zeros(n)  # the last nonzero increment of e_i
     g = np.zeros(n)
     d = np.zeros((n, n_b))
-    normal = np.zeros((n_b, n_b + 1))  # [DᵀD | Dᵀw], eliminated in place
+    normal = np.zeros((n_b, n_b + 2))  # [DᵀD | Dᵀw | Dᵀ ė], eliminated in place
+    rate = 1.0 / (window * step * substeps)  # 1 / the window's length in s
     predicted = np.zeros(predictions.shape[1])
     for i in range(n):
         last[i] = measured[0, i] - z[i]
@@ -167,6 +198,12 @@ def sliding_mode_steps(
             for i in range(n):
                 acc += d[i, a] * w[i]
             normal[a, n_b] = acc
+            acc = 0.0
+            if k >= window:
+                for i in range(n):
+                    slope = (x[i] - z[i] - measured[k - window, i] + means[k - window, i]) * rate
+                    acc += d[i, a] * slope
+            normal[a, n_b + 1] = acc
         singular = False
         for col in range(n_b):
             pivot = col
@@ -177,21 +214,28 @@ def sliding_mode_steps(
                 singular = True
                 break
             if pivot != col:
-                for b in range(n_b + 1):
+                for b in range(n_b + 2):
                     normal[col, b], normal[pivot, b] = normal[pivot, b], normal[col, b]
             for row in range(col + 1, n_b):
                 factor = normal[row, col] / normal[col, col]
-                for b in range(col, n_b + 1):
+                for b in range(col, n_b + 2):
                     normal[row, b] -= factor * normal[col, b]
         if singular:
             for a in range(n_b):
                 deltas[k, a] = np.nan
+                slips[k, a] = np.nan
         else:
             for a in range(n_b - 1, -1, -1):
                 acc = normal[a, n_b]
+                slope = normal[a, n_b + 1]
                 for b in range(a + 1, n_b):
                     acc -= normal[a, b] * deltas[k, b]
+                    slope -= normal[a, b] * slips[k, b]
                 deltas[k, a] = acc / normal[a, a]
+                slips[k, a] = slope / normal[a, a]
+            if k < window:  # no full window yet: not measurable
+                for a in range(n_b):
+                    slips[k, a] = np.inf
             # eqs. (32), (48): threshold, then σ̂ = Σ δ̂_j 2^(L-j)
             sigma = 0
             for a in range(n_b):
@@ -217,6 +261,76 @@ def sliding_mode_steps(
                     w[i] += step * scale * gains[i]
                 elif s < 0.0:
                     w[i] -= step * scale * gains[i]
+
+
+def unvouched(
+    deltas: FloatArray, slips: FloatArray
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:
+    r"""The samples whose :math:`\hat\sigma` Lemma 1 cannot vouch for: (outside, slipping).
+
+    From (11), :math:`\dot e = D\delta + \varepsilon - w`, so at every sample
+
+    .. math::
+
+        \tilde\delta = \delta + D^+\varepsilon - D^+\dot e .
+
+    The thresholding (32) is exact where :math:`|\tilde\delta_j - \delta_j| < 0.5` (33),
+    which the log shows to fail, whatever the true δ, at a sample where
+
+    * (outside) some :math:`\tilde\delta_j` lies outside :math:`(-0.5, 1.5)`, 0.5 or more
+      from both 0 and 1: no boolean vector is within the margin (a log the model does not
+      explain, a disturbance or noise beyond (33), a gain that chatters more than the
+      margin); or
+    * (slipping) the slip, the mean of :math:`D^+\dot e` over :data:`SLIP_WINDOW_S` (from
+      the measured ``e = x - z``, exact where ``D`` is constant over the window), is 0.5 or
+      more on some channel: the observer is not on (28) ``e = ė = 0`` (the transient after
+      a switch, or a gain too small to slide at all, where :math:`\tilde\delta` stays near
+      0 while :math:`D^+\dot e` carries all of δ), or not yet measurable (the first window
+      of the log, where σ̂ is the observer's initial 0 until it has had time to slide).
+
+    Samples where ``DᵀD`` is singular (δ̃ NaN, σ̂ held) are counted apart, not here.
+    """
+    outside = np.asarray((np.abs(deltas - 0.5) >= 0.5 + MARGIN).any(axis=1))
+    slipping = np.asarray((np.abs(slips) >= MARGIN).any(axis=1))
+    return outside, slipping
+
+
+def _refuse_unvouched(
+    model: HybridModel,
+    signals: AlignedSignals,
+    outside: npt.NDArray[np.bool_],
+    slipping: npt.NDArray[np.bool_],
+    largest: float,
+) -> None:
+    """Refuse a run whose σ̂ Lemma 1 cannot vouch for on more than ``largest`` of the samples.
+
+    Raises
+    ------
+    DivergenceError
+        Naming the model, the share, and how many samples fail for each reason.
+    """
+    count = int((outside | slipping).sum())
+    n_samples = signals.n_samples
+    if n_samples == 0 or count <= largest * n_samples:
+        return
+    window = max(1, round(SLIP_WINDOW_S / model.timebase.dt))
+    if n_samples <= 2 * window:
+        raise DivergenceError(
+            f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
+            f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = "
+            f"{largest:g}): the log is too short for the observer to slide and show it (its "
+            f"first {window} samples, {SLIP_WINDOW_S:g} s, are its initial σ̂ = 0 before the "
+            f"slip D⁺ė can be measured); a log of more than {2 * window} samples is needed"
+        )
+    raise DivergenceError(
+        f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
+        f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
+        f"δ̃ 0.5 or more from every boolean vector on {int(outside.sum()):,}, the observer not "
+        f"sliding (|D⁺ė| ≥ 0.5 over {SLIP_WINDOW_S:g} s, or in the first) on "
+        f"{int(slipping.sum()):,}, so (33) "
+        "fails there; the model does not explain the log, or its noise, disturbance or V_M is "
+        "more than the observer tolerates"
+    )
 
 
 def _refuse_runaway_error(
@@ -356,7 +470,9 @@ def run_sliding_mode(
     means = np.zeros((n_samples, model.n_states))
     predictions = np.full((n_samples, model.n_outputs), np.nan)
     deltas = np.zeros((n_samples, len(affine.booleans)))
+    slips = np.full((n_samples, len(affine.booleans)), np.nan)
     modes = np.zeros(n_samples, dtype=np.int64)
+    window = max(1, round(SLIP_WINDOW_S / model.timebase.dt))
     arguments = (
         code.G,
         code.D,
@@ -368,9 +484,11 @@ def run_sliding_mode(
         gains,
         float(options.alpha),
         float(options.threshold),
+        window,
         means,
         predictions,
         deltas,
+        slips,
         modes,
     )
     loop = compile_for(sliding_mode_steps, arguments) if jit else sliding_mode_steps
@@ -386,6 +504,9 @@ def run_sliding_mode(
         )
     _refuse_no_reconstruction(model, signals, deltas, code.D)
     _refuse_runaway_error(model, signals, means, v_max)
+    outside, slipping = unvouched(deltas, slips)
+    _refuse_unvouched(model, signals, outside, slipping, options.max_unvouched)
+    flagged = outside | slipping
     probabilities = np.zeros((n_samples, model.n_modes))
     probabilities[np.arange(n_samples), modes] = 1.0
     singular = int(np.isnan(deltas).any(axis=1).sum())
@@ -396,6 +517,13 @@ def run_sliding_mode(
         "mode probabilities are the one-hot vector of σ̂ (the observer computes none); "
         "state variances are undefined (NaN)",
     ]
+    notes.append(
+        f"σ̂ not vouched for by Lemma 1 on {int(flagged.sum()):,} of {n_samples:,} samples "
+        f"({100 * flagged.mean() if n_samples else 0.0:.1f} %; refused above max_unvouched = "
+        f"{options.max_unvouched:g}): δ̃ 0.5 or more from every boolean vector (33), or the "
+        f"observer not sliding (|D⁺ė| over {SLIP_WINDOW_S:g} s ≥ 0.5, (28)): the transient "
+        "after each switch, and more with noise, a disturbance or a model that does not fit"
+    )
     if singular:
         notes.append(
             f"D(x, u) was singular on {singular} samples (δ̃ NaN there, σ̂ held): eq. (4) fails"
@@ -415,8 +543,11 @@ def run_sliding_mode(
         runtime_s=runtime,
         compile_s=compile_s,
         notes=tuple(notes),
-        timeline_columns=tuple(
-            TimelineColumn(f"delta_tilde.{name}", np.ascontiguousarray(deltas[:, j]))
-            for j, name in enumerate(affine.booleans)
+        timeline_columns=(
+            *(
+                TimelineColumn(f"delta_tilde.{name}", np.ascontiguousarray(deltas[:, j]))
+                for j, name in enumerate(affine.booleans)
+            ),
+            TimelineColumn("vouched", np.where(flagged, 0.0, 1.0)),
         ),
     )

@@ -7,11 +7,34 @@ registry and ``--help`` read them without loading the compiler.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from hybridlog.estimators.options import option
 
-__all__ = ["SlidingModeOptions"]
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
+__all__ = ["SlidingModeOptions", "inside_the_unit_interval"]
+
+
+def inside_the_unit_interval(value: float) -> None:
+    r"""Refuse a threshold of eq. (32) at 0 or 1: it decides nothing.
+
+    Thresholding at ``τ`` is right wherever :math:`|\tilde\delta_j - \delta_j|` is below
+    ``τ`` (for :math:`\delta_j = 0`) and ``1 - τ`` (for 1), Lemma 1's margin (33) being 0.5 at
+    ``τ = 0.5``; at ``τ = 0`` or 1 that margin is zero, and :math:`\hat\delta_j` follows the
+    chattering of :math:`\tilde\delta_j` around 0 (or 1): half of the bits at random.
+
+    Raises
+    ------
+    ValueError
+        For 0 or 1.
+    """
+    if not 0.0 < value < 1.0:
+        raise ValueError(
+            f"{value:g} leaves no margin (Lemma 1 needs |δ̃ - δ| below the threshold and 1 "
+            "minus it): it must lie strictly between 0 and 1 (the paper's is 0.5)"
+        )
 
 
 @dataclass(frozen=True)
@@ -46,5 +69,37 @@ class SlidingModeOptions:
         "gain of channel i: uniform V_M (eq. (20)) or rows, V_M·‖D_i‖₁/max_l ‖D_l‖₁ (eq. (17))",
     )
     threshold: float = option(
-        0.5, "threshold of eq. (32): δ̂_j = 1 where δ̃_j exceeds it", range=(0.0, 1.0)
+        0.5,
+        "threshold of eq. (32): δ̂_j = 1 where δ̃_j exceeds it; strictly between 0 and 1",
+        range=(0.0, 1.0),
+        check=inside_the_unit_interval,
     )
+    max_unvouched: float = option(
+        0.5,
+        "largest share of samples whose σ̂ Lemma 1 cannot vouch for (33) before a refusal "
+        "(1: never)",
+        range=(0.0, 1.0),
+    )
+
+    def inert(self, model: HybridModel) -> dict[str, str]:
+        """Options that have no effect with the others' values on ``model``: name → why.
+
+        ``v_max`` is V_M itself: ``gamma`` and ``drift_bound`` give V_M = Γ·Φ̄ (21) only
+        without it; ``--set v_max=0.5 --set gamma=1000`` ran with V_M = 0.5 while
+        report.json recorded gamma = 1000 as an option used.  With one state there is one
+        channel, and ``rows`` gives it V_M as ``uniform`` does.
+        """
+        inert: dict[str, str] = {}
+        if self.v_max is not None:
+            why = (
+                f"v_max = {self.v_max:g} is V_M itself, and {{}} enters only V_M = Γ·Φ̄ (eq. "
+                "(21)) without it; leave it unset, or drop v_max"
+            )
+            inert["gamma"] = why.format("gamma (Γ)")
+            inert["drift_bound"] = why.format("drift_bound (Φ̄)")
+        if model.n_states == 1:
+            inert["channel_gains"] = (
+                f"{model.name} has one state, one channel of eq. (16), whose gain is V_M "
+                "whether uniform or rows"
+            )
+        return inert

@@ -2,14 +2,17 @@
 than the sample logs' (other seeds, schedules and inflows), and its refusals."""
 
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from hybridlog.errors import ModelError
+from hybridlog.errors import DivergenceError, ModelError, OptionError
 from hybridlog.estimators import prepare
-from hybridlog.estimators.sliding_mode import run_sliding_mode
+from hybridlog.estimators.sliding_mode import channel_gains, run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
+from hybridlog.jobs.analysis import parse_sets, prepare_estimators
+from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import Disturbance, simulate
 from tests.support.model_kinds import CONTINUOUS_TANK, VALVES_BOOLEAN
@@ -66,7 +69,9 @@ def test_noise_free_reconstruction_test1(test1):
     assert _agreement(log, result) >= 0.99
     # δ̃ (30) is near the true δ once settled, and the mode is its thresholding (32), (48)
     columns = {c.name: c.values for c in result.timeline_columns}
-    assert list(columns) == ["delta_tilde.U1", "delta_tilde.U2", "delta_tilde.U3"]
+    assert list(columns) == ["delta_tilde.U1", "delta_tilde.U2", "delta_tilde.U3", "vouched"]
+    vouched = columns.pop("vouched")
+    assert set(np.unique(vouched)) == {0.0, 1.0} and vouched.mean() > 0.95
     deltas = np.stack(list(columns.values()), axis=1)
     bits = (deltas > 0.5).astype(int)
     np.testing.assert_array_equal(result.modes, bits @ np.array([4, 2, 1]))
@@ -104,7 +109,8 @@ def test_the_transient_after_a_switch_shortens_as_v_m_grows_test2(test1):
 def test_plain_python_gives_the_compiled_result():
     model, schedule = _scenario(5, switches=2, dwell=60)
     log = simulate(model, schedule=schedule, seed=5)
-    options = prepare(model, None).options
+    # dwells of 60 ms: the transients and the slip's window leave σ̂ unvouched on most samples
+    options = prepare(model, None, {"max_unvouched": 1.0}).options
     compiled = run_sliding_mode(model, log.signals(model), options)
     plain = run_sliding_mode(model, log.signals(model), options, jit=False)
     np.testing.assert_array_equal(compiled.modes, plain.modes)
@@ -183,7 +189,8 @@ def test_a_scalar_switch_is_reconstructed_exactly_once_the_observer_slides():
     model = parse_model(SCALAR)
     log = simulate(model, noise=False)
     result = prepare(model, "sliding-mode").run(model, log.signals(model))
-    (column,) = result.timeline_columns
+    column, vouched = result.timeline_columns
+    assert column.name == "delta_tilde.d" and vouched.name == "vouched"
     settled = np.ones(log.modes.shape[0], dtype=bool)
     for switch in (0, 401, 801):
         settled[switch : switch + 200] = False
@@ -209,6 +216,123 @@ def test_a_gain_too_large_for_the_step_is_refused_as_diverged(test1, v_max):
 def test_a_gain_that_slides_is_not_refused(test1):
     model, log = test1
     for v_max in (1e-12, 0.5, 1e4):  # too small (drifts), the paper's order, coarse chatter
-        result = prepare(model, None, {"v_max": v_max}).run(model, log.signals(model))
+        # (max_unvouched = 1: the runaway check alone; the others refuse 1e-12 and 1e4)
+        overrides = {"v_max": v_max, "max_unvouched": 1.0}
+        result = prepare(model, None, overrides).run(model, log.signals(model))
         error = np.abs(result.state_means - log.outputs).max(axis=0)
         assert np.all(error <= np.abs(log.outputs).max(axis=0))
+
+
+@pytest.mark.parametrize("threshold", [0.0, 1.0])
+def test_a_threshold_that_leaves_no_margin_is_refused(threshold):
+    # threshold = 0 (or 1) was accepted by the inclusive range [0, 1]: every δ̃_j chattering
+    # around 0 (or 1) was a coin toss, mode accuracy 46 % on TEST 1, exit 0.  Lemma 1's margin
+    # is min(τ, 1 - τ): zero at either end.
+    model = load_model("three_tank_valves")
+    with pytest.raises(
+        OptionError,
+        match=r"^--set threshold=.*: sliding-mode option "
+        r"'threshold': .* leaves no margin .* strictly between 0 and 1",
+    ):
+        prepare(model, None, {"threshold": threshold})
+    text = f"{VALVES}threshold = {threshold}\n"  # the last table: [estimators.sliding-mode]
+    with pytest.raises(
+        ModelError, match=r"^v\.toml: estimators\.sliding-mode\.threshold: .* no margin"
+    ):
+        prepare(parse_model(text, origin="v.toml"), None)
+    for inside in (1e-3, 0.999):
+        assert prepare(model, None, {"threshold": inside}).options.threshold == inside
+
+
+UNVOUCHED = r"^valves\.toml: sliding-mode cannot vouch for σ̂ on [\d,]+ of 6,501 samples \("
+
+
+def _unexplained_logs(signals):
+    """Logs the observer cannot vouch for, each exiting 0 with a mode timeline before."""
+    t = signals.time
+    levels = np.stack([0.2 + 0.05 * np.sin(3 * t), 0.3 + 0.02 * np.cos(7 * t), 0.1 + 0.01 * t], 1)
+    noise = np.random.default_rng(3).normal(0.0, 1e-4, signals.outputs.shape)
+    return {
+        # another plant's levels: mode accuracy 11 %, δ̃ from -39 to 25
+        "another plant": (replace(signals, outputs=levels), {}, "boolean vector on [1-9]"),
+        # 0.1 mm noise, 100 times the docs' sensitivity: mode accuracy 38 %
+        "noise": (replace(signals, outputs=signals.outputs + noise), {}, ""),
+        # V_M = 1e-12: w stays 0, σ̂ = 0 throughout (12.5 %), e drifts but less than |x|
+        "no sliding": (signals, {"v_max": 1e-12}, r"boolean vector on 0, the observer not"),
+    }
+
+
+@pytest.mark.parametrize("case", ["another plant", "noise", "no sliding"])
+def test_a_log_whose_modes_lemma_1_cannot_vouch_for_is_refused(test1, case):
+    # Each ran to exit 0 with a full mode timeline and nothing in the report saying so.  Now
+    # δ̃ far from every boolean vector, or a slip D⁺ė ≥ 0.5 (not sliding), on more than
+    # max_unvouched of the samples is refused; below, the timeline's vouched column says where.
+    model, log = test1
+    signals, overrides, why = _unexplained_logs(log.signals(model))[case]
+    with pytest.raises(DivergenceError, match=UNVOUCHED) as caught:
+        prepare(model, None, overrides).run(model, signals)
+    message = str(caught.value)
+    assert re.search(why, message) and "\n" not in message and len(message) < 400
+    result = prepare(model, None, {**overrides, "max_unvouched": 1.0}).run(model, signals)
+    vouched = {c.name: c.values for c in result.timeline_columns}["vouched"]
+    assert vouched.mean() < 0.5
+    assert any(note.startswith("σ̂ not vouched for by Lemma 1 on ") for note in result.notes)
+
+
+def test_a_log_too_short_to_slide_is_refused_as_such(short_log):
+    # 3 steps, 4 samples: σ̂ = 0, the observer's initial value (w = 0), reported with a mode
+    # accuracy (on the CLI the 3-sample log exited 0 with 0 % where its true mode is 7)
+    model = load_model("three_tank_valves")
+    with pytest.raises(DivergenceError) as caught:
+        prepare(model, None).run(model, short_log)
+    message = str(caught.value)
+    assert message.startswith("three_tank_valves: sliding-mode cannot vouch for σ̂ on 4 of 4 ")
+    assert "the log is too short for the observer to slide" in message
+    assert "a log of more than 40 samples is needed" in message and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("model_text", "sets", "inert"),
+    [
+        (VALVES, ["v_max=0.5", "gamma=1000"], "gamma"),
+        (VALVES, ["drift_bound=1", "v_max=0.5"], "drift_bound"),
+        (SCALAR, ["channel_gains=rows"], "channel_gains"),
+    ],
+)
+def test_a_set_option_the_others_make_inert_is_refused(tmp_path, model_text, sets, inert):
+    # --set v_max=0.5 --set gamma=1000 ran with V_M = 0.5 and report.json recorded
+    # gamma = 1000 as an option used; on a one-state model rows is uniform
+    path = tmp_path / "m.toml"
+    path.write_text(model_text, encoding="utf-8")
+    model, overrides = parse_sets(sets, path)
+    given = dict(s.split("=") for s in sets)
+    kept = {k: v for k, v in given.items() if k != inert}
+    log = simulate(model, steps=600, seed=2, noise=False)
+    with_it = prepare(model, "sliding-mode", {**kept, inert: given[inert], "max_unvouched": 1.0})
+    without = prepare(model, "sliding-mode", {**kept, "max_unvouched": 1.0})
+    np.testing.assert_array_equal(  # inert indeed: the same run
+        with_it.run(model, log.signals(model)).state_means,
+        without.run(model, log.signals(model)).state_means,
+    )
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(model, ["sliding-mode"], overrides)
+    assert str(caught.value).startswith(
+        f"--set {inert}={given[inert]}: has no effect on estimator 'sliding-mode': "
+    )
+    kept_model, kept_overrides = parse_sets([f"{k}={v}" for k, v in kept.items()], path)
+    prepare_estimators(kept_model, ["sliding-mode"], kept_overrides)
+
+
+@pytest.mark.parametrize("first", [0.0, -1e-6])
+def test_rows_gains_are_read_where_d_is_finite_not_at_an_empty_first_sample(test1, first):
+    # A log starting with tank 3 empty (β_3 = 0: D not finite) or just below 0 (noise) ran
+    # channel_gains = "rows" as uniform (V_M on every channel) without a word
+    model, log = test1
+    signals = log.signals(model)
+    outputs = signals.outputs.copy()
+    outputs[0, 2] = first
+    D = compile_continuous(model).D
+    gains = channel_gains(D, replace(signals, outputs=outputs), 3, 0.5, "rows")
+    expected = channel_gains(D, signals, 3, 0.5, "rows")
+    assert expected[0] == 0.5 and expected[2] < 0.2
+    np.testing.assert_allclose(gains, expected, rtol=1e-3)
