@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.io.csv_encoding import refuse_not_utf8
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
@@ -952,6 +953,7 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             line = handle.readline()
     except UnicodeDecodeError as err:
+        refuse_not_utf8(path)
         raise LogError(f"{path}: not a UTF-8 text file ({err.reason})") from err
     except OSError as err:
         raise LogError(f"{path}: cannot be read ({err.strerror})") from err
@@ -989,6 +991,8 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
                 why = " (pandas' to_csv writes its index so: write with index=False)"
             raise LogError(f"{path}, line 1: column {position} of the header has no name{why}")
         if not name.isprintable():
+            if "\x00" in name:
+                refuse_not_utf8(path)  # UTF-16 without a byte-order mark, ASCII header
             raise LogError(
                 f"{path}, line 1: column {position} of the header, {excerpt(name, 40)}, is not "
                 "printable text (a zeroed or binary file?)"
@@ -1073,6 +1077,7 @@ def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) 
     try:
         frame = _read_csv(path, columns=columns, infer_schema=False)
     except pl.exceptions.PolarsError as err:
+        refuse_not_utf8(path)
         _refuse_stray_quote(path)
         raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
     return frame
