@@ -441,8 +441,9 @@ class TableSource:
                 isinstance(dtype, pl.Datetime | pl.Duration) or _holds_text(dtype)
             ):
                 continue  # text: ISO 8601 dates and times, as in a CSV file (_time_ns)
-            numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
-            if (name in numeric or name == time_column) and not numbers:
+            if name == time_column and not dtype.is_numeric():
+                raise LogError(_not_a_time(self.path, name, dtype))
+            if name in numeric and not _holds_numbers(dtype):
                 raise LogError(
                     f"{self.path}: column {excerpt(name)} has type {dtype}, expected a number"
                 )
@@ -605,6 +606,10 @@ class TableSource:
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
             stored = column.dtype
+            if self._format == "parquet" and not stored.is_numeric():
+                # a Date, Time or Boolean: as read() refuses it (inspect said "line 2 ...
+                # '2024-01-01' is not a number", or that a Boolean time goes backwards)
+                raise LogError(_not_a_time(self.path, name, stored))
             column = self._to_float(column, rows)
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
@@ -762,7 +767,9 @@ class TableSource:
                     frame.get_column(self._time_column)[pl.Series(rows)], rows, repeats=True
                 )
             except LogError as err:
-                problems.append(str(err).removeprefix(f"{self.path}, "))
+                problems.append(
+                    str(err).removeprefix(f"{self.path}, ").removeprefix(f"{self.path}: ")
+                )
                 rows = np.arange(frame.height, dtype=np.int64)
         frame = self._leaves_of(frame, problems)
         if rows.size < frame.height:
@@ -1485,6 +1492,14 @@ def _describe_column(
         times = time_ns[present]
     info.update(describe_steps(times, resolution_ns=resolution_ns))
     return info
+
+
+def _not_a_time(path: str, name: str, dtype: pl.DataType) -> str:
+    """Why a Parquet column of ``dtype`` (a Date, Time, Boolean) cannot be the time column."""
+    return (
+        f"{path}: column {excerpt(name)} has type {dtype}, expected seconds as numbers, a "
+        "Datetime or Duration, or ISO 8601 dates and times as text"
+    )
 
 
 def _holds_text(dtype: pl.DataType) -> bool:
