@@ -974,6 +974,14 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
             "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
         )
     names = next(csv.reader([line]))
+    if line.startswith("#") and not set(TIME_COLUMNS) & {name.strip(" ") for name in names}:
+        # a comment line before the header, or numpy.savetxt's header ('# t,u,y'): the
+        # columns were named '# t' or after the comment, and the next line "had 3 fields"
+        raise LogError(
+            f"{path}, line 1: {excerpt(line.strip(), 40)} starts with '#', a comment; the first "
+            "line must be the header naming the columns, e.g. t,u,y: remove the comment "
+            "lines (numpy.savetxt writes its header so unless given comments='')"
+        )
     if len(names) == 1:
         # Excel in locales with a decimal comma writes ';', other tools tabs: one column
         # named 't;u;y' would be listed as the only column, or as text that is not printable
