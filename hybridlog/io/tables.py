@@ -696,6 +696,12 @@ class TableSource:
         if failed.any():
             row = int(np.argmax(failed))
             first = int(np.argmax(text.is_not_null().to_numpy()))
+            if _iso_format(str(text[row])) == iso:  # written alike: a day that does not exist
+                raise LogError(
+                    f"{self.path}, {self._row_label(int(rows[row]))}, column "
+                    f"{excerpt(column.name)}: {excerpt(text[row], 40)} is not a date and time "
+                    "(ISO 8601): no such day of its month, or hour, minute or second of a day"
+                )
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(column.name)}: "
                 f"{excerpt(text[row], 40)} is not a date and time written like "
@@ -1020,14 +1026,16 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
     return tuple(names)
 
 
-_ISO_DATE = re.compile(r"\d{4}-\d{2}-\d{2}([T ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})?$")
+_ISO_DATE = re.compile(
+    r"\d{4}-\d{2}-\d{2}([Tt ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}(?::?\d{2})?)?$"
+)
 
 
 def _iso_format(text: str | None) -> str | None:
     """The polars format of an ISO 8601 date and time like ``text``, or ``None`` if not one.
 
-    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), either with ``Z`` or an
-    offset (``+01:00``, ``+0100``); seconds are needed.
+    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), ``t`` as RFC 3339 allows,
+    either with ``Z`` or an offset (``+01:00``, ``+0100``, ``+01``); seconds are needed.
     """
     match = _ISO_DATE.match(text.strip()) if text else None
     if match is None or match.group(2) is None:
@@ -1180,6 +1188,8 @@ def _parse_floats(
         hint = ""
         if booleans and str(lowered[first]) in _BOOLEANS:
             hint = " (true and false read as 1 and 0 only in a column of nothing else)"
+        elif _ISO_DATE.match(str(text[first])):  # 2024-01-01T00:00: no seconds
+            hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
         raise LogError(
             f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
             f"{excerpt(text[first])} is not a number{hint}"
