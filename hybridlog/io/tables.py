@@ -11,7 +11,7 @@ is not a number is an error naming its line, never a silent string column.
 CSV files are read with an explicit schema: the header line is parsed first, then the wanted
 columns are read as ``Float64`` (label columns such as ``mode`` as strings).  Line numbers in
 messages count the header as line 1 and assume one record per physical line (no quoted line
-breaks); blank lines are skipped but counted.
+breaks); blank lines (empty, or of blanks and commas alone) are skipped but counted.
 """
 
 from __future__ import annotations
@@ -503,9 +503,7 @@ class TableSource:
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
         """Rows to use: all of them, minus blank CSV lines; a row without a time is an error."""
         rows: IntArray = np.arange(frame.height, dtype=np.int64)
-        missing: np.ndarray[Any, np.dtype[np.bool_]] = (
-            frame.get_column(time_column).is_null().to_numpy()
-        )
+        missing = _empty_cells(frame.get_column(time_column))
         if not missing.any():
             return rows
         blank = _blank_csv_rows(self._file) if self._format == "csv" else np.zeros_like(missing)
@@ -1197,11 +1195,27 @@ def _parse_floats(
     return values
 
 
+def _empty_cells(column: pl.Series) -> np.ndarray[Any, np.dtype[np.bool_]]:
+    """Which cells are empty: null, or text of nothing but blanks (`` ``, a tab, ``""``)."""
+    if column.dtype == pl.String:
+        empty: np.ndarray[Any, np.dtype[np.bool_]] = (
+            (column.str.strip_chars() == "").fill_null(True).to_numpy()
+        )
+        return empty
+    return column.is_null().to_numpy()
+
+
 def _blank_csv_rows(path: Path) -> np.ndarray[Any, np.dtype[np.bool_]]:
-    """Rows that polars read from blank lines: every column null."""
+    """Rows that polars read from blank lines: every cell empty (:func:`_empty_cells`).
+
+    A line of spaces or a tab, ``,,`` and ``"",,`` are blank lines as an empty one is: the
+    record-width check lets them through as such (:func:`_check_record_widths`).
+    """
     frame = _read_csv_strings(path, list(_read_csv_header(path)))
     blank: np.ndarray[Any, np.dtype[np.bool_]] = (
-        frame.select(pl.all_horizontal(pl.all().is_null())).to_series().to_numpy()
+        frame.select(pl.all_horizontal((pl.all().str.strip_chars() == "").fill_null(True)))
+        .to_series()
+        .to_numpy()
     )
     return blank
 
