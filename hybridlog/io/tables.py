@@ -243,8 +243,8 @@ class TableSource:
         """
         if name == self._time_column:
             return (
-                f"{excerpt(name)} is the table's time column (the first of "
-                f"{', '.join(map(repr, TIME_COLUMNS))} in the header, in seconds), "
+                f"{excerpt(name)} is the table's time column ("
+                f"{' or, without it, '.join(map(repr, TIME_COLUMNS))}, in seconds), "
                 f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
             )
         try:
