@@ -1162,6 +1162,7 @@ def _read_csv_frame(
 
 
 _BOOLEANS = ("true", "false")
+_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
 
 
 def _parse_floats(
@@ -1188,6 +1189,8 @@ def _parse_floats(
             hint = " (true and false read as 1 and 0 only in a column of nothing else)"
         elif _ISO_DATE.match(str(text[first])):  # 2024-01-01T00:00: no seconds
             hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
+        elif _DECIMAL_COMMA.fullmatch(str(text[first])):  # "1,5" quoted, as Excel writes it
+            hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
         raise LogError(
             f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
             f"{excerpt(text[first])} is not a number{hint}"
@@ -1235,6 +1238,7 @@ def _check_record_widths(path: Path) -> None:
         Naming the first line whose field count differs from the header's.
     """
     width = len(_read_csv_header(path))
+    data = b""
     try:
         commas, newlines, quoted, last = _count_separators(path)
         if quoted:
@@ -1243,14 +1247,31 @@ def _check_record_widths(path: Path) -> None:
             return  # every line has width - 1 commas, unless a short and a long one cancel
             # out, and a long one polars refuses in any case (the common case: one pass)
         else:
-            line, fields = _first_odd_line(path.read_bytes(), width)
+            data = path.read_bytes()
+            line, fields = _first_odd_line(data, width)
     except OSError as err:
         raise LogError(f"{path}: cannot be read ({err.strerror})") from err
     if line:
+        why = ""
+        if data and _holds_lone_cr(data, line):
+            why = (
+                " (a carriage return alone inside it, a line ending of classic Mac OS: "
+                "hybridlog reads LF or CRLF line endings)"
+            )
         raise LogError(
             f"{path}, line {line}: {fields} field{'' if fields == 1 else 's'}, but the header "
-            f"names {width} columns"
+            f"names {width} columns{why}"
         )
+
+
+def _holds_lone_cr(data: bytes, line: int) -> bool:
+    """Whether line ``line`` (1-based) of ``data`` holds a carriage return before its end."""
+    start = 0
+    for _ in range(line - 1):
+        start = data.index(b"\n", start) + 1
+    end = data.find(b"\n", start)
+    text = data[start : len(data) if end < 0 else end].removesuffix(b"\r")
+    return b"\r" in text
 
 
 def _count_separators(path: Path) -> tuple[int, int, bool, int]:
