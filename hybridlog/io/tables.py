@@ -11,7 +11,7 @@ is not a number is an error naming its line, never a silent string column.
 CSV files are read with an explicit schema: the header line is parsed first, then the wanted
 columns are read as ``Float64`` (label columns such as ``mode`` as strings).  Line numbers in
 messages count the header as line 1 and assume one record per physical line (no quoted line
-breaks); blank lines are skipped but counted.
+breaks); blank lines (empty, or of blanks and commas alone) are skipped but counted.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.io.csv_encoding import refuse_not_utf8
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
@@ -242,8 +243,8 @@ class TableSource:
         """
         if name == self._time_column:
             return (
-                f"{excerpt(name)} is the table's time column (the first of "
-                f"{', '.join(map(repr, TIME_COLUMNS))} in the header, in seconds), "
+                f"{excerpt(name)} is the table's time column ("
+                f"{' or, without it, '.join(map(repr, TIME_COLUMNS))}, in seconds), "
                 f"not a signal; other columns: {', '.join(map(excerpt, self.fields())) or 'none'}"
             )
         try:
@@ -440,8 +441,9 @@ class TableSource:
                 isinstance(dtype, pl.Datetime | pl.Duration) or _holds_text(dtype)
             ):
                 continue  # text: ISO 8601 dates and times, as in a CSV file (_time_ns)
-            numbers = dtype.is_numeric() if name == time_column else _holds_numbers(dtype)
-            if (name in numeric or name == time_column) and not numbers:
+            if name == time_column and not dtype.is_numeric():
+                raise LogError(_not_a_time(self.path, name, dtype))
+            if name in numeric and not _holds_numbers(dtype):
                 raise LogError(
                     f"{self.path}: column {excerpt(name)} has type {dtype}, expected a number"
                 )
@@ -501,9 +503,7 @@ class TableSource:
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
         """Rows to use: all of them, minus blank CSV lines; a row without a time is an error."""
         rows: IntArray = np.arange(frame.height, dtype=np.int64)
-        missing: np.ndarray[Any, np.dtype[np.bool_]] = (
-            frame.get_column(time_column).is_null().to_numpy()
-        )
+        missing = _empty_cells(frame.get_column(time_column))
         if not missing.any():
             return rows
         blank = _blank_csv_rows(self._file) if self._format == "csv" else np.zeros_like(missing)
@@ -604,6 +604,10 @@ class TableSource:
             time_ns: IntArray = self._temporal_ns(column, rows)
         else:
             stored = column.dtype
+            if self._format == "parquet" and not stored.is_numeric():
+                # a Date, Time or Boolean: as read() refuses it (inspect said "line 2 ...
+                # '2024-01-01' is not a number", or that a Boolean time goes backwards)
+                raise LogError(_not_a_time(self.path, name, stored))
             column = self._to_float(column, rows)
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
@@ -690,6 +694,12 @@ class TableSource:
         if failed.any():
             row = int(np.argmax(failed))
             first = int(np.argmax(text.is_not_null().to_numpy()))
+            if _iso_format(str(text[row])) == iso:  # written alike: a day that does not exist
+                raise LogError(
+                    f"{self.path}, {self._row_label(int(rows[row]))}, column "
+                    f"{excerpt(column.name)}: {excerpt(text[row], 40)} is not a date and time "
+                    "(ISO 8601): no such day of its month, or hour, minute or second of a day"
+                )
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(column.name)}: "
                 f"{excerpt(text[row], 40)} is not a date and time written like "
@@ -761,7 +771,9 @@ class TableSource:
                     frame.get_column(self._time_column)[pl.Series(rows)], rows, repeats=True
                 )
             except LogError as err:
-                problems.append(str(err).removeprefix(f"{self.path}, "))
+                problems.append(
+                    str(err).removeprefix(f"{self.path}, ").removeprefix(f"{self.path}: ")
+                )
                 rows = np.arange(frame.height, dtype=np.int64)
         frame = self._leaves_of(frame, problems)
         if rows.size < frame.height:
@@ -952,6 +964,7 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
         with path.open(newline="", encoding="utf-8-sig") as handle:
             line = handle.readline()
     except UnicodeDecodeError as err:
+        refuse_not_utf8(path)
         raise LogError(f"{path}: not a UTF-8 text file ({err.reason})") from err
     except OSError as err:
         raise LogError(f"{path}: cannot be read ({err.strerror})") from err
@@ -965,6 +978,14 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
             "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
         )
     names = next(csv.reader([line]))
+    if line.startswith("#") and not set(TIME_COLUMNS) & {name.strip(" ") for name in names}:
+        # a comment line before the header, or numpy.savetxt's header ('# t,u,y'): the
+        # columns were named '# t' or after the comment, and the next line "had 3 fields"
+        raise LogError(
+            f"{path}, line 1: {excerpt(line.strip(), 40)} starts with '#', a comment; the first "
+            "line must be the header naming the columns, e.g. t,u,y: remove the comment "
+            "lines (numpy.savetxt writes its header so unless given comments='')"
+        )
     if len(names) == 1:
         # Excel in locales with a decimal comma writes ';', other tools tabs: one column
         # named 't;u;y' would be listed as the only column, or as text that is not printable
@@ -989,6 +1010,8 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
                 why = " (pandas' to_csv writes its index so: write with index=False)"
             raise LogError(f"{path}, line 1: column {position} of the header has no name{why}")
         if not name.isprintable():
+            if "\x00" in name:
+                refuse_not_utf8(path)  # UTF-16 without a byte-order mark, ASCII header
             raise LogError(
                 f"{path}, line 1: column {position} of the header, {excerpt(name, 40)}, is not "
                 "printable text (a zeroed or binary file?)"
@@ -1001,14 +1024,16 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
     return tuple(names)
 
 
-_ISO_DATE = re.compile(r"\d{4}-\d{2}-\d{2}([T ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}:?\d{2})?$")
+_ISO_DATE = re.compile(
+    r"\d{4}-\d{2}-\d{2}([Tt ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}(?::?\d{2})?)?$"
+)
 
 
 def _iso_format(text: str | None) -> str | None:
     """The polars format of an ISO 8601 date and time like ``text``, or ``None`` if not one.
 
-    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), either with ``Z`` or an
-    offset (``+01:00``, ``+0100``); seconds are needed.
+    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), ``t`` as RFC 3339 allows,
+    either with ``Z`` or an offset (``+01:00``, ``+0100``, ``+01``); seconds are needed.
     """
     match = _ISO_DATE.match(text.strip()) if text else None
     if match is None or match.group(2) is None:
@@ -1073,6 +1098,7 @@ def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) 
     try:
         frame = _read_csv(path, columns=columns, infer_schema=False)
     except pl.exceptions.PolarsError as err:
+        refuse_not_utf8(path)
         _refuse_stray_quote(path)
         raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
     return frame
@@ -1136,6 +1162,7 @@ def _read_csv_frame(
 
 
 _BOOLEANS = ("true", "false")
+_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
 
 
 def _parse_floats(
@@ -1160,6 +1187,10 @@ def _parse_floats(
         hint = ""
         if booleans and str(lowered[first]) in _BOOLEANS:
             hint = " (true and false read as 1 and 0 only in a column of nothing else)"
+        elif _ISO_DATE.match(str(text[first])):  # 2024-01-01T00:00: no seconds
+            hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
+        elif _DECIMAL_COMMA.fullmatch(str(text[first])):  # "1,5" quoted, as Excel writes it
+            hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
         raise LogError(
             f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
             f"{excerpt(text[first])} is not a number{hint}"
@@ -1167,11 +1198,27 @@ def _parse_floats(
     return values
 
 
+def _empty_cells(column: pl.Series) -> np.ndarray[Any, np.dtype[np.bool_]]:
+    """Which cells are empty: null, or text of nothing but blanks (`` ``, a tab, ``""``)."""
+    if column.dtype == pl.String:
+        empty: np.ndarray[Any, np.dtype[np.bool_]] = (
+            (column.str.strip_chars() == "").fill_null(True).to_numpy()
+        )
+        return empty
+    return column.is_null().to_numpy()
+
+
 def _blank_csv_rows(path: Path) -> np.ndarray[Any, np.dtype[np.bool_]]:
-    """Rows that polars read from blank lines: every column null."""
+    """Rows that polars read from blank lines: every cell empty (:func:`_empty_cells`).
+
+    A line of spaces or a tab, ``,,`` and ``"",,`` are blank lines as an empty one is: the
+    record-width check lets them through as such (:func:`_check_record_widths`).
+    """
     frame = _read_csv_strings(path, list(_read_csv_header(path)))
     blank: np.ndarray[Any, np.dtype[np.bool_]] = (
-        frame.select(pl.all_horizontal(pl.all().is_null())).to_series().to_numpy()
+        frame.select(pl.all_horizontal((pl.all().str.strip_chars() == "").fill_null(True)))
+        .to_series()
+        .to_numpy()
     )
     return blank
 
@@ -1191,6 +1238,7 @@ def _check_record_widths(path: Path) -> None:
         Naming the first line whose field count differs from the header's.
     """
     width = len(_read_csv_header(path))
+    data = b""
     try:
         commas, newlines, quoted, last = _count_separators(path)
         if quoted:
@@ -1199,14 +1247,31 @@ def _check_record_widths(path: Path) -> None:
             return  # every line has width - 1 commas, unless a short and a long one cancel
             # out, and a long one polars refuses in any case (the common case: one pass)
         else:
-            line, fields = _first_odd_line(path.read_bytes(), width)
+            data = path.read_bytes()
+            line, fields = _first_odd_line(data, width)
     except OSError as err:
         raise LogError(f"{path}: cannot be read ({err.strerror})") from err
     if line:
+        why = ""
+        if data and _holds_lone_cr(data, line):
+            why = (
+                " (a carriage return alone inside it, a line ending of classic Mac OS: "
+                "hybridlog reads LF or CRLF line endings)"
+            )
         raise LogError(
             f"{path}, line {line}: {fields} field{'' if fields == 1 else 's'}, but the header "
-            f"names {width} columns"
+            f"names {width} columns{why}"
         )
+
+
+def _holds_lone_cr(data: bytes, line: int) -> bool:
+    """Whether line ``line`` (1-based) of ``data`` holds a carriage return before its end."""
+    start = 0
+    for _ in range(line - 1):
+        start = data.index(b"\n", start) + 1
+    end = data.find(b"\n", start)
+    text = data[start : len(data) if end < 0 else end].removesuffix(b"\r")
+    return b"\r" in text
 
 
 def _count_separators(path: Path) -> tuple[int, int, bool, int]:
@@ -1379,15 +1444,43 @@ def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
 # ---------------------------------------------------------------------- Parquet helpers
 
 
+ANY_TIME_ZONE = "POLARS_IGNORE_TIMEZONE_PARSE_ERROR"
+"""Set while polars reads a Parquet file: it then takes a timestamp's zone as written.
+
+Arrow writes a fixed offset as the zone (``+05:30``: pandas' ``FixedOffset``, a
+``datetime.timezone``), which polars 2.1 does not know and so panicked on, whatever column
+was read: a valid log was refused as "damaged".  A zoned timestamp is stored in UTC
+whatever its zone, and hybridlog reads it so (:meth:`TableSource._temporal_ns`), so the zone
+never matters."""
+
+
+@contextlib.contextmanager
+def _any_time_zone() -> Iterator[None]:
+    """:data:`ANY_TIME_ZONE` set for the block (as it was before, after it)."""
+    before = os.environ.get(ANY_TIME_ZONE)
+    os.environ[ANY_TIME_ZONE] = "1"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(ANY_TIME_ZONE, None)
+        else:
+            os.environ[ANY_TIME_ZONE] = before
+
+
 def _read_parquet(path: Path, **options: Any) -> pl.DataFrame:
     """``pl.read_parquet`` of a log, its name taken as it is (:func:`polars_file`)."""
-    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
+    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source, _any_time_zone():
         return pl.read_parquet(source, glob=False, **options)
 
 
 def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
     try:
-        with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
+        with (
+            _panics_refused(path, "Parquet"),
+            polars_file(path, "rb") as source,
+            _any_time_zone(),
+        ):
             schema = pl.scan_parquet(source, glob=False).collect_schema()
     except (pl.exceptions.PolarsError, OSError) as err:
         raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
@@ -1452,6 +1545,14 @@ def _describe_column(
         times = time_ns[present]
     info.update(describe_steps(times, resolution_ns=resolution_ns))
     return info
+
+
+def _not_a_time(path: str, name: str, dtype: pl.DataType) -> str:
+    """Why a Parquet column of ``dtype`` (a Date, Time, Boolean) cannot be the time column."""
+    return (
+        f"{path}: column {excerpt(name)} has type {dtype}, expected seconds as numbers, a "
+        "Datetime or Duration, or ISO 8601 dates and times as text"
+    )
 
 
 def _holds_text(dtype: pl.DataType) -> bool:

@@ -524,6 +524,14 @@ def test_mapping_the_time_column_says_it_is_the_time(tmp_path: Path, time_column
         rf"{time_column}=\.\.\. for another\): '{time_column}' is the table's time column",
     ):
         load(path, inputs=(time_column,))
+    # 't' is the time even after 'time' in the header: "the first of 't', 'time' in the
+    # header" read as if the header's order chose
+    both = csv_file(tmp_path, "time,t,u,y\n5.0,0.0,1,10\n5.1,0.1,2,20\n")
+    with pytest.raises(LogError) as info:
+        load(both, maps=["u=t"])
+    assert "'t' is the table's time column ('t' or, without it, 'time', in seconds)" in str(
+        info.value
+    )
 
 
 def test_map_unknown_symbol_is_an_option_error(tmp_path: Path) -> None:

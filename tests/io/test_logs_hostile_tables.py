@@ -367,8 +367,16 @@ def test_a_time_column_of_another_type_is_refused(
     column: pl.Series, type_name: str, tmp_path: Path
 ) -> None:
     log = parquet(tmp_path, t=column)
-    with pytest.raises(LogError, match=rf"column 't' has type {type_name}, expected a number"):
+    expected = (
+        f"column 't' has type {type_name}, expected seconds as numbers, a Datetime or "
+        "Duration, or ISO 8601 dates and times as text"
+    )
+    with pytest.raises(LogError) as refused:
         load(log)
+    assert str(refused.value) == f"{log}: {expected}"
+    # inspect said "line 2, column 't': '2024-01-01' is not a number" (a CSV's line, in a
+    # Parquet file), and that a Boolean time "goes backwards"
+    assert inspect_log(log)["problems"] == [expected]
 
 
 @pytest.mark.parametrize("cell", ["1e400", "-" + "9" * 400, '"1e999"'])

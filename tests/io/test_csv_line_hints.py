@@ -1,0 +1,55 @@
+"""A CSV refusal says what the line shows: a carriage return alone, a decimal comma.
+
+A lone carriage return inside the data (a line pasted from classic Mac OS text) joined two
+records: "line 2: 5 fields, but the header names 3 columns", without a word of why.  A
+quoted ``"1,5"`` (Excel in a locale with a decimal comma) was "'1,5' is not a number".
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+
+SPEC = SignalSpec(inputs=("u",), outputs=("y",), states=("x",), mode_ids=("1", "2"), dt=0.1)
+
+
+def refusal(path: Path) -> str:
+    with pytest.raises(LogError) as refused:
+        load_signals(path, SPEC, ReadOptions())
+    return str(refused.value)
+
+
+@pytest.mark.parametrize("line", [2, 4])
+def test_a_lone_carriage_return_is_named(tmp_path: Path, line: int) -> None:
+    lines = ["t,u,y", "0,1,2", "0.1,2,3", "0.2,3,4", "0.3,4,5", "0.4,5,6"]
+    lines[line - 1] += "\r" + lines.pop(line)
+    path = tmp_path / "log.csv"
+    path.write_bytes("\r\n".join(lines).encode() + b"\r\n")
+    expected = (
+        f"{path}, line {line}: 5 fields, but the header names 3 columns (a carriage return "
+        "alone inside it, a line ending of classic Mac OS: hybridlog reads LF or CRLF line "
+        "endings)"
+    )
+    assert refusal(path) == expected
+    with pytest.raises(LogError, match="a carriage return alone"):
+        inspect_log(path)
+
+
+def test_a_short_line_without_a_carriage_return_says_nothing_of_one(tmp_path: Path) -> None:
+    path = tmp_path / "log.csv"
+    path.write_bytes(b"t,u,y\r\n0,1,2\r\n0.1,2\r\n0.2,3,4\r\n")
+    assert refusal(path) == f"{path}, line 3: 2 fields, but the header names 3 columns"
+
+
+@pytest.mark.parametrize("cell", ["1,5", "-0,25", ",5", "1,5e3"])
+def test_a_decimal_comma_is_named(tmp_path: Path, cell: str) -> None:
+    path = tmp_path / "log.csv"
+    path.write_text(f't,u,y\n0,1,2\n0.1,"{cell}",3\n0.2,3,4\n')
+    assert refusal(path) == (
+        f"{path}, line 3, column 'u': '{cell}' is not a number (a decimal comma? hybridlog "
+        "reads a point as the decimal separator)"
+    )
