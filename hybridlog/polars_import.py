@@ -31,8 +31,19 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO, Literal
 
-import polars as pl
-from polars.io.plugins import register_io_source
+ANY_TIME_ZONE = "POLARS_IGNORE_TIMEZONE_PARSE_ERROR"
+"""Set before polars is imported: it then takes a Parquet timestamp's zone as written.
+
+Arrow writes a fixed offset as the zone (``+05:30``: pandas' ``FixedOffset``, a
+``datetime.timezone``), which polars 2.1 does not know and so panicked on, whatever column
+was read: a valid log was refused as "damaged".  A zoned timestamp is stored in UTC whatever
+its zone, and hybridlog reads it so (``io/tables.py``, ``TableSource._temporal_ns``), so the
+zone never matters.  Set once here, before polars starts a thread: changing the environment
+while other threads may read it is undefined behaviour in C."""
+os.environ[ANY_TIME_ZONE] = "1"
+
+import polars as pl  # noqa: E402  (after the setting it reads)
+from polars.io.plugins import register_io_source  # noqa: E402
 
 __all__ = ["pl", "polars_file", "register_io_source", "take_back_sigint"]
 

@@ -1444,43 +1444,15 @@ def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
 # ---------------------------------------------------------------------- Parquet helpers
 
 
-ANY_TIME_ZONE = "POLARS_IGNORE_TIMEZONE_PARSE_ERROR"
-"""Set while polars reads a Parquet file: it then takes a timestamp's zone as written.
-
-Arrow writes a fixed offset as the zone (``+05:30``: pandas' ``FixedOffset``, a
-``datetime.timezone``), which polars 2.1 does not know and so panicked on, whatever column
-was read: a valid log was refused as "damaged".  A zoned timestamp is stored in UTC
-whatever its zone, and hybridlog reads it so (:meth:`TableSource._temporal_ns`), so the zone
-never matters."""
-
-
-@contextlib.contextmanager
-def _any_time_zone() -> Iterator[None]:
-    """:data:`ANY_TIME_ZONE` set for the block (as it was before, after it)."""
-    before = os.environ.get(ANY_TIME_ZONE)
-    os.environ[ANY_TIME_ZONE] = "1"
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(ANY_TIME_ZONE, None)
-        else:
-            os.environ[ANY_TIME_ZONE] = before
-
-
 def _read_parquet(path: Path, **options: Any) -> pl.DataFrame:
     """``pl.read_parquet`` of a log, its name taken as it is (:func:`polars_file`)."""
-    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source, _any_time_zone():
+    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
         return pl.read_parquet(source, glob=False, **options)
 
 
 def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
     try:
-        with (
-            _panics_refused(path, "Parquet"),
-            polars_file(path, "rb") as source,
-            _any_time_zone(),
-        ):
+        with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
             schema = pl.scan_parquet(source, glob=False).collect_schema()
     except (pl.exceptions.PolarsError, OSError) as err:
         raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
