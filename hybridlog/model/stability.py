@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hybridlog.model.compiled import ModelFunction
+from hybridlog.model.compiled import JumpFunction, ModelFunction
 from hybridlog.model.hybrid_model import HybridModel, IntegrationMethod
 from hybridlog.signals import FloatArray, IntArray
 from hybridlog.times import format_time
@@ -159,14 +159,30 @@ def step_flaw(method: IntegrationMethod, step: float, jacobian: FloatArray) -> S
 
 
 MAX_POINTS = 256
-"""Most samples of a run :func:`check_step` linearises at (evenly spaced, the first included):
-stiffness lives mostly in a model's linear part, the same at every sample, and 256
-evaluations of the Jacobian and its eigenvalues cost milliseconds."""
+"""Most samples of each mode :func:`check_step` linearises at (evenly spaced among the mode's
+samples, its first included): stiffness lives mostly in a model's linear part, the same at
+every sample of a mode, and 256 evaluations of the Jacobian and its eigenvalues cost
+milliseconds.  Taken per mode, so a mode the run visits for a few samples of millions is
+linearised all the same."""
+
+
+def _rows(modes: IntArray) -> IntArray:
+    """The rows :func:`check_step` linearises at: up to :data:`MAX_POINTS` of each mode.
+
+    Row ``k`` stands for the interval :math:`(t_{k-1}, t_k]` run in mode ``modes[k]``.
+    """
+    chosen: list[IntArray] = []
+    for q in np.unique(modes[1:]):
+        rows = np.flatnonzero(modes[1:] == q) + 1
+        picks = np.unique(np.linspace(0, rows.size - 1, MAX_POINTS).astype(np.int64))
+        chosen.append(rows[picks])
+    return np.unique(np.concatenate(chosen))
 
 
 def check_step(
     model: HybridModel,
     jacobian: ModelFunction,
+    jump: JumpFunction,
     modes: IntArray,
     states: FloatArray,
     inputs: FloatArray,
@@ -174,10 +190,11 @@ def check_step(
 ) -> None:
     """Refuse a run whose integration step mistreats a mode where the run went.
 
-    The interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` from ``states[k-1]`` with
-    ``inputs[k-1]`` held (:func:`hybridlog.model.integration.integrate_log`); the Jacobian
+    The interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` with ``inputs[k-1]`` held,
+    from ``states[k-1]``, or at a switch from the state the jump map ``jump(p, q, x, out)``
+    gives (:func:`hybridlog.simulation_kernels.simulate_continuous_steps`); the Jacobian
     ``jacobian(q, x, u, out)`` (the compiled ``DX``) is evaluated at up to
-    :data:`MAX_POINTS` such starts whose state is finite.
+    :data:`MAX_POINTS` such starts of each mode whose state is finite.
 
     Raises
     ------
@@ -188,24 +205,36 @@ def check_step(
     timebase = model.timebase
     if timebase.method is None or states.shape[0] < 2:
         return
-    rows = np.unique(np.linspace(1, states.shape[0] - 1, MAX_POINTS).astype(np.int64))
     out = np.zeros((model.n_states, model.n_states))
-    for row in rows:
-        start = states[row - 1]
+    jumped = np.zeros(model.n_states)
+    for row in _rows(modes):
+        q = int(modes[row])
+        start = np.ascontiguousarray(states[row - 1])
+        if q != int(modes[row - 1]):
+            jump(int(modes[row - 1]), q, start, jumped)
+            start = jumped.copy()
         if not np.all(np.isfinite(start)):
             continue
-        q = int(modes[row])
-        jacobian(q, np.ascontiguousarray(start), np.ascontiguousarray(inputs[row - 1]), out)
+        try:
+            jacobian(q, start, np.ascontiguousarray(inputs[row - 1]), out)
+        except ZeroDivisionError:  # plain Python (``jit=False``); compiled, an inf or NaN
+            continue
         flaw = step_flaw(timebase.method, timebase.step, out)
         if flaw is not None:
             pairs = list(zip(model.states, start, strict=True))[:_SHOWN]
             shown = ", ".join(f"{name} = {value:.4g}" for name, value in pairs)
             if model.n_states > _SHOWN:
                 shown += ", …"
+            where = (
+                f"just after the switch from '{model.modes[int(modes[row - 1])].id}'"
+                if q != int(modes[row - 1])
+                else ""
+            )
             raise model.error(
                 "integration.step",
                 f"{timebase.step:g} s is too long for mode '{model.modes[q].id}' at t = "
-                f"{format_time(float(time[row - 1]))} s ({shown}): the Jacobian of dx there has "
+                f"{format_time(float(time[row - 1]))} s{' ' + where if where else ''} "
+                f"({shown}): the Jacobian of dx there has "
                 f"the eigenvalue λ = {_number(flaw.eigenvalue)} 1/s; "
                 f"{flaw.describe(timebase.method)}",
             )

@@ -131,3 +131,92 @@ def test_the_switching_observer_refuses_eigenvalues_its_step_cannot_follow():
     options = SwitchingObserverOptions(eigenvalues="-1000,-3000")
     with pytest.raises(OptionError, match=r"'eigenvalues': λ = -3000 1/s is too fast for "):
         run_switching_observer(model, signals, options)
+
+
+BRIEF = """
+name = "brief"
+time = "continuous"
+dt = 0.01
+integration = {method = "euler", step = 0.001}
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+dx = ["-x + u"]
+h = ["x"]
+
+[modes.b]
+dx = ["-1990*(x - 1)"]
+h = ["x"]
+
+[noise]
+process = 0.0
+measurement = 0.01
+
+[initial]
+state = [0.0]
+mode = "a"
+
+[simulation.inputs]
+u = "0"
+"""
+
+
+def test_a_mode_the_run_visits_briefly_is_linearised_all_the_same():
+    # one sample of the stiff mode among 4000: evenly spaced samples of the run missed it
+    # and the run went on, 0.9 off the exact solution, without a word
+    model = parse_model(BRIEF, origin="brief.toml")
+    with pytest.raises(ModelError, match=r"too long for mode 'b' at t = 20 s just after the"):
+        simulate(model, schedule="a:2000,b:1,a:2000", noise=False, jit=False)
+
+
+JUMPED = """
+name = "jumped"
+time = "continuous"
+dt = 0.01
+integration = {method = "euler", step = 0.001}
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+dx = ["0*x"]
+h = ["x"]
+
+[modes.b]
+dx = ["-1000*x**2"]
+h = ["x"]
+
+[jumps."a->b"]
+x = "0.001*x"
+
+[noise]
+process = 0.0
+measurement = 0.01
+
+[initial]
+state = [1.0]
+mode = "a"
+
+[simulation.inputs]
+u = "0"
+"""
+
+
+def test_a_switch_is_linearised_where_the_jump_map_puts_the_state():
+    # mode b starts at x = 0.001 (J = -2 1/s), not at x = 1 (J = -2000 1/s, refused before)
+    model = parse_model(JUMPED, origin="jumped.toml")
+    log = simulate(model, schedule="a:3,b:10", noise=False, jit=False)
+    assert log.modes[3] == 0 and log.modes[4] == 1  # (t_3, t_4] the first interval in b
+    t = log.time[4:] - log.time[3]
+    exact = 0.001 / (1.0 + 1000 * 0.001 * t)  # dx = -1000 x², x = 0.001 at t_3
+    assert np.abs(log.states[4:, 0] - exact).max() < 1e-6  # Euler: O(h)
+
+
+def test_a_jacobian_dividing_by_zero_in_plain_python_says_nothing_about_the_step():
+    # d/dx sqrt(|x|) at x = 0: compiled, an inf (skipped); plain Python raised ZeroDivisionError
+    text = BRIEF.replace('"-x + u"', '"u - 0.5*sqrt(abs(x))"')
+    model = parse_model(text, origin="brief.toml")
+    log = simulate(model, steps=3, noise=False, jit=False)
+    assert np.all(np.isfinite(log.states))
