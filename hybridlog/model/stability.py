@@ -159,22 +159,31 @@ def step_flaw(method: IntegrationMethod, step: float, jacobian: FloatArray) -> S
 
 
 MAX_POINTS = 256
-"""Most samples of each mode :func:`check_step` linearises at (evenly spaced among the mode's
-samples, its first included): stiffness lives mostly in a model's linear part, the same at
-every sample of a mode, and 256 evaluations of the Jacobian and its eigenvalues cost
-milliseconds.  Taken per mode, so a mode the run visits for a few samples of millions is
-linearised all the same."""
+"""Most samples of a nonlinear mode :func:`check_step` linearises at (evenly spaced among
+the mode's samples, its first included): stiffness lives mostly in a model's linear part,
+and 256 evaluations of the Jacobian and its eigenvalues cost milliseconds.  Taken per mode,
+so a mode the run visits for a few samples of millions is linearised all the same; a mode
+whose ``dx`` is affine (``Mode.linear_form``) has one Jacobian, linearised once."""
+
+TOTAL_POINTS = 4096
+"""Most samples :func:`check_step` linearises at in all (about 80 ms), shared among the
+nonlinear modes the run visits, one each at least: a boolean-affine model's 1024 modes all
+visited would otherwise cost 262,144 evaluations, seconds on a run that takes one."""
 
 
-def _rows(modes: IntArray) -> IntArray:
-    """The rows :func:`check_step` linearises at: up to :data:`MAX_POINTS` of each mode.
+def _rows(model: HybridModel, modes: IntArray) -> IntArray:
+    """The rows :func:`check_step` linearises at: some of every mode the run visits.
 
     Row ``k`` stands for the interval :math:`(t_{k-1}, t_k]` run in mode ``modes[k]``.
     """
+    visited = np.unique(modes[1:])
+    nonlinear = sum(1 for q in visited if model.modes[int(q)].linear_form is None)
+    share = min(MAX_POINTS, max(1, TOTAL_POINTS // max(nonlinear, 1)))
     chosen: list[IntArray] = []
-    for q in np.unique(modes[1:]):
+    for q in visited:
         rows = np.flatnonzero(modes[1:] == q) + 1
-        picks = np.unique(np.linspace(0, rows.size - 1, MAX_POINTS).astype(np.int64))
+        count = 1 if model.modes[int(q)].linear_form is not None else share
+        picks = np.unique(np.linspace(0, rows.size - 1, count).astype(np.int64))
         chosen.append(rows[picks])
     return np.unique(np.concatenate(chosen))
 
@@ -194,7 +203,7 @@ def check_step(
     from ``states[k-1]``, or at a switch from the state the jump map ``jump(p, q, x, out)``
     gives (:func:`hybridlog.simulation_kernels.simulate_continuous_steps`); the Jacobian
     ``jacobian(q, x, u, out)`` (the compiled ``DX``) is evaluated at up to
-    :data:`MAX_POINTS` such starts of each mode whose state is finite.
+    :data:`MAX_POINTS` such starts of each mode (:func:`_rows`) whose state is finite.
 
     Raises
     ------
@@ -207,7 +216,7 @@ def check_step(
         return
     out = np.zeros((model.n_states, model.n_states))
     jumped = np.zeros(model.n_states)
-    for row in _rows(modes):
+    for row in _rows(model, modes):
         q = int(modes[row])
         start = np.ascontiguousarray(states[row - 1])
         if q != int(modes[row - 1]):

@@ -18,7 +18,7 @@ from hybridlog.estimators.hybrid_observer import run_switching_observer
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.model.integration import EULER, RK4, integrate_step, work_buffer
 from hybridlog.model.loader import parse_model
-from hybridlog.model.stability import amplification, step_flaw
+from hybridlog.model.stability import TOTAL_POINTS, _rows, amplification, step_flaw
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
@@ -220,3 +220,38 @@ def test_a_jacobian_dividing_by_zero_in_plain_python_says_nothing_about_the_step
     model = parse_model(text, origin="brief.toml")
     log = simulate(model, steps=3, noise=False, jit=False)
     assert np.all(np.isfinite(log.states))
+
+
+def test_every_visited_mode_is_linearised_within_a_bounded_cost():
+    names = [f"U{i}" for i in range(7)]
+    text = f"""
+name = "many"
+time = "continuous"
+dt = 0.01
+integration = {{method = "rk4", step = 0.01}}
+states = ["x"]
+outputs = ["y"]
+booleans = {names!r}
+
+[dynamics]
+dx = ["-x*abs(x)*(1 + {" + ".join(names)})"]
+h = ["x"]
+
+[noise]
+process = 0.0
+measurement = 0.01
+
+[initial]
+state = [1.0]
+mode = "0"
+""".replace("'", '"')
+    model = parse_model(text, origin="many.toml")
+    modes = np.repeat(np.arange(128), 1000)
+    rows = _rows(model, modes)
+    # 128 nonlinear modes visited: 4096 / 128 = 32 samples each, the first of each among them
+    assert np.array_equal(np.unique(modes[rows]), np.arange(128))
+    assert rows.size == TOTAL_POINTS
+    assert np.all(np.isin(np.flatnonzero(np.diff(modes)) + 1, rows))
+    # an affine mode has one Jacobian: linearised once
+    linear = parse_model(STIFF.format(method="rk4", step=0.001), origin="stiff.toml")
+    assert _rows(linear, np.zeros(100_000, dtype=np.int64)).tolist() == [1]
