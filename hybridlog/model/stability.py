@@ -22,10 +22,21 @@ whatever the tolerance a user would choose, and :func:`step_flaw` names them:
   (Euler at :math:`h\lambda = -1.1`: :math:`R = -0.1` against :math:`e^{z} = 0.33`) damps the
   transient more than the model, as implicit methods do, and is accepted.
 
-An eigenvalue within rounding of the imaginary axis (an undamped oscillator) is neither:
-the model neither decays nor grows there.  The longest step that avoids both is found by
-bisection of the same conditions, so the message can say what step would do.  Pure NumPy:
-the caller evaluates the Jacobian (the model's compiled ``DX``).
+An eigenvalue within rounding of the imaginary axis (an undamped oscillator) keeps its
+component's size, :math:`|e^{z}| = 1`; one more outcome is named there:
+
+* **undamped**: :math:`|R(z)| > 1` although a shorter step would give :math:`|R| \le 1`
+  (:data:`IMAGINARY_REACH`):
+  the integration grows an oscillation the mode keeps, by a factor that does not shrink as
+  the run goes on (RK4 beyond :math:`h|\lambda| = 2\sqrt2`, fewer than 2.2 steps a period:
+  ``dx = [v, -90000*p]`` at 10 ms reaches 2.6e17 in a second).  Explicit Euler grows every
+  undamped oscillation at every step (:math:`|1 + iy| > 1`), by :math:`(h\omega)^2/2` a
+  step, its first-order error that a shorter step shrinks: that is accuracy, which no step
+  cures outright, and is accepted.
+
+The longest step that avoids each outcome is found by bisection of the same conditions, so
+the message can say what step would do.  Pure NumPy: the caller evaluates the Jacobian (the
+model's compiled ``DX``).
 """
 
 from __future__ import annotations
@@ -46,6 +57,12 @@ _ROUNDING = 1e-9
 imaginary part as zero for the sign test: ``eigvals`` of an undamped oscillator's Jacobian
 returns real parts of about 1e-16 × its modulus."""
 
+IMAGINARY_REACH: dict[IntegrationMethod, float] = {"euler": 0.0, "rk4": 2.0 * np.sqrt(2.0)}
+r"""The stretch :math:`|y| \le` reach of the imaginary axis where :math:`|R(iy)| \le 1`:
+none for explicit Euler (:math:`|1 + iy|^2 = 1 + y^2`), :math:`2\sqrt2` for RK4
+(:math:`|R(iy)|^2 = 1 - y^6/72 + y^8/576`; Hairer and Wanner, §IV.2).  Exact, where a
+bisection of :math:`|R| > 1` would stop at rounding (:math:`|1 + 10^{-9}i|` is 1.0)."""
+
 _SHOWN = 6
 """Most states an error shows of the point where the step fails."""
 
@@ -61,8 +78,11 @@ def amplification(method: IntegrationMethod, z: complex) -> complex:
 
 
 def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> str | None:
-    """``"unstable"``, ``"alternating"`` or ``None`` for one eigenvalue at one step."""
+    """``"unstable"``, ``"alternating"``, ``"undamped"`` or ``None``: one eigenvalue, one step."""
     size = abs(eigenvalue)
+    if abs(eigenvalue.real) <= _ROUNDING * size:
+        reach = IMAGINARY_REACH[method]
+        return "undamped" if reach > 0.0 and step * abs(eigenvalue.imag) > reach else None
     if not eigenvalue.real < -_ROUNDING * size:
         return None
     factor = amplification(method, step * eigenvalue)
@@ -93,7 +113,7 @@ class StepFlaw:
     Attributes
     ----------
     kind:
-        ``"unstable"`` or ``"alternating"`` (module docstring).
+        ``"unstable"``, ``"alternating"`` or ``"undamped"`` (module docstring).
     eigenvalue:
         The eigenvalue :math:`\lambda` (1/s).
     factor:
@@ -116,11 +136,11 @@ class StepFlaw:
         The caller names the eigenvalue and where it comes from.
         """
         name = "explicit Euler" if method == "euler" else "RK4"
-        what = (
-            "grows where it should decay"
-            if self.kind == "unstable"
-            else "flips its sign every step and decays more slowly than it should"
-        )
+        what = {
+            "unstable": "grows where it should decay",
+            "alternating": "flips its sign every step and decays more slowly than it should",
+            "undamped": "grows an oscillation that should keep its size",
+        }[self.kind]
         return (
             f"{name} multiplies its component by {_number(self.factor)} a step where "
             f"e^(h·λ) = {_number(self.exact)}: the integration {what}; a step of at most "

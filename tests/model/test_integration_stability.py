@@ -101,6 +101,27 @@ def test_oscillators():
     assert step_flaw("euler", 1e-3, np.array([[np.inf]])) is None
 
 
+def test_rk4_beyond_its_stretch_of_the_imaginary_axis_grows_an_undamped_oscillator():
+    # |R(iy)|² = 1 - y⁶/72 + y⁸/576 for RK4: above 1 from y = 2√2 on
+    edge = 2 * math.sqrt(2)
+    omega = 300.0
+    undamped = np.array([[0.0, 1.0], [-(omega**2), 0.0]])
+    assert step_flaw("rk4", 0.999 * edge / omega, undamped) is None
+    flaw = step_flaw("rk4", 0.01, undamped)  # hω = 3: |R| = 1.5 a step
+    assert flaw is not None and flaw.kind == "undamped"
+    assert abs(flaw.factor) == pytest.approx(abs(1 + 3j + (3j) ** 2 / 2 + (3j) ** 3 / 6 + 81 / 24))
+    assert flaw.longest_step == pytest.approx(edge / omega, rel=1e-9)
+    # explicit Euler grows it at every step by its first-order error: accuracy, accepted
+    assert step_flaw("euler", 1e-3, undamped) is None
+    assert step_flaw("euler", 0.01, undamped) is None
+    text = STIFF.format(method="rk4", step=0.01).replace(
+        '"u - x1", "-1990*(x2 - x1)"', '"x2", "-90000*x1"'
+    )
+    model = parse_model(text, origin="osc.toml")
+    with pytest.raises(ModelError, match=r"λ = 0\+300j 1/s; RK4 .* grows an oscillation"):
+        simulate(model, steps=100, noise=False, jit=False)  # it wrote x1 = -2.6e17, exit 0
+
+
 def test_simulate_refuses_a_step_too_long_for_a_stiff_mode():
     model = parse_model(STIFF.format(method="euler", step=0.001), origin="stiff.toml")
     with pytest.raises(ModelError) as err:
