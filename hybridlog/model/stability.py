@@ -45,8 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hybridlog.model.compiled import JumpFunction, ModelFunction
+from hybridlog.model.compiled import CompiledContinuousModel, ModelFunction
 from hybridlog.model.hybrid_model import HybridModel, IntegrationMethod
+from hybridlog.model.integration import METHOD_CODES, integrate_step, work_buffer
 from hybridlog.signals import FloatArray, IntArray
 from hybridlog.times import format_time
 
@@ -208,22 +209,80 @@ def _rows(model: HybridModel, modes: IntArray) -> IntArray:
     return np.unique(np.concatenate(chosen))
 
 
-def check_step(
+def _flaw_at(
     model: HybridModel,
     jacobian: ModelFunction,
-    jump: JumpFunction,
+    q: int,
+    x: FloatArray,
+    u: FloatArray,
+    out: FloatArray,
+) -> StepFlaw | None:
+    """:func:`step_flaw` of mode ``q``'s Jacobian at ``x``, ``u``; ``None`` where not finite."""
+    method = model.timebase.method
+    if method is None or not np.all(np.isfinite(x)):
+        return None
+    try:
+        jacobian(q, x, u, out)
+    except ZeroDivisionError:  # plain Python (``jit=False``); compiled, an inf or NaN
+        return None
+    return step_flaw(method, model.timebase.step, out)
+
+
+def _stays(
+    model: HybridModel,
+    functions: CompiledContinuousModel,
+    q: int,
+    x: FloatArray,
+    u: FloatArray,
+    state_min: FloatArray,
+    out: FloatArray,
+) -> bool:
+    """Whether one step from ``x`` keeps a flaw found at ``x``: lands where it is one too.
+
+    A linearisation's flaw compounds only while the steps stay where it holds.  A step
+    that leaves that region at once (a tank emptying: ``-c*sqrt(h)`` has the Jacobian
+    ``-c/(2√h)``, as stiff as one likes just above 0, and the step that lands at 0 is the
+    last) is one step of a bounded error, and the run is what the model says.  A step that
+    overflows, or takes the state out of the model's domain, stays flawed.
+    """
+    method = model.timebase.method or "rk4"
+    after = x.copy()
+    try:
+        integrate_step(
+            functions.dx,
+            METHOD_CODES[method],
+            q,
+            after,
+            u,
+            model.timebase.step,
+            work_buffer(x.shape[0]),
+        )
+    except (ZeroDivisionError, OverflowError, ValueError):  # plain Python's inf or NaN
+        return True
+    after = np.maximum(after, state_min)
+    if not np.all(np.isfinite(after)):
+        return True
+    return _flaw_at(model, functions.DX, q, after, u, out) is not None
+
+
+def check_step(
+    model: HybridModel,
+    functions: CompiledContinuousModel,
     modes: IntArray,
     states: FloatArray,
     inputs: FloatArray,
     time: FloatArray,
+    state_min: FloatArray,
 ) -> None:
     """Refuse a run whose integration step mistreats a mode where the run went.
 
     The interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` with ``inputs[k-1]`` held,
-    from ``states[k-1]``, or at a switch from the state the jump map ``jump(p, q, x, out)``
-    gives (:func:`hybridlog.simulation_kernels.simulate_continuous_steps`); the Jacobian
-    ``jacobian(q, x, u, out)`` (the compiled ``DX``) is evaluated at up to
-    :data:`MAX_POINTS` such starts of each mode (:func:`_rows`) whose state is finite.
+    from ``states[k-1]``, or at a switch from the state the jump map ``functions.jump``
+    gives, each step bounded below by ``state_min``
+    (:func:`hybridlog.simulation_kernels.simulate_continuous_steps`); the Jacobian
+    ``functions.DX`` is evaluated at up to :data:`MAX_POINTS` such starts of each mode
+    (:func:`_rows`) whose state is finite, and a flaw there refused when one step of the
+    method from there lands where it is one too (:func:`_stays`).
 
     Raises
     ------
@@ -240,16 +299,11 @@ def check_step(
         q = int(modes[row])
         start = np.ascontiguousarray(states[row - 1])
         if q != int(modes[row - 1]):
-            jump(int(modes[row - 1]), q, start, jumped)
+            functions.jump(int(modes[row - 1]), q, start, jumped)
             start = jumped.copy()
-        if not np.all(np.isfinite(start)):
-            continue
-        try:
-            jacobian(q, start, np.ascontiguousarray(inputs[row - 1]), out)
-        except ZeroDivisionError:  # plain Python (``jit=False``); compiled, an inf or NaN
-            continue
-        flaw = step_flaw(timebase.method, timebase.step, out)
-        if flaw is not None:
+        u = np.ascontiguousarray(inputs[row - 1])
+        flaw = _flaw_at(model, functions.DX, q, start, u, out)
+        if flaw is not None and _stays(model, functions, q, start, u, state_min, out):
             pairs = list(zip(model.states, start, strict=True))[:_SHOWN]
             shown = ", ".join(f"{name} = {value:.4g}" for name, value in pairs)
             if model.n_states > _SHOWN:
