@@ -9,7 +9,7 @@ each eigen-direction of the Jacobian :math:`J = \partial f_q / \partial x` by th
 * ``euler``: :math:`R(z) = 1 + z`;
 * ``rk4``: :math:`R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`.
 
-Two outcomes make every later number the integration gives one hybridlog cannot vouch for,
+Three outcomes make every later number the integration gives one hybridlog cannot vouch for,
 whatever the tolerance a user would choose, and :func:`step_flaw` names them:
 
 * **unstable**: :math:`\operatorname{Re}\lambda < 0` (the mode decays there) but
@@ -20,7 +20,15 @@ whatever the tolerance a user would choose, and :func:`step_flaw` names them:
   :math:`-2 < h\lambda < -1.278`: ``dx = -1990*(x - 1)`` from 0 at a 1 ms step reaches 0.096
   after ten steps where the model reaches 1.0).  A flip that dies out faster than the model
   (Euler at :math:`h\lambda = -1.1`: :math:`R = -0.1` against :math:`e^{z} = 0.33`) damps the
-  transient more than the model, as implicit methods do, and is accepted.
+  transient more than the model, as implicit methods do, and is accepted;
+* **lingering**: :math:`\operatorname{Re} z < -1` (the mode's time constant is shorter than
+  a step: its transient is over within one) but :math:`|R(z)| > e^{-1}` (the integration's
+  time constant, :math:`-h/\ln|R|`, is longer than a step): the step draws out over several
+  samples a transient the model ends within one step (RK4, positive on the real axis, from
+  :math:`h\lambda = -2.09` to its stability boundary at :math:`-2.785`:
+  ``dx = -2780*(x - 1)`` from 0 at a 1 ms step reaches 0.077 after ten steps where the model
+  reaches 1.0).  Both time constants are measured against the step itself, the one scale
+  the integration has: RK4 at :math:`h\lambda = -1.99`, :math:`R = 0.335`, is accepted.
 
 An eigenvalue within rounding of the imaginary axis (an undamped oscillator) keeps its
 component's size, :math:`|e^{z}| = 1`; one more outcome is named there:
@@ -79,7 +87,7 @@ def amplification(method: IntegrationMethod, z: complex) -> complex:
 
 
 def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> str | None:
-    """``"unstable"``, ``"alternating"``, ``"undamped"`` or ``None``: one eigenvalue, one step."""
+    """The outcome (module docstring) or ``None``: one eigenvalue, one step."""
     size = abs(eigenvalue)
     if abs(eigenvalue.real) <= _ROUNDING * size:
         reach = IMAGINARY_REACH[method]
@@ -92,6 +100,8 @@ def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> s
     real = abs(eigenvalue.imag) <= _ROUNDING * size
     if real and factor.real < 0.0 and abs(factor) > np.exp(step * eigenvalue.real):
         return "alternating"
+    if step * eigenvalue.real < -1.0 and abs(factor) > np.exp(-1.0):
+        return "lingering"
     return None
 
 
@@ -114,7 +124,8 @@ class StepFlaw:
     Attributes
     ----------
     kind:
-        ``"unstable"``, ``"alternating"`` or ``"undamped"`` (module docstring).
+        ``"unstable"``, ``"alternating"``, ``"lingering"`` or ``"undamped"`` (module
+        docstring).
     eigenvalue:
         The eigenvalue :math:`\lambda` (1/s).
     factor:
@@ -141,6 +152,7 @@ class StepFlaw:
             "unstable": "grows where it should decay",
             "alternating": "flips its sign every step and decays more slowly than it should",
             "undamped": "grows an oscillation that should keep its size",
+            "lingering": ("takes more than a step to decay by e where it should within one step"),
         }[self.kind]
         return (
             f"{name} multiplies its component by {_number(self.factor)} a step where "

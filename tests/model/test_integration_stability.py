@@ -73,8 +73,14 @@ def test_real_boundaries_are_the_roots_of_the_stability_functions():
     euler_edge = brentq(lambda z: 1 + z + math.exp(z), -2.0, -1.0)
     # RK4 is positive on the real axis; it leaves |R| <= 1 at the real root of R(z) = 1
     roots = np.roots([1 / 24, 1 / 6, 1 / 2, 1])
-    rk4_edge = min(r.real for r in roots if abs(r.imag) < 1e-12)
-    assert rk4_edge == pytest.approx(-2.785, abs=1e-3)
+    unstable_edge = min(r.real for r in roots if abs(r.imag) < 1e-12)
+    assert unstable_edge == pytest.approx(-2.785, abs=1e-3)
+    # and before that, past z = -1, takes longer than a step to decay by e: R(z) = 1/e
+    rk4_edge = brentq(lambda z: 1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24 - math.exp(-1), -2.5, -1.6)
+    assert rk4_edge == pytest.approx(-2.09, abs=1e-2)
+    rate = -1000.0
+    kinds = [step_flaw("rk4", z / rate, np.array([[rate]])).kind for z in (-2.5, -2.8)]
+    assert kinds == ["lingering", "unstable"]
     for method, edge in (("euler", euler_edge), ("rk4", rk4_edge)):
         rate = -1000.0
         inside = step_flaw(method, 0.999 * edge / rate, np.array([[rate]]))
@@ -318,3 +324,10 @@ def test_a_tank_emptying_is_not_refused_for_its_last_step():
     model = parse_model(TANK.format(dx="-250000*x", x0=1.0), origin="tank.toml")
     with pytest.raises(ModelError, match=r"λ = -2.5e\+05 1/s"):
         simulate(model, steps=6, noise=False, jit=False)
+
+
+def test_rk4_drawing_out_a_transient_the_model_ends_within_a_step_is_refused():
+    # R(-2.78) = 0.992 a step: x reached 0.077 after a sample where the model reaches 1.0
+    text = STIFF.format(method="rk4", step=0.001).replace("-1990*(x2 - x1)", "-2780*(x2 - x1)")
+    with pytest.raises(ModelError, match=r"λ = -2780 1/s; RK4 .* takes more than a step to"):
+        simulate(parse_model(text, origin="stiff.toml"), steps=5, noise=False, jit=False)
