@@ -496,7 +496,7 @@ def simulate(
         )
         continuous: Callable[..., None] = kernels.simulate_continuous_steps
         (compile_for(continuous, arguments) if jit else continuous)(*arguments)
-        check_step(model, functions.DX, modes, states, inputs, time)
+        check_step(model, functions, modes, states, inputs, time, state_min)
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)
         arguments = (

@@ -9,7 +9,7 @@ each eigen-direction of the Jacobian :math:`J = \partial f_q / \partial x` by th
 * ``euler``: :math:`R(z) = 1 + z`;
 * ``rk4``: :math:`R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24`.
 
-Two outcomes make every later number the integration gives one hybridlog cannot vouch for,
+Three outcomes make every later number the integration gives one hybridlog cannot vouch for,
 whatever the tolerance a user would choose, and :func:`step_flaw` names them:
 
 * **unstable**: :math:`\operatorname{Re}\lambda < 0` (the mode decays there) but
@@ -20,12 +20,31 @@ whatever the tolerance a user would choose, and :func:`step_flaw` names them:
   :math:`-2 < h\lambda < -1.278`: ``dx = -1990*(x - 1)`` from 0 at a 1 ms step reaches 0.096
   after ten steps where the model reaches 1.0).  A flip that dies out faster than the model
   (Euler at :math:`h\lambda = -1.1`: :math:`R = -0.1` against :math:`e^{z} = 0.33`) damps the
-  transient more than the model, as implicit methods do, and is accepted.
+  transient more than the model, as implicit methods do, and is accepted;
+* **lingering**: :math:`\operatorname{Re} z < -1` (the mode's time constant is shorter than
+  a step: its transient is over within one) but :math:`|R(z)| > e^{-1}` (the integration's
+  time constant, :math:`-h/\ln|R|`, is longer than a step): the step draws out over several
+  samples a transient the model ends within one step (RK4, positive on the real axis, from
+  :math:`h\lambda = -2.09` to its stability boundary at :math:`-2.785`:
+  ``dx = -2780*(x - 1)`` from 0 at a 1 ms step reaches 0.077 after ten steps where the model
+  reaches 1.0).  Both time constants are measured against the step itself, the one scale
+  the integration has: RK4 at :math:`h\lambda = -1.99`, :math:`R = 0.335`, is accepted.
 
-An eigenvalue within rounding of the imaginary axis (an undamped oscillator) is neither:
-the model neither decays nor grows there.  The longest step that avoids both is found by
-bisection of the same conditions, so the message can say what step would do.  Pure NumPy:
-the caller evaluates the Jacobian (the model's compiled ``DX``).
+An eigenvalue within rounding of the imaginary axis (an undamped oscillator) keeps its
+component's size, :math:`|e^{z}| = 1`; one more outcome is named there:
+
+* **undamped**: :math:`|R(z)| > 1` although a shorter step would give :math:`|R| \le 1`
+  (:data:`IMAGINARY_REACH`):
+  the integration grows an oscillation the mode keeps, by a factor that does not shrink as
+  the run goes on (RK4 beyond :math:`h|\lambda| = 2\sqrt2`, fewer than 2.2 steps a period:
+  ``dx = [v, -90000*p]`` at 10 ms reaches 2.6e17 in a second).  Explicit Euler grows every
+  undamped oscillation at every step (:math:`|1 + iy| > 1`), by :math:`(h\omega)^2/2` a
+  step, its first-order error that a shorter step shrinks: that is accuracy, which no step
+  cures outright, and is accepted.
+
+The longest step that avoids each outcome is found by bisection of the same conditions, so
+the message can say what step would do.  Pure NumPy: the caller evaluates the Jacobian (the
+model's compiled ``DX``).
 """
 
 from __future__ import annotations
@@ -34,8 +53,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hybridlog.model.compiled import ModelFunction
+from hybridlog.model.compiled import CompiledContinuousModel, ModelFunction
 from hybridlog.model.hybrid_model import HybridModel, IntegrationMethod
+from hybridlog.model.integration import METHOD_CODES, integrate_step, work_buffer
 from hybridlog.signals import FloatArray, IntArray
 from hybridlog.times import format_time
 
@@ -45,6 +65,12 @@ _ROUNDING = 1e-9
 """An eigenvalue's real part within this fraction of its modulus counts as zero, and an
 imaginary part as zero for the sign test: ``eigvals`` of an undamped oscillator's Jacobian
 returns real parts of about 1e-16 × its modulus."""
+
+IMAGINARY_REACH: dict[IntegrationMethod, float] = {"euler": 0.0, "rk4": 2.0 * np.sqrt(2.0)}
+r"""The stretch :math:`|y| \le` reach of the imaginary axis where :math:`|R(iy)| \le 1`:
+none for explicit Euler (:math:`|1 + iy|^2 = 1 + y^2`), :math:`2\sqrt2` for RK4
+(:math:`|R(iy)|^2 = 1 - y^6/72 + y^8/576`; Hairer and Wanner, §IV.2).  Exact, where a
+bisection of :math:`|R| > 1` would stop at rounding (:math:`|1 + 10^{-9}i|` is 1.0)."""
 
 _SHOWN = 6
 """Most states an error shows of the point where the step fails."""
@@ -61,8 +87,11 @@ def amplification(method: IntegrationMethod, z: complex) -> complex:
 
 
 def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> str | None:
-    """``"unstable"``, ``"alternating"`` or ``None`` for one eigenvalue at one step."""
+    """The outcome (module docstring) or ``None``: one eigenvalue, one step."""
     size = abs(eigenvalue)
+    if abs(eigenvalue.real) <= _ROUNDING * size:
+        reach = IMAGINARY_REACH[method]
+        return "undamped" if reach > 0.0 and step * abs(eigenvalue.imag) > reach else None
     if not eigenvalue.real < -_ROUNDING * size:
         return None
     factor = amplification(method, step * eigenvalue)
@@ -71,6 +100,8 @@ def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> s
     real = abs(eigenvalue.imag) <= _ROUNDING * size
     if real and factor.real < 0.0 and abs(factor) > np.exp(step * eigenvalue.real):
         return "alternating"
+    if step * eigenvalue.real < -1.0 and abs(factor) > np.exp(-1.0):
+        return "lingering"
     return None
 
 
@@ -93,7 +124,8 @@ class StepFlaw:
     Attributes
     ----------
     kind:
-        ``"unstable"`` or ``"alternating"`` (module docstring).
+        ``"unstable"``, ``"alternating"``, ``"lingering"`` or ``"undamped"`` (module
+        docstring).
     eigenvalue:
         The eigenvalue :math:`\lambda` (1/s).
     factor:
@@ -116,11 +148,12 @@ class StepFlaw:
         The caller names the eigenvalue and where it comes from.
         """
         name = "explicit Euler" if method == "euler" else "RK4"
-        what = (
-            "grows where it should decay"
-            if self.kind == "unstable"
-            else "flips its sign every step and decays more slowly than it should"
-        )
+        what = {
+            "unstable": "grows where it should decay",
+            "alternating": "flips its sign every step and decays more slowly than it should",
+            "undamped": "grows an oscillation that should keep its size",
+            "lingering": ("takes more than a step to decay by e where it should within one step"),
+        }[self.kind]
         return (
             f"{name} multiplies its component by {_number(self.factor)} a step where "
             f"e^(h·λ) = {_number(self.exact)}: the integration {what}; a step of at most "
@@ -159,25 +192,109 @@ def step_flaw(method: IntegrationMethod, step: float, jacobian: FloatArray) -> S
 
 
 MAX_POINTS = 256
-"""Most samples of a run :func:`check_step` linearises at (evenly spaced, the first included):
-stiffness lives mostly in a model's linear part, the same at every sample, and 256
-evaluations of the Jacobian and its eigenvalues cost milliseconds."""
+"""Most samples of a nonlinear mode :func:`check_step` linearises at (evenly spaced among
+the mode's samples, its first included): stiffness lives mostly in a model's linear part,
+and 256 evaluations of the Jacobian and its eigenvalues cost milliseconds.  Taken per mode,
+so a mode the run visits for a few samples of millions is linearised all the same; a mode
+whose ``dx`` is affine (``Mode.linear_form``) has one Jacobian, linearised once."""
+
+TOTAL_POINTS = 4096
+"""Most samples :func:`check_step` linearises at in all (about 80 ms), shared among the
+nonlinear modes the run visits, one each at least: a boolean-affine model's 1024 modes all
+visited would otherwise cost 262,144 evaluations, seconds on a run that takes one."""
+
+
+def _rows(model: HybridModel, modes: IntArray) -> IntArray:
+    """The rows :func:`check_step` linearises at: some of every mode the run visits.
+
+    Row ``k`` stands for the interval :math:`(t_{k-1}, t_k]` run in mode ``modes[k]``.
+    """
+    visited = np.unique(modes[1:])
+    nonlinear = sum(1 for q in visited if model.modes[int(q)].linear_form is None)
+    share = min(MAX_POINTS, max(1, TOTAL_POINTS // max(nonlinear, 1)))
+    chosen: list[IntArray] = []
+    for q in visited:
+        rows = np.flatnonzero(modes[1:] == q) + 1
+        count = 1 if model.modes[int(q)].linear_form is not None else share
+        picks = np.unique(np.linspace(0, rows.size - 1, count).astype(np.int64))
+        chosen.append(rows[picks])
+    return np.unique(np.concatenate(chosen))
+
+
+def _flaw_at(
+    model: HybridModel,
+    jacobian: ModelFunction,
+    q: int,
+    x: FloatArray,
+    u: FloatArray,
+    out: FloatArray,
+) -> StepFlaw | None:
+    """:func:`step_flaw` of mode ``q``'s Jacobian at ``x``, ``u``; ``None`` where not finite."""
+    method = model.timebase.method
+    if method is None or not np.all(np.isfinite(x)):
+        return None
+    try:
+        jacobian(q, x, u, out)
+    except ZeroDivisionError:  # plain Python (``jit=False``); compiled, an inf or NaN
+        return None
+    return step_flaw(method, model.timebase.step, out)
+
+
+def _stays(
+    model: HybridModel,
+    functions: CompiledContinuousModel,
+    q: int,
+    x: FloatArray,
+    u: FloatArray,
+    state_min: FloatArray,
+    out: FloatArray,
+) -> bool:
+    """Whether one step from ``x`` keeps a flaw found at ``x``: lands where it is one too.
+
+    A linearisation's flaw compounds only while the steps stay where it holds.  A step
+    that leaves that region at once (a tank emptying: ``-c*sqrt(h)`` has the Jacobian
+    ``-c/(2√h)``, as stiff as one likes just above 0, and the step that lands at 0 is the
+    last) is one step of a bounded error, and the run is what the model says.  A step that
+    overflows, or takes the state out of the model's domain, stays flawed.
+    """
+    method = model.timebase.method or "rk4"
+    after = x.copy()
+    try:
+        integrate_step(
+            functions.dx,
+            METHOD_CODES[method],
+            q,
+            after,
+            u,
+            model.timebase.step,
+            work_buffer(x.shape[0]),
+        )
+    except (ZeroDivisionError, OverflowError, ValueError):  # plain Python's inf or NaN
+        return True
+    after = np.maximum(after, state_min)
+    if not np.all(np.isfinite(after)):
+        return True
+    return _flaw_at(model, functions.DX, q, after, u, out) is not None
 
 
 def check_step(
     model: HybridModel,
-    jacobian: ModelFunction,
+    functions: CompiledContinuousModel,
     modes: IntArray,
     states: FloatArray,
     inputs: FloatArray,
     time: FloatArray,
+    state_min: FloatArray,
 ) -> None:
     """Refuse a run whose integration step mistreats a mode where the run went.
 
-    The interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` from ``states[k-1]`` with
-    ``inputs[k-1]`` held (:func:`hybridlog.model.integration.integrate_log`); the Jacobian
-    ``jacobian(q, x, u, out)`` (the compiled ``DX``) is evaluated at up to
-    :data:`MAX_POINTS` such starts whose state is finite.
+    The interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` with ``inputs[k-1]`` held,
+    from ``states[k-1]``, or at a switch from the state the jump map ``functions.jump``
+    gives, each step bounded below by ``state_min``
+    (:func:`hybridlog.simulation_kernels.simulate_continuous_steps`); the Jacobian
+    ``functions.DX`` is evaluated at up to :data:`MAX_POINTS` such starts of each mode
+    (:func:`_rows`) whose state is finite, and a flaw there refused when one step of the
+    method from there lands where it is one too (:func:`_stays`).
 
     Raises
     ------
@@ -188,24 +305,31 @@ def check_step(
     timebase = model.timebase
     if timebase.method is None or states.shape[0] < 2:
         return
-    rows = np.unique(np.linspace(1, states.shape[0] - 1, MAX_POINTS).astype(np.int64))
     out = np.zeros((model.n_states, model.n_states))
-    for row in rows:
-        start = states[row - 1]
-        if not np.all(np.isfinite(start)):
-            continue
+    jumped = np.zeros(model.n_states)
+    for row in _rows(model, modes):
         q = int(modes[row])
-        jacobian(q, np.ascontiguousarray(start), np.ascontiguousarray(inputs[row - 1]), out)
-        flaw = step_flaw(timebase.method, timebase.step, out)
-        if flaw is not None:
+        start = np.ascontiguousarray(states[row - 1])
+        if q != int(modes[row - 1]):
+            functions.jump(int(modes[row - 1]), q, start, jumped)
+            start = jumped.copy()
+        u = np.ascontiguousarray(inputs[row - 1])
+        flaw = _flaw_at(model, functions.DX, q, start, u, out)
+        if flaw is not None and _stays(model, functions, q, start, u, state_min, out):
             pairs = list(zip(model.states, start, strict=True))[:_SHOWN]
             shown = ", ".join(f"{name} = {value:.4g}" for name, value in pairs)
             if model.n_states > _SHOWN:
                 shown += ", …"
+            where = (
+                f"just after the switch from '{model.modes[int(modes[row - 1])].id}'"
+                if q != int(modes[row - 1])
+                else ""
+            )
             raise model.error(
                 "integration.step",
                 f"{timebase.step:g} s is too long for mode '{model.modes[q].id}' at t = "
-                f"{format_time(float(time[row - 1]))} s ({shown}): the Jacobian of dx there has "
+                f"{format_time(float(time[row - 1]))} s{' ' + where if where else ''} "
+                f"({shown}): the Jacobian of dx there has "
                 f"the eigenvalue λ = {_number(flaw.eigenvalue)} 1/s; "
                 f"{flaw.describe(timebase.method)}",
             )

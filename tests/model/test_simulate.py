@@ -280,3 +280,43 @@ def test_steps_within_a_huge_schedule_build_only_the_rows_run():
         0, 0, 0, 2, 2, 2, 0, 0, 2, 2, 2, 0, 0,
     ]  # fmt: skip
     assert simulate(model, schedule="1:2,3:3", steps=3).modes.tolist() == [0, 0, 0, 2]
+
+
+GUARDED = """
+name = "guarded"
+dt = 0.1
+states = ["x"]
+outputs = ["y"]
+
+[modes.down]
+f = ["x - 0.3"]
+h = ["x"]
+guard = "x > 0"
+
+[modes.up]
+f = ["x + 0.2"]
+h = ["x"]
+guard = "x < 1"
+
+[noise]
+process = 0.0
+measurement = 0.01
+
+[initial]
+state = [0.5]
+mode = "down"
+"""
+
+
+def test_where_guards_overlap_the_first_listed_mode_holds():
+    # in 0 < x < 1 both guards hold: the first listed mode is taken, as model_files says
+    model = parse_model(GUARDED, origin="guarded.toml")
+    log = simulate(model, steps=4, noise=False, jit=False)
+    # x = 0.5, 0.2 (both hold: down), -0.1 (up alone), 0.1 (both: down), -0.2
+    assert [model.mode_ids[q] for q in log.modes] == ["down", "down", "up", "down", "up"]
+    up_first = GUARDED[GUARDED.index("[modes.up]") : GUARDED.index("[noise]")]
+    text = GUARDED.replace(up_first, "").replace("[modes.down]", up_first + "[modes.down]")
+    model = parse_model(text, origin="guarded.toml")
+    log = simulate(model, steps=4, noise=False, jit=False)
+    # x = 0.5, 0.7, 0.9 (both hold: up), 1.1 (down alone), 0.8
+    assert [model.mode_ids[q] for q in log.modes] == ["up", "up", "up", "down", "up"]
