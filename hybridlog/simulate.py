@@ -54,6 +54,7 @@ from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
     InputFunction,
+    JumpFunction,
     compile_continuous,
     compile_guard,
     compile_model,
@@ -243,6 +244,44 @@ def check_columns(origin: str, time: FloatArray, columns: dict[str, FloatArray])
         raise out_of_range(origin, name, float(columns[name][row]), float(time[row]))
 
 
+def _check_jumps(
+    model: HybridModel, jump: JumpFunction, modes: IntArray, states: FloatArray, time: FloatArray
+) -> None:
+    """Name the jump map when the run's first state that is not finite follows a switch.
+
+    At a switch the jump map is applied before the interval is integrated
+    (:func:`~hybridlog.simulation_kernels.simulate_continuous_steps`): a map that leaves its
+    domain (``sqrt(x - 2)`` at ``x = 1``) made "the simulation diverged: x = nan", naming no
+    key.  The map is evaluated again at the state before the switch.
+    """
+    finite = np.isfinite(states).all(axis=1)
+    if finite.all():
+        return
+    row = int(np.argmin(finite))
+    if row == 0 or modes[row] == modes[row - 1]:
+        return
+    source, target = int(modes[row - 1]), int(modes[row])
+    found = model.jump_between(source, target)
+    if found is None:
+        return
+    reset = np.empty(model.n_states)
+    with np.errstate(all="ignore"):
+        jump(source, target, np.ascontiguousarray(states[row - 1]), reset)
+    if np.isfinite(reset).all():
+        return
+    column = int(np.argmin(np.isfinite(reset)))
+    before = ", ".join(
+        f"{name} = {value:.6g}" for name, value in zip(model.states, states[row - 1], strict=True)
+    )
+    raise model.error(
+        found.key,
+        f"the jump map gives {model.states[column]} = {reset[column]:g} at the switch from "
+        f"'{model.modes[source].id}' to '{model.modes[target].id}' at t = "
+        f"{format_time(float(time[row - 1]))} s, from {before}: the simulation diverged "
+        "there; nothing was written",
+    )
+
+
 def _noise_factor(covariance: FloatArray) -> FloatArray:
     """``G`` with ``G Gᵀ = covariance`` for a PSD (possibly singular) covariance."""
     values, vectors = np.linalg.eigh(covariance)
@@ -399,8 +438,9 @@ def simulate(
             first = next(m for m in model.modes if m.has_guard)
             raise model.error(
                 f"modes.{first.id}.guard",
-                "simulate does not switch a continuous-time model by its guards; give a "
-                "schedule instead",
+                "simulate does not switch a continuous-time model by its guards, and a "
+                "schedule does not apply while it has them: remove the guards to simulate "
+                "it along a schedule",
             )
     else:
         model.check_supported("simulate")
@@ -496,6 +536,7 @@ def simulate(
         )
         continuous: Callable[..., None] = kernels.simulate_continuous_steps
         (compile_for(continuous, arguments) if jit else continuous)(*arguments)
+        _check_jumps(model, functions.jump, modes, states, time)
         check_step(model, functions, modes, states, inputs, time, state_min)
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)

@@ -576,8 +576,8 @@ class HybridModel:
             forms.append(mode.linear_form)
         return tuple(forms)
 
-    def reset_map(self, source: int, target: int) -> tuple[sympy.Expr, ...] | None:
-        """The jump map ``R`` for a switch from mode index ``source`` to ``target``.
+    def jump_between(self, source: int, target: int) -> Jump | None:
+        """The jump applied at a switch from mode index ``source`` to ``target``, if any.
 
         A map written for the pair (``"a->b"``) wins over one for any source (``"*->b"``);
         ``None`` means the state is continuous across this switch (``R`` is the identity).
@@ -590,10 +590,15 @@ class HybridModel:
             if jump.target != target_id:
                 continue
             if jump.source == source_id:
-                return jump.reset
+                return jump
             if jump.source is None:
-                wildcard = jump.reset
+                wildcard = jump
         return wildcard
+
+    def reset_map(self, source: int, target: int) -> tuple[sympy.Expr, ...] | None:
+        """The jump map ``R`` of :meth:`jump_between`; ``None``: the identity."""
+        jump = self.jump_between(source, target)
+        return None if jump is None else jump.reset
 
 
 def markov_matrix(stay: float, n_modes: int) -> FloatArray:

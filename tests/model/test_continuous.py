@@ -194,3 +194,55 @@ def test_the_valve_sample_logs_are_what_their_commands_write(tmp_path):
         fresh = tmp_path / sample.name
         main([*args[:at], str(fresh), *args[at + 1 :]])
         assert fresh.read_bytes() == sample.read_bytes()
+
+
+JUMP_OUT_OF_DOMAIN = """
+name = "jumpy"
+time = "continuous"
+dt = 0.01
+integration = {method = "rk4", step = 0.005}
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+dx = ["-x + u"]
+h = ["x"]
+
+[modes.b]
+dx = ["-2*x + u"]
+h = ["x"]
+
+[jumps."a->b"]
+x = "sqrt(x - 2)"
+
+[initial]
+state = [1.0]
+mode = "a"
+
+[simulation]
+schedule = "a:3,b:3"
+inputs = {u = "0"}
+"""
+
+
+def test_a_jump_map_leaving_its_domain_is_named_with_the_switch():
+    # was "the simulation diverged: x = nan at t = 0.04 s", naming no key
+    model = parse_model(JUMP_OUT_OF_DOMAIN, origin="jumpy.toml")
+    with pytest.raises(ModelError) as caught:
+        simulate(model, noise=False)
+    assert str(caught.value) == (
+        "jumpy.toml: jumps.\"a->b\": the jump map gives x = nan at the switch from 'a' to 'b' "
+        "at t = 0.03 s, from x = 0.970446: the simulation diverged there; nothing was written"
+    )
+
+
+def test_a_continuous_model_with_guards_is_refused_saying_what_would_simulate_it():
+    text = (
+        JUMP_OUT_OF_DOMAIN.replace('[jumps."a->b"]\nx = "sqrt(x - 2)"\n', "")
+        .replace('h = ["x"]\n\n[modes.b]', 'h = ["x"]\nguard = "x > 0.5"\n\n[modes.b]')
+        .replace('dx = ["-2*x + u"]\nh = ["x"]', 'dx = ["-2*x + u"]\nh = ["x"]\nguard = "x <= 0.5"')
+    )
+    text = text.replace('schedule = "a:3,b:3"\n', "")
+    with pytest.raises(ModelError, match="remove the guards to simulate it along a schedule"):
+        simulate(parse_model(text, origin="g.toml"), noise=False, jit=False)
