@@ -35,6 +35,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import shutil
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -81,6 +82,7 @@ from hybridlog.outputs import (
     record_path,
     recorded_files,
     remove_stale_temporaries,
+    temporary_name,
     write_marker,
     wrote_file,
 )
@@ -491,6 +493,34 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
         remove_stale_temporaries(parent)
 
 
+def _remove_previous_report(job: BatchJob, outcome: LogOutcome) -> None:
+    """Remove the report an earlier run left in the folder of a log that failed in this one.
+
+    A log that fails gets no report folder (summary.csv's ``folder`` is empty), but its
+    folder from an earlier run (another content of the log, other options, a model since
+    edited) stayed, and read as this run's to whoever opened the batch folder or its CI
+    artifact: a report.md with numbers, beside a summary saying the log failed.  Such a
+    folder is never a report of this run (one of this run would have been reused), so it
+    is removed: renamed aside, then deleted.  Kept: a folder holding a report of another
+    estimator or model (refused without ``--force``), one hybridlog did not write, one
+    holding a file that is not hybridlog's or was edited since (refused with that message,
+    the edit kept), and a link.
+    """
+    folder = Path(outcome.folder)
+    if outcome.status != "failed" or folder.is_symlink() or not folder.is_dir():
+        return
+    if _report_kind(folder / "report.json") != (job.model_name, job.estimator):
+        return
+    try:
+        check_dir_target(folder, force=True, replacing=True)
+    except OutputError:
+        return
+    aside = temporary_name(folder, kind="old")
+    with contextlib.suppress(OSError):
+        os.rename(folder, aside)
+        shutil.rmtree(aside, ignore_errors=True)
+
+
 def _remove_temporaries_left(folders: Sequence[Path], workers: Sequence[int]) -> None:
     """Remove what the ended ``workers`` (process ids) left in ``folders``, and dead processes'.
 
@@ -649,6 +679,8 @@ def run_batch(
                 outcomes.append(analyze_log(*task))
                 if progress is not None:
                     progress(outcomes[-1])
+    for outcome in outcomes:
+        _remove_previous_report(job, outcome)
     summary = _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
     return dataclasses.replace(summary, notes=notes)
 
