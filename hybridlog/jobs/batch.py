@@ -10,7 +10,10 @@ folder), of the model file (or built-in model text), the settings that change re
 ``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
 is skipped (its report reused) only when its folder's report records exactly the provenance
 of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
-(:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.
+(:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.  The log and the
+model file are hashed before they are read, and a worker whose model file no longer has the
+batch's hash (edited while the batch runs) fails its logs: a report never records a content
+it was not made from.
 
 **Folder names** (:func:`folder_names`) are the log paths relative to their common folder,
 suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They depend on each log's own path and
@@ -45,6 +48,7 @@ from typing import Any
 from hybridlog import __version__
 from hybridlog.errors import (
     HybridlogError,
+    ModelError,
     OptionError,
     OutputError,
     ReportError,
@@ -334,6 +338,13 @@ def _warm(job: BatchJob) -> _Warm:
     with _WARM_LOCK:
         warm = _WARM.get(key)
         if warm is None:
+            # hashed before it is read: a report never records a model it was not made from
+            if model_hash(job.model_ref) != job.model_sha256:
+                raise ModelError(
+                    f"{job.model_ref}: the model file changed since the batch started, so "
+                    "this log was not analysed with the model the batch checked and records; "
+                    "run the batch again"
+                )
             model, overrides = parse_sets(job.sets, job.model_ref)
             (prepared,) = prepare_estimators(
                 model,
@@ -710,7 +721,10 @@ def _plan(
     mode_sequence: str | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
     """Check everything the logs share, prepare the batch folder; the job and its tasks."""
-    # the model, the estimator and every --set value are checked before any work
+    # the model, the estimator and every --set value are checked before any work; the model
+    # is hashed before it is read (as each worker does, :func:`_warm`): a report never
+    # records a model it was not made from
+    model_sha256 = model_hash(model_ref)
     model, overrides = parse_sets(sets, model_ref)
     (prepared,) = prepare_estimators(
         model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
@@ -730,7 +744,7 @@ def _plan(
         check_junit_target(junit)
     job = BatchJob(
         model_ref=str(model_ref),
-        model_sha256=model_hash(model_ref),
+        model_sha256=model_sha256,
         model_name=model.name,
         sets=tuple(sets),
         estimator=prepared.name,

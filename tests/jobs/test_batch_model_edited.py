@@ -1,0 +1,57 @@
+"""A model file edited while a batch runs never reaches a report that records the old one.
+
+Each worker process loads the model file when it gets its first log, after the batch process
+hashed it for the reports' provenance.  Before, a model edited meanwhile (a nightly batch
+running while someone saves the model) was used by the workers that started after the edit,
+their reports recording the hash of the content checked before: put the first content back
+and a re-run reused reports made with the other.  Now a worker whose model file no longer has
+the hash of the batch fails its logs, saying why.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import hybridlog.jobs.batch as batch
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import LogOutcome, run_batch
+from hybridlog.model.builtins import builtin_text
+from tests.support.logfiles import tank_run
+
+TANK = "three_tank_hstf"
+
+
+def test_a_worker_that_starts_after_the_model_was_edited_fails_its_logs(tmp_path: Path) -> None:
+    model = tmp_path / "tank.toml"
+    model.write_text(builtin_text(TANK), encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=30, seed=k).columns)
+        for k in (1, 2)
+    ]
+
+    def edit_and_start_a_new_worker(outcome: LogOutcome) -> None:
+        if Path(outcome.log).name == "s1.csv":
+            model.write_text(builtin_text(TANK) + "\n# edited\n", encoding="utf-8")
+            batch._WARM.clear()  # the next log goes to a worker that has loaded nothing yet
+
+    outcome = run_batch(
+        logs,
+        model,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        progress=edit_and_start_a_new_worker,
+    )
+
+    first, second = outcome.logs
+    assert first.status == "done"
+    assert second.status == "failed" and second.error is not None
+    assert "model file changed since the batch started" in second.error
+    assert str(model) in second.error
+    assert not (tmp_path / "out" / "s2.csv").exists()
+    # the log analysed before the edit records the content it was made from
+    recorded = json.loads((tmp_path / "out" / "s1.csv" / "report.json").read_text("utf-8"))
+    original = hashlib.sha256(builtin_text(TANK).encode("utf-8")).hexdigest()
+    assert recorded["batch"]["model_sha256"] == original
