@@ -11,9 +11,9 @@ folder), of the model file (or built-in model text), the settings that change re
 is skipped (its report reused) only when its folder's report records exactly the provenance
 of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
 (:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.  The log and the
-model file are hashed before they are read, and a worker whose model file no longer has the
-batch's hash (edited while the batch runs) fails its logs: a report never records a content
-it was not made from.
+model file are hashed before they are read, and a log read with a model file, centres file
+or ``--msg-dir`` whose content is no longer the one the batch hashed (edited while it runs)
+fails (:func:`_check_unchanged`): a report never records a content it was not made from.
 
 **Folder names** (:func:`folder_names`) are the log paths relative to their common folder,
 suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They depend on each log's own path and
@@ -281,11 +281,7 @@ def _settings(
     prepared: Prepared, overrides: Overrides, read: ReadOptions, table_format: str
 ) -> str:
     """The settings that change a batch's results, as canonical JSON text."""
-    files = {
-        name: content_hash(value, what=what)
-        for name, (what, _) in FILE_OPTIONS.items()
-        if (value := getattr(prepared.options, name, None))
-    }
+    files = {name: content_hash(path, what=what) for name, what, path in _input_files(prepared)}
     reading: dict[str, Any] = dataclasses.asdict(read)
     reading["msg_dirs"] = [
         [folder, content_hash(folder, what="--msg-dir folder")] for folder in read.msg_dirs
@@ -353,11 +349,52 @@ def _warm(job: BatchJob) -> _Warm:
                 smooth=job.smooth,
                 mode_sequence=job.mode_sequence,
             )
+            _check_unchanged(job, _input_files(prepared))
             gates = gates_for(model, job.fail_under, job.fail_over)
             warm = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
             _WARM.clear()
             _WARM[key] = warm
         return warm
+
+
+def _input_files(prepared: Prepared) -> list[tuple[str, str, str]]:
+    """The files the estimator's options name: ``(option, what it is, path)`` each."""
+    return [
+        (name, what, value)
+        for name, (what, _) in FILE_OPTIONS.items()
+        if (value := getattr(prepared.options, name, None))
+    ]
+
+
+def _check_unchanged(job: BatchJob, files: Sequence[tuple[str, str, str]]) -> None:
+    """Refuse input files and ``--msg-dir`` folders whose content changed since the batch started.
+
+    The batch hashed them for its reports' provenance (:func:`_settings`) before any worker
+    reads them; one edited since would be read by the workers that start, or the logs read,
+    after the edit, their reports recording the content checked before.  Called before they
+    are read (a report never records a content it was not made from).
+
+    Raises
+    ------
+    OptionError
+        Naming the file or folder.
+    """
+    settings = json.loads(job.settings)
+    changed = [
+        f"{what} {excerpt(path)}"
+        for name, what, path in files
+        if content_hash(path, what=what) != settings["files"].get(name)
+    ]
+    changed += [
+        f"--msg-dir folder {excerpt(folder)}"
+        for folder, digest in settings["read"]["msg_dirs"]
+        if content_hash(folder, what="--msg-dir folder") != digest
+    ]
+    if changed:
+        raise OptionError(
+            f"{changed[0]}: changed since the batch started, so this log was not analysed "
+            "with the content the batch checked and records; run the batch again"
+        )
 
 
 def _plots(job: BatchJob, gates: Sequence[Gate]) -> bool | Callable[[Report], bool]:
@@ -434,6 +471,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         if reused is not None:
             return reused
     warm = _warm(job)
+    if job.read.msg_dirs:  # read with each log: checked before each
+        _check_unchanged(job, [])
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
     from hybridlog.report import write_report  # polars: where a log is analysed only
