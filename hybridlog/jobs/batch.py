@@ -199,7 +199,7 @@ def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) ->
         parts = Path(os.path.relpath(path, root)).parts
         name = "/".join(_escaped(part, k == 0) for k, part in enumerate(parts))
         if name in seen:
-            raise OptionError(f"log {excerpt(str(log))} is given twice")
+            raise OptionError(f"log {excerpt(str(log))} is given twice{_how_twice(path, searched)}")
         seen[name] = log
         names.append(name)
     for name in names:
@@ -212,6 +212,26 @@ def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) ->
                 )
             parent = parent.rpartition("/")[0]
     return names
+
+
+def _how_twice(path: str, searched: Sequence[PathLike]) -> str:
+    """How a log came to be given twice: the folders of logs given that hold it, if any.
+
+    ``batch runs runs/sub`` found ``runs/sub/b.csv`` in both folders; "log 'runs/sub/b.csv'
+    is given twice" named a file the user never typed, and not the arguments to change.
+    """
+    holding = [
+        excerpt(os.fspath(folder))
+        for folder in searched
+        if path.startswith(os.path.join(os.path.abspath(folder), ""))
+    ]
+    if not holding:
+        return ""
+    if len(set(holding)) == 1 and len(holding) > 1:
+        return f" (the folder of logs {holding[0]} is given twice); give it once"
+    if len(holding) == 1:
+        return f" (as itself, and in the folder of logs {holding[0]}); give it once"
+    return f" (in the folders of logs {', '.join(holding[:-1])} and {holding[-1]}); give it once"
 
 
 def _one_line(text: str) -> str:
