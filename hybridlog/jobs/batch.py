@@ -69,7 +69,7 @@ from hybridlog.jobs.analysis import (
     read_log,
 )
 from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, missing_pattern_hint, natural_key
-from hybridlog.jobs.provenance import content_hash, model_hash
+from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -269,6 +269,8 @@ class BatchJob:
         file): the summaries then show the filter's own metrics beside the offline ones.
     settings:
         The settings that change results, as canonical JSON (part of :func:`provenance`).
+    msg_dir_stamps:
+        What ``stat`` said of each ``--msg-dir`` before it was hashed into ``settings``.
     """
 
     model_ref: str
@@ -286,6 +288,9 @@ class BatchJob:
     smooth: bool = False
     mode_sequence: str | None = None
     offline: bool = False
+    msg_dir_stamps: tuple[str, ...] = ()
+    """:func:`~hybridlog.jobs.provenance.folder_stamp` of each ``--msg-dir`` when the batch
+    hashed them: each log checks them cheaply (:func:`_check_unchanged`)."""
 
     def provenance(self, log_sha256: str) -> dict[str, Any]:
         """What a report of this batch for a log of this content records (key ``batch``)."""
@@ -407,8 +412,11 @@ def _check_unchanged(job: BatchJob, files: Sequence[tuple[str, str, str]]) -> No
     ]
     changed += [
         f"--msg-dir folder {excerpt(folder)}"
-        for folder, digest in settings["read"]["msg_dirs"]
-        if content_hash(folder, what="--msg-dir folder") != digest
+        for (folder, digest), stamp in zip(
+            settings["read"]["msg_dirs"], job.msg_dir_stamps, strict=True
+        )
+        # read only when stat says it changed: a --msg-dir may be a whole ROS install
+        if folder_stamp(folder) != stamp and content_hash(folder, what="--msg-dir folder") != digest
     ]
     if changed:
         raise OptionError(
@@ -801,7 +809,9 @@ def _plan(
     check_apart(outputs, [*(("folder of logs", f) for f in searched), *inputs])
     if junit is not None:
         check_junit_target(junit)
+    stamps = tuple(folder_stamp(folder) for folder in read.msg_dirs)  # before the hashes
     job = BatchJob(
+        msg_dir_stamps=stamps,
         model_ref=str(model_ref),
         model_sha256=model_sha256,
         model_name=model.name,

@@ -15,6 +15,8 @@ import json
 import shutil
 from pathlib import Path
 
+import pytest
+
 import hybridlog.jobs.batch as batch
 from hybridlog.io import ReadOptions
 from hybridlog.io.writers import write_table
@@ -104,7 +106,7 @@ def test_a_msg_dir_edited_while_the_batch_runs_fails_the_later_logs(tmp_path: Pa
 
     def edit(outcome: LogOutcome) -> None:
         if Path(outcome.log).name == "s1.csv":
-            (msgs / "Level.msg").write_text("float32 h\n", encoding="utf-8")
+            (msgs / "Level.msg").write_text("float64 h\nfloat64 g\n", encoding="utf-8")
 
     outcome = run_batch(
         logs,
@@ -119,3 +121,34 @@ def test_a_msg_dir_edited_while_the_batch_runs_fails_the_later_logs(tmp_path: Pa
     error = outcome.logs[1].error
     assert error is not None and error.startswith("--msg-dir folder ")
     assert "changed since the batch started" in error
+
+
+def test_a_msg_dir_is_read_again_only_when_stat_says_it_changed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A --msg-dir may be a whole ROS install: a log does not hash it again while unchanged."""
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Level.msg").write_text("float64 h\n", encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=30, seed=k).columns)
+        for k in (1, 2, 3)
+    ]
+    hashed: list[str] = []
+    content_hash = batch.content_hash
+
+    def counted(path: str, *, what: str = "log") -> str:
+        hashed.append(what)
+        return content_hash(path, what=what)
+
+    monkeypatch.setattr(batch, "content_hash", counted)
+    outcome = run_batch(
+        logs,
+        TANK,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        read=ReadOptions(msg_dirs=(str(tmp_path / "msgs"),)),
+    )
+    assert [o.status for o in outcome.logs] == ["done"] * 3
+    assert hashed.count("--msg-dir folder") == 1  # for the settings, once
