@@ -10,7 +10,10 @@ folder), of the model file (or built-in model text), the settings that change re
 ``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
 is skipped (its report reused) only when its folder's report records exactly the provenance
 of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
-(:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.
+(:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.  The log and the
+model file are hashed before they are read, and a log read with a model file, centres file
+or ``--msg-dir`` whose content is no longer the one the batch hashed (edited while it runs)
+fails (:func:`_check_unchanged`): a report never records a content it was not made from.
 
 **Folder names** (:func:`folder_names`) are the log paths relative to their common folder,
 suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They depend on each log's own path and
@@ -35,6 +38,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import shutil
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -44,6 +48,7 @@ from typing import Any
 from hybridlog import __version__
 from hybridlog.errors import (
     HybridlogError,
+    ModelError,
     OptionError,
     OutputError,
     ReportError,
@@ -64,7 +69,7 @@ from hybridlog.jobs.analysis import (
     read_log,
 )
 from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, missing_pattern_hint, natural_key
-from hybridlog.jobs.provenance import content_hash, model_hash
+from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -81,6 +86,7 @@ from hybridlog.outputs import (
     record_path,
     recorded_files,
     remove_stale_temporaries,
+    temporary_name,
     write_marker,
     wrote_file,
 )
@@ -193,7 +199,7 @@ def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) ->
         parts = Path(os.path.relpath(path, root)).parts
         name = "/".join(_escaped(part, k == 0) for k, part in enumerate(parts))
         if name in seen:
-            raise OptionError(f"log {excerpt(str(log))} is given twice")
+            raise OptionError(f"log {excerpt(str(log))} is given twice{_how_twice(path, searched)}")
         seen[name] = log
         names.append(name)
     for name in names:
@@ -206,6 +212,26 @@ def folder_names(logs: Sequence[PathLike], searched: Sequence[PathLike] = ()) ->
                 )
             parent = parent.rpartition("/")[0]
     return names
+
+
+def _how_twice(path: str, searched: Sequence[PathLike]) -> str:
+    """How a log came to be given twice: the folders of logs given that hold it, if any.
+
+    ``batch runs runs/sub`` found ``runs/sub/b.csv`` in both folders; "log 'runs/sub/b.csv'
+    is given twice" named a file the user never typed, and not the arguments to change.
+    """
+    holding = [
+        excerpt(os.fspath(folder))
+        for folder in searched
+        if path.startswith(os.path.join(os.path.abspath(folder), ""))
+    ]
+    if not holding:
+        return ""
+    if len(set(holding)) == 1 and len(holding) > 1:
+        return f" (the folder of logs {holding[0]} is given twice); give it once"
+    if len(holding) == 1:
+        return f" (as itself, and in the folder of logs {holding[0]}); give it once"
+    return f" (in the folders of logs {', '.join(holding[:-1])} and {holding[-1]}); give it once"
 
 
 def _one_line(text: str) -> str:
@@ -243,6 +269,8 @@ class BatchJob:
         file): the summaries then show the filter's own metrics beside the offline ones.
     settings:
         The settings that change results, as canonical JSON (part of :func:`provenance`).
+    msg_dir_stamps:
+        What ``stat`` said of each ``--msg-dir`` before it was hashed into ``settings``.
     """
 
     model_ref: str
@@ -260,6 +288,9 @@ class BatchJob:
     smooth: bool = False
     mode_sequence: str | None = None
     offline: bool = False
+    msg_dir_stamps: tuple[str, ...] = ()
+    """:func:`~hybridlog.jobs.provenance.folder_stamp` of each ``--msg-dir`` when the batch
+    hashed them: each log checks them cheaply (:func:`_check_unchanged`)."""
 
     def provenance(self, log_sha256: str) -> dict[str, Any]:
         """What a report of this batch for a log of this content records (key ``batch``)."""
@@ -275,11 +306,7 @@ def _settings(
     prepared: Prepared, overrides: Overrides, read: ReadOptions, table_format: str
 ) -> str:
     """The settings that change a batch's results, as canonical JSON text."""
-    files = {
-        name: content_hash(value, what=what)
-        for name, (what, _) in FILE_OPTIONS.items()
-        if (value := getattr(prepared.options, name, None))
-    }
+    files = {name: content_hash(path, what=what) for name, what, path in _input_files(prepared)}
     reading: dict[str, Any] = dataclasses.asdict(read)
     reading["msg_dirs"] = [
         [folder, content_hash(folder, what="--msg-dir folder")] for folder in read.msg_dirs
@@ -332,6 +359,13 @@ def _warm(job: BatchJob) -> _Warm:
     with _WARM_LOCK:
         warm = _WARM.get(key)
         if warm is None:
+            # hashed before it is read: a report never records a model it was not made from
+            if model_hash(job.model_ref) != job.model_sha256:
+                raise ModelError(
+                    f"{job.model_ref}: the model file changed since the batch started, so "
+                    "this log was not analysed with the model the batch checked and records; "
+                    "run the batch again"
+                )
             model, overrides = parse_sets(job.sets, job.model_ref)
             (prepared,) = prepare_estimators(
                 model,
@@ -340,11 +374,55 @@ def _warm(job: BatchJob) -> _Warm:
                 smooth=job.smooth,
                 mode_sequence=job.mode_sequence,
             )
+            _check_unchanged(job, _input_files(prepared))
             gates = gates_for(model, job.fail_under, job.fail_over)
             warm = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
             _WARM.clear()
             _WARM[key] = warm
         return warm
+
+
+def _input_files(prepared: Prepared) -> list[tuple[str, str, str]]:
+    """The files the estimator's options name: ``(option, what it is, path)`` each."""
+    return [
+        (name, what, value)
+        for name, (what, _) in FILE_OPTIONS.items()
+        if (value := getattr(prepared.options, name, None))
+    ]
+
+
+def _check_unchanged(job: BatchJob, files: Sequence[tuple[str, str, str]]) -> None:
+    """Refuse input files and ``--msg-dir`` folders whose content changed since the batch started.
+
+    The batch hashed them for its reports' provenance (:func:`_settings`) before any worker
+    reads them; one edited since would be read by the workers that start, or the logs read,
+    after the edit, their reports recording the content checked before.  Called before they
+    are read (a report never records a content it was not made from).
+
+    Raises
+    ------
+    OptionError
+        Naming the file or folder.
+    """
+    settings = json.loads(job.settings)
+    changed = [
+        f"{what} {excerpt(path)}"
+        for name, what, path in files
+        if content_hash(path, what=what) != settings["files"].get(name)
+    ]
+    changed += [
+        f"--msg-dir folder {excerpt(folder)}"
+        for (folder, digest), stamp in zip(
+            settings["read"]["msg_dirs"], job.msg_dir_stamps, strict=True
+        )
+        # read only when stat says it changed: a --msg-dir may be a whole ROS install
+        if folder_stamp(folder) != stamp and content_hash(folder, what="--msg-dir folder") != digest
+    ]
+    if changed:
+        raise OptionError(
+            f"{changed[0]}: changed since the batch started, so this log was not analysed "
+            "with the content the batch checked and records; run the batch again"
+        )
 
 
 def _plots(job: BatchJob, gates: Sequence[Gate]) -> bool | Callable[[Report], bool]:
@@ -421,6 +499,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         if reused is not None:
             return reused
     warm = _warm(job)
+    if job.read.msg_dirs:  # read with each log: checked before each
+        _check_unchanged(job, [])
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
     from hybridlog.report import write_report  # polars: where a log is analysed only
@@ -489,6 +569,34 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
         raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
     for parent in parents:
         remove_stale_temporaries(parent)
+
+
+def _remove_previous_report(job: BatchJob, outcome: LogOutcome) -> None:
+    """Remove the report an earlier run left in the folder of a log that failed in this one.
+
+    A log that fails gets no report folder (summary.csv's ``folder`` is empty), but its
+    folder from an earlier run (another content of the log, other options, a model since
+    edited) stayed, and read as this run's to whoever opened the batch folder or its CI
+    artifact: a report.md with numbers, beside a summary saying the log failed.  Such a
+    folder is never a report of this run (one of this run would have been reused), so it
+    is removed: renamed aside, then deleted.  Kept: a folder holding a report of another
+    estimator or model (refused without ``--force``), one hybridlog did not write, one
+    holding a file that is not hybridlog's or was edited since (refused with that message,
+    the edit kept), and a link.
+    """
+    folder = Path(outcome.folder)
+    if outcome.status != "failed" or folder.is_symlink() or not folder.is_dir():
+        return
+    if _report_kind(folder / "report.json") != (job.model_name, job.estimator):
+        return
+    try:
+        check_dir_target(folder, force=True, replacing=True)
+    except OutputError:
+        return
+    aside = temporary_name(folder, kind="old")
+    with contextlib.suppress(OSError):
+        os.rename(folder, aside)
+        shutil.rmtree(aside, ignore_errors=True)
 
 
 def _remove_temporaries_left(folders: Sequence[Path], workers: Sequence[int]) -> None:
@@ -649,6 +757,8 @@ def run_batch(
                 outcomes.append(analyze_log(*task))
                 if progress is not None:
                     progress(outcomes[-1])
+    for outcome in outcomes:
+        _remove_previous_report(job, outcome)
     summary = _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
     return dataclasses.replace(summary, notes=notes)
 
@@ -678,7 +788,10 @@ def _plan(
     mode_sequence: str | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
     """Check everything the logs share, prepare the batch folder; the job and its tasks."""
-    # the model, the estimator and every --set value are checked before any work
+    # the model, the estimator and every --set value are checked before any work; the model
+    # is hashed before it is read (as each worker does, :func:`_warm`): a report never
+    # records a model it was not made from
+    model_sha256 = model_hash(model_ref)
     model, overrides = parse_sets(sets, model_ref)
     (prepared,) = prepare_estimators(
         model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
@@ -696,9 +809,11 @@ def _plan(
     check_apart(outputs, [*(("folder of logs", f) for f in searched), *inputs])
     if junit is not None:
         check_junit_target(junit)
+    stamps = tuple(folder_stamp(folder) for folder in read.msg_dirs)  # before the hashes
     job = BatchJob(
+        msg_dir_stamps=stamps,
         model_ref=str(model_ref),
-        model_sha256=model_hash(model_ref),
+        model_sha256=model_sha256,
         model_name=model.name,
         sets=tuple(sets),
         estimator=prepared.name,

@@ -17,7 +17,7 @@ from pathlib import Path
 from hybridlog.errors import LogError, ModelError
 from hybridlog.outputs import PathLike
 
-__all__ = ["content_hash", "model_hash"]
+__all__ = ["content_hash", "folder_stamp", "model_hash"]
 
 
 def _file_digest(path: Path) -> bytes:
@@ -56,6 +56,27 @@ def content_hash(path: PathLike, *, what: str = "log") -> str:
         return digest.hexdigest()
     except OSError as err:
         raise LogError(f"{what} {path}: cannot read it: {err.strerror or err}") from err
+
+
+def folder_stamp(folder: PathLike) -> str:
+    """SHA-256 (hex) of what ``stat`` says of every file below ``folder``: cheap, not content.
+
+    Its relative path, size and modification time: to tell, without reading a large folder
+    (a ``--msg-dir`` of a whole ROS install), that it is as it was; when the stamp differs,
+    :func:`content_hash` says whether the content does.  An unreadable folder stamps empty.
+    """
+    digest = hashlib.sha256(b"stamp\0")
+    target = Path(folder)
+    try:
+        for file in _folder_files(target):
+            state = file.stat()
+            relative = file.relative_to(target).as_posix().encode("utf-8", "surrogateescape")
+            digest.update(len(relative).to_bytes(8, "little") + relative)
+            digest.update(state.st_size.to_bytes(8, "little"))
+            digest.update(state.st_mtime_ns.to_bytes(16, "little", signed=True))
+    except OSError:
+        return ""
+    return digest.hexdigest()
 
 
 def model_hash(model_ref: PathLike) -> str:

@@ -8,7 +8,8 @@ value: the gain of each log); VAF and MSE are the filter's one-step-ahead predic
 way.
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
 at the bottom of every panel; a mode accuracy over part of its log (a true mode that starts
-late: summary.csv's ``mode_samples``) is a triangle, not a dot.  Drawn with matplotlib's
+late: summary.csv's ``mode_samples``) is a triangle, not a dot.  The y ticks are values, never
+an offset added to them (VAFs of 99.993 % and 99.994 % read as themselves).  Drawn with matplotlib's
 Agg canvas (no pyplot, no global state), like the per-log plots
 (:mod:`hybridlog.report.plots`).
 """
@@ -180,6 +181,10 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             ax.set_yscale("log")  # MSEs spanning decades
         elif metric != "mse" and ax.get_ylim()[1] > 100:
             ax.set_ylim(top=101.0)  # percentages: nothing is above 100
+        if ax.get_yscale() == "linear":
+            # values themselves on the ticks: close VAFs (99.9929, 99.9936) read "0.0000,
+            # 0.0006" under an offset "+9.9993e1" above the panel
+            ax.ticklabel_format(axis="y", useOffset=False)
         ax.set_ylabel(label, fontsize=9)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))

@@ -99,3 +99,18 @@ def test_a_batch_of_one_log_is_counted_in_the_singular():
     assert summary_figure("m · imm", one).get_suptitle().split("\n")[1].startswith("1 log, ")
     assert "**1 log: all passed** (1 analysed)." in batch_markdown("m", one, [])[1]
     assert "**3 logs: 2 not passed**" in batch_markdown("m", rows(), [])[1]
+
+
+def test_close_values_are_ticked_as_themselves_not_as_an_offset():
+    """VAFs 99.9929 and 99.9936 were ticked 0.0000 to 0.0006 under "+9.9993e1"."""
+    report = read_report(REPORT)
+    batch = [
+        BatchRow(f"{k}.csv", f"{k}.csv", "done", replace(report, vaf=vaf), None, ())
+        for k, vaf in enumerate((99.99292, 99.99360))
+    ]
+    fig = summary_figure("model · imm", batch)
+    fig.canvas.draw()
+    vaf_axes = fig.axes[0]
+    assert vaf_axes.yaxis.get_offset_text().get_text() == ""
+    ticks = [t.get_text() for t in vaf_axes.get_yticklabels() if t.get_text()]
+    assert ticks and all(t.startswith("99.99") for t in ticks)

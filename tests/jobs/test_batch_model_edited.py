@@ -1,0 +1,154 @@
+"""A model or centres file edited while a batch runs never reaches a report recording the old.
+
+Each worker process loads the model file when it gets its first log, after the batch process
+hashed it for the reports' provenance.  Before, a model edited meanwhile (a nightly batch
+running while someone saves the model) was used by the workers that started after the edit,
+their reports recording the hash of the content checked before: put the first content back
+and a re-run reused reports made with the other.  Now a worker whose model file no longer has
+the hash of the batch fails its logs, saying why.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+import hybridlog.jobs.batch as batch
+from hybridlog.io import ReadOptions
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import LogOutcome, run_batch
+from hybridlog.jobs.cluster import discover_modes
+from hybridlog.model.builtins import builtin_text
+from tests.support.logfiles import tank_run
+from tests.support.paths import SAMPLE_LOGS
+
+TANK = "three_tank_hstf"
+DOUBLE_CART = SAMPLE_LOGS / "double_cart_case1.csv"
+
+
+def test_a_worker_that_starts_after_the_model_was_edited_fails_its_logs(tmp_path: Path) -> None:
+    model = tmp_path / "tank.toml"
+    model.write_text(builtin_text(TANK), encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=30, seed=k).columns)
+        for k in (1, 2)
+    ]
+
+    def edit_and_start_a_new_worker(outcome: LogOutcome) -> None:
+        if Path(outcome.log).name == "s1.csv":
+            model.write_text(builtin_text(TANK) + "\n# edited\n", encoding="utf-8")
+            batch._WARM.clear()  # the next log goes to a worker that has loaded nothing yet
+
+    outcome = run_batch(
+        logs,
+        model,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        progress=edit_and_start_a_new_worker,
+    )
+
+    first, second = outcome.logs
+    assert first.status == "done"
+    assert second.status == "failed" and second.error is not None
+    assert "model file changed since the batch started" in second.error
+    assert str(model) in second.error
+    assert not (tmp_path / "out" / "s2.csv").exists()
+    # the log analysed before the edit records the content it was made from
+    recorded = json.loads((tmp_path / "out" / "s1.csv" / "report.json").read_text("utf-8"))
+    original = hashlib.sha256(builtin_text(TANK).encode("utf-8")).hexdigest()
+    assert recorded["batch"]["model_sha256"] == original
+
+
+def test_a_centres_file_edited_while_the_batch_runs_fails_the_later_logs(tmp_path: Path) -> None:
+    """The same for a file an estimator option names (chiu's centres), hashed in the settings."""
+    centres = tmp_path / "c.json"
+    discover_modes(DOUBLE_CART, "double_cart_case1", out=centres, compare_kmeans=False)
+    (tmp_path / "logs").mkdir()
+    logs = [tmp_path / "logs" / f"s{k}.csv" for k in (1, 2)]
+    for log in logs:
+        shutil.copyfile(DOUBLE_CART, log)
+
+    def edit_and_start_a_new_worker(outcome: LogOutcome) -> None:
+        if Path(outcome.log).name == "s1.csv":  # the same centres, written another way
+            centres.write_text(json.dumps(json.loads(centres.read_text("utf-8")), indent=1))
+            batch._WARM.clear()
+
+    outcome = run_batch(
+        logs,
+        "double_cart_case1",
+        out_dir=tmp_path / "out",
+        estimator="chiu",
+        sets=[f"centers={centres}"],
+        progress=edit_and_start_a_new_worker,
+    )
+
+    first, second = outcome.logs
+    assert first.status == "done"
+    assert second.status == "failed" and second.error is not None
+    assert second.error.startswith(f"centres file '{centres}': changed since the batch started")
+
+
+def test_a_msg_dir_edited_while_the_batch_runs_fails_the_later_logs(tmp_path: Path) -> None:
+    """A ``--msg-dir`` is read with each log: each log checks it (hashed in the settings)."""
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Level.msg").write_text("float64 h\n", encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=30, seed=k).columns)
+        for k in (1, 2)
+    ]
+
+    def edit(outcome: LogOutcome) -> None:
+        if Path(outcome.log).name == "s1.csv":
+            (msgs / "Level.msg").write_text("float64 h\nfloat64 g\n", encoding="utf-8")
+
+    outcome = run_batch(
+        logs,
+        TANK,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        read=ReadOptions(msg_dirs=(str(tmp_path / "msgs"),)),
+        progress=edit,
+    )
+
+    assert [o.status for o in outcome.logs] == ["done", "failed"]
+    error = outcome.logs[1].error
+    assert error is not None and error.startswith("--msg-dir folder ")
+    assert "changed since the batch started" in error
+
+
+def test_a_msg_dir_is_read_again_only_when_stat_says_it_changed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A --msg-dir may be a whole ROS install: a log does not hash it again while unchanged."""
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Level.msg").write_text("float64 h\n", encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=30, seed=k).columns)
+        for k in (1, 2, 3)
+    ]
+    hashed: list[str] = []
+    content_hash = batch.content_hash
+
+    def counted(path: str, *, what: str = "log") -> str:
+        hashed.append(what)
+        return content_hash(path, what=what)
+
+    monkeypatch.setattr(batch, "content_hash", counted)
+    outcome = run_batch(
+        logs,
+        TANK,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        read=ReadOptions(msg_dirs=(str(tmp_path / "msgs"),)),
+    )
+    assert [o.status for o in outcome.logs] == ["done"] * 3
+    assert hashed.count("--msg-dir folder") == 1  # for the settings, once
