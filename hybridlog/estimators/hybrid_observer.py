@@ -80,12 +80,30 @@ def brunovsky_gain(eigenvalues: tuple[float, ...]) -> FloatArray:
 
     ``A_b − K C_b`` is the companion matrix of ``s^n + K_1 s^{n−1} + … + K_n``.
 
+    Raises
+    ------
+    OptionError
+        A coefficient ``K_j`` is not a positive finite float64 (it overflows, or underflows
+        to 0): every ``λ_j < 0`` makes every ``K_j > 0``, so such a gain places other
+        eigenvalues than Λ (``K_n = 0`` puts one at 0), which a report would still name.
+
     Examples
     --------
     >>> brunovsky_gain((-1.0, -2.0)).tolist()
     [3.0, 2.0]
     """
-    return np.ascontiguousarray(np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real)
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        gain = np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real
+    wrong = np.flatnonzero(~(np.isfinite(gain) & (gain > 0.0)))
+    if wrong.size:
+        j = int(wrong[0])
+        raise OptionError(
+            f"switching-observer option 'eigenvalues': the gain K_{j + 1} of "
+            f"{', '.join(f'{v:g}' for v in eigenvalues)} (the coefficient of s^{len(gain) - j - 1}"
+            f" in the product of (s - l_j)) is {gain[j]:g}, not a positive float64: "
+            "A_b - K C_b would not have these eigenvalues; choose them nearer to 1 in size"
+        )
+    return np.ascontiguousarray(gain)
 
 
 def drift_observability(
@@ -330,7 +348,16 @@ def _check_step(model: HybridModel, eigenvalues: tuple[float, ...]) -> None:
     timebase = model.timebase
     if timebase.method is None:
         return
-    flaw = step_flaw(timebase.method, timebase.step, np.diag(eigenvalues))
+    try:
+        flaw = step_flaw(timebase.method, timebase.step, np.diag(eigenvalues))
+    except OverflowError:  # |R(h*lambda)| beyond float64: far outside the stability region
+        fastest = min(eigenvalues)
+        raise OptionError(
+            f"switching-observer option 'eigenvalues': λ = {fastest:g} 1/s is too fast for "
+            f"integration.step = {timebase.step:g} s of {model.origin or model.name}: "
+            f"h·λ = {timebase.step * fastest:.3g} lies far outside the stability region of "
+            f"{timebase.method} (|h·λ| < 3)"
+        ) from None
     if flaw is not None:
         raise OptionError(
             f"switching-observer option 'eigenvalues': λ = {flaw.eigenvalue.real:g} 1/s is too "
@@ -442,8 +469,8 @@ def run_switching_observer(
             "it with --map truth.mode=PATH (or a 'mode' column)"
         )
     eigenvalues = options.eigenvalue_list(model.n_states)
-    _check_step(model, eigenvalues)
     gain = brunovsky_gain(eigenvalues)
+    _check_step(model, eigenvalues)
     count, n = signals.n_samples, model.n_states
     modes: IntArray = np.ascontiguousarray(signals.truth_modes, dtype=np.int64)
     timebase = model.timebase

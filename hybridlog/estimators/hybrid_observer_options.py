@@ -7,6 +7,7 @@ loading either.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -83,6 +84,11 @@ class SwitchingObserverOptions:
             raise OptionError(f"{what}: {err}") from None
         if len(values) == 1:
             values = [values[0] * (j + 1) for j in range(n_states)]
+            if not math.isfinite(values[-1]):
+                raise OptionError(
+                    f"{what}: one value l stands for l, 2l, ..., {n_states}l, and "
+                    f"{n_states}*({excerpt(self.eigenvalues)}) overflows a float64"
+                )
         elif len(values) != n_states:
             raise OptionError(
                 f"{what}: the model has {n_states} states, so give {n_states} eigenvalues or "

@@ -388,3 +388,23 @@ def test_a_diverged_estimate_is_an_error_naming_the_time():
     # refused before the run, naming the eigenvalue RK4's step cannot follow
     with pytest.raises(OptionError, match=r"λ = -30000 1/s is too fast for integration.step"):
         clutch_run(builtin_text("ice_clutch"), "-1e4", [(0, 30), (1, 30)])
+
+
+@pytest.mark.parametrize(
+    ("eigenvalues", "words"),
+    [
+        # one value expanded to l, 2l, 3l: 3l was -inf, which the step check let through,
+        # and the run "diverged" naming eigenvalues "-1e+308, -inf, -inf"
+        ("-1e308", r"one value l stands for l, 2l, \.\.\., 3l, and 3\*\('-1e308'\) overflows"),
+        # K = [6e-200, 0, 0] placed eigenvalues at 0, not Λ: exit 0 with a note naming Λ
+        ("-1e-200", r"the gain K_2 of -1e-200, -2e-200, -3e-200 .* is 0, not a positive"),
+        # K_3 = 1e600 overflows (the step check itself overflowed: a traceback)
+        ("-1e200,-1e200,-1e200", r"the gain K_2 of .* is inf, not a positive"),
+        # R(h·λ) of RK4 overflows a Python complex in the step check: was a traceback
+        ("-1e80", r"λ = -3e\+80 1/s is too fast .* far outside the stability region of rk4"),
+    ],
+)
+def test_eigenvalues_whose_gain_float64_cannot_hold_are_refused(switched, eigenvalues, words):
+    model, _, signals, _ = switched
+    with pytest.raises(OptionError, match=rf"^switching-observer option 'eigenvalues': {words}"):
+        run_switching_observer(model, signals, SwitchingObserverOptions(eigenvalues=eigenvalues))
