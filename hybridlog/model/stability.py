@@ -80,10 +80,16 @@ _BISECTIONS = 60
 
 
 def amplification(method: IntegrationMethod, z: complex) -> complex:
-    """The stability function :math:`R(z)` of ``method``: one step's factor on ``e^{λt}``."""
+    r"""The stability function :math:`R(z)` of ``method``: one step's factor on ``e^{λt}``.
+
+    Beyond float64 (RK4's :math:`z^4/24` past :math:`|z| \approx 10^{77}`) it is not finite,
+    which :func:`_flaw_kind` takes as growth; Python's complex power raised ``OverflowError``.
+    """
     if method == "euler":
         return 1.0 + z
-    return 1.0 + z + z * z / 2.0 + z**3 / 6.0 + z**4 / 24.0
+    w = np.complex128(z)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return complex(1.0 + w + w * w / 2.0 + w**3 / 6.0 + w**4 / 24.0)
 
 
 def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> str | None:
@@ -95,7 +101,7 @@ def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> s
     if not eigenvalue.real < -_ROUNDING * size:
         return None
     factor = amplification(method, step * eigenvalue)
-    if abs(factor) > 1.0:
+    if not abs(factor) <= 1.0:  # NaN or infinite too: beyond float64, it grows
         return "unstable"
     real = abs(eigenvalue.imag) <= _ROUNDING * size
     if real and factor.real < 0.0 and abs(factor) > np.exp(step * eigenvalue.real):
@@ -106,8 +112,14 @@ def _flaw_kind(method: IntegrationMethod, step: float, eigenvalue: complex) -> s
 
 
 def _longest_step(method: IntegrationMethod, step: float, eigenvalue: complex) -> float:
-    """The longest step up to ``step`` at which ``eigenvalue`` has no flaw (bisection)."""
-    good, bad = 0.0, step
+    """The longest step up to ``step`` at which ``eigenvalue`` has no flaw (bisection).
+
+    Halved first until a step has none (``λ = -1e80``: about 270 halvings of 1 ms), then
+    bisected between that step and its double.
+    """
+    good, bad = step, step
+    while good > 0.0 and _flaw_kind(method, good, eigenvalue) is not None:
+        bad, good = good, good / 2.0
     for _ in range(_BISECTIONS):
         middle = 0.5 * (good + bad)
         if _flaw_kind(method, middle, eigenvalue) is None:
@@ -154,8 +166,9 @@ class StepFlaw:
             "undamped": "grows an oscillation that should keep its size",
             "lingering": ("takes more than a step to decay by e where it should within one step"),
         }[self.kind]
+        factor = _number(self.factor) if np.isfinite(self.factor) else "more than float64 holds"
         return (
-            f"{name} multiplies its component by {_number(self.factor)} a step where "
+            f"{name} multiplies its component by {factor} a step where "
             f"e^(h·λ) = {_number(self.exact)}: the integration {what}; a step of at most "
             f"{self.longest_step:.3g} s avoids it"
         )

@@ -331,3 +331,12 @@ def test_rk4_drawing_out_a_transient_the_model_ends_within_a_step_is_refused():
     text = STIFF.format(method="rk4", step=0.001).replace("-1990*(x2 - x1)", "-2780*(x2 - x1)")
     with pytest.raises(ModelError, match=r"λ = -2780 1/s; RK4 .* takes more than a step to"):
         simulate(parse_model(text, origin="stiff.toml"), steps=5, noise=False, jit=False)
+
+
+@pytest.mark.parametrize("rate", [-1e80, -1e200, -1e308])
+def test_an_eigenvalue_beyond_float64s_reach_is_a_flaw_with_a_positive_step(rate):
+    # RK4's z**4 overflowed a Python complex: "unexpected OverflowError"
+    flaw = step_flaw("rk4", 1e-3, np.array([[rate]]))
+    assert flaw is not None and flaw.kind == "unstable"
+    assert 0.0 < flaw.longest_step <= 2.1 / abs(rate)
+    assert "more than float64 holds" in flaw.describe("rk4") or math.isfinite(abs(flaw.factor))
