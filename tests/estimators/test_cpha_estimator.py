@@ -292,3 +292,26 @@ def test_a_step_the_candidates_bound_cut_short_is_counted_and_noted(model):
     )
     wide = run_unknown_mode(model, signals, UnknownModeOptions(beam=3, candidates=10**6))
     assert not any("approximate" in note for note in wide.notes)
+
+
+def test_a_known_mode_no_output_checked_is_warned_of_not_reported_as_an_estimate(model):
+    # A1 unknown leaves w_c1 undetermined, so A2's equations (x_c1 from w_c1) sit in no
+    # cluster: A2's reported mode is a carry-over there, which the timeline showed silently.
+    drift = cpha_log(model, 150, seed=1, a1=lambda k: "drift" if 60 <= k < 100 else "m11")
+    result = run_unknown_mode(model, drift, UnknownModeOptions(beam=10))
+    columns = {c.name: c for c in result.timeline_columns}
+    a1, a2 = columns["mode.A1"], columns["mode.A2"]
+    unchecked = (a1.values == a1.labels.index(UNKNOWN)) & (a2.values != a2.labels.index(UNKNOWN))
+    assert unchecked.sum() > 20
+    (warning,) = [note for note in result.notes if "no output checked" in note]
+    first = int(np.argmax(unchecked))
+    assert f"A2 on {int(unchecked.sum())} of 150 samples" in warning
+    assert f"first at t = {first:g} s" in warning
+    assert "A1 on" not in warning and "A3 on" not in warning
+    offline = run_unknown_mode(model, drift, UnknownModeOptions(beam=10, mode_sequence="kbest"))
+    assert any("A2 on" in note for note in offline.notes)
+    clean = cpha_log(model, 60, seed=1)
+    assert not any(
+        "no output checked" in n
+        for n in run_unknown_mode(model, clean, UnknownModeOptions(beam=10)).notes
+    )
