@@ -315,3 +315,23 @@ def test_a_known_mode_no_output_checked_is_warned_of_not_reported_as_an_estimate
         "no output checked" in n
         for n in run_unknown_mode(model, clean, UnknownModeOptions(beam=10)).notes
     )
+
+
+def test_transition_rules_with_when_not_applied_are_noted():
+    # The log's command columns were skipped without a word: a commanded switch (lights off
+    # at night) looked like a miss of the estimator.
+    commanded = CPHA_EXAMPLE.replace(
+        'variables = ["wc1"]', 'variables = ["wc1"]\ncommands = ["a1_cmd"]'
+    ).replace(
+        '[[components.A1.transitions]]\nfrom = "unknown"',
+        '[[components.A1.transitions]]\nfrom = "*"\nwhen = {a1_cmd = 0}\nto = {m12 = 0.9}\n\n'
+        '[[components.A1.transitions]]\nfrom = "unknown"',
+    )
+    model = parse_model(commanded)
+    assert any(rule.when for rule in model.components[0].rules)
+    signals = cpha_log(model, 20, seed=1)
+    notes = run_unknown_mode(model, signals, UnknownModeOptions(beam=5)).notes
+    (note,) = [n for n in notes if "commands are not read" in n]
+    assert "(a1_cmd)" in note and "transition rules with `when` (1) were not applied" in note
+    plain = run_unknown_mode(parse_model(CPHA_EXAMPLE), signals, UnknownModeOptions(beam=5))
+    assert not any("commands are not read" in n for n in plain.notes)

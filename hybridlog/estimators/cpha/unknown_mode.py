@@ -34,9 +34,10 @@ back) instead of each step's most likely hypothesis; the probabilities, ``p_unkn
 Commands (``when`` in transition rules) are not read from logs in this version: the rules
 without ``when`` apply.  Notes list the decomposition and filter cache hit rates; when
 ``candidates`` stopped a step's search while an unfiltered successor might still have
-entered the beam, at how many steps the beam is approximate; and, when a reported known
-mode sat in no filter cluster (an unknown neighbour left its equations undetermined), a
-warning per component: on how many samples no output checked it.
+entered the beam, at how many steps the beam is approximate; when the model has rules with
+``when``, that they were not applied; and, when a reported known mode sat in no filter
+cluster (an unknown neighbour left its equations undetermined), a warning per component: on
+how many samples no output checked it.
 
 Modelling the unknown mode
 --------------------------
@@ -236,6 +237,7 @@ def _run(
             f"{bound} candidates was reached while a successor not filtered might still have "
             "entered it; a larger candidates searches further",
         )
+    notes += _command_notes(model)
     filtered_notes = notes + _unchecked_notes(
         model, structure, [h.assignment for h in best], signals.time
     )
@@ -333,6 +335,23 @@ def _component_columns(model: HybridModel, assignments: list[Assignment]) -> lis
         values = np.array([mode_labels.index(a[c]) for a in assignments], dtype=np.int64)
         columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
     return columns
+
+
+def _command_notes(model: HybridModel) -> tuple[str, ...]:
+    """A note that the transition rules with ``when`` were not applied (commands unread).
+
+    The log's command columns (``light_cmd`` of ``bioplex_pgc``) were skipped without a word,
+    so a commanded switch (the lights off at night) looked like an estimator's miss.
+    """
+    rules = [rule for component in model.components for rule in component.rules if rule.when]
+    if not rules:
+        return ()
+    commands = sorted({name for rule in rules for name in rule.when})
+    return (
+        f"NOTE: commands are not read from the log ({', '.join(commands)}): transition rules "
+        f"with `when` ({len(rules)}) were not applied, only those without; a "
+        "commanded switch is followed only as far as those rules (faults) or `unknown` allow",
+    )
 
 
 def _unchecked_notes(
