@@ -250,6 +250,10 @@ def test_a_cluster_whose_jacobian_is_infinite_is_a_one_line_error_naming_the_key
     with pytest.raises(ModelError, match=r"^bent\.toml: components: at t = .* cannot step") as info:
         run_unknown_mode(bent, signals, UnknownModeOptions())
     assert "\n" not in str(info.value)
+    # where it failed: the state before the step and the measurement (a log the model cannot
+    # explain, a CO2 sensor at -1e6 ppm, drove a state there; the error named only the model)
+    assert "; xc1 = 0 before the step, measured yc1 = " in str(info.value)
+    assert str(info.value).endswith("its equations or their Jacobian are not finite there")
 
 
 def test_an_equation_that_determines_nothing_is_refused_not_dropped(model):
@@ -292,3 +296,46 @@ def test_a_step_the_candidates_bound_cut_short_is_counted_and_noted(model):
     )
     wide = run_unknown_mode(model, signals, UnknownModeOptions(beam=3, candidates=10**6))
     assert not any("approximate" in note for note in wide.notes)
+
+
+def test_a_known_mode_no_output_checked_is_warned_of_not_reported_as_an_estimate(model):
+    # A1 unknown leaves w_c1 undetermined, so A2's equations (x_c1 from w_c1) sit in no
+    # cluster: A2's reported mode is a carry-over there, which the timeline showed silently.
+    drift = cpha_log(model, 150, seed=1, a1=lambda k: "drift" if 60 <= k < 100 else "m11")
+    result = run_unknown_mode(model, drift, UnknownModeOptions(beam=10))
+    columns = {c.name: c for c in result.timeline_columns}
+    a1, a2 = columns["mode.A1"], columns["mode.A2"]
+    unchecked = (a1.values == a1.labels.index(UNKNOWN)) & (a2.values != a2.labels.index(UNKNOWN))
+    assert unchecked.sum() > 20
+    (warning,) = [note for note in result.notes if "no output checked" in note]
+    first = int(np.argmax(unchecked))
+    assert f"A2 on {int(unchecked.sum())} of 150 samples" in warning
+    assert f"first at t = {first:g} s" in warning
+    assert "A1 on" not in warning and "A3 on" not in warning
+    offline = run_unknown_mode(model, drift, UnknownModeOptions(beam=10, mode_sequence="kbest"))
+    assert any("A2 on" in note for note in offline.notes)
+    clean = cpha_log(model, 60, seed=1)
+    assert not any(
+        "no output checked" in n
+        for n in run_unknown_mode(model, clean, UnknownModeOptions(beam=10)).notes
+    )
+
+
+def test_transition_rules_with_when_not_applied_are_noted():
+    # The log's command columns were skipped without a word: a commanded switch (lights off
+    # at night) looked like a miss of the estimator.
+    commanded = CPHA_EXAMPLE.replace(
+        'variables = ["wc1"]', 'variables = ["wc1"]\ncommands = ["a1_cmd"]'
+    ).replace(
+        '[[components.A1.transitions]]\nfrom = "unknown"',
+        '[[components.A1.transitions]]\nfrom = "*"\nwhen = {a1_cmd = 0}\nto = {m12 = 0.9}\n\n'
+        '[[components.A1.transitions]]\nfrom = "unknown"',
+    )
+    model = parse_model(commanded)
+    assert any(rule.when for rule in model.components[0].rules)
+    signals = cpha_log(model, 20, seed=1)
+    notes = run_unknown_mode(model, signals, UnknownModeOptions(beam=5)).notes
+    (note,) = [n for n in notes if "commands are not read" in n]
+    assert "(a1_cmd)" in note and "transition rules with `when` (1) were not applied" in note
+    plain = run_unknown_mode(parse_model(CPHA_EXAMPLE), signals, UnknownModeOptions(beam=5))
+    assert not any("commands are not read" in n for n in plain.notes)

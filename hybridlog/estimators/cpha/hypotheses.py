@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from hybridlog.estimators.cpha.cluster_filter import ClusterFilter, FilterCache, StepResult
-from hybridlog.estimators.cpha.structure import Assignment, StructureCache
+from hybridlog.estimators.cpha.structure import Assignment, Cluster, StructureCache
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.signals import FloatArray, IntArray
 
@@ -452,7 +452,7 @@ class Tracker:
             except (ArithmeticError, ValueError, RuntimeWarning) as err:  # 1/0, sqrt(-1)
                 cluster = compiled.cluster
                 why = (
-                    "a Jacobian of its equations is not finite there"
+                    "its equations or their Jacobian are not finite there"
                     if np.isfinite(x_parent).all() and np.isfinite(P_parent).all()
                     else "its prior is not finite (a variance grown past double precision "
                     "while its states were held: variance_growth, the initial covariance)"
@@ -460,7 +460,7 @@ class Tracker:
                 raise ClusterStepError(
                     f"the EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
                     f"(components {', '.join(cluster.components)}) cannot step at sample {k} "
-                    f"({err}): {why}"
+                    f"({err}; {_values(cluster, x_parent, y_now[compiled.outputs])}): {why}"
                 ) from err
             memo[key] = result
             self.filtered += 1
@@ -652,6 +652,21 @@ class _Layout:
     outputs: IntArray
     held: IntArray
     keys: tuple[tuple[int, ...], ...]
+
+
+def _values(cluster: Cluster, x: FloatArray, y: FloatArray) -> str:
+    """``xc3 = -1e+06 before the step, measured yc3 = -1e+06``: where a cluster failed.
+
+    A log the model cannot explain (a CO2 sensor reading -1e6 ppm) drove a state to where an
+    equation overflows, and the error named only the model's cluster, so that the user
+    looked for the fault in the model; the values point at the log.
+    """
+    states = ", ".join(f"{n} = {v:.6g}" for n, v in zip(cluster.states, x.tolist(), strict=True))
+    outputs = ", ".join(f"{n} = {v:.6g}" for n, v in zip(cluster.outputs, y.tolist(), strict=True))
+    parts = [f"{states} before the step"] if states else []
+    if outputs:
+        parts.append(f"measured {outputs}")
+    return ", ".join(parts)
 
 
 def _fallback(hypotheses: Sequence[Hypothesis]) -> list[Hypothesis]:

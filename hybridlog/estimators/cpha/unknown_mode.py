@@ -32,9 +32,12 @@ back) instead of each step's most likely hypothesis; the probabilities, ``p_unkn
 ``ŷ(k|k-1)`` stay the causal estimate's, which ``post_processing.filtered`` holds whole.
 
 Commands (``when`` in transition rules) are not read from logs in this version: the rules
-without ``when`` apply.  Notes list the decomposition and filter cache hit rates and, when
+without ``when`` apply.  Notes list the decomposition and filter cache hit rates; when
 ``candidates`` stopped a step's search while an unfiltered successor might still have
-entered the beam, at how many steps the beam is approximate.
+entered the beam, at how many steps the beam is approximate; when the model has rules with
+``when``, that they were not applied; and, when a reported known mode sat in no filter
+cluster (an unknown neighbour left its equations undetermined), a warning per component: on
+how many samples no output checked it.
 
 Modelling the unknown mode
 --------------------------
@@ -234,6 +237,10 @@ def _run(
             f"{bound} candidates was reached while a successor not filtered might still have "
             "entered it; a larger candidates searches further",
         )
+    notes += _command_notes(model)
+    filtered_notes = notes + _unchecked_notes(
+        model, structure, [h.assignment for h in best], signals.time
+    )
     filtered = EstimationResult(
         estimator=NAME,
         options=options_dict(options),
@@ -248,7 +255,7 @@ def _run(
         output_predictions=predictions,
         runtime_s=runtime,
         compile_s=compile_s,
-        notes=notes,
+        notes=filtered_notes,
         timeline_columns=tuple(columns),
     )
     if histories is None:
@@ -263,6 +270,7 @@ def _run(
         state_means=path_means,
         state_variances=path_variances,
         timeline_columns=(*_component_columns(model, assignments), *p_columns),
+        notes=notes + _unchecked_notes(model, structure, assignments, signals.time),
         runtime_s=runtime + time.perf_counter() - offline_start,
         post_processing=PostProcessing(
             smoothing=None,
@@ -327,6 +335,74 @@ def _component_columns(model: HybridModel, assignments: list[Assignment]) -> lis
         values = np.array([mode_labels.index(a[c]) for a in assignments], dtype=np.int64)
         columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
     return columns
+
+
+def _command_notes(model: HybridModel) -> tuple[str, ...]:
+    """A note that the transition rules with ``when`` were not applied (commands unread).
+
+    The log's command columns (``light_cmd`` of ``bioplex_pgc``) were skipped without a word,
+    so a commanded switch (the lights off at night) looked like an estimator's miss.
+    """
+    rules = [rule for component in model.components for rule in component.rules if rule.when]
+    if not rules:
+        return ()
+    commands = sorted({name for rule in rules for name in rule.when})
+    return (
+        f"NOTE: commands are not read from the log ({', '.join(commands)}): transition rules "
+        f"with `when` ({len(rules)}) were not applied, only those without; a "
+        "commanded switch is followed only as far as those rules (faults) or `unknown` allow",
+    )
+
+
+def _unchecked_notes(
+    model: HybridModel,
+    structure: StructureCache,
+    assignments: list[Assignment],
+    times: FloatArray,
+) -> tuple[str, ...]:
+    """A warning naming the components whose reported known mode no output checked.
+
+    A component in ``unknown`` leaves the variables its equations determined undetermined;
+    a known mode whose equations then sit in no kept filter cluster (§3.1: the cluster is
+    dropped) is tested by no measurement, and the hypothesis keeps it only through its
+    transition probabilities.  On a log the model cannot explain (another plant, a dead
+    sensor) the timeline then reported such a component, the chamber of ``bioplex_pgc``
+    say, in its nominal mode on every sample, and the mode metrics scored that guess as an
+    estimate, without a word.
+    """
+    checked: dict[Assignment, frozenset[str]] = {}
+    counts: dict[str, dict[str, int]] = {}
+    first: dict[str, int] = {}
+    for k, assignment in enumerate(assignments):
+        inside = checked.get(assignment)
+        if inside is None:
+            clusters = structure.get(assignment).clusters
+            inside = checked[assignment] = frozenset(c for cl in clusters for c in cl.components)
+        for component, mode in zip(model.components, assignment, strict=True):
+            if mode != UNKNOWN and component.name not in inside:
+                modes = counts.setdefault(component.name, {})
+                modes[mode] = modes.get(mode, 0) + 1
+                first.setdefault(component.name, k)
+    if not counts:
+        return ()
+    n = len(assignments)
+    order = {component.name: c for c, component in enumerate(model.components)}
+    parts = []
+    for name, modes in sorted(counts.items(), key=lambda item: order[item[0]]):
+        total = sum(modes.values())
+        listed = ", ".join(f"{mode} {count:,}" for mode, count in modes.items())
+        parts.append(
+            f"{name} on {total:,} of {n:,} samples ({listed}; first at t = "
+            f"{format_time(times[first[name]])} s)"
+        )
+    return (
+        "WARNING: a reported mode no output checked: "
+        + "; ".join(parts)
+        + ". A component in `unknown` left the variables these modes' equations use "
+        "undetermined, so no filter cluster held them (paper 002 §3.1): there the mode is "
+        "carried over by the transition probabilities, not estimated, and the mode metrics "
+        "score that carry-over",
+    )
 
 
 def _rate(hits: int, misses: int) -> str:
