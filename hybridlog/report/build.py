@@ -860,7 +860,8 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         f"WARNING: the true {label} has no sample {_hold_span(_as_hold(gap))}: it may have "
         f"switched there unseen, so the {gap['points']:,} of {gap['of']:,} samples in "
         f"{'it' if gap['gaps'] == 1 else 'them'} have no true mode and are not scored (it "
-        "repeats its label, so it is sampled, not recorded only at its switches)"
+        "repeats its label, so it is sampled, not recorded only at its switches; a silence "
+        "up to --max-gap is held)"
         for label, gap in gaps.items()
     ]
     notes += [

@@ -61,7 +61,7 @@ def test_a_sampled_true_mode_has_no_true_mode_over_a_gap_longer_than_max_gap() -
         "WARNING: the true mode has no sample from t = 10.2 to 19.6 s (9.4 s, longer than "
         "max_gap): it may have switched there unseen, so the 9 of 41 samples in it have no "
         "true mode and are not scored (it repeats its label, so it is sampled, not recorded "
-        "only at its switches)"
+        "only at its switches; a silence up to --max-gap is held)"
     ]
 
 
