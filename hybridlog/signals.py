@@ -31,23 +31,32 @@ value cannot be a measurement; it is what corrupt bytes decode to (``-1e271``).
 """
 
 NO_TRUE_MODE = -1
-"""The true-mode code of a sample before the log's first true-mode sample: no truth there.
+"""The true-mode code of a sample without truth: before the log's first true-mode sample, or
+in a sampled true mode's stretch without a sample longer than ``max_gap``.
 
 A true mode (or a component's) that starts after the first sample time leaves the samples
-before it without truth, as a true state that starts late does; the mode metrics score the
-samples from its first on (:func:`covered_from`).  Every reader of true-mode codes masks
-it: as an index it would pick the last mode without a word.
+before it without truth, as a true state that starts late does; one that repeats its label
+(sampled, not recorded only at its switches) leaves those of its long silences, where it may
+have switched unseen (:mod:`hybridlog.io.align`).  The mode metrics score the other samples.
+Every reader of true-mode codes masks it: as an index it would pick the last mode without a
+word.
 """
 
 
 def covered_from(codes: IntArray) -> int:
-    """Index of the first sample with a true mode (``codes.size`` when none has one).
-
-    The samples without one (:data:`NO_TRUE_MODE`) lead: a true mode is held from its first
-    sample on, so none is missing after it.
-    """
+    """Index of the first sample with a true mode (``codes.size`` when none has one)."""
     covered = np.flatnonzero(codes != NO_TRUE_MODE)
     return int(covered[0]) if covered.size else int(codes.size)
+
+
+def first_uncovered(codes: IntArray) -> int | None:
+    """Index of the first sample without a true mode after the first with one, else ``None``.
+
+    A sampled true mode's gap (or its end before the log's) leaves such samples.
+    """
+    start = covered_from(codes)
+    missing = np.flatnonzero(codes[start:] == NO_TRUE_MODE)
+    return start + int(missing[0]) if missing.size else None
 
 
 @dataclass(frozen=True)
@@ -60,7 +69,8 @@ class ComponentTruth:
         The component's mode ids.
     codes:
         Index into ``labels`` of each sample's true mode, shape ``(N,)``;
-        :data:`NO_TRUE_MODE` before the component's first true-mode sample.
+        :data:`NO_TRUE_MODE` before the component's first true-mode sample and in its
+        stretches without a sample longer than ``max_gap`` when it is sampled.
     """
 
     labels: tuple[str, ...]
@@ -91,7 +101,8 @@ class AlignedSignals:
     truth_modes:
         True mode of each sample as an index into ``mode_ids`` of the model, shape ``(N,)``,
         or ``None`` when the log has no ground-truth mode; :data:`NO_TRUE_MODE` for the
-        samples before a true mode that starts late (:func:`covered_from`).
+        samples before a true mode that starts late (:func:`covered_from`) and in a sampled
+        true mode's stretches without a sample longer than ``max_gap``.
     truth_states:
         True states, shape ``(N, n_x)`` with NaN in columns the log does not have, or ``None``.
     truth_components:

@@ -172,8 +172,9 @@ class Capabilities:
         An estimator that takes every sample's mode from the switching signal
         (:attr:`needs_switching_signal`) needs one that covers the log: a true mode that
         starts late leaves the samples before it without one
-        (:data:`~hybridlog.signals.NO_TRUE_MODE`), which the mode metrics leave out but such
-        an estimator would read as a mode.
+        (:data:`~hybridlog.signals.NO_TRUE_MODE`), and a sampled one its stretches without a
+        sample longer than ``max_gap``, which the mode metrics leave out but such an
+        estimator would read as a mode.
         """
         if not self.needs_switching_signal:
             return None
@@ -182,7 +183,7 @@ class Capabilities:
                 "needs the switching signal in the log; map it with --map truth.mode=PATH "
                 "(or a 'mode' column)"
             )
-        from hybridlog.signals import covered_from  # numpy: only where a log is analysed
+        from hybridlog.signals import covered_from, first_uncovered  # numpy: on a log only
         from hybridlog.times import format_time
 
         first = covered_from(signals.truth_modes)
@@ -192,6 +193,14 @@ class Capabilities:
                 f"t={format_time(float(signals.time[first]))} s (sample {first}), after the "
                 f"first sample time t={format_time(float(signals.time[0]))} s (map a switching "
                 "signal that covers the log with --map truth.mode=PATH)"
+            )
+        gap = first_uncovered(signals.truth_modes)
+        if gap is not None:  # a sampled true mode's stretch without a sample over max_gap
+            return (
+                "needs the switching signal at every sample; the true mode has none from "
+                f"t={format_time(float(signals.time[gap]))} s (sample {gap}) on for longer "
+                "than max_gap (map a switching signal that covers the log with --map "
+                "truth.mode=PATH, or allow a longer --max-gap)"
             )
         return None
 

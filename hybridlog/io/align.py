@@ -20,7 +20,14 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 - True mode: zero-order hold; grid points before its first sample take that sample if it is
   within ``dt/2``, and have no true mode (``NO_TRUE_MODE``, not scored) if not: a true mode
   that starts late is scored over the samples from its first on, as a true state that starts
-  late is (``notes["truth_starts"]``).
+  late is (``notes["truth_starts"]``).  A true mode recorded only at its switches (no sample
+  repeats the label of the one before, :func:`records_switches`) is held however long it
+  is silent: its silence says the mode did not change (``notes["truth_held"]``).  One that
+  repeats its label is *sampled*: its silence says nothing, and a stretch without a sample
+  longer than ``max_gap`` (or past its last sample, to the grid's end) may hide any number of
+  switches; its grid points more than ``dt/2`` from the samples around it have no true mode
+  (those within ``dt/2`` take the nearer sample, as before the first), are not scored, and
+  are recorded (``notes["truth_gaps"]``, :func:`_blank_gaps`).
 - True states: like outputs, but NaN instead of an error where no sample is usable.
 - The signal that starts the grid more than ``max_gap`` after the log's first input or output
   sample, or ends it that long before the last one, is recorded (``notes["span"]``): the
@@ -618,7 +625,12 @@ def align_signals(
         component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end, seconds}}``),
         and for a true mode that starts more than half a step after the first sample time
         where it starts and how many samples it covers (``truth_starts``: ``{"mode" |
-        "mode.<component>": {at, samples, of}}``).
+        "mode.<component>": {at, samples, of}}``).  ``truth_held`` is of a true mode recorded
+        only at its switches (:func:`records_switches`); a sampled one's stretches without a
+        sample longer than ``max_gap`` leave their grid points without a true mode, recorded
+        as ``truth_gaps``: ``{"mode" | "mode.<component>": {start, end, seconds, gaps,
+        points, of}}`` (the longest stretch, how many there are, the grid points left
+        without a true mode, all grid points).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -703,43 +715,41 @@ def align_signals(
         y[:, j] = values
 
     jittered: dict[str, Any] = {}
-    modes: IntArray | None = None
-    if truth_mode is not None:
-        modes = _hold_modes(
-            f"{source}: truth.mode", field_word, truth_mode, grid, dt_ns, tolerance, jittered
+    labelled = {"mode": truth_mode} if truth_mode is not None else {}
+    labelled |= {f"mode.{name}": series for name, series in (truth_components or {}).items()}
+    codes_of: dict[str, IntArray] = {}
+    for label, label_series in labelled.items():
+        codes, gaps = _hold_modes(
+            f"{source}: truth.{label}",
+            field_word,
+            label_series,
+            grid,
+            (dt_ns, tolerance, max_gap_ns),
+            jittered,
+            label,
         )
-
+        codes_of[label] = codes
+        if notes is None:
+            continue
+        if gaps is not None:
+            notes.setdefault("truth_gaps", {})[label] = gaps
+        held = (  # a record of the switches: held however long, and the metrics score the hold
+            _longest_hold(label_series.time_ns, grid, dt_ns, max_gap_ns)
+            if records_switches(label_series.codes)
+            else None
+        )
+        if held is not None:
+            notes.setdefault("truth_held", {})[label] = held
+        late = _truth_start(label_series, codes, grid)
+        if late is not None:
+            notes.setdefault("truth_starts", {})[label] = late
+    modes = codes_of.get("mode")
     components = {
-        name: ComponentTruth(
-            series.categories,
-            _hold_modes(
-                f"{source}: truth.mode.{name}",
-                field_word,
-                series,
-                grid,
-                dt_ns,
-                tolerance,
-                jittered,
-                f"mode.{name}",
-            ),
-        )
+        name: ComponentTruth(series.categories, codes_of[f"mode.{name}"])
         for name, series in (truth_components or {}).items()
     }
     for signal, found in jittered.items():
         _note_jitter(notes, signal, found, n)
-    if notes is not None:  # a true mode is held like an input; the mode metrics score the hold
-        labelled = {"mode": truth_mode} if truth_mode is not None else {}
-        labelled |= {f"mode.{name}": series for name, series in (truth_components or {}).items()}
-        codes_of = {f"mode.{n}": c.codes for n, c in components.items()}
-        if modes is not None:
-            codes_of["mode"] = modes
-        for label, label_series in labelled.items():
-            held = _longest_hold(label_series.time_ns, grid, dt_ns, max_gap_ns)
-            if held is not None:
-                notes.setdefault("truth_held", {})[label] = held
-            late = _truth_start(label_series, codes_of[label], grid)
-            if late is not None:
-                notes.setdefault("truth_starts", {})[label] = late
 
     x_true: FloatArray | None = None
     if truth_states:
@@ -810,26 +820,41 @@ def _record_span_bounds(
         notes["span"] = span
 
 
+def records_switches(codes: IntArray) -> bool:
+    """Whether a true mode's samples record only its switches: none repeats the label before.
+
+    Such a record (a mode published when it changes) says by its silence that the mode did
+    not change: held from one sample to the next, however far apart, it is the mode.  A true
+    mode that repeats its label is sampled, as a logger writes it at its rate: its silence
+    says nothing, and a stretch without a sample may hide switches, there and back.  A record
+    of switches with one repeated sample is read as sampled: a stretch without a sample is
+    then a gap, left unscored and said, never held as a guess.
+    """
+    return bool(np.all(codes[1:] != codes[:-1]))
+
+
 def _hold_modes(
     what: str,
     field_word: str,
     series: LabelSeries,
     grid: IntArray,
-    dt_ns: int,
-    tolerance: int,
+    steps: tuple[int, int, int],
     jitter: dict[str, Any] | None = None,
     label: str = "mode",
-) -> IntArray:
+) -> tuple[IntArray, dict[str, Any] | None]:
     """The true mode (code) at each grid point, held like an input (:func:`jittered_index`).
 
-    A jittered series' :class:`Jittered` goes into ``jitter`` under ``the true <label>``.
+    ``steps``: ``dt``, the clock tolerance and ``max_gap`` (ns).  A jittered series'
+    :class:`Jittered` goes into ``jitter`` under ``the true <label>``.  Returns the codes and
+    the stretches of a sampled true mode left without one (:func:`_blank_gaps`), or ``None``.
     """
+    dt_ns, tolerance, max_gap_ns = steps
     if series.time_ns.size == 0:
         raise LogError(f"{what} ({field_word} {series.name!r}) has no samples")
     start = on_grid(series.time_ns, grid, tolerance)
-    if start >= 0:  # the codes at the grid points, without an index array
+    if start >= 0:  # the codes at the grid points, without an index array; no gap
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
-        return on
+        return on, None
     found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
     if found is not None and jitter is not None:
         jitter[f"the true {label}"] = found
@@ -840,7 +865,56 @@ def _hold_modes(
     # before that there is no truth to hold: those samples are not scored
     first = int(series.time_ns[0])
     modes[before & (2 * (first - grid) > dt_ns)] = NO_TRUE_MODE
-    return modes
+    if records_switches(series.codes):
+        return modes, None
+    return modes, _blank_gaps(series, grid, dt_ns, max_gap_ns, modes)
+
+
+def _blank_gaps(
+    series: LabelSeries, grid: IntArray, dt_ns: int, max_gap_ns: int, modes: IntArray
+) -> dict[str, Any] | None:
+    """Leave a sampled true mode's long silences without a true mode, in ``modes``.
+
+    A stretch between two samples longer than ``max_gap`` (as the outputs' gaps,
+    :func:`_gap_threshold`), or from the last sample to the grid's end, may hide switches:
+    its grid points more than ``dt/2`` from both samples get :data:`NO_TRUE_MODE`; those
+    within ``dt/2`` of the later sample take it (the nearest sample, as before the first).
+    Returns ``{start, end, seconds, gaps, points, of}`` (the longest stretch that left a
+    point without a true mode, in seconds; how many did; the points; all grid points), or
+    ``None`` when no point was left without one.
+    """
+    times = series.time_ns
+    if grid.size == 0:
+        return None
+    last = int(grid[-1])
+    after = np.append(times[1:], max(last, int(times[-1])))  # where each sample's stretch ends
+    long = longer_than_max_gap(after - times, _gap_threshold(max_gap_ns, dt_ns), dt_ns)
+    if not bool(long.any()):
+        return None
+    sample = np.searchsorted(times, grid, side="right") - 1  # the sample at or before each point
+    points = np.flatnonzero((sample >= 0) & long[np.maximum(sample, 0)])
+    k = sample[points]
+    has_next = k + 1 < times.size
+    following = times[np.minimum(k + 1, times.size - 1)]
+    far = 2 * (grid[points] - times[k]) > dt_ns
+    near_next = has_next & (2 * (following - grid[points]) <= dt_ns)
+    modes[points[far & near_next]] = series.codes[k[far & near_next] + 1]
+    blank = far & ~near_next
+    modes[points[blank]] = NO_TRUE_MODE
+    stretches = np.unique(k[blank])
+    if stretches.size == 0:
+        return None
+    ends = after[stretches]
+    longest = int(np.argmax(ends - times[stretches]))  # of equal ones the first
+    begin, end = int(times[stretches[longest]]), int(ends[longest])
+    return {
+        "start": begin / NS_PER_S,
+        "end": end / NS_PER_S,
+        "seconds": _seconds(begin, end),
+        "gaps": int(stretches.size),
+        "points": int(np.count_nonzero(blank)),
+        "of": int(grid.size),
+    }
 
 
 def _note_jitter(notes: dict[str, Any] | None, signal: str, found: Jittered, n: int) -> None:

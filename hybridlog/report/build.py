@@ -39,7 +39,6 @@ from hybridlog.signals import (
     ComponentTruth,
     FloatArray,
     IntArray,
-    covered_from,
 )
 from hybridlog.times import format_duration, format_time
 
@@ -151,43 +150,24 @@ def _modes(
     )
     if truth is None:
         return report
-    time, modes, truth = _scored(time, modes, truth)
-    if truth.size == 0:  # the true mode starts after the last sample
+    known = truth != NO_TRUE_MODE
+    scored = int(np.count_nonzero(known))
+    if scored == 0:  # the true mode starts after the last sample
         return dataclasses.replace(report, samples=0)
-    counts = metrics.confusion_matrix(modes, truth, len(ids))
-    det = metrics.detection_delays(time, modes, truth, ids, dt)
+    counts = metrics.confusion_matrix(modes[known], truth[known], len(ids))
+    det = metrics.detection_delays(time, modes, truth, ids, dt, known=known)
     return ModeReport(
         labels=report.labels,
         switches=report.switches,
         dwell_s=report.dwell_s,
-        accuracy=_num(metrics.mode_accuracy(modes, truth)),
-        samples=int(truth.size),
+        accuracy=_num(metrics.mode_accuracy(modes[known], truth[known])),
+        samples=scored,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)
         },
         detection=Detection(mean_s=_num(det.mean_s), max_s=_num(det.max_s), events=det.events),
     )
-
-
-def _scored(
-    time: FloatArray, modes: IntArray, truth: IntArray
-) -> tuple[FloatArray, IntArray, IntArray]:
-    """The samples the mode metrics score: those from the true mode's first on.
-
-    A true mode that starts late leaves the samples before it without truth
-    (:data:`~hybridlog.signals.NO_TRUE_MODE`); accuracy, confusion and switches are of the
-    rest, as a true state's RMSE is of the samples it covers.
-
-    Raises
-    ------
-    ValueError
-        When a sample after the first with truth has none (the readers hold a true mode).
-    """
-    start = covered_from(truth)
-    if (truth[start:] == NO_TRUE_MODE).any():
-        raise ValueError("a true mode without truth after its first sample")
-    return time[start:], modes[start:], truth[start:]
 
 
 class _ComponentModes:
@@ -627,12 +607,14 @@ def _side(
             fit=fit,
             components=sides,
         )
-    time, modes, truth = _scored(signals.time, modes, truth)
-    counts = metrics.confusion_matrix(modes, truth, len(ids))
-    det = metrics.detection_delays(time, modes, truth, ids, dt)
+    known = truth != NO_TRUE_MODE  # a true mode's gaps and late start are not scored
+    counts = metrics.confusion_matrix(modes[known], truth[known], len(ids))
+    det = metrics.detection_delays(signals.time, modes, truth, ids, dt, known=known)
     detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
-        mode_accuracy=_num(metrics.mode_accuracy(modes, truth)) if truth.size else None,
+        mode_accuracy=_num(metrics.mode_accuracy(modes[known], truth[known]))
+        if known.any()
+        else None,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)
@@ -868,16 +850,27 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     notes += [
         f"NOTE: the true {label} has no sample {_hold_span(hold)}: held at its last value, "
-        "against which "
-        "the mode metrics score those samples (right for a mode published only when it "
-        "changes; if the log stopped recording it, they score a guess)"
+        "against which the mode metrics score those samples (it is recorded only at its "
+        "switches: no sample repeats the label of the one before, so in between it did not "
+        "change)"
         for label, hold in (reading.get("truth_held") or {}).items()
+    ]
+    gaps = reading.get("truth_gaps") or {}
+    notes += [
+        f"WARNING: the true {label} has no sample {_hold_span(_as_hold(gap))}: it may have "
+        f"switched there unseen, so the {gap['points']:,} of {gap['of']:,} samples in "
+        f"{'it' if gap['gaps'] == 1 else 'them'} have no true mode and are not scored (it "
+        "repeats its label, so it is sampled, not recorded only at its switches; a silence "
+        "up to --max-gap is held)"
+        for label, gap in gaps.items()
     ]
     notes += [
         f"NOTE: the true {label} starts at t = {format_time(late['at'])} s, after the first "
         f"sample time: the mode metrics score the {late['samples']:,} of {late['of']:,} samples "
-        "from it on (the samples before have no true mode, as a true state that starts late "
-        "has no true value)"
+        "from it on"
+        + (f", less the {gaps[label]['points']:,} without a sample above" if label in gaps else "")
+        + " (the samples before have no true mode, as a true state that starts late has no "
+        "true value)"
         for label, late in (reading.get("truth_starts") or {}).items()
     ]
     for side, bound in (reading.get("span") or {}).items():
@@ -947,6 +940,16 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     return tuple(notes)
 
 
+def _as_hold(gap: Mapping[str, Any]) -> dict[str, float]:
+    """A stretch of ``truth_gaps`` as :func:`_hold_span` takes one (``gaps`` as ``holds``)."""
+    return {
+        "start": gap["start"],
+        "end": gap["end"],
+        "seconds": gap["seconds"],
+        "holds": gap["gaps"],
+    }
+
+
 def _hold_span(hold: Mapping[str, float]) -> str:
     """Where a signal of ``reading.held`` or ``truth_held`` has no sample, and how often.
 
@@ -984,12 +987,18 @@ def _counts(value: object) -> str:
     return plural(int(value), "row") if isinstance(value, int) else str(value)
 
 
-def _no_delay(modes: ModeReport, of: str = "") -> str | None:
-    """Why a report with a true mode (``of`` a component) has no detection delay, or None."""
+def _no_delay(modes: ModeReport, of: str = "", *, partial: bool = False) -> str | None:
+    """Why a report with a true mode (``of`` a component) has no detection delay, or None.
+
+    ``partial``: some samples have no true mode (a late start, a gap), where a switch may
+    have gone unseen.
+    """
     if modes.detection is None or modes.detection_delay_s is not None:
         return None
     events = modes.detection.events
     if not events:
+        if partial:
+            return f"the true mode{of} never switches between two samples that have one"
         return f"the true mode{of} never switches"
     return f"every true switch{of} ({len(events)}) was missed"
 
@@ -1045,10 +1054,12 @@ def _null_reasons(
             if report.samples == 0:
                 for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
                     reasons[f"{name}.{component}"] = (
-                        f"the true mode of component {component} starts after the last sample"
+                        f"the true mode of component {component} has no sample on the "
+                        "analysed span (it starts after the last sample, or has none in it)"
                     )
                 continue
-            why = _no_delay(report, f" of component {component}")
+            partial = report.samples is not None and report.samples < signals.n_samples
+            why = _no_delay(report, f" of component {component}", partial=partial)
             if why is not None:
                 reasons[f"detection_delay_s.{component}"] = why
     elif signals.truth_modes is None:
@@ -1056,8 +1067,15 @@ def _null_reasons(
             reasons[name] = "the log has no ground-truth mode"
     elif modes.samples == 0:
         for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
-            reasons[name] = "the true mode starts after the last sample"
-    elif (why := _no_delay(modes)) is not None:
+            reasons[name] = (
+                "the true mode has no sample on the analysed span (it starts after the last "
+                "sample, or has none in it)"
+            )
+    elif (
+        why := _no_delay(
+            modes, partial=modes.samples is not None and modes.samples < signals.n_samples
+        )
+    ) is not None:
         reasons["detection_delay_s"] = why
     for j, (x, state) in enumerate(states.items()):
         if state.rmse is not None:

@@ -1,8 +1,10 @@
 """How much of a log the mode metrics of a report cover, in words for the summaries.
 
 A true mode that starts after the first sample time is scored from its first sample on
-(``modes.samples``, ``reading.truth_starts``).  report.md says so; the summaries of ``batch``
-(summary.csv's ``mode_samples``, summary.md, JUnit) and a missed gate's message say it with
+(``modes.samples``, ``reading.truth_starts``), and a sampled one is not scored over its
+stretches without a sample longer than ``max_gap`` (``reading.truth_gaps``), where it may
+have switched unseen.  report.md says so; the summaries of ``batch`` (summary.csv's
+``mode_samples``, summary.md, JUnit) and a missed gate's message say it with
 :func:`mode_coverage`, so that a log's 100 % over its last third does not read as a whole
 log's 100 % beside the others.
 """
@@ -12,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from hybridlog.times import format_time
+from hybridlog.times import format_duration, format_time
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
@@ -20,22 +22,46 @@ if TYPE_CHECKING:
 __all__ = ["component_coverage", "mode_coverage", "samples_coverage"]
 
 
-def _starts(reading: Mapping[str, Any] | None, only: str | None = None) -> list[str]:
-    """``the true mode.fr2 starts at t = 30000 s`` per true mode that starts late.
+def _number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
+
+def _starts(reading: Mapping[str, Any] | None, only: str | None = None) -> list[str]:
+    """What the true modes that leave samples without one say, a phrase each.
+
+    ``the true mode.fr2 starts at t = 30000 s`` per true mode that starts late, ``the true
+    mode has no sample from t = 10 to 20 s`` per one with gaps (``reading.truth_gaps``).
     ``only``: that true mode's alone (``"mode.fr2"``).
     """
-    starts = (reading or {}).get("truth_starts")
-    if not isinstance(starts, dict):
-        return []
     said = []
-    for label, late in starts.items():
-        if only not in (None, label):
+    for key in ("truth_starts", "truth_gaps"):
+        entries = (reading or {}).get(key)
+        if not isinstance(entries, dict):
             continue
-        at = late.get("at") if isinstance(late, dict) else None
-        if isinstance(at, int | float) and not isinstance(at, bool):
-            said.append(f"the true {label} starts at t = {format_time(at)} s")
+        for label, entry in entries.items():
+            if only not in (None, label) or not isinstance(entry, dict):
+                continue
+            if key == "truth_starts":
+                if _number(entry.get("at")):
+                    said.append(f"the true {label} starts at t = {format_time(entry['at'])} s")
+            elif all(_number(entry.get(k)) for k in ("start", "end", "gaps", "points")):
+                said.append(f"the true {label} has no sample {_gaps(entry)}")
     return said
+
+
+def _gaps(entry: Mapping[str, Any]) -> str:
+    """``from t = 10 to 20 s`` or ``in 3 stretches (120 samples), the longest from … s``."""
+    start, end = entry["start"], entry["end"]
+    span = f"from t = {format_time(start)} to {format_time(end)} s"
+    count = int(entry["gaps"])
+    if count == 1:
+        return span
+    seconds = entry.get("seconds")
+    length = format_duration(seconds, start, end) if _number(seconds) else None
+    return (
+        f"in {count:,} stretches longer than max_gap ({int(entry['points']):,} samples), "
+        f"the longest {span}" + (f" ({length} s)" if length else "")
+    )
 
 
 def samples_coverage(
@@ -48,8 +74,9 @@ def samples_coverage(
     """``1,001 of 1,501 samples (the true mode.fr2 starts at t = 30000 s)``, or ``None``.
 
     The words of :func:`mode_coverage` for a mode accuracy over ``scored`` of ``samples``
-    samples, where ``reading`` is what reading the log recorded (``truth_starts``); ``only``
-    names the one true mode whose start to give (``"mode.fr2"``; ``None``: every one).
+    samples, where ``reading`` is what reading the log recorded (``truth_starts``,
+    ``truth_gaps``); ``only`` names the one true mode whose start and gaps to give
+    (``"mode.fr2"``; ``None``: every one).
     ``None`` when ``scored`` is ``None`` or every sample.  ``hybridlog cluster`` says its
     decision rule's accuracy over part of a log with it.
     """

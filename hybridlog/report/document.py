@@ -220,8 +220,10 @@ class ModeReport:
     samples:
         How many samples the true mode covers and the accuracy, confusion and detection
         score: all of them, or those from the first of a true mode that starts late (as
-        ``states.<x>.samples``); for a ``[components]`` model those where every component
-        has one; ``None`` without truth (or in a report of an older version).
+        ``states.<x>.samples``) and outside a sampled one's stretches without a sample
+        longer than ``max_gap`` (``reading.truth_gaps``); for a ``[components]`` model
+        those where every component has one; ``None`` without truth (or in a report of an
+        older version).
     confusion:
         ``{true mode: {estimated mode: sample count}}``; ``None`` without truth.
     detection:

@@ -157,7 +157,8 @@ DEFINITIONS = (
     "1e-300). The top rows are the means over the outputs where it is defined; a gate on the "
     "mean fails while any output's is n/a.",
     "Mode accuracy: the fraction of the samples with a true mode (all of them, or those from "
-    "the first of a true mode that starts late) whose estimated mode is the true one.",
+    "the first of a true mode that starts late and outside a sampled true mode's stretches "
+    "without a sample longer than max_gap) whose estimated mode is the true one.",
     "Detection delay: from a true switch to the first estimated change *into* the new mode at "
     "or after it, before the next true switch. An estimate that was already in that mode "
     "before the switch has not detected it: a miss, as is a switch never followed by such a "
@@ -475,7 +476,10 @@ def _component_lines(modes: ModeReport, samples: int) -> list[str]:
 _NO_TRUTH = "the log has no true mode of this component: it is not scored"
 
 
-_NOT_COVERED = "the true mode starts after the last sample: accuracy and delays are not known"
+_NOT_COVERED = (
+    "the true mode has no sample on the analysed span (it starts after the last sample, or "
+    "has none in it): accuracy and delays are not known"
+)
 
 
 def _scored_samples(modes: ModeReport, samples: int) -> str:

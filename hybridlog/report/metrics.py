@@ -1245,20 +1245,26 @@ def _seconds(t: float) -> str:
 
 
 def _miss_reason(
-    window_end: float | None, mode_id: str, since: float | None, back: float | None
+    window_end: float | None,
+    mode_id: str,
+    since: float | None,
+    back: float | None,
+    unknown: bool = False,
 ) -> str:
     """Why no estimated change into ``mode_id`` detected a true switch into it.
 
-    ``window_end``: time of the next true switch (``None``: the end of the log);
+    ``window_end``: time of the next true switch (``None``: the end of the log), or with
+    ``unknown`` of the first sample without a true mode after it;
     ``since``: when the estimate already sat in the mode, the start of that stay;
     ``back``: then, the time the estimate, having left the mode, changed back into it before
     ``window_end`` (``None``: it did not).
     """
-    window = (
-        f"before the next true switch at t={_seconds(window_end)}"
-        if window_end is not None
-        else "before the end of the log"
-    )
+    if window_end is None:
+        window = "before the end of the log"
+    elif unknown:
+        window = f"before the true mode's record stops at t={_seconds(window_end)}"
+    else:
+        window = f"before the next true switch at t={_seconds(window_end)}"
     if since is None:
         return f"the estimate never changed into mode {mode_id} {window}"
     already = (
@@ -1279,6 +1285,7 @@ def detection_delays(
     truth: npt.ArrayLike,
     mode_ids: tuple[str, ...] | list[str],
     dt: float | None = None,
+    known: npt.ArrayLike | None = None,
 ) -> DetectionDelays:
     """Delay from each true mode switch to the estimate *changing into* the new mode (SPEC §8).
 
@@ -1311,6 +1318,12 @@ def detection_delays(
         are large (Unix times: ``1700000008.03 - 1700000008.01`` is 0.020000219 in float64,
         a two-step delay a gate ``detection_delay_s <= 0.02`` would fail).  ``None``: the
         difference of the times.
+    known:
+        Which samples have a true mode (shape ``(N,)``; ``None``: all); ``truth`` is not
+        looked at elsewhere.  A true switch is one between two samples with a true mode:
+        where the truth resumes after samples without one in another mode, it switched at
+        an unknown time, which no delay can be measured from (no event).  A switch's window
+        ends at the first sample without a true mode after it too, as at the end of the log.
 
     Returns
     -------
@@ -1321,13 +1334,29 @@ def detection_delays(
     t = np.asarray(time, dtype=np.float64)
     n_modes = len(mode_ids)
     est = _check_modes(estimated, n_modes, "estimated modes")
-    tru = _check_modes(truth, n_modes, "true modes")
+    if known is None:
+        tru = _check_modes(truth, n_modes, "true modes")
+        have = None
+    else:  # no copy of the truth: its codes where it has none are not looked at
+        have = np.asarray(known, dtype=bool)
+        tru = np.asarray(truth, dtype=np.int64)
+        if have.shape != tru.shape:
+            raise ValueError(f"known has shape {have.shape} but the true modes {tru.shape}")
+        if tru.size and bool((((tru < 0) | (tru >= n_modes)) & have).any()):
+            raise ValueError(f"true modes holds a mode index outside 0..{n_modes - 1}")
     if not t.shape == est.shape == tru.shape:
         raise ValueError(
             f"time, estimated and true modes differ in shape: {t.shape}, {est.shape}, {tru.shape}"
         )
-    starts = np.flatnonzero(tru[1:] != tru[:-1]) + 1
-    ends = np.append(starts[1:], tru.size)[: starts.size]
+    switched = tru[1:] != tru[:-1]
+    if have is not None:
+        switched &= have[1:] & have[:-1]
+    starts = np.flatnonzero(switched) + 1
+    del switched
+    # a window ends at the next true switch or the next sample without a true mode
+    stops = np.flatnonzero(~have) if have is not None else np.empty(0, dtype=np.int64)
+    next_stop = np.append(stops, tru.size)[np.searchsorted(stops, starts)]
+    ends = np.minimum(np.append(starts[1:], tru.size)[: starts.size], next_stop)
     into = tru[starts]
     # Samples where the estimate changes: estimated[k] != estimated[k-1].
     changes = np.flatnonzero(est[1:] != est[:-1]) + 1
@@ -1365,6 +1394,7 @@ def detection_delays(
                 ids[m],
                 float(t[first_in_mode]) if sat else None,
                 float(t[k]) if k >= 0 else None,
+                unknown=have is not None and e < est.size and not bool(have[e]),
             )
         # float(t[i]) per event, not t.tolist(): 10^6 samples would be 32 MB of floats
         events.append(
