@@ -413,6 +413,25 @@ def resample_series(
     return values, too_long, int(in_gap.size - too_long.size)
 
 
+def _faster_than_the_grid(
+    time_ns: IntArray, grid_ns: IntArray, dt_ns: int, kind: str
+) -> dict[str, Any] | None:
+    """``{kind, samples, points}`` of a series with more samples than the grid has points.
+
+    The grid takes one sample per point (SPEC §5: the hold for an input, the nearest within
+    half a step for an output; ``--resample linear`` two around it), so of a series sampled
+    faster than ``dt`` at least ``samples - points`` of those within half a step of the
+    grid's span are not used: a 10 Hz log analysed with a model of ``dt = 1 s`` uses 1 in 10,
+    which said nothing.
+    """
+    half = dt_ns // 2
+    first, last = np.searchsorted(time_ns, [grid_ns[0] - half, grid_ns[-1] + half], "right")
+    samples = int(last - first)
+    if samples <= grid_ns.size:
+        return None
+    return {"kind": kind, "samples": samples, "points": int(grid_ns.size)}
+
+
 def _longest_hold(
     time_ns: IntArray, grid_ns: IntArray, dt_ns: int, max_gap_ns: int
 ) -> dict[str, float] | None:
@@ -620,7 +639,9 @@ def align_signals(
         ``max_gap`` (``span``), the pieces (``segments``) and the one analysed when
         ``split_gaps`` cut the log, and per output the grid points bridged across short
         gaps (``bridged``: ``{symbol: {points, of}}``), per true state the same
-        (``truth_bridged``), per input its longest hold over ``max_gap`` (``held``:
+        (``truth_bridged``), per input and output sampled faster than the grid its
+        samples on the grid's span and the grid's points (``faster``: ``{symbol: {kind,
+        samples, points}}``), per input its longest hold over ``max_gap`` (``held``:
         ``{symbol: {start, end, seconds}}``), and the same for the true mode and each
         component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end, seconds}}``),
         and for a true mode that starts more than half a step after the first sample time
@@ -692,6 +713,9 @@ def align_signals(
             )
             on = series.values[index]
         u[:, j] = on
+        faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, "input")
+        if faster is not None and notes is not None:
+            notes.setdefault("faster", {})[symbol] = faster
         held = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
         if held is not None and notes is not None:
             notes.setdefault("held", {})[symbol] = held
@@ -712,6 +736,9 @@ def align_signals(
             )
         if bridged and notes is not None:
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
+        faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, "output")
+        if faster is not None and notes is not None:
+            notes.setdefault("faster", {})[symbol] = faster
         y[:, j] = values
 
     jittered: dict[str, Any] = {}

@@ -806,6 +806,34 @@ def _interchangeable(model: HybridModel, twins: tuple[str, ...]) -> bool:
     return True
 
 
+def _faster_notes(faster: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """A note per rate of the inputs and outputs sampled faster than the grid (``faster``).
+
+    The signals of one rate share a note (a 10 Hz log's every column, not one note each).
+    """
+    rates: dict[tuple[int, int], list[tuple[str, str]]] = {}
+    for symbol, count in faster.items():
+        rates.setdefault((count["samples"], count["points"]), []).append((count["kind"], symbol))
+    notes = []
+    for (samples, points), signals in rates.items():
+        kinds = {kind for kind, _ in signals}
+        named = ", ".join(f"{kind} {symbol}" for kind, symbol in signals)
+        taken = " or ".join(
+            what
+            for kind, what in (("input", "the last at or before it"), ("output", "the nearest"))
+            if kind in kinds
+        )
+        notes.append(
+            f"NOTE: {named} {'has' if len(signals) == 1 else 'each have'} {samples:,} samples "
+            f"over the {points:,} sample times analysed ({samples / points:.3g} a sample "
+            f"time): each sample time takes one ({taken}, SPEC §5), so at least "
+            f"{samples - points:,}{'' if len(signals) == 1 else ' of each'} "
+            f"{'is' if samples - points == 1 else 'are'} not used; is "
+            "the model's dt the log's?"
+        )
+    return notes
+
+
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
@@ -827,6 +855,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         for key, what in (("bridged", "output"), ("truth_bridged", "true state"))
         for symbol, count in (reading.get(key) or {}).items()
     ]
+    notes += _faster_notes(reading.get("faster") or {})
     notes += [
         f"WARNING: input {symbol} has no sample {_hold_span(hold)}: held at its last value, "
         "as an input published only when it changes is (zero-order hold)"
