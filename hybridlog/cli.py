@@ -38,7 +38,7 @@ from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
 from hybridlog.io.formats import format_list
-from hybridlog.launch import single_threaded_blas
+from hybridlog.launch import single_threaded_blas, tolerate_closed_output
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
 from hybridlog.numbers import parse_float, parse_int
 
@@ -1354,6 +1354,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     _PROCESS["one_command"] = argv is None
     if argv is None:
         single_threaded_blas()
+        tolerate_closed_output()
         _handle_ending_signals()
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
@@ -1412,7 +1413,8 @@ def _end_process(code: int) -> NoReturn:
     coverage, pdb): they write their results after ``main`` returns.
     """
     atexit._run_exitfuncs()
-    for stream in (sys.stdout, sys.stderr):
+    for stream in (sys.stdout, sys.stderr):  # None: closed when the process started (>&-)
         with contextlib.suppress(OSError, ValueError):
-            stream.flush()
+            if stream is not None:
+                stream.flush()
     os._exit(code)
