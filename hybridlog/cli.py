@@ -1056,6 +1056,17 @@ def _batch_progress(ctx: click.Context, total: int) -> Iterator[Callable[[Any], 
         yield advance
 
 
+def _bars_shown(quiet: bool) -> bool:
+    """Whether progress bars are drawn: on a terminal that can draw them, without ``--quiet``.
+
+    Not where stderr is no terminal (a file, a pipe, a CI log) nor on a terminal that says it
+    is ``TERM=dumb`` (Emacs' shell, an editor's output pane): click's bar hides the cursor
+    with an escape sequence (``ESC[?25l``) and redraws the line with carriage returns, which
+    such a terminal prints as they are, a line of ``^[[?25l`` fragments per update.
+    """
+    return not quiet and sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
+
+
 @contextlib.contextmanager
 def _progress(
     ctx: click.Context,
@@ -1065,7 +1076,7 @@ def _progress(
 ) -> Iterator[Callable[[object], None] | None]:
     """A progress bar on stderr (with ETA), only on a terminal and without ``--quiet``."""
     settings = ctx.find_object(_Context)
-    if (settings is not None and settings.quiet) or not sys.stderr.isatty():
+    if not _bars_shown(settings is not None and settings.quiet):
         yield None
         return
     bar: Any
@@ -1092,7 +1103,7 @@ def _work_progress(quiet: bool, total: int, label: str) -> Iterator[Callable[[in
 
     Only on a terminal and without ``--quiet``.
     """
-    if quiet or not sys.stderr.isatty():
+    if not _bars_shown(quiet):
         yield lambda done: None
         return
     bar: Any
