@@ -1198,7 +1198,7 @@ def _one_line(text: str) -> str:
     return excerpt(" ".join(str(text).split()), MAX_MESSAGE)[1:-1]
 
 
-def _usage_message(err: click.UsageError) -> str:
+def _usage_message(err: click.UsageError, args: Sequence[str] = ()) -> str:
     """A click usage error as one line: ``hybridlog analyze: --max-gap: 'abc' is not ...``."""
     command = err.ctx.command_path if err.ctx is not None else "hybridlog"
     if isinstance(err, click.BadParameter) and not isinstance(err, click.MissingParameter):
@@ -1216,7 +1216,22 @@ def _usage_message(err: click.UsageError) -> str:
         prefix, message = "", err.format_message()
     message = message.strip().rstrip(".")
     message = message[:1].lower() + message[1:]  # the hint as it is: LOG, not lOG
-    return f"{command}: {prefix}{message} (see {command} --help)"
+    return f"{command}: {prefix}{message}{_dash_file(err, args)} (see {command} --help)"
+
+
+def _dash_file(err: click.UsageError, args: Sequence[str]) -> str:
+    """For an unknown option that is a file's name (``-run.csv``): how to give that file.
+
+    ``hybridlog inspect -run.csv`` said only ``no such option '-r'``: the user meant the log.
+    """
+    if not isinstance(err, click.NoSuchOption):
+        return ""
+    words = args[: list(args).index("--")] if "--" in args else args
+    for word in words:
+        if word.startswith(err.option_name) and word != "-" and os.path.lexists(word):
+            name = as_text(word)
+            return f"; {name!r} is a file: give it after -- or as ./{name}"
+    return ""
 
 
 def _where(err: BaseException) -> str:
@@ -1381,7 +1396,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         click.echo("hybridlog: aborted", err=True)
         code = 130
     except click.UsageError as err:
-        click.echo(_one_line(_usage_message(err)), err=True)
+        click.echo(_one_line(_usage_message(err, args)), err=True)
         code = 2
     except click.ClickException as err:
         click.echo(_one_line(f"hybridlog: error: {err.format_message()}"), err=True)
