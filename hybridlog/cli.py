@@ -38,7 +38,7 @@ from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
 from hybridlog.io.formats import format_list
-from hybridlog.launch import single_threaded_blas
+from hybridlog.launch import single_threaded_blas, tolerate_closed_output
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
 from hybridlog.numbers import parse_float, parse_int
 
@@ -1056,6 +1056,17 @@ def _batch_progress(ctx: click.Context, total: int) -> Iterator[Callable[[Any], 
         yield advance
 
 
+def _bars_shown(quiet: bool) -> bool:
+    """Whether progress bars are drawn: on a terminal that can draw them, without ``--quiet``.
+
+    Not where stderr is no terminal (a file, a pipe, a CI log) nor on a terminal that says it
+    is ``TERM=dumb`` (Emacs' shell, an editor's output pane): click's bar hides the cursor
+    with an escape sequence (``ESC[?25l``) and redraws the line with carriage returns, which
+    such a terminal prints as they are, a line of ``^[[?25l`` fragments per update.
+    """
+    return not quiet and sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
+
+
 @contextlib.contextmanager
 def _progress(
     ctx: click.Context,
@@ -1065,7 +1076,7 @@ def _progress(
 ) -> Iterator[Callable[[object], None] | None]:
     """A progress bar on stderr (with ETA), only on a terminal and without ``--quiet``."""
     settings = ctx.find_object(_Context)
-    if (settings is not None and settings.quiet) or not sys.stderr.isatty():
+    if not _bars_shown(settings is not None and settings.quiet):
         yield None
         return
     bar: Any
@@ -1092,7 +1103,7 @@ def _work_progress(quiet: bool, total: int, label: str) -> Iterator[Callable[[in
 
     Only on a terminal and without ``--quiet``.
     """
-    if quiet or not sys.stderr.isatty():
+    if not _bars_shown(quiet):
         yield lambda done: None
         return
     bar: Any
@@ -1187,7 +1198,7 @@ def _one_line(text: str) -> str:
     return excerpt(" ".join(str(text).split()), MAX_MESSAGE)[1:-1]
 
 
-def _usage_message(err: click.UsageError) -> str:
+def _usage_message(err: click.UsageError, args: Sequence[str] = ()) -> str:
     """A click usage error as one line: ``hybridlog analyze: --max-gap: 'abc' is not ...``."""
     command = err.ctx.command_path if err.ctx is not None else "hybridlog"
     if isinstance(err, click.BadParameter) and not isinstance(err, click.MissingParameter):
@@ -1205,7 +1216,22 @@ def _usage_message(err: click.UsageError) -> str:
         prefix, message = "", err.format_message()
     message = message.strip().rstrip(".")
     message = message[:1].lower() + message[1:]  # the hint as it is: LOG, not lOG
-    return f"{command}: {prefix}{message} (see {command} --help)"
+    return f"{command}: {prefix}{message}{_dash_file(err, args)} (see {command} --help)"
+
+
+def _dash_file(err: click.UsageError, args: Sequence[str]) -> str:
+    """For an unknown option that is a file's name (``-run.csv``): how to give that file.
+
+    ``hybridlog inspect -run.csv`` said only ``no such option '-r'``: the user meant the log.
+    """
+    if not isinstance(err, click.NoSuchOption):
+        return ""
+    words = args[: list(args).index("--")] if "--" in args else args
+    for word in words:
+        if word.startswith(err.option_name) and word != "-" and os.path.lexists(word):
+            name = as_text(word)
+            return f"; {name!r} is a file: give it after -- or as ./{name}"
+    return ""
 
 
 def _where(err: BaseException) -> str:
@@ -1354,6 +1380,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     _PROCESS["one_command"] = argv is None
     if argv is None:
         single_threaded_blas()
+        tolerate_closed_output()
         _handle_ending_signals()
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args[: args.index("--")] if "--" in args else "--debug" in args
@@ -1369,7 +1396,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         click.echo("hybridlog: aborted", err=True)
         code = 130
     except click.UsageError as err:
-        click.echo(_one_line(_usage_message(err)), err=True)
+        click.echo(_one_line(_usage_message(err, args)), err=True)
         code = 2
     except click.ClickException as err:
         click.echo(_one_line(f"hybridlog: error: {err.format_message()}"), err=True)
@@ -1412,7 +1439,8 @@ def _end_process(code: int) -> NoReturn:
     coverage, pdb): they write their results after ``main`` returns.
     """
     atexit._run_exitfuncs()
-    for stream in (sys.stdout, sys.stderr):
+    for stream in (sys.stdout, sys.stderr):  # None: closed when the process started (>&-)
         with contextlib.suppress(OSError, ValueError):
-            stream.flush()
+            if stream is not None:
+                stream.flush()
     os._exit(code)

@@ -17,11 +17,22 @@ the other core's time: a forkserver nobody uses is stopped when the process ends
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, TextIO
 
-__all__ = ["BLAS_THREADS", "local_batch_jobs", "main", "single_threaded_blas"]
+if TYPE_CHECKING:
+    from _typeshed import ReadableBuffer
+
+__all__ = [
+    "BLAS_THREADS",
+    "local_batch_jobs",
+    "main",
+    "single_threaded_blas",
+    "tolerate_closed_output",
+]
 
 BLAS_THREADS = "OPENBLAS_NUM_THREADS"
 """Read by NumPy's OpenBLAS when it loads (:func:`single_threaded_blas`)."""
@@ -40,6 +51,60 @@ def single_threaded_blas() -> None:
     it, never the library.
     """
     os.environ.setdefault(BLAS_THREADS, "1")
+
+
+class _ReaderMayLeave(io.FileIO):
+    """A standard stream's file descriptor whose reader may close it: the rest is dropped.
+
+    ``hybridlog inspect LOG | head -1`` closes the pipe after one line; the next write then
+    fails with ``EPIPE`` (Python ignores ``SIGPIPE``).  click turned that into exit code 1
+    with nothing said, which hybridlog uses for a missed CI gate: ``hybridlog models | head
+    -1`` and ``--help | head -1`` "failed", and ``analyze ... | head -1`` ended before its
+    gates were checked.  Here the descriptor is pointed at ``/dev/null`` at the first such
+    write, and the command carries on to its own exit code: its output files, gates and
+    messages on the other stream are what they would have been.
+    """
+
+    def write(self, data: ReadableBuffer, /) -> int:
+        try:
+            return super().write(data)
+        except BrokenPipeError:
+            null = os.open(os.devnull, os.O_WRONLY)
+            try:
+                os.dup2(null, self.fileno())
+            finally:
+                os.close(null)
+            return memoryview(data).nbytes
+
+
+def _tolerant(stream: TextIO | None) -> TextIO | None:
+    """``stream`` written through :class:`_ReaderMayLeave`, with its encoding and buffering."""
+    if stream is None:  # the descriptor was closed when Python started (``>&-``)
+        return None
+    try:
+        descriptor = stream.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (a test's capture)
+        return stream
+    stream.flush()
+    raw = _ReaderMayLeave(descriptor, "w", closefd=False)
+    return io.TextIOWrapper(
+        io.BufferedWriter(raw),
+        encoding=stream.encoding,
+        errors=stream.errors,
+        line_buffering=bool(stream.line_buffering),
+        write_through=getattr(stream, "write_through", False),
+    )
+
+
+def tolerate_closed_output() -> None:
+    """Let the console script's stdout and stderr be closed by their readers (``| head -1``).
+
+    Only the console script, never the library: ``sys.stdout`` and ``sys.stderr`` become
+    text streams over :class:`_ReaderMayLeave` (the original objects stay in
+    ``sys.__stdout__`` and ``sys.__stderr__``, their descriptors open).
+    """
+    sys.stdout = _tolerant(sys.stdout)
+    sys.stderr = _tolerant(sys.stderr)
 
 
 def local_batch_jobs(args: Sequence[str]) -> int:

@@ -78,3 +78,26 @@ def test_an_empty_name_is_refused_not_read_as_the_working_folder(
     code, err = hybridlog_main(args)
     command = f"hybridlog {args[0]}"
     assert (code, err) == (2, f"{command}: {hint}: an empty name (see {command} --help)\n")
+
+
+@pytest.mark.parametrize("command", ["inspect", "analyze", "cluster", "compare", "batch"])
+def test_a_log_named_like_an_option_is_named_in_the_error(
+    hybridlog_main: Main, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str
+) -> None:
+    # `hybridlog inspect -run.csv` said only "no such option '-r'"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "-run.csv").write_text("t,y\n0,1\n")
+    code, err = hybridlog_main([command, "-run.csv", "--model", "m"])
+    assert code == 2
+    assert err == (
+        f"hybridlog {command}: no such option '-r'; '-run.csv' is a file: give it after -- "
+        f"or as ./-run.csv (see hybridlog {command} --help)\n"
+    )
+
+
+def test_an_unknown_option_that_is_no_file_is_only_named(hybridlog_main: Main) -> None:
+    code, err = hybridlog_main(["inspect", "-run.csv"])
+    assert (code, err) == (
+        2,
+        "hybridlog inspect: no such option '-r' (see hybridlog inspect --help)\n",
+    )
