@@ -24,7 +24,7 @@ import numpy as np
 from hybridlog.background import Background
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import fits_unrolled, module_source
-from hybridlog.estimators.vouch import check_result
+from hybridlog.estimators.vouch import check_result, check_surprise
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_generated, compile_model
 from hybridlog.prefault import arrays_in, populated_beside
@@ -97,6 +97,11 @@ class FilterBuffers(NamedTuple):
     state_variances: FloatArray
     output_predictions: FloatArray
     covariances: FloatArray
+    surprise: FloatArray
+    """Per row, the smallest over the modes of ``γᵀ S⁻¹ γ``, the squared length of the
+    measurement's innovation in its predicted standard deviations (NaN: not computed, as at
+    the prior's row or by a filter that keeps none; no rows: not kept).  A value past
+    :func:`~hybridlog.estimators.vouch.surprise_limit` is a sample no mode can explain."""
 
     @classmethod
     def allocate(
@@ -111,6 +116,7 @@ class FilterBuffers(NamedTuple):
             state_variances=np.zeros((n_samples, n_x)),
             output_predictions=np.full((n_samples, model.n_outputs), np.nan),
             covariances=np.zeros((n_samples if store_covariances else 0, n_x, n_x)),
+            surprise=np.full(n_samples, np.nan),
         )
 
     def head(self, rows: int) -> FilterBuffers:
@@ -124,6 +130,7 @@ class FilterBuffers(NamedTuple):
             self.state_variances[:rows],
             self.output_predictions[:rows],
             self.covariances[:rows],
+            self.surprise[:rows],
         )
 
     def result(
@@ -404,6 +411,7 @@ def run_filter_chunks(
                     compile_s=compile_s,
                 )
                 check_result(model, signals, result, first=chunk.first, before=before)
+                check_surprise(model, signals, result, filled.surprise, first=chunk.first)
                 if chunk.stop > chunk.first:  # the next chunk's diagnosis starts from here
                     before = filled.state_means[-1].copy()
                 if chunk.stop < n:  # the compiled loop releases the GIL: it runs beside

@@ -195,6 +195,7 @@ def _imm_steps(
         predictions = out.output_predictions[row]
         for b in range(m):
             predictions[b] = 0.0
+        nearest = np.inf  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
         for j in range(n_q):
             # EKF prediction of mode j.
             f(j, x_mix[j], u, x_pred)
@@ -211,6 +212,11 @@ def _imm_steps(
                 predictions[b] += c_bar[j] * y_j[j, b]
             if kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, x_i[j], P_i[j]):
                 log_likelihood = gaussian_log_density(gamma, L, vec_m)
+                distance = 0.0  # vec_m holds L⁻¹ γ
+                for b in range(m):
+                    distance += vec_m[b] * vec_m[b]
+                if distance < nearest:
+                    nearest = distance
                 log_posterior[j] = (
                     math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
                 ) + log_likelihood
@@ -221,6 +227,7 @@ def _imm_steps(
                 P_i[j] = P_pred
             if keep_likelihoods:
                 store.log_likelihoods[k + 1, j] = log_likelihood
+        out.surprise[row] = nearest if nearest < np.inf else np.nan
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
@@ -429,6 +436,7 @@ def generate_imm_source(model: HybridModel) -> str:
     P_post: list[Matrix] = []
     log_posterior: Vector = []
     log_likelihoods: list[str] = []
+    distances: list[str] = []
     prediction_parts: list[list[Entry | None]] = [[] for _ in range(m)]
     for j in range(n_q):
         weights: Vector = [
@@ -457,7 +465,9 @@ def generate_imm_source(model: HybridModel) -> str:
         x_update, P_update, L = p.kalman_update(f"u{j}_", x_pred, P_pred, H, R[j], gamma)
         x_post.append(x_update)
         P_post.append(P_update)
-        log_likelihood = p.gaussian_log_density(f"ll{j}_", gamma, L)
+        log_likelihood, distance = p.gaussian_log_density_and_distance(f"ll{j}_", gamma, L)
+        p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
+        distances.append(distance)
         p.minus_inf_if_nan(log_likelihood)
         c = term(c_bar[j])
         posterior = p.assign(
@@ -466,6 +476,10 @@ def generate_imm_source(model: HybridModel) -> str:
         p.minus_inf_if_nan(posterior)
         log_posterior.append(posterior)
         log_likelihoods.append(log_likelihood)
+    nearest = p.assign(
+        "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
+    )
+    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf else math.nan")
     mu_new = p.normalized_weights(log_posterior, c_bar)
     x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)
     for b in range(m):

@@ -494,6 +494,7 @@ def post_process(
             covariances=np.zeros(
                 (n if filtered.covariances is not None else 0, model.n_states, model.n_states)
             ),
+            surprise=np.zeros(0),
         )
         if n:
             arguments: tuple[Any, ...]

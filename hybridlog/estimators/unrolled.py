@@ -244,10 +244,19 @@ class Program:
 
     def gaussian_log_density(self, hint: str, gamma: Vector, L: Matrix) -> str:
         """``log N(γ; 0, L Lᵀ)``."""
+        return self.gaussian_log_density_and_distance(hint, gamma, L)[0]
+
+    def gaussian_log_density_and_distance(
+        self, hint: str, gamma: Vector, L: Matrix
+    ) -> tuple[str, str]:
+        """``log N(γ; 0, L Lᵀ)`` and ``γᵀ (L Lᵀ)⁻¹ γ``, the squared distance in it."""
         z = self.forward_solve(hint + "z", L, gamma)
-        quadratic = " + ".join(f"{term(v)}*{term(v)}" for v in z if v != 0.0) or "0.0"
+        quadratic = self.assign(
+            hint + "q", " + ".join(f"{term(v)}*{term(v)}" for v in z if v != 0.0) or "0.0"
+        )
         log_det = " + ".join(f"math.log({term(L[i][i])})" for i in range(len(L)))
-        return self.assign(hint, f"-0.5*({quadratic}) - ({log_det}) - {0.5 * len(gamma)}*LOG_2PI")
+        density = self.assign(hint, f"-0.5*{quadratic} - ({log_det}) - {0.5 * len(gamma)}*LOG_2PI")
+        return density, quadratic
 
     def gain(self, hint: str, P: Matrix, H: Matrix, L: Matrix) -> Matrix:
         """Kalman gain ``P Hᵀ (L Lᵀ)⁻¹``, row by row."""
@@ -476,6 +485,7 @@ _OUTPUT_NAMES = (
     ("variances_out", "state_variances"),
     ("predictions_out", "output_predictions"),
     ("covariances_out", "covariances"),
+    ("surprise_out", "surprise"),
 )
 """The generated code's names of the output arrays and their fields in ``FilterBuffers``."""
 

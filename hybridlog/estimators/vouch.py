@@ -37,7 +37,14 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
     from hybridlog.signals import AlignedSignals, FloatArray
 
-__all__ = ["Flaw", "check_explained", "check_result", "first_flaw"]
+__all__ = [
+    "Flaw",
+    "check_explained",
+    "check_result",
+    "check_surprise",
+    "first_flaw",
+    "surprise_limit",
+]
 
 PROBABILITY_TOLERANCE = 1e-6
 """How far a row of mode probabilities may sum from 1 (or an entry leave [0, 1])."""
@@ -316,6 +323,63 @@ def check_result(
         f"{model.origin or model.name}: {result.estimator} diverged at t = "
         f"{format_time(result.time[flaw.row])} s (sample {row}): {flaw.what}"
         + (f"; {why}" if why else "")
+    )
+
+
+def surprise_limit(n_outputs: int) -> float:
+    """The ``γᵀ S⁻¹ γ`` past which no mode explains a sample: ``1500 + 50 m`` for ``m`` outputs.
+
+    For Gaussian noise ``γᵀ S⁻¹ γ`` is χ² with ``m`` degrees of freedom, and Chernoff's bound
+    ``P(χ²_m ≥ T) ≤ (T/m)^(m/2) e^((m − T)/2)`` puts every ``T`` past this limit below
+    ``1e-300`` for every ``m``: such a sample is not noise the model describes (an outlier, a
+    stuck or offset sensor, another plant), and the filter's answer to it (a mode decided by
+    which of the impossible likelihoods is least so, a state pulled to the outlier with the
+    variance of a good measurement) is not one anybody can vouch for.
+    """
+    return 1500.0 + 50.0 * n_outputs
+
+
+def check_surprise(
+    model: HybridModel,
+    signals: AlignedSignals,
+    result: EstimationResult,
+    surprise: FloatArray,
+    *,
+    first: int = 0,
+) -> None:
+    """Refuse ``result`` at its first sample that no mode can explain (:func:`surprise_limit`).
+
+    ``surprise`` holds the rows' smallest ``γᵀ S⁻¹ γ`` over the modes (NaN where none was
+    computed; :class:`~hybridlog.estimators.common.FilterBuffers`), ``first`` the log's row
+    of the result's row 0.
+
+    Raises
+    ------
+    DivergenceError
+        ``<model file>: <estimator> cannot explain the log at t = <t> s (sample <k>): ...``,
+        each output's value and prediction there.
+    """
+    if surprise.shape[0] == 0:
+        return
+    limit = surprise_limit(model.n_outputs)
+    beyond = surprise > limit  # NaN compares False: rows without a value pass
+    if not bool(beyond.any()):
+        return
+    at = _first_row(beyond)
+    row = first + at
+    measured = signals.outputs[row]
+    predicted = result.output_predictions[at]
+    shown = ", ".join(
+        f"{name} = {measured[b]:.4g} (predicted {predicted[b]:.4g})"
+        for b, name in enumerate(model.outputs[:MAX_SHOWN])
+    )
+    more = f", {model.n_outputs - MAX_SHOWN} more" if model.n_outputs > MAX_SHOWN else ""
+    raise DivergenceError(
+        f"{model.origin or model.name}: {result.estimator} cannot explain the log at t = "
+        f"{format_time(result.time[at])} s (sample {row}): {shown}{more}: "
+        f"{math.sqrt(float(surprise[at])):.3g} standard deviations from every mode's "
+        f"prediction (over {math.sqrt(limit):.3g}: P < 1e-300 for Gaussian noise); an "
+        "outlier, a stuck or offset sensor or another plant's log?"
     )
 
 

@@ -23,6 +23,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hybridlog.errors import DivergenceError
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.mode_hypotheses import note_weight
 from hybridlog.model.loader import load_model, parse_model
@@ -179,13 +180,18 @@ def test_path_states_psd_and_last_sample_filtered_with_outliers(n_outliers, sigm
     std = np.sqrt(np.diag(model.modes[0].measurement_noise))
     outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
     signals = dataclasses.replace(log.signals(model), outputs=outputs)
-    runs = {
-        smooth: run_imm(
-            model, signals, ImmOptions(mode_sequence="kbest", beam=5, smooth=smooth),
-            store_covariances=True,
-        )
-        for smooth in (False, True)
-    }  # fmt: skip
+    try:
+        runs = {
+            smooth: run_imm(
+                model, signals, ImmOptions(mode_sequence="kbest", beam=5, smooth=smooth),
+                store_covariances=True,
+            )
+            for smooth in (False, True)
+        }  # fmt: skip
+    except DivergenceError as error:  # the filter refuses a sample no mode explains
+        assert "cannot explain the log" in str(error)
+        assert sigmas >= 1e3 and n_outliers > 0  # 10 σ outliers are noise a model may meet
+        return
     for result in runs.values():
         assert_filter_invariants(result)
     np.testing.assert_array_equal(runs[True].modes, runs[False].modes)

@@ -9,6 +9,7 @@ from filterpy.kalman import KalmanFilter
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from hybridlog.errors import DivergenceError
 from hybridlog.estimators import smoothing
 from hybridlog.estimators.common import ModeStore, packed_width, run_filter
 from hybridlog.estimators.imm import (
@@ -160,16 +161,33 @@ def test_smoothed_covariances_psd_probabilities_normalised_with_outliers(
     std = np.sqrt(np.diag(model.modes[0].measurement_noise))
     outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
     signals = dataclasses.replace(log.signals(model), outputs=outputs)
-    result = run_imm(
-        model, signals, ImmOptions(smooth=True, mode_sequence="viterbi"), store_covariances=True
-    )
+    try:
+        result = run_imm(
+            model, signals, ImmOptions(smooth=True, mode_sequence="viterbi"), store_covariances=True
+        )
+    except DivergenceError as error:  # an outlier no mode explains is refused, never smoothed
+        assert "cannot explain the log" in str(error)
+        assert sigmas >= 1e3 and n_outliers > 0  # 10 σ outliers are noise a model may meet
+        return
     assert_smoother_invariants(result)
+
+
+def test_a_burst_of_outliers_no_mode_explains_is_refused_at_its_first_sample(long_logs):
+    model, log = long_logs["three_tank_hstf"]
+    outputs = log.outputs.copy()
+    outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    for options in (ImmOptions(smooth=True), ImmOptions(mode_sequence="viterbi")):
+        with pytest.raises(
+            DivergenceError, match=r"cannot explain the log at t = .*\(sample 1000\)"
+        ):
+            run_imm(model, signals, options)
 
 
 def test_smoother_invariants_with_a_burst_of_outliers(long_logs):
     model, log = long_logs["three_tank_hstf"]
     outputs = log.outputs.copy()
-    outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[1000:1020] += 20.0 * np.sqrt(np.diag(model.modes[0].measurement_noise))
     signals = dataclasses.replace(log.signals(model), outputs=outputs)
     result = run_imm(model, signals, ImmOptions(smooth=True), store_covariances=True)
     assert_smoother_invariants(result)
@@ -335,12 +353,13 @@ def test_both_forward_code_paths_write_the_same_store():
 
 def test_straight_line_smoother_equals_the_generic_loop_where_probabilities_underflow():
     """Outliers drive filtered mode probabilities to 0 and below 1e-280: the straight-line
-    pass then takes its log-space branch (its linear branch elsewhere); both equal the loop."""
+    pass then takes its log-space branch (its linear branch elsewhere); both equal the loop.
+    (30 σ: far enough to rule modes out, near enough for the filter to explain; 1e4 σ is a
+    sample no mode explains, refused by the filter, test_a_burst_of_outliers_no_mode_...)"""
     model = load_model("three_tank_hstf")
     signals = simulate(model, steps=1500, seed=7).signals(model)
     outputs = signals.outputs.copy()
-    outputs[400:420] += 1e4 * np.sqrt(np.diag(model.modes[0].measurement_noise))
-    outputs[900:905] -= 1e2 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[400:420] += 30.0 * np.sqrt(np.diag(model.modes[0].measurement_noise))
     signals = dataclasses.replace(signals, outputs=outputs)
     options = ImmOptions(smooth=True)
     fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)

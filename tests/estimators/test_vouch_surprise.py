@@ -1,0 +1,91 @@
+"""A sample no mode explains is refused, never filtered (hybridlog.estimators.vouch.check_surprise).
+
+A 1e6 spike in a three-tank level (about 20 cm) made the IMM put the level at 305220 cm with
+a variance of 0.05 and every mode probability at exactly 0 or 1 (whichever impossible
+likelihood was least so), and the run passed with exit 0.  Now the filter records each
+sample's smallest ``γᵀ S⁻¹ γ`` over the modes and the run is refused at the first past
+:func:`~hybridlog.estimators.vouch.surprise_limit`, naming the time, the sample and each
+output beside its prediction.
+"""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from filterpy.kalman import KalmanFilter
+
+from hybridlog.cli import main
+from hybridlog.errors import DivergenceError
+from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.vouch import surprise_limit
+from hybridlog.model.loader import parse_model
+from hybridlog.simulate import simulate
+from tests.estimators.test_reductions import _linear_matrices
+from tests.support.models import LINEAR_TWO_MODE
+
+SAMPLES = Path(__file__).resolve().parents[2] / "sample_logs"
+ONE_MODE = LINEAR_TWO_MODE.split("[modes.fast]")[0] + (
+    "[noise]\nprocess = [0.01, 0.02]\nmeasurement = [[0.05, 0.01], [0.01, 0.08]]\n\n"
+    "[initial]\nstate = [0.5, -0.2]\ncovariance = [[1.0, 0.1], [0.1, 2.0]]\n\n"
+    '[simulation]\nstate = [0.0, 0.0]\nschedule = "slow:200"\n\n'
+    '[simulation.inputs]\na = "sin(0.7*t)"\n'
+)
+
+
+def _filterpy_distances(model, signals):
+    """Each sample's ``γᵀ S⁻¹ γ`` of FilterPy's Kalman filter (row 0: the prior, NaN)."""
+    mode = model.modes[0]
+    kf = KalmanFilter(dim_x=model.n_states, dim_z=model.n_outputs, dim_u=model.n_inputs)
+    kf.x = model.initial_state.copy()
+    kf.P = model.initial_covariance.copy()
+    kf.F, kf.B, kf.H = _linear_matrices(model, 0)
+    kf.Q, kf.R = mode.process_noise, mode.measurement_noise
+    distances = [np.nan]
+    for k in range(signals.n_samples - 1):
+        kf.predict(u=signals.inputs[k])
+        kf.update(signals.outputs[k + 1])
+        distances.append(float(kf.mahalanobis) ** 2)
+    return np.array(distances)
+
+
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_the_refusal_is_at_the_first_sample_past_the_limit_as_filterpy_computes_it(kernel):
+    model = parse_model(ONE_MODE)
+    signals = simulate(model, steps=199, seed=3).signals(model)
+    outputs = signals.outputs.copy()
+    outputs[[60, 120], 1] += [12.0, 1e6]  # 12 σ(R): explained; 1e6: not
+    signals = dataclasses.replace(signals, outputs=outputs)
+    distances = _filterpy_distances(model, signals)
+    beyond = np.flatnonzero(distances > surprise_limit(model.n_outputs))
+    assert beyond[0] == 120 and distances[60] > 100.0  # the 12 σ sample is surprising, no more
+    with pytest.raises(DivergenceError) as refused:
+        run_imm(model, signals, ImmOptions(), kernel=kernel)
+    message = str(refused.value)
+    assert "cannot explain the log at t = 12 s (sample 120)" in message
+    assert "y2 = 1e+06" in message
+    assert f"{np.sqrt(distances[120]):.3g} standard deviations" in message
+    outputs[120, 1] -= 1e6
+    kept = dataclasses.replace(signals, outputs=outputs)  # the 12 σ sample alone: vouched for
+    assert np.nanmax(_filterpy_distances(model, kept)) <= surprise_limit(model.n_outputs)
+    run_imm(model, kept, ImmOptions(), kernel=kernel)
+
+
+def test_a_spike_in_a_three_tank_log_is_one_line_and_exit_2(tmp_path, capsys):
+    text = (SAMPLES / "three_tank_hstf.csv").read_text().splitlines()
+    header = text[0].split(",")
+    row = text[151].split(",")  # t = 150 s
+    row[header.index("y1")] = "1e6"
+    text[151] = ",".join(row)
+    path = tmp_path / "spike.csv"
+    path.write_text("\n".join(text) + "\n")
+    out = tmp_path / "out"
+    argv = ["-q", "analyze", str(path), "--model", "three_tank_hstf", "--estimator", "imm"]
+    for extra in ([], ["--smooth"], ["--mode-sequence", "viterbi"], ["--mode-sequence", "kbest"]):
+        with pytest.raises(SystemExit) as exit_:
+            main([*argv, "--out", str(out), *extra])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1, err
+        assert "cannot explain the log at t = 150 s (sample 150): y1 = 1e+06" in err
+        assert not out.exists()
