@@ -237,6 +237,7 @@ def _hstf_steps(
                 for c in range(n):
                     P_i_pred[i, a, c] = lam * FPF[i, a, c] + Q[i, a, c]  # (24)
         mixture_moments(uniform, x_i_pred, P_i_pred, x_pred, P_pred)  # (22)
+        nearest = np.inf  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
         for i in range(n_q):
             # (9), (11), (32): the gain from the combined P(k+1|k).
             kalman_update(
@@ -255,8 +256,14 @@ def _hstf_steps(
                     S_i[i, b, c] += R[i, b, c]
             if cholesky(S_i[i], L):
                 log_likelihood[i] = gaussian_log_density(gamma_i[i], L, vec_m)  # (34)
+                distance = 0.0  # vec_m holds L⁻¹ γ
+                for b in range(m):
+                    distance += vec_m[b] * vec_m[b]
+                if distance < nearest:
+                    nearest = distance
             else:
                 log_likelihood[i] = -np.inf
+        out.surprise[row] = nearest if nearest < np.inf else np.nan
         # (33) with the uniform prior of (20), normalised in log space.
         normalize_log(log_likelihood, mu)
         mixture_moments(mu, x_i_post, P_i_post, x, P)  # (36), (37)
@@ -429,6 +436,7 @@ def generate_hstf_source(model: HybridModel) -> str:
     P_post: list[Matrix] = []
     S_i: list[Matrix] = []
     log_likelihood: Vector = []
+    distances: list[str] = []
     for i in range(n_q):
         # (9), (11), (32): the gain from the combined P(k+1|k).
         x_update, P_update, _ = p.kalman_update(f"u{i}_", x_i[i], P_pred, H_i[i], R[i], gamma[i])
@@ -438,9 +446,15 @@ def generate_hstf_source(model: HybridModel) -> str:
         base = p.symmetric_sum(f"b{i}_", [p.scaled("sc", scale, FPF[i]), Q[i]])
         S_i.append(p.congruence(f"si{i}_", H_i[i], base, add=R[i]))  # (35)
         Ls = p.cholesky(f"ls{i}_", S_i[i])
-        ll = p.gaussian_log_density(f"ll{i}_", gamma[i], Ls)  # (34)
+        ll, distance = p.gaussian_log_density_and_distance(f"ll{i}_", gamma[i], Ls)  # (34)
+        p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
+        distances.append(distance)
         p.minus_inf_if_nan(ll)
         log_likelihood.append(ll)
+    nearest = p.assign(
+        "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
+    )
+    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf else math.nan")
     mu_new = p.normalized_weights(log_likelihood, mu)  # (33)
     x_new, P_new = p.mixture("cm", mu_new, x_post, P_post)  # (36), (37)
     _, S_new = p.mixture("sm", mu_new, y_i, S_i)  # (38), (39)

@@ -1,6 +1,7 @@
 """Numerical invariants of the filters over long runs with gross outliers (hypothesis)."""
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -27,8 +28,10 @@ RUNS = {
     "imm": lambda m, s: run_imm(m, s, ImmOptions(), store_covariances=True),
 }
 
-REFUSING = {"imm"}
+REFUSING = {"imm", "hstf", "hstf-unfaded"}
 """Runs that refuse a sample no mode explains (hybridlog.estimators.vouch.check_surprise)."""
+ABSORBING = {"hstf"}
+"""Runs that may take such a sample instead: the paper's faded S_i grows with the innovation."""
 
 
 @pytest.fixture(scope="module")
@@ -92,10 +95,14 @@ def test_invariants_hold_with_a_burst_of_outliers_on_every_model(long_logs, run_
         outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
         signals = dataclasses.replace(log.signals(model), outputs=outputs)
         if run_name in REFUSING:
-            with pytest.raises(DivergenceError, match=r"cannot explain .*\(sample 1000\)"):
-                RUNS[run_name](model, signals)
-            continue
-        result = RUNS[run_name](model, signals)
+            try:
+                result = RUNS[run_name](model, signals)
+            except DivergenceError as error:  # at the burst, whose first sample may be absorbed
+                assert re.search(r"cannot explain .*\(sample 100[01]\)", str(error)), error
+                continue
+            assert run_name in ABSORBING
+        else:
+            result = RUNS[run_name](model, signals)
         assert_filter_invariants(result)
         # The filter recovers: the last tenth of the run tracks the measurements again.
         tail = slice(STEPS - STEPS // 10, STEPS)
