@@ -17,6 +17,7 @@ from typing import Any
 
 from hybridlog.errors import LogError, excerpt
 from hybridlog.io.message_paths import Typedefs
+from hybridlog.io.options import msg_dir_problem
 
 _IDL_SEPARATOR = "=" * 80 + "\n"
 
@@ -66,8 +67,8 @@ def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
     types: dict[str, Any] = {}
     for folder in folders:
         root = Path(folder)
-        if not root.is_dir():
-            why = "a file, not a folder of .msg files" if root.exists() else "no such folder"
+        why = msg_dir_problem(folder)
+        if why is not None:
             raise LogError(f"--msg-dir {folder}: {why}")
         for file in sorted(root.rglob("*.msg")):
             parent = file.parent

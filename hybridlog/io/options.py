@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 from hybridlog.errors import OptionError
@@ -98,7 +99,19 @@ class ReadOptions:
         """Check the values that have a fixed set or range (the one place they are checked)."""
         check_resample(self.resample)
         check_max_gap(self.max_gap)
+        for folder in self.msg_dirs:  # a CSV or Parquet log never reads it: it was ignored
+            problem = msg_dir_problem(folder)
+            if problem is not None:
+                raise OptionError(f"--msg-dir {folder}: {problem}")
         if self.time not in TIME_SOURCES:
             raise OptionError(
                 f"--time: expected one of {', '.join(TIME_SOURCES)}, got {self.time!r}"
             )
+
+
+def msg_dir_problem(folder: str) -> str | None:
+    """Why ``folder`` is no ``--msg-dir`` (not a folder), or ``None``."""
+    root = Path(folder)
+    if root.is_dir():
+        return None
+    return "a file, not a folder of .msg files" if root.exists() else "no such folder"

@@ -74,3 +74,14 @@ def test_signal_spec_of_a_model() -> None:
     assert dict(spec.signals) == model.signals and dict(spec.truth) == model.truth
     with pytest.raises(TypeError):
         spec.signals["u"] = "/other.data"  # type: ignore[index]
+
+
+def test_a_msg_dir_that_is_no_folder_is_refused_whatever_the_log(tmp_path) -> None:
+    # a CSV or Parquet log never reads --msg-dir: a mistyped folder was ignored without a word
+    with pytest.raises(OptionError, match=r"^--msg-dir .*nope: no such folder$"):
+        ReadOptions(msg_dirs=(str(tmp_path / "nope"),))
+    afile = tmp_path / "a.msg"
+    afile.write_text("float64 x\n")
+    with pytest.raises(OptionError, match=r"a file, not a folder of \.msg files$"):
+        ReadOptions(msg_dirs=(str(afile),))
+    assert ReadOptions(msg_dirs=(str(tmp_path),)).msg_dirs == (str(tmp_path),)
