@@ -21,22 +21,11 @@ from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from tests.support.logfiles import STAMPED_DEFINITION
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 N = 20
 BAD = 9  # the message whose nanoseconds did not carry: 10 s and 1.5e9 ns
-
-_STAMPED = """std_msgs/Header header
-float64 x
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-"""
 
 
 def _stamp(k: int) -> tuple[int, int]:
@@ -49,7 +38,7 @@ def _stamp(k: int) -> tuple[int, int]:
 def _ros2_mcap(path: Path) -> tuple[Path, tuple[str, ...]]:
     with path.open("wb") as stream:
         writer = Ros2McapWriter(stream)
-        schema = writer.register_msgdef("my_pkg/msg/Stamped", _STAMPED)
+        schema = writer.register_msgdef("my_pkg/msg/Stamped", STAMPED_DEFINITION)
         for k in range(N):
             sec, nanosec = _stamp(k)
             for topic, value in (("/u", float(k)), ("/y", -float(k))):

@@ -21,6 +21,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+from tests.support.logfiles import STAMPED_DEFINITION
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 N = 40
@@ -32,23 +33,11 @@ def load(log: Path, *maps: str, **options: Any) -> Any:
 
 # ------------------------------------------------------------------ header stamps never set
 
-_STAMPED = """std_msgs/Header header
-float64 x
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-"""
-
 
 def _ros2_mcap_with_stamps(path: Path, stamps_ns: list[int]) -> Path:
     with path.open("wb") as stream:
         writer = Ros2McapWriter(stream)
-        schema = writer.register_msgdef("my_pkg/msg/Stamped", _STAMPED)
+        schema = writer.register_msgdef("my_pkg/msg/Stamped", STAMPED_DEFINITION)
         for k, stamp in enumerate(stamps_ns):
             log_time = 2_000_000_000 + k * 100_000_000
             for topic, value in (("/u", float(k)), ("/y", -float(k))):

@@ -21,28 +21,17 @@ from rosbags.typesys import Stores, get_typestore
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.signals import AlignedSignals
+from tests.support.logfiles import STAMPED_DEFINITION
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 N = 20
 MAPS = ("u=/u.x", "y=/y.x")
 
-_STAMPED = """std_msgs/Header header
-float64 x
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-"""
-
 
 def _mcap(path: Path, log_ns: list[int], stamp_ns: list[int]) -> Path:
     with path.open("wb") as stream:
         writer = Ros2McapWriter(stream)
-        schema = writer.register_msgdef("my_pkg/msg/Stamped", _STAMPED)
+        schema = writer.register_msgdef("my_pkg/msg/Stamped", STAMPED_DEFINITION)
         for k in range(N):
             stamp = {"sec": stamp_ns[k] // 10**9, "nanosec": stamp_ns[k] % 10**9}
             for topic, value in (("/u", float(k)), ("/y", -float(k))):

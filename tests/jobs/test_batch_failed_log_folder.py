@@ -12,23 +12,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import run_batch
-from tests.support.logfiles import tank_run
-
-TANK = "three_tank_hstf"
-
-
-def _logs(folder: Path) -> list[Path]:
-    folder.mkdir()
-    return [
-        write_table(folder / f"s{k}.csv", tank_run(steps=30, seed=k).columns) for k in (1, 2, 3)
-    ]
-
-
-def _statuses(logs: list[Path], out: Path, **options: object) -> dict[str, str]:
-    outcome = run_batch(logs, TANK, out_dir=out, estimator="imm", **options)
-    return {Path(o.log).name: o.status for o in outcome.logs}
+from tests.jobs.test_batch_resume_intact import _logs, _statuses
 
 
 def test_a_log_that_fails_now_loses_its_earlier_report(tmp_path: Path) -> None:

@@ -755,3 +755,18 @@ SCENE_WRITERS: dict[str, tuple[str, Callable[[Path, list[Record]], Path]]] = {
 }
 """Each other tool's writer of a recorded scene (its name, file name and writer): every
 message-log reader and decoder hybridlog has."""
+
+
+STAMPED_DEFINITION = """std_msgs/Header header
+float64 x
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+"""
+"""A message with a ``header.stamp`` and a ``float64 x``, as one ROS 2 text definition
+(the form an MCAP schema of encoding ``ros2msg`` holds)."""
