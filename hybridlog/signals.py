@@ -109,6 +109,10 @@ class AlignedSignals:
         For a ``[components]`` model, the true mode of each component the log has (its
         ``mode.<component>`` column or ``/truth/mode/<component>`` topic), in the model's
         component order; empty otherwise.
+    command_names, commands:
+        For a ``[components]`` model, the commands its transition rules' ``when`` name that
+        the log has, and their values, shape ``(N, len(command_names))``, held onto the grid
+        as inputs are (row ``k`` holds ``u_d(k)``, paper 002 eq. (4)); ``None`` without any.
     """
 
     source: str
@@ -121,6 +125,8 @@ class AlignedSignals:
     state_names: tuple[str, ...] = ()
     truth_states: FloatArray | None = None
     truth_components: Mapping[str, ComponentTruth] = field(default_factory=_no_components)
+    command_names: tuple[str, ...] = ()
+    commands: FloatArray | None = None
 
     @property
     def n_samples(self) -> int:
@@ -162,4 +168,5 @@ class AlignedSignals:
                 name: ComponentTruth(truth.labels, truth.codes[start:stop])
                 for name, truth in self.truth_components.items()
             },
+            commands=None if self.commands is None else self.commands[start:stop],
         )

@@ -111,6 +111,8 @@ def signals_of(model: HybridModel, log: ComponentsLog, source: str) -> AlignedSi
         output_names=model.outputs,
         inputs=log.inputs,
         outputs=log.outputs,
+        command_names=model.commands,
+        commands=log.commands,
     )
 
 

@@ -105,6 +105,11 @@ class SignalSpec:
     components:
         A ``[components]`` model's components and their mode ids (``{name: ids}``, in the
         model's order): their true modes are read where the log has them.
+    commands:
+        The commands a ``[components]`` model's transition rules name (``when``), in the
+        model's order: read where the log has them, like inputs (mapped by ``--map``,
+        ``[signals]`` or the default name, held onto the grid), into
+        ``AlignedSignals.commands``.
     """
 
     inputs: tuple[str, ...]
@@ -115,10 +120,13 @@ class SignalSpec:
     signals: Mapping[str, str] = field(default_factory=_no_paths)
     truth: Mapping[str, str] = field(default_factory=_no_paths)
     components: Mapping[str, tuple[str, ...]] = field(default_factory=_no_components)
+    commands: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, model: ModelSignals) -> SignalSpec:
         """The spec of a model (a ``HybridModel`` or anything shaped like one)."""
+        components = tuple(getattr(model, "components", ()))
+        named = {c for component in components for rule in component.rules for c in rule.when}
         return cls(
             inputs=tuple(model.inputs),
             outputs=tuple(model.outputs),
@@ -131,9 +139,10 @@ class SignalSpec:
                 {
                     # its modes, the implicit "unknown" too: the keys of its initial probabilities
                     str(c.name): tuple(str(m) for m in c.initial_mode_probabilities)
-                    for c in getattr(model, "components", ())
+                    for c in components
                 }
             ),
+            commands=tuple(c for c in getattr(model, "commands", ()) if c in named),
         )
 
 
@@ -186,6 +195,7 @@ def load_signals(
         outputs=spec.outputs,
         states=spec.states,
         components=tuple(spec.components),
+        commands=spec.commands,
     )
     notes = notes if notes is not None else {}
     with open_log(path, options) as source:
@@ -204,10 +214,12 @@ def load_signals(
             message_paths=info.message_paths,
             explain=source.explain_missing,
             field_key=source.field_key,
+            commands=spec.commands,
         )
         symbols = {
             **{field: f"input {u!r}" for u, field in mapping.inputs.items()},
             **{field: f"output {y!r}" for y, field in mapping.outputs.items()},
+            **{field: f"command {c!r}" for c, field in mapping.commands.items()},
             **{field: f"truth.{x}" for x, field in mapping.truth_states.items()},
         }
         numeric = list(
@@ -215,6 +227,7 @@ def load_signals(
                 [
                     *mapping.inputs.values(),
                     *mapping.outputs.values(),
+                    *mapping.commands.values(),
                     *mapping.truth_states.values(),
                 ]
             )
@@ -251,6 +264,7 @@ def load_signals(
                 emptied[name] = int(usable.size)
                 needed = [f"input {u!r}" for u, f in mapping.inputs.items() if f == name]
                 needed += [f"output {y!r}" for y, f in mapping.outputs.items() if f == name]
+                needed += [f"command {c!r}" for c, f in mapping.commands.items() if f == name]
                 if needed:
                     raise LogError(
                         f"{info.path}: {needed[0]} ({info.field_word} {name!r}) has no "
@@ -296,10 +310,13 @@ def load_signals(
                 info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
             )
             truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
-        return align_signals(
+        # commands are held onto the grid as inputs are, then split off (_split_commands)
+        aligned = align_signals(
             source=info.path,
             dt=spec.dt,
-            inputs={u: numeric_series[f] for u, f in mapping.inputs.items()},
+            inputs={
+                u: numeric_series[f] for u, f in {**mapping.inputs, **mapping.commands}.items()
+            },
             outputs={y: numeric_series[f] for y, f in mapping.outputs.items()},
             truth_mode=truth_mode,
             truth_components=truth_components,
@@ -311,6 +328,21 @@ def load_signals(
             notes=notes,
             field_word=info.field_word,
         )
+        return _split_commands(aligned, tuple(mapping.commands))
+
+
+def _split_commands(aligned: AlignedSignals, commands: tuple[str, ...]) -> AlignedSignals:
+    """The aligned signals with the trailing ``commands`` columns of the inputs moved apart."""
+    if not commands:
+        return aligned
+    n_u = len(aligned.input_names) - len(commands)
+    return replace(
+        aligned,
+        input_names=aligned.input_names[:n_u],
+        inputs=np.ascontiguousarray(aligned.inputs[:, :n_u]),
+        command_names=commands,
+        commands=np.ascontiguousarray(aligned.inputs[:, n_u:]),
+    )
 
 
 def _without_empty_truth(

@@ -28,6 +28,11 @@ For each model input and output, and for the ground truth (``truth.mode``,
    The topics hybridlog wrote before (``/truth/mode.c``, ``/truth/θ``) are looked for
    when the log has no topic of the ROS name.
 
+The commands a ``[components]`` model's transition rules name (``when``) are found like
+inputs (``--map``, ``[signals]``, the default name ``/s.data`` or column ``s``), but are
+optional: a log without one is read, and the estimator that applies the rules refuses it
+(``unknown-mode``); a field the log has but that cannot be used is an error, as for an input.
+
 Inputs and outputs must be found; ground truth is optional unless mapped with ``--map``
 (and a ground-truth field found by default that holds no sample is no truth either:
 :func:`~hybridlog.io.load.load_signals` drops it).  A ground-truth field the log has (in
@@ -72,6 +77,8 @@ class SignalMap:
     ----------
     inputs, outputs:
         ``{symbol: field}`` in the model's order.
+    commands:
+        ``{command: field}`` of the commands the log has, in the model's order.
     truth_mode:
         Field holding the true mode id, or ``None``.
     truth_states:
@@ -95,16 +102,18 @@ class SignalMap:
     truth_components: dict[str, str] = field(default_factory=dict)
     unusable_truth: dict[str, str] = field(default_factory=dict)
     origins: dict[str, str] = field(default_factory=dict)
+    commands: dict[str, str] = field(default_factory=dict)
 
     def fields_read(self) -> dict[str, dict[str, str]]:
         """``{symbol: {"field": ..., "from": origin}}`` of every symbol given a field.
 
-        Inputs, outputs, then ground truth (``truth.mode``, ``truth.mode.<component>``,
+        Inputs, outputs, commands, then ground truth (``truth.mode``, ``truth.mode.<component>``,
         ``truth.<state>``), for the report: which log field fed which symbol, and why.
         """
         chosen = {
             **self.inputs,
             **self.outputs,
+            **self.commands,
             **({} if self.truth_mode is None else {TRUTH_MODE: self.truth_mode}),
             **{component_truth_symbol(c): f for c, f in self.truth_components.items()},
             **{f"{TRUTH_PREFIX}{x}": f for x, f in self.truth_states.items()},
@@ -225,6 +234,7 @@ def valid_map_symbols(
     outputs: Sequence[str],
     states: Sequence[str],
     components: Sequence[str] = (),
+    commands: Sequence[str] = (),
 ) -> tuple[str, ...]:
     """Every symbol ``--map`` accepts on its left-hand side.
 
@@ -234,6 +244,7 @@ def valid_map_symbols(
     return (
         *inputs,
         *outputs,
+        *commands,
         *(() if components else (TRUTH_MODE,)),
         *(component_truth_symbol(c) for c in components),
         *(f"{TRUTH_PREFIX}{state}" for state in states),
@@ -260,6 +271,7 @@ def parse_maps(
     outputs: Sequence[str],
     states: Sequence[str],
     components: Sequence[str] = (),
+    commands: Sequence[str] = (),
 ) -> dict[str, str]:
     """Parse ``--map SYMBOL=PATH`` options.
 
@@ -267,8 +279,8 @@ def parse_maps(
     ----------
     maps:
         The option values, e.g. ``["y=level_m", "truth.mode=/truth/mode.data"]``.
-    inputs, outputs, states, components:
-        The model's symbol names (and component names).
+    inputs, outputs, states, components, commands:
+        The model's symbol names (and component names, and the commands its rules name).
 
     Returns
     -------
@@ -283,7 +295,7 @@ def parse_maps(
         For a value without ``=``, an empty side, an unknown symbol (listing the valid ones)
         or a symbol mapped twice.
     """
-    valid = valid_map_symbols(inputs, outputs, states, components)
+    valid = valid_map_symbols(inputs, outputs, states, components, commands)
     parsed: dict[str, str] = {}
     for item in maps:
         symbol, sep, path = item.partition("=")
@@ -318,6 +330,7 @@ def resolve_signal_map(
     message_paths: bool = False,
     explain: Callable[[str, bool], str | None] | None = None,
     field_key: Callable[[str], FieldKey] | None = None,
+    commands: Sequence[str] = (),
 ) -> SignalMap:
     """Choose the log field of every symbol (see the module docstring for the order).
 
@@ -346,6 +359,8 @@ def resolve_signal_map(
     field_key:
         What a field name names, the same for every spelling of one field
         (``LogSource.field_key``: ``/y1/data`` and ``/y1.data``); default: the name.
+    commands:
+        The commands the model's transition rules name: looked for like inputs, optional.
 
     Returns
     -------
@@ -423,7 +438,7 @@ def resolve_signal_map(
                 origin = f"{where}; use --map {symbol}=... for another"
                 raise unusable_field(symbol, name, origin, reason)
         raise LogError(
-            f"{source}: no {field_word} for {_describe(symbol, inputs)} (looked for "
+            f"{source}: no {field_word} for {_describe(symbol, inputs, commands)} (looked for "
             f"{' and '.join(repr(name) for name in looked)}; use --map {symbol}=...); "
             f"{closest_names(looked, fields)}"
         )
@@ -438,12 +453,14 @@ def resolve_signal_map(
         # from --map y1=/a.b.v): '/a.b.v' names 2 fields ..." -- not "no field '/a.b.v'"
         # before a reason that says the field is there but cannot be used.
         return LogError(
-            f"{source}: {_describe(symbol, inputs)} ({field_word} {name!r}, {origin}): {reason}"
+            f"{source}: {_describe(symbol, inputs, commands)} ({field_word} {name!r}, {origin}): "
+            f"{reason}"
         )
 
     every = [
         *inputs,
         *outputs,
+        *commands,
         *([] if components else [TRUTH_MODE]),
         *(component_truth_symbol(c) for c in components),
         *(f"{TRUTH_PREFIX}{x}" for x in states),
@@ -460,13 +477,22 @@ def resolve_signal_map(
 
     input_fields = {u: required(u) for u in inputs}
     output_fields = {y: required(y) for y in outputs}
+    command_fields: dict[str, str] = {}
+    for command in commands:
+        chosen = choose(command, signals.get(command), default(command), required=False)
+        why = unusable.pop(command, None)
+        if why is not None:  # the log has the field, in a form that cannot be used
+            raise LogError(f"{source}: command {command!r} ({why})")
+        if chosen is not None:
+            command_fields[command] = chosen
     _refuse_shared(
         source,
         field_word,
-        {**input_fields, **output_fields},
+        {**input_fields, **output_fields, **command_fields},
         inputs,
         origins,
         field_key or (lambda name: (name, ())),
+        commands,
     )
     # a [components] model enumerates no modes of its own: a ``mode`` field (a controller's
     # mode, joint labels) is no truth of it, its components' true modes are
@@ -489,7 +515,14 @@ def resolve_signal_map(
         if chosen is not None:
             truth_components[component] = chosen
     return SignalMap(
-        input_fields, output_fields, truth_mode, truth_states, truth_components, unusable, origins
+        input_fields,
+        output_fields,
+        truth_mode,
+        truth_states,
+        truth_components,
+        unusable,
+        origins,
+        command_fields,
     )
 
 
@@ -500,8 +533,9 @@ def _refuse_shared(
     inputs: Sequence[str],
     origins: Mapping[str, str],
     field_key: Callable[[str], FieldKey],
+    commands: Sequence[str] = (),
 ) -> None:
-    """Refuse one field feeding two inputs or outputs (``--map u=y1`` with an output ``y1``).
+    """Refuse one field feeding two inputs, outputs or commands (``--map u=y1``, an output ``y1``).
 
     An input read from an output's field makes the model predict the output from itself (a
     perfect fit that says nothing); two outputs read from one field are one measurement
@@ -524,7 +558,7 @@ def _refuse_shared(
 
     def described(symbol: str) -> str:
         origin = _origin(symbol, chosen[symbol], origins.get(symbol, "default"))
-        return f"{_describe(symbol, inputs)} {origin}"
+        return f"{_describe(symbol, inputs, commands)} {origin}"
 
     for symbol, name in chosen.items():
         key = field_key(name)
@@ -580,7 +614,9 @@ def _origin(symbol: str, name: str, origin: str) -> str:
     return f"(from the model's {origin})"
 
 
-def _describe(symbol: str, inputs: Sequence[str]) -> str:
+def _describe(symbol: str, inputs: Sequence[str], commands: Sequence[str] = ()) -> str:
     if symbol.startswith(TRUTH_PREFIX):
         return symbol
+    if symbol in commands:
+        return f"command {symbol!r}"
     return f"{'input' if symbol in inputs else 'output'} {symbol!r}"

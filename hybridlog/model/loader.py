@@ -1079,8 +1079,8 @@ def _refuse_misplaced(
     """Refuse a ``[signals]``/``[truth]`` key the log mapping would not read, saying why."""
     key = key_path(table, name)
     signal_names = (*groups["inputs"], *groups["outputs"])
-    if table == "signals" and name in signal_names:
-        return
+    if table == "signals" and name in (*signal_names, *groups["commands"]):
+        return  # a command is read like an input where a transition rule's `when` names it
     if table == "truth" and name in (*modes, *groups["states"]):
         return
     if table == "signals" and name in groups["states"]:
@@ -1094,16 +1094,21 @@ def _refuse_misplaced(
             "a components model has no mode of the whole model; map each component's "
             'true mode as "mode.<component>"'
         )
-    elif name in groups["commands"]:
-        reason = (
-            "a command; commands are not read from a log (the estimators apply no "
-            "transition rule with 'when')"
-        )
+    elif table == "truth" and name in groups["commands"]:
+        reason = "a command; commands map under [signals]"
     elif name in (*groups["variables"], *groups["booleans"]):
         reason = f"{_role(name, groups)}, which no log holds"
     else:
-        allowed = signal_names if table == "signals" else (*modes, *groups["states"])
-        what = "an input or output" if table == "signals" else "a true mode or state"
+        allowed = (
+            (*signal_names, *groups["commands"])
+            if table == "signals"
+            else (*modes, *groups["states"])
+        )
+        what = (
+            ("an input, output or command" if groups["commands"] else "an input or output")
+            if table == "signals"
+            else "a true mode or state"
+        )
         reason = f"not {what} of the model (allowed: {_names(allowed)})"
     raise ModelError(f"{key}: {reason}")
 

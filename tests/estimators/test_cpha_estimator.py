@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import sympy
 
+from hybridlog.errors import LogError
 from hybridlog.estimators import prepare
 from hybridlog.estimators.cpha.hypotheses import Hypothesis
 from hybridlog.estimators.cpha.options import UnknownModeOptions
@@ -321,9 +322,9 @@ def test_a_known_mode_no_output_checked_is_warned_of_not_reported_as_an_estimate
     )
 
 
-def test_transition_rules_with_when_not_applied_are_noted():
-    # The log's command columns were skipped without a word: a commanded switch (lights off
-    # at night) looked like a miss of the estimator.
+def test_transition_rules_with_when_apply_by_the_logged_commands():
+    # The log's command columns were skipped (a note said the rules with `when` were not
+    # applied): a commanded switch (lights off at night) looked like a miss of the estimator.
     commanded = CPHA_EXAMPLE.replace(
         'variables = ["wc1"]', 'variables = ["wc1"]\ncommands = ["a1_cmd"]'
     ).replace(
@@ -334,8 +335,8 @@ def test_transition_rules_with_when_not_applied_are_noted():
     model = parse_model(commanded)
     assert any(rule.when for rule in model.components[0].rules)
     signals = cpha_log(model, 20, seed=1)
-    notes = run_unknown_mode(model, signals, UnknownModeOptions(beam=5)).notes
-    (note,) = [n for n in notes if "commands are not read" in n]
-    assert "(a1_cmd)" in note and "transition rules with `when` (1) were not applied" in note
-    plain = run_unknown_mode(parse_model(CPHA_EXAMPLE), signals, UnknownModeOptions(beam=5))
-    assert not any("commands are not read" in n for n in plain.notes)
+    with pytest.raises(LogError, match=r"no command 'a1_cmd' in the log, which component 'A1'"):
+        run_unknown_mode(model, signals, UnknownModeOptions(beam=5))
+    on = dataclasses.replace(signals, command_names=("a1_cmd",), commands=np.ones((20, 1)))
+    notes = run_unknown_mode(model, on, UnknownModeOptions(beam=5)).notes
+    assert not any("command" in n for n in notes)

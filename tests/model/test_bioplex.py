@@ -327,6 +327,8 @@ def test_unknown_mode_on_the_short_scenario_and_without_the_unknown_mode(model, 
         output_names=model.outputs,
         inputs=short_run.inputs,
         outputs=short_run.outputs,
+        command_names=model.commands,
+        commands=short_run.commands,
     )
 
     def modes(**options):

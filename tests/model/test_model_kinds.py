@@ -633,8 +633,8 @@ _COMPONENT_ERRORS = [
     ),
     (
         "covariance = 1.0",
-        'covariance = 1.0\n[signals]\nud1 = "/cmd.data"',
-        r"signals\.ud1: a command; commands are not read from a log",
+        'covariance = 1.0\n[truth]\nud1 = "/cmd.data"',
+        r"truth\.ud1: a command; commands map under \[signals\]$",
     ),
     (
         "covariance = 1.0",

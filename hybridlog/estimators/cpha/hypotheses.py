@@ -4,8 +4,10 @@ A hypothesis is one tracked trajectory: a joint mode assignment, its belief ``h`
 continuous estimate ``x̂``, ``P`` of its filter cluster.  One step:
 
 * Every hypothesis ``j`` proposes successors ``m_i`` with the prior belief
-  ``h(•k)[x̂_i] = P_T(m_i | x̂_j) h(k-1)[x̂_j]`` (eq. (4)), where the transition of the
-  composition is the product of the components' (each component moves independently).
+  ``h(•k)[x̂_i] = P_T(m_i | x̂_j, u_d(k-1)) h(k-1)[x̂_j]`` (eq. (4)), where the transition
+  of the composition is the product of the components' (each component moves
+  independently) and the commands ``u_d(k-1)`` of the step before select the transition
+  rules that apply (``when``, :meth:`Component.transition_probabilities`).
 * Successors are proposed **best first** (a heap over the parents and, per component, the
   rank of its next mode in that component's sorted transition list), never by enumerating
   all assignments.  Each proposed successor is filtered (its filter cluster, one EKF per
@@ -44,23 +46,36 @@ __all__ = ["ClusterStepError", "Hypothesis", "Tracker", "TransitionTable"]
 
 
 class TransitionTable:
-    """Per component and source mode: targets sorted by falling probability, as logs.
+    """Per component, source mode and commands: targets sorted by falling probability, as logs.
 
     ``unknown_mode=False`` removes the unknown mode (targets and initial) and renormalises;
     a component that starts only in ``unknown`` then starts uniformly over its known modes.
-    Commands are not read from logs in this version: rules with ``when`` do not apply.
+    ``commands`` are the command names whose values :meth:`successors` is given (in that
+    order); each component's table reads those its own rules' ``when`` name, and is built
+    per source mode and value of those commands when first asked for.
     """
 
-    def __init__(self, components: Sequence[Component], *, unknown_mode: bool) -> None:
+    def __init__(
+        self,
+        components: Sequence[Component],
+        *,
+        unknown_mode: bool,
+        commands: Sequence[str] = (),
+    ) -> None:
         self.components = tuple(components)
         self.unknown_mode = unknown_mode
-        self._table: list[dict[str, list[tuple[float, str]]]] = []
+        self.commands = tuple(commands)
+        # per component: the positions in ``commands`` of those its rules name
+        self._reads: list[tuple[int, ...]] = []
         for component in components:
-            sources = (*component.mode_ids, *((UNKNOWN,) if unknown_mode else ()))
-            table = {}
-            for source in sources:
-                table[source] = self._sorted(component.transition_probabilities(source))
-            self._table.append(table)
+            named = {c for rule in component.rules for c in rule.when}
+            missing = sorted(named.difference(self.commands))
+            if missing:
+                raise ValueError(f"component {component.name}: no value of command {missing[0]}")
+            self._reads.append(tuple(i for i, c in enumerate(self.commands) if c in named))
+        self._table: list[dict[tuple[str, tuple[float, ...]], list[tuple[float, str]]]] = [
+            {} for _ in self.components
+        ]
         self.initial = [
             self._sorted(c.initial_mode_probabilities)
             or self._sorted(dict.fromkeys(c.mode_ids, 1.0))  # only unknown, switched off
@@ -76,9 +91,25 @@ class TransitionTable:
             return []
         return sorted(((math.log(p / total), m) for m, p in kept.items()), key=lambda t: -t[0])
 
-    def successors(self, assignment: Assignment) -> list[list[tuple[float, str]]]:
-        """Per component, the sorted ``(log P_T, target)`` out of its mode in ``assignment``."""
-        return [table[mode] for table, mode in zip(self._table, assignment, strict=True)]
+    def successors(
+        self, assignment: Assignment, commands: tuple[float, ...] = ()
+    ) -> list[list[tuple[float, str]]]:
+        """Per component, the sorted ``(log P_T, target)`` out of its mode in ``assignment``.
+
+        ``commands``: the values of :attr:`commands` (``u_d(k-1)``, paper 002 eq. (4)).
+        """
+        lists = []
+        for c, mode in enumerate(assignment):
+            values = tuple(commands[i] for i in self._reads[c])
+            table = self._table[c]
+            found = table.get((mode, values))
+            if found is None:
+                component = self.components[c]
+                given = {self.commands[i]: v for i, v in zip(self._reads[c], values, strict=True)}
+                found = self._sorted(component.transition_probabilities(mode, given))
+                table[(mode, values)] = found
+            lists.append(found)
+        return lists
 
 
 _Entry = tuple[Assignment, tuple[int, ...]]
@@ -296,6 +327,12 @@ class Tracker:
         The model's components and the caches of decompositions and compiled filters.
     inputs, outputs:
         The log, shapes ``(N, n_u)`` and ``(N, n_y)``.
+    commands:
+        The values of the commands the components' rules name, shape ``(N, n_c)``, columns
+        in the order of ``command_names``; ``None`` when no rule names one.  Step k's
+        transition probabilities are selected by row ``k-1`` (eq. (4)).
+    command_names:
+        The commands' names.
     beam:
         Number of hypotheses kept.
     candidates:
@@ -318,6 +355,8 @@ class Tracker:
         candidates: int,
         variance_growth: float,
         unknown_mode: bool,
+        commands: FloatArray | None = None,
+        command_names: Sequence[str] = (),
     ) -> None:
         self.components = tuple(components)
         self.structure = structure
@@ -329,7 +368,12 @@ class Tracker:
         self.beam = beam
         self.candidates = candidates
         self.variance_growth = variance_growth
-        self.transitions = TransitionTable(components, unknown_mode=unknown_mode)
+        self.transitions = TransitionTable(
+            components, unknown_mode=unknown_mode, commands=command_names
+        )
+        if commands is None and command_names:
+            raise ValueError("command names without their values")
+        self.commands = commands
         self.filtered = 0
         self.proposed = 0
         self.truncated = 0
@@ -341,7 +385,7 @@ class Tracker:
         self._no_prediction = np.full(outputs.shape[1], np.nan)
         # Per mode assignment (kept across steps): its successor table, its clusters' filters
         # (by small integer ids), and per cluster set the indices its results are written to.
-        self._successors: dict[Assignment, _Successors] = {}
+        self._successors: dict[tuple[Assignment, tuple[float, ...]], _Successors] = {}
         self._assignment_filters: dict[Assignment, tuple[int, ...]] = {}
         self._compiled: list[ClusterFilter] = []
         self._state_keys: list[tuple[int, ...]] = []
@@ -528,18 +572,26 @@ class Tracker:
         pending = _Pending(parent, layout, results, self.variance_growth, self._no_prediction)
         return Hypothesis(assignment, log_belief, None, None, None, sources, pending)
 
-    def _table(self, assignment: Assignment) -> _Successors:
-        """The successor table out of ``assignment`` (built once per assignment)."""
-        found = self._successors.get(assignment)
+    def _table(self, assignment: Assignment, commands: tuple[float, ...] = ()) -> _Successors:
+        """The successor table out of ``assignment`` under ``commands`` (built once for each)."""
+        key = (assignment, commands)
+        found = self._successors.get(key)
         if found is None:
-            found = _Successors(self.transitions.successors(assignment))
-            self._successors[assignment] = found
+            found = _Successors(self.transitions.successors(assignment, commands))
+            self._successors[key] = found
         return found
+
+    def commands_before(self, k: int) -> tuple[float, ...]:
+        """``u_d(k-1)``: the command values that select the transitions into step k."""
+        if self.commands is None:
+            return ()
+        return tuple(self.commands[k - 1].tolist())
 
     def step(self, hypotheses: Sequence[Hypothesis], k: int) -> list[Hypothesis]:
         """Eqs. (4)–(5) at step k: the ``beam`` best filtered successors, normalised."""
         bases = [h.log_belief for h in hypotheses]
-        tables = [self._table(h.assignment) for h in hypotheses]
+        commands = self.commands_before(k)
+        tables = [self._table(h.assignment, commands) for h in hypotheses]
         proposals = _Proposals(bases, tables)
         memo: dict[tuple[object, ...], StepResult] = {}
         shared: dict[tuple[int, int], StepResult] = {}

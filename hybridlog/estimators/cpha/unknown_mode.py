@@ -10,7 +10,11 @@ For a ``[components]`` model (concurrent probabilistic hybrid automata, Definiti
   Appendix A); its ``P_O`` is the product of the clusters' (eq. (7)), an upper bound when a
   component is unknown;
 * hybrid estimation keeps the ``beam`` most likely trajectories (eqs. (4)–(5),
-  :mod:`~hybridlog.estimators.cpha.hypotheses`).
+  :mod:`~hybridlog.estimators.cpha.hypotheses`);
+* the transition probabilities into step k are those of the rules that apply under the
+  commands at step k−1, ``P_T(m_i | x̂_j, u_d(k-1))`` (eq. (4)): the commands the rules'
+  ``when`` name are read from the log like inputs (``AlignedSignals.commands``, held onto
+  the grid), and a log without one of them is refused (:func:`command_values`).
 
 Result
 ------
@@ -31,11 +35,9 @@ their parents are recorded, :attr:`Tracker.parents`, and the final winner's ance
 back) instead of each step's most likely hypothesis; the probabilities, ``p_unknown`` and
 ``ŷ(k|k-1)`` stay the causal estimate's, which ``post_processing.filtered`` holds whole.
 
-Commands (``when`` in transition rules) are not read from logs in this version: the rules
-without ``when`` apply.  Notes list the decomposition and filter cache hit rates; when
-``candidates`` stopped a step's search while an unfiltered successor might still have
-entered the beam, at how many steps the beam is approximate; when the model has rules with
-``when``, that they were not applied; and, when a reported known mode sat in no filter
+Notes list the decomposition and filter cache hit rates; when ``candidates`` stopped a
+step's search while an unfiltered successor might still have entered the beam, at how many
+steps the beam is approximate; and, when a reported known mode sat in no filter
 cluster (an unknown neighbour left its equations undetermined), a warning per component: on
 how many samples no output checked it.
 
@@ -57,7 +59,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from hybridlog.errors import ModelError
+from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
 from hybridlog.estimators.cpha.hypotheses import ClusterStepError, Hypothesis, Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
@@ -69,7 +71,13 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray
 from hybridlog.times import format_time
 
-__all__ = ["NAME", "UnknownModeOptions", "assignment_label", "run_unknown_mode"]
+__all__ = [
+    "NAME",
+    "UnknownModeOptions",
+    "assignment_label",
+    "command_values",
+    "run_unknown_mode",
+]
 
 NAME = "unknown-mode"
 SEPARATOR = "|"
@@ -119,6 +127,7 @@ def make_tracker(
         filters = FilterCache(**names)
     else:
         structure, filters = caches(model)
+    commands, values = command_values(model, signals)
     return Tracker(
         model.components,
         structure,
@@ -129,7 +138,71 @@ def make_tracker(
         candidates=options.candidates if options.candidates is not None else 10 * options.beam,
         variance_growth=options.variance_growth,
         unknown_mode=options.unknown_mode,
+        commands=values,
+        command_names=commands,
     )
+
+
+def command_values(
+    model: HybridModel, signals: AlignedSignals
+) -> tuple[tuple[str, ...], FloatArray | None]:
+    """The commands the model's transition rules name and their values in the log.
+
+    Returns
+    -------
+    tuple
+        The names, in the model's order, and their values, shape ``(N, n_c)`` (``None`` when
+        no rule has ``when``).
+
+    Raises
+    ------
+    LogError
+        For a command a rule names that the log lacks, naming the command, the rule's
+        component and the rule: without its values the rule cannot be applied, and leaving
+        it out would analyse another model (a commanded switch seen as a fault).
+    """
+    needed: dict[str, tuple[str, str]] = {}
+    for component in model.components:
+        for rule in component.rules:
+            for command in rule.when:
+                needed.setdefault(command, (component.name, rule.key))
+    if not needed:
+        return (), None
+    names = tuple(c for c in model.commands if c in needed)
+    have = signals.command_names
+    for command in names:
+        if command not in have or signals.commands is None:
+            owner, rule_key = needed[command]
+            raise LogError(
+                f"{signals.source}: no command {command!r} in the log, which component "
+                f"{owner!r} needs ({model.origin or model.name}: {rule_key}.when): "
+                f"unknown-mode applies its transition rules by the logged commands; map it "
+                f"with --map {command}=FIELD or [signals]"
+            )
+    columns = [have.index(c) for c in names]
+    assert signals.commands is not None
+    values = np.array(signals.commands[:, columns], dtype=np.float64)
+    for j, command in enumerate(names):
+        settings = {
+            rule.when[command] for c in model.components for rule in c.rules if command in rule.when
+        }
+        _snap(values[:, j], settings)
+    return names, values
+
+
+COMMAND_TOLERANCE = 1e-6
+"""Relative distance within which a logged command value is the ``when`` value it is near.
+
+A 32-bit field holds ``0.1`` as ``0.10000000149``: compared exactly, ``when = {cmd = 0.1}``
+would never hold on such a log, silently.
+"""
+
+
+def _snap(column: FloatArray, settings: set[float]) -> None:
+    """Put the values of ``column`` within :data:`COMMAND_TOLERANCE` of a setting on it."""
+    for setting in settings:
+        near = np.abs(column - setting) <= COMMAND_TOLERANCE * max(1.0, abs(setting))
+        column[near] = setting
 
 
 def run_unknown_mode(
@@ -237,7 +310,6 @@ def _run(
             f"{bound} candidates was reached while a successor not filtered might still have "
             "entered it; a larger candidates searches further",
         )
-    notes += _command_notes(model)
     filtered_notes = notes + _unchecked_notes(
         model, structure, [h.assignment for h in best], signals.time
     )
@@ -335,23 +407,6 @@ def _component_columns(model: HybridModel, assignments: list[Assignment]) -> lis
         values = np.array([mode_labels.index(a[c]) for a in assignments], dtype=np.int64)
         columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
     return columns
-
-
-def _command_notes(model: HybridModel) -> tuple[str, ...]:
-    """A note that the transition rules with ``when`` were not applied (commands unread).
-
-    The log's command columns (``light_cmd`` of ``bioplex_pgc``) were skipped without a word,
-    so a commanded switch (the lights off at night) looked like an estimator's miss.
-    """
-    rules = [rule for component in model.components for rule in component.rules if rule.when]
-    if not rules:
-        return ()
-    commands = sorted({name for rule in rules for name in rule.when})
-    return (
-        f"NOTE: commands are not read from the log ({', '.join(commands)}): transition rules "
-        f"with `when` ({len(rules)}) were not applied, only those without; a "
-        "commanded switch is followed only as far as those rules (faults) or `unknown` allow",
-    )
 
 
 def _unchecked_notes(
