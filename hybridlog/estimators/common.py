@@ -102,12 +102,21 @@ class FilterBuffers(NamedTuple):
     measurement's innovation in its predicted standard deviations (NaN: not computed, as at
     the prior's row or by a filter that keeps none; no rows: not kept).  A value past
     :func:`~hybridlog.estimators.vouch.surprise_limit` is a sample no mode can explain."""
+    whitened: FloatArray
+    """Per row, ``L⁻¹ γ`` (``S = L Lᵀ``) of the mode whose ``γᵀ S⁻¹ γ`` is :attr:`surprise`,
+    shape ``(N, n_y)`` (NaN: not computed; no rows: the filter keeps none), which
+    :mod:`hybridlog.estimators.consistency` tests over the whole log."""
 
     @classmethod
     def allocate(
-        cls, model: HybridModel, n_samples: int, *, store_covariances: bool = False
+        cls,
+        model: HybridModel,
+        n_samples: int,
+        *,
+        store_covariances: bool = False,
+        whitened: bool = False,
     ) -> FilterBuffers:
-        """Buffers for ``n_samples`` rows; full covariances only when asked for."""
+        """Buffers for ``n_samples`` rows; full covariances and whitened innovations when asked."""
         n_x = model.n_states
         return cls(
             modes=np.zeros(n_samples, dtype=np.int64),
@@ -117,6 +126,7 @@ class FilterBuffers(NamedTuple):
             output_predictions=np.full((n_samples, model.n_outputs), np.nan),
             covariances=np.zeros((n_samples if store_covariances else 0, n_x, n_x)),
             surprise=np.full(n_samples, np.nan),
+            whitened=np.full((n_samples if whitened else 0, model.n_outputs), np.nan),
         )
 
     def head(self, rows: int) -> FilterBuffers:
@@ -131,6 +141,7 @@ class FilterBuffers(NamedTuple):
             self.output_predictions[:rows],
             self.covariances[:rows],
             self.surprise[:rows],
+            self.whitened[:rows],
         )
 
     def result(
@@ -161,6 +172,7 @@ class FilterBuffers(NamedTuple):
             compile_s=compile_s,
             notes=notes,
             covariances=self.covariances if self.covariances.shape[0] else None,
+            whitened_innovations=self.whitened if self.whitened.shape[0] else None,
         )
 
 
@@ -297,6 +309,8 @@ class FilterCode:
     prior: Callable[[FilterRun], tuple[Any, ...]]
     """The loop-carried state before the first step (:class:`Chunk`): the run's prior."""
     accelerator: Accelerator | None = None
+    whitened: bool = False
+    """Whether the loop writes :attr:`FilterBuffers.whitened` (else it has no rows)."""
 
 
 def _compiled_loop(
@@ -379,9 +393,16 @@ def run_filter_chunks(
     n = signals.n_samples
     run = FilterRun.of(model, signals, code.name)
     size = min(rows, n)
-    buffers = [FilterBuffers.allocate(model, size, store_covariances=store_covariances)]
+    allocate = partial(
+        FilterBuffers.allocate,
+        model,
+        size,
+        store_covariances=store_covariances,
+        whitened=code.whitened,
+    )
+    buffers = [allocate()]
     if n > rows:  # a second set: the next chunk is computed while the caller takes this one
-        buffers.append(FilterBuffers.allocate(model, size, store_covariances=store_covariances))
+        buffers.append(allocate())
     opening: Chunk[tuple[Any, ...]] = Chunk(0, size, code.prior(run))
     loop, functions, compile_s = _compiled_loop(
         code, model, (run, settings, opening, buffers[0]), jit=jit, kernel=kernel

@@ -143,6 +143,7 @@ def _imm_steps(
     first, stop, state = chunk
     keep_states = store.states.shape[0] > 0
     keep_likelihoods = store.log_likelihoods.shape[0] > 0
+    keep_whitened = out.whitened.shape[0] > 0
     n_samples, n, m, n_q = dimensions(run)
 
     x_i, P_i, mu = state
@@ -196,6 +197,9 @@ def _imm_steps(
         for b in range(m):
             predictions[b] = 0.0
         nearest = np.inf  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
+        if keep_whitened:  # the buffers are reused chunk after chunk
+            for b in range(m):
+                out.whitened[row, b] = np.nan
         for j in range(n_q):
             # EKF prediction of mode j.
             f(j, x_mix[j], u, x_pred)
@@ -217,6 +221,9 @@ def _imm_steps(
                     distance += vec_m[b] * vec_m[b]
                 if distance < nearest:
                     nearest = distance
+                    if keep_whitened:  # L⁻¹ γ of the nearest mode (FilterBuffers.whitened)
+                        for b in range(m):
+                            out.whitened[row, b] = vec_m[b]
                 log_posterior[j] = (
                     math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
                 ) + log_likelihood
@@ -417,6 +424,7 @@ def generate_imm_source(model: HybridModel) -> str:
         p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
     p.emit("keep_states = store.states.shape[0] > 0")
     p.emit("keep_likelihoods = store.log_likelihoods.shape[0] > 0")
+    p.emit("keep_whitened = whitened_out.shape[0] > 0")
     with p.block("if first == 0 and stop > 0:"):  # row 0: the prior
         p.record("0", p.argmax(mu), mu, X[0], P[0])
         p.emit("if keep_states:")
@@ -437,6 +445,7 @@ def generate_imm_source(model: HybridModel) -> str:
     log_posterior: Vector = []
     log_likelihoods: list[str] = []
     distances: list[str] = []
+    whitened: list[Vector] = []
     prediction_parts: list[list[Entry | None]] = [[] for _ in range(m)]
     for j in range(n_q):
         weights: Vector = [
@@ -465,9 +474,10 @@ def generate_imm_source(model: HybridModel) -> str:
         x_update, P_update, L = p.kalman_update(f"u{j}_", x_pred, P_pred, H, R[j], gamma)
         x_post.append(x_update)
         P_post.append(P_update)
-        log_likelihood, distance = p.gaussian_log_density_and_distance(f"ll{j}_", gamma, L)
+        log_likelihood, distance, z = p.gaussian_log_density_whitened(f"ll{j}_", gamma, L)
         p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
         distances.append(distance)
+        whitened.append(z)
         p.minus_inf_if_nan(log_likelihood)
         c = term(c_bar[j])
         posterior = p.assign(
@@ -480,6 +490,13 @@ def generate_imm_source(model: HybridModel) -> str:
         "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
     )
     p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf else math.nan")
+    with p.block("if keep_whitened:"):  # L⁻¹ γ of the nearest mode, as the generic loop
+        for b in range(m):
+            p.emit(f"whitened_out[row, {b}] = math.nan")
+        for j in reversed(range(n_q)):  # the first of equally near modes, as the generic loop
+            with p.block(f"if {distances[j]} == {nearest} and {nearest} < math.inf:"):
+                for b in range(m):
+                    p.emit(f"whitened_out[row, {b}] = {term(whitened[j][b])}")
     mu_new = p.normalized_weights(log_posterior, c_bar)
     x_combined, P_combined = p.mixture("cm", mu_new, x_post, P_post)
     for b in range(m):
@@ -501,5 +518,11 @@ def generate_imm_source(model: HybridModel) -> str:
     return p.function("imm_run")
 
 
-CODE = FilterCode(NAME, _imm_steps, ImmState.prior, Accelerator(generate_imm_source, "imm_run"))
+CODE = FilterCode(
+    NAME,
+    _imm_steps,
+    ImmState.prior,
+    Accelerator(generate_imm_source, "imm_run"),
+    whitened=True,
+)
 """The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

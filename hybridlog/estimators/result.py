@@ -123,6 +123,10 @@ class EstimationResult:
         Set when the estimates above are not the causal filter's own (``--smooth``,
         ``--mode-sequence viterbi``): how they were made, and the filter's result beside them.
         ``output_predictions`` stay the filter's one-step-ahead predictions either way.
+    whitened_innovations:
+        ``L⁻¹ γ(k)`` per sample (``S = L Lᵀ``, the innovation and its covariance of the mode
+        nearest to ``y(k)``), shape ``(N, n_y)``, NaN where none was computed; ``None`` for
+        an estimator that keeps none (:mod:`hybridlog.estimators.consistency` tests them).
     """
 
     estimator: str
@@ -142,6 +146,7 @@ class EstimationResult:
     covariances: FloatArray | None = None
     timeline_columns: tuple[TimelineColumn, ...] = ()
     post_processing: PostProcessing | None = None
+    whitened_innovations: FloatArray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.time, np.ndarray) or self.time.ndim != 1:
@@ -161,6 +166,8 @@ class EstimationResult:
         }
         if self.covariances is not None:
             expected["covariances"] = ((n, n_x, n_x), np.float64)
+        if self.whitened_innovations is not None:
+            expected["whitened_innovations"] = ((n, n_y), np.float64)
         for name, (shape, dtype) in expected.items():
             array = getattr(self, name)
             if not isinstance(array, np.ndarray) or array.shape != shape:
@@ -240,6 +247,9 @@ class EstimationResult:
             state_variances=self.state_variances[start:stop],
             output_predictions=self.output_predictions[start:stop],
             covariances=None if self.covariances is None else self.covariances[start:stop],
+            whitened_innovations=(
+                None if self.whitened_innovations is None else self.whitened_innovations[start:stop]
+            ),
             timeline_columns=tuple(
                 replace(column, values=column.values[start:stop])
                 for column in self.timeline_columns

@@ -495,6 +495,7 @@ def post_process(
                 (n if filtered.covariances is not None else 0, model.n_states, model.n_states)
             ),
             surprise=np.zeros(0),
+            whitened=np.zeros((0, model.n_outputs)),
         )
         if n:
             arguments: tuple[Any, ...]

@@ -250,13 +250,20 @@ class Program:
         self, hint: str, gamma: Vector, L: Matrix
     ) -> tuple[str, str]:
         """``log N(γ; 0, L Lᵀ)`` and ``γᵀ (L Lᵀ)⁻¹ γ``, the squared distance in it."""
+        density, quadratic, _ = self.gaussian_log_density_whitened(hint, gamma, L)
+        return density, quadratic
+
+    def gaussian_log_density_whitened(
+        self, hint: str, gamma: Vector, L: Matrix
+    ) -> tuple[str, str, Vector]:
+        """As :meth:`gaussian_log_density_and_distance`, and the whitened ``z = L⁻¹ γ``."""
         z = self.forward_solve(hint + "z", L, gamma)
         quadratic = self.assign(
             hint + "q", " + ".join(f"{term(v)}*{term(v)}" for v in z if v != 0.0) or "0.0"
         )
         log_det = " + ".join(f"math.log({term(L[i][i])})" for i in range(len(L)))
         density = self.assign(hint, f"-0.5*{quadratic} - ({log_det}) - {0.5 * len(gamma)}*LOG_2PI")
-        return density, quadratic
+        return density, quadratic, z
 
     def gain(self, hint: str, P: Matrix, H: Matrix, L: Matrix) -> Matrix:
         """Kalman gain ``P Hᵀ (L Lᵀ)⁻¹``, row by row."""
@@ -486,6 +493,7 @@ _OUTPUT_NAMES = (
     ("predictions_out", "output_predictions"),
     ("covariances_out", "covariances"),
     ("surprise_out", "surprise"),
+    ("whitened_out", "whitened"),
 )
 """The generated code's names of the output arrays and their fields in ``FilterBuffers``."""
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from hybridlog import __version__
 from hybridlog.errors import LogError
+from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics
@@ -327,6 +328,7 @@ class ReportBuilder:
         self._last: EstimationResult | None = None
         self._offline: _OfflineSides | None = None
         self._components = _ComponentModes(n, signals.truth_components)
+        self._consistency: ConsistencyAccumulator | None = None
 
     @property
     def rows(self) -> int:
@@ -369,6 +371,10 @@ class ReportBuilder:
             self._states.add(chunk.state_means, part.truth_states)
         self._modes[start:stop] = chunk.modes
         self._components.add(chunk, start)
+        if chunk.whitened_innovations is not None:  # the innovations' test (consistency.py)
+            if self._consistency is None:
+                self._consistency = ConsistencyAccumulator(chunk.output_names)
+            self._consistency.add(chunk.whitened_innovations, chunk.mode_probabilities)
         if self._offline is not None:
             self._offline.add(chunk, part, start)
         self._last = chunk
@@ -469,6 +475,13 @@ class ReportBuilder:
             ),
             reading=None if reading is None else _json_object(reading),
         )
+        consistency = None if self._consistency is None else self._consistency.result()
+        if consistency is not None:  # report.json's "consistency"; a failed test warns
+            report = dataclasses.replace(
+                report,
+                notes=(*report.notes, *(f"WARNING: {w}" for w in consistency.warnings())),
+                extra={"consistency": _json_object(consistency.to_dict())},
+            )
         if extra:
             report = Report.from_dict({**report.to_dict(), **_json_object(extra)}, source=self._log)
         return report

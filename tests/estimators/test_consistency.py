@@ -1,0 +1,149 @@
+"""A log the filter explains sample by sample but not as a whole is reported, not passed silently.
+
+A three-tank log with every level scaled by 1.5 (or noise the model does not know) made no
+sample implausible to the IMM (``check_surprise`` refuses only a sample no mode explains):
+``analyze`` wrote a good-looking report at exit 0.  Now the IMM records each sample's
+whitened innovation ``L⁻¹ γ`` and the report tests them over the log
+(:mod:`hybridlog.estimators.consistency`, Bar-Shalom et al. 2001 §5.4.2): ``report.json``'s
+``consistency``, a ``WARNING`` in report.md and on the terminal.
+"""
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from filterpy.kalman import KalmanFilter
+
+from hybridlog.cli import main
+from hybridlog.estimators.consistency import (
+    BIAS_WARNING,
+    NIS_WARNING,
+    ConsistencyAccumulator,
+)
+from hybridlog.estimators.filter_options import HstfOptions
+from hybridlog.estimators.hstf import run_hstf
+from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.model.builtins import builtin_text
+from hybridlog.model.loader import parse_model
+from hybridlog.report.build import build_report
+from hybridlog.simulate import simulate
+from tests.estimators.test_reductions import _linear_matrices
+from tests.estimators.test_vouch_surprise import ONE_MODE
+
+SAMPLES = Path(__file__).resolve().parents[2] / "sample_logs"
+
+
+def _filterpy_whitened(model, signals):
+    """Each sample's ``chol(S)⁻¹ y`` of FilterPy's Kalman filter (row 0: the prior, NaN)."""
+    mode = model.modes[0]
+    kf = KalmanFilter(dim_x=model.n_states, dim_z=model.n_outputs, dim_u=model.n_inputs)
+    kf.x = model.initial_state.copy()
+    kf.P = model.initial_covariance.copy()
+    kf.F, kf.B, kf.H = _linear_matrices(model, 0)
+    kf.Q, kf.R = mode.process_noise, mode.measurement_noise
+    rows = [np.full(model.n_outputs, np.nan)]
+    nis = [np.nan]
+    for k in range(signals.n_samples - 1):
+        kf.predict(u=signals.inputs[k])
+        kf.update(signals.outputs[k + 1])
+        rows.append(np.linalg.solve(np.linalg.cholesky(kf.S), kf.y))
+        nis.append(float(kf.y @ np.linalg.solve(kf.S, kf.y)))
+    return np.array(rows), np.array(nis)
+
+
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_the_whitened_innovations_and_their_nis_are_filterpys(kernel):
+    model = parse_model(ONE_MODE)
+    signals = simulate(model, steps=199, seed=4).signals(model)
+    whitened, nis = _filterpy_whitened(model, signals)
+    result = run_imm(model, signals, ImmOptions(), kernel=kernel)
+    ours = result.whitened_innovations
+    assert ours is not None and np.isnan(ours[0]).all()
+    np.testing.assert_allclose(ours[1:], whitened[1:], rtol=0, atol=1e-8)
+    np.testing.assert_allclose((ours[1:] ** 2).sum(axis=1), nis[1:], rtol=1e-8, atol=1e-8)
+
+
+def _scores(model, signals):
+    result = run_imm(model, signals, ImmOptions())
+    whole = ConsistencyAccumulator(result.output_names)
+    assert result.whitened_innovations is not None
+    whole.add(result.whitened_innovations, result.mode_probabilities)
+    tested = whole.result()
+    assert tested is not None
+    return result, tested
+
+
+def test_a_log_of_the_model_passes_a_scaled_or_noisier_one_warns():
+    model = parse_model(ONE_MODE)
+    signals = simulate(model, steps=599, seed=5).signals(model)
+    _, clean = _scores(model, signals)
+    assert clean.warnings() == ()
+    assert abs(clean.nis_score) < NIS_WARNING
+    assert all(abs(s) < BIAS_WARNING for s in clean.bias_scores.values())
+    _, scaled = _scores(model, dataclasses.replace(signals, outputs=1.5 * signals.outputs))
+    assert (
+        scaled.nis_score > NIS_WARNING and "larger than the model's noise" in scaled.warnings()[0]
+    )
+    noise = np.random.default_rng(6).normal(0.0, 3.0 * np.sqrt(0.08), signals.outputs.shape)
+    _, noisier = _scores(model, dataclasses.replace(signals, outputs=signals.outputs + noise))
+    assert noisier.nis_score > NIS_WARNING
+
+
+def test_the_chunks_of_a_run_test_what_the_whole_run_tests():
+    model = parse_model(ONE_MODE)
+    signals = simulate(model, steps=299, seed=7).signals(model)
+    result, whole = _scores(model, signals)
+    chunked = ConsistencyAccumulator(result.output_names)
+    for start in range(0, result.n_samples, 37):
+        part = result.rows(start, min(start + 37, result.n_samples))
+        assert part.whitened_innovations is not None
+        chunked.add(part.whitened_innovations, part.mode_probabilities)
+    tested = chunked.result()
+    assert tested is not None and tested.samples == whole.samples
+    assert tested.nis == pytest.approx(whole.nis, rel=1e-12)
+
+
+def test_a_constant_bias_of_the_whitened_innovations_warns():
+    accumulator = ConsistencyAccumulator(("y1", "y2"))
+    whitened = np.random.default_rng(8).normal(size=(400, 2))
+    whitened[:, 1] += 0.5  # 0.5 sqrt(400) = 10 standard scores
+    accumulator.add(whitened, np.ones((400, 1)))
+    tested = accumulator.result()
+    assert tested is not None
+    (warning,) = tested.warnings()
+    assert "biased" in warning and "y2" in warning and "y1" not in warning
+
+
+def test_report_json_md_and_terminal_carry_the_warning_and_exit_0(tmp_path, capsys):
+    lines = (SAMPLES / "three_tank_hstf.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    outputs = [header.index(name) for name in ("y1", "y2", "y3")]
+    scaled = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        for column in outputs:
+            cells[column] = repr(1.5 * float(cells[column]))
+        scaled.append(",".join(cells))
+    log = tmp_path / "scaled.csv"
+    log.write_text("\n".join(scaled) + "\n")
+    out = tmp_path / "out"
+    analyze = ["analyze", str(log), "--model", "three_tank_hstf", "--estimator", "imm"]
+    main([*analyze, "--out", str(out)])  # exit 0: no SystemExit
+    err = capsys.readouterr().err
+    assert "hybridlog: warning: the innovations are larger than the model's noise" in err
+    report = json.loads((out / "report.json").read_text())
+    consistency = report["consistency"]
+    assert consistency["nis_expected"] == 3.0 and consistency["nis_score"] > NIS_WARNING
+    assert "WARNING: the innovations are larger" in (out / "report.md").read_text()
+
+
+def test_the_sample_log_is_not_flagged_and_the_hstf_keeps_no_innovations():
+    model = parse_model(builtin_text("three_tank_hstf"))
+    signals = simulate(model, seed=2024).signals(model)  # sample_logs/three_tank_hstf.csv
+    result = run_imm(model, signals, ImmOptions())
+    report = build_report(result, signals, log="sample", model_name="three_tank_hstf", dt=1.0)
+    consistency = report.extra["consistency"]
+    assert isinstance(consistency, dict) and consistency["warnings"] == []
+    assert run_hstf(model, signals, HstfOptions()).whitened_innovations is None
