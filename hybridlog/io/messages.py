@@ -31,6 +31,7 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
 from __future__ import annotations
 
 import abc
+import bisect
 import json
 import math
 from collections import Counter
@@ -595,22 +596,42 @@ def _shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
 
     Those two topics make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``), and those that
     :func:`split_paths` reads on another topic first, as ``--map`` would: ``/a`` + ``.v``
-    where the log also has a topic ``/a.v``, and every path of a topic named ``""``.
+    where the log also has a topic ``/a.v``, and every path of a topic named ``""``.  A listed
+    ``[]`` is read as the index it stands for: ``/imu.covariance[]`` beside a topic
+    ``/imu_raw`` was quoted, as if no topic read it.
     """
     counts = Counter(name + leaf for name, found in leaves.items() for leaf in set(found))
     shared = {path for path, count in counts.items() if count > 1}
-    topics = list(leaves)
+    ordered = sorted(leaves)
     for name, found in leaves.items():
-        if name and not any(o != name and o.startswith(name) for o in topics):
+        longer = _extensions(ordered, name)
+        if name and not longer:
             continue  # no other topic starts its paths: each reads on it
+        # split_paths reads a path on its longest topic first: the topic itself or one
+        # that extends it (or, for a name in quotes, the topic it quotes); comparing with
+        # these alone kept 20,000 topics from taking 50 s
+        near = [name, *longer]
+        if name.startswith('"'):
+            near.extend(t for t in ordered if name.startswith(f'"{t}"'))
         for leaf in found:
-            try:
-                first = split_paths(name + leaf, topics)[0].topic
+            try:  # as --map takes it: a listed `[]` stands for an index
+                first = split_paths(name + leaf.replace("[]", "[0]"), near)[0].topic
             except PathError:
                 first = None
             if first != name:
                 shared.add(name + leaf)
     return shared
+
+
+def _extensions(ordered: Sequence[str], name: str) -> list[str]:
+    """The topics of sorted ``ordered`` other than ``name`` that start with ``name``."""
+    found = []
+    at = bisect.bisect_left(ordered, name)
+    while at < len(ordered) and ordered[at].startswith(name):
+        if ordered[at] != name:
+            found.append(ordered[at])
+        at += 1
+    return found
 
 
 def _spell(topic: str, leaf: str, shared: set[str]) -> str:
