@@ -902,8 +902,9 @@ def _count_json(
                 return too_deep
     elif isinstance(value, list):
         numbers = [item for item in value if _is_json_number(item)]
+        if any(isinstance(item, str | bool) for item in value) or numbers:
+            fields[f"{path}[]"] = None  # text and booleans are fields, uncounted
         if numbers:
-            fields[f"{path}[]"] = None
             entry = counts.setdefault(f"{path}[]", [0, 0])
             entry[0] += len(numbers)
             entry[1] += sum(map(_is_nonfinite, numbers))
@@ -1511,7 +1512,8 @@ class _JsonLeaves:
 def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
     """The numeric and text leaves of a JSON schema's objects, at any depth.
 
-    Arrays of numbers are leaves (``.name[]``); the leaves of arrays of objects are listed
+    Arrays of numbers, booleans or text are leaves (``.name[]``), as a single one is; the
+    leaves of arrays of objects are listed
     with ``[]`` where a path takes an index (``.poses[].x``), as for ROS messages.  Objects
     nested deeper than :data:`MAX_JSON_DEPTH` are not followed, and the first such path is
     returned.
@@ -1539,7 +1541,7 @@ def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
                 items = child.get("items")
                 if not isinstance(items, Mapping):
                     continue
-                if items.get("type") in ("number", "integer"):
+                if items.get("type") in ("number", "integer", "boolean", "string"):
                     out.append(f"{prefix}.{name}[]")
                 elif items.get("type") == "object":
                     walk(items, f"{prefix}.{name}[]", depth + 1)
