@@ -37,12 +37,12 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         ``time`` (``column, start, end, duration``) or ``None``, the
         time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
         ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
-        column is unusable, if it is).  For bags and MCAP files: ``path, format, messages,
-        topics`` (each ``name, type, encoding, count, indexed_count, start, end,
-        duration``, the same step keys, ``nonfinite``, ``values`` and ``fields``), ``time``
-        (``start, end, duration``), ``problems`` and ``reading``.  Only plain ``str``,
-        ``int``, ``float``, ``bool``, ``None``, lists and dicts, so ``json.dumps`` takes it as
-        is.
+        column is unusable, if it is).  For bags and MCAP files: ``path, format`` (and an
+        MCAP file's ``profile``), ``messages, topics`` (each ``name, type, encoding, count,
+        indexed_count, start, end, duration``, the same step keys, ``nonfinite``, ``values``
+        and ``fields``), ``time`` (``start, end, duration``), ``problems`` and ``reading``.
+        Only plain ``str``, ``int``, ``float``, ``bool``, ``None``, lists and dicts, so
+        ``json.dumps`` takes it as is.
 
         Timing (:func:`~hybridlog.io.summary.describe_steps`): ``rate_hz`` is the mean rate
         over the span, ``(count - 1) / duration``; ``sample_time`` is the median step, with
