@@ -542,7 +542,11 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
     from hybridlog.io.inspect import format_inspection, inspect_log
 
     info = inspect_log(log, ReadOptions(msg_dirs=tuple(str(d) for d in msg_dirs)))
-    click.echo(json.dumps(info, indent=2) if as_json else _for_terminal(format_inspection(info)))
+    click.echo(
+        json.dumps(info, indent=2, allow_nan=False)  # NaN is no JSON: never printed
+        if as_json
+        else _for_terminal(format_inspection(info))
+    )
 
 
 @cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
+from hybridlog.errors import as_text
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.io.options import ReadOptions
@@ -36,12 +37,12 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         ``time`` (``column, start, end, duration``) or ``None``, the
         time column's steps (``rate_hz``, ``sample_time``, ``min_step``, ``max_step``,
         ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
-        column is unusable, if it is).  For bags and MCAP files: ``path, format, messages,
-        topics`` (each ``name, type, encoding, count, indexed_count, start, end,
-        duration``, the same step keys, ``nonfinite``, ``values`` and ``fields``), ``time``
-        (``start, end, duration``), ``problems`` and ``reading``.  Only plain ``str``,
-        ``int``, ``float``, ``bool``, ``None``, lists and dicts, so ``json.dumps`` takes it as
-        is.
+        column is unusable, if it is).  For bags and MCAP files: ``path, format`` (and an
+        MCAP file's ``profile``), ``messages, topics`` (each ``name, type, encoding, count,
+        indexed_count, start, end, duration``, the same step keys, ``nonfinite``, ``values``
+        and ``fields``), ``time`` (``start, end, duration``), ``problems`` and ``reading``.
+        Only plain ``str``, ``int``, ``float``, ``bool``, ``None``, lists and dicts, so
+        ``json.dumps`` takes it as is.
 
         Timing (:func:`~hybridlog.io.summary.describe_steps`): ``rate_hz`` is the mean rate
         over the span, ``(count - 1) / duration``; ``sample_time`` is the median step, with
@@ -95,12 +96,12 @@ def format_inspection(info: dict[str, Any]) -> str:
     """
     if "topics" in info:
         return _format_messages(info)
-    lines = [f"{info['path']} ({info['format']}, {_count(info['rows'], 'row')})"]
+    lines = [f"{_shown(info['path'])} ({info['format']}, {_count(info['rows'], 'row')})"]
     span = info.get("time")
     if span is not None:
         text = (
-            f"time: column {span['column']!r}, {_at(span['start'])} s to {_at(span['end'])} s"
-            f" ({_duration(span['duration'])} s)"
+            f"time: column '{_shown(span['column'])}', {_at(span['start'])} s to "
+            f"{_at(span['end'])} s ({_duration(span['duration'])} s)"
         )
         if info.get("sample_time") is None:
             lines.append(text)
@@ -168,9 +169,9 @@ def format_inspection(info: dict[str, Any]) -> str:
 def _format_messages(info: dict[str, Any]) -> str:
     """The text form of a bag's or MCAP file's description."""
     topics = info["topics"]
-    kind = info["format"] + (f", profile {info['profile']!r}" if "profile" in info else "")
+    kind = info["format"] + (f", profile '{_shown(info['profile'])}'" if "profile" in info else "")
     counts = f"{_count(info['messages'], 'message')}, {_count(len(topics), 'topic')}"
-    lines = [f"{info['path']} ({kind}, {counts})"]
+    lines = [f"{_shown(info['path'])} ({kind}, {counts})"]
     span = info.get("time")
     if span is not None:
         lines.append(
@@ -196,7 +197,7 @@ def _format_messages(info: dict[str, Any]) -> str:
     if irregular:
         lines.append("")
         lines.append("irregular timing (rate_hz is the mean rate over the topic's span):")
-        lines.extend(f"  {t['name']}: {_steps(t)}" for t in irregular)
+        lines.extend(f"  {_shown(t['name'])}: {_steps(t)}" for t in irregular)
     repeated = [t for t in topics if t.get("repeated")]
     if repeated:
         lines.append("")
@@ -204,7 +205,8 @@ def _format_messages(info: dict[str, Any]) -> str:
             "repeated log times (analyze refuses them unless --sort, which keeps the last):"
         )
         lines.extend(
-            f"  {t['name']}: {_count(t['repeated'], 'message')} at the time of the one before"
+            f"  {_shown(t['name'])}: {_count(t['repeated'], 'message')} "
+            "at the time of the one before"
             for t in repeated
         )
     lines.extend(_gap_lines(topics, "gaps (steps longer than 1.5 x the topic's median step):"))
@@ -221,14 +223,16 @@ def _format_messages(info: dict[str, Any]) -> str:
             "fields with a number in only some JSON messages (a field a message leaves out is "
             "read from the messages that carry it, at their times; a null is refused):"
         )
-        lines.extend(f"  {v['name']}: {v['count']} of {count} messages" for v, count in sparse)
+        lines.extend(
+            f"  {_shown(v['name'])}: {v['count']} of {count} messages" for v, count in sparse
+        )
     lines.extend(_nonfinite_lines([v for t in topics for v in t.get("values") or []]))
     fields = [f for t in topics for f in t["fields"]]
     if fields:
         lines.append("")
         lines.append("fields (message paths for --map; [] takes an index, [-1] the last):")
         shown = fields[:40]
-        lines.extend(f"  {f}" for f in shown)
+        lines.extend(f"  {_shown(f)}" for f in shown)
         if len(fields) > len(shown):
             lines.append(f"  ... {len(fields) - len(shown)} more (see --json)")
     reading = info.get("reading") or {}
@@ -259,21 +263,34 @@ def _gap_lines(entries: list[dict[str, Any]], title: str) -> list[str]:
     for entry in gapped:
         for gap in entry["gaps"][:5]:
             lines.append(
-                f"  {entry['name']}: {_at(gap['start'])} s to {_at(gap['end'])} s "
+                f"  {_shown(entry['name'])}: {_at(gap['start'])} s to {_at(gap['end'])} s "
                 f"({_duration(gap['duration'])} s)"
             )
         if entry["gap_count"] > 5:
-            lines.append(f"  {entry['name']}: ... {entry['gap_count'] - 5} more")
+            lines.append(f"  {_shown(entry['name'])}: ... {entry['gap_count'] - 5} more")
     return lines
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    """A blank line, then ``header`` and ``rows`` in left-aligned columns."""
+    """A blank line, then ``header`` and ``rows`` in left-aligned columns (cells :func:`_shown`)."""
+    rows = [[_shown(cell) for cell in row] for row in rows]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
     lines = [""]
     for row in [header, *rows]:
         lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
     return lines
+
+
+def _shown(name: object) -> str:
+    r"""A name from the log as one line of printable text: ``\n``, ``\x1b`` and the like escaped.
+
+    Topic, type, field and column names are the log's own: a newline in a topic's name split
+    its row of the table in two, and an escape sequence, shown ``\x1b`` only after the table
+    was laid out, pushed its row out of line.
+    """
+    return "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in as_text(name)
+    )
 
 
 def _hz(steps: dict[str, Any]) -> str:
@@ -313,7 +330,7 @@ def _nonfinite_lines(entries: list[dict[str, Any]], time_column: str | None = No
         "--drop-nonfinite):",
     ]
     lines.extend(
-        f"  {e['name']}: {e['nonfinite']} of {e['count']}"
+        f"  {_shown(e['name'])}: {e['nonfinite']} of {e['count']}"
         + (" (the time: refused even with --drop-nonfinite)" if e["name"] == time_column else "")
         for e in bad
     )

@@ -590,14 +590,14 @@ class McapSource(MessageSource):
         self._handle.seek(0)
         if not self._sequential:
             reader = SeekingReader(self._handle, validate_crcs=True)
-            messages = reader.iter_messages(topics=sorted(topics), log_time_order=False)
+            messages = reader.iter_messages(topics=frozenset(topics), log_time_order=False)
             for _, channel, message in messages:
                 yield channel.topic, message.log_time, message.data
             return
         stream = NonSeekingReader(self._handle, validate_crcs=True)
         try:
             for _, channel, message in stream.iter_messages(
-                topics=sorted(topics), log_time_order=False
+                topics=frozenset(topics), log_time_order=False
             ):
                 yield channel.topic, message.log_time, message.data
         except Exception:  # --recover: stop at the first record cut off or corrupt

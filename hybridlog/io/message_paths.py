@@ -318,7 +318,7 @@ class Leaf:
     type_name:
         Its primitive type (of the elements, for an array), e.g. ``float64``.
     array:
-        Whether it is an array of numbers (whose length is known only per message).
+        Whether it is an array of numbers or text (whose length is known only per message).
     """
 
     steps: tuple[str, ...]
@@ -334,7 +334,9 @@ class Leaf:
 def leaves(typedefs: Typedefs, msgtype: str) -> list[Leaf]:
     """Every numeric and text leaf of ``msgtype``, in definition order.
 
-    Arrays of numbers are leaves; nested messages inside arrays are not expanded.  All of
+    Arrays of numbers and of text are leaves (an element of a ``string[]`` is a mode label
+    as a ``string`` is: ``inspect`` left them out of the fields it lists); nested messages
+    inside arrays are not expanded.  All of
     them, however many: ``inspect`` lists them as the fields a symbol can be mapped to, and
     counts the NaN and infinite values of each floating-point one (a cap left the fields
     past it unlisted and their values uncounted).  A definition that contains itself (no
@@ -356,7 +358,9 @@ def leaves(typedefs: Typedefs, msgtype: str) -> list[Leaf]:
                 walk(desc[1], (*prefix, name), within)
             elif node in (ARRAY, SEQUENCE):
                 sub = desc[1][0]
-                if int(sub[0]) == BASE and sub[1][0] in NUMERIC_TYPES:
+                if int(sub[0]) == BASE and (
+                    sub[1][0] in NUMERIC_TYPES or sub[1][0] in STRING_TYPES
+                ):
                     out.append(Leaf((*prefix, name), sub[1][0], array=True))
 
     walk(msgtype, (), frozenset())

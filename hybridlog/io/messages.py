@@ -31,6 +31,7 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
 from __future__ import annotations
 
 import abc
+import bisect
 import json
 import math
 from collections import Counter
@@ -595,22 +596,42 @@ def _shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
 
     Those two topics make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``), and those that
     :func:`split_paths` reads on another topic first, as ``--map`` would: ``/a`` + ``.v``
-    where the log also has a topic ``/a.v``, and every path of a topic named ``""``.
+    where the log also has a topic ``/a.v``, and every path of a topic named ``""``.  A listed
+    ``[]`` is read as the index it stands for: ``/imu.covariance[]`` beside a topic
+    ``/imu_raw`` was quoted, as if no topic read it.
     """
     counts = Counter(name + leaf for name, found in leaves.items() for leaf in set(found))
     shared = {path for path, count in counts.items() if count > 1}
-    topics = list(leaves)
+    ordered = sorted(leaves)
     for name, found in leaves.items():
-        if name and not any(o != name and o.startswith(name) for o in topics):
+        longer = _extensions(ordered, name)
+        if name and not longer:
             continue  # no other topic starts its paths: each reads on it
+        # split_paths reads a path on its longest topic first: the topic itself or one
+        # that extends it (or, for a name in quotes, the topic it quotes); comparing with
+        # these alone kept 20,000 topics from taking 50 s
+        near = [name, *longer]
+        if name.startswith('"'):
+            near.extend(t for t in ordered if name.startswith(f'"{t}"'))
         for leaf in found:
-            try:
-                first = split_paths(name + leaf, topics)[0].topic
+            try:  # as --map takes it: a listed `[]` stands for an index
+                first = split_paths(name + leaf.replace("[]", "[0]"), near)[0].topic
             except PathError:
                 first = None
             if first != name:
                 shared.add(name + leaf)
     return shared
+
+
+def _extensions(ordered: Sequence[str], name: str) -> list[str]:
+    """The topics of sorted ``ordered`` other than ``name`` that start with ``name``."""
+    found = []
+    at = bisect.bisect_left(ordered, name)
+    while at < len(ordered) and ordered[at].startswith(name):
+        if ordered[at] != name:
+            found.append(ordered[at])
+        at += 1
+    return found
 
 
 def _spell(topic: str, leaf: str, shared: set[str]) -> str:
@@ -881,8 +902,9 @@ def _count_json(
                 return too_deep
     elif isinstance(value, list):
         numbers = [item for item in value if _is_json_number(item)]
+        if any(isinstance(item, str | bool) for item in value) or numbers:
+            fields[f"{path}[]"] = None  # text and booleans are fields, uncounted
         if numbers:
-            fields[f"{path}[]"] = None
             entry = counts.setdefault(f"{path}[]", [0, 0])
             entry[0] += len(numbers)
             entry[1] += sum(map(_is_nonfinite, numbers))
@@ -1490,7 +1512,8 @@ class _JsonLeaves:
 def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
     """The numeric and text leaves of a JSON schema's objects, at any depth.
 
-    Arrays of numbers are leaves (``.name[]``); the leaves of arrays of objects are listed
+    Arrays of numbers, booleans or text are leaves (``.name[]``), as a single one is; the
+    leaves of arrays of objects are listed
     with ``[]`` where a path takes an index (``.poses[].x``), as for ROS messages.  Objects
     nested deeper than :data:`MAX_JSON_DEPTH` are not followed, and the first such path is
     returned.
@@ -1518,7 +1541,7 @@ def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
                 items = child.get("items")
                 if not isinstance(items, Mapping):
                     continue
-                if items.get("type") in ("number", "integer"):
+                if items.get("type") in ("number", "integer", "boolean", "string"):
                     out.append(f"{prefix}.{name}[]")
                 elif items.get("type") == "object":
                     walk(items, f"{prefix}.{name}[]", depth + 1)

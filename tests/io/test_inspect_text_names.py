@@ -1,0 +1,66 @@
+"""inspect's text keeps the log's names on their own line and in their column.
+
+A topic named with a newline (MCAP takes any string) split its row of the table in two; an
+escape sequence in a topic, type or column name, shown ``\\x1b`` by the CLI only after the
+table was laid out, pushed the rest of its row out of line.  Names are now escaped where the
+table and the lists are made.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import polars as pl
+
+from hybridlog.io import format_inspection, inspect_log
+
+NAMES = ["/a\nb", "/\x1b[31mred", "/ok"]
+
+
+def control_mcap(path: Path) -> Path:
+    from mcap.writer import Writer
+
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="test")
+        schema = writer.register_schema("S\x1b[0m", "jsonschema", b"{}")
+        for name in NAMES:
+            channel = writer.register_channel(name, "json", schema)
+            for k in range(3):
+                data = json.dumps({"v\tx": [k, float("nan")][: 1 + (k == 2)]}).encode()
+                writer.add_message(channel, k * 10**8, data, k * 10**8)
+        writer.finish()
+    return path
+
+
+def assert_aligned(lines: list[str], header: str, column: str) -> None:
+    """Each row after ``header`` has its ``column`` cell at the header's offset."""
+    at = lines.index(next(line for line in lines if line.startswith(header)))
+    offset = lines[at].index(column)
+    rows = lines[at + 1 : lines.index("", at)]
+    assert rows and all(row[offset - 2 : offset] == "  " and row[offset] != " " for row in rows)
+
+
+def test_names_with_control_characters_stay_in_their_row_and_column(tmp_path: Path) -> None:
+    text = format_inspection(inspect_log(control_mcap(tmp_path / "odd.mcap")))
+    assert "\x1b" not in text and "\t" not in text
+    lines = text.split("\n")
+    table = [line for line in lines if "S\\x1b[0m" in line]
+    assert [line.split()[0] for line in table] == ["/\\x1b[31mred", "/a\\nb", "/ok"]
+    assert_aligned(lines, "topic ", "type")
+    assert "  /a\\nb.v\\tx[]" in lines
+    assert "  /a\\nb.v\\tx[]: 1 of 4" in lines  # the NaN, counted under its escaped name
+
+
+def test_column_names_with_control_characters_stay_in_their_row(tmp_path: Path) -> None:
+    log = tmp_path / "odd.parquet"
+    pl.DataFrame(
+        {"t": [0.0, 1.0, 2.0], "a\nb": [1.0, 2.0, float("nan")], "c\x1bd": [1, 2, 3]}
+    ).write_parquet(log)
+    text = format_inspection(inspect_log(log))
+    assert "\x1b" not in text
+    lines = text.split("\n")
+    assert [line.split()[0] for line in lines if "64" in line] == ["t", "a\\nb", "c\\x1bd"]
+    assert_aligned(lines, "column ", "dtype")
+    assert "  a\\nb: 1 of 3" in lines
