@@ -417,4 +417,53 @@ def _rules(
             raise ModelError(f"{rule_key}: the same from and when as {seen[identity]}")
         seen[identity] = rule_key
         rules.append(TransitionRule(source=source, when=when, targets=targets, key=rule_key))
+    _refuse_ties(rules, mode_ids)
     return tuple(rules)
+
+
+def _refuse_ties(rules: list[TransitionRule], mode_ids: tuple[str, ...]) -> None:
+    """Refuse two rules neither of which is more specific where both apply.
+
+    Out of a mode the most specific matching rule applies: the mode's own before ``*``,
+    then the one with more ``when`` conditions.  Two rules from the same mode with as many
+    conditions, which hold together for some commands (``{a = 1}`` and ``{b = 1}``) and move
+    the component differently, tie there; the first in the file was taken, silently.  They
+    do not tie where a rule that outranks both holds whenever both do: one from that mode
+    with more conditions or, for two ``*`` rules, the mode's own.
+    """
+
+    def outranks(rule: TransitionRule, source: str, pair: str, size: int) -> bool:
+        if rule.source == pair:
+            return len(rule.when) > size
+        return pair == "*" and rule.source == source
+
+    for j, later in enumerate(rules):
+        for earlier in rules[:j]:
+            if (
+                earlier.source != later.source
+                or len(earlier.when) != len(later.when)
+                or earlier.targets == later.targets
+                or any(later.when.get(c, v) != v for c, v in earlier.when.items())
+            ):
+                continue  # never both the most specific, or the same either way
+            both = {**earlier.when, **later.when}
+            pair, size = later.source, len(later.when)
+            tied = [
+                source
+                for source in (mode_ids if pair == "*" else (pair,))
+                if not any(
+                    outranks(rule, source, pair, size)
+                    and all(both.get(c) == v for c, v in rule.when.items())
+                    for rule in rules
+                )
+            ]
+            if not tied:
+                continue  # a more specific rule applies wherever both do
+            held = " and ".join(f"{c} = {v:.15g}" for c, v in both.items())
+            table = ", ".join(f"{c} = {v:.15g}" for c, v in both.items())
+            raise ModelError(
+                f"{later.key}: ties with {earlier.key}: both apply from '{tied[0]}' while "
+                f"{held}, with as many `when` conditions, so neither is more specific, and "
+                f"their `to` differ; add a rule from '{pair}' with when = {{{table}}} for "
+                "that case, or make their `when` exclusive"
+            )
