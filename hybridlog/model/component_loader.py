@@ -418,6 +418,7 @@ def _rules(
         seen[identity] = rule_key
         rules.append(TransitionRule(source=source, when=when, targets=targets, key=rule_key))
     _refuse_ties(rules, mode_ids)
+    _refuse_shadowed(rules, mode_ids)
     return tuple(rules)
 
 
@@ -466,4 +467,38 @@ def _refuse_ties(rules: list[TransitionRule], mode_ids: tuple[str, ...]) -> None
                 f"{held}, with as many `when` conditions, so neither is more specific, and "
                 f"their `to` differ; add a rule from '{pair}' with when = {{{table}}} for "
                 "that case, or make their `when` exclusive"
+            )
+
+
+def _refuse_shadowed(rules: list[TransitionRule], mode_ids: tuple[str, ...]) -> None:
+    """Refuse a ``*`` rule that applies out of no mode.
+
+    A mode's own rule comes before ``*``: where every known mode has one that holds whenever
+    the ``*`` rule does (no ``when``, or a part of its ``when``), the ``*`` rule is never
+    applied, and the model silently meant something else (``from = "*", when = {cmd = 0}``
+    beside each mode's fault rule without ``when``: the commanded switch never happened).
+    """
+    for star in rules:
+        if star.source != "*":
+            continue
+        shadows = []
+        for mode in mode_ids:
+            own = next(
+                (
+                    rule
+                    for rule in rules
+                    if rule.source == mode
+                    and all(star.when.get(c) == v for c, v in rule.when.items())
+                ),
+                None,
+            )
+            if own is None:
+                break
+            shadows.append(f"{mode}: {own.key}")
+        else:
+            raise ModelError(
+                f"{star.key}: never applies: a mode's own rule comes before '*', and every "
+                f"mode has one that holds wherever this one does ({'; '.join(shadows)}); "
+                "give those rules this rule's `when` conditions and more, or write this "
+                "rule for each mode"
             )

@@ -90,3 +90,27 @@ def test_rules_one_of_which_is_the_most_specific_wherever_both_apply_are_accepte
     model = parse_model(text)
     (valve,) = model.components
     assert len(valve.rules) == len(rules)
+
+
+def test_a_star_rule_every_mode_s_own_rule_shadows_is_refused():
+    # the commanded close never applied: each mode's fault rule comes first
+    text = MODEL + rule("*", "when = {a = 0}", "closed = 0.9")
+    text += rule("open", "", "closed = 0.001") + rule("closed", "when = {a = 0}", "open = 0.001")
+    with pytest.raises(ModelError) as raised:
+        parse_model(text)
+    assert str(raised.value).endswith(
+        "components.valve.transitions[0]: never applies: a mode's own rule comes before '*', "
+        "and every mode has one that holds wherever this one does (open: "
+        "components.valve.transitions[1]; closed: components.valve.transitions[2]); give "
+        "those rules this rule's `when` conditions and more, or write this rule for each mode"
+    )
+    # a mode without a rule of its own, or whose own rule needs another command: applies
+    parse_model(
+        MODEL + rule("*", "when = {a = 0}", "closed = 0.9") + rule("open", "", "closed = 0.001")
+    )
+    parse_model(
+        MODEL
+        + rule("*", "when = {a = 0}", "closed = 0.9")
+        + rule("open", "when = {b = 1}", "closed = 0.001")
+        + rule("closed", "", "open = 0.001")
+    )
