@@ -36,6 +36,7 @@ import sympy
 
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.components import (
+    COMMAND_TOLERANCE,
     UNKNOWN,
     Component,
     ComponentMode,
@@ -144,6 +145,7 @@ def load_components(
                 )
             owner[state] = key
         components.append(component)
+    _refuse_close_settings(components)
     used = set(owner)
     related: set[str] = set()  # used at step k by an algebraic equation
     for component in components:
@@ -502,3 +504,27 @@ def _refuse_shadowed(rules: list[TransitionRule], mode_ids: tuple[str, ...]) -> 
                 "give those rules this rule's `when` conditions and more, or write this "
                 "rule for each mode"
             )
+
+
+def _refuse_close_settings(components: list[Component]) -> None:
+    """Refuse two ``when`` values of one command a logged value could match both of.
+
+    A logged value within :data:`COMMAND_TOLERANCE` of a ``when`` value counts as it (a
+    32-bit field's ``0.1``); ``cmd = 0.1`` and ``cmd = 0.1000001`` in two rules would both be
+    matched by one logged value, which then counted as whichever came last.
+    """
+    seen: dict[str, list[tuple[float, str]]] = {}
+    for component in components:
+        for rule in component.rules:
+            for command, value in rule.when.items():
+                entry = f"{rule.key}.when.{command}"
+                for other, other_entry in seen.setdefault(command, []):
+                    scale = max(1.0, abs(value), abs(other))
+                    if value != other and abs(value - other) <= 2 * COMMAND_TOLERANCE * scale:
+                        raise ModelError(
+                            f"{entry}: {value!r} is within {COMMAND_TOLERANCE:g} (relative) of "
+                            f"{other!r} ({other_entry}), the distance within which a logged "
+                            "value counts as a when value: one logged value would hold both; "
+                            "give one value for both, or values further apart"
+                        )
+                seen[command].append((value, entry))

@@ -24,6 +24,14 @@ UNKNOWN = "unknown"
 
 EquationKind = Literal["difference", "algebraic"]
 
+COMMAND_TOLERANCE = 1e-6
+"""Relative distance within which a logged command value is the ``when`` value it is near.
+
+A 32-bit field holds ``0.1`` as ``0.10000000149``: compared exactly, ``when = {cmd = 0.1}``
+would never hold on such a log, silently.  Relative to ``max(1, |value|)``; two ``when``
+values of one command this close are refused by the loader (one logged value would be both).
+"""
+
 
 @dataclass(frozen=True)
 class Equation:

@@ -114,3 +114,18 @@ def test_a_star_rule_every_mode_s_own_rule_shadows_is_refused():
         + rule("open", "when = {b = 1}", "closed = 0.001")
         + rule("closed", "", "open = 0.001")
     )
+
+
+def test_two_when_values_one_logged_value_would_match_are_refused():
+    # a logged value within 1e-6 (relative) of a when value counts as it: 0.1 and
+    # 0.1000001 were both matched by a logged 0.10000005, which took the last one
+    text = MODEL + rule("closed", "when = {a = 0.1}", "open = 0.9")
+    text += rule("open", "when = {a = 0.1000001}", "closed = 0.9")
+    with pytest.raises(ModelError) as raised:
+        parse_model(text)
+    assert (
+        "components.valve.transitions[1].when.a: 0.1000001 is within 1e-06 (relative) of "
+        "0.1 (components.valve.transitions[0].when.a)" in str(raised.value)
+    )
+    parse_model(text.replace("0.1000001", "0.100003"))
+    parse_model(text.replace("0.1000001", "0.1"))

@@ -67,7 +67,7 @@ from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
-from hybridlog.model.components import UNKNOWN
+from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray
 from hybridlog.times import format_time
@@ -264,14 +264,6 @@ def command_notes(model: HybridModel, signals: AlignedSignals) -> tuple[str, ...
         f"transition rules whose 'when' never held on this log (the commands of no step "
         f"matched): {listed}{tail}; while no 'when' held, the rules without one applied",
     )
-
-
-COMMAND_TOLERANCE = 1e-6
-"""Relative distance within which a logged command value is the ``when`` value it is near.
-
-A 32-bit field holds ``0.1`` as ``0.10000000149``: compared exactly, ``when = {cmd = 0.1}``
-would never hold on such a log, silently.
-"""
 
 
 def _snap(column: FloatArray, settings: set[float]) -> None:
