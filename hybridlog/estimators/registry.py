@@ -440,8 +440,10 @@ class Prepared:
             return result
         import dataclasses
 
-        from hybridlog.estimators.cpha.joint import component_mode_columns
+        from hybridlog.estimators.cpha.joint import component_mode_columns, unapplied_rules_note
 
+        note = unapplied_rules_note(model, self.estimator.name)
+        notes = () if note is None else (note,)
         columns = component_mode_columns(model, result.modes)
         post = result.post_processing
         if post is not None:  # the filter's own modes, which the report compares with these
@@ -450,11 +452,16 @@ class Prepared:
             post = dataclasses.replace(
                 post,
                 filtered=dataclasses.replace(
-                    filtered, timeline_columns=(*filtered.timeline_columns, *own)
+                    filtered,
+                    timeline_columns=(*filtered.timeline_columns, *own),
+                    notes=(*filtered.notes, *notes),
                 ),
             )
         return dataclasses.replace(
-            result, timeline_columns=(*result.timeline_columns, *columns), post_processing=post
+            result,
+            timeline_columns=(*result.timeline_columns, *columns),
+            post_processing=post,
+            notes=(*result.notes, *notes),
         )
 
     def _vouch(

@@ -310,6 +310,11 @@ def load_signals(
                 info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
             )
             truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
+        for command, name in mapping.commands.items():
+            if numeric_series[name].time_ns.size == 0:  # align would call it an input
+                raise LogError(
+                    f"{info.path}: command {command!r} ({info.field_word} {name!r}) has no samples"
+                )
         # commands are held onto the grid as inputs are, then split off (_split_commands)
         aligned = align_signals(
             source=info.path,

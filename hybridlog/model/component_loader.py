@@ -36,6 +36,7 @@ import sympy
 
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.components import (
+    COMMAND_TOLERANCE,
     UNKNOWN,
     Component,
     ComponentMode,
@@ -144,6 +145,7 @@ def load_components(
                 )
             owner[state] = key
         components.append(component)
+    _refuse_close_settings(components)
     used = set(owner)
     related: set[str] = set()  # used at step k by an algebraic equation
     for component in components:
@@ -417,4 +419,112 @@ def _rules(
             raise ModelError(f"{rule_key}: the same from and when as {seen[identity]}")
         seen[identity] = rule_key
         rules.append(TransitionRule(source=source, when=when, targets=targets, key=rule_key))
+    _refuse_ties(rules, mode_ids)
+    _refuse_shadowed(rules, mode_ids)
     return tuple(rules)
+
+
+def _refuse_ties(rules: list[TransitionRule], mode_ids: tuple[str, ...]) -> None:
+    """Refuse two rules neither of which is more specific where both apply.
+
+    Out of a mode the most specific matching rule applies: the mode's own before ``*``,
+    then the one with more ``when`` conditions.  Two rules from the same mode with as many
+    conditions, which hold together for some commands (``{a = 1}`` and ``{b = 1}``) and move
+    the component differently, tie there; the first in the file was taken, silently.  They
+    do not tie where a rule that outranks both holds whenever both do: one from that mode
+    with more conditions or, for two ``*`` rules, the mode's own.
+    """
+
+    def outranks(rule: TransitionRule, source: str, pair: str, size: int) -> bool:
+        if rule.source == pair:
+            return len(rule.when) > size
+        return pair == "*" and rule.source == source
+
+    for j, later in enumerate(rules):
+        for earlier in rules[:j]:
+            if (
+                earlier.source != later.source
+                or len(earlier.when) != len(later.when)
+                or earlier.targets == later.targets
+                or any(later.when.get(c, v) != v for c, v in earlier.when.items())
+            ):
+                continue  # never both the most specific, or the same either way
+            both = {**earlier.when, **later.when}
+            pair, size = later.source, len(later.when)
+            tied = [
+                source
+                for source in (mode_ids if pair == "*" else (pair,))
+                if not any(
+                    outranks(rule, source, pair, size)
+                    and all(both.get(c) == v for c, v in rule.when.items())
+                    for rule in rules
+                )
+            ]
+            if not tied:
+                continue  # a more specific rule applies wherever both do
+            held = " and ".join(f"{c} = {v:.15g}" for c, v in both.items())
+            table = ", ".join(f"{c} = {v:.15g}" for c, v in both.items())
+            raise ModelError(
+                f"{later.key}: ties with {earlier.key}: both apply from '{tied[0]}' while "
+                f"{held}, with as many `when` conditions, so neither is more specific, and "
+                f"their `to` differ; add a rule from '{pair}' with when = {{{table}}} for "
+                "that case, or make their `when` exclusive"
+            )
+
+
+def _refuse_shadowed(rules: list[TransitionRule], mode_ids: tuple[str, ...]) -> None:
+    """Refuse a ``*`` rule that applies out of no mode.
+
+    A mode's own rule comes before ``*``: where every known mode has one that holds whenever
+    the ``*`` rule does (no ``when``, or a part of its ``when``), the ``*`` rule is never
+    applied, and the model silently meant something else (``from = "*", when = {cmd = 0}``
+    beside each mode's fault rule without ``when``: the commanded switch never happened).
+    """
+    for star in rules:
+        if star.source != "*":
+            continue
+        shadows = []
+        for mode in mode_ids:
+            own = next(
+                (
+                    rule
+                    for rule in rules
+                    if rule.source == mode
+                    and all(star.when.get(c) == v for c, v in rule.when.items())
+                ),
+                None,
+            )
+            if own is None:
+                break
+            shadows.append(f"{mode}: {own.key}")
+        else:
+            raise ModelError(
+                f"{star.key}: never applies: a mode's own rule comes before '*', and every "
+                f"mode has one that holds wherever this one does ({'; '.join(shadows)}); "
+                "give those rules this rule's `when` conditions and more, or write this "
+                "rule for each mode"
+            )
+
+
+def _refuse_close_settings(components: list[Component]) -> None:
+    """Refuse two ``when`` values of one command a logged value could match both of.
+
+    A logged value within :data:`COMMAND_TOLERANCE` of a ``when`` value counts as it (a
+    32-bit field's ``0.1``); ``cmd = 0.1`` and ``cmd = 0.1000001`` in two rules would both be
+    matched by one logged value, which then counted as whichever came last.
+    """
+    seen: dict[str, list[tuple[float, str]]] = {}
+    for component in components:
+        for rule in component.rules:
+            for command, value in rule.when.items():
+                entry = f"{rule.key}.when.{command}"
+                for other, other_entry in seen.setdefault(command, []):
+                    scale = max(1.0, abs(value), abs(other))
+                    if value != other and abs(value - other) <= 2 * COMMAND_TOLERANCE * scale:
+                        raise ModelError(
+                            f"{entry}: {value!r} is within {COMMAND_TOLERANCE:g} (relative) of "
+                            f"{other!r} ({other_entry}), the distance within which a logged "
+                            "value counts as a when value: one logged value would hold both; "
+                            "give one value for both, or values further apart"
+                        )
+                seen[command].append((value, entry))

@@ -24,6 +24,14 @@ UNKNOWN = "unknown"
 
 EquationKind = Literal["difference", "algebraic"]
 
+COMMAND_TOLERANCE = 1e-6
+"""Relative distance within which a logged command value is the ``when`` value it is near.
+
+A 32-bit field holds ``0.1`` as ``0.10000000149``: compared exactly, ``when = {cmd = 0.1}``
+would never hold on such a log, silently.  Relative to ``max(1, |value|)``; two ``when``
+values of one command this close are refused by the loader (one logged value would be both).
+"""
+
 
 @dataclass(frozen=True)
 class Equation:
@@ -183,8 +191,9 @@ class Component:
         """``P_T(x_d(k) | x_d(k−1) = source, u_d(k−1) = commands)`` (paper 002, eq. (4)).
 
         The applying rule is the most specific one whose ``when`` matches the commands: a
-        rule for ``source`` itself before a ``*`` rule, then the one with more conditions,
-        then the first in the file.  Without a rule the component stays.  Out of a known
+        rule for ``source`` itself before a ``*`` rule, then the one with more conditions
+        (two that tie with different targets are refused by the loader; else the first in
+        the file, the same either way).  Without a rule the component stays.  Out of a known
         mode, unless the rule lists ``unknown``, the unknown mode gets
         :attr:`unknown_probability` and the rest is scaled by ``1 − unknown_probability``.
         A component leaves ``unknown`` only by a rule ``from = "unknown"``.

@@ -339,4 +339,7 @@ def test_transition_rules_with_when_apply_by_the_logged_commands():
         run_unknown_mode(model, signals, UnknownModeOptions(beam=5))
     on = dataclasses.replace(signals, command_names=("a1_cmd",), commands=np.ones((20, 1)))
     notes = run_unknown_mode(model, on, UnknownModeOptions(beam=5)).notes
-    assert not any("command" in n for n in notes)
+    assert not any("commands are not read" in n for n in notes)
+    # a1_cmd = 1 throughout: the rule for 0 never held, which the notes say (no other note)
+    (note,) = [n for n in notes if "command" in n]
+    assert "never held on this log" in note and "components.A1.transitions[1] (a1_cmd = 0)" in note

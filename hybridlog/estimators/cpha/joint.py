@@ -5,7 +5,8 @@ discrete-time model: the union of the components' equations (paper 002 eq. (8)) 
 whole — the MIMO model of eq. (1), as eq. (3) is for the three-component example — with the
 process noise of the modes defining the states and the sensor noise of the modes determining
 the outputs.  The Markov matrix is the product of the components' transition probabilities
-(unknown removed, the rest renormalised; rules with ``when`` do not apply), the prior the
+(unknown removed, the rest renormalised; rules with ``when`` do not apply, and
+:func:`unapplied_rules_note` names them in the run's notes), the prior the
 product of their initial probabilities.  ``imm`` runs on it, so ``compare`` can put it beside
 ``unknown-mode``.  The number of joint modes grows as the product of the components' mode
 counts; above
@@ -29,7 +30,7 @@ from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.hybrid_model import HybridModel, Mode
 from hybridlog.signals import IntArray
 
-__all__ = ["component_mode_columns", "joint_label", "joint_mode_model"]
+__all__ = ["component_mode_columns", "joint_label", "joint_mode_model", "unapplied_rules_note"]
 
 SEPARATOR = "|"
 
@@ -151,4 +152,24 @@ def component_mode_columns(model: HybridModel, modes: IntArray) -> tuple[Timelin
     return tuple(
         TimelineColumn(f"mode.{c.name}", np.ascontiguousarray(table[modes, j]), c.mode_ids)
         for j, c in enumerate(components)
+    )
+
+
+def unapplied_rules_note(model: HybridModel, estimator: str) -> str | None:
+    """The note of a run on the joint modes naming the transition rules it did not apply.
+
+    The joint modes' Markov matrix is fixed (:func:`joint_mode_model`), so the rules with
+    ``when`` (commanded switches) are left out: ``imm`` on a commanded valve's log followed
+    the valve only as far as the fault rules allowed, and nothing in its report said so.
+    ``None`` when every rule applies.
+    """
+    skipped = [rule for c in model.components for rule in c.rules if rule.when]
+    if not skipped:
+        return None
+    commands = list(dict.fromkeys(command for rule in skipped for command in rule.when))
+    return (
+        f"transition rules with 'when' not applied: {estimator} runs on the joint modes with "
+        f"one fixed Markov matrix and reads no command ({', '.join(commands)}), so only the "
+        f"rules without 'when' apply; left out: {', '.join(rule.key for rule in skipped)} "
+        "(unknown-mode applies them by the logged commands)"
     )

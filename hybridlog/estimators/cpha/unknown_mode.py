@@ -37,9 +37,10 @@ back) instead of each step's most likely hypothesis; the probabilities, ``p_unkn
 
 Notes list the decomposition and filter cache hit rates; when ``candidates`` stopped a
 step's search while an unfiltered successor might still have entered the beam, at how many
-steps the beam is approximate; and, when a reported known mode sat in no filter
+steps the beam is approximate; when a reported known mode sat in no filter
 cluster (an unknown neighbour left its equations undetermined), a warning per component: on
-how many samples no output checked it.
+how many samples no output checked it; and the rules whose ``when`` never held on the log, with
+the command values it held that no rule names (:func:`command_notes`).
 
 Modelling the unknown mode
 --------------------------
@@ -66,7 +67,7 @@ from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
-from hybridlog.model.components import UNKNOWN
+from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray
 from hybridlog.times import format_time
@@ -128,6 +129,8 @@ def make_tracker(
     else:
         structure, filters = caches(model)
     commands, values = command_values(model, signals)
+    if values is not None:
+        values = _unnamed_as_one(model, commands, values)
     return Tracker(
         model.components,
         structure,
@@ -183,19 +186,84 @@ def command_values(
     assert signals.commands is not None
     values = np.array(signals.commands[:, columns], dtype=np.float64)
     for j, command in enumerate(names):
-        settings = {
-            rule.when[command] for c in model.components for rule in c.rules if command in rule.when
-        }
-        _snap(values[:, j], settings)
+        _snap(values[:, j], _settings(model, command))
     return names, values
 
 
-COMMAND_TOLERANCE = 1e-6
-"""Relative distance within which a logged command value is the ``when`` value it is near.
+def _settings(model: HybridModel, command: str) -> set[float]:
+    """The values of ``command`` some rule's ``when`` names."""
+    return {
+        rule.when[command] for c in model.components for rule in c.rules if command in rule.when
+    }
 
-A 32-bit field holds ``0.1`` as ``0.10000000149``: compared exactly, ``when = {cmd = 0.1}``
-would never hold on such a log, silently.
+
+OTHER_VALUE = float("inf")
+"""A command's value where no ``when`` names it: no rule's ``when`` holds there.
+
+Rules name finite values only (the loader refuses others), so ``inf`` matches none.
 """
+
+
+def _unnamed_as_one(model: HybridModel, names: tuple[str, ...], values: FloatArray) -> FloatArray:
+    """``values`` with each value no ``when`` names replaced by :data:`OTHER_VALUE`.
+
+    Every such value selects the same rules (those without that condition), and the tracker
+    builds and keeps a transition table per source mode and command values: a command logged
+    with noise or as a set point (0.37, 0.38, ...) made one per sample, so that a long log's
+    run grew by a table a step (4x the memory on 20,000 samples) for nothing.
+    """
+    out = values.copy()
+    for j, command in enumerate(names):
+        named = np.isin(out[:, j], sorted(_settings(model, command)))
+        out[~named, j] = OTHER_VALUE
+    return out
+
+
+def command_notes(model: HybridModel, signals: AlignedSignals) -> tuple[str, ...]:
+    """A note on the log's commands where some rule's ``when`` never held on it.
+
+    The values a command took that no ``when`` names are listed with it: a log that gives
+    a command in other units or codes than the model (0/100 for 0/1, -1/1) had every rule
+    with ``when`` quietly never apply, leaving only the rules without it.  Only the steps
+    whose commands select a transition count (rows 0 … N−2, eq. (4)).
+    """
+    names, values = command_values(model, signals)
+    if values is None or len(values) < 2:
+        return ()
+    used = values[:-1]
+    column = {name: used[:, j] for j, name in enumerate(names)}
+    never = [
+        rule
+        for c in model.components
+        for rule in c.rules
+        if rule.when
+        and not np.logical_and.reduce(
+            [column[name] == value for name, value in rule.when.items()]
+        ).any()
+    ]
+    if not never:
+        return ()
+    listed = "; ".join(
+        f"{rule.key} ({', '.join(f'{n} = {v:.15g}' for n, v in rule.when.items())})"
+        for rule in never
+    )
+    others = []
+    for name in names:
+        unnamed = used[~np.isin(column[name], sorted(_settings(model, name))), names.index(name)]
+        if unnamed.size:
+            found, counts = np.unique(unnamed, return_counts=True)
+            order = np.argsort(-counts, kind="stable")[:3]
+            shown = ", ".join(f"{found[i]:.15g} on {counts[i]:,}" for i in order)
+            more = f" and {found.size - 3:,} more values" if found.size > 3 else ""
+            others.append(
+                f"{name} took values no rule names on {unnamed.size:,} of {len(used):,} "
+                f"steps ({shown}{more})"
+            )
+    tail = f"; {'; '.join(others)}" if others else ""
+    return (
+        f"transition rules whose 'when' never held on this log (the commands of no step "
+        f"matched): {listed}{tail}; while no 'when' held, the rules without one applied",
+    )
 
 
 def _snap(column: FloatArray, settings: set[float]) -> None:
@@ -310,6 +378,7 @@ def _run(
             f"{bound} candidates was reached while a successor not filtered might still have "
             "entered it; a larger candidates searches further",
         )
+    notes += command_notes(model, signals)
     filtered_notes = notes + _unchecked_notes(
         model, structure, [h.assignment for h in best], signals.time
     )
