@@ -442,7 +442,8 @@ def smooth_path(
 
     Each step is :func:`hybridlog.estimators.smoothing.rts_step` with ``f, F`` of mode
     ``path[k+1]`` linearised at ``x̂(k|k)`` (Rauch, Tung, Striebel 1965); where it does not
-    apply (``P^-(k+1)`` not positive definite, or its guard) the filtered estimate stands.  The
+    apply (``P^-(k+1)`` not positive definite, its guard, or the rounding it would carry
+    back: its rounding probe) the filtered estimate stands.  The
     last row is the filter's.  Each smoothed covariance is kept PSD (:func:`keep_psd`): along
     one path of a plant without process noise the EKF's covariances shrink to a condition of
     10^9 and more, the gain ``J`` grows, and the rounding of one step's ``P^s(k+1)`` (an
@@ -456,13 +457,16 @@ def smooth_path(
     P_f = np.empty((n, n))
     shifted = np.empty((n, n))
     factor = np.empty((n, n))
+    r_next = np.zeros(n)  # the rounding probes of rts_step
+    r_out = np.zeros(n)
     for k in range(n_samples - 2, -1, -1):
         j = path[k + 1]
         x_f[:] = means[k]
         P_f[:, :] = covariances[k]
         if rts_step(f, F, j, x_f, P_f, inputs[k], Q[j], means[k + 1], covariances[k + 1],
-                    means[k], covariances[k], w):  # fmt: skip
+                    means[k], covariances[k], w, r_next, r_out):  # fmt: skip
             keep_psd(covariances[k], shifted, factor)
+        r_next[:] = r_out
 
 
 def generate_kbest_source(model: HybridModel) -> str:
