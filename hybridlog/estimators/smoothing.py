@@ -56,6 +56,11 @@ the forward prior, and the backward pass goes on from there.  With one mode, or 
 probability at 1 and the true mode known, this is the RTS smoother of that mode (when the
 guard holds, as it does for the exact RTS).
 
+Rounding: without process noise ``J_j = F_j⁻¹``, which grows by ``1/|λ|`` per step
+backwards for a stable mode, so the backward pass would amplify its own rounding without
+end; each step carries a probe of it (:func:`rts_step`), and a step whose probe passes
+:data:`ROUNDING_LIMIT` of its standard deviation of a state is skipped in the same way.
+
 Negligible next modes: where ``μ^s_j(k+1) <`` :data:`NEGLIGIBLE_WEIGHT` (``1e-30``) the RTS
 step of mode ``j`` is skipped in the same way (``x̂^{(j)} = x̂⁰_j``).  Its result enters the
 output only with the weight ``Σ_i μ^s_i(k) w_{j|i} = Σ_i p_ij(k) = μ^s_j(k+1)``, so the
@@ -182,6 +187,14 @@ the forward prior stands; the module docstring bounds what that changes)."""
 GUARD_TOLERANCE = 1e-9
 """Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
 
+ROUNDING_UNIT = 2.0**-52
+"""The rounding of one float64 operation, relative to its result: what the rounding probe of
+:func:`rts_step` adds for each state it rounds."""
+
+ROUNDING_LIMIT = 0.01
+"""Largest rounding probe of an RTS step, relative to the step's own standard deviation of
+each state, whose step is taken (:func:`rts_step`)."""
+
 
 @jit
 def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
@@ -246,6 +259,8 @@ def rts_step(
     x_out: FloatArray,
     P_out: FloatArray,
     w: RtsWork,
+    r_next: FloatArray,
+    r_out: FloatArray,
 ) -> bool:
     r"""One extended RTS step from ``x̂, P`` at ``k`` and the smoothed ``x̂^s, P^s`` at ``k+1``.
 
@@ -258,11 +273,22 @@ def rts_step(
 
     (Rauch, Tung, Striebel 1965; the covariance as a sum of congruences of PSD matrices, equal
     to ``P − J (P^- − P^s(k+1)) Jᵀ``), ``f, F`` of ``mode`` linearised at ``x̂``.  Returns
-    False, with the outputs untouched, where ``P^-`` is not positive definite, or where
-    ``P^s(k+1)`` is wider than ``P^-`` (by more than :data:`GUARD_TOLERANCE` of its trace):
-    the exact smoother never has that, and a collapsed mixture that does would widen the
-    estimate backwards (through ``F⁻¹`` when ``Q`` is small; the module docstring).
-    ``x_out`` and ``P_out`` must not be ``x`` and ``P``.
+    False, with ``x_out, P_out`` set to ``x, P`` (the forward estimate stands) and ``r_out``
+    to 0, where ``P^-`` is not positive definite, or where ``P^s(k+1)`` is wider than ``P^-``
+    (by more than :data:`GUARD_TOLERANCE` of its trace): the exact smoother never has that,
+    and a collapsed mixture that does would widen the estimate backwards (through ``F⁻¹`` when
+    ``Q`` is small; the module docstring); or where the rounding probe is past
+    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state.
+
+    The rounding probe ``r`` follows the rounding of the backward pass through the gains:
+    ``r(k) = J (r(k+1) + u (|x̂^s(k+1)| + |x̂^-|)) + u |x̂^s(k)|`` per state (``u`` =
+    :data:`ROUNDING_UNIT`; ``r_next`` is ``r(k+1)``, 0 where the step after was not taken).
+    With little process noise ``J ≈ F⁻¹``, which grows by ``1/|λ|`` per step for a stable
+    mode's eigenvalue ``λ``: the rounding of every step is amplified backwards without end
+    (a stable plant without process noise: 177 at sample 0 of 600, 1e139 after 5,000 steps,
+    from the last digits of the forward pass), while the covariances stay as small as the
+    data make them.  Past the limit the sample takes the forward estimate, and the pass goes
+    on from there with ``r = 0``.  ``x_out`` and ``P_out`` must not be ``x`` and ``P``.
     """
     n = x.shape[0]
     x_pred, F_x, FP, P_pred, L, column, solved, J, IJF, work, part, congruent = w
@@ -273,7 +299,7 @@ def rts_step(
         for b in range(n):
             P_pred[a, b] += Q[a, b]
     if not cholesky(P_pred, L):
-        return False
+        return _forward_stands(x, P, x_out, P_out, r_out)
     scale = 0.0
     for a in range(n):
         scale += P_pred[a, a]
@@ -282,13 +308,20 @@ def rts_step(
             work[a, b] = P_pred[a, b] - P_next[a, b]
         work[a, a] += GUARD_TOLERANCE * scale
     if not cholesky(work, IJF):
-        return False
+        return _forward_stands(x, P, x_out, P_out, r_out)
     gain(P, F_x, L, FP, column, solved, J)  # J = P Fᵀ (P^-)⁻¹: a Kalman gain with H = F
     for a in range(n):
         acc = x[a]
         for b in range(n):
             acc += J[a, b] * (x_next[b] - x_pred[b])
         x_out[a] = acc
+    for b in range(n):
+        column[b] = r_next[b] + ROUNDING_UNIT * (abs(x_next[b]) + abs(x_pred[b]))
+    for a in range(n):
+        acc = ROUNDING_UNIT * abs(x_out[a])
+        for b in range(n):
+            acc += J[a, b] * column[b]
+        r_out[a] = acc
     mat_mul(J, F_x, IJF)
     for a in range(n):
         for b in range(n):
@@ -300,7 +333,21 @@ def rts_step(
         for b in range(n):
             P_out[a, b] += congruent[a, b]
     symmetrize(P_out)
+    for a in range(n):
+        if not abs(r_out[a]) <= ROUNDING_LIMIT * math.sqrt(max(P_out[a, a], 0.0)):
+            return _forward_stands(x, P, x_out, P_out, r_out)
     return True
+
+
+@jit
+def _forward_stands(
+    x: FloatArray, P: FloatArray, x_out: FloatArray, P_out: FloatArray, r_out: FloatArray
+) -> bool:
+    """:func:`rts_step` not taken: ``x_out, P_out = x, P``, no rounding carried; False."""
+    x_out[:] = x
+    P_out[:, :] = P
+    r_out[:] = 0.0
+    return False
 
 
 def kim_backward(
@@ -347,6 +394,9 @@ def kim_backward(
     P_prior = np.empty((n_q, n, n))
     x_next = np.empty((n_q, n))  # x̂^s_j(k+1), P^s_j(k+1): the step before's x_new, P_new
     P_next = np.empty((n_q, n, n))
+    r_next = np.zeros((n_q, n))  # the rounding probes (rts_step) of x_next, x_j and x_new
+    r_j = np.zeros((n_q, n))
+    r_new = np.zeros((n_q, n))
     if n_samples > 0:
         for j in range(n_q):
             unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
@@ -372,10 +422,11 @@ def kim_backward(
         for j in range(n_q):
             x_j[j] = x_prior[j]
             P_j[j] = P_prior[j]
+            r_j[j] = 0.0
             if math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT:
                 continue  # q(k+1) = j carries no weight that counts: the prior stands
             rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
-                     x_j[j], P_j[j], w)  # fmt: skip
+                     x_j[j], P_j[j], w, r_next[j], r_j[j])  # fmt: skip
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
@@ -388,17 +439,30 @@ def kim_backward(
             if log_new[i] == -math.inf or total == -math.inf:
                 # No weight on q(k) = i: any finite estimate does; the combined one.
                 mixture_moments(mu_s, x_j, P_j, x_new[i], P_new[i])
+                _mixed_probe(mu_s, r_j, r_new[i])
                 continue
             for j in range(n_q):
                 weights[j] = math.exp(log_pair[i, j] - row_total[i])
             mixture_moments(weights, x_j, P_j, x_new[i], P_new[i])
+            _mixed_probe(weights, r_j, r_new[i])
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
         x_next[:, :] = x_new
         P_next[:, :, :] = P_new
+        r_next[:, :] = r_new
         mixture_moments(mu_s, x_new, P_new, x, P)
         record(out, k, argmax(mu_s), mu_s, x, P)
+
+
+@jit
+def _mixed_probe(weights: FloatArray, probes: FloatArray, out: FloatArray) -> None:
+    """The rounding probe of a mixture's mean: ``Σ_j weights_j probes_j``."""
+    for a in range(out.shape[0]):
+        acc = 0.0
+        for j in range(weights.shape[0]):
+            acc += weights[j] * probes[j, a]
+        out[a] = acc
 
 
 def viterbi(
@@ -854,12 +918,14 @@ def _rts_step_source(
     Q: Matrix,
     xn: Vector,
     Pn: Matrix,
-) -> tuple[str, Vector, Matrix]:
+    rn: Vector,
+) -> tuple[str, Vector, Matrix, Vector]:
     """Emit the extended RTS step of next mode ``j`` (:func:`rts_step`); its variables.
 
-    Returns the guard's condition (``P^-_j`` and ``P^-_j − P^s_j(k+1)`` positive definite),
-    the step's mean and covariance, from the mixed prior ``x0, P0`` and the smoothed ``xn, Pn``
-    of the next sample.
+    Returns the guard's condition (``P^-_j`` and ``P^-_j − P^s_j(k+1)`` positive definite,
+    the rounding probe within :data:`ROUNDING_LIMIT`), the step's mean, covariance and
+    rounding probe, from the mixed prior ``x0, P0`` and the smoothed ``xn, Pn`` (rounding
+    probe ``rn``) of the next sample.
     """
     n = len(x0)
     x_pred = p.mode_values(model, j, "f", x0, u)
@@ -899,7 +965,25 @@ def _rts_step_source(
     P_rts = p.symmetric_sum(
         f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
     )
-    return ok, x_rts, P_rts
+    unit = repr(ROUNDING_UNIT)
+    rounded = [
+        p.assign("ri", f"{term(rn[b])} + {unit}*(abs({term(xn[b])}) + abs({term(x_pred[b])}))")
+        for b in range(n)
+    ]
+    r_rts = [
+        p.let(
+            "rr",
+            [p.assign("ra", f"{unit}*abs({term(x_rts[a])})")]
+            + [product(J[a][b], rounded[b]) for b in range(n)],
+        )
+        for a in range(n)
+    ]
+    precise = " and ".join(
+        f"abs({term(r_rts[a])}) <= {ROUNDING_LIMIT!r}*math.sqrt(max({term(P_rts[a][a])}, 0.0))"
+        for a in range(n)
+    )
+    taken = p.assign("ok", f"{ok} and {precise}")
+    return taken, x_rts, P_rts, r_rts
 
 
 def generate_smoother_source(model: HybridModel) -> str:
@@ -951,9 +1035,11 @@ def generate_smoother_source(model: HybridModel) -> str:
     x_next = [vector_names(f"xn{j}_", n) for j in range(n_q)]
     P_next = [matrix_names(f"pn{j}_", n, n, symmetric=True) for j in range(n_q)]
     packed = range(n, packed_width(n))  # the covariance's entries in a record, upper_pairs order
+    r_next = [vector_names(f"rn{j}_", n) for j in range(n_q)]  # their rounding probes
     for j in range(n_q):
         p.carry(x_next[j], [f"states[n_samples - 1, {j}, {a}]" for a in range(n)])
         p.carry(upper(P_next[j]), [f"states[n_samples - 1, {j}, {e}]" for e in packed])
+        p.carry(r_next[j], ["0.0"] * n)
     p.emit("for k in range(n_samples - 2, -1, -1):")
     p.indent += "    "
     u = vector_names("u", n_u)
@@ -961,6 +1047,7 @@ def generate_smoother_source(model: HybridModel) -> str:
     log_new, mu_s, weights = _mode_recursion_source(p, T, log_T, log_next, mu_carried)
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
+    R_s: list[Vector] = []
     for j in range(n_q):
         x0: Vector = [p.assign("xz", f"states[k, {j}, {a}]") for a in range(n)]
         P0: Matrix = [[0.0] * n for _ in range(n)]
@@ -968,21 +1055,29 @@ def generate_smoother_source(model: HybridModel) -> str:
             P0[a][b] = P0[b][a] = p.assign("pz", f"states[k, {j}, {index}]")
         prior = x0 + upper(P0)
         x_sel, P_sel = vector_names(f"xs{j}", n), matrix_names(f"ps{j}", n, n, symmetric=True)
-        chosen = [str(name) for name in [*x_sel, *upper(P_sel)]]
+        r_sel = vector_names(f"rs{j}", n)
+        chosen = [str(name) for name in [*x_sel, *upper(P_sel), *r_sel]]
+        stands: list[Entry] = [*prior, *([0.0] * n)]
         with p.block(f"if {mu_carried[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
-            ok, x_rts, P_rts = _rts_step_source(p, model, j, x0, P0, u, Q[j], x_next[j], P_next[j])
-            _select(p, ok, chosen, x_rts + upper(P_rts), prior)
+            ok, x_rts, P_rts, r_rts = _rts_step_source(
+                p, model, j, x0, P0, u, Q[j], x_next[j], P_next[j], r_next[j]
+            )
+            _select(p, ok, chosen, x_rts + upper(P_rts) + r_rts, stands)
         with p.block("else:"):  # a negligible next mode: the forward prior stands
-            for name, value in zip(chosen, prior, strict=True):
+            for name, value in zip(chosen, stands, strict=True):
                 p.emit(f"{name} = {term(value)}")
         X_s.append(x_sel)
         P_s.append(P_sel)
+        R_s.append(r_sel)
     x_new: list[Vector] = []
     P_new: list[Matrix] = []
+    r_new: list[Vector] = []
     for i in range(n_q):
         x_i, P_i = p.mixture(f"nm{i}_", weights[i], X_s, P_s)
         x_new.append(x_i)
         P_new.append(P_i)
+        pairs = list(zip(weights[i], R_s, strict=True))
+        r_new.append([p.let("rm", [product(w_j, r_j[a]) for w_j, r_j in pairs]) for a in range(n)])
     x, P = p.mixture("cm", mu_s, x_new, P_new)
     p.record("k", p.argmax(mu_s), mu_s, x, P)
     p.carry(log_next, log_new)
@@ -990,4 +1085,5 @@ def generate_smoother_source(model: HybridModel) -> str:
     for i in range(n_q):
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))
+        p.carry(r_next[i], r_new[i])
     return f"def imm_smooth(inputs, transitions, log_T, mu, store, out):\n{p.source()}\n"
