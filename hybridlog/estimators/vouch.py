@@ -51,7 +51,13 @@ PROBABILITY_TOLERANCE = 1e-6
 
 NEGATIVE_VARIANCE_TOLERANCE = 1e-9
 """A variance below ``-tolerance × (the row's largest |variance|)`` is refused (rounding of
-a covariance's update leaves a state known exactly at about ``-1e-17`` of the others)."""
+a covariance's update leaves a state known exactly at about ``-1e-17`` of the others), or
+below ``-SUBNORMAL`` where every variance of the row is that small: a covariance shrunk into
+the subnormal numbers (a plant without process noise, thousands of samples) rounds there to
+``-1e-323`` with no normal number left to be relative to."""
+
+SUBNORMAL = float(np.finfo(np.float64).tiny)
+"""The smallest normal float64 (2.2e-308): a negative variance smaller in magnitude is rounding."""
 
 MAX_SHOWN = 6
 """Most states and inputs a message shows of the point where an expression is not finite."""
@@ -228,7 +234,7 @@ def _first_negative_row(values: FloatArray, tolerance: float) -> int:
                 smallest = value
             if math.isfinite(value) and abs(value) > largest:
                 largest = abs(value)
-        if smallest < -tolerance * largest:
+        if smallest < -max(tolerance * largest, SUBNORMAL):
             return row
     return -1
 

@@ -194,6 +194,16 @@ def test_rounding_below_zero_is_not_a_negative_variance():
     assert first_flaw(dataclasses.replace(result, state_variances=variances)) is None
 
 
+def test_subnormal_rounding_below_zero_is_not_a_negative_variance():
+    """A covariance shrunk into the subnormal numbers rounds to -1e-323 beside 3e-323."""
+    result = clean()
+    variances = result.state_variances.copy()
+    variances[3] = [3e-323, -1e-323]
+    assert first_flaw(dataclasses.replace(result, state_variances=variances)) is None
+    variances[3] = [3e-323, -1e-300]  # a normal number: a negative variance
+    assert first_flaw(dataclasses.replace(result, state_variances=variances)) is not None
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     flaws=st.lists(
