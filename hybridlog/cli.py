@@ -1015,7 +1015,8 @@ def batch_command(
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(
             f"hybridlog: note: {len(waited)} of {len(outcome.logs)} logs waited {seconds:.0f} s "
-            f"in all for memory held by the other workers' logs: --jobs {jobs} ran fewer "
+            f"in all for memory held by the other workers' logs: "
+            f"{'the Dask workers' if scheduler is not None else f'--jobs {jobs}'} ran fewer "
             "logs at once where all would not fit",
             err=True,
         )

@@ -34,7 +34,7 @@ def test_dask_and_local_batches_write_the_same_summaries(tmp_path: Path) -> None
         processes=False,  # threads of this process: quick to start, numba already loaded
         protocol="tcp",  # a real address, reached over TCP as a remote scheduler would be
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port: 8787 may be taken (by a scheduler)
     ) as cluster:
         remote = run_batch(
             logs,
@@ -85,7 +85,7 @@ def test_a_smoothed_batch_on_dask_writes_the_same_filtered_and_offline_columns(
         processes=False,
         protocol="tcp",
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port: 8787 may be taken (by a scheduler)
     ) as cluster:
         run_batch(
             logs,
