@@ -16,6 +16,15 @@ worker's process memory and what its other threads' logs hold (:func:`worker_res
 a local worker's log is against the machine's memory: one that cannot fit is refused with
 one line naming the limit; one that fits alone but not beside the others waits for them.
 
+Interrupted (Ctrl-C, the console script's ``SIGTERM``/``SIGHUP``, an error while the results
+arrive), the client sets the batch's stop event on the scheduler before it lets go of the
+tasks: a task that has not started returns at once, and a running one stops at its next
+check (:func:`stopped`: before its log is read, between the estimator's chunks), its
+temporary report folder removed, so that the cluster writes no report into ``--out`` after
+the batch has ended.  The client waits :data:`STOP_WAIT_S` for the running tasks to stop;
+Dask cannot interrupt one inside a compiled loop or an estimator computed whole, which
+stops at its next check (or publishes its finished folder) on its own.
+
 Needs the optional extra ``hybridlog[dask]`` (``dask[distributed]``).
 """
 
@@ -35,9 +44,11 @@ from hybridlog.memory import available_memory, check_fits, size_text
 
 __all__ = [
     "CONNECT_TIMEOUT_S",
+    "STOP_WAIT_S",
     "WorkerMemory",
     "connect",
     "run_on_dask",
+    "stopped",
     "worker_memory",
     "worker_reserved",
 ]
@@ -46,6 +57,12 @@ R = TypeVar("R")
 
 CONNECT_TIMEOUT_S = 5.0
 """How long the client tries to reach the scheduler before giving up (seconds)."""
+
+STOP_WAIT_S = 3.0
+"""How long an interrupted batch waits for its running tasks to stop (seconds)."""
+
+_STOP = threading.local()
+"""In a task's thread on a worker: ``event``, the batch's stop event (:func:`_run_task`)."""
 
 
 def connect(address: str) -> Any:
@@ -111,12 +128,16 @@ def run_on_dask(
     """
     from distributed import as_completed
 
+    batch = uuid.uuid4().hex
+    stop = f"hybridlog-batch-{batch}-stop"
+    futures: list[Any] = []
     try:
-        batch = uuid.uuid4().hex
-        futures = [
-            client.submit(function, *task, pure=False, key=f"hybridlog-batch-{batch}-{k}")
-            for k, task in enumerate(tasks)
-        ]
+        for k, task in enumerate(tasks):
+            futures.append(
+                client.submit(
+                    _run_task, function, stop, *task, pure=False, key=f"hybridlog-batch-{batch}-{k}"
+                )
+            )
         index = {future.key: k for k, future in enumerate(futures)}
         results: dict[int, R] = {}
         for future in cast(Any, as_completed)(futures):
@@ -130,8 +151,45 @@ def run_on_dask(
             if done is not None:
                 done(results[k])
         return [results[k] for k in range(len(tasks))]
+    except BaseException:
+        _request_stop(client, stop, futures)
+        raise
     finally:
         client.close()
+
+
+def _request_stop(client: Any, stop: str, futures: Sequence[Any]) -> None:
+    """Stop the batch's tasks: set its stop event, wait for the running ones, cancel the rest."""
+    from distributed import Event, wait
+
+    with contextlib.suppress(Exception):  # a cluster gone: nothing of it runs on
+        cast(Any, Event)(stop, client=client).set()
+        with contextlib.suppress(TimeoutError):
+            cast(Any, wait)(list(futures), timeout=STOP_WAIT_S)
+        client.cancel(list(futures), force=True)
+
+
+def _run_task(function: Callable[..., R], stop: str, *task: Any) -> R:
+    """On a worker: ``function(*task)`` with the batch's stop event known to :func:`stopped`."""
+    from distributed import Event
+
+    _STOP.event = cast(Any, Event)(stop)
+    try:
+        return function(*task)
+    finally:
+        _STOP.event = None
+
+
+def stopped() -> Callable[[], bool] | None:
+    """In a task of a Dask batch, whether the batch was stopped, as a function; else None.
+
+    Taken in the task's thread; the function may be called from any thread (the estimators'
+    chunks are made in one of their own).
+    """
+    event = getattr(_STOP, "event", None)
+    if event is None:
+        return None
+    return lambda: bool(event.is_set())
 
 
 @dataclass(frozen=True)
