@@ -931,7 +931,7 @@ def compare_command(
     type=_WholeNumber(min=1),
     default=1,
     show_default=True,
-    help="Logs analysed in parallel (processes).",
+    help="Logs analysed in parallel (local processes; not with --scheduler).",
 )
 @click.option(
     "--scheduler",

@@ -711,6 +711,11 @@ def run_batch(
     """
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
+    if jobs > 1 and scheduler is not None:  # it was ignored, as if it held the cluster back
+        raise OptionError(
+            f"--jobs {jobs}: has no effect with --scheduler (the Dask workers' threads set "
+            "how many logs run at once); leave it out"
+        )
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)

@@ -116,3 +116,11 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
     with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
+
+
+def test_jobs_with_a_scheduler_is_refused(tmp_path: Path) -> None:
+    """``--jobs 4 --scheduler ADDR`` ran on the cluster as it pleased, the 4 silently ignored."""
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    with pytest.raises(OptionError, match=r"^--jobs 4: has no effect with --scheduler \("):
+        run_batch([log], TANK, out_dir=tmp_path / "out", jobs=4, scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "out").exists()  # refused before connecting or writing
