@@ -941,7 +941,7 @@ def compare_command(
     type=_WholeNumber(min=1),
     default=1,
     show_default=True,
-    help="Logs analysed in parallel (processes).",
+    help="Logs analysed in parallel (local processes; not with --scheduler).",
 )
 @click.option(
     "--scheduler",
@@ -1025,7 +1025,8 @@ def batch_command(
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(
             f"hybridlog: note: {len(waited)} of {len(outcome.logs)} logs waited {seconds:.0f} s "
-            f"in all for memory held by the other workers' logs: --jobs {jobs} ran fewer "
+            f"in all for memory held by the other workers' logs: "
+            f"{'the Dask workers' if scheduler is not None else f'--jobs {jobs}'} ran fewer "
             "logs at once where all would not fit",
             err=True,
         )

@@ -421,10 +421,17 @@ def memory_reserved(
 
     In a worker of a local ``batch --jobs N`` the needs are held in the pool's ledger for the
     block, and a log that fits alone but not beside the logs the other workers run waits for
-    them (:func:`hybridlog.memory.reserved`); elsewhere it is :func:`check_memory`.  The
-    context gives the seconds waited.
+    them (:func:`hybridlog.memory.reserved`); on a Dask worker with a ``memory_limit``, the
+    needs are checked against that limit and held beside the worker's other logs
+    (:func:`hybridlog.jobs.dask_backend.worker_reserved`); elsewhere it is
+    :func:`check_memory`.  The context gives the seconds waited.
     """
+    from hybridlog.jobs.dask_backend import worker_memory, worker_reserved
+
     parts, what, remedy = _memory_needs(log, model, prepared, signals)
+    on_dask = worker_memory()
+    if on_dask is not None:
+        return worker_reserved(parts, on_dask, what=what, remedy=remedy, error=LogError)
     return reserved(parts, what=what, remedy=remedy, error=LogError)
 
 

@@ -40,10 +40,10 @@ import json
 import os
 import shutil
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from hybridlog import __version__
 from hybridlog.errors import (
@@ -101,6 +101,8 @@ from hybridlog.report.summary import (
     offline_metrics,
 )
 from hybridlog.report.table_format import check_table_format
+
+T = TypeVar("T")
 
 __all__ = [
     "PLOT_CHOICES",
@@ -498,6 +500,10 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         reused = _reusable(job, path, log, log_sha256)
         if reused is not None:
             return reused
+    from hybridlog.jobs.dask_backend import stopped
+
+    batch_stopped = stopped()  # on a Dask worker: the batch may be stopped meanwhile
+    _unless_stopped(batch_stopped, log)
     warm = _warm(job)
     if job.read.msg_dirs:  # read with each log: checked before each
         _check_unchanged(job, [])
@@ -507,9 +513,13 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
 
     # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)
     with memory_reserved(log, warm.model, [warm.prepared], signals) as waited:
+        # (a result computed whole is computed here, by stream: inside the reservation)
+        chunks = warm.prepared.stream(warm.model, signals, **warm.inputs)
+        if batch_stopped is not None:  # checked between chunks: the report folder removed
+            chunks = _chunks_unless_stopped(chunks, batch_stopped, log)
         report = write_report(
             path,
-            warm.prepared.stream(warm.model, signals, **warm.inputs),
+            chunks,
             signals,
             log=as_text(log),
             model_name=warm.model.name,
@@ -522,6 +532,21 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
             model=warm.model,
         )
     return LogOutcome(log, folder, "done", report, None, memory_wait_s=waited)
+
+
+def _unless_stopped(batch_stopped: Callable[[], bool] | None, log: str) -> None:
+    """Raise when the Dask batch this log's task belongs to was stopped (interrupted)."""
+    if batch_stopped is not None and batch_stopped():
+        raise OutputError(f"{log}: not analysed: the batch was stopped")
+
+
+def _chunks_unless_stopped(
+    chunks: Iterable[T], batch_stopped: Callable[[], bool], log: str
+) -> Iterator[T]:
+    """The estimator's ``chunks``, raising before the next one once the batch was stopped."""
+    for chunk in chunks:
+        _unless_stopped(batch_stopped, log)
+        yield chunk
 
 
 def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
@@ -686,6 +711,11 @@ def run_batch(
     """
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
+    if jobs > 1 and scheduler is not None:  # it was ignored, as if it held the cluster back
+        raise OptionError(
+            f"--jobs {jobs}: has no effect with --scheduler (the Dask workers' threads set "
+            "how many logs run at once); leave it out"
+        )
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)

@@ -160,6 +160,14 @@ class Gate:
         return f"--fail-{self.kind}"
 
 
+def _is_gated(metric: str) -> bool:
+    """Whether ``metric`` names a metric gates read (its qualifier, if any, unchecked)."""
+    base, dot, qualifier = metric.partition(".")
+    if dot:
+        return bool(qualifier) and base in (*_OUTPUT_METRICS, *_STATE_METRICS, *_COMPONENT_METRICS)
+    return base in METRICS
+
+
 def _known_names() -> str:
     return ", ".join(
         [
@@ -200,11 +208,15 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     value = value.strip()
     if not sep or not metric or not value:
         raise OptionError(f"{option} {spec!r} is not of the form METRIC=VALUE")
-    base, dot, qualifier = metric.partition(".")
-    if dot:
-        known = bool(qualifier) and base in (*_OUTPUT_METRICS, *_STATE_METRICS, *_COMPONENT_METRICS)
-    else:
-        known = base in METRICS
+    base = metric.partition(".")[0]
+    known = _is_gated(metric)
+    if not known and metric.startswith("filtered_") and _is_gated(metric[len("filtered_") :]):
+        # batch's summary.csv has these columns beside the gated ones: not a gate of their own
+        raise OptionError(
+            f"{option} {spec!r}: {metric} is the filter's own value beside an offline pass's "
+            f"(summary.csv), not gated; gates read {metric[len('filtered_') :]}, the offline "
+            "estimates' (run without --smooth and --mode-sequence to gate the filter's)"
+        )
     if not known:
         raise OptionError(f"{option} {spec!r}: unknown metric {metric!r}; known: {_known_names()}")
     try:

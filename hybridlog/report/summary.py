@@ -432,11 +432,14 @@ def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[s
     ]
     gains = offline_gains(rows, metrics)
     if not gains:
+        analysed = any(r.report is not None for r in rows)
         return [
             *lines,
             "",
             "No analysed log has a true mode or state: the offline estimates cannot be "
-            "compared with the filter's here.",
+            "compared with the filter's here."
+            if analysed
+            else "No log was analysed: there are no offline estimates to compare.",
         ]
     table = markdown_table(
         (

@@ -34,7 +34,7 @@ def test_dask_and_local_batches_write_the_same_summaries(tmp_path: Path) -> None
         processes=False,  # threads of this process: quick to start, numba already loaded
         protocol="tcp",  # a real address, reached over TCP as a remote scheduler would be
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port: 8787 may be taken (by a scheduler)
     ) as cluster:
         remote = run_batch(
             logs,
@@ -85,7 +85,7 @@ def test_a_smoothed_batch_on_dask_writes_the_same_filtered_and_offline_columns(
         processes=False,
         protocol="tcp",
         host="127.0.0.1",
-        dashboard_address=None,
+        dashboard_address=":0",  # any free port: 8787 may be taken (by a scheduler)
     ) as cluster:
         run_batch(
             logs,
@@ -116,3 +116,11 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
     with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
+
+
+def test_jobs_with_a_scheduler_is_refused(tmp_path: Path) -> None:
+    """``--jobs 4 --scheduler ADDR`` ran on the cluster as it pleased, the 4 silently ignored."""
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    with pytest.raises(OptionError, match=r"^--jobs 4: has no effect with --scheduler \("):
+        run_batch([log], TANK, out_dir=tmp_path / "out", jobs=4, scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "out").exists()  # refused before connecting or writing

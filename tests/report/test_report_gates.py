@@ -87,6 +87,10 @@ def test_parse_gate() -> None:
         ("accuracy=0.9", "unknown metric 'accuracy'"),
         ("vaf.=90", "unknown metric"),
         ("rmse.x1=1", "unknown metric"),
+        # summary.csv's filter's own columns: named as such, with the gate that is read
+        ("filtered_mode_accuracy=0.9", "is the filter's own value beside an offline pass's"),
+        ("filtered_state_rmse.x1=1", "gates read state_rmse.x1, the offline estimates'"),
+        ("filtered_=1", "unknown metric 'filtered_'"),
         ("vaf=ninety", "bound 'ninety': expected a finite number"),
         ("vaf=nan", "bound 'nan': expected a finite number"),
         ("mse=inf", "bound 'inf': expected a finite number"),

@@ -16,7 +16,7 @@ import pytest
 from matplotlib.collections import LineCollection, PathCollection
 from matplotlib.colors import to_hex
 
-from hybridlog.report.document import Smoothing, read_report
+from hybridlog.report.document import Smoothing, StateReport, read_report
 from hybridlog.report.junit import write_junit
 from hybridlog.report.summary import (
     MAX_NAMED,
@@ -83,8 +83,17 @@ def test_summary_md_names_the_logs_where_the_offline_estimate_is_worse() -> None
     _, text = batch_markdown("m · imm", rows(), [])
     assert "filtered_" not in text and "filter's own" not in text
     # no log with a true mode or state: said, not a table of n/a
-    _, text = batch_markdown("m", rows()[2:], [], METRICS)
+    analysed = row("d.csv", (0.5, 1.0), (0.6, 0.8))
+    assert analysed.report is not None and analysed.report.smoothing is not None
+    unknown = replace(_side(None, None, 0.0), states={"x1": StateReport(rmse=None)})
+    smoothing = replace(analysed.report.smoothing, filtered=unknown, smoothed=unknown)
+    no_truth = replace(analysed, report=replace(analysed.report, smoothing=smoothing))
+    _, text = batch_markdown("m", [no_truth, *rows()[2:]], [], METRICS)
     assert "No analysed log has a true mode or state" in text
+    # no log analysed at all (this said so too): not said to lack a truth never read for
+    _, text = batch_markdown("m", rows()[2:], [], METRICS)
+    assert "No analysed log" not in text
+    assert "No log was analysed: there are no offline estimates to compare." in text
 
 
 def test_summary_csv_adds_the_columns_only_with_an_offline_pass(tmp_path: Path) -> None:
