@@ -449,6 +449,8 @@ def _spelled(value: object, kind: _Kind) -> str:
     """A TOML (or JSON) value as its file spells it, for an error about ``kind``."""
     if isinstance(value, bool):
         return f"'{shown(value)}'"
+    if isinstance(value, dict | list):  # Python's repr is no TOML ({'a': 1}, [True])
+        return "a table" if isinstance(value, dict) else "an array"
     if isinstance(value, str) and kind.base is not str:
         unquoted = _from_text(value, kind)
         hint = "" if isinstance(unquoted, str) else ": write it without quotes"

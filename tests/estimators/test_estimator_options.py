@@ -86,7 +86,7 @@ def test_values_are_read_by_their_type_hint(name, raw, value):
         ("gain", "-Infinity", "expected a finite number, got '-Infinity'"),
         ("gain", "1e999", "expected a finite number, got '1e999'"),
         ("gain", "-0.1", "-0.1 is outside [0, 1]"),
-        ("gain", [1], "expected a finite number, got '[1]'"),
+        ("gain", [1], "expected a finite number, got an array"),
         ("on", "maybe", "expected true or false, got 'maybe'"),
         # the TOML spellings only, for --set as in a model file
         ("on", "yes", "expected true or false, got 'yes'"),

@@ -115,6 +115,8 @@ def test_a_value_means_the_same_in_a_model_file_and_on_the_command_line(name, sp
         ("count", "true", "expected a whole number, got 'true'"),  # not Python's 'True'
         ("label", "5", "expected text (a TOML string, in quotes), got '5'"),
         ("label", "false", "expected text (a TOML string, in quotes), got 'false'"),
+        ("on", "{a = 1}", "expected true or false, got a table"),  # not {'a': 1}
+        ("count", "[true]", "expected a whole number, got an array"),
     ],
 )
 def test_a_model_file_value_must_be_of_the_option_type(name, toml, reason):
