@@ -34,18 +34,25 @@ class HstfOptions:
         "faded", "S_i of eq. (35) from the faded P_i (the paper) or from λ_i = 1 (a variant)"
     )
 
+    @classmethod
+    def inert_on(cls, model: HybridModel) -> dict[str, str]:
+        """Options that ``model`` leaves unread whatever the others say: name → why.
+
+        With one mode, ``theta`` decides between no modes (eq. (40)).
+        """
+        if model.n_modes == 1:
+            return {"theta": _ONE_MODE.format(model.name, "θ decides between modes (eq. (40))")}
+        return {}
+
     def inert(self, model: HybridModel) -> dict[str, str]:
         """Options that have no effect with the others' values on ``model``: name → why.
 
         ``fading = false`` fixes λ_i = 1: ``rho`` and ``beta`` enter only the fading factor
         (eqs. (26)-(30)), and ``likelihood`` chooses between the faded and the λ_i = 1
         covariance, then equal.  ``--set rho=0.5 --set fading=false`` ran the plain EKF while
-        report.json recorded rho = 0.5 as the option used.  With one mode, ``theta``
-        decides between no modes (eq. (40)).
+        report.json recorded rho = 0.5 as the option used.  Also :meth:`inert_on`.
         """
-        inert: dict[str, str] = {}
-        if model.n_modes == 1:
-            inert["theta"] = _ONE_MODE.format(model.name, "θ decides between modes (eq. (40))")
+        inert = self.inert_on(model)
         if self.fading:
             return inert
         why = "fading = false fixes λ_i = 1, {}; leave it unset, or drop fading=false"
@@ -81,18 +88,26 @@ class ImmOptions:
         20, "mode histories kept by kbest, each with its own EKF (never mixed)", range=(1, 10000)
     )
 
+    @classmethod
+    def inert_on(cls, model: HybridModel) -> dict[str, str]:
+        """Options that ``model`` leaves unread whatever the others say: name → why.
+
+        With one mode the Markov matrix is ``[[1]]`` whatever ``transition_stay`` says.
+        """
+        if model.n_modes == 1:
+            why = _ONE_MODE.format(model.name, "the Markov matrix is [[1]] whatever its diagonal")
+            return {"transition_stay": why}
+        return {}
+
     def inert(self, model: HybridModel) -> dict[str, str]:
         """Options that have no effect with the others' values on ``model``: name → why.
 
         ``beam`` is read by ``mode_sequence = "kbest"`` alone; ``--set beam=N`` without it
-        ran the same pass while report.json recorded the beam as the option used.  With one
-        mode the Markov matrix is ``[[1]]`` whatever ``transition_stay`` says.
+        ran the same pass while report.json recorded the beam as the option used.  A model
+        file's ``beam`` stays the default for ``--mode-sequence kbest``.  Also
+        :meth:`inert_on`.
         """
-        inert: dict[str, str] = {}
-        if model.n_modes == 1:
-            inert["transition_stay"] = _ONE_MODE.format(
-                model.name, "the Markov matrix is [[1]] whatever its diagonal"
-            )
+        inert = self.inert_on(model)
         if self.mode_sequence != "kbest":
             inert["beam"] = (
                 f"only mode_sequence = kbest keeps mode histories (here "

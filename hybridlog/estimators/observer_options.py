@@ -170,7 +170,7 @@ def _check_consistent(
                 f"leave {key} out"
             )
     prefix = f"centers={source}: {options.algorithm}.parameters"
-    sources = {k: OptionSource(f"{prefix}.{k}") for k in entry.parameters}
+    sources = {k: OptionSource(f"{prefix}.{k}", text=False) for k in entry.parameters}
     parse_options(type(options), entry.parameters, estimator=options.algorithm, sources=sources)
     recorded = entry.parameters.get("clusters")
     if recorded is not None and recorded != len(entry.centers):

@@ -2,21 +2,32 @@
 
 Every estimator declares its options once, as a frozen dataclass whose fields are made with
 :func:`option` (a default, a one-line help text and, for numbers, an inclusive range).  The
-field's type hint says how a value is read, from a ``--set NAME=VALUE`` string or from a TOML
-value of the model file's ``[estimators.<name>]`` table:
+field's type hint says what a value must be, by one rule for a TOML value of the model file's
+``[estimators.<name>]`` table and for the text of ``--set NAME=VALUE``:
 
 ``bool``
-    ``true``/``false`` (also ``yes``/``no``, ``on``/``off``, ``1``/``0``).
+    ``true`` or ``false``.
 ``int``
-    a whole number (``10``, ``10.0``); ``True``/``False`` are refused.
+    a whole number; a number with an integral value (``10.0``, ``1e3``) is that number, and
+    ``true``/``false`` are refused.
 ``float``
-    a finite number.
+    a finite number (``1`` is ``1.0``).
 ``str``
-    any text.
+    text.
 ``Literal["a", "b"]``
     one of the listed strings.
 ``X | None``
-    ``none`` (or an empty value) for ``None``, otherwise as ``X``.
+    ``"none"`` (or empty text) for ``None``, otherwise as ``X`` (TOML has no null).
+
+A model file's value is the TOML value itself: ``smooth = "true"`` (a string) and
+``smooth = 1`` (a number) are refused for a ``bool``, as ``eigenvalues = -5`` (a number) is
+for a ``str``.  A ``--set`` text (:attr:`OptionSource.text`, also a flag of ``hybridlog
+cluster``) is read as the TOML value it spells: ``true``/``false`` (not ``yes``, ``1`` or
+``True``), a number as :mod:`hybridlog.numbers` reads every typed number (no ``1_000``, no
+``inf``), so ``--set beam=2.0`` is ``beam = 2.0``; for a string option the text as it is,
+quotes optional (``--set centers=c.json`` and ``--set centers='"c.json"'`` alike).  An
+error names where the value came from (the file and key, or ``--set NAME=VALUE``) and spells
+a value as it was written (``true``, not Python's ``True``).
 
 An options dataclass may refuse a combination of values with a method ``conflicts(self)``
 returning ``(option, other, why)`` triples: ``option``'s value cannot go with ``other``'s
@@ -29,6 +40,14 @@ An option made with ``path=True`` names a file: a relative path given in a model
 taken from the model file's folder (:attr:`OptionSource.base`), as the file's author wrote it
 beside the model; one given with ``--set`` from the working directory.
 
+An options dataclass may say which of its options have no effect: ``inert(self, model)``
+(name → why) those the other options' values or the model leave unread (``--set`` of one is
+refused), and a classmethod ``inert_on(cls, model)`` those the model alone leaves unread,
+whatever the other options say (``theta`` decides between modes: nothing on a one-mode
+model).  :func:`check_table` refuses a model file's key of the latter, as a misspelt key is;
+a key of the former stays, as the default for when ``--set`` enables it (``beam = 50`` under
+``[estimators.imm]`` with ``--mode-sequence kbest``).
+
 :func:`parse_options` builds the dataclass, :func:`describe_options` lists the options for
 ``--help``, ``--set`` errors and the docs.  Errors are one line naming the estimator, the
 option and where the value came from (:class:`OptionSource`).
@@ -40,18 +59,23 @@ import dataclasses
 import difflib
 import math
 import os
+import tomllib
 import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal, TypeVar, Union
+from typing import TYPE_CHECKING, Any, Literal, TypeVar, Union
 
 from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.numbers import parse_float, parse_int
 
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
+
 __all__ = [
     "OptionInfo",
     "OptionSource",
+    "check_table",
     "closest",
     "describe_options",
     "format_options",
@@ -63,9 +87,14 @@ __all__ = [
 
 T = TypeVar("T")
 
-_TRUE = {"true", "yes", "on", "1"}
-_FALSE = {"false", "no", "off", "0"}
+_BOOLEANS = {"true": True, "false": False}
+"""A ``--set`` text of a ``bool`` option: TOML's spellings, and only those."""
+
 _NONE = {"none", ""}
+"""The texts (any case) an ``X | None`` option reads as ``None``."""
+
+_WHITESPACE = " \t\n\r\f\v"
+"""The ASCII whitespace ignored around a command-line text (as :mod:`hybridlog.numbers`)."""
 
 
 def option(
@@ -119,11 +148,16 @@ class OptionSource:
     base:
         The folder a relative path in the value is taken from (options made with
         ``path=True``): the model file's; empty for the working directory.
+    text:
+        A string value is text typed on the command line, read as the TOML value it spells
+        (``--set beam=2`` is ``beam = 2``); false for a value already typed (a TOML or JSON
+        value: ``smooth = "true"`` is a string, not a boolean).
     """
 
     label: str
     error: type[HybridlogError] = OptionError
     base: str = ""
+    text: bool = True
 
     @classmethod
     def command_line(cls, flag: str, name: str, raw: object) -> OptionSource:
@@ -133,7 +167,12 @@ class OptionSource:
     @classmethod
     def model_file(cls, origin: str, estimator: str, name: str) -> OptionSource:
         """A value from the ``[estimators.<estimator>]`` table of the model file ``origin``."""
-        return cls(f"{origin}: estimators.{estimator}.{name}", ModelError, os.path.dirname(origin))
+        return cls(
+            f"{origin}: estimators.{estimator}.{name}",
+            ModelError,
+            os.path.dirname(origin),
+            text=False,
+        )
 
 
 @dataclass(frozen=True)
@@ -225,17 +264,61 @@ def parse_options(
         The estimator's registry name, for messages.
     sources:
         Where each value came from; a bad value raises ``sources[name].error`` prefixed with
-        its label.  Without a source the error is an :class:`OptionError`.
+        its label.  A value without a source is read as command-line text when it is a string
+        (:attr:`OptionSource.text`), and its error is an :class:`OptionError`.
 
     Raises
     ------
     OptionError, ModelError
         One line naming the estimator, the option and (with ``sources``) the file and key or
         the ``--set`` value: an unknown name (with the closest known name), a value of the
-        wrong type, outside its range or not one of its choices.
+        wrong type, outside its range or not one of its choices, or a combination its
+        ``conflicts()`` refuses.
     """
-    kinds = _kinds(cls)
     sources = sources or {}
+    built = cls(**_converted(cls, values, estimator, sources))
+    _refuse_conflicts(built, estimator, sources)
+    return built
+
+
+def check_table(
+    cls: type[Any],
+    values: Mapping[str, Any],
+    *,
+    estimator: str,
+    sources: Mapping[str, OptionSource],
+    model: HybridModel,
+) -> None:
+    """Check a model file's ``[estimators.<estimator>]`` table, whichever estimator runs.
+
+    Every name must be an option, every value one of it (as :func:`parse_options` reads it),
+    and no option one that ``model`` leaves unread whatever the others say (``inert_on``):
+    ``transition_stay = 7`` under ``[estimators.imm]`` passed without a word when ``hstf``
+    ran.  Combinations (``conflicts()``) are checked when the estimator is prepared, where
+    ``--set`` may change the other value.
+
+    Raises
+    ------
+    ModelError
+        One line naming the file and the key (``sources[name]``).
+    """
+    _converted(cls, values, estimator, sources)
+    inert_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(cls, "inert_on", None)
+    unread = {} if inert_on is None else inert_on(model)
+    for name in values:
+        if name in unread:
+            source = sources.get(name, OptionSource(""))
+            prefix = f"{source.label}: " if source.label else ""
+            raise source.error(
+                f"{prefix}{estimator} option '{name}' has no effect: {unread[name]}; remove the key"
+            )
+
+
+def _converted(
+    cls: type[Any], values: Mapping[str, Any], estimator: str, sources: Mapping[str, OptionSource]
+) -> dict[str, Any]:
+    """Each of ``values`` read as its option of ``cls`` (path options resolved)."""
+    kinds = _kinds(cls)
     converted: dict[str, Any] = {}
     for name, raw in values.items():
         source = sources.get(name, OptionSource(""))
@@ -248,15 +331,13 @@ def parse_options(
         field, kind = kinds[name]
         what = f"{prefix}{estimator} option '{name}'"
         try:
-            value = _check(_convert(raw, kind), kind, field)
+            value = _check(_convert(raw, kind, text=source.text), kind, field)
         except ValueError as err:
             raise source.error(f"{what}: {err}") from None
         if field.metadata.get("path") and value and source.base and not os.path.isabs(value):
             value = os.path.join(source.base, value)
         converted[name] = value
-    built = cls(**converted)
-    _refuse_conflicts(built, estimator, sources)
-    return built
+    return converted
 
 
 def _refuse_conflicts(options: object, estimator: str, sources: Mapping[str, OptionSource]) -> None:
@@ -278,37 +359,103 @@ def _refuse_conflicts(options: object, estimator: str, sources: Mapping[str, Opt
         raise source.error(f"{prefix}{estimator} option '{name}': {why.format(other=given)}")
 
 
-def _convert(raw: Any, kind: _Kind) -> Any:
-    """``raw`` read as ``kind``; ``ValueError`` with the reason otherwise."""
-    if kind.optional and (raw is None or (isinstance(raw, str) and raw.strip().lower() in _NONE)):
+def _convert(raw: Any, kind: _Kind, *, text: bool) -> Any:
+    """``raw`` read as ``kind``; ``ValueError`` with the reason otherwise.
+
+    With ``text``, a string is command-line text, first read as the TOML value it spells
+    (:func:`_from_text`); then the value must be of the type the option's is (:func:`_typed`).
+    """
+    if text and isinstance(raw, str):
+        quoted = _quoted(raw.strip(_WHITESPACE))
+        if quoted is not None:  # --set smooth='"true"' is smooth = "true", a string
+            return _typed(quoted, kind, None)
+        return _typed(_from_text(raw, kind), kind, raw)
+    return _typed(raw, kind, None)
+
+
+def _from_text(text: str, kind: _Kind) -> Any:
+    """A command-line text as the TOML value it spells for an option of ``kind``.
+
+    ``none`` (any case) or nothing for an optional one; the text itself for a string option;
+    ``true``/``false`` for a boolean; a number as :mod:`hybridlog.numbers` reads it.  Text
+    that spells none of these is returned as it is, for :func:`_typed` to refuse.  (A quoted
+    TOML string is that string, whatever the option: :func:`_convert`.)
+    """
+    stripped = text.strip(_WHITESPACE)
+    if kind.optional and stripped.lower() in _NONE:
         return None
-    text = raw.strip() if isinstance(raw, str) else None
-    if kind.base is bool:
-        if isinstance(raw, bool):
-            return raw
-        if text is not None and text.lower() in _TRUE | _FALSE:
-            return text.lower() in _TRUE
-        raise ValueError(f"expected true or false, got {excerpt(raw)}")
     if kind.base is str:
-        if text is None:
-            raise ValueError(f"expected text, got {excerpt(raw)}")
+        return stripped
+    if kind.base is bool:
+        return _BOOLEANS.get(stripped, text)
+    try:
+        return parse_int(stripped)
+    except ValueError:
+        pass
+    try:
+        return parse_float(stripped)
+    except ValueError:
         return text
-    if isinstance(raw, str):
-        try:
-            return parse_float(raw) if kind.base is float else parse_int(raw)
-        except ValueError as err:
-            raise ValueError(f"{err}, got {excerpt(raw)}") from None
-    if isinstance(raw, bool) or not isinstance(raw, int | float):
-        raise ValueError(f"expected a number, got {excerpt(raw)}")
-    if isinstance(raw, int) and kind.base is int:
-        return raw
-    if not math.isfinite(number := _as_float(raw)):
-        raise ValueError(f"expected a finite number, got {excerpt(raw)}")
-    if kind.base is float:
+
+
+def _quoted(text: str) -> str | None:
+    """The value of ``text`` as a TOML string (``"a b"``, ``'c d'``); ``None`` if it is not one."""
+    if text[:1] not in ("'", '"'):
+        return None
+    try:
+        parsed = tomllib.loads(f"v = {text}")
+    except tomllib.TOMLDecodeError:
+        return None
+    value = parsed.get("v")
+    return value if len(parsed) == 1 and isinstance(value, str) else None
+
+
+def _typed(value: Any, kind: _Kind, typed: str | None) -> Any:
+    """``value`` (a TOML value, or ``typed`` read as one) as ``kind``; ``ValueError`` if not.
+
+    The one rule of both sources (module docstring); the reason spells the value as it was
+    written: ``typed`` itself, or the TOML value (``true``, not Python's ``True``; a string
+    in quotes, named a string where the option is not text).
+    """
+    if kind.optional and (
+        value is None or (isinstance(value, str) and value.strip().lower() in _NONE)
+    ):
+        return None
+    given = excerpt(typed) if typed is not None else _spelled(value, kind)
+    if kind.base is bool:
+        if isinstance(value, bool):
+            return value
+        raise ValueError(f"expected true or false, got {given}")
+    if kind.base is str:
+        if isinstance(value, str):
+            return value.strip()
+        raise ValueError(f"expected text (a TOML string, in quotes), got {given}")
+    whole = kind.base is int
+    expected = "a whole number" if whole else "a finite number"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"expected {expected}, got {given}")
+    if isinstance(value, int) and whole:
+        return value
+    if not math.isfinite(number := _as_float(value)):
+        raise ValueError(f"expected a finite number, got {given}")
+    if not whole:
         return number
     if not number.is_integer():
-        raise ValueError(f"expected a whole number, got {excerpt(raw)}")
+        raise ValueError(f"expected a whole number, got {given}")
     return int(number)
+
+
+def _spelled(value: object, kind: _Kind) -> str:
+    """A TOML (or JSON) value as its file spells it, for an error about ``kind``."""
+    if isinstance(value, bool):
+        return f"'{shown(value)}'"
+    if isinstance(value, dict | list):  # Python's repr is no TOML ({'a': 1}, [True])
+        return "a table" if isinstance(value, dict) else "an array"
+    if isinstance(value, str) and kind.base is not str:
+        unquoted = _from_text(value, kind)
+        hint = "" if isinstance(unquoted, str) else ": write it without quotes"
+        return f"the string {excerpt(value)}{hint}"
+    return excerpt(value)
 
 
 def _as_float(value: float) -> float:

@@ -31,6 +31,7 @@ from hybridlog.estimators.footprint import MODE_BYTES, REPORT_FACTOR, Parts, res
 from hybridlog.estimators.options import (
     OptionInfo,
     OptionSource,
+    check_table,
     closest,
     describe_options,
     format_options,
@@ -341,9 +342,12 @@ def resolve_estimator(
         The model file names an unknown estimator in ``default_estimator`` (also when
         ``name`` is given: a typo there is an error of the file whichever estimator runs)
         or in an ``[estimators.<x>]`` table, or such a table has an option ``x`` does not
-        have: every table, not only the chosen estimator's (``smooth = true`` under
-        ``[estimators.hstf]`` is an error of the file whichever estimator runs).  Values are
-        checked when their estimator is prepared, where ``--set`` may replace them.
+        have, a value that is not one of its option, or an option the model leaves unread
+        (:func:`~hybridlog.estimators.options.check_table`): every table, not only the chosen
+        estimator's (``smooth = true`` under ``[estimators.hstf]``, ``transition_stay = 7``
+        under ``[estimators.imm]``, are errors of the file whichever estimator runs).
+        Combinations of values are checked when their estimator is prepared, where ``--set``
+        may replace one.
     OptionError
         ``name`` is unknown (``<given_by>: unknown estimator ...``).
     """
@@ -355,11 +359,10 @@ def resolve_estimator(
     for table, values in model.estimator_options.items():
         if table not in ESTIMATORS:
             raise ModelError(f"{origin}: estimators.{table}: {_unknown(table, ESTIMATORS)}")
-        known = {info.name for info in ESTIMATORS[table].describe_options()}
-        unknown = {k: v for k, v in values.items() if k not in known}
-        if unknown:  # parsed alone, they raise the one-line error naming file, key, options
-            sources = {k: OptionSource.model_file(origin, table, k) for k in unknown}
-            ESTIMATORS[table].parse_options(unknown, sources)
+        sources = {k: OptionSource.model_file(origin, table, k) for k in values}
+        check_table(
+            ESTIMATORS[table].options_type, values, estimator=table, sources=sources, model=model
+        )
     return get_estimator(model.default_estimator if name is None else name, given_by=given_by)
 
 

@@ -81,15 +81,27 @@ class SlidingModeOptions:
         range=(0.0, 1.0),
     )
 
+    @classmethod
+    def inert_on(cls, model: HybridModel) -> dict[str, str]:
+        """Options that ``model`` leaves unread whatever the others say: name → why.
+
+        With one state there is one channel, and ``rows`` gives it V_M as ``uniform`` does.
+        """
+        if model.n_states == 1:
+            return {
+                "channel_gains": f"{model.name} has one state, one channel of eq. (16), whose "
+                "gain is V_M whether uniform or rows"
+            }
+        return {}
+
     def inert(self, model: HybridModel) -> dict[str, str]:
         """Options that have no effect with the others' values on ``model``: name → why.
 
         ``v_max`` is V_M itself: ``gamma`` and ``drift_bound`` give V_M = Γ·Φ̄ (21) only
         without it; ``--set v_max=0.5 --set gamma=1000`` ran with V_M = 0.5 while
-        report.json recorded gamma = 1000 as an option used.  With one state there is one
-        channel, and ``rows`` gives it V_M as ``uniform`` does.
+        report.json recorded gamma = 1000 as an option used.  Also :meth:`inert_on`.
         """
-        inert: dict[str, str] = {}
+        inert = self.inert_on(model)
         if self.v_max is not None:
             why = (
                 f"v_max = {self.v_max:g} is V_M itself, and {{}} enters only V_M = Γ·Φ̄ (eq. "
@@ -97,9 +109,4 @@ class SlidingModeOptions:
             )
             inert["gamma"] = why.format("gamma (Γ)")
             inert["drift_bound"] = why.format("drift_bound (Φ̄)")
-        if model.n_states == 1:
-            inert["channel_gains"] = (
-                f"{model.name} has one state, one channel of eq. (16), whose gain is V_M "
-                "whether uniform or rows"
-            )
         return inert

@@ -457,7 +457,8 @@ def test_a_key_hybridlog_does_not_write_is_refused(edit, message):
         ),
         (
             lambda d: d["chiu"]["parameters"].update(radius="big"),
-            r"chiu.parameters.radius: chiu option 'radius': expected a finite number, got 'big'",
+            r"chiu.parameters.radius: chiu option 'radius': expected a finite number, got the "
+            r"string 'big'",
         ),
         (
             lambda d: d.update(kmeans={**d["chiu"], "parameters": {"clusters": 3}}),

@@ -218,10 +218,13 @@ def test_range_errors_name_the_file_key_or_the_set_value(tmp_path):
     model = load_model(path)
     with pytest.raises(ModelError, match=rf"^{path}: estimators\.hstf\.theta: hstf option 'theta'"):
         prepare(model, "hstf")
-    fixed = prepare(model, "hstf", {"theta": "0.9"})  # --set wins over the file
-    assert fixed.options.theta == 0.9
+    # the file is validated as a whole: --set theta=0.9 does not hide its bad value
+    with pytest.raises(ModelError, match=rf"^{path}: estimators\.hstf\.theta: hstf option 'theta'"):
+        prepare(model, "hstf", {"theta": "0.9"})
+    good = load_model("three_tank_hstf")
+    assert prepare(good, "hstf", {"theta": "0.9"}).options.theta == 0.9  # --set wins
     with pytest.raises(OptionError, match=r"^--set rho=0: hstf option 'rho': 0 is outside"):
-        prepare(model, "hstf", {"rho": "0"})
+        prepare(good, "hstf", {"rho": "0"})
 
 
 def test_a_bad_default_estimator_names_the_model_file_and_key(tmp_path):
@@ -248,7 +251,7 @@ def test_unknown_estimator_tables_and_names(tmp_path):
     assert prepare(load_model(path), "hstf").name == "hstf"
     # every table's option names are checked, not only the chosen estimator's: another's
     # unknown option is an error of the file whichever estimator runs (it was ignored);
-    # values are checked when their estimator runs, where --set may replace them
+    # and so are their values (transition_stay = 7 under imm passed when hstf ran)
     hstf_smooth = TANK_TEXT.replace("[estimators.hstf]", "[estimators.hstf]\nsmooth = true")
     for text, error in (
         (hstf_smooth, r"estimators\.hstf\.smooth: hstf has no option 'smooth' \(options: rho"),
@@ -260,8 +263,9 @@ def test_unknown_estimator_tables_and_names(tmp_path):
             with pytest.raises(ModelError, match=rf"^{path}: {error}"):
                 prepare(model, chosen)
     path.write_text(f"{TANK_TEXT}\n[estimators.imm]\nbeam = 0\n")
-    assert prepare(load_model(path), "hstf").name == "hstf"
-    assert prepare(load_model(path), "imm", {"beam": "5"}).options.beam == 5
+    for chosen, sets in (("hstf", {}), ("imm", {"beam": "5"})):
+        with pytest.raises(ModelError, match=rf"^{path}: estimators\.imm\.beam: .* outside"):
+            prepare(load_model(path), chosen, sets)
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")
 
