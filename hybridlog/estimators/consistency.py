@@ -94,6 +94,9 @@ NIS_WARNING = 6.0
 BIAS_WARNING = 6.0
 """An output's bias standard score past this (either sign) warns."""
 
+_BLOCK = 1 << 14
+"""Settled rows summed together: sums of fixed blocks of the run's settled rows, in order."""
+
 
 @dataclass(frozen=True)
 class Consistency:
@@ -170,6 +173,10 @@ class ConsistencyAccumulator:
         self._squares = 0.0
         self._sums = np.zeros(len(output_names))
         self._before: FloatArray | None = None
+        # the settled rows, summed a block of _BLOCK of them at a time: the same sums, to the
+        # bit, however the run's rows arrive (whole, or in chunks of any size)
+        self._block = np.empty((_BLOCK, len(output_names)))
+        self._filled = 0
 
     def add(self, whitened: FloatArray, probabilities: FloatArray) -> None:
         """Take the next rows: ``L⁻¹ γ`` (NaN: none) and the mode probabilities of each row."""
@@ -190,12 +197,26 @@ class ConsistencyAccumulator:
                 & np.isfinite(whitened).all(axis=1)
             )
         taken = whitened[settled]
-        self._count += int(taken.shape[0])
-        self._squares += float((taken * taken).sum())
-        self._sums += taken.sum(axis=0)
+        start = 0
+        while start < taken.shape[0]:
+            stop = min(taken.shape[0], start + _BLOCK - self._filled)
+            self._block[self._filled : self._filled + stop - start] = taken[start:stop]
+            self._filled += stop - start
+            start = stop
+            if self._filled == _BLOCK:
+                self._close_block()
+
+    def _close_block(self) -> None:
+        block = self._block[: self._filled]
+        self._count += self._filled
+        self._squares += float((block * block).sum())
+        self._sums += block.sum(axis=0)
+        self._filled = 0
 
     def result(self) -> Consistency | None:
         """The tests over every row taken; ``None`` below :data:`MIN_SAMPLES` settled ones."""
+        if self._filled:
+            self._close_block()
         n, m = self._count, len(self._names)
         if n < MIN_SAMPLES or m == 0:
             return None

@@ -93,16 +93,17 @@ def test_a_log_of_the_model_passes_a_scaled_or_noisier_one_warns():
 
 def test_the_chunks_of_a_run_test_what_the_whole_run_tests():
     model = parse_model(ONE_MODE)
-    signals = simulate(model, steps=299, seed=7).signals(model)
+    # more settled rows than one summed block: a report has the same bits however it is read
+    signals = simulate(model, steps=20_000, seed=7).signals(model)
     result, whole = _scores(model, signals)
+    assert whole.samples > 1 << 14
     chunked = ConsistencyAccumulator(result.output_names)
     for start in range(0, result.n_samples, 37):
         part = result.rows(start, min(start + 37, result.n_samples))
         assert part.whitened_innovations is not None
         chunked.add(part.whitened_innovations, part.mode_probabilities)
     tested = chunked.result()
-    assert tested is not None and tested.samples == whole.samples
-    assert tested.nis == pytest.approx(whole.nis, rel=1e-12)
+    assert tested is not None and tested.to_dict() == whole.to_dict()
 
 
 def test_a_constant_bias_of_the_whitened_innovations_warns():
