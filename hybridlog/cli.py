@@ -903,6 +903,10 @@ def compare_command(
     if outcome.reports:
         _say(ctx, f"reports: {', '.join(str(out_dir / n / 'report.md') for n in outcome.reports)}")
     _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
+    settings = ctx.find_object(_Context)
+    if outcome.warned and not (settings is not None and settings.quiet):
+        have = _have_warnings(len(outcome.warned), len(outcome.reports), "estimator")
+        click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'comparison.md'}"), err=True)
     for name, reason in outcome.failures.items():  # a result, as a batch's failed log: exit 1
         click.echo(_one_line(f"hybridlog: estimator failed: {name}: {reason}"), err=True)
     _gate_exit(outcome.gate_failures)
@@ -1030,6 +1034,11 @@ def batch_command(
             "logs at once where all would not fit",
             err=True,
         )
+    warned = outcome.warned
+    if warned and not (settings is not None and settings.quiet):  # one line, not one a log
+        analysed = sum(1 for log in outcome.logs if log.report is not None)
+        have = _have_warnings(len(warned), analysed, "analysed log")
+        click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'summary.md'}"), err=True)
     if outcome.failed:
         click.echo(
             f"hybridlog: {outcome.failed} of {len(outcome.logs)} logs failed "
@@ -1039,6 +1048,16 @@ def batch_command(
     _gate_exit(outcome.gate_failures)
     if outcome.failed:
         sys.exit(1)
+
+
+def _have_warnings(warned: int, total: int, kind: str) -> str:
+    """``3 of 1,000 analysed logs have warnings``, ``1 of 2 estimators has warnings``.
+
+    Out of the reports written (``kind``: what they are of), as summary.md counts them.
+    """
+    from hybridlog.report.markdown import plural
+
+    return f"{warned:,} of {plural(total, kind)} {'has' if warned == 1 else 'have'} warnings"
 
 
 @contextlib.contextmanager

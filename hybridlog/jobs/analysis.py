@@ -57,6 +57,7 @@ from hybridlog.report.summary import (
     gate_cell,
     gated_columns,
     markdown_table,
+    warning_notes,
     write_summary_csv,
 )
 from hybridlog.report.table_format import check_table_format
@@ -613,6 +614,11 @@ class Comparison:
     gate_failures: list[str]
     failures: dict[str, str] = field(default_factory=dict)
 
+    @property
+    def warned(self) -> list[str]:
+        """The estimators whose report has a note that warns (:func:`warning_notes`)."""
+        return [name for name, report in self.reports.items() if warning_notes(report)]
+
 
 _COLUMNS = (
     "vaf",
@@ -784,7 +790,9 @@ def _comparison_rows(
     """The comparison's columns and its rows, one per estimator in the order given.
 
     A failed estimator's cells are empty (``n/a``) but its gates (``not analysed``) and the
-    ``error`` column, added when any estimator failed, which holds its reason.
+    ``error`` column, added when any estimator failed, which holds its reason.  ``warnings``:
+    the number of the report's notes that warn (:func:`warning_notes`), listed in
+    comparison.md.
     """
     columns: tuple[str, ...] = ("estimator", *_COLUMNS)
     smoothed = any(report.smoothing is not None for report in reports.values())
@@ -807,11 +815,13 @@ def _comparison_rows(
             row += [metric(report, column) for column in extra]
         if gates:  # which estimator missed which gate, as a batch's summary shows per log
             row.append("not analysed" if report is None else gate_cell(len(gates), missed[name]))
+        row.append(None if report is None else len(warning_notes(report)))  # as summary.csv's
         if failures:
             row.append(failures.get(name, ""))
         rows.append(row)
     if gates:
         columns += ("gates",)
+    columns += ("warnings",)
     if failures:
         columns += ("error",)
     return columns, rows

@@ -99,6 +99,7 @@ from hybridlog.report.summary import (
     batch_rows_csv,
     offline_label,
     offline_metrics,
+    warning_notes,
 )
 from hybridlog.report.table_format import check_table_format
 
@@ -152,6 +153,14 @@ class BatchOutcome:
     def failed(self) -> int:
         """Number of logs that could not be analysed."""
         return sum(1 for log in self.logs if log.status == "failed")
+
+    @property
+    def warned(self) -> list[LogOutcome]:
+        """The analysed logs whose report has a note that warns (:func:`warning_notes`).
+
+        A log reused by a resumed batch counts by its report.json's notes.
+        """
+        return [log for log in self.logs if warning_notes(log.report)]
 
     @property
     def waited_for_memory(self) -> list[LogOutcome]:

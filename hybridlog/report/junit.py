@@ -21,7 +21,11 @@ them.
 
 A log whose true mode starts late (its mode accuracy over part of the log,
 :func:`hybridlog.report.coverage.mode_coverage`) says so in its cases' ``system-out`` too:
-``mode_accuracy is over 201 of 301 samples (the true mode starts at t = 100 s)``.
+``mode_accuracy is over 201 of 301 samples (the true mode starts at t = 100 s)``; and a log
+whose report warns (its notes that start ``WARNING:``,
+:func:`hybridlog.report.summary.warning_notes`: the innovations' test of a filter, a true
+mode silent longer than ``--max-gap``) has each warning there, a line each, as report.md
+has them.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from typing import TYPE_CHECKING
 from hybridlog.errors import OutputError, excerpt
 from hybridlog.outputs import PathLike, check_file_target, record_path, wrote_file
 from hybridlog.report.coverage import mode_coverage
-from hybridlog.report.summary import BatchRow, offline_gains, offline_label
+from hybridlog.report.summary import BatchRow, offline_gains, offline_label, warning_notes
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
@@ -193,6 +197,7 @@ def junit_tree(
         said = [
             _offline_text(row, offline) if offline is not None else None,
             _coverage_text(row.report),
+            *(_xml(note) for note in warning_notes(row.report)),
         ]
         output = "\n".join(text for text in said if text is not None) or None
         cases = []

@@ -12,6 +12,13 @@ shows beside each log's offline mode accuracy the filter's own, and per state bo
 the batch (:func:`offline_gains`): per metric the medians, the median change and the logs
 where the offline estimate is worse than the filter's, by name.  A batch without one writes
 the same columns as before.
+
+A report's notes that start ``WARNING:`` (:func:`warning_notes`: the innovations' test of a
+filter, a true mode silent longer than ``--max-gap``, a signal bridged across gaps) are
+counted per log in summary.csv's ``warnings`` column (per estimator in comparison.csv's),
+and summary.md and comparison.md list the logs (estimators) with warnings, the first of each
+(:func:`warnings_section`): in a batch of 1,000 logs the few whose sensor is scaled are
+otherwise seen only by opening each report.md.
 """
 
 from __future__ import annotations
@@ -48,6 +55,8 @@ __all__ = [
     "offline_gains",
     "offline_label",
     "offline_metrics",
+    "warning_notes",
+    "warnings_section",
     "write_summary_csv",
 ]
 
@@ -141,7 +150,9 @@ def comparison_markdown(
     Notes every report has (the log's: a true mode that starts late; the model's: twin
     modes) are written once, under "Notes on every estimator"; each estimator's own after.
     ``failures``: the estimators whose run failed (no report), each with its reason, listed
-    under "Failed estimators" as a batch's summary lists its failed logs.
+    under "Failed estimators" as a batch's summary lists its failed logs.  The estimators
+    whose report warns are listed under "Warnings", the first warning each
+    (:func:`warnings_section`).
     """
     failures = failures or {}
     lines = [f"# {escape_markdown(title)}", "", table, ""]
@@ -151,8 +162,15 @@ def comparison_markdown(
         lines += ["", f"## Failed estimators ({count})", ""]
         lines += [f"- `{name}`: {escape_markdown(why)}" for name, why in failures.items()]
     shared = common_notes(reports.values()) if len(reports) > 1 else []
+    every = "Notes on every estimator"
+    lines += warnings_section(
+        [(f"`{name}`", report) for name, report in reports.items()],
+        shared,
+        kind="estimator",
+        every=every,
+    )
     if shared:
-        lines += ["", "## Notes on every estimator", ""]
+        lines += ["", f"## {every}", ""]
         lines += [f"- {escape_markdown(note)}" for note in shared]
     for name, report in reports.items():
         own = [note for note in report.notes if note not in shared]
@@ -169,6 +187,62 @@ def common_notes(reports: Iterable[Report]) -> list[str]:
         return []
     others = [set(report.notes) for report in reports[1:]]
     return [note for note in dict.fromkeys(reports[0].notes) if all(note in o for o in others)]
+
+
+WARNING_PREFIX = "WARNING: "
+"""How a note that warns starts (report.md and report.json's ``notes``)."""
+
+
+def warning_notes(report: Report | None) -> list[str]:
+    """The notes of ``report`` that warn (they start :data:`WARNING_PREFIX`), in order.
+
+    Every kind alike: the summaries count and list them without knowing which test wrote
+    them.  None for a log that could not be analysed (``report`` ``None``).
+    """
+    return [] if report is None else [n for n in report.notes if n.startswith(WARNING_PREFIX)]
+
+
+def warnings_section(
+    named: Sequence[tuple[str, Report | None]],
+    shared: Sequence[str],
+    *,
+    kind: str,
+    every: str,
+) -> list[str]:
+    """The Markdown lines listing which of ``named`` warn, the first warning of each.
+
+    ``named``: ``(name, report)`` in the summary's order, the name as Markdown already
+    (a log escaped, an estimator in backticks); ``None`` for a report not written.
+    ``shared``: the notes said once under ``every`` (the heading of
+    :func:`common_notes`' section): a warning every report has is not repeated per name,
+    and a name whose warnings are all shared ones is not listed (each would be).  ``kind``:
+    what the reports are of, ``analysed log`` or ``estimator`` (``1 of 3 analysed logs``).
+    At most :data:`MAX_NAMED` names, the others counted.  Empty when no report warns.
+    """
+    written = [(name, report) for name, report in named if report is not None]
+    warned = [(name, found) for name, report in written if (found := warning_notes(report))]
+    if not warned:
+        return []
+    lines = ["", f"## Warnings ({len(warned):,} of {plural(len(written), kind)})", ""]
+    common = [note for note in shared if note.startswith(WARNING_PREFIX)]
+    own = [(name, [n for n in found if n not in common], len(found)) for name, found in warned]
+    own = [entry for entry in own if entry[1]]
+    if common:
+        lines += [
+            f"Every {kind} has the {'warning' if len(common) == 1 else 'warnings'} under "
+            f'"{every}"' + ("; none has others." if not own else "; those with others:"),
+        ]
+        lines += [""] if own else []
+    lines += [
+        f"- {name} ({plural(count, 'warning')}): "
+        + escape_markdown(first[0].removeprefix(WARNING_PREFIX), line_start=False)
+        for name, first, count in own[:MAX_NAMED]
+    ]
+    if len(own) > MAX_NAMED:
+        lines.append(f"- and {len(own) - MAX_NAMED:,} more (the `warnings` column)")
+    if own:
+        lines += ["", "The first warning of each; all are in its report.md."]
+    return lines
 
 
 def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
@@ -509,18 +583,22 @@ def _partial_section(rows: Sequence[BatchRow]) -> list[str]:
     return lines
 
 
-def _notes_section(rows: Sequence[BatchRow]) -> list[str]:
+NOTES_ON_EVERY_LOG = "Notes on every analysed log"
+"""summary.md's heading of the notes every analysed log's report has."""
+
+
+def _notes_section(shared: Sequence[str]) -> list[str]:
     """summary.md's notes every analysed log's report has (the model's: twin modes), once.
 
-    A log's own notes stay in its report.md: a batch of 100 logs would repeat a model's
-    note 100 times.
+    ``shared``: :func:`common_notes` of the analysed logs' reports.  A log's own notes stay
+    in its report.md (its warnings are listed too, :func:`warnings_section`): a batch of 100
+    logs would repeat a model's note 100 times.
     """
-    shared = common_notes(row.report for row in rows if row.report is not None)
     if not shared:
         return []
     return [
         "",
-        "## Notes on every analysed log",
+        f"## {NOTES_ON_EVERY_LOG}",
         "",
         *(f"- {escape_markdown(note)}" for note in shared),
         "",
@@ -607,7 +685,14 @@ def batch_markdown(
     lines += _partial_section(rows)
     if offline is not None:
         lines += _offline_section(rows, offline)
-    lines += _notes_section(rows)
+    shared = common_notes(row.report for row in rows if row.report is not None)
+    lines += _notes_section(shared)
+    lines += warnings_section(
+        [(escape_markdown(row.log), row.report) for row in rows],
+        shared,
+        kind="analysed log",
+        every=NOTES_ON_EVERY_LOG,
+    )
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
         lines += [
@@ -637,7 +722,9 @@ def batch_rows_csv(
     (:func:`offline_metrics`), which adds :func:`offline_columns` after ``mode_accuracy``
     (empty cells for a failed log); ``None`` otherwise (no column added).  ``gated``: the
     metrics of the gates; those without a column yet get one before ``gate_failures``
-    (:func:`gated_columns`), the report's raw value.
+    (:func:`gated_columns`), the report's raw value.  ``warnings``, after ``gate_failures``:
+    the number of the report's notes that warn (:func:`warning_notes`; empty for a failed
+    log).
     """
     columns = () if offline is None else offline_columns(offline)
     extra = gated_columns(gated, (*BATCH_METRICS, *columns))
@@ -649,6 +736,7 @@ def batch_rows_csv(
         *columns,
         *extra,
         "gate_failures",
+        "warnings",
         "error",
         "folder",
     )
@@ -664,6 +752,7 @@ def batch_rows_csv(
                 *(() if offline is None else row.offline_cells(offline)),
                 *row.values(extra),
                 "; ".join(row.missed) or None,
+                None if row.report is None else len(warning_notes(row.report)),
                 row.error,
                 row.folder if row.report is not None else None,  # a failed log has none
             ]

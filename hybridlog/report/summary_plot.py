@@ -8,10 +8,13 @@ value: the gain of each log); VAF and MSE are the filter's one-step-ahead predic
 way.
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
 at the bottom of every panel; a mode accuracy over part of its log (a true mode that starts
-late: summary.csv's ``mode_samples``) is a triangle, not a dot.  The y ticks are values, never
-an offset added to them (VAFs of 99.993 % and 99.994 % read as themselves).  Drawn with matplotlib's
-Agg canvas (no pyplot, no global state), like the per-log plots
-(:mod:`hybridlog.report.plots`).
+late: summary.csv's ``mode_samples``) is a triangle, not a dot; an analysed log without a
+value (no true mode: no mode accuracy; an undefined VAF or MSE, report.json's
+``null_reasons`` says why) a hollow square at the bottom of the panel, red if it missed a
+gate (a ``mode_accuracy`` gate on a log without a true mode): the panel showed nothing of
+it.  The y ticks are values, never an offset added to them (VAFs of 99.993 % and 99.994 %
+read as themselves).  Drawn with matplotlib's Agg canvas (no pyplot, no global state), like
+the per-log plots (:mod:`hybridlog.report.plots`).
 """
 
 from __future__ import annotations
@@ -41,6 +44,10 @@ _OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
 _PANELS = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
 _PARTIAL_MARKER, _PARTIAL_GLYPH = "^", "▲"
 """How a mode accuracy over part of its log is drawn, and named in the panel's label."""
+_UNKNOWN_MARKER, _UNKNOWN_GLYPH = "s", "□"
+"""How an analysed log without a value is drawn (hollow, at the bottom), and named."""
+_UNKNOWN_NAMES = {"mode_accuracy": "no true mode"}
+"""What an analysed log without a value of the panel's metric lacks ("undefined" else)."""
 _READY: dict[int, tuple[Figure, list[Axes]]] = {}
 """The empty figure made ahead for a number of logs (:func:`prepare_summary_figure`)."""
 
@@ -81,6 +88,20 @@ def _filtered_beside(ax: Axes, rows: Sequence[BatchRow], offline: Sequence[float
         zorder=2,
     )
     ax.scatter(xs, owns, s=16, facecolors="none", edgecolors="#7f7f7f", zorder=2)
+
+
+def _room_at_bottom(ax: Axes) -> None:
+    """Lower the panel's bottom so that its marks at the bottom sit under every value.
+
+    A log not analysed (a cross) or without a value (a hollow square) is drawn at 2 % of
+    the panel's height, which autoscaling gives to its lowest value: the square of a log
+    without a true mode read as a mode accuracy of 98 % beside a dot at 98 %.
+    """
+    bottom, top = ax.get_ylim()
+    if ax.get_yscale() == "log":
+        ax.set_ylim(bottom=bottom * (bottom / top) ** 0.1)
+    else:
+        ax.set_ylim(bottom=bottom - 0.1 * (top - bottom))
 
 
 def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None:
@@ -163,6 +184,23 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
                 if shown:
                     xs, ys = zip(*shown, strict=True)
                     ax.scatter(xs, ys, s=16, color=colour, marker=marker, zorder=3)
+        # an analysed log without a value (no true mode): a hollow square at the bottom
+        unknown = [k for k, row in enumerate(rows) if row.report is not None and values[k] is None]
+        if unknown:
+            label += f"\n{_UNKNOWN_GLYPH} {_UNKNOWN_NAMES.get(metric, 'undefined')}"
+        for colour, keep in groups:
+            shown_unknown = [k for k in unknown if keep[k]]
+            if shown_unknown:
+                ax.scatter(
+                    shown_unknown,
+                    [0.02] * len(shown_unknown),
+                    marker=_UNKNOWN_MARKER,
+                    s=20,
+                    facecolors="none",
+                    edgecolors=colour,
+                    transform=ax.get_xaxis_transform(),
+                    zorder=3,
+                )
         if metric == "mode_accuracy" and offline:  # before the limits are fixed below
             _filtered_beside(ax, rows, values)
         crosses = [k for k, row in enumerate(rows) if row.status == "failed"]
@@ -181,6 +219,8 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             ax.set_yscale("log")  # MSEs spanning decades
         elif metric != "mse" and ax.get_ylim()[1] > 100:
             ax.set_ylim(top=101.0)  # percentages: nothing is above 100
+        if crosses or unknown:
+            _room_at_bottom(ax)
         if ax.get_yscale() == "linear":
             # values themselves on the ticks: close VAFs (99.9929, 99.9936) read "0.0000,
             # 0.0006" under an offset "+9.9993e1" above the panel

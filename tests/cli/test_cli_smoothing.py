@@ -149,7 +149,7 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
         TANK_CSV, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "c", sets=["smooth=true"]
     )
     table = pl.read_csv(tmp_path / "c" / "comparison.csv")
-    assert table.columns[-2:] == ["smoothing", "filtered_mode_accuracy"]
+    assert table.columns[-3:] == ["smoothing", "filtered_mode_accuracy", "warnings"]
     imm = done.reports["imm"].smoothing
     assert imm is not None and imm.method is not None
     row = table.filter(pl.col("estimator") == "imm")

@@ -74,7 +74,7 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
     with (out / "summary.csv").open() as file:
         assert next(csv.reader(file)) == [
             "log", "status", "samples", "vaf", "mse", "mode_accuracy", "mode_samples",
-            "gate_failures", "error", "folder",
+            "gate_failures", "warnings", "error", "folder",
         ]  # fmt: skip
     assert "filter's own" not in (out / "summary.md").read_text()
     assert ET.parse(junit).find(".//properties") is None

@@ -114,8 +114,8 @@ def test_the_comparison_says_which_estimator_missed_which_gate(tmp_path: Path) -
         + "; ".join(failure.removeprefix("hstf: ") for failure in outcome.gate_failures),
     }
     table = (out / "comparison.md").read_text().splitlines()
-    assert table[2].startswith("| estimator |") and table[2].endswith("| gates |")
-    assert table[4].endswith("| pass (2) |") and "| FAIL: vaf = 99.9655" in table[5]
+    assert table[2].startswith("| estimator |") and table[2].endswith("| gates | warnings |")
+    assert table[4].endswith("| pass (2) | 0 |") and "| FAIL: vaf = 99.9655" in table[5]
     # no gates, no column
     compare(CART, "double_cart_case1", ["imm"], out_dir=tmp_path / "plain")
     assert "gates" not in (tmp_path / "plain" / "comparison.csv").read_text()

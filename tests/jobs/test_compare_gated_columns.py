@@ -32,12 +32,12 @@ def test_a_gated_metric_the_table_lacks_gets_a_column_of_each_estimators_value(
         rows = {row["estimator"]: row for row in reader}
         header = reader.fieldnames or []
     # once, after the metrics shown already (vaf is one), before the gates
-    assert header[-2:] == ["state_rmse.x1", "gates"] and header.count("vaf") == 1
+    assert header[-3:] == ["state_rmse.x1", "gates", "warnings"] and header.count("vaf") == 1
     for name, row in rows.items():
         stored = json.loads((out / name / "report.json").read_text())
         assert row["state_rmse.x1"] == repr(stored["states"]["x1"]["rmse"]), name
         assert row["gates"] == "pass (3)"
     lines = (out / "comparison.md").read_text(encoding="utf-8").splitlines()
-    assert lines[2].endswith("| state_rmse.x1 | gates |")
-    cells = [line.split(" | ")[-2] for line in lines[4:6]]
+    assert lines[2].endswith("| state_rmse.x1 | gates | warnings |")
+    cells = [line.split(" | ")[-3] for line in lines[4:6]]
     assert len(set(cells)) == 2  # imm's 0.015827 and hstf's 0.015834 read apart
