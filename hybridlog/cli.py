@@ -844,12 +844,13 @@ def analyze_command(
     report = outcome.report
     _say(ctx, _summary_line(report))
     _say(ctx, f"report: {outcome.out_dir / 'report.md'}")
-    consistency = report.extra.get("consistency")  # the innovations' test (consistency.py)
     settings = ctx.find_object(_Context)
-    warned = consistency.get("warnings") if isinstance(consistency, dict) else None
-    if isinstance(warned, list) and not (settings is not None and settings.quiet):
-        for warning in warned:
-            click.echo(_one_line(f"hybridlog: warning: {warning}"), err=True)
+    if not (settings is not None and settings.quiet):  # every kind, as batch and compare count
+        from hybridlog.report.summary import WARNING_PREFIX, warning_notes
+
+        for warning in warning_notes(report):
+            text = warning.removeprefix(WARNING_PREFIX)
+            click.echo(_one_line(f"hybridlog: warning: {text}"), err=True)
     _gate_exit(outcome.gate_failures)
 
 

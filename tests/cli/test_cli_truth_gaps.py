@@ -61,6 +61,25 @@ def test_a_blank_stretch_of_the_true_mode_is_not_scored_and_is_said(tmp_path: Pa
     assert "whole.csv: over" not in summary
 
 
+def test_analyze_prints_every_warning_of_its_report_on_the_terminal(tmp_path: Path) -> None:
+    """Every ``WARNING:`` note of report.md on stderr, not only the innovations' test's."""
+    frame = pl.read_csv(SAMPLE_LOGS / "three_tank_hstf.csv", infer_schema=False)
+    seconds = frame["t"].cast(pl.Float64)
+    blank = frame.with_columns(
+        pl.when((seconds >= 100) & (seconds <= 180))
+        .then(None)
+        .otherwise(pl.col("mode"))
+        .alias("mode")
+    )
+    log = tmp_path / "blank.csv"
+    blank.write_csv(log)
+    args = ["analyze", str(log), "--model", "three_tank_hstf", "--estimator", "imm"]
+    result = run([*args, "--out", str(tmp_path / "out")])
+    assert f"hybridlog: warning: {WHERE} (82 s" in result.stderr
+    quiet = run(["-q", *args, "--out", str(tmp_path / "quiet")])
+    assert "warning" not in quiet.stderr
+
+
 def test_a_switching_signal_with_a_gap_is_refused_to_the_estimator_on_it(
     tmp_path: Path,
 ) -> None:
