@@ -47,6 +47,9 @@ _PARTIAL_MARKER, _PARTIAL_GLYPH = "^", "▲"
 _UNKNOWN_MARKER, _UNKNOWN_GLYPH = "s", "□"
 """How an analysed log without a value is drawn (hollow, at the bottom), and named."""
 _UNKNOWN_NAMES = {"mode_accuracy": "no true mode"}
+
+_MARK_HEIGHT = 0.04
+"""Where the marks at the bottom of a panel sit, in its height (inside it, above its edge)."""
 """What an analysed log without a value of the panel's metric lacks ("undefined" else)."""
 _READY: dict[int, tuple[Figure, list[Axes]]] = {}
 """The empty figure made ahead for a number of logs (:func:`prepare_summary_figure`)."""
@@ -93,9 +96,10 @@ def _filtered_beside(ax: Axes, rows: Sequence[BatchRow], offline: Sequence[float
 def _room_at_bottom(ax: Axes) -> None:
     """Lower the panel's bottom so that its marks at the bottom sit under every value.
 
-    A log not analysed (a cross) or without a value (a hollow square) is drawn at 2 % of
-    the panel's height, which autoscaling gives to its lowest value: the square of a log
-    without a true mode read as a mode accuracy of 98 % beside a dot at 98 %.
+    A log not analysed (a cross) or without a value (a hollow square) is drawn at
+    :data:`_MARK_HEIGHT` of the panel's height, which autoscaling gives to its lowest
+    value: the square of a log without a true mode read as a mode accuracy of 98 % beside
+    a dot at 98 %.
     """
     bottom, top = ax.get_ylim()
     if ax.get_yscale() == "log":
@@ -193,13 +197,14 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             if shown_unknown:
                 ax.scatter(
                     shown_unknown,
-                    [0.02] * len(shown_unknown),
+                    [_MARK_HEIGHT] * len(shown_unknown),
                     marker=_UNKNOWN_MARKER,
                     s=20,
                     facecolors="none",
                     edgecolors=colour,
                     transform=ax.get_xaxis_transform(),
                     zorder=3,
+                    clip_on=False,  # at the panel's bottom edge: drawn whole, not cut in half
                 )
         if metric == "mode_accuracy" and offline:  # before the limits are fixed below
             _filtered_beside(ax, rows, values)
@@ -207,12 +212,13 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
         if crosses:
             ax.scatter(
                 crosses,
-                [0.02] * len(crosses),
+                [_MARK_HEIGHT] * len(crosses),
                 marker="x",
                 s=36,
                 color=_FAILED,
                 transform=ax.get_xaxis_transform(),
                 zorder=3,
+                clip_on=False,
             )
         positive = [v for v in values if v is not None and v > 0]
         if metric == "mse" and positive and max(positive) > 10 * min(positive):
