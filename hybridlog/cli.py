@@ -551,11 +551,25 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
 
 @cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))
 @_global_flags
-@click.argument("name", required=False)
+@click.argument("name", required=False, metavar="[NAME|FILE]")
 def models(name: str | None) -> None:
-    """List the built-in models, or print the model file of one."""
+    """List the built-in models, print the model file of one, or check a model file.
+
+    Given a file (as --model takes it: a file of that path wins over a built-in of that
+    name), checks it as analyze would, every key and each [estimators.<name>] table of
+    the estimators that can run it, and says what it holds; exit 2 with one line naming
+    the key where it is not valid.
+    """
     if name is not None:
-        click.echo(builtin_text(name), nl=False)
+        if not Path(name).is_file() and name in builtin_names():  # no numpy to print one
+            click.echo(builtin_text(name), nl=False)
+            return
+        from hybridlog.jobs.model_description import check_and_describe
+        from hybridlog.model.cache import model_file
+
+        path = model_file(name)  # names a folder, a missing file or no built-in: refused
+        assert path is not None  # a built-in was printed above
+        click.echo(_for_terminal(check_and_describe(path)))
         return
     for builtin in builtin_names():
         click.echo(f"{builtin:20s} {builtin_reference(builtin)}")

@@ -1,0 +1,54 @@
+"""``hybridlog models FILE`` checks a user's model file as ``analyze`` would.
+
+Before, ``models`` printed built-ins only ("not a built-in model" for a path): a user
+editing a model file could check it only by analysing or simulating a log.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from hybridlog.errors import ModelError
+from hybridlog.jobs.model_description import check_and_describe
+from hybridlog.model.builtins import builtin_names, builtin_text
+from tests.cli.test_cli import run
+
+SUITED = {
+    "three_tank_hstf": "hstf, imm",
+    "bioplex_pgc": "unknown-mode",
+    "three_tank_valves": "sliding-mode",
+    "ice_clutch": "switching-observer",
+}
+
+
+@pytest.mark.parametrize("name", builtin_names())
+def test_every_printed_built_in_checks_as_a_file(tmp_path: Path, name: str) -> None:
+    path = tmp_path / f"{name}.toml"
+    path.write_text(builtin_text(name), encoding="utf-8")
+    described = check_and_describe(path).splitlines()
+    assert described[0] == f"{path}: a valid model file"
+    assert described[1].startswith(f"name: {name}")
+    if name in SUITED:
+        assert described[-1].startswith(f"estimators for it: {SUITED[name]} (default")
+
+
+def test_a_bad_estimator_table_is_found_whichever_estimator_would_run(tmp_path: Path) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(
+        builtin_text("three_tank_hstf") + "\n[estimators.imm]\ntransition_stay = 7\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ModelError, match=r"estimators\.imm\.transition_stay.*outside \[0, 1\]"):
+        check_and_describe(path)
+
+
+def test_the_command_describes_a_file_prints_a_built_in_and_refuses_in_one_line(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(builtin_text("double_cart_case1").replace("dt = ", "dt = -"), "utf-8")
+    result = run(["models", str(path)], expect=2)
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith(f"hybridlog: error: {path}: ") and "dt" in line
+    assert result.stdout == ""
+    assert run(["models", "double_cart_case1"]).stdout == builtin_text("double_cart_case1")
