@@ -51,6 +51,12 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
+from hybridlog.report.comparison import (
+    sample_counts,
+    samples_section,
+    unavailable_section,
+    unequal_columns,
+)
 from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import (
     comparison_markdown,
@@ -607,12 +613,16 @@ class Comparison:
 
     ``failures``: the estimators whose run failed on the log (it diverged, or could not be
     computed on this log), each with its one-line reason; they have no report.
+    ``unlike``: the numbers that are not over the same samples for every estimator
+    (``vaf, fit and mse``; ``vaf of imm``, a mean that leaves out an output), which
+    comparison.md's "Samples scored" details.
     """
 
     reports: dict[str, Report]
     table: str
     gate_failures: list[str]
     failures: dict[str, str] = field(default_factory=dict)
+    unlike: list[str] = field(default_factory=list)
 
     @property
     def warned(self) -> list[str]:
@@ -771,13 +781,30 @@ def compare(
         names = [p.name for p in prepared]
         columns, rows = _comparison_rows(names, reports, failures, gates, missed)
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side
+        scored, unlike = samples_section(reports, _rmse_states(columns))
+        shown = [c for c in columns if c in _COLUMNS or c in _gated(gates)]
+        sections = [*scored, *unavailable_section(columns, rows, reports, shown)]
         (folder / "comparison.md").write_text(
-            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports, failures),
+            comparison_markdown(
+                f"{model.name} on {as_text(log)}", table, reports, failures, sections=sections
+            ),
             encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
     failing = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
-    return Comparison(reports=reports, table=table, gate_failures=failing, failures=failures)
+    return Comparison(
+        reports=reports, table=table, gate_failures=failing, failures=failures, unlike=unlike
+    )
+
+
+def _gated(gates: Sequence[Gate]) -> set[str]:
+    return {gate.metric for gate in gates}
+
+
+def _rmse_states(columns: Sequence[str]) -> list[str]:
+    """The states whose RMSE the table shows (``state_rmse.x1``: ``x1``)."""
+    prefix = "state_rmse."
+    return [c.removeprefix(prefix) for c in columns if c.startswith(prefix)]
 
 
 def _comparison_rows(
@@ -792,24 +819,32 @@ def _comparison_rows(
     A failed estimator's cells are empty (``n/a``) but its gates (``not analysed``) and the
     ``error`` column, added when any estimator failed, which holds its reason.  ``warnings``:
     the number of the report's notes that warn (:func:`warning_notes`), listed in
-    comparison.md.
+    comparison.md.  Where the estimators' numbers are not over the same samples, a column
+    per count that differs (``output_samples.y1``, ``mode_samples``, ``state_samples.x1``:
+    :func:`~hybridlog.report.comparison.unequal_columns`), after the metrics.
     """
     columns: tuple[str, ...] = ("estimator", *_COLUMNS)
-    smoothed = any(report.smoothing is not None for report in reports.values())
-    if smoothed:
-        columns += _SMOOTHING_COLUMNS
     # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
     # summaries show it: 'pass (1)' alone did not say by how much
     extra = gated_columns([gate.metric for gate in gates], columns)
+    # a VAF over 170 samples beside one over 179 read as like for like: the counts that
+    # differ get a column
+    counts = unequal_columns(reports, _rmse_states(extra))
+    columns += counts
+    smoothed = any(report.smoothing is not None for report in reports.values())
+    if smoothed:
+        columns += _SMOOTHING_COLUMNS
     columns += extra
     rows: list[list[Any]] = []
     for name in names:
         report = reports.get(name)
         if report is None:
-            width = len(_COLUMNS) + (len(_SMOOTHING_COLUMNS) if smoothed else 0) + len(extra)
+            width = len(columns) - 1
             row: list[Any] = [name, *[None] * width]
         else:
             row = [name, *_row(report).values()]
+            own = sample_counts(report, _rmse_states(extra))
+            row += [own.get(column) for column in counts]
             if smoothed:
                 row += _smoothing_cells(report)
             row += [metric(report, column) for column in extra]
