@@ -614,7 +614,7 @@ class Comparison:
     ``failures``: the estimators whose run failed on the log (it diverged, or could not be
     computed on this log), each with its one-line reason; they have no report.
     ``unlike``: the numbers that are not over the same samples for every estimator
-    (``vaf, fit and mse``; ``vaf of imm``, a mean that leaves out an output), which
+    (``vaf, fit and mse``; ``vaf (a mean over other outputs for some)``), which
     comparison.md's "Samples scored" details.
     """
 

@@ -99,11 +99,16 @@ def _over(counts: Mapping[str, int | None], prefix: str) -> str:
 
 
 def _count(n: int | None) -> str:
-    return "an unrecorded number of" if n is None else f"{n:,}"
+    return "no" if not n else f"{n:,}"  # None: nothing to score (no true mode)
 
 
 def _and(parts: Sequence[str]) -> str:
     return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
+def _left_out(report: Report, metric: str) -> frozenset[str]:
+    """The outputs whose ``metric`` (``vaf``, ``fit``, ``mse``) ``report`` holds as ``null``."""
+    return frozenset(y for y, o in report.outputs.items() if getattr(o, metric) is None)
 
 
 def _describe(own: Mapping[str, int | None]) -> str:
@@ -119,8 +124,10 @@ def samples_section(
     """comparison.md's "Samples scored" lines, and what is not over the same samples.
 
     Returns the Markdown lines (empty without reports) and, for the terminal, the kinds
-    of number that are not like for like (``vaf, fit and mse``, ``the mode metrics``, a
-    mean that leaves out an output: ``vaf of imm``).
+    of number that are not like for like between the estimators (``vaf, fit and mse``,
+    ``the mode metrics``; ``vaf (a mean over other outputs for some)``: one estimator's
+    mean leaves out an output another's has).  A mean that leaves out an output is said
+    for each estimator, even when every one leaves out the same.
     """
     if not reports:
         return [], []
@@ -140,6 +147,9 @@ def samples_section(
         shown = escape_markdown(kind, line_start=False)
         mine = {name: {c: count.get(c) for c in chosen} for name, count in counts.items()}
         differ = sorted(c for c in chosen if c in unequal)
+        if not any(n for own in mine.values() for n in own.values()):
+            lines.append(f"- {shown}: not scored, no sample to score")
+            continue
         if not differ:
             every = "every estimator" if len(reports) > 1 else "the estimator"
             lines.append(f"- {shown}: {every} over {_describe(next(iter(mine.values())))}")
@@ -150,11 +160,13 @@ def samples_section(
             f"- {shown}: **not over the same samples**, so not like for like "
             f"({', '.join(f'`{c}`' for c in differ)} in the table): " + "; ".join(per)
         )
-    for name, report in reports.items():
-        for metric in OUTPUT_METRICS:
+    for metric in OUTPUT_METRICS:
+        left_out = {name: _left_out(report, metric) for name, report in reports.items()}
+        if len(set(left_out.values())) > 1:  # means over different outputs
+            unlike.append(f"{metric} (a mean over other outputs for some)")
+        for name, report in reports.items():
             partial = outputs_left_out(report, metric)
             if partial is not None:
-                unlike.append(f"{metric} of {name}")
                 lines.append(
                     f"- {metric} of `{name}` is a mean that leaves out "
                     + escape_markdown(partial, line_start=False)
@@ -163,7 +175,7 @@ def samples_section(
         "",
         "vaf, fit and mse use the rows with a measurement and a one-step-ahead prediction "
         "(the first sample, the prior, has none); the mode metrics the samples with a true "
-        "mode.",
+        "mode; a state's RMSE the samples with its true state and an estimate.",
     ]
     return lines, unlike
 

@@ -100,10 +100,16 @@ def test_a_mean_that_leaves_out_an_output_is_named(tmp_path: Path) -> None:
         imm, outputs={**imm.outputs, "y2": dataclasses.replace(imm.outputs["y2"], samples=299)}
     )
     lines, unlike = samples_section({"imm": imm, "other": partial})
-    assert unlike == ["vaf of other"]
+    assert unlike == ["vaf (a mean over other outputs for some)"]
     assert "- vaf of `other` is a mean that leaves out 1 of 3 outputs: vaf.y2 (var(ŷ) = 0)" in lines
     assert unequal_columns({"imm": imm, "other": fewer}) == ("output_samples.y2",)
     assert unequal_columns({"imm": imm}) == ()
+    lines, unlike = samples_section({"other": partial})  # alone: said, but like for like
+    assert unlike == [] and any("vaf of `other` is a mean that leaves out" in x for x in lines)
+    # no true mode: nothing scored, not "over 0 samples" (nor over an unknown number)
+    blind = dataclasses.replace(imm, modes=dataclasses.replace(imm.modes, samples=None))
+    lines, _ = samples_section({"imm": blind})
+    assert "- the mode metrics: not scored, no sample to score" in lines
 
 
 def test_the_terminal_says_when_numbers_are_not_over_the_same_samples(
