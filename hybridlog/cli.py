@@ -912,10 +912,7 @@ def compare_command(
     if outcome.unlike and not quiet:  # a VAF over fewer samples is no better VAF
         unlike = "; ".join(outcome.unlike)
         click.echo(
-            _one_line(
-                f"hybridlog: not over the same samples for every estimator: {unlike}; "
-                f"see {out_dir / 'comparison.md'}"
-            ),
+            _one_line(f"hybridlog: not like for like: {unlike}; see {out_dir / 'comparison.md'}"),
             err=True,
         )
     for name, reason in outcome.failures.items():  # a result, as a batch's failed log: exit 1

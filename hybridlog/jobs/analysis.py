@@ -613,9 +613,10 @@ class Comparison:
 
     ``failures``: the estimators whose run failed on the log (it diverged, or could not be
     computed on this log), each with its one-line reason; they have no report.
-    ``unlike``: the numbers that are not over the same samples for every estimator
-    (``vaf, fit and mse``; ``vaf (a mean over other outputs for some)``), which
-    comparison.md's "Samples scored" details.
+    ``unlike``: what is not like for like between the estimators, a phrase each (``vaf,
+    fit and mse are not over the same samples for every estimator``; the mode metrics of
+    an estimator that reads the switching signal), which comparison.md's "Samples
+    scored" details.
     """
 
     reports: dict[str, Report]
@@ -700,6 +701,22 @@ def _watched(
         raise prefixed(err, f"--estimators {name}: ") from err
 
 
+def _check_signals(prepared: Sequence[Prepared], signals: AlignedSignals) -> None:
+    """Refuse the log for any of ``prepared`` that lacks a signal it needs, before any runs.
+
+    Found as the estimator started, a log without the switching signal of the last one named
+    was refused after the others had run, their work lost.  Named as :func:`_watched` names
+    a run's error when several are compared.
+    """
+    for estimator in prepared:
+        try:
+            estimator.check_signals(signals)
+        except HybridlogError as err:
+            if len(prepared) == 1:
+                raise
+            raise prefixed(err, f"--estimators {estimator.name}: ") from err
+
+
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -753,6 +770,7 @@ def compare(
     warm_up(prepared, model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
+    _check_signals(prepared, signals)
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
     failures: dict[str, str] = {}
@@ -781,7 +799,8 @@ def compare(
         names = [p.name for p in prepared]
         columns, rows = _comparison_rows(names, reports, failures, gates, missed)
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side
-        scored, unlike = samples_section(reports, _rmse_states(columns))
+        given = [p.name for p in prepared if p.estimator.capabilities.needs_switching_signal]
+        scored, unlike = samples_section(reports, _rmse_states(columns), given)
         shown = [c for c in columns if c in _COLUMNS or c in _gated(gates)]
         sections = [*scored, *unavailable_section(columns, rows, reports, shown)]
         (folder / "comparison.md").write_text(

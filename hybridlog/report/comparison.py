@@ -119,15 +119,17 @@ def _describe(own: Mapping[str, int | None]) -> str:
 
 
 def samples_section(
-    reports: Mapping[str, Report], states: Sequence[str] = ()
+    reports: Mapping[str, Report], states: Sequence[str] = (), given: Sequence[str] = ()
 ) -> tuple[list[str], list[str]]:
-    """comparison.md's "Samples scored" lines, and what is not over the same samples.
+    """comparison.md's "Samples scored" lines, and what is not like for like.
 
-    Returns the Markdown lines (empty without reports) and, for the terminal, the kinds
-    of number that are not like for like between the estimators (``vaf, fit and mse``,
-    ``the mode metrics``; ``vaf (a mean over other outputs for some)``: one estimator's
-    mean leaves out an output another's has).  A mean that leaves out an output is said
-    for each estimator, even when every one leaves out the same.
+    ``given``: the estimators that read the modes from the log's switching signal
+    (``switching-observer``), whose mode metrics score the log's true mode against itself.
+    Returns the Markdown lines (empty without reports) and, for the terminal, what is not
+    like for like between the estimators, a phrase each (``vaf, fit and mse are not over
+    the same samples for every estimator``; ``vaf is a mean over other outputs for some
+    estimators``: one's mean leaves out an output another's has).  A mean that leaves out
+    an output is said for each estimator, even when every one leaves out the same.
     """
     if not reports:
         return [], []
@@ -154,7 +156,7 @@ def samples_section(
             every = "every estimator" if len(reports) > 1 else "the estimator"
             lines.append(f"- {shown}: {every} over {_describe(next(iter(mine.values())))}")
             continue
-        unlike.append(kind)
+        unlike.append(f"{kind} are not over the same samples for every estimator")
         per = [f"`{name}` over {_describe(own)}" for name, own in mine.items()]
         lines.append(
             f"- {shown}: **not over the same samples**, so not like for like "
@@ -163,7 +165,7 @@ def samples_section(
     for metric in OUTPUT_METRICS:
         left_out = {name: _left_out(report, metric) for name, report in reports.items()}
         if len(set(left_out.values())) > 1:  # means over different outputs
-            unlike.append(f"{metric} (a mean over other outputs for some)")
+            unlike.append(f"{metric} is a mean over other outputs for some estimators")
         for name, report in reports.items():
             partial = outputs_left_out(report, metric)
             if partial is not None:
@@ -171,6 +173,16 @@ def samples_section(
                     f"- {metric} of `{name}` is a mean that leaves out "
                     + escape_markdown(partial, line_start=False)
                 )
+    for name in given:
+        if name not in reports:
+            continue
+        if len(reports) > 1:
+            unlike.append(f"{name}'s mode metrics score the switching signal it reads")
+        lines.append(
+            f"- the mode metrics of `{name}` score the switching signal it reads from the log "
+            "against that same signal, the log's true mode: they measure no estimation"
+            + (", unlike the others'" if len(reports) > 1 else "")
+        )
     lines += [
         "",
         "vaf, fit and mse use the rows with a measurement and a one-step-ahead prediction "

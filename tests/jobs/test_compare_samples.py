@@ -52,7 +52,7 @@ def test_numbers_over_different_samples_say_so(cpha: tuple[Path, Path], tmp_path
     rows = _rows(out / "comparison.csv")
     assert {name: int(row["output_samples.yc1"]) for name, row in rows.items()} == counts
     assert "output_samples.yc2" not in rows["imm"]  # the same for both: no column
-    assert outcome.unlike == ["vaf, fit and mse"]
+    assert outcome.unlike == ["vaf, fit and mse are not over the same samples for every estimator"]
     header = outcome.table.splitlines()[0]
     assert "| samples_per_s | output_samples.yc1 | warnings |" in header
     text = (out / "comparison.md").read_text()
@@ -100,7 +100,7 @@ def test_a_mean_that_leaves_out_an_output_is_named(tmp_path: Path) -> None:
         imm, outputs={**imm.outputs, "y2": dataclasses.replace(imm.outputs["y2"], samples=299)}
     )
     lines, unlike = samples_section({"imm": imm, "other": partial})
-    assert unlike == ["vaf (a mean over other outputs for some)"]
+    assert unlike == ["vaf is a mean over other outputs for some estimators"]
     assert "- vaf of `other` is a mean that leaves out 1 of 3 outputs: vaf.y2 (var(ŷ) = 0)" in lines
     assert unequal_columns({"imm": imm, "other": fewer}) == ("output_samples.y2",)
     assert unequal_columns({"imm": imm}) == ()
@@ -120,7 +120,7 @@ def test_the_terminal_says_when_numbers_are_not_over_the_same_samples(
     args = ["compare", str(log), "--model", str(model), "--estimators", "imm,unknown-mode"]
     result = run([*args, "--out", str(out)])
     assert (
-        "hybridlog: not over the same samples for every estimator: vaf, fit and mse; "
-        f"see {out / 'comparison.md'}\n"
+        "hybridlog: not like for like: vaf, fit and mse are not over the same samples for "
+        f"every estimator; see {out / 'comparison.md'}\n"
     ) in result.stderr
     assert "output_samples.yc1" in result.stdout
