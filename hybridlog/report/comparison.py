@@ -153,7 +153,7 @@ def samples_section(
             lines.append(f"- {shown}: not scored, no sample to score")
             continue
         if not differ:
-            every = "every estimator" if len(reports) > 1 else "the estimator"
+            every = "every estimator" if len(reports) > 1 else f"`{next(iter(reports))}`"
             lines.append(f"- {shown}: {every} over {_describe(next(iter(mine.values())))}")
             continue
         unlike.append(f"{kind} are not over the same samples for every estimator")

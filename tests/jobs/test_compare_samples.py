@@ -104,6 +104,9 @@ def test_a_mean_that_leaves_out_an_output_is_named(tmp_path: Path) -> None:
     assert "- vaf of `other` is a mean that leaves out 1 of 3 outputs: vaf.y2 (var(ŷ) = 0)" in lines
     assert unequal_columns({"imm": imm, "other": fewer}) == ("output_samples.y2",)
     assert unequal_columns({"imm": imm}) == ()
+    # one report (the others failed, or one estimator named): named, not "every estimator"
+    alone, _ = samples_section({"imm": imm})
+    assert "- vaf, fit and mse: `imm` over 300 samples of each output (y1, y2, y3)" in alone
     lines, unlike = samples_section({"other": partial})  # alone: said, but like for like
     assert unlike == [] and any("vaf of `other` is a mean that leaves out" in x for x in lines)
     # no true mode: nothing scored, not "over 0 samples" (nor over an unknown number)
