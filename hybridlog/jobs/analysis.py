@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -701,6 +702,21 @@ def _watched(
         raise prefixed(err, f"--estimators {name}: ") from err
 
 
+def _check_separators(estimators: Sequence[str]) -> None:
+    """Refuse a name that is several estimators joined by another separator than a comma.
+
+    ``--estimators imm;hstf`` was an unknown estimator ``'imm;hstf'`` with "did you mean
+    'hstf'?", as if the user had meant hstf alone.
+    """
+    for name in estimators:
+        parts = [part for part in re.split(r"[;:|/\s]+", name) if part]
+        if name not in ESTIMATORS and len(parts) > 1 and all(p in ESTIMATORS for p in parts):
+            raise OptionError(
+                f"--estimators: {excerpt(name)} is {len(parts)} estimators; separate them with "
+                f"commas: {','.join(parts)}"
+            )
+
+
 def _check_signals(prepared: Sequence[Prepared], signals: AlignedSignals) -> None:
     """Refuse the log for any of ``prepared`` that lacks a signal it needs, before any runs.
 
@@ -749,6 +765,7 @@ def compare(
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
+    _check_separators(estimators)
     twice = sorted({name for name in estimators if list(estimators).count(name) > 1})
     if twice:  # two reports under one folder name
         raise OptionError(f"--estimators: {', '.join(map(excerpt, twice))} named twice")
