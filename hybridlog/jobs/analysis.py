@@ -616,8 +616,8 @@ class Comparison:
     computed on this log), each with its one-line reason; they have no report.
     ``unlike``: what is not like for like between the estimators, a phrase each (``vaf,
     fit and mse are not over the same samples for every estimator``; the mode metrics of
-    an estimator that reads the switching signal), which comparison.md's "Samples
-    scored" details.
+    an estimator that reads the switching signal, or of offline estimates beside others'
+    own), which comparison.md's "What the numbers are over" details.
     """
 
     reports: dict[str, Report]
@@ -650,13 +650,15 @@ def _row(report: Report) -> dict[str, Any]:
 _SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy")
 """Columns added to the comparison when an estimator's estimates were smoothed: the
 smoother and mode sequence (``kim-rts, viterbi``; ``none`` for a filter's own estimates) and the
-filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``."""
+filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``.  For an estimator not
+smoothed that is its ``mode_accuracy``: its estimates are its own (it was ``n/a``, so that
+the filters' own estimates, like for like, were in two columns)."""
 
 
 def _smoothing_cells(report: Report) -> list[Any]:
     smoothing = report.smoothing
     if smoothing is None:
-        return ["none", None]
+        return ["none", report.modes.accuracy]
     name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
     return [name, smoothing.filtered.mode_accuracy]
 

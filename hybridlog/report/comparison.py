@@ -121,7 +121,7 @@ def _describe(own: Mapping[str, int | None]) -> str:
 def samples_section(
     reports: Mapping[str, Report], states: Sequence[str] = (), given: Sequence[str] = ()
 ) -> tuple[list[str], list[str]]:
-    """comparison.md's "Samples scored" lines, and what is not like for like.
+    """comparison.md's "What the numbers are over" lines, and what is not like for like.
 
     ``given``: the estimators that read the modes from the log's switching signal
     (``switching-observer``), whose mode metrics score the log's true mode against itself.
@@ -141,7 +141,7 @@ def samples_section(
         ("the mode metrics", [MODE_SAMPLES]),
         *[(f"the RMSE of {x}", [_STATE_PREFIX + x]) for x in states],
     ]
-    lines = ["", "## Samples scored", ""]
+    lines = ["", "## What the numbers are over", ""]
     unlike: list[str] = []
     for kind, chosen in kinds:
         if not chosen:  # a model without outputs has no vaf to speak of
@@ -173,6 +173,15 @@ def samples_section(
                     f"- {metric} of `{name}` is a mean that leaves out "
                     + escape_markdown(partial, line_start=False)
                 )
+    offline = [name for name, report in reports.items() if report.smoothing is not None]
+    if offline and len(offline) < len(reports):
+        unlike.append(f"the mode metrics of {', '.join(offline)} are of offline estimates")
+        lines.append(
+            "- the mode metrics of "
+            + ", ".join(f"`{name}`" for name in offline)
+            + " are of offline estimates (the `smoothing` column), the others' of their own "
+            "estimates: `filtered_mode_accuracy` compares every estimator's own"
+        )
     for name in given:
         if name not in reports:
             continue

@@ -6,7 +6,7 @@ log below its VAF of yc1 is over 170 samples, imm's over 179, and the table show
 ``unknown-mode`` 92.14 beside ``imm`` 90.95 with nothing to say the two were not over the
 same samples.  An ``n/a`` cell (hstf's detection delay when it missed every switch) said
 nothing of why; report.md did.  Now the table gets a column per count that differs,
-comparison.md a "Samples scored" section (always: over how many samples each kind of
+comparison.md a "What the numbers are over" section (always: over how many samples each kind of
 number is) and a "Not available" one, and the terminal a line.
 """
 
@@ -72,7 +72,7 @@ def test_the_same_samples_are_said_and_each_na_cell_gives_its_reason(tmp_path: P
     assert outcome.unlike == []
     assert "_samples" not in outcome.table  # every count alike: no column
     text = (out / "comparison.md").read_text()
-    section = text.split("## Samples scored\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    section = text.split("## What the numbers are over\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
     assert section == [
         "- vaf, fit and mse: every estimator over 1,000 samples of y",
         "- the mode metrics: every estimator over 1,001 samples",
