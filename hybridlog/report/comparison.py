@@ -211,9 +211,9 @@ def unavailable_section(
 
     ``columns`` and ``rows`` are the table's (the estimator first in each row); ``metrics``
     the columns that hold a report metric by its gate name (``vaf``, ``state_rmse.x1``).
-    A failed estimator's row is left out (its ``error`` cell says why), as are the
-    ``filtered_*`` cells of an estimator whose estimates were not smoothed (its
-    ``smoothing`` cell says ``none``).
+    A failed estimator's row is left out (its ``error`` cell says why), as is the
+    ``filtered_mode_accuracy`` cell of an estimator not smoothed: it is its
+    ``mode_accuracy``, whose reason is given.
     """
     lines: list[str] = []
     for row in rows:
