@@ -919,9 +919,16 @@ def compare_command(
         _say(ctx, f"reports: {', '.join(str(out_dir / n / 'report.md') for n in outcome.reports)}")
     _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
     settings = ctx.find_object(_Context)
-    if outcome.warned and not (settings is not None and settings.quiet):
+    quiet = settings is not None and settings.quiet
+    if outcome.warned and not quiet:
         have = _have_warnings(len(outcome.warned), len(outcome.reports), "estimator")
         click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'comparison.md'}"), err=True)
+    if outcome.unlike and not quiet:  # a VAF over fewer samples is no better VAF
+        unlike = "; ".join(outcome.unlike)
+        click.echo(
+            _one_line(f"hybridlog: not like for like: {unlike}; see {out_dir / 'comparison.md'}"),
+            err=True,
+        )
     for name, reason in outcome.failures.items():  # a result, as a batch's failed log: exit 1
         click.echo(_one_line(f"hybridlog: estimator failed: {name}: {reason}"), err=True)
     _gate_exit(outcome.gate_failures)

@@ -420,7 +420,7 @@ class Prepared:
         self, model: HybridModel, signals: AlignedSignals, inputs: Mapping[str, Any]
     ) -> EstimationResult:
         """The estimator's whole result, its modes moved where :meth:`moves_modes` says."""
-        self._check(signals)
+        self.check_signals(signals)
         with self._numerical_trouble(model):
             result: EstimationResult = self.estimator.run_function(
                 model, signals, self.options, **inputs
@@ -518,8 +518,13 @@ class Prepared:
         """
         return self.estimator.capabilities.modes_of_the_step_into and model.state_driven
 
-    def _check(self, signals: AlignedSignals) -> None:
-        """Refuse a log that lacks what the estimator needs of one (one line, ``LogError``)."""
+    def check_signals(self, signals: AlignedSignals) -> None:
+        """Refuse a log that lacks what the estimator needs of one (one line, ``LogError``).
+
+        Run as the estimator starts, and by ``compare`` for every estimator before the first
+        runs: a log without the switching signal of the last estimator named was refused
+        after the others had run, their work lost.
+        """
         problem = self.estimator.capabilities.signals_mismatch(signals)
         if problem is not None:
             raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")
@@ -548,7 +553,7 @@ class Prepared:
         """
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
-        self._check(signals)
+        self.check_signals(signals)
         with self._numerical_trouble(model):
             chunks = self.estimator.stream_function(
                 model, signals, self.options, rows=rows, **inputs

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -51,6 +52,12 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
+from hybridlog.report.comparison import (
+    sample_counts,
+    samples_section,
+    unavailable_section,
+    unequal_columns,
+)
 from hybridlog.report.gates import Gate, metric
 from hybridlog.report.summary import (
     comparison_markdown,
@@ -607,12 +614,17 @@ class Comparison:
 
     ``failures``: the estimators whose run failed on the log (it diverged, or could not be
     computed on this log), each with its one-line reason; they have no report.
+    ``unlike``: what is not like for like between the estimators, a phrase each (``vaf,
+    fit and mse are not over the same samples for every estimator``; the mode metrics of
+    an estimator that reads the switching signal, or of offline estimates beside others'
+    own), which comparison.md's "What the numbers are over" details.
     """
 
     reports: dict[str, Report]
     table: str
     gate_failures: list[str]
     failures: dict[str, str] = field(default_factory=dict)
+    unlike: list[str] = field(default_factory=list)
 
     @property
     def warned(self) -> list[str]:
@@ -638,13 +650,15 @@ def _row(report: Report) -> dict[str, Any]:
 _SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy")
 """Columns added to the comparison when an estimator's estimates were smoothed: the
 smoother and mode sequence (``kim-rts, viterbi``; ``none`` for a filter's own estimates) and the
-filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``."""
+filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``.  For an estimator not
+smoothed that is its ``mode_accuracy``: its estimates are its own (it was ``n/a``, so that
+the filters' own estimates, like for like, were in two columns)."""
 
 
 def _smoothing_cells(report: Report) -> list[Any]:
     smoothing = report.smoothing
     if smoothing is None:
-        return ["none", None]
+        return ["none", report.modes.accuracy]
     name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
     return [name, smoothing.filtered.mode_accuracy]
 
@@ -690,6 +704,37 @@ def _watched(
         raise prefixed(err, f"--estimators {name}: ") from err
 
 
+def _check_separators(estimators: Sequence[str]) -> None:
+    """Refuse a name that is several estimators joined by another separator than a comma.
+
+    ``--estimators imm;hstf`` was an unknown estimator ``'imm;hstf'`` with "did you mean
+    'hstf'?", as if the user had meant hstf alone.
+    """
+    for name in estimators:
+        parts = [part for part in re.split(r"[;:|/\s]+", name) if part]
+        if name not in ESTIMATORS and len(parts) > 1 and all(p in ESTIMATORS for p in parts):
+            raise OptionError(
+                f"--estimators: {excerpt(name)} is {len(parts)} estimators; separate them with "
+                f"commas: {','.join(parts)}"
+            )
+
+
+def _check_signals(prepared: Sequence[Prepared], signals: AlignedSignals) -> None:
+    """Refuse the log for any of ``prepared`` that lacks a signal it needs, before any runs.
+
+    Found as the estimator started, a log without the switching signal of the last one named
+    was refused after the others had run, their work lost.  Named as :func:`_watched` names
+    a run's error when several are compared.
+    """
+    for estimator in prepared:
+        try:
+            estimator.check_signals(signals)
+        except HybridlogError as err:
+            if len(prepared) == 1:
+                raise
+            raise prefixed(err, f"--estimators {estimator.name}: ") from err
+
+
 def compare(
     log: str | Path,
     model_ref: str | Path,
@@ -722,6 +767,7 @@ def compare(
     """
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
+    _check_separators(estimators)
     twice = sorted({name for name in estimators if list(estimators).count(name) > 1})
     if twice:  # two reports under one folder name
         raise OptionError(f"--estimators: {', '.join(map(excerpt, twice))} named twice")
@@ -743,6 +789,7 @@ def compare(
     warm_up(prepared, model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
+    _check_signals(prepared, signals)
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
     failures: dict[str, str] = {}
@@ -771,13 +818,31 @@ def compare(
         names = [p.name for p in prepared]
         columns, rows = _comparison_rows(names, reports, failures, gates, missed)
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side
+        given = [p.name for p in prepared if p.estimator.capabilities.needs_switching_signal]
+        scored, unlike = samples_section(reports, _rmse_states(columns), given)
+        shown = [c for c in columns if c in _COLUMNS or c in _gated(gates)]
+        sections = [*scored, *unavailable_section(columns, rows, reports, shown)]
         (folder / "comparison.md").write_text(
-            comparison_markdown(f"{model.name} on {as_text(log)}", table, reports, failures),
+            comparison_markdown(
+                f"{model.name} on {as_text(log)}", table, reports, failures, sections=sections
+            ),
             encoding="utf-8",
         )
         write_summary_csv(folder / "comparison.csv", columns, rows)
     failing = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
-    return Comparison(reports=reports, table=table, gate_failures=failing, failures=failures)
+    return Comparison(
+        reports=reports, table=table, gate_failures=failing, failures=failures, unlike=unlike
+    )
+
+
+def _gated(gates: Sequence[Gate]) -> set[str]:
+    return {gate.metric for gate in gates}
+
+
+def _rmse_states(columns: Sequence[str]) -> list[str]:
+    """The states whose RMSE the table shows (``state_rmse.x1``: ``x1``)."""
+    prefix = "state_rmse."
+    return [c.removeprefix(prefix) for c in columns if c.startswith(prefix)]
 
 
 def _comparison_rows(
@@ -792,24 +857,32 @@ def _comparison_rows(
     A failed estimator's cells are empty (``n/a``) but its gates (``not analysed``) and the
     ``error`` column, added when any estimator failed, which holds its reason.  ``warnings``:
     the number of the report's notes that warn (:func:`warning_notes`), listed in
-    comparison.md.
+    comparison.md.  Where the estimators' numbers are not over the same samples, a column
+    per count that differs (``output_samples.y1``, ``mode_samples``, ``state_samples.x1``:
+    :func:`~hybridlog.report.comparison.unequal_columns`), after the metrics.
     """
     columns: tuple[str, ...] = ("estimator", *_COLUMNS)
-    smoothed = any(report.smoothing is not None for report in reports.values())
-    if smoothed:
-        columns += _SMOOTHING_COLUMNS
     # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
     # summaries show it: 'pass (1)' alone did not say by how much
     extra = gated_columns([gate.metric for gate in gates], columns)
+    # a VAF over 170 samples beside one over 179 read as like for like: the counts that
+    # differ get a column
+    counts = unequal_columns(reports, _rmse_states(extra))
+    columns += counts
+    smoothed = any(report.smoothing is not None for report in reports.values())
+    if smoothed:
+        columns += _SMOOTHING_COLUMNS
     columns += extra
     rows: list[list[Any]] = []
     for name in names:
         report = reports.get(name)
         if report is None:
-            width = len(_COLUMNS) + (len(_SMOOTHING_COLUMNS) if smoothed else 0) + len(extra)
+            width = len(columns) - 1
             row: list[Any] = [name, *[None] * width]
         else:
             row = [name, *_row(report).values()]
+            own = sample_counts(report, _rmse_states(extra))
+            row += [own.get(column) for column in counts]
             if smoothed:
                 row += _smoothing_cells(report)
             row += [metric(report, column) for column in extra]

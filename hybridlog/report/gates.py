@@ -58,6 +58,8 @@ __all__ = [
     "evaluate_gates",
     "metric",
     "metric_value",
+    "null_reason",
+    "outputs_left_out",
     "parse_gate",
     "parse_gates",
     "validate_gates",
@@ -496,7 +498,21 @@ def _over_part(report: Report, name: str) -> str:
     return "" if part is None else f" over {part}"
 
 
-def _outputs_left_out(report: Report, name: str) -> str | None:
+def null_reason(report: Report, name: str) -> str:
+    """Why ``report`` holds ``null`` for the metric ``name`` (``vaf``, ``state_rmse.x1``).
+
+    The report's own :attr:`~Report.null_reasons`, else the general reason of the metric
+    (reports of versions that did not record one).
+    """
+    base, dot, _ = name.partition(".")
+    return (
+        report.null_reasons.get(name)
+        or _WHY_NULL.get(base + dot if base in _COMPONENT_METRICS else base)
+        or "the report has no value for it"
+    )
+
+
+def outputs_left_out(report: Report, name: str) -> str | None:
     """For a mean over the outputs (``vaf``, ``mse``, ``fit``), the outputs it left out.
 
     ``None`` for another metric or when every output's value is there; else the outputs
@@ -548,17 +564,12 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
     for gate in gates:
         value = metric_value(report, gate.metric)
         if value is None:
-            base, dot, _ = gate.metric.partition(".")
-            why = (
-                report.null_reasons.get(gate.metric)
-                or _WHY_NULL.get(base + dot if base in _COMPONENT_METRICS else base)
-                or "the report has no value for it"
-            )
+            why = null_reason(report, gate.metric)
             failures.append(
                 f"{gate.metric} is not available ({why}), so the {gate.option} bound "
                 f"{_fmt(gate.bound)} cannot be met"
             )
-        elif (partial := _outputs_left_out(report, gate.metric)) is not None:
+        elif (partial := outputs_left_out(report, gate.metric)) is not None:
             failures.append(
                 f"{gate.metric} = {_fmt(value)}{_which_side(report, gate.metric)} is a mean "
                 f"that leaves out {partial}, so the {gate.option} bound {_fmt(gate.bound)} "

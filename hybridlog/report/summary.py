@@ -144,6 +144,8 @@ def comparison_markdown(
     table: str,
     reports: Mapping[str, Report],
     failures: Mapping[str, str] | None = None,
+    *,
+    sections: Sequence[str] = (),
 ) -> str:
     """``comparison.md``: the table, where each report is, and the notes.
 
@@ -152,7 +154,9 @@ def comparison_markdown(
     ``failures``: the estimators whose run failed (no report), each with its reason, listed
     under "Failed estimators" as a batch's summary lists its failed logs.  The estimators
     whose report warns are listed under "Warnings", the first warning each
-    (:func:`warnings_section`).
+    (:func:`warnings_section`).  ``sections``: Markdown lines put after the failed
+    estimators (:mod:`hybridlog.report.comparison`: the samples each number is over, why a
+    cell is ``n/a``).
     """
     failures = failures or {}
     lines = [f"# {escape_markdown(title)}", "", table, ""]
@@ -161,6 +165,7 @@ def comparison_markdown(
         count = f"{len(failures)} of {len(reports) + len(failures)}"
         lines += ["", f"## Failed estimators ({count})", ""]
         lines += [f"- `{name}`: {escape_markdown(why)}" for name, why in failures.items()]
+    lines += sections
     shared = common_notes(reports.values()) if len(reports) > 1 else []
     every = "Notes on every estimator"
     lines += warnings_section(

@@ -168,6 +168,20 @@ def test_an_estimator_named_twice_is_named(tmp_path: Path) -> None:
     assert not (tmp_path / "c").exists()
 
 
+def test_estimators_joined_by_another_separator_are_told_to_use_commas(tmp_path: Path) -> None:
+    """``imm;hstf`` was 'unknown estimator ... did you mean 'hstf'?', as if hstf alone."""
+    for joined in ("imm;hstf", "imm hstf"):
+        with pytest.raises(
+            OptionError,
+            match=rf"^--estimators: '{joined}' is 2 estimators; separate them "
+            r"with commas: imm,hstf$",
+        ):
+            compare(CART, "double_cart_case1", [joined], out_dir=tmp_path / "c")
+    with pytest.raises(OptionError, match=r"unknown estimator 'imm;hsft'"):  # not two names
+        compare(CART, "double_cart_case1", ["imm;hsft"], out_dir=tmp_path / "c")
+    assert not (tmp_path / "c").exists()
+
+
 def test_a_centres_file_named_in_bytes_that_are_not_utf8(tmp_path: Path) -> None:
     """Its name went into the notes as a lone surrogate: analyze and compare ended in
     'unexpected UnicodeEncodeError in writer.py' writing report.md, after the estimators ran."""

@@ -1,0 +1,129 @@
+"""``compare``'s numbers are each estimator's own: over which samples, and why one is n/a.
+
+On a ``[components]`` model ``unknown-mode`` makes no one-step-ahead prediction of an
+output no filter cluster determines, so its VAF, fit and MSE leave those rows out: on the
+log below its VAF of yc1 is over 170 samples, imm's over 179, and the table showed
+``unknown-mode`` 92.14 beside ``imm`` 90.95 with nothing to say the two were not over the
+same samples.  An ``n/a`` cell (hstf's detection delay when it missed every switch) said
+nothing of why; report.md did.  Now the table gets a column per count that differs,
+comparison.md a "What the numbers are over" section (always: over how many samples each kind of
+number is) and a "Not available" one, and the terminal a line.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+from pathlib import Path
+
+import pytest
+
+from hybridlog.jobs.analysis import compare
+from hybridlog.report import read_report
+from hybridlog.report.comparison import samples_section, unequal_columns
+from tests.cli.test_cli import run
+from tests.support.cpha import cpha_truth_log
+from tests.support.paths import SAMPLE_LOGS
+
+CART = SAMPLE_LOGS / "double_cart_case1.csv"
+
+
+@pytest.fixture(scope="module")
+def cpha(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A ``[components]`` model file and a 180-sample log of it."""
+    return cpha_truth_log(tmp_path_factory.mktemp("cpha"))
+
+
+def _rows(path: Path) -> dict[str, dict[str, str]]:
+    with path.open(newline="") as file:
+        return {row["estimator"]: row for row in csv.DictReader(file)}
+
+
+def test_numbers_over_different_samples_say_so(cpha: tuple[Path, Path], tmp_path: Path) -> None:
+    model, log = cpha
+    out = tmp_path / "cmp"
+    outcome = compare(log, model, ["imm", "unknown-mode"], out_dir=out)
+    stored = {
+        name: json.loads((out / name / "report.json").read_text()) for name in outcome.reports
+    }
+    counts = {name: report["outputs"]["yc1"]["samples"] for name, report in stored.items()}
+    assert counts["imm"] > counts["unknown-mode"]  # the case this test is about
+    rows = _rows(out / "comparison.csv")
+    assert {name: int(row["output_samples.yc1"]) for name, row in rows.items()} == counts
+    assert "output_samples.yc2" not in rows["imm"]  # the same for both: no column
+    assert outcome.unlike == ["vaf, fit and mse are not over the same samples for every estimator"]
+    header = outcome.table.splitlines()[0]
+    assert "| samples_per_s | output_samples.yc1 | warnings |" in header
+    text = (out / "comparison.md").read_text()
+    assert (
+        "- vaf, fit and mse: **not over the same samples**, so not like for like "
+        "(`output_samples.yc1` in the table): `imm` over 179 samples of each output (yc1, "
+        "yc2); `unknown-mode` over 170 samples of yc1 and 179 of yc2"
+    ) in text
+    assert "- the mode metrics: every estimator over 180 samples" in text
+
+
+def test_the_same_samples_are_said_and_each_na_cell_gives_its_reason(tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    outcome = compare(
+        CART, "double_cart_case1", ["hstf", "imm"], out_dir=out, fail_over=["state_rmse.x1=1"]
+    )
+    assert outcome.unlike == []
+    assert "_samples" not in outcome.table  # every count alike: no column
+    text = (out / "comparison.md").read_text()
+    section = text.split("## What the numbers are over\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    assert section == [
+        "- vaf, fit and mse: every estimator over 1,000 samples of y",
+        "- the mode metrics: every estimator over 1,001 samples",
+        "- the RMSE of x1: every estimator over 1,001 samples",
+    ]
+    hstf = json.loads((out / "hstf" / "report.json").read_text())
+    assert hstf["modes"]["detection_delay_s"] is None
+    why = hstf["null_reasons"]["detection_delay_s"]
+    unavailable = text.split("## Not available\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    assert unavailable == [f"- `hstf` detection_delay_s: {why}"]
+
+
+def test_a_mean_that_leaves_out_an_output_is_named(tmp_path: Path) -> None:
+    """A VAF that is the mean of 2 of 3 outputs beside one of all 3 is not like for like."""
+    out = tmp_path / "cmp"
+    compare(SAMPLE_LOGS / "three_tank_hstf.csv", "three_tank_hstf", ["imm"], out_dir=out)
+    imm = read_report(out / "imm" / "report.json")
+    y2 = dataclasses.replace(imm.outputs["y2"], vaf=None)
+    partial = dataclasses.replace(
+        imm,
+        outputs={**imm.outputs, "y2": y2},
+        null_reasons={**imm.null_reasons, "vaf.y2": "var(ŷ) = 0"},
+    )
+    fewer = dataclasses.replace(
+        imm, outputs={**imm.outputs, "y2": dataclasses.replace(imm.outputs["y2"], samples=299)}
+    )
+    lines, unlike = samples_section({"imm": imm, "other": partial})
+    assert unlike == ["vaf is a mean over other outputs for some estimators"]
+    assert "- vaf of `other` is a mean that leaves out 1 of 3 outputs: vaf.y2 (var(ŷ) = 0)" in lines
+    assert unequal_columns({"imm": imm, "other": fewer}) == ("output_samples.y2",)
+    assert unequal_columns({"imm": imm}) == ()
+    # one report (the others failed, or one estimator named): named, not "every estimator"
+    alone, _ = samples_section({"imm": imm})
+    assert "- vaf, fit and mse: `imm` over 300 samples of each output (y1, y2, y3)" in alone
+    lines, unlike = samples_section({"other": partial})  # alone: said, but like for like
+    assert unlike == [] and any("vaf of `other` is a mean that leaves out" in x for x in lines)
+    # no true mode: nothing scored, not "over 0 samples" (nor over an unknown number)
+    blind = dataclasses.replace(imm, modes=dataclasses.replace(imm.modes, samples=None))
+    lines, _ = samples_section({"imm": blind})
+    assert "- the mode metrics: not scored, no sample to score" in lines
+
+
+def test_the_terminal_says_when_numbers_are_not_over_the_same_samples(
+    cpha: tuple[Path, Path], tmp_path: Path
+) -> None:
+    model, log = cpha
+    out = tmp_path / "cmp"
+    args = ["compare", str(log), "--model", str(model), "--estimators", "imm,unknown-mode"]
+    result = run([*args, "--out", str(out)])
+    assert (
+        "hybridlog: not like for like: vaf, fit and mse are not over the same samples for "
+        f"every estimator; see {out / 'comparison.md'}\n"
+    ) in result.stderr
+    assert "output_samples.yc1" in result.stdout
