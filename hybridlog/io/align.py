@@ -597,6 +597,7 @@ def align_signals(
     dt: float,
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
+    commands: Mapping[str, Series] | None = None,
     truth_mode: LabelSeries | None = None,
     truth_components: Mapping[str, LabelSeries] | None = None,
     states: Sequence[str] = (),
@@ -617,6 +618,11 @@ def align_signals(
         The model's sample time in seconds.
     inputs, outputs:
         ``{symbol: series}`` in the model's order.
+    commands:
+        ``{command: series}`` of a ``[components]`` model's commands, held onto the grid
+        as inputs are (and, like them, bounding its start), into
+        ``AlignedSignals.commands``; named as commands in messages and notes (``held``
+        entries of commands carry ``"kind": "command"``).
     truth_mode:
         True-mode samples whose ``codes`` are indices into the model's mode ids
         (:func:`~hybridlog.io.source.labels_to_codes`), or ``None``.
@@ -670,19 +676,20 @@ def align_signals(
     """
     dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
-    for kind, signals in (("input", inputs), ("output", outputs)):
+    commands = commands or {}
+    for kind, signals in (("input", inputs), ("output", outputs), ("command", commands)):
         for symbol, series in signals.items():
             if series.time_ns.size == 0:
                 raise LogError(
                     f"{source}: {kind} {symbol!r} ({field_word} {series.name!r}) has no samples"
                 )
     if notes is not None:
-        _record_span_bounds(inputs, outputs, field_word, dt_ns, max_gap_ns, notes)
+        _record_span_bounds(inputs, outputs, commands, field_word, dt_ns, max_gap_ns, notes)
     if split_gaps and outputs:
         outputs = _longest_piece(
             source,
             field_word,
-            inputs,
+            {**inputs, **commands},
             outputs,
             max_gap_ns,
             dt_ns,
@@ -690,7 +697,8 @@ def align_signals(
         )
 
     output_list = list(outputs.values())
-    starts, ends = [*inputs.values(), *output_list], output_list or list(inputs.values())
+    held_signals = [*inputs.values(), *commands.values()]
+    starts, ends = [*held_signals, *output_list], output_list or held_signals
     span = grid_span(dt_ns, starts, ends, source=source)
     for symbol, series in outputs.items():
         gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
@@ -701,24 +709,8 @@ def align_signals(
     grid = make_grid(dt, starts, ends, source=source)
     n = grid.size
 
-    u = np.empty((n, len(inputs)), dtype=np.float64)
-    for j, (symbol, series) in enumerate(inputs.items()):
-        on = on_grid_values(series, grid, tolerance)
-        if on is None:
-            found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
-            if found is not None:
-                _note_jitter(notes, f"input {symbol}", found, n)
-            index = (
-                found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
-            )
-            on = series.values[index]
-        u[:, j] = on
-        faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, "input")
-        if faster is not None and notes is not None:
-            notes.setdefault("faster", {})[symbol] = faster
-        held = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
-        if held is not None and notes is not None:
-            notes.setdefault("held", {})[symbol] = held
+    u = _held_onto(grid, inputs, "input", dt_ns, max_gap_ns, notes)
+    held_commands = _held_onto(grid, commands, "command", dt_ns, max_gap_ns, notes)
 
     y = np.empty((n, len(outputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(outputs.items()):
@@ -804,12 +796,57 @@ def align_signals(
         state_names=tuple(states),
         truth_states=x_true,
         truth_components=components,
+        command_names=tuple(commands or {}),
+        commands=held_commands if commands else None,
     )
+
+
+def _held_onto(
+    grid: IntArray,
+    signals: Mapping[str, Series],
+    kind: str,
+    dt_ns: int,
+    max_gap_ns: int,
+    notes: dict[str, Any] | None,
+) -> FloatArray:
+    """Inputs (or commands: ``kind``) on the grid by the hold, ``(N, len(signals))``.
+
+    Each column is the series' sample at each grid point (on the grid), its own sample
+    (a jittering clock, :func:`jittered_index`), or the last at or before it.  Recorded in
+    ``notes`` under the signal's own kind: a command is held as an input is, but the model
+    has no input of its name, and a note of "input cmd" sent the user looking for one.
+    """
+    tolerance = clock_tolerance_ns(dt_ns)
+    n = grid.size
+    held = np.empty((n, len(signals)), dtype=np.float64)
+    for j, (symbol, series) in enumerate(signals.items()):
+        on = on_grid_values(series, grid, tolerance)
+        if on is None:
+            found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
+            if found is not None:
+                _note_jitter(notes, f"{kind} {symbol}", found, n)
+            index = (
+                found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
+            )
+            on = series.values[index]
+        held[:, j] = on
+        if notes is None:
+            continue
+        faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, kind)
+        if faster is not None:
+            notes.setdefault("faster", {})[symbol] = faster
+        hold = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
+        if hold is not None:
+            notes.setdefault("held", {})[symbol] = (
+                hold if kind == "input" else {**hold, "kind": kind}
+            )
+    return held
 
 
 def _record_span_bounds(
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
+    commands: Mapping[str, Series],
     field_word: str,
     dt_ns: int,
     max_gap_ns: int,
@@ -824,12 +861,13 @@ def _record_span_bounds(
     """
     named = [
         (f"{kind} {symbol!r} ({field_word} {series.name!r})", series)
-        for kind, group in (("input", inputs), ("output", outputs))
+        for kind, group in (("input", inputs), ("command", commands), ("output", outputs))
         for symbol, series in group.items()
     ]
     if not named:
         return
-    bounding = named[len(inputs) :] or named  # the outputs end the grid (the inputs, if none)
+    held = len(inputs) + len(commands)
+    bounding = named[held:] or named  # the outputs end the grid (the held signals, if none)
     first = min(int(series.time_ns[0]) for _, series in named)
     last = max(int(series.time_ns[-1]) for _, series in named)
     start_by, start = max(((n, int(s.time_ns[0])) for n, s in named), key=lambda p: p[1])

@@ -310,19 +310,12 @@ def load_signals(
                 info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
             )
             truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
-        for command, name in mapping.commands.items():
-            if numeric_series[name].time_ns.size == 0:  # align would call it an input
-                raise LogError(
-                    f"{info.path}: command {command!r} ({info.field_word} {name!r}) has no samples"
-                )
-        # commands are held onto the grid as inputs are, then split off (_split_commands)
         aligned = align_signals(
             source=info.path,
             dt=spec.dt,
-            inputs={
-                u: numeric_series[f] for u, f in {**mapping.inputs, **mapping.commands}.items()
-            },
+            inputs={u: numeric_series[f] for u, f in mapping.inputs.items()},
             outputs={y: numeric_series[f] for y, f in mapping.outputs.items()},
+            commands={c: numeric_series[f] for c, f in mapping.commands.items()},
             truth_mode=truth_mode,
             truth_components=truth_components,
             states=spec.states,
@@ -333,21 +326,7 @@ def load_signals(
             notes=notes,
             field_word=info.field_word,
         )
-        return _split_commands(aligned, tuple(mapping.commands))
-
-
-def _split_commands(aligned: AlignedSignals, commands: tuple[str, ...]) -> AlignedSignals:
-    """The aligned signals with the trailing ``commands`` columns of the inputs moved apart."""
-    if not commands:
         return aligned
-    n_u = len(aligned.input_names) - len(commands)
-    return replace(
-        aligned,
-        input_names=aligned.input_names[:n_u],
-        inputs=np.ascontiguousarray(aligned.inputs[:, :n_u]),
-        command_names=commands,
-        commands=np.ascontiguousarray(aligned.inputs[:, n_u:]),
-    )
 
 
 def _without_empty_truth(

@@ -833,8 +833,12 @@ def _faster_notes(faster: Mapping[str, Mapping[str, Any]]) -> list[str]:
         named = ", ".join(f"{kind} {symbol}" for kind, symbol in signals)
         taken = " or ".join(
             what
-            for kind, what in (("input", "the last at or before it"), ("output", "the nearest"))
-            if kind in kinds
+            for kind, what in (
+                ("input", "the last at or before it"),
+                ("command", "the last at or before it"),
+                ("output", "the nearest"),
+            )
+            if kind in kinds and (kind != "command" or "input" not in kinds)
         )
         notes.append(
             f"NOTE: {named} {'has' if len(signals) == 1 else 'each have'} {samples:,} samples "
@@ -870,8 +874,9 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     notes += _faster_notes(reading.get("faster") or {})
     notes += [
-        f"WARNING: input {symbol} has no sample {_hold_span(hold)}: held at its last value, "
-        "as an input published only when it changes is (zero-order hold)"
+        f"WARNING: {hold.get('kind', 'input')} {symbol} has no sample {_hold_span(hold)}: "
+        f"held at its last value, as {_article(hold.get('kind', 'input'))} published only "
+        "when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
     dropped = reading.get("jitter_held") or {}
@@ -980,6 +985,11 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"{reading.get('stopped_at')}"
         )
     return tuple(notes)
+
+
+def _article(kind: str) -> str:
+    """``an input``, ``a command``: what ``reading.held`` says of a signal of ``kind``."""
+    return f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
 
 
 def _as_hold(gap: Mapping[str, Any]) -> dict[str, float]:
