@@ -11,7 +11,9 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   more than half the points with one, some late, some not) takes each point's own sample,
   where the hold would delay about half of them by a step at random (:func:`jittered_index`,
   ``notes["jitter"]``); a point whose sample was dropped holds the one before, counted
-  (``notes["jitter_held"]``).  The true mode likewise.
+  (``notes["jitter_held"]``).  The true mode likewise.  Samples no grid point takes
+  (another followed within the step) are counted, ``notes["skipped"]``.  Commands (of a
+  ``[components]`` model) are held as inputs are.
 - Outputs: the nearest sample, if it is within ``dt/2`` (``resample="nearest"``; ties go to
   the earlier sample), or linear interpolation between the samples around ``t_k``
   (``resample="linear"``).  A grid point without a sample within ``dt/2`` is a gap; a gap
@@ -432,6 +434,28 @@ def _faster_than_the_grid(
     return {"kind": kind, "samples": samples, "points": int(grid_ns.size)}
 
 
+def _skipped_by_the_hold(index: IntArray, kind: str) -> dict[str, Any] | None:
+    """``{kind, samples, unused}`` of a held series some of whose samples no grid point takes.
+
+    ``index``: the sample each grid point takes (nondecreasing, none before the first).  A
+    series with no more samples than the grid has points (else :func:`_faster_than_the_grid`
+    says it) can still lose samples to the hold: two within one step, of which the point
+    after them takes the later.  An input recorded once per step by a clock that jitters by
+    more than ``dt/4`` (beyond :func:`jittered_index`) loses a sample wherever a late one
+    follows an early one, and the point before takes the sample before its own, a step
+    late; a command published when it changes loses a change undone within a step.  Both
+    were silent: the series had as many samples as the grid points.  ``samples``: the
+    series' samples from the first point's to the last's; ``unused``: those no point takes.
+    """
+    if index.size == 0:
+        return None
+    samples = int(index[-1] - index[0]) + 1
+    unused = samples - 1 - int(np.count_nonzero(np.diff(index)))
+    if unused <= 0:
+        return None
+    return {"kind": kind, "samples": samples, "unused": unused}
+
+
 def _longest_hold(
     time_ns: IntArray, grid_ns: IntArray, dt_ns: int, max_gap_ns: int
 ) -> dict[str, float] | None:
@@ -821,6 +845,7 @@ def _held_onto(
     held = np.empty((n, len(signals)), dtype=np.float64)
     for j, (symbol, series) in enumerate(signals.items()):
         on = on_grid_values(series, grid, tolerance)
+        index: IntArray | None = None
         if on is None:
             found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
             if found is not None:
@@ -835,6 +860,10 @@ def _held_onto(
         faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, kind)
         if faster is not None:
             notes.setdefault("faster", {})[symbol] = faster
+        elif index is not None:
+            skipped = _skipped_by_the_hold(index, kind)
+            if skipped is not None:
+                notes.setdefault("skipped", {})[symbol] = {**skipped, "points": n}
         hold = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
         if hold is not None:
             notes.setdefault("held", {})[symbol] = (
