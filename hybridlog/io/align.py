@@ -539,24 +539,44 @@ def _gap_error(
     point: int,
     max_gap_ns: int,
     dt_ns: int,
+    *,
+    dropped: IntArray | None = None,
 ) -> LogError:
+    """The error of an output gap longer than ``max_gap`` around ``grid_ns[point]``.
+
+    ``dropped``: the times of the series' samples ``--drop-nonfinite`` dropped: a gap it
+    made says so, for the log has samples there ("no sample from t=0.4 s to t=1.5 s" sent
+    the user to a log with a NaN every 0.1 s in between).
+    """
     time_ns = series.time_ns
     hi = int(np.searchsorted(time_ns, grid_ns[point], side="right"))
     lo = hi - 1
     if lo < 0 or hi >= time_ns.size:
         where = f"near t={format_ns(int(grid_ns[point]))} s"
+        start, end = (int(time_ns[-1]), None) if lo >= 0 else (None, int(time_ns[0]))
     else:
         start, end = int(time_ns[lo]), int(time_ns[hi])
         where = (
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
+    usable = ""
+    if dropped is not None and dropped.size:
+        after = dropped > start if start is not None else np.ones(dropped.size, dtype=bool)
+        before = dropped < end if end is not None else np.ones(dropped.size, dtype=bool)
+        inside = int(np.count_nonzero(after & before))
+        if inside:
+            usable = "usable "
+            where += (
+                f"; --drop-nonfinite dropped the {inside} NaN, infinite or out-of-range "
+                f"{'sample' if inside == 1 else 'samples'} it has there"
+            )
     hint = _slower_than_max_gap(series, max_gap_ns, dt_ns) or (
         "; --max-gap SECONDS accepts longer gaps, --split-gaps analyses the longest piece "
         "between them"
     )
     return LogError(
-        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}{hint}"
+        f"{source}: gap in {label} ({field_word} {series.name!r}): no {usable}sample {where}{hint}"
     )
 
 
@@ -631,6 +651,7 @@ def align_signals(
     split_gaps: bool = False,
     notes: dict[str, Any] | None = None,
     field_word: str = "column",
+    dropped: Mapping[str, IntArray] | None = None,
 ) -> AlignedSignals:
     """Put mapped series onto the grid ``t0 + k*dt`` (rules in the module docstring).
 
@@ -685,6 +706,9 @@ def align_signals(
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
+    dropped:
+        ``{output: times (ns)}`` of the samples ``--drop-nonfinite`` dropped, for the error
+        of a gap they made.
 
     Returns
     -------
@@ -728,7 +752,15 @@ def align_signals(
         gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
         if gap is not None:  # before the grid: times not in seconds would ask for GiBs
             raise _gap_error(
-                source, f"output {symbol!r}", field_word, series, gap, 0, max_gap_ns, dt_ns
+                source,
+                f"output {symbol!r}",
+                field_word,
+                series,
+                gap,
+                0,
+                max_gap_ns,
+                dt_ns,
+                dropped=(dropped or {}).get(symbol),
             )
     grid = make_grid(dt, starts, ends, source=source)
     n = grid.size
@@ -749,6 +781,7 @@ def align_signals(
                 int(too_long[0]),
                 max_gap_ns,
                 dt_ns,
+                dropped=(dropped or {}).get(symbol),
             )
         if bridged and notes is not None:
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}

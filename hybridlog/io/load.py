@@ -247,6 +247,7 @@ def load_signals(
         out_of_range: dict[str, int] = {}
         emptied: dict[str, int] = {}  # fields of which --drop-nonfinite dropped every sample
         trimmed: dict[str, Series] = {}  # fields it dropped the first or last sample of
+        dropped_at: dict[str, IntArray] = {}  # the times of the samples it dropped
         for name, series in list(numeric_series.items()):
             if _all_usable(series.values):
                 continue
@@ -262,6 +263,7 @@ def load_signals(
             if (finite & ~usable).any():
                 out_of_range[name] = int((finite & ~usable).sum())
             numeric_series[name] = Series(name, series.time_ns[usable], series.values[usable])
+            dropped_at[name] = series.time_ns[~usable]
             if usable.any() and not (usable[0] and usable[-1]):
                 trimmed[name] = series
             if not usable.any():
@@ -329,6 +331,7 @@ def load_signals(
             split_gaps=options.split_gaps,
             notes=notes,
             field_word=info.field_word,
+            dropped={y: dropped_at[f] for y, f in mapping.outputs.items() if f in dropped_at},
         )
         if trimmed:
             _note_trimmed_span(

@@ -6,7 +6,8 @@ were NaN, read with ``--drop-nonfinite``, was analysed from its second sample to
 but one: report.md said "--drop-nonfinite dropped NaN or infinite samples: y 2", which read
 like two samples from inside the log, and nothing said that the analysed span had lost its
 first and last step (``reading.span`` speaks only past ``--max-gap``).  Now the end it moved
-is recorded (``reading.nonfinite_span``) and said.
+is recorded (``reading.nonfinite_span``) and said.  A gap in an output that dropped samples
+made is refused saying so.
 """
 
 from __future__ import annotations
@@ -14,6 +15,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
+
+from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.report.build import _reading_notes
 
@@ -62,3 +66,20 @@ def test_drops_that_leave_the_span_are_not_said_to_move_it(tmp_path: Path) -> No
     assert (signals.time[0], signals.time[-1]) == (0.0, 1.9)
     assert notes["nonfinite_dropped"] == {"u": 1, "y": 1}
     assert "nonfinite_span" not in notes
+
+
+def test_a_gap_made_by_dropped_samples_says_so(tmp_path: Path) -> None:
+    """The log has a sample every 0.1 s: "no sample from t=0.4 s to t=1.5 s" sent the user
+    looking for a gap that is a run of NaN, which --drop-nonfinite dropped."""
+    log = tmp_path / "log.csv"
+    log.write_text(
+        "t,u,y\n" + "".join(f"{0.1 * k:.1f},{k},{'nan' if 5 <= k < 15 else k}\n" for k in range(30))
+    )
+    with pytest.raises(LogError) as raised:
+        load_signals(log, SPEC, ReadOptions(drop_nonfinite=True))
+    assert str(raised.value) == (
+        f"{log}: gap in output 'y' (column 'y'): no usable sample from t=0.4 s to t=1.5 s "
+        "(1.1 s > max_gap 0.5 s); --drop-nonfinite dropped the 10 NaN, infinite or "
+        "out-of-range samples it has there; --max-gap SECONDS accepts longer gaps, "
+        "--split-gaps analyses the longest piece between them"
+    )
