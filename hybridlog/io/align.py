@@ -45,9 +45,11 @@ A sample up to ``dt/1000`` (at least 1 µs, at most ``dt/4``) away from a grid p
 *at* it: float seconds at Unix-epoch magnitudes carry ~0.2 µs of rounding, and a log sampled
 at ``dt`` must come out unchanged.  For the same reason a gap is longer than ``max_gap`` only
 when it exceeds it by more than that tolerance (:func:`longer_than_max_gap`): a gap of exactly
-``5*dt`` is accepted whether the log's clock starts at 0 or at 1.7e9 s.  With that, a log
-already on the grid is reproduced bit for bit: every value is one of the log's samples, never
-recomputed.
+``5*dt`` is accepted whether the log's clock starts at 0 or at 1.7e9 s.  And a sample is
+more than ``dt/2`` from a grid point only beyond that tolerance (:func:`past_half_step`): an
+output sampled half a step off the grid is within ``dt/2`` of every point wherever it lies.
+With that, a log already on the grid is reproduced bit for bit: every value is one of the
+log's samples, never recomputed.
 """
 
 from __future__ import annotations
@@ -92,6 +94,18 @@ def longer_than_max_gap(span_ns: Any, max_gap_ns: int, dt_ns: int) -> Any:
     return span_ns > max_gap_ns + clock_tolerance_ns(dt_ns)
 
 
+def past_half_step(distance_ns: Any, dt_ns: int) -> Any:
+    """Whether a distance (ns; a number or an array) from a grid point is more than ``dt/2``.
+
+    By more than :func:`clock_tolerance_ns`, as a gap is longer than ``max_gap``: an output
+    sampled half a step off the grid (ties, which go to the earlier sample) is at ``dt/2``
+    of every grid point, and at Unix-epoch times the rounding of float seconds put a few
+    hundred nanoseconds on either side.  The points it put beyond were warned of as bridged
+    (0 to 23 of 29, and a grid one point shorter, by where in the epoch the log lay).
+    """
+    return 2 * distance_ns > dt_ns + 2 * clock_tolerance_ns(dt_ns)
+
+
 def step_ns(dt: float) -> int:
     """``dt`` in whole nanoseconds, after checking it is a usable sample time.
 
@@ -119,7 +133,7 @@ def grid_span(
         When the series do not overlap or one of them is empty.
     """
     t0, t_last = _first_and_last(starts, ends, source)
-    return t0, t_last + (dt_ns // 2 if ends else 0)
+    return t0, t_last + (dt_ns // 2 + clock_tolerance_ns(dt_ns) if ends else 0)
 
 
 def _first_and_last(
@@ -190,22 +204,24 @@ def make_grid(
 def _last_grid_index(dt: float, span_ns: int, bounded_by_ends: bool) -> int:
     """The largest ``k`` whose time ``k*dt`` is within the log's span.
 
-    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series.
-    Outputs may end half a step before the last grid point; inputs alone end it at their
-    last sample, known to the nanosecond (half a nanosecond of rounding).  A step of whole
-    nanoseconds is counted exactly in integers.  Otherwise the bound is exact with ``dt`` as
-    the decimal it prints as, not rounded to nanoseconds (2 ns for 1.5e-9 s let a 12th
-    grid point, at 16.5 ns, count as within half a step of the 11th sample, at 15 ns), and
-    a trillionth of the span more absorbs a ``dt`` computed in floating point (``243 *
-    1e-10`` s prints as 2.4300000000000002e-08), whose last sample, rounded down by half a
-    nanosecond, lost its grid point.
+    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series. Outputs may
+    end half a step (:func:`past_half_step`) before the last grid point; inputs alone end it at
+    their last sample, known to the nanosecond (half a nanosecond of rounding). A step of whole
+    nanoseconds is counted exactly in integers. Otherwise the bound is exact with ``dt`` as the
+    decimal it prints as, not rounded to nanoseconds (2 ns for 1.5e-9 s let a 12th grid point,
+    at 16.5 ns, count as within half a step of the 11th sample, at 15 ns), and a trillionth of
+    the span more absorbs a ``dt`` computed in floating point (``243 * 1e-10`` s prints as
+    2.4300000000000002e-08), whose last sample, rounded down by half a nanosecond, lost its grid
+    point.
     """
     step = dt * NS_PER_S
     if step == round(step):
         whole = round(step)
-        return (span_ns + (whole // 2 if bounded_by_ends else 0)) // whole
+        half = whole // 2 + clock_tolerance_ns(whole)  # within dt/2: past_half_step
+        return (span_ns + (half if bounded_by_ends else 0)) // whole
     exact = Fraction(str(float(dt))) * NS_PER_S
-    reach = span_ns + (exact / 2 if bounded_by_ends else Fraction(1, 2))
+    tolerance = clock_tolerance_ns(round(step))
+    reach = span_ns + (exact / 2 + tolerance if bounded_by_ends else Fraction(1, 2))
     return max(math.floor(reach * (1 + Fraction(1, 10**12)) / exact), 0)
 
 
@@ -403,7 +419,7 @@ def resample_series(
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
     linear = method == "linear"
     values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
-    in_gap = np.flatnonzero(2 * distance > dt_ns)
+    in_gap = np.flatnonzero(past_half_step(distance, dt_ns))
     if in_gap.size == 0:
         return values, in_gap, 0
     time_ns = series.time_ns
@@ -515,7 +531,7 @@ def _gap_on_the_grid(
     time_ns = series.time_ns
     if time_ns.size < 2:
         return None
-    half = dt_ns // 2 + 1  # strictly more than dt/2 from a sample
+    half = dt_ns // 2 + clock_tolerance_ns(dt_ns) + 1  # past_half_step from a sample
     steps = np.diff(time_ns)
     candidates = np.flatnonzero(longer_than_max_gap(steps, max(max_gap_ns, 2 * dt_ns), dt_ns))
     if candidates.size == 0:
@@ -991,7 +1007,7 @@ def _hold_modes(
     # a grid point within half a step of the first sample takes it, as the nearest sample;
     # before that there is no truth to hold: those samples are not scored
     first = int(series.time_ns[0])
-    modes[before & (2 * (first - grid) > dt_ns)] = NO_TRUE_MODE
+    modes[before & past_half_step(first - grid, dt_ns)] = NO_TRUE_MODE
     if records_switches(series.codes):
         return modes, None
     return modes, _blank_gaps(series, grid, dt_ns, max_gap_ns, modes)
@@ -1023,8 +1039,8 @@ def _blank_gaps(
     k = sample[points]
     has_next = k + 1 < times.size
     following = times[np.minimum(k + 1, times.size - 1)]
-    far = 2 * (grid[points] - times[k]) > dt_ns
-    near_next = has_next & (2 * (following - grid[points]) <= dt_ns)
+    far = past_half_step(grid[points] - times[k], dt_ns)
+    near_next = has_next & ~past_half_step(following - grid[points], dt_ns)
     modes[points[far & near_next]] = series.codes[k[far & near_next] + 1]
     blank = far & ~near_next
     modes[points[blank]] = NO_TRUE_MODE
