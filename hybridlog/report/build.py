@@ -875,7 +875,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     notes += _faster_notes(reading.get("faster") or {})
     notes += [
-        f"WARNING: {count['kind']} {symbol}: {count['unused']:,} of its {count['samples']:,} "
+        f"NOTE: {count['kind']} {symbol}: {count['unused']:,} of its {count['samples']:,} "
         f"samples over the {count['points']:,} sample times analysed "
         f"{'is' if count['unused'] == 1 else 'are'} not used: each sample time takes the last "
         "sample at or before it (SPEC §5), and another sample followed each of these "

@@ -7,7 +7,7 @@ early one, the early one was never used and the point before took the sample bef
 own, a step late.  Half the samples were a step late at random, and nothing said so: the
 input had as many samples as the grid has points, so ``reading.faster`` was silent.  A
 command toggled and back within one step lost the pulse the same way.  Such samples are now
-counted (``reading.skipped``) and report.md warns.
+counted (``reading.skipped``) and report.md says so.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def test_an_input_jittering_by_up_to_half_a_step_is_warned(tmp_path: Path) -> No
     assert notes["skipped"] == {"u": {"kind": "input", "samples": 39, "unused": 19, "points": 40}}
     (said,) = (n for n in _reading_notes(notes) if "not used" in n)
     assert said.startswith(
-        "WARNING: input u: 19 of its 39 samples over the 40 sample times analysed are not "
+        "NOTE: input u: 19 of its 39 samples over the 40 sample times analysed are not "
         "used: each sample time takes the last sample at or before it (SPEC §5)"
     )
 
