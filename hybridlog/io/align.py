@@ -11,7 +11,9 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   more than half the points with one, some late, some not) takes each point's own sample,
   where the hold would delay about half of them by a step at random (:func:`jittered_index`,
   ``notes["jitter"]``); a point whose sample was dropped holds the one before, counted
-  (``notes["jitter_held"]``).  The true mode likewise.
+  (``notes["jitter_held"]``).  The true mode likewise.  Samples no grid point takes
+  (another followed within the step) are counted, ``notes["skipped"]``.  Commands (of a
+  ``[components]`` model) are held as inputs are.
 - Outputs: the nearest sample, if it is within ``dt/2`` (``resample="nearest"``; ties go to
   the earlier sample), or linear interpolation between the samples around ``t_k``
   (``resample="linear"``).  A grid point without a sample within ``dt/2`` is a gap; a gap
@@ -43,9 +45,11 @@ A sample up to ``dt/1000`` (at least 1 µs, at most ``dt/4``) away from a grid p
 *at* it: float seconds at Unix-epoch magnitudes carry ~0.2 µs of rounding, and a log sampled
 at ``dt`` must come out unchanged.  For the same reason a gap is longer than ``max_gap`` only
 when it exceeds it by more than that tolerance (:func:`longer_than_max_gap`): a gap of exactly
-``5*dt`` is accepted whether the log's clock starts at 0 or at 1.7e9 s.  With that, a log
-already on the grid is reproduced bit for bit: every value is one of the log's samples, never
-recomputed.
+``5*dt`` is accepted whether the log's clock starts at 0 or at 1.7e9 s.  And a sample is
+more than ``dt/2`` from a grid point only beyond that tolerance (:func:`past_half_step`): an
+output sampled half a step off the grid is within ``dt/2`` of every point wherever it lies.
+With that, a log already on the grid is reproduced bit for bit: every value is one of the
+log's samples, never recomputed.
 """
 
 from __future__ import annotations
@@ -90,6 +94,18 @@ def longer_than_max_gap(span_ns: Any, max_gap_ns: int, dt_ns: int) -> Any:
     return span_ns > max_gap_ns + clock_tolerance_ns(dt_ns)
 
 
+def past_half_step(distance_ns: Any, dt_ns: int) -> Any:
+    """Whether a distance (ns; a number or an array) from a grid point is more than ``dt/2``.
+
+    By more than :func:`clock_tolerance_ns`, as a gap is longer than ``max_gap``: an output
+    sampled half a step off the grid (ties, which go to the earlier sample) is at ``dt/2``
+    of every grid point, and at Unix-epoch times the rounding of float seconds put a few
+    hundred nanoseconds on either side.  The points it put beyond were warned of as bridged
+    (0 to 23 of 29, and a grid one point shorter, by where in the epoch the log lay).
+    """
+    return 2 * distance_ns > dt_ns + 2 * clock_tolerance_ns(dt_ns)
+
+
 def step_ns(dt: float) -> int:
     """``dt`` in whole nanoseconds, after checking it is a usable sample time.
 
@@ -117,7 +133,7 @@ def grid_span(
         When the series do not overlap or one of them is empty.
     """
     t0, t_last = _first_and_last(starts, ends, source)
-    return t0, t_last + (dt_ns // 2 if ends else 0)
+    return t0, t_last + (dt_ns // 2 + clock_tolerance_ns(dt_ns) if ends else 0)
 
 
 def _first_and_last(
@@ -188,22 +204,24 @@ def make_grid(
 def _last_grid_index(dt: float, span_ns: int, bounded_by_ends: bool) -> int:
     """The largest ``k`` whose time ``k*dt`` is within the log's span.
 
-    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series.
-    Outputs may end half a step before the last grid point; inputs alone end it at their
-    last sample, known to the nanosecond (half a nanosecond of rounding).  A step of whole
-    nanoseconds is counted exactly in integers.  Otherwise the bound is exact with ``dt`` as
-    the decimal it prints as, not rounded to nanoseconds (2 ns for 1.5e-9 s let a 12th
-    grid point, at 16.5 ns, count as within half a step of the 11th sample, at 15 ns), and
-    a trillionth of the span more absorbs a ``dt`` computed in floating point (``243 *
-    1e-10`` s prints as 2.4300000000000002e-08), whose last sample, rounded down by half a
-    nanosecond, lost its grid point.
+    ``span_ns`` runs from ``t0`` to the earliest last sample of the bounding series. Outputs may
+    end half a step (:func:`past_half_step`) before the last grid point; inputs alone end it at
+    their last sample, known to the nanosecond (half a nanosecond of rounding). A step of whole
+    nanoseconds is counted exactly in integers. Otherwise the bound is exact with ``dt`` as the
+    decimal it prints as, not rounded to nanoseconds (2 ns for 1.5e-9 s let a 12th grid point,
+    at 16.5 ns, count as within half a step of the 11th sample, at 15 ns), and a trillionth of
+    the span more absorbs a ``dt`` computed in floating point (``243 * 1e-10`` s prints as
+    2.4300000000000002e-08), whose last sample, rounded down by half a nanosecond, lost its grid
+    point.
     """
     step = dt * NS_PER_S
     if step == round(step):
         whole = round(step)
-        return (span_ns + (whole // 2 if bounded_by_ends else 0)) // whole
+        half = whole // 2 + clock_tolerance_ns(whole)  # within dt/2: past_half_step
+        return (span_ns + (half if bounded_by_ends else 0)) // whole
     exact = Fraction(str(float(dt))) * NS_PER_S
-    reach = span_ns + (exact / 2 if bounded_by_ends else Fraction(1, 2))
+    tolerance = clock_tolerance_ns(round(step))
+    reach = span_ns + (exact / 2 + tolerance if bounded_by_ends else Fraction(1, 2))
     return max(math.floor(reach * (1 + Fraction(1, 10**12)) / exact), 0)
 
 
@@ -401,7 +419,7 @@ def resample_series(
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
     linear = method == "linear"
     values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
-    in_gap = np.flatnonzero(2 * distance > dt_ns)
+    in_gap = np.flatnonzero(past_half_step(distance, dt_ns))
     if in_gap.size == 0:
         return values, in_gap, 0
     time_ns = series.time_ns
@@ -430,6 +448,28 @@ def _faster_than_the_grid(
     if samples <= grid_ns.size:
         return None
     return {"kind": kind, "samples": samples, "points": int(grid_ns.size)}
+
+
+def _skipped_by_the_hold(index: IntArray, kind: str) -> dict[str, Any] | None:
+    """``{kind, samples, unused}`` of a held series some of whose samples no grid point takes.
+
+    ``index``: the sample each grid point takes (nondecreasing, none before the first).  A
+    series with no more samples than the grid has points (else :func:`_faster_than_the_grid`
+    says it) can still lose samples to the hold: two within one step, of which the point
+    after them takes the later.  An input recorded once per step by a clock that jitters by
+    more than ``dt/4`` (beyond :func:`jittered_index`) loses a sample wherever a late one
+    follows an early one, and the point before takes the sample before its own, a step
+    late; a command published when it changes loses a change undone within a step.  Both
+    were silent: the series had as many samples as the grid points.  ``samples``: the
+    series' samples from the first point's to the last's; ``unused``: those no point takes.
+    """
+    if index.size == 0:
+        return None
+    samples = int(index[-1] - index[0]) + 1
+    unused = samples - 1 - int(np.count_nonzero(np.diff(index)))
+    if unused <= 0:
+        return None
+    return {"kind": kind, "samples": samples, "unused": unused}
 
 
 def _longest_hold(
@@ -491,7 +531,7 @@ def _gap_on_the_grid(
     time_ns = series.time_ns
     if time_ns.size < 2:
         return None
-    half = dt_ns // 2 + 1  # strictly more than dt/2 from a sample
+    half = dt_ns // 2 + clock_tolerance_ns(dt_ns) + 1  # past_half_step from a sample
     steps = np.diff(time_ns)
     candidates = np.flatnonzero(longer_than_max_gap(steps, max(max_gap_ns, 2 * dt_ns), dt_ns))
     if candidates.size == 0:
@@ -515,24 +555,44 @@ def _gap_error(
     point: int,
     max_gap_ns: int,
     dt_ns: int,
+    *,
+    dropped: IntArray | None = None,
 ) -> LogError:
+    """The error of an output gap longer than ``max_gap`` around ``grid_ns[point]``.
+
+    ``dropped``: the times of the series' samples ``--drop-nonfinite`` dropped: a gap it
+    made says so, for the log has samples there ("no sample from t=0.4 s to t=1.5 s" sent
+    the user to a log with a NaN every 0.1 s in between).
+    """
     time_ns = series.time_ns
     hi = int(np.searchsorted(time_ns, grid_ns[point], side="right"))
     lo = hi - 1
     if lo < 0 or hi >= time_ns.size:
         where = f"near t={format_ns(int(grid_ns[point]))} s"
+        start, end = (int(time_ns[-1]), None) if lo >= 0 else (None, int(time_ns[0]))
     else:
         start, end = int(time_ns[lo]), int(time_ns[hi])
         where = (
             f"from t={format_ns(start)} s to t={format_ns(end)} s "
             f"({format_ns(end - start)} s > max_gap {format_ns(max_gap_ns)} s)"
         )
+    usable = ""
+    if dropped is not None and dropped.size:
+        after = dropped > start if start is not None else np.ones(dropped.size, dtype=bool)
+        before = dropped < end if end is not None else np.ones(dropped.size, dtype=bool)
+        inside = int(np.count_nonzero(after & before))
+        if inside:
+            usable = "usable "
+            where += (
+                f"; --drop-nonfinite dropped the {inside} NaN, infinite or out-of-range "
+                f"{'sample' if inside == 1 else 'samples'} it has there"
+            )
     hint = _slower_than_max_gap(series, max_gap_ns, dt_ns) or (
         "; --max-gap SECONDS accepts longer gaps, --split-gaps analyses the longest piece "
         "between them"
     )
     return LogError(
-        f"{source}: gap in {label} ({field_word} {series.name!r}): no sample {where}{hint}"
+        f"{source}: gap in {label} ({field_word} {series.name!r}): no {usable}sample {where}{hint}"
     )
 
 
@@ -597,6 +657,7 @@ def align_signals(
     dt: float,
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
+    commands: Mapping[str, Series] | None = None,
     truth_mode: LabelSeries | None = None,
     truth_components: Mapping[str, LabelSeries] | None = None,
     states: Sequence[str] = (),
@@ -606,6 +667,7 @@ def align_signals(
     split_gaps: bool = False,
     notes: dict[str, Any] | None = None,
     field_word: str = "column",
+    dropped: Mapping[str, IntArray] | None = None,
 ) -> AlignedSignals:
     """Put mapped series onto the grid ``t0 + k*dt`` (rules in the module docstring).
 
@@ -617,6 +679,11 @@ def align_signals(
         The model's sample time in seconds.
     inputs, outputs:
         ``{symbol: series}`` in the model's order.
+    commands:
+        ``{command: series}`` of a ``[components]`` model's commands, held onto the grid
+        as inputs are (and, like them, bounding its start), into
+        ``AlignedSignals.commands``; named as commands in messages and notes (``held``
+        entries of commands carry ``"kind": "command"``).
     truth_mode:
         True-mode samples whose ``codes`` are indices into the model's mode ids
         (:func:`~hybridlog.io.source.labels_to_codes`), or ``None``.
@@ -655,6 +722,9 @@ def align_signals(
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
+    dropped:
+        ``{output: times (ns)}`` of the samples ``--drop-nonfinite`` dropped, for the error
+        of a gap they made.
 
     Returns
     -------
@@ -670,19 +740,20 @@ def align_signals(
     """
     dt_ns, method, max_gap_ns = check_alignment_options(dt, resample, max_gap)
     tolerance = clock_tolerance_ns(dt_ns)
-    for kind, signals in (("input", inputs), ("output", outputs)):
+    commands = commands or {}
+    for kind, signals in (("input", inputs), ("output", outputs), ("command", commands)):
         for symbol, series in signals.items():
             if series.time_ns.size == 0:
                 raise LogError(
                     f"{source}: {kind} {symbol!r} ({field_word} {series.name!r}) has no samples"
                 )
     if notes is not None:
-        _record_span_bounds(inputs, outputs, field_word, dt_ns, max_gap_ns, notes)
+        _record_span_bounds(inputs, outputs, commands, field_word, dt_ns, max_gap_ns, notes)
     if split_gaps and outputs:
         outputs = _longest_piece(
             source,
             field_word,
-            inputs,
+            {**inputs, **commands},
             outputs,
             max_gap_ns,
             dt_ns,
@@ -690,35 +761,28 @@ def align_signals(
         )
 
     output_list = list(outputs.values())
-    starts, ends = [*inputs.values(), *output_list], output_list or list(inputs.values())
+    held_signals = [*inputs.values(), *commands.values()]
+    starts, ends = [*held_signals, *output_list], output_list or held_signals
     span = grid_span(dt_ns, starts, ends, source=source)
     for symbol, series in outputs.items():
         gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
         if gap is not None:  # before the grid: times not in seconds would ask for GiBs
             raise _gap_error(
-                source, f"output {symbol!r}", field_word, series, gap, 0, max_gap_ns, dt_ns
+                source,
+                f"output {symbol!r}",
+                field_word,
+                series,
+                gap,
+                0,
+                max_gap_ns,
+                dt_ns,
+                dropped=(dropped or {}).get(symbol),
             )
     grid = make_grid(dt, starts, ends, source=source)
     n = grid.size
 
-    u = np.empty((n, len(inputs)), dtype=np.float64)
-    for j, (symbol, series) in enumerate(inputs.items()):
-        on = on_grid_values(series, grid, tolerance)
-        if on is None:
-            found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
-            if found is not None:
-                _note_jitter(notes, f"input {symbol}", found, n)
-            index = (
-                found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
-            )
-            on = series.values[index]
-        u[:, j] = on
-        faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, "input")
-        if faster is not None and notes is not None:
-            notes.setdefault("faster", {})[symbol] = faster
-        held = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
-        if held is not None and notes is not None:
-            notes.setdefault("held", {})[symbol] = held
+    u = _held_onto(grid, inputs, "input", dt_ns, max_gap_ns, notes)
+    held_commands = _held_onto(grid, commands, "command", dt_ns, max_gap_ns, notes)
 
     y = np.empty((n, len(outputs)), dtype=np.float64)
     for j, (symbol, series) in enumerate(outputs.items()):
@@ -733,6 +797,7 @@ def align_signals(
                 int(too_long[0]),
                 max_gap_ns,
                 dt_ns,
+                dropped=(dropped or {}).get(symbol),
             )
         if bridged and notes is not None:
             notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
@@ -804,12 +869,62 @@ def align_signals(
         state_names=tuple(states),
         truth_states=x_true,
         truth_components=components,
+        command_names=tuple(commands or {}),
+        commands=held_commands if commands else None,
     )
+
+
+def _held_onto(
+    grid: IntArray,
+    signals: Mapping[str, Series],
+    kind: str,
+    dt_ns: int,
+    max_gap_ns: int,
+    notes: dict[str, Any] | None,
+) -> FloatArray:
+    """Inputs (or commands: ``kind``) on the grid by the hold, ``(N, len(signals))``.
+
+    Each column is the series' sample at each grid point (on the grid), its own sample
+    (a jittering clock, :func:`jittered_index`), or the last at or before it.  Recorded in
+    ``notes`` under the signal's own kind: a command is held as an input is, but the model
+    has no input of its name, and a note of "input cmd" sent the user looking for one.
+    """
+    tolerance = clock_tolerance_ns(dt_ns)
+    n = grid.size
+    held = np.empty((n, len(signals)), dtype=np.float64)
+    for j, (symbol, series) in enumerate(signals.items()):
+        on = on_grid_values(series, grid, tolerance)
+        index: IntArray | None = None
+        if on is None:
+            found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
+            if found is not None:
+                _note_jitter(notes, f"{kind} {symbol}", found, n)
+            index = (
+                found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
+            )
+            on = series.values[index]
+        held[:, j] = on
+        if notes is None:
+            continue
+        faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, kind)
+        if faster is not None:
+            notes.setdefault("faster", {})[symbol] = faster
+        elif index is not None:
+            skipped = _skipped_by_the_hold(index, kind)
+            if skipped is not None:
+                notes.setdefault("skipped", {})[symbol] = {**skipped, "points": n}
+        hold = _longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
+        if hold is not None:
+            notes.setdefault("held", {})[symbol] = (
+                hold if kind == "input" else {**hold, "kind": kind}
+            )
+    return held
 
 
 def _record_span_bounds(
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
+    commands: Mapping[str, Series],
     field_word: str,
     dt_ns: int,
     max_gap_ns: int,
@@ -824,12 +939,13 @@ def _record_span_bounds(
     """
     named = [
         (f"{kind} {symbol!r} ({field_word} {series.name!r})", series)
-        for kind, group in (("input", inputs), ("output", outputs))
+        for kind, group in (("input", inputs), ("command", commands), ("output", outputs))
         for symbol, series in group.items()
     ]
     if not named:
         return
-    bounding = named[len(inputs) :] or named  # the outputs end the grid (the inputs, if none)
+    held = len(inputs) + len(commands)
+    bounding = named[held:] or named  # the outputs end the grid (the held signals, if none)
     first = min(int(series.time_ns[0]) for _, series in named)
     last = max(int(series.time_ns[-1]) for _, series in named)
     start_by, start = max(((n, int(s.time_ns[0])) for n, s in named), key=lambda p: p[1])
@@ -891,7 +1007,7 @@ def _hold_modes(
     # a grid point within half a step of the first sample takes it, as the nearest sample;
     # before that there is no truth to hold: those samples are not scored
     first = int(series.time_ns[0])
-    modes[before & (2 * (first - grid) > dt_ns)] = NO_TRUE_MODE
+    modes[before & past_half_step(first - grid, dt_ns)] = NO_TRUE_MODE
     if records_switches(series.codes):
         return modes, None
     return modes, _blank_gaps(series, grid, dt_ns, max_gap_ns, modes)
@@ -923,8 +1039,8 @@ def _blank_gaps(
     k = sample[points]
     has_next = k + 1 < times.size
     following = times[np.minimum(k + 1, times.size - 1)]
-    far = 2 * (grid[points] - times[k]) > dt_ns
-    near_next = has_next & (2 * (following - grid[points]) <= dt_ns)
+    far = past_half_step(grid[points] - times[k], dt_ns)
+    near_next = has_next & ~past_half_step(following - grid[points], dt_ns)
     modes[points[far & near_next]] = series.codes[k[far & near_next] + 1]
     blank = far & ~near_next
     modes[points[blank]] = NO_TRUE_MODE

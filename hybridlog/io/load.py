@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hybridlog.errors import LogError
-from hybridlog.io.align import align_signals, check_alignment_options
+from hybridlog.io.align import align_signals, check_alignment_options, clock_tolerance_ns
 from hybridlog.io.formats import open_log
 from hybridlog.io.mapping import (
     TRUTH_MODE,
@@ -30,7 +30,7 @@ from hybridlog.io.mapping import (
     resolve_signal_map,
 )
 from hybridlog.io.options import ReadOptions
-from hybridlog.io.source import FieldKey, LabelSeries, Series, format_ns
+from hybridlog.io.source import NS_PER_S, FieldKey, LabelSeries, Series, format_ns
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
 
 Locate = Callable[[str, int], str]
@@ -173,7 +173,8 @@ def load_signals(
         Filled with what reading did, for the report: the format, the time source, the
         field read for each symbol and where it came from (``fields``: ``{symbol:
         {"field": ..., "from": "--map" | "[signals]" | "[truth]" | "default"}}``), and
-        recovery, sorting, dropped samples and gap pieces where they apply.
+        recovery, sorting, dropped samples (and the end of the analysed span a dropped first
+        or last sample moved, ``nonfinite_span``) and gap pieces where they apply.
 
     Returns
     -------
@@ -245,6 +246,8 @@ def load_signals(
         dropped: dict[str, int] = {}
         out_of_range: dict[str, int] = {}
         emptied: dict[str, int] = {}  # fields of which --drop-nonfinite dropped every sample
+        trimmed: dict[str, Series] = {}  # fields it dropped the first or last sample of
+        dropped_at: dict[str, IntArray] = {}  # the times of the samples it dropped
         for name, series in list(numeric_series.items()):
             if _all_usable(series.values):
                 continue
@@ -260,6 +263,9 @@ def load_signals(
             if (finite & ~usable).any():
                 out_of_range[name] = int((finite & ~usable).sum())
             numeric_series[name] = Series(name, series.time_ns[usable], series.values[usable])
+            dropped_at[name] = series.time_ns[~usable]
+            if usable.any() and not (usable[0] and usable[-1]):
+                trimmed[name] = series
             if not usable.any():
                 emptied[name] = int(usable.size)
                 needed = [f"input {u!r}" for u, f in mapping.inputs.items() if f == name]
@@ -310,19 +316,12 @@ def load_signals(
                 info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
             )
             truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
-        for command, name in mapping.commands.items():
-            if numeric_series[name].time_ns.size == 0:  # align would call it an input
-                raise LogError(
-                    f"{info.path}: command {command!r} ({info.field_word} {name!r}) has no samples"
-                )
-        # commands are held onto the grid as inputs are, then split off (_split_commands)
         aligned = align_signals(
             source=info.path,
             dt=spec.dt,
-            inputs={
-                u: numeric_series[f] for u, f in {**mapping.inputs, **mapping.commands}.items()
-            },
+            inputs={u: numeric_series[f] for u, f in mapping.inputs.items()},
             outputs={y: numeric_series[f] for y, f in mapping.outputs.items()},
+            commands={c: numeric_series[f] for c, f in mapping.commands.items()},
             truth_mode=truth_mode,
             truth_components=truth_components,
             states=spec.states,
@@ -332,22 +331,70 @@ def load_signals(
             split_gaps=options.split_gaps,
             notes=notes,
             field_word=info.field_word,
+            dropped={y: dropped_at[f] for y, f in mapping.outputs.items() if f in dropped_at},
         )
-        return _split_commands(aligned, tuple(mapping.commands))
-
-
-def _split_commands(aligned: AlignedSignals, commands: tuple[str, ...]) -> AlignedSignals:
-    """The aligned signals with the trailing ``commands`` columns of the inputs moved apart."""
-    if not commands:
+        if trimmed:
+            _note_trimmed_span(
+                aligned.time, spec.dt, mapping, numeric_series, trimmed, notes, info.field_word
+            )
         return aligned
-    n_u = len(aligned.input_names) - len(commands)
-    return replace(
-        aligned,
-        input_names=aligned.input_names[:n_u],
-        inputs=np.ascontiguousarray(aligned.inputs[:, :n_u]),
-        command_names=commands,
-        commands=np.ascontiguousarray(aligned.inputs[:, n_u:]),
-    )
+
+
+def _note_trimmed_span(
+    time: npt.NDArray[np.float64],
+    dt: float,
+    mapping: SignalMap,
+    kept: Mapping[str, Series],
+    trimmed: Mapping[str, Series],
+    notes: dict[str, Any],
+    word: str,
+) -> None:
+    """Record an end of the analysed span ``--drop-nonfinite`` moved (``nonfinite_span``).
+
+    The grid starts at the latest first sample of the inputs, commands and outputs and ends
+    within half a step of the outputs' earliest last one (SPEC §5): a NaN first or last
+    sample dropped moves it, and report.md said only how many samples were dropped, which
+    read like samples from inside the log.  ``{"start" | "end": {signal, at, dropped,
+    from}}``: the signal whose kept sample at ``at`` (s) bounds the span, and the ``dropped``
+    samples before (after) it, from (to) ``from`` (s).  ``trimmed``: the fields as read,
+    before dropping; ``kept``: after; ``word``: what the log calls a field.
+    """
+    if time.size == 0:
+        return
+    dt_ns = round(dt * NS_PER_S)
+    tolerance = clock_tolerance_ns(dt_ns)
+    first, last = round(float(time[0]) * NS_PER_S), round(float(time[-1]) * NS_PER_S)
+    held = {**mapping.inputs, **mapping.commands}
+    bounding = mapping.outputs or held  # what ends the grid (SPEC §5)
+    named = [
+        (kind, symbol, name)
+        for kind, group in (("input", mapping.inputs), ("command", mapping.commands))
+        for symbol, name in group.items()
+    ] + [("output", symbol, name) for symbol, name in mapping.outputs.items()]
+    span: dict[str, dict[str, Any]] = {}
+    for kind, symbol, name in named:
+        if name not in trimmed or kept[name].time_ns.size == 0:
+            continue
+        read, times = trimmed[name].time_ns, kept[name].time_ns
+        label = f"{kind} {symbol!r} ({word} {name!r})"
+        start, end = int(times[0]), int(times[-1])
+        if start > int(read[0]) and abs(start - first) <= tolerance and "start" not in span:
+            span["start"] = {
+                "signal": label,
+                "at": start / NS_PER_S,
+                "dropped": int(np.count_nonzero(read < start)),
+                "from": int(read[0]) / NS_PER_S,
+            }
+        ends_grid = symbol in bounding and -tolerance <= last - end <= dt_ns // 2 + tolerance
+        if end < int(read[-1]) and ends_grid and "end" not in span:
+            span["end"] = {
+                "signal": label,
+                "at": end / NS_PER_S,
+                "dropped": int(np.count_nonzero(read > end)),
+                "from": int(read[-1]) / NS_PER_S,
+            }
+    if span:
+        notes["nonfinite_span"] = span
 
 
 def _without_empty_truth(

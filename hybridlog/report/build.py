@@ -833,8 +833,12 @@ def _faster_notes(faster: Mapping[str, Mapping[str, Any]]) -> list[str]:
         named = ", ".join(f"{kind} {symbol}" for kind, symbol in signals)
         taken = " or ".join(
             what
-            for kind, what in (("input", "the last at or before it"), ("output", "the nearest"))
-            if kind in kinds
+            for kind, what in (
+                ("input", "the last at or before it"),
+                ("command", "the last at or before it"),
+                ("output", "the nearest"),
+            )
+            if kind in kinds and (kind != "command" or "input" not in kinds)
         )
         notes.append(
             f"NOTE: {named} {'has' if len(signals) == 1 else 'each have'} {samples:,} samples "
@@ -851,12 +855,13 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
     Warnings about the alignment (outputs and true states bridged across gaps, ``bridged``,
-    ``truth_bridged``), the signal that started the analysed span late or ended it early
-    (``span``), and what the user's repairs changed: the piece ``--split-gaps`` kept
-    (``segments``), the samples ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged
-    or replaced, an MCAP file read by ``--recover``; and the ground truth found by default
-    but not used (no samples, or unreadable: ``truth_without_samples``, ``truth_unusable``),
-    and ground truth read from an input's or output's field (``truth_shared``).
+    ``truth_bridged``; input and command samples the hold does not take, ``skipped``), the
+    signal that started the analysed span late or ended it early (``span``), and what the user's
+    repairs changed: the piece ``--split-gaps`` kept (``segments``), the samples
+    ``--drop-nonfinite`` and ``--sort`` dropped, moved, merged or replaced, an MCAP file read by
+    ``--recover``; and the ground truth found by default but not used (no samples, or
+    unreadable: ``truth_without_samples``, ``truth_unusable``), and ground truth read from an
+    input's or output's field (``truth_shared``).
     A report of a tenth of a log, or of one with samples taken out, said only its sample
     count and time span, which read like the whole log's.
     """
@@ -870,8 +875,18 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     notes += _faster_notes(reading.get("faster") or {})
     notes += [
-        f"WARNING: input {symbol} has no sample {_hold_span(hold)}: held at its last value, "
-        "as an input published only when it changes is (zero-order hold)"
+        f"NOTE: {count['kind']} {symbol}: {count['unused']:,} of its {count['samples']:,} "
+        f"samples over the {count['points']:,} sample times analysed "
+        f"{'is' if count['unused'] == 1 else 'are'} not used: each sample time takes the last "
+        "sample at or before it (SPEC §5), and another sample followed each of these "
+        "before the next sample time (a change undone within dt, or a clock jittering by "
+        "more than dt/4, whose late samples are then taken a step late)"
+        for symbol, count in (reading.get("skipped") or {}).items()
+    ]
+    notes += [
+        f"WARNING: {hold.get('kind', 'input')} {symbol} has no sample {_hold_span(hold)}: "
+        f"held at its last value, as {_article(hold.get('kind', 'input'))} published only "
+        "when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
     dropped = reading.get("jitter_held") or {}
@@ -948,6 +963,15 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ):
         if key in reading:
             notes.append(f"NOTE: {what}: {_counts(reading[key])}")
+    for side, moved in (reading.get("nonfinite_span") or {}).items():
+        first = side == "start"
+        notes.append(
+            f"NOTE: the analysed span {side}s at t = {format_time(moved['at'])} s, the "
+            f"{'first' if first else 'last'} sample --drop-nonfinite kept of {moved['signal']}: "
+            f"it dropped the {plural(moved['dropped'], 'sample')} "
+            f"{'before' if first else 'after'} it ({'from' if first else 'to'} "
+            f"t = {format_time(moved['from'])} s)"
+        )
     # a table's rows (counts; a message log's duplicates are counted per topic, never merged)
     combined, dropped = reading.get("rows_combined", 0), reading.get("duplicates_dropped", 0)
     merged = combined - (dropped if isinstance(dropped, int) else 0)
@@ -980,6 +1004,11 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"{reading.get('stopped_at')}"
         )
     return tuple(notes)
+
+
+def _article(kind: str) -> str:
+    """``an input``, ``a command``: what ``reading.held`` says of a signal of ``kind``."""
+    return f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
 
 
 def _as_hold(gap: Mapping[str, Any]) -> dict[str, float]:
