@@ -71,6 +71,7 @@ from hybridlog.model.values import (
     required,
 )
 from hybridlog.signals import LONGEST_DT_S, MAX_SUBSTEPS, SHORTEST_DT_S, FloatArray
+from hybridlog.simulate import parse_schedule
 
 __all__ = ["load_model", "parse_model"]
 
@@ -355,7 +356,7 @@ class _Builder:
             },
             simulation_state=sim_state,
             simulation_inputs=sim_inputs,
-            simulation_schedule=_schedule_text(simulation),
+            simulation_schedule=_schedule_text(simulation, tuple(m.id for m in modes)),
             simulation_state_min=(
                 as_vector(simulation["state_min"], len(states), "simulation.state_min")
                 if "state_min" in simulation
@@ -871,7 +872,7 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
         raise ModelError("initial: give either mode or mode_probabilities, not both")
     if "mode" in initial:
         written = initial["mode"]
-        if isinstance(written, bool) or not isinstance(written, str | int):
+        if isinstance(written, bool) or not isinstance(written, str | int | float):
             raise ModelError(
                 f"initial.mode: expected a mode id (a string such as {mode_ids[0]!r}), got "
                 f"{excerpt(repr(written), 40)[1:-1]}"
@@ -1153,11 +1154,13 @@ def _role(name: str, groups: Mapping[str, tuple[str, ...]]) -> str:
     return f"{'an' if singular[0] in 'aeiou' else 'a'} {singular}"
 
 
-def _schedule_text(simulation: Mapping[str, Any]) -> str:
-    """``[simulation] schedule`` as written; ``""`` where the key is absent.
+def _schedule_text(simulation: Mapping[str, Any], mode_ids: tuple[str, ...]) -> str:
+    """``[simulation] schedule`` as written, checked against the modes; ``""`` where absent.
 
     An empty or blank value was taken as no schedule at all (the first mode for 100 steps),
-    where ``--schedule ""`` is refused: given, it must say something.
+    where ``--schedule ""`` is refused: given, it must say something.  A schedule naming a
+    mode the file does not list (a mode renamed or removed in a copy of a built-in) was
+    refused only by ``simulate``; ``analyze`` ran on the inconsistent file.
     """
     if "schedule" not in simulation:
         return ""
@@ -1167,4 +1170,6 @@ def _schedule_text(simulation: Mapping[str, Any]) -> str:
             'simulation.schedule: empty; write MODE:STEPS,... (e.g. "1:100,2:100") or '
             "leave the key out"
         )
+    if mode_ids:
+        parse_schedule(text, mode_ids, where="simulation.schedule")
     return text

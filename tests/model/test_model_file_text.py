@@ -6,6 +6,8 @@ TOML, the line); a number the loader cannot hold as written is refused, never re
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from hybridlog.errors import ModelError
@@ -191,3 +193,14 @@ def test_an_edited_builtin_names_the_reference_a_renamed_mode_left():
 def test_a_components_value_no_double_holds_is_refused(old, new, key):
     # each was read as 0: a scenario's command value, a rule's condition, a fault rate
     _refused(_replace(builtin_text("bioplex_pgc"), old, new), key + r".*: '1e-400' is smaller")
+
+
+def test_a_schedule_naming_a_mode_the_file_lacks_is_refused_when_loaded():
+    # A copy of three_tank_hstf with mode 3 renamed or removed loaded, and analyze ran on it;
+    # only simulate named the stale schedule.
+    tank = builtin_text("three_tank_hstf")
+    renamed = _replace(tank, "[modes.3]", "[modes.three]")
+    removed = re.sub(r"\[modes\.3\].*?\nh = [^\n]*\n", "", tank, flags=re.DOTALL)
+    assert "[modes.3]" not in removed and "[modes.2]" in removed
+    for text in (renamed, removed):
+        _refused(text, r"simulation\.schedule: unknown mode '3'")
