@@ -23,8 +23,11 @@ from typing import Any
 
 from hybridlog.errors import ModelError, excerpt
 
-__all__ = ["PLAIN_KEY_LIMIT", "decode_model_file", "key_path", "read_toml"]
+__all__ = ["MAX_NESTING", "PLAIN_KEY_LIMIT", "decode_model_file", "key_path", "read_toml"]
 
+MAX_NESTING = 32
+"""Deepest nesting of tables and arrays read (a model file's deepest keys have 6 levels:
+``components.<c>.modes.<m>.process_noise.<x>``)."""
 PLAIN_KEY_LIMIT = 64
 """Longest key shown unquoted in a key path (the longest mode id or component name)."""
 
@@ -96,7 +99,12 @@ def read_toml(text: str) -> dict[str, Any]:
         data = tomllib.loads(text.removeprefix("\ufeff"), parse_float=_parse_float)
     except tomllib.TOMLDecodeError as err:
         raise ModelError(_decode_error(text, err)) from err
-    _refuse_unheld(data, "")
+    except RecursionError as err:  # arrays or inline tables nested thousands deep
+        raise ModelError(
+            f"invalid TOML: arrays or tables nested too deeply (a model file nests at most "
+            f"{MAX_NESTING} levels)"
+        ) from err
+    _check_values(data)
     return data
 
 
@@ -151,15 +159,42 @@ def _decode_error(text: str, err: tomllib.TOMLDecodeError) -> str:
     )
 
 
-def _refuse_unheld(value: Any, where: str) -> None:
-    """Refuse a number of ``value`` that no double holds, naming its key."""
-    if isinstance(value, dict):
-        for name, item in value.items():
-            _refuse_unheld(item, key_path(where, str(name)))
-    elif isinstance(value, list):
-        for i, item in enumerate(value):
-            _refuse_unheld(item, f"{where}[{i}]")
-    elif isinstance(value, _Unheld):
-        raise ModelError(f"{where}: {unheld_number(value.literal, float(value))}")
-    elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > _LARGEST:
-        raise ModelError(f"{where}: {unheld_number(str(value), value)}")
+_Trail = tuple[str, "_Trail"] | None
+"""A value's key path, innermost part first (built as the walk descends: no copies)."""
+
+
+def _check_values(data: dict[str, Any]) -> None:
+    """Refuse a number no double holds, or nesting deeper than :data:`MAX_NESTING`.
+
+    The walk keeps a stack, not Python's: a dotted key of 5,000 parts (which tomllib reads)
+    overflowed a recursive walk, and the loader's ``repr`` of such a value in its errors.
+    """
+    stack: list[tuple[Any, _Trail, int]] = [(data, None, 0)]
+    while stack:
+        value, trail, depth = stack.pop()
+        if depth > MAX_NESTING:
+            raise ModelError(
+                f"{_where(trail)}: nested more than {MAX_NESTING} levels deep (no model key is)"
+            )
+        if isinstance(value, dict):
+            stack.extend(
+                (item, ("." + str(name), trail), depth + 1) for name, item in value.items()
+            )
+        elif isinstance(value, list):
+            stack.extend((item, (f"[{i}]", trail), depth + 1) for i, item in enumerate(value))
+        elif isinstance(value, _Unheld):
+            raise ModelError(f"{_where(trail)}: {unheld_number(value.literal, float(value))}")
+        elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > _LARGEST:
+            raise ModelError(f"{_where(trail)}: {unheld_number(str(value), value)}")
+
+
+def _where(trail: _Trail) -> str:
+    """The key path of ``trail`` as the loader writes keys (``noise.process[0][1]``)."""
+    parts: list[str] = []
+    while trail is not None:
+        parts.append(trail[0])
+        trail = trail[1]
+    where = ""
+    for part in reversed(parts):
+        where = key_path(where, part[1:]) if part.startswith(".") else where + part
+    return where

@@ -204,3 +204,16 @@ def test_a_schedule_naming_a_mode_the_file_lacks_is_refused_when_loaded():
     assert "[modes.3]" not in removed and "[modes.2]" in removed
     for text in (renamed, removed):
         _refused(text, r"simulation\.schedule: unknown mode '3'")
+
+
+@pytest.mark.parametrize(
+    ("value", "pattern"),
+    [
+        ("x = " + "[" * 5000 + "]" * 5000, r"invalid TOML: arrays or tables nested too deeply"),
+        ("x = " + "{a = " * 5000 + "1" + "}" * 5000, r"invalid TOML: arrays or tables nested"),
+        (".".join(["parameters"] + ["a"] * 5000) + " = 1", r"parameters(\.a){32}: nested more"),
+    ],
+)
+def test_a_value_nested_thousands_deep_is_refused_in_one_line(value, pattern):
+    # was "unexpected RecursionError" (tomllib on the arrays; the loader on the dotted key)
+    _refused(value + "\n" + PLANT, pattern)
