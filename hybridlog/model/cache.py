@@ -61,6 +61,7 @@ from hybridlog.model.hybrid_model import (
     stored,
 )
 from hybridlog.model.keys import remember_key, sympy_release
+from hybridlog.model.toml_text import decode_model_file
 from hybridlog.signals import FloatArray
 
 FORMAT = 1
@@ -91,9 +92,11 @@ def load_model(
     path = model_file(name_or_path)
     if path is not None:
         try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as err:
+            text = decode_model_file(path.read_bytes())
+        except OSError as err:
             raise ModelError(f"{path}: cannot read model file: {err}") from err
+        except ModelError as err:
+            raise ModelError(f"{path}: {err}") from err
         return cached_model(text, origin=str(path), parameters=parameters)
     name = str(name_or_path)
     return cached_model(builtin_text(name), origin=name, parameters=parameters)

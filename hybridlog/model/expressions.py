@@ -27,6 +27,7 @@ from collections.abc import Callable, Mapping
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
+from hybridlog.model.toml_text import unheld_number
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -353,10 +354,11 @@ class _Converter:
         return sympy.Add(*terms) if group is ast.Add else sympy.Mul(*terms)
 
     def check_written(self, node: ast.Constant) -> None:
-        """Refuse a number not written in plain decimal.
+        """Refuse a number not written in plain decimal, or that no double holds.
 
         Python's literals also read ``1_0`` as 10, ``0x10`` as 16, ``0o7`` and ``0b1``, which a
-        model file's reader would take for other numbers (or typos) than the parser does.
+        model file's reader would take for other numbers (or typos) than the parser does;
+        and ``1e-400`` as 0 (:func:`~hybridlog.model.toml_text.unheld_number`).
         """
         written = ast.get_source_segment(self.source, node)
         if (
@@ -369,6 +371,10 @@ class _Converter:
                 f"{self.key}: the number {excerpt(written, 40)} is not written in plain decimal "
                 "digits (no '_', no 0x/0o/0b prefix)"
             )
+        if isinstance(node.value, int | float) and not isinstance(node.value, bool) and written:
+            unheld = unheld_number(written, node.value)
+            if unheld:
+                raise ModelError(f"{self.key}: {unheld}")
 
     def constant(self, value: object) -> sympy.Expr:
         if isinstance(value, bool) or not isinstance(value, int | float):

@@ -26,7 +26,6 @@ import ast
 import json
 import math
 import re
-import tomllib
 import unicodedata
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -53,6 +52,7 @@ from hybridlog.model.hybrid_model import (
     markov_matrix,
 )
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
+from hybridlog.model.toml_text import read_toml
 from hybridlog.model.twins import twin_modes
 from hybridlog.model.values import (
     as_covariance,
@@ -71,6 +71,7 @@ from hybridlog.model.values import (
     required,
 )
 from hybridlog.signals import LONGEST_DT_S, MAX_SUBSTEPS, SHORTEST_DT_S, FloatArray
+from hybridlog.simulate import parse_schedule
 
 __all__ = ["load_model", "parse_model"]
 
@@ -148,9 +149,14 @@ def parse_model(
     A byte-order mark at the start (which Windows editors write) is no part of the TOML.
     """
     try:
-        data = tomllib.loads(text.removeprefix("\ufeff"))
-    except tomllib.TOMLDecodeError as err:
-        raise ModelError(f"{origin}: invalid TOML: {err}") from err
+        data = read_toml(text)
+    except ModelError as err:
+        raise ModelError(f"{origin}: {err}") from err
+    if not data:
+        raise ModelError(
+            f"{origin}: no keys (an empty model file?); `hybridlog models NAME` prints a "
+            "built-in model's file to start from"
+        )
     try:
         return _Builder(data, text, parameters or {}, origin).build()
     except ModelError as err:
@@ -350,7 +356,7 @@ class _Builder:
             },
             simulation_state=sim_state,
             simulation_inputs=sim_inputs,
-            simulation_schedule=_schedule_text(simulation),
+            simulation_schedule=_schedule_text(simulation, tuple(m.id for m in modes)),
             simulation_state_min=(
                 as_vector(simulation["state_min"], len(states), "simulation.state_min")
                 if "state_min" in simulation
@@ -865,7 +871,13 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
     if "mode" in initial and "mode_probabilities" in initial:
         raise ModelError("initial: give either mode or mode_probabilities, not both")
     if "mode" in initial:
-        mode = str(initial["mode"])
+        written = initial["mode"]
+        if isinstance(written, bool) or not isinstance(written, str | int | float):
+            raise ModelError(
+                f"initial.mode: expected a mode id (a string such as {mode_ids[0]!r}), got "
+                f"{excerpt(repr(written), 40)[1:-1]}"
+            )
+        mode = str(written)
         if mode not in mode_ids:
             raise ModelError(
                 f"initial.mode: unknown mode {excerpt(mode, 40)} (modes: {', '.join(mode_ids)})"
@@ -884,8 +896,17 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
         probabilities = np.array([as_number(value.get(m, 0.0), f"{key}.{m}") for m in mode_ids])
     else:
         probabilities = as_vector(value, n, key)
-    if probabilities.min() < 0 or not math.isclose(probabilities.sum(), 1.0, abs_tol=1e-9):
-        raise ModelError(f"{key}: probabilities must be non-negative and sum to 1")
+    if probabilities.min() < 0:
+        worst = int(np.argmin(probabilities))
+        raise ModelError(
+            f"{key}: probabilities must be non-negative; mode {mode_ids[worst]!r} has "
+            f"{probabilities[worst]:g}"
+        )
+    if not math.isclose(probabilities.sum(), 1.0, abs_tol=1e-9):
+        raise ModelError(
+            f"{key}: probabilities must sum to 1; they sum to {probabilities.sum():.10g}"
+            + ("" if isinstance(value, dict) else f" (modes in order: {', '.join(mode_ids)})")
+        )
     normalised: FloatArray = probabilities / probabilities.sum()
     return normalised
 
@@ -1133,11 +1154,13 @@ def _role(name: str, groups: Mapping[str, tuple[str, ...]]) -> str:
     return f"{'an' if singular[0] in 'aeiou' else 'a'} {singular}"
 
 
-def _schedule_text(simulation: Mapping[str, Any]) -> str:
-    """``[simulation] schedule`` as written; ``""`` where the key is absent.
+def _schedule_text(simulation: Mapping[str, Any], mode_ids: tuple[str, ...]) -> str:
+    """``[simulation] schedule`` as written, checked against the modes; ``""`` where absent.
 
     An empty or blank value was taken as no schedule at all (the first mode for 100 steps),
-    where ``--schedule ""`` is refused: given, it must say something.
+    where ``--schedule ""`` is refused: given, it must say something.  A schedule naming a
+    mode the file does not list (a mode renamed or removed in a copy of a built-in) was
+    refused only by ``simulate``; ``analyze`` ran on the inconsistent file.
     """
     if "schedule" not in simulation:
         return ""
@@ -1147,4 +1170,6 @@ def _schedule_text(simulation: Mapping[str, Any]) -> str:
             'simulation.schedule: empty; write MODE:STEPS,... (e.g. "1:100,2:100") or '
             "leave the key out"
         )
+    if mode_ids:
+        parse_schedule(text, mode_ids, where="simulation.schedule")
     return text

@@ -50,6 +50,7 @@ from typing import TYPE_CHECKING, Any
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.component_loader import parse_equation
 from hybridlog.model.components import UNKNOWN, Component, Equation
+from hybridlog.model.toml_text import unheld_number
 from hybridlog.model.values import (
     as_names,
     as_number,
@@ -215,11 +216,15 @@ def load_scenario(
         entries_c = []
         for label, at in _entries(as_string(raw, key), key, step):
             try:
-                entries_c.append((parse_float(label), at))
+                value = parse_float(label)
             except ValueError:  # strictly: not 1_0, ٣, inf or nan (hybridlog.numbers)
                 raise ModelError(
                     f"{key}: {excerpt(label, 40)} is not a number (ASCII digits, finite)"
                 ) from None
+            unheld = unheld_number(label, value)  # 1e-400 would be the command value 0
+            if unheld:
+                raise ModelError(f"{key}: {unheld}")
+            entries_c.append((value, at))
         command_values[name] = tuple(entries_c)
     unmodelled = []
     raw_list = table.get("unmodelled", [])

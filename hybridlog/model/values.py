@@ -18,18 +18,13 @@ import sympy
 
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.expressions import parse_expression, symbol_name_problem
+from hybridlog.model.toml_text import PLAIN_KEY_LIMIT
+from hybridlog.model.toml_text import key_path as key_path  # re-exported for the loaders
 from hybridlog.signals import FloatArray
 
-MAX_LABEL = 64
-"""Longest mode id or component name accepted."""
+MAX_LABEL = PLAIN_KEY_LIMIT
+"""Longest mode id or component name accepted (each is shown plain in a key path)."""
 _LABEL_FORBIDDEN = (",", ":", "*", "->")
-
-
-def key_path(where: str, key: str) -> str:
-    """``where.key``, with ``key`` quoted (and cut) unless it is a plain short name."""
-    plain = bool(key) and (key.isidentifier() or key.replace("_", "").replace("-", "").isalnum())
-    shown = key if plain and len(key) <= MAX_LABEL else excerpt(key, 40)
-    return f"{where}.{shown}" if where else shown
 
 
 def check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
@@ -176,10 +171,15 @@ def as_covariance(value: Any, n: int, key: str) -> FloatArray:
     if isinstance(value, int | float) and not isinstance(value, bool):
         matrix = np.eye(n) * as_number(value, key)
     elif isinstance(value, list) and value and all(isinstance(r, list) for r in value):
-        if len(value) != n or any(len(r) != n for r in value):
-            rows = len(value)
-            cols = len(value[0])
-            raise ModelError(f"{key}: wrong shape; expected {n}x{n} instead of {rows}x{cols}")
+        if len(value) != n:
+            rows = f"{len(value)} row" + ("" if len(value) == 1 else "s")
+            raise ModelError(f"{key}: wrong shape; expected {n}x{n} instead of {rows}")
+        for i, row in enumerate(value):
+            if len(row) != n:
+                raise ModelError(
+                    f"{key}[{i}]: wrong length of a row of the {n}x{n} matrix; expected {n} "
+                    f"instead of {len(row)}"
+                )
         matrix = np.array(
             [
                 [as_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)]
@@ -191,9 +191,17 @@ def as_covariance(value: Any, n: int, key: str) -> FloatArray:
     else:
         raise ModelError(f"{key}: expected a number, a diagonal list or a matrix")
     if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
-        raise ModelError(f"{key}: covariance must be symmetric")
-    if n and np.linalg.eigvalsh(matrix).min() < -1e-12 * max(1.0, float(np.abs(matrix).max())):
-        raise ModelError(f"{key}: covariance must be positive semi-definite")
+        row, col = (int(k) for k in np.unravel_index(np.argmax(abs(matrix - matrix.T)), (n, n)))
+        raise ModelError(
+            f"{key}: covariance must be symmetric; [{row}][{col}] is {matrix[row, col]:g} but "
+            f"[{col}][{row}] is {matrix[col, row]:g}"
+        )
+    smallest = float(np.linalg.eigvalsh(matrix).min()) if n else 0.0
+    if smallest < -1e-12 * max(1.0, float(np.abs(matrix).max())):
+        raise ModelError(
+            f"{key}: covariance must be positive semi-definite (its smallest eigenvalue is "
+            f"{smallest:.6g})"
+        )
     return matrix
 
 

@@ -407,7 +407,7 @@ _JUMP_ERRORS = [
     (
         'omega = "JE/(JE + JL)*omega"',
         'omega = "1e999*omega"',
-        r'jumps\."0->1"\.omega: non-finite number',
+        r'jumps\."0->1"\.omega: .1e999. is beyond the largest double',
     ),
     ('T = "TE/(TE + TL)*T"', "", r'jumps\."1->0": no state is reset'),
     (

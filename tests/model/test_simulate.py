@@ -90,9 +90,10 @@ def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
 
 def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
     path = _model_file(tmp_path, TANK, 'schedule = "', 'schedule = "7:10,')
-    model = load_model(path)
+    # refused when the file is loaded, whichever command reads it (was: by simulate alone)
     with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: unknown mode '7'"):
-        simulate(model)
+        load_model(path)
+    model = load_model(_model_file(tmp_path, TANK))
     with pytest.raises(OptionError, match=r"^--schedule: 'ten' in '1:ten' is not a whole number$"):
         simulate(model, schedule="1:ten")
     assert simulate(model, schedule="2:4").modes.tolist() == [1] * 5
