@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
+from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
     InputFunction,
@@ -60,7 +60,8 @@ from hybridlog.model.compiled import (
     compile_model,
     input_functions,
 )
-from hybridlog.numbers import parse_float, parse_int
+from hybridlog.model.schedule import parse_schedule
+from hybridlog.numbers import parse_float
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, FloatArray, IntArray
 from hybridlog.times import format_time
 
@@ -110,34 +111,6 @@ class SimulatedLog:
 def _origin(model: HybridModel) -> str:
     """The model file (or built-in name) errors name, so the user knows what to change."""
     return model.origin or model.name
-
-
-def parse_schedule(
-    text: str, mode_ids: tuple[str, ...], *, where: str = "--schedule"
-) -> list[tuple[int, int]]:
-    """``"1:100,2:50"`` → ``[(index of mode '1', 100), (index of mode '2', 50)]``.
-
-    ``where`` names the schedule's origin in errors: ``--schedule`` (an
-    :class:`OptionError`) or ``<model file>: simulation.schedule`` (a :class:`ModelError`).
-    """
-    error: type[HybridlogError] = OptionError if where.startswith("--") else ModelError
-    schedule: list[tuple[int, int]] = []
-    for part in text.split(","):
-        part = part.strip()
-        mode, sep, count = part.rpartition(":")
-        mode = mode.strip()  # "1 : 100, 2 : 50" as written in a model file
-        if not sep or not mode:
-            raise error(f"{where}: '{part}' is not MODE:STEPS")
-        if mode not in mode_ids:
-            raise error(f"{where}: unknown mode '{mode}' (modes: {', '.join(mode_ids)})")
-        try:
-            steps = parse_int(count)
-        except ValueError:
-            raise error(f"{where}: '{count}' in '{part}' is not a whole number") from None
-        if steps <= 0:
-            raise error(f"{where}: the step count in '{part}' must be positive")
-        schedule.append((mode_ids.index(mode), steps))
-    return schedule
 
 
 def mode_sequence(schedule: list[tuple[int, int]], steps: int | None) -> IntArray:

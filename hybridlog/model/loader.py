@@ -52,6 +52,7 @@ from hybridlog.model.hybrid_model import (
     markov_matrix,
 )
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
+from hybridlog.model.schedule import parse_schedule
 from hybridlog.model.toml_text import read_toml
 from hybridlog.model.twins import twin_modes
 from hybridlog.model.values import (
@@ -71,7 +72,6 @@ from hybridlog.model.values import (
     required,
 )
 from hybridlog.signals import LONGEST_DT_S, MAX_SUBSTEPS, SHORTEST_DT_S, FloatArray
-from hybridlog.simulate import parse_schedule
 
 __all__ = ["load_model", "parse_model"]
 
