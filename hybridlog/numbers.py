@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 
 _WHITESPACE = " \t\n\r\f\v"
 """The ASCII whitespace ignored around a number."""
@@ -60,6 +61,10 @@ def parse_int(text: str) -> int:
         raise ValueError("expected a whole number of fewer digits") from None
 
 
+_SMALLEST_NORMAL = sys.float_info.min
+"""The smallest normal double: a typed number below it (but 0) loses digits or becomes 0."""
+
+
 def parse_float(text: str) -> float:
     """``text`` as a finite number: ASCII digits, sign, decimal point and exponent.
 
@@ -67,7 +72,9 @@ def parse_float(text: str) -> float:
     ------
     ValueError
         ``expected a finite number`` for anything else, ``inf``, ``nan`` and a value beyond
-        the range of a float (``1e999``) included.
+        the range of a float (``1e999``) included; a number other than 0 smaller in
+        magnitude than a double holds in full (``1e-400``, read as 0; ``1e-310``, a few
+        digits), as a model file's value is refused (``model/toml_text.py``).
 
     Examples
     --------
@@ -84,6 +91,12 @@ def parse_float(text: str) -> float:
     value = float(stripped)
     if not math.isfinite(value):
         raise ValueError("expected a finite number")
+    mantissa = stripped.lower().partition("e")[0]
+    if abs(value) < _SMALLEST_NORMAL and any(c in "123456789" for c in mantissa):
+        raise ValueError(
+            f"expected a number a double holds in full (0, or at least {_SMALLEST_NORMAL:.4g} "
+            f"in magnitude; it would be read as {value!r})"
+        )
     return value
 
 

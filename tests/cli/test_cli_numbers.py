@@ -61,6 +61,18 @@ def test_anything_else_is_not_a_finite_number(text):
         parse_float(text)
 
 
+@pytest.mark.parametrize("text", ["1e-400", "-1e-400", "1e-310", "0.000000001e-300"])
+def test_a_number_a_double_does_not_hold_in_full_is_refused(text):
+    """``--set A=1e-400`` was read as 0 (then blamed on an expression dividing by zero)."""
+    with pytest.raises(ValueError, match=r"^expected a number a double holds in full"):
+        parse_float(text)
+
+
+@pytest.mark.parametrize("text", ["0", "-0.0", "0e-400", "2.2250738585072014e-308"])
+def test_zero_and_the_smallest_normal_double_are_numbers(text):
+    assert parse_float(text) == float(text)
+
+
 def _refused(args, *fragments):
     """Exit 2, one line naming the option and the value, nothing written."""
     result = run(args, expect=2)
@@ -138,6 +150,7 @@ def test_cluster_options_are_read_strictly(tmp_path, option, value):
         ),
         ("hstf", "A=1_54", ("--set A: expected a finite number, got '1_54'",)),
         ("hstf", "A=inf", ("--set A: expected a finite number, got 'inf'",)),
+        ("hstf", "A=1e-400", ("--set A: expected a number a double holds in full",)),
     ],
 )
 def test_set_values_are_read_strictly(tmp_path, estimator, setting, fragments):
