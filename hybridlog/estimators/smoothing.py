@@ -195,6 +195,9 @@ ROUNDING_LIMIT = 0.01
 """Largest rounding probe of an RTS step, relative to the step's own standard deviation of
 each state, whose step is taken (:func:`rts_step`)."""
 
+ROUNDING_LIMIT_SQUARED = ROUNDING_LIMIT * ROUNDING_LIMIT
+"""The test of :data:`ROUNDING_LIMIT` on squares: ``r² <= limit² P`` (no square root)."""
+
 
 @jit
 def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
@@ -334,7 +337,8 @@ def rts_step(
             P_out[a, b] += congruent[a, b]
     symmetrize(P_out)
     for a in range(n):
-        if not abs(r_out[a]) <= ROUNDING_LIMIT * math.sqrt(max(P_out[a, a], 0.0)):
+        # |r| <= ROUNDING_LIMIT sqrt(P), squared: no square root (NaN fails either form)
+        if not r_out[a] * r_out[a] <= ROUNDING_LIMIT_SQUARED * max(P_out[a, a], 0.0):
             return _forward_stands(x, P, x_out, P_out, r_out)
     return True
 
@@ -979,7 +983,8 @@ def _rts_step_source(
         for a in range(n)
     ]
     precise = " and ".join(
-        f"abs({term(r_rts[a])}) <= {ROUNDING_LIMIT!r}*math.sqrt(max({term(P_rts[a][a])}, 0.0))"
+        f"{term(r_rts[a])}*{term(r_rts[a])} <= "
+        f"{ROUNDING_LIMIT_SQUARED!r}*max({term(P_rts[a][a])}, 0.0)"
         for a in range(n)
     )
     taken = p.assign("ok", f"{ok} and {precise}")
