@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators.options import option
 from hybridlog.numbers import parse_float
+
+if TYPE_CHECKING:
+    from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = ["DEFAULT_EIGENVALUES", "SwitchingObserverOptions", "eigenvalue_values"]
 
@@ -29,12 +32,16 @@ def eigenvalue_values(text: str) -> list[float]:
     ValueError
         With the reason, for text that is not that.
     """
-    try:
-        values = [parse_float(p) for p in text.split(",")]
-    except ValueError:
-        raise ValueError(
-            f"expected negative numbers separated by commas, got {excerpt(text)}"
-        ) from None
+    values: list[float] = []
+    for part in text.split(","):
+        try:
+            values.append(parse_float(part))
+        except ValueError as err:
+            # '-1e-400' is a number, but one a double does not hold: say so
+            why = "" if str(err) == "expected a finite number" else f" ({part.strip()}: {err})"
+            raise ValueError(
+                f"expected negative numbers separated by commas, got {excerpt(text)}{why}"
+            ) from None
     if not all(v < 0.0 for v in values):
         raise ValueError(
             f"every eigenvalue must be a finite negative real (Hurwitz A_b - K C_b), got "
@@ -77,21 +84,45 @@ class SwitchingObserverOptions:
         OptionError
             The text is not one negative number or ``n_states`` comma-separated ones.
         """
-        what = "switching-observer option 'eigenvalues'"
         try:
-            values = eigenvalue_values(self.eigenvalues)
+            values = _eigenvalues_for(self.eigenvalues, n_states)
         except ValueError as err:
-            raise OptionError(f"{what}: {err}") from None
-        if len(values) == 1:
-            values = [values[0] * (j + 1) for j in range(n_states)]
-            if not math.isfinite(values[-1]):
-                raise OptionError(
-                    f"{what}: one value l stands for l, 2l, ..., {n_states}l, and "
-                    f"{n_states}*({excerpt(self.eigenvalues)}) overflows a float64"
-                )
-        elif len(values) != n_states:
-            raise OptionError(
-                f"{what}: the model has {n_states} states, so give {n_states} eigenvalues or "
-                f"one, not {len(values)} ({excerpt(self.eigenvalues)})"
-            )
+            raise OptionError(f"switching-observer option 'eigenvalues': {err}") from None
         return tuple(sorted(values, reverse=True))
+
+    def invalid_on(self, model: HybridModel) -> dict[str, str]:
+        """Values ``model`` cannot take: name → why (``eigenvalues``: one or ``n`` of them).
+
+        Found only as the estimator ran, three eigenvalues for a two-state model were refused
+        naming neither the model file nor its key, and passed when another estimator ran.
+        """
+        try:
+            _eigenvalues_for(self.eigenvalues, model.n_states)
+        except ValueError as err:
+            return {"eigenvalues": str(err)}
+        return {}
+
+
+def _eigenvalues_for(text: str, n_states: int) -> list[float]:
+    """The ``n_states`` eigenvalues of an ``eigenvalues`` text (one stands for ``l, ..., nl``).
+
+    Raises
+    ------
+    ValueError
+        With the reason: not negative numbers, neither one nor ``n_states`` of them, or
+        ``n_states`` times the one overflowing a float64.
+    """
+    values = eigenvalue_values(text)
+    if len(values) == 1:
+        values = [values[0] * (j + 1) for j in range(n_states)]
+        if not math.isfinite(values[-1]):
+            raise ValueError(
+                f"one value l stands for l, 2l, ..., {n_states}l, and "
+                f"{n_states}*({excerpt(text)}) overflows a float64"
+            )
+    elif len(values) != n_states:
+        raise ValueError(
+            f"the model has {n_states} states, so give {n_states} eigenvalues or one, not "
+            f"{len(values)} ({excerpt(text)})"
+        )
+    return values

@@ -48,6 +48,22 @@ def _input_lags(text: str) -> None:
     lag_values(text, output=False)
 
 
+def _above_one(value: float) -> None:
+    """``squash``'s check: r_b/r_a of 1 is refused by the clustering (eq. (7) needs r_b > r_a).
+
+    Its range's lower bound 1 was said to be allowed, and ``squash = 1`` under
+    ``[estimators.chiu]`` passed when another estimator ran.
+    """
+    if not value > 1.0:
+        raise ValueError(f"{value:g} is not above 1 (r_b must exceed r_a)")
+
+
+def _positive(value: float) -> None:
+    """``reject``'s check: ε₂ = 0 is refused by the clustering (``0 < reject < accept``)."""
+    if not value > 0.0:
+        raise ValueError(f"{value:g} is not above 0 (need 0 < reject < accept <= 1)")
+
+
 @dataclass(frozen=True)
 class ObserverOptions:
     """Options of paper 001's pipeline shared by ``chiu`` and ``kmeans``."""
@@ -71,6 +87,26 @@ class ObserverOptions:
     algorithm: ClassVar[str]
     """The clustering's name: its key in a ``centers.json``."""
 
+    def invalid_on(self, model: HybridModel) -> dict[str, str]:
+        """Values ``model`` cannot take: name → why (``cluster_modes`` naming no mode of it).
+
+        The running estimator's are checked again with the centres (:func:`check_cluster_modes`);
+        this names a model file's key whichever estimator runs.
+        """
+        from hybridlog.numbers import comma_items
+
+        try:
+            ids = comma_items(self.cluster_modes, "mode ids")
+        except ValueError as err:
+            return {"cluster_modes": str(err)}
+        unknown = [mode for mode in ids if mode not in model.mode_ids]
+        if unknown:
+            return {
+                "cluster_modes": f"unknown mode {excerpt(unknown[0])} (modes: "
+                f"{', '.join(model.mode_ids)})"
+            }
+        return {}
+
     def regressor_spec(self) -> RegressorSpec:
         """The lags of φ(k) (``output_lags``, ``input_lags``)."""
         from hybridlog.cluster.regressors import RegressorSpec, parse_lags
@@ -90,15 +126,36 @@ class ChiuOptions(ObserverOptions):
     radius: float = option(
         0.5, "cluster radius r_a of eq. (5), in unit-box units", range=(1e-3, 100.0)
     )
-    squash: float = option(1.25, "r_b/r_a of the revision eqs. (6)-(7)", range=(1.0, 100.0))
+    squash: float = option(
+        1.25,
+        "r_b/r_a of the revision eqs. (6)-(7); above 1",
+        range=(1.0, 100.0),
+        check=_above_one,
+    )
     accept: float = option(0.5, "acceptance ratio ε₁ of a new centre", range=(0.0, 1.0))
-    reject: float = option(0.15, "rejection ratio ε₂ of a new centre", range=(0.0, 1.0))
+    reject: float = option(
+        0.15,
+        "rejection ratio ε₂ of a new centre; above 0, below accept",
+        range=(0.0, 1.0),
+        check=_positive,
+    )
     self_potential: bool = option(
         True, "count each point in its own potential (false: eq. (5) as printed)"
     )
     method: Literal["auto", "exact", "approximate"] = option(
         "auto", "potentials: exact all-pairs, approximate on a grid, or auto by size"
     )
+
+    def conflicts(self) -> list[tuple[str, str, str]]:
+        """``reject`` at or above ``accept``: subtractive clustering needs ε₂ < ε₁.
+
+        Refused only when ``chiu`` ran (after the options were parsed), ``accept = 0.1``
+        under ``[estimators.chiu]`` passed when ``kmeans`` ran.
+        """
+        if self.reject >= self.accept:
+            why = f"{shown(self.reject)} is not below {{other}}: need 0 < reject < accept <= 1"
+            return [("reject", "accept", why)]
+        return []
 
     def clustering(self) -> SubtractiveOptions:
         """The subtractive-clustering part of the options."""

@@ -38,7 +38,13 @@ where ``other``'s value came from, instead of the estimator quietly running anot
 
 An option made with ``path=True`` names a file: a relative path given in a model file is
 taken from the model file's folder (:attr:`OptionSource.base`), as the file's author wrote it
-beside the model; one given with ``--set`` from the working directory.
+beside the model; one given with ``--set`` from the working directory.  A path naming a
+folder is refused when the options are parsed; whether the file exists is the reader's
+question (``hybridlog cluster`` may be about to write it).
+
+An options dataclass may refuse a value the model cannot take with a method
+``invalid_on(self, model)`` (name → why, e.g. more eigenvalues than the model has states):
+:func:`check_table` refuses a model file's key of it, naming the file and the key.
 
 An options dataclass may say which of its options have no effect: ``inert(self, model)``
 (name → why) those the other options' values or the model leave unread (``--set`` of one is
@@ -92,6 +98,9 @@ _BOOLEANS = {"true": True, "false": False}
 
 _NONE = {"none", ""}
 """The texts (any case) an ``X | None`` option reads as ``None``."""
+
+_NOT_A_NUMBER = "expected a finite number"
+""":func:`~hybridlog.numbers.parse_float`'s reason for text that spells no number at all."""
 
 _WHITESPACE = " \t\n\r\f\v"
 """The ASCII whitespace ignored around a command-line text (as :mod:`hybridlog.numbers`)."""
@@ -294,24 +303,37 @@ def check_table(
     Every name must be an option, every value one of it (as :func:`parse_options` reads it),
     and no option one that ``model`` leaves unread whatever the others say (``inert_on``):
     ``transition_stay = 7`` under ``[estimators.imm]`` passed without a word when ``hstf``
-    ran.  Combinations (``conflicts()``) are checked when the estimator is prepared, where
-    ``--set`` may change the other value.
+    ran.  The table is checked as a whole, with the defaults of the options it leaves out:
+    a combination ``conflicts()`` refuses (``candidates = 5`` under
+    ``[estimators.unknown-mode]``, below the default beam of 20, was refused when
+    ``unknown-mode`` ran and passed when another estimator did), and a value ``model``
+    cannot take (``invalid_on(self, model)``, name → why: three eigenvalues for a
+    two-state model were refused only as the estimator ran, naming neither the file nor the
+    key).  When the estimator is prepared, :func:`parse_options` checks the combination
+    again with the ``--set`` values.
 
     Raises
     ------
     ModelError
         One line naming the file and the key (``sources[name]``).
     """
-    _converted(cls, values, estimator, sources)
+    built = cls(**_converted(cls, values, estimator, sources))
     inert_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(cls, "inert_on", None)
     unread = {} if inert_on is None else inert_on(model)
+    invalid_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(
+        built, "invalid_on", None
+    )
+    invalid = {} if invalid_on is None else invalid_on(model)
     for name in values:
+        source = sources.get(name, OptionSource(""))
+        prefix = f"{source.label}: " if source.label else ""
         if name in unread:
-            source = sources.get(name, OptionSource(""))
-            prefix = f"{source.label}: " if source.label else ""
             raise source.error(
                 f"{prefix}{estimator} option '{name}' has no effect: {unread[name]}; remove the key"
             )
+        if name in invalid:
+            raise source.error(f"{prefix}{estimator} option '{name}': {invalid[name]}")
+    _refuse_conflicts(built, estimator, sources)
 
 
 def _converted(
@@ -334,8 +356,11 @@ def _converted(
             value = _check(_convert(raw, kind, text=source.text), kind, field)
         except ValueError as err:
             raise source.error(f"{what}: {err}") from None
-        if field.metadata.get("path") and value and source.base and not os.path.isabs(value):
-            value = os.path.join(source.base, value)
+        if field.metadata.get("path") and value:
+            if source.base and not os.path.isabs(value):
+                value = os.path.join(source.base, value)
+            if os.path.isdir(value):  # read as a file only after the log, or never
+                raise source.error(f"{what}: {excerpt(value)} is a folder; name a file")
         converted[name] = value
     return converted
 
@@ -394,8 +419,12 @@ def _from_text(text: str, kind: _Kind) -> Any:
         pass
     try:
         return parse_float(stripped)
-    except ValueError:
-        return text
+    except ValueError as err:
+        if str(err) == _NOT_A_NUMBER:
+            return text
+        # a number, but one a double does not hold in full: refused with the reason, as the
+        # model file's value is (--set rho=1e-400 was "expected a finite number")
+        raise ValueError(f"{err}, got {excerpt(stripped)}") from None
 
 
 def _quoted(text: str) -> str | None:
@@ -452,7 +481,10 @@ def _spelled(value: object, kind: _Kind) -> str:
     if isinstance(value, dict | list):  # Python's repr is no TOML ({'a': 1}, [True])
         return "a table" if isinstance(value, dict) else "an array"
     if isinstance(value, str) and kind.base is not str:
-        unquoted = _from_text(value, kind)
+        try:
+            unquoted = _from_text(value, kind)
+        except ValueError:  # '1e-400', a number all the same
+            unquoted = None
         hint = "" if isinstance(unquoted, str) else ": write it without quotes"
         return f"the string {excerpt(value)}{hint}"
     return excerpt(value)

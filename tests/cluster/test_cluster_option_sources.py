@@ -25,10 +25,13 @@ def _cluster(
     [
         # --help gives squash "in [1, 100]" and accept, reject "in [0, 1]"; these edges said
         # "squash: ..." and "accept, reject: ...", naming no flag the user gave
-        (["--squash", "1"], "--squash 1: r_b/r_a must be greater than 1"),
-        (["--accept", "0"], "--accept 0, reject 0.15 (the default): need 0 < reject < accept"),
-        (["--reject", "0.5"], "accept 0.5 (the default), --reject 0.5: need 0 < reject"),
-        (["--accept", "0.2", "--reject", "0.3"], "--accept 0.2, --reject 0.3: need 0 < reject"),
+        (["--squash", "1"], "--squash 1: chiu option 'squash': 1 is not above 1"),
+        (["--accept", "0"], "--accept 0: chiu option 'reject': 0.15 is not below accept = 0 ("),
+        (["--reject", "0.5"], "--reject 0.5: chiu option 'reject': 0.5 is not below accept = 0.5"),
+        (
+            ["--accept", "0.2", "--reject", "0.3"],
+            "--reject 0.3: chiu option 'reject': 0.3 is not below accept = 0.2 (--accept 0.2)",
+        ),
     ],
 )
 def test_a_flag_out_of_bounds_is_named(tmp_path, capsys, options, named):
@@ -72,10 +75,10 @@ def test_a_model_file_value_out_of_bounds_names_its_key(tmp_path, capsys):
     model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\nsquash = 1.0\n")
     code, stderr = _cluster(tmp_path, capsys, str(model))
     assert code == 2
-    assert stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.squash = 1: r_b/r_a")
-    # the flag overrides the table, and is what is named when it is out of bounds too
-    code, stderr = _cluster(tmp_path, capsys, str(model), "--squash", "1")
-    assert code == 2 and stderr.startswith("hybridlog: error: --squash 1: r_b/r_a")
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.squash: chiu option")
+    # the flag overrides the table, but the table's bad value is an error of the file still
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--squash", "2")
+    assert code == 2 and stderr.startswith(f"hybridlog: error: {model}: estimators.chiu.squash")
 
 
 def test_an_approximate_grid_too_coarse_names_the_flags(tmp_path, capsys):
@@ -176,7 +179,7 @@ def test_cluster_modes_of_a_model_file_are_named_by_their_key(tmp_path, capsys):
     model.write_text(text + "\n[estimators.kmeans]\ncluster_modes = '2,7'\n")
     code, stderr = _cluster(tmp_path, capsys, str(model), "--compare-kmeans")
     assert code == 2
-    assert stderr.startswith(f"hybridlog: error: {model}: estimators.kmeans.cluster_modes = '2,7'")
+    assert stderr.startswith(f"hybridlog: error: {model}: estimators.kmeans.cluster_modes: kmeans")
 
 
 def test_kmeans_lags_of_a_model_file_that_are_not_chius_are_refused(tmp_path, capsys):
@@ -205,7 +208,10 @@ def test_analyze_names_clustering_bounds_before_the_log_is_read(tmp_path, capsys
     args = ["analyze", LOG, "--model", "double_cart_case1", "--estimator", "chiu"]
     code, stderr = run_main([*args, "--set", "squash=1", "--out", str(tmp_path / "r")], capsys)
     assert code == 2
-    assert stderr == "hybridlog: error: --set squash=1: r_b/r_a must be greater than 1, got 1.0\n"
+    assert stderr == (
+        "hybridlog: error: --set squash=1: chiu option 'squash': 1 is not above 1 (r_b must "
+        "exceed r_a)\n"
+    )
     model = tmp_path / "dc.toml"
     model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\naccept = 0.1\n")
     code, stderr = run_main(
@@ -213,7 +219,7 @@ def test_analyze_names_clustering_bounds_before_the_log_is_read(tmp_path, capsys
     )
     assert code == 2
     assert stderr.startswith(
-        f"hybridlog: error: {model}: estimators.chiu.accept = 0.1, reject 0.15 (the default): "
+        f"hybridlog: error: {model}: estimators.chiu.accept: chiu option 'reject': 0.15 is not "
     )
 
 
