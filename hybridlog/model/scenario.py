@@ -216,14 +216,9 @@ def load_scenario(
         entries_c = []
         for label, at in _entries(as_string(raw, key), key, step):
             try:
-                value = parse_float(label)
-            except ValueError:  # strictly: not 1_0, ٣, inf or nan (hybridlog.numbers)
-                raise ModelError(
-                    f"{key}: {excerpt(label, 40)} is not a number (ASCII digits, finite)"
-                ) from None
-            unheld = unheld_number(label, value)  # 1e-400 would be the command value 0
-            if unheld:
-                raise ModelError(f"{key}: {unheld}")
+                value = parse_float(label)  # strictly: not 1_0, ٣, inf, nan or 1e-400
+            except ValueError:
+                raise ModelError(f"{key}: {_not_a_number(label)}") from None
             entries_c.append((value, at))
         command_values[name] = tuple(entries_c)
     unmodelled = []
@@ -356,3 +351,15 @@ def _entries(text: str, key: str, step: Any) -> list[tuple[str, Step]]:
     if not entries or entries[0][1] != 0:
         raise ModelError(f"{key}: the first entry must start at step 0 (write it without @STEP)")
     return entries
+
+
+def _not_a_number(label: str) -> str:
+    """Why ``label`` is no command value, which ``parse_float`` refused.
+
+    A number no double holds (``1e-400`` would be the value 0), or no number at all.
+    """
+    try:
+        unheld = unheld_number(label, float(label))
+    except ValueError:  # not even Python's float
+        unheld = ""
+    return unheld or f"{excerpt(label, 40)} is not a number (ASCII digits, finite)"
