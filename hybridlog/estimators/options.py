@@ -320,10 +320,6 @@ def check_table(
     built = cls(**_converted(cls, values, estimator, sources))
     inert_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(cls, "inert_on", None)
     unread = {} if inert_on is None else inert_on(model)
-    invalid_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(
-        built, "invalid_on", None
-    )
-    invalid = {} if invalid_on is None else invalid_on(model)
     for name in values:
         source = sources.get(name, OptionSource(""))
         prefix = f"{source.label}: " if source.label else ""
@@ -331,9 +327,37 @@ def check_table(
             raise source.error(
                 f"{prefix}{estimator} option '{name}' has no effect: {unread[name]}; remove the key"
             )
-        if name in invalid:
-            raise source.error(f"{prefix}{estimator} option '{name}': {invalid[name]}")
+    refuse_invalid(built, model, estimator, sources, values)
     _refuse_conflicts(built, estimator, sources)
+
+
+def refuse_invalid(
+    built: object,
+    model: HybridModel,
+    estimator: str,
+    sources: Mapping[str, OptionSource],
+    names: Iterable[str],
+) -> None:
+    """Refuse a value of ``names`` that ``model`` cannot take (``built.invalid_on(model)``).
+
+    For a model file's table (:func:`check_table`) and, as the estimator is prepared, for
+    the values given by ``--set``: ``--set eigenvalues=-1,-2`` on a three-state model was
+    refused as the estimator ran, naming neither ``--set`` nor the option.
+
+    Raises
+    ------
+    HybridlogError
+        ``sources[name].error``: one line naming where the value came from.
+    """
+    invalid_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(
+        built, "invalid_on", None
+    )
+    invalid = {} if invalid_on is None else invalid_on(model)
+    for name in names:
+        if name in invalid:
+            source = sources.get(name, OptionSource(""))
+            prefix = f"{source.label}: " if source.label else ""
+            raise source.error(f"{prefix}{estimator} option '{name}': {invalid[name]}")
 
 
 def _converted(

@@ -37,6 +37,7 @@ from hybridlog.estimators.options import (
     format_options,
     options_dict,
     parse_options,
+    refuse_invalid,
     shown,
 )
 
@@ -725,6 +726,7 @@ def prepare(
     overrides = overrides or {}
     sources.update({k: OptionSource.command_line(overrides_by, k, v) for k, v in overrides.items()})
     options = estimator.parse_options({**from_file, **overrides}, sources)
+    refuse_invalid(options, model, name, sources, overrides)  # the file's: check_table
     return Prepared(estimator, options, {k: source.label for k, source in sources.items()})
 
 

@@ -142,15 +142,25 @@ def test_a_model_file_table_analyze_refuses_is_refused(tmp_path, capsys, table, 
     ("options", "named"),
     [
         # refused only once the log was read and clustered, as "cluster_modes: unknown mode"
-        (["--set", "cluster_modes=7,1"], "--set cluster_modes=7,1: unknown mode '7' (modes: 1"),
-        (["--set", "cluster_modes=1,,2"], "--set cluster_modes=1,,2: item 2 of '1,,2' is empty"),
+        # (now as the estimator is prepared, naming the estimator's option too)
+        (
+            ["--set", "cluster_modes=7,1"],
+            "--set cluster_modes=7,1: {estimator} option 'cluster_modes': "
+            "unknown mode '7' (modes: 1",
+        ),
+        (
+            ["--set", "cluster_modes=1,,2"],
+            "--set cluster_modes=1,,2: {estimator} option 'cluster_modes': "
+            "item 2 of '1,,2' is empty",
+        ),
     ],
 )
 def test_cluster_modes_are_checked_before_the_log_is_read(tmp_path, capsys, options, named):
     for estimator in ("chiu", "kmeans"):
         args = ["analyze", LOG, "--model", "double_cart_case1", "--estimator", estimator]
         code, stderr = run_main([*args, *options, "--out", str(tmp_path / "r")], capsys)
-        assert code == 2 and stderr.startswith(f"hybridlog: error: {named}"), stderr
+        expected = named.format(estimator=estimator)
+        assert code == 2 and stderr.startswith(f"hybridlog: error: {expected}"), stderr
 
 
 def test_cluster_modes_of_a_model_file_are_named_by_their_key(tmp_path, capsys):

@@ -117,3 +117,18 @@ def test_analyze_refuses_another_estimators_inconsistent_table(tmp_path: Path, c
         f"hybridlog: error: {model}: estimators.chiu.accept: chiu option 'reject': 0.15 is not "
         f"below accept = 0.1 ({model}: estimators.chiu.accept): need 0 < reject < accept <= 1\n"
     )
+
+
+def test_a_set_value_the_model_cannot_take_names_the_set_option():
+    """``--set eigenvalues=-1,-2`` on a three-state model was refused as the estimator ran,
+    naming neither ``--set`` nor the option; the model file's value is checked by its table."""
+    from hybridlog.estimators.registry import prepare
+
+    model = parse_model(builtin_text("ice_clutch"))
+    with pytest.raises(
+        OptionError,
+        match=r"^--set eigenvalues=-1,-2: switching-observer option 'eigenvalues': the model has "
+        r"3 states",
+    ):
+        prepare(model, "switching-observer", {"eigenvalues": "-1,-2"}, overrides_by="--set")
+    prepare(model, "switching-observer", {"eigenvalues": "-1,-2,-3"}, overrides_by="--set")
