@@ -347,8 +347,9 @@ def resolve_estimator(
         (:func:`~hybridlog.estimators.options.check_table`): every table, not only the chosen
         estimator's (``smooth = true`` under ``[estimators.hstf]``, ``transition_stay = 7``
         under ``[estimators.imm]``, are errors of the file whichever estimator runs).
-        Combinations of values are checked when their estimator is prepared, where ``--set``
-        may replace one.
+        Each table is checked whole, with the defaults of the options it leaves out (a
+        combination its options refuse, a value the model cannot take); when its estimator
+        is prepared, again with the ``--set`` values (:func:`prepare`).
     OptionError
         ``name`` is unknown (``<given_by>: unknown estimator ...``).
     """
