@@ -11,6 +11,7 @@ import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
 
 SHORTEST_DT_S = 1e-9
 """The shortest sample time: the grid counts whole nanoseconds."""
@@ -113,6 +114,12 @@ class AlignedSignals:
         For a ``[components]`` model, the commands its transition rules' ``when`` name that
         the log has, and their values, shape ``(N, len(command_names))``, held onto the grid
         as inputs are (row ``k`` holds ``u_d(k)``, paper 002 eq. (4)); ``None`` without any.
+    unmeasured_outputs:
+        ``True`` where the log has no sample of the output within ``dt/2`` of the row's time
+        and ``outputs`` holds a value taken from the samples around (a gap up to
+        ``max_gap`` bridged, SPEC §5), shape ``(N, n_y)``; ``None`` where every row was
+        measured.  The estimators run on ``outputs``; what is reported as measured, and
+        scored, is :meth:`measured_outputs`.
     """
 
     source: str
@@ -127,6 +134,7 @@ class AlignedSignals:
     truth_components: Mapping[str, ComponentTruth] = field(default_factory=_no_components)
     command_names: tuple[str, ...] = ()
     commands: FloatArray | None = None
+    unmeasured_outputs: BoolArray | None = None
 
     @property
     def n_samples(self) -> int:
@@ -169,4 +177,19 @@ class AlignedSignals:
                 for name, truth in self.truth_components.items()
             },
             commands=None if self.commands is None else self.commands[start:stop],
+            unmeasured_outputs=(
+                None if self.unmeasured_outputs is None else self.unmeasured_outputs[start:stop]
+            ),
         )
+
+    def measured_outputs(self) -> FloatArray:
+        """``outputs`` with NaN where the log did not measure them (``unmeasured_outputs``).
+
+        What MSE, VAF and fit score, estimates.csv writes and the plots draw: a value the
+        alignment took from the samples around a gap is the estimators' stand-in, not a
+        measurement to score a prediction against.  ``outputs`` itself (no copy) when every
+        row was measured.
+        """
+        if self.unmeasured_outputs is None:
+            return self.outputs
+        return np.where(self.unmeasured_outputs, np.nan, self.outputs)

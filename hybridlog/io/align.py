@@ -60,6 +60,7 @@ from fractions import Fraction
 from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
@@ -397,7 +398,7 @@ def resample_series(
     dt_ns: int,
     max_gap_ns: int,
     method: Resample,
-) -> tuple[FloatArray, IntArray, int]:
+) -> tuple[FloatArray, IntArray, IntArray]:
     """Values of ``series`` on the grid, with the gaps it was bridged across or not.
 
     Returns
@@ -409,26 +410,27 @@ def resample_series(
         Indices of grid points with no sample within ``dt/2`` whose surrounding samples are
         more than ``max_gap`` apart, or that lie outside the series' span.
     bridged:
-        How many grid points without a sample within ``dt/2`` took a value from the samples
-        around them (``nearest``: a sample the grid uses twice).
+        Indices of the grid points without a sample within ``dt/2`` that took a value from
+        the samples around them (``nearest``: a sample the grid uses twice): values the log
+        did not measure there.
     """
     tolerance = clock_tolerance_ns(dt_ns)
     on = on_grid_values(series, grid_ns, tolerance)
     if on is not None:  # the common case: one view, no index, distance or gap arrays
-        return on, np.zeros(0, dtype=np.int64), 0
+        return on, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
     linear = method == "linear"
     values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
     in_gap = np.flatnonzero(past_half_step(distance, dt_ns))
     if in_gap.size == 0:
-        return values, in_gap, 0
+        return values, in_gap, in_gap
     time_ns = series.time_ns
     lo = np.searchsorted(time_ns, grid_ns[in_gap], side="right") - 1
     hi = lo + 1
     outside = (lo < 0) | (hi >= time_ns.size)
     span = time_ns[np.clip(hi, 0, time_ns.size - 1)] - time_ns[np.clip(lo, 0, time_ns.size - 1)]
-    too_long: IntArray = in_gap[outside | longer_than_max_gap(span, max_gap_ns, dt_ns)]
-    return values, too_long, int(in_gap.size - too_long.size)
+    beyond = outside | longer_than_max_gap(span, max_gap_ns, dt_ns)
+    return values, in_gap[beyond], in_gap[~beyond]
 
 
 def _faster_than_the_grid(
@@ -785,6 +787,7 @@ def align_signals(
     held_commands = _held_onto(grid, commands, "command", dt_ns, max_gap_ns, notes)
 
     y = np.empty((n, len(outputs)), dtype=np.float64)
+    unmeasured: npt.NDArray[np.bool_] | None = None
     for j, (symbol, series) in enumerate(outputs.items()):
         values, too_long, bridged = resample_series(series, grid, dt_ns, max_gap_ns, method)
         if too_long.size:
@@ -799,8 +802,12 @@ def align_signals(
                 dt_ns,
                 dropped=(dropped or {}).get(symbol),
             )
-        if bridged and notes is not None:
-            notes.setdefault("bridged", {})[symbol] = {"points": bridged, "of": n}
+        if bridged.size:
+            if unmeasured is None:
+                unmeasured = np.zeros((n, len(outputs)), dtype=np.bool_)
+            unmeasured[bridged, j] = True
+            if notes is not None:
+                notes.setdefault("bridged", {})[symbol] = {"points": int(bridged.size), "of": n}
         faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, "output")
         if faster is not None and notes is not None:
             notes.setdefault("faster", {})[symbol] = faster
@@ -853,10 +860,14 @@ def align_signals(
             values, too_long, bridged = resample_series(
                 truth_series, grid, dt_ns, max_gap_ns, method
             )
-            if bridged and notes is not None:
-                notes.setdefault("truth_bridged", {})[state] = {"points": bridged, "of": n}
+            if bridged.size and notes is not None:
+                notes.setdefault("truth_bridged", {})[state] = {
+                    "points": int(bridged.size),
+                    "of": n,
+                }
             x_true[:, j] = values
             x_true[too_long, j] = np.nan
+            x_true[bridged, j] = np.nan  # not the truth there: no state error is scored
 
     return AlignedSignals(
         source=source,
@@ -871,6 +882,7 @@ def align_signals(
         truth_components=components,
         command_names=tuple(commands or {}),
         commands=held_commands if commands else None,
+        unmeasured_outputs=unmeasured,
     )
 
 

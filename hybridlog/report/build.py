@@ -366,7 +366,7 @@ class ReportBuilder:
             raise ValueError(
                 f"{chunk.estimator}: a chunk of another run (names, options or offline pass)"
             )
-        self._outputs.add(part.outputs, chunk.output_predictions)
+        self._outputs.add(part.measured_outputs(), chunk.output_predictions)
         if self._states is not None and part.truth_states is not None:
             self._states.add(chunk.state_means, part.truth_states)
         self._modes[start:stop] = chunk.modes
@@ -374,7 +374,11 @@ class ReportBuilder:
         if chunk.whitened_innovations is not None:  # the innovations' test (consistency.py)
             if self._consistency is None:
                 self._consistency = ConsistencyAccumulator(chunk.output_names)
-            self._consistency.add(chunk.whitened_innovations, chunk.mode_probabilities)
+            whitened = chunk.whitened_innovations
+            if part.unmeasured_outputs is not None:  # an innovation of a value not measured
+                unmeasured = np.any(part.unmeasured_outputs, axis=1, keepdims=True)
+                whitened = np.where(unmeasured, np.nan, whitened)
+            self._consistency.add(whitened, chunk.mode_probabilities)
         if self._offline is not None:
             self._offline.add(chunk, part, start)
         self._last = chunk
@@ -708,7 +712,7 @@ class _OfflineSides:
             if explained is None:
                 self._explained[index] = None
             else:
-                accumulator.add(part.outputs, explained)
+                accumulator.add(part.measured_outputs(), explained)
 
     def smoothing(
         self,
@@ -867,11 +871,17 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """
     reading = reading or {}
     notes = [
-        f"WARNING: {what} {symbol} has no sample within dt/2 of {count['points']} of "
-        f"{count['of']} sample times, which took their values from the samples around (a "
-        "measurement used more than once, or interpolated; is the model's dt the log's?)"
-        for key, what in (("bridged", "output"), ("truth_bridged", "true state"))
-        for symbol, count in (reading.get(key) or {}).items()
+        f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
+        f"{count['of']} sample times: the estimator took its value there from the samples "
+        "around (a measurement used more than once, or interpolated; is the model's dt the "
+        f"log's?); MSE, VAF and fit leave them out, and estimates.csv's {symbol} is empty there"
+        for symbol, count in (reading.get("bridged") or {}).items()
+    ]
+    notes += [
+        f"WARNING: true state {symbol} has no sample within dt/2 of {count['points']} of "
+        f"{count['of']} sample times (is the model's dt the log's?): its RMSE leaves them "
+        f"out, and estimates.csv's {symbol}_true is empty there"
+        for symbol, count in (reading.get("truth_bridged") or {}).items()
     ]
     notes += _faster_notes(reading.get("faster") or {})
     notes += [

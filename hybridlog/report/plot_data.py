@@ -770,8 +770,9 @@ class PlotReducer:
     def _add_signals(self, start: int, stop: int) -> None:
         """Reduce the signals' rows ``start .. stop - 1``: measured outputs and the truth."""
         signals = self._signals
+        measured = signals.rows(start, stop).measured_outputs()  # no line across a gap bridged
         for j, curve in enumerate(self._measured):
-            curve.add(signals.outputs[start:stop, j], start)
+            curve.add(measured[:, j], start)
         truth = signals.truth_states
         if truth is not None:
             for i, curve in enumerate(self._truth):

@@ -320,9 +320,10 @@ def estimates_table(
                 filtered.state_variances[:, i],
                 f"the filter's variance of state {x!r}",
             )
+    measured = signals.measured_outputs()  # empty where the log has no sample (a gap bridged)
     for j, y in enumerate(result.output_names):
         table.floats(f"{y}_hat", result.output_predictions[:, j], f"the prediction of output {y!r}")
-        table.floats(y, signals.outputs[:, j], f"the measured output {y!r}")
+        table.floats(y, measured[:, j], f"the measured output {y!r}")
     if signals.truth_states is not None:
         for i, x in enumerate(result.state_names):
             if i in chosen:
