@@ -27,15 +27,19 @@ def check_and_describe(path: Path) -> str:
     ------
     ModelError
         Whatever ``analyze`` would refuse in the file (one line naming the file and key),
-        including a bad option value of any estimator that can run the model.
+        including a bad option value of any estimator that can run the model, and a
+        ``default_estimator`` that cannot run it (``analyze`` without ``--estimator``
+        refused the file that ``models`` called valid).
     OptionError
         An ``[estimators.<name>]`` table naming no estimator.
     """
     model = load_model(path)
+    prepare(model, None)  # as analyze without --estimator: the default must run the model
     traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
     for name in suited:  # reads its [estimators.<name>] table as analyze would
-        prepare(model, name)
+        if name != model.default_estimator:
+            prepare(model, name)
     return "\n".join(
         [
             f"{path}: a valid model file",
