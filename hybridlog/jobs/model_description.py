@@ -14,6 +14,7 @@ from pathlib import Path
 
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.registry import ESTIMATORS, prepare
+from hybridlog.jobs.analysis import estimator_inputs
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
 
@@ -31,20 +32,24 @@ def check_and_describe(path: Path) -> str:
         ``default_estimator`` that cannot run it (``analyze`` without ``--estimator``
         refused the file that ``models`` called valid).
     OptionError
-        An ``[estimators.<name>]`` table naming no estimator.
+        An ``[estimators.<name>]`` table naming no estimator, or a file one names (a
+        ``centers`` file) that is missing or does not suit the model, as ``analyze`` reads it.
     """
     model = load_model(path)
-    prepare(model, None)  # as analyze without --estimator: the default must run the model
+    # as analyze without --estimator: the default must run the model
+    prepared = [prepare(model, None)]
     traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
     for name in suited:  # reads its [estimators.<name>] table as analyze would
         if name != model.default_estimator:
-            prepare(model, name)
+            prepared.append(prepare(model, name))
+    for each in prepared:  # the files a table names (centers = "c.json"), read and checked
+        estimator_inputs(each, model)
     return "\n".join(
         [
             f"{path}: a valid model file",
             *_lines(model),
-            f"estimators for it: {', '.join(suited) or 'none'}"
+            f"estimators for it: {', '.join(suited)}"
             f" (default_estimator: {model.default_estimator})",
         ]
     )

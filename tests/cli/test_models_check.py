@@ -78,3 +78,22 @@ def test_a_default_estimator_that_cannot_run_the_model_is_refused_as_analyze_doe
     )
     assert analyzed.stderr.strip() == refused
     assert not (tmp_path / "r").exists()
+
+
+def test_a_missing_file_an_estimator_table_names_is_found_as_analyze_finds_it(
+    tmp_path: Path,
+) -> None:
+    # models read the [estimators.chiu] table's values but not the file it names: "a valid
+    # model file", which analyze (chiu is double_cart_case1's default) then refused
+    path = tmp_path / "mine.toml"
+    text = builtin_text("double_cart_case1") + '\n[estimators.chiu]\ncenters = "gone.json"\n'
+    path.write_text(text, encoding="utf-8")
+    refused = run(["models", str(path)], expect=2).stderr.strip()
+    assert refused == (
+        f"hybridlog: error: {path}: estimators.chiu.centers: {tmp_path / 'gone.json'}: "
+        "no such centers file"
+    )
+    log = tmp_path / "cart.csv"
+    run(["simulate", "double_cart_case1", "--out", str(log), "--steps", "20"])
+    analyzed = run(["analyze", str(log), "--model", str(path), "--out", str(tmp_path / "r")], 2)
+    assert analyzed.stderr.strip() == refused
