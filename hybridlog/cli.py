@@ -551,7 +551,7 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
 
 @cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))
 @_global_flags
-@click.argument("name", required=False, metavar="[NAME|FILE]")
+@click.argument("name", required=False, type=_PathName(path_type=str), metavar="[NAME|FILE]")
 def models(name: str | None) -> None:
     """List the built-in models, print the model file of one, or check a model file.
 

@@ -27,14 +27,13 @@ the sensor noise of the mode the schedule gives.
 from __future__ import annotations
 
 import hashlib
-import itertools
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import HybridlogError, ModelError, OptionError
+from hybridlog.errors import ModelError, OptionError
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
@@ -44,7 +43,7 @@ if TYPE_CHECKING:
     import sympy
 
     from hybridlog.model.hybrid_model import HybridModel
-    from hybridlog.model.scenario import Scenario, Step
+    from hybridlog.model.scenario import Scenario, Step, StepValues
 
 _MODULES = ("hybridlog.simulate_components",)
 """The module whose code shapes the generated joint-mode and controller modules."""
@@ -119,43 +118,6 @@ def _origin(model: HybridModel) -> str:
     return model.origin or model.name
 
 
-@dataclass(frozen=True)
-class _Steps:
-    """The scenario's steps resolved: a number, or a parameter (its value, maybe ``--set``).
-
-    Errors about a step name what set it: ``--set NAME`` (an :class:`OptionError`) when the
-    user's setting is involved, else the model file and key (a :class:`ModelError`).
-    """
-
-    origin: str
-    values: Mapping[str, float]
-    settings: Collection[str]
-
-    def at(self, step: Step, key: str) -> int:
-        """The row a step names; a parameter used as one must be a whole number >= 0."""
-        if isinstance(step, int):
-            return step
-        value = self.values[step]
-        if value < 0 or value != int(value):
-            raise self.error(
-                (step,),
-                key,
-                f"{step} = {value:g} is used as a step; it must be a whole number >= 0",
-            )
-        return int(value)
-
-    def text(self, step: Step, key: str) -> str:
-        """A step for messages: ``1300`` or ``light_repair = 1300``."""
-        return str(step) if isinstance(step, int) else f"{step} = {self.at(step, key):.15g}"
-
-    def error(self, steps: Sequence[Step | None], key: str, problem: str) -> HybridlogError:
-        """The error ``problem`` at ``key``, naming the ``--set`` of ``steps`` if there is one."""
-        given = [s for s in steps if isinstance(s, str) and s in self.settings]
-        if given:
-            return OptionError(f"--set {given[0]}: {self.origin}: {key}: {problem}")
-        return ModelError(f"{self.origin}: {key}: {problem}")
-
-
 def simulate_components(
     model: HybridModel,
     *,
@@ -188,6 +150,7 @@ def simulate_components(
         A scenario the model cannot play: a joint mode whose equations do not determine
         every variable, an algebraic loop through the controller, a diverging run.
     """
+    from hybridlog.model.scenario import StepValues, check_timing
     from hybridlog.simulate import LATEST_S, _check_run, _check_seed, out_of_range, within_range
 
     seed = _check_seed(seed)
@@ -205,12 +168,13 @@ def simulate_components(
         ) from err
     if steps is not None and steps <= 0:
         raise OptionError("--steps: must be positive")
+    at = StepValues(origin, values, tuple(settings or ()))
+    check_timing(scenario, at)  # the whole scenario, as the loader checked it without --set
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
     where = "--steps" if steps else f"{origin}: simulation.steps"
     _check_run(model, rows, where, LATEST_S if ends_before is None else ends_before)
 
-    at = _Steps(origin, values, tuple(settings or ()))
     labels = _mode_labels(model, scenario, rows, at)
     overrides = _overrides(model, scenario, rows, at, labels)
     commands = np.zeros((rows, len(model.commands)))
@@ -306,7 +270,7 @@ def simulate_components(
 
 
 def _cut_events(
-    scenario: Scenario, rows: int, at: _Steps, labels: Mapping[str, list[str]]
+    scenario: Scenario, rows: int, at: StepValues, labels: Mapping[str, list[str]]
 ) -> tuple[str, ...]:
     """A note naming the scheduled modes and unmodelled behaviours ``--steps`` cuts off.
 
@@ -353,21 +317,13 @@ def _unmodelled_index(entry: str) -> int:
     return int(entry[1:].partition(":")[0])
 
 
-def _sorted(entries: Sequence[tuple[Any, Step]], at: _Steps, key: str) -> list[tuple[Any, int]]:
-    """Schedule entries with their steps resolved; the steps must increase."""
-    resolved = [(value, at.at(step, key)) for value, step in entries]
-    for (_, before), (_, after) in itertools.pairwise(entries):
-        if at.at(after, key) <= at.at(before, key):
-            raise at.error(
-                (before, after),
-                key,
-                f"the steps must increase ({at.text(before, key)} then {at.text(after, key)})",
-            )
-    return resolved
+def _sorted(entries: Sequence[tuple[Any, Step]], at: StepValues, key: str) -> list[tuple[Any, int]]:
+    """Schedule entries with their steps resolved (increasing: :func:`check_timing` saw to it)."""
+    return [(value, at.at(step, key)) for value, step in entries]
 
 
 def _mode_labels(
-    model: HybridModel, scenario: Scenario, rows: int, at: _Steps
+    model: HybridModel, scenario: Scenario, rows: int, at: StepValues
 ) -> dict[str, list[str]]:
     """Each component's scheduled mode per row (default: its most likely initial mode)."""
     labels: dict[str, list[str]] = {}
@@ -386,29 +342,20 @@ def _overrides(
     model: HybridModel,
     scenario: Scenario,
     rows: int,
-    at: _Steps,
+    at: StepValues,
     labels: Mapping[str, list[str]],
 ) -> dict[str, list[int]]:
-    """Per component and row, the index of the unmodelled behaviour in force, or −1."""
+    """Per component and row, the index of the unmodelled behaviour in force, or −1.
+
+    The behaviours were checked whole before (:func:`~hybridlog.model.scenario.check_timing`):
+    each ends after it starts, and no two of one component overlap.
+    """
     overrides = {c.name: [-1] * rows for c in model.components}
-    for index, behaviour in enumerate(scenario.unmodelled):
+    for index, behaviour in enumerate(scenario.unmodelled):  # none overlap: check_timing
         start = at.at(behaviour.start, f"{behaviour.key}.start")
         end = rows if behaviour.end is None else at.at(behaviour.end, f"{behaviour.key}.end")
-        if behaviour.end is not None and end <= start:
-            ends = f"{at.text(behaviour.end, behaviour.key)}"
-            raise at.error(
-                (behaviour.start, behaviour.end),
-                behaviour.key,
-                f"end ({ends}) must come after start ({at.text(behaviour.start, behaviour.key)})",
-            )
-        row = overrides[behaviour.component]
-        for k in range(min(start, rows), min(end, rows)):
-            if row[k] >= 0:
-                raise ModelError(
-                    f"{_origin(model)}: {behaviour.key}: overlaps "
-                    f"{scenario.unmodelled[row[k]].key} at step {k}"
-                )
-            row[k] = index
+        first, last = min(start, rows), min(end, rows)
+        overrides[behaviour.component][first:last] = [index] * (last - first)
     return overrides
 
 

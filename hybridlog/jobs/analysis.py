@@ -260,11 +260,11 @@ def prepare_estimators(
     prepared = [
         prepare(
             model,
-            e.name,
+            name,  # None: the default, which a refusal names as default_estimator
             {k: v for k, v in overrides.options.items() if k in declared[e.name]},
             given_by=given_by,
         )
-        for e in chosen
+        for name, e in zip(names, chosen, strict=True)
     ]
     _refuse_inert(model, prepared, overrides.options, declared)
     return prepared

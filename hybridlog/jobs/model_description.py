@@ -14,6 +14,7 @@ from pathlib import Path
 
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.registry import ESTIMATORS, prepare
+from hybridlog.jobs.analysis import estimator_inputs
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
 
@@ -27,20 +28,28 @@ def check_and_describe(path: Path) -> str:
     ------
     ModelError
         Whatever ``analyze`` would refuse in the file (one line naming the file and key),
-        including a bad option value of any estimator that can run the model.
+        including a bad option value of any estimator that can run the model, and a
+        ``default_estimator`` that cannot run it (``analyze`` without ``--estimator``
+        refused the file that ``models`` called valid).
     OptionError
-        An ``[estimators.<name>]`` table naming no estimator.
+        An ``[estimators.<name>]`` table naming no estimator, or a file one names (a
+        ``centers`` file) that is missing or does not suit the model, as ``analyze`` reads it.
     """
     model = load_model(path)
+    # as analyze without --estimator: the default must run the model
+    prepared = [prepare(model, None)]
     traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
     for name in suited:  # reads its [estimators.<name>] table as analyze would
-        prepare(model, name)
+        if name != model.default_estimator:
+            prepared.append(prepare(model, name))
+    for each in prepared:  # the files a table names (centers = "c.json"), read and checked
+        estimator_inputs(each, model)
     return "\n".join(
         [
             f"{path}: a valid model file",
             *_lines(model),
-            f"estimators for it: {', '.join(suited) or 'none'}"
+            f"estimators for it: {', '.join(suited)}"
             f" (default_estimator: {model.default_estimator})",
         ]
     )

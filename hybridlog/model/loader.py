@@ -357,10 +357,8 @@ class _Builder:
             simulation_state=sim_state,
             simulation_inputs=sim_inputs,
             simulation_schedule=_schedule_text(simulation, tuple(m.id for m in modes)),
-            simulation_state_min=(
-                as_vector(simulation["state_min"], len(states), "simulation.state_min")
-                if "state_min" in simulation
-                else None
+            simulation_state_min=_state_min(
+                simulation, states, x0 if sim_state is None else sim_state
             ),
             source=self.text,
             origin=self.origin,
@@ -1173,3 +1171,30 @@ def _schedule_text(simulation: Mapping[str, Any], mode_ids: tuple[str, ...]) -> 
     if mode_ids:
         parse_schedule(text, mode_ids, where="simulation.schedule")
     return text
+
+
+def _state_min(
+    simulation: Mapping[str, Any], states: tuple[str, ...], start: FloatArray
+) -> FloatArray | None:
+    """``[simulation] state_min``, which the run's first state must respect; ``None`` where absent.
+
+    ``start``: where ``simulate`` starts (``simulation.state``, else ``initial.state``).  A
+    start below the bound (``state = [-15, ...]``, ``state_min = [0, ...]``) wrote a log whose
+    row 0 held the level the model calls impossible, and a jump to the bound at row 1.
+    """
+    if "state_min" not in simulation:
+        return None
+    bound = as_vector(simulation["state_min"], len(states), "simulation.state_min")
+    below = [j for j in range(len(states)) if start[j] < bound[j]]
+    if below:
+        j = below[0]
+        where = (
+            "simulation.state"
+            if "state" in simulation
+            else "initial.state; the file gives no simulation.state"
+        )
+        raise ModelError(
+            f"simulation.state_min[{j}]: the run starts with {states[j]} = {start[j]:g} "
+            f"({where}), below its bound {bound[j]:g}; raise the start or lower the bound"
+        )
+    return bound

@@ -43,11 +43,12 @@ This module holds the data and its validation; :mod:`hybridlog.simulate_componen
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import itertools
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from hybridlog.errors import ModelError, excerpt
+from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.model.component_loader import parse_equation
 from hybridlog.model.components import UNKNOWN, Component, Equation
 from hybridlog.model.toml_text import unheld_number
@@ -146,6 +147,92 @@ class Scenario:
                 raise KeyError(name)
             values[name] = float(value)
         return values
+
+
+@dataclass(frozen=True)
+class StepValues:
+    """A scenario's steps resolved: a number, or a parameter (its value, maybe ``--set``).
+
+    Errors about a step name what set it: ``--set NAME`` (an :class:`OptionError`) when the
+    user's setting is involved, else the key, after ``origin`` (the model file; ``None``
+    while the file is loaded, whose loader prefixes it) (a :class:`ModelError`).
+    """
+
+    origin: str | None
+    values: Mapping[str, float]
+    settings: Collection[str] = ()
+
+    def at(self, step: Step, key: str) -> int:
+        """The row a step names; a parameter used as one must be a whole number >= 0."""
+        if isinstance(step, int):
+            return step
+        value = self.values[step]
+        if value < 0 or value != int(value):
+            raise self.error(
+                (step,),
+                key,
+                f"{step} = {value:g} is used as a step; it must be a whole number >= 0",
+            )
+        return int(value)
+
+    def text(self, step: Step, key: str) -> str:
+        """A step for messages: ``1300`` or ``light_repair = 1300``."""
+        return str(step) if isinstance(step, int) else f"{step} = {self.at(step, key):.15g}"
+
+    def error(self, steps: Sequence[Step | None], key: str, problem: str) -> HybridlogError:
+        """The error ``problem`` at ``key``, naming the ``--set`` of ``steps`` if there is one."""
+        where = key if self.origin is None else f"{self.origin}: {key}"
+        given = [s for s in steps if isinstance(s, str) and s in self.settings]
+        if given:
+            return OptionError(f"--set {given[0]}: {where}: {problem}")
+        return ModelError(f"{where}: {problem}")
+
+
+def check_timing(scenario: Scenario, at: StepValues) -> None:
+    """Refuse a scenario whose steps cannot be played, with the parameter values of ``at``.
+
+    Every step a whole number >= 0, each mode and command schedule's steps increasing,
+    every unmodelled behaviour ending after it starts, and no two of one component's
+    behaviours overlapping.  Run as the file is loaded (the parameters' own values: a
+    scenario ``simulate`` would refuse is an error of the file, which ``hybridlog models``
+    reports) and again as it is played with ``--set`` (which then names the setting).
+    The whole scenario is checked, not only the steps a shorter ``--steps`` run reaches.
+    """
+    schedules = [
+        *((f"simulation.modes.{name}", entries) for name, entries in scenario.modes.items()),
+        *((f"simulation.commands.{n}", entries) for n, entries in scenario.commands.items()),
+    ]
+    for key, entries in schedules:
+        for (_, before), (_, after) in itertools.pairwise(entries):
+            if at.at(after, key) <= at.at(before, key):
+                raise at.error(
+                    (before, after),
+                    key,
+                    f"the steps must increase ({at.text(before, key)} then {at.text(after, key)})",
+                )
+    spans: list[tuple[Unmodelled, int, float]] = []
+    for behaviour in scenario.unmodelled:
+        start = at.at(behaviour.start, f"{behaviour.key}.start")
+        end = (
+            float("inf") if behaviour.end is None else at.at(behaviour.end, f"{behaviour.key}.end")
+        )
+        if end <= start:
+            assert behaviour.end is not None  # an end of inf comes after any start
+            raise at.error(
+                (behaviour.start, behaviour.end),
+                behaviour.key,
+                f"end ({at.text(behaviour.end, behaviour.key)}) must come after start "
+                f"({at.text(behaviour.start, behaviour.key)})",
+            )
+        for earlier, first, last in spans:
+            if earlier.component == behaviour.component and max(first, start) < min(last, end):
+                raise at.error(
+                    (earlier.start, earlier.end, behaviour.start, behaviour.end),
+                    behaviour.key,
+                    f"overlaps {earlier.key} at step {max(first, start)} (both replace "
+                    f"{behaviour.component}'s equations there)",
+                )
+        spans.append((behaviour, start, end))
 
 
 def load_scenario(
@@ -305,7 +392,7 @@ def load_scenario(
         if name in as_table(table.get("inputs", {}), "simulation.inputs"):
             raise ModelError(f"{key}: simulation.inputs.{name} gives this input already")
         control[name] = _expression(text, env, key)
-    return Scenario(
+    scenario = Scenario(
         steps=steps,
         parameters=scenario_parameters,
         modes=modes,
@@ -315,6 +402,8 @@ def load_scenario(
         controller_update=update,
         controller_inputs=control,
     )
+    check_timing(scenario, StepValues(None, scenario_parameters))
+    return scenario
 
 
 def _expression(value: Any, env: Mapping[str, sympy.Expr], key: str) -> sympy.Expr:

@@ -12,6 +12,7 @@ from hybridlog.errors import ModelError
 from hybridlog.jobs.model_description import check_and_describe
 from hybridlog.model.builtins import builtin_names, builtin_text
 from tests.cli.test_cli import run
+from tests.support.paths import TANK_CSV
 
 SUITED = {
     "three_tank_hstf": "hstf, imm",
@@ -52,3 +53,47 @@ def test_the_command_describes_a_file_prints_a_built_in_and_refuses_in_one_line(
     assert line.startswith(f"hybridlog: error: {path}: ") and "dt" in line
     assert result.stdout == ""
     assert run(["models", "double_cart_case1"]).stdout == builtin_text("double_cart_case1")
+
+
+@pytest.mark.parametrize(
+    ("name", "default", "needs"),
+    [
+        ("three_tank_hstf", 'default_estimator = "sliding-mode"', "a continuous-time model"),
+        ("ice_clutch", "", "a discrete-time model"),  # none written: imm, the loader's default
+    ],
+)
+def test_a_default_estimator_that_cannot_run_the_model_is_refused_as_analyze_does(
+    tmp_path: Path, name: str, default: str, needs: str
+) -> None:
+    # models called the file valid, and analyze without --estimator then refused it
+    text = builtin_text(name)
+    written = next(line for line in text.splitlines() if line.startswith("default_estimator"))
+    path = tmp_path / "mine.toml"
+    path.write_text(text.replace(written, default, 1), encoding="utf-8")
+    refused = run(["models", str(path)], expect=2).stderr.strip()
+    assert refused.startswith(f"hybridlog: error: {path}: default_estimator '")
+    assert f"needs {needs}" in refused and "\n" not in refused
+    analyzed = run(
+        ["analyze", str(TANK_CSV), "--model", str(path), "--out", str(tmp_path / "r")], 2
+    )
+    assert analyzed.stderr.strip() == refused
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_missing_file_an_estimator_table_names_is_found_as_analyze_finds_it(
+    tmp_path: Path,
+) -> None:
+    # models read the [estimators.chiu] table's values but not the file it names: "a valid
+    # model file", which analyze (chiu is double_cart_case1's default) then refused
+    path = tmp_path / "mine.toml"
+    text = builtin_text("double_cart_case1") + '\n[estimators.chiu]\ncenters = "gone.json"\n'
+    path.write_text(text, encoding="utf-8")
+    refused = run(["models", str(path)], expect=2).stderr.strip()
+    assert refused == (
+        f"hybridlog: error: {path}: estimators.chiu.centers: {tmp_path / 'gone.json'}: "
+        "no such centers file"
+    )
+    log = tmp_path / "cart.csv"
+    run(["simulate", "double_cart_case1", "--out", str(log), "--steps", "20"])
+    analyzed = run(["analyze", str(log), "--model", str(path), "--out", str(tmp_path / "r")], 2)
+    assert analyzed.stderr.strip() == refused

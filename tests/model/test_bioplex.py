@@ -229,12 +229,37 @@ def test_a_run_ending_later_than_a_log_holds_is_refused(model):
 
 
 def test_steps_out_of_order_in_the_model_file_name_it(tmp_path):
+    # refused as the file is loaded, so `hybridlog models FILE` (and analyze) say so too
     path = tmp_path / "plant.toml"
     path.write_text(_replace("full@light_repair", "full@800"))
     with pytest.raises(ModelError) as error:
-        simulate_components(load_model(path), steps=5)
+        load_model(path)
     assert str(error.value) == (
         f"{path}: simulation.modes.ls: the steps must increase (light_fault = 900 then 800)"
+    )
+
+
+def test_behaviours_overlapping_past_the_steps_run_are_refused():
+    # behaviours of one component may not overlap anywhere in the scenario: --steps 5
+    # played a run whose scenario a full run refused (the overlap at 1000 was past step 5)
+    model = load_model("bioplex_pgc")
+    with pytest.raises(OptionError) as error:
+        simulate_components(model, steps=5, settings={"drift_end": 2000, "light_fault": 1400})
+    assert str(error.value) == (
+        "--set light_fault: bioplex_pgc: simulation.modes.ls: the steps must increase "
+        "(light_fault = 1400 then light_repair = 1300)"
+    )
+    second = (
+        '[[simulation.unmodelled]]\ncomponent = "fr2"\nstart = 1000\nequations = ["yc2 = xc2"]\n'
+    )
+    text = TEXT.replace("[simulation.controller]", second + "\n[simulation.controller]", 1)
+    text = text.replace("drift_end = 1100", "drift_end = 900", 1)
+    model = parse_model(text, origin="bioplex.toml")  # valid: the drift ends at 900
+    with pytest.raises(OptionError) as error:
+        simulate_components(model, steps=5, settings={"drift_end": 1200})
+    assert str(error.value) == (
+        "--set drift_end: bioplex.toml: simulation.unmodelled[1]: overlaps "
+        "simulation.unmodelled[0] at step 1000 (both replace fr2's equations there)"
     )
 
 
@@ -265,6 +290,20 @@ def _replace(old, new):
         ("inputs = {uc1 =", "inputs = {uc2 =", r"controller\.inputs\.uc2: not an input"),
         ("update = {integral", "update = {memory", r"controller\.update\.memory: not a contr"),
         ("steps = 1500", "steps = 0", r"simulation\.steps: expected a positive whole number"),
+        # a scenario simulate cannot play, with its own parameter values: refused as the
+        # file is loaded (`hybridlog models FILE` called it valid, and simulate refused it)
+        ("light_fault = 900", "light_fault = 900.5", r"ls: light_fault = 900\.5 is used as a st"),
+        ("light_fault = 900", "light_fault = -900", r"ls: light_fault = -900 is used as a step"),
+        ("light_repair = 1300", "light_repair = 800", r"ls: the steps must increase \(light_f"),
+        ('fr1_cmd = "1"', 'fr1_cmd = "1, 0@5, 1@5"', r"fr1_cmd: the steps must increase \(5 t"),
+        ("drift_end = 1100", "drift_end = 600", r"unmodelled\[0\]: end \(drift_end = 600\) mus"),
+        ('end = "drift_end"', "end = 0", r"unmodelled\[0\]: end \(0\) must come after st"),
+        (
+            "[simulation.controller]",
+            '[[simulation.unmodelled]]\ncomponent = "fr2"\nstart = 1000\nequations = '
+            '["yc2 = xc2"]\n[simulation.controller]',
+            r"unmodelled\[1\]: overlaps simulation\.unmodelled\[0\] at step 1000 \(both",
+        ),
     ],
 )
 def test_bad_scenarios_name_the_key(old, new, message):

@@ -321,3 +321,36 @@ def test_where_guards_overlap_the_first_listed_mode_holds():
     log = simulate(model, steps=4, noise=False, jit=False)
     # x = 0.5, 0.7, 0.9 (both hold: up), 1.1 (down alone), 0.8
     assert [model.mode_ids[q] for q in log.modes] == ["up", "up", "up", "down", "up"]
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            "state = [15.0, 10.0, 10.0]",
+            "state = [15.0, -2.5, 10.0]",
+            r"simulation\.state_min\[1\]: the run starts with x2 = -2\.5 \(simulation\.state\)",
+        ),
+        (
+            "state_min = [0.0, 0.0, 0.0]",
+            "state_min = [0.0, 0.0, 12.0]",
+            r"simulation\.state_min\[2\]: the run starts with x3 = 10 \(simulation\.state\), "
+            r"below its bound 12",
+        ),
+        (  # without simulation.state the run starts at initial.state
+            "state = [15.0, 10.0, 10.0]\n",
+            "",
+            r"simulation\.state_min\[0\]: the run starts with x1 = 20 \(initial\.state; the file "
+            r"gives no simulation\.state\), below its bound 25",
+        ),
+    ],
+)
+def test_a_run_starting_below_its_state_min_is_refused_as_the_file_loads(old, new, message):
+    # row 0 held the level state_min calls impossible, and row 1 the bound: a jump the
+    # plant cannot make; `hybridlog models FILE` called the file valid
+    text = TANK.replace(old, new, 1)
+    if not new:
+        text = text.replace("state_min = [0.0, 0.0, 0.0]", "state_min = [25.0, 0.0, 0.0]", 1)
+    assert text != TANK
+    with pytest.raises(ModelError, match=rf"^tank\.toml: {message}"):
+        parse_model(text, origin="tank.toml")
