@@ -124,9 +124,9 @@ def model_file(name_or_path: str | Path) -> Path | None:
     if path.suffix == ".toml":
         raise ModelError(f"{path}: no such model file")
     known = ", ".join(builtin_names())
-    raise ModelError(
-        f"{excerpt(name)[1:-1]}: neither a model file nor a built-in model (built-ins: {known})"
-    )
+    shown = excerpt(name)  # quoted where blanks would not show: '' or ' x'
+    shown = shown if name.strip() != name or not name else shown[1:-1]
+    raise ModelError(f"{shown}: neither a model file nor a built-in model (built-ins: {known})")
 
 
 def cached_model(

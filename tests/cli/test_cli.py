@@ -1,6 +1,7 @@
 """The command line on real files: outputs, CI gates, and bad input (exit 2, one line)."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -11,6 +12,7 @@ from click.testing import CliRunner
 from hybridlog.cli import cli, main
 from hybridlog.errors import ModelError
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
+from hybridlog.model.cache import model_file
 from hybridlog.model.loader import load_model
 from tests.support.paths import ROOT, TANK_CSV
 
@@ -69,6 +71,13 @@ def test_models_lists_and_prints_builtins():
     text = run(["models", "three_tank_hstf"]).output
     assert "[modes.1]" in text and "paper 000" in text
     assert run(["models", "nope"], expect=2).stderr.count("\n") == 1
+
+
+@pytest.mark.parametrize("name", [" ", "three_tank_hstf "])
+def test_a_model_name_with_blanks_is_shown_quoted(name: str) -> None:
+    # " " printed "error: : neither a model file ...": the name did not show
+    with pytest.raises(ModelError, match=rf"^{re.escape(repr(name))}: neither a model file"):
+        model_file(name)
 
 
 def test_builtins_are_valid_models_listed_without_sympy_by_their_reference():
