@@ -60,6 +60,7 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
+    check_signals,
     estimator_inputs,
     gates_for,
     input_paths,
@@ -518,6 +519,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         _check_unchanged(job, [])
     reading: dict[str, Any] = {}
     signals = read_log(log, warm.model, job.read, reading)
+    check_signals([warm.prepared], warm.model, signals)  # before waiting for memory
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
     # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)
