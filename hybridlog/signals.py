@@ -113,6 +113,11 @@ class AlignedSignals:
         For a ``[components]`` model, the commands its transition rules' ``when`` name that
         the log has, and their values, shape ``(N, len(command_names))``, held onto the grid
         as inputs are (row ``k`` holds ``u_d(k)``, paper 002 eq. (4)); ``None`` without any.
+    piece:
+        The part of the log the signals hold when ``--split-gaps`` cut it (``--split-gaps
+        piece 1 of 3, t = 0 … 1 s, the longest``); empty: the whole log.  ``source`` then
+        names it too (``log.csv (--split-gaps piece 1 of 3, ...)``), so that every message
+        about the signals says which piece of the log it is about.
     """
 
     source: str
@@ -127,6 +132,7 @@ class AlignedSignals:
     truth_components: Mapping[str, ComponentTruth] = field(default_factory=_no_components)
     command_names: tuple[str, ...] = ()
     commands: FloatArray | None = None
+    piece: str = ""
 
     @property
     def n_samples(self) -> int:
