@@ -236,7 +236,8 @@ def _read_options(function: F) -> F:
             "--recover",
             is_flag=True,
             help="Read an unfinished or damaged MCAP file sequentially up to its first bad "
-            "record, and use that (recorded under reading in report.json or centers.json).",
+            "record, and use that (recorded under reading in report.json or centers.json). "
+            "Refused for a log of another format; batch applies it to its MCAP files.",
         ),
         _msg_dir_option,
     ]

@@ -120,6 +120,11 @@ class AlignedSignals:
         ``max_gap`` bridged, SPEC §5), shape ``(N, n_y)``; ``None`` where every row was
         measured.  The estimators run on ``outputs``; what is reported as measured, and
         scored, is :meth:`measured_outputs`.
+    piece:
+        The part of the log the signals hold when ``--split-gaps`` cut it (``--split-gaps
+        piece 1 of 3, t = 0 … 1 s, the longest``); empty: the whole log.  ``source`` then
+        names it too (``log.csv (--split-gaps piece 1 of 3, ...)``), so that every message
+        about the signals says which piece of the log it is about.
     """
 
     source: str
@@ -135,6 +140,7 @@ class AlignedSignals:
     command_names: tuple[str, ...] = ()
     commands: FloatArray | None = None
     unmeasured_outputs: BoolArray | None = None
+    piece: str = ""
 
     @property
     def n_samples(self) -> int:

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
     from hybridlog.signals import AlignedSignals
 
-__all__ = ["MAX_JOINT_MODES", "Capabilities", "ModelTraits"]
+__all__ = ["MAX_JOINT_MODES", "Capabilities", "ModelTraits", "missing_command"]
 
 MAX_JOINT_MODES = 256
 """The most joint modes a ``[components]`` model is enumerated into
@@ -50,6 +50,10 @@ class Capabilities:
         The model's ``[transitions]`` matrix is used when present (a default otherwise).
     needs_switching_signal:
         The log must carry the switching signal (the true mode, ``--map truth.mode=PATH``).
+    applies_commands:
+        The estimator applies a ``[components]`` model's transition rules with ``when`` by
+        the logged commands (paper 002 eq. (4)): the log must hold every command a rule's
+        ``when`` names (:func:`missing_command`).
     needs_measured_state:
         The continuous state must be measured: the outputs are the states in every mode.
     needs_components:
@@ -92,6 +96,7 @@ class Capabilities:
     needs_markov_matrix: bool = False
     uses_markov_matrix: bool = False
     needs_switching_signal: bool = False
+    applies_commands: bool = False
     needs_measured_state: bool = False
     needs_components: bool = False
     enumerates_components: bool = False
@@ -128,6 +133,8 @@ class Capabilities:
             words.append("one output")
         if self.needs_switching_signal:
             words.append("switching signal in the log")
+        if self.applies_commands:
+            words.append("each command a transition rule's when names, in the log")
         return tuple(words)
 
     def mismatch(self, traits: ModelTraits) -> str | None:
@@ -166,8 +173,15 @@ class Capabilities:
             )
         return None
 
-    def signals_mismatch(self, signals: AlignedSignals) -> str | None:
-        """The first reason the aligned log cannot be used, or None.
+    def signals_mismatch(self, model: HybridModel, signals: AlignedSignals) -> str | None:
+        """The first reason the aligned log cannot be used with ``model``, or None.
+
+        Checked by every command before any estimator runs
+        (:meth:`~hybridlog.estimators.registry.Prepared.check_signals`): found as the
+        estimator started, a log ``compare`` could not give the last estimator named was
+        refused after the others had run, their work lost.  An estimator that applies the
+        commands (:attr:`applies_commands`) needs each one a transition rule names
+        (:func:`missing_command`).
 
         An estimator that takes every sample's mode from the switching signal
         (:attr:`needs_switching_signal`) needs one that covers the log: a true mode that
@@ -176,6 +190,10 @@ class Capabilities:
         sample longer than ``max_gap``, which the mode metrics leave out but such an
         estimator would read as a mode.
         """
+        if self.applies_commands:
+            missing = missing_command(model, signals)
+            if missing is not None:
+                return missing
         if not self.needs_switching_signal:
             return None
         if signals.truth_modes is None:
@@ -203,6 +221,31 @@ class Capabilities:
                 "truth.mode=PATH, or allow a longer --max-gap)"
             )
         return None
+
+
+def missing_command(model: HybridModel, signals: AlignedSignals) -> str | None:
+    """Why the log lacks a command a transition rule's ``when`` names, or None.
+
+    ``needs the command 'cmd' in the log, which a transition rule of component 'valve'
+    reads (m.toml: components.valve.transitions[0].when); map it ...``: the first such
+    command in the model's order, with the first rule that names it.  Without its values
+    the rule cannot be applied, and leaving it out would analyse another model (a
+    commanded switch seen as a fault).
+    """
+    needed: dict[str, tuple[str, str]] = {}
+    for component in model.components:
+        for rule in component.rules:
+            for command in rule.when:
+                needed.setdefault(command, (component.name, rule.key))
+    have = signals.command_names if signals.commands is not None else ()
+    for command in (c for c in model.commands if c in needed and c not in have):
+        owner, rule_key = needed[command]
+        return (
+            f"needs the command {command!r} in the log, which a transition rule of component "
+            f"{owner!r} reads ({model.origin or model.name}: {rule_key}.when): the rules are "
+            f"applied by the logged commands; map it with --map {command}=FIELD or [signals]"
+        )
+    return None
 
 
 class ModelTraits:

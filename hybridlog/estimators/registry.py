@@ -287,6 +287,7 @@ ESTIMATORS: dict[str, Estimator] = {
             memory="unknown_mode_memory",
             capabilities=Capabilities(
                 needs_components=True,
+                applies_commands=True,
                 unpredicted_outputs=True,
                 no_smoothing="its cluster filters keep nothing for a backward pass; "
                 "--mode-sequence kbest gives its offline mode sequence",
@@ -422,7 +423,7 @@ class Prepared:
         self, model: HybridModel, signals: AlignedSignals, inputs: Mapping[str, Any]
     ) -> EstimationResult:
         """The estimator's whole result, its modes moved where :meth:`moves_modes` says."""
-        self.check_signals(signals)
+        self.check_signals(model, signals)
         with self._numerical_trouble(model):
             result: EstimationResult = self.estimator.run_function(
                 model, signals, self.options, **inputs
@@ -520,14 +521,17 @@ class Prepared:
         """
         return self.estimator.capabilities.modes_of_the_step_into and model.state_driven
 
-    def check_signals(self, signals: AlignedSignals) -> None:
+    def check_signals(self, model: HybridModel, signals: AlignedSignals) -> None:
         """Refuse a log that lacks what the estimator needs of one (one line, ``LogError``).
 
-        Run as the estimator starts, and by ``compare`` for every estimator before the first
-        runs: a log without the switching signal of the last estimator named was refused
-        after the others had run, their work lost.
+        :meth:`Capabilities.signals_mismatch
+        <hybridlog.estimators.capabilities.Capabilities.signals_mismatch>`: the switching
+        signal, the commands the transition rules name.  Run as the estimator starts, and by
+        ``analyze``, ``compare`` (for every estimator) and each log of a batch once the log
+        is read, before any estimator runs: a log without the switching signal or a command
+        of the last estimator named was refused after the others had run, their work lost.
         """
-        problem = self.estimator.capabilities.signals_mismatch(signals)
+        problem = self.estimator.capabilities.signals_mismatch(model, signals)
         if problem is not None:
             raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")
 
@@ -555,7 +559,7 @@ class Prepared:
         """
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
-        self.check_signals(signals)
+        self.check_signals(model, signals)
         with self._numerical_trouble(model):
             chunks = self.estimator.stream_function(
                 model, signals, self.options, rows=rows, **inputs

@@ -751,8 +751,9 @@ def align_signals(
                 )
     if notes is not None:
         _record_span_bounds(inputs, outputs, commands, field_word, dt_ns, max_gap_ns, notes)
+    piece = ""
     if split_gaps and outputs:
-        outputs = _longest_piece(
+        outputs, piece = _longest_piece(
             source,
             field_word,
             {**inputs, **commands},
@@ -761,6 +762,8 @@ def align_signals(
             dt_ns,
             notes if notes is not None else {},
         )
+        if piece:  # every message from here on is about that piece
+            source = f"{source} ({piece})"
 
     output_list = list(outputs.values())
     held_signals = [*inputs.values(), *commands.values()]
@@ -883,6 +886,7 @@ def align_signals(
         command_names=tuple(commands or {}),
         commands=held_commands if commands else None,
         unmeasured_outputs=unmeasured,
+        piece=piece,
     )
 
 
@@ -1105,10 +1109,13 @@ def _longest_piece(
     max_gap_ns: int,
     dt_ns: int,
     notes: dict[str, Any],
-) -> dict[str, Series]:
+) -> tuple[dict[str, Series], str]:
     """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``.
 
-    (Or than ``dt``, whichever is longer: :func:`_gap_threshold`.)
+    (Or than ``dt``, whichever is longer: :func:`_gap_threshold`.)  With it, the piece kept
+    when the log was cut, for messages (``--split-gaps piece 2 of 3, t = 20 … 23 s, the
+    longest``; its number counts the pieces in time order from 1, as report.json's
+    ``reading.segments`` lists them); empty when no gap cut it.
     """
     threshold = _gap_threshold(max_gap_ns, dt_ns)
     for symbol, series in outputs.items():
@@ -1129,7 +1136,7 @@ def _longest_piece(
         for i in np.flatnonzero(longer_than_max_gap(steps, threshold, dt_ns)).tolist():
             gaps.append((int(series.time_ns[i]), int(series.time_ns[i + 1])))
     if not gaps:
-        return dict(outputs)
+        return dict(outputs), ""
     pieces: list[tuple[int, int]] = []
     cursor = start
     for gap_start, gap_end in sorted(gaps):
@@ -1152,4 +1159,9 @@ def _longest_piece(
     for symbol, series in outputs.items():
         keep = (series.time_ns >= lo) & (series.time_ns <= hi)
         cut[symbol] = Series(series.name, series.time_ns[keep], series.values[keep])
-    return cut
+    longest = "the only one" if len(pieces) == 1 else "the longest"
+    piece = (
+        f"--split-gaps piece {best + 1} of {len(pieces)}, t = {format_ns(lo)} … "
+        f"{format_ns(hi)} s, {longest}"
+    )
+    return cut, piece

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import ReadOptions
 from hybridlog.outputs import MARKER
 
@@ -80,6 +80,10 @@ class LogFormat:
         Whether the log is a directory.
     index_file:
         For a directory: a file whose presence marks the format (``metadata.yaml``).
+    recovers:
+        Whether its reader reads the file with ``--recover`` (sequentially, up to the first
+        damaged record): a bare MCAP file only.  Another format given ``--recover`` is
+        refused as it is opened (:meth:`open`): the option was silently ignored.
     """
 
     name: str
@@ -91,13 +95,34 @@ class LogFormat:
     misnamed: str = ""
     directory: bool = False
     index_file: str = ""
+    recovers: bool = False
 
     def open(self, path: Path, options: ReadOptions) -> LogSource:
-        """Open ``path`` with this format's reader (imported on first use)."""
+        """Open ``path`` with this format's reader (imported on first use).
+
+        Raises
+        ------
+        OptionError
+            For ``--recover`` on a format that does not read it (:attr:`recovers`).
+        """
+        if options.recover and not self.recovers:
+            raise OptionError(self.recover_refusal(path))
         module, _, name = self.reader.partition(":")
         reader = getattr(importlib.import_module(module), name)
         opener = cast("Callable[[Path, ReadOptions, LogFormat], LogSource]", reader)
         return opener(path, options, self)
+
+    def recover_refusal(self, path: str | os.PathLike[str]) -> str:
+        """``--recover: PATH is a CSV file; ...``: why ``--recover`` cannot read ``path``."""
+        where = (
+            "for an unfinished .mcap storage file of the bag, give that file itself"
+            if self.directory
+            else "leave it out"
+        )
+        return (
+            f"--recover: {os.fspath(path)} is {self.what}; --recover reads only an unfinished "
+            f"or damaged MCAP file (sequentially, up to its first bad record): {where}"
+        )
 
     def holds(self, folder: Path) -> bool:
         """For a directory format: whether ``folder`` has its index file or one of its files."""
@@ -124,6 +149,7 @@ FORMATS: tuple[LogFormat, ...] = (
         (".mcap",),
         "hybridlog.io.mcap_reader:open_mcap",
         magic=MCAP_MAGIC,
+        recovers=True,
     ),
     LogFormat(
         "ros1-bag",
@@ -349,5 +375,7 @@ def open_log(path: str | os.PathLike[str], options: ReadOptions | None = None) -
         format is not supported (listing those that are), or it cannot be opened;
         :class:`~hybridlog.io.mcap_reader.UnfinishedLogError` for an MCAP file without
         footer (unless ``recover``).
+    OptionError
+        For ``recover`` on a log of another format than MCAP (:attr:`LogFormat.recovers`).
     """
     return log_format(path).open(Path(path), options or ReadOptions())

@@ -590,6 +590,7 @@ def analyze(
     warm_up([prepared], model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
+    check_signals([prepared], model, signals)
     check_memory(log, model, [prepared], signals)
     from hybridlog.report import write_report  # polars: see the module's docstring
 
@@ -719,16 +720,20 @@ def _check_separators(estimators: Sequence[str]) -> None:
             )
 
 
-def _check_signals(prepared: Sequence[Prepared], signals: AlignedSignals) -> None:
+def check_signals(
+    prepared: Sequence[Prepared], model: HybridModel, signals: AlignedSignals
+) -> None:
     """Refuse the log for any of ``prepared`` that lacks a signal it needs, before any runs.
 
-    Found as the estimator started, a log without the switching signal of the last one named
-    was refused after the others had run, their work lost.  Named as :func:`_watched` names
-    a run's error when several are compared.
+    :meth:`Prepared.check_signals <hybridlog.estimators.Prepared.check_signals>`: the
+    switching signal, the commands the transition rules name.  Found as the estimator
+    started, a log without the switching signal or a command of the last one named was
+    refused after the others had run, their work lost.  Named as :func:`_watched` names a
+    run's error when several are compared.
     """
     for estimator in prepared:
         try:
-            estimator.check_signals(signals)
+            estimator.check_signals(model, signals)
         except HybridlogError as err:
             if len(prepared) == 1:
                 raise
@@ -789,7 +794,7 @@ def compare(
     warm_up(prepared, model)
     reading: dict[str, Any] = {}
     signals = read_for_estimation(log, model, read, reading)
-    _check_signals(prepared, signals)
+    check_signals(prepared, model, signals)
     check_memory(log, model, prepared, signals)
     reports: dict[str, Report] = {}
     failures: dict[str, str] = {}

@@ -60,6 +60,7 @@ from hybridlog.io import ReadOptions
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
+    check_signals,
     estimator_inputs,
     gates_for,
     input_paths,
@@ -68,7 +69,14 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
-from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, missing_pattern_hint, natural_key
+from hybridlog.jobs.batch_logs import (
+    FoundLogs,
+    batch_logs,
+    missing_pattern_hint,
+    natural_key,
+    recover_applies,
+    recover_note,
+)
 from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
@@ -517,7 +525,11 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     if job.read.msg_dirs:  # read with each log: checked before each
         _check_unchanged(job, [])
     reading: dict[str, Any] = {}
-    signals = read_log(log, warm.model, job.read, reading)
+    read = job.read
+    if read.recover and not recover_applies(log):  # another format: said by recover_note
+        read = dataclasses.replace(read, recover=False)
+    signals = read_log(log, warm.model, read, reading)
+    check_signals([warm.prepared], warm.model, signals)  # before waiting for memory
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
     # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)
@@ -729,6 +741,9 @@ def run_batch(
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
     notes: list[str] = []
+    if read is not None and read.recover:  # refused when it applies to no log
+        recovered = recover_note(paths)
+        notes += [] if recovered is None else [recovered]
     if scheduler is None and jobs > 1:
         jobs, notes = pool_size(jobs, len(paths))
     pool = client = None

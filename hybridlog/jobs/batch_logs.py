@@ -10,14 +10,22 @@ from __future__ import annotations
 
 import os
 import re
+from collections import Counter
 from collections.abc import Sequence
 from typing import NamedTuple
 
-from hybridlog.errors import OptionError, excerpt
-from hybridlog.io.formats import format_list, indexed_log, logs_in
+from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.io.formats import format_list, indexed_log, log_format, logs_in
 from hybridlog.outputs import PathLike
 
-__all__ = ["FoundLogs", "batch_logs", "missing_pattern_hint", "natural_key"]
+__all__ = [
+    "FoundLogs",
+    "batch_logs",
+    "missing_pattern_hint",
+    "natural_key",
+    "recover_applies",
+    "recover_note",
+]
 
 GLOB_CHARACTERS = frozenset("*?[")
 """What a shell expands in a word it is given unquoted."""
@@ -86,3 +94,59 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
         else:
             found.append(os.fspath(log))
     return FoundLogs(sorted(found, key=natural_key), folders)
+
+
+def recover_applies(log: PathLike) -> bool:
+    """Whether ``--recover`` reads ``log``: a bare MCAP file (``LogFormat.recovers``).
+
+    A log whose format cannot be told counts as one it applies to: it fails as that log
+    when it is opened, with the reason.
+    """
+    try:
+        return log_format(log).recovers
+    except LogError:
+        return True
+
+
+def recover_note(logs: Sequence[str]) -> str | None:
+    """What ``--recover`` does over a batch's ``logs``, some of which may not be MCAP files.
+
+    ``analyze`` refuses ``--recover`` for a log of another format, which never reads it
+    (``--recover: log.csv is a CSV file; ...``); over a folder of logs of mixed formats
+    it means "recover the MCAP files that need it", so the other logs are read as they are
+    and this note says how many they are, of which formats.  None: every log is an MCAP
+    file (or none can be told).
+
+    Raises
+    ------
+    OptionError
+        When no log of the batch is an MCAP file: the option applies to none of them.
+    """
+    others: Counter[str] = Counter()
+    for log in logs:
+        try:
+            found = log_format(log)
+        except LogError:  # fails as that log, with the reason
+            continue
+        if not found.recovers:
+            others[found.name] += 1
+    if not others:
+        return None
+    kinds = ", ".join(f"{count} {name}" for name, count in sorted(others.items()))
+    read = len(logs) - sum(others.values())
+    if read == 0:
+        raise OptionError(
+            f"--recover: no log of the batch is an MCAP file ({kinds}); --recover reads "
+            "only an unfinished or damaged MCAP file (sequentially, up to its first bad "
+            "record): leave it out"
+        )
+    rest = sum(others.values())
+    return (
+        f"--recover: applied to the {f'{read} MCAP files' if read > 1 else 'MCAP file'} of the "
+        "batch; "
+        + (
+            f"the other {rest} logs ({kinds}) are not MCAP files and are read as they are"
+            if rest > 1
+            else f"the other log ({kinds}) is not an MCAP file and is read as it is"
+        )
+    )

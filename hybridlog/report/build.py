@@ -301,8 +301,10 @@ class ReportBuilder:
     Raises
     ------
     LogError
-        When the run has fewer than :data:`MIN_SAMPLES` samples (naming ``log``): before
-        any estimate is taken, so a run too short to report is refused before it runs.
+        When the run has fewer than :data:`MIN_SAMPLES` samples (naming ``log``, and the
+        piece of it ``--split-gaps`` kept, :attr:`~hybridlog.signals.AlignedSignals.piece`):
+        before any estimate is taken, so a run too short to report is refused before it
+        runs.
 
     """
 
@@ -311,8 +313,9 @@ class ReportBuilder:
     ) -> None:
         n = signals.n_samples
         if n < MIN_SAMPLES:
+            where = f"{log} ({signals.piece})" if signals.piece else log  # which piece of it
             raise LogError(
-                f"{log}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
+                f"{where}: too short: {plural(n, 'sample')} on the model's grid (dt = {dt:g} s); "
                 f"a report needs at least {MIN_SAMPLES}: the first sample is the prior, and "
                 "VAF and fit need the spread of at least two predicted samples"
             )

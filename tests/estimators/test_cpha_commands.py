@@ -111,8 +111,9 @@ def test_a_log_without_a_command_a_rule_needs_is_refused_naming_command_and_comp
     with pytest.raises(LogError) as raised:
         run_unknown_mode(model, signals, UnknownModeOptions(beam=4))
     assert re.fullmatch(
-        r"tiny\.csv: no command 'cmd' in the log, which component 'c' needs \(<model>: "
-        r"components\.c\.transitions\[0\]\.when\): .*--map cmd=FIELD or \[signals\]",
+        r"tiny\.csv: estimator 'unknown-mode' needs the command 'cmd' in the log, which a "
+        r"transition rule of component 'c' reads \(<model>: components\.c\.transitions\[0\]"
+        r"\.when\): .*--map cmd=FIELD or \[signals\]",
         str(raised.value),
     )
 
@@ -267,5 +268,5 @@ def test_the_cli_refuses_a_log_without_the_command_in_one_line(valve_log, tmp_pa
     code, printed = run_main([*args, "--estimator", "unknown-mode"], capsys)
     assert code == 2 and not out.exists()
     (line,) = printed.strip().splitlines()
-    assert "no command 'cmd' in the log, which component 'valve' needs" in line
+    assert "the command 'cmd' in the log, which a transition rule of component 'valve'" in line
     assert "components.valve.transitions[0].when" in line

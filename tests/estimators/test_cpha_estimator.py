@@ -335,7 +335,8 @@ def test_transition_rules_with_when_apply_by_the_logged_commands():
     model = parse_model(commanded)
     assert any(rule.when for rule in model.components[0].rules)
     signals = cpha_log(model, 20, seed=1)
-    with pytest.raises(LogError, match=r"no command 'a1_cmd' in the log, which component 'A1'"):
+    refused = r"needs the command 'a1_cmd' in the log, which a transition rule of component 'A1' "
+    with pytest.raises(LogError, match=refused):
         run_unknown_mode(model, signals, UnknownModeOptions(beam=5))
     on = dataclasses.replace(signals, command_names=("a1_cmd",), commands=np.ones((20, 1)))
     notes = run_unknown_mode(model, on, UnknownModeOptions(beam=5)).notes

@@ -352,9 +352,9 @@ def test_capabilities_checks_for_every_need(cases):
     )
     assert single.mismatch(cart_traits) is None
     switching = Capabilities(needs_switching_signal=True)
-    assert switching.signals_mismatch(tank_signals) is None
+    assert switching.signals_mismatch(tank, tank_signals) is None
     blind = dataclasses.replace(tank_signals, truth_modes=None)
-    assert "--map truth.mode=PATH" in switching.signals_mismatch(blind)
+    assert "--map truth.mode=PATH" in switching.signals_mismatch(tank, blind)
 
 
 def test_a_log_without_what_the_estimator_needs_is_refused(cases, monkeypatch):
@@ -499,7 +499,7 @@ def test_every_estimator_a_model_is_said_to_suit_runs_on_it(cases):
         traits = ModelTraits(model)
         for name, entry in ESTIMATORS.items():
             capabilities = entry.capabilities
-            if capabilities.mismatch(traits) or capabilities.signals_mismatch(signals):
+            if capabilities.mismatch(traits) or capabilities.signals_mismatch(model, signals):
                 with pytest.raises(HybridlogError):
                     prepare(model, name).run(model, signals)
                 continue

@@ -145,7 +145,7 @@ def read_case(log: str, target: str, model: str | None) -> str | None:
     calls: list[tuple[str, Any]] = [("inspect", lambda: inspect_log(path))]
     if model is not None:
         spec = SignalSpec.of(load_model(model))
-        recover = [False, True] if path.suffix == ".mcap" or path.is_dir() else [False]
+        recover = [False, True] if path.suffix == ".mcap" else [False]  # read by bare MCAP only
         options = [ReadOptions(recover=flag) for flag in recover]
         # and what the other options read differently: out-of-order and repeated times,
         # non-finite samples, header stamps

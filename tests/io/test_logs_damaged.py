@@ -87,7 +87,7 @@ def read_every_way(log: Path) -> list[str]:
     """Inspect and load ``log``; what escaped as something other than a LogError."""
     model = load_model("three_tank_hstf")
     escaped: list[str] = []
-    recover = [False, True] if log.suffix == ".mcap" or log.is_dir() else [False]
+    recover = [False, True] if log.suffix == ".mcap" else [False]  # bare MCAP only reads it
     calls: list[Callable[[], object]] = [lambda: inspect_log(log)]
     for flag in recover:
         calls.append(

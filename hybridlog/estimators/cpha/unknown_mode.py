@@ -14,7 +14,8 @@ For a ``[components]`` model (concurrent probabilistic hybrid automata, Definiti
 * the transition probabilities into step k are those of the rules that apply under the
   commands at step k−1, ``P_T(m_i | x̂_j, u_d(k-1))`` (eq. (4)): the commands the rules'
   ``when`` name are read from the log like inputs (``AlignedSignals.commands``, held onto
-  the grid), and a log without one of them is refused (:func:`command_values`).
+  the grid), and a log without one of them is refused before any estimator runs
+  (:func:`~hybridlog.estimators.capabilities.missing_command`).
 
 Result
 ------
@@ -61,6 +62,7 @@ from dataclasses import replace
 import numpy as np
 
 from hybridlog.errors import LogError, ModelError
+from hybridlog.estimators.capabilities import missing_command
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
 from hybridlog.estimators.cpha.hypotheses import ClusterStepError, Hypothesis, Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
@@ -161,27 +163,17 @@ def command_values(
     ------
     LogError
         For a command a rule names that the log lacks, naming the command, the rule's
-        component and the rule: without its values the rule cannot be applied, and leaving
-        it out would analyse another model (a commanded switch seen as a fault).
+        component and the rule (:func:`~hybridlog.estimators.capabilities.missing_command`,
+        which the commands check before any estimator runs, with this message).
     """
-    needed: dict[str, tuple[str, str]] = {}
-    for component in model.components:
-        for rule in component.rules:
-            for command in rule.when:
-                needed.setdefault(command, (component.name, rule.key))
+    missing = missing_command(model, signals)
+    if missing is not None:
+        raise LogError(f"{signals.source}: estimator '{NAME}' {missing}")
+    needed = {command for c in model.components for rule in c.rules for command in rule.when}
     if not needed:
         return (), None
     names = tuple(c for c in model.commands if c in needed)
     have = signals.command_names
-    for command in names:
-        if command not in have or signals.commands is None:
-            owner, rule_key = needed[command]
-            raise LogError(
-                f"{signals.source}: no command {command!r} in the log, which component "
-                f"{owner!r} needs ({model.origin or model.name}: {rule_key}.when): "
-                f"unknown-mode applies its transition rules by the logged commands; map it "
-                f"with --map {command}=FIELD or [signals]"
-            )
     columns = [have.index(c) for c in names]
     assert signals.commands is not None
     values = np.array(signals.commands[:, columns], dtype=np.float64)
