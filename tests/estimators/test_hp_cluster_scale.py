@@ -70,3 +70,31 @@ def test_deciding_in_blocks_gives_every_sample_its_nearest_first_centre(monkeypa
     centres = np.array([[1.0, 1.0], [0.0, 1.0], [1.0, 1.0], [2.0, 2.0]])  # 1 and 3 tie
     decided = decide_clusters(outputs, centres, np.array([2.0, 1.0]))
     assert decided.tolist() == [1, 3, 0, 1, 0]
+
+
+def test_a_file_of_one_centre_says_one_centre():
+    # the notes said "chiu: 1 centres loaded from one.json"
+    from hybridlog.cluster.centers_file import centers_json, parse_centers
+    from hybridlog.cluster.classifier import stored_classifier
+    from hybridlog.cluster.regressors import RegressorSpec
+
+    content = {
+        "mode_ids": ["a", "b"],
+        "regressors": ["y(k)"],
+        "output_lags": [0],
+        "input_lags": [],
+        "scaling": {"lower": [0.0], "upper": [1.0]},
+        "chiu": {"centers": [[0.5]], "modes": ["a"]},
+    }
+    stored = parse_centers(centers_json(content), "one.json")
+    found = stored_classifier(
+        stored,
+        "chiu",
+        RegressorSpec(output_lags=(0,), input_lags=()),
+        np.array([[0.2], [0.7]]),
+        names=["y(k)"],
+        mode_ids=["a", "b"],
+        source="one.json",
+    )
+    assert found.notes == ("chiu: 1 centre loaded from one.json",)
+    assert "mode 'b' has no cluster: it is never decided" in found.labelling
