@@ -30,11 +30,13 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from hybridlog.cluster.progress import current_reporter
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -234,7 +236,10 @@ class _Descent:
         """Descend from the best round-robin map until no single move lowers the score."""
         starts = [np.arange(self.n_clusters) % self.n_modes]
         starts += [(starts[0] + shift) % self.n_modes for shift in range(1, self.n_modes)]
-        values = [float(self._score(start.copy())) for start in starts]
+        values = [float(self._score(starts[0].copy()))]  # may load the compiled observer
+        started = time.perf_counter()
+        values += [float(self._score(start.copy())) for start in starts[1:]]
+        self._announce((time.perf_counter() - started) / max(1, len(starts) - 1))
         first = int(np.argmin(values))
         self.start(starts[first], values[first])
         improved = True
@@ -254,6 +259,29 @@ class _Descent:
                         self.moves = {}
                         improved = True
         return tuple(int(m) for m in self.current)
+
+    def _announce(self, per_map: float) -> None:
+        """Say how long a pass will take when it is long and a command installed a reporter.
+
+        Each pass scores every cluster in every other mode; the score runs the observer over
+        the whole log, so thousands of clusters (a small ``radius``) take minutes, as the
+        exact potentials do (:data:`~hybridlog.cluster.subtractive.LONG_WORK_S`).
+        """
+        reporter = current_reporter()
+        if reporter is None:
+            return
+        from hybridlog.cluster.subtractive import LONG_WORK_S, duration_text
+
+        trials = self.n_clusters * (self.n_modes - 1)
+        expected = per_map * trials
+        if expected > LONG_WORK_S:
+            reporter.note(
+                f"labelling {self.n_clusters:,} clusters as modes by coordinate descent: "
+                f"each pass scores {trials:,} cluster -> mode maps, about "
+                f"{duration_text(expected)} per pass on this machine, until a pass lowers "
+                "the score no more (a larger radius, or fewer k-means clusters, gives fewer "
+                "clusters)"
+            )
 
     def alternatives(self) -> FloatArray:
         """``[c, i]``: the score with cluster ``c`` alone moved to mode ``i``."""
