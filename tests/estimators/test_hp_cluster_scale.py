@@ -123,3 +123,25 @@ def test_long_labelling_says_how_long_a_pass_takes(monkeypatch, clusters):
         assert len(said) == 1, said
         assert said[0].startswith("labelling 13 clusters as modes by coordinate descent: ")
         assert "each pass scores 13 cluster -> mode maps, about " in said[0]
+
+
+def test_labels_set_by_hand_say_what_each_cluster_decides(tmp_path):
+    # cluster_modes=1,1,1 on the double cart: the report said only "labels given by
+    # cluster_modes=1,1,1", not that mode '2' is never decided, nor the clusters' samples
+    import json
+
+    from click.testing import CliRunner
+
+    from hybridlog.cli import cli
+    from tests.support.paths import SAMPLE_LOGS
+
+    out = tmp_path / "r"
+    args = ["analyze", str(SAMPLE_LOGS / "double_cart_case1.csv")]
+    args += ["--model", "double_cart_case1", "--estimator", "chiu", "--out", str(out)]
+    args += ["--set", "cluster_modes=1,1,1", "--quiet"]
+    result = CliRunner().invoke(cli, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    notes = json.loads((out / "report.json").read_text())["notes"]
+    at = notes.index("labels given by cluster_modes=1,1,1")
+    assert notes[at + 1].startswith("cluster 1 (") and "-> mode '1'" in notes[at + 1]
+    assert "mode '2' has no cluster: it is never decided" in notes
