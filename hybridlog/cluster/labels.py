@@ -29,14 +29,18 @@ Labelling
 from __future__ import annotations
 
 import itertools
+import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from hybridlog.cluster.progress import current_reporter
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
+    "DECIDE_BLOCK",
     "EXHAUSTIVE_MAX",
     "ClusterLabels",
     "cluster_notes",
@@ -68,11 +72,21 @@ def decide_clusters(
     centres = np.asarray(decision_values, dtype=np.float64)
     divisor = np.ones(y.shape[1]) if scale is None else np.asarray(scale, dtype=np.float64)
     divisor = np.where(divisor > 0.0, divisor, 1.0)
-    costs = np.zeros((y.shape[0], centres.shape[0]))
-    for j in range(y.shape[1]):
-        costs += ((y[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
-    decided: IntArray = np.argmin(costs, axis=1).astype(np.int64)
+    decided: IntArray = np.empty(y.shape[0], dtype=np.int64)
+    rows = max(1, DECIDE_BLOCK // max(1, centres.shape[0]))
+    for first in range(0, y.shape[0], rows):
+        block = y[first : first + rows]
+        costs = np.zeros((block.shape[0], centres.shape[0]))
+        for j in range(y.shape[1]):
+            costs += ((block[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
+        decided[first : first + rows] = np.argmin(costs, axis=1)
     return decided
+
+
+DECIDE_BLOCK = 1 << 20
+"""Sample × cluster costs :func:`decide_clusters` holds at once (8 MiB): one (N, c) table
+for the whole log took 190 MB for 5,000 samples and 4,833 clusters, 8 GB for a 10⁶-sample log
+and 1,000 k-means centres."""
 
 
 EXHAUSTIVE_MAX = 4096
@@ -138,46 +152,24 @@ def label_clusters(
     """
     n_modes = len(mode_ids)
     sizes = np.asarray(sizes, dtype=np.int64)
-    cache: dict[tuple[int, ...], float] = {}
-
-    def evaluate(labels: Sequence[int]) -> float:
-        key = tuple(int(m) for m in labels)
-        if key not in cache:
-            cache[key] = float(score(np.array(key, dtype=np.int64)))
-        return cache[key]
-
     best: tuple[int, ...] | None = None
     if n_modes**n_clusters <= EXHAUSTIVE_MAX:
+        scores: dict[tuple[int, ...], float] = {}
         for labels in itertools.product(range(n_modes), repeat=n_clusters):
-            if _admissible(labels, n_modes, n_clusters, sizes) and (
-                best is None or evaluate(labels) < evaluate(best)
-            ):
-                best = labels
+            if _admissible(labels, n_modes, n_clusters, sizes):
+                scores[labels] = float(score(np.array(labels, dtype=np.int64)))
+                if best is None or scores[labels] < scores[best]:
+                    best = labels
         method = "exhaustive search"
+    descent = _Descent(n_clusters, n_modes, sizes, score)
     if best is None:
-        starts = [
-            tuple((c + shift) % n_modes for c in range(n_clusters)) for shift in range(n_modes)
-        ]
-        current = list(starts[int(np.argmin([evaluate(start) for start in starts]))])
-        improved = True
-        while improved:
-            improved = False
-            for c in range(n_clusters):
-                for m in range(n_modes):
-                    trial = [*current[:c], m, *current[c + 1 :]]
-                    if _admissible(trial, n_modes, n_clusters, sizes) and evaluate(
-                        trial
-                    ) < evaluate(current):
-                        current = trial
-                        improved = True
-        best = tuple(current)
+        best = descent.run()
         method = "coordinate descent"
+    else:
+        descent.start(np.array(best, dtype=np.int64), scores[best])
     chosen = np.array(best, dtype=np.int64)
-    alternatives = np.zeros((n_clusters, n_modes))
-    for c in range(n_clusters):
-        for m in range(n_modes):
-            alternatives[c, m] = evaluate([*best[:c], m, *best[c + 1 :]])
-    total = evaluate(best)
+    alternatives = descent.alternatives()
+    total = descent.score
     notes = (
         f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}",
         *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what),
@@ -186,6 +178,118 @@ def label_clusters(
     return ClusterLabels(
         modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=notes
     )
+
+
+class _Descent:
+    """Coordinate descent over cluster → mode maps, one cluster moved at a time.
+
+    Each trial costs one ``score`` call and O(1) bookkeeping: the current map is an array,
+    admissibility is kept as per-mode counts of populated clusters, and only the scores of
+    single moves from the current map are remembered (forgotten when it changes).  Keying a
+    cache by whole maps made each trial O(c) in time and the cache O(c²) in memory: chiu at
+    ``radius = 0.01`` on 5,000 samples (4,833 clusters) took 160 s and 1.7 GB to label.
+    """
+
+    def __init__(
+        self,
+        n_clusters: int,
+        n_modes: int,
+        sizes: IntArray,
+        score: Callable[[IntArray], float],
+    ) -> None:
+        self.n_clusters = n_clusters
+        self.n_modes = n_modes
+        self.populated = sizes > 0
+        self.needed = min(n_modes, int(np.count_nonzero(self.populated)))
+        self._score = score
+        self.current = np.zeros(n_clusters, dtype=np.int64)
+        self.counts = np.zeros(n_modes, dtype=np.int64)
+        self.score = math.inf
+        self.moves: dict[tuple[int, int], float] = {}
+
+    def start(self, labels: IntArray, value: float | None = None) -> None:
+        """Make ``labels`` (scored ``value``, or scored here) the current map."""
+        self.current = np.array(labels, dtype=np.int64)
+        self.counts = np.bincount(self.current[self.populated], minlength=self.n_modes)
+        self.score = float(self._score(self.current.copy())) if value is None else value
+        self.moves = {}
+
+    def admissible(self, c: int, m: int) -> bool:
+        """Whether the map with cluster ``c`` moved to mode ``m`` is admissible."""
+        used = int(np.count_nonzero(self.counts))
+        if self.populated[c] and self.current[c] != m:
+            used -= int(self.counts[self.current[c]] == 1)
+            used += int(self.counts[m] == 0)
+        return used == self.needed
+
+    def move_score(self, c: int, m: int) -> float:
+        """Score of the current map with cluster ``c`` moved to mode ``m``."""
+        if m == self.current[c]:
+            return self.score
+        if (c, m) not in self.moves:
+            trial = self.current.copy()
+            trial[c] = m
+            self.moves[c, m] = float(self._score(trial))
+        return self.moves[c, m]
+
+    def run(self) -> tuple[int, ...]:
+        """Descend from the best round-robin map until no single move lowers the score."""
+        starts = [np.arange(self.n_clusters) % self.n_modes]
+        starts += [(starts[0] + shift) % self.n_modes for shift in range(1, self.n_modes)]
+        values = [float(self._score(starts[0].copy()))]  # may load the compiled observer
+        started = time.perf_counter()
+        values += [float(self._score(start.copy())) for start in starts[1:]]
+        self._announce((time.perf_counter() - started) / max(1, len(starts) - 1))
+        first = int(np.argmin(values))
+        self.start(starts[first], values[first])
+        improved = True
+        while improved:
+            improved = False
+            for c in range(self.n_clusters):
+                for m in range(self.n_modes):
+                    if m == self.current[c] or not self.admissible(c, m):
+                        continue
+                    value = self.move_score(c, m)
+                    if value < self.score:
+                        if self.populated[c]:
+                            self.counts[self.current[c]] -= 1
+                            self.counts[m] += 1
+                        self.current[c] = m
+                        self.score = value
+                        self.moves = {}
+                        improved = True
+        return tuple(int(m) for m in self.current)
+
+    def _announce(self, per_map: float) -> None:
+        """Say how long a pass will take when it is long and a command installed a reporter.
+
+        Each pass scores every cluster in every other mode; the score runs the observer over
+        the whole log, so thousands of clusters (a small ``radius``) take minutes, as the
+        exact potentials do (:data:`~hybridlog.cluster.subtractive.LONG_WORK_S`).
+        """
+        reporter = current_reporter()
+        if reporter is None:
+            return
+        from hybridlog.cluster.subtractive import LONG_WORK_S, duration_text
+
+        trials = self.n_clusters * (self.n_modes - 1)
+        expected = per_map * trials
+        if expected > LONG_WORK_S:
+            reporter.note(
+                f"labelling {self.n_clusters:,} clusters as modes by coordinate descent: "
+                f"each pass scores {trials:,} cluster -> mode maps, about "
+                f"{duration_text(expected)} per pass on this machine, until a pass lowers "
+                "the score no more (a larger radius, or fewer k-means clusters, gives fewer "
+                "clusters)"
+            )
+
+    def alternatives(self) -> FloatArray:
+        """``[c, i]``: the score with cluster ``c`` alone moved to mode ``i``."""
+        table = np.zeros((self.n_clusters, self.n_modes))
+        for c in range(self.n_clusters):
+            for m in range(self.n_modes):
+                table[c, m] = self.move_score(c, m)
+        return table
 
 
 def _kept_modes(

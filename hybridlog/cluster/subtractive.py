@@ -98,6 +98,7 @@ __all__ = [
     "ClusteringOptionError",
     "SubtractiveClusters",
     "SubtractiveOptions",
+    "duration_text",
     "exact_threads",
     "select_centres",
     "subtractive_clustering",
@@ -490,7 +491,8 @@ def exact_threads(n: int) -> int:
     return max(1, min(cores or 1, int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
 
 
-def _duration(seconds: float) -> str:
+def duration_text(seconds: float) -> str:
+    """``"40 s"``, ``"12 min"``, ``"1.5 h"``: an expected duration, as notes say it."""
     if seconds < 90.0:
         return f"{seconds:.0f} s"
     if seconds < 5400.0:
@@ -547,7 +549,7 @@ def _reported_exact_potentials(
         if done < total and expected > LONG_WORK_S:
             reporter.note(
                 f"exact potentials of {n:,} points{f' ({said})' if said else ''} in {d} "
-                f"dimensions ({total:.2g} pairs, O(N²)): about {_duration(expected)} on this "
+                f"dimensions ({total:.2g} pairs, O(N²)): about {duration_text(expected)} on this "
                 f"machine with {threads} thread{'s' if threads > 1 else ''} "
                 f"{why.removeprefix('exact potentials ')}"
             )

@@ -45,7 +45,7 @@ from hybridlog.cluster.classifier import (
     manual_labels,
     stored_classifier,
 )
-from hybridlog.cluster.labels import label_clusters
+from hybridlog.cluster.labels import cluster_notes, label_clusters
 from hybridlog.cluster.subtractive import ClusteringOptionError
 from hybridlog.errors import DataShortError, LogError, OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
@@ -177,8 +177,13 @@ def mode_classifier(
             ) from err
     if options.cluster_modes:
         modes = manual_labels(options.cluster_modes, model.mode_ids, len(classifier.centers))
+        sizes = classifier.details["sizes"]
         return classifier.labelled(
-            modes, (f"labels given by cluster_modes={options.cluster_modes}",)
+            modes,
+            (
+                f"labels given by cluster_modes={options.cluster_modes}",
+                *cluster_notes(modes, sizes, model.mode_ids),
+            ),
         )
     if classifier.cluster_modes is not None:
         return classifier
