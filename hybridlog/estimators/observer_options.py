@@ -48,22 +48,6 @@ def _input_lags(text: str) -> None:
     lag_values(text, output=False)
 
 
-def _above_one(value: float) -> None:
-    """``squash``'s check: r_b/r_a of 1 is refused by the clustering (eq. (7) needs r_b > r_a).
-
-    Its range's lower bound 1 was said to be allowed, and ``squash = 1`` under
-    ``[estimators.chiu]`` passed when another estimator ran.
-    """
-    if not value > 1.0:
-        raise ValueError(f"{value:g} is not above 1 (r_b must exceed r_a)")
-
-
-def _positive(value: float) -> None:
-    """``reject``'s check: ε₂ = 0 is refused by the clustering (``0 < reject < accept``)."""
-    if not value > 0.0:
-        raise ValueError(f"{value:g} is not above 0 (need 0 < reject < accept <= 1)")
-
-
 @dataclass(frozen=True)
 class ObserverOptions:
     """Options of paper 001's pipeline shared by ``chiu`` and ``kmeans``."""
@@ -128,16 +112,16 @@ class ChiuOptions(ObserverOptions):
     )
     squash: float = option(
         1.25,
-        "r_b/r_a of the revision eqs. (6)-(7); above 1",
+        "r_b/r_a of the revision eqs. (6)-(7) (r_b must exceed r_a)",
         range=(1.0, 100.0),
-        check=_above_one,
+        above=True,
     )
     accept: float = option(0.5, "acceptance ratio ε₁ of a new centre", range=(0.0, 1.0))
     reject: float = option(
         0.15,
-        "rejection ratio ε₂ of a new centre; above 0, below accept",
+        "rejection ratio ε₂ of a new centre; below accept",
         range=(0.0, 1.0),
-        check=_positive,
+        above=True,
     )
     self_potential: bool = option(
         True, "count each point in its own potential (false: eq. (5) as printed)"

@@ -111,6 +111,7 @@ def option(
     help: str,
     *,
     range: tuple[float, float] | None = None,
+    above: bool = False,
     check: Callable[[Any], object] | None = None,
     path: bool = False,
 ) -> T:
@@ -125,6 +126,9 @@ def option(
         and equation where it has one).
     range:
         Inclusive ``(low, high)`` bounds of a number.
+    above:
+        The low bound itself is excluded: the value must be above it (``(1, 100]``), as
+        ``--help``, the docs and the refusal then say.
     check:
         Checks a value beyond its type and range (raising ``ValueError`` with the reason),
         when the options are parsed: before any log is read, the error naming where the
@@ -137,6 +141,9 @@ def option(
         metadata["path"] = True
     if range is not None:
         metadata["range"] = range
+        metadata["above"] = above
+    elif above:
+        raise TypeError("above= needs a range")
     if check is not None:
         metadata["check"] = check
     field: T = dataclasses.field(default=default, metadata=metadata)
@@ -530,8 +537,10 @@ def _check(value: Any, kind: _Kind, field: dataclasses.Field[Any]) -> Any:
             f"{excerpt(value)} is not one of {', '.join(str(c) for c in kind.choices)}"
         )
     bounds = field.metadata.get("range")
-    if bounds is not None and not bounds[0] <= value <= bounds[1]:
-        raise ValueError(f"{shown(value)} is outside [{shown(bounds[0])}, {shown(bounds[1])}]")
+    if bounds is not None:
+        low = value > bounds[0] if field.metadata["above"] else value >= bounds[0]
+        if not (low and value <= bounds[1]):
+            raise ValueError(f"{shown(value)} is outside {interval(field)}")
     check = field.metadata.get("check")
     if check is not None:
         check(value)
@@ -578,8 +587,7 @@ def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
         help_text = field.metadata.get("help", "")
         if not help_text:
             raise TypeError(f"{cls.__name__}.{name}: an estimator option needs a help text")
-        bounds = field.metadata.get("range")
-        constraint = "" if bounds is None else f"in [{shown(bounds[0])}, {shown(bounds[1])}]"
+        constraint = "" if field.metadata.get("range") is None else f"in {interval(field)}"
         infos.append(
             OptionInfo(
                 name=name,
@@ -590,6 +598,12 @@ def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
             )
         )
     return tuple(infos)
+
+
+def interval(field: dataclasses.Field[Any]) -> str:
+    """The range of a ranged option as written: ``[0, 1]``, or ``(1, 100]`` made with ``above``."""
+    low, high = field.metadata["range"]
+    return f"{'(' if field.metadata['above'] else '['}{shown(low)}, {shown(high)}]"
 
 
 def shown(value: object) -> str:

@@ -25,7 +25,7 @@ def _cluster(
     [
         # --help gives squash "in [1, 100]" and accept, reject "in [0, 1]"; these edges said
         # "squash: ..." and "accept, reject: ...", naming no flag the user gave
-        (["--squash", "1"], "--squash 1: chiu option 'squash': 1 is not above 1"),
+        (["--squash", "1"], "--squash 1: chiu option 'squash': 1 is outside (1, 100]"),
         (["--accept", "0"], "--accept 0: chiu option 'reject': 0.15 is not below accept = 0 ("),
         (["--reject", "0.5"], "--reject 0.5: chiu option 'reject': 0.5 is not below accept = 0.5"),
         (
@@ -219,8 +219,7 @@ def test_analyze_names_clustering_bounds_before_the_log_is_read(tmp_path, capsys
     code, stderr = run_main([*args, "--set", "squash=1", "--out", str(tmp_path / "r")], capsys)
     assert code == 2
     assert stderr == (
-        "hybridlog: error: --set squash=1: chiu option 'squash': 1 is not above 1 (r_b must "
-        "exceed r_a)\n"
+        "hybridlog: error: --set squash=1: chiu option 'squash': 1 is outside (1, 100]\n"
     )
     model = tmp_path / "dc.toml"
     model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\naccept = 0.1\n")

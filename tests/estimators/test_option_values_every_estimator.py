@@ -59,9 +59,19 @@ def test_a_number_a_double_cannot_hold_is_said_so_on_the_command_line(text):
         (TANK, "switching-observer", 'eigenvalues = "-1,-2"', "the model has 3 states, so give"),
         (CART, "kmeans", 'cluster_modes = "2,7"', "option 'cluster_modes': unknown mode '7'"),
         (CART, "chiu", 'cluster_modes = "1,,2"', "option 'cluster_modes': item 2 of '1,,2' is"),
-        # within the documented range, refused by the clustering alone
-        (CART, "chiu", "squash = 1", "estimators.chiu.squash: chiu option 'squash': 1 is not"),
-        (CART, "chiu", "reject = 0", "estimators.chiu.reject: chiu option 'reject': 0 is not"),
+        # the low bound itself is outside the range (documented as "(1, 100]", "(0, 1]")
+        (
+            CART,
+            "chiu",
+            "squash = 1",
+            "estimators.chiu.squash: chiu option 'squash': 1 is outside (1, 100]",
+        ),
+        (
+            CART,
+            "chiu",
+            "reject = 0",
+            "estimators.chiu.reject: chiu option 'reject': 0 is outside (0, 1]",
+        ),
     ],
 )
 def test_a_table_is_checked_as_a_whole_whichever_estimator_runs(text, table, lines, named):
@@ -79,8 +89,10 @@ def test_the_same_table_whole_and_right_passes():
 
 
 def test_chiu_bounds_are_refused_when_parsed():
-    with pytest.raises(OptionError, match=r"^--set squash=1: e option 'squash': 1 is not above"):
+    with pytest.raises(OptionError, match=r"^--set squash=1: e option 'squash': 1 is outside \(1,"):
         _set(ChiuOptions, "squash", "1")
+    with pytest.raises(OptionError, match=r"^--set reject=0: e option 'reject': 0 is outside \(0,"):
+        _set(ChiuOptions, "reject", "0")
     with pytest.raises(OptionError, match=r"^--set reject=0.6: e option 'reject': 0.6 is not "):
         _set(ChiuOptions, "reject", "0.6")  # the default accept is 0.5
     assert _set(ChiuOptions, "squash", "1.01").squash == 1.01
