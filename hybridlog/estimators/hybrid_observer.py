@@ -386,6 +386,52 @@ def _last_interval(
     )
 
 
+def _singular_q(
+    model: HybridModel,
+    time_s: FloatArray,
+    modes: Any,
+    states: FloatArray,
+    condition: FloatArray,
+    first: int,
+) -> str:
+    """Why the estimate became non-finite, when the cause is ``Q(σ, x̂)`` singular before it.
+
+    ``κ₁(Q)`` of every sample is computed in the loop; infinite at sample ``first − 1``
+    means the correction ``Q⁻¹K(y − h)`` of the interval into ``first`` was not defined.
+    The symbolic ``Q`` of that mode then tells a singular point of the trajectory from a
+    mode that is not drift-observable at all (``det Q ≡ 0``, eq. (21)), naming the states
+    that enter none of ``Φ``.  The refusal listed "Q singular, a jump map or the gain ...
+    too large" for a mode whose ``Φ = [x1, −x1]`` cannot see ``x2``.
+    """
+    if first < 1 or np.isfinite(condition[first - 1]):
+        return ""
+    import sympy
+
+    before = first - 1
+    mode = int(modes[before])
+    mode_id = model.mode_ids[mode]
+    values = [
+        f"{name} = {value:.6g}"
+        for name, value in zip(model.states, states[before].tolist(), strict=True)
+    ]
+    shown = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+    text = (
+        f": Q = dPhi/dx (eq. (21)) of mode '{mode_id}' is singular at t = "
+        f"{format_time(time_s[before])} s, at the estimate {shown}"
+    )
+    _, q = drift_observability(model, mode)
+    matrix = sympy.Matrix(q)
+    blind = [x for j, x in enumerate(model.states) if all(e == 0 for e in matrix.col(j))]
+    if blind:
+        text += f", and at every state: {', '.join(blind)} enter(s) no entry of Phi"
+    elif sympy.simplify(matrix.det(method="berkowitz")) == 0:
+        text += ", and at every state (det Q = 0)"
+    else:
+        return text + ": Q^-1 K (y - h) of observer (20) is not defined there"
+    return text + f": mode '{mode_id}' is not drift-observable from {model.outputs[0]}"
+    return text
+
+
 def _runs(mask: Any) -> list[tuple[int, int]]:
     """``(first, last)`` index of every run of True in ``mask``."""
     padded = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
@@ -491,12 +537,17 @@ def run_switching_observer(
     broken = ~np.isfinite(states).all(axis=1)
     if broken.any():  # no metric of a diverged run can be vouched for
         first = int(np.argmax(broken))
-        raise DivergenceError(
+        where = (
             f"{model.origin or model.name}: {NAME} diverged at t = "
-            f"{format_time(signals.time[first])} s "
-            f"(sample {first}): the estimate is not finite (Q singular, a jump map or the "
-            f"gain of eigenvalues {', '.join(f'{v:g}' for v in eigenvalues)} too large for "
-            f"the integration step){_last_interval(model, signals, states, predictions, first)}"
+            f"{format_time(signals.time[first])} s (sample {first}): the estimate is not finite"
+        )
+        singular = _singular_q(model, signals.time, modes, states, condition, first)
+        if singular:
+            raise DivergenceError(where + singular)
+        raise DivergenceError(
+            f"{where} (a jump map, or the gain of eigenvalues "
+            f"{', '.join(f'{v:g}' for v in eigenvalues)} too large for the integration step)"
+            f"{_last_interval(model, signals, states, predictions, first)}"
         )
     probabilities = np.zeros((count, model.n_modes))
     probabilities[np.arange(count), modes] = 1.0
