@@ -52,7 +52,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
-from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
+from hybridlog.estimators.hybrid_observer_options import (
+    SwitchingObserverOptions,
+    companion_gain,
+    gain_flaw,
+    step_flaw_of,
+)
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.vouch import MAX_SHOWN
 from hybridlog.signals import FloatArray
@@ -83,27 +88,17 @@ def brunovsky_gain(eigenvalues: tuple[float, ...]) -> FloatArray:
     Raises
     ------
     OptionError
-        A coefficient ``K_j`` is not a positive finite float64 (it overflows, or underflows
-        to 0): every ``λ_j < 0`` makes every ``K_j > 0``, so such a gain places other
-        eigenvalues than Λ (``K_n = 0`` puts one at 0), which a report would still name.
+        A coefficient ``K_j`` is not a positive finite float64 (:func:`gain_flaw`).
 
     Examples
     --------
     >>> brunovsky_gain((-1.0, -2.0)).tolist()
     [3.0, 2.0]
     """
-    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        gain = np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real
-    wrong = np.flatnonzero(~(np.isfinite(gain) & (gain > 0.0)))
-    if wrong.size:
-        j = int(wrong[0])
-        raise OptionError(
-            f"switching-observer option 'eigenvalues': the gain K_{j + 1} of "
-            f"{', '.join(f'{v:g}' for v in eigenvalues)} (the coefficient of s^{len(gain) - j - 1}"
-            f" in the product of (s - l_j)) is {gain[j]:g}, not a positive float64: "
-            "A_b - K C_b would not have these eigenvalues; choose them nearer to 1 in size"
-        )
-    return np.ascontiguousarray(gain)
+    flaw = gain_flaw(eigenvalues)
+    if flaw is not None:
+        raise OptionError(f"switching-observer option 'eigenvalues': {flaw}")
+    return companion_gain(eigenvalues)
 
 
 def drift_observability(
@@ -336,25 +331,10 @@ def _check_model(model: HybridModel) -> None:
 
 
 def _check_step(model: HybridModel, eigenvalues: tuple[float, ...]) -> None:
-    """Refuse eigenvalues Λ the model's integration step cannot follow.
-
-    Linearised, observer (20)'s error decays in the coordinates Φ with ``A_b − K C_b``,
-    whose eigenvalues are Λ; the fixed step of ``integration`` must keep each of them
-    inside its method's stability region (:mod:`hybridlog.model.stability`), or the
-    estimate grows, or rings, where the design has it decay.
-    """
-    from hybridlog.model.stability import step_flaw
-
-    timebase = model.timebase
-    if timebase.method is None:
-        return
-    flaw = step_flaw(timebase.method, timebase.step, np.diag(eigenvalues))
+    """Refuse eigenvalues Λ the model's integration step cannot follow (:func:`step_flaw_of`)."""
+    flaw = step_flaw_of(model, eigenvalues)
     if flaw is not None:
-        raise OptionError(
-            f"switching-observer option 'eigenvalues': λ = {flaw.eigenvalue.real:g} 1/s is too "
-            f"fast for integration.step = {timebase.step:g} s of {model.origin or model.name}: "
-            f"{flaw.describe(timebase.method)}"
-        )
+        raise OptionError(f"switching-observer option 'eigenvalues': {flaw}")
 
 
 def _last_interval(

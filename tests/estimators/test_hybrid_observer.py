@@ -10,6 +10,8 @@
   dynamics predict; the jump maps are applied at the switching samples.
 """
 
+import re
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -143,7 +145,15 @@ def test_the_gain_places_the_eigenvalues_of_the_brunovsky_pair():
 
 @pytest.mark.parametrize(
     ("text", "words"),
-    [("10,20,30", "every eigenvalue must be a finite negative real"), ("a,b", "separated by")],
+    [
+        ("10,20,30", "every eigenvalue must be a finite negative real"),
+        ("a,b", "separated by"),
+        # a gain float64 cannot hold, and one too fast for the 1 ms RK4 step: were refused
+        # only as switching-observer ran, naming neither the file nor the key
+        ("-1e300", r"the gain K_2 of -1e\+300, .* is inf, not a positive float64"),
+        ("-1e-300", r"the gain K_2 of -1e-300, .* is 0, not a positive float64"),
+        ("-1e4", r"λ = -30000 1/s is too fast for integration\.step = 0\.001 s of clutch\.toml"),
+    ],
 )
 def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, words):
     """Checked when the options are parsed (was: at run time, naming neither)."""
@@ -155,6 +165,9 @@ def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, 
         ModelError, match=rf"^clutch\.toml: estimators\.switching-observer\.eigenvalues: .*{words}"
     ):
         prepare(model, "switching-observer")
+    good = parse_model(builtin_text("ice_clutch"), origin="clutch.toml")
+    with pytest.raises(OptionError, match=rf"^--set eigenvalues={re.escape(text)}: .*{words}"):
+        prepare(good, "switching-observer", {"eigenvalues": text})
 
 
 CLUTCH_DT = 0.01
