@@ -52,7 +52,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
-from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
+from hybridlog.estimators.hybrid_observer_options import (
+    SwitchingObserverOptions,
+    companion_gain,
+    gain_flaw,
+    step_flaw_of,
+)
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.vouch import MAX_SHOWN
 from hybridlog.signals import FloatArray
@@ -83,27 +88,17 @@ def brunovsky_gain(eigenvalues: tuple[float, ...]) -> FloatArray:
     Raises
     ------
     OptionError
-        A coefficient ``K_j`` is not a positive finite float64 (it overflows, or underflows
-        to 0): every ``λ_j < 0`` makes every ``K_j > 0``, so such a gain places other
-        eigenvalues than Λ (``K_n = 0`` puts one at 0), which a report would still name.
+        A coefficient ``K_j`` is not a positive finite float64 (:func:`gain_flaw`).
 
     Examples
     --------
     >>> brunovsky_gain((-1.0, -2.0)).tolist()
     [3.0, 2.0]
     """
-    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        gain = np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real
-    wrong = np.flatnonzero(~(np.isfinite(gain) & (gain > 0.0)))
-    if wrong.size:
-        j = int(wrong[0])
-        raise OptionError(
-            f"switching-observer option 'eigenvalues': the gain K_{j + 1} of "
-            f"{', '.join(f'{v:g}' for v in eigenvalues)} (the coefficient of s^{len(gain) - j - 1}"
-            f" in the product of (s - l_j)) is {gain[j]:g}, not a positive float64: "
-            "A_b - K C_b would not have these eigenvalues; choose them nearer to 1 in size"
-        )
-    return np.ascontiguousarray(gain)
+    flaw = gain_flaw(eigenvalues)
+    if flaw is not None:
+        raise OptionError(f"switching-observer option 'eigenvalues': {flaw}")
+    return companion_gain(eigenvalues)
 
 
 def drift_observability(
@@ -336,25 +331,10 @@ def _check_model(model: HybridModel) -> None:
 
 
 def _check_step(model: HybridModel, eigenvalues: tuple[float, ...]) -> None:
-    """Refuse eigenvalues Λ the model's integration step cannot follow.
-
-    Linearised, observer (20)'s error decays in the coordinates Φ with ``A_b − K C_b``,
-    whose eigenvalues are Λ; the fixed step of ``integration`` must keep each of them
-    inside its method's stability region (:mod:`hybridlog.model.stability`), or the
-    estimate grows, or rings, where the design has it decay.
-    """
-    from hybridlog.model.stability import step_flaw
-
-    timebase = model.timebase
-    if timebase.method is None:
-        return
-    flaw = step_flaw(timebase.method, timebase.step, np.diag(eigenvalues))
+    """Refuse eigenvalues Λ the model's integration step cannot follow (:func:`step_flaw_of`)."""
+    flaw = step_flaw_of(model, eigenvalues)
     if flaw is not None:
-        raise OptionError(
-            f"switching-observer option 'eigenvalues': λ = {flaw.eigenvalue.real:g} 1/s is too "
-            f"fast for integration.step = {timebase.step:g} s of {model.origin or model.name}: "
-            f"{flaw.describe(timebase.method)}"
-        )
+        raise OptionError(f"switching-observer option 'eigenvalues': {flaw}")
 
 
 def _last_interval(
@@ -384,6 +364,52 @@ def _last_interval(
         f"; the interval before corrected with {model.outputs[0]} = "
         f"{float(signals.outputs[before, 0]):.6g} measured{against} at the estimate {shown}"
     )
+
+
+def _singular_q(
+    model: HybridModel,
+    time_s: FloatArray,
+    modes: Any,
+    states: FloatArray,
+    condition: FloatArray,
+    first: int,
+) -> str:
+    """Why the estimate became non-finite, when the cause is ``Q(σ, x̂)`` singular before it.
+
+    ``κ₁(Q)`` of every sample is computed in the loop; infinite at sample ``first − 1``
+    means the correction ``Q⁻¹K(y − h)`` of the interval into ``first`` was not defined.
+    The symbolic ``Q`` of that mode then tells a singular point of the trajectory from a
+    mode that is not drift-observable at all (``det Q ≡ 0``, eq. (21)), naming the states
+    that enter none of ``Φ``.  The refusal listed "Q singular, a jump map or the gain ...
+    too large" for a mode whose ``Φ = [x1, −x1]`` cannot see ``x2``.
+    """
+    if first < 1 or np.isfinite(condition[first - 1]):
+        return ""
+    import sympy
+
+    before = first - 1
+    mode = int(modes[before])
+    mode_id = model.mode_ids[mode]
+    values = [
+        f"{name} = {value:.6g}"
+        for name, value in zip(model.states, states[before].tolist(), strict=True)
+    ]
+    shown = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+    text = (
+        f": Q = dPhi/dx (eq. (21)) of mode '{mode_id}' is singular at t = "
+        f"{format_time(time_s[before])} s, at the estimate {shown}"
+    )
+    _, q = drift_observability(model, mode)
+    matrix = sympy.Matrix(q)
+    blind = [x for j, x in enumerate(model.states) if all(e == 0 for e in matrix.col(j))]
+    if blind:
+        text += f", and at every state: {', '.join(blind)} enter(s) no entry of Phi"
+    elif sympy.simplify(matrix.det(method="berkowitz")) == 0:
+        text += ", and at every state (det Q = 0)"
+    else:
+        return text + ": Q^-1 K (y - h) of observer (20) is not defined there"
+    return text + f": mode '{mode_id}' is not drift-observable from {model.outputs[0]}"
+    return text
 
 
 def _runs(mask: Any) -> list[tuple[int, int]]:
@@ -491,12 +517,17 @@ def run_switching_observer(
     broken = ~np.isfinite(states).all(axis=1)
     if broken.any():  # no metric of a diverged run can be vouched for
         first = int(np.argmax(broken))
-        raise DivergenceError(
+        where = (
             f"{model.origin or model.name}: {NAME} diverged at t = "
-            f"{format_time(signals.time[first])} s "
-            f"(sample {first}): the estimate is not finite (Q singular, a jump map or the "
-            f"gain of eigenvalues {', '.join(f'{v:g}' for v in eigenvalues)} too large for "
-            f"the integration step){_last_interval(model, signals, states, predictions, first)}"
+            f"{format_time(signals.time[first])} s (sample {first}): the estimate is not finite"
+        )
+        singular = _singular_q(model, signals.time, modes, states, condition, first)
+        if singular:
+            raise DivergenceError(where + singular)
+        raise DivergenceError(
+            f"{where} (a jump map, or the gain of eigenvalues "
+            f"{', '.join(f'{v:g}' for v in eigenvalues)} too large for the integration step)"
+            f"{_last_interval(model, signals, states, predictions, first)}"
         )
     probabilities = np.zeros((count, model.n_modes))
     probabilities[np.arange(count), modes] = 1.0

@@ -11,6 +11,9 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
+import numpy as np
+import numpy.typing as npt
+
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators.options import option
 from hybridlog.numbers import parse_float
@@ -18,7 +21,14 @@ from hybridlog.numbers import parse_float
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["DEFAULT_EIGENVALUES", "SwitchingObserverOptions", "eigenvalue_values"]
+__all__ = [
+    "DEFAULT_EIGENVALUES",
+    "SwitchingObserverOptions",
+    "companion_gain",
+    "eigenvalue_values",
+    "gain_flaw",
+    "step_flaw_of",
+]
 
 DEFAULT_EIGENVALUES = "-5"
 """One value ``λ``: the eigenvalues ``λ, 2λ, …, nλ`` of ``A_b − K C_b`` (distinct, real)."""
@@ -91,16 +101,74 @@ class SwitchingObserverOptions:
         return tuple(sorted(values, reverse=True))
 
     def invalid_on(self, model: HybridModel) -> dict[str, str]:
-        """Values ``model`` cannot take: name → why (``eigenvalues``: one or ``n`` of them).
+        """Values ``model`` cannot take: name → why.
 
-        Found only as the estimator ran, three eigenvalues for a two-state model were refused
-        naming neither the model file nor its key, and passed when another estimator ran.
+        ``eigenvalues``: one or ``n`` of them; a gain ``K(Λ)`` float64 holds
+        (:func:`gain_flaw`); each inside the stability region of the model's integration
+        step (:func:`step_flaw_of`).  Found only as the estimator ran, three eigenvalues for
+        a two-state model were refused naming neither the model file nor its key, and passed
+        when another estimator ran; so were ``"-1e300"`` and ``"-1e4"`` (too fast for a 1 ms
+        RK4 step) until the gain and step checks were made here too.
         """
         try:
-            _eigenvalues_for(self.eigenvalues, model.n_states)
+            values = _eigenvalues_for(self.eigenvalues, model.n_states)
         except ValueError as err:
             return {"eigenvalues": str(err)}
-        return {}
+        eigenvalues = tuple(sorted(values, reverse=True))
+        flaw = gain_flaw(eigenvalues) or step_flaw_of(model, eigenvalues)
+        return {"eigenvalues": flaw} if flaw else {}
+
+
+def companion_gain(eigenvalues: tuple[float, ...]) -> npt.NDArray[np.float64]:
+    """``K(Λ)``: the coefficients ``K_1 … K_n`` of ``∏(s − λ_j)`` after its leading 1.
+
+    ``A_b − K C_b`` is the companion matrix of ``s^n + K_1 s^{n−1} + … + K_n``; entries may
+    overflow to ``inf`` or underflow to 0 (:func:`gain_flaw` says so).
+    """
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        gain = np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real
+    return np.ascontiguousarray(gain, dtype=np.float64)
+
+
+def gain_flaw(eigenvalues: tuple[float, ...]) -> str | None:
+    """Why ``K(Λ)`` is not a gain placing Λ, or ``None``.
+
+    Every ``λ_j < 0`` makes every ``K_j > 0``; a coefficient that is not a positive finite
+    float64 (it overflows, or underflows to 0) places other eigenvalues than Λ (``K_n = 0``
+    puts one at 0), which a report would still name.
+    """
+    gain = companion_gain(eigenvalues)
+    wrong = np.flatnonzero(~(np.isfinite(gain) & (gain > 0.0)))
+    if not wrong.size:
+        return None
+    j = int(wrong[0])
+    return (
+        f"the gain K_{j + 1} of {', '.join(f'{v:g}' for v in eigenvalues)} (the coefficient "
+        f"of s^{len(gain) - j - 1} in the product of (s - l_j)) is {gain[j]:g}, not a positive "
+        "float64: A_b - K C_b would not have these eigenvalues; choose them nearer to 1 in size"
+    )
+
+
+def step_flaw_of(model: HybridModel, eigenvalues: tuple[float, ...]) -> str | None:
+    """Why the model's integration step cannot follow an eigenvalue of Λ, or ``None``.
+
+    Linearised, observer (20)'s error decays in the coordinates Φ with ``A_b − K C_b``,
+    whose eigenvalues are Λ; the fixed step of ``integration`` must keep each of them
+    inside its method's stability region (:mod:`hybridlog.model.stability`), or the
+    estimate grows, or rings, where the design has it decay.
+    """
+    from hybridlog.model.stability import step_flaw
+
+    timebase = model.timebase
+    if timebase.method is None:
+        return None
+    flaw = step_flaw(timebase.method, timebase.step, np.diag(eigenvalues))
+    if flaw is None:
+        return None
+    return (
+        f"λ = {flaw.eigenvalue.real:g} 1/s is too fast for integration.step = "
+        f"{timebase.step:g} s of {model.origin or model.name}: {flaw.describe(timebase.method)}"
+    )
 
 
 def _eigenvalues_for(text: str, n_states: int) -> list[float]:

@@ -27,8 +27,9 @@ best-conditioned solution).  Clarabel is tried first, SCS second.  After solving
 certificate ``ρ² S_i − Ã_iᵀ S_j Ã_i ≻ 0`` is checked numerically with the recovered gains and
 its margin reported; every ``Ã_i`` must also be Schur (spectral radius < 1).  If no solver
 finds a certified solution, :class:`ObserverDesignError` names the modes at fault: a mode
-whose own LMI (``i = j``) is infeasible is not detectable at that decay rate; otherwise the
-modes are only jointly infeasible.
+whose own LMI (``i = j``) is infeasible is not detectable at that decay rate (an eigenvalue
+the outputs do not see is at least ``ρ`` in size, named), or, observable enough, too hard
+for the solvers there (said so); otherwise the modes are only jointly infeasible.
 
 References
 ----------
@@ -55,6 +56,7 @@ __all__ = [
     "ObserverGains",
     "certificate",
     "observer_gains",
+    "unobservable_eigenvalues",
 ]
 
 SOLVERS = ("CLARABEL", "SCS")
@@ -248,6 +250,44 @@ def observer_gains(
     raise ObserverDesignError(_infeasible_message(A, C, mode_ids, decay_rate, model_name, statuses))
 
 
+def unobservable_eigenvalues(A: FloatArray, C: FloatArray) -> list[complex]:
+    """The eigenvalues of ``A`` that ``y = C x`` does not see (PBH: ``[λI − A; C]`` rank-deficient).
+
+    Rank is judged by the smallest singular value against ``√ε`` times the size of
+    ``[A; C]`` (an eigenvalue is only as accurate as that for a non-normal ``A``).
+    """
+    n = A.shape[0]
+    scale = max(1.0, float(np.linalg.norm(np.vstack([A, C]), 2)))
+    tolerance = float(np.sqrt(np.finfo(np.float64).eps)) * scale
+    unseen: list[complex] = []
+    for value in np.linalg.eigvals(A):
+        pencil = np.vstack([value * np.eye(n) - A, C.astype(np.complex128)])
+        if np.linalg.svd(pencil, compute_uv=False)[-1] <= tolerance:
+            unseen.append(complex(value))
+    return unseen
+
+
+def _shown(value: complex) -> str:
+    return f"{value.real:.4g}" if value.imag == 0.0 else f"{value:.4g}"
+
+
+def _undetectable(A: FloatArray, C: FloatArray, mode: str, decay_rate: float) -> str | None:
+    """Why mode ``mode`` alone has no gain at ``ρ``, when an unseen eigenvalue is the reason.
+
+    The LMI of one mode is feasible exactly when some ``L`` makes the spectral radius of
+    ``A − L C`` below ``ρ``, that is when every eigenvalue the outputs do not see is below
+    ``ρ`` in size; ``None`` when every one is (the solvers, not the mode, failed).
+    """
+    slow = [v for v in unobservable_eigenvalues(A, C) if abs(v) >= decay_rate]
+    if not slow:
+        return None
+    worst = max(slow, key=abs)
+    return (
+        f"mode '{mode}' is not detectable at decay rate {decay_rate:g}: its eigenvalue "
+        f"{_shown(worst)} (|λ| = {abs(worst):.4g}) is unobservable from the outputs"
+    )
+
+
 def _infeasible_message(
     A: FloatArray,
     C: FloatArray,
@@ -257,18 +297,27 @@ def _infeasible_message(
     statuses: list[str],
 ) -> str:
     alone = [
-        mode_ids[i]
+        i
         for i in range(A.shape[0])
-        if A.shape[0] > 1
-        and isinstance(_certified(A[i : i + 1], C[i : i + 1], decay_rate, SOLVERS[0]), str)
+        if A.shape[0] == 1
+        or isinstance(_certified(A[i : i + 1], C[i : i + 1], decay_rate, SOLVERS[0]), str)
     ]
     detail = "; ".join(statuses)
     if alone:
-        names = ", ".join(f"'{m}'" for m in alone)
+        # an observable mode at a small decay rate (the double cart at 0.01) was said to be
+        # "not detectable from the outputs": its LMI is only too hard for the solvers there
+        found = {i: _undetectable(A[i], C[i], mode_ids[i], decay_rate) for i in alone}
+        reasons = [why for why in found.values() if why is not None]
+        hard = [f"'{mode_ids[i]}'" for i, why in found.items() if why is None]
+        if hard:
+            reasons.append(
+                f"mode(s) {', '.join(hard)} admit a gain in theory (every eigenvalue the "
+                f"outputs do not see is below {decay_rate:g} in size), but no solver found a "
+                "certified one: a decay rate nearer 1 asks less of them"
+            )
         return (
-            f"{model_name}: the observer LMI (15) of paper 001 is infeasible: mode(s) {names} "
-            f"alone admit no gain at decay rate {decay_rate:g} (not detectable from the "
-            f"outputs) [{detail}]"
+            f"{model_name}: the observer LMI (15) of paper 001 is infeasible at decay rate "
+            f"{decay_rate:g}: {'; '.join(reasons)} [{detail}]"
         )
     names = ", ".join(f"'{m}'" for m in mode_ids)
     return (

@@ -44,7 +44,9 @@ observer state ``z``; the output prediction of sample ``k`` is ``h`` at ``z(k)``
 the samples before ``k``) in the mode :math:`\hat\sigma(k-1)`; the timeline has the
 unthresholded :math:`\tilde\delta` columns ``delta_tilde.<boolean>`` and ``vouched``: 1
 where Lemma 1 can vouch for :math:`\hat\sigma`, 0 where the log shows that it cannot
-(:func:`unvouched`); a run with more than ``max_unvouched`` of its samples at 0 is refused.
+(:func:`unvouched`) or where eq. (30) gave no :math:`\tilde\delta` (``DᵀD`` singular,
+:math:`\hat\sigma` held); a run with more than ``max_unvouched`` of its samples at 0 is
+refused.
 """
 
 from __future__ import annotations
@@ -300,16 +302,22 @@ def _refuse_unvouched(
     signals: AlignedSignals,
     outside: npt.NDArray[np.bool_],
     slipping: npt.NDArray[np.bool_],
+    singular: npt.NDArray[np.bool_],
     largest: float,
 ) -> None:
     """Refuse a run whose σ̂ Lemma 1 cannot vouch for on more than ``largest`` of the samples.
+
+    ``singular``: the samples where eq. (30) gave no δ̃ (``DᵀD`` singular or ``D`` not
+    finite), whose σ̂ is the one held from before: nothing there vouches for it.  They were
+    left out of the share and marked vouched in the timeline, so a log whose ``D`` was
+    singular on 7,401 of 8,001 samples ran to exit 0 with a held σ̂ "vouched" on all but 36.
 
     Raises
     ------
     DivergenceError
         Naming the model, the share, and how many samples fail for each reason.
     """
-    count = int((outside | slipping).sum())
+    count = int((outside | slipping | singular).sum())
     n_samples = signals.n_samples
     if n_samples == 0 or count <= largest * n_samples:
         return
@@ -322,6 +330,9 @@ def _refuse_unvouched(
             f"first {window} samples, {SLIP_WINDOW_S:g} s, are its initial σ̂ = 0 before the "
             f"slip D⁺ė can be measured); a log of more than {2 * window} samples is needed"
         )
+    held = int(singular.sum())
+    if held:
+        return _refuse_held(model, n_samples, count, largest, outside, slipping, held)
     raise DivergenceError(
         f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
         f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
@@ -330,6 +341,31 @@ def _refuse_unvouched(
         f"{int(slipping.sum()):,}, so (33) "
         "fails there; the model does not explain the log, or its noise, disturbance or V_M is "
         "more than the observer tolerates"
+    )
+
+
+def _refuse_held(
+    model: HybridModel,
+    n_samples: int,
+    count: int,
+    largest: float,
+    outside: npt.NDArray[np.bool_],
+    slipping: npt.NDArray[np.bool_],
+    held: int,
+) -> None:
+    """The refusal of :func:`_refuse_unvouched` when some samples had no δ̃ (σ̂ held).
+
+    Raises
+    ------
+    DivergenceError
+        Naming the model, the share, and the samples of each reason.
+    """
+    raise DivergenceError(
+        f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
+        f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
+        f"D(x, u) of eq. (30) singular or not finite at the measured state (σ̂ held) on "
+        f"{held:,}, δ̃ 0.5 or more from every boolean vector on {int(outside.sum()):,}, not "
+        f"sliding on {int(slipping.sum()):,}; eq. (47) needs D of full column rank"
     )
 
 
@@ -505,11 +541,12 @@ def run_sliding_mode(
     _refuse_no_reconstruction(model, signals, deltas, code.D)
     _refuse_runaway_error(model, signals, means, v_max)
     outside, slipping = unvouched(deltas, slips)
-    _refuse_unvouched(model, signals, outside, slipping, options.max_unvouched)
-    flagged = outside | slipping
+    held = np.asarray(np.isnan(deltas).any(axis=1))  # no δ̃: σ̂ held, vouched by nothing
+    _refuse_unvouched(model, signals, outside, slipping, held, options.max_unvouched)
+    flagged = outside | slipping | held
     probabilities = np.zeros((n_samples, model.n_modes))
     probabilities[np.arange(n_samples), modes] = 1.0
-    singular = int(np.isnan(deltas).any(axis=1).sum())
+    singular = int(held.sum())
     notes = [
         f"V_M = {v_max:g} (per channel: {', '.join(f'{g:.3g}' for g in gains)}), "
         f"α* = {options.alpha:g}, threshold {options.threshold:g}; "
@@ -521,12 +558,14 @@ def run_sliding_mode(
         f"σ̂ not vouched for by Lemma 1 on {int(flagged.sum()):,} of {n_samples:,} samples "
         f"({100 * flagged.mean() if n_samples else 0.0:.1f} %; refused above max_unvouched = "
         f"{options.max_unvouched:g}): δ̃ 0.5 or more from every boolean vector (33), or the "
-        f"observer not sliding (|D⁺ė| over {SLIP_WINDOW_S:g} s ≥ 0.5, (28)): the transient "
-        "after each switch, and more with noise, a disturbance or a model that does not fit"
+        f"observer not sliding (|D⁺ė| over {SLIP_WINDOW_S:g} s ≥ 0.5, (28)), or D(x, u) "
+        "singular (σ̂ held): the transient after each switch, and more with noise, a "
+        "disturbance or a model that does not fit"
     )
     if singular:
         notes.append(
-            f"D(x, u) was singular on {singular} samples (δ̃ NaN there, σ̂ held): eq. (4) fails"
+            f"D(x, u) was singular on {singular} samples (δ̃ NaN there, σ̂ held and not "
+            "vouched for): eq. (4) fails"
         )
     return EstimationResult(
         estimator="sliding-mode",

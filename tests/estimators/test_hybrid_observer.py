@@ -10,6 +10,8 @@
   dynamics predict; the jump maps are applied at the switching samples.
 """
 
+import re
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -143,7 +145,15 @@ def test_the_gain_places_the_eigenvalues_of_the_brunovsky_pair():
 
 @pytest.mark.parametrize(
     ("text", "words"),
-    [("10,20,30", "every eigenvalue must be a finite negative real"), ("a,b", "separated by")],
+    [
+        ("10,20,30", "every eigenvalue must be a finite negative real"),
+        ("a,b", "separated by"),
+        # a gain float64 cannot hold, and one too fast for the 1 ms RK4 step: were refused
+        # only as switching-observer ran, naming neither the file nor the key
+        ("-1e300", r"the gain K_2 of -1e\+300, .* is inf, not a positive float64"),
+        ("-1e-300", r"the gain K_2 of -1e-300, .* is 0, not a positive float64"),
+        ("-1e4", r"λ = -30000 1/s is too fast for integration\.step = 0\.001 s of clutch\.toml"),
+    ],
 )
 def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, words):
     """Checked when the options are parsed (was: at run time, naming neither)."""
@@ -155,6 +165,9 @@ def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, 
         ModelError, match=rf"^clutch\.toml: estimators\.switching-observer\.eigenvalues: .*{words}"
     ):
         prepare(model, "switching-observer")
+    good = parse_model(builtin_text("ice_clutch"), origin="clutch.toml")
+    with pytest.raises(OptionError, match=rf"^--set eigenvalues={re.escape(text)}: .*{words}"):
+        prepare(good, "switching-observer", {"eigenvalues": text})
 
 
 CLUTCH_DT = 0.01
@@ -382,8 +395,13 @@ def test_a_diverged_estimate_is_an_error_naming_the_time():
     )
     with pytest.raises(
         ModelError, match=r"switching-observer diverged at t = 0\.01 s \(sample 1\)"
-    ):
+    ) as caught:
         clutch_run(stalled, "-4,-8,-12", [(0, 30), (1, 30)])
+    # the loop's kappa_1(Q) names the cause: Q singular at the prior, not everywhere
+    assert "of mode '0' is singular at t = 0 s, at the estimate m = 0, omega = 0, T = 0: Q^-1" in (
+        str(caught.value)
+    )
+    assert "drift-observable" not in str(caught.value)
     # a gain too large for the integration step: was exit 0 with the prior's error as RMSE;
     # refused before the run, naming the eigenvalue RK4's step cannot follow
     with pytest.raises(OptionError, match=r"λ = -30000 1/s is too fast for integration.step"):
@@ -411,3 +429,63 @@ def test_eigenvalues_whose_gain_float64_cannot_hold_are_refused(switched, eigenv
     model, _, signals, _ = switched
     with pytest.raises(OptionError, match=rf"^switching-observer option 'eigenvalues': {words}"):
         run_switching_observer(model, signals, SwitchingObserverOptions(eigenvalues=eigenvalues))
+
+
+UNOBSERVABLE = """
+name = "blind"
+time = "continuous"
+dt = 0.01
+integration = {method = "rk4", step = 0.002}
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+dx = [%s]
+h = [%s]
+
+[modes.b]
+dx = ["x2 - x1", "-x1 - x2 + u"]
+h = ["x1"]
+
+[initial]
+state = [0.5, 0.5]
+mode = "a"
+"""
+
+
+@pytest.mark.parametrize(
+    ("dx", "h", "words"),
+    [
+        # x2 enters neither h nor L_f h: a zero column of Q
+        ('"-x1 + u", "-2*x2"', '"x1"', "and at every state: x2 enter(s) no entry of Phi"),
+        # Phi = [x1 + x2, -2 (x1 + x2)]: no zero column, det Q = 0 for every state
+        ('"-x1 - x2 + u", "-x1 - x2"', '"x1 + x2"', "and at every state (det Q = 0)"),
+    ],
+)
+def test_a_mode_that_is_not_drift_observable_is_named_as_the_cause(dx, h, words):
+    """A mode whose Q is singular everywhere: named, not a list of possible causes.
+
+    The refusal said "the estimate is not finite (Q singular, a jump map or the gain of
+    eigenvalues -5, -10 too large for the integration step)" whichever it was.
+    """
+    model = parse_model(UNOBSERVABLE % (dx, h), origin="blind.toml")
+    count = 20
+    signals = AlignedSignals(
+        source="blind.csv",
+        time=np.arange(count) * 0.01,
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.zeros((count, 1)),
+        outputs=np.ones((count, 1)),
+        truth_modes=np.array([0] * 10 + [1] * 10),
+        state_names=("x1", "x2"),
+        truth_states=np.zeros((count, 2)),
+    )
+    with pytest.raises(ModelError) as caught:
+        run_switching_observer(model, signals, SwitchingObserverOptions())
+    message = str(caught.value)
+    assert message.startswith("blind.toml: switching-observer diverged at t = 0.01 s")
+    assert "Q = dPhi/dx (eq. (21)) of mode 'a' is singular at t = 0 s" in message
+    assert words in message and message.endswith("mode 'a' is not drift-observable from y")
+    assert "jump map" not in message

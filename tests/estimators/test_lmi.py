@@ -54,8 +54,36 @@ def test_decay_rate_is_honoured():
 def test_undetectable_mode_is_named():
     A = np.array([[[0.5, 0.0], [0.0, 0.4]], [[0.5, 0.0], [0.0, 1.2]]])  # mode b: x2 unstable
     C = np.array([[[1.0, 1.0]], [[1.0, 0.0]]])  # ... and unseen
-    with pytest.raises(ObserverDesignError, match=r"mode\(s\) 'b' alone"):
+    with pytest.raises(ObserverDesignError, match=r"mode 'b' is not detectable") as caught:
         observer_gains(A, C, ["a", "b"], model_name="toy")
+    assert "eigenvalue 1.2 (|λ| = 1.2) is unobservable" in str(caught.value)
+    assert "mode 'a'" not in str(caught.value)
+
+
+def test_an_infeasible_lmi_says_undetectable_only_of_an_eigenvalue_the_outputs_miss():
+    """Which kind of failure a mode's own LMI is: an unseen slow eigenvalue, or the solvers.
+
+    The double cart is observable in both modes; at decay rate 0.01 the solvers find no
+    certified gain, and the refusal said "not detectable from the outputs".  One mode alone
+    was reported "jointly" infeasible, as a set of modes without a common Lyapunov function.
+    """
+    linear = linear_modes(load_model("double_cart_case1"))
+    with pytest.raises(ObserverDesignError) as caught:
+        observer_gains(linear.A, linear.C, ["1", "2"], decay_rate=0.01, model_name="cart")
+    message = str(caught.value)
+    assert "not detectable" not in message and "admit a gain in theory" in message
+    assert "nearer 1" in message
+    # one mode whose unseen eigenvalue 0.9 is slower than the decay rate 0.5: undetectable there
+    A = np.array([[[0.5, 0.0], [0.0, 0.9]]])
+    C = np.array([[[1.0, 0.0]]])
+    with pytest.raises(ObserverDesignError) as caught:
+        observer_gains(A, C, ["only"], decay_rate=0.5, model_name="toy")
+    message = str(caught.value)
+    assert "decay rate 0.5: mode 'only' is not detectable at decay rate 0.5" in message
+    assert "0.9" in message and "jointly" not in message
+    # ... and detectable at 0.95: the unseen 0.9 decays fast enough
+    gains = observer_gains(A, C, ["only"], decay_rate=0.95, model_name="toy")
+    assert gains.spectral_radii[0] < 0.95
 
 
 def test_jointly_infeasible_modes_are_named():
