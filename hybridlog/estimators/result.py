@@ -127,6 +127,11 @@ class EstimationResult:
         ``L⁻¹ γ(k)`` per sample (``S = L Lᵀ``, the innovation and its covariance of the mode
         nearest to ``y(k)``), shape ``(N, n_y)``, NaN where none was computed; ``None`` for
         an estimator that keeps none (:mod:`hybridlog.estimators.consistency` tests them).
+    modes_given:
+        Why ``modes`` are not an estimate, where they are read from the log (``switching-
+        observer``'s switching signal, which is the log's true mode); empty for an estimate.
+        The report then scores none of the mode metrics: they would compare the log's true
+        mode with itself, and a gate would pass on a number that measures nothing.
     """
 
     estimator: str
@@ -147,6 +152,7 @@ class EstimationResult:
     timeline_columns: tuple[TimelineColumn, ...] = ()
     post_processing: PostProcessing | None = None
     whitened_innovations: FloatArray | None = None
+    modes_given: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.time, np.ndarray) or self.time.ndim != 1:

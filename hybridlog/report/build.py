@@ -32,7 +32,7 @@ from hybridlog.report.document import (
     SmoothingMetrics,
     StateReport,
 )
-from hybridlog.report.markdown import plural
+from hybridlog.report.markdown import NO_TRUE_MODE_REASON, plural
 from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.signals import (
     NO_TRUE_MODE,
@@ -419,7 +419,8 @@ class ReportBuilder:
         per_output = dict(zip(first.output_names, self._outputs.result(), strict=True))
         runtime = float(last.runtime_s)
         ids = tuple(str(m) for m in first.mode_ids)
-        modes = _modes(ids, signals.time, self._modes, signals.truth_modes, self._dt)
+        truth = None if first.modes_given else signals.truth_modes  # given: nothing to score
+        modes = _modes(ids, signals.time, self._modes, truth, self._dt)
         components = self._components.reports(signals.time, self._dt)
         if components:
             joint = self._components.joint_accuracy()
@@ -472,6 +473,7 @@ class ReportBuilder:
                 {}
                 if self._states is None
                 else dict(zip(states, self._states.undefined(), strict=True)),
+                modes_given=first.modes_given,
             ),
             smoothing=(
                 None
@@ -1095,6 +1097,8 @@ def _null_reasons(
     signals: AlignedSignals,
     samples_per_s: float | None,
     state_reasons: Mapping[str, str | None],
+    *,
+    modes_given: str = "",
 ) -> dict[str, str]:
     """Why each gate metric that is ``None`` in the report is (keys as in the gates).
 
@@ -1146,9 +1150,12 @@ def _null_reasons(
             why = _no_delay(report, f" of component {component}", partial=partial)
             if why is not None:
                 reasons[f"detection_delay_s.{component}"] = why
+    elif modes_given:
+        for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
+            reasons[name] = modes_given
     elif signals.truth_modes is None:
         for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
-            reasons[name] = "the log has no ground-truth mode"
+            reasons[name] = NO_TRUE_MODE_REASON
     elif modes.samples == 0:
         for name in ("mode_accuracy", "detection_delay_s", "missed_switches"):
             reasons[name] = (

@@ -124,7 +124,8 @@ def samples_section(
     """comparison.md's "What the numbers are over" lines, and what is not like for like.
 
     ``given``: the estimators that read the modes from the log's switching signal
-    (``switching-observer``), whose mode metrics score the log's true mode against itself.
+    (``switching-observer``): their reports score no mode metric, which would compare the
+    log's true mode with itself (``EstimationResult.modes_given``), and are said so here.
     Returns the Markdown lines (empty without reports) and, for the terminal, what is not
     like for like between the estimators, a phrase each (``vaf, fit and mse are not over
     the same samples for every estimator``; ``vaf is a mean over other outputs for some
@@ -185,12 +186,9 @@ def samples_section(
     for name in given:
         if name not in reports:
             continue
-        if len(reports) > 1:
-            unlike.append(f"{name}'s mode metrics score the switching signal it reads")
         lines.append(
-            f"- the mode metrics of `{name}` score the switching signal it reads from the log "
-            "against that same signal, the log's true mode: they measure no estimation"
-            + (", unlike the others'" if len(reports) > 1 else "")
+            f"- `{name}` has no mode metrics: it reads its modes from the log's switching "
+            "signal, the log's true mode, so they would score that signal against itself"
         )
     lines += [
         "",

@@ -98,6 +98,23 @@ def code_span(text: str) -> str:
     return f"{fence}{pad}{text}{pad}{fence}"
 
 
+NO_TRUE_MODE_REASON = "the log has no ground-truth mode"
+"""``null_reasons.mode_accuracy`` of a log without a true mode."""
+
+
+def _modes_given(report: Report) -> str:
+    """Why the report's modes are given, not estimated (read from the log), else ``""``.
+
+    The report builder leaves every mode metric out for them and says why in
+    ``null_reasons`` (:attr:`hybridlog.estimators.result.EstimationResult.modes_given`).
+    """
+    modes = report.modes
+    if modes.accuracy is not None or modes.components or modes.samples == 0:
+        return ""
+    why = report.null_reasons.get("mode_accuracy", "")
+    return "" if why == NO_TRUE_MODE_REASON else why
+
+
 def plural(count: int, noun: str, plural_form: str | None = None) -> str:
     """``"1 switch"``, ``"2 switches"``: a count with its noun in agreement.
 
@@ -224,7 +241,9 @@ def render_markdown(report: Report) -> str:
 
     modes = report.modes
     lines += ["", "## Modes", "", *_offline_caveat(report, "modes")]
-    lines += [f"{plural(len(modes.switches), 'estimated mode switch')}.", ""]
+    given = _modes_given(report)
+    switches = plural(len(modes.switches), "mode switch" if given else "estimated mode switch")
+    lines += [f"{switches}{' in the switching signal' if given else ''}.", ""]
     lines += ["| mode | dwell (s) |", "|---|---:|"]
     lines += [
         f"| {escape_markdown(m)} | {format_number(modes.dwell_s.get(m))} |" for m in modes.labels
@@ -234,6 +253,8 @@ def render_markdown(report: Report) -> str:
         lines += _component_lines(modes, report.samples)
     elif modes.accuracy is None and modes.samples == 0:
         lines.append(_NOT_COVERED[0].upper() + _NOT_COVERED[1:] + ".")
+    elif given:
+        lines.append(given[0].upper() + given[1:] + ".")
     elif modes.accuracy is None:
         lines.append("No ground-truth mode in the log: accuracy and delays are not known.")
     else:

@@ -379,7 +379,12 @@ def test_analyze_a_clutch_log_end_to_end_and_without_the_mode_column(switched, t
     pl.DataFrame({**columns, "mode": signals.truth_modes}).write_csv(log)
     outcome = analyze(log, "ice_clutch", out_dir=tmp_path / "out", sets=["eigenvalues=-4,-8,-12"])
     report = outcome.report
-    assert report.modes.accuracy == 1.0
+    # its modes are the log's switching signal, the true mode: nothing to score (it said 1.0)
+    assert report.modes.accuracy is None and report.modes.detection is None
+    assert report.null_reasons["mode_accuracy"].startswith("switching-observer takes its modes")
+    text = (tmp_path / "out" / "report.md").read_text()
+    assert "11 mode switches in the switching signal." in text
+    assert "given, not estimated, so no mode metric is scored." in text
     assert any("jump maps R applied at 11 of them" in note for note in report.notes)
     blind = tmp_path / "blind.csv"
     pl.DataFrame(columns).write_csv(blind)
