@@ -11,14 +11,14 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-import numpy as np
-import numpy.typing as npt
-
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.estimators.options import option
 from hybridlog.numbers import parse_float
 
 if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
     from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = [
@@ -125,6 +125,8 @@ def companion_gain(eigenvalues: tuple[float, ...]) -> npt.NDArray[np.float64]:
     ``A_b − K C_b`` is the companion matrix of ``s^n + K_1 s^{n−1} + … + K_n``; entries may
     overflow to ``inf`` or underflow to 0 (:func:`gain_flaw` says so).
     """
+    import numpy as np  # not at import: --help reads these options without numpy
+
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         gain = np.poly(np.asarray(eigenvalues, dtype=np.float64))[1:].real
     return np.ascontiguousarray(gain, dtype=np.float64)
@@ -137,6 +139,8 @@ def gain_flaw(eigenvalues: tuple[float, ...]) -> str | None:
     float64 (it overflows, or underflows to 0) places other eigenvalues than Λ (``K_n = 0``
     puts one at 0), which a report would still name.
     """
+    import numpy as np
+
     gain = companion_gain(eigenvalues)
     wrong = np.flatnonzero(~(np.isfinite(gain) & (gain > 0.0)))
     if not wrong.size:
@@ -157,6 +161,8 @@ def step_flaw_of(model: HybridModel, eigenvalues: tuple[float, ...]) -> str | No
     inside its method's stability region (:mod:`hybridlog.model.stability`), or the
     estimate grows, or rings, where the design has it decay.
     """
+    import numpy as np
+
     from hybridlog.model.stability import step_flaw
 
     timebase = model.timebase
