@@ -739,8 +739,9 @@ def run_batch(
         )
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
-    paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
-    notes: list[str] = []
+    found = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
+    paths, searched = found.paths, found.searched
+    notes: list[str] = list(found.notes)
     if read is not None and read.recover:  # refused when it applies to no log
         recovered = recover_note(paths)
         notes += [] if recovered is None else [recovered]
