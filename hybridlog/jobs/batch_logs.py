@@ -149,6 +149,8 @@ def _one_name_each(found: Sequence[str], given: Sequence[str]) -> tuple[list[str
             state = os.stat(path)
         except OSError:  # fails as that log, with the reason
             continue
+        if state.st_ino == 0:  # a file system without file numbers tells no file apart
+            continue
         by_file.setdefault((state.st_dev, state.st_ino), []).append((path, is_given))
     left_out: dict[str, str] = {}
     for names in by_file.values():
