@@ -739,8 +739,9 @@ def run_batch(
         )
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
-    paths, searched = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
-    notes: list[str] = []
+    found = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
+    paths, searched = found.paths, found.searched
+    notes: list[str] = list(found.notes)
     if read is not None and read.recover:  # refused when it applies to no log
         recovered = recover_note(paths)
         notes += [] if recovered is None else [recovered]
@@ -813,8 +814,50 @@ def run_batch(
                     progress(outcomes[-1])
     for outcome in outcomes:
         _remove_previous_report(job, outcome)
-    summary = _summarise(output_path(out_dir), model, job, gates, outcomes, junit)
+    root = output_path(out_dir)
+    others = other_report_folders(root, [Path(o.folder) for o in outcomes])
+    summary = _summarise(root, model, job, gates, outcomes, junit, others)
+    if others:
+        notes.append(_others_note(others))
     return dataclasses.replace(summary, notes=notes)
+
+
+_OTHERS_SHOWN = 3
+"""How many report folders of logs not in the batch its note names; the others are counted."""
+
+
+def other_report_folders(root: Path, folders: Sequence[Path]) -> list[str]:
+    """The report folders below ``root`` that are of no log of this batch (relative, natural order).
+
+    A log renamed, moved or deleted since an earlier run into the same ``--out``, or left out
+    of this run, keeps its report folder: the batch does not remove it (a run over part of
+    the logs would lose the others'), but its report.md read as this run's to whoever opened
+    the folder or its CI artifact, beside summaries that do not list it.  The summaries and
+    a note name them.  A report folder is a folder with hybridlog's marker and a report.json;
+    hidden names (temporaries) and links are not searched.
+    """
+    ours = {os.path.abspath(folder) for folder in folders}
+    found: list[str] = []
+    for parent, subfolders, files in os.walk(root):
+        here = Path(parent)
+        if here != root and MARKER in files and "report.json" in files:
+            if os.path.abspath(here) not in ours:
+                found.append(here.relative_to(root).as_posix())
+            subfolders.clear()  # a report's own folders (plots) hold no report
+            continue
+        subfolders[:] = [name for name in subfolders if not name.startswith(".")]
+    return sorted(found, key=natural_key)
+
+
+def _others_note(others: Sequence[str]) -> str:
+    """The note on the report folders of logs not in the batch (:func:`other_report_folders`)."""
+    shown = ", ".join(excerpt(name, 60) for name in others[:_OTHERS_SHOWN])
+    more = f" and {len(others) - _OTHERS_SHOWN} more" if len(others) > _OTHERS_SHOWN else ""
+    count = f"{len(others)} report folders" if len(others) > 1 else "a report folder"
+    return (
+        f"--out holds {count} of logs not in this batch ({shown}{more}; renamed, moved or "
+        "left out since an earlier run): kept, and not in its summaries"
+    )
 
 
 def _prepare_summary_plot(n_rows: int) -> None:
@@ -1002,8 +1045,13 @@ def _summarise(
     gates: Sequence[Gate],
     outcomes: Sequence[LogOutcome],
     junit: PathLike | None,
+    others: Sequence[str] = (),
 ) -> BatchOutcome:
-    """Write the summary files (and the JUnit file) from the outcomes, in natural order."""
+    """Write the summary files (and the JUnit file) from the outcomes, in natural order.
+
+    ``others``: the report folders of logs not in the batch (:func:`other_report_folders`),
+    which summary.md names.
+    """
     rows = [
         BatchRow(
             log=as_text(o.log),  # a name that is not UTF-8: its bytes as \xNN
@@ -1034,7 +1082,12 @@ def _summarise(
     )
     gated = [g.metric for g in gates]
     table, text = batch_markdown(
-        title, rows, [f"{g.option} {g.spec}" for g in gates], compared, gated
+        title,
+        rows,
+        [f"{g.option} {g.spec}" for g in gates],
+        compared,
+        gated,
+        others=[as_text(name) for name in others],
     )
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:

@@ -61,6 +61,8 @@ class FoundLogs(NamedTuple):
     """The logs, in natural order."""
     searched: list[str]
     """The folders of logs searched for them (kept apart from the outputs)."""
+    notes: tuple[str, ...] = ()
+    """What the search left out and why (a log found again under a second name)."""
 
 
 def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
@@ -69,16 +71,19 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     A log file or a ROS 2 bag (a folder with ``metadata.yaml``) is itself; any other folder
     is a folder of logs, replaced by the logs in it and its subfolders
     (:func:`hybridlog.io.formats.logs_in`).  Anything else (a missing path, a file of no
-    known format) stays, to fail as that log.
+    known format) stays, to fail as that log.  One file under two names (a symbolic or hard
+    link) is one log (:func:`_one_name_each`).
 
     Raises
     ------
     OptionError
-        For a folder that holds no log.
+        For a folder that holds no log, and for a log given that is another log of the
+        batch under a second name.
     LogError
         For a folder that cannot be listed.
     """
     found: list[str] = []
+    given: list[str] = []
     folders: list[str] = []
     for log in logs:
         if os.path.isdir(log) and not indexed_log(log):
@@ -89,11 +94,100 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
                     f"({format_list()}; names starting with '.' and hybridlog's output "
                     "folders are skipped)"
                 )
+            _check_new_folder(os.fspath(log), folders)
             folders.append(os.fspath(log))
             found += map(str, inside)
         else:
-            found.append(os.fspath(log))
-    return FoundLogs(sorted(found, key=natural_key), folders)
+            given.append(os.fspath(log))
+    paths, notes = _one_name_each(found, given)
+    return FoundLogs(sorted(paths, key=natural_key), folders, tuple(notes))
+
+
+def _check_new_folder(folder: str, folders: Sequence[str]) -> None:
+    """Refuse a folder of logs that is one given before under another name (a link to it).
+
+    Every log in it would be found twice; the same name given twice is refused with the
+    logs' folders (:func:`hybridlog.jobs.batch.folder_names`).
+    """
+    for earlier in folders:
+        if os.path.abspath(earlier) != os.path.abspath(folder) and os.path.samefile(
+            earlier, folder
+        ):
+            raise OptionError(
+                f"LOGS: the folder of logs {excerpt(folder)} is the folder of logs "
+                f"{excerpt(earlier)} (through a symbolic link); give it once"
+            )
+
+
+_SHOWN_TWICE = 3
+"""How many logs found under a second name the note names; the others are counted."""
+
+
+def _one_name_each(found: Sequence[str], given: Sequence[str]) -> tuple[list[str], list[str]]:
+    """The logs ``found`` in folders and ``given`` as themselves, each file under one name.
+
+    A file reached by two paths that differ as text (a link to a log beside it, a hard
+    link, a folder of logs and a link to it given both) was analysed twice, counted twice in
+    the summaries and gated twice.  Of names found in folders, where the user cannot leave
+    one out, the log keeps one (not a symbolic link, then the first in natural order) and a
+    note names the others; a name given as itself is refused, as a path given twice is
+    (:func:`hybridlog.jobs.batch.folder_names`, which also refuses paths equal as text).
+
+    Returns
+    -------
+    The logs, and the note (none, or one line) on the names left out.
+
+    Raises
+    ------
+    OptionError
+        Naming a log given that is another log of the batch under another name.
+    """
+    entries = [(path, False) for path in found] + [(path, True) for path in given]
+    by_file: dict[tuple[int, int], list[tuple[str, bool]]] = {}
+    for path, is_given in entries:
+        try:
+            state = os.stat(path)
+        except OSError:  # fails as that log, with the reason
+            continue
+        if state.st_ino == 0:  # a file system without file numbers tells no file apart
+            continue
+        by_file.setdefault((state.st_dev, state.st_ino), []).append((path, is_given))
+    left_out: dict[str, str] = {}
+    for names in by_file.values():
+        if len({os.path.abspath(path) for path, _ in names}) < 2:
+            continue
+        for path, is_given in names:
+            other = next((o for o, _ in names if os.path.abspath(o) != os.path.abspath(path)), path)
+            if is_given:
+                raise OptionError(
+                    f"log {excerpt(path)} is the same file as the log {excerpt(other)} "
+                    f"({_link_kind(path, other)}); give it once"
+                )
+        kept = min(
+            (path for path, _ in names),
+            key=lambda path: (os.path.islink(path), natural_key(path)),
+        )
+        left_out.update((path, kept) for path, _ in names if path != kept)
+    if not left_out:
+        return [*found, *given], []
+    shown = sorted(left_out, key=natural_key)
+    pairs = ", ".join(
+        f"{excerpt(p, 60)} as {excerpt(left_out[p], 60)}" for p in shown[:_SHOWN_TWICE]
+    )
+    more = f" and {len(shown) - _SHOWN_TWICE} more" if len(shown) > _SHOWN_TWICE else ""
+    count = f"{len(shown)} logs were" if len(shown) > 1 else "a log was"
+    note = (
+        f"{count} found again under another name (a symbolic or hard link to a log of the "
+        f"batch) and analysed once, as that log: {pairs}{more}"
+    )
+    return [p for p in [*found, *given] if p not in left_out], [note]
+
+
+def _link_kind(path: str, other: str) -> str:
+    """How two names of one file are related, for an error."""
+    if os.path.realpath(path) == os.path.realpath(other):
+        return "through a symbolic link"
+    return "a hard link to it"
 
 
 def recover_applies(log: PathLike) -> bool:

@@ -291,12 +291,20 @@ def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -
     Raises
     ------
     OptionError
-        As :func:`parse_gate`, and when a ``--fail-under`` bound of a metric is above one of
+        As :func:`parse_gate`; when a gate is given twice (``vaf=50`` and ``vaf=50.0``: its
+        JUnit case and its failure were each written twice, the case's name no longer
+        telling one test); and when a ``--fail-under`` bound of a metric is above one of
         its ``--fail-over`` bounds: no value meets both, so every run would fail.
 
     """
     gates = [parse_gate(s, "under") for s in fail_under]
     gates += [parse_gate(s, "over") for s in fail_over]
+    seen: dict[tuple[str, str, float], Gate] = {}
+    for gate in gates:
+        first = seen.setdefault((gate.kind, gate.metric, gate.bound), gate)
+        if first is not gate:
+            same = "given twice" if first.spec == gate.spec else f"the same gate as {first.spec!r}"
+            raise OptionError(f"{gate.option} {gate.spec!r}: {same}; give it once")
     for low in gates:
         for high in gates:
             if (low.kind, high.kind, low.metric) == ("under", "over", high.metric) and (

@@ -635,6 +635,8 @@ def batch_markdown(
     gates: Sequence[str],
     offline: Sequence[str] | None = None,
     gated: Sequence[str] = (),
+    *,
+    others: Sequence[str] = (),
 ) -> tuple[str, str]:
     """``summary.md`` of a batch: failures first, then natural order; and its table alone.
 
@@ -645,7 +647,9 @@ def batch_markdown(
     (:func:`offline_metrics`; ``None`` otherwise): the table then has the filter's own mode
     accuracy beside the offline one, and a section compares the two sides over the batch
     (:func:`_offline_section`).  ``gated``: the metrics of the gates, those not shown already
-    each a column (:func:`gated_columns`).
+    each a column (:func:`gated_columns`).  ``others``: report folders in the batch folder
+    of logs not in this run (renamed, moved, left out), listed last: they are not
+    summarised, and read as this run's otherwise.
     """
     failed = [row for row in rows if row.status == "failed"]
     missed = [row for row in rows if row.status != "failed" and row.missed]
@@ -708,6 +712,16 @@ def batch_markdown(
         lines += [
             f"- {escape_markdown(row.log)}: {escape_markdown('; '.join(row.missed))}"
             for row in missed
+        ]
+    if others:
+        lines += [
+            "",
+            f"## Other report folders ({len(others)})",
+            "",
+            "Of logs not in this batch (renamed, moved or left out since an earlier run into "
+            "this folder): kept, not summarised here.",
+            "",
+            *(f"- {escape_markdown(name)}" for name in others),
         ]
     return table, "\n".join(lines) + "\n"
 
