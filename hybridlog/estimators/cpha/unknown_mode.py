@@ -64,7 +64,12 @@ import numpy as np
 from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.capabilities import missing_command
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
-from hybridlog.estimators.cpha.hypotheses import ClusterStepError, Hypothesis, Tracker
+from hybridlog.estimators.cpha.hypotheses import (
+    ClusterStepError,
+    Hypothesis,
+    NoExplanationError,
+    Tracker,
+)
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
@@ -275,7 +280,8 @@ def run_unknown_mode(
     ModelError
         Naming the model file and key: what the structural analysis of a mode assignment
         the run reaches refuses (an equation that determines nothing, one that cannot be
-        solved), or a cluster's EKF that cannot step.
+        solved), a cluster's EKF that cannot step, or a step no successor explains (every
+        one's ``P_O`` is 0, or none exists: :class:`~.hypotheses.NoExplanationError`).
     """
     try:
         return _run(model, signals, options)
@@ -313,7 +319,7 @@ def _run(
         if k > 0:
             try:
                 hypotheses = tracker.step(hypotheses, k)
-            except ClusterStepError as err:
+            except (ClusterStepError, NoExplanationError) as err:
                 raise model.error(
                     "components", f"at t = {format_time(signals.time[k])} s {err}"
                 ) from err
