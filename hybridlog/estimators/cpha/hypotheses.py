@@ -684,6 +684,14 @@ class Tracker:
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
             raise NoExplanationError(self._unexplained(hypotheses, tables, best, per_parent, k))
         self.parents = [j for _, _, j, _, _ in best]
+        # A kept successor holds its parent until it is assembled, the parent its own, and
+        # so on: a trajectory kept but never the most likely one (nor needing its parent's
+        # held states) kept every ancestor alive, with their cluster steps, to the end of
+        # the log (about 19 hypotheses a step at beam 20, 6 KB a sample for one state).
+        # Assembling the parents cuts each chain at one step.
+        for j in set(self.parents):
+            if hypotheses[j]._pending is not None:
+                hypotheses[j]._materialise()
         _normalise(kept)
         return kept
 
