@@ -386,7 +386,11 @@ def _run(
             "entered it; a larger candidates searches further",
         )
     notes += command_notes(model, signals)
-    filtered_notes = notes + _unchecked_notes(model, structure, best_assignments, signals.time)
+    filtered_notes = (
+        notes
+        + _unchecked_notes(model, structure, best_assignments, signals.time)
+        + _held_notes(model, structure, best_assignments, signals.time)
+    )
     filtered = EstimationResult(
         estimator=NAME,
         options=options_dict(options),
@@ -416,7 +420,11 @@ def _run(
         state_means=path_means,
         state_variances=path_variances,
         timeline_columns=(*_component_columns(model, assignments), *p_columns),
-        notes=notes + _unchecked_notes(model, structure, assignments, signals.time),
+        notes=(
+            notes
+            + _unchecked_notes(model, structure, assignments, signals.time)
+            + _held_notes(model, structure, assignments, signals.time)
+        ),
         runtime_s=runtime + time.perf_counter() - offline_start,
         post_processing=PostProcessing(
             smoothing=None,
@@ -574,6 +582,49 @@ def _unchecked_notes(
         "undetermined, so no filter cluster held them (paper 002 §3.1): there the mode is "
         "carried over by the transition probabilities, not estimated, and the mode metrics "
         "score that carry-over",
+    )
+
+
+def _held_notes(
+    model: HybridModel,
+    structure: StructureCache,
+    assignments: list[Assignment],
+    times: FloatArray,
+) -> tuple[str, ...]:
+    """A warning naming the states the reported hypothesis held instead of estimating.
+
+    A state in no filter cluster of the reported assignment (unobservable, or undetermined
+    while a component is unknown, §3.1) keeps the mean it had, the initial state if no
+    cluster ever held it, and only its variance grows.  The report scored that held value
+    against the log's true state as if it were an estimate: a model whose output equation
+    left x1 unobservable on every sample had "x1 RMSE 1.06 over 400 samples", without a word.
+    """
+    held: dict[Assignment, tuple[str, ...]] = {}
+    counts: dict[str, int] = {}
+    first: dict[str, int] = {}
+    for k, assignment in enumerate(assignments):
+        states = held.get(assignment)
+        if states is None:
+            states = held[assignment] = structure.get(assignment).held_states
+        for state in states:
+            counts[state] = counts.get(state, 0) + 1
+            first.setdefault(state, k)
+    if not counts:
+        return ()
+    n = len(assignments)
+    parts = [
+        f"{state} on {counts[state]:,} of {n:,} samples (first at t = "
+        f"{format_time(times[first[state]])} s)"
+        for state in model.states
+        if state in counts
+    ]
+    return (
+        "WARNING: a reported state no filter estimated: "
+        + "; ".join(parts)
+        + ". In no filter cluster of the reported modes (unobservable there, or undetermined "
+        "while a component is `unknown`, paper 002 §3.1), its mean is held where it was (the "
+        "initial state if no cluster held it before) and only its variance grows: there the "
+        "state is not estimated, and the state RMSE scores the held value",
     )
 
 
