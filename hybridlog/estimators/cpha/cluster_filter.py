@@ -147,11 +147,14 @@ class ClusterFilter:
         n, m = len(self.states), len(self.outputs)
         n_p = len(self._upper[0])
         values = self._ekf(*x.tolist(), *P.reshape(-1)[self._upper_flat].tolist(), *measured)
-        for minor in values[n + n_p + m : n + n_p + 2 * m]:
+        # one array of the results; x̂, ŷ are views of it, P its upper triangle mirrored
+        try:
+            array = np.array(values, dtype=np.float64)
+        except TypeError as err:  # Python's (-8.0)**(1/3) is complex; numpy's would be NaN
+            raise ValueError(_complex_value(values)) from err
+        for minor in array[n + n_p + m : n + n_p + 2 * m].tolist():
             if not minor > 0.0:  # also NaN
                 return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
-        # one array of the results; x̂, ŷ are views of it, P its upper triangle mirrored
-        array = np.array(values, dtype=np.float64)
         P_new = array[self._full]
         log_po = float(values[-1])
         if not math.isfinite(log_po):
@@ -221,14 +224,12 @@ def compile_cluster(
     x = [sympy.Symbol(s, real=True) for s in cluster.states]
     u = [sympy.Symbol(s, real=True) for s in cluster.inputs]
     v = [sympy.Symbol(s, real=True) for s in cluster.virtual_inputs]
-    f = sympy.Matrix(cluster.f)
-    h = sympy.Matrix(cluster.h)
-    xv = sympy.Matrix(x)
-    vv = sympy.Matrix(v) if v else sympy.zeros(0, 1)
-    F = f.jacobian(xv)
-    B = f.jacobian(vv) if v else sympy.zeros(len(x), 0)
-    H = h.jacobian(xv)
-    D = h.jacobian(vv) if v else sympy.zeros(len(cluster.outputs), 0)
+    f = sympy.Matrix(len(cluster.f), 1, list(cluster.f))
+    h = sympy.Matrix(len(cluster.h), 1, list(cluster.h))
+    F = _jacobian(cluster.f, x)
+    B = _jacobian(cluster.f, v)
+    H = _jacobian(cluster.h, x)
+    D = _jacobian(cluster.h, v)
     args = [*x, *u, *v]
     predict = sympy.lambdify(args, [f, F, B], modules="numpy", cse=True)
     observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
@@ -249,6 +250,35 @@ def compile_cluster(
         _upper=upper,
         _upper_flat=upper[0] * len(x) + upper[1],
         _full=_mirrored(len(x)),
+    )
+
+
+def _complex_value(values: tuple[float, ...]) -> str:
+    """Why the unrolled EKF step gave a complex number (a refusal, never a guess).
+
+    A fractional power of a negative number (``x1**(1/3)`` at ``x1 < 0``, the real root
+    sympy's solution of ``w1**3 = x1`` is written as) is complex in Python's arithmetic:
+    the step's results could not be compared or stored, and the run ended in a TypeError
+    crash instead of the error naming the cluster and the values where it failed.
+    """
+    first = next(v for v in values if isinstance(v, complex))
+    return (
+        f"a complex value ({first:.6g}): a fractional power of a negative number, which has "
+        "no real value there"
+    )
+
+
+def _jacobian(expressions: tuple[sympy.Expr, ...], symbols: list[sympy.Symbol]) -> sympy.Matrix:
+    """``∂ expressions / ∂ symbols``, of shape ``(len(expressions), len(symbols))``.
+
+    Also where either is empty: a cluster whose outputs its inputs or other outputs alone
+    determine (``y1 = u1``, a flow a closed valve sets to 0) has no state, and sympy's
+    ``jacobian`` of its empty ``f`` raised a TypeError that ended the run as a crash.
+    """
+    return sympy.Matrix(
+        len(expressions),
+        len(symbols),
+        lambda i, j: sympy.diff(expressions[i], symbols[j]),
     )
 
 

@@ -42,7 +42,7 @@ from hybridlog.estimators.cpha.structure import Assignment, Cluster, StructureCa
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["ClusterStepError", "Hypothesis", "Tracker", "TransitionTable"]
+__all__ = ["ClusterStepError", "Hypothesis", "NoExplanationError", "Tracker", "TransitionTable"]
 
 
 class TransitionTable:
@@ -316,6 +316,15 @@ class _Pending(NamedTuple):
 
 class ClusterStepError(ArithmeticError):
     """A cluster's EKF hit a point where its equations or their Jacobians are not finite."""
+
+
+class NoExplanationError(ArithmeticError):
+    """No successor of a step has a belief above 0: the step has no hybrid estimate.
+
+    The previous step's hypotheses were kept instead, without a word: a model without the
+    unknown mode whose filters' ``S`` is singular (no noise at all) reported its initial
+    state with variance 0 on every sample of the log, as a certain estimate.
+    """
 
 
 class Tracker:
@@ -673,11 +682,54 @@ class Tracker:
             pending = _Pending(hypotheses[j], layout, results, growth, no_prediction)
             kept.append(Hypothesis(assignment, score, None, None, None, sources, pending))
         if not kept or not any(math.isfinite(h.log_belief) for h in kept):
-            self.parents = list(range(len(hypotheses)))
-            return _fallback(hypotheses)
+            raise NoExplanationError(self._unexplained(hypotheses, tables, best, per_parent, k))
         self.parents = [j for _, _, j, _, _ in best]
+        # A kept successor holds its parent until it is assembled, the parent its own, and
+        # so on: a trajectory kept but never the most likely one (nor needing its parent's
+        # held states) kept every ancestor alive, with their cluster steps, to the end of
+        # the log (about 19 hypotheses a step at beam 20, 6 KB a sample for one state).
+        # Assembling the parents cuts each chain at one step.
+        for j in set(self.parents):
+            if hypotheses[j]._pending is not None:
+                hypotheses[j]._materialise()
         _normalise(kept)
         return kept
+
+    def _unexplained(
+        self,
+        hypotheses: Sequence[Hypothesis],
+        tables: Sequence[_Successors],
+        best: Sequence[tuple[float, int, int, int, list[StepResult]]],
+        per_parent: Sequence[dict[int, StepResult]],
+        k: int,
+    ) -> str:
+        """Why no successor of step k has a belief above 0 (:class:`NoExplanationError`)."""
+        if not best:
+            for h, table in zip(hypotheses, tables, strict=True):
+                for c, options in enumerate(table.lists):
+                    if not options:
+                        component = self.components[c]
+                        return (
+                            f"no hypothesis has a successor at sample {k}: component "
+                            f"{component.name} cannot leave mode '{h.assignment[c]}' for a "
+                            f"modelled mode (its transitions there go to '{UNKNOWN}' only, "
+                            "and the unknown mode is switched off: unknown_mode = false)"
+                        )
+            return f"no hypothesis has a successor at sample {k}"
+        _, _, j, code, _ = best[0]
+        for i in tables[j].entries[code][1]:
+            result = per_parent[j].get(i)
+            if result is not None and result.log_po == -math.inf:
+                cluster = self._compiled[i].cluster
+                return (
+                    f"no hypothesis explains sample {k}: every successor's P_O is 0, as the "
+                    f"EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
+                    f"(components {', '.join(cluster.components)}) gives it, whose innovation "
+                    "covariance S is not positive definite there (zero measurement noise "
+                    "with no variance of the prediction reaching the outputs: the model's "
+                    "noise, initial covariance)"
+                )
+        return f"no hypothesis explains sample {k}: every successor's P_O is 0"
 
     def _entry(self, table: _Successors, code: int) -> _Entry:
         """The assignment of ``code`` in ``table`` and its filters, kept in ``table``.
@@ -719,11 +771,6 @@ def _values(cluster: Cluster, x: FloatArray, y: FloatArray) -> str:
     if outputs:
         parts.append(f"measured {outputs}")
     return ", ".join(parts)
-
-
-def _fallback(hypotheses: Sequence[Hypothesis]) -> list[Hypothesis]:
-    """No successor explains the observation at all: keep the previous hypotheses."""
-    return list(hypotheses)
 
 
 def _normalise(hypotheses: list[Hypothesis]) -> None:

@@ -62,12 +62,28 @@ class UnknownModeOptions:
 
 
 def unknown_mode_memory(model: HybridModel, options: UnknownModeOptions, n: int) -> Parts:
-    """``mode_sequence = "kbest"``: each step's kept hypotheses, to read the winner's history.
+    """The run's records of every step, beyond the result.
 
-    Their means, variances and parents, about ``8 · beam · 2 n_x`` bytes per sample
-    (:attr:`~hybridlog.estimators.cpha.hypotheses.Tracker.parents`), and their assignments.
+    Each step's summed belief per joint assignment kept (at most ``beam`` of them, or as many
+    as there are joint assignments), 24 bytes each, and their probabilities in the result,
+    whatever ``mode_sequence``; with
+    ``"kbest"`` also each step's kept hypotheses, to read the winner's history: their means,
+    variances, parents and assignments, ``8 · (2 n_x + 2)`` bytes each
+    (:attr:`~hybridlog.estimators.cpha.hypotheses.Tracker.parents`).
     """
-    if options.mode_sequence != "kbest":
-        return []
-    per_hypothesis = 8 * (2 * model.n_states + 2)
-    return [("the kept hypotheses of every step", n * options.beam * per_hypothesis)]
+    joint = 1
+    for component in model.components:
+        joint *= len(component.modes) + (1 if options.unknown_mode else 0)
+        if joint >= options.beam:
+            break
+    kept = min(options.beam, joint)
+    parts: Parts = [
+        ("the kept assignments' beliefs of every step", n * kept * 24),
+        # result_bytes counts no mode of a components model: the joint ones are found as
+        # the run goes, at least as many as are kept at one step
+        ("the joint assignments' probabilities", n * kept * 8),
+    ]
+    if options.mode_sequence == "kbest":
+        per_hypothesis = 8 * (2 * model.n_states + 2)
+        parts.insert(0, ("the kept hypotheses of every step", n * options.beam * per_hypothesis))
+    return parts

@@ -57,6 +57,7 @@ output — the unknown mode wins by default after a few dozen steps.  Entering i
 from __future__ import annotations
 
 import time
+from array import array
 from dataclasses import replace
 
 import numpy as np
@@ -64,7 +65,12 @@ import numpy as np
 from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.capabilities import missing_command
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
-from hybridlog.estimators.cpha.hypotheses import ClusterStepError, Hypothesis, Tracker
+from hybridlog.estimators.cpha.hypotheses import (
+    ClusterStepError,
+    Hypothesis,
+    NoExplanationError,
+    Tracker,
+)
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
@@ -275,7 +281,8 @@ def run_unknown_mode(
     ModelError
         Naming the model file and key: what the structural analysis of a mode assignment
         the run reaches refuses (an equation that determines nothing, one that cannot be
-        solved), or a cluster's EKF that cannot step.
+        solved), a cluster's EKF that cannot step, or a step no successor explains (every
+        one's ``P_O`` is 0, or none exists: :class:`~.hypotheses.NoExplanationError`).
     """
     try:
         return _run(model, signals, options)
@@ -304,8 +311,15 @@ def _run(
     labels: dict[Assignment, int] = {}
     # per assignment: its label index and its components in the unknown mode
     known: dict[Assignment, tuple[int, tuple[int, ...]]] = {}
-    rows: list[list[tuple[int, float]]] = []
-    best: list[Hypothesis] = []
+    # per step, the summed belief of each assignment kept: flat (step, label, belief)
+    beliefs_of = _StepBeliefs()
+    # the most likely hypothesis' estimate per step, written as the run goes: the
+    # hypotheses themselves (each with its full P, y_pred and cluster steps) were kept to
+    # the end, about 2 KB a sample for one state, which no memory check counted
+    best_label = np.empty(n, dtype=np.int64)
+    means = np.empty((n, n_x), dtype=np.float64)
+    variances = np.empty((n, n_x), dtype=np.float64)
+    predictions = np.empty((n, n_y), dtype=np.float64)
     offline = options.mode_sequence == "kbest"
     histories = _Histories(n_x) if offline else None
     p_unknown = np.zeros((n, len(components)))
@@ -313,12 +327,10 @@ def _run(
         if k > 0:
             try:
                 hypotheses = tracker.step(hypotheses, k)
-            except ClusterStepError as err:
+            except (ClusterStepError, NoExplanationError) as err:
                 raise model.error(
                     "components", f"at t = {format_time(signals.time[k])} s {err}"
                 ) from err
-        if histories is not None:
-            histories.keep(hypotheses, tracker.parents if k > 0 else [])
         row: dict[int, float] = {}
         beliefs = np.exp([h.log_belief for h in hypotheses]).tolist()
         p_row = p_unknown[k].tolist()
@@ -335,27 +347,30 @@ def _run(
             for c in unknown:
                 p_row[c] += belief
         p_unknown[k] = p_row
-        rows.append(list(row.items()))
-        best.append(max(hypotheses, key=lambda h: h.log_belief))
+        beliefs_of.add(k, row)
+        if histories is not None:
+            kept = [known[h.assignment][0] for h in hypotheses]
+            histories.keep(hypotheses, kept, tracker.parents if k > 0 else [])
+        top = max(hypotheses, key=lambda h: h.log_belief)
+        best_label[k] = labels[top.assignment]
+        means[k] = top.x
+        variances[k] = np.diag(top.P)
+        predictions[k] = top.y_pred
     compile_s = structure.seconds + filters.seconds - compiling
     runtime = time.perf_counter() - start - compile_s
     mode_ids = tuple(assignment_label(a) for a in labels)
-    probabilities = np.zeros((n, len(mode_ids)))
-    for k, row_items in enumerate(rows):
-        for j, p in row_items:
-            probabilities[k, j] = p
+    probabilities = beliefs_of.matrix(n, len(mode_ids))
     totals = probabilities.sum(axis=1, keepdims=True)
     probabilities /= np.where(totals > 0, totals, 1.0)
-    modes = np.array([labels[h.assignment] for h in best], dtype=np.int64)
-    means = np.array([h.x for h in best], dtype=np.float64).reshape(n, n_x)
-    variances = np.array([np.diag(h.P) for h in best], dtype=np.float64).reshape(n, n_x)
-    predictions = np.array([h.y_pred for h in best], dtype=np.float64).reshape(n, n_y)
+    assignment_of = list(labels)
+    best_assignments = [assignment_of[j] for j in best_label.tolist()]
+    modes = best_label
     predictions[0] = np.nan
     p_columns = [
         TimelineColumn(f"p_unknown.{component.name}", np.clip(p_unknown[:, c], 0.0, 1.0))
         for c, component in enumerate(components)
     ]
-    columns = [*_component_columns(model, [h.assignment for h in best]), *p_columns]
+    columns = [*_component_columns(model, best_assignments), *p_columns]
     s_hits, s_misses = structure.hits - counts[0], structure.misses - counts[1]
     f_hits, f_misses = filters.hits - counts[2], filters.misses - counts[3]
     notes: tuple[str, ...] = (
@@ -371,8 +386,10 @@ def _run(
             "entered it; a larger candidates searches further",
         )
     notes += command_notes(model, signals)
-    filtered_notes = notes + _unchecked_notes(
-        model, structure, [h.assignment for h in best], signals.time
+    filtered_notes = (
+        notes
+        + _unchecked_notes(model, structure, best_assignments, signals.time)
+        + _held_notes(model, structure, best_assignments, signals.time)
     )
     filtered = EstimationResult(
         estimator=NAME,
@@ -395,7 +412,7 @@ def _run(
         return filtered
     offline_start = time.perf_counter()
     path = histories.best_path([h.log_belief for h in hypotheses])
-    assignments = [histories.assignments[k][i] for k, i in enumerate(path)]
+    assignments = [assignment_of[j] for j in histories.path_labels(path)]
     path_means, path_variances = histories.states(path)
     result = replace(
         filtered,
@@ -403,7 +420,11 @@ def _run(
         state_means=path_means,
         state_variances=path_variances,
         timeline_columns=(*_component_columns(model, assignments), *p_columns),
-        notes=notes + _unchecked_notes(model, structure, assignments, signals.time),
+        notes=(
+            notes
+            + _unchecked_notes(model, structure, assignments, signals.time)
+            + _held_notes(model, structure, assignments, signals.time)
+        ),
         runtime_s=runtime + time.perf_counter() - offline_start,
         post_processing=PostProcessing(
             smoothing=None,
@@ -413,6 +434,33 @@ def _run(
         ),
     )
     return result
+
+
+class _StepBeliefs:
+    """Per step, the summed belief of each joint assignment kept, in flat typed arrays.
+
+    At most ``beam`` entries a step of 8 + 8 + 8 bytes (step, label, belief): a Python list
+    of tuples a step took about five times that.
+    """
+
+    def __init__(self) -> None:
+        self.steps = array("q")
+        self.labels = array("q")
+        self.beliefs = array("d")
+
+    def add(self, k: int, row: dict[int, float]) -> None:
+        """Step k's summed beliefs by label index."""
+        self.steps.extend([k] * len(row))
+        self.labels.extend(row.keys())
+        self.beliefs.extend(row.values())
+
+    def matrix(self, n: int, n_labels: int) -> FloatArray:
+        """The beliefs as an ``(n, n_labels)`` array, 0 where an assignment was not kept."""
+        out = np.zeros((n, n_labels), dtype=np.float64)
+        steps = np.frombuffer(self.steps, dtype=np.int64)
+        labels = np.frombuffer(self.labels, dtype=np.int64)
+        out[steps, labels] = np.frombuffer(self.beliefs, dtype=np.float64)
+        return out
 
 
 KBEST_DESCRIPTION = (
@@ -425,39 +473,55 @@ KBEST_DESCRIPTION = (
 class _Histories:
     """The kept hypotheses of every step, reduced to what their histories need.
 
-    Per step: each hypothesis' assignment, mean and variances, and its parent's index in the
-    step before (:attr:`Tracker.parents`).  About ``8 · beam · 2 n_x`` bytes per sample.
+    Per step: each hypothesis' assignment (its label index), mean and variances, and its
+    parent's index in the step before (:attr:`Tracker.parents`), in flat typed arrays:
+    ``8 · (2 n_x + 2)`` bytes per hypothesis kept (:func:`~.options.unknown_mode_memory`
+    counts them).  Lists of tuples and one array per step took about twice that, more
+    than the memory check was told.
     """
 
     def __init__(self, n_x: int) -> None:
         self.n_x = n_x
-        self.assignments: list[list[Assignment]] = []
-        self.parents: list[list[int]] = []
-        self.means: list[FloatArray] = []
-        self.variances: list[FloatArray] = []
+        self.starts = array("q")  # per step, its first hypothesis' position
+        self.labels = array("q")
+        self.parents = array("q")
+        self.means = array("d")
+        self.variances = array("d")
 
-    def keep(self, hypotheses: list[Hypothesis], parents: list[int]) -> None:
-        """Record step k's hypotheses (``parents``: their parents' indices at k-1)."""
-        self.assignments.append([h.assignment for h in hypotheses])
-        self.parents.append(list(parents))
-        self.means.append(np.array([h.x for h in hypotheses], dtype=np.float64))
-        self.variances.append(np.array([np.diag(h.P) for h in hypotheses], dtype=np.float64))
+    def keep(self, hypotheses: list[Hypothesis], labels: list[int], parents: list[int]) -> None:
+        """Record step k's hypotheses.
+
+        ``labels``: their assignments' label indices; ``parents``: their parents' indices
+        at k-1 (empty at step 0).
+        """
+        self.starts.append(len(self.labels))
+        self.labels.extend(labels)
+        self.parents.extend(parents if parents else [-1] * len(hypotheses))
+        for h in hypotheses:
+            self.means.extend(h.x.tolist())
+            self.variances.extend(np.diag(h.P).tolist())
 
     def best_path(self, final_beliefs: list[float]) -> list[int]:
-        """Per step, the index of the most likely final hypothesis' ancestor (back-tracking)."""
+        """Per step, the position of the most likely final hypothesis' ancestor (back-tracking)."""
+        starts = self.starts
         index = int(np.argmax(final_beliefs))
-        path = [index]
-        for k in range(len(self.parents) - 1, 0, -1):
-            index = self.parents[k][index]
-            path.append(index)
+        path = [starts[-1] + index]
+        for k in range(len(starts) - 1, 0, -1):
+            index = self.parents[starts[k] + index]
+            path.append(starts[k - 1] + index)
         return path[::-1]
+
+    def path_labels(self, path: list[int]) -> list[int]:
+        """The label index of each hypothesis on ``path``."""
+        return [self.labels[i] for i in path]
 
     def states(self, path: list[int]) -> tuple[FloatArray, FloatArray]:
         """The means and variances along ``path``, shape ``(N, n_x)`` each."""
-        n = len(path)
-        means = np.array([self.means[k][i] for k, i in enumerate(path)]).reshape(n, self.n_x)
-        variances = np.array([self.variances[k][i] for k, i in enumerate(path)])
-        return means, variances.reshape(n, self.n_x)
+        n_x = self.n_x
+        rows = np.asarray(path, dtype=np.int64)
+        means = np.frombuffer(self.means, dtype=np.float64).reshape(-1, n_x)[rows]
+        variances = np.frombuffer(self.variances, dtype=np.float64).reshape(-1, n_x)[rows]
+        return means.reshape(len(path), n_x), variances.reshape(len(path), n_x)
 
 
 def _component_columns(model: HybridModel, assignments: list[Assignment]) -> list[TimelineColumn]:
@@ -518,6 +582,49 @@ def _unchecked_notes(
         "undetermined, so no filter cluster held them (paper 002 §3.1): there the mode is "
         "carried over by the transition probabilities, not estimated, and the mode metrics "
         "score that carry-over",
+    )
+
+
+def _held_notes(
+    model: HybridModel,
+    structure: StructureCache,
+    assignments: list[Assignment],
+    times: FloatArray,
+) -> tuple[str, ...]:
+    """A warning naming the states the reported hypothesis held instead of estimating.
+
+    A state in no filter cluster of the reported assignment (unobservable, or undetermined
+    while a component is unknown, §3.1) keeps the mean it had, the initial state if no
+    cluster ever held it, and only its variance grows.  The report scored that held value
+    against the log's true state as if it were an estimate: a model whose output equation
+    left x1 unobservable on every sample had "x1 RMSE 1.06 over 400 samples", without a word.
+    """
+    held: dict[Assignment, tuple[str, ...]] = {}
+    counts: dict[str, int] = {}
+    first: dict[str, int] = {}
+    for k, assignment in enumerate(assignments):
+        states = held.get(assignment)
+        if states is None:
+            states = held[assignment] = structure.get(assignment).held_states
+        for state in states:
+            counts[state] = counts.get(state, 0) + 1
+            first.setdefault(state, k)
+    if not counts:
+        return ()
+    n = len(assignments)
+    parts = [
+        f"{state} on {counts[state]:,} of {n:,} samples (first at t = "
+        f"{format_time(times[first[state]])} s)"
+        for state in model.states
+        if state in counts
+    ]
+    return (
+        "WARNING: a reported state no filter estimated: "
+        + "; ".join(parts)
+        + ". In no filter cluster of the reported modes (unobservable there, or undetermined "
+        "while a component is `unknown`, paper 002 §3.1), its mean is held where it was (the "
+        "initial state if no cluster held it before) and only its variance grows: there the "
+        "state is not estimated, and the state RMSE scores the held value",
     )
 
 

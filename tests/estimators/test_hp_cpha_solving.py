@@ -1,0 +1,143 @@
+"""What the structure's explicit solving and a cluster's EKF make of awkward equations.
+
+Three kinds, each once seen as a crash or a silent guess on ``analyze``:
+
+* a cluster without a state (its outputs fixed by inputs: ``y1 = u1``) crashed compiling;
+* equations with several real solutions (``w1**2 = x1 + 1``) ran on sympy's first one;
+* a fractional power of a negative number (``x1**(1/3)``, sympy's real cube root) made the
+  unrolled EKF step complex, which crashed instead of naming the cluster and the values.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hybridlog.errors import ModelError
+from hybridlog.estimators.cpha.cluster_filter import compile_cluster
+from hybridlog.estimators.cpha.structure import decompose
+from hybridlog.io.writers import write_table
+from hybridlog.model.loader import parse_model
+from tests.support.cli import run_main
+
+MODEL = """
+name = "awkward"
+dt = 1.0
+states = ["x1"]
+inputs = ["u1"]
+outputs = ["y1"]
+variables = [{variables}]
+
+[noise]
+process = [0.01]
+measurement = [0.01]
+
+[initial]
+state = [0.0]
+covariance = 1.0
+
+[components.plant]
+unknown = 0.01
+initial = "a"
+
+[components.plant.modes.a]
+equations = [{equations}]
+"""
+
+
+def model_text(*equations: str, variables: tuple[str, ...] = ()) -> str:
+    """:data:`MODEL` with mode ``a``'s equations and the internal variables."""
+    return MODEL.format(
+        equations=", ".join(f'"{e}"' for e in equations),
+        variables=", ".join(f'"{v}"' for v in variables),
+    )
+
+
+def decomposition(text: str):
+    model = parse_model(text)
+    names = {"states": model.states, "inputs": model.inputs, "outputs": model.outputs}
+    return model, decompose(model.components, ("a",), variables=model.variables, **names)
+
+
+def write_log(root: Path, u: np.ndarray, y: np.ndarray) -> Path:
+    t = np.arange(len(u), dtype=np.float64)
+    return write_table(root / "log.csv", {"t": t, "u1": u, "y1": y})
+
+
+def analyze(root: Path, text: str, log: Path, capsys) -> tuple[int, str]:
+    model_file = root / "model.toml"
+    model_file.write_text(text)
+    args = ["analyze", str(log), "--model", str(model_file), "--estimator", "unknown-mode"]
+    return run_main([*args, "--out", str(root / "out")], capsys)
+
+
+def test_a_cluster_without_a_state_is_an_ekf_of_its_outputs_alone():
+    model, found = decomposition(model_text("x1[k] = 0.8*x1[k-1] + u1[k-1]", "y1 = u1"))
+    (cluster,) = found.clusters
+    assert cluster.states == () and cluster.outputs == ("y1",)
+    compiled = compile_cluster(
+        cluster, states=model.states, inputs=model.inputs, outputs=model.outputs
+    )
+    empty = np.zeros(0)
+    u, y = np.array([2.0]), np.array([2.3])
+    result = compiled.step(empty, np.zeros((0, 0)), u, y, u, y)
+    numeric = compiled.step_numeric(empty, np.zeros((0, 0)), u, y, u, y)
+    # r = 0.3, S = R = 0.01: log P_O = -0.09/0.02
+    assert result.log_po == pytest.approx(-4.5) and numeric.log_po == pytest.approx(-4.5)
+    assert result.y_pred.tolist() == [2.0] and result.x.shape == (0,)
+
+
+def test_a_stateless_cluster_runs_through_analyze(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    u = 1.0 + 0.5 * np.sin(np.arange(60) / 5.0)
+    log = write_log(tmp_path, u, u + rng.normal(0.0, 0.05, 60))
+    text = model_text("x1[k] = 0.8*x1[k-1] + u1[k-1]", "y1 = u1")
+    code, out = analyze(tmp_path, text, log, capsys)
+    assert code == 0, out
+    estimates = (tmp_path / "out" / "estimates.csv").read_text().splitlines()
+    assert estimates[0].startswith("t,x1_hat,x1_var,y1_hat")
+    assert float(estimates[2].split(",")[3]) == pytest.approx(u[1])  # ŷ(1) = u1(1)
+
+
+@pytest.mark.parametrize(
+    ("equations", "variables", "target"),
+    [
+        (("w1**2 = x1 + 1", "y1 = w1"), ("w1",), "w1"),
+        (("y1**2 = x1 + 1",), (), "y1"),
+        (("sin(w1) = 0.1*x1", "y1 = w1"), ("w1",), "w1"),
+    ],
+)
+def test_several_real_solutions_are_refused_naming_the_equation(equations, variables, target):
+    text = model_text("x1[k] = 0.8*x1[k-1] + u1[k-1]", *equations, variables=variables)
+    with pytest.raises(ModelError) as caught:
+        decomposition(text)
+    message = str(caught.value)
+    assert message.startswith("components.plant.modes.a.equations[1]: has 2 solutions for ")
+    assert f"write the equation solved for {target}" in message
+
+
+def test_the_complex_roots_are_not_solutions_of_a_real_model():
+    text = model_text("x1[k] = 0.8*x1[k-1] + u1[k-1]", "w1**3 = x1", "y1 = w1", variables=("w1",))
+    _, found = decomposition(text)
+    (cluster,) = found.clusters
+    assert str(cluster.h[0]) == "x1**(1/3)"
+
+
+def test_one_explicit_solution_is_the_one_used():
+    text = model_text(
+        "x1[k] = 0.8*x1[k-1] + u1[k-1]", "w1 = sqrt(x1 + 1)", "y1 = w1", variables=("w1",)
+    )
+    _, found = decomposition(text)
+    assert str(found.clusters[0].h[0]) == "sqrt(x1 + 1)"
+
+
+def test_a_complex_value_in_the_ekf_step_is_an_error_naming_the_cluster(tmp_path, capsys):
+    u = -np.ones(20)
+    log = write_log(tmp_path, u, np.zeros(20))
+    text = model_text("x1[k] = 0.8*x1[k-1] + u1[k-1]", "y1 = x1**(1/3)")
+    code, out = analyze(tmp_path, text, log, capsys)
+    assert code == 2, out
+    assert "Traceback" not in out and "unexpected" not in out
+    assert "the EKF of the cluster of x1 (components plant) cannot step at sample 1" in out
+    assert "a fractional power of a negative number" in out
+    assert not (tmp_path / "out" / "report.md").exists()
