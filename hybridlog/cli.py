@@ -1219,9 +1219,13 @@ def _summary_line(report: Report) -> str:
     text = (
         f"{report.estimator} on {report.log}: {plural(report.samples, 'sample')} "
         f"in {duration(report.runtime_s)}, VAF {number(report.vaf, '.2f', ' %')}, "
-        f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}, "
-        f"mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
+        f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}"
     )
+    scored_outputs = [o.samples for o in report.outputs.values() if o.samples is not None]
+    if scored_outputs and min(scored_outputs) < report.samples - 1:  # row 0 is the prior
+        # a VAF over 73 of 399 predictions read like the whole log's (a gap, a late start)
+        text += f" (over {min(scored_outputs):,} of {report.samples - 1:,} predicted samples)"
+    text += f", mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
     scored = report.modes.samples
     if report.modes.accuracy is not None and scored is not None and scored < report.samples:
         text += f" (over the {plural(scored, 'sample')} with a true mode)"
