@@ -253,8 +253,10 @@ def test_a_cluster_whose_jacobian_is_infinite_is_a_one_line_error_naming_the_key
     assert "\n" not in str(info.value)
     # where it failed: the state before the step and the measurement (a log the model cannot
     # explain, a CO2 sensor at -1e6 ppm, drove a state there; the error named only the model)
-    assert "; xc1 = 0 before the step, measured yc1 = " in str(info.value)
-    assert str(info.value).endswith("its equations or their Jacobian are not finite there")
+    assert " (xc1 = 0 before the step, measured yc1 = " in str(info.value)
+    assert "cannot step at sample 1: its equations or their Jacobian are not finite there (" in (
+        str(info.value)
+    )
 
 
 def test_an_equation_that_determines_nothing_is_refused_not_dropped(model):

@@ -512,9 +512,9 @@ class Tracker:
                 )
                 raise ClusterStepError(
                     f"the EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
-                    f"(components {', '.join(cluster.components)}) cannot step at sample {k} "
-                    f"({err}; {_values(cluster, x_parent, y_now[compiled.outputs])}): {why}"
-                ) from err
+                    f"(components {', '.join(cluster.components)}) cannot step at sample {k}: "
+                    f"{why} ({_values(cluster, x_parent, y_now[compiled.outputs])}): {err}"
+                ) from err  # the cause last: a line cut in the middle (a long path) keeps it
             memo[key] = result
             self.filtered += 1
         if source is not None:
