@@ -5,7 +5,8 @@ The ``O(N²)`` exact potentials of a long log in many dimensions take minutes
 note and a progress bar installs a :class:`WorkReporter` around the call with
 :func:`reporting` (``hybridlog cluster`` does: the note and the bar go to stderr, the bar only
 on a terminal, neither with ``--quiet``), and the clustering code asks :func:`current_reporter`.
-Without one, the work is silent.
+Without one, the work is silent.  ``unknown-mode``'s hybrid estimation with a large ``beam``
+reports itself the same way (:mod:`hybridlog.estimators.cpha.long_run`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,20 @@ from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 
-__all__ = ["WorkReporter", "current_reporter", "reporting"]
+__all__ = ["LONG_WORK_S", "WorkReporter", "current_reporter", "duration_text", "reporting"]
+
+LONG_WORK_S = 10.0
+"""Work expected to take longer than this (timed on its first steps) is announced with one
+line and followed by a progress bar, where a :class:`WorkReporter` is installed."""
+
+
+def duration_text(seconds: float) -> str:
+    """``"40 s"``, ``"12 min"``, ``"1.5 h"``: an expected duration, as notes say it."""
+    if seconds < 90.0:
+        return f"{seconds:.0f} s"
+    if seconds < 5400.0:
+        return f"{seconds / 60.0:.0f} min"
+    return f"{seconds / 3600.0:.1f} h"
 
 
 @dataclass(frozen=True)

@@ -82,7 +82,11 @@ from hybridlog.cluster.potentials import (
     grid_nodes_per_axis,
     grid_potentials,
 )
-from hybridlog.cluster.progress import current_reporter
+from hybridlog.cluster.progress import (  # the exact potentials announce long work
+    LONG_WORK_S,
+    current_reporter,
+    duration_text,
+)
 from hybridlog.errors import DataShortError, OptionError
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray, IntArray
@@ -115,11 +119,6 @@ POTENTIAL_TOLERANCE = 2e-3
 """Documented agreement of approximate and exact potentials, relative to the largest."""
 
 METHODS = ("auto", "exact", "approximate")
-
-LONG_WORK_S = 10.0
-"""Exact potentials expected to take longer than this (timed on their first steps) are
-announced with one line and followed by a progress bar, where a
-:class:`~hybridlog.cluster.progress.WorkReporter` is installed."""
 
 _CALIBRATION_S = 1.0
 
@@ -489,15 +488,6 @@ def exact_threads(n: int) -> int:
         return 1
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     return max(1, min(cores or 1, int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
-
-
-def duration_text(seconds: float) -> str:
-    """``"40 s"``, ``"12 min"``, ``"1.5 h"``: an expected duration, as notes say it."""
-    if seconds < 90.0:
-        return f"{seconds:.0f} s"
-    if seconds < 5400.0:
-        return f"{seconds / 60.0:.0f} min"
-    return f"{seconds / 3600.0:.1f} h"
 
 
 def _reported_exact_potentials(

@@ -13,8 +13,8 @@ from hybridlog.estimators.cpha.unknown_mode import UnknownModeOptions, run_unkno
 from hybridlog.model.loader import parse_model
 from hybridlog.signals import AlignedSignals
 
-# Five states: the cluster's EKF is the numpy one (the unrolled one stops at four), which
-# gives P_O = 0 for a singular S instead of dividing by zero.
+# Five states: the cluster's EKF is the numpy one (the unrolled one stops at four); its
+# singular S is refused (tests/estimators/test_hp_cpha2_singular.py: the unrolled one's too).
 NOISELESS = """
 name = "noiseless"
 dt = 1.0
@@ -80,14 +80,14 @@ def signals(model, n=12):
     return AlignedSignals("log.csv", t, model.inputs, model.outputs, u, y)
 
 
-def test_every_successor_at_p_o_zero_is_refused_naming_the_cluster():
+def test_a_noiseless_model_is_refused_naming_the_cluster():
     model = parse_model(NOISELESS, origin="noiseless.toml")
     with pytest.raises(ModelError) as caught:
         run_unknown_mode(model, signals(model), UnknownModeOptions())
     message = str(caught.value)
-    assert message.startswith("noiseless.toml: components: at t = 1 s no hypothesis explains ")
+    assert message.startswith("noiseless.toml: components: at t = 1 s the EKF of the cluster ")
     assert "the cluster of x1, x2, x3, x4, x5 (components plant)" in message
-    assert "not positive definite" in message and "\n" not in message
+    assert "innovation covariance S is singular" in message and "\n" not in message
 
 
 def test_no_successor_at_all_is_refused_naming_the_component():

@@ -39,9 +39,29 @@ import sympy
 from hybridlog.estimators.cpha.structure import Cluster
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["ClusterFilter", "FilterCache", "StepResult", "compile_cluster"]
+__all__ = [
+    "ClusterFilter",
+    "FilterCache",
+    "SingularInnovationError",
+    "StepResult",
+    "compile_cluster",
+]
 
 _Fn = Callable[..., list[FloatArray]]
+
+
+class SingularInnovationError(ArithmeticError):
+    """A cluster's innovation covariance ``S`` is finite, not positive definite, of zero noise.
+
+    ``P_O = exp(-rᵀS⁻¹r/2)`` (eq. (21)) has no value there: the model gives an output of the
+    cluster no measurement noise (no virtual-input noise either) and no variance of the
+    prediction reaches it.  Where every output has noise, ``S ≥ R > 0`` and a failed
+    Cholesky factor is rounding of a huge ``P``: ``P_O`` is then read as 0, as before.
+
+    The numpy step read a zero-noise ``S`` as ``P_O = 0`` too, so that with the unknown mode
+    every hypothesis went unknown without a word; the straight-line step divided by ``det S = 0``
+    and the refusal read "float division by zero … not finite".  Both now raise this.
+    """
 
 
 @dataclass(frozen=True)
@@ -55,7 +75,9 @@ class StepResult:
     y_pred:
         ``g(x̂(k|k-1))``, the one-step-ahead output prediction.
     log_po:
-        ``log P_O = -rᵀS⁻¹r/2`` (eq. (21)); ``-inf`` when ``S`` is not positive definite.
+        ``log P_O = -rᵀS⁻¹r/2`` (eq. (21)); ``-inf`` when ``S`` or ``rᵀS⁻¹r`` is not
+        finite (a finite ``S`` that is not positive definite raises
+        :class:`SingularInnovationError`).
     """
 
     x: FloatArray
@@ -146,7 +168,11 @@ class ClusterFilter:
         assert self._ekf is not None
         n, m = len(self.states), len(self.outputs)
         n_p = len(self._upper[0])
-        values = self._ekf(*x.tolist(), *P.reshape(-1)[self._upper_flat].tolist(), *measured)
+        try:
+            values = self._ekf(*x.tolist(), *P.reshape(-1)[self._upper_flat].tolist(), *measured)
+        except ZeroDivisionError:  # det S = 0 (S⁻¹ by its adjugate), or the model's own 1/0
+            with np.errstate(divide="raise", invalid="raise", over="raise"):
+                return self.step_numeric(x, P, u_prev, y_prev, u_now, y_now)
         # one array of the results; x̂, ŷ are views of it, P its upper triangle mirrored
         try:
             array = np.array(values, dtype=np.float64)
@@ -193,7 +219,16 @@ class ClusterFilter:
         S = C @ P_pred @ C.T + R
         try:
             L = np.linalg.cholesky(S)
-        except np.linalg.LinAlgError:
+        except np.linalg.LinAlgError as err:
+            noise = np.diag(R).tolist()
+            exact = [o for o, r in zip(self.cluster.outputs, noise, strict=True) if not r > 0.0]
+            if exact and np.isfinite(S).all():  # else S ≥ R > 0: rounding (a huge P)
+                raise SingularInnovationError(
+                    "its innovation covariance S is singular (not positive definite) there: "
+                    f"the model gives {', '.join(exact)} no measurement noise and no variance "
+                    "of the prediction reaches it (the model's noise, initial covariance), so "
+                    "P_O (paper 002 eq. (21)) has no value"
+                ) from err
             return StepResult(x_pred, P_pred, y_pred, -math.inf)
         PCt = P_pred @ C.T
         K = np.linalg.solve(L.T, np.linalg.solve(L, PCt.T)).T  # eq. (18)

@@ -37,7 +37,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hybridlog.estimators.cpha.cluster_filter import ClusterFilter, FilterCache, StepResult
+from hybridlog.estimators.cpha.cluster_filter import (
+    ClusterFilter,
+    FilterCache,
+    SingularInnovationError,
+    StepResult,
+)
 from hybridlog.estimators.cpha.structure import Assignment, Cluster, StructureCache
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.signals import FloatArray, IntArray
@@ -502,6 +507,13 @@ class Tracker:
                     y_now,
                     measured,
                 )
+            except SingularInnovationError as err:
+                cluster = compiled.cluster
+                raise ClusterStepError(
+                    f"the EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
+                    f"(components {', '.join(cluster.components)}) cannot step at sample {k} "
+                    f"({_values(cluster, x_parent, y_now[compiled.outputs])}): {err}"
+                ) from err
             except (ArithmeticError, ValueError, RuntimeWarning) as err:  # 1/0, sqrt(-1)
                 cluster = compiled.cluster
                 why = (
@@ -725,9 +737,7 @@ class Tracker:
                     f"no hypothesis explains sample {k}: every successor's P_O is 0, as the "
                     f"EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
                     f"(components {', '.join(cluster.components)}) gives it, whose innovation "
-                    "covariance S is not positive definite there (zero measurement noise "
-                    "with no variance of the prediction reaching the outputs: the model's "
-                    "noise, initial covariance)"
+                    "covariance S or weighted residual rᵀS⁻¹r is not finite there"
                 )
         return f"no hypothesis explains sample {k}: every successor's P_O is 0"
 

@@ -40,8 +40,10 @@ Notes list the decomposition and filter cache hit rates; when ``candidates`` sto
 step's search while an unfiltered successor might still have entered the beam, at how many
 steps the beam is approximate; when a reported known mode sat in no filter
 cluster (an unknown neighbour left its equations undetermined), a warning per component: on
-how many samples no output checked it; and the rules whose ``when`` never held on the log, with
-the command values it held that no rule names (:func:`command_notes`).
+how many samples no output checked it; the rules whose ``when`` never held on the log, with
+the command values it held that no rule names (:func:`command_notes`); and, with the unknown
+mode, each component whose ``unknown`` no rule leaves (absorbing, a ``WARNING`` where the
+estimate sits there on a quarter of the samples or more: :mod:`~.absorbing`).
 
 Modelling the unknown mode
 --------------------------
@@ -64,6 +66,7 @@ import numpy as np
 
 from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.capabilities import missing_command
+from hybridlog.estimators.cpha.absorbing import absorbing_components, absorbing_notes
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
 from hybridlog.estimators.cpha.hypotheses import (
     ClusterStepError,
@@ -71,6 +74,7 @@ from hybridlog.estimators.cpha.hypotheses import (
     NoExplanationError,
     Tracker,
 )
+from hybridlog.estimators.cpha.long_run import LongRun
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
@@ -323,39 +327,43 @@ def _run(
     offline = options.mode_sequence == "kbest"
     histories = _Histories(n_x) if offline else None
     p_unknown = np.zeros((n, len(components)))
-    for k in range(n):
-        if k > 0:
-            try:
-                hypotheses = tracker.step(hypotheses, k)
-            except (ClusterStepError, NoExplanationError) as err:
-                raise model.error(
-                    "components", f"at t = {format_time(signals.time[k])} s {err}"
-                ) from err
-        row: dict[int, float] = {}
-        beliefs = np.exp([h.log_belief for h in hypotheses]).tolist()
-        p_row = p_unknown[k].tolist()
-        for h, belief in zip(hypotheses, beliefs, strict=True):
-            found = known.get(h.assignment)
-            if found is None:
-                unknown = tuple(c for c, mode in enumerate(h.assignment) if mode == UNKNOWN)
-                found = known[h.assignment] = (
-                    labels.setdefault(h.assignment, len(labels)),
-                    unknown,
-                )
-            j, unknown = found
-            row[j] = row.get(j, 0.0) + belief
-            for c in unknown:
-                p_row[c] += belief
-        p_unknown[k] = p_row
-        beliefs_of.add(k, row)
-        if histories is not None:
-            kept = [known[h.assignment][0] for h in hypotheses]
-            histories.keep(hypotheses, kept, tracker.parents if k > 0 else [])
-        top = max(hypotheses, key=lambda h: h.log_belief)
-        best_label[k] = labels[top.assignment]
-        means[k] = top.x
-        variances[k] = np.diag(top.P)
-        predictions[k] = top.y_pred
+    what = f"{NAME} over {n:,} samples, beam {options.beam:,}"
+    with LongRun(n - 1, what, lambda: structure.seconds + filters.seconds) as long_run:
+        for k in range(n):
+            if k > 0:
+                try:
+                    hypotheses = tracker.step(hypotheses, k)
+                except (ClusterStepError, NoExplanationError) as err:
+                    raise model.error(
+                        "components", f"at t = {format_time(signals.time[k])} s {err}"
+                    ) from err
+            row: dict[int, float] = {}
+            beliefs = np.exp([h.log_belief for h in hypotheses]).tolist()
+            p_row = p_unknown[k].tolist()
+            for h, belief in zip(hypotheses, beliefs, strict=True):
+                found = known.get(h.assignment)
+                if found is None:
+                    unknown = tuple(c for c, mode in enumerate(h.assignment) if mode == UNKNOWN)
+                    found = known[h.assignment] = (
+                        labels.setdefault(h.assignment, len(labels)),
+                        unknown,
+                    )
+                j, unknown = found
+                row[j] = row.get(j, 0.0) + belief
+                for c in unknown:
+                    p_row[c] += belief
+            p_unknown[k] = p_row
+            beliefs_of.add(k, row)
+            if histories is not None:
+                kept = [known[h.assignment][0] for h in hypotheses]
+                histories.keep(hypotheses, kept, tracker.parents if k > 0 else [])
+            top = max(hypotheses, key=lambda h: h.log_belief)
+            best_label[k] = labels[top.assignment]
+            means[k] = top.x
+            variances[k] = np.diag(top.P)
+            predictions[k] = top.y_pred
+            if k > 0:
+                long_run.done(k)
     compile_s = structure.seconds + filters.seconds - compiling
     runtime = time.perf_counter() - start - compile_s
     mode_ids = tuple(assignment_label(a) for a in labels)
@@ -386,8 +394,14 @@ def _run(
             "entered it; a larger candidates searches further",
         )
     notes += command_notes(model, signals)
+    absorbing = (
+        absorbing_components(components, tracker.transitions.commands, tracker.commands)
+        if options.unknown_mode
+        else {}
+    )
     filtered_notes = (
         notes
+        + absorbing_notes(components, absorbing, best_assignments, signals.time)
         + _unchecked_notes(model, structure, best_assignments, signals.time)
         + _held_notes(model, structure, best_assignments, signals.time)
     )
@@ -422,6 +436,7 @@ def _run(
         timeline_columns=(*_component_columns(model, assignments), *p_columns),
         notes=(
             notes
+            + absorbing_notes(components, absorbing, assignments, signals.time)
             + _unchecked_notes(model, structure, assignments, signals.time)
             + _held_notes(model, structure, assignments, signals.time)
         ),
