@@ -516,8 +516,13 @@ class MessageSource(abc.ABC):
                 counter = counters.get(topic_name)
                 if counter is not None:
                     counter.add(data, log_time)
-        except LogError as err:
-            problems.append(str(err).removeprefix(f"{self.path}: "))
+        except LogError as err:  # what was read before it is described, and said to be
+            read = sum(len(t) for t in times.values())
+            problems.append(
+                f"{str(err).removeprefix(f'{self.path}: ')}; reading stopped there, after "
+                f"{read} message{'' if read == 1 else 's'}: the counts and times above are of "
+                "those"
+            )
         topics = []
         undecodable: list[str] = []
         start, end = None, None
