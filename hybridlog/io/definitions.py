@@ -97,11 +97,9 @@ def referenced_types(types: Typedefs) -> set[str]:
     names = set(types)
     for _, fields in types.values():
         for _, desc in fields:
-            node = int(desc[0])
-            if node == 2:
-                names.add(desc[1])
-            elif node in (3, 4) and int(desc[1][0][0]) == 2:
-                names.add(desc[1][0][1])
+            inner = _message_type(desc)
+            if inner is not None:
+                names.add(inner)
     return names
 
 
@@ -121,11 +119,9 @@ def complete_typestore(store: Any, needed: set[str], extra: Typedefs, ros1: bool
             return
         chosen[name] = pool[name]
         for _, desc in pool[name][1]:
-            node = int(desc[0])
-            if node == 2:
-                add(desc[1])
-            elif node in (3, 4) and int(desc[1][0][0]) == 2:
-                add(desc[1][0][1])
+            inner = _message_type(desc)
+            if inner is not None:
+                add(inner)
 
     for name in sorted(missing):
         add(name)
@@ -209,7 +205,53 @@ def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: 
             f"type {msgtype!r} has no definition in the log or the standard types; "
             f"pass --msg-dir DIR with {msgtype}.msg in it"
         )
+    problem = structure_problem(store.fielddefs, msgtype)
+    if problem is not None:
+        raise DefinitionError(problem)
     return store
+
+
+def _message_type(desc: Any) -> str | None:
+    """The message type a field holds (itself, or as array elements), or ``None``."""
+    node = int(desc[0])
+    if node == 2:
+        return str(desc[1])
+    if node in (3, 4) and int(desc[1][0][0]) == 2:
+        return str(desc[1][0][1])
+    return None
+
+
+def structure_problem(typedefs: Typedefs, msgtype: str) -> str | None:
+    """Why ``msgtype``'s messages cannot be decoded with ``typedefs``, or ``None``.
+
+    A field of a type defined nowhere (a stored definition or a ``--msg-dir`` file that
+    uses a type it does not define, which rosbags registers all the same) made the topic
+    list no fields and count no values, and naming such a field ended in a ``KeyError``; a
+    type that contains itself, even through an array, sends rosbags' decoder into endless
+    recursion.  Named with the field path from ``msgtype``.
+    """
+    done: set[str] = set()
+
+    def walk(name: str, path: str, within: tuple[str, ...]) -> str | None:
+        if name in within:
+            return f"type {name!r} contains itself (field {path}), which cannot be decoded"
+        if name in done:
+            return None
+        if name not in typedefs:
+            return (
+                f"field {path} has type {name!r}, which has no definition in the log or the "
+                f"standard types; pass --msg-dir DIR with {name}.msg in it"
+            )
+        for field, desc in typedefs[name][1]:
+            inner = _message_type(desc)
+            if inner is not None:
+                found = walk(inner, f"{path}.{field}" if path else field, (*within, name))
+                if found is not None:
+                    return found
+        done.add(name)
+        return None
+
+    return walk(msgtype, "", ())
 
 
 def digest_problem(

@@ -516,8 +516,13 @@ class MessageSource(abc.ABC):
                 counter = counters.get(topic_name)
                 if counter is not None:
                     counter.add(data, log_time)
-        except LogError as err:
-            problems.append(str(err).removeprefix(f"{self.path}: "))
+        except LogError as err:  # what was read before it is described, and said to be
+            read = sum(len(t) for t in times.values())
+            problems.append(
+                f"{str(err).removeprefix(f'{self.path}: ')}; reading stopped there, after "
+                f"{read} message{'' if read == 1 else 's'}: the counts and times above are of "
+                "those"
+            )
         topics = []
         undecodable: list[str] = []
         start, end = None, None
@@ -1347,14 +1352,25 @@ def _refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: Int
     """Refuse ``--time header`` on a topic whose ``header.stamp`` is 0 in several messages.
 
     A publisher that never fills the header sends 0 in every message; a zero can be a real
-    stamp only once (simulated time starting at 0).  Read as times, repeated zeros were
-    "the same header.stamp as the one before", whose remedy, ``--sort``, kept one message.
+    stamp only once, and first (simulated time starting at 0).  Read as times, repeated
+    zeros were "the same header.stamp as the one before", whose remedy, ``--sort``, kept one
+    message; one zero after stamps of 10 s was, with ``--sort``, moved to the start of the
+    log as a sample at t=0 s (with ``--max-gap`` long enough, without a word).
     """
     unset = stamps == 0
     count = int(np.count_nonzero(unset))
-    if count < 2:
+    if count == 0:
         return
     first = int(np.argmax(unset))
+    if count == 1 and not stamps[:first].any():
+        return
+    if count == 1:
+        raise LogError(
+            f"{path}: topic {topic!r}: header.stamp is 0 in message {first + 1} of "
+            f"{stamps.size} (logged at t={format_ns(int(log_times[first]))} s), after a "
+            f"stamp of t={format_ns(int(stamps[first - 1]))} s: the publisher did not set "
+            "it; use --time log"
+        )
     raise LogError(
         f"{path}: topic {topic!r}: header.stamp is 0 in {count} of {stamps.size} messages "
         f"(first logged at t={format_ns(int(log_times[first]))} s): the publisher did not "
