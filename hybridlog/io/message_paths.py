@@ -397,7 +397,7 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
             if not -length <= step < length:
                 raise PathError(
                     f"{format_steps([*done, step])}: index out of range "
-                    f"(the array has {length} elements)"
+                    f"(the array has {length} element{'' if length == 1 else 's'})"
                 )
             value = value[step]  # type: ignore[index]
         elif isinstance(value, Mapping):

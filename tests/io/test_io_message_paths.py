@@ -222,8 +222,10 @@ def test_numeric_arrays_become_float_arrays_whatever_the_container() -> None:
     # a uint8[] decoded as bytes is an array element by element too, not only as a whole
     # (its [-1] was 'is not an array' where leaf_value took the whole as [1.0, 2.0])
     assert leaf_value({"data": b"\x01\x02"}, ("data", -1)) == 2.0
-    with pytest.raises(PathError, match="index out of range"):
+    with pytest.raises(PathError, match=r"index out of range \(the array has 2 elements\)$"):
         leaf_value({"data": b"\x01\x02"}, ("data", 2))
+    with pytest.raises(PathError, match=r"index out of range \(the array has 1 element\)$"):
+        evaluate({"data": [0.5]}, ("data", 1))  # it said "1 elements"
     with pytest.raises(PathError, match="is not an array"):
         leaf_value({"data": "text"}, ("data", 0))
     message = {"position": [0.5, 1.5, 2.5]}
