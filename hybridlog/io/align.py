@@ -18,7 +18,10 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   the earlier sample), or linear interpolation between the samples around ``t_k``
   (``resample="linear"``).  A grid point without a sample within ``dt/2`` is a gap; a gap
   between two samples more than ``max_gap`` apart is an error, shorter gaps are bridged by the
-  same rule (nearest or linear) from the samples around them.
+  same rule (nearest or linear) from the samples around them.  A sample half a step between
+  two grid points is within ``dt/2`` of both; when both take it (no other sample beside it:
+  a log sampled every ``1.5*dt``), the later point is bridged, for the log measured once
+  (:func:`_taken_twice`).
 - True mode: zero-order hold; grid points before its first sample take that sample if it is
   within ``dt/2``, and have no true mode (``NO_TRUE_MODE``, not scored) if not: a true mode
   that starts late is scored over the samples from its first on, as a true state that starts
@@ -411,8 +414,9 @@ def resample_series(
         more than ``max_gap`` apart, or that lie outside the series' span.
     bridged:
         Indices of the grid points without a sample within ``dt/2`` that took a value from
-        the samples around them (``nearest``: a sample the grid uses twice): values the log
-        did not measure there.
+        the samples around them (``nearest``: a sample the grid uses twice), and of those
+        whose only sample within ``dt/2`` the point before took (:func:`_taken_twice`):
+        values the log did not measure there.
     """
     tolerance = clock_tolerance_ns(dt_ns)
     on = on_grid_values(series, grid_ns, tolerance)
@@ -421,16 +425,37 @@ def resample_series(
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
     linear = method == "linear"
     values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
-    in_gap = np.flatnonzero(past_half_step(distance, dt_ns))
+    gap_mask = past_half_step(distance, dt_ns)
+    in_gap = np.flatnonzero(gap_mask)
+    reused = _taken_twice(index, gap_mask)
     if in_gap.size == 0:
-        return values, in_gap, in_gap
+        return values, in_gap, reused
     time_ns = series.time_ns
     lo = np.searchsorted(time_ns, grid_ns[in_gap], side="right") - 1
     hi = lo + 1
     outside = (lo < 0) | (hi >= time_ns.size)
     span = time_ns[np.clip(hi, 0, time_ns.size - 1)] - time_ns[np.clip(lo, 0, time_ns.size - 1)]
     beyond = outside | longer_than_max_gap(span, max_gap_ns, dt_ns)
-    return values, in_gap[beyond], in_gap[~beyond]
+    bridged: IntArray = np.union1d(in_gap[~beyond], reused)
+    return values, in_gap[beyond], bridged
+
+
+def _taken_twice(index: IntArray, gap_mask: npt.NDArray[np.bool_]) -> IntArray:
+    """Grid points within ``dt/2`` of a sample the point before took as its own too.
+
+    A sample half a step between two grid points is within ``dt/2`` of both (the tie
+    :func:`past_half_step` allows), and a point with no sample of its own beside it (a log
+    sampled every ``1.5*dt``: samples at 0, 1.5, 3 s on a grid of 1 s) takes it a second
+    time: one measurement counted as two, where a sample a microsecond further off was
+    warned of as bridged.  The later of the two points is the one the log did not measure:
+    bridged, as a point beyond half a step is (``unmeasured_outputs``).
+    """
+    if index.size < 2:
+        return np.zeros(0, dtype=np.int64)
+    within = ~gap_mask
+    twice = (index[1:] == index[:-1]) & within[1:] & within[:-1]
+    found: IntArray = np.flatnonzero(twice) + 1
+    return found
 
 
 def _faster_than_the_grid(

@@ -31,6 +31,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.io.align import clock_tolerance_ns
 from hybridlog.io.csv_encoding import refuse_not_utf8
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
@@ -623,6 +624,8 @@ class TableSource:
                 )
             if stored in (pl.Float32, pl.Float16):
                 self._check_resolution(name, stored, seconds, rows)
+            else:
+                self._check_float64_resolution(name, seconds, rows)
             kind: type[np.floating[Any]] = np.float64
             if stored == pl.Float32:
                 kind = np.float32
@@ -676,6 +679,34 @@ class TableSource:
                 f"are {resolution:.3g} s apart, {steps}: write the time as float64 (or as a "
                 "Datetime)"
             )
+
+    def _check_float64_resolution(self, name: str, seconds: FloatArray, rows: IntArray) -> None:
+        """Refuse float64 seconds too coarse for the log's own steps (Unix time, MHz logs).
+
+        Near t = 1.7e9 s float64 values are 238 ns apart: a log sampled every 0.1 µs
+        there read as repeated times ("time repeats", which said nothing of why), and with
+        ``--sort`` its rows were merged into fewer, unevenly spaced samples.  Refused when
+        the spacing exceeds the tolerance the alignment allows a sample's time
+        (:func:`~hybridlog.io.align.clock_tolerance_ns` of the mean step, at least the
+        nanosecond).
+        """
+        if seconds.size < 2:
+            return
+        high, low = float(seconds.max()), float(seconds.min())
+        row = int(np.argmax(seconds)) if abs(high) >= abs(low) else int(np.argmin(seconds))
+        spacing_ns = float(np.spacing(abs(seconds[row]))) * NS_PER_S
+        step_ns = (high - low) / (seconds.size - 1) * NS_PER_S
+        # at least the nanosecond every time is rounded to anyway (seconds_to_ns)
+        if step_ns <= 0 or spacing_ns <= max(clock_tolerance_ns(round(step_ns)), 1):
+            return
+        raise LogError(
+            f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(name)}: float64 "
+            f"seconds near t={format_time(seconds[row])} s are {spacing_ns:.3g} ns apart, "
+            f"too coarse for the log's steps of {format_time(step_ns / NS_PER_S)} s on "
+            "average (its times would be rounded by more than the alignment tolerates): "
+            "write the time from the log's start, or as ISO 8601 dates and times with "
+            "nanoseconds (a Datetime in Parquet)"
+        )
 
     def _parse_iso(self, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
         """A text time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
