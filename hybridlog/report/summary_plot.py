@@ -9,7 +9,7 @@ way.
 A log that missed a gate is drawn in red; a log that could not be analysed gets a red cross
 at the bottom of every panel; a mode accuracy over part of its log (a true mode that starts
 late: summary.csv's ``mode_samples``) is a triangle, not a dot; an analysed log without a
-value (no true mode: no mode accuracy; an undefined VAF or MSE, report.json's
+value (no mode accuracy: no true mode, or modes given; an undefined VAF or MSE, report.json's
 ``null_reasons`` says why) a hollow square at the bottom of the panel, red if it missed a
 gate (a ``mode_accuracy`` gate on a log without a true mode): the panel showed nothing of
 it.  The y ticks are values, never an offset added to them (VAFs of 99.993 % and 99.994 %
@@ -46,11 +46,13 @@ _PARTIAL_MARKER, _PARTIAL_GLYPH = "^", "▲"
 """How a mode accuracy over part of its log is drawn, and named in the panel's label."""
 _UNKNOWN_MARKER, _UNKNOWN_GLYPH = "s", "□"
 """How an analysed log without a value is drawn (hollow, at the bottom), and named."""
-_UNKNOWN_NAMES = {"mode_accuracy": "no true mode"}
+_UNKNOWN_NAMES = {"mode_accuracy": "no mode accuracy"}
+"""What an analysed log without a value of the panel's metric lacks ("undefined" else): no
+true mode in the log, or modes it gives rather than estimates (``switching-observer``), whose
+report.json's ``null_reasons`` says which."""
 
 _MARK_HEIGHT = 0.04
 """Where the marks at the bottom of a panel sit, in its height (inside it, above its edge)."""
-"""What an analysed log without a value of the panel's metric lacks ("undefined" else)."""
 _READY: dict[int, tuple[Figure, list[Axes]]] = {}
 """The empty figure made ahead for a number of logs (:func:`prepare_summary_figure`)."""
 

@@ -1,4 +1,4 @@
-"""summary.png marks an analysed log without a value: no true mode, no mode accuracy.
+"""summary.png marks an analysed log without a value: no mode accuracy (no true mode, or modes given).
 
 The mode-accuracy panel drew nothing for a log without a true mode, even when it missed a
 ``mode_accuracy`` gate (red in the other panels, absent in the one the gate was on).
@@ -40,7 +40,7 @@ def test_a_log_without_a_true_mode_is_marked_in_the_mode_accuracy_panel() -> Non
     fig = summary_figure("m · imm", rows)
     vaf, accuracy, _ = fig.axes
     assert _marks(accuracy, "#d62728") == [1.0] and _marks(accuracy, "#1f77b4") == [2.0]
-    assert accuracy.get_ylabel() == "mode accuracy (%)\n□ no true mode"
+    assert accuracy.get_ylabel() == "mode accuracy (%)\n□ no mode accuracy"
     assert not _marks(vaf, "#d62728") and vaf.get_ylabel() == "VAF (%)"
     # the marks sit below every value, not at the lowest one's height
     low = accuracy.transData.transform((0, 50.0))[1]
