@@ -1,4 +1,4 @@
-"""summary.png marks an analysed log without a value: no mode accuracy (no true mode, or modes given).
+"""summary.png marks an analysed log without a value: no mode accuracy (none true, or given).
 
 The mode-accuracy panel drew nothing for a log without a true mode, even when it missed a
 ``mode_accuracy`` gate (red in the other panels, absent in the one the gate was on).
