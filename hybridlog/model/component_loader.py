@@ -52,6 +52,7 @@ from hybridlog.model.values import (
     as_probability,
     as_string,
     as_table,
+    check_distinct_labels,
     check_keys,
     key_path,
     required,
@@ -128,6 +129,7 @@ def load_components(
     defaults_r = dict(zip(outputs, (float(v) for v in measurement_variances), strict=True))
     owner: dict[str, str] = {}
     components = []
+    check_distinct_labels(((n, key_path("components", n)) for n in table), "component name")
     for raw_name, spec in table.items():
         key = key_path("components", raw_name)
         name = as_label(raw_name, key, "component name")
@@ -214,6 +216,7 @@ def _component(
         modes.append(
             _mode(mode_id, as_table(mode_spec, mode_key), mode_key, names, defaults_q, defaults_r)
         )
+    check_distinct_labels(((m.id, key_path(f"{key}.modes", m.id)) for m in modes), "mode id")
     mode_ids = tuple(m.id for m in modes)
     unknown = as_probability(required(spec, "unknown", key), f"{key}.unknown")
     if unknown >= 1.0:

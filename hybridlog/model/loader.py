@@ -67,6 +67,7 @@ from hybridlog.model.values import (
     as_table,
     as_vector,
     check_disjoint,
+    check_distinct_labels,
     check_keys,
     key_path,
     required,
@@ -412,6 +413,7 @@ class _Builder:
             )
             for mode_id, spec in table.items()
         )
+        check_distinct_labels(((m.id, key_path("modes", str(m.id))) for m in modes), "mode id")
         _check_guards(modes)
         return modes
 

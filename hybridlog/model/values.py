@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+import unicodedata
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -101,6 +102,28 @@ def as_label(value: str, key: str, what: str) -> str:
             "characters, no leading or trailing space, no ',', ':', '*' or '->')"
         )
     return value
+
+
+def check_distinct_labels(labels: Iterable[tuple[str, str]], what: str) -> None:
+    """Refuse two labels (``(label, key)`` pairs) that are one text in two Unicode forms.
+
+    ``é`` written as one character (NFC) and as ``e`` with a combining accent (NFD) are
+    distinct TOML keys but look the same wherever hybridlog shows them: two modes ``é``
+    gave report.md a dwell table and a confusion matrix with two rows of the same name,
+    timeline.csv two ``p_é`` columns and modes.png two rows of the same label, with
+    nothing to tell which was which.  Compared in NFC form; the error names the later key.
+    """
+    seen: dict[str, str] = {}
+    for label, key in labels:
+        normal = unicodedata.normalize("NFC", label)
+        if normal in seen:
+            raise ModelError(
+                f"{key}: {excerpt(label, 40)} is the {what} {excerpt(seen[normal], 40)} "
+                "written in another Unicode form (precomposed or combining characters): "
+                "reports, tables and plots would show the two alike; give them ids that "
+                "differ in what they show"
+            )
+        seen[normal] = label
 
 
 _DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)

@@ -69,6 +69,7 @@ __all__ = [
     "draw_plots",
     "figure_shapes",
     "make_ticks_ahead",
+    "mode_panel_height",
     "plot_components",
     "plot_modes",
     "plot_outputs",
@@ -146,14 +147,48 @@ two runs each), byte for byte the same PNGs.  An axis whose locator asks for mor
 rest when drawn."""
 
 
-def figure_shapes(n_outputs: int, n_states: int, components: bool) -> list[tuple[int, float]]:
+MODE_ROW_IN = 0.2
+"""Height of a mode's row in ``modes.png``'s timeline, in inches: room for its tick label
+(10 pt, 0.14 in) and a gap.  The panel was 2.4 in whatever the number of modes: from 17
+modes on, the rows' labels ran into one another (25 modes: 0.096 in a row), and no row
+could be told from its neighbours."""
+MODE_PANEL_IN = 2.4
+"""Height of ``modes.png``'s panels while their modes' rows fit in it (12 modes or fewer)."""
+MODE_PANEL_MAX_IN = 16.0
+"""Tallest ``modes.png``'s panels grow (80 rows of :data:`MODE_ROW_IN`); with more modes
+(a boolean model's 2^n) the rows' labels get a font that fits the row."""
+_TICK_LABEL_PT = 10.0
+"""matplotlib's default tick label size, in points."""
+
+
+def mode_panel_height(n_modes: int) -> float:
+    """Height in inches of ``modes.png``'s panels for ``n_modes`` rows, every label apart."""
+    return min(max(MODE_PANEL_IN, MODE_ROW_IN * n_modes), MODE_PANEL_MAX_IN)
+
+
+def _row_label_size(panel_height: float, n_rows: int) -> float | None:
+    """Font size (points) of the row labels of a panel too short for the default's, or None.
+
+    A label keeps :data:`_TICK_LABEL_PT` while a row is at least :data:`MODE_ROW_IN` high,
+    else shrinks with the row, to 70 % of its height.
+    """
+    row_in = panel_height / max(n_rows, 1)
+    if row_in >= MODE_ROW_IN:
+        return None
+    return min(_TICK_LABEL_PT, 0.7 * row_in * 72.0)
+
+
+def figure_shapes(
+    n_outputs: int, n_states: int, components: bool, n_modes: int
+) -> list[tuple[int, float]]:
     """The ``(panels, panel height)`` of the figures :func:`draw_plots` draws for a model.
 
     ``components``: the model describes concurrent components, whose ``modes.png`` (of
-    ``unknown-mode``) has a shape that depends on the result; it is left out.
+    ``unknown-mode``) has a shape that depends on the result; it is left out.  ``n_modes``:
+    the model's modes, a row each in ``modes.png`` (:func:`mode_panel_height`).
     """
     shapes = [(min(n_outputs, MAX_PANELS), 2.0), (min(n_states, MAX_PANELS), 2.0)]
-    return shapes if components else [*shapes, (2, 2.4)]
+    return shapes if components else [*shapes, (2, mode_panel_height(n_modes))]
 
 
 def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
@@ -324,7 +359,7 @@ def _labels_width_in(fig: Figure, ax: Axes) -> float:
 
 
 def _row_labels(
-    fig: Figure, panels: Sequence[tuple[Axes, Sequence[str], str | None]], keys: _Keys
+    fig: Figure, panels: Sequence[tuple[Axes, Sequence[str], str | float | None]], keys: _Keys
 ) -> list[list[str]]:
     """Label the rows of each panel ``(ax, mode_ids, fontsize)``, row ``j`` ``mode_ids[j]``.
 
@@ -577,9 +612,11 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     components = plot_components(data, path)
     if components is not None:
         return components
-    fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=2.4)
-    _title(fig, "Modes")
     modes = data.modes
+    n_rows = len(modes.mode_ids) if isinstance(modes, ModeTimelines) else 0
+    panel_height = mode_panel_height(n_rows)
+    fig, (ax_mode, ax_prob) = _new_figure(2, panel_height=panel_height)
+    _title(fig, "Modes")
     if not isinstance(modes, ModeTimelines):  # no samples (components were drawn above)
         _empty(fig, ax_mode, "no samples")
         _empty(fig, ax_prob, "no samples")
@@ -593,7 +630,8 @@ def plot_modes(data: PlotData, path: Path) -> Path:
         _draw_bars(ax_mode, edges, modes.filtered, height=0.08, color="k", label="filtered")
     ax_mode.set_ylabel("mode")
     keys = _Keys()
-    (shown,) = _row_labels(fig, [(ax_mode, modes.mode_ids, None)], keys)
+    size = _row_label_size(panel_height, n_modes)
+    (shown,) = _row_labels(fig, [(ax_mode, modes.mode_ids, size)], keys)
     ax_mode.set_ylim(-0.5, n_modes - 0.5)
     filtered = modes.filtered_probabilities
     lines = []

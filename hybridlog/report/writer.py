@@ -182,7 +182,7 @@ def write_report(
 
 def _shapes(model: HybridModel) -> list[tuple[int, float]]:
     """The figures of a model's plots, made ahead (:func:`~.plots.figure_shapes`)."""
-    return figure_shapes(model.n_outputs, model.n_states, bool(model.components))
+    return figure_shapes(model.n_outputs, model.n_states, bool(model.components), model.n_modes)
 
 
 def _start_drawing(folder: Path, reducer: PlotReducer) -> Background[list[Path]] | Task[list[Path]]:

@@ -501,3 +501,19 @@ def test_mode_ids_that_read_back_as_themselves_are_kept(tmp_path, mode_id):
     write_table(path, simulate(model, schedule=f"slow:10,{mode_id}:10").columns(model))
     signals = load_signals(path, SignalSpec.of(model))
     assert signals.truth_modes is not None and set(signals.truth_modes) == {0, 1}
+
+
+def test_mode_ids_one_text_in_two_unicode_forms_are_refused():
+    # 'é' precomposed (NFC) and 'e' + a combining accent (NFD): two TOML keys that every
+    # report table, CSV header and plot showed as the same mode twice
+    nfc, nfd = "\u00e9", "e\u0301"
+    text = _replace(LINEAR_TWO_MODE, "[modes.fast]", f'[modes."{nfd}"]')
+    text = _replace(text, "[modes.slow]", f'[modes."{nfc}"]')
+    text = text.replace("fast", nfd).replace("slow", nfc)
+    with pytest.raises(
+        ModelError,
+        match=rf"^plant\.toml: modes\.'?{nfd}'?: '{nfd}' is the mode id '{nfc}' written in "
+        "another Unicode form",
+    ):
+        parse_model(text, origin="plant.toml")
+    assert parse_model(text.replace(nfd, "e")).mode_ids == (nfc, "e")

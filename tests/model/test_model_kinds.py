@@ -1,6 +1,8 @@
 """The model kinds papers 002–004 need: continuous time, linear forms, booleans, jumps,
 components; each loaded and validated, and each bad variant refused naming its key."""
 
+import re
+
 import numpy as np
 import pytest
 import sympy
@@ -726,3 +728,30 @@ def test_affine_expressions_give_the_matrices_they_were_written_from(numbers, pa
     np.testing.assert_array_equal(form.C, [rows[2][:2], [0, 1]])
     np.testing.assert_array_equal(form.D, [[rows[2][2]], [0]])
     np.testing.assert_array_equal(form.output_offset, [1.5, 0.0])
+
+
+_NFC, _NFD = "\u00e9", "e\u0301"
+"""One text in two Unicode forms: precomposed (NFC), and with a combining accent (NFD)."""
+
+
+@pytest.mark.parametrize(
+    ("old", "what", "key"),
+    [
+        (("m11", "m12"), "mode id", "components.A1.modes"),
+        (("A1", "A2"), "component name", "components"),
+    ],
+)
+def test_component_labels_one_text_in_two_unicode_forms_are_refused(old, what, key):
+    """Two mode ids or component names that differ only in their Unicode form were shown
+    as the same one twice in every report table, CSV header and plot."""
+    first, second = old
+    text = THREE_COMPONENTS
+    for name, label in ((first, _NFC), (second, _NFD)):
+        text = text.replace(f'"{name}"', f'"{label}"')  # in strings, then as keys
+        text = re.sub(rf"\b{name}\b", f'"{label}"', text)
+    with pytest.raises(
+        ModelError,
+        match=rf"^plant\.toml: {re.escape(key)}\.'?{_NFD}'?: '{_NFD}' is the "
+        rf"{what} '{_NFC}' written in another Unicode form",
+    ):
+        parse_model(text, origin="plant.toml")

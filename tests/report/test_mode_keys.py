@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from pathlib import Path
 from typing import Any
 
@@ -170,3 +171,24 @@ def test_ids_the_fonts_cannot_draw_are_escaped_not_boxes(
     fig = _drawn_modes(monkeypatch, lambda: plots.write_plots(tmp_path, result, signals))
     shown = [t.get_text() for t in fig.axes[0].get_yticklabels()]
     assert shown == [r"\u9589\u3058\u305f", r"\u958b\u3044\u305f", "ouvert-à-moitié"]
+
+
+@pytest.mark.parametrize("n_modes", [25, 120])
+def test_many_modes_get_rows_whose_labels_stand_apart(
+    n_modes: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The mode panel was 2.4 in high for any number of modes: from 17 on, the rows' labels
+    ran into one another and no row could be told from its neighbours.  The panel grows with
+    the modes (up to a cap, beyond which the labels' font shrinks to their rows)."""
+    from hybridlog.report import plots
+
+    ids = tuple(f"mode {j}" for j in range(n_modes))
+    result, signals = _with_modes(ids)
+    fig = _drawn_modes(monkeypatch, lambda: plots.write_plots(tmp_path, result, signals))
+    renderer = fig.canvas.get_renderer()
+    labels = fig.axes[0].get_yticklabels()
+    assert [t.get_text() for t in labels] == list(ids)
+    boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.y0)
+    for below, above in itertools.pairwise(boxes):
+        assert below.y1 <= above.y0, (below, above)
+    _assert_inside(fig)

@@ -249,7 +249,9 @@ def test_figures_made_ahead_draw_the_same_pngs_and_are_taken_once(tmp_path) -> N
     ahead.mkdir()
     plots._READY.clear()
     plots.write_plots(fresh, result, signals)
-    shapes = plots.figure_shapes(model.n_outputs, model.n_states, bool(model.components))
+    shapes = plots.figure_shapes(
+        model.n_outputs, model.n_states, bool(model.components), model.n_modes
+    )
     assert shapes == [(3, 2.0), (3, 2.0), (2, 2.4)]
     plots.prepare_figures(shapes)
     plots.prepare_figures(shapes)
