@@ -246,3 +246,35 @@ def test_a_continuous_model_with_guards_is_refused_saying_what_would_simulate_it
     text = text.replace('schedule = "a:3,b:3"\n', "")
     with pytest.raises(ModelError, match="remove the guards to simulate it along a schedule"):
         simulate(parse_model(text, origin="g.toml"), noise=False, jit=False)
+
+
+LEVEL_INTO_LOG = CONTINUOUS_TANK.replace('"q - c*sqrt(abs(h1))"', '"q + log(h1)"').replace(
+    "state = [1.0]",
+    'state = [0.02]\nmode = "open"\n[simulation]\ninputs = {q = "0"}\n[noise]\n'
+    "process = 1e-8\nmeasurement = 1e-6",
+)
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_dx_leaving_its_domain_within_an_interval_is_named(noise):
+    # dx = log(h1) drives the level below 0 within the first interval (Euler, 1 ms steps):
+    # was "the simulation diverged: h1 = nan at t = 0.01 s", naming neither mode nor key;
+    # compiled, as a user runs it (plain Python raises math.log's ValueError itself)
+    model = parse_model(LEVEL_INTO_LOG, origin="tank.toml")
+    with pytest.raises(ModelError) as caught:
+        simulate(model, steps=5, noise=noise, seed=4)
+    message = str(caught.value)
+    assert message.startswith("tank.toml: modes.open.dx[0]: 'q + log(h1)' is nan at h1 = -0.00")
+    assert message.endswith(
+        ", q = 0, a step of the interval from t = 0 s to 0.01 s (the state left the domain of "
+        "dx there): the simulation diverged; nothing was written"
+    )
+    # the point named is where the run stood when dx was evaluated: below 0, out of log's domain
+    at = float(message.split("h1 = ")[1].split(",")[0])
+    assert at < 0.0
+
+
+def test_dx_overflowing_within_an_interval_is_named():
+    model = parse_model(LEVEL_INTO_LOG.replace("q + log(h1)", "q + exp(1000*h1)"), origin="e.toml")
+    with pytest.raises(ModelError, match=r"^e\.toml: modes\.open\.dx\[0\]: .* is inf at h1 = "):
+        simulate(model, steps=5, noise=False)
