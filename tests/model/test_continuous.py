@@ -278,3 +278,48 @@ def test_dx_overflowing_within_an_interval_is_named():
     model = parse_model(LEVEL_INTO_LOG.replace("q + log(h1)", "q + exp(1000*h1)"), origin="e.toml")
     with pytest.raises(ModelError, match=r"^e\.toml: modes\.open\.dx\[0\]: .* is inf at h1 = "):
         simulate(model, steps=5, noise=False)
+
+
+SPRING = """
+time = "continuous"
+dt = 0.05
+integration = {method = "rk4", step = 0.005}
+states = ["p", "v"]
+inputs = ["u"]
+outputs = ["y"]
+[parameters]
+stiffness = 4.0
+damping = 0.5
+[modes.a]
+MODE_A
+[noise]
+process = 0.0
+measurement = 0.0
+[initial]
+state = [1.0, 0.0]
+mode = "a"
+[simulation.inputs]
+u = "sin(3*t)"
+"""
+
+
+def test_a_linear_mode_as_matrices_or_expressions_is_its_zero_order_hold_discretisation():
+    # an independent reference: scipy's cont2discrete (expm of the augmented matrix)
+    from scipy.signal import cont2discrete
+
+    matrices = 'A = [[0, 1], ["-stiffness", "-damping"]]\nB = [[0], [1]]\nC = [[1, 0]]'
+    written = 'dx = ["v", "-stiffness*p - damping*v + u"]\nh = ["p"]'
+    logs = [
+        simulate(parse_model(SPRING.replace("MODE_A", mode)), steps=80, noise=False)
+        for mode in (matrices, written)
+    ]
+    np.testing.assert_array_equal(logs[0].states, logs[1].states)
+    A = np.array([[0.0, 1.0], [-4.0, -0.5]])
+    Ad, Bd, *_ = cont2discrete((A, np.array([[0.0], [1.0]]), np.eye(2), 0), 0.05, method="zoh")
+    x = np.array([1.0, 0.0])
+    reference = [x]
+    for k in range(80):
+        x = Ad @ x + Bd[:, 0] * logs[0].inputs[k, 0]
+        reference.append(x)
+    # RK4's error at h|λ| = 0.01: about 1e-12 a step
+    np.testing.assert_allclose(logs[0].states, np.array(reference), rtol=0, atol=1e-9)
