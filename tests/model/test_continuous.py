@@ -323,3 +323,30 @@ def test_a_linear_mode_as_matrices_or_expressions_is_its_zero_order_hold_discret
         reference.append(x)
     # RK4's error at h|λ| = 0.01: about 1e-12 a step
     np.testing.assert_allclose(logs[0].states, np.array(reference), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("dt", "step", "shown"),
+    [
+        (
+            "0.0499999999",
+            "0.01",
+            "dt = 0.0499999999 must be an integer multiple of the "
+            "integration step 0.01 (dt/step = 4.99999999)",
+        ),
+        (
+            "0.05",
+            "0.03",
+            "dt = 0.05 must be an integer multiple of the integration step 0.03 "
+            "(dt/step = 1.6666666666666667)",
+        ),
+    ],
+)
+def test_a_dt_off_a_multiple_of_the_step_is_shown_as_written(dt, step, shown):
+    # 6 significant digits read "dt = 0.05 must be an integer multiple of the integration
+    # step 0.01 (dt/step = 5)" for dt = 0.0499999999: a refusal of what looked right
+    text = SPRING.replace("dt = 0.05", f"dt = {dt}").replace("step = 0.005", f"step = {step}")
+    text = text.replace("MODE_A", 'dx = ["v", "-p"]\nh = ["p"]')
+    with pytest.raises(ModelError, match=r"^s\.toml: integration\.step: ") as caught:
+        parse_model(text, origin="s.toml")
+    assert str(caught.value).endswith(shown)
