@@ -45,7 +45,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -252,6 +252,87 @@ def _check_jumps(
         f"'{model.modes[source].id}' to '{model.modes[target].id}' at t = "
         f"{format_time(float(time[row - 1]))} s, from {before}: the simulation diverged "
         "there; nothing was written",
+    )
+
+
+def _check_dx_domain(model: HybridModel, arguments: tuple[Any, ...]) -> None:
+    """Name the expression of ``dx`` that left its domain where the run first is not finite.
+
+    ``log(h1)`` of a level stepping below 0 made "the simulation diverged: h1 = nan",
+    naming neither the mode nor the expression.  The interval into the first row that is
+    not finite is run again in plain Python (the same kernel, the same noise draws, from
+    the state before), ``dx`` watched at every evaluation: the first that is not finite at
+    a finite state names its key, its expression and the point (NaN: out of the domain;
+    infinite: beyond float64, ``exp`` of a state running away).  ``arguments`` are those of
+    :func:`~hybridlog.simulation_kernels.simulate_continuous_steps`.
+    """
+    from hybridlog.model.integration import integrate_step
+    from hybridlog.simulation_kernels import simulate_continuous_steps
+
+    (_, dx, h, jump, method, step, substeps, modes, inputs, time) = arguments[:10]
+    process_factors, process_draws, measurement_factors, measurement_draws = arguments[10:14]
+    disturbance, states, outputs, state_min = arguments[14:18]
+    finite = np.isfinite(states).all(axis=1)
+    if finite.all():
+        return
+    row = int(np.argmin(finite))
+    found: list[tuple[int, FloatArray, FloatArray, FloatArray]] = []
+
+    def watched(q: int, x: FloatArray, u: FloatArray, out: FloatArray) -> None:
+        dx(q, x, u, out)
+        if not found and np.isfinite(x).all() and not np.isfinite(out).all():
+            found.append((q, x.copy(), u.copy(), out.copy()))
+
+    replay = states[row - 1 : row + 1].copy()
+    with np.errstate(all="ignore"):
+        simulate_continuous_steps(
+            integrate_step,
+            watched,
+            h,
+            jump,
+            method,
+            step,
+            substeps,
+            modes[row - 1 : row + 1].copy(),
+            inputs[row - 1 : row + 1],
+            time[row - 1 : row + 1],
+            process_factors,
+            process_draws[(row - 1) * substeps : row * substeps],
+            measurement_factors,
+            measurement_draws[row - 1 : row + 1],
+            disturbance,
+            replay,
+            np.zeros((2, outputs.shape[1])),
+            state_min,
+        )
+    if not found:
+        return
+    q, x, u, out = found[0]
+    mode = model.modes[q]
+    component = int(np.argmin(np.isfinite(out)))
+    key = (
+        f"dynamics.dx[{component}] of mode '{mode.id}'"
+        if model.has_booleans
+        else f"modes.{mode.id}.dx[{component}]"
+    )
+    value = float(out[component])
+    why = (
+        "the state left the domain of dx there"
+        if np.isnan(value)
+        else "more than float64 holds: the state ran away"
+    )
+    point = ", ".join(
+        f"{name} = {number:.6g}"
+        for name, number in (
+            *zip(model.states, x.tolist(), strict=True),
+            *zip(model.inputs, u.tolist(), strict=True),
+        )
+    )
+    raise model.error(
+        key,
+        f"{excerpt(str(mode.dx[component]))} is {value:g} at {point}, a step of the interval "
+        f"from t = {format_time(float(time[row - 1]))} s to {format_time(float(time[row]))} s "
+        f"({why}): the simulation diverged; nothing was written",
     )
 
 
@@ -511,6 +592,7 @@ def simulate(
         (compile_for(continuous, arguments) if jit else continuous)(*arguments)
         _check_jumps(model, functions.jump, modes, states, time)
         check_step(model, functions, modes, states, inputs, time, state_min)
+        _check_dx_domain(model, arguments)
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)
         arguments = (

@@ -599,8 +599,8 @@ def _timebase(data: Mapping[str, Any]) -> Timebase:
     ratio = dt / step
     if step > dt * (1 + _STEP_TOLERANCE) or abs(ratio - round(ratio)) > _STEP_TOLERANCE * ratio:
         raise ModelError(
-            f"integration.step: dt = {dt:g} must be an integer multiple of the integration "
-            f"step {step:g} (dt/step = {ratio:.6g})"
+            f"integration.step: dt = {dt!r} must be an integer multiple of the integration "
+            f"step {step!r} (dt/step = {ratio!r})"
         )
     if round(ratio) > MAX_SUBSTEPS:
         raise ModelError(

@@ -246,3 +246,107 @@ def test_a_continuous_model_with_guards_is_refused_saying_what_would_simulate_it
     text = text.replace('schedule = "a:3,b:3"\n', "")
     with pytest.raises(ModelError, match="remove the guards to simulate it along a schedule"):
         simulate(parse_model(text, origin="g.toml"), noise=False, jit=False)
+
+
+LEVEL_INTO_LOG = CONTINUOUS_TANK.replace('"q - c*sqrt(abs(h1))"', '"q + log(h1)"').replace(
+    "state = [1.0]",
+    'state = [0.02]\nmode = "open"\n[simulation]\ninputs = {q = "0"}\n[noise]\n'
+    "process = 1e-8\nmeasurement = 1e-6",
+)
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_dx_leaving_its_domain_within_an_interval_is_named(noise):
+    # dx = log(h1) drives the level below 0 within the first interval (Euler, 1 ms steps):
+    # was "the simulation diverged: h1 = nan at t = 0.01 s", naming neither mode nor key;
+    # compiled, as a user runs it (plain Python raises math.log's ValueError itself)
+    model = parse_model(LEVEL_INTO_LOG, origin="tank.toml")
+    with pytest.raises(ModelError) as caught:
+        simulate(model, steps=5, noise=noise, seed=4)
+    message = str(caught.value)
+    assert message.startswith("tank.toml: modes.open.dx[0]: 'q + log(h1)' is nan at h1 = -0.00")
+    assert message.endswith(
+        ", q = 0, a step of the interval from t = 0 s to 0.01 s (the state left the domain of "
+        "dx there): the simulation diverged; nothing was written"
+    )
+    # the point named is where the run stood when dx was evaluated: below 0, out of log's domain
+    at = float(message.split("h1 = ")[1].split(",")[0])
+    assert at < 0.0
+
+
+def test_dx_overflowing_within_an_interval_is_named():
+    model = parse_model(LEVEL_INTO_LOG.replace("q + log(h1)", "q + exp(1000*h1)"), origin="e.toml")
+    with pytest.raises(ModelError, match=r"^e\.toml: modes\.open\.dx\[0\]: .* is inf at h1 = "):
+        simulate(model, steps=5, noise=False)
+
+
+SPRING = """
+time = "continuous"
+dt = 0.05
+integration = {method = "rk4", step = 0.005}
+states = ["p", "v"]
+inputs = ["u"]
+outputs = ["y"]
+[parameters]
+stiffness = 4.0
+damping = 0.5
+[modes.a]
+MODE_A
+[noise]
+process = 0.0
+measurement = 0.0
+[initial]
+state = [1.0, 0.0]
+mode = "a"
+[simulation.inputs]
+u = "sin(3*t)"
+"""
+
+
+def test_a_linear_mode_as_matrices_or_expressions_is_its_zero_order_hold_discretisation():
+    # an independent reference: scipy's cont2discrete (expm of the augmented matrix)
+    from scipy.signal import cont2discrete
+
+    matrices = 'A = [[0, 1], ["-stiffness", "-damping"]]\nB = [[0], [1]]\nC = [[1, 0]]'
+    written = 'dx = ["v", "-stiffness*p - damping*v + u"]\nh = ["p"]'
+    logs = [
+        simulate(parse_model(SPRING.replace("MODE_A", mode)), steps=80, noise=False)
+        for mode in (matrices, written)
+    ]
+    np.testing.assert_array_equal(logs[0].states, logs[1].states)
+    A = np.array([[0.0, 1.0], [-4.0, -0.5]])
+    Ad, Bd, *_ = cont2discrete((A, np.array([[0.0], [1.0]]), np.eye(2), 0), 0.05, method="zoh")
+    x = np.array([1.0, 0.0])
+    reference = [x]
+    for k in range(80):
+        x = Ad @ x + Bd[:, 0] * logs[0].inputs[k, 0]
+        reference.append(x)
+    # RK4's error at h|λ| = 0.01: about 1e-12 a step
+    np.testing.assert_allclose(logs[0].states, np.array(reference), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("dt", "step", "shown"),
+    [
+        (
+            "0.0499999999",
+            "0.01",
+            "dt = 0.0499999999 must be an integer multiple of the "
+            "integration step 0.01 (dt/step = 4.99999999)",
+        ),
+        (
+            "0.05",
+            "0.03",
+            "dt = 0.05 must be an integer multiple of the integration step 0.03 "
+            "(dt/step = 1.6666666666666667)",
+        ),
+    ],
+)
+def test_a_dt_off_a_multiple_of_the_step_is_shown_as_written(dt, step, shown):
+    # 6 significant digits read "dt = 0.05 must be an integer multiple of the integration
+    # step 0.01 (dt/step = 5)" for dt = 0.0499999999: a refusal of what looked right
+    text = SPRING.replace("dt = 0.05", f"dt = {dt}").replace("step = 0.005", f"step = {step}")
+    text = text.replace("MODE_A", 'dx = ["v", "-p"]\nh = ["p"]')
+    with pytest.raises(ModelError, match=r"^s\.toml: integration\.step: ") as caught:
+        parse_model(text, origin="s.toml")
+    assert str(caught.value).endswith(shown)

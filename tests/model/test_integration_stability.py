@@ -340,3 +340,31 @@ def test_an_eigenvalue_beyond_float64s_reach_is_a_flaw_with_a_positive_step(rate
     assert flaw is not None and flaw.kind == "unstable"
     assert 0.0 < flaw.longest_step <= 2.1 / abs(rate)
     assert "more than float64 holds" in flaw.describe("rk4") or math.isfinite(abs(flaw.factor))
+
+
+def test_a_step_missing_a_growing_modes_growth_by_more_than_e_is_refused():
+    # growth was never judged: dx = a*x**2 from 1 blows up at t = 1/a, and RK4 at 10 ms
+    # wrote x = 5.1e12 at t = 1 s for a = 1.01 (the model had blown up at 0.99 s), exit 0
+    for method, polynomial in (("euler", [1, 1]), ("rk4", [1 / 24, 1 / 6, 1 / 2, 1, 1])):
+        edge = brentq(lambda z, p=polynomial: z - math.log(np.polyval(p, z)) - 1, 1.0, 10.0)
+        rate = 1000.0
+        assert step_flaw(method, 0.999 * edge / rate, np.array([[rate]])) is None
+        flaw = step_flaw(method, 1.001 * edge / rate, np.array([[rate]]))
+        assert flaw is not None and flaw.kind == "misgrown"
+        assert flaw.longest_step == pytest.approx(edge / rate, rel=1e-9)
+    text = STIFF.format(method="rk4", step=0.01).replace(
+        'dx = ["u - x1", "-1990*(x2 - x1)"]', 'dx = ["1.01*x1**2", "0"]'
+    )
+    model = parse_model(text, origin="blow.toml")
+    with pytest.raises(
+        ModelError, match=r"at t = 0\.99 s \(x1 = .* misses the growth of a growing"
+    ):
+        simulate(model, steps=100, noise=False, jit=False)
+    # the same mode short of its blow-up grows as the model says: accepted
+    log = simulate(
+        parse_model(text.replace("1.01*", "0.9*"), origin="blow.toml"),
+        steps=100,
+        noise=False,
+        jit=False,
+    )
+    assert log.states[100, 0] == pytest.approx(1 / (1 - 0.9), rel=1e-3)
