@@ -355,7 +355,7 @@ def resolve_estimator(
         ``name`` is unknown (``<given_by>: unknown estimator ...``).
     """
     origin = model.origin or model.name
-    if model.default_estimator not in ESTIMATORS:
+    if model.default_estimator is not None and model.default_estimator not in ESTIMATORS:
         raise ModelError(
             f"{origin}: default_estimator: {_unknown(model.default_estimator, ESTIMATORS)}"
         )
@@ -366,7 +366,7 @@ def resolve_estimator(
         check_table(
             ESTIMATORS[table].options_type, values, estimator=table, sources=sources, model=model
         )
-    return get_estimator(model.default_estimator if name is None else name, given_by=given_by)
+    return get_estimator(model.estimator_by_default if name is None else name, given_by=given_by)
 
 
 @dataclass(frozen=True)
@@ -717,7 +717,14 @@ def prepare(
         An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``).
     """
     estimator = resolve_estimator(model, name, given_by=given_by)
-    what = "estimator" if name is not None else "default_estimator"
+    unwritten = name is None and model.default_estimator is None
+    what = (
+        "estimator"
+        if name is not None
+        else "no default_estimator is written, and the default estimator"
+        if unwritten
+        else "default_estimator"
+    )
     name = estimator.name
     origin = model.origin or model.name
     traits = ModelTraits(model)
@@ -725,6 +732,8 @@ def prepare(
     if problem is not None:
         suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
         hint = f" (estimators for this model: {', '.join(suited)})" if suited else ""
+        if unwritten:
+            hint = f"; give --estimator{hint}"
         raise ModelError(f"{origin}: {what} '{name}' {problem}{hint}")
     from_file = model.estimator_options.get(name, {})
     sources = {k: OptionSource.model_file(origin, name, k) for k in from_file}

@@ -30,27 +30,40 @@ def check_and_describe(path: Path) -> str:
         Whatever ``analyze`` would refuse in the file (one line naming the file and key),
         including a bad option value of any estimator that can run the model, and a
         ``default_estimator`` that cannot run it (``analyze`` without ``--estimator``
-        refused the file that ``models`` called valid).
+        refused the file that ``models`` called valid).  A file that writes no
+        ``default_estimator`` is valid whichever estimators can run it: the description
+        then says when ``analyze`` needs ``--estimator``.
     OptionError
         An ``[estimators.<name>]`` table naming no estimator, or a file one names (a
         ``centers`` file) that is missing or does not suit the model, as ``analyze`` reads it.
     """
     model = load_model(path)
-    # as analyze without --estimator: the default must run the model
-    prepared = [prepare(model, None)]
     traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
+    default = model.estimator_by_default
+    # as analyze without --estimator: a default_estimator the file writes must run the model;
+    # where it writes none and the default cannot run it, analyze needs --estimator
+    unwritten_and_unsuited = model.default_estimator is None and default not in suited
+    prepared = [] if unwritten_and_unsuited else [prepare(model, None)]
     for name in suited:  # reads its [estimators.<name>] table as analyze would
-        if name != model.default_estimator:
+        if name != default:
             prepared.append(prepare(model, name))
     for each in prepared:  # the files a table names (centers = "c.json"), read and checked
         estimator_inputs(each, model)
+    if unwritten_and_unsuited:
+        problem = ESTIMATORS[default].capabilities.mismatch(traits)
+        default_line = (
+            f"default_estimator: not written, and the default '{default}' {problem}: "
+            "analyze needs --estimator"
+        )
+    else:
+        default_line = f"default_estimator: {default}"
     return "\n".join(
         [
             f"{path}: a valid model file",
             *_lines(model),
-            f"estimators for it: {', '.join(suited)}"
-            f" (default_estimator: {model.default_estimator})",
+            f"estimators for it: {', '.join(suited) or 'none'}",
+            default_line,
         ]
     )
 

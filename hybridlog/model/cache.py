@@ -373,7 +373,9 @@ def _decode(content: dict[str, Any], source: _Source) -> HybridModel:
         transitions=_from_optional_array(content["transitions"]),
         signals={str(k): str(v) for k, v in content["signals"].items()},
         truth={str(k): str(v) for k, v in content["truth"].items()},
-        default_estimator=str(content["default_estimator"]),
+        default_estimator=(
+            None if content["default_estimator"] is None else str(content["default_estimator"])
+        ),
         estimator_options={str(k): dict(v) for k, v in content["estimator_options"].items()},
         simulation_state=_from_optional_array(content["simulation_state"]),
         simulation_inputs=(part("simulation_inputs") if content["simulation_inputs"] else {}),

@@ -32,6 +32,10 @@ if TYPE_CHECKING:
 
 T = TypeVar("T")
 
+DEFAULT_ESTIMATOR = "imm"
+"""The estimator ``analyze`` runs without ``--estimator`` on a model that writes no
+``default_estimator``."""
+
 
 class Deferred:
     """Stands for a :class:`Symbolic` field's value until it is first read.
@@ -354,7 +358,9 @@ class HybridModel:
         outputs, ``truth`` of the true mode (``mode``; ``mode.<component>`` in a components
         model) and of states.  No other key (the loader refuses them).
     default_estimator:
-        Estimator used by ``analyze`` when none is named.
+        Estimator used by ``analyze`` when none is named; ``None`` where the file writes
+        none, and ``analyze`` then runs :data:`DEFAULT_ESTIMATOR`
+        (:attr:`estimator_by_default`).
     estimator_options:
         Default options per estimator name, from ``[estimators.<name>]``.
     simulation_state:
@@ -404,7 +410,7 @@ class HybridModel:
     transitions: FloatArray | None
     signals: dict[str, str] = field(default_factory=dict)
     truth: dict[str, str] = field(default_factory=dict)
-    default_estimator: str = "imm"
+    default_estimator: str | None = None
     estimator_options: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulation_state: FloatArray | None = None
     simulation_inputs: Symbolic[Mapping[str, sympy.Expr]] = Symbolic(NO_INPUTS)
@@ -470,6 +476,14 @@ class HybridModel:
     def is_continuous(self) -> bool:
         """True for a continuous-time model (``time = "continuous"``)."""
         return self.timebase.is_continuous
+
+    @property
+    def estimator_by_default(self) -> str:
+        """The estimator ``analyze`` runs without ``--estimator``.
+
+        The file's ``default_estimator``, else :data:`DEFAULT_ESTIMATOR`.
+        """
+        return self.default_estimator or DEFAULT_ESTIMATOR
 
     @property
     def has_jumps(self) -> bool:

@@ -350,7 +350,11 @@ class _Builder:
             transitions=transitions,
             signals=signals,
             truth=truth,
-            default_estimator=as_string(data.get("default_estimator", "imm"), "default_estimator"),
+            default_estimator=(
+                None
+                if "default_estimator" not in data
+                else as_string(data["default_estimator"], "default_estimator")
+            ),
             estimator_options={
                 str(k): dict(as_table(v, key_path("estimators", str(k))))
                 for k, v in estimators.items()

@@ -30,7 +30,8 @@ def test_every_printed_built_in_checks_as_a_file(tmp_path: Path, name: str) -> N
     assert described[0] == f"{path}: a valid model file"
     assert described[1].startswith(f"name: {name}")
     if name in SUITED:
-        assert described[-1].startswith(f"estimators for it: {SUITED[name]} (default")
+        assert described[-2] == f"estimators for it: {SUITED[name]}"
+        assert described[-1].startswith("default_estimator: ")
 
 
 def test_a_bad_estimator_table_is_found_whichever_estimator_would_run(tmp_path: Path) -> None:
@@ -55,28 +56,46 @@ def test_the_command_describes_a_file_prints_a_built_in_and_refuses_in_one_line(
     assert run(["models", "double_cart_case1"]).stdout == builtin_text("double_cart_case1")
 
 
-@pytest.mark.parametrize(
-    ("name", "default", "needs"),
-    [
-        ("three_tank_hstf", 'default_estimator = "sliding-mode"', "a continuous-time model"),
-        ("ice_clutch", "", "a discrete-time model"),  # none written: imm, the loader's default
-    ],
-)
 def test_a_default_estimator_that_cannot_run_the_model_is_refused_as_analyze_does(
-    tmp_path: Path, name: str, default: str, needs: str
+    tmp_path: Path,
 ) -> None:
     # models called the file valid, and analyze without --estimator then refused it
-    text = builtin_text(name)
+    text = builtin_text("three_tank_hstf")
     written = next(line for line in text.splitlines() if line.startswith("default_estimator"))
     path = tmp_path / "mine.toml"
-    path.write_text(text.replace(written, default, 1), encoding="utf-8")
+    path.write_text(text.replace(written, 'default_estimator = "sliding-mode"', 1), "utf-8")
     refused = run(["models", str(path)], expect=2).stderr.strip()
-    assert refused.startswith(f"hybridlog: error: {path}: default_estimator '")
-    assert f"needs {needs}" in refused and "\n" not in refused
+    assert refused.startswith(f"hybridlog: error: {path}: default_estimator 'sliding-mode' ")
+    assert "needs a continuous-time model" in refused and "\n" not in refused
     analyzed = run(
         ["analyze", str(TANK_CSV), "--model", str(path), "--out", str(tmp_path / "r")], 2
     )
     assert analyzed.stderr.strip() == refused
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_file_writing_no_default_estimator_is_valid_and_says_analyze_needs_one(
+    tmp_path: Path,
+) -> None:
+    # a continuous model without default_estimator (as docs/model_files.md's example): imm,
+    # the default, cannot run it; models refused a file every key of which is right, and
+    # that analyze --estimator switching-observer and simulate take
+    text = builtin_text("ice_clutch")
+    written = next(line for line in text.splitlines() if line.startswith("default_estimator"))
+    path = tmp_path / "mine.toml"
+    path.write_text(text.replace(written, "", 1), encoding="utf-8")
+    described = run(["models", str(path)]).stdout.splitlines()
+    assert described[-2] == "estimators for it: switching-observer"
+    assert described[-1] == (
+        "default_estimator: not written, and the default 'imm' needs a discrete-time model; "
+        "the model's time is continuous: analyze needs --estimator"
+    )
+    analyzed = run(
+        ["analyze", str(TANK_CSV), "--model", str(path), "--out", str(tmp_path / "r")], 2
+    )
+    (line,) = analyzed.stderr.strip().splitlines()
+    assert line.startswith(f"hybridlog: error: {path}: no default_estimator is written, and ")
+    assert line.endswith("give --estimator (estimators for this model: switching-observer)")
     assert not (tmp_path / "r").exists()
 
 
