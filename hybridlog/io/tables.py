@@ -33,6 +33,7 @@ import numpy.typing as npt
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.align import clock_tolerance_ns
 from hybridlog.io.csv_encoding import refuse_not_utf8
+from hybridlog.io.exact import EXACT_LIMIT, beyond_exact, inexact
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
@@ -74,6 +75,9 @@ from hybridlog.times import format_time
 TIME_COLUMNS = ("t", "time")
 
 _TABLES = (get_format("csv"), get_format("parquet"))
+
+_NARROW_INTEGERS = (pl.Int8, pl.Int16, pl.Int32, pl.UInt8, pl.UInt16, pl.UInt32)
+"""Integer types every value of which a ``float64`` holds exactly."""
 
 COUNTED_AT_ONCE = 1 << 18
 """Bytes of a CSV file :func:`_count_separators` reads and counts at a time (256 KiB: of the
@@ -366,6 +370,7 @@ class TableSource:
             else:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
+            self._refuse_inexact(taken, column, rows)
             del taken
             if (
                 self._format == "csv"
@@ -414,6 +419,40 @@ class TableSource:
                 f"{self.path}, {self._row_label(row)}, column {excerpt(name)}: "
                 f"{excerpt(text[row], 40)} is beyond the range of a float64 (about 1.8e308)"
             )
+
+    def _refuse_inexact(self, taken: pl.Series, column: pl.Series, rows: IntArray) -> None:
+        """Refuse a number ``column`` (``taken`` as ``Float64``) does not hold (:mod:`.exact`).
+
+        An ``int64``/``uint64`` or decimal Parquet value, or a CSV cell written as a whole
+        number, beyond 2^53 lost its last digits as a ``float64``.  Only the cells whose
+        value reached 2^53 are looked at again.
+
+        Raises
+        ------
+        LogError
+            Naming the line or row and column of the first such cell in the file.
+        """
+        if self._format == "parquet" and not (
+            isinstance(taken.dtype, pl.Decimal)
+            or (taken.dtype.is_integer() and taken.dtype not in _NARROW_INTEGERS)
+        ):
+            return
+        found = np.flatnonzero(beyond_exact(column.to_numpy()))
+        if not found.size:
+            return
+        found = found[np.argsort(rows[found], kind="stable")]  # in the file's order
+        if self._format == "csv":
+            text = _read_csv_strings(self._file, [column.name], checked=True)
+            cells = text.get_column(column.name).gather(rows[found]).to_list()
+        else:
+            cells = taken.gather(found).to_list()
+        for index, cell in zip(found.tolist(), cells, strict=True):
+            reason = inexact(cell)
+            if reason is not None:
+                raise LogError(
+                    f"{self.path}, {self._row_label(int(rows[index]))}, column "
+                    f"{excerpt(column.name)}: {reason}"
+                )
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:
@@ -487,7 +526,10 @@ class TableSource:
             raise LogError(str(err)) from None
 
     def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
-        """One numeric field of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+        """One numeric field of a Parquet log, at ``rows`` (``None``: all), as stored.
+
+        :meth:`_to_float` makes it ``Float64`` after :meth:`_refuse_inexact` looked at it.
+        """
         path = self._path(name)
         try:
             frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
@@ -497,8 +539,6 @@ class TableSource:
             ) from err
         column = self._leaf_values(frame, path)
         del frame
-        if column.dtype != pl.Float64:
-            column = column.cast(pl.Float64)
         return column if rows is None else column.gather(rows)
 
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
@@ -1426,7 +1466,9 @@ def _as_labels(column: pl.Series) -> pl.Series:
     is mode ``1`` beside ``2.5``, as in a message log,
     :func:`hybridlog.io.message_paths.as_label`).  A text column (CSV) whose every cell is a
     number and some written as a float (``1.0``, ``2e0``: pandas writes an integer column
-    with a gap so) is read so if all are whole, else as written.
+    with a gap so) is read so if all are whole (but an id beyond 2^53, which keeps its
+    digits: a ``float64`` would merge it with others, :mod:`~hybridlog.io.exact`), else as
+    written.
     """
     if column.dtype == pl.String:
         text = column.str.strip_chars()
@@ -1435,7 +1477,13 @@ def _as_labels(column: pl.Series) -> pl.Series:
         if written.len() and not numbers.is_null().any() and written.str.contains("[.eE]").any():
             whole = numbers.filter(numbers.is_finite())
             if whole.len() == numbers.len() and bool((whole == whole.round(0)).all()):
-                column = text.cast(pl.Float64, strict=False)
+                # an id beyond 2^53 keeps its digits: a float64 would merge it with others
+                floats = text.cast(pl.Float64, strict=False)
+                column = pl.select(
+                    pl.when(floats.abs() < EXACT_LIMIT)
+                    .then(floats.cast(pl.Int64, strict=False).cast(pl.String))
+                    .otherwise(text)
+                ).to_series()
     dtype = column.dtype
     # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is refused
     # with its row: cast to an integer they became empty cells, no sample, and so did a
