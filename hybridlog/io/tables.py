@@ -1234,6 +1234,9 @@ def _read_csv_frame(
 
 _BOOLEANS = ("true", "false")
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
+_GROUPED = re.compile(r"[+-]?\d{1,3}(?:[,.' \u00a0\u202f]\d{3})+(?:[.,]\d*)?")
+"""Digits grouped by thousands (``1,000``, ``1.234.567,5``, ``1 000``): the comma is not
+only a decimal comma, whose hint alone led a user to write ``1.000`` for one thousand."""
 
 
 def _parse_floats(
@@ -1260,6 +1263,11 @@ def _parse_floats(
             hint = " (true and false read as 1 and 0 only in a column of nothing else)"
         elif _ISO_DATE.match(str(text[first])):  # 2024-01-01T00:00: no seconds
             hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
+        elif _GROUPED.fullmatch(str(text[first])):  # "1,000": one thousand, or one?
+            hint = (
+                " (digits grouped by thousands, or a decimal comma? hybridlog reads digits "
+                "alone, with a point as the decimal separator)"
+            )
         elif _DECIMAL_COMMA.fullmatch(str(text[first])):  # "1,5" quoted, as Excel writes it
             hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
         raise LogError(
