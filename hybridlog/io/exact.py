@@ -28,7 +28,10 @@ from hybridlog.signals import FloatArray
 EXACT_LIMIT = 2**53
 """Integers of at most this magnitude are all held exactly by a ``float64``."""
 
-_WHOLE = re.compile(r"\s*[+-]?[0-9]+\s*")
+WHOLE_NUMBER = r"^\s*[+-]?[0-9]+\s*$"
+"""Text of a whole number: digits, an optional sign, blanks around (a CSV cell)."""
+
+_WHOLE = re.compile(WHOLE_NUMBER)
 
 
 def beyond_exact(values: FloatArray) -> np.ndarray[Any, np.dtype[np.bool_]]:
@@ -57,7 +60,7 @@ def inexact(value: object) -> str | None:
         number = int(value)
     elif isinstance(value, Decimal):
         number = value
-    elif isinstance(value, str) and _WHOLE.fullmatch(value):
+    elif isinstance(value, str) and _WHOLE.match(value):
         number = int(value)
     else:
         return None

@@ -33,7 +33,7 @@ import numpy.typing as npt
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.align import clock_tolerance_ns
 from hybridlog.io.csv_encoding import refuse_not_utf8
-from hybridlog.io.exact import EXACT_LIMIT, beyond_exact, inexact
+from hybridlog.io.exact import EXACT_LIMIT, WHOLE_NUMBER, beyond_exact, inexact
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
@@ -443,7 +443,9 @@ class TableSource:
         found = found[np.argsort(rows[found], kind="stable")]  # in the file's order
         if self._format == "csv":
             text = _read_csv_strings(self._file, [column.name], checked=True)
-            cells = text.get_column(column.name).gather(rows[found]).to_list()
+            written = text.get_column(column.name).gather(rows[found])
+            whole = written.str.contains(WHOLE_NUMBER).fill_null(False).to_numpy()
+            found, cells = found[whole], written.filter(pl.Series(whole)).to_list()
         else:
             cells = taken.gather(found).to_list()
         for index, cell in zip(found.tolist(), cells, strict=True):
