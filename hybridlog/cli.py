@@ -866,7 +866,20 @@ def analyze_command(
         for warning in warning_notes(report):
             text = warning.removeprefix(WARNING_PREFIX)
             click.echo(_one_line(f"hybridlog: warning: {text}"), err=True)
+        _echo_unused_samples(report)
     _gate_exit(outcome.gate_failures)
+
+
+def _echo_unused_samples(report: Report) -> None:
+    """A line on stderr per note of ``report`` saying samples of the log are not used.
+
+    A log sampled at twice the model's rate loses every other sample: report.md said so in
+    a NOTE, the terminal nothing.
+    """
+    from hybridlog.report.build import unused_sample_notes
+
+    for note in unused_sample_notes(report.reading):
+        click.echo(_one_line(f"hybridlog: note: {note.removeprefix('NOTE: ')}"), err=True)
 
 
 @cli.command(
@@ -921,6 +934,8 @@ def compare_command(
     _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
     settings = ctx.find_object(_Context)
     quiet = settings is not None and settings.quiet
+    if outcome.reports and not quiet:  # one log: every report read it alike
+        _echo_unused_samples(next(iter(outcome.reports.values())))
     if outcome.warned and not quiet:
         have = _have_warnings(len(outcome.warned), len(outcome.reports), "estimator")
         click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'comparison.md'}"), err=True)

@@ -45,6 +45,7 @@ import numpy as np
 
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
+from hybridlog.io.exact import EXACT_LIMIT, beyond_exact, inexact
 from hybridlog.io.message_paths import (
     ARRAY,
     FLOAT_TYPES,
@@ -1122,6 +1123,11 @@ class _TopicReader:
         values = self._numbers(messages, steps)
         if values is not None:
             out[:] = values
+            get = accessor(steps)
+            for row in np.flatnonzero(beyond_exact(values)).tolist():
+                reason = inexact(get(messages[row]))
+                if reason is not None:
+                    raise _RowError(row, PathError(reason))
             return
         json = self.topic.encoding == "json"
         for row, message in enumerate(messages):  # the careful loop, which names what is wrong
@@ -1137,6 +1143,9 @@ class _TopicReader:
                 if json:
                     self._check_json_kind(wanted, value)
                 out[row] = as_number(value)
+                reason = inexact(value) if abs(out[row]) >= EXACT_LIMIT else None
+                if reason is not None:
+                    raise PathError(reason)
             except PathError as err:
                 raise _RowError(row, err) from None
 

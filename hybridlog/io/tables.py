@@ -33,6 +33,7 @@ import numpy.typing as npt
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.align import clock_tolerance_ns
 from hybridlog.io.csv_encoding import refuse_not_utf8
+from hybridlog.io.exact import EXACT_LIMIT, WHOLE_NUMBER, beyond_exact, inexact
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
@@ -74,6 +75,9 @@ from hybridlog.times import format_time
 TIME_COLUMNS = ("t", "time")
 
 _TABLES = (get_format("csv"), get_format("parquet"))
+
+_NARROW_INTEGERS = (pl.Int8, pl.Int16, pl.Int32, pl.UInt8, pl.UInt16, pl.UInt32)
+"""Integer types every value of which a ``float64`` holds exactly."""
 
 COUNTED_AT_ONCE = 1 << 18
 """Bytes of a CSV file :func:`_count_separators` reads and counts at a time (256 KiB: of the
@@ -366,6 +370,7 @@ class TableSource:
             else:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
+            self._refuse_inexact(taken, column, rows)
             del taken
             if (
                 self._format == "csv"
@@ -414,6 +419,42 @@ class TableSource:
                 f"{self.path}, {self._row_label(row)}, column {excerpt(name)}: "
                 f"{excerpt(text[row], 40)} is beyond the range of a float64 (about 1.8e308)"
             )
+
+    def _refuse_inexact(self, taken: pl.Series, column: pl.Series, rows: IntArray) -> None:
+        """Refuse a number ``column`` (``taken`` as ``Float64``) does not hold (:mod:`.exact`).
+
+        An ``int64``/``uint64`` or decimal Parquet value, or a CSV cell written as a whole
+        number, beyond 2^53 lost its last digits as a ``float64``.  Only the cells whose
+        value reached 2^53 are looked at again.
+
+        Raises
+        ------
+        LogError
+            Naming the line or row and column of the first such cell in the file.
+        """
+        if self._format == "parquet" and not (
+            isinstance(taken.dtype, pl.Decimal)
+            or (taken.dtype.is_integer() and taken.dtype not in _NARROW_INTEGERS)
+        ):
+            return
+        found = np.flatnonzero(beyond_exact(column.to_numpy()))
+        if not found.size:
+            return
+        found = found[np.argsort(rows[found], kind="stable")]  # in the file's order
+        if self._format == "csv":
+            text = _read_csv_strings(self._file, [column.name], checked=True)
+            written = text.get_column(column.name).gather(rows[found])
+            whole = written.str.contains(WHOLE_NUMBER).fill_null(False).to_numpy()
+            found, cells = found[whole], written.filter(pl.Series(whole)).to_list()
+        else:
+            cells = taken.gather(found).to_list()
+        for index, cell in zip(found.tolist(), cells, strict=True):
+            reason = inexact(cell)
+            if reason is not None:
+                raise LogError(
+                    f"{self.path}, {self._row_label(int(rows[index]))}, column "
+                    f"{excerpt(column.name)}: {reason}"
+                )
 
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:
@@ -487,7 +528,10 @@ class TableSource:
             raise LogError(str(err)) from None
 
     def _parquet_column(self, name: str, rows: IntArray | None) -> pl.Series:
-        """One numeric field of a Parquet log as ``Float64``, at ``rows`` (``None``: all)."""
+        """One numeric field of a Parquet log, at ``rows`` (``None``: all), as stored.
+
+        :meth:`_to_float` makes it ``Float64`` after :meth:`_refuse_inexact` looked at it.
+        """
         path = self._path(name)
         try:
             frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
@@ -497,8 +541,6 @@ class TableSource:
             ) from err
         column = self._leaf_values(frame, path)
         del frame
-        if column.dtype != pl.Float64:
-            column = column.cast(pl.Float64)
         return column if rows is None else column.gather(rows)
 
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
@@ -1194,6 +1236,9 @@ def _read_csv_frame(
 
 _BOOLEANS = ("true", "false")
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
+_GROUPED = re.compile(r"[+-]?\d{1,3}(?:[,.' \u00a0\u202f]\d{3})+(?:[.,]\d*)?")
+"""Digits grouped by thousands (``1,000``, ``1.234.567,5``, ``1 000``): the comma is not
+only a decimal comma, whose hint alone led a user to write ``1.000`` for one thousand."""
 
 
 def _parse_floats(
@@ -1220,6 +1265,11 @@ def _parse_floats(
             hint = " (true and false read as 1 and 0 only in a column of nothing else)"
         elif _ISO_DATE.match(str(text[first])):  # 2024-01-01T00:00: no seconds
             hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
+        elif _GROUPED.fullmatch(str(text[first])):  # "1,000": one thousand, or one?
+            hint = (
+                " (digits grouped by thousands, or a decimal comma? hybridlog reads digits "
+                "alone, with a point as the decimal separator)"
+            )
         elif _DECIMAL_COMMA.fullmatch(str(text[first])):  # "1,5" quoted, as Excel writes it
             hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
         raise LogError(
@@ -1426,7 +1476,9 @@ def _as_labels(column: pl.Series) -> pl.Series:
     is mode ``1`` beside ``2.5``, as in a message log,
     :func:`hybridlog.io.message_paths.as_label`).  A text column (CSV) whose every cell is a
     number and some written as a float (``1.0``, ``2e0``: pandas writes an integer column
-    with a gap so) is read so if all are whole, else as written.
+    with a gap so) is read so if all are whole (but an id beyond 2^53, which keeps its
+    digits: a ``float64`` would merge it with others, :mod:`~hybridlog.io.exact`), else as
+    written.
     """
     if column.dtype == pl.String:
         text = column.str.strip_chars()
@@ -1435,7 +1487,13 @@ def _as_labels(column: pl.Series) -> pl.Series:
         if written.len() and not numbers.is_null().any() and written.str.contains("[.eE]").any():
             whole = numbers.filter(numbers.is_finite())
             if whole.len() == numbers.len() and bool((whole == whole.round(0)).all()):
-                column = text.cast(pl.Float64, strict=False)
+                # an id beyond 2^53 keeps its digits: a float64 would merge it with others
+                floats = text.cast(pl.Float64, strict=False)
+                column = pl.select(
+                    pl.when(floats.abs() < EXACT_LIMIT)
+                    .then(floats.cast(pl.Int64, strict=False).cast(pl.String))
+                    .otherwise(text)
+                ).to_series()
     dtype = column.dtype
     # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is refused
     # with its row: cast to an integer they became empty cells, no sample, and so did a

@@ -860,6 +860,28 @@ def _faster_notes(faster: Mapping[str, Mapping[str, Any]]) -> list[str]:
     return notes
 
 
+def unused_sample_notes(reading: Mapping[str, Any] | None) -> list[str]:
+    """The notes of report.md saying that samples of the log are not used.
+
+    Inputs and outputs sampled faster than the grid (``faster``: a log at twice the model's
+    rate loses every other sample) and input or command samples the hold never takes
+    (``skipped``).  ``analyze`` and ``compare`` print them on the terminal too: a log read
+    in half was otherwise said only in report.md.
+    """
+    reading = reading or {}
+    notes = _faster_notes(reading.get("faster") or {})
+    notes += [
+        f"NOTE: {count['kind']} {symbol}: {count['unused']:,} of its {count['samples']:,} "
+        f"samples over the {count['points']:,} sample times analysed "
+        f"{'is' if count['unused'] == 1 else 'are'} not used: each sample time takes the last "
+        "sample at or before it (SPEC §5), and another sample followed each of these "
+        "before the next sample time (a change undone within dt, or a clock jittering by "
+        "more than dt/4, whose late samples are then taken a step late)"
+        for symbol, count in (reading.get("skipped") or {}).items()
+    ]
+    return notes
+
+
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
@@ -888,16 +910,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         f"out, and estimates.csv's {symbol}_true is empty there"
         for symbol, count in (reading.get("truth_bridged") or {}).items()
     ]
-    notes += _faster_notes(reading.get("faster") or {})
-    notes += [
-        f"NOTE: {count['kind']} {symbol}: {count['unused']:,} of its {count['samples']:,} "
-        f"samples over the {count['points']:,} sample times analysed "
-        f"{'is' if count['unused'] == 1 else 'are'} not used: each sample time takes the last "
-        "sample at or before it (SPEC §5), and another sample followed each of these "
-        "before the next sample time (a change undone within dt, or a clock jittering by "
-        "more than dt/4, whose late samples are then taken a step late)"
-        for symbol, count in (reading.get("skipped") or {}).items()
-    ]
+    notes += unused_sample_notes(reading)
     notes += [
         f"WARNING: {hold.get('kind', 'input')} {symbol} has no sample {_hold_span(hold)}: "
         f"held at its last value, as {_article(hold.get('kind', 'input'))} published only "

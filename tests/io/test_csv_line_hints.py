@@ -1,5 +1,8 @@
 """A CSV refusal says what the line shows: a carriage return alone, a decimal comma.
 
+Digits grouped by thousands (``"1,000"``) were hinted a decimal comma alone, which read
+one thousand as one once the user wrote ``1.000``: the hint now names both.
+
 A lone carriage return inside the data (a line pasted from classic Mac OS text) joined two
 records: "line 2: 5 fields, but the header names 3 columns", without a word of why.  A
 quoted ``"1,5"`` (Excel in a locale with a decimal comma) was "'1,5' is not a number".
@@ -52,4 +55,17 @@ def test_a_decimal_comma_is_named(tmp_path: Path, cell: str) -> None:
     assert refusal(path) == (
         f"{path}, line 3, column 'u': '{cell}' is not a number (a decimal comma? hybridlog "
         "reads a point as the decimal separator)"
+    )
+
+
+@pytest.mark.parametrize("cell", ["1,000", "-12,345,678", "1,000.5", "1.234.567,5", "1 000"])
+def test_digits_grouped_by_thousands_are_named_as_such(tmp_path: Path, cell: str) -> None:
+    """``1,000`` was hinted a decimal comma alone: written ``1.000`` on that advice, one
+    thousand read as one."""
+    path = tmp_path / "log.csv"
+    path.write_text(f't,u,y\n0,1,2\n0.1,"{cell}",3\n0.2,3,4\n')
+    assert refusal(path) == (
+        f"{path}, line 3, column 'u': '{cell}' is not a number (digits grouped by thousands, "
+        "or a decimal comma? hybridlog reads digits alone, with a point as the decimal "
+        "separator)"
     )

@@ -315,18 +315,19 @@ def test_csv_text_hybridlog_cannot_vouch_for_is_refused_naming_the_line(
         (pl.Series([f"{v:.6f}" for v in U]).str.to_decimal(scale=6), np.round(U, 6)),
         (pl.Series(U, dtype=pl.Float16), U.astype(np.float16).astype(np.float64)),
         (
-            pl.Series([2**53 + 1 + k for k in range(N)], dtype=pl.UInt64),
-            [float(2**53 + 1 + k) for k in range(N)],
+            pl.Series([2**63 + 2048 * k for k in range(N)], dtype=pl.UInt64),
+            [float(2**63 + 2048 * k) for k in range(N)],
         ),
         (pl.Series([1, -1] * (N // 2), dtype=pl.Int8), np.array([1.0, -1.0] * (N // 2))),
         (pl.Series([True, False] * (N // 2)), np.array([1.0, 0.0] * (N // 2))),
     ],
-    ids=["decimal", "float16", "uint64-beyond-2^53", "int8", "boolean"],
+    ids=["decimal", "float16", "uint64-held-beyond-2^53", "int8", "boolean"],
 )
 def test_numeric_parquet_types_are_read_as_their_nearest_float64(
     column: pl.Series, expected: Any, tmp_path: Path
 ) -> None:
-    """A uint64 beyond 2^53 is its nearest float64, as every other integer of a log."""
+    """A uint64 beyond 2^53 that a float64 holds is read (one it cannot hold is refused,
+    test_integers_beyond_float64.py)."""
     signals = load(parquet(tmp_path, u=column))
     np.testing.assert_array_equal(signals.inputs[:, 0], np.asarray(expected, dtype=np.float64))
 
