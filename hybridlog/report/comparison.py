@@ -169,11 +169,14 @@ def samples_section(
             unlike.append(f"{metric} is a mean over other outputs for some estimators")
         for name, report in reports.items():
             partial = outputs_left_out(report, metric)
-            if partial is not None:
-                lines.append(
-                    f"- {metric} of `{name}` is a mean that leaves out "
-                    + escape_markdown(partial, line_start=False)
-                )
+            if partial is None:
+                continue
+            # every output's value null: there is no mean, not one leaving some out
+            whole = len(left_out[name]) == len(report.outputs)
+            said = "has no value, as no output has one:" if whole else "is a mean that leaves out"
+            lines.append(
+                f"- {metric} of `{name}` {said} " + escape_markdown(partial, line_start=False)
+            )
     offline = [name for name, report in reports.items() if report.smoothing is not None]
     if offline and len(offline) < len(reports):
         unlike.append(f"the mode metrics of {', '.join(offline)} are of offline estimates")

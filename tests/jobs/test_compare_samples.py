@@ -109,6 +109,15 @@ def test_a_mean_that_leaves_out_an_output_is_named(tmp_path: Path) -> None:
     assert "- vaf, fit and mse: `imm` over 300 samples of each output (y1, y2, y3)" in alone
     lines, unlike = samples_section({"other": partial})  # alone: said, but like for like
     assert unlike == [] and any("vaf of `other` is a mean that leaves out" in x for x in lines)
+    # no output has a VAF: no mean at all, not "a mean that leaves out 3 of 3 outputs"
+    none = dataclasses.replace(
+        imm,
+        outputs={y: dataclasses.replace(o, vaf=None) for y, o in imm.outputs.items()},
+        null_reasons={**imm.null_reasons, **{f"vaf.{y}": "var(ŷ) = 0" for y in imm.outputs}},
+    )
+    lines, _ = samples_section({"imm": imm, "none": none})
+    (said,) = [x for x in lines if x.startswith("- vaf of `none`")]
+    assert said.startswith("- vaf of `none` has no value, as no output has one: 3 of 3 outputs")
     # no true mode: nothing scored, not "over 0 samples" (nor over an unknown number)
     blind = dataclasses.replace(imm, modes=dataclasses.replace(imm.modes, samples=None))
     lines, _ = samples_section({"imm": blind})
