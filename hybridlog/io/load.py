@@ -10,6 +10,7 @@ reads only those fields, checks their values, and aligns them onto the model's g
 from __future__ import annotations
 
 import os
+import unicodedata
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
@@ -499,6 +500,11 @@ def _all_usable(values: npt.NDArray[np.float64]) -> bool:
     return lo > -MAX_MAGNITUDE and hi < MAX_MAGNITUDE
 
 
+def _canonical(label: str) -> str:
+    """``label`` in Unicode's composed form (NFC), as mode ids and labels are compared."""
+    return unicodedata.normalize("NFC", label)
+
+
 def _truth_mode_codes(
     path: str,
     locate: Locate,
@@ -511,15 +517,21 @@ def _truth_mode_codes(
 
     Labels and mode ids are compared as text after stripping whitespace: ``"1"`` matches mode
     ``"1"``, ``"01"`` does not; the readers give a whole number written as a float (``1.0``,
-    in a float column or field, or in a CSV column of numbers) as ``"1"``.
+    in a float column or field, or in a CSV column of numbers) as ``"1"``.  The text is
+    compared in Unicode's composed form (NFC): a log writing ``é`` as ``e`` and a combining
+    accent names the model's ``é`` (which the loader keeps distinct in that form,
+    :func:`~hybridlog.model.values.check_distinct_labels`); it was refused as no mode, the
+    error listing an id that looked the same.
 
     Raises
     ------
     LogError
         Naming the first sample whose label is not a mode id, with its location and time.
     """
-    index = {mode_id.strip(): i for i, mode_id in enumerate(mode_ids)}
-    lookup = np.array([index.get(label, -1) for label in series.categories], dtype=np.int64)
+    index = {_canonical(mode_id.strip()): i for i, mode_id in enumerate(mode_ids)}
+    lookup = np.array(
+        [index.get(_canonical(label), -1) for label in series.categories], dtype=np.int64
+    )
     codes: IntArray = lookup[series.codes] if lookup.size else series.codes.copy()
     bad = codes < 0
     if bad.any():
