@@ -774,8 +774,8 @@ def run_batch(
 
     def check_cluster(inputs: Sequence[tuple[str, PathLike]]) -> None:
         if client is not None and scheduler is not None:  # before anything is written
-            relative = [os.fspath(path) for _, path in inputs if not os.path.isabs(path)]
-            workers.append(check_workers(client, scheduler, relative))
+            paths = [(what, os.fspath(path)) for what, path in inputs]
+            workers.append(check_workers(client, scheduler, paths))
 
     with resource:
         job, model, gates, tasks = _plan(

@@ -131,20 +131,23 @@ class Workers:
     """A relative path the batch names (for the message), or ``""``."""
 
 
-def check_workers(client: Any, address: str, relative: Sequence[str]) -> Workers:
+def check_workers(client: Any, address: str, inputs: Sequence[tuple[str, str]]) -> Workers:
     """Wait for the scheduler's first worker, check them all; what each task checks again.
 
-    ``relative`` are the paths the batch names that are relative (the logs, the model file,
-    a centres file, a ``--msg-dir``): a worker must then run in the client's folder.
+    ``inputs`` are what the batch reads, ``(what it is, path)`` each (the logs, the model
+    file, a centres file, a ``--msg-dir``): every worker must see each this process sees,
+    and run in this process's folder when one is relative.
 
     Raises
     ------
     OptionError
         When no worker joined within :data:`WORKER_WAIT_S`, or a worker cannot import
-        hybridlog, has another version, or another working folder while paths are relative.
+        hybridlog, has another version, another working folder while paths are relative, or
+        does not see an input.
     """
     from hybridlog import __version__
 
+    relative = [path for _, path in inputs if not os.path.isabs(path)]
     shown = excerpt(address)[1:-1]
     expected = Workers(
         address, __version__, os.getcwd() if relative else None, relative[0] if relative else ""
@@ -165,7 +168,23 @@ def check_workers(client: Any, address: str, relative: Sequence[str]) -> Workers
         problem = _mismatch(expected, *fact)
         if problem is not None:
             raise OptionError(f"--scheduler {shown}: the Dask worker {worker} {problem}")
+    # what this process does not see either fails alone, as in a local batch (a missing log)
+    seen = [(what, path) for what, path in inputs if os.path.exists(path)]
+    unseen = cast(dict[str, int], client.run(_first_unseen, [path for _, path in seen]))
+    for worker, k in sorted(unseen.items()):
+        if k >= 0:
+            what, path = seen[k]
+            raise OptionError(
+                f"--scheduler {shown}: the Dask worker {worker} does not see the {what} "
+                f"{excerpt(path)}; the workers must see the logs, the model file and --out "
+                "at the same paths as this process (a shared file system)"
+            )
     return expected
+
+
+def _first_unseen(paths: Sequence[str]) -> int:
+    """On a worker: the index of the first of ``paths`` it does not see, or -1."""
+    return next((k for k, path in enumerate(paths) if not os.path.exists(path)), -1)
 
 
 def _no_workers(shown: str, why: str) -> str:

@@ -9,12 +9,14 @@ another file of the same name).  Each is now one line naming the scheduler or th
 from __future__ import annotations
 
 import os
+import shutil
 import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+import hybridlog
 from hybridlog import __version__
 from hybridlog.errors import OptionError
 from hybridlog.io.writers import write_table
@@ -159,3 +161,30 @@ def test_the_documented_wait_is_the_constant() -> None:
     assert f"Without workers for {wait}" in help_text
     readme = " ".join((Path(__file__).parents[2] / "README.md").read_text().split())
     assert f"waited for {wait} at most" in readme
+
+
+def test_a_worker_that_does_not_see_an_input_is_refused(
+    tmp_path: Path, cluster: distributed.LocalCluster, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A model file only on the client made every log fail alone; now one line, nothing written."""
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    model = tmp_path / "tank.toml"
+    shutil.copyfile(Path(hybridlog.__file__).parent / "model" / "builtin" / f"{TANK}.toml", model)
+    monkeypatch.setattr(dask_backend, "_first_unseen", lambda paths: paths.index(str(model)))
+    with pytest.raises(
+        OptionError, match=r"does not see the model file '.*tank\.toml'; the workers"
+    ):
+        run_batch([log], model, out_dir=tmp_path / "out", scheduler=cluster.scheduler_address)
+    assert not (tmp_path / "out").exists()
+    # a log no one sees fails alone, as in a local batch
+    monkeypatch.setattr(dask_backend, "_first_unseen", lambda paths: -1)
+    outcome = run_batch(
+        [log, tmp_path / "gone.csv"],
+        TANK,
+        out_dir=tmp_path / "out",
+        scheduler=cluster.scheduler_address,
+    )
+    assert {Path(o.log).name: o.status for o in outcome.logs} == {
+        "gone.csv": "failed",
+        "s1.csv": "done",
+    }
