@@ -775,7 +775,8 @@ def run_batch(
     def check_cluster(inputs: Sequence[tuple[str, PathLike]]) -> None:
         if client is not None and scheduler is not None:  # before anything is written
             paths = [(what, os.fspath(path)) for what, path in inputs]
-            workers.append(check_workers(client, scheduler, paths))
+            model = (str(model_ref), model_hash(model_ref))
+            workers.append(check_workers(client, scheduler, paths, model))
 
     with resource:
         job, model, gates, tasks = _plan(

@@ -131,19 +131,24 @@ class Workers:
     """A relative path the batch names (for the message), or ``""``."""
 
 
-def check_workers(client: Any, address: str, inputs: Sequence[tuple[str, str]]) -> Workers:
+def check_workers(
+    client: Any, address: str, inputs: Sequence[tuple[str, str]], model: tuple[str, str]
+) -> Workers:
     """Wait for the scheduler's first worker, check them all; what each task checks again.
 
     ``inputs`` are what the batch reads, ``(what it is, path)`` each (the logs, the model
     file, a centres file, a ``--msg-dir``): every worker must see each this process sees,
-    and run in this process's folder when one is relative.
+    and run in this process's folder when one is relative.  ``model`` is the model's
+    reference and its SHA-256 here (:func:`~hybridlog.jobs.provenance.model_hash`): a
+    worker must read the same (a built-in model of other sources, a file of the same path
+    on another disk).
 
     Raises
     ------
     OptionError
         When no worker joined within :data:`WORKER_WAIT_S`, or a worker cannot import
-        hybridlog, has another version, another working folder while paths are relative, or
-        does not see an input.
+        hybridlog, has another version, another working folder while paths are relative,
+        does not see an input, or reads another model.
     """
     from hybridlog import __version__
 
@@ -179,7 +184,27 @@ def check_workers(client: Any, address: str, inputs: Sequence[tuple[str, str]]) 
                 f"{excerpt(path)}; the workers must see the logs, the model file and --out "
                 "at the same paths as this process (a shared file system)"
             )
+    ref, digest = model
+    digests = cast(dict[str, str], client.run(_model_digest, ref))
+    for worker, theirs in sorted(digests.items()):
+        if theirs != digest:
+            raise OptionError(
+                f"--scheduler {shown}: the Dask worker {worker} reads another model "
+                f"{excerpt(ref)} (SHA-256 {theirs[:12] or 'unreadable'} there, {digest[:12]} "
+                "here: other hybridlog sources, or another file at that path); the workers "
+                "must have this process's installation and files"
+            )
     return expected
+
+
+def _model_digest(ref: str) -> str:
+    """On a worker: :func:`~hybridlog.jobs.provenance.model_hash` of ``ref``, or ``""``."""
+    from hybridlog.jobs.provenance import model_hash
+
+    try:
+        return model_hash(ref)
+    except HybridlogError:
+        return ""
 
 
 def _first_unseen(paths: Sequence[str]) -> int:

@@ -22,6 +22,7 @@ from hybridlog.errors import OptionError
 from hybridlog.io.writers import write_table
 from hybridlog.jobs import dask_backend
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.provenance import model_hash
 from tests.support.logfiles import tank_run
 
 distributed = pytest.importorskip("distributed")
@@ -88,7 +89,9 @@ def test_workers_that_all_leave_mid_batch_stop_it(quick: None) -> None:
     HELD.clear()
     with local_cluster(1) as leaving:
         client = dask_backend.connect(leaving.scheduler_address)
-        workers = dask_backend.check_workers(client, leaving.scheduler_address, [])
+        workers = dask_backend.check_workers(
+            client, leaving.scheduler_address, [], (TANK, model_hash(TANK))
+        )
         arrived: list[int] = []
 
         def leave(k: int) -> None:
@@ -188,3 +191,16 @@ def test_a_worker_that_does_not_see_an_input_is_refused(
         "gone.csv": "failed",
         "s1.csv": "done",
     }
+
+
+def test_a_worker_that_reads_another_model_is_refused(
+    tmp_path: Path, cluster: distributed.LocalCluster, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A worker's built-in model of other sources: each log failed 'the model file changed'."""
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    monkeypatch.setattr(dask_backend, "_model_digest", lambda ref: "0" * 64)
+    with pytest.raises(
+        OptionError, match=r"reads another model 'three_tank_hstf' \(SHA-256 0{12} "
+    ):
+        run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=cluster.scheduler_address)
+    assert not (tmp_path / "out").exists()
