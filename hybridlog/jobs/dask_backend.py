@@ -42,12 +42,13 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import os
 import sys
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence, Sized
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
@@ -81,6 +82,12 @@ first log, and when every worker left mid-batch; then it stops with an error (ex
 
 POLL_S = 0.5
 """How often the client, waiting for results, looks whether the scheduler still has workers."""
+
+_CANCELLED = {
+    "scheduler-connection-lost": "the connection to the scheduler was lost",
+    "unknown": "by a client of the scheduler",
+}
+"""Dask's reasons for cancelling a future, in words."""
 
 _STOP = threading.local()
 """In a task's thread on a worker: ``event``, the batch's stop event (:func:`_run_task`)."""
@@ -284,13 +291,19 @@ def run_on_dask(
     Raises
     ------
     OptionError
-        When the scheduler had no worker for :data:`WORKER_WAIT_S` (every one left).
+        When the scheduler had no worker for :data:`WORKER_WAIT_S` (every one left), or
+        the batch's tasks were lost with the connection to it (or cancelled by someone).
     """
     from distributed import wait
+    from distributed.client import FuturesCancelledError
 
     batch = uuid.uuid4().hex
     stop = f"hybridlog-batch-{batch}-stop"
     pending: set[Any] = set()
+    # the client logs its lost connection with tracebacks: the batch says it in one line
+    quiet = logging.getLogger("distributed.client")
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)
     try:
         index: dict[str, int] = {}
         for k, task in enumerate(tasks):
@@ -313,8 +326,17 @@ def run_on_dask(
                 finished, pending = cast(Any, wait)(
                     pending, timeout=POLL_S, return_when="FIRST_COMPLETED"
                 )
+            except FuturesCancelledError as err:  # the scheduler lost, or someone cancelled
+                reasons = {_CANCELLED.get(group.reason, group.reason) for group in err.error_groups}
+                why = ", ".join(sorted(reasons))
+                raise _ended(workers, f"its tasks were cancelled: {why}", results, tasks) from None
             except TimeoutError:
-                if client.nthreads():
+                try:
+                    running = bool(client.nthreads())
+                except Exception as err:  # the scheduler gone (refused, closed, timed out)
+                    why = excerpt(" ".join(f"{type(err).__name__}: {err}".split()), 80)[1:-1]
+                    raise _ended(workers, f"the scheduler is gone: {why}", results, tasks) from None
+                if running:
                     alone_since = None
                     continue
                 now = time.monotonic()
@@ -350,6 +372,15 @@ def run_on_dask(
         raise
     finally:
         client.close()
+        quiet.setLevel(level)
+
+
+def _ended(workers: Workers, why: str, results: Sized, tasks: Sized) -> OptionError:
+    """The error of a batch the cluster stopped running (``results`` of ``tasks`` done)."""
+    return OptionError(
+        f"--scheduler {excerpt(workers.address)[1:-1]}: the batch ended mid-way ({why}); "
+        f"{len(results)} of {len(tasks)} logs done, which the next run skips"
+    )
 
 
 def _request_stop(client: Any, stop: str, futures: Sequence[Any]) -> None:

@@ -204,3 +204,35 @@ def test_a_worker_that_reads_another_model_is_refused(
     ):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=cluster.scheduler_address)
     assert not (tmp_path / "out").exists()
+
+
+def test_tasks_cancelled_on_the_cluster_end_the_batch_in_one_line(quick: None) -> None:
+    """The scheduler lost, or the tasks cancelled from its dashboard: it read 'unexpected
+    FuturesCancelledError ... (a bug ...)' with Dask's list of keys."""
+    HELD.clear()
+    with local_cluster(1) as running:
+        client = dask_backend.connect(running.scheduler_address)
+        workers = dask_backend.check_workers(
+            client, running.scheduler_address, [], (TANK, model_hash(TANK))
+        )
+
+        def cancel_all(k: int) -> None:  # as another client of the scheduler may
+            futures = [distributed.Future(key, client) for key in list(client.futures)]
+            client.cancel(futures, force=True)
+
+        try:
+            with pytest.raises(OptionError) as err:
+                dask_backend.run_on_dask(
+                    held_task,
+                    [(0,), (1,), (2,)],
+                    client,
+                    workers,
+                    died=lambda k, _: -k,
+                    done=cancel_all,
+                )
+        finally:
+            HELD.set()
+    assert str(err.value) == (
+        f"--scheduler {running.scheduler_address}: the batch ended mid-way (its tasks were "
+        "cancelled: by a client of the scheduler); 1 of 3 logs done, which the next run skips"
+    )
