@@ -990,7 +990,8 @@ def compare_command(
     default=None,
     metavar="ADDRESS",
     help="Run on the Dask cluster of this scheduler (e.g. tcp://host:8786; needs "
-    "hybridlog[dask] and the paths shared with the workers) instead of local processes.",
+    "hybridlog[dask] and the paths shared with the workers) instead of local processes. "
+    "Without workers for 60 s (none joined, or all left mid-batch): exit 2.",
 )
 @click.option(
     "--plots",

@@ -752,7 +752,7 @@ def run_batch(
     pool = client = None
     staging: list[Path] = []  # where the workers write: the report folders' parents
     if scheduler is not None:
-        from hybridlog.jobs.dask_backend import connect, run_on_dask
+        from hybridlog.jobs.dask_backend import check_workers, connect, run_on_dask
 
         client = connect(scheduler)  # before anything is written: an unreachable one fails alone
     elif jobs > 1 and len(paths) > 1:
@@ -770,6 +770,14 @@ def run_batch(
         resource = pool
     elif client is not None:
         resource = contextlib.closing(client)
+    workers: list[Any] = []  # the Dask workers' check (:func:`check_workers`)
+
+    def check_cluster(inputs: Sequence[tuple[str, PathLike]]) -> None:
+        if client is not None and scheduler is not None:  # before anything is written
+            paths = [(what, os.fspath(path)) for what, path in inputs]
+            model = (str(model_ref), model_hash(model_ref))
+            workers.append(check_workers(client, scheduler, paths, model))
+
     with resource:
         job, model, gates, tasks = _plan(
             paths,
@@ -787,6 +795,7 @@ def run_batch(
             force=force,
             smooth=smooth,
             mode_sequence=mode_sequence,
+            check_inputs=check_cluster,
         )
         staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
         died = [_died(log, folder) for _, log, folder in tasks]
@@ -801,7 +810,15 @@ def run_batch(
             plotting.start()
             if client is not None:
                 outcomes = run_on_dask(
-                    analyze_log, tasks, client, died=lambda i, why: died[i](why), done=progress
+                    analyze_log,
+                    tasks,
+                    client,
+                    workers[0],
+                    died=lambda i, why: died[i](why),
+                    failed=lambda i, why: LogOutcome(
+                        tasks[i][1], tasks[i][2], "failed", None, _one_line(why)
+                    ),
+                    done=progress,
                 )
             elif pool is not None:
                 outcomes = pool.run(
@@ -885,8 +902,13 @@ def _plan(
     force: bool,
     smooth: bool = False,
     mode_sequence: str | None = None,
+    check_inputs: Callable[[Sequence[tuple[str, PathLike]]], None] | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
-    """Check everything the logs share, prepare the batch folder; the job and its tasks."""
+    """Check everything the logs share, prepare the batch folder; the job and its tasks.
+
+    ``check_inputs`` is called with the files and folders the batch reads once all is
+    checked, before anything is written (the Dask workers' check).
+    """
     # the model, the estimator and every --set value are checked before any work; the model
     # is hashed before it is read (as each worker does, :func:`_warm`): a report never
     # records a model it was not made from
@@ -942,6 +964,8 @@ def _plan(
         _check_junit_apart(junit, root, paths, folders)
     if not force:
         _check_same_run_kind(root, folders, job)
+    if check_inputs is not None:
+        check_inputs(inputs)
     _prepare_root(root, folders)
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()

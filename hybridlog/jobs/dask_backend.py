@@ -25,17 +25,30 @@ the batch has ended.  The client waits :data:`STOP_WAIT_S` for the running tasks
 Dask cannot interrupt one inside a compiled loop or an estimator computed whole, which
 stops at its next check (or publishes its finished folder) on its own.
 
+The workers are checked before anything is written (:func:`check_workers`): a scheduler
+without workers is waited for :data:`WORKER_WAIT_S` at most, then refused with one line
+(a batch waited forever for workers that never came); a worker with another hybridlog
+version, or one whose working folder is not the client's when the batch names a relative
+path, is refused by name (its reports would record another version, or its relative paths
+name other files, or none).  A worker that joins later is checked by each task it runs
+(:func:`_run_task`: the log fails, naming why).  When every worker leaves mid-batch, the
+client waits :data:`WORKER_WAIT_S` for one to come back, then stops the batch with one line
+(the logs done keep their folders: the next run resumes).
+
 Needs the optional extra ``hybridlog[dask]`` (``dask[distributed]``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import logging
+import os
 import sys
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence, Sized
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
@@ -45,7 +58,9 @@ from hybridlog.memory import available_memory, check_fits, size_text
 __all__ = [
     "CONNECT_TIMEOUT_S",
     "STOP_WAIT_S",
+    "WORKER_WAIT_S",
     "WorkerMemory",
+    "check_workers",
     "connect",
     "run_on_dask",
     "stopped",
@@ -60,6 +75,19 @@ CONNECT_TIMEOUT_S = 5.0
 
 STOP_WAIT_S = 3.0
 """How long an interrupted batch waits for its running tasks to stop (seconds)."""
+
+WORKER_WAIT_S = 60.0
+"""How long the batch waits for a worker when the scheduler has none (seconds): before its
+first log, and when every worker left mid-batch; then it stops with an error (exit 2)."""
+
+POLL_S = 0.5
+"""How often the client, waiting for results, looks whether the scheduler still has workers."""
+
+_CANCELLED = {
+    "scheduler-connection-lost": "the connection to the scheduler was lost",
+    "unknown": "by a client of the scheduler",
+}
+"""Dask's reasons for cancelling a future, in words."""
 
 _STOP = threading.local()
 """In a task's thread on a worker: ``event``, the batch's stop event (:func:`_run_task`)."""
@@ -96,12 +124,139 @@ def connect(address: str) -> Any:
         ) from err
 
 
+@dataclass(frozen=True)
+class Workers:
+    """What every worker of the batch must share with the client (:func:`check_workers`)."""
+
+    address: str
+    """The scheduler's address, as given."""
+    version: str
+    """The client's hybridlog version."""
+    cwd: str | None
+    """The client's working folder when the batch names a relative path, else None."""
+    relative: str
+    """A relative path the batch names (for the message), or ``""``."""
+
+
+def check_workers(
+    client: Any, address: str, inputs: Sequence[tuple[str, str]], model: tuple[str, str]
+) -> Workers:
+    """Wait for the scheduler's first worker, check them all; what each task checks again.
+
+    ``inputs`` are what the batch reads, ``(what it is, path)`` each (the logs, the model
+    file, a centres file, a ``--msg-dir``): every worker must see each this process sees,
+    and run in this process's folder when one is relative.  ``model`` is the model's
+    reference and its SHA-256 here (:func:`~hybridlog.jobs.provenance.model_hash`): a
+    worker must read the same (a built-in model of other sources, a file of the same path
+    on another disk).
+
+    Raises
+    ------
+    OptionError
+        When no worker joined within :data:`WORKER_WAIT_S`, or a worker cannot import
+        hybridlog, has another version, another working folder while paths are relative,
+        does not see an input, or reads another model.
+    """
+    from hybridlog import __version__
+
+    relative = [path for _, path in inputs if not os.path.isabs(path)]
+    shown = excerpt(address)[1:-1]
+    expected = Workers(
+        address, __version__, os.getcwd() if relative else None, relative[0] if relative else ""
+    )
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+    except TimeoutError as err:
+        raise OptionError(_no_workers(shown, "none joined")) from err
+    try:
+        facts = cast(dict[str, tuple[str, str]], client.run(_worker_facts))
+    except Exception as err:  # a worker without hybridlog cannot unpickle the function
+        reason = excerpt(" ".join(f"{type(err).__name__}: {err}".split()), 120)[1:-1]
+        raise OptionError(
+            f"--scheduler {shown}: a Dask worker cannot run hybridlog ({reason}); install "
+            f"hybridlog {__version__} on every worker"
+        ) from err
+    for worker, fact in sorted(facts.items()):
+        problem = _mismatch(expected, *fact)
+        if problem is not None:
+            raise OptionError(f"--scheduler {shown}: the Dask worker {worker} {problem}")
+    # what this process does not see either fails alone, as in a local batch (a missing log)
+    seen = [(what, path) for what, path in inputs if os.path.exists(path)]
+    unseen = cast(dict[str, int], client.run(_first_unseen, [path for _, path in seen]))
+    for worker, k in sorted(unseen.items()):
+        if k >= 0:
+            what, path = seen[k]
+            raise OptionError(
+                f"--scheduler {shown}: the Dask worker {worker} does not see the {what} "
+                f"{excerpt(path)}; the workers must see the logs, the model file and --out "
+                "at the same paths as this process (a shared file system)"
+            )
+    ref, digest = model
+    digests = cast(dict[str, str], client.run(_model_digest, ref))
+    for worker, theirs in sorted(digests.items()):
+        if theirs != digest:
+            raise OptionError(
+                f"--scheduler {shown}: the Dask worker {worker} reads another model "
+                f"{excerpt(ref)} (SHA-256 {theirs[:12] or 'unreadable'} there, {digest[:12]} "
+                "here: other hybridlog sources, or another file at that path); the workers "
+                "must have this process's installation and files"
+            )
+    return expected
+
+
+def _model_digest(ref: str) -> str:
+    """On a worker: :func:`~hybridlog.jobs.provenance.model_hash` of ``ref``, or ``""``."""
+    from hybridlog.jobs.provenance import model_hash
+
+    try:
+        return model_hash(ref)
+    except HybridlogError:
+        return ""
+
+
+def _first_unseen(paths: Sequence[str]) -> int:
+    """On a worker: the index of the first of ``paths`` it does not see, or -1."""
+    return next((k for k, path in enumerate(paths) if not os.path.exists(path)), -1)
+
+
+def _no_workers(shown: str, why: str) -> str:
+    return (
+        f"--scheduler {shown}: the scheduler has no workers ({why} within "
+        f"{WORKER_WAIT_S:g} s); start some: dask worker {shown}"
+    )
+
+
+def _worker_facts() -> tuple[str, str]:
+    """On a worker: its hybridlog version and working folder."""
+    from hybridlog import __version__
+
+    return __version__, os.getcwd()
+
+
+def _mismatch(expected: Workers, version: str, cwd: str) -> str | None:
+    """Why a worker of ``version`` working in ``cwd`` cannot run the batch's logs, or None."""
+    if version != expected.version:
+        return (
+            f"has hybridlog {excerpt(version, 40)[1:-1]}, this process {expected.version}: its "
+            "reports would record another version; install the same on every worker"
+        )
+    if expected.cwd is not None and os.path.realpath(cwd) != os.path.realpath(expected.cwd):
+        return (
+            f"runs in {excerpt(cwd)}, not in {excerpt(expected.cwd)}, so the relative path "
+            f"{excerpt(expected.relative)} names another file there, or none; give absolute "
+            "paths, or start the workers in this folder"
+        )
+    return None
+
+
 def run_on_dask(
     function: Callable[..., R],
     tasks: Sequence[tuple[Any, ...]],
     client: Any,
+    workers: Workers,
     *,
     died: Callable[[int, str], R],
+    failed: Callable[[int, str], R] | None = None,
     done: Callable[[R], None] | None = None,
 ) -> list[R]:
     """Run ``function(*task)`` for every task on the cluster of ``client`` (:func:`connect`).
@@ -115,9 +270,16 @@ def run_on_dask(
         Argument tuples (pickled by Dask).
     client:
         A client from :func:`connect`; it is closed when all tasks are done.
+    workers:
+        What each worker must share with the client (:func:`check_workers`): a task on a
+        worker that does not is the log's failure, naming why.
     died:
         The result of task ``i`` when Dask could not run it (its worker died, Dask gave up),
         from ``(i, reason)``.
+    failed:
+        The result of task ``i`` that raised on a worker that lives on (a worker unfit for
+        the batch, :func:`_run_task`; a task the scheduler could not unpickle), from
+        ``(i, reason)``; ``died``'s when None.
     done:
         Called with each result as it arrives (in completion order).
 
@@ -125,37 +287,100 @@ def run_on_dask(
     -------
     list
         One result per task, in the order of ``tasks``.
+
+    Raises
+    ------
+    OptionError
+        When the scheduler had no worker for :data:`WORKER_WAIT_S` (every one left), or
+        the batch's tasks were lost with the connection to it (or cancelled by someone).
     """
-    from distributed import as_completed
+    from distributed import wait
+    from distributed.client import FuturesCancelledError
 
     batch = uuid.uuid4().hex
     stop = f"hybridlog-batch-{batch}-stop"
-    futures: list[Any] = []
+    pending: set[Any] = set()
+    # the client logs its lost connection with tracebacks: the batch says it in one line
+    quiet = logging.getLogger("distributed.client")
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)
     try:
+        index: dict[str, int] = {}
         for k, task in enumerate(tasks):
-            futures.append(
-                client.submit(
-                    _run_task, function, stop, *task, pure=False, key=f"hybridlog-batch-{batch}-{k}"
-                )
+            future = client.submit(
+                _run_task,
+                function,
+                stop,
+                # plain values: the scheduler unpickles the task too, maybe another version
+                dataclasses.astuple(workers),
+                *task,
+                pure=False,
+                key=f"hybridlog-batch-{batch}-{k}",
             )
-        index = {future.key: k for k, future in enumerate(futures)}
+            index[future.key] = k
+            pending.add(future)
         results: dict[int, R] = {}
-        for future in cast(Any, as_completed)(futures):
-            k = index[future.key]
-            if future.status == "finished":
-                results[k] = future.result()
-            else:
-                error = future.exception()
-                reason = " ".join(f"{type(error).__name__}: {error}".split())
-                results[k] = died(k, f"on the Dask cluster: {excerpt(reason, 200)[1:-1]}")
-            if done is not None:
-                done(results[k])
+        alone_since: float | None = None  # since when the scheduler has had no worker
+        while pending:
+            try:
+                finished, pending = cast(Any, wait)(
+                    pending, timeout=POLL_S, return_when="FIRST_COMPLETED"
+                )
+            except FuturesCancelledError as err:  # the scheduler lost, or someone cancelled
+                reasons = {_CANCELLED.get(group.reason, group.reason) for group in err.error_groups}
+                why = ", ".join(sorted(reasons))
+                raise _ended(workers, f"its tasks were cancelled: {why}", results, tasks) from None
+            except TimeoutError:
+                try:
+                    running = bool(client.nthreads())
+                except Exception as err:  # the scheduler gone (refused, closed, timed out)
+                    why = excerpt(" ".join(f"{type(err).__name__}: {err}".split()), 80)[1:-1]
+                    raise _ended(workers, f"the scheduler is gone: {why}", results, tasks) from None
+                if running:
+                    alone_since = None
+                    continue
+                now = time.monotonic()
+                alone_since = now if alone_since is None else alone_since
+                if now - alone_since >= WORKER_WAIT_S:
+                    raise OptionError(
+                        _no_workers(
+                            excerpt(workers.address)[1:-1],
+                            f"every worker left mid-batch, {len(results)} of {len(tasks)} "
+                            "logs done, which the next run skips; none came back",
+                        )
+                    ) from None
+                continue
+            alone_since = None
+            for future in sorted(finished, key=lambda f: index[f.key]):
+                k = index[future.key]
+                if future.status == "finished":
+                    results[k] = future.result()
+                else:
+                    error = future.exception()
+                    reason = " ".join(f"{type(error).__name__}: {error}".split())
+                    reason = f"on the Dask cluster: {excerpt(reason, 200)[1:-1]}"
+                    lost = type(error).__name__ == "KilledWorker" or failed is None
+                    results[k] = died(k, reason) if lost else cast(Any, failed)(k, reason)
+                # let go of it: held, its result would be computed again (its log analysed
+                # again) when the worker keeping it leaves
+                future.release()
+                if done is not None:
+                    done(results[k])
         return [results[k] for k in range(len(tasks))]
     except BaseException:
-        _request_stop(client, stop, futures)
+        _request_stop(client, stop, list(pending))
         raise
     finally:
         client.close()
+        quiet.setLevel(level)
+
+
+def _ended(workers: Workers, why: str, results: Sized, tasks: Sized) -> OptionError:
+    """The error of a batch the cluster stopped running (``results`` of ``tasks`` done)."""
+    return OptionError(
+        f"--scheduler {excerpt(workers.address)[1:-1]}: the batch ended mid-way ({why}); "
+        f"{len(results)} of {len(tasks)} logs done, which the next run skips"
+    )
 
 
 def _request_stop(client: Any, stop: str, futures: Sequence[Any]) -> None:
@@ -169,10 +394,22 @@ def _request_stop(client: Any, stop: str, futures: Sequence[Any]) -> None:
         client.cancel(list(futures), force=True)
 
 
-def _run_task(function: Callable[..., R], stop: str, *task: Any) -> R:
-    """On a worker: ``function(*task)`` with the batch's stop event known to :func:`stopped`."""
-    from distributed import Event
+def _run_task(
+    function: Callable[..., R], stop: str, workers: tuple[str, str, str | None, str], *task: Any
+) -> R:
+    """On a worker: ``function(*task)`` with the batch's stop event known to :func:`stopped`.
 
+    Raises
+    ------
+    OptionError
+        When this worker does not share what the batch needs with the client (a worker that
+        joined after :func:`check_workers`): the log fails, naming why.
+    """
+    from distributed import Event, get_worker
+
+    problem = _mismatch(Workers(*workers), *_worker_facts())
+    if problem is not None:
+        raise OptionError(f"the Dask worker {get_worker().address} {problem}")
     _STOP.event = cast(Any, Event)(stop)
     try:
         return function(*task)
