@@ -18,10 +18,12 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   the earlier sample), or linear interpolation between the samples around ``t_k``
   (``resample="linear"``).  A grid point without a sample within ``dt/2`` is a gap; a gap
   between two samples more than ``max_gap`` apart is an error, shorter gaps are bridged by the
-  same rule (nearest or linear) from the samples around them.  A sample half a step between
-  two grid points is within ``dt/2`` of both; when both take it (no other sample beside it:
-  a log sampled every ``1.5*dt``), the later point is bridged, for the log measured once
-  (:func:`_taken_twice`).
+  same rule (nearest or linear) from the samples around them; no line is drawn across a
+  longer one (:func:`_nearest_beside_gaps`): the points within ``dt/2`` of its ends take
+  those samples, as the points past a series' last sample take the last.  A sample half a
+  step between two grid points is within ``dt/2`` of both; when both take it (no other sample
+  beside it: a log sampled every ``1.5*dt``), the later point is bridged, for the log
+  measured once (:func:`_taken_twice`).
 - True mode: zero-order hold; grid points before its first sample take that sample if it is
   within ``dt/2``, and have no true mode (``NO_TRUE_MODE``, not scored) if not: a true mode
   that starts late is scored over the samples from its first on, as a true state that starts
@@ -423,8 +425,11 @@ def resample_series(
     if on is not None:  # the common case: one view, no index, distance or gap arrays
         return on, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     index, distance = nearest_index(series.time_ns, grid_ns, tolerance)
-    linear = method == "linear"
-    values = interpolate(series, grid_ns, tolerance) if linear else series.values[index]
+    if method == "linear":
+        values = interpolate(series, grid_ns, tolerance)
+        _nearest_beside_gaps(values, series, grid_ns, index, max_gap_ns, dt_ns)
+    else:
+        values = series.values[index]
     gap_mask = past_half_step(distance, dt_ns)
     in_gap = np.flatnonzero(gap_mask)
     reused = _taken_twice(index, gap_mask)
@@ -438,6 +443,38 @@ def resample_series(
     beyond = outside | longer_than_max_gap(span, max_gap_ns, dt_ns)
     bridged: IntArray = np.union1d(in_gap[~beyond], reused)
     return values, in_gap[beyond], bridged
+
+
+def _nearest_beside_gaps(
+    values: FloatArray,
+    series: Series,
+    grid_ns: IntArray,
+    index: IntArray,
+    max_gap_ns: int,
+    dt_ns: int,
+) -> None:
+    """Give the grid points inside a gap longer than ``max_gap`` their nearest sample.
+
+    ``values``: the linear interpolation, changed in place; ``index``: each point's nearest
+    sample.  A gap (:func:`_gap_threshold`, as ``--split-gaps`` cuts) says nothing of the
+    signal inside it, as nothing is said past the last sample, where the interpolation takes
+    the end value: a line drawn to the sample across the gap is a guess.  A point within
+    ``dt/2`` of the sample before such a gap read a value part of the way to the sample
+    after it (the points farther from both are an error); with ``--split-gaps`` an output
+    cut at the gap took its last sample there, and a true state of the same field, read
+    whole, the line across the gap.
+    """
+    time_ns = series.time_ns
+    if time_ns.size < 2:
+        return
+    step = np.diff(time_ns)
+    long = longer_than_max_gap(step, _gap_threshold(max_gap_ns, dt_ns), dt_ns)
+    if not bool(long.any()):
+        return
+    before = np.searchsorted(time_ns, grid_ns, side="right") - 1  # the sample at or before
+    inside = (before >= 0) & (before < step.size)
+    inside[inside] = long[before[inside]]
+    values[inside] = series.values[index[inside]]
 
 
 def _taken_twice(index: IntArray, gap_mask: npt.NDArray[np.bool_]) -> IntArray:

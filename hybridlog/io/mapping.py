@@ -43,7 +43,9 @@ Inputs and outputs must be found; ground truth is optional unless mapped with ``
 One field never feeds two inputs or outputs (by ``--map``, ``[signals]`` or default; two
 spellings of one field are one, ``LogSource.field_key``: ``q[2]`` and ``q[-1]`` of an array
 of three): refused, naming both; so are indices from both ends of an array whose length is
-known only per message, one element in messages of some length.  Where each
+known only per message, one element in messages of some length.  Nor is one field the
+ground truth of two symbols (two states, a state and the true mode): refused alike.  Ground
+truth may share the field of an input or output (a state measured directly).  Where each
 symbol's field came from is kept (:attr:`SignalMap.origins`) for the report's
 ``reading.fields``.
 
@@ -67,6 +69,19 @@ from hybridlog.io.source import FieldKey, closest_names, non_ascii
 TRUTH_PREFIX = "truth."
 TRUTH_MODE = "truth.mode"
 DEFAULT_MODE_FIELD = "mode"
+
+
+SIGNAL_FEEDS = (
+    "feeds one input or output (an input equal to an output, or one measurement counted "
+    "twice, is a mapping slip)"
+)
+"""Why one field may not feed two inputs, outputs or commands (:func:`_refuse_shared`)."""
+
+TRUTH_FEEDS = (
+    "is the ground truth of one symbol (two states, or a state and the true mode, are not "
+    "one measurement: a slip of --map or [truth])"
+)
+"""Why one field may not be the ground truth of two symbols (:func:`_refuse_shared`)."""
 
 
 @dataclass(frozen=True)
@@ -514,6 +529,20 @@ def resolve_signal_map(
         chosen = choose(symbol, truth.get(key), default(symbol), required=False)
         if chosen is not None:
             truth_components[component] = chosen
+    _refuse_shared(
+        source,
+        field_word,
+        {
+            **({} if truth_mode is None else {TRUTH_MODE: truth_mode}),
+            **{component_truth_symbol(c): name for c, name in truth_components.items()},
+            **{f"{TRUTH_PREFIX}{x}": name for x, name in truth_states.items()},
+        },
+        inputs,
+        origins,
+        field_key or (lambda name: (name, ())),
+        commands,
+        feeds=TRUTH_FEEDS,
+    )
     return SignalMap(
         input_fields,
         output_fields,
@@ -534,6 +563,8 @@ def _refuse_shared(
     origins: Mapping[str, str],
     field_key: Callable[[str], FieldKey],
     commands: Sequence[str] = (),
+    *,
+    feeds: str = SIGNAL_FEEDS,
 ) -> None:
     """Refuse one field feeding two inputs, outputs or commands (``--map u=y1``, an output ``y1``).
 
@@ -541,7 +572,10 @@ def _refuse_shared(
     perfect fit that says nothing); two outputs read from one field are one measurement
     counted twice.  Either is almost always a slip of ``--map`` or ``[signals]``, never
     what a log of distinct signals means.  Ground truth may share a field with an output (a
-    state measured directly): the report notes it (``reading.truth_shared``).
+    state measured directly): the report notes it (``reading.truth_shared``).  But two
+    ground-truth symbols never share one (``feeds``: :data:`TRUTH_FEEDS`, said why): two
+    states, or a state and the true mode, are not one measurement: the estimates of both
+    would be scored against one signal.
 
     Two spellings of one field are one (``LogSource.field_key``): ``q[2]`` and ``q[-1]`` of
     an array of three.  Into an array whose length is known only per message (a sequence),
@@ -580,9 +614,8 @@ def _refuse_shared(
         )
         raise LogError(
             f"{source}: {described(first)} and {described(symbol)} read the same {field_word} "
-            f"{named}: one {field_word} feeds one input or output (an input equal to an "
-            f"output, or one measurement counted twice, is a mapping slip); map one of them "
-            f"to another {field_word} with --map"
+            f"{named}: one {field_word} {feeds}; map one of them to another {field_word} "
+            "with --map"
         )
 
 

@@ -261,12 +261,23 @@ def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Targe
                 raise PathError(f"{where} is an array; index it before .{step}, e.g. [0].{step}")
             sub, length = desc[1]
             if node == ARRAY and not -length <= step < length:
-                raise PathError(f"{where}[{step}]: index out of range (the array has {length})")
+                raise PathError(out_of_range(f"{where}[{step}]", length))
             desc = sub
             where = f"{where}[{step}]"
         else:
             raise PathError(f"{where} is a {desc[1][0]}; it has no {format_steps([step])}")
     return _target(desc)
+
+
+def out_of_range(where: str, length: int) -> str:
+    """Why an index is no element: ``.data[3]: index out of range (the array has 3 elements)``.
+
+    One wording for an array whose length the schema fixes and one whose length a message
+    gives: the fixed one read "(the array has 9)", 9 of what left to guess.
+    """
+    return (
+        f"{where}: index out of range (the array has {length} element{'' if length == 1 else 's'})"
+    )
 
 
 def from_the_start(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> tuple[Step, ...]:
@@ -395,10 +406,7 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
                 raise PathError(f"{format_steps(done) or 'the message'} is not an array")
             length = len(value)
             if not -length <= step < length:
-                raise PathError(
-                    f"{format_steps([*done, step])}: index out of range "
-                    f"(the array has {length} element{'' if length == 1 else 's'})"
-                )
+                raise PathError(out_of_range(format_steps([*done, step]), length))
             value = value[step]  # type: ignore[index]
         elif isinstance(value, Mapping):
             if step not in value:

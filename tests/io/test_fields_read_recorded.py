@@ -1,8 +1,9 @@
 """Which log field fed each model symbol, and who chose it, is recorded; one field never
-feeds two inputs or outputs."""
+feeds two inputs or outputs, nor is the ground truth of two symbols."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -93,6 +94,43 @@ def test_ground_truth_may_share_an_outputs_field(tmp_path: Path) -> None:
     assert notes["truth_shared"] == ["truth.x2 (column 'y1', also output 'y1')"]
     assert signals.truth_states is not None
     np.testing.assert_array_equal(signals.truth_states[:, 1], signals.outputs[:, 0])
+
+
+@pytest.mark.parametrize(
+    ("spec", "maps", "message"),
+    [
+        (
+            SPEC,
+            ("truth.x2=x1",),
+            "truth.x1 (the default) and truth.x2 (from --map truth.x2=x1) read the same column "
+            "'x1'",
+        ),
+        (
+            replace(SPEC, truth={"mode": "phase", "x1": "h", "x2": "h"}),
+            (),
+            "truth.x1 (from the model's [truth]) and truth.x2 (from the model's [truth]) read "
+            "the same column 'h'",
+        ),
+        (
+            SPEC,
+            ("truth.x1=phase",),
+            "truth.mode (from the model's [truth]) and truth.x1 (from --map truth.x1=phase) "
+            "read the same column 'phase'",
+        ),
+    ],
+)
+def test_one_field_as_the_ground_truth_of_two_symbols_is_refused(
+    tmp_path: Path, spec: SignalSpec, maps: tuple[str, ...], message: str
+) -> None:
+    # the estimates of two states were scored against one column, with no word of it
+    log = _log(tmp_path)
+    with pytest.raises(LogError) as error:
+        load_signals(log, spec, ReadOptions(maps=maps))
+    assert str(error.value) == (
+        f"{log}: {message}: one column is the ground truth of one symbol (two states, or a "
+        "state and the true mode, are not one measurement: a slip of --map or [truth]); map "
+        "one of them to another column with --map"
+    )
 
 
 def test_two_spellings_of_one_message_field_are_one_field() -> None:

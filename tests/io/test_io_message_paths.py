@@ -93,8 +93,12 @@ def test_definitions_check_paths_and_name_the_fields() -> None:
         PathError, match=r"^\.position is an array; write its index in brackets: \[1\]$"
     ):
         check_path(defs, "sensor_msgs/msg/JointState", split_path("/j/position/1", ["/j"]).steps)
-    with pytest.raises(PathError, match="index out of range"):
-        check_path(defs, "sensor_msgs/msg/Imu", ("orientation_covariance", 9))
+    # a fixed-size array said "(the array has 9)", where one a message sizes names elements
+    with pytest.raises(
+        PathError,
+        match=r"^\.orientation_covariance\[-10\]: index out of range \(the array has 9 elements\)$",
+    ):
+        check_path(defs, "sensor_msgs/msg/Imu", ("orientation_covariance", -10))
 
 
 def test_arrays_of_strings_and_of_messages_are_arrays_of_their_element_type(
