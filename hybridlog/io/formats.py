@@ -37,8 +37,10 @@ traceback.
 
 from __future__ import annotations
 
+import errno
 import importlib
 import os
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -290,16 +292,18 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
     """
     shown = os.fspath(path)
     file = Path(path)
-    if not file.exists():
-        raise LogError(f"{shown}: no such file")
-    if not (file.is_file() or file.is_dir()):
+    mode = _file_mode(file, shown)
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
         raise LogError(
             f"{shown}: not a regular file (a pipe, device or socket); a log must be a file or "
             "a bag folder, which hybridlog reads more than once"
         )
-    if file.is_dir():
+    if stat.S_ISDIR(mode):
         folders = [f for f in FORMATS if f.directory]
-        chosen = next((f for f in folders if f.holds(file)), None)
+        try:
+            chosen = next((f for f in folders if f.holds(file)), None)
+        except OSError as err:  # a folder one may not list: Permission denied
+            raise LogError(f"{shown}: cannot be read ({err.strerror})") from err
         if chosen is None:
             wanted = " or ".join(f"{f.index_file} or bag files" for f in folders)
             what = " or ".join(f.what for f in folders)
@@ -322,6 +326,27 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
     if named.magic:
         raise LogError(f"{shown}: not {named.what} (wrong magic bytes)")
     return named
+
+
+def _file_mode(file: Path, shown: str) -> int:
+    """The ``st_mode`` of ``file`` (links followed), or why there is none as a LogError.
+
+    ``Path.exists`` said ``False`` of a symbolic link that leads back to itself, which was
+    then "no such file", and raised ``PermissionError`` for a log inside a folder one may
+    not enter, which ended as "unexpected PermissionError (a bug)".  One ``stat`` tells
+    them apart: a missing file, a link to nothing (named with its target), or the
+    system's reason (``Too many levels of symbolic links``, ``Permission denied``).
+    """
+    try:
+        return file.stat().st_mode
+    except OSError as err:
+        if err.errno not in (errno.ENOENT, errno.ENOTDIR):
+            raise LogError(f"{shown}: cannot be read ({err.strerror})") from err
+        if file.is_symlink():
+            raise LogError(
+                f"{shown}: a symbolic link to {os.readlink(file)!r}, which does not exist"
+            ) from err
+        raise LogError(f"{shown}: no such file") from err
 
 
 def _inside_bag_hint(file: Path) -> str:

@@ -60,7 +60,9 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         number of JSON messages, inside arrays of messages or objects too, named with ``[]``;
         arrays counted element by element); its ``nonfinite`` is
         their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
-        ``None`` too for a column that is not numeric.
+        ``None`` too for a column that is not numeric.  The first number of a column or
+        field that ``analyze`` refuses as one a ``float64`` does not hold (an integer beyond
+        2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words.
 
     Raises
     ------

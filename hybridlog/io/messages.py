@@ -95,6 +95,8 @@ a whole batch of them alive at once made each of its collections walk up to 65,5
 again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 s in parts of
 512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young."""
 HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
+WIDE_INTEGER_TYPES = frozenset(("int64", "uint64"))
+"""ROS integer types whose values may lie beyond 2^53, which a ``float64`` does not hold."""
 MAX_JSON_DEPTH = 256
 """Nesting of a JSON message or schema (objects and arrays) that ``inspect`` walks; deeper
 is reported as a problem of the topic, never cut silently.  Real documents are a few levels
@@ -578,6 +580,13 @@ class MessageSource(abc.ABC):
             entry["fields"] = [_spell(name, leaf, shared) for leaf in entry["fields"]]
             for value in entry["values"] or []:
                 value["name"] = _spell(name, value["name"].removeprefix(name), shared)
+            counter = counters.get(name)
+            if counter is not None and entry["values"] is not None:
+                # what analyze refuses when the field is mapped, said before it is
+                problems.extend(
+                    f"{excerpt(_spell(name, path, shared))}: {text}"
+                    for path, text in counter.unheld.items()
+                )
         total = sum(t["count"] for t in topics)
         return {
             "path": self.path,
@@ -706,6 +715,10 @@ class _ValueCounter:
     cannot be decoded, or a JSON message nested deeper than :data:`MAX_JSON_DEPTH`, stops the
     count, with ``problem`` saying why.
 
+    The integers ``analyze`` refuses as not held by a ``float64`` (:func:`~hybridlog.io.exact.
+    inexact`: beyond 2^53) are looked for too, in ``int64``/``uint64`` fields and JSON
+    integers: ``unheld`` maps a field path to the first such value and the time of its message.
+
     Parameters
     ----------
     topic:
@@ -713,12 +726,22 @@ class _ValueCounter:
     float_leaves:
         Its floating-point leaves, or ``None`` for JSON messages, which are walked as they
         come.
+    wide_leaves:
+        Its ``int64``/``uint64`` leaves (ROS messages), whose values are checked, not counted.
     """
 
-    def __init__(self, topic: Topic, float_leaves: list[_DeepLeaf] | None) -> None:
+    def __init__(
+        self,
+        topic: Topic,
+        float_leaves: list[_DeepLeaf] | None,
+        wide_leaves: Sequence[_DeepLeaf] = (),
+    ) -> None:
         self.topic = topic
         self.leaves = float_leaves
+        self.wide = wide_leaves
         self.problem: str | None = None
+        # field path after the topic -> the first value beyond 2^53 a float64 does not hold
+        self.unheld: dict[str, str] = {}
         self._datas: list[bytes] = []
         self._times: list[int] = []
         # field path after the topic -> [values, non-finite values]
@@ -740,11 +763,15 @@ class _ValueCounter:
         if topic.typedefs is None or topic.msgtype not in topic.typedefs:
             return None
         found = _deep_leaves(topic.typedefs, topic.msgtype)
-        return cls(topic, [leaf for leaf in found if leaf.leaf.type_name in FLOAT_TYPES])
+        return cls(
+            topic,
+            [leaf for leaf in found if leaf.leaf.type_name in FLOAT_TYPES],
+            [leaf for leaf in found if leaf.leaf.type_name in WIDE_INTEGER_TYPES],
+        )
 
     def add(self, data: bytes, log_time: int) -> None:
         """Take one serialised message; count a part when :data:`DECODED_AT_ONCE` are held."""
-        if self.problem is not None or self.leaves == []:
+        if self.problem is not None or (self.leaves == [] and not self.wide):
             return
         self._datas.append(data)
         self._times.append(log_time)
@@ -777,7 +804,10 @@ class _ValueCounter:
             return
         if self.leaves is None:
             for row, message in enumerate(messages):
-                too_deep = _count_json(message, "", self._counts, self.fields, 0)
+                unheld: dict[str, str] = {}
+                too_deep = _count_json(message, "", self._counts, self.fields, 0, unheld)
+                for path, reason in unheld.items():
+                    self._note_unheld(path, reason, times[row])
                 if too_deep is not None:
                     self.problem = (
                         f"the message logged at t={format_ns(times[row])} s nests deeper than "
@@ -799,6 +829,42 @@ class _ValueCounter:
             entry = self._counts[leaf.text]
             entry[0] += values.size
             entry[1] += count_nonfinite(values)
+        for leaf in self.wide:
+            if leaf.text in self.unheld:
+                continue
+            try:
+                if leaf.arrays not in elements:
+                    elements[leaf.arrays] = _elements(messages, leaf.arrays)
+                if not beyond_exact(_leaf_values(elements[leaf.arrays], leaf.leaf)).any():
+                    continue
+                found = _first_unheld(messages, leaf)
+            except (PathError, ValueError) as err:
+                self.problem = f"{leaf.text}: {err}; its values are not counted"
+                return
+            if found is not None:
+                self._note_unheld(leaf.text, found[1], times[found[0]])
+
+    def _note_unheld(self, path: str, reason: str, log_time: int) -> None:
+        """Keep the first value of field ``path`` a float64 does not hold, with its time."""
+        self.unheld.setdefault(
+            path, f"the value {reason} in the message logged at t={format_ns(log_time)} s"
+        )
+
+
+def _first_unheld(messages: list[object], leaf: _DeepLeaf) -> tuple[int, str] | None:
+    """The first of ``messages`` whose ``leaf`` holds an integer a float64 does not hold.
+
+    Its row and why (:func:`~hybridlog.io.exact.inexact`); ``None`` when there is none.
+    """
+    for row, message in enumerate(messages):
+        for element in _elements([message], leaf.arrays):
+            value = evaluate(element, leaf.leaf.steps)  # as decoded: ints, not floats
+            items = np.ravel(np.asarray(value)).tolist() if leaf.leaf.array else [value]
+            for item in items:
+                reason = inexact(item)
+                if reason is not None:
+                    return row, reason
+    return None
 
 
 def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
@@ -891,19 +957,21 @@ def _count_json(
     counts: dict[str, list[int]],
     fields: dict[str, None],
     depth: int,
+    unheld: dict[str, str],
 ) -> str | None:
     """Add the numbers of a decoded JSON value to ``counts``; ``[]`` marks array elements.
 
     Objects inside arrays are walked as the array's elements (``.poses[].x``), every number
     counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  The paths of numbers
-    (booleans too) and text are added to ``fields``.  Returns ``None``, or the path at which
-    the value nests deeper than that (nothing more is counted).
+    (booleans too) and text are added to ``fields``; an integer a ``float64`` does not hold
+    (beyond 2^53) is noted in ``unheld``, the first of each path.  Returns ``None``, or the
+    path at which the value nests deeper than that (nothing more is counted).
     """
     if depth > MAX_JSON_DEPTH:
         return path or "the message"
     if isinstance(value, Mapping):
         for key, item in value.items():
-            too_deep = _count_json(item, f"{path}.{key}", counts, fields, depth + 1)
+            too_deep = _count_json(item, f"{path}.{key}", counts, fields, depth + 1, unheld)
             if too_deep is not None:
                 return too_deep
     elif isinstance(value, list):
@@ -914,9 +982,10 @@ def _count_json(
             entry = counts.setdefault(f"{path}[]", [0, 0])
             entry[0] += len(numbers)
             entry[1] += sum(map(_is_nonfinite, numbers))
+            _note_json_unheld(numbers, f"{path}[]", unheld)
         for item in value:
             if isinstance(item, Mapping | list):
-                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1)
+                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1, unheld)
                 if too_deep is not None:
                     return too_deep
     elif _is_json_number(value) and path:
@@ -924,9 +993,22 @@ def _count_json(
         entry = counts.setdefault(path, [0, 0])
         entry[0] += 1
         entry[1] += _is_nonfinite(value)
+        _note_json_unheld([value], path, unheld)
     elif isinstance(value, str | bool) and path:
         fields[path] = None
     return None
+
+
+def _note_json_unheld(numbers: Sequence[object], path: str, unheld: dict[str, str]) -> None:
+    """Note in ``unheld`` the first of ``numbers`` (of ``path``) a float64 does not hold."""
+    if path in unheld:
+        return
+    for number in numbers:
+        if isinstance(number, int) and abs(number) > EXACT_LIMIT:
+            reason = inexact(number)
+            if reason is not None:
+                unheld[path] = reason
+                return
 
 
 def _is_json_number(value: object) -> bool:

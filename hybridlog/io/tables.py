@@ -856,6 +856,10 @@ class TableSource:
             _describe_column(frame.get_column(c), time_ns, self._format, resolution)
             for c in frame.columns
         ]
+        for described in columns:  # the time column's values were checked as times
+            if described["nonfinite"] is not None and described["name"] != self._time_column:
+                found = self._unheld_value(frame.get_column(described["name"]), rows)
+                problems.extend([found] if found is not None else [])
         steps = describe_steps(
             time_ns if time_ns is not None else np.zeros(0, dtype=np.int64),
             resolution_ns=resolution,
@@ -877,6 +881,30 @@ class TableSource:
                 "duration": round_span(int(time_ns[-1]) - int(time_ns[0]), resolution),
             }
         return info
+
+    def _unheld_value(self, taken: pl.Series, rows: IntArray) -> str | None:
+        """The first value of a numeric column that ``analyze`` refuses as not held, if any.
+
+        The checks :meth:`read` makes of a number it reads, made here too: an integer beyond
+        2^53 that a ``float64`` cannot hold (:meth:`_refuse_inexact`), a CSV number beyond
+        the range of a ``float64`` (:meth:`_refuse_overflow`).  Inspect, which parsed the
+        column on its own, gave such a column's range as though it held the number, and
+        ``analyze`` then refused the log naming a line inspect said nothing of.  ``rows``:
+        the data row of each of ``taken``'s cells.  ``None`` when every value is held.
+        """
+        if _holds_text(taken.dtype):
+            column = taken.str.strip_chars().cast(pl.Float64, strict=False)
+        elif _holds_numbers(taken.dtype):
+            column = taken.cast(pl.Float64)
+        else:
+            return None
+        try:
+            self._refuse_inexact(taken, column, rows)
+            if self._format == "csv" and column.is_infinite().any():
+                self._refuse_overflow(column, rows)
+        except LogError as err:
+            return str(err).removeprefix(f"{self.path}, ")
+        return None
 
     def _leaves_of(self, frame: pl.DataFrame, problems: list[str]) -> pl.DataFrame:
         """``frame`` with each struct, list or array column replaced by its leaves.
