@@ -363,6 +363,12 @@ def check_centers(
         )
     from hybridlog.model.compiled import model_key
 
+    if centers.dt is not None and centers.dt != model.dt:
+        raise OptionError(
+            f"centers={source}: dt: the centres were fitted for model {model.name!r} with "
+            f"dt = {centers.dt} s, this one's dt is {model.dt} s (φ(k) spans other sample "
+            "times); fit them again for this model with hybridlog cluster"
+        )
     if centers.model_key is not None and centers.model_key != model_key(model):
         raise OptionError(
             f"centers={source}: model_key: the centres were fitted for another version of "

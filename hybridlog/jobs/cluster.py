@@ -484,6 +484,7 @@ def discover_modes(
     content: dict[str, Any] = {
         "model": model.name,
         "model_key": model_key(model),
+        "dt": model.dt,
         "log": as_text(log),
         "mode_ids": list(model.mode_ids),
         "regressors": list(fitted.regressors),
