@@ -991,10 +991,10 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
             f"({_spans(gaps)}) "
             + (
-                f"cut the log into {len(segments)} pieces; this report is of the longest, "
+                f"cut the log into {len(segments)} pieces; the longest is analysed, "
                 f"{span}; not analysed: {_spans(others)}"
                 if others  # else the gaps are at the ends: one piece, and they are left out
-                else f"left out; this report is of {span}"
+                else f"left out; analysed: {span}"
             )
         )
     for key, what in (
