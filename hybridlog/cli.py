@@ -812,6 +812,10 @@ def cluster_command(
     for note in outcome.notes:
         _say(ctx, f"- {note}")
     _say(ctx, f"centres: {outcome.centers_path}, plot: {outcome.plot_path}")
+    settings = ctx.find_object(_Context)
+    if not (settings is not None and settings.quiet):  # as analyze says them of the log
+        for alert in outcome.alerts:
+            click.echo(_one_line(f"hybridlog: {alert}"), err=True)
 
 
 @cli.command(

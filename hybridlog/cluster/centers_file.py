@@ -9,6 +9,7 @@ Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estima
       "format": "hybridlog-centers", "version": 1,
       "model": "double_cart_case1", "log": "sample_logs/double_cart_case1.csv",
       "model_key": "3f5c…",                            # the model's content key (below)
+      "dt": 0.5,                                       # the model's sample time, seconds
       "mode_ids": ["1", "2"],
       "regressors": ["y(k)", "y(k-1)", "u(k-1)"],
       "output_lags": [0, 1], "input_lags": [1],
@@ -30,7 +31,9 @@ the clusters are labelled as modes by how well each mode's equations predict the
 the switched observer then runs those equations, so centres of a model whose equations were
 edited since (two modes' dynamics swapped) would be used with the wrong labels.  A file
 without it (made by hand, or by a hybridlog before it was written) is checked on its name,
-modes and regressors alone.
+modes and regressors alone.  ``dt`` is the model's sample time, the spacing of the samples
+in φ(k): a key says only that the model differs, ``dt`` names the commonest edit (a model
+copied with another ``dt``), and a file made by hand that records it is checked on it too.
 
 The keys the estimators need are validated on reading, against each other too (labels among
 ``mode_ids``, centres inside ``scaling``: where a fitted file puts them, ``output_lags`` and
@@ -71,7 +74,7 @@ VERSION = 1
 
 _KEYS = frozenset(
     {
-        *("format", "version", "model", "model_key", "log", "mode_ids", "regressors"),
+        *("format", "version", "model", "model_key", "dt", "log", "mode_ids", "regressors"),
         *("output_lags", "input_lags", "scaling", "chiu", "kmeans", "reading"),
         *("mode_accuracy_on_log", "mode_accuracy_over"),
     }
@@ -140,6 +143,8 @@ class CentersFile:
     clusters: dict[str, StoredClusters]
     model_key: str | None = None
     """The content key of the model the centres were fitted for; ``None`` if not recorded."""
+    dt: float | None = None
+    """The sample time (s) of the model the centres were fitted for; ``None`` if not recorded."""
 
     def entry(
         self,
@@ -322,6 +327,7 @@ def parse_centers(text: str, source: str) -> CentersFile:
         upper=upper,
         clusters=clusters,
         model_key=reader.key(data, "model_key"),
+        dt=reader.positive(data, "dt"),
     )
 
 
@@ -367,6 +373,18 @@ class _Reader:
         if not isinstance(value, str) or re.fullmatch(r"[0-9a-f]{64}", value) is None:
             raise self.error(key, "expected 64 hexadecimal digits (the model's content key)")
         return value
+
+    def positive(self, data: Mapping[str, Any], key: str) -> float | None:
+        """A finite positive number, or ``None`` where the file records none."""
+        value = data.get(key)
+        if value is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.error(key, "expected a positive number of seconds")
+        number = float(value)
+        if not (math.isfinite(number) and number > 0):
+            raise self.error(key, f"expected a positive number of seconds, got {value!r}")
+        return number
 
     def lags(self, data: Mapping[str, Any], key: str) -> tuple[int, ...]:
         value = data.get(key)

@@ -363,6 +363,18 @@ def check_centers(
         )
     from hybridlog.model.compiled import model_key
 
+    if centers.dt is not None and centers.dt != model.dt:
+        raise OptionError(
+            f"centers={source}: dt: the centres were fitted for model {model.name!r} with "
+            f"dt = {centers.dt} s, this one's dt is {model.dt} s (φ(k) spans other sample "
+            "times); fit them again for this model with hybridlog cluster"
+        )
+    spec = options.regressor_spec()
+    lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
+    names = spec.names(model.outputs, model.inputs)
+    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
+    # after what can be named (dt, modes, regressors: a renamed output said only "another
+    # version of model"): the key says that something else of the model differs
     if centers.model_key is not None and centers.model_key != model_key(model):
         raise OptionError(
             f"centers={source}: model_key: the centres were fitted for another version of "
@@ -370,10 +382,6 @@ def check_centers(
             "this one's), whose modes label the clusters; fit them again for this model "
             "with hybridlog cluster"
         )
-    spec = options.regressor_spec()
-    lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
-    names = spec.names(model.outputs, model.inputs)
-    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
     _check_consistent(model, options, centers, source)
     check_cluster_modes(model, options, clusters=len(entry.centers), origin=cluster_modes)
     shared = {f.name for f in dataclasses.fields(ObserverOptions)}

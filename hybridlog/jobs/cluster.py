@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
@@ -53,11 +53,18 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_target,
 )
+from hybridlog.report.build import log_reading_notes, unused_sample_notes
 from hybridlog.report.coverage import samples_coverage
 from hybridlog.report.summary import markdown_table
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
 
-__all__ = ["PLOT_SUFFIXES", "ClusterOutcome", "check_cluster_outputs", "discover_modes"]
+__all__ = [
+    "PLOT_SUFFIXES",
+    "ClusterOutcome",
+    "check_cluster_outputs",
+    "discover_modes",
+    "reading_said",
+]
 
 _Options = TypeVar("_Options", ChiuOptions, KMeansOptions)
 
@@ -76,6 +83,40 @@ class ClusterOutcome:
     chiu: ModeClassifier
     kmeans: ModeClassifier | None
     accuracy: dict[str, float | None]
+    alerts: tuple[str, ...] = ()
+    """Lines for stderr, each ``warning: …`` or ``note: …``: outputs the regression vectors
+    took from the samples around (bridged), samples of the log not used, holds — what
+    ``analyze`` prints on stderr of a log so read (:func:`reading_said`)."""
+
+
+def reading_said(reading: Mapping[str, Any]) -> tuple[list[str], list[str]]:
+    """What reading the log did, in words: lines for stderr, and notes for the table.
+
+    The same log analysed printed ``hybridlog: warning: output y has no sample within dt/2
+    of 500 of 1001 sample times`` (a log at half the model's rate) and notes of samples not
+    used (one at twice it); ``hybridlog cluster`` said none of it, and fitted centres on
+    measurements used twice (``y(k) = y(k-1)``) without a word.  Warnings and the notes of
+    samples not used go to stderr (``warning: …``, ``note: …``), the other notes of
+    :func:`~hybridlog.report.build.log_reading_notes` (the user's repairs, the span) below
+    the table.
+    """
+    alerts = [
+        f"warning: output {symbol} has no sample within dt/2 of {count['points']:,} of "
+        f"{count['of']:,} sample times: the regression vectors φ(k) took its value there from "
+        "the samples around (a measurement used more than once, or interpolated; is the "
+        "model's dt the log's?) and the clusters were fitted on them"
+        for symbol, count in (reading.get("bridged") or {}).items()
+    ]
+    unused = set(unused_sample_notes(reading))
+    notes: list[str] = []
+    for note in log_reading_notes(reading):
+        if note.startswith("WARNING: "):
+            alerts.append(f"warning: {note.removeprefix('WARNING: ')}")
+        elif note in unused:
+            alerts.append(f"note: {note.removeprefix('NOTE: ')}")
+        else:
+            notes.append(note)
+    return alerts, notes
 
 
 def _accuracy(
@@ -443,6 +484,7 @@ def discover_modes(
     content: dict[str, Any] = {
         "model": model.name,
         "model_key": model_key(model),
+        "dt": model.dt,
         "log": as_text(log),
         "mode_ids": list(model.mode_ids),
         "regressors": list(fitted.regressors),
@@ -515,7 +557,8 @@ def discover_modes(
         ),
         rows,
     )
-    notes += [*fitted.notes, *fitted.labelling]
+    alerts, read_notes = reading_said(reading)
+    notes += [*fitted.notes, *fitted.labelling, *read_notes]
     if baseline is not None:
         notes += [*baseline.notes, *baseline.labelling]
     for name, value in accuracy.items():
@@ -532,4 +575,5 @@ def discover_modes(
         chiu=fitted,
         kmeans=baseline,
         accuracy=accuracy,
+        alerts=tuple(alerts),
     )

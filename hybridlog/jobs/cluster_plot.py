@@ -9,27 +9,51 @@ horizontal lines, and the true mode when the log has it.  With more than
 entry per cluster would repeat colours and bury the axes under the legend: the samples are
 then coloured by the mode their cluster decides (grey when unlabelled), and the decision
 variables are ticks at the right edge.  Agg canvas, no pyplot.
+
+The same clusters give the same bytes in every format (:func:`save_reproducibly`): matplotlib
+stamps an SVG with the time it was drawn and random element ids, and a PDF with its creation
+date, so two runs on one log wrote different pictures where the PNG and centers.json agreed.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.report.plot_data import plain_text
 from hybridlog.signals import FloatArray, IntArray
 
-__all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters"]
+__all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters", "save_reproducibly"]
 
 _MAX_POINTS = 20_000
 
 MAX_CLUSTER_COLOURS = 10
 """Most clusters drawn one colour and one legend entry each (matplotlib's ten colours)."""
+
+
+_UNDATED: Mapping[str, Mapping[str, None]] = {
+    ".svg": {"Date": None},
+    ".pdf": {"CreationDate": None},
+}
+"""The metadata of each format that would record when the picture was drawn, left out."""
+
+
+def save_reproducibly(fig: Figure, path: Path, *, dpi: int) -> None:
+    """Save ``fig`` to ``path`` (format from its suffix) as the same bytes every time.
+
+    No date in an SVG's or PDF's metadata, and the SVG's element ids hashed with a fixed
+    salt (matplotlib salts them with a random UUID, and ``SOURCE_DATE_EPOCH`` set in the
+    environment would put that date back).
+    """
+    metadata = dict(_UNDATED.get(path.suffix.lower(), {}))
+    with rc_context({"svg.hashsalt": "hybridlog"}):
+        fig.savefig(path, dpi=dpi, metadata=metadata or None)
 
 
 def _groups(
@@ -145,5 +169,5 @@ def plot_clusters(
         twin.set_yticks(range(len(ids)), [plain_text(f"true {m}") for m in ids])
     if accuracy is not None:
         fig.suptitle(plain_text(accuracy), fontsize=9)
-    fig.savefig(path, dpi=100)
+    save_reproducibly(fig, path, dpi=100)
     return path

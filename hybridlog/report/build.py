@@ -52,6 +52,8 @@ __all__ = [
     "build_report",
     "check_compatible",
     "jsonable",
+    "log_reading_notes",
+    "unused_sample_notes",
 ]
 
 MIN_SAMPLES = 3
@@ -910,7 +912,19 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         f"out, and estimates.csv's {symbol}_true is empty there"
         for symbol, count in (reading.get("truth_bridged") or {}).items()
     ]
-    notes += unused_sample_notes(reading)
+    return (*notes, *log_reading_notes(reading))
+
+
+def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
+    """What :func:`_reading_notes` says of how the log was read but for the bridged signals.
+
+    Samples not used, holds, the true mode's silences and late start, the span, and the
+    user's repairs (``--split-gaps``, ``--drop-nonfinite``, ``--sort``, ``--recover``): true
+    whatever used the log, so ``hybridlog cluster`` says them too (it said none of them; the
+    bridged outputs it words itself, its regression vectors took the stand-in values).
+    """
+    reading = reading or {}
+    notes = unused_sample_notes(reading)
     notes += [
         f"WARNING: {hold.get('kind', 'input')} {symbol} has no sample {_hold_span(hold)}: "
         f"held at its last value, as {_article(hold.get('kind', 'input'))} published only "
@@ -977,10 +991,10 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
             f"({_spans(gaps)}) "
             + (
-                f"cut the log into {len(segments)} pieces; this report is of the longest, "
+                f"cut the log into {len(segments)} pieces; the longest is analysed, "
                 f"{span}; not analysed: {_spans(others)}"
                 if others  # else the gaps are at the ends: one piece, and they are left out
-                else f"left out; this report is of {span}"
+                else f"left out; analysed: {span}"
             )
         )
     for key, what in (

@@ -502,3 +502,83 @@ def test_a_key_given_twice_is_refused():
         OptionError, match=r"^mem.json: the key 'modes' is given twice in one object; keep one$"
     ):
         parse_centers(doubled, "mem.json")
+
+
+def test_centres_of_another_dt_are_refused_naming_both(tmp_path):
+    """A model copied with ``dt = 0.25`` was refused only as "another version" of it.
+
+    The message listed equations, parameters, noise or names; the time step, which decides
+    the samples φ(k) spans, was not among them.  A file made by hand (no ``model_key``)
+    that records ``dt`` was not checked on it at all.
+    """
+    from hybridlog.estimators.observer_options import check_centers
+    from hybridlog.model.builtins import builtin_text
+    from hybridlog.model.cache import load_model
+
+    fine = load_model("double_cart_case1")
+    path = tmp_path / "dc1.toml"
+    path.write_text(builtin_text("double_cart_case1").replace("dt = 0.5", "dt = 0.25", 1))
+    other = load_model(str(path))
+    content = {
+        **_STORED,
+        "model": fine.name,
+        "dt": 0.5,
+        "mode_ids": list(fine.mode_ids),
+        "chiu": {"centers": [[4.0], [0.0]], "modes": ["2", "1"]},
+    }
+    options = ChiuOptions(output_lags="0", input_lags="")
+    check_centers(fine, options, centers=parse_centers(centers_json(content), "mem.json"))
+    with pytest.raises(
+        OptionError,
+        match=r"^centers=mem.json: dt: the centres were fitted for model 'double_cart_case1' "
+        r"with dt = 0.5 s, this one's dt is 0.25 s",
+    ):
+        check_centers(other, options, centers=parse_centers(centers_json(content), "mem.json"))
+    for bad in (0, -1.0, "0.5", True):
+        with pytest.raises(OptionError, match=r"^mem.json: dt: expected a positive number"):
+            parse_centers(centers_json({**content, "dt": bad}), "mem.json")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('outputs = ["y"]', 'outputs = ["z"]', r"regressors \['y\(k\)'\] do not match .*'z\(k\)'"),
+        (
+            "[modes.2]",
+            "[modes.3]",
+            r"mode_ids: the centres were fitted for the modes 1, 2, .* 1, 3",
+        ),
+        (
+            "[0.7627, 0.4596",
+            "[0.7628, 0.4596",
+            r"model_key: the centres were fitted for another version",
+        ),
+    ],
+)
+def test_centres_of_an_edited_model_are_refused_naming_what_differs(tmp_path, old, new, message):
+    """A renamed output or mode was refused only as "another version" of the model.
+
+    The model's content key differs for any edit; the modes and the regressors name what.
+    """
+    from hybridlog.estimators.observer_options import check_centers
+    from hybridlog.model.builtins import builtin_text
+    from hybridlog.model.cache import load_model
+    from hybridlog.model.compiled import model_key
+
+    fine = load_model("double_cart_case1")
+    text = builtin_text("double_cart_case1")
+    assert old in text
+    path = tmp_path / "dc1.toml"
+    path.write_text(text.replace(old, new, 1))
+    content = {
+        **_STORED,
+        "model": fine.name,
+        "model_key": model_key(fine),
+        "mode_ids": list(fine.mode_ids),
+        "chiu": {"centers": [[4.0], [0.0]], "modes": ["2", "1"]},
+    }
+    centers = parse_centers(centers_json(content), "mem.json")
+    options = ChiuOptions(output_lags="0", input_lags="")
+    check_centers(fine, options, centers=centers)
+    with pytest.raises(OptionError, match=r"^(centers=)?mem.json: " + message):
+        check_centers(load_model(str(path)), options, centers=centers)

@@ -741,7 +741,7 @@ def test_report_md_says_what_the_users_repairs_of_the_log_changed(tmp_path: Path
     end = frame["t"][-1]
     note = (
         "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 99 … 130 s) cut the log "
-        f"into 2 pieces; this report is of the longest, t = 130 … {end:g} s; not analysed: "
+        f"into 2 pieces; the longest is analysed, t = 130 … {end:g} s; not analysed: "
         "t = 0 … 99 s"
     )
     assert note in done.report.notes
