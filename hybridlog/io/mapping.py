@@ -542,6 +542,7 @@ def resolve_signal_map(
         field_key or (lambda name: (name, ())),
         commands,
         feeds=TRUTH_FEEDS,
+        ends_meet=False,
     )
     return SignalMap(
         input_fields,
@@ -565,6 +566,7 @@ def _refuse_shared(
     commands: Sequence[str] = (),
     *,
     feeds: str = SIGNAL_FEEDS,
+    ends_meet: bool = True,
 ) -> None:
     """Refuse one field feeding two inputs, outputs or commands (``--map u=y1``, an output ``y1``).
 
@@ -581,7 +583,9 @@ def _refuse_shared(
     an array of three.  Into an array whose length is known only per message (a sequence),
     an index from the start and one from the end read one element in messages of some
     length (``q[2]`` and ``q[-1]`` in those of three): refused too, asking for both indices
-    counted from one end.
+    counted from one end.  Not for ground truth (``ends_meet=False``): a state array's first
+    and last elements (``data[0]``, ``data[-1]``) are the usual way to read two true states,
+    and they meet only in messages holding a single element.
 
     Raises
     ------
@@ -597,7 +601,7 @@ def _refuse_shared(
     for symbol, name in chosen.items():
         key = field_key(name)
         for other_key, other in owner.items():
-            length = _one_element_at(key, other_key)
+            length = _one_element_at(key, other_key) if ends_meet else None
             if length is not None:
                 raise LogError(
                     f"{source}: {described(other)} and {described(symbol)} index one array "
