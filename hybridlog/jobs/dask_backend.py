@@ -56,7 +56,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
-from hybridlog.errors import HybridlogError, OptionError, excerpt
+from hybridlog.errors import HybridlogError, OptionError, OutputError, excerpt
 from hybridlog.memory import available_memory, check_fits, size_text
 
 __all__ = [
@@ -228,6 +228,8 @@ def check_out(client: Any, workers: Workers, out: Path) -> Iterator[Workers]:
     OptionError
         When a worker does not see the file, naming the worker and the folder (the file
         removed: the caller removes what it made of the folder).
+    OutputError
+        When the file cannot be written into the folder (a batch folder made read-only).
     """
     from hybridlog.outputs import temporary_name
 
@@ -235,7 +237,7 @@ def check_out(client: Any, workers: Workers, out: Path) -> Iterator[Workers]:
     try:
         probe.write_bytes(b"")
     except OSError as err:
-        raise OptionError(f"cannot create output directory {out}: {err.strerror}") from err
+        raise OutputError(f"cannot write into output directory {out}: {err.strerror}") from err
     try:
         seen = cast(dict[str, bool], client.run(_sees, str(probe)))
         for worker, sees in sorted(seen.items()):
