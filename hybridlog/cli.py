@@ -206,7 +206,8 @@ def _read_options(function: F) -> F:
             "--split-gaps",
             is_flag=True,
             help="Cut the log at output gaps longer than --max-gap and use the longest "
-            "piece (the pieces are listed under reading in report.json or centers.json) "
+            "piece (the pieces, the first 1000 of them and how many, are listed under "
+            "reading in report.json or centers.json) "
             "instead of refusing the log.",
         ),
         click.option(

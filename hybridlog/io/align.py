@@ -44,7 +44,11 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   estimators need one continuous grid, and a filter carried across a gap would start the next
   piece from a stale state; analysing each piece separately would need one report per piece.
   The pieces and the one analysed are recorded (``notes["segments"]``,
-  ``notes["analysed_segment"]``) and end up in ``report.json``.
+  ``notes["analysed_segment"]``, ``notes["analysed"]``) and end up in ``report.json``: the
+  first :data:`~hybridlog.io.summary.MAX_LISTED_GAPS` pieces and gaps in time order, as
+  ``inspect`` lists gaps, each list with its count and whether it was cut
+  (``segment_count``, ``segments_truncated``, ``gap_count``, ``gaps_truncated``): a log cut
+  into 20,000 pieces had them all listed, 2 MB of report.json, in every report of a batch.
 
 A sample up to ``dt/1000`` (at least 1 µs, at most ``dt/4``) away from a grid point counts as
 *at* it: float seconds at Unix-epoch magnitudes carry ~0.2 µs of rounding, and a log sampled
@@ -70,6 +74,7 @@ import numpy.typing as npt
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import Resample, check_max_gap, check_resample
 from hybridlog.io.source import BLOCK, NS_PER_S, LabelSeries, Series, format_ns, ns_to_seconds
+from hybridlog.io.summary import MAX_LISTED_GAPS
 from hybridlog.signals import (
     LONGEST_DT_S,
     NO_TRUE_MODE,
@@ -1163,6 +1168,28 @@ def _truth_start(series: LabelSeries, codes: IntArray, grid: IntArray) -> dict[s
     }
 
 
+def _piece(start_ns: int, end_ns: int) -> dict[str, float]:
+    """A piece of a log cut by ``--split-gaps``, as report.json lists it."""
+    return {
+        "start": start_ns / NS_PER_S,
+        "end": end_ns / NS_PER_S,
+        "duration": _seconds(start_ns, end_ns),
+    }
+
+
+def _listed(key: str, noun: str, items: list[dict[str, float]]) -> dict[str, Any]:
+    """``items`` under ``key``, the first :data:`MAX_LISTED_GAPS` of them, counted and flagged.
+
+    ``{key: [...], f"{noun}_count": n, f"{key}_truncated": bool}``: a reader of report.json
+    knows from the flag, never from a guess, that the list is not whole.
+    """
+    return {
+        key: items[:MAX_LISTED_GAPS],
+        f"{noun}_count": len(items),
+        f"{key}_truncated": len(items) > MAX_LISTED_GAPS,
+    }
+
+
 def _longest_piece(
     source: str,
     field_word: str,
@@ -1212,18 +1239,18 @@ def _longest_piece(
         raise LogError(f"{source}: no stretch of the outputs is free of gaps longer than max_gap")
     best = max(range(len(pieces)), key=lambda i: (pieces[i][1] - pieces[i][0], -i))
     lo, hi = pieces[best]
-    notes["segments"] = [
-        {"start": a / NS_PER_S, "end": b / NS_PER_S, "duration": _seconds(a, b)} for a, b in pieces
-    ]
+    notes.update(_listed("segments", "segment", [_piece(a, b) for a, b in pieces]))
     notes["analysed_segment"] = best
-    notes["gaps"] = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in sorted(set(gaps))]
+    notes["analysed"] = _piece(lo, hi)
+    gap_list = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in sorted(set(gaps))]
+    notes.update(_listed("gaps", "gap", gap_list))
     cut: dict[str, Series] = {}
     for symbol, series in outputs.items():
         keep = (series.time_ns >= lo) & (series.time_ns <= hi)
         cut[symbol] = Series(series.name, series.time_ns[keep], series.values[keep])
     longest = "the only one" if len(pieces) == 1 else "the longest"
     piece = (
-        f"--split-gaps piece {best + 1} of {len(pieces)}, t = {format_ns(lo)} … "
+        f"--split-gaps piece {best + 1:,} of {len(pieces):,}, t = {format_ns(lo)} … "
         f"{format_ns(hi)} s, {longest}"
     )
     return cut, piece

@@ -589,8 +589,11 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 # --- the batch ----------------------------------------------------------------------------------
 
 
-def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
-    """Create the batch folder and the folders holding log folders, or check they are ours."""
+def _prepare_root(root: Path, folders: Sequence[Path]) -> _Made:
+    """Create the batch folder and the folders holding log folders, or check they are ours.
+
+    Returns what it made, to be removed should the batch be refused now (:func:`_plan`).
+    """
     # creatable (its name, its parent), not a file or a link, not someone else's folder
     check_dir_target(root, force=True, replacing=False)
     if root.exists() and any(root.iterdir()) and not is_ours(root):
@@ -606,9 +609,11 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
             "or compare report, a simulated bag), not a batch folder; choose another --out"
         )
     parents = sorted({folder.parent for folder in folders} | {root})
+    made = [path for path in [*root.parents, *parents] if not path.exists()]
+    marked = not (root / MARKER).is_file()
     try:
         root.mkdir(parents=True, exist_ok=True)
-        if not (root / MARKER).is_file():
+        if marked:
             write_marker(root)
         for parent in parents:
             # made here, before any worker starts, so that no worker removes one another uses
@@ -617,6 +622,26 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> None:
         raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
     for parent in parents:
         remove_stale_temporaries(parent)
+    return _Made(root, marked, sorted(set(made), key=lambda p: len(p.parts), reverse=True))
+
+
+@dataclass(frozen=True)
+class _Made:
+    """What :func:`_prepare_root` made: the marker (if this run wrote it) and the folders."""
+
+    root: Path
+    marker: bool
+    folders: list[Path]
+    """Deepest first."""
+
+    def undo(self) -> None:
+        """Remove it all: the batch is refused after the folder was made (:func:`_plan`)."""
+        with contextlib.suppress(OSError):
+            if self.marker:
+                (self.root / MARKER).unlink()
+        for folder in self.folders:  # empty unless someone else wrote there meanwhile
+            with contextlib.suppress(OSError):
+                folder.rmdir()
 
 
 def _remove_previous_report(job: BatchJob, outcome: LogOutcome) -> None:
@@ -752,7 +777,7 @@ def run_batch(
     pool = client = None
     staging: list[Path] = []  # where the workers write: the report folders' parents
     if scheduler is not None:
-        from hybridlog.jobs.dask_backend import check_workers, connect, run_on_dask
+        from hybridlog.jobs.dask_backend import check_out, check_workers, connect, run_on_dask
 
         client = connect(scheduler)  # before anything is written: an unreachable one fails alone
     elif jobs > 1 and len(paths) > 1:
@@ -765,18 +790,22 @@ def run_batch(
             jobs,
             clean_up=lambda workers: _remove_temporaries_left(staging, workers),
         )
-    resource: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
+    resource = contextlib.ExitStack()
     if pool is not None:
-        resource = pool
+        resource.enter_context(pool)
     elif client is not None:
-        resource = contextlib.closing(client)
-    workers: list[Any] = []  # the Dask workers' check (:func:`check_workers`)
+        resource.enter_context(contextlib.closing(client))
+    workers: list[Any] = []  # the Dask workers' check (:func:`check_workers`, :func:`check_out`)
 
     def check_cluster(inputs: Sequence[tuple[str, PathLike]]) -> None:
         if client is not None and scheduler is not None:  # before anything is written
             paths = [(what, os.fspath(path)) for what, path in inputs]
             model = (str(model_ref), model_hash(model_ref))
             workers.append(check_workers(client, scheduler, paths, model))
+
+    def check_cluster_out(root: Path) -> None:
+        if client is not None and workers:  # the batch folder made: the workers must see it
+            workers[0] = resource.enter_context(check_out(client, workers[0], root))
 
     with resource:
         job, model, gates, tasks = _plan(
@@ -796,6 +825,7 @@ def run_batch(
             smooth=smooth,
             mode_sequence=mode_sequence,
             check_inputs=check_cluster,
+            check_out=check_cluster_out,
         )
         staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
         died = [_died(log, folder) for _, log, folder in tasks]
@@ -819,6 +849,7 @@ def run_batch(
                         tasks[i][1], tasks[i][2], "failed", None, _one_line(why)
                     ),
                     done=progress,
+                    kept=lambda outcome: outcome.status != "failed",
                 )
             elif pool is not None:
                 outcomes = pool.run(
@@ -903,11 +934,13 @@ def _plan(
     smooth: bool = False,
     mode_sequence: str | None = None,
     check_inputs: Callable[[Sequence[tuple[str, PathLike]]], None] | None = None,
+    check_out: Callable[[Path], None] | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
     """Check everything the logs share, prepare the batch folder; the job and its tasks.
 
     ``check_inputs`` is called with the files and folders the batch reads once all is
-    checked, before anything is written (the Dask workers' check).
+    checked, before anything is written (the Dask workers' check); ``check_out`` with the
+    batch folder once it is made: when it raises, what this run made of it is removed.
     """
     # the model, the estimator and every --set value are checked before any work; the model
     # is hashed before it is read (as each worker does, :func:`_warm`): a report never
@@ -966,7 +999,13 @@ def _plan(
         _check_same_run_kind(root, folders, job)
     if check_inputs is not None:
         check_inputs(inputs)
-    _prepare_root(root, folders)
+    made = _prepare_root(root, folders)
+    if check_out is not None:
+        try:
+            check_out(root)
+        except BaseException:  # refused (a Dask worker that does not see it), interrupted
+            made.undo()
+            raise
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
         _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)

@@ -30,10 +30,13 @@ without workers is waited for :data:`WORKER_WAIT_S` at most, then refused with o
 (a batch waited forever for workers that never came); a worker with another hybridlog
 version, or one whose working folder is not the client's when the batch names a relative
 path, is refused by name (its reports would record another version, or its relative paths
-name other files, or none).  A worker that joins later is checked by each task it runs
+name other files, or none).  Once the batch folder is made, every worker must see it
+(:func:`check_out`, by a file of this run's in it: a folder of the same path on a worker's own
+disk, where its reports would go while the summaries point to folders missing here, is
+refused by name).  A worker that joins later is checked by each task it runs
 (:func:`_run_task`: the log fails, naming why).  When every worker leaves mid-batch, the
 client waits :data:`WORKER_WAIT_S` for one to come back, then stops the batch with one line
-(the logs done keep their folders: the next run resumes).
+(the logs done keep their folders: the next run skips them, and redoes those that failed).
 
 Needs the optional extra ``hybridlog[dask]`` (``dask[distributed]``).
 """
@@ -48,11 +51,12 @@ import sys
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence, Sized
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
-from hybridlog.errors import HybridlogError, OptionError, excerpt
+from hybridlog.errors import HybridlogError, OptionError, OutputError, excerpt
 from hybridlog.memory import available_memory, check_fits, size_text
 
 __all__ = [
@@ -60,6 +64,7 @@ __all__ = [
     "STOP_WAIT_S",
     "WORKER_WAIT_S",
     "WorkerMemory",
+    "check_out",
     "check_workers",
     "connect",
     "run_on_dask",
@@ -136,6 +141,10 @@ class Workers:
     """The client's working folder when the batch names a relative path, else None."""
     relative: str
     """A relative path the batch names (for the message), or ``""``."""
+    out: str = ""
+    """The batch folder (``--out``), once :func:`check_out` found every worker sees it."""
+    probe: str = ""
+    """A file of this run's in :attr:`out` that a worker seeing the folder sees, or ``""``."""
 
 
 def check_workers(
@@ -204,6 +213,58 @@ def check_workers(
     return expected
 
 
+@contextlib.contextmanager
+def check_out(client: Any, workers: Workers, out: Path) -> Iterator[Workers]:
+    """Check every worker sees the batch folder ``out``; what each task checks, for the batch.
+
+    Called once the folder is made (its marker written).  A file of this run's, hidden,
+    named like a temporary (:func:`~hybridlog.outputs.temporary_name`: removed by a later
+    run if this process dies), is made in it for the ``with`` block: a worker must see that
+    very file, so a folder of the same path on its own disk (an earlier run's there, marker
+    and all) does not pass for the client's.
+
+    Raises
+    ------
+    OptionError
+        When a worker does not see the file, naming the worker and the folder (the file
+        removed: the caller removes what it made of the folder).
+    OutputError
+        When the file cannot be written into the folder (a batch folder made read-only).
+    """
+    from hybridlog.outputs import temporary_name
+
+    probe = temporary_name(out / "shared")
+    try:
+        probe.write_bytes(b"")
+    except OSError as err:
+        raise OutputError(f"cannot write into output directory {out}: {err.strerror}") from err
+    try:
+        seen = cast(dict[str, bool], client.run(_sees, str(probe)))
+        for worker, sees in sorted(seen.items()):
+            if not sees:
+                shown = excerpt(workers.address)[1:-1]
+                raise OptionError(
+                    f"--scheduler {shown}: {_unseen_out(worker, str(out))}; its reports would "
+                    "go to its own disk, and the summaries here name folders missing here"
+                )
+        yield dataclasses.replace(workers, out=str(out), probe=str(probe))
+    finally:
+        with contextlib.suppress(OSError):
+            probe.unlink()
+
+
+def _sees(path: str) -> bool:
+    """On a worker: whether it sees ``path``."""
+    return os.path.exists(path)
+
+
+def _unseen_out(worker: str, out: str) -> str:
+    """Why a worker cannot run the batch's logs: it does not see --out (short: a log's error)."""
+    return (
+        f"the Dask worker {worker} does not see --out {excerpt(out)} (not on a shared file system?)"
+    )
+
+
 def _model_digest(ref: str) -> str:
     """On a worker: :func:`~hybridlog.jobs.provenance.model_hash` of ``ref``, or ``""``."""
     from hybridlog.jobs.provenance import model_hash
@@ -258,6 +319,7 @@ def run_on_dask(
     died: Callable[[int, str], R],
     failed: Callable[[int, str], R] | None = None,
     done: Callable[[R], None] | None = None,
+    kept: Callable[[R], bool] | None = None,
 ) -> list[R]:
     """Run ``function(*task)`` for every task on the cluster of ``client`` (:func:`connect`).
 
@@ -282,6 +344,9 @@ def run_on_dask(
         ``(i, reason)``; ``died``'s when None.
     done:
         Called with each result as it arrives (in completion order).
+    kept:
+        Whether a result's log is done for good (the next run skips it), not failed (it
+        redoes it): counted apart when the batch ends mid-way; every result when None.
 
     Returns
     -------
@@ -329,13 +394,15 @@ def run_on_dask(
             except FuturesCancelledError as err:  # the scheduler lost, or someone cancelled
                 reasons = {_CANCELLED.get(group.reason, group.reason) for group in err.error_groups}
                 why = ", ".join(sorted(reasons))
-                raise _ended(workers, f"its tasks were cancelled: {why}", results, tasks) from None
+                why = f"its tasks were cancelled: {why}"
+                raise _ended(workers, why, _how_far(results, len(tasks), kept)) from None
             except TimeoutError:
                 try:
                     running = bool(client.nthreads())
                 except Exception as err:  # the scheduler gone (refused, closed, timed out)
                     why = excerpt(" ".join(f"{type(err).__name__}: {err}".split()), 80)[1:-1]
-                    raise _ended(workers, f"the scheduler is gone: {why}", results, tasks) from None
+                    why = f"the scheduler is gone: {why}"
+                    raise _ended(workers, why, _how_far(results, len(tasks), kept)) from None
                 if running:
                     alone_since = None
                     continue
@@ -345,8 +412,8 @@ def run_on_dask(
                     raise OptionError(
                         _no_workers(
                             excerpt(workers.address)[1:-1],
-                            f"every worker left mid-batch, {len(results)} of {len(tasks)} "
-                            "logs done, which the next run skips; none came back",
+                            "every worker left mid-batch, "
+                            f"{_how_far(results, len(tasks), kept)}; none came back",
                         )
                     ) from None
                 continue
@@ -375,12 +442,25 @@ def run_on_dask(
         quiet.setLevel(level)
 
 
-def _ended(workers: Workers, why: str, results: Sized, tasks: Sized) -> OptionError:
-    """The error of a batch the cluster stopped running (``results`` of ``tasks`` done)."""
+def _ended(workers: Workers, why: str, how_far: str) -> OptionError:
+    """The error of a batch the cluster stopped running (:func:`_how_far` it got)."""
     return OptionError(
-        f"--scheduler {excerpt(workers.address)[1:-1]}: the batch ended mid-way ({why}); "
-        f"{len(results)} of {len(tasks)} logs done, which the next run skips"
+        f"--scheduler {excerpt(workers.address)[1:-1]}: the batch ended mid-way ({why}); {how_far}"
     )
+
+
+def _how_far(results: Mapping[int, R], total: int, kept: Callable[[R], bool] | None) -> str:
+    """How many of ``total`` logs a batch ended mid-way did, and how many failed.
+
+    The logs done keep their folders and the next run skips them; the failed ones it redoes
+    ("3 of 10 logs done", counting the failed ones too, told the user those were skipped).
+    """
+    done = sum(1 for result in results.values() if kept is None or kept(result))
+    failed = len(results) - done
+    text = f"{done:,} of {total:,} logs done, which the next run skips"
+    if failed:
+        text += f"; {failed:,} failed, which it redoes"
+    return text
 
 
 def _request_stop(client: Any, stop: str, futures: Sequence[Any]) -> None:
@@ -395,7 +475,10 @@ def _request_stop(client: Any, stop: str, futures: Sequence[Any]) -> None:
 
 
 def _run_task(
-    function: Callable[..., R], stop: str, workers: tuple[str, str, str | None, str], *task: Any
+    function: Callable[..., R],
+    stop: str,
+    workers: tuple[str, str, str | None, str, str, str],
+    *task: Any,
 ) -> R:
     """On a worker: ``function(*task)`` with the batch's stop event known to :func:`stopped`.
 
@@ -403,13 +486,16 @@ def _run_task(
     ------
     OptionError
         When this worker does not share what the batch needs with the client (a worker that
-        joined after :func:`check_workers`): the log fails, naming why.
+        joined after :func:`check_workers` or :func:`check_out`): the log fails, naming why.
     """
     from distributed import Event, get_worker
 
-    problem = _mismatch(Workers(*workers), *_worker_facts())
+    expected = Workers(*workers)
+    problem = _mismatch(expected, *_worker_facts())
     if problem is not None:
         raise OptionError(f"the Dask worker {get_worker().address} {problem}")
+    if expected.probe and not _sees(expected.probe):
+        raise OptionError(_unseen_out(get_worker().address, expected.out))
     _STOP.event = cast(Any, Event)(stop)
     try:
         return function(*task)

@@ -983,17 +983,21 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         )
     segments = reading.get("segments")
     if segments:
-        kept = segments[reading["analysed_segment"]]
-        others = [p for i, p in enumerate(segments) if i != reading["analysed_segment"]]
+        # report.json lists the first pieces and gaps only, each counted (io.align._listed)
+        analysed = reading["analysed_segment"]
+        kept = reading.get("analysed") or segments[analysed]
+        others = [p for i, p in enumerate(segments) if i != analysed]
+        pieces = int(reading.get("segment_count", len(segments)))
         gaps = reading.get("gaps") or []
+        gap_count = int(reading.get("gap_count", len(gaps)))
         span = f"t = {format_time(kept['start'])} … {format_time(kept['end'])} s"
         notes.append(
-            f"NOTE: --split-gaps: {plural(len(gaps), 'output gap')} longer than max_gap "
-            f"({_spans(gaps)}) "
+            f"NOTE: --split-gaps: {plural(gap_count, 'output gap')} longer than max_gap "
+            f"({_spans(gaps, total=gap_count)}) "
             + (
-                f"cut the log into {len(segments)} pieces; the longest is analysed, "
-                f"{span}; not analysed: {_spans(others)}"
-                if others  # else the gaps are at the ends: one piece, and they are left out
+                f"cut the log into {pieces:,} pieces; the longest is analysed, "
+                f"{span}; not analysed: {_spans(others, total=pieces - 1)}"
+                if pieces > 1  # else the gaps are at the ends: one piece, and they are left out
                 else f"left out; analysed: {span}"
             )
         )
@@ -1083,12 +1087,15 @@ def _held_for(hold: Mapping[str, float]) -> str:
     return format_duration(hold["seconds"], hold["start"], hold["end"])
 
 
-def _spans(spans: list[Mapping[str, float]], most: int = 5) -> str:
-    """``t = a … b s, ...`` for at most ``most`` spans, then how many more."""
-    shown = ", ".join(
-        f"t = {format_time(p['start'])} … {format_time(p['end'])} s" for p in spans[:most]
-    )
-    return shown + (f" and {len(spans) - most} more" if len(spans) > most else "")
+def _spans(spans: list[Mapping[str, float]], most: int = 5, total: int | None = None) -> str:
+    """``t = a … b s, ...`` for at most ``most`` spans, then how many more of ``total``.
+
+    ``total``: how many there are, when ``spans`` lists only the first (report.json's).
+    """
+    total = len(spans) if total is None else total
+    shown = spans[: min(most, total)]
+    text = ", ".join(f"t = {format_time(p['start'])} … {format_time(p['end'])} s" for p in shown)
+    return text + (f" and {total - len(shown):,} more" if total > len(shown) else "")
 
 
 def _counts(value: object) -> str:

@@ -48,6 +48,15 @@ def reported_facts() -> tuple[str, str]:
     return FACTS.pop(0) if len(FACTS) > 1 else FACTS[0]
 
 
+SIGHT: list[bool] = []
+"""Whether :func:`reported_sight` says a worker sees a path, one call after another."""
+
+
+def reported_sight(path: str) -> bool:
+    """Whether a worker sees ``path``, as :data:`SIGHT` has it (then the last)."""
+    return SIGHT.pop(0) if len(SIGHT) > 1 else SIGHT[0]
+
+
 def local_cluster(workers: int) -> distributed.LocalCluster:
     return distributed.LocalCluster(
         n_workers=workers,
@@ -235,4 +244,88 @@ def test_tasks_cancelled_on_the_cluster_end_the_batch_in_one_line(quick: None) -
     assert str(err.value) == (
         f"--scheduler {running.scheduler_address}: the batch ended mid-way (its tasks were "
         "cancelled: by a client of the scheduler); 1 of 3 logs done, which the next run skips"
+    )
+
+
+def test_a_worker_that_does_not_see_the_batch_folder_is_refused_and_it_is_removed(
+    tmp_path: Path, cluster: distributed.LocalCluster, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--out on the client's disk only: each worker wrote its reports on its own disk, and
+    the summaries named folders missing here.  Now one line naming the worker and the folder,
+    and what this run made of the folder is removed (an earlier run's folder is kept)."""
+    log = write_table(tmp_path / "logs" / "s1.csv", tank_run(steps=20, seed=1).columns)
+    monkeypatch.setattr(dask_backend, "_sees", lambda path: False)
+    out = tmp_path / "new" / "out"
+    with pytest.raises(OptionError) as err:
+        run_batch([log], TANK, out_dir=out, scheduler=cluster.scheduler_address)
+    (worker,) = cluster.scheduler.workers
+    assert str(err.value).startswith(
+        f"--scheduler {cluster.scheduler_address}: the Dask worker {worker} does not see "
+        f"--out '{out}' (not on a shared file system?); its reports would go to its own disk"
+    )
+    assert not (tmp_path / "new").exists()  # made by this run: removed, parents too
+    # an empty folder given: left empty; an earlier run's batch folder: left as it was
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(OptionError, match="does not see --out"):
+        run_batch([log], TANK, out_dir=empty, scheduler=cluster.scheduler_address)
+    assert list(empty.iterdir()) == []
+    monkeypatch.setattr(dask_backend, "_sees", os.path.exists)
+    earlier = tmp_path / "earlier"
+    run_batch([log], TANK, out_dir=earlier, scheduler=cluster.scheduler_address)
+    before = sorted(p.relative_to(earlier) for p in earlier.rglob("*"))
+    monkeypatch.setattr(dask_backend, "_sees", lambda path: False)
+    with pytest.raises(OptionError, match="does not see --out"):
+        run_batch([log], TANK, out_dir=earlier, scheduler=cluster.scheduler_address)
+    assert sorted(p.relative_to(earlier) for p in earlier.rglob("*")) == before
+
+
+def test_a_worker_that_joins_without_the_batch_folder_fails_its_logs(
+    tmp_path: Path, cluster: distributed.LocalCluster, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Seen when the batch starts, a worker may join later that does not: each task checks."""
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    monkeypatch.setattr(dask_backend, "_sees", reported_sight)
+    SIGHT[:] = [True, False]  # the check at the start; then the task's
+    out = tmp_path / "out"
+    outcome = run_batch([log], TANK, out_dir=out, scheduler=cluster.scheduler_address)
+    (failed,) = outcome.logs
+    assert failed.status == "failed"
+    assert failed.error is not None
+    assert failed.error.startswith("on the Dask cluster: OptionError: the Dask worker tcp://")
+    assert f"does not see --out '{out}' (not on a shared file system?)" in failed.error
+    # the file each task looks for is removed with the batch: nothing of it is left
+    assert "shared" not in " ".join(p.name for p in out.iterdir())
+    assert (out / "summary.md").is_file()
+
+
+def test_a_batch_ended_mid_way_counts_the_failed_logs_apart(quick: None) -> None:
+    """'1 of 3 logs done, which the next run skips' counted a log that failed, which the
+    next run redoes."""
+    HELD.clear()
+    with local_cluster(1) as running:
+        client = dask_backend.connect(running.scheduler_address)
+        workers = dask_backend.check_workers(
+            client, running.scheduler_address, [], (TANK, model_hash(TANK))
+        )
+
+        def cancel_all(k: int) -> None:
+            futures = [distributed.Future(key, client) for key in list(client.futures)]
+            client.cancel(futures, force=True)
+
+        try:
+            with pytest.raises(OptionError) as err:
+                dask_backend.run_on_dask(
+                    held_task,
+                    [(0,), (1,), (2,)],
+                    client,
+                    workers,
+                    died=lambda k, _: -k,
+                    done=cancel_all,
+                    kept=lambda k: k != 0,  # task 0's log failed
+                )
+        finally:
+            HELD.set()
+    assert str(err.value).endswith(
+        "; 0 of 3 logs done, which the next run skips; 1 failed, which it redoes"
     )
