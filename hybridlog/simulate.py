@@ -66,6 +66,7 @@ from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, FloatArray, IntArra
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
+    from hybridlog.model.escape import Watch
     from hybridlog.model.hybrid_model import HybridModel
 
 
@@ -237,21 +238,19 @@ def _check_jumps(
     found = model.jump_between(source, target)
     if found is None:
         return
+    from hybridlog.model.escape import Escape, escape_error
+
     reset = np.empty(model.n_states)
+    before = np.ascontiguousarray(states[row - 1])
     with np.errstate(all="ignore"):
-        jump(source, target, np.ascontiguousarray(states[row - 1]), reset)
+        jump(source, target, before, reset)
     if np.isfinite(reset).all():
         return
-    column = int(np.argmin(np.isfinite(reset)))
-    before = ", ".join(
-        f"{name} = {value:.6g}" for name, value in zip(model.states, states[row - 1], strict=True)
-    )
-    raise model.error(
-        found.key,
-        f"the jump map gives {model.states[column]} = {reset[column]:g} at the switch from "
-        f"'{model.modes[source].id}' to '{model.modes[target].id}' at t = "
-        f"{format_time(float(time[row - 1]))} s, from {before}: the simulation diverged "
-        "there; nothing was written",
+    raise escape_error(
+        model,
+        Escape("reset", source, target, before.copy(), np.zeros(0), reset),
+        f"at t = {format_time(float(time[row - 1]))} s",
+        "the simulation diverged there; nothing was written",
     )
 
 
@@ -266,6 +265,7 @@ def _check_dx_domain(model: HybridModel, arguments: tuple[Any, ...]) -> None:
     infinite: beyond float64, ``exp`` of a state running away).  ``arguments`` are those of
     :func:`~hybridlog.simulation_kernels.simulate_continuous_steps`.
     """
+    from hybridlog.model.escape import escape_error, replayed
     from hybridlog.model.integration import integrate_step
     from hybridlog.simulation_kernels import simulate_continuous_steps
 
@@ -276,18 +276,11 @@ def _check_dx_domain(model: HybridModel, arguments: tuple[Any, ...]) -> None:
     if finite.all():
         return
     row = int(np.argmin(finite))
-    found: list[tuple[int, FloatArray, FloatArray, FloatArray]] = []
 
-    def watched(q: int, x: FloatArray, u: FloatArray, out: FloatArray) -> None:
-        dx(q, x, u, out)
-        if not found and np.isfinite(x).all() and not np.isfinite(out).all():
-            found.append((q, x.copy(), u.copy(), out.copy()))
-
-    replay = states[row - 1 : row + 1].copy()
-    with np.errstate(all="ignore"):
+    def replay(watch: Watch) -> None:
         simulate_continuous_steps(
             integrate_step,
-            watched,
+            watch.vector("dx", dx),
             h,
             jump,
             method,
@@ -301,39 +294,20 @@ def _check_dx_domain(model: HybridModel, arguments: tuple[Any, ...]) -> None:
             measurement_factors,
             measurement_draws[row - 1 : row + 1],
             disturbance,
-            replay,
+            states[row - 1 : row + 1].copy(),
             np.zeros((2, outputs.shape[1])),
             state_min,
         )
-    if not found:
-        return
-    q, x, u, out = found[0]
-    mode = model.modes[q]
-    component = int(np.argmin(np.isfinite(out)))
-    key = (
-        f"dynamics.dx[{component}] of mode '{mode.id}'"
-        if model.has_booleans
-        else f"modes.{mode.id}.dx[{component}]"
-    )
-    value = float(out[component])
-    why = (
-        "the state left the domain of dx there"
-        if np.isnan(value)
-        else "more than float64 holds: the state ran away"
-    )
-    point = ", ".join(
-        f"{name} = {number:.6g}"
-        for name, number in (
-            *zip(model.states, x.tolist(), strict=True),
-            *zip(model.inputs, u.tolist(), strict=True),
+
+    found = replayed(replay)
+    if found is not None:
+        raise escape_error(
+            model,
+            found,
+            f"a step of the interval from t = {format_time(float(time[row - 1]))} s to "
+            f"{format_time(float(time[row]))} s",
+            "the simulation diverged; nothing was written",
         )
-    )
-    raise model.error(
-        key,
-        f"{excerpt(str(mode.dx[component]))} is {value:g} at {point}, a step of the interval "
-        f"from t = {format_time(float(time[row - 1]))} s to {format_time(float(time[row]))} s "
-        f"({why}): the simulation diverged; nothing was written",
-    )
 
 
 def _noise_factor(covariance: FloatArray) -> FloatArray:

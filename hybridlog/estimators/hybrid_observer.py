@@ -66,6 +66,7 @@ from hybridlog.times import format_time
 if TYPE_CHECKING:
     import sympy
 
+    from hybridlog.model.escape import Escape, Watch
     from hybridlog.model.hybrid_model import HybridModel
     from hybridlog.signals import AlignedSignals
 
@@ -194,9 +195,9 @@ def _rhs(q, x, u, y, gain, n, out, hv, Qm, W, r, v):
         out[i] += v[i]
 
 
-def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order,
+def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order, start,
             out_x, out_prediction, out_condition, out_jumped):
-    """The whole run of observer (20) with jumps, see hybridlog.estimators.hybrid_observer."""
+    """The run of observer (20) with jumps from row start (x0 there: 0, the whole log)."""
     n = x0.shape[0]
     count = time.shape[0]
     x = x0.copy()
@@ -212,11 +213,11 @@ def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order,
     r = numpy.empty(n)
     v = numpy.empty(n)
     for i in range(n):
-        out_x[0, i] = x[i]
-    out_prediction[0] = math.nan
-    Q(modes[0], x, inputs[0], Qm)
-    out_condition[0] = _condition(Qm, n, W, r, v)
-    for k in range(count - 1):
+        out_x[start, i] = x[i]
+    out_prediction[start] = math.nan
+    Q(modes[start], x, inputs[start], Qm)
+    out_condition[start] = _condition(Qm, n, W, r, v)
+    for k in range(start, count - 1):
         q = modes[k]
         u = inputs[k]
         y = outputs[k, 0]
@@ -417,6 +418,184 @@ def _singular_q(
     return text
 
 
+def _replay(
+    model: HybridModel, arguments: tuple[Any, ...], first: int
+) -> tuple[ModuleType, Escape | None]:
+    """The interval into sample ``first`` run again in plain Python, the model watched.
+
+    The generated ``observe`` and its ``_rhs`` run as Python over the rows
+    ``first − 2 … first`` from the estimate at ``first − 1`` (``start`` is that row: the
+    first-order hold's slope uses the row before it, as in the run), calling the compiled
+    ``dx``, ``h``, ``Q`` and ``reset`` through a :class:`~hybridlog.model.escape.Watch`:
+    the first of them whose point is finite and value is not is the cause.
+    """
+    from types import FunctionType
+
+    from hybridlog.model.escape import replayed
+
+    module = observer_module(model)
+    low = max(first - 2, 0)
+    rows = slice(low, first + 1)
+    time_s, modes, inputs, outputs, _, gain, substeps, rk4, first_order = arguments[:9]
+    states = arguments[10]
+
+    def replay(watch: Watch) -> None:
+        namespace = dict(vars(module))
+        namespace["dx"] = watch.vector("dx", module.dx)
+        namespace["h"] = watch.vector("h", module.h)
+        namespace["Q"] = watch.vector("Q", module.Q)
+        namespace["reset"] = watch.jump(module.reset)
+        namespace["_rhs"] = FunctionType(module._rhs.py_func.__code__, namespace)
+        loop = getattr(module.observe, "py_func", module.observe)
+        observe = FunctionType(loop.__code__, namespace)
+        count = first + 1 - low
+        observe(
+            time_s[rows],
+            modes[rows],
+            inputs[rows],
+            outputs[rows],
+            states[first - 1].copy(),
+            gain,
+            substeps,
+            rk4,
+            first_order,
+            first - 1 - low,
+            np.zeros((count, model.n_states)),
+            np.zeros(count),
+            np.zeros(count),
+            np.zeros(count, dtype=np.int64),
+        )
+
+    return module, replayed(replay)
+
+
+def _rhs_flaw(
+    model: HybridModel, module: ModuleType, arguments: tuple[Any, ...], before: int
+) -> str:
+    """The step against observer (20)'s right-hand side linearised at the estimate ``before``.
+
+    An estimate that outgrew float64 (an expression infinite at it, or none non-finite at
+    all) may have been thrown there by the correction ``Q⁻¹K(y − h)`` far from the log:
+    its Jacobian at the estimate (central differences, relative steps, of the generated
+    ``_rhs``) is what the step has to follow, checked by
+    :func:`~hybridlog.model.stability.step_flaw`.  Empty when no eigenvalue is flawed; the
+    estimate itself is named by :func:`_last_interval`.
+    """
+    from hybridlog.model.stability import step_flaw
+
+    _, modes, inputs, outputs, _, gain = arguments[:6]
+    n = model.n_states
+    x = np.array(arguments[10][before], dtype=np.float64)
+    q, u, y = int(modes[before]), inputs[before], float(outputs[before, 0])
+    work = (np.empty(1), np.empty((n, n)), np.empty((n, n)), np.empty(n), np.empty(n))
+    jacobian = np.empty((n, n))
+    high, low = np.empty(n), np.empty(n)
+    with np.errstate(all="ignore"):
+        for j in range(n):
+            delta = 1e-7 * (abs(float(x[j])) or 1.0)  # relative: x = 1e-70 is no zero
+            shifted = x.copy()
+            shifted[j] += delta
+            module._rhs(q, shifted, u, y, gain, n, high, *work)
+            shifted[j] -= 2 * delta
+            module._rhs(q, shifted, u, y, gain, n, low, *work)
+            jacobian[:, j] = (high - low) / (2 * delta)
+    timebase = model.timebase
+    if timebase.method is None or timebase.step is None:  # discrete: refused before the run
+        return ""
+    flaw = step_flaw(timebase.method, timebase.step, jacobian)
+    if flaw is None:
+        return ""
+    value = flaw.eigenvalue
+    eigenvalue = f"{value.real:.4g}" if value.imag == 0 else f"{value:.4g}"
+    return (
+        f": observer (20) linearised at t = {format_time(float(arguments[0][before]))} s "
+        f"has λ = {eigenvalue} 1/s, which integration.step = {timebase.step:g} s cannot "
+        f"follow ({flaw.kind}; at most {flaw.longest_step:.3g} s would)"
+    )
+
+
+def _keyed_escape(module: ModuleType, escape: Escape) -> Escape | None:
+    """``dx`` or ``h`` not finite where ``Q`` is not: the expression a user wrote, named first.
+
+    ``Q`` is evaluated first at a sample (its condition number), so ``h = x + x**1.5`` at a
+    negative estimate made ``Q`` the first non-finite value, though ``h`` has left its
+    domain there too.
+    """
+    from hybridlog.model.escape import Escape
+
+    for name in ("dx", "h"):
+        out = np.empty(escape.x.shape[0] if name == "dx" else 1)
+        with np.errstate(all="ignore"):
+            getattr(module, name)(escape.mode, escape.x, escape.u, out)
+        if not np.isfinite(out).all():
+            return Escape(name, escape.mode, -1, escape.x, escape.u, out)
+    return None
+
+
+def _divergence(
+    model: HybridModel,
+    signals: AlignedSignals,
+    arguments: tuple[Any, ...],
+    eigenvalues: tuple[float, ...],
+    first: int,
+) -> DivergenceError:
+    """Why the estimate is not finite at sample ``first``, the first such.
+
+    The refusal listed "a jump map, or the gain of eigenvalues -5 too large for the
+    integration step" for an estimate whose ``dx = log(h1)`` had stepped below 0.  Named
+    in turn: the model expression that turned a finite estimate non-finite (the interval
+    replayed, :func:`_replay`: ``dx`` or ``h`` out of its domain, or overflowing; a jump
+    map; ``Q``); ``Q`` singular (:func:`_singular_q`); the step against the observer's
+    linearisation (:func:`_rhs_flaw`); else the gain, with the interval's numbers.
+    """
+    from hybridlog.model.escape import escape_error, point
+
+    modes, (states, predictions, condition) = arguments[1], arguments[10:13]
+    where = (
+        f"{NAME} diverged at t = {format_time(signals.time[first])} s (sample {first}): the "
+        "estimate is not finite"
+    )
+    origin = model.origin or model.name
+    last = _last_interval(model, signals, states, predictions, first)
+    if first < 1:
+        return DivergenceError(f"{origin}: {where}")
+    module, escape = _replay(model, arguments, first)
+    interval = (
+        f"a step of the interval from t = {format_time(signals.time[first - 1])} s to "
+        f"{format_time(signals.time[first])} s"
+    )
+    if escape is not None and escape.function == "Q":  # dx or h out of domain there too?
+        escape = _keyed_escape(module, escape) or escape
+    if escape is not None and escape.function == "Q":
+        mode_id = model.modes[escape.mode].id
+        return DivergenceError(
+            f"{origin}: {where}: Q = dPhi/dx (eq. (21)) of mode '{mode_id}', derived from its "
+            f"dx and h, is not finite at the estimate "
+            f"{point(model, escape.x, escape.u)}, {interval}: the estimate left the domain "
+            f"of Q there{last}"
+        )
+    if escape is not None:
+        at = interval
+        if escape.function == "reset":
+            at = f"at t = {format_time(signals.time[first])} s"
+        flaw = ""
+        if escape.function != "reset" and not np.isnan(escape.out).any():  # an overflow
+            flaw = _rhs_flaw(model, module, arguments, first - 1)
+        error = escape_error(model, escape, at, where + flaw + last, noun="estimate")
+        return DivergenceError(str(error))
+    singular = _singular_q(model, signals.time, modes, states, condition, first)
+    if singular:
+        return DivergenceError(f"{origin}: {where}{singular}")
+    flaw = _rhs_flaw(model, module, arguments, first - 1)
+    if flaw:
+        return DivergenceError(f"{origin}: {where}{flaw}{last}")
+    return DivergenceError(
+        f"{origin}: {where} (every expression finite along the interval: the correction "
+        f"Q^-1 K (y - h) of the gain of eigenvalues "
+        f"{', '.join(f'{v:g}' for v in eigenvalues)} outgrew float64){last}"
+    )
+
+
 def _runs(mask: Any) -> list[tuple[int, int]]:
     """``(first, last)`` index of every run of True in ``mask``."""
     padded = np.concatenate(([False], np.asarray(mask, dtype=bool), [False]))
@@ -506,6 +685,7 @@ def run_switching_observer(
         np.int64(timebase.substeps),
         timebase.method == "rk4",
         options.output_hold == "first",
+        np.int64(0),
         np.zeros((count, n)),
         np.zeros(count),
         np.zeros(count),
@@ -518,22 +698,11 @@ def run_switching_observer(
     if count:
         observe(*arguments)
     runtime = time.perf_counter() - start
-    states, predictions, condition, jumped = arguments[9:13]
+    states, predictions, condition, jumped = arguments[10:14]
     broken = ~np.isfinite(states).all(axis=1)
     if broken.any():  # no metric of a diverged run can be vouched for
         first = int(np.argmax(broken))
-        where = (
-            f"{model.origin or model.name}: {NAME} diverged at t = "
-            f"{format_time(signals.time[first])} s (sample {first}): the estimate is not finite"
-        )
-        singular = _singular_q(model, signals.time, modes, states, condition, first)
-        if singular:
-            raise DivergenceError(where + singular)
-        raise DivergenceError(
-            f"{where} (a jump map, or the gain of eigenvalues "
-            f"{', '.join(f'{v:g}' for v in eigenvalues)} too large for the integration step)"
-            f"{_last_interval(model, signals, states, predictions, first)}"
-        )
+        raise _divergence(model, signals, arguments, eigenvalues, first)
     probabilities = np.zeros((count, model.n_modes))
     probabilities[np.arange(count), modes] = 1.0
     switches = int(np.count_nonzero(np.diff(modes))) if count else 0

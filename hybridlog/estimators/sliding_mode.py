@@ -447,6 +447,48 @@ def _refuse_no_reconstruction(
     )
 
 
+def _refuse_non_finite(
+    model: HybridModel, signals: AlignedSignals, means: FloatArray, G: ModelFunction, v_max: float
+) -> None:
+    r"""Refuse a run whose observer state ``z`` is not finite, naming why.
+
+    Over a sample ``z += h (G(x, u) + w)`` with the measured ``x`` held: ``z`` turns
+    non-finite where ``G`` is not finite at the log's state (``log(x)`` of a level measured
+    below 0: the expression and the sample named, :func:`~hybridlog.model.escape.escape_error`;
+    ``G`` is mode '0''s ``dx``, every boolean 0), else where ``z`` outgrew float64.  The
+    refusal said "the observer state is not finite", naming neither.
+
+    Raises
+    ------
+    DivergenceError
+        Always.
+    """
+    from hybridlog.model.escape import Escape, escape_error
+
+    row = int(np.argmin(np.isfinite(means).all(axis=1)))
+    where = (
+        f"sliding-mode diverged at t = {format_time(signals.time[row])} s (sample {row}): the "
+        "observer state is not finite"
+    )
+    if row > 0:
+        x = np.ascontiguousarray(signals.outputs[row - 1], dtype=np.float64)
+        u = np.ascontiguousarray(signals.inputs[row - 1], dtype=np.float64)
+        g = np.zeros(model.n_states)
+        with np.errstate(all="ignore"):
+            G(0, x, u, g)
+        if np.isfinite(x).all() and not np.isfinite(g).all():
+            escape = Escape("dx", 0, -1, x, u, g)
+            at = (
+                f"the drift G of observer (10) at sample {row - 1} "
+                f"(t = {format_time(signals.time[row - 1])} s)"
+            )
+            raise DivergenceError(str(escape_error(model, escape, at, where, "measured state")))
+    raise DivergenceError(
+        f"{model.origin or model.name}: {where}: z + h (G(x, u) + w) outgrew float64 with G "
+        f"finite at the measured state (V_M = {v_max:.3g})"
+    )
+
+
 def run_sliding_mode(
     model: HybridModel,
     signals: AlignedSignals,
@@ -533,11 +575,7 @@ def run_sliding_mode(
     loop(*arguments)
     runtime = time.perf_counter() - start
     if not np.isfinite(means).all():
-        row = int(np.argmin(np.isfinite(means).all(axis=1)))
-        raise DivergenceError(
-            f"{model.origin or model.name}: sliding-mode diverged at t = "
-            f"{format_time(signals.time[row])} s (sample {row}): the observer state is not finite"
-        )
+        _refuse_non_finite(model, signals, means, code.G, v_max)
     _refuse_no_reconstruction(model, signals, deltas, code.D)
     _refuse_runaway_error(model, signals, means, v_max)
     outside, slipping = unvouched(deltas, slips)

@@ -494,3 +494,129 @@ def test_a_mode_that_is_not_drift_observable_is_named_as_the_cause(dx, h, words)
     assert "Q = dPhi/dx (eq. (21)) of mode 'a' is singular at t = 0 s" in message
     assert words in message and message.endswith("mode 'a' is not drift-observable from y")
     assert "jump map" not in message
+
+
+KINDS = """
+name = "kinds"
+time = "continuous"
+dt = 0.1
+integration = {method = "rk4", step = 0.01}
+states = ["h1"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.calm]
+dx = ["-h1"]
+h = ["h1"]
+
+[modes.dom]
+dx = ["-h1 + 0.01*log(h1)"]
+h = ["h1"]
+
+[modes.hdom]
+dx = ["-h1"]
+h = ["sqrt(h1)"]
+
+[modes.over]
+dx = ["exp(1000*h1)"]
+h = ["h1"]
+
+[modes.qdom]
+dx = ["-h1"]
+h = ["h1*sqrt(abs(h1))"]
+
+[modes.cube]
+dx = ["-h1"]
+h = ["h1**3"]
+
+[jumps."calm->dom"]
+h1 = "sqrt(h1 - 2)"
+
+[initial]
+state = [%s]
+mode = "calm"
+"""
+
+
+@pytest.mark.parametrize(
+    ("modes", "start", "measured", "words"),
+    [
+        # dx = log(h1) at an estimate driven below 0: was "(a jump map, or the gain of
+        # eigenvalues -5 too large for the integration step)", naming neither key nor dx
+        (
+            ["dom"] * 4,
+            "0.5",
+            -1.0,
+            r"^kinds\.toml: modes\.dom\.dx\[0\]: '-h1 \+ 0\.01\*log\(h1\)' is nan at h1 = -"
+            r"[0-9.]+, u = 0, a step of the interval from t = 0 s to 0\.1 s \(the estimate left "
+            r"the domain of dx there\): switching-observer diverged at t = 0\.1 s \(sample 1\)",
+        ),
+        (
+            ["hdom"] * 4,
+            "0.5",
+            -10.0,
+            r"^kinds\.toml: modes\.hdom\.h\[0\]: 'sqrt\(h1\)' is nan at h1 = -[0-9.]+, u = 0, "
+            r".*\(the estimate left the domain of h there\)",
+        ),
+        (
+            ["over"] * 4,
+            "0.5",
+            0.5,
+            r"^kinds\.toml: modes\.over\.dx\[0\]: 'exp\(1000\*h1\)' is inf at h1 = .*\(more "
+            r"than float64 holds: the estimate ran away\)",
+        ),
+        (
+            ["calm", "calm", "dom", "dom"],
+            "0.5",
+            0.5,
+            r"^kinds\.toml: jumps\.\"calm->dom\": the jump map gives h1 = nan at the switch "
+            r"from 'calm' to 'dom' at t = 0\.2 s, from h1 = 0\.4[0-9]+: switching-observer "
+            r"diverged at t = 0\.2 s \(sample 2\)",
+        ),
+        # h finite at 0, dh/dx = 0/0 there: Q, derived, is named with its mode
+        (
+            ["qdom"] * 4,
+            "0.0",
+            1.0,
+            r"diverged at t = 0\.1 s \(sample 1\): the estimate is not finite: Q = dPhi/dx "
+            r"\(eq\. \(21\)\) of mode 'qdom', derived from its dx and h, is not finite at the "
+            r"estimate h1 = 0, u = 0",
+        ),
+        # Q = 3 h1^2 at 1e-70: the correction's Jacobian is -3e210, which no step follows
+        (
+            ["cube"] * 4,
+            "1e-70",
+            1.0,
+            r"the estimate ran away\): .*: observer \(20\) linearised at t = 0 s has "
+            r"λ = -3\.333e\+210 1/s, which integration\.step = 0\.01 s cannot follow "
+            r"\(unstable; at most 6\.27e-211 s would\); the interval before corrected with "
+            r"y = 1 measured at the estimate h1 = 1e-70$",
+        ),
+        # every expression finite, the RK4 sum of a state near float64's end overflows
+        (
+            ["calm"] * 4,
+            "1e307",
+            1.0,
+            r"the estimate is not finite \(every expression finite along the interval: the "
+            r"correction Q\^-1 K \(y - h\) of the gain of eigenvalues -5 outgrew float64\)",
+        ),
+    ],
+)
+def test_a_divergence_names_its_cause(modes, start, measured, words):
+    """The interval into the first non-finite estimate is replayed with the model watched."""
+    model = parse_model(KINDS % start, origin="kinds.toml")
+    count = len(modes)
+    signals = AlignedSignals(
+        source="kinds.csv",
+        time=np.arange(count) * 0.1,
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.zeros((count, 1)),
+        outputs=np.full((count, 1), measured),
+        truth_modes=np.array([model.mode_ids.index(m) for m in modes]),
+    )
+    with pytest.raises(ModelError) as caught:
+        run_switching_observer(model, signals, SwitchingObserverOptions())
+    message = str(caught.value)
+    assert re.search(words, message), message
+    assert "\n" not in message

@@ -14,6 +14,7 @@ from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
 from hybridlog.jobs.analysis import parse_sets, prepare_estimators
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
+from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import Disturbance, simulate
 from tests.support.model_kinds import CONTINUOUS_TANK, VALVES_BOOLEAN
 from tests.support.paths import ROOT
@@ -336,3 +337,44 @@ def test_rows_gains_are_read_where_d_is_finite_not_at_an_empty_first_sample(test
     expected = channel_gains(D, signals, 3, 0.5, "rows")
     assert expected[0] == 0.5 and expected[2] < 0.2
     np.testing.assert_allclose(gains, expected, rtol=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("drift", "level", "words"),
+    [
+        # log(x) of a level measured below 0: was "sliding-mode diverged at t = 0.021 s
+        # (sample 21): the observer state is not finite", naming neither key nor expression
+        (
+            "0.01*log(x)",
+            -0.5,
+            r"^s\.toml: dynamics\.dx\[0\] of mode '0': 'u - x \+ 0\.01\*log\(x\)' is nan at "
+            r"x = -0\.5, u = 0, the drift G of observer \(10\) at sample 20 \(t = 0\.02 s\) "
+            r"\(the measured state left the domain of dx there\): sliding-mode diverged at "
+            r"t = 0\.021 s \(sample 21\): the observer state is not finite$",
+        ),
+        # G = exp(x) finite but near float64's end at every sample: z outgrows it
+        (
+            "exp(x)",
+            709.0,
+            r"^s\.toml: sliding-mode diverged at t = [0-9.]+ s \(sample [0-9]+\): the observer "
+            r"state is not finite: z \+ h \(G\(x, u\) \+ w\) outgrew float64 with G finite at "
+            r"the measured state \(V_M = 50\)$",
+        ),
+    ],
+)
+def test_an_observer_state_that_is_not_finite_names_its_cause(drift, level, words):
+    text = SCALAR.replace('"-x + u + 2*d"', f'"-x + u + 2*d + {drift}"')
+    model = parse_model(text, origin="s.toml")
+    count = 3000
+    outputs = np.full((count, 1), 1.0 if level < 0 else level)
+    outputs[20] = level
+    signals = AlignedSignals(
+        source="s.csv",
+        time=np.arange(count) * 0.001,
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.zeros((count, 1)),
+        outputs=outputs,
+    )
+    with pytest.raises(ModelError, match=words):
+        prepare(model, "sliding-mode").run(model, signals)
