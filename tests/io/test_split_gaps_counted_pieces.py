@@ -134,9 +134,9 @@ def test_the_note_counts_every_piece_with_thousands_separators() -> None:
     }
     (note,) = _reading_notes(reading)
     assert note.startswith("NOTE: --split-gaps: 19,999 output gaps longer than max_gap (t = 10")
-    assert "… 19 s and 19,994 more) cut the log into 20,000 pieces; this report is of the " in note
+    assert "… 19 s and 19,994 more) cut the log into 20,000 pieces; the longest is " in note
     assert note.endswith(
-        "longest, t = 100 … 400 s; not analysed: t = 9 … 10 s, t = 11 … 12 s, "
+        "analysed, t = 100 … 400 s; not analysed: t = 9 … 10 s, t = 11 … 12 s, "
         "t = 13 … 14 s, t = 15 … 16 s, t = 17 … 18 s and 19,994 more"
     )
 
