@@ -592,8 +592,8 @@ def test_the_split_gaps_note_of_a_gap_at_an_end_of_the_log() -> None:
         "gaps": [{"start": 10.0, "end": 40.0}],
     }
     assert _reading_notes(notes) == (
-        "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 10 … 40 s) left out; this "
-        "report is of t = 0 … 10 s",
+        "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 10 … 40 s) left out; "
+        "analysed: t = 0 … 10 s",
     )
 
 

@@ -841,9 +841,11 @@ def test_an_output_folder_that_is_a_link_is_refused_saying_so(tmp_path: Path) ->
         for force in (False, True):
             with pytest.raises(OutputError) as raised:
                 check_dir_target(link, force=force)
-            assert str(raised.value) == (
-                f"output path {link} is a symbolic link (to '{tmp_path / pointed}', {what}), "
-                "which hybridlog does not write through; name the folder itself or another path"
+            said = str(raised.value)  # a long target is cut in its middle (excerpt)
+            assert said.startswith(f"output path {link} is a symbolic link (to '")
+            assert said.endswith(
+                f"{pointed}', {what}), which hybridlog does not write through; name the "
+                "folder itself or another path"
             )
         assert link.is_symlink() and os.readlink(link) == str(tmp_path / pointed)
     assert (tmp_path / "file").read_text() == "mine"
