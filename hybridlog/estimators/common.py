@@ -386,6 +386,9 @@ def run_filter_chunks(
     """
     if rows < 1:
         raise ValueError(f"rows must be at least 1, got {rows}")
+    # the discrete-time filters (paper 000 eqs. (1)-(2)): a continuous model has no f, and
+    # a library caller's run_imm on one ended in a bare IndexError of the straight-line code
+    model.check_supported(f"estimator '{code.name}'", components=True)
     if kernel not in KERNELS:
         raise ValueError(f"unknown kernel {kernel!r}")
     if kernel == "unrolled" and code.accelerator is None:

@@ -755,3 +755,20 @@ def test_component_labels_one_text_in_two_unicode_forms_are_refused(old, what, k
         rf"{what} '{_NFC}' written in another Unicode form",
     ):
         parse_model(text, origin="plant.toml")
+
+
+@pytest.mark.parametrize("kernel", ["auto", "loops"])
+def test_the_discrete_filters_refuse_a_continuous_model_called_from_the_library(kernel):
+    # the CLI refuses imm on a continuous model by its capabilities; a library caller's
+    # run_imm with kernel="auto" ended in a bare IndexError of the straight-line code
+    from hybridlog.estimators.imm import ImmOptions, run_imm
+    from hybridlog.signals import AlignedSignals
+
+    model = parse_model(CONTINUOUS_TANK)
+    n = 5
+    ones = np.ones((n, 1))
+    signals = AlignedSignals(
+        "log.csv", np.arange(n) * model.dt, model.inputs, model.outputs, ones, ones.copy()
+    )
+    with pytest.raises(ModelError, match=r"time: estimator 'imm' needs a discrete-time model"):
+        run_imm(model, signals, ImmOptions(), kernel=kernel)
