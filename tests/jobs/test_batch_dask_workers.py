@@ -215,7 +215,17 @@ def test_a_worker_that_reads_another_model_is_refused(
     assert not (tmp_path / "out").exists()
 
 
-def test_tasks_cancelled_on_the_cluster_end_the_batch_in_one_line(quick: None) -> None:
+@pytest.mark.parametrize(
+    ("failed", "counted"),
+    [
+        (set(), "1 of 3 logs done, which the next run skips"),
+        # counted as done, a log that failed (which the next run redoes)
+        ({0}, "0 of 3 logs done, which the next run skips; 1 failed, which it redoes"),
+    ],
+)
+def test_tasks_cancelled_on_the_cluster_end_the_batch_in_one_line(
+    quick: None, failed: set[int], counted: str
+) -> None:
     """The scheduler lost, or the tasks cancelled from its dashboard: it read 'unexpected
     FuturesCancelledError ... (a bug ...)' with Dask's list of keys."""
     HELD.clear()
@@ -238,12 +248,13 @@ def test_tasks_cancelled_on_the_cluster_end_the_batch_in_one_line(quick: None) -
                     workers,
                     died=lambda k, _: -k,
                     done=cancel_all,
+                    kept=lambda k: k not in failed,
                 )
         finally:
             HELD.set()
     assert str(err.value) == (
         f"--scheduler {running.scheduler_address}: the batch ended mid-way (its tasks were "
-        "cancelled: by a client of the scheduler); 1 of 3 logs done, which the next run skips"
+        f"cancelled: by a client of the scheduler); {counted}"
     )
 
 
@@ -299,35 +310,3 @@ def test_a_worker_that_joins_without_the_batch_folder_fails_its_logs(
     # the file each task looks for is removed with the batch: nothing of it is left
     assert "shared" not in " ".join(p.name for p in out.iterdir())
     assert (out / "summary.md").is_file()
-
-
-def test_a_batch_ended_mid_way_counts_the_failed_logs_apart(quick: None) -> None:
-    """'1 of 3 logs done, which the next run skips' counted a log that failed, which the
-    next run redoes."""
-    HELD.clear()
-    with local_cluster(1) as running:
-        client = dask_backend.connect(running.scheduler_address)
-        workers = dask_backend.check_workers(
-            client, running.scheduler_address, [], (TANK, model_hash(TANK))
-        )
-
-        def cancel_all(k: int) -> None:
-            futures = [distributed.Future(key, client) for key in list(client.futures)]
-            client.cancel(futures, force=True)
-
-        try:
-            with pytest.raises(OptionError) as err:
-                dask_backend.run_on_dask(
-                    held_task,
-                    [(0,), (1,), (2,)],
-                    client,
-                    workers,
-                    died=lambda k, _: -k,
-                    done=cancel_all,
-                    kept=lambda k: k != 0,  # task 0's log failed
-                )
-        finally:
-            HELD.set()
-    assert str(err.value).endswith(
-        "; 0 of 3 logs done, which the next run skips; 1 failed, which it redoes"
-    )
