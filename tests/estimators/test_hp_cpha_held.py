@@ -127,3 +127,20 @@ def test_the_rmse_of_a_state_held_on_some_samples_is_over_the_others(sequence):
         assert report.smoothing is not None
         side = report.smoothing.filtered.states["xc1"]
         assert side.samples == int((~filtered.states_not_estimated[:, 0]).sum())
+
+
+def test_kbest_keeps_the_causal_probabilities_whole_and_its_predictions():
+    # a previous pass read timeline.csv's p_ columns as not summing to 1 under kbest and
+    # yc1_hat as wrongly empty: each row's joint p_ columns sum to 1 (the p_unknown.<c>
+    # columns are marginals beside them), and y-hat is the causal estimate's, empty where its
+    # most likely hypothesis has no cluster predicting the output (A1 unknown: w_c1, so x_c1,
+    # undetermined; A2 unknown: no y_c1 equation), as docs/smoothing.md says
+    _, _, causal = drift_run("argmax")
+    _, _, result = drift_run("kbest")
+    assert np.allclose(result.mode_probabilities.sum(axis=1), 1.0)
+    assert np.array_equal(result.mode_probabilities, causal.mode_probabilities)
+    assert np.array_equal(result.output_predictions, causal.output_predictions, equal_nan=True)
+    labels = [label.split("|") for label in causal.mode_ids]
+    either = np.array(["unknown" in (a1, a2) for a1, a2, _ in labels])[causal.modes]
+    unpredicted = np.isnan(causal.output_predictions[1:, 0])
+    assert unpredicted.any() and np.array_equal(unpredicted, either[1:])
