@@ -30,6 +30,7 @@ width, an option) are used as they are.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections import Counter
@@ -196,7 +197,8 @@ def regulator_table(
     """Markdown: regulator 2 with and without the unknown mode, run by run.
 
     First step of ``stuck_open`` in the drift window, and the RMS error of the estimated flow
-    ``xc2`` (the mean of the most likely hypothesis) against the true flow over the window.
+    ``xc2`` (the mean of the most likely hypothesis) against the true flow over the window's
+    samples where it was estimated (:func:`_rms_estimated`).
     """
     index = model.states.index("xc2")
     lines = [
@@ -209,12 +211,23 @@ def regulator_table(
         for result in (on, off):
             labels = component_modes(model, result)["fr2"]
             cells.append(shown(first(labels, "stuck_open", drift.start, drift.stop)))
-        errors = [
-            float(np.sqrt(np.mean((r.state_means[drift, index] - truth[drift]) ** 2)))
-            for r in (on, off)
-        ]
-        lines.append(f"| {name} | {cells[0]} | {cells[1]} | {errors[0]:.3f} | {errors[1]:.3f} |")
+        errors = [_rms_estimated(r, index, truth, drift) for r in (on, off)]
+        lines.append(f"| {name} | {cells[0]} | {cells[1]} | {errors[0]} | {errors[1]} |")
     return "\n".join(lines)
+
+
+def _rms_estimated(result: EstimationResult, index: int, truth: FloatArray, drift: range) -> str:
+    """The RMS error of state ``index`` over the window's samples where it was estimated.
+
+    A held state (in no filter cluster, ``states_not_estimated``) is no estimate: the
+    samples left out are counted after the number.
+    """
+    window = slice(drift.start, drift.stop)
+    error = result.estimated_state_means()[window, index] - truth[window]
+    estimated = ~np.isnan(error)
+    rms = float(np.sqrt(np.mean(error[estimated] ** 2))) if estimated.any() else math.nan
+    held = int((~estimated).sum())
+    return f"{rms:.3f}" + (f" ({held} held)" if held else "")
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.estimators.capabilities import STEP_FROM_NOTE
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 
 class ResultShapeError(ValueError):
@@ -132,6 +132,13 @@ class EstimationResult:
         observer``'s switching signal, which is the log's true mode); empty for an estimate.
         The report then scores none of the mode metrics: they would compare the log's true
         mode with itself, and a gate would pass on a number that measures nothing.
+    states_not_estimated:
+        Shape ``(N, n_x)``, ``True`` where the estimator did not estimate the state at that
+        sample but carried a value it cannot vouch for (``unknown-mode``'s states in no
+        filter cluster, paper 002 §3.1: the mean held where it was); ``None`` where every
+        state was estimated on every sample.  The report reads
+        :meth:`estimated_state_means`: the state RMSE is over the estimated samples only,
+        estimates.csv leaves ``<x>_hat`` empty and the plots draw no estimate there.
     """
 
     estimator: str
@@ -153,6 +160,7 @@ class EstimationResult:
     post_processing: PostProcessing | None = None
     whitened_innovations: FloatArray | None = None
     modes_given: str = ""
+    states_not_estimated: BoolArray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.time, np.ndarray) or self.time.ndim != 1:
@@ -174,6 +182,8 @@ class EstimationResult:
             expected["covariances"] = ((n, n_x, n_x), np.float64)
         if self.whitened_innovations is not None:
             expected["whitened_innovations"] = ((n, n_y), np.float64)
+        if self.states_not_estimated is not None:
+            expected["states_not_estimated"] = ((n, n_x), np.bool_)
         for name, (shape, dtype) in expected.items():
             array = getattr(self, name)
             if not isinstance(array, np.ndarray) or array.shape != shape:
@@ -221,6 +231,17 @@ class EstimationResult:
         """Number of samples estimated."""
         return int(self.time.shape[0])
 
+    def estimated_state_means(self) -> FloatArray:
+        """``state_means`` with NaN where the state was not estimated (``states_not_estimated``).
+
+        What the state RMSE scores, estimates.csv writes and the plots draw: a value the
+        estimator held rather than estimated is no estimate to score against the true state.
+        ``state_means`` itself (no copy) where every state was estimated.
+        """
+        if self.states_not_estimated is None:
+            return self.state_means
+        return np.where(self.states_not_estimated, np.nan, self.state_means)
+
     def rows(self, start: int, stop: int) -> EstimationResult:
         """Rows ``start:stop`` of every per-sample array, as views (nothing is copied).
 
@@ -255,6 +276,9 @@ class EstimationResult:
             covariances=None if self.covariances is None else self.covariances[start:stop],
             whitened_innovations=(
                 None if self.whitened_innovations is None else self.whitened_innovations[start:stop]
+            ),
+            states_not_estimated=(
+                None if self.states_not_estimated is None else self.states_not_estimated[start:stop]
             ),
             timeline_columns=tuple(
                 replace(column, values=column.values[start:stop])

@@ -32,7 +32,7 @@ from hybridlog.report.document import (
     SmoothingMetrics,
     StateReport,
 )
-from hybridlog.report.markdown import NO_TRUE_MODE_REASON, plural
+from hybridlog.report.markdown import NO_TRUE_MODE_REASON, NO_TRUE_STATE_REASON, plural
 from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.signals import (
     NO_TRUE_MODE,
@@ -329,6 +329,8 @@ class ReportBuilder:
         self._modes: IntArray = np.empty(n, dtype=np.int64)
         self._outputs = metrics.OutputAccumulator(len(signals.output_names))
         self._states: metrics.StateAccumulator | None = None
+        # per state, the samples with a true value the estimator did not estimate it on
+        self._held: IntArray = np.zeros(0, dtype=np.int64)
         self._first: EstimationResult | None = None
         self._last: EstimationResult | None = None
         self._offline: _OfflineSides | None = None
@@ -363,6 +365,7 @@ class ReportBuilder:
             self._first = chunk
             if part.truth_states is not None:
                 self._states = metrics.StateAccumulator(len(chunk.state_names))
+                self._held = np.zeros(len(chunk.state_names), dtype=np.int64)
             if chunk.post_processing is not None:
                 self._offline = _OfflineSides(chunk, self._signals, self._model)
         elif not _same_run(self._first, chunk) or (chunk.post_processing is None) != (
@@ -373,7 +376,10 @@ class ReportBuilder:
             )
         self._outputs.add(part.measured_outputs(), chunk.output_predictions)
         if self._states is not None and part.truth_states is not None:
-            self._states.add(chunk.state_means, part.truth_states)
+            self._states.add(chunk.estimated_state_means(), part.truth_states)
+            if chunk.states_not_estimated is not None:  # held where there is a true value
+                truth = np.isfinite(part.truth_states)
+                self._held += np.count_nonzero(chunk.states_not_estimated & truth, axis=0)
         self._modes[start:stop] = chunk.modes
         self._components.add(chunk, start)
         if chunk.whitened_innovations is not None:  # the innovations' test (consistency.py)
@@ -476,6 +482,7 @@ class ReportBuilder:
                 if self._states is None
                 else dict(zip(states, self._states.undefined(), strict=True)),
                 modes_given=first.modes_given,
+                held=dict(zip(states, self._held.tolist(), strict=False)),
             ),
             smoothing=(
                 None
@@ -707,7 +714,7 @@ class _OfflineSides:
         self._filtered_modes[start : start + chunk.n_samples] = filtered.modes
         self._filtered_components.add(filtered, start)
         if self._filtered_states is not None and part.truth_states is not None:
-            self._filtered_states.add(filtered.state_means, part.truth_states)
+            self._filtered_states.add(filtered.estimated_state_means(), part.truth_states)
         sides = ((filtered, post.filtered_explained), (chunk, post.explained))
         for index, (side, carried) in enumerate(sides):
             accumulator = self._explained[index]
@@ -1133,11 +1140,14 @@ def _null_reasons(
     state_reasons: Mapping[str, str | None],
     *,
     modes_given: str = "",
+    held: Mapping[str, int] | None = None,
 ) -> dict[str, str]:
     """Why each gate metric that is ``None`` in the report is (keys as in the gates).
 
     ``state_reasons``: why a state's RMSE over some rows is not a number
-    (:meth:`~hybridlog.report.metrics.StateAccumulator.undefined`).
+    (:meth:`~hybridlog.report.metrics.StateAccumulator.undefined`); ``held``: per state, the
+    samples with a true value where the estimator did not estimate it
+    (:attr:`~hybridlog.estimators.result.EstimationResult.states_not_estimated`).
     """
     reasons: dict[str, str] = {}
     for name in ("mse", "vaf", "fit"):
@@ -1209,7 +1219,13 @@ def _null_reasons(
         if state.samples:  # rows whose RMSE float64 cannot hold, or an estimate went infinite
             why = f"the estimate of state {x} {state_reasons.get(x) or 'is not a finite number'}"
         elif truth is None or not np.isfinite(truth[:, j]).any():
-            why = f"the log has no ground truth for state {x}"
+            why = f"{NO_TRUE_STATE_REASON} {x}"
+        elif held and held.get(x):
+            why = (
+                f"the estimator did not estimate state {x} on any sample with a true value "
+                f"({held[x]:,} samples): it held a value there that it cannot vouch for "
+                "(see the warning naming the states no filter estimated)"
+            )
         else:
             why = f"no sample has both a true value and a finite estimate of state {x}"
         reasons[f"state_rmse.{x}"] = why

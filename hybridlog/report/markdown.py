@@ -99,6 +99,8 @@ def code_span(text: str) -> str:
 
 
 NO_TRUE_MODE_REASON = "the log has no ground-truth mode"
+NO_TRUE_STATE_REASON = "the log has no ground truth for state"
+"""The start of ``null_reasons["state_rmse.x"]`` for a state the log has no truth of."""
 """``null_reasons.mode_accuracy`` of a log without a true mode."""
 
 
@@ -316,12 +318,17 @@ def _state_caveats(report: Report) -> list[str]:
         f"- {escape_markdown(name)} is n/a: {escape_markdown(why)}"
         for name, why in report.null_reasons.items()
         if name.partition(".")[0] == "state_rmse"
-        # no line per state of a log without any true state: "n/a" says it
-        and any(s.samples for s in report.states.values())
+        # no line per state of a log without any true state: "n/a" says it; a state with a
+        # truth but no estimate there (held, not estimated) has one all the same
+        and (
+            any(s.samples for s in report.states.values())
+            or not why.startswith(NO_TRUE_STATE_REASON)
+        )
     ]
     caveats += [
         f"- {escape_markdown(x)}: RMSE over {s.samples:,} of {report.samples:,} samples; the "
-        "others have no true value or no finite estimate of it"
+        "others have no true value, or no estimate of it (not finite, or not estimated: "
+        "see the warnings)"
         for x, s in report.states.items()
         if s.samples and s.samples < report.samples
     ]

@@ -596,11 +596,13 @@ class _FilteredReducers:
             self.probabilities_differ = not np.array_equal(
                 filtered.mode_probabilities, estimate.mode_probabilities, equal_nan=True
             )
+        filtered_means = filtered.estimated_state_means()  # NaN where not estimated
+        means = estimate.estimated_state_means()
         for i, curve in enumerate(self.means):
-            curve.add(filtered.state_means[:, i], start)
+            curve.add(filtered_means[:, i], start)
             if not self.states_differ[i]:
                 self.states_differ[i] = not np.array_equal(
-                    filtered.state_means[:, i], estimate.state_means[:, i], equal_nan=True
+                    filtered_means[:, i], means[:, i], equal_nan=True
                 )
 
 
@@ -747,9 +749,10 @@ class PlotReducer:
             )
         for j, curve in enumerate(self._predicted):
             curve.add(chunk.output_predictions[:, j], start)
+        means = chunk.estimated_state_means()  # NaN (no curve, no band) where not estimated
         for i, (curve, band) in enumerate(zip(self._means, self._bands, strict=True)):
-            curve.add(chunk.state_means[:, i], start)
-            band.add(chunk.state_means[:, i], chunk.state_variances[:, i], start)
+            curve.add(means[:, i], start)
+            band.add(means[:, i], chunk.state_variances[:, i], start)
         self._modes.add(chunk.modes, start)
         for j, curve in enumerate(self._probabilities):
             curve.add(chunk.mode_probabilities[:, j], start)

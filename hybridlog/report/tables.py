@@ -22,7 +22,8 @@ Viterbi) values; ``<y>_hat`` is the filter's one-step-ahead prediction either wa
 whose names would give two columns one name (a mode ``a_filtered`` beside a mode ``a`` in a
 smoothed run, a state ``a`` beside an output ``a_hat``) is refused, naming both columns.
 
-Missing values (no prediction in row 0, no variance, a gap in the truth) are written as
+Missing values (no prediction in row 0, no variance, a gap in the truth, a state the estimator
+did not estimate at that sample: ``EstimationResult.states_not_estimated``) are written as
 nulls: an empty cell in CSV, a null in Parquet.  Floats are written with full round-trip
 precision.
 
@@ -308,13 +309,13 @@ def estimates_table(
     table = _TableBuilder(result.time.shape[0], "the estimates table")
     table.floats("t", result.time, "the time")
     filtered = None if result.post_processing is None else result.post_processing.filtered
+    estimated = result.estimated_state_means()  # empty where not estimated (a held value)
+    filtered_estimated = None if filtered is None else filtered.estimated_state_means()
     for i, x in enumerate(result.state_names):
-        table.floats(f"{x}_hat", result.state_means[:, i], f"the estimate of state {x!r}")
+        table.floats(f"{x}_hat", estimated[:, i], f"the estimate of state {x!r}")
         table.floats(f"{x}_var", result.state_variances[:, i], f"the variance of state {x!r}")
-        if filtered is not None:
-            table.floats(
-                f"{x}_hat_filtered", filtered.state_means[:, i], f"the filter's state {x!r}"
-            )
+        if filtered is not None and filtered_estimated is not None:
+            table.floats(f"{x}_hat_filtered", filtered_estimated[:, i], f"the filter's state {x!r}")
             table.floats(
                 f"{x}_var_filtered",
                 filtered.state_variances[:, i],

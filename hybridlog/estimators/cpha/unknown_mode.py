@@ -25,9 +25,11 @@ some step, in order of first appearance.  ``mode_probabilities[k, j]`` is the su
 normalised belief of the kept hypotheses with assignment ``j`` at step k (0 when none is
 kept).  ``modes[k]`` is the assignment of the most likely hypothesis (the paper's hybrid
 estimate, §2.2), whose ``x̂``, ``diag P`` and ``ŷ(k|k-1)`` are reported; an output no cluster of
-it predicts is NaN.  Timeline columns: ``mode.<component>`` (labels: the component's modes and
-``unknown``) of the most likely hypothesis, and ``p_unknown.<component>``, the summed belief
-of the kept hypotheses in which the component is unknown.
+it predicts is NaN, and a state in no cluster of it (its mean held, §3.1) is marked in
+``states_not_estimated``, which the report scores, writes and draws as no estimate.
+Timeline columns: ``mode.<component>`` (labels: the component's modes and ``unknown``) of
+the most likely hypothesis, and ``p_unknown.<component>``, the summed belief of the kept
+hypotheses in which the component is unknown.
 
 With ``mode_sequence = "kbest"`` (``--mode-sequence kbest``, offline; issue 12) ``modes``,
 the ``mode.<component>`` columns, ``x̂`` and ``diag P`` are those of the most likely
@@ -81,7 +83,7 @@ from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.signals import AlignedSignals, FloatArray
+from hybridlog.signals import AlignedSignals, BoolArray, FloatArray
 from hybridlog.times import format_time
 
 __all__ = [
@@ -421,6 +423,7 @@ def _run(
         compile_s=compile_s,
         notes=filtered_notes,
         timeline_columns=tuple(columns),
+        states_not_estimated=_not_estimated(model, structure, best_assignments),
     )
     if histories is None:
         return filtered
@@ -434,6 +437,7 @@ def _run(
         state_means=path_means,
         state_variances=path_variances,
         timeline_columns=(*_component_columns(model, assignments), *p_columns),
+        states_not_estimated=_not_estimated(model, structure, assignments),
         notes=(
             notes
             + absorbing_notes(components, absorbing, assignments, signals.time)
@@ -600,6 +604,25 @@ def _unchecked_notes(
     )
 
 
+def _not_estimated(
+    model: HybridModel, structure: StructureCache, assignments: list[Assignment]
+) -> BoolArray | None:
+    """Per sample and state, whether the state sat in no filter cluster of the reported assignment.
+
+    ``EstimationResult.states_not_estimated``: there the mean was held, not estimated
+    (:func:`_held_notes` names the states); ``None`` where every state was estimated.
+    """
+    rows: dict[Assignment, list[bool]] = {}
+    for assignment in dict.fromkeys(assignments):
+        held = structure.get(assignment).held_states
+        rows[assignment] = [state in held for state in model.states]
+    if not any(any(row) for row in rows.values()):
+        return None
+    table = np.array(list(rows.values()), dtype=np.bool_).reshape(len(rows), model.n_states)
+    index = {assignment: i for i, assignment in enumerate(rows)}
+    return table[np.array([index[a] for a in assignments], dtype=np.int64)]
+
+
 def _held_notes(
     model: HybridModel,
     structure: StructureCache,
@@ -612,7 +635,8 @@ def _held_notes(
     while a component is unknown, §3.1) keeps the mean it had, the initial state if no
     cluster ever held it, and only its variance grows.  The report scored that held value
     against the log's true state as if it were an estimate: a model whose output equation
-    left x1 unobservable on every sample had "x1 RMSE 1.06 over 400 samples", without a word.
+    left x1 unobservable on every sample had "x1 RMSE 1.06 over 400 samples", without a word
+    (now those samples are no estimate, :func:`_not_estimated`).
     """
     held: dict[Assignment, tuple[str, ...]] = {}
     counts: dict[str, int] = {}
@@ -639,7 +663,8 @@ def _held_notes(
         + ". In no filter cluster of the reported modes (unobservable there, or undetermined "
         "while a component is `unknown`, paper 002 §3.1), its mean is held where it was (the "
         "initial state if no cluster held it before) and only its variance grows: there the "
-        "state is not estimated, and the state RMSE scores the held value",
+        "state is not estimated, and the state RMSE, estimates.csv and the plots leave those "
+        "samples out",
     )
 
 
