@@ -34,11 +34,11 @@ import numpy as np
 from hybridlog.cluster.centers_file import CentersFile
 from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
 from hybridlog.cluster.labels import cluster_notes, decide_clusters
-from hybridlog.cluster.regressors import RegressorSpec, regression_vectors
+from hybridlog.cluster.regressors import RegressorSpec, measured_rows, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
-from hybridlog.errors import OptionError, as_text
+from hybridlog.errors import DataShortError, OptionError, as_text
 from hybridlog.numbers import comma_items
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 __all__ = [
     "ModeClassifier",
@@ -156,8 +156,14 @@ def fit_classifier(
     *,
     names: Sequence[str],
     n_modes: int,
+    unmeasured: BoolArray | None = None,
 ) -> ModeClassifier:
     """Cluster the regression vectors of a log; the clusters get no modes yet.
+
+    Only the vectors built from measured outputs are clustered (:func:`measured_rows`): one
+    holding a value the alignment took from the samples around a gap is a point no
+    measurement gave (a log at half the model's rate fitted centres with ``y(k) = y(k−1)``).
+    The notes say how many were left out.
 
     Parameters
     ----------
@@ -173,17 +179,38 @@ def fit_classifier(
         Names of the components of φ(k) (:meth:`RegressorSpec.names`).
     n_modes:
         Number of modes: the number of k-means centres unless ``clustering.clusters`` says.
+    unmeasured:
+        ``True`` where the log did not measure an output (``AlignedSignals.
+        unmeasured_outputs``), shape ``(N, n_y)``; ``None``: every output was measured.
 
     Raises
     ------
     DataShortError
-        No more samples than the largest lag, fewer distinct regression vectors than k-means
-        centres, or (eq. (5) without the self term) none within reach of another (the message
-        names no file: the caller knows the log).
+        No more samples than the largest lag, every regression vector holding an output the
+        log did not measure, fewer distinct regression vectors than k-means centres, or
+        (eq. (5) without the self term) none within reach of another (the message names no
+        file: the caller knows the log).
     """
     names = tuple(names)
-    phi = regression_vectors(outputs, inputs, spec)
+    every = regression_vectors(outputs, inputs, spec)
+    kept = measured_rows(unmeasured, spec, every.shape[0] + spec.max_lag)
+    left_out = int(every.shape[0] - np.count_nonzero(kept))
     text = ", ".join(names)
+    if left_out == every.shape[0]:
+        raise DataShortError(
+            f"every one of its {_count(left_out, 'regression vector')} holds an output value "
+            "the log did not measure (taken from the samples around a gap): no centre can be "
+            "fitted on measurements (is the model's dt the log's?)"
+        )
+    phi = every[kept] if left_out else every
+    rows = np.flatnonzero(kept) + spec.max_lag  # the sample k of each clustered φ(k)
+    without = (
+        f" ({_count(left_out, 'regression vector')} left out: "
+        f"{'it holds' if left_out == 1 else 'each holds'} an output value the log did not "
+        "measure, taken from the samples around a gap)"
+        if left_out
+        else ""
+    )
     details: dict[str, Any]
     if isinstance(clustering, SubtractiveOptions):
         algorithm = "chiu"
@@ -196,13 +223,14 @@ def fit_classifier(
             "potential_ratios": found.potential_ratios,
             "radii": found.radii,
             "sigmas": found.sigmas,
-            "center_rows": found.center_indices + spec.max_lag,
+            "center_rows": rows[found.center_indices],
         }
         self_term = "included" if clustering.self_potential else "excluded (eq. (5) as printed)"
         radius = np.atleast_1d(np.asarray(clustering.radius, dtype=float))
         notes = (
             f"chiu: {_count(found.n_clusters, 'centre')} from "
-            f"{_count(phi.shape[0], 'regression vector')} φ(k) = [{text}]; {found.notes[0]}; "
+            f"{_count(phi.shape[0], 'regression vector')} φ(k) = [{text}]{without}; "
+            f"{found.notes[0]}; "
             f"r_a = {', '.join(f'{r:g}' for r in radius)}, "
             f"squash {clustering.squash:g}, accept {clustering.accept:g}, reject "
             f"{clustering.reject:g}, self term {self_term}",
@@ -215,7 +243,7 @@ def fit_classifier(
         details = {"inertia": km.inertia, "seed": km.seed, "restarts": km.restarts}
         notes = (
             f"kmeans: {_count(k, 'centre')} from {_count(phi.shape[0], 'regression vector')} "
-            f"φ(k) = [{text}] "
+            f"φ(k) = [{text}]{without} "
             f"(scipy kmeans2, k-means++, best of {km.restarts} runs from seed {km.seed}, "
             f"inertia {km.inertia:.4g})",
         )

@@ -27,9 +27,16 @@ import numpy as np
 
 from hybridlog.errors import DataShortError, OptionError
 from hybridlog.numbers import comma_items, parse_int
-from hybridlog.signals import FloatArray
+from hybridlog.signals import BoolArray, FloatArray
 
-__all__ = ["RegressorSpec", "check_lags", "lag_values", "parse_lags", "regression_vectors"]
+__all__ = [
+    "RegressorSpec",
+    "check_lags",
+    "lag_values",
+    "measured_rows",
+    "parse_lags",
+    "regression_vectors",
+]
 
 
 @dataclass(frozen=True)
@@ -170,3 +177,40 @@ def regression_vectors(outputs: FloatArray, inputs: FloatArray, spec: RegressorS
     columns = [y[lag - a : n - a, j] for j in range(y.shape[1]) for a in spec.output_lags]
     columns += [u[lag - b : n - b, i] for i in range(u.shape[1]) for b in spec.input_lags]
     return np.ascontiguousarray(np.stack(columns, axis=1))
+
+
+def measured_rows(unmeasured: BoolArray | None, spec: RegressorSpec, n: int) -> BoolArray:
+    """Which rows of :func:`regression_vectors` hold only outputs the log measured.
+
+    Row ``i`` is φ(k) with ``k = max_lag + i``; it holds ``y_j(k − a)`` for every output
+    ``j`` and lag ``a`` of ``spec.output_lags``.  It is measured when none of them was a value
+    the alignment took from the samples around a gap
+    (:attr:`~hybridlog.signals.AlignedSignals.unmeasured_outputs`): a log at half the model's
+    rate repeats every other output, and φ(k) built on it shows ``y(k) = y(k−1)``, a point
+    no measurement gave, which a centre must not be fitted on.  Inputs are held onto the grid
+    between their samples, as the model applies them, and count as measured.
+
+    Parameters
+    ----------
+    unmeasured:
+        ``True`` where an output was not measured, shape ``(n, n_y)``; ``None``: all were.
+    spec:
+        The lags.
+    n:
+        Number of samples ``N``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Booleans, shape ``(max(N − max_lag, 0),)``.
+    """
+    lag = spec.max_lag
+    rows = max(n - lag, 0)
+    kept = np.ones(rows, dtype=np.bool_)
+    if unmeasured is None or rows == 0:
+        return kept
+    if unmeasured.shape[0] != n:
+        raise ValueError(f"unmeasured outputs have {unmeasured.shape[0]} rows; expected {n}")
+    for a in spec.output_lags:
+        kept &= ~np.any(unmeasured[lag - a : n - a], axis=1)
+    return kept

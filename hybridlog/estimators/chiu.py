@@ -9,13 +9,17 @@ Offline
     By default the clusters are fitted on the analysed log itself; ``centers=FILE`` uses
     the centres (and labels) that ``hybridlog cluster`` wrote instead: the job running the
     estimator reads the file and passes it parsed (``centers=``); the estimator reads no file.
-    The classifier itself is :class:`hybridlog.cluster.classifier.ModeClassifier`.
+    The classifier itself is :class:`hybridlog.cluster.classifier.ModeClassifier`.  A φ(k)
+    holding an output the log did not measure (bridged across a gap,
+    ``AlignedSignals.unmeasured_outputs``) is left out of the fit and counted in the notes
+    (:func:`hybridlog.cluster.regressors.measured_rows`); a log with none measured is refused.
 Labelling
     Each cluster is given a mode from the data and the model alone (never from ground truth,
     :mod:`hybridlog.cluster.labels`): among the maps cluster → mode that give every mode a
     cluster, the one under which the switched observer (8) predicts the log best (least sum
     of squared one-step output prediction errors; the first 10 % of the log, at most 100
-    samples, are left out as the observer's transient).  Surplus clusters thus join the mode
+    samples, are left out as the observer's transient; so are outputs the log did not
+    measure).  Surplus clusters thus join the mode
     that explains their samples best.  ``cluster_modes="2,1"`` sets the labels by hand.
 Online
     ``q̂(k) = argmin_i |y(k) − y_i*|²`` (eqs. (2)–(3)) and the switched observer (8) with gains
@@ -27,7 +31,9 @@ probabilities); ``state_variances`` are NaN (a Luenberger observer has no covari
 ``state_means[k] = x̂(k)`` from ``y(0..k−1)``; ``output_predictions[k]`` is made with
 ``q̂(k−1)`` before ``y(k)`` is used (row 0 NaN).  The report's ``options`` hold the centres,
 the labels, the gains and the LMI certificate; its ``notes`` say how each cluster was
-labelled and what happened to surplus clusters.
+labelled and what happened to surplus clusters.  Where ``y(k)`` was bridged the mode is
+still decided, from the value bridged there: the timeline's ``vouched`` column is 0 there
+(1 elsewhere; no column when every output was measured) and the notes count those samples.
 """
 
 from __future__ import annotations
@@ -51,7 +57,7 @@ from hybridlog.errors import DataShortError, LogError, OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
 from hybridlog.estimators.observer_options import ChiuOptions, check_centers
 from hybridlog.estimators.options import options_dict, parse_options, shown
-from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.result import EstimationResult, TimelineColumn
 from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, IntArray
@@ -92,9 +98,15 @@ def _prediction_score(
     gains: ObserverGains,
     decided: IntArray,
 ) -> Callable[[IntArray], float]:
-    """``score(labels)``: the switched observer's SSE of one-step predictions after burn-in."""
+    """``score(labels)``: the switched observer's SSE of one-step predictions after burn-in.
+
+    Over the outputs the log measured (``unmeasured_outputs`` left out): a value taken from
+    the samples around a gap is no measurement for a labelling to be judged by.
+    """
     n = signals.n_samples
     start = max(1, min(_BURN_IN_MAX, int(_BURN_IN_FRACTION * n)))
+    outputs = signals.outputs[start:]
+    unmeasured = None if signals.unmeasured_outputs is None else signals.unmeasured_outputs[start:]
 
     def score(labels: IntArray) -> float:
         _, predictions = run_observer(
@@ -105,7 +117,9 @@ def _prediction_score(
             labels[decided],
             model.initial_state,
         )
-        error = signals.outputs[start:] - predictions[start:]
+        error = outputs - predictions[start:]
+        if unmeasured is not None:  # a prediction that is not finite still shows
+            error = np.where(unmeasured, 0.0, error)
         return float(np.sum(error * error))
 
     return score
@@ -169,6 +183,7 @@ def mode_classifier(
                 options.clustering(),
                 names=names,
                 n_modes=model.n_modes,
+                unmeasured=signals.unmeasured_outputs,
             )
         except DataShortError as err:
             raise LogError(
@@ -267,9 +282,11 @@ def run_clustering_observer(
         "solver": gains.solver,
     }
     radii = ", ".join(f"{r:.3f}" for r in gains.spectral_radii)
+    vouched, unvouched_note = _decided_on_measurements(signals)
     notes = (
         *classifier.notes,
         *classifier.labelling,
+        *unvouched_note,
         f"observer gains from LMI (15) ({gains.solver}, decay rate {gains.decay_rate:g}): "
         f"certificate margin {gains.margin:.3g}, √V shrinks by ≤ {gains.decay_bound:.4f} per "
         f"step; spectral radii of A_i − L_i C_i: {radii}",
@@ -291,7 +308,36 @@ def run_clustering_observer(
         runtime_s=runtime,
         compile_s=0.0,
         notes=notes,
+        timeline_columns=vouched,
     )
+
+
+def _decided_on_measurements(
+    signals: AlignedSignals,
+) -> tuple[tuple[TimelineColumn, ...], tuple[str, ...]]:
+    """timeline.csv's ``vouched`` column and report.md's note, where ``y(k)`` was bridged.
+
+    The nearest-centre decision of sample ``k`` reads ``y(k)`` alone (eqs. (2)–(3)); where
+    the log did not measure it (``unmeasured_outputs``: a value taken from the samples
+    around a gap) the mode is decided on that stand-in, which no measurement vouches for.
+    As ``sliding-mode`` marks the σ̂ Lemma 1 cannot vouch for, the timeline gets ``vouched``,
+    1 where every output of the sample was measured and 0 there, and the notes say how many;
+    the mode metrics score the decision there as they score every other sample.  Nothing
+    when every output was measured.
+    """
+    if signals.unmeasured_outputs is None:
+        return (), ()
+    bridged = np.any(signals.unmeasured_outputs, axis=1)
+    count = int(np.count_nonzero(bridged))
+    if count == 0:
+        return (), ()
+    n = signals.n_samples
+    note = (
+        f"the mode of {count:,} of {n:,} samples ({100 * count / n:.1f} %) was decided on an "
+        "output value the log did not measure there (taken from the samples around a gap): "
+        "timeline.csv's vouched is 0 there; the mode metrics score those samples too"
+    )
+    return (TimelineColumn("vouched", np.where(bridged, 0.0, 1.0)),), (note,)
 
 
 def run_chiu(

@@ -22,7 +22,12 @@ import numpy as np
 
 from hybridlog.cluster.centers_file import centers_json
 from hybridlog.cluster.classifier import ModeClassifier, manual_labels
-from hybridlog.cluster.regressors import parse_lags, regression_vectors
+from hybridlog.cluster.regressors import (
+    RegressorSpec,
+    measured_rows,
+    parse_lags,
+    regression_vectors,
+)
 from hybridlog.cluster.subtractive import ClusteringOptionError
 from hybridlog.errors import (
     HybridlogError,
@@ -89,7 +94,9 @@ class ClusterOutcome:
     ``analyze`` prints on stderr of a log so read (:func:`reading_said`)."""
 
 
-def reading_said(reading: Mapping[str, Any]) -> tuple[list[str], list[str]]:
+def reading_said(
+    reading: Mapping[str, Any], left_out: Mapping[str, tuple[int, int]] | None = None
+) -> tuple[list[str], list[str]]:
     """What reading the log did, in words: lines for stderr, and notes for the table.
 
     The same log analysed printed ``hybridlog: warning: output y has no sample within dt/2
@@ -99,14 +106,21 @@ def reading_said(reading: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     samples not used go to stderr (``warning: …``, ``note: …``), the other notes of
     :func:`~hybridlog.report.build.log_reading_notes` (the user's repairs, the span) below
     the table.
+
+    ``left_out``: per bridged output, how many regression vectors hold a value of it the log
+    did not measure, and of how many (those vectors are not clustered:
+    :func:`~hybridlog.cluster.regressors.measured_rows`).
     """
-    alerts = [
-        f"warning: output {symbol} has no sample within dt/2 of {count['points']:,} of "
-        f"{count['of']:,} sample times: the regression vectors φ(k) took its value there from "
-        "the samples around (a measurement used more than once, or interpolated; is the "
-        "model's dt the log's?) and the clusters were fitted on them"
-        for symbol, count in (reading.get("bridged") or {}).items()
-    ]
+    alerts = []
+    for symbol, count in (reading.get("bridged") or {}).items():
+        vectors, of = (left_out or {}).get(symbol, (0, 0))
+        alerts.append(
+            f"warning: output {symbol} has no sample within dt/2 of {count['points']:,} of "
+            f"{count['of']:,} sample times: the value there is taken from the samples around "
+            "(a measurement used more than once, or interpolated; is the model's dt the "
+            f"log's?), and the {vectors:,} of {of:,} regression vectors φ(k) holding it were "
+            "left out of the clusters' fit"
+        )
     unused = set(unused_sample_notes(reading))
     notes: list[str] = []
     for note in log_reading_notes(reading):
@@ -117,6 +131,23 @@ def reading_said(reading: Mapping[str, Any]) -> tuple[list[str], list[str]]:
         else:
             notes.append(note)
     return alerts, notes
+
+
+def _left_out(signals: AlignedSignals, spec: RegressorSpec) -> dict[str, tuple[int, int]]:
+    """Per bridged output: the regression vectors holding a value of it the log did not measure.
+
+    Counted as :func:`~hybridlog.cluster.regressors.measured_rows` leaves them out of the fit
+    (of every vector φ(k) of the log).
+    """
+    unmeasured = signals.unmeasured_outputs
+    if unmeasured is None:
+        return {}
+    counts: dict[str, tuple[int, int]] = {}
+    for j, symbol in enumerate(signals.output_names):
+        kept = measured_rows(unmeasured[:, j : j + 1], spec, signals.n_samples)
+        if not kept.all():
+            counts[symbol] = (int(kept.size - np.count_nonzero(kept)), int(kept.size))
+    return counts
 
 
 def _accuracy(
@@ -557,7 +588,7 @@ def discover_modes(
         ),
         rows,
     )
-    alerts, read_notes = reading_said(reading)
+    alerts, read_notes = reading_said(reading, _left_out(signals, fitted.spec))
     notes += [*fitted.notes, *fitted.labelling, *read_notes]
     if baseline is not None:
         notes += [*baseline.notes, *baseline.labelling]

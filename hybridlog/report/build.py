@@ -928,7 +928,7 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     Samples not used, holds, the true mode's silences and late start, the span, and the
     user's repairs (``--split-gaps``, ``--drop-nonfinite``, ``--sort``, ``--recover``): true
     whatever used the log, so ``hybridlog cluster`` says them too (it said none of them; the
-    bridged outputs it words itself, its regression vectors took the stand-in values).
+    bridged outputs it words itself: the regression vectors holding them are not clustered).
     """
     reading = reading or {}
     notes = unused_sample_notes(reading)
