@@ -30,6 +30,7 @@ from hybridlog.errors import (
     DivergenceError,
     HybridlogError,
     LogError,
+    ModelError,
     OptionError,
     as_text,
     excerpt,
@@ -46,6 +47,7 @@ from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
+from hybridlog.jobs.origins import run_values
 from hybridlog.memory import check_fits, reserved
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -78,11 +80,16 @@ if TYPE_CHECKING:
 class Overrides:
     """``--set NAME=VALUE`` values, split into model parameters and estimator options.
 
-    Both are read-only mappings: the value is built once by :func:`parse_sets`.
+    All are read-only mappings: the value is built once by :func:`parse_sets`.
+    ``parameter_texts`` holds each parameter's value as typed (``--set A=150`` is ``150``),
+    for what a report or an error says of it; ``flags`` the options a flag of their own gave
+    (``smooth``: ``--smooth``), as :func:`smoothing_overrides` adds them.
     """
 
     parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     options: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    parameter_texts: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    flags: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
 
 
 def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridModel, Overrides]:
@@ -94,6 +101,7 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     """
     model = load_model(model_ref)
     parameters: dict[str, float] = {}
+    texts: dict[str, str] = {}
     options: dict[str, str] = {}
     for text in values:
         name, sep, value = text.partition("=")
@@ -107,11 +115,22 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
                 parameters[name] = parse_float(value)
             except ValueError as err:
                 raise OptionError(f"--set {name}: {err}, got {excerpt(value)}") from None
+            texts[name] = value.strip()
         else:
             options[name] = value.strip()
     if parameters:
-        model = load_model(model_ref, parameters=parameters)
-    return model, Overrides(MappingProxyType(parameters), MappingProxyType(options))
+        try:
+            model = load_model(model_ref, parameters=parameters)
+        except ModelError as err:
+            # the file loaded with its own values: the --set values broke it, and the
+            # message named the model file alone (A=0: "modes.1.f[0] is not finite")
+            if "--set" in str(err):
+                raise
+            given = ", ".join(f"{k}={excerpt(v)[1:-1]}" for k, v in texts.items())
+            raise OptionError(f"--set {given}: {err}") from None
+    return model, Overrides(
+        MappingProxyType(parameters), MappingProxyType(options), MappingProxyType(texts)
+    )
 
 
 SMOOTH_OPTION = "smooth"
@@ -169,6 +188,7 @@ def smoothing_overrides(
     flags = {SMOOTH_OPTION: ("--smooth", "true" if smooth else None)}
     flags[MODE_SEQUENCE_OPTION] = ("--mode-sequence", mode_sequence)
     options = dict(overrides.options)
+    labels = dict(overrides.flags)
     for option, (flag, value) in flags.items():
         if value is None:
             continue
@@ -189,7 +209,8 @@ def smoothing_overrides(
                     f"{', '.join(_choices(estimator, option))}"
                 )
         options[option] = value
-    return Overrides(overrides.parameters, MappingProxyType(options))
+        labels[option] = flag if option == SMOOTH_OPTION else f"{flag} {value}"
+    return replace(overrides, options=MappingProxyType(options), flags=MappingProxyType(labels))
 
 
 def _not_offered(
@@ -263,6 +284,7 @@ def prepare_estimators(
             name,  # None: the default, which a refusal names as default_estimator
             {k: v for k, v in overrides.options.items() if k in declared[e.name]},
             given_by=given_by,
+            flags=overrides.flags,
         )
         for name, e in zip(names, chosen, strict=True)
     ]
@@ -604,6 +626,7 @@ def analyze(
         table_format=table_format,
         force=force,
         reading=reading,
+        extra=run_values(model, prepared, overrides.parameter_texts),
         model=model,
     )
     return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
@@ -815,6 +838,7 @@ def compare(
                     dt=model.dt,
                     table_format=table_format,
                     reading=reading,
+                    extra=run_values(model, estimator, overrides.parameter_texts),
                     model=model,
                 )
             except _RunFailedError as failed:  # a result: the others are still compared
