@@ -30,7 +30,6 @@ from hybridlog.errors import (
     DivergenceError,
     HybridlogError,
     LogError,
-    ModelError,
     OptionError,
     as_text,
     excerpt,
@@ -49,9 +48,8 @@ from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
 from hybridlog.jobs.origins import run_values
 from hybridlog.memory import check_fits, reserved
-from hybridlog.model.cache import load_model
+from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.comparison import (
@@ -100,7 +98,6 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     parameter's name that is also an option of one of them).
     """
     model = load_model(model_ref)
-    parameters: dict[str, float] = {}
     texts: dict[str, str] = {}
     options: dict[str, str] = {}
     for text in values:
@@ -108,26 +105,15 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
         name = name.strip()
         if not sep or not name:
             raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
-        if name in parameters or name in options:
+        if name in texts or name in options:
             raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
         if name in model.parameters:
-            try:
-                parameters[name] = parse_float(value)
-            except ValueError as err:
-                raise OptionError(f"--set {name}: {err}, got {excerpt(value)}") from None
             texts[name] = value.strip()
         else:
             options[name] = value.strip()
-    if parameters:
-        try:
-            model = load_model(model_ref, parameters=parameters)
-        except ModelError as err:
-            # the file loaded with its own values: the --set values broke it, and the
-            # message named the model file alone (A=0: "modes.1.f[0] is not finite")
-            if "--set" in str(err):
-                raise
-            given = ", ".join(f"{k}={excerpt(v)[1:-1]}" for k, v in texts.items())
-            raise OptionError(f"--set {given}: {err}") from None
+    if texts:
+        model = load_model_set(model_ref, texts)
+    parameters = {name: model.parameters[name] for name in texts}
     return model, Overrides(
         MappingProxyType(parameters), MappingProxyType(options), MappingProxyType(texts)
     )
@@ -267,9 +253,16 @@ def prepare_estimators(
             )
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
+            flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
             if name in OFFLINE_OPTIONS:  # as --smooth and --mode-sequence are refused
-                flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
                 raise _not_offered(flag, chosen[0], name, value, chosen_by)
+            if model.scenario is not None and name in model.scenario.parameters:
+                # was "neither a parameter ... did you mean 'light_full'?": another name
+                raise OptionError(
+                    f"{flag}: a scenario parameter of model {model.origin or model.name} "
+                    "([simulation.parameters]), which only simulate plays; an estimator "
+                    "reads the log, not the scenario"
+                )
             options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
             candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
             raise OptionError(

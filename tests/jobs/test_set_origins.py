@@ -19,6 +19,7 @@ from hybridlog.jobs.analysis import analyze, compare, parse_sets, prepare_estima
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.origins import run_values
 from tests.jobs.test_batch_resume import TANK, write_logs
+from tests.support.cli import run_main
 
 
 def _report(folder: Path) -> dict[str, object]:
@@ -89,3 +90,34 @@ def test_a_parameter_value_that_breaks_the_model_is_refused_naming_the_set(
         parse_sets(sets, TANK)
     assert str(raised.value).startswith(start)
     assert "not finite" in str(raised.value)
+
+
+def test_simulate_moves_a_model_parameter_and_names_a_value_that_breaks_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # simulate refused --set A=140: "three_tank_hstf has no scenario parameters"
+    runs = {}
+    for name, sets in (("base", []), ("narrow", ["--set", "A=140"]), ("again", [])):
+        out = tmp_path / f"{name}.csv"
+        args = ["simulate", TANK, "--out", str(out), "--steps", "30", *sets]
+        code, output = run_main(args, capsys)
+        assert code == 0, output
+        runs[name] = out.read_bytes()
+    assert runs["narrow"] != runs["base"] == runs["again"]  # the model cache keyed on A
+    code, output = run_main(
+        ["simulate", TANK, "--out", str(tmp_path / "z.csv"), "--set", "A=0"], capsys
+    )
+    assert code == 2 and output.startswith("hybridlog: error: --set A=0: three_tank_hstf: modes.1")
+    assert not (tmp_path / "z.csv").exists()
+
+
+def test_a_scenario_parameter_given_to_an_analysis_is_said_to_be_one() -> None:
+    # it was "neither a parameter ... nor an estimator option; did you mean 'light_full'?"
+    model, overrides = parse_sets(["light_fault=950"], "bioplex_pgc")
+    with pytest.raises(OptionError) as raised:
+        prepare_estimators(model, [None], overrides)
+    assert str(raised.value) == (
+        "--set light_fault=950: a scenario parameter of model bioplex_pgc "
+        "([simulation.parameters]), which only simulate plays; an estimator reads the log, "
+        "not the scenario"
+    )
