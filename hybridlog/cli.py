@@ -679,7 +679,10 @@ class _LogFormats(click.Choice[str]):
 @click.option(
     "--seed", type=_WholeNumber(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
 )
-@_set_option("A scenario parameter of a components model (a fault time, a drift rate).")
+@_set_option(
+    "A parameter of the model ([parameters]: the plant simulated with another value), or a "
+    "scenario parameter of a components model (a fault time, a drift rate)."
+)
 @click.option(
     "--noise/--no-noise",
     default=True,

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import ModelError, OptionError
+from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
@@ -163,8 +163,9 @@ def simulate_components(
     except KeyError as err:
         known = ", ".join(scenario.parameters) or "none"
         raise OptionError(
-            f"--set {err.args[0]}: not a scenario parameter of {origin} "
-            f"(simulation.parameters: {known})"
+            f"--set {excerpt(err.args[0])[1:-1]}: neither a scenario parameter of {origin} "
+            f"(simulation.parameters: {known}) nor a parameter of the model (parameters: "
+            f"{', '.join(model.parameters) or 'none'})"
         ) from err
     if steps is not None and steps <= 0:
         raise OptionError("--steps: must be positive")

@@ -693,6 +693,7 @@ def prepare(
     *,
     given_by: str = "--estimator",
     overrides_by: str = "--set",
+    flags: Mapping[str, str] | None = None,
 ) -> Prepared:
     """Resolve an estimator and its options for ``model`` before any log is read.
 
@@ -706,6 +707,9 @@ def prepare(
         Option values that replace the model file's ``[estimators.<name>]`` values.
     given_by, overrides_by:
         The command-line options ``name`` and ``overrides`` came from, for messages.
+    flags:
+        The overrides a flag of their own gave (``smooth``: ``--smooth``), as messages and
+        :attr:`Prepared.origins` name them instead of ``overrides_by``.
 
     Raises
     ------
@@ -738,7 +742,9 @@ def prepare(
     from_file = model.estimator_options.get(name, {})
     sources = {k: OptionSource.model_file(origin, name, k) for k in from_file}
     overrides = overrides or {}
-    sources.update({k: OptionSource.command_line(overrides_by, k, v) for k, v in overrides.items()})
+    for k, v in overrides.items():
+        flag = (flags or {}).get(k)  # --smooth, not --set smooth=true
+        sources[k] = OptionSource(flag) if flag else OptionSource.command_line(overrides_by, k, v)
     options = estimator.parse_options({**from_file, **overrides}, sources)
     refuse_invalid(options, model, name, sources, overrides)  # the file's: check_table
     return Prepared(estimator, options, {k: source.label for k, source in sources.items()})

@@ -46,10 +46,10 @@ from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
+from hybridlog.jobs.origins import run_values
 from hybridlog.memory import check_fits, reserved
-from hybridlog.model.cache import load_model
+from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.comparison import (
@@ -78,11 +78,16 @@ if TYPE_CHECKING:
 class Overrides:
     """``--set NAME=VALUE`` values, split into model parameters and estimator options.
 
-    Both are read-only mappings: the value is built once by :func:`parse_sets`.
+    All are read-only mappings: the value is built once by :func:`parse_sets`.
+    ``parameter_texts`` holds each parameter's value as typed (``--set A=150`` is ``150``),
+    for what a report or an error says of it; ``flags`` the options a flag of their own gave
+    (``smooth``: ``--smooth``), as :func:`smoothing_overrides` adds them.
     """
 
     parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     options: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    parameter_texts: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    flags: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
 
 
 def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridModel, Overrides]:
@@ -93,25 +98,25 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     parameter's name that is also an option of one of them).
     """
     model = load_model(model_ref)
-    parameters: dict[str, float] = {}
+    texts: dict[str, str] = {}
     options: dict[str, str] = {}
     for text in values:
         name, sep, value = text.partition("=")
         name = name.strip()
         if not sep or not name:
             raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
-        if name in parameters or name in options:
+        if name in texts or name in options:
             raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
         if name in model.parameters:
-            try:
-                parameters[name] = parse_float(value)
-            except ValueError as err:
-                raise OptionError(f"--set {name}: {err}, got {excerpt(value)}") from None
+            texts[name] = value.strip()
         else:
             options[name] = value.strip()
-    if parameters:
-        model = load_model(model_ref, parameters=parameters)
-    return model, Overrides(MappingProxyType(parameters), MappingProxyType(options))
+    if texts:
+        model = load_model_set(model_ref, texts)
+    parameters = {name: model.parameters[name] for name in texts}
+    return model, Overrides(
+        MappingProxyType(parameters), MappingProxyType(options), MappingProxyType(texts)
+    )
 
 
 SMOOTH_OPTION = "smooth"
@@ -169,6 +174,7 @@ def smoothing_overrides(
     flags = {SMOOTH_OPTION: ("--smooth", "true" if smooth else None)}
     flags[MODE_SEQUENCE_OPTION] = ("--mode-sequence", mode_sequence)
     options = dict(overrides.options)
+    labels = dict(overrides.flags)
     for option, (flag, value) in flags.items():
         if value is None:
             continue
@@ -189,7 +195,8 @@ def smoothing_overrides(
                     f"{', '.join(_choices(estimator, option))}"
                 )
         options[option] = value
-    return Overrides(overrides.parameters, MappingProxyType(options))
+        labels[option] = flag if option == SMOOTH_OPTION else f"{flag} {value}"
+    return replace(overrides, options=MappingProxyType(options), flags=MappingProxyType(labels))
 
 
 def _not_offered(
@@ -246,9 +253,16 @@ def prepare_estimators(
             )
     for name, value in overrides.options.items():
         if not any(name in known for known in declared.values()):
+            flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
             if name in OFFLINE_OPTIONS:  # as --smooth and --mode-sequence are refused
-                flag = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
                 raise _not_offered(flag, chosen[0], name, value, chosen_by)
+            if model.scenario is not None and name in model.scenario.parameters:
+                # was "neither a parameter ... did you mean 'light_full'?": another name
+                raise OptionError(
+                    f"{flag}: a scenario parameter of model {model.origin or model.name} "
+                    "([simulation.parameters]), which only simulate plays; an estimator "
+                    "reads the log, not the scenario"
+                )
             options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
             candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
             raise OptionError(
@@ -263,6 +277,7 @@ def prepare_estimators(
             name,  # None: the default, which a refusal names as default_estimator
             {k: v for k, v in overrides.options.items() if k in declared[e.name]},
             given_by=given_by,
+            flags=overrides.flags,
         )
         for name, e in zip(names, chosen, strict=True)
     ]
@@ -604,6 +619,7 @@ def analyze(
         table_format=table_format,
         force=force,
         reading=reading,
+        extra=run_values(model, prepared, overrides.parameter_texts),
         model=model,
     )
     return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
@@ -815,6 +831,7 @@ def compare(
                     dt=model.dt,
                     table_format=table_format,
                     reading=reading,
+                    extra=run_values(model, estimator, overrides.parameter_texts),
                     model=model,
                 )
             except _RunFailedError as failed:  # a result: the others are still compared

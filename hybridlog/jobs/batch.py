@@ -77,6 +77,7 @@ from hybridlog.jobs.batch_logs import (
     recover_applies,
     recover_note,
 )
+from hybridlog.jobs.origins import run_values
 from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
@@ -351,6 +352,8 @@ class _Warm:
     prepared: Prepared
     inputs: dict[str, Any]
     gates: list[Gate]
+    values: dict[str, Any]
+    """``report.json``'s ``parameters`` and ``origins`` (:func:`run_values`)."""
 
 
 _WARM: dict[tuple[object, ...], _Warm] = {}
@@ -397,7 +400,8 @@ def _warm(job: BatchJob) -> _Warm:
             )
             _check_unchanged(job, _input_files(prepared))
             gates = gates_for(model, job.fail_under, job.fail_over)
-            warm = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
+            values = run_values(model, prepared, overrides.parameter_texts)
+            warm = _Warm(model, prepared, estimator_inputs(prepared, model), gates, values)
             _WARM.clear()
             _WARM[key] = warm
         return warm
@@ -550,7 +554,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
             table_format=job.table_format,
             force=True,
             reading=reading,
-            extra={PROVENANCE_KEY: job.provenance(log_sha256)},
+            extra={**warm.values, PROVENANCE_KEY: job.provenance(log_sha256)},
             plots=_plots(job, warm.gates),
             model=warm.model,
         )
@@ -1008,7 +1012,10 @@ def _plan(
             raise
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
-        _WARM[_warm_key(job)] = _Warm(model, prepared, estimator_inputs(prepared, model), gates)
+        values = run_values(model, prepared, overrides.parameter_texts)
+        _WARM[_warm_key(job)] = _Warm(
+            model, prepared, estimator_inputs(prepared, model), gates, values
+        )
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
 

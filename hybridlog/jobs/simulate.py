@@ -8,19 +8,20 @@ truth (:func:`hybridlog.io.bag_writers.write_log`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.errors import OptionError, excerpt
+from hybridlog.estimators.options import closest
 from hybridlog.io.bag_writers import (
     check_log_target,
     check_topic_names,
     times_before,
     write_log,
 )
-from hybridlog.model.cache import load_model
+from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import cut_schedule, parse_disturbance
@@ -78,8 +79,10 @@ def simulate_log(
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).
     settings:
-        ``NAME=VALUE`` texts (``--set``): scenario parameters of a components model
-        (:mod:`hybridlog.model.scenario`), e.g. a fault time or a drift rate.
+        ``NAME=VALUE`` texts (``--set``): the model's ``[parameters]`` (the plant simulated
+        with other values: a model run beside the log then meets the mismatch), and the
+        scenario parameters of a components model (:mod:`hybridlog.model.scenario`), e.g. a
+        fault time or a drift rate.
 
     Raises
     ------
@@ -96,7 +99,11 @@ def simulate_log(
     if chosen not in ("csv", "parquet"):  # every name a ROS name, no two one topic
         check_topic_names(out, *log_columns(model))
     ends_before = times_before(chosen)  # a ROS 1 bag's seconds are 32-bit
-    values = _settings(settings)
+    texts = _setting_texts(settings)
+    moved = {name: text for name, text in texts.items() if name in model.parameters}
+    if moved:  # the plant simulated with other [parameters] values
+        model = load_model_set(model_ref, moved)
+    values = _scenario_values({k: v for k, v in texts.items() if k not in moved})
     if model.has_components:
         if schedule is not None:
             raise OptionError(
@@ -120,9 +127,12 @@ def simulate_log(
     else:
         if values:
             name = next(iter(values))
+            known = ", ".join(model.parameters) or "none"
             raise OptionError(
-                f"--set {name}: {model.origin or model.name} has no scenario parameters "
-                "(only a components model's [simulation.parameters])"
+                f"--set {excerpt(name)[1:-1]}: neither a parameter of model "
+                f"{model.origin or model.name} (parameters: {known}) nor a scenario parameter "
+                f"(only a components model has them, in [simulation.parameters])"
+                f"{closest(name, model.parameters)}"
             )
         log = simulate_model(
             model,
@@ -161,9 +171,9 @@ def log_columns(model: HybridModel) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return (*model.inputs, *model.outputs, *truth), truth
 
 
-def _settings(texts: Sequence[str]) -> dict[str, float]:
-    """``--set NAME=VALUE`` texts → ``{name: value}``, each named in its error."""
-    values: dict[str, float] = {}
+def _setting_texts(texts: Sequence[str]) -> dict[str, str]:
+    """``--set NAME=VALUE`` texts → ``{name: value text}``, each named in its error."""
+    values: dict[str, str] = {}
     for text in texts:
         name, sep, value = text.partition("=")
         name = name.strip()
@@ -171,9 +181,16 @@ def _settings(texts: Sequence[str]) -> dict[str, float]:
             raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
         if name in values:
             raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
+        values[name] = value
+    return values
+
+
+def _scenario_values(texts: Mapping[str, str]) -> dict[str, float]:
+    """The scenario parameters' ``--set`` texts as numbers, each named in its error."""
+    values: dict[str, float] = {}
+    for name, value in texts.items():
         try:
-            number = parse_float(value)
+            values[name] = parse_float(value)
         except ValueError as err:
             raise OptionError(f"--set {excerpt(name)[1:-1]}: {err}, got {excerpt(value)}") from None
-        values[name] = number
     return values

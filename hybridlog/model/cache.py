@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 import hybridlog
-from hybridlog.errors import ModelError, excerpt
+from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.compiled import (
     _framed,
@@ -62,6 +62,7 @@ from hybridlog.model.hybrid_model import (
 )
 from hybridlog.model.keys import remember_key, sympy_release
 from hybridlog.model.toml_text import decode_model_file
+from hybridlog.numbers import parse_float
 from hybridlog.signals import FloatArray
 
 FORMAT = 1
@@ -100,6 +101,35 @@ def load_model(
         return cached_model(text, origin=str(path), parameters=parameters)
     name = str(name_or_path)
     return cached_model(builtin_text(name), origin=name, parameters=parameters)
+
+
+def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> HybridModel:
+    """The model with ``--set NAME=VALUE`` values of its ``[parameters]`` (``texts``: as typed).
+
+    Every value is read by :func:`~hybridlog.numbers.parse_float` first.  The file loaded
+    with its own values (the caller loaded it to tell parameters from other names), so an
+    error of the model now is one the values caused: it starts ``--set A=0: `` (an
+    :class:`~hybridlog.errors.OptionError`), where it named the model file alone (``A=0``:
+    ``modes.1.f[0] ... is not finite``).
+
+    Raises
+    ------
+    OptionError
+        A value that is no finite number, or that makes the model invalid.
+    """
+    parameters: dict[str, float] = {}
+    for name, text in texts.items():
+        try:
+            parameters[name] = parse_float(text)
+        except ValueError as err:
+            raise OptionError(f"--set {name}: {err}, got {excerpt(text)}") from None
+    try:
+        return load_model(name_or_path, parameters=parameters)
+    except ModelError as err:
+        if "--set" in str(err):  # says so already (a parameter no expression names)
+            raise
+        given = ", ".join(f"{k}={excerpt(v)[1:-1]}" for k, v in texts.items())
+        raise OptionError(f"--set {given}: {err}") from None
 
 
 def model_file(name_or_path: str | Path) -> Path | None:

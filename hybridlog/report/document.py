@@ -14,7 +14,9 @@ confusion: {<true mode>: {<estimated mode>: count}}, detection_delay_s, detectio
 states: {<x>: {rmse, samples}}, runtime_s, compile_s, samples_per_s, notes, null_reasons``, then
 ``smoothing`` when the estimates are not the causal filter's own (``--smooth``,
 ``--mode-sequence viterbi``; absent otherwise), then ``reading`` (what reading the log did)
-when known, then any further keys (:attr:`Report.extra`).
+when known, then any further keys (:attr:`Report.extra`): those ``analyze``, ``compare``
+and ``batch`` write are :data:`PARAMETERS_KEY` and :data:`ORIGINS_KEY`
+(:mod:`hybridlog.jobs.origins`), and ``batch`` its provenance.
 
 ``smoothing`` is ``{method, mode_sequence, description, filtered: {...}, smoothed: {...}}``
 (:class:`Smoothing`): ``method`` names the fixed-interval smoother (``null`` when only the
@@ -655,6 +657,32 @@ def _refuse_constant(name: str) -> object:
 
 
 _KEYS: Final = frozenset(f.name for f in fields(Report)) - {"extra"}
+
+PARAMETERS_KEY: Final = "parameters"
+"""The further key (:attr:`Report.extra`) of the model's parameter values as the run used
+them (written by :func:`hybridlog.jobs.origins.run_values`)."""
+
+ORIGINS_KEY: Final = "origins"
+"""The further key of where each parameter value (``parameters.<name>``) and estimator option
+(``options.<name>``) came from: ``--set NAME=VALUE`` as typed, the model file's key, or
+:data:`DEFAULT_ORIGIN`."""
+
+DEFAULT_ORIGIN: Final = "default"
+"""The origin of an option the estimator's own default gave."""
+
+
+def command_line_values(report: Report) -> list[str]:
+    """The values of ``report`` given on the command line: ``["--set A=150", ...]``.
+
+    From its :data:`ORIGINS_KEY`, as read back from any ``report.json``: a report without
+    one, or whose value is not an object of strings, gives none.
+    """
+    origins = report.extra.get(ORIGINS_KEY)
+    if not isinstance(origins, Mapping):
+        return []
+    return [v for v in origins.values() if isinstance(v, str) and v.startswith("--")]
+
+
 """Top-level keys of ``report.json`` that are attributes of :class:`Report`."""
 
 MAX_DEPTH: Final = 64

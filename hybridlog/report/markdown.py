@@ -12,6 +12,7 @@ import re
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from hybridlog.report.document import command_line_values
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
@@ -185,6 +186,12 @@ DEFINITIONS = (
 )
 
 
+def _given_line(report: Report) -> list[str]:
+    """``- given: `--set A=150`, ...``: the values the command line gave, when any."""
+    given = command_line_values(report)
+    return [f"- given: {', '.join(code_span(g) for g in given)}"] if given else []
+
+
 def render_markdown(report: Report) -> str:
     """Render a report for people (``report.md``, CI job summaries).
 
@@ -206,6 +213,7 @@ def render_markdown(report: Report) -> str:
         f"# hybridlog report: {escape_markdown(report.log)}",
         "",
         f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
+        *_given_line(report),
         f"- samples: {report.samples}, dt = {format_number(report.dt)} s, "
         f"t = {format_time(report.t_start)} … {format_time(report.t_end)} s",
         *_fields_line(report.reading),

@@ -182,7 +182,9 @@ def test_the_same_seed_gives_the_same_run(model, short_run):
 
 
 def test_settings_and_steps_are_checked(model):
-    with pytest.raises(OptionError, match=r"^--set nope: not a scenario parameter of bioplex_pgc"):
+    with pytest.raises(
+        OptionError, match=r"^--set nope: neither a scenario parameter of bioplex_pgc"
+    ):
         simulate_components(model, steps=5, settings={"nope": 1.0})
     at = r"bioplex_pgc: simulation\.modes\.ls: "
     with pytest.raises(OptionError, match=rf"^--set light_fault: {at}light_fault = 1\.5 is used"):
@@ -349,7 +351,7 @@ def test_simulate_cli_writes_the_scenario_with_its_truth(tmp_path, hybridlog_mai
     assert frame["mode.ls"].to_list()[29:31] == ["full", "one_bank_out"]
     assert math.isclose(frame["t"][1], 60.0)
     code, error = hybridlog_main([*args, "--set", "drift=1", "--force"])
-    assert code == 2 and error.startswith("hybridlog: error: --set drift: not a scenario param")
+    assert code == 2 and error.startswith("hybridlog: error: --set drift: neither a scenario param")
 
 
 def test_unknown_mode_on_the_short_scenario_and_without_the_unknown_mode(model, short_run):
