@@ -341,6 +341,22 @@ def test_times_at_unix_magnitudes_are_written_in_full() -> None:
     )
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    steps=st.integers(-(10**12), 10**12),
+    dt=st.floats(min_value=1e-300, max_value=1e6, allow_nan=False, allow_infinity=False),
+)
+def test_steps_seconds_is_the_written_decimal_times_the_steps_rounded_once(
+    steps: int, dt: float
+) -> None:
+    """The exact product of ``dt`` as written and ``steps``, rounded once, whatever the two
+    (``dt``'s decimal is parsed once per ``dt``, not once per switch)."""
+    from fractions import Fraction
+
+    assert metrics.steps_seconds(steps, dt) == float(Fraction(repr(dt)) * steps)
+    assert metrics.steps_seconds(np.int64(steps), dt) == float(Fraction(repr(dt)) * steps)
+
+
 def test_steps_on_the_grid_are_dt_as_written_times_their_number() -> None:
     """351 samples of 10 ms dwelt 3.5100000000000002 s in report.json, a delay of 3 steps of
     50 ms was 0.15000000000000002 s: float products, whose last digits say nothing."""
