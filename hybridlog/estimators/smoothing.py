@@ -69,6 +69,54 @@ rounding; and it is the mode the backward pass skips most (on the three-tank ben
 log 45 % of the smoothed probabilities are below it, and the results are bit-identical
 with and without the skip, which takes the backward pass from 0.30 to 0.22 s).
 
+**Expectation correction** (``smoother = "ec"``, :func:`ec_backward`): D. Barber,
+"Expectation Correction for Smoothed Inference in Switching Linear Dynamical Systems",
+*Journal of Machine Learning Research* 7 (2006) 2515-2540, with one Gaussian per mode and
+the "mean" approximation of its expectation over ``x(k+1)``.  Kim's recursion takes
+``Pr(q(k)=i | q(k+1)=j, Y^N) ≈ Pr(q(k)=i | q(k+1)=j, Y^k)``; expectation correction
+conditions on the smoothed state of ``k+1`` as well, at its mean.  The forward pass keeps the
+mode-matched filtered ``x̂_i(k|k)``, ``P_i(k|k)`` in every row of the store instead of the
+mixed priors (the IMM's ``filtered_store``; same size).  For ``k = N−2 … 0`` and each pair
+``(i, j)``, an extended RTS step (:func:`rts_predict`, :func:`rts_correct`, the guard and the
+rounding probe of :func:`rts_step`) from the filtered estimate of mode ``i`` with the
+dynamics of mode ``j``:
+
+.. math::
+
+    \hat x^-_{ij} = f_j(\hat x_i(k|k), u_k),\; F_{ij} = \partial f_j/\partial x,\;
+    P^-_{ij} = F_{ij} P_i(k|k) F_{ij}^T + Q_j,\;
+    J_{ij} = P_i(k|k) F_{ij}^T (P^-_{ij})^{-1}
+
+    \hat x^{(ij)} = \hat x_i(k|k) + J_{ij}(\hat x^s_j(k+1) - \hat x^-_{ij}),\quad
+    P^{(ij)} = (I - J_{ij}F_{ij}) P_i(k|k) (\cdot)^T + J_{ij}(Q_j + P^s_j(k+1))J_{ij}^T
+
+    \log w_{i|j} = \log\mu_i(k) + \log\Pi_{ij}
+        + \log N(\hat x^s_j(k+1);\ \hat x^-_{ij}, P^-_{ij}) - \text{(normaliser over } i)
+
+    \log p_{ij} = \log w_{i|j} + \log\mu^s_j(k+1),\quad
+    \log\mu^s_i(k) = \operatorname{logsumexp}_j \log p_{ij},\quad
+    v_{j|i} = p_{ij}/\mu^s_i(k)
+
+    \hat x^s_i(k) = \textstyle\sum_j v_{j|i}\hat x^{(ij)},\quad
+    P^s_i(k) = \sum_j v_{j|i}(P^{(ij)} + (\hat x^{(ij)} - \hat x^s_i)(\cdot)^T)
+
+and the output is the mixture over ``i`` with ``μ^s_i(k)``.  The approximations: one
+Gaussian per mode (forward and backward, each mixture collapsed to its moments), the
+expectation of ``p(q(k) | q(k+1), x(k+1), Y^k)`` over ``x(k+1)`` taken at its mean
+``x̂^s_j(k+1)``, and nonlinear modes linearised at ``x̂_i(k|k)``.  ``n_q²`` RTS steps a
+sample against Kim's ``n_q``.  Kim's weights (the density term left out) are taken for next
+mode ``j`` where ``Q_j`` is not positive definite (without process noise ``P^-_{ij} =
+F P_i Fᵀ`` is nearly singular and the density decides by rounding: on the double cart the
+prototype of ``docs/studies/smoothing_ec.py`` put 52-83 % of a log's samples in the wrong
+mode), where a pair's ``P^-_{ij}`` is not positive definite, where the density is ``-inf`` for
+every ``i``, and for a negligible next mode (``μ^s_j(k+1) <`` :data:`NEGLIGIBLE_WEIGHT`, whose
+pair steps are skipped: ``x̂^{(ij)} = x̂_i(k|k)``).  A pair step the guard or the probe
+refuses leaves ``x̂^{(ij)} = x̂_i(k|k)``, as in Kim's pass.  With one mode, or the stay
+probability at 1 and the true mode known, it is the RTS smoother; where the state forgets
+its past (``F = 0``) the density is the same for every ``i`` and it is Kim's, exact on a
+Markov chain with Gaussian emissions.  No straight-line variant: the generic loop serves
+both kernels (the forward pass keeps its straight-line code).
+
 **Viterbi.**  The most likely mode sequence given the forward pass's per-mode log-likelihoods
 ``ℓ_j(k) = log N(γ_j(k); 0, S_j(k))``: ``δ_j(0) = log μ_j(0)``,
 ``δ_j(k) = max_i(δ_i(k−1) + log Π_ij) + ℓ_j(k)`` and back-tracking (Rabiner 1989, eqs.
@@ -102,6 +150,7 @@ from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
     gain,
+    gaussian_log_density,
     mat_mul,
     mixture_moments,
     record,
@@ -127,7 +176,7 @@ from hybridlog.jit import compile_for, jit, jitable
 from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.prefault import populated_beside
-from hybridlog.signals import AlignedSignals, FloatArray, IntArray
+from hybridlog.signals import AlignedSignals, BoolArray, FloatArray, IntArray
 
 __all__ = ["KIM_DESCRIPTION", "post_process", "viterbi"]
 
@@ -153,6 +202,16 @@ FILTERS_OWN = "states and mode probabilities: the filter's"
 PATH_RTS = "kim-rts+path-rts"
 """``PostProcessing.smoothing`` with ``kbest``: Kim's mode probabilities, the states smoothed
 along the path."""
+EC = "ec-rts"
+"""``PostProcessing.smoothing`` of expectation correction (``smoother = "ec"``)."""
+EC_PATH_RTS = "ec-rts+path-rts"
+"""``PostProcessing.smoothing`` with ``smoother = "ec"`` and ``kbest``: expectation
+correction's mode probabilities, the states smoothed along the path."""
+EC_DESCRIPTION = (
+    "fixed-interval IMM smoother: expectation correction (Barber 2006, JMLR 7, one Gaussian "
+    "per mode), an extended RTS step per pair of modes from the filtered estimates, the mode "
+    "weights corrected by the density of the smoothed next state (log space)"
+)
 
 
 @jit
@@ -293,16 +352,49 @@ def rts_step(
     data make them.  Past the limit the sample takes the forward estimate, and the pass goes
     on from there with ``r = 0``.  ``x_out`` and ``P_out`` must not be ``x`` and ``P``.
     """
+    if not rts_predict(f, F, mode, x, P, u, Q, w):
+        return _forward_stands(x, P, x_out, P_out, r_out)
+    return rts_correct(x, P, Q, x_next, P_next, x_out, P_out, w, r_next, r_out)
+
+
+@jitable
+def rts_predict(
+    f: Fn, F: Fn, mode: int, x: FloatArray, P: FloatArray, u: FloatArray, Q: FloatArray, w: RtsWork
+) -> bool:
+    """The prediction of :func:`rts_step` into ``w``; False where ``P^-`` is not positive definite.
+
+    ``w.x_pred = f(x̂)``, ``w.F``, ``w.P_pred = F P Fᵀ + Q`` and its lower Cholesky factor ``w.L``.
+    """
     n = x.shape[0]
-    x_pred, F_x, FP, P_pred, L, column, solved, J, IJF, work, part, congruent = w
+    x_pred, F_x, FP, P_pred, L = w.x_pred, w.F, w.FP, w.P_pred, w.L
     f(mode, x, u, x_pred)
     F(mode, x, u, F_x)
     congruence(F_x, P, FP, P_pred)  # FP = F P
     for a in range(n):
         for b in range(n):
             P_pred[a, b] += Q[a, b]
-    if not cholesky(P_pred, L):
-        return _forward_stands(x, P, x_out, P_out, r_out)
+    return cholesky(P_pred, L)
+
+
+@jitable
+def rts_correct(
+    x: FloatArray,
+    P: FloatArray,
+    Q: FloatArray,
+    x_next: FloatArray,
+    P_next: FloatArray,
+    x_out: FloatArray,
+    P_out: FloatArray,
+    w: RtsWork,
+    r_next: FloatArray,
+    r_out: FloatArray,
+) -> bool:
+    """The rest of :func:`rts_step` once :func:`rts_predict` succeeded (``w`` holds it).
+
+    The guard, the gain, the smoothed mean, its rounding probe and its covariance.
+    """
+    n = x.shape[0]
+    x_pred, F_x, FP, P_pred, L, column, solved, J, IJF, work, part, congruent = w
     scale = 0.0
     for a in range(n):
         scale += P_pred[a, a]
@@ -469,6 +561,148 @@ def _mixed_probe(weights: FloatArray, probes: FloatArray, out: FloatArray) -> No
         out[a] = acc
 
 
+def ec_backward(
+    f: Fn,
+    F: Fn,
+    inputs: FloatArray,
+    transitions: FloatArray,
+    Q: FloatArray,
+    corrected: BoolArray,
+    mu: FloatArray,
+    store: ModeStore,
+    out: FilterBuffers,
+) -> int:
+    """Rows ``0 … N−2`` of expectation correction's smoothed result (the module docstring).
+
+    ``store`` holds the filtered per-mode ``x̂_i(k|k)``, ``P_i(k|k)`` in every row (the IMM's
+    ``filtered_store``), ``mu`` the filtered mode probabilities; ``corrected[j]`` whether the
+    weights of next mode ``j`` take the density of the smoothed state (its process noise
+    positive definite), else Kim's.  Returns the number of pair steps whose forward estimate
+    stood (prediction not positive definite, guard, rounding probe), negligible next modes
+    not counted.  Row ``N−1`` is the caller's (the filtered one).  Plain Python that numba
+    compiles on first use; one machine code for every model (the mode functions are
+    first-class functions).
+    """
+    n_samples, n_q, _ = store.states.shape
+    n = Q.shape[1]
+    log_T = np.empty((n_q, n_q))
+    for i in range(n_q):
+        for j in range(n_q):
+            log_T[i, j] = safe_log(transitions[i, j])
+    log_mu_next = np.empty(n_q)  # log μ^s(k+1)
+    for j in range(n_q):
+        log_mu_next[j] = safe_log(mu[n_samples - 1, j])
+    log_mu = np.empty(n_q)
+    terms = np.empty(n_q)
+    density = np.empty(n_q)
+    log_pair = np.empty((n_q, n_q))  # log Pr(q(k)=i, q(k+1)=j | Y^N)
+    row_total = np.empty(n_q)
+    log_new = np.empty(n_q)
+    weights = np.empty(n_q)
+    mu_s = np.empty(n_q)
+    x_f = np.empty((n_q, n))  # filtered x̂_i(k|k), P_i(k|k)
+    P_f = np.empty((n_q, n, n))
+    x_pair = np.empty((n_q, n_q, n))  # the RTS step of pair (i, j)
+    P_pair = np.empty((n_q, n_q, n, n))
+    r_pair = np.zeros((n_q, n_q, n))
+    x_new = np.empty((n_q, n))
+    P_new = np.empty((n_q, n, n))
+    x_next = np.empty((n_q, n))  # x̂^s_j(k+1), P^s_j(k+1): the step before's x_new, P_new
+    P_next = np.empty((n_q, n, n))
+    r_next = np.zeros((n_q, n))  # the rounding probes (rts_step) of x_next and x_new
+    r_new = np.zeros((n_q, n))
+    gap = np.empty(n)
+    solved = np.empty(n)
+    w = rts_work(n)
+    x = np.empty(n)
+    P = np.empty((n, n))
+    stood = 0
+    if n_samples > 0:
+        for j in range(n_q):
+            unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
+    for k in range(n_samples - 2, -1, -1):
+        u = inputs[k]
+        for i in range(n_q):
+            unpack_state(store.states[k, i], x_f[i], P_f[i])
+            log_mu[i] = safe_log(mu[k, i])
+        for j in range(n_q):
+            # The pair steps into next mode j, and the densities of x̂^s_j(k+1) under them.
+            weighed = corrected[j]
+            negligible = math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT
+            for i in range(n_q):
+                density[i] = 0.0
+                r_pair[i, j] = 0.0
+                if negligible:  # q(k+1) = j carries no weight that counts: forward stands
+                    x_pair[i, j] = x_f[i]
+                    P_pair[i, j] = P_f[i]
+                    continue
+                if not rts_predict(f, F, j, x_f[i], P_f[i], u, Q[j], w):
+                    _forward_stands(x_f[i], P_f[i], x_pair[i, j], P_pair[i, j], r_pair[i, j])
+                    stood += 1
+                    weighed = False  # no density for this pair: Kim's weights for mode j
+                    continue
+                if weighed:
+                    for a in range(n):
+                        gap[a] = x_next[j, a] - w.x_pred[a]
+                    density[i] = gaussian_log_density(gap, w.L, solved)
+                x_out, P_out, r_out = x_pair[i, j], P_pair[i, j], r_pair[i, j]
+                if not rts_correct(
+                    x_f[i], P_f[i], Q[j], x_next[j], P_next[j], x_out, P_out, w, r_next[j], r_out
+                ):
+                    stood += 1
+            if negligible:
+                weighed = False
+            if weighed:  # the corrected weights, unless no pair gives x̂^s_j(k+1) a density
+                for i in range(n_q):
+                    terms[i] = log_T[i, j] + log_mu[i] + density[i]
+                    if not terms[i] > -math.inf:  # NaN too
+                        terms[i] = -math.inf
+                log_norm = log_sum_exp(terms)
+                weighed = log_norm > -math.inf
+            if not weighed:  # Kim's: Pr(q(k)=i | q(k+1)=j, Y^k), as kim_backward
+                for i in range(n_q):
+                    density[i] = 0.0
+                    terms[i] = log_T[i, j] + log_mu[i]
+                log_norm = log_sum_exp(terms)
+            for i in range(n_q):
+                if log_norm == -math.inf or log_mu_next[j] == -math.inf or terms[i] == -math.inf:
+                    log_pair[i, j] = -math.inf
+                elif weighed:
+                    log_pair[i, j] = log_mu_next[j] + terms[i] - log_norm
+                else:
+                    log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_norm
+        for i in range(n_q):
+            row_total[i] = log_sum_exp(log_pair[i])
+        total = log_sum_exp(row_total)
+        if total == -math.inf:  # nothing links the two samples: the filtered probabilities
+            for i in range(n_q):
+                log_new[i] = log_mu[i]
+        else:
+            for i in range(n_q):
+                log_new[i] = row_total[i] - total
+        for j in range(n_q):
+            mu_s[j] = math.exp(log_mu_next[j])
+        for i in range(n_q):
+            if log_new[i] == -math.inf or total == -math.inf:
+                # No weight on q(k) = i: any finite estimate does; q(k+1)'s weights.
+                mixture_moments(mu_s, x_pair[i], P_pair[i], x_new[i], P_new[i])
+                _mixed_probe(mu_s, r_pair[i], r_new[i])
+                continue
+            for j in range(n_q):
+                weights[j] = math.exp(log_pair[i, j] - row_total[i])
+            mixture_moments(weights, x_pair[i], P_pair[i], x_new[i], P_new[i])
+            _mixed_probe(weights, r_pair[i], r_new[i])
+        for i in range(n_q):
+            mu_s[i] = math.exp(log_new[i])
+            log_mu_next[i] = log_new[i]
+        x_next[:, :] = x_new
+        P_next[:, :, :] = P_new
+        r_next[:, :] = r_new
+        mixture_moments(mu_s, x_new, P_new, x, P)
+        record(out, k, argmax(mu_s), mu_s, x, P)
+    return stood
+
+
 def viterbi(
     log_transitions: FloatArray, log_prior: FloatArray, log_likelihoods: FloatArray
 ) -> IntArray:
@@ -532,6 +766,7 @@ def post_process(
     jit: bool,
     kernel: str = "auto",
     beam: int = 20,
+    smoother: str = "kim",
 ) -> EstimationResult:
     """The result after the offline passes asked for, with the filter's beside it.
 
@@ -543,7 +778,9 @@ def post_process(
     then Kim's).
     ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
     ``kernel`` as for the filter: straight-line code (:func:`generate_smoother_source`) where
-    it applies, else the generic :func:`kim_backward`.
+    it applies, else the generic :func:`kim_backward`.  ``smoother == "ec"``: expectation
+    correction (:func:`ec_backward`, the generic loop for both kernels) in place of Kim's;
+    ``store`` must then hold the filtered per-mode estimates (the IMM's ``filtered_store``).
     """
     start = time.perf_counter()
     compile_s = 0.0
@@ -568,7 +805,21 @@ def post_process(
         if n:
             arguments: tuple[Any, ...]
             compile_start = time.perf_counter()
-            if jit and use_unrolled(model, kernel):
+            if smoother == "ec":
+                compiled = compile_model(model, jit=jit)
+                arguments = (
+                    compiled.f,
+                    compiled.F,
+                    contiguous(signals.inputs),
+                    contiguous(transitions),
+                    contiguous(np.stack([m.process_noise for m in model.modes])),
+                    positive_definite_noise(model),
+                    filtered.mode_probabilities,
+                    store,
+                    buffers,
+                )
+                loop = compile_for(ec_backward, arguments) if jit else ec_backward
+            elif jit and use_unrolled(model, kernel):
                 arguments = (
                     contiguous(signals.inputs),
                     contiguous(transitions),
@@ -616,7 +867,7 @@ def post_process(
             state_variances=buffers.state_variances,
             covariances=buffers.covariances if filtered.covariances is not None else None,
         )
-        descriptions.append(KIM_DESCRIPTION)
+        descriptions.append(EC_DESCRIPTION if smoother == "ec" else KIM_DESCRIPTION)
     if mode_sequence == "viterbi":
         inputs_v = (
             _log(transitions),
@@ -637,8 +888,8 @@ def post_process(
         descriptions = [
             KBEST_DESCRIPTION.format(
                 beam=beam,
-                states="the extended RTS smoother along that path; mode probabilities: Kim's "
-                "smoother"
+                states="the extended RTS smoother along that path; mode probabilities: "
+                + ("expectation correction" if smoother == "ec" else "Kim's smoother")
                 if smooth
                 else "the EKF along that path; mode probabilities: the filter's",
             )
@@ -649,12 +900,36 @@ def post_process(
         runtime_s=filtered.runtime_s + elapsed,
         compile_s=filtered.compile_s + compile_s,
         post_processing=PostProcessing(
-            smoothing=(PATH_RTS if mode_sequence == "kbest" else KIM) if smooth else None,
+            smoothing=_method(smoother, kbest=mode_sequence == "kbest") if smooth else None,
             mode_sequence=mode_sequence,
             description="; ".join(descriptions),
             filtered=filtered,
         ),
     )
+
+
+def _method(smoother: str, *, kbest: bool) -> str:
+    """``PostProcessing.smoothing`` of ``smoother`` (``kim``, ``ec``), with ``kbest`` or not."""
+    if smoother == "ec":
+        return EC_PATH_RTS if kbest else EC
+    return PATH_RTS if kbest else KIM
+
+
+def positive_definite_noise(model: HybridModel) -> BoolArray:
+    """Per mode, whether its process noise ``Q_j`` is positive definite (its Cholesky exists).
+
+    Expectation correction weighs next mode ``j`` by the density of the smoothed state only
+    where it is: without process noise the density of ``x̂^s_j(k+1)`` under ``F P_i Fᵀ`` is
+    nearly singular and decides by rounding (module docstring).
+    """
+    definite = np.zeros(model.n_modes, dtype=np.bool_)
+    for j, mode in enumerate(model.modes):
+        try:
+            np.linalg.cholesky(mode.process_noise)
+        except np.linalg.LinAlgError:
+            continue
+        definite[j] = True
+    return definite
 
 
 def _kbest(
