@@ -114,8 +114,8 @@ pair steps are skipped: ``x̂^{(ij)} = x̂_i(k|k)``).  A pair step the guard or 
 refuses leaves ``x̂^{(ij)} = x̂_i(k|k)``, as in Kim's pass.  With one mode, or the stay
 probability at 1 and the true mode known, it is the RTS smoother; where the state forgets
 its past (``F = 0``) the density is the same for every ``i`` and it is Kim's, exact on a
-Markov chain with Gaussian emissions.  No straight-line variant: the generic loop serves
-both kernels (the forward pass keeps its straight-line code).
+Markov chain with Gaussian emissions.  Like Kim's pass, it has straight-line code for small
+models (:func:`generate_ec_smoother_source`).
 
 **Viterbi.**  The most likely mode sequence given the forward pass's per-mode log-likelihoods
 ``ℓ_j(k) = log N(γ_j(k); 0, S_j(k))``: ``δ_j(0) = log μ_j(0)``,
@@ -779,7 +779,7 @@ def post_process(
     ``output_predictions`` stay the filter's.  The runtime adds the passes to the filter's.
     ``kernel`` as for the filter: straight-line code (:func:`generate_smoother_source`) where
     it applies, else the generic :func:`kim_backward`.  ``smoother == "ec"``: expectation
-    correction (:func:`ec_backward`, the generic loop for both kernels) in place of Kim's;
+    correction in place of Kim's (:func:`generate_ec_smoother_source`, else :func:`ec_backward`);
     ``store`` must then hold the filtered per-mode estimates (the IMM's ``filtered_store``).
     """
     start = time.perf_counter()
@@ -804,8 +804,26 @@ def post_process(
         )
         if n:
             arguments: tuple[Any, ...]
+            loop: Callable[..., object]  # expectation correction's returns its steps not taken
             compile_start = time.perf_counter()
-            if smoother == "ec":
+            if smoother == "ec" and jit and use_unrolled(model, kernel):
+                arguments = (
+                    contiguous(signals.inputs),
+                    contiguous(transitions),
+                    _log(transitions),
+                    filtered.mode_probabilities,
+                    store,
+                    buffers,
+                )
+                loop, _ = compile_generated(
+                    model,
+                    "imm_smooth_ec",
+                    lambda: module_source(model, generate_ec_smoother_source(model)),
+                    (__name__, "hybridlog.estimators.unrolled"),
+                    "imm_smooth_ec",
+                    arguments,
+                )
+            elif smoother == "ec":
                 compiled = compile_model(model, jit=jit)
                 arguments = (
                     compiled.f,
@@ -1187,6 +1205,21 @@ def _mode_recursion_source(
     return log_new, mu_s, weights
 
 
+class _StepSource(NamedTuple):
+    """The variables of one generated RTS step (:func:`_rts_step_source`)."""
+
+    taken: str
+    """Whether the step was taken (else the forward estimate stands)."""
+    x: Vector
+    P: Matrix
+    r: Vector
+    """The rounding probe."""
+    x_pred: Vector
+    """``f_j(x̂)``."""
+    L: Matrix
+    """The Cholesky factor of ``P^-`` (NaN on its diagonal where it is not positive definite)."""
+
+
 def _rts_step_source(
     p: Program,
     model: HybridModel,
@@ -1198,13 +1231,14 @@ def _rts_step_source(
     xn: Vector,
     Pn: Matrix,
     rn: Vector,
-) -> tuple[str, Vector, Matrix, Vector]:
+) -> _StepSource:
     """Emit the extended RTS step of next mode ``j`` (:func:`rts_step`); its variables.
 
     Returns the guard's condition (``P^-_j`` and ``P^-_j − P^s_j(k+1)`` positive definite,
     the rounding probe within :data:`ROUNDING_LIMIT`), the step's mean, covariance and
-    rounding probe, from the mixed prior ``x0, P0`` and the smoothed ``xn, Pn`` (rounding
-    probe ``rn``) of the next sample.
+    rounding probe, from ``x0, P0`` (the mixed prior; expectation correction: mode ``i``'s
+    filtered estimate) and the smoothed ``xn, Pn`` (rounding probe ``rn``) of the next
+    sample; and the prediction ``f_j(x0)`` with the Cholesky factor of ``P^-``.
     """
     n = len(x0)
     x_pred = p.mode_values(model, j, "f", x0, u)
@@ -1263,29 +1297,36 @@ def _rts_step_source(
         for a in range(n)
     )
     taken = p.assign("ok", f"{ok} and {precise}")
-    return taken, x_rts, P_rts, r_rts
+    return _StepSource(taken, x_rts, P_rts, r_rts, x_pred, L)
 
 
-def generate_smoother_source(model: HybridModel) -> str:
-    """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
+class _Frame(NamedTuple):
+    """The variables a generated backward pass carries from one sample to the one before."""
 
-    Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out)``: the same backward pass
-    with the mode functions, the process noise and the small matrix products written out.
-    Its mode recursion (:func:`_mode_recursion_source`) takes the linear form of the same
-    equations where every probability involved is in full-precision range (no ``exp``, three
-    ``log`` per sample for three modes, against 33 ``exp`` and 10 ``log`` of the log-space
-    form; 95 % of the three-tank benchmark's samples) and the log-space form elsewhere; the
-    gain's triangular solves multiply by the reciprocals of the factor's diagonal; each next
-    mode's RTS step sits under a branch that skips it below :data:`NEGLIGIBLE_WEIGHT`, as the
-    generic loop does.  Equal to the generic loop up to rounding
-    (``tests/estimators/test_smoothing.py``).  It reads the store's packed records
-    (:class:`~hybridlog.estimators.common.ModeStore`), carries ``x̂^s_j(k+1)``, ``P^s_j(k+1)``
-    and ``μ^s(k+1)`` from one step to the next in variables and writes nothing back to the
-    store.
+    log_next: Vector
+    """``log μ^s(k+1)``."""
+    mu_next: Vector
+    """``μ^s(k+1)``."""
+    transitions: Matrix
+    log_transitions: Matrix
+    x_next: list[Vector]
+    """``x̂^s_j(k+1)``."""
+    P_next: list[Matrix]
+    """``P^s_j(k+1)`` (symmetric names)."""
+    r_next: list[Vector]
+    """Their rounding probes."""
+    u: Vector
+    """``u(k)``."""
+
+
+def _backward_frame(p: Program, model: HybridModel) -> _Frame:
+    """Emit the start of a generated backward pass, up to the inputs of sample ``k``.
+
+    The output arrays unpacked, the last sample's filtered estimates (the store's last row)
+    and probabilities as the carried ``k+1``, the Markov matrix and its log, then the loop
+    over ``k = N−2 … 0`` opened (the lines after it are its body).
     """
     n, n_u, n_q = model.n_states, model.n_inputs, model.n_modes
-    Q, _ = noise_matrices(model)
-    p = Program(indent="    ")
     p.emit("states = store.states")
     for name, field in (
         ("modes_out", "modes"),
@@ -1324,6 +1365,30 @@ def generate_smoother_source(model: HybridModel) -> str:
     p.indent += "    "
     u = vector_names("u", n_u)
     p.carry(u, [f"inputs[k, {c}]" for c in range(n_u)])
+    return _Frame(log_next, mu_carried, T, log_T, x_next, P_next, r_next, u)
+
+
+def generate_smoother_source(model: HybridModel) -> str:
+    """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
+
+    Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out)``: the same backward pass
+    with the mode functions, the process noise and the small matrix products written out.
+    Its mode recursion (:func:`_mode_recursion_source`) takes the linear form of the same
+    equations where every probability involved is in full-precision range (no ``exp``, three
+    ``log`` per sample for three modes, against 33 ``exp`` and 10 ``log`` of the log-space
+    form; 95 % of the three-tank benchmark's samples) and the log-space form elsewhere; the
+    gain's triangular solves multiply by the reciprocals of the factor's diagonal; each next
+    mode's RTS step sits under a branch that skips it below :data:`NEGLIGIBLE_WEIGHT`, as the
+    generic loop does.  Equal to the generic loop up to rounding
+    (``tests/estimators/test_smoothing.py``).  It reads the store's packed records
+    (:class:`~hybridlog.estimators.common.ModeStore`), carries ``x̂^s_j(k+1)``, ``P^s_j(k+1)``
+    and ``μ^s(k+1)`` from one step to the next in variables and writes nothing back to the
+    store.
+    """
+    n, n_q = model.n_states, model.n_modes
+    Q, _ = noise_matrices(model)
+    p = Program(indent="    ")
+    log_next, mu_carried, T, log_T, x_next, P_next, r_next, u = _backward_frame(p, model)
     log_new, mu_s, weights = _mode_recursion_source(p, T, log_T, log_next, mu_carried)
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
@@ -1339,7 +1404,7 @@ def generate_smoother_source(model: HybridModel) -> str:
         chosen = [str(name) for name in [*x_sel, *upper(P_sel), *r_sel]]
         stands: list[Entry] = [*prior, *([0.0] * n)]
         with p.block(f"if {mu_carried[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
-            ok, x_rts, P_rts, r_rts = _rts_step_source(
+            ok, x_rts, P_rts, r_rts, _, _ = _rts_step_source(
                 p, model, j, x0, P0, u, Q[j], x_next[j], P_next[j], r_next[j]
             )
             _select(p, ok, chosen, x_rts + upper(P_rts) + r_rts, stands)
@@ -1367,3 +1432,149 @@ def generate_smoother_source(model: HybridModel) -> str:
         p.carry(upper(P_next[i]), upper(P_new[i]))
         p.carry(r_next[i], r_new[i])
     return f"def imm_smooth(inputs, transitions, log_T, mu, store, out):\n{p.source()}\n"
+
+
+def generate_ec_smoother_source(model: HybridModel) -> str:
+    """Straight-line source of :func:`ec_backward` for ``model`` (see ``unrolled.py``).
+
+    Defines ``imm_smooth_ec(inputs, transitions, log_T, mu, store, out)``, returning the
+    number of pair steps whose forward estimate stood, as :func:`ec_backward`: the same
+    backward pass (the module docstring) with the mode functions, the process noise and the
+    small matrix products written out, the pair steps of :func:`_rts_step_source`, and the
+    mode recursion in log space.  Whether next mode ``j`` takes the density of the smoothed
+    state (``Q_j`` positive definite, :func:`positive_definite_noise`) is decided here, once:
+    the code of a mode without it holds no density.  Equal to the generic loop up to
+    rounding (``tests/estimators/test_smoothing_ec.py``).
+    """
+    n, n_q = model.n_states, model.n_modes
+    Q, _ = noise_matrices(model)
+    corrected = positive_definite_noise(model)
+    p = Program(indent="    ")
+    frame = _backward_frame(p, model)
+    log_next, mu_next, _, log_T, x_next, P_next, r_next, u = frame
+    # the loop over k is open: its body follows
+    x_f: list[Vector] = []
+    P_f: list[Matrix] = []
+    log_mu: Vector = []
+    for i in range(n_q):
+        x_f.append([p.assign("xf", f"states[k, {i}, {a}]") for a in range(n)])
+        P_i: Matrix = [[0.0] * n for _ in range(n)]
+        for index, (a, b) in enumerate(upper_pairs(n), start=n):
+            P_i[a][b] = P_i[b][a] = p.assign("pf", f"states[k, {i}, {index}]")
+        P_f.append(P_i)
+        log_mu.append(p.assign("lmu", f"math.log(mu[k, {i}]) if mu[k, {i}] > 0.0 else -math.inf"))
+    # pair (i, j): its result (the forward estimate where not taken) and log density
+    X: list[list[Vector]] = [
+        [vector_names(f"xq{i}{j}_", n) for j in range(n_q)] for i in range(n_q)
+    ]
+    P: list[list[Matrix]] = [
+        [matrix_names(f"pq{i}{j}_", n, n, symmetric=True) for j in range(n_q)] for i in range(n_q)
+    ]
+    R: list[list[Vector]] = [
+        [vector_names(f"rq{i}{j}_", n) for j in range(n_q)] for i in range(n_q)
+    ]
+    density = [[p.fresh("dn") for _ in range(n_q)] for _ in range(n_q)]
+    weighed = [p.fresh("wd") for _ in range(n_q)]
+    for j in range(n_q):
+        with p.block(f"if {mu_next[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
+            factored: list[str] = []
+            for i in range(n_q):
+                step = _rts_step_source(
+                    p, model, j, x_f[i], P_f[i], u, Q[j], x_next[j], P_next[j], r_next[j]
+                )
+                chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
+                stands: list[Entry] = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
+                _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
+                p.emit(f"if not {step.taken}:")
+                p.emit("    stood += 1")
+                if corrected[j]:
+                    gap = [p.difference("gq", x_next[j][a], step.x_pred[a]) for a in range(n)]
+                    log_density = p.gaussian_log_density(f"ld{i}{j}_", gap, step.L)
+                    p.emit(
+                        f"{density[i][j]} = {log_density} if {log_density} > -math.inf "
+                        "else -math.inf"
+                    )
+                    factored.append(" and ".join(f"{term(step.L[a][a])} > 0.0" for a in range(n)))
+                else:
+                    p.emit(f"{density[i][j]} = 0.0")
+            p.emit(f"{weighed[j]} = {' and '.join(factored) if corrected[j] else 'False'}")
+        with p.block("else:"):  # a negligible next mode: the forward estimates stand
+            for i in range(n_q):
+                stands = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
+                chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
+                for target, value in zip(chosen, stands, strict=True):
+                    p.emit(f"{target} = {term(value)}")
+                p.emit(f"{density[i][j]} = 0.0")
+            p.emit(f"{weighed[j]} = False")
+    # log Pr(q(k)=i, q(k+1)=j | Y^N): the corrected weights, else Kim's
+    log_pair = [[p.fresh("lq") for _ in range(n_q)] for _ in range(n_q)]
+    for j in range(n_q):
+        kim = [p.assign("tk", f"{log_T[i][j]} + {log_mu[i]}") for i in range(n_q)]
+        kim_norm = _log_sum_exp_source(p, "nk", list(kim))
+        terms = kim
+        norm = kim_norm
+        if corrected[j]:
+            with_density = [
+                p.assign("td", f"{kim[i]} + {density[i][j]} if {weighed[j]} else -math.inf")
+                for i in range(n_q)
+            ]
+            for name in with_density:
+                p.emit(f"if not {name} > -math.inf:")
+                p.emit(f"    {name} = -math.inf")
+            density_norm = _log_sum_exp_source(p, "nd", list(with_density))
+            p.emit(f"{weighed[j]} = {weighed[j]} and {density_norm} > -math.inf")
+            terms = [
+                p.assign("tc", f"{with_density[i]} if {weighed[j]} else {kim[i]}")
+                for i in range(n_q)
+            ]
+            norm = p.assign("nc", f"{density_norm} if {weighed[j]} else {kim_norm}")
+        for i in range(n_q):
+            kim_pair = f"{log_next[j]} + {log_mu[i]} + {log_T[i][j]} - {norm}"
+            value = (
+                f"({log_next[j]} + {terms[i]} - {norm} if {weighed[j]} else {kim_pair})"
+                if corrected[j]
+                else kim_pair
+            )
+            p.emit(
+                f"{log_pair[i][j]} = -math.inf if ({norm} == -math.inf or {log_next[j]} == "
+                f"-math.inf or {terms[i]} == -math.inf) else {value}"
+            )
+    rows = [_log_sum_exp_parts(p, "rq", list(log_pair[i])) for i in range(n_q)]
+    total = _log_sum_exp_source(p, "tq", [row[0] for row in rows])
+    log_new = [
+        p.assign("lnq", f"{log_mu[i]} if {total} == -math.inf else {rows[i][0]} - {total}")
+        for i in range(n_q)
+    ]
+    mu_s: Vector = [p.assign("msq", f"math.exp({log_new[i]})") for i in range(n_q)]
+    x_new: list[Vector] = []
+    P_new: list[Matrix] = []
+    r_new: list[Vector] = []
+    for i in range(n_q):
+        _, row_exps, row_sum = rows[i]
+        weights: Vector = [
+            p.assign(
+                "vq",
+                f"{mu_next[j]} if ({log_new[i]} == -math.inf or {total} == -math.inf) "
+                f"else {row_exps[j]} / {row_sum}",
+            )
+            for j in range(n_q)
+        ]
+        x_i, P_i = p.mixture(f"nq{i}_", weights, X[i], P[i])
+        x_new.append(x_i)
+        P_new.append(P_i)
+        pairs = list(zip(weights, R[i], strict=True))
+        r_new.append([p.let("rm", [product(w_j, r_j[a]) for w_j, r_j in pairs]) for a in range(n)])
+    x, P_out = p.mixture("cm", mu_s, x_new, P_new)
+    p.record("k", p.argmax(mu_s), mu_s, x, P_out)
+    p.carry(log_next, log_new)
+    p.carry(mu_next, mu_s)
+    for i in range(n_q):
+        p.carry(x_next[i], x_new[i])
+        p.carry(upper(P_next[i]), upper(P_new[i]))
+        p.carry(r_next[i], r_new[i])
+    p.indent = p.indent[:-4]
+    p.emit("return stood")
+    return (
+        "def imm_smooth_ec(inputs, transitions, log_T, mu, store, out):\n"
+        f"    stood = 0\n{p.source()}\n"
+    )
