@@ -194,12 +194,15 @@ class ModeStore(NamedTuple):
     (``n_x`` entries) then the upper triangle of the covariance row by row
     (:func:`upper_pairs`, ``n_x(n_x+1)/2`` entries; the covariances are symmetric).  For
     ``k < N−1`` it holds the IMM's mixed prior ``x̂⁰_j(k)``, ``P⁰_j(k)`` of the step
-    ``k → k+1`` (the estimate of ``x(k)`` given ``q(k+1) = j``), and in the last row the
-    mode-matched filtered ``x̂_j(N−1|N−1)``, ``P_j(N−1|N−1)``.  Arrays nothing after the
-    filter needs have no rows (:meth:`allocate`), so the filter's loop writes them only on
-    demand: the smoother needs the states (``8 N n_q (n_x + n_x(n_x+1)/2)`` bytes, 206 MiB
-    for 10^6 samples, 3 modes, 3 states), the Viterbi path the likelihoods (``8 N n_q``
-    bytes).  The filter writes every row, so they are allocated uninitialised.
+    ``k → k+1`` (the estimate of ``x(k)`` given ``q(k+1) = j``; Kim's smoother), or, when the
+    IMM's ``ImmSettings.filtered_store`` asks for it (expectation correction, ``smoother =
+    "ec"``), the mode-matched filtered ``x̂_j(k|k)``, ``P_j(k|k)`` in the same records; in
+    the last row the mode-matched filtered ``x̂_j(N−1|N−1)``, ``P_j(N−1|N−1)``.  Arrays
+    nothing after the filter needs have no rows (:meth:`allocate`), so the filter's loop
+    writes them only on demand: either smoother needs the states (``8 N n_q (n_x +
+    n_x(n_x+1)/2)`` bytes, 206 MiB for 10^6 samples, 3 modes, 3 states), the Viterbi path
+    the likelihoods (``8 N n_q`` bytes).  The filter writes every row, so they are allocated
+    uninitialised.
     """
 
     states: FloatArray

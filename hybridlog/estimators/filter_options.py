@@ -16,7 +16,7 @@ from hybridlog.estimators.options import option
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["MODE_SEQUENCES", "HstfOptions", "ImmOptions", "imm_memory"]
+__all__ = ["MODE_SEQUENCES", "SMOOTHERS", "HstfOptions", "ImmOptions", "imm_memory"]
 
 _ONE_MODE = "{} has one mode, and {}"
 """Why an option that weighs modes against each other does nothing on a one-mode model."""
@@ -67,7 +67,8 @@ class HstfOptions:
 class ImmOptions:
     """Options of the IMM: the Markov matrix's diagonal, and the offline pass after it (issue 12).
 
-    ``smooth`` and ``mode_sequence`` are the names ``--smooth`` and ``--mode-sequence`` map to.
+    ``smooth`` and ``mode_sequence`` are the names ``--smooth`` and ``--mode-sequence`` map to;
+    ``smoother`` chooses the backward pass ``smooth`` runs (``docs/smoothing.md``).
     """
 
     transition_stay: float | None = option(
@@ -78,6 +79,10 @@ class ImmOptions:
     smooth: bool = option(
         False,
         "fixed-interval smoother after the filter (Kim 1994, per-mode RTS/extended step)",
+    )
+    smoother: Literal["kim", "ec"] = option(
+        "kim",
+        "backward pass of smooth: kim (Kim 1994) or ec (expectation correction, Barber 2006)",
     )
     mode_sequence: Literal["argmax", "viterbi", "kbest"] = option(
         "argmax",
@@ -104,10 +109,16 @@ class ImmOptions:
 
         ``beam`` is read by ``mode_sequence = "kbest"`` alone; ``--set beam=N`` without it
         ran the same pass while report.json recorded the beam as the option used.  A model
-        file's ``beam`` stays the default for ``--mode-sequence kbest``.  Also
-        :meth:`inert_on`.
+        file's ``beam`` stays the default for ``--mode-sequence kbest``.  ``smoother`` is
+        read by ``smooth = true`` alone (a model file's stays the default for ``--smooth``).
+        Also :meth:`inert_on`.
         """
         inert = self.inert_on(model)
+        if not self.smooth:
+            inert["smoother"] = (
+                "only smooth = true runs a smoother (here smooth = false); add --smooth, or "
+                "leave smoother unset"
+            )
         if self.mode_sequence != "kbest":
             inert["beam"] = (
                 f"only mode_sequence = kbest keeps mode histories (here "
@@ -115,6 +126,9 @@ class ImmOptions:
             )
         return inert
 
+
+SMOOTHERS: tuple[str, ...] = get_args(get_type_hints(ImmOptions)["smoother"])
+"""The backward passes of ``smooth``: ``kim`` (the default) and ``ec``."""
 
 MODE_SEQUENCES: tuple[str, ...] = get_args(get_type_hints(ImmOptions)["mode_sequence"])
 """How the IMM's mode timeline can be read off, in order: ``--mode-sequence``'s choices and the

@@ -84,10 +84,14 @@ class ImmSettings(NamedTuple):
     transitions: FloatArray
     """The Markov matrix ``Π`` (:func:`transition_matrix`), C-contiguous."""
     store: ModeStore
-    """Per-mode filtered estimates and likelihoods for the smoother (no rows: not kept).
+    """Per-mode estimates and likelihoods for the smoother (no rows: not kept).
 
     Its rows are the log's: kept only by a run in one chunk (offline passes are not streamed).
     """
+    filtered_store: bool = False
+    """Whether the store's rows ``k < N−1`` hold the mode-matched filtered ``x̂_i(k|k)``,
+    ``P_i(k|k)`` (expectation correction's backward pass, ``smoother = "ec"``) instead of the
+    mixed priors ``x̂⁰_j(k)``, ``P⁰_j(k)`` (Kim's); :class:`~.common.ModeStore`."""
 
 
 class ImmState(NamedTuple):
@@ -139,9 +143,11 @@ def _imm_steps(
     Computes the rows of ``chunk`` from its :class:`ImmState`, worked on in place.
     """
     inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R
-    transitions, store = settings
+    transitions, store, filtered_store = settings
     first, stop, state = chunk
     keep_states = store.states.shape[0] > 0
+    keep_mixed = keep_states and not filtered_store  # Kim's: the mixed priors
+    keep_filtered = keep_states and filtered_store  # expectation correction's: x̂_i(k|k)
     keep_likelihoods = store.log_likelihoods.shape[0] > 0
     keep_whitened = out.whitened.shape[0] > 0
     n_samples, n, m, n_q = dimensions(run)
@@ -176,6 +182,9 @@ def _imm_steps(
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
+        if keep_filtered:  # row k: the mode-matched x̂_i(k|k), P_i(k|k) the step starts from
+            for i in range(n_q):
+                pack_state(x_i[i], P_i[i], store.states[k, i])
         # Mixing: predicted mode probabilities and mixed initial conditions per mode.
         for j in range(n_q):
             acc = 0.0
@@ -190,7 +199,7 @@ def _imm_steps(
             else:
                 x_mix[j] = x_i[j]
                 P_mix[j] = P_i[j]
-        if keep_states:
+        if keep_mixed:
             for j in range(n_q):
                 pack_state(x_mix[j], P_mix[j], store.states[k, j])
         predictions = out.output_predictions[row]
@@ -292,8 +301,9 @@ def run_imm(
     run (``prepare(model, ...).run``, what the commands use) moves the modes one sample
     earlier (:meth:`~hybridlog.estimators.result.EstimationResult.with_modes_of_the_step_from`).
 
-    ``smooth``: the Kim smoother of :mod:`hybridlog.estimators.smoothing` (the forward pass
-    then keeps its per-mode estimates, :class:`~hybridlog.estimators.common.ModeStore`);
+    ``smooth``: the smoother of :mod:`hybridlog.estimators.smoothing` that ``smoother``
+    names, Kim's or expectation correction (the forward pass then keeps its per-mode
+    estimates, :class:`~hybridlog.estimators.common.ModeStore`);
     ``mode_sequence="viterbi"``: the Viterbi path as the modes; ``"kbest"``: the mode history
     of the best of ``beam`` hypotheses (:mod:`hybridlog.estimators.mode_hypotheses`).  Each
     sets the result's ``post_processing``; without them the result is the filter's alone.
@@ -314,7 +324,7 @@ def run_imm(
         CODE,
         model,
         signals,
-        ImmSettings(transitions, store),
+        ImmSettings(transitions, store, options.smooth and options.smoother == "ec"),
         used,
         jit=jit,
         kernel=kernel,
@@ -331,6 +341,7 @@ def run_imm(
         store,
         transitions,
         smooth=options.smooth,
+        smoother=options.smoother,
         mode_sequence=options.mode_sequence,
         jit=jit,
         kernel=kernel,
@@ -423,6 +434,8 @@ def generate_imm_source(model: HybridModel) -> str:
     for i in range(n_q):
         p.carry(T[i], [f"transitions[{i}, {j}]" for j in range(n_q)])
     p.emit("keep_states = store.states.shape[0] > 0")
+    p.emit("keep_mixed = keep_states and not filtered_store")  # Kim's: the mixed priors
+    p.emit("keep_filtered = keep_states and filtered_store")  # expectation correction's
     p.emit("keep_likelihoods = store.log_likelihoods.shape[0] > 0")
     p.emit("keep_whitened = whitened_out.shape[0] > 0")
     with p.block("if first == 0 and stop > 0:"):  # row 0: the prior
@@ -438,6 +451,9 @@ def generate_imm_source(model: HybridModel) -> str:
         for i in range(n_q):
             p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
     u, v, y = p.open_time_loop(n_u, m, chunk=True)
+    p.emit("if keep_filtered:")  # row k: the mode-matched x̂_i(k|k), P_i(k|k) (carried)
+    for i in range(n_q):
+        _store_record(p, "k", i, X[i], P[i])
     # Mixing: c̄_j = Σ_i Π_ij μ_i and μ_{i|j}; a mode with c̄_j = 0 keeps its own estimate.
     c_bar = [p.let("c", [product(T[i][j], mu[i]) for i in range(n_q)]) for j in range(n_q)]
     x_post: list[Vector] = []
@@ -457,7 +473,7 @@ def generate_imm_source(model: HybridModel) -> str:
             for i in range(n_q)
         ]
         x_mix, P_mix = p.mixture(f"m{j}_", weights, X, P)
-        p.emit("if keep_states:")  # the smoother's prior of mode j (ModeStore, packed)
+        p.emit("if keep_mixed:")  # Kim's smoother's prior of mode j (ModeStore, packed)
         _store_record(p, "k", j, x_mix, P_mix)
         x_mix_names = p.named("xm", x_mix)
         # EKF prediction (mode j).

@@ -125,7 +125,7 @@ SMOOTH_OPTION = "smooth"
 MODE_SEQUENCE_OPTION = "mode_sequence"
 """The estimator option ``--mode-sequence`` sets (``argmax``, ``viterbi`` or ``kbest``)."""
 
-OFFLINE_OPTIONS = (SMOOTH_OPTION, MODE_SEQUENCE_OPTION, "beam")
+OFFLINE_OPTIONS = (SMOOTH_OPTION, MODE_SEQUENCE_OPTION, "beam", "smoother")
 """The options of the offline passes (``docs/smoothing.md``): ``--set`` of one that no chosen
 estimator has is refused as ``--smooth`` is, with the reason (:func:`_not_offered`)."""
 

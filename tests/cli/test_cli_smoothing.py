@@ -219,3 +219,25 @@ def test_set_beam_read_by_another_estimator_is_not_refused(tmp_path: Path) -> No
     model, overrides = parse_sets(["beam=7"], str(path))
     imm, unknown = prepare_estimators(model, ["imm", "unknown-mode"], overrides)
     assert imm.options.beam == 7 and unknown.options.beam == 7
+
+
+def test_analyze_smoother_ec_writes_its_method_and_refuses_it_without_smooth(
+    tmp_path: Path,
+) -> None:
+    """``--set smoother=ec`` with ``--smooth`` runs expectation correction, and report.json
+    says so; without ``--smooth`` it would change nothing: one line, exit 2, no folder."""
+    common = [str(TANK_CSV), "--model", "three_tank_hstf", "--estimator", "imm"]
+    out = tmp_path / "ec"
+    run(["analyze", *common, "--smooth", "--set", "smoother=ec", "--out", str(out)])
+    report = json.loads((out / "report.json").read_text())
+    assert report["options"]["smoother"] == "ec"
+    assert report["smoothing"]["method"] == "ec-rts"
+    assert "Barber 2006" in report["smoothing"]["description"]
+    refused = tmp_path / "refused"
+    result = run(["analyze", *common, "--set", "smoother=ec", "--out", str(refused)], expect=2)
+    (line,) = result.stderr.strip().splitlines()
+    assert line == (
+        "hybridlog: error: --set smoother=ec: has no effect on estimator 'imm': only smooth = "
+        "true runs a smoother (here smooth = false); add --smooth, or leave smoother unset"
+    )
+    assert not refused.exists()
