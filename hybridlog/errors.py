@@ -5,9 +5,29 @@ subclass of :class:`HybridlogError` whose message is one line naming the file, k
 line at fault.  The CLI turns these into exit code 2; nothing below the CLI prints or exits.
 """
 
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator, Mapping
+
 
 class HybridlogError(Exception):
-    """Base class of every error hybridlog raises on purpose."""
+    """Base class of every error hybridlog raises on purpose.
+
+    ``named``: the names of the ``--set`` values (model parameters, estimator options,
+    scenario parameters) whose setting the message names already (``--set A=0: m.toml:
+    ...``), so that :func:`after_given` does not name them again.  Kept by
+    :func:`prefixed` and by pickling (a worker's error reaches the command intact).
+    """
+
+    named: frozenset[str] = frozenset()
+
+    def __init__(self, *args: object, named: Iterable[str] = ()) -> None:
+        super().__init__(*args)
+        self.named = frozenset(named)
 
 
 class ModelError(HybridlogError):
@@ -58,10 +78,57 @@ def prefixed(err: HybridlogError, prefix: str) -> HybridlogError:
     counts); the copy is of the nearest class here, whose constructor takes the message
     alone, so that the exit code and the handling of the kind stay the same.
     """
-    kind = next(
+    return _kind(err)(f"{prefix}{err}", named=err.named)
+
+
+def after_given(err: HybridlogError, given: Mapping[str, str]) -> HybridlogError:
+    """``err``, then the command-line values that changed what failed: ``(after --set fE=1000)``.
+
+    ``given``: name → the option as typed (``fE`` → ``--set fE=1000``; ``smooth`` →
+    ``--smooth``), every value the command line changed of what raised ``err`` (a run of
+    the model, an estimator).  Those ``err`` names already (:attr:`HybridlogError.named`) are
+    left out; ``err`` itself is returned when none is left.  An error raised during a run
+    said what broke (a step too long, a filter that diverged) but not which of several
+    ``--set`` options made it break.
+    """
+    rest = {name: shown for name, shown in given.items() if name not in err.named}
+    if not rest:
+        return err
+    return _kind(err)(
+        f"{err} (after {', '.join(rest.values())})", named=err.named | frozenset(rest)
+    )
+
+
+@contextmanager
+def given_in_errors(
+    given: Mapping[str, str], kinds: tuple[type[HybridlogError], ...] = (HybridlogError,)
+) -> Iterator[None]:
+    """Errors of ``kinds`` raised inside name the command-line values ``given`` changed.
+
+    The one place a run's errors (an estimator's, a simulation's) get the ``--set``
+    options that changed what the run used: ``… (after --set fE=1000, --set beam=5)``
+    (:func:`after_given`; those a message names already are not named again).  ``given``:
+    name → option as typed (:func:`hybridlog.jobs.origins.given_values`).
+    """
+    try:
+        yield
+    except kinds as err:
+        named = after_given(err, given)
+        if named is err:
+            raise
+        raise named from err
+
+
+def set_text(name: str, text: str) -> str:
+    """``--set NAME=VALUE`` as typed (the value quoted as an error quotes it, unquoted)."""
+    return f"--set {name}={excerpt(text)[1:-1]}"
+
+
+def _kind(err: HybridlogError) -> type[HybridlogError]:
+    """The nearest class of ``err`` in this module (whose constructor takes the message)."""
+    return next(
         c for c in type(err).__mro__ if c.__module__ == __name__ and issubclass(c, HybridlogError)
     )
-    return kind(f"{prefix}{err}")
 
 
 EXCERPT_LIMIT = 80

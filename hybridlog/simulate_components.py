@@ -242,7 +242,9 @@ def simulate_components(
                     memory[:] = new_memory
                     compute(measured[k], memory, parameters, time[k], float(k), control)
             except (ArithmeticError, ValueError) as err:  # 1/0, overflow, log(-1), 0*inf
-                raise ModelError(_controller_failed(origin, err, time[k], settings)) from None
+                raise ModelError(
+                    _controller_failed(origin, err, time[k], settings), named=settings or ()
+                ) from None
             inputs[k, controlled] = control
             now[input_slice] = inputs[k]
             joint.algebraic(now, parameters)

@@ -1,5 +1,6 @@
 """The error family's helpers (``hybridlog.errors``)."""
 
+import pickle
 from pathlib import Path
 
 import pytest
@@ -10,6 +11,8 @@ from hybridlog.errors import (
     HybridlogError,
     LogError,
     ModelError,
+    OptionError,
+    after_given,
     prefixed,
 )
 from hybridlog.io.mcap_reader import UnfinishedLogError
@@ -33,3 +36,23 @@ def test_prefixed_keeps_the_kind_and_the_message(error: HybridlogError, kind: ty
     copy = prefixed(error, "--estimators imm: ")
     assert type(copy) is kind
     assert str(copy) == f"--estimators imm: {error}"
+
+
+def test_after_given_names_what_the_message_does_not_name_yet() -> None:
+    given = {"A": "--set A=0.1", "rho": "--set rho=0.9"}
+    named = after_given(DivergenceError("imm diverged at t = 3 s"), given)
+    assert type(named) is DivergenceError  # compare still tells a run failure
+    assert str(named) == "imm diverged at t = 3 s (after --set A=0.1, --set rho=0.9)"
+    assert named.named == {"A", "rho"}
+    assert after_given(named, given) is named  # never twice
+    own = ModelError("--set A=0.1: m.toml: modes.1.f[0]: not finite", named=["A"])
+    assert str(after_given(own, given)).endswith("not finite (after --set rho=0.9)")
+    plain = ModelError("m.toml: noise: singular")
+    assert after_given(plain, {}) is plain
+
+
+def test_what_an_error_names_survives_a_prefix_and_a_worker() -> None:
+    err = OptionError("--set A=0: m.toml: not finite", named=["A"])
+    assert prefixed(err, "--estimators imm: ").named == {"A"}
+    copy = pickle.loads(pickle.dumps(err))  # a worker's error, sent to the command
+    assert type(copy) is OptionError and copy.named == {"A"} and str(copy) == str(err)

@@ -46,7 +46,7 @@ from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
 from hybridlog.jobs.centers import read_centers
-from hybridlog.jobs.origins import run_values
+from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
 from hybridlog.memory import check_fits, reserved
 from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.hybrid_model import HybridModel
@@ -609,9 +609,10 @@ def analyze(
     check_memory(log, model, [prepared], signals)
     from hybridlog.report import write_report  # polars: see the module's docstring
 
+    given = given_values(overrides.parameter_texts, prepared)
     report = write_report(
         out_dir,
-        estimates(prepared, model, signals, inputs),
+        given_in_chunks(partial(estimates, prepared, model, signals, inputs), given),
         signals,
         log=as_text(log),
         model_name=model.name,
@@ -818,9 +819,15 @@ def compare(
 
     with atomic_output_dir(out_dir, force=force) as folder:
         for i, estimator in enumerate(prepared):  # one after the other: one's chunks at a time
-            chunks = estimates(
-                estimator, model, signals, inputs[estimator.name], last=i == len(prepared) - 1
+            run = partial(
+                estimates,
+                estimator,
+                model,
+                signals,
+                inputs[estimator.name],
+                last=i == len(prepared) - 1,
             )
+            chunks = given_in_chunks(run, given_values(overrides.parameter_texts, estimator))
             try:
                 reports[estimator.name] = write_report(
                     folder / estimator.name,

@@ -42,6 +42,7 @@ import shutil
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -77,7 +78,7 @@ from hybridlog.jobs.batch_logs import (
     recover_applies,
     recover_note,
 )
-from hybridlog.jobs.origins import run_values
+from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
 from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
@@ -354,6 +355,8 @@ class _Warm:
     gates: list[Gate]
     values: dict[str, Any]
     """``report.json``'s ``parameters`` and ``origins`` (:func:`run_values`)."""
+    given: dict[str, str]
+    """The command-line values the run uses, which its errors name (:func:`given_values`)."""
 
 
 _WARM: dict[tuple[object, ...], _Warm] = {}
@@ -401,7 +404,9 @@ def _warm(job: BatchJob) -> _Warm:
             _check_unchanged(job, _input_files(prepared))
             gates = gates_for(model, job.fail_under, job.fail_over)
             values = run_values(model, prepared, overrides.parameter_texts)
-            warm = _Warm(model, prepared, estimator_inputs(prepared, model), gates, values)
+            given = given_values(overrides.parameter_texts, prepared)
+            inputs = estimator_inputs(prepared, model)
+            warm = _Warm(model, prepared, inputs, gates, values, given)
             _WARM.clear()
             _WARM[key] = warm
         return warm
@@ -541,7 +546,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     # in a pool, the memory the other workers' logs hold counts too (memory.MemoryLedger)
     with memory_reserved(log, warm.model, [warm.prepared], signals) as waited:
         # (a result computed whole is computed here, by stream: inside the reservation)
-        chunks = warm.prepared.stream(warm.model, signals, **warm.inputs)
+        run = partial(warm.prepared.stream, warm.model, signals, **warm.inputs)
+        chunks = given_in_chunks(run, warm.given)
         if batch_stopped is not None:  # checked between chunks: the report folder removed
             chunks = _chunks_unless_stopped(chunks, batch_stopped, log)
         report = write_report(
@@ -1013,8 +1019,9 @@ def _plan(
     with _WARM_LOCK:  # this process has it all loaded already
         _WARM.clear()
         values = run_values(model, prepared, overrides.parameter_texts)
+        given = given_values(overrides.parameter_texts, prepared)
         _WARM[_warm_key(job)] = _Warm(
-            model, prepared, estimator_inputs(prepared, model), gates, values
+            model, prepared, estimator_inputs(prepared, model), gates, values, given
         )
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks

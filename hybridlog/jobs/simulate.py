@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hybridlog.errors import OptionError, excerpt
+from hybridlog.errors import ModelError, OptionError, excerpt, given_in_errors, set_text
 from hybridlog.estimators.options import closest
 from hybridlog.io.bag_writers import (
     check_log_target,
@@ -104,6 +104,8 @@ def simulate_log(
     if moved:  # the plant simulated with other [parameters] values
         model = load_model_set(model_ref, moved)
     values = _scenario_values({k: v for k, v in texts.items() if k not in moved})
+    # a simulation's error names the --set values (all of them: the run uses each)
+    given = {name: set_text(name, text) for name, text in texts.items()}
     if model.has_components:
         if schedule is not None:
             raise OptionError(
@@ -118,9 +120,10 @@ def simulate_log(
             )
         from hybridlog.simulate_components import simulate_components
 
-        played = simulate_components(
-            model, steps=steps, seed=seed, settings=values, ends_before=ends_before
-        )
+        with given_in_errors(given, (ModelError,)):  # its OptionErrors: --steps, --seed, --set
+            played = simulate_components(
+                model, steps=steps, seed=seed, settings=values, ends_before=ends_before
+            )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
         notes: tuple[str, ...] = played.notes
@@ -134,15 +137,16 @@ def simulate_log(
                 f"(only a components model has them, in [simulation.parameters])"
                 f"{closest(name, model.parameters)}"
             )
-        log = simulate_model(
-            model,
-            schedule=schedule,
-            steps=steps,
-            seed=seed,
-            noise=noise,
-            disturbance=parsed,
-            ends_before=ends_before,
-        )
+        with given_in_errors(given, (ModelError,)):
+            log = simulate_model(
+                model,
+                schedule=schedule,
+                steps=steps,
+                seed=seed,
+                noise=noise,
+                disturbance=parsed,
+                ends_before=ends_before,
+            )
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
         notes = (*cut_schedule(model, log.modes, steps, schedule), *log.notes)

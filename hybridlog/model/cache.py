@@ -110,7 +110,9 @@ def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> Hybrid
     with its own values (the caller loaded it to tell parameters from other names), so an
     error of the model now is one the values caused: it starts ``--set A=0: `` (an
     :class:`~hybridlog.errors.OptionError`), where it named the model file alone (``A=0``:
-    ``modes.1.f[0] ... is not finite``).
+    ``modes.1.f[0] ... is not finite``); one that names its ``--set`` already
+    (:attr:`~hybridlog.errors.HybridlogError.named`: a parameter no expression names) is
+    raised as it is.
 
     Raises
     ------
@@ -126,10 +128,10 @@ def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> Hybrid
     try:
         return load_model(name_or_path, parameters=parameters)
     except ModelError as err:
-        if "--set" in str(err):  # says so already (a parameter no expression names)
+        if err.named:  # names its --set already (a parameter no expression names)
             raise
         given = ", ".join(f"{k}={excerpt(v)[1:-1]}" for k, v in texts.items())
-        raise OptionError(f"--set {given}: {err}") from None
+        raise OptionError(f"--set {given}: {err}", named=texts) from None
 
 
 def model_file(name_or_path: str | Path) -> Path | None:

@@ -161,7 +161,7 @@ def parse_model(
     try:
         return _Builder(data, text, parameters or {}, origin).build()
     except ModelError as err:
-        raise ModelError(f"{origin}: {err}") from err
+        raise ModelError(f"{origin}: {err}", named=err.named) from err
     except RecursionError as err:  # sympy on a pathological expression the grammar let by
         raise ModelError(f"{origin}: an expression is nested too deeply") from err
 
@@ -967,7 +967,8 @@ def _refuse_unused_overrides(data: Mapping[str, Any], overrides: Mapping[str, fl
         if name not in named:
             raise ModelError(
                 f"{key_path('parameters', name)}: used by no expression of the model, so "
-                f"--set {name}=... would change nothing"
+                f"--set {name}=... would change nothing",
+                named=(name,),
             )
 
 

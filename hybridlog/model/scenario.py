@@ -184,7 +184,7 @@ class StepValues:
         where = key if self.origin is None else f"{self.origin}: {key}"
         given = [s for s in steps if isinstance(s, str) and s in self.settings]
         if given:
-            return OptionError(f"--set {given[0]}: {where}: {problem}")
+            return OptionError(f"--set {given[0]}: {where}: {problem}", named=given[:1])
         return ModelError(f"{where}: {problem}")
 
 
