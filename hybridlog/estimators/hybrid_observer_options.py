@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = [
+    "CONDITION_CEILING",
     "DEFAULT_EIGENVALUES",
     "SwitchingObserverOptions",
     "companion_gain",
@@ -60,6 +61,12 @@ def eigenvalue_values(text: str) -> list[float]:
     return values
 
 
+CONDITION_CEILING = 2.0**52
+"""The largest ``condition_limit``: ``1/ε`` of float64.  A correction solved with ``Q`` of
+``κ₁(Q)`` past it may hold no correct digit, so a larger limit (``1e300`` was accepted) only
+silenced the warning where it matters most."""
+
+
 @dataclass(frozen=True)
 class SwitchingObserverOptions:
     """Options of the ``switching-observer`` estimator (paper 004, observer (20)).
@@ -82,8 +89,8 @@ class SwitchingObserverOptions:
     )
     condition_limit: float = option(
         1e6,
-        "warn where the 1-norm condition number of Q(sigma, x) = dPhi/dx (eq. (21)) exceeds this",
-        range=(1.0, 1e300),
+        "warn where kappa_1 of Q(sigma, x) = dPhi/dx (eq. (21)) exceeds this (up to 1/eps = 2^52)",
+        range=(1.0, CONDITION_CEILING),
     )
 
     def eigenvalue_list(self, n_states: int) -> tuple[float, ...]:

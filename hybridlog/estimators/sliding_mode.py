@@ -72,6 +72,7 @@ __all__ = [
     "SLIP_WINDOW_S",
     "channel_gains",
     "gain",
+    "margin",
     "run_sliding_mode",
     "sliding_mode_steps",
     "unvouched",
@@ -175,6 +176,7 @@ def sliding_mode_steps(
     g = np.zeros(n)
     d = np.zeros((n, n_b))
     normal = np.zeros((n_b, n_b + 2))  # [DᵀD | Dᵀw | Dᵀ ė], eliminated in place
+    columns = np.ones(n_b)  # the largest |entry| of each column of D
     rate = 1.0 / (window * step * substeps)  # 1 / the window's length in s
     predicted = np.zeros(predictions.shape[1])
     for i in range(n):
@@ -188,8 +190,23 @@ def sliding_mode_steps(
         if k > 0:
             h(sigma, z, u, predicted)
             predictions[k, :] = predicted
-        # eq. (30): the least-squares solution of D δ̃ = w, by Gaussian elimination.
+        # eq. (30): the least-squares solution of D δ̃ = w, by Gaussian elimination on the
+        # normal equations of D with its columns scaled to a largest entry of 1 (a column of
+        # 1e300 made DᵀD infinite, which eliminated its boolean and solved for the others
+        # as if it were absent); a column that is zero or not finite leaves δ̃ undefined.
         D(0, x, u, d)
+        singular = False
+        for a in range(n_b):
+            largest = 0.0
+            for i in range(n):
+                if not abs(d[i, a]) <= largest:  # NaN too: then singular below
+                    largest = abs(d[i, a])
+            if not (largest > 0.0 and largest < np.inf):
+                singular = True
+                largest = 1.0
+            columns[a] = largest
+            for i in range(n):
+                d[i, a] /= largest
         for a in range(n_b):
             for b in range(n_b):
                 acc = 0.0
@@ -206,8 +223,7 @@ def sliding_mode_steps(
                     slope = (x[i] - z[i] - measured[k - window, i] + means[k - window, i]) * rate
                     acc += d[i, a] * slope
             normal[a, n_b + 1] = acc
-        singular = False
-        for col in range(n_b):
+        for col in range(n_b if not singular else 0):
             pivot = col
             for row in range(col + 1, n_b):
                 if abs(normal[row, col]) > abs(normal[pivot, col]):
@@ -235,6 +251,9 @@ def sliding_mode_steps(
                     slope -= normal[a, b] * slips[k, b]
                 deltas[k, a] = acc / normal[a, a]
                 slips[k, a] = slope / normal[a, a]
+            for a in range(n_b):  # back from the scaled columns' unknowns
+                deltas[k, a] /= columns[a]
+                slips[k, a] /= columns[a]
             if k < window:  # no full window yet: not measurable
                 for a in range(n_b):
                     slips[k, a] = np.inf
@@ -265,8 +284,17 @@ def sliding_mode_steps(
                     w[i] -= step * scale * gains[i]
 
 
+def margin(threshold: float) -> float:
+    r"""Lemma 1's margin (33) for the threshold ``τ`` of eq. (32): ``min(τ, 1 - τ)``.
+
+    Thresholding at ``τ`` is exact where :math:`|\tilde\delta_j - \delta_j|` is below
+    ``τ`` (for :math:`\delta_j = 0`) and ``1 - τ`` (for 1): :data:`MARGIN` at ``τ = 0.5``.
+    """
+    return min(threshold, 1.0 - threshold)
+
+
 def unvouched(
-    deltas: FloatArray, slips: FloatArray
+    deltas: FloatArray, slips: FloatArray, threshold: float = 0.5
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:
     r"""The samples whose :math:`\hat\sigma` Lemma 1 cannot vouch for: (outside, slipping).
 
@@ -290,10 +318,19 @@ def unvouched(
       0 while :math:`D^+\dot e` carries all of δ), or not yet measurable (the first window
       of the log, where σ̂ is the observer's initial 0 until it has had time to slide).
 
+    The margin 0.5 above is ``τ = threshold``'s, :func:`margin`: with ``τ`` off 0.5 a
+    :math:`\tilde\delta_j` must lie within ``min(τ, 1 - τ)`` of the boolean it is thresholded
+    to, and the slip below it (``threshold = 1e-300`` put every chattering δ̃ near 0 at
+    :math:`\hat\delta_j = 1` half of the time, vouched by the fixed margin 0.5: a 46 %
+    mode accuracy ran to exit 0).
+
     Samples where ``DᵀD`` is singular (δ̃ NaN, σ̂ held) are counted apart, not here.
     """
-    outside = np.asarray((np.abs(deltas - 0.5) >= 0.5 + MARGIN).any(axis=1))
-    slipping = np.asarray((np.abs(slips) >= MARGIN).any(axis=1))
+    within = margin(threshold)
+    boolean = np.where(deltas > threshold, 1.0, 0.0)
+    with np.errstate(invalid="ignore"):  # NaN rows (held) compare False: counted apart
+        outside = np.asarray((np.abs(deltas - boolean) >= within).any(axis=1))
+    slipping = np.asarray((np.abs(slips) >= within).any(axis=1))
     return outside, slipping
 
 
@@ -304,8 +341,11 @@ def _refuse_unvouched(
     slipping: npt.NDArray[np.bool_],
     singular: npt.NDArray[np.bool_],
     largest: float,
+    within: float = MARGIN,
 ) -> None:
     """Refuse a run whose σ̂ Lemma 1 cannot vouch for on more than ``largest`` of the samples.
+
+    ``within``: Lemma 1's margin at the run's threshold (:func:`margin`).
 
     ``singular``: the samples where eq. (30) gave no δ̃ (``DᵀD`` singular or ``D`` not
     finite), whose σ̂ is the one held from before: nothing there vouches for it.  They were
@@ -332,12 +372,12 @@ def _refuse_unvouched(
         )
     held = int(singular.sum())
     if held:
-        return _refuse_held(model, n_samples, count, largest, outside, slipping, held)
+        return _refuse_held(model, n_samples, count, largest, outside, slipping, held, within)
     raise DivergenceError(
         f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
         f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
-        f"δ̃ 0.5 or more from every boolean vector on {int(outside.sum()):,}, the observer not "
-        f"sliding (|D⁺ė| ≥ 0.5 over {SLIP_WINDOW_S:g} s, or in the first) on "
+        f"δ̃ {within:g} or more from every boolean vector on {int(outside.sum()):,}, the "
+        f"observer not sliding (|D⁺ė| ≥ {within:g} over {SLIP_WINDOW_S:g} s, or in the first) on "
         f"{int(slipping.sum()):,}, so (33) "
         "fails there; the model does not explain the log, or its noise, disturbance or V_M is "
         "more than the observer tolerates"
@@ -352,6 +392,7 @@ def _refuse_held(
     outside: npt.NDArray[np.bool_],
     slipping: npt.NDArray[np.bool_],
     held: int,
+    within: float,
 ) -> None:
     """The refusal of :func:`_refuse_unvouched` when some samples had no δ̃ (σ̂ held).
 
@@ -364,7 +405,7 @@ def _refuse_held(
         f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
         f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
         f"D(x, u) of eq. (30) singular or not finite at the measured state (σ̂ held) on "
-        f"{held:,}, δ̃ 0.5 or more from every boolean vector on {int(outside.sum()):,}, not "
+        f"{held:,}, δ̃ {within:g} or more from every boolean vector on {int(outside.sum()):,}, not "
         f"sliding on {int(slipping.sum()):,}; eq. (47) needs D of full column rank"
     )
 
@@ -578,9 +619,10 @@ def run_sliding_mode(
         _refuse_non_finite(model, signals, means, code.G, v_max)
     _refuse_no_reconstruction(model, signals, deltas, code.D)
     _refuse_runaway_error(model, signals, means, v_max)
-    outside, slipping = unvouched(deltas, slips)
+    outside, slipping = unvouched(deltas, slips, options.threshold)
     held = np.asarray(np.isnan(deltas).any(axis=1))  # no δ̃: σ̂ held, vouched by nothing
-    _refuse_unvouched(model, signals, outside, slipping, held, options.max_unvouched)
+    within = margin(options.threshold)
+    _refuse_unvouched(model, signals, outside, slipping, held, options.max_unvouched, within)
     flagged = outside | slipping | held
     probabilities = np.zeros((n_samples, model.n_modes))
     probabilities[np.arange(n_samples), modes] = 1.0
@@ -591,12 +633,15 @@ def run_sliding_mode(
         f"observer step {model.timebase.step:g} s",
         "mode probabilities are the one-hot vector of σ̂ (the observer computes none); "
         "state variances are undefined (NaN)",
+        "the output prediction is the observer state z, which w drives onto the measured "
+        "state whatever the model's D (eqs. (10), (20)): VAF, fit and MSE say how closely it "
+        "slides, not whether the model or σ̂ is right (a C1 of 1e300 scores as high)",
     ]
     notes.append(
         f"σ̂ not vouched for by Lemma 1 on {int(flagged.sum()):,} of {n_samples:,} samples "
         f"({100 * flagged.mean() if n_samples else 0.0:.1f} %; refused above max_unvouched = "
-        f"{options.max_unvouched:g}): δ̃ 0.5 or more from every boolean vector (33), or the "
-        f"observer not sliding (|D⁺ė| over {SLIP_WINDOW_S:g} s ≥ 0.5, (28)), or D(x, u) "
+        f"{options.max_unvouched:g}): δ̃ {within:g} or more from every boolean vector (33), or "
+        f"the observer not sliding (|D⁺ė| over {SLIP_WINDOW_S:g} s ≥ {within:g}, (28)), or D(x, u) "
         "singular (σ̂ held): the transient after each switch, and more with noise, a "
         "disturbance or a model that does not fit"
     )

@@ -113,6 +113,9 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
             options[name] = value.strip()
     if texts:
         model = load_model_set(model_ref, texts)
+        from hybridlog.model.reads import refuse_unread_by_analysis
+
+        refuse_unread_by_analysis(model, texts)
     parameters = {name: model.parameters[name] for name in texts}
     return model, Overrides(
         MappingProxyType(parameters), MappingProxyType(options), MappingProxyType(texts)

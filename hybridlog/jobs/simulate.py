@@ -22,6 +22,7 @@ from hybridlog.io.bag_writers import (
     write_log,
 )
 from hybridlog.model.cache import load_model, load_model_set
+from hybridlog.model.reads import refuse_unread_by_simulation
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import cut_schedule, parse_disturbance
@@ -124,6 +125,9 @@ def simulate_log(
             played = simulate_components(
                 model, steps=steps, seed=seed, settings=values, ends_before=ends_before
             )
+        refuse_unread_by_simulation(
+            model, moved, {name: set(modes) for name, modes in played.modes.items()}
+        )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
         notes: tuple[str, ...] = played.notes
@@ -147,6 +151,8 @@ def simulate_log(
                 disturbance=parsed,
                 ends_before=ends_before,
             )
+        ids = {model.modes[int(q)].id for q in set(log.modes.tolist())}
+        refuse_unread_by_simulation(model, moved, {"": ids})
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
         notes = (*cut_schedule(model, log.modes, steps, schedule), *log.notes)

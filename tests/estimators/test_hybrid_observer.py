@@ -324,6 +324,21 @@ def test_ill_conditioned_q_is_a_warning_naming_time_and_value(switched):
     assert "worst" in warning
 
 
+def test_a_condition_limit_that_would_hide_no_correct_digit_is_refused(switched):
+    # condition_limit = 1e300 was in range: it silenced the warning even where κ₁(Q) is past
+    # 1/ε, where the correction Q⁻¹K(y − h) may hold no correct digit, and the run said nothing
+    model, _, signals, _ = switched
+    with pytest.raises(
+        OptionError,
+        match=r"^--set condition_limit=1e300: switching-observer option 'condition_limit': "
+        r"1e\+300 is outside \[1, 4\.5036e\+15\]$",
+    ):
+        prepare(model, "switching-observer", {"condition_limit": "1e300"})
+    ceiling = prepare(model, "switching-observer", {"condition_limit": str(2.0**52)})
+    assert ceiling.options.condition_limit == 2.0**52
+    assert ceiling.run(model, signals).state_means.shape[0] == signals.n_samples
+
+
 def test_refusals_name_the_model_and_why(switched, tmp_path):
     model, _, signals, _ = switched
     two_outputs = VAN_DER_POL.replace('outputs = ["y"]', 'outputs = ["y", "v"]').replace(

@@ -378,3 +378,41 @@ def test_an_observer_state_that_is_not_finite_names_its_cause(drift, level, word
     )
     with pytest.raises(ModelError, match=words):
         prepare(model, "sliding-mode").run(model, signals)
+
+
+@pytest.mark.parametrize("threshold", [1e-300, 1e-3, 0.999])
+def test_lemma_1_margin_follows_the_threshold(test1, threshold):
+    # threshold = 1e-300 passed the range check (strictly between 0 and 1) and ran TEST 1 to
+    # exit 0 with a 46 % mode accuracy: every δ̃_j chattering near 0 was thresholded to 1
+    # half of the time, while the vouching kept Lemma 1's margin at 0.5.  The margin is
+    # min(τ, 1 - τ): δ̃ farther than that from its thresholded boolean is unvouched.
+    model, log = test1
+    signals = log.signals(model)
+    with pytest.raises(DivergenceError, match=UNVOUCHED.replace("6,501", "[\\d,]+")) as caught:
+        prepare(model, None, {"threshold": threshold}).run(model, signals)
+    within = min(threshold, 1 - threshold)
+    assert f"δ̃ {within:g} or more from every boolean vector" in str(caught.value)
+    # a threshold with room on both sides still runs, its notes naming the margin it used
+    result = prepare(model, None, {"threshold": 0.35}).run(model, signals)
+    assert _agreement(log, result) >= 0.95
+    assert any("δ̃ 0.35 or more from every boolean vector" in note for note in result.notes)
+
+
+def test_a_column_of_d_past_the_square_root_of_float64_does_not_overflow_eq_30(test1):
+    # --set C1=1e300 ran with DᵀD = inf: Gaussian elimination then dropped U1 and solved
+    # δ̃_U2, δ̃_U3 as if tank 1 fed nothing into tank 2 (mode accuracy 44 %, 811 switches).
+    # Scaling the columns of D first solves (30) for any finite D: a column c times larger
+    # gives δ̃_j c times smaller and the others unchanged, as D⁻¹ w does.
+    model, log = test1
+    signals = log.signals(model)
+    uniform = {"channel_gains": "uniform", "max_unvouched": 1.0}  # rows reads D's scale
+    scaled = parse_model(VALVES.replace("C1 = 4.702e-5", "C1 = 4.702e295"), origin="v.toml")
+    plain = prepare(model, None, uniform).run(model, signals)
+    huge = prepare(scaled, None, uniform).run(scaled, signals)
+    before = np.stack([c.values for c in plain.timeline_columns[:3]], axis=1)
+    after = np.stack([c.values for c in huge.timeline_columns[:3]], axis=1)
+    np.testing.assert_allclose(after[:, 1:], before[:, 1:], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(after[:, 0] * 1e300, before[:, 0], rtol=1e-9, atol=1e-12)
+    # z slides onto the measured levels whatever D says: the notes tell VAF is no model check
+    np.testing.assert_allclose(huge.state_means, plain.state_means, rtol=1e-12)
+    assert any("not whether the model or σ̂ is right" in note for note in huge.notes)
