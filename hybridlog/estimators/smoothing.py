@@ -60,6 +60,9 @@ Rounding: without process noise ``J_j = F_j⁻¹``, which grows by ``1/|λ|`` pe
 backwards for a stable mode, so the backward pass would amplify its own rounding without
 end; each step carries a probe of it (:func:`rts_step`), and a step whose probe passes
 :data:`ROUNDING_LIMIT` of its standard deviation of a state is skipped in the same way.
+The smallest eigenvalue of a covariance grows the same way (by ``1/λ²`` through
+``J P^s Jᵀ``): a step whose ``P^{(j)}`` is not positive semi-definite to
+:data:`~hybridlog.estimators.kernels.PSD_TOLERANCE` of its largest variance is skipped too.
 
 Negligible next modes: where ``μ^s_j(k+1) <`` :data:`NEGLIGIBLE_WEIGHT` (``1e-30``) the RTS
 step of mode ``j`` is skipped in the same way (``x̂^{(j)} = x̂⁰_j``).  Its result enters the
@@ -146,6 +149,7 @@ from hybridlog.estimators.common import (
     upper_pairs,
 )
 from hybridlog.estimators.kernels import (
+    PSD_TOLERANCE,
     argmax,
     cholesky,
     congruence,
@@ -340,7 +344,9 @@ def rts_step(
     (by more than :data:`GUARD_TOLERANCE` of its trace): the exact smoother never has that,
     and a collapsed mixture that does would widen the estimate backwards (through ``F⁻¹`` when
     ``Q`` is small; the module docstring); or where the rounding probe is past
-    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state.
+    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state; or where ``P^s`` is
+    not positive semi-definite to :data:`~hybridlog.estimators.kernels.PSD_TOLERANCE` of its
+    largest variance (the same amplification, of the covariance's rounding).
 
     The rounding probe ``r`` follows the rounding of the backward pass through the gains:
     ``r(k) = J (r(k+1) + u (|x̂^s(k+1)| + |x̂^-|)) + u |x̂^s(k)|`` per state (``u`` =
@@ -428,6 +434,15 @@ def rts_correct(
         for b in range(n):
             P_out[a, b] += congruent[a, b]
     symmetrize(P_out)
+    largest = 0.0  # the largest variance: P^(j) >= -PSD_TOLERANCE largest, or not taken
+    for a in range(n):
+        largest = max(largest, abs(P_out[a, a]))
+    for a in range(n):
+        for b in range(n):
+            work[a, b] = P_out[a, b]
+        work[a, a] += PSD_TOLERANCE * largest
+    if not cholesky(work, IJF):  # rounding amplified through the gain: not PSD
+        return _forward_stands(x, P, x_out, P_out, r_out)
     for a in range(n):
         # |r| <= ROUNDING_LIMIT sqrt(P), squared: no square root (NaN fails either form)
         if not r_out[a] * r_out[a] <= ROUNDING_LIMIT_SQUARED * max(P_out[a, a], 0.0):
@@ -1278,6 +1293,16 @@ def _rts_step_source(
     P_rts = p.symmetric_sum(
         f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
     )
+    # P^(j) PSD to rounding: P^(j) + PSD_TOLERANCE·max_a P_aa·I positive definite (rts_correct)
+    variances = [f"abs({term(P_rts[a][a])})" for a in range(n)]
+    spread = p.assign("sa", f"max({', '.join(variances)})" if n > 1 else variances[0])
+    shifted: Matrix = [[0.0] * n for _ in range(n)]
+    for a in range(n):
+        for b in range(a, n):
+            extra = f" + {PSD_TOLERANCE!r}*{term(spread)}" if a == b else ""
+            shifted[a][b] = shifted[b][a] = p.assign("sh", f"{term(P_rts[a][b])}{extra}")
+    LS = p.cholesky(f"ls{j}_", shifted)
+    semidefinite = " and ".join(f"{term(LS[a][a])} > 0.0" for a in range(n))
     unit = repr(ROUNDING_UNIT)
     rounded = [
         p.assign("ri", f"{term(rn[b])} + {unit}*(abs({term(xn[b])}) + abs({term(x_pred[b])}))")
@@ -1296,7 +1321,7 @@ def _rts_step_source(
         f"{ROUNDING_LIMIT_SQUARED!r}*max({term(P_rts[a][a])}, 0.0)"
         for a in range(n)
     )
-    taken = p.assign("ok", f"{ok} and {precise}")
+    taken = p.assign("ok", f"{ok} and {semidefinite} and {precise}")
     return _StepSource(taken, x_rts, P_rts, r_rts, x_pred, L)
 
 
