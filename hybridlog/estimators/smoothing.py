@@ -344,9 +344,9 @@ def rts_step(
     (by more than :data:`GUARD_TOLERANCE` of its trace): the exact smoother never has that,
     and a collapsed mixture that does would widen the estimate backwards (through ``F⁻¹`` when
     ``Q`` is small; the module docstring); or where the rounding probe is past
-    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state; or where ``P^s`` is
-    not positive semi-definite to :data:`~hybridlog.estimators.kernels.PSD_TOLERANCE` of its
-    largest variance (the same amplification, of the covariance's rounding).
+    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state.  (The IMM smoothers
+    also refuse a ``P^s`` that is not PSD, :func:`semidefinite_step`; the k-best path's
+    smoother keeps its covariances PSD in its own way.)
 
     The rounding probe ``r`` follows the rounding of the backward pass through the gains:
     ``r(k) = J (r(k+1) + u (|x̂^s(k+1)| + |x̂^-|)) + u |x̂^s(k)|`` per state (``u`` =
@@ -434,20 +434,42 @@ def rts_correct(
         for b in range(n):
             P_out[a, b] += congruent[a, b]
     symmetrize(P_out)
-    largest = 0.0  # the largest variance: P^(j) >= -PSD_TOLERANCE largest, or not taken
-    for a in range(n):
-        largest = max(largest, abs(P_out[a, a]))
-    for a in range(n):
-        for b in range(n):
-            work[a, b] = P_out[a, b]
-        work[a, a] += PSD_TOLERANCE * largest
-    if not cholesky(work, IJF):  # rounding amplified through the gain: not PSD
-        return _forward_stands(x, P, x_out, P_out, r_out)
     for a in range(n):
         # |r| <= ROUNDING_LIMIT sqrt(P), squared: no square root (NaN fails either form)
         if not r_out[a] * r_out[a] <= ROUNDING_LIMIT_SQUARED * max(P_out[a, a], 0.0):
             return _forward_stands(x, P, x_out, P_out, r_out)
     return True
+
+
+@jitable
+def semidefinite_step(
+    x: FloatArray,
+    P: FloatArray,
+    x_out: FloatArray,
+    P_out: FloatArray,
+    r_out: FloatArray,
+    w: RtsWork,
+) -> bool:
+    """Whether the step's ``P_out`` is PSD to rounding; if not, the forward ``x, P`` stand.
+
+    Tests ``P_out + PSD_TOLERANCE·max_a P_aa·I`` for a Cholesky factor (the workspaces of
+    ``w``).  Without process noise ``J = F⁻¹`` amplifies the rounding of the smallest
+    eigenvalue of ``P^s(k+1)`` by ``1/λ²`` per step, as the rounding probe's of the means
+    (:func:`rts_step`); the exact ``P^s`` is PSD.  Returns False with ``x_out, P_out = x, P``
+    and ``r_out = 0`` where it is not.
+    """
+    n = x.shape[0]
+    shifted, factor = w.work, w.IJF
+    largest = 0.0
+    for a in range(n):
+        largest = max(largest, abs(P_out[a, a]))
+    for a in range(n):
+        for b in range(n):
+            shifted[a, b] = P_out[a, b]
+        shifted[a, a] += PSD_TOLERANCE * largest
+    if cholesky(shifted, factor):
+        return True
+    return _forward_stands(x, P, x_out, P_out, r_out)
 
 
 @jit
@@ -536,8 +558,9 @@ def kim_backward(
             r_j[j] = 0.0
             if math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT:
                 continue  # q(k+1) = j carries no weight that counts: the prior stands
-            rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
-                     x_j[j], P_j[j], w, r_next[j], r_j[j])  # fmt: skip
+            if rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
+                        x_j[j], P_j[j], w, r_next[j], r_j[j]):  # fmt: skip
+                semidefinite_step(x_prior[j], P_prior[j], x_j[j], P_j[j], r_j[j], w)
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
@@ -661,8 +684,20 @@ def ec_backward(
                         gap[a] = x_next[j, a] - w.x_pred[a]
                     density[i] = gaussian_log_density(gap, w.L, solved)
                 x_out, P_out, r_out = x_pair[i, j], P_pair[i, j], r_pair[i, j]
-                if not rts_correct(
-                    x_f[i], P_f[i], Q[j], x_next[j], P_next[j], x_out, P_out, w, r_next[j], r_out
+                if not (
+                    rts_correct(
+                        x_f[i],
+                        P_f[i],
+                        Q[j],
+                        x_next[j],
+                        P_next[j],
+                        x_out,
+                        P_out,
+                        w,
+                        r_next[j],
+                        r_out,
+                    )
+                    and semidefinite_step(x_f[i], P_f[i], x_out, P_out, r_out, w)
                 ):
                     stood += 1
             if negligible:
@@ -1293,7 +1328,8 @@ def _rts_step_source(
     P_rts = p.symmetric_sum(
         f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
     )
-    # P^(j) PSD to rounding: P^(j) + PSD_TOLERANCE·max_a P_aa·I positive definite (rts_correct)
+    # P^(j) PSD to rounding: P^(j) + PSD_TOLERANCE·max_a P_aa·I positive definite
+    # (semidefinite_step)
     variances = [f"abs({term(P_rts[a][a])})" for a in range(n)]
     spread = p.assign("sa", f"max({', '.join(variances)})" if n > 1 else variances[0])
     shifted: Matrix = [[0.0] * n for _ in range(n)]
