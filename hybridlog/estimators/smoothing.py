@@ -60,6 +60,9 @@ Rounding: without process noise ``J_j = F_j⁻¹``, which grows by ``1/|λ|`` pe
 backwards for a stable mode, so the backward pass would amplify its own rounding without
 end; each step carries a probe of it (:func:`rts_step`), and a step whose probe passes
 :data:`ROUNDING_LIMIT` of its standard deviation of a state is skipped in the same way.
+The smallest eigenvalue of a covariance grows the same way (by ``1/λ²`` through
+``J P^s Jᵀ``): a step whose ``P^{(j)}`` is not positive semi-definite to
+:data:`~hybridlog.estimators.kernels.PSD_TOLERANCE` of its largest variance is skipped too.
 
 Negligible next modes: where ``μ^s_j(k+1) <`` :data:`NEGLIGIBLE_WEIGHT` (``1e-30``) the RTS
 step of mode ``j`` is skipped in the same way (``x̂^{(j)} = x̂⁰_j``).  Its result enters the
@@ -146,6 +149,7 @@ from hybridlog.estimators.common import (
     upper_pairs,
 )
 from hybridlog.estimators.kernels import (
+    PSD_TOLERANCE,
     argmax,
     cholesky,
     congruence,
@@ -340,7 +344,9 @@ def rts_step(
     (by more than :data:`GUARD_TOLERANCE` of its trace): the exact smoother never has that,
     and a collapsed mixture that does would widen the estimate backwards (through ``F⁻¹`` when
     ``Q`` is small; the module docstring); or where the rounding probe is past
-    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state.
+    :data:`ROUNDING_LIMIT` of the step's standard deviation of a state.  (The IMM smoothers
+    also refuse a ``P^s`` that is not PSD, :func:`semidefinite_step`; the k-best path's
+    smoother keeps its covariances PSD in its own way.)
 
     The rounding probe ``r`` follows the rounding of the backward pass through the gains:
     ``r(k) = J (r(k+1) + u (|x̂^s(k+1)| + |x̂^-|)) + u |x̂^s(k)|`` per state (``u`` =
@@ -435,6 +441,37 @@ def rts_correct(
     return True
 
 
+@jitable
+def semidefinite_step(
+    x: FloatArray,
+    P: FloatArray,
+    x_out: FloatArray,
+    P_out: FloatArray,
+    r_out: FloatArray,
+    w: RtsWork,
+) -> bool:
+    """Whether the step's ``P_out`` is PSD to rounding; if not, the forward ``x, P`` stand.
+
+    Tests ``P_out + PSD_TOLERANCE·max_a P_aa·I`` for a Cholesky factor (the workspaces of
+    ``w``).  Without process noise ``J = F⁻¹`` amplifies the rounding of the smallest
+    eigenvalue of ``P^s(k+1)`` by ``1/λ²`` per step, as the rounding probe's of the means
+    (:func:`rts_step`); the exact ``P^s`` is PSD.  Returns False with ``x_out, P_out = x, P``
+    and ``r_out = 0`` where it is not.
+    """
+    n = x.shape[0]
+    shifted, factor = w.work, w.IJF
+    largest = 0.0
+    for a in range(n):
+        largest = max(largest, abs(P_out[a, a]))
+    for a in range(n):
+        for b in range(n):
+            shifted[a, b] = P_out[a, b]
+        shifted[a, a] += PSD_TOLERANCE * largest
+    if cholesky(shifted, factor):
+        return True
+    return _forward_stands(x, P, x_out, P_out, r_out)
+
+
 @jit
 def _forward_stands(
     x: FloatArray, P: FloatArray, x_out: FloatArray, P_out: FloatArray, r_out: FloatArray
@@ -521,8 +558,9 @@ def kim_backward(
             r_j[j] = 0.0
             if math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT:
                 continue  # q(k+1) = j carries no weight that counts: the prior stands
-            rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
-                     x_j[j], P_j[j], w, r_next[j], r_j[j])  # fmt: skip
+            if rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
+                        x_j[j], P_j[j], w, r_next[j], r_j[j]):  # fmt: skip
+                semidefinite_step(x_prior[j], P_prior[j], x_j[j], P_j[j], r_j[j], w)
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
@@ -646,8 +684,20 @@ def ec_backward(
                         gap[a] = x_next[j, a] - w.x_pred[a]
                     density[i] = gaussian_log_density(gap, w.L, solved)
                 x_out, P_out, r_out = x_pair[i, j], P_pair[i, j], r_pair[i, j]
-                if not rts_correct(
-                    x_f[i], P_f[i], Q[j], x_next[j], P_next[j], x_out, P_out, w, r_next[j], r_out
+                if not (
+                    rts_correct(
+                        x_f[i],
+                        P_f[i],
+                        Q[j],
+                        x_next[j],
+                        P_next[j],
+                        x_out,
+                        P_out,
+                        w,
+                        r_next[j],
+                        r_out,
+                    )
+                    and semidefinite_step(x_f[i], P_f[i], x_out, P_out, r_out, w)
                 ):
                     stood += 1
             if negligible:
@@ -1278,6 +1328,17 @@ def _rts_step_source(
     P_rts = p.symmetric_sum(
         f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
     )
+    # P^(j) PSD to rounding: P^(j) + PSD_TOLERANCE·max_a P_aa·I positive definite
+    # (semidefinite_step)
+    variances = [f"abs({term(P_rts[a][a])})" for a in range(n)]
+    spread = p.assign("sa", f"max({', '.join(variances)})" if n > 1 else variances[0])
+    shifted: Matrix = [[0.0] * n for _ in range(n)]
+    for a in range(n):
+        for b in range(a, n):
+            extra = f" + {PSD_TOLERANCE!r}*{term(spread)}" if a == b else ""
+            shifted[a][b] = shifted[b][a] = p.assign("sh", f"{term(P_rts[a][b])}{extra}")
+    LS = p.cholesky(f"ls{j}_", shifted)
+    semidefinite = " and ".join(f"{term(LS[a][a])} > 0.0" for a in range(n))
     unit = repr(ROUNDING_UNIT)
     rounded = [
         p.assign("ri", f"{term(rn[b])} + {unit}*(abs({term(xn[b])}) + abs({term(x_pred[b])}))")
@@ -1296,7 +1357,7 @@ def _rts_step_source(
         f"{ROUNDING_LIMIT_SQUARED!r}*max({term(P_rts[a][a])}, 0.0)"
         for a in range(n)
     )
-    taken = p.assign("ok", f"{ok} and {precise}")
+    taken = p.assign("ok", f"{ok} and {semidefinite} and {precise}")
     return _StepSource(taken, x_rts, P_rts, r_rts, x_pred, L)
 
 
