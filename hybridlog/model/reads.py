@@ -111,8 +111,8 @@ def refuse_unread_by_simulation(
     Raises
     ------
     OptionError
-        ``--set c_out=1e300: parameters.c_out of <model> is named only by modes the
-        scenario never plays (components.pgc.modes.leak) ...``.
+        ``--set c_out=1e300: parameters.c_out of <model> is named only by modes this run
+        never plays (components.pgc.modes.leak) ...``.
     """
     if not texts or model.state_driven:
         return
