@@ -627,6 +627,33 @@ def simulate(
     )
 
 
+def unreached_modes(model: HybridModel, modes: IntArray, schedule: str | None) -> dict[str, int]:
+    """Mode id → the step the schedule first plays it, for each mode of it the run never had.
+
+    ``modes``: the run's (:attr:`SimulatedLog.modes`); ``schedule``: the ``--schedule``
+    given, else the model's ``[simulation] schedule`` (none: the first mode throughout,
+    which every run has).  Only a ``--steps`` shorter than the schedule leaves one out; row 0
+    carries the first scheduled mode (:func:`mode_sequence`), an entry after it starts one
+    row after the steps before it.  Empty for a state-driven model (its guards decide).
+    """
+    if model.state_driven:
+        return {}
+    if schedule is not None:
+        parsed = parse_schedule(schedule, model.mode_ids)
+    elif model.simulation_schedule:
+        where = f"{_origin(model)}: simulation.schedule"
+        parsed = parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
+    else:
+        return {}
+    starts: dict[str, int] = {}
+    before = 0
+    for mode, count in parsed:
+        if not np.any(modes == mode):
+            starts.setdefault(model.mode_ids[mode], before + 1 if before else 0)
+        before += count
+    return starts
+
+
 def cut_schedule(
     model: HybridModel, modes: IntArray, steps: int | None, schedule: str | None
 ) -> tuple[str, ...]:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -71,6 +71,9 @@ class ComponentsLog:
         The controller's memory per row, ``(N, n_memory)``.
     notes:
         Scenario events ``steps`` cut off (:func:`_cut_events`), printed by the CLI.
+    unreached:
+        Per component, each mode of its ``simulation.modes`` schedule the run ended before
+        (a ``--steps`` shorter than the scenario) → the step the scenario starts it.
     """
 
     time: FloatArray
@@ -82,6 +85,7 @@ class ComponentsLog:
     modes: Mapping[str, tuple[str, ...]]
     controller: FloatArray
     notes: tuple[str, ...] = ()
+    unreached: Mapping[str, Mapping[str, int]] = field(default_factory=dict)
 
     def truth_columns(self, model: HybridModel) -> tuple[str, ...]:
         """Columns that are ground truth: ``mode.<component>`` and the states."""
@@ -269,7 +273,21 @@ def simulate_components(
         modes=modes,
         controller=memory_log,
         notes=_cut_events(scenario, rows, at, labels) if steps is not None else (),
+        unreached=_unreached(scenario, at, labels),
     )
+
+
+def _unreached(
+    scenario: Scenario, at: StepValues, labels: Mapping[str, list[str]]
+) -> dict[str, dict[str, int]]:
+    """Component → scheduled mode the run never reached → the step the scenario starts it."""
+    unreached: dict[str, dict[str, int]] = {}
+    for name, entries in scenario.modes.items():
+        key = f"simulation.modes.{name}"
+        for mode, step in entries:
+            if mode not in labels[name]:
+                unreached.setdefault(name, {}).setdefault(mode, at.at(step, key))
+    return unreached
 
 
 def _cut_events(

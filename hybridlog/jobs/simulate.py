@@ -25,7 +25,7 @@ from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.reads import refuse_unread_by_simulation
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
-from hybridlog.simulate import cut_schedule, parse_disturbance
+from hybridlog.simulate import cut_schedule, parse_disturbance, unreached_modes
 from hybridlog.simulate import simulate as simulate_model
 
 if TYPE_CHECKING:
@@ -126,7 +126,10 @@ def simulate_log(
                 model, steps=steps, seed=seed, settings=values, ends_before=ends_before
             )
         refuse_unread_by_simulation(
-            model, moved, {name: set(modes) for name, modes in played.modes.items()}
+            model,
+            moved,
+            {name: set(modes) for name, modes in played.modes.items()},
+            played.unreached,
         )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
@@ -152,7 +155,8 @@ def simulate_log(
                 ends_before=ends_before,
             )
         ids = {model.modes[int(q)].id for q in set(log.modes.tolist())}
-        refuse_unread_by_simulation(model, moved, {"": ids})
+        unreached = unreached_modes(model, log.modes, schedule)
+        refuse_unread_by_simulation(model, moved, {"": ids}, {"": unreached})
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
         notes = (*cut_schedule(model, log.modes, steps, schedule), *log.notes)

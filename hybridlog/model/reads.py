@@ -4,7 +4,9 @@ The loader refuses ``--set`` of a parameter no string of the model names
 (``_refuse_unused_overrides``).  A parameter can be named and still be read by nothing a
 command runs: ``analyze`` reads no ``[simulation]`` table (``q0`` of the valve three-tank sets
 the inflow ``simulate`` plays only), and ``simulate`` reads no equation of a mode its scenario
-never plays (``c_out`` of the BIO-Plex chamber enters only its ``leak`` mode).  Both ran with
+never plays (``c_out`` of the BIO-Plex chamber enters only its ``leak`` mode; a schedule
+decides which modes are played, the same for every ``--seed``, where guards would not: a model
+switched by guards reads every mode).  Both ran with
 the ``--set`` value recorded and the output the same as without it.  Like an estimator option
 the others make inert (``beam`` without ``kbest``), such a ``--set`` is refused in one line.
 
@@ -16,7 +18,7 @@ from __future__ import annotations
 
 import re
 import unicodedata
-from collections.abc import Callable, Collection, Iterator, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.errors import OptionError, excerpt
@@ -86,22 +88,33 @@ def refuse_unread_by_analysis(model: HybridModel, texts: Mapping[str, str]) -> N
 
 
 def refuse_unread_by_simulation(
-    model: HybridModel, texts: Mapping[str, str], played: Mapping[str, Collection[str]]
+    model: HybridModel,
+    texts: Mapping[str, str],
+    played: Mapping[str, Collection[str]],
+    unreached: Mapping[str, Mapping[str, int]] | None = None,
 ) -> None:
     """Refuse ``--set`` of a parameter named only by modes the simulated run never played.
 
     ``played``: component name → the ids of its modes the run played (``""`` for the modes
     of a model without components, ``modes.<id>``); a mode's table is left out of the names
-    when it was not played, but for its ``guard`` (which decides whether it is played).
-    Checked after the run, before anything is written.
+    when it was not played.
+    ``unreached``: as ``played``, the modes of the schedule (``--schedule``, ``[simulation]
+    schedule`` or ``simulation.modes``) the run ended before → the step the schedule starts
+    each, which the error then asks ``--steps`` to reach.  Checked after the run, before
+    anything is written.
+
+    A model whose guards switch its modes reads every mode, guards and all: which modes a
+    run enters depends on the states its noise draws, so the same command was refused with
+    one ``--seed`` and ran with another (and the error asked for a ``--schedule``, which such
+    a model refuses).  Only a schedule decides, whatever the seed, which modes a run plays.
 
     Raises
     ------
     OptionError
-        ``--set c_out=1e300: parameters.c_out of <model> is named only by modes the
-        scenario never plays (components.pgc.modes.leak) ...``.
+        ``--set c_out=1e300: parameters.c_out of <model> is named only by modes this run
+        never plays (components.pgc.modes.leak) ...``.
     """
-    if not texts:
+    if not texts or model.state_driven:
         return
 
     def table_unplayed(path: Path) -> bool:
@@ -111,26 +124,40 @@ def refuse_unread_by_simulation(
             return path[1] not in played[""]
         return False
 
-    def unplayed(path: Path) -> bool:
-        if path[:1] == ("modes",):  # its guard decided whether it was played: read
-            return len(path) == 3 and table_unplayed(path[:2]) and path[2] != "guard"
-        return table_unplayed(path)
-
-    named = _named(model, unplayed)
-    how = "simulation.modes of the model file" if model.has_components else "--schedule"
+    named = _named(model, table_unplayed)
     for name in texts:
         if name in named:
             continue
         tables = [
-            ".".join(path)
+            path
             for path in _mode_tables(model)
             if table_unplayed(path) and _names(model, path, name)
         ]
         raise OptionError(
             f"{_given(name, texts)}: parameters.{name} of {model.origin or model.name} is "
-            f"named only by modes this run never plays ({', '.join(tables)}): the log "
-            f"would be the same without it; play them ({how}) or drop the --set"
+            f"named only by modes this run never plays ({', '.join(map('.'.join, tables))}): "
+            f"the log would be the same without it; {_remedy(model, tables, unreached or {})}"
         )
+
+
+def _remedy(
+    model: HybridModel, tables: Sequence[Path], unreached: Mapping[str, Mapping[str, int]]
+) -> str:
+    """How to play the modes of ``tables``: ``--steps`` when the run ended before them."""
+    starts = [
+        (unreached[component][mode], ".".join(path))
+        for path in tables
+        for component, mode in [(path[1], path[3]) if len(path) == 4 else ("", path[1])]
+        if mode in unreached.get(component, {})
+    ]
+    if starts:
+        step, table = min(starts)
+        return (
+            f"the run ends before its schedule plays {table} at step {step}: give --steps "
+            f"{step} or more, or drop the --set"
+        )
+    how = "simulation.modes of the model file" if model.has_components else "--schedule"
+    return f"play them ({how}) or drop the --set"
 
 
 def _mode_tables(model: HybridModel) -> Iterator[Path]:

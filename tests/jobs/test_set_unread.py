@@ -52,13 +52,14 @@ def test_a_parameter_only_unscheduled_modes_name_is_refused(tmp_path: Path):
     assert out.exists()
 
 
-def test_a_guard_of_an_unplayed_mode_is_read():
+def test_a_guard_switched_models_unplayed_mode_is_read():
     text = builtin_text("double_cart_case1")
     text = text.replace('guard = "x3 > 0"', 'guard = "x3 > lim"').replace(
         "[modes.1]", "[parameters]\nlim = 0.0\n\n[modes.1]", 1
     )
     model = parse_model(text, origin="cart.toml")
-    # only mode 1 played: lim is its twin's guard, which decided that
+    # only mode 1 played: lim is its twin's guard, which decided that; and the equations of
+    # a guard-switched mode are read too, as another seed may enter it
     refuse_unread_by_simulation(model, {"lim": "1"}, {"": {"1"}})
 
 
@@ -72,3 +73,75 @@ def test_a_parameter_only_the_simulation_names_is_refused_by_analyze():
     )
     model, overrides = parse_sets(["C1=5e-5"], "three_tank_valves")
     assert model.parameters["C1"] == 5e-5 and overrides.parameters == {"C1": 5e-5}
+
+
+_GUARDED = """
+dt = 1.0
+states = ["x"]
+outputs = ["y"]
+
+[parameters]
+a = 0.5
+lim = 1.5
+g = 2.0
+
+[modes.low]
+guard = "x <= lim"
+f = ["a*x"]
+h = ["x"]
+
+[modes.high]
+guard = "x > lim"
+f = ["0.0*x"]
+h = ["g*x"]
+
+[noise]
+process = 1.0
+measurement = 0.01
+
+[initial]
+state = [0.0]
+covariance = 1.0
+"""
+
+
+def test_a_guard_switched_modes_parameter_is_read_whatever_the_seed(tmp_path: Path):
+    # the noise of some seeds takes x past lim, of others not: `--set g=3` (the sensor gain
+    # of the high mode) was refused for those, with "play them (--schedule)", which this
+    # model refuses; the same command now writes a log for every seed
+    model = tmp_path / "guarded.toml"
+    model.write_text(_GUARDED)
+    entered = set()
+    for seed in range(6):
+        out = tmp_path / f"seed{seed}.csv"
+        simulate_log(model, out, steps=5, seed=seed, settings=["g=3"])
+        entered.add("high" in out.read_text())
+    assert entered == {True, False}  # the seeds differ in whether the mode is entered
+
+
+def test_a_run_steps_end_before_the_schedule_plays_the_mode_names_the_steps(tmp_path: Path):
+    # "play them (--schedule)" where the model's schedule plays modes 2 and 3 after step 100
+    out = tmp_path / "x.csv"
+    with pytest.raises(OptionError) as caught:
+        simulate_log("three_tank_hstf", out, steps=100, seed=1, settings=["s2=0.4"])
+    assert str(caught.value) == (
+        "--set s2=0.4: parameters.s2 of three_tank_hstf is named only by modes this run "
+        "never plays (modes.2, modes.3): the log would be the same without it; the run ends "
+        "before its schedule plays modes.2 at step 101: give --steps 101 or more, or drop "
+        "the --set"
+    )
+    assert not list(tmp_path.iterdir())
+    simulate_log("three_tank_hstf", out, steps=101, seed=1, settings=["s2=0.4"])
+    assert out.exists()
+
+
+def test_a_components_run_steps_end_before_a_scheduled_mode_names_the_steps(tmp_path: Path):
+    text = builtin_text("bioplex_pgc").replace('pgc = "growth"', 'pgc = "growth, leak@30"')
+    model = tmp_path / "pgc.toml"
+    model.write_text(text)
+    out = tmp_path / "x.csv"
+    with pytest.raises(OptionError, match=r"plays components\.pgc\.modes\.leak at step 30: "):
+        simulate_log(model, out, steps=29, seed=1, settings=["c_out=500"])
+    assert not out.exists()
+    simulate_log(model, out, steps=30, seed=1, settings=["c_out=500"])
+    assert out.exists()
