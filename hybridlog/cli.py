@@ -1261,6 +1261,9 @@ def _summary_line(report: Report) -> str:
     if detection is not None:
         switches = plural(detection.detected + detection.missed, "true switch")
         text += f", {switches}: {detection.detected:,} detected, {detection.missed:,} missed"
+    fallbacks = None if smoothing is None else smoothing.fallbacks
+    if fallbacks is not None and fallbacks.samples:  # part of the "smoothed" estimate is not
+        text += f"; {fallbacks.summary()}"
     return text
 
 

@@ -54,7 +54,7 @@ from hybridlog.estimators.kernels import (
     keep_psd,
     workspace,
 )
-from hybridlog.estimators.smoothing import rts_step, rts_work
+from hybridlog.estimators.smoothing import TAKEN, note_fallbacks, rts_cause, rts_work
 from hybridlog.estimators.unrolled import (
     Program,
     matrix_names,
@@ -444,6 +444,7 @@ def smooth_path(
     path: IntArray,
     means: FloatArray,
     covariances: FloatArray,
+    fallbacks: IntArray,
 ) -> None:
     """Extended RTS smoother along one mode path, in place over :func:`follow_path`'s output.
 
@@ -455,7 +456,9 @@ def smooth_path(
     one path of a plant without process noise the EKF's covariances shrink to a condition of
     10^9 and more, the gain ``J`` grows, and the rounding of one step's ``P^s(k+1)`` (an
     eigenvalue of -1e-18 against 1e-9) came back through ``J P^s Jᵀ`` amplified at every step
-    before it, to variances of -3e-8 against 4e-7 a hundred steps earlier.
+    before it, to variances of -3e-8 against 4e-7 a hundred steps earlier.  ``fallbacks``
+    (:data:`~hybridlog.estimators.smoothing.FALLBACKS_WIDTH` zeros) gets the samples where
+    the filtered estimate stood, by cause (:func:`~hybridlog.estimators.smoothing.note_fallbacks`).
     """
     inputs, _, Q, _, _, _, _ = run
     n_samples, n = means.shape
@@ -470,9 +473,12 @@ def smooth_path(
         j = path[k + 1]
         x_f[:] = means[k]
         P_f[:, :] = covariances[k]
-        if rts_step(f, F, j, x_f, P_f, inputs[k], Q[j], means[k + 1], covariances[k + 1],
-                    means[k], covariances[k], w, r_next, r_out):  # fmt: skip
+        cause = rts_cause(f, F, j, x_f, P_f, inputs[k], Q[j], means[k + 1], covariances[k + 1],
+                          means[k], covariances[k], w, r_next, r_out)  # fmt: skip
+        if cause == TAKEN:
             keep_psd(covariances[k], shifted, factor)
+        else:
+            note_fallbacks(1 << (cause - 1), fallbacks)
         r_next[:] = r_out
 
 

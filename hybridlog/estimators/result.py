@@ -41,6 +41,46 @@ class TimelineColumn:
     labels: tuple[str, ...] = ()
 
 
+FALLBACK_CAUSES = ("prediction", "guard", "rounding", "covariance")
+"""Why a smoother's step left the forward estimate standing (docs/smoothing.md "The
+algorithms"): the prediction's covariance ``P^-`` not positive definite, the guard
+``P^s(k+1) <= P^-``, the rounding probe, the step's covariance not PSD to rounding."""
+
+
+@dataclass(frozen=True)
+class Fallbacks:
+    """How often a fixed-interval smoother's estimate is the forward pass's (issue 12).
+
+    Attributes
+    ----------
+    samples:
+        Samples where at least one step that carries weight in the output (a next mode, or
+        a pair of modes, of smoothed probability at least ``1e-30``) was refused and the
+        forward estimate stood in its place.  Negligible next modes, skipped by design, are
+        not counted.
+    of:
+        Samples the backward pass smoothed (all but the last, which is the filter's).
+    by_cause:
+        Per cause of :data:`FALLBACK_CAUSES`, the samples where a step was refused for it
+        (a sample may count under several causes).
+    """
+
+    samples: int
+    of: int
+    by_cause: dict[str, int]
+
+    def summary(self) -> str:
+        """One phrase, as ``the smoother fell back to the forward estimate on 12 of 599 ...``.
+
+        The causes that occurred follow in parentheses (``(guard 12)``).
+        """
+        causes = ", ".join(f"{c} {n:,}" for c, n in self.by_cause.items() if n)
+        return (
+            f"the smoother fell back to the forward estimate on {self.samples:,} of {self.of:,} "
+            f"samples ({causes})"
+        )
+
+
 @dataclass(frozen=True)
 class PostProcessing:
     """How an offline pass after the filter changed a result (issue 12).
@@ -65,6 +105,10 @@ class PostProcessing:
         the estimate was made (the registry's run), so that the process writing the report
         need not load the model's compiled functions; ``None`` where not computed (the
         report then computes them) or where the model's ``h`` does not apply.
+    fallbacks:
+        Where the smoother that made the states left the forward estimate standing
+        (:class:`Fallbacks`; with ``kbest``, the RTS smoother along the path); ``None``
+        without a smoother.
     """
 
     smoothing: str | None
@@ -73,6 +117,7 @@ class PostProcessing:
     filtered: EstimationResult
     explained: FloatArray | None = None
     filtered_explained: FloatArray | None = None
+    fallbacks: Fallbacks | None = None
 
 
 @dataclass(frozen=True)

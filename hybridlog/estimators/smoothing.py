@@ -72,6 +72,13 @@ rounding; and it is the mode the backward pass skips most (on the three-tank ben
 log 45 % of the smoothed probabilities are below it, and the results are bit-identical
 with and without the skip, which takes the backward pass from 0.30 to 0.22 s).
 
+Fallbacks: each backward pass counts the samples where a step that carries weight (a next
+mode of at least :data:`NEGLIGIBLE_WEIGHT`; expectation correction: a pair ``p_ij(k)`` of
+at least it) was refused, by cause (:data:`PREDICTION`, :data:`GUARD`, :data:`ROUNDING`,
+:data:`COVARIANCE`, :func:`note_fallbacks`), into
+:attr:`~hybridlog.estimators.result.PostProcessing.fallbacks`; the negligible next modes
+above are not counted.
+
 **Expectation correction** (``smoother = "ec"``, :func:`ec_backward`): D. Barber,
 "Expectation Correction for Smoothed Inference in Switching Linear Dynamical Systems",
 *Journal of Machine Learning Research* 7 (2006) 2515-2540, with one Gaussian per mode and
@@ -160,7 +167,12 @@ from hybridlog.estimators.kernels import (
     record,
     symmetrize,
 )
-from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.estimators.result import (
+    FALLBACK_CAUSES,
+    EstimationResult,
+    Fallbacks,
+    PostProcessing,
+)
 from hybridlog.estimators.unrolled import (
     Entry,
     Matrix,
@@ -261,6 +273,25 @@ each state, whose step is taken (:func:`rts_step`)."""
 ROUNDING_LIMIT_SQUARED = ROUNDING_LIMIT * ROUNDING_LIMIT
 """The test of :data:`ROUNDING_LIMIT` on squares: ``r² <= limit² P`` (no square root)."""
 
+LOG_NEGLIGIBLE_WEIGHT = math.log(NEGLIGIBLE_WEIGHT)
+"""``log`` :data:`NEGLIGIBLE_WEIGHT`: expectation correction counts the fallback of a pair step
+whose ``log p_ij(k)`` is at least this (a pair that carries weight in the output)."""
+
+TAKEN = 0
+"""An RTS step taken (:func:`rts_cause`); the other codes say why the forward estimate stood."""
+PREDICTION = 1
+"""``P^-`` not positive definite."""
+GUARD = 2
+"""The guard ``P^s(k+1) <= P^-`` refused the step."""
+ROUNDING = 3
+"""The rounding probe passed :data:`ROUNDING_LIMIT`."""
+COVARIANCE = 4
+"""The step's covariance is not PSD to rounding (:func:`semidefinite_step`)."""
+FALLBACKS_WIDTH = 1 + len(FALLBACK_CAUSES)
+"""Length of a backward pass's ``fallbacks`` array: the samples where a weighted step fell
+back to the forward estimate, then per cause (:data:`FALLBACK_CAUSES`, code − 1) the samples
+where one did for that cause (:func:`note_fallbacks`)."""
+
 
 @jit
 def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
@@ -358,8 +389,35 @@ def rts_step(
     data make them.  Past the limit the sample takes the forward estimate, and the pass goes
     on from there with ``r = 0``.  ``x_out`` and ``P_out`` must not be ``x`` and ``P``.
     """
+    return (
+        rts_cause(f, F, mode, x, P, u, Q, x_next, P_next, x_out, P_out, w, r_next, r_out) == TAKEN
+    )
+
+
+@jitable
+def rts_cause(
+    f: Fn,
+    F: Fn,
+    mode: int,
+    x: FloatArray,
+    P: FloatArray,
+    u: FloatArray,
+    Q: FloatArray,
+    x_next: FloatArray,
+    P_next: FloatArray,
+    x_out: FloatArray,
+    P_out: FloatArray,
+    w: RtsWork,
+    r_next: FloatArray,
+    r_out: FloatArray,
+) -> int:
+    """:func:`rts_step`, returning :data:`TAKEN` or why the forward estimate stood.
+
+    :data:`PREDICTION`, :data:`GUARD` or :data:`ROUNDING`, the first check that refused it.
+    """
     if not rts_predict(f, F, mode, x, P, u, Q, w):
-        return _forward_stands(x, P, x_out, P_out, r_out)
+        _forward_stands(x, P, x_out, P_out, r_out)
+        return PREDICTION
     return rts_correct(x, P, Q, x_next, P_next, x_out, P_out, w, r_next, r_out)
 
 
@@ -394,10 +452,11 @@ def rts_correct(
     w: RtsWork,
     r_next: FloatArray,
     r_out: FloatArray,
-) -> bool:
+) -> int:
     """The rest of :func:`rts_step` once :func:`rts_predict` succeeded (``w`` holds it).
 
-    The guard, the gain, the smoothed mean, its rounding probe and its covariance.
+    The guard, the gain, the smoothed mean, its rounding probe and its covariance.  Returns
+    :data:`TAKEN`, else :data:`GUARD` or :data:`ROUNDING` (the forward estimate stands).
     """
     n = x.shape[0]
     x_pred, F_x, FP, P_pred, L, column, solved, J, IJF, work, part, congruent = w
@@ -409,7 +468,8 @@ def rts_correct(
             work[a, b] = P_pred[a, b] - P_next[a, b]
         work[a, a] += GUARD_TOLERANCE * scale
     if not cholesky(work, IJF):
-        return _forward_stands(x, P, x_out, P_out, r_out)
+        _forward_stands(x, P, x_out, P_out, r_out)
+        return GUARD
     gain(P, F_x, L, FP, column, solved, J)  # J = P Fᵀ (P^-)⁻¹: a Kalman gain with H = F
     for a in range(n):
         acc = x[a]
@@ -437,8 +497,9 @@ def rts_correct(
     for a in range(n):
         # |r| <= ROUNDING_LIMIT sqrt(P), squared: no square root (NaN fails either form)
         if not r_out[a] * r_out[a] <= ROUNDING_LIMIT_SQUARED * max(P_out[a, a], 0.0):
-            return _forward_stands(x, P, x_out, P_out, r_out)
-    return True
+            _forward_stands(x, P, x_out, P_out, r_out)
+            return ROUNDING
+    return TAKEN
 
 
 @jitable
@@ -483,6 +544,22 @@ def _forward_stands(
     return False
 
 
+@jit
+def note_fallbacks(fell: int, fallbacks: IntArray) -> None:
+    """Count a sample whose steps fell back for the causes of bit mask ``fell`` (0: none).
+
+    Bit ``c − 1`` of ``fell`` is set where a weighted step of the sample was refused for cause
+    ``c`` (:data:`PREDICTION` … :data:`COVARIANCE`); ``fallbacks[0]`` counts the samples with
+    any, ``fallbacks[c]`` those with cause ``c``.
+    """
+    if fell == 0:
+        return
+    fallbacks[0] += 1
+    for c in range(1, fallbacks.shape[0]):
+        if fell & (1 << (c - 1)):
+            fallbacks[c] += 1
+
+
 def kim_backward(
     f: Fn,
     F: Fn,
@@ -492,12 +569,16 @@ def kim_backward(
     mu: FloatArray,
     store: ModeStore,
     out: FilterBuffers,
+    fallbacks: IntArray,
 ) -> None:
     """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
 
     ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept (read
     only: the smoothed per-mode estimates of the next sample are carried in arrays).  Row
-    ``N−1`` is the caller's (the filtered one).
+    ``N−1`` is the caller's (the filtered one).  ``fallbacks`` (:data:`FALLBACKS_WIDTH`
+    zeros) gets the samples where the step of a next mode that carries weight (at least
+    :data:`NEGLIGIBLE_WEIGHT`) left its forward prior standing, by cause
+    (:func:`note_fallbacks`).
     """
     n_samples, n_q, _ = store.states.shape
     n = Q.shape[1]
@@ -552,15 +633,22 @@ def kim_backward(
             row_total[i] = log_sum_exp(log_pair[i])
         total = log_sum_exp(row_total)
         # RTS step of each next mode j from its mixed prior.
+        fell = 0  # the causes of this sample's fallbacks, a bit each
         for j in range(n_q):
             x_j[j] = x_prior[j]
             P_j[j] = P_prior[j]
             r_j[j] = 0.0
             if math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT:
                 continue  # q(k+1) = j carries no weight that counts: the prior stands
-            if rts_step(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
-                        x_j[j], P_j[j], w, r_next[j], r_j[j]):  # fmt: skip
-                semidefinite_step(x_prior[j], P_prior[j], x_j[j], P_j[j], r_j[j], w)
+            cause = rts_cause(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
+                              x_j[j], P_j[j], w, r_next[j], r_j[j])  # fmt: skip
+            if cause == TAKEN and not semidefinite_step(
+                x_prior[j], P_prior[j], x_j[j], P_j[j], r_j[j], w
+            ):
+                cause = COVARIANCE
+            if cause != TAKEN:
+                fell |= 1 << (cause - 1)
+        note_fallbacks(fell, fallbacks)
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
@@ -609,17 +697,19 @@ def ec_backward(
     mu: FloatArray,
     store: ModeStore,
     out: FilterBuffers,
-) -> int:
+    fallbacks: IntArray,
+) -> None:
     """Rows ``0 … N−2`` of expectation correction's smoothed result (the module docstring).
 
     ``store`` holds the filtered per-mode ``x̂_i(k|k)``, ``P_i(k|k)`` in every row (the IMM's
     ``filtered_store``), ``mu`` the filtered mode probabilities; ``corrected[j]`` whether the
     weights of next mode ``j`` take the density of the smoothed state (its process noise
-    positive definite), else Kim's.  Returns the number of pair steps whose forward estimate
-    stood (prediction not positive definite, guard, rounding probe), negligible next modes
-    not counted.  Row ``N−1`` is the caller's (the filtered one).  Plain Python that numba
-    compiles on first use; one machine code for every model (the mode functions are
-    first-class functions).
+    positive definite), else Kim's.  ``fallbacks`` (:data:`FALLBACKS_WIDTH` zeros) gets the
+    samples where a pair step that carries weight (``p_ij(k)`` at least
+    :data:`NEGLIGIBLE_WEIGHT`) left its forward estimate standing, by cause
+    (:func:`note_fallbacks`).  Row ``N−1`` is the caller's (the filtered one).  Plain Python
+    that numba compiles on first use; one machine code for every model (the mode functions
+    are first-class functions).
     """
     n_samples, n_q, _ = store.states.shape
     n = Q.shape[1]
@@ -654,7 +744,7 @@ def ec_backward(
     w = rts_work(n)
     x = np.empty(n)
     P = np.empty((n, n))
-    stood = 0
+    pair_cause = np.zeros((n_q, n_q), dtype=np.int64)  # TAKEN, or why the pair's step was not
     if n_samples > 0:
         for j in range(n_q):
             unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
@@ -670,13 +760,14 @@ def ec_backward(
             for i in range(n_q):
                 density[i] = 0.0
                 r_pair[i, j] = 0.0
+                pair_cause[i, j] = TAKEN
                 if negligible:  # q(k+1) = j carries no weight that counts: forward stands
                     x_pair[i, j] = x_f[i]
                     P_pair[i, j] = P_f[i]
                     continue
                 if not rts_predict(f, F, j, x_f[i], P_f[i], u, Q[j], w):
                     _forward_stands(x_f[i], P_f[i], x_pair[i, j], P_pair[i, j], r_pair[i, j])
-                    stood += 1
+                    pair_cause[i, j] = PREDICTION
                     weighed = False  # no density for this pair: Kim's weights for mode j
                     continue
                 if weighed:
@@ -684,22 +775,12 @@ def ec_backward(
                         gap[a] = x_next[j, a] - w.x_pred[a]
                     density[i] = gaussian_log_density(gap, w.L, solved)
                 x_out, P_out, r_out = x_pair[i, j], P_pair[i, j], r_pair[i, j]
-                if not (
-                    rts_correct(
-                        x_f[i],
-                        P_f[i],
-                        Q[j],
-                        x_next[j],
-                        P_next[j],
-                        x_out,
-                        P_out,
-                        w,
-                        r_next[j],
-                        r_out,
-                    )
-                    and semidefinite_step(x_f[i], P_f[i], x_out, P_out, r_out, w)
-                ):
-                    stood += 1
+                cause = rts_correct(
+                    x_f[i], P_f[i], Q[j], x_next[j], P_next[j], x_out, P_out, w, r_next[j], r_out
+                )
+                if cause == TAKEN and not semidefinite_step(x_f[i], P_f[i], x_out, P_out, r_out, w):
+                    cause = COVARIANCE
+                pair_cause[i, j] = cause
             if negligible:
                 weighed = False
             if weighed:  # the corrected weights, unless no pair gives x̂^s_j(k+1) a density
@@ -721,8 +802,13 @@ def ec_backward(
                     log_pair[i, j] = log_mu_next[j] + terms[i] - log_norm
                 else:
                     log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_norm
+        fell = 0  # the causes of this sample's fallbacks among pairs that carry weight
         for i in range(n_q):
             row_total[i] = log_sum_exp(log_pair[i])
+            for j in range(n_q):
+                if pair_cause[i, j] != TAKEN and log_pair[i, j] >= LOG_NEGLIGIBLE_WEIGHT:
+                    fell |= 1 << (pair_cause[i, j] - 1)
+        note_fallbacks(fell, fallbacks)
         total = log_sum_exp(row_total)
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
@@ -750,7 +836,6 @@ def ec_backward(
         r_next[:, :] = r_new
         mixture_moments(mu_s, x_new, P_new, x, P)
         record(out, k, argmax(mu_s), mu_s, x, P)
-    return stood
 
 
 def viterbi(
@@ -836,6 +921,7 @@ def post_process(
     compile_s = 0.0
     result = filtered
     descriptions: list[str] = []
+    fallbacks = np.zeros(FALLBACKS_WIDTH, dtype=np.int64)
     if smooth:
         n = filtered.n_samples
         # The backward pass writes no output predictions: the filter's array stands in (no
@@ -854,7 +940,7 @@ def post_process(
         )
         if n:
             arguments: tuple[Any, ...]
-            loop: Callable[..., object]  # expectation correction's returns its steps not taken
+            loop: Callable[..., object]
             compile_start = time.perf_counter()
             if smoother == "ec" and jit and use_unrolled(model, kernel):
                 arguments = (
@@ -864,6 +950,7 @@ def post_process(
                     filtered.mode_probabilities,
                     store,
                     buffers,
+                    fallbacks,
                 )
                 loop, _ = compile_generated(
                     model,
@@ -885,6 +972,7 @@ def post_process(
                     filtered.mode_probabilities,
                     store,
                     buffers,
+                    fallbacks,
                 )
                 loop = compile_for(ec_backward, arguments) if jit else ec_backward
             elif jit and use_unrolled(model, kernel):
@@ -895,6 +983,7 @@ def post_process(
                     filtered.mode_probabilities,
                     store,
                     buffers,
+                    fallbacks,
                 )
                 loop, _ = compile_generated(
                     model,
@@ -915,6 +1004,7 @@ def post_process(
                     filtered.mode_probabilities,
                     store,
                     buffers,
+                    fallbacks,
                 )
                 loop = compile_for(kim_backward, arguments) if jit else kim_backward
             compile_s += time.perf_counter() - compile_start
@@ -951,7 +1041,10 @@ def post_process(
             VITERBI_DESCRIPTION if smooth else f"{VITERBI_DESCRIPTION}; {FILTERS_OWN}"
         )
     elif mode_sequence == "kbest":
-        result, spent = _kbest(model, signals, result, transitions, beam, smooth, jit, kernel)
+        fallbacks[:] = 0  # the states are those of the RTS smoother along the path
+        result, spent = _kbest(
+            model, signals, result, transitions, beam, smooth, jit, kernel, fallbacks
+        )
         compile_s += spent
         descriptions = [
             KBEST_DESCRIPTION.format(
@@ -972,7 +1065,17 @@ def post_process(
             mode_sequence=mode_sequence,
             description="; ".join(descriptions),
             filtered=filtered,
+            fallbacks=_fallbacks(fallbacks, filtered.n_samples) if smooth else None,
         ),
+    )
+
+
+def _fallbacks(counts: IntArray, n_samples: int) -> Fallbacks:
+    """:class:`Fallbacks` of a backward pass's ``fallbacks`` array over ``n_samples``."""
+    return Fallbacks(
+        samples=int(counts[0]),
+        of=max(n_samples - 1, 0),
+        by_cause={cause: int(counts[c]) for c, cause in enumerate(FALLBACK_CAUSES, start=1)},
     )
 
 
@@ -1009,13 +1112,15 @@ def _kbest(
     smooth: bool,
     jit: bool,
     kernel: str,
+    fallbacks: IntArray,
 ) -> tuple[EstimationResult, float]:
     """``result`` with the ``kbest`` path as its modes and the states of the EKF along it.
 
     :mod:`hybridlog.estimators.mode_hypotheses`: the path (straight-line code where
     ``kernel`` asks for it, :func:`~hybridlog.estimators.mode_hypotheses.generate_kbest_source`,
     else the generic loop), then the EKF that follows it (``smooth``: and the extended RTS
-    smoother along it).  Returns the compile time too.
+    smoother along it, its fallbacks counted into ``fallbacks``).  Returns the compile time
+    too.
     """
     from hybridlog.estimators import mode_hypotheses
     from hybridlog.estimators.mode_hypotheses import best_history, follow_path, smooth_path
@@ -1049,7 +1154,7 @@ def _kbest(
     compile_s += time.perf_counter() - compile_start
     follow(*followed)
     if smooth:
-        smoothed = (compiled.f, compiled.F, run, path, means, covariances)
+        smoothed = (compiled.f, compiled.F, run, path, means, covariances, fallbacks)
         compile_start = time.perf_counter()
         backward = compile_for(smooth_path, smoothed) if jit else smooth_path
         compile_s += time.perf_counter() - compile_start
@@ -1260,6 +1365,9 @@ class _StepSource(NamedTuple):
 
     taken: str
     """Whether the step was taken (else the forward estimate stands)."""
+    cause: str
+    """An expression of the cause's bit (``1 << (cause − 1)``, :func:`note_fallbacks`) of a
+    step not taken: the first check that refused it, in :func:`rts_cause`'s order."""
     x: Vector
     P: Matrix
     r: Vector
@@ -1311,10 +1419,8 @@ def _rts_step_source(
             extra = f" + {GUARD_TOLERANCE!r}*{term(trace)}" if a == b else ""
             D[a][b] = D[b][a] = p.assign("dg", f"{term(P_pred[a][b])} - {term(Pn[a][b])}{extra}")
     LD = p.cholesky(f"ld{j}_", D)
-    positive = " and ".join(
-        [f"{term(L[a][a])} > 0.0" for a in range(n)] + [f"{term(LD[a][a])} > 0.0" for a in range(n)]
-    )
-    ok = p.assign("ok", positive)
+    predicted = p.assign("pd", " and ".join(f"{term(L[a][a])} > 0.0" for a in range(n)))
+    guarded = p.assign("gd", " and ".join(f"{term(LD[a][a])} > 0.0" for a in range(n)))
     gap = [p.difference("gp", xn[b], x_pred[b]) for b in range(n)]
     x_rts = [p.let("xr", [x0[a], *[product(J[a][b], gap[b]) for b in range(n)]]) for a in range(n)]
     JF = p.matmul(f"jF{j}_", J, F)
@@ -1357,8 +1463,15 @@ def _rts_step_source(
         f"{ROUNDING_LIMIT_SQUARED!r}*max({term(P_rts[a][a])}, 0.0)"
         for a in range(n)
     )
-    taken = p.assign("ok", f"{ok} and {semidefinite} and {precise}")
-    return _StepSource(taken, x_rts, P_rts, r_rts, x_pred, L)
+    semidefinite_ = p.assign("sd", semidefinite)
+    precise_ = p.assign("pc", precise)
+    taken = p.assign("ok", f"{predicted} and {guarded} and {precise_} and {semidefinite_}")
+    bits = [1 << (code - 1) for code in (PREDICTION, GUARD, ROUNDING, COVARIANCE)]
+    cause = (
+        f"({bits[0]} if not {predicted} else {bits[1]} if not {guarded} else "
+        f"{bits[2]} if not {precise_} else {bits[3]})"
+    )
+    return _StepSource(taken, cause, x_rts, P_rts, r_rts, x_pred, L)
 
 
 class _Frame(NamedTuple):
@@ -1432,7 +1545,8 @@ def _backward_frame(p: Program, model: HybridModel) -> _Frame:
 def generate_smoother_source(model: HybridModel) -> str:
     """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out)``: the same backward pass
+    Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out, fallbacks)``: the same
+    backward pass (``fallbacks`` counted as :func:`kim_backward` counts them)
     with the mode functions, the process noise and the small matrix products written out.
     Its mode recursion (:func:`_mode_recursion_source`) takes the linear form of the same
     equations where every probability involved is in full-precision range (no ``exp``, three
@@ -1450,6 +1564,7 @@ def generate_smoother_source(model: HybridModel) -> str:
     Q, _ = noise_matrices(model)
     p = Program(indent="    ")
     log_next, mu_carried, T, log_T, x_next, P_next, r_next, u = _backward_frame(p, model)
+    p.emit("fell = 0")
     log_new, mu_s, weights = _mode_recursion_source(p, T, log_T, log_next, mu_carried)
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
@@ -1465,10 +1580,12 @@ def generate_smoother_source(model: HybridModel) -> str:
         chosen = [str(name) for name in [*x_sel, *upper(P_sel), *r_sel]]
         stands: list[Entry] = [*prior, *([0.0] * n)]
         with p.block(f"if {mu_carried[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
-            ok, x_rts, P_rts, r_rts, _, _ = _rts_step_source(
+            ok, cause, x_rts, P_rts, r_rts, _, _ = _rts_step_source(
                 p, model, j, x0, P0, u, Q[j], x_next[j], P_next[j], r_next[j]
             )
             _select(p, ok, chosen, x_rts + upper(P_rts) + r_rts, stands)
+            p.emit(f"if not {ok}:")
+            p.emit(f"    fell |= {cause}")
         with p.block("else:"):  # a negligible next mode: the forward prior stands
             for name, value in zip(chosen, stands, strict=True):
                 p.emit(f"{name} = {term(value)}")
@@ -1492,19 +1609,30 @@ def generate_smoother_source(model: HybridModel) -> str:
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))
         p.carry(r_next[i], r_new[i])
-    return f"def imm_smooth(inputs, transitions, log_T, mu, store, out):\n{p.source()}\n"
+    _count_fallbacks(p)
+    return f"def imm_smooth(inputs, transitions, log_T, mu, store, out, fallbacks):\n{p.source()}\n"
+
+
+def _count_fallbacks(p: Program) -> None:
+    """Emit :func:`note_fallbacks` of the sample's ``fell`` into ``fallbacks``, written out."""
+    p.emit("if fell:")
+    p.emit("    fallbacks[0] += 1")
+    for c in range(1, FALLBACKS_WIDTH):
+        p.emit(f"    if fell & {1 << (c - 1)}:")
+        p.emit(f"        fallbacks[{c}] += 1")
 
 
 def generate_ec_smoother_source(model: HybridModel) -> str:
     """Straight-line source of :func:`ec_backward` for ``model`` (see ``unrolled.py``).
 
-    Defines ``imm_smooth_ec(inputs, transitions, log_T, mu, store, out)``, returning the
-    number of pair steps whose forward estimate stood, as :func:`ec_backward`: the same
-    backward pass (the module docstring) with the mode functions, the process noise and the
-    small matrix products written out, the pair steps of :func:`_rts_step_source`, and the
-    mode recursion in log space.  Whether next mode ``j`` takes the density of the smoothed
-    state (``Q_j`` positive definite, :func:`positive_definite_noise`) is decided here, once:
-    the code of a mode without it holds no density.  Equal to the generic loop up to
+    Defines ``imm_smooth_ec(inputs, transitions, log_T, mu, store, out, fallbacks)``,
+    counting the samples whose steps fell back into ``fallbacks`` as :func:`ec_backward`
+    does: the same backward pass (the module docstring) with the mode functions, the process
+    noise and the small matrix products written out, the pair steps of
+    :func:`_rts_step_source`, and the mode recursion in log space.  Whether next mode ``j``
+    takes the density of the smoothed state (``Q_j`` positive definite,
+    :func:`positive_definite_noise`) is decided here, once: the code of a mode without it
+    holds no density.  Equal to the generic loop up to
     rounding (``tests/estimators/test_smoothing_ec.py``).
     """
     n, n_q = model.n_states, model.n_modes
@@ -1535,6 +1663,7 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
         [vector_names(f"rq{i}{j}_", n) for j in range(n_q)] for i in range(n_q)
     ]
     density = [[p.fresh("dn") for _ in range(n_q)] for _ in range(n_q)]
+    cause_bit = [[p.fresh("cz") for _ in range(n_q)] for _ in range(n_q)]  # 0: taken
     weighed = [p.fresh("wd") for _ in range(n_q)]
     for j in range(n_q):
         with p.block(f"if {mu_next[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
@@ -1546,8 +1675,7 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
                 chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
                 stands: list[Entry] = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
                 _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
-                p.emit(f"if not {step.taken}:")
-                p.emit("    stood += 1")
+                p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
                 if corrected[j]:
                     gap = [p.difference("gq", x_next[j][a], step.x_pred[a]) for a in range(n)]
                     log_density = p.gaussian_log_density(f"ld{i}{j}_", gap, step.L)
@@ -1566,6 +1694,7 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
                 for target, value in zip(chosen, stands, strict=True):
                     p.emit(f"{target} = {term(value)}")
                 p.emit(f"{density[i][j]} = 0.0")
+                p.emit(f"{cause_bit[i][j]} = 0")
             p.emit(f"{weighed[j]} = False")
     # log Pr(q(k)=i, q(k+1)=j | Y^N): the corrected weights, else Kim's
     log_pair = [[p.fresh("lq") for _ in range(n_q)] for _ in range(n_q)]
@@ -1600,6 +1729,12 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
                 f"{log_pair[i][j]} = -math.inf if ({norm} == -math.inf or {log_next[j]} == "
                 f"-math.inf or {terms[i]} == -math.inf) else {value}"
             )
+    p.emit("fell = 0")  # the causes of the sample's fallbacks among pairs that carry weight
+    for i in range(n_q):
+        for j in range(n_q):
+            p.emit(f"if {cause_bit[i][j]} and {log_pair[i][j]} >= {LOG_NEGLIGIBLE_WEIGHT!r}:")
+            p.emit(f"    fell |= {cause_bit[i][j]}")
+    _count_fallbacks(p)
     rows = [_log_sum_exp_parts(p, "rq", list(log_pair[i])) for i in range(n_q)]
     total = _log_sum_exp_source(p, "tq", [row[0] for row in rows])
     log_new = [
@@ -1633,9 +1768,6 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))
         p.carry(r_next[i], r_new[i])
-    p.indent = p.indent[:-4]
-    p.emit("return stood")
     return (
-        "def imm_smooth_ec(inputs, transitions, log_T, mu, store, out):\n"
-        f"    stood = 0\n{p.source()}\n"
+        f"def imm_smooth_ec(inputs, transitions, log_T, mu, store, out, fallbacks):\n{p.source()}\n"
     )

@@ -681,6 +681,7 @@ class _OfflineSides:
         post = first.post_processing
         assert post is not None  # the caller's check
         self._how = (post.smoothing, post.mode_sequence, post.description)
+        self._fallbacks = post.fallbacks  # the whole run's, in every chunk
         self._model = model
         self._filtered_modes: IntArray = np.empty(signals.n_samples, dtype=np.int64)
         self._filtered_components = _ComponentModes(signals.n_samples, signals.truth_components)
@@ -749,6 +750,7 @@ class _OfflineSides:
             method=method,
             mode_sequence=mode_sequence,
             description=description,
+            fallbacks=self._fallbacks,
             filtered=_side(
                 ids,
                 signals,

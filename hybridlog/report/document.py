@@ -18,9 +18,16 @@ when known, then any further keys (:attr:`Report.extra`): those ``analyze``, ``c
 and ``batch`` write are :data:`PARAMETERS_KEY` and :data:`ORIGINS_KEY`
 (:mod:`hybridlog.jobs.origins`), and ``batch`` its provenance.
 
-``smoothing`` is ``{method, mode_sequence, description, filtered: {...}, smoothed: {...}}``
-(:class:`Smoothing`): ``method`` names the fixed-interval smoother (``null`` when only the
-mode sequence was changed), ``mode_sequence`` is ``argmax`` or ``viterbi``, and ``filtered``
+``smoothing`` is ``{method, mode_sequence, description, fallbacks, filtered: {...},
+smoothed: {...}}`` (:class:`Smoothing`): ``method`` names the fixed-interval smoother
+(``null`` when only the mode sequence was changed), ``mode_sequence`` is ``argmax``,
+``viterbi`` or ``kbest``; ``fallbacks`` (only when a smoother ran) is ``{samples, of,
+by_cause: {prediction, guard, rounding, covariance}}``: of the ``of`` samples the backward
+pass smoothed (all but the last), the ``samples`` where at least one step that carries
+weight was refused and the forward estimate stood in its place, and per cause (the
+prediction's covariance not positive definite, the guard, the rounding probe, the step's
+covariance not PSD; docs/smoothing.md "The algorithms") the samples with such a step (with
+``kbest``, those of the RTS smoother along the path, whose states the report holds); ``filtered``
 and ``smoothed`` hold the same metrics (:class:`SmoothingMetrics`) of the causal filter's
 estimates and of the report's own: ``mode_accuracy, confusion, detection_delay_s,
 detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse, samples}},
@@ -49,8 +56,8 @@ to, detected, detected_t, delay_s, miss_reason}]}``, see
 :func:`hybridlog.report.metrics.detection_delays`.
 
 Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
-``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples``, ``modes.samples`` or
-``miss_reason``; they
+``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples``, ``modes.samples``,
+``miss_reason`` or ``smoothing.fallbacks``; they
 are read with ``None`` (or empty) in their place.
 """
 
@@ -67,6 +74,7 @@ from typing import Final, TypeAlias, TypeVar, cast
 
 from hybridlog.errors import ReportError, excerpt
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
+from hybridlog.estimators.result import FALLBACK_CAUSES, Fallbacks
 from hybridlog.report.metrics import SwitchDetection
 
 __all__ = [
@@ -408,6 +416,10 @@ class Smoothing:
     smoothed:
         Metrics of the report's estimates (those of the tables and the top-level ``modes``
         and ``states``).
+    fallbacks:
+        Where the smoother left the forward estimate standing
+        (:class:`~hybridlog.estimators.result.Fallbacks`); ``None`` without a smoother, or
+        in a report of an earlier version.
 
     """
 
@@ -416,6 +428,7 @@ class Smoothing:
     description: str
     filtered: SmoothingMetrics
     smoothed: SmoothingMetrics
+    fallbacks: Fallbacks | None = None
 
     @property
     def keeps_filter_states(self) -> bool:
@@ -430,13 +443,20 @@ class Smoothing:
 
     def to_dict(self) -> JsonObject:
         """The JSON object ``smoothing`` of ``report.json``."""
-        return {
+        data: JsonObject = {
             "method": self.method,
             "mode_sequence": self.mode_sequence,
             "description": self.description,
-            "filtered": self.filtered.to_dict(),
-            "smoothed": self.smoothed.to_dict(),
         }
+        if self.fallbacks is not None:
+            data["fallbacks"] = {
+                "samples": self.fallbacks.samples,
+                "of": self.fallbacks.of,
+                "by_cause": dict(self.fallbacks.by_cause),
+            }
+        data["filtered"] = self.filtered.to_dict()
+        data["smoothed"] = self.smoothed.to_dict()
+        return data
 
 
 _COMPACT = json.JSONEncoder(allow_nan=False, separators=(", ", ": ")).encode
@@ -1015,12 +1035,46 @@ class _Reader:
         def side(value: object, where: str) -> SmoothingMetrics:
             return self.smoothing_metrics(value, where, labels, states)
 
+        method = self.at(data, path, "method", self.or_null(self.string))
+        fallbacks = self.at(data, path, "fallbacks", self.or_null(self.fallbacks), None)
+        if fallbacks is not None and method is None:
+            raise self.error(f"{path}.fallbacks", "is set but no smoother ran (method is null)")
         return Smoothing(
-            method=self.at(data, path, "method", self.or_null(self.string)),
+            method=method,
             mode_sequence=mode_sequence,
             description=self.at(data, path, "description", self.string),
             filtered=self.at(data, path, "filtered", side),
             smoothed=self.at(data, path, "smoothed", side),
+            fallbacks=fallbacks,
+        )
+
+    def fallbacks(self, value: object, path: str) -> Fallbacks:
+        data = self.mapping(value, path)
+        fallbacks = Fallbacks(
+            samples=self.at(data, path, "samples", self.count),
+            of=self.at(data, path, "of", self.count),
+            by_cause=self.at(data, path, "by_cause", self.map_of(self.count)),
+        )
+        if set(fallbacks.by_cause) != set(FALLBACK_CAUSES):
+            raise self.error(
+                f"{path}.by_cause",
+                f"has keys {sorted(fallbacks.by_cause)}; expected {sorted(FALLBACK_CAUSES)}",
+            )
+        counts = fallbacks.by_cause.values()
+        if fallbacks.samples > fallbacks.of:
+            raise self.error(
+                f"{path}.samples", f"is {fallbacks.samples}, more than of ({fallbacks.of})"
+            )
+        if not max(counts) <= fallbacks.samples <= sum(counts):
+            raise self.error(
+                f"{path}.by_cause",
+                f"counts {dict(fallbacks.by_cause)} do not fit samples = {fallbacks.samples} "
+                "(each at most samples, together at least samples)",
+            )
+        return Fallbacks(
+            fallbacks.samples,
+            fallbacks.of,
+            {cause: fallbacks.by_cause[cause] for cause in FALLBACK_CAUSES},
         )
 
     def same_labels(self, data: Mapping[str, object], labels: tuple[str, ...], path: str) -> None:
@@ -1063,4 +1117,13 @@ class _Reader:
             return self.smoothing(value, path, labels, states)
 
         found = self.at(data, "", "smoothing", self.or_null(smoothing), None)
-        return report if found is None else dataclasses.replace(report, smoothing=found)
+        if found is None:
+            return report
+        smoothed = max(report.samples - 1, 0)  # the last sample is the filter's
+        if found.fallbacks is not None and found.fallbacks.of != smoothed:
+            raise self.error(
+                "smoothing.fallbacks.of",
+                f"is {found.fallbacks.of}; expected {smoothed} (samples − 1: the last sample "
+                "is the filter's)",
+            )
+        return dataclasses.replace(report, smoothing=found)

@@ -374,6 +374,20 @@ def _offline_caveat(report: Report, section: str) -> list[str]:
     ]
 
 
+def _fallback_lines(smoothing: Smoothing) -> list[str]:
+    """The "Smoothing" section's line on the samples the smoother left to the forward pass.
+
+    ``smoothing.fallbacks``; no line where it never did.
+    """
+    fallbacks = smoothing.fallbacks
+    if fallbacks is None or fallbacks.samples == 0:
+        return []
+    return [
+        f"- Fallbacks: {fallbacks.summary()}. On those samples the smoothed estimate is, in "
+        'part or whole, the forward pass\'s (docs/smoothing.md, "The algorithms").'
+    ]
+
+
 def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     """The "Smoothing" section: what ran after the filter and the metrics before and after."""
     if smoothing.method:
@@ -389,6 +403,7 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
         "",
         f"- smoother: {method}; mode sequence: `{smoothing.mode_sequence}`",
         f"- {smoothing.description}",
+        *_fallback_lines(smoothing),
         "- The modes, states and tables of this report hold these estimates (the causal "
         "filter's own are in the `_filtered` columns). The output MSE, VAF and fit above stay "
         "the filter's one-step-ahead prediction ŷ(k|k−1): an offline pass uses y(k) and the "

@@ -31,6 +31,10 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
          "viterbi", "--out", str(tmp_path / "s")]
     )  # fmt: skip
     assert "mode accuracy" in result.output and "(filtered " in result.output
+    # Kim's guard refuses one step at sample 1 (test_smoothing.py): the summary line, report.json
+    # and report.md say that sample's smoothed estimate is in part the filter's
+    note = "the smoother fell back to the forward estimate on 1 of 300 samples (guard 1)"
+    assert result.output.splitlines()[0].endswith(f"; {note}")
     filtered = json.loads((tmp_path / "f" / "report.json").read_text())
     smoothed = json.loads((tmp_path / "s" / "report.json").read_text())
     assert "smoothing" not in filtered and filtered["options"]["smooth"] is False
@@ -52,6 +56,12 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
     plain = pl.read_csv(tmp_path / "f" / "timeline.csv")
     assert timeline["mode_filtered"].to_list() == plain["mode"].to_list()
     assert "## Smoothing" in (tmp_path / "s" / "report.md").read_text()
+    assert smoothing["fallbacks"] == {
+        "samples": 1,
+        "of": 300,
+        "by_cause": {"prediction": 0, "guard": 1, "rounding": 0, "covariance": 0},
+    }
+    assert f"- Fallbacks: {note}." in (tmp_path / "s" / "report.md").read_text()
 
 
 def test_analyze_mode_sequence_kbest(tmp_path: Path) -> None:
@@ -228,9 +238,11 @@ def test_analyze_smoother_ec_writes_its_method_and_refuses_it_without_smooth(
     says so; without ``--smooth`` it would change nothing: one line, exit 2, no folder."""
     common = [str(TANK_CSV), "--model", "three_tank_hstf", "--estimator", "imm"]
     out = tmp_path / "ec"
-    run(["analyze", *common, "--smooth", "--set", "smoother=ec", "--out", str(out)])
+    ran = run(["analyze", *common, "--smooth", "--set", "smoother=ec", "--out", str(out)])
     report = json.loads((out / "report.json").read_text())
     assert report["options"]["smoother"] == "ec"
+    assert report["smoothing"]["fallbacks"]["samples"] == 0  # no step refused: no note
+    assert "fell back" not in ran.output and "Fallbacks" not in (out / "report.md").read_text()
     assert report["smoothing"]["method"] == "ec-rts"
     assert "Barber 2006" in report["smoothing"]["description"]
     refused = tmp_path / "refused"

@@ -20,12 +20,15 @@ from hybridlog.estimators.imm import (
     run_imm,
     transition_matrix,
 )
+from hybridlog.estimators.result import Fallbacks
 from hybridlog.estimators.smoothing import unpack_state, viterbi
+from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.estimators.test_filter_properties import assert_filter_invariants
 from tests.estimators.test_reductions import _linear_matrices
 from tests.support.models import LINEAR_TWO_MODE
+from tests.support.paths import TANK_CSV
 
 ONE_MODE = LINEAR_TWO_MODE.replace(
     """[modes.fast]
@@ -298,6 +301,32 @@ def test_straight_line_smoother_equals_the_generic_loop(name):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
     np.testing.assert_array_equal(fast.modes, plain.modes)
     assert np.abs(fast.state_means - fast.post_processing.filtered.state_means).max() > 1e-6
+    # the samples where a step fell back to the forward estimate: the same on both paths,
+    # and on the double cart (no process noise) the guard refuses steps
+    fallbacks = plain.post_processing.fallbacks
+    assert fast.post_processing.fallbacks == fallbacks
+    assert fallbacks.of == signals.n_samples - 1
+    if name == "double_cart_case1":
+        assert fallbacks.samples > 0 and fallbacks.by_cause["guard"] > 0
+
+
+def test_fallbacks_of_the_sample_log_are_the_one_step_the_guard_refuses():
+    """The three-tank sample log: one step refused, the guard's at sample 1 (next mode 1,
+    smoothed probability 0.08; the prior's width is in the mixed prior of sample 1); the
+    negligible next modes skipped on 45 % of the samples are not counted.  Without the count
+    nothing said that part of that sample's "smoothed" estimate is the filter's."""
+    model = load_model("three_tank_hstf")
+    signals = load_signals(TANK_CSV, SignalSpec.of(model), ReadOptions())
+    expected = Fallbacks(1, 300, {"prediction": 0, "guard": 1, "rounding": 0, "covariance": 0})
+    for kernel in ("unrolled", "loops"):
+        result = run_imm(model, signals, ImmOptions(smooth=True), kernel=kernel)
+        assert result.post_processing.fallbacks == expected
+        ec = run_imm(model, signals, ImmOptions(smooth=True, smoother="ec"), kernel=kernel)
+        assert ec.post_processing.fallbacks.samples == 0
+    kbest = ImmOptions(smooth=True, mode_sequence="kbest", beam=4)
+    assert run_imm(model, signals, kbest, jit=False).post_processing.fallbacks.samples == 0
+    for unsmoothed in (ImmOptions(mode_sequence="viterbi"), ImmOptions(mode_sequence="kbest")):
+        assert run_imm(model, signals, unsmoothed).post_processing.fallbacks is None
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 6])

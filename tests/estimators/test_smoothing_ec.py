@@ -118,7 +118,8 @@ def _ec_pass(model, signals, kernel):
     """The forward pass keeping the filtered store, and the compiled EC pass over it.
 
     Returns the store, the filter's result, the smoothed buffers (row N−1 left as allocated)
-    and the number of pair steps whose forward estimate stood.
+    and the pass's ``fallbacks`` (the samples where a weighted pair step's forward estimate
+    stood, then by cause).
     """
     transitions = contiguous(transition_matrix(model, ImmOptions()))
     store = ModeStore.allocate(model, signals.n_samples, states=True, likelihoods=False)
@@ -138,9 +139,10 @@ def _ec_pass(model, signals, kernel):
         filtered.mode_probabilities,
         store,
         buffers,
+        np.zeros(smoothing.FALLBACKS_WIDTH, dtype=np.int64),
     )
-    stood = compile_for(smoothing.ec_backward, arguments)(*arguments)
-    return store, filtered, buffers, stood
+    compile_for(smoothing.ec_backward, arguments)(*arguments)
+    return store, filtered, buffers, arguments[-1]
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -156,8 +158,8 @@ def test_ec_equals_the_numpy_reference_on_three_tank_logs(seed):
     kim_mu, _, _ = ec_reference.smoothed(model, signals, T, forward, corrected=False)
     assert np.abs(mu - kim_mu).max() > 1e-3  # the correction changed something
     for kernel in ("unrolled", "loops"):
-        store, filtered, buffers, stood = _ec_pass(model, signals, kernel)
-        assert stood == 0  # no guard, no rounding probe, no prediction without a factor
+        store, filtered, buffers, fallbacks = _ec_pass(model, signals, kernel)
+        assert not fallbacks.any()  # no guard, no rounding probe, no prediction without a factor
         scale = np.abs(forward[0]).max()
         np.testing.assert_allclose(store.means, forward[0], rtol=0, atol=1e-12 * scale)
         np.testing.assert_allclose(store.covariances, forward[1], rtol=0, atol=1e-12)
@@ -270,3 +272,7 @@ def test_ec_straight_line_equals_the_generic_loop(name):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
     np.testing.assert_array_equal(fast.modes, plain.modes)
     assert np.abs(fast.state_means - fast.post_processing.filtered.state_means).max() > 1e-6
+    fallbacks = plain.post_processing.fallbacks  # the same samples fell back on both paths
+    assert fast.post_processing.fallbacks == fallbacks
+    if name == "double_cart_case1":
+        assert fallbacks.samples > 0 and fallbacks.by_cause["guard"] > 0

@@ -20,7 +20,7 @@ import polars as pl
 import pytest
 
 from hybridlog.errors import ModelError, ReportError
-from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.estimators.result import EstimationResult, Fallbacks, PostProcessing
 from hybridlog.report import Report, build_report, read_report, render_markdown, write_report
 from hybridlog.signals import AlignedSignals
 from tests.report.test_report_files import DT, MODE_IDS, OUTPUTS, STATES, make_run
@@ -298,6 +298,72 @@ def test_a_malformed_smoothing_is_a_report_error_naming_the_key(
     text = json.dumps(_set(_report_data(), path, value))
     with pytest.raises(ReportError, match="^r.json: " + re.escape(message)):
         Report.from_json(text, source="r.json")
+
+
+FELL_BACK = Fallbacks(12, 399, {"prediction": 0, "guard": 12, "rounding": 3, "covariance": 0})
+
+
+def test_fallbacks_reach_report_json_and_report_md_and_read_back(tmp_path: Path) -> None:
+    """Where the smoother left the forward estimate standing: ``smoothing.fallbacks`` of
+    report.json (read back), a line of report.md's Smoothing section when any sample did,
+    none when none did; absent where no smoother ran (a report of an earlier version reads
+    as ``None``)."""
+    result, signals = smoothed_run()
+    post = result.post_processing
+    assert post is not None
+    for fallbacks in (FELL_BACK, dataclasses.replace(FELL_BACK, samples=0, by_cause={
+        "prediction": 0, "guard": 0, "rounding": 0, "covariance": 0})):  # fmt: skip
+        counted = dataclasses.replace(
+            result, post_processing=dataclasses.replace(post, fallbacks=fallbacks)
+        )
+        out = tmp_path / str(fallbacks.samples)
+        report = write_report(out, counted, signals, log="run.csv", model_name="m", dt=DT)
+        data = json.loads((out / "report.json").read_text())
+        assert data["smoothing"]["fallbacks"] == {
+            "samples": fallbacks.samples,
+            "of": fallbacks.of,
+            "by_cause": fallbacks.by_cause,
+        }
+        assert read_report(out / "report.json") == report
+        assert report.smoothing is not None and report.smoothing.fallbacks == fallbacks
+        section = (out / "report.md").read_text().split("## Smoothing", 1)[1]
+        line = (
+            "- Fallbacks: the smoother fell back to the forward estimate on 12 of 399 samples "
+            "(guard 12, rounding 3)."
+        )
+        assert (line in section) == (fallbacks.samples > 0)
+    data = _report_data()
+    assert "fallbacks" not in data["smoothing"]  # none carried: not counted
+    assert Report.from_dict(data).smoothing.fallbacks is None  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"samples": 400}, "'smoothing.fallbacks.samples' is 400, more than of (399)"),
+        ({"samples": 16}, "'smoothing.fallbacks.by_cause' counts"),
+        ({"samples": 2}, "'smoothing.fallbacks.by_cause' counts"),
+        ({"by_cause": {"guard": 12}}, "'smoothing.fallbacks.by_cause' has keys ['guard']"),
+        ({"by_cause": {**FELL_BACK.by_cause, "guard": -1}}, "'smoothing.fallbacks.by_cause.g"),
+        ({"of": None}, "'smoothing.fallbacks.of' is"),
+        ({"of": 300}, "'smoothing.fallbacks.of' is 300; expected 399 (samples − 1"),
+    ],
+)
+def test_malformed_fallbacks_are_a_report_error_naming_the_key(
+    change: dict[str, object], message: str
+) -> None:
+    fallbacks = {"samples": 12, "of": 399, "by_cause": dict(FELL_BACK.by_cause), **change}
+    data = _set(_report_data(), "smoothing.fallbacks", fallbacks)
+    with pytest.raises(ReportError, match="^r.json: " + re.escape(message)):
+        Report.from_json(json.dumps(data), source="r.json")
+
+
+def test_fallbacks_without_a_smoother_are_a_report_error() -> None:
+    data = _set(_report_data(), "smoothing.method", None)
+    fallbacks = {"samples": 0, "of": 399, "by_cause": dict.fromkeys(FELL_BACK.by_cause, 0)}
+    data = _set(data, "smoothing.fallbacks", fallbacks)
+    with pytest.raises(ReportError, match=re.escape("'smoothing.fallbacks' is set but no smoo")):
+        Report.from_json(json.dumps(data), source="r.json")
 
 
 def test_smoothing_null_reads_as_none() -> None:
