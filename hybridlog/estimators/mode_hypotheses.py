@@ -444,7 +444,7 @@ def smooth_path(
     path: IntArray,
     means: FloatArray,
     covariances: FloatArray,
-    fallbacks: IntArray,
+    fallbacks: FloatArray,
 ) -> None:
     """Extended RTS smoother along one mode path, in place over :func:`follow_path`'s output.
 
@@ -478,7 +478,7 @@ def smooth_path(
         if cause == TAKEN:
             keep_psd(covariances[k], shifted, factor)
         else:
-            note_fallbacks(1 << (cause - 1), fallbacks)
+            note_fallbacks(1 << (cause - 1), 1.0, fallbacks)  # the path's one estimate
         r_next[:] = r_out
 
 

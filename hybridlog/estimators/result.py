@@ -63,22 +63,37 @@ class Fallbacks:
     by_cause:
         Per cause of :data:`FALLBACK_CAUSES`, the samples where a step was refused for it
         (a sample may count under several causes).
+    weight:
+        The share of the smoothed output the refused steps carry, averaged over the ``of``
+        samples (0 to 1): per sample the summed smoothed probability of the next modes (Kim),
+        or of the pairs of modes (expectation correction), whose step was refused; 1 per
+        refused sample along a ``kbest`` path.  A sample counted in ``samples`` may owe
+        little of its estimate to the forward pass: this says how much.
     """
 
     samples: int
     of: int
     by_cause: dict[str, int]
+    weight: float = 0.0
 
     def summary(self) -> str:
         """One phrase, as ``the smoother fell back to the forward estimate on 12 of 599 ...``.
 
-        The causes that occurred follow in parentheses (``(guard 12)``).
+        The causes that occurred follow in parentheses (``(guard 12)``), then the share of the
+        smoothed estimates' weight the refused steps carry (:attr:`weight`).
         """
         causes = ", ".join(f"{c} {n:,}" for c, n in self.by_cause.items() if n)
         return (
             f"the smoother fell back to the forward estimate on {self.samples:,} of {self.of:,} "
-            f"samples ({causes})"
+            f"samples ({causes}), which carry {_percent(self.weight)} of the smoothed "
+            "estimates' weight"
         )
+
+
+def _percent(share: float) -> str:
+    """``share`` (0 to 1) in percent: one decimal from 1 %, two significant digits below."""
+    percent = 100.0 * share
+    return f"{percent:.1f} %" if percent >= 1.0 else f"{percent:.2g} %"
 
 
 @dataclass(frozen=True)

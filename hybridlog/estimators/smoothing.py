@@ -287,10 +287,13 @@ ROUNDING = 3
 """The rounding probe passed :data:`ROUNDING_LIMIT`."""
 COVARIANCE = 4
 """The step's covariance is not PSD to rounding (:func:`semidefinite_step`)."""
-FALLBACKS_WIDTH = 1 + len(FALLBACK_CAUSES)
-"""Length of a backward pass's ``fallbacks`` array: the samples where a weighted step fell
-back to the forward estimate, then per cause (:data:`FALLBACK_CAUSES`, code − 1) the samples
-where one did for that cause (:func:`note_fallbacks`)."""
+FALLBACK_WEIGHT = 1 + len(FALLBACK_CAUSES)
+"""Index in a backward pass's ``fallbacks`` array of the summed weight of the refused steps."""
+FALLBACKS_WIDTH = FALLBACK_WEIGHT + 1
+"""Length of a backward pass's ``fallbacks`` array (float64): the samples where a weighted step
+fell back to the forward estimate, then per cause (:data:`FALLBACK_CAUSES`, code − 1) the
+samples where one did for that cause, then (:data:`FALLBACK_WEIGHT`) the sum over the samples
+of the weight those steps carry in the output (:func:`note_fallbacks`)."""
 
 
 @jit
@@ -545,19 +548,21 @@ def _forward_stands(
 
 
 @jit
-def note_fallbacks(fell: int, fallbacks: IntArray) -> None:
+def note_fallbacks(fell: int, weight: float, fallbacks: FloatArray) -> None:
     """Count a sample whose steps fell back for the causes of bit mask ``fell`` (0: none).
 
     Bit ``c − 1`` of ``fell`` is set where a weighted step of the sample was refused for cause
     ``c`` (:data:`PREDICTION` … :data:`COVARIANCE`); ``fallbacks[0]`` counts the samples with
-    any, ``fallbacks[c]`` those with cause ``c``.
+    any, ``fallbacks[c]`` those with cause ``c``; ``weight`` (the summed weight in the output
+    of the sample's refused steps, at most 1) is added to ``fallbacks[FALLBACK_WEIGHT]``.
     """
     if fell == 0:
         return
     fallbacks[0] += 1
-    for c in range(1, fallbacks.shape[0]):
+    for c in range(1, FALLBACK_WEIGHT):
         if fell & (1 << (c - 1)):
             fallbacks[c] += 1
+    fallbacks[FALLBACK_WEIGHT] += min(weight, 1.0)
 
 
 def kim_backward(
@@ -569,7 +574,7 @@ def kim_backward(
     mu: FloatArray,
     store: ModeStore,
     out: FilterBuffers,
-    fallbacks: IntArray,
+    fallbacks: FloatArray,
 ) -> None:
     """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
 
@@ -634,6 +639,7 @@ def kim_backward(
         total = log_sum_exp(row_total)
         # RTS step of each next mode j from its mixed prior.
         fell = 0  # the causes of this sample's fallbacks, a bit each
+        fell_weight = 0.0  # and the weight of the refused steps: Σ μ^s_j(k+1)
         for j in range(n_q):
             x_j[j] = x_prior[j]
             P_j[j] = P_prior[j]
@@ -648,7 +654,8 @@ def kim_backward(
                 cause = COVARIANCE
             if cause != TAKEN:
                 fell |= 1 << (cause - 1)
-        note_fallbacks(fell, fallbacks)
+                fell_weight += math.exp(log_mu_next[j])
+        note_fallbacks(fell, fell_weight, fallbacks)
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
                 log_new[i] = log_mu[i]
@@ -697,7 +704,7 @@ def ec_backward(
     mu: FloatArray,
     store: ModeStore,
     out: FilterBuffers,
-    fallbacks: IntArray,
+    fallbacks: FloatArray,
 ) -> None:
     """Rows ``0 … N−2`` of expectation correction's smoothed result (the module docstring).
 
@@ -803,12 +810,14 @@ def ec_backward(
                 else:
                     log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_norm
         fell = 0  # the causes of this sample's fallbacks among pairs that carry weight
+        fell_weight = 0.0  # and the weight of those pairs: Σ p_ij(k)
         for i in range(n_q):
             row_total[i] = log_sum_exp(log_pair[i])
             for j in range(n_q):
                 if pair_cause[i, j] != TAKEN and log_pair[i, j] >= LOG_NEGLIGIBLE_WEIGHT:
                     fell |= 1 << (pair_cause[i, j] - 1)
-        note_fallbacks(fell, fallbacks)
+                    fell_weight += math.exp(log_pair[i, j])
+        note_fallbacks(fell, fell_weight, fallbacks)
         total = log_sum_exp(row_total)
         if total == -math.inf:  # nothing links the two samples: the filtered probabilities
             for i in range(n_q):
@@ -921,7 +930,7 @@ def post_process(
     compile_s = 0.0
     result = filtered
     descriptions: list[str] = []
-    fallbacks = np.zeros(FALLBACKS_WIDTH, dtype=np.int64)
+    fallbacks = np.zeros(FALLBACKS_WIDTH)
     if smooth:
         n = filtered.n_samples
         # The backward pass writes no output predictions: the filter's array stands in (no
@@ -1070,12 +1079,14 @@ def post_process(
     )
 
 
-def _fallbacks(counts: IntArray, n_samples: int) -> Fallbacks:
+def _fallbacks(counts: FloatArray, n_samples: int) -> Fallbacks:
     """:class:`Fallbacks` of a backward pass's ``fallbacks`` array over ``n_samples``."""
+    of = max(n_samples - 1, 0)
     return Fallbacks(
         samples=int(counts[0]),
-        of=max(n_samples - 1, 0),
+        of=of,
         by_cause={cause: int(counts[c]) for c, cause in enumerate(FALLBACK_CAUSES, start=1)},
+        weight=min(float(counts[FALLBACK_WEIGHT]) / of, 1.0) if of else 0.0,
     )
 
 
@@ -1112,7 +1123,7 @@ def _kbest(
     smooth: bool,
     jit: bool,
     kernel: str,
-    fallbacks: IntArray,
+    fallbacks: FloatArray,
 ) -> tuple[EstimationResult, float]:
     """``result`` with the ``kbest`` path as its modes and the states of the EKF along it.
 
@@ -1565,6 +1576,7 @@ def generate_smoother_source(model: HybridModel) -> str:
     p = Program(indent="    ")
     log_next, mu_carried, T, log_T, x_next, P_next, r_next, u = _backward_frame(p, model)
     p.emit("fell = 0")
+    p.emit("fell_weight = 0.0")
     log_new, mu_s, weights = _mode_recursion_source(p, T, log_T, log_next, mu_carried)
     X_s: list[Vector] = []
     P_s: list[Matrix] = []
@@ -1586,6 +1598,7 @@ def generate_smoother_source(model: HybridModel) -> str:
             _select(p, ok, chosen, x_rts + upper(P_rts) + r_rts, stands)
             p.emit(f"if not {ok}:")
             p.emit(f"    fell |= {cause}")
+            p.emit(f"    fell_weight += {mu_carried[j]}")
         with p.block("else:"):  # a negligible next mode: the forward prior stands
             for name, value in zip(chosen, stands, strict=True):
                 p.emit(f"{name} = {term(value)}")
@@ -1617,9 +1630,10 @@ def _count_fallbacks(p: Program) -> None:
     """Emit :func:`note_fallbacks` of the sample's ``fell`` into ``fallbacks``, written out."""
     p.emit("if fell:")
     p.emit("    fallbacks[0] += 1")
-    for c in range(1, FALLBACKS_WIDTH):
+    for c in range(1, FALLBACK_WEIGHT):
         p.emit(f"    if fell & {1 << (c - 1)}:")
         p.emit(f"        fallbacks[{c}] += 1")
+    p.emit(f"    fallbacks[{FALLBACK_WEIGHT}] += min(fell_weight, 1.0)")
 
 
 def generate_ec_smoother_source(model: HybridModel) -> str:
@@ -1730,10 +1744,12 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
                 f"-math.inf or {terms[i]} == -math.inf) else {value}"
             )
     p.emit("fell = 0")  # the causes of the sample's fallbacks among pairs that carry weight
+    p.emit("fell_weight = 0.0")
     for i in range(n_q):
         for j in range(n_q):
             p.emit(f"if {cause_bit[i][j]} and {log_pair[i][j]} >= {LOG_NEGLIGIBLE_WEIGHT!r}:")
             p.emit(f"    fell |= {cause_bit[i][j]}")
+            p.emit(f"    fell_weight += math.exp({log_pair[i][j]})")
     _count_fallbacks(p)
     rows = [_log_sum_exp_parts(p, "rq", list(log_pair[i])) for i in range(n_q)]
     total = _log_sum_exp_source(p, "tq", [row[0] for row in rows])

@@ -22,9 +22,11 @@ and ``batch`` write are :data:`PARAMETERS_KEY` and :data:`ORIGINS_KEY`
 smoothed: {...}}`` (:class:`Smoothing`): ``method`` names the fixed-interval smoother
 (``null`` when only the mode sequence was changed), ``mode_sequence`` is ``argmax``,
 ``viterbi`` or ``kbest``; ``fallbacks`` (only when a smoother ran) is ``{samples, of,
-by_cause: {prediction, guard, rounding, covariance}}``: of the ``of`` samples the backward
-pass smoothed (all but the last), the ``samples`` where at least one step that carries
-weight was refused and the forward estimate stood in its place, and per cause (the
+by_cause: {prediction, guard, rounding, covariance}, weight}``: of the ``of`` samples the
+backward pass smoothed (all but the last), the ``samples`` where at least one step that
+carries weight was refused and the forward estimate stood in its place, ``weight`` the share
+of the smoothed estimates those refused steps carry, averaged over the ``of`` samples
+(:class:`~hybridlog.estimators.result.Fallbacks`), and per cause (the
 prediction's covariance not positive definite, the guard, the rounding probe, the step's
 covariance not PSD; docs/smoothing.md "The algorithms") the samples with such a step (with
 ``kbest``, those of the RTS smoother along the path, whose states the report holds); ``filtered``
@@ -453,6 +455,7 @@ class Smoothing:
                 "samples": self.fallbacks.samples,
                 "of": self.fallbacks.of,
                 "by_cause": dict(self.fallbacks.by_cause),
+                "weight": self.fallbacks.weight,
             }
         data["filtered"] = self.filtered.to_dict()
         data["smoothed"] = self.smoothed.to_dict()
@@ -1054,6 +1057,7 @@ class _Reader:
             samples=self.at(data, path, "samples", self.count),
             of=self.at(data, path, "of", self.count),
             by_cause=self.at(data, path, "by_cause", self.map_of(self.count)),
+            weight=self.at(data, path, "weight", self.number),
         )
         if set(fallbacks.by_cause) != set(FALLBACK_CAUSES):
             raise self.error(
@@ -1071,10 +1075,20 @@ class _Reader:
                 f"counts {dict(fallbacks.by_cause)} do not fit samples = {fallbacks.samples} "
                 "(each at most samples, together at least samples)",
             )
+        # each refused sample carries a weight in (0, 1]: the mean over the of samples is
+        # above 0 exactly when samples is, and at most samples / of
+        most = fallbacks.samples / fallbacks.of if fallbacks.of else 0.0
+        if not (0.0 < fallbacks.weight <= most if fallbacks.samples else fallbacks.weight == 0.0):
+            raise self.error(
+                f"{path}.weight",
+                f"is {fallbacks.weight}; expected "
+                + (f"above 0 and at most {most} (samples / of)" if fallbacks.samples else "0"),
+            )
         return Fallbacks(
             fallbacks.samples,
             fallbacks.of,
             {cause: fallbacks.by_cause[cause] for cause in FALLBACK_CAUSES},
+            fallbacks.weight,
         )
 
     def same_labels(self, data: Mapping[str, object], labels: tuple[str, ...], path: str) -> None:

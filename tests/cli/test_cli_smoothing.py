@@ -33,8 +33,9 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
     assert "mode accuracy" in result.output and "(filtered " in result.output
     # Kim's guard refuses one step at sample 1 (test_smoothing.py): the summary line, report.json
     # and report.md say that sample's smoothed estimate is in part the filter's
-    note = "the smoother fell back to the forward estimate on 1 of 300 samples (guard 1)"
-    assert result.output.splitlines()[0].endswith(f"; {note}")
+    note = "the smoother fell back to the forward estimate on 1 of 300 samples (guard 1), which "
+    assert f"; {note}carry 0.0" in result.output.splitlines()[0]
+    assert result.output.splitlines()[0].endswith(" % of the smoothed estimates' weight")
     filtered = json.loads((tmp_path / "f" / "report.json").read_text())
     smoothed = json.loads((tmp_path / "s" / "report.json").read_text())
     assert "smoothing" not in filtered and filtered["options"]["smooth"] is False
@@ -56,12 +57,14 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
     plain = pl.read_csv(tmp_path / "f" / "timeline.csv")
     assert timeline["mode_filtered"].to_list() == plain["mode"].to_list()
     assert "## Smoothing" in (tmp_path / "s" / "report.md").read_text()
+    weight = smoothing["fallbacks"].pop("weight")  # the one refused step's share, over 300
+    assert 0.05 / 300 < weight < 0.1 / 300
     assert smoothing["fallbacks"] == {
         "samples": 1,
         "of": 300,
         "by_cause": {"prediction": 0, "guard": 1, "rounding": 0, "covariance": 0},
     }
-    assert f"- Fallbacks: {note}." in (tmp_path / "s" / "report.md").read_text()
+    assert f"- Fallbacks: {note}carry 0.0" in (tmp_path / "s" / "report.md").read_text()
 
 
 def test_analyze_mode_sequence_kbest(tmp_path: Path) -> None:

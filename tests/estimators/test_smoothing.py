@@ -304,7 +304,8 @@ def test_straight_line_smoother_equals_the_generic_loop(name):
     # the samples where a step fell back to the forward estimate: the same on both paths,
     # and on the double cart (no process noise) the guard refuses steps
     fallbacks = plain.post_processing.fallbacks
-    assert fast.post_processing.fallbacks == fallbacks
+    assert dataclasses.replace(fast.post_processing.fallbacks, weight=fallbacks.weight) == fallbacks
+    assert fast.post_processing.fallbacks.weight == pytest.approx(fallbacks.weight, rel=1e-9)
     assert fallbacks.of == signals.n_samples - 1
     if name == "double_cart_case1":
         assert fallbacks.samples > 0 and fallbacks.by_cause["guard"] > 0
@@ -320,7 +321,12 @@ def test_fallbacks_of_the_sample_log_are_the_one_step_the_guard_refuses():
     expected = Fallbacks(1, 300, {"prediction": 0, "guard": 1, "rounding": 0, "covariance": 0})
     for kernel in ("unrolled", "loops"):
         result = run_imm(model, signals, ImmOptions(smooth=True), kernel=kernel)
-        assert result.post_processing.fallbacks == expected
+        fallbacks = result.post_processing.fallbacks
+        assert dataclasses.replace(fallbacks, weight=0.0) == expected
+        # the refused step's weight: next mode index 1's smoothed probability at sample 2,
+        # over the 300 samples smoothed
+        refused = result.mode_probabilities[2, 1]
+        assert 0.05 < refused < 0.1 and fallbacks.weight == pytest.approx(refused / 300, rel=1e-9)
         ec = run_imm(model, signals, ImmOptions(smooth=True, smoother="ec"), kernel=kernel)
         assert ec.post_processing.fallbacks.samples == 0
     kbest = ImmOptions(smooth=True, mode_sequence="kbest", beam=4)

@@ -273,6 +273,7 @@ def test_ec_straight_line_equals_the_generic_loop(name):
     np.testing.assert_array_equal(fast.modes, plain.modes)
     assert np.abs(fast.state_means - fast.post_processing.filtered.state_means).max() > 1e-6
     fallbacks = plain.post_processing.fallbacks  # the same samples fell back on both paths
-    assert fast.post_processing.fallbacks == fallbacks
+    assert dataclasses.replace(fast.post_processing.fallbacks, weight=fallbacks.weight) == fallbacks
+    assert fast.post_processing.fallbacks.weight == pytest.approx(fallbacks.weight, rel=1e-9)
     if name == "double_cart_case1":
         assert fallbacks.samples > 0 and fallbacks.by_cause["guard"] > 0

@@ -300,7 +300,9 @@ def test_a_malformed_smoothing_is_a_report_error_naming_the_key(
         Report.from_json(text, source="r.json")
 
 
-FELL_BACK = Fallbacks(12, 399, {"prediction": 0, "guard": 12, "rounding": 3, "covariance": 0})
+FELL_BACK = Fallbacks(
+    12, 399, {"prediction": 0, "guard": 12, "rounding": 3, "covariance": 0}, weight=0.02
+)
 
 
 def test_fallbacks_reach_report_json_and_report_md_and_read_back(tmp_path: Path) -> None:
@@ -311,7 +313,7 @@ def test_fallbacks_reach_report_json_and_report_md_and_read_back(tmp_path: Path)
     result, signals = smoothed_run()
     post = result.post_processing
     assert post is not None
-    for fallbacks in (FELL_BACK, dataclasses.replace(FELL_BACK, samples=0, by_cause={
+    for fallbacks in (FELL_BACK, dataclasses.replace(FELL_BACK, samples=0, weight=0.0, by_cause={
         "prediction": 0, "guard": 0, "rounding": 0, "covariance": 0})):  # fmt: skip
         counted = dataclasses.replace(
             result, post_processing=dataclasses.replace(post, fallbacks=fallbacks)
@@ -323,13 +325,14 @@ def test_fallbacks_reach_report_json_and_report_md_and_read_back(tmp_path: Path)
             "samples": fallbacks.samples,
             "of": fallbacks.of,
             "by_cause": fallbacks.by_cause,
+            "weight": fallbacks.weight,
         }
         assert read_report(out / "report.json") == report
         assert report.smoothing is not None and report.smoothing.fallbacks == fallbacks
         section = (out / "report.md").read_text().split("## Smoothing", 1)[1]
         line = (
             "- Fallbacks: the smoother fell back to the forward estimate on 12 of 399 samples "
-            "(guard 12, rounding 3)."
+            "(guard 12, rounding 3), which carry 2.0 % of the smoothed estimates' weight."
         )
         assert (line in section) == (fallbacks.samples > 0)
     data = _report_data()
@@ -347,12 +350,22 @@ def test_fallbacks_reach_report_json_and_report_md_and_read_back(tmp_path: Path)
         ({"by_cause": {**FELL_BACK.by_cause, "guard": -1}}, "'smoothing.fallbacks.by_cause.g"),
         ({"of": None}, "'smoothing.fallbacks.of' is"),
         ({"of": 300}, "'smoothing.fallbacks.of' is 300; expected 399 (samples − 1"),
+        ({"weight": 0.0}, "'smoothing.fallbacks.weight' is 0.0; expected above 0 and at most"),
+        ({"weight": 0.5}, "'smoothing.fallbacks.weight' is 0.5; expected above 0 and at most"),
+        ({"weight": "x"}, "'smoothing.fallbacks.weight' is"),
+        ({"weight": None}, "'smoothing.fallbacks.weight' is"),
     ],
 )
 def test_malformed_fallbacks_are_a_report_error_naming_the_key(
     change: dict[str, object], message: str
 ) -> None:
-    fallbacks = {"samples": 12, "of": 399, "by_cause": dict(FELL_BACK.by_cause), **change}
+    fallbacks = {
+        "samples": 12,
+        "of": 399,
+        "by_cause": dict(FELL_BACK.by_cause),
+        "weight": 0.02,
+        **change,
+    }
     data = _set(_report_data(), "smoothing.fallbacks", fallbacks)
     with pytest.raises(ReportError, match="^r.json: " + re.escape(message)):
         Report.from_json(json.dumps(data), source="r.json")
@@ -360,7 +373,12 @@ def test_malformed_fallbacks_are_a_report_error_naming_the_key(
 
 def test_fallbacks_without_a_smoother_are_a_report_error() -> None:
     data = _set(_report_data(), "smoothing.method", None)
-    fallbacks = {"samples": 0, "of": 399, "by_cause": dict.fromkeys(FELL_BACK.by_cause, 0)}
+    fallbacks = {
+        "samples": 0,
+        "of": 399,
+        "by_cause": dict.fromkeys(FELL_BACK.by_cause, 0),
+        "weight": 0.0,
+    }
     data = _set(data, "smoothing.fallbacks", fallbacks)
     with pytest.raises(ReportError, match=re.escape("'smoothing.fallbacks' is set but no smoo")):
         Report.from_json(json.dumps(data), source="r.json")
