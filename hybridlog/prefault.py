@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import errno
 import mmap
 import sys
 import threading
@@ -81,10 +82,29 @@ def _populate(ranges: list[tuple[int, int]]) -> None:
         for (first, length), size in zip(ranges, sizes, strict=True):
             lo = first + index * size
             hi = min(lo + size, first + length)
-            if hi > lo and madvise(lo, hi - lo, MADV_POPULATE_WRITE) != 0:
-                if ctypes.get_errno() == 22:  # EINVAL: this kernel has no such advice
+            if hi > lo and not _advised(madvise, lo, hi - lo):
+                if ctypes.get_errno() == errno.EINVAL:  # this kernel has no such advice
                     _usable = False
                 return  # ENOMEM or EFAULT should not happen; the loop faults on its own
+
+
+RETRIES = 8
+"""Calls of one slice interrupted (``EINTR``: a signal, such as a worker process's
+``SIGCHLD``) or refused for now (``EAGAIN``) before its pages are left to the loop."""
+
+
+def _advised(madvise: Callable[[int, int, int], int], start: int, length: int) -> bool:
+    """``madvise(start, length, MADV_POPULATE_WRITE)``, again where a signal interrupted it.
+
+    Without the retry one interrupted call ended the population: every slice after it was
+    left to the loop's faults, without a word.
+    """
+    for _ in range(RETRIES):
+        if madvise(start, length, MADV_POPULATE_WRITE) == 0:
+            return True
+        if ctypes.get_errno() not in (errno.EINTR, errno.EAGAIN):
+            return False
+    return False
 
 
 def arrays_in(value: object) -> list[np.ndarray]:

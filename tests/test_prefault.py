@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ctypes
+import errno
 import sys
 import threading
 
@@ -35,6 +37,31 @@ def test_the_pages_of_a_large_array_become_resident() -> None:
         pass
     assert prefault._usable, "this kernel has MADV_POPULATE_WRITE (Linux 5.14)"
     assert _resident_mib() - before > 60
+
+
+@linux_only
+def test_a_call_a_signal_interrupts_is_made_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """madvise(2) returns EINTR when a signal arrives (a worker process's SIGCHLD): the
+    population went on to no other slice, and the pages were left to the loop's faults."""
+    real = prefault._madvise()
+    assert real is not None
+    calls: list[tuple[int, int]] = []
+
+    def interrupted_once(start: int, length: int, advice: int) -> int:
+        calls.append((start, length))
+        if len(calls) == 1:
+            ctypes.set_errno(errno.EINTR)
+            return -1
+        return int(real(start, length, advice))
+
+    monkeypatch.setattr(prefault, "_madvise", lambda: interrupted_once)
+    array = np.empty(8 * 2**20 // 8)
+    with populated_beside([array]):
+        pass
+    first, length = prefault._pages(array)
+    assert calls[0] == calls[1]  # the interrupted slice again
+    assert sum(size for _, size in calls[1:]) == length
+    assert calls[-1][0] + calls[-1][1] == first + length
 
 
 @linux_only

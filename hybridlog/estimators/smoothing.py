@@ -948,74 +948,11 @@ def post_process(
             whitened=np.zeros((0, model.n_outputs)),
         )
         if n:
-            arguments: tuple[Any, ...]
-            loop: Callable[..., object]
             compile_start = time.perf_counter()
-            if smoother == "ec" and jit and use_unrolled(model, kernel):
-                arguments = (
-                    contiguous(signals.inputs),
-                    contiguous(transitions),
-                    _log(transitions),
-                    filtered.mode_probabilities,
-                    store,
-                    buffers,
-                    fallbacks,
-                )
-                loop, _ = compile_generated(
-                    model,
-                    "imm_smooth_ec",
-                    lambda: module_source(model, generate_ec_smoother_source(model)),
-                    (__name__, "hybridlog.estimators.unrolled"),
-                    "imm_smooth_ec",
-                    arguments,
-                )
-            elif smoother == "ec":
-                compiled = compile_model(model, jit=jit)
-                arguments = (
-                    compiled.f,
-                    compiled.F,
-                    contiguous(signals.inputs),
-                    contiguous(transitions),
-                    contiguous(np.stack([m.process_noise for m in model.modes])),
-                    positive_definite_noise(model),
-                    filtered.mode_probabilities,
-                    store,
-                    buffers,
-                    fallbacks,
-                )
-                loop = compile_for(ec_backward, arguments) if jit else ec_backward
-            elif jit and use_unrolled(model, kernel):
-                arguments = (
-                    contiguous(signals.inputs),
-                    contiguous(transitions),
-                    _log(transitions),
-                    filtered.mode_probabilities,
-                    store,
-                    buffers,
-                    fallbacks,
-                )
-                loop, _ = compile_generated(
-                    model,
-                    "imm_smooth",
-                    lambda: module_source(model, generate_smoother_source(model)),
-                    (__name__, "hybridlog.estimators.unrolled"),
-                    "imm_smooth",
-                    arguments,
-                )
-            else:
-                compiled = compile_model(model, jit=jit)
-                arguments = (
-                    compiled.f,
-                    compiled.F,
-                    contiguous(signals.inputs),
-                    contiguous(transitions),
-                    contiguous(np.stack([m.process_noise for m in model.modes])),
-                    filtered.mode_probabilities,
-                    store,
-                    buffers,
-                    fallbacks,
-                )
-                loop = compile_for(kim_backward, arguments) if jit else kim_backward
+            loop, arguments = _backward_pass(
+                model, signals, filtered, store, transitions, buffers, fallbacks,
+                ec=smoother == "ec", jit=jit, kernel=kernel,
+            )  # fmt: skip
             compile_s += time.perf_counter() - compile_start
             with populated_beside(buffers):
                 loop(*arguments)
@@ -1077,6 +1014,49 @@ def post_process(
             fallbacks=_fallbacks(fallbacks, filtered.n_samples) if smooth else None,
         ),
     )
+
+
+def _backward_pass(
+    model: HybridModel,
+    signals: AlignedSignals,
+    filtered: EstimationResult,
+    store: ModeStore,
+    transitions: FloatArray,
+    buffers: FilterBuffers,
+    fallbacks: FloatArray,
+    *,
+    ec: bool,
+    jit: bool,
+    kernel: str,
+) -> tuple[Callable[..., object], tuple[Any, ...]]:
+    """The compiled backward pass asked for and its arguments.
+
+    Kim's, or expectation correction's with ``ec``: the straight-line code of the model where
+    it applies (:func:`generate_smoother_source`, :func:`generate_ec_smoother_source`), else
+    the generic loop (:func:`kim_backward`, :func:`ec_backward`).
+    """
+    tail = (filtered.mode_probabilities, store, buffers, fallbacks)
+    if jit and use_unrolled(model, kernel):
+        name = "imm_smooth_ec" if ec else "imm_smooth"
+        generate = generate_ec_smoother_source if ec else generate_smoother_source
+        arguments: tuple[Any, ...] = (
+            contiguous(signals.inputs), contiguous(transitions), _log(transitions), *tail
+        )  # fmt: skip
+        loop, _ = compile_generated(
+            model,
+            name,
+            lambda: module_source(model, generate(model)),
+            (__name__, "hybridlog.estimators.unrolled"),
+            name,
+            arguments,
+        )
+        return loop, arguments
+    compiled = compile_model(model, jit=jit)
+    noise = contiguous(np.stack([m.process_noise for m in model.modes]))
+    head = (compiled.f, compiled.F, contiguous(signals.inputs), contiguous(transitions), noise)
+    generic: Callable[..., object] = ec_backward if ec else kim_backward
+    arguments = (*head, positive_definite_noise(model), *tail) if ec else (*head, *tail)
+    return (compile_for(generic, arguments) if jit else generic), arguments
 
 
 def _fallbacks(counts: FloatArray, n_samples: int) -> Fallbacks:
