@@ -628,7 +628,7 @@ def _fallback_section(rows: Sequence[BatchRow]) -> list[str]:
         f"### Logs where the smoother fell back to the forward estimate ({len(fell):,} of "
         f"{smoothed:,})",
         "",
-        "On those samples a step of the backward pass was refused and the filter's estimate "
+        "On those samples a step of the backward pass was refused and the forward estimate "
         'stood in its place (docs/smoothing.md, "The algorithms"); the share is of the '
         "smoothed estimates' weight those steps carry (summary.csv's "
         "`smoothing_fallback_weight`), the largest first:",

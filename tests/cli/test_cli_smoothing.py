@@ -180,7 +180,12 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
         # its own estimates: filtered_mode_accuracy compares the filters like for like (it
         # was empty, the filters' own accuracies in two columns)
         assert hstf["filtered_mode_accuracy"][0] == done.reports["hstf"].modes.accuracy
-        assert hstf["smoothing_fallback_weight"][0] is None  # no smoother ran
+        assert hstf["smoothing_fallback_weight"][0] is None  # no smoother ran, and why says
+        text = (tmp_path / "c" / "comparison.md").read_text()
+        assert (
+            "- `hstf` smoothing_fallback_weight: no smoother ran on its estimates, so none fell "
+            "back to the filter's"
+        ) in text.split("## Not available")[1]
         assert done.unlike == ["the mode metrics of imm are of offline estimates"]
 
 
