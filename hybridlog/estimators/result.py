@@ -76,6 +76,10 @@ class Fallbacks:
     by_cause: dict[str, int]
     weight: float = 0.0
 
+    def weight_text(self) -> str:
+        """:attr:`weight` in percent, as :meth:`summary` says it (``99.1 %``, ``0.028 %``)."""
+        return _percent(self.weight)
+
     def summary(self) -> str:
         """One phrase, as ``the smoother fell back to the forward estimate on 12 of 599 ...``.
 
@@ -85,7 +89,7 @@ class Fallbacks:
         causes = ", ".join(f"{c} {n:,}" for c, n in self.by_cause.items() if n)
         return (
             f"the smoother fell back to the forward estimate on {self.samples:,} of {self.of:,} "
-            f"samples ({causes}), which carry {_percent(self.weight)} of the smoothed "
+            f"samples ({causes}), which carry {self.weight_text()} of the smoothed "
             "estimates' weight"
         )
 

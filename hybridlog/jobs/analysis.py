@@ -668,20 +668,25 @@ def _row(report: Report) -> dict[str, Any]:
     return {name: metric(report, name) for name in _COLUMNS}  # the gates' metric names
 
 
-_SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy")
+_SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy", "smoothing_fallback_weight")
 """Columns added to the comparison when an estimator's estimates were smoothed: the
-smoother and mode sequence (``kim-rts, viterbi``; ``none`` for a filter's own estimates) and the
-filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``.  For an estimator not
-smoothed that is its ``mode_accuracy``: its estimates are its own (it was ``n/a``, so that
-the filters' own estimates, like for like, were in two columns)."""
+smoother and mode sequence (``kim-rts, viterbi``; ``none`` for a filter's own estimates), the
+filter's own mode accuracy, beside the smoothed one in ``mode_accuracy``, and the share of the
+smoothed estimates' weight carried by the steps where the smoother left the forward estimate
+standing (report.json's ``smoothing.fallbacks.weight``, 0 to 1, as batch's summary.csv; ``n/a``
+where no smoother ran).  For an estimator not smoothed the filter's own mode accuracy is its
+``mode_accuracy``: its estimates are its own (it was ``n/a``, so that the filters' own
+estimates, like for like, were in two columns)."""
 
 
 def _smoothing_cells(report: Report) -> list[Any]:
     smoothing = report.smoothing
     if smoothing is None:
-        return ["none", report.modes.accuracy]
+        return ["none", report.modes.accuracy, None]
     name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
-    return [name, smoothing.filtered.mode_accuracy]
+    fallbacks = smoothing.fallbacks
+    weight = None if fallbacks is None else fallbacks.weight
+    return [name, smoothing.filtered.mode_accuracy, weight]
 
 
 RUN_FAILURES: tuple[type[HybridlogError], ...] = (DivergenceError,)

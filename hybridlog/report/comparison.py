@@ -214,7 +214,8 @@ def unavailable_section(
     the columns that hold a report metric by its gate name (``vaf``, ``state_rmse.x1``).
     A failed estimator's row is left out (its ``error`` cell says why), as is the
     ``filtered_mode_accuracy`` cell of an estimator not smoothed: it is its
-    ``mode_accuracy``, whose reason is given.
+    ``mode_accuracy``, whose reason is given.  ``smoothing_fallback_weight`` is ``n/a``
+    where no smoother ran (an estimator without one, ``--mode-sequence viterbi`` alone).
     """
     lines: list[str] = []
     for row in rows:
@@ -229,6 +230,8 @@ def unavailable_section(
                 why = null_reason(report, column)
             elif column == "filtered_mode_accuracy" and report.smoothing is not None:
                 why = "the filter's own: " + null_reason(report, "mode_accuracy")
+            elif column == "smoothing_fallback_weight":
+                why = "no smoother ran on its estimates, so none fell back to the filter's"
             else:
                 continue
             lines.append(f"- `{name}` {column}: {escape_markdown(why, line_start=False)}")

@@ -14,7 +14,10 @@ state, as summary.csv's columns: :func:`hybridlog.report.summary.offline_columns
 ``testsuite`` the batch's gains per metric as ``properties``
 (:func:`hybridlog.report.summary.offline_gains`): ``smoothing`` (the pass), then
 ``<metric>.logs``, ``.filtered_median``, ``.offline_median``, ``.median_change``,
-``.better``, ``.equal``, ``.worse``, with their shortest round-trip digits.  Not
+``.better``, ``.equal``, ``.worse``, with their shortest round-trip digits.  Where the
+smoother left the forward estimate standing, a last line of ``system-out`` says so (``the
+smoother fell back to the forward estimate on 999 of 1,000 samples (guard 999), which carry
+99.1 % of the smoothed estimates' weight``).  Not
 ``properties`` of each ``testcase``: the JUnit schemas CI systems validate against (Jenkins'
 ``junit-4.xsd``, xunit2) have none there, so pytest refuses its ``record_property`` for
 them.
@@ -142,6 +145,8 @@ def _offline_text(row: BatchRow, metrics: Sequence[str]) -> str | None:
         f"{metric} = {shown(offline)} (the filter's own: {shown(own)})"
         for metric, offline, own in row.offline_pairs(metrics)
     ]
+    if smoothing.fallbacks is not None and smoothing.fallbacks.samples:
+        lines.append(smoothing.fallbacks.summary())
     return _xml("\n".join(lines))
 
 

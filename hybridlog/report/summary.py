@@ -10,8 +10,11 @@ A batch with an offline pass (``--smooth``, ``--mode-sequence``; ``offline`` giv
 shows beside each log's offline mode accuracy the filter's own, and per state both RMSEs
 (:data:`OFFLINE_COLUMNS`, :meth:`BatchRow.offline_metrics`), and summary.md the gain over
 the batch (:func:`offline_gains`): per metric the medians, the median change and the logs
-where the offline estimate is worse than the filter's, by name.  A batch without one writes
-the same columns as before.
+where the offline estimate is worse than the filter's, by name.  Where a smoother ran,
+summary.csv says on how many samples it left the forward estimate standing and how much of
+the smoothed estimates' weight those steps carry (:data:`FALLBACK_COLUMNS`), and summary.md
+lists those logs, the largest share first (:func:`fallback_logs`).  A batch without one
+writes the same columns as before.
 
 A report's notes that start ``WARNING:`` (:func:`warning_notes`: the innovations' test of a
 filter, a true mode silent longer than ``--max-gap``, a signal bridged across gaps) are
@@ -36,9 +39,11 @@ from hybridlog.report.gates import metric as report_metric
 from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
 
 if TYPE_CHECKING:
+    from hybridlog.estimators.result import Fallbacks
     from hybridlog.report.document import Report, Smoothing, SmoothingMetrics
 
 __all__ = [
+    "FALLBACK_COLUMNS",
     "MAX_EXTRA_DIGITS",
     "MAX_NAMED",
     "SIGNIFICANT_DIGITS",
@@ -48,6 +53,8 @@ __all__ = [
     "batch_rows_csv",
     "common_notes",
     "comparison_markdown",
+    "fallback_cells",
+    "fallback_logs",
     "gate_cell",
     "gated_columns",
     "markdown_table",
@@ -356,7 +363,12 @@ class BatchRow:
         cells: list[object] = []
         for metric, offline, own in self.offline_pairs(metrics):
             cells += [own] if metric == "mode_accuracy" else [offline, own]
-        return [*cells, None if smoothing is None else offline_label(smoothing)]
+        fallbacks = None if smoothing is None else smoothing.fallbacks
+        return [
+            *cells,
+            None if smoothing is None else offline_label(smoothing),
+            *fallback_cells(fallbacks),
+        ]
 
 
 BATCH_METRICS = ("samples", "vaf", "mse", "mode_accuracy")
@@ -408,13 +420,30 @@ def _side_value(side: SmoothingMetrics, metric: str) -> float | None:
     return side.mode_accuracy
 
 
+FALLBACK_COLUMNS = ("smoothing_fallback_samples", "smoothing_fallback_weight")
+"""summary.csv's columns, after ``smoothing``, of where the smoother left the forward
+estimate standing (report.json's ``smoothing.fallbacks``: ``samples`` and ``weight``, the
+share of the smoothed estimates' weight the refused steps carry, 0 to 1); empty where no
+smoother ran (``--mode-sequence viterbi`` alone) and for a failed log.  A batch of 1,000
+logs whose "smoothed" estimate is the filter's on one of them (the double cart: 99.1 % of
+the weight) is found by sorting on ``smoothing_fallback_weight``."""
+
+
+def fallback_cells(fallbacks: Fallbacks | None) -> list[object]:
+    """The cells of :data:`FALLBACK_COLUMNS` (``None``: empty, no smoother ran)."""
+    if fallbacks is None:
+        return [None, None]
+    return [fallbacks.samples, fallbacks.weight]
+
+
 def offline_columns(metrics: Sequence[str]) -> tuple[str, ...]:
     """summary.csv's columns of a batch with an offline pass, after ``mode_accuracy``.
 
     For ``metrics`` (:func:`offline_metrics`): ``filtered_mode_accuracy`` (the filter's
     own, beside ``mode_accuracy``, which is the offline estimates'), then for each further
     metric ``m`` (``mode_accuracy.<c>``, ``state_rmse.<x>``) ``m`` and ``filtered_m`` (empty
-    without a true mode or state), and ``smoothing``, the pass (:func:`offline_label`).
+    without a true mode or state), ``smoothing``, the pass (:func:`offline_label`), and
+    :data:`FALLBACK_COLUMNS`, where the smoother fell back to the forward estimate.
     """
     columns: list[str] = []
     for metric in metrics:
@@ -426,7 +455,7 @@ def offline_columns(metrics: Sequence[str]) -> tuple[str, ...]:
                 f"filtered_{metric}",
             ]
         )
-    return (*columns, "smoothing")
+    return (*columns, "smoothing", *FALLBACK_COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -519,6 +548,7 @@ def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[s
             "compared with the filter's here."
             if analysed
             else "No log was analysed: there are no offline estimates to compare.",
+            *_fallback_section(rows),
         ]
     table = markdown_table(
         (
@@ -556,6 +586,61 @@ def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[s
         if more > 0:
             named += f"; and {more} more (summary.csv)"
         lines.append(f"- {escape_markdown(g.metric)} ({len(g.worse)} of {g.logs}): {named}")
+    return [*lines, *_fallback_section(rows)]
+
+
+def fallback_logs(rows: Sequence[BatchRow]) -> tuple[int, list[tuple[str, Fallbacks]]]:
+    """The logs a smoother ran on, and ``(log, fallbacks)`` of those where it fell back.
+
+    Those are the logs where a step that carries weight was refused and the forward estimate
+    stood (``fallbacks.samples`` > 0), the largest share of the weight first (then the most
+    samples; ties in the batch's order).
+    """
+    smoothed = [
+        (row.log, fallbacks)
+        for row in rows
+        if row.report is not None
+        and row.report.smoothing is not None
+        and (fallbacks := row.report.smoothing.fallbacks) is not None
+    ]
+    fell = [(log, f) for log, f in smoothed if f.samples]
+    fell.sort(key=lambda entry: (-entry[1].weight, -entry[1].samples))
+    return len(smoothed), fell
+
+
+def _fallback_section(rows: Sequence[BatchRow]) -> list[str]:
+    """summary.md's logs where the smoother left the forward estimate standing, worst first.
+
+    Nothing when no smoother ran (``--mode-sequence viterbi`` alone); one line when it never
+    fell back.  At most :data:`MAX_NAMED` logs named; summary.csv has every log's.
+    """
+    smoothed, fell = fallback_logs(rows)
+    if not smoothed:
+        return []
+    if not fell:
+        return [
+            "",
+            f"The smoother never fell back to the forward estimate ({plural(smoothed, 'log')} "
+            "smoothed).",
+        ]
+    lines = [
+        "",
+        f"### Logs where the smoother fell back to the forward estimate ({len(fell):,} of "
+        f"{smoothed:,})",
+        "",
+        "On those samples a step of the backward pass was refused and the forward estimate "
+        'stood in its place (docs/smoothing.md, "The algorithms"); the share is of the '
+        "smoothed estimates' weight those steps carry (summary.csv's "
+        "`smoothing_fallback_weight`), the largest first:",
+        "",
+    ]
+    lines += [
+        f"- {escape_markdown(log)}: {f.weight_text()} of the weight, on {f.samples:,} of "
+        f"{f.of:,} samples"
+        for log, f in fell[:MAX_NAMED]
+    ]
+    if len(fell) > MAX_NAMED:
+        lines.append(f"- and {len(fell) - MAX_NAMED:,} more (summary.csv)")
     return lines
 
 

@@ -8,6 +8,7 @@ an estimator without a smoother is refused in one line before the log is read.
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -162,19 +163,29 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
         TANK_CSV, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "c", sets=["smooth=true"]
     )
     table = pl.read_csv(tmp_path / "c" / "comparison.csv")
-    assert table.columns[-3:] == ["smoothing", "filtered_mode_accuracy", "warnings"]
+    assert table.columns[-4:] == [
+        "smoothing", "filtered_mode_accuracy", "smoothing_fallback_weight", "warnings",
+    ]  # fmt: skip
     imm = done.reports["imm"].smoothing
     assert imm is not None and imm.method is not None
     row = table.filter(pl.col("estimator") == "imm")
     assert row["filtered_mode_accuracy"][0] == pytest.approx(imm.filtered.mode_accuracy)
     assert row["mode_accuracy"][0] == pytest.approx(done.reports["imm"].modes.accuracy)
     assert row["smoothing"][0] == f"{imm.method}, argmax"
+    assert imm.fallbacks is not None  # the one refused step's share, as report.json's
+    assert row["smoothing_fallback_weight"][0] == imm.fallbacks.weight > 0.0
     if done.reports["hstf"].smoothing is None:  # hstf has no smoother (yet)
         hstf = table.filter(pl.col("estimator") == "hstf")
         assert hstf["smoothing"][0] == "none"
         # its own estimates: filtered_mode_accuracy compares the filters like for like (it
         # was empty, the filters' own accuracies in two columns)
         assert hstf["filtered_mode_accuracy"][0] == done.reports["hstf"].modes.accuracy
+        assert hstf["smoothing_fallback_weight"][0] is None  # no smoother ran, and why says
+        text = (tmp_path / "c" / "comparison.md").read_text()
+        assert (
+            "- `hstf` smoothing_fallback_weight: no smoother ran on its estimates, so none fell "
+            "back to the filter's"
+        ) in text.split("## Not available")[1]
         assert done.unlike == ["the mode metrics of imm are of offline estimates"]
 
 
@@ -256,3 +267,40 @@ def test_analyze_smoother_ec_writes_its_method_and_refuses_it_without_smooth(
         "true runs a smoother (here smooth = false); add --smooth, or leave smoother unset"
     )
     assert not refused.exists()
+
+
+def test_batch_smooth_summaries_find_the_logs_whose_smoother_fell_back(tmp_path: Path) -> None:
+    # report.json had smoothing.fallbacks (the double cart: 99.1 % of the smoothed estimates'
+    # weight is the filter's), summary.csv and summary.md of batch --smooth did not: among
+    # thousands of logs those whose "smoothed" estimate is mostly the filter's were not found
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    lines = DC1.read_text().splitlines(keepends=True)
+    (logs / "long.csv").write_text("".join(lines))
+    (logs / "short.csv").write_text("".join(lines[:402]))  # 401 samples
+    out = tmp_path / "out"
+    common = ["batch", str(logs), "--model", "double_cart_case1", "--estimator", "imm"]
+    run([*common, "--out", str(out / "plain")])
+    with (out / "plain" / "summary.csv").open() as file:
+        assert not any(c.startswith("smoothing") for c in next(csv.reader(file)))
+    for _ in range(2):  # the second run reuses the reports: the same numbers, from report.json
+        run([*common, "--smooth", "--out", str(out / "smooth")])
+        with (out / "smooth" / "summary.csv").open() as file:
+            table = {Path(r["log"]).name: r for r in csv.DictReader(file)}
+        fallbacks = {
+            name: json.loads((out / "smooth" / name / "report.json").read_text())["smoothing"][
+                "fallbacks"
+            ]
+            for name in table
+        }
+        for name, found in fallbacks.items():
+            assert found["samples"] > 0  # the guard refuses the double cart's steps
+            assert int(table[name]["smoothing_fallback_samples"]) == found["samples"]
+            assert float(table[name]["smoothing_fallback_weight"]) == found["weight"]
+    assert {r["status"] for r in table.values()} == {"skipped"}
+    text = (out / "smooth" / "summary.md").read_text()
+    heading = "### Logs where the smoother fell back to the forward estimate (2 of 2)"
+    named = text.split(heading)[1].split("\n## ")[0]
+    worst, other = sorted(fallbacks, key=lambda name: -fallbacks[name]["weight"])
+    assert 0 <= named.index(f"logs/{worst}: ") < named.index(f"logs/{other}: ")
+    assert f"{100 * fallbacks[worst]['weight']:.1f} % of the weight" in named

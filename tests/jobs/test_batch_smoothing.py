@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 
+from hybridlog.estimators.result import Fallbacks
 from hybridlog.jobs import batch
 from hybridlog.jobs.batch import run_batch
 from tests.jobs.test_batch_resume import TANK, statuses, write_logs
@@ -93,7 +94,7 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
     assert list(table[0])[5:16] == [
         "mode_accuracy", "mode_samples", "filtered_mode_accuracy",
         "state_rmse.x1", "filtered_state_rmse.x1", "state_rmse.x2", "filtered_state_rmse.x2",
-        "state_rmse.x3", "filtered_state_rmse.x3", "smoothing", "gate_failures",
+        "state_rmse.x3", "filtered_state_rmse.x3", "smoothing", "smoothing_fallback_samples",
     ]  # fmt: skip
     for row in table[:3]:  # a resumed batch: the numbers of the reports it reused
         name = Path(row["log"]).name
@@ -131,13 +132,14 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
             assert text is None
             continue
         values = expected[name]
+        fallbacks = Fallbacks(**reports[name]["smoothing"]["fallbacks"])
         assert text is not None and text.splitlines()[1:] == [
             f"{metric} = {values[metric]:.6g} (the filter's own: {values[own]:.6g})"
             for metric, own in [
                 ("mode_accuracy", "filtered_mode_accuracy"),
                 *((f"state_rmse.{x}", f"filtered_state_rmse.{x}") for x in ("x1", "x2", "x3")),
             ]
-        ]
+        ] + ([fallbacks.summary()] if fallbacks.samples else [])
     suite = root.find("testsuite")
     assert suite is not None and suite[0].tag == "properties"
     gains = {p.get("name"): p.get("value") for p in suite[0]}

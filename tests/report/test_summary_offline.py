@@ -107,9 +107,10 @@ def test_summary_csv_adds_the_columns_only_with_an_offline_pass(tmp_path: Path) 
     batch_rows_csv(path, rows(), METRICS)
     with path.open() as file:
         table = list(csv.DictReader(file))
-    assert list(table[0])[5:12] == [
+    assert list(table[0])[5:14] == [
         "mode_accuracy", "mode_samples", "filtered_mode_accuracy", "state_rmse.x1",
-        "filtered_state_rmse.x1", "smoothing", "gate_failures",
+        "filtered_state_rmse.x1", "smoothing", "smoothing_fallback_samples",
+        "smoothing_fallback_weight", "gate_failures",
     ]  # fmt: skip
     b = table[1]
     assert [b["filtered_mode_accuracy"], b["state_rmse.x1"], b["filtered_state_rmse.x1"]] == [
