@@ -1351,6 +1351,56 @@ def _mode_recursion_source(
     return log_new, mu_s, weights
 
 
+def _positive_pivots(p: Program, hint: str, S: Matrix) -> str:
+    """Emit the pivots of ``S = L D Lᵀ`` (unit lower ``L``); the condition "each pivot > 0".
+
+    The decision of :func:`~hybridlog.estimators.kernels.cholesky` (and of
+    :meth:`~hybridlog.estimators.unrolled.Program.cholesky`'s "every diagonal entry > 0"),
+    which the generic loop takes in :func:`rts_correct` and :func:`semidefinite_step`, for
+    less: the pivots are the squares of the Cholesky factor's diagonal (``d_j = l_jj²``,
+    ``L_ij = l_ij / l_jj``), so the two agree in exact arithmetic, while this form takes no
+    square root and ``n − 1`` divisions (one reciprocal a pivot, as
+    :func:`_triangular_solves`) in place of ``n`` roots and ``n(n−1)/2`` divisions, which
+    sat one after the other on the step's longest chain.  In floating point both are
+    backward stable (each decides for a matrix within a few ``n·u·|S|`` of ``S``), so they
+    can disagree only on a matrix within that rounding of singular: where the caller's
+    ``S`` (the guard's ``P^- − P^s(k+1)``, the step's covariance, each shifted by its
+    tolerance, :data:`GUARD_TOLERANCE` of the trace,
+    :data:`~hybridlog.estimators.kernels.PSD_TOLERANCE` of the largest variance) sits on
+    that tolerance's edge to about 1e-16 of its size, and the Cholesky test decides it by
+    its last bits too (the straight-line code and the generic loop already differ there:
+    their ``S`` agree to rounding, not bit for bit).  On the sample logs and the
+    10⁶-sample benchmark every decision and result is bit-identical with either test
+    (docs/smoothing.md, "Speed").  NaN fails both, and infinite entries are decided alike
+    (a reciprocal of ``inf`` is 0 as the factor's quotients by it are;
+    ``tests/estimators/test_smoothing_rounding.py``).  With ``W_ij = L_ij d_j``:
+
+    .. code-block:: text
+
+        d_j = s_jj − Σ_{k<j} W_jk L_jk,   W_ij = s_ij − Σ_{k<j} W_ik L_jk,   L_ij = W_ij / d_j
+    """
+    size = len(S)
+    W: Matrix = [[0.0] * size for _ in range(size)]
+    L: Matrix = [[0.0] * size for _ in range(size)]
+    pivots: list[Entry] = []
+    for j in range(size):
+        pivot = p.let(
+            hint + "d", [S[j][j], *[_negated(product(W[j][k], L[j][k])) for k in range(j)]]
+        )
+        pivots.append(pivot)
+        if j == size - 1:
+            break
+        inverse = p.assign(hint + "r", f"1.0 / {term(pivot)}")
+        for i in range(j + 1, size):
+            W[i][j] = p.let(
+                hint + "w", [S[i][j], *[_negated(product(W[i][k], L[j][k])) for k in range(j)]]
+            )
+            L[i][j] = (
+                W[i][j] if W[i][j] == 0.0 else p.assign(hint + "l", f"{term(W[i][j])}*{inverse}")
+            )
+    return " and ".join(f"{term(d)} > 0.0" for d in pivots)
+
+
 class _StepSource(NamedTuple):
     """The variables of one generated RTS step (:func:`_rts_step_source`)."""
 
@@ -1409,9 +1459,9 @@ def _rts_step_source(
         for b in range(a, n):
             extra = f" + {GUARD_TOLERANCE!r}*{term(trace)}" if a == b else ""
             D[a][b] = D[b][a] = p.assign("dg", f"{term(P_pred[a][b])} - {term(Pn[a][b])}{extra}")
-    LD = p.cholesky(f"ld{j}_", D)
+    guard = _positive_pivots(p, f"ld{j}_", D)  # the guard of rts_correct, without roots
     predicted = p.assign("pd", " and ".join(f"{term(L[a][a])} > 0.0" for a in range(n)))
-    guarded = p.assign("gd", " and ".join(f"{term(LD[a][a])} > 0.0" for a in range(n)))
+    guarded = p.assign("gd", guard)
     gap = [p.difference("gp", xn[b], x_pred[b]) for b in range(n)]
     x_rts = [p.let("xr", [x0[a], *[product(J[a][b], gap[b]) for b in range(n)]]) for a in range(n)]
     JF = p.matmul(f"jF{j}_", J, F)
@@ -1426,7 +1476,7 @@ def _rts_step_source(
         f"pr{j}_", [p.congruence(f"c1{j}_", IJF, P0), p.congruence(f"c2{j}_", J, part)]
     )
     # P^(j) PSD to rounding: P^(j) + PSD_TOLERANCE·max_a P_aa·I positive definite
-    # (semidefinite_step)
+    # (semidefinite_step's decision, by the pivots of L D Lᵀ: _positive_pivots)
     variances = [f"abs({term(P_rts[a][a])})" for a in range(n)]
     spread = p.assign("sa", f"max({', '.join(variances)})" if n > 1 else variances[0])
     shifted: Matrix = [[0.0] * n for _ in range(n)]
@@ -1434,8 +1484,7 @@ def _rts_step_source(
         for b in range(a, n):
             extra = f" + {PSD_TOLERANCE!r}*{term(spread)}" if a == b else ""
             shifted[a][b] = shifted[b][a] = p.assign("sh", f"{term(P_rts[a][b])}{extra}")
-    LS = p.cholesky(f"ls{j}_", shifted)
-    semidefinite = " and ".join(f"{term(LS[a][a])} > 0.0" for a in range(n))
+    semidefinite = _positive_pivots(p, f"ls{j}_", shifted)
     unit = repr(ROUNDING_UNIT)
     rounded = [
         p.assign("ri", f"{term(rn[b])} + {unit}*(abs({term(xn[b])}) + abs({term(x_pred[b])}))")

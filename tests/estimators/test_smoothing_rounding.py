@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from hybridlog.estimators.imm import ImmOptions, run_imm
-from hybridlog.estimators.smoothing import ROUNDING_LIMIT, rts_step, rts_work
+from hybridlog.estimators.kernels import cholesky
+from hybridlog.estimators.smoothing import ROUNDING_LIMIT, _positive_pivots, rts_step, rts_work
+from hybridlog.estimators.unrolled import Program
 from hybridlog.model.loader import parse_model
 from hybridlog.simulate import simulate
 from tests.estimators.test_smoothing import assert_smoother_invariants
@@ -148,3 +150,57 @@ def test_smoothed_covariances_stay_psd_where_the_gain_amplifies_their_rounding(s
     assert_smoother_invariants(result)
     filtered = result.post_processing.filtered
     assert np.abs(result.state_means - filtered.state_means).max() > 1e-3  # it still smooths
+
+
+def _pivots_decide(S: np.ndarray) -> bool:
+    """The generated code's test of ``S`` (:func:`_positive_pivots`), run as Python."""
+    n = S.shape[0]
+    names = [[f"s{min(a, b)}_{max(a, b)}" for b in range(n)] for a in range(n)]
+    p = Program(indent="")
+    condition = _positive_pivots(p, "t", names)
+    scope = {f"s{a}_{b}": S[a, b] for a in range(n) for b in range(a, n)}
+    with np.errstate(all="ignore"):  # the compiled code's error model: inf and NaN, no raise
+        exec("\n".join(p.lines), scope)
+        return bool(eval(condition, scope))
+
+
+def _special_matrices() -> list[np.ndarray]:
+    """Zeros, NaN, infinities and exact zeros off the diagonal, of sizes 1 to 4."""
+    nan, inf = float("nan"), float("inf")
+    cases = [np.zeros((1, 1)), np.array([[nan]]), np.array([[inf]]), np.array([[-inf]])]
+    for n in (2, 3, 4):
+        base = np.eye(n) + 0.5 * (np.ones((n, n)) - np.eye(n))
+        for a, b, value in ((0, 0, nan), (n - 1, n - 1, nan), (0, n - 1, nan), (0, 0, inf),
+                            (n - 1, n - 1, inf), (0, 1, inf), (0, 0, 0.0), (1, 1, -1.0),
+                            (0, 1, 0.0), (0, 1, 1.0), (0, 1, 2.0)):  # fmt: skip
+            S = base.copy()
+            S[a, b] = S[b, a] = value
+            cases.append(S)
+        cases.append(np.zeros((n, n)))
+        cases.append(np.diag(np.arange(1.0, n + 1)))
+    return cases
+
+
+def test_the_generated_pivot_test_decides_as_the_cholesky_factor():
+    """The straight-line backward pass tests the guard's ``P^- − P^s(k+1)`` and the step's
+    covariance by the pivots of ``L D Lᵀ`` (no square root, ``n − 1`` divisions) where the
+    generic loop takes a Cholesky factor: the same decision, on matrices of sizes 1 to 4 that
+    are positive definite or not by at least 1e-6 of their largest eigenvalue (a decision
+    rounding cannot tip), scaled from 1e-150 to 1e150, and on NaN, infinite and zero
+    entries."""
+    rng = np.random.default_rng(12)
+    cases = _special_matrices()
+    for _ in range(400):
+        n = int(rng.integers(1, 5))
+        basis, _r = np.linalg.qr(rng.normal(size=(n, n)))
+        magnitudes = 10.0 ** rng.uniform(-6.0, 0.0, size=n)
+        signs = np.where(rng.random(n) < 0.25, -1.0, 1.0)
+        scale = 10.0 ** rng.uniform(-150.0, 150.0)
+        S = scale * (basis * (signs * magnitudes)) @ basis.T
+        cases.append((S + S.T) / 2.0)
+    decisions = []
+    for S in cases:
+        expected = cholesky(S.copy(), np.zeros_like(S))
+        assert _pivots_decide(S) == expected, S
+        decisions.append(expected)
+    assert 100 < sum(decisions) < len(decisions) - 100  # both outcomes, often
