@@ -43,6 +43,17 @@ def long_logs():
     return logs
 
 
+def with_outliers(model, log, n_outliers, sigmas, seed):
+    """The aligned signals of ``log`` with ``n_outliers`` samples pushed ``sigmas`` standard
+    deviations of mode 1's measurement noise off, up or down per output (drawn from ``seed``)."""
+    rng = np.random.default_rng(seed)
+    outputs = log.outputs.copy()
+    rows = rng.choice(len(outputs), size=n_outliers, replace=False)
+    std = np.sqrt(np.diag(model.modes[0].measurement_noise))
+    outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
+    return dataclasses.replace(log.signals(model), outputs=outputs)
+
+
 def assert_filter_invariants(result):
     P = result.covariances
     assert np.isfinite(P).all()
@@ -71,12 +82,7 @@ def test_covariances_stay_symmetric_psd_and_probabilities_normalised(
     long_logs, model_name, run_name, n_outliers, sigmas, seed
 ):
     model, log = long_logs[model_name]
-    rng = np.random.default_rng(seed)
-    outputs = log.outputs.copy()
-    rows = rng.choice(STEPS, size=n_outliers, replace=False)
-    std = np.sqrt(np.diag(model.modes[0].measurement_noise))
-    outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
-    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    signals = with_outliers(model, log, n_outliers, sigmas, seed)
     try:
         result = RUNS[run_name](model, signals)
     except DivergenceError as error:  # the IMM refuses a sample no mode explains

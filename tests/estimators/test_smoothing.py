@@ -25,7 +25,7 @@ from hybridlog.estimators.smoothing import unpack_state, viterbi
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
-from tests.estimators.test_filter_properties import assert_filter_invariants
+from tests.estimators.test_filter_properties import assert_filter_invariants, with_outliers
 from tests.estimators.test_reductions import _linear_matrices
 from tests.support.models import LINEAR_TWO_MODE
 from tests.support.paths import TANK_CSV
@@ -158,12 +158,7 @@ def test_smoothed_covariances_psd_probabilities_normalised_with_outliers(
     long_logs, model_name, n_outliers, sigmas, seed
 ):
     model, log = long_logs[model_name]
-    rng = np.random.default_rng(seed)
-    outputs = log.outputs.copy()
-    rows = rng.choice(STEPS, size=n_outliers, replace=False)
-    std = np.sqrt(np.diag(model.modes[0].measurement_noise))
-    outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
-    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    signals = with_outliers(model, log, n_outliers, sigmas, seed)
     try:
         result = run_imm(
             model, signals, ImmOptions(smooth=True, mode_sequence="viterbi"), store_covariances=True

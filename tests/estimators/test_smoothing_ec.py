@@ -24,10 +24,10 @@ from hybridlog.jit import compile_for
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
+from tests.estimators.test_filter_properties import with_outliers
 from tests.estimators.test_smoothing import (
     KNOWN_MODE_CASES,
     ONE_MODE,
-    STEPS,
     _filterpy_rts,
     _unforced,
     assert_smoother_invariants,
@@ -85,12 +85,7 @@ def test_ec_covariances_psd_probabilities_normalised_with_outliers(
     """10^5 steps with outliers: the smoothed probabilities sum to 1, the covariances are
     symmetric PSD, the last sample is the filter's (``assert_smoother_invariants``)."""
     model, log = long_logs[model_name]
-    rng = np.random.default_rng(seed)
-    outputs = log.outputs.copy()
-    rows = rng.choice(STEPS, size=n_outliers, replace=False)
-    std = np.sqrt(np.diag(model.modes[0].measurement_noise))
-    outputs[rows] += rng.choice([-1.0, 1.0], size=(n_outliers, model.n_outputs)) * sigmas * std
-    signals = dataclasses.replace(log.signals(model), outputs=outputs)
+    signals = with_outliers(model, log, n_outliers, sigmas, seed)
     try:
         result = run_imm(model, signals, EC, store_covariances=True)
     except DivergenceError as error:  # an outlier no mode explains is refused, never smoothed
