@@ -121,7 +121,25 @@ prototype of ``docs/studies/smoothing_ec.py`` put 52-83 % of a log's samples in 
 mode), where a pair's ``P^-_{ij}`` is not positive definite, where the density is ``-inf`` for
 every ``i``, and for a negligible next mode (``μ^s_j(k+1) <`` :data:`NEGLIGIBLE_WEIGHT`, whose
 pair steps are skipped: ``x̂^{(ij)} = x̂_i(k|k)``).  A pair step the guard or the probe
-refuses leaves ``x̂^{(ij)} = x̂_i(k|k)``, as in Kim's pass.  With one mode, or the stay
+refuses leaves ``x̂^{(ij)} = x̂_i(k|k)``, as in Kim's pass.
+
+Pairs that carry no weight: a pair's RTS step is taken only where ``p_ij(k) >=``
+:data:`NEGLIGIBLE_WEIGHT` (elsewhere ``x̂^{(ij)} = x̂_i(k|k)``, whose weight in the output is
+``p_ij(k)``, and in mode ``i``'s own mixture ``p_ij/μ^s_i``, which matters only where
+``μ^s_i(k)`` is itself that small), and a pair's prediction and density only where its weight
+can still reach it: the densities are taken in :func:`ec_order` (the stay ``i = j`` first),
+and since ``P^-_{ij} ⪰ Q_j`` the density is at most ``c_j`` (:func:`density_ceilings`), so a
+pair with ``log μ_i + log Π_ij + c_j`` below ``log NEGLIGIBLE_WEIGHT − log μ^s_j(k+1)`` plus
+the largest ``log μ_i' + log Π_i'j + log N_i'j`` found so far has ``p_ij(k)`` below
+:data:`NEGLIGIBLE_WEIGHT` whatever its density, and is left out.  On the three-tank
+benchmark log that leaves 2.7 predictions and about 2.2 steps a sample of the ``n_q² = 9``.
+(Should a prediction fail, the mode takes Kim's weights, and a pair left out that they make
+count stands for want of a prediction, counted as a ``prediction`` fallback.)  The
+straight-line code computes the weights in linear space (one ``exp`` a pair with a density,
+relative to the largest; Kim's weights as products, from the logs only where they underflow):
+the loop's log-space weights to rounding, except probabilities below some 1e-300, which it
+may flush to zero and which enter nothing that counts (a mode that small is negligible at the
+next step back).  With one mode, or the stay
 probability at 1 and the true mode known, it is the RTS smoother; where the state forgets
 its past (``F = 0``) the density is the same for every ``i`` and it is Kim's, exact on a
 Markov chain with Gaussian emissions.  Like Kim's pass, it has straight-line code for small
@@ -701,6 +719,7 @@ def ec_backward(
     transitions: FloatArray,
     Q: FloatArray,
     corrected: BoolArray,
+    ceilings: FloatArray,
     mu: FloatArray,
     store: ModeStore,
     out: FilterBuffers,
@@ -711,7 +730,10 @@ def ec_backward(
     ``store`` holds the filtered per-mode ``x̂_i(k|k)``, ``P_i(k|k)`` in every row (the IMM's
     ``filtered_store``), ``mu`` the filtered mode probabilities; ``corrected[j]`` whether the
     weights of next mode ``j`` take the density of the smoothed state (its process noise
-    positive definite), else Kim's.  ``fallbacks`` (:data:`FALLBACKS_WIDTH` zeros) gets the
+    positive definite), else Kim's, and ``ceilings[j]`` the largest log density a pair into it
+    can give (:func:`density_ceilings`), by which a pair is left out unpredicted where its
+    weight cannot reach :data:`NEGLIGIBLE_WEIGHT` (the module docstring, "pairs that carry
+    no weight").  ``fallbacks`` (:data:`FALLBACKS_WIDTH` zeros) gets the
     samples where a pair step that carries weight (``p_ij(k)`` at least
     :data:`NEGLIGIBLE_WEIGHT`) left its forward estimate standing, by cause
     (:func:`note_fallbacks`).  Row ``N−1`` is the caller's (the filtered one).  Plain Python
@@ -729,7 +751,9 @@ def ec_backward(
         log_mu_next[j] = safe_log(mu[n_samples - 1, j])
     log_mu = np.empty(n_q)
     terms = np.empty(n_q)
+    corrected_terms = np.empty(n_q)
     density = np.empty(n_q)
+    ready = np.zeros(n_q, dtype=np.bool_)  # pair (i, j) predicted in stage 1
     log_pair = np.empty((n_q, n_q))  # log Pr(q(k)=i, q(k+1)=j | Y^N)
     row_total = np.empty(n_q)
     log_new = np.empty(n_q)
@@ -761,54 +785,81 @@ def ec_backward(
             unpack_state(store.states[k, i], x_f[i], P_f[i])
             log_mu[i] = safe_log(mu[k, i])
         for j in range(n_q):
-            # The pair steps into next mode j, and the densities of x̂^s_j(k+1) under them.
-            weighed = corrected[j]
+            # Stage 1: the densities of x̂^s_j(k+1) under the pairs into next mode j (mode i's
+            # filtered estimate through mode j's dynamics), the pair of q(k) = j first; a pair
+            # whose weight cannot reach NEGLIGIBLE_WEIGHT however likely x̂^s_j(k+1) is under
+            # it (its prior plus the density's ceiling below the largest prior plus density
+            # found so far) is not predicted (_ec_weights).
             negligible = math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT
+            weighed = corrected[j] and not negligible
+            floor = -math.inf  # the largest log μ_i(k) + log Π_ij + density found so far
+            for step in range(n_q):
+                i = ec_order(j, step)
+                density[i] = -math.inf if weighed else 0.0
+                ready[i] = False
+                terms[i] = log_T[i, j] + log_mu[i]
+                if not terms[i] > -math.inf:  # NaN too
+                    terms[i] = -math.inf
+                if not weighed or terms[i] == -math.inf:
+                    continue
+                if terms[i] + ceilings[j] < floor + LOG_NEGLIGIBLE_WEIGHT - log_mu_next[j]:
+                    continue  # provably negligible: its weight stays below NEGLIGIBLE_WEIGHT
+                if not rts_predict(f, F, j, x_f[i], P_f[i], u, Q[j], w):
+                    weighed = False  # no density for this pair: Kim's weights for mode j
+                    continue
+                ready[i] = True
+                for a in range(n):
+                    gap[a] = x_next[j, a] - w.x_pred[a]
+                density[i] = gaussian_log_density(gap, w.L, solved)
+                if not density[i] > -math.inf:
+                    density[i] = -math.inf
+                floor = max(floor, terms[i] + density[i])
+            # Stage 2: the weights log p_ij(k), corrected unless no pair gave a density
+            if weighed:
+                for i in range(n_q):
+                    corrected_terms[i] = terms[i] + density[i]
+                log_norm = log_sum_exp(corrected_terms)
+                weighed = log_norm > -math.inf
+            if not weighed:  # Kim's: Pr(q(k)=i | q(k+1)=j, Y^k), as kim_backward
+                for i in range(n_q):
+                    corrected_terms[i] = terms[i]
+                log_norm = log_sum_exp(terms)
             for i in range(n_q):
-                density[i] = 0.0
+                if (
+                    log_norm == -math.inf
+                    or log_mu_next[j] == -math.inf
+                    or corrected_terms[i] == -math.inf
+                ):
+                    log_pair[i, j] = -math.inf
+                elif weighed:
+                    log_pair[i, j] = log_mu_next[j] + corrected_terms[i] - log_norm
+                else:  # kim_backward's sum, in its order
+                    log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_norm
+            # Stage 3: the RTS step of each pair that carries weight (p_ij(k) at least
+            # NEGLIGIBLE_WEIGHT, in a next mode that is not negligible); elsewhere the forward
+            # estimate stands.  With the density (corrected[j]) only a pair stage 1 predicted
+            # is stepped: a pair it left out that Kim's weights make count (a prediction of
+            # mode j failed) stands for want of a prediction.
+            for i in range(n_q):
                 r_pair[i, j] = 0.0
                 pair_cause[i, j] = TAKEN
-                if negligible:  # q(k+1) = j carries no weight that counts: forward stands
+                if negligible or log_pair[i, j] < LOG_NEGLIGIBLE_WEIGHT:
                     x_pair[i, j] = x_f[i]
                     P_pair[i, j] = P_f[i]
                     continue
-                if not rts_predict(f, F, j, x_f[i], P_f[i], u, Q[j], w):
-                    _forward_stands(x_f[i], P_f[i], x_pair[i, j], P_pair[i, j], r_pair[i, j])
-                    pair_cause[i, j] = PREDICTION
-                    weighed = False  # no density for this pair: Kim's weights for mode j
-                    continue
-                if weighed:
-                    for a in range(n):
-                        gap[a] = x_next[j, a] - w.x_pred[a]
-                    density[i] = gaussian_log_density(gap, w.L, solved)
                 x_out, P_out, r_out = x_pair[i, j], P_pair[i, j], r_pair[i, j]
+                if (corrected[j] and not ready[i]) or not rts_predict(
+                    f, F, j, x_f[i], P_f[i], u, Q[j], w
+                ):
+                    _forward_stands(x_f[i], P_f[i], x_out, P_out, r_out)
+                    pair_cause[i, j] = PREDICTION
+                    continue
                 cause = rts_correct(
                     x_f[i], P_f[i], Q[j], x_next[j], P_next[j], x_out, P_out, w, r_next[j], r_out
                 )
                 if cause == TAKEN and not semidefinite_step(x_f[i], P_f[i], x_out, P_out, r_out, w):
                     cause = COVARIANCE
                 pair_cause[i, j] = cause
-            if negligible:
-                weighed = False
-            if weighed:  # the corrected weights, unless no pair gives x̂^s_j(k+1) a density
-                for i in range(n_q):
-                    terms[i] = log_T[i, j] + log_mu[i] + density[i]
-                    if not terms[i] > -math.inf:  # NaN too
-                        terms[i] = -math.inf
-                log_norm = log_sum_exp(terms)
-                weighed = log_norm > -math.inf
-            if not weighed:  # Kim's: Pr(q(k)=i | q(k+1)=j, Y^k), as kim_backward
-                for i in range(n_q):
-                    density[i] = 0.0
-                    terms[i] = log_T[i, j] + log_mu[i]
-                log_norm = log_sum_exp(terms)
-            for i in range(n_q):
-                if log_norm == -math.inf or log_mu_next[j] == -math.inf or terms[i] == -math.inf:
-                    log_pair[i, j] = -math.inf
-                elif weighed:
-                    log_pair[i, j] = log_mu_next[j] + terms[i] - log_norm
-                else:
-                    log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_norm
         fell = 0  # the causes of this sample's fallbacks among pairs that carry weight
         fell_weight = 0.0  # and the weight of those pairs: Σ p_ij(k)
         for i in range(n_q):
@@ -1055,7 +1106,8 @@ def _backward_pass(
     noise = contiguous(np.stack([m.process_noise for m in model.modes]))
     head = (compiled.f, compiled.F, contiguous(signals.inputs), contiguous(transitions), noise)
     generic: Callable[..., object] = ec_backward if ec else kim_backward
-    arguments = (*head, positive_definite_noise(model), *tail) if ec else (*head, *tail)
+    weights = (positive_definite_noise(model), density_ceilings(model))
+    arguments = (*head, *weights, *tail) if ec else (*head, *tail)
     return (compile_for(generic, arguments) if jit else generic), arguments
 
 
@@ -1075,6 +1127,44 @@ def _method(smoother: str, *, kbest: bool) -> str:
     if smoother == "ec":
         return EC_PATH_RTS if kbest else EC
     return PATH_RTS if kbest else KIM
+
+
+CEILING_MARGIN = 1.0
+"""Nats added to each density ceiling (:func:`density_ceilings`): ``P^-_ij ⪰ Q_j`` holds in
+exact arithmetic, and the rounding of ``F P Fᵀ + Q`` and of its factor is some 1e-15 of it."""
+
+
+def density_ceiling(Q: FloatArray) -> float:
+    r"""A bound on the log density a pair ``(i, j)`` with process noise ``Q = Q_j`` can give.
+
+    ``P^-_{ij} = F P_i Fᵀ + Q ⪰ Q``, so ``det P^-_{ij} >= det Q`` and
+    ``log N(x; m, P^-_{ij}) <= −(n log 2π + log det Q)/2`` for every ``x``, ``F`` and PSD
+    ``P_i``; plus :data:`CEILING_MARGIN`.  ``+inf`` where ``Q`` is not positive definite (no
+    bound; :func:`positive_definite_noise`: those modes take Kim's weights).
+    """
+    try:
+        factor = np.linalg.cholesky(Q)
+    except np.linalg.LinAlgError:
+        return math.inf
+    log_det = 2.0 * float(np.sum(np.log(np.diag(factor))))
+    return -0.5 * (Q.shape[0] * math.log(2.0 * math.pi) + log_det) + CEILING_MARGIN
+
+
+def density_ceilings(model: HybridModel) -> FloatArray:
+    """:func:`density_ceiling` of each mode's process noise."""
+    return np.array([density_ceiling(mode.process_noise) for mode in model.modes])
+
+
+@jit
+def ec_order(j: int, step: int) -> int:
+    """The ``step``-th previous mode ``i`` whose pair into next mode ``j`` is weighed.
+
+    ``j`` first (the stay, often the largest prior: the sooner the largest is found, the more
+    pairs its weight leaves out), then the others in order.
+    """
+    if step == 0:
+        return j
+    return step - 1 if step - 1 < j else step
 
 
 def positive_definite_noise(model: HybridModel) -> BoolArray:
@@ -1401,6 +1491,21 @@ def _positive_pivots(p: Program, hint: str, S: Matrix) -> str:
     return " and ".join(f"{term(d)} > 0.0" for d in pivots)
 
 
+class _PredictionSource(NamedTuple):
+    """The variables of one generated RTS prediction (:func:`_rts_prediction_source`)."""
+
+    x_pred: Vector
+    """``f_j(x̂)``."""
+    F: Matrix
+    """``∂f_j/∂x`` at ``x̂``."""
+    P_pred: Matrix
+    """``P^- = F P Fᵀ + Q_j``."""
+    L: Matrix
+    """The Cholesky factor of ``P^-`` (NaN on its diagonal where it is not positive definite)."""
+    predicted: str
+    """Whether ``P^-`` is positive definite."""
+
+
 class _StepSource(NamedTuple):
     """The variables of one generated RTS step (:func:`_rts_step_source`)."""
 
@@ -1413,10 +1518,19 @@ class _StepSource(NamedTuple):
     P: Matrix
     r: Vector
     """The rounding probe."""
-    x_pred: Vector
-    """``f_j(x̂)``."""
-    L: Matrix
-    """The Cholesky factor of ``P^-`` (NaN on its diagonal where it is not positive definite)."""
+
+
+def _rts_prediction_source(
+    p: Program, model: HybridModel, j: int, x0: Vector, P0: Matrix, u: Vector, Q: Matrix
+) -> _PredictionSource:
+    """Emit the prediction of next mode ``j``'s RTS step (:func:`rts_predict`) from ``x0, P0``."""
+    n = len(x0)
+    x_pred = p.mode_values(model, j, "f", x0, u)
+    F = reshape(p.mode_values(model, j, "F", x0, u), n, n)
+    P_pred = p.congruence(f"pp{j}_", F, P0, add=Q)
+    L = p.cholesky(f"lc{j}_", P_pred)
+    predicted = p.assign("pd", " and ".join(f"{term(L[a][a])} > 0.0" for a in range(n)))
+    return _PredictionSource(x_pred, F, P_pred, L, predicted)
 
 
 def _rts_step_source(
@@ -1437,13 +1551,30 @@ def _rts_step_source(
     the rounding probe within :data:`ROUNDING_LIMIT`), the step's mean, covariance and
     rounding probe, from ``x0, P0`` (the mixed prior; expectation correction: mode ``i``'s
     filtered estimate) and the smoothed ``xn, Pn`` (rounding probe ``rn``) of the next
-    sample; and the prediction ``f_j(x0)`` with the Cholesky factor of ``P^-``.
+    sample.
+    """
+    prediction = _rts_prediction_source(p, model, j, x0, P0, u, Q)
+    return _rts_correction_source(p, j, x0, P0, Q, xn, Pn, rn, prediction)
+
+
+def _rts_correction_source(
+    p: Program,
+    j: int,
+    x0: Vector,
+    P0: Matrix,
+    Q: Matrix,
+    xn: Vector,
+    Pn: Matrix,
+    rn: Vector,
+    prediction: _PredictionSource,
+) -> _StepSource:
+    """Emit the rest of :func:`_rts_step_source` once ``prediction`` is emitted.
+
+    The guard, gain, mean, covariance and rounding probe of :func:`rts_correct`, and
+    :func:`semidefinite_step`'s check.
     """
     n = len(x0)
-    x_pred = p.mode_values(model, j, "f", x0, u)
-    F = reshape(p.mode_values(model, j, "F", x0, u), n, n)
-    P_pred = p.congruence(f"pp{j}_", F, P0, add=Q)
-    L = p.cholesky(f"lc{j}_", P_pred)
+    x_pred, F, P_pred, L, predicted = prediction
     FP = p.matmul(f"fp{j}_", F, P0)
     # J = P⁰Fᵀ(P^-)⁻¹ column by column of F P⁰, two triangular solves each, multiplying by
     # the reciprocals of L's diagonal (n divisions per mode instead of 2n²; equal to rounding).
@@ -1460,7 +1591,6 @@ def _rts_step_source(
             extra = f" + {GUARD_TOLERANCE!r}*{term(trace)}" if a == b else ""
             D[a][b] = D[b][a] = p.assign("dg", f"{term(P_pred[a][b])} - {term(Pn[a][b])}{extra}")
     guard = _positive_pivots(p, f"ld{j}_", D)  # the guard of rts_correct, without roots
-    predicted = p.assign("pd", " and ".join(f"{term(L[a][a])} > 0.0" for a in range(n)))
     guarded = p.assign("gd", guard)
     gap = [p.difference("gp", xn[b], x_pred[b]) for b in range(n)]
     x_rts = [p.let("xr", [x0[a], *[product(J[a][b], gap[b]) for b in range(n)]]) for a in range(n)]
@@ -1511,7 +1641,7 @@ def _rts_step_source(
         f"({bits[0]} if not {predicted} else {bits[1]} if not {guarded} else "
         f"{bits[2]} if not {precise_} else {bits[3]})"
     )
-    return _StepSource(taken, cause, x_rts, P_rts, r_rts, x_pred, L)
+    return _StepSource(taken, cause, x_rts, P_rts, r_rts)
 
 
 class _Frame(NamedTuple):
@@ -1621,7 +1751,7 @@ def generate_smoother_source(model: HybridModel) -> str:
         chosen = [str(name) for name in [*x_sel, *upper(P_sel), *r_sel]]
         stands: list[Entry] = [*prior, *([0.0] * n)]
         with p.block(f"if {mu_carried[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
-            ok, cause, x_rts, P_rts, r_rts, _, _ = _rts_step_source(
+            ok, cause, x_rts, P_rts, r_rts = _rts_step_source(
                 p, model, j, x0, P0, u, Q[j], x_next[j], P_next[j], r_next[j]
             )
             _select(p, ok, chosen, x_rts + upper(P_rts) + r_rts, stands)
@@ -1665,6 +1795,160 @@ def _count_fallbacks(p: Program) -> None:
     p.emit(f"    fallbacks[{FALLBACK_WEIGHT}] += min(fell_weight, 1.0)")
 
 
+def _ec_densities(
+    p: Program,
+    model: HybridModel,
+    j: int,
+    x_f: list[Vector],
+    P_f: list[Matrix],
+    u: Vector,
+    Q: Matrix,
+    prior: list[str],
+    x_next: Vector,
+    log_next: Entry,
+    counts: str,
+    ceiling: float,
+    weighed: str,
+) -> tuple[list[_PredictionSource | None], list[str]]:
+    """Emit stage 1 of :func:`ec_backward` for next mode ``j``: predictions and densities.
+
+    In :func:`ec_order`, each pair whose weight can still reach :data:`NEGLIGIBLE_WEIGHT`
+    (its ``prior`` plus ``ceiling`` against the largest prior plus density so far) is
+    predicted under a branch; its variables are held in names every branch assigns (zeros
+    where it was not predicted), which stage 3 steps from.  ``weighed`` is set False where a
+    prediction fails (Kim's weights).  Returns the held predictions (``predicted`` false where
+    the pair was left out) and the names of the densities (``-inf`` where left out).
+    """
+    n, n_q = len(x_next), len(prior)
+    floor = p.assign("fl", "-math.inf")
+    p.emit(f"{weighed} = {counts}")
+    held: list[_PredictionSource | None] = [None] * n_q
+    densities = [p.fresh("dn") for _ in range(n_q)]
+    for step in range(n_q):
+        i = int(ec_order(j, step))
+        reachable = (
+            f"{weighed} and {prior[i]} > -math.inf and "
+            f"{prior[i]} + {ceiling!r} >= {floor} + {LOG_NEGLIGIBLE_WEIGHT!r} - {term(log_next)}"
+        )
+        names: list[str] = []
+        with p.block(f"if {reachable}:"):
+            prediction = _rts_prediction_source(p, model, j, x_f[i], P_f[i], u, Q)
+            x_pred = _held(p, prediction.x_pred, names)
+            F = reshape(_held(p, [e for row in prediction.F for e in row], names), n, n)
+            P_pred = reshape(_held(p, [e for row in prediction.P_pred for e in row], names), n, n)
+            L = reshape(_held(p, [e for row in prediction.L for e in row], names), n, n)
+            predicted = p.fresh("rd")
+            p.emit(f"{predicted} = {prediction.predicted}")
+            gap = [p.difference("gq", x_next[a], prediction.x_pred[a]) for a in range(n)]
+            log_density = _log_density_source(p, f"ld{i}{j}_", gap, prediction.L)
+            p.emit(f"{densities[i]} = {log_density} if {log_density} > -math.inf else -math.inf")
+            with p.block(f"if {predicted}:"):
+                p.emit(f"{floor} = max({floor}, {prior[i]} + {densities[i]})")
+            with p.block("else:"):  # no density for this pair: Kim's weights for mode j
+                p.emit(f"{weighed} = False")
+        with p.block("else:"):
+            for name in names:
+                p.emit(f"{name} = 0.0")
+            p.emit(f"{predicted} = False")
+            p.emit(f"{densities[i]} = -math.inf")
+        held[i] = _PredictionSource(x_pred, F, P_pred, L, predicted)
+    return held, densities
+
+
+DETERMINANT_RANGE = 1e280
+"""Where the product of a Cholesky factor's diagonal lies in ``(1/range, range)``, the
+generated expectation correction takes one ``log`` of it, else one per entry."""
+
+
+def _log_density_source(p: Program, hint: str, gap: Vector, L: Matrix) -> str:
+    """``log N(gap; 0, L Lᵀ)`` as :meth:`Program.gaussian_log_density`, with one ``log``.
+
+    ``log det`` is ``2 log Π L_aa`` where the product is well inside the range of floats
+    (:data:`DETERMINANT_RANGE`), else ``2 Σ log L_aa`` (equal to rounding); NaN where ``L``
+    has a NaN.
+    """
+    z = p.forward_solve(hint + "z", L, gap)
+    quadratic = p.assign(
+        hint + "q", " + ".join(f"{term(v)}*{term(v)}" for v in z if v != 0.0) or "0.0"
+    )
+    diagonal = [term(L[a][a]) for a in range(len(L))]
+    product_ = p.assign(hint + "dp", "*".join(diagonal))
+    bound = repr(DETERMINANT_RANGE)
+    logs = " + ".join(f"math.log({d})" for d in diagonal)
+    half_log_det = p.assign(
+        hint + "hd",
+        f"math.log({product_}) if {1.0 / DETERMINANT_RANGE!r} < {product_} < {bound} else ({logs})",
+    )
+    return p.assign(hint, f"-0.5*{quadratic} - {half_log_det} - {0.5 * len(gap)}*LOG_2PI")
+
+
+def _held(p: Program, entries: Vector, names: list[str]) -> Vector:
+    """``entries`` copied into new names (appended to ``names``); literals stay literals."""
+    kept: Vector = []
+    for entry in entries:
+        if isinstance(entry, float):
+            kept.append(entry)
+            continue
+        name = p.fresh("hp")
+        p.emit(f"{name} = {entry}")
+        names.append(name)
+        kept.append(name)
+    return kept
+
+
+def _ec_weights(
+    p: Program,
+    prior: list[str],
+    kim_linear: list[str],
+    densities: list[str] | None,
+    weighed: str,
+    mu_next: Entry,
+    names: tuple[list[str], list[str]],
+) -> None:
+    """Emit stage 2 of :func:`ec_backward` for one next mode, in linear space.
+
+    ``names``: the variables of ``p_ij(k)`` and of ``p_ij(k) >= NEGLIGIBLE_WEIGHT`` for
+    ``i = 0 … n_q − 1``.  ``prior[i] = log Π_ij + log μ_i(k)``; with ``densities`` (a mode
+    whose weights may take them) the corrected weights where ``weighed`` holds and some pair
+    has a density, each ``exp(prior + density − the largest)`` (one ``exp`` a pair: the logs
+    stay logs, as a density far in a tail has no linear form), else Kim's,
+    ``μ^s_j Π_ij μ_i / Σ_i Π_ij μ_i`` with no ``exp`` (``kim_linear[i] = μ_i Π_ij``), or
+    from the logs where ``Σ_i Π_ij μ_i`` is below :data:`LINEAR_FLOOR` (``weighed`` is
+    updated to say which).  The loop's log-space weights to rounding, except where they are
+    below some 1e-300 (the module docstring).
+    """
+    n_q = len(prior)
+    pair, carries = names
+    if densities is not None:
+        with_density = [
+            p.assign("td", f"{prior[i]} + {densities[i]} if {weighed} else -math.inf")
+            for i in range(n_q)
+        ]
+        for name in with_density:
+            p.emit(f"if not {name} > -math.inf:")
+            p.emit(f"    {name} = -math.inf")
+        top = with_density[0] if n_q == 1 else p.assign("tt", f"max({', '.join(with_density)})")
+        p.emit(f"{weighed} = {weighed} and {top} > -math.inf")
+        parts = [p.fresh("ew") for _ in range(n_q)]
+        for i in range(n_q):
+            relative = (  # no exp of -inf: a pair left out (most of them) costs nothing
+                f"(math.exp({with_density[i]} - {top}) if {with_density[i]} > -math.inf else 0.0)"
+            )
+            p.emit(f"{parts[i]} = {relative} if {weighed} else {kim_linear[i]}")
+    else:
+        parts = [p.assign("ew", kim_linear[i]) for i in range(n_q)]
+    total = p.assign("sw", " + ".join(parts))
+    with p.block(f"if {total} < {LINEAR_FLOOR!r}:"):  # Kim's products underflow: from the logs
+        top_prior = p.assign("tp", f"max({', '.join(prior)})" if n_q > 1 else prior[0])
+        for i in range(n_q):
+            relative = f"math.exp({prior[i]} - {top_prior})"
+            p.emit(f"{parts[i]} = {relative} if {top_prior} > -math.inf else 0.0")
+        p.emit(f"{total} = {' + '.join(parts)}")
+    for i in range(n_q):
+        p.emit(f"{pair[i]} = {term(mu_next)}*{parts[i]} / {total} if {total} > 0.0 else 0.0")
+        p.emit(f"{carries[i]} = {pair[i]} >= {NEGLIGIBLE_WEIGHT!r}")
+
+
 def generate_ec_smoother_source(model: HybridModel) -> str:
     """Straight-line source of :func:`ec_backward` for ``model`` (see ``unrolled.py``).
 
@@ -1681,20 +1965,23 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
     n, n_q = model.n_states, model.n_modes
     Q, _ = noise_matrices(model)
     corrected = positive_definite_noise(model)
+    ceilings = density_ceilings(model)
     p = Program(indent="    ")
     frame = _backward_frame(p, model)
-    log_next, mu_next, _, log_T, x_next, P_next, r_next, u = frame
+    _, mu_next, T, log_T, x_next, P_next, r_next, u = frame
     # the loop over k is open: its body follows
     x_f: list[Vector] = []
     P_f: list[Matrix] = []
-    log_mu: Vector = []
+    mu_f: list[str] = []
+    log_mu: list[str] = []
     for i in range(n_q):
         x_f.append([p.assign("xf", f"states[k, {i}, {a}]") for a in range(n)])
         P_i: Matrix = [[0.0] * n for _ in range(n)]
         for index, (a, b) in enumerate(upper_pairs(n), start=n):
             P_i[a][b] = P_i[b][a] = p.assign("pf", f"states[k, {i}, {index}]")
         P_f.append(P_i)
-        log_mu.append(p.assign("lmu", f"math.log(mu[k, {i}]) if mu[k, {i}] > 0.0 else -math.inf"))
+        mu_f.append(p.assign("muf", f"mu[k, {i}]"))
+        log_mu.append(p.assign("lmu", f"math.log({mu_f[i]}) if {mu_f[i]} > 0.0 else -math.inf"))
     # pair (i, j): its result (the forward estimate where not taken) and log density
     X: list[list[Vector]] = [
         [vector_names(f"xq{i}{j}_", n) for j in range(n_q)] for i in range(n_q)
@@ -1705,110 +1992,86 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
     R: list[list[Vector]] = [
         [vector_names(f"rq{i}{j}_", n) for j in range(n_q)] for i in range(n_q)
     ]
-    density = [[p.fresh("dn") for _ in range(n_q)] for _ in range(n_q)]
     cause_bit = [[p.fresh("cz") for _ in range(n_q)] for _ in range(n_q)]  # 0: taken
-    weighed = [p.fresh("wd") for _ in range(n_q)]
+    pair = [[p.fresh("pq") for _ in range(n_q)] for _ in range(n_q)]  # p_ij(k)
+    carries = [[p.fresh("cq") for _ in range(n_q)] for _ in range(n_q)]  # p_ij(k) >= NEGLIGIBLE
     for j in range(n_q):
-        with p.block(f"if {mu_next[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
-            factored: list[str] = []
-            for i in range(n_q):
-                step = _rts_step_source(
-                    p, model, j, x_f[i], P_f[i], u, Q[j], x_next[j], P_next[j], r_next[j]
-                )
-                chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
-                stands: list[Entry] = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
+        counts = f"{mu_next[j]} >= {NEGLIGIBLE_WEIGHT!r}"  # q(k+1) = j is not negligible
+        log_next = p.assign("lnx", f"math.log({mu_next[j]}) if {counts} else -math.inf")
+        prior = [p.assign("tk", f"{log_T[i][j]} + {log_mu[i]}") for i in range(n_q)]
+        predictions: list[_PredictionSource | None] = [None] * n_q
+        densities: list[str] | None = None
+        weighed = p.fresh("wd")
+        if corrected[j]:
+            predictions, densities = _ec_densities(
+                p, model, j, x_f, P_f, u, Q[j], prior, x_next[j], log_next, counts,
+                float(ceilings[j]), weighed,
+            )  # fmt: skip
+        else:
+            p.emit(f"{weighed} = False")
+        kim_linear = [f"{mu_f[i]}*{T[i][j]}" for i in range(n_q)]
+        column = [row[j] for row in pair], [row[j] for row in carries]
+        _ec_weights(p, prior, kim_linear, densities, weighed, mu_next[j], column)
+        for i in range(n_q):
+            # the RTS step of a pair that carries weight; elsewhere the forward estimate
+            chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
+            stands: list[Entry] = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
+            with p.block(f"if {counts} and {carries[i][j]}:"):
+                held = predictions[i]
+                if held is None:
+                    step = _rts_step_source(
+                        p, model, j, x_f[i], P_f[i], u, Q[j], x_next[j], P_next[j], r_next[j]
+                    )
+                else:
+                    step = _rts_correction_source(
+                        p, j, x_f[i], P_f[i], Q[j], x_next[j], P_next[j], r_next[j], held
+                    )
                 _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
                 p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
-                if corrected[j]:
-                    gap = [p.difference("gq", x_next[j][a], step.x_pred[a]) for a in range(n)]
-                    log_density = p.gaussian_log_density(f"ld{i}{j}_", gap, step.L)
-                    p.emit(
-                        f"{density[i][j]} = {log_density} if {log_density} > -math.inf "
-                        "else -math.inf"
-                    )
-                    factored.append(" and ".join(f"{term(step.L[a][a])} > 0.0" for a in range(n)))
-                else:
-                    p.emit(f"{density[i][j]} = 0.0")
-            p.emit(f"{weighed[j]} = {' and '.join(factored) if corrected[j] else 'False'}")
-        with p.block("else:"):  # a negligible next mode: the forward estimates stand
-            for i in range(n_q):
-                stands = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
-                chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
+            with p.block("else:"):
                 for target, value in zip(chosen, stands, strict=True):
                     p.emit(f"{target} = {term(value)}")
-                p.emit(f"{density[i][j]} = 0.0")
                 p.emit(f"{cause_bit[i][j]} = 0")
-            p.emit(f"{weighed[j]} = False")
-    # log Pr(q(k)=i, q(k+1)=j | Y^N): the corrected weights, else Kim's
-    log_pair = [[p.fresh("lq") for _ in range(n_q)] for _ in range(n_q)]
-    for j in range(n_q):
-        kim = [p.assign("tk", f"{log_T[i][j]} + {log_mu[i]}") for i in range(n_q)]
-        kim_norm = _log_sum_exp_source(p, "nk", list(kim))
-        terms = kim
-        norm = kim_norm
-        if corrected[j]:
-            with_density = [
-                p.assign("td", f"{kim[i]} + {density[i][j]} if {weighed[j]} else -math.inf")
-                for i in range(n_q)
-            ]
-            for name in with_density:
-                p.emit(f"if not {name} > -math.inf:")
-                p.emit(f"    {name} = -math.inf")
-            density_norm = _log_sum_exp_source(p, "nd", list(with_density))
-            p.emit(f"{weighed[j]} = {weighed[j]} and {density_norm} > -math.inf")
-            terms = [
-                p.assign("tc", f"{with_density[i]} if {weighed[j]} else {kim[i]}")
-                for i in range(n_q)
-            ]
-            norm = p.assign("nc", f"{density_norm} if {weighed[j]} else {kim_norm}")
-        for i in range(n_q):
-            kim_pair = f"{log_next[j]} + {log_mu[i]} + {log_T[i][j]} - {norm}"
-            value = (
-                f"({log_next[j]} + {terms[i]} - {norm} if {weighed[j]} else {kim_pair})"
-                if corrected[j]
-                else kim_pair
-            )
-            p.emit(
-                f"{log_pair[i][j]} = -math.inf if ({norm} == -math.inf or {log_next[j]} == "
-                f"-math.inf or {terms[i]} == -math.inf) else {value}"
-            )
     p.emit("fell = 0")  # the causes of the sample's fallbacks among pairs that carry weight
     p.emit("fell_weight = 0.0")
     for i in range(n_q):
         for j in range(n_q):
-            p.emit(f"if {cause_bit[i][j]} and {log_pair[i][j]} >= {LOG_NEGLIGIBLE_WEIGHT!r}:")
+            p.emit(f"if {cause_bit[i][j]} and {carries[i][j]}:")
             p.emit(f"    fell |= {cause_bit[i][j]}")
-            p.emit(f"    fell_weight += math.exp({log_pair[i][j]})")
+            p.emit(f"    fell_weight += {pair[i][j]}")
     _count_fallbacks(p)
-    rows = [_log_sum_exp_parts(p, "rq", list(log_pair[i])) for i in range(n_q)]
-    total = _log_sum_exp_source(p, "tq", [row[0] for row in rows])
-    log_new = [
-        p.assign("lnq", f"{log_mu[i]} if {total} == -math.inf else {rows[i][0]} - {total}")
-        for i in range(n_q)
-    ]
-    mu_s: Vector = [p.assign("msq", f"math.exp({log_new[i]})") for i in range(n_q)]
+    # μ^s(k) and the weights v_j|i of each row's mixture
+    mu_s = [p.fresh("msq") for _ in range(n_q)]
+    weights = [[p.fresh("vq") for _ in range(n_q)] for _ in range(n_q)]
+    row_sums = [p.assign("rw", " + ".join(pair[i])) for i in range(n_q)]
+    total = p.assign("tw", " + ".join(row_sums))
+    with p.block(f"if {total} > 0.0:"):
+        for i in range(n_q):
+            p.emit(f"{mu_s[i]} = {row_sums[i]} / {total}")
+            for j in range(n_q):
+                p.emit(
+                    f"{weights[i][j]} = {pair[i][j]} / {row_sums[i]} if {row_sums[i]} > 0.0 "
+                    f"else {mu_next[j]}"
+                )
+    with p.block("else:"):  # nothing links the two samples: the filtered probabilities stand
+        for i in range(n_q):
+            p.emit(f"{mu_s[i]} = {mu_f[i]}")
+            for j in range(n_q):  # any finite estimate does for the rows
+                p.emit(f"{weights[i][j]} = {mu_next[j]}")
     x_new: list[Vector] = []
     P_new: list[Matrix] = []
     r_new: list[Vector] = []
     for i in range(n_q):
-        _, row_exps, row_sum = rows[i]
-        weights: Vector = [
-            p.assign(
-                "vq",
-                f"{mu_next[j]} if ({log_new[i]} == -math.inf or {total} == -math.inf) "
-                f"else {row_exps[j]} / {row_sum}",
-            )
-            for j in range(n_q)
-        ]
-        x_i, P_i = p.mixture(f"nq{i}_", weights, X[i], P[i])
+        row: Vector = list(weights[i])
+        x_i, P_i = p.mixture(f"nq{i}_", row, X[i], P[i])
         x_new.append(x_i)
         P_new.append(P_i)
-        pairs = list(zip(weights, R[i], strict=True))
+        pairs = list(zip(row, R[i], strict=True))
         r_new.append([p.let("rm", [product(w_j, r_j[a]) for w_j, r_j in pairs]) for a in range(n)])
-    x, P_out = p.mixture("cm", mu_s, x_new, P_new)
-    p.record("k", p.argmax(mu_s), mu_s, x, P_out)
-    p.carry(log_next, log_new)
-    p.carry(mu_next, mu_s)
+    probabilities: Vector = list(mu_s)
+    x, P_out = p.mixture("cm", probabilities, x_new, P_new)
+    p.record("k", p.argmax(probabilities), probabilities, x, P_out)
+    p.carry(mu_next, probabilities)
     for i in range(n_q):
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))

@@ -109,7 +109,7 @@ def test_ec_last_sample_is_the_filters_and_the_others_moved(kernel):
     assert np.abs(result.state_means[:-1] - filtered.state_means[:-1]).max() > 1e-3
 
 
-def _ec_pass(model, signals, kernel):
+def _ec_pass(model, signals, kernel, ceilings=None):
     """The forward pass keeping the filtered store, and the compiled EC pass over it.
 
     Returns the store, the filter's result, the smoothed buffers (row N−1 left as allocated)
@@ -131,6 +131,7 @@ def _ec_pass(model, signals, kernel):
         transitions,
         contiguous(np.stack([m.process_noise for m in model.modes])),
         smoothing.positive_definite_noise(model),
+        smoothing.density_ceilings(model) if ceilings is None else ceilings,
         filtered.mode_probabilities,
         store,
         buffers,
@@ -138,6 +139,58 @@ def _ec_pass(model, signals, kernel):
     )
     compile_for(smoothing.ec_backward, arguments)(*arguments)
     return store, filtered, buffers, arguments[-1]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    n=st.integers(1, 4),
+    seed=st.integers(0, 2**32 - 1),
+    scale=st.sampled_from([1e-6, 1e-2, 1.0, 1e3, 1e6]),
+    rank=st.integers(0, 4),
+)
+def test_the_density_ceiling_bounds_every_pair_density(n, seed, scale, rank):
+    """``log N(x; m, F P Fᵀ + Q) <= density_ceiling(Q)`` for any ``F``, PSD ``P`` (singular too)
+    and ``x``, the bound by which expectation correction leaves pairs out: at its largest
+    (``x = m``) the density is within the margin of it only when ``F P Fᵀ`` is 0."""
+    rng = np.random.default_rng(seed)
+    root = rng.normal(size=(n, n)) * scale
+    Q = root @ root.T + 1e-3 * scale**2 * np.eye(n)
+    F = rng.normal(size=(n, n)) * rng.choice([0.0, 1e-3, 1.0, 10.0])
+    A = rng.normal(size=(n, min(rank, n))) * scale
+    S = F @ (A @ A.T) @ F.T + Q
+    ceiling = smoothing.density_ceiling(Q)
+    sign, log_det = np.linalg.slogdet(S)
+    assert sign > 0
+    peak = -0.5 * (n * math.log(2 * math.pi) + log_det)
+    assert peak <= ceiling - smoothing.CEILING_MARGIN + 1e-9 * max(1.0, abs(peak))
+    assert smoothing.density_ceiling(np.zeros((n, n))) == math.inf
+
+
+@pytest.mark.parametrize("outliers", [False, True])
+def test_ec_pairs_left_out_unpredicted_change_nothing(outliers):
+    """The generic pass with the density ceilings (pairs whose weight cannot reach
+    ``NEGLIGIBLE_WEIGHT`` not predicted) against the same pass predicting every pair (ceilings
+    ``+inf``): the same smoothed result to rounding, but for what weighs below
+    ``n_q² NEGLIGIBLE_WEIGHT`` (probabilities of 1e-38 move), the same fallbacks."""
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=400, seed=5).signals(model)
+    if outliers:
+        outputs = signals.outputs.copy()
+        outputs[150:160] += 25.0 * np.sqrt(np.diag(model.modes[0].measurement_noise))
+        signals = dataclasses.replace(signals, outputs=outputs)
+    _, _, bounded, bounded_fallbacks = _ec_pass(model, signals, "unrolled")
+    every = np.full(model.n_modes, math.inf)
+    _, _, full, full_fallbacks = _ec_pass(model, signals, "unrolled", ceilings=every)
+    for field in ("state_means", "covariances", "mode_probabilities"):
+        a, b = getattr(bounded, field)[:-1], getattr(full, field)[:-1]
+        tolerance = model.n_modes**2 * smoothing.NEGLIGIBLE_WEIGHT * np.abs(b).max()
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=tolerance, err_msg=field)
+    np.testing.assert_array_equal(bounded_fallbacks, full_fallbacks)
+    # a bound that is wrong (every pair but the stay left out) shows: the comparison can fail
+    _, _, wrong, _ = _ec_pass(
+        model, signals, "unrolled", ceilings=np.full(model.n_modes, -math.inf)
+    )
+    assert np.abs(wrong.mode_probabilities[:-1] - full.mode_probabilities[:-1]).max() > 1e-3
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
