@@ -1147,7 +1147,7 @@ def density_ceiling(Q: FloatArray) -> float:
     except np.linalg.LinAlgError:
         return math.inf
     log_det = 2.0 * float(np.sum(np.log(np.diag(factor))))
-    return -0.5 * (Q.shape[0] * math.log(2.0 * math.pi) + log_det) + CEILING_MARGIN
+    return float(-0.5 * (Q.shape[0] * math.log(2.0 * math.pi) + log_det) + CEILING_MARGIN)
 
 
 def density_ceilings(model: HybridModel) -> FloatArray:
