@@ -265,7 +265,10 @@ def _analysis_options(function: F) -> F:
             "--fail-over",
             multiple=True,
             metavar="METRIC=VALUE",
-            help="CI gate: exit 1 when METRIC is above VALUE. Repeatable.",
+            help="CI gate: exit 1 when METRIC (mse, state_rmse.x1, missed_switches, ...) is "
+            "above VALUE. Repeatable. With --smooth, smoothing_fallback_weight (0 to 1) and "
+            "smoothing_fallback_samples gate where the smoother kept the filter's estimate "
+            "(refused without a smoother).",
         ),
         click.option(
             "--smooth",

@@ -558,17 +558,44 @@ class Outcome:
 
 
 def gates_for(
-    model: HybridModel, fail_under: Sequence[str], fail_over: Sequence[str]
+    model: HybridModel,
+    prepared: Sequence[Prepared],
+    fail_under: Sequence[str],
+    fail_over: Sequence[str],
 ) -> list[Gate]:
-    """Parse the CI gates and check that the outputs and states they name exist."""
+    """Parse the CI gates and check that every report of the run can be read for them.
+
+    The outputs, states and components they name must exist, and a gate on the smoother's
+    fallbacks needs a smoother on every estimator of ``prepared`` (:func:`without_smoother`).
+    """
     gates = parse_gates(fail_under, fail_over)
     validate_gates(
         gates,
         output_names=model.outputs,
         state_names=model.states,
         component_names=[c.name for c in model.components],
+        without_smoother=without_smoother(prepared),
     )
     return gates
+
+
+def without_smoother(prepared: Sequence[Prepared]) -> dict[str, str]:
+    """The estimators of ``prepared`` that run no smoother, each with why, in order.
+
+    A smoother runs where the estimator has one and its option ``smooth`` is true
+    (``--smooth``, ``--set smooth=true`` or the model file); only then does report.json have
+    ``smoothing.fallbacks``.
+    """
+    missing: dict[str, str] = {}
+    for p in prepared:
+        capabilities = p.estimator.capabilities
+        if not capabilities.supports_smoothing:
+            missing[p.name] = "it has none"
+        elif not getattr(p.options, SMOOTH_OPTION, False):
+            sequence = getattr(p.options, MODE_SEQUENCE_OPTION, "argmax")
+            alone = "" if sequence == "argmax" else f", --mode-sequence {sequence} alone"
+            missing[p.name] = f"smooth = false{alone}; add --smooth"
+    return missing
 
 
 def analyze(
@@ -603,7 +630,7 @@ def analyze(
     check_apart([("--out", out_dir)], input_paths([log], model_ref, [prepared], read))
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
-    gates = gates_for(model, fail_under, fail_over)
+    gates = gates_for(model, [prepared], fail_under, fail_over)
     inputs = estimator_inputs(prepared, model)
     warm_up([prepared], model)
     reading: dict[str, Any] = {}
@@ -814,7 +841,7 @@ def compare(
     check_apart([("--out", out_dir)], input_paths([log], model_ref, prepared, read))
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
-    gates = gates_for(model, fail_under, fail_over)
+    gates = gates_for(model, prepared, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p, model) for p in prepared}
     warm_up(prepared, model)
     reading: dict[str, Any] = {}
@@ -899,16 +926,17 @@ def _comparison_rows(
     :func:`~hybridlog.report.comparison.unequal_columns`), after the metrics.
     """
     columns: tuple[str, ...] = ("estimator", *_COLUMNS)
+    smoothed = any(report.smoothing is not None for report in reports.values())
+    smoothing_columns = _SMOOTHING_COLUMNS if smoothed else ()
     # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
-    # summaries show it: 'pass (1)' alone did not say by how much
-    extra = gated_columns([gate.metric for gate in gates], columns)
+    # summaries show it: 'pass (1)' alone did not say by how much (a gated
+    # smoothing_fallback_weight is shown once, among the smoothing columns)
+    extra = gated_columns([gate.metric for gate in gates], (*columns, *smoothing_columns))
     # a VAF over 170 samples beside one over 179 read as like for like: the counts that
     # differ get a column
     counts = unequal_columns(reports, _rmse_states(extra))
     columns += counts
-    smoothed = any(report.smoothing is not None for report in reports.values())
-    if smoothed:
-        columns += _SMOOTHING_COLUMNS
+    columns += smoothing_columns
     columns += extra
     rows: list[list[Any]] = []
     for name in names:

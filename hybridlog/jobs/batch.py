@@ -402,7 +402,7 @@ def _warm(job: BatchJob) -> _Warm:
                 mode_sequence=job.mode_sequence,
             )
             _check_unchanged(job, _input_files(prepared))
-            gates = gates_for(model, job.fail_under, job.fail_over)
+            gates = gates_for(model, [prepared], job.fail_under, job.fail_over)
             values = run_values(model, prepared, overrides.parameter_texts)
             given = given_values(overrides.parameter_texts, prepared)
             inputs = estimator_inputs(prepared, model)
@@ -960,7 +960,7 @@ def _plan(
     (prepared,) = prepare_estimators(
         model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
     )
-    gates = gates_for(model, fail_under, fail_over)
+    gates = gates_for(model, [prepared], fail_under, fail_over)
     check_table_format(table_format)
     root = output_path(out_dir)
     names = folder_names(paths, searched)

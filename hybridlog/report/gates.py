@@ -27,6 +27,16 @@ Metric names
     of samples where every component is right.
 ``runtime_s``, ``samples_per_s``
     Estimation speed.
+``smoothing_fallback_weight``, ``smoothing_fallback_samples``
+    Where the smoother left the forward estimate standing (``report.smoothing.fallbacks``,
+    :class:`~hybridlog.estimators.result.Fallbacks`): ``weight``, the share of the smoothed
+    estimates' weight the refused steps carry, a fraction in ``[0, 1]``, and ``samples``,
+    the samples with a refused step (a count).  ``--fail-over
+    smoothing_fallback_weight=0.5`` fails a run whose "smoothed" estimate is mostly the
+    filter's (the double cart: 0.991).  Only a run with a smoother has them: a gate on
+    one is refused before the run when a chosen estimator runs none (:func:`validate_gates`:
+    no ``--smooth``, ``--mode-sequence`` alone, an estimator without a smoother), and fails
+    as ``null`` (with why) on a report that has none (one of an earlier version).
 
 A smoothed run (``--smooth``, ``--mode-sequence viterbi|kbest``) is gated on its report's own
 values: ``mode_accuracy``, ``detection_delay_s``, ``missed_switches`` and ``state_rmse.<x>``
@@ -53,6 +63,7 @@ from hybridlog.report.coverage import component_coverage, mode_coverage
 from hybridlog.report.document import ModeReport, OutputReport, Report, Smoothing, StateReport
 
 __all__ = [
+    "FALLBACK_METRICS",
     "METRICS",
     "Gate",
     "evaluate_gates",
@@ -67,6 +78,15 @@ __all__ = [
 
 GateKind = Literal["under", "over"]
 
+
+def _fallbacks_of(report: Report, field: Literal["weight", "samples"]) -> float | int | None:
+    """``report.smoothing.fallbacks.<field>``, ``None`` where the report has no fallbacks."""
+    fallbacks = None if report.smoothing is None else report.smoothing.fallbacks
+    if fallbacks is None:
+        return None
+    return fallbacks.weight if field == "weight" else fallbacks.samples
+
+
 #: The metric of each unqualified name.
 _REPORT_METRICS: Final[Mapping[str, Callable[[Report], float | int | None]]] = {
     "vaf": lambda r: r.vaf,
@@ -77,6 +97,8 @@ _REPORT_METRICS: Final[Mapping[str, Callable[[Report], float | int | None]]] = {
     "missed_switches": lambda r: None if r.modes.detection is None else r.modes.detection.missed,
     "runtime_s": lambda r: r.runtime_s,
     "samples_per_s": lambda r: r.samples_per_s,
+    "smoothing_fallback_weight": lambda r: _fallbacks_of(r, "weight"),
+    "smoothing_fallback_samples": lambda r: _fallbacks_of(r, "samples"),
 }
 #: Metrics qualified by an output (``vaf.y1``) ...
 _OUTPUT_METRICS: Final[Mapping[str, Callable[[OutputReport], float | None]]] = {
@@ -99,6 +121,7 @@ _RANGES: Final[Mapping[str, tuple[float, float]]] = {
     "vaf": (0.0, 100.0),
     "fit": (-math.inf, 100.0),
     "mode_accuracy": (0.0, 1.0),
+    "smoothing_fallback_weight": (0.0, 1.0),
     **{
         name: (0.0, math.inf)
         for name in (
@@ -108,12 +131,17 @@ _RANGES: Final[Mapping[str, tuple[float, float]]] = {
             "runtime_s",
             "samples_per_s",
             "state_rmse",
+            "smoothing_fallback_samples",
         )
     },
 }
 _UNITS: Final[Mapping[str, str]] = {"vaf": " %", "fit": " %"}
 #: Metrics that are fractions in ``[0, 1]`` (a bound such as 95 was meant as a percentage).
-_FRACTIONS: Final[frozenset[str]] = frozenset({"mode_accuracy"})
+_FRACTIONS: Final[frozenset[str]] = frozenset({"mode_accuracy", "smoothing_fallback_weight"})
+#: Metrics of the smoother's fallbacks: only a run with a smoother has them.
+FALLBACK_METRICS: Final[frozenset[str]] = frozenset(
+    {"smoothing_fallback_weight", "smoothing_fallback_samples"}
+)
 #: Metrics without a qualifier.
 METRICS: tuple[str, ...] = tuple(_REPORT_METRICS)
 
@@ -201,7 +229,9 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     OptionError
         When the spec has no ``=``, an unknown metric name, a bound that is not a finite
         number, or one the metric can never meet (``--fail-under mode_accuracy=99.5``: a
-        fraction is at most 1; ``--fail-over mse=-1``); the message names the spec.
+        fraction is at most 1; ``--fail-over mse=-1``), or a fraction's bound that reads as
+        a percentage a ``--fail-over`` gate always meets (``smoothing_fallback_weight=50``);
+        the message names the spec.
 
     """
     option = f"--fail-{kind}"
@@ -231,13 +261,24 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
 
 
 def _check_attainable(spec: str, option: str, base: str, bound: float, kind: GateKind) -> None:
-    """Refuse a bound that no value of the metric meets: such a gate could only fail."""
+    """Refuse a bound that no value of the metric meets: such a gate could only fail.
+
+    Also a percentage where a fraction is meant on the side where the gate could only pass:
+    ``--fail-over smoothing_fallback_weight=50`` (50 %) passed every run, the CI gate never
+    failing however much of the estimate the smoother left to the filter.  Other bounds a
+    gate always meets stay gates: ``--fail-under vaf=-1e9`` is the way to a gated column in
+    the summaries without a verdict.
+    """
     low, high = _RANGES[base]
+    hint = _fraction_hint(base, bound)
+    if kind == "over" and bound > high and hint:
+        raise OptionError(
+            f"{option} {spec!r}: {base} is at most {high:g}{hint}, so this gate could never fail"
+        )
     if (kind == "under" and bound <= high) or (kind == "over" and bound >= low):
         return
     unit = _UNITS.get(base, "")
     where = f"at most {high:g}{unit}" if kind == "under" else f"at least {low:g}{unit}"
-    hint = _fraction_hint(base, bound)
     raise OptionError(f"{option} {spec!r}: {base} is {where}{hint}, so this gate could never pass")
 
 
@@ -325,10 +366,17 @@ def validate_gates(
     output_names: Sequence[str],
     state_names: Sequence[str],
     component_names: Sequence[str] = (),
+    without_smoother: Mapping[str, str] | None = None,
 ) -> None:
-    """Check that qualified metrics name an output, state or component of the model.
+    """Check that every gate can be read from the reports of the run configured.
 
-    Call this before a long run so that ``--fail-under vaf.y9=90`` fails early.
+    Call this before a long run so that ``--fail-under vaf.y9=90`` fails early: qualified
+    metrics must name an output, state or component of the model, and a gate on the
+    smoother's fallbacks (:data:`FALLBACK_METRICS`) needs a smoother on every estimator the
+    gates apply to.  Without one the metric is ``null`` in every report and the gate could
+    only fail, as ``vaf.y9`` would: refused, as it is.  (A metric a log may lack, such as
+    ``mode_accuracy`` without a true mode, is not known before the log is read: its gate
+    fails on that log, saying why.)
 
     Parameters
     ----------
@@ -336,15 +384,25 @@ def validate_gates(
         Parsed gates.
     output_names, state_names, component_names:
         The model's outputs, states and components.
+    without_smoother:
+        The estimators the gates apply to that run no smoother, each with why (``{"imm":
+        "smooth = false ..."}``); ``None`` when not known (fallback gates are not checked).
 
     Raises
     ------
     OptionError
-        Naming the first gate whose output, state or component is unknown.
+        Naming the first gate whose output, state or component is unknown, or a gate on the
+        fallbacks and the first estimator without a smoother.
 
     """
     for gate in gates:
         base, dot, qualifier = gate.metric.partition(".")
+        if base in FALLBACK_METRICS and without_smoother:
+            name, why = next(iter(without_smoother.items()))
+            raise OptionError(
+                f"{gate.option} {gate.spec!r}: estimator '{name}' runs no smoother ({why}), "
+                f"so its report has no {base} and this gate could never pass"
+            )
         if not dot:
             continue
         if base in _OUTPUT_METRICS and qualifier not in output_names:
@@ -506,6 +564,33 @@ def _over_part(report: Report, name: str) -> str:
     return "" if part is None else f" over {part}"
 
 
+def _no_fallbacks(report: Report) -> str:
+    """Why ``report`` has no ``smoothing.fallbacks`` (to gate on)."""
+    smoothing = report.smoothing
+    if smoothing is None:
+        return "no smoother ran: the estimates are the filter's own"
+    if smoothing.method is None:
+        return f"no smoother ran: mode sequence {smoothing.mode_sequence} alone"
+    return (
+        f"the report ({smoothing.method}) does not count the smoother's fallbacks: "
+        "one of an earlier version"
+    )
+
+
+def _fallback_context(report: Report, name: str) -> str:
+    """For a gate on the fallbacks, the other figure and the smoother, as analyze says it."""
+    smoothing = report.smoothing
+    fallbacks = None if smoothing is None else smoothing.fallbacks
+    if name not in FALLBACK_METRICS or smoothing is None or fallbacks is None:
+        return ""
+    label = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
+    if name == "smoothing_fallback_weight":
+        other = f"fell back on {fallbacks.samples:,} of {fallbacks.of:,} samples"
+    else:
+        other = f"of {fallbacks.of:,} samples, carrying {fallbacks.weight_text()} of the weight"
+    return f" ({label}: {other})"
+
+
 def null_reason(report: Report, name: str) -> str:
     """Why ``report`` holds ``null`` for the metric ``name`` (``vaf``, ``state_rmse.x1``).
 
@@ -513,6 +598,8 @@ def null_reason(report: Report, name: str) -> str:
     (reports of versions that did not record one).
     """
     base, dot, _ = name.partition(".")
+    if base in FALLBACK_METRICS and not dot:
+        return _no_fallbacks(report)
     return (
         report.null_reasons.get(name)
         or _WHY_NULL.get(base + dot if base in _COMPONENT_METRICS else base)
@@ -589,6 +676,7 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
             shown, bound = _fmt_apart(value, gate.bound)
             failures.append(
                 f"{gate.metric} = {shown}{_which_side(report, gate.metric)}"
-                f"{_over_part(report, gate.metric)} is {gate.kind} the bound {bound}"
+                f"{_over_part(report, gate.metric)}{_fallback_context(report, gate.metric)} "
+                f"is {gate.kind} the bound {bound}"
             )
     return failures

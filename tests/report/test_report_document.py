@@ -22,13 +22,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import ReportError
-from hybridlog.estimators.result import EstimationResult
+from hybridlog.estimators.result import EstimationResult, Fallbacks
 from hybridlog.report import Report, build_report, read_report, render_markdown
 from hybridlog.report import build as build_module
-from hybridlog.report.document import indented_json
+from hybridlog.report.document import Smoothing, indented_json
 from hybridlog.report.gates import METRICS, evaluate_gates, metric, parse_gates
 from hybridlog.signals import AlignedSignals
 from tests.report.test_report_files import DT, make_run
+from tests.report.test_report_gates import _side
 
 DATA = Path(__file__).parents[1] / "data" / "reports"
 VERSION = "0.1.0"  # the version the expectations were written with
@@ -203,12 +204,31 @@ def test_every_gate_metric_reads_its_json_value() -> None:
         "runtime_s": ("runtime_s",),
         "samples_per_s": ("samples_per_s",),
     }
-    assert set(paths) == set(METRICS)
+    fallbacks = {
+        "smoothing_fallback_weight": ("smoothing", "fallbacks", "weight"),
+        "smoothing_fallback_samples": ("smoothing", "fallbacks", "samples"),
+    }
+    assert set(paths) | set(fallbacks) == set(METRICS)
     for name, path in paths.items():
         value: Any = data
         for key in path:
             value = value[key]
         assert metric(report, name) == value, name
+    # of a smoothed run's report; a filter's has none (None: its gate fails, saying why)
+    assert "smoothing" not in data and metric(report, "smoothing_fallback_weight") is None
+    counted = Fallbacks(3, 4, {"prediction": 0, "guard": 3, "rounding": 1, "covariance": 0}, 0.25)
+    smoothed = dataclasses.replace(
+        report,
+        smoothing=Smoothing(
+            "kim-rts", "argmax", "d", _side(0.8, 0, 0.1), _side(0.9, 0, 0.1), counted
+        ),
+    )
+    smoothed_data = json.loads(smoothed.to_json())
+    for name, path in fallbacks.items():
+        value = smoothed_data
+        for key in path:
+            value = value[key]
+        assert metric(smoothed, name) == value, name
     for y in ("y1", "y2", "y3"):
         for name in ("vaf", "mse", "fit"):
             assert metric(report, f"{name}.{y}") == data["outputs"][y][name]
