@@ -136,6 +136,7 @@ def simulate_log(
             moved,
             {name: set(modes) for name, modes in played.modes.items()},
             played.unreached,
+            unstarted=played.unstarted,
         )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])

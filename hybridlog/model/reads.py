@@ -92,7 +92,7 @@ def _holds_no_expression(path: Path) -> Path | None:
     if head == ("simulation",) and len(path) >= 2:
         if path[1] in _NO_EXPRESSION_SIMULATION_KEYS:
             return path
-        if path[1] == "unmodelled" and path[2:3] and path[2] in _NO_EXPRESSION_UNMODELLED_KEYS:
+        if path[1] == "unmodelled" and path[3:4] and path[3] in _NO_EXPRESSION_UNMODELLED_KEYS:
             return path
         if path[1:3] == ("controller", "states"):
             return path
@@ -100,7 +100,11 @@ def _holds_no_expression(path: Path) -> Path | None:
 
 
 def _leaves(value: Any, path: Path = ()) -> Iterator[tuple[Path, str]]:
-    """Every string in a parsed TOML value with its key path (an array's items share it)."""
+    """Every string in a parsed TOML value with its key path.
+
+    The strings of an array share its path (``modes.1.f``); the tables of an array of
+    tables are told apart by their index, ``[i]`` (``simulation.unmodelled``, ``[i]``).
+    """
     if isinstance(value, str):
         yield path, value
     elif isinstance(value, dict):
@@ -108,8 +112,8 @@ def _leaves(value: Any, path: Path = ()) -> Iterator[tuple[Path, str]]:
             if not (path == () and key in _PROSE_KEYS):
                 yield from _leaves(item, (*path, str(key)))
     elif isinstance(value, list):
-        for item in value:
-            yield from _leaves(item, path)
+        for i, item in enumerate(value):
+            yield from _leaves(item, (*path, f"[{i}]") if isinstance(item, dict) else path)
 
 
 def _named_by(model: HybridModel) -> list[tuple[Path, frozenset[str]]]:
@@ -138,14 +142,14 @@ def _dotted(path: Path) -> str:
     """A key path as the loader's errors write it (``estimators.imm.mode_sequence``)."""
     shown = ""
     for key in path:
-        shown = key_path(shown, key)
+        indexed = key.startswith("[") and key.endswith("]") and key[1:-1].isdigit()
+        shown = f"{shown}{key}" if indexed else key_path(shown, key)
     return shown
 
 
 _NO_EXPRESSION = _Unread(
     _holds_no_expression,
-    "in keys that hold no expression ({tables}), whose names no command reads as "
-    "parameters (symbol names, mode ids, log paths, estimator options)",
+    "in keys no command reads as expressions ({tables})",
     _dotted,
 )
 
@@ -221,6 +225,7 @@ def refuse_unread_by_simulation(
     unreached: Mapping[str, Mapping[str, int]] | None = None,
     switches: Collection[tuple[str, str]] | None = None,
     unmade: Mapping[tuple[str, str], int] | None = None,
+    unstarted: Mapping[int, int] | None = None,
 ) -> None:
     """Refuse ``--set`` of a parameter named only by what the simulated run never read.
 
@@ -234,6 +239,9 @@ def refuse_unread_by_simulation(
     (``[jumps."a->b"]``, ``"*->b"``) that none of them applied is left out of the names
     (``None``: every jump map is read).  ``unmade``: the switches of the schedule the run
     ended before → the step the schedule makes each.
+    ``unstarted``: the unmodelled behaviours of a components model's scenario the run ended
+    before (their index in ``simulation.unmodelled``) → the step the scenario starts each;
+    their equations are left out of the names.
     Keys that hold no expression are never read (:func:`_holds_no_expression`).  Checked
     after the run, before anything is written.
 
@@ -275,11 +283,25 @@ def refuse_unread_by_simulation(
                     lambda path: f"jumps.{_shown(path[1])}",
                 )
             )
+    if unstarted:
+
+        def behaviour_unstarted(path: Path) -> Path | None:
+            if path[:2] == ("simulation", "unmodelled") and len(path) >= 3:
+                return path[:3] if path[2] in {f"[{i}]" for i in unstarted} else None
+            return None
+
+        parts.append(
+            _Unread(
+                behaviour_unstarted,
+                "by unmodelled behaviours it never starts ({tables})",
+                _dotted,
+            )
+        )
     for name, where in _unread_only(model, texts, parts):
         raise OptionError(
             f"{_given(name, texts)}: parameters.{name} of {model.origin or model.name} is "
             f"named only {_why(where)}: the log would be the same without it; "
-            f"{_remedy(model, where, unreached or {}, unmade or {})}"
+            f"{_remedy(model, where, unreached or {}, unmade or {}, unstarted or {})}"
         )
 
 
@@ -305,6 +327,7 @@ def _remedy(
     where: list[tuple[_Unread, list[Path]]],
     unreached: Mapping[str, Mapping[str, int]],
     unmade: Mapping[tuple[str, str], int],
+    unstarted: Mapping[int, int],
 ) -> str:
     """How to make the run read the tables of ``where``: ``--steps`` when it ended before them."""
     starts: list[tuple[int, str]] = []
@@ -313,11 +336,14 @@ def _remedy(
         if part is _NO_EXPRESSION:
             continue
         for path in tables:
-            if path[0] == "jumps":
+            if path[0] == "simulation":  # an unmodelled behaviour: only --steps cut it off
+                start = unstarted[int(path[2][1:-1])]
+                starts.append((start, f"{part.show(path)} starts"))
+            elif path[0] == "jumps":
                 verbs.append("make those switches")
                 ends = _ends(path[1])
                 starts += [
-                    (step, f"switches from {a} to {b} ({part.show(path)})")
+                    (step, f"its schedule switches from {a} to {b} ({part.show(path)})")
                     for (a, b), step in unmade.items()
                     if _applied(model, (a, b)) == ends
                 ]
@@ -325,11 +351,13 @@ def _remedy(
                 verbs.append("play them")
                 component, mode = (path[1], path[3]) if len(path) == 4 else ("", path[1])
                 if mode in unreached.get(component, {}):
-                    starts.append((unreached[component][mode], f"plays {part.show(path)}"))
+                    starts.append(
+                        (unreached[component][mode], f"its schedule plays {part.show(path)}")
+                    )
     if starts:
         step, what = min(starts)
         return (
-            f"the run ends before its schedule {what} at step {step}: give --steps "
+            f"the run ends before {what} at step {step}: give --steps "
             f"{step} or more, or drop the --set"
         )
     if not verbs:

@@ -33,10 +33,26 @@ def test_a_parameter_only_unplayed_component_modes_name_is_refused(tmp_path: Pat
         "them (simulation.modes of the model file) or drop the --set"
     )
     assert not out.exists() and not list(tmp_path.iterdir())
-    # a parameter of a played mode (a regulator's stuck_open is not played either, but
-    # q_max is also the drift's bound in simulation.unmodelled) still runs
-    simulate_log("bioplex_pgc", out, steps=20, seed=1, settings=["q_max=0.6"])
+    # q_max, named by the regulators' stuck_open modes (not played either), is also the
+    # drift's bound in simulation.unmodelled: read once the drift starts within the run
+    simulate_log("bioplex_pgc", out, steps=20, seed=1, settings=["q_max=0.6", "drift_start=5"])
     assert out.exists()
+
+
+def test_a_parameter_only_unstarted_unmodelled_behaviours_name_is_refused(tmp_path: Path):
+    # `--steps 20 --set q_max=0.6` wrote a log the same as without it: the drift that q_max
+    # bounds starts at step 700, and no played mode names q_max
+    out = tmp_path / "x.csv"
+    with pytest.raises(OptionError) as caught:
+        simulate_log("bioplex_pgc", out, steps=20, seed=1, settings=["q_max=0.6"])
+    assert str(caught.value) == (
+        "--set q_max=0.6: parameters.q_max of bioplex_pgc is named only by modes this run "
+        "never plays (components.fr1.modes.stuck_open, components.fr2.modes.stuck_open) and "
+        "by unmodelled behaviours it never starts (simulation.unmodelled[0]): the log would "
+        "be the same without it; the run ends before simulation.unmodelled[0] starts at "
+        "step 700: give --steps 700 or more, or drop the --set"
+    )
+    assert not list(tmp_path.iterdir())
 
 
 def test_a_parameter_only_unscheduled_modes_name_is_refused(tmp_path: Path):
@@ -272,9 +288,8 @@ def test_a_parameter_only_keys_without_expressions_name_is_refused_by_every_comm
     model.write_text(_ESTIMATED)
     out = tmp_path / "x.csv"
     why = (
-        f"--set kbest=1: parameters.kbest of {model} is named only in keys that hold no "
-        "expression (estimators.imm.mode_sequence), whose names no command reads as "
-        "parameters (symbol names, mode ids, log paths, estimator options): "
+        f"--set kbest=1: parameters.kbest of {model} is named only in keys no command reads "
+        "as expressions (estimators.imm.mode_sequence): "
     )
     with pytest.raises(OptionError) as caught:
         simulate_log(model, out, seed=1, settings=["kbest=1"])
@@ -286,7 +301,7 @@ def test_a_parameter_only_keys_without_expressions_name_is_refused_by_every_comm
     simulate_log(model, out, seed=1, settings=["data=2"])
     assert parse_sets(["data=2"], str(model))[0].parameters["data"] == 2.0
     # ... unless only modes.2 is played: named by an unplayed mode and a log path
-    with pytest.raises(OptionError, match=r"expression \(signals\.y\), .* and by modes this run "):
+    with pytest.raises(OptionError, match=r"expressions \(signals\.y\) and by modes this run "):
         simulate_log(model, out, schedule="2:5", seed=1, settings=["data=2"], force=True)
 
 
