@@ -654,6 +654,48 @@ def unreached_modes(model: HybridModel, modes: IntArray, schedule: str | None) -
     return starts
 
 
+def switches_made(model: HybridModel, modes: IntArray) -> set[tuple[str, str]]:
+    """The switches ``(from id, to id)`` between consecutive rows of a run's ``modes``."""
+    changed = np.flatnonzero(modes[1:] != modes[:-1])
+    pairs = np.unique(np.stack([modes[changed], modes[changed + 1]], axis=1), axis=0)
+    ids = model.mode_ids
+    return {(ids[int(a)], ids[int(b)]) for a, b in pairs}
+
+
+def unmade_switches(
+    model: HybridModel, modes: IntArray, schedule: str | None
+) -> dict[tuple[str, str], int]:
+    """Switch ``(from id, to id)`` → the step the schedule first makes it, the run not having.
+
+    As :func:`unreached_modes`: ``schedule`` is the ``--schedule`` given, else the model's;
+    an entry after the first starts one row after the steps before it, and the schedule
+    repeats, so its last mode switches to its first one row after its total.  Empty for a
+    state-driven model (its guards decide) and a model without a schedule (one mode).
+    """
+    if model.state_driven:
+        return {}
+    if schedule is not None:
+        parsed = parse_schedule(schedule, model.mode_ids)
+    elif model.simulation_schedule:
+        where = f"{_origin(model)}: simulation.schedule"
+        parsed = parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
+    else:
+        return {}
+    made = switches_made(model, modes)
+    steps: dict[tuple[str, str], int] = {}
+    before = 0
+    previous = parsed[-1][0]  # the repeat's switch into the first entry
+    for i, (mode, count) in enumerate(parsed):
+        if mode != previous:
+            switch = (model.mode_ids[previous], model.mode_ids[mode])
+            at = before + 1 if i else sum(c for _, c in parsed) + 1
+            if switch not in made:
+                steps[switch] = min(at, steps.get(switch, at))
+        previous = mode
+        before += count
+    return steps
+
+
 def cut_schedule(
     model: HybridModel, modes: IntArray, steps: int | None, schedule: str | None
 ) -> tuple[str, ...]:

@@ -74,6 +74,9 @@ class ComponentsLog:
     unreached:
         Per component, each mode of its ``simulation.modes`` schedule the run ended before
         (a ``--steps`` shorter than the scenario) → the step the scenario starts it.
+    unstarted:
+        Each unmodelled behaviour the run ended before (its index in
+        ``simulation.unmodelled``) → the step the scenario starts it.
     """
 
     time: FloatArray
@@ -86,6 +89,7 @@ class ComponentsLog:
     controller: FloatArray
     notes: tuple[str, ...] = ()
     unreached: Mapping[str, Mapping[str, int]] = field(default_factory=dict)
+    unstarted: Mapping[int, int] = field(default_factory=dict)
 
     def truth_columns(self, model: HybridModel) -> tuple[str, ...]:
         """Columns that are ground truth: ``mode.<component>`` and the states."""
@@ -274,6 +278,11 @@ def simulate_components(
         controller=memory_log,
         notes=_cut_events(scenario, rows, at, labels) if steps is not None else (),
         unreached=_unreached(scenario, at, labels),
+        unstarted={
+            i: start
+            for i, b in enumerate(scenario.unmodelled)
+            if (start := at.at(b.start, f"{b.key}.start")) >= rows
+        },
     )
 
 

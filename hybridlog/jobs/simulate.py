@@ -25,7 +25,13 @@ from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.reads import refuse_unread_by_simulation
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
-from hybridlog.simulate import cut_schedule, parse_disturbance, unreached_modes
+from hybridlog.simulate import (
+    cut_schedule,
+    parse_disturbance,
+    switches_made,
+    unmade_switches,
+    unreached_modes,
+)
 from hybridlog.simulate import simulate as simulate_model
 
 if TYPE_CHECKING:
@@ -130,6 +136,7 @@ def simulate_log(
             moved,
             {name: set(modes) for name, modes in played.modes.items()},
             played.unreached,
+            unstarted=played.unstarted,
         )
         columns, truth = played.columns(model), played.truth_columns(model)
         samples = int(played.time.shape[0])
@@ -156,7 +163,14 @@ def simulate_log(
             )
         ids = {model.modes[int(q)].id for q in set(log.modes.tolist())}
         unreached = unreached_modes(model, log.modes, schedule)
-        refuse_unread_by_simulation(model, moved, {"": ids}, {"": unreached})
+        refuse_unread_by_simulation(
+            model,
+            moved,
+            {"": ids},
+            {"": unreached},
+            switches_made(model, log.modes),
+            unmade_switches(model, log.modes, schedule),
+        )
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
         notes = (*cut_schedule(model, log.modes, steps, schedule), *log.notes)
