@@ -2022,12 +2022,19 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
                     step = _rts_step_source(
                         p, model, j, x_f[i], P_f[i], u, Q[j], x_next[j], P_next[j], r_next[j]
                     )
+                    _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
+                    p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
                 else:
-                    step = _rts_correction_source(
-                        p, j, x_f[i], P_f[i], Q[j], x_next[j], P_next[j], r_next[j], held
-                    )
-                _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
-                p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
+                    with p.block(f"if {held.predicted}:"):
+                        step = _rts_correction_source(
+                            p, j, x_f[i], P_f[i], Q[j], x_next[j], P_next[j], r_next[j], held
+                        )
+                        _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
+                        p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
+                    with p.block("else:"):  # left out by stage 1, or its prediction failed
+                        for target, value in zip(chosen, stands, strict=True):
+                            p.emit(f"{target} = {term(value)}")
+                        p.emit(f"{cause_bit[i][j]} = {1 << (PREDICTION - 1)}")
             with p.block("else:"):
                 for target, value in zip(chosen, stands, strict=True):
                     p.emit(f"{target} = {term(value)}")
