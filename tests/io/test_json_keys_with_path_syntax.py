@@ -1,4 +1,4 @@
-"""A JSON key holding ``.``, ``/``, ``[`` or ``]`` is named in double quotes, and can be mapped.
+"""A JSON key (or Parquet struct field) holding ``.``, ``/``, ``[`` or ``]`` is quoted, and mapped.
 
 An MCAP file of JSON messages ``{"a.b": 1.5, "c[0]": 2, "y": [...]}`` was listed by ``inspect``
 as the fields ``/s.a.b`` and ``/s.c[0]``, and mapping what it listed was refused: "none of the
@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import polars as pl
 import pytest
 from mcap.writer import Writer
 
@@ -107,3 +108,16 @@ def test_the_cli_lists_and_reads_a_quoted_key(
     assert _cli(args + [arg for m in maps for arg in ("--map", m)]) == 0
     fields = json.loads((out / "report.json").read_text())["reading"]["fields"]
     assert fields["u"]["field"] == '/s."a.b"'
+
+
+def test_a_parquet_struct_field_with_a_dot_is_listed_quoted_and_read(tmp_path: Path) -> None:
+    log = tmp_path / "log.parquet"
+    rows = [{"a.b": 0.5 * k, "y": 10.0 + k} for k in range(N)]
+    pl.DataFrame({"t": np.arange(N, dtype=np.float64), "m": rows}).write_parquet(log)
+    names = [column["name"] for column in inspect_log(log)["columns"]]
+    assert 'm."a.b"' in names
+    signals = load_signals(log, SPEC, ReadOptions(maps=('u=m."a.b"', "y=m.y")))
+    np.testing.assert_array_equal(signals.inputs[:, 0], 0.5 * np.arange(N))
+    with pytest.raises(LogError) as info:
+        load_signals(log, SPEC, ReadOptions(maps=("u=m.a.b", "y=m.y")))
+    assert "fields: '\"a.b\"'" in str(info.value)
