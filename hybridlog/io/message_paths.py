@@ -76,9 +76,10 @@ def spell_field(name: str) -> str:
 
     A JSON key such as ``"a.b"`` or ``"c[0]"`` would otherwise read as two steps or as an
     index (``.a.b``, ``.c[0]``): listed that way by ``inspect``, it named a field no message
-    has.
+    has.  So is a key with spaces at either end (an unquoted step is stripped).
     """
-    return f'"{name}"' if any(c in _PATH_SYNTAX for c in name) else name
+    syntax = any(c in _PATH_SYNTAX for c in name) or name != name.strip()
+    return f'"{name}"' if syntax else name
 
 
 Fielddesc = tuple[Any, Any]

@@ -59,6 +59,8 @@ def test_a_quoted_step_is_one_key() -> None:
     assert path.steps == ("a.b",)
     assert split_path('/s."c[0]"', ["/s"]).steps == ("c[0]",)
     assert format_steps(("a.b", "q", 1)) == '."a.b".q[1]'
+    assert split_path('/s." u "', ["/s"]).steps == (" u ",)
+    assert format_steps((" u ",)) == '." u "'
 
 
 @pytest.mark.parametrize("schema", [SCHEMA, None], ids=["schema", "schemaless"])
