@@ -64,7 +64,23 @@ NUMERIC_TYPES = frozenset(
 """The primitive types of ROS messages that read as numbers."""
 STRING_TYPES = ("string",)
 
-_STEP = re.compile(r"[./]([^./\[\]]+)|\[\s*(-?\d+)\s*\]")
+_STEP = re.compile(r'[./]"([^"]+)"|[./]([^./\[\]]+)|\[\s*(-?\d+)\s*\]')
+"""A step: ``.field`` (or ``/field``), ``."field.with.dots"`` (a JSON key holding path syntax,
+quoted as :func:`spell_field` writes it) or ``[index]``."""
+
+_PATH_SYNTAX = frozenset('./[]"')
+
+
+def spell_field(name: str) -> str:
+    """``name`` as a step of a path: in double quotes when it holds ``.``, ``/``, ``[`` or ``]``.
+
+    A JSON key such as ``"a.b"`` or ``"c[0]"`` would otherwise read as two steps or as an
+    index (``.a.b``, ``.c[0]``): listed that way by ``inspect``, it named a field no message
+    has.  So is a key with spaces at either end (an unquoted step is stripped).
+    """
+    syntax = any(c in _PATH_SYNTAX for c in name) or name != name.strip()
+    return f'"{name}"' if syntax else name
+
 
 Fielddesc = tuple[Any, Any]
 Typedefs = Mapping[str, tuple[Any, Sequence[tuple[str, Fielddesc]]]]
@@ -112,7 +128,7 @@ class MessagePath:
 
 def format_steps(steps: Sequence[Step]) -> str:
     """``("a", "b", 0)`` → ``".a.b[0]"``."""
-    return "".join(f"[{s}]" if isinstance(s, int) else f".{s}" for s in steps)
+    return "".join(f"[{s}]" if isinstance(s, int) else f".{spell_field(s)}" for s in steps)
 
 
 def split_path(text: str, topics: Sequence[str]) -> MessagePath:
@@ -180,10 +196,13 @@ def _steps(text: str, rest: str) -> tuple[Step, ...]:
         if match is None:
             raise PathError(
                 f"{text!r}: cannot read {rest[position:]!r} after the topic "
-                "(expected .field, /field or [index], e.g. /joint_states.position[0])"
+                '(expected .field, /field, ."field" or [index], e.g. /joint_states.position[0])'
             )
-        field, index = match.groups()
-        steps.append(int(index) if index is not None else field.strip())
+        quoted, field, index = match.groups()
+        if quoted is not None:
+            steps.append(quoted)
+        else:
+            steps.append(int(index) if index is not None else field.strip())
         position = match.end()
     return tuple(steps)
 
@@ -410,7 +429,7 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
             value = value[step]  # type: ignore[index]
         elif isinstance(value, Mapping):
             if step not in value:
-                keys = [str(k) for k in value]
+                keys = [spell_field(str(k)) for k in value]
                 raise PathError(
                     f"{format_steps(done) or 'the message'} has no field {step!r}; "
                     f"{closest_names([step], keys).replace('available', 'fields')}"

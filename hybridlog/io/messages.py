@@ -68,6 +68,7 @@ from hybridlog.io.message_paths import (
     from_the_start,
     leaf_value,
     leaves,
+    spell_field,
     split_paths,
     stamp_ns,
 )
@@ -971,7 +972,9 @@ def _count_json(
         return path or "the message"
     if isinstance(value, Mapping):
         for key, item in value.items():
-            too_deep = _count_json(item, f"{path}.{key}", counts, fields, depth + 1, unheld)
+            too_deep = _count_json(
+                item, f"{path}.{spell_field(key)}", counts, fields, depth + 1, unheld
+            )
             if too_deep is not None:
                 return too_deep
     elif isinstance(value, list):
@@ -1335,7 +1338,9 @@ class _TopicReader:
                 # a field only some messages carry: its own times (the module docstring)
                 carried = np.concatenate(wanted.present)
                 if not carried.any():
-                    found = closest_names([wanted.missing], list(wanted.keys_seen))
+                    found = closest_names(
+                        [wanted.missing], list(map(spell_field, wanted.keys_seen))
+                    )
                     raise LogError(
                         f"{self.source.path}: {wanted.text!r}: none of the {carried.size} "
                         f"messages of topic {self.topic.label} has field "
@@ -1593,7 +1598,7 @@ def _json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
             if not isinstance(properties, Mapping):
                 return None
             if step not in properties:
-                names = [str(k) for k in properties]
+                names = [spell_field(str(k)) for k in properties]
                 raise PathError(
                     f"{format_steps(done) or 'the message'} has no field {step!r}; "
                     f"{closest_names([step], names).replace('available', 'fields')}"
@@ -1641,17 +1646,17 @@ def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
                 continue
             kind = child.get("type")
             if kind in ("number", "integer", "boolean", "string"):
-                out.append(f"{prefix}.{name}")
+                out.append(f"{prefix}.{spell_field(name)}")
             elif kind == "object":
-                walk(child, f"{prefix}.{name}", depth + 1)
+                walk(child, f"{prefix}.{spell_field(name)}", depth + 1)
             elif kind == "array":
                 items = child.get("items")
                 if not isinstance(items, Mapping):
                     continue
                 if items.get("type") in ("number", "integer", "boolean", "string"):
-                    out.append(f"{prefix}.{name}[]")
+                    out.append(f"{prefix}.{spell_field(name)}[]")
                 elif items.get("type") == "object":
-                    walk(items, f"{prefix}.{name}[]", depth + 1)
+                    walk(items, f"{prefix}.{spell_field(name)}[]", depth + 1)
 
     walk(schema, "", 0)
     return _JsonLeaves(out, too_deep)

@@ -328,18 +328,29 @@ def lookalikes(wanted: Sequence[str], match: str) -> str:
 def closest_names(wanted: Sequence[str], available: Sequence[str], limit: int = 3) -> str:
     """Describe the available names closest to any of ``wanted``, for error messages.
 
+    A name that differs from a wanted one only in case (a column ``U`` for the input ``u``,
+    ``T`` for the time column ``t``) comes first and is said to differ in case: difflib
+    compares characters as they are, so for short names it ranked other names above it (or
+    found none close) and the error pointed away from the column the user meant.
+
     Returns
     -------
     str
         ``"closest: 'a', 'b'"``, or, when nothing is close, ``"available: ..."`` listing a few.
     """
-    matches: list[str] = []
+    folded = {word.casefold(): word for word in wanted}
+    cased = [name for name in available if name.casefold() in folded and name not in wanted]
+    matches: list[str] = list(dict.fromkeys(cased))
     for word in wanted:
         for match in difflib.get_close_matches(word, available, n=limit, cutoff=0.5):
             if match not in matches:
                 matches.append(match)
     if matches:
         closest = "closest: " + ", ".join(repr(m) for m in matches[:limit])
+        if cased:
+            first = cased[0]
+            meant = folded[first.casefold()]
+            return f"{closest} (names are case-sensitive: {first!r} is not {meant!r})"
         return closest + lookalikes(wanted, matches[0])
     if not available:
         return "the log has none"

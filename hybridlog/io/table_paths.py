@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.errors import excerpt
-from hybridlog.io.message_paths import PathError, Step, format_steps, split_path
+from hybridlog.io.message_paths import PathError, Step, format_steps, spell_field, split_path
 from hybridlog.io.source import closest_names
 from hybridlog.polars_import import pl
 
@@ -122,7 +122,7 @@ def field_names(column: str, dtype: pl.DataType) -> list[str]:
     def walk(prefix: str, node: Any) -> None:
         if isinstance(node, pl.Struct):
             for member in node.fields:
-                walk(f"{prefix}.{member.name}", member.dtype)
+                walk(f"{prefix}.{spell_field(member.name)}", member.dtype)
         elif isinstance(node, pl.List | pl.Array):
             inner = node.inner
             if is_nested(inner):
@@ -177,9 +177,10 @@ def resolve(text: str, schema: Mapping[str, pl.DataType], fields: list[str]) -> 
                     f"{excerpt(where)} is {_kind_name(dtype)}, not a list; name a field"
                 )
             if step not in members:
+                found = closest_names([step], [spell_field(m) for m in members])
                 raise PathError(
                     f"{excerpt(where)} has no field {excerpt(step)}; "
-                    f"{closest_names([step], list(members)).replace('available', 'fields')}"
+                    f"{found.replace('available', 'fields')}"
                 )
             kinds.append(STRUCT)
             dtype = members[step]
@@ -205,7 +206,7 @@ def resolve(text: str, schema: Mapping[str, pl.DataType], fields: list[str]) -> 
             )
         where += format_steps([step])
     if isinstance(dtype, pl.Struct):
-        example = f"{where}.{dtype.fields[0].name}" if dtype.fields else where
+        example = f"{where}.{spell_field(dtype.fields[0].name)}" if dtype.fields else where
         raise PathError(f"{excerpt(where)} is {_kind_name(dtype)}; name a field, e.g. {example}")
     if isinstance(dtype, pl.List | pl.Array):
         raise PathError(f"{excerpt(where)} is {_kind_name(dtype)}; add an index, e.g. {where}[0]")
@@ -290,7 +291,7 @@ def expand(frame: pl.DataFrame, column: str) -> tuple[list[ColumnPath], list[str
         if isinstance(dtype, pl.Struct):
             for member in dtype.fields:
                 walk(
-                    f"{text}.{member.name}",
+                    f"{text}.{spell_field(member.name)}",
                     (*steps, member.name),
                     (*kinds, STRUCT),
                     member.dtype,

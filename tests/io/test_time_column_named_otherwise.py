@@ -24,7 +24,8 @@ def test_another_time_column_name_is_refused_with_the_remedy(tmp_path: Path, nam
     log.write_text(f"{name},u,y\n0,1,2\n0.1,2,3\n0.2,3,4\n")
     with pytest.raises(LogError) as info:
         load_signals(log, SPEC)
+    case = " (names are case-sensitive: 'Time' is not 'time')" if name == "Time" else ""
     assert str(info.value) == (
-        f"{log}: no time column (expected 't' or 'time' in seconds); closest: {name!r}; "
+        f"{log}: no time column (expected 't' or 'time' in seconds); closest: {name!r}{case}; "
         "rename the time column to 't' (no option names another)"
     )
