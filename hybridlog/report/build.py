@@ -389,7 +389,11 @@ class ReportBuilder:
             if part.unmeasured_outputs is not None:  # an innovation of a value not measured
                 unmeasured = np.any(part.unmeasured_outputs, axis=1, keepdims=True)
                 whitened = np.where(unmeasured, np.nan, whitened)
-            self._consistency.add(whitened, chunk.mode_probabilities)
+            # settled by the filter's own mode probabilities: the innovations are the filter's,
+            # and an offline pass's (smoothed) probabilities settle at other samples
+            post = chunk.post_processing
+            own = chunk if post is None else post.filtered
+            self._consistency.add(whitened, own.mode_probabilities)
         if self._offline is not None:
             self._offline.add(chunk, part, start)
         self._last = chunk
