@@ -39,6 +39,7 @@ from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.components import Component
+from hybridlog.model.derivatives import boolean_affine_problem
 from hybridlog.model.expressions import parse_expression
 from hybridlog.model.hybrid_model import (
     INTEGRATION_METHODS,
@@ -750,19 +751,14 @@ def _linear_form(
 def _check_boolean_affine(
     expressions: tuple[sympy.Expr, ...], key: str, deltas: tuple[sympy.Symbol, ...]
 ) -> None:
-    """Each expression affine in the booleans: ∂e/∂δ_j free of every δ (paper 003 eq. (1))."""
-    booleans = set(deltas)
+    """Each expression affine in the booleans, ``G + D·δ`` (paper 003 eq. (1))."""
     for i, expr in enumerate(expressions):
-        if not expr.free_symbols & booleans:
-            continue
-        for delta in deltas:
-            left = sympy.diff(expr, delta).free_symbols & booleans
-            if left:
-                names = ", ".join(sorted(str(s) for s in left))
-                raise ModelError(
-                    f"{key}[{i}]: not affine in the booleans (its derivative by {delta} "
-                    f"depends on {names}); write it as G(x, u) + D(x, u)·δ"
-                )
+        problem = boolean_affine_problem(expr, deltas)
+        if problem:
+            raise ModelError(
+                f"{key}[{i}]: not affine in the booleans ({problem}); write it as "
+                "G(x, u) + D(x, u)·δ (a valve: c*sqrt(h)*U, not Piecewise(c*sqrt(h), U > 0.5, 0))"
+            )
 
 
 def _guard(value: Any, key: str, env: Mapping[str, sympy.Expr], variables: set[str]) -> sympy.Basic:

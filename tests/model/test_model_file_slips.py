@@ -164,3 +164,56 @@ def test_cli_names_each_slip_in_one_line_and_writes_nothing(tmp_path, capsys, ol
     assert lines[0].startswith(f"hybridlog: error: {path}: "), lines
     assert re.search(said, lines[0]), lines
     assert not out.exists()
+
+
+BOOLEAN_TANK = """\
+time = "continuous"
+dt = 0.1
+integration = {method = "rk4", step = 0.1}
+booleans = ["U"]
+states = ["h"]
+inputs = ["q"]
+outputs = ["y"]
+
+[dynamics]
+dx = ["q - 0.5*sqrt(abs(h))*U"]
+h = ["h"]
+
+[noise]
+measurement = 0.01
+
+[initial]
+state = [1.0]
+"""
+
+
+@pytest.mark.parametrize(
+    ("dx", "said"),
+    [
+        # ∂/∂U of the Piecewise is 0: the split G + D·δ lost the valve, the modes had it
+        ('"q - Piecewise(0.5*sqrt(abs(h)), U > 0.5, 0)"', r"a boolean appears inside Piecewise"),
+        ('"q - 0.5*sqrt(abs(h))*U**2"', r"U\*\*2 is a power of booleans"),
+        ('"q - 0.5*sqrt(abs(h)*U)"', r"a boolean appears inside sqrt"),
+    ],
+)
+def test_a_boolean_used_other_than_as_a_factor_is_refused(dx, said):
+    text = _replace(BOOLEAN_TANK, '"q - 0.5*sqrt(abs(h))*U"', dx)
+    _refused(text, r"dynamics\.dx\[0\]: not affine in the booleans \(" + said)
+
+
+def test_a_boolean_affine_model_still_loads():
+    model = parse_model(BOOLEAN_TANK)
+    assert model.mode_ids == ("0", "1")
+
+
+def test_cli_refuses_a_boolean_inside_a_piecewise(tmp_path, capsys):
+    path = tmp_path / "tank.toml"
+    dx = '"q - Piecewise(0.5*sqrt(abs(h)), U > 0.5, 0)"'
+    path.write_text(_replace(BOOLEAN_TANK, '"q - 0.5*sqrt(abs(h))*U"', dx))
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out), "--steps", "3"])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{path}: dynamics.dx[0]: not affine" in lines[0], lines
+    assert not out.exists()
