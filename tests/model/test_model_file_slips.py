@@ -17,6 +17,7 @@ from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.model.expressions import parse_expression
 from hybridlog.model.loader import parse_model
+from hybridlog.simulate import simulate
 from tests.support.models import LINEAR_TWO_MODE
 
 X = {"x": sympy.Symbol("x", real=True), "u": sympy.Symbol("u", real=True)}
@@ -216,4 +217,69 @@ def test_cli_refuses_a_boolean_inside_a_piecewise(tmp_path, capsys):
     assert exit_.value.code == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and f"{path}: dynamics.dx[0]: not affine" in lines[0], lines
+    assert not out.exists()
+
+
+ROOT = """\
+dt = 0.1
+states = ["x"]
+outputs = ["y"]
+
+[modes.a]
+f = ["F"]
+h = ["H"]
+
+[modes.b]
+A = [[0.5]]
+C = [[1.0]]
+
+[noise]
+process = 0.0
+measurement = 0.0
+
+[initial]
+state = [1.0]
+covariance = 1.0
+"""
+
+
+@pytest.mark.parametrize(
+    ("f", "h", "said"),
+    [
+        # each was "the simulation diverged: x = nan at t = 0.2 s", naming no key
+        ("x**(1/3) - 2", "x", r"modes\.a\.f\[0\]: 'x\*\*\(1/3\) - 2' is nan at x = -1, the step "),
+        ("log(x) + 0.5", "x", r"modes\.a\.f\[0\]: 'log\(x\) \+ 0\.5' is nan at x = -0\.193147"),
+        (
+            "x - 0.5",
+            "sqrt(x)",
+            r"modes\.a\.h\[0\]: 'sqrt\(x\)' is nan at x = -0\.5, at t = 0\.3 s ",
+        ),
+    ],
+)
+def test_a_discrete_expression_leaving_its_domain_is_named(f, h, said):
+    text = ROOT.replace('"F"', f'"{f}"').replace('"H"', f'"{h}"')
+    with pytest.raises(ModelError, match=r"^m\.toml: " + said) as caught:
+        simulate(parse_model(text, origin="m.toml"), steps=5)
+    assert "the simulation diverged; nothing was written" in str(caught.value)
+
+
+def test_a_discrete_expression_of_a_scheduled_mode_is_named_in_that_mode():
+    # x(k) = f_q(k)(x(k-1)): the step into row 3 is mode a's, from b's x = 0.25 at row 2
+    text = ROOT.replace('"F"', '"log(x - 1)"').replace('"H"', '"x"')
+    said = (
+        r"^m\.toml: modes\.a\.f\[0\]: 'log\(x - 1\)' is nan at x = 0\.25, the step from t = 0\.2 s"
+    )
+    with pytest.raises(ModelError, match=said):
+        simulate(parse_model(text, origin="m.toml"), steps=6, schedule="b:2,a:1")
+
+
+def test_cli_names_a_discrete_expression_leaving_its_domain(tmp_path, capsys):
+    path = tmp_path / "plant.toml"
+    path.write_text(ROOT.replace('"F"', '"log(x) + 0.5"').replace('"H"', '"x"'))
+    out = tmp_path / "sim.parquet"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out), "--steps", "5"])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{path}: modes.a.f[0]: 'log(x) + 0.5' is nan" in lines[0], lines
     assert not out.exists()
