@@ -55,6 +55,7 @@ from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
     InputFunction,
     JumpFunction,
+    ModelFunction,
     compile_continuous,
     compile_guard,
     compile_model,
@@ -308,6 +309,55 @@ def _check_dx_domain(model: HybridModel, arguments: tuple[Any, ...]) -> None:
             f"{format_time(float(time[row]))} s",
             "the simulation diverged; nothing was written",
         )
+
+
+def _check_f_h_domain(
+    model: HybridModel,
+    f: ModelFunction | None,
+    h: ModelFunction,
+    arrays: tuple[IntArray, FloatArray, FloatArray, FloatArray, FloatArray],
+    *,
+    mode_of_step: Callable[[int], int],
+) -> None:
+    """Name the ``f`` or ``h`` expression that turned the run's first finite point into NaN.
+
+    ``sqrt(x)`` of an output at a state stepping below 0, or ``x**(1/3) - 2`` of a
+    discrete-time state, made "the simulation diverged: y = nan", naming neither the mode
+    nor the expression (the continuous ``dx`` has :func:`_check_dx_domain`).  At the first
+    row that is not finite, ``h`` is evaluated again at its state when that is finite, else
+    ``f`` (``None`` in continuous time) at the row before, in the mode ``mode_of_step``
+    gives the step into the row.  A point already beyond the range a log holds is said by
+    the range check (:func:`check_columns`), as the earlier fault.  A linear mode (``A, B,
+    C, D``: no ``f`` or ``h`` in its file) leaves no domain; its overflow is said by the
+    range check.  ``arrays``: the run's ``modes, inputs, time, states, outputs``.
+    """
+    from hybridlog.model.escape import Escape, escape_error
+
+    modes, inputs, time, states, outputs = arrays
+    finite = np.isfinite(states).all(axis=1) & np.isfinite(outputs).all(axis=1)
+    if finite.all():
+        return
+    row = int(np.argmin(finite))
+    if np.isfinite(states[row]).all():
+        function, q, at, call = "h", int(modes[row]), row, h
+        where = f"at t = {format_time(float(time[row]))} s"
+    elif f is not None and row > 0:
+        function, q, at, call = "f", mode_of_step(row), row - 1, f
+        where = (
+            f"the step from t = {format_time(float(time[row - 1]))} s to "
+            f"{format_time(float(time[row]))} s"
+        )
+    else:
+        return
+    if model.modes[q].linear_form is not None:
+        return
+    x, u = np.ascontiguousarray(states[at]), np.ascontiguousarray(inputs[at])
+    out = np.empty(model.n_outputs if function == "h" else model.n_states)
+    with np.errstate(all="ignore"):
+        call(q, x, u, out)
+    escape = Escape(function, q, -1, x.copy(), u.copy(), out)
+    if within_range(x).all() and within_range(u).all() and not np.isfinite(out).all():
+        raise escape_error(model, escape, where, "the simulation diverged; nothing was written")
 
 
 def _noise_factor(covariance: FloatArray) -> FloatArray:
@@ -567,6 +617,8 @@ def simulate(
         _check_jumps(model, functions.jump, modes, states, time)
         check_step(model, functions, modes, states, inputs, time, state_min)
         _check_dx_domain(model, arguments)
+        run = (modes, inputs, time, states, outputs)
+        _check_f_h_domain(model, None, functions.h, run, mode_of_step=lambda k: int(modes[k]))
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)
         arguments = (
@@ -585,6 +637,15 @@ def simulate(
         )
         guarded: Callable[..., int] = kernels.simulate_guarded_steps
         stuck = (compile_for(guarded, arguments) if jit else guarded)(*arguments)
+        # x(k) = f_q(k-1)(x(k-1), u(k-1)); a row past `stuck` was never run
+        end = len(modes) if stuck < 0 else stuck + 1
+        _check_f_h_domain(
+            model,
+            compiled.f,
+            compiled.h,
+            (modes[:end], inputs[:end], time[:end], states[:end], outputs[:end]),
+            mode_of_step=lambda k: int(modes[k - 1]),
+        )
         if stuck >= 0:  # a NaN state holds no guard: the run diverged, which is said first
             check_columns(
                 origin,
@@ -613,6 +674,8 @@ def simulate(
         )
         scheduled: Callable[..., None] = kernels.simulate_steps
         (compile_for(scheduled, arguments) if jit else scheduled)(*arguments)
+        run = (modes, inputs, time, states, outputs)
+        _check_f_h_domain(model, compiled.f, compiled.h, run, mode_of_step=lambda k: int(modes[k]))
     check_columns(
         origin,
         time,

@@ -141,19 +141,58 @@ def boolean_affine_split(
     >>> boolean_affine_split([1 - x * d1, d2 * x + d1], [d1, d2])
     ([1, 0], [[-x, 0], [1, x]])
     """
-    flags = set(booleans)
     zero = {d: sympy.S.Zero for d in booleans}
     G: list[sympy.Expr] = []
     D: list[list[sympy.Expr]] = []
     for i, expression in enumerate(expressions):
-        row = [sympy.diff(expression, d) for d in booleans]
-        for d, column in zip(booleans, row, strict=True):
-            left = column.free_symbols & flags
-            if left:
-                names = ", ".join(sorted(str(s) for s in left))
-                raise ValueError(
-                    f"{i}: not affine in the booleans (its derivative by {d} depends on {names})"
-                )
+        problem = boolean_affine_problem(expression, booleans)
+        if problem:
+            raise ValueError(f"{i}: not affine in the booleans ({problem})")
         G.append(expression.xreplace(zero))
-        D.append(row)
+        D.append([sympy.diff(expression, d) for d in booleans])
     return G, D
+
+
+def boolean_affine_problem(expression: sympy.Expr, booleans: Sequence[sympy.Symbol]) -> str:
+    """Why ``expression`` is not ``G + Σ D_j δ_j`` with ``G``, ``D_j`` free of the booleans.
+
+    ``""`` when it is.  The expression must be a polynomial of degree at most 1 in the
+    booleans.  Asking only that each derivative ∂e/∂δ_j be free of the booleans let a
+    boolean inside a ``Piecewise`` through (``Piecewise(c*sqrt(h), U > 0.5, 0)``, whose
+    derivative is 0): ``G`` and ``D`` were then ``e`` at δ = 0 and 0, a valve that never
+    opens, while the modes, substituted directly, had it open.
+
+    >>> x, d1, d2 = sympy.symbols("x d1 d2", real=True)
+    >>> boolean_affine_problem(x * d1 + sympy.sqrt(x), [d1, d2])
+    ''
+    >>> boolean_affine_problem(x * d1 * d2, [d1, d2])
+    'd1*d2 is a product of booleans'
+    """
+    used = [d for d in booleans if expression.has(d)]
+    if not used:
+        return ""
+    try:
+        polynomial = sympy.Poly(expression, *used)
+    except sympy.PolynomialError:
+        inside = next(
+            (
+                node
+                for node in sympy.preorder_traversal(expression)
+                if isinstance(node, sympy.Function | sympy.Pow)
+                and not (isinstance(node, sympy.Pow) and node.exp.is_Integer)
+                and node.has(*used)
+            ),
+            None,
+        )
+        where = f" inside {_short(inside)}" if inside is not None else ""
+        return f"a boolean appears{where}, not as a term times a boolean"
+    for monomial in polynomial.monoms():
+        if sum(monomial) > 1:
+            term = sympy.Mul(*(d**p for d, p in zip(used, monomial, strict=True)))
+            return f"{term} is {'a power' if max(monomial) > 1 else 'a product'} of booleans"
+    return ""
+
+
+def _short(node: sympy.Basic) -> str:
+    text = str(node)
+    return text if len(text) <= 60 else text[:57] + "..."

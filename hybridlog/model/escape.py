@@ -40,7 +40,7 @@ class Escape:
     Attributes
     ----------
     function:
-        ``"dx"``, ``"h"`` or ``"reset"`` (a jump map).
+        ``"dx"``, ``"f"``, ``"h"`` or ``"reset"`` (a jump map).
     mode:
         The mode index (for ``reset``: the mode before the switch).
     target:
@@ -145,7 +145,7 @@ def escape_error(
             f"from {point(model, escape.x, escape.u)}: {consequence}",
         )
     mode = model.modes[escape.mode]
-    expressions = mode.dx if escape.function == "dx" else mode.h
+    expressions = {"dx": mode.dx, "f": mode.f}.get(escape.function, mode.h)
     why = (
         f"the {noun} left the domain of {escape.function} there"
         if np.isnan(value)

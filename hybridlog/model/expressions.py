@@ -214,6 +214,12 @@ def parse_expression(
         raise ModelError(f"{key}: expected an expression string, got {type(text).__name__}")
     if len(text) > MAX_LENGTH:
         raise ModelError(f"{key}: expression longer than {MAX_LENGTH} characters")
+    if "#" in text:
+        # Python's parser reads the rest of the line as a comment: '0.9*x # + u' was 0.9*x.
+        raise ModelError(
+            f"{key}: {excerpt(text)} holds '#', which would silently drop the rest of the "
+            "expression; a TOML comment goes after the closing quote"
+        )
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as err:
@@ -317,9 +323,9 @@ class _Converter:
             return self.binary(node)
         if isinstance(node, ast.UnaryOp):
             if isinstance(node.op, ast.USub):
-                return -self.visit(node.operand)
+                return -self.value(node.operand)
             if isinstance(node.op, ast.UAdd):
-                return self.visit(node.operand)
+                return self.value(node.operand)
             raise self.fail(f"operator {type(node.op).__name__}")
         if isinstance(node, ast.Compare):
             return self.compare(node)
@@ -331,21 +337,40 @@ class _Converter:
             return self.indexed(node)
         raise self.fail(f"a {type(node).__name__} expression")
 
+    def value(self, node: ast.expr) -> sympy.Expr:
+        """``node`` as an operand of arithmetic or a function: a value, never a condition.
+
+        sympy refuses ``(x > 0)*x`` in its own words ("Relational cannot be used in Mul");
+        the error says what to write instead.
+        """
+        result = self.visit(node)
+        if isinstance(result, _CONDITIONS):
+            raise ModelError(
+                f"{self.key}: the comparison {excerpt(ast.unparse(node), 40)} is a condition, "
+                "not a number; write Piecewise(value, condition, otherwise)"
+            )
+        return result
+
     def binary(self, node: ast.BinOp) -> sympy.Expr:
         """``+ - * / **``; a chain ``a + b - c ...`` is built in one step, without recursion."""
         group = _chain_group(node.op)
         if group is None:
             if isinstance(node.op, ast.Pow):
-                return _power(self.visit(node.left), self.visit(node.right))
+                return _power(self.value(node.left), self.value(node.right))
+            if isinstance(node.op, ast.BitXor):
+                raise ModelError(
+                    f"{self.key}: '^' is not a power in a model expression (Python reads it "
+                    "as a bitwise xor); write '**', as in x**2"
+                )
             raise self.fail(f"operator {type(node.op).__name__}")
         links: list[tuple[ast.operator, ast.expr]] = []
         left: ast.expr = node
         while isinstance(left, ast.BinOp) and _chain_group(left.op) is group:
             links.append((left.op, left.right))
             left = left.left
-        terms = [self.visit(left)]
+        terms = [self.value(left)]
         for op, right in reversed(links):
-            value = self.visit(right)
+            value = self.value(right)
             if isinstance(op, ast.Sub):
                 value = -value
             elif isinstance(op, ast.Div):
@@ -428,7 +453,7 @@ class _Converter:
         operator = _COMPARE.get(type(node.ops[0]))
         if operator is None:
             raise self.fail(f"comparison {type(node.ops[0]).__name__}")
-        return operator(self.visit(node.left), self.visit(node.comparators[0]))
+        return operator(self.value(node.left), self.value(node.comparators[0]))
 
     def call(self, node: ast.Call) -> sympy.Expr:
         if not isinstance(node.func, ast.Name):
@@ -443,6 +468,11 @@ class _Converter:
             )
         if node.keywords:
             raise self.fail("a keyword argument")
+        if node.func.id == "Piecewise" and any(isinstance(a, ast.Tuple) for a in node.args):
+            raise ModelError(
+                f"{self.key}: Piecewise takes flat arguments, Piecewise(value, condition, "
+                "value, condition, ..., otherwise), not sympy's (value, condition) pairs"
+            )
         if any(isinstance(arg, ast.Starred) for arg in node.args):
             raise self.fail("argument unpacking")
         name, given = node.func.id, len(node.args)
@@ -452,4 +482,13 @@ class _Converter:
                 f"exactly {least}" if least == most else f"at least {least}"
             ) + f" argument{'s' if least > 1 else ''}"
             raise ModelError(f"{self.key}: {name} takes {wanted} ({given} given)")
-        return function(*(self.visit(arg) for arg in node.args))
+        if name == "Piecewise":  # conditions at the odd positions, values elsewhere
+            return function(
+                *(
+                    self.visit(arg)
+                    if position % 2 == 1 and position < given - 1
+                    else self.value(arg)
+                    for position, arg in enumerate(node.args)
+                )
+            )
+        return function(*(self.value(arg) for arg in node.args))

@@ -39,6 +39,7 @@ from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.components import Component
+from hybridlog.model.derivatives import boolean_affine_problem
 from hybridlog.model.expressions import parse_expression
 from hybridlog.model.hybrid_model import (
     INTEGRATION_METHODS,
@@ -200,6 +201,7 @@ class _Builder:
         data = self.data
         check_keys(data, _TOP_KEYS, "")
         kind = _kind(data)
+        _refuse_misplaced_top_keys(data)
         timebase = _timebase(data)
         if kind == "components" and timebase.is_continuous:
             raise ModelError(
@@ -572,6 +574,41 @@ def _kind(data: Mapping[str, Any]) -> str:
     return "booleans" if "booleans" in data else "modes"
 
 
+def _refuse_misplaced_top_keys(data: Mapping[str, Any]) -> None:
+    """Refuse a top-level key written below a table header, before it is missed at the top.
+
+    In TOML every key after ``[initial]`` belongs to ``[initial]``: ``dt = 0.01`` appended
+    at the end of a file, or ``time = "continuous"`` below ``[noise]``, was reported as
+    ``dt: required key is missing`` (or, for ``time``, as a discrete-time model's ``dx``),
+    although the file held it.  Checked in the tables whose keys are fixed (a parameter or
+    a state may be called ``dt``).  A sub-table (``[modes.a.noise]``) is no such slip: it
+    is left to the table's own check of its keys.
+    """
+    tables: list[tuple[str, Any, set[str]]] = [
+        (name, data.get(name), allowed)
+        for name, allowed in (
+            ("noise", _NOISE_KEYS),
+            ("initial", _INITIAL_KEYS),
+            ("transitions", _TRANSITION_KEYS),
+            ("dynamics", _DYNAMICS_KEYS),
+            ("simulation", _SIMULATION_KEYS),
+        )
+    ]
+    modes = data.get("modes")
+    if isinstance(modes, dict):
+        tables += [(key_path("modes", i), spec, _MODE_KEYS) for i, spec in modes.items()]
+    for where, table, allowed in tables:
+        if not isinstance(table, dict):
+            continue
+        for key in table:
+            if key in _TOP_KEYS and key not in allowed and not isinstance(table[key], dict):
+                raise ModelError(
+                    f"{key_path(where, key)}: {key!r} is a top-level key, but written below "
+                    f"the [{where}] header it belongs to that table; move it above the "
+                    "first [table] header"
+                )
+
+
 def _timebase(data: Mapping[str, Any]) -> Timebase:
     time = data.get("time", "discrete")
     if time not in ("discrete", "continuous"):
@@ -714,19 +751,14 @@ def _linear_form(
 def _check_boolean_affine(
     expressions: tuple[sympy.Expr, ...], key: str, deltas: tuple[sympy.Symbol, ...]
 ) -> None:
-    """Each expression affine in the booleans: ∂e/∂δ_j free of every δ (paper 003 eq. (1))."""
-    booleans = set(deltas)
+    """Each expression affine in the booleans, ``G + D·δ`` (paper 003 eq. (1))."""
     for i, expr in enumerate(expressions):
-        if not expr.free_symbols & booleans:
-            continue
-        for delta in deltas:
-            left = sympy.diff(expr, delta).free_symbols & booleans
-            if left:
-                names = ", ".join(sorted(str(s) for s in left))
-                raise ModelError(
-                    f"{key}[{i}]: not affine in the booleans (its derivative by {delta} "
-                    f"depends on {names}); write it as G(x, u) + D(x, u)·δ"
-                )
+        problem = boolean_affine_problem(expr, deltas)
+        if problem:
+            raise ModelError(
+                f"{key}[{i}]: not affine in the booleans ({problem}); write it as "
+                "G(x, u) + D(x, u)·δ (a valve: c*sqrt(h)*U, not Piecewise(c*sqrt(h), U > 0.5, 0))"
+            )
 
 
 def _guard(value: Any, key: str, env: Mapping[str, sympy.Expr], variables: set[str]) -> sympy.Basic:
@@ -906,7 +938,7 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
             f"{key}: probabilities must be non-negative; mode {mode_ids[worst]!r} has "
             f"{probabilities[worst]:g}"
         )
-    if not math.isclose(probabilities.sum(), 1.0, abs_tol=1e-9):
+    if not math.isclose(probabilities.sum(), 1.0, abs_tol=_SUM_TOLERANCE):
         raise ModelError(
             f"{key}: probabilities must sum to 1; they sum to {probabilities.sum():.10g}"
             + ("" if isinstance(value, dict) else f" (modes in order: {', '.join(mode_ids)})")
@@ -925,11 +957,17 @@ def _transitions(value: Any, mode_ids: tuple[str, ...]) -> FloatArray | None:
         raise ModelError("transitions: give either matrix or stay, not both")
     if "stay" in table:
         return markov_matrix(as_probability(table["stay"], "transitions.stay"), n)
-    return _markov_rows(required(table, "matrix", "transitions"), n)
+    return _markov_rows(required(table, "matrix", "transitions"), mode_ids)
 
 
-def _markov_rows(value: Any, n: int) -> FloatArray:
+_SUM_TOLERANCE = 1e-9
+"""How far from 1 a row of probabilities may sum (rounding of the written decimals)."""
+
+
+def _markov_rows(value: Any, mode_ids: tuple[str, ...]) -> FloatArray:
+    """``transitions.matrix``: one row per mode, non-negative, each summing to 1."""
     key = "transitions.matrix"
+    n = len(mode_ids)
     if (
         not isinstance(value, list)
         or len(value) != n
@@ -939,9 +977,23 @@ def _markov_rows(value: Any, n: int) -> FloatArray:
     matrix = np.array(
         [[as_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)] for i, r in enumerate(value)]
     )
-    if matrix.min() < 0 or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
-        bad = int(np.argmax(np.abs(matrix.sum(axis=1) - 1.0)))
-        raise ModelError(f"{key}[{bad}]: each row must be non-negative and sum to 1")
+    if matrix.min() < 0:
+        # The row of the negative entry: a row [1.1, -0.1] sums to 1, so the row whose sum
+        # is furthest from 1 was named instead (row 0 of [[0.9, 0.1], [1.1, -0.1]]).
+        row, col = (int(i) for i in np.unravel_index(np.argmin(matrix), matrix.shape))
+        raise ModelError(
+            f"{key}[{row}][{col}]: a probability must be non-negative, got "
+            f"{matrix[row, col]:g} (from mode {mode_ids[row]!r} to {mode_ids[col]!r})"
+        )
+    sums = matrix.sum(axis=1)
+    bad = int(np.argmax(np.abs(sums - 1.0)))
+    if not math.isclose(sums[bad], 1.0, rel_tol=0.0, abs_tol=_SUM_TOLERANCE):
+        # As initial.mode_probabilities: allclose's default relative tolerance let rows
+        # summing to 0.99999 through, a Markov chain that loses probability every step.
+        raise ModelError(
+            f"{key}[{bad}]: each row must sum to 1; the row of mode {mode_ids[bad]!r} sums to "
+            f"{sums[bad]:.10g}"
+        )
     return matrix
 
 

@@ -38,10 +38,34 @@ def check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
 
 
 def required(table: Mapping[str, Any], key: str, where: str) -> Any:
-    """``table[key]``, or an error naming the missing key."""
+    """``table[key]``, or an error naming the missing key.
+
+    A top-level key missing from the top level but written in a table (``dt = 0.1`` below
+    ``[parameters]``, where TOML puts every key after the header) is named where it is.
+    """
     if key not in table:
-        raise ModelError(f"{key_path(where, key)}: required key is missing")
+        found = _nested_key(table, key) if not where else None
+        hint = (
+            f" (the file has {found}: a key written below a [table] header belongs to that "
+            "table; move it above the first header)"
+            if found
+            else ""
+        )
+        raise ModelError(f"{key_path(where, key)}: required key is missing{hint}")
     return table[key]
+
+
+def _nested_key(table: Mapping[str, Any], key: str) -> str | None:
+    """The dotted path of ``key`` in a table of ``table`` or a table of one, or ``None``."""
+    for name, value in table.items():
+        if not isinstance(value, dict):
+            continue
+        if key in value:
+            return key_path(name, key)
+        for inner, spec in value.items():
+            if isinstance(spec, dict) and key in spec:
+                return key_path(key_path(name, inner), key)
+    return None
 
 
 def as_table(value: Any, key: str) -> dict[str, Any]:

@@ -141,8 +141,14 @@ u = "0"
 @pytest.mark.parametrize(
     ("f", "high", "message"),
     [
-        # a NaN state holds no guard: it was reported as "no mode's guard holds (x = [nan])"
-        ("sqrt(x - 2)", "x > 5", "the simulation diverged: x = nan at t = 1 s is not a finite"),
+        # a NaN state holds no guard: it was reported as "no mode's guard holds (x = [nan])",
+        # then as "the simulation diverged: x = nan at t = 1 s", naming no key
+        (
+            "sqrt(x - 2)",
+            "x > 5",
+            r"modes\.low\.f\[0\]: 'sqrt\(x - 2\)' is nan at x = 1, u = 0, the step from t = 0 s "
+            r"to 1 s \(the state left the domain of f there\)",
+        ),
         ("x*1e100", "x > 5", r"the simulation diverged: x = 1e\+200 at t = 2 s is out of range"),
         ("x + 10", "x > 20", r"no mode's guard \(modes.<id>.guard\) holds at t = 1 s"),
     ],

@@ -43,8 +43,11 @@ def test_boolean_affine_split_refuses_a_product_of_booleans():
     x, d1, d2 = sympy.symbols("x d1 d2", real=True)
     G, D = boolean_affine_split([x + 2 * d1 - x * d2], [d1, d2])
     assert [x] == G and [[2, -x]] == D
-    with pytest.raises(ValueError, match=r"^0: not affine in the booleans .* by d1 depends on d2"):
+    with pytest.raises(ValueError, match=r"^0: not affine in the booleans \(d1\*d2 is a product"):
         boolean_affine_split([x * d1 * d2], [d1, d2])
+    # the derivative of a Piecewise in a boolean is 0: G and D were e(δ=0) and 0
+    with pytest.raises(ValueError, match=r"^0: not affine in the booleans \(a boolean appears "):
+        boolean_affine_split([sympy.Piecewise((x, d1 > 0.5), (0, True))], [d1, d2])
 
 
 def test_continuous_functions_refuse_a_discrete_model():

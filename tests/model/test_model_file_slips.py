@@ -1,0 +1,285 @@
+"""Slips a control engineer makes writing a model file, each refused naming what was meant.
+
+An expression written as in MATLAB or sympy (``x^2``, ``Piecewise((x, x > 0), ...)``,
+``(x > 0)*x``), a comment inside the quotes, a Markov matrix with a negative entry or a row
+a little short of 1, a top-level key written below a table header: each was read as
+something else or refused in words that pointed elsewhere.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+import sympy
+
+from hybridlog.cli import main
+from hybridlog.errors import ModelError
+from hybridlog.model.expressions import parse_expression
+from hybridlog.model.loader import parse_model
+from hybridlog.simulate import simulate
+from tests.support.models import LINEAR_TWO_MODE
+
+X = {"x": sympy.Symbol("x", real=True), "u": sympy.Symbol("u", real=True)}
+MATRIX = "matrix = [[0.97, 0.03], [0.05, 0.95]]"
+
+
+def _replace(text: str, old: str, new: str) -> str:
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+def _refused(text: str, pattern: str) -> str:
+    with pytest.raises(ModelError, match=r"^m\.toml: " + pattern) as caught:
+        parse_model(text, origin="m.toml")
+    message = str(caught.value)
+    assert "\n" not in message
+    return message
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        # was "operator BitXor is not allowed in a model expression"
+        ("x^2", r"'\^' is not a power .*write '\*\*'"),
+        # was 0.9*x: Python's parser dropped the rest of the text as a comment
+        ("0.9*x # + u", r"'0\.9\*x # \+ u' holds '#', which would silently drop the rest"),
+        ("0.9*x + u  # leak", r".* holds '#'"),
+        # was "Piecewise takes at least 3 arguments (2 given)"
+        ("Piecewise((x, x > 0), (0, True))", r"Piecewise takes flat arguments"),
+        # was sympy's "Relational cannot be used in Mul"
+        ("(x > 0)*x", r"the comparison 'x > 0' is a condition, not a number"),
+        ("sqrt(x > 0)", r"the comparison 'x > 0' is a condition"),
+        ("-(x > 0)", r"the comparison 'x > 0' is a condition"),
+        ("Piecewise(x, x > 0, x > 1)", r"the comparison 'x > 1' is a condition"),
+        ("(x > 0) < 1", r"the comparison 'x > 0' is a condition"),
+    ],
+)
+def test_an_expression_written_as_elsewhere_says_what_to_write(text, said):
+    with pytest.raises(ModelError, match=r"^modes\.a\.f\[0\]: " + said):
+        parse_expression(text, X, key="modes.a.f[0]")
+
+
+def test_piecewise_and_comparisons_still_parse_where_they_belong():
+    expr = parse_expression("Piecewise(x, x > 0, u, u > 1, 0) + Piecewise(1, x < u, 2)", X, key="k")
+    assert float(expr.subs({X["x"]: 2.0, X["u"]: 3.0})) == 3.0
+    both_sides = parse_expression("Piecewise(1, x + u <= 2*u, 0)", X, key="k")
+    assert float(both_sides.subs({X["x"]: 2.0, X["u"]: 3.0})) == 1.0
+
+
+@pytest.mark.parametrize(
+    ("matrix", "said"),
+    [
+        # row 1 sums to 1: the row furthest from summing to 1 (row 0) was named
+        (
+            "matrix = [[0.97, 0.03], [1.05, -0.05]]",
+            r"transitions\.matrix\[1\]\[1\]: a probability must be non-negative, got -0\.05 "
+            r"\(from mode 'fast' to 'fast'\)",
+        ),
+        (
+            "matrix = [[0.97, 0.13], [0.05, 0.95]]",
+            r"transitions\.matrix\[0\]: each row must sum to 1; the row of mode 'slow' sums "
+            r"to 1\.1$",
+        ),
+        # allclose's relative tolerance let 0.99999 through
+        (
+            "matrix = [[0.97, 0.03], [0.05, 0.94999]]",
+            r"transitions\.matrix\[1\]: .* the row of mode 'fast' sums to 0\.99999$",
+        ),
+    ],
+)
+def test_a_markov_row_names_its_negative_entry_or_its_sum(matrix, said):
+    _refused(_replace(LINEAR_TWO_MODE, MATRIX, matrix), said)
+
+
+def test_a_markov_row_of_rounded_thirds_summing_to_one_is_read():
+    text = LINEAR_TWO_MODE.replace(
+        "[modes.fast]",
+        "[modes.third]\nA = [[1.0, 0.1], [0.0, 0.9]]\n"
+        "B = [[0.0], [0.1]]\nC = [[1.0, 0.0], [0.0, 1.0]]\n\n"
+        "[modes.fast]",
+    )
+    text = _replace(text, "mode_probabilities = [0.6, 0.4]", 'mode = "slow"')
+    rows = "[[0.333333, 0.333333, 0.333334], [0.1, 0.8, 0.1], [0.0, 0.05, 0.95]]"
+    model = parse_model(_replace(text, MATRIX, f"matrix = {rows}"))
+    assert model.transitions[0, 2] == 0.333334
+
+
+def test_the_sample_time_below_a_table_header_is_named_where_it_is():
+    # was "dt: required key is missing", of a file that has it
+    text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")
+    text = _replace(text, "[initial]\n", "[initial]\ndt = 0.1\n")
+    message = _refused(text, r"initial\.dt: 'dt' is a top-level key, but written below ")
+    assert "the [initial] header it belongs to that table" in message
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "value"),
+    [
+        ("[noise]", "time", '"discrete"'),
+        ("[transitions]", "default_estimator", '"imm"'),
+        ("[modes.fast]", "inputs", '["a"]'),
+        ("[simulation]", "dt", "0.1"),
+    ],
+)
+def test_every_fixed_table_names_a_top_level_key_written_in_it(table, key, value):
+    # `time = "continuous"` below [noise] gave a discrete-time model and a misleading
+    # "dx needs time = 'continuous'"; `default_estimator` below [transitions] an unknown key
+    text = LINEAR_TWO_MODE.replace(f"{key} = ", "# ", 1)
+    text = _replace(text, f"{table}\n", f"{table}\n{key} = {value}\n")
+    where = table.strip("[]")
+    _refused(text, rf"{where}\.{key}: '{key}' is a top-level key, but written below")
+
+
+def test_a_required_key_found_in_a_parameter_table_is_named():
+    text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")
+    text = _replace(text, "[noise]\n", "[parameters]\ng = 9.81\ndt = 0.1\n\n[noise]\n")
+    _refused(text, r"dt: required key is missing \(the file has parameters\.dt: a key written")
+
+
+def test_a_sub_table_of_a_mode_is_no_misplaced_key():
+    text = _replace(LINEAR_TWO_MODE, "[noise]\n", "[modes.fast.noise]\nprocess = 0.1\n\n[noise]\n")
+    _refused(text, r"modes\.fast\.noise: unknown key \(allowed: .*process_noise")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "said"),
+    [
+        ('a = "sin(0.7*t) + 0.5*cos(0.13*t)"', 'a = "t^2"', r"simulation\.inputs\.a: '\^'"),
+        (MATRIX, "matrix = [[0.97, 0.03], [1.05, -0.05]]", r"transitions\.matrix\[1\]\[1\]: "),
+        ("dt = 0.1\n", "", r"initial\.dt: 'dt' is a top-level key"),
+    ],
+)
+def test_cli_names_each_slip_in_one_line_and_writes_nothing(tmp_path, capsys, old, new, said):
+    text = _replace(LINEAR_TWO_MODE, old, new)
+    if "dt" in said:  # the sample time written below [initial]
+        text = _replace(text, "[initial]\n", "[initial]\ndt = 0.1\n")
+    path = tmp_path / "plant.toml"
+    path.write_text(text)
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out), "--steps", "3"])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith(f"hybridlog: error: {path}: "), lines
+    assert re.search(said, lines[0]), lines
+    assert not out.exists()
+
+
+BOOLEAN_TANK = """\
+time = "continuous"
+dt = 0.1
+integration = {method = "rk4", step = 0.1}
+booleans = ["U"]
+states = ["h"]
+inputs = ["q"]
+outputs = ["y"]
+
+[dynamics]
+dx = ["q - 0.5*sqrt(abs(h))*U"]
+h = ["h"]
+
+[noise]
+measurement = 0.01
+
+[initial]
+state = [1.0]
+"""
+
+
+@pytest.mark.parametrize(
+    ("dx", "said"),
+    [
+        # ∂/∂U of the Piecewise is 0: the split G + D·δ lost the valve, the modes had it
+        ('"q - Piecewise(0.5*sqrt(abs(h)), U > 0.5, 0)"', r"a boolean appears inside Piecewise"),
+        ('"q - 0.5*sqrt(abs(h))*U**2"', r"U\*\*2 is a power of booleans"),
+        ('"q - 0.5*sqrt(abs(h)*U)"', r"a boolean appears inside sqrt"),
+    ],
+)
+def test_a_boolean_used_other_than_as_a_factor_is_refused(dx, said):
+    text = _replace(BOOLEAN_TANK, '"q - 0.5*sqrt(abs(h))*U"', dx)
+    _refused(text, r"dynamics\.dx\[0\]: not affine in the booleans \(" + said)
+
+
+def test_a_boolean_affine_model_still_loads():
+    model = parse_model(BOOLEAN_TANK)
+    assert model.mode_ids == ("0", "1")
+
+
+def test_cli_refuses_a_boolean_inside_a_piecewise(tmp_path, capsys):
+    path = tmp_path / "tank.toml"
+    dx = '"q - Piecewise(0.5*sqrt(abs(h)), U > 0.5, 0)"'
+    path.write_text(_replace(BOOLEAN_TANK, '"q - 0.5*sqrt(abs(h))*U"', dx))
+    out = tmp_path / "sim.csv"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out), "--steps", "3"])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{path}: dynamics.dx[0]: not affine" in lines[0], lines
+    assert not out.exists()
+
+
+ROOT = """\
+dt = 0.1
+states = ["x"]
+outputs = ["y"]
+
+[modes.a]
+f = ["F"]
+h = ["H"]
+
+[modes.b]
+A = [[0.5]]
+C = [[1.0]]
+
+[noise]
+process = 0.0
+measurement = 0.0
+
+[initial]
+state = [1.0]
+covariance = 1.0
+"""
+
+
+@pytest.mark.parametrize(
+    ("f", "h", "said"),
+    [
+        # each was "the simulation diverged: x = nan at t = 0.2 s", naming no key
+        ("x**(1/3) - 2", "x", r"modes\.a\.f\[0\]: 'x\*\*\(1/3\) - 2' is nan at x = -1, the step "),
+        ("log(x) + 0.5", "x", r"modes\.a\.f\[0\]: 'log\(x\) \+ 0\.5' is nan at x = -0\.193147"),
+        (
+            "x - 0.5",
+            "sqrt(x)",
+            r"modes\.a\.h\[0\]: 'sqrt\(x\)' is nan at x = -0\.5, at t = 0\.3 s ",
+        ),
+    ],
+)
+def test_a_discrete_expression_leaving_its_domain_is_named(f, h, said):
+    text = ROOT.replace('"F"', f'"{f}"').replace('"H"', f'"{h}"')
+    with pytest.raises(ModelError, match=r"^m\.toml: " + said) as caught:
+        simulate(parse_model(text, origin="m.toml"), steps=5)
+    assert "the simulation diverged; nothing was written" in str(caught.value)
+
+
+def test_a_discrete_expression_of_a_scheduled_mode_is_named_in_that_mode():
+    # x(k) = f_q(k)(x(k-1)): the step into row 3 is mode a's, from b's x = 0.25 at row 2
+    text = ROOT.replace('"F"', '"log(x - 1)"').replace('"H"', '"x"')
+    said = (
+        r"^m\.toml: modes\.a\.f\[0\]: 'log\(x - 1\)' is nan at x = 0\.25, the step from t = 0\.2 s"
+    )
+    with pytest.raises(ModelError, match=said):
+        simulate(parse_model(text, origin="m.toml"), steps=6, schedule="b:2,a:1")
+
+
+def test_cli_names_a_discrete_expression_leaving_its_domain(tmp_path, capsys):
+    path = tmp_path / "plant.toml"
+    path.write_text(ROOT.replace('"F"', '"log(x) + 0.5"').replace('"H"', '"x"'))
+    out = tmp_path / "sim.parquet"
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", str(path), "--out", str(out), "--steps", "5"])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and f"{path}: modes.a.f[0]: 'log(x) + 0.5' is nan" in lines[0], lines
+    assert not out.exists()
