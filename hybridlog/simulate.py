@@ -521,6 +521,12 @@ def simulate(
                 "it along a schedule",
             )
     else:
+        if model.has_jumps:  # check_supported's line would read as if no model's were applied
+            raise model.error(
+                model.jumps[0].key,
+                "simulate applies jump maps to continuous-time models only (the state resets "
+                "of paper 004); this model is discrete-time",
+            )
         model.check_supported("simulate")
         if disturbance is not None:
             raise OptionError(

@@ -354,3 +354,40 @@ def test_a_run_starting_below_its_state_min_is_refused_as_the_file_loads(old, ne
     assert text != TANK
     with pytest.raises(ModelError, match=rf"^tank\.toml: {message}"):
         parse_model(text, origin="tank.toml")
+
+
+DISCRETE_WITH_JUMPS = """
+name = "discrete_jumps"
+time = "discrete"
+dt = 1.0
+states = ["x"]
+inputs = []
+outputs = ["y"]
+
+[modes.a]
+f = ["0.9*x"]
+h = ["x"]
+
+[modes.b]
+f = ["0.5*x"]
+h = ["x"]
+
+[jumps."a->b"]
+x = "0"
+
+[noise]
+process = 0.01
+measurement = 0.1
+
+[initial]
+state = [1.0]
+mode = "a"
+"""
+
+
+def test_discrete_jump_maps_are_refused_saying_simulate_applies_them_to_continuous_models():
+    """A discrete-time model with [jumps]: the refusal names the jump map's key and says which
+    models simulate does apply them to (it had read as if it applied none)."""
+    model = parse_model(DISCRETE_WITH_JUMPS)
+    with pytest.raises(ModelError, match=r'jumps\."a->b".*continuous-time models only'):
+        simulate(model, steps=10, seed=0)
