@@ -15,8 +15,9 @@ before; the ratio's notes give the first round's too):
 * ``imm smooth=true``: the forward pass keeping the per-mode store, then the backward pass;
   the notes give the backward pass alone (its steps/s) and the store's size;
 * ``imm smooth=true smoother=ec``: the same with expectation correction's backward pass
-  (Barber 2006: an RTS step per pair of modes, ``n_q²`` a sample against Kim's ``n_q``; the
-  forward pass keeps the filtered per-mode estimates in a store of the same size);
+  (Barber 2006: an RTS step per pair of modes that carries weight, up to ``n_q²`` a sample
+  against Kim's ``n_q``, 2.7 predictions and 2.2 steps a sample on this log; the forward pass
+  keeps the filtered per-mode estimates in a store of the same size);
 * ``imm mode_sequence=viterbi``: the forward pass keeping the store, then the Viterbi path;
 * ``imm mode_sequence=kbest``: on N/10 samples, the filter, then the best of 20 mode
   histories each with its own EKF and the EKF along its path (``docs/smoothing.md``); and
