@@ -33,11 +33,11 @@ value cannot be a measurement; it is what corrupt bytes decode to (``-1e271``).
 
 NO_TRUE_MODE = -1
 """The true-mode code of a sample without truth: before the log's first true-mode sample, or
-in a sampled true mode's stretch without a sample longer than ``max_gap``.
+where a sampled true mode has no sample within ``dt/2`` (a gap of any length).
 
 A true mode (or a component's) that starts after the first sample time leaves the samples
 before it without truth, as a true state that starts late does; one that repeats its label
-(sampled, not recorded only at its switches) leaves those of its long silences, where it may
+(sampled, not recorded only at its switches) leaves those of its silences, where it may
 have switched unseen (:mod:`hybridlog.io.align`).  The mode metrics score the other samples.
 Every reader of true-mode codes masks it: as an index it would pick the last mode without a
 word.
@@ -71,7 +71,7 @@ class ComponentTruth:
     codes:
         Index into ``labels`` of each sample's true mode, shape ``(N,)``;
         :data:`NO_TRUE_MODE` before the component's first true-mode sample and in its
-        stretches without a sample longer than ``max_gap`` when it is sampled.
+        gaps (no sample within ``dt/2``) when it is sampled.
     """
 
     labels: tuple[str, ...]
@@ -103,7 +103,7 @@ class AlignedSignals:
         True mode of each sample as an index into ``mode_ids`` of the model, shape ``(N,)``,
         or ``None`` when the log has no ground-truth mode; :data:`NO_TRUE_MODE` for the
         samples before a true mode that starts late (:func:`covered_from`) and in a sampled
-        true mode's stretches without a sample longer than ``max_gap``.
+        true mode's gaps (no sample within ``dt/2``).
     truth_states:
         True states, shape ``(N, n_x)`` with NaN in columns the log does not have, or ``None``.
     truth_components:

@@ -186,9 +186,9 @@ class Capabilities:
         An estimator that takes every sample's mode from the switching signal
         (:attr:`needs_switching_signal`) needs one that covers the log: a true mode that
         starts late leaves the samples before it without one
-        (:data:`~hybridlog.signals.NO_TRUE_MODE`), and a sampled one its stretches without a
-        sample longer than ``max_gap``, which the mode metrics leave out but such an
-        estimator would read as a mode.
+        (:data:`~hybridlog.signals.NO_TRUE_MODE`), and a sampled one its gaps (the samples
+        without one within ``dt/2``, whatever the gap's length), which the mode metrics leave
+        out but such an estimator would read as a mode.
         """
         if self.applies_commands:
             missing = missing_command(model, signals)
@@ -213,12 +213,12 @@ class Capabilities:
                 "signal that covers the log with --map truth.mode=PATH)"
             )
         gap = first_uncovered(signals.truth_modes)
-        if gap is not None:  # a sampled true mode's stretch without a sample over max_gap
+        if gap is not None:  # a sampled true mode's gap: no sample within dt/2
             return (
-                "needs the switching signal at every sample; the true mode has none from "
-                f"t={format_time(float(signals.time[gap]))} s (sample {gap}) on for longer "
-                "than max_gap (map a switching signal that covers the log with --map "
-                "truth.mode=PATH, or allow a longer --max-gap)"
+                "needs the switching signal at every sample; the true mode has none within "
+                f"dt/2 of t={format_time(float(signals.time[gap]))} s (sample {gap}): it "
+                "repeats its label, so it is sampled, and a gap in it may hide a switch (map a "
+                "switching signal that covers the log with --map truth.mode=PATH)"
             )
         return None
 

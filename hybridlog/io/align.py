@@ -11,7 +11,8 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   more than half the points with one, some late, some not) takes each point's own sample,
   where the hold would delay about half of them by a step at random (:func:`jittered_index`,
   ``notes["jitter"]``); a point whose sample was dropped holds the one before, counted
-  (``notes["jitter_held"]``).  The true mode likewise.  Samples no grid point takes
+  (``notes["jitter_held"]``).  The true mode likewise, but a sampled one's point whose sample
+  was dropped has none (below).  Samples no grid point takes
   (another followed within the step) are counted, ``notes["skipped"]``.  Commands (of a
   ``[components]`` model) are held as inputs are.
 - Outputs: the nearest sample, if it is within ``dt/2`` (``resample="nearest"``; ties go to
@@ -31,10 +32,12 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   repeats the label of the one before, :func:`records_switches`) is held however long it
   is silent: its silence says the mode did not change (``notes["truth_held"]``).  One that
   repeats its label is *sampled*: its silence says nothing, and a stretch without a sample
-  longer than ``max_gap`` (or past its last sample, to the grid's end) may hide any number of
-  switches; its grid points more than ``dt/2`` from the samples around it have no true mode
-  (those within ``dt/2`` take the nearer sample, as before the first), are not scored, and
-  are recorded (``notes["truth_gaps"]``, :func:`_blank_gaps`).
+  longer than ``dt`` (a gap of any length, bridged or not: the hold of an output's short gap
+  is not the truth's; or past its last sample, to the grid's end) may hide a switch; its
+  grid points more than ``dt/2`` from every sample have no true mode (those within ``dt/2``
+  of the sample after take it, the nearer one, as before the first), are not scored, and
+  are recorded (``notes["truth_gaps"]``, :func:`_blank_gaps`), as a true state's bridged
+  points are left out of its RMSE.  A jittered true mode's dropped samples likewise.
 - True states: like outputs, but NaN instead of an error where no sample is usable.
 - The signal that starts the grid more than ``max_gap`` after the log's first input or output
   sample, or ends it that long before the last one, is recorded (``notes["span"]``): the
@@ -784,10 +787,11 @@ def align_signals(
         where it starts and how many samples it covers (``truth_starts``: ``{"mode" |
         "mode.<component>": {at, samples, of}}``).  ``truth_held`` is of a true mode recorded
         only at its switches (:func:`records_switches`); a sampled one's stretches without a
-        sample longer than ``max_gap`` leave their grid points without a true mode, recorded
-        as ``truth_gaps``: ``{"mode" | "mode.<component>": {start, end, seconds, gaps,
-        points, of}}`` (the longest stretch, how many there are, the grid points left
-        without a true mode, all grid points).
+        sample (longer than ``dt``, whatever ``max_gap``) leave their grid points more than
+        ``dt/2`` from every sample without a true mode, recorded as ``truth_gaps``:
+        ``{"mode" | "mode.<component>": {start, end, seconds, gaps, points, of}}`` (the
+        longest stretch, how many there are, the grid points left without a true mode, all
+        grid points).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -893,7 +897,7 @@ def align_signals(
             field_word,
             label_series,
             grid,
-            (dt_ns, tolerance, max_gap_ns),
+            (dt_ns, tolerance),
             jittered,
             label,
         )
@@ -1064,17 +1068,17 @@ def _hold_modes(
     field_word: str,
     series: LabelSeries,
     grid: IntArray,
-    steps: tuple[int, int, int],
+    steps: tuple[int, int],
     jitter: dict[str, Any] | None = None,
     label: str = "mode",
 ) -> tuple[IntArray, dict[str, Any] | None]:
     """The true mode (code) at each grid point, held like an input (:func:`jittered_index`).
 
-    ``steps``: ``dt``, the clock tolerance and ``max_gap`` (ns).  A jittered series'
+    ``steps``: ``dt`` and the clock tolerance (ns).  A jittered series'
     :class:`Jittered` goes into ``jitter`` under ``the true <label>``.  Returns the codes and
     the stretches of a sampled true mode left without one (:func:`_blank_gaps`), or ``None``.
     """
-    dt_ns, tolerance, max_gap_ns = steps
+    dt_ns, tolerance = steps
     if series.time_ns.size == 0:
         raise LogError(f"{what} ({field_word} {series.name!r}) has no samples")
     start = on_grid(series.time_ns, grid, tolerance)
@@ -1082,8 +1086,6 @@ def _hold_modes(
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
         return on, None
     found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
-    if found is not None and jitter is not None:
-        jitter[f"the true {label}"] = found
     index = found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
     before = index < 0
     modes: IntArray = series.codes[np.maximum(index, 0)].astype(np.int64)
@@ -1091,20 +1093,29 @@ def _hold_modes(
     # before that there is no truth to hold: those samples are not scored
     first = int(series.time_ns[0])
     modes[before & past_half_step(first - grid, dt_ns)] = NO_TRUE_MODE
-    if records_switches(series.codes):
-        return modes, None
-    return modes, _blank_gaps(series, grid, dt_ns, max_gap_ns, modes)
+    gaps = None if records_switches(series.codes) else _blank_gaps(series, grid, dt_ns, modes)
+    if found is not None and jitter is not None:
+        if gaps is not None:  # the points whose sample was dropped hold none: no true mode
+            taken = series.time_ns[np.maximum(found.taken, 0)]
+            still = (modes != NO_TRUE_MODE) & past_half_step(np.abs(taken - grid), dt_ns)
+            found = found._replace(held=int(np.count_nonzero(still)))
+        jitter[f"the true {label}"] = found
+    return modes, gaps
 
 
 def _blank_gaps(
-    series: LabelSeries, grid: IntArray, dt_ns: int, max_gap_ns: int, modes: IntArray
+    series: LabelSeries, grid: IntArray, dt_ns: int, modes: IntArray
 ) -> dict[str, Any] | None:
-    """Leave a sampled true mode's long silences without a true mode, in ``modes``.
+    """Leave a sampled true mode's silences without a true mode, in ``modes``.
 
-    A stretch between two samples longer than ``max_gap`` (as the outputs' gaps,
-    :func:`_gap_threshold`), or from the last sample to the grid's end, may hide switches:
-    its grid points more than ``dt/2`` from both samples get :data:`NO_TRUE_MODE`; those
-    within ``dt/2`` of the later sample take it (the nearest sample, as before the first).
+    A stretch between two samples longer than ``dt`` (by more than the clock tolerance,
+    :func:`longer_than_max_gap`), or from the last sample to the grid's end, may hide a
+    switch, however short: its grid points more than ``dt/2`` from both samples get
+    :data:`NO_TRUE_MODE`; those within ``dt/2`` of the later sample take it (the nearest
+    sample, as before the first); those within ``dt/2`` of the earlier keep theirs.  Not
+    ``max_gap``: a gap the outputs are bridged across is bridged with their own samples,
+    and the true mode held over it was a guess scored as a measurement (a switch inside it
+    placed at the gap's end, and the samples before it scored against the old mode).
     Returns ``{start, end, seconds, gaps, points, of}`` (the longest stretch that left a
     point without a true mode, in seconds; how many did; the points; all grid points), or
     ``None`` when no point was left without one.
@@ -1114,7 +1125,9 @@ def _blank_gaps(
         return None
     last = int(grid[-1])
     after = np.append(times[1:], max(last, int(times[-1])))  # where each sample's stretch ends
-    long = longer_than_max_gap(after - times, _gap_threshold(max_gap_ns, dt_ns), dt_ns)
+    long = longer_than_max_gap(after - times, dt_ns, dt_ns)
+    # past the last sample no later one is within dt/2: a point beyond half a step has none
+    long[-1] = bool(past_half_step(after[-1] - times[-1], dt_ns))
     if not bool(long.any()):
         return None
     sample = np.searchsorted(times, grid, side="right") - 1  # the sample at or before each point

@@ -969,11 +969,11 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     gaps = reading.get("truth_gaps") or {}
     notes += [
-        f"WARNING: the true {label} has no sample {_hold_span(_as_hold(gap))}: it may have "
-        f"switched there unseen, so the {gap['points']:,} of {gap['of']:,} samples in "
-        f"{'it' if gap['gaps'] == 1 else 'them'} have no true mode and are not scored (it "
-        "repeats its label, so it is sampled, not recorded only at its switches; a silence "
-        "up to --max-gap is held)"
+        f"WARNING: the true {label} has no sample within dt/2 of {gap['points']:,} of "
+        f"{gap['of']:,} sample times, {_gap_span(gap)}: it may have switched there unseen, "
+        "so those samples have no true mode and are not scored, and no switch is measured "
+        "across them (it repeats its label, so it is sampled, not recorded only at its "
+        "switches; is the model's dt the log's?)"
         for label, gap in gaps.items()
     ]
     notes += [
@@ -1070,14 +1070,17 @@ def _article(kind: str) -> str:
     return f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}"
 
 
-def _as_hold(gap: Mapping[str, Any]) -> dict[str, float]:
-    """A stretch of ``truth_gaps`` as :func:`_hold_span` takes one (``gaps`` as ``holds``)."""
-    return {
-        "start": gap["start"],
-        "end": gap["end"],
-        "seconds": gap["seconds"],
-        "holds": gap["gaps"],
-    }
+def _gap_span(gap: Mapping[str, Any]) -> str:
+    """Where a true mode of ``reading.truth_gaps`` has no sample, and how often.
+
+    ``from t = 19 to 23 s (4 s)``; ``in 30 stretches, the longest from t = 290 to 300 s
+    (10 s)`` where there are several.  Any stretch longer than ``dt`` counts, not only those
+    longer than ``max_gap``: a sampled true mode is not held across a gap.
+    """
+    span = f"from t = {format_time(gap['start'])} to {format_time(gap['end'])} s"
+    span += f" ({_held_for(gap)} s)"
+    count = int(gap["gaps"])
+    return f"in {count:,} stretches, the longest {span}" if count > 1 else span
 
 
 def _hold_span(hold: Mapping[str, float]) -> str:

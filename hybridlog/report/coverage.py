@@ -1,9 +1,9 @@
 """How much of a log the mode metrics of a report cover, in words for the summaries.
 
 A true mode that starts after the first sample time is scored from its first sample on
-(``modes.samples``, ``reading.truth_starts``), and a sampled one is not scored over its
-stretches without a sample longer than ``max_gap`` (``reading.truth_gaps``), where it may
-have switched unseen.  report.md says so; the summaries of ``batch`` (summary.csv's
+(``modes.samples``, ``reading.truth_starts``), and a sampled one is not scored where it has
+no sample within ``dt/2`` (``reading.truth_gaps``, a gap of any length), where it may have
+switched unseen.  report.md says so; the summaries of ``batch`` (summary.csv's
 ``mode_samples``, summary.md, JUnit) and a missed gate's message say it with
 :func:`mode_coverage`, so that a log's 100 % over its last third does not read as a whole
 log's 100 % beside the others.
@@ -58,10 +58,9 @@ def _gaps(entry: Mapping[str, Any]) -> str:
         return span
     seconds = entry.get("seconds")
     length = format_duration(seconds, start, end) if _number(seconds) else None
-    return (
-        f"in {count:,} stretches longer than max_gap ({int(entry['points']):,} samples), "
-        f"the longest {span}" + (f" ({length} s)" if length else "")
-    )
+    points = int(entry["points"])
+    longest = f"the longest {span}" + (f" ({length} s)" if length else "")
+    return f"in {count:,} stretches ({points:,} samples), {longest}"
 
 
 def samples_coverage(

@@ -232,8 +232,8 @@ class ModeReport:
     samples:
         How many samples the true mode covers and the accuracy, confusion and detection
         score: all of them, or those from the first of a true mode that starts late (as
-        ``states.<x>.samples``) and outside a sampled one's stretches without a sample
-        longer than ``max_gap`` (``reading.truth_gaps``); for a ``[components]`` model
+        ``states.<x>.samples``) and outside a sampled one's gaps, the samples without one
+        within ``dt/2`` (``reading.truth_gaps``); for a ``[components]`` model
         those where every component has one; ``None`` without truth (or in a report of an
         older version).
     confusion:

@@ -177,8 +177,8 @@ DEFINITIONS = (
     "1e-300). The top rows are the means over the outputs where it is defined; a gate on the "
     "mean fails while any output's is n/a.",
     "Mode accuracy: the fraction of the samples with a true mode (all of them, or those from "
-    "the first of a true mode that starts late and outside a sampled true mode's stretches "
-    "without a sample longer than max_gap) whose estimated mode is the true one.",
+    "the first of a true mode that starts late and outside a sampled true mode's gaps, the "
+    "samples without one within dt/2) whose estimated mode is the true one.",
     "Detection delay: from a true switch to the first estimated change *into* the new mode at "
     "or after it, before the next true switch. An estimate that was already in that mode "
     "before the switch has not detected it: a miss, as is a switch never followed by such a "

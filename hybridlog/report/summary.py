@@ -658,8 +658,8 @@ def _partial_section(rows: Sequence[BatchRow]) -> list[str]:
         "",
         f"## Mode accuracy over part of the log ({len(partial)} of {analysed})",
         "",
-        "These logs' true mode starts after their first sample or has no sample over "
-        "stretches longer than max_gap: `mode_accuracy` (and the gates on it, and with an "
+        "These logs' true mode starts after their first sample or has no sample within "
+        "dt/2 of some samples (a gap): `mode_accuracy` (and the gates on it, and with an "
         "offline pass the filter's own too) is over the samples with a true mode, counted in "
         "summary.csv's `mode_samples`.",
         "",

@@ -52,7 +52,10 @@ def test_a_blank_stretch_of_the_true_mode_is_not_scored_and_is_said(tmp_path: Pa
     assert [e["t"] for e in modes["detection"]["events"]] == [201.0]
     md = (out / "blank.csv" / "report.md").read_text()
     assert "over 220 of 301 samples (those with a true mode)" in md
-    assert "WARNING: the true mode has no sample from t = 99 to 181 s (82 s" in md
+    assert (
+        "WARNING: the true mode has no sample within dt/2 of 81 of 301 sample times, from "
+        "t = 99 to 181 s (82 s)"
+    ) in md
     with (out / "summary.csv").open() as file:
         samples = {Path(r["log"]).name: r["mode_samples"] for r in csv.DictReader(file)}
     assert samples == {"blank.csv": "220", "whole.csv": "301"}
@@ -75,7 +78,8 @@ def test_analyze_prints_every_warning_of_its_report_on_the_terminal(tmp_path: Pa
     blank.write_csv(log)
     args = ["analyze", str(log), "--model", "three_tank_hstf", "--estimator", "imm"]
     result = run([*args, "--out", str(tmp_path / "out")])
-    assert f"hybridlog: warning: {WHERE} (82 s" in result.stderr
+    assert "hybridlog: warning: the true mode has no sample within dt/2 of 81" in result.stderr
+    assert "from t = 99 to 181 s (82 s)" in result.stderr
     quiet = run(["-q", *args, "--out", str(tmp_path / "quiet")])
     assert "warning" not in quiet.stderr
 
@@ -97,7 +101,40 @@ def test_a_switching_signal_with_a_gap_is_refused_to_the_estimator_on_it(
     message = result.stderr.strip().splitlines()[-1]
     assert message.startswith(
         f"hybridlog: error: {log}: estimator 'switching-observer' needs the switching signal "
-        "at every sample; the true mode has none from t="
+        "at every sample; the true mode has none within dt/2 of t="
     )
-    assert "on for longer than max_gap" in message
+    assert "a gap in it may hide a switch" in message and "--max-gap" not in message
     assert not out.exists()
+
+
+def test_rows_missing_around_a_switch_leave_the_true_mode_unscored_there(
+    tmp_path: Path,
+) -> None:
+    """Rows t = 20..22 s missing (3 s, under max_gap), the true switch 1 -> 2 at 21 s.
+
+    The true mode was held at 1 over them: scored as three samples of mode 1, the switch
+    placed at 23 s and called missed, without a word, where the true states beside it were
+    left out of their RMSE with a WARNING.  Now those samples have no true mode, as theirs.
+    """
+    log = tmp_path / "full.csv"
+    run(["simulate", "three_tank_hstf", "--out", str(log), "--schedule", "1:20,2:30", "-q"])
+    frame = pl.read_csv(log)
+    assert frame.filter(pl.col("t") == 21.0)["mode"].to_list() == [2]
+    gap = tmp_path / "gap.csv"
+    frame.filter(~pl.col("t").is_in([20.0, 21.0, 22.0])).write_csv(gap)
+    out = tmp_path / "out"
+    args = ["analyze", str(gap), "--model", "three_tank_hstf", "--set", "likelihood=unfaded"]
+    result = run([*args, "--out", str(out)])
+    report = json.loads((out / "report.json").read_text())
+    assert report["reading"]["truth_gaps"] == {
+        "mode": {"start": 19.0, "end": 23.0, "seconds": 4.0, "gaps": 1, "points": 3, "of": 51}
+    }
+    modes = report["modes"]
+    assert modes["samples"] == 48  # was 51
+    assert sum(sum(row.values()) for row in modes["confusion"].values()) == 48
+    assert modes["detection"]["events"] == []  # was a switch at 23 s, missed
+    warning = "the true mode has no sample within dt/2 of 3 of 51 sample times, from t = 19"
+    assert f"hybridlog: warning: {warning}" in result.stderr
+    md = (out / "report.md").read_text()
+    assert f"WARNING: {warning}" in md
+    assert "over 48 of 51 samples" in md

@@ -1,7 +1,8 @@
 """A series recorded once per step on a jittering clock, with samples the log dropped.
 
 Each grid point takes its own sample; a point whose sample is missing holds the one before,
-and is counted.  One dropped sample used to send the whole series back to the zero-order
+and is counted; a sampled true mode's has none (a gap, ``truth_gaps``), as a gap of any
+length leaves it.  One dropped sample used to send the whole series back to the zero-order
 hold, whose random one-step delays on every late sample then came back without a word.
 """
 
@@ -15,6 +16,7 @@ import pytest
 from hybridlog.io.align import align_signals
 from hybridlog.io.source import LabelSeries, Series
 from hybridlog.report.build import _reading_notes
+from hybridlog.signals import NO_TRUE_MODE
 
 N, DT_NS = 300, 10_000_000
 
@@ -51,13 +53,12 @@ def test_dropped_samples_hold_the_one_before_and_the_others_take_their_own() -> 
     expected[41] = values[39]  # two dropped in a row: both hold the last sample
     np.testing.assert_array_equal(aligned.inputs[:, 0], expected)
     codes = np.arange(N) // 50
-    codes[dropped] = codes[dropped - 1]
+    codes[dropped] = NO_TRUE_MODE  # a step from the samples around: no true mode there
     np.testing.assert_array_equal(aligned.truth_modes, codes)
     assert set(notes["jitter"]) == {"input u", "the true mode"}
-    assert notes["jitter_held"] == {
-        "input u": {"points": 4, "of": N},
-        "the true mode": {"points": 4, "of": N},
-    }
+    assert notes["jitter_held"] == {"input u": {"points": 4, "of": N}}  # the mode holds none
+    assert notes["truth_gaps"]["mode"]["points"] == 4
+    assert notes["truth_gaps"]["mode"]["gaps"] == 3
     said = " ".join(_reading_notes(notes))
     assert "4 of 300 sample times have no sample of their own (dropped by the log) and hold" in said
     notes["jitter_held"]["input u"]["points"] = 1

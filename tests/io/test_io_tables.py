@@ -388,7 +388,7 @@ def test_mode_ids_are_compared_in_one_unicode_form(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("cells", "modes"),
     [
-        (["1.0", "", " 1.0 ", "1"], [0, 0, 0, 0]),  # pandas' integers with a gap (held)
+        (["1.0", "", " 1.0 ", "1"], [0, 0, 0]),  # pandas' integers with a gap (none there)
         (["1e0", "1"], [0, 0]),
     ],
 )

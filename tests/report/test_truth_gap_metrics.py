@@ -77,7 +77,6 @@ def test_coverage_says_where_the_true_mode_has_no_sample() -> None:
     reading = {"truth_starts": {"mode.fr2": late}, "truth_gaps": {"mode.fr2": several}}
     assert samples_coverage(176, 301, reading, only="mode.fr2") == (
         "176 of 301 samples (the true mode.fr2 starts at t = 5 s; the true mode.fr2 has no "
-        "sample in 3 stretches longer than max_gap (120 samples), the longest from t = 99 to "
-        "181 s (82 s))"
+        "sample in 3 stretches (120 samples), the longest from t = 99 to 181 s (82 s))"
     )
     assert samples_coverage(176, 301, reading, only="mode.other") == "176 of 301 samples"
