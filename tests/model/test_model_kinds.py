@@ -700,7 +700,11 @@ def test_jump_maps_are_refused_where_they_would_be_ignored():
     )
     model = parse_model(text, origin="j.toml")
     assert not model.is_continuous and model.has_jumps
-    with pytest.raises(ModelError, match=r'^j\.toml: jumps\."only->other": simulate does not'):
+    # it names the models simulate does apply jump maps to (it had read as if it applied none)
+    with pytest.raises(
+        ModelError,
+        match=r'^j\.toml: jumps\."only->other": simulate applies jump maps to continuous',
+    ):
         simulate(model, steps=3)
 
 
