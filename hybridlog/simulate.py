@@ -506,7 +506,8 @@ def simulate(
     OptionError
         A bad ``schedule``, ``steps`` or ``seed``, or more steps than the memory holds.
     ModelError
-        A bad ``[simulation]`` table, a row where no guard holds, or a diverging run.
+        A bad ``[simulation]`` table, a row where no guard holds, a diverging run, or
+        ``noise`` on a model whose file gives no measurement noise covariance.
     """
     seed = _check_seed(seed)
     origin = _origin(model)
@@ -564,6 +565,10 @@ def simulate(
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt
     inputs = input_signals(model, time)
+    if noise:
+        model.require_measurement_noise(
+            "simulate draws the outputs' measurement noise (or run it with --no-noise)"
+        )
     rng = np.random.default_rng(seed)
     substeps = model.timebase.substeps if model.is_continuous else 1
     process_rows = (n_rows - 1) * substeps if model.is_continuous else n_rows
@@ -576,8 +581,13 @@ def simulate(
     process_factors = np.ascontiguousarray(
         np.stack([scale * _noise_factor(m.process_noise) for m in model.modes])
     )
-    measurement_factors = np.ascontiguousarray(
-        np.stack([scale * _noise_factor(m.measurement_noise) for m in model.modes])
+    measurement_factors = np.ascontiguousarray(  # unstated (NaN) only with noise off
+        np.stack(
+            [
+                _noise_factor(m.measurement_noise) if noise else np.zeros_like(m.measurement_noise)
+                for m in model.modes
+            ]
+        )
     )
     state_min = (
         np.full(model.n_states, -np.inf)

@@ -156,7 +156,8 @@ def simulate_components(
         A bad ``steps``, ``seed`` or setting, or a run that does not fit in memory.
     ModelError
         A scenario the model cannot play: a joint mode whose equations do not determine
-        every variable, an algebraic loop through the controller, a diverging run.
+        every variable, an algebraic loop through the controller, a diverging run, or a
+        measured output without a measurement noise covariance in the model file.
     """
     from hybridlog.model.scenario import StepValues, check_timing
     from hybridlog.simulate import LATEST_S, _check_run, _check_seed, out_of_range, within_range
@@ -166,6 +167,7 @@ def simulate_components(
     scenario = model.scenario
     if not model.has_components or scenario is None:
         raise ModelError(f"{origin}: components: not a components model")
+    model.require_measurement_noise("simulate draws the outputs' measurement noise")
     try:
         values = scenario.parameter_values(settings)
     except KeyError as err:

@@ -54,6 +54,10 @@ class Capabilities:
         The estimator applies a ``[components]`` model's transition rules with ``when`` by
         the logged commands (paper 002 eq. (4)): the log must hold every command a rule's
         ``when`` names (:func:`missing_command`).
+    needs_measurement_noise:
+        The estimator weighs the outputs by their measurement noise covariance ``R`` (its
+        likelihoods and gains): the model file must give it (``[noise] measurement`` or a
+        mode's own), never a guessed one.
     needs_measured_state:
         The continuous state must be measured: the outputs are the states in every mode.
     needs_components:
@@ -98,6 +102,7 @@ class Capabilities:
     needs_switching_signal: bool = False
     applies_commands: bool = False
     needs_measured_state: bool = False
+    needs_measurement_noise: bool = False
     needs_components: bool = False
     enumerates_components: bool = False
     needs_boolean_affine: bool = False
@@ -127,6 +132,8 @@ class Capabilities:
             words.append("boolean-affine model")
         if self.applies_jump_maps:
             words.append("jump maps (optional)")
+        if self.needs_measurement_noise:
+            words.append("measurement noise covariance ([noise] measurement)")
         if self.needs_measured_state:
             words.append("measured state")
         if self.needs_single_output:
@@ -164,6 +171,10 @@ class Capabilities:
             return "needs a Markov matrix; the model has no [transitions] table"
         if self.needs_linear_model and traits.nonlinear is not None:
             return f"needs a linear model; the modes are nonlinear: {traits.nonlinear}"
+        if self.needs_measurement_noise and traits.unstated_measurement_noise is not None:
+            from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS
+
+            return f"{WEIGHS_OUTPUTS.strip()}; {traits.unstated_measurement_noise}"
         if self.needs_measured_state and traits.unmeasured_state is not None:
             return f"needs the state measured; {traits.unmeasured_state}"
         if self.needs_single_output and traits.outputs != 1:
@@ -315,6 +326,11 @@ class ModelTraits:
                 if bent:
                     return f"modes.{mode.id}.{key}[{i}] is not affine in {', '.join(bent)}"
         return f"{mode.nonlinear_key} is not affine in the states and inputs"
+
+    @functools.cached_property
+    def unstated_measurement_noise(self) -> str | None:
+        """Where the model file gives no measurement noise covariance, or None."""
+        return self.model.unstated_measurement_noise()
 
     @functools.cached_property
     def unmeasured_state(self) -> str | None:

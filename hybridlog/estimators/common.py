@@ -27,6 +27,7 @@ from hybridlog.estimators.unrolled import fits_unrolled, module_source
 from hybridlog.estimators.vouch import check_result, check_surprise
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_generated, compile_model
+from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS
 from hybridlog.prefault import arrays_in, populated_beside
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -43,8 +44,11 @@ def noise_stacks(model: HybridModel, estimator: str = "") -> tuple[FloatArray, F
 
     The filters divide by the innovation covariance, so every ``R_q`` must be positive
     definite; a singular one is a :class:`ModelError` naming the model file, the mode and
-    ``estimator``.
+    ``estimator``; so is a covariance the file does not give
+    (:meth:`~hybridlog.model.hybrid_model.HybridModel.require_measurement_noise`).
     """
+    who = f"estimator '{estimator}'" if estimator else "the filter"
+    model.require_measurement_noise(f"{who}{WEIGHS_OUTPUTS}")
     Q = np.ascontiguousarray(np.stack([m.process_noise for m in model.modes]), dtype=float)
     R = np.ascontiguousarray(np.stack([m.measurement_noise for m in model.modes]), dtype=float)
     for mode, r in zip(model.modes, R, strict=True):

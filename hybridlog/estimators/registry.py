@@ -212,6 +212,7 @@ ESTIMATORS: dict[str, Estimator] = {
             run="run_hstf",
             stream="stream_hstf",
             capabilities=Capabilities(
+                needs_measurement_noise=True,
                 no_smoothing="paper 000 predicts every mode with probability 1/n_q (eq. (20)); "
                 "under that uniform chain smoothed mode probabilities equal the filtered ones "
                 "and the Viterbi path is each sample's most probable mode",
@@ -228,6 +229,7 @@ ESTIMATORS: dict[str, Estimator] = {
             run="run_imm",
             stream="stream_imm",
             capabilities=Capabilities(
+                needs_measurement_noise=True,
                 uses_markov_matrix=True,
                 supports_smoothing=True,
                 modes_of_the_step_into=True,
@@ -287,6 +289,7 @@ ESTIMATORS: dict[str, Estimator] = {
             memory="unknown_mode_memory",
             capabilities=Capabilities(
                 needs_components=True,
+                needs_measurement_noise=True,
                 applies_commands=True,
                 unpredicted_outputs=True,
                 no_smoothing="its cluster filters keep nothing for a backward pass; "

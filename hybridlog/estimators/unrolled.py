@@ -549,7 +549,15 @@ def constant_matrix(values: FloatArray) -> Matrix:
 
 
 def noise_matrices(model: HybridModel) -> tuple[list[Matrix], list[Matrix]]:
-    """Per-mode process and measurement covariances as literal matrices."""
+    """Per-mode process and measurement covariances as literal matrices.
+
+    A model whose file gives no measurement noise covariance is refused
+    (:meth:`~hybridlog.model.hybrid_model.HybridModel.require_measurement_noise`): its
+    NaN would be written into the code.
+    """
+    from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS
+
+    model.require_measurement_noise(f"the generated filter code{WEIGHS_OUTPUTS}")
     return (
         [constant_matrix(mode.process_noise) for mode in model.modes],
         [constant_matrix(mode.measurement_noise) for mode in model.modes],

@@ -33,6 +33,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -253,7 +254,9 @@ class _Part:
 
 
 def _array(value: FloatArray) -> dict[str, Any]:
-    return {"dtype": value.dtype.str, "shape": list(value.shape), "data": value.ravel().tolist()}
+    """An array as JSON; NaN (an unstated measurement noise covariance) as ``null``."""
+    data = [None if math.isnan(v) else v for v in value.ravel().tolist()]
+    return {"dtype": value.dtype.str, "shape": list(value.shape), "data": data}
 
 
 def _optional_array(value: FloatArray | None) -> dict[str, Any] | None:
@@ -264,7 +267,8 @@ def _from_array(value: Mapping[str, Any]) -> FloatArray:
     dtype = np.dtype(value["dtype"])
     if dtype.kind != "f":
         raise ValueError(f"not a float array: {dtype}")
-    array: FloatArray = np.array(value["data"], dtype=dtype).reshape(value["shape"])
+    data = [math.nan if v is None else v for v in value["data"]]
+    array: FloatArray = np.array(data, dtype=dtype).reshape(value["shape"])
     return array
 
 

@@ -11,7 +11,7 @@ components) and ``commands`` (discrete inputs that condition transitions).  Each
     [components.regulator.modes.partly_open]
     equations = ["x1[k] = 0.5*u1[k-1]", "y1 = x1"]
     process_noise = {x1 = 0.01}      # variances; default: [noise] process
-    measurement_noise = {y1 = 0.04}  # default: [noise] measurement
+    measurement_noise = {y1 = 0.04}  # default: [noise] measurement (one is required)
 
     [[components.regulator.transitions]]
     from = "partly_open"             # a mode id, "unknown", or "*" (every known mode)
@@ -118,9 +118,10 @@ def load_components(
     """Validate ``[components.*]`` and build the components, in the file's order.
 
     ``process_variances`` and ``measurement_variances`` are the ``[noise]`` defaults per
-    state and per output.  Besides each table's own checks: a state is defined by the
-    difference equations of one component only (at most one per mode), and every state,
-    output and internal variable appears in some equation.
+    state and per output (NaN for an output when the file gives no ``[noise]
+    measurement``: unstated, not guessed).  Besides each table's own checks: a state is
+    defined by the difference equations of one component only (at most one per mode), and
+    every state, output and internal variable appears in some equation.
     """
     if not table:
         raise ModelError("components: at least one component is required")

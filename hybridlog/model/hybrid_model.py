@@ -32,6 +32,9 @@ if TYPE_CHECKING:
 
 T = TypeVar("T")
 
+WEIGHS_OUTPUTS = " weighs the outputs by their measurement noise covariance"
+"""What a filter does with ``R``, in the refusal of a model whose file gives none."""
+
 DEFAULT_ESTIMATOR = "imm"
 """The estimator ``analyze`` runs without ``--estimator`` on a model that writes no
 ``default_estimator``."""
@@ -211,7 +214,10 @@ class Mode:
     process_noise:
         Covariance ``Q_q = g_q R_ξ g_qᵀ`` of the additive process noise, ``(n_x, n_x)``.
     measurement_noise:
-        Covariance ``R_q`` of the measurement noise, ``(n_y, n_y)``.
+        Covariance ``R_q`` of the measurement noise, ``(n_y, n_y)``; NaN throughout when
+        the model file gives none (neither ``[noise] measurement`` nor the mode's own
+        ``measurement_noise``): a covariance no estimator may guess
+        (:meth:`HybridModel.unstated_measurement_noise`).
     dx:
         Time derivatives, one per state, of a continuous-time model; empty in discrete
         time.
@@ -246,6 +252,11 @@ class Mode:
     def dynamics(self) -> tuple[sympy.Expr, ...]:
         """``f`` of a discrete-time mode or ``dx`` of a continuous-time one."""
         return self.dx if self.dx else self.f
+
+    @property
+    def measurement_noise_stated(self) -> bool:
+        """True when the model file gives this mode's measurement noise covariance."""
+        return not bool(np.isnan(self.measurement_noise).any())
 
     @property
     def has_guard(self) -> bool:
@@ -525,6 +536,60 @@ class HybridModel:
         given to a linear estimator), so that they read like the loader's own.
         """
         return ModelError(f"{self.origin or self.name}: {key}: {message}")
+
+    def unstated_measurement_noise(self) -> str | None:
+        """Where the model file gives no measurement noise covariance, or None.
+
+        ``the model gives no measurement noise covariance for mode '2': add [noise]
+        measurement (or modes.2.measurement_noise)``, for the first mode (or component
+        mode and output) without one.  The loader records a covariance the file does not
+        give as NaN instead of guessing one; what weighs the outputs by it (the filters,
+        ``simulate``'s noise) refuses such a model with this.
+        """
+        from hybridlog.model.toml_text import key_path
+
+        mode_id = next((m.id for m in self.modes if not m.measurement_noise_stated), None)
+        if mode_id is not None:
+            where = f"mode '{mode_id}'"
+            own = (
+                "dynamics.measurement_noise"
+                if self.has_booleans
+                else f"{key_path('modes', mode_id)}.measurement_noise"
+            )
+        else:
+            unstated = (
+                (component.name, spec, output)
+                for component in self.components
+                for spec in component.modes
+                for output, variance in spec.measurement_noise.items()
+                if np.isnan(variance)
+            )
+            first = next(unstated, None)
+            if first is None:
+                return None
+            name, spec, output = first
+            where = f"output '{output}' in mode '{spec.id}' of component '{name}'"
+            own = f"{spec.key}.measurement_noise"
+        return (
+            f"the model gives no measurement noise covariance for {where}: add "
+            f"[noise] measurement (or {own})"
+        )
+
+    def require_measurement_noise(self, needs: str) -> None:
+        """Refuse a model whose file gives no measurement noise covariance ``needs`` uses.
+
+        ``needs`` says who uses it and how (``"estimator 'imm' weighs the outputs by their
+        measurement noise covariance"``).
+
+        Raises
+        ------
+        ModelError
+            ``"<file>: noise.measurement: <needs>; the model gives no measurement noise
+            covariance for mode '1': add [noise] measurement (or ...)"``.
+        """
+        problem = self.unstated_measurement_noise()
+        if problem is not None:
+            raise self.error("noise.measurement", f"{needs}; {problem}")
 
     def check_supported(
         self,

@@ -255,7 +255,7 @@ class _Builder:
         noise = as_table(data.get("noise", {}), "noise")
         check_keys(noise, _NOISE_KEYS, "noise")
         default_q = as_covariance(noise.get("process", 0.0), len(states), "noise.process")
-        default_r = as_covariance(noise.get("measurement", 1.0), len(outputs), "noise.measurement")
+        default_r = _default_measurement_noise(noise, len(outputs))
         initial = as_table(required(data, "initial", ""), "initial")
         if kind == "components":
             for key in ("mode", "mode_probabilities"):
@@ -279,7 +279,11 @@ class _Builder:
                 commands=commands,
                 parameters=params,
                 process_variances=_variances(default_q, "noise.process"),
-                measurement_variances=_variances(default_r, "noise.measurement"),
+                measurement_variances=(
+                    _variances(default_r, "noise.measurement")
+                    if "measurement" in noise
+                    else np.diag(default_r).copy()
+                ),
             )
             _refuse_joint_separator(components)
             mu0 = np.zeros(0)
@@ -664,6 +668,19 @@ def _check_dynamics_key(spec: Mapping[str, Any], key: str, continuous: bool) -> 
             f"{key}.dx: a discrete-time model gives the next state as f; dx (time "
             "derivatives) needs time = 'continuous'"
         )
+
+
+def _default_measurement_noise(noise: Mapping[str, Any], n: int) -> FloatArray:
+    """``[noise] measurement``, or NaN throughout when the file gives none.
+
+    A measurement noise covariance the file does not give is not guessed: NaN records it
+    as unstated, and what weighs the outputs by it refuses the model
+    (:meth:`~hybridlog.model.hybrid_model.HybridModel.unstated_measurement_noise`).  A
+    missing ``process`` is a statement (no process noise, 0), and stays one.
+    """
+    if "measurement" in noise:
+        return as_covariance(noise["measurement"], n, "noise.measurement")
+    return np.full((n, n), np.nan)
 
 
 def _mode_noise(

@@ -71,6 +71,8 @@ A = [[0.9]]
 B = [[1.0]]
 C = [[1.0]]
 {high}
+[noise]
+measurement = 1.0
 [initial]
 state = [0.0]
 [simulation]

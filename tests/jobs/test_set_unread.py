@@ -265,6 +265,9 @@ h = ["x"]
 [signals]
 y = "/sensor/level.data"
 
+[noise]
+measurement = 1.0
+
 [initial]
 state = [0.0]
 

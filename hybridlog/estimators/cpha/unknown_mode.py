@@ -82,7 +82,7 @@ from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN
-from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS, HybridModel
 from hybridlog.signals import AlignedSignals, BoolArray, FloatArray
 from hybridlog.times import format_time
 
@@ -290,6 +290,7 @@ def run_unknown_mode(
         solved), a cluster's EKF that cannot step, or a step no successor explains (every
         one's ``P_O`` is 0, or none exists: :class:`~.hypotheses.NoExplanationError`).
     """
+    model.require_measurement_noise(f"estimator 'unknown-mode'{WEIGHS_OUTPUTS}")
     try:
         return _run(model, signals, options)
     except ModelError as err:  # the analysis of a later assignment names only its key
