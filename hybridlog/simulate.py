@@ -715,14 +715,8 @@ def unreached_modes(model: HybridModel, modes: IntArray, schedule: str | None) -
     carries the first scheduled mode (:func:`mode_sequence`), an entry after it starts one
     row after the steps before it.  Empty for a state-driven model (its guards decide).
     """
-    if model.state_driven:
-        return {}
-    if schedule is not None:
-        parsed = parse_schedule(schedule, model.mode_ids)
-    elif model.simulation_schedule:
-        where = f"{_origin(model)}: simulation.schedule"
-        parsed = parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
-    else:
+    parsed = _run_schedule(model, schedule)
+    if parsed is None:
         return {}
     starts: dict[str, int] = {}
     before = 0
@@ -731,6 +725,23 @@ def unreached_modes(model: HybridModel, modes: IntArray, schedule: str | None) -
             starts.setdefault(model.mode_ids[mode], before + 1 if before else 0)
         before += count
     return starts
+
+
+def _run_schedule(model: HybridModel, schedule: str | None) -> list[tuple[int, int]] | None:
+    """The schedule a run followed, parsed.
+
+    ``--schedule`` if given, else the model's ``[simulation] schedule``; ``None`` for a
+    state-driven model (its guards decide) or one without a schedule (its first mode
+    throughout).
+    """
+    if model.state_driven:
+        return None
+    if schedule is not None:
+        return parse_schedule(schedule, model.mode_ids)
+    if model.simulation_schedule:
+        where = f"{_origin(model)}: simulation.schedule"
+        return parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
+    return None
 
 
 def switches_made(model: HybridModel, modes: IntArray) -> set[tuple[str, str]]:
@@ -751,14 +762,8 @@ def unmade_switches(
     repeats, so its last mode switches to its first one row after its total.  Empty for a
     state-driven model (its guards decide) and a model without a schedule (one mode).
     """
-    if model.state_driven:
-        return {}
-    if schedule is not None:
-        parsed = parse_schedule(schedule, model.mode_ids)
-    elif model.simulation_schedule:
-        where = f"{_origin(model)}: simulation.schedule"
-        parsed = parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
-    else:
+    parsed = _run_schedule(model, schedule)
+    if parsed is None:
         return {}
     made = switches_made(model, modes)
     steps: dict[tuple[str, str], int] = {}

@@ -18,23 +18,12 @@ from hybridlog.errors import ModelError
 from hybridlog.model.expressions import parse_expression
 from hybridlog.model.loader import parse_model
 from hybridlog.simulate import simulate
+from tests.support.model_text import edited as _replace
+from tests.support.model_text import refused as _refused
 from tests.support.models import LINEAR_TWO_MODE
 
 X = {"x": sympy.Symbol("x", real=True), "u": sympy.Symbol("u", real=True)}
 MATRIX = "matrix = [[0.97, 0.03], [0.05, 0.95]]"
-
-
-def _replace(text: str, old: str, new: str) -> str:
-    assert old in text, old
-    return text.replace(old, new, 1)
-
-
-def _refused(text: str, pattern: str) -> str:
-    with pytest.raises(ModelError, match=r"^m\.toml: " + pattern) as caught:
-        parse_model(text, origin="m.toml")
-    message = str(caught.value)
-    assert "\n" not in message
-    return message
 
 
 @pytest.mark.parametrize(

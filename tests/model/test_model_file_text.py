@@ -13,25 +13,14 @@ import pytest
 from hybridlog.errors import ModelError
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import load_model, parse_model
+from tests.support.model_text import edited as _replace
+from tests.support.model_text import refused as _refused
 from tests.support.models import LINEAR_TWO_MODE
 
 PRIOR = "mode_probabilities = [0.6, 0.4]"
 MEASUREMENT = "measurement = [[0.05, 0.01], [0.01, 0.08]]"
 BIG = "1" + "0" * 400
 """A TOML integer beyond the largest double (float() of it raised OverflowError)."""
-
-
-def _replace(text: str, old: str, new: str) -> str:
-    assert old in text, old
-    return text.replace(old, new, 1)
-
-
-def _refused(text: str, pattern: str) -> str:
-    with pytest.raises(ModelError, match=r"^m\.toml: " + pattern) as caught:
-        parse_model(text, origin="m.toml")
-    message = str(caught.value)
-    assert "\n" not in message
-    return message
 
 
 @pytest.mark.parametrize(

@@ -18,6 +18,7 @@ from hybridlog.model.cache import model_file
 from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
+from tests.support.model_text import edited as _replace
 from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 X = {"x": sympy.Symbol("x", real=True), "k_p": sympy.Float(2.0)}
@@ -82,11 +83,6 @@ def test_any_text_parses_or_fails_with_a_model_error(text):
         assert str(err).startswith("k: ")
     else:
         assert isinstance(expr, sympy.Expr)
-
-
-def _replace(text, old, new):
-    assert old in text, old
-    return text.replace(old, new, 1)
 
 
 @pytest.mark.parametrize(

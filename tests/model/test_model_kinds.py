@@ -23,17 +23,8 @@ from tests.support.model_kinds import (
     THREE_COMPONENTS,
     VALVES_BOOLEAN,
 )
+from tests.support.model_text import edited as _replace
 from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
-
-
-def _replace(text, old, new):
-    """``text`` with ``old`` replaced by ``new`` once (or each of a tuple of them)."""
-    if isinstance(old, tuple):
-        for one, other in zip(old, new, strict=True):
-            text = _replace(text, one, other)
-        return text
-    assert old in text, old
-    return text.replace(old, new, 1)
 
 
 def _value(expr, **values):
