@@ -49,6 +49,7 @@ from typing import Any, TypeVar
 from hybridlog import __version__
 from hybridlog.errors import (
     HybridlogError,
+    LogError,
     ModelError,
     OptionError,
     OutputError,
@@ -79,7 +80,7 @@ from hybridlog.jobs.batch_logs import (
     recover_note,
 )
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
-from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
+from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -519,8 +520,10 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
 
 def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     path = Path(folder)
-    # The log's bytes are hashed before they are read, so a report never records a
-    # content it was not made from.
+    # The log's bytes are hashed before they are read, and what stat says of it is the same
+    # before the hash and after the read (:func:`_check_log_unchanged`), so a report never
+    # records a content it was not made from.
+    stamp = log_stamp(log)
     log_sha256 = content_hash(log)
     if path.exists() or path.is_symlink():
         # A folder hybridlog did not write is never replaced, with or without --force.
@@ -540,6 +543,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     if read.recover and not recover_applies(log):  # another format: said by recover_note
         read = dataclasses.replace(read, recover=False)
     signals = read_log(log, warm.model, read, reading)
+    _check_log_unchanged(log, stamp)
     check_signals([warm.prepared], warm.model, signals)  # before waiting for memory
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
@@ -565,6 +569,25 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
             model=warm.model,
         )
     return LogOutcome(log, folder, "done", report, None, memory_wait_s=waited)
+
+
+def _check_log_unchanged(log: str, stamp: str) -> None:
+    """Refuse a log whose size or modification time changed since it was hashed (:func:`log_stamp`).
+
+    Read after the change, the log's report would record the content hashed before: numbers
+    of a cut-off read (a recorder still writing the log) under a content they are not of.
+
+    Raises
+    ------
+    LogError
+        Naming the log.
+    """
+    if log_stamp(log) != stamp:
+        raise LogError(
+            f"{log}: changed while the batch read it (its size, modification time or file "
+            "differ from when it was hashed), so it was not analysed; run the batch again "
+            "once it is complete"
+        )
 
 
 def _unless_stopped(batch_stopped: Callable[[], bool] | None, log: str) -> None:
