@@ -920,16 +920,23 @@ def other_report_folders(root: Path, folders: Sequence[Path]) -> list[str]:
     hidden names (temporaries) and links are not searched.
     """
     ours = {os.path.abspath(folder) for folder in folders}
-    found: list[str] = []
+    found = [
+        here.relative_to(root).as_posix()
+        for here in _report_folders(root)
+        if os.path.abspath(here) not in ours
+    ]
+    return sorted(found, key=natural_key)
+
+
+def _report_folders(root: Path) -> Iterator[Path]:
+    """Every report folder below ``root`` (:func:`other_report_folders`), in walk order."""
     for parent, subfolders, files in os.walk(root):
         here = Path(parent)
         if here != root and MARKER in files and "report.json" in files:
-            if os.path.abspath(here) not in ours:
-                found.append(here.relative_to(root).as_posix())
+            yield here
             subfolders.clear()  # a report's own folders (plots) hold no report
             continue
         subfolders[:] = [name for name in subfolders if not name.startswith(".")]
-    return sorted(found, key=natural_key)
 
 
 def _others_note(others: Sequence[str]) -> str:
@@ -1098,13 +1105,19 @@ def _check_same_run_kind(root: Path, folders: Sequence[Path], job: BatchJob) -> 
 
     Each such log would fail (its folder is not replaced without ``--force``), and the
     summaries of that run, every such log failed, would replace the previous run's: the
-    user's summaries lost for a run that wrote nothing.  Reports of the same estimator and
-    model made with other options are redone as usual (:func:`_reusable`).
+    user's summaries lost for a run that wrote nothing.  The report folders of logs not in
+    this run count too (:func:`_report_folders`): a run over other logs would replace that
+    batch's summaries with its own, of another estimator, beside that batch's reports.
+    Reports of the same estimator and model made with other options are redone as usual
+    (:func:`_reusable`).
     """
+    own = [folder for folder in folders if not folder.is_symlink()]
+    seen = {os.path.abspath(folder) for folder in own}
+    others = [f for f in _report_folders(root) if os.path.abspath(f) not in seen]
     other: dict[tuple[str, str], list[str]] = {}
-    for folder in folders:
+    for folder in [*own, *sorted(others, key=lambda f: natural_key(f.as_posix()))]:
         report = folder / "report.json"
-        if folder.is_symlink() or not report.is_file():
+        if not report.is_file():
             continue
         kind = _report_kind(report)
         if kind is not None and kind != (job.model_name, job.estimator):
