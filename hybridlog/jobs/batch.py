@@ -71,6 +71,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
+from hybridlog.jobs.batch_lock import batch_folder_lock
 from hybridlog.jobs.batch_logs import (
     FoundLogs,
     batch_logs,
@@ -622,10 +623,13 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 # --- the batch ----------------------------------------------------------------------------------
 
 
-def _prepare_root(root: Path, folders: Sequence[Path]) -> _Made:
+def _prepare_root(root: Path, folders: Sequence[Path], locks: contextlib.ExitStack) -> _Made:
     """Create the batch folder and the folders holding log folders, or check they are ours.
 
-    Returns what it made, to be removed should the batch be refused now (:func:`_plan`).
+    The batch folder is locked for this batch into ``locks`` (:func:`batch_folder_lock`) once
+    it exists, before anything is written in it: another batch running into it is refused,
+    and what this run made is left to that batch.  Returns what it made, to be removed
+    should the batch be refused later (:func:`_plan`).
     """
     # creatable (its name, its parent), not a file or a link, not someone else's folder
     check_dir_target(root, force=True, replacing=False)
@@ -646,6 +650,10 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> _Made:
     marked = not (root / MARKER).is_file()
     try:
         root.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
+    locks.enter_context(batch_folder_lock(root))
+    try:
         if marked:
             write_marker(root)
         for parent in parents:
@@ -840,69 +848,72 @@ def run_batch(
         if client is not None and workers:  # the batch folder made: the workers must see it
             workers[0] = resource.enter_context(check_out(client, workers[0], root))
 
-    with resource:
-        job, model, gates, tasks = _plan(
-            paths,
-            searched,
-            model_ref,
-            out_dir=out_dir,
-            estimator=estimator,
-            sets=sets,
-            read=read or ReadOptions(),
-            fail_under=fail_under,
-            fail_over=fail_over,
-            table_format=table_format,
-            plots=plots,
-            junit=junit,
-            force=force,
-            smooth=smooth,
-            mode_sequence=mode_sequence,
-            check_inputs=check_cluster,
-            check_out=check_cluster_out,
-        )
-        staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
-        died = [_died(log, folder) for _, log, folder in tasks]
-        outcomes: list[LogOutcome]
-        if client is not None or pool is not None:
-            # this process needs no numba and only waits now (for the forkserver's warm-up,
-            # then for the results, or for the cluster's): it imports what the summary plot
-            # needs and makes its figure meanwhile (0.2 s less at the end)
-            plotting = threading.Thread(
-                target=_prepare_summary_plot, args=(len(tasks),), daemon=True
+    # the batch folder's lock (:func:`_prepare_root`): held until the summaries are written
+    with contextlib.ExitStack() as locks:
+        with resource:
+            job, model, gates, tasks = _plan(
+                paths,
+                searched,
+                model_ref,
+                out_dir=out_dir,
+                estimator=estimator,
+                sets=sets,
+                read=read or ReadOptions(),
+                fail_under=fail_under,
+                fail_over=fail_over,
+                table_format=table_format,
+                plots=plots,
+                junit=junit,
+                force=force,
+                smooth=smooth,
+                mode_sequence=mode_sequence,
+                check_inputs=check_cluster,
+                check_out=check_cluster_out,
+                locks=locks,
             )
-            plotting.start()
-            if client is not None:
-                outcomes = run_on_dask(
-                    analyze_log,
-                    tasks,
-                    client,
-                    workers[0],
-                    died=lambda i, why: died[i](why),
-                    failed=lambda i, why: LogOutcome(
-                        tasks[i][1], tasks[i][2], "failed", None, _one_line(why)
-                    ),
-                    done=progress,
-                    kept=lambda outcome: outcome.status != "failed",
+            staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
+            died = [_died(log, folder) for _, log, folder in tasks]
+            outcomes: list[LogOutcome]
+            if client is not None or pool is not None:
+                # this process needs no numba and only waits now (for the forkserver's warm-up,
+                # then for the results, or for the cluster's): it imports what the summary plot
+                # needs and makes its figure meanwhile (0.2 s less at the end)
+                plotting = threading.Thread(
+                    target=_prepare_summary_plot, args=(len(tasks),), daemon=True
                 )
-            elif pool is not None:
-                outcomes = pool.run(
-                    analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
-                )
-            plotting.join()
-        else:
-            outcomes = []
-            for task in tasks:
-                outcomes.append(analyze_log(*task))
-                if progress is not None:
-                    progress(outcomes[-1])
-    for outcome in outcomes:
-        _remove_previous_report(job, outcome)
-    root = output_path(out_dir)
-    others = other_report_folders(root, [Path(o.folder) for o in outcomes])
-    summary = _summarise(root, model, job, gates, outcomes, junit, others)
-    if others:
-        notes.append(_others_note(others))
-    return dataclasses.replace(summary, notes=notes)
+                plotting.start()
+                if client is not None:
+                    outcomes = run_on_dask(
+                        analyze_log,
+                        tasks,
+                        client,
+                        workers[0],
+                        died=lambda i, why: died[i](why),
+                        failed=lambda i, why: LogOutcome(
+                            tasks[i][1], tasks[i][2], "failed", None, _one_line(why)
+                        ),
+                        done=progress,
+                        kept=lambda outcome: outcome.status != "failed",
+                    )
+                elif pool is not None:
+                    outcomes = pool.run(
+                        analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
+                    )
+                plotting.join()
+            else:
+                outcomes = []
+                for task in tasks:
+                    outcomes.append(analyze_log(*task))
+                    if progress is not None:
+                        progress(outcomes[-1])
+        for outcome in outcomes:
+            _remove_previous_report(job, outcome)
+        root = output_path(out_dir)
+        others = other_report_folders(root, [Path(o.folder) for o in outcomes])
+        summary = _summarise(root, model, job, gates, outcomes, junit, others)
+        if others:
+            notes.append(_others_note(others))
+        return dataclasses.replace(summary, notes=notes)
 
 
 _OTHERS_SHOWN = 3
@@ -975,8 +986,12 @@ def _plan(
     mode_sequence: str | None = None,
     check_inputs: Callable[[Sequence[tuple[str, PathLike]]], None] | None = None,
     check_out: Callable[[Path], None] | None = None,
+    locks: contextlib.ExitStack | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
     """Check everything the logs share, prepare the batch folder; the job and its tasks.
+
+    ``locks`` gets the batch folder's lock (:func:`_prepare_root`), to hold until the
+    summaries are written.
 
     ``check_inputs`` is called with the files and folders the batch reads once all is
     checked, before anything is written (the Dask workers' check); ``check_out`` with the
@@ -1039,7 +1054,7 @@ def _plan(
         _check_same_run_kind(root, folders, job)
     if check_inputs is not None:
         check_inputs(inputs)
-    made = _prepare_root(root, folders)
+    made = _prepare_root(root, folders, contextlib.ExitStack() if locks is None else locks)
     if check_out is not None:
         try:
             check_out(root)
