@@ -1038,9 +1038,10 @@ def batch_command(
 
     LOGS are log files, ROS 2 bags or folders of logs: a folder without metadata.yaml is
     searched, with its subfolders, for log files (by suffix) and bags, skipping names that
-    start with '.'.  A log is skipped when its report records the same log content, model,
-    options and hybridlog version (--force redoes all).  Exit status 1 when a log could not
-    be analysed or missed a gate, 2 for bad options, model or output folder.
+    start with '.' and links to folders (a note names them).  A log is skipped when its
+    report records the same log content, model, options and hybridlog version (--force
+    redoes all).  Exit status 1 when a log could not be analysed or missed a gate, 2 for
+    bad options, model or output folder.
     """
     from hybridlog.jobs.batch_logs import batch_logs
 

@@ -194,7 +194,7 @@ def indexed_log(folder: str | os.PathLike[str]) -> bool:
     return any((Path(folder) / f.index_file).is_file() for f in FORMATS if f.index_file)
 
 
-def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
+def logs_in(folder: str | os.PathLike[str], links: list[Path] | None = None) -> list[Path]:
     """The logs in a folder of logs and its subfolders, for ``hybridlog batch FOLDER``.
 
     A log is a file with the suffix of a file format (any case), or a subfolder that
@@ -203,8 +203,9 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
     :data:`hybridlog.outputs.MARKER`: their tables are not logs) are skipped, ``folder``
     itself too if it is one; a bag folder without its ``metadata.yaml`` is
     searched like any other, its ``.db3`` or ``.mcap`` files each a log of its own.  Links to
-    files are followed, links to folders are not.  In the order of :func:`os.walk`, each
-    folder's entries sorted.
+    files are followed, links to folders are not (a loop would never end): each one met is
+    appended to ``links``, when given, so that the caller can say it was not searched.  In
+    the order of :func:`os.walk`, each folder's entries sorted.
 
     Raises
     ------
@@ -226,6 +227,9 @@ def logs_in(folder: str | os.PathLike[str]) -> list[Path]:
                 continue
             if indexed_log(here / name):
                 found.append(here / name)
+            elif (here / name).is_symlink():  # os.walk lists it, but does not enter it
+                if links is not None:
+                    links.append(here / name)
             else:
                 searched.append(name)
         folders[:] = searched

@@ -49,6 +49,7 @@ from typing import Any, TypeVar
 from hybridlog import __version__
 from hybridlog.errors import (
     HybridlogError,
+    LogError,
     ModelError,
     OptionError,
     OutputError,
@@ -70,6 +71,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
+from hybridlog.jobs.batch_lock import batch_folder_lock
 from hybridlog.jobs.batch_logs import (
     FoundLogs,
     batch_logs,
@@ -79,7 +81,7 @@ from hybridlog.jobs.batch_logs import (
     recover_note,
 )
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
-from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
+from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -519,8 +521,10 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
 
 def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     path = Path(folder)
-    # The log's bytes are hashed before they are read, so a report never records a
-    # content it was not made from.
+    # The log's bytes are hashed before they are read, and what stat says of it is the same
+    # before the hash and after the read (:func:`_check_log_unchanged`), so a report never
+    # records a content it was not made from.
+    stamp = log_stamp(log)
     log_sha256 = content_hash(log)
     if path.exists() or path.is_symlink():
         # A folder hybridlog did not write is never replaced, with or without --force.
@@ -540,6 +544,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     if read.recover and not recover_applies(log):  # another format: said by recover_note
         read = dataclasses.replace(read, recover=False)
     signals = read_log(log, warm.model, read, reading)
+    _check_log_unchanged(log, stamp)
     check_signals([warm.prepared], warm.model, signals)  # before waiting for memory
     from hybridlog.report import write_report  # polars: where a log is analysed only
 
@@ -565,6 +570,25 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
             model=warm.model,
         )
     return LogOutcome(log, folder, "done", report, None, memory_wait_s=waited)
+
+
+def _check_log_unchanged(log: str, stamp: str) -> None:
+    """Refuse a log whose size or modification time changed since it was hashed (:func:`log_stamp`).
+
+    Read after the change, the log's report would record the content hashed before: numbers
+    of a cut-off read (a recorder still writing the log) under a content they are not of.
+
+    Raises
+    ------
+    LogError
+        Naming the log.
+    """
+    if log_stamp(log) != stamp:
+        raise LogError(
+            f"{log}: changed while the batch read it (its size, modification time or file "
+            "differ from when it was hashed), so it was not analysed; run the batch again "
+            "once it is complete"
+        )
 
 
 def _unless_stopped(batch_stopped: Callable[[], bool] | None, log: str) -> None:
@@ -599,10 +623,13 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 # --- the batch ----------------------------------------------------------------------------------
 
 
-def _prepare_root(root: Path, folders: Sequence[Path]) -> _Made:
+def _prepare_root(root: Path, folders: Sequence[Path], locks: contextlib.ExitStack) -> _Made:
     """Create the batch folder and the folders holding log folders, or check they are ours.
 
-    Returns what it made, to be removed should the batch be refused now (:func:`_plan`).
+    The batch folder is locked for this batch into ``locks`` (:func:`batch_folder_lock`) once
+    it exists, before anything is written in it: another batch running into it is refused,
+    and what this run made is left to that batch.  Returns what it made, to be removed
+    should the batch be refused later (:func:`_plan`).
     """
     # creatable (its name, its parent), not a file or a link, not someone else's folder
     check_dir_target(root, force=True, replacing=False)
@@ -623,6 +650,10 @@ def _prepare_root(root: Path, folders: Sequence[Path]) -> _Made:
     marked = not (root / MARKER).is_file()
     try:
         root.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
+    locks.enter_context(batch_folder_lock(root))
+    try:
         if marked:
             write_marker(root)
         for parent in parents:
@@ -817,69 +848,72 @@ def run_batch(
         if client is not None and workers:  # the batch folder made: the workers must see it
             workers[0] = resource.enter_context(check_out(client, workers[0], root))
 
-    with resource:
-        job, model, gates, tasks = _plan(
-            paths,
-            searched,
-            model_ref,
-            out_dir=out_dir,
-            estimator=estimator,
-            sets=sets,
-            read=read or ReadOptions(),
-            fail_under=fail_under,
-            fail_over=fail_over,
-            table_format=table_format,
-            plots=plots,
-            junit=junit,
-            force=force,
-            smooth=smooth,
-            mode_sequence=mode_sequence,
-            check_inputs=check_cluster,
-            check_out=check_cluster_out,
-        )
-        staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
-        died = [_died(log, folder) for _, log, folder in tasks]
-        outcomes: list[LogOutcome]
-        if client is not None or pool is not None:
-            # this process needs no numba and only waits now (for the forkserver's warm-up,
-            # then for the results, or for the cluster's): it imports what the summary plot
-            # needs and makes its figure meanwhile (0.2 s less at the end)
-            plotting = threading.Thread(
-                target=_prepare_summary_plot, args=(len(tasks),), daemon=True
+    # the batch folder's lock (:func:`_prepare_root`): held until the summaries are written
+    with contextlib.ExitStack() as locks:
+        with resource:
+            job, model, gates, tasks = _plan(
+                paths,
+                searched,
+                model_ref,
+                out_dir=out_dir,
+                estimator=estimator,
+                sets=sets,
+                read=read or ReadOptions(),
+                fail_under=fail_under,
+                fail_over=fail_over,
+                table_format=table_format,
+                plots=plots,
+                junit=junit,
+                force=force,
+                smooth=smooth,
+                mode_sequence=mode_sequence,
+                check_inputs=check_cluster,
+                check_out=check_cluster_out,
+                locks=locks,
             )
-            plotting.start()
-            if client is not None:
-                outcomes = run_on_dask(
-                    analyze_log,
-                    tasks,
-                    client,
-                    workers[0],
-                    died=lambda i, why: died[i](why),
-                    failed=lambda i, why: LogOutcome(
-                        tasks[i][1], tasks[i][2], "failed", None, _one_line(why)
-                    ),
-                    done=progress,
-                    kept=lambda outcome: outcome.status != "failed",
+            staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
+            died = [_died(log, folder) for _, log, folder in tasks]
+            outcomes: list[LogOutcome]
+            if client is not None or pool is not None:
+                # this process needs no numba and only waits now (for the forkserver's warm-up,
+                # then for the results, or for the cluster's): it imports what the summary plot
+                # needs and makes its figure meanwhile (0.2 s less at the end)
+                plotting = threading.Thread(
+                    target=_prepare_summary_plot, args=(len(tasks),), daemon=True
                 )
-            elif pool is not None:
-                outcomes = pool.run(
-                    analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
-                )
-            plotting.join()
-        else:
-            outcomes = []
-            for task in tasks:
-                outcomes.append(analyze_log(*task))
-                if progress is not None:
-                    progress(outcomes[-1])
-    for outcome in outcomes:
-        _remove_previous_report(job, outcome)
-    root = output_path(out_dir)
-    others = other_report_folders(root, [Path(o.folder) for o in outcomes])
-    summary = _summarise(root, model, job, gates, outcomes, junit, others)
-    if others:
-        notes.append(_others_note(others))
-    return dataclasses.replace(summary, notes=notes)
+                plotting.start()
+                if client is not None:
+                    outcomes = run_on_dask(
+                        analyze_log,
+                        tasks,
+                        client,
+                        workers[0],
+                        died=lambda i, why: died[i](why),
+                        failed=lambda i, why: LogOutcome(
+                            tasks[i][1], tasks[i][2], "failed", None, _one_line(why)
+                        ),
+                        done=progress,
+                        kept=lambda outcome: outcome.status != "failed",
+                    )
+                elif pool is not None:
+                    outcomes = pool.run(
+                        analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
+                    )
+                plotting.join()
+            else:
+                outcomes = []
+                for task in tasks:
+                    outcomes.append(analyze_log(*task))
+                    if progress is not None:
+                        progress(outcomes[-1])
+        for outcome in outcomes:
+            _remove_previous_report(job, outcome)
+        root = output_path(out_dir)
+        others = other_report_folders(root, [Path(o.folder) for o in outcomes])
+        summary = _summarise(root, model, job, gates, outcomes, junit, others)
+        if others:
+            notes.append(_others_note(others))
+        return dataclasses.replace(summary, notes=notes)
 
 
 _OTHERS_SHOWN = 3
@@ -897,16 +931,23 @@ def other_report_folders(root: Path, folders: Sequence[Path]) -> list[str]:
     hidden names (temporaries) and links are not searched.
     """
     ours = {os.path.abspath(folder) for folder in folders}
-    found: list[str] = []
+    found = [
+        here.relative_to(root).as_posix()
+        for here in _report_folders(root)
+        if os.path.abspath(here) not in ours
+    ]
+    return sorted(found, key=natural_key)
+
+
+def _report_folders(root: Path) -> Iterator[Path]:
+    """Every report folder below ``root`` (:func:`other_report_folders`), in walk order."""
     for parent, subfolders, files in os.walk(root):
         here = Path(parent)
         if here != root and MARKER in files and "report.json" in files:
-            if os.path.abspath(here) not in ours:
-                found.append(here.relative_to(root).as_posix())
+            yield here
             subfolders.clear()  # a report's own folders (plots) hold no report
             continue
         subfolders[:] = [name for name in subfolders if not name.startswith(".")]
-    return sorted(found, key=natural_key)
 
 
 def _others_note(others: Sequence[str]) -> str:
@@ -945,8 +986,12 @@ def _plan(
     mode_sequence: str | None = None,
     check_inputs: Callable[[Sequence[tuple[str, PathLike]]], None] | None = None,
     check_out: Callable[[Path], None] | None = None,
+    locks: contextlib.ExitStack | None = None,
 ) -> tuple[BatchJob, HybridModel, list[Gate], list[tuple[BatchJob, str, str]]]:
     """Check everything the logs share, prepare the batch folder; the job and its tasks.
+
+    ``locks`` gets the batch folder's lock (:func:`_prepare_root`), to hold until the
+    summaries are written.
 
     ``check_inputs`` is called with the files and folders the batch reads once all is
     checked, before anything is written (the Dask workers' check); ``check_out`` with the
@@ -1009,7 +1054,7 @@ def _plan(
         _check_same_run_kind(root, folders, job)
     if check_inputs is not None:
         check_inputs(inputs)
-    made = _prepare_root(root, folders)
+    made = _prepare_root(root, folders, contextlib.ExitStack() if locks is None else locks)
     if check_out is not None:
         try:
             check_out(root)
@@ -1075,13 +1120,19 @@ def _check_same_run_kind(root: Path, folders: Sequence[Path], job: BatchJob) -> 
 
     Each such log would fail (its folder is not replaced without ``--force``), and the
     summaries of that run, every such log failed, would replace the previous run's: the
-    user's summaries lost for a run that wrote nothing.  Reports of the same estimator and
-    model made with other options are redone as usual (:func:`_reusable`).
+    user's summaries lost for a run that wrote nothing.  The report folders of logs not in
+    this run count too (:func:`_report_folders`): a run over other logs would replace that
+    batch's summaries with its own, of another estimator, beside that batch's reports.
+    Reports of the same estimator and model made with other options are redone as usual
+    (:func:`_reusable`).
     """
+    own = [folder for folder in folders if not folder.is_symlink()]
+    seen = {os.path.abspath(folder) for folder in own}
+    others = [f for f in _report_folders(root) if os.path.abspath(f) not in seen]
     other: dict[tuple[str, str], list[str]] = {}
-    for folder in folders:
+    for folder in [*own, *sorted(others, key=lambda f: natural_key(f.as_posix()))]:
         report = folder / "report.json"
-        if folder.is_symlink() or not report.is_file():
+        if not report.is_file():
             continue
         kind = _report_kind(report)
         if kind is not None and kind != (job.model_name, job.estimator):

@@ -12,6 +12,7 @@ import os
 import re
 from collections import Counter
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NamedTuple
 
 from hybridlog.errors import LogError, OptionError, excerpt
@@ -85,9 +86,10 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     found: list[str] = []
     given: list[str] = []
     folders: list[str] = []
+    links: list[Path] = []
     for log in logs:
         if os.path.isdir(log) and not indexed_log(log):
-            inside = logs_in(log)
+            inside = logs_in(log, links)
             if not inside:
                 raise OptionError(
                     f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
@@ -100,7 +102,37 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
         else:
             given.append(os.fspath(log))
     paths, notes = _one_name_each(found, given)
+    notes += _links_note(links, [*folders, *given])
     return FoundLogs(sorted(paths, key=natural_key), folders, tuple(notes))
+
+
+_LINKS_SHOWN = 3
+"""How many links to folders not searched the note names; the others are counted."""
+
+
+def _links_note(links: Sequence[Path], searched: Sequence[str]) -> list[str]:
+    """The note (none, or one line) on links to folders that a folder of logs held.
+
+    They are not searched (:func:`hybridlog.io.formats.logs_in`), so the logs only they
+    lead to were left out of the batch without a word, its summaries and gates passing
+    without them.  A link into a folder searched anyway (or to a log given), whose logs the
+    batch has under their own names, is not named.
+    """
+    reached = [os.path.realpath(path) for path in searched]
+    left: list[str] = []
+    for link in links:
+        target = os.path.realpath(link)
+        if not any(target == r or target.startswith(r.rstrip(os.sep) + os.sep) for r in reached):
+            left.append(os.fspath(link))
+    if not left:
+        return []
+    shown = ", ".join(excerpt(p, 60) for p in sorted(left, key=natural_key)[:_LINKS_SHOWN])
+    more = f" and {len(left) - _LINKS_SHOWN} more" if len(left) > _LINKS_SHOWN else ""
+    count = f"{len(left)} links to folders were" if len(left) > 1 else "a link to a folder was"
+    return [
+        f"{count} not searched for logs ({shown}{more}; links to folders are not followed): "
+        "give the folder it leads to as LOGS to analyse its logs"
+    ]
 
 
 def _check_new_folder(folder: str, folders: Sequence[str]) -> None:

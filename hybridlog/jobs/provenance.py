@@ -17,7 +17,7 @@ from pathlib import Path
 from hybridlog.errors import LogError, ModelError
 from hybridlog.outputs import PathLike
 
-__all__ = ["content_hash", "folder_stamp", "model_hash"]
+__all__ = ["content_hash", "folder_stamp", "log_stamp", "model_hash"]
 
 
 def _file_digest(path: Path) -> bytes:
@@ -77,6 +77,24 @@ def folder_stamp(folder: PathLike) -> str:
     except OSError:
         return ""
     return digest.hexdigest()
+
+
+def log_stamp(log: PathLike) -> str:
+    """What ``stat`` says of a log (a file, or every file of a bag folder): cheap, not content.
+
+    Its size, modification time and file number (a file replaced by a rename is another
+    file): taken before a log is hashed and again once it was read, a difference means the
+    log changed meanwhile (a recorder still writing it), so the content read is not the one
+    hashed.  A log that cannot be stat'ed stamps empty (it fails as that log when read).
+    """
+    target = Path(log)
+    try:
+        if target.is_dir():
+            return folder_stamp(target)
+        state = target.stat()
+    except OSError:
+        return ""
+    return f"{state.st_size}:{state.st_mtime_ns}:{state.st_dev}:{state.st_ino}"
 
 
 def model_hash(model_ref: PathLike) -> str:

@@ -70,3 +70,20 @@ def test_force_replaces_them_and_other_options_redo_as_before(tmp_path: Path) ->
     replaced = run_batch(logs, TANK, out_dir=out, estimator="hstf", force=True)
     assert {o.status for o in replaced.logs} == {"done"}
     assert "· hstf" in (out / "summary.md").read_text(encoding="utf-8")
+
+
+def test_another_estimator_over_other_logs_is_refused_too(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before, only the folders of this run's logs were looked at: a run over other logs (a
+    new night's) into a folder of another estimator's batch passed, exit 0, and its summaries
+    replaced that batch's, whose report folders stayed there unsummarised."""
+    _, out = _batch_folder(tmp_path)
+    before = _contents(out)
+    (tmp_path / "new").mkdir()
+    other = write_table(tmp_path / "new" / "n1.csv", tank_run(steps=30, seed=7).columns)
+    analysed: list[str] = []
+    monkeypatch.setattr(batch, "analyze_log", lambda job, log, folder: analysed.append(log))
+    with pytest.raises(OutputError, match=r"reports of 'imm' .*\(s1\.csv and 1 more\)"):
+        run_batch([other], TANK, out_dir=out, estimator="hstf")
+    assert analysed == [] and _contents(out) == before
