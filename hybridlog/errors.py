@@ -178,3 +178,17 @@ def as_text(text: object) -> str:
         return shown.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
     except UnicodeEncodeError:  # a surrogate that is no escaped byte
         return shown.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def arithmetic_reason(err: BaseException) -> str:
+    """Why a computation failed, as a person reads it: ``Numerical result out of range``.
+
+    Python's ``x ** y`` overflow is ``OverflowError(34, 'Numerical result out of range')``,
+    whose ``str`` is the tuple ``(34, 'Numerical result out of range')``: the C errno
+    number leaked into an error line.  Such an ``(errno, text)`` pair gives its text; any
+    other error its ``str``.
+    """
+    args = err.args
+    if len(args) == 2 and isinstance(args[0], int) and isinstance(args[1], str):
+        return args[1]
+    return str(err)

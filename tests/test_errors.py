@@ -13,6 +13,7 @@ from hybridlog.errors import (
     ModelError,
     OptionError,
     after_given,
+    arithmetic_reason,
     prefixed,
 )
 from hybridlog.io.mcap_reader import UnfinishedLogError
@@ -56,3 +57,14 @@ def test_what_an_error_names_survives_a_prefix_and_a_worker() -> None:
     assert prefixed(err, "--estimators imm: ").named == {"A"}
     copy = pickle.loads(pickle.dumps(err))  # a worker's error, sent to the command
     assert type(copy) is OptionError and copy.named == {"A"} and str(copy) == str(err)
+
+
+def test_an_overflow_of_a_power_is_said_in_words_not_as_an_errno_tuple():
+    # unknown-mode on a noisy bioplex log ended its refusal with
+    # "(34, 'Numerical result out of range')", the str of Python's ** overflow
+    with pytest.raises(OverflowError) as err:
+        _ = 10.0**400
+    assert arithmetic_reason(err.value) == "Numerical result out of range"
+    assert arithmetic_reason(ZeroDivisionError("float division by zero")) == (
+        "float division by zero"
+    )

@@ -607,14 +607,29 @@ def interval(field: dataclasses.Field[Any]) -> str:
 
 
 def shown(value: object) -> str:
-    """A default or bound as ``--set`` would take it: ``none``, ``true``, ``""``, ``0.95``."""
+    """A default or bound as ``--set`` would take it: ``none``, ``true``, ``""``, ``0.95``.
+
+    A float is written with the fewest significant digits (six at least, ``1e+06``) that
+    read back as the same float: a value just outside a range (``1.0000001`` against
+    ``[1e-12, 1]``) and a bound that six digits round (2^52) are shown as they are, never as
+    the bound itself, which would read as inside.
+    """
     if value is None:
         return "none"
     if isinstance(value, bool):
         return str(value).lower()
     if value == "":
         return '""'
-    return f"{value:g}" if isinstance(value, float) else str(value)
+    return _float_text(value) if isinstance(value, float) else str(value)
+
+
+def _float_text(value: float) -> str:
+    """``value`` in ``%g`` style with the fewest digits (from six) that read back as it."""
+    for digits in range(6, 18):
+        text = f"{value:.{digits}g}"
+        if not math.isfinite(value) or float(text) == value:
+            return text
+    return repr(value)  # unreachable: 17 significant digits identify every float64
 
 
 def format_options(infos: Iterable[OptionInfo]) -> str:

@@ -331,7 +331,7 @@ def test_a_condition_limit_that_would_hide_no_correct_digit_is_refused(switched)
     with pytest.raises(
         OptionError,
         match=r"^--set condition_limit=1e300: switching-observer option 'condition_limit': "
-        r"1e\+300 is outside \[1, 4\.5036e\+15\]$",
+        r"1e\+300 is outside \[1, 4503599627370496\]$",
     ):
         prepare(model, "switching-observer", {"condition_limit": "1e300"})
     ceiling = prepare(model, "switching-observer", {"condition_limit": str(2.0**52)})

@@ -18,7 +18,7 @@ from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.filter_options import HstfOptions
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.estimators.observer_options import ChiuOptions
-from hybridlog.estimators.options import OptionSource, parse_options
+from hybridlog.estimators.options import OptionSource, describe_options, parse_options
 from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import parse_model
@@ -144,3 +144,32 @@ def test_a_set_value_the_model_cannot_take_names_the_set_option():
     ):
         prepare(model, "switching-observer", {"eigenvalues": "-1,-2"}, overrides_by="--set")
     prepare(model, "switching-observer", {"eigenvalues": "-1,-2,-3"}, overrides_by="--set")
+
+
+@pytest.mark.parametrize(
+    ("cls", "name", "text", "said"),
+    [
+        # just outside: six digits made it the bound, "1 is outside [1e-12, 1]"
+        (HstfOptions, "rho", "1.0000001", "1.0000001 is outside [1e-12, 1]"),
+        (HstfOptions, "theta", "0.49999999", "0.49999999 is outside [0.5, 1]"),
+        # a bound six digits round: the range read [1, 4.5036e+15], which refused 4.5036e15
+        (
+            SwitchingObserverOptions,
+            "condition_limit",
+            "4.5036e15",
+            "4.5036e+15 is outside [1, 4503599627370496]",
+        ),
+    ],
+)
+def test_a_refused_value_and_its_range_are_shown_with_the_digits_that_tell_them_apart(
+    cls, name, text, said
+):
+    with pytest.raises(OptionError) as err:
+        _set(cls, name, text)
+    assert str(err.value) == f"--set {name}={text}: e option '{name}': {said}"
+
+
+def test_the_largest_value_the_documented_range_shows_is_taken():
+    (info,) = [i for i in describe_options(SwitchingObserverOptions) if i.name == "condition_limit"]
+    high = info.constraint.split(", ")[1].rstrip("]")
+    assert _set(SwitchingObserverOptions, "condition_limit", high).condition_limit == float(high)

@@ -37,6 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from hybridlog.errors import arithmetic_reason
 from hybridlog.estimators.cpha.cluster_filter import (
     ClusterFilter,
     FilterCache,
@@ -525,7 +526,8 @@ class Tracker:
                 raise ClusterStepError(
                     f"the EKF of the cluster of {', '.join(cluster.states or cluster.outputs)} "
                     f"(components {', '.join(cluster.components)}) cannot step at sample {k}: "
-                    f"{why} ({_values(cluster, x_parent, y_now[compiled.outputs])}): {err}"
+                    f"{why} ({_values(cluster, x_parent, y_now[compiled.outputs])}): "
+                    f"{arithmetic_reason(err)}"
                 ) from err  # the cause last: a line cut in the middle (a long path) keeps it
             memo[key] = result
             self.filtered += 1
