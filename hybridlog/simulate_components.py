@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.errors import ModelError, OptionError, excerpt
+from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
@@ -564,7 +564,7 @@ def _controller_failed(
     """
     given = ", ".join(f"{name}={value:g}" for name, value in (settings or {}).items())
     return (
-        f"{origin}: simulation.controller: {err} at t = {format_time(at)} s"
+        f"{origin}: simulation.controller: {arithmetic_reason(err)} at t = {format_time(at)} s"
         + (f" (with --set {given})" if given else "")
         + "; the controller gives no number to simulate with"
     )

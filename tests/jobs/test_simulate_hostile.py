@@ -182,3 +182,15 @@ def test_steps_that_end_a_scenario_before_its_events_say_so(
     assert code == 0 and "light_fault" not in output and "drift_start = 700" in output
     code, output = _run([*args[:5], "1000", "--force"], capsys)
     assert code == 0 and "note" not in output
+
+
+def test_a_controller_overflow_is_said_in_words_not_as_an_errno_tuple() -> None:
+    """``x ** y`` overflowing in a controller is ``OverflowError(34, '...')``, whose text was the
+    tuple "(34, 'Numerical result out of range')" in the error line."""
+    from hybridlog.simulate_components import _controller_failed
+
+    message = _controller_failed(
+        "m.toml", OverflowError(34, "Numerical result out of range"), 2.0, {"ki": 1e300}
+    )
+    assert message.startswith("m.toml: simulation.controller: Numerical result out of range at t")
+    assert "(34" not in message and "(with --set ki=1e+300)" in message
