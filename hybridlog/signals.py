@@ -118,8 +118,10 @@ class AlignedSignals:
         ``True`` where the log has no sample of the output within ``dt/2`` of the row's time
         and ``outputs`` holds a value taken from the samples around (a gap up to
         ``max_gap`` bridged, SPEC §5), shape ``(N, n_y)``; ``None`` where every row was
-        measured.  The estimators run on ``outputs``; what is reported as measured, and
-        scored, is :meth:`measured_outputs`.
+        measured.  What the estimators update on, what is reported as measured and what is
+        scored is :meth:`measured_outputs`, NaN there: no estimator takes the stand-in for
+        a measurement (an update on the measured outputs alone, prediction only where none
+        is).
     piece:
         The part of the log the signals hold when ``--split-gaps`` cut it (``--split-gaps
         piece 1 of 3, t = 0 … 1 s, the longest``); empty: the whole log.  ``source`` then
@@ -187,6 +189,11 @@ class AlignedSignals:
                 None if self.unmeasured_outputs is None else self.unmeasured_outputs[start:stop]
             ),
         )
+
+    @property
+    def measures_every_output(self) -> bool:
+        """Whether the log measured every output at every row (no stand-in value)."""
+        return self.unmeasured_outputs is None or not bool(self.unmeasured_outputs.any())
 
     def measured_outputs(self) -> FloatArray:
         """``outputs`` with NaN where the log did not measure them (``unmeasured_outputs``).

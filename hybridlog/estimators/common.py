@@ -83,7 +83,7 @@ class FilterRun(NamedTuple):
         Q, R = noise_stacks(model, estimator)
         return cls(
             contiguous(signals.inputs),
-            contiguous(signals.outputs),
+            contiguous(signals.measured_outputs()),  # NaN: not measured (kernels.left_out)
             Q,
             R,
             contiguous(model.initial_state),
@@ -292,7 +292,10 @@ class Accelerator:
     generate: Callable[[HybridModel], str]
     function: str
     applies: Callable[[HybridModel], bool] = fits_unrolled
-    """Whether ``auto`` takes the accelerator for a model."""
+    """Whether ``auto`` takes the accelerator for a model.  An accelerator updates on every
+    output at every sample: a log with an output not measured at some row
+    (:attr:`~hybridlog.signals.AlignedSignals.measures_every_output`) runs the generic loop,
+    which updates on the measured ones alone (:func:`~hybridlog.estimators.kernels.left_out`)."""
     modules: tuple[str, ...] = ("hybridlog.estimators.unrolled",)
 
 
@@ -321,10 +324,17 @@ class FilterCode:
 
 
 def _compiled_loop(
-    code: FilterCode, model: HybridModel, frame: tuple[Any, ...], *, jit: bool, kernel: str
+    code: FilterCode,
+    model: HybridModel,
+    frame: tuple[Any, ...],
+    *,
+    jit: bool,
+    kernel: str,
+    every_output: bool,
 ) -> tuple[Callable[..., None], tuple[Fn, ...], float]:
     """The loop of the code path ``kernel`` and ``jit`` pick, compiled for ``frame``.
 
+    ``every_output``: whether every output was measured at every row (else no accelerator).
     Returns the loop, the model functions it takes before the frame (none for an
     accelerator) and the seconds spent generating, compiling or loading them.
     """
@@ -332,6 +342,7 @@ def _compiled_loop(
     if (
         jit
         and accelerator is not None
+        and every_output
         and (kernel == "unrolled" or (kernel == "auto" and accelerator.applies(model)))
     ):
         modules = (accelerator.generate.__module__, *accelerator.modules)
@@ -400,6 +411,11 @@ def run_filter_chunks(
         raise ValueError(f"unknown kernel {kernel!r}")
     if kernel == "unrolled" and code.accelerator is None:
         raise ValueError(f"{code.name} has no accelerator")
+    if kernel == "unrolled" and not signals.measures_every_output:
+        raise ValueError(
+            f"{code.name}'s accelerator updates on every output: not for a log with outputs "
+            "not measured at some rows (kernel 'loops' or 'auto')"
+        )
     n = signals.n_samples
     run = FilterRun.of(model, signals, code.name)
     size = min(rows, n)
@@ -415,7 +431,12 @@ def run_filter_chunks(
         buffers.append(allocate())
     opening: Chunk[tuple[Any, ...]] = Chunk(0, size, code.prior(run))
     loop, functions, compile_s = _compiled_loop(
-        code, model, (run, settings, opening, buffers[0]), jit=jit, kernel=kernel
+        code,
+        model,
+        (run, settings, opening, buffers[0]),
+        jit=jit,
+        kernel=kernel,
+        every_output=signals.measures_every_output,
     )
 
     def compute(chunk: Chunk[tuple[Any, ...]], into: FilterBuffers) -> float:

@@ -61,8 +61,10 @@ from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
     dimensions,
-    gaussian_log_density,
     kalman_update,
+    leave_out_unmeasured,
+    left_out,
+    measured_log_density,
     mixture_moments,
     normalize_log,
     record,
@@ -186,6 +188,10 @@ def _hstf_steps(
     predictions_out = out.output_predictions
     HQH = np.empty((m, m))
     M = np.empty((m, m))
+    H_left = np.empty((m, n))
+    gamma_left = np.empty(m)
+    R_left = np.empty((m, m))
+    S_left = np.empty((m, m))
 
     if first == 0 and stop > 0:
         record(out, 0, q_hat, mu, x, P)
@@ -195,6 +201,7 @@ def _hstf_steps(
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
+        left = left_out(y)  # outputs not measured at k+1: the update is the others'
         # (10), (25): mode-conditional predictions and state Jacobians at x̂(k|k).
         for i in range(n_q):
             f(i, x, u, x_i_pred[i])
@@ -224,13 +231,12 @@ def _hstf_steps(
                 congruence(H_i[i], Q[i], work_mn, HQH)
                 trace_n = 0.0
                 trace_m = 0.0
-                for b in range(m):
-                    for c in range(m):
-                        outer = gamma_i[i, b] * gamma_i[i, c]
-                        V = outer if k == 0 else (rho * S[b, c] + outer) / (1.0 + rho)  # (30)
-                        if b == c:
-                            trace_n += V - HQH[b, b] - beta * R[i, b, b]  # (29)
-                    trace_m += M[b, b]
+                for b in range(m):  # the traces over the measured outputs
+                    if y[b] == y[b]:
+                        outer = gamma_i[i, b] * gamma_i[i, b]
+                        V = outer if k == 0 else (rho * S[b, b] + outer) / (1.0 + rho)  # (30)
+                        trace_n += V - HQH[b, b] - beta * R[i, b, b]  # (29)
+                        trace_m += M[b, b]
                 if trace_m > 0.0 and trace_n / trace_m > 1.0:  # (26), (27)
                     lam = trace_n / trace_m
             for a in range(n):
@@ -239,10 +245,14 @@ def _hstf_steps(
         mixture_moments(uniform, x_i_pred, P_i_pred, x_pred, P_pred)  # (22)
         nearest = np.inf  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
         for i in range(n_q):
-            # (9), (11), (32): the gain from the combined P(k+1|k).
-            kalman_update(
-                x_i_pred[i], P_pred, H_i[i], R[i], gamma_i[i], work, x_i_post[i], P_i_post[i]
-            )
+            # (9), (11), (32): the gain from the combined P(k+1|k), of the measured outputs.
+            H_u, R_u, gamma_u = H_i[i], R[i], gamma_i[i]
+            if left:
+                H_left[:, :] = H_u
+                gamma_left[:] = gamma_u
+                leave_out_unmeasured(y, H_left, gamma_left, R_u, R_left)
+                H_u, R_u, gamma_u = H_left, R_left, gamma_left
+            kalman_update(x_i_pred[i], P_pred, H_u, R_u, gamma_u, work, x_i_post[i], P_i_post[i])
             # (35): likelihood covariance from the mode-conditional P_i(k+1|k) (Remark 1).
             if unfaded_likelihood:
                 for a in range(n):
@@ -254,8 +264,12 @@ def _hstf_steps(
             for b in range(m):
                 for c in range(m):
                     S_i[i, b, c] += R[i, b, c]
-            if cholesky(S_i[i], L):
-                log_likelihood[i] = gaussian_log_density(gamma_i[i], L, vec_m)  # (34)
+            S_u = S_i[i]  # (38)-(39) mix the whole S_i; (34) weighs the measured outputs'
+            if left:
+                leave_out_unmeasured(y, H_left, gamma_left, S_u, S_left)
+                S_u = S_left
+            if cholesky(S_u, L):
+                log_likelihood[i] = measured_log_density(gamma_u, L, vec_m, left)  # (34)
                 distance = 0.0  # vec_m holds L⁻¹ γ
                 for b in range(m):
                     distance += vec_m[b] * vec_m[b]
@@ -263,7 +277,7 @@ def _hstf_steps(
                     nearest = distance
             else:
                 log_likelihood[i] = -np.inf
-        out.surprise[row] = nearest if nearest < np.inf else np.nan
+        out.surprise[row] = nearest if nearest < np.inf and left < m else np.nan
         # (33) with the uniform prior of (20), normalised in log space.
         normalize_log(log_likelihood, mu)
         mixture_moments(mu, x_i_post, P_i_post, x, P)  # (36), (37)

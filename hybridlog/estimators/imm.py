@@ -48,8 +48,10 @@ from hybridlog.estimators.kernels import (
     argmax,
     congruence,
     dimensions,
-    gaussian_log_density,
     kalman_update,
+    leave_out_unmeasured,
+    left_out,
+    measured_log_density,
     mixture_moments,
     normalize_log,
     record,
@@ -166,6 +168,7 @@ def _imm_steps(
     H_j = np.empty((m, n))
     y_j = np.empty((n_q, m))
     gamma = np.empty(m)
+    R_left = np.empty((m, m))
     work = workspace(n, m)
     work_nn, L, vec_m = work.nn, work.L, work.m
     log_posterior = np.empty(n_q)
@@ -182,6 +185,7 @@ def _imm_steps(
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
+        left = left_out(y)  # outputs not measured at k+1: the update is the others'
         if keep_filtered:  # row k: the mode-matched x̂_i(k|k), P_i(k|k) the step starts from
             for i in range(n_q):
                 pack_state(x_i[i], P_i[i], store.states[k, i])
@@ -223,16 +227,20 @@ def _imm_steps(
             for b in range(m):
                 gamma[b] = y[b] - y_j[j, b]
                 predictions[b] += c_bar[j] * y_j[j, b]
-            if kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, x_i[j], P_i[j]):
-                log_likelihood = gaussian_log_density(gamma, L, vec_m)
-                distance = 0.0  # vec_m holds L⁻¹ γ
+            R_j = R[j]
+            if left:
+                leave_out_unmeasured(y, H_j, gamma, R_j, R_left)
+                R_j = R_left
+            if kalman_update(x_pred, P_pred, H_j, R_j, gamma, work, x_i[j], P_i[j]):
+                log_likelihood = measured_log_density(gamma, L, vec_m, left)
+                distance = 0.0  # vec_m holds L⁻¹ γ (0 for an output left out)
                 for b in range(m):
                     distance += vec_m[b] * vec_m[b]
                 if distance < nearest:
                     nearest = distance
                     if keep_whitened:  # L⁻¹ γ of the nearest mode (FilterBuffers.whitened)
                         for b in range(m):
-                            out.whitened[row, b] = vec_m[b]
+                            out.whitened[row, b] = vec_m[b] if y[b] == y[b] else np.nan
                 log_posterior[j] = (
                     math.log(c_bar[j]) if c_bar[j] > 0.0 else -np.inf
                 ) + log_likelihood
@@ -243,7 +251,7 @@ def _imm_steps(
                 P_i[j] = P_pred
             if keep_likelihoods:
                 store.log_likelihoods[k + 1, j] = log_likelihood
-        out.surprise[row] = nearest if nearest < np.inf else np.nan
+        out.surprise[row] = nearest if nearest < np.inf and left < m else np.nan
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)

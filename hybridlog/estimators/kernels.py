@@ -155,6 +155,53 @@ def gaussian_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray) -> 
 
 
 @jit
+def left_out(y: FloatArray) -> int:
+    """How many outputs of ``y`` were not measured (NaN: ``AlignedSignals.measured_outputs``)."""
+    count = 0
+    for b in range(y.shape[0]):
+        if y[b] != y[b]:
+            count += 1
+    return count
+
+
+@jit
+def leave_out_unmeasured(
+    y: FloatArray, H: FloatArray, gamma: FloatArray, R: FloatArray, R_out: FloatArray
+) -> None:
+    """Make an update of the measured outputs of ``y`` alone, in place of all of them.
+
+    For each output ``b`` not measured (``y[b]`` NaN) the row ``b`` of ``H`` and ``γ[b]`` are
+    set to 0, and ``R_out`` is ``R`` with row and column ``b`` those of the identity.  Then
+    ``S = H P Hᵀ + R_out`` is block diagonal, ``S[b, b] = 1``; the gain's column ``b`` is 0, so
+    :func:`kalman_update` updates on the measured outputs alone (the prediction stands where
+    none is), exactly as with the measured sub-vector's rows of ``H``, ``R`` and ``γ``; and
+    :func:`gaussian_log_density` of ``γ`` under ``S`` is the measured sub-vector's, less
+    ``log(2π)/2`` per output left out (:func:`measured_log_density` adds it back).
+    """
+    m = y.shape[0]
+    for b in range(m):
+        missing_b = y[b] != y[b]
+        if missing_b:
+            gamma[b] = 0.0
+            for a in range(H.shape[1]):
+                H[b, a] = 0.0
+        for c in range(m):
+            if missing_b or y[c] != y[c]:
+                R_out[b, c] = 1.0 if b == c else 0.0
+            else:
+                R_out[b, c] = R[b, c]
+
+
+@jit
+def measured_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray, left: int) -> float:
+    """``log N`` of the measured outputs' innovation, after :func:`leave_out_unmeasured`.
+
+    ``left`` outputs left out; 0 when none was (then :func:`gaussian_log_density` itself).
+    """
+    return gaussian_log_density(gamma, L, work) + 0.5 * left * LOG_2PI
+
+
+@jit
 def gain(
     P: FloatArray,
     H: FloatArray,

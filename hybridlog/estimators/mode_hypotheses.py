@@ -48,10 +48,12 @@ from hybridlog.estimators.kernels import (
     cholesky,
     congruence,
     gain,
-    gaussian_log_density,
     joseph_update,
     kalman_update,
     keep_psd,
+    leave_out_unmeasured,
+    left_out,
+    measured_log_density,
     workspace,
 )
 from hybridlog.estimators.smoothing import TAKEN, note_fallbacks, rts_cause, rts_work
@@ -203,22 +205,29 @@ def start(
 
 
 @jit
-def likelihood_caps(R: FloatArray) -> FloatArray:
+def likelihood_caps(R: FloatArray, y: FloatArray) -> FloatArray:
     """``cap_j = −(m log 2π + log det R_j)/2``, at least every ``log N(γ; 0, S)`` with ``S ⪰ R_j``.
 
-    ``+inf`` for an ``R_j`` that is not positive definite (no bound).  An extension whose prior
-    plus ``cap_j`` is below the beam-th best log weight already found cannot be kept, and is
-    not computed: exact pruning, the path is the same as without it.
+    Of the outputs ``y`` measured (NaN: not measured, :func:`leave_out_unmeasured`): ``m``
+    and ``R_j`` theirs.  ``+inf`` for an ``R_j`` that is not positive definite (no bound).
+    An extension whose prior plus ``cap_j`` is below the beam-th best log weight already
+    found cannot be kept, and is not computed: exact pruning, the path is the same as
+    without it.
     """
     n_q, m, _ = R.shape
     caps = np.full(n_q, math.inf)
     L = np.zeros((m, m))
+    R_left = np.empty((m, m))
+    no_rows = np.zeros((m, 0))
+    gamma = np.zeros(m)
+    measured = m - left_out(y)
     for j in range(n_q):
-        if cholesky(R[j], L):
+        leave_out_unmeasured(y, no_rows, gamma, R[j], R_left)
+        if cholesky(R_left, L):
             log_det = 0.0
             for a in range(m):
-                log_det += 2.0 * math.log(L[a, a])
-            caps[j] = -0.5 * (m * math.log(2.0 * math.pi) + log_det)
+                log_det += 2.0 * math.log(L[a, a])  # 0 for an output left out
+            caps[j] = -0.5 * (measured * math.log(2.0 * math.pi) + log_det)
     return caps
 
 
@@ -333,11 +342,14 @@ def best_history(
     gain_k = np.empty((n, m))
     vec_m = np.empty(m)
     vec_m2 = np.empty(m)
-    cap = likelihood_caps(R)
+    every_cap = likelihood_caps(R, np.zeros(m))
+    R_left = np.empty((m, m))
     for k in range(n_samples - 1):
         u = inputs[k]
         u_next = inputs[k + 1]
         y = outputs[k + 1]
+        left = left_out(y)  # outputs not measured at k+1: the update is the others'
+        cap = likelihood_caps(R, y) if left else every_cap
         any_finite = False
         used = kept * n_q
         by_prior = extension_priors(kept, weight_h, mode_h, log_transitions, prior_c, weight_c)
@@ -354,12 +366,16 @@ def best_history(
                 continue
             predict(f, F, h, H, j, x_h[i], P_h[i], u, u_next, y, Q[j], x_c[c], P_c[c],
                     H_c[c], gamma_c[c], scratch)  # fmt: skip
+            R_j = R[j]
+            if left:
+                leave_out_unmeasured(y, H_c[c], gamma_c[c], R_j, R_left)
+                R_j = R_left
             congruence(H_c[c], P_c[c], work_mn, S)
             for a in range(m):
                 for b in range(m):
-                    S[a, b] += R[j, a, b]
+                    S[a, b] += R_j[a, b]
             if cholesky(S, L_c[c]):
-                weight = prior + gaussian_log_density(gamma_c[c], L_c[c], vec_m)
+                weight = prior + measured_log_density(gamma_c[c], L_c[c], vec_m, left)
                 weight_c[c] = weight
                 any_finite = True
                 found, threshold = note_weight(weight, best_found, found)
@@ -425,13 +441,18 @@ def follow_path(
     scratch = scratch_for(n, m)
     H_j = np.empty((m, n))
     gamma = np.empty(m)
+    R_left = np.empty((m, m))
     shifted = np.empty((n, n))
     factor = np.empty((n, n))
     for k in range(1, n_samples):
         j = path[k]
         predict(f, F, h, H, j, means[k - 1], covariances[k - 1], inputs[k - 1], inputs[k],
                 outputs[k], Q[j], x_pred, P_pred, H_j, gamma, scratch)  # fmt: skip
-        if not kalman_update(x_pred, P_pred, H_j, R[j], gamma, work, means[k], covariances[k]):
+        R_j = R[j]
+        if left_out(outputs[k]):  # an update on the measured outputs alone
+            leave_out_unmeasured(outputs[k], H_j, gamma, R_j, R_left)
+            R_j = R_left
+        if not kalman_update(x_pred, P_pred, H_j, R_j, gamma, work, means[k], covariances[k]):
             means[k] = x_pred
             covariances[k] = P_pred
         keep_psd(covariances[k], shifted, factor)
@@ -505,7 +526,7 @@ def generate_kbest_source(model: HybridModel) -> str:
         "x_h, P_h, mode_h, weight_h, x_c, P_c, _, gamma_c, L_c, weight_c, prior_c, best_found, "
         f"parent, modes = beam_for(n_samples, {n}, {m}, {n_q}, width)",
         "kept = start(run.x0, run.P0, run.mu0, x_h, P_h, mode_h, weight_h, modes)",
-        "cap = likelihood_caps(run.R)",
+        f"cap = likelihood_caps(run.R, np.zeros({m}))",  # every output measured
     ):
         p.emit(line)
     u, v, y = p.open_time_loop(n_u, m)

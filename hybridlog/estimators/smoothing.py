@@ -1198,10 +1198,11 @@ def _kbest(
     """``result`` with the ``kbest`` path as its modes and the states of the EKF along it.
 
     :mod:`hybridlog.estimators.mode_hypotheses`: the path (straight-line code where
-    ``kernel`` asks for it, :func:`~hybridlog.estimators.mode_hypotheses.generate_kbest_source`,
-    else the generic loop), then the EKF that follows it (``smooth``: and the extended RTS
-    smoother along it, its fallbacks counted into ``fallbacks``).  Returns the compile time
-    too.
+    ``kernel`` asks for it and the log measured every output,
+    :func:`~hybridlog.estimators.mode_hypotheses.generate_kbest_source`, else the generic
+    loop, which updates on the measured outputs alone), then the EKF that follows it
+    (``smooth``: and the extended RTS smoother along it, its fallbacks counted into
+    ``fallbacks``).  Returns the compile time too.
     """
     from hybridlog.estimators import mode_hypotheses
     from hybridlog.estimators.mode_hypotheses import best_history, follow_path, smooth_path
@@ -1214,7 +1215,7 @@ def _kbest(
     compile_start = time.perf_counter()
     searched: tuple[Any, ...]
     search: Callable[..., Any]
-    if jit and use_unrolled(model, kernel):
+    if jit and use_unrolled(model, kernel) and signals.measures_every_output:
         searched = (run, _log(transitions), beam)
         search, _ = compile_generated(
             model,

@@ -373,10 +373,11 @@ def check_surprise(
         return
     at = _first_row(beyond)
     row = first + at
-    measured = signals.outputs[row]
+    measured = signals.rows(row, row + 1).measured_outputs()[0]  # NaN: a stand-in, not scored
     predicted = result.output_predictions[at]
     shown = ", ".join(
-        f"{name} = {measured[b]:.4g} (predicted {predicted[b]:.4g})"
+        (f"{name} = {measured[b]:.4g}" if measured[b] == measured[b] else f"{name} not measured")
+        + f" (predicted {predicted[b]:.4g})"
         for b, name in enumerate(model.outputs[:MAX_SHOWN])
     )
     more = f", {model.n_outputs - MAX_SHOWN} more" if model.n_outputs > MAX_SHOWN else ""
