@@ -292,11 +292,14 @@ class Accelerator:
     generate: Callable[[HybridModel], str]
     function: str
     applies: Callable[[HybridModel], bool] = fits_unrolled
-    """Whether ``auto`` takes the accelerator for a model.  An accelerator updates on every
-    output at every sample: a log with an output not measured at some row
-    (:attr:`~hybridlog.signals.AlignedSignals.measures_every_output`) runs the generic loop,
-    which updates on the measured ones alone (:func:`~hybridlog.estimators.kernels.left_out`)."""
+    """Whether ``auto`` takes the accelerator for a model."""
     modules: tuple[str, ...] = ("hybridlog.estimators.unrolled",)
+    masked: Callable[[HybridModel], str] | None = None
+    """The source of the same function for a log with an output not measured at some row
+    (:attr:`~hybridlog.signals.AlignedSignals.measures_every_output` false: NaN in
+    ``run.outputs``), updating on the measured outputs alone as the generic loop does
+    (:func:`~hybridlog.estimators.kernels.leave_out_unmeasured`); cached apart.  ``None``:
+    ``generate``'s code updates on every output, and such a log runs the generic loop."""
 
 
 @dataclass(frozen=True)
@@ -323,6 +326,11 @@ class FilterCode:
     """Whether the loop writes :attr:`FilterBuffers.whitened` (else it has no rows)."""
 
 
+def _masked(code: FilterCode) -> bool:
+    """Whether ``code``'s accelerator has code for a log with outputs not measured."""
+    return code.accelerator is not None and code.accelerator.masked is not None
+
+
 def _compiled_loop(
     code: FilterCode,
     model: HybridModel,
@@ -334,22 +342,26 @@ def _compiled_loop(
 ) -> tuple[Callable[..., None], tuple[Fn, ...], float]:
     """The loop of the code path ``kernel`` and ``jit`` pick, compiled for ``frame``.
 
-    ``every_output``: whether every output was measured at every row (else no accelerator).
+    ``every_output``: whether every output was measured at every row (else the
+    accelerator's ``masked`` code, or without one the generic loop).
     Returns the loop, the model functions it takes before the frame (none for an
     accelerator) and the seconds spent generating, compiling or loading them.
     """
     accelerator = code.accelerator
+    generate = None
+    if accelerator is not None:
+        generate = accelerator.generate if every_output else accelerator.masked
     if (
         jit
         and accelerator is not None
-        and every_output
+        and generate is not None
         and (kernel == "unrolled" or (kernel == "auto" and accelerator.applies(model)))
     ):
         modules = (accelerator.generate.__module__, *accelerator.modules)
         loop, compile_s = compile_generated(
             model,
-            code.name,
-            lambda: module_source(model, accelerator.generate(model)),
+            code.name if every_output else f"{code.name}_masked",
+            lambda: module_source(model, generate(model)),
             modules,
             accelerator.function,
             frame,
@@ -411,7 +423,7 @@ def run_filter_chunks(
         raise ValueError(f"unknown kernel {kernel!r}")
     if kernel == "unrolled" and code.accelerator is None:
         raise ValueError(f"{code.name} has no accelerator")
-    if kernel == "unrolled" and not signals.measures_every_output:
+    if kernel == "unrolled" and not signals.measures_every_output and not _masked(code):
         raise ValueError(
             f"{code.name}'s accelerator updates on every output: not for a log with outputs "
             "not measured at some rows (kernel 'loops' or 'auto')"

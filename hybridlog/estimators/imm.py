@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from functools import partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -414,7 +415,7 @@ def _store_record(p: Program, row: str, mode: int, x: Vector, P: Matrix) -> None
         p.emit(f"    store.states[{row}, {mode}, {index}] = {term(P[a][b])}")
 
 
-def generate_imm_source(model: HybridModel) -> str:
+def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
     """Straight-line source of the whole IMM time loop for ``model`` (see ``unrolled.py``).
 
     Defines ``imm_run(run, settings, chunk, out)``, the frame of :func:`_imm_steps` without
@@ -422,6 +423,13 @@ def generate_imm_source(model: HybridModel) -> str:
     every small matrix product are written out for the model's dimensions.  The carried
     variables are loaded from the chunk's :class:`ImmState` before the time loop and stored
     back after it.
+
+    ``masked``: the code for a log with outputs not measured at some rows (NaN in
+    ``run.outputs``), which updates on the measured ones alone as the generic loop does
+    (:func:`~hybridlog.estimators.kernels.leave_out_unmeasured`, written out: the rows of
+    ``H`` and ``γ`` of an output left out are 0, its rows and columns of ``R`` the
+    identity's); the folded constants of ``H`` and ``R`` become selections, so a log that
+    measured everything runs the code without them.
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
     p = Program(indent="    ")
@@ -459,6 +467,7 @@ def generate_imm_source(model: HybridModel) -> str:
         for i in range(n_q):
             p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
     u, v, y = p.open_time_loop(n_u, m, chunk=True)
+    measured = _measured_flags(p, y) if masked else None
     p.emit("if keep_filtered:")  # row k: the mode-matched x̂_i(k|k), P_i(k|k) (carried)
     for i in range(n_q):
         _store_record(p, "k", i, X[i], P[i])
@@ -495,10 +504,16 @@ def generate_imm_source(model: HybridModel) -> str:
         gamma = [p.difference("g", y[b], y_pred[b]) for b in range(m)]
         for b in range(m):
             prediction_parts[b].append(product(c_bar[j], y_pred[b]))
-        x_update, P_update, L = p.kalman_update(f"u{j}_", x_pred, P_pred, H, R[j], gamma)
+        R_j = R[j]
+        if measured is not None:
+            H, R_j, gamma = _left_out(p, measured, H, R_j, gamma)
+        x_update, P_update, L = p.kalman_update(f"u{j}_", x_pred, P_pred, H, R_j, gamma)
         x_post.append(x_update)
         P_post.append(P_update)
         log_likelihood, distance, z = p.gaussian_log_density_whitened(f"ll{j}_", gamma, L)
+        if measured is not None:  # the measured sub-vector's density (kernels.measured_log_density)
+            p.emit(f"{log_likelihood} = {log_likelihood} + 0.5 * left * LOG_2PI")
+            z = [p.assign("wz", f"{term(z[b])} if {measured[b]} else math.nan") for b in range(m)]
         p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
         distances.append(distance)
         whitened.append(z)
@@ -513,7 +528,8 @@ def generate_imm_source(model: HybridModel) -> str:
     nearest = p.assign(
         "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
     )
-    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf else math.nan")
+    anything = f" and left < {m}" if measured is not None else ""  # no surprise in nothing
+    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf{anything} else math.nan")
     with p.block("if keep_whitened:"):  # L⁻¹ γ of the nearest mode, as the generic loop
         for b in range(m):
             p.emit(f"whitened_out[row, {b}] = math.nan")
@@ -542,11 +558,47 @@ def generate_imm_source(model: HybridModel) -> str:
     return p.function("imm_run")
 
 
+def _measured_flags(p: Program, y: Vector) -> list[str]:
+    """Emit whether each output of ``y(k+1)`` was measured (not NaN), and ``left``, how many not."""
+    flags = [p.assign("ok", f"{term(value)} == {term(value)}") for value in y]
+    p.emit("left = " + " + ".join(f"(0 if {flag} else 1)" for flag in flags))
+    return flags
+
+
+def _left_out(
+    p: Program, measured: list[str], H: Matrix, R: Matrix, gamma: Vector
+) -> tuple[Matrix, Matrix, Vector]:
+    """``H``, ``R`` and ``γ`` of an update on the measured outputs alone, written out.
+
+    :func:`~hybridlog.estimators.kernels.leave_out_unmeasured` as straight-line code: the
+    structural zeros stay literals, every other entry a selection on the flags.
+    """
+
+    def select(entry: Entry, flag: str, otherwise: float) -> Entry:
+        if entry == otherwise:
+            return entry
+        return p.assign("lo", f"{term(entry)} if {flag} else {term(otherwise)}")
+
+    m = len(gamma)
+    H_left = [[select(entry, measured[b], 0.0) for entry in H[b]] for b in range(m)]
+    R_left: Matrix = [
+        [
+            select(R[b][c], measured[b], 1.0)
+            if b == c
+            else select(R[b][c], f"{measured[b]} and {measured[c]}", 0.0)
+            for c in range(m)
+        ]
+        for b in range(m)
+    ]
+    gamma_left = [select(gamma[b], measured[b], 0.0) for b in range(m)]
+    return H_left, R_left, gamma_left
+
+
 CODE = FilterCode(
     NAME,
     _imm_steps,
     ImmState.prior,
-    Accelerator(generate_imm_source, "imm_run"),
+    Accelerator(generate_imm_source, "imm_run", masked=partial(generate_imm_source, masked=True)),
     whitened=True,
 )
 """The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

@@ -212,16 +212,37 @@ def test_a_three_tank_log_with_an_output_at_half_rate_keeps_its_mode_accuracy():
     assert accuracy_half > 0.97
 
 
-def test_an_accelerator_is_not_asked_for_a_log_with_unmeasured_outputs():
+@pytest.mark.parametrize("smooth", [False, True])
+def test_the_imm_straight_line_code_for_unmeasured_outputs_equals_the_generic_loop(smooth):
+    model = load_model("three_tank_hstf")
+    base = simulate(model, steps=300, seed=6).signals(model)
+    signals = _with_unmeasured(base, _mask(base.outputs.shape, seed=8))
+    options = ImmOptions(smooth=smooth)
+    fast = run_imm(model, signals, options, kernel="unrolled")
+    generic = run_imm(model, signals, options, kernel="loops")
+    for field in ("mode_probabilities", "state_means", "state_variances", "output_predictions"):
+        np.testing.assert_allclose(
+            getattr(fast, field), getattr(generic, field), rtol=1e-9, atol=1e-9, err_msg=field
+        )
+    np.testing.assert_array_equal(fast.modes, generic.modes)
+    assert fast.whitened_innovations is not None and generic.whitened_innovations is not None
+    np.testing.assert_allclose(
+        fast.whitened_innovations, generic.whitened_innovations, rtol=1e-9, atol=1e-9
+    )
+
+
+def test_hstf_has_no_straight_line_code_for_unmeasured_outputs():
     model = load_model("three_tank_hstf")
     base = simulate(model, steps=20, seed=1).signals(model)
     mask = np.zeros(base.outputs.shape, dtype=bool)
     mask[5, 0] = True
     with pytest.raises(ValueError, match="not measured"):
-        run_imm(model, _with_unmeasured(base, mask), ImmOptions(), kernel="unrolled")
-    # an all-False mask is a fully measured log: the accelerator runs, the same result
-    fast = run_imm(model, _with_unmeasured(base, np.zeros_like(mask)), ImmOptions())
-    np.testing.assert_array_equal(fast.state_means, run_imm(model, base, ImmOptions()).state_means)
+        run_hstf(model, _with_unmeasured(base, mask), HstfOptions(), kernel="unrolled")
+    # an all-False mask is a fully measured log: the same result as without one
+    fast = run_hstf(model, _with_unmeasured(base, np.zeros_like(mask)), HstfOptions())
+    np.testing.assert_array_equal(
+        fast.state_means, run_hstf(model, base, HstfOptions()).state_means
+    )
 
 
 def test_surprise_is_not_computed_where_nothing_was_measured():
