@@ -22,6 +22,15 @@ as eq. (6): :math:`\tilde Q = Q + B\,\mathrm{diag}(r_v)B^T` with
 enters an output equation at step k, likewise :math:`\tilde R = R + D\,\mathrm{diag}(r_v)D^T`
 with :math:`D = \partial g/\partial v` (the same reading of eq. (6) for algebraic use).
 
+An output the log did not measure at step k (NaN, ``AlignedSignals.measured_outputs``) is
+no measurement: :meth:`ClusterFilter.step_numeric` updates on the measured rows of ``C``,
+``R`` and ``r`` only, and with none of the cluster's outputs measured the step is the
+prediction alone with ``log P_O = 0`` (no evidence for or against the hypothesis).  An output
+row whose equation uses a virtual input not measured at k is dropped likewise and left
+unpredicted (NaN); a virtual input of ``f`` at k−1 arrives either measured or as the
+hypothesis' own estimate with that estimate's variance in place of ``r_v``
+(:meth:`~hybridlog.estimators.cpha.hypotheses.Tracker`).
+
 :class:`FilterCache` compiles each distinct cluster once and counts hits.
 """
 
@@ -37,7 +46,7 @@ import numpy as np
 import sympy
 
 from hybridlog.estimators.cpha.structure import Cluster
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 __all__ = [
     "ClusterFilter",
@@ -75,15 +84,20 @@ class StepResult:
     y_pred:
         ``g(x̂(k|k-1))``, the one-step-ahead output prediction.
     log_po:
-        ``log P_O = -rᵀS⁻¹r/2`` (eq. (21)); ``-inf`` when ``S`` or ``rᵀS⁻¹r`` is not
-        finite (a finite ``S`` that is not positive definite raises
-        :class:`SingularInnovationError`).
+        ``log P_O = -rᵀS⁻¹r/2`` (eq. (21)) over the measured outputs (0 with none);
+        ``-inf`` when ``S`` or ``rᵀS⁻¹r`` is not finite (a finite ``S`` that is not
+        positive definite raises :class:`SingularInnovationError`).
+    held:
+        The cluster could not step (its ``f`` uses a virtual input at k−1 that was neither
+        measured nor estimated): its mean was held and its variance grown, as for a cluster
+        that is not determined (§3.1).
     """
 
     x: FloatArray
     P: FloatArray
     y_pred: FloatArray
     log_po: float
+    held: bool = False
 
 
 @dataclass(frozen=True)
@@ -99,6 +113,11 @@ class ClusterFilter:
         state, output, input and output vectors.
     Q, R, r_virtual:
         Process, measurement and virtual-input variances (diagonals).
+    f_virtual:
+        Per virtual input, whether ``f`` uses it (its value at k−1).
+    h_virtual:
+        Per output and virtual input, whether the output's equation uses it (at k), shape
+        ``(len(outputs), len(virtual))``.
     """
 
     cluster: Cluster
@@ -109,6 +128,8 @@ class ClusterFilter:
     Q: FloatArray
     R: FloatArray
     r_virtual: FloatArray
+    f_virtual: BoolArray
+    h_virtual: BoolArray
     _predict: _Fn
     _observe: _Fn
     _ekf: Callable[..., tuple[float, ...]] | None = None
@@ -195,33 +216,57 @@ class ClusterFilter:
         y_prev: FloatArray,
         u_now: FloatArray,
         y_now: FloatArray,
+        r_prev: FloatArray | None = None,
     ) -> StepResult:
-        """:meth:`step` with numpy matrices (Cholesky of ``S``)."""
-        args = (*x, *u_prev[self.inputs], *y_prev[self.virtual])
+        """:meth:`step` with numpy matrices (Cholesky of ``S``), on the measured outputs only.
+
+        NaN in ``y_now`` marks an output not measured at k: its rows of ``C``, ``R`` and
+        ``r`` are dropped (module docstring), as are those of an output whose equation uses
+        a virtual input that is NaN at k (that output is left unpredicted).  ``r_prev``: the
+        variances of the virtual inputs at k−1 (default ``r_v``; the variance of an estimate
+        standing for one not measured); ``f`` must use none that is NaN in ``y_prev``, and
+        the variance of one it does not use is 0.
+        """
+        v_prev = y_prev[self.virtual]
+        noise_prev = self.r_virtual if r_prev is None else r_prev
+        args = (*x, *u_prev[self.inputs], *v_prev)
         x_pred, A, B = self._predict(*args)
         x_pred = np.asarray(x_pred, dtype=np.float64).reshape(-1)
         A = np.asarray(A, dtype=np.float64).reshape(len(x), len(x))
         Q = np.diag(self.Q)
         if len(self.virtual):
             B = np.asarray(B, dtype=np.float64).reshape(len(x), len(self.virtual))
-            Q = Q + (B * self.r_virtual) @ B.T  # eq. (6)
+            Q = Q + (B * noise_prev) @ B.T  # eq. (6)
         P_pred = A @ P @ A.T + Q
-        obs_args = (*x_pred, *u_now[self.inputs], *y_now[self.virtual])
+        v_now = y_now[self.virtual]
+        obs_args = (*x_pred, *u_now[self.inputs], *v_now)
         y_pred, C, D = self._observe(*obs_args)
         y_pred = np.asarray(y_pred, dtype=np.float64).reshape(-1)
         m = len(self.outputs)
         C = np.asarray(C, dtype=np.float64).reshape(m, len(x))
-        R = np.diag(self.R)
+        y = y_now[self.outputs]
+        keep = ~np.isnan(y)
         if len(self.virtual):
-            D = np.asarray(D, dtype=np.float64).reshape(m, len(self.virtual))
-            R = R + (D * self.r_virtual) @ D.T
-        r = y_now[self.outputs] - y_pred
+            unpredicted = (self.h_virtual & np.isnan(v_now)).any(axis=1)
+            y_pred = np.where(unpredicted, np.nan, y_pred)
+            keep &= ~unpredicted
+        if not keep.any():  # nothing measured: the prediction, no evidence (log P_O = 0)
+            return StepResult(x_pred, 0.5 * (P_pred + P_pred.T), y_pred, 0.0)
+        C = C[keep]
+        R = np.diag(self.R[keep])
+        if len(self.virtual):
+            D = np.asarray(D, dtype=np.float64).reshape(m, len(self.virtual))[keep]
+            # a virtual input not measured at k is in no kept row (those rows are dropped)
+            noise_now = np.where(np.isnan(v_now), 0.0, self.r_virtual)
+            R = R + (D * noise_now) @ D.T
+        r = y[keep] - y_pred[keep]
         S = C @ P_pred @ C.T + R
         try:
             L = np.linalg.cholesky(S)
         except np.linalg.LinAlgError as err:
             noise = np.diag(R).tolist()
-            exact = [o for o, r in zip(self.cluster.outputs, noise, strict=True) if not r > 0.0]
+            names = [o for o, kept in zip(self.cluster.outputs, keep.tolist(), strict=True) if kept]
+            exact = [o for o, r in zip(names, noise, strict=True) if not r > 0.0]
             if exact and np.isfinite(S).all():  # else S ≥ R > 0: rounding (a huge P)
                 raise SingularInnovationError(
                     "its innovation covariance S is singular (not positive definite) there: "
@@ -240,6 +285,32 @@ class ClusterFilter:
         if not math.isfinite(log_po):
             log_po = -math.inf
         return StepResult(x_new, P_new, y_pred, log_po)
+
+    def observe(
+        self, x: FloatArray, P: FloatArray, u: FloatArray, y: FloatArray, output: int
+    ) -> tuple[float, float]:
+        """The estimate of the cluster's output ``output`` at ``x``, ``P`` and its variance.
+
+        ``g_o(x̂)`` and ``C_o P C_oᵀ + D_o diag(r_v) D_oᵀ`` (eq. (17) without the output's own
+        sensor noise, with the virtual inputs' as in eq. (6)), with ``u``, ``y`` the model's
+        inputs and outputs at that step; NaN where the equation uses a virtual input that is
+        NaN there.  What a virtual input not measured is replaced by
+        (:meth:`~hybridlog.estimators.cpha.hypotheses.Tracker`).
+        """
+        row = int(np.flatnonzero(self.outputs == output)[0])
+        v = y[self.virtual]
+        y_hat, C, D = self._observe(*x, *u[self.inputs], *v)
+        m, n_v = len(self.outputs), len(self.virtual)
+        value = float(np.asarray(y_hat, dtype=np.float64).reshape(-1)[row])
+        c = np.asarray(C, dtype=np.float64).reshape(m, len(x))[row]
+        variance = float(c @ P @ c)
+        if n_v:
+            if (self.h_virtual[row] & np.isnan(v)).any():
+                return math.nan, math.nan
+            d = np.asarray(D, dtype=np.float64).reshape(m, n_v)[row]
+            used = self.h_virtual[row]
+            variance += float((d[used] ** 2) @ self.r_virtual[used])
+        return value, variance
 
 
 def compile_cluster(
@@ -270,6 +341,8 @@ def compile_cluster(
     observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
     ekf = _unrolled(cluster, x, u, v, f, F, B, h, H, D) if unrolled else None
     upper = np.triu_indices(len(x))
+    uses = [{str(s) for s in e.free_symbols} for e in cluster.h]
+    f_uses = {str(s) for e in cluster.f for s in e.free_symbols}
     return ClusterFilter(
         cluster=cluster,
         states=np.array([states.index(s) for s in cluster.states], dtype=np.int64),
@@ -279,6 +352,10 @@ def compile_cluster(
         Q=np.array(cluster.process_noise, dtype=np.float64),
         R=np.array(cluster.measurement_noise, dtype=np.float64),
         r_virtual=np.array(cluster.virtual_noise, dtype=np.float64),
+        f_virtual=np.array([v in f_uses for v in cluster.virtual_inputs], dtype=np.bool_),
+        h_virtual=np.array(
+            [[v in used for v in cluster.virtual_inputs] for used in uses], dtype=np.bool_
+        ).reshape(len(cluster.h), len(cluster.virtual_inputs)),
         _predict=predict,
         _observe=observe,
         _ekf=ekf,

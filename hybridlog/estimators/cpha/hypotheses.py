@@ -409,6 +409,8 @@ class Tracker:
         # per filter: its measured arguments at step _measured_k (ClusterFilter.measured)
         self._measured: dict[int, list[float]] = {}
         self._measured_k = -1
+        # per parent and output not measured at _measured_k - 1: the parent's estimate of it
+        self._estimates: dict[tuple[int, int], tuple[float, float]] = {}
 
     def start(self, x0: FloatArray, P0: FloatArray) -> list[Hypothesis]:
         """The ``beam`` most likely initial assignments (product of the components' priors)."""
@@ -468,7 +470,14 @@ class Tracker:
         memo: dict[tuple[object, ...], StepResult],
         shared: dict[tuple[int, int], StepResult],
     ) -> StepResult:
-        """The EKF step of filter ``i`` from ``parent``'s estimate (see :meth:`_evaluate`)."""
+        """The EKF step of filter ``i`` from ``parent``'s estimate (see :meth:`_evaluate`).
+
+        Where an output the filter uses is not measured (NaN, module docstring of
+        :mod:`~hybridlog.estimators.cpha.cluster_filter`) the step is
+        :meth:`~ClusterFilter.step_numeric` on what was measured; a virtual input of ``f``
+        not measured at k−1 is replaced by the parent's estimate of it
+        (:meth:`_estimate_before`), which makes the step the parent's own (not shared).
+        """
         source = parent.sources.get(self._state_keys[i])
         if source is not None:
             result = shared.get((i, id(source)))
@@ -482,32 +491,42 @@ class Tracker:
         else:
             x_parent = parent.x[idx]
             P_parent = parent.P.reshape(-1)[self._layout((i,)).block]
-        key = (i, x_parent.tobytes(), P_parent.tobytes())
+        u_prev, y_prev, u_now, y_now = (
+            self.inputs[k - 1],
+            self.outputs[k - 1],
+            self.inputs[k],
+            self.outputs[k],
+        )
+        # the filter's measured arguments at step k, kept for its other estimates
+        if self._measured_k != k:
+            self._measured_k = k
+            self._measured.clear()
+            self._estimates.clear()
+        measured = self._measured.get(i)
+        if measured is None:
+            measured = self._measured[i] = compiled.measured(u_prev, y_prev, u_now, y_now)
+        complete = not math.isnan(sum(measured))  # the log's values are far below overflow
+        r_prev = None
+        key: tuple[object, ...] = (i, x_parent.tobytes(), P_parent.tobytes())
+        if not complete:
+            estimated = self._virtual_before(parent, compiled, k)
+            if estimated is None:
+                return self._held(compiled, x_parent, P_parent)
+            y_prev, r_prev = estimated
+            if r_prev is not None:  # the parent's estimates: its own step
+                key = (*key, y_prev.tobytes(), r_prev.tobytes())
         result = memo.get(key)
         if result is None:
-            u_prev, y_prev, u_now, y_now = (
-                self.inputs[k - 1],
-                self.outputs[k - 1],
-                self.inputs[k],
-                self.outputs[k],
-            )
-            # the filter's measured arguments at step k, kept for its other estimates
-            if self._measured_k != k:
-                self._measured_k = k
-                self._measured.clear()
-            measured = self._measured.get(i)
-            if measured is None:
-                measured = self._measured[i] = compiled.measured(u_prev, y_prev, u_now, y_now)
+            P_prior = P_parent.reshape(len(idx), len(idx))
             try:
-                result = compiled.step(
-                    x_parent,
-                    P_parent.reshape(len(idx), len(idx)),
-                    u_prev,
-                    y_prev,
-                    u_now,
-                    y_now,
-                    measured,
-                )
+                if complete:
+                    result = compiled.step(
+                        x_parent, P_prior, u_prev, y_prev, u_now, y_now, measured
+                    )
+                else:
+                    result = compiled.step_numeric(
+                        x_parent, P_prior, u_prev, y_prev, u_now, y_now, r_prev
+                    )
             except SingularInnovationError as err:
                 cluster = compiled.cluster
                 raise ClusterStepError(
@@ -531,9 +550,75 @@ class Tracker:
                 ) from err  # the cause last: a line cut in the middle (a long path) keeps it
             memo[key] = result
             self.filtered += 1
-        if source is not None:
+        if source is not None and r_prev is None:
             shared[(i, id(source))] = result
         return result
+
+    def _virtual_before(
+        self, parent: Hypothesis, compiled: ClusterFilter, k: int
+    ) -> tuple[FloatArray, FloatArray | None] | None:
+        """The outputs at k−1 and the variances of ``compiled``'s virtual inputs there.
+
+        A virtual input ``f`` uses that was not measured at k−1 is given the parent's
+        estimate of it and that estimate's variance in place of ``r_v`` (eq. (6)): the
+        hypothesis' own knowledge of the variable, never a value the log does not hold.
+        ``None`` when the parent has no estimate of one (no cluster of its assignment
+        determines it, or its equation uses a virtual input not measured either): then the
+        filter is not determined at k (§3.1, :meth:`_held`).  The variances are ``None``
+        where ``f`` needs no estimate (the outputs as the log has them, ``r_v``).
+        """
+        y_prev = self.outputs[k - 1]
+        needed = np.flatnonzero(np.isnan(y_prev[compiled.virtual]) & compiled.f_virtual)
+        if not needed.size:
+            return y_prev, None
+        y_prev = y_prev.copy()
+        variances = compiled.r_virtual.copy()
+        for j in needed.tolist():
+            output = int(compiled.virtual[j])
+            value, variance = self._estimate_before(parent, output, k)
+            if math.isnan(value) or math.isnan(variance):
+                return None
+            y_prev[output] = value
+            variances[j] = variance
+        return y_prev, variances
+
+    def _estimate_before(self, parent: Hypothesis, output: int, k: int) -> tuple[float, float]:
+        """``parent``'s estimate of ``output`` at k−1 and its variance (NaN when it has none).
+
+        From the cluster of the parent's assignment that determines the output, at the
+        parent's ``x̂(k-1|k-1)``, ``P(k-1|k-1)`` (:meth:`ClusterFilter.observe`); kept for
+        the step.
+        """
+        key = (id(parent), output)
+        found = self._estimates.get(key)
+        if found is None:
+            found = (math.nan, math.nan)
+            ids = self._assignment_filters.get(parent.assignment)  # not a look-up to count
+            for i in self._filters_of(parent.assignment) if ids is None else ids:
+                producer = self._compiled[i]
+                if output in producer.outputs:
+                    idx = producer.states
+                    found = producer.observe(
+                        parent.x[idx],
+                        parent.P[np.ix_(idx, idx)],
+                        self.inputs[k - 1],
+                        self.outputs[k - 1],
+                        output,
+                    )
+                    break
+            self._estimates[key] = found
+        return found
+
+    def _held(self, compiled: ClusterFilter, x: FloatArray, P_flat: FloatArray) -> StepResult:
+        """The step of a filter that is not determined at k: mean held, variances grown.
+
+        As a state in no cluster (§3.1): ``P`` keeps its diagonal, times ``variance_growth``;
+        no prediction, no evidence (``log P_O = 0``).
+        """
+        n = len(compiled.states)
+        with np.errstate(over="ignore"):  # past double precision: refused as the result leaves
+            P = np.diag(np.diag(P_flat.reshape(n, n)) * self.variance_growth)
+        return StepResult(x, P, np.full(len(compiled.outputs), np.nan), 0.0, held=True)
 
     def _filters_of(self, assignment: Assignment) -> tuple[int, ...]:
         """The ids of the compiled filters of the assignment's clusters, in cluster order.
@@ -775,13 +860,18 @@ def _values(cluster: Cluster, x: FloatArray, y: FloatArray) -> str:
 
     A log the model cannot explain (a CO2 sensor reading -1e6 ppm) drove a state to where an
     equation overflows, and the error named only the model's cluster, so that the user
-    looked for the fault in the model; the values point at the log.
+    looked for the fault in the model; the values point at the log.  An output the log did
+    not measure there (NaN) is said to be, never shown as a value.
     """
     states = ", ".join(f"{n} = {v:.6g}" for n, v in zip(cluster.states, x.tolist(), strict=True))
-    outputs = ", ".join(f"{n} = {v:.6g}" for n, v in zip(cluster.outputs, y.tolist(), strict=True))
+    pairs = list(zip(cluster.outputs, y.tolist(), strict=True))
+    measured = ", ".join(f"{n} = {v:.6g}" for n, v in pairs if not math.isnan(v))
+    unmeasured = ", ".join(n for n, v in pairs if math.isnan(v))
     parts = [f"{states} before the step"] if states else []
-    if outputs:
-        parts.append(f"measured {outputs}")
+    if measured:
+        parts.append(f"measured {measured}")
+    if unmeasured:
+        parts.append(f"{unmeasured} not measured")
     return ", ".join(parts)
 
 

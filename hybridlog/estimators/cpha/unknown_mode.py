@@ -31,6 +31,16 @@ Timeline columns: ``mode.<component>`` (labels: the component's modes and ``unkn
 the most likely hypothesis, and ``p_unknown.<component>``, the summed belief of the kept
 hypotheses in which the component is unknown.
 
+Outputs the log did not measure at a sample (``AlignedSignals.unmeasured_outputs``: a gap
+bridged, a slower sensor) are read as such, never as the stand-in value the alignment put
+there (:meth:`~hybridlog.signals.AlignedSignals.measured_outputs`): each cluster's EKF
+updates on its measured outputs only, and where none is measured it predicts and
+``P_O = 1`` (no evidence for or against a hypothesis, :mod:`.cluster_filter`); a virtual
+input of a cluster's dynamics not measured at k−1 is the parent hypothesis' estimate of it,
+and without one the cluster is held (a ``WARNING`` note names the states, which
+``states_not_estimated`` marks).  ``ŷ(k|k-1)`` is still given for every output a cluster
+predicts.
+
 With ``mode_sequence = "kbest"`` (``--mode-sequence kbest``, offline; issue 12) ``modes``,
 the ``mode.<component>`` columns, ``x̂`` and ``diag P`` are those of the most likely
 trajectory at the end of the log along its whole history (each step's kept hypotheses and
@@ -150,7 +160,9 @@ def make_tracker(
         structure,
         filters,
         np.ascontiguousarray(signals.inputs, dtype=np.float64),
-        np.ascontiguousarray(signals.outputs, dtype=np.float64),
+        # NaN where the log did not measure an output: the stand-in the alignment put
+        # there is no measurement, and no filter updates on it (cluster_filter)
+        np.ascontiguousarray(signals.measured_outputs(), dtype=np.float64),
         beam=options.beam,
         candidates=options.candidates if options.candidates is not None else 10 * options.beam,
         variance_growth=options.variance_growth,
@@ -330,6 +342,8 @@ def _run(
     offline = options.mode_sequence == "kbest"
     histories = _Histories(n_x) if offline else None
     p_unknown = np.zeros((n, len(components)))
+    # per step, the states the reported hypothesis held for want of a virtual input
+    undetermined = np.zeros((n, n_x), dtype=np.bool_)
     what = f"{NAME} over {n:,} samples, beam {options.beam:,}"
     with LongRun(n - 1, what, lambda: structure.seconds + filters.seconds) as long_run:
         for k in range(n):
@@ -361,6 +375,7 @@ def _run(
                 kept = [known[h.assignment][0] for h in hypotheses]
                 histories.keep(hypotheses, kept, tracker.parents if k > 0 else [])
             top = max(hypotheses, key=lambda h: h.log_belief)
+            undetermined[k] = _undetermined_states(top, n_x)
             best_label[k] = labels[top.assignment]
             means[k] = top.x
             variances[k] = np.diag(top.P)
@@ -407,6 +422,7 @@ def _run(
         + absorbing_notes(components, absorbing, best_assignments, signals.time)
         + _unchecked_notes(model, structure, best_assignments, signals.time)
         + _held_notes(model, structure, best_assignments, signals.time)
+        + _undetermined_notes(model, undetermined, signals.time)
     )
     filtered = EstimationResult(
         estimator=NAME,
@@ -424,26 +440,27 @@ def _run(
         compile_s=compile_s,
         notes=filtered_notes,
         timeline_columns=tuple(columns),
-        states_not_estimated=_not_estimated(model, structure, best_assignments),
+        states_not_estimated=_not_estimated(model, structure, best_assignments, undetermined),
     )
     if histories is None:
         return filtered
     offline_start = time.perf_counter()
     path = histories.best_path([h.log_belief for h in hypotheses])
     assignments = [assignment_of[j] for j in histories.path_labels(path)]
-    path_means, path_variances = histories.states(path)
+    path_means, path_variances, path_undetermined = histories.states(path)
     result = replace(
         filtered,
         modes=np.array([labels[a] for a in assignments], dtype=np.int64),
         state_means=path_means,
         state_variances=path_variances,
         timeline_columns=(*_component_columns(model, assignments), *p_columns),
-        states_not_estimated=_not_estimated(model, structure, assignments),
+        states_not_estimated=_not_estimated(model, structure, assignments, path_undetermined),
         notes=(
             notes
             + absorbing_notes(components, absorbing, assignments, signals.time)
             + _unchecked_notes(model, structure, assignments, signals.time)
             + _held_notes(model, structure, assignments, signals.time)
+            + _undetermined_notes(model, path_undetermined, signals.time)
         ),
         runtime_s=runtime + time.perf_counter() - offline_start,
         post_processing=PostProcessing(
@@ -497,11 +514,13 @@ class _Histories:
     parent's index in the step before (:attr:`Tracker.parents`), in flat typed arrays:
     ``8 · (2 n_x + 2)`` bytes per hypothesis kept (:func:`~.options.unknown_mode_memory`
     counts them).  Lists of tuples and one array per step took about twice that, more
-    than the memory check was told.
+    than the memory check was told.  A hypothesis that held states for want of a virtual
+    input (:func:`_undetermined_states`, rare) has them listed by its position.
     """
 
     def __init__(self, n_x: int) -> None:
         self.n_x = n_x
+        self.undetermined: dict[int, BoolArray] = {}
         self.starts = array("q")  # per step, its first hypothesis' position
         self.labels = array("q")
         self.parents = array("q")
@@ -515,6 +534,10 @@ class _Histories:
         at k-1 (empty at step 0).
         """
         self.starts.append(len(self.labels))
+        for position, h in enumerate(hypotheses, start=len(self.labels)):
+            held = _undetermined_states(h, self.n_x)
+            if held.any():
+                self.undetermined[position] = held
         self.labels.extend(labels)
         self.parents.extend(parents if parents else [-1] * len(hypotheses))
         for h in hypotheses:
@@ -535,13 +558,22 @@ class _Histories:
         """The label index of each hypothesis on ``path``."""
         return [self.labels[i] for i in path]
 
-    def states(self, path: list[int]) -> tuple[FloatArray, FloatArray]:
-        """The means and variances along ``path``, shape ``(N, n_x)`` each."""
+    def states(self, path: list[int]) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """The means, variances and undetermined states along ``path``, ``(N, n_x)`` each."""
         n_x = self.n_x
         rows = np.asarray(path, dtype=np.int64)
         means = np.frombuffer(self.means, dtype=np.float64).reshape(-1, n_x)[rows]
         variances = np.frombuffer(self.variances, dtype=np.float64).reshape(-1, n_x)[rows]
-        return means.reshape(len(path), n_x), variances.reshape(len(path), n_x)
+        undetermined = np.zeros((len(path), n_x), dtype=np.bool_)
+        for k, position in enumerate(path):
+            held = self.undetermined.get(position)
+            if held is not None:
+                undetermined[k] = held
+        return (
+            means.reshape(len(path), n_x),
+            variances.reshape(len(path), n_x),
+            undetermined,
+        )
 
 
 def _component_columns(model: HybridModel, assignments: list[Assignment]) -> list[TimelineColumn]:
@@ -606,22 +638,71 @@ def _unchecked_notes(
 
 
 def _not_estimated(
-    model: HybridModel, structure: StructureCache, assignments: list[Assignment]
+    model: HybridModel,
+    structure: StructureCache,
+    assignments: list[Assignment],
+    undetermined: BoolArray,
 ) -> BoolArray | None:
-    """Per sample and state, whether the state sat in no filter cluster of the reported assignment.
+    """Per sample and state, whether the reported hypothesis held the state there.
 
+    A state in no filter cluster of the reported assignment, or in a cluster that could not
+    step for want of a virtual input (``undetermined``, :func:`_undetermined_states`).
     ``EstimationResult.states_not_estimated``: there the mean was held, not estimated
-    (:func:`_held_notes` names the states); ``None`` where every state was estimated.
+    (:func:`_held_notes`, :func:`_undetermined_notes` name the states); ``None`` where
+    every state was estimated.
     """
     rows: dict[Assignment, list[bool]] = {}
     for assignment in dict.fromkeys(assignments):
         held = structure.get(assignment).held_states
         rows[assignment] = [state in held for state in model.states]
-    if not any(any(row) for row in rows.values()):
+    if not any(any(row) for row in rows.values()) and not undetermined.any():
         return None
     table = np.array(list(rows.values()), dtype=np.bool_).reshape(len(rows), model.n_states)
     index = {assignment: i for i, assignment in enumerate(rows)}
-    return table[np.array([index[a] for a in assignments], dtype=np.int64)]
+    return table[np.array([index[a] for a in assignments], dtype=np.int64)] | undetermined
+
+
+def _undetermined_states(hypothesis: Hypothesis, n_x: int) -> BoolArray:
+    """The states of ``hypothesis``'s clusters that were held at its step (``StepResult.held``).
+
+    A cluster whose ``f`` uses a virtual input the log did not measure at k−1, of which the
+    hypothesis had no estimate (:meth:`~.hypotheses.Tracker._virtual_before`).
+    """
+    held = np.zeros(n_x, dtype=np.bool_)
+    for states, step in hypothesis.sources.items():
+        if step.held:
+            held[list(states)] = True
+    return held
+
+
+def _undetermined_notes(
+    model: HybridModel, undetermined: BoolArray, times: FloatArray
+) -> tuple[str, ...]:
+    """A warning naming the states held because an output another cluster uses was not measured.
+
+    Paper 002 §3.1 keeps a cluster only when everything upstream of it is determined; an
+    output the log did not measure at k−1 that a cluster's dynamics use as a virtual input,
+    and that the hypothesis could not estimate (no cluster of it determines that output),
+    leaves the cluster undetermined at k: its states are held, not estimated.
+    """
+    counts = undetermined.sum(axis=0)
+    if not counts.any():
+        return ()
+    n = len(times)
+    parts = [
+        f"{state} on {int(count):,} of {n:,} samples (first at t = "
+        f"{format_time(times[int(np.argmax(undetermined[:, s]))])} s)"
+        for s, (state, count) in enumerate(zip(model.states, counts.tolist(), strict=True))
+        if count
+    ]
+    return (
+        "WARNING: a reported state held for want of a measurement: "
+        + "; ".join(parts)
+        + ". Its cluster's dynamics use an output the log did not measure at the sample "
+        "before, which no filter of the reported modes estimated either, so the cluster was "
+        "not determined there (paper 002 §3.1): its mean is held and only its variance grows, "
+        "and the state RMSE, estimates.csv and the plots leave those samples out",
+    )
 
 
 def _held_notes(
