@@ -42,6 +42,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import replace
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -73,6 +74,7 @@ from hybridlog.estimators.kernels import (
 from hybridlog.estimators.options import options_dict, parse_options
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
+    Entry,
     Matrix,
     Program,
     Vector,
@@ -375,14 +377,17 @@ def hstf_options(values: dict[str, object]) -> HstfOptions:
     return parse_options(HstfOptions, values, estimator=NAME)
 
 
-def generate_hstf_source(model: HybridModel) -> str:
+def generate_hstf_source(model: HybridModel, *, masked: bool = False) -> str:
     """Straight-line source of the whole HSTF time loop for ``model`` (see ``unrolled.py``).
 
     Defines ``hstf_run(run, settings, chunk, out)``, the frame of :func:`_hstf_steps`
     without the model functions, computing exactly what :func:`_hstf_steps` does, with the
     mode functions, noise covariances and small matrix products written out.  The carried
     variables are loaded from the chunk's :class:`HstfState` before the time loop and
-    stored back after it (``L`` is the generic loop's only).
+    stored back after it (``L`` is the generic loop's only).  ``masked``: the code for a log
+    with outputs not measured at some rows, as :func:`_hstf_steps` runs it (the traces of
+    (26)-(30) over the measured outputs, the update and (34) on them alone, (38)-(39) of
+    the whole ``S_i``).
     """
     n, m, n_u, n_q = model.n_states, model.n_outputs, model.n_inputs, model.n_modes
     p = Program(indent="    ")
@@ -406,6 +411,7 @@ def generate_hstf_source(model: HybridModel) -> str:
     with p.block("if first == 0 and stop > 0:"):  # row 0: the prior
         p.record("0", "q_hat", mu, x, P)
     u, v, y = p.open_time_loop(n_u, m, chunk=True)
+    measured = p.measured_flags(y) if masked else None
     x_names = list(x)
     x_i = [p.mode_values(model, i, "f", x_names, u) for i in range(n_q)]  # (10)
     F_i = [reshape(p.mode_values(model, i, "F", x_names, u), n, n) for i in range(n_q)]  # (25)
@@ -419,19 +425,32 @@ def generate_hstf_source(model: HybridModel) -> str:
     for b in range(m):
         prediction = p.let("yp", [product(uniform, y_i[i][b]) for i in range(n_q)])
         p.emit(f"predictions_out[row, {b}] = {term(prediction)}")
+    H_u, R_u, gamma_u = H_i, R, gamma  # of the update and (34): the measured outputs'
+    if measured is not None:
+        lefts = [p.left_out(measured, H_i[i], R[i], gamma[i]) for i in range(n_q)]
+        H_u, R_u, gamma_u = (
+            [left[0] for left in lefts],
+            [left[1] for left in lefts],
+            [left[2] for left in lefts],
+        )
     FPF = [p.congruence(f"fpf{i}_", F_i[i], P) for i in range(n_q)]
     lam: list[str] = []
     for i in range(n_q):
-        # (26)-(30): only the traces of M_i and N_i are needed.
-        HFPF = p.matmul(f"hf{i}_", H_i[i], FPF[i])
-        HQ = p.matmul(f"hq{i}_", H_i[i], Q[i])
+        # (26)-(30): only the traces of M_i and N_i are needed, over the measured outputs.
+        HFPF = p.matmul(f"hf{i}_", H_u[i], FPF[i])
+        HQ = p.matmul(f"hq{i}_", H_u[i], Q[i])
         trace_m = p.let(
-            "trm", [product(HFPF[b][c], H_i[i][b][c]) for b in range(m) for c in range(n)]
+            "trm", [product(HFPF[b][c], H_u[i][b][c]) for b in range(m) for c in range(n)]
         )
-        hqh = p.let("hqh", [product(HQ[b][c], H_i[i][b][c]) for b in range(m) for c in range(n)])
-        outer = p.let("gg", [product(gamma[i][b], gamma[i][b]) for b in range(m)])
-        trace_s = p.let("trs", [S[b][b] for b in range(m)])
-        trace_r = float(np.trace(model.modes[i].measurement_noise))
+        hqh = p.let("hqh", [product(HQ[b][c], H_u[i][b][c]) for b in range(m) for c in range(n)])
+        outer = p.let("gg", [product(gamma_u[i][b], gamma_u[i][b]) for b in range(m)])
+        R_diagonal = [float(r) for r in np.diag(model.modes[i].measurement_noise)]
+        if measured is None:
+            trace_s = p.let("trs", [S[b][b] for b in range(m)])
+            trace_r: Entry = float(sum(R_diagonal))
+        else:
+            trace_s = p.let("trs", [p.select(S[b][b], measured[b], 0.0) for b in range(m)])
+            trace_r = p.let("trr", [p.select(R_diagonal[b], measured[b], 0.0) for b in range(m)])
         trace_n = p.assign(
             "trn",
             f"({term(outer)} if k == 0 else (rho*{term(trace_s)} + {term(outer)})/(1.0 + rho))"
@@ -453,14 +472,19 @@ def generate_hstf_source(model: HybridModel) -> str:
     distances: list[str] = []
     for i in range(n_q):
         # (9), (11), (32): the gain from the combined P(k+1|k).
-        x_update, P_update, _ = p.kalman_update(f"u{i}_", x_i[i], P_pred, H_i[i], R[i], gamma[i])
+        x_update, P_update, _ = p.kalman_update(
+            f"u{i}_", x_i[i], P_pred, H_u[i], R_u[i], gamma_u[i]
+        )
         x_post.append(x_update)
         P_post.append(P_update)
         scale = p.assign("ls", f"1.0 if unfaded_likelihood else {lam[i]}")
         base = p.symmetric_sum(f"b{i}_", [p.scaled("sc", scale, FPF[i]), Q[i]])
         S_i.append(p.congruence(f"si{i}_", H_i[i], base, add=R[i]))  # (35)
-        Ls = p.cholesky(f"ls{i}_", S_i[i])
-        ll, distance = p.gaussian_log_density_and_distance(f"ll{i}_", gamma[i], Ls)  # (34)
+        S_u = S_i[i] if measured is None else p.left_out_matrix(measured, S_i[i])
+        Ls = p.cholesky(f"ls{i}_", S_u)
+        ll, distance = p.gaussian_log_density_and_distance(f"ll{i}_", gamma_u[i], Ls)  # (34)
+        if measured is not None:  # the measured sub-vector's density (kernels.measured_log_density)
+            p.emit(f"{ll} = {ll} + 0.5 * left * LOG_2PI")
         p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
         distances.append(distance)
         p.minus_inf_if_nan(ll)
@@ -468,7 +492,8 @@ def generate_hstf_source(model: HybridModel) -> str:
     nearest = p.assign(
         "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
     )
-    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf else math.nan")
+    anything = f" and left < {m}" if measured is not None else ""  # no surprise in nothing
+    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf{anything} else math.nan")
     mu_new = p.normalized_weights(log_likelihood, mu)  # (33)
     x_new, P_new = p.mixture("cm", mu_new, x_post, P_post)  # (36), (37)
     _, S_new = p.mixture("sm", mu_new, y_i, S_i)  # (38), (39)
@@ -486,5 +511,12 @@ def generate_hstf_source(model: HybridModel) -> str:
     return p.function("hstf_run")
 
 
-CODE = FilterCode(NAME, _hstf_steps, HstfState.prior, Accelerator(generate_hstf_source, "hstf_run"))
+CODE = FilterCode(
+    NAME,
+    _hstf_steps,
+    HstfState.prior,
+    Accelerator(
+        generate_hstf_source, "hstf_run", masked=partial(generate_hstf_source, masked=True)
+    ),
+)
 """The generic loop and its accelerator, run by :func:`~hybridlog.estimators.common.run_filter`."""

@@ -467,7 +467,7 @@ def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
         for i in range(n_q):
             p.emit(f"    store.log_likelihoods[0, {i}] = 0.0")
     u, v, y = p.open_time_loop(n_u, m, chunk=True)
-    measured = _measured_flags(p, y) if masked else None
+    measured = p.measured_flags(y) if masked else None
     p.emit("if keep_filtered:")  # row k: the mode-matched x̂_i(k|k), P_i(k|k) (carried)
     for i in range(n_q):
         _store_record(p, "k", i, X[i], P[i])
@@ -506,7 +506,7 @@ def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
             prediction_parts[b].append(product(c_bar[j], y_pred[b]))
         R_j = R[j]
         if measured is not None:
-            H, R_j, gamma = _left_out(p, measured, H, R_j, gamma)
+            H, R_j, gamma = p.left_out(measured, H, R_j, gamma)
         x_update, P_update, L = p.kalman_update(f"u{j}_", x_pred, P_pred, H, R_j, gamma)
         x_post.append(x_update)
         P_post.append(P_update)
@@ -556,42 +556,6 @@ def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
     p.close_time_loop()
     p.suspend(carried)
     return p.function("imm_run")
-
-
-def _measured_flags(p: Program, y: Vector) -> list[str]:
-    """Emit whether each output of ``y(k+1)`` was measured (not NaN), and ``left``, how many not."""
-    flags = [p.assign("ok", f"{term(value)} == {term(value)}") for value in y]
-    p.emit("left = " + " + ".join(f"(0 if {flag} else 1)" for flag in flags))
-    return flags
-
-
-def _left_out(
-    p: Program, measured: list[str], H: Matrix, R: Matrix, gamma: Vector
-) -> tuple[Matrix, Matrix, Vector]:
-    """``H``, ``R`` and ``γ`` of an update on the measured outputs alone, written out.
-
-    :func:`~hybridlog.estimators.kernels.leave_out_unmeasured` as straight-line code: the
-    structural zeros stay literals, every other entry a selection on the flags.
-    """
-
-    def select(entry: Entry, flag: str, otherwise: float) -> Entry:
-        if entry == otherwise:
-            return entry
-        return p.assign("lo", f"{term(entry)} if {flag} else {term(otherwise)}")
-
-    m = len(gamma)
-    H_left = [[select(entry, measured[b], 0.0) for entry in H[b]] for b in range(m)]
-    R_left: Matrix = [
-        [
-            select(R[b][c], measured[b], 1.0)
-            if b == c
-            else select(R[b][c], f"{measured[b]} and {measured[c]}", 0.0)
-            for c in range(m)
-        ]
-        for b in range(m)
-    ]
-    gamma_left = [select(gamma[b], measured[b], 0.0) for b in range(m)]
-    return H_left, R_left, gamma_left
 
 
 CODE = FilterCode(

@@ -297,6 +297,51 @@ class Program:
         ]
         return x_post, self.joseph(hint + "p", P, K, H, R), L
 
+    def measured_flags(self, y: Vector) -> list[str]:
+        """Emit whether each output of ``y`` was measured (not NaN) and ``left``, how many not.
+
+        For an accelerator's ``masked`` code
+        (:class:`~hybridlog.estimators.common.Accelerator`).
+        """
+        flags = [self.assign("ok", f"{term(value)} == {term(value)}") for value in y]
+        self.emit("left = " + " + ".join(f"(0 if {flag} else 1)" for flag in flags))
+        return flags
+
+    def select(self, entry: Entry, flag: str, otherwise: float) -> Entry:
+        """``entry if flag else otherwise``; ``entry`` itself where it is ``otherwise``."""
+        if entry == otherwise:
+            return entry
+        return self.assign("lo", f"{term(entry)} if {flag} else {term(otherwise)}")
+
+    def left_out_matrix(self, measured: Sequence[str], R: Matrix) -> Matrix:
+        """``R`` with the rows and columns of the outputs not ``measured`` the identity's."""
+        size = len(R)
+        return [
+            [
+                self.select(R[b][c], measured[b], 1.0)
+                if b == c
+                else self.select(R[b][c], f"{measured[b]} and {measured[c]}", 0.0)
+                for c in range(size)
+            ]
+            for b in range(size)
+        ]
+
+    def left_out(
+        self, measured: Sequence[str], H: Matrix, R: Matrix, gamma: Vector
+    ) -> tuple[Matrix, Matrix, Vector]:
+        """``H``, ``R`` and ``γ`` of an update on the ``measured`` outputs alone.
+
+        :func:`~hybridlog.estimators.kernels.leave_out_unmeasured` written out: the rows of
+        ``H`` and ``γ`` of an output left out are 0, its rows and columns of ``R`` the
+        identity's; structural zeros stay literals, every other entry is a selection.
+        """
+        H_left = [
+            [self.select(entry, flag, 0.0) for entry in row]
+            for row, flag in zip(H, measured, strict=True)
+        ]
+        gamma_left = [self.select(g, flag, 0.0) for g, flag in zip(gamma, measured, strict=True)]
+        return H_left, self.left_out_matrix(measured, R), gamma_left
+
     def minus_inf_if_nan(self, name: str) -> None:
         """A NaN (from a failed Cholesky factor) becomes ``-inf``: no weight for that mode."""
         self.emit(f"if {name} != {name}:")

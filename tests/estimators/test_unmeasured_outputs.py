@@ -231,18 +231,19 @@ def test_the_imm_straight_line_code_for_unmeasured_outputs_equals_the_generic_lo
     )
 
 
-def test_hstf_has_no_straight_line_code_for_unmeasured_outputs():
+@pytest.mark.parametrize("likelihood", ["faded", "unfaded"])
+def test_the_hstf_straight_line_code_for_unmeasured_outputs_equals_the_generic_loop(likelihood):
     model = load_model("three_tank_hstf")
-    base = simulate(model, steps=20, seed=1).signals(model)
-    mask = np.zeros(base.outputs.shape, dtype=bool)
-    mask[5, 0] = True
-    with pytest.raises(ValueError, match="not measured"):
-        run_hstf(model, _with_unmeasured(base, mask), HstfOptions(), kernel="unrolled")
-    # an all-False mask is a fully measured log: the same result as without one
-    fast = run_hstf(model, _with_unmeasured(base, np.zeros_like(mask)), HstfOptions())
-    np.testing.assert_array_equal(
-        fast.state_means, run_hstf(model, base, HstfOptions()).state_means
-    )
+    base = simulate(model, steps=300, seed=6).signals(model)
+    signals = _with_unmeasured(base, _mask(base.outputs.shape, seed=9))
+    options = HstfOptions(likelihood=likelihood)
+    fast = run_hstf(model, signals, options, kernel="unrolled")
+    generic = run_hstf(model, signals, options, kernel="loops")
+    for field in ("mode_probabilities", "state_means", "state_variances", "output_predictions"):
+        np.testing.assert_allclose(
+            getattr(fast, field), getattr(generic, field), rtol=1e-9, atol=1e-9, err_msg=field
+        )
+    np.testing.assert_array_equal(fast.modes, generic.modes)
 
 
 def test_surprise_is_not_computed_where_nothing_was_measured():
