@@ -33,7 +33,7 @@ import numpy as np
 
 from hybridlog.cluster.centers_file import CentersFile
 from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
-from hybridlog.cluster.labels import cluster_notes, decide_clusters
+from hybridlog.cluster.labels import NO_CLUSTER, cluster_notes, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, measured_rows, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
 from hybridlog.errors import DataShortError, OptionError, as_text
@@ -98,9 +98,32 @@ class ModeClassifier:
         return values
 
     def decide(self, outputs: FloatArray) -> IntArray:
-        """Cluster of every sample by the nearest decision variable (eqs. (2)–(3))."""
+        """Cluster of every sample by the nearest decision variable (eqs. (2)–(3)).
+
+        ``outputs`` holds NaN where the log did not measure an output
+        (``AlignedSignals.measured_outputs()``): the decision of such a sample is over its
+        measured outputs, and a sample with none keeps the cluster of the sample before
+        (the first decided one's, before it): no measurement, nothing to move the decision.
+        (The value the alignment takes from the samples around a gap decided such a sample
+        as if it were measured: at half the model's rate every other mode came from
+        ``y(k) = y(k−1)``.)
+
+        Raises
+        ------
+        DataShortError
+            No sample has a measured output.
+        """
         span = (self.upper - self.lower)[list(self.decision_columns)]
-        return decide_clusters(outputs, self.decision_values, span)
+        decided = decide_clusters(outputs, self.decision_values, span)
+        undecided = decided == NO_CLUSTER
+        if not undecided.any():
+            return decided
+        rows = np.flatnonzero(~undecided)
+        if not rows.size:
+            raise DataShortError("no sample has a measured output to decide its mode on")
+        last = np.where(undecided, -1, np.arange(decided.size))
+        held: IntArray = decided[np.maximum(np.maximum.accumulate(last), rows[0])]
+        return held
 
     def labelled(
         self, cluster_modes: IntArray | None, labelling: Sequence[str], **details: Any
@@ -247,7 +270,8 @@ def fit_classifier(
             f"(scipy kmeans2, k-means++, best of {km.restarts} runs from seed {km.seed}, "
             f"inertia {km.inertia:.4g})",
         )
-    return _unlabelled(algorithm, spec, names, centers, lower, upper, notes, details, outputs)
+    measured = outputs if unmeasured is None else np.where(unmeasured, np.nan, outputs)
+    return _unlabelled(algorithm, spec, names, centers, lower, upper, notes, details, measured)
 
 
 def stored_classifier(
@@ -261,6 +285,8 @@ def stored_classifier(
     source: str,
 ) -> ModeClassifier:
     """The classifier of ``algorithm`` in a parsed ``centers.json``, applied to ``outputs``.
+
+    ``outputs``: NaN where the log did not measure them (:meth:`ModeClassifier.decide`).
 
     Labelled with the file's modes when it has them; the notes say what each cluster decides
     on ``outputs`` (the file's own notes describe the log it was fitted on).

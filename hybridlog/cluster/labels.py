@@ -42,6 +42,7 @@ from hybridlog.signals import FloatArray, IntArray
 __all__ = [
     "DECIDE_BLOCK",
     "EXHAUSTIVE_MAX",
+    "NO_CLUSTER",
     "ClusterLabels",
     "cluster_notes",
     "decide_clusters",
@@ -54,10 +55,14 @@ def decide_clusters(
 ) -> IntArray:
     """Nearest decision variable of every sample (eqs. (2)–(3)).
 
+    The distance is over the outputs measured at the sample: NaN in ``outputs`` (an output
+    the log did not measure there, ``AlignedSignals.measured_outputs()``) is left out of it,
+    and a sample with none measured is decided by nothing (:data:`NO_CLUSTER`).
+
     Parameters
     ----------
     outputs:
-        ``y(k)``, shape ``(N, n_y)``.
+        ``y(k)``, shape ``(N, n_y)``, NaN where not measured.
     decision_values:
         ``y_i*`` of each cluster, shape ``(c, n_y)``.
     scale:
@@ -66,7 +71,8 @@ def decide_clusters(
     Returns
     -------
     IntArray
-        Cluster index of each sample, shape ``(N,)``.
+        Cluster index of each sample, shape ``(N,)``; :data:`NO_CLUSTER` where no output
+        was measured.
     """
     y = np.asarray(outputs, dtype=np.float64)
     centres = np.asarray(decision_values, dtype=np.float64)
@@ -78,9 +84,15 @@ def decide_clusters(
         block = y[first : first + rows]
         costs = np.zeros((block.shape[0], centres.shape[0]))
         for j in range(y.shape[1]):
-            costs += ((block[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
+            term = ((block[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
+            costs += np.where(np.isnan(term), 0.0, term)  # y_j(k) not measured: no term
         decided[first : first + rows] = np.argmin(costs, axis=1)
+    decided[np.isnan(y).all(axis=1)] = NO_CLUSTER
     return decided
+
+
+NO_CLUSTER = -1
+"""What :func:`decide_clusters` gives a sample without a measured output: no decision."""
 
 
 DECIDE_BLOCK = 1 << 20

@@ -19,7 +19,13 @@ if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
     from hybridlog.signals import AlignedSignals
 
-__all__ = ["MAX_JOINT_MODES", "Capabilities", "ModelTraits", "missing_command"]
+__all__ = [
+    "MAX_JOINT_MODES",
+    "Capabilities",
+    "ModelTraits",
+    "missing_command",
+    "unmeasured_state",
+]
 
 MAX_JOINT_MODES = 256
 """The most joint modes a ``[components]`` model is enumerated into
@@ -194,6 +200,9 @@ class Capabilities:
         commands (:attr:`applies_commands`) needs each one a transition rule names
         (:func:`missing_command`).
 
+        An estimator that needs the state measured (:attr:`needs_measured_state`) needs
+        it at every sample (:func:`unmeasured_state`).
+
         An estimator that takes every sample's mode from the switching signal
         (:attr:`needs_switching_signal`) needs one that covers the log: a true mode that
         starts late leaves the samples before it without one
@@ -205,6 +214,10 @@ class Capabilities:
             missing = missing_command(model, signals)
             if missing is not None:
                 return missing
+        if self.needs_measured_state:
+            unmeasured = unmeasured_state(model, signals)
+            if unmeasured is not None:
+                return unmeasured
         if not self.needs_switching_signal:
             return None
         if signals.truth_modes is None:
@@ -232,6 +245,36 @@ class Capabilities:
                 "switching signal that covers the log with --map truth.mode=PATH)"
             )
         return None
+
+
+def unmeasured_state(model: HybridModel, signals: AlignedSignals) -> str | None:
+    """Why the log does not measure the state at every sample, or None.
+
+    ``sliding-mode`` (paper 003) integrates observer (10), ``ż = G(x, u) + w``, at the
+    measured state ``x`` and slides on ``e = x − z``: at a sample the log did not measure
+    (``AlignedSignals.unmeasured_outputs``: a gap bridged, or an output slower than the
+    model's ``dt``) it has neither, and the value the alignment took from the samples
+    around would be read as a measured state.  The paper measures the state continuously
+    and says nothing of running without it: the log is refused, naming the first such
+    output (in the log's order; the others too), how many samples and the first.
+    """
+    if signals.unmeasured_outputs is None or not signals.unmeasured_outputs.any():
+        return None
+    from hybridlog.times import format_time
+
+    unmeasured = signals.unmeasured_outputs
+    columns = [j for j in range(unmeasured.shape[1]) if unmeasured[:, j].any()]
+    rows = unmeasured[:, columns[0]].nonzero()[0]
+    others = [signals.output_names[j] for j in columns[1:]]
+    also = f" ({', '.join(others)} too)" if others else ""
+    first = format_time(float(signals.time[rows[0]]))
+    return (
+        "needs the state measured at every sample (paper 003, observer (10)); "
+        f"{signals.output_names[columns[0]]} has no sample within dt/2 of {rows.size:,} of "
+        f"{signals.n_samples:,} sample times, the first t={first} s{also}: use a log that "
+        f"measures every output each dt = {model.timebase.dt:g} s, "
+        "or a model whose dt is the log's sample time"
+    )
 
 
 def missing_command(model: HybridModel, signals: AlignedSignals) -> str | None:

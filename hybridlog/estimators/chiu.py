@@ -31,9 +31,18 @@ probabilities); ``state_variances`` are NaN (a Luenberger observer has no covari
 ``state_means[k] = x̂(k)`` from ``y(0..k−1)``; ``output_predictions[k]`` is made with
 ``q̂(k−1)`` before ``y(k)`` is used (row 0 NaN).  The report's ``options`` hold the centres,
 the labels, the gains and the LMI certificate; its ``notes`` say how each cluster was
-labelled and what happened to surplus clusters.  Where ``y(k)`` was bridged the mode is
-still decided, from the value bridged there: the timeline's ``vouched`` column is 0 there
-(1 elsewhere; no column when every output was measured) and the notes count those samples.
+labelled and what happened to surplus clusters.
+
+Outputs the log did not measure (``AlignedSignals.unmeasured_outputs``: the value there is
+one the alignment took from the samples around a gap, or a slower output of a multi-rate
+log) are read as :meth:`~hybridlog.signals.AlignedSignals.measured_outputs` gives them, NaN,
+never as the stand-in value: the decision (2)–(3) of such a sample is over the outputs
+measured there, held from the sample before where none was
+(:meth:`~hybridlog.cluster.classifier.ModeClassifier.decide`), and the observer (8) leaves
+the innovation of an unmeasured output out (open loop where none was measured,
+:mod:`hybridlog.estimators.switched_observer`).  The timeline's ``vouched`` column is 0 at
+those samples (1 elsewhere; no column when every output was measured) and the notes count
+them.
 """
 
 from __future__ import annotations
@@ -105,7 +114,8 @@ def _prediction_score(
     """
     n = signals.n_samples
     start = max(1, min(_BURN_IN_MAX, int(_BURN_IN_FRACTION * n)))
-    outputs = signals.outputs[start:]
+    measured = signals.measured_outputs()
+    outputs = measured[start:]
     unmeasured = None if signals.unmeasured_outputs is None else signals.unmeasured_outputs[start:]
 
     def score(labels: IntArray) -> float:
@@ -113,7 +123,7 @@ def _prediction_score(
             linear,
             gains.gains,
             signals.inputs,
-            signals.outputs,
+            measured,
             labels[decided],
             model.initial_state,
         )
@@ -169,7 +179,7 @@ def mode_classifier(
             centers,
             algorithm,
             spec,
-            signals.outputs,
+            signals.measured_outputs(),
             names=names,
             mode_ids=model.mode_ids,
             source=options.centers or centers.path,
@@ -203,7 +213,7 @@ def mode_classifier(
     if classifier.cluster_modes is not None:
         return classifier
     if observer is not None:
-        decided = classifier.decide(signals.outputs)
+        decided = classifier.decide(signals.measured_outputs())
         score = _prediction_score(model, signals, *observer, decided)
         labels = label_clusters(
             len(classifier.centers),
@@ -251,13 +261,14 @@ def run_clustering_observer(
         values = ", ".join(f"{key}={shown(getattr(options, key))}" for key in err.keys)
         raise OptionError(f"{name} option {values}: {err.reason}") from None
     assert classifier.cluster_modes is not None
-    decided = classifier.decide(signals.outputs)
+    measured = signals.measured_outputs()
+    decided = classifier.decide(measured)
     modes = classifier.cluster_modes[decided]
     means, predictions = run_observer(
         linear,
         gains.gains,
         signals.inputs,
-        signals.outputs,
+        measured,
         modes,
         model.initial_state,
         jit=jit,
@@ -315,15 +326,16 @@ def run_clustering_observer(
 def _decided_on_measurements(
     signals: AlignedSignals,
 ) -> tuple[tuple[TimelineColumn, ...], tuple[str, ...]]:
-    """timeline.csv's ``vouched`` column and report.md's note, where ``y(k)`` was bridged.
+    """timeline.csv's ``vouched`` column and report.md's note, where an output was not measured.
 
     The nearest-centre decision of sample ``k`` reads ``y(k)`` alone (eqs. (2)–(3)); where
-    the log did not measure it (``unmeasured_outputs``: a value taken from the samples
-    around a gap) the mode is decided on that stand-in, which no measurement vouches for.
-    As ``sliding-mode`` marks the σ̂ Lemma 1 cannot vouch for, the timeline gets ``vouched``,
-    1 where every output of the sample was measured and 0 there, and the notes say how many;
-    the mode metrics score the decision there as they score every other sample.  Nothing
-    when every output was measured.
+    the log did not measure all of it (``unmeasured_outputs``) the mode is decided over the
+    outputs it did measure, or held from the sample before where it measured none
+    (:meth:`~hybridlog.cluster.classifier.ModeClassifier.decide`): less than eq. (3) asks
+    for.  As ``sliding-mode`` marks the σ̂ Lemma 1 cannot vouch for, the timeline gets
+    ``vouched``, 1 where every output of the sample was measured and 0 there, and the notes
+    say how many; the mode metrics score the decision there as they score every other
+    sample.  Nothing when every output was measured.
     """
     if signals.unmeasured_outputs is None:
         return (), ()
@@ -333,9 +345,11 @@ def _decided_on_measurements(
         return (), ()
     n = signals.n_samples
     note = (
-        f"the mode of {count:,} of {n:,} samples ({100 * count / n:.1f} %) was decided on an "
-        "output value the log did not measure there (taken from the samples around a gap): "
-        "timeline.csv's vouched is 0 there; the mode metrics score those samples too"
+        f"the mode of {count:,} of {n:,} samples ({100 * count / n:.1f} %) was decided without "
+        "an output the log did not measure there: over the outputs it measured, held from the "
+        "sample before where it measured none (the observer leaves an unmeasured output's "
+        "innovation out); timeline.csv's vouched is 0 there; the mode metrics score those "
+        "samples too"
     )
     return (TimelineColumn("vouched", np.where(bridged, 0.0, 1.0)),), (note,)
 

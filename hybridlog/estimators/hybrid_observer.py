@@ -32,7 +32,25 @@ extrapolated from its last two samples, ``y(k) + (t − t_k)(y(k) − y(k−1))/
 the slope is the estimate's own ``ẏ = ∂h/∂x·dx(σ, x̂(t_k), u(k))``).  Either way
 ``x̂(t_k)`` uses ``y(0) … y(k−1)`` only.  A switch
 ``σ(k+1) ≠ σ(k)`` happens at ``t_{k+1}``, where ``R`` is applied (the true switching instant
-lies in ``(t_k, t_{k+1}]``: a log tells no more).  The output prediction of row ``k`` is
+lies in ``(t_k, t_{k+1}]``: a log tells no more).
+
+A sample the log did not measure (``AlignedSignals.unmeasured_outputs``: a gap bridged, or
+a log whose ``y`` is slower than the model's ``dt``) is read as NaN
+(:meth:`~hybridlog.signals.AlignedSignals.measured_outputs`), never as the value the
+alignment put there.  Over ``[t_k, t_{k+1})`` with ``y(k)`` not measured the output
+injection is off: ``dx̂/dt = f(σ, x̂) + g(σ, x̂)u``, observer (20) with ``K = 0`` (the
+model integrated open loop).  In the paper's coordinates ``z = Φ(σ, x)`` (Lemmas 5–6,
+eqs. (24), (27)) the error ``η = z − ẑ`` then obeys ``η̇ = A_b η + B_b(P̃(z) − P̃(ẑ))``, so
+by H₂ it grows at most by ``exp((1 + γ_P̃)(t_{k+1} − t_k))`` over the interval: a bounded
+factor, as the jumps' ``μ₁`` of (31)–(32), which the decay (30) of the measured intervals
+must outweigh as (35) weighs the jumps against ``T_min``.  Injecting a value the log did not
+give instead (a held or extrapolated ``y``) would drive ``η̇ = (A_b − K C_b)η + …`` by
+``K`` times that value's error, with the large ``K`` Lemma 4 calls for and no bound in
+the paper.  With ``output_hold = "first"`` the slope of a measured ``y(k)`` is taken from
+the last sample measured before it in the same mode, ``(y(k) − y(j))/(t_k − t_j)``, two
+measurements; with none since the mode began, from the estimate's own ``ẏ`` as above.
+
+The output prediction of row ``k`` is
 ``h(σ(k), x̂(t_k))``, made before ``y(k)`` is used; row 0 is the prior (the model's initial
 state).  Mode probabilities are the one-hot σ; there is no covariance (variances NaN).
 
@@ -182,9 +200,11 @@ def _condition(M, n, W, e, col):
     return norm * inverse
 
 
-def _rhs(q, x, u, y, gain, n, out, hv, Qm, W, r, v):
-    """Observer (20): out = dx(q, x, u) + Q(q, x)^-1 K (y - h(q, x, u))."""
+def _rhs(q, x, u, y, inject, gain, n, out, hv, Qm, W, r, v):
+    """Observer (20): out = dx(q, x, u) + Q(q, x)^-1 K (y - h(q, x, u)); dx alone unless inject."""
     dx(q, x, u, out)
+    if not inject:
+        return
     h(q, x, u, hv)
     Q(q, x, u, Qm)
     e = y - hv[0]
@@ -221,29 +241,34 @@ def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order, 
         q = modes[k]
         u = inputs[k]
         y = outputs[k, 0]
+        inject = not math.isnan(y)  # y(k) not measured: no output injection on the interval
         step = (time[k + 1] - time[k]) / substeps
         slope = 0.0
-        if first_order and k > 0 and modes[k - 1] == q:
-            slope = (y - outputs[k - 1, 0]) / (time[k] - time[k - 1])
-        elif first_order:  # first interval of a mode: dy/dt = dh/dx dx of the estimate
-            dx(q, x, u, k1)
-            Q(q, x, u, Qm)  # its first row is dh/dx (Phi_1 = h)
-            for i in range(n):
-                slope += Qm[0, i] * k1[i]
+        if inject and first_order:
+            before = k - 1  # the last sample measured before k, within this mode
+            while before >= 0 and modes[before] == q and math.isnan(outputs[before, 0]):
+                before -= 1
+            if before >= 0 and modes[before] == q:
+                slope = (y - outputs[before, 0]) / (time[k] - time[before])
+            else:  # none since the mode began: dy/dt = dh/dx dx of the estimate
+                dx(q, x, u, k1)
+                Q(q, x, u, Qm)  # its first row is dh/dx (Phi_1 = h)
+                for i in range(n):
+                    slope += Qm[0, i] * k1[i]
         for s in range(substeps):
             tau = s * step
-            _rhs(q, x, u, y + slope * tau, gain, n, k1, hv, Qm, W, r, v)
+            _rhs(q, x, u, y + slope * tau, inject, gain, n, k1, hv, Qm, W, r, v)
             if rk4:
                 y_half = y + slope * (tau + 0.5 * step)
                 for i in range(n):
                     xt[i] = x[i] + 0.5 * step * k1[i]
-                _rhs(q, xt, u, y_half, gain, n, k2, hv, Qm, W, r, v)
+                _rhs(q, xt, u, y_half, inject, gain, n, k2, hv, Qm, W, r, v)
                 for i in range(n):
                     xt[i] = x[i] + 0.5 * step * k2[i]
-                _rhs(q, xt, u, y_half, gain, n, k3, hv, Qm, W, r, v)
+                _rhs(q, xt, u, y_half, inject, gain, n, k3, hv, Qm, W, r, v)
                 for i in range(n):
                     xt[i] = x[i] + step * k3[i]
-                _rhs(q, xt, u, y + slope * (tau + step), gain, n, k4, hv, Qm, W, r, v)
+                _rhs(q, xt, u, y + slope * (tau + step), inject, gain, n, k4, hv, Qm, W, r, v)
                 for i in range(n):
                     x[i] += step / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             else:
@@ -354,7 +379,9 @@ def _last_interval(
 
     ``x̂(t_k)`` comes from ``x̂(t_{k-1})`` corrected by ``y(k-1) − h(x̂(t_{k-1}))``: an
     outlier of the log (``1e6`` where ``h`` predicts 140), not the model, is then the cause,
-    which the numbers show.  The prior (sample 0) predicts nothing: no ``ŷ`` for it.
+    which the numbers show.  The prior (sample 0) predicts nothing: no ``ŷ`` for it.  Where
+    the log did not measure ``y(k-1)`` the interval had no correction (module doc), and the
+    value the alignment put there is not shown as a measurement.
     """
     if first < 1:
         return ""
@@ -364,6 +391,11 @@ def _last_interval(
         for name, value in zip(model.states, states[before].tolist(), strict=True)
     ]
     shown = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+    if signals.unmeasured_outputs is not None and signals.unmeasured_outputs[before, 0]:
+        return (
+            f"; the interval before ran without correction ({model.outputs[0]} not measured "
+            f"at t = {format_time(signals.time[before])} s) from the estimate {shown}"
+        )
     predicted = float(predictions[before])
     against = f" against {predicted:.6g} predicted" if np.isfinite(predicted) else ""
     return (
@@ -374,7 +406,7 @@ def _last_interval(
 
 def _singular_q(
     model: HybridModel,
-    time_s: FloatArray,
+    signals: AlignedSignals,
     modes: Any,
     states: FloatArray,
     condition: FloatArray,
@@ -387,10 +419,14 @@ def _singular_q(
     The symbolic ``Q`` of that mode then tells a singular point of the trajectory from a
     mode that is not drift-observable at all (``det Q ≡ 0``, eq. (21)), naming the states
     that enter none of ``Φ``.  The refusal listed "Q singular, a jump map or the gain ...
-    too large" for a mode whose ``Φ = [x1, −x1]`` cannot see ``x2``.
+    too large" for a mode whose ``Φ = [x1, −x1]`` cannot see ``x2``.  An interval whose
+    ``y`` the log did not measure had no correction, so no ``Q⁻¹``: not the cause there.
     """
     if first < 1 or np.isfinite(condition[first - 1]):
         return ""
+    if signals.unmeasured_outputs is not None and signals.unmeasured_outputs[first - 1, 0]:
+        return ""
+    time_s = signals.time
     import sympy
 
     before = first - 1
@@ -435,6 +471,9 @@ def _replay(
 
     module = observer_module(model)
     low = max(first - 2, 0)
+    outputs = arguments[3]
+    while low > 0 and np.isnan(outputs[low, 0]):  # the slope's measured sample: replayed too
+        low -= 1
     rows = slice(low, first + 1)
     time_s, modes, inputs, outputs, _, gain, substeps, rk4, first_order = arguments[:9]
     states = arguments[10]
@@ -487,6 +526,7 @@ def _rhs_flaw(
     n = model.n_states
     x = np.array(arguments[10][before], dtype=np.float64)
     q, u, y = int(modes[before]), inputs[before], float(outputs[before, 0])
+    inject = not np.isnan(y)  # y not measured there: the interval had no correction
     work = (np.empty(1), np.empty((n, n)), np.empty((n, n)), np.empty(n), np.empty(n))
     jacobian = np.empty((n, n))
     high, low = np.empty(n), np.empty(n)
@@ -495,9 +535,9 @@ def _rhs_flaw(
             delta = 1e-7 * (abs(float(x[j])) or 1.0)  # relative: x = 1e-70 is no zero
             shifted = x.copy()
             shifted[j] += delta
-            module._rhs(q, shifted, u, y, gain, n, high, *work)
+            module._rhs(q, shifted, u, y, inject, gain, n, high, *work)
             shifted[j] -= 2 * delta
-            module._rhs(q, shifted, u, y, gain, n, low, *work)
+            module._rhs(q, shifted, u, y, inject, gain, n, low, *work)
             jacobian[:, j] = (high - low) / (2 * delta)
     timebase = model.timebase
     if timebase.method is None or timebase.step is None:  # discrete: refused before the run
@@ -583,7 +623,7 @@ def _divergence(
             flaw = _rhs_flaw(model, module, arguments, first - 1)
         error = escape_error(model, escape, at, where + flaw + last, noun="estimate")
         return DivergenceError(str(error))
-    singular = _singular_q(model, signals.time, modes, states, condition, first)
+    singular = _singular_q(model, signals, modes, states, condition, first)
     if singular:
         return DivergenceError(f"{origin}: {where}{singular}")
     flaw = _rhs_flaw(model, module, arguments, first - 1)
@@ -643,6 +683,20 @@ def _notes(
     return tuple(notes)
 
 
+def _open_loop_note(signals: AlignedSignals) -> tuple[str, ...]:
+    """How many intervals ran without output injection (``y`` not measured at their start)."""
+    if signals.unmeasured_outputs is None:
+        return ()
+    count = int(np.count_nonzero(signals.unmeasured_outputs[:-1, 0]))
+    if not count:
+        return ()
+    return (
+        f"{count:,} of {signals.n_samples - 1:,} intervals ran without output injection "
+        f"(observer (20) with K = 0): the log did not measure {signals.output_names[0]} at "
+        "their start, and a value taken from the samples around is no measurement",
+    )
+
+
 def run_switching_observer(
     model: HybridModel, signals: AlignedSignals, options: SwitchingObserverOptions
 ) -> EstimationResult:
@@ -679,7 +733,7 @@ def run_switching_observer(
         np.ascontiguousarray(signals.time, dtype=np.float64),
         modes,
         np.ascontiguousarray(signals.inputs, dtype=np.float64).reshape(count, model.n_inputs),
-        np.ascontiguousarray(signals.outputs, dtype=np.float64),
+        np.ascontiguousarray(signals.measured_outputs(), dtype=np.float64),
         np.ascontiguousarray(model.initial_state, dtype=np.float64),
         gain,
         np.int64(timebase.substeps),
@@ -714,7 +768,7 @@ def run_switching_observer(
         int(jumped.sum()),
         states,
         eigenvalues,
-    )
+    ) + _open_loop_note(signals)
     from hybridlog.estimators.options import options_dict
 
     return EstimationResult(

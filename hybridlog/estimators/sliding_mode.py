@@ -37,6 +37,12 @@ of the sample held over the sample.  Over one step :math:`\dot z = G(x, u) + w` 
 :math:`\dot w = -v` are constant (``x``, ``u`` held, ``v`` decided at the start of the
 step), so one Euler step integrates them exactly for those held values whatever the model's
 method: ``z += h (G + w)``, ``w += h α V_M sign(·)``.  The whole loop is compiled (numba).
+The observer needs the state measured at every sample: a log with an output not measured
+at some sample (``AlignedSignals.unmeasured_outputs``: a gap bridged, or an output slower
+than the model's ``dt``) is refused, naming it
+(:func:`~hybridlog.estimators.capabilities.unmeasured_state`); the paper measures the state
+continuously and gives the observer no way to run without it, and the value the alignment
+took from the samples around is no measured state.
 
 Result: the mode is :math:`\hat\sigma`; the mode probabilities are the one-hot vector of
 :math:`\hat\sigma` (the observer computes no probabilities); the state estimate is the
@@ -56,7 +62,8 @@ import time
 import numpy as np
 import numpy.typing as npt
 
-from hybridlog.errors import DivergenceError
+from hybridlog.errors import DivergenceError, LogError
+from hybridlog.estimators.capabilities import unmeasured_state
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, TimelineColumn
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
@@ -559,6 +566,10 @@ def run_sliding_mode(
         finite, or its error larger than the measured state (:func:`_refuse_runaway_error`);
         or ``D`` was singular or not finite at every sample
         (:func:`_refuse_no_reconstruction`).
+    LogError
+        The log did not measure an output at some sample
+        (:func:`~hybridlog.estimators.capabilities.unmeasured_state`): the observer runs
+        on the measured state, never on a value taken from the samples around.
     """
     options = options or SlidingModeOptions()
     affine = model.boolean_affine
@@ -580,6 +591,9 @@ def run_sliding_mode(
             f"sliding-mode needs at most as many booleans as states (eq. (2)); "
             f"{len(affine.booleans)} > {model.n_states}",
         )
+    unmeasured = unmeasured_state(model, signals)
+    if unmeasured is not None:
+        raise LogError(f"{signals.source}: estimator 'sliding-mode' {unmeasured}")
     v_max = gain(model, options)
     start = time.perf_counter()
     code = compile_continuous(model, jit=jit)

@@ -9,6 +9,16 @@ with the mode ``q̂(k)`` decided from ``y(k)`` (eqs. (2)–(3)) and gains ``L_i`
 (15) (:mod:`hybridlog.estimators.lmi`).  The affine terms ``c_i``, ``d_i`` are zero for the
 paper's model (1) and kept for generality.  ``x̂(k)`` uses ``y(0) … y(k−1)`` only.
 
+An output the log did not measure at ``t_k`` (NaN in the outputs given:
+``AlignedSignals.measured_outputs()``, a sample bridged across a gap or a slower output of a
+multi-rate log) has the innovation 0 in eq. (8): its column of ``L_i`` corrects nothing at
+that step, and with no output measured the step is the open-loop model step
+``x̂(k+1) = A_i x̂(k) + B_i u(k) + c_i``.  That is the choice: eq. (8) corrects by a
+measurement, and the value the alignment took from the samples around (one used twice, or
+interpolated) is none; the error then evolves by ``A_i`` alone for that step, which the
+poly-quadratic Lyapunov function of LMI (15) does not bound, so the decay it certifies
+holds over the measured steps only.
+
 Output prediction: the one-step-ahead prediction of ``y(k)`` must be made before ``y(k)``
 is used, but ``q̂(k)`` is decided *from* ``y(k)``; so ``ŷ(k) = C_j x̂(k) + D_j u(k) + d_j``
 with ``j = q̂(k−1)``, the mode that produced ``x̂(k)``.  When all ``C_i`` are equal (the
@@ -142,14 +152,16 @@ def _observer_steps(
         predictions_out[0, b] = np.nan
     for k in range(n_samples - 1):
         q = modes[k]
-        # eq. (8): innovation y(k) - ŷ(k) in the decided mode, then the state update.
+        # eq. (8): innovation y(k) - ŷ(k) in the decided mode, then the state update; an
+        # output not measured at t_k (NaN) corrects nothing: its innovation is 0.
         for b in range(p):
             acc = d[q, b]
             for a in range(n):
                 acc += C[q, b, a] * x[a]
             for j in range(m):
                 acc += D[q, b, j] * inputs[k, j]
-            innovation[b] = outputs[k, b] - acc
+            measured = outputs[k, b]
+            innovation[b] = 0.0 if np.isnan(measured) else measured - acc
         for a in range(n):
             acc = c[q, a]
             for e in range(n):
@@ -193,7 +205,8 @@ def run_observer(
     gains:
         ``L_i``, shape ``(s, n, p)``.
     inputs, outputs:
-        ``u`` ``(N, m)`` and ``y`` ``(N, p)``.
+        ``u`` ``(N, m)`` and ``y`` ``(N, p)``, NaN where the log did not measure an output
+        (``AlignedSignals.measured_outputs()``): no correction by it at that step.
     modes:
         ``q̂(k)`` as mode indices, shape ``(N,)``.
     initial_state:

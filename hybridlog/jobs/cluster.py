@@ -155,7 +155,7 @@ def _accuracy(
 ) -> float | None:
     if classifier.cluster_modes is None or signals.truth_modes is None:
         return None
-    decided = classifier.cluster_modes[classifier.decide(signals.outputs)]
+    decided = classifier.cluster_modes[classifier.decide(signals.measured_outputs())]
     known = signals.truth_modes != NO_TRUE_MODE  # a true mode that starts late: from its first
     return float(np.mean(decided[known] == signals.truth_modes[known])) if known.any() else None
 
@@ -549,7 +549,7 @@ def discover_modes(
     content["reading"] = reading
     phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
     lag = fitted.spec.max_lag
-    clusters = fitted.decide(signals.outputs)[lag:]
+    clusters = fitted.decide(signals.measured_outputs())[lag:]
     cluster_modes = (
         None if fitted.cluster_modes is None else [model.mode_ids[m] for m in fitted.cluster_modes]
     )

@@ -7,7 +7,7 @@ but ``hybridlog cluster`` and the ``chiu``/``kmeans`` estimators fitted their ce
 and labelled the clusters by how well the observer predicted the stand-ins.  Now those
 vectors are left out of the fit and counted, the labelling scores measured outputs only, a
 log with no measured vector is refused, and the estimators mark the samples whose mode was
-decided on a stand-in (timeline.csv's ``vouched``).
+decided without all outputs (timeline.csv's ``vouched``).
 """
 
 import dataclasses
@@ -16,8 +16,9 @@ import numpy as np
 import polars as pl
 import pytest
 
-from hybridlog.cluster.classifier import fit_classifier
+from hybridlog.cluster.classifier import ModeClassifier, fit_classifier
 from hybridlog.cluster.kmeans import KMeansParameters
+from hybridlog.cluster.labels import NO_CLUSTER, decide_clusters
 from hybridlog.cluster.regressors import RegressorSpec, measured_rows
 from hybridlog.cluster.subtractive import SubtractiveOptions
 from hybridlog.errors import DataShortError, LogError
@@ -44,6 +45,31 @@ def test_measured_rows_drops_every_vector_holding_a_bridged_output_at_any_lag():
     np.testing.assert_array_equal(kept, [True, False, True, False, True, True])
     assert measured_rows(None, spec, 8).all() and measured_rows(None, spec, 8).size == 6
     assert measured_rows(unmeasured, spec, 2).size == 0
+
+
+def test_a_sample_is_decided_on_its_measured_outputs_and_held_without_any():
+    # eqs. (2)-(3) read the stand-in the alignment put where the log measured nothing
+    centres = np.array([[0.0, 0.0], [1.0, 10.0]])
+    nan = np.nan
+    y = np.array([[nan, nan], [0.9, nan], [nan, 0.1], [nan, nan], [0.2, 9.0], [nan, nan]])
+    assert decide_clusters(y, centres).tolist() == [NO_CLUSTER, 1, 0, NO_CLUSTER, 1, NO_CLUSTER]
+    classifier = ModeClassifier(
+        algorithm="kmeans",
+        spec=RegressorSpec(output_lags=(0,), input_lags=()),
+        regressors=("y1(k)", "y2(k)"),
+        decision_columns=(0, 1),
+        centers=centres,
+        lower=np.zeros(2),
+        upper=np.ones(2),
+        cluster_modes=None,
+        labelling=(),
+        notes=(),
+        details={},
+    )
+    # none measured: the cluster of the sample before (the first decided one's, before it)
+    assert classifier.decide(y).tolist() == [1, 1, 0, 0, 1, 1]
+    with pytest.raises(DataShortError, match="no sample has a measured output"):
+        classifier.decide(np.full((3, 2), nan))
 
 
 def _blobs_with_stand_ins() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -117,7 +143,7 @@ def test_the_estimators_say_what_they_left_out_and_mark_the_modes_not_vouched(ru
     result = run(model, signals, options, jit=False)
     notes = "\n".join(result.notes)
     assert "from 120 regression vectors" in notes and "(80 regression vectors left out" in notes
-    assert "the mode of 40 of 201 samples (19.9 %) was decided on an output value" in notes
+    assert "the mode of 40 of 201 samples (19.9 %) was decided without an output" in notes
     (vouched,) = [c for c in result.timeline_columns if c.name == "vouched"]
     np.testing.assert_array_equal(vouched.values == 0.0, signals.unmeasured_outputs[:, 0])
     measured = run(model, dataclasses.replace(signals, unmeasured_outputs=None), options, jit=False)
@@ -132,8 +158,7 @@ def test_a_log_at_half_the_models_rate_is_refused_by_the_estimator_naming_the_lo
 
 
 def test_the_labelling_scores_measured_outputs_only():
-    # the observer runs on the same outputs either way: the score differs by the squared
-    # prediction errors at the stand-ins alone, which it must not count
+    # the score must not count the squared prediction errors at the stand-ins
     model, signals = _double_cart()
     observer = design_observer(model, 1.0)
     decided = np.zeros(signals.n_samples, dtype=np.int64)

@@ -18,11 +18,12 @@ from hybridlog.estimators.chiu import (
     run_chiu,
 )
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
-from hybridlog.estimators.switched_observer import linear_modes, run_observer
+from hybridlog.estimators.switched_observer import LinearModes, linear_modes, run_observer
 from hybridlog.jobs.analysis import analyze
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.support.paths import SAMPLE_LOGS
+from tests.support.unmeasured import assert_same, with_stand_ins
 
 SAMPLE = SAMPLE_LOGS / "double_cart_case1.csv"
 
@@ -126,6 +127,48 @@ def test_observer_with_true_modes_converges_and_plain_path_agrees():
         linear, gains.gains, log.inputs, log.outputs, log.modes, model.initial_state, jit=False
     )
     np.testing.assert_allclose(plain[0], means, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("jit", [True, False])
+def test_an_unmeasured_output_corrects_nothing_and_with_none_the_step_is_open_loop(jit):
+    # paper 001 eq. (8) with the innovation of an output the log did not measure (NaN) 0:
+    # the stand-in the alignment put there was used as a fresh measurement
+    rng = np.random.default_rng(7)
+    s, n, m, p, count = 2, 3, 1, 2, 6
+    A, B = 0.5 * rng.normal(size=(s, n, n)), rng.normal(size=(s, n, m))
+    C, D = rng.normal(size=(s, p, n)), rng.normal(size=(s, p, m))
+    c, d, L = rng.normal(size=(s, n)), rng.normal(size=(s, p)), rng.normal(size=(s, n, p))
+    linear = LinearModes(A=A, B=B, C=C, D=D, state_offsets=c, output_offsets=d)
+    inputs, outputs = rng.normal(size=(count, m)), rng.normal(size=(count, p))
+    outputs[2, :] = np.nan  # no output measured at step 2
+    outputs[4, 1] = np.nan  # y_1 alone at step 4
+    modes = np.array([0, 1, 1, 0, 1, 0])
+    means, _ = run_observer(linear, L, inputs, outputs, modes, rng.normal(size=n), jit=jit)
+    assert np.isfinite(means).all()
+    q, x, u = modes[2], means[2], inputs[2]
+    np.testing.assert_allclose(means[3], A[q] @ x + B[q] @ u + c[q], rtol=1e-13, atol=1e-15)
+    q, x, u = modes[4], means[4], inputs[4]
+    innovation = outputs[4, 0] - (C[q, 0] @ x + D[q, 0] @ u + d[q, 0])
+    expected = A[q] @ x + B[q] @ u + c[q] + L[q, :, 0] * innovation
+    np.testing.assert_allclose(means[5], expected, rtol=1e-13, atol=1e-15)
+
+
+@pytest.mark.parametrize("runner", ["chiu", "kmeans"])
+def test_the_stand_ins_of_unmeasured_outputs_change_nothing(runner):
+    # the observer updated on the value the alignment put where the log measured nothing,
+    # and the nearest-centre decision read it: another stand-in, another result
+    model = load_model("double_cart_case1")
+    signals = signals_of(model, simulate(model, steps=300, seed=5))
+    unmeasured = (np.arange(signals.n_samples) % 4 == 2)[:, None]
+    run, options = (run_chiu, ChiuOptions()) if runner == "chiu" else (run_kmeans, KMeansOptions())
+    before = np.roll(signals.outputs, 1, axis=0)  # the sample before, as the alignment takes
+    first = run(model, with_stand_ins(signals, unmeasured, before), options)
+    assert_same(first, run(model, with_stand_ins(signals, unmeasured, -7.5), options))
+    (vouched,) = first.timeline_columns
+    np.testing.assert_array_equal(vouched.values == 0.0, unmeasured[:, 0])
+    # the decision of a sample without a measured output is the one of the sample before
+    rows = np.flatnonzero(unmeasured[:, 0])
+    np.testing.assert_array_equal(first.modes[rows], first.modes[rows - 1])
 
 
 @pytest.mark.parametrize("runner", ["chiu", "kmeans"])

@@ -25,6 +25,7 @@ from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
 from hybridlog.times import format_time
 from tests.support import clutch, model_kinds
+from tests.support.unmeasured import assert_same, with_stand_ins
 
 MU = 1.0
 VAN_DER_POL = f"""
@@ -85,20 +86,33 @@ def vdp_log():
     )
 
 
-def reference_run(signals, x0, hold):
-    """Observer (18) integrated by solve_ivp (rtol 1e-10) over each sample interval."""
+def reference_run(signals, x0, hold, unmeasured=None):
+    """Observer (18) integrated by solve_ivp (rtol 1e-10) over each sample interval.
+
+    ``unmeasured``: samples whose interval runs without injection (``vdp_field`` alone),
+    and which the first-order hold's slope skips.
+    """
     t, u, y = signals.time, signals.inputs[:, 0], signals.outputs[:, 0]
+    skip = np.zeros(len(t), dtype=bool) if unmeasured is None else unmeasured
     x, out = np.asarray(x0, dtype=float), [np.asarray(x0, dtype=float)]
     for k in range(len(t) - 1):
+        measured = np.flatnonzero(~skip[:k])
         if hold == "first":
-            if k > 0:
-                slope = (y[k] - y[k - 1]) / (t[k] - t[k - 1])
+            if measured.size:
+                j = measured[-1]
+                slope = (y[k] - y[j]) / (t[k] - t[j])
             else:  # the estimate's own dy/dt: dh/dx f(x̂(t_0), u(0))
                 slope = (1 + x[0] ** 2) * vdp_field(x, u[k])[0]
         else:
             slope = 0.0
+
+        def field(s, z, k=k, slope=slope):
+            if skip[k]:
+                return vdp_field(z, u[k])
+            return vdp_observer(z, u[k], y[k] + slope * (s - t[k]))
+
         sol = solve_ivp(
-            lambda s, z, k=k, slope=slope: vdp_observer(z, u[k], y[k] + slope * (s - t[k])),
+            field,
             (t[k], t[k + 1]),
             x,
             method="DOP853",
@@ -635,3 +649,61 @@ def test_a_divergence_names_its_cause(modes, start, measured, words):
     message = str(caught.value)
     assert re.search(words, message), message
     assert "\n" not in message
+
+
+def test_an_interval_without_its_measurement_names_no_stand_in_as_measured():
+    # the refusal said "the interval before corrected with y = 12345 measured" of a value
+    # the alignment had put where the log measured nothing
+    model = parse_model(KINDS % "0.5", origin="kinds.toml")
+    count = 4
+    signals = AlignedSignals(
+        source="kinds.csv",
+        time=np.arange(count) * 0.1,
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.zeros((count, 1)),
+        outputs=np.full((count, 1), 12345.0),
+        truth_modes=np.full(count, model.mode_ids.index("over")),
+        unmeasured_outputs=np.ones((count, 1), dtype=bool),
+    )
+    with pytest.raises(ModelError) as caught:
+        run_switching_observer(model, signals, SwitchingObserverOptions())
+    message = str(caught.value)
+    assert message.endswith(
+        "; the interval before ran without correction (y not measured at t = 0 s) from the "
+        "estimate h1 = 0.5"
+    ), message
+    assert "12345" not in message and "measured at the estimate" not in message
+
+
+@pytest.mark.parametrize("hold", ["zero", "first"])
+def test_an_unmeasured_sample_turns_the_injection_off_for_its_interval(vdp_log, hold):
+    # paper 004 observer (18)/(20) with K = 0 over [t_k, t_k+1) where y(k) was not measured,
+    # the first-order hold's slope from the last measured sample: solve_ivp by hand; the
+    # observer integrated the value the alignment put there as a measurement
+    unmeasured = np.zeros((vdp_log.n_samples, 1), dtype=bool)
+    unmeasured[1::3] = unmeasured[2::7] = True
+    options = SwitchingObserverOptions(eigenvalues="-3,-6", output_hold=hold)
+    model = parse_model(VAN_DER_POL)
+    result = run_switching_observer(model, with_stand_ins(vdp_log, unmeasured, 40.0), options)
+    other = run_switching_observer(model, with_stand_ins(vdp_log, unmeasured, -3.0), options)
+    assert_same(result, other)
+    halved = parse_model(VAN_DER_POL.replace("step = 0.002", "step = 0.001"))
+    finer = run_switching_observer(halved, with_stand_ins(vdp_log, unmeasured, 40.0), options)
+    reference = reference_run(vdp_log, [0.5, -0.5], hold, unmeasured[:, 0])
+    tolerance = 2.0 * np.abs(result.state_means - finer.state_means).max() + 1e-9
+    assert np.abs(result.state_means - reference).max() <= tolerance < 1e-6
+    assert "ran without output injection" in "\n".join(result.notes)
+
+
+def test_the_stand_ins_on_the_clutch_change_nothing(switched):
+    # every other sample of y not measured, across switches and jump maps
+    model, _, signals, _ = switched
+    unmeasured = (np.arange(signals.n_samples) % 2 == 1)[:, None]
+    options = SwitchingObserverOptions(eigenvalues="-4,-8,-12")
+    held = np.roll(signals.outputs, 1, axis=0)
+    first = run_switching_observer(model, with_stand_ins(signals, unmeasured, held), options)
+    again = run_switching_observer(model, with_stand_ins(signals, unmeasured, 0.0), options)
+    assert_same(first, again)
+    error = np.abs(first.state_means - signals.truth_states)[-DWELL:] / SCALE
+    assert error.max() < 5e-3  # from 1.3 at the start: the measured half drives it home
