@@ -267,11 +267,11 @@ def unmeasured_state(model: HybridModel, signals: AlignedSignals) -> str | None:
     rows = unmeasured[:, columns[0]].nonzero()[0]
     others = [signals.output_names[j] for j in columns[1:]]
     also = f" ({', '.join(others)} too)" if others else ""
-    first = format_time(float(signals.time[rows[0]]))
     return (
         "needs the state measured at every sample (paper 003, observer (10)); "
         f"{signals.output_names[columns[0]]} has no sample within dt/2 of {rows.size:,} of "
-        f"{signals.n_samples:,} sample times, the first t={first} s{also}: use a log that "
+        f"{signals.n_samples:,} sample times, the first at t = "
+        f"{format_time(float(signals.time[rows[0]]))} s{also}: use a log that "
         f"measures every output each dt = {model.timebase.dt:g} s, "
         "or a model whose dt is the log's sample time"
     )

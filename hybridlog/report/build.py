@@ -914,9 +914,10 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     reading = reading or {}
     notes = [
         f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
-        f"{count['of']} sample times: the estimator took its value there from the samples "
-        "around (a measurement used more than once, or interpolated; is the model's dt the "
-        f"log's?); MSE, VAF and fit leave them out, and estimates.csv's {symbol} is empty there"
+        f"{count['of']} sample times (is the model's dt the log's?): the estimator had no "
+        f"measurement of it there (a filter updates on the other outputs alone, predicts "
+        f"only where none is); MSE, VAF and fit leave them out, and estimates.csv's {symbol} "
+        "is empty there"
         for symbol, count in (reading.get("bridged") or {}).items()
     ]
     notes += [

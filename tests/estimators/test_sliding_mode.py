@@ -155,9 +155,9 @@ def test_a_state_not_measured_at_every_sample_is_refused_whatever_its_stand_in(t
     words = (
         rf"^{re.escape(signals.source)}: estimator 'sliding-mode' needs the state measured at "
         rf"every sample \(paper 003, observer \(10\)\); y2 has no sample within dt/2 of "
-        rf"{signals.n_samples // 2:,} of {signals.n_samples:,} sample times, the first t=0\.001 s "
-        r"\(y3 too\): use a log that measures every output each dt = 0\.001 s, or a model "
-        r"whose dt is the log's sample time$"
+        rf"{signals.n_samples // 2:,} of {signals.n_samples:,} sample times, the first at "
+        r"t = 0\.001 s \(y3 too\): use a log that measures every output each dt = 0\.001 s, "
+        r"or a model whose dt is the log's sample time$"
     )
     for value in (0.2, np.nan):
         bridged = with_stand_ins(signals, unmeasured, value)
@@ -177,7 +177,9 @@ def test_a_log_with_an_empty_output_cell_is_refused_by_the_cli(tmp_path, capsys)
     code, printed = run_main([*args, "--out", str(tmp_path / "out")], capsys)
     assert code == 2 and not (tmp_path / "out").exists()
     assert "needs the state measured at every sample" in printed
-    assert "y1 has no sample within dt/2 of 1 of 200 sample times, the first t=0.05 s" in printed
+    assert (
+        "y1 has no sample within dt/2 of 1 of 200 sample times, the first at t = 0.05 s" in printed
+    )
 
 
 def test_a_missing_gain_and_other_kinds_of_model_are_refused(short_log):
