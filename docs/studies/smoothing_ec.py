@@ -55,7 +55,7 @@ from tests.support import ec_reference
 
 VARIANTS = {
     "filter": ImmOptions(),
-    "kim": ImmOptions(smooth=True),
+    "kim": ImmOptions(smooth=True, smoother="kim"),
     "ec": ImmOptions(smooth=True, smoother="ec"),
 }
 

@@ -78,11 +78,11 @@ class ImmOptions:
     )
     smooth: bool = option(
         False,
-        "fixed-interval smoother after the filter (Kim 1994, per-mode RTS/extended step)",
+        "fixed-interval smoother after the filter (extended RTS; smoother weighs the modes)",
     )
-    smoother: Literal["kim", "ec"] = option(
-        "kim",
-        "backward pass of smooth: kim (Kim 1994) or ec (expectation correction, Barber 2006)",
+    smoother: Literal["ec", "kim"] = option(
+        "ec",
+        "backward pass of smooth: ec (expectation correction, Barber 2006) or kim (Kim 1994)",
     )
     mode_sequence: Literal["argmax", "viterbi", "kbest"] = option(
         "argmax",

@@ -28,12 +28,13 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
     common = [str(TANK_CSV), "--estimator", "imm"]
     run(["analyze", *common, "--model", "three_tank_hstf", "--out", str(tmp_path / "f")])
     result = run(
-        ["analyze", *common, "--model", "three_tank_hstf", "--smooth", "--mode-sequence",
-         "viterbi", "--out", str(tmp_path / "s")]
+        ["analyze", *common, "--model", "three_tank_hstf", "--smooth", "--set", "smoother=kim",
+         "--mode-sequence", "viterbi", "--out", str(tmp_path / "s")]
     )  # fmt: skip
     assert "mode accuracy" in result.output and "(filtered " in result.output
-    # Kim's guard refuses one step at sample 1 (test_smoothing.py): the summary line, report.json
-    # and report.md say that sample's smoothed estimate is in part the filter's
+    # Kim's guard refuses one step at sample 1 (test_smoothing.py; expectation correction, the
+    # default, none): the summary line, report.json and report.md say that sample's smoothed
+    # estimate is in part the filter's
     note = "the smoother fell back to the forward estimate on 1 of 300 samples (guard 1), which "
     assert f"; {note}carry 0.0" in result.output.splitlines()[0]
     assert result.output.splitlines()[0].endswith(" % of the smoothed estimates' weight")
@@ -43,7 +44,7 @@ def test_analyze_smooth_writes_filtered_and_smoothed_estimates(tmp_path: Path) -
     assert smoothed["options"]["smooth"] is True
     assert smoothed["options"]["mode_sequence"] == "viterbi"
     smoothing = smoothed["smoothing"]
-    assert smoothing["method"] and smoothing["mode_sequence"] == "viterbi"
+    assert smoothing["method"] == "kim-rts" and smoothing["mode_sequence"] == "viterbi"
     # the filter's side is the plain run's; the output metrics stay the filter's prediction
     assert smoothing["filtered"]["mode_accuracy"] == filtered["modes"]["accuracy"]
     assert smoothing["smoothed"]["mode_accuracy"] == smoothed["modes"]["accuracy"]
@@ -160,7 +161,11 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
     assert not (tmp_path / "c").exists()
     # --set smooth=true smooths the estimators that have a smoother, and the table says so
     done = compare(
-        TANK_CSV, "three_tank_hstf", ["imm", "hstf"], out_dir=tmp_path / "c", sets=["smooth=true"]
+        TANK_CSV,
+        "three_tank_hstf",
+        ["imm", "hstf"],
+        out_dir=tmp_path / "c",
+        sets=["smooth=true", "smoother=kim"],  # Kim's refuses one step there (the default none)
     )
     table = pl.read_csv(tmp_path / "c" / "comparison.csv")
     assert table.columns[-4:] == [

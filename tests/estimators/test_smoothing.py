@@ -82,7 +82,13 @@ def test_one_mode_smoother_equals_filterpy_rts(kernel):
     model = parse_model(ONE_MODE)
     assert model.n_modes == 1
     signals = _unforced(model, 400, seed=2)
-    result = run_imm(model, signals, ImmOptions(smooth=True), kernel=kernel, store_covariances=True)
+    result = run_imm(
+        model,
+        signals,
+        ImmOptions(smooth=True, smoother="kim"),
+        kernel=kernel,
+        store_covariances=True,
+    )
     x, P = _filterpy_rts(model, 0, signals)
     np.testing.assert_allclose(result.state_means, x, rtol=0, atol=1e-8)
     np.testing.assert_allclose(result.covariances, P, rtol=0, atol=1e-8)
@@ -110,7 +116,10 @@ def known_mode_log(true_mode, prior):
 def test_two_modes_with_stay_one_and_known_mode_is_the_rts_of_that_mode(true_mode, prior):
     model, signals = known_mode_log(true_mode, prior)
     result = run_imm(
-        model, signals, ImmOptions(transition_stay=1.0, smooth=True), store_covariances=True
+        model,
+        signals,
+        ImmOptions(transition_stay=1.0, smooth=True, smoother="kim"),
+        store_covariances=True,
     )
     index = model.mode_ids.index(true_mode)
     x, P = _filterpy_rts(model, index, signals)
@@ -161,7 +170,10 @@ def test_smoothed_covariances_psd_probabilities_normalised_with_outliers(
     signals = with_outliers(model, log, n_outliers, sigmas, seed)
     try:
         result = run_imm(
-            model, signals, ImmOptions(smooth=True, mode_sequence="viterbi"), store_covariances=True
+            model,
+            signals,
+            ImmOptions(smooth=True, smoother="kim", mode_sequence="viterbi"),
+            store_covariances=True,
         )
     except DivergenceError as error:  # an outlier no mode explains is refused, never smoothed
         assert "cannot explain the log" in str(error)
@@ -175,7 +187,7 @@ def test_a_burst_of_outliers_no_mode_explains_is_refused_at_its_first_sample(lon
     outputs = log.outputs.copy()
     outputs[1000:1020] += 1e6 * np.sqrt(np.diag(model.modes[0].measurement_noise))
     signals = dataclasses.replace(log.signals(model), outputs=outputs)
-    for options in (ImmOptions(smooth=True), ImmOptions(mode_sequence="viterbi")):
+    for options in (ImmOptions(smooth=True, smoother="kim"), ImmOptions(mode_sequence="viterbi")):
         with pytest.raises(
             DivergenceError, match=r"cannot explain the log at t = .*\(sample 1000\)"
         ):
@@ -187,7 +199,9 @@ def test_smoother_invariants_with_a_burst_of_outliers(long_logs):
     outputs = log.outputs.copy()
     outputs[1000:1020] += 20.0 * np.sqrt(np.diag(model.modes[0].measurement_noise))
     signals = dataclasses.replace(log.signals(model), outputs=outputs)
-    result = run_imm(model, signals, ImmOptions(smooth=True), store_covariances=True)
+    result = run_imm(
+        model, signals, ImmOptions(smooth=True, smoother="kim"), store_covariances=True
+    )
     assert_smoother_invariants(result)
     # Smoothing is offline: away from the burst, the smoothed modes are at least as right.
     truth = log.modes
@@ -260,7 +274,7 @@ def test_without_the_options_the_result_is_the_filters():
     result = run_imm(model, signals, ImmOptions())
     assert result.post_processing is None
     assert result.options["smooth"] is False and result.options["mode_sequence"] == "argmax"
-    smoothed = run_imm(model, signals, ImmOptions(smooth=True))
+    smoothed = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"))
     assert smoothed.options["smooth"] is True
     assert smoothed.post_processing.smoothing == "kim-rts"
     assert smoothed.post_processing.mode_sequence == "argmax"
@@ -275,7 +289,9 @@ def test_smoother_stays_bounded_without_process_noise():
     assert not model.modes[0].process_noise.any()
     log = simulate(model, steps=600, seed=0)
     signals = log.signals(model)
-    result = run_imm(model, signals, ImmOptions(smooth=True), store_covariances=True)
+    result = run_imm(
+        model, signals, ImmOptions(smooth=True, smoother="kim"), store_covariances=True
+    )
     assert_smoother_invariants(result)
 
     def rmse(means):
@@ -288,7 +304,7 @@ def test_smoother_stays_bounded_without_process_noise():
 def test_straight_line_smoother_equals_the_generic_loop(name):
     model = load_model(name)
     signals = simulate(model, steps=500, seed=3).signals(model)
-    options = ImmOptions(smooth=True)
+    options = ImmOptions(smooth=True, smoother="kim")
     fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
     plain = run_imm(model, signals, options, kernel="loops", store_covariances=True)
     for field in ("state_means", "covariances", "mode_probabilities"):
@@ -315,7 +331,7 @@ def test_fallbacks_of_the_sample_log_are_the_one_step_the_guard_refuses():
     signals = load_signals(TANK_CSV, SignalSpec.of(model), ReadOptions())
     expected = Fallbacks(1, 300, {"prediction": 0, "guard": 1, "rounding": 0, "covariance": 0})
     for kernel in ("unrolled", "loops"):
-        result = run_imm(model, signals, ImmOptions(smooth=True), kernel=kernel)
+        result = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"), kernel=kernel)
         fallbacks = result.post_processing.fallbacks
         assert dataclasses.replace(fallbacks, weight=0.0) == expected
         # the refused step's weight: next mode index 1's smoothed probability at sample 2,
@@ -324,7 +340,7 @@ def test_fallbacks_of_the_sample_log_are_the_one_step_the_guard_refuses():
         assert 0.05 < refused < 0.1 and fallbacks.weight == pytest.approx(refused / 300, rel=1e-9)
         ec = run_imm(model, signals, ImmOptions(smooth=True, smoother="ec"), kernel=kernel)
         assert ec.post_processing.fallbacks.samples == 0
-    kbest = ImmOptions(smooth=True, mode_sequence="kbest", beam=4)
+    kbest = ImmOptions(smooth=True, smoother="kim", mode_sequence="kbest", beam=4)
     assert run_imm(model, signals, kbest, jit=False).post_processing.fallbacks.samples == 0
     for unsmoothed in (ImmOptions(mode_sequence="viterbi"), ImmOptions(mode_sequence="kbest")):
         assert run_imm(model, signals, unsmoothed).post_processing.fallbacks is None
@@ -391,7 +407,7 @@ def test_straight_line_smoother_equals_the_generic_loop_where_probabilities_unde
     outputs = signals.outputs.copy()
     outputs[400:420] += 30.0 * np.sqrt(np.diag(model.modes[0].measurement_noise))
     signals = dataclasses.replace(signals, outputs=outputs)
-    options = ImmOptions(smooth=True)
+    options = ImmOptions(smooth=True, smoother="kim")
     fast = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
     plain = run_imm(model, signals, options, kernel="loops", store_covariances=True)
     filtered = plain.post_processing.filtered.mode_probabilities
@@ -409,7 +425,7 @@ def test_skipping_negligible_next_modes_changes_nothing(monkeypatch):
     of the steps are skipped, both code paths agree to rounding."""
     model = load_model("three_tank_hstf")
     signals = simulate(model, steps=300, seed=2).signals(model)
-    options = ImmOptions(smooth=True)
+    options = ImmOptions(smooth=True, smoother="kim")
     skipping = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
     looped = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
     monkeypatch.setattr(smoothing, "NEGLIGIBLE_WEIGHT", 0.0)

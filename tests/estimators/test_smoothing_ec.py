@@ -270,7 +270,7 @@ def test_ec_without_process_noise_takes_kims_mode_weights(kernel):
     assert not smoothing.positive_definite_noise(model).any()
     signals = simulate(model, steps=600, seed=0).signals(model)
     ec = run_imm(model, signals, EC, kernel=kernel, store_covariances=True)
-    kim = run_imm(model, signals, ImmOptions(smooth=True), kernel="loops")
+    kim = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"), kernel="loops")
     if kernel == "loops":
         np.testing.assert_array_equal(ec.mode_probabilities, kim.mode_probabilities)
     else:  # the forward pass's straight-line code: equal to rounding
@@ -325,3 +325,15 @@ def test_ec_straight_line_equals_the_generic_loop(name):
     assert fast.post_processing.fallbacks.weight == pytest.approx(fallbacks.weight, rel=1e-9)
     if name == "double_cart_case1":
         assert fallbacks.samples > 0 and fallbacks.by_cause["guard"] > 0
+
+
+def test_expectation_correction_is_what_smooth_runs_by_default():
+    """``--smooth`` runs expectation correction (``smoother = "ec"``); Kim's is ``"kim"``."""
+    assert ImmOptions().smoother == "ec"
+    model = load_model("three_tank_hstf")
+    signals = simulate(model, steps=60, seed=1).signals(model)
+    default = run_imm(model, signals, ImmOptions(smooth=True))
+    assert default.post_processing.smoothing == "ec-rts"
+    np.testing.assert_array_equal(default.state_means, run_imm(model, signals, EC).state_means)
+    kim = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"))
+    assert kim.post_processing.smoothing == "kim-rts"

@@ -146,7 +146,7 @@ def test_kim_smoother_is_exact_on_a_markov_chain_with_gaussian_emissions(kernel)
         result = run_imm(
             model,
             signals,
-            ImmOptions(smooth=True, mode_sequence="viterbi"),
+            ImmOptions(smooth=True, smoother="kim", mode_sequence="viterbi"),
             kernel=kernel,
             store_covariances=True,
         )
@@ -170,7 +170,7 @@ def test_kim_smoother_nearer_the_exact_posterior_than_the_filter_with_memory():
     kim, filter_ = 0.0, 0.0
     for seed in range(20):
         signals = _log(A, seed)
-        result = run_imm(model, signals, ImmOptions(smooth=True))
+        result = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"))
         _, smoothed, _, _, _ = exact_posterior(A, signals.inputs[:, 0], signals.outputs[:, 0])
         kim += np.abs(result.mode_probabilities - smoothed).sum()
         filter_ += np.abs(result.post_processing.filtered.mode_probabilities - smoothed).sum()
