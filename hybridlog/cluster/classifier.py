@@ -223,7 +223,8 @@ def fit_classifier(
         raise DataShortError(
             f"every one of its {_count(left_out, 'regression vector')} holds an output value "
             "the log did not measure (taken from the samples around a gap): no centre can be "
-            "fitted on measurements (is the model's dt the log's?)"
+            "fitted on measurements (an output sampled less often than every dt leaves no "
+            "φ(k) whole; or is the model's dt not the log's?)"
         )
     phi = every[kept] if left_out else every
     rows = np.flatnonzero(kept) + spec.max_lag  # the sample k of each clustered φ(k)

@@ -485,6 +485,26 @@ def _nearest_beside_gaps(
     values[inside] = series.values[index[inside]]
 
 
+def sampled_every(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> dict[str, float]:
+    """How often a bridged output was sampled over the grid's span: why it was bridged.
+
+    ``every``: the median step (s) between its samples from the grid's first point to its
+    last (the whole series when fewer than two lie there; a bridged output has two at
+    least); ``steps``: that step in steps of ``dt``, to two decimals.  A topic published at
+    a third of the model's rate (``steps`` 3) is bridged at two points of three by design,
+    one published at the model's rate (``steps`` 1) only where the log lacks samples: the
+    report says which (:func:`~hybridlog.report.build.bridged_cause`), where it asked of
+    both whether the model's dt is the log's.
+    """
+    lo = int(np.searchsorted(time_ns, grid_ns[0], side="left"))
+    hi = int(np.searchsorted(time_ns, grid_ns[-1], side="right"))
+    inside = time_ns[lo:hi] if hi - lo >= 2 else time_ns
+    step_ns = float(np.median(np.diff(inside)))
+    ends = (float(grid_ns[0]) / NS_PER_S, float(grid_ns[-1]) / NS_PER_S)
+    every = round_duration(step_ns / NS_PER_S, *ends)
+    return {"every": every, "steps": round(step_ns / dt_ns, 2)}
+
+
 def _taken_twice(index: IntArray, gap_mask: npt.NDArray[np.bool_]) -> IntArray:
     """Grid points within ``dt/2`` of a sample the point before took as its own too.
 
@@ -881,7 +901,11 @@ def align_signals(
                 unmeasured = np.zeros((n, len(outputs)), dtype=np.bool_)
             unmeasured[bridged, j] = True
             if notes is not None:
-                notes.setdefault("bridged", {})[symbol] = {"points": int(bridged.size), "of": n}
+                notes.setdefault("bridged", {})[symbol] = {
+                    "points": int(bridged.size),
+                    "of": n,
+                    **sampled_every(series.time_ns, grid, dt_ns),
+                }
         faster = _faster_than_the_grid(series.time_ns, grid, dt_ns, "output")
         if faster is not None and notes is not None:
             notes.setdefault("faster", {})[symbol] = faster

@@ -58,7 +58,7 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_target,
 )
-from hybridlog.report.build import log_reading_notes, unused_sample_notes
+from hybridlog.report.build import bridged_cause, log_reading_notes, unused_sample_notes
 from hybridlog.report.coverage import samples_coverage
 from hybridlog.report.summary import markdown_table
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
@@ -116,10 +116,10 @@ def reading_said(
         vectors, of = (left_out or {}).get(symbol, (0, 0))
         alerts.append(
             f"warning: output {symbol} has no sample within dt/2 of {count['points']:,} of "
-            f"{count['of']:,} sample times: the value there is taken from the samples around "
-            "(a measurement used more than once, or interpolated; is the model's dt the "
-            f"log's?), and the {vectors:,} of {of:,} regression vectors φ(k) holding it were "
-            "left out of the clusters' fit"
+            f"{count['of']:,} sample times ({bridged_cause(count)}): the value there is taken "
+            "from the samples around (a measurement used more than once, or interpolated), "
+            f"and the {vectors:,} of {of:,} regression vectors φ(k) holding it were left out "
+            "of the clusters' fit"
         )
     unused = set(unused_sample_notes(reading))
     notes: list[str] = []

@@ -897,6 +897,31 @@ def unused_sample_notes(reading: Mapping[str, Any] | None) -> list[str]:
     return notes
 
 
+SLOWER_STEPS = 1.25
+"""A bridged output whose median sample step is this many steps of dt or more is published
+at a slower rate than the model's (:func:`bridged_cause`)."""
+FASTER_STEPS = 0.75
+"""One whose median step is at most this many steps of dt is sampled faster than the grid and
+has gaps all the same: :func:`bridged_cause` asks whether the model's dt is the log's."""
+
+
+def bridged_cause(count: Mapping[str, Any]) -> str:
+    """Why an output was bridged, in words, from its median sample step.
+
+    ``count`` is the output's entry in ``reading.bridged``
+    (:func:`~hybridlog.io.align.sampled_every`).  A topic published at a slower rate than
+    the model's (a ROS topic of its own at a third of it) has no sample at most grid points
+    by design; one published at the model's rate lacks samples there.  The warning asked
+    of both whether the model's dt is the log's.
+    """
+    steps = count["steps"]
+    if steps >= SLOWER_STEPS:
+        return f"it is sampled every {count['every']:g} s (median), {steps:g} steps of dt"
+    if steps > FASTER_STEPS:
+        return "it is sampled every dt, with samples missing there"
+    return "is the model's dt the log's?"
+
+
 def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What report.md must say of how the log was read, beside report.json's ``reading``.
 
@@ -914,7 +939,7 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     reading = reading or {}
     notes = [
         f"WARNING: output {symbol} has no sample within dt/2 of {count['points']} of "
-        f"{count['of']} sample times (is the model's dt the log's?): the estimator had no "
+        f"{count['of']} sample times ({bridged_cause(count)}): the estimator had no "
         f"measurement of it there (a filter updates on the other outputs alone, predicts "
         f"only where none is); MSE, VAF and fit leave them out, and estimates.csv's {symbol} "
         "is empty there"

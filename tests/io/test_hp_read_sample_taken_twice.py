@@ -43,7 +43,8 @@ def test_a_sample_between_two_points_is_measured_once(
     expected[twice] = False
     np.testing.assert_array_equal(np.isfinite(measured[:, 0]), expected)
     np.testing.assert_array_equal(np.isfinite(measured[:, 1]), expected)
-    assert notes["bridged"] == {"y": {"points": 4, "of": 13}, "z": {"points": 4, "of": 13}}
+    every = {"points": 4, "of": 13, "every": 1.5, "steps": 1.5}  # a sample every 1.5 steps
+    assert notes["bridged"] == {"y": every, "z": every}
     assert signals.truth_states is not None
     np.testing.assert_array_equal(np.isfinite(signals.truth_states[:, 0]), expected)
     # the measured points hold the log's samples, taken once each

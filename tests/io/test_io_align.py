@@ -331,7 +331,9 @@ def test_grid_points_bridged_across_short_gaps_are_counted_and_reported() -> Non
     notes: dict[str, object] = {}
     aligned = align_signals(source="s", dt=0.37, inputs={}, outputs={"y": y}, notes=notes)
     far = np.abs(aligned.time - np.round(aligned.time)) > 0.185
-    assert notes["bridged"] == {"y": {"points": int(far.sum()), "of": aligned.n_samples}}
+    assert notes["bridged"] == {
+        "y": {"points": int(far.sum()), "of": aligned.n_samples, "every": 1.0, "steps": 2.7}
+    }
     (warning,) = _reading_notes(notes)
     assert warning.startswith(f"WARNING: output y has no sample within dt/2 of {int(far.sum())} of")
     plain: dict[str, object] = {}

@@ -264,3 +264,35 @@ def test_figures_made_ahead_draw_the_same_pngs_and_are_taken_once(tmp_path) -> N
     assert not any(plots._READY.values())  # the three plots took what was made for them
     for name in ("outputs.png", "modes.png", "states.png"):
         assert (ahead / name).read_bytes() == (fresh / name).read_bytes(), name
+
+
+def test_an_output_measured_every_third_sample_is_drawn_as_dots_without_lines() -> None:
+    """Each measured sample between two unmeasured ones (NaN) shows; nothing joins them.
+
+    A line through NaN breaks on both sides of such a sample and drew nothing at all:
+    outputs.png of a log whose y3 came at a third of the model's rate had no measured y3.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    n = 300
+    t = np.arange(n, dtype=np.float64)
+    v = np.full(n, np.nan)
+    v[::3] = np.where(np.arange(100) % 2 == 0, 0.0, 100.0)  # measured every third sample
+    fig = Figure(figsize=(10, 3), dpi=100)
+    canvas = FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.05, 0.1, 0.9, 0.8), frame_on=False)
+    bins = PixelBins.of_run(t)
+    set_time_span(ax, bins.span)
+    ax.set_ylim(-10, 110)
+    draw_curve(ax, envelope(v, bins), lw=0.8, color="k", label="measured")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    canvas.draw()
+    ink = np.asarray(canvas.buffer_rgba())[..., 0] < 128
+    x, y = ax.transData.transform(np.column_stack([t[::3], v[::3]])).T
+    column, row = np.floor(x).astype(np.int64), np.floor(ink.shape[0] - y).astype(np.int64)
+    near = [ink[r - 1 : r + 2, c - 1 : c + 2].any() for r, c in zip(row, column, strict=True)]
+    assert all(near)  # every measured sample shows
+    middle = int(ink.shape[0] - ax.transData.transform((0.0, 50.0))[1])
+    assert not ink[middle - 5 : middle + 5].any()  # and no line joins 0 to 100 across a NaN
