@@ -55,8 +55,9 @@ class Fallbacks:
     ----------
     samples:
         Samples where at least one step that carries weight in the output (a next mode, or
-        a pair of modes, of smoothed probability at least ``1e-16``, ``smoothing.NEGLIGIBLE_WEIGHT``) was refused and the
-        forward estimate stood in its place.  Negligible next modes, skipped by design, are
+        a pair of modes, of smoothed probability at least ``1e-16``,
+        ``smoothing.NEGLIGIBLE_WEIGHT``) was refused and the forward estimate stood in its
+        place.  Negligible next modes, skipped by design, are
         not counted.
     of:
         Samples the backward pass smoothed (all but the last, which is the filter's).
