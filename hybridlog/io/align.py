@@ -4,8 +4,16 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 
 - The grid starts at ``t0``, the first instant where every input and output has a value (the
   latest first sample among them), and ends at the last grid point where every output still
-  has a sample within half a step.  ``t_k = t0 + round(k * dt)`` in nanoseconds, so ``dt`` is
-  not rounded once and the error multiplied by ``k``.
+  has a sample within half a step.  When the inputs and commands share one clock (every
+  sample within the clock tolerance of a tick, :func:`held_clock`) and every output is
+  sampled around its ticks (median distance at most ``dt/8``), the grid is on that clock:
+  ``t0`` is its first tick where every held signal has a sample at or before it and every
+  output one within half a step.  The latest first sample could be a jittered output
+  message that came early (56 ms of 1 s): the grid then sat just before the ticks, and the
+  held inputs and true mode came out one step behind the outputs.  A log on one clock keeps
+  ``t0`` to the nanosecond; outputs on a clock of their own (half a step off) keep theirs.
+  ``t_k = t0 + round(k * dt)`` in nanoseconds, so ``dt`` is not rounded once and the error
+  multiplied by ``k``.
 - Inputs: zero-order hold, the last sample at or before ``t_k``; but a series recorded once
   per step on a jittering clock (every sample within ``dt/4`` of a grid point of its own,
   more than half the points with one, some late, some not) takes each point's own sample,
@@ -137,7 +145,12 @@ def step_ns(dt: float) -> int:
 
 
 def grid_span(
-    dt_ns: int, starts: Sequence[Series], ends: Sequence[Series], *, source: str = "log"
+    dt_ns: int,
+    starts: Sequence[Series],
+    ends: Sequence[Series],
+    *,
+    held: Sequence[Series] = (),
+    source: str = "log",
 ) -> tuple[int, int]:
     """First and last time (ns) the grid of :func:`make_grid` may reach: ``t0`` and ``t_end``.
 
@@ -146,14 +159,81 @@ def grid_span(
     LogError
         When the series do not overlap or one of them is empty.
     """
-    t0, t_last = _first_and_last(starts, ends, source)
+    t0, t_last = _first_and_last(starts, ends, source, dt_ns, held)
     return t0, t_last + (dt_ns // 2 + clock_tolerance_ns(dt_ns) if ends else 0)
 
 
+def _from_tick(time_ns: IntArray, tick_ns: int, dt_ns: int) -> IntArray:
+    """Each sample's signed offset (ns) from the nearest tick ``tick_ns + k*dt``."""
+    half = dt_ns // 2
+    offset: IntArray = (time_ns - tick_ns + half) % dt_ns - half
+    return offset
+
+
+def held_clock(held: Sequence[Series], dt_ns: int) -> int | None:
+    """A tick (ns) of the clock the held signals (inputs, commands) share, else ``None``.
+
+    Their first one's first sample, when every sample of theirs lies within the clock
+    tolerance of a tick ``t + k*dt`` (dropped samples, or a multiple of ``dt``, allowed):
+    the zero-order hold takes each tick's sample only at or after the tick.  ``None`` for
+    signals on a jittering clock (:func:`jittered_index` takes each point's own sample,
+    wherever the grid lies; a latency, all late, keeps the hold's delay as SPEC §5 says),
+    at times of their own (published when they change) or at another rate.
+    """
+    if not held:
+        return None
+    tick = int(held[0].time_ns[0])
+    tolerance = clock_tolerance_ns(dt_ns)
+    if any(int(np.abs(_from_tick(s.time_ns, tick, dt_ns)).max()) > tolerance for s in held):
+        return None
+    return tick
+
+
+def _around(series: Series, tick_ns: int, dt_ns: int) -> bool:
+    """Whether ``series`` is sampled around the ticks ``tick_ns + k*dt``.
+
+    Its median distance from them is at most ``dt/8``: a clock jittering within ``dt/4``;
+    samples at times of their own lie ``dt/4`` away, a clock half a step off ``dt/2``.
+    """
+    distance = np.abs(_from_tick(series.time_ns, tick_ns, dt_ns))
+    return float(np.median(distance)) <= dt_ns / 8
+
+
+def _grid_start(start_ns: int, starts: Sequence[Series], held: Sequence[Series], dt_ns: int) -> int:
+    """``t0`` on the held signals' clock, else ``start_ns``, the latest first sample.
+
+    On the clock (:func:`held_clock`) when the others are sampled around it
+    (:func:`_around`): the first tick where every held series has a sample at or before it
+    (within the clock tolerance, as the hold reads it) and every other one a sample within
+    ``dt/2`` (as the nearest sample is taken); ``start_ns`` itself when that tick is within
+    the clock tolerance of it, to the nanosecond.
+    """
+    tick = held_clock(held, dt_ns)
+    tolerance = clock_tolerance_ns(dt_ns)
+    if tick is None or abs(int(_from_tick(np.array([start_ns]), tick, dt_ns)[0])) <= tolerance:
+        return start_ns  # no clock, or the start is on it: no output's median is needed
+    others = [s for s in starts if all(s is not h for h in held)]
+    if not all(_around(s, tick, dt_ns) for s in others):
+        return start_ns
+    half = dt_ns // 2 + tolerance  # within dt/2: past_half_step
+    earliest = max(
+        int(s.time_ns[0]) - (half if any(s is o for o in others) else tolerance) for s in starts
+    )
+    t0 = earliest + (tick - earliest) % dt_ns
+    return start_ns if abs(t0 - start_ns) <= tolerance else t0
+
+
 def _first_and_last(
-    starts: Sequence[Series], ends: Sequence[Series], source: str
+    starts: Sequence[Series],
+    ends: Sequence[Series],
+    source: str,
+    dt_ns: int,
+    held: Sequence[Series],
 ) -> tuple[int, int]:
-    """``t0`` and the earliest last sample of the series that bound the grid's end (ns)."""
+    """``t0`` and the earliest last sample of the series that bound the grid's end (ns).
+
+    ``t0`` is on the clock of the ``held`` series, if they have one (:func:`_grid_start`).
+    """
     for series in (*starts, *ends):
         if series.time_ns.size == 0:
             raise LogError(f"{source}: {series.name!r} has no samples")
@@ -168,7 +248,8 @@ def _first_and_last(
             f"{source}: signals do not overlap in time ({first.name!r} starts at "
             f"t={format_ns(t0)} s, {last.name!r} ends at t={format_ns(t_last)} s)"
         )
-    return t0, t_last
+    on_clock = _grid_start(t0, starts, held, dt_ns)
+    return (on_clock if on_clock <= t_last else t0), t_last
 
 
 def make_grid(
@@ -176,6 +257,7 @@ def make_grid(
     starts: Sequence[Series],
     ends: Sequence[Series],
     *,
+    held: Sequence[Series] = (),
     source: str = "log",
 ) -> IntArray:
     """The grid ``t0 + k*dt`` in nanoseconds.
@@ -189,6 +271,9 @@ def make_grid(
     ends:
         Series that bound the end (outputs; the inputs when there are no outputs): the last
         grid point is at most ``dt/2`` after the earliest last sample among them.
+    held:
+        The series among ``starts`` that are held (inputs, commands): ``t0`` is on their
+        clock, if they have one and ``dt`` is whole nanoseconds (:func:`_grid_start`).
     source:
         The log's path, for messages.
 
@@ -197,9 +282,10 @@ def make_grid(
     LogError
         When the series do not overlap or one of them is empty.
     """
-    step_ns(dt)
-    t0, t_last = _first_and_last(starts, ends, source)
+    dt_ns = step_ns(dt)
     step = dt * NS_PER_S
+    clocked = held if step == dt_ns else ()  # a clock's ticks k*dt, counted in whole ns
+    t0, t_last = _first_and_last(starts, ends, source, dt_ns, clocked)
     n = _last_grid_index(dt, t_last - t0, bool(ends)) + 1
     # Built in place: one array, the same values as t0 + offsets.
     if step == round(step):  # whole nanoseconds: exact integer steps, and faster
@@ -859,7 +945,8 @@ def align_signals(
     output_list = list(outputs.values())
     held_signals = [*inputs.values(), *commands.values()]
     starts, ends = [*held_signals, *output_list], output_list or held_signals
-    span = grid_span(dt_ns, starts, ends, source=source)
+    clocked = held_signals if dt * NS_PER_S == dt_ns else []  # make_grid's ticks, in whole ns
+    span = grid_span(dt_ns, starts, ends, held=clocked, source=source)
     for symbol, series in outputs.items():
         gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
         if gap is not None:  # before the grid: times not in seconds would ask for GiBs
@@ -874,7 +961,7 @@ def align_signals(
                 dt_ns,
                 dropped=(dropped or {}).get(symbol),
             )
-    grid = make_grid(dt, starts, ends, source=source)
+    grid = make_grid(dt, starts, ends, held=held_signals, source=source)
     n = grid.size
 
     u = _held_onto(grid, inputs, "input", dt_ns, max_gap_ns, notes)
