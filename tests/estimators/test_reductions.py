@@ -34,21 +34,27 @@ def _linear_matrices(model, mode_index):
     return A, B, C
 
 
+def kalman_filters(model, kind):
+    """One FilterPy Kalman filter (``kind``) per mode of a linear model, at its prior."""
+    filters = []
+    for index, mode in enumerate(model.modes):
+        A, B, C = _linear_matrices(model, index)
+        kf = kind(dim_x=model.n_states, dim_z=model.n_outputs, dim_u=model.n_inputs)
+        kf.F, kf.B, kf.H = A, B, C
+        kf.Q, kf.R = mode.process_noise.copy(), mode.measurement_noise.copy()
+        kf.x = model.initial_state.reshape(-1, 1).copy()
+        kf.P = model.initial_covariance.copy()
+        filters.append(kf)
+    return filters
+
+
 @pytest.mark.parametrize("kernel", ["unrolled", "loops"])
 def test_imm_equals_filterpy_imm_on_a_linear_two_mode_model(kernel):
     model = parse_model(LINEAR_TWO_MODE)
     signals = _signals(model, steps=500, seed=3)
     result = run_imm(model, signals, ImmOptions(), kernel=kernel)
 
-    filters = []
-    for index, mode in enumerate(model.modes):
-        A, B, C = _linear_matrices(model, index)
-        kf = KalmanFilter(dim_x=2, dim_z=2, dim_u=1)
-        kf.F, kf.B, kf.H = A, B, C
-        kf.Q, kf.R = mode.process_noise.copy(), mode.measurement_noise.copy()
-        kf.x = model.initial_state.reshape(-1, 1).copy()
-        kf.P = model.initial_covariance.copy()
-        filters.append(kf)
+    filters = kalman_filters(model, KalmanFilter)
     imm = IMMEstimator(filters, model.initial_mode_probabilities.copy(), model.transitions)
     assert signals.n_samples == 501
     for k in range(signals.n_samples - 1):

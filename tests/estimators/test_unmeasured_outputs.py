@@ -34,7 +34,7 @@ from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report.metrics import mode_accuracy
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
-from tests.estimators.test_reductions import _linear_matrices
+from tests.estimators.test_reductions import kalman_filters
 from tests.support.models import LINEAR_TWO_MODE
 
 
@@ -128,15 +128,7 @@ def test_imm_with_unmeasured_outputs_equals_filterpy_on_the_measured_rows(with_k
     signals = _with_unmeasured(base, mask)
     result = run_imm(model, signals, ImmOptions(), kernel="loops")
 
-    filters = []
-    for index, mode in enumerate(model.modes):
-        A, B, C = _linear_matrices(model, index)
-        kf = _MeasuredRows(dim_x=2, dim_z=2, dim_u=1)
-        kf.F, kf.B, kf.H = A, B, C
-        kf.Q, kf.R = mode.process_noise.copy(), mode.measurement_noise.copy()
-        kf.x = model.initial_state.reshape(-1, 1).copy()
-        kf.P = model.initial_covariance.copy()
-        filters.append(kf)
+    filters = kalman_filters(model, _MeasuredRows)
     imm = IMMEstimator(filters, model.initial_mode_probabilities.copy(), model.transitions)
     for k in range(signals.n_samples - 1):
         imm.predict(signals.inputs[k].reshape(-1, 1))
@@ -212,34 +204,26 @@ def test_a_three_tank_log_with_an_output_at_half_rate_keeps_its_mode_accuracy():
     assert accuracy_half > 0.97
 
 
-@pytest.mark.parametrize("smooth", [False, True])
-def test_the_imm_straight_line_code_for_unmeasured_outputs_equals_the_generic_loop(smooth):
+@pytest.mark.parametrize(
+    ("run", "options"),
+    [
+        (run_imm, ImmOptions()),
+        (run_imm, ImmOptions(smooth=True)),
+        (run_hstf, HstfOptions()),
+        (run_hstf, HstfOptions(likelihood="unfaded")),
+    ],
+    ids=["imm", "imm smooth", "hstf", "hstf unfaded"],
+)
+def test_the_straight_line_code_for_unmeasured_outputs_equals_the_generic_loop(run, options):
     model = load_model("three_tank_hstf")
     base = simulate(model, steps=300, seed=6).signals(model)
     signals = _with_unmeasured(base, _mask(base.outputs.shape, seed=8))
-    options = ImmOptions(smooth=smooth)
-    fast = run_imm(model, signals, options, kernel="unrolled")
-    generic = run_imm(model, signals, options, kernel="loops")
-    for field in ("mode_probabilities", "state_means", "state_variances", "output_predictions"):
-        np.testing.assert_allclose(
-            getattr(fast, field), getattr(generic, field), rtol=1e-9, atol=1e-9, err_msg=field
-        )
-    np.testing.assert_array_equal(fast.modes, generic.modes)
-    assert fast.whitened_innovations is not None and generic.whitened_innovations is not None
-    np.testing.assert_allclose(
-        fast.whitened_innovations, generic.whitened_innovations, rtol=1e-9, atol=1e-9
-    )
-
-
-@pytest.mark.parametrize("likelihood", ["faded", "unfaded"])
-def test_the_hstf_straight_line_code_for_unmeasured_outputs_equals_the_generic_loop(likelihood):
-    model = load_model("three_tank_hstf")
-    base = simulate(model, steps=300, seed=6).signals(model)
-    signals = _with_unmeasured(base, _mask(base.outputs.shape, seed=9))
-    options = HstfOptions(likelihood=likelihood)
-    fast = run_hstf(model, signals, options, kernel="unrolled")
-    generic = run_hstf(model, signals, options, kernel="loops")
-    for field in ("mode_probabilities", "state_means", "state_variances", "output_predictions"):
+    fast = run(model, signals, options, kernel="unrolled")
+    generic = run(model, signals, options, kernel="loops")
+    fields = ["mode_probabilities", "state_means", "state_variances", "output_predictions"]
+    if generic.whitened_innovations is not None:
+        fields.append("whitened_innovations")
+    for field in fields:
         np.testing.assert_allclose(
             getattr(fast, field), getattr(generic, field), rtol=1e-9, atol=1e-9, err_msg=field
         )
