@@ -505,7 +505,7 @@ class ReportBuilder:
                 extra={"consistency": _json_object(consistency.to_dict())},
             )
         if extra:
-            report = Report.from_dict({**report.to_dict(), **_json_object(extra)}, source=self._log)
+            report = report.with_extra(_json_object(extra), source=self._log)
         return report
 
 

@@ -657,6 +657,29 @@ class Report:
             raise ReportError(f"{source}: not strict JSON ({reason})") from None
         return cls.from_dict(data, source=source)
 
+    def with_extra(self, extra: Mapping[str, object], *, source: str = "report.json") -> Report:
+        """The report with the further top-level keys ``extra`` (parsed JSON values).
+
+        As :meth:`from_dict` of ``{**self.to_dict(), **extra}``: a key naming a report
+        attribute replaces its value, read and checked as from a ``report.json``; the others
+        join :attr:`extra` after its keys, checked as :meth:`from_dict` checks them.  Without
+        an attribute's key the report's own parts are not read back: at 10^6 samples, with
+        10,000 detection events, that took 0.05-0.07 s of every ``analyze``.
+
+        Raises
+        ------
+        ReportError
+            As :meth:`from_dict`, naming ``source`` and the key.
+
+        """
+        if not _KEYS.isdisjoint(extra):
+            return Report.from_dict({**self.to_dict(), **extra}, source=source)
+        reader = _Reader(source)
+        merged = {**self.extra, **extra}
+        return dataclasses.replace(
+            self, extra={k: reader.json_value(v, k) for k, v in merged.items()}
+        )
+
 
 def read_report(path: str | Path) -> Report:
     """Read a ``report.json`` file (:meth:`Report.from_json`).

@@ -166,6 +166,21 @@ def test_reading_back_gives_the_same_report(name: str) -> None:
     assert render_markdown(again) == (DATA / f"{name}.report.md").read_text(encoding="utf-8")
 
 
+def test_further_keys_join_the_report_as_when_read_back() -> None:
+    # with_extra adds keys that name no attribute without reading the report back: the
+    # report and its report.json are those of the round trip through from_dict it replaces
+    base = _synthetic(n=400, seed=5)
+    extra = {"parameters": {"A": 150.0}, "origins": {"parameters.A": "--set A=150"}}
+    added = base.with_extra(extra, source="run.csv")
+    read_back = Report.from_dict({**base.to_dict(), **extra}, source="run.csv")
+    assert added == read_back
+    assert added.to_json() == read_back.to_json()
+    assert list(added.to_dict())[-2:] == ["parameters", "origins"]
+    assert added.with_extra({"mse": 0.5}).mse == 0.5  # an attribute's key replaces it
+    with pytest.raises(ReportError, match=r"^run.csv: 'origins' holds a number that is not fin"):
+        base.with_extra({"origins": {"x": float("inf")}}, source="run.csv")
+
+
 def test_attributes_hold_the_json_values() -> None:
     report = sample_report("three_tank_hstf_hstf")
     data = json.loads(report.to_json())
