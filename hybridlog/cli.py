@@ -277,8 +277,8 @@ def _analysis_options(function: F) -> F:
             f"(estimators with one: {_SMOOTHING or 'none yet'}; the option smooth = true). "
             "Modes, states and tables then hold the smoothed estimates; report.json's "
             "smoothing key has the filter's metrics beside them (batch's summaries too: "
-            "filtered_* columns, the gain over the logs). imm's is expectation correction "
-            "(Barber 2006); --set smoother=kim takes Kim's recursion. In compare, every "
+            "filtered_* columns, the gain over the logs). imm's is Kim's; --set smoother=ec "
+            "takes expectation correction (Barber 2006). In compare, every "
             "estimator must have a smoother (--set smooth=true smooths those that do).",
         ),
         click.option(

@@ -80,9 +80,9 @@ class ImmOptions:
         False,
         "fixed-interval smoother after the filter (extended RTS; smoother weighs the modes)",
     )
-    smoother: Literal["ec", "kim"] = option(
-        "ec",
-        "backward pass of smooth: ec (expectation correction, Barber 2006) or kim (Kim 1994)",
+    smoother: Literal["kim", "ec"] = option(
+        "kim",
+        "backward pass of smooth: kim (Kim 1994) or ec (expectation correction, Barber 2006)",
     )
     mode_sequence: Literal["argmax", "viterbi", "kbest"] = option(
         "argmax",

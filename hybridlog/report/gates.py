@@ -33,7 +33,7 @@ Metric names
     estimates' weight the refused steps carry, a fraction in ``[0, 1]``, and ``samples``,
     the samples with a refused step (a count).  ``--fail-over
     smoothing_fallback_weight=0.5`` fails a run whose "smoothed" estimate is mostly the
-    filter's (the double cart: 0.988).  Only a run with a smoother has them: a gate on
+    filter's (the double cart: 0.991).  Only a run with a smoother has them: a gate on
     one is refused before the run when a chosen estimator runs none (:func:`validate_gates`:
     no ``--smooth``, ``--mode-sequence`` alone, an estimator without a smoother), and fails
     as ``null`` (with why) on a report that has none (one of an earlier version).

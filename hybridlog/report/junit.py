@@ -17,7 +17,7 @@ state, as summary.csv's columns: :func:`hybridlog.report.summary.offline_columns
 ``.better``, ``.equal``, ``.worse``, with their shortest round-trip digits.  Where the
 smoother left the forward estimate standing, a last line of ``system-out`` says so (``the
 smoother fell back to the forward estimate on 997 of 1,000 samples (guard 997), which carry
-98.8 % of the smoothed estimates' weight``).  Not
+99.1 % of the smoothed estimates' weight``).  Not
 ``properties`` of each ``testcase``: the JUnit schemas CI systems validate against (Jenkins'
 ``junit-4.xsd``, xunit2) have none there, so pytest refuses its ``record_property`` for
 them.

@@ -129,7 +129,7 @@ def test_plain_python_and_compiled_agree():
     compiled = run_imm(model, signals, options)
     plain = run_imm(model, signals, options, jit=False)
     np.testing.assert_array_equal(compiled.modes, plain.modes)
-    assert compiled.post_processing.smoothing == "ec-rts+path-rts"
+    assert compiled.post_processing.smoothing == "kim-rts+path-rts"
     np.testing.assert_allclose(compiled.state_means, plain.state_means, rtol=1e-12, atol=1e-12)
     assert np.mean(compiled.modes == signals.truth_modes) > 0.9
 
@@ -146,7 +146,7 @@ def test_one_mode_states_are_filterpys_kalman_filter_and_rts(smooth):
     )
     assert (result.modes == 0).all()
     x, P = _filterpy_rts(model, 0, signals, smoothed=smooth)
-    expected = "ec-rts+path-rts" if smooth else None
+    expected = "kim-rts+path-rts" if smooth else None
     assert result.post_processing.smoothing == expected
     np.testing.assert_allclose(result.state_means, x, rtol=0, atol=1e-8)
     np.testing.assert_allclose(result.covariances, P, rtol=0, atol=1e-8)

@@ -327,13 +327,48 @@ def test_ec_straight_line_equals_the_generic_loop(name):
         assert fallbacks.samples > 0 and fallbacks.by_cause["guard"] > 0
 
 
-def test_expectation_correction_is_what_smooth_runs_by_default():
-    """``--smooth`` runs expectation correction (``smoother = "ec"``); Kim's is ``"kim"``."""
-    assert ImmOptions().smoother == "ec"
+def test_kims_recursion_is_what_smooth_runs_by_default_and_ec_is_asked_for():
+    """``--smooth`` runs Kim's recursion; expectation correction is ``smoother = "ec"`` (its
+    straight-line code compiles in about a minute where Kim's takes seconds)."""
+    assert ImmOptions().smoother == "kim"
     model = load_model("three_tank_hstf")
     signals = simulate(model, steps=60, seed=1).signals(model)
     default = run_imm(model, signals, ImmOptions(smooth=True))
-    assert default.post_processing.smoothing == "ec-rts"
-    np.testing.assert_array_equal(default.state_means, run_imm(model, signals, EC).state_means)
+    assert default.post_processing.smoothing == "kim-rts"
     kim = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"))
-    assert kim.post_processing.smoothing == "kim-rts"
+    np.testing.assert_array_equal(default.state_means, kim.state_means)
+    assert run_imm(model, signals, EC).post_processing.smoothing == "ec-rts"
+
+
+def test_a_model_of_many_modes_runs_the_generic_expectation_correction(monkeypatch):
+    """Straight-line expectation correction grows with the pairs of modes: 5 modes compiled
+    for minutes, 8 overflowed the recursion limit.  Past MAX_EC_UNROLLED_MODES ``auto``
+    runs the generic loop; at it, the straight-line code."""
+
+    def model_of(count):
+        modes = "\n".join(
+            f"[modes.m{i}]\nA = [[{0.9 - 0.05 * i}]]\nB = [[0.1]]\nC = [[1.0]]\n"
+            for i in range(count)
+        )
+        return parse_model(
+            'name = "many"\ndt = 0.1\nstates = ["p"]\ninputs = ["a"]\noutputs = ["y"]\n'
+            f"{modes}\n[noise]\nprocess = 0.001\nmeasurement = 0.01\n"
+            "[initial]\nstate = [0.0]\ncovariance = 1.0\n"
+            '[simulation]\nstate = [0.0]\nschedule = "m0:30,m3:30,m1:30"\n'
+            '[simulation.inputs]\na = "sin(0.7*t)"\n'
+        )
+
+    generated = []
+    monkeypatch.setattr(
+        smoothing,
+        "generate_ec_smoother_source",
+        lambda model: generated.append(model.n_modes) or "",
+    )
+    many = model_of(smoothing.MAX_EC_UNROLLED_MODES + 1)
+    result = run_imm(many, simulate(many, steps=90, seed=1).signals(many), EC)
+    assert generated == [] and result.post_processing.smoothing == "ec-rts"
+    assert np.isfinite(result.state_means).all()
+    few = model_of(smoothing.MAX_EC_UNROLLED_MODES)
+    with pytest.raises(Exception):  # noqa: B017 - the stand-in source compiles to nothing
+        run_imm(few, simulate(few, steps=20, seed=1).signals(few), EC)
+    assert generated == [smoothing.MAX_EC_UNROLLED_MODES]

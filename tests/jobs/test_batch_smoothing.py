@@ -98,7 +98,7 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
     ]  # fmt: skip
     for row in table[:3]:  # a resumed batch: the numbers of the reports it reused
         name = Path(row["log"]).name
-        assert row["status"] == "skipped" and row["smoothing"] == "ec-rts, argmax"
+        assert row["status"] == "skipped" and row["smoothing"] == "kim-rts, argmax"
         assert {key: float(row[key]) for key in expected[name]} == expected[name]
     failed = table[3]
     assert failed["status"] == "failed"

@@ -196,7 +196,7 @@ def test_analyze_gates_the_fallbacks_of_its_own_report(tmp_path: Path) -> None:
     stored = json.loads((tmp_path / "c" / "report.json").read_text())["smoothing"]["fallbacks"]
     assert stored["weight"] > 0.5  # clearly: the guard refuses nearly every step
     (failure,) = cart.gate_failures
-    assert failure.startswith(f"smoothing_fallback_weight = {stored['weight']:.6g} (ec-rts")
+    assert failure.startswith(f"smoothing_fallback_weight = {stored['weight']:.6g} (kim-rts")
     assert f"fell back on {stored['samples']:,} of {stored['of']:,} samples" in failure
     tank = analyze(
         TANK_CSV, "three_tank_hstf", out_dir=tmp_path / "t", estimator="imm", smooth=True,
@@ -247,7 +247,7 @@ def test_cli_fallback_gate_fails_a_mostly_forward_batch_and_refuses_one_without_
     assert header.count("smoothing_fallback_weight") == 1
     assert float(row["smoothing_fallback_weight"]) > 0.5
     assert row["gate_failures"].startswith(
-        f"smoothing_fallback_weight = {float(row['smoothing_fallback_weight']):.6g} (ec-rts"
+        f"smoothing_fallback_weight = {float(row['smoothing_fallback_weight']):.6g} (kim-rts"
     )
     assert "gate failed" in result.stderr and "smoothing_fallback_weight = " in result.stderr
     junit = (tmp_path / "j.xml").read_text()
