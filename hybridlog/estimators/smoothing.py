@@ -1083,6 +1083,17 @@ def post_process(
     )
 
 
+def straight_line_backward(model: HybridModel, kernel: str, *, ec: bool) -> bool:
+    """Whether the backward pass runs straight-line code for ``model`` under ``kernel``.
+
+    As the filters (:func:`~hybridlog.estimators.unrolled.use_unrolled`), but expectation
+    correction's with ``auto`` only up to :data:`MAX_EC_UNROLLED_MODES` modes.
+    """
+    if ec and kernel == "auto" and model.n_modes > MAX_EC_UNROLLED_MODES:
+        return False
+    return use_unrolled(model, kernel)
+
+
 def _backward_pass(
     model: HybridModel,
     signals: AlignedSignals,
@@ -1104,8 +1115,7 @@ def _backward_pass(
     else the generic loop (:func:`kim_backward`, :func:`ec_backward`).
     """
     tail = (filtered.mode_probabilities, store, buffers, fallbacks)
-    small = not ec or kernel != "auto" or model.n_modes <= MAX_EC_UNROLLED_MODES
-    if jit and small and use_unrolled(model, kernel):
+    if jit and straight_line_backward(model, kernel, ec=ec):
         name = "imm_smooth_ec" if ec else "imm_smooth"
         generate = generate_ec_smoother_source if ec else generate_smoother_source
         arguments: tuple[Any, ...] = (
