@@ -170,6 +170,15 @@ def _from_tick(time_ns: IntArray, tick_ns: int, dt_ns: int) -> IntArray:
     return offset
 
 
+def on_whole_ns(held: Sequence[Series], dt: float) -> Sequence[Series]:
+    """The held series whose clock can set the grid: all where ``dt`` is whole nanoseconds.
+
+    Elsewhere a clock's ticks ``k*dt`` are not counted exactly, and none is given:
+    :func:`_grid_start` then keeps the latest first sample.
+    """
+    return held if dt * NS_PER_S == step_ns(dt) else ()
+
+
 def held_clock(held: Sequence[Series], dt_ns: int) -> int | None:
     """A tick (ns) of the clock the held signals (inputs, commands) share, else ``None``.
 
@@ -284,8 +293,7 @@ def make_grid(
     """
     dt_ns = step_ns(dt)
     step = dt * NS_PER_S
-    clocked = held if step == dt_ns else ()  # a clock's ticks k*dt, counted in whole ns
-    t0, t_last = _first_and_last(starts, ends, source, dt_ns, clocked)
+    t0, t_last = _first_and_last(starts, ends, source, dt_ns, on_whole_ns(held, dt))
     n = _last_grid_index(dt, t_last - t0, bool(ends)) + 1
     # Built in place: one array, the same values as t0 + offsets.
     if step == round(step):  # whole nanoseconds: exact integer steps, and faster
@@ -945,8 +953,7 @@ def align_signals(
     output_list = list(outputs.values())
     held_signals = [*inputs.values(), *commands.values()]
     starts, ends = [*held_signals, *output_list], output_list or held_signals
-    clocked = held_signals if dt * NS_PER_S == dt_ns else []  # make_grid's ticks, in whole ns
-    span = grid_span(dt_ns, starts, ends, held=clocked, source=source)
+    span = grid_span(dt_ns, starts, ends, held=on_whole_ns(held_signals, dt), source=source)
     for symbol, series in outputs.items():
         gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
         if gap is not None:  # before the grid: times not in seconds would ask for GiBs
