@@ -287,11 +287,12 @@ it changes no bit of the sum."""
 
 MAX_EC_UNROLLED_MODES = 4
 """Most modes whose expectation correction ``auto`` gives straight-line code: its code grows
-with the pairs, ``n_q²``.  Measured 2026-12-05 (AMD EPYC, a cold cache): the three-tank's
-(3 modes) compiles in 69 s (Kim's 11 s), a linear 4-mode model's in 68 s, a 5-mode one's
-in more than two minutes, and an 8-mode one's overflowed Python's recursion limit (with the
-limit raised, more than a quarter of an hour); the generic loop, compiled once for every
-model, runs 7.5 times longer on the three-tank."""
+with the pairs, ``n_q²``.  Measured 2026-12-05 (AMD EPYC, a cold cache), the loop written as
+one function: the three-tank's (3 modes) compiled in 69 s (Kim's 11 s), a linear 4-mode
+model's in 68 s, a 5-mode one's in more than two minutes, and an 8-mode one's overflowed
+Python's recursion limit.  With the per-mode steps as functions of their own
+(:func:`_step_function`, :func:`_density_function`): 12 s, 16 s and 35 s.  The generic
+loop, compiled once for every model, runs 7.5 times longer on the three-tank."""
 
 GUARD_TOLERANCE = 1e-9
 """Relative slack of the guard ``P^s_j(k+1) <= P^-_j`` (times ``trace P^-_j``)."""
@@ -1314,17 +1315,32 @@ def _log_sum_exp_parts(p: Program, hint: str, expressions: list[str]) -> tuple[s
 def _select(
     p: Program,
     condition: str,
-    names: Sequence[str],
+    bundle: str,
     chosen: Sequence[Entry],
     other: Sequence[Entry],
 ) -> None:
-    """Assign ``chosen`` to ``names`` where ``condition`` holds, else ``other``."""
-    p.emit(f"if {condition}:")
-    for name, value in zip(names, chosen, strict=True):
-        p.emit(f"    {name} = {term(value)}")
-    p.emit("else:")
-    for name, value in zip(names, other, strict=True):
-        p.emit(f"    {name} = {term(value)}")
+    """Bind the tuple ``bundle`` to ``chosen`` where ``condition`` holds, else to ``other``."""
+    with p.block(f"if {condition}:"):
+        _bind(p, bundle, chosen)
+    with p.block("else:"):
+        _bind(p, bundle, other)
+
+
+def _bind(p: Program, bundle: str, values: Sequence[Entry]) -> None:
+    """``bundle = (values…)``: one tuple where a branch would assign every value's name.
+
+    numba rebuilds SSA form for each variable assigned in more than one place, in a pass
+    over every block of the function: a name per value assigned in each branch made that
+    pass, not LLVM, most of a straight-line smoother's compile time (expectation
+    correction's for three modes: 70 s), where one tuple per branch, unpacked once after
+    them (:func:`_unpack`), costs one such variable and no run time.
+    """
+    p.emit(f"{bundle} = ({', '.join(term(value) for value in values)},)")
+
+
+def _unpack(p: Program, names: Sequence[str], bundle: str) -> None:
+    """``names… = bundle`` after the branches that bound it (:func:`_bind`)."""
+    p.emit(f"{', '.join(names)}, = {bundle}")
 
 
 def _triangular_solves(
@@ -1741,12 +1757,120 @@ def _backward_frame(p: Program, model: HybridModel) -> _Frame:
     return _Frame(log_next, mu_carried, T, log_T, x_next, P_next, r_next, u)
 
 
+class _Helper(NamedTuple):
+    """A generated function the backward pass's loop calls for one next mode."""
+
+    name: str
+    source: str
+    """``@jit``-decorated definition (:data:`HELPER_IMPORT` in scope)."""
+
+
+HELPER_IMPORT = "from hybridlog.jit import jit"
+"""The generated module's import of the decorator its helper functions carry."""
+
+
+def _helper(name: str, parameters: Sequence[Entry], body: Program, returned: str) -> _Helper:
+    """``name(parameters…)`` with ``body``'s lines, returning ``returned``.
+
+    The backward passes' per-mode steps are written as functions of their own, each compiled
+    once per next mode, where the loop writes one call per pair: numba's passes over a
+    function (SSA form, reaching definitions, liveness) grow with its blocks times its
+    variables, and expectation correction's loop for three modes, written out whole,
+    spent about 70 s in them before LLVM saw it.
+    """
+    body.emit(f"return {returned}")
+    listed = ", ".join(str(x) for x in parameters)
+    return _Helper(name, f"@jit\ndef {name}({listed}):\n{body.source()}\n")
+
+
+def _tuple(values: Sequence[Entry]) -> str:
+    """Source of a tuple of entries."""
+    return f"({', '.join(term(value) for value in values)},)"
+
+
+class _Arguments(NamedTuple):
+    """Parameter names of a step function (symmetric matrices by their upper triangle)."""
+
+    x0: Vector
+    P0: Matrix
+    u: Vector
+    xn: Vector
+    Pn: Matrix
+    rn: Vector
+
+
+def _step_arguments(model: HybridModel) -> _Arguments:
+    n, n_u = model.n_states, model.n_inputs
+    return _Arguments(
+        vector_names("x0", n),
+        matrix_names("p0", n, n, symmetric=True),
+        vector_names("u", n_u),
+        vector_names("xn", n),
+        matrix_names("pn", n, n, symmetric=True),
+        vector_names("rn", n),
+    )
+
+
+def _chosen(p: Program, step: _StepSource, x0: Vector, P0: Matrix) -> str:
+    """``((x, P upper, r) of the step where taken else the forward estimate, cause bit)``."""
+    n = len(x0)
+    bundle = p.fresh("sq")
+    stands: list[Entry] = [*x0, *upper(P0), *([0.0] * n)]
+    _select(p, step.taken, bundle, step.x + upper(step.P) + step.r, stands)
+    cause = p.assign("cb", f"0 if {step.taken} else {step.cause}")
+    return f"{bundle}, {cause}"
+
+
+def _step_function(model: HybridModel, j: int, Q: Matrix) -> _Helper:
+    """``rts_step_j(x0, P0, u, xn, Pn, rn)``: next mode ``j``'s RTS step (:func:`_rts_step_source`).
+
+    Returns ``(values, cause)``: the step's mean, covariance (upper triangle) and rounding
+    probe where it was taken, else ``x0, P0`` and a zero probe; ``cause`` 0 where taken,
+    else the bit of the check that refused it (:func:`note_fallbacks`).
+    """
+    a = _step_arguments(model)
+    body = Program(indent="    ")
+    step = _rts_step_source(body, model, j, a.x0, a.P0, a.u, Q, a.xn, a.Pn, a.rn)
+    returned = _chosen(body, step, a.x0, a.P0)
+    parameters = [*a.x0, *upper(a.P0), *a.u, *a.xn, *upper(a.Pn), *a.rn]
+    return _helper(f"rts_step_{j}", parameters, body, returned)
+
+
+def _density_function(model: HybridModel, j: int, Q: Matrix) -> _Helper:
+    """``ec_density_j(x0, P0, u, xn)``: stage 1 of expectation correction for one pair.
+
+    Returns ``(predicted, log N(xn; f_j(x0), F P0 Fᵀ + Q_j))``: whether the prediction's
+    covariance is positive definite, and the density (``-inf`` where not finite).  Stage 3
+    steps from the same prediction again (:func:`_step_function`): passing the prediction's
+    dozens of entries from one call to the other cost more than computing them twice.
+    """
+    a = _step_arguments(model)
+    body = Program(indent="    ")
+    prediction = _rts_prediction_source(body, model, j, a.x0, a.P0, a.u, Q)
+    gap = [body.difference("gq", a.xn[b], prediction.x_pred[b]) for b in range(len(a.xn))]
+    log_density = _log_density_source(body, "ld", gap, prediction.L)
+    density = body.assign("dn", f"{log_density} if {log_density} > -math.inf else -math.inf")
+    returned = f"{prediction.predicted}, {density}"
+    return _helper(f"ec_density_{j}", [*a.x0, *upper(a.P0), *a.u, *a.xn], body, returned)
+
+
+def _call(name: str, arguments: Sequence[Entry]) -> str:
+    """Source of a call of a generated helper."""
+    return f"{name}({', '.join(term(x) for x in arguments)})"
+
+
+def _with_helpers(helpers: Sequence[_Helper], function: str) -> str:
+    """The generated module's functions: the helpers, then the loop that calls them."""
+    return "\n\n".join([HELPER_IMPORT, *(h.source for h in helpers), function])
+
+
 def generate_smoother_source(model: HybridModel) -> str:
     """Straight-line source of :func:`kim_backward` for ``model`` (see ``unrolled.py``).
 
     Defines ``imm_smooth(inputs, transitions, log_T, mu, store, out, fallbacks)``: the same
     backward pass (``fallbacks`` counted as :func:`kim_backward` counts them)
-    with the mode functions, the process noise and the small matrix products written out.
+    with the mode functions, the process noise and the small matrix products written out,
+    each next mode's RTS step a function of its own (:func:`_step_function`).
     Its mode recursion (:func:`_mode_recursion_source`) takes the linear form of the same
     equations where every probability involved is in full-precision range (no ``exp``, three
     ``log`` per sample for three modes, against 33 ``exp`` and 10 ``log`` of the log-space
@@ -1761,6 +1885,7 @@ def generate_smoother_source(model: HybridModel) -> str:
     """
     n, n_q = model.n_states, model.n_modes
     Q, _ = noise_matrices(model)
+    steps = [_step_function(model, j, Q[j]) for j in range(n_q)]
     p = Program(indent="    ")
     log_next, mu_carried, T, log_T, x_next, P_next, r_next, u = _backward_frame(p, model)
     p.emit("fell = 0")
@@ -1779,17 +1904,16 @@ def generate_smoother_source(model: HybridModel) -> str:
         r_sel = vector_names(f"rs{j}", n)
         chosen = [str(name) for name in [*x_sel, *upper(P_sel), *r_sel]]
         stands: list[Entry] = [*prior, *([0.0] * n)]
+        bundle, cause = p.fresh("sq"), p.fresh("cb")
+        arguments = [*x0, *upper(P0), *u, *x_next[j], *upper(P_next[j]), *r_next[j]]
         with p.block(f"if {mu_carried[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
-            ok, cause, x_rts, P_rts, r_rts = _rts_step_source(
-                p, model, j, x0, P0, u, Q[j], x_next[j], P_next[j], r_next[j]
-            )
-            _select(p, ok, chosen, x_rts + upper(P_rts) + r_rts, stands)
-            p.emit(f"if not {ok}:")
+            p.emit(f"{bundle}, {cause} = {_call(steps[j].name, arguments)}")
+            p.emit(f"if {cause}:")
             p.emit(f"    fell |= {cause}")
             p.emit(f"    fell_weight += {mu_carried[j]}")
         with p.block("else:"):  # a negligible next mode: the forward prior stands
-            for name, value in zip(chosen, stands, strict=True):
-                p.emit(f"{name} = {term(value)}")
+            _bind(p, bundle, stands)
+        _unpack(p, chosen, bundle)
         X_s.append(x_sel)
         P_s.append(P_sel)
         R_s.append(r_sel)
@@ -1811,7 +1935,8 @@ def generate_smoother_source(model: HybridModel) -> str:
         p.carry(upper(P_next[i]), upper(P_new[i]))
         p.carry(r_next[i], r_new[i])
     _count_fallbacks(p)
-    return f"def imm_smooth(inputs, transitions, log_T, mu, store, out, fallbacks):\n{p.source()}\n"
+    header = "def imm_smooth(inputs, transitions, log_T, mu, store, out, fallbacks):"
+    return _with_helpers(steps, f"{header}\n{p.source()}\n")
 
 
 def _count_fallbacks(p: Program) -> None:
@@ -1826,32 +1951,31 @@ def _count_fallbacks(p: Program) -> None:
 
 def _ec_densities(
     p: Program,
-    model: HybridModel,
     j: int,
+    density: _Helper,
     x_f: list[Vector],
     P_f: list[Matrix],
     u: Vector,
-    Q: Matrix,
     prior: list[str],
     x_next: Vector,
     log_next: Entry,
     counts: str,
     ceiling: float,
     weighed: str,
-) -> tuple[list[_PredictionSource | None], list[str]]:
+) -> tuple[list[str], list[str]]:
     """Emit stage 1 of :func:`ec_backward` for next mode ``j``: predictions and densities.
 
     In :func:`ec_order`, each pair whose weight can still reach :data:`NEGLIGIBLE_WEIGHT`
     (its ``prior`` plus ``ceiling`` against the largest prior plus density so far) is
-    predicted under a branch; its variables are held in names every branch assigns (zeros
-    where it was not predicted), which stage 3 steps from.  ``weighed`` is set False where a
-    prediction fails (Kim's weights).  Returns the held predictions (``predicted`` false where
-    the pair was left out) and the names of the densities (``-inf`` where left out).
+    predicted by a call of ``density`` (:func:`_density_function`) under a branch.
+    ``weighed`` is set False where a prediction fails (Kim's weights).  Returns the names of
+    whether each pair's prediction is positive definite (false where the pair was left out)
+    and of the densities (``-inf`` where left out).
     """
-    n, n_q = len(x_next), len(prior)
+    n_q = len(prior)
     floor = p.assign("fl", "-math.inf")
     p.emit(f"{weighed} = {counts}")
-    held: list[_PredictionSource | None] = [None] * n_q
+    predicted = [p.fresh("rd") for _ in range(n_q)]
     densities = [p.fresh("dn") for _ in range(n_q)]
     for step in range(n_q):
         i = int(ec_order(j, step))
@@ -1859,29 +1983,17 @@ def _ec_densities(
             f"{weighed} and {prior[i]} > -math.inf and "
             f"{prior[i]} + {ceiling!r} >= {floor} + {LOG_NEGLIGIBLE_WEIGHT!r} - {term(log_next)}"
         )
-        names: list[str] = []
         with p.block(f"if {reachable}:"):
-            prediction = _rts_prediction_source(p, model, j, x_f[i], P_f[i], u, Q)
-            x_pred = _held(p, prediction.x_pred, names)
-            F = reshape(_held(p, [e for row in prediction.F for e in row], names), n, n)
-            P_pred = reshape(_held(p, [e for row in prediction.P_pred for e in row], names), n, n)
-            L = reshape(_held(p, [e for row in prediction.L for e in row], names), n, n)
-            predicted = p.fresh("rd")
-            p.emit(f"{predicted} = {prediction.predicted}")
-            gap = [p.difference("gq", x_next[a], prediction.x_pred[a]) for a in range(n)]
-            log_density = _log_density_source(p, f"ld{i}{j}_", gap, prediction.L)
-            p.emit(f"{densities[i]} = {log_density} if {log_density} > -math.inf else -math.inf")
-            with p.block(f"if {predicted}:"):
+            arguments = [*x_f[i], *upper(P_f[i]), *u, *x_next]
+            p.emit(f"{predicted[i]}, {densities[i]} = {_call(density.name, arguments)}")
+            with p.block(f"if {predicted[i]}:"):
                 p.emit(f"{floor} = max({floor}, {prior[i]} + {densities[i]})")
             with p.block("else:"):  # no density for this pair: Kim's weights for mode j
                 p.emit(f"{weighed} = False")
         with p.block("else:"):
-            for name in names:
-                p.emit(f"{name} = 0.0")
-            p.emit(f"{predicted} = False")
+            p.emit(f"{predicted[i]} = False")
             p.emit(f"{densities[i]} = -math.inf")
-        held[i] = _PredictionSource(x_pred, F, P_pred, L, predicted)
-    return held, densities
+    return predicted, densities
 
 
 DETERMINANT_RANGE = 1e280
@@ -1909,20 +2021,6 @@ def _log_density_source(p: Program, hint: str, gap: Vector, L: Matrix) -> str:
         f"math.log({product_}) if {1.0 / DETERMINANT_RANGE!r} < {product_} < {bound} else ({logs})",
     )
     return p.assign(hint, f"-0.5*{quadratic} - {half_log_det} - {0.5 * len(gap)}*LOG_2PI")
-
-
-def _held(p: Program, entries: Vector, names: list[str]) -> Vector:
-    """``entries`` copied into new names (appended to ``names``); literals stay literals."""
-    kept: Vector = []
-    for entry in entries:
-        if isinstance(entry, float):
-            kept.append(entry)
-            continue
-        name = p.fresh("hp")
-        p.emit(f"{name} = {entry}")
-        names.append(name)
-        kept.append(name)
-    return kept
 
 
 def _ec_weights(
@@ -1985,7 +2083,9 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
     counting the samples whose steps fell back into ``fallbacks`` as :func:`ec_backward`
     does: the same backward pass (the module docstring) with the mode functions, the process
     noise and the small matrix products written out, the pair steps of
-    :func:`_rts_step_source`, and the mode recursion in log space.  Whether next mode ``j``
+    :func:`_rts_step_source` and the stage-1 densities as functions of each next mode
+    (:func:`_step_function`, :func:`_density_function`, defined before it and called once
+    per pair that needs them), and the mode recursion in log space.  Whether next mode ``j``
     takes the density of the smoothed state (``Q_j`` positive definite,
     :func:`positive_definite_noise`) is decided here, once: the code of a mode without it
     holds no density.  Equal to the generic loop up to
@@ -1996,6 +2096,7 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
     corrected = positive_definite_noise(model)
     ceilings = density_ceilings(model)
     p = Program(indent="    ")
+    helpers: list[_Helper] = []
     frame = _backward_frame(p, model)
     _, mu_next, T, log_T, x_next, P_next, r_next, u = frame
     # the loop over k is open: its body follows
@@ -2028,12 +2129,16 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
         counts = f"{mu_next[j]} >= {NEGLIGIBLE_WEIGHT!r}"  # q(k+1) = j is not negligible
         log_next = p.assign("lnx", f"math.log({mu_next[j]}) if {counts} else -math.inf")
         prior = [p.assign("tk", f"{log_T[i][j]} + {log_mu[i]}") for i in range(n_q)]
-        predictions: list[_PredictionSource | None] = [None] * n_q
+        predicted: list[str] | None = None
         densities: list[str] | None = None
         weighed = p.fresh("wd")
+        step = _step_function(model, j, Q[j])
+        helpers.append(step)
         if corrected[j]:
-            predictions, densities = _ec_densities(
-                p, model, j, x_f, P_f, u, Q[j], prior, x_next[j], log_next, counts,
+            density = _density_function(model, j, Q[j])
+            helpers.append(density)
+            predicted, densities = _ec_densities(
+                p, j, density, x_f, P_f, u, prior, x_next[j], log_next, counts,
                 float(ceilings[j]), weighed,
             )  # fmt: skip
         else:
@@ -2045,29 +2150,22 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
             # the RTS step of a pair that carries weight; elsewhere the forward estimate
             chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
             stands: list[Entry] = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
+            bundle, cause = p.fresh("sq"), cause_bit[i][j]
+            nexts = [*x_next[j], *upper(P_next[j]), *r_next[j]]
+            call = f"{bundle}, {cause} = {_call(step.name, [*x_f[i], *upper(P_f[i]), *u, *nexts])}"
             with p.block(f"if {counts} and {carries[i][j]}:"):
-                held = predictions[i]
-                if held is None:
-                    step = _rts_step_source(
-                        p, model, j, x_f[i], P_f[i], u, Q[j], x_next[j], P_next[j], r_next[j]
-                    )
-                    _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
-                    p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
+                if predicted is None:
+                    p.emit(call)
                 else:
-                    with p.block(f"if {held.predicted}:"):
-                        step = _rts_correction_source(
-                            p, j, x_f[i], P_f[i], Q[j], x_next[j], P_next[j], r_next[j], held
-                        )
-                        _select(p, step.taken, chosen, step.x + upper(step.P) + step.r, stands)
-                        p.emit(f"{cause_bit[i][j]} = 0 if {step.taken} else {step.cause}")
+                    with p.block(f"if {predicted[i]}:"):
+                        p.emit(call)
                     with p.block("else:"):  # left out by stage 1, or its prediction failed
-                        for target, value in zip(chosen, stands, strict=True):
-                            p.emit(f"{target} = {term(value)}")
-                        p.emit(f"{cause_bit[i][j]} = {1 << (PREDICTION - 1)}")
+                        _bind(p, bundle, stands)
+                        p.emit(f"{cause} = {1 << (PREDICTION - 1)}")
             with p.block("else:"):
-                for target, value in zip(chosen, stands, strict=True):
-                    p.emit(f"{target} = {term(value)}")
-                p.emit(f"{cause_bit[i][j]} = 0")
+                _bind(p, bundle, stands)
+                p.emit(f"{cause} = 0")
+            _unpack(p, chosen, bundle)
     p.emit("fell = 0")  # the causes of the sample's fallbacks among pairs that carry weight
     p.emit("fell_weight = 0.0")
     for i in range(n_q):
@@ -2112,6 +2210,5 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
         p.carry(x_next[i], x_new[i])
         p.carry(upper(P_next[i]), upper(P_new[i]))
         p.carry(r_next[i], r_new[i])
-    return (
-        f"def imm_smooth_ec(inputs, transitions, log_T, mu, store, out, fallbacks):\n{p.source()}\n"
-    )
+    header = "def imm_smooth_ec(inputs, transitions, log_T, mu, store, out, fallbacks):"
+    return _with_helpers(helpers, f"{header}\n{p.source()}\n")
