@@ -19,8 +19,9 @@ class HybridlogError(Exception):
 
     ``named``: the names of the ``--set`` values (model parameters, estimator options,
     scenario parameters) whose setting the message names already (``--set A=0: m.toml:
-    ...``), so that :func:`after_given` does not name them again.  Kept by
-    :func:`prefixed` and by pickling (a worker's error reaches the command intact).
+    ...``), or that cannot have changed what failed (:func:`independent_of`), so that
+    :func:`after_given` does not name them.  Kept by :func:`prefixed` and by pickling (a
+    worker's error reaches the command intact).
     """
 
     named: frozenset[str] = frozenset()
@@ -117,6 +118,22 @@ def given_in_errors(
         if named is err:
             raise
         raise named from err
+
+
+@contextmanager
+def independent_of(names: Iterable[str]) -> Iterator[None]:
+    """Errors raised inside cannot have been changed by the values of ``names``.
+
+    They join each error's :attr:`HybridlogError.named`, so :func:`after_given` does not
+    blame them: the IMM's forward pass, which no offline-pass option changes, stopped on a
+    sample no mode explains, and the message ended ``(after --smooth)`` as if the smoother
+    had failed (:func:`hybridlog.estimators.imm.run_imm`).
+    """
+    try:
+        yield
+    except HybridlogError as err:
+        err.named = err.named | frozenset(names)
+        raise
 
 
 def set_text(name: str, text: str) -> str:

@@ -14,6 +14,7 @@ from hybridlog.errors import (
     OptionError,
     after_given,
     arithmetic_reason,
+    independent_of,
     prefixed,
 )
 from hybridlog.io.mcap_reader import UnfinishedLogError
@@ -50,6 +51,13 @@ def test_after_given_names_what_the_message_does_not_name_yet() -> None:
     assert str(after_given(own, given)).endswith("not finite (after --set rho=0.9)")
     plain = ModelError("m.toml: noise: singular")
     assert after_given(plain, {}) is plain
+
+
+def test_an_error_independent_of_a_value_does_not_name_it() -> None:
+    given = {"A": "--set A=0.1", "smooth": "--smooth"}
+    with pytest.raises(DivergenceError) as raised, independent_of(["smooth"]):
+        raise DivergenceError("imm cannot explain the log at t = 1 s")
+    assert str(after_given(raised.value, given)).endswith("t = 1 s (after --set A=0.1)")
 
 
 def test_what_an_error_names_survives_a_prefix_and_a_worker() -> None:

@@ -31,6 +31,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from hybridlog.errors import independent_of
 from hybridlog.estimators.common import (
     Accelerator,
     Chunk,
@@ -289,6 +290,11 @@ def _filtered_model(
     return model, transitions, used
 
 
+OFFLINE_OPTIONS = ("smooth", "smoother", "mode_sequence", "beam")
+"""The options of the offline passes after the filter; the forward pass's run depends on none
+(``smoother`` changes only which per-mode estimates it records), so its errors name none."""
+
+
 def _offline(options: ImmOptions) -> bool:
     """Whether an offline pass follows the filter (``smooth``, a ``mode_sequence`` to decode)."""
     return options.smooth or options.mode_sequence != "argmax"
@@ -320,7 +326,8 @@ def run_imm(
     ``kernel`` and ``jit`` choose the code path (:func:`~hybridlog.estimators.common.run_filter`):
     :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
     A ``[components]`` model runs on its enumerated joint known modes
-    (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).
+    (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).  An error of the forward
+    pass does not blame :data:`OFFLINE_OPTIONS` (:func:`~hybridlog.errors.independent_of`).
     """
     model, transitions, used = _filtered_model(model, options)
     store = ModeStore.allocate(
@@ -329,16 +336,17 @@ def run_imm(
         states=options.smooth,
         likelihoods=options.mode_sequence == "viterbi",
     )
-    filtered = run_filter(
-        CODE,
-        model,
-        signals,
-        ImmSettings(transitions, store, options.smooth and options.smoother == "ec"),
-        used,
-        jit=jit,
-        kernel=kernel,
-        store_covariances=store_covariances,
-    )
+    with independent_of(OFFLINE_OPTIONS):
+        filtered = run_filter(
+            CODE,
+            model,
+            signals,
+            ImmSettings(transitions, store, options.smooth and options.smoother == "ec"),
+            used,
+            jit=jit,
+            kernel=kernel,
+            store_covariances=store_covariances,
+        )
     if not _offline(options):
         return filtered
     from hybridlog.estimators.smoothing import post_process

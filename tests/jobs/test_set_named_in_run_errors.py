@@ -34,6 +34,22 @@ def test_an_analysis_names_each_set_its_run_used(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+def test_the_filter_that_failed_before_an_offline_pass_does_not_blame_it(tmp_path: Path) -> None:
+    # the IMM's forward pass, which no offline-pass option changes, ended "(after --smooth)"
+    (log,) = write_logs(tmp_path / "logs", ["a.csv"])
+    with pytest.raises(HybridlogError) as raised:
+        analyze(
+            log,
+            TANK,
+            out_dir=tmp_path / "out",
+            estimator="imm",
+            sets=[BROKEN, "smoother=ec", "beam=3"],
+            smooth=True,
+            mode_sequence="kbest",
+        )
+    assert str(raised.value).endswith(" (after --set A=1e-9)")
+
+
 def test_compare_names_the_options_of_the_estimator_that_failed_only(tmp_path: Path) -> None:
     (log,) = write_logs(tmp_path / "logs", ["a.csv"])
     sets = [BROKEN, "likelihood=unfaded"]
