@@ -28,7 +28,10 @@ No smoothing (issue 12): the paper assumes unknown transitions and predicts ever
 probability ``1/n_q`` (eq. (20)).  Under that uniform chain Kim's backward factor
 ``Σ_j Π_ij μ^s_j(k+1)/c̄_j(k+1)`` is the same for every mode, so the smoothed mode
 probabilities equal the filtered ones, and the Viterbi path is the per-sample argmax of the
-likelihoods of eq. (34): an offline pass would add nothing the filter does not show.  The
+likelihoods of eq. (34): neither would add anything the filter does not show.  A smoother
+that weighs the smoothed state (expectation correction) would, but its RTS steps need each
+mode's covariance as a posterior, and eq. (24) inflates them on purpose (the fading factors
+of eqs. (28)-(30)).  The
 registry entry therefore says ``supports_smoothing=False`` and ``--smooth`` is refused with
 one line; a model with a Markov matrix can be smoothed with ``imm``.
 

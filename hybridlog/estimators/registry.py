@@ -214,8 +214,8 @@ ESTIMATORS: dict[str, Estimator] = {
             capabilities=Capabilities(
                 needs_measurement_noise=True,
                 no_smoothing="paper 000 predicts every mode with probability 1/n_q (eq. (20)); "
-                "under that uniform chain smoothed mode probabilities equal the filtered ones "
-                "and the Viterbi path is each sample's most probable mode",
+                "under that uniform chain Kim's smoothed mode probabilities equal the filtered "
+                "ones and the Viterbi path is each sample's most probable mode",
                 modes_of_the_step_into=True,
             ),
         ),

@@ -196,10 +196,27 @@ def smoothing_overrides(
                 raise OptionError(
                     f"{flag} {value}: estimator '{estimator.name}' offers "
                     f"{', '.join(_choices(estimator, option))}"
+                    f"{_only_some(chosen, option, value)}"
                 )
         options[option] = value
         labels[option] = flag if option == SMOOTH_OPTION else f"{flag} {value}"
     return replace(overrides, options=MappingProxyType(options), flags=MappingProxyType(labels))
+
+
+def _only_some(chosen: Sequence[Estimator], option: str, value: str) -> str:
+    """How to give ``option = value`` to those of several ``chosen`` that offer that value.
+
+    ``--set`` gives it to every estimator with the option, and one that has the option but
+    not the value refuses it; a model file's ``[estimators.<name>]`` table gives it to one.
+    """
+    offering = [e.name for e in chosen if _offers(e, option, value)]
+    if len(chosen) < 2 or not offering:
+        return ""
+    return (
+        f'; for {", ".join(offering)} alone, {option} = "{value}" under '
+        + ", ".join(f"[estimators.{name}]" for name in offering)
+        + " in the model file"
+    )
 
 
 def _not_offered(

@@ -210,6 +210,24 @@ def test_a_refusal_lists_the_estimators_that_offer_the_value_asked_for(
     assert "the Viterbi path is each sample's most probable mode" in message
 
 
+def test_a_value_one_of_several_estimators_lacks_says_how_to_give_it_to_the_others() -> None:
+    """--set would give mode_sequence=viterbi to unknown-mode too, which refuses it: the
+    refusal points to the model file's table of the estimators that offer it."""
+    model, overrides = parse_sets([], "three_tank_hstf")
+    with pytest.raises(OptionError) as caught:
+        prepare_estimators(
+            model,
+            ["imm", "unknown-mode"],
+            overrides,
+            mode_sequence="viterbi",
+            given_by="--estimators",
+        )
+    assert str(caught.value) == (
+        "--mode-sequence viterbi: estimator 'unknown-mode' offers argmax, kbest; for imm alone, "
+        'mode_sequence = "viterbi" under [estimators.imm] in the model file'
+    )
+
+
 def test_set_beam_without_kbest_is_refused_as_having_no_effect(tmp_path: Path) -> None:
     """``--set beam=5`` without ``mode_sequence = kbest`` ran imm's usual pass while
     report.json recorded beam 5 as the option used; now one line says why it has no effect.
