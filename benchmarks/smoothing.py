@@ -24,8 +24,8 @@ before; the ratio's notes give the first round's too):
   with a beam of 2,000 on 301 samples, whose cost per hypothesis kept should stay about that
   of the beam of 20 (a heap keeps the beam's threshold);
 * ``ratio``: smoothing ÷ filtering time (target ≤ 2×), Kim's smoother (the default); and the
-  same for ``smoother=ec`` (the opt-in, dearer pass: about 2×, its stage 3 predicting each
-  pair again since its steps became functions of their own, ``docs/smoothing.md``);
+  same for ``smoother=ec`` (the opt-in, dearer pass; within the target since its negligible
+  weight is ``1e-16``);
 * ``first use``: in a fresh interpreter and a cold model cache, the first runs of the filter,
   of ``smooth=true`` and of ``smoother=ec`` on a short log (:data:`FIRST_USE`): the compile
   a user waits for once per model.
