@@ -1766,7 +1766,8 @@ class _Helper(NamedTuple):
 
 
 HELPER_IMPORT = "import numpy as np\n\nfrom hybridlog.jit import jit"
-"""The generated module's import of the decorator its helper functions carry."""
+"""The generated module's imports: the decorator its helper functions carry, and NumPy for
+the array expectation correction's stages share (:data:`SCRATCH`)."""
 
 
 def _helper(name: str, parameters: Sequence[Entry], body: Program, returned: str) -> _Helper:
@@ -1783,11 +1784,6 @@ def _helper(name: str, parameters: Sequence[Entry], body: Program, returned: str
     return _Helper(name, f"@jit\ndef {name}({listed}):\n{body.source()}\n")
 
 
-def _tuple(values: Sequence[Entry]) -> str:
-    """Source of a tuple of entries."""
-    return f"({', '.join(term(value) for value in values)},)"
-
-
 class _Arguments(NamedTuple):
     """Parameter names of a step function (symmetric matrices by their upper triangle)."""
 
@@ -1800,6 +1796,7 @@ class _Arguments(NamedTuple):
 
 
 def _step_arguments(model: HybridModel) -> _Arguments:
+    """The parameter names of ``model``'s step functions."""
     n, n_u = model.n_states, model.n_inputs
     return _Arguments(
         vector_names("x0", n),
@@ -1838,8 +1835,8 @@ def _step_function(model: HybridModel, j: int, Q: Matrix) -> _Helper:
 
 SCRATCH = "held"
 """The generated expectation correction's array of each pair's prediction, a row per mode
-``i`` of the current next mode's pairs: stage 1 writes it (:func:`_pair_functions`), stage 3
-reads it (:func:`_correction_function`)."""
+``i`` of the current next mode's pairs: its stage-1 function writes it, its stage-3 function
+reads it (:func:`_pair_functions`)."""
 
 
 def _pair_functions(model: HybridModel, j: int, Q: Matrix) -> tuple[_Helper, int, _Helper]:
