@@ -1334,8 +1334,16 @@ def _bind(p: Program, bundle: str, values: Sequence[Entry]) -> None:
     pass, not LLVM, most of a straight-line smoother's compile time (expectation
     correction's for three modes: 70 s), where one tuple per branch, unpacked once after
     them (:func:`_unpack`), costs one such variable and no run time.
+
+    The tuple is built under a name of its own, assigned once, and then bound to ``bundle``:
+    CPython builds a tuple display of more than 30 entries through a list (a step's values
+    for 6 states are 6 + 21 + 6 = 33), and numba's rewrite of that list back into a tuple
+    refuses a target assigned in more than one place (an ``AssertionError`` compiling the
+    pass).
     """
-    p.emit(f"{bundle} = ({', '.join(term(value) for value in values)},)")
+    built = p.fresh(bundle + "_")
+    p.emit(f"{built} = ({', '.join(term(value) for value in values)},)")
+    p.emit(f"{bundle} = {built}")
 
 
 def _unpack(p: Program, names: Sequence[str], bundle: str) -> None:

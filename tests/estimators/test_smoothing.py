@@ -438,3 +438,58 @@ def test_skipping_negligible_next_modes_changes_nothing(monkeypatch):
             a = getattr(result, field)
             np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
     np.testing.assert_array_equal(skipping.modes, every.modes)
+
+
+SIX_STATES = """
+name = "six_states"
+dt = 0.1
+states = ["x1", "x2", "x3", "x4", "x5", "x6"]
+inputs = ["u"]
+outputs = ["y1", "y2"]
+
+[modes.only]
+f = ["0.9*x1 + 0.1*x2", "0.9*x2 + 0.1*u", "0.9*x3 + 0.1*x4", "0.9*x4 - 0.1*x3",
+     "0.8*x5 + 0.1*x6", "0.8*x6 + 0.1*x1"]
+h = ["x1", "x3 + x5"]
+
+[noise]
+process = 0.01
+measurement = 0.01
+
+[initial]
+state = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+covariance = 1.0
+
+[simulation]
+state = [1.0, 0.5, -1.0, 0.5, 1.0, -0.5]
+
+[simulation.inputs]
+u = "sin(t)"
+"""
+
+
+def test_straight_line_smoother_of_six_states_compiles_and_equals_the_generic_loop():
+    """A step's values travel as one tuple bound in each branch (``_bind``): with 6 states that
+    is 6 + 21 + 6 = 33 entries, past the 30 CPython writes as one tuple display (longer ones are
+    built through a list), and numba's rewrite of that list refused a name assigned in two
+    branches: an ``AssertionError`` compiling the pass of every 6-state model, to which
+    ``auto`` gives straight-line code (``MAX_UNROLLED_SIZE``).  Both passes on one forward
+    store."""
+    model = parse_model(SIX_STATES)
+    assert smoothing.straight_line_backward(model, "auto", ec=False)
+    signals = simulate(model, steps=40, seed=0).signals(model)
+    transitions = np.ascontiguousarray(transition_matrix(model, ImmOptions()), dtype=float)
+    store = ModeStore.allocate(model, signals.n_samples, states=True, likelihoods=False)
+    filtered = run_filter(
+        CODE, model, signals, ImmSettings(transitions, store), {}, jit=True, kernel="loops",
+        store_covariances=True,
+    )  # fmt: skip
+    options = {"smooth": True, "mode_sequence": "argmax", "jit": True}
+    fast, plain = [
+        smoothing.post_process(model, signals, filtered, store, transitions, **options, kernel=k)
+        for k in ("unrolled", "loops")
+    ]
+    for field in ("state_means", "covariances"):
+        a, b = getattr(fast, field), getattr(plain, field)
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12 * np.abs(b).max(), err_msg=field)
+    assert np.abs(plain.state_means - filtered.state_means).max() > 1e-3
