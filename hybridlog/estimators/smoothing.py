@@ -2016,10 +2016,11 @@ def _ec_densities(
 
     In :func:`ec_order`, each pair whose weight can still reach :data:`NEGLIGIBLE_WEIGHT`
     (its ``prior`` plus ``ceiling`` against the largest prior plus density so far) is
-    predicted by a call of ``density`` (:func:`_pair_functions`) under a branch.
-    ``weighed`` is set False where a prediction fails (Kim's weights).  Returns the names of
-    whether each pair's prediction is positive definite (false where the pair was left out)
-    and of the densities (``-inf`` where left out).
+    predicted by a call of ``density`` (:func:`_pair_functions`) under a branch, which
+    leaves the prediction in row ``i`` of :data:`SCRATCH`.  ``weighed`` is set False
+    where a prediction fails (Kim's weights).  Returns the names of whether each pair's
+    prediction is positive definite (false where the pair was left out) and of the
+    densities (``-inf`` where left out).
     """
     n_q = len(prior)
     floor = p.assign("fl", "-math.inf")
@@ -2131,10 +2132,12 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
     Defines ``imm_smooth_ec(inputs, transitions, log_T, mu, store, out, fallbacks)``,
     counting the samples whose steps fell back into ``fallbacks`` as :func:`ec_backward`
     does: the same backward pass (the module docstring) with the mode functions, the process
-    noise and the small matrix products written out, the pair steps of
-    :func:`_rts_step_source` and the stage-1 densities as functions of each next mode
-    (:func:`_step_function`, :func:`_pair_functions`, defined before it and called once
-    per pair that needs them), and the mode recursion in log space.  Whether next mode ``j``
+    noise and the small matrix products written out, the pair steps as functions of each
+    next mode, defined before it and called once per pair that needs them: stage 1's
+    prediction and density and stage 3's correction of that prediction, which stage 1 leaves
+    in a row of the array :data:`SCRATCH` (:func:`_pair_functions`), or for a next mode
+    without a density the whole RTS step (:func:`_step_function`); and the mode recursion
+    in log space.  Whether next mode ``j``
     takes the density of the smoothed state (``Q_j`` positive definite,
     :func:`positive_definite_noise`) is decided here, once: the code of a mode without it
     holds no density.  Equal to the generic loop up to
