@@ -468,7 +468,8 @@ u = "sin(t)"
 """
 
 
-def test_straight_line_smoother_of_six_states_compiles_and_equals_the_generic_loop():
+@pytest.mark.parametrize("smoother", ["kim", "ec"])
+def test_straight_line_smoother_of_six_states_compiles_and_equals_the_generic_loop(smoother):
     """A step's values travel as one tuple bound in each branch (``_bind``): with 6 states that
     is 6 + 21 + 6 = 33 entries, past the 30 CPython writes as one tuple display (longer ones are
     built through a list), and numba's rewrite of that list refused a name assigned in two
@@ -476,15 +477,15 @@ def test_straight_line_smoother_of_six_states_compiles_and_equals_the_generic_lo
     ``auto`` gives straight-line code (``MAX_UNROLLED_SIZE``).  Both passes on one forward
     store."""
     model = parse_model(SIX_STATES)
-    assert smoothing.straight_line_backward(model, "auto", ec=False)
+    assert smoothing.straight_line_backward(model, "auto", ec=smoother == "ec")
     signals = simulate(model, steps=40, seed=0).signals(model)
     transitions = np.ascontiguousarray(transition_matrix(model, ImmOptions()), dtype=float)
     store = ModeStore.allocate(model, signals.n_samples, states=True, likelihoods=False)
     filtered = run_filter(
-        CODE, model, signals, ImmSettings(transitions, store), {}, jit=True, kernel="loops",
-        store_covariances=True,
+        CODE, model, signals, ImmSettings(transitions, store, smoother == "ec"), {}, jit=True,
+        kernel="loops", store_covariances=True,
     )  # fmt: skip
-    options = {"smooth": True, "mode_sequence": "argmax", "jit": True}
+    options = {"smooth": True, "smoother": smoother, "mode_sequence": "argmax", "jit": True}
     fast, plain = [
         smoothing.post_process(model, signals, filtered, store, transitions, **options, kernel=k)
         for k in ("unrolled", "loops")
