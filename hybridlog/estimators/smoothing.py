@@ -1816,12 +1816,18 @@ def _step_arguments(model: HybridModel) -> _Arguments:
     )
 
 
+def _standing(x: Vector, P: Matrix) -> list[Entry]:
+    """A step's values where it is not taken: ``x``, ``P``'s upper triangle, a zero probe.
+
+    The generated counterpart of :func:`_forward_stands`.
+    """
+    return [*x, *upper(P), *([0.0] * len(x))]
+
+
 def _chosen(p: Program, step: _StepSource, x0: Vector, P0: Matrix) -> str:
     """``((x, P upper, r) of the step where taken else the forward estimate, cause bit)``."""
-    n = len(x0)
     bundle = p.fresh("sq")
-    stands: list[Entry] = [*x0, *upper(P0), *([0.0] * n)]
-    _select(p, step.taken, bundle, step.x + upper(step.P) + step.r, stands)
+    _select(p, step.taken, bundle, step.x + upper(step.P) + step.r, _standing(x0, P0))
     cause = p.assign("cb", f"0 if {step.taken} else {step.cause}")
     return f"{bundle}, {cause}"
 
@@ -1948,11 +1954,10 @@ def generate_smoother_source(model: HybridModel) -> str:
         P0: Matrix = [[0.0] * n for _ in range(n)]
         for index, (a, b) in enumerate(upper_pairs(n), start=n):
             P0[a][b] = P0[b][a] = p.assign("pz", f"states[k, {j}, {index}]")
-        prior = x0 + upper(P0)
         x_sel, P_sel = vector_names(f"xs{j}", n), matrix_names(f"ps{j}", n, n, symmetric=True)
         r_sel = vector_names(f"rs{j}", n)
         chosen = [str(name) for name in [*x_sel, *upper(P_sel), *r_sel]]
-        stands: list[Entry] = [*prior, *([0.0] * n)]
+        stands = _standing(x0, P0)
         bundle, cause = p.fresh("sq"), p.fresh("cb")
         arguments = [*x0, *upper(P0), *u, *x_next[j], *upper(P_next[j]), *r_next[j]]
         with p.block(f"if {mu_carried[j]} >= {NEGLIGIBLE_WEIGHT!r}:"):
@@ -2203,7 +2208,7 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
         for i in range(n_q):
             # the RTS step of a pair that carries weight; elsewhere the forward estimate
             chosen = [str(name) for name in [*X[i][j], *upper(P[i][j]), *R[i][j]]]
-            stands: list[Entry] = [*x_f[i], *upper(P_f[i]), *([0.0] * n)]
+            stands = _standing(x_f[i], P_f[i])
             bundle, cause = p.fresh("sq"), cause_bit[i][j]
             nexts = [*x_next[j], *upper(P_next[j]), *r_next[j]]
             with p.block(f"if {counts} and {carries[i][j]}:"):
