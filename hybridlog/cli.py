@@ -1193,19 +1193,65 @@ def _work_progress(quiet: bool, total: int, label: str) -> Iterator[Callable[[in
         yield bar.update
 
 
-def _work_reporter(ctx: click.Context) -> WorkReporter:
-    """How long work (the exact clustering potentials) reports itself on stderr.
+WAIT_SHOWN_S = 2.0
+"""Work of unforeseeable length (:func:`_work_wait`) is announced once it has taken this long:
+a model's warm run loads its cached machine code in about half a second."""
 
-    A note with the expected time first, then a bar (:mod:`hybridlog.cluster.progress`).
-    Made of module-level functions, so that it is sent pickled to the estimators' worker of
-    ``analyze`` and ``compare``, where ``chiu`` clusters (it writes on the same stderr).
+
+@contextlib.contextmanager
+def _work_wait(shown: bool, what: str, why: str) -> Iterator[None]:
+    """Say ``what`` and ``why`` once the work inside has taken :data:`WAIT_SHOWN_S`, then how long.
+
+    Only where ``shown`` (:func:`_bars_shown`: a terminal, no ``--quiet``), as the bars: the
+    lines tell someone watching why nothing happens for a while (a model's first run
+    compiling its machine code); a CI log has the compile time in report.md's Runtime.
+    """
+    if not shown:
+        yield
+        return
+    import threading
+
+    from hybridlog.cluster.progress import duration_text
+
+    start = time.perf_counter()
+    said = threading.Event()
+
+    def say() -> None:
+        said.set()
+        click.echo(_for_terminal(f"{what} ({why})..."), err=True)
+
+    timer = threading.Timer(WAIT_SHOWN_S, say)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+        timer.join()
+        if said.is_set():
+            took = duration_text(time.perf_counter() - start)
+            click.echo(_for_terminal(f"{what}: done in {took}"), err=True)
+
+
+def _work_reporter(ctx: click.Context) -> WorkReporter:
+    """How long work reports itself on stderr (:mod:`hybridlog.cluster.progress`).
+
+    The exact clustering potentials: a note with the expected time first, then a bar.  A
+    model's first run compiling its machine code: :func:`_work_wait`.  Made of module-level
+    functions, so that it is sent pickled to the estimators' worker of ``analyze`` and
+    ``compare``, where ``chiu`` clusters and the filters compile (it writes on the same
+    stderr).
     """
     from functools import partial
 
     from hybridlog.cluster.progress import WorkReporter
 
     quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
-    return WorkReporter(note=partial(_work_note, quiet), bar=partial(_work_progress, quiet))
+    return WorkReporter(
+        note=partial(_work_note, quiet),
+        bar=partial(_work_progress, quiet),
+        wait=partial(_work_wait, _bars_shown(quiet)),
+    )
 
 
 def _read_options_given(options: dict[str, Any]) -> ReadOptions:

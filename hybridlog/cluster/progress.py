@@ -1,7 +1,9 @@
-"""Where long clustering work says how long it will take and how far it is.
+"""Where long work (clustering, first-use compilation) says how long it takes and how far it is.
 
 The ``O(N²)`` exact potentials of a long log in many dimensions take minutes
-(:mod:`hybridlog.cluster.subtractive`).  The library prints nothing; a command that wants a
+(:mod:`hybridlog.cluster.subtractive`); a model's first run compiles its filters' machine
+code, up to a minute (:func:`hybridlog.jobs.analysis.warm_up` holds :attr:`WorkReporter.wait`
+around it).  The library prints nothing; a command that wants a
 note and a progress bar installs a :class:`WorkReporter` around the call with
 :func:`reporting` (``hybridlog cluster`` does: the note and the bar go to stderr, the bar only
 on a terminal, neither with ``--quiet``), and the clustering code asks :func:`current_reporter`.
@@ -17,7 +19,14 @@ from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 
-__all__ = ["LONG_WORK_S", "WorkReporter", "current_reporter", "duration_text", "reporting"]
+__all__ = [
+    "LONG_WORK_S",
+    "WorkReporter",
+    "current_reporter",
+    "duration_text",
+    "reporting",
+    "silent_wait",
+]
 
 LONG_WORK_S = 10.0
 """Work expected to take longer than this (timed on its first steps) is announced with one
@@ -33,6 +42,11 @@ def duration_text(seconds: float) -> str:
     return f"{seconds / 3600.0:.1f} h"
 
 
+def silent_wait(what: str, why: str) -> AbstractContextManager[None]:
+    """A :attr:`WorkReporter.wait` that says nothing (the default; module-level, so picklable)."""
+    return contextlib.nullcontext()
+
+
 @dataclass(frozen=True)
 class WorkReporter:
     """How long work reports itself.
@@ -45,10 +59,17 @@ class WorkReporter:
     bar:
         Called with the total units of work and a label; the context it returns yields a
         function advancing the bar by the units just done.
+    wait:
+        Called with what is being done (``"imm: compiling machine code for model 'm'"``) and
+        why it takes long, around work whose length cannot be foreseen (the machine code a
+        model's first run compiles; a warm run loads it in a moment): the context it returns
+        is held around that work.  It may say so only once the work has outlasted a moment,
+        and then how long it took.  By default it says nothing.
     """
 
     note: Callable[[str], None]
     bar: Callable[[int, str], AbstractContextManager[Callable[[int], None]]]
+    wait: Callable[[str, str], AbstractContextManager[None]] = silent_wait
 
 
 _REPORTER: contextvars.ContextVar[WorkReporter | None] = contextvars.ContextVar(

@@ -508,11 +508,33 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
 
     :meth:`Prepared.warm_up <hybridlog.estimators.Prepared.warm_up>`: numba's cached
     machine code of the model's filters is loaded there while this process reads the log.
+    On a model's first run with those options there is none: the warm-up compiles it (up to
+    a minute, expectation correction's straight-line code), and the command's reporter, if
+    any, is told (:attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`:
+    ``analyze`` and ``compare`` say so on a terminal once it outlasts a moment).
     """
     running = worker(ESTIMATES)
-    if running is not None:
-        for estimator in prepared:
+    if running is None:
+        return
+    reporter = current_reporter()
+    for estimator in prepared:
+        if reporter is None:
             running.submit(estimator.warm_up, model)
+        else:
+            running.submit(partial(_warm_up_reported, reporter.wait, estimator), model)
+
+
+def _warm_up_reported(
+    wait: Callable[[str, str], contextlib.AbstractContextManager[None]],
+    estimator: Prepared,
+    model: HybridModel,
+) -> None:
+    """``estimator.warm_up(model)`` inside ``wait``'s context, which names what it compiles."""
+    with wait(
+        f"{estimator.name}: compiling machine code for model {model.name!r}",
+        "its first run with these options; later runs load it from the cache",
+    ):
+        estimator.warm_up(model)
 
 
 def estimates(

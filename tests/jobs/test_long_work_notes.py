@@ -1,13 +1,16 @@
-"""``analyze``/``compare --estimator chiu`` on long work: the note and the bar, as ``cluster``.
+"""``analyze``/``compare`` on long work: the note and bar, as ``cluster``; a first compile.
 
 The exact clustering potentials of a long log in many dimensions take minutes; ``hybridlog
 cluster`` said so up front and showed a bar, while ``analyze --estimator chiu`` ran the same
-potentials in the estimators' worker without a word.
+potentials in the estimators' worker without a word.  A model's first run compiles its
+filters' machine code in the worker's warm-up (up to a minute with ``smoother = "ec"``),
+also without a word until it did.
 """
 
 from __future__ import annotations
 
 import contextlib
+import time
 from collections.abc import Iterator
 from functools import partial
 from pathlib import Path
@@ -16,6 +19,7 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog import background
+from hybridlog import cli as cli_module
 from hybridlog.cli import cli
 from hybridlog.cluster import potentials, subtractive
 from hybridlog.cluster.progress import WorkReporter, reporting
@@ -23,6 +27,7 @@ from hybridlog.jobs.analysis import analyze
 from tests.support.paths import SAMPLE_LOGS
 
 LOG = SAMPLE_LOGS / "double_cart_case1.csv"
+THREE_TANK = SAMPLE_LOGS / "three_tank_hstf.csv"
 
 
 @pytest.fixture
@@ -87,3 +92,52 @@ def test_the_estimators_worker_reports_to_the_commands_reporter(
     assert lines[1].startswith("bar ") and lines[1].endswith(" cluster potentials"), lines
     total = int(lines[1].split()[1])
     assert sum(int(line.split()[1]) for line in lines[2:]) == total
+
+
+@contextlib.contextmanager
+def _wait(path: Path, what: str, why: str) -> Iterator[None]:
+    _write(path, f"wait {what} ({why})")
+    yield
+    _write(path, "waited")
+
+
+def test_the_warm_up_in_the_worker_says_what_it_compiles(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a model's first run compiles its filters in the worker's warm-up, up to a minute
+    events = tmp_path / "events.txt"
+    started = background.Worker("test-estimates")
+    monkeypatch.setitem(background._WORKERS, background.ESTIMATES, started)
+    try:
+        reporter = WorkReporter(
+            note=partial(_write, events), bar=partial(_bar, events), wait=partial(_wait, events)
+        )
+        with reporting(reporter):
+            analyze(THREE_TANK, "three_tank_hstf", estimator="imm", out_dir=tmp_path / "out")
+    finally:
+        started.close()
+    assert events.read_text(encoding="utf-8").splitlines() == [
+        "wait imm: compiling machine code for model 'three_tank_hstf' (its first run with "
+        "these options; later runs load it from the cache)",
+        "waited",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("shown", "after_s", "lines"), [(True, 0.0, 2), (True, 60.0, 0), (False, 0.0, 0)]
+)
+def test_a_wait_is_said_on_a_terminal_once_it_outlasts_a_moment(
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    shown: bool,
+    after_s: float,
+    lines: int,
+) -> None:
+    monkeypatch.setattr(cli_module, "WAIT_SHOWN_S", after_s)
+    with cli_module._work_wait(shown, "imm: compiling", "first run"):
+        time.sleep(0.3)
+    said = capsys.readouterr().err.splitlines()
+    assert len(said) == lines, said
+    if lines:
+        assert said[0] == "imm: compiling (first run)..."
+        assert said[1] == "imm: compiling: done in 0 s"
