@@ -1225,12 +1225,12 @@ def _work_wait(shown: bool, what: str, why: str) -> Iterator[None]:
     timer.start()
     try:
         yield
-    finally:
+    finally:  # a failed work's error is the command's to say, no "done" before it
         timer.cancel()
         timer.join()
-        if said.is_set():
-            took = duration_text(time.perf_counter() - start)
-            click.echo(_for_terminal(f"{what}: done in {took}"), err=True)
+    if said.is_set():
+        took = duration_text(time.perf_counter() - start)
+        click.echo(_for_terminal(f"{what}: done in {took}"), err=True)
 
 
 def _work_reporter(ctx: click.Context) -> WorkReporter:

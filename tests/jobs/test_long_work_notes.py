@@ -141,3 +141,13 @@ def test_a_wait_is_said_on_a_terminal_once_it_outlasts_a_moment(
     if lines:
         assert said[0] == "imm: compiling (first run)..."
         assert said[1] == "imm: compiling: done in 0 s"
+
+
+def test_a_wait_that_fails_is_not_said_done(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(cli_module, "WAIT_SHOWN_S", 0.0)
+    with pytest.raises(KeyboardInterrupt), cli_module._work_wait(True, "imm: compiling", "first"):
+        time.sleep(0.3)
+        raise KeyboardInterrupt
+    assert capsys.readouterr().err.splitlines() == ["imm: compiling (first)..."]
