@@ -200,6 +200,13 @@ def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: 
         raise DefinitionError(
             f"its message definition cannot be used ({excerpt(first_line(err))})"
         ) from err
+    if msgtype not in store.fielddefs and types:
+        # rosbags names what it parses package/msg/Name: a schema named Float64 defines
+        # msg/Float64, and the log does hold a definition.
+        raise DefinitionError(
+            f"its stored definition defines {next(iter(types))!r}, not its type "
+            f"{msgtype!r}: a ROS type is named package/msg/Name"
+        )
     if msgtype not in store.fielddefs:
         raise DefinitionError(
             f"type {msgtype!r} has no definition in the log or the standard types; "

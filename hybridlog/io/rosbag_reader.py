@@ -36,6 +36,7 @@ from hybridlog.io.definitions import (
     definition_key,
     digest_problem,
     first_line,
+    normal_type,
     types_from_msg_dirs,
     typestore_for,
 )
@@ -235,8 +236,10 @@ class BagSource(MessageSource):
         stores: dict[tuple[str, str, str], Any] = {}
         topics: dict[str, Topic] = {}
         for name, connections in grouped.items():
-            msgtypes = {c.msgtype for c in connections}
-            msgtype = connections[0].msgtype
+            # ROS 1's spelling, std_msgs/Float64, as the mcap reader takes it: rosbags keeps a
+            # connection's name as stored but parses its definition as std_msgs/msg/Float64.
+            msgtypes = {normal_type(c.msgtype) for c in connections}
+            msgtype = normal_type(connections[0].msgtype)
             counts = [c.msgcount for c in connections]
             count = sum(counts) if all(c >= 0 for c in counts) else None
             topic = Topic(name, msgtype, "ros1" if self._ros1 else "cdr", count)

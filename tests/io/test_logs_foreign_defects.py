@@ -590,3 +590,66 @@ def test_schemas_of_a_topic_differing_only_in_comments_are_one_definition(
     else:
         assert problems == []
         check_good_topics(log)
+
+
+@pytest.mark.parametrize("profile", ["", "ros2"])  # the mcap reader, rosbags
+def test_a_ros1_style_type_name_in_a_ros2_schema_is_read_by_either_reader(
+    profile: str, tmp_path: Path
+) -> None:
+    # A schema named std_msgs/Float64 (ROS 1's spelling) with a ROS 2 definition: the
+    # mcap reader read it, while the same file through rosbags (a ros2 profile) was refused
+    # as "type 'std_msgs/Float64' has no definition in the log", which the log has.
+    from mcap.writer import Writer
+
+    log = tmp_path / "ros1_names.mcap"
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile=profile, library="tests")
+        schema = writer.register_schema("std_msgs/Float64", "ros2msg", b"float64 data\n")
+        u, y = (writer.register_channel(topic, "cdr", schema) for topic in ("/u", "/y"))
+        for k in range(30):
+            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
+            writer.add_message(y, k * NS, float64_cdr(2.0 * k), k * NS)
+        writer.finish()
+    assert inspect_log(log)["problems"] == []
+    check_good_topics(log)
+
+
+@pytest.mark.parametrize(
+    "qos", ["x", "- a\n- b", "history: 1", "- [unclosed", "- history: keep_last\n  depth: 1"]
+)
+def test_channel_qos_rosbags_cannot_parse_does_not_refuse_the_file(
+    qos: str, tmp_path: Path
+) -> None:
+    # A ros2 MCAP whose channels' offered_qos_profiles metadata is not a YAML list of
+    # profiles (a YAML scalar, a list of text, a broken document): rosbags raised on opening
+    # it ("cannot open the mcap file (string indices must be integers ...)") though the
+    # mcap library reads it and hybridlog never uses the QoS.
+    from mcap.writer import Writer
+
+    log = tmp_path / "qos.mcap"
+    with log.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="ros2", library="tests")
+        schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data\n")
+        metadata = {"offered_qos_profiles": qos}
+        u, y = (writer.register_channel(t, "cdr", schema, metadata) for t in ("/u", "/y"))
+        for k in range(30):
+            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
+            writer.add_message(y, k * NS, float64_cdr(2.0 * k), k * NS)
+        writer.finish()
+    assert inspect_log(log)["problems"] == []
+    check_good_topics(log)
+
+
+def test_a_schema_named_without_its_package_is_named_so_not_said_undefined(
+    tmp_path: Path,
+) -> None:
+    # It was "type 'Float64' has no definition in the log or the standard types", though
+    # the schema holds one: rosbags parses it as msg/Float64.
+    log = tmp_path / "bare_name.mcap"
+    streams = [dataclasses.replace(s, msgtype="Float64") for s in good_streams()]
+    write_streams_mcap(log, streams)
+    problems = inspect_log(log)["problems"]
+    assert len(problems) == 2, problems
+    assert "defines 'msg/Float64', not its type 'Float64': a ROS type is named" in problems[0]
