@@ -3,10 +3,10 @@
 The ``O(N²)`` exact potentials of a long log in many dimensions take minutes
 (:mod:`hybridlog.cluster.subtractive`); a model's first run compiles its filters' machine
 code, up to a minute (:func:`hybridlog.jobs.analysis.warm_up` holds :attr:`WorkReporter.wait`
-around it).  The library prints nothing; a command that wants a
-note and a progress bar installs a :class:`WorkReporter` around the call with
-:func:`reporting` (``hybridlog cluster`` does: the note and the bar go to stderr, the bar only
-on a terminal, neither with ``--quiet``), and the clustering code asks :func:`current_reporter`.
+around it).  The library prints nothing; a command that wants a note and a progress bar
+installs a :class:`WorkReporter` around the call with :func:`reporting` (``hybridlog
+cluster`` does: the note and the bar go to stderr, the bar only on a terminal, neither with
+``--quiet``), and the clustering code asks :func:`current_reporter`.
 Without one, the work is silent.  ``unknown-mode``'s hybrid estimation with a large ``beam``
 reports itself the same way (:mod:`hybridlog.estimators.cpha.long_run`).
 """

@@ -25,7 +25,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.cluster.progress import WorkReporter, current_reporter, reporting
+from hybridlog.cluster.progress import WorkReporter, current_reporter, reporting, silent_wait
 from hybridlog.errors import (
     DivergenceError,
     HybridlogError,
@@ -517,11 +517,9 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
     if running is None:
         return
     reporter = current_reporter()
+    wait = silent_wait if reporter is None else reporter.wait
     for estimator in prepared:
-        if reporter is None:
-            running.submit(estimator.warm_up, model)
-        else:
-            running.submit(partial(_warm_up_reported, reporter.wait, estimator), model)
+        running.submit(partial(_warm_up_reported, wait, estimator), model)
 
 
 def _warm_up_reported(
