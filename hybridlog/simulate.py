@@ -201,6 +201,26 @@ def out_of_range(origin: str, name: str, value: float, time: float) -> ModelErro
     )
 
 
+def start_state(model: HybridModel) -> FloatArray:
+    """Where a run starts: ``[simulation] state``, else ``[initial] state``, within range.
+
+    A start beyond :func:`within_range` (``state = [1e200]``) was refused as "the simulation
+    diverged: x = 1e+200 at t = 0 s", naming no key, as if the run had got there.
+    """
+    given = model.simulation_state is not None
+    start = model.initial_state if model.simulation_state is None else model.simulation_state
+    outside = np.flatnonzero(~within_range(start))
+    if outside.size:
+        j = int(outside[0])
+        where = "" if given else " (the file gives no simulation.state)"
+        raise model.error(
+            f"{'simulation' if given else 'initial'}.state[{j}]",
+            f"the run would start with {model.states[j]} = {start[j]:.6g}{where}, more than a "
+            f"log hybridlog reads may hold (|value| >= {RANGE}); start it within that",
+        )
+    return start
+
+
 def check_columns(origin: str, time: FloatArray, columns: dict[str, FloatArray]) -> None:
     """Refuse the run at its first value out of :func:`within_range`, naming its column.
 
@@ -575,7 +595,7 @@ def simulate(
     process_draws = rng.standard_normal((process_rows, model.n_states))
     measurement_draws = rng.standard_normal((n_rows, model.n_outputs))
     states = np.zeros((n_rows, model.n_states))
-    states[0] = model.initial_state if model.simulation_state is None else model.simulation_state
+    states[0] = start_state(model)
     outputs = np.zeros((n_rows, model.n_outputs))
     scale = 1.0 if noise else 0.0
     process_factors = np.ascontiguousarray(

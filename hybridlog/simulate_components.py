@@ -160,7 +160,14 @@ def simulate_components(
         measured output without a measurement noise covariance in the model file.
     """
     from hybridlog.model.scenario import StepValues, check_timing
-    from hybridlog.simulate import LATEST_S, _check_run, _check_seed, out_of_range, within_range
+    from hybridlog.simulate import (
+        LATEST_S,
+        _check_run,
+        _check_seed,
+        out_of_range,
+        start_state,
+        within_range,
+    )
 
     seed = _check_seed(seed)
     origin = _origin(model)
@@ -228,7 +235,7 @@ def simulate_components(
     input_slice = slice(n_x, n_x + n_u)
     output_slice = slice(n_x + n_u, n_x + n_u + n_y)
     measured = np.zeros((rows, n_y))
-    initial = model.initial_state if model.simulation_state is None else model.simulation_state
+    initial = start_state(model)
     new_memory = np.zeros_like(memory)
     control = np.zeros(len(controlled))
     for k in range(rows):

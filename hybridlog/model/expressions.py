@@ -23,6 +23,7 @@ import math
 import re
 import unicodedata
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import sympy
 
@@ -180,6 +181,16 @@ def _depth(root: ast.AST) -> int:
             )
             stack.append((child, depth if same_chain else depth + 1))
     return deepest
+
+
+def expression_text(value: Any) -> Any:
+    """A TOML value written as an expression: a number (``f = [0.5]``) as its decimal text.
+
+    A boolean is no number here: ``f = [true]`` was read as the text ``True`` and refused
+    as "the constant 'True'", a spelling the file never had; it is left as it is, for
+    :func:`parse_expression` to refuse as it refuses every value that is not text.
+    """
+    return str(value) if isinstance(value, int | float) and not isinstance(value, bool) else value
 
 
 def parse_expression(

@@ -40,7 +40,7 @@ from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.components import Component
 from hybridlog.model.derivatives import boolean_affine_problem
-from hybridlog.model.expressions import parse_expression
+from hybridlog.model.expressions import expression_text, parse_expression
 from hybridlog.model.hybrid_model import (
     INTEGRATION_METHODS,
     BooleanAffine,
@@ -54,7 +54,7 @@ from hybridlog.model.hybrid_model import (
 )
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
 from hybridlog.model.schedule import parse_schedule
-from hybridlog.model.toml_text import read_toml
+from hybridlog.model.toml_text import read_toml, spelled
 from hybridlog.model.twins import twin_modes
 from hybridlog.model.values import (
     as_covariance,
@@ -557,8 +557,7 @@ class _Builder:
                 raise ModelError(
                     f"{key}: {excerpt(name, 40)} is not an input (inputs: {', '.join(inputs)})"
                 )
-            value = str(text) if isinstance(text, int | float) else text
-            result[name] = parse_expression(value, env, key=key)
+            result[name] = parse_expression(expression_text(text), env, key=key)
         return result
 
 
@@ -616,9 +615,7 @@ def _refuse_misplaced_top_keys(data: Mapping[str, Any]) -> None:
 def _timebase(data: Mapping[str, Any]) -> Timebase:
     time = data.get("time", "discrete")
     if time not in ("discrete", "continuous"):
-        raise ModelError(
-            f"time: expected 'discrete' or 'continuous', got {excerpt(repr(time), 40)[1:-1]}"
-        )
+        raise ModelError(f"time: expected 'discrete' or 'continuous', got {spelled(time)}")
     dt = as_positive(required(data, "dt", ""), "dt")
     if not SHORTEST_DT_S <= dt <= LONGEST_DT_S:
         raise ModelError(
@@ -904,9 +901,8 @@ def _jumps(value: Any, mode_ids: tuple[str, ...], symbols: _Symbols) -> tuple[Ju
                 raise ModelError(
                     f"{key_path(key, name)}: not a state (states: {', '.join(symbols.states)})"
                 )
-            expression = str(text) if isinstance(text, int | float) else text
             reset[symbols.states.index(name)] = parse_expression(
-                expression, env, key=key_path(key, name)
+                expression_text(text), env, key=key_path(key, name)
             )
         jumps.append(
             Jump(
@@ -928,7 +924,7 @@ def _initial_modes(initial: Mapping[str, Any], mode_ids: tuple[str, ...]) -> Flo
         if isinstance(written, bool) or not isinstance(written, str | int | float):
             raise ModelError(
                 f"initial.mode: expected a mode id (a string such as {mode_ids[0]!r}), got "
-                f"{excerpt(repr(written), 40)[1:-1]}"
+                f"{spelled(written)}"
             )
         mode = str(written)
         if mode not in mode_ids:

@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 from hybridlog.errors import HybridlogError, ModelError, OptionError, excerpt
 from hybridlog.model.component_loader import parse_equation
 from hybridlog.model.components import UNKNOWN, Component, Equation
-from hybridlog.model.toml_text import unheld_number
+from hybridlog.model.toml_text import spelled, unheld_number
 from hybridlog.model.values import (
     as_names,
     as_number,
@@ -253,7 +253,9 @@ def load_scenario(
     if "steps" in table:
         value = table["steps"]
         if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
-            raise ModelError(f"simulation.steps: expected a positive whole number, got {value!r}")
+            raise ModelError(
+                f"simulation.steps: expected a positive whole number, got {spelled(value)}"
+            )
         steps = int(value)
     scenario_parameters: dict[str, float] = {}
     taken = {*states, *inputs, *outputs, *variables, *commands, *parameters}
@@ -407,10 +409,9 @@ def load_scenario(
 
 
 def _expression(value: Any, env: Mapping[str, sympy.Expr], key: str) -> sympy.Expr:
-    from hybridlog.model.expressions import parse_expression
+    from hybridlog.model.expressions import expression_text, parse_expression
 
-    text = str(value) if isinstance(value, int | float) and not isinstance(value, bool) else value
-    return parse_expression(as_string(text, key), env, key=key)
+    return parse_expression(as_string(expression_text(value), key), env, key=key)
 
 
 def _entries(text: str, key: str, step: Any) -> list[tuple[str, Step]]:

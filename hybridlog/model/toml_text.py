@@ -23,7 +23,14 @@ from typing import Any
 
 from hybridlog.errors import ModelError, excerpt
 
-__all__ = ["MAX_NESTING", "PLAIN_KEY_LIMIT", "decode_model_file", "key_path", "read_toml"]
+__all__ = [
+    "MAX_NESTING",
+    "PLAIN_KEY_LIMIT",
+    "decode_model_file",
+    "key_path",
+    "read_toml",
+    "spelled",
+]
 
 MAX_NESTING = 32
 """Deepest nesting of tables and arrays read (a model file's deepest keys have 6 levels:
@@ -84,6 +91,18 @@ def _parse_float(literal: str) -> float:
     unheld = _Unheld(value)
     unheld.literal = literal
     return unheld
+
+
+def spelled(value: object) -> str:
+    """A TOML value as the model file spells it, for an error: ``true``, ``'slow'``, ``[1, 2]``.
+
+    Python's ``repr`` wrote the file's ``true`` as ``True`` (``initial.mode: expected a mode
+    id ..., got True``), a spelling the file never had; the estimators' options spell it so
+    too (:func:`hybridlog.estimators.options.shown`).
+    """
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return excerpt(repr(value), 40)[1:-1]
 
 
 def read_toml(text: str) -> dict[str, Any]:

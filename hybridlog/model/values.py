@@ -18,8 +18,8 @@ import numpy as np
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.expressions import parse_expression, symbol_name_problem
-from hybridlog.model.toml_text import PLAIN_KEY_LIMIT
+from hybridlog.model.expressions import expression_text, parse_expression, symbol_name_problem
+from hybridlog.model.toml_text import PLAIN_KEY_LIMIT, spelled
 from hybridlog.model.toml_text import key_path as key_path  # re-exported for the loaders
 from hybridlog.signals import FloatArray
 
@@ -85,7 +85,7 @@ def as_string(value: Any, key: str) -> str:
 def as_number(value: Any, key: str) -> float:
     """A finite number (integer or float, not a boolean)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ModelError(f"{key}: expected a number, got {excerpt(repr(value), 40)[1:-1]}")
+        raise ModelError(f"{key}: expected a number, got {spelled(value)}")
     if not math.isfinite(value):
         raise ModelError(f"{key}: non-finite number {value!r}")
     return float(value)
@@ -265,6 +265,5 @@ def as_expressions(
             f"{key}: wrong number of expressions; expected {n} instead of {len(value)}"
         )
     return tuple(
-        parse_expression(str(v) if isinstance(v, int | float) else v, env, key=f"{key}[{i}]")
-        for i, v in enumerate(value)
+        parse_expression(expression_text(v), env, key=f"{key}[{i}]") for i, v in enumerate(value)
     )

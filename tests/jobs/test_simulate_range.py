@@ -17,8 +17,10 @@ import pytest
 
 from hybridlog.errors import ModelError
 from hybridlog.io.load import ReadOptions, SignalSpec, load_signals
-from hybridlog.model.loader import load_model
+from hybridlog.model.builtins import builtin_text
+from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
+from hybridlog.simulate_components import simulate_components
 from tests.support.cli import run_main
 
 GROWING = """
@@ -92,6 +94,43 @@ def test_an_input_beyond_the_bound_names_its_key(tmp_path: Path) -> None:
         f"{tmp_path / 'growing.toml'}: simulation.inputs.u: 1e+200 at t = 1 s (k = 1); the "
         "input must be a finite number below 2^480 = 3.12e+144 in magnitude at every step"
     )
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "key", "where"),
+    [
+        ("[simulation]", "[simulation]\nstate = [1e200]", "simulation.state[0]", ""),
+        (
+            "state = [1.0]",
+            "state = [-1e150]",
+            "initial.state[0]",
+            " (the file gives no simulation.state)",
+        ),
+    ],
+)
+def test_a_start_beyond_the_bound_names_its_key(
+    old: str, new: str, key: str, where: str, tmp_path: Path
+) -> None:
+    # was "the simulation diverged: x = 1e+200 at t = 0 s", naming no key
+    path = _model(tmp_path)
+    path.write_text(path.read_text(encoding="utf-8").replace(old, new), encoding="utf-8")
+    start = new.rsplit("[", 1)[1].rstrip("]")
+    with pytest.raises(ModelError) as error:
+        simulate(load_model(path), steps=3)
+    assert str(error.value) == (
+        f"{path}: {key}: the run would start with x = {float(start):g}{where}, more than a log "
+        "hybridlog reads may hold (|value| >= 2^480 = 3.12e+144); start it within that"
+    )
+
+
+def test_a_components_start_beyond_the_bound_names_its_key() -> None:
+    text = builtin_text("bioplex_pgc")
+    start = "state = [0.49, 0.49, 1200.0]"
+    assert text.count(start) == 2  # [initial] and [simulation]
+    at = text.index("[simulation]")
+    edited = text[:at] + text[at:].replace(start, "state = [0.49, 0.49, 1e300]", 1)
+    with pytest.raises(ModelError, match=r"^b\.toml: simulation\.state\[2\]: the run would start "):
+        simulate_components(parse_model(edited, origin="b.toml"), steps=3)
 
 
 def test_a_components_run_beyond_the_bound_names_the_value(

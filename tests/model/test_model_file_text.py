@@ -15,7 +15,7 @@ from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import load_model, parse_model
 from tests.support.model_text import edited as _replace
 from tests.support.model_text import refused as _refused
-from tests.support.models import LINEAR_TWO_MODE
+from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 PRIOR = "mode_probabilities = [0.6, 0.4]"
 MEASUREMENT = "measurement = [[0.05, 0.01], [0.01, 0.08]]"
@@ -145,7 +145,7 @@ def test_a_bad_covariance_names_what_is_wrong(value, pattern):
     ("old", "new", "pattern"),
     [
         # was "unknown mode 'True'" and "unknown mode '['slow']'"
-        (PRIOR, "mode = true", r"initial\.mode: expected a mode id .*, got True"),
+        (PRIOR, "mode = true", r"initial\.mode: expected a mode id .*, got true$"),
         (PRIOR, 'mode = ["slow"]', r"initial\.mode: expected a mode id"),
         # was "probabilities must be non-negative and sum to 1", for either
         (
@@ -164,6 +164,34 @@ def test_a_bad_covariance_names_what_is_wrong(value, pattern):
 )
 def test_initial_modes_name_what_is_wrong(old, new, pattern):
     _refused(_replace(LINEAR_TWO_MODE, old, new), pattern)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "pattern"),
+    [
+        # were "the constant 'True' is not allowed in a model expression", quoting a spelling
+        # the file never had
+        (
+            'a = "sin(0.7*t) + 0.5*cos(0.13*t)"',
+            "a = true",
+            r"simulation\.inputs\.a: expected an expression string, got bool$",
+        ),
+        ("state = [0.0, 0.0]", "state = [0.0, false]", r"simulation\.state\[1\]: .*got false$"),
+        ("dt = 0.1", "dt = 0.1\ntime = true", r"time: expected .*, got true$"),
+    ],
+)
+def test_a_toml_boolean_is_named_as_the_file_spells_it(old, new, pattern):
+    _refused(_replace(LINEAR_TWO_MODE, old, new), pattern)
+
+
+def test_a_toml_boolean_in_a_mode_function_is_no_expression():
+    text = _replace(PENDULUM_ONE_MODE, 'h = ["sin(theta)",', "h = [true,")
+    _refused(text, r"modes\.only\.h\[0\]: expected an expression string, got bool$")
+
+
+def test_a_number_written_as_an_expression_is_that_number():
+    text = _replace(LINEAR_TWO_MODE, 'a = "sin(0.7*t) + 0.5*cos(0.13*t)"', "a = 0.25")
+    assert float(parse_model(text).simulation_inputs["a"]) == 0.25
 
 
 def test_an_edited_builtin_names_the_reference_a_renamed_mode_left():
