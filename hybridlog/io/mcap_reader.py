@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from hybridlog.errors import HybridlogError, LogError, excerpt
+from hybridlog.io.bag_qos import qos_problem
 from hybridlog.io.definitions import (
     DefinitionError,
     definition_key,
@@ -192,7 +193,7 @@ def rosbags_summary_problem(path: Path, *, storage: bool = False) -> str | None:
     a file without chunks in file order, refusing it part way through at the first message
     logged before the one ahead of it (the MCAP specification allows any order), which the
     ``mcap`` reader's messages are put in log-time order after; and it refuses a file whose
-    channels' QoS metadata it cannot parse (:func:`_qos_problem`).
+    channels' QoS metadata it cannot parse (:func:`~.bag_qos.qos_problem`).
 
     Parameters
     ----------
@@ -226,30 +227,10 @@ def rosbags_summary_problem(path: Path, *, storage: bool = False) -> str | None:
     )
     if foreign:
         return f"it has channels that are not ROS 2 CDR ({', '.join(foreign)})"
-    return _qos_problem(summary.channels.values())
-
-
-def _qos_problem(channels: Any) -> str | None:
-    """Why rosbags cannot parse a channel's ``offered_qos_profiles`` metadata, or ``None``.
-
-    rosbags parses every channel's QoS profiles as it opens a file, and raises on text that
-    is not a YAML list of complete profiles (a scalar, a profile without ``deadline``), which
-    other writers store; the ``mcap`` reader never reads them, nor does hybridlog.
-    """
-    from rosbags.rosbag2.metadata import parse_qos
-
-    for channel in channels:
-        text = channel.metadata.get("offered_qos_profiles")
-        if not text:
-            continue
-        try:
-            parse_qos(text)
-        except Exception as err:  # rosbags raises what its YAML and dict lookups raise
-            return (
-                f"the QoS profiles of channel {excerpt(channel.topic)!r} are not what it "
-                f"reads ({excerpt(first_line(err))})"
-            )
-    return None
+    return qos_problem(
+        ((c.topic, c.metadata.get("offered_qos_profiles")) for c in summary.channels.values()),
+        noun="channel",
+    )
 
 
 def recover_hint(path: Path, topic: str, found: int) -> str:

@@ -20,6 +20,9 @@ What this adds to rosbags' readers:
 - MCAP storage files are checked like bare MCAP files first (CRCs, footer; see
   :func:`~hybridlog.io.mcap_reader.check_mcap`), and whatever rosbags raises on a damaged
   file becomes a :class:`~hybridlog.errors.LogError` naming the file.
+- QoS profiles rosbags cannot parse (in ``metadata.yaml`` or a ``.db3`` file's ``topics``
+  table), on which it raises in its own words naming no topic, are found before it opens
+  the bag and refused naming the topic and what they hold (:mod:`.bag_qos`).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog.errors import HybridlogError, LogError, excerpt
+from hybridlog.io.bag_qos import bag_qos_problem
 from hybridlog.io.definitions import (
     DefinitionError,
     definition_key,
@@ -87,6 +91,11 @@ def check_sqlite(path: Path) -> None:
         )
 
 
+def _said(text: str) -> str:
+    """A library's error text, escaped and cut short (:func:`~hybridlog.errors.excerpt`)."""
+    return excerpt(text)[1:-1]
+
+
 def _qos_text(connection: Any) -> str:
     return repr(getattr(connection.ext, "offered_qos_profiles", None))
 
@@ -128,6 +137,8 @@ class BagSource(MessageSource):
                 check_sqlite(file)
         elif kind == "ros2-db3":
             check_sqlite(self._file)
+        if log_format.directory or kind == "ros2-db3":
+            self._check_qos()
         try:
             self._open()
             extra = types_from_msg_dirs(self.options.msg_dirs) if self.options.msg_dirs else {}
@@ -169,6 +180,14 @@ class BagSource(MessageSource):
                     f"{file.name} ({problem}); analyse the file itself: {file}"
                 )
 
+    def _check_qos(self) -> None:
+        """Refuse, naming the topic, QoS profiles that rosbags cannot parse as it opens the bag."""
+        problem = bag_qos_problem(self._file)
+        if problem is not None:
+            raise LogError(
+                f"{self.path}: rosbags, which reads ROS 2 bags, cannot open it: {problem}"
+            )
+
     def _open(self) -> None:
         if self._ros1:
             from rosbags.rosbag1 import Reader as Ros1Reader
@@ -194,7 +213,7 @@ class BagSource(MessageSource):
         self._format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
 
     def _open_problem(self, err: BaseException) -> str:
-        text = excerpt(first_line(err)).strip("'")
+        text = _said(first_line(err))
         if isinstance(err, FileNotFoundError) and "metadata" in text:
             inside = sorted(p.name for p in self._file.glob("*") if p.suffix in (".db3", ".mcap"))
             hint = f"; open the file inside it directly: {inside[0]}" if inside else ""
@@ -218,7 +237,7 @@ class BagSource(MessageSource):
                 "run `rosbag reindex` on it"
             )
         if "Cannot open database" in text or type(err).__module__.startswith(("sqlite", "apsw")):
-            reason = excerpt(first_line(err).rsplit(": ", 1)[-1]).strip("'")
+            reason = _said(first_line(err).rsplit(": ", 1)[-1])
             return f"{self.path}: not a readable ROS 2 bag database ({reason})"
         if "File magic is invalid" in text:
             return f"{self.path}: not a {self._format} file (wrong magic bytes)"
@@ -364,7 +383,7 @@ class BagSource(MessageSource):
             reader.close()
 
     def _damaged(self, err: BaseException) -> LogError:
-        text = excerpt(first_line(err)).strip("'")
+        text = _said(first_line(err))
         if "checksum" in text.lower() or "crc" in text.lower():
             return LogError(f"{self.path}: CRC mismatch: the file is corrupt ({text})")
         if self._directory and "not in timestamp order" in text:

@@ -10,6 +10,9 @@ Every file here is written by another tool's writer -- rosbags' ROS 2 bag writer
   ``---``) beside good topics: only that topic is marked, the others are read;
 - a bag whose ``metadata.yaml`` gives other QoS profiles than its storage file: topics are
   matched by name and type, and ``inspect`` says the two disagree;
+- QoS profiles rosbags cannot parse (a YAML scalar, a profile without ``deadline``): a ros2
+  MCAP file is read by the mcap reader; a ROS 2 bag, which only rosbags reads, is refused
+  naming the topic and what its profiles hold;
 - hints: ``--recover`` is suggested only where it would read messages.
 """
 
@@ -640,6 +643,97 @@ def test_channel_qos_rosbags_cannot_parse_does_not_refuse_the_file(
         writer.finish()
     assert inspect_log(log)["problems"] == []
     check_good_topics(log)
+
+
+QOS_HELD = {
+    "x": "the text 'x'",
+    "- a\n- b": "a list whose item 1 is the text 'a'",
+    "history: 1": "a mapping (history)",
+    "- [unclosed": "text that is not YAML (expected ',' or ']', but got '<stream end>': "
+    "'- [unclosed')",
+    "- history: keep_last\n  depth: 1": "a profile without 'deadline'",
+}
+
+
+def _qos_refusal(log: Path, topic: str, place: str, held: str) -> str:
+    return (
+        f"{log}: rosbags, which reads ROS 2 bags, cannot open it: the QoS profiles of topic "
+        f"{topic!r} {place} hold {held}, not a YAML list of complete profiles"
+    )
+
+
+def _set_db3_qos(db3: Path, qos: str, topic: str | None = None) -> None:
+    with sqlite3.connect(db3) as connection:
+        connection.execute(
+            "update topics set offered_qos_profiles = ? where ? is null or name = ?",
+            (qos, topic, topic),
+        )
+    connection.close()
+
+
+@pytest.mark.parametrize("qos", QOS_HELD)
+def test_a_db3_whose_qos_rosbags_cannot_parse_is_refused_naming_the_topic(
+    qos: str, tmp_path: Path
+) -> None:
+    # rosbags raised on opening it: "cannot open the ros2-db3 file (string indices must be
+    # integers, not 'str)", naming no topic (and the library's closing quote cut off).
+    db3 = write_streams_bag(tmp_path / "bag", good_streams(), qos=[reliable_qos()]) / "bag.db3"
+    _set_db3_qos(db3, qos)
+    with pytest.raises(LogError) as error:
+        inspect_log(db3)
+    assert str(error.value) == _qos_refusal(db3, "/u", "in its topics table", QOS_HELD[qos])
+
+
+def _drop_deadline_of_y(metadata: Path) -> None:
+    text = metadata.read_text()
+    y = text.index("name: /y")
+    deadline = "        deadline:\n          nsec: 854775807\n          sec: 9223372036\n"
+    start = text.index(deadline, y)
+    metadata.write_text(text[:start] + text[start + len(deadline) :])
+
+
+@pytest.mark.parametrize(
+    "where", ["metadata.yaml, sqlite3", "metadata.yaml, mcap", "db3 of a bag folder"]
+)
+def test_a_bag_folder_whose_qos_rosbags_cannot_parse_is_refused_naming_the_topic(
+    where: str, tmp_path: Path
+) -> None:
+    # rosbags said "Invalid bag metadata: string indices must be integers, not 'str'.", "A
+    # metadata key is missing KeyError('deadline')." or "Could not load YAML from
+    # offered_qos_profiles: ...", naming no topic.
+    storage = "mcap" if "mcap" in where else "sqlite3"
+    bag = write_streams_bag(tmp_path / "bag", good_streams(), storage, qos=[reliable_qos()])
+    if where == "db3 of a bag folder":
+        _set_db3_qos(bag / "bag.db3", "- [unclosed", topic="/y")
+        place, held = "in the topics table of bag.db3", QOS_HELD["- [unclosed"]
+    else:
+        _drop_deadline_of_y(bag / "metadata.yaml")
+        place, held = "in metadata.yaml", "a profile without 'deadline'"
+    with pytest.raises(LogError) as error:
+        load(bag)
+    assert str(error.value) == _qos_refusal(bag, "/y", place, held)
+
+
+def test_a_bag_whose_qos_rosbags_cannot_parse_exits_2_naming_the_topic(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db3 = write_streams_bag(tmp_path / "bag", good_streams()) / "bag.db3"
+    _set_db3_qos(db3, "x")
+    err = cli_error(["inspect", str(db3)], capsys)
+    refusal = _qos_refusal(db3, "/u", "in its topics table", QOS_HELD["x"])
+    assert err == f"hybridlog: error: {refusal}\n"
+
+
+def test_a_library_text_keeps_its_quotes(tmp_path: Path) -> None:
+    # rosbags raises KeyError('ros2foo') on an unknown definition encoding: its text was
+    # shown stripped of its quotes (as "string indices must be integers, not 'str" was).
+    db3 = write_streams_bag(tmp_path / "bag", good_streams()) / "bag.db3"
+    with sqlite3.connect(db3) as connection:
+        connection.execute("update message_definitions set encoding = 'ros2foo'")
+    connection.close()
+    with pytest.raises(LogError) as error:
+        inspect_log(db3)
+    assert str(error.value) == f"{db3}: cannot open the ros2-db3 file ('ros2foo')"
 
 
 def test_a_schema_named_without_its_package_is_named_so_not_said_undefined(
