@@ -1,4 +1,4 @@
-"""QoS profiles rosbags cannot parse, found before rosbags opens a file.
+"""QoS profiles rosbags cannot parse, and which topic holds them.
 
 rosbags parses every topic's ``offered_qos_profiles`` as it opens a ROS 2 bag (a folder's
 ``metadata.yaml``, the ``topics`` table of each ``.db3`` file) or a ``ros2`` MCAP file (its
@@ -6,8 +6,11 @@ channels' metadata), with :func:`rosbags.rosbag2.metadata.parse_qos`, and raises
 anything but a YAML list of complete profiles -- in its own words ("string indices must be
 integers"), naming no topic.  Other writers, and edited bags, store other things: a YAML
 scalar, a list of text, a profile without ``deadline``.  hybridlog never uses QoS, but only
-rosbags reads ROS 2 bags; so the profiles are judged here by rosbags' own parser before it
-opens the file, and what a topic holds instead is said.
+rosbags reads ROS 2 bags; so the profiles are judged here by rosbags' own parser and what a
+topic holds instead is said: for a bag once rosbags has failed to open it
+(``BagSource._open_problem``: a bag it opens costs nothing), for an MCAP file before rosbags
+is chosen to read it (:func:`~hybridlog.io.mcap_reader.rosbags_summary_problem`: the
+``mcap`` reader, which never reads QoS, reads it instead).
 """
 
 from __future__ import annotations

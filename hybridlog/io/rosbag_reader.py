@@ -21,8 +21,9 @@ What this adds to rosbags' readers:
   :func:`~hybridlog.io.mcap_reader.check_mcap`), and whatever rosbags raises on a damaged
   file becomes a :class:`~hybridlog.errors.LogError` naming the file.
 - QoS profiles rosbags cannot parse (in ``metadata.yaml`` or a ``.db3`` file's ``topics``
-  table), on which it raises in its own words naming no topic, are found before it opens
-  the bag and refused naming the topic and what they hold (:mod:`.bag_qos`).
+  table), on which it raises in its own words naming no topic, are found when it has
+  failed to open the bag (nothing is read ahead for a bag it opens) and refused naming the
+  topic and what they hold (:mod:`.bag_qos`).
 """
 
 from __future__ import annotations
@@ -137,8 +138,6 @@ class BagSource(MessageSource):
                 check_sqlite(file)
         elif kind == "ros2-db3":
             check_sqlite(self._file)
-        if log_format.directory or kind == "ros2-db3":
-            self._check_qos()
         try:
             self._open()
             extra = types_from_msg_dirs(self.options.msg_dirs) if self.options.msg_dirs else {}
@@ -180,14 +179,6 @@ class BagSource(MessageSource):
                     f"{file.name} ({problem}); analyse the file itself: {file}"
                 )
 
-    def _check_qos(self) -> None:
-        """Refuse, naming the topic, QoS profiles that rosbags cannot parse as it opens the bag."""
-        problem = bag_qos_problem(self._file)
-        if problem is not None:
-            raise LogError(
-                f"{self.path}: rosbags, which reads ROS 2 bags, cannot open it: {problem}"
-            )
-
     def _open(self) -> None:
         if self._ros1:
             from rosbags.rosbag1 import Reader as Ros1Reader
@@ -213,6 +204,9 @@ class BagSource(MessageSource):
         self._format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"
 
     def _open_problem(self, err: BaseException) -> str:
+        qos = None if self._ros1 or self._kind == "mcap" else bag_qos_problem(self._file)
+        if qos is not None:  # rosbags says it in its own words, naming no topic
+            return f"{self.path}: rosbags, which reads ROS 2 bags, cannot open it: {qos}"
         text = _said(first_line(err))
         if isinstance(err, FileNotFoundError) and "metadata" in text:
             inside = sorted(p.name for p in self._file.glob("*") if p.suffix in (".db3", ".mcap"))
