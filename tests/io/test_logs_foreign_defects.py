@@ -602,20 +602,25 @@ def test_a_ros1_style_type_name_in_a_ros2_schema_is_read_by_either_reader(
     # A schema named std_msgs/Float64 (ROS 1's spelling) with a ROS 2 definition: the
     # mcap reader read it, while the same file through rosbags (a ros2 profile) was refused
     # as "type 'std_msgs/Float64' has no definition in the log", which the log has.
+    log = _float64_mcap(tmp_path / "ros1_names.mcap", profile, "std_msgs/Float64", {})
+    assert inspect_log(log)["problems"] == []
+    check_good_topics(log)
+
+
+def _float64_mcap(log: Path, profile: str, schema_name: str, metadata: dict[str, str]) -> Path:
+    """``/u`` and ``/y`` of ``schema_name`` (a ROS 2 ``float64 data``), written by mcap's writer."""
     from mcap.writer import Writer
 
-    log = tmp_path / "ros1_names.mcap"
     with log.open("wb") as handle:
         writer = Writer(handle)
         writer.start(profile=profile, library="tests")
-        schema = writer.register_schema("std_msgs/Float64", "ros2msg", b"float64 data\n")
-        u, y = (writer.register_channel(topic, "cdr", schema) for topic in ("/u", "/y"))
+        schema = writer.register_schema(schema_name, "ros2msg", b"float64 data\n")
+        u, y = (writer.register_channel(t, "cdr", schema, metadata) for t in ("/u", "/y"))
         for k in range(30):
             writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
             writer.add_message(y, k * NS, float64_cdr(2.0 * k), k * NS)
         writer.finish()
-    assert inspect_log(log)["problems"] == []
-    check_good_topics(log)
+    return log
 
 
 @pytest.mark.parametrize(
@@ -628,19 +633,9 @@ def test_channel_qos_rosbags_cannot_parse_does_not_refuse_the_file(
     # profiles (a YAML scalar, a list of text, a broken document): rosbags raised on opening
     # it ("cannot open the mcap file (string indices must be integers ...)") though the
     # mcap library reads it and hybridlog never uses the QoS.
-    from mcap.writer import Writer
-
-    log = tmp_path / "qos.mcap"
-    with log.open("wb") as handle:
-        writer = Writer(handle)
-        writer.start(profile="ros2", library="tests")
-        schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data\n")
-        metadata = {"offered_qos_profiles": qos}
-        u, y = (writer.register_channel(t, "cdr", schema, metadata) for t in ("/u", "/y"))
-        for k in range(30):
-            writer.add_message(u, k * NS, float64_cdr(float(k)), k * NS)
-            writer.add_message(y, k * NS, float64_cdr(2.0 * k), k * NS)
-        writer.finish()
+    log = _float64_mcap(
+        tmp_path / "qos.mcap", "ros2", "std_msgs/msg/Float64", {"offered_qos_profiles": qos}
+    )
     assert inspect_log(log)["problems"] == []
     check_good_topics(log)
 
