@@ -51,7 +51,9 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   sample, or ends it that long before the last one, is recorded (``notes["span"]``): the
   report's span alone would not say that part of the log was left out.
 - ``split_gaps``: instead of refusing a log with an output gap longer than ``max_gap``, cut it
-  at every such gap and align the longest piece (the earliest of equally long ones).  The
+  at every such gap and align the longest piece (the earliest of equally long ones): at the
+  gaps the piece's grid refuses, and only there (:func:`_split_at_refused_gaps`); a sample
+  alone between two gaps is a piece of its own.  The
   estimators need one continuous grid, and a filter carried across a gap would start the next
   piece from a stale state; analysing each piece separately would need one report per piece.
   The pieces and the one analysed are recorded (``notes["segments"]``,
@@ -75,7 +77,7 @@ log's samples, never recomputed.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from fractions import Fraction
 from typing import Any, NamedTuple
 
@@ -558,7 +560,7 @@ def _nearest_beside_gaps(
     """Give the grid points inside a gap longer than ``max_gap`` their nearest sample.
 
     ``values``: the linear interpolation, changed in place; ``index``: each point's nearest
-    sample.  A gap (:func:`_gap_threshold`, as ``--split-gaps`` cuts) says nothing of the
+    sample.  A gap (:func:`_gap_threshold`) says nothing of the
     signal inside it, as nothing is said past the last sample, where the interpolation takes
     the end value: a line drawn to the sample across the gap is a guess.  A point within
     ``dt/2`` of the sample before such a gap read a value part of the way to the sample
@@ -805,13 +807,114 @@ def _slower_than_max_gap(series: Series, max_gap_ns: int, dt_ns: int) -> str:
 
 
 def _gap_threshold(max_gap_ns: int, dt_ns: int) -> int:
-    """The step between two samples beyond which ``--split-gaps`` cuts: ``max(max_gap, dt)``.
+    """The step between two samples that is a gap: ``max(max_gap, dt)``.
 
     Samples ``dt`` apart leave no grid point without a sample within ``dt/2``, which is what
-    the reading refuses as a gap: with ``--max-gap 0`` (or anything under ``dt``) a log
-    sampled at ``dt`` is read whole, and ``--split-gaps`` must not cut it at every step.
+    the reading refuses as a gap: with ``--max-gap 0`` (or anything under ``dt``) an input
+    sampled at ``dt`` is not held over ``max_gap``, and a linear interpolation is drawn
+    between outputs sampled at ``dt``.  (``--split-gaps`` cuts where the grid refuses a gap,
+    :func:`_split_at_refused_gaps`.)
     """
     return max(max_gap_ns, dt_ns)
+
+
+Resampled = tuple[FloatArray, IntArray, IntArray]
+"""What :func:`resample_series` gives of one output: values, points refused, points bridged."""
+
+
+def _output_grid(
+    source: str,
+    dt: float,
+    signals: tuple[Mapping[str, Series], Mapping[str, Series], Mapping[str, Series]],
+    field_word: str,
+    max_gap_ns: int,
+    dropped: Mapping[str, IntArray],
+) -> IntArray:
+    """The grid of the inputs, commands and outputs ``signals`` (:func:`make_grid`).
+
+    A gap of an output that the grid is sure to refuse is refused before the grid is made
+    (:func:`_gap_on_the_grid`): times not in seconds would ask for GiBs.
+    """
+    inputs, commands, outputs = signals
+    dt_ns = step_ns(dt)
+    output_list = list(outputs.values())
+    held_signals = [*inputs.values(), *commands.values()]
+    starts, ends = [*held_signals, *output_list], output_list or held_signals
+    span = grid_span(dt_ns, starts, ends, held=on_whole_ns(held_signals, dt), source=source)
+    for symbol, series in outputs.items():
+        gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
+        if gap is not None:
+            raise _gap_error(
+                source,
+                f"output {symbol!r}",
+                field_word,
+                series,
+                gap,
+                0,
+                max_gap_ns,
+                dt_ns,
+                dropped=dropped.get(symbol),
+            )
+    return make_grid(dt, starts, ends, held=held_signals, source=source)
+
+
+def _split_at_refused_gaps(
+    named: tuple[str, str],
+    held: Mapping[str, Series],
+    outputs: Mapping[str, Series],
+    steps: tuple[int, int],
+    notes: dict[str, Any],
+    build: tuple[
+        Callable[[str, Mapping[str, Series]], IntArray],
+        Callable[[Mapping[str, Series], IntArray], list[Resampled]],
+    ],
+) -> tuple[dict[str, Series], str, IntArray, list[Resampled]]:
+    """``--split-gaps``: the longest piece whose grid refuses no gap, with that grid.
+
+    ``named``: the log's path and what it calls a series; ``steps``: ``dt`` and ``max_gap``
+    (ns); ``build``: the grid of a piece's outputs (named by the piece) and the outputs
+    resampled onto it.  A step between two samples that is longer than ``max_gap`` but
+    shorter than about ``2*dt`` leaves a grid point more than ``dt/2`` from both, which the
+    reading refuses, or not, by where the grid lies: cut at every step longer than
+    ``max(max_gap, dt)``, a log on a clock jittering by 20 % of ``dt`` read whole with
+    ``--max-gap`` equal to ``dt`` came in 105 pieces with ``--split-gaps``, which analysed
+    5 of its 301 samples.  So the log is cut at the gaps refused wherever the grid lies
+    (:func:`_longest_piece`), then at those the piece's own grid refuses, until it refuses
+    none: ``--split-gaps`` cuts where the reading alone would refuse the log, and only there.
+    Returns the piece's outputs, its description (empty when nothing was cut), its grid and
+    its outputs resampled.
+    """
+    source, field_word = named
+    grid_of, resampled = build
+    refused: frozenset[tuple[int, int]] = frozenset()
+    while True:
+        cut, piece = _longest_piece(source, field_word, held, outputs, steps, notes, refused)
+        grid = grid_of(f"{source} ({piece})" if piece else source, cut)
+        on_grid_outputs = resampled(cut, grid)
+        more = set(refused)
+        for series, (_, too_long, _) in zip(cut.values(), on_grid_outputs, strict=True):
+            hi = np.searchsorted(series.time_ns, grid[too_long], side="right")
+            inside = (hi >= 1) & (hi < series.time_ns.size)  # points outside: refused later
+            for k in hi[inside].tolist():
+                more.add((int(series.time_ns[k - 1]), int(series.time_ns[k])))
+        if len(more) == len(refused):
+            return cut, piece, grid, on_grid_outputs
+        refused = frozenset(more)
+
+
+def _gap_anywhere(steps: IntArray, max_gap_ns: int, dt_ns: int) -> npt.NDArray[np.bool_]:
+    """Which steps between two samples (ns) the reading refuses wherever the grid lies.
+
+    Longer than ``max_gap`` (:func:`longer_than_max_gap`), and long enough that the
+    stretch more than ``dt/2`` from both samples (:func:`past_half_step`) is longer than a
+    grid step: it holds a grid point, as :func:`_gap_on_the_grid` reasons.  A shorter step
+    is refused or not by the phase of the grid (:func:`_split_at_refused_gaps`).
+    """
+    half = dt_ns // 2 + clock_tolerance_ns(dt_ns) + 1
+    anywhere: npt.NDArray[np.bool_] = longer_than_max_gap(steps, max_gap_ns, dt_ns) & (
+        steps - 2 * half > dt_ns + 1
+    )
+    return anywhere
 
 
 def check_alignment_options(
@@ -937,38 +1040,30 @@ def align_signals(
     if notes is not None:
         _record_span_bounds(inputs, outputs, commands, field_word, dt_ns, max_gap_ns, notes)
     piece = ""
+    held_series = {**inputs, **commands}
+
+    def grid_of(named: str, cut: Mapping[str, Series]) -> IntArray:
+        return _output_grid(
+            named, dt, (inputs, commands, cut), field_word, max_gap_ns, dropped or {}
+        )
+
+    def resampled(cut: Mapping[str, Series], grid: IntArray) -> list[Resampled]:
+        return [resample_series(s, grid, dt_ns, max_gap_ns, method) for s in cut.values()]
+
     if split_gaps and outputs:
-        outputs, piece = _longest_piece(
-            source,
-            field_word,
-            {**inputs, **commands},
+        outputs, piece, grid, on_grid_outputs = _split_at_refused_gaps(
+            (source, field_word),
+            held_series,
             outputs,
-            max_gap_ns,
-            dt_ns,
+            (dt_ns, max_gap_ns),
             notes if notes is not None else {},
+            (grid_of, resampled),
         )
         if piece:  # every message from here on is about that piece
             source = f"{source} ({piece})"
-
-    output_list = list(outputs.values())
-    held_signals = [*inputs.values(), *commands.values()]
-    starts, ends = [*held_signals, *output_list], output_list or held_signals
-    span = grid_span(dt_ns, starts, ends, held=on_whole_ns(held_signals, dt), source=source)
-    for symbol, series in outputs.items():
-        gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
-        if gap is not None:  # before the grid: times not in seconds would ask for GiBs
-            raise _gap_error(
-                source,
-                f"output {symbol!r}",
-                field_word,
-                series,
-                gap,
-                0,
-                max_gap_ns,
-                dt_ns,
-                dropped=(dropped or {}).get(symbol),
-            )
-    grid = make_grid(dt, starts, ends, held=held_signals, source=source)
+    else:
+        grid = grid_of(source, outputs)
+        on_grid_outputs = resampled(outputs, grid)
     n = grid.size
 
     u = _held_onto(grid, inputs, "input", dt_ns, max_gap_ns, notes)
@@ -977,7 +1072,7 @@ def align_signals(
     y = np.empty((n, len(outputs)), dtype=np.float64)
     unmeasured: npt.NDArray[np.bool_] | None = None
     for j, (symbol, series) in enumerate(outputs.items()):
-        values, too_long, bridged = resample_series(series, grid, dt_ns, max_gap_ns, method)
+        values, too_long, bridged = on_grid_outputs[j]
         if too_long.size:
             raise _gap_error(
                 source,
@@ -1326,23 +1421,27 @@ def _longest_piece(
     field_word: str,
     inputs: Mapping[str, Series],
     outputs: Mapping[str, Series],
-    max_gap_ns: int,
-    dt_ns: int,
+    steps: tuple[int, int],
     notes: dict[str, Any],
+    refused: frozenset[tuple[int, int]] = frozenset(),
 ) -> tuple[dict[str, Series], str]:
     """The outputs (none empty) cut to the longest stretch without a gap longer than ``max_gap``.
 
-    (Or than ``dt``, whichever is longer: :func:`_gap_threshold`.)  With it, the piece kept
-    when the log was cut, for messages (``--split-gaps piece 2 of 3, t = 20 … 23 s, the
-    longest``; its number counts the pieces in time order from 1, as report.json's
+    ``steps``: ``dt`` and ``max_gap`` (ns).  The log is cut at every step between two
+    samples of an output that the reading refuses wherever its grid lies
+    (:func:`_gap_anywhere`), and at the steps in ``refused`` (``(start, end)`` times, ns),
+    which the grid of a piece cut before refused (:func:`_split_at_refused_gaps`).  A
+    sample alone between two gaps is a piece of its own, wherever it lies.  With it, the
+    piece kept when the log was cut, for messages (``--split-gaps piece 2 of 3, t = 20 … 23
+    s, the longest``; its number counts the pieces in time order from 1, as report.json's
     ``reading.segments`` lists them); empty when no gap cut it.
     """
-    threshold = _gap_threshold(max_gap_ns, dt_ns)
+    dt_ns, max_gap_ns = steps
     for symbol, series in outputs.items():
         # every step a gap: no piece longer than one sample (counted, not judged from the
         # median step: a log mostly sampled slowly can still hold a piece sampled at dt)
-        steps = np.diff(series.time_ns)
-        if steps.size and bool(np.all(longer_than_max_gap(steps, threshold, dt_ns))):
+        diffs = np.diff(series.time_ns)
+        if diffs.size and bool(np.all(_gap_anywhere(diffs, max_gap_ns, dt_ns))):
             hint = _slower_than_max_gap(series, max_gap_ns, dt_ns)
             raise LogError(
                 f"{source}: --split-gaps: output {symbol!r} ({field_word} {series.name!r}) "
@@ -1350,17 +1449,18 @@ def _longest_piece(
             )
     start = max(int(s.time_ns[0]) for s in (*inputs.values(), *outputs.values()))
     end = min(int(s.time_ns[-1]) for s in outputs.values())
-    gaps: list[tuple[int, int]] = []
+    found: set[tuple[int, int]] = set(refused)
     for series in outputs.values():
-        steps = np.diff(series.time_ns)
-        for i in np.flatnonzero(longer_than_max_gap(steps, threshold, dt_ns)).tolist():
-            gaps.append((int(series.time_ns[i]), int(series.time_ns[i + 1])))
-    if not gaps:
+        diffs = np.diff(series.time_ns)
+        for i in np.flatnonzero(_gap_anywhere(diffs, max_gap_ns, dt_ns)).tolist():
+            found.add((int(series.time_ns[i]), int(series.time_ns[i + 1])))
+    if not found:
         return dict(outputs), ""
+    gaps = sorted(found)
     pieces: list[tuple[int, int]] = []
     cursor = start
-    for gap_start, gap_end in sorted(gaps):
-        if gap_start > cursor:
+    for gap_start, gap_end in gaps:
+        if gap_start >= cursor:  # a sample between two gaps (gap_start == cursor) too
             pieces.append((cursor, min(gap_start, end)))
         cursor = max(cursor, gap_end)
     if cursor <= end:
@@ -1373,7 +1473,7 @@ def _longest_piece(
     notes.update(_listed("segments", "segment", [_piece(a, b) for a, b in pieces]))
     notes["analysed_segment"] = best
     notes["analysed"] = _piece(lo, hi)
-    gap_list = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in sorted(set(gaps))]
+    gap_list = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in gaps]
     notes.update(_listed("gaps", "gap", gap_list))
     cut: dict[str, Series] = {}
     for symbol, series in outputs.items():
