@@ -17,10 +17,11 @@ Every command that writes goes through this module, in two steps:
    (:func:`_unchanged`).
 2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
    temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
-   rename them into
-   place when all of them are complete; a failure removes them and leaves the targets as they
-   were.  Temporaries of processes that died (``kill -9``) are removed by the next run writing
-   to the same place (:func:`remove_stale_temporaries`).
+   rename them into place when all of them are complete (an empty folder given as the
+   output is filled in place instead, so that it stays the user's folder,
+   :func:`atomic_output_dir`); a failure removes them and leaves the targets as they were.
+   Temporaries of processes that died (``kill -9``) are removed by the next run writing to
+   the same place (:func:`remove_stale_temporaries`).
 """
 
 from __future__ import annotations
@@ -63,6 +64,7 @@ __all__ = [
     "record_path",
     "recorded_files",
     "remove_stale_temporaries",
+    "staged_for",
     "staging_dir",
     "temporary_name",
     "write_marker",
@@ -618,7 +620,8 @@ def check_dir_target(
 ) -> Path:
     """Check that an output folder may be created or replaced; return its absolute path.
 
-    A missing folder must be creatable (:func:`check_creatable`); an empty one is fine.  A
+    A missing folder must be creatable (:func:`check_creatable`); an empty one is fine
+    (the temporaries dead runs left in it removed, :func:`remove_stale_temporaries`).  A
     non-empty one is replaced only with ``force`` and only when hybridlog wrote it
     (:func:`is_ours`, or the test ``ours`` of a writer whose folders record it another way),
     and, when it is about to be replaced (``replacing``), only if it holds nothing but what
@@ -648,6 +651,7 @@ def check_dir_target(
         )
     if not path.is_dir():
         raise OutputError(f"output path {_shown(path)} exists and is not a directory")
+    remove_stale_temporaries(path)  # of a run killed while it filled the folder (_fill_dir)
     try:
         nonempty = _is_nonempty_dir(path)
     except OSError as err:
@@ -875,8 +879,17 @@ def _storage_error(target: PathLike, err: BaseException) -> OutputError | None:
         return None
     # an output written inside another's temporary folder (compare's per estimator) is
     # named where it was to go
-    shown = Path(*(_target_name(part) for part in Path(target).parts))
-    return OutputError(f"{_shown(shown)}: cannot be written ({os.strerror(number)})")
+    return OutputError(f"{_shown(staged_for(target))}: cannot be written ({os.strerror(number)})")
+
+
+def staged_for(path: PathLike) -> Path:
+    """The output ``path`` stands for, each temporary name in it replaced by its target's.
+
+    Names of :func:`temporary_name` become the name they stand for; other paths stay as
+    they are.  An error met while writing a staged file names the file the user asked for,
+    not the hidden temporary that no longer exists once the error is reported.
+    """
+    return Path(*(_target_name(part) for part in Path(path).parts))
 
 
 def _target_name(name: str) -> str:
@@ -1000,10 +1013,11 @@ def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path
 
     Yields a fresh temporary directory next to ``target`` that already holds :data:`MARKER`;
     when the ``with`` block finishes without an exception it is renamed to ``target``.  An
-    existing empty ``target`` is replaced; a non-empty one only with ``force`` and only if
-    hybridlog wrote it (see :func:`check_dir_target`), and then only after the new folder is
-    complete.  On any exception (including one from the rename) the temporary directory is
-    removed and ``target`` is left untouched.
+    existing empty ``target`` is kept and filled: the temporary directory is made inside
+    it and its entries moved out of it (:func:`_fill_dir`); a non-empty one is replaced
+    only with ``force`` and only if hybridlog wrote it (see :func:`check_dir_target`), and
+    then only after the new folder is complete.  On any exception (including one from the
+    rename) the temporary directory is removed and ``target`` is left untouched.
 
     Parameters
     ----------
@@ -1029,18 +1043,61 @@ def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path
 
     """
     path = check_dir_target(target, force=force)
+    if path.is_dir() and not _is_nonempty_dir(path):
+        # the user's empty folder (made for the report, or a mount point a container was
+        # given): filled, not replaced, so that it keeps its permissions, owner and mount
+        with staging_dir(path, inside=True) as tmp:
+            yield tmp
+            _fill_dir(tmp, path)
+        return
     with staging_dir(path) as tmp:
         yield tmp
         publish_dir(tmp, path, force=force)
 
 
+def _fill_dir(staged: Path, target: Path) -> None:
+    """Move the finished folder ``staged``'s entries into ``target``, where it was made.
+
+    ``target`` was empty; renaming a folder over it replaced the user's folder (a private
+    ``chmod 700`` one became ``755``, a group's lost its set-group-ID) and failed on a mount
+    point (``Device or resource busy``: a container's ``-v $PWD/out:/out``).  The marker
+    goes first, so that a process killed between the renames leaves a folder known as ours;
+    an exception between them moves the entries back, to be removed with ``staged``.
+
+    Raises
+    ------
+    OutputError
+        When something else appeared in ``target`` meanwhile, or a rename fails.
+    """
+    with os.scandir(target) as entries:
+        if any(entry.name != staged.name for entry in entries):
+            raise OutputError(
+                f"output directory {_shown(target)} is not empty; use --force to replace it"
+            )
+    _record_files(staged)
+    names = sorted(os.listdir(staged), key=lambda name: name != MARKER)
+    moved: list[str] = []
+    try:
+        for name in names:
+            os.rename(staged / name, target / name)
+            moved.append(name)
+    except BaseException as err:
+        for name in reversed(moved):
+            with contextlib.suppress(OSError):
+                os.rename(target / name, staged / name)
+        if isinstance(err, OSError):
+            raise OutputError(f"cannot move outputs into {_shown(target)}: {err.strerror}") from err
+        raise
+
+
 @contextmanager
-def staging_dir(target: PathLike) -> Iterator[Path]:
+def staging_dir(target: PathLike, *, inside: bool = False) -> Iterator[Path]:
     """A temporary folder next to ``target`` (same filesystem), always removed afterwards.
 
     For writers that must create their output under its final name themselves (a ROS 2 bag
     names its storage file after its folder): write ``staging / target.name``, then
-    :func:`publish_file` or :func:`publish_dir` it.
+    :func:`publish_file` or :func:`publish_dir` it.  With ``inside``, the folder is made in
+    ``target``, an existing folder (:func:`atomic_output_dir` filling an empty one).
 
     Raises
     ------
@@ -1048,8 +1105,12 @@ def staging_dir(target: PathLike) -> Iterator[Path]:
         When the folder cannot be created.
     """
     path = output_path(target)
-    created = _prepare_parent(path)
-    area = temporary_name(path)
+    if inside:
+        created: list[Path] = []
+        area = temporary_name(path / path.name)
+    else:
+        created = _prepare_parent(path)
+        area = temporary_name(path)
     try:
         try:
             area.mkdir()

@@ -647,23 +647,26 @@ def _prepare_root(root: Path, folders: Sequence[Path], locks: contextlib.ExitSta
         )
     parents = sorted({folder.parent for folder in folders} | {root})
     made = [path for path in [*root.parents, *parents] if not path.exists()]
-    marked = not (root / MARKER).is_file()
+    undo = _Made(
+        root,
+        not (root / MARKER).is_file(),
+        sorted(set(made), key=lambda p: len(p.parts), reverse=True),
+    )
     try:
         root.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
-    locks.enter_context(batch_folder_lock(root))
-    try:
-        if marked:
+        locks.enter_context(batch_folder_lock(root))
+        if undo.marker:
             write_marker(root)
         for parent in parents:
             # made here, before any worker starts, so that no worker removes one another uses
             parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
+        # a full disk: the folder made and its marker cut short would stay, half written
+        undo.undo()
         raise OutputError(f"cannot create output directory {root}: {err.strerror}") from err
     for parent in parents:
         remove_stale_temporaries(parent)
-    return _Made(root, marked, sorted(set(made), key=lambda p: len(p.parts), reverse=True))
+    return undo
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs import PathLike, check_file_target, record_path, wrote_file
+from hybridlog.outputs import PathLike, check_file_target, record_path, staged_for, wrote_file
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.summary import BatchRow, offline_gains, offline_label, warning_notes
 
@@ -236,9 +236,11 @@ def write_junit(
 ) -> None:
     """Write the JUnit XML of a batch to ``path`` (UTF-8, with an XML declaration).
 
-    ``offline`` as for :func:`junit_tree`.
+    ``offline`` as for :func:`junit_tree`.  ``path`` may be the staged temporary of the
+    ``--junit`` file (:func:`hybridlog.outputs.atomic_files`); an error names that file.
     """
     try:
         junit_tree(suite_name, rows, offline).write(path, encoding="utf-8", xml_declaration=True)
     except OSError as err:
-        raise OutputError(f"--junit {path}: cannot write it: {err.strerror}") from err
+        shown = excerpt(str(staged_for(path)))[1:-1]
+        raise OutputError(f"--junit {shown}: cannot write it: {err.strerror}") from err

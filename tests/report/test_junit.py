@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import pytest
+
+from hybridlog.errors import OutputError
+from hybridlog.outputs import temporary_name
 from hybridlog.report.junit import write_junit
 from hybridlog.report.summary import BatchRow
 
@@ -31,3 +36,16 @@ def test_names_and_errors_xml_cannot_hold_are_written_out(tmp_path: Path) -> Non
     suite = root.find("testsuite")
     assert suite is not None
     assert suite.get("name") == "hybridlog batch: m\\x1b · imm"
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+def test_a_junit_file_the_disk_cannot_take_is_named_not_its_temporary(tmp_path: Path) -> None:
+    """The batch writes the file staged under a hidden temporary name; a full disk was
+    reported as '--junit /ci/.junit.hybridlog-tmp-0a7c-26412-9f8e09f6.xml: cannot write it',
+    a file the user never named and that is gone by the time the error is read."""
+    target = tmp_path / "junit.xml"
+    staged = temporary_name(target, keep_suffix=True)
+    staged.symlink_to("/dev/full")  # writes to it fail with ENOSPC, as on a full disk
+    expected = rf"^--junit {re.escape(str(target))}: cannot write it: No space left on device$"
+    with pytest.raises(OutputError, match=expected):
+        write_junit(staged, "hybridlog batch: m · imm", [])
