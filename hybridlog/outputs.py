@@ -64,7 +64,7 @@ __all__ = [
     "record_path",
     "recorded_files",
     "remove_stale_temporaries",
-    "staged_for",
+    "shown_output",
     "staging_dir",
     "temporary_name",
     "write_marker",
@@ -879,17 +879,17 @@ def _storage_error(target: PathLike, err: BaseException) -> OutputError | None:
         return None
     # an output written inside another's temporary folder (compare's per estimator) is
     # named where it was to go
-    return OutputError(f"{_shown(staged_for(target))}: cannot be written ({os.strerror(number)})")
+    return OutputError(f"{shown_output(target)}: cannot be written ({os.strerror(number)})")
 
 
-def staged_for(path: PathLike) -> Path:
-    """The output ``path`` stands for, each temporary name in it replaced by its target's.
+def shown_output(path: PathLike) -> str:
+    """The output ``path`` stands for, as an error names it (escaped and cut, :func:`_shown`).
 
-    Names of :func:`temporary_name` become the name they stand for; other paths stay as
-    they are.  An error met while writing a staged file names the file the user asked for,
-    not the hidden temporary that no longer exists once the error is reported.
+    Each temporary name in it is replaced by its target's (:func:`temporary_name`).  An
+    error met while writing a staged file names the file the user asked for, not the
+    hidden temporary that no longer exists once the error is reported.
     """
-    return Path(*(_target_name(part) for part in Path(path).parts))
+    return _shown(Path(*(_target_name(part) for part in Path(path).parts)))
 
 
 def _target_name(name: str) -> str:

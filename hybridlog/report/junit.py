@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs import PathLike, check_file_target, record_path, staged_for, wrote_file
+from hybridlog.outputs import PathLike, check_file_target, record_path, shown_output, wrote_file
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.summary import BatchRow, offline_gains, offline_label, warning_notes
 
@@ -242,5 +242,4 @@ def write_junit(
     try:
         junit_tree(suite_name, rows, offline).write(path, encoding="utf-8", xml_declaration=True)
     except OSError as err:
-        shown = excerpt(str(staged_for(path)))[1:-1]
-        raise OutputError(f"--junit {shown}: cannot write it: {err.strerror}") from err
+        raise OutputError(f"--junit {shown_output(path)}: cannot write it: {err.strerror}") from err
