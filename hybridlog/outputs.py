@@ -17,11 +17,12 @@ Every command that writes goes through this module, in two steps:
    (:func:`_unchanged`).
 2. **Then write atomically.**  :func:`atomic_output_dir` and :func:`atomic_files` write into
    temporary names next to the targets (``.<name>.hybridlog-tmp-<host>-<pid>-<hex>``) and
-   rename them into place when all of them are complete (an empty folder given as the
-   output is filled in place instead, so that it stays the user's folder,
-   :func:`atomic_output_dir`); a failure removes them and leaves the targets as they were.
-   Temporaries of processes that died (``kill -9``) are removed by the next run writing to
-   the same place (:func:`remove_stale_temporaries`).
+   rename them into place when all of them are complete; a folder that exists (empty, or
+   ours with ``--force``) is filled in place instead, so that it stays the user's folder and
+   a mount point can be written (:func:`publish_dir`, :func:`_fill_dir`); a failure removes
+   them and leaves the targets as they were.  Temporaries of processes that died
+   (``kill -9``) are removed by the next run writing to the same place
+   (:func:`remove_stale_temporaries`).
 """
 
 from __future__ import annotations
@@ -642,7 +643,7 @@ def check_dir_target(
     check_creatable(path)
     if not _present(path):
         return path
-    if path.is_symlink():  # the folder is renamed into place: it would replace the link
+    if path.is_symlink():  # renamed over, or filled through: neither is the folder named
         pointed = os.readlink(path)
         where = "a folder" if path.is_dir() else "nothing" if not path.exists() else "a file"
         raise OutputError(
@@ -653,7 +654,7 @@ def check_dir_target(
         raise OutputError(f"output path {_shown(path)} exists and is not a directory")
     remove_stale_temporaries(path)  # of a run killed while it filled the folder (_fill_dir)
     try:
-        nonempty = _is_nonempty_dir(path)
+        nonempty = bool(_entries(path))  # this run's staging inside it is not content
     except OSError as err:
         raise OutputError(f"output directory {_shown(path)}: {err.strerror}") from err
     if not nonempty:
@@ -698,6 +699,9 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
     folders_expected = {p.as_posix() for f in expected for p in Path(f).parents} - {"."}
     foreign: list[str] = []
     for folder, folders, files in os.walk(path):
+        if folder == os.fspath(path):  # this run's staging inside it (publish_dir)
+            folders[:] = [name for name in folders if not _own_temporary(name)]
+            files = [name for name in files if not _own_temporary(name)]
         folders.sort()
         for name in sorted(files):
             relative = Path(folder, name).relative_to(path).as_posix()
@@ -778,6 +782,12 @@ def temporary_name(target: Path, *, kind: str = "tmp", keep_suffix: bool = False
     if keep_suffix and target.suffix:
         return target.with_name(f".{target.stem}.{tag}{target.suffix}")
     return target.with_name(f".{target.name}.{tag}")
+
+
+def _own_temporary(name: str) -> bool:
+    """Whether ``name`` is one of this process's temporary names (:func:`temporary_name`)."""
+    match = _TEMPORARY.match(name)
+    return match is not None and match["host"] == _host_tag() and int(match["pid"]) == os.getpid()
 
 
 def _alive(pid: int) -> bool:
@@ -971,38 +981,30 @@ def publish_dir(
     force: bool,
     ours: Callable[[Path], bool] | None = None,
     written: Callable[[Path], Collection[str] | None] = recorded_files,
+    recognised_by: str = MARKER,
 ) -> None:
-    """Move the finished folder ``staged`` to ``target``, replacing an old one of ours.
+    """Move the finished folder ``staged`` to ``target``, filling an existing one in place.
 
     The files of ``staged`` are recorded in its :data:`MARKER` (:func:`recorded_files`), so
-    that a later run replaces the folder only while it holds nothing else.  The old folder
-    is renamed aside first and deleted only once the new one is in place.
+    that a later run replaces the folder only while it holds nothing else.  A missing
+    ``target`` is ``staged`` renamed; an existing one (empty, or one of ours with ``force``)
+    keeps its identity and gets ``staged``'s entries (:func:`_fill_dir`), ``recognised_by``
+    being the file that makes a folder ours (:data:`MARKER`; a ROS 2 bag's
+    ``metadata.yaml``).
 
     Raises
     ------
     OutputError
-        As :func:`check_dir_target` with ``ours`` (checked again: the target may have appeared
-    meanwhile),
-        or when a rename fails.
+        As :func:`check_dir_target` with ``ours`` (checked again: the target may have
+        appeared or changed meanwhile), or when a rename fails.
     """
     check_dir_target(target, force=force, ours=ours, written=written)
     _record_files(staged)
     try:
-        if not target.exists():
+        if not _present(target):
             os.rename(staged, target)
             return
-        if not _is_nonempty_dir(target):
-            os.rmdir(target)
-            os.rename(staged, target)
-            return
-        backup = temporary_name(target, kind="old")
-        os.rename(target, backup)
-        try:
-            os.rename(staged, target)
-        except BaseException:
-            os.rename(backup, target)
-            raise
-        shutil.rmtree(backup, ignore_errors=True)
+        _fill_dir(staged, target, recognised_by)
     except OSError as err:
         raise OutputError(f"cannot move outputs into {_shown(target)}: {err.strerror}") from err
 
@@ -1011,20 +1013,22 @@ def publish_dir(
 def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path]:
     """Write an output directory atomically, marked as hybridlog's.
 
-    Yields a fresh temporary directory next to ``target`` that already holds :data:`MARKER`;
-    when the ``with`` block finishes without an exception it is renamed to ``target``.  An
-    existing empty ``target`` is kept and filled: the temporary directory is made inside
-    it and its entries moved out of it (:func:`_fill_dir`); a non-empty one is replaced
-    only with ``force`` and only if hybridlog wrote it (see :func:`check_dir_target`), and
-    then only after the new folder is complete.  On any exception (including one from the
-    rename) the temporary directory is removed and ``target`` is left untouched.
+    Yields a fresh temporary directory that already holds :data:`MARKER`; when the ``with``
+    block finishes without an exception its content becomes ``target``.  A missing
+    ``target`` is created by renaming the temporary directory, made next to it; an
+    existing one — empty, or with ``force`` one hybridlog wrote (see
+    :func:`check_dir_target`) — is kept and refreshed in place: the temporary directory is
+    made inside it, and once it is complete the old entries are moved aside and the new
+    ones in (:func:`_fill_dir`), so that the folder keeps its permissions, owner and
+    set-group-ID bit and a mount point can be written.  On any exception (including one
+    from a rename) the temporary directory is removed and ``target`` is left as it was.
 
     Parameters
     ----------
     target:
-        The output directory to create or replace.  Missing parents are created.
+        The output directory to create or refresh.  Missing parents are created.
     force:
-        Replace a non-empty existing directory of hybridlog's.
+        Replace the content of a non-empty existing directory of hybridlog's.
 
     Yields
     ------
@@ -1034,7 +1038,7 @@ def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path
     Raises
     ------
     OutputError
-        As :func:`check_dir_target`, or when the folder cannot be created or renamed.
+        As :func:`check_dir_target`, or when the folder cannot be created or filled.
 
     Examples
     --------
@@ -1043,61 +1047,119 @@ def atomic_output_dir(target: PathLike, *, force: bool = False) -> Iterator[Path
 
     """
     path = check_dir_target(target, force=force)
-    if path.is_dir() and not _is_nonempty_dir(path):
-        # the user's empty folder (made for the report, or a mount point a container was
-        # given): filled, not replaced, so that it keeps its permissions, owner and mount
-        with staging_dir(path, inside=True) as tmp:
-            yield tmp
-            _fill_dir(tmp, path)
-        return
-    with staging_dir(path) as tmp:
+    with staging_dir(path, inside=path.is_dir()) as tmp:
         yield tmp
         publish_dir(tmp, path, force=force)
 
 
-def _fill_dir(staged: Path, target: Path) -> None:
-    """Move the finished folder ``staged``'s entries into ``target``, where it was made.
+def _fill_dir(staged: Path, target: Path, recognised_by: str) -> None:
+    """Make the existing folder ``target`` hold ``staged``'s entries instead of its own.
 
-    ``target`` was empty; renaming a folder over it replaced the user's folder (a private
-    ``chmod 700`` one became ``755``, a group's lost its set-group-ID) and failed on a mount
-    point (``Device or resource busy``: a container's ``-v $PWD/out:/out``).  The marker
-    goes first, so that a process killed between the renames leaves a folder known as ours;
-    an exception between them moves the entries back, to be removed with ``staged``.
+    Renaming a finished folder over ``target`` replaced the user's folder (a private
+    ``chmod 700`` one became ``755``, a group's lost its set-group-ID, a shell inside it was
+    left in a deleted folder) and failed on a mount point (``Device or resource busy``: a
+    container's ``-v $PWD/out:/out``).  So the folder stays, and its entries change, in an
+    order that leaves a folder hybridlog recognises, and that the next run with ``--force``
+    cleans up, whenever a ``kill -9`` strikes:
+
+    1. the old entries but ``recognised_by`` (the file that makes the folder ours:
+       :data:`MARKER`, a bag's ``metadata.yaml``) are moved into a temporary folder inside
+       ``target`` that carries a marker (:func:`staging_dir`), and a hard link to the old
+       ``recognised_by`` is kept there (:func:`_place`);
+    2. the new ``recognised_by`` replaces the old in one rename (:func:`_place`), so the
+       folder never lacks it, and it lists everything the folder holds (perhaps more: a
+       listed file that is gone is no change, :func:`edited_files`);
+    3. the new entries are moved in; the temporary folders, each still carrying its
+       marker, are removed afterwards, or by the next run (:func:`remove_stale_temporaries`).
+
+    An exception at any step (a failed rename, Ctrl-C, a signal raised as one) undoes the
+    steps done, last first: the old entries are back and nothing else.  Both folders lie on
+    ``target``'s file system (``staged`` inside ``target``, or beside it when ``target``
+    appeared meanwhile), so every step is a rename.
 
     Raises
     ------
-    OutputError
-        When something else appeared in ``target`` meanwhile, or a rename fails.
+    OSError
+        When a rename fails (its steps undone).
     """
-    with os.scandir(target) as entries:
-        if any(entry.name != staged.name for entry in entries):
-            raise OutputError(
-                f"output directory {_shown(target)} is not empty; use --force to replace it"
-            )
-    _record_files(staged)
-    names = sorted(os.listdir(staged), key=lambda name: name != MARKER)
-    moved: list[str] = []
+    with staging_dir(target, inside=True, kind="old") as aside:
+        kept = aside / target.name
+        kept.mkdir()
+        with contextlib.ExitStack() as undo:
+            for name in _entries(target, but={recognised_by}):
+                _move(target / name, kept / name, undo)
+            old = target / recognised_by
+            if _present(old):
+                undo.callback(_quietly, _place, kept / recognised_by, old)
+                _place(old, kept / recognised_by)
+            else:
+                undo.callback(_quietly, os.unlink, old)
+            _place(staged / recognised_by, old)
+            for name in _entries(staged, but={recognised_by}):
+                _move(staged / name, target / name, undo)
+            undo.pop_all()
+
+
+def _entries(folder: Path, *, but: Collection[str] = ()) -> list[str]:
+    """The names in ``folder`` but those of ``but`` and this process's temporaries, sorted."""
+    return sorted(n for n in os.listdir(folder) if n not in but and not _own_temporary(n))
+
+
+def _move(source: Path, target: Path, undo: contextlib.ExitStack) -> None:
+    """Rename ``source`` to ``target``, the rename back pushed onto ``undo`` first.
+
+    First, so that an exception (Ctrl-C) right after the rename cannot leave it out of the
+    undoing; undone before it happened, the rename back finds nothing and does nothing.
+    """
+    undo.callback(_quietly, os.rename, target, source)
+    os.rename(source, target)
+
+
+def _quietly(step: Callable[..., object], *args: Path) -> None:
+    """Undo a step as well as can be: a failure here must not hide the error undone."""
+    with contextlib.suppress(OSError):
+        step(*args)
+
+
+def _place(source: Path, target: Path) -> None:
+    """Put the file ``source`` at ``target`` in one rename, ``source`` kept.
+
+    A hard link to it under a temporary name is renamed over ``target``: no moment without
+    a ``target``, no byte written (it works on a full disk); a copy where the file system
+    has no hard links (FAT, some network and FUSE file systems).  Nothing is done when
+    ``target`` is ``source``'s file already (a rename onto a link of the same file would do
+    nothing and leave the temporary name).
+    """
+    if _present(target) and os.path.samefile(source, target):
+        return
+    staged = temporary_name(target)
     try:
-        for name in names:
-            os.rename(staged / name, target / name)
-            moved.append(name)
-    except BaseException as err:
-        for name in reversed(moved):
-            with contextlib.suppress(OSError):
-                os.rename(target / name, staged / name)
-        if isinstance(err, OSError):
-            raise OutputError(f"cannot move outputs into {_shown(target)}: {err.strerror}") from err
+        try:
+            os.link(source, staged)
+        except OSError as err:
+            if err.errno not in _NO_LINKS:
+                raise
+            shutil.copyfile(source, staged)
+        os.replace(staged, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            staged.unlink()
         raise
 
 
+_NO_LINKS = frozenset({errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK})
+"""What ``link`` answers on a file system without hard links (or out of them)."""
+
+
 @contextmanager
-def staging_dir(target: PathLike, *, inside: bool = False) -> Iterator[Path]:
+def staging_dir(target: PathLike, *, inside: bool = False, kind: str = "tmp") -> Iterator[Path]:
     """A temporary folder next to ``target`` (same filesystem), always removed afterwards.
 
     For writers that must create their output under its final name themselves (a ROS 2 bag
     names its storage file after its folder): write ``staging / target.name``, then
     :func:`publish_file` or :func:`publish_dir` it.  With ``inside``, the folder is made in
-    ``target``, an existing folder (:func:`atomic_output_dir` filling an empty one).
+    ``target``, an existing folder, on its file system (a mount point's), for
+    :func:`publish_dir` to fill it in place; ``kind`` as for :func:`temporary_name`.
 
     Raises
     ------
@@ -1107,10 +1169,10 @@ def staging_dir(target: PathLike, *, inside: bool = False) -> Iterator[Path]:
     path = output_path(target)
     if inside:
         created: list[Path] = []
-        area = temporary_name(path / path.name)
+        area = temporary_name(path / path.name, kind=kind)
     else:
         created = _prepare_parent(path)
-        area = temporary_name(path)
+        area = temporary_name(path, kind=kind)
     try:
         try:
             area.mkdir()

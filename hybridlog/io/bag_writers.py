@@ -221,30 +221,11 @@ def check_log_target(
         _check_file_name(path, chosen)
     check_apart([("--out", path)], inputs)
     if chosen.startswith("ros2-"):
-        _check_outside(path)
         check_dir_target(path, force=force, ours=written_by_hybridlog, written=bag_files)
         _check_folder_name(path, chosen)
     else:
         check_file_target(path, force=force)
     return chosen
-
-
-def _check_outside(path: PathLike) -> None:
-    """Refuse a ROS 2 bag folder that is, or holds, the working directory.
-
-    The folder is written aside and renamed into place as a whole: ``--out .`` failed with
-    "…hybridlog-tmp-… exists already" (its storage file was named after ``.``), and once
-    that was mended it would have left the shell in a deleted folder, showing nothing.
-    """
-    folder = output_path(path)
-    here = Path(os.path.realpath(os.getcwd()))
-    if folder == here or folder in here.parents:
-        what = "the working directory" if folder == here else "a folder above the working one"
-        raise OutputError(
-            f"--out {excerpt(os.fspath(path))[1:-1]}: is {what}; a ROS 2 bag folder is "
-            "replaced as a whole, which would leave this shell in a deleted folder; run "
-            "from outside it, or name another folder"
-        )
 
 
 #: The row of :data:`hybridlog.io.formats.FORMATS` that reads each file format written.
@@ -357,17 +338,22 @@ def write_log(
         writer = _ros2_writer(chosen.removeprefix("ros2-"))
     target = Path(path)
     if chosen.startswith("ros2-"):
-        with staging_dir(target) as area:
+        folder = output_path(target)
+        # an existing folder (empty, or a bag of ours with --force) is filled in place, so
+        # the staging folder is made inside it, on its file system (a mount point's)
+        with staging_dir(folder, inside=folder.is_dir()) as area:
             # rosbag2 names its storage file after the folder: its name as the system
-            # resolves it (``out/..`` has none of its own)
-            staged = area / output_path(target).name
+            # resolves it (``out/..`` has none of its own), so the staged bag's files carry
+            # the names they have in ``folder``
+            staged = area / folder.name
             _written(target, lambda: writer(staged, topics, columns, time_ns))
             publish_dir(
                 staged,
-                output_path(target),
+                folder,
                 force=force,
                 ours=written_by_hybridlog,
                 written=bag_files,
+                recognised_by="metadata.yaml",
             )
     else:
         with atomic_files([target], force=force) as (staged,):

@@ -819,7 +819,9 @@ def run_batch(
     if scheduler is None and jobs > 1:
         jobs, notes = pool_size(jobs, len(paths))
     pool = client = None
-    staging: list[Path] = []  # where the workers write: the report folders' parents
+    # where the workers write: the report folders' parents, and an existing report folder
+    # itself (refreshed in place, its temporaries inside it: outputs.publish_dir)
+    staging: list[Path] = []
     if scheduler is not None:
         from hybridlog.jobs.dask_backend import check_out, check_workers, connect, run_on_dask
 
@@ -874,7 +876,8 @@ def run_batch(
                 check_out=check_cluster_out,
                 locks=locks,
             )
-            staging.extend(sorted({Path(folder).parent for _, _, folder in tasks}))
+            folders = {Path(folder) for _, _, folder in tasks}
+            staging.extend(sorted(folders | {folder.parent for folder in folders}))
             died = [_died(log, folder) for _, log, folder in tasks]
             outcomes: list[LogOutcome]
             if client is not None or pool is not None:

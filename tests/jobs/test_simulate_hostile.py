@@ -8,6 +8,7 @@ Parquet keep the float seconds).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -109,25 +110,38 @@ def test_existing_outputs_are_replaced_only_with_force_and_only_ours(
     assert (mine / "notes.txt" if extra else mine).read_text() == "mine"
 
 
-@pytest.mark.parametrize("out", [".", "..", "./"])
-def test_a_bag_folder_holding_the_working_directory_is_refused(
+@pytest.mark.parametrize("out", [".", "./"])
+def test_a_bag_into_the_working_directory_is_written_in_place(
     out: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``--out .`` in an empty folder failed with "…hybridlog-tmp-… exists already" (the
-    bag's storage file was named after ``.``); written, the folder would have been renamed
-    over the working one, leaving the shell in a deleted folder."""
+    bag's storage file was named after ``.``), then was refused: the bag was renamed over
+    the working folder, which would have left the shell in a deleted one.  The folder is
+    filled in place now, again with ``--force``: the shell stays in it."""
+    here = tmp_path / "bag"
+    here.mkdir()
+    monkeypatch.chdir(here)
+    args = ["simulate", "three_tank_hstf", "--out", out, "--steps", "3"]
+    for storage in ("sqlite3", "mcap"):
+        code, output = _run([*args, "--format", f"ros2-{storage}", "--force"], capsys)
+        assert code == 0, output
+        suffix = ".db3" if storage == "sqlite3" else ".mcap"
+        assert sorted(p.name for p in here.iterdir()) == [f"bag{suffix}", "metadata.yaml"]
+        assert os.path.samefile(os.getcwd(), here)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+
+
+def test_a_bag_folder_holding_the_working_directory_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     here = tmp_path / "bag" / "inner"
     here.mkdir(parents=True)
-    monkeypatch.chdir(here if out == ".." else here.parent)
-    if out != "..":
-        here.rmdir()  # an empty folder: nothing else would refuse it
-    args = ["simulate", "three_tank_hstf", "--out", out, "--format", "ros2-sqlite3"]
+    monkeypatch.chdir(here)
+    args = ["simulate", "three_tank_hstf", "--out", "..", "--format", "ros2-sqlite3"]
     code, output = _run([*args, "--steps", "3", "--force"], capsys)
     assert code == 2 and output.count("\n") == 1, output
-    assert f"--out {out.rstrip('/')}: is " in output and "run from outside it" in output
-    assert sorted(p.name for p in tmp_path.rglob("*")) == (
-        ["bag", "inner"] if out == ".." else ["bag"]
-    )
+    assert "holds files hybridlog did not write" in output
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["bag", "inner"]
 
 
 def test_a_controller_without_a_number_names_itself_and_the_settings(
