@@ -390,7 +390,7 @@ def check_centers(
     spec = options.regressor_spec()
     lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
     names = spec.names(model.outputs, model.inputs)
-    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
+    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source, origins)
     # after what can be named (dt, modes, regressors: a renamed output said only "another
     # version of model"): the key says that something else of the model differs
     if centers.model_key is not None and centers.model_key != model_key(model):

@@ -146,7 +146,8 @@ def test_centres_of_an_edited_model_of_the_same_name_are_refused(tmp_path):
 
 def test_loaded_centres_refuse_a_given_default_and_name_the_file_as_the_origin(tmp_path):
     """`--set radius=0.5` (the default) beside centres fitted with 0.3 ran with 0.3, and
-    report.json said `"radius": 0.3` from `--set radius=0.5`, or from `default` unset."""
+    report.json said `"radius": 0.3` from `--set radius=0.5`, or from `default` unset; lags
+    that do not give the file's regressors were refused without naming where they were set."""
     centres = tmp_path / "c.json"
     discover_modes(
         LOG, "double_cart_case1", out=centres, chiu=ChiuOptions(radius=0.3), compare_kmeans=True
@@ -175,3 +176,15 @@ def test_loaded_centres_refuse_a_given_default_and_name_the_file_as_the_origin(t
     model = load_model("double_cart_case1")
     kmeans = prepare(model, "kmeans", {"centers": str(centres), "clusters": "none"})
     assert estimator_inputs(kmeans, model)["centers"].model == "double_cart_case1"
+    # lags the centres were not fitted with: the message named the file, not where they were set
+    mine = tmp_path / "mine.toml"
+    mine.write_text(
+        builtin_source("double_cart_case1")
+        + f'\n[estimators.chiu]\ncenters = "{centres.name}"\noutput_lags = "0,2"\n'
+    )
+    with pytest.raises(
+        OptionError,
+        match=r"fitted with output_lags=0,1 \(not .*mine.toml: estimators.chiu.output_lags = "
+        r"0,2\): set the same$",
+    ):
+        estimator_inputs(prepare(load_model(mine), "chiu"), load_model(mine))
