@@ -153,11 +153,14 @@ class CentersFile:
         lags: Mapping[str, tuple[int, ...]],
         mode_ids: Sequence[str],
         source: str,
+        origins: Mapping[str, str] | None = None,
     ) -> StoredClusters:
         """The centres of ``algorithm``, checked against a model's modes and regressors.
 
         ``regressors`` are the names of φ(k) for the model and the options' ``lags``
-        (``output_lags``, ``input_lags``); ``source`` names the file in messages.
+        (``output_lags``, ``input_lags``); ``source`` names the file in messages, ``origins``
+        where a lag option was set (``--set output_lags=0,1,2``, or a model file's key, which
+        the message named neither).
 
         Raises
         ------
@@ -174,7 +177,7 @@ class CentersFile:
         if self.regressors != tuple(regressors):
             fitted = {"output_lags": self.output_lags, "input_lags": self.input_lags}
             differ = ", ".join(
-                f"{key}={','.join(map(str, value)) if value else ' (no lag)'}"
+                f"{key}={_lag_text(value)}" + _given(key, lags.get(key), origins or {})
                 for key, value in fitted.items()
                 if value != lags.get(key)
             )
@@ -189,6 +192,22 @@ class CentersFile:
                 + (" (run hybridlog cluster --compare-kmeans)" if algorithm == "kmeans" else "")
             )
         return self.clusters[algorithm]
+
+
+def _lag_text(lags: tuple[int, ...] | None) -> str:
+    """Lags as an option spells them: ``0,1``; `` (no lag)`` for none."""
+    return ",".join(map(str, lags)) if lags else " (no lag)"
+
+
+def _given(key: str, lags: tuple[int, ...] | None, origins: Mapping[str, str]) -> str:
+    """`` (not --set output_lags=0,1,2)``: where the other value of ``key`` was set, if given."""
+    origin = origins.get(key, "")
+    if not origin:
+        return ""
+    if origin.startswith("--"):
+        return f" (not {origin})"
+    text = ",".join(map(str, lags)) if lags else '""'
+    return f" (not {origin} = {text})"
 
 
 def centers_json(content: Mapping[str, Any]) -> str:

@@ -91,6 +91,23 @@ class ObserverOptions:
             }
         return {}
 
+    def from_files(self) -> dict[str, str]:
+        """Option → the file's key its value is read from, for those the ``centers`` file gives.
+
+        Loaded centres are used as the file records they were fitted (:func:`check_centers`),
+        so the report gives the file's clustering options, whose ``origins`` said
+        ``default``: ``radius`` 0.3 from centres fitted with it (report.json,
+        :func:`hybridlog.jobs.origins.run_values`).
+        """
+        if not self.centers:
+            return {}
+        shared = {f.name for f in dataclasses.fields(ObserverOptions)}
+        return {
+            f.name: f"{self.centers}: {self.algorithm}.parameters.{f.name}"
+            for f in dataclasses.fields(self)
+            if f.name not in shared
+        }
+
     def regressor_spec(self) -> RegressorSpec:
         """The lags of φ(k) (``output_lags``, ``input_lags``)."""
         from hybridlog.cluster.regressors import RegressorSpec, parse_lags
@@ -313,7 +330,8 @@ def check_centers(
     Loaded centres are used as they are, not refitted, so a clustering option (``radius``,
     ``clusters`` ...) set to other than its default must be the one the file records its
     centres were fitted with: ``--set radius=0.3`` beside centres fitted with 0.5 would have
-    run with the file's and been reported as 0.3.  A model file's ``[estimators.chiu]`` value
+    run with the file's and been reported as 0.3; one set to its default, when ``origins``
+    says it was set, likewise.  A model file's ``[estimators.chiu]`` value
     that ``hybridlog cluster`` fitted the centres with (it starts from that table) agrees.
 
     ``origins`` (:attr:`~hybridlog.estimators.registry.Prepared.origins`) names where a
@@ -372,7 +390,7 @@ def check_centers(
     spec = options.regressor_spec()
     lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
     names = spec.names(model.outputs, model.inputs)
-    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source)
+    entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source, origins)
     # after what can be named (dt, modes, regressors: a renamed output said only "another
     # version of model"): the key says that something else of the model differs
     if centers.model_key is not None and centers.model_key != model_key(model):
@@ -391,13 +409,17 @@ def check_centers(
             continue
         value = getattr(options, field.name)
         fitted_with = entry.parameters.get(field.name)
-        if value != field.default and value != fitted_with:
+        origin = (origins or {}).get(field.name, "")  # --set radius=0.3, or m.toml's key
+        # given, even as its default (--set radius=0.5 beside centres fitted with 0.3 ran
+        # with 0.3, reported with the origin --set radius=0.5)
+        # kmeans' clusters = none is the number of modes, as a file records it
+        wanted = len(model.mode_ids) if field.name == "clusters" and value is None else value
+        if (origin or value != field.default) and wanted != fitted_with:
             what = (
                 f"fitted with {field.name}={excerpt(shown(fitted_with), 40)[1:-1]}"
                 if field.name in entry.parameters
                 else f"which do not record the {field.name} they were fitted with"
             )
-            origin = (origins or {}).get(field.name, "")  # --set radius=0.3, or m.toml's key
             given = origin if origin.startswith("--set") else f"{field.name}={shown(value)}"
             given += f" ({origin})" if origin and not origin.startswith("--set") else ""
             raise OptionError(

@@ -5,15 +5,18 @@ A user writing a model file had no way to check it short of analysing or simulat
 (every key validated, SPEC §6), prepares every estimator whose needs the model meets (so each
 ``[estimators.<name>]`` table of the file is read as that estimator reads it: a bad value is
 the same one-line error ``analyze`` gives), and returns a short description: the time base,
-the symbols, the modes (or components and their modes), and which estimators can run it.
+the symbols, the modes (or components and their modes), each ``[estimators.<name>]`` table as
+the estimator applies it, and which estimators can run it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from hybridlog.estimators.capabilities import ModelTraits
-from hybridlog.estimators.registry import ESTIMATORS, prepare
+from hybridlog.estimators.options import OptionSource, parse_options, shown
+from hybridlog.estimators.registry import ESTIMATORS, Prepared, prepare
 from hybridlog.jobs.analysis import estimator_inputs
 from hybridlog.model.cache import load_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -62,10 +65,46 @@ def check_and_describe(path: Path) -> str:
         [
             f"{path}: a valid model file",
             *_lines(model),
+            *_table_lines(model, {each.name: each for each in prepared}),
             f"estimators for it: {', '.join(suited) or 'none'}",
             default_line,
         ]
     )
+
+
+def _table_lines(model: HybridModel, prepared: Mapping[str, Prepared]) -> list[str]:
+    """Each ``[estimators.<name>]`` table as ``analyze`` applies it, one line per table.
+
+    The values as the estimator reads them (``rho = 1`` is 1.0, a relative ``centers`` path
+    from the model file's folder), each one the table's other values leave unread said so
+    (``smoother = "ec"`` under ``[estimators.imm]`` waits for ``--smooth``), and a table of
+    an estimator that cannot run the model named as such: ``models`` said nothing of the
+    tables it had checked.
+    """
+    lines = []
+    for name, table in model.estimator_options.items():
+        if not table:
+            continue
+        if name in prepared:
+            options, note = prepared[name].options, ""
+        else:
+            origin = model.origin or model.name
+            sources = {k: OptionSource.model_file(origin, name, k) for k in table}
+            options = parse_options(
+                ESTIMATORS[name].options_type, table, estimator=name, sources=sources
+            )
+            note = f" ({name} cannot run this model)"
+        inert_on: Callable[[HybridModel], Mapping[str, str]] | None = getattr(
+            options, "inert", None
+        )
+        unread = {} if inert_on is None else inert_on(model)
+        values = [
+            f"{key} = {shown(getattr(options, key))}"
+            + (f" (no effect as written: {unread[key]})" if key in unread else "")
+            for key in table
+        ]
+        lines.append(f"[estimators.{name}]{note}: {', '.join(values)}")
+    return lines
 
 
 def _lines(model: HybridModel) -> list[str]:

@@ -9,8 +9,10 @@ file.  :func:`run_values` gives both keys, added to every report ``analyze``, ``
 - ``parameters``: every ``[parameters]`` value of the model as the run used it;
 - ``origins``: for each of them (``parameters.<name>``) and each estimator option
   (``options.<name>``) where its value came from: the command line as typed (``--set
-  A=150``), the model file's key (``m.toml: parameters.A``, ``m.toml: estimators.imm.beam``)
-  or ``default`` (an option the estimator's defaults gave).
+  A=150``), the model file's key (``m.toml: parameters.A``, ``m.toml: estimators.imm.beam``),
+  the key of a file an option names (``c.json: chiu.parameters.radius``: loaded centres'
+  clustering options, the options' ``from_files()``) or ``default`` (an option the
+  estimator's defaults gave).
 
 The same origins name, in an error a run raises, the command-line values that changed what
 failed (:func:`given_values`, :func:`~hybridlog.errors.given_in_errors`):
@@ -49,8 +51,12 @@ def run_values(
         origins[f"parameters.{name}"] = (
             f"{where}: parameters.{name}" if text is None else set_text(name, text)
         )
+    from_files: Callable[[], Mapping[str, str]] | None = getattr(
+        prepared.options, "from_files", None
+    )
+    filed = {} if from_files is None else from_files()
     for name in options_dict(prepared.options):
-        origins[f"options.{name}"] = prepared.origins.get(name, DEFAULT_ORIGIN)
+        origins[f"options.{name}"] = prepared.origins.get(name) or filed.get(name, DEFAULT_ORIGIN)
     return {PARAMETERS_KEY: dict(model.parameters), ORIGINS_KEY: origins}
 
 

@@ -710,7 +710,8 @@ them (written by :func:`hybridlog.jobs.origins.run_values`)."""
 
 ORIGINS_KEY: Final = "origins"
 """The further key of where each parameter value (``parameters.<name>``) and estimator option
-(``options.<name>``) came from: ``--set NAME=VALUE`` as typed, the model file's key, or
+(``options.<name>``) came from: ``--set NAME=VALUE`` as typed, the model file's key, the key
+of a file an option names (a centres file's ``chiu.parameters.radius``), or
 :data:`DEFAULT_ORIGIN`."""
 
 DEFAULT_ORIGIN: Final = "default"

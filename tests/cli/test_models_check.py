@@ -116,3 +116,21 @@ def test_a_missing_file_an_estimator_table_names_is_found_as_analyze_finds_it(
     run(["simulate", "double_cart_case1", "--out", str(log), "--steps", "20"])
     analyzed = run(["analyze", str(log), "--model", str(path), "--out", str(tmp_path / "r")], 2)
     assert analyzed.stderr.strip() == refused
+
+
+def test_each_estimator_table_is_described_as_analyze_applies_it(tmp_path: Path) -> None:
+    # models checked the tables and said nothing of them: not the values read, nor that a
+    # key waits for a command-line flag, nor a table of an estimator that cannot run it
+    path = tmp_path / "mine.toml"
+    path.write_text(
+        builtin_text("three_tank_hstf")
+        + '\n[estimators.imm]\nsmoother = "ec"\ntransition_stay = 1\n'
+        + "[estimators.chiu]\nradius = 0.4\n",
+        encoding="utf-8",
+    )
+    described = check_and_describe(path).splitlines()
+    assert "[estimators.hstf]: rho = 0.95, beta = 1, theta = 0.95" in described
+    (imm,) = [line for line in described if line.startswith("[estimators.imm]")]
+    assert imm.startswith("[estimators.imm]: smoother = ec (no effect as written: only smooth")
+    assert imm.endswith(", transition_stay = 1")
+    assert "[estimators.chiu] (chiu cannot run this model): radius = 0.4" in described

@@ -6,9 +6,12 @@ from pathlib import Path
 import pytest
 
 from hybridlog.errors import ModelError, OptionError
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.estimators.observer_options import ChiuOptions
+from hybridlog.estimators.registry import prepare
+from hybridlog.jobs.analysis import analyze, compare, estimator_inputs
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.model.builtins import builtin_text as builtin_source
+from hybridlog.model.cache import load_model
 from tests.support.paths import SAMPLE_LOGS
 
 LOG = SAMPLE_LOGS / "double_cart_case1.csv"
@@ -139,3 +142,49 @@ def test_centres_of_an_edited_model_of_the_same_name_are_refused(tmp_path):
     centres.write_text(json.dumps(content))
     with pytest.raises(OptionError, match=r"c.json: model_key: expected 64 hexadecimal digits"):
         analyze(LOG, model, estimator="chiu", sets=[f"centers={centres}"], out_dir=tmp_path / "no")
+
+
+def test_loaded_centres_refuse_a_given_default_and_name_the_file_as_the_origin(tmp_path):
+    """`--set radius=0.5` (the default) beside centres fitted with 0.3 ran with 0.3, and
+    report.json said `"radius": 0.3` from `--set radius=0.5`, or from `default` unset; lags
+    that do not give the file's regressors were refused without naming where they were set."""
+    centres = tmp_path / "c.json"
+    discover_modes(
+        LOG, "double_cart_case1", out=centres, chiu=ChiuOptions(radius=0.3), compare_kmeans=True
+    )
+    with pytest.raises(OptionError, match=r"--set radius=0.5 does not match .* radius=0.3"):
+        analyze(
+            LOG,
+            "double_cart_case1",
+            estimator="chiu",
+            sets=[f"centers={centres}", "radius=0.5"],
+            out_dir=tmp_path / "refused",
+        )
+    assert not (tmp_path / "refused").exists()
+    analyze(
+        LOG,
+        "double_cart_case1",
+        estimator="chiu",
+        sets=[f"centers={centres}"],
+        out_dir=tmp_path / "ok",
+    )
+    report = json.loads((tmp_path / "ok" / "report.json").read_text())
+    assert report["options"]["radius"] == 0.3
+    assert report["origins"]["options.radius"] == f"{centres}: chiu.parameters.radius"
+    assert report["origins"]["options.decay_rate"] == "default"  # not the file's: the LMI's
+    # kmeans' clusters = none is the number of modes, which the file records: it agrees
+    model = load_model("double_cart_case1")
+    kmeans = prepare(model, "kmeans", {"centers": str(centres), "clusters": "none"})
+    assert estimator_inputs(kmeans, model)["centers"].model == "double_cart_case1"
+    # lags the centres were not fitted with: the message named the file, not where they were set
+    mine = tmp_path / "mine.toml"
+    mine.write_text(
+        builtin_source("double_cart_case1")
+        + f'\n[estimators.chiu]\ncenters = "{centres.name}"\noutput_lags = "0,2"\n'
+    )
+    with pytest.raises(
+        OptionError,
+        match=r"fitted with output_lags=0,1 \(not .*mine.toml: estimators.chiu.output_lags = "
+        r"0,2\): set the same$",
+    ):
+        estimator_inputs(prepare(load_model(mine), "chiu"), load_model(mine))
