@@ -12,6 +12,12 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   message that came early (56 ms of 1 s): the grid then sat just before the ticks, and the
   held inputs and true mode came out one step behind the outputs.  A log on one clock keeps
   ``t0`` to the nanosecond; outputs on a clock of their own (half a step off) keep theirs.
+  Held signals each recorded once per step around a common phase (a jittering clock, every
+  sample within ``dt/4`` of it) put ``t0`` on that phase, the first tick where every held
+  signal has a sample within ``dt/4`` and every output one within half a step, unless the
+  latest first sample's grid already gives every held sample a point within ``dt/4``: topics
+  each jittering by 20 % of ``dt`` started the grid at the latest first message, 0.106 s
+  after a tick, and the hold took 57 of 300 input samples a step late (below).
   ``t_k = t0 + round(k * dt)`` in nanoseconds, so ``dt`` is not rounded once and the error
   multiplied by ``k``.
 - Inputs: zero-order hold, the last sample at or before ``t_k``; but a series recorded once
@@ -181,23 +187,61 @@ def on_whole_ns(held: Sequence[Series], dt: float) -> Sequence[Series]:
     return held if dt * NS_PER_S == step_ns(dt) else ()
 
 
-def held_clock(held: Sequence[Series], dt_ns: int) -> int | None:
-    """A tick (ns) of the clock the held signals (inputs, commands) share, else ``None``.
+class Clock(NamedTuple):
+    """The clock the held signals share (:func:`held_clock`).
 
-    Their first one's first sample, when every sample of theirs lies within the clock
-    tolerance of a tick ``t + k*dt`` (dropped samples, or a multiple of ``dt``, allowed):
-    the zero-order hold takes each tick's sample only at or after the tick.  ``None`` for
-    signals on a jittering clock (:func:`jittered_index` takes each point's own sample,
-    wherever the grid lies; a latency, all late, keeps the hold's delay as SPEC §5 says),
-    at times of their own (published when they change) or at another rate.
+    ``tick``: one of its ticks (ns); ``reach``: how far (ns) a held sample may lie from
+    its grid point and still be the point's own: the clock tolerance on an exact clock (the
+    hold takes it), ``dt/4`` on a jittering one (:func:`jittered_index` takes it).
+    """
+
+    tick: int
+    reach: int
+
+
+def held_clock(held: Sequence[Series], dt_ns: int) -> Clock | None:
+    """The clock the held signals (inputs, commands) share, else ``None``.
+
+    An exact clock: every sample within the clock tolerance of a tick ``t + k*dt``, ``t``
+    their first one's first sample (dropped samples, or a multiple of ``dt``, allowed); the
+    zero-order hold takes each tick's sample only at or after the tick.  Else a jittering
+    one (:func:`_jittering_clock`), whose samples :func:`jittered_index` gives their own
+    grid points.  ``None`` for signals at times of their own (published when they change)
+    or at another rate.
     """
     if not held:
         return None
     tick = int(held[0].time_ns[0])
     tolerance = clock_tolerance_ns(dt_ns)
     if any(int(np.abs(_from_tick(s.time_ns, tick, dt_ns)).max()) > tolerance for s in held):
-        return None
-    return tick
+        return _jittering_clock(held, dt_ns)
+    return Clock(tick, tolerance)
+
+
+def _jittering_clock(held: Sequence[Series], dt_ns: int) -> Clock | None:
+    """The phase of held signals each recorded once per step around it, else ``None``.
+
+    The phase is the median of their samples' offsets modulo ``dt`` (taken from the first
+    sample, none more than ``dt/2`` from it once all are within ``dt/4`` of the phase: the
+    circular median).  Each series must be sampled around it (:func:`_around`), every sample
+    within ``dt/4`` of a tick, at most one at a tick, most one tick after the one before: what
+    :func:`jittered_index` takes as a jittering clock (a series every other step is not).
+    Each topic of a log published once per step with its own jitter of 20 % of ``dt`` gave
+    the grid the latest first message, 0.106 s after a tick with ``dt = 1 s``: input samples
+    lay up to 0.306 s from their point, beyond ``dt/4``, and the hold took 57 of 300 a step
+    late.
+    """
+    quarter = max(clock_tolerance_ns(dt_ns), dt_ns // 4)
+    first = int(held[0].time_ns[0])
+    offsets = np.concatenate([_from_tick(s.time_ns, first, dt_ns) for s in held])
+    tick = first + round(float(np.median(offsets)))
+    for series in held:
+        offset = _from_tick(series.time_ns, tick, dt_ns)
+        steps = np.diff((series.time_ns - offset - tick) // dt_ns)
+        once = bool((steps > 0).all()) and 2 * int(np.count_nonzero(steps == 1)) > steps.size
+        if not (once and int(np.abs(offset).max()) <= quarter and _around(series, tick, dt_ns)):
+            return None
+    return Clock(tick, quarter)
 
 
 def _around(series: Series, tick_ns: int, dt_ns: int) -> bool:
@@ -213,24 +257,29 @@ def _around(series: Series, tick_ns: int, dt_ns: int) -> bool:
 def _grid_start(start_ns: int, starts: Sequence[Series], held: Sequence[Series], dt_ns: int) -> int:
     """``t0`` on the held signals' clock, else ``start_ns``, the latest first sample.
 
-    On the clock (:func:`held_clock`) when the others are sampled around it
-    (:func:`_around`): the first tick where every held series has a sample at or before it
-    (within the clock tolerance, as the hold reads it) and every other one a sample within
-    ``dt/2`` (as the nearest sample is taken); ``start_ns`` itself when that tick is within
-    the clock tolerance of it, to the nanosecond.
+    ``start_ns`` when its grid already gives every held sample a point within the clock's
+    reach (:func:`held_clock`): on an exact clock, when it is on it; on a jittering one,
+    when :func:`jittered_index` takes each sample (a latency, all late, keeps the hold's
+    one-step delay, SPEC §5).  Else, when the others are sampled around the clock
+    (:func:`_around`), its first tick where every held series has a sample within its reach
+    or before it (as the hold or :func:`jittered_index` reads it) and every other one a
+    sample within ``dt/2`` (as the nearest sample is taken); ``start_ns`` itself when that
+    tick is within the clock tolerance of it, to the nanosecond.
     """
-    tick = held_clock(held, dt_ns)
-    tolerance = clock_tolerance_ns(dt_ns)
-    if tick is None or abs(int(_from_tick(np.array([start_ns]), tick, dt_ns)[0])) <= tolerance:
+    clock = held_clock(held, dt_ns)
+    if clock is None or all(
+        int(np.abs(_from_tick(s.time_ns, start_ns, dt_ns)).max()) <= clock.reach for s in held
+    ):
         return start_ns  # no clock, or the start is on it: no output's median is needed
     others = [s for s in starts if all(s is not h for h in held)]
-    if not all(_around(s, tick, dt_ns) for s in others):
+    if not all(_around(s, clock.tick, dt_ns) for s in others):
         return start_ns
+    tolerance = clock_tolerance_ns(dt_ns)
     half = dt_ns // 2 + tolerance  # within dt/2: past_half_step
     earliest = max(
-        int(s.time_ns[0]) - (half if any(s is o for o in others) else tolerance) for s in starts
+        int(s.time_ns[0]) - (half if any(s is o for o in others) else clock.reach) for s in starts
     )
-    t0 = earliest + (tick - earliest) % dt_ns
+    t0 = earliest + (clock.tick - earliest) % dt_ns
     return start_ns if abs(t0 - start_ns) <= tolerance else t0
 
 
@@ -1200,7 +1249,7 @@ def _held_onto(
             if found is not None:
                 _note_jitter(notes, f"{kind} {symbol}", found, n)
             index = (
-                found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
+                found.taken if found is not None else _hold_from_first(series.time_ns, grid, dt_ns)
             )
             on = series.values[index]
         held[:, j] = on
@@ -1219,6 +1268,19 @@ def _held_onto(
                 hold if kind == "input" else {**hold, "kind": kind}
             )
     return held
+
+
+def _hold_from_first(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> IntArray:
+    """:func:`hold_index` of a held series, whose first sample the points before it take.
+
+    Only a grid on a jittering clock (:func:`_grid_start`) starts before a held series'
+    first sample, by at most ``dt/4``; :func:`jittered_index` gives that point its sample,
+    but a series it does not take (half its samples dropped over a short grid) was held
+    from index -1: the series' last sample, 299 at the first point of a log from 0 to 299.
+    """
+    index = hold_index(time_ns, grid_ns, clock_tolerance_ns(dt_ns))
+    np.maximum(index, 0, out=index)
+    return index
 
 
 def _record_span_bounds(
