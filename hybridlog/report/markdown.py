@@ -214,7 +214,7 @@ def render_markdown(report: Report) -> str:
         "",
         f"- model: {code_span(report.model)}, estimator: `{report.estimator}`",
         *_given_line(report),
-        f"- samples: {report.samples}, dt = {format_number(report.dt)} s, "
+        f"- samples: {report.samples:,}, dt = {format_number(report.dt)} s, "
         f"t = {format_time(report.t_start)} … {format_time(report.t_end)} s",
         *_fields_line(report.reading),
         f"- hybridlog {report.hybridlog_version}",
@@ -581,7 +581,7 @@ def _truth_lines(modes: ModeReport, accuracy: float, samples: int) -> list[str]:
         row = confusion.get(t_id, {})
         lines.append(
             f"| {escape_markdown(t_id)} | "
-            + " | ".join(str(row.get(e, 0)) for e in modes.labels)
+            + " | ".join(f"{row.get(e, 0):,}" for e in modes.labels)
             + " |"
         )
     return lines

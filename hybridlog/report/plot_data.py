@@ -37,6 +37,7 @@ import numpy as np
 
 from hybridlog.estimators.result import EstimationResult, TimelineColumn
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, ComponentTruth, FloatArray, IntArray
+from hybridlog.times import format_time
 
 __all__ = [
     "COMPONENT_PREFIX",
@@ -67,6 +68,8 @@ __all__ = [
     "plain_text",
     "reduce_result",
     "time_bins",
+    "time_label",
+    "time_origin",
 ]
 
 MAX_PANELS = 16
@@ -100,6 +103,36 @@ def plain_text(text: str) -> str:
 
         text = escape_undrawable(text)
     return text.replace("$", r"\$")
+
+
+RELATIVE_FROM_S = 1e6
+"""A run starting this far from 0 (seconds, either way) is drawn from its first sample
+(:func:`time_origin`): a log stamped in Unix time (1.7e9 s) had x ticks ``1.7000``,
+``1.7002``, ... over a ``1e9`` in the corner, which placed a switch no closer than 200,000 s."""
+RELATIVE_SPAN_RATIO = 1e4
+"""A run starting this many of its spans from 0 is drawn from its first sample too: a 10 ms
+excerpt at t = 500 s needs seven digits a tick, which matplotlib wrote as an offset."""
+
+
+def time_origin(start: float, end: float) -> float:
+    """The time the figures' x axes count from: ``0.0``, or ``start`` for absolute times.
+
+    ``start`` when it is at least :data:`RELATIVE_FROM_S` or :data:`RELATIVE_SPAN_RATIO`
+    spans ``end - start`` from 0, whose ticks would not read as times (see those); the
+    axis is then labelled with it (:func:`time_label`).  The drawn times are ``t - start``,
+    exact for float times within a factor of two of ``start`` (Sterbenz), and so within the
+    run's reduction to pixel columns.
+    """
+    if abs(start) >= RELATIVE_FROM_S or abs(start) >= RELATIVE_SPAN_RATIO * (end - start):
+        return start
+    return 0.0
+
+
+def time_label(origin: float) -> str:
+    """The x label of times drawn from ``origin`` (:func:`time_origin`), in seconds."""
+    if origin == 0.0:
+        return "t (s)"
+    return f"t − t₀ (s), t₀ = {format_time(origin)} s"
 
 
 _BLOCK = 1 << 16
@@ -155,6 +188,9 @@ class PixelBins:
     reduced:
         Whether the curves are reduced (:func:`envelope`): not when the bins hold at most
         four samples each on average, where nothing is gained.
+    origin:
+        The time the drawn times below count from (:func:`time_origin`): ``0.0``, or the
+        first sample's time for a run in absolute time.
     span:
         ``(t_0, t_end)``, the panels' x range; ``None`` for no samples.  Unreduced, the
         end is one step (the last sampling interval) past the last sample, the time its
@@ -181,12 +217,15 @@ class PixelBins:
             # had no width, and a switch at the last sample was not drawn at all (a third
             # of a 3-sample log).  It holds for one step more, like the one before it.
             end = time[-1:] + (time[-1] - time[-2])
-        self.span = (float(time[0]), float(end[0])) if n else None
-        self.edges: FloatArray = np.append(time[starts], end)
-        self.curve_time = time
-        self.band_time = time
+        self.origin = time_origin(float(time[0]), float(end[0])) if n else 0.0
+        drawn = time - self.origin if self.origin else time
+        end = end - self.origin
+        self.span = (float(drawn[0]), float(end[0])) if n else None
+        self.edges: FloatArray = np.append(drawn[starts], end)
+        self.curve_time = drawn
+        self.band_time = drawn
         if self.reduced:
-            first, last = time[starts], time[self.ends]
+            first, last = drawn[starts], drawn[self.ends]
             middle = 0.5 * (first + last)
             self.curve_time = np.stack([first, middle, middle, last], axis=1).ravel()
             self.band_time = np.stack([first, last], axis=1).ravel()
@@ -534,6 +573,9 @@ class PlotData:
     ----------
     n_samples:
         Samples of the run.
+    time_origin:
+        The time every time below counts from (:func:`time_origin`; the x label says it,
+        :func:`time_label`).
     span:
         ``(t_0, t_end)``: the panels' x range; ``None`` for no samples.
     edges:
@@ -550,6 +592,7 @@ class PlotData:
     """
 
     n_samples: int
+    time_origin: float
     span: tuple[float, float] | None
     edges: FloatArray
     output_names: tuple[str, ...]
@@ -830,6 +873,7 @@ class PlotReducer:
         )
         return PlotData(
             n_samples=n,
+            time_origin=bins.origin,
             span=bins.span,
             edges=bins.edges,
             output_names=self._output_names,

@@ -55,6 +55,7 @@ from hybridlog.report.plot_data import (
     pixel_columns,
     plain_text,
     reduce_result,
+    time_label,
 )
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -572,6 +573,58 @@ def set_time_span(ax: Axes, span: tuple[float, float] | None) -> None:
         ax.set_xlim(*span)
 
 
+#: Room kept between the x tick label at a panel's right end and the figure's edge, in pixels.
+TICK_LABEL_PAD_PX = 2.0
+
+
+def _time_axis(fig: Figure, ax: Axes, origin: float) -> None:
+    """Label the time axis of ``ax`` (and the panels above it, which share it).
+
+    The times are drawn from ``origin`` (:func:`~hybridlog.report.plot_data.time_origin`),
+    which the label names (:func:`~hybridlog.report.plot_data.time_label`), and the ticks
+    are written as the numbers they are, never scaled by a power of ten in the corner (a
+    10^6 s run read ``0.2`` ... ``1.0`` over ``1e6``).  A tick label at the panels' right end
+    is kept inside the figure (:func:`_fit_ticks_right`).  Call it after the left margin is
+    final (:func:`_fit_labels_left`).
+    """
+    ax.set_xlabel(time_label(origin))
+    ax.ticklabel_format(axis="x", style="plain", useOffset=False)
+    _fit_ticks_right(fig, ax)
+
+
+def _right_overhang_px(fig: Figure, ax: Axes) -> float:
+    """Pixels by which the rightmost x tick label of ``ax`` runs past the figure's edge."""
+    from matplotlib.text import Text
+
+    lo, hi = ax.get_xlim()
+    locs = [x for x in ax.xaxis.get_majorticklocs() if min(lo, hi) <= x <= max(lo, hi)]
+    if not locs:
+        return 0.0
+    last = max(locs)
+    text = ax.xaxis.get_major_formatter().format_ticks(locs)[locs.index(last)]
+    font = ax.xaxis.get_major_ticks()[0].label1.get_fontproperties()
+    label = Text(text=text, fontproperties=font)
+    label.set_figure(fig)
+    width = label.get_window_extent(fig.canvas.get_renderer()).width  # type: ignore[attr-defined]
+    x = ax.transData.transform((last, 0.0))[0]
+    return float(x + width / 2.0 - (fig.bbox.width - TICK_LABEL_PAD_PX))
+
+
+def _fit_ticks_right(fig: Figure, ax: Axes) -> None:
+    """Narrow the panels on the right until the x tick label at their end fits in the figure.
+
+    A tick at the run's end (a span of round length) was cut off at the figure's edge
+    (``1.701`` of ``1.7010``, ``100000`` of ``1000000``).  As :func:`_fit_labels_left`, the
+    curves keep their reduction: its bins are then finer than the panels' pixel columns.
+    Twice at most: the ticks may move with the width.
+    """
+    for _ in range(2):
+        overhang = _right_overhang_px(fig, ax)
+        if overhang <= 0.0:
+            return
+        fig.subplots_adjust(right=fig.subplotpars.right - overhang / fig.bbox.width)
+
+
 def plot_outputs(data: PlotData, path: Path) -> Path:
     """Draw measured outputs against their one-step-ahead predictions.
 
@@ -590,7 +643,7 @@ def plot_outputs(data: PlotData, path: Path) -> Path:
         draw_curve(ax, measured, lw=0.8, color="0.3", label="measured")
         draw_curve(ax, predicted, lw=0.8, color="tab:blue", ls="--", label="predicted")
         ax.set_ylabel(y + in_unit)
-    axes[-1].set_xlabel("t (s)")
+    _time_axis(fig, axes[-1], data.time_origin)
     _legend_above(fig, axes)
     return _save(fig, path)
 
@@ -675,11 +728,11 @@ def plot_modes(data: PlotData, path: Path) -> Path:
         if filtered is not None:
             draw_curve(ax_prob, filtered[j], lw=0.5, ls="--", color=line.get_color())
     ax_prob.set_ylabel("probability")
-    ax_prob.set_xlabel("t (s)")
     # Long mode ids were cut off at the fixed margin.  The probabilities' bins, cut for the
     # fixed panel width, are then finer than the narrower panel's pixel columns: each column
     # still shows every extreme of its samples.
     _fit_labels_left(fig, [ax_mode, ax_prob])
+    _time_axis(fig, ax_prob, data.time_origin)
     # Both legends off the panels: the bars' above them, the probabilities' below (inside,
     # in the upper right corner, it hid the most probable mode's curve near 1).
     _legend_above(fig, [ax_mode])
@@ -732,7 +785,7 @@ def plot_states(data: PlotData, path: Path) -> Path:
             filtered = _in_unit(curves.filtered, unit)
             draw_curve(ax, filtered, lw=0.5, ls="--", color="k", label="filtered")
         ax.set_ylabel(plain_text(curves.name) + in_unit)
-    axes[-1].set_xlabel("t (s)")
+    _time_axis(fig, axes[-1], data.time_origin)
     _legend_above(fig, axes)
     return _save(fig, path)
 
@@ -797,8 +850,8 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
         (ax, column.labels, None) for ax, column in zip(axes, components.columns, strict=False)
     ]
     _row_labels(fig, [*panels, (joint, visited, "x-small")], keys)
-    joint.set_xlabel("t (s)")
     _fit_labels_left(fig, axes)
+    _time_axis(fig, joint, data.time_origin)
     # the components' entries (the joint panel's bars, dark grey, are their own key)
     _legend_above(fig, [*axes[:-1], *([joint] if components.joint_filtered is not None else [])])
     if keys.ids:
