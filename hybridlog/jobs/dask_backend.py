@@ -160,13 +160,13 @@ def _handshake(address: str) -> None:
     import asyncio
     from concurrent.futures import ThreadPoolExecutor
 
-    from distributed.comm import connect as open_comm
+    from distributed.comm.core import connect as open_comm
     from distributed.security import Security
 
-    arguments = Security().get_connection_args("client")
+    arguments = cast(Any, Security)().get_connection_args("client")
 
     async def shake() -> None:
-        opening = open_comm(address, timeout=CONNECT_TIMEOUT_S, **arguments)
+        opening = cast(Any, open_comm)(address, timeout=CONNECT_TIMEOUT_S, **arguments)
         comm = await asyncio.wait_for(opening, 2 * CONNECT_TIMEOUT_S)
         await comm.close()
 
