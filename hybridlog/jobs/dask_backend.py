@@ -158,7 +158,6 @@ def _handshake(address: str) -> None:
         reply's bytes read as a frame's length).
     """
     import asyncio
-    from concurrent.futures import ThreadPoolExecutor
 
     from distributed.comm.core import connect as open_comm
     from distributed.security import Security
@@ -170,9 +169,21 @@ def _handshake(address: str) -> None:
         comm = await asyncio.wait_for(opening, 2 * CONNECT_TIMEOUT_S)
         await comm.close()
 
-    # a loop of its own, in a thread of its own: the caller may run one (a notebook)
-    with ThreadPoolExecutor(1) as pool:
-        pool.submit(asyncio.run, shake()).result()
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(shake())
+        except BaseException as err:  # raised in the caller's thread
+            failure.append(err)
+
+    # a loop of its own, in a thread of its own: the caller may run one (a notebook); a
+    # daemon thread, so that Ctrl-C ends the batch at once, not after the handshake's wait
+    thread = threading.Thread(target=run, name="hybridlog-dask-handshake", daemon=True)
+    thread.start()
+    thread.join()
+    if failure:
+        raise failure[0]
 
 
 @dataclass(frozen=True)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import signal
 import socket
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -145,6 +148,19 @@ def test_a_port_that_answers_but_not_in_dask_is_refused_in_one_line(
             ) as err:
                 dask_backend.connect(address)
             assert why in str(err.value)
+
+
+def test_ctrl_c_while_waiting_for_a_handshake_ends_at_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Not after the handshake's wait (2 x CONNECT_TIMEOUT_S)."""
+    monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 2.0)
+    with socket.create_server(("127.0.0.1", 0)) as silent:
+        threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT)).start()
+        started = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            dask_backend.connect(f"tcp://127.0.0.1:{silent.getsockname()[1]}")
+        assert time.monotonic() - started < 1.5
 
 
 def test_jobs_with_a_scheduler_is_refused(tmp_path: Path) -> None:
