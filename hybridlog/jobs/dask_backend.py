@@ -105,7 +105,8 @@ def connect(address: str) -> Any:
     ------
     OptionError
         When Dask is not installed, ``address`` is not an address (no port, an unknown
-        scheme), or the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`.
+        scheme), the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`, or what
+        answers there does not speak Dask (:func:`_handshake`).
     """
     try:
         from distributed import Client
