@@ -105,7 +105,8 @@ def connect(address: str) -> Any:
     ------
     OptionError
         When Dask is not installed, ``address`` is not an address (no port, an unknown
-        scheme), or the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`.
+        scheme), the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`, or what
+        answers there does not speak Dask (:func:`_handshake`).
     """
     try:
         from distributed import Client
@@ -113,20 +114,77 @@ def connect(address: str) -> Any:
         raise OptionError(
             "--scheduler: Dask is not installed; install the extra: pip install 'hybridlog[dask]'"
         ) from err
+    shown = excerpt(address)[1:-1]
     try:
+        _handshake(address)
         return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT_S)
     except Exception as err:  # refused, timed out, a bad address, or not a Dask scheduler
         reason = excerpt(" ".join(str(err).split()) or type(err).__name__, 120)[1:-1]
-        shown = excerpt(address)[1:-1]
         if isinstance(err, ValueError):  # distributed's parsing: no port, an unknown scheme
             raise OptionError(
                 f"--scheduler {shown}: not a scheduler address ({reason}); "
                 "expected e.g. tcp://host:8786"
             ) from err
+        if isinstance(err, OSError) and not isinstance(err, TimeoutError):
+            raise OptionError(
+                f"--scheduler {shown}: cannot reach the Dask scheduler within "
+                f"{CONNECT_TIMEOUT_S:g} s ({reason})"
+            ) from err
+        # something listens there, but does not speak Dask (a dashboard's or other HTTP port)
+        why = "no Dask handshake" if isinstance(err, TimeoutError) else "its reply is not Dask's"
         raise OptionError(
-            f"--scheduler {shown}: cannot reach the Dask scheduler within "
-            f"{CONNECT_TIMEOUT_S:g} s ({reason})"
+            f"--scheduler {shown}: what answers there is not a Dask scheduler ({why}); "
+            "give the scheduler's address, e.g. tcp://host:8786, not its dashboard's"
         ) from err
+
+
+def _handshake(address: str) -> None:
+    """Connect to ``address`` and read its Dask handshake, within 2 x :data:`CONNECT_TIMEOUT_S`.
+
+    Dask's client waits for the handshake without a timeout: a server that accepts the
+    connection but never answers in Dask's protocol (an HTTP server waiting for its request
+    to end, such as the scheduler's own dashboard) kept the batch waiting forever.
+
+    Raises
+    ------
+    ValueError
+        When ``address`` is not an address (distributed's parsing).
+    OSError
+        When nothing accepts the connection within :data:`CONNECT_TIMEOUT_S` (not a
+        :class:`TimeoutError`: distributed words its own timeouts).
+    TimeoutError
+        When the connection was accepted but no handshake came.
+    Exception
+        Whatever reading a reply that is not Dask's raised (a ``MemoryError`` for an HTTP
+        reply's bytes read as a frame's length).
+    """
+    import asyncio
+
+    from distributed.comm.core import connect as open_comm
+    from distributed.security import Security
+
+    arguments = cast(Any, Security)().get_connection_args("client")
+
+    async def shake() -> None:
+        opening = cast(Any, open_comm)(address, timeout=CONNECT_TIMEOUT_S, **arguments)
+        comm = await asyncio.wait_for(opening, 2 * CONNECT_TIMEOUT_S)
+        await comm.close()
+
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(shake())
+        except BaseException as err:  # raised in the caller's thread
+            failure.append(err)
+
+    # a loop of its own, in a thread of its own: the caller may run one (a notebook); a
+    # daemon thread, so that Ctrl-C ends the batch at once, not after the handshake's wait
+    thread = threading.Thread(target=run, name="hybridlog-dask-handshake", daemon=True)
+    thread.start()
+    thread.join()
+    if failure:
+        raise failure[0]
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import socket
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -116,6 +121,46 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
     with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
+
+
+def test_a_port_that_answers_but_not_in_dask_is_refused_in_one_line(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A dashboard's port kept the batch waiting forever; an HTTP reply said "cannot reach"."""
+    monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 0.3)
+    with (
+        socket.create_server(("127.0.0.1", 0)) as silent,
+        socket.create_server(("127.0.0.1", 0)) as http,
+    ):
+
+        def reply() -> None:
+            conn, _ = http.accept()
+            with conn:
+                conn.sendall(b"HTTP/1.1 404 Not Found\r\ncontent-length: 0\r\n\r\n")
+                conn.recv(1)  # open until the client lets go
+
+        threading.Thread(target=reply, daemon=True).start()
+        # the kernel accepts a connection to ``silent``, which never says a word
+        for server, why in ((http, "its reply is not Dask's"), (silent, "no Dask handshake")):
+            address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+            with pytest.raises(
+                OptionError, match=f"^--scheduler {address}: .* not a Dask sch"
+            ) as err:
+                dask_backend.connect(address)
+            assert why in str(err.value)
+
+
+def test_ctrl_c_while_waiting_for_a_handshake_ends_at_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Not after the handshake's wait (2 x CONNECT_TIMEOUT_S)."""
+    monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT_S", 2.0)
+    with socket.create_server(("127.0.0.1", 0)) as silent:
+        threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT)).start()
+        started = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            dask_backend.connect(f"tcp://127.0.0.1:{silent.getsockname()[1]}")
+        assert time.monotonic() - started < 1.5
 
 
 def test_jobs_with_a_scheduler_is_refused(tmp_path: Path) -> None:
