@@ -271,3 +271,25 @@ def test_every_estimator_that_cannot_run_is_named_at_once(tmp_path: Path) -> Non
         "'ice' (unknown); estimators for this model: hstf, imm, chiu, kmeans"
     )
     assert not out.exists()
+
+
+def test_a_report_of_a_comparison_is_not_replaced_on_its_own(tmp_path: Path) -> None:
+    """``analyze --out cmp/imm --force`` replaced the comparison's imm report with a run of
+    other settings, and ``compare --out cmp/imm --force`` put a comparison there: cmp's
+    comparison.md then gave numbers, and a link, that no report of it held any more."""
+    from hybridlog.errors import OutputError
+    from hybridlog.jobs.analysis import analyze
+
+    out = tmp_path / "cmp"
+    compare(CART, "double_cart_case1", ["imm", "hstf"], out_dir=out)
+    before = (out / "imm" / "report.json").read_bytes()
+    part = r"output directory .*cmp/imm is part of .*cmp, which hybridlog wrote"
+    with pytest.raises(OutputError, match=part):
+        analyze(CART, "double_cart_case1", estimator="imm", out_dir=out / "imm", force=True)
+    with pytest.raises(OutputError, match=part):
+        compare(CART, "double_cart_case1", ["hstf"], out_dir=out / "imm", force=True)
+    assert (out / "imm" / "report.json").read_bytes() == before
+    shutil.rmtree(out / "imm")  # gone, still named by comparison.md: not written alone either
+    with pytest.raises(OutputError, match=part):
+        analyze(CART, "double_cart_case1", estimator="imm", out_dir=out / "imm")
+    compare(CART, "double_cart_case1", ["hstf"], out_dir=out / "other")  # not part of it
