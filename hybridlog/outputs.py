@@ -629,18 +629,21 @@ def check_dir_target(
     hybridlog wrote there (``written``: the files a folder's :data:`MARKER` lists,
     :func:`recorded_files`) and none of those changed since (a user's notes appended to
     report.md): a user's own folder, or a note a user put into a report folder, is never
-    wiped.
+    wiped.  A folder that is part of another output (a comparison's report) is refused,
+    present or not (:func:`_check_not_part`).
 
     Raises
     ------
     OutputError
         When the target exists and is not a folder (or is a symbolic link), is not empty
-        (without ``force``), or holds files hybridlog did not write.
+        (without ``force``), holds files hybridlog did not write, or is part of another
+        output hybridlog wrote.
     """
     path = output_path(target)
     if path.parent == path:
         raise OutputError(f"output directory {_shown(target)} cannot be replaced")
     check_creatable(path)
+    _check_not_part(path)
     if not _present(path):
         return path
     if path.is_symlink():  # renamed over, or filled through: neither is the folder named
@@ -679,6 +682,39 @@ def check_dir_target(
                 "replacing it would lose; move them out, or choose another output directory"
             )
     return path
+
+
+def _enclosing_output(path: Path) -> Path | None:
+    """The folder above ``path`` whose :data:`MARKER` lists files in ``path``, or None."""
+    for parent in path.parents:
+        try:
+            if not (parent / MARKER).is_file():
+                continue
+        except OSError:  # a folder above that cannot be searched holds no marker we read
+            continue
+        inside = path.relative_to(parent).as_posix() + "/"
+        if any(name.startswith(inside) for name in recorded_files(parent) or ()):
+            return parent
+    return None
+
+
+def _check_not_part(path: Path) -> None:
+    """Refuse an output folder that is part of another output hybridlog wrote.
+
+    ``analyze --out cmp/imm --force`` replaced a comparison's report with a run of other
+    settings (``compare --out cmp/imm`` with a comparison), and ``cmp``'s comparison.md
+    then gave numbers, and links, that no report of it held: a folder the
+    :data:`MARKER` of a folder above lists files in (:func:`recorded_files`; a batch folder
+    lists none, and a batch replaces its logs' reports itself) is written only with the
+    folder it is part of, also when it was removed.
+    """
+    whole = _enclosing_output(path)
+    if whole is not None:
+        raise OutputError(
+            f"output directory {_shown(path)} is part of {_shown(whole)}, which hybridlog "
+            "wrote (its tables name what it holds), so it is not written on its own; "
+            "write the whole folder again, or choose another output directory"
+        )
 
 
 def _check_only_ours(path: Path, written: Collection[str] | None) -> None:

@@ -12,6 +12,7 @@ from hybridlog.estimators.registry import (
     Prepared,
     get_estimator,
     prepare,
+    refuse_unrunnable,
     resolve_estimator,
 )
 
@@ -23,5 +24,6 @@ __all__ = [
     "Prepared",
     "get_estimator",
     "prepare",
+    "refuse_unrunnable",
     "resolve_estimator",
 ]

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
 
@@ -54,6 +54,7 @@ __all__ = [
     "get_estimator",
     "prepare",
     "reference_markdown",
+    "refuse_unrunnable",
     "resolve_estimator",
 ]
 
@@ -334,6 +335,47 @@ def get_estimator(name: str, *, given_by: str = "--estimator") -> Estimator:
     if name in ESTIMATORS:
         return ESTIMATORS[name]
     raise OptionError(f"{given_by}: {_unknown(name, ESTIMATORS)}")
+
+
+def refuse_unrunnable(model: HybridModel, names: Sequence[str], *, given_by: str) -> None:
+    """Refuse the estimators of ``names`` that cannot run ``model``, all in one message.
+
+    Named one at a time (:func:`get_estimator`, :func:`prepare`), the seven estimators on the
+    double cart were refused for ``switching-observer``, then, it taken out, for
+    ``unknown-mode``, then ``sliding-mode``, and two typos took two runs.  With two or more
+    names unknown or unsuited each is named, those of one reason together, the reason as
+    what the estimator needs (the first clause of
+    :meth:`~hybridlog.estimators.capabilities.Capabilities.mismatch`: the message stays one
+    line the CLI prints whole); one alone is left to those, which say it in full as before.
+
+    Raises
+    ------
+    OptionError
+        A name is unknown (``unknown; did you mean 'imm'?``).
+    ModelError
+        Every refused name is an estimator the model does not suit.
+    """
+    traits = ModelTraits(model)
+    refused: dict[str, list[str]] = {}  # reason -> names
+    for name in names:
+        mismatch = ESTIMATORS[name].capabilities.mismatch(traits) if name in ESTIMATORS else None
+        if name not in ESTIMATORS:
+            refused.setdefault(f"unknown{closest(name, ESTIMATORS)}", []).append(name)
+        elif mismatch is not None:
+            refused.setdefault(mismatch.split("; ")[0], []).append(name)
+    count = sum(map(len, refused.values()))
+    if count < 2:
+        return
+    suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
+    items = ", ".join(f"{', '.join(map(excerpt, group))} ({why})" for why, group in refused.items())
+    message = (
+        f"{model.origin or model.name}: {given_by}: {count} of the {len(names)} estimators "
+        f"cannot run this model: {items}; estimators for this model: "
+        f"{', '.join(suited) or 'none'}"
+    )
+    if any(name not in ESTIMATORS for group in refused.values() for name in group):
+        raise OptionError(message)
+    raise ModelError(message)
 
 
 def resolve_estimator(

@@ -40,6 +40,7 @@ from hybridlog.estimators import (
     Estimator,
     Prepared,
     prepare,
+    refuse_unrunnable,
     resolve_estimator,
 )
 from hybridlog.estimators.options import closest
@@ -251,6 +252,7 @@ def prepare_estimators(
     ``--mode-sequence``) set those options of every chosen estimator, each of which must
     have them (:func:`smoothing_overrides`).
     """
+    refuse_unrunnable(model, [name for name in names if name is not None], given_by=given_by)
     chosen = [resolve_estimator(model, name, given_by=given_by) for name in names]
     # what a refusal names as the estimator's origin: the option, or the model's default
     chosen_by = (

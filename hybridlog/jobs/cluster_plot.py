@@ -4,7 +4,9 @@ Left: the regression vectors φ(k) in the plane of their first two components (`
 the next one), coloured by the cluster the decision rule (eqs. (2)–(3)) gives them, with the
 subtractive-clustering centres (black crosses) and the k-means centres (red pluses).
 Right: ``y(k)`` over time coloured the same way, the decision variables ``y_i*`` as
-horizontal lines, and the true mode when the log has it.  With more than
+horizontal lines, and the true mode when the log has it; times are drawn as the reports'
+figures draw them (a Unix-time log from its first sample, the label naming it,
+:func:`~hybridlog.report.plots.label_time_axis`).  With more than
 :data:`MAX_CLUSTER_COLOURS` clusters (a small radius gives hundreds) one colour and one legend
 entry per cluster would repeat colours and bury the axes under the legend: the samples are
 then coloured by the mode their cluster decides (grey when unlabelled), and the decision
@@ -26,7 +28,8 @@ from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from hybridlog.report.plot_data import plain_text
+from hybridlog.report.plot_data import plain_text, time_origin
+from hybridlog.report.plots import label_time_axis
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters", "save_reproducibly"]
@@ -122,6 +125,8 @@ def plot_clusters(
     step = max(1, phi.shape[0] // _MAX_POINTS)
     other = 1 if phi.shape[1] > 1 else 0
     group, colours, labels = _groups(len(centers), cluster_modes)
+    origin = time_origin(float(time[0]), float(time[-1])) if time.size else 0.0
+    time = time - origin
     of_group = np.asarray(group, dtype=np.int64)[clusters]
     for g, (colour, label) in enumerate(zip(colours, labels, strict=True)):
         chosen = np.flatnonzero(of_group == g)[::step]
@@ -157,7 +162,7 @@ def plot_clusters(
     left.set_ylabel(names[other])
     left.legend(fontsize=7, loc="best")
     left.set_title("regression vectors and centres")
-    right.set_xlabel("t (s)")
+    label_time_axis(right, origin)
     right.set_ylabel(names[0])
     where = "dashed" if few else "ticks at the right edge"
     right.set_title(f"decided cluster per sample ({where}: decision variables y*)")

@@ -70,6 +70,7 @@ __all__ = [
     "draw_curve",
     "draw_plots",
     "figure_shapes",
+    "label_time_axis",
     "make_ticks_ahead",
     "mode_panel_height",
     "plot_components",
@@ -587,9 +588,21 @@ def _time_axis(fig: Figure, ax: Axes, origin: float) -> None:
     is kept inside the figure (:func:`_fit_ticks_right`).  Call it after the left margin is
     final (:func:`_fit_labels_left`).
     """
+    label_time_axis(ax, origin)
+    _fit_ticks_right(fig, ax)
+
+
+def label_time_axis(ax: Axes, origin: float) -> None:
+    """Label ``ax``'s x axis as times drawn from ``origin``, its ticks plain numbers.
+
+    The label names ``origin`` (:func:`~hybridlog.report.plot_data.time_label`; the caller
+    draws ``t - origin``, :func:`~hybridlog.report.plot_data.time_origin`), and no tick is
+    scaled by a power of ten or offset in the corner: a Unix-time run read ``1.7000`` ...
+    ``1.7010`` over ``1e9``.  Every time axis hybridlog draws is labelled here (the
+    reports' figures, :func:`_time_axis`, and ``hybridlog cluster``'s picture).
+    """
     ax.set_xlabel(time_label(origin))
     ax.ticklabel_format(axis="x", style="plain", useOffset=False)
-    _fit_ticks_right(fig, ax)
 
 
 def _right_overhang_px(fig: Figure, ax: Axes) -> float:

@@ -247,3 +247,49 @@ def test_cluster_command_gives_its_options_over_the_model_files(tmp_path: Path) 
         result = CliRunner().invoke(cli, [*args, *extra])
         assert result.exit_code == 0, result.output
         assert json.loads(out.read_text())["chiu"]["parameters"]["radius"] == radius
+
+
+def test_every_estimator_that_cannot_run_is_named_at_once(tmp_path: Path) -> None:
+    """All seven estimators on the double cart named switching-observer alone; taken out,
+    the next run refused unknown-mode, then sliding-mode.  Two typos were found one a run."""
+    from hybridlog.errors import ModelError
+
+    every = ["hstf", "imm", "chiu", "kmeans", "switching-observer", "unknown-mode", "sliding-mode"]
+    out = tmp_path / "cmp"
+    with pytest.raises(ModelError) as refused:
+        compare(CART, "double_cart_case1", every, out_dir=out)
+    assert str(refused.value) == (
+        "double_cart_case1: --estimators: 3 of the 7 estimators cannot run this model: "
+        "'switching-observer', 'sliding-mode' (needs a continuous-time model), 'unknown-mode' "
+        "(needs a model with [components]); estimators for this model: hstf, imm, chiu, kmeans"
+    )
+    with pytest.raises(OptionError) as unknown:
+        compare(CART, "double_cart_case1", ["imx", "imm", "kmean", "ice"], out_dir=out)
+    assert str(unknown.value) == (
+        "double_cart_case1: --estimators: 3 of the 4 estimators cannot run this model: "
+        "'imx' (unknown; did you mean 'imm'?), 'kmean' (unknown; did you mean 'kmeans'?), "
+        "'ice' (unknown); estimators for this model: hstf, imm, chiu, kmeans"
+    )
+    assert not out.exists()
+
+
+def test_a_report_of_a_comparison_is_not_replaced_on_its_own(tmp_path: Path) -> None:
+    """``analyze --out cmp/imm --force`` replaced the comparison's imm report with a run of
+    other settings, and ``compare --out cmp/imm --force`` put a comparison there: cmp's
+    comparison.md then gave numbers, and a link, that no report of it held any more."""
+    from hybridlog.errors import OutputError
+    from hybridlog.jobs.analysis import analyze
+
+    out = tmp_path / "cmp"
+    compare(CART, "double_cart_case1", ["imm", "hstf"], out_dir=out)
+    before = (out / "imm" / "report.json").read_bytes()
+    part = r"output directory .*cmp/imm is part of .*cmp, which hybridlog wrote"
+    with pytest.raises(OutputError, match=part):
+        analyze(CART, "double_cart_case1", estimator="imm", out_dir=out / "imm", force=True)
+    with pytest.raises(OutputError, match=part):
+        compare(CART, "double_cart_case1", ["hstf"], out_dir=out / "imm", force=True)
+    assert (out / "imm" / "report.json").read_bytes() == before
+    shutil.rmtree(out / "imm")  # gone, still named by comparison.md: not written alone either
+    with pytest.raises(OutputError, match=part):
+        analyze(CART, "double_cart_case1", estimator="imm", out_dir=out / "imm")
+    compare(CART, "double_cart_case1", ["hstf"], out_dir=out / "other")  # not part of it

@@ -103,3 +103,37 @@ def test_tick_labels_are_plain_and_inside_the_figure(
         assert "1000000" in [t.get_text() for t in inside], name
         right = max(t.get_window_extent(renderer).x1 for t in inside)
         assert right <= fig.bbox.width, (name, right, fig.bbox.width)
+
+
+def test_the_cluster_plot_draws_a_run_in_unix_time_from_its_first_sample(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """``hybridlog cluster``'s picture had the ticks 1.7000 ... 1.7010 over ``1e9`` too."""
+    from hybridlog.jobs import cluster_plot
+
+    figures: list[Any] = []
+    save = cluster_plot.save_reproducibly
+
+    def keep_then_save(fig: Any, path: Path, *, dpi: int) -> None:
+        fig.canvas.draw()
+        figures.append(fig)
+        save(fig, path, dpi=dpi)
+
+    monkeypatch.setattr(cluster_plot, "save_reproducibly", keep_then_save)
+    phi = np.random.default_rng(2).normal(size=(400, 2))
+    cluster_plot.plot_clusters(
+        tmp_path / "clusters.png",
+        time=UNIX_T0 + np.arange(400) * 2.5,
+        phi=phi,
+        names=("y(k)", "y(k-1)"),
+        clusters=np.arange(400) % 2,
+        centers=phi[:2],
+        cluster_modes=("1", "2"),
+        decision_values=np.array([0.5, 1.5]),
+        truth=["1" if k % 3 else "2" for k in range(400)],
+    )
+    right = figures[0].axes[1]
+    assert right.get_xlabel() == "t − t₀ (s), t₀ = 1700000000.25 s"
+    assert right.xaxis.get_offset_text().get_text() == ""
+    lo, hi = right.get_xlim()
+    assert -100.0 < lo < 0.0 and 997.5 < hi < 1100.0, (lo, hi)
