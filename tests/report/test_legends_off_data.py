@@ -16,6 +16,7 @@ import pytest
 
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.signals import AlignedSignals
+from tests.support.figures import drawn_figures
 
 from .test_plot_data import _run
 from .test_report_files import make_run
@@ -47,17 +48,7 @@ def _figures(monkeypatch: pytest.MonkeyPatch, tmp_path: Path, run: Any) -> dict[
     """The figures of ``run`` as saved, drawn (so that text has its place)."""
     from hybridlog.report import plots
 
-    figures: dict[str, Any] = {}
-    save = plots._save
-
-    def keep_then_save(fig: Any, path: Path) -> Path:
-        fig.canvas.draw()
-        figures[path.name] = fig
-        return save(fig, path)
-
-    monkeypatch.setattr(plots, "_save", keep_then_save)
-    plots.write_plots(tmp_path, *run())
-    return figures
+    return drawn_figures(monkeypatch, lambda: plots.write_plots(tmp_path, *run()))
 
 
 @pytest.mark.parametrize("name", list(RUNS))

@@ -13,6 +13,7 @@ import pytest
 from hybridlog.estimators.result import EstimationResult, PostProcessing
 from hybridlog.report.plot_data import Components, plain_text, reduce_result
 from hybridlog.signals import AlignedSignals
+from tests.support.figures import drawn_figures
 
 from .test_plot_data import _run
 from .test_report_files import make_run
@@ -39,19 +40,7 @@ def _with_modes(
 
 def _drawn_modes(monkeypatch: pytest.MonkeyPatch, draw: Any) -> Any:
     """The modes.png figure as saved by ``draw()`` (drawn, so that text has its place)."""
-    from hybridlog.report import plots
-
-    figures: dict[str, Any] = {}
-    save = plots._save
-
-    def keep_then_save(fig: Any, path: Path) -> Path:
-        fig.canvas.draw()
-        figures[path.name] = fig
-        return save(fig, path)
-
-    monkeypatch.setattr(plots, "_save", keep_then_save)
-    draw()
-    return figures["modes.png"]
+    return drawn_figures(monkeypatch, draw)["modes.png"]
 
 
 def _texts(fig: Any) -> list[Any]:

@@ -13,6 +13,7 @@ import pytest
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report.plot_data import ModeTimelines, reduce_result, time_origin
 from hybridlog.signals import AlignedSignals
+from tests.support.figures import drawn_figures
 
 from .test_plot_data import _run
 from .test_report_files import make_run
@@ -33,17 +34,7 @@ def _figures(
     """The figures of ``run`` as saved, drawn (so that their text has its place)."""
     from hybridlog.report import plots
 
-    figures: dict[str, Any] = {}
-    save = plots._save
-
-    def keep_then_save(fig: Any, path: Path) -> Path:
-        fig.canvas.draw()
-        figures[path.name] = fig
-        return save(fig, path)
-
-    monkeypatch.setattr(plots, "_save", keep_then_save)
-    plots.write_plots(tmp_path, *run)
-    return figures
+    return drawn_figures(monkeypatch, lambda: plots.write_plots(tmp_path, *run))
 
 
 def _time_axes(fig: Any) -> Any:
