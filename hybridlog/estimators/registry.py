@@ -358,10 +358,9 @@ def refuse_unrunnable(model: HybridModel, names: Sequence[str], *, given_by: str
     traits = ModelTraits(model)
     refused: dict[str, list[str]] = {}  # reason -> names
     for name in names:
-        mismatch = ESTIMATORS[name].capabilities.mismatch(traits) if name in ESTIMATORS else None
         if name not in ESTIMATORS:
             refused.setdefault(f"unknown{closest(name, ESTIMATORS)}", []).append(name)
-        elif mismatch is not None:
+        elif (mismatch := ESTIMATORS[name].capabilities.mismatch(traits)) is not None:
             refused.setdefault(mismatch.split("; ")[0], []).append(name)
     count = sum(map(len, refused.values()))
     if count < 2:
