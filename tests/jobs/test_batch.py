@@ -278,12 +278,15 @@ def test_a_reader_crash_fails_only_its_log(tmp_path: Path, monkeypatch: pytest.M
 
 
 def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
-    logs = write_logs(tmp_path, ["a1", "a2", "a3"])
+    # Six logs, so that the workers still run when the killer, a thread of this busy
+    # process, first scans /proc (with three short ones a loaded machine once finished the
+    # batch before it looked, and it then looked on for two minutes)
+    logs = write_logs(tmp_path, [f"a{k}" for k in range(1, 7)])
     killed: list[int] = []
+    finished = threading.Event()
 
     def kill_the_first_worker() -> None:
-        deadline = time.monotonic() + 120
-        while not killed and time.monotonic() < deadline:
+        while not killed and not finished.is_set():
             for pid in descendants(os.getpid()):
                 if is_worker(pid):
                     os.kill(pid, signal.SIGKILL)
@@ -293,11 +296,14 @@ def test_a_killed_worker_fails_only_its_log(tmp_path: Path) -> None:
 
     killer = threading.Thread(target=kill_the_first_worker)
     killer.start()
-    outcome = run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", jobs=2)
-    killer.join()
+    try:
+        outcome = run_batch(logs, TANK, out_dir=tmp_path / "out", estimator="imm", jobs=2)
+    finally:
+        finished.set()
+        killer.join()
     assert len(killed) == 1
     statuses = [o.status for o in outcome.logs]
-    assert sorted(statuses) == ["done", "done", "failed"]
+    assert sorted(statuses) == ["done"] * 5 + ["failed"]
     failed = outcome.logs[statuses.index("failed")]
     assert failed.error == "worker process died (killed by signal SIGKILL)"
     assert not (Path(failed.folder)).exists()
