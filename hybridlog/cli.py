@@ -1053,10 +1053,11 @@ def batch_command(
         from hybridlog.jobs.workers import start_forkserver
 
         start_forkserver()
+    from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.batch import run_batch
 
     read, common = _split_options(options)
-    with _batch_progress(ctx, total) as advance:
+    with _batch_progress(ctx, total) as advance, reporting(_batch_reporter(ctx)):
         outcome = run_batch(
             found,
             model_ref,
@@ -1199,12 +1200,14 @@ a model's warm run loads its cached machine code in about half a second."""
 
 
 @contextlib.contextmanager
-def _work_wait(shown: bool, what: str, why: str) -> Iterator[None]:
+def _work_wait(shown: bool, what: str, why: str, *, over_bar: bool = False) -> Iterator[None]:
     """Say ``what`` and ``why`` once the work inside has taken :data:`WAIT_SHOWN_S`, then how long.
 
     Only where ``shown`` (:func:`_bars_shown`: a terminal, no ``--quiet``), as the bars: the
     lines tell someone watching why nothing happens for a while (a model's first run
     compiling its machine code); a CI log has the compile time in report.md's Runtime.
+    ``over_bar``: a progress bar may be drawn on the current line, which each line clears
+    first.
     """
     if not shown:
         yield
@@ -1215,10 +1218,12 @@ def _work_wait(shown: bool, what: str, why: str) -> Iterator[None]:
 
     start = time.perf_counter()
     said = threading.Event()
+    # the cursor to the line's start, the line erased (kept: shown only on a terminal)
+    clear = "\r\x1b[K" if over_bar else ""
 
     def say() -> None:
         said.set()
-        click.echo(_for_terminal(f"{what} ({why})..."), err=True)
+        click.echo(clear + _for_terminal(f"{what} ({why})..."), err=True, color=over_bar)
 
     timer = threading.Timer(WAIT_SHOWN_S, say)
     timer.daemon = True
@@ -1230,7 +1235,7 @@ def _work_wait(shown: bool, what: str, why: str) -> Iterator[None]:
         timer.join()
     if said.is_set():
         took = duration_text(time.perf_counter() - start)
-        click.echo(_for_terminal(f"{what}: done in {took}"), err=True)
+        click.echo(clear + _for_terminal(f"{what}: done in {took}"), err=True, color=over_bar)
 
 
 def _work_reporter(ctx: click.Context) -> WorkReporter:
@@ -1252,6 +1257,20 @@ def _work_reporter(ctx: click.Context) -> WorkReporter:
         bar=partial(_work_progress, quiet),
         wait=partial(_work_wait, _bars_shown(quiet)),
     )
+
+
+def _batch_reporter(ctx: click.Context) -> WorkReporter:
+    """A batch's reporter: a model's first compiling said as :func:`_work_wait`, over the bar.
+
+    The lines clear the bar's line first (its next update draws it again below them); long
+    clustering inside a log says nothing (the logs' bar is the batch's progress).
+    """
+    from functools import partial
+
+    from hybridlog.cluster.progress import WorkReporter
+
+    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    return WorkReporter(wait=partial(_work_wait, _bars_shown(quiet), over_bar=True))
 
 
 def _read_options_given(options: dict[str, Any]) -> ReadOptions:

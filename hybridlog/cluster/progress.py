@@ -42,14 +42,30 @@ def duration_text(seconds: float) -> str:
     return f"{seconds / 3600.0:.1f} h"
 
 
+def _silent_note(text: str) -> None:
+    """A :attr:`WorkReporter.note` that says nothing (the default)."""
+
+
+def _advance_nothing(done: int) -> None:
+    """What :func:`_silent_bar`'s context yields: a bar that is not drawn."""
+
+
+def _silent_bar(total: int, label: str) -> AbstractContextManager[Callable[[int], None]]:
+    """A :attr:`WorkReporter.bar` that draws nothing (the default)."""
+    return contextlib.nullcontext(_advance_nothing)
+
+
 def silent_wait(what: str, why: str) -> AbstractContextManager[None]:
-    """A :attr:`WorkReporter.wait` that says nothing (the default; module-level, so picklable)."""
+    """A :attr:`WorkReporter.wait` that says nothing (the default)."""
     return contextlib.nullcontext()
 
 
 @dataclass(frozen=True)
 class WorkReporter:
-    """How long work reports itself.
+    """How long work reports itself; each member says nothing unless given.
+
+    Made of module-level functions (the defaults are), a reporter is sent pickled to the
+    process that does the work (``analyze``'s estimators' worker).
 
     Attributes
     ----------
@@ -64,11 +80,11 @@ class WorkReporter:
         why it takes long, around work whose length cannot be foreseen (the machine code a
         model's first run compiles; a warm run loads it in a moment): the context it returns
         is held around that work.  It may say so only once the work has outlasted a moment,
-        and then how long it took.  By default it says nothing.
+        and then how long it took.
     """
 
-    note: Callable[[str], None]
-    bar: Callable[[int, str], AbstractContextManager[Callable[[int], None]]]
+    note: Callable[[str], None] = _silent_note
+    bar: Callable[[int, str], AbstractContextManager[Callable[[int], None]]] = _silent_bar
     wait: Callable[[str, str], AbstractContextManager[None]] = silent_wait
 
 

@@ -512,8 +512,8 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
     machine code of the model's filters is loaded there while this process reads the log.
     On a model's first run with those options there is none: the warm-up compiles it (up to
     a minute, expectation correction's straight-line code), and the command's reporter, if
-    any, is told (:attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`:
-    ``analyze`` and ``compare`` say so on a terminal once it outlasts a moment).
+    any, is told (:func:`warm_up_told`: ``analyze`` and ``compare`` say so on a terminal
+    once it outlasts a moment).
     """
     running = worker(ESTIMATES)
     if running is None:
@@ -521,15 +521,23 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
     reporter = current_reporter()
     wait = silent_wait if reporter is None else reporter.wait
     for estimator in prepared:
-        running.submit(partial(_warm_up_reported, wait, estimator), model)
+        running.submit(partial(warm_up_told, estimator, wait=wait), model)
 
 
-def _warm_up_reported(
-    wait: Callable[[str, str], contextlib.AbstractContextManager[None]],
+def warm_up_told(
     estimator: Prepared,
     model: HybridModel,
+    wait: Callable[[str, str], contextlib.AbstractContextManager[None]] | None = None,
 ) -> None:
-    """``estimator.warm_up(model)`` inside ``wait``'s context, which names what it compiles."""
+    """``estimator.warm_up(model)`` inside ``wait``'s context, which names what it compiles.
+
+    :attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`; by default
+    the installed reporter's (:func:`~hybridlog.cluster.progress.current_reporter`), if any:
+    a batch's worker warms up so before its first log (:mod:`hybridlog.jobs.batch`).
+    """
+    if wait is None:
+        reporter = current_reporter()
+        wait = silent_wait if reporter is None else reporter.wait
     with wait(
         f"{estimator.name}: compiling machine code for model {model.name!r}",
         "its first run with these options; later runs load it from the cache",

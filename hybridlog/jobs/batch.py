@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from hybridlog import __version__
+from hybridlog.cluster.progress import current_reporter, silent_wait
 from hybridlog.errors import (
     HybridlogError,
     LogError,
@@ -70,6 +71,7 @@ from hybridlog.jobs.analysis import (
     parse_sets,
     prepare_estimators,
     read_log,
+    warm_up_told,
 )
 from hybridlog.jobs.batch_lock import batch_folder_lock
 from hybridlog.jobs.batch_logs import (
@@ -359,6 +361,8 @@ class _Warm:
     """``report.json``'s ``parameters`` and ``origins`` (:func:`run_values`)."""
     given: dict[str, str]
     """The command-line values the run uses, which its errors name (:func:`given_values`)."""
+    warmed_up: threading.Event = dataclasses.field(default_factory=threading.Event)
+    """Set once the estimator's machine code is loaded in this process (:func:`_warm`)."""
 
 
 _WARM: dict[tuple[object, ...], _Warm] = {}
@@ -383,6 +387,10 @@ def _warm(job: BatchJob) -> _Warm:
 
     Kept for the batch's model, ``--set`` values and estimator (one batch at a time: a new
     key replaces the old one), so a worker loads and compiles nothing after its first log.
+    The estimator is warmed up here once, its machine code loaded or, on the model's first
+    run, compiled, the installed reporter told (:func:`~hybridlog.jobs.analysis.warm_up_told`:
+    the console script says so on a terminal, above its bar), also in the batch's own
+    process, whose rest :func:`_plan` made, when it runs the logs itself.
     """
     key = _warm_key(job)
     with _WARM_LOCK:
@@ -411,6 +419,11 @@ def _warm(job: BatchJob) -> _Warm:
             warm = _Warm(model, prepared, inputs, gates, values, given)
             _WARM.clear()
             _WARM[key] = warm
+        if not warm.warmed_up.is_set():
+            warm.warmed_up.set()
+            # on rows of zeros: what it raises, the run raises again if the log makes it so
+            with contextlib.suppress(Exception):
+                warm_up_told(warm.prepared, warm.model)
         return warm
 
 
@@ -789,8 +802,12 @@ def run_batch(
     Everything shared by the logs (model, options, gates, the output folder, the JUnit file)
     is checked before the first log is read: the outputs must not be, contain or sit inside
     any log, the model file, a centres file or a ``--msg-dir``.  ``progress`` is called with
-    each log's outcome as it finishes.  ``jobs`` worker processes analyse the logs, or the
-    Dask cluster whose scheduler is at ``scheduler``.  ``junit`` names a JUnit XML file to
+    each log's outcome as it finishes.  The installed reporter's ``wait``
+    (:func:`~hybridlog.cluster.progress.reporting`), if any, is held around a model's
+    first compiling, in this process or the workers (:meth:`WorkerPool.run
+    <hybridlog.jobs.workers.WorkerPool.run>`); not on a Dask cluster's workers.  ``jobs``
+    worker processes analyse the logs, or the Dask cluster whose scheduler is at
+    ``scheduler``.  ``junit`` names a JUnit XML file to
     write (:func:`hybridlog.report.junit.write_junit`).  ``smooth`` and ``mode_sequence``
     are ``--smooth`` and ``--mode-sequence``
     (:func:`hybridlog.jobs.analysis.smoothing_overrides`); as estimator options they are part
@@ -902,8 +919,13 @@ def run_batch(
                         kept=lambda outcome: outcome.status != "failed",
                     )
                 elif pool is not None:
+                    reporter = current_reporter()
                     outcomes = pool.run(
-                        analyze_log, tasks, died=lambda i, why: died[i](why), done=progress
+                        analyze_log,
+                        tasks,
+                        died=lambda i, why: died[i](why),
+                        done=progress,
+                        wait=silent_wait if reporter is None else reporter.wait,
                     )
                 plotting.join()
             else:

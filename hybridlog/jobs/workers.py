@@ -61,6 +61,13 @@ waits until the forkserver has finished its warm-up, which the caller should not
 while it has work of its own); a worker runs every task it is given in the same process, so
 what a task function keeps between calls (a loaded model, compiled code) stays warm.  The
 forkserver serves every pool of the calling process and lives until that process ends.
+
+**Waits.**  A task's work of unforeseeable length (a model's first run compiling its
+machine code) is told to the pool's process, where a bar may be drawn that a worker's own
+output would break: each worker has a :class:`~hybridlog.cluster.progress.WorkReporter`
+installed whose ``wait`` sends its beginning and end through the worker's pipe, and
+:meth:`WorkerPool.run` holds its own ``wait`` around it, once for the workers that do the
+same work at the same time (:class:`_Waits`).
 """
 
 from __future__ import annotations
@@ -77,12 +84,15 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
+from functools import partial
 from multiprocessing.connection import Connection, wait
 from multiprocessing.context import ForkServerContext, ForkServerProcess
 from pathlib import Path
 from typing import Any, TypeVar
 
+from hybridlog.cluster.progress import WorkReporter, reporting, silent_wait
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.memory import MemoryLedger
 
@@ -266,6 +276,16 @@ def _serve(
         if os.environ != environment:
             os.environ.clear()
             os.environ.update(environment)
+        _serve_tasks(connection)
+    except BaseException:
+        if _STOPPED_BY:  # _Stopped, or what a library made of it (_raise_stopped)
+            _exit_now(_STOPPED_BY[0])
+        raise
+
+
+def _serve_tasks(connection: Connection) -> None:
+    """The worker's loop: each task run, its waits told to the pool (:class:`_Waiting`)."""
+    with reporting(WorkReporter(wait=partial(_told_to_pool, connection))):
         while True:
             try:
                 task = connection.recv()
@@ -279,10 +299,36 @@ def _serve(
                 connection.send(result)
             except (OSError, ValueError):
                 return
+
+
+@dataclass(frozen=True)
+class _Waiting:
+    """A worker's message: its task's work ``what`` (for ``why``) has begun, or ended.
+
+    ``ended``: ``None`` when it begins, then ``"done"``, or ``"failed"`` (by an exception,
+    which its task's result says).
+    """
+
+    what: str
+    why: str
+    ended: str | None = None
+
+
+@contextlib.contextmanager
+def _told_to_pool(connection: Connection, what: str, why: str) -> Iterator[None]:
+    """A worker's :attr:`WorkReporter.wait`: the pool is told when ``what`` begins and ends."""
+    _tell(connection, _Waiting(what, why))
+    try:
+        yield
     except BaseException:
-        if _STOPPED_BY:  # _Stopped, or what a library made of it (_raise_stopped)
-            _exit_now(_STOPPED_BY[0])
+        _tell(connection, _Waiting(what, why, "failed"))
         raise
+    _tell(connection, _Waiting(what, why, "done"))
+
+
+def _tell(connection: Connection, waiting: _Waiting) -> None:
+    with contextlib.suppress(OSError, ValueError):  # the pool's process gone: nobody to tell
+        connection.send(waiting)
 
 
 def _exit_now(signum: int | None = None) -> None:
@@ -443,6 +489,72 @@ def _held(*, raised_after: bool) -> Iterator[None]:
         signal.raise_signal(came[0])
 
 
+class _UnansweredError(Exception):
+    """How a wait ends in the pool's process whose work no worker said done: it failed."""
+
+
+@dataclass
+class _Held:
+    """A work's wait held in the pool's process (:class:`_Waits`)."""
+
+    context: AbstractContextManager[None]
+    slots: set[int] = field(default_factory=set)
+    """The workers doing the work (their ledger slots)."""
+    done: bool = False
+    """Whether a worker said it done."""
+
+
+class _Waits:
+    """The pool's side of its workers' waits (:class:`_Waiting`).
+
+    ``wait``'s context for a work is held from the first worker's beginning of it to the
+    last one's end (workers starting side by side in a cold cache compile the same code:
+    it is said once).  A worker whose task ends (answered, or the worker died) in the
+    middle of its waits no longer does them.  The context ends as done where a worker said
+    the work done, else as failed: its error, or the worker's death, is the task's result
+    to say.
+    """
+
+    def __init__(self, wait: Callable[[str, str], AbstractContextManager[None]]) -> None:
+        self._wait = wait
+        self._held: dict[str, _Held] = {}
+
+    def told(self, slot: int, waiting: _Waiting) -> None:
+        """Worker ``slot`` says ``waiting``."""
+        held = self._held.get(waiting.what)
+        if waiting.ended is None:
+            if held is None:
+                held = self._held[waiting.what] = _Held(self._wait(waiting.what, waiting.why))
+                held.context.__enter__()
+            held.slots.add(slot)
+        elif held is not None and slot in held.slots:
+            held.done = held.done or waiting.ended == "done"
+            self._leave(waiting.what, slot)
+
+    def task_ended(self, slot: int) -> None:
+        """Worker ``slot``'s task ended: the waits it had begun and not ended stop here."""
+        for what, held in list(self._held.items()):
+            if slot in held.slots:
+                self._leave(what, slot)
+
+    def close(self) -> None:
+        """End every wait still held, as failed (the pool's run was left)."""
+        for what, held in list(self._held.items()):
+            del self._held[what]
+            held.context.__exit__(_UnansweredError, _UnansweredError(what), None)
+
+    def _leave(self, what: str, slot: int) -> None:
+        held = self._held[what]
+        held.slots.discard(slot)
+        if held.slots:
+            return
+        del self._held[what]
+        if held.done:
+            held.context.__exit__(None, None, None)
+        else:
+            held.context.__exit__(_UnansweredError, _UnansweredError(what), None)
+
+
 class WorkerPool:
     """``jobs`` worker processes forked from a warm forkserver (see the module docstring).
 
@@ -499,6 +611,7 @@ class WorkerPool:
         *,
         died: Callable[[int, str], R],
         done: Callable[[R], None] | None = None,
+        wait: Callable[[str, str], AbstractContextManager[None]] = silent_wait,
     ) -> list[R]:
         """Run ``function(*task)`` for every task in the pool's workers.
 
@@ -517,18 +630,37 @@ class WorkerPool:
             behind it (:data:`QUEUED`), which had not started.
         done:
             Called with each result as it arrives (in completion order).
+        wait:
+            Held around the work of unforeseeable length that the tasks tell
+            (:attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`):
+            once for the workers doing the same at the same time (:class:`_Waits`).
 
         Returns
         -------
         list
             One result per task, in the order of ``tasks``.
         """
+        waits = _Waits(wait)
+        try:
+            return self._run(function, tasks, died, done, waits)
+        finally:
+            waits.close()
+
+    def _run(
+        self,
+        function: Callable[..., R],
+        tasks: Sequence[tuple[Any, ...]],
+        died: Callable[[int, str], R],
+        done: Callable[[R], None] | None,
+        waits: _Waits,
+    ) -> list[R]:
         pending = deque(range(len(tasks)))
         results: dict[int, R] = {}
         workers = self._workers
 
-        def finish(index: int, result: R) -> None:
-            results[index] = result
+        def finish(worker: _Worker, result: R) -> None:
+            waits.task_ended(worker.slot)
+            results[worker.tasks.popleft()] = result
             if done is not None:
                 done(result)
 
@@ -555,15 +687,17 @@ class WorkerPool:
                     continue
                 try:
                     while worker.tasks and worker.connection.poll():
-                        result: R = worker.connection.recv()
-                        finish(worker.tasks.popleft(), result)
+                        message: R | _Waiting = worker.connection.recv()
+                        if isinstance(message, _Waiting):
+                            waits.told(worker.slot, message)
+                        else:
+                            finish(worker, message)
                     if worker.tasks and worker.process.sentinel in ready:
                         raise EOFError  # it ended with tasks unanswered
                 except (EOFError, OSError):
                     # the task it was running killed it (or it was killed running it); the
                     # ones queued behind it never started and go to another worker
-                    index = worker.tasks.popleft()
-                    finish(index, died(index, _death(worker.process)))
+                    finish(worker, died(worker.tasks[0], _death(worker.process)))
                     self.ledger.release(worker.slot)  # what it held died with it
                     pending.extendleft(reversed(worker.tasks))
                     worker.tasks.clear()

@@ -151,3 +151,54 @@ def test_a_wait_that_fails_is_not_said_done(
         time.sleep(0.3)
         raise KeyboardInterrupt
     assert capsys.readouterr().err.splitlines() == ["imm: compiling (first)..."]
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_batch_says_what_its_first_log_compiles(tmp_path: Path, jobs: int) -> None:
+    # batch's bar sat at 0/N while the model compiled in its first log (10-20 s), silently
+    from hybridlog.jobs.batch import run_batch
+    from tests.jobs.test_workers import _Told
+
+    logs = [tmp_path / "a.csv", tmp_path / "b.csv"]
+    for log in logs:
+        log.write_bytes(THREE_TANK.read_bytes())
+    told = _Told()
+    with reporting(WorkReporter(wait=told.wait)):
+        outcome = run_batch(
+            logs, "three_tank_hstf", estimator="imm", out_dir=tmp_path / "out", jobs=jobs
+        )
+    assert [log.status for log in outcome.logs] == ["done", "done"]
+    begun = "begin imm: compiling machine code for model 'three_tank_hstf' (its first run"
+    # each process warms up once; two workers side by side are said once
+    assert told.events[0].startswith(begun) and told.events[1] == "ended", told.events
+    assert len(told.events) in ((2, 4) if jobs == 2 else (2,)), told.events
+
+
+def test_a_wait_over_a_bar_clears_its_line_first(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(cli_module, "WAIT_SHOWN_S", 0.0)
+    with cli_module._work_wait(True, "imm: compiling", "first run", over_bar=True):
+        time.sleep(0.3)
+    assert capsys.readouterr().err == (
+        "\r\x1b[Kimm: compiling (first run)...\n\r\x1b[Kimm: compiling: done in 0 s\n"
+    )
+
+
+def test_a_batch_whose_warm_up_fails_analyses_its_logs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the warm-up runs on rows of zeros, which a model may refuse where no log does
+    from hybridlog.estimators import Prepared
+    from hybridlog.jobs.batch import run_batch
+    from tests.jobs.test_workers import _Told
+
+    def refuse(self: Prepared, model: object, rows: int = 3) -> None:
+        raise ValueError("zeros are out of this model's domain")
+
+    monkeypatch.setattr(Prepared, "warm_up", refuse)
+    told = _Told()
+    with reporting(WorkReporter(wait=told.wait)):
+        outcome = run_batch([THREE_TANK], "three_tank_hstf", out_dir=tmp_path / "out")
+    assert [log.status for log in outcome.logs] == ["done"]
+    assert len(told.events) == 2 and told.events[1] == "failed", told.events

@@ -9,13 +9,14 @@ nothing outlives a killed caller.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
 import sys
 import textwrap
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -325,3 +326,74 @@ def test_a_temporary_folder_too_long_for_the_workers_socket_is_one_line(tmp_path
     ), done.stderr
     assert "set TMPDIR to a shorter writable folder, or use --jobs 1" in done.stderr
     assert not (tmp_path / "out").exists()
+
+
+def _told_wait(folder: str, index: int, fail: bool) -> int:
+    """A task whose work is told as a wait (as a model's first compiling is), begun by the
+    pool's every task before any ends (each waits for the others' marks), failing if asked."""
+    from hybridlog.cluster.progress import current_reporter
+
+    reporter = current_reporter()
+    assert reporter is not None
+    here = Path(folder)
+    try:
+        with reporter.wait("imm: compiling", "first run"):
+            (here / str(index)).touch()
+            deadline = time.monotonic() + 30
+            while len(list(here.iterdir())) < 2 and time.monotonic() < deadline:
+                time.sleep(0.01)
+            if fail:
+                raise ValueError("no machine code")
+    except ValueError:
+        return -1
+    return index
+
+
+class _Told:
+    """The pool's side of the waits: what it was told, in order."""
+
+    def __init__(self) -> None:
+        self.events: list[str] = []
+
+    @contextlib.contextmanager
+    def wait(self, what: str, why: str) -> Iterator[None]:
+        self.events.append(f"begin {what} ({why})")
+        try:
+            yield
+        except BaseException:
+            self.events.append("failed")
+            raise
+        self.events.append("ended")
+
+
+@pytest.mark.parametrize(("fails", "last"), [((False, False), "ended"), ((True, True), "failed")])
+def test_the_workers_waits_are_held_once_in_the_pools_process(
+    tmp_path: Path, fails: tuple[bool, bool], last: str
+) -> None:
+    # batch's workers compiled a model's machine code for 10-20 s under a bar at 0/N: their
+    # waits are the pool's to say, once for the workers doing the same work side by side;
+    # a work that failed in every worker is said to have failed (no "done")
+    told = _Told()
+    tasks = [(str(tmp_path), index, fail) for index, fail in enumerate(fails)]
+    with WorkerPool(2) as pool:
+        results = pool.run(_told_wait, tasks, died=_died, wait=told.wait)
+    assert results == [-1 if fail else index for index, fail in enumerate(fails)]
+    assert told.events == ["begin imm: compiling (first run)", last]
+
+
+def _told_wait_or_die(folder: str) -> int:
+    from hybridlog.cluster.progress import current_reporter
+
+    reporter = current_reporter()
+    assert reporter is not None
+    with reporter.wait("imm: compiling", "first run"):
+        os.kill(os.getpid(), signal.SIGKILL)
+    return 0
+
+
+def test_a_wait_of_a_worker_that_dies_ends_as_failed(tmp_path: Path) -> None:
+    told = _Told()
+    with WorkerPool(1) as pool:
+        results = pool.run(_told_wait_or_die, [(str(tmp_path),)], died=_died, wait=told.wait)
+    assert results == [{"died": "killed by signal SIGKILL"}]
+    assert told.events == ["begin imm: compiling (first run)", "failed"]
