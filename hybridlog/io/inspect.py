@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import unicodedata
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
@@ -274,13 +275,35 @@ def _gap_lines(entries: list[dict[str, Any]], title: str) -> list[str]:
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    """A blank line, then ``header`` and ``rows`` in left-aligned columns (cells :func:`_shown`)."""
+    """A blank line, then ``header`` and ``rows`` in left-aligned columns (cells :func:`_shown`).
+
+    Cells are padded to the columns a terminal gives them (:func:`_width`), not to their
+    count of characters: a column named ``温度`` or ``😀`` pushed the rest of its row one
+    column per character to the right, and ``é`` written with a combining accent to the left.
+    """
     rows = [[_shown(cell) for cell in row] for row in rows]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    widths = [max(_width(r[i]) for r in [header, *rows]) for i in range(len(header))]
     lines = [""]
     for row in [header, *rows]:
-        lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+        cells = (cell + " " * (w - _width(cell)) for cell, w in zip(row, widths, strict=True))
+        lines.append("  ".join(cells).rstrip())
     return lines
+
+
+def _width(text: str) -> int:
+    """How many terminal columns printable ``text`` takes (as POSIX ``wcswidth``).
+
+    Wide and full-width characters (CJK, most emoji: East Asian width ``W`` or ``F``) take
+    two, combining marks and other zero-width characters (categories ``Mn``, ``Me``) none.
+    """
+    return sum(
+        0
+        if unicodedata.category(c) in ("Mn", "Me")
+        else 2
+        if unicodedata.east_asian_width(c) in ("W", "F")
+        else 1
+        for c in text
+    )
 
 
 def _shown(name: object) -> str:
