@@ -153,11 +153,18 @@ def format_inspection(info: dict[str, Any]) -> str:
             )
         )
     lines.extend(_table(header, rows))
+    # a column with a cell in every row has the time's gaps, listed once above: twenty
+    # columns repeated the one gap of the time twenty times
+    time_gaps = (count, gaps)
     lines.extend(
         _gap_lines(
-            [c for c in columns if c["name"] != time_column],
+            [
+                c
+                for c in columns
+                if c["name"] != time_column and (c.get("gap_count"), c.get("gaps")) != time_gaps
+            ],
             "gaps in columns (steps between a column's non-empty cells longer than 1.5 x "
-            "its median step):",
+            "its median step; columns whose gaps are the time gaps above left out):",
         )
     )
     lines.extend(_nonfinite_lines(columns, time_column or _time_named(columns)))
