@@ -63,7 +63,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
         ``None`` too for a column that is not numeric.  The first number of a column or
         field that ``analyze`` refuses as one a ``float64`` does not hold (an integer beyond
-        2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words.
+        2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words, as is
+        the first text in a JSON field that holds numbers in other messages.
 
     Raises
     ------
