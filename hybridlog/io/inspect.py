@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import unicodedata
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
@@ -62,7 +63,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
         ``None`` too for a column that is not numeric.  The first number of a column or
         field that ``analyze`` refuses as one a ``float64`` does not hold (an integer beyond
-        2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words.
+        2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words, as is
+        the first text in a JSON field that holds numbers in other messages.
 
     Raises
     ------
@@ -152,11 +154,18 @@ def format_inspection(info: dict[str, Any]) -> str:
             )
         )
     lines.extend(_table(header, rows))
+    # a column with a cell in every row has the time's gaps, listed once above: twenty
+    # columns repeated the one gap of the time twenty times
+    time_gaps = (count, gaps)
     lines.extend(
         _gap_lines(
-            [c for c in columns if c["name"] != time_column],
+            [
+                c
+                for c in columns
+                if c["name"] != time_column and (c.get("gap_count"), c.get("gaps")) != time_gaps
+            ],
             "gaps in columns (steps between a column's non-empty cells longer than 1.5 x "
-            "its median step):",
+            "its median step; columns whose gaps are the time gaps above left out):",
         )
     )
     lines.extend(_nonfinite_lines(columns, time_column or _time_named(columns)))
@@ -274,13 +283,35 @@ def _gap_lines(entries: list[dict[str, Any]], title: str) -> list[str]:
 
 
 def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    """A blank line, then ``header`` and ``rows`` in left-aligned columns (cells :func:`_shown`)."""
+    """A blank line, then ``header`` and ``rows`` in left-aligned columns (cells :func:`_shown`).
+
+    Cells are padded to the columns a terminal gives them (:func:`_width`), not to their
+    count of characters: a column named ``温度`` or ``😀`` pushed the rest of its row one
+    column per character to the right, and ``é`` written with a combining accent to the left.
+    """
     rows = [[_shown(cell) for cell in row] for row in rows]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    widths = [max(_width(r[i]) for r in [header, *rows]) for i in range(len(header))]
     lines = [""]
     for row in [header, *rows]:
-        lines.append("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip())
+        cells = (cell + " " * (w - _width(cell)) for cell, w in zip(row, widths, strict=True))
+        lines.append("  ".join(cells).rstrip())
     return lines
+
+
+def _width(text: str) -> int:
+    """How many terminal columns printable ``text`` takes (as POSIX ``wcswidth``).
+
+    Wide and full-width characters (CJK, most emoji: East Asian width ``W`` or ``F``) take
+    two, combining marks and other zero-width characters (categories ``Mn``, ``Me``) none.
+    """
+    return sum(
+        0
+        if unicodedata.category(c) in ("Mn", "Me")
+        else 2
+        if unicodedata.east_asian_width(c) in ("W", "F")
+        else 1
+        for c in text
+    )
 
 
 def _shown(name: object) -> str:

@@ -586,7 +586,7 @@ class MessageSource(abc.ABC):
                 # what analyze refuses when the field is mapped, said before it is
                 problems.extend(
                     f"{excerpt(_spell(name, path, shared))}: {text}"
-                    for path, text in counter.unheld.items()
+                    for path, text in {**counter.unheld, **counter.mixed()}.items()
                 )
         total = sum(t["count"] for t in topics)
         return {
@@ -719,6 +719,8 @@ class _ValueCounter:
     The integers ``analyze`` refuses as not held by a ``float64`` (:func:`~hybridlog.io.exact.
     inexact`: beyond 2^53) are looked for too, in ``int64``/``uint64`` fields and JSON
     integers: ``unheld`` maps a field path to the first such value and the time of its message.
+    So is a JSON field that holds a number in some messages and text in others, which
+    ``analyze`` refuses as a number at the first text (:meth:`mixed`).
 
     Parameters
     ----------
@@ -749,6 +751,8 @@ class _ValueCounter:
         self._counts: dict[str, list[int]] = {leaf.text: [0, 0] for leaf in float_leaves or ()}
         # JSON: the paths of the numbers and text the messages hold, in order of appearance
         self.fields: dict[str, None] = {}
+        # JSON: field path -> the log time of the first message holding text there
+        self._text_at: dict[str, int] = {}
 
     @classmethod
     def of(cls, topic: Topic) -> _ValueCounter | None:
@@ -789,6 +793,23 @@ class _ValueCounter:
             for path, (count, nonfinite) in self._counts.items()
         ]
 
+    def mixed(self) -> dict[str, str]:
+        """Why ``analyze`` refuses each JSON field of text in one message and a number in another.
+
+        Per path, in ``analyze``'s words, the first message holding text there, and how many
+        of its values are numbers.  A field of text alone is a label (a mode): no problem.
+        """
+        return {
+            path: (
+                f"the value is a string, not a number in the message logged at "
+                f"t={format_ns(log_time)} s ({numbers} of its values "
+                f"{'is a number' if numbers == 1 else 'are numbers'}: analyze refuses it as an "
+                "input, output or true state)"
+            )
+            for path, log_time in self._text_at.items()
+            if (numbers := self._counts.get(path, [0])[0])
+        }
+
     def _count(self) -> None:
         datas, times = self._datas, self._times
         self._datas, self._times = [], []
@@ -806,9 +827,14 @@ class _ValueCounter:
         if self.leaves is None:
             for row, message in enumerate(messages):
                 unheld: dict[str, str] = {}
-                too_deep = _count_json(message, "", self._counts, self.fields, 0, unheld)
+                texts: set[str] = set()
+                too_deep = _count_json(
+                    message, "", self._counts, self.fields, 0, _JsonFound(unheld, texts)
+                )
                 for path, reason in unheld.items():
                     self._note_unheld(path, reason, times[row])
+                for path in texts:
+                    self._text_at.setdefault(path, times[row])
                 if too_deep is not None:
                     self.problem = (
                         f"the message logged at t={format_ns(times[row])} s nests deeper than "
@@ -952,28 +978,39 @@ def _elements(messages: list[object], arrays: tuple[tuple[str, ...], ...]) -> li
     return items
 
 
+@dataclass(frozen=True)
+class _JsonFound:
+    """What :func:`_count_json` notes of one JSON message beyond its counts."""
+
+    unheld: dict[str, str]
+    """Path -> why the first integer there is not held by a float64 (beyond 2^53)."""
+    texts: set[str]
+    """The paths holding text (a string, or a string among an array's elements)."""
+
+
 def _count_json(
     value: object,
     path: str,
     counts: dict[str, list[int]],
     fields: dict[str, None],
     depth: int,
-    unheld: dict[str, str],
+    found: _JsonFound,
 ) -> str | None:
     """Add the numbers of a decoded JSON value to ``counts``; ``[]`` marks array elements.
 
     Objects inside arrays are walked as the array's elements (``.poses[].x``), every number
     counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  The paths of numbers
-    (booleans too) and text are added to ``fields``; an integer a ``float64`` does not hold
-    (beyond 2^53) is noted in ``unheld``, the first of each path.  Returns ``None``, or the
-    path at which the value nests deeper than that (nothing more is counted).
+    (booleans too) and text are added to ``fields``, those of text to ``found.texts`` too;
+    an integer a ``float64`` does not hold (beyond 2^53) is noted in ``found.unheld``, the
+    first of each path.  Returns ``None``, or the path at which the value nests deeper than
+    that (nothing more is counted).
     """
     if depth > MAX_JSON_DEPTH:
         return path or "the message"
     if isinstance(value, Mapping):
         for key, item in value.items():
             too_deep = _count_json(
-                item, f"{path}.{spell_field(key)}", counts, fields, depth + 1, unheld
+                item, f"{path}.{spell_field(key)}", counts, fields, depth + 1, found
             )
             if too_deep is not None:
                 return too_deep
@@ -981,14 +1018,16 @@ def _count_json(
         numbers = [item for item in value if _is_json_number(item)]
         if any(isinstance(item, str | bool) for item in value) or numbers:
             fields[f"{path}[]"] = None  # text and booleans are fields, uncounted
+        if any(isinstance(item, str) for item in value):
+            found.texts.add(f"{path}[]")
         if numbers:
             entry = counts.setdefault(f"{path}[]", [0, 0])
             entry[0] += len(numbers)
             entry[1] += sum(map(_is_nonfinite, numbers))
-            _note_json_unheld(numbers, f"{path}[]", unheld)
+            _note_json_unheld(numbers, f"{path}[]", found.unheld)
         for item in value:
             if isinstance(item, Mapping | list):
-                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1, unheld)
+                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1, found)
                 if too_deep is not None:
                     return too_deep
     elif _is_json_number(value) and path:
@@ -996,9 +1035,11 @@ def _count_json(
         entry = counts.setdefault(path, [0, 0])
         entry[0] += 1
         entry[1] += _is_nonfinite(value)
-        _note_json_unheld([value], path, unheld)
+        _note_json_unheld([value], path, found.unheld)
     elif isinstance(value, str | bool) and path:
         fields[path] = None
+        if isinstance(value, str):
+            found.texts.add(path)
     return None
 
 

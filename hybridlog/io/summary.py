@@ -106,8 +106,9 @@ def describe_steps(
         (``start, end, duration`` of every step longer than :data:`GAP_FACTOR` times the
         median, at most :data:`MAX_LISTED_GAPS` listed).
         Each is ``None`` (``0`` and ``[]`` for the gaps) when fewer than two samples give no
-        step, and ``rate_hz`` also when the span is zero; times that repeat make the timing
-        irregular, unless every time is the same (median step zero, nothing is a gap).
+        step; ``rate_hz``, ``sample_time`` and ``regular`` also when every sample has the
+        same time (no step forward: a sample time of 0 s was no sample time, and called
+        regular); times that repeat make the timing irregular.
     """
     info: dict[str, Any] = {
         "rate_hz": None,
@@ -126,17 +127,19 @@ def describe_steps(
     # times that repeat (a message published twice) are no step in time: with as many
     # repeats as steps, a median of zero would hide every gap
     forward = steps[steps > 0]
-    median = float(np.median(forward)) if forward.size else 0.0
     shortest, longest = int(steps.min()), int(steps.max())
     seconds = round_span(span, resolution_ns)
     if seconds > 0:
         info["rate_hz"] = (time_ns.size - 1) / seconds
-    info["sample_time"] = round_span(median, resolution_ns)
     info["min_step"] = round_span(shortest, resolution_ns)
     info["max_step"] = round_span(longest, resolution_ns)
-    info["regular"] = median / GAP_FACTOR <= shortest and longest <= GAP_FACTOR * median
     info["repeated"] = int(steps.size - forward.size)
-    if gaps and median > 0:
+    if not forward.size:  # every sample at one time: no step, so no sample time to judge by
+        return info
+    median = float(np.median(forward))
+    info["sample_time"] = round_span(median, resolution_ns)
+    info["regular"] = median / GAP_FACTOR <= shortest and longest <= GAP_FACTOR * median
+    if gaps:
         starts = np.flatnonzero(steps > GAP_FACTOR * median)
         info["gap_count"] = int(starts.size)
         info["gaps"] = [

@@ -279,7 +279,8 @@ def expand(frame: pl.DataFrame, column: str) -> tuple[list[ColumnPath], list[str
     """Every leaf of a nested column, its lists' lengths taken from ``frame``; and problems.
 
     A list whose rows differ in length is one field ``q[]`` (its elements cannot be read
-    by index), with a problem naming a row that differs.
+    by index), with a problem naming a row that differs; so is a list or array without an
+    element in any row (every list empty, or null), so that the column is still listed.
     """
     schema = {column: frame.schema[column]}
     leaves: list[ColumnPath] = []
@@ -313,10 +314,10 @@ def expand(frame: pl.DataFrame, column: str) -> tuple[list[ColumnPath], list[str
                 )
                 leaves.append(ColumnPath(f"{text}[]", column, steps, kinds, dtype))
                 return
-            if lengths.len() == 0:  # no row holds a list: nothing to index
-                leaves.append(ColumnPath(f"{text}[]", column, steps, kinds, dtype))
-                return
-            size, kind = int(lengths[0]), LIST
+            size, kind = (int(lengths[0]) if lengths.len() else 0), LIST
+        if size == 0:  # no row holds an element (or a list): nothing to index, but the column
+            leaves.append(ColumnPath(f"{text}[]", column, steps, kinds, dtype))
+            return
         for index in range(size):
             step_expr = (
                 expr.arr.get(index) if kind == ARRAY else expr.list.get(index, null_on_oob=True)

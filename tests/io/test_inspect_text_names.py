@@ -64,3 +64,17 @@ def test_column_names_with_control_characters_stay_in_their_row(tmp_path: Path) 
     assert [line.split()[0] for line in lines if "64" in line] == ["t", "a\\nb", "c\\x1bd"]
     assert_aligned(lines, "column ", "dtype")
     assert "  a\\nb: 1 of 3" in lines
+
+
+def test_wide_and_combining_characters_keep_their_row_in_line(tmp_path: Path) -> None:
+    """Cells were padded to their count of characters, not to the columns a terminal gives
+    them: ``温度`` (two wide characters, four columns) pushed its row two columns right of the
+    header's, ``é`` with a combining accent (two characters, one column) one left."""
+    log = tmp_path / "names.parquet"
+    names = {"温度": 1.0, "😀": 2.0, "e\u0301": 3.0, "abcdef": 4.0}
+    pl.DataFrame({"t": [0.0, 1.0], **{n: [v, v] for n, v in names.items()}}).write_parquet(log)
+    lines = format_inspection(inspect_log(log)).split("\n")
+    # "column" is six columns wide, so every name is padded to six columns and two spaces
+    assert any(line.startswith("column  dtype    count") for line in lines)
+    for row in ("温度    float64  2", "😀      float64  2", "e\u0301       float64  2"):
+        assert any(line.startswith(row) for line in lines), row

@@ -251,3 +251,25 @@ def test_cli_refuses_a_ragged_list_with_one_line(
     assert exit_.value.code == 2
     assert err.count("\n") == 1 and "row 3, column 'q'" in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_inspect_lists_a_column_whose_lists_are_all_empty(tmp_path: Path) -> None:
+    """A list column whose every list is empty (or an array of width 0) has no element to
+    list: inspect left the column out of its table without a word, while analyze's error
+    for a path not in the log named it among the columns, ``'lz[]'``."""
+    log = write(
+        tmp_path,
+        {
+            "t": T,
+            "y": Y,
+            "lz": pl.Series([[]] * N, dtype=pl.List(pl.Float64)),
+            "az": pl.Series([[]] * N, dtype=pl.Array(pl.Float64, 0)),
+        },
+    )
+    info = inspect_log(log)
+    columns = {c["name"]: c for c in info["columns"]}
+    assert list(columns) == ["t", "y", "lz[]", "az[]"]
+    assert columns["lz[]"]["count"] == N and columns["lz[]"]["nonfinite"] is None
+    assert re.search(r"^az\[\]\s+Array\(Float64", format_inspection(info), re.M)
+    with pytest.raises(LogError, match=r"the lists of 'lz' hold 0 elements"):
+        load(log, "u=lz[0]")

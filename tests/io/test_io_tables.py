@@ -712,6 +712,25 @@ def test_inspect_finds_a_gap_in_one_column(tmp_path: Path, suffix: str) -> None:
         load(path, dt=0.1)
 
 
+def test_inspect_lists_the_time_gaps_once_not_once_per_column(tmp_path: Path) -> None:
+    """A 2 s hole in the time of a table of 20 full columns: each column's gaps are the
+    time's, and inspect listed that one gap 21 times; a column with a hole of its own still
+    lists its gaps (the time's among them)."""
+    t = np.arange(100) * 0.1 + np.where(np.arange(100) >= 50, 2.0, 0.0)
+    full = {f"c{i}": t for i in range(20)}
+    y = np.where((t > 3.0) & (t < 3.45), np.nan, t)
+    frame = pl.DataFrame({"t": t, **full, "y": y}).with_columns(pl.col("y").fill_nan(None))
+    path = tmp_path / "hole.csv"
+    frame.write_csv(path)
+    info = inspect_log(path)
+    by_name = {c["name"]: c for c in info["columns"]}
+    assert info["gap_count"] == by_name["c7"]["gap_count"] == 1  # the JSON keeps every column's
+    lines = format_inspection(info).split("\n")
+    assert lines.count("  4.9 s to 7 s (2.1 s)") == 1
+    assert not [line for line in lines if line.startswith("  c")]
+    assert "  y: 3 s to 3.5 s (0.5 s)" in lines and "  y: 4.9 s to 7 s (2.1 s)" in lines
+
+
 def test_inspect_describes_a_long_format_table(tmp_path: Path) -> None:
     """A row per signal (times repeat): inspect gave up on time ('time repeats') and showed
     no rate or gap of any column; repeats are counted, as for a topic, and each column timed."""

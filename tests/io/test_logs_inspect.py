@@ -431,9 +431,23 @@ def test_a_topic_published_twice_per_step_still_shows_its_gaps(tmp_path: Path) -
     assert (topic["min_step"], topic["regular"]) == (0.0, False)
     assert topic["gap_count"] == 1
     assert topic["gaps"] == [{"start": 1.9, "end": 12.1, "duration": pytest.approx(10.2)}]
+
+
+def test_samples_all_at_one_time_have_no_sample_time(tmp_path: Path) -> None:
+    """Three messages (or rows) logged at one time have no step forward: inspect gave them a
+    sample time of 0 s, called regular, and the text 'sample time 0 s (- Hz)'."""
     same = write_mcap(tmp_path / "same.mcap", [Channel("/y")], float_messages([5] * 3, [0] * 3))
     (topic,) = inspect_log(same)["topics"]
-    assert (topic["sample_time"], topic["regular"], topic["gap_count"]) == (0.0, True, 0)
+    assert (topic["sample_time"], topic["regular"], topic["rate_hz"]) == (None, None, None)
+    assert (topic["min_step"], topic["max_step"], topic["repeated"]) == (0.0, 0.0, 2)
+    assert topic["gap_count"] == 0
+    table = tmp_path / "same.csv"
+    table.write_text("t,y\n1,1\n1,2\n1,3\n")
+    info = inspect_log(table)
+    assert (info["sample_time"], info["regular"], info["repeated"]) == (None, None, 2)
+    text = format_inspection(info)
+    assert "time: column 't', 1 s to 1 s (0 s)" in text.split("\n")
+    assert "sample time" not in text
 
 
 def test_repeated_log_times_that_analyze_refuses_are_shown(tmp_path: Path) -> None:

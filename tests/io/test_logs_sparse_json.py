@@ -160,6 +160,26 @@ def test_inspect_names_the_fields_only_some_messages_carry(tmp_path: Path) -> No
     assert "/io.u: 20 of 40 messages" in text and "/io.y: 20 of 40 messages" in text
 
 
+def test_inspect_names_a_field_of_numbers_and_text_as_analyze_refuses_it(tmp_path: Path) -> None:
+    """``{"u": "s"}`` in one message of a field of numbers: inspect listed the field as one a
+    message leaves out ('20 of 21 messages', read from those that carry it) and had no problem,
+    while analyze refused it at that message; a field of text alone (a label) is none."""
+    messages = interleaved()
+    messages[6] = (messages[6][0], {"u": "s", "mode": "a"})
+    messages[8] = (messages[8][0], {"u": [1.0, "x"], "mode": "b"})
+    log = write(tmp_path / "mixed.mcap", messages)
+    with pytest.raises(LogError) as refused:
+        load(log, "u=/io.u", "y=/io.y")
+    words = "'/io.u': the value is a string, not a number in the message logged at t=0.3 s"
+    assert words in str(refused.value)
+    refuses = "analyze refuses it as an input, output or true state"
+    assert inspect_log(log)["problems"] == [
+        f"{words} (18 of its values are numbers: {refuses})",
+        "'/io.u[]': the value is a string, not a number in the message logged at t=0.4 s "
+        f"(1 of its values is a number: {refuses})",
+    ]
+
+
 def test_a_sparse_label_field_lists_only_the_labels_its_messages_hold(tmp_path: Path) -> None:
     from hybridlog.io.formats import open_log
 
