@@ -1079,6 +1079,11 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
             "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
         )
     names = next(csv.reader([line]))
+    if names[-1].endswith("\n"):  # the line's end read into a quoted field left open
+        raise LogError(
+            f"{path}, line 1: the header's column {len(names)} opens a quote that runs on to "
+            "line 2; a header names its columns on one line (an unclosed quote?)"
+        )
     if line.startswith("#") and not set(TIME_COLUMNS) & {name.strip(" ") for name in names}:
         # a comment line before the header, or numpy.savetxt's header ('# t,u,y'): the
         # columns were named '# t' or after the comment, and the next line "had 3 fields"

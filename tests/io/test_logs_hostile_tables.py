@@ -282,6 +282,11 @@ def odd_at_7(cell: str, column: int = 1) -> Any:
             r", line 1: column 1 .* no name \(pandas' to_csv writes",
         ),
         ("t,u,y,u", lambda k, u, y: plain(k, u, y) + ",0", r", line 1: duplicate column name 'u'"),
+        (
+            't,u,"y\nz"',
+            plain,
+            r", line 1: the header's column 3 opens a quote that runs on to line 2; ",
+        ),
     ],
     ids=[
         "thousands",
@@ -296,6 +301,7 @@ def odd_at_7(cell: str, column: int = 1) -> Any:
         "trailing-separator",
         "pandas-index",
         "duplicate",
+        "header-quote-open",
     ],
 )
 def test_csv_text_hybridlog_cannot_vouch_for_is_refused_naming_the_line(
