@@ -319,10 +319,14 @@ def _shown(name: object) -> str:
 
     Topic, type, field and column names are the log's own: a newline in a topic's name split
     its row of the table in two, and an escape sequence, shown ``\x1b`` only after the table
-    was laid out, pushed its row out of line.
+    was laid out, pushed its row out of line.  An empty name (a Parquet column may have
+    one) is shown ``''``, as analyze's errors name it, not as a blank cell.
     """
+    text = as_text(name)
+    if not text:
+        return "''"
     return "".join(
-        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in as_text(name)
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text
     )
 
 

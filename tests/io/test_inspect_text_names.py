@@ -78,3 +78,11 @@ def test_wide_and_combining_characters_keep_their_row_in_line(tmp_path: Path) ->
     assert any(line.startswith("column  dtype    count") for line in lines)
     for row in ("温度    float64  2", "😀      float64  2", "e\u0301       float64  2"):
         assert any(line.startswith(row) for line in lines), row
+
+
+def test_an_empty_column_name_is_shown_as_analyze_names_it(tmp_path: Path) -> None:
+    # a Parquet column may be named ""; its row began with a blank cell
+    log = tmp_path / "blank.parquet"
+    pl.DataFrame({"t": [0.0, 1.0], "": [1.0, 2.0]}).write_parquet(log)
+    lines = format_inspection(inspect_log(log)).split("\n")
+    assert any(line.startswith("''      float64  2") for line in lines), lines
