@@ -209,7 +209,8 @@ class TableSource:
 
         A negative index counts from the start of its fixed-size array, or of its lists when
         they hold one length (as reading them requires): ``q[-1]`` of lists of three is
-        ``q[2]``.
+        ``q[2]``.  One beyond that length (``q[-5]``) is no element and so no other field's
+        key: reading it refuses it as out of range.
         """
         try:
             path = self._path(name)
@@ -224,6 +225,10 @@ class TableSource:
                 if isinstance(step, int) and step < 0:
                     length = dtype.size if kind == ARRAY else self._list_length(path, depth)
                     step += length or 0
+                    if length is not None and step < 0:
+                        # 'q[-5]' beside 'q[1]' was refused as one element "where the array
+                        # holds 4", which no row's list does
+                        return name, ()
                 dtype = dtype.inner
             steps.append(step)
         return path.column, tuple(steps)
