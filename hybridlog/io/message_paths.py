@@ -150,13 +150,15 @@ def split_paths(text: str, topics: Sequence[str]) -> list[MessagePath]:
 
     A path names one topic unless topics nest (``/truth`` and ``/truth/x1``, or ``/a`` and
     ``/a.b`` in an MCAP file): the caller checks which readings name a field.  A quoted topic
-    (``"/a.b".v``) gives one reading.  A shorter topic whose rest is not a sequence of steps
-    gives no reading.
+    (``"/a.b".v``) gives one reading.  A topic whose rest is not a sequence of steps gives
+    no reading, the longest too: ``/u/data`` on topics ``/u/`` and ``/u`` is ``/u`` +
+    ``/data`` (it was refused, "cannot read 'data' after the topic" ``/u/``).
 
     Raises
     ------
     PathError
-        As :func:`split_path`, for the longest topic.
+        As :func:`split_path`: no topic starts the path, or no topic's rest is a sequence of
+        steps (the longest topic's error).
     """
     text = text.strip()
     quoted = [t for t in topics if text.startswith(f'"{t}"')]
@@ -169,13 +171,15 @@ def split_paths(text: str, topics: Sequence[str]) -> list[MessagePath]:
         guess = text.split(".", 1)[0].split("[", 1)[0]
         raise PathError(f"no topic for {text!r}; {closest_names([guess], list(topics))}")
     readings: list[MessagePath] = []
+    errors: list[PathError] = []
     for topic in candidates:
         rest = text[len(topic) + 2 :] if quoted else text[len(topic) :]
         try:
             readings.append(MessagePath(text, topic, _steps(text, rest)))
-        except PathError:
-            if not readings:
-                raise
+        except PathError as err:
+            errors.append(err)
+    if not readings:
+        raise errors[0]
     return readings
 
 
@@ -199,6 +203,12 @@ def _steps(text: str, rest: str) -> tuple[Step, ...]:
                 '(expected .field, /field, ."field" or [index], e.g. /joint_states.position[0])'
             )
         quoted, field, index = match.groups()
+        if index is not None and index.startswith("-") and int(index) == 0:
+            # Python reads a[-0] as a[0]; one counting from the end meant another element
+            raise PathError(
+                f"{text!r}: [{index}] counts from neither end; write [0] for the first "
+                "element or [-1] for the last"
+            )
         if quoted is not None:
             steps.append(quoted)
         else:

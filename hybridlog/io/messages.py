@@ -329,6 +329,8 @@ class MessageSource(abc.ABC):
         whose definition has the field, the Foxglove form (``/robot/pose.pose``) before the
         ``/field`` alias (``/robot`` + ``/pose.pose``); a path that still names a field of two
         topics is refused, with each reading spelled with its topic quoted (``"/a.b".v``).
+        A field counts whatever it holds: a text field where a number is wanted is refused
+        as text, never passed over for another topic's number.
 
         Parameters
         ----------
@@ -347,7 +349,9 @@ class MessageSource(abc.ABC):
         errors: list[PathError] = []
         for rank, path in enumerate(readings):
             try:
-                known = self._check(text, path, want)
+                # a text field counts as one where numbers are wanted: '/a/b.v' (text) beside
+                # '/a' + '.b.v' (a number) was read on '/a' without a word; checked below
+                known = self._check(text, path, "any")
             except PathError as err:
                 errors.append(err)
                 continue
@@ -367,6 +371,7 @@ class MessageSource(abc.ABC):
                 f"{text!r} names {len(fitting)} fields: {' and '.join(spelled)}; "
                 "quote the topic of the one meant"
             )
+        self._check(text, fitting[0], want)
         return fitting[0]
 
     def _check(self, text: str, path: MessagePath, want: str) -> bool:

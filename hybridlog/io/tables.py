@@ -209,7 +209,8 @@ class TableSource:
 
         A negative index counts from the start of its fixed-size array, or of its lists when
         they hold one length (as reading them requires): ``q[-1]`` of lists of three is
-        ``q[2]``.
+        ``q[2]``.  One beyond that length (``q[-5]``) is no element and so no other field's
+        key: reading it refuses it as out of range.
         """
         try:
             path = self._path(name)
@@ -224,6 +225,10 @@ class TableSource:
                 if isinstance(step, int) and step < 0:
                     length = dtype.size if kind == ARRAY else self._list_length(path, depth)
                     step += length or 0
+                    if length is not None and step < 0:
+                        # 'q[-5]' beside 'q[1]' was refused as one element "where the array
+                        # holds 4", which no row's list does
+                        return name, ()
                 dtype = dtype.inner
             steps.append(step)
         return path.column, tuple(steps)
@@ -341,7 +346,7 @@ class TableSource:
 
         label_series: dict[str, LabelSeries] = {}
         for name in labels:
-            codes, categories = _label_codes(frame.get_column(name))
+            codes, categories = _label_codes(frame.get_column(name), written=self._format == "csv")
             label_time, label_rows = time_ns, rows
             present = codes >= 0
             if not present.all():
@@ -1502,31 +1507,41 @@ def _check_truncated(path: Path) -> None:
     )
 
 
-def _as_labels(column: pl.Series) -> pl.Series:
+def _as_labels(column: pl.Series, *, written: bool = False) -> pl.Series:
     """Mode ids as stripped text; integer-valued floats lose their ``.0``.
 
     A float column (Parquet) holds numbers: each whole one is written as an integer (``1.0``
     is mode ``1`` beside ``2.5``, as in a message log,
-    :func:`hybridlog.io.message_paths.as_label`).  A text column (CSV) whose every cell is a
-    number and some written as a float (``1.0``, ``2e0``: pandas writes an integer column
-    with a gap so) is read so if all are whole (but an id beyond 2^53, which keeps its
-    digits: a ``float64`` would merge it with others, :mod:`~hybridlog.io.exact`), else as
-    written.
+    :func:`hybridlog.io.message_paths.as_label`).  So does a column of cells as written
+    (``written``: a CSV file, which has no types) whose every cell is a number: each cell
+    written as a float (``1.0``, ``2e0``: pandas writes an integer column with a gap so)
+    that is whole is read as an integer (but an id beyond 2^53 keeps its digits: a
+    ``float64`` would merge it with others, :mod:`~hybridlog.io.exact`), every other cell
+    as written.  Cell by cell: a column of ``1.0`` and ``1.5`` was read as written
+    throughout when some cell was not whole, and refused naming the first ``1.0`` rather
+    than the ``1.5``.  A text column of a typed table (Parquet ``String``) is text, as a
+    ROS ``string`` or a JSON string is: ``"1.0"`` there is no mode ``1``.  A Boolean column
+    is mode ``0`` or ``1``, as a ROS ``bool`` or a JSON boolean is (it read ``'true'``, no
+    mode of a model whose modes are ``0`` and ``1``).
     """
-    if column.dtype == pl.String:
+    if column.dtype == pl.String and written:
         text = column.str.strip_chars()
-        written = text.filter(text != "").drop_nulls()
-        numbers = written.cast(pl.Float64, strict=False)
-        if written.len() and not numbers.is_null().any() and written.str.contains("[.eE]").any():
-            whole = numbers.filter(numbers.is_finite())
-            if whole.len() == numbers.len() and bool((whole == whole.round(0)).all()):
-                # an id beyond 2^53 keeps its digits: a float64 would merge it with others
-                floats = text.cast(pl.Float64, strict=False)
-                column = pl.select(
-                    pl.when(floats.abs() < EXACT_LIMIT)
-                    .then(floats.cast(pl.Int64, strict=False).cast(pl.String))
-                    .otherwise(text)
-                ).to_series()
+        cells = text.filter(text != "").drop_nulls()
+        if cells.len() and not cells.cast(pl.Float64, strict=False).is_null().any():
+            floats = text.cast(pl.Float64, strict=False)
+            whole = (
+                text.str.contains("[.eE]")
+                & floats.is_finite()
+                & (floats == floats.round(0))
+                & (floats.abs() < EXACT_LIMIT)
+            )
+            column = pl.select(
+                pl.when(whole)
+                .then(floats.cast(pl.Int64, strict=False).cast(pl.String))
+                .otherwise(text)
+            ).to_series()
+    if column.dtype == pl.Boolean:  # as a ROS bool or a JSON boolean reads: mode 0 or 1
+        column = column.cast(pl.Int8)
     dtype = column.dtype
     # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is refused
     # with its row: cast to an integer they became empty cells, no sample, and so did a
@@ -1541,20 +1556,21 @@ def _as_labels(column: pl.Series) -> pl.Series:
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
 
 
-def _label_codes(column: pl.Series) -> tuple[IntArray, tuple[str, ...]]:
+def _label_codes(column: pl.Series, *, written: bool = False) -> tuple[IntArray, tuple[str, ...]]:
     """Mode-id codes of a label column: ``(codes, labels)``, code -1 where a cell is empty.
 
-    ``labels`` are the distinct stripped labels (:func:`_as_labels`) in order of first
-    appearance; ``codes[i]`` indexes them.  Labels are worked out on the column's distinct
-    values only, and each cell becomes a small integer code through an ``Enum`` of them: a
-    10^6-row column of a few mode ids costs a few MB, not the string copies of the whole
-    column that stripping and mapping it cell by cell made (about 50 MB).
+    ``labels`` are the distinct stripped labels (:func:`_as_labels`; ``written`` for a CSV
+    file's cells) in order of first appearance; ``codes[i]`` indexes them.  Labels are
+    worked out on the column's distinct values only, and each cell becomes a small integer
+    code through an ``Enum`` of them: a 10^6-row column of a few mode ids costs a few MB, not
+    the string copies of the whole column that stripping and mapping it cell by cell made
+    (about 50 MB).
     """
     text = column if column.dtype == pl.String else _as_labels(column)
     distinct = text.unique(maintain_order=True).drop_nulls()
     first: dict[str, int] = {}
     lookup: list[int] = []
-    for label in _as_labels(distinct).to_list():
+    for label in _as_labels(distinct, written=written).to_list():
         lookup.append(-1 if label is None else first.setdefault(label, len(first)))
     lookup.append(-1)  # empty cells (null)
     physical = text.cast(pl.Enum(distinct.to_list())).to_physical()

@@ -71,6 +71,14 @@ def test_paths_split_at_the_longest_topic(text: str, topic: str, steps: tuple[An
     assert (path.topic, path.steps) == (topic, steps)
 
 
+@pytest.mark.parametrize("index", ["[-0]", "[-00]", "[ -0 ]"])
+def test_minus_zero_is_refused_as_counting_from_neither_end(index: str) -> None:
+    # Python's a[-0] is a[0]: '/joint_states.position[-0]' read the first element, where one
+    # counting from the end meant another
+    with pytest.raises(PathError, match=r"counts from neither end; write \[0\] .* \[-1\]"):
+        split_path(f"/joint_states.position{index}", TOPICS)
+
+
 def test_a_path_without_a_topic_lists_close_ones() -> None:
     with pytest.raises(PathError, match=r"no topic for '/joint_state\.x'.*'/joint_states'"):
         split_path("/joint_state.x", TOPICS)

@@ -404,16 +404,45 @@ def test_whole_numbers_written_as_floats_are_mode_ids(
 
 
 @pytest.mark.parametrize(
-    ("cells", "label"),
-    [(["1.0", "valve_open"], "1.0"), (["1.5", "1.0"], "1.5"), (["1.0", "nan"], "1.0")],
-    ids=["beside text", "beside a fraction", "beside nan"],
+    ("cells", "label", "line"),
+    [
+        (["1.0", "valve_open"], "1.0", 2),  # a column of text: as written
+        (["1.0", "1.5"], "1.5", 3),
+        (["1.0", "nan"], "nan", 3),
+        (["1", "1.0", "01"], "01", 4),  # written as an integer: as written
+    ],
+    ids=["beside text", "beside a fraction", "beside nan", "beside a leading zero"],
 )
-def test_floats_that_are_not_all_whole_numbers_stay_as_written(
-    tmp_path: Path, cells: list[str], label: str
+def test_the_cell_that_names_no_mode_is_named(
+    tmp_path: Path, cells: list[str], label: str, line: int
 ) -> None:
+    """A whole number written as a float is a mode id beside cells that are not ids.
+
+    ``1.0`` beside ``1.5`` was read as written, for the column held a number that is not
+    whole, and refused as the first bad cell: the error named a valid mode, not the ``1.5``.
+    """
     rows = "".join(f"{0.1 * k:.1f},1,1,{cell}\n" for k, cell in enumerate(cells))
-    with pytest.raises(LogError, match=rf"'{label}' at t=0.* s is not a mode"):
+    with pytest.raises(LogError, match=rf"line {line}, column 'mode': truth.mode '{label}' at"):
         load(csv_file(tmp_path, "t,u,y,mode\n" + rows), dt=0.1)
+
+
+def test_a_parquet_boolean_mode_is_0_or_1(tmp_path: Path) -> None:
+    """As a ROS ``bool`` or a JSON boolean is; it read ``'true'``, no mode of modes 0 and 1."""
+    path = tmp_path / "log.parquet"
+    frame = {"t": [0.0, 0.1, 0.2], "u": [1.0] * 3, "y": [1.0] * 3, "mode": [False, True, None]}
+    pl.DataFrame(frame).write_parquet(path)
+    signals = load(path, dt=0.1, mode_ids=("0", "1"))
+    assert signals.truth_modes is not None
+    np.testing.assert_array_equal(signals.truth_modes[:2], [0, 1])
+
+
+def test_a_parquet_text_column_is_no_number(tmp_path: Path) -> None:
+    """A Parquet ``String`` mode ``"1.0"`` is text, as a ROS or JSON string is: no mode ``1``."""
+    path = tmp_path / "log.parquet"
+    frame = {"t": [0.0, 0.1], "u": [1.0, 1.0], "y": [1.0, 1.0], "mode": ["1", "1.0"]}
+    pl.DataFrame(frame).write_parquet(path)
+    with pytest.raises(LogError, match=r"row 2, column 'mode': truth.mode '1.0' at t=0.1 s"):
+        load(path, dt=0.1)
 
 
 @pytest.mark.parametrize(

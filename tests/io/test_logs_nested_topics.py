@@ -22,7 +22,7 @@ import pytest
 
 from hybridlog.cli import main
 from hybridlog.io import ReadOptions, open_log
-from hybridlog.io.message_paths import split_paths
+from hybridlog.io.message_paths import PathError, split_paths
 from tests.support.logfiles import ros2_store
 
 STEPS = 20
@@ -139,6 +139,40 @@ def test_dotted_mcap_topics_are_told_apart(tmp_path: Path) -> None:
     assert values(log, '"/a".b.v') == [-float(k) for k in range(STEPS)]
 
 
+def test_a_text_field_of_the_topic_named_is_not_passed_over_for_a_number(
+    tmp_path: Path,
+) -> None:
+    # '/a' ({"b": {"v": k}}) and '/a/b' ({"v": "text"}): Foxglove's '/a/b.v' names the text
+    # of '/a/b', and '/a/b/v' both fields; as an input either was read from '/a' (.b.v)
+    # without a word, the text reading being dropped for not being a number
+    from mcap.writer import Writer
+
+    def schema(properties: dict[str, Any]) -> bytes:
+        return json.dumps({"type": "object", "properties": properties}).encode()
+
+    log = tmp_path / "nested.mcap"
+    with log.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="test")
+        nested = {"b": {"type": "object", "properties": {"v": {"type": "number"}}}}
+        outer = writer.register_schema("Outer", "jsonschema", schema(nested))
+        inner = writer.register_schema("Inner", "jsonschema", schema({"v": {"type": "string"}}))
+        a = writer.register_channel("/a", "json", outer)
+        ab = writer.register_channel("/a/b", "json", inner)
+        for k in range(STEPS):
+            writer.add_message(a, k, json.dumps({"b": {"v": k}}).encode(), k)
+            writer.add_message(ab, k, json.dumps({"v": "text"}).encode(), k)
+        writer.finish()
+    with open_log(log, ReadOptions()) as source:
+        assert (
+            source.explain_missing("/a/b.v", numeric=True) == "'/a/b.v' is a string, not a number"
+        )
+        both = source.explain_missing("/a/b/v", numeric=True)
+        assert both is not None and "names 2 fields" in both
+        assert source.explain_missing('"/a"/b/v', numeric=True) is None
+        assert source.explain_missing("/a.b.v", numeric=True) is None
+
+
 def test_the_cli_refuses_an_ambiguous_map_in_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -210,3 +244,13 @@ def test_quoted_topics_split_exactly() -> None:
     ]
     assert [(p.topic, p.steps) for p in split_paths('"/a".b.v', topics)] == [("/a", ("b", "v"))]
     assert [(p.topic, p.steps) for p in split_paths('"/x[0]"[1]', topics)] == [("/x[0]", (1,))]
+
+
+def test_a_longer_topic_whose_rest_is_no_steps_leaves_the_shorter_reading() -> None:
+    # '/u/data' on MCAP topics '/u/' and '/u' was refused: "cannot read 'data' after the
+    # topic" '/u/', the alias reading of '/u' never tried
+    assert [(p.topic, p.steps) for p in split_paths("/u/data", ["/u/", "/u"])] == [
+        ("/u", ("data",))
+    ]
+    with pytest.raises(PathError, match=r"cannot read 'data\[0\]x\]' after the topic"):
+        split_paths("/u/data[0]x]", ["/u/", "/u"])

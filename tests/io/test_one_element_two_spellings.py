@@ -47,6 +47,17 @@ def test_a_negative_index_of_a_parquet_list_is_the_element_it_counts_to(
         assert source.field_key("q[-1]") == source.field_key("q[2]") == ("q", (2,))
 
 
+def test_a_negative_index_beyond_a_parquet_list_is_out_of_range(tmp_path: Path) -> None:
+    # 'q[-5]' beside 'q[1]' on lists of three was refused as one element "where the array
+    # holds 4", which no row's list does, not as the index out of range it is
+    n = 12
+    frame = pl.DataFrame({"t": np.arange(n, dtype=np.float64), "q": [[1.0, 2.0, 3.0]] * n})
+    log = tmp_path / "q.parquet"
+    frame.write_parquet(log)
+    with pytest.raises(LogError, match=r"'q\[-5\]': index out of range \(the lists of 'q' hold 3"):
+        load_signals(log, SPEC, ReadOptions(maps=("u=q[-5]", "y1=q[1]", "y2=q[0]")))
+
+
 def test_a_negative_index_of_a_fixed_size_message_array_counts_from_its_start() -> None:
     defs = ros2_store().fielddefs
     assert from_the_start(defs, "sensor_msgs/msg/Imu", ("orientation_covariance", -1)) == (
