@@ -138,6 +138,9 @@ class TableSource:
             self._schema = _read_parquet_schema(self._file)
             self._columns = tuple(self._schema)
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
+        others = [c for c in TIME_COLUMNS if c in self._columns and c != self._time_column]
+        if others:  # ``t`` is the time; a ``time`` beside it is a column like any other
+            self._notes["time_columns_passed_over"] = [self._time_column, *others]
         # Parquet: the fields inside struct, list and array columns (``pose.x``, ``q[1]``)
         self._paths: dict[str, ColumnPath] = {}
         # Parquet: the one length of each list indexed from its end (``field_key``), or None

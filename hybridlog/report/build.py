@@ -1082,6 +1082,12 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ):
         if reading.get(key):
             notes.append(f"NOTE: {what}: {', '.join(map(str, reading[key]))}")
+    if reading.get("time_columns_passed_over"):
+        time, *others = reading["time_columns_passed_over"]
+        notes.append(
+            f"NOTE: the time is column {time!r}; {', '.join(map(repr, others))} beside it is "
+            "read as a signal, only where it is mapped (--map)"
+        )
     if reading.get("recovered"):
         notes.append(
             f"NOTE: --recover: the MCAP file was read sequentially, "

@@ -864,3 +864,25 @@ def test_header_names_that_differ_only_in_spaces_are_refused(tmp_path: Path, hea
     path = csv_file(tmp_path, f"{header}\n0,1,2,3\n")
     with pytest.raises(LogError, match=r"line 1: the header's columns '.*' and '.*' differ only"):
         load(path)
+
+
+@pytest.mark.parametrize("suffix", ["csv", "parquet"])
+def test_a_time_column_beside_t_is_said_to_be_passed_over(tmp_path: Path, suffix: str) -> None:
+    # both 't' and 'time' (halved): 't' was the time without a word about the other one
+    frame = pl.read_csv(csv_file(tmp_path, GOOD)).with_columns(time=pl.col("t") * 0.5)
+    path = tmp_path / f"both.{suffix}"
+    frame.write_csv(path) if suffix == "csv" else frame.write_parquet(path)
+    notes: dict[str, Any] = {}
+    np.testing.assert_array_equal(load(path, notes).time, [0.0, 0.1, 0.2, 0.3])
+    assert notes["time_columns_passed_over"] == ["t", "time"]
+    mapped = load(path, maps=["u=time"])  # still a column like any other
+    np.testing.assert_array_equal(mapped.inputs[:, 0], [0.0, 0.05, 0.1, 0.15])
+
+    from hybridlog.report.build import _reading_notes
+
+    assert "NOTE: the time is column 't'; 'time' beside it is read as a signal" in "\n".join(
+        _reading_notes(notes)
+    )
+    alone: dict[str, Any] = {}
+    load(csv_file(tmp_path, GOOD), alone)
+    assert "time_columns_passed_over" not in alone
