@@ -393,23 +393,23 @@ COPIES = 3.0
 three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4
 copies; the check uses the worst case, with a margin."""
 
-MESSAGE_BYTES = 128
-"""Bytes a message of the log costs its writer beyond the values: rosbags' ROS 1 bag writer
-keeps an index entry per message until the bag is closed (measured: 104 bytes a message,
-three-tank runs of 8 topics and ``bioplex_pgc`` runs of 18); the check uses that worst case,
-with a margin."""
 
-
-def memory_needed(model: HybridModel, rows: int) -> int:
-    """Bytes a simulation of ``rows`` rows needs at its peak, writing the log included.
+def memory_needed(model: HybridModel, rows: int, log_format: str | None = None) -> int:
+    """Bytes a simulation of ``rows`` rows needs at its peak, writing its log included.
 
     Every row holds ``t``, the mode, ``u``, ``y`` and ``x`` plus one noise draw per output and
     per state and integration step (``dt / step`` steps a row in continuous time, else 1);
     a components model's rows also hold the commands, the controller's memory, every plant
     variable, and per component its scheduled mode, override, joint-mode entry and log
     entry (:mod:`hybridlog.simulate_components`): 8 bytes each, times :data:`COPIES`.  And
-    every column of the log but ``t`` is a message a row, :data:`MESSAGE_BYTES` each.
+    every column of the log but ``t`` is a message a row, each costing the writer of
+    ``log_format`` (:data:`~hybridlog.io.bag_writers.LOG_FORMATS`; ``None``: no log)
+    :func:`~hybridlog.io.bag_writers.message_bytes` until the log is closed: a ROS 1 bag's
+    alone.  Counted for every format, they had a CSV run of 2·10^7 three-tank steps refused
+    as needing 27.7 GB, where it takes 5.
     """
+    from hybridlog.io.bag_writers import message_bytes
+
     substeps = model.timebase.substeps
     values = 2 + model.n_inputs + 2 * model.n_outputs + model.n_states * (1 + substeps)
     messages = model.n_inputs + model.n_outputs + model.n_states + 1  # 1: the true mode
@@ -419,7 +419,8 @@ def memory_needed(model: HybridModel, rows: int) -> int:
         components = len(model.components)
         values += len(model.commands) + memory + plant + 4 * components + 7  # 7: a tuple
         messages += len(model.commands) + components - 1  # a true mode per component
-    return int(rows * (values * 8 * COPIES + messages * MESSAGE_BYTES))
+    per_message = 0 if log_format is None else message_bytes(log_format)
+    return int(rows * (values * 8 * COPIES + messages * per_message))
 
 
 LATEST_S = 9.2e9
@@ -427,11 +428,16 @@ LATEST_S = 9.2e9
 :func:`hybridlog.io.source.seconds_to_ns`), and MCAP files and ROS 2 bags store them so."""
 
 
-def _check_run(model: HybridModel, rows: int, where: str, ends_before: float) -> None:
+def _check_run(model: HybridModel, rows: int, where: str, log_format: str | None) -> None:
     """Refuse up front a run that ends later than its log holds, or cannot fit in memory.
 
-    Either names the option or model key that set the number of steps.
+    Either names the option or model key that set the number of steps.  ``log_format``: of
+    the log to be written (:func:`memory_needed`); ``None``: none, the times ending before
+    :data:`LATEST_S`.
     """
+    from hybridlog.io.bag_writers import times_before
+
+    ends_before = LATEST_S if log_format is None else times_before(log_format)
     end = (rows - 1) * model.dt
     if end >= ends_before:
         raise (OptionError if where.startswith("--") else ModelError)(
@@ -439,7 +445,12 @@ def _check_run(model: HybridModel, rows: int, where: str, ends_before: float) ->
             f"than the log holds (times before {ends_before:.4g} s); simulate fewer steps"
         )
     check_fits(
-        [("the simulated rows and the log written from them", memory_needed(model, rows))],
+        [
+            (
+                "the simulated rows and the log written from them",
+                memory_needed(model, rows, log_format),
+            )
+        ],
         what=f"{where}: {rows - 1:,} steps",
         remedy="simulate fewer steps",
         error=OptionError if where.startswith("--") else ModelError,
@@ -495,7 +506,7 @@ def simulate(
     jit: bool = True,
     noise: bool = True,
     disturbance: Disturbance | None = None,
-    ends_before: float = LATEST_S,
+    log_format: str | None = None,
 ) -> SimulatedLog:
     """Simulate ``model`` with Gaussian process and measurement noise.
 
@@ -517,9 +528,12 @@ def simulate(
         run (the draws are made all the same, so they do not shift with this flag).
     disturbance:
         The disturbance of paper 003 eq. (49) on a continuous-time model; ``None``: none.
-    ends_before:
-        The time (s) the run must end before: what its log holds (:data:`LATEST_S`; a ROS 1
-        bag's less, :func:`hybridlog.io.bag_writers.times_before`).
+    log_format:
+        The format the run will be written in (:data:`~hybridlog.io.bag_writers.LOG_FORMATS`):
+        the run must end before the times its log holds (a ROS 1 bag's end earlier,
+        :func:`~hybridlog.io.bag_writers.times_before`) and fit in memory with what its
+        writer holds (:func:`memory_needed`); ``None``: no log is written (times before
+        :data:`LATEST_S`).
 
     Raises
     ------
@@ -563,7 +577,7 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         rows = (steps or 100) + 1
-        _check_run(model, rows, "--steps", ends_before)
+        _check_run(model, rows, "--steps", log_format)
         modes = np.zeros(rows, dtype=np.int64)
     else:
         if schedule is not None:  # given, if empty: refused, never the model's schedule
@@ -576,11 +590,11 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         if steps is not None:
-            _check_run(model, steps + 1, "--steps", ends_before)
+            _check_run(model, steps + 1, "--steps", log_format)
         else:
             total = sum(count for _, count in parsed)
             where = "--schedule" if schedule is not None else f"{origin}: simulation.schedule"
-            _check_run(model, total + 1, where, ends_before)
+            _check_run(model, total + 1, where, log_format)
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt

@@ -132,7 +132,7 @@ def simulate_components(
     steps: int | None = None,
     seed: int = 0,
     settings: Mapping[str, float] | None = None,
-    ends_before: float | None = None,
+    log_format: str | None = None,
 ) -> ComponentsLog:
     """Play the scenario of a components model (see the module doc).
 
@@ -146,9 +146,9 @@ def simulate_components(
         Seed of the noise (NumPy PCG64): the same seed and settings give the same log.
     settings:
         Scenario parameter values (``--set NAME=VALUE``): fault times, drift rate, gains.
-    ends_before:
-        The time (s) the run must end before, as for :func:`hybridlog.simulate.simulate`
-        (default :data:`~hybridlog.simulate.LATEST_S`).
+    log_format:
+        The format the run will be written in, as for :func:`hybridlog.simulate.simulate`
+        (``None``: no log is written).
 
     Raises
     ------
@@ -161,7 +161,6 @@ def simulate_components(
     """
     from hybridlog.model.scenario import StepValues, check_timing
     from hybridlog.simulate import (
-        LATEST_S,
         _check_run,
         _check_seed,
         out_of_range,
@@ -191,7 +190,7 @@ def simulate_components(
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
     where = "--steps" if steps else f"{origin}: simulation.steps"
-    _check_run(model, rows, where, LATEST_S if ends_before is None else ends_before)
+    _check_run(model, rows, where, log_format)
 
     labels = _mode_labels(model, scenario, rows, at)
     overrides = _overrides(model, scenario, rows, at, labels)

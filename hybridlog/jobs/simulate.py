@@ -18,7 +18,6 @@ from hybridlog.estimators.options import closest
 from hybridlog.io.bag_writers import (
     check_log_target,
     check_topic_names,
-    times_before,
     write_log,
 )
 from hybridlog.model.cache import load_model, load_model_set
@@ -105,14 +104,17 @@ def simulate_log(
     chosen = check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
     if chosen not in ("csv", "parquet"):  # every name a ROS name, no two one topic
         check_topic_names(out, *log_columns(model))
-    ends_before = times_before(chosen)  # a ROS 1 bag's seconds are 32-bit
     texts = _setting_texts(settings)
     moved = {name: text for name, text in texts.items() if name in model.parameters}
     if moved:  # the plant simulated with other [parameters] values
         model = load_model_set(model_ref, moved)
     values = _scenario_values({k: v for k, v in texts.items() if k not in moved})
-    # a simulation's error names the --set values (all of them: the run uses each)
+    # a simulation's error names the --set values (all of them: the run uses each) and
+    # the disturbance, which drove the plant there (ice_clutch's "integration.step: 0.001 s
+    # is too long", where the model's step suits its own dynamics)
     given = {name: set_text(name, text) for name, text in texts.items()}
+    if disturbance is not None:
+        given[_DISTURBANCE] = f"--disturbance {excerpt(disturbance.strip())[1:-1]}"
     if model.has_components:
         if schedule is not None:
             raise OptionError(
@@ -129,7 +131,7 @@ def simulate_log(
 
         with given_in_errors(given, (ModelError,)):  # its OptionErrors: --steps, --seed, --set
             played = simulate_components(
-                model, steps=steps, seed=seed, settings=values, ends_before=ends_before
+                model, steps=steps, seed=seed, settings=values, log_format=chosen
             )
         refuse_unread_by_simulation(
             model,
@@ -159,7 +161,7 @@ def simulate_log(
                 seed=seed,
                 noise=noise,
                 disturbance=parsed,
-                ends_before=ends_before,
+                log_format=chosen,  # a ROS 1 bag's seconds are 32-bit
             )
         ids = {model.modes[int(q)].id for q in set(log.modes.tolist())}
         unreached = unreached_modes(model, log.modes, schedule)
@@ -184,6 +186,10 @@ def simulate_log(
         inputs=inputs,
     )
     return SimulationOutcome(path=path, samples=samples, notes=notes)
+
+
+_DISTURBANCE = "--disturbance"
+"""The disturbance's entry among the values a simulation's errors name (no parameter's name)."""
 
 
 def log_columns(model: HybridModel) -> tuple[tuple[str, ...], tuple[str, ...]]:

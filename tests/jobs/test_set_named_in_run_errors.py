@@ -75,6 +75,17 @@ def test_a_simulation_names_them(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+def test_a_simulation_names_the_disturbance_that_drove_it_there(tmp_path: Path) -> None:
+    # --disturbance 100,1 ended "integration.step: 0.001 s is too long for mode '0'" without
+    # a word of it, and a user shortened the model's step, which suits the plant without it
+    out = tmp_path / "run.csv"
+    with pytest.raises(ModelError) as raised:
+        simulate_log("ice_clutch", out, steps=30, disturbance="100, 1", settings=["fE=0.02"])
+    assert "integration.step" in str(raised.value)
+    assert str(raised.value).endswith(" (after --set fE=0.02, --disturbance 100, 1)")
+    assert not out.exists()
+
+
 def test_the_command_line_says_it_in_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

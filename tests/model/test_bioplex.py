@@ -213,10 +213,10 @@ def test_the_memory_a_run_needs_counts_every_column_and_message(model):
     # a run twice what fits was let through to be killed for memory.
     from hybridlog.simulate import memory_needed
 
-    assert memory_needed(model, 1000) > 1000 * 2256  # at least what the bag writer took
+    assert memory_needed(model, 1000, "bag") > 1000 * 2256  # at least what the bag writer took
     # 62 values (15 of the plain model, 5 commands, the controller's integral, 10 plant
     # variables, 4 per component and the joint mode's tuple), 18 messages
-    assert memory_needed(model, 1000) == 1000 * (62 * 8 * 3 + 18 * 128)
+    assert memory_needed(model, 1000, "bag") == 1000 * (62 * 8 * 3 + 18 * 128)
 
 
 def test_a_run_ending_later_than_a_log_holds_is_refused(model):
@@ -227,7 +227,7 @@ def test_a_run_ending_later_than_a_log_holds_is_refused(model):
     ):
         simulate_components(model, steps=200_000_000)
     with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\)"):
-        simulate_components(model, steps=80_000_000, ends_before=2.0**32)
+        simulate_components(model, steps=80_000_000, log_format="bag")
 
 
 def test_steps_out_of_order_in_the_model_file_name_it(tmp_path):
