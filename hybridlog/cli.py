@@ -726,22 +726,24 @@ def simulate(
     state /truth/<state>, as ROS names (θ is /truth/theta). ROS 2 bags: metadata version 8,
     which ros2 bag reads from Humble on.
     """
+    from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.simulate import simulate_log
     from hybridlog.report.markdown import plural
 
-    outcome = simulate_log(
-        model_ref,
-        out,
-        log_format=log_format,
-        encoding=encoding,
-        schedule=schedule,
-        steps=steps,
-        seed=seed,
-        noise=noise,
-        disturbance=disturbance,
-        force=force,
-        settings=sets,
-    )
+    with reporting(_work_reporter(ctx)):  # a long bag or MCAP file says how long it takes
+        outcome = simulate_log(
+            model_ref,
+            out,
+            log_format=log_format,
+            encoding=encoding,
+            schedule=schedule,
+            steps=steps,
+            seed=seed,
+            noise=noise,
+            disturbance=disturbance,
+            force=force,
+            settings=sets,
+        )
     _say(ctx, f"wrote {out} ({plural(outcome.samples, 'sample')})")
     settings = ctx.find_object(_Context)
     if not (settings is not None and settings.quiet):

@@ -7,20 +7,26 @@ around it).  The library prints nothing; a command that wants a note and a progr
 installs a :class:`WorkReporter` around the call with :func:`reporting` (``hybridlog
 cluster`` does: the note and the bar go to stderr, the bar only on a terminal, neither with
 ``--quiet``), and the clustering code asks :func:`current_reporter`.
-Without one, the work is silent.  ``unknown-mode``'s hybrid estimation with a large ``beam``
-reports itself the same way (:mod:`hybridlog.estimators.cpha.long_run`).
+Without one, the work is silent.  Work whose length shows only once it runs times itself
+with :class:`TimedWork`: ``unknown-mode``'s hybrid estimation with a large ``beam``
+(:mod:`hybridlog.estimators.cpha.unknown_mode`), ``simulate`` writing a long log's messages
+(:mod:`hybridlog.jobs.simulate`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import contextvars
+import time
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
+from types import TracebackType
 
 __all__ = [
+    "CALIBRATION_S",
     "LONG_WORK_S",
+    "TimedWork",
     "WorkReporter",
     "current_reporter",
     "duration_text",
@@ -106,3 +112,84 @@ def reporting(reporter: WorkReporter | None) -> Iterator[None]:
         yield
     finally:
         _REPORTER.reset(token)
+
+
+CALIBRATION_S = 1.0
+"""Work time over which :class:`TimedWork` times the units before it expects the rest."""
+
+
+class TimedWork:
+    """Work of ``total`` units that times itself and, when long, says so and shows a bar.
+
+    A context manager around the work, told how far it is with :meth:`reached`.  The first
+    unit is not timed (it loads what the rest reuse), then the units of the next
+    :data:`CALIBRATION_S` are, and the rate of their later half (the work per unit may grow
+    at first: a beam filling) gives the rest's time.  When the work is then expected to
+    take longer than :data:`LONG_WORK_S`, the installed reporter
+    (:func:`current_reporter`) gets ``note(units left, seconds left)``'s line and a bar
+    labelled ``label`` over the rest.  Without a reporter it does nothing.
+
+    ``clock``: the work's own clock, in seconds (``unknown-mode``'s excludes the time its
+    caches spend compiling).
+    """
+
+    def __init__(
+        self,
+        total: int,
+        label: str,
+        note: Callable[[int, float], str],
+        clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
+        self.total = total
+        self.label = label
+        self.note = note
+        self.clock = clock
+        self.reporter = current_reporter()
+        self._stack = contextlib.ExitStack()
+        self._advance: Callable[[int], None] | None = None
+        self._shown = 0  # the units the bar shows
+        self._first: tuple[int, float] | None = None  # (units, clock) after the first
+        self._half: tuple[int, float] | None = None  # the same, half-way through timing
+        self._decided = self.reporter is None or total < 2
+
+    def __enter__(self) -> TimedWork:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
+        self._stack.close()
+
+    def reached(self, done: int) -> None:
+        """``done`` units of the ``total`` are done, counted from the start."""
+        if self._advance is not None:
+            self._advance(done - self._shown)
+            self._shown = done
+            return
+        if self._decided:
+            return
+        now = self.clock()
+        if self._first is None:
+            self._first = (done, now)
+            return
+        d0, t0 = self._first
+        elapsed = now - t0
+        if self._half is None and elapsed >= CALIBRATION_S / 2:
+            self._half = (done, now)
+        if elapsed < CALIBRATION_S and done < self.total:
+            return
+        self._decided = True
+        d_h, t_h = self._half if self._half is not None and self._half[0] < done else (d0, t0)
+        if done >= self.total or done <= d_h:
+            return
+        remaining = (now - t_h) / (done - d_h) * (self.total - done)
+        if now - t0 + remaining <= LONG_WORK_S:
+            return
+        assert self.reporter is not None
+        self.reporter.note(self.note(self.total - done, remaining))
+        self._advance = self._stack.enter_context(self.reporter.bar(self.total, self.label))
+        self._advance(done)
+        self._shown = done

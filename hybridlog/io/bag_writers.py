@@ -38,7 +38,7 @@ import json
 import os
 import re
 import struct
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final, Literal
@@ -284,6 +284,7 @@ def write_log(
     encoding: str = "cdr",
     force: bool = False,
     inputs: Sequence[tuple[str, PathLike]] = (),
+    progress: Callable[[int], None] | None = None,
 ) -> Path:
     """Write a log in any format hybridlog reads.
 
@@ -304,6 +305,10 @@ def write_log(
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote.
     inputs:
         ``(what, path)`` pairs the log must not touch (see :func:`check_log_target`).
+    progress:
+        Called with the rows written so far, every :data:`PROGRESS_ROWS` rows and at the
+        end, as a bag or MCAP file is written a message at a time (a table is written at
+        once): about 6 µs a message, a minute for 10^6 rows of eight topics.
 
     Returns
     -------
@@ -328,8 +333,8 @@ def write_log(
     if chosen in ("csv", "parquet"):
         return write_table(path, columns, force=force)
     topics = log_topics(columns, truth, path=path)
-    time_ns = seconds_to_ns(time)
-    writer: Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
+    rows = _rows(topics, columns, seconds_to_ns(time), progress)
+    writer: Callable[[Path, Sequence[TopicColumn], Iterable[_Row]], None]
     if chosen == "mcap":
         writer = _MCAP_WRITERS[encoding]
     elif chosen == "bag":
@@ -346,7 +351,7 @@ def write_log(
             # resolves it (``out/..`` has none of its own), so the staged bag's files carry
             # the names they have in ``folder``
             staged = area / folder.name
-            _written(target, lambda: writer(staged, topics, columns, time_ns))
+            _written(target, lambda: writer(staged, topics, rows))
             publish_dir(
                 staged,
                 folder,
@@ -357,7 +362,7 @@ def write_log(
             )
     else:
         with atomic_files([target], force=force) as (staged,):
-            _written(target, lambda: writer(staged, topics, columns, time_ns))
+            _written(target, lambda: writer(staged, topics, rows))
     return target
 
 
@@ -490,14 +495,32 @@ def _written(target: Path, write: Callable[[], None]) -> None:
         raise OutputError(f"{target}: cannot be written ({err})") from err
 
 
+_Row = tuple[int, int, Any]
+"""A message to write: ``(log time in ns, topic index, value)``."""
+
+PROGRESS_ROWS = 1024
+"""How many rows :func:`write_log` writes between two calls of its ``progress``."""
+
+
 def _rows(
-    topics: Sequence[TopicColumn], columns: Mapping[str, Column], time_ns: Any
-) -> Iterator[tuple[int, int, Any]]:
-    """``(log time, topic index, value)`` row by row, topics in column order."""
+    topics: Sequence[TopicColumn],
+    columns: Mapping[str, Column],
+    time_ns: Any,
+    progress: Callable[[int], None] | None,
+) -> Iterator[_Row]:
+    """``(log time, topic index, value)`` row by row, topics in column order.
+
+    ``progress`` is told the rows yielded whole, every :data:`PROGRESS_ROWS` and at the end.
+    """
     values = [columns[t.column] for t in topics]
-    for k, stamp in enumerate(time_ns.tolist()):
+    stamps = time_ns.tolist()
+    for k, stamp in enumerate(stamps):
         for j, column in enumerate(values):
             yield stamp, j, column[k]
+        if progress is not None and (k + 1) % PROGRESS_ROWS == 0:
+            progress(k + 1)
+    if progress is not None:
+        progress(len(stamps))
 
 
 def _typestore(ros1: bool) -> Any:
@@ -531,11 +554,7 @@ def _plain(value: Any) -> Any:
 
 
 def _write_mcap(
-    path: Path,
-    topics: Sequence[TopicColumn],
-    columns: Mapping[str, Column],
-    time_ns: Any,
-    encoding: str,
+    path: Path, topics: Sequence[TopicColumn], rows: Iterable[_Row], encoding: str
 ) -> None:
     from mcap.writer import CompressionType, Writer
 
@@ -554,7 +573,7 @@ def _write_mcap(
                 writer.register_channel(topic.topic, encoding, schema_ids[topic.msgtype])
             )
             serializers.append(_serializer(topic.msgtype, encoding))
-        for sequence, (stamp, j, value) in enumerate(_rows(topics, columns, time_ns), 1):
+        for sequence, (stamp, j, value) in enumerate(rows, 1):
             writer.add_message(channels[j], stamp, serializers[j](value), stamp, sequence)
         writer.finish()  # type: ignore[no-untyped-call]
 
@@ -569,33 +588,25 @@ def _register_schema(writer: Any, store: Any, msgtype: str, encoding: str) -> in
     return int(writer.register_schema(name, "ros1msg" if ros1 else "ros2msg", text.encode()))
 
 
-_MCAP_WRITERS: dict[
-    str, Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]
-] = {
-    encoding: (lambda e: lambda p, t, c, s: _write_mcap(p, t, c, s, e))(encoding)
+_MCAP_WRITERS: dict[str, Callable[[Path, Sequence[TopicColumn], Iterable[_Row]], None]] = {
+    encoding: (lambda e: lambda p, t, r: _write_mcap(p, t, r, e))(encoding)
     for encoding in MCAP_ENCODINGS
 }
 
 
-def _write_ros1_bag(
-    path: Path, topics: Sequence[TopicColumn], columns: Mapping[str, Column], time_ns: Any
-) -> None:
+def _write_ros1_bag(path: Path, topics: Sequence[TopicColumn], rows: Iterable[_Row]) -> None:
     from rosbags.rosbag1 import Writer
 
     store = _typestore(ros1=True)
     with Writer(path) as writer:
         connections = [writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics]
         serializers = [_serializer(t.msgtype, "ros1") for t in topics]
-        for stamp, j, value in _rows(topics, columns, time_ns):
+        for stamp, j, value in rows:
             writer.write(connections[j], stamp, serializers[j](value))
 
 
-def _ros2_writer(
-    storage: str,
-) -> Callable[[Path, Sequence[TopicColumn], Mapping[str, Column], Any], None]:
-    def write(
-        path: Path, topics: Sequence[TopicColumn], columns: Mapping[str, Column], time_ns: Any
-    ) -> None:
+def _ros2_writer(storage: str) -> Callable[[Path, Sequence[TopicColumn], Iterable[_Row]], None]:
+    def write(path: Path, topics: Sequence[TopicColumn], rows: Iterable[_Row]) -> None:
         from rosbags.rosbag2 import StoragePlugin, Writer
 
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
@@ -606,7 +617,7 @@ def _ros2_writer(
                 writer.add_connection(t.topic, t.msgtype, typestore=store) for t in topics
             ]
             serializers = [_serializer(t.msgtype, "cdr") for t in topics]
-            for stamp, j, value in _rows(topics, columns, time_ns):
+            for stamp, j, value in rows:
                 writer.write(connections[j], stamp, serializers[j](value))
 
     return write

@@ -13,7 +13,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hybridlog.errors import ModelError, OptionError, excerpt, given_in_errors, set_text
+from hybridlog.cluster.progress import TimedWork, duration_text
+from hybridlog.errors import (
+    ModelError,
+    OptionError,
+    as_text,
+    excerpt,
+    given_in_errors,
+    set_text,
+)
 from hybridlog.estimators.options import closest
 from hybridlog.io.bag_writers import (
     check_log_target,
@@ -176,15 +184,27 @@ def simulate_log(
         columns, truth = log.columns(model), ("mode", *model.states)
         samples = int(log.time.shape[0])
         notes = (*cut_schedule(model, log.modes, steps, schedule), *log.notes)
-    path = write_log(
-        out,
-        columns,
-        truth=truth,
-        format=log_format,
-        encoding=encoding,
-        force=force,
-        inputs=inputs,
+    # a bag or MCAP file is written a message at a time: a minute for 10^6 rows
+    messages = len(columns) - 1
+    writing = TimedWork(
+        samples,
+        "rows written",
+        lambda left, seconds: (
+            f"writing {as_text(out)}: about {duration_text(seconds)} more on this machine "
+            f"({left:,} of {samples:,} rows left, {messages} messages a row)"
+        ),
     )
+    with writing:
+        path = write_log(
+            out,
+            columns,
+            truth=truth,
+            format=log_format,
+            encoding=encoding,
+            force=force,
+            inputs=inputs,
+            progress=writing.reached,
+        )
     return SimulationOutcome(path=path, samples=samples, notes=notes)
 
 

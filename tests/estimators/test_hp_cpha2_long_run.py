@@ -11,7 +11,6 @@ import pytest
 
 from hybridlog.cluster import progress
 from hybridlog.cluster.progress import WorkReporter, reporting
-from hybridlog.estimators.cpha import long_run
 from hybridlog.estimators.cpha.unknown_mode import UnknownModeOptions, run_unknown_mode
 from hybridlog.model.loader import parse_model
 from tests.support.cpha import CPHA_EXAMPLE, cpha_log
@@ -40,7 +39,7 @@ def run(reporter):
 
 
 def test_a_long_run_says_how_long_and_shows_its_steps(monkeypatch):
-    monkeypatch.setattr(long_run, "CALIBRATION_S", 0.0)
+    monkeypatch.setattr(progress, "CALIBRATION_S", 0.0)
     monkeypatch.setattr(progress, "LONG_WORK_S", -1.0)
     reporter, said = recording_reporter()
     run(reporter)
@@ -53,7 +52,7 @@ def test_a_long_run_says_how_long_and_shows_its_steps(monkeypatch):
 
 @pytest.mark.parametrize("installed", [True, False])
 def test_a_short_run_or_one_without_a_reporter_says_nothing(monkeypatch, installed):
-    monkeypatch.setattr(long_run, "CALIBRATION_S", 0.0)
+    monkeypatch.setattr(progress, "CALIBRATION_S", 0.0)
     monkeypatch.setattr(progress, "LONG_WORK_S", float("inf") if installed else -1.0)
     reporter, said = recording_reporter()
     result = run(reporter if installed else None)

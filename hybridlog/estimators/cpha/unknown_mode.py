@@ -76,6 +76,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from hybridlog.cluster.progress import TimedWork, duration_text
 from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.capabilities import missing_command
 from hybridlog.estimators.cpha.absorbing import absorbing_components, absorbing_notes
@@ -86,7 +87,6 @@ from hybridlog.estimators.cpha.hypotheses import (
     NoExplanationError,
     Tracker,
 )
-from hybridlog.estimators.cpha.long_run import LongRun
 from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
@@ -345,7 +345,18 @@ def _run(
     # per step, the states the reported hypothesis held for want of a virtual input
     undetermined = np.zeros((n, n_x), dtype=np.bool_)
     what = f"{NAME} over {n:,} samples, beam {options.beam:,}"
-    with LongRun(n - 1, what, lambda: structure.seconds + filters.seconds) as long_run:
+    # a large beam takes minutes: timed on the steps after the first, compilation excluded
+    long_run = TimedWork(
+        n - 1,
+        f"{NAME} steps",
+        lambda left, seconds: (
+            f"{what}: about {duration_text(seconds)} more on this machine ({left:,} of "
+            f"{n - 1:,} steps left, timed on the steps after the first, compilation "
+            "excluded; a smaller beam or candidates takes less)"
+        ),
+        clock=lambda: time.perf_counter() - structure.seconds - filters.seconds,
+    )
+    with long_run:
         for k in range(n):
             if k > 0:
                 try:
@@ -381,7 +392,7 @@ def _run(
             variances[k] = np.diag(top.P)
             predictions[k] = top.y_pred
             if k > 0:
-                long_run.done(k)
+                long_run.reached(k)
     compile_s = structure.seconds + filters.seconds - compiling
     runtime = time.perf_counter() - start - compile_s
     mode_ids = tuple(assignment_label(a) for a in labels)
