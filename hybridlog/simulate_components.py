@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hybridlog.cluster.progress import TimedWork, duration_text
 from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
@@ -237,38 +238,49 @@ def simulate_components(
     initial = start_state(model)
     new_memory = np.zeros_like(memory)
     control = np.zeros(len(controlled))
-    for k in range(rows):
-        joint = joints[assignment[k]]
-        now = values_log[k]
-        if k == 0:
-            now[state_slice] = initial
-        else:
-            joint.step(values_log[k - 1], parameters, now)
-            now[state_slice] += joint.process_std * process_draws[k]
-        if controller is not None:  # u(k) is not known yet: the outputs do not depend on it
-            inputs[k, controlled] = inputs[k - 1, controlled] if k else 0.0
-        now[input_slice] = inputs[k]
-        joint.algebraic(now, parameters)
-        measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
-        if controller is not None:
-            try:
-                with np.errstate(divide="raise", invalid="raise", over="raise"):
-                    update, compute = controller
-                    update(measured[k], memory, parameters, time[k], float(k), new_memory)
-                    memory[:] = new_memory
-                    compute(measured[k], memory, parameters, time[k], float(k), control)
-            except (ArithmeticError, ValueError) as err:  # 1/0, overflow, log(-1), 0*inf
-                raise ModelError(
-                    _controller_failed(origin, err, time[k], settings), named=settings or ()
-                ) from None
-            inputs[k, controlled] = control
+    # a Python step of the joint modes and the controller, about 50 µs: 10^6 steps in a minute
+    stepping = TimedWork(
+        rows,
+        "steps simulated",
+        lambda left, seconds: (
+            f"simulating {origin}: about {duration_text(seconds)} more on this machine "
+            f"({left:,} of {rows:,} steps left)"
+        ),
+    )
+    with stepping:
+        for k in range(rows):
+            joint = joints[assignment[k]]
+            now = values_log[k]
+            if k == 0:
+                now[state_slice] = initial
+            else:
+                joint.step(values_log[k - 1], parameters, now)
+                now[state_slice] += joint.process_std * process_draws[k]
+            if controller is not None:  # u(k) is not known yet: the outputs do not depend on it
+                inputs[k, controlled] = inputs[k - 1, controlled] if k else 0.0
             now[input_slice] = inputs[k]
             joint.algebraic(now, parameters)
-            memory_log[k] = memory
-        for names, row in ((universe, now), (model.outputs, measured[k])):
-            if not np.all(readable := within_range(row)):  # a log holds none, 2^480 on
-                j = int(np.argmin(readable))
-                raise out_of_range(origin, names[j], float(row[j]), float(time[k]))
+            measured[k] = now[output_slice] + joint.measurement_std * measurement_draws[k]
+            if controller is not None:
+                try:
+                    with np.errstate(divide="raise", invalid="raise", over="raise"):
+                        update, compute = controller
+                        update(measured[k], memory, parameters, time[k], float(k), new_memory)
+                        memory[:] = new_memory
+                        compute(measured[k], memory, parameters, time[k], float(k), control)
+                except (ArithmeticError, ValueError) as err:  # 1/0, overflow, log(-1), 0*inf
+                    raise ModelError(
+                        _controller_failed(origin, err, time[k], settings), named=settings or ()
+                    ) from None
+                inputs[k, controlled] = control
+                now[input_slice] = inputs[k]
+                joint.algebraic(now, parameters)
+                memory_log[k] = memory
+            for names, row in ((universe, now), (model.outputs, measured[k])):
+                if not np.all(readable := within_range(row)):  # a log holds none, 2^480 on
+                    j = int(np.argmin(readable))
+                    raise out_of_range(origin, names[j], float(row[j]), float(time[k]))
+            stepping.reached(k + 1)
     modes = {
         c.name: tuple(
             UNKNOWN if overrides[c.name][k] >= 0 else labels[c.name][k] for k in range(rows)
