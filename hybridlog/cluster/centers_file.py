@@ -268,8 +268,8 @@ def parse_centers(text: str, source: str) -> CentersFile:
         When the text is not JSON, of another format, or a needed key is wrong; the message
         names ``source`` and the key.
     """
-    try:
-        data = json.loads(text, object_pairs_hook=_unique_keys)
+    try:  # an editor's byte-order mark (Notepad's UTF-8) is no part of the JSON (RFC 8259 §8.1)
+        data = json.loads(text.removeprefix("\ufeff"), object_pairs_hook=_unique_keys)
     except _DuplicateKeyError as err:
         raise OptionError(
             f"{source}: the key {excerpt(err.key)} is given twice in one object; keep one"
@@ -400,9 +400,11 @@ class _Reader:
             return None
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.error(key, "expected a positive number of seconds")
-        number = float(value)
+        number = _float(value)
         if not (math.isfinite(number) and number > 0):
-            raise self.error(key, f"expected a positive number of seconds, got {value!r}")
+            raise self.error(
+                key, f"expected a positive number of seconds, got {excerpt(str(value), 40)[1:-1]}"
+            )
         return number
 
     def lags(self, data: Mapping[str, Any], key: str) -> tuple[int, ...]:
@@ -480,7 +482,19 @@ class _Reader:
         flat = np.asarray(value, dtype=object).ravel()
         if any(isinstance(v, bool) or not isinstance(v, int | float) for v in flat):
             raise self.error(key, "expected numbers")
-        array = np.asarray(value, dtype=np.float64)
+        array = np.asarray([_float(v) for v in flat], dtype=np.float64).reshape(np.shape(value))
         if not np.all(np.isfinite(array)):
-            raise self.error(key, "non-finite number")
+            raise self.error(key, "non-finite number (or one past a float's range, 1.8e308)")
         return array
+
+
+def _float(value: float) -> float:
+    """``value`` as a float; a whole number past a float's range is infinite.
+
+    JSON holds whole numbers of any size: ``float(10**400)`` raised OverflowError, which
+    ended ``analyze`` as "unexpected OverflowError" naming neither the file nor the key.
+    """
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf

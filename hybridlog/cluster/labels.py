@@ -81,14 +81,85 @@ def decide_clusters(
     decided: IntArray = np.empty(y.shape[0], dtype=np.int64)
     rows = max(1, DECIDE_BLOCK // max(1, centres.shape[0]))
     for first in range(0, y.shape[0], rows):
-        block = y[first : first + rows]
-        costs = np.zeros((block.shape[0], centres.shape[0]))
-        for j in range(y.shape[1]):
-            term = ((block[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
-            costs += np.where(np.isnan(term), 0.0, term)  # y_j(k) not measured: no term
-        decided[first : first + rows] = np.argmin(costs, axis=1)
+        decided[first : first + rows] = _nearest(y[first : first + rows], centres, divisor)
     decided[np.isnan(y).all(axis=1)] = NO_CLUSTER
     return decided
+
+
+def _nearest(y: FloatArray, centres: FloatArray, divisor: FloatArray) -> IntArray:
+    """The centre of least ``Σ_j ((y_j − y_ij*)/s_j)²`` for every row of ``y`` (NaN: no term).
+
+    The costs as eq. (3) writes them, but where the least of a row's overflowed (a sample
+    far outside the centres' range in units of that range: centres fitted on a log of
+    amplitude 1e-300, applied to one of amplitude 1, made every cost inf, and the first
+    centre won whatever the distances, or analyze stopped "on numerical trouble") or may
+    have lost terms to underflow (below :data:`_COST_FLOOR`, an exact hit among them):
+    those rows are decided by :func:`_robust_nearest`.
+    """
+    costs = np.zeros((y.shape[0], centres.shape[0]))
+    with np.errstate(over="ignore", under="ignore"):
+        for j in range(y.shape[1]):
+            term = ((y[:, j, None] - centres[None, :, j]) / divisor[j]) ** 2
+            costs += np.where(np.isnan(term), 0.0, term)  # y_j(k) not measured: no term
+    nearest: IntArray = np.argmin(costs, axis=1)
+    least = costs[np.arange(costs.shape[0]), nearest]
+    trusted = (least >= _COST_FLOOR) & (least < np.inf)
+    doubtful = ~trusted & ~np.isnan(y).all(axis=1)
+    if doubtful.any():
+        nearest[doubtful] = _robust_nearest(y[doubtful], centres, divisor)
+    return nearest
+
+
+_COST_FLOOR = float(np.finfo(np.float64).tiny) * 2.0**54
+"""A least cost at or above this (4e-292) holds its terms to half an ulp: one that
+underflowed is below ``tiny``, 2^-54 of it."""
+
+
+def _robust_nearest(y: FloatArray, centres: FloatArray, divisor: FloatArray) -> IntArray:
+    """:func:`_nearest` for rows whose costs overflow or underflow as eq. (3) writes them.
+
+    Each row's terms ``t_j = |y_j − y_ij*|/s_j`` are divided first by the power of two
+    ``2^e`` in ``(m, 2m]``, ``m`` its least largest term (the ∞-norm of its nearest centre in
+    that norm): exact, so the costs compare as eq. (3)'s do, the winner's cost lies in
+    ``[1/4, n_y)``, and a cost that overflows is a loser's.  Where ``m`` itself overflowed
+    the costs are compared as logarithms; where it is 0 a centre is hit exactly and wins.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        t = np.abs(y[:, None, :] - centres[None, :, :])
+        t /= divisor
+    t[np.isnan(t)] = 0.0  # y_j(k) not measured: no term
+    largest = t.max(axis=2)
+    m = largest.min(axis=1)
+    costs = largest  # m = 0: the hit (largest term 0) wins
+    scaled = np.isfinite(m) & (m > 0.0)
+    if scaled.any():
+        costs[scaled] = _scaled_squares(t[scaled], m[scaled])
+    far = np.isinf(m)
+    if far.any():
+        costs[far] = _log_norms(y[far], centres, divisor)
+    nearest: IntArray = np.argmin(costs, axis=1)
+    return nearest
+
+
+def _scaled_squares(t: FloatArray, m: FloatArray) -> FloatArray:
+    """``Σ_j (t_j·2^-e)²`` per row and centre, with ``m = f·2^e``, ``f ∈ [0.5, 1)``."""
+    _, exponent = np.frexp(m)
+    with np.errstate(over="ignore", under="ignore"):
+        t = np.ldexp(t, -exponent[:, None, None])
+        t *= t
+    costs: FloatArray = t.sum(axis=2)
+    return costs
+
+
+def _log_norms(y: FloatArray, centres: FloatArray, divisor: FloatArray) -> FloatArray:
+    """``log √Σ_j t_j²`` from ``log t_j = log|y_j − y_ij*| − log s_j``: ``t`` overflowed."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        logs = np.log(np.abs(y[:, None, :] - centres[None, :, :])) - np.log(divisor)
+    logs[np.isnan(logs)] = -np.inf  # y_j(k) not measured: no term
+    top = logs.max(axis=2, keepdims=True)  # finite: every centre has a term that overflowed
+    with np.errstate(under="ignore"):
+        costs: FloatArray = top[..., 0] + 0.5 * np.log(np.exp(2.0 * (logs - top)).sum(axis=2))
+    return costs
 
 
 NO_CLUSTER = -1

@@ -32,9 +32,10 @@ def naive_subtractive_clustering(
     lower, upper = x.min(axis=0), x.max(axis=0)
     span = np.where(upper > lower, upper - lower, 1.0)
     unit = np.clip((x - lower) / span, 0.0, 1.0) / radius
-    potentials = np.exp(-4.0 * cdist(unit, unit, "sqeuclidean")).sum(axis=1)
-    if not self_potential:
-        potentials -= 1.0
+    kernel = np.exp(-4.0 * cdist(unit, unit, "sqeuclidean"))
+    if not self_potential:  # eq. (5) as printed, l ≠ k: dropped, not subtracted (1 + 1e-21 - 1 = 0)
+        np.fill_diagonal(kernel, 0.0)
+    potentials = kernel.sum(axis=1)
     best = int(np.argmax(potentials))
     reference = potentials[best]
     peak = reference
@@ -45,7 +46,9 @@ def naive_subtractive_clustering(
         if ratio > accept:
             take = True
         elif ratio > reject:
-            nearest = min(math.dist(unit[best], unit[c]) for c in centres)
+            # no centre yet (accept = 1): none is near, as in the production walk (MATLAB's
+            # min over none is empty, and every candidate would be rejected: no centre at all)
+            nearest = min((math.dist(unit[best], unit[c]) for c in centres), default=math.inf)
             take = ratio + nearest >= 1.0
         else:
             break

@@ -92,6 +92,25 @@ def test_decision_rule_is_eq_3():
     assert decided.tolist() == [0, 1, 1, 0]  # a tie goes to the first cluster
 
 
+def test_decision_rule_holds_far_outside_the_centres_range_in_float():
+    """Centres fitted on a log of amplitude 1e-300, applied to one of amplitude 1e10.
+
+    ((y − y*)/s)² overflowed to inf for every centre: the first won whatever the distances,
+    and analyze stopped "chiu stopped on numerical trouble (overflow encountered in square)"
+    on a valid centres file.  Costs too small for float lost the exact hit to a tie.
+    """
+    centres, span = np.array([[0.0], [1e5]]), np.array([1e-300])
+    decided = decide_clusters(np.array([[1e10], [-1e10], [3e4], [np.nan]]), centres, span)
+    assert decided.tolist() == [1, 0, 0, -1]
+    # two outputs, one far off: the other decides, unmeasured (NaN) terms left out
+    two = np.array([[0.0, 1e5], [1e5, 0.0]])
+    decided = decide_clusters(np.array([[1e10, np.nan], [1e10, 1e10]]), two, np.array([1e-300] * 2))
+    assert decided.tolist() == [1, 0]  # the second row: a tie, to the first
+    # a sample on a centre 1e-200 from another: the hit wins (both costs underflowed to 0)
+    hit = decide_clusters(np.array([[1e-200], [0.0]]), np.array([[0.0], [1e-200]]))
+    assert hit.tolist() == [1, 0]
+
+
 def test_labelling_by_score_gives_every_mode_a_cluster():
     truth = np.array([1, 0, 1, 1])  # the "right" mode of each cluster
 
@@ -315,6 +334,37 @@ def test_stored_labels_are_the_models_modes_or_refused():
         "cluster 2 decides no sample: unused (labelled 'a')",
         "mode 'a' has no cluster: it is never decided",
     )
+
+
+@pytest.mark.parametrize(
+    ("edit", "key"),
+    [
+        (lambda d: d["chiu"]["centers"][0].__setitem__(0, 10**400), "chiu.centers"),
+        (lambda d: d["scaling"]["upper"].__setitem__(0, -(10**400)), "scaling.upper"),
+        (
+            lambda d: d["chiu"].__setitem__("decision_values", [[10**400], [0]]),
+            "chiu.decision_values",
+        ),
+    ],
+)
+def test_a_whole_number_past_a_floats_range_is_refused_naming_the_key(edit, key):
+    """JSON holds whole numbers of any size: float(10**400) ended analyze as 'unexpected
+    OverflowError in centers_file.py' naming neither the file nor the key."""
+    content = copy.deepcopy(_STORED)
+    edit(content)
+    with pytest.raises(OptionError, match=rf"^mem.json: {key}: non-finite number \(or one past"):
+        parse_centers(centers_json(content), "mem.json")
+    with pytest.raises(
+        OptionError, match=r"^mem.json: dt: expected a positive number .*, got 1000"
+    ):
+        parse_centers(centers_json({**_STORED, "dt": 10**400}), "mem.json")
+
+
+def test_a_centres_file_with_a_byte_order_mark_is_read(tmp_path):
+    """Saved by an editor that marks UTF-8 (Notepad): 'not JSON: Unexpected UTF-8 BOM'."""
+    path = tmp_path / "centers.json"
+    path.write_text(centers_json(_STORED), encoding="utf-8-sig")
+    assert read_centers(path).clusters["chiu"].modes == ("b", "a")
 
 
 def test_a_stored_file_at_odds_with_itself_is_refused_naming_the_key():

@@ -104,6 +104,24 @@ def test_rejections_walk_like_matlab():
         assert found.center_indices.tolist() == indices.tolist()
 
 
+def test_the_reference_agrees_at_the_edges_of_the_options():
+    """accept = 1 (the first centre in the grey zone) crashed the reference ('min() arg is
+    an empty sequence'); eq. (5) without the self term subtracted 1 from each potential,
+    so two points 1e-21 apart in potential had none (1 + 1e-21 - 1 = 0): 0 centres against
+    the production's 2."""
+    rng = np.random.default_rng(5)
+    data = _blobs(rng, 200, 2)
+    found = subtractive_clustering(data, SubtractiveOptions(accept=1.0, method="exact"))
+    indices, _ = naive_subtractive_clustering(data, 0.5, accept=1.0)
+    assert found.n_clusters > 0 and found.center_indices.tolist() == indices.tolist()
+    far = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])  # exp(-4·3/0.5²) = 1.4e-21 apart
+    options = SubtractiveOptions(self_potential=False, method="exact")
+    found = subtractive_clustering(far, options)
+    indices, peaks = naive_subtractive_clustering(far, 0.5, self_potential=False)
+    assert found.center_indices.tolist() == indices.tolist() == [0, 1]
+    np.testing.assert_allclose(found.potentials, peaks, rtol=1e-10)
+
+
 def test_compiled_kernels_equal_plain_python():
     rng = np.random.default_rng(3)
     data = _blobs(rng, 120, 3)
