@@ -125,16 +125,19 @@ def local_batch_jobs(args: Sequence[str]) -> int:
 def main() -> None:
     """The console script ``hybridlog`` and ``python -m hybridlog``: :func:`hybridlog.cli.main`."""
     single_threaded_blas()
-    if local_batch_jobs(sys.argv[1:]) > 1:
-        from hybridlog.environment import check_environment
-        from hybridlog.errors import HybridlogError
-        from hybridlog.jobs.workers import start_forkserver
+    try:
+        if local_batch_jobs(sys.argv[1:]) > 1:
+            from hybridlog.environment import check_environment
+            from hybridlog.errors import HybridlogError
+            from hybridlog.jobs.workers import start_forkserver
 
-        # a head start only: where it fails, the command tries again and says why (a
-        # malformed NUMBA_* setting would break the forkserver's warm-up with a traceback)
-        with contextlib.suppress(HybridlogError):
-            check_environment()
-            start_forkserver()
-    from hybridlog.cli import main as run_cli
-
+            # a head start only: where it fails, the command tries again and says why (a
+            # malformed NUMBA_* setting would break the forkserver's warm-up with a traceback)
+            with contextlib.suppress(HybridlogError):
+                check_environment()
+                start_forkserver()
+        from hybridlog.cli import main as run_cli
+    except KeyboardInterrupt:  # Ctrl-C before the CLI handles it: no traceback of imports
+        sys.stderr.write("hybridlog: aborted\n")
+        sys.exit(130)
     run_cli()

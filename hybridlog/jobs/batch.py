@@ -532,16 +532,66 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
     return LogOutcome(log, str(folder), "skipped", report, None)
 
 
+def _enclosing_report(folder: Path) -> Path | None:
+    """The report folder ``folder`` would lie inside, below its batch folder, if any.
+
+    The nearest folder above with hybridlog's :data:`MARKER` decides: one listing its files
+    (:func:`~hybridlog.outputs.recorded_files`: a report, a comparison) is returned; one
+    without the list is the batch folder, and ``folder`` lies in no report.  A log's folder
+    inside the report folder an earlier run left for a log since renamed (``runs/b.csv``
+    now a folder holding ``c.csv``: ``<out>/b.csv/c.csv``) was written into that report,
+    which then held a stranger: its log, back, could not be redone, and the nested report
+    was in no summary's "Other report folders".
+    """
+    for parent in folder.parents:
+        if (parent / MARKER).is_file():
+            return None if recorded_files(parent) is None else parent
+    return None
+
+
+def _unmarked_folder(path: Path) -> bool:
+    """Whether ``path`` is a folder (not a link to one) without hybridlog's :data:`MARKER`."""
+    return path.is_dir() and not path.is_symlink() and not (path / MARKER).exists()
+
+
+def _check_apart_from_reports(folder: Path) -> None:
+    """Refuse a log's report folder that would lie inside, or hold, another log's report.
+
+    The report an earlier run left for a log since renamed or moved (``runs/b.csv`` now a
+    folder of logs, or ``runs/sub/`` now a bag): :func:`_enclosing_report`, or a folder
+    without hybridlog's marker holding one (which ``check_dir_target`` refused as files
+    hybridlog did not write).
+
+    Raises
+    ------
+    OutputError
+        Naming both folders.
+    """
+    report = _enclosing_report(folder)
+    relation = "would lie inside"
+    if report is None and _unmarked_folder(folder):
+        report = next(_report_folders(folder), None)
+        relation = "holds"
+    if report is not None:
+        raise OutputError(
+            f"report folder {excerpt(str(folder))} {relation} {excerpt(str(report))}, "
+            "the report an earlier run wrote for another log (since renamed or moved, or "
+            "left out); move that report out of --out, or choose another --out"
+        )
+
+
 def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     path = Path(folder)
+    # creatable (not under a file nor in another log's report), and a folder hybridlog did
+    # not write is never replaced, with or without --force
+    _check_apart_from_reports(path)
+    check_dir_target(path, force=True, replacing=False)
     # The log's bytes are hashed before they are read, and what stat says of it is the same
     # before the hash and after the read (:func:`_check_log_unchanged`), so a report never
     # records a content it was not made from.
     stamp = log_stamp(log)
     log_sha256 = content_hash(log)
-    if path.exists() or path.is_symlink():
-        # A folder hybridlog did not write is never replaced, with or without --force.
-        check_dir_target(path, force=True, replacing=False)
+    if path.exists():
         reused = _reusable(job, path, log, log_sha256)
         if reused is not None:
             return reused
@@ -671,8 +721,12 @@ def _prepare_root(root: Path, folders: Sequence[Path], locks: contextlib.ExitSta
         if undo.marker:
             write_marker(root)
         for parent in parents:
-            # made here, before any worker starts, so that no worker removes one another uses
-            parent.mkdir(parents=True, exist_ok=True)
+            # made here, before any worker starts, so that no worker removes one another uses;
+            # not inside a report of an earlier run, nor where a file stands: the logs of such
+            # a folder fail, each naming it (:func:`_check_apart_from_reports`, check_dir_target)
+            if _enclosing_report(parent) is None:
+                with contextlib.suppress(FileExistsError, NotADirectoryError):
+                    parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         # a full disk: the folder made and its marker cut short would stay, half written
         undo.undo()

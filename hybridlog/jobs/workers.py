@@ -147,7 +147,8 @@ def start_forkserver() -> None:
     """
     multiprocessing.forkserver.set_forkserver_preload([WARMUP])
     try:
-        multiprocessing.forkserver.ensure_running()
+        with _sigint_ignored():
+            multiprocessing.forkserver.ensure_running()
     except OSError as err:
         raise OptionError(
             f"--jobs: cannot start the worker processes: {err.strerror or err} for their "
@@ -156,6 +157,24 @@ def start_forkserver() -> None:
         ) from err
     atexit.unregister(_stop_forkserver)  # registered once, however often it is called
     atexit.register(_stop_forkserver)
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """``SIGINT`` ignored in this process meanwhile (its main thread), so that what it starts is.
+
+    The forkserver's interpreter inherits the ignored ``SIGINT`` through its ``exec`` and
+    installs no ``KeyboardInterrupt`` for it: a Ctrl-C in its first 0.1 s, before its warm-up
+    blocks the signal (:data:`WARMUP`), printed its traceback, under the command's own line.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def _stop_forkserver() -> None:

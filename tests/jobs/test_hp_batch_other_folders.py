@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+import hybridlog.jobs.batch as batch
+from hybridlog.errors import excerpt
 from hybridlog.jobs.batch import other_report_folders, run_batch
 from tests.jobs.test_batch_resume import write_logs
 
@@ -48,3 +50,81 @@ def test_a_renamed_logs_old_folder_is_kept_and_named(
     summary = Path("out/summary.md").read_text()
     assert "\n## Other report folders (2)\n" in summary
     assert summary.rstrip().splitlines()[-2:] == ["- b.csv", "- deep/c.csv"]
+
+
+def test_a_log_is_never_written_into_the_report_of_a_log_renamed_since(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``runs/b.csv`` became a folder of logs: their reports would go inside ``out/b.csv``."""
+    monkeypatch.chdir(tmp_path)
+    write_logs(Path("runs"), ["a.csv", "b.csv"], steps=10)
+    run_batch(["runs"], TANK, out_dir="out")
+    old = sorted(p.name for p in Path("out/b.csv").iterdir())
+    Path("runs/b.csv").unlink()
+    write_logs(Path("runs/b.csv"), ["c.csv"], steps=10, first_seed=3)
+    write_logs(Path("runs/b.csv/deep"), ["d.csv"], steps=10, first_seed=4)
+
+    again = run_batch(["runs"], TANK, out_dir="out")
+
+    outcomes = {o.log: o for o in again.logs}
+    assert outcomes["runs/a.csv"].status == "skipped"
+    for log in ("runs/b.csv/c.csv", "runs/b.csv/deep/d.csv"):
+        assert outcomes[log].status == "failed"
+        error = outcomes[log].error
+        assert error is not None and error.startswith("report folder '")
+        assert error.endswith(
+            "/out/b.csv', the report an earlier run wrote for another log (since renamed or "
+            "moved, or left out); move that report out of --out, or choose another --out"
+        )
+    assert sorted(p.name for p in Path("out/b.csv").iterdir()) == old  # nothing put in it
+    assert again.notes[-1].startswith("--out holds a report folder of logs not in this batch")
+
+
+def test_a_file_where_a_logs_folder_would_be_made_fails_that_log_alone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before, the whole batch was refused: "cannot create output directory out: File exists"."""
+    monkeypatch.chdir(tmp_path)
+    write_logs(Path("runs"), ["a.csv"], steps=10)
+    run_batch(["runs"], TANK, out_dir="out")
+    write_logs(Path("runs/deep"), ["c.csv"], steps=10, first_seed=3)
+    Path("out/deep").write_text("mine\n")
+
+    outcome = run_batch(["runs"], TANK, out_dir="out")
+
+    assert {o.log: o.status for o in outcome.logs} == {
+        "runs/a.csv": "skipped",
+        "runs/deep/c.csv": "failed",
+    }
+    assert outcome.logs[1].error == (
+        f"{tmp_path}/out/deep/c.csv: cannot be created: {tmp_path}/out/deep is not a folder"
+    )
+    assert Path("out/deep").read_text() == "mine\n"
+
+
+def test_a_logs_folder_holding_the_report_of_a_log_moved_since_names_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``runs/deep/`` became a bag: its folder ``out/deep`` holds ``deep/c.csv``'s report.
+
+    It was refused as holding "files hybridlog did not write".
+    """
+    monkeypatch.chdir(tmp_path)
+    write_logs(Path("runs"), ["a.csv"], steps=10)
+    write_logs(Path("runs/deep"), ["c.csv"], steps=10, first_seed=3)
+    run_batch(["runs"], TANK, out_dir="out")
+    Path("runs/deep/c.csv").rename("runs/c.csv")
+    Path("runs/deep/metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    monkeypatch.setattr(batch, "_ERROR_LIMIT", 1000)  # pytest's folders: not cut in the middle
+
+    again = run_batch(["runs"], TANK, out_dir="out")
+
+    bag = next(o for o in again.logs if o.log == "runs/deep")
+    assert bag.status == "failed"
+    assert bag.error == (
+        f"report folder {excerpt(f'{tmp_path}/out/deep')} holds "
+        f"{excerpt(f'{tmp_path}/out/deep/c.csv')}, the report an earlier run wrote for "
+        "another log (since renamed or moved, or left out); move that report out of --out, "
+        "or choose another --out"
+    )
+    assert Path("out/deep/c.csv/report.json").is_file()
