@@ -205,6 +205,17 @@ def simulate_log(
             inputs=inputs,
             progress=writing.reached,
         )
+    from hybridlog.report.build import MIN_SAMPLES  # the report's modules: not imported ahead
+
+    if samples < MIN_SAMPLES:  # written as asked, but no command reads it into a report
+        from hybridlog.report.markdown import plural
+
+        notes = (
+            *notes,
+            f"{plural(samples, 'sample')}: analyze, compare and batch need at least "
+            f"{MIN_SAMPLES} (the first sample is the prior); give --steps {MIN_SAMPLES - 1} "
+            "or more",
+        )
     return SimulationOutcome(path=path, samples=samples, notes=notes)
 
 

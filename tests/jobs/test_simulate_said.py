@@ -1,9 +1,10 @@
-"""A long bag or MCAP file says how long it takes to write, as other long work does.
+"""What ``simulate`` says beside the log it writes: how long long work takes, a short log.
 
 ``simulate --steps 1000000`` to an MCAP file or a bag wrote for 40-53 s with nothing on
-stderr: a message at a time through the libraries' writers, about 6 µs each.  The writing
-times itself (:class:`hybridlog.cluster.progress.TimedWork`); the tests make every write
-"long" instead of timing a slow one.
+stderr: a message at a time through the libraries' writers, about 6 µs each (and a
+components model's simulation, a Python step of ~40 µs).  The work times itself
+(:class:`hybridlog.cluster.progress.TimedWork`); the tests make every write "long" instead
+of timing a slow one.  ``--steps 1`` wrote a log of two samples that ``analyze`` refused.
 """
 
 from __future__ import annotations
@@ -80,3 +81,14 @@ def test_a_long_components_simulation_says_how_long_it_takes(
     assert note.startswith("simulating bioplex_pgc: about ") and "steps left)" in note, note
     assert said.bars == [(outcome.samples, "steps simulated")]
     assert said.advanced == outcome.samples
+
+
+@pytest.mark.parametrize(("steps", "noted"), [(1, True), (2, False)])
+def test_a_log_too_short_to_report_is_said_so(tmp_path: Path, steps: int, noted: bool) -> None:
+    # --steps 1 wrote two samples, which analyze then refused as too short
+    outcome = simulate_log("three_tank_hstf", tmp_path / "run.csv", steps=steps)
+    short = [note for note in outcome.notes if "need at least 3" in note]
+    assert short == (
+        ["2 samples: analyze, compare and batch need at least 3 (the first sample is the "
+         "prior); give --steps 2 or more"] if noted else []
+    )  # fmt: skip
