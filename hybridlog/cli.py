@@ -950,6 +950,8 @@ def compare_command(
     quiet = settings is not None and settings.quiet
     if outcome.reports and not quiet:  # one log: every report read it alike
         _echo_unused_samples(next(iter(outcome.reports.values())))
+    for reach in [] if quiet else outcome.reach:  # a tuned estimator beside untuned ones
+        click.echo(_one_line(f"hybridlog: note: {reach}"), err=True)
     if outcome.warned and not quiet:
         have = _have_warnings(len(outcome.warned), len(outcome.reports), "estimator")
         click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'comparison.md'}"), err=True)

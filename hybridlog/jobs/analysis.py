@@ -54,6 +54,7 @@ from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
 from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
 from hybridlog.report.comparison import (
+    reach_section,
     sample_counts,
     samples_section,
     unavailable_section,
@@ -337,6 +338,43 @@ def _refuse_inert(
             )
 
 
+def set_reach(model: HybridModel, prepared: Sequence[Prepared], overrides: Overrides) -> list[str]:
+    """What each ``--set`` of an estimator option left out of the estimators compared.
+
+    ``--set NAME=VALUE`` goes to every chosen estimator that has the option and is refused
+    only when none would read it (:func:`prepare_estimators`, :func:`_refuse_inert`):
+    ``compare --estimators hstf,imm --set rho=0.9`` tunes hstf alone (imm has no ``rho``),
+    and the comparison then set a tuned hstf beside a default imm without a word.  One
+    phrase per option that does not reach every estimator: those it reaches, then each
+    left out and why (``--set rho=0.9 reaches hstf alone: imm has no option rho``; an
+    option it has but does not read there: ``on imm it has no effect: ...``).  The flags
+    (``--smooth``, ``--mode-sequence``) reach every estimator or are refused.
+    """
+    phrases: list[str] = []
+    for name, value in overrides.options.items():
+        if name in overrides.flags:
+            continue
+        reached: list[str] = []
+        lacking: list[str] = []
+        unread: list[str] = []
+        for p in prepared:
+            why = _inert(p.options, model).get(name)
+            if name not in {info.name for info in p.estimator.describe_options()}:
+                lacking.append(p.name)
+            elif why:
+                unread.append(f"on {p.name} it has no effect: {why}")
+            else:
+                reached.append(p.name)
+        if not (lacking or unread):
+            continue
+        shown = f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
+        if lacking:
+            have = "has" if len(lacking) == 1 else "have"
+            unread.insert(0, f"{', '.join(lacking)} {have} no option {excerpt(name)[1:-1]}")
+        phrases.append(f"{shown} reaches {', '.join(reached)} alone: {'; '.join(unread)}")
+    return phrases
+
+
 FILE_OPTIONS: Mapping[str, tuple[str, Callable[[str], object]]] = MappingProxyType(
     {"centers": ("centres file", read_centers)}
 )
@@ -612,8 +650,12 @@ def gates_for(
 ) -> list[Gate]:
     """Parse the CI gates and check that every report of the run can be read for them.
 
-    The outputs, states and components they name must exist, and a gate on the smoother's
-    fallbacks needs a smoother on every estimator of ``prepared`` (:func:`without_smoother`).
+    The outputs, states and components they name must exist, a gate on the smoother's
+    fallbacks needs a smoother on every estimator of ``prepared`` (:func:`without_smoother`),
+    and a gate on a mode metric needs every estimator of ``prepared`` to estimate its modes
+    (:func:`modes_given`: ``compare --estimators sliding-mode,switching-observer
+    --fail-under mode_accuracy=0.9`` failed switching-observer's gate after every run, as
+    its report scores no mode metric).
     """
     gates = parse_gates(fail_under, fail_over)
     validate_gates(
@@ -622,8 +664,23 @@ def gates_for(
         state_names=model.states,
         component_names=[c.name for c in model.components],
         without_smoother=without_smoother(prepared),
+        modes_given=modes_given(prepared),
     )
     return gates
+
+
+def modes_given(prepared: Sequence[Prepared]) -> dict[str, str]:
+    """The estimators of ``prepared`` that read their modes from the log, each with why.
+
+    An estimator that needs the switching signal takes it as its modes, and the log's true
+    mode is that signal: its report scores no mode metric (``EstimationResult.modes_given``,
+    paper 004), which comparison.md says of it too.
+    """
+    return {
+        p.name: "it reads its modes from the log's switching signal, the log's true mode"
+        for p in prepared
+        if p.estimator.capabilities.needs_switching_signal
+    }
 
 
 def without_smoother(prepared: Sequence[Prepared]) -> dict[str, str]:
@@ -713,6 +770,9 @@ class Comparison:
     fit and mse are not over the same samples for every estimator``; the mode metrics of
     an estimator that reads the switching signal, or of offline estimates beside others'
     own), which comparison.md's "What the numbers are over" details.
+    ``reach``: each ``--set`` that did not reach every estimator, what it reached and why
+    not the others (:func:`set_reach`), which comparison.md's "Given to some estimators
+    only" lists.
     """
 
     reports: dict[str, Report]
@@ -720,6 +780,7 @@ class Comparison:
     gate_failures: list[str]
     failures: dict[str, str] = field(default_factory=dict)
     unlike: list[str] = field(default_factory=list)
+    reach: list[str] = field(default_factory=list)
 
     @property
     def warned(self) -> list[str]:
@@ -884,6 +945,7 @@ def compare(
         smooth=smooth,
         mode_sequence=mode_sequence,
     )
+    reach = set_reach(model, prepared, overrides)
     read = read or ReadOptions()
     check_apart([("--out", out_dir)], input_paths([log], model_ref, prepared, read))
     check_dir_target(out_dir, force=force)
@@ -929,10 +991,14 @@ def compare(
         names = [p.name for p in prepared]
         columns, rows = _comparison_rows(names, reports, failures, gates, missed)
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side
-        given = [p.name for p in prepared if p.estimator.capabilities.needs_switching_signal]
+        given = list(modes_given(prepared))
         scored, unlike = samples_section(reports, _rmse_states(columns), given)
         shown = [c for c in columns if c in _COLUMNS or c in _gated(gates)]
-        sections = [*scored, *unavailable_section(columns, rows, reports, shown)]
+        sections = [
+            *reach_section(reach),
+            *scored,
+            *unavailable_section(columns, rows, reports, shown),
+        ]
         (folder / "comparison.md").write_text(
             comparison_markdown(
                 f"{model.name} on {as_text(log)}", table, reports, failures, sections=sections
@@ -942,7 +1008,12 @@ def compare(
         write_summary_csv(folder / "comparison.csv", columns, rows)
     failing = [f"{name}: {failure}" for name, missing in missed.items() for failure in missing]
     return Comparison(
-        reports=reports, table=table, gate_failures=failing, failures=failures, unlike=unlike
+        reports=reports,
+        table=table,
+        gate_failures=failing,
+        failures=failures,
+        unlike=unlike,
+        reach=reach,
     )
 
 

@@ -15,7 +15,9 @@ estimator.  Now:
 - :func:`samples_section` says over how many samples each kind of number is, for every
   estimator alike or, where they differ, per estimator, and which means leave out an output;
 - :func:`unavailable_section` gives each ``n/a`` cell's reason, as the estimator's
-  report.md does (``null_reasons``).
+  report.md does (``null_reasons``);
+- :func:`reach_section` lists each ``--set`` that reached only some of the estimators (an
+  option the others lack, or do not read there): a tuned estimator beside untuned ones.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ if TYPE_CHECKING:
 __all__ = [
     "MODE_SAMPLES",
     "OUTPUT_METRICS",
+    "reach_section",
     "sample_counts",
     "samples_section",
     "unavailable_section",
@@ -236,3 +239,16 @@ def unavailable_section(
                 continue
             lines.append(f"- `{name}` {column}: {escape_markdown(why, line_start=False)}")
     return ["", "## Not available", "", *lines] if lines else []
+
+
+def reach_section(reach: Sequence[str]) -> list[str]:
+    """comparison.md's "Given to some estimators only" lines: one per phrase of ``reach``.
+
+    ``reach``: each ``--set`` of an estimator option that did not reach every estimator
+    compared, what it reached and why not the others
+    (``set_reach`` of the ``compare`` job); empty: no section.
+    """
+    if not reach:
+        return []
+    lines = [f"- {escape_markdown(phrase, line_start=False)}" for phrase in reach]
+    return ["", "## Given to some estimators only", "", *lines]

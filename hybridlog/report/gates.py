@@ -24,7 +24,10 @@ Metric names
 ``mode_accuracy.<c>``, ``detection_delay_s.<c>``, ``missed_switches.<c>``
     Of one component ``<c>`` of a ``[components]`` model (``report.modes.components[c]``),
     against the log's true mode of that component; ``mode_accuracy`` is then the fraction
-    of samples where every component is right.
+    of samples where every component is right.  A gate on any of these mode metrics is
+    refused before the run when a chosen estimator reads its modes from the log instead
+    of estimating them (``switching-observer``: its report scores none,
+    :func:`validate_gates`).
 ``runtime_s``, ``samples_per_s``
     Estimation speed.
 ``smoothing_fallback_weight``, ``smoothing_fallback_samples``
@@ -65,6 +68,7 @@ from hybridlog.report.document import ModeReport, OutputReport, Report, Smoothin
 __all__ = [
     "FALLBACK_METRICS",
     "METRICS",
+    "MODE_METRICS",
     "Gate",
     "evaluate_gates",
     "metric",
@@ -142,6 +146,9 @@ _FRACTIONS: Final[frozenset[str]] = frozenset({"mode_accuracy", "smoothing_fallb
 FALLBACK_METRICS: Final[frozenset[str]] = frozenset(
     {"smoothing_fallback_weight", "smoothing_fallback_samples"}
 )
+#: Metrics of the estimated modes against the true ones (and their per-component forms):
+#: a report whose modes were read from the log, not estimated, scores none.
+MODE_METRICS: Final[frozenset[str]] = frozenset(_COMPONENT_METRICS)
 #: Metrics without a qualifier.
 METRICS: tuple[str, ...] = tuple(_REPORT_METRICS)
 
@@ -367,6 +374,7 @@ def validate_gates(
     state_names: Sequence[str],
     component_names: Sequence[str] = (),
     without_smoother: Mapping[str, str] | None = None,
+    modes_given: Mapping[str, str] | None = None,
 ) -> None:
     """Check that every gate can be read from the reports of the run configured.
 
@@ -374,7 +382,10 @@ def validate_gates(
     metrics must name an output, state or component of the model, and a gate on the
     smoother's fallbacks (:data:`FALLBACK_METRICS`) needs a smoother on every estimator the
     gates apply to.  Without one the metric is ``null`` in every report and the gate could
-    only fail, as ``vaf.y9`` would: refused, as it is.  (A metric a log may lack, such as
+    only fail, as ``vaf.y9`` would: refused, as it is.  So is a gate on a mode metric
+    (:data:`MODE_METRICS`) when an estimator reads its modes from the log rather than
+    estimating them (``modes_given``: ``switching-observer``, whose report scores none).
+    (A metric a log may lack, such as
     ``mode_accuracy`` without a true mode, is not known before the log is read: its gate
     fails on that log, saying why.)
 
@@ -387,12 +398,16 @@ def validate_gates(
     without_smoother:
         The estimators the gates apply to that run no smoother, each with why (``{"imm":
         "smooth = false ..."}``); ``None`` when not known (fallback gates are not checked).
+    modes_given:
+        The estimators the gates apply to that score no mode metric, each with why
+        (``{"switching-observer": "it reads its modes from the log's switching signal"}``).
 
     Raises
     ------
     OptionError
-        Naming the first gate whose output, state or component is unknown, or a gate on the
-        fallbacks and the first estimator without a smoother.
+        Naming the first gate whose output, state or component is unknown, a gate on the
+        fallbacks and the first estimator without a smoother, or a gate on a mode metric and
+        the first estimator that scores none.
 
     """
     for gate in gates:
@@ -402,6 +417,12 @@ def validate_gates(
             raise OptionError(
                 f"{gate.option} {gate.spec!r}: estimator '{name}' runs no smoother ({why}), "
                 f"so its report has no {base} and this gate could never pass"
+            )
+        if base in MODE_METRICS and modes_given:
+            name, why = next(iter(modes_given.items()))
+            raise OptionError(
+                f"{gate.option} {gate.spec!r}: estimator '{name}' scores no mode metric "
+                f"({why}), so its report has no {base} and this gate could never pass"
             )
         if not dot:
             continue

@@ -7,7 +7,10 @@ Two defects of the kind "compare ran what it could not vouch for, or compared un
   where the log could be refused before any ran;
 - its mode accuracy of 1.0 (it reads the modes from the log's switching signal, which the
   mode metrics take as the true mode) stood beside ``sliding-mode``'s 0.96, an estimate,
-  with nothing to say the two were not alike.
+  with nothing to say the two were not alike;
+- a gate on a mode metric (``--fail-under mode_accuracy=0.9``), which its report can never
+  meet (it scores none), ran every estimator and then failed its gate, exit 1, where the
+  gate could be refused before any ran, as a gate on a smoother's fallbacks without one is.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from typing import Any
 
 import pytest
 
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.jobs import analysis
 from hybridlog.jobs.analysis import compare
 from hybridlog.jobs.simulate import simulate_log
@@ -117,3 +120,42 @@ def test_mode_metrics_of_the_switching_signal_are_said_not_to_be_an_estimate(
         "- `switching-observer` has no mode metrics: it reads its modes from the log's "
         "switching signal, the log's true mode, so they would score that signal against itself\n"
     ) in text
+
+
+@pytest.mark.parametrize(
+    ("option", "gate"),
+    [
+        ("fail_under", "mode_accuracy=0.5"),
+        ("fail_over", "missed_switches=0"),
+        ("fail_over", "detection_delay_s=1"),
+    ],
+)
+def test_a_gate_on_a_mode_metric_the_switching_signal_gives_is_refused_before_any_run(
+    tank: tuple[Path, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    option: str,
+    gate: str,
+) -> None:
+    model, log = tank
+
+    def ran(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("an estimator ran under a gate that could never pass")
+
+    monkeypatch.setattr(analysis, "estimates", ran)
+    out = tmp_path / "cmp"
+    flag = "--" + option.replace("_", "-")
+    metric = gate.partition("=")[0]
+    with pytest.raises(
+        OptionError,
+        match=rf"^{flag} '{gate}': estimator 'switching-observer' scores no mode metric "
+        rf"\(it reads its modes from the log's switching signal, the log's true mode\), so "
+        rf"its report has no {metric} and this gate could never pass$",
+    ):
+        compare(log, model, BOTH, out_dir=out, **{option: [gate]})
+    assert not out.exists()
+    # the same gate on the estimator that estimates its modes alone is taken
+    loaded = analysis.load_model(model)
+    alone = analysis.prepare_estimators(loaded, ["sliding-mode"], analysis.Overrides())
+    gates = analysis.gates_for(loaded, alone, **{"fail_under": (), "fail_over": (), option: [gate]})
+    assert [g.metric for g in gates] == [metric]

@@ -1,0 +1,60 @@
+"""``compare`` with a ``--set`` that reaches only some of the estimators it compares.
+
+``--set NAME=VALUE`` goes to every compared estimator that has the option, and is refused
+only when none would read it.  ``compare --estimators hstf,imm --set rho=0.9`` tuned hstf
+alone (imm has no ``rho``), and ``--estimators imm,unknown-mode --set beam=5`` reached
+unknown-mode alone (imm has a ``beam``, read only with ``mode_sequence = kbest``): the
+table then set a tuned estimator beside an untuned one, and nothing, not the terminal nor
+comparison.md, said so.  Now each such ``--set`` is a note on stderr and a line under
+comparison.md's "Given to some estimators only" (:func:`set_reach`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hybridlog.jobs.analysis import compare, parse_sets, prepare_estimators, set_reach
+from tests.cli.test_cli import run
+from tests.support.cpha import CPHA_EXAMPLE
+from tests.support.paths import SAMPLE_LOGS
+
+TANK = SAMPLE_LOGS / "three_tank_hstf.csv"
+RHO = "--set rho=0.9 reaches hstf alone: imm has no option rho"
+
+
+def _reach(model: str | Path, names: list[str], sets: list[str]) -> list[str]:
+    loaded, overrides = parse_sets(sets, model)
+    prepared = prepare_estimators(loaded, names, overrides, given_by="--estimators")
+    return set_reach(loaded, prepared, overrides)
+
+
+def test_an_option_some_estimators_lack_or_do_not_read_is_said(tmp_path: Path) -> None:
+    assert _reach("three_tank_hstf", ["hstf", "imm"], ["rho=0.9"]) == [RHO]
+    assert _reach("three_tank_hstf", ["imm", "hstf"], ["smooth=true"]) == [
+        "--set smooth=true reaches imm alone: hstf has no option smooth"
+    ]
+    model = tmp_path / "cpha.toml"
+    model.write_text(CPHA_EXAMPLE)
+    assert _reach(model, ["imm", "unknown-mode"], ["beam=5"]) == [
+        "--set beam=5 reaches unknown-mode alone: on imm it has no effect: only "
+        "mode_sequence = kbest keeps mode histories (here argmax); add --mode-sequence kbest, "
+        "or leave beam unset"
+    ]
+    # what reaches every estimator is not said: a parameter, an option each has and reads
+    assert _reach(model, ["imm", "unknown-mode"], ["beam=5", "mode_sequence=kbest"]) == []
+    assert _reach("three_tank_hstf", ["hstf", "imm"], ["A=150"]) == []
+    assert _reach("three_tank_hstf", ["hstf"], ["rho=0.9"]) == []
+
+
+def test_the_comparison_and_the_terminal_say_what_a_set_reached(tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    outcome = compare(TANK, "three_tank_hstf", ["hstf", "imm"], out_dir=out, sets=["rho=0.9"])
+    assert outcome.reach == [RHO]
+    text = (out / "comparison.md").read_text(encoding="utf-8")
+    assert f"\n## Given to some estimators only\n\n- {RHO}\n" in text
+    args = ["compare", str(TANK), "--model", "three_tank_hstf", "--estimators", "hstf,imm"]
+    result = run([*args, "--set", "rho=0.9", "--out", str(tmp_path / "cli")])
+    assert f"hybridlog: note: {RHO}\n" in result.stderr
+    result = run([*args, "--out", str(tmp_path / "plain")])
+    assert "reaches" not in result.stderr
+    assert "Given to some" not in (tmp_path / "plain" / "comparison.md").read_text()
