@@ -515,6 +515,15 @@ def _say(ctx: click.Context, text: str) -> None:
         click.echo(_for_terminal(text))
 
 
+def _path_text(path: object) -> str:
+    r"""A path on one line: a line break or tab in it escaped too (``\n``), as errors show it.
+
+    The lines naming what a command wrote (``report: ...``) are one a path, for scripts
+    that read them; :func:`_for_terminal` keeps a text's line breaks.
+    """
+    return "".join(c if c.isprintable() else excerpt(c)[1:-1] for c in as_text(path))
+
+
 def _for_terminal(text: str) -> str:
     r"""Lines for stdout: names as the system gave them, but nothing a terminal acts on.
 
@@ -744,7 +753,7 @@ def simulate(
             force=force,
             settings=sets,
         )
-    _say(ctx, f"wrote {out} ({plural(outcome.samples, 'sample')})")
+    _say(ctx, f"wrote {_path_text(out)} ({plural(outcome.samples, 'sample')})")
     settings = ctx.find_object(_Context)
     if not (settings is not None and settings.quiet):
         for note in outcome.notes:
@@ -821,7 +830,7 @@ def cluster_command(
     _say(ctx, outcome.table)
     for note in outcome.notes:
         _say(ctx, f"- {note}")
-    _say(ctx, f"centres: {outcome.centers_path}, plot: {outcome.plot_path}")
+    _say(ctx, f"centres: {_path_text(outcome.centers_path)}, plot: {_path_text(outcome.plot_path)}")
     settings = ctx.find_object(_Context)
     if not (settings is not None and settings.quiet):  # as analyze says them of the log
         for alert in outcome.alerts:
@@ -872,7 +881,7 @@ def analyze_command(
         outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
     report = outcome.report
     _say(ctx, _summary_line(report))
-    _say(ctx, f"report: {outcome.out_dir / 'report.md'}")
+    _say(ctx, f"report: {_path_text(outcome.out_dir / 'report.md')}")
     settings = ctx.find_object(_Context)
     if not (settings is not None and settings.quiet):  # every kind, as batch and compare count
         from hybridlog.report.summary import WARNING_PREFIX, warning_notes
@@ -944,8 +953,9 @@ def compare_command(
         outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
     _say(ctx, outcome.table)
     if outcome.reports:
-        _say(ctx, f"reports: {', '.join(str(out_dir / n / 'report.md') for n in outcome.reports)}")
-    _say(ctx, f"comparison: {out_dir / 'comparison.md'}")
+        reports = (_path_text(out_dir / name / "report.md") for name in outcome.reports)
+        _say(ctx, f"reports: {', '.join(reports)}")
+    _say(ctx, f"comparison: {_path_text(out_dir / 'comparison.md')}")
     settings = ctx.find_object(_Context)
     quiet = settings is not None and settings.quiet
     if outcome.reports and not quiet:  # one log: every report read it alike
@@ -1076,7 +1086,7 @@ def batch_command(
             **common,
         )
     _say(ctx, outcome.table)
-    _say(ctx, f"summary: {out_dir / 'summary.md'}")
+    _say(ctx, f"summary: {_path_text(out_dir / 'summary.md')}")
     waited = outcome.waited_for_memory
     settings = ctx.find_object(_Context)
     if not (settings is not None and settings.quiet):
@@ -1315,7 +1325,7 @@ def _summary_line(report: Report) -> str:
         return "n/a" if value is None else format_number(value, digits) + unit
 
     text = (
-        f"{report.estimator} on {report.log}: {plural(report.samples, 'sample')} "
+        f"{report.estimator} on {_path_text(report.log)}: {plural(report.samples, 'sample')} "
         f"in {duration(report.runtime_s)}, VAF {number(report.vaf, '.2f', ' %')}, "
         f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}"
     )

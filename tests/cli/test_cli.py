@@ -590,3 +590,16 @@ def test_what_is_printed_on_stdout_holds_no_byte_a_terminal_acts_on() -> None:
     shown = _for_terminal("report: run\x1b[31m\udcff/report.md\n\tnext line")
     assert shown == "report: run\\x1b[31m\\xff/report.md\n\tnext line"
     shown.encode("utf-8")  # a surrogate would raise here
+
+
+def test_the_lines_naming_what_was_written_are_one_a_path(tmp_path):
+    # a folder named with a line break split 'report: ...' and the summary line in two
+    folder = tmp_path / "a\nb"
+    folder.mkdir()
+    log = folder / "log.csv"
+    log.write_bytes(TANK_CSV.read_bytes())
+    result = run(["analyze", str(log), "--model", "three_tank_hstf", "--out", str(folder / "o")])
+    lines = result.stdout.splitlines()
+    assert len(lines) == 2, lines
+    assert lines[0].startswith(f"hstf on {tmp_path}/a\\nb/log.csv: 301 samples")
+    assert lines[1] == f"report: {tmp_path}/a\\nb/o/report.md"
