@@ -734,10 +734,18 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
     expected = {*written, MARKER}
     folders_expected = {p.as_posix() for f in expected for p in Path(f).parents} - {"."}
     foreign: list[str] = []
+    nested: list[str] = []  # outputs of other runs written inside it since
     for folder, folders, files in os.walk(path):
         if folder == os.fspath(path):  # this run's staging inside it (publish_dir)
             folders[:] = [name for name in folders if not _own_temporary(name)]
             files = [name for name in files if not _own_temporary(name)]
+        for name in list(folders):
+            relative = Path(folder, name).relative_to(path).as_posix()
+            entry = Path(folder, name)
+            nests = not entry.is_symlink() and (entry / MARKER).is_file()
+            if relative not in folders_expected and nests:
+                nested.append(relative + "/")
+                folders.remove(name)
         folders.sort()
         for name in sorted(files):
             relative = Path(folder, name).relative_to(path).as_posix()
@@ -751,6 +759,13 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
                 relative not in folders_expected and not any(entry.iterdir())
             ):
                 foreign.append(relative + "/")
+    if nested:
+        more = f" and {len(nested) - 3} more" if len(nested) > 3 else ""
+        raise OutputError(
+            f"output directory {_shown(path)} holds another output of hybridlog's, written "
+            f"into it since ({', '.join(excerpt(f, 60) for f in nested[:3])}{more}), which "
+            "replacing it would delete; move it out, or choose another output directory"
+        )
     if foreign:
         more = f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
         raise OutputError(

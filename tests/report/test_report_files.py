@@ -473,6 +473,12 @@ def test_force_replaces_an_existing_dir(tmp_path: Path) -> None:
     with pytest.raises(OutputError, match=r"holds files hybridlog did not write \('old.txt'\)"):
         write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
     assert (out / "old.txt").read_text() == "old"
+    (out / "old.txt").unlink()
+    # another output written into it since is named as hybridlog's, not as the user's files
+    write_report(out / "sub", result, signals, log="l", model_name="m", dt=DT)
+    with pytest.raises(OutputError, match=r"holds another output of hybridlog's, .* \('sub/'\)"):
+        write_report(out, result, signals, log="l", model_name="m", dt=DT, force=True)
+    assert (out / "sub" / "report.json").is_file()
 
 
 def test_empty_existing_dir_and_missing_parents_are_fine(tmp_path: Path) -> None:
