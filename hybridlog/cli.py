@@ -231,7 +231,8 @@ def _read_options(function: F) -> F:
             is_flag=True,
             help="Drop NaN, infinite and out-of-range samples (counted under reading in "
             "report.json or centers.json) instead of refusing the log. Values only: a "
-            "time that is NaN or infinite is refused still.",
+            "time that is NaN or infinite is refused still. With --sort, dropped before "
+            "the last sample of a time is kept.",
         ),
         click.option(
             "--recover",

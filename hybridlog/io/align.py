@@ -59,7 +59,9 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
 - ``split_gaps``: instead of refusing a log with an output gap longer than ``max_gap``, cut it
   at every such gap and align the longest piece (the earliest of equally long ones): at the
   gaps the piece's grid refuses, and only there (:func:`_split_at_refused_gaps`); a sample
-  alone between two gaps is a piece of its own.  The
+  alone between two gaps is a piece of its own.  Each output keeps its samples inside the
+  piece and the one beside it on either side that no cut separates (:func:`_piece_of`):
+  the piece's grid reads them as the whole log's would.  The
   estimators need one continuous grid, and a filter carried across a gap would start the next
   piece from a stale state; analysing each piece separately would need one report per piece.
   The pieces and the one analysed are recorded (``notes["segments"]``,
@@ -1511,6 +1513,8 @@ def _longest_piece(
             )
     start = max(int(s.time_ns[0]) for s in (*inputs.values(), *outputs.values()))
     end = min(int(s.time_ns[-1]) for s in outputs.values())
+    if start > end:  # nothing to cut: the grid refuses it, naming the signals
+        return dict(outputs), ""
     found: set[tuple[int, int]] = set(refused)
     for series in outputs.values():
         diffs = np.diff(series.time_ns)
@@ -1529,7 +1533,7 @@ def _longest_piece(
         pieces.append((cursor, end))
     pieces = [(a, b) for a, b in pieces if a <= b]
     if not pieces:
-        raise LogError(f"{source}: no stretch of the outputs is free of gaps longer than max_gap")
+        raise _no_piece(source, field_word, outputs, (start, end), gaps)
     best = max(range(len(pieces)), key=lambda i: (pieces[i][1] - pieces[i][0], -i))
     lo, hi = pieces[best]
     notes.update(_listed("segments", "segment", [_piece(a, b) for a, b in pieces]))
@@ -1537,13 +1541,63 @@ def _longest_piece(
     notes["analysed"] = _piece(lo, hi)
     gap_list = [{"start": a / NS_PER_S, "end": b / NS_PER_S} for a, b in gaps]
     notes.update(_listed("gaps", "gap", gap_list))
-    cut: dict[str, Series] = {}
-    for symbol, series in outputs.items():
-        keep = (series.time_ns >= lo) & (series.time_ns <= hi)
-        cut[symbol] = Series(series.name, series.time_ns[keep], series.values[keep])
+    cut = {symbol: _piece_of(series, (lo, hi), found) for symbol, series in outputs.items()}
     longest = "the only one" if len(pieces) == 1 else "the longest"
     piece = (
         f"--split-gaps piece {best + 1:,} of {len(pieces):,}, t = {format_ns(lo)} … "
         f"{format_ns(hi)} s, {longest}"
     )
     return cut, piece
+
+
+def _piece_of(series: Series, piece: tuple[int, int], cuts: set[tuple[int, int]]) -> Series:
+    """The samples of an output that a piece ``(lo, hi)`` (ns) of the log reads.
+
+    Those inside it, and the one on either side of it unless a cut (``cuts``, ``(start,
+    end)`` of two samples, ns) lies between: the piece's grid takes the nearest sample, or
+    bridges a short gap, as the log read whole would.  Cut to the piece alone, a point at
+    its start took another output's sample a step away where one lay 2 ms before the
+    start, and the grid started a whole step late (the piece said ``t = 22.41 …``, the grid
+    23.17 s), and an output with no sample inside a short piece had "no samples".  A
+    longer gap between such a sample and the piece is refused on the piece's grid, and cut
+    (:func:`_split_at_refused_gaps`).
+    """
+    time_ns = series.time_ns
+    lo, hi = piece
+    first = int(np.searchsorted(time_ns, lo, side="left"))
+    stop = int(np.searchsorted(time_ns, hi, side="right"))
+    if first > 0 and (int(time_ns[first - 1]), int(time_ns[first])) not in cuts:
+        first -= 1
+    if stop < time_ns.size and (int(time_ns[stop - 1]), int(time_ns[stop])) not in cuts:
+        stop += 1
+    return Series(series.name, time_ns[first:stop], series.values[first:stop])
+
+
+def _no_piece(
+    source: str,
+    field_word: str,
+    outputs: Mapping[str, Series],
+    overlap: tuple[int, int],
+    gaps: Sequence[tuple[int, int]],
+) -> LogError:
+    """The error of ``--split-gaps`` when the signals overlap only inside output gaps.
+
+    ``overlap``: the latest first sample and the earliest last one (ns); ``gaps``: the cuts,
+    ``(start, end)`` in time order.  Names the first gap over the overlap and its output:
+    "no stretch of the outputs is free of gaps" named neither, nor when.
+    """
+    start, end = overlap
+    first = next(g for g in gaps if g[1] > start)
+    owner = next(
+        (
+            f"output {symbol!r} ({field_word} {series.name!r})"
+            for symbol, series in outputs.items()
+            if bool(np.any((series.time_ns[:-1] == first[0]) & (series.time_ns[1:] == first[1])))
+        ),
+        "an output",
+    )
+    return LogError(
+        f"{source}: --split-gaps: no piece: the signals overlap from t={format_ns(start)} s to "
+        f"t={format_ns(end)} s, where {owner} has no sample from t={format_ns(first[0])} s "
+        f"to t={format_ns(first[1])} s, a gap longer than max_gap"
+    )

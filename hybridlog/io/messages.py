@@ -17,7 +17,8 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
   that order (stably) when they are not already.  ``--time header`` takes each message's
   ``header.stamp``; a topic whose stamps go backwards (in log-time order) is refused unless
   ``--sort``.  Two messages of one topic with the same time are refused unless ``--sort``,
-  which keeps the last of them.
+  which keeps the last of them (with ``--drop-nonfinite``, per field the last usable one,
+  the NaN ones left for :func:`~hybridlog.io.load_signals` to drop and count).
 - A JSON message may leave a field out: a logger of sparse signals writes ``{"u": 1}``, then
   ``{"y": 10}`` on one topic.  A field is then read from the messages that carry it, at their
   times, as a signal of its own (times checked, sorted and de-duplicated per field); a key the
@@ -81,10 +82,11 @@ from hybridlog.io.source import (
     SourceInfo,
     closest_names,
     format_ns,
+    last_of_each_time,
     seconds_of,
 )
 from hybridlog.io.summary import count_nonfinite, describe_steps
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 BATCH_MESSAGES = 65_536
 BATCH_BYTES = 16 * 2**20
@@ -1373,6 +1375,7 @@ class _TopicReader:
         shared: tuple[IntArray, Any, Any] | None = None
         numbers: dict[str, Series] = {}
         labels: dict[str, LabelSeries] = {}
+        kept_any: BoolArray | None = None  # the topic's messages of a repeated time kept
         for wanted in self.wanted:
             if wanted.kind == "number":
                 values: Any = (
@@ -1395,7 +1398,11 @@ class _TopicReader:
                     )
                 time_ns = all_times[carried]
                 order, keep = self._order(time_ns, log_times[carried], field=wanted.text)
-                time_ns, values = _reorder(time_ns, order, keep), values[carried]
+                values = values[carried]
+                if keep is not None and wanted.kind == "number":
+                    keep = self._usable_last(_reorder(time_ns, order, None), values, order, keep)
+                    self._note_duplicates(wanted.text, keep)
+                time_ns = _reorder(time_ns, order, keep)
                 if wanted.kind == "label":  # without the absent messages' placeholder
                     used, inverse = np.unique(values, return_inverse=True)
                     values = inverse.astype(np.int64).reshape(-1)
@@ -1405,12 +1412,45 @@ class _TopicReader:
                     order, keep = self._order(all_times, log_times)
                     shared = (_reorder(all_times, order, keep), order, keep)
                 time_ns, order, keep = shared
+                if keep is not None and wanted.kind == "number":
+                    sorted_times = _reorder(all_times, order, None)
+                    keep = self._usable_last(sorted_times, values, order, keep)
+                    time_ns = sorted_times[keep]
+                if keep is not None:
+                    kept_any = keep if kept_any is None else kept_any | keep
             values = _reorder(values, order, keep)
             if wanted.kind == "number":
                 numbers[wanted.text] = Series(wanted.text, time_ns, values)
             else:
                 labels[wanted.text] = LabelSeries(wanted.text, time_ns, values, categories)
+        if kept_any is not None:
+            self._note_duplicates(self.topic.name, kept_any)
         return numbers, labels
+
+    def _usable_last(
+        self, time_ns: IntArray, values: FloatArray, order: IntArray | None, keep: BoolArray
+    ) -> BoolArray:
+        """``keep`` of a number field, its ``values`` in the order read, with ``--drop-nonfinite``.
+
+        The last usable message of each time, and the unusable ones, which
+        :func:`~hybridlog.io.load_signals` drops and counts
+        (:func:`~hybridlog.io.source.last_of_each_time`); ``time_ns``: the times sorted.
+        Without the option, ``keep``, the last of each time.
+        """
+        if not self.source.options.drop_nonfinite:
+            return keep
+        return last_of_each_time(time_ns, _reorder(values, order, None))
+
+    def _note_duplicates(self, key: str, keep: BoolArray) -> None:
+        """``duplicates_dropped[key]``: the messages of a repeated time no field kept."""
+        dropped = int(keep.size - np.count_nonzero(keep))
+        notes = self.source._notes.setdefault("duplicates_dropped", {})
+        if dropped:
+            notes[key] = dropped
+        else:
+            notes.pop(key, None)
+            if not notes:
+                del self.source._notes["duplicates_dropped"]
 
     def _order(
         self, time_ns: IntArray, log_times: IntArray, field: str | None = None

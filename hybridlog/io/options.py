@@ -71,7 +71,7 @@ class ReadOptions:
         the same time, instead of refusing the log.
     drop_nonfinite:
         Drop NaN, infinite and out-of-range samples (counted in the reading notes) instead
-        of refusing the log.
+        of refusing the log; with ``sort``, before the last sample of a time is kept.
     recover:
         Read what is readable of a damaged or unfinished MCAP file, sequentially, instead of
         refusing it.

@@ -20,7 +20,7 @@ from typing import Any, Protocol, Self
 
 import numpy as np
 
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import MAX_MAGNITUDE, BoolArray, FloatArray, IntArray
 
 NS_PER_S = 1_000_000_000
 
@@ -259,6 +259,28 @@ def ns_to_seconds(ns: IntArray) -> FloatArray:
 def seconds_of(ns: int | np.integer[Any]) -> float:
     """One time in integer nanoseconds as float seconds, correctly rounded (``int / int``)."""
     return int(ns) / NS_PER_S
+
+
+def last_of_each_time(time_ns: IntArray, values: FloatArray | None = None) -> BoolArray:
+    """Which samples of sorted ``time_ns`` (repeats allowed) ``--sort`` keeps.
+
+    The last of each time.  With ``values`` (``--drop-nonfinite``): the last *usable* one
+    of each time (finite, below :data:`~hybridlog.signals.MAX_MAGNITUDE` in magnitude),
+    and every unusable one, which :func:`~hybridlog.io.load_signals` then drops and counts
+    (``nonfinite_dropped``): a NaN written after a measurement of the same time dropped
+    the measurement with it, and the grid point read another sample, or none.
+    """
+    last: BoolArray = np.append(time_ns[1:] != time_ns[:-1], True)
+    if values is None:
+        return last
+    usable = np.isfinite(values) & (np.abs(values) < MAX_MAGNITUDE)
+    if usable.all():
+        return last
+    kept = np.flatnonzero(usable)
+    times = time_ns[kept]
+    keep: BoolArray = ~usable
+    keep[kept[np.append(times[1:] != times[:-1], True)]] = True
+    return keep
 
 
 def check_seconds_range(seconds: FloatArray) -> int:

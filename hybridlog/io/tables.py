@@ -49,6 +49,7 @@ from hybridlog.io.source import (
     check_seconds_range,
     closest_names,
     format_ns,
+    last_of_each_time,
     seconds_of,
     seconds_to_ns,
 )
@@ -394,7 +395,8 @@ class TableSource:
             present = column.is_not_null().to_numpy()
             values = column.filter(pl.Series(present)).to_numpy().astype(np.float64)
             column_time, column_rows = time_ns[present], rows[present]
-            last = self._last_at_each_time(name, column_time, column_rows, repeats)
+            usable_last = values if self.options.drop_nonfinite else None
+            last = self._last_at_each_time(name, column_time, column_rows, repeats, usable_last)
             if last is not None:
                 values, column_time = values[last], column_time[last]
                 column_rows = column_rows[last]
@@ -592,16 +594,23 @@ class TableSource:
         return repeated > 0
 
     def _last_at_each_time(
-        self, name: str, time_ns: IntArray, rows: IntArray, repeats: bool
+        self,
+        name: str,
+        time_ns: IntArray,
+        rows: IntArray,
+        repeats: bool,
+        values: FloatArray | None = None,
     ) -> np.ndarray[Any, np.dtype[np.bool_]] | None:
         """Which of a column's samples (sorted ``time_ns``, on ``rows``) to keep.
 
-        The last at each time; ``None`` when every time is kept; else the rows of the others
-        are kept for :meth:`_note_superseded`.
+        The last at each time (with ``values``, ``--drop-nonfinite``: the last usable one,
+        and the unusable ones for it to drop, :func:`~.source.last_of_each_time`); ``None``
+        when every sample is kept; else the rows of the others are kept for
+        :meth:`_note_superseded`.
         """
         if not repeats or time_ns.size < 2:
             return None
-        last = np.append(time_ns[1:] != time_ns[:-1], True)
+        last = last_of_each_time(time_ns, values)
         if last.all():
             return None
         self._superseded[name] = rows[~last]
