@@ -1320,27 +1320,27 @@ def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]
 
 
 def _summary_line(report: Report) -> str:
-    from hybridlog.report.markdown import duration, format_number, plural
+    from hybridlog.report.markdown import duration, format_number, format_percent, plural
 
-    def number(value: object, digits: str, unit: str = "") -> str:
-        return "n/a" if value is None else format_number(value, digits) + unit
+    def percent(value: float | None, decimals: int) -> str:
+        return "n/a" if value is None else f"{format_percent(value, decimals)} %"
 
     text = (
         f"{report.estimator} on {_path_text(report.log)}: {plural(report.samples, 'sample')} "
-        f"in {duration(report.runtime_s)}, VAF {number(report.vaf, '.2f', ' %')}, "
-        f"fit {number(report.fit, '.2f', ' %')}, MSE {number(report.mse, '.4g')}"
+        f"in {duration(report.runtime_s)}, VAF {percent(report.vaf, 2)}, "
+        f"fit {percent(report.fit, 2)}, MSE {format_number(report.mse, '.4g')}"
     )
     scored_outputs = [o.samples for o in report.outputs.values() if o.samples is not None]
     if scored_outputs and min(scored_outputs) < report.samples - 1:  # row 0 is the prior
         # a VAF over 73 of 399 predictions read like the whole log's (a gap, a late start)
         text += f" (over {min(scored_outputs):,} of {report.samples - 1:,} predicted samples)"
-    text += f", mode accuracy {number(_percent(report.modes.accuracy), '.1f', ' %')}"
+    text += f", mode accuracy {percent(_percent(report.modes.accuracy), 1)}"
     scored = report.modes.samples
     if report.modes.accuracy is not None and scored is not None and scored < report.samples:
         text += f" (over the {plural(scored, 'sample')} with a true mode)"
     smoothing = report.smoothing
     if smoothing is not None and smoothing.filtered.mode_accuracy is not None:
-        text += f" (filtered {number(_percent(smoothing.filtered.mode_accuracy), '.1f', ' %')})"
+        text += f" (filtered {percent(_percent(smoothing.filtered.mode_accuracy), 1)})"
     detection = report.modes.detection
     if detection is not None:
         switches = plural(detection.detected + detection.missed, "true switch")

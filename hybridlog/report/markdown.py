@@ -26,6 +26,7 @@ __all__ = [
     "duration",
     "escape_markdown",
     "format_number",
+    "format_percent",
     "plural",
     "rate",
     "render_markdown",
@@ -47,6 +48,23 @@ def format_number(value: Any, spec: str = ".6g") -> str:
     if isinstance(value, float):
         return format(value, ".6g" if abs(value) >= FIXED_LIMIT else spec)
     return str(value)
+
+
+def format_percent(value: float | None, decimals: int) -> str:
+    """A percentage (VAF, fit, mode accuracy) that reads as 100 only when it is 100.
+
+    To ``decimals`` decimals, more where it would read 100 and is not.  A VAF of 99.99568 %
+    read ``100.00 %`` on the terminal, a mode accuracy of 2,999,999 of 3,000,000 samples
+    ``100.0000%`` in report.md: a perfect score the run did not have.  Such a value gets the
+    decimals that take it off 100 (17 significant digits tell any two floats apart).
+    """
+    if value is None or not math.isfinite(value) or abs(value) >= FIXED_LIMIT:
+        return format_number(value, f".{decimals}f")
+    for digits in range(decimals, 18):
+        text = f"{value:.{digits}f}"
+        if value == 100.0 or float(text) != 100.0:
+            return text
+    return repr(value)
 
 
 _MARKUP = re.compile(r"[\\`*\[\]<>&|~$]|(?<![0-9A-Za-z])_|_(?![0-9A-Za-z])")
@@ -227,12 +245,12 @@ def render_markdown(report: Report) -> str:
     ]
     for y, m in report.outputs.items():
         lines.append(
-            f"| {escape_markdown(y)} | {format_number(m.mse)} | {format_number(m.vaf, '.4f')} "
-            f"| {format_number(m.fit, '.4f')} |"
+            f"| {escape_markdown(y)} | {format_number(m.mse)} | {format_percent(m.vaf, 4)} "
+            f"| {format_percent(m.fit, 4)} |"
         )
     lines.append(
-        f"| **mean** | **{format_number(report.mse)}** | **{format_number(report.vaf, '.4f')}** "
-        f"| **{format_number(report.fit, '.4f')}** |"
+        f"| **mean** | **{format_number(report.mse)}** | **{format_percent(report.vaf, 4)}** "
+        f"| **{format_percent(report.fit, 4)}** |"
     )
     undefined = [
         f"- {name} is n/a: {escape_markdown(why)}"
@@ -467,10 +485,12 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
             if y in f.outputs
         ]
     for name, before, after, spec in rows:
-        shown = ".4f" if spec == ".4g" else spec
+        if spec == ".4g":  # a percentage
+            shown = [format_percent(None if v is None else float(v), 4) for v in (before, after)]
+        else:
+            shown = [format_number(v, spec) for v in (before, after)]
         lines.append(
-            f"| {escape_markdown(name)} | {format_number(before, shown)} "
-            f"| {format_number(after, shown)} "
+            f"| {escape_markdown(name)} | {shown[0]} | {shown[1]} "
             f"| {_change(before, after, spec)} |"
         )
     if f.mode_accuracy is None and (f.components or s.components):
@@ -493,7 +513,7 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
 def _component_lines(modes: ModeReport, samples: int) -> list[str]:
     """A ``[components]`` model's modes against the log's per-component truth."""
     joint = (
-        f"- every component right: {format_number(modes.accuracy, '.4%')} of the samples"
+        f"- every component right: {_accuracy(modes.accuracy)} of the samples"
         + (
             f" ({modes.samples:,} of {samples:,}: those where every component has a true mode)"
             if modes.samples is not None and modes.samples < samples
@@ -533,6 +553,11 @@ _NOT_COVERED = (
 )
 
 
+def _accuracy(fraction: float | None) -> str:
+    """A mode accuracy (a fraction) as a percentage: ``99.6678%``, never 100 % when it is not."""
+    return "n/a" if fraction is None else f"{format_percent(100.0 * fraction, 4)}%"
+
+
 def _scored_samples(modes: ModeReport, samples: int) -> str:
     """`` over 371 of 401 samples (...)`` when the true mode covers only some samples."""
     if modes.samples is None or modes.samples >= samples:
@@ -547,7 +572,7 @@ def _truth_lines(modes: ModeReport, accuracy: float, samples: int) -> list[str]:
     detected, missed = (det.detected, det.missed) if det is not None else (0, 0)
     delay = modes.detection_delay_s
     lines = [
-        f"- mode accuracy: {format_number(accuracy, '.4%')}" + _scored_samples(modes, samples),
+        f"- mode accuracy: {_accuracy(accuracy)}" + _scored_samples(modes, samples),
         f"- {plural(len(events), 'true mode switch')}: {detected:,} detected, {missed:,} missed"
         + (
             f"; detection delay mean {format_number(delay)} s, "

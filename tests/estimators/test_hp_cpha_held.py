@@ -132,9 +132,10 @@ def test_the_rmse_of_a_state_held_on_some_samples_is_over_the_others(sequence):
 def test_kbest_keeps_the_causal_probabilities_whole_and_its_predictions():
     # a previous pass read timeline.csv's p_ columns as not summing to 1 under kbest and
     # yc1_hat as wrongly empty: each row's joint p_ columns sum to 1 (the p_unknown.<c>
-    # columns are marginals beside them), and y-hat is the causal estimate's, empty where its
-    # most likely hypothesis has no cluster predicting the output (A1 unknown: w_c1, so x_c1,
-    # undetermined; A2 unknown: no y_c1 equation), as docs/smoothing.md says
+    # columns are marginals beside them), and y-hat is the causal estimate's, made before
+    # y(k): empty where the most likely hypothesis of the step before, held in its modes
+    # (leaving unknown is less likely than staying here), has no cluster predicting the output
+    # (A1 unknown: w_c1, so x_c1, undetermined; A2 unknown: no y_c1 equation)
     _, _, causal = drift_run("argmax")
     _, _, result = drift_run("kbest")
     assert np.allclose(result.mode_probabilities.sum(axis=1), 1.0)
@@ -143,4 +144,4 @@ def test_kbest_keeps_the_causal_probabilities_whole_and_its_predictions():
     labels = [label.split("|") for label in causal.mode_ids]
     either = np.array(["unknown" in (a1, a2) for a1, a2, _ in labels])[causal.modes]
     unpredicted = np.isnan(causal.output_predictions[1:, 0])
-    assert unpredicted.any() and np.array_equal(unpredicted, either[1:])
+    assert unpredicted.any() and np.array_equal(unpredicted, either[:-1])

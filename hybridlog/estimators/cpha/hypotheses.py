@@ -396,6 +396,9 @@ class Tracker:
         self.parents: list[int] = []
         """Per hypothesis the last :meth:`step` returned, its parent's index in the list that
         step was given (the back-pointers of the trajectories, for an offline mode sequence)."""
+        self.prediction = np.full(outputs.shape[1], np.nan)
+        """``ŷ(k|k-1)`` of the last :meth:`step`: that of its most likely successor before
+        ``y(k)`` is weighed (see :meth:`step`); NaN before the first step."""
         self.n_states = len(structure.names.states)
         self._no_prediction = np.full(outputs.shape[1], np.nan)
         # Per mode assignment (kept across steps): its successor table, its clusters' filters
@@ -680,6 +683,26 @@ class Tracker:
         pending = _Pending(parent, layout, results, self.variance_growth, self._no_prediction)
         return Hypothesis(assignment, log_belief, None, None, None, sources, pending)
 
+    @staticmethod
+    def _likeliest(table: _Successors, assignment: Assignment) -> Assignment:
+        """Per component its most likely target out of ``assignment``; a tie stays put.
+
+        Out of ``unknown``, left readily, every target may be equally likely (docs/bioplex.md):
+        the first one listed would be an arbitrary pick, the mode held is the estimate's own.
+        """
+        chosen = []
+        for options, mode in zip(table.lists, assignment, strict=True):
+            likeliest = [target for p, target in options if p == options[0][0]] or [mode]
+            chosen.append(mode if mode in likeliest else likeliest[0])
+        return tuple(chosen)
+
+    def _predicted(self, ids: tuple[int, ...], results: Sequence[StepResult]) -> FloatArray:
+        """``ŷ(k|k-1)`` of all outputs from a successor's cluster steps (NaN in none)."""
+        y_pred = self._no_prediction.copy()
+        if results:
+            y_pred[self._layout(ids).outputs] = np.concatenate([r.y_pred for r in results])
+        return y_pred
+
     def _table(self, assignment: Assignment, commands: tuple[float, ...] = ()) -> _Successors:
         """The successor table out of ``assignment`` under ``commands`` (built once for each)."""
         key = (assignment, commands)
@@ -696,7 +719,16 @@ class Tracker:
         return tuple(self.commands[k - 1].tolist())
 
     def step(self, hypotheses: Sequence[Hypothesis], k: int) -> list[Hypothesis]:
-        """Eqs. (4)–(5) at step k: the ``beam`` best filtered successors, normalised."""
+        """Eqs. (4)–(5) at step k: the ``beam`` best filtered successors, normalised.
+
+        Also sets :attr:`prediction`, the one-step-ahead output prediction of step k made
+        before ``y(k)`` is used (SPEC §8): the ``ŷ(k|k-1)`` of the most likely hypothesis of
+        step k−1 (the hybrid estimate, §2.2) in its most likely successor assignment
+        (:meth:`_likeliest`), as paper 001's observer predicts in the mode decided before.
+        The most likely hypothesis *after* the step is chosen by ``P_O``, that is by
+        ``y(k)``: its ``ŷ(k|k-1)`` was the kept one nearest ``y(k)``, and a spike only an
+        unknown component explained left the sample unpredicted, out of the metrics.
+        """
         bases = [h.log_belief for h in hypotheses]
         commands = self.commands_before(k)
         tables = [self._table(h.assignment, commands) for h in hypotheses]
@@ -704,6 +736,11 @@ class Tracker:
         memo: dict[tuple[object, ...], StepResult] = {}
         shared: dict[tuple[int, int], StepResult] = {}
         per_parent: list[dict[int, StepResult]] = [{} for _ in hypotheses]
+        # ŷ(k|k-1) before y(k) is weighed; its cluster steps are the loop's too (per_parent)
+        top = max(range(len(hypotheses)), key=bases.__getitem__)
+        held = self._filters_of(self._likeliest(tables[top], hypotheses[top].assignment))
+        _, steps_held = self._evaluate(top, hypotheses[top], held, k, memo, shared, per_parent)
+        self.prediction = self._predicted(held, steps_held)
         # min-heap of the beam best: (score, order, parent, rank code, cluster results)
         best: list[tuple[float, int, int, int, list[StepResult]]] = []
         tried = hits = filter_hits = 0

@@ -24,9 +24,15 @@ the model's component order (``m11|m21|unknown``); listed are those that were in
 some step, in order of first appearance.  ``mode_probabilities[k, j]`` is the summed
 normalised belief of the kept hypotheses with assignment ``j`` at step k (0 when none is
 kept).  ``modes[k]`` is the assignment of the most likely hypothesis (the paper's hybrid
-estimate, §2.2), whose ``x̂``, ``diag P`` and ``ŷ(k|k-1)`` are reported; an output no cluster of
-it predicts is NaN, and a state in no cluster of it (its mean held, §3.1) is marked in
-``states_not_estimated``, which the report scores, writes and draws as no estimate.
+estimate, §2.2), whose ``x̂`` and ``diag P`` are reported; a state in no cluster of it (its
+mean held, §3.1) is marked in ``states_not_estimated``, which the report scores, writes and
+draws as no estimate.  ``ŷ(k|k-1)`` is made before ``y(k)`` is used (SPEC §8): that of the
+most likely hypothesis of step k−1 stepped into its most likely successor assignment (a
+component whose targets tie, as out of ``unknown``, held), NaN for an output no cluster of
+it predicts (:meth:`Tracker.step <hybridlog.estimators.cpha.hypotheses.Tracker.step>`).  The
+most likely hypothesis of step k is chosen by ``y(k)``: its prediction was the kept one
+nearest ``y(k)``, and a spike only an unknown component explained left the sample
+unpredicted, out of the MSE, VAF and fit.
 Timeline columns: ``mode.<component>`` (labels: the component's modes and ``unknown``) of
 the most likely hypothesis, and ``p_unknown.<component>``, the summed belief of the kept
 hypotheses in which the component is unknown.
@@ -390,7 +396,7 @@ def _run(
             best_label[k] = labels[top.assignment]
             means[k] = top.x
             variances[k] = np.diag(top.P)
-            predictions[k] = top.y_pred
+            predictions[k] = tracker.prediction
             if k > 0:
                 long_run.reached(k)
     compile_s = structure.seconds + filters.seconds - compiling
