@@ -78,6 +78,16 @@ different float64 values apart (the cap was 4: VAFs of 99.9999999912 and 99.9999
 both read ``100.000000``, neither being 100).  A column gains only the digits it needs."""
 
 
+def _reads_whole(value: float, spec: str) -> bool:
+    """Whether ``value`` formatted by ``spec`` reads as a whole, 1 or 100, that it is not.
+
+    A mode accuracy of 0.9999997 is no ``1.0000`` and a VAF of 99.99568 % no ``100.00``
+    (report.md's rule, :func:`~hybridlog.report.markdown.format_percent`).
+    """
+    shown = float(format(value, spec).replace(",", ""))
+    return shown in (1.0, 100.0) and value != shown
+
+
 def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[object], str]:
     """One format for a whole column of a table for people (CSV files keep raw values).
 
@@ -87,7 +97,9 @@ def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[obj
     decades, needing more than six decimals, or reaching :data:`FIXED_LIMIT`, is written in
     scientific notation.  With ``distinct``, then more digits, up to
     :data:`MAX_EXTRA_DIGITS`, while two different values of the column would print alike:
-    side by side, a VAF of 99.9721 and one of 99.9655 must not both read ``99.97``.
+    side by side, a VAF of 99.9721 and one of 99.9655 must not both read ``99.97``.  And
+    always more, as far, while a value would read as a whole, 1 or 100, it is not
+    (:func:`_reads_whole`).
     """
     finite = {
         float(v)
@@ -101,9 +113,10 @@ def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[obj
         decimals = SIGNIFICANT_DIGITS - 1 - math.floor(math.log10(small))
         wide = decimals > 6 or big / small > 1e6 or big >= FIXED_LIMIT
         digits = SIGNIFICANT_DIGITS - 1 if wide else max(decimals, 0)
-        for extra in range(MAX_EXTRA_DIGITS + 1 if distinct else 1):
+        for extra in range(MAX_EXTRA_DIGITS + 1):
             spec = f".{digits + extra}e" if wide else f",.{digits + extra}f"
-            if len({format(v, spec) for v in finite}) == len(finite):
+            apart = not distinct or len({format(v, spec) for v in finite}) == len(finite)
+            if apart and not any(_reads_whole(v, spec) for v in finite):
                 break
 
     def cell(value: object) -> str:

@@ -47,3 +47,16 @@ def test_report_md_and_the_summary_line_write_no_false_perfect_score():
     line = _summary_line(near)
     assert "VAF 99.99999 %, fit 100.00 %" in line
     assert "mode accuracy 99.99997 %" in line
+
+
+def test_summary_tables_write_no_false_perfect_score():
+    # batch's and compare's tables rounded a VAF of 99.99568 to 100.00 and a mode accuracy
+    # of 0.9999997 to 1.0000; a true 100 and 1 stay as they are
+    from hybridlog.report.summary import markdown_table
+
+    table = markdown_table(
+        ["log", "vaf", "mode_accuracy"], [["a", 99.99568, 0.9999997], ["b", 87.39, 0.99]]
+    )
+    assert "| a | 99.996 | 0.9999997 |" in table and "| b | 87.390 | 0.9900000 |" in table
+    whole = markdown_table(["log", "vaf", "mode_accuracy"], [["a", 100.0, 1.0], ["b", 87.39, 0.99]])
+    assert "| a | 100.00 | 1.0000 |" in whole
