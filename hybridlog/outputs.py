@@ -675,11 +675,10 @@ def check_dir_target(
     if replacing:
         _check_only_ours(path, written(path))
         if edited := edited_files(path):
-            more = f" and {len(edited) - 3} more" if len(edited) > 3 else ""
             raise OutputError(
                 f"output directory {_shown(path)} holds files changed since hybridlog wrote "
-                f"them ({', '.join(excerpt(f, 60) for f in edited[:3])}{more}), which "
-                "replacing it would lose; move them out, or choose another output directory"
+                f"them ({_some(edited)}), which replacing it would lose; move them out, or "
+                "choose another output directory"
             )
     return path
 
@@ -760,19 +759,23 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
             ):
                 foreign.append(relative + "/")
     if nested:
-        more = f" and {len(nested) - 3} more" if len(nested) > 3 else ""
         raise OutputError(
             f"output directory {_shown(path)} holds another output of hybridlog's, written "
-            f"into it since ({', '.join(excerpt(f, 60) for f in nested[:3])}{more}), which "
-            "replacing it would delete; move it out, or choose another output directory"
+            f"into it since ({_some(nested)}), which replacing it would delete; move it out, "
+            "or choose another output directory"
         )
     if foreign:
-        more = f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
         raise OutputError(
             f"output directory {_shown(path)} holds files hybridlog did not write "
-            f"({', '.join(excerpt(f, 60) for f in foreign[:3])}{more}), which replacing it "
-            "would delete; move them out, or choose another output directory"
+            f"({_some(foreign)}), which replacing it would delete; move them out, or choose "
+            "another output directory"
         )
+
+
+def _some(names: Sequence[str]) -> str:
+    """``'a', 'b', 'c' and 2 more``: the first three of ``names``, quoted, and how many else."""
+    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+    return f"{', '.join(excerpt(name, 60) for name in names[:3])}{more}"
 
 
 def check_file_target(
