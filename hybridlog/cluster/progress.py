@@ -29,6 +29,7 @@ __all__ = [
     "TimedWork",
     "WorkReporter",
     "current_reporter",
+    "current_wait",
     "duration_text",
     "reporting",
     "silent_wait",
@@ -102,6 +103,12 @@ _REPORTER: contextvars.ContextVar[WorkReporter | None] = contextvars.ContextVar(
 def current_reporter() -> WorkReporter | None:
     """The reporter installed by :func:`reporting`, if any."""
     return _REPORTER.get()
+
+
+def current_wait() -> Callable[[str, str], AbstractContextManager[None]]:
+    """The installed reporter's :attr:`WorkReporter.wait`, or :func:`silent_wait` without one."""
+    reporter = _REPORTER.get()
+    return silent_wait if reporter is None else reporter.wait
 
 
 @contextlib.contextmanager

@@ -25,7 +25,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.cluster.progress import WorkReporter, current_reporter, reporting, silent_wait
+from hybridlog.cluster.progress import WorkReporter, current_reporter, current_wait, reporting
 from hybridlog.errors import (
     DivergenceError,
     HybridlogError,
@@ -556,8 +556,7 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
     running = worker(ESTIMATES)
     if running is None:
         return
-    reporter = current_reporter()
-    wait = silent_wait if reporter is None else reporter.wait
+    wait = current_wait()
     for estimator in prepared:
         running.submit(partial(warm_up_told, estimator, wait=wait), model)
 
@@ -570,13 +569,10 @@ def warm_up_told(
     """``estimator.warm_up(model)`` inside ``wait``'s context, which names what it compiles.
 
     :attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`; by default
-    the installed reporter's (:func:`~hybridlog.cluster.progress.current_reporter`), if any:
+    the installed reporter's (:func:`~hybridlog.cluster.progress.current_wait`), if any:
     a batch's worker warms up so before its first log (:mod:`hybridlog.jobs.batch`).
     """
-    if wait is None:
-        reporter = current_reporter()
-        wait = silent_wait if reporter is None else reporter.wait
-    with wait(
+    with (current_wait() if wait is None else wait)(
         f"{estimator.name}: compiling machine code for model {model.name!r}",
         "its first run with these options; later runs load it from the cache",
     ):

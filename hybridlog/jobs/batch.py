@@ -47,7 +47,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from hybridlog import __version__
-from hybridlog.cluster.progress import current_reporter, silent_wait
+from hybridlog.cluster.progress import current_wait
 from hybridlog.errors import (
     HybridlogError,
     LogError,
@@ -973,13 +973,12 @@ def run_batch(
                         kept=lambda outcome: outcome.status != "failed",
                     )
                 elif pool is not None:
-                    reporter = current_reporter()
                     outcomes = pool.run(
                         analyze_log,
                         tasks,
                         died=lambda i, why: died[i](why),
                         done=progress,
-                        wait=silent_wait if reporter is None else reporter.wait,
+                        wait=current_wait(),
                     )
                 plotting.join()
             else:
