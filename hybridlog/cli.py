@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import dataclasses
 import gc
 import importlib
 import json
@@ -1072,7 +1073,8 @@ def batch_command(
     from hybridlog.jobs.batch import run_batch
 
     read, common = _split_options(options)
-    with _batch_progress(ctx, total) as advance, reporting(_batch_reporter(ctx)):
+    clock = _BatchClock()
+    with _batch_progress(ctx, total, clock) as advance, reporting(_batch_reporter(ctx, clock)):
         outcome = run_batch(
             found,
             model_ref,
@@ -1129,18 +1131,34 @@ def _have_warnings(warned: int, total: int, kind: str) -> str:
 
 
 @contextlib.contextmanager
-def _batch_progress(ctx: click.Context, total: int) -> Iterator[Callable[[Any], None] | None]:
-    """A progress bar of a batch on stderr: done / failed / skipped, rate and ETA."""
+def _batch_progress(
+    ctx: click.Context, total: int, clock: _BatchClock
+) -> Iterator[Callable[[Any], None] | None]:
+    """A progress bar of a batch on stderr: done / failed / skipped, rate and time left.
+
+    Both from ``clock``'s working time, without the waits for a model's first compile: click's
+    own ETA, from the bar's start, counted those 10-20 s into every log (54 s left for three
+    logs that then took a second); with workers compiling side by side, the time after the
+    first of them finishes a log is work, at that worker's rate.  The time left assumes the
+    logs left are analysed, not skipped, at the rate of those analysed so far; there is none
+    before the first is.
+    """
+    from hybridlog.cluster.progress import duration_text
+
     counts = {"done": 0, "failed": 0, "skipped": 0}
-    started = time.monotonic()
 
     def show(_: object) -> str:
         finished = sum(counts.values())
-        rate = finished / max(time.monotonic() - started, 1e-9) * 60
-        return (
+        analysed = counts["done"] + counts["failed"]
+        working = max(clock.working(), 1e-9)
+        text = (
             f"done {counts['done']} · failed {counts['failed']} · skipped {counts['skipped']}"
-            f" · {rate:,.0f} logs/min"
+            f" · {finished / working * 60:,.0f} logs/min"
         )
+        if analysed and finished < total:
+            left = max((total - finished) * working / analysed, 1.0)  # not "0 s left"
+            text += f" · {duration_text(left)} left"
+        return text
 
     with _progress(ctx, total, "logs", show) as bar:
         if bar is None:
@@ -1148,10 +1166,52 @@ def _batch_progress(ctx: click.Context, total: int) -> Iterator[Callable[[Any], 
             return
 
         def advance(outcome: Any) -> None:
+            clock.work()
             counts[outcome.status] = counts.get(outcome.status, 0) + 1
             bar(outcome)
 
         yield advance
+
+
+@dataclass
+class _BatchClock:
+    """A batch's working time: since it started, less the time its work waited for compiling.
+
+    A wait is one its reporter holds (:func:`_clocked_wait`) while a model's first run
+    compiles, once for workers compiling side by side.  It counts as waiting until it ends or
+    a log finishes during it (from then on a worker is analysing logs, which is work).
+    """
+
+    started: float = dataclasses.field(default_factory=time.monotonic)
+    waited: float = 0.0
+    waiting_since: float | None = None
+
+    def working(self) -> float:
+        """Seconds since the start, less those waited (so far, for a wait going on)."""
+        now = time.monotonic()
+        waiting = 0.0 if self.waiting_since is None else now - self.waiting_since
+        return now - self.started - self.waited - waiting
+
+    def wait(self) -> None:
+        """A wait for compiling begins."""
+        self.waiting_since = time.monotonic()
+
+    def work(self) -> None:
+        """A wait ends, or a log finished: the time waited so far is counted out."""
+        if self.waiting_since is not None:
+            self.waited += time.monotonic() - self.waiting_since
+            self.waiting_since = None
+
+
+@contextlib.contextmanager
+def _clocked_wait(clock: _BatchClock, shown: bool, what: str, why: str) -> Iterator[None]:
+    """:func:`_work_wait` over the bar, its time counted out of ``clock``'s working time."""
+    clock.wait()
+    try:
+        with _work_wait(shown, what, why, over_bar=True):
+            yield
+    finally:
+        clock.work()
 
 
 def _bars_shown(quiet: bool) -> bool:
@@ -1172,7 +1232,10 @@ def _progress(
     label: str,
     show: Callable[[Any], str] | None = None,
 ) -> Iterator[Callable[[object], None] | None]:
-    """A progress bar on stderr (with ETA), only on a terminal and without ``--quiet``."""
+    """A progress bar on stderr, only on a terminal and without ``--quiet``.
+
+    Without click's ETA: ``show`` says the time left where it can be told.
+    """
     settings = ctx.find_object(_Context)
     if not _bars_shown(settings is not None and settings.quiet):
         yield None
@@ -1182,7 +1245,7 @@ def _progress(
         length=total,
         label=label,
         file=sys.stderr,
-        show_eta=True,
+        show_eta=False,
         show_pos=True,
         item_show_func=None if show is None else lambda item: show(item),
     ) as bar:
@@ -1274,18 +1337,19 @@ def _work_reporter(ctx: click.Context) -> WorkReporter:
     )
 
 
-def _batch_reporter(ctx: click.Context) -> WorkReporter:
+def _batch_reporter(ctx: click.Context, clock: _BatchClock) -> WorkReporter:
     """A batch's reporter: a model's first compiling said as :func:`_work_wait`, over the bar.
 
-    The lines clear the bar's line first (its next update draws it again below them); long
-    clustering inside a log says nothing (the logs' bar is the batch's progress).
+    The lines clear the bar's line first (its next update draws it again below them); the
+    time they wait is left out of ``clock``'s working time, the bar's rate and time left.
+    Long clustering inside a log says nothing (the logs' bar is the batch's progress).
     """
     from functools import partial
 
     from hybridlog.cluster.progress import WorkReporter
 
     quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
-    return WorkReporter(wait=partial(_work_wait, _bars_shown(quiet), over_bar=True))
+    return WorkReporter(wait=partial(_clocked_wait, clock, _bars_shown(quiet)))
 
 
 def _read_options_given(options: dict[str, Any]) -> ReadOptions:

@@ -391,7 +391,7 @@ def test_progress_bar_counts_done_failed_skipped_with_rate(
     monkeypatch.setattr(sys, "stderr", terminal)
     context = click.Context(cli_module.cli, obj=cli_module._Context(quiet=quiet))
     statuses = ["done", "failed", "skipped", "done"]
-    with cli_module._batch_progress(context, len(statuses)) as advance:
+    with cli_module._batch_progress(context, len(statuses), cli_module._BatchClock()) as advance:
         if quiet:
             assert advance is None
             return
@@ -400,3 +400,49 @@ def test_progress_bar_counts_done_failed_skipped_with_rate(
             advance(LogOutcome("log", "folder", status, None, None))
     text = terminal.getvalue()
     assert "4/4" in text and "done 2 · failed 1 · skipped 1 · " in text and "logs/min" in text
+
+
+def test_progress_rate_and_time_left_leave_out_the_first_compile(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """30 s compiling, then a log in 2 s: 3 logs left take about 6 s, not 96 (click's ETA)."""
+    from hybridlog import cli as cli_module
+
+    now = [100.0]
+    monkeypatch.setattr(cli_module.time, "monotonic", lambda: now[0])
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    context = click.Context(cli_module.cli, obj=cli_module._Context(quiet=False))
+    clock = cli_module._BatchClock(started=now[0])
+    with cli_module._batch_progress(context, 4, clock) as advance:
+        assert advance is not None
+        with cli_module._clocked_wait(clock, False, "imm: compiling", "first run"):
+            now[0] += 30.0
+        now[0] += 2.0
+        advance(LogOutcome("log", "folder", "done", None, None))
+        text = terminal.getvalue()
+        assert "1/4" in text and "30 logs/min · 6 s left" in text, text
+        advance(LogOutcome("log", "folder", "skipped", None, None))
+        advance(LogOutcome("log", "folder", "done", None, None))
+        advance(LogOutcome("log", "folder", "done", None, None))
+    assert "left" not in terminal.getvalue().rsplit("4/4", 1)[1]
+
+
+def test_progress_counts_a_compile_as_waiting_only_until_a_log_finishes_during_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Two workers: one compiles 10 s and runs a log in 2 s while the other compiles on."""
+    from hybridlog import cli as cli_module
+
+    now = [0.0]
+    monkeypatch.setattr(cli_module.time, "monotonic", lambda: now[0])
+    clock = cli_module._BatchClock(started=0.0)
+    with cli_module._clocked_wait(clock, False, "imm: compiling", "first run"):
+        now[0] = 5.0
+        assert clock.working() == 0.0  # a wait going on is not work
+        now[0] = 12.0
+        clock.work()  # the first worker's log finished
+        now[0] = 20.0
+        assert clock.working() == 8.0
+    now[0] = 21.0
+    assert clock.working() == 9.0
