@@ -122,7 +122,7 @@ def test_every_fixed_table_names_a_top_level_key_written_in_it(table, key, value
 
 @pytest.mark.parametrize(
     "table",
-    ['[estimators.imm]\nbeam = 5\n', '[signals]\na = "/a.data"\n', '[truth]\np = "/p.data"\n'],
+    ["[estimators.imm]\nbeam = 5\n", '[signals]\na = "/a.data"\n', '[truth]\np = "/p.data"\n'],
 )
 def test_a_top_level_key_appended_below_the_last_table_is_named_where_it_is(table):
     # a file ending with [estimators.imm] took the default_estimator appended to it for an
