@@ -468,7 +468,7 @@ class Prepared:
     ) -> EstimationResult:
         """The estimator's whole result, its modes moved where :meth:`moves_modes` says."""
         self.check_signals(model, signals)
-        with self._numerical_trouble(model):
+        with self._numerical_trouble(model), self._option_keys():
             result: EstimationResult = self.estimator.run_function(
                 model, signals, self.options, **inputs
             )
@@ -555,6 +555,26 @@ class Prepared:
                 f"({err}): the model or the log drive it past double precision"
             ) from err
 
+    @contextlib.contextmanager
+    def _option_keys(self) -> Iterator[None]:
+        """An error of the run about an option the model file gave names the file's key.
+
+        An estimator names the option it refuses as the run finds out (chiu's
+        ``cluster_modes: 2 mode ids for 3 clusters``: the clusters are fitted on the log);
+        given by ``--set``, the option is named after the message
+        (:func:`~hybridlog.errors.after_given`), but written in the model file it was named
+        by neither the file nor the key.  Now the message starts with the key, as the
+        file's other errors do: ``m.toml: estimators.chiu.cluster_modes: 2 mode ids ...``.
+        """
+        try:
+            yield
+        except OptionError as err:
+            name, sep, rest = str(err).partition(": ")
+            origin = self.origins.get(name, "") if sep else ""
+            if not origin or origin.startswith("--"):  # a default, or the command line's
+                raise
+            raise ModelError(f"{origin}: {rest}", named=err.named) from err
+
     def moves_modes(self, model: HybridModel) -> bool:
         """Whether the modes are moved one sample earlier for this model.
 
@@ -604,7 +624,7 @@ class Prepared:
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self.check_signals(model, signals)
-        with self._numerical_trouble(model):
+        with self._numerical_trouble(model), self._option_keys():
             chunks = self.estimator.stream_function(
                 model, signals, self.options, rows=rows, **inputs
             )
@@ -616,7 +636,7 @@ class Prepared:
         """The estimator's own chunks, each checked (:meth:`_vouch`) before it is given."""
         first, before = 0, None
         while True:
-            with self._numerical_trouble(model):
+            with self._numerical_trouble(model), self._option_keys():
                 chunk = next(chunks, None)
             if chunk is None:
                 return

@@ -34,6 +34,7 @@ from hybridlog.errors import (
     as_text,
     excerpt,
     prefixed,
+    set_text,
 )
 from hybridlog.estimators import (
     ESTIMATORS,
@@ -265,11 +266,11 @@ def prepare_estimators(
         chosen, overrides, smooth=smooth, mode_sequence=mode_sequence, given_by=chosen_by
     )
     declared = {e.name: [i.name for i in e.describe_options()] for e in chosen}
-    for name, number in overrides.parameters.items():
+    for name, text in overrides.parameter_texts.items():
         owners = [e for e, known in declared.items() if name in known]
         if owners:  # the parameter took it: hstf's rho stayed 0.95 without a word
             raise OptionError(
-                f"--set {name}={number:g}: {name!r} is both a parameter of model "
+                f"{set_text(name, text)}: {name!r} is both a parameter of model "
                 f"{model.origin or model.name} and an option of {', '.join(owners)}, and "
                 f"--set would change the parameter only; rename the parameter, or set the "
                 f"option under [estimators.{owners[0]}] in the model file"

@@ -109,9 +109,10 @@ def _table_lines(model: HybridModel, prepared: Mapping[str, Prepared]) -> list[s
 
 def _lines(model: HybridModel) -> list[str]:
     timebase = model.timebase
-    time = f"{timebase.kind} time, dt {timebase.dt:g} s"
+    # as written, to the digits that read back (`:g` wrote dt = 1.23456789 as 1.23457)
+    time = f"{timebase.kind} time, dt {shown(timebase.dt)} s"
     if timebase.method is not None:
-        time += f", integration {timebase.method} with step {timebase.step:g} s"
+        time += f", integration {timebase.method} with step {shown(timebase.step)} s"
     lines = [
         f"name: {model.name}" + (f" ({model.reference})" if model.reference else ""),
         time,

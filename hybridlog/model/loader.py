@@ -584,8 +584,12 @@ def _refuse_misplaced_top_keys(data: Mapping[str, Any]) -> None:
     at the end of a file, or ``time = "continuous"`` below ``[noise]``, was reported as
     ``dt: required key is missing`` (or, for ``time``, as a discrete-time model's ``dx``),
     although the file held it.  Checked in the tables whose keys are fixed (a parameter or
-    a state may be called ``dt``).  A sub-table (``[modes.a.noise]``) is no such slip: it
-    is left to the table's own check of its keys.
+    a state may be called ``dt``) and in each ``[estimators.<name>]`` table, none of whose
+    options is named like a top-level key (``default_estimator`` appended below the last
+    table of a file that ends with one was "imm has no option 'default_estimator'");
+    ``[signals]`` and ``[truth]``, whose keys are symbols, in :func:`_refuse_misplaced`.  A
+    sub-table (``[modes.a.noise]``) is no such slip: it is left to the table's own check of
+    its keys.
     """
     tables: list[tuple[str, Any, set[str]]] = [
         (name, data.get(name), allowed)
@@ -600,16 +604,24 @@ def _refuse_misplaced_top_keys(data: Mapping[str, Any]) -> None:
     modes = data.get("modes")
     if isinstance(modes, dict):
         tables += [(key_path("modes", i), spec, _MODE_KEYS) for i, spec in modes.items()]
+    estimators = data.get("estimators")
+    if isinstance(estimators, dict):  # no option is named like a top-level key
+        tables += [(key_path("estimators", n), spec, set()) for n, spec in estimators.items()]
     for where, table, allowed in tables:
         if not isinstance(table, dict):
             continue
         for key in table:
             if key in _TOP_KEYS and key not in allowed and not isinstance(table[key], dict):
-                raise ModelError(
-                    f"{key_path(where, key)}: {key!r} is a top-level key, but written below "
-                    f"the [{where}] header it belongs to that table; move it above the "
-                    "first [table] header"
-                )
+                raise ModelError(_misplaced_top_key(where, key))
+
+
+def _misplaced_top_key(where: str, key: str) -> str:
+    """The error of the top-level ``key`` written below the header of the table ``where``."""
+    return (
+        f"{key_path(where, key)}: {key!r} is a top-level key, but written below "
+        f"the [{where}] header it belongs to that table; move it above the "
+        "first [table] header"
+    )
 
 
 def _timebase(data: Mapping[str, Any]) -> Timebase:
@@ -1189,6 +1201,8 @@ def _refuse_misplaced(
         reason = "a command; commands map under [signals]"
     elif name in (*groups["variables"], *groups["booleans"]):
         reason = f"{_role(name, groups)}, which no log holds"
+    elif name in _TOP_KEYS:  # default_estimator appended below the file's last table
+        raise ModelError(_misplaced_top_key(table, name))
     else:
         allowed = (
             (*signal_names, *groups["commands"])

@@ -134,3 +134,13 @@ def test_each_estimator_table_is_described_as_analyze_applies_it(tmp_path: Path)
     assert imm.startswith("[estimators.imm]: smoother = ec (no effect as written: only smooth")
     assert imm.endswith(", transition_stay = 1")
     assert "[estimators.chiu] (chiu cannot run this model): radius = 0.4" in described
+
+
+def test_the_time_base_is_described_with_the_digits_the_file_gives(tmp_path: Path) -> None:
+    # `:g` described dt = 0.0123456789 as 0.0123457: not the sample time analyze used
+    path = tmp_path / "mine.toml"
+    text = builtin_text("ice_clutch").replace("dt = 0.01", "dt = 0.0123456789", 1)
+    path.write_text(text.replace("step = 0.001", "step = 0.0123456789", 1), encoding="utf-8")
+    assert check_and_describe(path).splitlines()[2] == (
+        "continuous time, dt 0.0123456789 s, integration rk4 with step 0.0123456789 s"
+    )

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.errors import OptionError
-from hybridlog.jobs.analysis import compare
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.cluster import discover_modes
+from hybridlog.model.builtins import builtin_text
 from hybridlog.report.markdown import escape_markdown
 from tests.support.paths import ROOT
 
@@ -76,6 +77,20 @@ def test_an_error_of_one_compared_estimator_names_it(tmp_path: Path) -> None:
     # one estimator is named by the command already: the message stays as analyze gives it
     with pytest.raises(OptionError, match=r"^cluster_modes: 2 mode ids for 3 clusters"):
         compare(CART, "double_cart_case1", ["chiu"], out_dir=out, sets=["cluster_modes=2,1"])
+
+
+def test_a_run_error_of_a_model_file_option_names_its_key(tmp_path: Path) -> None:
+    """The same labels written in the model file: 'cluster_modes: 2 mode ids for 3
+    clusters', naming neither the file nor the key (given by --set, the --set is named)."""
+    model = tmp_path / "cart.toml"
+    model.write_text(
+        builtin_text("double_cart_case1") + "\n[estimators.chiu]\ncluster_modes = '2,1'\n"
+    )
+    with pytest.raises(
+        ModelError, match=rf"^{model}: estimators\.chiu\.cluster_modes: 2 mode ids for 3 clusters"
+    ):
+        analyze(CART, model, estimator="chiu", out_dir=tmp_path / "r")
+    assert not (tmp_path / "r").exists()
 
 
 def test_a_small_radius_still_gives_a_readable_plot(tmp_path: Path) -> None:

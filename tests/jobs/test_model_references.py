@@ -62,6 +62,15 @@ def test_a_set_name_both_a_parameter_and_an_option_is_refused(tmp_path):
     assert (tmp_path / "imm" / "report.json").is_file()
 
 
+def test_the_refusal_of_a_name_both_a_parameter_and_an_option_quotes_the_set_as_typed(tmp_path):
+    """It wrote the value with six digits: `--set rho=0.123457` for `--set rho=0.123456789`."""
+    model = tmp_path / "gain.toml"
+    model.write_text(MODEL.format(default="hstf"))
+    with pytest.raises(OptionError, match=r"^--set rho=0\.123456789: 'rho' is both"):
+        analyze(LOG, model, sets=["rho=0.123456789"], out_dir=tmp_path / "refused")
+    assert not (tmp_path / "refused").exists()
+
+
 def test_a_default_estimator_typo_is_an_error_whichever_estimator_runs(tmp_path):
     """It was checked only when the default was used, so the file's typo waited unseen."""
     model = tmp_path / "gain.toml"

@@ -120,6 +120,29 @@ def test_every_fixed_table_names_a_top_level_key_written_in_it(table, key, value
     _refused(text, rf"{where}\.{key}: '{key}' is a top-level key, but written below")
 
 
+@pytest.mark.parametrize(
+    "table",
+    ["[estimators.imm]\nbeam = 5\n", '[signals]\na = "/a.data"\n', '[truth]\np = "/p.data"\n'],
+)
+def test_a_top_level_key_appended_below_the_last_table_is_named_where_it_is(table):
+    # a file ending with [estimators.imm] took the default_estimator appended to it for an
+    # option: "imm has no option 'default_estimator'"; below [signals], "not an input or output"
+    text = LINEAR_TWO_MODE.replace('default_estimator = "imm"\n', "", 1)
+    text += f'\n{table}default_estimator = "imm"\n'
+    where = re.escape(table.split("]")[0][1:])
+    _refused(text, rf"{where}\.default_estimator: 'default_estimator' is a top-level key, but")
+
+
+def test_no_estimator_option_is_named_like_a_top_level_key():
+    # the loader (which cannot import the estimators) refuses every top-level key written in
+    # an [estimators.<name>] table as misplaced: right only while no option is so named
+    from hybridlog.estimators import ESTIMATORS
+    from hybridlog.model.loader import _TOP_KEYS
+
+    options = {i.name for e in ESTIMATORS.values() for i in e.describe_options()}
+    assert options and not options & _TOP_KEYS
+
+
 def test_a_required_key_found_in_a_parameter_table_is_named():
     text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")
     text = _replace(text, "[noise]\n", "[parameters]\ng = 9.81\ndt = 0.1\n\n[noise]\n")
