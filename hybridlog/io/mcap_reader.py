@@ -4,7 +4,8 @@
 empty file and wrong magic bytes, tells a finished file (footer and closing magic) from one
 whose recorder was killed or that was cut off, and validates the summary and data-section
 CRCs when the writer stored them (the libraries' readers check chunk CRCs at most, and only
-when asked).
+when asked).  A damaged summary section is read as an unfinished file is: its data section
+holds every message.
 
 ``ros2``-profile files of chunks whose summary repeats every channel and schema and indexes
 every chunk's messages -- what rosbag2 writes -- are then read by rosbags
@@ -15,7 +16,7 @@ profile -- validating chunk CRCs.  Channels and schemas need not be repeated in 
 (the MCAP specification makes that optional): when they are not, the file is read
 sequentially and they are taken from the data section.  The sequential reader is also what
 ``--recover`` uses on any MCAP: records are read in file order up to the first one that is
-cut off or damaged.
+cut off or damaged, and no further than the data section's end (:func:`data_records`).
 
 Message definitions come from the channels' schemas (``ros2msg``, ``ros2idl``, ``ros1msg``,
 each parsed on its own by rosbags, see :mod:`.definitions`; a schema without text falls back
@@ -67,11 +68,25 @@ class McapLayout:
         Whether the file ends with a footer and the closing magic bytes.
     problem:
         Why it is not finished, for messages.
+    summary_damaged:
+        The file ends as a finished one does but its summary section (the index after the
+        data section) is damaged: a stored CRC that does not match, an offset outside the
+        file.  Its data section is read sequentially, as a file without footer is.
     """
 
     profile: str | None
     finished: bool
     problem: str | None = None
+    summary_damaged: bool = False
+
+    def finding(self) -> str:
+        """What is wrong with a file that is not :attr:`finished`, for messages."""
+        if self.summary_damaged:
+            return f"damaged MCAP summary section ({self.problem})"
+        return (
+            f"unfinished MCAP file ({self.problem}: the recorder was killed or the file was "
+            "cut off)"
+        )
 
 
 def check_mcap(path: Path) -> McapLayout:
@@ -80,7 +95,9 @@ def check_mcap(path: Path) -> McapLayout:
     Raises
     ------
     LogError
-        For an empty file, wrong magic bytes, or a summary or data-section CRC mismatch.
+        For an empty file, wrong magic bytes, or a data-section CRC mismatch (no record of
+        the section can be trusted).  A damaged summary section is no error here: the data
+        section may be whole (:attr:`McapLayout.summary_damaged`).
     """
     try:
         size = path.stat().st_size
@@ -111,15 +128,20 @@ def _check_open_mcap(path: Path, handle: IO[bytes], size: int) -> McapLayout:
     if opcode != _OP_FOOTER or length != _FOOTER_SIZE - 9:
         return McapLayout(profile, False, "no footer record before the closing magic bytes")
     if summary_start and not 8 <= summary_start <= footer_at:
-        raise LogError(
-            f"{path}: damaged MCAP footer (summary offset {summary_start} is outside the file)"
+        return McapLayout(
+            profile,
+            False,
+            f"its footer's summary offset {summary_start} is outside the file",
+            summary_damaged=True,
         )
     if summary_start and summary_crc:
         actual = _crc(handle, summary_start, footer_at + 1 + 8 + 16)
-        if actual != summary_crc:
-            raise LogError(
-                f"{path}: CRC mismatch in the MCAP summary section "
-                f"(stored 0x{summary_crc:08x}, computed 0x{actual:08x})"
+        if actual != summary_crc:  # the offsets it covers locate nothing for sure
+            return McapLayout(
+                profile,
+                False,
+                f"CRC mismatch: stored 0x{summary_crc:08x}, computed 0x{actual:08x}",
+                summary_damaged=True,
             )
     data_end_at = (summary_start or footer_at) - _DATA_END_SIZE
     if data_end_at >= 8:
@@ -239,13 +261,10 @@ def recover_hint(path: Path, topic: str, found: int) -> str:
     For a topic with fewer messages than the summary lists: the summary may be what is
     damaged, and ``--recover`` reads the data section sequentially instead.
     """
-    from mcap.reader import NonSeekingReader
-
     count = 0
     try:
         with path.open("rb") as handle:
-            reader = NonSeekingReader(handle, validate_crcs=True)
-            for _ in reader.iter_messages(topics=[topic], log_time_order=False):
+            for _ in _sequential_messages(handle, {topic}):
                 count += 1
     except Exception:  # counting stops where the file is damaged, as --recover does
         pass
@@ -254,19 +273,81 @@ def recover_hint(path: Path, topic: str, found: int) -> str:
     return f"; --recover reads the file sequentially and finds {count}"
 
 
+DATA_SECTION_END = "the end of the data section"
+"""Where a sequential read that met no damaged record stops (``stopped_at`` of a report)."""
+
+
+def data_records(handle: IO[bytes]) -> Iterator[Any]:
+    """The records of an MCAP file's data section, in file order, from its start.
+
+    A sequential read: chunks are opened and their CRCs checked (the mcap library's
+    ``StreamReader``).  It ends at the data section's end record or the file's end, whichever
+    comes first: what follows is the summary section, an index repeating schemas and
+    channels, which a damaged summary could make disagree with the data section.  A
+    channel whose schema, or a message whose channel, was not recorded before it (the MCAP
+    specification requires them first) is a damaged record, as one the library refuses: a
+    flipped id, which every reader of the file must stop at alike.
+
+    Raises
+    ------
+    Exception
+        Whatever the mcap library raises at the first record cut off or damaged;
+        ``McapError`` for a record naming a schema or channel not recorded before it.
+    """
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, DataEnd, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    schemas: set[int] = set()
+    channels: set[int] = set()
+    handle.seek(0)
+    for record in StreamReader(handle, validate_crcs=True).records:
+        if isinstance(record, DataEnd):
+            return
+        if isinstance(record, Message) and record.channel_id not in channels:
+            raise McapError(f"no channel record found with id {record.channel_id}")
+        if isinstance(record, Channel):
+            if record.schema_id and record.schema_id not in schemas:
+                raise McapError(f"no schema record found with id {record.schema_id}")
+            channels.add(record.id)
+        elif isinstance(record, Schema):
+            schemas.add(record.id)
+        yield record
+
+
+def _sequential_messages(handle: IO[bytes], topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+    """``(topic, log time, data)`` of the messages on ``topics`` in :func:`data_records`.
+
+    Raises
+    ------
+    Exception
+        As :func:`data_records`.
+    """
+    from mcap.records import Channel, Message
+
+    channels: dict[int, str] = {}
+    for record in data_records(handle):
+        if isinstance(record, Channel):
+            channels[record.id] = record.topic
+        elif isinstance(record, Message):
+            topic = channels[record.channel_id]
+            if topic in topics:
+                yield topic, record.log_time, record.data
+
+
 def count_readable(path: Path) -> tuple[int, str]:
     """Messages a sequential read gets out of ``path`` before it stops, and why it stops."""
-    from mcap.stream_reader import StreamReader
+    from mcap.records import Message
 
     count = 0
     try:
         with path.open("rb") as handle:
-            for record in StreamReader(handle, validate_crcs=True).records:
-                if type(record).__name__ == "Message":
+            for record in data_records(handle):
+                if isinstance(record, Message):
                     count += 1
     except Exception as err:  # the first record that is cut off or corrupt ends the read
         return count, _stop_reason(err)
-    return count, "the end of the file"
+    return count, DATA_SECTION_END
 
 
 def _stop_reason(err: BaseException) -> str:
@@ -320,14 +401,10 @@ def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> Messag
         return McapSource(path, layout, options)
     if not layout.finished:
         readable, stop = count_readable(path)
-        finding = (
-            f"unfinished MCAP file ({layout.problem}: the recorder was killed or the file was "
-            "cut off); "
-            + (
-                f"{readable} messages are readable, up to {stop}"
-                if readable
-                else f"no message is readable (the read stops at {stop})"
-            )
+        finding = f"{layout.finding()}; " + (
+            f"{readable} messages are readable, up to {stop}"
+            if readable
+            else f"no message is readable (the read stops at {stop})"
         )
         hint = "; --recover analyses them" if readable else ", so --recover cannot help"
         raise UnfinishedLogError(
@@ -440,15 +517,13 @@ class McapSource(MessageSource):
     def _scan_structure(self) -> tuple[dict[int, Any], dict[int, Any], dict[int, int] | None]:
         """One sequential pass: schemas, channels, and messages up to the first bad record."""
         from mcap.records import Channel, Message, Schema
-        from mcap.stream_reader import StreamReader
 
         assert self._handle is not None
         schemas: dict[int, Any] = {}
         channels: dict[int, Any] = {}
         total = 0
-        self._handle.seek(0)
         try:
-            for record in StreamReader(self._handle, validate_crcs=True).records:
+            for record in data_records(self._handle):
                 if isinstance(record, Message):
                     total += 1
                 elif isinstance(record, Schema):
@@ -464,7 +539,7 @@ class McapSource(MessageSource):
                 {
                     "recovered": True,
                     "messages_readable": total,
-                    "stopped_at": self._stop or "the end of the file",
+                    "stopped_at": self._stop or DATA_SECTION_END,
                 }
             )
         # Counts of a sequential read are what was read; there is no index to check against.
@@ -587,7 +662,7 @@ class McapSource(MessageSource):
         return "" if self._sequential else recover_hint(self._file, topic, found)
 
     def _iter_raw(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
-        from mcap.reader import NonSeekingReader, SeekingReader
+        from mcap.reader import SeekingReader
 
         if not topics:
             return
@@ -599,12 +674,8 @@ class McapSource(MessageSource):
             for _, channel, message in messages:
                 yield channel.topic, message.log_time, message.data
             return
-        stream = NonSeekingReader(self._handle, validate_crcs=True)
         try:
-            for _, channel, message in stream.iter_messages(
-                topics=frozenset(topics), log_time_order=False
-            ):
-                yield channel.topic, message.log_time, message.data
+            yield from _sequential_messages(self._handle, topics)
         except Exception:  # --recover: stop at the first record cut off or corrupt
             if not self.options.recover:
                 raise

@@ -157,14 +157,15 @@ class BagSource(MessageSource):
             layout = check_mcap(file)
             if not layout.finished:
                 readable, _ = count_readable(file)
-                finding = (
-                    f"the bag's MCAP storage file {file.name} is unfinished ({layout.problem}: "
-                    "the recorder was killed?); "
-                    + (
-                        f"{readable} messages are readable"
-                        if readable
-                        else "no message in it is readable"
-                    )
+                state = (
+                    f"has a damaged summary section ({layout.problem})"
+                    if layout.summary_damaged
+                    else f"is unfinished ({layout.problem}: the recorder was killed?)"
+                )
+                finding = f"the bag's MCAP storage file {file.name} {state}; " + (
+                    f"{readable} messages are readable"
+                    if readable
+                    else "no message in it is readable"
                 )
                 hint = f": analyse {file} with --recover" if readable else ""
                 raise UnfinishedLogError(
