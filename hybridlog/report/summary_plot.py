@@ -39,7 +39,7 @@ from hybridlog.report.summary import BatchRow
 __all__ = ["MAX_LABELS", "prepare_summary_figure", "summary_figure", "write_summary_plot"]
 
 MAX_LABELS = 40
-"""Up to this many logs, the x axis names each log; beyond it, it numbers them."""
+"""Up to this many logs, the x axis names each log; beyond it, it numbers them from 1."""
 
 _OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
 _PANELS = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
@@ -168,7 +168,7 @@ def _log_labels(folders: Sequence[str]) -> list[str]:
     characters after ``…``.  Logs of the same name in different folders
     (``robot_a/2024-05-01/recording.mcap``, ``robot_b/...``) ended alike: two ticks of one
     label, nothing to tell which point was which.  The labels that are alike start with the
-    log's place on the axis and in summary.md and summary.csv (``#2 …``).
+    log's place on the axis and in summary.csv (``#2 …``).
     """
     written = [excerpt(folder, len(folder) * 6)[1:-1] for folder in folders]
 
@@ -272,5 +272,25 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
         names = _log_labels([row.folder for row in rows])
         axes[-1].set_xticklabels(names, rotation=60, fontsize=7)  # long paths: their ends
     else:
-        axes[-1].set_xlabel("log (natural order; summary.csv lists them)")
+        _number_logs(axes[-1], len(rows))
     return fig
+
+
+def _number_logs(ax: Axes, n_rows: int) -> None:
+    """Tick the logs by their number from 1, their row in summary.csv.
+
+    The axis counted the logs' places from 0: its tick ``50`` was the 51st log of the
+    summaries (and ``#51`` of :func:`_log_labels`).
+    """
+    from matplotlib.ticker import MaxNLocator
+
+    numbers = [
+        1,
+        *(
+            int(v)
+            for v in MaxNLocator(steps=[1, 2, 5, 10], integer=True).tick_values(1, n_rows)
+            if 1 < v <= n_rows
+        ),
+    ]
+    ax.set_xticks([k - 1 for k in numbers], [str(k) for k in numbers])
+    ax.set_xlabel("log, numbered as the rows of summary.csv")

@@ -132,3 +132,16 @@ def test_logs_whose_folders_end_alike_are_told_apart():
     assert len(set(labels)) == len(labels) and all(len(label) <= 24 for label in labels)
     assert labels[0].startswith("#1 …") and labels[1].startswith("#2 …")
     assert labels[2:] == ["short.csv", "…er_than_the_label/x.csv"]
+
+
+def test_more_logs_than_names_are_numbered_from_one_as_summary_csv_rows():
+    """The axis of 60 logs counted from 0: its tick 50 was the 51st log of summary.csv."""
+    report = read_report(REPORT)
+    batch = [BatchRow(f"{k}.csv", f"{k}.csv", "done", report, None, ()) for k in range(60)]
+    ticks = summary_figure("model · imm", batch).axes[-1].get_xticklabels()
+    assert [(t.get_position()[0], t.get_text()) for t in ticks][:3] == [
+        (0, "1"),
+        (9, "10"),
+        (19, "20"),
+    ]
+    assert ticks[-1].get_text() == "60" and ticks[-1].get_position()[0] == 59
