@@ -5,8 +5,8 @@ mode ids ``閉じた`` and ``開いた`` were two rows of three identical boxes 
 and a component named ``水槽`` an unreadable y label.  The figures' text goes through
 :func:`hybridlog.report.plot_data.plain_text`, which writes such characters as Python
 escapes (``\u9589``), so that every label stays readable and two different ids never look
-the same.  Imported only for text that is not ASCII, when a figure is drawn: it loads
-matplotlib's font manager.
+the same.  Imported only for text that is not ASCII or holds what reads as such an escape,
+when a figure is drawn: it loads matplotlib's font manager.
 """
 
 from __future__ import annotations
@@ -44,11 +44,22 @@ def escape_undrawable(text: str) -> str:
     r"""``text`` with each character the figures' fonts cannot draw as its escape (``\u9589``).
 
     Characters beyond the Basic Multilingual Plane are written ``\U0001f600``-style, as Python
-    writes them; ASCII is always drawn (the fonts hold it), so it is returned at once.
+    writes them.  Where an escape is written, or the text holds what reads as one (``\u`` or
+    ``\U``), each of its backslashes is written twice, as Python does: the mode ids ``閉`` and
+    ``\u9589`` (six ASCII characters) were drawn alike, as ``\u9589``; now the second is
+    ``\\u9589``.  Any other text is returned as it is (ASCII is always drawn: the fonts hold
+    it).
     """
-    if text.isascii():
+    if not _looks_escaped(text) and all(c.isascii() or drawable(c) for c in text):
         return text
-    return "".join(c if c.isascii() or drawable(c) else _escape(c) for c in text)
+    return "".join(
+        "\\\\" if c == "\\" else c if c.isascii() or drawable(c) else _escape(c) for c in text
+    )
+
+
+def _looks_escaped(text: str) -> bool:
+    r"""Whether ``text`` holds ``\u`` or ``\U``, as each escape of :func:`escape_undrawable`."""
+    return "\\u" in text or "\\U" in text
 
 
 def _escape(character: str) -> str:

@@ -29,6 +29,7 @@ before where they touch, as the run that continues across the boundary joins the
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -70,6 +71,7 @@ __all__ = [
     "time_bins",
     "time_label",
     "time_origin",
+    "time_unit",
 ]
 
 MAX_PANELS = 16
@@ -96,9 +98,11 @@ def plain_text(text: str) -> str:
     A character the figures' fonts cannot draw (``閉``, ``🚰``: matplotlib's fonts have no
     CJK or emoji) is written as its escape, ``\u9589``: drawn, it was an empty box, and two
     ids of as many such characters looked the same (:mod:`hybridlog.report.glyphs`, which
-    loads matplotlib's fonts, is imported only for text that is not ASCII).
+    loads matplotlib's fonts, is imported only for text that is not ASCII or holds ``\u`` or
+    ``\U``); where it writes an escape or the text holds ``\u`` or ``\U``, its backslashes are
+    written twice, so that no text is drawn as another's escape (``\u9589`` as ``\\u9589``).
     """
-    if not text.isascii():
+    if not text.isascii() or "\\u" in text or "\\U" in text:
         from hybridlog.report.glyphs import escape_undrawable
 
         text = escape_undrawable(text)
@@ -128,11 +132,33 @@ def time_origin(start: float, end: float) -> float:
     return 0.0
 
 
-def time_label(origin: float) -> str:
-    """The x label of times drawn from ``origin`` (:func:`time_origin`), in seconds."""
+SHORT_SPAN_S = 1e-3
+"""A time axis spanning less than this (seconds) counts in a smaller unit (:func:`time_unit`)."""
+_PREFIXES = {0: "", -3: "m", -6: "µ", -9: "n", -12: "p", -15: "f"}
+"""SI prefixes of the time axes' units, by the power of ten of a second they stand for."""
+
+
+def time_unit(span: float) -> int:
+    """The power of ten of a second that a time axis spanning ``span`` seconds counts in.
+
+    ``0`` (seconds) for a span of :data:`SHORT_SPAN_S` or more; else the SI prefix's
+    (ms, µs, ns, ps, fs) in which the span reads as at least 1: matplotlib writes a tick
+    below 1e-8 as 0, so every tick of a run of 300 samples 1 ps apart read ``0.00000000000``.
+    """
+    if not span > 0.0 or span >= SHORT_SPAN_S:
+        return 0
+    return max(min(_PREFIXES), 3 * math.floor(math.log10(span) / 3))
+
+
+def time_label(origin: float, unit: int = 0) -> str:
+    """The x label of times drawn from ``origin`` (:func:`time_origin`), in ``10**unit`` s.
+
+    ``unit`` is :func:`time_unit`'s power of ten (0: seconds); ``origin`` is in seconds.
+    """
+    name = f"{_PREFIXES[unit]}s"
     if origin == 0.0:
-        return "t (s)"
-    return f"t − t₀ (s), t₀ = {format_time(origin)} s"
+        return f"t ({name})"
+    return f"t − t₀ ({name}), t₀ = {format_time(origin)} s"
 
 
 _BLOCK = 1 << 16

@@ -56,6 +56,7 @@ from hybridlog.report.plot_data import (
     plain_text,
     reduce_result,
     time_label,
+    time_unit,
 )
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -349,7 +350,8 @@ def _fit_labels_left(fig: Figure, axes: Sequence[Axes]) -> None:
     to the fixed panel width's pixel columns then has bins finer than the narrower panel's,
     which it draws as faithfully): a component's modes (``one_bank_out``), the joint
     assignments (``partly_open|partly_open|closed|closed|full|growth``) and long mode ids
-    were cut off at the fixed margin.
+    were cut off at the fixed margin; so would be the lines of a long output's or state's
+    name (:func:`_name_label`), whose curves are drawn as faithfully.
     Text is measured by the Agg renderer, without a layout pass; the margin is at most half
     the width (mode ids wider than :data:`KEYED_LABELS_WIDTH` are drawn as keys instead:
     :func:`_row_labels`).
@@ -358,6 +360,46 @@ def _fit_labels_left(fig: Figure, axes: Sequence[Axes]) -> None:
     left = min(max(PANEL_LEFT, need / fig.get_figwidth()), 0.5)
     if left > PANEL_LEFT:
         fig.subplots_adjust(left=left)
+
+
+NAME_LABEL_SIZES = (10.0, 8.0, 6.0)
+"""Font sizes (points) a panel's y label naming an output, state or component may take, the
+first whose wrapped lines are at most :data:`NAME_LABEL_LINES` (:func:`_name_label`)."""
+NAME_LABEL_LINES = 4
+"""Most lines a y label naming an output, state or component is wrapped to before its font
+shrinks (at the smallest of :data:`NAME_LABEL_SIZES` it takes as many as it needs)."""
+
+
+def _name_label(fig: Figure, ax: Axes, name: str, suffix: str = "") -> bool:
+    """Label the y axis of ``ax`` with ``name`` (user text) and ``suffix``, within its height.
+
+    A symbol name has no length limit and a component's name may have 64 characters: a
+    75-character output's label, drawn upright at 10 pt, was 2.5 times its panel's height
+    and ran over the labels of the panels beside it and off the figure.  A label longer
+    than the panel is cut into lines that fit it (the name cut anywhere, each line drawn as
+    written, :func:`plain_text`; ``suffix``, hybridlog's own text, ends the last), in a
+    smaller font (:data:`NAME_LABEL_SIZES`) where it would take more than
+    :data:`NAME_LABEL_LINES` lines.  Returns whether it was cut: the figure's left margin
+    must then hold the lines (:func:`_fit_labels_left`).
+    """
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    room = ax.get_window_extent(renderer).height
+    label = ax.yaxis.label
+    ax.set_ylabel(plain_text(name) + suffix)
+    if label.get_window_extent(renderer).height <= room:
+        return False
+    for size in NAME_LABEL_SIZES:
+        width = len(name)
+        while True:
+            lines = [plain_text(name[at : at + width]) for at in range(0, len(name), width)]
+            ax.set_ylabel("\n".join(lines) + suffix, fontsize=size)
+            height = label.get_window_extent(renderer).height
+            if height <= room or width == 1:
+                break
+            width = max(1, min(width - 1, int(width * room / height)))
+        if len(lines) <= NAME_LABEL_LINES:
+            break
+    return True
 
 
 KEYED_LABELS_WIDTH = 0.4
@@ -598,11 +640,21 @@ def label_time_axis(ax: Axes, origin: float) -> None:
     The label names ``origin`` (:func:`~hybridlog.report.plot_data.time_label`; the caller
     draws ``t - origin``, :func:`~hybridlog.report.plot_data.time_origin`), and no tick is
     scaled by a power of ten or offset in the corner: a Unix-time run read ``1.7000`` ...
-    ``1.7010`` over ``1e9``.  Every time axis hybridlog draws is labelled here (the
-    reports' figures, :func:`_time_axis`, and ``hybridlog cluster``'s picture).
+    ``1.7010`` over ``1e9``.  An axis spanning less than a millisecond counts in the unit
+    the label names (ms, µs, ns ...: :func:`~hybridlog.report.plot_data.time_unit`; the
+    ticks of a nanosecond run all read 0).  Every time axis hybridlog draws is labelled
+    here, once its x range is set (the reports' figures, :func:`_time_axis`, and
+    ``hybridlog cluster``'s picture).
     """
-    ax.set_xlabel(time_label(origin))
-    ax.ticklabel_format(axis="x", style="plain", useOffset=False)
+    lo, hi = ax.get_xlim()
+    unit = time_unit(abs(hi - lo))
+    ax.set_xlabel(time_label(origin, unit))
+    if unit == 0:
+        ax.ticklabel_format(axis="x", style="plain", useOffset=False)
+        return
+    # the power of ten fixed (matplotlib's equal power limits), named by the label alone
+    ax.ticklabel_format(axis="x", style="sci", scilimits=(unit, unit), useOffset=False)
+    ax.xaxis.get_offset_text().set_visible(False)
 
 
 def _right_overhang_px(fig: Figure, ax: Axes) -> float:
@@ -649,13 +701,15 @@ def plot_outputs(data: PlotData, path: Path) -> Path:
         _empty(fig, axes[0], "no outputs")
         return _save(fig, path)
     set_time_span(axes[0], data.span)
+    cut = False
     for ax, curves in zip(axes, data.outputs, strict=True):
-        y = plain_text(curves.name)
         unit, in_unit = _panel_unit(curves.measured.values, curves.predicted.values)
         measured, predicted = (_in_unit(c, unit) for c in (curves.measured, curves.predicted))
         draw_curve(ax, measured, lw=0.8, color="0.3", label="measured")
         draw_curve(ax, predicted, lw=0.8, color="tab:blue", ls="--", label="predicted")
-        ax.set_ylabel(y + in_unit)
+        cut = _name_label(fig, ax, curves.name, in_unit) or cut
+    if cut:
+        _fit_labels_left(fig, axes)
     _time_axis(fig, axes[-1], data.time_origin)
     _legend_above(fig, axes)
     return _save(fig, path)
@@ -778,6 +832,7 @@ def plot_states(data: PlotData, path: Path) -> Path:
         _empty(fig, axes[0], "no states")
         return _save(fig, path)
     set_time_span(axes[0], data.span)
+    cut = False
     for ax, curves in zip(axes, data.states, strict=True):
         drawn = [c for c in (curves.truth, curves.estimate, curves.filtered) if c is not None]
         band = () if curves.band is None else curves.band[1:]
@@ -797,7 +852,9 @@ def plot_states(data: PlotData, path: Path) -> Path:
         if curves.filtered is not None:
             filtered = _in_unit(curves.filtered, unit)
             draw_curve(ax, filtered, lw=0.5, ls="--", color="k", label="filtered")
-        ax.set_ylabel(plain_text(curves.name) + in_unit)
+        cut = _name_label(fig, ax, curves.name, in_unit) or cut
+    if cut:
+        _fit_labels_left(fig, axes)
     _time_axis(fig, axes[-1], data.time_origin)
     _legend_above(fig, axes)
     return _save(fig, path)
@@ -849,7 +906,7 @@ def plot_components(data: PlotData, path: Path) -> Path | None:
                 labelled.add(legend)
         if column.filtered is not None:
             _draw_bars(ax, data.edges, column.filtered, height=0.08, color="k", label="filtered")
-        ax.set_ylabel(plain_text(column.name))
+        _name_label(fig, ax, column.name)
         ax.set_ylim(-0.5, n_labels - 0.5)
     joint = axes[-1]
     _draw_bars(joint, data.edges, components.joint, height=0.6, color="0.3", label=components.label)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import io
 import math
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -38,7 +39,7 @@ from hybridlog.report.summary import BatchRow
 __all__ = ["MAX_LABELS", "prepare_summary_figure", "summary_figure", "write_summary_plot"]
 
 MAX_LABELS = 40
-"""Up to this many logs, the x axis names each log; beyond it, it numbers them."""
+"""Up to this many logs, the x axis names each log; beyond it, it numbers them from 1."""
 
 _OK, _MISSED, _FAILED = "#1f77b4", "#d62728", "#d62728"
 _PANELS = (("vaf", "VAF (%)"), ("mode_accuracy", "mode accuracy (%)"), ("mse", "MSE"))
@@ -155,6 +156,36 @@ def _empty_figure(n_rows: int) -> tuple[Figure, list[Axes]]:
     return fig, list(fig.subplots(len(_PANELS), 1, sharex=True, squeeze=False)[:, 0])
 
 
+LABEL_CHARS = 24
+"""Longest name of a log on the x axis; a longer one is shown by its end (:func:`_log_labels`)."""
+
+
+def _log_labels(folders: Sequence[str]) -> list[str]:
+    """The x tick labels of the logs' report folders: each folder's end, the logs told apart.
+
+    A folder is shown as written (control characters escaped: the font has no glyph for
+    them, and matplotlib warned), a longer one than :data:`LABEL_CHARS` by its last
+    characters after ``…``.  Logs of the same name in different folders
+    (``robot_a/2024-05-01/recording.mcap``, ``robot_b/...``) ended alike: two ticks of one
+    label, nothing to tell which point was which.  The labels that are alike start with the
+    log's place on the axis and in summary.csv (``#2 …``).
+    """
+    written = [excerpt(folder, len(folder) * 6)[1:-1] for folder in folders]
+
+    def end(name: str, chars: int) -> str:
+        return name if len(name) <= chars else f"…{name[-(chars - 1) :]}"
+
+    shown = [end(name, LABEL_CHARS) for name in written]
+    alike = Counter(shown)
+    labels = []
+    for k, (name, label) in enumerate(zip(written, shown, strict=True)):
+        if alike[label] > 1:
+            place = f"#{k + 1} "
+            label = place + end(name, max(LABEL_CHARS - len(place), 2))
+        labels.append(plain_text(label))
+    return labels
+
+
 def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     """The figure of ``summary.png``: one panel per key metric over the logs."""
     ready = _READY.pop(len(rows), None)
@@ -238,10 +269,28 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     axes[-1].set_xlim(-0.5, max(len(rows) - 0.5, 0.5))
     if len(rows) <= MAX_LABELS:
         axes[-1].set_xticks(list(positions))
-        # control characters escaped: the font has no glyph for them (matplotlib warned)
-        folders = [excerpt(row.folder, len(row.folder) * 6)[1:-1] for row in rows]
-        names = [plain_text(f"…{name[-23:]}" if len(name) > 24 else name) for name in folders]
+        names = _log_labels([row.folder for row in rows])
         axes[-1].set_xticklabels(names, rotation=60, fontsize=7)  # long paths: their ends
     else:
-        axes[-1].set_xlabel("log (natural order; summary.csv lists them)")
+        _number_logs(axes[-1], len(rows))
     return fig
+
+
+def _number_logs(ax: Axes, n_rows: int) -> None:
+    """Tick the logs by their number from 1, their row in summary.csv.
+
+    The axis counted the logs' places from 0: its tick ``50`` was the 51st log of the
+    summaries (and ``#51`` of :func:`_log_labels`).
+    """
+    from matplotlib.ticker import MaxNLocator
+
+    numbers = [
+        1,
+        *(
+            int(v)
+            for v in MaxNLocator(steps=[1, 2, 5, 10], integer=True).tick_values(1, n_rows)
+            if 1 < v <= n_rows
+        ),
+    ]
+    ax.set_xticks([k - 1 for k in numbers], [str(k) for k in numbers])
+    ax.set_xlabel("log, numbered as the rows of summary.csv")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.report.plot_data import ModeTimelines, reduce_result, time_origin
+from hybridlog.report.plot_data import ModeTimelines, reduce_result, time_origin, time_unit
 from hybridlog.signals import AlignedSignals
 from tests.support.figures import drawn_figures
 
@@ -128,3 +128,25 @@ def test_the_cluster_plot_draws_a_run_in_unix_time_from_its_first_sample(
     assert right.xaxis.get_offset_text().get_text() == ""
     lo, hi = right.get_xlim()
     assert -100.0 < lo < 0.0 and 997.5 < hi < 1100.0, (lo, hi)
+
+
+def test_time_unit_is_seconds_but_for_spans_below_a_millisecond() -> None:
+    assert [time_unit(s) for s in (0.0, 1e-3, 300.0)] == [0, 0, 0]
+    assert [time_unit(s) for s in (5e-4, 2.99e-7, 3e-10, 1e-20)] == [-6, -9, -12, -15]
+
+
+@pytest.mark.parametrize(("start", "label"), [(0.0, "t (ps)"), (5.0, "t − t₀ (ps), t₀ = 5 s")])
+def test_a_run_shorter_than_a_nanosecond_is_ticked_in_picoseconds(
+    start: float, label: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Samples 1 ps apart: matplotlib writes a tick below 1e-8 as 0, so every tick read
+    ``0.00000000000`` and the switches had no time."""
+    run = _retimed(make_run(300), start + np.arange(300) * 1e-12)
+    for name, fig in _figures(monkeypatch, tmp_path, run).items():
+        ax = _time_axes(fig)
+        assert ax.get_xlabel() == label, name
+        assert not ax.xaxis.get_offset_text().get_visible(), name
+        lo, hi = ax.get_xlim()
+        texts = [t.get_text() for t in ax.get_xticklabels() if lo <= t.get_position()[0] <= hi]
+        ticks = [float(text.replace("−", "-")) for text in texts]
+        assert len(set(texts)) == len(texts) >= 3 and 200.0 <= max(ticks) <= 300.0, (name, texts)

@@ -40,6 +40,18 @@ def test_plain_text_is_shown_as_it_is(text: str) -> None:
     assert all(c.isascii() or drawable(c) for c in shown)
 
 
+@given(st.lists(st.text(alphabet=st.sampled_from("閉🚰\\uU9589$a"), max_size=8), unique=True))
+@settings(max_examples=300, deadline=None)
+def test_different_texts_are_never_shown_alike(texts: list[str]) -> None:
+    r"""The mode ids ``閉`` and ``\u9589`` (six ASCII characters) were both drawn ``\u9589``."""
+    from matplotlib.text import Text
+
+    shown = {Text(text=plain_text(text))._preprocess_math(plain_text(text))[0] for text in texts}
+    assert len(shown) == len(texts)
+    assert plain_text("閉") == r"\u9589" and plain_text(r"\u9589") == r"\\u9589"
+    assert plain_text(r"a\b") == r"a\b"  # a backslash that reads as no escape stays single
+
+
 def _run_with_modes(ids: tuple[str, str, str]) -> tuple[EstimationResult, AlignedSignals]:
     result, signals = make_run(300)
     return dataclasses.replace(result, mode_ids=ids), signals

@@ -114,3 +114,34 @@ def test_close_values_are_ticked_as_themselves_not_as_an_offset():
     assert vaf_axes.yaxis.get_offset_text().get_text() == ""
     ticks = [t.get_text() for t in vaf_axes.get_yticklabels() if t.get_text()]
     assert ticks and all(t.startswith("99.99") for t in ticks)
+
+
+def test_logs_whose_folders_end_alike_are_told_apart():
+    """``robot_a/.../recording.mcap`` and ``robot_b/.../recording.mcap`` (24 characters
+    alike at their ends) were two ticks of one label."""
+    report = read_report(REPORT)
+    folders = [
+        "robot_alpha/2024-05-01_morning/recording.mcap",
+        "robot_bravo/2024-05-01_morning/recording.mcap",
+        "short.csv",
+        "a_folder_name_longer_than_the_label/x.csv",
+    ]
+    batch = [BatchRow(f, f, "done", report, None, ()) for f in folders]
+    fig = summary_figure("model · imm", batch)
+    labels = [t.get_text() for t in fig.axes[-1].get_xticklabels()]
+    assert len(set(labels)) == len(labels) and all(len(label) <= 24 for label in labels)
+    assert labels[0].startswith("#1 …") and labels[1].startswith("#2 …")
+    assert labels[2:] == ["short.csv", "…er_than_the_label/x.csv"]
+
+
+def test_more_logs_than_names_are_numbered_from_one_as_summary_csv_rows():
+    """The axis of 60 logs counted from 0: its tick 50 was the 51st log of summary.csv."""
+    report = read_report(REPORT)
+    batch = [BatchRow(f"{k}.csv", f"{k}.csv", "done", report, None, ()) for k in range(60)]
+    ticks = summary_figure("model · imm", batch).axes[-1].get_xticklabels()
+    assert [(t.get_position()[0], t.get_text()) for t in ticks][:3] == [
+        (0, "1"),
+        (9, "10"),
+        (19, "20"),
+    ]
+    assert ticks[-1].get_text() == "60" and ticks[-1].get_position()[0] == 59
