@@ -40,8 +40,12 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         ``regular``, ``repeated``, ``gaps``, ``gap_count``) and ``problems`` (why the time
         column is unusable, if it is).  For bags and MCAP files: ``path, format`` (and an
         MCAP file's ``profile``), ``messages, topics`` (each ``name, type, encoding, count,
-        indexed_count, start, end, duration``, the same step keys, ``nonfinite``, ``values``
-        and ``fields``), ``time`` (``start, end, duration``), ``problems`` and ``reading``.
+        indexed_count, start, end, duration``, the same step keys, ``nonfinite``, ``values``,
+        ``header_stamp`` and ``fields``), ``time`` (``start, end, duration``), ``problems``
+        and ``reading``.  The times are log times; ``header_stamp`` is what ``--time header``
+        reads instead (``start, end``, ``offset``: the median of stamp minus log time,
+        ``count``), ``None`` for a topic without one, and ``problems`` name the stamps that
+        option refuses or that lie a second or more from their log times.
         Only plain ``str``, ``int``, ``float``, ``bool``, ``None``, lists and dicts, so
         ``json.dumps`` takes it as is.
 
@@ -204,6 +208,7 @@ def _format_messages(info: dict[str, Any]) -> str:
         for t in topics
     ]
     lines.extend(_table(header, rows))
+    lines.extend(_stamp_lines(topics))
     irregular = [t for t in topics if t.get("regular") is False]
     if irregular:
         lines.append("")
@@ -263,6 +268,32 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("problems:")
         lines.extend(f"  {p}" for p in problems)
     return "\n".join(lines)
+
+
+def _stamp_lines(topics: list[dict[str, Any]]) -> list[str]:
+    """Each topic's ``header.stamp`` span and offset from its log time, where some topic has one.
+
+    The table's times are log times; these are what ``--time header`` reads instead, so the
+    topics without a stamp, which it refuses, are named too.
+    """
+    stamped = [t for t in topics if t.get("header_stamp")]
+    if not stamped:
+        return []
+    lines = ["", "header.stamp (what --time header reads; the times above are log times):"]
+    for topic in stamped:
+        stamp = topic["header_stamp"]
+        offset = stamp["offset"]
+        lines.append(
+            f"  {_shown(topic['name'])}: {_at(stamp['start'])} s to {_at(stamp['end'])} s, "
+            f"{'-' if offset < 0 else '+' if offset else ''}{_duration(abs(offset))} s "
+            "from its log time (median)"
+        )
+    unstamped = [_shown(t["name"]) for t in topics if not t.get("header_stamp")]
+    if unstamped:
+        lines.append(
+            f"  without a usable header.stamp (--time header refuses them): {', '.join(unstamped)}"
+        )
+    return lines
 
 
 def _gap_lines(entries: list[dict[str, Any]], title: str) -> list[str]:

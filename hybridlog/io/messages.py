@@ -35,6 +35,7 @@ import abc
 import bisect
 import json
 import math
+import operator
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -73,8 +74,9 @@ from hybridlog.io.message_paths import (
     split_paths,
     stamp_ns,
 )
-from hybridlog.io.options import ReadOptions
+from hybridlog.io.options import FAR_STAMP_S, ReadOptions
 from hybridlog.io.source import (
+    NS_PER_S,
     FieldKey,
     LabelSeries,
     Reading,
@@ -456,6 +458,10 @@ class MessageSource(abc.ABC):
             numbers, texts = reader.series()
             numeric_series.update(numbers)
             label_series.update(texts)
+        if header:
+            self._notes["stamp_offsets"] = {
+                name: seconds_of(reader.stamp_offset()) for name, reader in readers.items()
+            }
         return Reading(numeric_series, label_series, dict(self._notes))
 
     def _check_header(self, topic: Topic) -> None:
@@ -497,8 +503,9 @@ class MessageSource(abc.ABC):
         """Summarise the log for ``hybridlog inspect``.
 
         One pass over every topic's messages: their log times are collected, and the
-        messages of topics with fields that can hold NaN or infinities are decoded (512 at a
-        time) to count those values (see :class:`_ValueCounter`).
+        messages of topics with fields that can hold NaN or infinities, or with
+        ``header.stamp``, are decoded (512 at a time) to count those values and read the
+        stamps (see :class:`_ValueCounter`).
 
         Returns
         -------
@@ -509,7 +516,9 @@ class MessageSource(abc.ABC):
             rate over the span, ``sample_time``: the median step, ``min_step``,
             ``max_step``, ``regular``, ``gap_count``, ``gaps``), ``nonfinite`` (NaN and
             infinite values in its fields), ``values`` (per field that can hold them:
-            ``name, count, nonfinite``) and ``fields``), ``time`` (``start, end, duration``
+            ``name, count, nonfinite``), ``header_stamp`` (what ``--time header`` reads:
+            ``start, end, offset, count``, :meth:`_Stamps.describe`; ``None`` for a topic
+            without ``header.stamp``) and ``fields``), ``time`` (``start, end, duration``
             over all messages, or ``None``), ``problems`` and ``reading`` (what reading did,
             e.g. recovery).  Times are seconds as floats.  ``nonfinite`` and ``values`` are
             ``None`` for a topic whose messages cannot be decoded.
@@ -561,12 +570,16 @@ class MessageSource(abc.ABC):
                     f"{topic.count}"
                 )
             values: list[dict[str, Any]] | None = None  # not known: not decodable
+            header_stamp: dict[str, Any] | None = None
             fields = _topic_fields(topic)
             counter = counters.get(name)
             if counter is not None:
                 values = counter.result()
                 if counter.problem is not None:
                     undecodable.append(f"topic {topic.label}: {counter.problem}")
+                elif counter.stamps is not None:
+                    header_stamp, stamp_problems = counter.stamps.describe(self.path)
+                    problems.extend(stamp_problems)
                 # JSON without a schema: the fields its messages hold
                 fields = fields or list(counter.fields)
             topics.append(
@@ -579,6 +592,7 @@ class MessageSource(abc.ABC):
                     **info,
                     "nonfinite": None if values is None else sum(v["nonfinite"] for v in values),
                     "values": values,
+                    "header_stamp": header_stamp,
                     "fields": fields,
                 }
             )
@@ -727,7 +741,9 @@ class _ValueCounter:
     inexact`: beyond 2^53) are looked for too, in ``int64``/``uint64`` fields and JSON
     integers: ``unheld`` maps a field path to the first such value and the time of its message.
     So is a JSON field that holds a number in some messages and text in others, which
-    ``analyze`` refuses as a number at the first text (:meth:`mixed`).
+    ``analyze`` refuses as a number at the first text (:meth:`mixed`).  The messages of a
+    topic that may carry ``header.stamp`` are decoded for their stamps too (``stamps``,
+    :class:`_Stamps`), whether or not it has fields to count.
 
     Parameters
     ----------
@@ -750,6 +766,7 @@ class _ValueCounter:
         self.leaves = float_leaves
         self.wide = wide_leaves
         self.problem: str | None = None
+        self.stamps = _Stamps(topic) if _may_have_stamps(topic) else None
         # field path after the topic -> the first value beyond 2^53 a float64 does not hold
         self.unheld: dict[str, str] = {}
         self._datas: list[bytes] = []
@@ -783,7 +800,9 @@ class _ValueCounter:
 
     def add(self, data: bytes, log_time: int) -> None:
         """Take one serialised message; count a part when :data:`DECODED_AT_ONCE` are held."""
-        if self.problem is not None or (self.leaves == [] and not self.wide):
+        if self.problem is not None or (
+            self.leaves == [] and not self.wide and self.stamps is None
+        ):
             return
         self._datas.append(data)
         self._times.append(log_time)
@@ -831,6 +850,8 @@ class _ValueCounter:
                 f"({err}); its values are not counted"
             )
             return
+        if self.stamps is not None:
+            self.stamps.add(messages, times)
         if self.leaves is None:
             for row, message in enumerate(messages):
                 unheld: dict[str, str] = {}
@@ -883,6 +904,124 @@ class _ValueCounter:
         self.unheld.setdefault(
             path, f"the value {reason} in the message logged at t={format_ns(log_time)} s"
         )
+
+
+def _may_have_stamps(topic: Topic) -> bool:
+    """Whether ``topic``'s messages may carry ``header.stamp`` (its definition does not deny it).
+
+    A ROS message's definition says; a JSON schema that lists no ``header.stamp`` among the
+    properties it lists denies it; a JSON topic without them leaves it to its messages.
+    """
+    if topic.typedefs is not None:
+        try:
+            target = check_path(topic.typedefs, topic.msgtype, HEADER_STAMP)
+        except PathError:
+            return False
+        return target.kind in ("message", "number")
+    if topic.encoding != "json":
+        return False
+    if topic.json_schema is not None:
+        try:
+            _json_kind(topic.json_schema, HEADER_STAMP)
+        except PathError:
+            return False
+    return True
+
+
+class _Stamps:
+    """The ``header.stamp`` of a topic's messages beside their log times, for ``inspect``.
+
+    What ``--time header`` reads (:func:`_read_stamps`): a stamp that is no time ends the
+    reading, ``problem`` saying why in ``analyze``'s words.  A JSON topic whose definition
+    does not list ``header.stamp`` and whose first message has none has no stamps
+    (``absent``), as ``analyze`` refuses it at that message.
+    """
+
+    def __init__(self, topic: Topic) -> None:
+        self.topic = topic
+        self.integers = _integer_stamps(topic)
+        self.stamps: list[IntArray] = []
+        self.log_times: list[IntArray] = []
+        self.problem: str | None = None
+        self.absent = False
+
+    def add(self, messages: list[object], times: list[int]) -> None:
+        """Read the stamps of decoded ``messages``, logged at ``times`` (ns)."""
+        if self.problem is not None or self.absent:
+            return
+        stamps = np.empty(len(messages), dtype=np.int64)
+        try:
+            _read_stamps(messages, stamps, self.integers)
+        except _RowError as err:
+            if not self.stamps and not err.row and not self._listed():
+                self.absent = True  # a JSON topic whose messages carry no stamp
+                return
+            reason = str(err.error)
+            said = f" {reason}" if reason.startswith(("is ", "has ")) else f": {reason}"
+            self.problem = (
+                f"topic {self.topic.name!r}: header.stamp{said} in the message logged at "
+                f"t={format_ns(times[err.row])} s (--time header refuses the topic)"
+            )
+            stamps = stamps[: err.row]  # those read before it
+            times = times[: err.row]
+        self.stamps.append(stamps)
+        self.log_times.append(np.asarray(times, dtype=np.int64))
+
+    def _listed(self) -> bool:
+        """Whether the topic's definition lists ``header.stamp`` (so every message has it)."""
+        schema = self.topic.json_schema
+        if self.topic.typedefs is not None:
+            return True
+        return schema is not None and _json_kind(schema, HEADER_STAMP) is not None
+
+    def describe(self, path: str) -> tuple[dict[str, Any] | None, list[str]]:
+        """A topic's ``header_stamp`` in ``inspect`` (``None``: no stamps) and its problems.
+
+        ``start`` and ``end``: the earliest and latest stamp; ``offset``: the median of stamp
+        minus log time (both in seconds); ``count``: the stamps read.  The problems say what
+        ``--time header`` would refuse or do unasked: stamps left at 0
+        (:func:`_refuse_unset_stamps`), stamps going backwards in log-time order, a stamp
+        that is no time, and stamps further than :data:`FAR_STAMP_S` from the log times.
+        """
+        problems = [] if self.problem is None else [self.problem]
+        log_times = _concat_int(self.log_times)
+        if self.absent or not log_times.size:
+            return None, problems
+        order = np.argsort(log_times, kind="stable")
+        stamps = _concat_int(self.stamps)[order]
+        log_times = log_times[order]
+        offset = _median_offset(stamps, log_times)
+        entry = {
+            "start": seconds_of(stamps.min()),
+            "end": seconds_of(stamps.max()),
+            "offset": seconds_of(offset),
+            "count": int(stamps.size),
+        }
+        name = self.topic.name
+        try:
+            _refuse_unset_stamps(path, name, stamps, log_times)
+        except LogError as err:
+            problems.append(str(err).removeprefix(f"{path}: "))
+            return entry, problems  # zeros among stamps go backwards: said once
+        backwards = np.flatnonzero(np.diff(stamps) < 0) + 1
+        if backwards.size:
+            i = int(backwards[0])
+            problems.append(
+                f"topic {name!r}: header.stamp goes backwards in {backwards.size} of "
+                f"{stamps.size} messages in log-time order (first t={format_ns(int(stamps[i]))} "
+                f"s in the message logged at t={format_ns(int(log_times[i]))} s, after "
+                f"t={format_ns(int(stamps[i - 1]))} s): --time header refuses the topic "
+                "unless --sort"
+            )
+        if abs(offset) >= FAR_STAMP_S * 1_000_000_000:
+            side = "after" if offset > 0 else "before"
+            problems.append(
+                f"topic {name!r}: header.stamp is {format_ns(abs(offset))} s {side} its log "
+                f"time (the median over {stamps.size} messages): another clock than the "
+                "recorder's stamped it (simulated time, another machine's); --time header "
+                "aligns the topic on that clock"
+            )
+        return entry, problems
 
 
 def _first_unheld(messages: list[object], leaf: _DeepLeaf) -> tuple[int, str] | None:
@@ -1116,6 +1255,15 @@ class _TopicReader:
         self.stamps: list[IntArray] = []
         self.count = 0
 
+    def stamp_offset(self) -> int:
+        """The median of ``header.stamp`` minus log time over the topic's messages (ns).
+
+        The delay from stamp to recorder, or the gap between their clocks: ``--time header``
+        aligns topics whose offsets differ by :data:`~hybridlog.io.options.FAR_STAMP_S` or
+        more on clocks that disagree (report.md says so).
+        """
+        return _median_offset(_concat_int(self.stamps), _concat_int(self.log_times))
+
     def want(self, text: str, path: MessagePath, kind: str) -> None:
         if not any(w.text == text and w.kind == kind for w in self.wanted):
             self.wanted.append(_Wanted(text, path, kind))
@@ -1135,6 +1283,7 @@ class _TopicReader:
         json = self.topic.encoding == "json"
         present = [np.ones(count, dtype=np.bool_) if json else None for _ in self.wanted]
         stamps = np.empty(count, dtype=np.int64) if self.header else None
+        integers = stamps is not None and _integer_stamps(self.topic)
         for first in range(0, count, DECODED_AT_ONCE):
             try:
                 messages = self._decode(datas[first : first + DECODED_AT_ONCE])
@@ -1165,7 +1314,7 @@ class _TopicReader:
                     ) from None
             if stamps is not None:
                 try:
-                    _read_stamps(messages, stamps[part])
+                    _read_stamps(messages, stamps[part], integers)
                 except _RowError as err:
                     reason = str(err.error)  # "is 1.7e+18 s ...", or what the path lacks
                     said = f" {reason}" if reason.startswith(("is ", "has ")) else f": {reason}"
@@ -1478,11 +1627,14 @@ class _TopicReader:
         if backwards.any():
             if self.header and not sort:
                 i = int(np.argmax(backwards)) + 1
+                # both messages named: either may be the odd one (a log time left 0 puts a
+                # message first, whose stamp the next message's then seems to undercut)
                 raise LogError(
                     f"{source.path}: {what}: header.stamp goes backwards{among} "
                     f"(t={format_ns(int(time_ns[i]))} s in the message logged at "
                     f"t={format_ns(int(log_times[i]))} s, after "
-                    f"t={format_ns(int(time_ns[i - 1]))} s); --sort puts messages in time order"
+                    f"t={format_ns(int(time_ns[i - 1]))} s in the one logged at "
+                    f"t={format_ns(int(log_times[i - 1]))} s); --sort puts messages in time order"
                 )
             order = np.argsort(time_ns, kind="stable")
             if sort:
@@ -1607,8 +1759,53 @@ def _json_required(schema: Mapping[str, Any], steps: Sequence[Step]) -> bool:
     return False
 
 
-def _read_stamps(messages: list[object], out: IntArray) -> None:
-    """Fill ``out`` with the messages' ``header.stamp``; a :class:`_RowError` names a bad one."""
+def _median_offset(stamps: IntArray, log_times: IntArray) -> int:
+    """The (lower) median of ``stamps - log_times`` in whole nanoseconds; 0 for none."""
+    if stamps.size == 0:
+        return 0
+    return int(np.sort(stamps - log_times)[(stamps.size - 1) // 2])
+
+
+_STAMP_INTEGERS = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32"))
+"""Types of ``sec``/``nanosec`` whose values NumPy reads at C speed, exact and in range."""
+_STAMP_SEC = operator.attrgetter("header.stamp.sec")
+_STAMP_NANOSEC = operator.attrgetter("header.stamp.nanosec")
+
+
+def _integer_stamps(topic: Topic) -> bool:
+    """Whether ``topic``'s definition makes ``header.stamp`` ``sec`` and ``nanosec`` integers.
+
+    ROS 1 ``time`` and ROS 2 ``builtin_interfaces/Time`` (rosbags decodes both so): their
+    stamps are read a batch at a time (:func:`_read_stamps`), where ``np.fromiter`` would
+    truncate a float and parse a string of another definition.
+    """
+    if topic.typedefs is None:
+        return False
+    try:
+        return all(
+            check_path(topic.typedefs, topic.msgtype, (*HEADER_STAMP, name)).type_name
+            in _STAMP_INTEGERS
+            for name in ("sec", "nanosec")
+        )
+    except PathError:
+        return False
+
+
+def _read_stamps(messages: list[object], out: IntArray, integers: bool = False) -> None:
+    """Fill ``out`` with the messages' ``header.stamp``; a :class:`_RowError` names a bad one.
+
+    With ``integers`` (:func:`_integer_stamps`) the seconds and nanoseconds are read at C
+    speed (a third of ``inspect``'s time on a ``PointStamped`` log, read one by one); a
+    nanosecond count that is no fraction of a second sends the part through
+    :func:`~hybridlog.io.message_paths.stamp_ns`, which names it.
+    """
+    if integers:
+        count = len(messages)
+        sec = np.fromiter(map(_STAMP_SEC, messages), dtype=np.int64, count=count)
+        nanosec = np.fromiter(map(_STAMP_NANOSEC, messages), dtype=np.int64, count=count)
+        if bool(((nanosec >= 0) & (nanosec < NS_PER_S)).all()):
+            out[:] = sec * NS_PER_S + nanosec  # |sec| < 2^32: within int64 and the grid
+            return
     for row, message in enumerate(messages):
         try:
             out[row] = stamp_ns(evaluate(message, HEADER_STAMP))

@@ -27,6 +27,17 @@ RESAMPLE_METHODS: tuple[str, ...] = ("nearest", "linear")
 #: Where sample times come from: the recorder's log time, or each message's ``header.stamp``.
 TIME_SOURCES: tuple[str, ...] = ("log", "header")
 
+FAR_STAMP_S = 1.0
+"""How far ``header.stamp`` may lie from the log time before another clock is said to set it.
+
+The median over a topic's messages of stamp minus log time is the delay from the stamp (a
+sensor's reading, a publisher's clock) to the recorder.  Delivery on one machine or a
+network takes milliseconds, a sensor's processing a fraction of a second; a second or more
+says another clock than the recorder's stamped the messages (simulated time from 0, where
+log times are Unix times 1.7e9 s on, or an unsynchronised machine).  ``inspect`` names such
+a topic; ``analyze --time header`` warns when the mapped topics' medians differ by this
+much (their samples aligned on clocks that disagree)."""
+
 
 def check_resample(resample: str) -> Resample:
     """``resample`` as a method name, or :class:`OptionError` naming the choices."""

@@ -15,10 +15,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog import __version__
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, excerpt
 from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.io.options import FAR_STAMP_S
 from hybridlog.report import metrics
 from hybridlog.report.document import (
     ComponentSide,
@@ -954,6 +955,37 @@ def _reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     return (*notes, *log_reading_notes(reading))
 
 
+def _stamp_clock_notes(offsets: Mapping[str, float]) -> list[str]:
+    """A WARNING where ``--time header`` aligned topics stamped by clocks that disagree.
+
+    ``offsets``: each mapped topic's median of ``header.stamp`` minus log time
+    (``reading.stamp_offsets``).  Messages logged together whose stamps' offsets differ by
+    :data:`~hybridlog.io.options.FAR_STAMP_S` or more were stamped by different clocks (one
+    simulated from 0, one a Unix time; two machines not synchronised), and are aligned as
+    far apart as those clocks are: 1.7e9 s held an input's last sample over the whole log,
+    with no word of why.
+    """
+    if len(offsets) < 2:
+        return []
+    latest = max(offsets, key=lambda topic: offsets[topic])
+    earliest = min(offsets, key=lambda topic: offsets[topic])
+    spread = offsets[latest] - offsets[earliest]
+    if spread < FAR_STAMP_S:
+        return []
+    times = offsets.values()
+    each = ", ".join(
+        f"{excerpt(topic)} {'+' if offset > 0 else ''}{format_duration(offset, *times)} s"
+        for topic, offset in sorted(offsets.items(), key=lambda item: -item[1])
+    )
+    return [
+        f"WARNING: --time header: the topics' header stamps disagree by "
+        f"{format_duration(spread, *times)} s against their log times (stamp minus "
+        f"log time, the median: {each}): different clocks stamped them (simulated time, "
+        "another machine's), and their samples are aligned that far apart; --time log aligns "
+        "them as they were recorded"
+    ]
+
+
 def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """What :func:`_reading_notes` says of how the log was read but for the bridged signals.
 
@@ -970,6 +1002,7 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         "when it changes is (zero-order hold)"
         for symbol, hold in (reading.get("held") or {}).items()
     ]
+    notes += _stamp_clock_notes(reading.get("stamp_offsets") or {})
     dropped = reading.get("jitter_held") or {}
     notes += [
         f"NOTE: {signal} was recorded once per sample time by a clock that jitters (samples "

@@ -130,7 +130,12 @@ def test_inspect_lists_every_topic_of_a_foreign_bag(tmp_path: Path) -> None:
     assert topics["/pump/cmd"]["rate_hz"] == pytest.approx(0.2)
     assert "/levels.point.x" in topics["/levels"]["fields"]
     assert "/sim/state.data[]" in topics["/sim/state"]["fields"]
-    assert info["problems"] == []
+    assert topics["/levels"]["header_stamp"]["offset"] == 0.0
+    # the scene's IMU stamps five messages a step alike, the first five at 0 s
+    assert info["problems"] == [
+        "topic '/imu': header.stamp is 0 in 5 of 455 messages (first logged at t=0 s): the "
+        "publisher did not set it; use --time log"
+    ]
 
 
 def _signals(log: Path) -> Any:
