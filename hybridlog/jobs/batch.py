@@ -55,6 +55,7 @@ from hybridlog.errors import (
     OptionError,
     OutputError,
     ReportError,
+    as_name,
     as_text,
     excerpt,
 )
@@ -1265,8 +1266,9 @@ def _summarise(
     """
     rows = [
         BatchRow(
-            log=as_text(o.log),  # a name that is not UTF-8: its bytes as \xNN
-            folder=as_text(Path(o.folder).relative_to(root).as_posix()),
+            # a byte that is not UTF-8 as \xNN, a backslash \\: no two logs read alike
+            log=as_name(o.log),
+            folder=as_name(Path(o.folder).relative_to(root).as_posix()),
             status=o.status,
             report=o.report,
             error=None if o.error is None else as_text(o.error),
@@ -1298,7 +1300,7 @@ def _summarise(
         [f"{g.option} {g.spec}" for g in gates],
         compared,
         gated,
-        others=[as_text(name) for name in others],
+        others=[as_name(name) for name in others],
     )
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:
