@@ -197,6 +197,25 @@ def as_text(text: object) -> str:
         return shown.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
+def as_name(path: object) -> str:
+    r"""``path`` as text that UTF-8 can hold and that no other name reads as.
+
+    As :func:`as_text` (a byte that is not UTF-8 written ``\xNN``), with each backslash of
+    the name written ``\\`` (as ``ls -b`` writes it), so that the escapes written for what
+    a summary's format cannot hold (that byte; a control character in JUnit XML or
+    Markdown, ``\x01``; a line break in Markdown, ``\n``) never read as another log's name:
+    the logs ``ctl\x01.csv``, named with a control character, and ``ctl\\x01.csv``, named
+    with a backslash, were one test case of a batch's JUnit file and one name in
+    summary.md, summary.csv and its gate lines.
+
+    Examples
+    --------
+    >>> as_name("run\udcff.csv"), as_name("run\\xff.csv")
+    ('run\\xff.csv', 'run\\\\xff.csv')
+    """
+    return as_text(str(path).replace("\\", "\\\\"))
+
+
 def arithmetic_reason(err: BaseException) -> str:
     """Why a computation failed, as a person reads it: ``Numerical result out of range``.
 

@@ -40,6 +40,7 @@ import json
 import os
 import shutil
 import threading
+import uuid
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -55,6 +56,7 @@ from hybridlog.errors import (
     OptionError,
     OutputError,
     ReportError,
+    as_name,
     as_text,
     excerpt,
 )
@@ -318,9 +320,18 @@ class BatchJob:
     msg_dir_stamps: tuple[str, ...] = ()
     """:func:`~hybridlog.jobs.provenance.folder_stamp` of each ``--msg-dir`` when the batch
     hashed them: each log checks them cheaply (:func:`_check_unchanged`)."""
+    run: str = ""
+    """This run of the batch (a random token), recorded beside the provenance (key
+    ``batch.run``) and not compared by a later run: a log's task that Dask ran a second
+    time, its first result lost with a worker that died before the client collected it,
+    finds the report its first run wrote, and the log is ``done``, as it is without Dask,
+    not ``skipped`` (:func:`_reusable`)."""
 
     def provenance(self, log_sha256: str) -> dict[str, Any]:
-        """What a report of this batch for a log of this content records (key ``batch``)."""
+        """What a report of this batch for a log of this content records (key ``batch``).
+
+        The key also holds :attr:`run`, which a later run does not compare.
+        """
         return {
             "log_sha256": log_sha256,
             "model_sha256": self.model_sha256,
@@ -521,7 +532,10 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
             f"{folder} holds a report of {report.estimator} with model {report.model}; "
             "use --force to replace it, or another --out",
         )
-    if report.extra.get(PROVENANCE_KEY) != job.provenance(log_sha256):
+    recorded = report.extra.get(PROVENANCE_KEY)
+    recorded = dict(recorded) if isinstance(recorded, dict) else {}
+    run = recorded.pop("run", None)
+    if recorded != job.provenance(log_sha256):
         return None
     if not _intact(folder):
         return None  # redone: replaced if only a file is gone, refused if one was edited
@@ -529,7 +543,9 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
     gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []
     if _wants_plots(job, gates, report) and not (folder / "plots").is_dir():
         return None
-    return LogOutcome(log, str(folder), "skipped", report, None)
+    # written by this very run: the log's task run again (on Dask) is the log analysed now
+    status = "done" if job.run and run == job.run else "skipped"
+    return LogOutcome(log, str(folder), status, report, None)
 
 
 def _enclosing_report(folder: Path) -> Path | None:
@@ -628,7 +644,7 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
             table_format=job.table_format,
             force=True,
             reading=reading,
-            extra={**warm.values, PROVENANCE_KEY: job.provenance(log_sha256)},
+            extra={**warm.values, PROVENANCE_KEY: {**job.provenance(log_sha256), "run": job.run}},
             plots=_plots(job, warm.gates),
             model=warm.model,
         )
@@ -1117,6 +1133,7 @@ def _plan(
         smooth=smooth,
         mode_sequence=mode_sequence,
         offline=prepared.offline,
+        run=uuid.uuid4().hex,
     )
     # the folder itself first (not a file, not a link): its summaries are checked as in it
     check_dir_target(root, force=True, replacing=False)
@@ -1265,8 +1282,9 @@ def _summarise(
     """
     rows = [
         BatchRow(
-            log=as_text(o.log),  # a name that is not UTF-8: its bytes as \xNN
-            folder=as_text(Path(o.folder).relative_to(root).as_posix()),
+            # a byte that is not UTF-8 as \xNN, a backslash \\: no two logs read alike
+            log=as_name(o.log),
+            folder=as_name(Path(o.folder).relative_to(root).as_posix()),
             status=o.status,
             report=o.report,
             error=None if o.error is None else as_text(o.error),
@@ -1298,7 +1316,7 @@ def _summarise(
         [f"{g.option} {g.spec}" for g in gates],
         compared,
         gated,
-        others=[as_text(name) for name in others],
+        others=[as_name(name) for name in others],
     )
     targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     if junit is not None:

@@ -480,10 +480,14 @@ def run_on_dask(
                 k = index[future.key]
                 if future.status == "finished":
                     results[k] = future.result()
+                elif future.status != "error":
+                    # lost since it finished, with the worker that held its result: Dask
+                    # runs it again (its error was 'NoneType: None', a log that did not fail)
+                    pending.add(future)
+                    continue
                 else:
                     error = future.exception()
-                    reason = " ".join(f"{type(error).__name__}: {error}".split())
-                    reason = f"on the Dask cluster: {excerpt(reason, 200)[1:-1]}"
+                    reason = f"on the Dask cluster: {_task_error(error)}"
                     lost = type(error).__name__ == "KilledWorker" or failed is None
                     results[k] = died(k, reason) if lost else cast(Any, failed)(k, reason)
                 # let go of it: held, its result would be computed again (its log analysed
@@ -498,6 +502,23 @@ def run_on_dask(
     finally:
         client.close()
         quiet.setLevel(level)
+
+
+def _task_error(error: BaseException) -> str:
+    """Why Dask could not run a log's task, in one short line.
+
+    Dask's ``KilledWorker`` is said by what it holds (how many workers died running the task,
+    the last one's address): its own words, 400 characters naming the task's key and a web
+    page, were cut in the middle to fit the log's error, through ``all those workers died``.
+    """
+    if type(error).__name__ == "KilledWorker" and len(error.args) == 3:
+        _, last, allowed = error.args
+        address = excerpt(getattr(last, "address", last), 60)[1:-1]
+        return (
+            f"each of the {allowed + 1} workers that ran it died, the last {address}; "
+            "Dask gave up on it (KilledWorker): see that worker's log"
+        )
+    return excerpt(" ".join(f"{type(error).__name__}: {error}".split()), 200)[1:-1]
 
 
 def _ended(workers: Workers, why: str, how_far: str) -> OptionError:

@@ -300,14 +300,15 @@ def _csv_cell(value: object) -> object:
 
 @dataclass(frozen=True)
 class BatchRow:
-    """One log of a batch, as its summaries show it.
+    r"""One log of a batch, as its summaries show it.
 
     Attributes
     ----------
     log:
-        The log's path as given.
+        The log's path as given, as :func:`~hybridlog.errors.as_name` writes it (a byte
+        that is not UTF-8 ``\xNN``, a backslash ``\\``).
     folder:
-        Its report folder, relative to the batch folder.
+        Its report folder, relative to the batch folder (written the same way).
     status:
         ``done``, ``skipped`` (an earlier report of the same run reused) or ``failed``.
     report:

@@ -1,0 +1,65 @@
+"""Logs whose names differ only where a summary escapes a character keep reading apart."""
+
+from __future__ import annotations
+
+import csv
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from markdown_it import MarkdownIt
+
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import run_batch
+from tests.support.logfiles import tank_run
+
+# CommonMark with GitHub's tables: how a CI job summary shows summary.md
+PARSER = MarkdownIt("commonmark").enable("table")
+
+
+def _first_column(markdown: str) -> list[str]:
+    """The text of the first cell of each body row of the Markdown's tables."""
+    tokens = PARSER.parse(markdown)  # a row: tr_open, td_open, inline, td_close, ...
+    return [
+        "".join(child.content for child in tokens[k + 2].children or [])
+        for k in range(len(tokens) - 2)
+        if tokens[k].type == "tr_open" and tokens[k + 1].type == "td_open"
+    ]
+
+
+def test_a_name_with_a_control_character_or_byte_and_its_escaped_spelling_stay_two_logs(
+    tmp_path: Path,
+) -> None:
+    r"""``ctl\x01.csv`` (a control character) and ``ctl\\x01.csv`` (a backslash) were one
+    test case of junit.xml (the same classname and name, which CI systems merge) and one
+    name in summary.md, summary.csv and the gate lines; so were a name with the byte 0xff
+    and one spelled ``\xff``."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    names = [
+        "ctl\x01.csv",
+        "ctl\\x01.csv",
+        os.fsdecode(b"m\xff.csv"),
+        "m\\xff.csv",
+    ]
+    for name in names:
+        write_table(logs / name, tank_run(steps=20, seed=1).columns)
+    junit = tmp_path / "junit.xml"
+    outcome = run_batch(
+        [logs / name for name in names],
+        "three_tank_hstf",
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        fail_over=["mse=0"],
+        junit=junit,
+    )
+    assert [o.status for o in outcome.logs] == ["done"] * 4
+    classnames = [case.get("classname") for case in ET.parse(junit).getroot().iter("testcase")]
+    assert len(set(classnames)) == 4, classnames
+    with (tmp_path / "out" / "summary.csv").open(encoding="utf-8", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert len({row["log"] for row in rows}) == len({row["folder"] for row in rows}) == 4
+    markdown = (tmp_path / "out" / "summary.md").read_text(encoding="utf-8")
+    shown = _first_column(markdown)
+    assert len(shown) == 4 and len(set(shown)) == 4, shown
+    assert len({line.split(": mse")[0] for line in outcome.gate_failures}) == 4
