@@ -886,7 +886,8 @@ def analyze_command(
     _say(ctx, f"report: {_path_text(outcome.out_dir / 'report.md')}")
     settings = ctx.find_object(_Context)
     if not (settings is not None and settings.quiet):  # every kind, as batch and compare count
-        from hybridlog.report.summary import WARNING_PREFIX, warning_notes
+        from hybridlog.report.markdown import WARNING_PREFIX
+        from hybridlog.report.summary import warning_notes
 
         for warning in warning_notes(report):
             text = warning.removeprefix(WARNING_PREFIX)
@@ -898,12 +899,14 @@ def analyze_command(
 def _echo_unused_samples(report: Report) -> None:
     """A line on stderr per note of ``report`` saying samples of the log are not used.
 
-    A log sampled at twice the model's rate loses every other sample: report.md said so in
-    a NOTE, the terminal nothing.
+    A log sampled at twice the model's rate loses every other sample, and ``--split-gaps``
+    analyses the longest piece alone: report.md said so in a NOTE, the terminal nothing,
+    under a summary line that read as the whole log's.
     """
-    from hybridlog.report.build import unused_sample_notes
+    from hybridlog.report.build import unanalysed_span_notes, unused_sample_notes
 
-    for note in unused_sample_notes(report.reading):
+    reading = report.reading
+    for note in [*unused_sample_notes(reading), *unanalysed_span_notes(reading)]:
         click.echo(_one_line(f"hybridlog: note: {note.removeprefix('NOTE: ')}"), err=True)
 
 
@@ -1398,7 +1401,7 @@ def _summary_line(report: Report) -> str:
     if scored_outputs and min(scored_outputs) < report.samples - 1:  # row 0 is the prior
         # a VAF over 73 of 399 predictions read like the whole log's (a gap, a late start)
         text += f" (over {min(scored_outputs):,} of {report.samples - 1:,} predicted samples)"
-    text += f", mode accuracy {percent(_percent(report.modes.accuracy), 1)}"
+    text += _mode_accuracy_text(report, percent(_percent(report.modes.accuracy), 1))
     scored = report.modes.samples
     if report.modes.accuracy is not None and scored is not None and scored < report.samples:
         text += f" (over the {plural(scored, 'sample')} with a true mode)"
@@ -1413,6 +1416,25 @@ def _summary_line(report: Report) -> str:
     if fallbacks is not None and fallbacks.samples:  # part of the "smoothed" estimate is not
         text += f"; {fallbacks.summary()}"
     return text
+
+
+def _mode_accuracy_text(report: Report, shown: str) -> str:
+    """``, mode accuracy 99.0 %``; of a ``[components]`` model, which accuracy it is.
+
+    There it is the share of samples with every component's mode right, and ``n/a`` where the
+    log has the true mode of only some components, each of which report.md scores: ``mode
+    accuracy n/a`` read as a log without any true mode.
+    """
+    modes = report.modes
+    if not (modes.components or modes.components_without_truth):
+        return f", mode accuracy {shown}"
+    if modes.accuracy is None and modes.components:
+        scored = ", ".join(modes.components)
+        return (
+            f", mode accuracy (every component right) n/a: the log has the true mode of only "
+            f"some components ({scored}: each scored in report.md)"
+        )
+    return f", mode accuracy (every component right) {shown}"
 
 
 def _percent(fraction: float | None) -> float | None:

@@ -998,7 +998,12 @@ def compare(
         ]
         (folder / "comparison.md").write_text(
             comparison_markdown(
-                f"{model.name} on {as_text(log)}", table, reports, failures, sections=sections
+                f"{model.name} on {as_text(log)}",
+                table,
+                reports,
+                failures,
+                sections=sections,
+                gates=[f"{g.option} {g.spec}" for g in gates],
             ),
             encoding="utf-8",
         )

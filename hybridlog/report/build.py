@@ -54,6 +54,7 @@ __all__ = [
     "check_compatible",
     "jsonable",
     "log_reading_notes",
+    "unanalysed_span_notes",
     "unused_sample_notes",
 ]
 
@@ -898,6 +899,76 @@ def unused_sample_notes(reading: Mapping[str, Any] | None) -> list[str]:
     return notes
 
 
+def unanalysed_span_notes(reading: Mapping[str, Any] | None) -> list[str]:
+    """The notes of report.md saying that a stretch of the log's time was not analysed.
+
+    A signal that started the analysed span late or ended it early (``span``), the pieces
+    ``--split-gaps`` left out (``segments``) and the ends ``--drop-nonfinite`` cut off
+    (``nonfinite_span``).  ``analyze`` and ``compare`` print them on the terminal, as
+    :func:`unused_sample_notes`: the line ``imm on run.csv: 141 samples ..., mode accuracy
+    100.0 %`` of a 301-sample log split at a gap read as the whole log's, the 139 s left out
+    said only at the end of report.md.
+    """
+    reading = reading or {}
+    return [
+        *_span_notes(reading),
+        *_segment_notes(reading),
+        *_nonfinite_span_notes(reading),
+    ]
+
+
+def _span_notes(reading: Mapping[str, Any]) -> list[str]:
+    notes = []
+    for side, bound in (reading.get("span") or {}).items():
+        first = side == "start"
+        notes.append(
+            f"NOTE: the analysed span {side}s at t = {format_time(bound['at'])} s, the "
+            f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
+            f"outputs {'begin at' if first else 'run on to'} t = {format_time(bound['log'])} s: "
+            f"{format_duration(bound['left_out'], bound['at'], bound['log'])} s of the log "
+            "not analysed"
+        )
+    return notes
+
+
+def _segment_notes(reading: Mapping[str, Any]) -> list[str]:
+    segments = reading.get("segments")
+    if not segments:
+        return []
+    # report.json lists the first pieces and gaps only, each counted (io.align._listed)
+    analysed = reading["analysed_segment"]
+    kept = reading.get("analysed") or segments[analysed]
+    others = [p for i, p in enumerate(segments) if i != analysed]
+    pieces = int(reading.get("segment_count", len(segments)))
+    gaps = reading.get("gaps") or []
+    gap_count = int(reading.get("gap_count", len(gaps)))
+    span = f"t = {format_time(kept['start'])} … {format_time(kept['end'])} s"
+    return [
+        f"NOTE: --split-gaps: {plural(gap_count, 'output gap')} longer than max_gap "
+        f"({_spans(gaps, total=gap_count)}) "
+        + (
+            f"cut the log into {pieces:,} pieces; the longest is analysed, "
+            f"{span}; not analysed: {_spans(others, total=pieces - 1)}"
+            if pieces > 1  # else the gaps are at the ends: one piece, and they are left out
+            else f"left out; analysed: {span}"
+        )
+    ]
+
+
+def _nonfinite_span_notes(reading: Mapping[str, Any]) -> list[str]:
+    notes = []
+    for side, moved in (reading.get("nonfinite_span") or {}).items():
+        first = side == "start"
+        notes.append(
+            f"NOTE: the analysed span {side}s at t = {format_time(moved['at'])} s, the "
+            f"{'first' if first else 'last'} sample --drop-nonfinite kept of {moved['signal']}: "
+            f"it dropped the {plural(moved['dropped'], 'sample')} "
+            f"{'before' if first else 'after'} it ({'from' if first else 'to'} "
+            f"t = {format_time(moved['from'])} s)"
+        )
+    return notes
+
+
 SLOWER_STEPS = 1.25
 """A bridged output whose median sample step is this many steps of dt or more is published
 at a slower rate than the model's (:func:`bridged_cause`)."""
@@ -1044,35 +1115,8 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         "true value)"
         for label, late in (reading.get("truth_starts") or {}).items()
     ]
-    for side, bound in (reading.get("span") or {}).items():
-        first = side == "start"
-        notes.append(
-            f"NOTE: the analysed span {side}s at t = {format_time(bound['at'])} s, the "
-            f"{'first' if first else 'last'} sample of {bound['signal']}; the inputs and "
-            f"outputs {'begin at' if first else 'run on to'} t = {format_time(bound['log'])} s: "
-            f"{format_duration(bound['left_out'], bound['at'], bound['log'])} s of the log "
-            "not analysed"
-        )
-    segments = reading.get("segments")
-    if segments:
-        # report.json lists the first pieces and gaps only, each counted (io.align._listed)
-        analysed = reading["analysed_segment"]
-        kept = reading.get("analysed") or segments[analysed]
-        others = [p for i, p in enumerate(segments) if i != analysed]
-        pieces = int(reading.get("segment_count", len(segments)))
-        gaps = reading.get("gaps") or []
-        gap_count = int(reading.get("gap_count", len(gaps)))
-        span = f"t = {format_time(kept['start'])} … {format_time(kept['end'])} s"
-        notes.append(
-            f"NOTE: --split-gaps: {plural(gap_count, 'output gap')} longer than max_gap "
-            f"({_spans(gaps, total=gap_count)}) "
-            + (
-                f"cut the log into {pieces:,} pieces; the longest is analysed, "
-                f"{span}; not analysed: {_spans(others, total=pieces - 1)}"
-                if pieces > 1  # else the gaps are at the ends: one piece, and they are left out
-                else f"left out; analysed: {span}"
-            )
-        )
+    notes += _span_notes(reading)
+    notes += _segment_notes(reading)
     for key, what in (
         ("nonfinite_dropped", "--drop-nonfinite dropped NaN or infinite samples"),
         ("out_of_range_dropped", "--drop-nonfinite dropped out-of-range samples"),
@@ -1081,15 +1125,7 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ):
         if key in reading:
             notes.append(f"NOTE: {what}: {_counts(reading[key])}")
-    for side, moved in (reading.get("nonfinite_span") or {}).items():
-        first = side == "start"
-        notes.append(
-            f"NOTE: the analysed span {side}s at t = {format_time(moved['at'])} s, the "
-            f"{'first' if first else 'last'} sample --drop-nonfinite kept of {moved['signal']}: "
-            f"it dropped the {plural(moved['dropped'], 'sample')} "
-            f"{'before' if first else 'after'} it ({'from' if first else 'to'} "
-            f"t = {format_time(moved['from'])} s)"
-        )
+    notes += _nonfinite_span_notes(reading)
     # a table's rows (counts; a message log's duplicates are counted per topic, never merged)
     combined, dropped = reading.get("rows_combined", 0), reading.get("duplicates_dropped", 0)
     merged = combined - (dropped if isinstance(dropped, int) else 0)

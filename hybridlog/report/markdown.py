@@ -22,6 +22,7 @@ __all__ = [
     "DEFINITIONS",
     "FIXED_LIMIT",
     "MAX_LISTED_SWITCHES",
+    "WARNING_PREFIX",
     "code_span",
     "duration",
     "escape_markdown",
@@ -34,6 +35,11 @@ __all__ = [
 
 MAX_LISTED_SWITCHES = 50
 """``report.md`` lists at most this many true switches (``report.json`` has all of them)."""
+
+
+WARNING_PREFIX = "WARNING: "
+"""How a note that warns starts (report.json's ``notes``): report.md lists such notes under
+"Warnings", first after the run's facts, and the summaries count them."""
 
 
 FIXED_LIMIT = 1e12
@@ -236,6 +242,7 @@ def render_markdown(report: Report) -> str:
         f"t = {format_time(report.t_start)} … {format_time(report.t_end)} s",
         *_fields_line(report.reading),
         f"- hybridlog {report.hybridlog_version}",
+        *_warnings_lines(report.notes),
         "",
         "## Outputs",
         "",
@@ -306,12 +313,27 @@ def render_markdown(report: Report) -> str:
     ]
     if report.compile_s is not None:
         lines.append(f"- compilation: {duration(report.compile_s)}")
-    if report.notes:
+    notes = [note for note in report.notes if not note.startswith(WARNING_PREFIX)]
+    if notes:
         lines += ["", "## Notes", ""]
-        lines += [f"- {escape_markdown(note)}" for note in report.notes]
+        lines += [f"- {escape_markdown(note)}" for note in notes]
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
     return "\n".join(lines) + "\n"
+
+
+def _warnings_lines(notes: tuple[str, ...]) -> list[str]:
+    """The "Warnings" section: the notes that warn, first after the run's facts.
+
+    At the end of the notes, after the runtime, a reader of the tables above took their
+    numbers at face value: a scaled sensor's innovations, a true mode with a gap, an output
+    bridged across gaps.  Each warning is written whole, ``WARNING:`` included, as the notes
+    of report.json hold it; the other notes stay under "Notes".
+    """
+    warnings = [note for note in notes if note.startswith(WARNING_PREFIX)]
+    if not warnings:
+        return []
+    return ["", "## Warnings", "", *(f"- {escape_markdown(note)}" for note in warnings)]
 
 
 def _fields_line(reading: Mapping[str, Any] | None) -> list[str]:

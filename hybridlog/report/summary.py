@@ -36,7 +36,13 @@ from typing import TYPE_CHECKING
 
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.gates import metric as report_metric
-from hybridlog.report.markdown import FIXED_LIMIT, escape_markdown, plural
+from hybridlog.report.markdown import (
+    FIXED_LIMIT,
+    WARNING_PREFIX,
+    code_span,
+    escape_markdown,
+    plural,
+)
 
 if TYPE_CHECKING:
     from hybridlog.estimators.result import Fallbacks
@@ -166,6 +172,7 @@ def comparison_markdown(
     failures: Mapping[str, str] | None = None,
     *,
     sections: Sequence[str] = (),
+    gates: Sequence[str] = (),
 ) -> str:
     """``comparison.md``: the table, where each report is, and the notes.
 
@@ -174,18 +181,21 @@ def comparison_markdown(
     ``failures``: the estimators whose run failed (no report), each with its reason, listed
     under "Failed estimators" as a batch's summary lists its failed logs.  The estimators
     whose report warns are listed under "Warnings", the first warning each
-    (:func:`warnings_section`).  ``sections``: Markdown lines put after the failed
-    estimators (:mod:`hybridlog.report.comparison`: the samples each number is over, why a
-    cell is ``n/a``).
+    (:func:`warnings_section`), right after the failed ones.  ``sections``: Markdown lines
+    put after those (:mod:`hybridlog.report.comparison`: the samples each number is over,
+    why a cell is ``n/a``).  ``gates``: the CI gates as given (``--fail-under fit=50``),
+    named under the table as summary.md names them: its ``gates`` column's ``pass (2)`` did
+    not say which two.
     """
     failures = failures or {}
     lines = [f"# {escape_markdown(title)}", "", table, ""]
+    if gates:
+        lines += ["Gates: " + ", ".join(code_span(gate) for gate in gates) + ".", ""]
     lines += [f"- `{name}`: [{name}/report.md]({name}/report.md)" for name in reports]
     if failures:
         count = f"{len(failures)} of {len(reports) + len(failures)}"
         lines += ["", f"## Failed estimators ({count})", ""]
         lines += [f"- `{name}`: {escape_markdown(why)}" for name, why in failures.items()]
-    lines += sections
     shared = common_notes(reports.values()) if len(reports) > 1 else []
     every = "Notes on every estimator"
     lines += warnings_section(
@@ -194,6 +204,7 @@ def comparison_markdown(
         kind="estimator",
         every=every,
     )
+    lines += sections
     if shared:
         lines += ["", f"## {every}", ""]
         lines += [f"- {escape_markdown(note)}" for note in shared]
@@ -212,10 +223,6 @@ def common_notes(reports: Iterable[Report]) -> list[str]:
         return []
     others = [set(report.notes) for report in reports[1:]]
     return [note for note in dict.fromkeys(reports[0].notes) if all(note in o for o in others)]
-
-
-WARNING_PREFIX = "WARNING: "
-"""How a note that warns starts (report.md and report.json's ``notes``)."""
 
 
 def warning_notes(report: Report | None) -> list[str]:
@@ -741,7 +748,11 @@ def batch_markdown(
 
     ``rows`` come in natural order; the table lists the logs that could not be analysed,
     then those that missed a gate, then the others, each group in that order, with the gate
-    results per log.  Fit for a CI job summary (GitHub-flavoured Markdown).
+    results per log.  Right after it come why each failed log failed, the gates each log
+    missed and the logs with warnings; then the rest (the logs scored over part of their
+    length, the offline pass, the notes every log has): a CI job summary of a batch with an
+    offline pass put a failed log's error under its comparison of the two sides.  Fit for a
+    CI job summary (GitHub-flavoured Markdown).
     ``offline``: the metrics compared when the run has an offline pass
     (:func:`offline_metrics`; ``None`` otherwise): the table then has the filter's own mode
     accuracy beside the offline one, and a section compares the two sides over the batch
@@ -790,17 +801,6 @@ def batch_markdown(
     if gates:
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
     lines += ["", table]
-    lines += _partial_section(rows)
-    if offline is not None:
-        lines += _offline_section(rows, offline)
-    shared = common_notes(row.report for row in rows if row.report is not None)
-    lines += _notes_section(shared)
-    lines += warnings_section(
-        [(escape_markdown(row.log), row.report) for row in rows],
-        shared,
-        kind="analysed log",
-        every=NOTES_ON_EVERY_LOG,
-    )
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
         lines += [
@@ -812,6 +812,17 @@ def batch_markdown(
             f"- {escape_markdown(row.log)}: {escape_markdown('; '.join(row.missed))}"
             for row in missed
         ]
+    shared = common_notes(row.report for row in rows if row.report is not None)
+    lines += warnings_section(
+        [(escape_markdown(row.log), row.report) for row in rows],
+        shared,
+        kind="analysed log",
+        every=NOTES_ON_EVERY_LOG,
+    )
+    lines += _partial_section(rows)
+    if offline is not None:
+        lines += _offline_section(rows, offline)
+    lines += _notes_section(shared)
     if others:
         lines += [
             "",

@@ -24,14 +24,15 @@ NOTES = [
 ]
 
 
-def _notes_shown(markdown: str) -> list[str]:
-    """The text of each list item under a ``## Notes`` heading; markup in one fails the test."""
+def _notes_shown(markdown: str, *headings: str) -> list[str]:
+    """The text of each list item under a ``## Notes`` heading (or one of ``headings``: a
+    report.md's warnings are under ``## Warnings``); markup in one fails the test."""
     tokens = PARSER.parse(markdown)
     shown: list[str] = []
     in_notes = False
     for before, token in pairwise(tokens):
         if before.type == "heading_open":
-            in_notes = token.content.startswith("Notes")
+            in_notes = token.content.startswith(headings or ("Notes",))
         elif in_notes and before.type == "paragraph_open" and token.type == "inline":
             kinds = {child.type for child in token.children or []}
             assert kinds <= {"text"}, (token.content, kinds)
@@ -53,7 +54,7 @@ def _shown(note: str) -> str:
 @pytest.mark.parametrize("note", NOTES)
 def test_a_note_in_report_md_and_comparison_md_shows_the_text_it_was_given(note: str) -> None:
     report = _report((note, "plain"))
-    assert _notes_shown(render_markdown(report)) == [_shown(note), "plain"]
+    assert _notes_shown(render_markdown(report), "Notes", "Warnings") == [_shown(note), "plain"]
     both = comparison_markdown("m on run.csv", "", {"imm": report, "hstf": report})
     assert _notes_shown(both) == [_shown(note), "plain"]  # the notes both have, once
 
