@@ -373,10 +373,12 @@ def _state_caveats(report: Report) -> list[str]:
             or not why.startswith(NO_TRUE_STATE_REASON)
         )
     ]
+    # the warnings say which estimates were not finite or not estimated, where there are any
+    warned = any(note.startswith(WARNING_PREFIX) for note in report.notes)
+    see = ": see the warnings" if warned else ""
     caveats += [
         f"- {escape_markdown(x)}: RMSE over {s.samples:,} of {report.samples:,} samples; the "
-        "others have no true value, or no estimate of it (not finite, or not estimated: "
-        "see the warnings)"
+        f"others have no true value, or no estimate of it (not finite, or not estimated{see})"
         for x, s in report.states.items()
         if s.samples and s.samples < report.samples
     ]

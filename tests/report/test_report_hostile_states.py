@@ -52,6 +52,16 @@ def test_an_rmse_over_part_of_the_run_says_over_how_many_samples(known: int) -> 
     assert json.loads(report.to_json())["states"]["x1"] == {"rmse": state.rmse, "samples": known}
 
 
+def test_the_partial_rmse_line_points_at_warnings_only_where_there_are_some() -> None:
+    truth = np.full(N, np.nan)
+    truth[: N // 2] = 1.0
+    report, _ = _report(truth)
+    assert not any(note.startswith("WARNING: ") for note in report.notes)
+    assert "see the warnings" not in render_markdown(report)
+    warned = dataclasses.replace(report, notes=(*report.notes, "WARNING: x1 was not estimated"))
+    assert "(not finite, or not estimated: see the warnings)" in render_markdown(warned)
+
+
 def _no_truth() -> tuple[np.ndarray, None]:
     return np.full(N, np.nan), None
 
