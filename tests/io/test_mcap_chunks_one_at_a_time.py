@@ -24,9 +24,7 @@ def chunked_mcap(path: Path, count: int) -> Path:
         writer = Writer(handle, chunk_size=64)
         writer.start(profile="", library="test")  # not ros2: the mcap library reads it
         schema = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
-        channels = [
-            writer.register_channel(topic, "cdr", schema) for topic in ("/u", "/camera")
-        ]
+        channels = [writer.register_channel(topic, "cdr", schema) for topic in ("/u", "/camera")]
         for k in range(count):
             data = b"\x00\x01\x00\x00" + struct.pack("<d", float(k))
             for channel in channels:
