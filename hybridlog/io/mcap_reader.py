@@ -335,6 +335,39 @@ def _sequential_messages(handle: IO[bytes], topics: set[str]) -> Iterator[tuple[
                 yield topic, record.log_time, record.data
 
 
+def _chunked_messages(
+    handle: IO[bytes], summary: Any, topics: set[str]
+) -> Iterator[tuple[str, int, bytes]]:
+    """``(topic, log time, data)`` of the messages on ``topics`` in a chunked file, in file order.
+
+    What the mcap library's ``SeekingReader.iter_messages(log_time_order=False)`` yields, in
+    the same order (the summary's chunks, each chunk's records in turn), holding one chunk at
+    a time: the library queues each chunk's messages behind the chunks still to read, so it
+    read every chunk before it yielded a message -- ``analyze`` of a 77 MB file of
+    2.9·10^6 messages took 1.2 GB, ``inspect`` of a 1.9 GB file 5.1 GB.  Chunks that
+    index none of the topics' channels are not read.
+
+    Raises
+    ------
+    Exception
+        Whatever the mcap library raises on a damaged chunk (a CRC that does not match).
+    """
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk, Message
+    from mcap.stream_reader import breakup_chunk
+
+    wanted = {key: c.topic for key, c in summary.channels.items() if c.topic in topics}
+    for index in summary.chunk_indexes:
+        listed = index.message_index_offsets
+        if listed and wanted.keys().isdisjoint(listed):
+            continue
+        handle.seek(index.chunk_start_offset + 1 + 8)  # past the opcode and record length
+        chunk = Chunk.read(ReadDataStream(handle))
+        for record in breakup_chunk(chunk, validate_crc=True):
+            if isinstance(record, Message) and record.channel_id in wanted:
+                yield wanted[record.channel_id], record.log_time, record.data
+
+
 def count_readable(path: Path) -> tuple[int, str]:
     """Messages a sequential read gets out of ``path`` before it stops, and why it stops."""
     from mcap.records import Message
@@ -670,6 +703,10 @@ class McapSource(MessageSource):
         self._handle.seek(0)
         if not self._sequential:
             reader = SeekingReader(self._handle, validate_crcs=True)
+            summary = reader.get_summary()
+            if summary is not None and summary.chunk_indexes:
+                yield from _chunked_messages(self._handle, summary, topics)
+                return
             messages = reader.iter_messages(topics=frozenset(topics), log_time_order=False)
             for _, channel, message in messages:
                 yield channel.topic, message.log_time, message.data

@@ -36,6 +36,7 @@ import bisect
 import json
 import math
 import operator
+from array import array
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -528,7 +529,8 @@ class MessageSource(abc.ABC):
             ``None`` for a topic whose messages cannot be decoded.
         """
         problems = list(self._problems)
-        times: dict[str, list[int]] = {name: [] for name in self._topics}
+        # 8 bytes a message: a list of Python integers took 40 (160 MB more for 4.4e6)
+        times = {name: array("q") for name in self._topics}
         counters = {
             name: counter
             for name, topic in self._topics.items()
@@ -552,7 +554,7 @@ class MessageSource(abc.ABC):
         start, end = None, None
         for name in sorted(self._topics):
             topic = self._topics[name]
-            stamps = np.sort(np.asarray(times[name], dtype=np.int64))
+            stamps = np.sort(np.frombuffer(times.pop(name), dtype=np.int64))
             info = _describe_times(stamps)
             if stamps.size:
                 first, last = int(stamps[0]), int(stamps[-1])

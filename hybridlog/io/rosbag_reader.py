@@ -182,7 +182,7 @@ class BagSource(MessageSource):
 
     def _open(self) -> None:
         if self._ros1:
-            from rosbags.rosbag1 import Reader as Ros1Reader
+            from hybridlog.io.ros1_index import Ros1Reader
 
             reader: Any = Ros1Reader(self._file)
             reader.open()
