@@ -254,9 +254,12 @@ def _imm_steps(
             if keep_likelihoods:
                 store.log_likelihoods[k + 1, j] = log_likelihood
         out.surprise[row] = nearest if nearest < np.inf and left < m else np.nan
-        if not normalize_log(log_posterior, mu):
+        weighed = normalize_log(log_posterior, mu)
+        if not weighed:
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
+        if not weighed:  # no mode's S positive definite: no update exists (as unrolled)
+            x[:] = np.nan
         record(out, row, argmax(mu), mu, x, P)
         if keep_states and k == n_samples - 2:  # the last row; the others get the mixing
             for i in range(n_q):

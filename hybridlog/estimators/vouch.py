@@ -402,8 +402,10 @@ def _why(
     """Why the step into sample ``row`` from the estimate ``before`` of the sample before broke.
 
     The first expression of the model's modes (``f``, its Jacobian, then ``h`` and its
-    Jacobian at the predicted state) that is not finite there, or a variance past
-    :data:`HUGE_VARIANCE` at the sample before; empty when neither explains it.  With
+    Jacobian at the predicted state) that is not finite there, a variance past
+    :data:`HUGE_VARIANCE` at the sample before, a derivative that swamps the variances
+    (:func:`_precision_lost`), or every mode's innovation covariance singular in double
+    precision (:func:`_innovation_singular`); empty when none explains it.  With
     ``combined`` (the HSTF, whose eq. (12) takes every mode's ``∂h/∂x`` at the mean of the
     modes' predictions) also ``∂h/∂x`` there (:func:`_combined_not_finite`).
     """
@@ -423,6 +425,9 @@ def _why(
                 "covariance, or the estimator's options)"
             )
     found = _precision_lost(model, signals, row, before, variance)
+    if found:
+        return found
+    found = _innovation_singular(model, signals, row, before, variance)
     if found:
         return found
     if _evaluable(model, signals, row):
@@ -604,6 +609,63 @@ def _precision_lost(
     expression = _expression(model, index, name, flat, value, at, inputs)
     product = "F P Fᵀ" if name == "F" else "H P Hᵀ"
     return f"{expression}: {product} = {size:.3g} swamps variances of {smallest:.3g}"
+
+
+def _innovation_singular(
+    model: HybridModel,
+    signals: AlignedSignals,
+    row: int,
+    before: FloatArray,
+    variance: FloatArray | None,
+) -> str:
+    """Every mode's innovation covariance singular in double precision on the step into ``row``.
+
+    The EKF update (paper 000 eqs. (9)-(11)) factorises ``S = H P⁻ Hᵀ + R`` with
+    ``P⁻ = F P Fᵀ + Q``; where ``H P⁻ Hᵀ`` is more than ``1/ε`` times ``R`` and has a null
+    direction (two outputs measuring one state: a prior variance of ``1e20`` beside a
+    measurement noise of ``1e-10``), ``R`` is lost in its rounding and ``S`` is singular
+    as computed: no mode's update, and so no mode probability, exists.  ``P`` is taken as
+    the variances of the sample before (its diagonal).  The mode whose ``S`` is nearest to
+    singular, when every mode's is singular at :data:`ROUNDING`; empty otherwise.
+    """
+    if variance is None or not np.isfinite(variance).all():
+        return ""
+    step = _step(model, signals, row, before)
+    if step is None:
+        return ""
+    P = np.diag(variance)
+    worst: tuple[float, int, float, float] | None = None
+    with np.errstate(all="ignore"):
+        for index, mode in enumerate(model.modes):
+            _, F, _, H = step.mode(index)
+            S = H @ (F @ P @ F.T + mode.process_noise) @ H.T
+            R = mode.measurement_noise
+            values = np.linalg.eigvalsh(S + R) if np.isfinite(S).all() else None
+            if values is None:
+                return ""
+            largest = float(np.abs(values).max())
+            ratio = float(values.min()) / largest if largest > 0.0 else 1.0
+            if ratio > S.shape[0] * ROUNDING:
+                return ""
+            if worst is None or ratio < worst[0]:
+                worst = (ratio, index, float(np.linalg.eigvalsh(R).min()), largest)
+    if worst is None:
+        return ""
+    _, index, smallest_r, largest = worst
+    return (
+        f"every mode's innovation covariance H P Hᵀ + R is singular in float64 (mode "
+        f"{excerpt(model.modes[index].id)}: {largest:.3g} rounds away R's {smallest_r:.3g}), "
+        f"from variances {_point_variances(model, variance)} at the sample before: the "
+        "model's [initial] covariance and [noise] are too far apart for double precision"
+    )
+
+
+def _point_variances(model: HybridModel, variance: FloatArray) -> str:
+    """``x1 1e+20, ...``: the variances of the first :data:`MAX_SHOWN` states."""
+    return ", ".join(
+        f"{name} {value:.3g}"
+        for name, value in zip(model.states[:MAX_SHOWN], variance[:MAX_SHOWN], strict=False)
+    )
 
 
 def _expression(
