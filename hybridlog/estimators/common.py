@@ -474,7 +474,14 @@ def run_filter_chunks(
                     runtime_s=runtime,
                     compile_s=compile_s,
                 )
-                check_result(model, signals, result, first=chunk.first, before=before)
+                check_result(
+                    model,
+                    signals,
+                    result,
+                    first=chunk.first,
+                    before=before,
+                    surprise=filled.surprise,
+                )
                 check_surprise(model, signals, result, filled.surprise, first=chunk.first)
                 if chunk.stop > chunk.first:  # the next chunk's diagnosis starts from here
                     before = filled.state_means[-1].copy()

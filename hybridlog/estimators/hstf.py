@@ -278,7 +278,7 @@ def _hstf_steps(
                 distance = 0.0  # vec_m holds L⁻¹ γ
                 for b in range(m):
                     distance += vec_m[b] * vec_m[b]
-                if distance < nearest:
+                if distance < nearest and log_likelihood[i] > -np.inf:  # S = ∞ weighs nothing
                     nearest = distance
             else:
                 log_likelihood[i] = -np.inf
@@ -488,7 +488,8 @@ def generate_hstf_source(model: HybridModel, *, masked: bool = False) -> str:
         ll, distance = p.gaussian_log_density_and_distance(f"ll{i}_", gamma_u[i], Ls)  # (34)
         if measured is not None:  # the measured sub-vector's density (kernels.measured_log_density)
             p.emit(f"{ll} = {ll} + 0.5 * left * LOG_2PI")
-        p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
+        # NaN: no distance; nor where S = ∞ weighs nothing (log-likelihood -∞, as the loop)
+        p.emit(f"if not ({distance} < math.inf and {ll} > -math.inf): {distance} = math.inf")
         distances.append(distance)
         p.minus_inf_if_nan(ll)
         log_likelihood.append(ll)

@@ -238,7 +238,7 @@ def _imm_steps(
                 distance = 0.0  # vec_m holds L⁻¹ γ (0 for an output left out)
                 for b in range(m):
                     distance += vec_m[b] * vec_m[b]
-                if distance < nearest:
+                if distance < nearest and log_likelihood > -np.inf:  # S = ∞ weighs nothing
                     nearest = distance
                     if keep_whitened:  # L⁻¹ γ of the nearest mode (FilterBuffers.whitened)
                         for b in range(m):
@@ -522,7 +522,11 @@ def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
         if measured is not None:  # the measured sub-vector's density (kernels.measured_log_density)
             p.emit(f"{log_likelihood} = {log_likelihood} + 0.5 * left * LOG_2PI")
             z = [p.assign("wz", f"{term(z[b])} if {measured[b]} else math.nan") for b in range(m)]
-        p.emit(f"if not {distance} < math.inf: {distance} = math.inf")  # NaN: no distance
+        # NaN: no distance; nor where S = ∞ weighs nothing (log-likelihood -∞, as the loop)
+        p.emit(
+            f"if not ({distance} < math.inf and {log_likelihood} > -math.inf): "
+            f"{distance} = math.inf"
+        )
         distances.append(distance)
         whitened.append(z)
         p.minus_inf_if_nan(log_likelihood)

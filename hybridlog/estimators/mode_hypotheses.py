@@ -416,23 +416,25 @@ def follow_path(
     path: IntArray,
     means: FloatArray,
     covariances: FloatArray,
-) -> None:
+) -> int:
     """The EKF that follows one mode path: ``x̂(k|k)``, ``P(k|k)`` into ``means``, ``covariances``.
 
     The best hypothesis' own filter, computed again along its path (the search keeps only
     modes and back pointers): prediction with ``f, F`` of ``path[k]`` from ``x̂(k−1|k−1)``,
-    update with ``h, H`` (Joseph form).  Where ``S`` is not positive definite the
-    prediction stands.  Row 0 is the prior.  Each covariance is kept PSD (:func:`keep_psd`):
-    along one path of a plant without process noise the covariance shrinks geometrically into
-    the subnormal range, where the rounding of the update left a variance of -1e-323 beside
-    others of 1e-320 (double_cart_case2, 1,200 samples: ``--mode-sequence kbest`` was
-    refused as a diverged filter at sample 1123).
+    update with ``h, H`` (Joseph form).  Returns the first sample measuring an output
+    where ``S`` is not finite and positive definite (no update exists; the prediction is
+    written there and the caller refuses the run), or -1.  Row 0 is the prior.  Each
+    covariance is kept PSD (:func:`keep_psd`): along one path of a plant without process noise
+    the covariance shrinks geometrically into the subnormal range, where the rounding of the
+    update left a variance of -1e-323 beside others of 1e-320 (double_cart_case2, 1,200 samples:
+    ``--mode-sequence kbest`` was refused as a diverged filter at sample 1123).
     """
     inputs, outputs, Q, R, x0, P0, _ = run
     n_samples, m = outputs.shape
     n = x0.shape[0]
+    unweighed = -1
     if n_samples == 0:
-        return
+        return unweighed
     means[0] = x0
     covariances[0] = P0
     work = workspace(n, m)
@@ -449,13 +451,21 @@ def follow_path(
         predict(f, F, h, H, j, means[k - 1], covariances[k - 1], inputs[k - 1], inputs[k],
                 outputs[k], Q[j], x_pred, P_pred, H_j, gamma, scratch)  # fmt: skip
         R_j = R[j]
-        if left_out(outputs[k]):  # an update on the measured outputs alone
+        left = left_out(outputs[k])
+        if left:  # an update on the measured outputs alone
             leave_out_unmeasured(outputs[k], H_j, gamma, R_j, R_left)
             R_j = R_left
-        if not kalman_update(x_pred, P_pred, H_j, R_j, gamma, work, means[k], covariances[k]):
+        positive = kalman_update(x_pred, P_pred, H_j, R_j, gamma, work, means[k], covariances[k])
+        if positive:
+            for b in range(m):
+                positive = positive and work.L[b, b] < np.inf
+        if not positive:
             means[k] = x_pred
             covariances[k] = P_pred
+            if unweighed < 0 and left < m:
+                unweighed = k
         keep_psd(covariances[k], shifted, factor)
+    return unweighed
 
 
 def smooth_path(

@@ -1263,7 +1263,9 @@ def _kbest(
     compile_start = time.perf_counter()
     follow = compile_for(follow_path, followed) if jit else follow_path
     compile_s += time.perf_counter() - compile_start
-    follow(*followed)
+    unweighed = follow(*followed)
+    if unweighed >= 0:
+        _refuse_unweighed_path(model, signals, path, unweighed)
     if smooth:
         smoothed = (compiled.f, compiled.F, run, path, means, covariances, fallbacks)
         compile_start = time.perf_counter()
@@ -1279,6 +1281,28 @@ def _kbest(
             covariances=covariances if result.covariances is not None else None,
         ),
         compile_s,
+    )
+
+
+def _refuse_unweighed_path(
+    model: HybridModel, signals: AlignedSignals, path: IntArray, row: int
+) -> None:
+    """Refuse a ``kbest`` path whose EKF cannot weigh the measurement of sample ``row``.
+
+    There the innovation covariance ``S = H P Hᵀ + R`` of the path's mode, from the path's
+    own prior, is not finite and positive definite in double precision (paper 000 eq. (9)):
+    no update exists, and its prediction would stand in for an estimate of the log
+    (:func:`~hybridlog.estimators.mode_hypotheses.follow_path`).
+    """
+    from hybridlog.errors import DivergenceError, excerpt
+    from hybridlog.times import format_time
+
+    raise DivergenceError(
+        f"{model.origin or model.name}: imm (mode_sequence kbest) cannot weigh the measurement "
+        f"at t = {format_time(signals.time[row])} s (sample {row}) along its most likely mode "
+        f"path: mode {excerpt(model.modes[int(path[row])].id)}'s innovation covariance "
+        "H P Hᵀ + R is not finite and positive definite in double precision there, so no "
+        "update exists"
     )
 
 

@@ -300,24 +300,42 @@ def check_result(
     unpredicted: bool = False,
     first: int = 0,
     before: FloatArray | None = None,
+    surprise: FloatArray | None = None,
 ) -> None:
     """Refuse ``result`` when it holds a number nobody can vouch for (:func:`first_flaw`).
 
     ``first`` is the log's row of the result's row 0 (a chunk of a streamed run) and
-    ``before`` the state estimate of the row before it, for the diagnosis.
+    ``before`` the state estimate of the row before it, for the diagnosis.  A filter's
+    ``surprise`` (:class:`~hybridlog.estimators.common.FilterBuffers`) also refuses a
+    measured sample that no mode could weigh (:func:`_first_unweighed`) before any flaw (a
+    flaw of the same sample is said with its cause, :func:`_why`, which names an expression
+    that is not finite there or the innovation covariance that is singular).
 
     Raises
     ------
     DivergenceError
-        ``<model file>: <estimator> diverged at t = <t> s (sample <k>): <what>[; <why>]``.
+        ``<model file>: <estimator> diverged at t = <t> s (sample <k>): <what>[; <why>]``,
+        or ``... cannot weigh the measurement at t = <t> s (sample <k>): ...``.
     """
     flaw = first_flaw(result, variances=variances, unpredicted=unpredicted, first=first)
-    if flaw is None:
+    unweighed = -1 if surprise is None else _first_unweighed(signals, surprise, first)
+    if unweighed >= 0 and (flaw is None or unweighed < flaw.row):
+        at, what = (
+            unweighed,
+            (
+                "no mode's innovation covariance H P Hᵀ + R is finite and positive definite in "
+                "double precision, so no mode probability or update exists there"
+            ),
+        )
+        verb = "cannot weigh the measurement at"
+    elif flaw is not None:
+        at, what, verb = flaw.row, flaw.what, "diverged at"
+    else:
         return
-    row = first + flaw.row
-    if flaw.row > 0:
-        before = result.state_means[flaw.row - 1]
-        variance = result.state_variances[flaw.row - 1] if variances else None
+    row = first + at
+    if at > 0:
+        before = result.state_means[at - 1]
+        variance = result.state_variances[at - 1] if variances else None
     else:
         variance = None
     why = (
@@ -326,10 +344,33 @@ def check_result(
         else ""
     )
     raise DivergenceError(
-        f"{model.origin or model.name}: {result.estimator} diverged at t = "
-        f"{format_time(result.time[flaw.row])} s (sample {row}): {flaw.what}"
-        + (f"; {why}" if why else "")
+        f"{model.origin or model.name}: {result.estimator} {verb} t = "
+        f"{format_time(result.time[at])} s (sample {row}): {what}" + (f"; {why}" if why else "")
     )
+
+
+def _first_unweighed(signals: AlignedSignals, surprise: FloatArray, first: int) -> int:
+    """The first row measuring an output where no mode's likelihood weighed it (-1: none).
+
+    There every mode's innovation covariance ``S = H P Hᵀ + R`` (paper 000 eq. (9)) was not
+    positive definite, or overflowed to infinity, as computed in double precision: no mode's
+    likelihood, and so no mode probability and no update, exists.  The filters' loops kept
+    the modes' predictions and the predicted mode probabilities (``h = 1e200*x``: every
+    sample; the IMM's generic loop, past 8 modes, where every ``S`` was singular), which
+    nobody can vouch for as an estimate of the log.  Such a row's ``surprise`` is NaN though
+    an output was measured (the prior's row 0 and the rows measuring nothing have none).
+    ``first`` is the log's row of ``surprise``'s row 0.
+    """
+    rows = np.flatnonzero(np.isnan(surprise))
+    if first == 0:
+        rows = rows[rows > 0]
+    if rows.size == 0:
+        return -1
+    outputs = signals.outputs[first + rows]
+    if signals.unmeasured_outputs is not None:  # a stand-in value is not a measurement
+        outputs = np.where(signals.unmeasured_outputs[first + rows], np.nan, outputs)
+    measured = ~np.isnan(outputs).all(axis=1)
+    return int(rows[int(np.argmax(measured))]) if bool(measured.any()) else -1
 
 
 def surprise_limit(n_outputs: int) -> float:
