@@ -160,6 +160,11 @@ def input_signal(
     return values
 
 
+def input_hint(name: str) -> str:
+    """What to write for an input ``simulate`` has no signal for (docs/model_files.md)."""
+    return f'write {name} = "..." (an expression of t and k) under [simulation.inputs]'
+
+
 def input_signals(model: HybridModel, time: FloatArray) -> FloatArray:
     """Inputs ``u(k)`` from the model's ``[simulation.inputs]`` expressions of ``t`` and ``k``."""
     functions = input_functions(model)
@@ -167,7 +172,8 @@ def input_signals(model: HybridModel, time: FloatArray) -> FloatArray:
     for name in model.inputs:
         if name not in functions:
             raise ModelError(
-                f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with"
+                f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with; "
+                f"{input_hint(name)}"
             )
         columns.append(input_signal(model, name, functions[name], time))
     if not columns:

@@ -411,7 +411,7 @@ def _overrides(
 
 def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) -> FloatArray:
     """``u(k)`` of the inputs ``[simulation.inputs]`` gives; the controller fills the rest."""
-    from hybridlog.simulate import input_signal
+    from hybridlog.simulate import input_hint, input_signal
 
     functions = input_functions(model)
     inputs = np.zeros((time.shape[0], model.n_inputs))
@@ -421,7 +421,7 @@ def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) 
         if name not in functions:
             raise ModelError(
                 f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with "
-                "(nor simulation.controller.inputs)"
+                f"(nor simulation.controller.inputs); {input_hint(name)}"
             )
         inputs[:, j] = input_signal(model, name, functions[name], time)
     return inputs

@@ -57,6 +57,40 @@ def test_readme_tour_runs_as_written(tmp_path):
     assert (tmp_path / "ci_summary.md").read_text().startswith("# Batch: three_tank_hstf")
 
 
+def docs_commands():
+    """The ``hybridlog`` lines of docs/*.md's command blocks (a study script's are not run)."""
+    commands = []
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        fence = None  # the info string of the block a line is in
+        for line in page.read_text().replace("\\\n", " ").splitlines():
+            if line.startswith("```"):
+                fence = line[3:].strip() if fence is None else None
+                continue
+            command = line.partition("  #")[0].strip()
+            if fence in ("", "sh") and command.startswith("hybridlog "):
+                commands.append((page.name, command))
+    return commands
+
+
+def test_the_docs_pages_commands_run_as_written(tmp_path):
+    """docs/bioplex.md's commands ran nowhere: the tour's test reads README.md alone."""
+    assert {page for page, _ in docs_commands()} >= {"bioplex.md"}
+    shutil.copytree(ROOT / "sample_logs", tmp_path / "sample_logs")
+    env = dict(os.environ)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
+    for page, command in docs_commands():
+        done = subprocess.run(
+            ["bash", "-c", command],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            check=False,
+            timeout=300,
+        )
+        assert done.returncode == 0, f"{page}: {command}\n{done.stdout}\n{done.stderr}"
+
+
 def test_the_ci_recipe_runs_the_tested_commands():
     """The CI recipe's YAML runs exactly the commands of a tested ```sh block."""
     text = (ROOT / "README.md").read_text()
