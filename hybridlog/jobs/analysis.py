@@ -53,7 +53,12 @@ from hybridlog.memory import check_fits, reserved
 from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
-from hybridlog.report import Report, evaluate_gates, parse_gates, validate_gates
+from hybridlog.report import (
+    Report,
+    parse_gates,
+    recorded_failures,
+    validate_gates,
+)
 from hybridlog.report.comparison import (
     reach_section,
     sample_counts,
@@ -753,8 +758,9 @@ def analyze(
         reading=reading,
         extra=run_values(model, prepared, overrides.parameter_texts),
         model=model,
+        gates=gates,
     )
-    return Outcome(report=report, out_dir=out_dir, gate_failures=evaluate_gates(report, gates))
+    return Outcome(report=report, out_dir=out_dir, gate_failures=recorded_failures(report))
 
 
 @dataclass(frozen=True)
@@ -981,10 +987,11 @@ def compare(
                     reading=reading,
                     extra=run_values(model, estimator, overrides.parameter_texts),
                     model=model,
+                    gates=gates,
                 )
             except _RunFailedError as failed:  # a result: the others are still compared
                 failures[estimator.name] = failed.reason
-        missed = {name: evaluate_gates(report, gates) for name, report in reports.items()}
+        missed = {name: recorded_failures(report) for name, report in reports.items()}
         names = [p.name for p in prepared]
         columns, rows = _comparison_rows(names, reports, failures, gates, missed)
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side

@@ -17,7 +17,13 @@ if TYPE_CHECKING:
     from hybridlog.outputs import atomic_output_dir
     from hybridlog.report.build import build_report
     from hybridlog.report.document import Report, read_report
-    from hybridlog.report.gates import Gate, evaluate_gates, parse_gates, validate_gates
+    from hybridlog.report.gates import (
+        Gate,
+        evaluate_gates,
+        parse_gates,
+        recorded_failures,
+        validate_gates,
+    )
     from hybridlog.report.markdown import render_markdown
     from hybridlog.report.writer import write_report
 
@@ -29,6 +35,7 @@ __all__ = [
     "evaluate_gates",
     "parse_gates",
     "read_report",
+    "recorded_failures",
     "render_markdown",
     "validate_gates",
     "write_report",
@@ -40,7 +47,7 @@ __getattr__, __dir__ = lazy_exports(
         "hybridlog.outputs": ["atomic_output_dir"],
         ".build": ["build_report"],
         ".document": ["Report", "read_report"],
-        ".gates": ["Gate", "evaluate_gates", "parse_gates", "validate_gates"],
+        ".gates": ["Gate", "evaluate_gates", "parse_gates", "recorded_failures", "validate_gates"],
         ".markdown": ["render_markdown"],
         ".writer": ["write_report"],
     },

@@ -63,7 +63,14 @@ from typing import Final, Literal
 from hybridlog.errors import OptionError
 from hybridlog.numbers import parse_float
 from hybridlog.report.coverage import component_coverage, mode_coverage
-from hybridlog.report.document import ModeReport, OutputReport, Report, Smoothing, StateReport
+from hybridlog.report.document import (
+    JsonValue,
+    ModeReport,
+    OutputReport,
+    Report,
+    Smoothing,
+    StateReport,
+)
 
 __all__ = [
     "FALLBACK_METRICS",
@@ -71,12 +78,14 @@ __all__ = [
     "MODE_METRICS",
     "Gate",
     "evaluate_gates",
+    "gate_records",
     "metric",
     "metric_value",
     "null_reason",
     "outputs_left_out",
     "parse_gate",
     "parse_gates",
+    "recorded_failures",
     "validate_gates",
 ]
 
@@ -701,3 +710,45 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
                 f"is {gate.kind} the bound {bound}"
             )
     return failures
+
+
+GATES_KEY: Final = "gates"
+"""The key of ``analyze``'s report.json that records its gates (:func:`gate_records`)."""
+
+
+def gate_records(report: Report, gates: Iterable[Gate]) -> list[dict[str, JsonValue]]:
+    """Each gate as ``analyze``'s report records it: what was asked, the value, the outcome.
+
+    ``{"gate": "--fail-under vaf=90", "metric": "vaf", "bound": 90.0, "value": 95.1,
+    "passed": true, "failure": null}``; ``failure`` is :func:`evaluate_gates`'s message for a
+    missed gate (``value`` ``null`` where the metric is not available).  The report carries
+    them (key :data:`GATES_KEY`, report.md's "Gates"): a missed gate had been said on stderr
+    and in the exit code alone, and a report kept by CI did not show which bound it missed.
+    """
+    records: list[dict[str, JsonValue]] = []
+    for gate in gates:
+        failure = next(iter(evaluate_gates(report, [gate])), None)
+        value = metric_value(report, gate.metric)
+        records.append(
+            {
+                "gate": f"{gate.option} {gate.spec}",
+                "metric": gate.metric,
+                "bound": gate.bound,
+                "value": None if value is None else float(value),
+                "passed": failure is None,
+                "failure": failure,
+            }
+        )
+    return records
+
+
+def recorded_failures(report: Report) -> list[str]:
+    """The missed gates' messages :func:`gate_records` recorded in ``report`` (in order)."""
+    records = report.extra.get(GATES_KEY)
+    if not isinstance(records, list):
+        return []
+    return [
+        str(record["failure"])
+        for record in records
+        if isinstance(record, dict) and record.get("failure") is not None
+    ]

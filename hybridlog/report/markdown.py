@@ -243,6 +243,7 @@ def render_markdown(report: Report) -> str:
         *_fields_line(report.reading),
         f"- hybridlog {report.hybridlog_version}",
         *_warnings_lines(report.notes),
+        *_gates_lines(report.extra.get("gates")),
         "",
         "## Outputs",
         "",
@@ -334,6 +335,30 @@ def _warnings_lines(notes: tuple[str, ...]) -> list[str]:
     if not warnings:
         return []
     return ["", "## Warnings", "", *(f"- {escape_markdown(note)}" for note in warnings)]
+
+
+def _gates_lines(records: Any) -> list[str]:
+    """The "Gates" section: each CI gate ``analyze`` checked, met or missed and why.
+
+    From report.json's ``gates`` (:func:`~hybridlog.report.gates.gate_records`), after the
+    warnings: a report kept by CI says which bound it missed, not only the exit code.
+    """
+    if not isinstance(records, list) or not records:
+        return []
+    lines = ["", "## Gates", ""]
+    for record in records:
+        if not isinstance(record, Mapping):
+            continue
+        gate = code_span(str(record.get("gate")))
+        failure = record.get("failure")
+        if failure is not None:
+            lines.append(f"- {gate}: **missed**: {escape_markdown(str(failure))}")
+        else:
+            value = record.get("value")
+            shown = format_number(value) if isinstance(value, (int, float)) else "n/a"
+            metric = escape_markdown(str(record.get("metric")))
+            lines.append(f"- {gate}: met ({metric} = {shown})")
+    return lines
 
 
 def _fields_line(reading: Mapping[str, Any] | None) -> list[str]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import ExitStack
 from pathlib import Path
 from types import TracebackType
@@ -14,6 +14,7 @@ from hybridlog.estimators.result import EstimationResult
 from hybridlog.outputs import atomic_output_dir
 from hybridlog.report.build import ReportBuilder
 from hybridlog.report.document import Report
+from hybridlog.report.gates import GATES_KEY, Gate, gate_records
 from hybridlog.report.markdown import render_markdown
 from hybridlog.report.plot_data import PlotReducer
 from hybridlog.report.plots import draw_into, figure_shapes, prepare_plotting
@@ -95,6 +96,7 @@ def write_report(
     extra: Mapping[str, Any] | None = None,
     plots: bool | Callable[[Report], bool] = True,
     model: HybridModel | None = None,
+    gates: Sequence[Gate] = (),
 ) -> Report:
     """Compute the metrics of a run and write its output directory (SPEC §8).
 
@@ -144,6 +146,9 @@ def write_report(
     model:
         The model the result was estimated with (for the outputs a smoothed run's estimates
         explain, :func:`~hybridlog.report.build.build_report`, and the figures made ahead).
+    gates:
+        CI gates checked against the report and recorded in it (``analyze``'s; key
+        ``gates``, :func:`~hybridlog.report.gates.gate_records`).
 
     Returns
     -------
@@ -170,7 +175,7 @@ def write_report(
     try:
         with atomic_output_dir(out_dir, force=force) as tmp:
             report = _write_into(
-                tmp, chunks, signals, builder, fmt, plots, reading, extra, model_name
+                tmp, chunks, signals, builder, fmt, plots, reading, extra, model_name, gates
             )
     finally:
         if preparing is not None:
@@ -200,6 +205,7 @@ def _write_into(
     reading: Mapping[str, Any] | None,
     extra: Mapping[str, Any] | None,
     model_name: str,
+    gates: Sequence[Gate],
 ) -> Report:
     """Everything :func:`write_report` writes, into the temporary ``folder``."""
     reducer: PlotReducer | None = None
@@ -220,6 +226,8 @@ def _write_into(
                 # the longest step left: started before the report's last metrics
                 drawing = _start_drawing(folder, reducer)
             report = builder.report(model_name=model_name, reading=reading, extra=extra)
+            if gates:
+                report = report.with_extra({GATES_KEY: gate_records(report, gates)})
             if reducer is not None and callable(plots) and plots(report):
                 drawing = _start_drawing(folder, reducer)
             (folder / "report.json").write_text(report.to_json(), encoding="utf-8")

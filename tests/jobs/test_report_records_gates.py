@@ -1,0 +1,65 @@
+"""The gates ``analyze`` and ``compare`` check are recorded in each run's report.
+
+A missed gate was said on stderr and in the exit code alone: report.json and report.md,
+which CI keeps as artifacts, did not say which bound was missed, nor that one was set.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.report import read_report, render_markdown
+from tests.support.paths import ROOT
+
+CART = ROOT / "sample_logs" / "double_cart_case1.csv"
+
+
+def test_analyze_records_each_gate_met_or_missed_in_report_json_and_md(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    outcome = analyze(
+        CART,
+        "double_cart_case1",
+        estimator="imm",
+        out_dir=out,
+        fail_under=["vaf=1", "mode_accuracy=0.99999"],
+        fail_over=["mse=1e9"],
+    )
+    stored = json.loads((out / "report.json").read_text())
+    records = stored["gates"]
+    assert [r["gate"] for r in records] == [
+        "--fail-under vaf=1",
+        "--fail-under mode_accuracy=0.99999",
+        "--fail-over mse=1e9",
+    ]
+    assert [r["passed"] for r in records] == [True, False, True]
+    assert records[0]["value"] == stored["vaf"] and records[2]["value"] == stored["mse"]
+    assert records[1]["value"] == stored["modes"]["accuracy"]
+    assert records[1]["failure"] == outcome.gate_failures[0]
+    assert outcome.gate_failures == [records[1]["failure"]]
+    assert records[1]["failure"].endswith("is under the bound 0.99999")
+    text = (out / "report.md").read_text(encoding="utf-8")
+    gates = text.split("## Gates\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    assert gates[0].startswith("- `--fail-under vaf=1`: met (vaf = ")
+    missed = records[1]["failure"]
+    assert gates[1] == f"- `--fail-under mode_accuracy=0.99999`: **missed**: {missed}"
+    assert text.index("## Gates") < text.index("## Outputs")
+    # read back, the report renders the same section
+    assert render_markdown(read_report(out / "report.json")) == text
+
+
+def test_a_run_without_gates_records_none(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    analyze(CART, "double_cart_case1", estimator="imm", out_dir=out)
+    assert "gates" not in json.loads((out / "report.json").read_text())
+    assert "## Gates" not in (out / "report.md").read_text(encoding="utf-8")
+
+
+def test_compare_records_the_gates_in_each_estimators_report(tmp_path: Path) -> None:
+    out = tmp_path / "cmp"
+    compare(CART, "double_cart_case1", ["imm", "hstf"], out_dir=out, fail_over=["mse=1e-12"])
+    for name in ("imm", "hstf"):
+        (record,) = json.loads((out / name / "report.json").read_text())["gates"]
+        assert record["gate"] == "--fail-over mse=1e-12" and record["passed"] is False
+        assert record["failure"] in (out / "comparison.md").read_text(encoding="utf-8")
