@@ -111,6 +111,14 @@ from hybridlog.times import round_duration
 DEFAULT_MAX_GAP_STEPS = 5
 
 
+class SignalsApartError(LogError):
+    """The signals a grid needs do not overlap in time.
+
+    :func:`hybridlog.io.load.load_signals` says why where header stamps of clocks that
+    disagree put them apart.
+    """
+
+
 def clock_tolerance_ns(dt_ns: int) -> int:
     """How far (ns) a sample may sit from a grid point and still count as at it."""
     return max(min(max(dt_ns // 1000, 1000), dt_ns // 4), 0)
@@ -306,7 +314,7 @@ def _first_and_last(
     last = min(ends or starts, key=lambda s: int(s.time_ns[-1]))
     t_last = int(last.time_ns[-1])
     if t_last < t0:
-        raise LogError(
+        raise SignalsApartError(
             f"{source}: signals do not overlap in time ({first.name!r} starts at "
             f"t={format_ns(t0)} s, {last.name!r} ends at t={format_ns(t_last)} s)"
         )

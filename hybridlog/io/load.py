@@ -20,7 +20,13 @@ import numpy as np
 import numpy.typing as npt
 
 from hybridlog.errors import LogError
-from hybridlog.io.align import align_signals, check_alignment_options, clock_tolerance_ns
+from hybridlog.io.align import (
+    SignalsApartError,
+    align_signals,
+    check_alignment_options,
+    clock_tolerance_ns,
+)
+from hybridlog.io.clocks import clocks_disagree
 from hybridlog.io.formats import open_log
 from hybridlog.io.mapping import (
     TRUTH_MODE,
@@ -317,7 +323,8 @@ def load_signals(
                 info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
             )
             truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
-        aligned = align_signals(
+        aligned = _aligned(
+            notes.get("stamp_offsets"),
             source=info.path,
             dt=spec.dt,
             inputs={u: numeric_series[f] for u, f in mapping.inputs.items()},
@@ -339,6 +346,24 @@ def load_signals(
                 aligned.time, spec.dt, mapping, numeric_series, trimmed, notes, info.field_word
             )
         return aligned
+
+
+def _aligned(offsets: Mapping[str, float] | None, **arguments: Any) -> AlignedSignals:
+    """:func:`~hybridlog.io.align.align_signals`; signals apart in time named with their clocks.
+
+    With ``--time header``, topics stamped by clocks that disagree (``offsets``, the
+    reading's ``stamp_offsets``, :func:`~hybridlog.io.clocks.clocks_disagree`) can lie apart
+    by the clocks' difference: "signals do not overlap in time" named the two times, not why.
+    """
+    try:
+        return align_signals(**arguments)
+    except SignalsApartError as err:
+        disagree = clocks_disagree(offsets or {})
+        if disagree is None:
+            raise
+        raise LogError(
+            f"{err}; --time header: {disagree}; --time log aligns them as they were recorded"
+        ) from None
 
 
 def _note_trimmed_span(

@@ -15,11 +15,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog import __version__
-from hybridlog.errors import LogError, excerpt
+from hybridlog.errors import LogError
 from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.io.options import FAR_STAMP_S
+from hybridlog.io.clocks import clocks_disagree
 from hybridlog.report import metrics
 from hybridlog.report.document import (
     ComponentSide,
@@ -1030,30 +1030,16 @@ def _stamp_clock_notes(offsets: Mapping[str, float]) -> list[str]:
     """A WARNING where ``--time header`` aligned topics stamped by clocks that disagree.
 
     ``offsets``: each mapped topic's median of ``header.stamp`` minus log time
-    (``reading.stamp_offsets``).  Messages logged together whose stamps' offsets differ by
-    :data:`~hybridlog.io.options.FAR_STAMP_S` or more were stamped by different clocks (one
-    simulated from 0, one a Unix time; two machines not synchronised), and are aligned as
-    far apart as those clocks are: 1.7e9 s held an input's last sample over the whole log,
-    with no word of why.
+    (``reading.stamp_offsets``; :func:`~hybridlog.io.clocks.clocks_disagree`).  Their samples
+    are aligned as far apart as those clocks are: 1.7e9 s held an input's last sample over
+    the whole log, with no word of why.
     """
-    if len(offsets) < 2:
+    disagree = clocks_disagree(offsets)
+    if disagree is None:
         return []
-    latest = max(offsets, key=lambda topic: offsets[topic])
-    earliest = min(offsets, key=lambda topic: offsets[topic])
-    spread = offsets[latest] - offsets[earliest]
-    if spread < FAR_STAMP_S:
-        return []
-    times = offsets.values()
-    each = ", ".join(
-        f"{excerpt(topic)} {'+' if offset > 0 else ''}{format_duration(offset, *times)} s"
-        for topic, offset in sorted(offsets.items(), key=lambda item: -item[1])
-    )
     return [
-        f"WARNING: --time header: the topics' header stamps disagree by "
-        f"{format_duration(spread, *times)} s against their log times (stamp minus "
-        f"log time, the median: {each}): different clocks stamped them (simulated time, "
-        "another machine's), and their samples are aligned that far apart; --time log aligns "
-        "them as they were recorded"
+        f"WARNING: --time header: {disagree}, and their samples are aligned that far apart; "
+        "--time log aligns them as they were recorded"
     ]
 
 

@@ -197,6 +197,29 @@ def test_topics_stamped_by_clocks_that_disagree_are_warned_of(tmp_path: Path) ->
     assert not [n for n in log_reading_notes(notes) if "header stamps" in n]
 
 
+def test_signals_apart_by_their_clocks_are_refused_naming_the_clocks(tmp_path: Path) -> None:
+    """The input on a Unix clock, the output on the recorder's: 1.7e9 s apart, no overlap.
+
+    The refusal named the two times only ("signals do not overlap in time"), not the clocks
+    that put them apart, nor that --time log reads them as recorded.
+    """
+    log = _ros2_mcap(tmp_path / "apart.mcap", _unix(), _near())
+    options = ReadOptions(maps=("u=/u.x", "y=/y.x"), time="header")
+    with pytest.raises(LogError) as caught:
+        load_signals(log, SPEC, options)
+    message = str(caught.value)
+    assert message.startswith(f"{log}: signals do not overlap in time ('/u.x' starts at t=")
+    assert message.endswith(
+        "; --time header: the topics' header stamps disagree by 1700000000.009 s against their "
+        "log times (stamp minus log time, the median: '/u' +1700000000 s, '/y' -0.009 s): "
+        "different clocks stamped them (simulated time, another machine's); --time log aligns "
+        "them as they were recorded"
+    )
+    assert "\n" not in message
+    signals = load_signals(log, SPEC, ReadOptions(maps=("u=/u.x", "y=/y.x")))  # as recorded
+    assert signals.n_samples == N
+
+
 def test_stamps_going_backwards_name_both_messages(tmp_path: Path) -> None:
     """A log time left 0 puts its message first: its stamp is the one out of place."""
     log = tmp_path / "unset_log_time.mcap"
