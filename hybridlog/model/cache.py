@@ -329,6 +329,7 @@ def _encode(model: HybridModel) -> str | None:
         "variables": list(model.variables),
         "commands": list(model.commands),
         "twin_modes": [list(ids) for ids in model.twin_modes],
+        "diagnoses": list(model.diagnoses),
         "model_key": model_key(model),
     }
     try:
@@ -441,6 +442,7 @@ def _decode(content: dict[str, Any], source: _Source) -> HybridModel:
         variables=tuple(map(str, content["variables"])),
         commands=tuple(map(str, content["commands"])),
         twin_modes=tuple(tuple(map(str, ids)) for ids in content["twin_modes"]),
+        diagnoses=tuple(map(str, content["diagnoses"])),
     )
     stored_key = content["model_key"]
     if not isinstance(stored_key, str):

@@ -404,6 +404,12 @@ class HybridModel:
         Groups of modes with the same equations, noise, guard and jump maps
         (:func:`hybridlog.model.twins.twin_modes`), which no log can tell apart; empty
         when every mode differs.
+    diagnoses:
+        What the model's equations say of its estimability (outputs that see no state,
+        unobservable states, undamped components without process noise, an integration
+        step too long for a mode), one line each, ``WARNING: `` or ``NOTE: ``
+        (:func:`hybridlog.model.diagnosis.diagnose`, without the linearisations of nonlinear
+        modes, which give notes only); every report repeats the warnings.
     """
 
     name: str
@@ -436,6 +442,7 @@ class HybridModel:
     commands: tuple[str, ...] = ()
     scenario: Scenario | None = None
     twin_modes: tuple[tuple[str, ...], ...] = ()
+    diagnoses: tuple[str, ...] = ()
 
     def __getstate__(self) -> dict[str, Any]:
         """The fields, and the content key when this process knows it.

@@ -40,6 +40,7 @@ from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.components import Component
 from hybridlog.model.derivatives import boolean_affine_problem
+from hybridlog.model.diagnosis import diagnose
 from hybridlog.model.expressions import expression_text, parse_expression
 from hybridlog.model.hybrid_model import (
     INTEGRATION_METHODS,
@@ -380,6 +381,7 @@ class _Builder:
             commands=commands,
             scenario=scenario,
             twin_modes=twin_modes(modes, jumps),
+            diagnoses=diagnose(modes, states, inputs, timebase, x0, jumps, linearise=False),
         )
 
     def parameters(self, groups: Mapping[str, tuple[str, ...]]) -> dict[str, sympy.Expr]:

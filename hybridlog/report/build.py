@@ -33,7 +33,12 @@ from hybridlog.report.document import (
     SmoothingMetrics,
     StateReport,
 )
-from hybridlog.report.markdown import NO_TRUE_MODE_REASON, NO_TRUE_STATE_REASON, plural
+from hybridlog.report.markdown import (
+    NO_TRUE_MODE_REASON,
+    NO_TRUE_STATE_REASON,
+    WARNING_PREFIX,
+    plural,
+)
 from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.signals import (
     NO_TRUE_MODE,
@@ -792,11 +797,14 @@ _MOST_TWINS_NAMED = 10
 
 
 def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
-    """What report.md must say of the model: modes no log can tell apart (``twin_modes``).
+    """What report.md must say of the model: modes no log can tell apart, and its warnings.
 
-    Such modes give the same log, so an estimate picks among them by their order or their
-    Markov rows, never by the data, and the mode metrics score the log's samples of the
-    one not picked as errors; said in every report of such a model, whatever the estimator.
+    Twin modes (``twin_modes``) give the same log, so an estimate picks among them by their
+    order or their Markov rows, never by the data, and the mode metrics score the log's
+    samples of the one not picked as errors; said in every report of such a model, whatever
+    the estimator.  The warnings of the model's diagnoses (``diagnoses``: states no output
+    determines, a mode whose outputs read no state, a continuous mode too stiff for its
+    step) follow: after them the state estimates are not what they seem.
     """
     if model is None:
         return ()
@@ -823,6 +831,7 @@ def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
             "the log's samples of the one not picked as errors; merge them, or give them "
             "different equations or noise if they are to be told apart"
         )
+    notes += [line for line in model.diagnoses if line.startswith(WARNING_PREFIX)]
     return tuple(notes)
 
 
