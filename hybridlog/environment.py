@@ -11,7 +11,8 @@ panicked in polars' first query, ``POLARS_MAX_THREADS=abc`` was dropped with a w
 value.
 
 What was tried and needs no check: ``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS`` (OpenBLAS
-takes a malformed value as unset), ``NUMBA_CACHE_DIR``, ``NUMBA_THREADING_LAYER`` (read as
+takes a malformed value as unset), ``NUMBA_CACHE_DIR`` (the folder under which
+:func:`hybridlog.jit.machine_code_dir` keeps the machine code), ``NUMBA_THREADING_LAYER`` (read as
 text; used only by numba's parallel code, which hybridlog does not run), ``TMPDIR``
 (Python's :mod:`tempfile` falls back to ``/tmp``; one too long for a batch's socket is named
 by :func:`hybridlog.jobs.workers.start_forkserver`) and ``HYBRIDLOG_CACHE_DIR`` (a folder

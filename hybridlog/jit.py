@@ -5,14 +5,35 @@ module of kernels pays for numba when *it* is imported), and :func:`compile_for`
 first compiles.  Nothing is compiled at import time: :func:`jit` kernels compile on their
 first call, :func:`compile_for` when a caller first needs a function for given arguments;
 both keep the machine code in numba's on-disk cache (``cache=True``).
+
+Where that cache is (:func:`machine_code_dir`) is chosen here, once per process, before
+hybridlog's first function is handed to numba: ``<cache>/numba/<code>``, where ``<cache>``
+is hybridlog's cache folder (:func:`cache_dir`, or ``$NUMBA_CACHE_DIR`` when set) and
+``<code>`` a hash of every source file of the package (:func:`package_fingerprint`).
+numba's own default kept each function's machine code beside its source file, stamped with
+that one file: a loop compiled with the kernels of another file (``imm.py``'s loop with
+``kernels.py``'s) was loaded after an upgrade that changed only the kernels, and ran the old
+ones; and a read-only installation with no writable home (a container run as another user)
+had nowhere to cache, which numba refused with an exception.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import os
+import pickle
+import re
+import shutil
 import sys
 import threading
+import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, TypeVar, cast
+
+from hybridlog import __version__
+from hybridlog.errors import OutputError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -44,8 +65,7 @@ def set_up() -> None:
     that one module is marked missing (``sys.modules[name] = None``).  Nothing else is
     importing it meanwhile: the readers running beside ``analyze``'s set-up use no SciPy.
     """
-    import numba
-
+    numba = _numba()
     probe_skipped = "scipy.linalg" not in sys.modules and BLAS_PROBE not in sys.modules
     if probe_skipped:
         sys.modules[BLAS_PROBE] = None  # type: ignore[assignment]
@@ -57,11 +77,9 @@ def set_up() -> None:
             del sys.modules[BLAS_PROBE]
 
 
-def jit(function: F) -> F:
-    """Compile ``function`` with numba (:data:`OPTIONS`) on its first call."""
-    import numba
-
-    return cast(F, numba.njit(**OPTIONS)(function))
+def jit(function: F, **options: Any) -> F:
+    """Compile ``function`` with numba (:data:`OPTIONS`, and ``options``) on its first call."""
+    return cast(F, _numba().njit(**OPTIONS, **options)(function))
 
 
 def jitable(function: F) -> F:
@@ -120,8 +138,131 @@ def compile_for(function: Callable[..., Any], arguments: Sequence[Any]) -> Calla
     with _LOCK:
         compiled = _COMPILED.get(key)
         if compiled is None:
-            import numba
-
-            compiled = numba.njit(signature, **OPTIONS)(function)
+            compiled = compile_signature(function, signature)
             _COMPILED[key] = compiled
     return compiled
+
+
+DAMAGED_CACHE = (pickle.UnpicklingError, EOFError)
+"""What numba raises loading a cache file cut short or zeroed (a full disk, a machine that
+stopped mid-write, a partly restored CI cache): it writes each file whole, but never checks
+one it reads, and failed so in every run after."""
+
+
+def compile_signature(function: Callable[..., Any], signature: Any) -> Any:
+    """``function`` compiled with :data:`OPTIONS` for ``signature``, or loaded from the cache.
+
+    A damaged cache entry (:data:`DAMAGED_CACHE`) is forgotten (numba's index of the function
+    emptied) and the function compiled again, which writes the entry anew.
+    """
+    numba = _numba()
+    try:
+        return numba.njit(signature, **OPTIONS)(function)
+    except DAMAGED_CACHE:
+        numba.njit(**OPTIONS)(function)._cache.flush()
+        return numba.njit(signature, **OPTIONS)(function)
+
+
+def cache_dir() -> Path:
+    """The cache folder: ``$HYBRIDLOG_CACHE_DIR``, else ``$XDG_CACHE_HOME/hybridlog``.
+
+    ``$XDG_CACHE_HOME`` defaults to ``~/.cache``.  It holds the loaded models
+    (:mod:`hybridlog.model.cache`), the generated modules (:mod:`hybridlog.model.compiled`)
+    and numba's machine code (:func:`machine_code_dir`).
+
+    Raises
+    ------
+    OutputError
+        No folder is set and the home is unknown.
+    """
+    override = os.environ.get("HYBRIDLOG_CACHE_DIR")
+    if override:
+        return Path(override)
+    try:
+        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    except RuntimeError as err:  # no HOME and a user the system does not know
+        raise OutputError(
+            f"no cache folder: {str(err).rstrip('.')}; set HYBRIDLOG_CACHE_DIR to a writable folder"
+        ) from err
+    return Path(base) / "hybridlog"
+
+
+PACKAGE = Path(__file__).parent
+"""The package's folder, whose source files :func:`package_fingerprint` hashes."""
+
+
+@functools.cache
+def package_fingerprint() -> str:
+    """A hash of hybridlog's version and of every source file of the package (about 20 ms).
+
+    Any compiled function may take code or constants of another module into its machine code;
+    so any change to the package, an upgrade or an edit, gives new machine code.
+    """
+    digest = hashlib.sha256(f"hybridlog {__version__};".encode())
+    for source in sorted(PACKAGE.rglob("*.py")):
+        digest.update(f"{source.relative_to(PACKAGE).as_posix()}:".encode())
+        digest.update(source.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def machine_code_dir() -> Path:
+    """The folder of this code's machine code: ``<$NUMBA_CACHE_DIR or cache/numba>/<code>``."""
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    base = Path(root) if root else cache_dir() / "numba"
+    return base / package_fingerprint()
+
+
+UNUSED_DAYS = 7
+"""A folder of other code's machine code unused for this long is removed (:func:`_prune`)."""
+_FINGERPRINT = re.compile(r"[0-9a-f]{16}")
+
+
+def _prune(folder: Path) -> None:
+    """Remove the folders of other code's machine code beside ``folder`` unused for a week.
+
+    Run when ``folder`` was just made (new code): each edit of the package makes a folder,
+    and each of an installation's processes marks its folder used when it starts.  Only
+    names of :func:`package_fingerprint`'s form are touched (numba's own folders are not).
+    """
+    ended = time.time() - UNUSED_DAYS * 86400
+    for other in folder.parent.iterdir():
+        if other != folder and _FINGERPRINT.fullmatch(other.name):
+            try:
+                unused = other.stat().st_mtime < ended
+            except OSError:
+                continue
+            if unused:
+                shutil.rmtree(other, ignore_errors=True)
+
+
+_PLACED: list[Path | None] = []
+_PLACING = threading.Lock()
+
+
+def _place_cache(numba: Any) -> Path | None:
+    """Point numba's cache at :func:`machine_code_dir`; ``None`` where it cannot be made.
+
+    There numba keeps its own places: a cache folder that cannot be written is named by the
+    model cache (:func:`hybridlog.model.compiled.store`), which every command writes first.
+    """
+    try:
+        folder = machine_code_dir()
+        made = not folder.is_dir()
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)  # used now (:func:`_prune`)
+    except (OSError, OutputError):
+        return None
+    if made:
+        _prune(folder)
+    numba.config.CACHE_DIR = str(folder)
+    return folder
+
+
+def _numba() -> Any:
+    """numba, its cache placed (:func:`_place_cache`) before the process's first function."""
+    import numba
+
+    with _PLACING:
+        if not _PLACED:
+            _PLACED.append(_place_cache(numba))
+    return numba

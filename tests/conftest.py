@@ -2,15 +2,27 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
+from hybridlog.jit import cache_dir
 from tests.support.paths import SAMPLE_LOGS
 
 Main = Callable[[list[str]], tuple[int, str]]
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """numba's machine code in the user's cache for the whole session (and its subprocesses).
+
+    Tests set ``HYBRIDLOG_CACHE_DIR`` to folders of their own: without this, the first test
+    to compile in a process would place the session's machine code in its temporary folder
+    (:func:`hybridlog.jit.machine_code_dir`), compiled anew in every session.
+    """
+    os.environ.setdefault("NUMBA_CACHE_DIR", str(cache_dir() / "numba"))
 
 
 @pytest.fixture

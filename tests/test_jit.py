@@ -1,9 +1,23 @@
-"""``hybridlog.jit.set_up``: numba's CPU target set up without SciPy's BLAS probe."""
+"""``hybridlog.jit``: numba's set-up, and where and how its machine code is cached.
+
+``set_up``: numba's CPU target set up without SciPy's BLAS probe.  The cache: in a folder of
+its own for each version of the package's code (``machine_code_dir``), so that an upgrade
+never loads machine code compiled with another version's functions, and where the package
+and the home cannot be written; a damaged entry is compiled again.
+"""
 
 from __future__ import annotations
 
+import hashlib
+import importlib
+import os
 import subprocess
 import sys
+from pathlib import Path
+
+import pytest
+
+from hybridlog import jit
 
 SET_UP = """
 import sys
@@ -28,3 +42,94 @@ def test_set_up_skips_the_blas_probe_and_blas_kernels_still_compile() -> None:
         [sys.executable, "-c", SET_UP], capture_output=True, text=True, check=True
     )
     assert done.stdout.split() == ["False", "True", "5.0"]
+
+
+CALLER = """
+import sys
+from pathlib import Path
+import hybridlog.jit
+hybridlog.jit.PACKAGE = Path(sys.argv[1])  # the two modules below stand for the package
+sys.path.insert(0, sys.argv[1])
+import caller
+print(caller.twice(), flush=True)
+"""
+
+
+def _code(folder: Path, value: int) -> None:
+    folder.mkdir(exist_ok=True)
+    (folder / "callee.py").write_text(
+        f"from hybridlog.jit import jit\n\n\n@jit\ndef value():\n    return {value}\n"
+    )
+    (folder / "caller.py").write_text(
+        "from callee import value\nfrom hybridlog.jit import jit\n\n\n"
+        "@jit\ndef twice():\n    return 2 * value()\n"
+    )
+
+
+def _run(folder: Path, environment: dict[str, str]) -> str:
+    done = subprocess.run(
+        [sys.executable, "-c", CALLER, str(folder)],
+        capture_output=True,
+        text=True,
+        env=environment,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout.strip()
+
+
+def _environment(tmp_path: Path) -> dict[str, str]:
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    environment["HYBRIDLOG_CACHE_DIR"] = str(tmp_path / "cache")
+    environment["PYTHONPATH"] = str(Path(__file__).parents[1])
+    return environment
+
+
+def test_machine_code_of_changed_code_is_never_loaded(tmp_path: Path) -> None:
+    # numba stamps a function's cache with its own file only: after an upgrade that changed
+    # kernels.py alone, imm.py's loop was loaded with the old kernels compiled into it
+    code = tmp_path / "code"
+    environment = _environment(tmp_path)
+    _code(code, 1)
+    assert _run(code, environment) == "2"
+    (code / "callee.py").write_text((code / "callee.py").read_text().replace("1", "5"))
+    assert _run(code, environment) == "10"
+    folders = sorted(p.name for p in (tmp_path / "cache" / "numba").iterdir())
+    assert len(folders) == 2 and all(len(name) == 16 for name in folders)
+
+
+def test_machine_code_is_cached_where_the_code_and_home_cannot_be_written(
+    tmp_path: Path,
+) -> None:
+    # a read-only installation run by a user without a writable home (a container's
+    # `--user`): numba found no folder and raised "cannot cache function ...: no locator"
+    code = tmp_path / "code"
+    _code(code, 1)
+    (code / "__pycache__").write_text("a file where numba would write")
+    blocked = tmp_path / "blocked"
+    blocked.write_text("not a folder")
+    environment = _environment(tmp_path)
+    environment.update(HOME=str(blocked), XDG_CACHE_HOME=str(blocked))
+    assert _run(code, environment) == "2"
+    index = list((tmp_path / "cache" / "numba").glob("*/*/caller.twice-*.nbi"))
+    assert len(index) == 1, index
+
+
+def test_a_damaged_cache_entry_is_compiled_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a file cut short (a full disk, a machine that stopped, a partly restored CI cache)
+    # failed to unpickle in every run: "unexpected UnpicklingError"
+    import numba
+
+    (tmp_path / "damaged_cache_kernel.py").write_text("def add(a, b):\n    return a + b\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("damaged_cache_kernel")
+    assert jit.compile_for(module.add, (1.0, 2.0))(1.0, 2.0) == 3.0
+    folder = f"{tmp_path.name}_{hashlib.sha1(str(tmp_path).encode()).hexdigest()}"  # numba's
+    (data,) = (Path(numba.config.CACHE_DIR) / folder).glob("damaged_cache_kernel.add-*.nbc")
+    with data.open("r+b") as file:
+        file.truncate(100)
+    monkeypatch.setattr(jit, "_COMPILED", {})  # as in the next process
+    assert jit.compile_for(module.add, (1.0, 2.0))(1.0, 2.0) == 3.0
+    assert data.stat().st_size > 100  # written anew

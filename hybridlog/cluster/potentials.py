@@ -45,9 +45,9 @@ import math
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 
+from hybridlog.jit import jit
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = [
@@ -79,16 +79,6 @@ PAIRS_PER_STEP = 1 << 27
 
 GRID_CELLS_MAX = 1 << 22
 """Largest number of grid nodes ``(G+1)^d`` of the approximate potentials (32 MiB a grid)."""
-
-# numba options of the exact kernel: as hybridlog.jit.jit, plus fused multiply-add
-# ("contract"), which lets LLVM vectorise the polynomial; no reassociation, so the
-# integer-rounding trick of the exp stays exact.
-_KERNEL_OPTIONS = {
-    "cache": True,
-    "error_model": "numpy",
-    "nogil": True,
-    "fastmath": {"contract"},
-}
 
 
 def _exact_steps(
@@ -158,7 +148,9 @@ def _exact_steps(
         P[i] += total
 
 
-_exact_kernel = numba.njit(**_KERNEL_OPTIONS)(_exact_steps)  # type: ignore[call-overload]
+# hybridlog.jit's options plus fused multiply-add ("contract"), which lets LLVM vectorise the
+# polynomial; no reassociation, so the integer-rounding trick of the exp stays exact.
+_exact_kernel = jit(_exact_steps, fastmath={"contract"})
 
 
 def exact_potential_rows(

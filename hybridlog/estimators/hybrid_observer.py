@@ -314,10 +314,9 @@ def observer_source(model: HybridModel) -> str:
         "",
         "import math",
         "",
-        "import numba",
         "import numpy",
         "",
-        '_jit = numba.njit(cache=True, error_model="numpy", nogil=True)',
+        "from hybridlog.jit import jit as _jit",
     ]
     lines += switched_function(
         model, "dx", [list(m.dx) for m in model.modes], [f"out[{i}]" for i in range(n)]

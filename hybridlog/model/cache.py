@@ -43,14 +43,9 @@ import numpy as np
 
 import hybridlog
 from hybridlog.errors import ModelError, OptionError, excerpt
+from hybridlog.jit import cache_dir
 from hybridlog.model.builtins import builtin_names, builtin_text
-from hybridlog.model.compiled import (
-    _framed,
-    _intact,
-    cache_dir,
-    model_key,
-    store,
-)
+from hybridlog.model.compiled import _framed, _intact, model_key, store
 from hybridlog.model.hybrid_model import (
     BooleanAffine,
     Deferred,

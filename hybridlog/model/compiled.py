@@ -4,7 +4,8 @@ Every piece of code generated for a model -- the model's own functions
 (:func:`~hybridlog.model.codegen.model_source`: ``f``, ``F``, ``h``, ``H``, the guards and the
 simulation inputs) and the straight-line filter loops the estimators may add as
 accelerators -- is a Python module written to ``<cache>/models/<kind>_<key>.py`` and
-imported from there, so numba's own cache (``cache=True``) keeps the machine code beside it.
+imported from there; numba's cache (``cache=True``) keeps its machine code in the folder of
+this code's machine code (:func:`hybridlog.jit.machine_code_dir`).
 
 The key is a hash of
 
@@ -20,7 +21,7 @@ So a change to anything that shapes the code gives a new file, and a stale modul
 imported; when the file exists it is imported as it is, without running sympy or the
 generator.  The key costs about a millisecond (a walk over the expression trees), not the
 0.1-0.4 s of generating the code.  The cache folder is ``$HYBRIDLOG_CACHE_DIR`` or
-``$XDG_CACHE_HOME/hybridlog`` (``~/.cache/hybridlog``).
+``$XDG_CACHE_HOME/hybridlog`` (``~/.cache/hybridlog``, :func:`hybridlog.jit.cache_dir`).
 
 Importing this module imports neither numba nor sympy; they are imported when code is
 compiled or generated.
@@ -44,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog.errors import OutputError
+from hybridlog.jit import cache_dir
 from hybridlog.model.keys import known_key, remember_key, sympy_release
 from hybridlog.signals import FloatArray
 
@@ -87,20 +89,6 @@ RUNTIME_FIELDS = frozenset(
 """Model fields left out of :func:`model_key`; every other field is in it (new ones too).
 
 A generator that starts reading one of these must remove it from this set."""
-
-
-def cache_dir() -> Path:
-    """Folder holding generated modules and their numba caches."""
-    override = os.environ.get("HYBRIDLOG_CACHE_DIR")
-    if override:
-        return Path(override)
-    try:
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    except RuntimeError as err:  # no HOME and a user the system does not know
-        raise OutputError(
-            f"no cache folder: {str(err).rstrip('.')}; set HYBRIDLOG_CACHE_DIR to a writable folder"
-        ) from err
-    return Path(base) / "hybridlog"
 
 
 def store(path: Path, text: str, *, replace: bool) -> None:
@@ -385,12 +373,9 @@ def _function(model: HybridModel, name: str, jit: bool) -> Any:
         if memo not in _COMPILED:
             function = getattr(model_module(model), name)
             if jit:
-                import numba
+                from hybridlog.jit import compile_signature
 
-                from hybridlog.jit import OPTIONS
-
-                signature = _model_signatures()[name]
-                function = numba.njit(signature, **OPTIONS)(function)
+                function = compile_signature(function, _model_signatures()[name])
             _COMPILED[memo] = function
         return _COMPILED[memo]
 

@@ -93,10 +93,9 @@ def step_function(jit: bool = True) -> StepFunction:
         return integrate_step
     with _LOCK:
         if not _COMPILED:
-            import numba
             from numba import types
 
-            from hybridlog.jit import OPTIONS
+            from hybridlog.jit import compile_signature
 
             vector = types.float64[::1]
             mode_function = types.FunctionType(types.void(types.int64, vector, vector, vector))
@@ -109,7 +108,7 @@ def step_function(jit: bool = True) -> StepFunction:
                 types.float64,
                 types.float64[:, ::1],
             )
-            _COMPILED.append(numba.njit(signature, **OPTIONS)(integrate_step))
+            _COMPILED.append(compile_signature(integrate_step, signature))
         compiled: StepFunction = _COMPILED[0]
         return compiled
 

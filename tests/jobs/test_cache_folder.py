@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from hybridlog import jit
 from hybridlog.errors import OutputError
 from hybridlog.model import compiled
 from tests.support.paths import TANK_CSV
@@ -45,7 +46,7 @@ def test_no_home_and_no_cache_folder_set_is_one_line(monkeypatch: pytest.MonkeyP
         monkeypatch.delenv(name, raising=False)
     monkeypatch.setattr(Path, "home", staticmethod(unknown))
     with pytest.raises(OutputError) as raised:
-        compiled.cache_dir()
+        jit.cache_dir()
     assert str(raised.value) == (
         "no cache folder: Could not determine home directory; set HYBRIDLOG_CACHE_DIR to a "
         "writable folder"
