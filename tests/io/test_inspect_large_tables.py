@@ -1,7 +1,7 @@
 """``inspect`` reads a CSV log a block of lines at a time, not whole as text.
 
 Read whole, every cell a polars string, a 1.3 GB CSV of 10^7 rows peaked at 4.1 GB and a
-2.2 GB one of 300 columns at 6.2 GB; a block at a time, 0.65 GB and 0.63 GB, with the same
+2.2 GB one of 300 columns at 6.2 GB; a block at a time, 0.57 GB and 0.27 GB, with the same
 description (:mod:`hybridlog.io.csv_tally`).  The peak is measured here as the process's
 high-water mark of resident memory, reset before ``inspect`` (Linux).
 """
