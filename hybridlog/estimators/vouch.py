@@ -422,12 +422,51 @@ def check_surprise(
         for b, name in enumerate(model.outputs[:MAX_SHOWN])
     )
     more = f", {model.n_outputs - MAX_SHOWN} more" if model.n_outputs > MAX_SHOWN else ""
+    lost = _lost_before(signals, result, at, first)
     raise DivergenceError(
         f"{model.origin or model.name}: {result.estimator} cannot explain the log at t = "
         f"{format_time(result.time[at])} s (sample {row}): {shown}{more}: "
         f"{math.sqrt(float(surprise[at])):.3g} standard deviations from every mode's "
-        f"prediction (over {math.sqrt(limit):.3g}: P < 1e-300 for Gaussian noise); an "
-        "outlier, a stuck or offset sensor or another plant's log?"
+        f"prediction (over {math.sqrt(limit):.3g}: P < 1e-300 for Gaussian noise); "
+        + (
+            lost
+            or "an outlier, a stuck or offset sensor, another plant's log, or an estimate that "
+            "had lost the plant before it (a wrong mode whose outputs another state matched)?"
+        )
+    )
+
+
+def _lost_before(signals: AlignedSignals, result: EstimationResult, at: int, first: int) -> str:
+    """What the log's true mode says of the estimate before the unexplained row ``at``.
+
+    A filter can follow the plant in a wrong mode whose outputs another state matches (the
+    three-tank's ``h_i = i·x``: mode 1 at three times the levels of mode 3), with variances
+    as small as if it were right; the plant's next switch is then one no mode explains from
+    that state, though the log is sound (10^7 samples simulated from the model: the IMM held
+    mode 1 for the 100 samples of mode 3 before t = 1844101 s and was refused there as an
+    outlier or another plant's log).  Where the log's true mode at the row before differs from
+    the estimate's, this says so (how many samples back, within the result); else empty.
+    """
+    truth = signals.truth_modes
+    if truth is None or at < 1:
+        return ""
+    ids = result.mode_ids  # the model's, which the true codes index too
+
+    def wrong(row: int) -> bool:
+        code = int(truth[first + row])
+        return code >= 0 and code != int(result.modes[row])
+
+    if not wrong(at - 1):
+        return ""
+    held, true_id = ids[int(result.modes[at - 1])], ids[int(truth[first + at - 1])]
+    count = 1
+    while count < at and wrong(at - 1 - count):
+        count += 1
+    return (
+        f"the estimate had lost the plant before it: it held mode {excerpt(held)} over the "
+        f"{count:,} sample{'s' if count > 1 else ''} before, where the log's true mode was "
+        f"{excerpt(true_id)} (a wrong mode whose outputs another state matched); the log may "
+        "be sound, and another estimator or its options may follow it"
     )
 
 

@@ -24,7 +24,8 @@ from hybridlog.simulate import simulate
 from tests.estimators.test_reductions import _linear_matrices
 from tests.support.models import LINEAR_TWO_MODE
 
-SAMPLES = Path(__file__).resolve().parents[2] / "sample_logs"
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLES = ROOT / "sample_logs"
 ONE_MODE = LINEAR_TWO_MODE.split("[modes.fast]")[0] + (
     "[noise]\nprocess = [0.01, 0.02]\nmeasurement = [[0.05, 0.01], [0.01, 0.08]]\n\n"
     "[initial]\nstate = [0.5, -0.2]\ncovariance = [[1.0, 0.1], [0.1, 2.0]]\n\n"
@@ -113,3 +114,37 @@ def test_the_hstf_refuses_the_same_sample(kernel):
     # likelihood=unfaded still tells it
     with pytest.raises(DivergenceError, match=r"cannot explain the log at t = 12 s"):
         run_hstf(model, signals, HstfOptions(likelihood="unfaded"), kernel=kernel)
+
+
+def test_an_estimate_that_had_lost_the_plant_is_said_so_where_the_log_has_its_true_mode():
+    """The IMM following mode 3's levels as mode 1's at three times the state (h_i = i·x).
+
+    10^7 samples simulated from three_tank_hstf (seed 1) were refused at t = 1844101 s as
+    "an outlier, a stuck or offset sensor or another plant's log?": the IMM had held mode 1 at
+    three times the levels over the 100 samples of mode 3 before, and the plant's switch to
+    mode 1 was one no mode explained from there.  The log's true mode tells it.
+    """
+    text = (ROOT / "hybridlog" / "model" / "builtin" / "three_tank_hstf.toml").read_text()
+    text = text.replace("state = [15.0, 10.0, 10.0]", "state = [28.0, 2.7, 2.5]")
+    text = text.replace('schedule = "1:100,2:100,3:100"', 'schedule = "3:100,1:100"')
+    prior = 'state = [20.0, 5.0, 10.0]\ncovariance = 100.0\nmode = "2"'
+    assert prior in text
+    text = text.replace(prior, 'state = [84.0, 8.1, 7.5]\ncovariance = 0.5\nmode = "1"')
+    model = parse_model(text, origin="tank.toml")
+    signals = simulate(model, steps=199, seed=0).signals(model)
+    with pytest.raises(DivergenceError) as refused:
+        run_imm(model, signals, ImmOptions())
+    message = str(refused.value)
+    assert "tank.toml: imm cannot explain the log at t = 101 s (sample 101)" in message
+    assert message.endswith(
+        "the estimate had lost the plant before it: it held mode '1' over the 101 samples "
+        "before, where the log's true mode was '3' (a wrong mode whose outputs another state "
+        "matched); the log may be sound, and another estimator or its options may follow it"
+    )
+    without_truth = dataclasses.replace(signals, truth_modes=None)
+    with pytest.raises(DivergenceError) as refused:
+        run_imm(model, without_truth, ImmOptions())
+    assert str(refused.value).endswith(
+        "an outlier, a stuck or offset sensor, another plant's log, or an estimate that had "
+        "lost the plant before it (a wrong mode whose outputs another state matched)?"
+    )
