@@ -7,7 +7,7 @@ A user writing a model file had no way to check it short of analysing or simulat
 the same one-line error ``analyze`` gives), and returns a short description: the time base,
 the symbols, the modes (or components and their modes), each ``[estimators.<name>]`` table as
 the estimator applies it, which estimators can run it, and, last, what the model's equations
-say of its estimability (:func:`~hybridlog.model.diagnosis.diagnose`, nonlinear modes
+say of its estimability (:func:`~hybridlog.model.diagnosis.model_diagnoses`, nonlinear modes
 linearised: outputs that see no state, states the outputs do not determine, undamped
 components without process noise, an integration step too long for a mode), a ``WARNING:``
 or ``NOTE:`` line each.
@@ -23,7 +23,7 @@ from hybridlog.estimators.options import OptionSource, parse_options, shown
 from hybridlog.estimators.registry import ESTIMATORS, Prepared, prepare
 from hybridlog.jobs.analysis import estimator_inputs
 from hybridlog.model.cache import load_model
-from hybridlog.model.diagnosis import diagnose
+from hybridlog.model.diagnosis import model_diagnoses
 from hybridlog.model.hybrid_model import HybridModel
 
 __all__ = ["check_and_describe"]
@@ -73,15 +73,7 @@ def check_and_describe(path: Path) -> str:
             *_table_lines(model, {each.name: each for each in prepared}),
             f"estimators for it: {', '.join(suited) or 'none'}",
             default_line,
-            *diagnose(
-                model.modes,
-                model.states,
-                model.inputs,
-                model.timebase,
-                model.initial_state,
-                model.jumps,
-                linearise=True,
-            ),
+            *model_diagnoses(model),
         ]
     )
 

@@ -50,11 +50,11 @@ import numpy as np
 import sympy
 
 from hybridlog.model.derivatives import jacobian
-from hybridlog.model.hybrid_model import Jump, Mode, Timebase
+from hybridlog.model.hybrid_model import HybridModel, Jump, Mode, Timebase
 from hybridlog.model.stability import step_flaw
 from hybridlog.signals import FloatArray
 
-__all__ = ["MARGIN", "MOST_LINES", "diagnose", "unobservable_basis"]
+__all__ = ["MARGIN", "MOST_LINES", "diagnose", "model_diagnoses", "unobservable_basis"]
 
 MARGIN = 1e-3
 r"""An eigenvalue counts as on the stability boundary within this much of it per sample:
@@ -137,6 +137,19 @@ class _Finding:
 
     warning: bool
     text: str
+
+
+def model_diagnoses(model: HybridModel) -> tuple[str, ...]:
+    """:func:`diagnose` of a loaded model, its nonlinear modes linearised (``models FILE``)."""
+    return diagnose(
+        model.modes,
+        model.states,
+        model.inputs,
+        model.timebase,
+        model.initial_state,
+        model.jumps,
+        linearise=True,
+    )
 
 
 def _mode_lines(findings: Mapping[_Finding, Sequence[str]]) -> list[str]:

@@ -35,12 +35,13 @@ def test_the_tour_has_the_promised_steps():
         assert step in joined, step
 
 
-def test_readme_tour_runs_as_written(tmp_path):
+def _run_as_written(tmp_path, commands, where=lambda command: command):
+    """Each command in ``bash`` from a folder holding the sample logs, as a reader runs it."""
     shutil.copytree(ROOT / "sample_logs", tmp_path / "sample_logs")
     env = dict(os.environ)
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
     env.pop("GITHUB_STEP_SUMMARY", None)  # the recipe appends to it on GitHub only
-    for command in tour_commands():
+    for command in commands:
         done = subprocess.run(
             ["bash", "-c", command],
             cwd=tmp_path,
@@ -50,7 +51,11 @@ def test_readme_tour_runs_as_written(tmp_path):
             check=False,
             timeout=300,
         )
-        assert done.returncode == 0, f"{command}\n{done.stdout}\n{done.stderr}"
+        assert done.returncode == 0, f"{where(command)}\n{done.stdout}\n{done.stderr}"
+
+
+def test_readme_tour_runs_as_written(tmp_path):
+    _run_as_written(tmp_path, tour_commands())
     # the CI recipe's outputs: JUnit with a case per log per gate, the job summary
     junit = (tmp_path / "ci_report" / "junit.xml").read_text()
     assert '<testsuites name="hybridlog batch" tests="4" failures="0" errors="0"' in junit
@@ -74,21 +79,10 @@ def docs_commands():
 
 def test_the_docs_pages_commands_run_as_written(tmp_path):
     """docs/bioplex.md's commands ran nowhere: the tour's test reads README.md alone."""
-    assert {page for page, _ in docs_commands()} >= {"bioplex.md"}
-    shutil.copytree(ROOT / "sample_logs", tmp_path / "sample_logs")
-    env = dict(os.environ)
-    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
-    for page, command in docs_commands():
-        done = subprocess.run(
-            ["bash", "-c", command],
-            cwd=tmp_path,
-            env=env,
-            capture_output=True,
-            text=True,
-            check=False,
-            timeout=300,
-        )
-        assert done.returncode == 0, f"{page}: {command}\n{done.stdout}\n{done.stderr}"
+    commands = docs_commands()
+    assert {page for page, _ in commands} >= {"bioplex.md"}
+    pages = {command: page for page, command in commands}
+    _run_as_written(tmp_path, pages, lambda command: f"{pages[command]}: {command}")
 
 
 def test_the_ci_recipe_runs_the_tested_commands():

@@ -17,7 +17,7 @@ from hybridlog.estimators import prepare
 from hybridlog.jobs.model_description import check_and_describe
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.cache import load_model
-from hybridlog.model.diagnosis import MOST_LINES, diagnose
+from hybridlog.model.diagnosis import MOST_LINES, model_diagnoses
 from hybridlog.model.loader import parse_model
 from hybridlog.report import build_report, render_markdown
 from hybridlog.simulate import simulate
@@ -46,15 +46,7 @@ UNSEEN = discrete(
 def diagnoses(text: str) -> tuple[str, ...]:
     """What ``models FILE`` says (nonlinear modes linearised)."""
     model = parse_model(text)
-    found = diagnose(
-        model.modes,
-        model.states,
-        model.inputs,
-        model.timebase,
-        model.initial_state,
-        model.jumps,
-        linearise=True,
-    )
+    found = model_diagnoses(model)
     # the loader's, which every report's warnings come from: the same but the linearisations
     assert model.diagnoses == tuple(line for line in found if "at [initial] state" not in line)
     return found
