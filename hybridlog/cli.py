@@ -692,7 +692,11 @@ class _LogFormats(click.Choice[str]):
     help="Number of steps [default: the schedule's total].",
 )
 @click.option(
-    "--seed", type=_WholeNumber(min=0), default=0, show_default=True, help="Noise seed (>= 0)."
+    "--seed",
+    type=_WholeNumber(min=0),
+    default=0,
+    show_default=True,
+    help="Noise seed (>= 0): the same seed, schedule and --steps give the same log.",
 )
 @_set_option(
     "A parameter of the model ([parameters]: the plant simulated with another value), or a "
