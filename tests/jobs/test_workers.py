@@ -342,6 +342,9 @@ def _told_wait(folder: str, index: int, fail: bool) -> int:
             deadline = time.monotonic() + 30
             while len(list(here.iterdir())) < 2 and time.monotonic() < deadline:
                 time.sleep(0.01)
+            # both begins are written now, on two pipes the pool reads in no set order: give
+            # it time to read the other's before this end (under load it once read them apart)
+            time.sleep(0.5)
             if fail:
                 raise ValueError("no machine code")
     except ValueError:
