@@ -74,7 +74,7 @@ from hybridlog.estimators.kernels import (
     record,
     workspace,
 )
-from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
     Entry,
@@ -373,11 +373,6 @@ def stream_hstf(
         rows=rows,
     )
     return (_noted(chunk, options) for chunk in chunks)
-
-
-def hstf_options(values: dict[str, object]) -> HstfOptions:
-    """Validated HSTF options from a name → value mapping."""
-    return parse_options(HstfOptions, values, estimator=NAME)
 
 
 def generate_hstf_source(model: HybridModel, *, masked: bool = False) -> str:

@@ -450,7 +450,6 @@ def _singular_q(
     else:
         return text + ": Q^-1 K (y - h) of observer (20) is not defined there"
     return text + f": mode '{mode_id}' is not drift-observable from {model.outputs[0]}"
-    return text
 
 
 def _replay(

@@ -59,7 +59,7 @@ from hybridlog.estimators.kernels import (
     record,
     workspace,
 )
-from hybridlog.estimators.options import options_dict, parse_options
+from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
     Entry,
@@ -407,11 +407,6 @@ def stream_imm(
         store_covariances=store_covariances,
         rows=rows,
     )
-
-
-def imm_options(values: dict[str, object]) -> ImmOptions:
-    """Validated IMM options from a name → value mapping."""
-    return parse_options(ImmOptions, values, estimator=NAME)
 
 
 def _store_record(p: Program, row: str, mode: int, x: Vector, P: Matrix) -> None:

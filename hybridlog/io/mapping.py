@@ -11,7 +11,7 @@ For each model input and output, and for the ground truth (``truth.mode``,
    default field, which the model did not name);
 3. the default name: in CSV/Parquet, a column named like the symbol (``u1``, ``y``; ``mode``
    for the true mode; the state's name for a true state); in bags and MCAP files, the topics
-   ``hybridlog simulate`` writes (:func:`default_field`):
+   ``hybridlog simulate`` writes (:func:`default_fields`):
 
    ==================== ==========================================
    symbol               default message path
@@ -194,34 +194,15 @@ def column_topic(column: str, *, truth: bool) -> str | None:
     return "/" + "/".join(tokens)
 
 
-def default_field(symbol: str, *, message_paths: bool) -> str:
-    """The field a symbol maps to when neither ``--map`` nor the model names one.
-
-    Parameters
-    ----------
-    symbol:
-        An input or output name, ``truth.mode``, ``truth.mode.<component>`` or
-        ``truth.<state>``.
-    message_paths:
-        ``True`` for bags and MCAP files (topic defaults), ``False`` for tables (columns).
-
-    Returns
-    -------
-    str
-        The column, or the ``data`` field of the topic ``hybridlog simulate`` writes (its
-        ROS name, :func:`column_topic`; the name as written if it has none).
-    """
-    return default_fields([symbol], message_paths=message_paths)[symbol][0]
-
-
 def default_fields(symbols: Sequence[str], *, message_paths: bool) -> dict[str, tuple[str, ...]]:
     """The fields each symbol is looked for in when neither ``--map`` nor the model names one.
 
-    For a table, the column (:func:`default_field`).  For a bag or MCAP file, the ``data``
-    field of the topic of the symbol's ROS name (:func:`column_topic`), then of the topic
-    hybridlog wrote before it wrote ROS names (``/truth/mode.fr1``, ``/truth/θ``), when
-    that differs.  A ROS name shared by two of ``symbols`` (states ``θ`` and ``theta``) is
-    no symbol's but its own (the writer refuses to write such a pair).
+    For a table, the column named like the symbol (``mode`` for ``truth.mode``).  For a bag
+    or MCAP file, the ``data`` field of the topic of the symbol's ROS name
+    (:func:`column_topic`), then of the topic hybridlog wrote before it wrote ROS names
+    (``/truth/mode.fr1``, ``/truth/θ``), when that differs.  A ROS name shared by two of
+    ``symbols`` (states ``θ`` and ``theta``) is no symbol's but its own (the writer refuses
+    to write such a pair).
     """
     out: dict[str, tuple[str, ...]] = {}
     if not message_paths:

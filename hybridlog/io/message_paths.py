@@ -36,7 +36,7 @@ from typing import Any, TypeGuard
 import numpy as np
 
 from hybridlog.io.source import MAX_SECONDS, NS_PER_S, closest_names
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import FloatArray
 
 Step = str | int
 """One step of a path: a field name or an array index (negative from the end)."""
@@ -407,14 +407,6 @@ def leaves(typedefs: Typedefs, msgtype: str) -> list[Leaf]:
     return out
 
 
-def leaf_fields(typedefs: Typedefs, msgtype: str) -> list[str]:
-    """Paths (steps only, e.g. ``.position[]``) of the numeric and text leaves of ``msgtype``.
-
-    Arrays are shown as ``[]`` (their length is known only per message); see :func:`leaves`.
-    """
-    return [leaf.text for leaf in leaves(typedefs, msgtype)]
-
-
 # ---------------------------------------------------------------------------- decoded messages
 
 
@@ -595,13 +587,6 @@ def as_label(value: object) -> str:
         number = float(value)
         return str(int(number)) if math.isfinite(number) and number.is_integer() else repr(number)
     raise PathError(f"is {_kind(value)}, not a mode label")
-
-
-def number_label(values: FloatArray) -> tuple[IntArray, tuple[str, ...]]:
-    """Numeric labels (e.g. an ``Int32`` mode) as codes into their text forms."""
-    categories, codes = np.unique(values, return_inverse=True)
-    texts = tuple(as_label(float(c)) for c in categories)
-    return codes.astype(np.int64).reshape(-1), texts
 
 
 def _kind(value: object) -> str:

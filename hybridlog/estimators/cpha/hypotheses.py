@@ -188,10 +188,6 @@ class _Proposals:
             self.heap.append((-(base + table.first), self.counter, j, 0, 0))
         heapq.heapify(self.heap)
 
-    def peek(self) -> float:
-        """The score of the next proposal (``-inf`` when there is none)."""
-        return -self.heap[0][0] if self.heap else -math.inf
-
     def pop(self) -> tuple[float, int, int] | None:
         """The next best ``(score, parent, rank code)``, or None when exhausted."""
         if not self.heap:
