@@ -135,17 +135,6 @@ def linearised_error(p: Mapping[str, float], gain: np.ndarray) -> Callable[..., 
     return matrices
 
 
-def vandermonde(eigenvalues: Sequence[float]) -> np.ndarray:
-    """V(Λ) with V (A_b − K(Λ) C_b) V⁻¹ = diag(Λ) (paper 004, sec. 5)."""
-    n = len(eigenvalues)
-    a_b = np.eye(n, k=1)
-    gain = np.poly(eigenvalues)[1:].reshape(-1, 1)
-    c_b = np.eye(1, n)
-    values, vectors = np.linalg.eig((a_b - gain @ c_b).T)  # rows of V: left eigenvectors
-    order = np.argsort(-values.real)
-    return np.asarray(vectors[:, order].T.real / vectors[0, order].real[:, None])
-
-
 def decay_rate(time: np.ndarray, error: np.ndarray) -> float:
     """Least-squares slope of ``log(error)`` against time (the exponential rate, 1/s)."""
     slope, _ = np.polyfit(time, np.log(error), 1)
