@@ -443,6 +443,20 @@ class Smoothing:
         """
         return self.method is None and self.mode_sequence == "viterbi"
 
+    def samples_apart(self, state: str) -> tuple[int, int] | None:
+        """``(filter's samples, offline samples)`` of ``state``'s RMSEs, where they differ.
+
+        Each side's RMSE is over the samples where that side estimated the state: a
+        ``kbest`` path of ``unknown-mode`` estimates none while a component on it is
+        ``unknown``, where the causal estimate may have one.  Two RMSEs over other samples are
+        no gain or loss of either side (13 samples against 101 read as a gain of 10 %).
+        ``None`` where both cover the same samples, or a side's are not known.
+        """
+        own, offline = self.filtered.states.get(state), self.smoothed.states.get(state)
+        if own is None or offline is None or own.samples is None or offline.samples is None:
+            return None
+        return None if own.samples == offline.samples else (own.samples, offline.samples)
+
     def to_dict(self) -> JsonObject:
         """The JSON object ``smoothing`` of ``report.json``."""
         data: JsonObject = {

@@ -533,15 +533,27 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
             for y, out in s.outputs.items()
             if y in f.outputs
         ]
+    apart = {
+        f"RMSE {x}": counts for x in s.states if (counts := smoothing.samples_apart(x)) is not None
+    }
     for name, before, after, spec in rows:
         if spec == ".4g":  # a percentage
             shown = [format_percent(None if v is None else float(v), 4) for v in (before, after)]
         else:
             shown = [format_number(v, spec) for v in (before, after)]
-        lines.append(
-            f"| {escape_markdown(name)} | {shown[0]} | {shown[1]} "
-            f"| {_change(before, after, spec)} |"
-        )
+        change = _change(before, after, spec)
+        if name in apart:  # over other samples: neither side's gain
+            shown = [
+                f"{cell} over {n:,} samples" for cell, n in zip(shown, apart[name], strict=True)
+            ]
+            change = "n/a (other samples)"
+        lines.append(f"| {escape_markdown(name)} | {shown[0]} | {shown[1]} | {change} |")
+    if apart:
+        lines += [
+            "",
+            "An RMSE with its samples beside it is over other samples on each side (where that "
+            "side estimated the state: see the warnings), so the two are not compared.",
+        ]
     if f.mode_accuracy is None and (f.components or s.components):
         lines += [
             "",

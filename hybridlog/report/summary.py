@@ -68,6 +68,7 @@ __all__ = [
     "offline_gains",
     "offline_label",
     "offline_metrics",
+    "offline_samples_apart",
     "warning_notes",
     "warnings_section",
     "write_summary_csv",
@@ -513,14 +514,16 @@ class OfflineGain:
 def offline_gains(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[OfflineGain]:
     """Per metric with both sides known on at least one log, the gain over the batch.
 
-    Higher is better for a mode accuracy, lower for a state's RMSE.
+    Higher is better for a mode accuracy, lower for a state's RMSE.  A log whose two RMSEs
+    of a state are over other samples (:func:`offline_samples_apart`) is left out of that
+    state's.
     """
     gains = []
     per_metric: dict[str, list[tuple[str, float, float]]] = {}
     for row in rows:
         for metric, offline, own in row.offline_pairs(metrics):
             known = per_metric.setdefault(metric, [])
-            if offline is not None and own is not None:
+            if offline is not None and own is not None and _apart(row, metric) is None:
                 known.append((row.log, offline, own))
     for metric, known in per_metric.items():
         if not known:
@@ -545,6 +548,58 @@ def offline_gains(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[Offl
     return gains
 
 
+def _apart(row: BatchRow, metric: str) -> tuple[int, int] | None:
+    """:meth:`Smoothing.samples_apart` of a ``state_rmse.<x>`` metric of one log, else ``None``."""
+    smoothing = None if row.report is None else row.report.smoothing
+    base, _, state = metric.partition(".")
+    if smoothing is None or base != "state_rmse":
+        return None
+    return smoothing.samples_apart(state)
+
+
+def offline_samples_apart(
+    rows: Sequence[BatchRow], metrics: Sequence[str]
+) -> list[tuple[str, str, int, int]]:
+    """``(metric, log, filter's samples, offline samples)`` of each RMSE over other samples.
+
+    Each side's RMSE of a state is over the samples where it estimated the state
+    (:meth:`Smoothing.samples_apart`): over other samples the two are no gain or loss, so
+    :func:`offline_gains` leaves the log out of that metric and summary.md names it.
+    """
+    return [
+        (metric, row.log, *counts)
+        for metric in metrics
+        for row in rows
+        if (counts := _apart(row, metric)) is not None
+    ]
+
+
+def _apart_lines(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[str]:
+    """summary.md's logs left out of a state's gain (:func:`offline_samples_apart`)."""
+    apart = offline_samples_apart(rows, metrics)
+    if not apart:
+        return []
+    lines = [
+        "",
+        "### Logs left out: the two RMSEs are over other samples",
+        "",
+        "Each side's RMSE is over the samples where it estimated the state (the reports' "
+        "warnings say where one did not); over other samples they are not compared.",
+        "",
+    ]
+    for metric in dict.fromkeys(m for m, *_ in apart):
+        logs = [entry for entry in apart if entry[0] == metric]
+        named = ", ".join(
+            f"{escape_markdown(log)} ({offline:,} samples against the filter's {own:,})"
+            for _, log, own, offline in logs[:MAX_NAMED]
+        )
+        more = len(logs) - MAX_NAMED
+        if more > 0:
+            named += f"; and {more} more (their reports)"
+        lines.append(f"- {escape_markdown(metric)} ({len(logs)}): {named}")
+    return lines
+
+
 def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[str]:
     """summary.md's lines on the offline pass against the filter (:func:`offline_gains`)."""
     passes = sorted(
@@ -561,16 +616,17 @@ def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[s
     ]
     gains = offline_gains(rows, metrics)
     if not gains:
-        analysed = any(r.report is not None for r in rows)
-        return [
-            *lines,
-            "",
-            "No analysed log has a true mode or state: the offline estimates cannot be "
-            "compared with the filter's here."
-            if analysed
-            else "No log was analysed: there are no offline estimates to compare.",
-            *_fallback_section(rows),
-        ]
+        apart = _apart_lines(rows, metrics)
+        if apart:
+            said = "No metric has both sides over the same samples on any log."
+        elif any(r.report is not None for r in rows):
+            said = (
+                "No analysed log has a true mode or state: the offline estimates cannot be "
+                "compared with the filter's here."
+            )
+        else:
+            said = "No log was analysed: there are no offline estimates to compare."
+        return [*lines, "", said, *apart, *_fallback_section(rows)]
     table = markdown_table(
         (
             "metric",
@@ -607,7 +663,7 @@ def _offline_section(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[s
         if more > 0:
             named += f"; and {more} more (summary.csv)"
         lines.append(f"- {escape_markdown(g.metric)} ({len(g.worse)} of {g.logs}): {named}")
-    return [*lines, *_fallback_section(rows)]
+    return [*lines, *_apart_lines(rows, metrics), *_fallback_section(rows)]
 
 
 def fallback_logs(rows: Sequence[BatchRow]) -> tuple[int, list[tuple[str, Fallbacks]]]:

@@ -18,6 +18,7 @@ from matplotlib.colors import to_hex
 
 from hybridlog.report.document import Smoothing, StateReport, read_report
 from hybridlog.report.junit import write_junit
+from hybridlog.report.markdown import render_markdown
 from hybridlog.report.summary import (
     MAX_NAMED,
     BatchRow,
@@ -176,3 +177,47 @@ def test_the_filters_mode_accuracy_is_inside_the_panel_below_an_offline_one_of_1
     )
     low, high = fig.axes[1].get_ylim()
     assert low < 50.0 and high == 101.0
+
+
+def apart(log: str, filtered: tuple[float, int], offline: tuple[float, int]) -> BatchRow:
+    """An analysed log whose sides' RMSEs of x1, ``(rmse, samples)``, may cover other samples.
+
+    A ``kbest`` path of ``unknown-mode`` estimates no state while a component on it is
+    ``unknown``: its RMSE was over 13 samples, the causal estimate's over 101.
+    """
+    made = row(log, (0.5, filtered[0]), (0.6, offline[0]))
+    assert made.report is not None and made.report.smoothing is not None
+    smoothing = made.report.smoothing
+    sides = {
+        name: replace(side, states={"x1": StateReport(rmse=rmse, samples=samples)})
+        for name, side, (rmse, samples) in (
+            ("filtered", smoothing.filtered, filtered),
+            ("smoothed", smoothing.smoothed, offline),
+        )
+    }
+    return replace(made, report=replace(made.report, smoothing=replace(smoothing, **sides)))
+
+
+def test_rmses_over_other_samples_are_no_gain_and_are_named() -> None:
+    # unknown-mode --mode-sequence kbest on a [components] log: summary.md counted the path's
+    # RMSE of 0.082 over 13 samples "better" than the filter's 0.091 over 101, and
+    # report.md gave the change -0.0087, where the two RMSEs were over other samples
+    batch = [apart("far.csv", (0.09, 101), (0.08, 13)), apart("near.csv", (0.5, 50), (0.9, 50))]
+    _, rmse = offline_gains(batch, METRICS)
+    assert (rmse.logs, rmse.better, rmse.worse) == (1, 0, (("near.csv", 0.9, 0.5),))
+    _, text = batch_markdown("m", batch, [], METRICS)
+    assert "- state_rmse.x1 (1): far.csv (13 samples against the filter's 101)" in text
+    assert "near.csv (50 samples" not in text
+    _, text = batch_markdown("m", batch[:1], [], METRICS)  # the only log with a true x1
+    assert "- state_rmse.x1 (1): far.csv (13 samples" in text
+    assert "| state_rmse.x1 |" not in text
+    far, near = (b.report for b in batch)
+    assert far is not None and near is not None
+    section = render_markdown(far).split("## Smoothing", 1)[1].split("\n## ", 1)[0]
+    line = next(li for li in section.splitlines() if li.startswith("| RMSE x1 |"))
+    assert line.split(" | ")[1:] == [
+        "0.09 over 101 samples", "0.08 over 13 samples", "n/a (other samples) |"
+    ]  # fmt: skip
+    assert "over other samples on each side" in section
+    section = render_markdown(near).split("## Smoothing", 1)[1]
+    assert "| RMSE x1 | 0.5 | 0.9 | +0.4 |" in section and "other samples" not in section
