@@ -141,10 +141,15 @@ def _offline_text(row: BatchRow, metrics: Sequence[str]) -> str | None:
         return "n/a" if value is None else f"{value:.6g}"
 
     lines = [f"offline estimates ({offline_label(smoothing)}) against the filter's own:"]
-    lines += [
-        f"{metric} = {shown(offline)} (the filter's own: {shown(own)})"
-        for metric, offline, own in row.offline_pairs(metrics)
-    ]
+    for metric, offline, own in row.offline_pairs(metrics):
+        apart = row.samples_apart(metric)
+        if apart is None:
+            lines.append(f"{metric} = {shown(offline)} (the filter's own: {shown(own)})")
+        else:  # over other samples: not a gain (summary.offline_samples_apart)
+            lines.append(
+                f"{metric} = {shown(offline)} over {apart[1]:,} samples (the filter's own: "
+                f"{shown(own)} over {apart[0]:,} samples; not compared)"
+            )
     if smoothing.fallbacks is not None and smoothing.fallbacks.samples:
         lines.append(smoothing.fallbacks.summary())
     return _xml("\n".join(lines))

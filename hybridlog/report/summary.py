@@ -379,6 +379,17 @@ class BatchRow:
             for metric in metrics
         ]
 
+    def samples_apart(self, metric: str) -> tuple[int, int] | None:
+        """The two sample counts of a ``state_rmse.<x>`` metric over other samples, else ``None``.
+
+        ``(filter's samples, offline samples)``, :meth:`Smoothing.samples_apart`.
+        """
+        smoothing = None if self.report is None else self.report.smoothing
+        base, _, state = metric.partition(".")
+        if smoothing is None or base != "state_rmse":
+            return None
+        return smoothing.samples_apart(state)
+
     def offline_cells(self, metrics: Sequence[str]) -> list[object]:
         """The cells of :func:`offline_columns` (empty for a failed log)."""
         smoothing = None if self.report is None else self.report.smoothing
@@ -523,7 +534,7 @@ def offline_gains(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[Offl
     for row in rows:
         for metric, offline, own in row.offline_pairs(metrics):
             known = per_metric.setdefault(metric, [])
-            if offline is not None and own is not None and _apart(row, metric) is None:
+            if offline is not None and own is not None and row.samples_apart(metric) is None:
                 known.append((row.log, offline, own))
     for metric, known in per_metric.items():
         if not known:
@@ -548,15 +559,6 @@ def offline_gains(rows: Sequence[BatchRow], metrics: Sequence[str]) -> list[Offl
     return gains
 
 
-def _apart(row: BatchRow, metric: str) -> tuple[int, int] | None:
-    """:meth:`Smoothing.samples_apart` of a ``state_rmse.<x>`` metric of one log, else ``None``."""
-    smoothing = None if row.report is None else row.report.smoothing
-    base, _, state = metric.partition(".")
-    if smoothing is None or base != "state_rmse":
-        return None
-    return smoothing.samples_apart(state)
-
-
 def offline_samples_apart(
     rows: Sequence[BatchRow], metrics: Sequence[str]
 ) -> list[tuple[str, str, int, int]]:
@@ -570,7 +572,7 @@ def offline_samples_apart(
         (metric, row.log, *counts)
         for metric in metrics
         for row in rows
-        if (counts := _apart(row, metric)) is not None
+        if (counts := row.samples_apart(metric)) is not None
     ]
 
 

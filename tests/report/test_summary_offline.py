@@ -198,7 +198,7 @@ def apart(log: str, filtered: tuple[float, int], offline: tuple[float, int]) -> 
     return replace(made, report=replace(made.report, smoothing=replace(smoothing, **sides)))
 
 
-def test_rmses_over_other_samples_are_no_gain_and_are_named() -> None:
+def test_rmses_over_other_samples_are_no_gain_and_are_named(tmp_path: Path) -> None:
     # unknown-mode --mode-sequence kbest on a [components] log: summary.md counted the path's
     # RMSE of 0.082 over 13 samples "better" than the filter's 0.091 over 101, and
     # report.md gave the change -0.0087, where the two RMSEs were over other samples
@@ -221,3 +221,11 @@ def test_rmses_over_other_samples_are_no_gain_and_are_named() -> None:
     assert "over other samples on each side" in section
     section = render_markdown(near).split("## Smoothing", 1)[1]
     assert "| RMSE x1 | 0.5 | 0.9 | +0.4 |" in section and "other samples" not in section
+    write_junit(tmp_path / "junit.xml", "hybridlog batch: m", batch, METRICS)
+    suite = ET.parse(tmp_path / "junit.xml").getroot()[0]
+    said = {c.get("classname"): c.findtext("system-out") for c in suite.findall("testcase")}
+    assert (
+        "state_rmse.x1 = 0.08 over 13 samples (the filter's own: 0.09 over 101 samples; not "
+        "compared)"
+    ) in said["far.csv"]
+    assert "state_rmse.x1 = 0.9 (the filter's own: 0.5)" in said["near.csv"]
