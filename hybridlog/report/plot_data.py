@@ -509,11 +509,18 @@ class BarsReducer:
 
 
 class OutputCurves(NamedTuple):
-    """One panel of ``outputs.png``: the measured output and its one-step-ahead prediction."""
+    """One panel of ``outputs.png``: the measured output and its one-step-ahead prediction.
+
+    ``explained``: of a result with ``post_processing``, the output its offline estimate
+    explains, ``h_q̂(k)(x̂(k|N), u(k))`` (:mod:`hybridlog.estimators.explained`: an
+    a-posteriori fit, not a prediction); ``None`` otherwise, or where the result does not
+    carry it.
+    """
 
     name: str
     measured: Envelope
     predicted: Envelope
+    explained: Envelope | None = None
 
 
 class StateCurves(NamedTuple):
@@ -615,6 +622,9 @@ class PlotData:
     modes:
         The mode timelines, a ``[components]`` result's per-component ones, or ``None``
         for no samples.
+    explained_label:
+        Which estimate the outputs' ``explained`` curves are of: ``smoothed``, ``viterbi``
+        or ``kbest`` (``""`` without them).
     """
 
     n_samples: int
@@ -627,6 +637,7 @@ class PlotData:
     state_label: str
     states: tuple[StateCurves, ...]
     modes: ModeTimelines | Components | None
+    explained_label: str = ""
 
 
 def _mode_label(result: EstimationResult) -> str:
@@ -762,6 +773,8 @@ class PlotReducer:
         self._begun = False
         self._mode_label = "estimated"
         self._state_label = "estimate"
+        self._explained: list[CurveReducer] = []
+        self._explained_label = ""
         self._probabilities: list[CurveReducer] = []
         self._components: list[_ComponentReducers] = []
         self._filtered: _FilteredReducers | None = None
@@ -789,6 +802,9 @@ class PlotReducer:
         self._probabilities = [CurveReducer(self._bins) for _ in range(n_modes if timelines else 0)]
         if post is not None:
             self._filtered = _FilteredReducers(self._bins, n_modes, len(self._means), timelines)
+            if post.explained is not None:
+                self._explained = [CurveReducer(self._bins) for _ in self._predicted]
+                self._explained_label = "smoothed" if post.smoothing else self._mode_label
         if timelines and self._signals.truth_modes is not None:
             self._truth_modes = BarsReducer(self._bins, n_modes)
 
@@ -811,15 +827,21 @@ class PlotReducer:
         if not self._begun:
             self._begin(chunk)
         post = chunk.post_processing
-        if (post is None) != (self._filtered is None) or (
-            post is not None and post.filtered.n_samples != chunk.n_samples
+        if (
+            (post is None) != (self._filtered is None)
+            or (post is not None and post.filtered.n_samples != chunk.n_samples)
+            or (post is not None and (post.explained is None) == bool(self._explained))
         ):
             raise ValueError(
-                f"plots: rows [{start}, {stop}) have post-processing where the first chunk "
-                "had none, or none where it had, or a filter's result of other rows"
+                f"plots: rows [{start}, {stop}) have post-processing (or explained outputs) "
+                "where the first chunk had none, or none where it had, or a filter's result "
+                "of other rows"
             )
         for j, curve in enumerate(self._predicted):
             curve.add(chunk.output_predictions[:, j], start)
+        if post is not None and post.explained is not None:
+            for j, curve in enumerate(self._explained):
+                curve.add(post.explained[:, j], start)
         means = chunk.estimated_state_means()  # NaN (no curve, no band) where not estimated
         for i, (curve, band) in enumerate(zip(self._means, self._bands, strict=True)):
             curve.add(means[:, i], start)
@@ -877,9 +899,14 @@ class PlotReducer:
         if self._next != n:
             raise ValueError(f"plots: rows [{self._next}, {n}) of the result were not added")
         outputs = tuple(
-            OutputCurves(name, measured.finish(), curve.finish())
-            for name, measured, curve in zip(
-                self._output_names, self._measured, self._predicted, strict=False
+            OutputCurves(
+                name,
+                measured.finish(),
+                curve.finish(),
+                self._explained[j].finish() if self._explained else None,
+            )
+            for j, (name, measured, curve) in enumerate(
+                zip(self._output_names, self._measured, self._predicted, strict=False)
             )
         )
         filtered = self._filtered
@@ -908,6 +935,7 @@ class PlotReducer:
             state_label=self._state_label,
             states=states,
             modes=self._finish_modes() if n else None,
+            explained_label=self._explained_label,
         )
 
     def _finish_modes(self) -> ModeTimelines | Components:

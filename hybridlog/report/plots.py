@@ -1,7 +1,8 @@
 """PNG plots of one run, drawn with matplotlib's Agg canvas (no pyplot, no global state).
 
 ``outputs.png``
-    One panel per output: measured ``y`` and the one-step-ahead prediction ``ŷ``.
+    One panel per output: measured ``y`` and the one-step-ahead prediction ``ŷ``; for an
+    offline pass, also the output its estimate explains, ``h_q̂(x̂(k|N), u(k))`` (dotted).
 ``modes.png``
     The estimated mode timeline (and the true one when known) as runs, one row per mode, and
     the mode probabilities; for a ``[components]`` result (``unknown-mode``) one timeline per
@@ -693,9 +694,14 @@ def _fit_ticks_right(fig: Figure, ax: Axes) -> None:
 def plot_outputs(data: PlotData, path: Path) -> Path:
     """Draw measured outputs against their one-step-ahead predictions.
 
-    Writes ``path`` (PNG) and returns it.
+    An offline pass's explained outputs (:class:`~hybridlog.report.plot_data.OutputCurves`)
+    are drawn over them, dotted: fitted with every sample, they are no prediction, and the
+    title and legend say so.  Writes ``path`` (PNG) and returns it.
     """
-    title = "Outputs: measured vs one-step-ahead prediction"
+    label = data.explained_label
+    title = "Outputs: measured vs one-step-ahead prediction" + (
+        f" and h(x̂) of the {label} estimate" if label else ""
+    )
     fig, axes, names = _panels(title, data.output_names)
     if not names:
         _empty(fig, axes[0], "no outputs")
@@ -703,10 +709,14 @@ def plot_outputs(data: PlotData, path: Path) -> Path:
     set_time_span(axes[0], data.span)
     cut = False
     for ax, curves in zip(axes, data.outputs, strict=True):
-        unit, in_unit = _panel_unit(curves.measured.values, curves.predicted.values)
+        drawn = [c for c in (curves.measured, curves.predicted, curves.explained) if c is not None]
+        unit, in_unit = _panel_unit(*(c.values for c in drawn))
         measured, predicted = (_in_unit(c, unit) for c in (curves.measured, curves.predicted))
         draw_curve(ax, measured, lw=0.8, color="0.3", label="measured")
         draw_curve(ax, predicted, lw=0.8, color="tab:blue", ls="--", label="predicted")
+        if curves.explained is not None:
+            explained = _in_unit(curves.explained, unit)
+            draw_curve(ax, explained, lw=0.9, color="tab:orange", ls=":", label=f"{label} h(x̂)")
         cut = _name_label(fig, ax, curves.name, in_unit) or cut
     if cut:
         _fit_labels_left(fig, axes)

@@ -10,10 +10,14 @@ from __future__ import annotations
 
 import dataclasses
 from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
+import pytest
+from matplotlib.figure import Figure
 
 from hybridlog.estimators.result import EstimationResult, PostProcessing
+from hybridlog.report import plots
 from hybridlog.report.plot_data import ModeTimelines, PlotReducer, reduce_result
 from hybridlog.signals import AlignedSignals
 
@@ -113,3 +117,35 @@ def test_a_curve_the_pass_changed_in_one_late_row_is_overlaid() -> None:
     probabilities = filtered.mode_probabilities[:, ::-1].copy()
     changed = _offline(filtered, state_means=means, mode_probabilities=probabilities)
     assert _chunked(changed, [0, 1, N]).filtered_probabilities is not None
+
+
+def test_outputs_png_overlays_the_output_the_offline_estimate_explains(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the plots overlay the filter's and the offline estimates (issue 12); outputs.png drew
+    # the filter's one-step-ahead prediction alone, where report.json scores both the filter's
+    # and the smoothed explained outputs (smoothing.*.outputs)
+    rng = np.random.default_rng(3)
+    filtered = _result(rng)
+    explained = filtered.output_predictions + 5.0
+    smoothed = dataclasses.replace(
+        filtered,
+        post_processing=PostProcessing("kim-rts", "argmax", "test", filtered, explained=explained),
+    )
+    data = reduce_result(smoothed, _signals())
+    assert data.explained_label == "smoothed"
+    curve = data.outputs[0].explained
+    assert curve is not None
+    assert curve.values.max() == explained.max() and curve.values.min() == explained.min()
+    plain = reduce_result(filtered, _signals())
+    assert plain.outputs[0].explained is None and plain.explained_label == ""
+    viterbi = _offline(filtered, modes=1 - filtered.modes)
+    assert reduce_result(viterbi, _signals()).outputs[0].explained is None  # none carried
+    drawn: list[Figure] = []
+    save = plots._save
+    monkeypatch.setattr(plots, "_save", lambda fig, path: drawn.append(fig) or save(fig, path))
+    plots.plot_outputs(data, tmp_path / "smoothed.png")
+    plots.plot_outputs(plain, tmp_path / "filtered.png")
+    labels = [[line.get_label() for line in fig.axes[0].get_lines()] for fig in drawn]
+    assert labels == [["measured", "predicted", "smoothed h(x̂)"], ["measured", "predicted"]]
+    assert "h(x̂) of the smoothed estimate" in drawn[0].texts[0].get_text()
