@@ -8,8 +8,9 @@ Columns
     ``--mode-sequence viterbi``), ``mode_filtered`` and ``p_<mode>_filtered`` (the causal
     filter's own), ``truth_mode`` (true mode id) when the log has a ground-truth mode, then the
     estimator's own columns (``EstimationResult.timeline_columns``; ``mode.<component>`` for
-    a ``[components]`` model), then ``truth_mode.<component>`` for each component whose true
-    mode the log has.
+    a ``[components]`` model, each followed in a smoothed or re-sequenced run by
+    ``mode.<component>_filtered``, the causal estimate's), then ``truth_mode.<component>``
+    for each component whose true mode the log has.
 ``estimates``
     ``t``; for each state ``x``: ``<x>_hat`` (estimate) and ``<x>_var`` (diagonal of the
     error covariance), then for a smoothed run ``<x>_hat_filtered`` and ``<x>_var_filtered``
@@ -232,11 +233,17 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
             )
     if signals.truth_modes is not None:
         table.labels("truth_mode", ids, signals.truth_modes, "the true mode")
+    post = result.post_processing
+    filtered_columns = {} if post is None else {c.name: c for c in post.filtered.timeline_columns}
     for column in result.timeline_columns:
         what = f"the estimator's column {column.name!r}"
         if column.labels:
             values = column.values.astype(np.int64, copy=False)
             table.labels(column.name, column.labels, values, what)
+            own = filtered_columns.get(column.name)
+            if own is not None and own.labels:  # a component's mode: the filter's beside it
+                codes = own.values.astype(np.int64, copy=False)
+                table.labels(f"{column.name}_filtered", own.labels, codes, f"the filter's {what}")
         else:
             table.floats(column.name, column.values.astype(np.float64, copy=False), what)
     for name, truth in signals.truth_components.items():

@@ -93,6 +93,11 @@ def test_the_offline_pass_is_scored_against_the_components_truth(
             side.mode_accuracy
         )
         assert f"| component {c}: mode accuracy (%) | {100 * side.mode_accuracy:.4f} |" in text
+        # the filter's own mode of each component beside the offline one (timeline.csv held
+        # the joint mode_filtered alone)
+        assert timeline[f"mode.{c}_filtered"].to_list() == [parts[j] for parts in filtered]
+        columns = timeline.columns
+        assert columns.index(f"mode.{c}_filtered") == columns.index(f"mode.{c}") + 1
     assert read_report(out / "report.json").smoothing == smoothing
     # a gate on a component names the side it read and the filter's own value
     (failure,) = evaluate_gates(outcome.report, parse_gates([], ["mode_accuracy.A2=0"]))
