@@ -24,7 +24,7 @@ import numpy as np
 from hybridlog.background import Background
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import fits_unrolled, module_source
-from hybridlog.estimators.vouch import check_result, check_surprise
+from hybridlog.estimators.vouch import check_result
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import ModelFunction, compile_generated, compile_model
 from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS
@@ -482,7 +482,6 @@ def run_filter_chunks(
                     before=before,
                     surprise=filled.surprise,
                 )
-                check_surprise(model, signals, result, filled.surprise, first=chunk.first)
                 if chunk.stop > chunk.first:  # the next chunk's diagnosis starts from here
                     before = filled.state_means[-1].copy()
                 if chunk.stop < n:  # the compiled loop releases the GIL: it runs beside

@@ -72,6 +72,7 @@ from hybridlog.estimators.kernels import (
     mixture_moments,
     normalize_log,
     record,
+    weighed,
     workspace,
 )
 from hybridlog.estimators.options import options_dict
@@ -248,7 +249,7 @@ def _hstf_steps(
                 for c in range(n):
                     P_i_pred[i, a, c] = lam * FPF[i, a, c] + Q[i, a, c]  # (24)
         mixture_moments(uniform, x_i_pred, P_i_pred, x_pred, P_pred)  # (22)
-        nearest = np.inf  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
+        nearest = np.nan  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
         for i in range(n_q):
             # (9), (11), (32): the gain from the combined P(k+1|k), of the measured outputs.
             H_u, R_u, gamma_u = H_i[i], R[i], gamma_i[i]
@@ -278,11 +279,11 @@ def _hstf_steps(
                 distance = 0.0  # vec_m holds L⁻¹ γ
                 for b in range(m):
                     distance += vec_m[b] * vec_m[b]
-                if distance < nearest and log_likelihood[i] > -np.inf:  # S = ∞ weighs nothing
+                if weighed(distance, log_likelihood[i]) and not nearest <= distance:
                     nearest = distance
             else:
                 log_likelihood[i] = -np.inf
-        out.surprise[row] = nearest if nearest < np.inf and left < m else np.nan
+        out.surprise[row] = nearest if left < m else np.nan
         # (33) with the uniform prior of (20), normalised in log space.
         normalize_log(log_likelihood, mu)
         mixture_moments(mu, x_i_post, P_i_post, x, P)  # (36), (37)
@@ -483,16 +484,13 @@ def generate_hstf_source(model: HybridModel, *, masked: bool = False) -> str:
         ll, distance = p.gaussian_log_density_and_distance(f"ll{i}_", gamma_u[i], Ls)  # (34)
         if measured is not None:  # the measured sub-vector's density (kernels.measured_log_density)
             p.emit(f"{ll} = {ll} + 0.5 * left * LOG_2PI")
-        # NaN: no distance; nor where S = ∞ weighs nothing (log-likelihood -∞, as the loop)
-        p.emit(f"if not ({distance} < math.inf and {ll} > -math.inf): {distance} = math.inf")
+        p.weighed_distance(distance, ll)  # NaN: no distance (S = ∞), as the loop
         distances.append(distance)
         p.minus_inf_if_nan(ll)
         log_likelihood.append(ll)
-    nearest = p.assign(
-        "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
-    )
-    anything = f" and left < {m}" if measured is not None else ""  # no surprise in nothing
-    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf{anything} else math.nan")
+    nearest = p.nearest(distances)
+    anything = f" if left < {m} else math.nan" if measured is not None else ""  # nothing: none
+    p.emit(f"surprise_out[row] = {nearest}{anything}")
     mu_new = p.normalized_weights(log_likelihood, mu)  # (33)
     x_new, P_new = p.mixture("cm", mu_new, x_post, P_post)  # (36), (37)
     _, S_new = p.mixture("sm", mu_new, y_i, S_i)  # (38), (39)

@@ -57,6 +57,7 @@ from hybridlog.estimators.kernels import (
     mixture_moments,
     normalize_log,
     record,
+    weighed,
     workspace,
 )
 from hybridlog.estimators.options import options_dict
@@ -211,7 +212,7 @@ def _imm_steps(
         predictions = out.output_predictions[row]
         for b in range(m):
             predictions[b] = 0.0
-        nearest = np.inf  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
+        nearest = np.nan  # the smallest γᵀ S⁻¹ γ over the modes (FilterBuffers.surprise)
         if keep_whitened:  # the buffers are reused chunk after chunk
             for b in range(m):
                 out.whitened[row, b] = np.nan
@@ -238,9 +239,10 @@ def _imm_steps(
                 distance = 0.0  # vec_m holds L⁻¹ γ (0 for an output left out)
                 for b in range(m):
                     distance += vec_m[b] * vec_m[b]
-                if distance < nearest and log_likelihood > -np.inf:  # S = ∞ weighs nothing
+                # a mode the transitions rule out (c̄_j = 0) weighs nothing, nor does S = ∞
+                if c_bar[j] > 0.0 and weighed(distance, log_likelihood) and not nearest <= distance:
                     nearest = distance
-                    if keep_whitened:  # L⁻¹ γ of the nearest mode (FilterBuffers.whitened)
+                    if keep_whitened and distance < np.inf:  # L⁻¹ γ of the nearest mode
                         for b in range(m):
                             out.whitened[row, b] = vec_m[b] if y[b] == y[b] else np.nan
                 log_posterior[j] = (
@@ -253,7 +255,7 @@ def _imm_steps(
                 P_i[j] = P_pred
             if keep_likelihoods:
                 store.log_likelihoods[k + 1, j] = log_likelihood
-        out.surprise[row] = nearest if nearest < np.inf and left < m else np.nan
+        out.surprise[row] = nearest if left < m else np.nan
         if not normalize_log(log_posterior, mu):
             mu[:] = c_bar
         mixture_moments(mu, x_i, P_i, x, P)
@@ -517,11 +519,8 @@ def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
         if measured is not None:  # the measured sub-vector's density (kernels.measured_log_density)
             p.emit(f"{log_likelihood} = {log_likelihood} + 0.5 * left * LOG_2PI")
             z = [p.assign("wz", f"{term(z[b])} if {measured[b]} else math.nan") for b in range(m)]
-        # NaN: no distance; nor where S = ∞ weighs nothing (log-likelihood -∞, as the loop)
-        p.emit(
-            f"if not ({distance} < math.inf and {log_likelihood} > -math.inf): "
-            f"{distance} = math.inf"
-        )
+        # NaN: no distance, as the loop (a mode the transitions rule out, S = ∞)
+        p.weighed_distance(distance, log_likelihood, possible=f"{term(c_bar[j])} > 0.0")
         distances.append(distance)
         whitened.append(z)
         p.minus_inf_if_nan(log_likelihood)
@@ -532,11 +531,9 @@ def generate_imm_source(model: HybridModel, *, masked: bool = False) -> str:
         p.minus_inf_if_nan(posterior)
         log_posterior.append(posterior)
         log_likelihoods.append(log_likelihood)
-    nearest = p.assign(
-        "near", f"min({', '.join(distances)})" if len(distances) > 1 else distances[0]
-    )
-    anything = f" and left < {m}" if measured is not None else ""  # no surprise in nothing
-    p.emit(f"surprise_out[row] = {nearest} if {nearest} < math.inf{anything} else math.nan")
+    nearest = p.nearest(distances)
+    anything = f" if left < {m} else math.nan" if measured is not None else ""  # nothing: none
+    p.emit(f"surprise_out[row] = {nearest}{anything}")
     with p.block("if keep_whitened:"):  # L⁻¹ γ of the nearest mode, as the generic loop
         for b in range(m):
             p.emit(f"whitened_out[row, {b}] = math.nan")

@@ -202,6 +202,19 @@ def measured_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray, lef
 
 
 @jit
+def weighed(distance: float, log_likelihood: float) -> bool:
+    """Whether a mode's update weighed the sample: its ``γᵀ S⁻¹ γ`` is ``distance``.
+
+    ``S = ∞`` weighs nothing (log-likelihood ``-∞`` beside a distance of 0 or NaN), nor does a
+    ``S`` without Cholesky factor (the caller's).  A distance that overflowed to ``∞``
+    (log-likelihood ``-∞`` too) is one: the sample is further from the mode than double
+    precision holds, a sample no mode explains
+    (:func:`~hybridlog.estimators.vouch.check_surprise`), not one no mode could weigh.
+    """
+    return (distance < math.inf and log_likelihood > -math.inf) or distance == math.inf
+
+
+@jit
 def gain(
     P: FloatArray,
     H: FloatArray,

@@ -342,6 +342,32 @@ class Program:
         gamma_left = [self.select(g, flag, 0.0) for g, flag in zip(gamma, measured, strict=True)]
         return H_left, self.left_out_matrix(measured, R), gamma_left
 
+    def weighed_distance(self, distance: str, log_likelihood: str, possible: str = "") -> None:
+        """``distance`` (``γᵀ S⁻¹ γ``) stays where the mode weighed the sample, else NaN.
+
+        A mode weighs it where its ``S`` has a Cholesky factor and is finite (``S = ∞`` has
+        log-likelihood ``-∞`` and a distance of 0 or NaN), ``possible`` (a condition, such as
+        the IMM's ``c̄_j > 0``: a mode the transitions rule out weighs nothing) holding.  A
+        distance that overflowed to ``∞`` (log-likelihood ``-∞``) is kept: the sample is too
+        far from the mode for double precision, not unweighed
+        (:func:`hybridlog.estimators.kernels.weighed_distance`, as the loops).
+        """
+        weighed = (
+            f"({distance} < math.inf and {log_likelihood} > -math.inf or {distance} == math.inf)"
+        )
+        condition = f"{possible} and {weighed}" if possible else weighed
+        self.emit(f"if not ({condition}): {distance} = math.nan")
+
+    def nearest(self, distances: Sequence[str]) -> str:
+        """The smallest of ``distances`` that is not NaN (NaN: all are), assigned to a name."""
+        near = self.fresh("near")
+        self.emit(f"{near} = math.nan")
+        for distance in distances:
+            self.emit(
+                f"if {distance} == {distance} and not {near} <= {distance}: {near} = {distance}"
+            )
+        return near
+
     def minus_inf_if_nan(self, name: str) -> None:
         """A NaN (from a failed Cholesky factor) becomes ``-inf``: no weight for that mode."""
         self.emit(f"if {name} != {name}:")

@@ -307,18 +307,26 @@ def check_result(
     ``first`` is the log's row of the result's row 0 (a chunk of a streamed run) and
     ``before`` the state estimate of the row before it, for the diagnosis.  A filter's
     ``surprise`` (:class:`~hybridlog.estimators.common.FilterBuffers`) also refuses a
-    measured sample that no mode could weigh (:func:`_first_unweighed`) before any flaw (a
-    flaw of the same sample is said with its cause, :func:`_why`, which names an expression
-    that is not finite there or the innovation covariance that is singular).
+    sample no mode explains (:func:`check_surprise`), the first refusal said when it is at
+    or before the others (a measurement too far from every mode's prediction for double
+    precision made the HSTF's state estimate infinite there), and a measured sample that no
+    mode could weigh (:func:`_first_unweighed`) before any flaw (a flaw of the same sample
+    is said with its cause, :func:`_why`, which names an expression that is not finite
+    there or the innovation covariance that is singular).
 
     Raises
     ------
     DivergenceError
         ``<model file>: <estimator> diverged at t = <t> s (sample <k>): <what>[; <why>]``,
-        or ``... cannot weigh the measurement at t = <t> s (sample <k>): ...``.
+        ``... cannot explain the log at ...`` or ``... cannot weigh the measurement at t =
+        <t> s (sample <k>): ...``.
     """
     flaw = first_flaw(result, variances=variances, unpredicted=unpredicted, first=first)
     unweighed = -1 if surprise is None else _first_unweighed(signals, surprise, first)
+    if surprise is not None:  # a sample no mode explains, before what the filter made of it
+        rows = (unweighed, -1 if flaw is None else flaw.row)
+        last = min((row for row in rows if row >= 0), default=surprise.shape[0] - 1)
+        check_surprise(model, signals, result, surprise[: last + 1], first=first)
     if unweighed >= 0 and (flaw is None or unweighed < flaw.row):
         at, what = (
             unweighed,
@@ -353,8 +361,9 @@ def _first_unweighed(signals: AlignedSignals, surprise: FloatArray, first: int) 
     """The first row measuring an output where no mode's likelihood weighed it (-1: none).
 
     There every mode's innovation covariance ``S = H P Hᵀ + R`` (paper 000 eq. (9)) was not
-    positive definite, or overflowed to infinity, as computed in double precision: no mode's
-    likelihood, and so no mode probability and no update, exists.  The filters' loops kept
+    positive definite, or overflowed to infinity, as computed in double precision (or, in
+    the IMM, the modes where it was not are those its transitions rule out, ``c̄_j = 0``):
+    no mode's likelihood, and so no mode probability and no update, exists.  The filters' loops kept
     the modes' predictions and the predicted mode probabilities (``h = 1e200*x``: every
     sample; the IMM's generic loop, past 8 modes, where every ``S`` was singular), which
     nobody can vouch for as an estimate of the log.  Such a row's ``surprise`` is NaN though
@@ -396,9 +405,11 @@ def check_surprise(
 ) -> None:
     """Refuse ``result`` at its first sample that no mode can explain (:func:`surprise_limit`).
 
-    ``surprise`` holds the rows' smallest ``γᵀ S⁻¹ γ`` over the modes (NaN where none was
-    computed; :class:`~hybridlog.estimators.common.FilterBuffers`), ``first`` the log's row
-    of the result's row 0.
+    ``surprise`` holds the rows' smallest ``γᵀ S⁻¹ γ`` over the modes the filter weighs
+    there (the IMM's: those its transitions leave possible, ``c̄_j > 0``; ``∞`` where it
+    overflowed; NaN where none was computed;
+    :class:`~hybridlog.estimators.common.FilterBuffers`), ``first`` the log's row of the
+    result's row 0.  :func:`check_result` calls it.
 
     Raises
     ------
@@ -426,14 +437,21 @@ def check_surprise(
     raise DivergenceError(
         f"{model.origin or model.name}: {result.estimator} cannot explain the log at t = "
         f"{format_time(result.time[at])} s (sample {row}): {shown}{more}: "
-        f"{math.sqrt(float(surprise[at])):.3g} standard deviations from every mode's "
-        f"prediction (over {math.sqrt(limit):.3g}: P < 1e-300 for Gaussian noise); "
+        f"{_deviations(float(surprise[at]))} from every possible mode's prediction "
+        f"(over {math.sqrt(limit):.3g}: P < 1e-300 for Gaussian noise); "
         + (
             lost
             or "an outlier, a stuck or offset sensor, another plant's log, or an estimate that "
             "had lost the plant before it (a wrong mode whose outputs another state matched)?"
         )
     )
+
+
+def _deviations(distance: float) -> str:
+    """``12.3 standard deviations`` for ``γᵀ S⁻¹ γ = distance``, which may have overflowed."""
+    if math.isinf(distance):
+        return f"over {math.sqrt(np.finfo(np.float64).max):.3g} standard deviations"
+    return f"{math.sqrt(distance):.3g} standard deviations"
 
 
 def _lost_before(signals: AlignedSignals, result: EstimationResult, at: int, first: int) -> str:

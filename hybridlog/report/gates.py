@@ -79,6 +79,7 @@ __all__ = [
     "Gate",
     "evaluate_gates",
     "gate_records",
+    "met_value",
     "metric",
     "metric_value",
     "null_reason",
@@ -728,18 +729,29 @@ def gate_records(report: Report, gates: Iterable[Gate]) -> list[dict[str, JsonVa
     records: list[dict[str, JsonValue]] = []
     for gate in gates:
         failure = next(iter(evaluate_gates(report, [gate])), None)
-        value = metric_value(report, gate.metric)
+        value = metric(report, gate.metric)  # a count stays an integer, as the report's own
         records.append(
             {
                 "gate": f"{gate.option} {gate.spec}",
                 "metric": gate.metric,
                 "bound": gate.bound,
-                "value": None if value is None else float(value),
+                "value": None if metric_value(report, gate.metric) is None else value,
                 "passed": failure is None,
                 "failure": failure,
             }
         )
     return records
+
+
+def met_value(report: Report, name: str, value: float, bound: float) -> str:
+    """``vaf = 95.1`` for a met gate of report.md's "Gates", as a missed one's message says it.
+
+    With the digits that tell the value from its bound (:func:`_fmt_apart`: ``--fail-over
+    vaf=99.97209383`` was ``met (vaf = 99.9721)``, a value over the bound by its digits) and,
+    for a report of offline estimates, which estimates it is of (:func:`_which_side`).
+    """
+    shown, _ = _fmt_apart(value, bound)
+    return f"{name} = {shown}{_which_side(report, name)}"
 
 
 def recorded_failures(report: Report) -> list[str]:

@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.report.document import command_line_values
+from hybridlog.report.gates import met_value
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
@@ -243,7 +244,7 @@ def render_markdown(report: Report) -> str:
         *_fields_line(report.reading),
         f"- hybridlog {report.hybridlog_version}",
         *_warnings_lines(report.notes),
-        *_gates_lines(report.extra.get("gates")),
+        *_gates_lines(report, report.extra.get("gates")),
         "",
         "## Outputs",
         "",
@@ -337,11 +338,12 @@ def _warnings_lines(notes: tuple[str, ...]) -> list[str]:
     return ["", "## Warnings", "", *(f"- {escape_markdown(note)}" for note in warnings)]
 
 
-def _gates_lines(records: Any) -> list[str]:
+def _gates_lines(report: Report, records: Any) -> list[str]:
     """The "Gates" section: each CI gate ``analyze`` checked, met or missed and why.
 
     From report.json's ``gates`` (:func:`~hybridlog.report.gates.gate_records`), after the
-    warnings: a report kept by CI says which bound it missed, not only the exit code.
+    warnings: a report kept by CI says which bound it missed, not only the exit code.  A met
+    gate's value is said as a missed one's would be (:func:`~hybridlog.report.gates.met_value`).
     """
     if not isinstance(records, list) or not records:
         return []
@@ -354,10 +356,14 @@ def _gates_lines(records: Any) -> list[str]:
         if failure is not None:
             lines.append(f"- {gate}: **missed**: {escape_markdown(str(failure))}")
         else:
-            value = record.get("value")
-            shown = format_number(value) if isinstance(value, (int, float)) else "n/a"
-            metric = escape_markdown(str(record.get("metric")))
-            lines.append(f"- {gate}: met ({metric} = {shown})")
+            value, bound = record.get("value"), record.get("bound")
+            metric = str(record.get("metric"))
+            shown = (
+                met_value(report, metric, float(value), float(bound))
+                if isinstance(value, (int, float)) and isinstance(bound, (int, float))
+                else f"{metric} = n/a"
+            )
+            lines.append(f"- {gate}: met ({escape_markdown(shown)})")
     return lines
 
 

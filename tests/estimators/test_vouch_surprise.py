@@ -20,6 +20,7 @@ from hybridlog.errors import DivergenceError
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.vouch import surprise_limit
 from hybridlog.model.loader import parse_model
+from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 from tests.estimators.test_reductions import _linear_matrices
 from tests.support.models import LINEAR_TWO_MODE
@@ -148,3 +149,102 @@ def test_an_estimate_that_had_lost_the_plant_is_said_so_where_the_log_has_its_tr
         "an outlier, a stuck or offset sensor, another plant's log, or an estimate that had "
         "lost the plant before it (a wrong mode whose outputs another state matched)?"
     )
+
+
+def _signals(outputs, inputs=None):
+    n = len(outputs)
+    return AlignedSignals(
+        source="log.csv",
+        time=np.arange(n, dtype=float),
+        input_names=("u",),
+        output_names=("y",),
+        inputs=np.zeros((n, 1)) if inputs is None else np.asarray(inputs, float)[:, None],
+        outputs=np.asarray(outputs, float)[:, None],
+    )
+
+
+RULED_OUT = """dt = 1.0
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+f = ["x"]
+h = ["x"]
+
+[modes.b]
+f = ["x"]
+h = ["x + u"]
+
+[noise]
+process = 0.01
+measurement = 0.01
+
+[initial]
+state = [10.0]
+covariance = 0.01
+mode = "a"
+
+[transitions]
+matrix = [[1.0, 0.0], [0.0, 1.0]]
+"""
+
+
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_a_mode_the_transitions_rule_out_explains_no_sample(kernel):
+    # mode b is impossible (prior 0, never entered): its filter explained the jump at t = 21 s
+    # (y = x + u), so the smallest distance was its own and the IMM's estimate, mode a pulled
+    # 10 (70 σ) towards the jump, was written out at exit 0
+    model = parse_model(RULED_OUT, origin="ruled_out.toml")
+    u = np.where(np.arange(41) <= 20, 0.0, 10.0)
+    y = 10.0 + u + np.random.default_rng(1).normal(0.0, 0.1, 41)
+    with pytest.raises(DivergenceError) as refused:
+        run_imm(model, _signals(y, u), ImmOptions(), kernel=kernel)
+    assert "imm cannot explain the log at t = 21 s (sample 21)" in str(refused.value)
+    assert "standard deviations from every possible mode's prediction" in str(refused.value)
+
+
+OVERFLOWING = """dt = 1.0
+states = ["x"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.a]
+f = ["x"]
+h = ["x"]
+
+[modes.b]
+f = ["0.5*x"]
+h = ["x"]
+
+[noise]
+process = 1e-30
+measurement = 1e-30
+
+[initial]
+state = [1.0]
+covariance = 1e-30
+"""
+
+
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+@pytest.mark.parametrize("estimator", ["imm", "hstf"])
+def test_a_measurement_too_far_for_double_precision_is_unexplained_not_unweighed(kernel, estimator):
+    # γᵀ S⁻¹ γ = 1e280 / 2e-30 overflows: every mode's likelihood was -inf though S was
+    # finite and positive definite, and the IMM said no mode's S was (the HSTF: its state
+    # estimate not finite, the update's outcome)
+    from hybridlog.estimators.hstf import HstfOptions, run_hstf
+
+    model = parse_model(OVERFLOWING, origin="tiny.toml")
+    y = np.ones(30)
+    y[20] = 1e140
+    signals = _signals(y)
+    with pytest.raises(DivergenceError) as refused:
+        if estimator == "imm":
+            run_imm(model, signals, ImmOptions(), kernel=kernel)
+        else:
+            run_hstf(model, signals, HstfOptions(fading=False), kernel=kernel)
+    assert str(refused.value).startswith(
+        f"tiny.toml: {estimator} cannot explain the log at t = 20 s (sample 20): y = 1e+140 "
+    )
+    assert "over 1.34e+154 standard deviations from every possible mode's" in str(refused.value)

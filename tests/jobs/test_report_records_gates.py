@@ -7,10 +7,13 @@ which CI keeps as artifacts, did not say which bound was missed, nor that one wa
 from __future__ import annotations
 
 import json
+import math
+import re
 from pathlib import Path
 
 from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.report import read_report, render_markdown
+from hybridlog.report.gates import GATES_KEY, gate_records, parse_gates
 from tests.support.paths import ROOT
 
 CART = ROOT / "sample_logs" / "double_cart_case1.csv"
@@ -63,3 +66,26 @@ def test_compare_records_the_gates_in_each_estimators_report(tmp_path: Path) -> 
         (record,) = json.loads((out / name / "report.json").read_text())["gates"]
         assert record["gate"] == "--fail-over mse=1e-12" and record["passed"] is False
         assert record["failure"] in (out / "comparison.md").read_text(encoding="utf-8")
+
+
+def test_a_met_gate_reads_on_its_side_of_the_bound_and_a_count_stays_a_count(
+    tmp_path: Path,
+) -> None:
+    """``--fail-over vaf=99.97209383`` was ``met (vaf = 99.9721)``: over the bound as printed.
+
+    A met gate's value now has the digits that tell it from its bound, as a missed one's
+    message has; ``missed_switches`` was recorded as ``0.0`` beside the report's ``0``.
+    """
+    out = tmp_path / "run"
+    analyze(CART, "double_cart_case1", estimator="imm", out_dir=out)
+    report = read_report(out / "report.json")
+    assert report.vaf is not None
+    above, below = math.nextafter(report.vaf, math.inf), math.nextafter(report.vaf, -math.inf)
+    gates = parse_gates([f"vaf={below!r}"], [f"vaf={above!r}", "missed_switches=1000"])
+    text = render_markdown(report.with_extra({GATES_KEY: gate_records(report, gates)}))
+    lines = text.split("## Gates\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    shown = [float(re.findall(r"met \(vaf = ([0-9.]+)\)", line)[0]) for line in lines[:2]]
+    assert shown[0] >= below and shown[1] <= above  # each on its side of its bound
+    (count,) = [r["value"] for r in gate_records(report, gates) if r["metric"] != "vaf"]
+    assert report.modes.detection is not None
+    assert count == report.modes.detection.missed and isinstance(count, int)
