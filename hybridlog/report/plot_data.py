@@ -833,9 +833,9 @@ class PlotReducer:
             or (post is not None and (post.explained is None) == bool(self._explained))
         ):
             raise ValueError(
-                f"plots: rows [{start}, {stop}) have post-processing (or explained outputs) "
-                "where the first chunk had none, or none where it had, or a filter's result "
-                "of other rows"
+                f"plots: rows [{start}, {stop}) have post-processing where the first chunk "
+                "had none, or none where it had, or a filter's result of other rows, or "
+                "explained outputs where the first chunk had none, or none where it had"
             )
         for j, curve in enumerate(self._predicted):
             curve.add(chunk.output_predictions[:, j], start)
