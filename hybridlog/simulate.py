@@ -50,6 +50,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from hybridlog.cluster.progress import current_wait
 from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
@@ -503,6 +504,26 @@ def parse_disturbance(text: str) -> Disturbance:
     return Disturbance(amplitude, frequency)
 
 
+def _compile_model_code(model: HybridModel) -> None:
+    """Generate and compile the model's functions the run calls, saying so on a first run.
+
+    Inside the installed reporter's wait (:func:`~hybridlog.cluster.progress.current_wait`),
+    as ``analyze`` compiles its filters: a model's first run generates its code with sympy
+    and compiles it (minutes for a linear model of 30 states and 40 modes), and ``simulate``
+    sat silent meanwhile.  The functions stay compiled in the process for the run.
+    """
+    with current_wait()(
+        f"simulate: compiling machine code for model {model.name!r}",
+        "its first run; later runs load it from the cache",
+    ):
+        if model.is_continuous:
+            compile_continuous(model)
+        else:
+            compile_model(model)
+            if model.state_driven:
+                compile_guard(model)
+
+
 def simulate(
     model: HybridModel,
     *,
@@ -604,6 +625,8 @@ def simulate(
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]
     time = np.arange(n_rows, dtype=float) * model.dt
+    if jit:
+        _compile_model_code(model)
     inputs = input_signals(model, time)
     if noise:
         model.require_measurement_noise(

@@ -76,6 +76,76 @@ def test_jacobians_of_kinks_are_printable_functions():
     assert J[2][0] == sympy.sign(x)
 
 
+def test_jacobian_reads_a_sum_of_numbers_times_symbols_off_without_differentiating(monkeypatch):
+    from hybridlog.model import derivatives
+
+    x, y, u = sympy.symbols("x y u", real=True)
+    rows = [sympy.Float(0.1 + 0.2) * x - 3 * y + u / 3 + 2.5, -y, sympy.Integer(4), x * y + x]
+    differentiate = derivatives._derivative
+    expected = [[differentiate(row, v) for v in (x, y)] for row in rows]
+
+    def only_the_product(expression, variable):
+        assert expression == x * y + x, f"{expression} was differentiated by sympy"
+        return differentiate(expression, variable)
+
+    monkeypatch.setattr(derivatives, "_derivative", only_the_product)
+    got = jacobian(rows, [x, y])
+    assert got == expected
+    assert [[type(e) for e in row] for row in got] == [[type(e) for e in row] for row in expected]
+
+
+# Eight states: the constant Jacobian of a linear mode is a table, the nonlinear mode's
+# derived entries stay stores.
+_ROWS = [[f"{0.1 * ((i * 3 + j) % 7) - 0.3 + 1e-17:.17g}" for j in range(8)] for i in range(8)]
+TABLE_MODEL = f"""
+name = "tables"
+dt = 0.1
+states = [{", ".join(f'"x{i}"' for i in range(8))}]
+inputs = ["u"]
+outputs = ["y1", "y2"]
+
+[modes.lin]
+A = [{", ".join("[" + ", ".join(row) + "]" for row in _ROWS)}]
+B = [{", ".join("[0.5]" for _ in range(8))}]
+C = [[1.0, 0, 0, 0, 0, 0, 0, 0], [0, 0.30000000000000004, 0, 0, 0, 0, 0, 1]]
+
+[modes.curved]
+f = [{", ".join(f'"0.9*x{i} + 0.01*sin(x{(i + 1) % 8})"' for i in range(8))}]
+h = ["x0**2", "x1 + u"]
+
+[noise]
+measurement = 0.01
+
+[initial]
+state = [{", ".join("0.0" for _ in range(8))}]
+"""
+
+
+@pytest.mark.parametrize("jit", [False, True])
+def test_a_linear_modes_jacobians_are_tables_holding_the_doubles_stores_held(jit):
+    from hybridlog.model.codegen import _printer, mode_expressions, model_source
+
+    model = parse_model(TABLE_MODEL)
+    source = model_source(model)
+    # a store per entry of a linear mode's F and H took 45 s to compile for six modes of
+    # 20 states, copied from a table about a second: only the nonlinear mode's F and H store
+    assert "F_TABLE" in source and "H_TABLE" in source
+    assert source.count("out[0, 0] = ") == 2
+    functions = compiled.compile_model(model, jit=jit)
+    xs, (u,) = model.symbols()
+    point = np.linspace(-1.0, 1.0, 8)
+    printer = _printer()
+    for q, name, rows in ((0, "F", 8), (0, "H", 2), (1, "F", 8), (1, "H", 2)):
+        out = np.full((rows, 8), np.nan)
+        getattr(functions, name)(q, point, np.array([0.3]), out)
+        entries = mode_expressions(model, q, name)
+        if q == 0:  # each entry as its store printed it (0.30000000000000004 prints 0.3)
+            assert out.ravel().tolist() == [float(printer.doprint(e)) for e in entries]
+        else:
+            value = sympy.lambdify([*xs, u], entries)(*point, 0.3)
+            np.testing.assert_allclose(out.ravel(), value, rtol=1e-15, atol=1e-15)
+
+
 # -- the key ----------------------------------------------------------------------------
 
 

@@ -375,3 +375,34 @@ def test_a_run_starting_below_its_state_min_is_refused_as_the_file_loads(old, ne
     assert text != TANK
     with pytest.raises(ModelError, match=rf"^tank\.toml: {message}"):
         parse_model(text, origin="tank.toml")
+
+
+def test_a_first_run_compiles_the_model_inside_the_reporters_wait(monkeypatch):
+    # a linear model of 30 states and 40 modes compiled for minutes before its first log,
+    # and simulate said nothing meanwhile; analyze's filters say so on a terminal
+    import contextlib
+
+    from hybridlog.cluster.progress import WorkReporter, reporting
+    from hybridlog.model import compiled
+
+    calls: list[str] = []
+    waits: list[str] = []
+    function = compiled._function
+
+    def counted(model, name, jit):
+        calls.append(f"{name} in wait" if waits and waits[-1] == "open" else name)
+        return function(model, name, jit)
+
+    @contextlib.contextmanager
+    def wait(what, why):
+        waits.append("open")
+        yield
+        waits[-1] = what
+
+    monkeypatch.setattr(compiled, "_function", counted)
+    model = parse_model(PENDULUM_ONE_MODE)
+    with reporting(WorkReporter(wait=wait)):
+        simulate(model, steps=5)
+    assert waits == ["simulate: compiling machine code for model 'pendulum'"]
+    inside = {call.split()[0] for call in calls if call.endswith(" in wait")}
+    assert inside == {"f", "F", "h", "H"} == {call.split()[0] for call in calls}
