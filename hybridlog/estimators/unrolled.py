@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 __all__ = [
     "MAX_UNROLLED_MODES",
     "MAX_UNROLLED_SIZE",
+    "MAX_UNROLLED_WORK",
     "Entry",
     "Matrix",
     "Program",
@@ -40,6 +41,7 @@ __all__ = [
     "reshape",
     "state_slots",
     "term",
+    "unrolled_work",
     "upper",
     "use_unrolled",
     "vector_names",
@@ -646,14 +648,45 @@ square of the mode count; a 30-mode model's code took minutes to compile, then o
 Python's recursion limit, where the compiled loops take seconds."""
 
 
+MAX_UNROLLED_WORK = 1500
+"""Largest :func:`unrolled_work` given straight-line code.  The IMM's straight-line filter,
+first run of a model of ``q`` linear modes and ``n`` states and outputs, on 2 cores:
+
+=====  ===========  ========  ==========  ==========
+q × n  work          compile   µs/sample  loops' µs
+=====  ===========  ========  ==========  ==========
+3 × 3  162           8.6 s     4.3         9.0
+4 × 4  512           17 s      4.5         10
+2 × 6  576           19 s      11          25
+4 × 6  1,440         48 s      9.5         26
+8 × 6  4,032         190 s     26          29
+=====  ===========  ========  ==========  ==========
+
+The compile time grows with the work, the gain does not: past this bound the first run of a
+model (``--mode-sequence kbest`` of 8 modes of 6 states: 363 s and 1.9 GB) waits minutes
+for code that is hardly faster than the compiled loops, which compile once for every model."""
+
+
+def unrolled_work(model: HybridModel) -> int:
+    """``q² n² + q n³`` for ``q`` modes and ``n`` the larger of the state and output counts.
+
+    The size of the straight-line code: the IMM's mixing writes out each pair of modes'
+    covariance terms, each mode's update its matrix products.
+    """
+    n, q = max(model.n_states, model.n_outputs), model.n_modes
+    return q * q * n * n + q * n**3
+
+
 def fits_unrolled(model: HybridModel) -> bool:
     """Whether straight-line code pays for ``model``: it is small enough.
 
-    At most :data:`MAX_UNROLLED_SIZE` states and outputs and :data:`MAX_UNROLLED_MODES` modes.
+    At most :data:`MAX_UNROLLED_SIZE` states and outputs, :data:`MAX_UNROLLED_MODES` modes and
+    :data:`MAX_UNROLLED_WORK` of :func:`unrolled_work`.
     """
     return (
         max(model.n_states, model.n_outputs) <= MAX_UNROLLED_SIZE
         and model.n_modes <= MAX_UNROLLED_MODES
+        and unrolled_work(model) <= MAX_UNROLLED_WORK
     )
 
 

@@ -17,7 +17,8 @@ from hybridlog.estimators.common import FilterBuffers, FilterCode
 from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.kernels import kalman_update, record, workspace
-from hybridlog.estimators.unrolled import use_unrolled
+from hybridlog.estimators.unrolled import unrolled_work, use_unrolled
+from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
@@ -102,6 +103,34 @@ def test_auto_takes_straight_line_code_for_small_models_only():
     )
     assert not use_unrolled(wide, "auto")
     assert use_unrolled(wide, "unrolled")
+
+
+def _linear_modes(states: int, modes: int) -> HybridModel:
+    names = ", ".join(f'"s{i}"' for i in range(states))
+    matrices = "".join(
+        f"[modes.m{k}]\nA = {(np.eye(states) * (0.9 - 0.05 * k)).tolist()}\n"
+        f"C = {np.eye(states).tolist()}\n"
+        for k in range(modes)
+    )
+    return parse_model(
+        f"dt = 1\nstates = [{names}]\noutputs = [{names.replace('s', 'y')}]\n{matrices}"
+        f"[initial]\nstate = {[0.0] * states}\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("states", "modes", "straight"), [(3, 8, True), (6, 2, True), (6, 4, True), (6, 5, False)]
+)
+def test_auto_weighs_the_straight_line_codes_size_by_modes_and_states(
+    states: int, modes: int, straight: bool
+) -> None:
+    # 8 modes of 6 states were given straight-line code within both bounds: 190 s to compile
+    # the IMM's filter, 363 s and 1.9 GB for a first --mode-sequence kbest, to run 10 % faster
+    # than the compiled loops (MAX_UNROLLED_WORK)
+    model = _linear_modes(states, modes)
+    assert unrolled_work(model) == modes**2 * states**2 + modes * states**3
+    assert use_unrolled(model, "auto") is straight
+    assert use_unrolled(model, "unrolled")
 
 
 def test_a_diverging_filter_is_an_error_naming_the_model_file_estimator_and_time():
