@@ -24,6 +24,10 @@ What this adds to rosbags' readers:
   table), on which it raises in its own words naming no topic, are found when it has
   failed to open the bag (nothing is read ahead for a bag it opens) and refused naming the
   topic and what they hold (:mod:`.bag_qos`).
+- A topic's name, type or message count of another kind than rosbags' reader expects (text,
+  text, a whole number: ``metadata.yaml`` is YAML, a ``.db3`` file's columns are typed by
+  their values) is refused naming where it is written, the topic and the field
+  (:func:`_check_connections`); rosbags takes whatever the file holds.
 """
 
 from __future__ import annotations
@@ -99,6 +103,34 @@ def _said(text: str) -> str:
 
 def _qos_text(connection: Any) -> str:
     return repr(getattr(connection.ext, "offered_qos_profiles", None))
+
+
+_CONNECTION_FIELDS: tuple[tuple[str, str, type], ...] = (
+    ("topic", "name", str),
+    ("msgtype", "type", str),
+    ("msgcount", "message count", int),
+)
+"""What rosbags' connection holds of a topic: attribute, the field's name, its kind."""
+
+
+def _check_connections(connections: Any, where: str) -> None:
+    """Refuse a connection whose topic name, type or message count is not of its kind.
+
+    ``where`` names the file that lists them.  Topics are sorted and matched by name and type,
+    and counts compared: a name YAML reads as a number or ``null``, or a ``.db3`` value
+    stored as a blob, failed there with Python's ``TypeError`` and no file named.
+    """
+    for number, connection in enumerate(connections, 1):
+        for attribute, field, kind in _CONNECTION_FIELDS:
+            value = getattr(connection, attribute)
+            if not isinstance(value, kind) or isinstance(value, bool):
+                name = connection.topic
+                topic = excerpt(name) if isinstance(name, str) else f"#{number}"
+                shown = excerpt(value) if isinstance(value, str) else excerpt(repr(value))[1:-1]
+                raise LogError(
+                    f"{where}: topic {topic}: its {field} is {shown}, "
+                    f"not {'text' if kind is str else 'a whole number'}"
+                )
 
 
 class BagSource(MessageSource):
@@ -188,6 +220,7 @@ class BagSource(MessageSource):
             reader.open()
             self._reader = reader
             self._storages = [(reader, list(reader.connections))]
+            _check_connections(reader.connections, self.path)
             return
         from rosbags.rosbag2 import Reader as Ros2Reader
 
@@ -198,8 +231,12 @@ class BagSource(MessageSource):
         storages = getattr(storage, "storages", None)
         if storages is None:  # a bare .db3 or .mcap
             self._storages = [(storage, list(storage.connections))]
+            _check_connections(storage.connections, self.path)
             return
         self._storages = [(s, list(s.connections)) for s in storages]
+        _check_connections(reader.connections, f"{self.path}: metadata.yaml")
+        for _, connections in self._storages:
+            _check_connections(connections, self.path)
         self._per_message_zstd = reader.compression_mode == "message"
         plugin = type(storages[0]).__name__ if storages else ""
         self._format += " (mcap)" if "Mcap" in plugin else " (sqlite3)"

@@ -16,8 +16,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 
 from hybridlog.cli import main
+from hybridlog.errors import LogError
+from hybridlog.io import inspect_log
 from hybridlog.io.bag_writers import write_log
 from tests.support.logfiles import (
     Channel,
@@ -402,6 +405,41 @@ def test_bag_folder_without_metadata(tmp_path: Path, capsys: pytest.CaptureFixtu
     (bag / "metadata.yaml").unlink()
     refused(bag, capsys, "needs metadata.yaml", "bag.db3")
     assert accepted(bag / "bag.db3", capsys)["samples"] == 91
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "said"),
+    [
+        ("name", 3, "topic #1: its name is 3, not text"),
+        ("name", None, "topic #1: its name is None, not text"),
+        ("type", True, "topic '/u': its type is True, not text"),
+        ("message_count", "many", "topic '/u': its message count is 'many', not a whole number"),
+    ],
+)
+def test_a_metadata_topic_field_of_another_kind_names_it(
+    field: str, value: object, said: str, tmp_path: Path
+) -> None:
+    """YAML types a topic's name, type and count by how they are written (fuzzx's find)."""
+    bag = simulated(tmp_path / "bag", format="ros2-sqlite3")
+    metadata = bag / "metadata.yaml"
+    document = yaml.safe_load(metadata.read_text())
+    entry = document["rosbag2_bagfile_information"]["topics_with_message_count"][0]
+    (entry if field == "message_count" else entry["topic_metadata"])[field] = value
+    metadata.write_text(yaml.safe_dump(document))
+    with pytest.raises(LogError) as refusal:
+        inspect_log(bag)
+    assert str(refusal.value) == f"{bag}: metadata.yaml: {said}"
+
+
+@pytest.mark.parametrize("opened", ["bag", "bag/bag.db3"])
+def test_a_db3_topic_name_stored_as_a_blob_is_refused(opened: str, tmp_path: Path) -> None:
+    simulated(tmp_path / "bag", format="ros2-sqlite3")
+    with sqlite3.connect(tmp_path / "bag" / "bag.db3") as connection:
+        connection.execute("update topics set name = x'2f75' where name = '/u'")
+    connection.close()
+    with pytest.raises(LogError) as refusal:
+        inspect_log(tmp_path / opened)
+    assert str(refusal.value) == f"{tmp_path / opened}: topic #1: its name is b'/u', not text"
 
 
 def test_folder_that_is_no_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
