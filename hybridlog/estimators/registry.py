@@ -56,6 +56,8 @@ __all__ = [
     "reference_markdown",
     "refuse_unrunnable",
     "resolve_estimator",
+    "unsuited",
+    "unsuited_text",
 ]
 
 Runner = Callable[..., "EstimationResult"]
@@ -337,6 +339,28 @@ def get_estimator(name: str, *, given_by: str = "--estimator") -> Estimator:
     raise OptionError(f"{given_by}: {_unknown(name, ESTIMATORS)}")
 
 
+def unsuited(model: HybridModel, names: Sequence[str]) -> dict[str, list[str]]:
+    """The names of ``names`` that are unknown or cannot run ``model``, by reason.
+
+    The reason is what the estimator needs, the first clause of
+    :meth:`~hybridlog.estimators.capabilities.Capabilities.mismatch`; an unknown name's is
+    ``unknown`` with the closest known one.
+    """
+    traits = ModelTraits(model)
+    refused: dict[str, list[str]] = {}  # reason -> names
+    for name in names:
+        if name not in ESTIMATORS:
+            refused.setdefault(f"unknown{closest(name, ESTIMATORS)}", []).append(name)
+        elif (mismatch := ESTIMATORS[name].capabilities.mismatch(traits)) is not None:
+            refused.setdefault(mismatch.split("; ")[0], []).append(name)
+    return refused
+
+
+def unsuited_text(refused: Mapping[str, Sequence[str]]) -> str:
+    """``'chiu', 'kmeans' (needs a linear switched model), ...`` of :func:`unsuited`."""
+    return ", ".join(f"{', '.join(map(excerpt, group))} ({why})" for why, group in refused.items())
+
+
 def refuse_unrunnable(model: HybridModel, names: Sequence[str], *, given_by: str) -> None:
     """Refuse the estimators of ``names`` that cannot run ``model``, all in one message.
 
@@ -355,18 +379,13 @@ def refuse_unrunnable(model: HybridModel, names: Sequence[str], *, given_by: str
     ModelError
         Every refused name is an estimator the model does not suit.
     """
-    traits = ModelTraits(model)
-    refused: dict[str, list[str]] = {}  # reason -> names
-    for name in names:
-        if name not in ESTIMATORS:
-            refused.setdefault(f"unknown{closest(name, ESTIMATORS)}", []).append(name)
-        elif (mismatch := ESTIMATORS[name].capabilities.mismatch(traits)) is not None:
-            refused.setdefault(mismatch.split("; ")[0], []).append(name)
+    refused = unsuited(model, names)
     count = sum(map(len, refused.values()))
     if count < 2:
         return
+    traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
-    items = ", ".join(f"{', '.join(map(excerpt, group))} ({why})" for why, group in refused.items())
+    items = unsuited_text(refused)
     message = (
         f"{model.origin or model.name}: {given_by}: {count} of the {len(names)} estimators "
         f"cannot run this model: {items}; estimators for this model: "

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.options import OptionSource, parse_options, shown
-from hybridlog.estimators.registry import ESTIMATORS, Prepared, prepare
+from hybridlog.estimators.registry import ESTIMATORS, Prepared, prepare, unsuited, unsuited_text
 from hybridlog.jobs.analysis import estimator_inputs
 from hybridlog.model.cache import load_model
 from hybridlog.model.diagnosis import model_diagnoses
@@ -71,11 +71,16 @@ def check_and_describe(path: Path) -> str:
             f"{path}: a valid model file",
             *_lines(model),
             *_table_lines(model, {each.name: each for each in prepared}),
-            f"estimators for it: {', '.join(suited) or 'none'}",
+            f"estimators for it: {', '.join(suited) or _none_suits(model)}",
             default_line,
             *model_diagnoses(model),
         ]
     )
+
+
+def _none_suits(model: HybridModel) -> str:
+    """``none: 'imm', 'hstf' (needs a discrete-time model), ...``: why each cannot run it."""
+    return f"none: {unsuited_text(unsuited(model, list(ESTIMATORS)))}"
 
 
 def _table_lines(model: HybridModel, prepared: Mapping[str, Prepared]) -> list[str]:

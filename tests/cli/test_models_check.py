@@ -144,3 +144,24 @@ def test_the_time_base_is_described_with_the_digits_the_file_gives(tmp_path: Pat
     assert check_and_describe(path).splitlines()[2] == (
         "continuous time, dt 0.0123456789 s, integration rk4 with step 0.0123456789 s"
     )
+
+
+def test_a_model_no_estimator_runs_says_what_each_needs(tmp_path: Path) -> None:
+    # "estimators for it: none" left a user with a continuous-time model of two outputs to
+    # try each estimator in turn to learn why
+    path = tmp_path / "two_outputs.toml"
+    path.write_text(
+        'name = "two_outputs"\ntime = "continuous"\ndt = 0.1\n'
+        'integration = {method = "rk4", step = 0.05}\nstates = ["x1", "x2"]\n'
+        'outputs = ["y1", "y2"]\n'
+        "[modes.a]\nA = [[-1.0, 0.0], [0.0, -2.0]]\nC = [[1.0, 0.0], [0.0, 1.0]]\n"
+        "[modes.b]\nA = [[-2.0, 0.0], [0.0, -1.0]]\nC = [[1.0, 0.0], [0.0, 1.0]]\n"
+        "[noise]\nprocess = 0.01\nmeasurement = 0.01\n"
+        "[initial]\nstate = [0.0, 0.0]\ncovariance = 1.0\n",
+        encoding="utf-8",
+    )
+    (line,) = [li for li in check_and_describe(path).splitlines() if "estimators for it" in li]
+    assert line.startswith("estimators for it: none: 'hstf', 'imm', ")
+    assert "(needs a discrete-time model)" in line
+    assert "'switching-observer' (needs a single-output model)" in line
+    assert "'sliding-mode' (needs a boolean-affine model" in line
