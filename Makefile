@@ -39,8 +39,8 @@ demo: $(VENV)/.installed bytecode
 	@echo "Next: source $(BIN)/activate, then hybridlog --help; README.md has a tour."
 
 lint: $(VENV)/.installed-test
-	$(BIN)/ruff check hybridlog tests benchmarks
-	$(BIN)/ruff format --check hybridlog tests benchmarks
+	$(BIN)/ruff check hybridlog tests benchmarks docs/studies
+	$(BIN)/ruff format --check hybridlog tests benchmarks docs/studies
 	$(BIN)/mypy
 
 test: lint bytecode

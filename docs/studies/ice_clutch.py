@@ -48,7 +48,8 @@ EIGENVALUES = ("-10,-20,-30", "-4,-8,-12", "-2,-4,-6")
 
 def throttle(t: np.ndarray) -> np.ndarray:
     """The throttle α(t) of the scenario."""
-    return 0.4 + 0.1 * np.sin(2 * t)
+    alpha: np.ndarray = 0.4 + 0.1 * np.sin(2 * t)
+    return alpha
 
 
 def make_log(
@@ -277,7 +278,8 @@ def plots(
     import matplotlib.pyplot as plt
 
     t = signals.time
-    switches = t[np.flatnonzero(np.diff(signals.truth_modes)) + 1]  # type: ignore[arg-type]
+    assert signals.truth_modes is not None  # the simulated log has them
+    switches = t[np.flatnonzero(np.diff(signals.truth_modes)) + 1]
     fig, ax = plt.subplots(figsize=(8, 4))
     for text, (_, norm, rate, start) in runs.items():
         (line,) = ax.semilogy(t, norm, label=f"Λ = {text}: fitted rate {rate:.1f} 1/s")

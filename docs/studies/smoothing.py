@@ -11,7 +11,9 @@ eq. (1)) at its defaults, once per variant:
 
 * ``filtered``           the IMM itself (argmax of the filtered mode probabilities);
 * ``viterbi``            the filter's states, the Viterbi mode path (``mode_sequence=viterbi``);
-* ``smoothed``           Kim's smoother (``smooth=true``, ``smoother="kim"``; the default ``ec`` is compared in ``smoothing_ec.py``): argmax of the smoothed probabilities;
+* ``smoothed``           Kim's smoother (``smooth=true``, ``smoother="kim"``, the default;
+                         ``ec`` is compared in ``smoothing_ec.py``): argmax of the smoothed
+                         probabilities;
 * ``smoothed+viterbi``   the smoothed states with the Viterbi path;
 * ``kbest``              the path of the best of the 20 best mode histories, each with its
                          own EKF (``mode_sequence=kbest``), and the states of the EKF along it;

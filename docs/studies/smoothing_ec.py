@@ -51,6 +51,7 @@ from hybridlog.estimators.registry import ESTIMATORS, Prepared
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
 from hybridlog.signals import AlignedSignals
+from hybridlog.simulate import simulate
 from tests.support import ec_reference
 
 VARIANTS = {
@@ -132,9 +133,7 @@ def main() -> None:
         "80-step segments, seeds 501..520": range(501, 521),
     }
     for title, seeds in scenarios.items():
-        logs = [
-            study.simulate(tank, schedule=schedule(seed), seed=seed).signals(tank) for seed in seeds
-        ]
+        logs = [simulate(tank, schedule=schedule(seed), seed=seed).signals(tank) for seed in seeds]
         rows, differing = run(tank, logs, reference)
         line = summary(f"three_tank, {title}", rows)
         if differing >= 0:

@@ -445,6 +445,8 @@ def evidence_smooth(
         state_variances=np.zeros((n, model.n_states)),
         output_predictions=filtered.output_predictions,
         covariances=np.zeros((0, model.n_states, model.n_states)),
+        surprise=np.zeros(0),
+        whitened=np.zeros((0, model.n_outputs)),
     )
     compiled = compile_model(model)
     arguments = (

@@ -32,9 +32,11 @@ if __package__ in (None, ""):  # run as a file: make the repository root importa
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import hybridlog.estimators.hstf as hstf_module
+from hybridlog.estimators import kernels
 from hybridlog.estimators.common import noise_stacks
-from hybridlog.estimators.hstf import HstfOptions, run_hstf
-from hybridlog.estimators.imm import ImmOptions, run_imm
+from hybridlog.estimators.filter_options import HstfOptions, ImmOptions
+from hybridlog.estimators.hstf import run_hstf
+from hybridlog.estimators.imm import run_imm
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -137,22 +139,22 @@ def traced_hstf(
 ) -> tuple[EstimationResult, np.ndarray, np.ndarray]:
     """Run the library's HSTF loop as plain Python and record γ_i and S_i of eq. (34).
 
-    Only the module's reference to ``gaussian_log_density`` is wrapped for the duration of the
+    Only the module's reference to ``measured_log_density`` is wrapped for the duration of the
     call; the wrapper passes the arguments through and returns the original value.
     Returns the result, γ of shape (N, n_q, m) and S of shape (N, n_q, m, m) (row 0 NaN).
     """
-    original = getattr(hstf_module, "gaussian_log_density")  # noqa: B009
+    original = kernels.measured_log_density  # the function hstf imported; mypy checks the name
     records: list[tuple[np.ndarray, np.ndarray]] = []
 
-    def recording(gamma: np.ndarray, L: np.ndarray, work: np.ndarray) -> float:
+    def recording(gamma: np.ndarray, L: np.ndarray, work: np.ndarray, left: int) -> float:
         records.append((gamma.copy(), L @ L.T))
-        return float(original(gamma, L, work))
+        return float(original(gamma, L, work, left))
 
-    setattr(hstf_module, "gaussian_log_density", recording)  # noqa: B010
+    setattr(hstf_module, "measured_log_density", recording)  # noqa: B010
     try:
         result = run_hstf(model, sig, options, jit=False, store_covariances=True)
     finally:
-        setattr(hstf_module, "gaussian_log_density", original)  # noqa: B010
+        setattr(hstf_module, "measured_log_density", original)  # noqa: B010
     n, n_q, m = sig.n_samples, model.n_modes, model.n_outputs
     if len(records) != (n - 1) * n_q:
         raise RuntimeError("a likelihood was not evaluated (singular S_i?)")
