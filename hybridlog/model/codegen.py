@@ -17,7 +17,7 @@ paper 004 eq. (3), the identity where the model has no map); a boolean-affine on
 
 And, when the model has them, ``guard(x, u)`` (index of the first mode whose guard holds,
 or -1) and ``input_<j>(t, k)`` (the ``[simulation.inputs]`` signals, NumPy-vectorised over
-the time grid, as ``sympy.lambdify`` would evaluate them).  :func:`emit_mode_function`
+the time grid, as :func:`lambdify` evaluates them).  :func:`emit_mode_function`
 writes one mode function inline, for the straight-line filter loops of
 :mod:`hybridlog.estimators.unrolled`.
 
@@ -31,8 +31,9 @@ already holds a model's module.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
-from typing import TYPE_CHECKING
+import math
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
@@ -62,7 +63,49 @@ _OPPOSITE: Mapping[type, type] = {
 """The comparison that holds exactly when one does not, unless a side is NaN."""
 
 
-class _ModelPrinter(PythonCodePrinter):  # type: ignore[misc]  # sympy is untyped
+class _ExactFloats:
+    """A finite ``Float`` printed as the double it holds (``repr``), not at 15 digits.
+
+    sympy prints a 53-bit ``Float`` with 15 significant digits, which is not enough to
+    name a double: a parameter written ``0.12345678901234568`` was compiled as
+    ``0.123456789012346``, a constant sympy folded (``1/616`` of the three tanks'
+    ``0.00162337662337662``) one or two units in the last place from its value, so the
+    compiled model was not the model the report's ``parameters`` record.  ``repr`` gives
+    the shortest text that reads back as the same double.
+    """
+
+    def _print_Float(self, expr: sympy.Float) -> str:
+        value = float(expr)
+        if not math.isfinite(value):
+            return str(super()._print_Float(expr))  # type: ignore[misc]  # sympy's own
+        return repr(value)
+
+
+class _ExactPythonPrinter(_ExactFloats, PythonCodePrinter):  # type: ignore[misc]  # untyped
+    """sympy's Python printer, each ``Float`` printed as the double it holds."""
+
+
+class _ExactNumPyPrinter(_ExactFloats, NumPyPrinter):  # type: ignore[misc]  # untyped
+    """sympy's NumPy printer, each ``Float`` printed as the double it holds."""
+
+
+def lambdify(
+    args: Sequence[sympy.Symbol], expressions: object, module: str, *, cse: bool = False
+) -> Callable[..., Any]:
+    """``sympy.lambdify(args, expressions, module)`` with each ``Float`` printed as its double.
+
+    ``module`` is ``"numpy"`` or ``"math"``; the printer is made with the settings
+    ``lambdify`` gives its own (a printer class passed to it would not be, and the
+    modules its code calls, ``functools`` for ``max``, would not be imported).
+    """
+    printer = (_ExactNumPyPrinter if module == "numpy" else _ExactPythonPrinter)(
+        {"fully_qualified_modules": False, "inline": True, "allow_unknown_functions": True}
+    )
+    function = sympy.lambdify(args, expressions, module, printer=printer, cse=cse)
+    return cast(Callable[..., Any], function)
+
+
+class _ModelPrinter(_ExactPythonPrinter):
     """sympy's Python printer with ``max``, ``min`` and ``sign`` that keep a NaN.
 
     A NaN in a mode function (``sqrt`` or ``log`` of a negative value) is how the
@@ -376,8 +419,8 @@ def _input_functions(model: HybridModel) -> list[str]:
     Every module the printer used is imported: ``max`` prints as
     ``functools.reduce(numpy.maximum, ...)``, and ``functools`` was imported nowhere.
     """
-    # The NumPy printer of sympy.lambdify(modules="numpy"): the same calls, the same values.
-    printer = NumPyPrinter({"fully_qualified_modules": True, "inline": True})
+    # The NumPy printer of sympy.lambdify(modules="numpy"): the same calls, exact constants.
+    printer = _ExactNumPyPrinter({"fully_qualified_modules": True, "inline": True})
     lines: list[str] = []
     for index, name in enumerate(model.inputs):
         if name in model.simulation_inputs:

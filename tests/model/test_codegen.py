@@ -16,6 +16,7 @@ import pytest
 import sympy
 
 from hybridlog.model import compiled
+from hybridlog.model.codegen import lambdify
 from hybridlog.model.compiled import (
     artefact_key,
     code_fingerprint,
@@ -139,8 +140,9 @@ def test_a_linear_modes_jacobians_are_tables_holding_the_doubles_stores_held(jit
         out = np.full((rows, 8), np.nan)
         getattr(functions, name)(q, point, np.array([0.3]), out)
         entries = mode_expressions(model, q, name)
-        if q == 0:  # each entry as its store printed it (0.30000000000000004 prints 0.3)
+        if q == 0:  # each entry as its store printed it: the double itself
             assert out.ravel().tolist() == [float(printer.doprint(e)) for e in entries]
+            assert out.ravel().tolist() == [float(e) for e in entries]
         else:
             value = sympy.lambdify([*xs, u], entries)(*point, 0.3)
             np.testing.assert_allclose(out.ravel(), value, rtol=1e-15, atol=1e-15)
@@ -262,6 +264,8 @@ def test_a_warm_process_runs_filters_and_simulation_without_the_code_generator()
 
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_simulation_inputs_equal_sympy_lambdify_bit_for_bit(name):
+    # sympy.lambdify with each Float printed as its double (its own prints 15 digits)
+
     model = MODELS[name]()
     t, k = sympy.Symbol("t", real=True), sympy.Symbol("k", real=True)
     time = np.arange(2000) * model.dt
@@ -269,7 +273,7 @@ def test_simulation_inputs_equal_sympy_lambdify_bit_for_bit(name):
     functions = input_functions(model)
     assert set(functions) == set(model.simulation_inputs)
     for input_name, expression in model.simulation_inputs.items():
-        reference = sympy.lambdify((t, k), expression, modules="numpy")
+        reference = lambdify((t, k), expression, "numpy")
         expected = np.broadcast_to(np.asarray(reference(time, steps), dtype=float), time.shape)
         got = np.broadcast_to(
             np.asarray(functions[input_name](time, steps), dtype=float), time.shape

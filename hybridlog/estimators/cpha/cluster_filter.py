@@ -46,6 +46,7 @@ import numpy as np
 import sympy
 
 from hybridlog.estimators.cpha.structure import Cluster
+from hybridlog.model.codegen import lambdify
 from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 __all__ = [
@@ -337,8 +338,8 @@ def compile_cluster(
     H = _jacobian(cluster.h, x)
     D = _jacobian(cluster.h, v)
     args = [*x, *u, *v]
-    predict = sympy.lambdify(args, [f, F, B], modules="numpy", cse=True)
-    observe = sympy.lambdify(args, [h, H, D], modules="numpy", cse=True)
+    predict = lambdify(args, [f, F, B], "numpy", cse=True)
+    observe = lambdify(args, [h, H, D], "numpy", cse=True)
     ekf = _unrolled(cluster, x, u, v, f, F, B, h, H, D) if unrolled else None
     upper = np.triu_indices(len(x))
     uses = [{str(s) for s in e.free_symbols} for e in cluster.h]
@@ -461,7 +462,7 @@ def _unrolled(
     log_po = -(r.T * S_inv * r)[0, 0] / 2
     args = [*x, *p.values(), *u_prev, *v_prev, *u, *v, *y]
     outputs = [*x_new, *upper, *h_k, *minors, log_po]
-    function = sympy.lambdify(args, outputs, modules="math", cse=True)
+    function = lambdify(args, outputs, "math", cse=True)
     return cast(Callable[..., tuple[float, ...]], function)
 
 
