@@ -450,14 +450,21 @@ def _offline_caveat(report: Report, section: str) -> list[str]:
 def _fallback_lines(smoothing: Smoothing) -> list[str]:
     """The "Smoothing" section's line on the samples the smoother left to the forward pass.
 
-    ``smoothing.fallbacks``; no line where it never did.
+    ``smoothing.fallbacks``; no line where it never did.  Where the guard refused steps the
+    line points to the docs' account of why it does by construction on models with fewer
+    outputs than states.
     """
     fallbacks = smoothing.fallbacks
     if fallbacks is None or fallbacks.samples == 0:
         return []
+    why = (
+        ', and "Why the guard fires on models with more states than outputs" there'
+        if fallbacks.by_cause.get("guard")
+        else ""
+    )
     return [
         f"- Fallbacks: {fallbacks.summary()}. On those samples the smoothed estimate is, in "
-        'part or whole, the forward pass\'s (docs/smoothing.md, "The algorithms").'
+        f'part or whole, the forward pass\'s (docs/smoothing.md, "The algorithms"{why}).'
     ]
 
 

@@ -333,11 +333,40 @@ def test_fallbacks_reach_report_json_and_report_md_and_read_back(tmp_path: Path)
         line = (
             "- Fallbacks: the smoother fell back to the forward estimate on 12 of 399 samples "
             "(guard 12, rounding 3), which carry 2.0 % of the smoothed estimates' weight."
+            " On those samples the smoothed estimate is, in part or whole, the forward pass's"
+            ' (docs/smoothing.md, "The algorithms", and "Why the guard fires on models with'
+            ' more states than outputs" there).'
         )
         assert (line in section) == (fallbacks.samples > 0)
     data = _report_data()
     assert "fallbacks" not in data["smoothing"]  # none carried: not counted
     assert Report.from_dict(data).smoothing.fallbacks is None  # type: ignore[union-attr]
+
+
+def test_the_fallback_line_points_to_why_the_guard_fires_only_where_it_did(
+    tmp_path: Path,
+) -> None:
+    """The guard refuses steps by construction on models with fewer outputs than states (the
+    docs say why, with numbers); a line whose steps the rounding probe alone refused does not
+    send the reader there."""
+    result, signals = smoothed_run()
+    post = result.post_processing
+    assert post is not None
+    causes = {"prediction": 0, "guard": 0, "rounding": 3, "covariance": 0}
+    for by_cause, pointed in ((FELL_BACK.by_cause, True), (causes, False)):
+        fallbacks = dataclasses.replace(FELL_BACK, by_cause=by_cause)
+        counted = dataclasses.replace(
+            result, post_processing=dataclasses.replace(post, fallbacks=fallbacks)
+        )
+        out = tmp_path / str(pointed)
+        write_report(out, counted, signals, log="run.csv", model_name="m", dt=DT)
+        line = next(
+            line
+            for line in (out / "report.md").read_text().splitlines()
+            if line.startswith("- Fallbacks:")
+        )
+        assert ("Why the guard fires on models with more states than outputs" in line) == pointed
+        assert line.endswith("there).") == pointed
 
 
 @pytest.mark.parametrize(
