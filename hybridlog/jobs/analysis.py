@@ -47,6 +47,7 @@ from hybridlog.estimators import (
 from hybridlog.estimators.options import closest
 from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
+from hybridlog.jobs import arguments
 from hybridlog.jobs.centers import read_centers
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
 from hybridlog.memory import check_fits, reserved
@@ -724,15 +725,29 @@ def analyze(
     ``out_dir`` defaults to ``<log name>_<estimator>`` in the working directory.  Everything
     the user gave is validated before anything is written; the output directory appears
     complete or not at all.  ``smooth`` and ``mode_sequence`` are ``--smooth`` and
-    ``--mode-sequence`` (:func:`smoothing_overrides`).
+    ``--mode-sequence`` (:func:`smoothing_overrides`).  An argument of the wrong type (a
+    single string for ``sets``) is an ``OptionError`` (:mod:`hybridlog.jobs.arguments`).
     """
+    arguments.path(log, "log")
+    read = arguments.common(
+        model_ref,
+        sets=sets,
+        read=read,
+        fail_under=fail_under,
+        fail_over=fail_over,
+        table_format=table_format,
+        force=force,
+        smooth=smooth,
+        mode_sequence=mode_sequence,
+    )
+    arguments.path(out_dir, "out_dir", optional=True)
+    arguments.text(estimator, "estimator", optional=True)
     model, overrides = parse_sets(sets, model_ref)
     (prepared,) = prepare_estimators(
         model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
     )
     estimator = prepared.name
     out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
-    read = read or ReadOptions()
     check_apart([("--out", out_dir)], input_paths([log], model_ref, [prepared], read))
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)
@@ -933,6 +948,20 @@ def compare(
     empty metrics and, in an ``error`` column, the one-line reason; the others' reports are
     written (:attr:`Comparison.failures`; the command exits 1, as for a batch's failed log).
     """
+    arguments.path(log, "log")
+    read = arguments.common(
+        model_ref,
+        sets=sets,
+        read=read,
+        fail_under=fail_under,
+        fail_over=fail_over,
+        table_format=table_format,
+        force=force,
+        smooth=smooth,
+        mode_sequence=mode_sequence,
+    )
+    arguments.texts(estimators, "estimators")
+    arguments.path(out_dir, "out_dir")
     if not estimators:
         raise OptionError("--estimators: name at least one estimator")
     _check_separators(estimators)
@@ -949,7 +978,6 @@ def compare(
         mode_sequence=mode_sequence,
     )
     reach = set_reach(model, prepared, overrides)
-    read = read or ReadOptions()
     check_apart([("--out", out_dir)], input_paths([log], model_ref, prepared, read))
     check_dir_target(out_dir, force=force)
     check_table_format(table_format)

@@ -62,6 +62,7 @@ from hybridlog.errors import (
 )
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
+from hybridlog.jobs import arguments
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
     Overrides,
@@ -888,6 +889,25 @@ def run_batch(
     must run its own work under ``if __name__ == "__main__":`` (without it, each worker runs
     the script again and every log fails with multiprocessing's "bootstrapping phase" error).
     """
+    read = arguments.common(
+        model_ref,
+        sets=sets,
+        read=read,
+        fail_under=fail_under,
+        fail_over=fail_over,
+        table_format=table_format,
+        force=force,
+        smooth=smooth,
+        mode_sequence=mode_sequence,
+    )
+    if not isinstance(logs, FoundLogs):
+        arguments.paths(logs, "logs")
+    arguments.path(out_dir, "out_dir")
+    arguments.path(junit, "junit", optional=True)
+    arguments.text(estimator, "estimator", optional=True)
+    arguments.text(scheduler, "scheduler", optional=True)
+    arguments.text(plots, "plots")
+    arguments.integer(jobs, "jobs")
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
     if jobs > 1 and scheduler is not None:  # it was ignored, as if it held the cluster back
@@ -950,7 +970,7 @@ def run_batch(
                 out_dir=out_dir,
                 estimator=estimator,
                 sets=sets,
-                read=read or ReadOptions(),
+                read=read,
                 fail_under=fail_under,
                 fail_over=fail_over,
                 table_format=table_format,

@@ -46,6 +46,7 @@ from hybridlog.estimators.options import OptionSource, parse_options, shown
 from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.estimators.switched_observer import LinearModes
 from hybridlog.io import ReadOptions
+from hybridlog.jobs import arguments
 from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.model.cache import load_model
@@ -466,7 +467,13 @@ def discover_modes(
         clustered (too few samples for the lags, fewer distinct vectors than k-means
         clusters); the message names the log.
     """
-    read = read or ReadOptions()
+    arguments.path(log, "log")
+    arguments.path(model_ref, "model_ref")
+    arguments.path(out, "out")
+    arguments.path(plot, "plot", optional=True)
+    arguments.flag(compare_kmeans, "compare_kmeans")
+    arguments.flag(force, "force")
+    read = arguments.read_options(read)
     target, picture = check_cluster_outputs(
         log, model_ref, out=out, plot=plot, force=force, read=read
     )

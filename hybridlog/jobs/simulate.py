@@ -28,6 +28,7 @@ from hybridlog.io.bag_writers import (
     check_topic_names,
     write_log,
 )
+from hybridlog.jobs import arguments
 from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.reads import refuse_unread_by_simulation
 from hybridlog.numbers import parse_float
@@ -103,6 +104,17 @@ def simulate_log(
     HybridlogError
         A bad model, option or output, each found before anything is simulated or written.
     """
+    arguments.path(model_ref, "model_ref")
+    arguments.path(out, "out")
+    arguments.texts(settings, "settings")
+    arguments.text(log_format, "log_format", optional=True)
+    arguments.text(schedule, "schedule", optional=True)
+    arguments.text(disturbance, "disturbance", optional=True)
+    arguments.text(encoding, "encoding")
+    arguments.integer(steps, "steps", optional=True)
+    arguments.integer(seed, "seed")
+    arguments.flag(noise, "noise")
+    arguments.flag(force, "force")
     parsed = parse_disturbance(disturbance) if disturbance is not None else None
     model = load_model(model_ref)
     inputs: list[tuple[str, PathLike]] = (

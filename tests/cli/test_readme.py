@@ -62,6 +62,18 @@ def test_readme_tour_runs_as_written(tmp_path):
     assert (tmp_path / "ci_summary.md").read_text().startswith("# Batch: three_tank_hstf")
 
 
+def test_the_python_section_runs_as_written(tmp_path):
+    """README's "From Python" code runs as written, from a folder holding the sample logs."""
+    text = (ROOT / "README.md").read_text()
+    (block,) = re.findall(r"```python\n(.*?)```", text, flags=re.DOTALL)
+    (tmp_path / "from_python.py").write_text(block)
+    _run_as_written(tmp_path, ["python from_python.py > printed.txt"])
+    printed = (tmp_path / "printed.txt").read_text()
+    assert printed.splitlines()[-1].startswith("sets= (--set): expected a list of strings")
+    assert (tmp_path / "py_report" / "report.json").is_file()
+    assert (tmp_path / "py_compare" / "comparison.md").is_file()
+
+
 def docs_commands():
     """The ``hybridlog`` lines of docs/*.md's command blocks (a study script's are not run)."""
     commands = []

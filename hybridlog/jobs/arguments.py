@@ -1,0 +1,144 @@
+"""The jobs' arguments from a Python caller, checked as the command line checks its values.
+
+The command line hands every job strings, tuples of strings and flags of the right types; a
+notebook or a test suite calling :func:`~hybridlog.jobs.analysis.analyze` may not.  Unchecked,
+``sets="A=100"`` was read letter by letter (``--set: 'A' is not NAME=VALUE``),
+``compare(..., "imm,hstf")`` said ``'m' named twice``, ``run_batch("run.csv", ...)`` took the
+folder ``/`` (its first letter) for a folder of logs and searched the whole file system until
+a bare ``PermissionError``, ``smooth="no"`` smoothed, and ``read={...}``, ``estimator=3`` or a
+log path in ``bytes`` ended in an ``AttributeError`` or a ``TypeError``.  Each job checks its
+arguments here before anything else; a wrong one is an
+:class:`~hybridlog.errors.OptionError` naming the parameter, its command-line option and
+what it was given.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+from hybridlog.errors import OptionError, excerpt
+from hybridlog.io import ReadOptions
+
+__all__ = ["common", "flag", "integer", "path", "paths", "read_options", "text", "texts"]
+
+OPTIONS = {
+    "out_dir": "--out",
+    "out": "--out",
+    "estimator": "--estimator",
+    "estimators": "--estimators",
+    "sets": "--set",
+    "settings": "--set",
+    "fail_under": "--fail-under",
+    "fail_over": "--fail-over",
+    "table_format": "--table-format",
+    "force": "--force",
+    "smooth": "--smooth",
+    "mode_sequence": "--mode-sequence",
+    "jobs": "--jobs",
+    "scheduler": "--scheduler",
+    "plots": "--plots",
+    "junit": "--junit",
+    "plot": "--plot",
+    "compare_kmeans": "--compare-kmeans",
+    "log_format": "--format",
+    "encoding": "--encoding",
+    "schedule": "--schedule",
+    "steps": "--steps",
+    "seed": "--seed",
+    "noise": "--no-noise",
+    "disturbance": "--disturbance",
+}
+"""The command-line option each checked parameter with one stands for, named in its error."""
+
+
+def _refuse(parameter: str, expected: str, value: object) -> OptionError:
+    option = f" ({OPTIONS[parameter]})" if parameter in OPTIONS else ""
+    return OptionError(
+        f"{parameter}={option}: expected {expected}, "
+        f"got the {type(value).__name__} {excerpt(value)}"
+    )
+
+
+def _is_path(value: object) -> bool:
+    return isinstance(value, str) or (
+        isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)
+    )
+
+
+def path(value: object, parameter: str, *, optional: bool = False) -> None:
+    """Refuse ``value`` unless it is a path as a ``str`` or :class:`~pathlib.Path` (or ``None``).
+
+    A path in ``bytes`` is refused: the checks and messages take text.
+    """
+    if not (_is_path(value) or (optional and value is None)):
+        raise _refuse(parameter, "a path (a str or pathlib.Path)", value)
+
+
+def paths(value: object, parameter: str) -> None:
+    """Refuse ``value`` unless it is a list or tuple of paths (a single path is not split)."""
+    if _is_path(value) or not isinstance(value, Sequence):
+        raise _refuse(parameter, "a list of paths (write [path] for one)", value)
+    for item in value:
+        path(item, parameter)
+
+
+def texts(value: object, parameter: str) -> None:
+    """Refuse ``value`` unless it is a list or tuple of ``str`` (a single ``str`` is not split)."""
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise _refuse(parameter, "a list of strings (not one str)", value)
+    for item in value:
+        if not isinstance(item, str):
+            raise _refuse(parameter, "a list of strings", item)
+
+
+def text(value: object, parameter: str, *, optional: bool = False) -> None:
+    """Refuse ``value`` unless it is a ``str`` (or ``None``, where ``optional``)."""
+    if not (isinstance(value, str) or (optional and value is None)):
+        raise _refuse(parameter, "a string" + (" or None" if optional else ""), value)
+
+
+def integer(value: object, parameter: str, *, optional: bool = False) -> None:
+    """Refuse ``value`` unless it is an ``int``, not a ``bool`` (or ``None``: ``optional``)."""
+    if optional and value is None:
+        return
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise _refuse(parameter, "an int" + (" or None" if optional else ""), value)
+
+
+def flag(value: object, parameter: str) -> None:
+    """Refuse ``value`` unless it is a ``bool`` (``smooth="no"`` smoothed)."""
+    if not isinstance(value, bool):
+        raise _refuse(parameter, "True or False", value)
+
+
+def read_options(value: object) -> ReadOptions:
+    """``value`` if it is a :class:`~hybridlog.io.ReadOptions`; ``None`` gives the defaults."""
+    if value is None:
+        return ReadOptions()
+    if not isinstance(value, ReadOptions):
+        raise _refuse("read", "a hybridlog.io.ReadOptions or None", value)
+    return value
+
+
+def common(
+    model_ref: object,
+    *,
+    sets: object,
+    read: object,
+    fail_under: object,
+    fail_over: object,
+    table_format: object,
+    force: object,
+    smooth: object,
+    mode_sequence: object,
+) -> ReadOptions:
+    """Check the arguments ``analyze``, ``compare`` and ``run_batch`` share; the read options."""
+    path(model_ref, "model_ref")
+    for name, given in (("sets", sets), ("fail_under", fail_under), ("fail_over", fail_over)):
+        texts(given, name)
+    text(table_format, "table_format")
+    text(mode_sequence, "mode_sequence", optional=True)
+    flag(force, "force")
+    flag(smooth, "smooth")
+    return read_options(read)

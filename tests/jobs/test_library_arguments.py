@@ -1,0 +1,84 @@
+"""The jobs called from Python with arguments of the wrong type: one ``OptionError`` each.
+
+The command line always hands them strings, tuples and flags; a notebook may not
+(``hybridlog/jobs/arguments.py``).  Each call here ended otherwise: a single string read
+letter by letter (``--set: 'A' is not NAME=VALUE``, ``--estimators: 'm' named twice``), the
+folder ``/`` searched for logs, ``smooth="no"`` smoothing, an ``AttributeError`` or a
+``TypeError``.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from hybridlog.errors import OptionError
+from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.cluster import discover_modes
+from hybridlog.jobs.simulate import simulate_log
+from tests.support.paths import ROOT
+
+LOG = ROOT / "sample_logs" / "three_tank_hstf.csv"
+MODEL = "three_tank_hstf"
+
+CALLS = {
+    "sets one string": (
+        lambda out: analyze(LOG, MODEL, out_dir=out, sets="A=150"),
+        "sets= (--set): expected a list of strings (not one str), got the str 'A=150'",
+    ),
+    "gates one string": (
+        lambda out: analyze(LOG, MODEL, out_dir=out, fail_under="vaf=90"),
+        "fail_under= (--fail-under): expected a list of strings",
+    ),
+    "smooth a string": (
+        lambda out: analyze(LOG, MODEL, out_dir=out, estimator="imm", smooth="no"),
+        "smooth= (--smooth): expected True or False, got the str 'no'",
+    ),
+    "read a dict": (
+        lambda out: analyze(LOG, MODEL, out_dir=out, read={"resample": "linear"}),
+        "read=: expected a hybridlog.io.ReadOptions or None, got the dict",
+    ),
+    "estimator a number": (
+        lambda out: analyze(LOG, MODEL, out_dir=out, estimator=3),
+        "estimator= (--estimator): expected a string or None, got the int '3'",
+    ),
+    "log in bytes": (
+        lambda out: analyze(bytes(LOG), MODEL, out_dir=out),
+        "log=: expected a path (a str or pathlib.Path), got the bytes",
+    ),
+    "estimators one string": (
+        lambda out: compare(LOG, MODEL, "imm,hstf", out_dir=out),
+        "estimators= (--estimators): expected a list of strings (not one str)",
+    ),
+    "compare without out": (
+        lambda out: compare(LOG, MODEL, ["imm"], out_dir=None),
+        "out_dir= (--out): expected a path",
+    ),
+    "batch of one path": (  # its first letter, '/', was a folder of logs to search
+        lambda out: run_batch(str(LOG), MODEL, out_dir=out),
+        "logs=: expected a list of paths (write [path] for one), got the str",
+    ),
+    "batch jobs a string": (
+        lambda out: run_batch([LOG], MODEL, out_dir=out, jobs="2"),
+        "jobs= (--jobs): expected an int, got the str '2'",
+    ),
+    "simulate settings one string": (
+        lambda out: simulate_log(MODEL, out / "run.csv", settings="A=150"),
+        "settings= (--set): expected a list of strings (not one str)",
+    ),
+    "cluster force a string": (
+        lambda out: discover_modes(LOG, MODEL, out=out / "centers.json", force="yes"),
+        "force= (--force): expected True or False, got the str 'yes'",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", CALLS)
+def test_an_argument_of_the_wrong_type_is_one_option_error(tmp_path: Path, case: str) -> None:
+    call, message = CALLS[case]
+    out = tmp_path / "out"
+    with pytest.raises(OptionError) as raised:
+        call(out)
+    assert str(raised.value).startswith(message), str(raised.value)
+    assert "\n" not in str(raised.value)
+    assert not out.exists()

@@ -1,0 +1,70 @@
+"""``analyze`` called again and again in one process, as a notebook calls it (README's "From
+Python"): it prints nothing, leaves the caller's process as it found it, and an interrupted
+call leaves no output and the process usable."""
+
+import os
+import signal
+import sys
+import threading
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from hybridlog.jobs import analysis
+from hybridlog.polars_import import ANY_TIME_ZONE
+from tests.support.paths import ROOT
+
+LOG = ROOT / "sample_logs" / "three_tank_hstf.csv"
+
+
+def _process_state() -> dict[str, Any]:
+    return {
+        "environment": {k: v for k, v in os.environ.items() if k != ANY_TIME_ZONE},
+        "folder": os.getcwd(),
+        "numpy errors": np.geterr(),
+        "warnings": list(warnings.filters),
+        "handlers": [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)],
+        "recursion limit": sys.getrecursionlimit(),
+        "threads": sorted(t.name for t in threading.enumerate()),
+    }
+
+
+def _analyze(out: Path) -> analysis.Outcome:
+    return analysis.analyze(LOG, "three_tank_hstf", estimator="imm", out_dir=out, smooth=True)
+
+
+def test_calls_leave_the_process_as_they_found_it(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    first = _analyze(tmp_path / "first").report
+    _analyze(tmp_path / "second")  # matplotlib's fonts opened once per drawing thread
+    before = _process_state()
+    descriptors = len(os.listdir("/proc/self/fd"))
+    again = [_analyze(tmp_path / f"again{i}").report for i in range(1)]
+    assert _process_state() == before
+    assert len(os.listdir("/proc/self/fd")) == descriptors
+    assert capfd.readouterr() == ("", "")
+    assert {(r.mse, r.modes.accuracy) for r in again} == {(first.mse, first.modes.accuracy)}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["again0", "first", "second"]
+
+
+def test_an_interrupted_call_leaves_no_output_and_the_next_call_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    original = analysis.estimates
+
+    def interrupted(*args: Any, **kwargs: Any) -> Iterator[Any]:
+        chunks = original(*args, **kwargs)
+        yield next(chunks)  # the report has begun: its temporary folder exists
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(analysis, "estimates", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        _analyze(tmp_path / "interrupted")
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    assert _analyze(tmp_path / "next").report.modes.accuracy is not None
