@@ -55,8 +55,7 @@ OPTIONS = {
 def _refuse(parameter: str, expected: str, value: object) -> OptionError:
     option = f" ({OPTIONS[parameter]})" if parameter in OPTIONS else ""
     return OptionError(
-        f"{parameter}={option}: expected {expected}, "
-        f"got the {type(value).__name__} {excerpt(value)}"
+        f"{parameter}{option}: expected {expected}, got the {type(value).__name__} {excerpt(value)}"
     )
 
 

@@ -69,7 +69,7 @@ def test_the_python_section_runs_as_written(tmp_path):
     (tmp_path / "from_python.py").write_text(block)
     _run_as_written(tmp_path, ["python from_python.py > printed.txt"])
     printed = (tmp_path / "printed.txt").read_text()
-    assert printed.splitlines()[-1].startswith("sets= (--set): expected a list of strings")
+    assert printed.splitlines()[-1].startswith("sets (--set): expected a list of strings")
     assert (tmp_path / "py_report" / "report.json").is_file()
     assert (tmp_path / "py_compare" / "comparison.md").is_file()
 

@@ -24,15 +24,15 @@ MODEL = "three_tank_hstf"
 CALLS = {
     "sets one string": (
         lambda out: analyze(LOG, MODEL, out_dir=out, sets="A=150"),
-        "sets= (--set): expected a list of strings (not one str), got the str 'A=150'",
+        "sets (--set): expected a list of strings (not one str), got the str 'A=150'",
     ),
     "gates one string": (
         lambda out: analyze(LOG, MODEL, out_dir=out, fail_under="vaf=90"),
-        "fail_under= (--fail-under): expected a list of strings",
+        "fail_under (--fail-under): expected a list of strings",
     ),
     "smooth a string": (
         lambda out: analyze(LOG, MODEL, out_dir=out, estimator="imm", smooth="no"),
-        "smooth= (--smooth): expected True or False, got the str 'no'",
+        "smooth (--smooth): expected True or False, got the str 'no'",
     ),
     "read a dict": (
         lambda out: analyze(LOG, MODEL, out_dir=out, read={"resample": "linear"}),
@@ -40,7 +40,7 @@ CALLS = {
     ),
     "estimator a number": (
         lambda out: analyze(LOG, MODEL, out_dir=out, estimator=3),
-        "estimator= (--estimator): expected a string or None, got the int '3'",
+        "estimator (--estimator): expected a string or None, got the int '3'",
     ),
     "log in bytes": (
         lambda out: analyze(bytes(LOG), MODEL, out_dir=out),
@@ -48,11 +48,11 @@ CALLS = {
     ),
     "estimators one string": (
         lambda out: compare(LOG, MODEL, "imm,hstf", out_dir=out),
-        "estimators= (--estimators): expected a list of strings (not one str)",
+        "estimators (--estimators): expected a list of strings (not one str)",
     ),
     "compare without out": (
         lambda out: compare(LOG, MODEL, ["imm"], out_dir=None),
-        "out_dir= (--out): expected a path",
+        "out_dir (--out): expected a path",
     ),
     "batch of one path": (  # its first letter, '/', was a folder of logs to search
         lambda out: run_batch(str(LOG), MODEL, out_dir=out),
@@ -60,15 +60,15 @@ CALLS = {
     ),
     "batch jobs a string": (
         lambda out: run_batch([LOG], MODEL, out_dir=out, jobs="2"),
-        "jobs= (--jobs): expected an int, got the str '2'",
+        "jobs (--jobs): expected an int, got the str '2'",
     ),
     "simulate settings one string": (
         lambda out: simulate_log(MODEL, out / "run.csv", settings="A=150"),
-        "settings= (--set): expected a list of strings (not one str)",
+        "settings (--set): expected a list of strings (not one str)",
     ),
     "cluster force a string": (
         lambda out: discover_modes(LOG, MODEL, out=out / "centers.json", force="yes"),
-        "force= (--force): expected True or False, got the str 'yes'",
+        "force (--force): expected True or False, got the str 'yes'",
     ),
 }
 
