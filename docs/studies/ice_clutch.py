@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    .venv/bin/python docs/studies/ice_clutch.py        # ~1-2 minutes
+    .venv/bin/python docs/studies/ice_clutch.py        # ~15 s (7 s warm)
 
 The plant is the built-in ``ice_clutch`` written again with NumPy and integrated by SciPy
 (``tests/support/clutch.py``: DOP853, rtol 1e-10, throttle held over each 10 ms sample),
