@@ -1,9 +1,11 @@
 """An estimator whose every sample fell back to its initial guess is refused, not scored.
 
 ``sliding-mode`` holds σ̂ where ``D(x, u)`` of eq. (30) is singular or not finite.  A log of
-empty tanks (``D`` rank-deficient), of negative levels or of levels past the tanks' height
-(``sqrt`` of a negative number: ``D`` not finite) held it at every sample: the run exited 0
-with a mode accuracy and switches of a timeline that was the observer's initial σ̂ = 0.
+empty tanks 1 and 2 (``D`` rank-deficient), of all three empty (tank 3's cross-section
+``w·sqrt(R² − (R − H3)²)`` is 0 there: ``0/0``, not finite), of negative levels or of levels
+past the tanks' height (``sqrt`` of a negative number: ``D`` not finite) held it at every
+sample: the run exited 0 with a mode accuracy and switches of a timeline that was the
+observer's initial σ̂ = 0.
 """
 
 from dataclasses import replace
@@ -30,12 +32,17 @@ def _with_levels(signals: AlignedSignals, levels: np.ndarray) -> AlignedSignals:
 
 @pytest.mark.parametrize(
     ("scale", "why"),
-    [(0.0, "not of full column rank"), (-1.0, "not finite"), (1e12, "not finite")],
-    ids=["empty", "negative", "past-the-top"],
+    [
+        ((0.0, 0.0, 1.0), "not of full column rank"),
+        (0.0, "not finite"),
+        (-1.0, "not finite"),
+        (1e12, "not finite"),
+    ],
+    ids=["empty-1-2", "empty", "negative", "past-the-top"],
 )
 def test_a_log_where_no_sample_reconstructs_the_mode_is_refused(valves, scale, why):
     model, signals = valves
-    log = _with_levels(signals, signals.outputs * scale)
+    log = _with_levels(signals, signals.outputs * np.asarray(scale))
     with pytest.raises(ModelError) as caught:
         prepare(model, "sliding-mode").run(model, log)
     message = str(caught.value)

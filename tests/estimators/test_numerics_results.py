@@ -389,7 +389,12 @@ def test_unknown_mode_s_variance_growth_past_double_precision_is_one_line():
             prepared.run(model, garbage)
     message = str(caught.value)
     assert message.startswith("c.toml: ") and "\n" not in message
-    assert "not finite" in message or "is inf" in message, message
+    # the growth either overflows a variance or, a step earlier, breaks the covariance, said
+    # with the variance "too large for double precision" at the sample before (which comes
+    # first depends on the last bits of the model's constants)
+    assert any(
+        cause in message for cause in ("not finite", "is inf", "too large for double precision")
+    ), message
 
 
 def test_a_legitimate_run_of_every_filter_passes(tmp_path):

@@ -36,7 +36,7 @@ CALLS = {
     ),
     "read a dict": (
         lambda out: analyze(LOG, MODEL, out_dir=out, read={"resample": "linear"}),
-        "read=: expected a hybridlog.io.ReadOptions or None, got the dict",
+        "read: expected a hybridlog.io.ReadOptions or None, got the dict",
     ),
     "estimator a number": (
         lambda out: analyze(LOG, MODEL, out_dir=out, estimator=3),
@@ -44,7 +44,7 @@ CALLS = {
     ),
     "log in bytes": (
         lambda out: analyze(bytes(LOG), MODEL, out_dir=out),
-        "log=: expected a path (a str or pathlib.Path), got the bytes",
+        "log: expected a path (a str or pathlib.Path), got the bytes",
     ),
     "estimators one string": (
         lambda out: compare(LOG, MODEL, "imm,hstf", out_dir=out),
@@ -56,7 +56,7 @@ CALLS = {
     ),
     "batch of one path": (  # its first letter, '/', was a folder of logs to search
         lambda out: run_batch(str(LOG), MODEL, out_dir=out),
-        "logs=: expected a list of paths (write [path] for one), got the str",
+        "logs: expected a list of paths (write [path] for one), got the str",
     ),
     "batch jobs a string": (
         lambda out: run_batch([LOG], MODEL, out_dir=out, jobs="2"),
