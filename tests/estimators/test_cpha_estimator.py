@@ -214,6 +214,93 @@ def test_kbest_with_a_beam_keeping_everything_is_the_most_likely_whole_trajector
     assert differs > 0
 
 
+# CPHA_EXAMPLE with `unknown` left with probability 0.6 per step and A3 reading x_c1 (not its
+# measurement y_c1): w_c1 then reaches every state, so A1 (or A2) in `unknown` leaves both
+# outputs unchecked, and staying there (log 0.4 = -0.92 a step) costs less than a fitting
+# known mode's expected log P_O (-1/2 per output, -1): docs/smoothing.md.
+LEFT_READILY = (
+    CPHA_EXAMPLE.replace("to = {m11 = 0.25, m12 = 0.25}", "to = {m11 = 0.3, m12 = 0.3}")
+    .replace("to = {m21 = 0.25, m22 = 0.25}", "to = {m21 = 0.3, m22 = 0.3}")
+    .replace("to = {m31 = 0.5}", "to = {m31 = 0.6}")
+    .replace('"xc2[k] = xc3[k-1] + yc1[k-1]"', '"xc2[k] = xc3[k-1] + xc1[k-1]"')
+)
+
+
+def transition_log(component, source, target):
+    """log P_T(target | source), the unknown mode included."""
+    p = component.transition_probabilities(source).get(target, 0.0)
+    return math.log(p) if p > 0.0 else -math.inf
+
+
+def path_log_probability(model, tracker, path):
+    """Σ_k log P_T + log P_O (eq. (5) unnormalised) of a whole path from the initial modes."""
+    nan = np.full(model.n_outputs, np.nan)
+    h = Hypothesis(path[0], 0.0, model.initial_state.copy(), model.initial_covariance.copy(), nan)
+    total = 0.0
+    for k in range(1, len(path)):
+        total += sum(
+            transition_log(c, s, t)
+            for c, s, t in zip(model.components, path[k - 1], path[k], strict=True)
+        )
+        h = tracker.successor(h, path[k], k)
+        total += h.log_belief
+    return total
+
+
+def most_likely_path_log_probability(model, tracker, steps):
+    """The largest :func:`path_log_probability` over every path of every assignment.
+
+    Depth first, unknown mode included; log P_T ≤ 0 and log P_O ≤ 0, so a prefix that
+    scores below the best whole path found so far bounds all its extensions (branch and
+    bound: exact, as the enumeration of every path, in a second).
+    """
+    modes = [(*c.mode_ids, UNKNOWN) for c in model.components]
+    assignments = list(itertools.product(*modes))
+    start = tuple(c.mode_ids[0] for c in model.components)
+    nan = np.full(model.n_outputs, np.nan)
+    first = Hypothesis(start, 0.0, model.initial_state.copy(), model.initial_covariance.copy(), nan)
+    best = -math.inf
+
+    def extend(parent, score, k):
+        nonlocal best
+        if k == steps:
+            best = max(best, score)
+            return
+        children = []
+        for a in assignments:
+            prior = score + sum(
+                transition_log(c, s, t)
+                for c, s, t in zip(model.components, parent.assignment, a, strict=True)
+            )
+            if prior > best:
+                child = tracker.successor(parent, a, k)
+                children.append((prior + child.log_belief, child))
+        for total, child in sorted(children, key=lambda pair: -pair[0]):
+            if total > best:
+                extend(child, total, k + 1)
+
+    extend(first, 0.0, 1)
+    return best
+
+
+def test_kbest_with_the_unknown_mode_is_the_most_likely_whole_trajectory():
+    """Where the path sits in ``unknown`` (A1 drifts from step 4), it is the model's most
+    likely trajectory over every path of every assignment with ``unknown``, not a search
+    or read-back artefact: its log probability, scored by the enumeration's own function, is
+    the enumeration's largest; the causal per-step modes differ from it."""
+    model = parse_model(LEFT_READILY)
+    steps = 12
+    for seed in (0, 3):
+        drift = cpha_log(model, steps, seed=seed, a1=lambda k: "drift" if k >= 4 else "m11")
+        result = run_unknown_mode(model, drift, UnknownModeOptions(mode_sequence="kbest"))
+        path = [tuple(result.mode_ids[m].split("|")) for m in result.modes]
+        tracker = make_tracker(model, drift, UnknownModeOptions())
+        best = most_likely_path_log_probability(model, tracker, steps)
+        assert path_log_probability(model, tracker, path) == pytest.approx(best, abs=1e-9)
+        assert sum(UNKNOWN in a for a in path) >= 5
+        assert result.post_processing.filtered.modes.tolist() != result.modes.tolist()
+
+
 def test_kbest_reads_the_histories_back_and_keeps_the_causal_predictions(model):
     drift = cpha_log(model, 150, seed=1, a1=lambda k: "drift" if 60 <= k < 100 else "m11")
     filtered = run_unknown_mode(model, drift, UnknownModeOptions(beam=10))
