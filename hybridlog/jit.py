@@ -166,9 +166,11 @@ def compile_signature(function: Callable[..., Any], signature: Any) -> Any:
 def cache_dir() -> Path:
     """The cache folder: ``$HYBRIDLOG_CACHE_DIR``, else ``$XDG_CACHE_HOME/hybridlog``.
 
-    ``$XDG_CACHE_HOME`` defaults to ``~/.cache``.  It holds the loaded models
-    (:mod:`hybridlog.model.cache`), the generated modules (:mod:`hybridlog.model.compiled`)
-    and numba's machine code (:func:`machine_code_dir`).
+    ``$XDG_CACHE_HOME`` defaults to ``~/.cache`` (:func:`home`), and one that is not an
+    absolute path is ignored, as the XDG Base Directory specification says: a relative one
+    put the cache in whatever folder the command ran in (a log folder, a CI checkout).  It
+    holds the loaded models (:mod:`hybridlog.model.cache`), the generated modules
+    (:mod:`hybridlog.model.compiled`) and numba's machine code (:func:`machine_code_dir`).
 
     Raises
     ------
@@ -178,13 +180,39 @@ def cache_dir() -> Path:
     override = os.environ.get("HYBRIDLOG_CACHE_DIR")
     if override:
         return Path(override)
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if os.path.isabs(base):
+        return Path(base) / "hybridlog"
+    return home() / ".cache" / "hybridlog"
+
+
+def home() -> Path:
+    """The user's home: ``$HOME`` where it is an absolute path, else the user's account's.
+
+    Python's ``Path.home()`` took an empty ``HOME`` as ``/`` (run as root, the cache went
+    to ``/.cache``) and a relative one as a folder of the current one.
+
+    Raises
+    ------
+    OutputError
+        ``HOME`` is not an absolute path and the user's account names no home.
+    """
+    given = os.environ.get("HOME", "")
+    if os.path.isabs(given):
+        return Path(given)
+    import pwd
+
     try:
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    except RuntimeError as err:  # no HOME and a user the system does not know
+        account = pwd.getpwuid(os.getuid()).pw_dir
+    except KeyError:
+        account = ""
+    if not os.path.isabs(account):
+        said = "not set" if "HOME" not in os.environ else f"{given!r}, not an absolute path"
         raise OutputError(
-            f"no cache folder: {str(err).rstrip('.')}; set HYBRIDLOG_CACHE_DIR to a writable folder"
-        ) from err
-    return Path(base) / "hybridlog"
+            f"no cache folder: HOME is {said} and user {os.getuid()} has no home in the "
+            "password database; set HYBRIDLOG_CACHE_DIR to a writable folder"
+        )
+    return Path(account)
 
 
 PACKAGE = Path(__file__).parent
