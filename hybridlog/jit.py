@@ -283,7 +283,31 @@ def _place_cache(numba: Any) -> Path | None:
     if made:
         _prune(folder)
     numba.config.CACHE_DIR = str(folder)
+    _name_failed_saves(folder)
     return folder
+
+
+def _name_failed_saves(folder: Path) -> None:
+    """Make numba's failure to write a cache entry one line naming ``folder``.
+
+    numba writes a function's machine code after compiling it, and let the ``OSError`` of a
+    full disk or quota through: from the estimators' worker it reached ``analyze`` while
+    the report was written, which named the ``--out`` folder as the one that was full.
+    """
+    from numba.core.caching import Cache
+
+    save: Callable[[Any, Any, Any], None] = Cache.save_overload
+
+    def save_overload(self: Any, sig: Any, data: Any) -> None:
+        try:
+            save(self, sig, data)
+        except OSError as err:
+            raise OutputError(
+                f"cache folder {folder}: cannot write machine code ({err.strerror or err}); "
+                "set HYBRIDLOG_CACHE_DIR to a writable folder"
+            ) from err
+
+    Cache.save_overload = save_overload  # type: ignore[method-assign]
 
 
 def _numba() -> Any:
