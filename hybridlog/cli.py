@@ -39,7 +39,7 @@ from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
 from hybridlog.io.formats import format_list
-from hybridlog.launch import single_threaded_blas, tolerate_closed_output
+from hybridlog.launch import lost_output, single_threaded_blas, tolerate_closed_output
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
 from hybridlog.numbers import parse_float, parse_int
 
@@ -1678,10 +1678,25 @@ def main(argv: Sequence[str] | None = None) -> None:
         for warning in caught:
             category = warning.category.__name__
             click.echo(_one_line(f"hybridlog: note: {category}: {warning.message}"), err=True)
-    if _PROCESS["one_command"] and sys.getprofile() is None and sys.gettrace() is None:
-        _end_process(code)
+    if _PROCESS["one_command"]:
+        code = _said_lost_output(code)
+        if sys.getprofile() is None and sys.gettrace() is None:
+            _end_process(code)
     if code:
         sys.exit(code)
+
+
+def _said_lost_output(code: int) -> int:
+    """The exit code, 2 in place of 0 where stdout could not be written (:func:`lost_output`).
+
+    ``hybridlog inspect LOG > file`` on a full disk lost what it printed: one line says so
+    on stderr.  A reader that left (``| head -1``) is no failure.
+    """
+    lost = lost_output()
+    if lost is None:
+        return code
+    click.echo(_one_line(f"hybridlog: error: cannot write to standard output ({lost})"), err=True)
+    return code or 2
 
 
 def _end_process(code: int) -> NoReturn:

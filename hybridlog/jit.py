@@ -166,9 +166,11 @@ def compile_signature(function: Callable[..., Any], signature: Any) -> Any:
 def cache_dir() -> Path:
     """The cache folder: ``$HYBRIDLOG_CACHE_DIR``, else ``$XDG_CACHE_HOME/hybridlog``.
 
-    ``$XDG_CACHE_HOME`` defaults to ``~/.cache``.  It holds the loaded models
-    (:mod:`hybridlog.model.cache`), the generated modules (:mod:`hybridlog.model.compiled`)
-    and numba's machine code (:func:`machine_code_dir`).
+    ``$XDG_CACHE_HOME`` defaults to ``~/.cache`` (:func:`home`), and one that is not an
+    absolute path is ignored, as the XDG Base Directory specification says: a relative one
+    put the cache in whatever folder the command ran in (a log folder, a CI checkout).  It
+    holds the loaded models (:mod:`hybridlog.model.cache`), the generated modules
+    (:mod:`hybridlog.model.compiled`) and numba's machine code (:func:`machine_code_dir`).
 
     Raises
     ------
@@ -178,13 +180,39 @@ def cache_dir() -> Path:
     override = os.environ.get("HYBRIDLOG_CACHE_DIR")
     if override:
         return Path(override)
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if os.path.isabs(base):
+        return Path(base) / "hybridlog"
+    return home() / ".cache" / "hybridlog"
+
+
+def home() -> Path:
+    """The user's home: ``$HOME`` where it is an absolute path, else the user's account's.
+
+    Python's ``Path.home()`` took an empty ``HOME`` as ``/`` (run as root, the cache went
+    to ``/.cache``) and a relative one as a folder of the current one.
+
+    Raises
+    ------
+    OutputError
+        ``HOME`` is not an absolute path and the user's account names no home.
+    """
+    given = os.environ.get("HOME", "")
+    if os.path.isabs(given):
+        return Path(given)
+    import pwd
+
     try:
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    except RuntimeError as err:  # no HOME and a user the system does not know
+        account = pwd.getpwuid(os.getuid()).pw_dir
+    except KeyError:
+        account = ""
+    if not os.path.isabs(account):
+        said = "not set" if "HOME" not in os.environ else f"{given!r}, not an absolute path"
         raise OutputError(
-            f"no cache folder: {str(err).rstrip('.')}; set HYBRIDLOG_CACHE_DIR to a writable folder"
-        ) from err
-    return Path(base) / "hybridlog"
+            f"no cache folder: HOME is {said} and user {os.getuid()} has no home in the "
+            "password database; set HYBRIDLOG_CACHE_DIR to a writable folder"
+        )
+    return Path(account)
 
 
 PACKAGE = Path(__file__).parent
@@ -255,7 +283,31 @@ def _place_cache(numba: Any) -> Path | None:
     if made:
         _prune(folder)
     numba.config.CACHE_DIR = str(folder)
+    _name_failed_saves(folder)
     return folder
+
+
+def _name_failed_saves(folder: Path) -> None:
+    """Make numba's failure to write a cache entry one line naming ``folder``.
+
+    numba writes a function's machine code after compiling it, and let the ``OSError`` of a
+    full disk or quota through: from the estimators' worker it reached ``analyze`` while
+    the report was written, which named the ``--out`` folder as the one that was full.
+    """
+    from numba.core.caching import Cache
+
+    save: Callable[[Any, Any, Any], None] = Cache.save_overload
+
+    def save_overload(self: Any, sig: Any, data: Any) -> None:
+        try:
+            save(self, sig, data)
+        except OSError as err:
+            raise OutputError(
+                f"cache folder {folder}: cannot write machine code ({err.strerror or err}); "
+                "set HYBRIDLOG_CACHE_DIR to a writable folder"
+            ) from err
+
+    Cache.save_overload = save_overload  # type: ignore[method-assign]
 
 
 def _numba() -> Any:

@@ -29,10 +29,15 @@ if TYPE_CHECKING:
 __all__ = [
     "BLAS_THREADS",
     "local_batch_jobs",
+    "lost_output",
     "main",
+    "open_standard_descriptors",
     "single_threaded_blas",
     "tolerate_closed_output",
 ]
+
+STANDARD_DESCRIPTORS = (0, 1, 2)
+"""stdin, stdout and stderr."""
 
 BLAS_THREADS = "OPENBLAS_NUM_THREADS"
 """Read by NumPy's OpenBLAS when it loads (:func:`single_threaded_blas`)."""
@@ -53,6 +58,24 @@ def single_threaded_blas() -> None:
     os.environ.setdefault(BLAS_THREADS, "1")
 
 
+def open_standard_descriptors() -> None:
+    """Open ``/dev/null`` on each of descriptors 0, 1 and 2 that is closed (``2>&-``, ``<&-``).
+
+    A command started with one of them closed (a shell's ``>&-``, a daemon, a CI step) had
+    the next file it opened take that number: ``analyze ... 2>&-`` had its log, its model or
+    a report file on descriptor 2, where everything that writes to the process's standard
+    error (a library's C code, a polars panic, the workers it forks) writes; and with
+    ``sys.stderr`` left ``None`` the progress bars' check failed (exit 2, nothing said).
+    Opened first thing, before any other file or process: what is written there is dropped.
+    In order, so each ``open`` takes the lowest closed number, the one checked.
+    """
+    for descriptor in STANDARD_DESCRIPTORS:
+        try:
+            os.fstat(descriptor)
+        except OSError:
+            os.open(os.devnull, os.O_RDWR)
+
+
 class _ReaderMayLeave(io.FileIO):
     """A standard stream's file descriptor whose reader may close it: the rest is dropped.
 
@@ -63,24 +86,53 @@ class _ReaderMayLeave(io.FileIO):
     gates were checked.  Here the descriptor is pointed at ``/dev/null`` at the first such
     write, and the command carries on to its own exit code: its output files, gates and
     messages on the other stream are what they would have been.
+
+    Any other failure is treated so too, so that writing the error cannot fail again; on
+    stdout (``> file`` on a full disk, ``> /dev/full``) it is kept for :func:`lost_output`:
+    the output was lost, not refused by a reader.  It was an "unexpected OSError" said to be
+    a bug, and a traceback where the error message could not be written either.
     """
 
     def write(self, data: ReadableBuffer, /) -> int:
         try:
             return super().write(data)
-        except BrokenPipeError:
-            null = os.open(os.devnull, os.O_WRONLY)
-            try:
-                os.dup2(null, self.fileno())
-            finally:
-                os.close(null)
+        except OSError as err:
+            if self.fileno() == 1 and not isinstance(err, BrokenPipeError):
+                _LOST.append(err.strerror or str(err))
+            self._to_null()
             return memoryview(data).nbytes
 
+    def _to_null(self) -> None:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, self.fileno())
+        finally:
+            os.close(null)
 
-def _tolerant(stream: TextIO | None) -> TextIO | None:
-    """``stream`` written through :class:`_ReaderMayLeave`, with its encoding and buffering."""
-    if stream is None:  # the descriptor was closed when Python started (``>&-``)
-        return None
+
+_LOST: list[str] = []
+"""Why writing to stdout failed, other than its reader leaving (:class:`_ReaderMayLeave`)."""
+
+
+def lost_output() -> str | None:
+    """Why the console script's stdout could not be written (a full disk), or ``None``.
+
+    ``sys.stdout`` is flushed first, so what it still held is tried too.
+    """
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        sys.stdout.flush()
+    return _LOST[0] if _LOST else None
+
+
+def _tolerant(stream: TextIO | None, descriptor: int) -> TextIO:
+    """``stream`` written through :class:`_ReaderMayLeave`, with its encoding and buffering.
+
+    ``None`` (the descriptor was closed when Python started, ``>&-``, and is
+    ``/dev/null`` now: :func:`open_standard_descriptors`) becomes a stream on it.
+    """
+    if stream is None:
+        raw = _ReaderMayLeave(descriptor, "w", closefd=False)
+        return io.TextIOWrapper(io.BufferedWriter(raw), errors="backslashreplace")
     try:
         descriptor = stream.fileno()
     except (AttributeError, OSError, ValueError):  # not a file (a test's capture)
@@ -101,10 +153,12 @@ def tolerate_closed_output() -> None:
 
     Only the console script, never the library: ``sys.stdout`` and ``sys.stderr`` become
     text streams over :class:`_ReaderMayLeave` (the original objects stay in
-    ``sys.__stdout__`` and ``sys.__stderr__``, their descriptors open).
+    ``sys.__stdout__`` and ``sys.__stderr__``, their descriptors open), also where the
+    process started with one closed (:func:`open_standard_descriptors`, called first).
     """
-    sys.stdout = _tolerant(sys.stdout)
-    sys.stderr = _tolerant(sys.stderr)
+    open_standard_descriptors()
+    sys.stdout = _tolerant(sys.stdout, 1)
+    sys.stderr = _tolerant(sys.stderr, 2)
 
 
 def local_batch_jobs(args: Sequence[str]) -> int:
@@ -124,6 +178,7 @@ def local_batch_jobs(args: Sequence[str]) -> int:
 
 def main() -> None:
     """The console script ``hybridlog`` and ``python -m hybridlog``: :func:`hybridlog.cli.main`."""
+    open_standard_descriptors()
     single_threaded_blas()
     try:
         if local_batch_jobs(sys.argv[1:]) > 1:

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from hybridlog import jit
+from hybridlog.errors import OutputError
 
 SET_UP = """
 import sys
@@ -133,3 +134,29 @@ def test_a_damaged_cache_entry_is_compiled_again(
     monkeypatch.setattr(jit, "_COMPILED", {})  # as in the next process
     assert jit.compile_for(module.add, (1.0, 2.0))(1.0, 2.0) == 3.0
     assert data.stat().st_size > 100  # written anew
+
+
+def test_a_full_cache_folder_is_one_line_naming_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # numba's OSError reached analyze while its report was written, which named the --out
+    # folder as the full one
+    import errno
+
+    import numba
+    from numba.core.caching import IndexDataCacheFile
+
+    def full(self: object, name: str, data: object) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    (tmp_path / "full_cache_kernel.py").write_text("def add(a, b):\n    return a + b\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("full_cache_kernel")
+    monkeypatch.setattr(IndexDataCacheFile, "_save_data", full)
+    jit.set_up()  # the cache placed, as before any of hybridlog's functions
+    with pytest.raises(OutputError) as raised:
+        jit.compile_for(module.add, (1.0, 2.0))
+    assert str(raised.value) == (
+        f"cache folder {numba.config.CACHE_DIR}: cannot write machine code (No space left on "
+        "device); set HYBRIDLOG_CACHE_DIR to a writable folder"
+    )

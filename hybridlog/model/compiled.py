@@ -300,7 +300,7 @@ def load_generated(
             return _MODULES[path]
         try:
             text = path.read_text(encoding="utf-8")
-        except (FileNotFoundError, UnicodeDecodeError):
+        except (OSError, UnicodeDecodeError):  # missing, unreadable, a folder: written anew
             text = ""
         if not _intact(kind, key, text):
             store(path, _framed(kind, key, generate()), replace=path.exists())

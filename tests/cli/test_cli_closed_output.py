@@ -61,3 +61,42 @@ def test_a_stream_closed_before_the_start_keeps_the_exit_code(
     result = subprocess.run(script, check=False, capture_output=True, text=True)
     assert result.returncode == code
     assert "Traceback" not in result.stdout + result.stderr
+
+
+def test_a_stream_closed_before_the_start_is_no_file_of_the_command() -> None:
+    """``analyze ... 2>&-`` exited 2 saying nothing: ``sys.stderr`` was ``None`` where the
+    progress bars asked it whether it is a terminal, and the next file opened took
+    descriptor 2 (what a library or a worker writes to standard error went into it)."""
+    code = (
+        "import os; from hybridlog.launch import tolerate_closed_output; "
+        "tolerate_closed_output(); from hybridlog.cli import _bars_shown; "
+        "opened = os.open(os.devnull, os.O_RDONLY); "
+        "print(_bars_shown(False), opened > 2, os.readlink('/proc/self/fd/0'))"
+    )
+    script = ["sh", "-c", 'exec "$@" <&- 2>&-', "sh", sys.executable, "-c", code]
+    result = subprocess.run(script, check=False, capture_output=True, text=True)
+    assert result.stdout.split() == ["False", "True", os.devnull]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full")
+def test_a_full_stdout_is_said_in_one_line_and_exit_2() -> None:
+    """``hybridlog models > file`` on a full disk: "unexpected OSError ... (a bug ...)"."""
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(
+            [sys.executable, "-m", "hybridlog", "models"],
+            check=False,
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+    assert result.returncode == 2
+    assert result.stderr == (
+        "hybridlog: error: cannot write to standard output (No space left on device)\n"
+    )
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full")
+def test_an_error_that_cannot_be_said_keeps_its_exit_code() -> None:
+    """``hybridlog models nope 2> file`` on a full disk ended 120 (Python's lost traceback)."""
+    with open("/dev/full", "w") as full:
+        assert _run("models", "nope", stdout=subprocess.DEVNULL, stderr=full.fileno()) == 2

@@ -2,11 +2,15 @@
 
 Every command loads its model through the cache of loaded models and compiled code:
 ``analyze`` with a read-only ``$HOME`` failed with "unexpected OSError in cache.py"; now it
-is one line naming the cache folder and ``HYBRIDLOG_CACHE_DIR``, exit 2.
+is one line naming the cache folder and ``HYBRIDLOG_CACHE_DIR``, exit 2.  The folder is
+always an absolute path: a relative ``$XDG_CACHE_HOME`` or ``$HOME`` put it in the folder the
+command ran in.
 """
 
 from __future__ import annotations
 
+import os
+import pwd
 from collections.abc import Callable
 from pathlib import Path
 
@@ -38,16 +42,41 @@ def test_a_cache_folder_that_cannot_be_written_is_one_line(
         compiled.store(blocker / "models" / "hstf_x.py", "", replace=False)
 
 
-def test_no_home_and_no_cache_folder_set_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
-    def unknown() -> Path:
-        raise RuntimeError("Could not determine home directory.")
+@pytest.mark.parametrize(
+    ("xdg", "home", "expected"),
+    [
+        ("/x/cache", "/h", "/x/cache/hybridlog"),
+        ("relative/cache", "/h", "/h/.cache/hybridlog"),  # XDG: a relative path is ignored
+        ("", "/h", "/h/.cache/hybridlog"),
+        ("", "", "account"),  # Path.home() gave "/": the cache went to /.cache as root
+        ("", "h", "account"),  # ... and to ./h/.cache
+    ],
+)
+def test_the_cache_folder_is_always_an_absolute_path(
+    monkeypatch: pytest.MonkeyPatch, xdg: str, home: str, expected: str
+) -> None:
+    monkeypatch.delenv("HYBRIDLOG_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", xdg)
+    monkeypatch.setenv("HOME", home)
+    account = Path(pwd.getpwuid(os.getuid()).pw_dir) / ".cache" / "hybridlog"
+    assert jit.cache_dir() == (account if expected == "account" else Path(expected))
+
+
+@pytest.mark.parametrize(("home", "said"), [(None, "not set"), ("", "'', not an absolute path")])
+def test_no_home_and_no_cache_folder_set_is_one_line(
+    monkeypatch: pytest.MonkeyPatch, home: str | None, said: str
+) -> None:
+    def unknown(uid: int) -> pwd.struct_passwd:
+        raise KeyError(uid)
 
     for name in ("HYBRIDLOG_CACHE_DIR", "XDG_CACHE_HOME", "HOME"):
         monkeypatch.delenv(name, raising=False)
-    monkeypatch.setattr(Path, "home", staticmethod(unknown))
+    if home is not None:
+        monkeypatch.setenv("HOME", home)
+    monkeypatch.setattr(pwd, "getpwuid", unknown)
     with pytest.raises(OutputError) as raised:
         jit.cache_dir()
     assert str(raised.value) == (
-        "no cache folder: Could not determine home directory; set HYBRIDLOG_CACHE_DIR to a "
-        "writable folder"
+        f"no cache folder: HOME is {said} and user {os.getuid()} has no home in the password "
+        "database; set HYBRIDLOG_CACHE_DIR to a writable folder"
     )

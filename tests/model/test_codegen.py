@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import sympy
 
+from hybridlog.errors import OutputError
 from hybridlog.model import compiled
 from hybridlog.model.codegen import lambdify
 from hybridlog.model.compiled import (
@@ -235,6 +236,16 @@ def test_a_warm_cache_imports_without_generating_and_a_damaged_file_is_rewritten
         assert load_generated(model, "probe", generate).ANSWER == 42
     assert calls == [1, 1, 1]
     assert path.read_text().startswith("# hybridlog generated probe ")
+
+
+def test_a_folder_in_place_of_a_cached_module_is_one_line_naming_the_cache(tmp_path, monkeypatch):
+    """Garbage in the cache folder: an unexpected IsADirectoryError, said to be a bug."""
+    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", str(tmp_path))
+    model = parse_model(PENDULUM_ONE_MODE)
+    path = tmp_path / "models" / f"probe_{artefact_key(model, 'probe')}.py"
+    path.mkdir(parents=True)
+    with pytest.raises(OutputError, match=rf"^cache folder {tmp_path}: cannot write probe_"):
+        load_generated(model, "probe", lambda: "ANSWER = 42\n")
 
 
 def test_a_warm_process_runs_filters_and_simulation_without_the_code_generator():
