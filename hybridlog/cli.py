@@ -38,6 +38,7 @@ from hybridlog.errors import HybridlogError, as_text, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
+from hybridlog.fitted_lines import fitted
 from hybridlog.io.formats import format_list
 from hybridlog.launch import lost_output, single_threaded_blas, tolerate_closed_output
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
@@ -1251,7 +1252,7 @@ def _progress(
     with click.progressbar(
         length=total,
         label=label,
-        file=sys.stderr,
+        file=fitted(sys.stderr),
         show_eta=False,
         show_pos=True,
         item_show_func=None if show is None else lambda item: show(item),
@@ -1275,7 +1276,8 @@ def _work_progress(quiet: bool, total: int, label: str) -> Iterator[Callable[[in
         yield lambda done: None
         return
     bar: Any
-    with click.progressbar(length=total, label=label, file=sys.stderr, show_eta=True) as bar:
+    lines = fitted(sys.stderr)
+    with click.progressbar(length=total, label=label, file=lines, show_eta=True) as bar:
         yield bar.update
 
 

@@ -74,6 +74,7 @@ UNIT_OF_MODULE = {
     "hybridlog.simulate_components": "simulation",
     "hybridlog.__main__": "cli",
     "hybridlog.launch": "cli",
+    "hybridlog.fitted_lines": "cli",
 }
 """Top-level modules whose unit is not their own name."""
 
