@@ -487,8 +487,61 @@ _CLUSTERING = _DataclassOptions(
 """``hybridlog cluster``'s clustering options, from the ``chiu`` estimator's options."""
 
 
+# The commands' help texts: strings, not their functions' docstrings, which ``python -OO``
+# (PYTHONOPTIMIZE=2) drops: --help then described no command but inspect.
+_HELP_HYBRIDLOG = """Mode and state estimation for hybrid (switched) systems from recorded logs.
+
+Every command has --help with examples, which run as written from the repository root.
+Exit codes: 0 success, 1 a CI gate failed (or a batch's log or a compared estimator
+failed on its log), 2 bad usage or bad input (one line on stderr naming the file, option
+or line).
+"""
+
+_HELP_ANALYZE = """Run one estimator over one log and write report, tables and plots."""
+
+_HELP_BATCH = """Analyse many logs; a failing log never stops the others.
+
+LOGS are log files, ROS 2 bags or folders of logs: a folder without metadata.yaml is
+searched, with its subfolders, for log files (by suffix) and bags, skipping names that
+start with '.' and links to folders (a note names them).  A log is skipped when its
+report records the same log content, model, options and hybridlog version (--force
+redoes all).  Exit status 1 when a log could not be analysed or missed a gate, 2 for
+bad options, model or output folder.
+"""
+
+_HELP_CLUSTER = """Fit Chiu subtractive clusters on regression vectors offline (paper 001).
+
+Clusters φ(k) = [y(k), y(k-1), u(k-1)] (or other lags), labels each cluster as a model
+mode from the data and the model alone, and writes the centres and classifier to a JSON
+file, a plot, and a table.  The log is read as analyze reads it (the same options).
+"""
+
+_HELP_COMPARE = """Run several estimators on one log and write a side-by-side table."""
+
+_HELP_MODELS = """List the built-in models, print the model file of one, or check a model file.
+
+Given a file (as --model takes it: a file of that path wins over a built-in of that
+name), checks it as analyze would, every key and each [estimators.<name>] table of
+the estimators that can run it, and says what it holds; exit 2 with one line naming
+the key where it is not valid.
+"""
+
+_HELP_SIMULATE = """Simulate a model along a mode schedule and write a log with ground truth.
+
+A components model plays its [simulation] scenario instead (per-component schedules,
+unmodelled behaviour, controller; --set moves its parameters); its log also holds the
+commands and the true mode of each component (mode.<component>).
+
+In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
+true mode a std_msgs/String topic /truth/mode (/truth/mode/<component>) and every true
+state /truth/<state>, as ROS names (θ is /truth/theta). ROS 2 bags: metadata version 8,
+which ros2 bag reads from Humble on.
+"""
+
+
 @click.group(
     cls=_Group,
+    help=_HELP_HYBRIDLOG,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
     epilog=_examples(
         "hybridlog models",
@@ -500,13 +553,7 @@ _CLUSTERING = _DataclassOptions(
 @_global_flags
 @click.pass_context
 def cli(ctx: click.Context) -> None:
-    """Mode and state estimation for hybrid (switched) systems from recorded logs.
-
-    Every command has --help with examples, which run as written from the repository root.
-    Exit codes: 0 success, 1 a CI gate failed (or a batch's log or a compared estimator
-    failed on its log), 2 bad usage or bad input (one line on stderr naming the file, option
-    or line).
-    """
+    """The command group; its help is :data:`_HELP_HYBRIDLOG`."""
     ctx.ensure_object(_Context)
     # before any command imports numba or polars, here or in its workers
     check_environment()
@@ -567,17 +614,13 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
     )
 
 
-@cli.command(epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"))
+@cli.command(
+    epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"), help=_HELP_MODELS
+)
 @_global_flags
 @click.argument("name", required=False, type=_PathName(path_type=str), metavar="[NAME|FILE]")
 def models(name: str | None) -> None:
-    """List the built-in models, print the model file of one, or check a model file.
-
-    Given a file (as --model takes it: a file of that path wins over a built-in of that
-    name), checks it as analyze would, every key and each [estimators.<name>] table of
-    the estimators that can run it, and says what it holds; exit 2 with one line naming
-    the key where it is not valid.
-    """
+    """The ``models`` command; its help is :data:`_HELP_MODELS`."""
     if name is not None:
         if not Path(name).is_file() and name in builtin_names():  # no numpy to print one
             click.echo(builtin_text(name), nl=False)
@@ -655,7 +698,8 @@ class _LogFormats(click.Choice[str]):
         "hybridlog simulate three_tank_hstf --out sim/tank_json.mcap --encoding json",
         "hybridlog simulate three_tank_hstf --out sim/tank_bag --format ros2-sqlite3",
         "hybridlog simulate bioplex_pgc --out sim/bioplex.csv --seed 3 --set light_fault=950",
-    )
+    ),
+    help=_HELP_SIMULATE,
 )
 @_global_flags
 @click.argument("model_ref", type=_PathName(path_type=str), metavar="MODEL")
@@ -731,17 +775,7 @@ def simulate(
     disturbance: str | None,
     force: bool,
 ) -> None:
-    """Simulate a model along a mode schedule and write a log with ground truth.
-
-    A components model plays its [simulation] scenario instead (per-component schedules,
-    unmodelled behaviour, controller; --set moves its parameters); its log also holds the
-    commands and the true mode of each component (mode.<component>).
-
-    In bags and MCAP files every input and output is a std_msgs/Float64 topic /<name>, the
-    true mode a std_msgs/String topic /truth/mode (/truth/mode/<component>) and every true
-    state /truth/<state>, as ROS names (θ is /truth/theta). ROS 2 bags: metadata version 8,
-    which ros2 bag reads from Humble on.
-    """
+    """The ``simulate`` command; its help is :data:`_HELP_SIMULATE`."""
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.simulate import simulate_log
     from hybridlog.report.markdown import plural
@@ -779,6 +813,7 @@ def simulate(
         "hybridlog analyze sample_logs/double_cart_case2.csv --model double_cart_case2 "
         "--estimator chiu --set centers=dc2_centers.json --out dc2_chiu",
     ),
+    help=_HELP_CLUSTER,
 )
 @_global_flags
 @click.argument("log", type=_PATH)
@@ -812,12 +847,7 @@ def cluster_command(
     force: bool,
     **options: Any,
 ) -> None:
-    """Fit Chiu subtractive clusters on regression vectors offline (paper 001).
-
-    Clusters φ(k) = [y(k), y(k-1), u(k-1)] (or other lags), labels each cluster as a model
-    mode from the data and the model alone, and writes the centres and classifier to a JSON
-    file, a plot, and a table.  The log is read as analyze reads it (the same options).
-    """
+    """The ``cluster`` command; its help is :data:`_HELP_CLUSTER`."""
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.cluster import discover_modes
 
@@ -855,6 +885,7 @@ def cluster_command(
         "hybridlog analyze sample_logs/three_tank_hstf.csv --model three_tank_hstf "
         "--estimator imm --smooth --mode-sequence viterbi --out imm_smoothed",
     ),
+    help=_HELP_ANALYZE,
 )
 @_global_flags
 @click.argument("log", type=_PATH)
@@ -878,7 +909,7 @@ def analyze_command(
     out_dir: Path | None,
     **options: Any,
 ) -> None:
-    """Run one estimator over one log and write report, tables and plots."""
+    """The ``analyze`` command; its help is :data:`_HELP_ANALYZE`."""
     _one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.analysis import analyze
@@ -923,6 +954,7 @@ def _echo_unused_samples(report: Report) -> None:
         "hybridlog compare sample_logs/double_cart_case1.csv --model double_cart_case1 "
         "--estimators chiu,kmeans --out dc1_compare",
     ),
+    help=_HELP_COMPARE,
 )
 @_global_flags
 @click.argument("log", type=_PATH)
@@ -952,7 +984,7 @@ def compare_command(
     out_dir: Path,
     **options: Any,
 ) -> None:
-    """Run several estimators on one log and write a side-by-side table."""
+    """The ``compare`` command; its help is :data:`_HELP_COMPARE`."""
     _one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.analysis import compare
@@ -1001,6 +1033,7 @@ def compare_command(
         "hybridlog batch nightly_runs --model three_tank_hstf --estimator imm --out nightly_all "
         "--jobs 2",
     ),
+    help=_HELP_BATCH,
 )
 @_global_flags
 @click.argument("logs", nargs=-1, required=True, type=_PATH)
@@ -1058,15 +1091,7 @@ def batch_command(
     junit: Path | None,
     **options: Any,
 ) -> None:
-    """Analyse many logs; a failing log never stops the others.
-
-    LOGS are log files, ROS 2 bags or folders of logs: a folder without metadata.yaml is
-    searched, with its subfolders, for log files (by suffix) and bags, skipping names that
-    start with '.' and links to folders (a note names them).  A log is skipped when its
-    report records the same log content, model, options and hybridlog version (--force
-    redoes all).  Exit status 1 when a log could not be analysed or missed a gate, 2 for
-    bad options, model or output folder.
-    """
+    """The ``batch`` command; its help is :data:`_HELP_BATCH`."""
     from hybridlog.jobs.batch_logs import batch_logs
 
     found = batch_logs(logs)  # folders of logs searched once, before the job's imports

@@ -139,3 +139,22 @@ def test_every_command_that_reads_a_log_for_a_model_takes_every_read_option():
     for name in ("analyze", "compare", "batch", "cluster"):
         offered = {flag for p in cli.commands[name].params for flag in getattr(p, "opts", [])}
         assert set(flags.values()) <= offered, name
+
+
+def test_help_texts_survive_python_s_optimisation_of_docstrings():
+    # python -OO (PYTHONOPTIMIZE=2, set in some images) drops docstrings: click took six
+    # commands' and the group's descriptions from them, and --help described inspect alone
+    import json
+    import subprocess
+    import sys
+
+    code = (
+        "import json; from hybridlog.cli import cli; "
+        "print(json.dumps({'': cli.help, **{n: c.help for n, c in cli.commands.items()}}))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-OO", "-c", code], check=True, capture_output=True, text=True, cwd=ROOT
+    )
+    optimised = json.loads(done.stdout)
+    assert optimised == {"": cli.help, **{n: c.help for n, c in cli.commands.items()}}
+    assert all(text and len(text) > 40 for text in optimised.values()), optimised
