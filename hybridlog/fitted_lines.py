@@ -7,7 +7,8 @@ and the item shown beside it: about 110 columns for batch), the screen filled wi
 of the bar.  :func:`fitted` cuts every line it is given, after each ``\r``, to one column
 less than the terminal's width (a line that fills the last column wraps on some
 terminals), counting what a terminal shows: escape sequences (click's hidden cursor,
-``ESC[?25l``) take no column.
+``ESC[?25l``) and combining marks take no column, a wide character (CJK, most emoji, in a
+log's file name) takes two.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import unicodedata
 from typing import TextIO, cast
 
 __all__ = ["FittedLines", "fitted"]
@@ -23,19 +25,35 @@ _ESCAPE = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 """A CSI escape sequence (cursor shown or hidden, line erased): no column on the screen."""
 
 
+def _width(character: str) -> int:
+    """The columns a terminal gives ``character``: 2 East Asian wide, 0 a combining mark."""
+    if unicodedata.combining(character) or unicodedata.category(character) in ("Me", "Cf"):
+        return 0
+    return 2 if unicodedata.east_asian_width(character) in ("W", "F") else 1
+
+
+def _fit(text: str, room: int) -> tuple[str, int]:
+    """The longest start of ``text`` that takes at most ``room`` columns, and its columns."""
+    used = 0
+    for index, character in enumerate(text):
+        width = _width(character)
+        if used + width > room:
+            return text[:index], used
+        used += width
+    return text, used
+
+
 def _cut(line: str, columns: int) -> str:
-    """``line`` with no more than ``columns`` visible characters; escape sequences kept."""
+    """``line`` taking no more than ``columns`` columns; escape sequences kept."""
     kept: list[str] = []
     shown = 0
     at = 0
     for escape in _ESCAPE.finditer(line):
-        text = line[at : escape.start()]
-        room = max(columns - shown, 0)
-        kept.append(text[:room])
-        shown += min(len(text), room)
-        kept.append(escape.group())
+        text, used = _fit(line[at : escape.start()], columns - shown)
+        kept += [text, escape.group()]
+        shown += used
         at = escape.end()
-    kept.append(line[at:][: max(columns - shown, 0)])
+    kept.append(_fit(line[at:], columns - shown)[0])
     return "".join(kept)
 
 
@@ -56,7 +74,7 @@ class FittedLines:
         out.txt`` draws its bars on stderr, a terminal whose width stdout does not know.
         """
         given = os.environ.get("COLUMNS", "")
-        if given.isdigit() and int(given) > 0:
+        if given.isdecimal() and int(given) > 0:  # isdigit() holds for '²', int() refuses
             return int(given)
         try:
             return os.get_terminal_size(self._stream.fileno()).columns or 80

@@ -1122,9 +1122,12 @@ def _panics_refused(path: Path, kind: str) -> Iterator[None]:
     A panic is a ``BaseException`` (``pyo3_runtime.PanicException``), which escaped as a
     traceback, after Rust's own message and, with ``RUST_BACKTRACE`` set, its stack printed
     to the process's standard error: that is held while polars reads, and written out unless
-    polars panicked.
+    polars panicked.  ``sys.stderr`` is ``None`` in a process started with descriptor 2
+    closed: a worker of ``batch --jobs 2 2>&-`` (multiprocessing's forkserver), where every
+    log failed on "'NoneType' object has no attribute 'flush'".
     """
-    sys.stderr.flush()
+    if sys.stderr is not None:
+        sys.stderr.flush()
     saved = os.dup(2)
     panicked = False
     try:

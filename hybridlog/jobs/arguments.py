@@ -14,8 +14,12 @@ what it was given.
 
 from __future__ import annotations
 
+import operator
 import os
 from collections.abc import Sequence
+from typing import Literal, SupportsIndex, TypeGuard, overload
+
+import numpy as np
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.io import ReadOptions
@@ -60,9 +64,21 @@ def _refuse(parameter: str, expected: str, value: object) -> OptionError:
 
 
 def _is_path(value: object) -> bool:
-    return isinstance(value, str) or (
-        isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)
-    )
+    if isinstance(value, str):
+        return True
+    try:  # os.fspath raises TypeError where __fspath__ gives neither str nor bytes
+        return isinstance(value, os.PathLike) and isinstance(os.fspath(value), str)
+    except TypeError:
+        return False
+
+
+def _is_list(value: object) -> TypeGuard[Sequence[object]]:
+    """A list or tuple of items: not one ``str``, nor ``bytes`` (a sequence of ints)."""
+    return isinstance(value, Sequence) and not isinstance(value, str | bytes | bytearray)
+
+
+def _one_text(value: object) -> str:
+    return " (not one str)" if isinstance(value, str) else ""
 
 
 def path(value: object, parameter: str, *, optional: bool = False) -> None:
@@ -76,7 +92,7 @@ def path(value: object, parameter: str, *, optional: bool = False) -> None:
 
 def paths(value: object, parameter: str) -> None:
     """Refuse ``value`` unless it is a list or tuple of paths (a single path is not split)."""
-    if _is_path(value) or not isinstance(value, Sequence):
+    if _is_path(value) or not _is_list(value):
         raise _refuse(parameter, "a list of paths (write [path] for one)", value)
     for item in value:
         path(item, parameter)
@@ -84,8 +100,8 @@ def paths(value: object, parameter: str) -> None:
 
 def texts(value: object, parameter: str) -> None:
     """Refuse ``value`` unless it is a list or tuple of ``str`` (a single ``str`` is not split)."""
-    if isinstance(value, str) or not isinstance(value, Sequence):
-        raise _refuse(parameter, "a list of strings (not one str)", value)
+    if not _is_list(value):
+        raise _refuse(parameter, f"a list of strings{_one_text(value)}", value)
     for item in value:
         if not isinstance(item, str):
             raise _refuse(parameter, "a list of strings", item)
@@ -97,12 +113,25 @@ def text(value: object, parameter: str, *, optional: bool = False) -> None:
         raise _refuse(parameter, "a string" + (" or None" if optional else ""), value)
 
 
-def integer(value: object, parameter: str, *, optional: bool = False) -> None:
-    """Refuse ``value`` unless it is an ``int``, not a ``bool`` (or ``None``: ``optional``)."""
+@overload
+def integer(value: object, parameter: str, *, optional: Literal[False] = False) -> int: ...
+
+
+@overload
+def integer(value: object, parameter: str, *, optional: Literal[True]) -> int | None: ...
+
+
+def integer(value: object, parameter: str, *, optional: bool = False) -> int | None:
+    """``value`` as an ``int``: a whole number (``numpy.int64`` too), not a ``bool``.
+
+    ``None`` where ``optional``.  A NumPy integer (``rng.integers(...)`` as a seed) is
+    taken as the ``int`` it holds; anything else, a ``float`` too, is refused.
+    """
     if optional and value is None:
-        return
-    if not isinstance(value, int) or isinstance(value, bool):
+        return None
+    if isinstance(value, bool | np.bool_) or not isinstance(value, SupportsIndex):
         raise _refuse(parameter, "an int" + (" or None" if optional else ""), value)
+    return operator.index(value)
 
 
 def flag(value: object, parameter: str) -> None:

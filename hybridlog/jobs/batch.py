@@ -907,7 +907,7 @@ def run_batch(
     arguments.text(estimator, "estimator", optional=True)
     arguments.text(scheduler, "scheduler", optional=True)
     arguments.text(plots, "plots")
-    arguments.integer(jobs, "jobs")
+    jobs = arguments.integer(jobs, "jobs")
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
     if jobs > 1 and scheduler is not None:  # it was ignored, as if it held the cluster back

@@ -111,8 +111,8 @@ def simulate_log(
     arguments.text(schedule, "schedule", optional=True)
     arguments.text(disturbance, "disturbance", optional=True)
     arguments.text(encoding, "encoding")
-    arguments.integer(steps, "steps", optional=True)
-    arguments.integer(seed, "seed")
+    steps = arguments.integer(steps, "steps", optional=True)
+    seed = arguments.integer(seed, "seed")
     arguments.flag(noise, "noise")
     arguments.flag(force, "force")
     parsed = parse_disturbance(disturbance) if disturbance is not None else None

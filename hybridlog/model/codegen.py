@@ -63,8 +63,14 @@ _OPPOSITE: Mapping[type, type] = {
 """The comparison that holds exactly when one does not, unless a side is NaN."""
 
 
+_EXACT_INTEGERS = 2**53
+"""The largest magnitude below which every whole number is a double (and a 64-bit integer)."""
+
+
 class _ExactFloats:
     """A finite ``Float`` printed as the double it holds (``repr``), not at 15 digits.
+
+    And a whole number or fraction beyond 2**53 as the double Python makes of it.
 
     sympy prints a 53-bit ``Float`` with 15 significant digits, which is not enough to
     name a double: a parameter written ``0.12345678901234568`` was compiled as
@@ -79,6 +85,26 @@ class _ExactFloats:
         if not math.isfinite(value):
             return str(super()._print_Float(expr))  # type: ignore[misc]  # sympy's own
         return repr(value)
+
+    def _print_Integer(self, expr: sympy.Integer) -> str:
+        """A whole number beyond 2**53 as the double Python's arithmetic makes of it.
+
+        numba types a literal as a 64-bit integer: ``100000000000000000000*x_0`` (a model's
+        ``1e20`` written in digits) failed to compile with "Int value is too large".
+        """
+        if abs(expr.p) <= _EXACT_INTEGERS:
+            return str(expr.p)
+        return repr(float(expr.p))
+
+    def _print_Rational(self, expr: sympy.Rational) -> str:
+        """``p/q``, or the double nearest ``p/q`` when ``p`` or ``q`` is beyond 2**53.
+
+        Python divides two integers exactly and rounds once; numba first turns each into a
+        double (or fails to type one beyond 64 bits), which rounds up to three times.
+        """
+        if max(abs(expr.p), expr.q) <= _EXACT_INTEGERS:
+            return f"{expr.p}/{expr.q}"
+        return repr(expr.p / expr.q)
 
 
 class _ExactPythonPrinter(_ExactFloats, PythonCodePrinter):  # type: ignore[misc]  # untyped

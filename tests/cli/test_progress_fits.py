@@ -65,3 +65,20 @@ def test_the_commands_bars_are_fitted(monkeypatch):
         step("a_log_with_a_long_name.csv")
     assert LABEL[:10] in terminal.getvalue()
     assert widest(terminal.getvalue()) <= 19
+
+
+def test_wide_characters_take_two_columns(monkeypatch):
+    # a log named in CJK: each character takes two columns, the line wrapped at 20
+    monkeypatch.setenv("COLUMNS", "20")
+    terminal = Terminal()
+    lines = fitted(terminal)  # type: ignore[arg-type]
+    lines.write("\r\x1b[?25l夜間試験の記録ファイル一覧表.csv  e\u0301t\u00e9")
+    lines.write("\rab\u0301c\u0302" + "d" * 30)
+    first, second = terminal.getvalue().split("\r")[1:]
+    assert first == "\x1b[?25l夜間試験の記録ファ"  # 9 wide characters: 18 columns of 19
+    assert second == "ab\u0301c\u0302" + "d" * 16  # combining accents take no column
+
+
+def test_a_columns_value_int_cannot_read_is_not_a_width(monkeypatch):
+    monkeypatch.setenv("COLUMNS", "\u00b2")  # str.isdigit() holds for '²'; int() raised
+    assert fitted(Terminal()).write("\rbar") == 4  # type: ignore[attr-defined]

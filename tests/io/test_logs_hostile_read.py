@@ -301,3 +301,16 @@ def test_simulate_s_writer_takes_a_name_that_is_not_utf8(tmp_path: Path) -> None
         with path.open("rb") as stream:
             frame = pl.read_csv(stream) if suffix == ".csv" else pl.read_parquet(stream)
         assert frame["y"].to_list() == [1.0, 1.0, 1.0]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_a_process_without_sys_stderr_reads_tables(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, suffix: str
+) -> None:
+    # sys.stderr is None where descriptor 2 was closed at the start: every log of
+    # 'batch --jobs 2 2>&-' failed in its worker on "'NoneType' object has no attribute 'flush'"
+    frame = pl.DataFrame({"t": np.arange(N) * 0.1, "u": np.zeros(N), "y": np.ones(N)})
+    log = tmp_path / f"run{suffix}"
+    frame.write_csv(log) if suffix == ".csv" else frame.write_parquet(log)
+    monkeypatch.setattr("sys.stderr", None)
+    assert load(log).outputs.tolist() == [[1.0]] * N

@@ -9,6 +9,7 @@ folder ``/`` searched for logs, ``smooth="no"`` smoothing, an ``AttributeError``
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hybridlog.errors import OptionError
@@ -17,6 +18,14 @@ from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.jobs.simulate import simulate_log
 from tests.support.paths import ROOT
+
+
+class _NoPath:
+    """An ``os.PathLike`` whose ``__fspath__`` gives neither ``str`` nor ``bytes``."""
+
+    def __fspath__(self) -> int:
+        return 3
+
 
 LOG = ROOT / "sample_logs" / "three_tank_hstf.csv"
 MODEL = "three_tank_hstf"
@@ -66,6 +75,22 @@ CALLS = {
         lambda out: simulate_log(MODEL, out / "run.csv", settings="A=150"),
         "settings (--set): expected a list of strings (not one str)",
     ),
+    "batch of bytes": (  # a sequence of ints: "expected a path, got the int 99"
+        lambda out: run_batch(b"run.csv", MODEL, out_dir=out),
+        "logs: expected a list of paths (write [path] for one), got the bytes",
+    ),
+    "gates in bytes": (
+        lambda out: analyze(LOG, MODEL, out_dir=out, fail_under=b"vaf=90"),
+        "fail_under (--fail-under): expected a list of strings, got the bytes",
+    ),
+    "a path naming no path": (  # os.fspath's TypeError
+        lambda out: analyze(_NoPath(), MODEL, out_dir=out),
+        "log: expected a path (a str or pathlib.Path), got the _NoPath",
+    ),
+    "seed a float": (
+        lambda out: simulate_log(MODEL, out / "run.csv", seed=3.0),
+        "seed (--seed): expected an int, got the float '3.0'",
+    ),
     "cluster force a string": (
         lambda out: discover_modes(LOG, MODEL, out=out / "centers.json", force="yes"),
         "force (--force): expected True or False, got the str 'yes'",
@@ -82,3 +107,12 @@ def test_an_argument_of_the_wrong_type_is_one_option_error(tmp_path: Path, case:
     assert str(raised.value).startswith(message), str(raised.value)
     assert "\n" not in str(raised.value)
     assert not out.exists()
+
+
+def test_a_numpy_integer_is_the_int_it_holds(tmp_path: Path) -> None:
+    # rng.integers(...) gives numpy.int64, which 'expected an int' refused
+    simulate_log(MODEL, tmp_path / "a.csv", steps=np.int64(30), seed=np.int64(4))
+    simulate_log(MODEL, tmp_path / "b.csv", steps=30, seed=4)
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
+    with pytest.raises(OptionError, match=r"^jobs \(--jobs\): expected an int, got the bool"):
+        run_batch([LOG], MODEL, out_dir=tmp_path / "out", jobs=np.True_)

@@ -108,3 +108,17 @@ def test_a_cluster_filters_constants_are_the_models_doubles(unrolled):
     )
     assert step.x.tolist() == [A]
     assert step.y_pred.tolist() == [B * A]
+
+
+def test_a_whole_number_beyond_64_bits_compiles_as_pythons_double():
+    # numba typed the literal 100000000000000000000 as int64: "Int value is too large"
+    text = MODEL.replace('"a*x1 + u"', '"100000000000000000000*x1 + u"').replace(
+        '"b*x1"', '"x1*100000000000000000001/3"'
+    )
+    functions = compiled.compile_model(parse_model(text), jit=True)
+    x, u = np.array([3.0, 1.0]), np.array([0.0])
+    f = np.full(2, np.nan)
+    functions.f(0, x, u, f)
+    assert f[0] == 100000000000000000000 * 3.0
+    functions.f(1, x, u, f)
+    assert f[0] == (100000000000000000001 / 3) * 3.0
