@@ -21,6 +21,7 @@ import ast
 import keyword
 import math
 import re
+import sys
 import unicodedata
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -258,6 +259,12 @@ def parse_expression(
         raise ModelError(
             f"{key}: {excerpt(text)} is not finite in double precision ({overflow} overflows)"
         )
+    underflow = _underflow(expression)
+    if underflow:
+        raise ModelError(
+            f"{key}: {excerpt(text)} holds a constant smaller in magnitude than a double holds "
+            f"in full ({underflow}); write 0 or rescale"
+        )
     reason = _complex_reason(expression)
     if reason:
         raise ModelError(
@@ -266,16 +273,25 @@ def parse_expression(
     return expression
 
 
+_SMALLEST_NORMAL = sys.float_info.min
+"""The smallest normal double (2.2e-308): below it a double holds fewer significant digits."""
+
+
+def _constants(expression: sympy.Expr) -> list[sympy.Expr]:
+    """The numbers of ``expression`` and its functions and powers of numbers, in one order."""
+    constants = expression.atoms(sympy.Number) | {
+        node for node in expression.atoms(sympy.Function, sympy.Pow) if node.is_number
+    }
+    return sorted(constants, key=sympy.default_sort_key)
+
+
 def _overflow(expression: sympy.Expr) -> str:
     """A constant of ``expression`` beyond float64 (``1e200*1e200``, ``exp(1000)``), or ``""``.
 
     sympy's numbers have no limit, so such a constant passes its own checks and becomes
     ``inf`` in the compiled code.
     """
-    constants = expression.atoms(sympy.Number) | {
-        node for node in expression.atoms(sympy.Function, sympy.Pow) if node.is_number
-    }
-    for node in sorted(constants, key=sympy.default_sort_key):
+    for node in _constants(expression):
         try:
             value = float(node)
         except OverflowError:
@@ -284,6 +300,24 @@ def _overflow(expression: sympy.Expr) -> str:
             continue
         if not math.isfinite(value):
             return excerpt(node, 40)
+    return ""
+
+
+def _underflow(expression: sympy.Expr) -> str:
+    """A constant of ``expression`` that is not 0 but below the smallest normal double, or ``""``.
+
+    sympy's numbers have no lower limit either: ``1e-200*1e-200`` (or a parameter ``a =
+    1e-200`` in ``a*a*x``) folds to ``1.0e-400``, which the compiled code holds as ``0.0``,
+    the term gone without a word, as a literal ``1e-400`` is refused where it is written.
+    """
+    for node in _constants(expression):
+        try:
+            value = float(node)
+        except (OverflowError, TypeError):  # said by _overflow and _complex_reason
+            continue
+        if abs(value) < _SMALLEST_NORMAL and node.is_zero is False:
+            shown = node.evalf(4) if node.is_Float else node  # 1.000e-400; exp(-1000)
+            return f"{excerpt(shown, 40)} is below {_SMALLEST_NORMAL:.4g} and would be {value!r}"
     return ""
 
 

@@ -274,6 +274,10 @@ def test_complex_valued_expressions_are_refused_naming_the_key(expression):
         ("theta*1e200*1e200", r"not finite in double precision \('1\.0+e\+400' overflows\)"),
         ("theta + exp(1000)", r"not finite in double precision \('exp\(1000\)' overflows\)"),
         ("max(theta, 1e308*10)", "not finite in double precision"),
+        # nor a lower one: these became 0.0 (or lost digits) in the compiled code
+        ("theta*1e-200*1e-200", r"'1\.000e-400' is below 2\.225e-308 and would be 0\.0\)"),
+        ("theta + exp(-1000)", r"'exp\(-1000\)' is below 2\.225e-308 and would be 0\.0"),
+        ("theta*1e-200*1e-110", r"'1\.000e-310' is below 2\.225e-308 and would be 1e-310"),
         # sympy's own extra arguments mean something else: sqrt(x, evaluate), log(x, base)
         ("theta + sqrt(4, 100)", r"sqrt takes exactly 1 argument \(2 given\)"),
         ("theta + log(2, 0)", r"log takes exactly 1 argument \(2 given\)"),
@@ -530,3 +534,11 @@ def test_the_complete_example_of_docs_model_files_loads_and_simulates():
     ]
     run = simulate(parse_model(example), steps=5)
     assert run.states.shape == (6, 1)
+
+
+def test_parameters_folding_below_a_double_are_refused_naming_the_key():
+    # a parameter may be held by a double and its product not: a*a*x with a = 1e-200
+    text = _replace(PENDULUM_ONE_MODE, "c = 0.2", "c = 1e-200")
+    text = _replace(text, _F0, '"theta + c*c*omega"')
+    with pytest.raises(ModelError, match=r"^plant\.toml: modes\.only\.f\[0\]: .*holds a constant"):
+        parse_model(text, origin="plant.toml")
