@@ -1278,6 +1278,7 @@ def _progress(
         length=total,
         label=label,
         file=fitted(sys.stderr),
+        width=0,  # the bar takes what the line leaves of the terminal (fitted_lines.py)
         show_eta=False,
         show_pos=True,
         item_show_func=None if show is None else lambda item: show(item),
@@ -1302,7 +1303,7 @@ def _work_progress(quiet: bool, total: int, label: str) -> Iterator[Callable[[in
         return
     bar: Any
     lines = fitted(sys.stderr)
-    with click.progressbar(length=total, label=label, file=lines, show_eta=True) as bar:
+    with click.progressbar(length=total, label=label, file=lines, show_eta=True, width=0) as bar:
         yield bar.update
 
 

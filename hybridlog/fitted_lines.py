@@ -4,11 +4,12 @@ click's progress bar redraws its line by returning to its start (``\r``); a line
 than the terminal wraps, and each redraw then returns to the start of its last row only:
 on a narrow terminal, or a split pane narrower than the bar's line (label, bar, position
 and the item shown beside it: about 110 columns for batch), the screen filled with copies
-of the bar.  :func:`fitted` cuts every line it is given, after each ``\r``, to one column
-less than the terminal's width (a line that fills the last column wraps on some
-terminals), counting what a terminal shows: escape sequences (click's hidden cursor,
-``ESC[?25l``) and combining marks take no column, a wide character (CJK, most emoji, in a
-log's file name) takes two.
+of the bar.  The bars are sized to the terminal (click's ``width=0``: the bar takes the
+columns the rest of the line leaves), and :func:`fitted` cuts every line it is given,
+after each ``\r``, to the terminal's width where the rest alone is wider (a narrow
+terminal, or stdout redirected, whose width click reads), counting what a terminal shows:
+escape sequences (click's hidden cursor, ``ESC[?25l``) and combining marks take no column,
+a wide character (CJK, most emoji, in a log's file name) takes two.
 """
 
 from __future__ import annotations
@@ -82,8 +83,8 @@ class FittedLines:
             return shutil.get_terminal_size().columns
 
     def write(self, text: str) -> int:
-        """Write ``text``, each of its lines cut to the terminal's width less one column."""
-        columns = max(self.columns() - 1, 1)
+        """Write ``text``, each of its lines cut to the terminal's width."""
+        columns = max(self.columns(), 1)
         fitted = "\n".join(
             "\r".join(_cut(part, columns) for part in line.split("\r")) for line in text.split("\n")
         )
