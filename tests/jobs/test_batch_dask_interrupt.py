@@ -25,6 +25,10 @@ distributed = pytest.importorskip("distributed")
 
 RELEASE = threading.Event()
 """Lets the held logs' tasks go on (the workers are threads of this process)."""
+HELD_S = 240.0
+"""How long a held task waits for the release at most: only a guard against a hang.  At 30 s
+the held tasks went on by themselves under a loaded machine (the first log, whose outcome
+interrupts the batch, took longer than that) and published reports the test then found."""
 ENDED = threading.Semaphore(0)
 """Released by each held task as it returns."""
 ANALYZE = batch_job.analyze_log
@@ -38,7 +42,7 @@ def held_analysis(job: batch_job.BatchJob, log: str, folder: str) -> LogOutcome:
     if Path(log).name == "s1.csv":
         return ANALYZE(job, log, folder)
     if Path(log).name == "s2.csv":
-        RELEASE.wait(timeout=30)
+        RELEASE.wait(timeout=HELD_S)
     try:
         return ANALYZE(job, log, folder)
     finally:
@@ -48,7 +52,7 @@ def held_analysis(job: batch_job.BatchJob, log: str, folder: str) -> LogOutcome:
 def held_reading(log: str, *args: object) -> object:
     """The log read; ``s3.csv``'s held until the test releases it (then it is streamed)."""
     if Path(log).name == "s3.csv":
-        RELEASE.wait(timeout=30)
+        RELEASE.wait(timeout=HELD_S)
     return READ(log, *args)  # type: ignore[arg-type]
 
 
@@ -95,7 +99,7 @@ def test_an_interrupted_dask_batch_publishes_no_report_after_it_ended(
             )
         RELEASE.set()
         for _ in (2, 3):  # the held tasks have returned: whatever they wrote is there
-            assert ENDED.acquire(timeout=30)
+            assert ENDED.acquire(timeout=HELD_S)
     assert (out / "s1.csv" / "report.json").is_file()
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["s1.csv"]
     assert not [p for p in out.iterdir() if ".hybridlog-tmp" in p.name]
