@@ -284,6 +284,7 @@ def _place_cache(numba: Any) -> Path | None:
         _prune(folder)
     numba.config.CACHE_DIR = str(folder)
     _name_failed_saves(folder)
+    _check_entries(folder)
     return folder
 
 
@@ -308,6 +309,55 @@ def _name_failed_saves(folder: Path) -> None:
             ) from err
 
     Cache.save_overload = save_overload  # type: ignore[method-assign]
+
+
+class DamagedEntryError(OSError):
+    """A machine-code entry whose bytes are not the ones written (:func:`_check_entries`)."""
+
+
+def _check_entries(folder: Path) -> None:
+    """Write machine-code entries under ``folder`` with their SHA-256; load them if it matches.
+
+    numba loads an entry (a ``.nbc`` file: the pickled machine code) without checking it: one
+    changed byte that still unpickles (a bit flipped on a disk, a partly restored CI cache)
+    failed every later run with "LLVM bitcode parsing error", or, where it still parsed,
+    ran changed code.  An entry whose digest differs is :class:`DamagedEntryError`, an
+    ``OSError``, which numba's loader takes for a missing file: the function is compiled
+    again and the entry written anew.  Entries outside ``folder`` (other programs' numba
+    caches) keep numba's format.
+    """
+    from numba.core.caching import IndexDataCacheFile
+
+    save: Callable[[Any, str, Any], None] = IndexDataCacheFile._save_data
+    load: Callable[[Any, str], Any] = IndexDataCacheFile._load_data
+    root = str(folder)
+
+    def ours(cache_file: Any) -> bool:
+        return os.path.commonpath([root, str(cache_file._cache_path)]) == root
+
+    def save_data(self: Any, name: str, data: Any) -> None:
+        if not ours(self):
+            return save(self, name, data)
+        blob = self._dump(data)
+        with self._open_for_write(self._data_path(name)) as file:
+            file.write(hashlib.sha256(blob).digest() + blob)
+
+    def load_data(self: Any, name: str) -> Any:
+        if not ours(self):
+            return load(self, name)
+        path = self._data_path(name)
+        with open(path, "rb") as file:
+            stored = file.read()
+        digest, blob = stored[:_DIGEST_BYTES], stored[_DIGEST_BYTES:]
+        if hashlib.sha256(blob).digest() != digest:
+            raise DamagedEntryError(f"{path}: not the bytes written")
+        return pickle.loads(blob)
+
+    IndexDataCacheFile._save_data = save_data  # type: ignore[method-assign]
+    IndexDataCacheFile._load_data = load_data  # type: ignore[method-assign]
+
+
+_DIGEST_BYTES = hashlib.sha256().digest_size
 
 
 def _numba() -> Any:

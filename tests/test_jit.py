@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -136,6 +137,31 @@ def test_a_damaged_cache_entry_is_compiled_again(
     assert data.stat().st_size > 100  # written anew
 
 
+def test_a_cache_entry_whose_bytes_changed_is_compiled_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # numba loaded an entry as long as it unpickled: a byte changed in its machine code (a
+    # bit flipped on a disk, a partly restored CI cache) failed every run after with
+    # "unexpected RuntimeError: LLVM bitcode parsing error", or, where it still parsed, ran
+    import numba
+
+    (tmp_path / "changed_cache_kernel.py").write_text("def add(a, b):\n    return a + b\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("changed_cache_kernel")
+    jit.set_up()  # the cache placed, as before any of hybridlog's functions
+    jit.compile_for(module.add, (1.0, 2.0))
+    folder = f"{tmp_path.name}_{hashlib.sha1(str(tmp_path).encode()).hexdigest()}"  # numba's
+    (data,) = (Path(numba.config.CACHE_DIR) / folder).glob("changed_cache_kernel.add-*.nbc")
+    changed = bytearray(data.read_bytes())
+    changed[len(changed) // 2] ^= 0x10  # inside the pickled code, which still unpickles
+    data.write_bytes(changed)
+    monkeypatch.setattr(jit, "_COMPILED", {})  # as in the next process
+    compiled: Any = jit.compile_for(module.add, (1.0, 2.0))
+    assert not compiled.stats.cache_hits, "the changed entry was loaded"
+    assert compiled(1.0, 2.0) == 3.0
+    assert data.read_bytes() != bytes(changed)  # written anew
+
+
 def test_a_full_cache_folder_is_one_line_naming_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -152,8 +178,8 @@ def test_a_full_cache_folder_is_one_line_naming_it(
     (tmp_path / "full_cache_kernel.py").write_text("def add(a, b):\n    return a + b\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     module = importlib.import_module("full_cache_kernel")
-    monkeypatch.setattr(IndexDataCacheFile, "_save_data", full)
     jit.set_up()  # the cache placed, as before any of hybridlog's functions
+    monkeypatch.setattr(IndexDataCacheFile, "_save_data", full)
     with pytest.raises(OutputError) as raised:
         jit.compile_for(module.add, (1.0, 2.0))
     assert str(raised.value) == (
