@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path, PurePosixPath
 
+import pytest
+
 from tests.cli.test_cli_help import help_examples
 from tests.support.paths import ROOT
 
@@ -54,12 +56,74 @@ def _run_as_written(tmp_path, commands, where=lambda command: command):
         assert done.returncode == 0, f"{where(command)}\n{done.stdout}\n{done.stderr}"
 
 
-def test_readme_tour_runs_as_written(tmp_path):
-    _run_as_written(tmp_path, tour_commands())
-    # the CI recipe's outputs: JUnit with a case per log per gate, the job summary
-    junit = (tmp_path / "ci_report" / "junit.xml").read_text()
-    assert '<testsuites name="hybridlog batch" tests="4" failures="0" errors="0"' in junit
-    assert (tmp_path / "ci_summary.md").read_text().startswith("# Batch: three_tank_hstf")
+def _written_paths(command: str) -> set[PurePosixPath]:
+    """The files and folders one example names as outputs (``--out``, ``--junit``, ``--plot``)."""
+    words = shlex.split(command)
+    return {
+        PurePosixPath(value)
+        for option, value in itertools.pairwise(words)
+        if option in ("--out", "--junit", "--plot")
+    }
+
+
+def tour_chains() -> list[list[str]]:
+    """The tour's commands, in README order, split into chains that share no written path.
+
+    A command joins the chains that wrote a path it names (its first folder or file, also as
+    a ``--set`` value: the batch's ``runs/*.csv`` joins the simulations into ``runs/``, the
+    ``chiu`` analysis the clustering of its centres file) or that write where it
+    writes; the others run apart, each in a folder of its own, so the tour's test spreads
+    over the test workers rather than running its 36 commands one after another.
+    """
+    chains: list[tuple[set[str], list[str]]] = []
+    written: set[str] = set()
+    for command in tour_commands():
+        own = {path.parts[0] for path in _written_paths(command)}
+        words = [w.partition("=")[2] or w for w in shlex.split(command)]  # --set key=PATH
+        named = {PurePosixPath(word).parts[0] for word in words if word}
+        touched = own | (named & written)
+        joined = [chain for chain in chains if chain[0] & touched]
+        chains = [chain for chain in chains if not chain[0] & touched]
+        merged = (
+            touched.union(*(roots for roots, _ in joined)),
+            sorted(
+                [c for _, commands in joined for c in commands] + [command],
+                key=tour_commands().index,
+            ),
+        )
+        chains.append(merged)
+        written |= own
+    return sorted((commands for _, commands in chains), key=lambda c: tour_commands().index(c[0]))
+
+
+def test_the_tour_chains_hold_every_command_once_and_its_dependencies_together():
+    chains = tour_chains()
+    assert sorted(c for chain in chains for c in chain) == sorted(tour_commands())
+    assert len(chains) > 10  # the tour runs spread out
+    together = {c: i for i, chain in enumerate(chains) for c in chain}
+    for reader, writer in (
+        ("cat tank_report/report.md", "--out tank_report"),
+        ("hybridlog analyze long.parquet", "--out long.parquet"),
+        ("--out ci_report --fail-under", "--out runs/seed2.csv"),
+        ("cat ci_report/summary.md", "--junit ci_report/junit.xml"),
+        ("--set centers=dc1_centers.json", "--out dc1_centers.json"),
+        ("hybridlog inspect sim/tank_ros2", "--out sim/tank_ros2"),
+    ):
+        (read,) = [c for c in together if reader in c]
+        (write,) = [c for c in together if writer in c]
+        assert together[read] == together[write], (reader, writer)
+
+
+@pytest.mark.parametrize(
+    "chain", tour_chains(), ids=lambda chain: shlex.split(chain[0])[1] + str(len(chain))
+)
+def test_readme_tour_runs_as_written(tmp_path, chain):
+    _run_as_written(tmp_path, chain)
+    if any("--junit" in command for command in chain):
+        # the CI recipe's outputs: JUnit with a case per log per gate, the job summary
+        junit = (tmp_path / "ci_report" / "junit.xml").read_text()
+        assert '<testsuites name="hybridlog batch" tests="4" failures="0" errors="0"' in junit
+        assert (tmp_path / "ci_summary.md").read_text().startswith("# Batch: three_tank_hstf")
 
 
 def test_the_python_section_runs_as_written(tmp_path):
@@ -112,16 +176,6 @@ def test_the_ci_recipe_runs_the_tested_commands():
     for line in runs:
         tested = line.replace('"$GITHUB_STEP_SUMMARY"', '"${GITHUB_STEP_SUMMARY:-ci_summary.md}"')
         assert tested in commands, line
-
-
-def _written_paths(command: str) -> set[PurePosixPath]:
-    """The files and folders one example names as outputs (``--out``, ``--junit``, ``--plot``)."""
-    words = shlex.split(command)
-    return {
-        PurePosixPath(value)
-        for option, value in itertools.pairwise(words)
-        if option in ("--out", "--junit", "--plot")
-    }
 
 
 def test_the_tour_and_the_help_examples_write_different_paths():
