@@ -108,7 +108,7 @@ def format_inspection(info: dict[str, Any]) -> str:
     span = info.get("time")
     if span is not None:
         text = (
-            f"time: column '{_shown(span['column'])}', {_at(span['start'])} s to "
+            f"time: column {_shown(span['column'], quoted=True)}, {_at(span['start'])} s to "
             f"{_at(span['end'])} s ({_duration(span['duration'])} s)"
         )
         if info.get("sample_time") is None:
@@ -184,7 +184,8 @@ def format_inspection(info: dict[str, Any]) -> str:
 def _format_messages(info: dict[str, Any]) -> str:
     """The text form of a bag's or MCAP file's description."""
     topics = info["topics"]
-    kind = info["format"] + (f", profile '{_shown(info['profile'])}'" if "profile" in info else "")
+    profile = f", profile {_shown(info['profile'], quoted=True)}" if "profile" in info else ""
+    kind = info["format"] + profile
     counts = f"{_count(info['messages'], 'message')}, {_count(len(topics), 'topic')}"
     lines = [f"{_shown(info['path'])} ({kind}, {counts})"]
     span = info.get("time")
@@ -345,20 +346,22 @@ def _width(text: str) -> int:
     )
 
 
-def _shown(name: object) -> str:
+def _shown(name: object, *, quoted: bool = False) -> str:
     r"""A name from the log as one line of printable text: ``\n``, ``\x1b`` and the like escaped.
 
     Topic, type, field and column names are the log's own: a newline in a topic's name split
     its row of the table in two, and an escape sequence, shown ``\x1b`` only after the table
     was laid out, pushed its row out of line.  An empty name (a Parquet column may have
-    one) is shown ``''``, as analyze's errors name it, not as a blank cell.
+    one) is shown ``''``, as analyze's errors name it, not as a blank cell, and so is a name
+    with spaces at either end (``' y '``: shown bare, its spaces were lost in the table, where
+    analyze's error names it ``' y '``).  ``quoted``: in single quotes whatever the name, for
+    text that quotes it (an MCAP file's empty profile was printed ``profile ''''``).
     """
     text = as_text(name)
-    if not text:
-        return "''"
-    return "".join(
+    shown = "".join(
         c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text
     )
+    return f"'{shown}'" if quoted or not text or text != text.strip() else shown
 
 
 def _hz(steps: dict[str, Any]) -> str:

@@ -64,22 +64,32 @@ NUMERIC_TYPES = frozenset(
 """The primitive types of ROS messages that read as numbers."""
 STRING_TYPES = ("string",)
 
-_STEP = re.compile(r'[./]"([^"]+)"|[./]([^./\[\]]+)|\[\s*(-?\d+)\s*\]')
+_STEP = re.compile(r'[./]"((?:[^"\\]|\\.)*)"|[./]([^./\[\]]+)|\[\s*(-?\d+)\s*\]')
 """A step: ``.field`` (or ``/field``), ``."field.with.dots"`` (a JSON key holding path syntax,
-quoted as :func:`spell_field` writes it) or ``[index]``."""
+quoted as :func:`spell_field` writes it: ``\\"`` and ``\\\\`` inside the quotes are ``"`` and
+``\\``; ``.""`` is the empty key) or ``[index]``."""
+
+_ESCAPED = re.compile(r'\\(["\\])')
+"""An escaped ``"`` or ``\\`` inside a quoted step."""
 
 _PATH_SYNTAX = frozenset('./[]"')
 
 
 def spell_field(name: str) -> str:
-    """``name`` as a step of a path: in double quotes when it holds ``.``, ``/``, ``[`` or ``]``.
+    r"""``name`` as a step of a path, quoted where a bare step would not read back as it.
 
-    A JSON key such as ``"a.b"`` or ``"c[0]"`` would otherwise read as two steps or as an
-    index (``.a.b``, ``.c[0]``): listed that way by ``inspect``, it named a field no message
-    has.  So is a key with spaces at either end (an unquoted step is stripped).
+    In double quotes when it holds ``.``, ``/``, ``[``, ``]`` or ``"``, has spaces at either
+    end (an unquoted step is stripped) or is empty (``""``); inside the quotes ``"`` and ``\``
+    are written ``\"`` and ``\\``, so that :func:`split_path` reads the step back as
+    ``name``.  A JSON key such as ``"a.b"`` or ``"c[0]"`` would otherwise read as two steps or
+    as an index (``.a.b``, ``.c[0]``): listed that way by ``inspect``, it named a field no
+    message has; so did ``a"b`` listed ``."a"b"`` and the empty key listed ``.``.
     """
-    syntax = any(c in _PATH_SYNTAX for c in name) or name != name.strip()
-    return f'"{name}"' if syntax else name
+    syntax = not name or any(c in _PATH_SYNTAX for c in name) or name != name.strip()
+    if not syntax:
+        return name
+    # a key holding '"' (or an empty one) listed as ."a"b" (or as ".") named nothing --map read
+    return '"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 Fielddesc = tuple[Any, Any]
@@ -210,7 +220,7 @@ def _steps(text: str, rest: str) -> tuple[Step, ...]:
                 "element or [-1] for the last"
             )
         if quoted is not None:
-            steps.append(quoted)
+            steps.append(_ESCAPED.sub(r"\1", quoted))
         else:
             steps.append(int(index) if index is not None else field.strip())
         position = match.end()

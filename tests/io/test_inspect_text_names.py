@@ -86,3 +86,18 @@ def test_an_empty_column_name_is_shown_as_analyze_names_it(tmp_path: Path) -> No
     pl.DataFrame({"t": [0.0, 1.0], "": [1.0, 2.0]}).write_parquet(log)
     lines = format_inspection(inspect_log(log)).split("\n")
     assert any(line.startswith("''      float64  2") for line in lines), lines
+
+
+def test_a_column_name_with_spaces_at_either_end_is_shown_quoted(tmp_path: Path) -> None:
+    # shown bare, ' y ' lost its spaces in the table, where analyze's error named it ' y '
+    log = tmp_path / "spaced.parquet"
+    pl.DataFrame({"t": [0.0, 1.0], " y ": [1.0, 2.0], "b c": [3.0, 4.0]}).write_parquet(log)
+    lines = format_inspection(inspect_log(log)).split("\n")
+    assert any(line.startswith("' y '   float64  2") for line in lines), lines
+    assert any(line.startswith("b c     float64  2") for line in lines), lines
+
+
+def test_an_empty_mcap_profile_is_quoted_once(tmp_path: Path) -> None:
+    # "(mcap, profile '''', 9 messages, ...)": the empty name's '' inside the line's quotes
+    first = format_inspection(inspect_log(control_mcap(tmp_path / "odd.mcap"))).split("\n")[0]
+    assert first.endswith("odd.mcap (mcap, profile '', 9 messages, 3 topics)"), first

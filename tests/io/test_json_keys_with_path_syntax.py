@@ -123,3 +123,37 @@ def test_a_parquet_struct_field_with_a_dot_is_listed_quoted_and_read(tmp_path: P
     with pytest.raises(LogError) as info:
         load_signals(log, SPEC, ReadOptions(maps=("u=m.a.b", "y=m.y")))
     assert "fields: '\"a.b\"'" in str(info.value)
+
+
+# keys whose listed path named nothing: "" was listed /s. (refused: "cannot read '.'"),
+# a"b as /s."a"b" (refused: "cannot read 'b\"'"), " as /s.""" (read as nothing either)
+ODD_KEYS = ["", 'a"b', '"', "a\\b.c", '\\"']
+
+
+@pytest.mark.parametrize("key", ODD_KEYS)
+def test_every_key_spelled_as_a_step_reads_back_as_that_key(key: str) -> None:
+    spelled = format_steps((key, "v"))
+    assert split_path("/s" + spelled, ["/s"]).steps == (key, "v")
+
+
+def test_a_quoted_step_written_before_escapes_reads_as_it_did() -> None:
+    # a backslash before anything but " and \ is itself
+    assert split_path('/s."a\\b.c"', ["/s"]).steps == ("a\\b.c",)
+
+
+def test_inspect_lists_keys_with_quotes_or_empty_as_paths_that_read(tmp_path: Path) -> None:
+    log = tmp_path / "log.mcap"
+    with log.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        channel = writer.register_channel("/s", "json", 0)
+        for k in range(N):
+            message = {key: float(i * N + k) for i, key in enumerate(ODD_KEYS)} | {"y": 1.0}
+            writer.add_message(channel, k * 10**9, json.dumps(message).encode(), k * 10**9)
+        writer.finish()
+    (topic,) = inspect_log(log)["topics"]
+    listed = [f for f in topic["fields"] if f != "/s.y"]
+    assert len(listed) == len(ODD_KEYS)
+    for i, field in enumerate(listed):
+        signals = load_signals(log, SPEC, ReadOptions(maps=(f"u={field}", "y=/s.y")))
+        np.testing.assert_array_equal(signals.inputs[:, 0], i * N + np.arange(N), err_msg=field)
