@@ -25,7 +25,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from hybridlog.background import ESTIMATES, Background, worker
-from hybridlog.cluster.progress import WorkReporter, current_reporter, current_wait, reporting
+from hybridlog.cluster.progress import current_reporter, current_wait
 from hybridlog.errors import (
     DivergenceError,
     HybridlogError,
@@ -49,6 +49,7 @@ from hybridlog.io import ReadOptions, SignalSpec
 from hybridlog.jit import set_up
 from hybridlog.jobs import arguments
 from hybridlog.jobs.centers import read_centers
+from hybridlog.jobs.estimator_calls import reported, warm_up_told
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
 from hybridlog.memory import check_fits, reserved
 from hybridlog.model.cache import load_model, load_model_set
@@ -568,24 +569,6 @@ def warm_up(prepared: Sequence[Prepared], model: HybridModel) -> None:
         running.submit(partial(warm_up_told, estimator, wait=wait), model)
 
 
-def warm_up_told(
-    estimator: Prepared,
-    model: HybridModel,
-    wait: Callable[[str, str], contextlib.AbstractContextManager[None]] | None = None,
-) -> None:
-    """``estimator.warm_up(model)`` inside ``wait``'s context, which names what it compiles.
-
-    :attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`; by default
-    the installed reporter's (:func:`~hybridlog.cluster.progress.current_wait`), if any:
-    a batch's worker warms up so before its first log (:mod:`hybridlog.jobs.batch`).
-    """
-    with (current_wait() if wait is None else wait)(
-        f"{estimator.name}: compiling machine code for model {model.name!r}",
-        "its first run with these options; later runs load it from the cache",
-    ):
-        estimator.warm_up(model)
-
-
 def estimates(
     prepared: Prepared,
     model: HybridModel,
@@ -615,25 +598,12 @@ def estimates(
     stream: Callable[..., Iterator[EstimationResult]] = partial(prepared.stream, **inputs)
     reporter = current_reporter()
     if reporter is not None:  # the worker's long work (chiu's clustering) says how long
-        stream = partial(_reported, reporter, stream)
+        stream = partial(reported, reporter, stream)
     try:
         yield from running.stream(stream, model, sent)
     finally:  # also after the run's error: compare reports a failed last estimator and goes on
         if last:
             running.release()
-
-
-def _reported(
-    reporter: WorkReporter,
-    stream: Callable[..., Iterator[EstimationResult]],
-    *args: Any,
-) -> Iterator[EstimationResult]:
-    """``stream(*args)`` with ``reporter`` installed (:mod:`hybridlog.cluster.progress`).
-
-    Run in the estimators' worker, whose stderr is the command's.
-    """
-    with reporting(reporter):
-        yield from stream(*args)
 
 
 @dataclass(frozen=True)

@@ -74,7 +74,6 @@ from hybridlog.jobs.analysis import (
     parse_sets,
     prepare_estimators,
     read_log,
-    warm_up_told,
 )
 from hybridlog.jobs.batch_lock import batch_folder_lock
 from hybridlog.jobs.batch_logs import (
@@ -85,6 +84,7 @@ from hybridlog.jobs.batch_logs import (
     recover_applies,
     recover_note,
 )
+from hybridlog.jobs.estimator_calls import warm_up_told
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
 from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
 from hybridlog.memory import available_memory, size_text
@@ -400,8 +400,9 @@ def _warm(job: BatchJob) -> _Warm:
     Kept for the batch's model, ``--set`` values and estimator (one batch at a time: a new
     key replaces the old one), so a worker loads and compiles nothing after its first log.
     The estimator is warmed up here once, its machine code loaded or, on the model's first
-    run, compiled, the installed reporter told (:func:`~hybridlog.jobs.analysis.warm_up_told`:
-    the console script says so on a terminal, above its bar), also in the batch's own
+    run, compiled, the installed reporter told
+    (:func:`~hybridlog.jobs.estimator_calls.warm_up_told`: the console script says so on a
+    terminal, above its bar), also in the batch's own
     process, whose rest :func:`_plan` made, when it runs the logs itself.
     """
     key = _warm_key(job)
