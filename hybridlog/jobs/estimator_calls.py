@@ -3,9 +3,9 @@
 A function sent to a worker (:mod:`hybridlog.background`) goes pickled by its module and
 name, and the worker imports that module to run it.  Sent from :mod:`hybridlog.jobs.analysis`
 itself, they made the worker import the whole job, with the readers' and the report's modules
-it never runs (0.07 s of a core, while the command reads its log on the other one): here
-they import only what an estimator's warm-up and its chunks need
-(``tests/jobs/test_estimator_calls.py``).
+it never runs: its warm-up request took 0.12 s of a core, against 0.08 s from here, while
+the command reads its log on the other one.  This module imports only what an estimator's
+warm-up and its chunks need (``tests/jobs/test_estimator_calls.py``).
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 A function goes to a worker pickled by module and name, and the worker imports its module to
 run it: the warm-up sent as :func:`hybridlog.jobs.analysis`'s own made the worker import the
-whole job (the readers, the report's modules: 0.07 s of a core, while the command reads its
-log on the other).  The requests are recorded here as the worker would read them, then read
+whole job (the readers, the report's modules: 0.04 s more of a core, while the command reads
+its log on the other).  The requests are recorded here as the worker would read them, then read
 in a fresh interpreter that has imported what the console script's worker has when forked.
 """
 
