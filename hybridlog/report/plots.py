@@ -5,8 +5,9 @@
     offline pass, also the output its estimate explains, ``h_q̂(x̂(k|N), u(k))`` (dotted).
 ``modes.png``
     The estimated mode timeline (and the true one when known) as runs, one row per mode, and
-    the mode probabilities; for a ``[components]`` result (``unknown-mode``) one timeline per
-    component (``unknown`` in its own colour) and the joint assignment.
+    the mode probabilities: a curve per mode, or past :data:`MOST_PROBABILITY_LINES` modes a
+    heat map on the same rows; for a ``[components]`` result (``unknown-mode``) one timeline
+    per component (``unknown`` in its own colour) and the joint assignment.
 ``states.png``
     One panel per state: the estimate with a ±2σ band (where a variance is defined) and the
     true state when known.
@@ -14,7 +15,8 @@
 A smoothed run (``result.post_processing``) draws the smoothed estimates as above and the
 causal filter's own over them, thin and dashed: its mode runs as a thin bar inside the
 estimated one, its mode probabilities and state estimates as dashed curves (translucent
-bands where a long run is drawn as bands, below).
+bands where a long run is drawn as bands, below; in a heat map, the middle third of each
+mode's row).
 
 The figures are drawn from a run's :class:`~hybridlog.report.plot_data.PlotData` alone
 (:func:`draw_plots`): its curves reduced to first/min/max/last per pixel column, its mode
