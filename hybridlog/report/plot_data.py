@@ -62,6 +62,7 @@ __all__ = [
     "PlotReducer",
     "SigmaBand",
     "StateCurves",
+    "column_maxima",
     "envelope",
     "mode_bars",
     "mode_runs",
@@ -356,6 +357,33 @@ def envelope(values: FloatArray, bins: PixelBins) -> Envelope:
     reducer = CurveReducer(bins)
     reducer.add(values, 0)
     return reducer.finish()
+
+
+def column_maxima(curve: Envelope, edges: FloatArray) -> FloatArray:
+    """The largest value of ``curve`` in each pixel column: one cell per column of a heat map.
+
+    ``edges`` are the columns' edges (:attr:`PixelBins.edges`, :attr:`PlotData.edges`), the
+    bins ``curve`` was reduced over.  A reduced curve's four points per bin hold the bin's
+    maximum (:class:`CurveReducer`); a curve kept whole (at most four samples a column on
+    average) is reduced here over the same bins, found from their first samples' times.
+    NaN where the column holds no finite value.
+
+    The maximum, not the mean, as everything else the figures draw per column: a mode that
+    was probable for a few samples of a column holding a thousand (a 10^6-sample run on
+    some 900 columns) shows there, as its bar in the mode panel does (a run shorter than a
+    pixel still takes one column) and as its curve's band reaches its peak; a mean would
+    dilute it a thousandfold and hide the very switches the figure is looked at for.  The
+    cells of a column may then sum to more than 1: where the mode changed within it.
+    """
+    n_columns = edges.shape[0] - 1
+    if curve.reduced:
+        points = curve.values.reshape(n_columns, 4)
+        return np.fmax.reduce(points, axis=1)  # type: ignore[no-any-return]
+    if n_columns <= 0 or curve.values.shape[0] == 0:
+        return np.full(max(n_columns, 0), np.nan)
+    # each column from its first sample: the first of its time (a time is in one column)
+    starts = np.searchsorted(curve.time, edges[:-1], side="left")
+    return np.fmax.reduceat(curve.values, starts)
 
 
 class SigmaBand(NamedTuple):

@@ -5,8 +5,9 @@
     offline pass, also the output its estimate explains, ``h_q̂(x̂(k|N), u(k))`` (dotted).
 ``modes.png``
     The estimated mode timeline (and the true one when known) as runs, one row per mode, and
-    the mode probabilities; for a ``[components]`` result (``unknown-mode``) one timeline per
-    component (``unknown`` in its own colour) and the joint assignment.
+    the mode probabilities: a curve per mode, or past :data:`MOST_PROBABILITY_LINES` modes a
+    heat map on the same rows; for a ``[components]`` result (``unknown-mode``) one timeline
+    per component (``unknown`` in its own colour) and the joint assignment.
 ``states.png``
     One panel per state: the estimate with a ±2σ band (where a variance is defined) and the
     true state when known.
@@ -14,7 +15,8 @@
 A smoothed run (``result.post_processing``) draws the smoothed estimates as above and the
 causal filter's own over them, thin and dashed: its mode runs as a thin bar inside the
 estimated one, its mode probabilities and state estimates as dashed curves (translucent
-bands where a long run is drawn as bands, below).
+bands where a long run is drawn as bands, below; in a heat map, the middle third of each
+mode's row).
 
 The figures are drawn from a run's :class:`~hybridlog.report.plot_data.PlotData` alone
 (:func:`draw_plots`): its curves reduced to first/min/max/last per pixel column, its mode
@@ -53,6 +55,7 @@ from hybridlog.report.plot_data import (
     Envelope,
     ModeTimelines,
     PlotData,
+    column_maxima,
     pixel_columns,
     plain_text,
     reduce_result,
@@ -503,7 +506,16 @@ def _legend_below(
         if ncol == 1 or legend.get_window_extent(renderer).width <= room:
             break
         legend.remove()
-    extra = legend.get_window_extent(renderer).height / fig.dpi + LEGEND_GAP_IN
+    _grow_below(fig, legend.get_window_extent(renderer).height / fig.dpi + LEGEND_GAP_IN)
+
+
+def _grow_below(fig: Figure, extra: float) -> None:
+    """Make the figure ``extra`` inches taller at its bottom, the panels keeping their place.
+
+    Their size and their distance from the top (and the title's) are kept, and so their
+    width, the pixel columns the curves were reduced to: the room freed is below them.
+    """
+    pars = fig.subplotpars
     old = fig.get_figheight()
     top_in, bottom_in = (1.0 - pars.top) * old, pars.bottom * old
     new = old + extra
@@ -553,12 +565,17 @@ def _legend_above(fig: Figure, axes: Sequence[Axes]) -> None:
     _title(fig, title.get_text())
 
 
-def _key_handles(keys: _Keys) -> tuple[list[Any], list[str]]:
-    """Text-only legend entries ``[k]: <mode id>`` of a figure's keys."""
+def _text_handle() -> Any:
+    """The handle of a text-only legend entry: draws nothing."""
     from matplotlib.lines import Line2D
 
+    return Line2D([], [], linestyle="none")
+
+
+def _key_handles(keys: _Keys) -> tuple[list[Any], list[str]]:
+    """Text-only legend entries ``[k]: <mode id>`` of a figure's keys."""
     labels = [_key_entry(key, mode_id) for mode_id, key in keys.ids.items()]
-    return [Line2D([], [], linestyle="none") for _ in labels], labels
+    return [_text_handle() for _ in labels], labels
 
 
 def _empty(fig: Figure, ax: Axes, text: str) -> None:
@@ -745,33 +762,161 @@ def _draw_bars(
             labelled = True
 
 
-LINE_STYLES = ("-", "-.", ":")
-"""Line styles of the mode probabilities, each with every colour before the next is used."""
+MOST_PROBABILITY_LINES = 20
+"""Most modes whose probabilities ``modes.png`` draws as lines; more are a heat map
+(:func:`_probability_heat_map`).  Up to 20 every mode's line has a colour of its own
+(:func:`_mode_styles`), which also tells a long run's band apart (:func:`draw_curve`); the
+21st mode's had the 1st's colour in another line style, which a band, filled, does not show:
+two modes drawn alike, and their legend entries with them.  Past that, 32 modes were 32
+crossing curves over a six-column legend no curve could be matched to."""
 
 
 def _mode_styles(n_modes: int) -> list[dict[str, Any]]:
-    """Colour and line style of each mode's probability curve, distinct for up to 60 modes.
+    """Colour of each mode's probability curve, distinct for up to 20 modes (solid lines).
 
     matplotlib's colour cycle has 10 colours: the 11th mode's curve took the 1st's colour,
     two curves of one legend entry's look.  Up to 10 modes the cycle's colours (``tab10``),
-    up to 20 ``tab20``'s, beyond that ``tab20``'s again in :data:`LINE_STYLES` (dash-dot,
-    then dotted); the filter's own curves are dashed in their mode's colour.
+    up to :data:`MOST_PROBABILITY_LINES` ``tab20``'s (more modes are a heat map); the
+    filter's own curves are dashed in their mode's colour.
     """
     from matplotlib import colormaps
 
     colours = 10 if n_modes <= 10 else 20
     cmap = colormaps[f"tab{colours}"]
-    return [
-        {"color": cmap(j % colours), "ls": LINE_STYLES[(j // colours) % len(LINE_STYLES)]}
-        for j in range(n_modes)
+    return [{"color": cmap(j % colours), "ls": "-"} for j in range(n_modes)]
+
+
+HEAT_MAP_CMAP = "viridis"
+"""The heat map's colours (:func:`_probability_heat_map`): perceptually uniform and
+sequential, dark at 0 and bright at 1, so a cell's lightness reads as its probability (also
+in grey print and to colour-blind readers)."""
+FILTERED_ROW_PART = 1.0 / 3.0
+"""Height of the filter's own probability within a mode's heat-map row: its middle third,
+as the filter's mode is a thin bar inside the estimated one in the panel above."""
+
+
+def _probability_lines(
+    ax: Axes, modes: ModeTimelines, shown: Sequence[str], keys: _Keys
+) -> tuple[list[Any], list[str], str | None]:
+    """One curve per mode's probability on ``ax``, the filter's own dashed in its colour.
+
+    For at most :data:`MOST_PROBABILITY_LINES` modes.  Returns the entries of their legend
+    below the panels (handles, labels, title), drawn once the margins are final.
+    """
+    filtered = modes.filtered_probabilities
+    lines = []
+    for j, (m, style) in enumerate(zip(shown, _mode_styles(len(shown)), strict=True)):
+        (line,) = draw_curve(ax, modes.probabilities[j], lw=0.8, label=f"p({m})", **style)
+        lines.append(line)
+        if filtered is not None:
+            draw_curve(ax, filtered[j], lw=0.5, ls="--", color=line.get_color())
+    labels = [
+        _key_entry(keys(m), m) if keys.ids else f"p({label})"
+        for m, label in zip(modes.mode_ids, shown, strict=True)
     ]
+    handles: list[Any] = list(lines)
+    if filtered is not None:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], lw=0.5, ls="--", color="0.3"))
+        labels.append("filtered (dashed, same colours)")
+    title = "mode ids of the keys (line: the mode's probability)" if keys.ids else None
+    return handles, labels, title
+
+
+def _heat_map_cells(modes: ModeTimelines, edges: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The heat map of ``modes``' probabilities: ``(row edges, cells)``, one column per bin.
+
+    ``cells[r, c]`` is the probability of row ``r`` in pixel column ``c`` (between
+    ``edges[c]`` and ``edges[c + 1]``): its maximum there
+    (:func:`~hybridlog.report.plot_data.column_maxima`), NaN where it has none.  Mode ``j``
+    owns rows from ``j - 0.5`` to ``j + 0.5``, as its row in the mode panel; with the filter's
+    own probabilities (``filtered_probabilities``) they take the middle
+    :data:`FILTERED_ROW_PART` of it, the estimate's the rest, above and below.
+    """
+    estimate = [column_maxima(curve, edges) for curve in modes.probabilities]
+    n_modes = len(estimate)
+    centres = np.arange(n_modes, dtype=np.float64)
+    if modes.filtered_probabilities is None:
+        return np.append(centres - 0.5, n_modes - 0.5), np.array(estimate).reshape(n_modes, -1)
+    filtered = [column_maxima(curve, edges) for curve in modes.filtered_probabilities]
+    half = FILTERED_ROW_PART / 2.0
+    rows = np.stack([centres - 0.5, centres - half, centres + half], axis=1).ravel()
+    cells = np.stack([estimate, filtered, estimate], axis=1)  # (mode, part, column)
+    return np.append(rows, n_modes - 0.5), cells.reshape(3 * n_modes, -1)
+
+
+def _probability_heat_map(ax: Axes, modes: ModeTimelines, edges: FloatArray) -> Any:
+    """Draw ``modes``' probabilities on ``ax`` as a heat map (:func:`_heat_map_cells`).
+
+    For more than :data:`MOST_PROBABILITY_LINES` modes: a row per mode, those of the mode
+    panel above (its y range and labels are set by the caller), time on x, each pixel column's
+    probability a colour of :data:`HEAT_MAP_CMAP` from 0 to 1; a column without a value is
+    left blank.  Drawn from the reduced curves, a cell per pixel column however long the run.
+    Returns the drawn image, for its colour bar (:func:`_colour_bar_below`), or for a run
+    of one sample time, which has no width to draw, the colours alone.
+    """
+    from matplotlib import colormaps
+    from matplotlib.colors import Normalize
+    from matplotlib.image import PcolorImage
+
+    rows, cells = _heat_map_cells(modes, edges)
+    cmap = colormaps[HEAT_MAP_CMAP].with_extremes(bad="white")
+    norm = Normalize(0.0, 1.0)
+    if not edges[-1] > edges[0]:  # a run of one sample time: no cell has a width (nor a bar)
+        from matplotlib.cm import ScalarMappable
+
+        return ScalarMappable(norm, cmap)
+    # An image on the grid of the columns' own edges, each pixel the cell under its centre
+    # (pcolorfast makes it an evenly spaced image where the edges are even within 1 %,
+    # which may shift a cell: drawn so, the cells are the bars' pixel columns exactly).
+    image = PcolorImage(
+        ax, edges, rows, np.ma.masked_invalid(cells), cmap=cmap, norm=norm,
+        extent=(edges[0], edges[-1], rows[0], rows[-1]),
+    )  # fmt: skip
+    ax.add_image(image)
+    # a thin line between two modes' rows: neighbours both probable read as two rows
+    n_modes = len(modes.mode_ids)
+    ax.hlines(np.arange(n_modes - 1) + 0.5, edges[0], edges[-1], colors="white", lw=0.5)
+    return image
+
+
+#: The colour bar below the panels: its height, its width at most, and the room it takes
+#: below the lowest panel's x label (its tick labels and label below it), in inches.
+COLOUR_BAR_IN, COLOUR_BAR_WIDTH_IN, COLOUR_BAR_ROOM_IN = 0.12, 3.0, 0.75
+
+
+def _colour_bar_below(fig: Figure, lowest: Axes, mappable: Any, label: str) -> None:
+    """A horizontal colour bar of ``mappable`` labelled ``label``, below ``lowest``'s x label.
+
+    The figure grows at its bottom by :data:`COLOUR_BAR_ROOM_IN`, the panels keeping their
+    size and place (so a legend below them stays below, under the bar).  Call it last: the
+    bar's axes are placed in fractions of the figure's final height.
+    """
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    box = lowest.xaxis.get_tightbbox(renderer) or lowest.get_window_extent(renderer)
+    below = box.y0 / fig.dpi  # the bottom of the x label
+    _grow_below(fig, COLOUR_BAR_ROOM_IN)
+    height = fig.get_figheight()
+    pars = fig.subplotpars
+    width = min(COLOUR_BAR_WIDTH_IN / fig.get_figwidth(), pars.right - pars.left)
+    # the room freed is right below the x label: from `below` up, where the panels were
+    top_in = below + COLOUR_BAR_ROOM_IN - LEGEND_GAP_IN
+    bottom = (top_in - COLOUR_BAR_IN) / height
+    cax = fig.add_axes((pars.left, bottom, width, COLOUR_BAR_IN / height))
+    bar = fig.colorbar(mappable, cax=cax, orientation="horizontal")
+    bar.set_label(label, fontsize="small")
+    cax.tick_params(labelsize="small")
 
 
 def plot_modes(data: PlotData, path: Path) -> Path:
     """Draw the estimated mode timeline (vs truth when known) and the mode probabilities.
 
-    Writes ``path`` (PNG) and returns it.  A result with per-component mode columns
-    (``unknown-mode``: joint assignments as modes) gets :func:`plot_components` instead.
+    The probabilities are a curve per mode, or for more than
+    :data:`MOST_PROBABILITY_LINES` modes a heat map, a row per mode beside the mode panel's
+    own (:func:`_probability_heat_map`).  Writes ``path`` (PNG) and returns it.  A result
+    with per-component mode columns (``unknown-mode``: joint assignments as modes) gets
+    :func:`plot_components` instead.
     """
     components = plot_components(data, path)
     if components is not None:
@@ -795,16 +940,24 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     ax_mode.set_ylabel("mode")
     keys = _Keys()
     size = _row_label_size(panel_height, n_modes)
-    (shown,) = _row_labels(fig, [(ax_mode, modes.mode_ids, size)], keys)
-    ax_mode.set_ylim(-0.5, n_modes - 0.5)
-    filtered = modes.filtered_probabilities
-    lines = []
-    for j, (m, style) in enumerate(zip(shown, _mode_styles(n_modes), strict=True)):
-        (line,) = draw_curve(ax_prob, modes.probabilities[j], lw=0.8, label=f"p({m})", **style)
-        lines.append(line)
-        if filtered is not None:
-            draw_curve(ax_prob, filtered[j], lw=0.5, ls="--", color=line.get_color())
-    ax_prob.set_ylabel("probability")
+    if n_modes <= MOST_PROBABILITY_LINES:
+        (shown,) = _row_labels(fig, [(ax_mode, modes.mode_ids, size)], keys)
+        ax_mode.set_ylim(-0.5, n_modes - 0.5)
+        handles, labels, title = _probability_lines(ax_prob, modes, shown, keys)
+        ax_prob.set_ylabel("probability")
+        image = None
+    else:
+        image = _probability_heat_map(ax_prob, modes, edges)
+        ax_prob.set_ylabel("probability")
+        # the mode panel's rows, labelled alike (keys in both where one needs them)
+        _row_labels(fig, [(ax_mode, modes.mode_ids, size), (ax_prob, modes.mode_ids, size)], keys)
+        for ax in (ax_mode, ax_prob):
+            ax.set_ylim(-0.5, n_modes - 0.5)
+        handles, labels = _key_handles(keys)
+        title = "mode ids of the keys" if keys.ids else None
+        if modes.filtered_probabilities is not None:
+            handles.append(_text_handle())
+            labels.append("filtered: the middle third of each row")
     # Long mode ids were cut off at the fixed margin.  The probabilities' bins, cut for the
     # fixed panel width, are then finer than the narrower panel's pixel columns: each column
     # still shows every extreme of its samples.
@@ -813,18 +966,10 @@ def plot_modes(data: PlotData, path: Path) -> Path:
     # Both legends off the panels: the bars' above them, the probabilities' below (inside,
     # in the upper right corner, it hid the most probable mode's curve near 1).
     _legend_above(fig, [ax_mode])
-    labels = [
-        _key_entry(keys(m), m) if keys.ids else f"p({label})"
-        for m, label in zip(modes.mode_ids, shown, strict=True)
-    ]
-    handles: list[Any] = list(lines)
-    if filtered is not None:
-        from matplotlib.lines import Line2D
-
-        handles.append(Line2D([], [], lw=0.5, ls="--", color="0.3"))
-        labels.append("filtered (dashed, same colours)")
-    title = "mode ids of the keys (line: the mode's probability)" if keys.ids else None
-    _legend_below(fig, handles, labels, title=title)
+    if labels:
+        _legend_below(fig, handles, labels, title=title, text_only=image is not None)
+    if image is not None:
+        _colour_bar_below(fig, ax_prob, image, "probability")
     return _save(fig, path)
 
 
