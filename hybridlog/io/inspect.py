@@ -68,7 +68,9 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         ``None`` too for a column that is not numeric.  The first number of a column or
         field that ``analyze`` refuses as one a ``float64`` does not hold (an integer beyond
         2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words, as is
-        the first text in a JSON field that holds numbers in other messages.
+        the first text in a JSON field that holds numbers in other messages, and the first
+        cell of a CSV column of numbers that is not one (``line 4, column 'y': '0x10' is not
+        a number``; the column's ``dtype`` is then ``string``).
 
     Raises
     ------
