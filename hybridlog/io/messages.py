@@ -964,7 +964,8 @@ class _ValueCounter:
         assert decode is not None  # checked by ``of``
         messages: list[object] = []
         kept: list[int] = []
-        start, error = 0, err
+        start = 0
+        error: UndecodableError | None = err
         while error is not None:
             bad = start + error.row
             messages.extend(decode_each(decode, datas[start:bad]))
