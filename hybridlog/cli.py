@@ -116,7 +116,12 @@ class _PathName(click.Path):
 
 
 _PATH = _PathName(path_type=Path)
-"""The type of every file or folder argument and option."""
+"""The type of every file or folder argument and option but a file to write."""
+
+_FILE_OUT = _PathName(path_type=str)
+"""The type of an option naming a file to write: the text as given, whose ``/`` at the end
+(``--out dir.json/``, meaning a folder) a ``Path`` would drop; the job refuses it
+(:func:`hybridlog.outputs.check_file_name`)."""
 
 
 # Options shared by several commands: each is defined here once.
@@ -707,7 +712,7 @@ class _LogFormats(click.Choice[str]):
     "--out",
     "out",
     required=True,
-    type=_PATH,
+    type=_FILE_OUT,
     help="Log to write: .csv, .parquet, .mcap, .bag, or a ROS 2 bag folder with --format.",
 )
 @click.option(
@@ -764,7 +769,7 @@ class _LogFormats(click.Choice[str]):
 def simulate(
     ctx: click.Context,
     model_ref: str,
-    out: Path,
+    out: str,
     log_format: str | None,
     encoding: str,
     schedule: str | None,
@@ -821,14 +826,14 @@ def simulate(
 @click.option(
     "--out",
     "out",
-    type=_PATH,
-    default=Path("centers.json"),
+    type=_FILE_OUT,
+    default="centers.json",
     show_default=True,
     help="Centres and classifier to write (read by analyze --set centers=FILE).",
 )
 @click.option(
     "--plot",
-    type=_PATH,
+    type=_FILE_OUT,
     default=None,
     help="Picture of the clusters [default: --out with .png].",
 )
@@ -841,8 +846,8 @@ def cluster_command(
     /,
     log: Path,
     model_ref: str,
-    out: Path,
-    plot: Path | None,
+    out: str,
+    plot: str | None,
     compare_kmeans: bool,
     force: bool,
     **options: Any,
@@ -1072,7 +1077,7 @@ def compare_command(
 @click.option(
     "--junit",
     default=None,
-    type=_PATH,
+    type=_FILE_OUT,
     metavar="FILE",
     help="Write JUnit XML: a test case per log per gate, an error per log not analysed.",
 )
@@ -1088,7 +1093,7 @@ def batch_command(
     jobs: int,
     scheduler: str | None,
     plots: str,
-    junit: Path | None,
+    junit: str | None,
     **options: Any,
 ) -> None:
     """The ``batch`` command; its help is :data:`_HELP_BATCH`."""

@@ -55,6 +55,7 @@ __all__ = [
     "check_creatable",
     "check_dir_target",
     "check_distinct",
+    "check_file_name",
     "check_file_target",
     "edited_files",
     "is_ours",
@@ -778,6 +779,35 @@ def _some(names: Sequence[str]) -> str:
     return f"{', '.join(excerpt(name, 60) for name in names[:3])}{more}"
 
 
+def check_file_name(target: PathLike, option: str = "") -> None:
+    """Refuse a file to write whose name, as given, ends as a folder's: ``x.json/``, ``x/.``.
+
+    ``open`` refuses such a name, but :class:`~pathlib.Path` drops the ``/`` (and a last
+    ``.``), so ``cluster --out dir.json/``, where the user meant a folder, wrote a file
+    ``dir.json``.  Called on the text given (a ``Path`` no longer has the ending), first by
+    :func:`check_file_target`; ``option`` (``--out``) starts the message.
+
+    Raises
+    ------
+    OutputError
+        Naming the option and the path, and that a file is written there.
+    """
+    text = os.fspath(target)
+    separators = os.sep + (os.altsep or "")
+    last = os.path.basename(text)
+    if text.endswith(tuple(separators)):
+        ending = text[len(text.rstrip(separators)) - len(text) :]
+    elif last in (os.curdir, os.pardir):
+        ending = text[-len(last) - 1 :] if len(text) > len(last) else last
+    else:
+        return
+    prefix = f"{option} " if option else ""
+    raise OutputError(
+        f"{prefix}{_shown(target)}: ends with {excerpt(ending, 20)}, which names a folder; "
+        "name a file to write"
+    )
+
+
 def check_file_target(
     target: PathLike, *, force: bool, ours: Callable[[Path], bool] = wrote_file
 ) -> Path:
@@ -791,9 +821,10 @@ def check_file_target(
     ------
     OutputError
         When the target is a folder or another file that is not a regular one (a device, a
-        pipe), exists and ``force`` is false or it is not ``ours``, or cannot be created
-        (:func:`check_creatable`).
+        pipe), is named as a folder (:func:`check_file_name`), exists and ``force`` is false
+        or it is not ``ours``, or cannot be created (:func:`check_creatable`).
     """
+    check_file_name(target)
     path = output_path(target)
     check_creatable(path)
     if path.is_dir():

@@ -84,7 +84,12 @@ class Capabilities:
         A fixed-interval smoother can run after the filter (``--smooth``).
     no_smoothing:
         Why the method admits no offline pass, when it does not: the reason the one-line
-        refusal of ``--smooth`` and ``--mode-sequence`` gives (issue 12).
+        refusal of ``--smooth``, ``--mode-sequence viterbi|kbest`` (and ``--set`` of the
+        offline options) gives (issue 12).
+    mode_rule:
+        How the estimator decides each sample's mode when its options have no
+        ``mode_sequence`` (so no argmax to choose): the reason the refusal of
+        ``--mode-sequence argmax`` gives, which the smoother's reason does not answer.
     needs_single_output:
         The model must have exactly one output (paper 004's observer, ``h`` maps to R).
     modes_of_the_step_into:
@@ -117,6 +122,7 @@ class Capabilities:
     supports_smoothing: bool = False
     needs_single_output: bool = False
     no_smoothing: str = ""
+    mode_rule: str = ""
     modes_of_the_step_into: bool = False
     state_variances: bool = True
     unpredicted_outputs: bool = False

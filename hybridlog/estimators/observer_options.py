@@ -133,7 +133,9 @@ class ChiuOptions(ObserverOptions):
         range=(1.0, 100.0),
         above=True,
     )
-    accept: float = option(0.5, "acceptance ratio ε₁ of a new centre", range=(0.0, 1.0))
+    accept: float = option(  # above 0: reject lies between (0 < reject < accept <= 1)
+        0.5, "acceptance ratio ε₁ of a new centre", range=(0.0, 1.0), above=True
+    )
     reject: float = option(
         0.15,
         "rejection ratio ε₂ of a new centre; below accept",

@@ -199,6 +199,8 @@ _PER_SAMPLE_CLASSIFIER = Capabilities(
     state_variances=False,
     no_smoothing="it classifies each sample from its own regressor (paper 001 eqs. (2)-(3)): "
     "no mode chain and no likelihoods to smooth",
+    mode_rule="it classifies each sample from its own regressor (paper 001 eqs. (2)-(3)): "
+    "its mode is a class, with no mode probabilities to take the most probable of",
 )
 """What paper 001's estimators (``chiu``, ``kmeans``) need and why they have no smoother."""
 
@@ -216,9 +218,12 @@ ESTIMATORS: dict[str, Estimator] = {
             stream="stream_hstf",
             capabilities=Capabilities(
                 needs_measurement_noise=True,
-                no_smoothing="paper 000 predicts every mode with probability 1/n_q (eq. (20)); "
-                "under that uniform chain Kim's smoothed mode probabilities equal the filtered "
-                "ones and the Viterbi path is each sample's most probable mode",
+                no_smoothing="under paper 000's uniform mode prediction (1/n_q, eq. (20)) "
+                "Kim's smoother returns the filtered probabilities and Viterbi the per-sample "
+                "argmax; kbest would drop eq. (24)'s fading",
+                mode_rule="its mode is the threshold rule of paper 000 eq. (40), not an argmax: "
+                "the most probable mode once its probability reaches θ (option theta), "
+                "else the previous sample's mode",
                 modes_of_the_step_into=True,
             ),
         ),
@@ -278,6 +283,8 @@ ESTIMATORS: dict[str, Estimator] = {
                 state_variances=False,
                 no_smoothing="it takes the modes from the log's switching signal and its "
                 "observer keeps no covariance (paper 004): no mode to decide, no RTS step",
+                mode_rule="it takes the modes from the log's switching signal (paper 004): "
+                "no mode to decide",
             ),
         ),
         Estimator(
@@ -314,6 +321,9 @@ ESTIMATORS: dict[str, Estimator] = {
                 state_variances=False,
                 no_smoothing="its modes are read from a sliding-mode observer's equivalent "
                 "output injection (paper 003), with no likelihoods or covariances to smooth",
+                mode_rule="its modes are read from a sliding-mode observer's equivalent "
+                "output injection (paper 003), with no mode probabilities to take the most "
+                "probable of",
             ),
         ),
     )

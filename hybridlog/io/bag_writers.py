@@ -50,6 +50,7 @@ from hybridlog.outputs import (
     atomic_files,
     check_apart,
     check_dir_target,
+    check_file_name,
     check_file_target,
     output_path,
     publish_dir,
@@ -218,6 +219,7 @@ def check_log_target(
     if encoding != "cdr" and chosen != "mcap":
         raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
     if not chosen.startswith("ros2-"):
+        check_file_name(path, "--out")  # x.csv/: a folder's name, where a file is written
         _check_file_name(path, chosen)
     check_apart([("--out", path)], inputs)
     if chosen.startswith("ros2-"):

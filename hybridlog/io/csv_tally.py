@@ -76,7 +76,10 @@ class ColumnTally:
     A column is ``float64`` when every non-empty cell is a number, else ``boolean`` when
     every one (at least one) is ``true`` or ``false`` in any case (read as 1 and 0), else
     ``string``; ``count``, ``nonfinite`` and the finite range are those of its values, as
-    ``tables._describe_column`` gives them for the column read whole.
+    ``tables._describe_column`` gives them for the column read whole.  ``numbers`` counts
+    the non-empty cells that are numbers, ``first_text`` is the row and text of the first
+    that is not (``None`` while every one is): where a column of numbers has a cell
+    ``analyze`` refuses (``'0x10' is not a number``), which ``inspect`` names.
     """
 
     def __init__(self, name: str) -> None:
@@ -91,6 +94,8 @@ class ColumnTally:
         self._holes: list[tuple[int, int, np.ndarray[Any, np.dtype[np.uint8]]]] = []
         self._suspect_rows: list[IntArray] = []
         self._suspect_cells: list[pl.Series] = []
+        self.numbers = 0  # non-empty cells that are numbers
+        self.first_text: tuple[int, str] | None = None  # row and cell of the first other
 
     def add(self, cells: pl.Series) -> pl.Series:
         """Count the next block of the column's cells (as written); return them as numbers.
@@ -108,6 +113,11 @@ class ColumnTally:
             self._add_numbers(cells, parsed)
         elif held:
             self._numbers = False
+        if not numbers and self.first_text is None:  # once a column: no cost when clean
+            other = parsed.is_null() & present
+            first = int(other.arg_true()[0])
+            self.first_text = (self.rows + first, str(text[first]))
+        self.numbers += text.len() - parsed.null_count()
         if self._booleans and held:
             self._add_booleans(text, numbers)
         self.rows += text.len()

@@ -41,11 +41,12 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         column is unusable, if it is).  For bags and MCAP files: ``path, format`` (and an
         MCAP file's ``profile``), ``messages, topics`` (each ``name, type, encoding, count,
         indexed_count, start, end, duration``, the same step keys, ``nonfinite``, ``values``,
-        ``header_stamp`` and ``fields``), ``time`` (``start, end, duration``), ``problems``
-        and ``reading``.  The times are log times; ``header_stamp`` is what ``--time header``
-        reads instead (``start, end``, ``offset``: the median of stamp minus log time,
-        ``count``), ``None`` for a topic without one, and ``problems`` name the stamps that
-        option refuses or that lie a second or more from their log times.
+        ``undecodable``, ``header_stamp`` and ``fields``), ``time`` (``start, end,
+        duration``), ``problems`` and ``reading``.  The times are log times;
+        ``header_stamp`` is what ``--time header`` reads instead (``start, end``,
+        ``offset``: the median of stamp minus log time, ``count``), ``None`` for a topic
+        without one, and ``problems`` name the stamps that option refuses or that lie a
+        second or more from their log times.
         Only plain ``str``, ``int``, ``float``, ``bool``, ``None``, lists and dicts, so
         ``json.dumps`` takes it as is.
 
@@ -64,11 +65,16 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         field that can hold them (the ``float32``/``float64`` fields of ROS messages, every
         number of JSON messages, inside arrays of messages or objects too, named with ``[]``;
         arrays counted element by element); its ``nonfinite`` is
-        their sum.  Both are ``None`` where the messages cannot be decoded; ``nonfinite`` is
+        their sum.  Both are ``None`` where the messages cannot be decoded; where only some
+        cannot, they are the others' (as are ``fields`` and ``header_stamp``), and
+        ``undecodable`` gives how many could not and the earliest one's log time (``count``,
+        ``first``; ``None`` where every message was decoded), as ``problems`` does; ``nonfinite`` is
         ``None`` too for a column that is not numeric.  The first number of a column or
         field that ``analyze`` refuses as one a ``float64`` does not hold (an integer beyond
         2^53, a CSV number beyond 1.8e308) is in ``problems``, in ``analyze``'s words, as is
-        the first text in a JSON field that holds numbers in other messages.
+        the first text in a JSON field that holds numbers in other messages, and the first
+        cell of a CSV column of numbers that is not one (``line 4, column 'y': '0x10' is not
+        a number``; the column's ``dtype`` is then ``string``).
 
     Raises
     ------
@@ -228,11 +234,13 @@ def _format_messages(info: dict[str, Any]) -> str:
         )
     lines.extend(_gap_lines(topics, "gaps (steps longer than 1.5 x the topic's median step):"))
     sparse = [
-        (v, t["count"])
+        (v, decoded)
         for t in topics
         if t.get("encoding") == "json"
+        # out of the messages decoded: those that were not are said under problems
+        for decoded in [t["count"] - (t.get("undecodable") or {}).get("count", 0)]
         for v in t.get("values") or []
-        if "[]" not in v["name"] and v["count"] < t["count"]
+        if "[]" not in v["name"] and v["count"] < decoded
     ]
     if sparse:
         lines.append("")

@@ -521,7 +521,10 @@ class MessageSource(abc.ABC):
             rate over the span, ``sample_time``: the median step, ``min_step``,
             ``max_step``, ``regular``, ``gap_count``, ``gaps``), ``nonfinite`` (NaN and
             infinite values in its fields), ``values`` (per field that can hold them:
-            ``name, count, nonfinite``), ``header_stamp`` (what ``--time header`` reads:
+            ``name, count, nonfinite``), ``undecodable`` (``count`` and ``first``, the
+            earliest log time, of the messages that could not be decoded while others were,
+            whose fields, values and stamps these are; else ``None``), ``header_stamp``
+            (what ``--time header`` reads:
             ``start, end, offset, count``, :meth:`_Stamps.describe`; ``None`` for a topic
             without ``header.stamp``) and ``fields``), ``time`` (``start, end, duration``
             over all messages, or ``None``), ``problems`` and ``reading`` (what reading did,
@@ -576,11 +579,15 @@ class MessageSource(abc.ABC):
                     f"{topic.count}"
                 )
             values: list[dict[str, Any]] | None = None  # not known: not decodable
+            skipped: dict[str, Any] | None = None  # messages not decoded among others
             header_stamp: dict[str, Any] | None = None
             fields = _topic_fields(topic)
             counter = counters.get(name)
             if counter is not None:
                 values = counter.result()
+                skipped = counter.skipped()
+                if (said := counter.skipped_problem()) is not None:
+                    undecodable.append(f"topic {topic.label}: {said}")
                 if counter.problem is not None:
                     undecodable.append(f"topic {topic.label}: {counter.problem}")
                 elif counter.stamps is not None:
@@ -598,6 +605,7 @@ class MessageSource(abc.ABC):
                     **info,
                     "nonfinite": None if values is None else sum(v["nonfinite"] for v in values),
                     "values": values,
+                    "undecodable": skipped,
                     "header_stamp": header_stamp,
                     "fields": fields,
                 }
@@ -784,6 +792,9 @@ class _ValueCounter:
         self.fields: dict[str, None] = {}
         # JSON: field path -> the log time of the first message holding text there
         self._text_at: dict[str, int] = {}
+        self.messages = 0  # messages taken
+        self.undecodable = 0  # of them, those that could not be decoded (skipped)
+        self._first_undecodable: tuple[int, str] | None = None  # its log time and why
 
     @classmethod
     def of(cls, topic: Topic) -> _ValueCounter | None:
@@ -817,6 +828,7 @@ class _ValueCounter:
         self._datas.append(data)
         self._times.append(log_time)
         self._held += len(data)
+        self.messages += 1
         if len(self._datas) >= DECODED_AT_ONCE or self._held >= DECODED_BYTES_AT_ONCE:
             self._count()
 
@@ -829,6 +841,31 @@ class _ValueCounter:
             {"name": self.topic.name + path, "count": count, "nonfinite": nonfinite}
             for path, (count, nonfinite) in self._counts.items()
         ]
+
+    def skipped(self) -> dict[str, Any] | None:
+        """The messages that could not be decoded while others were, or ``None``.
+
+        ``count`` and ``first``, the earliest one's log time in seconds: ``inspect``'s
+        ``undecodable``.  The fields, values and stamps are then the others' (a JSON topic
+        with one message cut short listed no field at all).
+        """
+        if not self.undecodable or self._first_undecodable is None or self.problem is not None:
+            return None
+        return {"count": self.undecodable, "first": seconds_of(self._first_undecodable[0])}
+
+    def skipped_problem(self) -> str | None:
+        """:meth:`skipped` in words, for ``problems``: how many, the first's time and why."""
+        if self.skipped() is None or self._first_undecodable is None:
+            return None
+        log_time, reason = self._first_undecodable
+        some = "1 of its" if self.undecodable == 1 else f"{self.undecodable} of its"
+        first = "logged" if self.undecodable == 1 else "the first logged"
+        return (
+            f"{some} {self.messages} messages cannot be decoded, {first} at "
+            f"t={format_ns(log_time)} s ({reason}): analyze refuses the topic where a field "
+            f"of it is mapped; the fields and values here are the other "
+            f"{self.messages - self.undecodable}'s"
+        )
 
     def mixed(self) -> dict[str, str]:
         """Why ``analyze`` refuses each JSON field of text in one message and a number in another.
@@ -856,11 +893,15 @@ class _ValueCounter:
         try:
             messages = decode_each(self.topic.decode, datas)
         except UndecodableError as err:
-            self.problem = (
-                f"the message logged at t={format_ns(times[err.row])} s cannot be decoded "
-                f"({err}); its values are not counted"
-            )
-            return
+            messages, times = self._decodable(datas, times, err)
+            if not messages and self.undecodable == self.messages:  # none so far: a wrong
+                assert self._first_undecodable is not None  # definition, not a bad message
+                log_time, reason = self._first_undecodable
+                self.problem = (
+                    f"the message logged at t={format_ns(log_time)} s cannot be decoded "
+                    f"({reason}); its values are not counted"
+                )
+                return
         if self.stamps is not None:
             self.stamps.add(messages, times)
         if self.leaves is None:
@@ -909,6 +950,38 @@ class _ValueCounter:
                 return
             if found is not None:
                 self._note_unheld(leaf.text, found[1], times[found[0]])
+
+    def _decodable(
+        self, datas: list[bytes], times: list[int], err: UndecodableError
+    ) -> tuple[list[object], list[int]]:
+        """The messages of ``datas`` that decode, with their times; the others counted.
+
+        ``err``: :func:`decode_each`'s refusal of the part.  The messages before the one it
+        names are decoded again, those after it as a part of their own, and so on: each
+        message is decoded at most twice, and only a part holding a bad message pays.
+        """
+        decode = self.topic.decode
+        assert decode is not None  # checked by ``of``
+        messages: list[object] = []
+        kept: list[int] = []
+        start = 0
+        error: UndecodableError | None = err
+        while error is not None:
+            bad = start + error.row
+            messages.extend(decode_each(decode, datas[start:bad]))
+            kept.extend(times[start:bad])
+            self.undecodable += 1
+            first = self._first_undecodable
+            if first is None or times[bad] < first[0]:
+                self._first_undecodable = (times[bad], str(error))
+            start, error = bad + 1, None
+            try:
+                messages.extend(decode_each(decode, datas[start:]))
+            except UndecodableError as again:
+                error = again
+            else:
+                kept.extend(times[start:])
+        return messages, kept
 
     def _note_unheld(self, path: str, reason: str, log_time: int) -> None:
         """Keep the first value of field ``path`` a float64 does not hold, with its time."""

@@ -917,6 +917,8 @@ class TableSource:
             if columns[-1]["nonfinite"] is not None and tally.name != self._time_column:
                 found = self._unheld_value(*tally.suspects())
                 problems.extend([found] if found is not None else [])
+            elif tally.name != self._time_column:  # the time's own problem is said above
+                problems.extend(_texts_among_numbers(tally))
         return self._described(rows.size, columns, time_ns, problems)
 
     def _describe_parquet(self) -> dict[str, Any]:
@@ -1456,23 +1458,50 @@ def _parse_floats(
         if booleans and bool(lowered.drop_nulls().is_in(BOOLEANS).all()):
             return (lowered == "true").cast(pl.Float64).alias(column.name)
         first = int(np.argmax(bad))
-        hint = ""
-        if booleans and str(lowered[first]) in BOOLEANS:
-            hint = " (true and false read as 1 and 0 only in a column of nothing else)"
-        elif _ISO_DATE.match(str(text[first])):  # 2024-01-01T00:00: no seconds
-            hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
-        elif _GROUPED.fullmatch(str(text[first])):  # "1,000": one thousand, or one?
-            hint = (
-                " (digits grouped by thousands, or a decimal comma? hybridlog reads digits "
-                "alone, with a point as the decimal separator)"
-            )
-        elif _DECIMAL_COMMA.fullmatch(str(text[first])):  # "1,5" quoted, as Excel writes it
-            hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
         raise LogError(
             f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
-            f"{excerpt(text[first])} is not a number{hint}"
+            f"{_not_a_number(str(text[first]), booleans=booleans)}"
         )
     return values
+
+
+def _not_a_number(cell: str, *, booleans: bool) -> str:
+    """``'0x10' is not a number``, with a hint where the cell is a number written otherwise.
+
+    ``booleans``: true and false count as numbers in a column of nothing else.
+    ``analyze``'s refusal of the cell (:func:`_parse_floats`) and ``inspect``'s note of the
+    first such cell of a column of numbers (:meth:`TableSource._describe_csv`) alike.
+    """
+    hint = ""
+    if booleans and cell.lower() in BOOLEANS:
+        hint = " (true and false read as 1 and 0 only in a column of nothing else)"
+    elif _ISO_DATE.match(cell):  # 2024-01-01T00:00: no seconds
+        hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
+    elif _GROUPED.fullmatch(cell):  # "1,000": one thousand, or one?
+        hint = (
+            " (digits grouped by thousands, or a decimal comma? hybridlog reads digits "
+            "alone, with a point as the decimal separator)"
+        )
+    elif _DECIMAL_COMMA.fullmatch(cell):  # "1,5" quoted, as Excel writes it
+        hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
+    return f"{excerpt(cell)} is not a number{hint}"
+
+
+def _texts_among_numbers(tally: ColumnTally) -> list[str]:
+    """Where a CSV column of numbers has cells that are not: the first, in analyze's words.
+
+    ``inspect`` showed such a column as ``string`` and said no more, and ``analyze`` then
+    refused it: ``line 4, column 'y': '0x10' is not a number``.  Nothing for a column
+    without a number (labels), nor for one of booleans.
+    """
+    if tally.first_text is None or not tally.numbers or tally.dtype != "string":
+        return []
+    row, cell = tally.first_text
+    return [
+        f"line {row + 2}, column {excerpt(tally.name)}: {_not_a_number(cell, booleans=True)}; "
+        f"{tally.numbers} of its {tally.count} cells are numbers: analyze takes it as mode "
+        "ids, not as a signal"
+    ]
 
 
 def _empty_cells(column: pl.Series) -> np.ndarray[Any, np.dtype[np.bool_]]:

@@ -201,7 +201,8 @@ def smoothing_overrides(
                 hint = ""
                 if len(chosen) > 1:
                     hint = f"; --set {option}={value} applies it only to the estimators that do"
-                raise _not_offered(flag, estimator, option, value, given_by, hint)
+                said = flag if option == SMOOTH_OPTION else f"{flag} {value}"
+                raise _not_offered(said, estimator, option, value, given_by, hint)
             if not _offers(estimator, option, value):
                 raise OptionError(
                     f"{flag} {value}: estimator '{estimator.name}' offers "
@@ -235,9 +236,14 @@ def _not_offered(
     """One line: ``flag`` sets ``option``, which ``estimator`` lacks; why, and who offers it.
 
     Those who offer it have the option and, for ``mode_sequence``, ``value`` among its values.
+    The reason answers the value: ``mode_sequence = "argmax"`` asks for no offline pass, so
+    its refusal says how the estimator decides its modes instead (``Capabilities.mode_rule``,
+    hstf's threshold rule), the others why it has no offline pass (``no_smoothing``).
     """
     having = [e.name for e in ESTIMATORS.values() if _offers(e, option, str(value))]
-    why = estimator.capabilities.no_smoothing
+    capabilities = estimator.capabilities
+    argmax = option == MODE_SEQUENCE_OPTION and str(value) == "argmax"
+    why = capabilities.mode_rule if argmax else capabilities.no_smoothing
     return OptionError(
         f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
         f"{': ' + why if why else ''} (estimators that do: {', '.join(having) or 'none'}){hint}"

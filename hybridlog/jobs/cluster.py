@@ -57,6 +57,7 @@ from hybridlog.outputs import (
     atomic_files,
     check_apart,
     check_distinct,
+    check_file_name,
     check_file_target,
 )
 from hybridlog.report.build import bridged_cause, log_reading_notes, unused_sample_notes
@@ -370,6 +371,10 @@ def _classifier(
     return fitted.labelled(modes, (f"labels given by cluster_modes={text}",))
 
 
+DEFAULT_PLOT = "the default plot path (--out with .png)"
+"""What errors call the picture of ``cluster`` when no ``--plot`` named it."""
+
+
 def check_cluster_outputs(
     log: PathLike,
     model_ref: PathLike,
@@ -407,11 +412,25 @@ def check_cluster_outputs(
             f"--plot {picture}: cannot draw a {picture.suffix or 'suffix-less'} file; "
             f"name it *{', *'.join(PLOT_SUFFIXES)}"
         )
-    outputs = [("--out", target), ("--plot", picture)]
+    check_file_name(out, "--out")  # the text given: Path drops the "/" of --out dir.json/
+    if plot is not None:
+        check_file_name(plot, "--plot")
+    # the picture the user did not name is not called --plot (it was: "--plot run.png is
+    # the log run.png", "c.png: already exists" of a c.png nobody asked for)
+    label = "--plot" if plot is not None else DEFAULT_PLOT
+    outputs = [("--out", target), (label, picture)]
     check_distinct(outputs)
-    check_apart(outputs, input_paths([log], model_ref, [], read or ReadOptions()))
-    for path in (target, picture):
-        check_file_target(path, force=force)
+    inputs = input_paths([log], model_ref, [], read or ReadOptions())
+    check_apart(outputs[:1], inputs)
+    check_file_target(target, force=force)
+    try:
+        check_apart(outputs[1:], inputs)
+        check_file_target(picture, force=force)
+    except OutputError as err:
+        if plot is not None:
+            raise
+        said = str(err) if str(err).startswith(label) else f"{label} {err}"
+        raise OutputError(f"{said}; --plot PATH writes the picture elsewhere") from None
     return target, picture
 
 

@@ -245,10 +245,11 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     ------
     OptionError
         When the spec has no ``=``, an unknown metric name, a bound that is not a finite
-        number, or one the metric can never meet (``--fail-under mode_accuracy=99.5``: a
-        fraction is at most 1; ``--fail-over mse=-1``), or a fraction's bound that reads as
-        a percentage a ``--fail-over`` gate always meets (``smoothing_fallback_weight=50``);
-        the message names the spec.
+        number, or one beyond the values the metric can take: a gate that could never pass
+        (``--fail-under mode_accuracy=99.5``: a fraction is at most 1; ``--fail-over
+        mse=-1``) or never fail (``--fail-under mse.y1=-1``; ``--fail-over
+        smoothing_fallback_weight=50``, a percentage where a fraction is meant); the message
+        names the spec.
 
     """
     option = f"--fail-{kind}"
@@ -273,28 +274,37 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     except ValueError as err:
         hint = _percent_sign_hint(base, value)
         raise OptionError(f"{option} {spec!r}: bound {value!r}: {err}{hint}") from None
-    _check_attainable(spec, option, base, bound, kind)
+    _check_attainable(spec, option, metric, bound, kind)
     return Gate(metric=metric, bound=bound, kind=kind, spec=spec)
 
 
-def _check_attainable(spec: str, option: str, base: str, bound: float, kind: GateKind) -> None:
-    """Refuse a bound that no value of the metric meets: such a gate could only fail.
+def _check_attainable(spec: str, option: str, metric: str, bound: float, kind: GateKind) -> None:
+    """Refuse a bound beyond the values ``metric`` can take (:data:`_RANGES`), on either side.
 
-    Also a percentage where a fraction is meant on the side where the gate could only pass:
-    ``--fail-over smoothing_fallback_weight=50`` (50 %) passed every run, the CI gate never
-    failing however much of the estimate the smoother left to the filter.  Other bounds a
-    gate always meets stay gates: ``--fail-under vaf=-1e9`` is the way to a gated column in
-    the summaries without a verdict.
+    On the side no value meets, the gate could only fail (``--fail-under
+    mode_accuracy=2``); on the side every value meets, it could only pass, a CI gate doing
+    nothing: a sign typed wrong (``--fail-under mode_accuracy=-0.1``, ``mse.y1=-1``) or a
+    percentage where a fraction is meant (``--fail-over smoothing_fallback_weight=50``,
+    50 %, which passed every run however much of the estimate the smoother left to the
+    filter).  A bound at the range's end stays a gate: ``--fail-under vaf=0`` fails only
+    where the metric is ``null`` (undefined, or a mean that leaves an output out), the way
+    to that check and to a gated column in the summaries, and the refusal says so.
     """
+    base = metric.partition(".")[0]
     low, high = _RANGES[base]
     hint = _fraction_hint(base, bound)
-    if kind == "over" and bound > high and hint:
+    unit = _UNITS.get(base, "")
+    edge = low if kind == "under" else high
+    if (kind == "under" and bound < low) or (kind == "over" and bound > high):
+        side = "least" if kind == "under" else "most"
+        # the percentage's fraction, else the bound that checks what such a gate does check
+        instead = "" if hint else f"; {option} {metric}={edge:g} checks only that it is defined"
         raise OptionError(
-            f"{option} {spec!r}: {base} is at most {high:g}{hint}, so this gate could never fail"
+            f"{option} {spec!r}: {base} is at {side} {edge:g}{unit}{hint}, so this gate could "
+            f"never fail{instead}"
         )
     if (kind == "under" and bound <= high) or (kind == "over" and bound >= low):
         return
-    unit = _UNITS.get(base, "")
     where = f"at most {high:g}{unit}" if kind == "under" else f"at least {low:g}{unit}"
     raise OptionError(f"{option} {spec!r}: {base} is {where}{hint}, so this gate could never pass")
 

@@ -41,7 +41,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs import PathLike, check_file_target, record_path, shown_output, wrote_file
+from hybridlog.outputs import (
+    PathLike,
+    check_file_name,
+    check_file_target,
+    record_path,
+    shown_output,
+    wrote_file,
+)
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.summary import BatchRow, offline_gains, offline_label, warning_notes
 
@@ -87,6 +94,7 @@ def check_junit_target(target: PathLike) -> Path:
         When the target is a folder, a device or pipe, an existing file of someone else's,
         or cannot be created.
     """
+    check_file_name(target, "--junit")  # before Path drops the "/" of --junit j.xml/
     path = Path(target)
     ours = path.is_file() and is_junit_of_ours(path)
     if (path.exists() or path.is_symlink()) and not ours and not path.is_dir():

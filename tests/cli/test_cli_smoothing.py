@@ -93,7 +93,7 @@ def test_smooth_on_an_estimator_without_a_smoother_is_one_line_before_the_log_is
     assert line.startswith("hybridlog: error: --smooth: estimator 'chiu'")
     assert "does not offer it: it classifies each sample" in line and "imm" in line
     result = run([*args, "--mode-sequence", "viterbi", "--out", str(out)], expect=2)
-    assert "--mode-sequence: estimator 'chiu'" in result.stderr
+    assert "--mode-sequence viterbi: estimator 'chiu'" in result.stderr
     assert not out.exists()
 
 
@@ -121,8 +121,9 @@ def test_the_flags_are_the_estimator_options(tmp_path: Path) -> None:
     ("model_name", "names", "option", "why"),
     [
         ("ice_clutch", [None], "smooth=true", "it takes the modes from the log's switching"),
-        ("three_tank_hstf", ["hstf"], "beam=3", "paper 000 predicts every mode"),
-        ("double_cart_case1", ["hstf", "chiu"], "mode_sequence=viterbi", "paper 000 predicts"),
+        ("three_tank_hstf", ["hstf"], "beam=3", "kbest would drop eq. (24)'s fading"),
+        ("double_cart_case1", ["hstf", "chiu"], "mode_sequence=viterbi", "Viterbi the per-"),
+        ("three_tank_hstf", ["hstf"], "mode_sequence=argmax", "threshold rule of paper 000"),
     ],
 )
 def test_set_of_an_offline_option_no_estimator_has_is_refused_as_the_flag_is(
@@ -195,19 +196,29 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
 
 
 @pytest.mark.parametrize(
-    ("mode_sequence", "offered_by"), [("viterbi", "imm"), ("kbest", "imm, unknown-mode")]
+    ("mode_sequence", "offered_by", "why"),
+    [
+        ("viterbi", "imm", "Viterbi the per-sample argmax"),
+        ("kbest", "imm, unknown-mode", "kbest would drop eq. (24)'s fading"),
+        ("argmax", "imm, unknown-mode", "its mode is the threshold rule of paper 000 eq. (40)"),
+    ],
 )
 def test_a_refusal_lists_the_estimators_that_offer_the_value_asked_for(
-    mode_sequence: str, offered_by: str
+    mode_sequence: str, offered_by: str, why: str
 ) -> None:
-    """unknown-mode has kbest but no viterbi: only the estimators with the value are named."""
+    """unknown-mode has kbest but no viterbi: only the estimators with the value are named.
+
+    The reason answers the value given: hstf's argmax is refused because its modes come
+    from the θ rule of eq. (40) (it was the smoother's reason, Kim and Viterbi)."""
     model, overrides = parse_sets([], "three_tank_hstf")
     with pytest.raises(OptionError) as caught:
         prepare_estimators(model, ["hstf"], overrides, mode_sequence=mode_sequence)
     message = str(caught.value)
-    assert message.startswith("--mode-sequence: estimator 'hstf' (--estimator) does not offer")
+    assert message.startswith(
+        f"--mode-sequence {mode_sequence}: estimator 'hstf' (--estimator) does not offer"
+    )
     assert message.endswith(f"(estimators that do: {offered_by})")
-    assert "the Viterbi path is each sample's most probable mode" in message
+    assert why in message and ("Kim" in message) == (mode_sequence != "argmax")
 
 
 def test_a_value_one_of_several_estimators_lacks_says_how_to_give_it_to_the_others() -> None:

@@ -26,7 +26,8 @@ def _cluster(
         # --help gives squash "in [1, 100]" and accept, reject "in [0, 1]"; these edges said
         # "squash: ..." and "accept, reject: ...", naming no flag the user gave
         (["--squash", "1"], "--squash 1: chiu option 'squash': 1 is outside (1, 100]"),
-        (["--accept", "0"], "--accept 0: chiu option 'reject': 0.15 is not below accept = 0 ("),
+        # --help said accept "in [0, 1]", but 0 leaves no reject in 0 < reject < accept
+        (["--accept", "0"], "--accept 0: chiu option 'accept': 0 is outside (0, 1]"),
         (["--reject", "0.5"], "--reject 0.5: chiu option 'reject': 0.5 is not below accept = 0.5"),
         (
             ["--accept", "0.2", "--reject", "0.3"],

@@ -117,6 +117,8 @@ def test_entry_is_complete(name):
     assert entry.capabilities.supports_smoothing == ("smooth" in fields)
     # ... and says why when it does not: the refusal's reason
     assert bool(entry.capabilities.no_smoothing) != entry.capabilities.supports_smoothing
+    # ... and, without mode_sequence, how it decides its modes: --mode-sequence argmax's reason
+    assert bool(entry.capabilities.mode_rule) != ("mode_sequence" in fields)
 
 
 @pytest.mark.parametrize("name", list(ESTIMATORS))

@@ -77,7 +77,7 @@ def test_fifty_logs_two_corrupted_give_48_reports_2_failures_and_junit_errors(
         TANK,
         out_dir=out,
         estimator="imm",
-        fail_under=["vaf=-1e9"],
+        fail_under=["vaf=0"],
         fail_over=["mse=1e9"],
         junit=junit,
     )
@@ -108,7 +108,7 @@ def test_fifty_logs_two_corrupted_give_48_reports_2_failures_and_junit_errors(
     errors = [c for c in root.iter("testcase") if c.find("error") is not None]
     assert sorted(Path(c.get("classname", "")).name for c in errors) == ["run49.csv", "run50.csv"]
     names = {c.get("name") for c in root.iter("testcase") if c.find("error") is None}
-    assert names == {"--fail-under vaf=-1e9", "--fail-over mse=1e9"}
+    assert names == {"--fail-under vaf=0", "--fail-over mse=1e9"}
 
 
 def test_missed_gates_in_summary_and_junit(tmp_path: Path) -> None:

@@ -36,7 +36,7 @@ def test_a_log_found_again_under_a_link_is_analysed_once_with_a_note(
     assert "3 logs were found again under another name" in note
     assert f"'{runs / 'a_copy.csv'}' as '{runs / 'a.csv'}'" in note
     assert f"'{runs / 'latest.csv'}' as '{runs / 'b.csv'}'" in note
-    outcome = run_batch([runs], TANK, out_dir="out", fail_under=["vaf=-1e9"])
+    outcome = run_batch([runs], TANK, out_dir="out", fail_under=["vaf=0"])
     assert [Path(o.log).name for o in outcome.logs] == ["a.csv", "b.csv"]
     assert outcome.notes == [note]
     summary = (tmp_path / "out" / "summary.csv").read_text()

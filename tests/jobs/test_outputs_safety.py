@@ -47,6 +47,7 @@ from hybridlog.outputs import (
     write_marker,
     wrote_file,
 )
+from hybridlog.report.junit import check_junit_target
 from tests.support.logfiles import scene, tank_run, write_msg_dir, write_ros2_bag
 from tests.support.paths import SAMPLE_LOGS
 
@@ -829,6 +830,70 @@ def test_a_centres_file_named_without_a_file_name_is_refused(tmp_path: Path, out
     log = SAMPLE_LOGS / "double_cart_case1.csv"
     with pytest.raises(OptionError, match=r"the centres file is JSON; name it \*\.json$"):
         cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
+
+
+def _cluster_out(target: str) -> object:
+    log = SAMPLE_LOGS / "double_cart_case1.csv"
+    return cluster_job.check_cluster_outputs(
+        log, "double_cart_case1", out=target, plot=None, force=False
+    )
+
+
+def _cluster_plot(target: str) -> object:
+    log, out = SAMPLE_LOGS / "double_cart_case1.csv", Path(target).parent / "c.json"
+    return cluster_job.check_cluster_outputs(
+        log, "double_cart_case1", out=out, plot=target, force=False
+    )
+
+
+@pytest.mark.parametrize(
+    ("option", "name", "check"),
+    [
+        ("--out", "x.json", _cluster_out),
+        ("--plot", "p.png", _cluster_plot),
+        ("--out", "x.csv", check_log_target),  # simulate's log file
+        ("--junit", "j.xml", check_junit_target),
+    ],
+)
+@pytest.mark.parametrize("ending", ["/", "//", "/."])
+def test_a_file_output_named_as_a_folder_is_refused(
+    tmp_path: Path, option: str, name: str, check: Callable[[str], object], ending: str
+) -> None:
+    """``cluster --out dir.json/`` (the user meant a folder) wrote a file ``dir.json``:
+    ``Path`` drops the ``/``.  Every file output (cluster's centres and picture, simulate's
+    log file, batch's JUnit file) refuses the name as given, naming the option."""
+    target = f"{tmp_path / name}{ending}"
+    with pytest.raises(OutputError) as info:
+        check(target)
+    assert str(info.value) == (
+        f"{option} {target}: ends with {ending!r}, which names a folder; name a file to write"
+    )
+    assert list(tmp_path.iterdir()) == []
+    # a ROS 2 bag is a folder: its "/" is as good as none
+    assert check_log_target(f"{tmp_path / 'bag'}/", format="ros2-mcap") == "ros2-mcap"
+
+
+def test_cluster_names_its_default_plot_path_as_the_default(tmp_path: Path) -> None:
+    """No --plot given: an error about the picture (here the user's c.png beside c.json)
+    said "--plot", or named c.png alone, a file the user never mentioned."""
+    (tmp_path / "c.png").write_bytes(b"mine")
+    log, out = SAMPLE_LOGS / "double_cart_case1.csv", tmp_path / "c.json"
+    with pytest.raises(OutputError) as info:
+        cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
+    assert str(info.value) == (
+        f"the default plot path (--out with .png) {tmp_path / 'c.png'}: already exists (use "
+        "--force to replace it); --plot PATH writes the picture elsewhere"
+    )
+    # the default is the log: "--plot c.png is the log c.png"
+    with pytest.raises(OutputError, match=r"^the default plot path \(--out with \.png\) "):
+        cluster_job.check_cluster_outputs(
+            tmp_path / "c.png", "double_cart_case1", out=out, plot=None, force=True
+        )
+    with pytest.raises(OutputError) as given:  # --plot given: the user's own words
+        cluster_job.check_cluster_outputs(
+            log, "double_cart_case1", out=out, plot=tmp_path / "c.png", force=False
+        )
+    assert str(given.value).startswith(f"{tmp_path / 'c.png'}: already exists")
 
 
 def test_an_output_folder_that_is_a_link_is_refused_saying_so(tmp_path: Path) -> None:

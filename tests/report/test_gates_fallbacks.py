@@ -137,16 +137,47 @@ def test_a_bound_beyond_the_metrics_values_is_refused(
     [
         ("smoothing_fallback_weight=1", "over"),
         ("smoothing_fallback_weight=0", "under"),
-        # always met, but no percentage: the way to a gated column without a verdict
-        ("smoothing_fallback_weight=150", "over"),
-        ("smoothing_fallback_samples=-1", "under"),
-        ("vaf=-1e9", "under"),
+        # at the edge: fails only where the metric is null, the way to a gated column
+        ("smoothing_fallback_samples=0", "under"),
+        ("vaf=0", "under"),
+        ("mode_accuracy.c1=1", "over"),
+        ("fit=-1e9", "under"),  # fit has no lower end: this gate can fail
     ],
 )
-def test_a_bound_at_or_beyond_the_edge_that_is_no_percentage_is_a_gate(
-    spec: str, kind: GateKind
-) -> None:
+def test_a_bound_at_the_edge_is_a_gate(spec: str, kind: GateKind) -> None:
     assert parse_gate(spec, kind).bound == float(spec.split("=")[1])
+
+
+@pytest.mark.parametrize(
+    ("spec", "kind", "edge"),
+    [
+        # a sign typed wrong: the gate passed every run, a CI gate doing nothing
+        ("mode_accuracy=-0.1", "under", "mode_accuracy is at least 0"),
+        ("mse.y1=-1", "under", "mse is at least 0"),
+        ("vaf=-1e9", "under", "vaf is at least 0 %"),
+        ("smoothing_fallback_samples=-1", "under", "smoothing_fallback_samples is at least 0"),
+        ("state_rmse.x1=-0.5", "under", "state_rmse is at least 0"),
+        ("detection_delay_s=-1", "under", "detection_delay_s is at least 0"),
+        # beyond the top, and no percentage
+        ("smoothing_fallback_weight=150", "over", "smoothing_fallback_weight is at most 1"),
+        ("mode_accuracy.c1=150", "over", "mode_accuracy is at most 1"),
+        ("vaf.y2=101", "over", "vaf is at most 100 %"),
+    ],
+)
+def test_a_bound_every_value_meets_is_refused_as_one_none_meets(
+    spec: str, kind: GateKind, edge: str
+) -> None:
+    """The range check of a gate that could never pass, on the other side: one mechanism
+    (each metric's range), the refusal naming the bound at the edge that checks only that
+    the metric is defined."""
+    with pytest.raises(OptionError) as info:
+        parse_gate(spec, kind)
+    metric = spec.partition("=")[0]
+    end = edge.split()[-2] if edge.endswith("%") else edge.split()[-1]
+    assert str(info.value) == (
+        f"--fail-{kind} {spec!r}: {edge}, so this gate could never fail; "
+        f"--fail-{kind} {metric}={end} checks only that it is defined"
+    )
 
 
 @pytest.mark.parametrize(
