@@ -449,7 +449,7 @@ def _check_run(model: HybridModel, rows: int, where: str, log_format: str | None
     if end >= ends_before:
         raise (OptionError if where.startswith("--") else ModelError)(
             f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {format_time(end)} s, later "
-            f"than the log holds (times before {ends_before:.4g} s); simulate fewer steps"
+            f"than the log holds (times before {format_time(ends_before)} s); simulate fewer steps"
         )
     check_fits(
         [

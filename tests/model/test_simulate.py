@@ -76,7 +76,7 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
         simulate(model, steps=10_000)
     assert str(error.value) == (
         "--steps: 10,000 steps of 1e+06 s end at t = 10000000000 s, later than the log holds "
-        "(times before 9.2e+09 s); simulate fewer steps"
+        "(times before 9200000000 s); simulate fewer steps"
     )
     with pytest.raises(OptionError, match=r"^--schedule: 10,000 steps of 1e\+06 s end at"):
         simulate(model, schedule="1:10000")
@@ -98,8 +98,16 @@ def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
 
     path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
     monkeypatch.setattr("hybridlog.simulation_kernels.simulate_steps", never)
-    with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\); simulate fewer"):
+    with pytest.raises(OptionError, match=r"\(times before 4294967296 s\); simulate fewer"):
         simulate_log(path, tmp_path / "run.bag", steps=5000)
+    # the bound was written 4.295e+09, rounded up past the end it refused
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e4")
+    with pytest.raises(OptionError) as error:
+        simulate_log(path, tmp_path / "run.bag", steps=429_497)
+    assert str(error.value) == (
+        "--steps: 429,497 steps of 10000 s end at t = 4294970000 s, later than the log holds "
+        "(times before 4294967296 s); simulate fewer steps"
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plant.toml"]
 
 
