@@ -725,9 +725,8 @@ class _LogFormats(click.Choice[str]):
 @click.option(
     "--encoding",
     type=_LogFormats("MCAP_ENCODINGS"),
-    default="cdr",
-    show_default=True,
-    help="Message encoding of an MCAP file: ROS 2 CDR, JSON or ROS 1.",
+    default=None,
+    help="Message encoding of an MCAP file: ROS 2 CDR, JSON or ROS 1 [default: cdr].",
 )
 @click.option(
     "--schedule",
@@ -771,7 +770,7 @@ def simulate(
     model_ref: str,
     out: str,
     log_format: str | None,
-    encoding: str,
+    encoding: str | None,
     schedule: str | None,
     steps: int | None,
     seed: int,

@@ -187,7 +187,7 @@ def check_log_target(
     path: PathLike,
     *,
     format: str | None = None,
-    encoding: str = "cdr",
+    encoding: str | None = None,
     force: bool = False,
     inputs: Sequence[tuple[str, PathLike]] = (),
 ) -> str:
@@ -212,11 +212,13 @@ def check_log_target(
         write (see :mod:`hybridlog.outputs`).
     """
     chosen = log_format(path, format)
-    if encoding not in MCAP_ENCODINGS:
+    if encoding is not None and encoding not in MCAP_ENCODINGS:
         raise OptionError(
             f"--encoding: unknown {encoding!r}; choose one of {', '.join(MCAP_ENCODINGS)}"
         )
-    if encoding != "cdr" and chosen != "mcap":
+    # --encoding cdr of a table or a ROS 1 bag was ignored; a ROS 2 bag's messages are CDR
+    told = encoding is not None and not (encoding == "cdr" and chosen.startswith("ros2-"))
+    if told and chosen != "mcap":
         raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
     if not chosen.startswith("ros2-"):
         check_file_name(path, "--out")  # x.csv/: a folder's name, where a file is written
@@ -283,7 +285,7 @@ def write_log(
     *,
     truth: Sequence[str] = (),
     format: str | None = None,
-    encoding: str = "cdr",
+    encoding: str | None = None,
     force: bool = False,
     inputs: Sequence[tuple[str, PathLike]] = (),
     progress: Callable[[int], None] | None = None,
@@ -302,7 +304,10 @@ def write_log(
     format:
         One of :data:`LOG_FORMATS`; default from the suffix.
     encoding:
-        MCAP message encoding: ``cdr`` (default), ``json`` or ``ros1``.
+        MCAP message encoding: ``cdr``, ``json`` or ``ros1``; ``None`` (default): not
+        chosen, ``cdr`` for an MCAP file.  Chosen for another format, it is refused, but
+        ``cdr`` for a ROS 2 bag (whose messages are CDR): a ROS 1 bag's messages are ROS 1, a
+        table's are none.
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote.
     inputs:
@@ -338,7 +343,7 @@ def write_log(
     rows = _rows(topics, columns, seconds_to_ns(time), progress)
     writer: Callable[[Path, Sequence[TopicColumn], Iterable[_Row]], None]
     if chosen == "mcap":
-        writer = _MCAP_WRITERS[encoding]
+        writer = _MCAP_WRITERS[encoding or "cdr"]
     elif chosen == "bag":
         writer = _write_ros1_bag
     else:

@@ -67,7 +67,7 @@ def simulate_log(
     out: PathLike,
     *,
     log_format: str | None = None,
-    encoding: str = "cdr",
+    encoding: str | None = None,
     schedule: str | None = None,
     steps: int | None = None,
     seed: int = 0,
@@ -110,7 +110,7 @@ def simulate_log(
     arguments.text(log_format, "log_format", optional=True)
     arguments.text(schedule, "schedule", optional=True)
     arguments.text(disturbance, "disturbance", optional=True)
-    arguments.text(encoding, "encoding")
+    arguments.text(encoding, "encoding", optional=True)
     steps = arguments.integer(steps, "steps", optional=True)
     seed = arguments.integer(seed, "seed")
     arguments.flag(noise, "noise")

@@ -512,6 +512,10 @@ def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> 
         ("run.bag", {"format": "mcap"}, OptionError, "must be named *.mcap, not *.bag"),
         ("run.db3", {"format": "mcap"}, OptionError, "not *.db3 (the suffix of a ROS 2"),
         ("run.csv", {"encoding": "json"}, OptionError, "only MCAP files"),
+        # cdr, the MCAP files' default, named for a format without it was ignored
+        ("run.csv", {"encoding": "cdr"}, OptionError, "--encoding cdr: only MCAP files"),
+        ("run.bag", {"encoding": "cdr"}, OptionError, "--encoding cdr: only MCAP files"),
+        ("bag", {"format": "ros2-mcap", "encoding": "json"}, OptionError, "only MCAP files"),
         ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
         ("exists.mcap", {}, OutputError, "already exists"),
         ("exists.mcap", {"format": "ros2-mcap", "force": True}, OutputError, "not a directory"),
@@ -525,6 +529,22 @@ def test_simulate_outputs_are_checked_up_front(
         check_log_target(tmp_path / target, **options)  # type: ignore[arg-type]
     assert words in str(info.value)
     assert [p.name for p in tmp_path.iterdir()] == ["exists.mcap"]
+
+
+@pytest.mark.parametrize(
+    ("target", "options", "chosen"),
+    [
+        ("run.mcap", {}, "mcap"),
+        ("run.mcap", {"encoding": "cdr"}, "mcap"),
+        ("bag", {"format": "ros2-mcap", "encoding": "cdr"}, "ros2-mcap"),  # its messages' own
+        ("bag", {"format": "ros2-sqlite3"}, "ros2-sqlite3"),
+        ("run.bag", {}, "bag"),
+    ],
+)
+def test_an_encoding_a_log_has_is_taken(
+    tmp_path: Path, target: str, options: dict[str, object], chosen: str
+) -> None:
+    assert check_log_target(tmp_path / target, **options) == chosen  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(

@@ -16,10 +16,12 @@ from typing import Any
 
 import pytest
 
+from hybridlog import simulate as simulate_module
 from hybridlog.cluster import progress
 from hybridlog.cluster.progress import WorkReporter, reporting
 from hybridlog.io.bag_writers import PROGRESS_ROWS
 from hybridlog.jobs.simulate import simulate_log
+from hybridlog.model.cache import load_model
 
 
 class _Said:
@@ -92,3 +94,21 @@ def test_a_log_too_short_to_report_is_said_so(tmp_path: Path, steps: int, noted:
         ["2 samples: analyze, compare and batch need at least 3 (the first sample is the "
          "prior); give --steps 2 or more"] if noted else []
     )  # fmt: skip
+
+
+@pytest.mark.parametrize("model", ["ice_clutch", "double_cart_case1", "three_tank_hstf"])
+def test_a_long_compiled_simulation_says_how_long_it_takes(
+    monkeypatch: pytest.MonkeyPatch, model: str
+) -> None:
+    # the compiled loops ran a whole run in one call: a continuous model of 10^5 integration
+    # steps a row ran 2,000 rows for 73 s without a word, and SIGTERM waited it out
+    monkeypatch.setattr(progress, "CALIBRATION_S", 0.0)
+    monkeypatch.setattr(progress, "LONG_WORK_S", -1.0)
+    monkeypatch.setattr(simulate_module, "CHUNK_WORK", 1)  # a row a call
+    said = _Said()
+    with reporting(WorkReporter(note=said.notes.append, bar=said.bar)):
+        log = simulate_module.simulate(load_model(model), steps=60)
+    rows = log.time.shape[0]
+    [note] = said.notes
+    assert note.startswith(f"simulating {model}: about ") and "steps left)" in note, note
+    assert said.bars == [(rows, "steps simulated")] and said.advanced == rows

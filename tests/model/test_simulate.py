@@ -76,7 +76,7 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
         simulate(model, steps=10_000)
     assert str(error.value) == (
         "--steps: 10,000 steps of 1e+06 s end at t = 10000000000 s, later than the log holds "
-        "(times before 9.2e+09 s); simulate fewer steps"
+        "(times before 9200000000 s); simulate fewer steps"
     )
     with pytest.raises(OptionError, match=r"^--schedule: 10,000 steps of 1e\+06 s end at"):
         simulate(model, schedule="1:10000")
@@ -98,8 +98,16 @@ def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
 
     path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e6")
     monkeypatch.setattr("hybridlog.simulation_kernels.simulate_steps", never)
-    with pytest.raises(OptionError, match=r"\(times before 4\.295e\+09 s\); simulate fewer"):
+    with pytest.raises(OptionError, match=r"\(times before 4294967296 s\); simulate fewer"):
         simulate_log(path, tmp_path / "run.bag", steps=5000)
+    # the bound was written 4.295e+09, rounded up past the end it refused
+    path = _model_file(tmp_path, TANK, "dt = 1.0", "dt = 1e4")
+    with pytest.raises(OptionError) as error:
+        simulate_log(path, tmp_path / "run.bag", steps=429_497)
+    assert str(error.value) == (
+        "--steps: 429,497 steps of 10000 s end at t = 4294970000 s, later than the log holds "
+        "(times before 4294967296 s); simulate fewer steps"
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plant.toml"]
 
 
@@ -406,3 +414,34 @@ def test_a_first_run_compiles_the_model_inside_the_reporters_wait(monkeypatch):
     assert waits == ["simulate: compiling machine code for model 'pendulum'"]
     inside = {call.split()[0] for call in calls if call.endswith(" in wait")}
     assert inside == {"f", "F", "h", "H"} == {call.split()[0] for call in calls}
+
+
+@pytest.mark.parametrize(
+    ("model", "schedule"),
+    [
+        ("three_tank_hstf", "1:7,3:5,2:9"),  # scheduled
+        ("double_cart_case1", None),  # guarded: the mode of each row from its state
+        ("ice_clutch", "0:6,1:5,0:4"),  # continuous, jump maps at the switches
+    ],
+)
+def test_a_run_in_chunks_is_the_run_in_one_call(tmp_path, monkeypatch, model, schedule):
+    # the compiled loops run a few thousand steps a call (a long run says how long it takes,
+    # and a signal ends it); each chunk starts from the row before it, to the same values
+    import hybridlog.simulate as simulate_module
+    from hybridlog.simulate import Disturbance
+
+    disturbance = None
+    if model == "ice_clutch":  # its 10 integration steps a row each draw process noise
+        text = (ROOT / "hybridlog/model/builtin/ice_clutch.toml").read_text()
+        old = "measurement = 1e-4 "
+        loaded = load_model(_model_file(tmp_path, text, old, "process = 1e-4\n" + old))
+        disturbance = Disturbance(0.01, 3.0)  # a function of the time of each step
+    else:
+        loaded = load_model(model)
+    runs = []
+    for work in (10**9, 1, 30):  # one call; a row a call; chunks of 30 steps (3 rows of ice_clutch)
+        monkeypatch.setattr(simulate_module, "CHUNK_WORK", work)
+        runs.append(simulate(loaded, schedule=schedule, steps=40, seed=5, disturbance=disturbance))
+    for run in runs[1:]:
+        for name in ("time", "inputs", "outputs", "modes", "states"):
+            assert np.array_equal(getattr(run, name), getattr(runs[0], name)), name
