@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 import numpy.typing as npt
 
-from hybridlog.cluster.progress import TimedWork, current_wait, duration_text
+from hybridlog.cluster.progress import current_wait, simulating
 from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
@@ -553,21 +553,14 @@ def _run_in_chunks(
     one before its chunk (which the loop recomputes, as its row 0, to the same values: it
     is where the chunk's first step starts) to the chunk's end, about :data:`CHUNK_WORK`
     integration steps, so that a long run says how long it takes
-    (:class:`~hybridlog.cluster.progress.TimedWork`) and a signal ends it within a chunk.
+    (:func:`~hybridlog.cluster.progress.simulating`) and a signal ends it within a chunk.
     Returns the loop's value for the run: the row a guarded loop stopped at, else -1.
     """
     from hybridlog.jit import compile_for
 
     rows = cast("npt.NDArray[Any]", arguments[row_arrays[0]]).shape[0]
     size = max(1, CHUNK_WORK // max(substeps, 1))
-    stepping = TimedWork(
-        rows,
-        "steps simulated",
-        lambda left, seconds: (
-            f"simulating {origin}: about {duration_text(seconds)} more on this machine "
-            f"({left:,} of {rows:,} steps left)"
-        ),
-    )
+    stepping = simulating(rows, origin)
     run: Callable[..., int | None] | None = None
     with stepping:
         start = 0

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hybridlog.cluster.progress import TimedWork, duration_text
+from hybridlog.cluster.progress import simulating
 from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
@@ -239,14 +239,7 @@ def simulate_components(
     new_memory = np.zeros_like(memory)
     control = np.zeros(len(controlled))
     # a Python step of the joint modes and the controller, about 50 µs: 10^6 steps in a minute
-    stepping = TimedWork(
-        rows,
-        "steps simulated",
-        lambda left, seconds: (
-            f"simulating {origin}: about {duration_text(seconds)} more on this machine "
-            f"({left:,} of {rows:,} steps left)"
-        ),
-    )
+    stepping = simulating(rows, origin)
     with stepping:
         for k in range(rows):
             joint = joints[assignment[k]]

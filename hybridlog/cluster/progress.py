@@ -33,6 +33,7 @@ __all__ = [
     "duration_text",
     "reporting",
     "silent_wait",
+    "simulating",
 ]
 
 LONG_WORK_S = 10.0
@@ -200,3 +201,20 @@ class TimedWork:
         self._advance = self._stack.enter_context(self.reporter.bar(self.total, self.label))
         self._advance(done)
         self._shown = done
+
+
+def simulating(rows: int, origin: str) -> TimedWork:
+    """The progress of simulating ``rows`` log rows of the model file ``origin``.
+
+    One line for every kind of simulation: the compiled loops' chunks
+    (:mod:`hybridlog.simulate`) and a components model's Python steps
+    (:mod:`hybridlog.simulate_components`).
+    """
+    return TimedWork(
+        rows,
+        "steps simulated",
+        lambda left, seconds: (
+            f"simulating {origin}: about {duration_text(seconds)} more on this machine "
+            f"({left:,} of {rows:,} steps left)"
+        ),
+    )
