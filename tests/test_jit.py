@@ -117,22 +117,32 @@ def test_machine_code_is_cached_where_the_code_and_home_cannot_be_written(
     assert len(index) == 1, index
 
 
+def _cached_add(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str) -> tuple[Any, Path]:
+    """Module ``name``'s ``add`` compiled into numba's cache, and its entry's file (``.nbc``).
+
+    The process then forgets it has compiled it, as the next process would not have.
+    """
+    import numba
+
+    (tmp_path / f"{name}.py").write_text("def add(a, b):\n    return a + b\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module(name)
+    jit.set_up()  # the cache placed, as before any of hybridlog's functions
+    assert jit.compile_for(module.add, (1.0, 2.0))(1.0, 2.0) == 3.0
+    folder = f"{tmp_path.name}_{hashlib.sha1(str(tmp_path).encode()).hexdigest()}"  # numba's
+    (data,) = (Path(numba.config.CACHE_DIR) / folder).glob(f"{name}.add-*.nbc")
+    monkeypatch.setattr(jit, "_COMPILED", {})
+    return module, data
+
+
 def test_a_damaged_cache_entry_is_compiled_again(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # a file cut short (a full disk, a machine that stopped, a partly restored CI cache)
     # failed to unpickle in every run: "unexpected UnpicklingError"
-    import numba
-
-    (tmp_path / "damaged_cache_kernel.py").write_text("def add(a, b):\n    return a + b\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    module = importlib.import_module("damaged_cache_kernel")
-    assert jit.compile_for(module.add, (1.0, 2.0))(1.0, 2.0) == 3.0
-    folder = f"{tmp_path.name}_{hashlib.sha1(str(tmp_path).encode()).hexdigest()}"  # numba's
-    (data,) = (Path(numba.config.CACHE_DIR) / folder).glob("damaged_cache_kernel.add-*.nbc")
+    module, data = _cached_add(tmp_path, monkeypatch, "damaged_cache_kernel")
     with data.open("r+b") as file:
         file.truncate(100)
-    monkeypatch.setattr(jit, "_COMPILED", {})  # as in the next process
     assert jit.compile_for(module.add, (1.0, 2.0))(1.0, 2.0) == 3.0
     assert data.stat().st_size > 100  # written anew
 
@@ -143,19 +153,11 @@ def test_a_cache_entry_whose_bytes_changed_is_compiled_again(
     # numba loaded an entry as long as it unpickled: a byte changed in its machine code (a
     # bit flipped on a disk, a partly restored CI cache) failed every run after with
     # "unexpected RuntimeError: LLVM bitcode parsing error", or, where it still parsed, ran
-    import numba
-
-    (tmp_path / "changed_cache_kernel.py").write_text("def add(a, b):\n    return a + b\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    module = importlib.import_module("changed_cache_kernel")
-    jit.set_up()  # the cache placed, as before any of hybridlog's functions
-    jit.compile_for(module.add, (1.0, 2.0))
-    folder = f"{tmp_path.name}_{hashlib.sha1(str(tmp_path).encode()).hexdigest()}"  # numba's
-    (data,) = (Path(numba.config.CACHE_DIR) / folder).glob("changed_cache_kernel.add-*.nbc")
+    # changed code
+    module, data = _cached_add(tmp_path, monkeypatch, "changed_cache_kernel")
     changed = bytearray(data.read_bytes())
     changed[len(changed) // 2] ^= 0x10  # inside the pickled code, which still unpickles
     data.write_bytes(changed)
-    monkeypatch.setattr(jit, "_COMPILED", {})  # as in the next process
     compiled: Any = jit.compile_for(module.add, (1.0, 2.0))
     assert not compiled.stats.cache_hits, "the changed entry was loaded"
     assert compiled(1.0, 2.0) == 3.0
