@@ -335,7 +335,7 @@ def _check_entries(folder: Path) -> None:
     def ours(cache_file: Any) -> bool:
         # as absolute paths: a relative NUMBA_CACHE_DIR beside another locator's absolute
         # path (a module imported from a zip file) made os.path.commonpath raise
-        path = os.path.abspath(cache_file._cache_path)
+        path = os.path.abspath(str(cache_file._cache_path))
         return path == root or path.startswith(root + os.sep)
 
     def save_data(self: Any, name: str, data: Any) -> None:
