@@ -330,10 +330,13 @@ def _check_entries(folder: Path) -> None:
 
     save: Callable[[Any, str, Any], None] = IndexDataCacheFile._save_data
     load: Callable[[Any, str], Any] = IndexDataCacheFile._load_data
-    root = str(folder)
+    root = os.path.abspath(folder)
 
     def ours(cache_file: Any) -> bool:
-        return os.path.commonpath([root, str(cache_file._cache_path)]) == root
+        # as absolute paths: a relative NUMBA_CACHE_DIR beside another locator's absolute
+        # path (a module imported from a zip file) made os.path.commonpath raise
+        path = os.path.abspath(str(cache_file._cache_path))
+        return path == root or path.startswith(root + os.sep)
 
     def save_data(self: Any, name: str, data: Any) -> None:
         if not ours(self):

@@ -164,6 +164,30 @@ def test_a_cache_entry_whose_bytes_changed_is_compiled_again(
     assert data.read_bytes() != bytes(changed)  # written anew
 
 
+def test_entries_beside_a_relative_cache_folder_keep_numbas_format(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # NUMBA_CACHE_DIR=relcache and a user's cache=True function imported from a zip file
+    # (numba caches it under an absolute path of its own): os.path.commonpath raised "Can't
+    # mix absolute and relative paths" from numba's cache, for every such function
+    from numba.core.caching import IndexDataCacheFile
+
+    for method in ("_save_data", "_load_data"):
+        monkeypatch.setattr(IndexDataCacheFile, method, getattr(IndexDataCacheFile, method))
+    monkeypatch.chdir(tmp_path)
+    jit._check_entries(Path("relcache", "0123456789abcdef"))
+    for where, ours in (
+        (tmp_path / "zip_cache", False),
+        (Path("relcache/0123456789abcdef/m"), True),
+    ):
+        where.mkdir(parents=True)
+        entry = IndexDataCacheFile(str(where), "f-1.py311", "stamp")
+        entry._save_data("f-1.py311.1.nbc", ("code",))
+        stored = (where / "f-1.py311.1.nbc").read_bytes()
+        assert (stored[:32] == hashlib.sha256(stored[32:]).digest()) == ours
+        assert entry._load_data("f-1.py311.1.nbc") == ("code",)
+
+
 def test_a_full_cache_folder_is_one_line_naming_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -833,8 +833,21 @@ class _ValueCounter:
             self._count()
 
     def result(self) -> list[dict[str, Any]] | None:
-        """``name, count, nonfinite`` per field, or ``None`` when a message was undecodable."""
+        """``name, count, nonfinite`` per field, or ``None`` when a message was undecodable.
+
+        A topic none of whose messages decode (a wrong definition, not a bad message) is
+        :attr:`problem`, decided here, at its end: its first part of
+        :data:`DECODED_AT_ONCE` messages all undecodable (a logger's start cut short) said so
+        of a topic whose later messages decode.
+        """
         self._count()
+        if self.problem is None and self.messages and self.undecodable == self.messages:
+            assert self._first_undecodable is not None  # set with each one counted
+            log_time, reason = self._first_undecodable
+            self.problem = (
+                f"the message logged at t={format_ns(log_time)} s cannot be decoded "
+                f"({reason}); its values are not counted"
+            )
         if self.problem is not None:
             return None
         return [
@@ -894,13 +907,7 @@ class _ValueCounter:
             messages = decode_each(self.topic.decode, datas)
         except UndecodableError as err:
             messages, times = self._decodable(datas, times, err)
-            if not messages and self.undecodable == self.messages:  # none so far: a wrong
-                assert self._first_undecodable is not None  # definition, not a bad message
-                log_time, reason = self._first_undecodable
-                self.problem = (
-                    f"the message logged at t={format_ns(log_time)} s cannot be decoded "
-                    f"({reason}); its values are not counted"
-                )
+            if not messages:  # the topic's later parts may decode: :meth:`result` decides
                 return
         if self.stamps is not None:
             self.stamps.add(messages, times)

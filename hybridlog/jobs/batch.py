@@ -96,6 +96,7 @@ from hybridlog.outputs import (
     check_apart,
     check_dir_target,
     check_distinct,
+    check_file_name,
     check_file_target,
     edited_files,
     is_ours,
@@ -1130,6 +1131,7 @@ def _plan(
     summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
     outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
     if junit is not None:
+        check_file_name(junit, "--junit")  # first: --junit j.xml/.. is the folder holding it
         outputs.append(("--junit", junit))
         check_distinct(outputs)
     inputs = input_paths(paths, model_ref, [prepared], read)

@@ -403,8 +403,13 @@ def check_cluster_outputs(
         folder, both name the same file, or one exists without ``force`` (see
         :mod:`hybridlog.outputs`).
     """
+    # first, on the text given: Path drops the "/" of --out dir.json/ (then refused as a
+    # name without .json, shown as "dir.json"), and --out c.json/.. has no suffix
+    check_file_name(out, "--out")
+    if plot is not None:
+        check_file_name(plot, "--plot")
     target = Path(out)
-    if target.suffix.lower() != ".json":  # first: "." or "/" has no name to give a suffix
+    if target.suffix.lower() != ".json":
         raise OptionError(f"--out {target}: the centres file is JSON; name it *.json")
     picture = target.with_suffix(".png") if plot is None else Path(plot)
     if picture.suffix.lower() not in PLOT_SUFFIXES:
@@ -412,9 +417,6 @@ def check_cluster_outputs(
             f"--plot {picture}: cannot draw a {picture.suffix or 'suffix-less'} file; "
             f"name it *{', *'.join(PLOT_SUFFIXES)}"
         )
-    check_file_name(out, "--out")  # the text given: Path drops the "/" of --out dir.json/
-    if plot is not None:
-        check_file_name(plot, "--plot")
     # the picture the user did not name is not called --plot (it was: "--plot run.png is
     # the log run.png", "c.png: already exists" of a c.png nobody asked for)
     label = "--plot" if plot is not None else DEFAULT_PLOT

@@ -73,6 +73,24 @@ def test_a_topic_none_of_whose_messages_decode_is_described_as_before(tmp_path: 
     ]
 
 
+def test_a_first_part_none_of_whose_messages_decode_is_not_taken_for_the_topic(
+    tmp_path: Path,
+) -> None:
+    """The first DECODED_AT_ONCE messages cut short (a logger's start), the rest whole: the
+    topic was described as one none of whose messages decode, no field listed."""
+    from hybridlog.io.messages import DECODED_AT_ONCE
+
+    n = DECODED_AT_ONCE + 3
+    info = inspect_log(_json_log(tmp_path / "start.mcap", set(range(DECODED_AT_ONCE)), n))
+    (topic,) = info["topics"]
+    assert topic["fields"] == ["/s.a", "/s.b.c"] and topic["values"][0]["count"] == 3
+    assert topic["undecodable"] == {"count": DECODED_AT_ONCE, "first": 0.0}
+    assert info["problems"][0].startswith(
+        f"topic '/s' (S): {DECODED_AT_ONCE} of its {n} messages cannot be decoded, the first "
+        "logged at t=0 s"
+    )
+
+
 @pytest.mark.parametrize("bad", [0, 3])
 def test_a_cdr_message_cut_short_is_left_out_too(tmp_path: Path, bad: int) -> None:
     """The same for ROS 2 messages: a truncated one no longer hides the others' values."""

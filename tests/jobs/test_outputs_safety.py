@@ -844,12 +844,16 @@ def test_force_never_replaces_a_report_folder_whose_files_the_user_edited(tmp_pa
     assert (out / "report.md").is_file()
 
 
-@pytest.mark.parametrize("out", [".", "/", "..", "runs/..", "./"])
+@pytest.mark.parametrize("out", [".", "/", "..", "runs/..", "./", "runs"])
 def test_a_centres_file_named_without_a_file_name_is_refused(tmp_path: Path, out: str) -> None:
     # cluster --out . (or /) failed with an unexpected ValueError making the plot's name
     log = SAMPLE_LOGS / "double_cart_case1.csv"
-    with pytest.raises(OptionError, match=r"the centres file is JSON; name it \*\.json$"):
+    with pytest.raises((OptionError, OutputError)) as info:
         cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
+    said = str(info.value)
+    assert said.endswith("which names a folder; name a file to write") or said.endswith(
+        "the centres file is JSON; name it *.json"
+    ), said
 
 
 def _cluster_out(target: str) -> object:
@@ -891,6 +895,35 @@ def test_a_file_output_named_as_a_folder_is_refused(
     assert list(tmp_path.iterdir()) == []
     # a ROS 2 bag is a folder: its "/" is as good as none
     assert check_log_target(f"{tmp_path / 'bag'}/", format="ros2-mcap") == "ros2-mcap"
+
+
+def _batch_junit(target: str) -> object:
+    folder = Path(target).parent.parent  # where j.xml/.. is: the log's folder
+    log = folder / "run.csv"
+    shutil.copyfile(SAMPLE_LOGS / "double_cart_case1.csv", log)
+    return run_batch([log], "double_cart_case1", out_dir=folder / "batch", junit=target)
+
+
+@pytest.mark.parametrize(
+    ("option", "name", "check"),
+    [
+        ("--out", "x.json", _cluster_out),
+        ("--plot", "p.png", _cluster_plot),
+        ("--junit", "j.xml", _batch_junit),
+    ],
+)
+def test_a_file_output_ending_in_dot_dot_is_refused_as_a_folders_name(
+    tmp_path: Path, option: str, name: str, check: Callable[[str], object]
+) -> None:
+    """``--out c.json/..`` was refused for its suffix ("name it *.json": it is), ``--plot
+    p.png/..`` as "a suffix-less file" and ``batch --junit j.xml/..`` as the folder holding
+    the log: the name's ending, checked after them, is what is wrong."""
+    target = f"{tmp_path / name}/.."
+    with pytest.raises(OutputError) as info:
+        check(target)
+    assert str(info.value) == (
+        f"{option} {target}: ends with '/..', which names a folder; name a file to write"
+    )
 
 
 def test_cluster_names_its_default_plot_path_as_the_default(tmp_path: Path) -> None:
