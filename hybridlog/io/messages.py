@@ -793,6 +793,8 @@ class _ValueCounter:
         self.fields: dict[str, None] = {}
         # JSON: field path -> the log time of the first message holding text there
         self._text_at: dict[str, int] = {}
+        # JSON: field path (outside arrays) -> the log time of the first boolean there
+        self._boolean_at: dict[str, int] = {}
         # JSON: field path -> its nulls, non-finite values where the path holds numbers
         self._nulls: Counter[str] = Counter()
         self.messages = 0  # messages taken
@@ -888,21 +890,28 @@ class _ValueCounter:
         )
 
     def mixed(self) -> dict[str, str]:
-        """Why ``analyze`` refuses each JSON field of text in one message and a number in another.
+        """Why ``analyze`` refuses each JSON field of text or booleans and numbers.
 
-        Per path, in ``analyze``'s words, the first message holding text there, and how many
-        of its values are numbers.  A field of text alone is a label (a mode): no problem.
+        Text or a boolean in one message and a number in another.
+        Per path, in ``analyze``'s words, the first message holding text (or a boolean, for a
+        field outside arrays) there, and how many of its values are numbers.  A field of text
+        alone is a label (a mode), one of booleans alone reads as 0 and 1: no problem.
         """
-        return {
-            path: (
-                f"the value is a string, not a number in the message logged at "
-                f"t={format_ns(log_time)} s ({numbers} of its values "
-                f"{'is a number' if numbers == 1 else 'are numbers'}: analyze refuses it as an "
-                "input, output or true state)"
-            )
-            for path, log_time in self._text_at.items()
-            if (numbers := self._counts.get(path, [0])[0])
-        }
+        found: dict[str, str] = {}
+        for kind, first_at in (
+            ("a string, not a number", self._text_at),
+            ("a boolean among numbers", self._boolean_at),
+        ):
+            for path, log_time in first_at.items():
+                numbers = self._counts.get(path, [0])[0]
+                if numbers and path not in found:
+                    found[path] = (
+                        f"the value is {kind} in the message logged at "
+                        f"t={format_ns(log_time)} s ({numbers} of its values "
+                        f"{'is a number' if numbers == 1 else 'are numbers'}: analyze refuses "
+                        "it as an input, output or true state)"
+                    )
+        return found
 
     def _count(self) -> None:
         datas, times = self._datas, self._times
@@ -922,18 +931,21 @@ class _ValueCounter:
             for row, message in enumerate(messages):
                 unheld: dict[str, str] = {}
                 texts: set[str] = set()
+                booleans: set[str] = set()
                 too_deep = _count_json(
                     message,
                     "",
                     self._counts,
                     self.fields,
                     0,
-                    _JsonFound(unheld, texts, self._nulls),
+                    _JsonFound(unheld, texts, self._nulls, booleans),
                 )
                 for path, reason in unheld.items():
                     self._note_unheld(path, reason, times[row])
                 for path in texts:
                     self._text_at.setdefault(path, times[row])
+                for path in booleans:
+                    self._boolean_at.setdefault(path, times[row])
                 if too_deep is not None:
                     self.problem = (
                         f"the message logged at t={format_ns(times[row])} s nests deeper than "
@@ -1237,6 +1249,8 @@ class _JsonFound:
     """The paths holding text (a string, or a string among an array's elements)."""
     nulls: Counter[str]
     """Path -> the nulls there (JSON's NaN and inf), added up over the messages."""
+    booleans: set[str]
+    """The paths outside arrays holding a boolean."""
 
 
 def _count_json(
@@ -1268,7 +1282,8 @@ def _count_json(
                 return too_deep
     elif isinstance(value, list):
         numbers = [item for item in value if _is_json_number(item)]
-        found.nulls[f"{path}[]"] += sum(item is None for item in value)
+        if None in value:
+            found.nulls[f"{path}[]"] += value.count(None)
         if any(isinstance(item, str | bool) for item in value) or numbers:
             fields[f"{path}[]"] = None  # text and booleans are fields, uncounted
         if any(isinstance(item, str) for item in value):
@@ -1293,6 +1308,8 @@ def _count_json(
         fields[path] = None
         if isinstance(value, str):
             found.texts.add(path)
+        elif "[]" not in path:  # an index of an array may hold booleans, another numbers
+            found.booleans.add(path)
     elif value is None and path:
         found.nulls[path] += 1
     return None

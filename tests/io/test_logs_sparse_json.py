@@ -216,6 +216,24 @@ def test_inspect_names_a_field_of_numbers_and_text_as_analyze_refuses_it(tmp_pat
     ]
 
 
+def test_inspect_names_a_field_of_numbers_and_booleans_as_analyze_refuses_it(
+    tmp_path: Path,
+) -> None:
+    """``{"u": true}`` in one message of a field of numbers: inspect said the field was one
+    some messages leave out (19 of 20) and had no problem, while analyze refused it there; a
+    field of booleans alone (read as 0 and 1) and an array's booleans are no problem."""
+    messages = interleaved()
+    messages[6] = (messages[6][0], {"u": True, "on": False, "bits": [1, True]})
+    messages[8] = (messages[8][0], {"u": 4.0, "on": True, "bits": [0, False]})
+    log = write(tmp_path / "booleans.mcap", messages)
+    with pytest.raises(LogError, match=r"'/io\.u': the value is a boolean where the messages"):
+        load(log, "u=/io.u", "y=/io.y")
+    assert inspect_log(log)["problems"] == [
+        "'/io.u': the value is a boolean among numbers in the message logged at t=0.3 s "
+        "(19 of its values are numbers: analyze refuses it as an input, output or true state)"
+    ]
+
+
 def test_a_sparse_label_field_lists_only_the_labels_its_messages_hold(tmp_path: Path) -> None:
     from hybridlog.io.formats import open_log
 
