@@ -246,7 +246,7 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("")
         lines.append(
             "fields with a number in only some JSON messages (a field a message leaves out is "
-            "read from the messages that carry it, at their times; a null is refused):"
+            "read from the messages that carry it, at their times; a null is a non-finite value):"
         )
         lines.extend(
             f"  {_shown(v['name'])}: {v['count']} of {count} messages" for v, count in sparse

@@ -23,8 +23,9 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
   ``{"y": 10}`` on one topic.  A field is then read from the messages that carry it, at their
   times, as a signal of its own (times checked, sorted and de-duplicated per field); a key the
   topic's JSON schema lists as ``required`` must be in every message, and a field no message
-  carries is an error listing the fields found.  ``null`` is never "no sample": JSON writes
-  NaN so, and it is refused like one.
+  carries is an error listing the fields found.  ``null`` is never "no sample": JSON writers
+  write NaN and inf so, and it is one of them: refused, or dropped and counted with
+  ``--drop-nonfinite``, and counted as non-finite by ``inspect``.
 - When the file says how many messages a topic has (MCAP summary, bag index, ``metadata.yaml``),
   the messages read must add up to it: a damaged index that hides messages is an error.
 """
@@ -792,6 +793,10 @@ class _ValueCounter:
         self.fields: dict[str, None] = {}
         # JSON: field path -> the log time of the first message holding text there
         self._text_at: dict[str, int] = {}
+        # JSON: field path (outside arrays) -> the log time of the first boolean there
+        self._boolean_at: dict[str, int] = {}
+        # JSON: field path -> its nulls, non-finite values where the path holds numbers
+        self._nulls: Counter[str] = Counter()
         self.messages = 0  # messages taken
         self.undecodable = 0  # of them, those that could not be decoded (skipped)
         self._first_undecodable: tuple[int, str] | None = None  # its log time and why
@@ -851,7 +856,11 @@ class _ValueCounter:
         if self.problem is not None:
             return None
         return [
-            {"name": self.topic.name + path, "count": count, "nonfinite": nonfinite}
+            {
+                "name": self.topic.name + path,
+                "count": count + self._nulls[path],
+                "nonfinite": nonfinite + self._nulls[path],
+            }
             for path, (count, nonfinite) in self._counts.items()
         ]
 
@@ -881,21 +890,28 @@ class _ValueCounter:
         )
 
     def mixed(self) -> dict[str, str]:
-        """Why ``analyze`` refuses each JSON field of text in one message and a number in another.
+        """Why ``analyze`` refuses each JSON field of text or booleans and numbers.
 
-        Per path, in ``analyze``'s words, the first message holding text there, and how many
-        of its values are numbers.  A field of text alone is a label (a mode): no problem.
+        Text or a boolean in one message and a number in another.
+        Per path, in ``analyze``'s words, the first message holding text (or a boolean, for a
+        field outside arrays) there, and how many of its values are numbers.  A field of text
+        alone is a label (a mode), one of booleans alone reads as 0 and 1: no problem.
         """
-        return {
-            path: (
-                f"the value is a string, not a number in the message logged at "
-                f"t={format_ns(log_time)} s ({numbers} of its values "
-                f"{'is a number' if numbers == 1 else 'are numbers'}: analyze refuses it as an "
-                "input, output or true state)"
-            )
-            for path, log_time in self._text_at.items()
-            if (numbers := self._counts.get(path, [0])[0])
-        }
+        found: dict[str, str] = {}
+        for kind, first_at in (
+            ("a string, not a number", self._text_at),
+            ("a boolean among numbers", self._boolean_at),
+        ):
+            for path, log_time in first_at.items():
+                numbers = self._counts.get(path, [0])[0]
+                if numbers and path not in found:
+                    found[path] = (
+                        f"the value is {kind} in the message logged at "
+                        f"t={format_ns(log_time)} s ({numbers} of its values "
+                        f"{'is a number' if numbers == 1 else 'are numbers'}: analyze refuses "
+                        "it as an input, output or true state)"
+                    )
+        return found
 
     def _count(self) -> None:
         datas, times = self._datas, self._times
@@ -915,13 +931,21 @@ class _ValueCounter:
             for row, message in enumerate(messages):
                 unheld: dict[str, str] = {}
                 texts: set[str] = set()
+                booleans: set[str] = set()
                 too_deep = _count_json(
-                    message, "", self._counts, self.fields, 0, _JsonFound(unheld, texts)
+                    message,
+                    "",
+                    self._counts,
+                    self.fields,
+                    0,
+                    _JsonFound(unheld, texts, self._nulls, booleans),
                 )
                 for path, reason in unheld.items():
                     self._note_unheld(path, reason, times[row])
                 for path in texts:
                     self._text_at.setdefault(path, times[row])
+                for path in booleans:
+                    self._boolean_at.setdefault(path, times[row])
                 if too_deep is not None:
                     self.problem = (
                         f"the message logged at t={format_ns(times[row])} s nests deeper than "
@@ -1223,6 +1247,10 @@ class _JsonFound:
     """Path -> why the first integer there is not held by a float64 (beyond 2^53)."""
     texts: set[str]
     """The paths holding text (a string, or a string among an array's elements)."""
+    nulls: Counter[str]
+    """Path -> the nulls there (JSON's NaN and inf), added up over the messages."""
+    booleans: set[str]
+    """The paths outside arrays holding a boolean."""
 
 
 def _count_json(
@@ -1239,8 +1267,9 @@ def _count_json(
     counted whatever the nesting up to :data:`MAX_JSON_DEPTH` levels.  The paths of numbers
     (booleans too) and text are added to ``fields``, those of text to ``found.texts`` too;
     an integer a ``float64`` does not hold (beyond 2^53) is noted in ``found.unheld``, the
-    first of each path.  Returns ``None``, or the path at which the value nests deeper than
-    that (nothing more is counted).
+    first of each path; the nulls of each path are added up in ``found.nulls`` (counted as
+    non-finite values where the path holds numbers).  Returns ``None``, or the path at which
+    the value nests deeper than that (nothing more is counted).
     """
     if depth > MAX_JSON_DEPTH:
         return path or "the message"
@@ -1253,6 +1282,8 @@ def _count_json(
                 return too_deep
     elif isinstance(value, list):
         numbers = [item for item in value if _is_json_number(item)]
+        if None in value:
+            found.nulls[f"{path}[]"] += value.count(None)
         if any(isinstance(item, str | bool) for item in value) or numbers:
             fields[f"{path}[]"] = None  # text and booleans are fields, uncounted
         if any(isinstance(item, str) for item in value):
@@ -1277,6 +1308,10 @@ def _count_json(
         fields[path] = None
         if isinstance(value, str):
             found.texts.add(path)
+        elif "[]" not in path:  # an index of an array may hold booleans, another numbers
+            found.booleans.add(path)
+    elif value is None and path:
+        found.nulls[path] += 1
     return None
 
 
@@ -1513,6 +1548,9 @@ class _TopicReader:
                     present[row] = False
                     out[row] = np.nan
                     continue
+                if json and value is None:
+                    out[row] = self._json_null()
+                    continue
                 if json:
                     self._check_json_kind(wanted, value)
                 out[row] = as_number(value)
@@ -1572,6 +1610,26 @@ class _TopicReader:
                 f"{step!r}, which the topic's JSON schema lists as required"
             )
         return True
+
+    def _json_null(self) -> float:
+        """A JSON ``null`` where a number is meant: NaN with ``--drop-nonfinite``, else refused.
+
+        JSON has no NaN or infinity: JavaScript's ``JSON.stringify`` and serde_json write
+        them as ``null``.  A null is then a non-finite sample: dropped and counted with the
+        NaNs under ``--drop-nonfinite`` (``inspect`` counts it as non-finite), refused
+        otherwise, naming it as written.
+
+        Raises
+        ------
+        PathError
+            Without ``--drop-nonfinite``.
+        """
+        if self.source.options.drop_nonfinite:
+            return math.nan
+        raise PathError(
+            "is null, not a number (JSON writers write NaN and inf so; --drop-nonfinite "
+            "drops it as a NaN)"
+        )
 
     def _check_json_kind(self, wanted: _Wanted, value: object) -> None:
         """Refuse a JSON boolean where numbers are meant, and a number among booleans."""

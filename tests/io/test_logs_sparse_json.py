@@ -153,6 +153,42 @@ def test_a_null_value_is_still_refused(tmp_path: Path) -> None:
         load(log, "u=/io.u", "y=/io.y")
 
 
+def test_a_null_is_a_non_finite_sample_that_drop_nonfinite_drops(tmp_path: Path) -> None:
+    """JSON has no NaN or inf: JavaScript's ``JSON.stringify`` writes them as ``null``.  A null
+    among numbers was refused even with --drop-nonfinite (which drops a NaN there), and
+    inspect counted it neither as a value nor as non-finite (no problem at all); it is now a
+    non-finite sample: refused naming the remedy, dropped and counted with the NaNs."""
+    messages = interleaved()
+    messages[6] = (messages[6][0], {"u": None})  # u at t = 0.3 s
+    messages[8] = (messages[8][0], {"u": float("nan")})  # u at t = 0.4 s, written NaN
+    messages[7] = (messages[7][0], {"y": 30.0, "v": [None, 1.0]})  # an element of an array
+    log = write(tmp_path / "null.mcap", messages)
+    with pytest.raises(LogError, match=r"null, not a number \(.*--drop-nonfinite drops it"):
+        load(log, "u=/io.u", "y=/io.y")
+    notes: dict[str, Any] = {}
+    signals = load_signals(
+        log,
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=DT),
+        ReadOptions(maps=("u=/io.u", "y=/io.y"), drop_nonfinite=True, max_gap=0.5),
+        notes=notes,
+    )
+    assert notes["nonfinite_dropped"]["/io.u"] == 2
+    assert 3.0 not in signals.inputs[:, 0] and 4.0 not in signals.inputs[:, 0]
+    values = {v["name"]: v for v in inspect_log(log)["topics"][0]["values"]}
+    assert values["/io.u"] == {"name": "/io.u", "count": 20, "nonfinite": 2}
+    assert values["/io.v[]"] == {"name": "/io.v[]", "count": 2, "nonfinite": 1}
+
+
+def test_a_field_of_text_and_nulls_is_a_label_not_a_field_of_numbers(tmp_path: Path) -> None:
+    messages = interleaved()
+    messages[0] = (messages[0][0], {"u": 0.0, "mode": "a"})
+    messages[2] = (messages[2][0], {"u": 1.0, "mode": None})
+    log = write(tmp_path / "labels.mcap", messages)
+    report = inspect_log(log)
+    assert "/io.mode" not in {v["name"] for v in report["topics"][0]["values"]}
+    assert not report["problems"]
+
+
 def test_inspect_names_the_fields_only_some_messages_carry(tmp_path: Path) -> None:
     log = write(tmp_path / "sparse.mcap", interleaved())
     text = format_inspection(inspect_log(log))
@@ -177,6 +213,24 @@ def test_inspect_names_a_field_of_numbers_and_text_as_analyze_refuses_it(tmp_pat
         f"{words} (18 of its values are numbers: {refuses})",
         "'/io.u[]': the value is a string, not a number in the message logged at t=0.4 s "
         f"(1 of its values is a number: {refuses})",
+    ]
+
+
+def test_inspect_names_a_field_of_numbers_and_booleans_as_analyze_refuses_it(
+    tmp_path: Path,
+) -> None:
+    """``{"u": true}`` in one message of a field of numbers: inspect said the field was one
+    some messages leave out (19 of 20) and had no problem, while analyze refused it there; a
+    field of booleans alone (read as 0 and 1) and an array's booleans are no problem."""
+    messages = interleaved()
+    messages[6] = (messages[6][0], {"u": True, "on": False, "bits": [1, True]})
+    messages[8] = (messages[8][0], {"u": 4.0, "on": True, "bits": [0, False]})
+    log = write(tmp_path / "booleans.mcap", messages)
+    with pytest.raises(LogError, match=r"'/io\.u': the value is a boolean where the messages"):
+        load(log, "u=/io.u", "y=/io.y")
+    assert inspect_log(log)["problems"] == [
+        "'/io.u': the value is a boolean among numbers in the message logged at t=0.3 s "
+        "(19 of its values are numbers: analyze refuses it as an input, output or true state)"
     ]
 
 
