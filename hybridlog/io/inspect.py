@@ -265,6 +265,13 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("")
         lines.append("metadata.yaml and the storage files disagree (the storage files are read):")
         lines.extend(f"  {remark}" for remark in reading["metadata"])
+    if reading.get("unlisted_files"):
+        lines.append("")
+        lines.append(
+            "storage files metadata.yaml does not list (their messages are not read; list them "
+            "in metadata.yaml, or inspect each file itself):"
+        )
+        lines.extend(f"  {name}" for name in reading["unlisted_files"])
     if reading.get("recovered"):
         lines.append("")
         lines.append(

@@ -17,6 +17,8 @@ What this adds to rosbags' readers:
   name and type (rosbags also compares their QoS text, so a bag whose metadata was written
   by another ROS version reads as empty); where the two disagree (QoS, counts, topics),
   ``reading["metadata"]`` says so and the storage files, which hold the messages, win.
+  Storage files in the folder that ``metadata.yaml`` does not list, which rosbags passes
+  over, are named in ``reading["unlisted_files"]`` (:func:`unlisted_storage_files`).
 - MCAP storage files are checked like bare MCAP files first (CRCs, footer; see
   :func:`~hybridlog.io.mcap_reader.check_mcap`), and whatever rosbags raises on a damaged
   file becomes a :class:`~hybridlog.errors.LogError` naming the file.
@@ -402,6 +404,9 @@ class BagSource(MessageSource):
             remarks.append(f"topic {topic_name!r} ({msgtype}) is not listed in metadata.yaml")
         if remarks:
             self._notes["metadata"] = remarks
+        unlisted = unlisted_storage_files(self._file)
+        if unlisted:
+            self._notes["unlisted_files"] = unlisted
 
     # ------------------------------------------------------------------ reading
 
@@ -443,6 +448,35 @@ class BagSource(MessageSource):
                 continue
             for connection, timestamp, data in storage.messages(chosen):
                 yield connection.topic, timestamp, data if decompress is None else decompress(data)
+
+
+#: Suffixes of the storage files of a ROS 2 bag folder, compressed per file or not.
+STORAGE_SUFFIXES = (".db3", ".mcap", ".db3.zstd", ".mcap.zstd")
+
+
+def unlisted_storage_files(folder: Path) -> list[str]:
+    """The storage files in a bag folder that its ``metadata.yaml`` does not list.
+
+    rosbags (and ``ros2 bag``) read only the files of ``relative_file_paths``; another
+    ``.db3`` or ``.mcap`` file beside them (a split file copied in, a second recording) is
+    passed over without a word, and its messages with it.  Its name is returned so that the
+    reading says so.  Empty when ``metadata.yaml`` has no such list rosbags could read (it
+    has refused the bag then).
+    """
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        document = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+        paths = document["rosbag2_bagfile_information"]["relative_file_paths"]
+        listed = {Path(str(path)).name for path in paths}
+    except (OSError, ValueError, YAMLError, LookupError, TypeError, AttributeError):
+        return []
+    return sorted(
+        file.name
+        for file in folder.iterdir()
+        if file.name not in listed and file.name.endswith(STORAGE_SUFFIXES) and file.is_file()
+    )
 
 
 def _definitions(connections: list[Any]) -> dict[str, int | None]:

@@ -1152,6 +1152,17 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
             f"NOTE: the time is column {time!r}; {', '.join(map(repr, others))} beside it is "
             "read as a signal, only where it is mapped (--map)"
         )
+    if reading.get("metadata"):
+        notes.append(
+            "NOTE: metadata.yaml and the bag's storage files disagree (the storage files are "
+            f"read): {'; '.join(reading['metadata'])}"
+        )
+    if reading.get("unlisted_files"):
+        notes.append(
+            "WARNING: the bag folder holds storage files its metadata.yaml does not list, "
+            f"whose messages are not read: {', '.join(reading['unlisted_files'])} (list them "
+            "in metadata.yaml, or analyse each file itself)"
+        )
     if reading.get("recovered"):
         notes.append(
             f"NOTE: --recover: the MCAP file was read sequentially, "

@@ -32,6 +32,7 @@ import pytest
 from hybridlog.cli import main
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
+from hybridlog.report.build import log_reading_notes
 from tests.support.logfiles import (
     EVENT_TYPE,
     LOG_TYPE,
@@ -742,3 +743,32 @@ def test_a_schema_named_without_its_package_is_named_so_not_said_undefined(
     problems = inspect_log(log)["problems"]
     assert len(problems) == 2, problems
     assert "defines 'msg/Float64', not its type 'Float64': a ROS type is named" in problems[0]
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_a_storage_file_metadata_yaml_does_not_list_is_named_not_passed_over(
+    storage: str, tmp_path: Path
+) -> None:
+    bag = write_streams_bag(tmp_path / "bag", good_streams(), storage)
+    suffix = ".db3" if storage == "sqlite3" else ".mcap"
+    shutil.copy(bag / f"bag{suffix}", bag / f"bag_1{suffix}")  # a split file copied in
+    (bag / "bag.db3-wal").write_bytes(b"")  # sqlite's journal: no storage file
+    (bag / "notes.txt").write_text("mine\n")
+    info = inspect_log(bag)
+    assert info["reading"]["unlisted_files"] == [f"bag_1{suffix}"]
+    assert "metadata.yaml does not list (their messages are not read" in format_inspection(info)
+    notes: dict[str, Any] = {}
+    load_signals(
+        bag,
+        SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
+        ReadOptions(maps=("u=/u.data", "y=/y.data")),
+        notes=notes,
+    )
+    assert notes["unlisted_files"] == [f"bag_1{suffix}"]
+    assert [n for n in log_reading_notes(notes) if "does not list" in n] == [
+        "WARNING: the bag folder holds storage files its metadata.yaml does not list, whose "
+        f"messages are not read: bag_1{suffix} (list them in metadata.yaml, or analyse each "
+        "file itself)"
+    ]
+    (bag / f"bag_1{suffix}").unlink()
+    assert "unlisted_files" not in inspect_log(bag)["reading"]
