@@ -98,6 +98,7 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_name,
     check_file_target,
+    check_followable,
     edited_files,
     is_ours,
     output_path,
@@ -1150,6 +1151,7 @@ def _plan(
     )
     gates = gates_for(model, [prepared], fail_under, fail_over)
     check_table_format(table_format)
+    check_followable(out_dir)  # as given: output_path takes log.csv/../out for ./out
     root = output_path(out_dir)
     names = folder_names(paths, searched)
     summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
