@@ -749,6 +749,38 @@ def _check_not_part(path: Path) -> None:
         )
 
 
+def check_outside_batch(target: PathLike) -> None:
+    """Refuse an ``analyze`` or ``compare`` folder inside a batch folder.
+
+    A batch folder's summaries (summary.md/.csv/.png, the JUnit file) give each log's
+    numbers and name its report folder; ``analyze --out nightly/run.csv --force`` replaced
+    that report with one of other settings (another log, other options), so the summaries
+    gave numbers no report held, and :func:`_check_not_part`, which keeps a comparison's
+    reports so, does not see a batch folder (its marker lists no files).  A batch folder is
+    the nearest folder above with hybridlog's :data:`MARKER`, listing no files, beside a
+    summary.csv hybridlog recorded (:func:`record_file`).
+
+    Raises
+    ------
+    OutputError
+        Naming the output folder and the batch folder.
+    """
+    path = output_path(target)
+    for parent in path.parents:
+        try:
+            if not (parent / MARKER).is_file():
+                continue
+        except OSError:  # a folder above that cannot be searched holds no marker we read
+            continue
+        if recorded_files(parent) is None and record_path(parent / "summary.csv").is_file():
+            raise OutputError(
+                f"output directory {_shown(target)} is inside the batch folder "
+                f"{_shown(parent)}, whose summaries name its reports; run the batch again, "
+                "or choose another output directory"
+            )
+        return
+
+
 def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
     """Refuse to replace ``path`` if it holds anything besides ``written``.
 
