@@ -563,6 +563,37 @@ def _present(path: Path) -> bool:
     return True
 
 
+def check_followable(target: PathLike) -> None:
+    """Refuse an output path, as given, that runs through a file: ``run.csv/../out``.
+
+    :func:`output_path` resolves the folder part as :func:`os.path.realpath` does, which
+    takes ``run.csv/..`` for ``run.csv``'s folder; the system refuses such a path (a file
+    is no folder to go up from), so the outputs went to ``./out`` while the command printed
+    ``run.csv/../out/report.md``, a path nobody could open.  A missing folder is no error
+    here (:func:`check_creatable` tells what can be made).
+
+    Raises
+    ------
+    OutputError
+        Naming the path and the part of it that is not a folder.
+    """
+    text = os.fspath(target)
+    folder = text
+    steps: list[str] = []
+    while (parent := os.path.dirname(folder.rstrip(os.sep)) or "") not in ("", folder):
+        steps.append(parent)
+        folder = parent
+    for step in reversed(steps):  # outermost first, as the system follows the path
+        try:
+            status = os.stat(step)
+        except (OSError, ValueError):  # missing (made later) or unusable: told later
+            return
+        if not stat.S_ISDIR(status.st_mode):
+            raise OutputError(
+                f"{_shown(target)}: cannot be created: {_shown(step)} is not a folder"
+            )
+
+
 def check_creatable(target: Path) -> None:
     """Refuse an output path that cannot be created or replaced, before any work is done.
 
@@ -640,6 +671,7 @@ def check_dir_target(
         (without ``force``), holds files hybridlog did not write, or is part of another
         output hybridlog wrote.
     """
+    check_followable(target)
     path = output_path(target)
     if path.parent == path:
         raise OutputError(f"output directory {_shown(target)} cannot be replaced")
@@ -715,6 +747,38 @@ def _check_not_part(path: Path) -> None:
             "wrote (its tables name what it holds), so it is not written on its own; "
             "write the whole folder again, or choose another output directory"
         )
+
+
+def check_outside_batch(target: PathLike) -> None:
+    """Refuse an ``analyze`` or ``compare`` folder inside a batch folder.
+
+    A batch folder's summaries (summary.md/.csv/.png, the JUnit file) give each log's
+    numbers and name its report folder; ``analyze --out nightly/run.csv --force`` replaced
+    that report with one of other settings (another log, other options), so the summaries
+    gave numbers no report held, and :func:`_check_not_part`, which keeps a comparison's
+    reports so, does not see a batch folder (its marker lists no files).  A batch folder is
+    the nearest folder above with hybridlog's :data:`MARKER`, listing no files, beside a
+    summary.csv hybridlog recorded (:func:`record_file`).
+
+    Raises
+    ------
+    OutputError
+        Naming the output folder and the batch folder.
+    """
+    path = output_path(target)
+    for parent in path.parents:
+        try:
+            if not (parent / MARKER).is_file():
+                continue
+        except OSError:  # a folder above that cannot be searched holds no marker we read
+            continue
+        if recorded_files(parent) is None and record_path(parent / "summary.csv").is_file():
+            raise OutputError(
+                f"output directory {_shown(target)} is inside the batch folder "
+                f"{_shown(parent)}, whose summaries name its reports; run the batch again, "
+                "or choose another output directory"
+            )
+        return
 
 
 def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
@@ -825,6 +889,7 @@ def check_file_target(
         or it is not ``ours``, or cannot be created (:func:`check_creatable`).
     """
     check_file_name(target)
+    check_followable(target)
     path = output_path(target)
     check_creatable(path)
     if path.is_dir():

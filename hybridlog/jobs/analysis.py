@@ -54,7 +54,13 @@ from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
 from hybridlog.memory import check_fits, reserved
 from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.outputs import PathLike, atomic_output_dir, check_apart, check_dir_target
+from hybridlog.outputs import (
+    PathLike,
+    atomic_output_dir,
+    check_apart,
+    check_dir_target,
+    check_outside_batch,
+)
 from hybridlog.report import (
     Report,
     parse_gates,
@@ -726,6 +732,7 @@ def analyze(
     out_dir = Path(out_dir) if out_dir is not None else Path(f"{Path(log).stem}_{estimator}")
     check_apart([("--out", out_dir)], input_paths([log], model_ref, [prepared], read))
     check_dir_target(out_dir, force=force)
+    check_outside_batch(out_dir)
     check_table_format(table_format)
     gates = gates_for(model, [prepared], fail_under, fail_over)
     inputs = estimator_inputs(prepared, model)
@@ -956,6 +963,7 @@ def compare(
     reach = set_reach(model, prepared, overrides)
     check_apart([("--out", out_dir)], input_paths([log], model_ref, prepared, read))
     check_dir_target(out_dir, force=force)
+    check_outside_batch(out_dir)
     check_table_format(table_format)
     gates = gates_for(model, prepared, fail_under, fail_over)
     inputs = {p.name: estimator_inputs(p, model) for p in prepared}

@@ -98,6 +98,7 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_name,
     check_file_target,
+    check_followable,
     edited_files,
     is_ours,
     output_path,
@@ -802,6 +803,29 @@ def _remove_previous_report(job: BatchJob, outcome: LogOutcome) -> None:
         shutil.rmtree(aside, ignore_errors=True)
 
 
+def _remove_empty_parents(root: Path, outcome: LogOutcome) -> None:
+    """Remove the folders left empty above the report folder of a log that failed.
+
+    The folders that hold report folders (``d2/deep/`` for ``d2/deep/run.csv``) are made
+    before any log is read (:func:`_prepare_root`); a log that failed got no report folder,
+    and those made for it stayed in the batch folder, empty: an output of nothing, kept by
+    every later run.  Each is removed while empty, from the innermost up to (not including)
+    the batch folder; one holding anything (another log's report, a file) stops it.
+    """
+    if outcome.status != "failed":
+        return
+    folder = Path(outcome.folder)
+    try:
+        inside = folder.relative_to(root)
+    except ValueError:
+        return
+    for parent in list((root / inside).parents)[: len(inside.parts) - 1]:
+        try:
+            parent.rmdir()
+        except OSError:  # not empty (or not a folder, or gone): the folders above hold it
+            return
+
+
 def _remove_temporaries_left(folders: Sequence[Path], workers: Sequence[int]) -> None:
     """Remove what the ended ``workers`` (process ids) left in ``folders``, and dead processes'.
 
@@ -1025,9 +1049,10 @@ def run_batch(
                     outcomes.append(analyze_log(*task))
                     if progress is not None:
                         progress(outcomes[-1])
+        root = output_path(out_dir)
         for outcome in outcomes:
             _remove_previous_report(job, outcome)
-        root = output_path(out_dir)
+            _remove_empty_parents(root, outcome)
         others = other_report_folders(root, [Path(o.folder) for o in outcomes])
         summary = _summarise(root, model, job, gates, outcomes, junit, others)
         if others:
@@ -1126,6 +1151,7 @@ def _plan(
     )
     gates = gates_for(model, [prepared], fail_under, fail_over)
     check_table_format(table_format)
+    check_followable(out_dir)  # as given: output_path takes log.csv/../out for ./out
     root = output_path(out_dir)
     names = folder_names(paths, searched)
     summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]

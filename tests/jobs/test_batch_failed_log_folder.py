@@ -12,7 +12,10 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch import run_batch
 from tests.jobs.test_batch_resume_intact import _logs, _statuses
+from tests.support.logfiles import tank_run
 
 
 def test_a_log_that_fails_now_loses_its_earlier_report(tmp_path: Path) -> None:
@@ -42,3 +45,31 @@ def test_an_earlier_report_holding_an_edit_is_kept(tmp_path: Path) -> None:
     assert _statuses(logs, out)["s2.csv"] == "failed"
 
     assert notes.read_text(encoding="utf-8").endswith("my notes\n")
+
+
+def test_a_failed_log_leaves_no_empty_folder_above_its_report(tmp_path: Path) -> None:
+    # logs/d2/deep/bad.csv failed: out/d2/deep/ was made for its report and stayed, empty
+    logs = tmp_path / "logs"
+    good = write_table(logs / "d1" / "good.csv", tank_run(steps=30, seed=1).columns)
+    (logs / "d2" / "deep").mkdir(parents=True)
+    bad = logs / "d2" / "deep" / "bad.csv"
+    bad.write_text("t,unrelated\n0,1\n", encoding="utf-8")
+    (logs / "d3").mkdir()
+    other = write_table(logs / "d3" / "ok.csv", tank_run(steps=30, seed=2).columns)
+    (logs / "d3" / "bad.csv").write_text("t,unrelated\n0,1\n", encoding="utf-8")
+    out = tmp_path / "out"
+
+    outcome = run_batch([logs], "three_tank_hstf", out_dir=out, estimator="imm")
+
+    statuses = {Path(o.log).relative_to(logs).as_posix(): o.status for o in outcome.logs}
+    assert statuses == {
+        "d1/good.csv": "done",
+        "d2/deep/bad.csv": "failed",
+        "d3/bad.csv": "failed",
+        "d3/ok.csv": "done",
+    }
+    assert not (out / "d2").exists()
+    assert (out / "d1" / "good.csv" / "report.json").is_file()
+    assert (out / "d3" / "ok.csv" / "report.json").is_file()  # a folder holding a report stays
+    assert not (out / "d3" / "bad.csv").exists()
+    assert good.is_file() and other.is_file()

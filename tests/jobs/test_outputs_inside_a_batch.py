@@ -1,0 +1,48 @@
+"""``analyze`` and ``compare`` do not write into a batch folder, whose summaries name its reports.
+
+``analyze run.csv --out nightly/s1.csv --force`` replaced the batch's report of ``s1.csv``
+with one of another log (or other settings): summary.md/.csv and the JUnit file then gave
+numbers that no report in the folder held.  A comparison's reports were kept so already
+(``_check_not_part``); a batch folder, whose marker lists no files, was not.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from hybridlog.errors import OutputError
+from hybridlog.io.writers import write_table
+from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.batch import run_batch
+from hybridlog.outputs import check_outside_batch
+from tests.support.logfiles import tank_run
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("batch")
+    log = write_table(root / "logs" / "s1.csv", tank_run(steps=30, seed=1).columns)
+    run_batch([log], "three_tank_hstf", out_dir=root / "out", estimator="imm")
+    return root
+
+
+def test_analyze_into_a_batch_report_is_refused_and_it_stays(batch: Path) -> None:
+    report = batch / "out" / "s1.csv" / "report.json"
+    before = report.read_bytes()
+    other = write_table(batch / "other.csv", tank_run(steps=20, seed=2).columns)
+    with pytest.raises(OutputError, match=r"is inside the batch folder .*out, whose summaries"):
+        analyze(other, "three_tank_hstf", out_dir=batch / "out" / "s1.csv", force=True)
+    with pytest.raises(OutputError, match=r"is inside the batch folder"):
+        compare(other, "three_tank_hstf", ["imm", "hstf"], out_dir=batch / "out" / "cmp")
+    assert report.read_bytes() == before
+    assert not (batch / "out" / "cmp").exists()
+
+
+def test_folders_beside_or_without_summaries_are_not_a_batch(batch: Path, tmp_path: Path) -> None:
+    check_outside_batch(batch / "elsewhere")
+    copy = tmp_path / "copy"
+    shutil.copytree(batch / "out", copy, ignore=shutil.ignore_patterns("*summary*"))
+    check_outside_batch(copy / "s1.csv")  # no summaries: nothing names its reports
