@@ -556,9 +556,17 @@ def test_a_components_model_too_large_to_enumerate_is_refused_before_reading():
         assert "\n" not in str(caught.value)
 
 
-def test_a_model_of_many_modes_runs_on_the_compiled_loops():
+@pytest.mark.parametrize(
+    ("name", "sets"),
+    [("imm", {"smooth": "true"}), ("imm", {"mode_sequence": "kbest"}), ("hstf", {})],
+    ids=["imm-smooth", "imm-kbest", "hstf"],
+)
+def test_a_model_of_many_modes_runs_on_the_compiled_loops(name: str, sets: dict[str, str]):
     """30 modes: straight-line code took minutes to compile, then overflowed the recursion
-    limit (an unexpected RecursionError); beyond MAX_UNROLLED_MODES the loops run it."""
+    limit (an unexpected RecursionError); beyond MAX_UNROLLED_MODES the loops run it.
+
+    One case a test: each compiles generic loops of its own (a minute or two each in a cold
+    cache), which the test workers then compile side by side."""
     from hybridlog.estimators.unrolled import MAX_UNROLLED_MODES, fits_unrolled
 
     modes = "".join(
@@ -573,10 +581,5 @@ def test_a_model_of_many_modes_runs_on_the_compiled_loops():
     )
     assert model.n_modes > MAX_UNROLLED_MODES and not fits_unrolled(model)
     signals = simulate(model, steps=60, seed=1).signals(model)
-    for name, sets in (
-        ("imm", {"smooth": "true"}),
-        ("imm", {"mode_sequence": "kbest"}),
-        ("hstf", {}),
-    ):
-        result = prepare(model, name, sets).run(model, signals)
-        assert result.n_samples == signals.n_samples and np.isfinite(result.state_means).all()
+    result = prepare(model, name, sets).run(model, signals)
+    assert result.n_samples == signals.n_samples and np.isfinite(result.state_means).all()
