@@ -716,14 +716,19 @@ def check_dir_target(
     return path
 
 
-def _enclosing_output(path: Path) -> Path | None:
-    """The folder above ``path`` whose :data:`MARKER` lists files in ``path``, or None."""
+def _marked_folders_above(path: Path) -> Iterator[Path]:
+    """The folders above ``path`` that hold hybridlog's :data:`MARKER`, nearest first."""
     for parent in path.parents:
         try:
-            if not (parent / MARKER).is_file():
-                continue
+            if (parent / MARKER).is_file():
+                yield parent
         except OSError:  # a folder above that cannot be searched holds no marker we read
             continue
+
+
+def _enclosing_output(path: Path) -> Path | None:
+    """The folder above ``path`` whose :data:`MARKER` lists files in ``path``, or None."""
+    for parent in _marked_folders_above(path):
         inside = path.relative_to(parent).as_posix() + "/"
         if any(name.startswith(inside) for name in recorded_files(parent) or ()):
             return parent
@@ -766,12 +771,7 @@ def check_outside_batch(target: PathLike) -> None:
         Naming the output folder and the batch folder.
     """
     path = output_path(target)
-    for parent in path.parents:
-        try:
-            if not (parent / MARKER).is_file():
-                continue
-        except OSError:  # a folder above that cannot be searched holds no marker we read
-            continue
+    for parent in _marked_folders_above(path):
         if recorded_files(parent) is None and record_path(parent / "summary.csv").is_file():
             raise OutputError(
                 f"output directory {_shown(target)} is inside the batch folder "
