@@ -755,7 +755,7 @@ def _check_not_part(path: Path) -> None:
 
 
 def check_outside_batch(target: PathLike) -> None:
-    """Refuse an ``analyze`` or ``compare`` folder inside a batch folder.
+    """Refuse to replace an ``analyze`` or ``compare`` folder inside a batch folder.
 
     A batch folder's summaries (summary.md/.csv/.png, the JUnit file) give each log's
     numbers and name its report folder; ``analyze --out nightly/run.csv --force`` replaced
@@ -763,7 +763,9 @@ def check_outside_batch(target: PathLike) -> None:
     gave numbers no report held, and :func:`_check_not_part`, which keeps a comparison's
     reports so, does not see a batch folder (its marker lists no files).  A batch folder is
     the nearest folder above with hybridlog's :data:`MARKER`, listing no files, beside a
-    summary.csv hybridlog recorded (:func:`record_file`).
+    summary.csv hybridlog recorded (:func:`record_file`).  A new folder there replaces
+    nothing the summaries name (the next batch lists it among the folders it did not write),
+    so ``analyze`` in a working folder that is also a batch's output still writes its own.
 
     Raises
     ------
@@ -771,6 +773,8 @@ def check_outside_batch(target: PathLike) -> None:
         Naming the output folder and the batch folder.
     """
     path = output_path(target)
+    if not os.path.lexists(path):
+        return
     for parent in _marked_folders_above(path):
         if recorded_files(parent) is None and record_path(parent / "summary.csv").is_file():
             raise OutputError(

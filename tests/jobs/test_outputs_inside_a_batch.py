@@ -36,9 +36,13 @@ def test_analyze_into_a_batch_report_is_refused_and_it_stays(batch: Path) -> Non
     with pytest.raises(OutputError, match=r"is inside the batch folder .*out, whose summaries"):
         analyze(other, "three_tank_hstf", out_dir=batch / "out" / "s1.csv", force=True)
     with pytest.raises(OutputError, match=r"is inside the batch folder"):
-        compare(other, "three_tank_hstf", ["imm", "hstf"], out_dir=batch / "out" / "cmp")
+        compare(other, "three_tank_hstf", ["imm", "hstf"], out_dir=report.parent, force=True)
     assert report.read_bytes() == before
-    assert not (batch / "out" / "cmp").exists()
+
+
+def test_a_new_folder_inside_a_batch_folder_replaces_nothing(batch: Path) -> None:
+    """``batch --out .`` then ``analyze`` there: its default folder is new, and written."""
+    check_outside_batch(batch / "out" / "s1_imm")
 
 
 def test_folders_beside_or_without_summaries_are_not_a_batch(batch: Path, tmp_path: Path) -> None:
