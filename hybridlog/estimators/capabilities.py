@@ -41,6 +41,14 @@ STEP_FROM_NOTE = (
 """What an estimator with :attr:`Capabilities.modes_of_the_step_into` does on a state-driven
 model: its report's note and its line in ``docs/estimators.md``."""
 
+STEP_INTO_OUTPUTS_WARNING = (
+    "WARNING: state-driven model whose output equations differ by mode: y(k) follows the mode "
+    "of the step from x(k) (paper 001 eq. (1)), this estimator weighs it with that of the step "
+    "into x(k) (paper 000 eq. (2)): switches found late or missed, large innovations there"
+)
+"""Said with :data:`STEP_FROM_NOTE` where the modes' ``h`` differ (a mode-dependent sensor
+map): the moved modes do not make up for the output equation the filter applied."""
+
 
 @dataclass(frozen=True)
 class Capabilities:

@@ -22,11 +22,16 @@ from __future__ import annotations
 import contextlib
 import importlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, cast
 
 from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError, excerpt
-from hybridlog.estimators.capabilities import STEP_FROM_NOTE, Capabilities, ModelTraits
+from hybridlog.estimators.capabilities import (
+    STEP_FROM_NOTE,
+    STEP_INTO_OUTPUTS_WARNING,
+    Capabilities,
+    ModelTraits,
+)
 from hybridlog.estimators.footprint import MODE_BYTES, REPORT_FACTOR, Parts, result_bytes
 from hybridlog.estimators.options import (
     OptionInfo,
@@ -179,7 +184,12 @@ class Estimator:
                 "",
                 f"{self.summary}. Source: {self.source}. Needs: "
                 f"{', '.join(self.capabilities.needs())}."
-                + (f" On a {STEP_FROM_NOTE}." if self.capabilities.modes_of_the_step_into else ""),
+                + (
+                    f" On a {STEP_FROM_NOTE}; where its modes' output equations differ, the "
+                    "report warns that the filter applied those of the step into x(k)."
+                    if self.capabilities.modes_of_the_step_into
+                    else ""
+                ),
                 "",
                 "| option | type | default | range | help |",
                 "|---|---|---|---|---|",
@@ -504,6 +514,8 @@ class Prepared:
         self._vouch(model, signals, result)
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
+            if model.outputs_differ_by_mode:
+                result = replace(result, notes=(*result.notes, STEP_INTO_OUTPUTS_WARNING))
         return self._with_component_modes(model, result)
 
     def _with_component_modes(
@@ -517,8 +529,6 @@ class Prepared:
         """
         if not (model.has_components and self.estimator.capabilities.enumerates_components):
             return result
-        import dataclasses
-
         from hybridlog.estimators.cpha.joint import component_mode_columns, unapplied_rules_note
 
         note = unapplied_rules_note(model, self.estimator.name)
@@ -528,15 +538,15 @@ class Prepared:
         if post is not None:  # the filter's own modes, which the report compares with these
             filtered = post.filtered
             own = component_mode_columns(model, filtered.modes)
-            post = dataclasses.replace(
+            post = replace(
                 post,
-                filtered=dataclasses.replace(
+                filtered=replace(
                     filtered,
                     timeline_columns=(*filtered.timeline_columns, *own),
                     notes=(*filtered.notes, *notes),
                 ),
             )
-        return dataclasses.replace(
+        return replace(
             result,
             timeline_columns=(*result.timeline_columns, *columns),
             post_processing=post,

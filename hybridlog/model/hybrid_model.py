@@ -491,6 +491,26 @@ class HybridModel:
         return any(m.has_guard for m in self.modes)
 
     @property
+    def outputs_differ_by_mode(self) -> bool:
+        """True when some modes' output equations ``h`` differ.
+
+        Compared as matrices (``C``, ``D`` and the offset) where every mode is affine, so a
+        large linear model builds no expressions; as expressions otherwise.
+        """
+        forms = [m.linear_form for m in self.modes]
+        if all(form is not None for form in forms):
+            first, *others = [f for f in forms if f is not None]
+            return any(
+                not (
+                    np.array_equal(f.C, first.C)
+                    and np.array_equal(f.D, first.D)
+                    and np.array_equal(f.output_offset, first.output_offset)
+                )
+                for f in others
+            )
+        return len({tuple(m.h) for m in self.modes}) > 1
+
+    @property
     def is_continuous(self) -> bool:
         """True for a continuous-time model (``time = "continuous"``)."""
         return self.timebase.is_continuous
