@@ -60,6 +60,7 @@ class SlidingModeOptions:
         "largest share of samples whose σ̂ Lemma 1 cannot vouch for (33) before a refusal "
         "(1: never)",
         range=(0.0, 1.0),
+        above=True,  # 0 never passes: the first samples are never vouched for
     )
 
     @classmethod
