@@ -307,6 +307,8 @@ def stored_classifier(
     classifier = _unlabelled(
         algorithm, spec, names, entry.centers, stored.lower, stored.upper, notes, {}, outputs
     )
+    beyond = _beyond_the_fitted_range(classifier, outputs, named)
+    classifier = dataclasses.replace(classifier, notes=(*classifier.notes, *beyond))
     if entry.modes is None:
         return classifier
     modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
@@ -314,6 +316,51 @@ def stored_classifier(
     return classifier.labelled(
         modes, (f"labels loaded from {named}", *cluster_notes(modes, sizes, mode_ids))
     )
+
+
+_FAR = 1.0
+"""How far beyond the fitted range, in widths of that range, a decision is a WARNING."""
+
+
+def _beyond_the_fitted_range(
+    classifier: ModeClassifier, outputs: FloatArray, source: str
+) -> tuple[str, ...]:
+    """A note where ``outputs`` leave the range of ``y(k)`` the stored centres were fitted on.
+
+    The centres of a file hold only the box (``scaling``) of the log they were fitted on;
+    eqs. (2)-(3) decide every sample by its nearest centre however far from that box it
+    lies (centres fitted on a cart moving ±1 m decided a log in micrometres, 10^6 times
+    larger, without a word).  The note counts the samples with a measured ``y(k)`` outside
+    the box and names the farthest; it is a WARNING where that one lies more than the box's
+    own width beyond it (:data:`_FAR`): the decision there is an extrapolation.  Nothing
+    when every measured ``y(k)`` is inside.
+    """
+    columns = list(classifier.decision_columns)
+    lower, upper = classifier.lower[columns], classifier.upper[columns]
+    span = upper - lower
+    with np.errstate(invalid="ignore"):  # NaN: not measured, never outside
+        excess = np.maximum(np.maximum(lower - outputs, outputs - upper), 0.0)
+        excess = np.where(np.isnan(outputs), 0.0, excess)
+    outside = np.any(excess > 0.0, axis=1)
+    count = int(np.count_nonzero(outside))
+    if count == 0:
+        return ()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        widths = np.where(excess > 0.0, excess / np.where(span > 0, span, 0.0), 0.0)
+    row, column = np.unravel_index(int(np.argmax(widths)), widths.shape)
+    far = float(widths[row, column])
+    name = classifier.regressors[columns[column]]
+    measured = int(np.count_nonzero(np.any(~np.isnan(outputs), axis=1)))
+    times = "a constant in the file" if span[column] == 0 else f"{far:.3g} times its width"
+    note = (
+        f"{count:,} of {measured:,} samples have y(k) outside the range the centres of "
+        f"{source} were fitted on (its scaling); farthest {name} = "
+        f"{float(outputs[row, column]):.6g} at sample {int(row):,}, beyond "
+        f"[{float(lower[column]):.6g}, {float(upper[column]):.6g}] by {times}: the "
+        "nearest-centre decision (eqs. (2)-(3)) extrapolates there (another sensor scale, "
+        "operating point or plant than the centres'?)"
+    )
+    return (f"WARNING: {note}" if far > _FAR else note,)
 
 
 def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArray:

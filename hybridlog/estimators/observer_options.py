@@ -141,6 +141,7 @@ class ChiuOptions(ObserverOptions):
         "rejection ratio ε₂ of a new centre; below accept",
         range=(0.0, 1.0),
         above=True,
+        below=True,  # below accept <= 1: 1 never passes
     )
     self_potential: bool = option(
         True, "count each point in its own potential (false: eq. (5) as printed)"

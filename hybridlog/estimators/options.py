@@ -112,6 +112,7 @@ def option(
     *,
     range: tuple[float, float] | None = None,
     above: bool = False,
+    below: bool = False,
     check: Callable[[Any], object] | None = None,
     path: bool = False,
 ) -> T:
@@ -129,6 +130,10 @@ def option(
     above:
         The low bound itself is excluded: the value must be above it (``(1, 100]``), as
         ``--help``, the docs and the refusal then say.
+    below:
+        The high bound itself is excluded: the value must be below it (``(0, 1)``); for a
+        bound no value can reach (a threshold that decides nothing at 1, a ratio that must
+        stay below another at most 1), so that the range shown is the one that passes.
     check:
         Checks a value beyond its type and range (raising ``ValueError`` with the reason),
         when the options are parsed: before any log is read, the error naming where the
@@ -142,8 +147,9 @@ def option(
     if range is not None:
         metadata["range"] = range
         metadata["above"] = above
-    elif above:
-        raise TypeError("above= needs a range")
+        metadata["below"] = below
+    elif above or below:
+        raise TypeError("above= and below= need a range")
     if check is not None:
         metadata["check"] = check
     field: T = dataclasses.field(default=default, metadata=metadata)
@@ -539,7 +545,8 @@ def _check(value: Any, kind: _Kind, field: dataclasses.Field[Any]) -> Any:
     bounds = field.metadata.get("range")
     if bounds is not None:
         low = value > bounds[0] if field.metadata["above"] else value >= bounds[0]
-        if not (low and value <= bounds[1]):
+        high = value < bounds[1] if field.metadata["below"] else value <= bounds[1]
+        if not (low and high):
             raise ValueError(f"{shown(value)} is outside {interval(field)}")
     check = field.metadata.get("check")
     if check is not None:
@@ -601,9 +608,14 @@ def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
 
 
 def interval(field: dataclasses.Field[Any]) -> str:
-    """The range of a ranged option as written: ``[0, 1]``, or ``(1, 100]`` made with ``above``."""
+    """The range of a ranged option as written: ``[0, 1]``, ``(1, 100]`` or ``(0, 1)``.
+
+    A round bracket is a bound excluded (``above``, ``below`` of :func:`option`).
+    """
     low, high = field.metadata["range"]
-    return f"{'(' if field.metadata['above'] else '['}{shown(low)}, {shown(high)}]"
+    opening = "(" if field.metadata["above"] else "["
+    closing = ")" if field.metadata["below"] else "]"
+    return f"{opening}{shown(low)}, {shown(high)}{closing}"
 
 
 def shown(value: object) -> str:

@@ -359,6 +359,10 @@ def _refuse_unvouched(
     left out of the share and marked vouched in the timeline, so a log whose ``D`` was
     singular on 7,401 of 8,001 samples ran to exit 0 with a held σ̂ "vouched" on all but 36.
 
+    The first window of the log is never vouched for (``unvouched``): a ``largest`` below its
+    share refuses every log of this length, and says so (``max_unvouched = 0.001`` on TEST 1
+    blamed the model, its noise or V_M for 205 unvouched samples, 20 of them unavoidable).
+
     Raises
     ------
     DivergenceError
@@ -376,6 +380,15 @@ def _refuse_unvouched(
             f"{largest:g}): the log is too short for the observer to slide and show it (its "
             f"first {window} samples, {SLIP_WINDOW_S:g} s, are its initial σ̂ = 0 before the "
             f"slip D⁺ė can be measured); a log of more than {2 * window} samples is needed"
+        )
+    if largest * n_samples < window:
+        raise DivergenceError(
+            f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
+            f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = "
+            f"{largest:g}), and would not on any log of {n_samples:,} samples: its first "
+            f"{window} samples ({SLIP_WINDOW_S:g} s, {100 * window / n_samples:.2g} %) are "
+            "never vouched for (σ̂ is the observer's initial 0 before the slip D⁺ė can be "
+            f"measured); give max_unvouched = {window / n_samples:.2g} or more"
         )
     held = int(singular.sum())
     if held:

@@ -14,27 +14,7 @@ from hybridlog.estimators.options import option
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["SlidingModeOptions", "inside_the_unit_interval"]
-
-
-def inside_the_unit_interval(value: float) -> None:
-    r"""Refuse a threshold of eq. (32) at 0 or 1: it decides nothing.
-
-    Thresholding at ``τ`` is right wherever :math:`|\tilde\delta_j - \delta_j|` is below
-    ``τ`` (for :math:`\delta_j = 0`) and ``1 - τ`` (for 1), Lemma 1's margin (33) being 0.5 at
-    ``τ = 0.5``; at ``τ = 0`` or 1 that margin is zero, and :math:`\hat\delta_j` follows the
-    chattering of :math:`\tilde\delta_j` around 0 (or 1): half of the bits at random.
-
-    Raises
-    ------
-    ValueError
-        For 0 or 1.
-    """
-    if not 0.0 < value < 1.0:
-        raise ValueError(
-            f"{value:g} leaves no margin (Lemma 1 needs |δ̃ - δ| below the threshold and 1 "
-            "minus it): it must lie strictly between 0 and 1 (the paper's is 0.5)"
-        )
+__all__ = ["SlidingModeOptions"]
 
 
 @dataclass(frozen=True)
@@ -70,15 +50,17 @@ class SlidingModeOptions:
     )
     threshold: float = option(
         0.5,
-        "threshold of eq. (32): δ̂_j = 1 where δ̃_j exceeds it; strictly between 0 and 1",
+        "threshold of eq. (32): δ̂_j = 1 where δ̃_j exceeds it (Lemma 1's margin: min(τ, 1−τ))",
         range=(0.0, 1.0),
-        check=inside_the_unit_interval,
+        above=True,
+        below=True,
     )
     max_unvouched: float = option(
         0.5,
         "largest share of samples whose σ̂ Lemma 1 cannot vouch for (33) before a refusal "
         "(1: never)",
         range=(0.0, 1.0),
+        above=True,  # 0 never passes: the first samples are never vouched for
     )
 
     @classmethod

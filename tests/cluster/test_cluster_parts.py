@@ -632,3 +632,34 @@ def test_centres_of_an_edited_model_are_refused_naming_what_differs(tmp_path, ol
     check_centers(fine, options, centers=centers)
     with pytest.raises(OptionError, match=r"^(centers=)?mem.json: " + message):
         check_centers(load_model(str(path)), options, centers=centers)
+
+
+def test_stored_centres_say_where_the_log_leaves_the_range_they_were_fitted_on():
+    # Centres fitted on a cart moving ±1 m decided a log recorded in micrometres (10^6
+    # times larger) by the nearest centre without a word: report.md said 93 % mode accuracy
+    # and nothing of the extrapolation.  A log slightly outside is a note, one far outside
+    # (beyond the range's own width) a WARNING, one inside nothing.
+    y, _ = _two_blobs()  # inside the file's scaling [-0.5, 4.5]
+    spec = RegressorSpec(output_lags=(0,), input_lags=())
+    stored = parse_centers(centers_json(_STORED), "mem.json")
+
+    def notes(outputs):
+        found = stored_classifier(
+            stored, "chiu", spec, outputs, names=["y(k)"], mode_ids=["a", "b"], source="m.json"
+        )
+        return found.notes[1:]
+
+    assert notes(y) == ()
+    slightly = y.copy()
+    slightly[[10, 200]] = [[-1.0], [np.nan]]  # 0.1 of the width below; NaN: not measured
+    (note,) = notes(slightly)
+    assert note.startswith(
+        "1 of 299 samples have y(k) outside the range the centres of m.json were fitted on "
+        "(its scaling); farthest y(k) = -1 at sample 10, beyond [-0.5, 4.5] by 0.1 times its "
+        "width: the nearest-centre decision (eqs. (2)-(3)) extrapolates there"
+    )
+    (warning,) = notes(y * 1e6)
+    assert warning.startswith("WARNING: 300 of 300 samples have y(k) outside the range")
+    top = float(y.max()) * 1e6
+    assert f"farthest y(k) = {top:.6g} at sample {int(y.argmax())}," in warning
+    assert f"by {(top - 4.5) / 5:.3g} times its width" in warning

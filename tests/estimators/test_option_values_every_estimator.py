@@ -19,7 +19,7 @@ from hybridlog.estimators.filter_options import HstfOptions
 from hybridlog.estimators.hybrid_observer_options import SwitchingObserverOptions
 from hybridlog.estimators.observer_options import ChiuOptions
 from hybridlog.estimators.options import OptionSource, describe_options, parse_options
-from hybridlog.estimators.registry import resolve_estimator
+from hybridlog.estimators.registry import ESTIMATORS, resolve_estimator
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import parse_model
 from tests.support.cli import run_main
@@ -70,7 +70,7 @@ def test_a_number_a_double_cannot_hold_is_said_so_on_the_command_line(text):
             CART,
             "chiu",
             "reject = 0",
-            "estimators.chiu.reject: chiu option 'reject': 0 is outside (0, 1]",
+            "estimators.chiu.reject: chiu option 'reject': 0 is outside (0, 1)",
         ),
     ],
 )
@@ -173,3 +173,37 @@ def test_the_largest_value_the_documented_range_shows_is_taken():
     (info,) = [i for i in describe_options(SwitchingObserverOptions) if i.name == "condition_limit"]
     high = info.constraint.split(", ")[1].rstrip("]")
     assert _set(SwitchingObserverOptions, "condition_limit", high).condition_limit == float(high)
+
+
+PARTNERS = {("unknown-mode", "candidates"): {"beam": "1"}}
+"""A bound that passes only with another option given (candidates >= beam)."""
+
+
+def _bounds():
+    for name, estimator in ESTIMATORS.items():
+        for info in describe_options(estimator.options_type):
+            if info.constraint:
+                yield name, estimator.options_type, info
+
+
+@pytest.mark.parametrize(
+    ("estimator", "cls", "info"),
+    [pytest.param(*bound, id=f"{bound[0]}.{bound[2].name}") for bound in _bounds()],
+)
+def test_a_bound_the_range_shows_as_included_is_taken_and_an_excluded_one_refused(
+    estimator, cls, info
+):
+    # sliding-mode's threshold showed [0, 1] and chiu's reject (0, 1] while threshold = 0 or 1
+    # and reject = 1 (never below accept <= 1) were always refused: the range shown is the
+    # one that passes, an end shown with a round bracket the one refused as outside it.
+    interval = info.constraint.removeprefix("in ")
+    low, high = interval[1:-1].split(", ")
+    partners = PARTNERS.get((estimator, info.name), {})
+    for text, included in ((low, interval[0] == "["), (high, interval[-1] == "]")):
+        values = {**partners, info.name: text}
+        sources = {key: OptionSource.command_line("--set", key, v) for key, v in values.items()}
+        if included:
+            parse_options(cls, values, estimator=estimator, sources=sources)
+        else:
+            with pytest.raises(OptionError, match=f"'{info.name}': {text} is outside "):
+                parse_options(cls, values, estimator=estimator, sources=sources)

@@ -274,12 +274,12 @@ def test_a_threshold_that_leaves_no_margin_is_refused(threshold):
     with pytest.raises(
         OptionError,
         match=r"^--set threshold=.*: sliding-mode option "
-        r"'threshold': .* leaves no margin .* strictly between 0 and 1",
+        r"'threshold': [01] is outside \(0, 1\)$",
     ):
         prepare(model, None, {"threshold": threshold})
     text = f"{VALVES}threshold = {threshold}\n"  # the last table: [estimators.sliding-mode]
     with pytest.raises(
-        ModelError, match=r"^v\.toml: estimators\.sliding-mode\.threshold: .* no margin"
+        ModelError, match=r"^v\.toml: estimators\.sliding-mode\.threshold: .* is outside \(0, 1\)"
     ):
         prepare(parse_model(text, origin="v.toml"), None)
     for inside in (1e-3, 0.999):
@@ -457,3 +457,25 @@ def test_a_column_of_d_past_the_square_root_of_float64_does_not_overflow_eq_30(t
     # z slides onto the measured levels whatever D says: the notes tell VAF is no model check
     np.testing.assert_allclose(huge.state_means, plain.state_means, rtol=1e-12)
     assert any("not whether the model or σ̂ is right" in note for note in huge.notes)
+
+
+def test_a_max_unvouched_no_log_can_meet_is_said_so(test1):
+    # The first 20 samples (0.02 s) are never vouched for (no slip measured yet): 0 was in
+    # the documented range [0, 1] and, like any share below 20 samples, refused every log,
+    # blaming "the model ..., or its noise, disturbance or V_M".  0 is now outside (0, 1];
+    # a share below the first window's says that no log of this length passes, and the least.
+    model, log = test1
+    signals = log.signals(model)
+    n = signals.n_samples
+    with pytest.raises(OptionError, match=r"'max_unvouched': 0 is outside \(0, 1\]$"):
+        prepare(model, None, {"max_unvouched": 0.0})
+    with pytest.raises(DivergenceError) as caught:
+        prepare(model, None, {"max_unvouched": 19 / n}).run(model, signals)
+    message = str(caught.value)
+    assert f"and would not on any log of {n:,} samples: its first 20 samples (0.02 s" in message
+    assert message.endswith(f"give max_unvouched = {20 / n:.2g} or more")
+    assert "does not explain the log" not in message
+    # at the least share the same run is judged on its own samples as before
+    with pytest.raises(DivergenceError, match=UNVOUCHED) as caught:
+        prepare(model, None, {"max_unvouched": 20 / n}).run(model, signals)
+    assert "would not on any log" not in str(caught.value)
