@@ -105,6 +105,14 @@ FADED_LIKELIHOOD_NOTE = (
 )
 """Why the paper-faithful HSTF underperforms, shown in every report of it (one sentence)."""
 
+UNIFORM_PREDICTION_NOTE = (
+    "ŷ(k), of which MSE, VAF and fit are computed, is the paper's one-step prediction under "
+    "the uniform mode prediction Pr(q(k) = i | Y^(k-1)) = 1/n_q (eqs. (20)-(21)): the mean of "
+    "every mode's predicted output, not the estimated mode's, so where the modes' output "
+    "equations differ these metrics score that mean, low even where the modes are right"
+)
+"""Why the HSTF's output fit is low on a model whose ``h`` differs by mode (one sentence)."""
+
 
 class HstfSettings(NamedTuple):
     """The HSTF's own settings as its loops take them (from :class:`HstfOptions`)."""
@@ -306,14 +314,18 @@ def _settings(options: HstfOptions) -> HstfSettings:
     )
 
 
-def _noted(result: EstimationResult, options: HstfOptions) -> EstimationResult:
-    """``result`` with :data:`FADED_LIKELIHOOD_NOTE` where the likelihood is the faded one.
+def _noted(result: EstimationResult, options: HstfOptions, model: HybridModel) -> EstimationResult:
+    """``result`` with the notes that explain its numbers.
 
-    Not with ``fading = false``: λ_i = 1 fades nothing, and the note's 45 % is not this run's.
+    :data:`FADED_LIKELIHOOD_NOTE` where the likelihood is the faded one (not with ``fading =
+    false``: λ_i = 1 fades nothing, and the note's 45 % is not this run's), and
+    :data:`UNIFORM_PREDICTION_NOTE` where the modes' output equations differ.
     """
-    if options.fading and options.likelihood == "faded":
-        return replace(result, notes=(*result.notes, FADED_LIKELIHOOD_NOTE))
-    return result
+    notes = (
+        *((FADED_LIKELIHOOD_NOTE,) if options.fading and options.likelihood == "faded" else ()),
+        *((UNIFORM_PREDICTION_NOTE,) if model.outputs_differ_by_mode else ()),
+    )
+    return replace(result, notes=(*result.notes, *notes)) if notes else result
 
 
 def run_hstf(
@@ -373,7 +385,7 @@ def stream_hstf(
         store_covariances=store_covariances,
         rows=rows,
     )
-    return (_noted(chunk, options) for chunk in chunks)
+    return (_noted(chunk, options, model) for chunk in chunks)
 
 
 def generate_hstf_source(model: HybridModel, *, masked: bool = False) -> str:

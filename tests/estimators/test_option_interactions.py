@@ -15,7 +15,12 @@ import pytest
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.cpha.hypotheses import Tracker
 from hybridlog.estimators.cpha.options import UnknownModeOptions
-from hybridlog.estimators.hstf import FADED_LIKELIHOOD_NOTE, HstfOptions, run_hstf
+from hybridlog.estimators.hstf import (
+    FADED_LIKELIHOOD_NOTE,
+    UNIFORM_PREDICTION_NOTE,
+    HstfOptions,
+    run_hstf,
+)
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.options import OptionSource, option, parse_options
 from hybridlog.jobs.analysis import parse_sets, prepare_estimators
@@ -117,6 +122,15 @@ def test_what_hstf_calls_inert_without_fading_changes_nothing_and_with_it_change
     # the note on the faded likelihood is this run's only where there is fading
     assert FADED_LIKELIHOOD_NOTE not in run_hstf(model, signals, HstfOptions(fading=False)).notes
     assert FADED_LIKELIHOOD_NOTE in run_hstf(model, signals, HstfOptions()).notes
+
+
+def test_the_hstf_says_its_prediction_is_the_modes_mean_where_their_outputs_differ(three_tank):
+    """On the three-tank (``h_i = i·x``) its fit was -29.8 % with nothing said of why."""
+    model, signals = three_tank
+    assert UNIFORM_PREDICTION_NOTE in run_hstf(model, signals, HstfOptions()).notes
+    cart = load_model("double_cart_case1")  # C_1 = C_2: the mean is the one output equation
+    log = simulate(cart, steps=20, seed=0).signals(cart, source="test")
+    assert UNIFORM_PREDICTION_NOTE not in run_hstf(cart, log, HstfOptions()).notes
 
 
 @pytest.mark.parametrize(
