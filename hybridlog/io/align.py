@@ -51,7 +51,12 @@ Format-independent: works on :class:`~hybridlog.io.source.Series` in integer nan
   grid points more than ``dt/2`` from every sample have no true mode (those within ``dt/2``
   of the sample after take it, the nearer one, as before the first), are not scored, and
   are recorded (``notes["truth_gaps"]``, :func:`_blank_gaps`), as a true state's bridged
-  points are left out of its RMSE.  A jittered true mode's dropped samples likewise.
+  points are left out of its RMSE.  A jittered true mode's dropped samples likewise.  A
+  sampled true mode around the grid's points (median distance at most ``dt/8``,
+  :func:`_around`, as the grid's start reads the outputs) gives each point its nearest
+  sample, as the outputs and true states are read: logged in their rows 10 ms after the
+  inputs' ticks (the grid on the ticks), the hold took each point the row before's mode,
+  a step behind the outputs and states of its own row.
 - True states: like outputs, but NaN instead of an error where no sample is usable.
 - The signal that starts the grid more than ``max_gap`` after the log's first input or output
   sample, or ends it that long before the last one, is recorded (``notes["span"]``): the
@@ -254,7 +259,7 @@ def _jittering_clock(held: Sequence[Series], dt_ns: int) -> Clock | None:
     return Clock(tick, quarter)
 
 
-def _around(series: Series, tick_ns: int, dt_ns: int) -> bool:
+def _around(series: Series | LabelSeries, tick_ns: int, dt_ns: int) -> bool:
     """Whether ``series`` is sampled around the ticks ``tick_ns + k*dt``.
 
     Its median distance from them is at most ``dt/8``: a clock jittering within ``dt/4``;
@@ -1359,9 +1364,11 @@ def _hold_modes(
 ) -> tuple[IntArray, dict[str, Any] | None]:
     """The true mode (code) at each grid point, held like an input (:func:`jittered_index`).
 
-    ``steps``: ``dt`` and the clock tolerance (ns).  A jittered series'
-    :class:`Jittered` goes into ``jitter`` under ``the true <label>``.  Returns the codes and
-    the stretches of a sampled true mode left without one (:func:`_blank_gaps`), or ``None``.
+    A sampled one around the grid's points (:func:`_around`) takes the nearest sample, as
+    the outputs logged in its rows are read (:func:`nearest_index`).  ``steps``: ``dt`` and
+    the clock tolerance (ns).  A jittered series' :class:`Jittered` goes into ``jitter``
+    under ``the true <label>``.  Returns the codes and the stretches of a sampled true mode
+    left without one (:func:`_blank_gaps`), or ``None``.
     """
     dt_ns, tolerance = steps
     if series.time_ns.size == 0:
@@ -1371,14 +1378,21 @@ def _hold_modes(
         on: IntArray = series.codes[start : start + grid.size].astype(np.int64, copy=False)
         return on, None
     found = jittered_index(series.time_ns, grid, tolerance, dt_ns)
-    index = found.taken if found is not None else hold_index(series.time_ns, grid, tolerance)
+    sampled = not records_switches(series.codes)
+    if found is not None:
+        index = found.taken
+    elif sampled and _around(series, int(grid[0]), dt_ns):
+        index, _ = nearest_index(series.time_ns, grid, tolerance)  # as the outputs are read
+        index[series.time_ns[index] > grid + dt_ns // 2 + tolerance] = -1  # before the first
+    else:
+        index = hold_index(series.time_ns, grid, tolerance)
     before = index < 0
     modes: IntArray = series.codes[np.maximum(index, 0)].astype(np.int64)
     # a grid point within half a step of the first sample takes it, as the nearest sample;
     # before that there is no truth to hold: those samples are not scored
     first = int(series.time_ns[0])
     modes[before & past_half_step(first - grid, dt_ns)] = NO_TRUE_MODE
-    gaps = None if records_switches(series.codes) else _blank_gaps(series, grid, dt_ns, modes)
+    gaps = _blank_gaps(series, grid, dt_ns, modes) if sampled else None
     if found is not None and jitter is not None:
         if gaps is not None:  # the points whose sample was dropped hold none: no true mode
             taken = series.time_ns[np.maximum(found.taken, 0)]

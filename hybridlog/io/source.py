@@ -236,21 +236,44 @@ def seconds_to_ns(seconds: FloatArray) -> IntArray:
     return result
 
 
+_EXACT_NS = 2**53
+"""Nanosecond counts up to this are exact in float64."""
+
+
 def ns_to_seconds(ns: IntArray) -> FloatArray:
     """Convert integer nanoseconds to float seconds, the float nearest to each time.
 
-    ``ns / 1e9`` converts each count to float64 first, which holds 1.7e18 ns (a Unix time) to
-    256 ns, then divides: two roundings put 1700000001510000000 ns at 1700000001.5100002 s, a
-    time the log never had, written so into report.json and timeline.csv.  The whole seconds
-    (exact in float64) and the fraction (a count below 1e9, exact too) are divided apart and
-    added once, as Python's ``int / int`` rounds (:func:`seconds_of` for one time).
+    A count of at most ``2**53`` ns (104 days) is exact in float64, so ``ns / 1e9`` rounds
+    once, correctly.  A larger one (a Unix time: ``ns / 1e9`` held 1.7e18 ns to 256 ns, then
+    divided, and put 1700000001510000000 ns at 1700000001.5100002 s, a time the log never
+    had, in report.json and timeline.csv) is divided as whole seconds (exact in float64)
+    and the fraction (a count below 1e9, exact too), added once: beyond ``2**23`` s the
+    fraction's rounding is far below the sum's half step, and the sum is the nearest float,
+    as Python's ``int / int``.  Small times take the first way: split, -300000000 ns was
+    ``-1 + 0.7``, -0.30000000000000004 s, and 1930000000 ns 1.9300000000000002 s.
 
     Examples
     --------
-    >>> ns_to_seconds(np.array([1_700_000_001_510_000_000])).tolist()
-    [1700000001.51]
+    >>> ns_to_seconds(np.array([1_700_000_001_510_000_000, -300_000_000])).tolist()
+    [1700000001.51, -0.3]
     """
-    whole, fraction = np.divmod(np.asarray(ns, dtype=np.int64), NS_PER_S)
+    counts = np.asarray(ns, dtype=np.int64)
+    if counts.size == 0 or (counts.min() >= -_EXACT_NS and counts.max() <= _EXACT_NS):
+        seconds: FloatArray = counts.astype(np.float64)
+        seconds /= 1e9
+        return seconds
+    if counts.min() > _EXACT_NS or counts.max() < -_EXACT_NS:  # all large: no mask
+        return _split_seconds(counts)
+    seconds = counts.astype(np.float64)
+    seconds /= 1e9
+    large = (counts > _EXACT_NS) | (counts < -_EXACT_NS)
+    seconds[large] = _split_seconds(counts[large])
+    return seconds
+
+
+def _split_seconds(counts: IntArray) -> FloatArray:
+    """Whole seconds plus the fraction: the nearest float for counts beyond ``2**53`` ns."""
+    whole, fraction = np.divmod(counts, NS_PER_S)
     seconds: FloatArray = whole.astype(np.float64)
     seconds += fraction / 1e9
     return seconds

@@ -837,3 +837,20 @@ def test_grid_times_at_unix_magnitudes_are_the_floats_nearest_to_them() -> None:
     written = [float(f"{1_700_000_000 + k / 100:.2f}") for k in range(300)]
     assert aligned.time.tolist() == written
     assert ns_to_seconds(np.array([-1_500_000_001, 0, 7])).tolist() == [-1.500000001, 0.0, 7e-9]
+
+
+def test_small_and_negative_grid_times_are_the_floats_nearest_to_them() -> None:
+    """Split into whole seconds and a fraction, small times were rounded twice: a log from
+    -100.3 s at 0.5 s had -0.3 s in timeline.csv as -0.30000000000000004 (``-1 + 0.7``), and
+    a grid from 0.03 s at 0.1 s its point at 1.93 s as 1.9300000000000002.  A count up to
+    ``2**53`` ns is exact in float64: one division rounds it once."""
+    for start, dt, n in ((-100.3, 0.5, 400), (0.03, 0.1, 100)):
+        written = [round(start + k * dt, 6) for k in range(n)]
+        seconds = np.array(written)
+        aligned = align_signals(
+            source="s", dt=dt, inputs={"u": series("u", seconds, seconds)},
+            outputs={"y": series("y", seconds, seconds)},
+        )  # fmt: skip
+        assert aligned.time.tolist() == written
+    counts = np.array([-300_000_000, 1_930_000_000, -(2**53) - 1, 2**53 + 1, 2**62 + 7])
+    assert ns_to_seconds(counts).tolist() == [int(c) / 1_000_000_000 for c in counts]
