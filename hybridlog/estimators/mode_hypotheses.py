@@ -317,7 +317,8 @@ def best_history(
 
     Row ``k`` of the signals is ``u(k)``, ``y(k)``; row 0 is the prior (``run.x0``,
     ``run.P0``, ``run.mu0``), as in the IMM.  A hypothesis whose innovation covariance is not
-    positive definite is ruled out at that step; if every extension is ruled out, the
+    positive definite, or whose log likelihood is NaN (a model function's NaN), is ruled out
+    at that step, as in the straight-line code; if every extension is ruled out, the
     hypotheses carry on with their predictions and the sample's likelihoods are left out.
     Ties go to the lower (hypothesis, mode) index.  Plain Python that numba compiles on first
     use (``jit.compile_for``).
@@ -376,9 +377,10 @@ def best_history(
                     S[a, b] += R_j[a, b]
             if cholesky(S, L_c[c]):
                 weight = prior + measured_log_density(gamma_c[c], L_c[c], vec_m, left)
-                weight_c[c] = weight
-                any_finite = True
-                found, threshold = note_weight(weight, best_found, found)
+                if weight == weight:  # NaN (a model function's): ruled out, as by Cholesky
+                    weight_c[c] = weight
+                    any_finite = True
+                    found, threshold = note_weight(weight, best_found, found)
         # every extension ruled out: rank by the prior alone, carry the predictions on
         scores = weight_c[:used] if any_finite else prior_c[:used]
         order = np.argsort(-scores, kind="mergesort")

@@ -250,3 +250,35 @@ def test_the_path_smoother_keeps_covariances_psd_without_process_noise():
     filtered = run_imm(model, signals, dataclasses.replace(options, smooth=False))
     # the smoothed variances are no wider than the filter's along the path (exact RTS)
     assert (result.state_variances <= filtered.state_variances * (1 + 1e-6) + 1e-15).all()
+
+
+@pytest.mark.parametrize("poisoned", [(1,), (0, 1)])
+def test_an_extension_whose_likelihood_is_nan_is_ruled_out_as_in_the_straight_line_code(
+    poisoned,
+):
+    """The generic loop kept a NaN log weight as a weight: where every extension had one,
+    the step kept no hypothesis, and the next read the first of an empty ranking (outside the
+    array, unchecked in compiled code).  Now a NaN rules the extension out, as a failed
+    Cholesky factor does and as the straight-line code already did."""
+    from hybridlog.estimators.common import FilterRun
+    from hybridlog.estimators.mode_hypotheses import best_history
+    from hybridlog.model.compiled import compile_model
+
+    model = parse_model(LINEAR_TWO_MODE)
+    signals = simulate(model, steps=40, seed=3).signals(model)
+    compiled = compile_model(model, jit=False)
+    calls = [0]
+
+    def h(mode, x, u, out):
+        compiled.h(mode, x, u, out)
+        calls[0] += 1
+        if mode in poisoned and 200 <= calls[0] < 260:  # some steps' extensions
+            out[:] = math.nan
+
+    run = FilterRun.of(model, signals, "imm")
+    log_transitions = np.log(np.array([[0.97, 0.03], [0.05, 0.95]]))  # its [transitions]
+    path = best_history(compiled.f, compiled.F, h, compiled.H, run, log_transitions, 4)
+    assert path.shape == (signals.n_samples,) and set(path.tolist()) <= {0, 1}
+    clean = best_history(compiled.f, compiled.F, compiled.h, compiled.H, run, log_transitions, 4)
+    if poisoned == (1,):  # those steps' extensions into mode 0 decide them
+        assert np.mean(path == clean) > 0.8
