@@ -7,9 +7,11 @@ process that dies, is recorded as that log's one-line error in the summary.
 ``batch``, :func:`provenance`): the SHA-256 of the log's bytes (of every file of a bag
 folder), of the model file (or built-in model text), the settings that change results
 (estimator and its options, ``--set`` parameters, read options with the content of every
-``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
-is skipped (its report reused) only when its folder's report records exactly the provenance
-of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
+``--msg-dir``, the centres file's content, the table format), hybridlog's version and a hash
+of its source (:func:`~hybridlog.jit.package_fingerprint`: an estimator fixed without a new
+version number gives new numbers, which a resumed batch must not hide).  A log is skipped
+(its report reused) only when its folder's report records exactly the provenance of the run
+about to be made and the folder holds every file hybridlog wrote there, unchanged
 (:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.  The log and the
 model file are hashed before they are read, and a log read with a model file, centres file
 or ``--msg-dir`` whose content is no longer the one the batch hashed (edited while it runs)
@@ -62,6 +64,7 @@ from hybridlog.errors import (
 )
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
+from hybridlog.jit import package_fingerprint
 from hybridlog.jobs import arguments
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
@@ -340,6 +343,9 @@ class BatchJob:
             "model_sha256": self.model_sha256,
             "settings": json.loads(self.settings),
             "hybridlog_version": __version__,
+            # the code that made the numbers: an edit of an estimator (a development install,
+            # a patched build) keeps the version but not the results
+            "hybridlog_code": package_fingerprint(),
         }
 
 
