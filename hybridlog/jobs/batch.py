@@ -190,7 +190,11 @@ class BatchOutcome:
         return [log for log in self.logs if log.memory_wait_s > 0.0]
 
 
-_RESERVED = frozenset({"summary.md", "summary.csv", "summary.png", MARKER})
+SUMMARY_NAMES = ("summary.md", "summary.csv", "summary.png")
+"""The summaries every run of a batch writes into its batch folder."""
+
+
+_RESERVED = frozenset({*SUMMARY_NAMES, MARKER})
 
 
 def _escaped(part: str, top: bool) -> str:
@@ -1015,6 +1019,7 @@ def run_batch(
                 check_out=check_cluster_out,
                 locks=locks,
             )
+            _withdraw_summaries(output_path(out_dir), junit)
             folders = {Path(folder) for _, _, folder in tasks}
             staging.extend(sorted(folders | {folder.parent for folder in folders}))
             died = [_died(log, folder) for _, log, folder in tasks]
@@ -1160,7 +1165,7 @@ def _plan(
     check_followable(out_dir)  # as given: output_path takes log.csv/../out for ./out
     root = output_path(out_dir)
     names = folder_names(paths, searched)
-    summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
+    summaries = [root / name for name in SUMMARY_NAMES]
     outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
     if junit is not None:
         check_file_name(junit, "--junit")  # first: --junit j.xml/.. is the folder holding it
@@ -1321,6 +1326,38 @@ def _summaries_ours(root: Path) -> Callable[[Path], bool]:
     return ours
 
 
+def _withdraw_summaries(root: Path, junit: PathLike | None) -> None:
+    """Remove the summaries (and JUnit file) of an earlier run, before any log is analysed.
+
+    They are of the reports that run left: a batch that then ended without writing its own
+    (killed, interrupted, its cluster lost) left them beside the reports it had replaced
+    already, so summary.csv showed the earlier numbers for the reports it links to, and the
+    JUnit file a CI step publishes even after a failure (``if: always()``) the earlier
+    gates passed.  Such a batch now leaves no summary; the next run writes them.  Only
+    files :func:`_plan` took for the batch's (:func:`_summaries_ours`) are removed.
+
+    Raises
+    ------
+    OutputError
+        When one cannot be removed, naming it.
+    """
+    ours = _summaries_ours(root)
+    targets = [root / name for name in SUMMARY_NAMES]
+    if junit is not None:
+        targets.append(output_path(junit))
+    for target in targets:
+        if not target.is_file() or target.is_symlink() or not ours(target):
+            continue
+        try:
+            target.unlink(missing_ok=True)
+            record_path(target).unlink(missing_ok=True)
+        except OSError as err:
+            raise OutputError(
+                f"{excerpt(str(target))[1:-1]}: cannot remove the previous run's file, which "
+                f"would be left beside this run's reports: {err.strerror or err}"
+            ) from err
+
+
 def _summarise(
     root: Path,
     model: HybridModel,
@@ -1373,7 +1410,7 @@ def _summarise(
         gated,
         others=[as_name(name) for name in others],
     )
-    targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
+    targets: list[PathLike] = [root / name for name in SUMMARY_NAMES]
     if junit is not None:
         targets.append(junit)
 
