@@ -9,7 +9,9 @@ folder), of the model file (or built-in model text), the settings that change re
 (estimator and its options, ``--set`` parameters, read options with the content of every
 ``--msg-dir``, the centres file's content, the table format), hybridlog's version and a hash
 of its source (:func:`~hybridlog.jit.package_fingerprint`: an estimator fixed without a new
-version number gives new numbers, which a resumed batch must not hide).  A log is skipped
+version number gives new numbers, which a resumed batch must not hide), and the versions of
+Python and of the libraries that compute the numbers
+(:func:`~hybridlog.jobs.provenance.library_versions`).  A log is skipped
 (its report reused) only when its folder's report records exactly the provenance of the run
 about to be made and the folder holds every file hybridlog wrote there, unchanged
 (:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.  The log and the
@@ -89,7 +91,13 @@ from hybridlog.jobs.batch_logs import (
 )
 from hybridlog.jobs.estimator_calls import warm_up_told
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
-from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
+from hybridlog.jobs.provenance import (
+    content_hash,
+    folder_stamp,
+    library_versions,
+    log_stamp,
+    model_hash,
+)
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -350,6 +358,7 @@ class BatchJob:
             # the code that made the numbers: an edit of an estimator (a development install,
             # a patched build) keeps the version but not the results
             "hybridlog_code": package_fingerprint(),
+            "libraries": library_versions(),
         }
 
 

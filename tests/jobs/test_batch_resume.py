@@ -24,6 +24,7 @@ from hybridlog.errors import OutputError
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.provenance import library_versions
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs import _record_files
 from tests.support.logfiles import tank_run
@@ -206,7 +207,7 @@ def test_resume_redoes_exactly_what_changed(
     assert set(again(force=True).values()) == {"done"}
 
 
-def test_an_estimator_edited_without_a_new_version_is_redone(
+def test_an_estimator_edited_without_a_new_version_or_a_library_upgraded_is_redone(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # a development install (or a patched build) fixed in imm.py, the version unchanged: the
@@ -228,6 +229,11 @@ def test_an_estimator_edited_without_a_new_version_is_redone(
         fingerprint = jit.package_fingerprint()
     jit.package_fingerprint.cache_clear()
     monkeypatch.setattr(batch, "package_fingerprint", lambda: fingerprint)
+    assert again() == {"done"}
+    assert again() == {"skipped"}
+    # a library upgraded (the filters' machine code, the solvers): redone too
+    upgraded = {**library_versions(), "numba": "99.0"}
+    monkeypatch.setattr(batch, "library_versions", lambda: upgraded)
     assert again() == {"done"}
     assert again() == {"skipped"}
 
