@@ -7,9 +7,13 @@ process that dies, is recorded as that log's one-line error in the summary.
 ``batch``, :func:`provenance`): the SHA-256 of the log's bytes (of every file of a bag
 folder), of the model file (or built-in model text), the settings that change results
 (estimator and its options, ``--set`` parameters, read options with the content of every
-``--msg-dir``, the centres file's content, the table format) and hybridlog's version.  A log
-is skipped (its report reused) only when its folder's report records exactly the provenance
-of the run about to be made and the folder holds every file hybridlog wrote there, unchanged
+``--msg-dir``, the centres file's content, the table format), hybridlog's version and a hash
+of its source (:func:`~hybridlog.jit.package_fingerprint`: an estimator fixed without a new
+version number gives new numbers, which a resumed batch must not hide), and the versions of
+Python and of the libraries that compute the numbers
+(:func:`~hybridlog.jobs.provenance.library_versions`).  A log is skipped
+(its report reused) only when its folder's report records exactly the provenance of the run
+about to be made and the folder holds every file hybridlog wrote there, unchanged
 (:func:`_intact`); otherwise it is redone.  ``force`` redoes every log.  The log and the
 model file are hashed before they are read, and a log read with a model file, centres file
 or ``--msg-dir`` whose content is no longer the one the batch hashed (edited while it runs)
@@ -62,6 +66,7 @@ from hybridlog.errors import (
 )
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
+from hybridlog.jit import package_fingerprint
 from hybridlog.jobs import arguments
 from hybridlog.jobs.analysis import (
     FILE_OPTIONS,
@@ -86,7 +91,13 @@ from hybridlog.jobs.batch_logs import (
 )
 from hybridlog.jobs.estimator_calls import warm_up_told
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
-from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
+from hybridlog.jobs.provenance import (
+    content_hash,
+    folder_stamp,
+    library_versions,
+    log_stamp,
+    model_hash,
+)
 from hybridlog.memory import available_memory, size_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
@@ -187,7 +198,11 @@ class BatchOutcome:
         return [log for log in self.logs if log.memory_wait_s > 0.0]
 
 
-_RESERVED = frozenset({"summary.md", "summary.csv", "summary.png", MARKER})
+SUMMARY_NAMES = ("summary.md", "summary.csv", "summary.png")
+"""The summaries every run of a batch writes into its batch folder."""
+
+
+_RESERVED = frozenset({*SUMMARY_NAMES, MARKER})
 
 
 def _escaped(part: str, top: bool) -> str:
@@ -340,6 +355,10 @@ class BatchJob:
             "model_sha256": self.model_sha256,
             "settings": json.loads(self.settings),
             "hybridlog_version": __version__,
+            # the code that made the numbers: an edit of an estimator (a development install,
+            # a patched build) keeps the version but not the results
+            "hybridlog_code": package_fingerprint(),
+            "libraries": library_versions(),
         }
 
 
@@ -1009,6 +1028,7 @@ def run_batch(
                 check_out=check_cluster_out,
                 locks=locks,
             )
+            _withdraw_summaries(output_path(out_dir), junit)
             folders = {Path(folder) for _, _, folder in tasks}
             staging.extend(sorted(folders | {folder.parent for folder in folders}))
             died = [_died(log, folder) for _, log, folder in tasks]
@@ -1154,7 +1174,7 @@ def _plan(
     check_followable(out_dir)  # as given: output_path takes log.csv/../out for ./out
     root = output_path(out_dir)
     names = folder_names(paths, searched)
-    summaries = [root / "summary.md", root / "summary.csv", root / "summary.png"]
+    summaries = [root / name for name in SUMMARY_NAMES]
     outputs: list[tuple[str, PathLike]] = [("--out", out_dir), *(("--out", s) for s in summaries)]
     if junit is not None:
         check_file_name(junit, "--junit")  # first: --junit j.xml/.. is the folder holding it
@@ -1315,6 +1335,38 @@ def _summaries_ours(root: Path) -> Callable[[Path], bool]:
     return ours
 
 
+def _withdraw_summaries(root: Path, junit: PathLike | None) -> None:
+    """Remove the summaries (and JUnit file) of an earlier run, before any log is analysed.
+
+    They are of the reports that run left: a batch that then ended without writing its own
+    (killed, interrupted, its cluster lost) left them beside the reports it had replaced
+    already, so summary.csv showed the earlier numbers for the reports it links to, and the
+    JUnit file a CI step publishes even after a failure (``if: always()``) the earlier
+    gates passed.  Such a batch now leaves no summary; the next run writes them.  Only
+    files :func:`_plan` took for the batch's (:func:`_summaries_ours`) are removed.
+
+    Raises
+    ------
+    OutputError
+        When one cannot be removed, naming it.
+    """
+    ours = _summaries_ours(root)
+    targets = [root / name for name in SUMMARY_NAMES]
+    if junit is not None:
+        targets.append(output_path(junit))
+    for target in targets:
+        if not target.is_file() or target.is_symlink() or not ours(target):
+            continue
+        try:
+            target.unlink(missing_ok=True)
+            record_path(target).unlink(missing_ok=True)
+        except OSError as err:
+            raise OutputError(
+                f"{excerpt(str(target))[1:-1]}: cannot remove the previous run's file, which "
+                f"would be left beside this run's reports: {err.strerror or err}"
+            ) from err
+
+
 def _summarise(
     root: Path,
     model: HybridModel,
@@ -1367,7 +1419,7 @@ def _summarise(
         gated,
         others=[as_name(name) for name in others],
     )
-    targets: list[PathLike] = [root / "summary.md", root / "summary.csv", root / "summary.png"]
+    targets: list[PathLike] = [root / name for name in SUMMARY_NAMES]
     if junit is not None:
         targets.append(junit)
 

@@ -6,18 +6,33 @@ model's content hash, the settings that change results, and hybridlog's version.
 SHA-256 of the bytes, read in chunks (a file is never held in memory whole); a folder (a
 ROS 2 bag, a ``--msg-dir``) hashes every file below it, in sorted order, with its relative
 path and size, so renaming, adding or removing a file inside it changes the hash too.
+The versions of the libraries that compute the numbers are recorded too
+(:func:`library_versions`).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
+import platform
 from pathlib import Path
 
 from hybridlog.errors import LogError, ModelError
 from hybridlog.outputs import PathLike
 
-__all__ = ["content_hash", "folder_stamp", "log_stamp", "model_hash"]
+__all__ = [
+    "LIBRARIES",
+    "content_hash",
+    "folder_stamp",
+    "library_versions",
+    "log_stamp",
+    "model_hash",
+]
+
+LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "sympy", "polars", "cvxpy", "clarabel")
+"""The libraries whose code computes a report's numbers (the filters' machine code, the
+linear algebra, the LMI solvers, the reading and resampling of the log)."""
 
 
 def _file_digest(path: Path) -> bytes:
@@ -118,3 +133,23 @@ def model_hash(model_ref: PathLike) -> str:
     from hybridlog.model.builtins import builtin_text
 
     return hashlib.sha256(builtin_text(str(model_ref)).encode("utf-8")).hexdigest()
+
+
+@functools.cache
+def library_versions() -> dict[str, str]:
+    """The installed version of each of :data:`LIBRARIES`, and Python's (once a process).
+
+    A batch resumed after an upgrade (a nightly CI job installing the latest releases) kept
+    the reports the old numba or solver computed, their numbers shown as current.  Read from
+    the installed distributions (about 30 ms), without importing the libraries; one not
+    installed is ``"absent"``.
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    found = {"python": platform.python_version()}
+    for name in LIBRARIES:
+        try:
+            found[name] = version(name)
+        except PackageNotFoundError:
+            found[name] = "absent"
+    return found

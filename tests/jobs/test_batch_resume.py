@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -17,11 +18,13 @@ from pathlib import Path
 import polars as pl
 import pytest
 
+import hybridlog.jit as jit
 import hybridlog.jobs.batch as batch
 from hybridlog.errors import OutputError
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.provenance import library_versions
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs import _record_files
 from tests.support.logfiles import tank_run
@@ -202,6 +205,37 @@ def test_resume_redoes_exactly_what_changed(
     assert again()["s1.csv"] == "done"
     # --force redoes everything
     assert set(again(force=True).values()) == {"done"}
+
+
+def test_an_estimator_edited_without_a_new_version_or_a_library_upgraded_is_redone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a development install (or a patched build) fixed in imm.py, the version unchanged: the
+    # nightly batch resumed and showed the old numbers as current
+    logs = write_logs(tmp_path / "logs", ["a.csv"])
+    out = tmp_path / "out"
+
+    def again() -> set[str]:
+        return set(statuses(run_batch(logs, TANK, out_dir=out, estimator="imm")).values())
+
+    assert again() == {"done"}
+    source = tmp_path / "hybridlog"
+    shutil.copytree(jit.PACKAGE, source, ignore=shutil.ignore_patterns("__pycache__"))
+    imm = source / "estimators" / "imm.py"
+    imm.write_text(imm.read_text() + "\n# a fix\n")
+    with monkeypatch.context() as edited:  # the edited code's hash; the machine code kept
+        edited.setattr(jit, "PACKAGE", source)
+        jit.package_fingerprint.cache_clear()
+        fingerprint = jit.package_fingerprint()
+    jit.package_fingerprint.cache_clear()
+    monkeypatch.setattr(batch, "package_fingerprint", lambda: fingerprint)
+    assert again() == {"done"}
+    assert again() == {"skipped"}
+    # a library upgraded (the filters' machine code, the solvers): redone too
+    upgraded = {**library_versions(), "numba": "99.0"}
+    monkeypatch.setattr(batch, "library_versions", lambda: upgraded)
+    assert again() == {"done"}
+    assert again() == {"skipped"}
 
 
 def test_folders_come_from_paths_whatever_the_order(tmp_path: Path) -> None:
