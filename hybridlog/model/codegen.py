@@ -360,6 +360,13 @@ def constant_jacobians(
 
 
 def _guard_function(model: HybridModel) -> list[str]:
+    """``guard(x, u)``: the first mode whose guard holds, -1 where none does.
+
+    And ``-2 - i`` where the guard of mode ``i``, tested before any held, compares a NaN
+    (``sqrt(x) > 0.5`` at ``x < 0``): such a comparison is false, so the next mode's guard
+    had silently decided the sample, a state outside the guard's domain read as "not this
+    mode".
+    """
     names = _slot_names(model)
     printer = _printer()
     lines = ["", "", "def guard(x, u):"]
@@ -368,7 +375,20 @@ def _guard_function(model: HybridModel) -> list[str]:
     for index, mode in enumerate(model.modes):
         if mode.guard is None:
             continue
-        lines.append(f"    if {printer.doprint(mode.guard.xreplace(names))}:  # mode {mode.id!r}")
+        condition = mode.guard
+        if not isinstance(condition, sympy.core.relational.Relational):
+            # never so from the loader (one comparison); printed as it is
+            lines.append(f"    if {printer.doprint(condition.xreplace(names))}:  # {mode.id!r}")
+            lines.append(f"        return {index}")
+            continue
+        lhs, rhs = f"g{index}_l", f"g{index}_r"
+        lines += assignments(
+            [condition.lhs, condition.rhs], [lhs, rhs], names, "    ", temporaries=f"g{index}_"
+        )
+        lines.append(f"    if {lhs} != {lhs} or {rhs} != {rhs}:  # mode {mode.id!r}: NaN")
+        lines.append(f"        return {-2 - index}")
+        test = condition.func(sympy.Symbol(lhs), sympy.Symbol(rhs), evaluate=False)
+        lines.append(f"    if {printer.doprint(test)}:  # mode {mode.id!r}")
         lines.append(f"        return {index}")
     lines.append("    return -1")
     return lines
