@@ -9,6 +9,7 @@ comparing a NaN took the next branch), and the Jacobian of ``sign`` or
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -89,3 +90,42 @@ def test_sign_and_abs_of_arguments_sympy_cannot_prove_real_differentiate():
     values = [float(row[0].subs(x, 4)) for row in rows]
     assert values == pytest.approx([0.0, 0.0, 0.25, 0.25])
     assert not math.isnan(sum(values))
+
+
+POLES = """
+name = "poles"
+dt = 1.0
+states = ["x"]
+outputs = ["y"]
+
+[modes.a]
+f = ["1/x + exp(10*x)"]
+h = ["log(x)"]
+
+[noise]
+measurement = 0.1
+
+[initial]
+state = [1.0]
+"""
+
+
+@pytest.mark.parametrize(
+    ("function", "x", "value", "why"),
+    [
+        # 1/x and log(x) at x = 0 are infinite exactly: the state reached a pole
+        ("f", 0.0, math.inf, r"a pole of f: a division by 0 or a log of 0 there"),
+        ("h", 0.0, -math.inf, r"a pole of h: a division by 0 or a log of 0 there"),
+        # exp(1480) is finite, beyond float64: the state ran away
+        ("f", 148.0, math.inf, r"more than float64 holds: the state ran away"),
+    ],
+)
+def test_an_infinite_value_tells_a_pole_from_an_overflow(function, x, value, why):
+    # 1/x at x = 0 was said as "more than float64 holds: the state ran away"
+    from hybridlog.model.escape import Escape, escape_error
+
+    model = parse_model(POLES, origin="poles.toml")
+    escape = Escape(function, 0, -1, np.array([x]), np.zeros(0), np.array([value]))
+    error = escape_error(model, escape, "at t = 1 s", "the simulation diverged")
+    assert f"poles.toml: modes.a.{function}[0]: " in str(error)
+    assert re.search(rf"\({why}\): the simulation diverged$", str(error)), str(error)
