@@ -169,19 +169,46 @@ class _ModelPrinter(_ExactPythonPrinter):
         next branch's.
         """
         *pairs, last = expr.args
-        if last.cond != sympy.true or not all(
-            isinstance(pair.cond, tuple(_OPPOSITE)) for pair in pairs
-        ):
+        if last.cond != sympy.true or not all(_comparisons(pair.cond) for pair in pairs):
             return str(super()._print_Piecewise(expr))
         printed = f"({self._print(last.expr)})"
         for pair in reversed(pairs):
             condition = pair.cond
-            opposite = _OPPOSITE[type(condition)](condition.lhs, condition.rhs, evaluate=False)
+            if type(condition) in _OPPOSITE:
+                opposite = _OPPOSITE[type(condition)](condition.lhs, condition.rhs, evaluate=False)
+                printed = (
+                    f"(({self._print(pair.expr)}) if {self._print(condition)} "
+                    f"else {printed} if {self._print(opposite)} else math.nan)"
+                )
+                continue
+            # Two adjacent branches of one value are one branch to sympy, its condition
+            # their Or ('Piecewise(1, x > 0, 1, sqrt(u) > 1, 0)'). A comparison of a NaN
+            # is false, so where the condition holds it holds whatever a NaN compared
+            # (x > 0 at x = 1); where it does not, a NaN compared leaves it undecided.
+            decided = " and ".join(
+                f"({self._print(c)} or "
+                f"{self._print(_OPPOSITE[type(c)](c.lhs, c.rhs, evaluate=False))})"
+                for c in sorted(_comparisons(condition), key=sympy.default_sort_key)
+            )
             printed = (
                 f"(({self._print(pair.expr)}) if {self._print(condition)} "
-                f"else {printed} if {self._print(opposite)} else math.nan)"
+                f"else ({printed} if {decided} else math.nan))"
             )
         return printed
+
+
+def _comparisons(condition: sympy.Basic) -> set[sympy.Basic]:
+    """The comparisons ``<, <=, >, >=`` a condition is made of; empty if it holds anything else.
+
+    A comparison alone, or an ``And``, ``Or`` or ``Not`` of them (as sympy merges adjacent
+    ``Piecewise`` branches of one value).
+    """
+    if isinstance(condition, tuple(_OPPOSITE)):
+        return {condition}
+    if not isinstance(condition, sympy.And | sympy.Or | sympy.Not):
+        return set()
+    parts = [_comparisons(argument) for argument in condition.args]
+    return set().union(*parts) if all(parts) else set()
 
 
 def _printer() -> PythonCodePrinter:

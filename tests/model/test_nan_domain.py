@@ -129,3 +129,21 @@ def test_an_infinite_value_tells_a_pole_from_an_overflow(function, x, value, why
     error = escape_error(model, escape, "at t = 1 s", "the simulation diverged")
     assert f"poles.toml: modes.a.{function}[0]: " in str(error)
     assert re.search(rf"\({why}\): the simulation diverged$", str(error)), str(error)
+
+
+def test_a_merged_piecewise_condition_comparing_a_nan_is_nan():
+    # sympy merges two adjacent branches of one value into one, its condition their Or:
+    # printed as sympy does, a comparison of NaN in it was false and the next branch taken
+    text = MODEL.replace(
+        'h = ["sign(sqrt(x1)) + abs(sqrt(x1) - 1)", "Piecewise(1, sqrt(x1) > 1, 2, x2 < 0, 3)"]',
+        'h = ["Piecewise(1, x1 > 0, 1, u > 1, 0)", "x2"]',
+    )
+    model = parse_model(text, origin="domain.toml")
+    assert model.modes[0].h[0].args[0].cond.func is sympy.Or  # merged by sympy
+    h = compile_model(model, jit=False).h  # plain Python: the NaN is an input, no math error
+    out = np.zeros(2)
+    for x1, u, expected in [(1.0, math.nan, 1.0), (-1.0, 2.0, 1.0), (-1.0, 0.0, 0.0)]:
+        h(0, np.array([x1, 0.0]), np.array([u]), out)
+        assert out[0] == expected, (x1, u, out)
+    h(0, np.array([-1.0, 0.0]), np.array([math.nan]), out)
+    assert math.isnan(out[0]), out  # undecided: neither branch
