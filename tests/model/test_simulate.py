@@ -352,6 +352,18 @@ def test_where_guards_overlap_the_first_listed_mode_holds():
     assert [model.mode_ids[q] for q in log.modes] == ["up", "up", "up", "down", "up"]
 
 
+@pytest.mark.parametrize(
+    ("guard", "verdict"),
+    [("x > x", "never holds"), ("x**2 >= 0", "always holds"), ("sqrt(2) > 1", "always holds")],
+)
+def test_a_guard_sympy_decides_says_which_way(guard, verdict):
+    # 'x > x' (never) and 'x**2 >= 0' (always) were both "does not depend on the states"
+    text = GUARDED.replace('guard = "x > 0"', f'guard = "{guard}"')
+    message = rf"^guarded\.toml: modes\.down\.guard: '.*' {verdict}, whatever the states and"
+    with pytest.raises(ModelError, match=message):
+        parse_model(text, origin="guarded.toml")
+
+
 def test_a_guard_outside_its_domain_is_named_not_read_as_false():
     # sqrt(x) > 0 at x = -0.1 compares a NaN: false, so the next guard (x < 1) took the
     # sample without a word, a state outside the guard's domain read as "not this mode"
