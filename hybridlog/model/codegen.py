@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import precedence
 from sympy.printing.pycode import PythonCodePrinter
 
 from hybridlog.model.derivatives import boolean_affine_split, jacobian
@@ -152,6 +153,20 @@ class _ModelPrinter(_ExactPythonPrinter):
         if not tests:
             return f"({value.format(*printed)})"
         return f"({value.format(*printed)} if {' and '.join(tests)} else math.nan)"
+
+    def _print_Pow(self, expr: sympy.Pow, rational: bool = False) -> str:
+        """A negative whole power ``x**(-3)`` as ``1/x**3``.
+
+        numba computes ``x**(-3)`` by repeated multiplication and raises ZeroDivisionError
+        at ``x = 0`` (a crash "unexpected ZeroDivisionError"), where ``1/x**3`` is ``inf``
+        as ``1/x`` is, which the runs then name as a pole.  sympy prints ``x**(-1)`` and
+        a product's negative powers (``2*x**(-3)``) as divisions already.
+        """
+        exponent = expr.exp
+        if exponent.is_Integer and exponent < -1:
+            positive = sympy.Pow(expr.base, -exponent, evaluate=False)
+            return f"1/{self.parenthesize(positive, precedence(expr))}"
+        return str(super()._print_Pow(expr, rational=rational))
 
     def _print_Max(self, expr: sympy.Max) -> str:
         return self._guarded(f"max({', '.join(['{}'] * len(expr.args))})", expr.args)

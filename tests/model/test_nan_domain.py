@@ -147,3 +147,16 @@ def test_a_merged_piecewise_condition_comparing_a_nan_is_nan():
         assert out[0] == expected, (x1, u, out)
     h(0, np.array([-1.0, 0.0]), np.array([math.nan]), out)
     assert math.isnan(out[0]), out  # undecided: neither branch
+
+
+def test_a_negative_whole_power_at_zero_is_infinite_not_a_crash():
+    # numba's x**(-3) raised ZeroDivisionError at x = 0: analyze said "unexpected
+    # ZeroDivisionError ... (a bug ...)" where 1/x gave inf and a named error
+    model = parse_model(POLES.replace('h = ["log(x)"]', 'h = ["x**(-3)"]'), origin="poles.toml")
+    h, H = compile_model(model).h, compile_model(model).H
+    out, slope = np.zeros(1), np.zeros((1, 1))
+    h(0, np.zeros(1), np.zeros(0), out)
+    H(0, np.zeros(1), np.zeros(0), slope)
+    assert out[0] == math.inf and slope[0, 0] == -math.inf, (out, slope)
+    h(0, np.array([-2.0]), np.zeros(0), out)
+    assert out[0] == -0.125
