@@ -339,7 +339,28 @@ def _complex_reason(expression: sympy.Expr) -> str:
     for atom in sorted(expression.atoms(sympy.Pow, sympy.log), key=sympy.default_sort_key):
         if atom.is_extended_real is False:
             return f"{excerpt(atom, 40)} is not real"
+        if isinstance(atom, sympy.Pow) and _negative_base_variable_power(atom):
+            return (
+                f"{excerpt(atom, 40)} is real only where its exponent is a whole number, and "
+                "its derivative is complex"
+            )
     return ""
+
+
+def _negative_base_variable_power(power: sympy.Pow) -> bool:
+    """``(-1)**x``: a negative number to a power of a variable other than the step ``k``.
+
+    Real only at whole exponents (NaN in compiled code elsewhere), and its derivative
+    ``(-1)**x*I*pi`` is complex: numba failed to compile the model's Jacobian ("No
+    implementation of function setitem ... complex128").  ``(-1)**k`` of simulation inputs
+    is real: the step ``k`` is a whole number (a name no model symbol may take).
+    """
+    base, exponent = power.base, power.exp
+    return bool(
+        base.is_Number
+        and base.is_negative
+        and any(str(symbol) != "k" for symbol in exponent.free_symbols)
+    )
 
 
 _PLAIN_NUMBER = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)

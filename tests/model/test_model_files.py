@@ -257,7 +257,17 @@ _F0 = '"theta + 0.05*omega"'
 
 @pytest.mark.parametrize(
     "expression",
-    ["sqrt(-1) + theta", "log(-1)", "(-1)**0.5", "(-8)**(1/3)", "sqrt(-theta**2 - 1)", "log(-g)"],
+    [
+        "sqrt(-1) + theta",
+        "log(-1)",
+        "(-1)**0.5",
+        "(-8)**(1/3)",
+        "sqrt(-theta**2 - 1)",
+        "log(-g)",
+        # accepted, its Jacobian (-1)**theta*I*pi then failed to compile in numba
+        "(-1)**theta",
+        "(-2.5)**(theta*omega)",
+    ],
 )
 def test_complex_valued_expressions_are_refused_naming_the_key(expression):
     text = _replace(PENDULUM_ONE_MODE, _F0, f'"{expression}"')
@@ -430,6 +440,12 @@ def test_a_singular_measurement_noise_names_the_file_and_its_key():
         ModelError, match=r"^m\.toml: noise\.measurement: the measurement noise covariance of mode"
     ):
         noise_stacks(parse_model(text, origin="m.toml"))
+
+
+def test_minus_one_to_the_step_k_stays_a_real_input():
+    # (-1)**k alternates: the step k is a whole number
+    k = sympy.Symbol("k", real=True)
+    assert parse_expression("(-1)**k", {"k": k}, key="e").subs(k, 3) == -1
 
 
 def test_cli_refuses_a_complex_model_in_one_line_and_writes_nothing(tmp_path, capsys):
