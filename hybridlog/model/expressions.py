@@ -29,7 +29,7 @@ from typing import Any
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.toml_text import unheld_number
+from hybridlog.model.toml_text import held_digits, unheld_number
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -323,7 +323,8 @@ def _underflow(expression: sympy.Expr) -> str:
             continue
         if abs(value) < _SMALLEST_NORMAL and node.is_zero is False:
             shown = node.evalf(4) if node.is_Float else node  # 1.000e-400; exp(-1000)
-            return f"{excerpt(shown, 40)} is below {_SMALLEST_NORMAL:.4g} and would be {value!r}"
+            held = held_digits(value)
+            return f"{excerpt(shown, 40)} is below {_SMALLEST_NORMAL:.4g} and would be {held}"
     return ""
 
 
