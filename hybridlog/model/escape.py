@@ -16,14 +16,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy
 
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    import sympy
 
 __all__ = ["Escape", "Watch", "escape_error", "point", "replayed"]
 
@@ -167,6 +170,8 @@ def _at_pole(model: HybridModel, expression: sympy.Expr, escape: Escape) -> bool
     state reached it, it did not run away), where ``exp(10*x)`` at ``x = 148`` is a finite
     number float64 cannot hold.  sympy evaluates at the point with unbounded exponents.
     """
+    import sympy  # only on this error's path: a warm run imports no sympy
+
     xs, us = model.symbols()
     values = {
         **dict(zip(xs, escape.x.tolist(), strict=True)),
