@@ -54,6 +54,7 @@ from hybridlog.cluster.progress import current_wait, simulating
 from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.memory import check_fits
 from hybridlog.model.compiled import (
+    GuardFunction,
     InputFunction,
     JumpFunction,
     ModelFunction,
@@ -385,6 +386,30 @@ def _check_f_h_domain(
     escape = Escape(function, q, -1, x.copy(), u.copy(), out)
     if within_range(x).all() and within_range(u).all() and not np.isfinite(out).all():
         raise escape_error(model, escape, where, "the simulation diverged; nothing was written")
+
+
+def _check_guard_domain(
+    model: HybridModel, guard: GuardFunction, x: FloatArray, u: FloatArray, at: float
+) -> None:
+    """Name the guard that compared a NaN at the row where no mode's guard decided.
+
+    ``sqrt(x) > 0.5`` at ``x = -0.1`` is neither true nor false: the guard function stops
+    there (``-2 - i``, :mod:`hybridlog.model.codegen`) instead of letting the next mode's
+    guard take the sample.
+    """
+    from hybridlog.model.escape import point
+    from hybridlog.model.toml_text import key_path
+
+    code = int(guard(np.ascontiguousarray(x), np.ascontiguousarray(u)))
+    if code > -2:
+        return
+    mode = model.modes[-2 - code]
+    raise model.error(
+        f"{key_path('modes', mode.id)}.guard",
+        f"{excerpt(str(mode.guard))} is undefined (a side is nan) at {point(model, x, u)}, "
+        f"t = {format_time(float(at))} s (the state left the domain of the guard there): "
+        "no mode can be chosen; nothing was written",
+    )
 
 
 def _noise_factor(covariance: FloatArray) -> FloatArray:
@@ -765,10 +790,11 @@ def simulate(
         _check_f_h_domain(model, None, functions.h, run, mode_of_step=lambda k: int(modes[k]))
     elif model.state_driven:
         compiled = compile_model(model, jit=jit)
+        guard = compile_guard(model, jit=jit)
         arguments = (
             compiled.f,
             compiled.h,
-            compile_guard(model, jit=jit),
+            guard,
             inputs,
             process_factors,
             process_draws,
@@ -797,6 +823,7 @@ def simulate(
                 time,
                 {name: states[: stuck + 1, j] for j, name in enumerate(model.states)},
             )
+            _check_guard_domain(model, guard, states[stuck], inputs[stuck], time[stuck])
             raise ModelError(
                 f"{origin}: no mode's guard (modes.<id>.guard) holds at t = "
                 f"{format_time(time[stuck])} s "

@@ -70,7 +70,7 @@ def simulate_guarded_steps(
 ) -> int:
     r"""State-driven modes: :math:`x(k+1) = f_{q(k)}(x(k), u(k)) + \xi(k)` (paper 001, eq. (1)).
 
-    Returns the row where no guard held, or -1.
+    Returns the row where no guard held (or one compared a NaN: ``guard`` < -1), or -1.
     """
     clean = np.empty(states.shape[1])
     measured = np.empty(outputs.shape[1])

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.precedence import precedence
 from sympy.printing.pycode import PythonCodePrinter
 
 from hybridlog.model.derivatives import boolean_affine_split, jacobian
@@ -153,6 +154,20 @@ class _ModelPrinter(_ExactPythonPrinter):
             return f"({value.format(*printed)})"
         return f"({value.format(*printed)} if {' and '.join(tests)} else math.nan)"
 
+    def _print_Pow(self, expr: sympy.Pow, rational: bool = False) -> str:
+        """A negative whole power ``x**(-3)`` as ``1/x**3``.
+
+        numba computes ``x**(-3)`` by repeated multiplication and raises ZeroDivisionError
+        at ``x = 0`` (a crash "unexpected ZeroDivisionError"), where ``1/x**3`` is ``inf``
+        as ``1/x`` is, which the runs then name as a pole.  sympy prints ``x**(-1)`` and
+        a product's negative powers (``2*x**(-3)``) as divisions already.
+        """
+        exponent = expr.exp
+        if exponent.is_Integer and exponent < -1:
+            positive = sympy.Pow(expr.base, -exponent, evaluate=False)
+            return f"1/{self.parenthesize(positive, precedence(expr))}"
+        return str(super()._print_Pow(expr, rational=rational))
+
     def _print_Max(self, expr: sympy.Max) -> str:
         return self._guarded(f"max({', '.join(['{}'] * len(expr.args))})", expr.args)
 
@@ -169,19 +184,46 @@ class _ModelPrinter(_ExactPythonPrinter):
         next branch's.
         """
         *pairs, last = expr.args
-        if last.cond != sympy.true or not all(
-            isinstance(pair.cond, tuple(_OPPOSITE)) for pair in pairs
-        ):
+        if last.cond != sympy.true or not all(_comparisons(pair.cond) for pair in pairs):
             return str(super()._print_Piecewise(expr))
         printed = f"({self._print(last.expr)})"
         for pair in reversed(pairs):
             condition = pair.cond
-            opposite = _OPPOSITE[type(condition)](condition.lhs, condition.rhs, evaluate=False)
+            if type(condition) in _OPPOSITE:
+                opposite = _OPPOSITE[type(condition)](condition.lhs, condition.rhs, evaluate=False)
+                printed = (
+                    f"(({self._print(pair.expr)}) if {self._print(condition)} "
+                    f"else {printed} if {self._print(opposite)} else math.nan)"
+                )
+                continue
+            # Two adjacent branches of one value are one branch to sympy, its condition
+            # their Or ('Piecewise(1, x > 0, 1, sqrt(u) > 1, 0)'). A comparison of a NaN
+            # is false, so where the condition holds it holds whatever a NaN compared
+            # (x > 0 at x = 1); where it does not, a NaN compared leaves it undecided.
+            decided = " and ".join(
+                f"({self._print(c)} or "
+                f"{self._print(_OPPOSITE[type(c)](c.lhs, c.rhs, evaluate=False))})"
+                for c in sorted(_comparisons(condition), key=sympy.default_sort_key)
+            )
             printed = (
                 f"(({self._print(pair.expr)}) if {self._print(condition)} "
-                f"else {printed} if {self._print(opposite)} else math.nan)"
+                f"else ({printed} if {decided} else math.nan))"
             )
         return printed
+
+
+def _comparisons(condition: sympy.Basic) -> set[sympy.Basic]:
+    """The comparisons ``<, <=, >, >=`` a condition is made of; empty if it holds anything else.
+
+    A comparison alone, or an ``And``, ``Or`` or ``Not`` of them (as sympy merges adjacent
+    ``Piecewise`` branches of one value).
+    """
+    if isinstance(condition, tuple(_OPPOSITE)):
+        return {condition}
+    if not isinstance(condition, sympy.And | sympy.Or | sympy.Not):
+        return set()
+    parts = [_comparisons(argument) for argument in condition.args]
+    return set().union(*parts) if all(parts) else set()
 
 
 def _printer() -> PythonCodePrinter:
@@ -360,6 +402,13 @@ def constant_jacobians(
 
 
 def _guard_function(model: HybridModel) -> list[str]:
+    """``guard(x, u)``: the first mode whose guard holds, -1 where none does.
+
+    And ``-2 - i`` where the guard of mode ``i``, tested before any held, compares a NaN
+    (``sqrt(x) > 0.5`` at ``x < 0``): such a comparison is false, so the next mode's guard
+    had silently decided the sample, a state outside the guard's domain read as "not this
+    mode".
+    """
     names = _slot_names(model)
     printer = _printer()
     lines = ["", "", "def guard(x, u):"]
@@ -368,7 +417,20 @@ def _guard_function(model: HybridModel) -> list[str]:
     for index, mode in enumerate(model.modes):
         if mode.guard is None:
             continue
-        lines.append(f"    if {printer.doprint(mode.guard.xreplace(names))}:  # mode {mode.id!r}")
+        condition = mode.guard
+        if not isinstance(condition, sympy.core.relational.Relational):
+            # never so from the loader (one comparison); printed as it is
+            lines.append(f"    if {printer.doprint(condition.xreplace(names))}:  # {mode.id!r}")
+            lines.append(f"        return {index}")
+            continue
+        lhs, rhs = f"g{index}_l", f"g{index}_r"
+        lines += assignments(
+            [condition.lhs, condition.rhs], [lhs, rhs], names, "    ", temporaries=f"g{index}_"
+        )
+        lines.append(f"    if {lhs} != {lhs} or {rhs} != {rhs}:  # mode {mode.id!r}: NaN")
+        lines.append(f"        return {-2 - index}")
+        test = condition.func(sympy.Symbol(lhs), sympy.Symbol(rhs), evaluate=False)
+        lines.append(f"    if {printer.doprint(test)}:  # mode {mode.id!r}")
         lines.append(f"        return {index}")
     lines.append("    return -1")
     return lines

@@ -3,7 +3,8 @@ r"""Symbolic derivatives of a model's expressions: Jacobians and Lie derivatives
 Every derivative hybridlog compiles is taken here, with sympy, and made printable: the
 derivatives of ``abs``, ``sign``, ``max`` and ``min`` are distributions
 (``Heaviside``, ``DiracDelta``), replaced by the functions a compiled step can evaluate
-(:func:`printable`).
+(:func:`printable`).  At a kink each takes the mean of its one-sided slopes, a
+subgradient: ``∂|x|/∂x = sign(0) = 0``, ``∂max(x, 2x)/∂x = 3/2`` at ``x = 0``.
 
 A model expression is real-valued, but sympy cannot always prove that an argument is real
 (``sqrt(x1)``, ``log(x1)`` of a real ``x1`` may be complex to it).  It then leaves the
@@ -31,8 +32,15 @@ import sympy
 
 
 def _heaviside(arg: sympy.Expr, *_: sympy.Expr) -> sympy.Expr:
-    # ∂max(x, 0)/∂x: 1 above zero, 0 at and below (a subgradient choice).
-    return sympy.Piecewise((sympy.S.One, arg > 0), (sympy.S.Zero, True))
+    """The step of sympy's ∂max, ∂min: 1 above zero, 0 below, 1/2 at zero.
+
+    sympy writes ``∂max(a, b)/∂x`` as ``H(a - b)·a' + H(b - a)·b'``.  At a tie (``a = b``)
+    the half gives the mean of the two slopes, a subgradient, as ``sign(0) = 0`` gives
+    for ``abs``; 0 there (the choice before) gave neither: ``max(x, 2*x)`` had derivative
+    0 at ``x = 0`` instead of one in [1, 2], and an EKF whose estimate sat at 0 never
+    moved, whatever the outputs said.
+    """
+    return sympy.Piecewise((sympy.S.One, arg > 0), (sympy.S.Half, arg >= 0), (sympy.S.Zero, True))
 
 
 def _dirac(*_: sympy.Expr) -> sympy.Expr:
@@ -62,7 +70,7 @@ def _derivative(expression: sympy.Expr, variable: sympy.Symbol) -> sympy.Expr:
 
 
 def printable(expression: sympy.Expr) -> sympy.Expr:
-    """``expression`` with ``DiracDelta`` set to 0 and ``Heaviside(x)`` to ``x > 0``."""
+    """``expression`` with ``DiracDelta`` set to 0 and ``Heaviside`` as :func:`_heaviside`."""
     return expression.replace(sympy.DiracDelta, _dirac).replace(sympy.Heaviside, _heaviside)
 
 

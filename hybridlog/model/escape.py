@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray
+
+if TYPE_CHECKING:
+    import sympy
 
 __all__ = ["Escape", "Watch", "escape_error", "point", "replayed"]
 
@@ -146,16 +150,38 @@ def escape_error(
         )
     mode = model.modes[escape.mode]
     expressions = {"dx": mode.dx, "f": mode.f}.get(escape.function, mode.h)
-    why = (
-        f"the {noun} left the domain of {escape.function} there"
-        if np.isnan(value)
-        else f"more than float64 holds: the {noun} ran away"
-    )
+    if np.isnan(value):
+        why = f"the {noun} left the domain of {escape.function} there"
+    elif _at_pole(model, expressions[column], escape):
+        why = f"a pole of {escape.function}: a division by 0 or a log of 0 there"
+    else:
+        why = f"more than float64 holds: the {noun} ran away"
     return model.error(
         _expression_key(model, escape.function, escape.mode, column),
         f"{excerpt(str(expressions[column]))} is {value:g} at "
         f"{point(model, escape.x, escape.u)}, {where} ({why}): {consequence}",
     )
+
+
+def _at_pole(model: HybridModel, expression: sympy.Expr, escape: Escape) -> bool:
+    """True when ``expression`` is infinite at ``escape``'s point itself, not just beyond float64.
+
+    ``1/x`` or ``log(x)`` at ``x = 0`` is infinite in exact arithmetic too (a pole: the
+    state reached it, it did not run away), where ``exp(10*x)`` at ``x = 148`` is a finite
+    number float64 cannot hold.  sympy evaluates at the point with unbounded exponents.
+    """
+    import sympy  # only on this error's path: a warm run imports no sympy
+
+    xs, us = model.symbols()
+    values = {
+        **dict(zip(xs, escape.x.tolist(), strict=True)),
+        **dict(zip(us, escape.u.tolist(), strict=False)),
+    }
+    try:
+        exact = expression.xreplace({s: sympy.Float(v) for s, v in values.items()})
+        return bool(exact.has(sympy.zoo, sympy.oo, -sympy.oo) or exact.is_finite is False)
+    except (TypeError, ValueError, ArithmeticError, RecursionError):
+        return False
 
 
 Replay = Callable[[Watch], None]

@@ -29,7 +29,7 @@ from typing import Any
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.toml_text import unheld_number
+from hybridlog.model.toml_text import held_digits, unheld_number
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -152,6 +152,12 @@ _COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Expr
     ast.Gt: sympy.Gt,
     ast.GtE: sympy.Ge,
 }
+
+_UNSUPPORTED_OPERATORS: Mapping[type[ast.operator], str] = {
+    ast.Mod: "'%' (remainder)",
+    ast.FloorDiv: "'//' (floor division)",
+}
+"""Arithmetic a model expression cannot write, as its reader would name it."""
 
 _SUMS = (ast.Add, ast.Sub)
 _PRODUCTS = (ast.Mult, ast.Div)
@@ -317,7 +323,8 @@ def _underflow(expression: sympy.Expr) -> str:
             continue
         if abs(value) < _SMALLEST_NORMAL and node.is_zero is False:
             shown = node.evalf(4) if node.is_Float else node  # 1.000e-400; exp(-1000)
-            return f"{excerpt(shown, 40)} is below {_SMALLEST_NORMAL:.4g} and would be {value!r}"
+            held = held_digits(value)
+            return f"{excerpt(shown, 40)} is below {_SMALLEST_NORMAL:.4g} and would be {held}"
     return ""
 
 
@@ -333,7 +340,28 @@ def _complex_reason(expression: sympy.Expr) -> str:
     for atom in sorted(expression.atoms(sympy.Pow, sympy.log), key=sympy.default_sort_key):
         if atom.is_extended_real is False:
             return f"{excerpt(atom, 40)} is not real"
+        if isinstance(atom, sympy.Pow) and _negative_base_variable_power(atom):
+            return (
+                f"{excerpt(atom, 40)} is real only where its exponent is a whole number, and "
+                "its derivative is complex"
+            )
     return ""
+
+
+def _negative_base_variable_power(power: sympy.Pow) -> bool:
+    """``(-1)**x``: a negative number to a power of a variable other than the step ``k``.
+
+    Real only at whole exponents (NaN in compiled code elsewhere), and its derivative
+    ``(-1)**x*I*pi`` is complex: numba failed to compile the model's Jacobian ("No
+    implementation of function setitem ... complex128").  ``(-1)**k`` of simulation inputs
+    is real: the step ``k`` is a whole number (a name no model symbol may take).
+    """
+    base, exponent = power.base, power.exp
+    return bool(
+        base.is_Number
+        and base.is_negative
+        and any(str(symbol) != "k" for symbol in exponent.free_symbols)
+    )
 
 
 _PLAIN_NUMBER = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)
@@ -371,6 +399,11 @@ class _Converter:
                 return -self.value(node.operand)
             if isinstance(node.op, ast.UAdd):
                 return self.value(node.operand)
+            if isinstance(node.op, ast.Not):
+                raise ModelError(
+                    f"{self.key}: 'not' is not in the grammar of model expressions; write the "
+                    "opposite comparison (x <= 0 for not x > 0)"
+                )
             raise self.fail(f"operator {type(node.op).__name__}")
         if isinstance(node, ast.Compare):
             return self.compare(node)
@@ -378,6 +411,22 @@ class _Converter:
             return self.call(node)
         if isinstance(node, ast.Attribute):
             raise self.fail(f"attribute access '.{node.attr}'")
+        if isinstance(node, ast.IfExp):
+            raise ModelError(
+                f"{self.key}: 'a if condition else b' is not in the grammar of model "
+                "expressions; write Piecewise(a, condition, b)"
+            )
+        if isinstance(node, ast.BoolOp):
+            both = isinstance(node.op, ast.And)
+            instead = (
+                "Piecewise(Piecewise(a, x > 0, b), u > 0, b) for a where x > 0 and u > 0"
+                if both
+                else "Piecewise(a, x > 0, a, u > 0, b) for a where x > 0 or u > 0"
+            )
+            raise ModelError(
+                f"{self.key}: '{'and' if both else 'or'}' is not in the grammar of model "
+                f"expressions (a condition is one comparison); write {instead}"
+            )
         if isinstance(node, ast.Subscript) and self.previous is not None:
             return self.indexed(node)
         raise self.fail(f"a {type(node).__name__} expression")
@@ -406,6 +455,12 @@ class _Converter:
                 raise ModelError(
                     f"{self.key}: '^' is not a power in a model expression (Python reads it "
                     "as a bitwise xor); write '**', as in x**2"
+                )
+            spelled = _UNSUPPORTED_OPERATORS.get(type(node.op))
+            if spelled is not None:
+                raise ModelError(
+                    f"{self.key}: {spelled} is not in the grammar of model expressions "
+                    "(+ - * / ** and the listed functions)"
                 )
             raise self.fail(f"operator {type(node.op).__name__}")
         links: list[tuple[ast.operator, ast.expr]] = []
@@ -496,6 +551,12 @@ class _Converter:
         if len(node.ops) != 1:
             raise self.fail("a chained comparison")
         operator = _COMPARE.get(type(node.ops[0]))
+        if isinstance(node.ops[0], ast.Eq | ast.NotEq):
+            raise ModelError(
+                f"{self.key}: '{'==' if isinstance(node.ops[0], ast.Eq) else '!='}' is not a "
+                "comparison of model expressions (computed numbers are seldom exactly equal); "
+                "write <, <=, > or >="
+            )
         if operator is None:
             raise self.fail(f"comparison {type(node.ops[0]).__name__}")
         return operator(self.value(node.left), self.value(node.comparators[0]))

@@ -802,8 +802,12 @@ def _guard(value: Any, key: str, env: Mapping[str, sympy.Expr], variables: set[s
         raise ModelError(f"{key}: expected a comparison such as 'x3 <= 0', got {excerpt(text)}")
     # The expression grammar returns values; a Piecewise carries the condition through it.
     wrapped = parse_expression(f"Piecewise(1, {text}, 0)", env, key=key)
-    if not isinstance(wrapped, sympy.Piecewise):
-        raise ModelError(f"{key}: {excerpt(text)} does not depend on the states or inputs")
+    if not isinstance(wrapped, sympy.Piecewise):  # sympy decided the comparison: 1 or 0
+        always = "always holds" if wrapped == 1 else "never holds"
+        raise ModelError(
+            f"{key}: {excerpt(text)} {always}, whatever the states and inputs; a guard must "
+            "depend on them"
+        )
     condition: sympy.Basic = wrapped.args[0].cond
     if not {str(s) for s in condition.free_symbols} & variables:
         raise ModelError(f"{key}: {excerpt(text)} does not depend on the states or inputs")

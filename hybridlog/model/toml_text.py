@@ -55,6 +55,15 @@ class _Unheld(float):
     literal: str
 
 
+def held_digits(value: float) -> str:
+    """A double below the normal range with every digit it keeps (``9.9999999999999694e-311``).
+
+    ``repr`` shows the shortest text that reads back as the double, ``1e-310``: as if the
+    number written were held, where only 2 of its 17 digits are.
+    """
+    return repr(value) if value == 0 else format(value, ".17g")
+
+
 def unheld_number(literal: str, value: float) -> str:
     """Why the double ``value`` read from the number ``literal`` is not that number, or ``""``.
 
@@ -78,7 +87,8 @@ def unheld_number(literal: str, value: float) -> str:
     if any(c in "123456789" for c in mantissa) and abs(value) < _SMALLEST:
         return (
             f"{excerpt(literal, 40)} is smaller in magnitude than a double holds in full "
-            f"({_SMALLEST:.4g}; it would be read as {float(value)!r}); write 0 or a larger number"
+            f"({_SMALLEST:.4g}; it would be read as {held_digits(value)}); write 0 or a larger "
+            "number"
         )
     return ""
 

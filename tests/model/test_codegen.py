@@ -16,6 +16,7 @@ import pytest
 import sympy
 
 from hybridlog.errors import OutputError
+from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.model import compiled
 from hybridlog.model.codegen import lambdify
 from hybridlog.model.compiled import (
@@ -27,6 +28,7 @@ from hybridlog.model.compiled import (
 )
 from hybridlog.model.derivatives import jacobian, lie_derivative
 from hybridlog.model.loader import load_model, parse_model
+from hybridlog.simulate import simulate
 from tests.support.models import LINEAR_TWO_MODE, PENDULUM_ONE_MODE
 
 # Simulation inputs calling every function of the grammar: the NumPy printer writes some
@@ -74,6 +76,7 @@ def test_jacobians_of_kinks_are_printable_functions():
     assert not any(entry.has(sympy.Heaviside, sympy.DiracDelta) for row in J for entry in row)
     assert J[0][1] == sympy.Max(x, 0)
     assert J[0][0].subs({x: 2, y: 3}) == 3 and J[0][0].subs({x: -2, y: 3}) == 0
+    assert J[0][0].subs({x: 0, y: 3}) == sympy.Rational(3, 2)  # the mean of 0 and 3
     assert J[1] == [0, 1]
     assert J[2][0] == sympy.sign(x)
 
@@ -299,3 +302,46 @@ def test_importing_simulate_and_the_compiled_code_cache_loads_neither_numba_nor_
     )
     done = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
     assert done.stdout.strip() == "[]"
+
+
+TIED_MAX = """
+name = "tied"
+dt = 0.1
+states = ["x"]
+outputs = ["y"]
+
+[modes.a]
+f = ["0.95*x"]
+h = ["max(x, 2*x)"]
+
+[noise]
+process = 1e-4
+measurement = 0.05
+
+[initial]
+state = [0.0]
+
+[simulation]
+state = [1.0]
+"""
+
+
+def test_a_derivative_at_a_tie_of_max_or_min_is_a_subgradient():
+    # d max(x, 2x)/dx at x = 0 was 0, no slope of either argument: an EKF whose estimate
+    # sat at 0 had H = 0, never moved, and ended at x = 0 with the log at 1 (RMSE 0.45)
+    x, u = sympy.symbols("x u", real=True)
+    cases = [
+        (sympy.Max(x, 2 * x), {x: 0}, sympy.Rational(3, 2)),  # in [1, 2]
+        (sympy.Min(x, 2 * x), {x: 0}, sympy.Rational(3, 2)),
+        (sympy.Max(x, 2 * x - 1), {x: 1}, sympy.Rational(3, 2)),
+        (sympy.Max(x, 0), {x: 0}, sympy.S.Half),
+        (sympy.Max(x, -x), {x: 0}, 0),  # as d|x|/dx = sign(0)
+        (sympy.Min(x, u), {x: 0, u: 0}, sympy.S.Half),
+    ]
+    for expression, point, slope in cases:
+        assert jacobian([expression], [x])[0][0].subs(point) == slope, expression
+    model = parse_model(TIED_MAX, origin="tied.toml")
+    log = simulate(model, steps=30, seed=1, jit=False)
+    result = run_imm(model, log.signals(model), ImmOptions(), jit=False)
+    truth = log.states[:, 0]
+    assert abs(result.state_means[-1, 0] - truth[-1]) < 0.1, (result.state_means[-1, 0], truth[-1])

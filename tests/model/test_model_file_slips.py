@@ -42,6 +42,14 @@ MATRIX = "matrix = [[0.97, 0.03], [0.05, 0.95]]"
         ("-(x > 0)", r"the comparison 'x > 0' is a condition"),
         ("Piecewise(x, x > 0, x > 1)", r"the comparison 'x > 1' is a condition"),
         ("(x > 0) < 1", r"the comparison 'x > 0' is a condition"),
+        # were "a IfExp expression", "a BoolOp expression", "comparison Eq", "operator Mod"
+        ("x if x > 0 else 0", r"'a if condition else b' .*; write Piecewise\(a, condition, b\)"),
+        ("Piecewise(x, x > 0 and u > 0, 0)", r"'and' .*; write Piecewise\(Piecewise\(a, x > 0"),
+        ("Piecewise(x, x > 0 or u > 0, 0)", r"'or' .*; write Piecewise\(a, x > 0, a, u > 0, b\)"),
+        ("Piecewise(x, not x > 0, 0)", r"'not' .*; write the opposite comparison"),
+        ("Piecewise(x, x == 0, 0)", r"'==' is not a comparison of model .*; write <, <=, > or >="),
+        ("x % 2", r"'%' \(remainder\) is not in the grammar of model expressions"),
+        ("x // 2", r"'//' \(floor division\) is not in the grammar"),
     ],
 )
 def test_an_expression_written_as_elsewhere_says_what_to_write(text, said):

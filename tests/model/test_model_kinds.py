@@ -438,7 +438,7 @@ _COMPONENT_ERRORS = [
     (
         '"xc1[k] = 0.8*xc1[k-1] + wc1[k-1]"',
         '"xc1[k] = 0.8*xc1[k-1] == wc1[k-1]"',
-        rf"{_EQ}\[0\]: .*not allowed",
+        rf"{_EQ}\[0\]: .==. is not a comparison of model expressions",
     ),
     (
         '"xc1[k] = 0.8*xc1[k-1] + wc1[k-1]"',

@@ -9,6 +9,7 @@ comparing a NaN took the next branch), and the Jacobian of ``sign`` or
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -89,3 +90,73 @@ def test_sign_and_abs_of_arguments_sympy_cannot_prove_real_differentiate():
     values = [float(row[0].subs(x, 4)) for row in rows]
     assert values == pytest.approx([0.0, 0.0, 0.25, 0.25])
     assert not math.isnan(sum(values))
+
+
+POLES = """
+name = "poles"
+dt = 1.0
+states = ["x"]
+outputs = ["y"]
+
+[modes.a]
+f = ["1/x + exp(10*x)"]
+h = ["log(x)"]
+
+[noise]
+measurement = 0.1
+
+[initial]
+state = [1.0]
+"""
+
+
+@pytest.mark.parametrize(
+    ("function", "x", "value", "why"),
+    [
+        # 1/x and log(x) at x = 0 are infinite exactly: the state reached a pole
+        ("f", 0.0, math.inf, r"a pole of f: a division by 0 or a log of 0 there"),
+        ("h", 0.0, -math.inf, r"a pole of h: a division by 0 or a log of 0 there"),
+        # exp(1480) is finite, beyond float64: the state ran away
+        ("f", 148.0, math.inf, r"more than float64 holds: the state ran away"),
+    ],
+)
+def test_an_infinite_value_tells_a_pole_from_an_overflow(function, x, value, why):
+    # 1/x at x = 0 was said as "more than float64 holds: the state ran away"
+    from hybridlog.model.escape import Escape, escape_error
+
+    model = parse_model(POLES, origin="poles.toml")
+    escape = Escape(function, 0, -1, np.array([x]), np.zeros(0), np.array([value]))
+    error = escape_error(model, escape, "at t = 1 s", "the simulation diverged")
+    assert f"poles.toml: modes.a.{function}[0]: " in str(error)
+    assert re.search(rf"\({why}\): the simulation diverged$", str(error)), str(error)
+
+
+def test_a_merged_piecewise_condition_comparing_a_nan_is_nan():
+    # sympy merges two adjacent branches of one value into one, its condition their Or:
+    # printed as sympy does, a comparison of NaN in it was false and the next branch taken
+    text = MODEL.replace(
+        'h = ["sign(sqrt(x1)) + abs(sqrt(x1) - 1)", "Piecewise(1, sqrt(x1) > 1, 2, x2 < 0, 3)"]',
+        'h = ["Piecewise(1, x1 > 0, 1, u > 1, 0)", "x2"]',
+    )
+    model = parse_model(text, origin="domain.toml")
+    assert model.modes[0].h[0].args[0].cond.func is sympy.Or  # merged by sympy
+    h = compile_model(model, jit=False).h  # plain Python: the NaN is an input, no math error
+    out = np.zeros(2)
+    for x1, u, expected in [(1.0, math.nan, 1.0), (-1.0, 2.0, 1.0), (-1.0, 0.0, 0.0)]:
+        h(0, np.array([x1, 0.0]), np.array([u]), out)
+        assert out[0] == expected, (x1, u, out)
+    h(0, np.array([-1.0, 0.0]), np.array([math.nan]), out)
+    assert math.isnan(out[0]), out  # undecided: neither branch
+
+
+def test_a_negative_whole_power_at_zero_is_infinite_not_a_crash():
+    # numba's x**(-3) raised ZeroDivisionError at x = 0: analyze said "unexpected
+    # ZeroDivisionError ... (a bug ...)" where 1/x gave inf and a named error
+    model = parse_model(POLES.replace('h = ["log(x)"]', 'h = ["x**(-3)"]'), origin="poles.toml")
+    h, H = compile_model(model).h, compile_model(model).H
+    out, slope = np.zeros(1), np.zeros((1, 1))
+    h(0, np.zeros(1), np.zeros(0), out)
+    H(0, np.zeros(1), np.zeros(0), slope)
+    assert out[0] == math.inf and slope[0, 0] == -math.inf, (out, slope)
+    h(0, np.array([-2.0]), np.zeros(0), out)
+    assert out[0] == -0.125

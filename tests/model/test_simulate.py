@@ -353,6 +353,37 @@ def test_where_guards_overlap_the_first_listed_mode_holds():
 
 
 @pytest.mark.parametrize(
+    ("guard", "verdict"),
+    [("x > x", "never holds"), ("x**2 >= 0", "always holds"), ("sqrt(2) > 1", "always holds")],
+)
+def test_a_guard_sympy_decides_says_which_way(guard, verdict):
+    # 'x > x' (never) and 'x**2 >= 0' (always) were both "does not depend on the states"
+    text = GUARDED.replace('guard = "x > 0"', f'guard = "{guard}"')
+    message = rf"^guarded\.toml: modes\.down\.guard: '.*' {verdict}, whatever the states and"
+    with pytest.raises(ModelError, match=message):
+        parse_model(text, origin="guarded.toml")
+
+
+def test_a_guard_outside_its_domain_is_named_not_read_as_false():
+    # sqrt(x) > 0 at x = -0.1 compares a NaN: false, so the next guard (x < 1) took the
+    # sample without a word, a state outside the guard's domain read as "not this mode"
+    text = GUARDED.replace('guard = "x > 0"', 'guard = "sqrt(x) > 0"')
+    model = parse_model(text, origin="guarded.toml")
+    message = (
+        r"^guarded\.toml: modes\.down\.guard: 'sqrt\(x\) > 0' is undefined \(a side is nan\) "
+        r"at x = -0\.1, t = 0\.2 s \(the state left the domain of the guard there\)"
+    )
+    with pytest.raises(ModelError, match=message):
+        simulate(model, steps=4, noise=False)  # numba: sqrt(-0.1) is NaN
+    # where an earlier guard holds, the later one is not evaluated: no error
+    first = text.replace(
+        "[modes.down]", '[modes.neg]\nf = ["x + 0.2"]\nh = ["x"]\nguard = "x < 0"\n\n[modes.down]'
+    )
+    log = simulate(parse_model(first, origin="guarded.toml"), steps=4, noise=False, jit=False)
+    assert log.modes.tolist() == [1, 1, 0, 1, 0]  # x = 0.5, 0.2, -0.1, 0.1, -0.2
+
+
+@pytest.mark.parametrize(
     ("old", "new", "message"),
     [
         (

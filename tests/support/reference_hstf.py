@@ -8,10 +8,10 @@ import numpy as np
 import sympy
 from scipy.stats import multivariate_normal
 
-# ∂sign/∂x = 0 and ∂max(x, 0)/∂x = 1 only above 0: the conventions the package documents.
+# ∂sign/∂x = 0 and ∂max(x, 0)/∂x = 1 above 0, 1/2 at 0: the conventions the package documents.
 _DERIVATIVE_CONVENTIONS = {
     "DiracDelta": lambda x: 0.0,
-    "Heaviside": lambda x: np.heaviside(x, 0.0),
+    "Heaviside": lambda x: np.heaviside(x, 0.5),
 }
 
 
