@@ -570,8 +570,9 @@ def check_followable(target: PathLike) -> None:
     :func:`output_path` resolves the folder part as :func:`os.path.realpath` does, which
     takes ``run.csv/..`` for ``run.csv``'s folder; the system refuses such a path (a file
     is no folder to go up from), so the outputs went to ``./out`` while the command printed
-    ``run.csv/../out/report.md``, a path nobody could open.  A missing folder is no error
-    here (:func:`check_creatable` tells what can be made).
+    ``run.csv/../out/report.md``, a path nobody could open; so through a missing folder
+    (``missing/../out``).  A missing folder is no error otherwise (:func:`check_creatable`
+    tells what can be made).
 
     Raises
     ------
@@ -587,7 +588,16 @@ def check_followable(target: PathLike) -> None:
     for step in reversed(steps):  # outermost first, as the system follows the path
         try:
             status = os.stat(step)
-        except (OSError, ValueError):  # missing (made later) or unusable: told later
+        except FileNotFoundError:
+            # made later, unless the path goes up out of it: 'missing/../out' was written
+            # to ./out, reported as missing/../out/report.md, which no one can open
+            if os.pardir in text[len(step) :].split(os.sep):
+                raise OutputError(
+                    f"{_shown(target)}: cannot be created: {_shown(step)} does not exist, "
+                    f"so '{os.pardir}' after it leads nowhere"
+                ) from None
+            return
+        except (OSError, ValueError):  # unusable: told later
             return
         if not stat.S_ISDIR(status.st_mode):
             raise OutputError(
