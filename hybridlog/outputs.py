@@ -28,6 +28,7 @@ Every command that writes goes through this module, in two steps:
 from __future__ import annotations
 
 import contextlib
+import csv
 import datetime
 import errno
 import hashlib
@@ -44,7 +45,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from hybridlog import __version__
-from hybridlog.errors import OutputError, excerpt
+from hybridlog.errors import OutputError, as_name, excerpt
 
 __all__ = [
     "MARKER",
@@ -569,8 +570,9 @@ def check_followable(target: PathLike) -> None:
     :func:`output_path` resolves the folder part as :func:`os.path.realpath` does, which
     takes ``run.csv/..`` for ``run.csv``'s folder; the system refuses such a path (a file
     is no folder to go up from), so the outputs went to ``./out`` while the command printed
-    ``run.csv/../out/report.md``, a path nobody could open.  A missing folder is no error
-    here (:func:`check_creatable` tells what can be made).
+    ``run.csv/../out/report.md``, a path nobody could open; so through a missing folder
+    (``missing/../out``).  A missing folder is no error otherwise (:func:`check_creatable`
+    tells what can be made).
 
     Raises
     ------
@@ -586,7 +588,16 @@ def check_followable(target: PathLike) -> None:
     for step in reversed(steps):  # outermost first, as the system follows the path
         try:
             status = os.stat(step)
-        except (OSError, ValueError):  # missing (made later) or unusable: told later
+        except FileNotFoundError:
+            # made later, unless the path goes up out of it: 'missing/../out' was written
+            # to ./out, reported as missing/../out/report.md, which no one can open
+            if os.pardir in text[len(step) :].split(os.sep):
+                raise OutputError(
+                    f"{_shown(target)}: cannot be created: {_shown(step)} does not exist, "
+                    f"so '{os.pardir}' after it leads nowhere"
+                ) from None
+            return
+        except (OSError, ValueError):  # unusable: told later
             return
         if not stat.S_ISDIR(status.st_mode):
             raise OutputError(
@@ -763,9 +774,11 @@ def check_outside_batch(target: PathLike) -> None:
     gave numbers no report held, and :func:`_check_not_part`, which keeps a comparison's
     reports so, does not see a batch folder (its marker lists no files).  A batch folder is
     the nearest folder above with hybridlog's :data:`MARKER`, listing no files, beside a
-    summary.csv hybridlog recorded (:func:`record_file`).  A new folder there replaces
-    nothing the summaries name (the next batch lists it among the folders it did not write),
-    so ``analyze`` in a working folder that is also a batch's output still writes its own.
+    summary.csv hybridlog recorded (:func:`record_file`); a folder there is refused when it
+    is, or holds, a report folder summary.csv names (its ``folder`` column; all of them
+    where it cannot be read).  Another replaces nothing the summaries name (the next batch
+    lists it among the folders it did not write), so ``analyze`` in a working folder that is
+    also a batch's output writes its own folder, and writes it again with ``--force``.
 
     Raises
     ------
@@ -776,13 +789,38 @@ def check_outside_batch(target: PathLike) -> None:
     if not os.path.lexists(path):
         return
     for parent in _marked_folders_above(path):
-        if recorded_files(parent) is None and record_path(parent / "summary.csv").is_file():
+        summary = parent / "summary.csv"
+        if recorded_files(parent) is None and record_path(summary).is_file():
+            named = _summary_folders(summary)
+            inside = as_name(path.relative_to(parent).as_posix())
+            if named is not None and not any(
+                name == inside or name.startswith(f"{inside}/") for name in named
+            ):
+                return
             raise OutputError(
                 f"output directory {_shown(target)} is inside the batch folder "
                 f"{_shown(parent)}, whose summaries name its reports; run the batch again, "
                 "or choose another output directory"
             )
         return
+
+
+def _summary_folders(summary: Path) -> list[str] | None:
+    """The report folders a batch's summary.csv names (its ``folder`` column), or None.
+
+    ``None`` where the file cannot be read as one (no such column): every folder of the
+    batch folder is then taken for one of its reports.
+    """
+    try:
+        with summary.open(encoding="utf-8", newline="") as handle:
+            reader = csv.DictReader(handle)
+            rows = list(reader)
+            columns = reader.fieldnames or ()
+    except (OSError, UnicodeError, csv.Error):
+        return None
+    if "folder" not in columns:
+        return None
+    return [row["folder"] for row in rows if row["folder"]]
 
 
 def _check_only_ours(path: Path, written: Collection[str] | None) -> None:

@@ -404,10 +404,13 @@ def _check_guard_domain(
     if code > -2:
         return
     mode = model.modes[-2 - code]
+    read = {str(symbol) for symbol in mode.guard.free_symbols} if mode.guard is not None else set()
+    states, inputs = bool(read & set(model.states)), bool(read & set(model.inputs))
+    left = "the input" if inputs and not states else "the state or input" if inputs else "the state"
     raise model.error(
         f"{key_path('modes', mode.id)}.guard",
         f"{excerpt(str(mode.guard))} is undefined (a side is nan) at {point(model, x, u)}, "
-        f"t = {format_time(float(at))} s (the state left the domain of the guard there): "
+        f"t = {format_time(float(at))} s ({left} left the domain of the guard there): "
         "no mode can be chosen; nothing was written",
     )
 

@@ -332,7 +332,8 @@ def _beyond_the_fitted_range(
     lies (centres fitted on a cart moving ±1 m decided a log in micrometres, 10^6 times
     larger, without a word).  The note counts the samples with a measured ``y(k)`` outside
     the box and names the farthest; it is a WARNING where that one lies more than the box's
-    own width beyond it (:data:`_FAR`): the decision there is an extrapolation.  Nothing
+    own width beyond it (:data:`_FAR`; 1 where the box is one value, which the decision
+    does not scale): the decision there is an extrapolation.  Nothing
     when every measured ``y(k)`` is inside.
     """
     columns = list(classifier.decision_columns)
@@ -345,13 +346,19 @@ def _beyond_the_fitted_range(
     count = int(np.count_nonzero(outside))
     if count == 0:
         return ()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        widths = np.where(excess > 0.0, excess / np.where(span > 0, span, 0.0), 0.0)
+    # in the decision's own units (decide_clusters): the width, or 1 where the file's range
+    # is one value (an infinite 'width' there named a nanometre off it, over a log 10^6
+    # times larger in another output, as the farthest, and warned of it)
+    widths = excess / np.where(span > 0, span, 1.0)
     row, column = np.unravel_index(int(np.argmax(widths)), widths.shape)
     far = float(widths[row, column])
     name = classifier.regressors[columns[column]]
     measured = int(np.count_nonzero(np.any(~np.isnan(outputs), axis=1)))
-    times = "a constant in the file" if span[column] == 0 else f"{far:.3g} times its width"
+    times = (
+        f"{far:.3g} times its width"
+        if span[column] > 0
+        else f"{far:.3g} (one value in the file: compared unscaled, as the decision is)"
+    )
     note = (
         f"{count:,} of {measured:,} samples have y(k) outside the range the centres of "
         f"{source} were fitted on (its scaling); farthest {name} = "

@@ -57,7 +57,9 @@ refused.
 
 from __future__ import annotations
 
+import math
 import time
+from fractions import Fraction
 
 import numpy as np
 import numpy.typing as npt
@@ -341,6 +343,20 @@ def unvouched(
     return outside, slipping
 
 
+def least_share(count: int, total: int) -> float:
+    """The least share of two significant digits that is not below ``count / total``.
+
+    What a refusal tells to give: ``count / total`` rounded to nearest could fall below it
+    (20 of 1,990 samples, 0.01005, shown as 0.01, which is refused again).
+    """
+    share = Fraction(count, total)
+    step = Fraction(10) ** (math.floor(math.log10(count / total)) - 1)
+    least = math.ceil(share / step) * step
+    while float(least) * total < count:  # the float given is what the check multiplies
+        least += step
+    return float(least)
+
+
 def _refuse_unvouched(
     model: HybridModel,
     signals: AlignedSignals,
@@ -388,7 +404,7 @@ def _refuse_unvouched(
             f"{largest:g}), and would not on any log of {n_samples:,} samples: its first "
             f"{window} samples ({SLIP_WINDOW_S:g} s, {100 * window / n_samples:.2g} %) are "
             "never vouched for (σ̂ is the observer's initial 0 before the slip D⁺ė can be "
-            f"measured); give max_unvouched = {window / n_samples:.2g} or more"
+            f"measured); give max_unvouched = {least_share(window, n_samples):g} or more"
         )
     held = int(singular.sum())
     if held:

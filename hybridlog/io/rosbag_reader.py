@@ -475,7 +475,9 @@ def unlisted_storage_files(folder: Path) -> list[str]:
     return sorted(
         file.name
         for file in folder.iterdir()
-        if file.name not in listed and file.name.endswith(STORAGE_SUFFIXES) and file.is_file()
+        if file.name not in listed
+        and file.name.lower().endswith(STORAGE_SUFFIXES)  # as the log's suffix is read
+        and file.is_file()
     )
 
 

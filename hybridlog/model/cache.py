@@ -325,6 +325,7 @@ def _encode(model: HybridModel) -> str | None:
         "commands": list(model.commands),
         "twin_modes": [list(ids) for ids in model.twin_modes],
         "diagnoses": list(model.diagnoses),
+        "outputs_differ": model.outputs_differ_by_mode,
         "model_key": model_key(model),
     }
     try:
@@ -335,6 +336,13 @@ def _encode(model: HybridModel) -> str | None:
 
 
 _FORM = ("A", "B", "C", "D", "state_offset", "output_offset")
+
+
+def _flag(value: object) -> bool:
+    """A stored ``true``/``false``; anything else is a damaged file."""
+    if not isinstance(value, bool):
+        raise TypeError("expected a boolean")
+    return value
 
 
 def _read(
@@ -438,6 +446,7 @@ def _decode(content: dict[str, Any], source: _Source) -> HybridModel:
         commands=tuple(map(str, content["commands"])),
         twin_modes=tuple(tuple(map(str, ids)) for ids in content["twin_modes"]),
         diagnoses=tuple(map(str, content["diagnoses"])),
+        outputs_differ=_flag(content["outputs_differ"]),
     )
     stored_key = content["model_key"]
     if not isinstance(stored_key, str):

@@ -349,7 +349,7 @@ def _complex_reason(expression: sympy.Expr) -> str:
 
 
 def _negative_base_variable_power(power: sympy.Pow) -> bool:
-    """``(-1)**x``: a negative number to a power of a variable other than the step ``k``.
+    """``(-1)**x``, ``(-pi)**x``: a negative constant to a power of a variable other than ``k``.
 
     Real only at whole exponents (NaN in compiled code elsewhere), and its derivative
     ``(-1)**x*I*pi`` is complex: numba failed to compile the model's Jacobian ("No
@@ -358,8 +358,8 @@ def _negative_base_variable_power(power: sympy.Pow) -> bool:
     """
     base, exponent = power.base, power.exp
     return bool(
-        base.is_Number
-        and base.is_negative
+        not base.free_symbols  # a number, or one written with constants: (-pi)**x
+        and base.is_extended_negative
         and any(str(symbol) != "k" for symbol in exponent.free_symbols)
     )
 

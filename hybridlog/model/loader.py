@@ -52,6 +52,7 @@ from hybridlog.model.hybrid_model import (
     Mode,
     Timebase,
     markov_matrix,
+    outputs_differ,
 )
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
 from hybridlog.model.schedule import parse_schedule
@@ -382,6 +383,7 @@ class _Builder:
             scenario=scenario,
             twin_modes=twin_modes(modes, jumps),
             diagnoses=diagnose(modes, states, inputs, timebase, x0, jumps, linearise=False),
+            outputs_differ=outputs_differ(modes),
         )
 
     def parameters(self, groups: Mapping[str, tuple[str, ...]]) -> dict[str, sympy.Expr]:

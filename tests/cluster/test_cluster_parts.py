@@ -663,3 +663,43 @@ def test_stored_centres_say_where_the_log_leaves_the_range_they_were_fitted_on()
     top = float(y.max()) * 1e6
     assert f"farthest y(k) = {top:.6g} at sample {int(y.argmax())}," in warning
     assert f"by {(top - 4.5) / 5:.3g} times its width" in warning
+
+
+def test_an_output_constant_in_the_centres_file_is_measured_as_the_decision_scales_it():
+    # A range of one value in the file had an infinite 'width': y2 a nanometre off the
+    # constant it was fitted at was a WARNING ("beyond [0, 0] by a constant in the file"),
+    # and named the farthest over y1 recorded 10^6 times larger.  The decision does not
+    # scale such an output (decide_clusters divides by 1): nor does the note.
+    stored = parse_centers(
+        centers_json(
+            {
+                **_STORED,
+                "regressors": ["y1(k)", "y2(k)"],
+                "scaling": {"lower": [-0.5, 0.0], "upper": [4.5, 0.0]},
+                "chiu": {"centers": [[4.0, 0.0], [0.0, 0.0]], "modes": ["b", "a"]},
+            }
+        ),
+        "mem.json",
+    )
+    y, _ = _two_blobs()
+    spec = RegressorSpec(output_lags=(0,), input_lags=())
+
+    def note(outputs):
+        found = stored_classifier(
+            stored,
+            "chiu",
+            spec,
+            outputs,
+            names=["y1(k)", "y2(k)"],
+            mode_ids=["a", "b"],
+            source="m.json",
+        )
+        (only,) = found.notes[1:]
+        return only
+
+    off = np.full((300, 1), 1e-9)
+    assert note(np.hstack([y, off])).startswith("300 of 300 samples")  # a note, no WARNING
+    assert "beyond [0, 0] by 1e-09 (one value in the file: compared unscaled" in note(
+        np.hstack([y, off])
+    )
+    assert "farthest y1(k) = " in note(np.hstack([y * 1e6, off]))

@@ -10,7 +10,7 @@ import pytest
 
 from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
 from hybridlog.estimators import prepare
-from hybridlog.estimators.sliding_mode import channel_gains, run_sliding_mode
+from hybridlog.estimators.sliding_mode import channel_gains, least_share, run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
 from hybridlog.jobs.analysis import parse_sets, prepare_estimators
 from hybridlog.model.compiled import compile_continuous
@@ -473,9 +473,20 @@ def test_a_max_unvouched_no_log_can_meet_is_said_so(test1):
         prepare(model, None, {"max_unvouched": 19 / n}).run(model, signals)
     message = str(caught.value)
     assert f"and would not on any log of {n:,} samples: its first 20 samples (0.02 s" in message
-    assert message.endswith(f"give max_unvouched = {20 / n:.2g} or more")
+    assert message.endswith(f"give max_unvouched = {least_share(20, n):g} or more")
     assert "does not explain the log" not in message
     # at the least share the same run is judged on its own samples as before
     with pytest.raises(DivergenceError, match=UNVOUCHED) as caught:
         prepare(model, None, {"max_unvouched": 20 / n}).run(model, signals)
     assert "would not on any log" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("count", "total", "least"),
+    [(20, 1990, 0.011), (20, 1000, 0.02), (20, 8001, 0.0025), (1, 3, 0.34)],
+)
+def test_the_least_max_unvouched_told_is_not_below_the_share(count, total, least):
+    # 20 of 1,990 samples (0.01005) was told as "give max_unvouched = 0.01 or more", which
+    # the same check refuses again (0.01 * 1990 < 20)
+    assert least_share(count, total) == least
+    assert not least_share(count, total) * total < count

@@ -772,3 +772,6 @@ def test_a_storage_file_metadata_yaml_does_not_list_is_named_not_passed_over(
     ]
     (bag / f"bag_1{suffix}").unlink()
     assert "unlisted_files" not in inspect_log(bag)["reading"]
+    # a suffix in capitals is one too (suffixes are read so everywhere): it was passed over
+    shutil.copy(bag / f"bag{suffix}", bag / f"BAG_2{suffix.upper()}")
+    assert inspect_log(bag)["reading"]["unlisted_files"] == [f"BAG_2{suffix.upper()}"]

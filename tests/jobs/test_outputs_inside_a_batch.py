@@ -50,3 +50,33 @@ def test_folders_beside_or_without_summaries_are_not_a_batch(batch: Path, tmp_pa
     copy = tmp_path / "copy"
     shutil.copytree(batch / "out", copy, ignore=shutil.ignore_patterns("*summary*"))
     check_outside_batch(copy / "s1.csv")  # no summaries: nothing names its reports
+
+
+def test_a_folder_the_summaries_do_not_name_is_written_again(batch: Path) -> None:
+    """``analyze`` in a working folder that is also a batch's output, run again with --force:
+    its own folder, which no summary names, was refused as 'inside the batch folder, whose
+    summaries name its reports' once it existed (the first run had written it)."""
+    mine = batch / "out" / "s1_hstf"
+    mine.mkdir()
+    try:
+        check_outside_batch(mine)
+        (mine / "d").mkdir()
+        check_outside_batch(mine / "d")
+    finally:
+        shutil.rmtree(mine)
+
+
+def test_a_folder_holding_a_named_report_or_beside_an_unread_summary_is_refused(
+    batch: Path, tmp_path: Path
+) -> None:
+    copy = tmp_path / "copy"
+    shutil.copytree(batch / "out", copy)
+    summary = copy / "summary.csv"
+    summary.write_text(summary.read_text(encoding="utf-8").replace(",s1.csv", ",d2/s1.csv"))
+    (copy / "d2").mkdir()
+    with pytest.raises(OutputError, match=r"is inside the batch folder"):
+        check_outside_batch(copy / "d2")  # holds d2/s1.csv's report
+    check_outside_batch(copy / "s1.csv")  # no longer named
+    summary.write_text("not, a summary\n")  # no folder column: every folder taken for one
+    with pytest.raises(OutputError, match=r"is inside the batch folder"):
+        check_outside_batch(copy / "s1.csv")

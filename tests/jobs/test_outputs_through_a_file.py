@@ -48,3 +48,13 @@ def test_batch_refuses_it_before_writing(log: Path) -> None:
     with pytest.raises(OutputError, match=r"^run\.csv/\.\./out: cannot be created: run\.csv is"):
         run_batch([log], "three_tank_hstf", out_dir="run.csv/../out", estimator="imm")
     assert sorted(p.name for p in log.parent.iterdir()) == ["run.csv"]
+
+
+@pytest.mark.parametrize("given", ["missing/../out", "missing/x/../../out", "missing/.."])
+def test_a_path_going_up_out_of_a_missing_folder_is_refused(log: Path, given: str) -> None:
+    # written to ./out while the command printed missing/../out/report.md (no such path)
+    with pytest.raises(OutputError, match=r"cannot be created: missing does not exist, so '\.\.'"):
+        check_dir_target(given, force=False)
+    with pytest.raises(OutputError, match=r"missing does not exist"):
+        check_file_target(f"{given}/j.xml", force=False)
+    assert sorted(p.name for p in log.parent.iterdir()) == ["run.csv"]

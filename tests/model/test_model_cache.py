@@ -383,3 +383,18 @@ def test_the_sympy_release_in_the_keys_is_the_installed_one_read_without_sympy()
     shown = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
     assert shown.returncode == 0, shown.stderr
     assert shown.stdout.strip() == "[]"
+
+
+def test_a_warm_model_says_whether_its_outputs_differ_by_mode_without_sympy(
+    cache_folder: Path,
+) -> None:
+    """hstf's note (and the step-into warning) asks whether the modes' ``h`` differ: on a
+    warm nonlinear model that parsed every ``h`` with sympy, 0.4 s of each warm hstf run.
+    The loader's answer is kept in the cache; a model without modes says no (it raised)."""
+    cold = load_model("three_tank_hstf")
+    warm = load_model("three_tank_hstf")
+    assert cold.outputs_differ is True and warm.outputs_differ is True
+    assert isinstance(stored(warm.modes[0], "h"), Deferred)
+    assert warm.outputs_differ_by_mode and isinstance(stored(warm.modes[0], "h"), Deferred)
+    assert load_model("double_cart_case1").outputs_differ_by_mode is False
+    assert load_model("bioplex_pgc").outputs_differ_by_mode is False

@@ -267,6 +267,9 @@ _F0 = '"theta + 0.05*omega"'
         # accepted, its Jacobian (-1)**theta*I*pi then failed to compile in numba
         "(-1)**theta",
         "(-2.5)**(theta*omega)",
+        # a negative base of constants is no sympy Number: was accepted, then the same crash
+        "(-pi)**theta",
+        "(-2*sqrt(2))**omega",
     ],
 )
 def test_complex_valued_expressions_are_refused_naming_the_key(expression):

@@ -383,6 +383,20 @@ def test_a_guard_outside_its_domain_is_named_not_read_as_false():
     assert log.modes.tolist() == [1, 1, 0, 1, 0]  # x = 0.5, 0.2, -0.1, 0.1, -0.2
 
 
+def test_a_guard_an_input_takes_out_of_its_domain_names_the_input():
+    # 'the state left the domain of the guard' was said of a guard that reads only an input
+    text = GUARDED.replace('outputs = ["y"]', 'inputs = ["u"]\noutputs = ["y"]').replace(
+        'guard = "x > 0"', 'guard = "sqrt(u) > 0.5"'
+    )
+    text += '\n[simulation.inputs]\nu = "1 - t"\n'
+    message = (
+        r"^guarded\.toml: modes\.down\.guard: 'sqrt\(u\) > 0\.5' is undefined \(a side is "
+        r"nan\) at x = .*, u = -0\.1.*\(the input left the domain of the guard there\)"
+    )
+    with pytest.raises(ModelError, match=message):
+        simulate(parse_model(text, origin="guarded.toml"), steps=20, noise=False)
+
+
 @pytest.mark.parametrize(
     ("old", "new", "message"),
     [
