@@ -91,7 +91,7 @@ u = "sin(t)"
         ('guard = "x"', 'guard = "x > 0"', "", "modes.low.guard: expected a comparison"),
         ('guard = "z <= 0"', 'guard = "x > 0"', "", "modes.low.guard: unknown symbol 'z'"),
         ('guard = "x <="', 'guard = "x > 0"', "", "modes.low.guard: cannot parse"),
-        ('guard = "1 < 2"', 'guard = "x > 0"', "", "does not depend on the states"),
+        ('guard = "1 < 2"', 'guard = "x > 0"', "", "always holds, whatever the states and inputs"),
         ('guard = "x <= 0"', 'guard = "x > 0"', 'schedule = "low:3"', "simulation.schedule"),
         ("guard = 3", 'guard = "x > 0"', "", "modes.low.guard: expected a string"),
     ],
