@@ -391,11 +391,11 @@ def _check_f_h_domain(
 def _check_guard_domain(
     model: HybridModel, guard: GuardFunction, x: FloatArray, u: FloatArray, at: float
 ) -> None:
-    """Name the guard that compared a NaN at the row where no mode's guard decided.
+    """Name the guard that compared a NaN at the row where no mode's guard holds.
 
-    ``sqrt(x) > 0.5`` at ``x = -0.1`` is neither true nor false: the guard function stops
-    there (``-2 - i``, :mod:`hybridlog.model.codegen`) instead of letting the next mode's
-    guard take the sample.
+    ``sqrt(x) > 0.5`` at ``x = -0.1`` does not hold (``-2 - i`` from the guard function,
+    :mod:`hybridlog.model.codegen`, where no other guard held): the state or input left
+    its domain, which the error says rather than only that no guard held.
     """
     from hybridlog.model.escape import point
     from hybridlog.model.toml_text import key_path
@@ -410,8 +410,8 @@ def _check_guard_domain(
     raise model.error(
         f"{key_path('modes', mode.id)}.guard",
         f"{excerpt(str(mode.guard))} is undefined (a side is nan) at {point(model, x, u)}, "
-        f"t = {format_time(float(at))} s ({left} left the domain of the guard there): "
-        "no mode can be chosen; nothing was written",
+        f"t = {format_time(float(at))} s ({left} left the domain of the guard there), "
+        "and no other mode's guard holds: no mode can be chosen; nothing was written",
     )
 
 

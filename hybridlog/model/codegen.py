@@ -404,16 +404,17 @@ def constant_jacobians(
 def _guard_function(model: HybridModel) -> list[str]:
     """``guard(x, u)``: the first mode whose guard holds, -1 where none does.
 
-    And ``-2 - i`` where the guard of mode ``i``, tested before any held, compares a NaN
-    (``sqrt(x) > 0.5`` at ``x < 0``): such a comparison is false, so the next mode's guard
-    had silently decided the sample, a state outside the guard's domain read as "not this
-    mode".
+    A guard that compares a NaN (``sqrt(x) > 0.5`` at ``x < 0``, outside its domain) does
+    not hold, as its comparison is false in the reals; where no guard holds, ``-2 - i``
+    names the first such mode ``i``, so that the error says which guard left the sample
+    without a mode (it said only that none held).
     """
     names = _slot_names(model)
     printer = _printer()
     lines = ["", "", "def guard(x, u):"]
     lines += [f"    x_{i} = x[{i}]" for i in range(model.n_states)]
     lines += [f"    u_{i} = u[{i}]" for i in range(model.n_inputs)]
+    lines.append("    undecided = -1")
     for index, mode in enumerate(model.modes):
         if mode.guard is None:
             continue
@@ -427,12 +428,13 @@ def _guard_function(model: HybridModel) -> list[str]:
         lines += assignments(
             [condition.lhs, condition.rhs], [lhs, rhs], names, "    ", temporaries=f"g{index}_"
         )
-        lines.append(f"    if {lhs} != {lhs} or {rhs} != {rhs}:  # mode {mode.id!r}: NaN")
-        lines.append(f"        return {-2 - index}")
         test = condition.func(sympy.Symbol(lhs), sympy.Symbol(rhs), evaluate=False)
-        lines.append(f"    if {printer.doprint(test)}:  # mode {mode.id!r}")
+        lines.append(f"    if {lhs} != {lhs} or {rhs} != {rhs}:  # mode {mode.id!r}: NaN")
+        lines.append("        if undecided < 0:")
+        lines.append(f"            undecided = {index}")
+        lines.append(f"    elif {printer.doprint(test)}:  # mode {mode.id!r}")
         lines.append(f"        return {index}")
-    lines.append("    return -1")
+    lines.append("    return -1 if undecided < 0 else -2 - undecided")
     return lines
 
 

@@ -55,9 +55,9 @@ if TYPE_CHECKING:
 ModelFunction = Callable[[int, FloatArray, FloatArray, FloatArray], None]
 """``(mode index, x, u, out)``: the calling convention of ``f``, ``F``, ``h`` and ``H``."""
 GuardFunction = Callable[[FloatArray, FloatArray], int]
-"""``guard(x, u)``: index of the first mode whose guard holds, or -1; ``-2 - i`` where the guard
-of mode ``i`` compares a NaN before any guard held (outside its domain: ``sqrt(x) > 0.5`` at
-``x < 0``)."""
+"""``guard(x, u)``: index of the first mode whose guard holds; where none holds, -1, or
+``-2 - i`` where the guard of mode ``i`` compared a NaN (outside its domain: ``sqrt(x) > 0.5``
+at ``x < 0``, which does not hold)."""
 InputFunction = Callable[[FloatArray, FloatArray], Any]
 """``input(t, k)``: one simulation input over the time grid (an array or a scalar)."""
 

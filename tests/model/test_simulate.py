@@ -364,33 +364,34 @@ def test_a_guard_sympy_decides_says_which_way(guard, verdict):
         parse_model(text, origin="guarded.toml")
 
 
-def test_a_guard_outside_its_domain_is_named_not_read_as_false():
-    # sqrt(x) > 0 at x = -0.1 compares a NaN: false, so the next guard (x < 1) took the
-    # sample without a word, a state outside the guard's domain read as "not this mode"
+def test_a_guard_outside_its_domain_does_not_hold_and_is_named_where_none_does():
+    # sqrt(x) > 0 at x = -0.1 compares a NaN: it does not hold (in the reals sqrt(-0.1) is
+    # not above 0), and the next guard (x < 1) takes the sample, as before
     text = GUARDED.replace('guard = "x > 0"', 'guard = "sqrt(x) > 0"')
-    model = parse_model(text, origin="guarded.toml")
+    log = simulate(parse_model(text, origin="guarded.toml"), steps=4, noise=False)
+    assert log.modes.tolist() == [0, 0, 1, 0, 1]  # x = 0.5, 0.2 (down), -0.1 (up), 0.1, -0.2
+    # where no other guard holds, the error names the guard left undefined, not only that
+    # no guard held
+    text = text.replace('guard = "x < 1"', 'guard = "x > 0.3"')
     message = (
         r"^guarded\.toml: modes\.down\.guard: 'sqrt\(x\) > 0' is undefined \(a side is nan\) "
-        r"at x = -0\.1, t = 0\.2 s \(the state left the domain of the guard there\)"
+        r"at x = -0\.1, t = 0\.2 s \(the state left the domain of the guard there\), and no "
+        r"other mode's guard holds"
     )
     with pytest.raises(ModelError, match=message):
-        simulate(model, steps=4, noise=False)  # numba: sqrt(-0.1) is NaN
-    # where an earlier guard holds, the later one is not evaluated: no error
-    first = text.replace(
-        "[modes.down]", '[modes.neg]\nf = ["x + 0.2"]\nh = ["x"]\nguard = "x < 0"\n\n[modes.down]'
-    )
-    log = simulate(parse_model(first, origin="guarded.toml"), steps=4, noise=False, jit=False)
-    assert log.modes.tolist() == [1, 1, 0, 1, 0]  # x = 0.5, 0.2, -0.1, 0.1, -0.2
+        simulate(parse_model(text, origin="guarded.toml"), steps=4, noise=False)
 
 
 def test_a_guard_an_input_takes_out_of_its_domain_names_the_input():
     # 'the state left the domain of the guard' was said of a guard that reads only an input
-    text = GUARDED.replace('outputs = ["y"]', 'inputs = ["u"]\noutputs = ["y"]').replace(
-        'guard = "x > 0"', 'guard = "sqrt(u) > 0.5"'
+    text = (
+        GUARDED.replace('outputs = ["y"]', 'inputs = ["u"]\noutputs = ["y"]')
+        .replace('guard = "x > 0"', 'guard = "sqrt(u) >= 0"')
+        .replace('guard = "x < 1"', 'guard = "x > 100"')
     )
     text += '\n[simulation.inputs]\nu = "1 - t"\n'
     message = (
-        r"^guarded\.toml: modes\.down\.guard: 'sqrt\(u\) > 0\.5' is undefined \(a side is "
+        r"^guarded\.toml: modes\.down\.guard: 'sqrt\(u\) >= 0' is undefined \(a side is "
         r"nan\) at x = .*, u = -0\.1.*\(the input left the domain of the guard there\)"
     )
     with pytest.raises(ModelError, match=message):
