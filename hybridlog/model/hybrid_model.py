@@ -361,7 +361,35 @@ def outputs_differ(modes: Sequence[Mode]) -> bool:
             )
             for f in others
         )
-    return len({tuple(m.h) for m in modes}) > 1
+    written = [tuple(m.h) for m in modes]
+    return any(not _same_expressions(written[0], other) for other in written[1:])
+
+
+_EXPANDED_OPS = 200
+"""The size (``sympy.count_ops``) up to which two written forms are compared expanded."""
+
+
+def _same_expressions(a: tuple[sympy.Expr, ...], b: tuple[sympy.Expr, ...]) -> bool:
+    """Whether two tuples of expressions are the same functions, as far as expanding tells.
+
+    As written first; then the expansion of each difference (``sin(x)*(x + 1)`` and
+    ``sin(x)*x + sin(x)``), for expressions small enough that expanding cannot blow up
+    (``(x + 1)**1000``); larger ones that differ as written count as different.
+    """
+    if a == b:
+        return True
+    if len(a) != len(b):
+        return False
+    import sympy  # parsing a model imported it already; a warm run keeps the answer
+
+    for left, right in zip(a, b, strict=True):
+        if left == right:
+            continue
+        if sympy.count_ops(left) + sympy.count_ops(right) > _EXPANDED_OPS:
+            return False
+        if sympy.expand(left - right) != 0:
+            return False
+    return True
 
 
 @dataclass(frozen=True)

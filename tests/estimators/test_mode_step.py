@@ -154,3 +154,22 @@ def test_a_state_driven_model_whose_outputs_differ_by_mode_is_warned_of(h_down: 
         assert (STEP_INTO_OUTPUTS_WARNING in notes) == (h_down != "x"), name
     assert not load_model("double_cart_case1").outputs_differ_by_mode  # C_1 = C_2
     assert load_model("three_tank_hstf").outputs_differ_by_mode  # schedule-driven: no warning
+
+
+@pytest.mark.parametrize(
+    ("up", "down", "differ"),
+    [
+        ("sin(x)*(x + 1)", "sin(x)*x + sin(x)", False),  # one function, written two ways
+        ("sin(x)*(x + 1)", "sin(x)*(x + 2)", True),
+        ("(x + 1)**2", "x**2 + 2*x + 1", False),
+    ],
+)
+def test_output_equations_written_two_ways_are_one(up: str, down: str, differ: bool) -> None:
+    """The warning compared nonlinear ``h`` as written: the same function, factored in one
+    mode and expanded in the other, was warned of as a mode-dependent sensor."""
+    from hybridlog.model.hybrid_model import outputs_differ
+    from hybridlog.model.loader import parse_model
+
+    text = (_SENSOR_BY_MODE % down).replace('h = ["x"]', f'h = ["{up}"]')
+    model = parse_model(text)
+    assert model.outputs_differ_by_mode == differ == outputs_differ(model.modes)
