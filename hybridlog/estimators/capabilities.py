@@ -50,6 +50,16 @@ STEP_INTO_OUTPUTS_WARNING = (
 map): the moved modes do not make up for the output equation the filter applied."""
 
 
+def runs_on_pairs(model: HybridModel) -> bool:
+    """Whether an estimator that can runs ``model`` on its mode pairs.
+
+    :attr:`Capabilities.runs_on_mode_pairs`, :mod:`hybridlog.estimators.mode_pairs`: a
+    state-driven model whose output equations differ by mode
+    (:attr:`~hybridlog.model.hybrid_model.HybridModel.outputs_differ_by_mode`).
+    """
+    return model.state_driven and model.outputs_differ_by_mode
+
+
 @dataclass(frozen=True)
 class Capabilities:
     """What an estimator needs (checked before it runs) and what it offers.
@@ -106,6 +116,11 @@ class Capabilities:
         whose mode of sample k governs the step from ``x(k)`` (paper 001 eq. (1)), its
         modes are moved one sample earlier
         (:meth:`~hybridlog.estimators.result.EstimationResult.with_modes_of_the_step_from`).
+    runs_on_mode_pairs:
+        With :attr:`modes_of_the_step_into`: on a state-driven model whose output equations
+        differ by mode the estimator runs on the mode pairs
+        (:mod:`hybridlog.estimators.mode_pairs`) and gives the modes of the step from each
+        sample itself; nothing is moved.
     state_variances:
         The estimator computes state variances (``False``: its result holds NaN for them,
         which are then not read); a defined one must be finite and not negative
@@ -132,6 +147,7 @@ class Capabilities:
     no_smoothing: str = ""
     mode_rule: str = ""
     modes_of_the_step_into: bool = False
+    runs_on_mode_pairs: bool = False
     state_variances: bool = True
     unpredicted_outputs: bool = False
 

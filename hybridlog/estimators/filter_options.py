@@ -143,10 +143,17 @@ def imm_memory(model: HybridModel, options: ImmOptions, n: int) -> Parts:
     ``viterbi``: the path, and the per-mode likelihoods and back pointers, ``16 n n_q``;
     ``kbest``: each sample's kept histories (a 4-byte parent and a 2-byte mode per history)
     and the path's modes, means, variances and full covariances.  The filter's result is
-    kept beside them (its output prediction is the report's).
+    kept beside them (its output prediction is the report's).  On a model it runs on the
+    mode pairs (:mod:`hybridlog.estimators.mode_pairs`) ``n_q`` is the pairs' count, and the
+    pairs' probabilities of the forward pass are kept until they are summed.
     """
+    from hybridlog.estimators.capabilities import runs_on_pairs
+
     n_q, n_x = model.n_modes, model.n_states
     parts: Parts = []
+    if runs_on_pairs(model):
+        n_q *= n_q
+        parts.append(("the mode pairs' probabilities", 8 * n * n_q))
     if options.smooth:
         parts.append(("the smoothed estimates", 8 * n * (1 + n_q + 2 * n_x)))
         parts.append(("the smoother's per-mode store", 8 * n * n_q * (n_x + n_x * (n_x + 1) // 2)))

@@ -60,6 +60,12 @@ from hybridlog.estimators.kernels import (
     weighed,
     workspace,
 )
+from hybridlog.estimators.mode_pairs import (
+    merged_modes,
+    pair_mode_model,
+    pair_transitions,
+    runs_on_pairs,
+)
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
@@ -274,13 +280,27 @@ def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
     return markov_matrix(0.95, model.n_modes)
 
 
-def _filtered_model(
-    model: HybridModel, options: ImmOptions
-) -> tuple[HybridModel, FloatArray, dict[str, Any]]:
-    """The model the IMM runs on, its Markov matrix and the options the result reports.
+class _Filtered(NamedTuple):
+    """What :func:`_filtered_model` gives.
+
+    The model the IMM runs on, its Markov matrix, the options the result reports, and the
+    model whose modes the result is read back in (``None``: the one it ran on).
+    """
+
+    model: HybridModel
+    transitions: FloatArray
+    used: dict[str, Any]
+    paired: HybridModel | None
+
+
+def _filtered_model(model: HybridModel, options: ImmOptions) -> _Filtered:
+    """What the IMM runs ``model`` as (:class:`_Filtered`).
 
     A ``[components]`` model runs on its enumerated joint known modes
-    (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).
+    (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`); a state-driven model whose
+    output equations differ by mode on its mode pairs
+    (:func:`~hybridlog.estimators.mode_pairs.pair_mode_model`), the Markov matrix reported
+    being the model's own.
     """
     if model.has_components:
         from hybridlog.estimators.cpha.joint import joint_mode_model
@@ -289,7 +309,17 @@ def _filtered_model(
     transitions = contiguous(transition_matrix(model, options))
     used = options_dict(options)
     used["transition_matrix"] = transitions.tolist()
-    return model, transitions, used
+    if not runs_on_pairs(model):
+        return _Filtered(model, transitions, used, None)
+    pairs = pair_mode_model(model, transitions)
+    return _Filtered(pairs, contiguous(pair_transitions(transitions)), used, model)
+
+
+def _read_back(result: EstimationResult, filtered: _Filtered, *, argmax: bool) -> EstimationResult:
+    """``result`` in the modes of the model given (:func:`~.mode_pairs.merged_modes`)."""
+    if filtered.paired is None:
+        return result
+    return merged_modes(result, filtered.paired, argmax=argmax)
 
 
 OFFLINE_OPTIONS = ("smooth", "smoother", "mode_sequence", "beam")
@@ -331,7 +361,8 @@ def run_imm(
     (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).  An error of the forward
     pass does not blame :data:`OFFLINE_OPTIONS` (:func:`~hybridlog.errors.independent_of`).
     """
-    model, transitions, used = _filtered_model(model, options)
+    ran = _filtered_model(model, options)
+    model, transitions, used = ran.model, ran.transitions, ran.used
     store = ModeStore.allocate(
         model,
         signals.n_samples,
@@ -350,10 +381,10 @@ def run_imm(
             store_covariances=store_covariances,
         )
     if not _offline(options):
-        return filtered
+        return _read_back(filtered, ran, argmax=True)
     from hybridlog.estimators.smoothing import post_process
 
-    return post_process(
+    result = post_process(
         model,
         signals,
         filtered,
@@ -366,6 +397,7 @@ def run_imm(
         kernel=kernel,
         beam=options.beam,
     )
+    return _read_back(result, ran, argmax=options.mode_sequence == "argmax")
 
 
 def stream_imm(
@@ -396,19 +428,20 @@ def stream_imm(
             store_covariances=store_covariances,
         )
         return iter((whole,))
-    model, transitions, used = _filtered_model(model, options)
-    store = ModeStore.allocate(model, signals.n_samples, states=False, likelihoods=False)
-    return run_filter_chunks(
+    ran = _filtered_model(model, options)
+    store = ModeStore.allocate(ran.model, signals.n_samples, states=False, likelihoods=False)
+    chunks = run_filter_chunks(
         CODE,
-        model,
+        ran.model,
         signals,
-        ImmSettings(transitions, store),
-        used,
+        ImmSettings(ran.transitions, store),
+        ran.used,
         jit=jit,
         kernel=kernel,
         store_covariances=store_covariances,
         rows=rows,
     )
+    return (_read_back(chunk, ran, argmax=True) for chunk in chunks)
 
 
 def _store_record(p: Program, row: str, mode: int, x: Vector, P: Matrix) -> None:

@@ -31,6 +31,7 @@ from hybridlog.estimators.capabilities import (
     STEP_INTO_OUTPUTS_WARNING,
     Capabilities,
     ModelTraits,
+    runs_on_pairs,
 )
 from hybridlog.estimators.footprint import MODE_BYTES, REPORT_FACTOR, Parts, result_bytes
 from hybridlog.estimators.options import (
@@ -183,19 +184,26 @@ class Estimator:
                 f"## {self.name}",
                 "",
                 f"{self.summary}. Source: {self.source}. Needs: "
-                f"{', '.join(self.capabilities.needs())}."
-                + (
-                    f" On a {STEP_FROM_NOTE}; where its modes' output equations differ, the "
-                    "report warns that the filter applied those of the step into x(k)."
-                    if self.capabilities.modes_of_the_step_into
-                    else ""
-                ),
+                f"{', '.join(self.capabilities.needs())}." + self._step_from_text(),
                 "",
                 "| option | type | default | range | help |",
                 "|---|---|---|---|---|",
                 *rows,
             ]
         )
+
+    def _step_from_text(self) -> str:
+        """What the estimator does on a state-driven model, for :meth:`markdown` (or "")."""
+        if not self.capabilities.modes_of_the_step_into:
+            return ""
+        differ = (
+            "it runs instead on the mode pairs (mode of the step into x(k), mode of the step "
+            "from it), so that y(k) is weighed with the output equations of its own mode and "
+            "sample k shows the mode of the step from x(k) without look-ahead"
+            if self.capabilities.runs_on_mode_pairs
+            else "the report warns that the filter applied those of the step into x(k)"
+        )
+        return f" On a {STEP_FROM_NOTE}; where its modes' output equations differ, {differ}."
 
     def parse_options(
         self, values: Mapping[str, Any], sources: Mapping[str, OptionSource] | None = None
@@ -251,6 +259,7 @@ ESTIMATORS: dict[str, Estimator] = {
                 uses_markov_matrix=True,
                 supports_smoothing=True,
                 modes_of_the_step_into=True,
+                runs_on_mode_pairs=True,
                 enumerates_components=True,
             ),
             memory="imm_memory",
@@ -619,10 +628,15 @@ class Prepared:
 
         For an estimator whose modes are those of the step into each sample
         (:attr:`~hybridlog.estimators.capabilities.Capabilities.modes_of_the_step_into`) on
-        a state-driven model.  The result is then computed whole: a sample's mode is known
-        only with the next sample's.
+        a state-driven model, unless it runs on the mode pairs there
+        (:attr:`~hybridlog.estimators.capabilities.Capabilities.runs_on_mode_pairs`, where
+        the output equations differ by mode).  The result is then computed whole: a sample's
+        mode is known only with the next sample's.
         """
-        return self.estimator.capabilities.modes_of_the_step_into and model.state_driven
+        capabilities = self.estimator.capabilities
+        if not (capabilities.modes_of_the_step_into and model.state_driven):
+            return False
+        return not (capabilities.runs_on_mode_pairs and runs_on_pairs(model))
 
     def check_signals(self, model: HybridModel, signals: AlignedSignals) -> None:
         """Refuse a log that lacks what the estimator needs of one (one line, ``LogError``).

@@ -106,7 +106,7 @@ def test_paper_001_classifiers_already_name_the_step_from_each_sample() -> None:
     assert _error(result, signals) < _error(result.with_modes_of_the_step_from(), signals)
 
 
-_SENSOR_BY_MODE = """
+SENSOR_BY_MODE = """
 name = "sensor_by_mode"
 time = "discrete"
 dt = 1.0
@@ -136,22 +136,31 @@ u = "0"
 
 
 @pytest.mark.parametrize("h_down", ["2*x", "x"])
-def test_a_state_driven_model_whose_outputs_differ_by_mode_is_warned_of(h_down: str) -> None:
+def test_a_state_driven_model_whose_outputs_differ_by_mode_is_run_on_pairs_or_warned_of(
+    h_down: str,
+) -> None:
     """The moved modes cannot mend the output equation the filter applied at a switch.
 
     With ``h`` of the mode of the step from ``x(k)`` in the log and that of the step into it
     in the filter, the IMM missed 12 of this log's 24 switches (VAF 0 %) without a word on
-    why; with one ``h`` for both modes it found all 24, and nothing is said.
+    why; with one ``h`` for both modes it found all 24, and nothing is said.  ``imm`` now runs
+    on the mode pairs there (``test_mode_pairs.py``) and says so; ``hstf``, whose uniform
+    prediction has no chain to pair, warns.
     """
     from hybridlog.estimators.capabilities import STEP_INTO_OUTPUTS_WARNING
+    from hybridlog.estimators.mode_pairs import PAIRED_MODES_NOTE
     from hybridlog.model.loader import parse_model
 
-    model = parse_model(_SENSOR_BY_MODE % h_down)
-    assert model.state_driven and model.outputs_differ_by_mode == (h_down != "x")
+    model = parse_model(SENSOR_BY_MODE % h_down)
+    differ = h_down != "x"
+    assert model.state_driven and model.outputs_differ_by_mode == differ
     signals = simulate(model, steps=40, seed=0).signals(model, source="test")
-    for name in ("imm", "hstf"):
-        notes = prepare(model, name).run(model, signals).notes
-        assert (STEP_INTO_OUTPUTS_WARNING in notes) == (h_down != "x"), name
+    hstf = prepare(model, "hstf").run(model, signals).notes
+    assert (STEP_INTO_OUTPUTS_WARNING in hstf) == differ
+    imm = prepare(model, "imm").run(model, signals).notes
+    assert STEP_INTO_OUTPUTS_WARNING not in imm
+    assert (PAIRED_MODES_NOTE in imm) == differ
+    assert (STEP_FROM_NOTE in imm) != differ  # the pairs give the step from x(k) unmoved
     assert not load_model("double_cart_case1").outputs_differ_by_mode  # C_1 = C_2
     assert load_model("three_tank_hstf").outputs_differ_by_mode  # schedule-driven: no warning
 
@@ -170,6 +179,6 @@ def test_output_equations_written_two_ways_are_one(up: str, down: str, differ: b
     from hybridlog.model.hybrid_model import outputs_differ
     from hybridlog.model.loader import parse_model
 
-    text = (_SENSOR_BY_MODE % down).replace('h = ["x"]', f'h = ["{up}"]')
+    text = (SENSOR_BY_MODE % down).replace('h = ["x"]', f'h = ["{up}"]')
     model = parse_model(text)
     assert model.outputs_differ_by_mode == differ == outputs_differ(model.modes)
