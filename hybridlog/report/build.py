@@ -1246,6 +1246,19 @@ def _no_delay(modes: ModeReport, of: str = "", *, partial: bool = False) -> str 
     return f"every true switch{of} ({len(events)}) was missed"
 
 
+def _each_why(per_output: Mapping[str, metrics.OutputMetrics], name: str) -> str:
+    """Why ``name`` is undefined for each output, outputs with the same reason named together.
+
+    ``y1, y2, y3: ‖y − mean(y)‖ = 0: ...`` where every output has one reason, else a part per
+    reason (``y1: ...; y2, y3: ...``): naming the first output alone read as if the others
+    had a value.
+    """
+    grouped: dict[str | None, list[str]] = {}
+    for y, m in per_output.items():
+        grouped.setdefault(m.undefined.get(name), []).append(y)
+    return "; ".join(f"{', '.join(ys)}: {why}" for why, ys in grouped.items())
+
+
 def _null_reasons(
     per_output: Mapping[str, metrics.OutputMetrics],
     means: Mapping[str, float | None],
@@ -1284,9 +1297,7 @@ def _null_reasons(
                 why = per_output[y].undefined.get(name)
                 reasons[name] = f"the mean over the outputs is infinite: {name}.{y}: {why}"
             else:
-                y = next(iter(per_output))
-                why = per_output[y].undefined.get(name)
-                reasons[name] = f"undefined for every output ({y}: {why})"
+                reasons[name] = f"undefined for every output ({_each_why(per_output, name)})"
     if modes.components:
         if modes.accuracy is None:
             missing = modes.components_without_truth

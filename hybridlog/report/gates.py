@@ -192,7 +192,9 @@ class Gate:
     kind:
         ``"under"``: fail when the metric is below ``bound``; ``"over"``: when above.
     spec:
-        The text the gate was parsed from, for messages.
+        ``METRIC=VALUE`` as given, without the blanks around either part (``' fit = 60 '``
+        is ``fit=60``): the name of the gate in report.json, report.md, summary.md and
+        JUnit, where a blank would make the same gate another test case.
 
     """
 
@@ -270,12 +272,13 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
     if not known:
         raise OptionError(f"{option} {spec!r}: unknown metric {metric!r}; known: {_known_names()}")
     try:
-        bound = parse_float(value)
+        # + 0.0: a bound of -0 is 0 (IEEE -0.0 + 0.0), never "the bound -0" nor -0.0 in JSON
+        bound = parse_float(value) + 0.0
     except ValueError as err:
         hint = _percent_sign_hint(base, value)
         raise OptionError(f"{option} {spec!r}: bound {value!r}: {err}{hint}") from None
     _check_attainable(spec, option, metric, bound, kind)
-    return Gate(metric=metric, bound=bound, kind=kind, spec=spec)
+    return Gate(metric=metric, bound=bound, kind=kind, spec=f"{metric}={value}")
 
 
 def _check_attainable(spec: str, option: str, metric: str, bound: float, kind: GateKind) -> None:
@@ -365,14 +368,17 @@ def parse_gates(fail_under: Iterable[str] = (), fail_over: Iterable[str] = ()) -
         its ``--fail-over`` bounds: no value meets both, so every run would fail.
 
     """
+    given = [*fail_under, *fail_over]  # each gate's text as given, for the messages
     gates = [parse_gate(s, "under") for s in fail_under]
     gates += [parse_gate(s, "over") for s in fail_over]
-    seen: dict[tuple[str, str, float], Gate] = {}
-    for gate in gates:
-        first = seen.setdefault((gate.kind, gate.metric, gate.bound), gate)
-        if first is not gate:
-            same = "given twice" if first.spec == gate.spec else f"the same gate as {first.spec!r}"
-            raise OptionError(f"{gate.option} {gate.spec!r}: {same}; give it once")
+    seen: dict[tuple[str, str, float], int] = {}
+    for i, gate in enumerate(gates):
+        first = seen.setdefault((gate.kind, gate.metric, gate.bound), i)
+        if first != i:
+            same = (
+                "given twice" if given[first] == given[i] else f"the same gate as {given[first]!r}"
+            )
+            raise OptionError(f"{gate.option} {given[i]!r}: {same}; give it once")
     for low in gates:
         for high in gates:
             if (low.kind, high.kind, low.metric) == ("under", "over", high.metric) and (

@@ -7,6 +7,7 @@ terminal and in summary.md; ``vaf=50`` beside ``vaf=50.0`` the same under two na
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -52,3 +53,16 @@ def test_a_batch_with_a_gate_given_twice_writes_nothing(tmp_path: Path) -> None:
             junit=tmp_path / "junit.xml",
         )
     assert not (tmp_path / "out").exists() and not (tmp_path / "junit.xml").exists()
+
+
+def test_a_gate_is_named_without_the_blanks_it_was_given_with() -> None:
+    """``--fail-under ' fit = 60 '`` was the JUnit case, summary column and report.md gate
+    ``--fail-under  fit = 60 ``: another test case than ``fit=60`` for CI's history."""
+    (gate,) = parse_gates([" fit = 60 "])
+    assert gate.spec == "fit=60" and gate.bound == 60.0
+
+
+def test_a_bound_of_minus_zero_is_zero() -> None:
+    """``--fail-over mse=-0`` read "is over the bound -0" and recorded -0.0 in report.json."""
+    (gate,) = parse_gates([], ["mse=-0"])
+    assert math.copysign(1.0, gate.bound) == 1.0 and f"{gate.bound:g}" == "0"

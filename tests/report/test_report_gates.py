@@ -68,7 +68,7 @@ def report(*, truth: bool = True) -> Report:
 
 
 def test_parse_gate() -> None:
-    assert parse_gate(" vaf = 90 ", "under") == Gate("vaf", 90.0, "under", " vaf = 90 ")
+    assert parse_gate(" vaf = 90 ", "under") == Gate("vaf", 90.0, "under", "vaf=90")
     assert parse_gate("state_rmse.x1=0.5", "over").metric == "state_rmse.x1"
     gates = parse_gates(["vaf=90", "mode_accuracy=0.9"], ["mse=1e-3"])
     assert [(g.metric, g.bound, g.kind) for g in gates] == [

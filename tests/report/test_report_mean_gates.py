@@ -78,3 +78,18 @@ def test_batch_summary_and_junit_read_the_same_failure(tmp_path: Path) -> None:
     failures = list(ET.parse(path).getroot().iter("failure"))
     assert len(failures) == 1 and "leaves out 1 of 2 outputs" in (failures[0].get("message") or "")
     assert np.isfinite(report.vaf or np.nan)  # the mean itself is still reported
+
+
+def test_a_mean_undefined_for_every_output_names_every_output() -> None:
+    """``fit`` of a log whose every sensor is stuck named y1 alone: "undefined for every
+    output (y1: ...)" read as if y2 had a fit."""
+    result, signals = make_run(120, seed=6)
+    outputs = signals.outputs.copy()
+    outputs[:, :] = 4.0  # every sensor stuck: fit undefined for each
+    report = build_report(
+        result, dataclasses.replace(signals, outputs=outputs), log="run.csv", model_name="m", dt=DT
+    )
+    assert report.fit is None and list(report.outputs) == ["y1", "y2"]
+    why = report.null_reasons["fit.y1"]
+    assert why == report.null_reasons["fit.y2"]
+    assert report.null_reasons["fit"] == f"undefined for every output (y1, y2: {why})"
