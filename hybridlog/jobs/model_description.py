@@ -72,10 +72,43 @@ def check_and_describe(path: Path) -> str:
             *_lines(model),
             *_table_lines(model, {each.name: each for each in prepared}),
             f"estimators for it: {', '.join(suited) or _none_suits(model)}",
+            *_switching_lines(model, suited),
             default_line,
             *model_diagnoses(model),
         ]
     )
+
+
+def _switching_lines(model: HybridModel, suited: list[str]) -> list[str]:
+    """How the filters among ``suited`` read a state-driven model's modes (or no line).
+
+    Its mode of sample k governs the step from ``x(k)`` (paper 001 eq. (1)), a Markov-jump
+    filter's the step into it; where the output equations differ by mode, ``imm`` runs on the
+    mode pairs and ``hstf`` warns (:mod:`hybridlog.estimators.mode_pairs`): said before any
+    log is read, so a user knows why one runs slower and the other warns.
+    """
+    filters = [n for n in suited if ESTIMATORS[n].capabilities.modes_of_the_step_into]
+    if not (model.state_driven and filters):
+        return []
+    if not model.outputs_differ_by_mode:
+        return [
+            "switching: by guards; the mode of sample k governs the step from x(k), so "
+            f"{' and '.join(filters)} show at sample k the mode found for that step, at k+1"
+        ]
+    pairs = (
+        f"runs on the {model.n_modes**2} mode pairs (the modes of the step into x(k) and from it)"
+    )
+    warns = (
+        "moves its modes a sample earlier and warns: it weighs y(k) with the mode of the step "
+        "into x(k)"
+    )
+    said = [
+        f"{n} {pairs if ESTIMATORS[n].capabilities.runs_on_mode_pairs else warns}" for n in filters
+    ]
+    return [
+        "switching: by guards; the mode of sample k governs the step from x(k) and y(k), whose "
+        f"equations differ by mode: {'; '.join(said)}"
+    ]
 
 
 def _none_suits(model: HybridModel) -> str:

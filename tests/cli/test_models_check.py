@@ -165,3 +165,27 @@ def test_a_model_no_estimator_runs_says_what_each_needs(tmp_path: Path) -> None:
     assert "(needs a discrete-time model)" in line
     assert "'switching-observer' (needs a single-output model)" in line
     assert "'sliding-mode' (needs a boolean-affine model" in line
+
+
+@pytest.mark.parametrize("h_down", ["2*x", "x"])
+def test_a_state_driven_model_says_how_the_filters_read_its_modes(
+    tmp_path: Path, h_down: str
+) -> None:
+    # imm on the mode pairs runs n² filters and hstf warns in every report: models said
+    # nothing of either before a log was analysed
+    from tests.estimators.test_mode_step import SENSOR_BY_MODE
+
+    path = tmp_path / "sensor.toml"
+    path.write_text(SENSOR_BY_MODE % h_down, encoding="utf-8")
+    (line,) = [li for li in check_and_describe(path).splitlines() if li.startswith("switching")]
+    if h_down == "x":
+        assert line == (
+            "switching: by guards; the mode of sample k governs the step from x(k), so hstf and "
+            "imm show at sample k the mode found for that step, at k+1"
+        )
+    else:
+        assert "whose equations differ by mode: hstf moves its modes a sample earlier" in line
+        assert "imm runs on the 4 mode pairs" in line
+    scheduled = tmp_path / "scheduled.toml"
+    scheduled.write_text(builtin_text("three_tank_hstf"), encoding="utf-8")
+    assert "switching" not in check_and_describe(scheduled)
