@@ -16,6 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hybridlog.errors import DivergenceError
 from hybridlog.estimators.filter_options import ImmOptions, imm_memory
 from hybridlog.estimators.imm import run_imm
 from hybridlog.estimators.mode_pairs import PAIRED_MODES_NOTE, pair_mode_model, pair_transitions
@@ -159,3 +160,40 @@ def test_the_pairs_of_a_warm_model_leave_its_expressions_unread(
     assert isinstance(stored(pairs, "simulation_inputs"), Deferred)
     assert all(isinstance(stored(m, "h"), Deferred) for m in (*warm.modes, *pairs.modes))
     assert str(pairs.simulation_inputs["u"]) == "0"  # computed when read
+
+
+def _refusal(text: str) -> str:
+    model = _sensor_model()
+    signals = simulate(model, steps=20, seed=0).signals(model, source="test")
+    broken = parse_model(text)
+    with pytest.raises(DivergenceError) as caught:
+        prepare(broken, "imm").run(broken, signals)
+    return str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("replaced_text", "named"),
+    [
+        (('f = ["0.5*x"]', 'f = ["0.5*x + sqrt(x - 0.95)"]'), "modes.down.f[0] = "),
+        # NaN only after up's step (x = 0.1), not after down's (x = 0): the pair up->down
+        (('h = ["2*x"]', 'h = ["2*x + sqrt(0.05 - x)"]'), "modes.down.h[0] = "),
+    ],
+)
+def test_a_refusal_on_the_pairs_names_the_model_files_key(
+    replaced_text: tuple[str, str], named: str
+) -> None:
+    """It named ``modes.down->up.f[0]``, a key the file does not have."""
+    message = _refusal((SENSOR_BY_MODE % "2*x").replace(*replaced_text))
+    assert f"(sample 1): the state estimate is not finite; {named}" in message, message
+    assert "->" not in message
+
+
+def test_a_refusal_on_the_pairs_names_the_held_and_the_true_mode_as_the_log_does() -> None:
+    """It compared the log's true modes with the pairs' indices and named both by pairs:
+    ``it held mode 'down->down' ... where the log's true mode was 'up->up'``."""
+    text = (SENSOR_BY_MODE % "2*x").replace('mode = "up"', 'mode = "down"')
+    message = _refusal(f"{text}\n[transitions]\nmatrix = [[1.0, 0.0], [0.0, 1.0]]\n")
+    assert "cannot explain the log at t = 10 s (sample 10)" in message, message
+    assert (
+        "it held mode 'down' over the 10 samples before, where the log's true mode was 'up'"
+    ) in message, message
