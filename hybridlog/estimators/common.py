@@ -374,6 +374,21 @@ def _compiled_loop(
     return loop, functions, time.perf_counter() - start
 
 
+class CheckedAs(NamedTuple):
+    """The model a filter's results are checked in, when it ran on another one.
+
+    A run on a model's mode pairs (:mod:`~hybridlog.estimators.mode_pairs`) is checked
+    (:func:`~hybridlog.estimators.vouch.check_result`) in the model's own modes, so that a
+    refusal names the keys of the file and the modes the log's truth is written in, not
+    the pairs ``up->down`` the user never wrote.
+    """
+
+    model: HybridModel
+    """The model whose modes and keys the checks name."""
+    read: Callable[[EstimationResult], EstimationResult]
+    """A result of the model the filter ran on, read in :attr:`model`'s modes."""
+
+
 def run_filter_chunks(
     code: FilterCode,
     model: HybridModel,
@@ -385,6 +400,7 @@ def run_filter_chunks(
     kernel: str,
     store_covariances: bool,
     rows: int,
+    checked_as: CheckedAs | None = None,
 ) -> Iterator[EstimationResult]:
     """Run a filter over the aligned signals in consecutive chunks of at most ``rows`` rows.
 
@@ -404,7 +420,8 @@ def run_filter_chunks(
     time so far and its ``compile_s`` the set-up's, so the last chunk carries the run's
     totals.  The checks (``kernel``, the noise covariances) and the compilation happen at
     the call, the loop as the chunks are asked for.  ``kernel``, ``jit``: as for
-    :func:`run_filter`.
+    :func:`run_filter`.  ``checked_as``: the model the chunks are checked in
+    (:class:`CheckedAs`; the chunks yielded are the run's own).
 
     Raises
     ------
@@ -475,9 +492,9 @@ def run_filter_chunks(
                     compile_s=compile_s,
                 )
                 check_result(
-                    model,
+                    model if checked_as is None else checked_as.model,
                     signals,
-                    result,
+                    result if checked_as is None else checked_as.read(result),
                     first=chunk.first,
                     before=before,
                     surprise=filled.surprise,
@@ -513,6 +530,7 @@ def run_filter(
     jit: bool,
     kernel: str,
     store_covariances: bool,
+    checked_as: CheckedAs | None = None,
 ) -> EstimationResult:
     """Run a filter over the aligned signals with the chosen code path: the whole result.
 
@@ -531,5 +549,6 @@ def run_filter(
         kernel=kernel,
         store_covariances=store_covariances,
         rows=max(signals.n_samples, 1),
+        checked_as=checked_as,
     )
     return whole

@@ -34,6 +34,7 @@ import numpy as np
 from hybridlog.errors import independent_of
 from hybridlog.estimators.common import (
     Accelerator,
+    CheckedAs,
     Chunk,
     FilterBuffers,
     FilterCode,
@@ -322,6 +323,17 @@ def _read_back(result: EstimationResult, filtered: _Filtered, *, argmax: bool) -
     return merged_modes(result, filtered.paired, argmax=argmax)
 
 
+def _checked_as(filtered: _Filtered) -> CheckedAs | None:
+    """The filter's results checked in the model's own modes (:class:`~.common.CheckedAs`).
+
+    A run on the pairs refused at a mode's expression named ``modes.down->up.f[0]`` and a
+    held mode ``'up->up'`` against the log's true mode named ``'up->up'`` too.
+    """
+    if filtered.paired is None:
+        return None
+    return CheckedAs(filtered.paired, partial(_read_back, filtered=filtered, argmax=True))
+
+
 OFFLINE_OPTIONS = ("smooth", "smoother", "mode_sequence", "beam")
 """The options of the offline passes after the filter; the forward pass's run depends on none
 (``smoother`` changes only which per-mode estimates it records), so its errors name none."""
@@ -379,6 +391,7 @@ def run_imm(
             jit=jit,
             kernel=kernel,
             store_covariances=store_covariances,
+            checked_as=_checked_as(ran),
         )
     if not _offline(options):
         return _read_back(filtered, ran, argmax=True)
@@ -440,6 +453,7 @@ def stream_imm(
         kernel=kernel,
         store_covariances=store_covariances,
         rows=rows,
+        checked_as=_checked_as(ran),
     )
     return (_read_back(chunk, ran, argmax=True) for chunk in chunks)
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from hybridlog.estimators.capabilities import runs_on_pairs
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.model.hybrid_model import HybridModel, LinearForm, Mode, stored
+from hybridlog.model.hybrid_model import HybridModel, LinearForm, Mode, replaced, stored
 from hybridlog.model.keys import remember_key
 from hybridlog.signals import FloatArray, IntArray
 
@@ -111,7 +111,7 @@ def pair_mode_model(model: HybridModel, transitions: FloatArray) -> HybridModel:
     n = model.n_modes
     prior = np.repeat(model.initial_mode_probabilities[np.newaxis, :], n, axis=0).ravel() / n
     paired = pair_transitions(transitions)
-    pairs = dataclasses.replace(
+    pairs = replaced(  # a model read from the cache keeps its expressions unread
         model,
         modes=modes,
         transitions=paired,

@@ -551,11 +551,15 @@ class _Step:
     u_before: FloatArray
     u_now: FloatArray
 
-    def mode(self, index: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    def mode(
+        self, index: int, measured: int | None = None
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Mode ``index``'s ``f``, ``∂f/∂x`` at ``x``, and ``h``, ``∂h/∂x`` at its prediction.
 
-        ``h`` and ``∂h/∂x`` stay zero where the prediction is not finite.
+        ``h`` and ``∂h/∂x`` those of mode ``measured`` when given (a mode pair,
+        :func:`_measuring`); they stay zero where the prediction is not finite.
         """
+        measured = index if measured is None else measured
         n, m = self.x.shape[0], self.n_outputs
         x_next, F = np.zeros(n), np.zeros((n, n))
         y, H = np.zeros(m), np.zeros((m, n))
@@ -563,8 +567,8 @@ class _Step:
             self.compiled.f(index, self.x, self.u_before, x_next)
             self.compiled.F(index, self.x, self.u_before, F)
             if np.isfinite(x_next).all():
-                self.compiled.h(index, x_next, self.u_now, y)
-                self.compiled.H(index, x_next, self.u_now, H)
+                self.compiled.h(measured, x_next, self.u_now, y)
+                self.compiled.H(measured, x_next, self.u_now, H)
         return x_next, F, y, H
 
 
@@ -606,29 +610,48 @@ def _expression_not_finite(
         return ""
     x, u_before, u_now = step.x, step.u_before, step.u_now
     with np.errstate(all="ignore"):
-        for index in range(model.n_modes):
-            x_next, F, y, H = step.mode(index)
-            for name, values, at, inputs in (
-                ("f", x_next, x, u_before),
-                ("F", F, x, u_before),
-                ("h", y, x_next, u_now),
-                ("H", H, x_next, u_now),
+        for index, measured in _measuring(model):
+            x_next, F, y, H = step.mode(index, measured)
+            for name, values, at, inputs, of in (
+                ("f", x_next, x, u_before, index),
+                ("F", F, x, u_before, index),
+                ("h", y, x_next, u_now, measured),
+                ("H", H, x_next, u_now, measured),
             ):
                 finite = np.isfinite(values)
                 if not finite.all():
                     flat = int(np.argmin(finite.reshape(-1)))
                     value = float(values.reshape(-1)[flat])
-                    return _expression(model, index, name, flat, value, at, inputs)
+                    return _expression(model, of, name, flat, value, at, inputs)
             if variance is None or not np.isfinite(variance).all():
                 continue
             spread = float(np.sqrt(max(float(variance.max()), 1.0)))
-            for name, values, at, inputs in (("F", F, x, u_before), ("H", H, x_next, u_now)):
+            for name, values, at, inputs, of in (
+                ("F", F, x, u_before, index),
+                ("H", H, x_next, u_now, measured),
+            ):
                 flat = int(np.argmax(np.abs(values)))
                 value = float(values.reshape(-1)[flat])
                 if abs(value) * spread > OVERFLOWING:
-                    found = _expression(model, index, name, flat, value, at, inputs)
+                    found = _expression(model, of, name, flat, value, at, inputs)
                     return f"{found}: the covariance it propagates overflows"
     return ""
+
+
+def _measuring(model: HybridModel) -> list[tuple[int, int]]:
+    """The modes whose ``f`` steps into a sample and whose ``h`` measures it, as filters pair them.
+
+    Each mode with itself; on a model the IMM runs on its mode pairs
+    (:func:`~hybridlog.estimators.capabilities.runs_on_pairs`) every mode's ``h`` after every
+    mode's ``f``: its refusal is checked in the model's own modes
+    (:class:`~hybridlog.estimators.common.CheckedAs`), whose keys it names.
+    """
+    from hybridlog.estimators.capabilities import runs_on_pairs
+
+    n = model.n_modes
+    if runs_on_pairs(model):
+        return [(index, measured) for index in range(n) for measured in range(n)]
+    return [(index, index) for index in range(n)]
 
 
 def _combined_not_finite(

@@ -14,6 +14,7 @@ The loader accepts every kind; an estimator that cannot handle one refuses it.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Generic, Literal, TypeVar, overload
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
     from hybridlog.model.scenario import Scenario
 
 T = TypeVar("T")
+D = TypeVar("D")
 
 WEIGHS_OUTPUTS = " weighs the outputs by their measurement noise covariance"
 """What a filter does with ``R``, in the refusal of a model whose file gives none."""
@@ -96,6 +98,24 @@ class Symbolic(Generic[T]):
 def stored(instance: object, name: str) -> Any:
     """The value a :class:`Symbolic` field holds, a :class:`Deferred` left as it is."""
     return instance.__dict__[name]
+
+
+def replaced(instance: D, **changes: Any) -> D:
+    """:func:`dataclasses.replace` that carries the :class:`Symbolic` fields as held.
+
+    ``dataclasses.replace`` reads every field it is not given, which computes a
+    :class:`Deferred` (on a model read from the cache: sympy and the loader, 2 s of a warm
+    run); here a field not in ``changes`` is passed on as :func:`stored` holds it.
+    """
+    cls = type(instance)
+    held = {
+        item.name: stored(instance, item.name)
+        for item in dataclasses.fields(instance)  # type: ignore[arg-type]
+        if item.init
+        and item.name not in changes
+        and isinstance(cls.__dict__.get(item.name), Symbolic)
+    }
+    return dataclasses.replace(instance, **held, **changes)  # type: ignore[type-var]
 
 
 class _NoInputs(Mapping[str, Any]):

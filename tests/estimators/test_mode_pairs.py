@@ -9,19 +9,21 @@ earlier cannot mend the output equation the filter applied at a switch; running 
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hybridlog.errors import DivergenceError
 from hybridlog.estimators.filter_options import ImmOptions, imm_memory
 from hybridlog.estimators.imm import run_imm
 from hybridlog.estimators.mode_pairs import PAIRED_MODES_NOTE, pair_mode_model, pair_transitions
 from hybridlog.estimators.registry import prepare
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.model.loader import parse_model
+from hybridlog.model.hybrid_model import Deferred, HybridModel, stored
+from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 from tests.estimators.test_mode_step import SENSOR_BY_MODE
@@ -139,3 +141,59 @@ def test_the_memory_check_counts_the_pairs() -> None:
     assert smooth["the mode pairs' probabilities"] == 8 * n * 4
     unpaired = dataclasses.replace(model, outputs_differ=False)
     assert "the mode pairs' probabilities" not in dict(imm_memory(unpaired, ImmOptions(), n))
+
+
+def test_the_pairs_of_a_warm_model_leave_its_expressions_unread(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``dataclasses.replace`` read every field of the model read from the cache, whose
+    ``simulation_inputs`` rebuilt it from its text: a warm paired run imported sympy and
+    the loader (5.0 s against 3.0 s for the model with one ``h``, from the CLI)."""
+    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "sensor.toml"
+    path.write_text(SENSOR_BY_MODE % "2*x")
+    load_model(str(path))
+    warm = load_model(str(path))
+    assert isinstance(stored(warm, "simulation_inputs"), Deferred)
+    pairs = pair_mode_model(warm, np.array([[0.9, 0.1], [0.2, 0.8]]))
+    assert isinstance(stored(warm, "simulation_inputs"), Deferred)
+    assert isinstance(stored(pairs, "simulation_inputs"), Deferred)
+    assert all(isinstance(stored(m, "h"), Deferred) for m in (*warm.modes, *pairs.modes))
+    assert str(pairs.simulation_inputs["u"]) == "0"  # computed when read
+
+
+def _refusal(text: str) -> str:
+    model = _sensor_model()
+    signals = simulate(model, steps=20, seed=0).signals(model, source="test")
+    broken = parse_model(text)
+    with pytest.raises(DivergenceError) as caught:
+        prepare(broken, "imm").run(broken, signals)
+    return str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("replaced_text", "named"),
+    [
+        (('f = ["0.5*x"]', 'f = ["0.5*x + sqrt(x - 0.95)"]'), "modes.down.f[0] = "),
+        # NaN only after up's step (x = 0.1), not after down's (x = 0): the pair up->down
+        (('h = ["2*x"]', 'h = ["2*x + sqrt(0.05 - x)"]'), "modes.down.h[0] = "),
+    ],
+)
+def test_a_refusal_on_the_pairs_names_the_model_files_key(
+    replaced_text: tuple[str, str], named: str
+) -> None:
+    """It named ``modes.down->up.f[0]``, a key the file does not have."""
+    message = _refusal((SENSOR_BY_MODE % "2*x").replace(*replaced_text))
+    assert f"(sample 1): the state estimate is not finite; {named}" in message, message
+    assert "->" not in message
+
+
+def test_a_refusal_on_the_pairs_names_the_held_and_the_true_mode_as_the_log_does() -> None:
+    """It compared the log's true modes with the pairs' indices and named both by pairs:
+    ``it held mode 'down->down' ... where the log's true mode was 'up->up'``."""
+    text = (SENSOR_BY_MODE % "2*x").replace('mode = "up"', 'mode = "down"')
+    message = _refusal(f"{text}\n[transitions]\nmatrix = [[1.0, 0.0], [0.0, 1.0]]\n")
+    assert "cannot explain the log at t = 10 s (sample 10)" in message, message
+    assert (
+        "it held mode 'down' over the 10 samples before, where the log's true mode was 'up'"
+    ) in message, message
