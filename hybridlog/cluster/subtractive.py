@@ -51,8 +51,11 @@ Two ways to compute the potentials (5) (:mod:`hybridlog.cluster.potentials`):
     ``σ = r_a/√8``), else ``exact``; the result says which ran and why.  The grid's error
     grows as ``(h/σ)²``: over the six shapes above at ``r_a`` = 0.5, 0.3 and 0.2 it was at
     most 1.9e-3 ``· P_max`` at ``h/σ = 0.1``, 4.4e-3 at 0.15 and 4.7e-2 at 0.5, so the grid
-    runs only where the documented tolerance holds: in practice up to three dimensions at
-    ``r_a = 0.5`` (``G = 128``); with more, ``(G+1)^d`` nodes fine enough do not fit.
+    runs only where the documented tolerance holds: in practice up to three dimensions,
+    ``G = 128`` at ``r_a ≥ 0.22``, below that the coarsest finer grid that is fine enough
+    while its ``(G+1)^d`` nodes fit :data:`GRID_CELLS_MAX` (3-D: ``r_a ≥ 0.18``, 161^3
+    nodes; 2-D: ``r_a ≥ 0.014``), where its convolutions cost less than the exact pairs;
+    with more dimensions, ``(G+1)^d`` nodes fine enough do not fit.
 
 References
 ----------
@@ -172,7 +175,8 @@ class SubtractiveOptions:
         ``"auto"``, ``"exact"`` or ``"approximate"``.
     grid:
         Grid intervals per axis ``G`` of the approximate potentials; ``None`` picks the
-        largest ``G ≤ 128`` with ``(G+1)^d ≤ 2^22`` nodes.
+        largest ``G ≤ 128`` with ``(G+1)^d ≤ 2^22`` nodes, or a finer one that fits when
+        that is too coarse for the radius (:func:`_choose_method`).
     max_centres:
         Stop after this many centres (``None``: no limit).
     """
@@ -436,7 +440,11 @@ def _choose_method(
     """The method to run, the grid size, and a note saying why."""
     d = radii.shape[0]
     intervals = grid_nodes_per_axis(d, options.grid)
-    h_over_sigma = (1.0 / intervals) / (float(radii.min()) / math.sqrt(8.0))
+    finer = options.grid is None and _h_over_sigma(intervals, radii) > GRID_H_OVER_SIGMA_MAX
+    if finer:  # the finest grid that fits, no finer than the tolerance needs
+        wanted = math.ceil(math.sqrt(8.0) / (float(radii.min()) * GRID_H_OVER_SIGMA_MAX))
+        intervals = max(intervals, min(wanted, _finest_intervals(d)))
+    h_over_sigma = _h_over_sigma(intervals, radii)
     grid_ok = (intervals + 1) ** d <= GRID_CELLS_MAX or options.grid is not None
     grid_fine = h_over_sigma <= GRID_H_OVER_SIGMA_MAX
     grid_text = f"{intervals + 1}^{d} grid nodes, h/σ = {h_over_sigma:.3f}"
@@ -444,8 +452,9 @@ def _choose_method(
         return "exact", None, f"exact potentials ({n} points, requested)"
     if options.method == "approximate":
         if not (grid_ok and grid_fine):
-            # h/σ = √8 / (G r_a): the radius at which the grid that fits would be fine enough
-            needed = math.sqrt(8.0) / (intervals * GRID_H_OVER_SIGMA_MAX)
+            # h/σ = √8 / (G r_a): the radius at which the finest grid that fits is fine enough
+            finest = intervals if options.grid is not None else _finest_intervals(d)
+            needed = math.sqrt(8.0) / (finest * GRID_H_OVER_SIGMA_MAX)
             raise ClusteringOptionError(
                 ("method", "radius"),
                 f"method: the approximate potentials need a grid with h/σ <= "
@@ -459,6 +468,15 @@ def _choose_method(
         points = "1 point" if n == 1 else f"{n} points"
         return "exact", None, f"exact potentials (auto: {points} <= {AUTO_EXACT_MAX})"
     if grid_ok and grid_fine:
+        # a grid finer than the default costs d·(G+1)^(d+1) in its convolutions: run where
+        # that is below the exact pairs' cost (a pair's exp about 10 multiply-adds)
+        if finer and d * (intervals + 1) ** (d + 1) > _PAIR_COST * (n * (n - 1) // 2):
+            return (
+                "exact",
+                None,
+                f"exact potentials (auto: {n} points; fewer pairs than work on the "
+                f"{grid_text} fine enough)",
+            )
         return (
             "approximate",
             intervals,
@@ -470,6 +488,34 @@ def _choose_method(
         f"exact potentials (auto: {n} points, but the grid would be too coarse: {grid_text} "
         f"> {GRID_H_OVER_SIGMA_MAX})",
     )
+
+
+_PAIR_COST = 10
+"""Multiply-adds of the grid's convolutions counted as one pair of the exact potentials, when
+:func:`_choose_method` weighs a grid finer than the default against the exact pairs (one
+pair's compiled ``exp`` and distance cost about that many)."""
+
+
+def _h_over_sigma(intervals: int, radii: FloatArray) -> float:
+    """``h/σ`` of a grid of ``intervals`` per axis: ``h = 1/G``, ``σ = r_a/√8`` (finest)."""
+    return (1.0 / intervals) / (float(radii.min()) / math.sqrt(8.0))
+
+
+def _finest_intervals(d: int) -> int:
+    """The most grid intervals per axis that fit :data:`GRID_CELLS_MAX`.
+
+    Both the ``(G+1)^d`` nodes and each axis's ``(G+1)×(G+1)`` convolution kernel must fit.
+
+    :func:`~hybridlog.cluster.potentials.grid_nodes_per_axis` stops at 128 (fine enough at
+    ``r_a`` ≥ 0.22); a smaller radius in up to three dimensions takes a finer grid that still
+    fits: at ``r_a = 0.2`` in 3-D (143^3 nodes) auto ran the exact potentials instead, 1.8 h
+    for 10^6 regression vectors on 2 cores where the grid takes seconds.
+    """
+    fits = int(math.floor(float(GRID_CELLS_MAX) ** (1.0 / d) + 1e-9)) - 1  # noqa: RUF046
+    fits = min(fits, math.isqrt(GRID_CELLS_MAX) - 1)  # the kernel: 2048 x 2048 at most
+    while (fits + 1) ** d > GRID_CELLS_MAX:
+        fits -= 1
+    return max(1, fits)
 
 
 def _long_work(n: int) -> bool:

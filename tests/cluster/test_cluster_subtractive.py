@@ -407,3 +407,28 @@ def test_properties(rows, radius, self_term):
     shuffled = subtractive_clustering(data[order], options)
     np.testing.assert_allclose(shuffled.centers, found.centers, rtol=0, atol=1e-12)
     np.testing.assert_allclose(shuffled.potentials, found.potentials, rtol=1e-9)
+
+
+def test_a_radius_below_the_default_grid_takes_a_finer_grid_that_fits():
+    # The grid stopped at G = 128 intervals per axis, fine enough (h/σ <= 0.1) only at
+    # r_a >= 0.22: at r_a = 0.2 auto ran the O(N²) exact potentials on a long log (1.8 h
+    # for the double cart's 10^6 φ(k) on 2 cores) and --approximate was refused, although
+    # 143^3 nodes, fine enough, fit the grid's budget (2^22 nodes) as well as 161^3 do.
+    rng = np.random.default_rng(21)
+    centres = rng.uniform(0, 3, (3, 3))
+    data = centres[rng.integers(0, 3, 3000)] + rng.normal(0, 0.4, (3000, 3))
+    exact = subtractive_clustering(data, SubtractiveOptions(radius=0.2, method="exact"))
+    approx = subtractive_clustering(data, SubtractiveOptions(radius=0.2, method="approximate"))
+    assert approx.method == "approximate" and approx.grid == 142
+    error = np.abs(approx.initial_potentials - exact.initial_potentials).max()
+    assert error <= POTENTIAL_TOLERANCE * exact.initial_potentials.max()
+    # auto on a long log: the finer grid, not the exact pairs
+    long = rng.uniform(0, 1, (AUTO_EXACT_MAX + 1, 3))
+    found = subtractive_clustering(long, SubtractiveOptions(radius=0.2, max_centres=1))
+    assert found.method == "approximate" and "143^3 grid nodes, h/σ = 0.100" in found.notes[0]
+    # below what the budget's finest grid takes (161^3 nodes: r_a >= 0.18), still refused,
+    # naming a radius that runs; and never a kernel matrix beyond the budget (1-D: 2048²)
+    with pytest.raises(OptionError, match=r"radius >= 0\.18$"):
+        subtractive_clustering(data, SubtractiveOptions(radius=0.15, method="approximate"))
+    with pytest.raises(OptionError, match=r"2048\^1 grid nodes"):
+        subtractive_clustering(data[:, :1], SubtractiveOptions(radius=0.01, method="approximate"))
