@@ -409,6 +409,7 @@ def run_imm(
         jit=jit,
         kernel=kernel,
         beam=options.beam,
+        paired=ran.paired,
     )
     return _read_back(result, ran, argmax=options.mode_sequence == "argmax")
 

@@ -41,6 +41,7 @@ __all__ = [
     "PAIRED_MODES_NOTE",
     "merged_modes",
     "pair_mode_model",
+    "pair_named",
     "pair_transitions",
     "runs_on_pairs",
 ]
@@ -124,6 +125,20 @@ def pair_mode_model(model: HybridModel, transitions: FloatArray) -> HybridModel:
     digest.update(np.ascontiguousarray(prior).tobytes())
     remember_key(pairs, digest.hexdigest())
     return pairs
+
+
+def pair_named(index: int, model: HybridModel) -> str:
+    """Pair ``index`` of :func:`pair_mode_model`'s pairs of ``model`` in its own modes' ids.
+
+    ``'b' (after a step of 'a')`` for ``a->b``: ``b`` is the mode of the sample, as the log's
+    truth records it, whose ``h`` weighs ``y(k)``; ``a``'s ``f`` brought ``x(k)``.  A refusal
+    of a run on the pairs names no pair the file does not have.
+    """
+    from hybridlog.errors import excerpt
+
+    n = model.n_modes
+    step, measure = model.modes[index // n], model.modes[index % n]
+    return f"{excerpt(measure.id)} (after a step of mode {excerpt(step.id)})"
 
 
 def merged_modes(result: EstimationResult, model: HybridModel, *, argmax: bool) -> EstimationResult:

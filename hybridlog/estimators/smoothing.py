@@ -979,6 +979,7 @@ def post_process(
     kernel: str = "auto",
     beam: int = 20,
     smoother: str = "kim",
+    paired: HybridModel | None = None,
 ) -> EstimationResult:
     """The result after the offline passes asked for, with the filter's beside it.
 
@@ -993,6 +994,8 @@ def post_process(
     it applies, else the generic :func:`kim_backward`.  ``smoother == "ec"``: expectation
     correction in place of Kim's (:func:`generate_ec_smoother_source`, else :func:`ec_backward`);
     ``store`` must then hold the filtered per-mode estimates (the IMM's ``filtered_store``).
+    ``paired``: the model ``model`` holds the mode pairs of
+    (:func:`~hybridlog.estimators.mode_pairs.pair_mode_model`), whose modes a refusal names.
     """
     start = time.perf_counter()
     compile_s = 0.0
@@ -1057,7 +1060,7 @@ def post_process(
     elif mode_sequence == "kbest":
         fallbacks[:] = 0  # the states are those of the RTS smoother along the path
         result, spent = _kbest(
-            model, signals, result, transitions, beam, smooth, jit, kernel, fallbacks
+            model, signals, result, transitions, beam, smooth, jit, kernel, fallbacks, paired
         )
         compile_s += spent
         descriptions = [
@@ -1223,6 +1226,7 @@ def _kbest(
     jit: bool,
     kernel: str,
     fallbacks: FloatArray,
+    paired: HybridModel | None,
 ) -> tuple[EstimationResult, float]:
     """``result`` with the ``kbest`` path as its modes and the states of the EKF along it.
 
@@ -1231,7 +1235,7 @@ def _kbest(
     :func:`~hybridlog.estimators.mode_hypotheses.generate_kbest_source`, else the generic
     loop, which updates on the measured outputs alone), then the EKF that follows it
     (``smooth``: and the extended RTS smoother along it, its fallbacks counted into
-    ``fallbacks``).  Returns the compile time too.
+    ``fallbacks``).  Returns the compile time too.  ``paired`` as for :func:`post_process`.
     """
     from hybridlog.estimators import mode_hypotheses
     from hybridlog.estimators.mode_hypotheses import best_history, follow_path, smooth_path
@@ -1265,7 +1269,7 @@ def _kbest(
     compile_s += time.perf_counter() - compile_start
     unweighed = follow(*followed)
     if unweighed >= 0:
-        _refuse_unweighed_path(model, signals, path, unweighed)
+        _refuse_unweighed_path(model, signals, path, unweighed, paired)
     if smooth:
         smoothed = (compiled.f, compiled.F, run, path, means, covariances, fallbacks)
         compile_start = time.perf_counter()
@@ -1285,22 +1289,31 @@ def _kbest(
 
 
 def _refuse_unweighed_path(
-    model: HybridModel, signals: AlignedSignals, path: IntArray, row: int
+    model: HybridModel,
+    signals: AlignedSignals,
+    path: IntArray,
+    row: int,
+    paired: HybridModel | None = None,
 ) -> None:
     """Refuse a ``kbest`` path whose EKF cannot weigh the measurement of sample ``row``.
 
     There the innovation covariance ``S = H P Hᵀ + R`` of the path's mode, from the path's
     own prior, is not finite and positive definite in double precision (paper 000 eq. (9)):
     no update exists, and its prediction would stand in for an estimate of the log
-    (:func:`~hybridlog.estimators.mode_hypotheses.follow_path`).
+    (:func:`~hybridlog.estimators.mode_hypotheses.follow_path`).  On the mode pairs of
+    ``paired`` the mode is named in ``paired``'s modes: ``'down' (after a step of mode 'up')``,
+    not the pair ``'up->down'`` the model file does not have.
     """
     from hybridlog.errors import DivergenceError, excerpt
+    from hybridlog.estimators.mode_pairs import pair_named
     from hybridlog.times import format_time
 
+    index = int(path[row])
+    mode = excerpt(model.modes[index].id) if paired is None else pair_named(index, paired)
     raise DivergenceError(
         f"{model.origin or model.name}: imm (mode_sequence kbest) cannot weigh the measurement "
         f"at t = {format_time(signals.time[row])} s (sample {row}) along its most likely mode "
-        f"path: mode {excerpt(model.modes[int(path[row])].id)}'s innovation covariance "
+        f"path: mode {mode}'s innovation covariance "
         "H P Hᵀ + R is not finite and positive definite in double precision there, so no "
         "update exists"
     )

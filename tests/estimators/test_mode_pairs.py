@@ -197,3 +197,31 @@ def test_a_refusal_on_the_pairs_names_the_held_and_the_true_mode_as_the_log_does
     assert (
         "it held mode 'down' over the 10 samples before, where the log's true mode was 'up'"
     ) in message, message
+
+
+def test_a_kbest_refusal_on_the_pairs_names_the_model_files_modes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The path's EKF that cannot weigh a sample named the pair: ``mode 'up->down''s
+    innovation covariance``.  The search drops a hypothesis no update exists for, so its
+    path meets one only where every kept hypothesis did (made to here: the row is given)."""
+    from hybridlog.estimators import mode_hypotheses
+
+    followed = mode_hypotheses.follow_path
+
+    def unweighed_at_12(*arguments: object) -> int:
+        followed(*arguments)  # type: ignore[arg-type]
+        return 12
+
+    monkeypatch.setattr(mode_hypotheses, "follow_path", unweighed_at_12)
+    model = _sensor_model()
+    signals = simulate(model, steps=20, seed=0).signals(model, source="test")
+    assert signals.truth_modes is not None
+    mode = model.mode_ids[int(signals.truth_modes[12])]
+    with pytest.raises(DivergenceError) as caught:
+        run_imm(model, signals, ImmOptions(mode_sequence="kbest"), jit=False)
+    message = str(caught.value)
+    assert f"(sample 12) along its most likely mode path: mode '{mode}' (after a step of " in (
+        message
+    ), message
+    assert "->" not in message, message
