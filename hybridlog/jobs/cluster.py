@@ -607,6 +607,7 @@ def discover_modes(
                 centers=fitted.centers,
                 cluster_modes=cluster_modes,
                 decision_values=fitted.decision_values[:, 0],
+                mode_ids=model.mode_ids,
                 kmeans_centers=None if baseline is None else baseline.centers,
                 truth=truth,
                 accuracy=_accuracy_words(accuracy, over),
