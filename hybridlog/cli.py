@@ -1291,9 +1291,13 @@ def _progress(
 
 
 def _work_note(quiet: bool, text: str) -> None:
-    """A note on stderr that long work is coming and how long it will take (not ``--quiet``)."""
+    """A note on stderr that long work is coming and how long it will take (not ``--quiet``).
+
+    Prefixed as every other note (``hybridlog: note: ``): the exact potentials' "about 58
+    min" stood bare among them.
+    """
     if not quiet:
-        click.echo(_for_terminal(text), err=True)
+        click.echo(_for_terminal(f"hybridlog: note: {text}"), err=True)
 
 
 @contextlib.contextmanager

@@ -436,8 +436,13 @@ def select_centres(
 
 def _choose_method(
     options: SubtractiveOptions, n: int, radii: FloatArray
-) -> tuple[str, int | None, str]:
-    """The method to run, the grid size, and a note saying why."""
+) -> tuple[str, int | None, str, str]:
+    """The method to run, the grid size, a note saying why, and the way to the grid.
+
+    The last is for the exact potentials, which a long log makes long: what would take the
+    approximate ones instead (``method=approximate``, or the radius at which the finest
+    grid that fits is fine enough), or ``""``.
+    """
     d = radii.shape[0]
     intervals = grid_nodes_per_axis(d, options.grid)
     finer = options.grid is None and _h_over_sigma(intervals, radii) > GRID_H_OVER_SIGMA_MAX
@@ -448,25 +453,32 @@ def _choose_method(
     grid_ok = (intervals + 1) ** d <= GRID_CELLS_MAX or options.grid is not None
     grid_fine = h_over_sigma <= GRID_H_OVER_SIGMA_MAX
     grid_text = f"{intervals + 1}^{d} grid nodes, h/σ = {h_over_sigma:.3f}"
+    # h/σ = √8 / (G r_a): the radius at which the finest grid that fits is fine enough
+    finest = intervals if options.grid is not None else _finest_intervals(d)
+    needed = math.ceil(math.sqrt(8.0) / (finest * GRID_H_OVER_SIGMA_MAX) * 100) / 100
+    if grid_ok and grid_fine:
+        way_out = "method=approximate takes the grid's approximate potentials instead"
+    else:
+        way_out = (
+            f"method=approximate with radius >= {needed:g} or fewer lags takes the grid's "
+            "approximate potentials instead"
+        )
     if options.method == "exact":
-        return "exact", None, f"exact potentials ({n} points, requested)"
+        return "exact", None, f"exact potentials ({n} points, requested)", way_out
     if options.method == "approximate":
         if not (grid_ok and grid_fine):
-            # h/σ = √8 / (G r_a): the radius at which the finest grid that fits is fine enough
-            finest = intervals if options.grid is not None else _finest_intervals(d)
-            needed = math.sqrt(8.0) / (finest * GRID_H_OVER_SIGMA_MAX)
             raise ClusteringOptionError(
                 ("method", "radius"),
                 f"method: the approximate potentials need a grid with h/σ <= "
                 f"{GRID_H_OVER_SIGMA_MAX} to stay within {POTENTIAL_TOLERANCE:g} of the exact "
                 f"ones; {d} varying dimensions at r_a = {float(radii.min()):g} give "
-                f"{grid_text}: use method=exact (O(N²)), fewer lags, or radius >= "
-                f"{math.ceil(needed * 100) / 100:g}",
+                f"{grid_text}: use method=exact (O(N²)), fewer lags, or radius >= {needed:g}",
             )
-        return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})"
+        return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})", ""
     if n <= AUTO_EXACT_MAX:
         points = "1 point" if n == 1 else f"{n} points"
-        return "exact", None, f"exact potentials (auto: {points} <= {AUTO_EXACT_MAX})"
+        note = f"exact potentials (auto: {points} <= {AUTO_EXACT_MAX})"
+        return "exact", None, note, way_out
     if grid_ok and grid_fine:
         # a grid finer than the default costs d·(G+1)^(d+1) in its convolutions: run where
         # that is below the exact pairs' cost (a pair's exp about 10 multiply-adds)
@@ -476,17 +488,21 @@ def _choose_method(
                 None,
                 f"exact potentials (auto: {n} points; fewer pairs than work on the "
                 f"{grid_text} fine enough)",
+                "",  # the grid would take longer
             )
         return (
             "approximate",
             intervals,
             f"approximate potentials (auto: {n} points > {AUTO_EXACT_MAX}; {grid_text})",
+            "",
         )
+    way_out = f"radius >= {needed:g} or fewer lags take the grid's approximate potentials instead"
     return (
         "exact",
         None,
         f"exact potentials (auto: {n} points, but the grid would be too coarse: {grid_text} "
         f"> {GRID_H_OVER_SIGMA_MAX})",
+        way_out,
     )
 
 
@@ -537,7 +553,7 @@ def exact_threads(n: int) -> int:
 
 
 def _reported_exact_potentials(
-    scaled: FloatArray, options: SubtractiveOptions, *, jit: bool, why: str
+    scaled: FloatArray, options: SubtractiveOptions, *, jit: bool, why: str, way_out: str = ""
 ) -> tuple[FloatArray, str]:
     """Exact potentials; when long, a note with the expected time and a progress bar first.
 
@@ -546,8 +562,8 @@ def _reported_exact_potentials(
     sensors, a plant at rest): the same potentials up to rounding, in ``(M/N)²`` of the
     time.  The first steps are timed (after the first, which may load the compiled kernel);
     when the whole would take more than :data:`LONG_WORK_S`, the installed reporter gets
-    one line (points, dimensions, pairs, expected time and ``why`` the exact path runs) and
-    a bar.
+    one line (points, dimensions, pairs, expected time, ``why`` the exact path runs and the
+    ``way_out`` to the grid) and a bar.
 
     Returns
     -------
@@ -587,7 +603,7 @@ def _reported_exact_potentials(
                 f"exact potentials of {n:,} points{f' ({said})' if said else ''} in {d} "
                 f"dimensions ({total:.2g} pairs, O(N²)): about {duration_text(expected)} on this "
                 f"machine with {threads} thread{'s' if threads > 1 else ''} "
-                f"{why.removeprefix('exact potentials ')}"
+                f"{why.removeprefix('exact potentials ')}{f'; {way_out}' if way_out else ''}"
             )
             with reporter.bar(total, "cluster potentials") as advance:
                 advance(done)
@@ -647,7 +663,7 @@ def subtractive_clustering(
     varying = unit.max(axis=0) > unit.min(axis=0)
     constant = not varying.any()
     varying[0] |= constant
-    method, intervals, note = _choose_method(options, n, radii[varying])
+    method, intervals, note, way_out = _choose_method(options, n, radii[varying])
     if constant:  # the one dimension kept above is constant too
         which = "the only dimension" if d == 1 else f"all {d} dimensions"
         note += f"; {which} constant: every point the same"
@@ -655,7 +671,9 @@ def subtractive_clustering(
         note += f"; {int(np.sum(~varying))} of {d} dimensions constant, left out"
     scaled = np.ascontiguousarray((unit[:, varying] / radii[varying]).T)
     if method == "exact":
-        initial, said = _reported_exact_potentials(scaled, options, jit=jit, why=note)
+        initial, said = _reported_exact_potentials(
+            scaled, options, jit=jit, why=note, way_out=way_out
+        )
         note += f"; {said}" if said else ""
     else:
         assert intervals is not None

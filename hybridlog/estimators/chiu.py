@@ -221,6 +221,7 @@ def mode_classifier(
             score,
             classifier.details["sizes"],
             what="one-step prediction SSE",
+            samples=signals.n_samples,  # each map's score runs the observer over the log
         )
         return classifier.labelled(labels.modes, labels.notes, labelling_scores=labels.alternatives)
     return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))

@@ -30,7 +30,9 @@ from hybridlog.cluster.regressors import (
 )
 from hybridlog.cluster.subtractive import ClusteringOptionError
 from hybridlog.errors import (
+    DataShortError,
     HybridlogError,
+    LogError,
     ModelError,
     OptionError,
     OutputError,
@@ -531,9 +533,16 @@ def discover_modes(
         fitted = _classifier(model, signals, chiu, observer, given)
     except ClusteringOptionError as err:
         raise _named(err, chiu, model, given, flags=flags) from None
-    baseline = None
+    baseline, compared = None, []
     if kmeans is not None:
-        baseline = _classifier(model, signals, kmeans, observer, given)
+        try:
+            baseline = _classifier(model, signals, kmeans, observer, given)
+        except LogError as err:
+            if not isinstance(err.__cause__, DataShortError):
+                raise
+            # a log whose φ(k) are all one point: chiu found its one centre, and k-means
+            # stopped the command (chiu's result unwritten) for want of 2 distinct points
+            compared = [f"kmeans: not compared, k-means could not run: {err.__cause__}"]
     accuracy = {"chiu": _accuracy(fitted, model, signals)}
     if baseline is not None:
         accuracy["kmeans"] = _accuracy(baseline, model, signals)
@@ -598,6 +607,7 @@ def discover_modes(
                 centers=fitted.centers,
                 cluster_modes=cluster_modes,
                 decision_values=fitted.decision_values[:, 0],
+                mode_ids=model.mode_ids,
                 kmeans_centers=None if baseline is None else baseline.centers,
                 truth=truth,
                 accuracy=_accuracy_words(accuracy, over),
@@ -619,7 +629,8 @@ def discover_modes(
     alerts, read_notes = reading_said(reading, _left_out(signals, fitted.spec))
     notes += [*fitted.notes, *fitted.labelling, *read_notes]
     if baseline is not None:
-        notes += [*baseline.notes, *baseline.labelling]
+        compared = [*baseline.notes, *baseline.labelling]
+    notes += compared
     for name, value in accuracy.items():
         if value is not None:
             notes.append(

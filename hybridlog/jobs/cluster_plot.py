@@ -88,6 +88,7 @@ def plot_clusters(
     centers: FloatArray,
     cluster_modes: Sequence[str] | None,
     decision_values: FloatArray,
+    mode_ids: Sequence[str],
     kmeans_centers: FloatArray | None = None,
     truth: Sequence[str | None] | None = None,
     accuracy: str | None = None,
@@ -110,6 +111,8 @@ def plot_clusters(
         Mode id of each cluster, or ``None`` when the clusters are not labelled.
     decision_values:
         ``y_i*`` of the first output, shape ``(c,)``.
+    mode_ids:
+        The model's modes, in its order: the true mode's levels, bottom up.
     kmeans_centers:
         k-means centres, or ``None``.
     truth:
@@ -167,7 +170,9 @@ def plot_clusters(
     where = "dashed" if few else "ticks at the right edge"
     right.set_title(f"decided cluster per sample ({where}: decision variables y*)")
     if truth is not None:
-        ids = sorted({m for m in truth if m is not None})
+        # the model's order: sorted as text, mode "10" came below mode "2"
+        seen = {m for m in truth if m is not None}
+        ids = [m for m in mode_ids if m in seen]
         levels = [math.nan if m is None else ids.index(m) for m in truth]
         twin = right.twinx()
         twin.step(time, levels, where="post", color="grey", lw=0.8)

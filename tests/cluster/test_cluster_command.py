@@ -23,7 +23,12 @@ def test_cluster_says_how_long_the_exact_potentials_take(tmp_path, monkeypatch, 
     if quiet:
         assert result.stderr == "" and result.stdout == ""
     else:
+        # prefixed as every other note, and saying the way out (it printed the bare line)
         note = result.stderr.splitlines()
-        assert len(note) == 1 and note[0].startswith("exact potentials of "), result.stderr
-        assert " on this machine with " in note[0] and "requested)" in note[0]
+        assert len(note) == 1, result.stderr
+        assert note[0].startswith("hybridlog: note: exact potentials of "), result.stderr
+        assert " on this machine with " in note[0] and "requested); " in note[0]
+        assert note[0].endswith(
+            "; method=approximate takes the grid's approximate potentials instead"
+        )
         assert "| chiu | 1 |" in result.stdout

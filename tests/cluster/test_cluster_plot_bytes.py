@@ -26,6 +26,7 @@ def _draw(path: Path) -> bytes:
         centers=phi[:2],
         cluster_modes=("1", "2"),
         decision_values=np.array([0.5, 1.5]),
+        mode_ids=("1", "2"),
         truth=["1" if k % 3 else "2" for k in range(40)],
         accuracy="mode accuracy of the decision rule on this log: chiu 0.5000",
     )

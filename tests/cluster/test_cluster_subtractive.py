@@ -327,6 +327,31 @@ def test_long_exact_potentials_say_how_long_first_and_show_progress(monkeypatch)
     assert events == []
 
 
+@pytest.mark.parametrize(
+    ("radius", "method", "way_out"),
+    [
+        (0.1, "auto", "; radius >= 0.18 or fewer lags take the grid's approximate potentials"),
+        (0.1, "exact", "; method=approximate with radius >= 0.18 or fewer lags takes the grid"),
+        (0.5, "exact", "; method=approximate takes the grid's approximate potentials instead"),
+    ],
+)
+def test_long_exact_potentials_say_the_way_to_the_grid(monkeypatch, radius, method, way_out):
+    # "exact potentials of 1,000,000 points ... about 1.8 h" offered no way out: the note now
+    # names what takes the grid instead, and the radius it names does
+    monkeypatch.setattr(potentials, "PAIRS_PER_STEP", 5_000)
+    monkeypatch.setattr(subtractive, "_CALIBRATION_S", 0.0)
+    monkeypatch.setattr(subtractive, "LONG_WORK_S", 0.0)
+    monkeypatch.setattr(subtractive, "AUTO_EXACT_MAX", 100)  # 600 points count as many
+    said: list[str] = []
+    reporter = WorkReporter(note=said.append, bar=lambda total, label: contextlib.nullcontext(abs))
+    data = np.random.default_rng(4).normal(size=(600, 3))
+    with reporting(reporter):
+        subtractive_clustering(data, SubtractiveOptions(radius=radius, method=method))
+    assert len(said) == 1 and way_out in said[0], said
+    taken = subtractive_clustering(data, SubtractiveOptions(radius=0.18, method="approximate"))
+    assert taken.method == "approximate"
+
+
 @pytest.mark.parametrize("threads", [2, 3, 7])
 def test_exact_potentials_on_several_threads(monkeypatch, threads):
     # long exact work runs on every usable core (the kernel releases the GIL), each thread

@@ -47,8 +47,10 @@ def test_analyze_and_compare_say_how_long_the_clustering_takes(
     result = CliRunner().invoke(cli, [*args, "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output
     # compare also notes that --set method=exact reaches chiu alone (kmeans has no method)
-    note = [line for line in result.stderr.splitlines() if not line.startswith("hybridlog: note:")]
-    assert len(note) == 1 and note[0].startswith("exact potentials of "), result.stderr
+    lines = result.stderr.splitlines()
+    assert all(line.startswith("hybridlog: note: ") for line in lines), result.stderr
+    note = [line for line in lines if line.startswith("hybridlog: note: exact potentials of ")]
+    assert len(note) == 1, result.stderr
     assert " on this machine with " in note[0] and "requested)" in note[0]
     quiet = CliRunner().invoke(cli, ["--quiet", *args, "--out", str(tmp_path / "quiet")])
     assert quiet.exit_code == 0 and quiet.stderr == "", quiet.stderr

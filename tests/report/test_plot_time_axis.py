@@ -121,6 +121,7 @@ def test_the_cluster_plot_draws_a_run_in_unix_time_from_its_first_sample(
         centers=phi[:2],
         cluster_modes=("1", "2"),
         decision_values=np.array([0.5, 1.5]),
+        mode_ids=("1", "2"),
         truth=["1" if k % 3 else "2" for k in range(400)],
     )
     right = figures[0].axes[1]

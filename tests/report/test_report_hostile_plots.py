@@ -203,6 +203,7 @@ def test_the_cluster_plot_draws_mode_ids_as_written(tmp_path: Path) -> None:
         centers=phi[:2],
         cluster_modes=modes,
         decision_values=np.array([0.5, 1.5]),
+        mode_ids=modes,
         truth=[modes[k % 2] for k in range(60)],
     )
     assert written.stat().st_size > 0
