@@ -165,6 +165,7 @@ def simulate_components(
         _check_run,
         _check_seed,
         out_of_range,
+        sample_times,
         start_state,
         within_range,
     )
@@ -218,7 +219,7 @@ def simulate_components(
             model, scenario, entries, _labels_of(entries, model), parameter_names
         )
 
-    time = np.arange(rows, dtype=float) * model.dt
+    time = sample_times(rows, model.dt)
     inputs = _open_loop_inputs(model, scenario, time)
     controlled = [model.inputs.index(name) for name in scenario.controller_inputs]
     controller = _controller(model, scenario, parameter_names) if controlled else None
