@@ -498,6 +498,7 @@ def run_filter_chunks(
                     first=chunk.first,
                     before=before,
                     surprise=filled.surprise,
+                    paired=checked_as is not None,
                 )
                 if chunk.stop > chunk.first:  # the next chunk's diagnosis starts from here
                     before = filled.state_means[-1].copy()

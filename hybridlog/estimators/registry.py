@@ -590,6 +590,7 @@ class Prepared:
             unpredicted=capabilities.unpredicted_outputs,
             first=first,
             before=before,
+            paired=capabilities.runs_on_mode_pairs and runs_on_pairs(model),
         )
 
     @contextlib.contextmanager

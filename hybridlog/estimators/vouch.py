@@ -301,6 +301,7 @@ def check_result(
     first: int = 0,
     before: FloatArray | None = None,
     surprise: FloatArray | None = None,
+    paired: bool = False,
 ) -> None:
     """Refuse ``result`` when it holds a number nobody can vouch for (:func:`first_flaw`).
 
@@ -312,7 +313,9 @@ def check_result(
     precision made the HSTF's state estimate infinite there), and a measured sample that no
     mode could weigh (:func:`_first_unweighed`) before any flaw (a flaw of the same sample
     is said with its cause, :func:`_why`, which names an expression that is not finite
-    there or the innovation covariance that is singular).
+    there or the innovation covariance that is singular).  ``paired``: the estimator ran on
+    the model's mode pairs (:mod:`~hybridlog.estimators.mode_pairs`), so the cause is
+    looked for in every mode's ``h`` after every mode's ``f`` (:func:`_measuring`).
 
     Raises
     ------
@@ -347,7 +350,15 @@ def check_result(
     else:
         variance = None
     why = (
-        _why(model, signals, row, before, variance, combined=result.estimator == "hstf")
+        _why(
+            model,
+            signals,
+            row,
+            before,
+            variance,
+            combined=result.estimator == "hstf",
+            paired=paired,
+        )
         if row > 0 and before is not None
         else ""
     )
@@ -496,6 +507,7 @@ def _why(
     variance: FloatArray | None,
     *,
     combined: bool = False,
+    paired: bool = False,
 ) -> str:
     """Why the step into sample ``row`` from the estimate ``before`` of the sample before broke.
 
@@ -505,11 +517,12 @@ def _why(
     (:func:`_precision_lost`), or every mode's innovation covariance singular in double
     precision (:func:`_innovation_singular`); empty when none explains it.  With
     ``combined`` (the HSTF, whose eq. (12) takes every mode's ``∂h/∂x`` at the mean of the
-    modes' predictions) also ``∂h/∂x`` there (:func:`_combined_not_finite`).
+    modes' predictions) also ``∂h/∂x`` there (:func:`_combined_not_finite`).  ``paired``:
+    the modes as a run on the mode pairs steps and measures them (:func:`_measuring`).
     """
     if not np.isfinite(before).all():
         return ""
-    found = _expression_not_finite(model, signals, row, before, variance)
+    found = _expression_not_finite(model, signals, row, before, variance, paired)
     if not found and combined:
         found = _combined_not_finite(model, signals, row, before)
     if found:
@@ -522,10 +535,10 @@ def _why(
                 "sample before, too large for double precision (the model's noise or initial "
                 "covariance, or the estimator's options)"
             )
-    found = _precision_lost(model, signals, row, before, variance)
+    found = _precision_lost(model, signals, row, before, variance, paired)
     if found:
         return found
-    found = _innovation_singular(model, signals, row, before, variance)
+    found = _innovation_singular(model, signals, row, before, variance, paired)
     if found:
         return found
     if _evaluable(model, signals, row):
@@ -599,6 +612,7 @@ def _expression_not_finite(
     row: int,
     before: FloatArray,
     variance: FloatArray | None,
+    paired: bool = False,
 ) -> str:
     """The first mode expression not finite on the step from ``before`` into ``row``.
 
@@ -610,7 +624,7 @@ def _expression_not_finite(
         return ""
     x, u_before, u_now = step.x, step.u_before, step.u_now
     with np.errstate(all="ignore"):
-        for index, measured in _measuring(model):
+        for index, measured in _measuring(model, paired):
             x_next, F, y, H = step.mode(index, measured)
             for name, values, at, inputs, of in (
                 ("f", x_next, x, u_before, index),
@@ -638,18 +652,22 @@ def _expression_not_finite(
     return ""
 
 
-def _measuring(model: HybridModel) -> list[tuple[int, int]]:
+def _measuring(model: HybridModel, paired: bool) -> list[tuple[int, int]]:
     """The modes whose ``f`` steps into a sample and whose ``h`` measures it, as filters pair them.
 
-    Each mode with itself; on a model the IMM runs on its mode pairs
-    (:func:`~hybridlog.estimators.capabilities.runs_on_pairs`) every mode's ``h`` after every
-    mode's ``f``: its refusal is checked in the model's own modes
-    (:class:`~hybridlog.estimators.common.CheckedAs`), whose keys it names.
+    Each mode with itself; for a run on the mode pairs (``paired``, the IMM on a model
+    :func:`~hybridlog.estimators.capabilities.runs_on_pairs` holds) every mode's ``h`` after
+    every mode's ``f``: its refusal is checked in the model's own modes
+    (:class:`~hybridlog.estimators.common.CheckedAs`), whose keys it names.  Told by the
+    caller, not by the model: the HSTF on the same model evaluates no ``h`` after another
+    mode's ``f``, and its refusal named one it never evaluated (``modes.a.h[0] = 'sqrt(x1)'
+    is nan at x1 = -0.1``, mode b's prediction, where its eq. (12) had met ``∂h/∂x`` at the
+    modes' mean prediction).
     """
     from hybridlog.estimators.capabilities import runs_on_pairs
 
     n = model.n_modes
-    if runs_on_pairs(model):
+    if paired and runs_on_pairs(model):
         return [(index, measured) for index in range(n) for measured in range(n)]
     return [(index, index) for index in range(n)]
 
@@ -693,6 +711,7 @@ def _precision_lost(
     row: int,
     before: FloatArray,
     variance: FloatArray | None,
+    paired: bool = False,
 ) -> str:
     """The Jacobian entry whose propagated covariance rounds by more than the variances.
 
@@ -701,7 +720,7 @@ def _precision_lost(
     size) exceeds the smallest variance of the sample before, which the update must then
     recover by cancellation: the covariance comes out negative or not finite.  The largest
     ``|∂f/∂x_j| σ_j`` (or ``∂h/∂x_j``) of any mode at the estimate of the sample before,
-    when it is that large; empty otherwise.
+    when it is that large; empty otherwise.  ``paired``: as :func:`_measuring`.
     """
     if variance is None or not np.isfinite(variance).all() or not (variance > 0.0).all():
         return ""
@@ -712,9 +731,12 @@ def _precision_lost(
     sigma = np.sqrt(variance)
     worst: tuple[float, int, str, int, float, FloatArray, FloatArray] | None = None
     with np.errstate(all="ignore"):
-        for index in range(model.n_modes):
-            x_next, F, _, H = step.mode(index)
-            for name, values, at, inputs in (("F", F, x, u_before), ("H", H, x_next, u_now)):
+        for index, measured in _measuring(model, paired):
+            x_next, F, _, H = step.mode(index, measured)
+            for name, values, at, inputs, of in (
+                ("F", F, x, u_before, index),
+                ("H", H, x_next, u_now, measured),
+            ):
                 scaled = np.abs(values) * sigma
                 if not np.isfinite(scaled).all():
                     continue
@@ -722,7 +744,7 @@ def _precision_lost(
                 size = float(scaled.reshape(-1)[flat]) ** 2
                 if worst is None or size > worst[0]:
                     value = float(values.reshape(-1)[flat])
-                    worst = (size, index, name, flat, value, at, inputs)
+                    worst = (size, of, name, flat, value, at, inputs)
     smallest = float(variance.min())
     if worst is None or worst[0] * ROUNDING <= smallest:
         return ""
@@ -738,6 +760,7 @@ def _innovation_singular(
     row: int,
     before: FloatArray,
     variance: FloatArray | None,
+    paired: bool = False,
 ) -> str:
     """Every mode's innovation covariance singular in double precision on the step into ``row``.
 
@@ -748,6 +771,8 @@ def _innovation_singular(
     as computed: no mode's update, and so no mode probability, exists.  ``P`` is taken as
     the variances of the sample before (its diagonal).  The mode whose ``S`` is nearest to
     singular, when every mode's is singular at :data:`ROUNDING`; empty otherwise.
+    ``paired``: every pair of :func:`_measuring`, ``Q`` of the mode that steps and ``R`` of
+    the mode that measures, named as :func:`~hybridlog.estimators.mode_pairs.pair_named`.
     """
     if variance is None or not np.isfinite(variance).all():
         return ""
@@ -755,12 +780,12 @@ def _innovation_singular(
     if step is None:
         return ""
     P = np.diag(variance)
-    worst: tuple[float, int, float, float] | None = None
+    worst: tuple[float, tuple[int, int], float, float] | None = None
     with np.errstate(all="ignore"):
-        for index, mode in enumerate(model.modes):
-            _, F, _, H = step.mode(index)
-            S = H @ (F @ P @ F.T + mode.process_noise) @ H.T
-            R = mode.measurement_noise
+        for index, measured in _measuring(model, paired):
+            _, F, _, H = step.mode(index, measured)
+            S = H @ (F @ P @ F.T + model.modes[index].process_noise) @ H.T
+            R = model.modes[measured].measurement_noise
             values = np.linalg.eigvalsh(S + R) if np.isfinite(S).all() else None
             if values is None:
                 return ""
@@ -769,13 +794,19 @@ def _innovation_singular(
             if ratio > S.shape[0] * ROUNDING:
                 return ""
             if worst is None or ratio < worst[0]:
-                worst = (ratio, index, float(np.linalg.eigvalsh(R).min()), largest)
+                worst = (ratio, (index, measured), float(np.linalg.eigvalsh(R).min()), largest)
     if worst is None:
         return ""
-    _, index, smallest_r, largest = worst
+    _, (index, measured), smallest_r, largest = worst
+    if index == measured:
+        named = excerpt(model.modes[index].id)
+    else:
+        from hybridlog.estimators.mode_pairs import pair_named
+
+        named = pair_named(index * model.n_modes + measured, model)
     return (
         f"every mode's innovation covariance H P Hᵀ + R is singular in float64 (mode "
-        f"{excerpt(model.modes[index].id)}: {largest:.3g} rounds away R's {smallest_r:.3g}), "
+        f"{named}: {largest:.3g} rounds away R's {smallest_r:.3g}), "
         f"from variances {_point_variances(model, variance)} at the sample before: the "
         "model's [initial] covariance and [noise] are too far apart for double precision"
     )

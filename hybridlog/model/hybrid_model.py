@@ -15,6 +15,7 @@ The loader accepts every kind; an estimator that cannot handle one refuses it.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Generic, Literal, TypeVar, overload
@@ -105,7 +106,9 @@ def replaced(instance: D, **changes: Any) -> D:
 
     ``dataclasses.replace`` reads every field it is not given, which computes a
     :class:`Deferred` (on a model read from the cache: sympy and the loader, 2 s of a warm
-    run); here a field not in ``changes`` is passed on as :func:`stored` holds it.
+    run); here a field not in ``changes`` is passed on as :func:`stored` holds it.  The
+    field's descriptor is looked up along the class's bases (a dataclass that extends one
+    with a :class:`Symbolic` field inherits the descriptor, not its entry in ``__dict__``).
     """
     cls = type(instance)
     held = {
@@ -113,7 +116,7 @@ def replaced(instance: D, **changes: Any) -> D:
         for item in dataclasses.fields(instance)  # type: ignore[arg-type]
         if item.init
         and item.name not in changes
-        and isinstance(cls.__dict__.get(item.name), Symbolic)
+        and isinstance(inspect.getattr_static(cls, item.name, None), Symbolic)
     }
     return dataclasses.replace(instance, **held, **changes)  # type: ignore[type-var]
 

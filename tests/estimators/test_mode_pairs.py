@@ -188,6 +188,29 @@ def test_a_refusal_on_the_pairs_names_the_model_files_key(
     assert "->" not in message
 
 
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_the_hstf_refusal_on_a_paired_model_names_what_the_hstf_evaluated(kernel: str) -> None:
+    """The diagnosis took every mode's ``h`` after every mode's ``f`` for any estimator on a
+    model the IMM runs on its pairs: the HSTF's refusal named ``modes.a.h[0] = 'sqrt(x1)' is
+    nan at x1 = -0.1``, mode b's prediction, which the HSTF never measures with mode a's
+    ``h``, in place of the Jacobian its eq. (12) took at the modes' mean prediction."""
+    from hybridlog.estimators.filter_options import HstfOptions
+    from hybridlog.estimators.hstf import run_hstf
+    from tests.estimators.test_numerics_results import SQRT_ONE_MODE, falling
+
+    text = SQRT_ONE_MODE.replace('h = ["sqrt(x1)"]', 'h = ["sqrt(x1)"]\nguard = "x1 >= 0.5"')
+    text = text.replace('h = ["x1"]', 'h = ["x1"]\nguard = "x1 < 0.5"')
+    model = parse_model(text, origin="models/sqrt.toml")
+    assert model.state_driven and model.outputs_differ_by_mode
+    with pytest.raises(DivergenceError) as caught:
+        run_hstf(model, falling(), HstfOptions(), kernel=kernel)
+    message = str(caught.value)
+    assert "; the derivative by x1 of modes.a.h[0] = 'sqrt(x1)' is nan at x1 = -0.0017" in (
+        message
+    ), message
+    assert message.endswith(", u = 0.1, the modes' mean prediction (eq. (12))"), message
+
+
 def test_a_refusal_on_the_pairs_names_the_held_and_the_true_mode_as_the_log_does() -> None:
     """It compared the log's true modes with the pairs' indices and named both by pairs:
     ``it held mode 'down->down' ... where the log's true mode was 'up->up'``."""
@@ -225,3 +248,50 @@ def test_a_kbest_refusal_on_the_pairs_names_the_model_files_modes(
         message
     ), message
     assert "->" not in message, message
+
+
+PAIRED_SINGULAR = """
+name = "paired_singular"
+dt = 1.0
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y1", "y2"]
+[modes.a]
+f = ["x1 + 1", "x2"]
+h = ["x1", "x1"]
+guard = "x1 >= 0.5"
+[modes.b]
+f = ["x1 - 1", "x2"]
+h = ["x1", "x2*x1"]
+guard = "x1 < 0.5"
+[noise]
+process = 1e-10
+measurement = 1e-10
+[initial]
+state = [1.0, 1.0]
+covariance = 1.0
+"""
+
+
+def test_the_singular_innovation_diagnosis_of_a_paired_run_weighs_every_pair() -> None:
+    """Each mode's ``S`` is singular after its own step (``a``: two outputs of ``x1``; ``b``:
+    ``x1 = 0`` after its step), but ``b``'s outputs after ``a``'s step are not: a run on the
+    pairs could weigh the sample, and "every mode's innovation covariance is singular" is
+    said only of a run that takes each mode with itself."""
+    from hybridlog.estimators.vouch import _innovation_singular
+
+    model = parse_model(PAIRED_SINGULAR)
+    assert model.state_driven and model.outputs_differ_by_mode
+    n = 3
+    signals = AlignedSignals(
+        source="s.csv",
+        time=np.arange(n, dtype=float),
+        input_names=("u",),
+        output_names=("y1", "y2"),
+        inputs=np.zeros((n, 1)),
+        outputs=np.ones((n, 2)),
+    )
+    before, variance = np.array([1.0, 1.0]), np.array([1e20, 1e20])
+    alone = _innovation_singular(model, signals, 1, before, variance)
+    assert alone.startswith("every mode's innovation covariance H P Hᵀ + R is singular"), alone
+    assert _innovation_singular(model, signals, 1, before, variance, paired=True) == ""

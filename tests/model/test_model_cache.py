@@ -398,3 +398,28 @@ def test_a_warm_model_says_whether_its_outputs_differ_by_mode_without_sympy(
     assert warm.outputs_differ_by_mode and isinstance(stored(warm.modes[0], "h"), Deferred)
     assert load_model("double_cart_case1").outputs_differ_by_mode is False
     assert load_model("bioplex_pgc").outputs_differ_by_mode is False
+
+
+def test_replaced_leaves_an_inherited_symbolic_field_unread() -> None:
+    """``replaced`` found a :class:`Symbolic` field by the class's own ``__dict__``: on a
+    dataclass that extends one holding the field, it read (computed) the field as
+    ``dataclasses.replace`` does."""
+    from dataclasses import dataclass
+
+    from hybridlog.model.hybrid_model import Symbolic, replaced
+
+    @dataclass(frozen=True)
+    class Base:
+        a: int
+        e: Symbolic[int] = Symbolic(0)  # noqa: RUF009 (a descriptor, as HybridModel's)
+
+    @dataclass(frozen=True)
+    class Extended(Base):
+        b: int = 1
+
+    computed: list[int] = []
+    held = Extended(1, Deferred(lambda: computed.append(1) or 5), 2)  # type: ignore[arg-type]
+    copy = replaced(held, b=3)
+    assert not computed
+    assert isinstance(stored(copy, "e"), Deferred)
+    assert (copy.a, copy.b, copy.e) == (1, 3, 5)
