@@ -93,7 +93,8 @@ def _switching_lines(model: HybridModel, suited: list[str]) -> list[str]:
     if not model.outputs_differ_by_mode:
         return [
             "switching: by guards; the mode of sample k governs the step from x(k), so "
-            f"{' and '.join(filters)} show at sample k the mode found for that step, at k+1"
+            f"{' and '.join(filters)} {'show' if len(filters) > 1 else 'shows'} at sample k "
+            "the mode found for that step, at k+1"
         ]
     pairs = (
         f"runs on the {model.n_modes**2} mode pairs (the modes of the step into x(k) and from it)"
