@@ -113,6 +113,12 @@ def log_format(path: str | os.PathLike[str], format: str | None) -> str:
             f"{path}: a ROS 2 sqlite3 bag is written as a folder (metadata.yaml and its .db3 "
             f"file): --out {stem} --format ros2-sqlite3 writes {stem / stem.name}.db3"
         )
+    if not suffix and Path(path).is_dir():  # `--out out`: a folder, not a log's name
+        raise OptionError(
+            f"{path}: is a folder; name the log in it ({Path(path) / 'log.csv'}, or a "
+            f"{', '.join(SUFFIX_FORMATS)} file), or write a ROS 2 bag folder there with "
+            "--format ros2-sqlite3|ros2-mcap"
+        )
     raise OptionError(
         f"{path}: cannot tell the log format from suffix {suffix or '(none)'!r}; use "
         f"{', '.join(SUFFIX_FORMATS)} or --format ros2-sqlite3|ros2-mcap for a ROS 2 bag folder"

@@ -519,16 +519,20 @@ def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> 
         ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
         ("exists.mcap", {}, OutputError, "already exists"),
         ("exists.mcap", {"format": "ros2-mcap", "force": True}, OutputError, "not a directory"),
+        # `--out folder` said "cannot tell the log format from suffix '(none)'"
+        ("folder", {}, OptionError, "folder: is a folder; name the log in it (" + "{folder}"),
     ],
 )
 def test_simulate_outputs_are_checked_up_front(
     tmp_path: Path, target: str, options: dict[str, object], error: type, words: str
 ) -> None:
     (tmp_path / "exists.mcap").write_bytes(b"mine")
+    (tmp_path / "folder").mkdir()
     with pytest.raises(error) as info:
         check_log_target(tmp_path / target, **options)  # type: ignore[arg-type]
-    assert words in str(info.value)
-    assert [p.name for p in tmp_path.iterdir()] == ["exists.mcap"]
+    assert words.format(folder=tmp_path / "folder" / "log.csv") in str(info.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["exists.mcap", "folder"]
+    assert not any((tmp_path / "folder").iterdir())
 
 
 @pytest.mark.parametrize(
