@@ -80,6 +80,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
+from hybridlog.jobs.batch_junit import record_junit, withdraw_previous_junit
 from hybridlog.jobs.batch_lock import batch_folder_lock
 from hybridlog.jobs.batch_logs import (
     FoundLogs,
@@ -1029,6 +1030,8 @@ def run_batch(
                 locks=locks,
             )
             _withdraw_summaries(output_path(out_dir), junit)
+            withdrawn = withdraw_previous_junit(output_path(out_dir), junit)
+            notes += [] if withdrawn is None else [withdrawn]
             folders = {Path(folder) for _, _, folder in tasks}
             staging.extend(sorted(folders | {folder.parent for folder in folders}))
             died = [_died(log, folder) for _, log, folder in tasks]
@@ -1075,6 +1078,7 @@ def run_batch(
             _remove_empty_parents(root, outcome)
         others = other_report_folders(root, [Path(o.folder) for o in outcomes])
         summary = _summarise(root, model, job, gates, outcomes, junit, others)
+        record_junit(root, junit)  # withdrawn by the next run that does not write it
         if others:
             notes.append(_others_note(others))
         return dataclasses.replace(summary, notes=notes)
