@@ -80,6 +80,7 @@ from hybridlog.jobs.analysis import (
     prepare_estimators,
     read_log,
 )
+from hybridlog.jobs.batch_junit import record_junit, withdraw_previous_junit
 from hybridlog.jobs.batch_lock import batch_folder_lock
 from hybridlog.jobs.batch_logs import (
     FoundLogs,
@@ -1029,6 +1030,8 @@ def run_batch(
                 locks=locks,
             )
             _withdraw_summaries(output_path(out_dir), junit)
+            withdrawn = withdraw_previous_junit(output_path(out_dir), junit)
+            notes += [] if withdrawn is None else [withdrawn]
             folders = {Path(folder) for _, _, folder in tasks}
             staging.extend(sorted(folders | {folder.parent for folder in folders}))
             died = [_died(log, folder) for _, log, folder in tasks]
@@ -1075,6 +1078,7 @@ def run_batch(
             _remove_empty_parents(root, outcome)
         others = other_report_folders(root, [Path(o.folder) for o in outcomes])
         summary = _summarise(root, model, job, gates, outcomes, junit, others)
+        record_junit(root, junit)  # withdrawn by the next run that does not write it
         if others:
             notes.append(_others_note(others))
         return dataclasses.replace(summary, notes=notes)
@@ -1269,14 +1273,20 @@ def _check_junit_apart(
             )
 
 
-def _report_kind(report: Path) -> tuple[str, str] | None:
-    """The model and estimator a report.json names, or None if it is none of ours to read."""
+def _report_kind(report: Path, *, of_a_batch: bool = False) -> tuple[str, str] | None:
+    """The model and estimator a report.json names, or None if it is none of ours to read.
+
+    ``of_a_batch``: None too for a report no batch wrote (no :data:`PROVENANCE_KEY`: one of
+    ``analyze`` or ``compare``).
+    """
     try:
         with report.open(encoding="utf-8") as handle:
             data = json.load(handle)
     except (OSError, ValueError):
         return None
     if not isinstance(data, dict):
+        return None
+    if of_a_batch and not isinstance(data.get(PROVENANCE_KEY), dict):
         return None
     model, estimator = data.get("model"), data.get("estimator")
     return (model, estimator) if isinstance(model, str) and isinstance(estimator, str) else None
@@ -1291,17 +1301,22 @@ def _check_same_run_kind(root: Path, folders: Sequence[Path], job: BatchJob) -> 
     this run count too (:func:`_report_folders`): a run over other logs would replace that
     batch's summaries with its own, of another estimator, beside that batch's reports.
     Reports of the same estimator and model made with other options are redone as usual
-    (:func:`_reusable`).
+    (:func:`_reusable`).  Among the others only a batch's reports count: ``analyze`` and
+    ``compare`` may write a new folder inside a batch folder
+    (:func:`~hybridlog.outputs.check_outside_batch`), and such a report (a comparison's,
+    of other estimators by nature) made every later run of the batch fail, exit 2, while
+    it replaced nothing of it; it is named among the other report folders instead.
     """
     own = [folder for folder in folders if not folder.is_symlink()]
     seen = {os.path.abspath(folder) for folder in own}
     others = [f for f in _report_folders(root) if os.path.abspath(f) not in seen]
     other: dict[tuple[str, str], list[str]] = {}
-    for folder in [*own, *sorted(others, key=lambda f: natural_key(f.as_posix()))]:
+    ordered = sorted(others, key=lambda f: natural_key(f.as_posix()))
+    for folder, of_a_batch in [*((f, False) for f in own), *((f, True) for f in ordered)]:
         report = folder / "report.json"
         if not report.is_file():
             continue
-        kind = _report_kind(report)
+        kind = _report_kind(report, of_a_batch=of_a_batch)
         if kind is not None and kind != (job.model_name, job.estimator):
             other.setdefault(kind, []).append(folder.relative_to(root).as_posix())
     if not other:

@@ -87,3 +87,20 @@ def test_another_estimator_over_other_logs_is_refused_too(
     with pytest.raises(OutputError, match=r"reports of 'imm' .*\(s1\.csv and 1 more\)"):
         run_batch([other], TANK, out_dir=out, estimator="hstf")
     assert analysed == [] and _contents(out) == before
+
+
+def test_a_comparison_written_into_the_batch_folder_does_not_stop_the_batch(
+    tmp_path: Path,
+) -> None:
+    """``compare --out <batch>/cmp`` is allowed (it replaces nothing the summaries name), but
+    its reports, of other estimators by nature, made every later run of the batch refused,
+    exit 2, "use --force to replace them" (which replaced nothing of it either).  Only a
+    batch's reports count now; the comparison's are named among the other report folders."""
+    from hybridlog.jobs.analysis import compare
+
+    logs, out = _batch_folder(tmp_path)
+    compare(logs[0], TANK, estimators=["hstf", "imm"], out_dir=out / "cmp")
+    again = run_batch(logs, TANK, out_dir=out, estimator="imm")
+    assert {o.status for o in again.logs} == {"skipped"}
+    assert "'cmp/hstf', 'cmp/imm'" in again.notes[-1]
+    assert (out / "cmp" / "hstf" / "report.json").is_file()  # kept
