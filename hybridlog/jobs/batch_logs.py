@@ -8,6 +8,7 @@ only.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from collections import Counter
@@ -87,14 +88,16 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     given: list[str] = []
     folders: list[str] = []
     links: list[Path] = []
+    hidden: list[Path] = []
     for log in logs:
         if os.path.isdir(log) and not indexed_log(log):
-            inside = logs_in(log, links)
+            skipped = len(hidden)
+            inside = logs_in(log, links, hidden)
             if not inside:
                 raise OptionError(
                     f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
                     f"({format_list()}; names starting with '.' and hybridlog's output "
-                    "folders are skipped)"
+                    f"folders are skipped{_hidden_in_empty(hidden[skipped:])})"
                 )
             _check_new_folder(os.fspath(log), folders)
             folders.append(os.fspath(log))
@@ -103,7 +106,57 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
             given.append(os.fspath(log))
     paths, notes = _one_name_each(found, given)
     notes += _links_note(links, [*folders, *given])
+    notes += _hidden_note(hidden, paths)
     return FoundLogs(sorted(paths, key=natural_key), folders, tuple(notes))
+
+
+_HIDDEN_SHOWN = 3
+"""How many logs of hidden names the note names; the others are counted."""
+
+
+def _hidden_in_empty(hidden: Sequence[Path]) -> str:
+    """The logs of hidden names a folder of logs held, for the error saying it holds none."""
+    if not hidden:
+        return ""
+    shown = ", ".join(excerpt(os.fspath(p), 60) for p in hidden[:_HIDDEN_SHOWN])
+    more = f" and {len(hidden) - _HIDDEN_SHOWN} more" if len(hidden) > _HIDDEN_SHOWN else ""
+    return f": it holds {shown}{more}; give {'it' if len(hidden) == 1 else 'them'} as LOGS"
+
+
+def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
+    """The note (none, or one line) on logs of hidden names a folder of logs held.
+
+    Names starting with ``.`` are not searched (:func:`hybridlog.io.formats.logs_in`), so a
+    log so named (a recorder's ``.run.mcap`` it never renamed, a file hidden by mistake)
+    was left out without a word: 499 of 500 logs analysed, the summaries and gates passing
+    without the last.  One that is a log of the batch under another name (a hidden link to
+    it, or given as LOGS) is not named.
+    """
+    analysed: set[tuple[int, int]] = set()
+    for log in paths:
+        with contextlib.suppress(OSError):
+            state = os.stat(log)
+            analysed.add((state.st_dev, state.st_ino))
+    left: list[str] = []
+    for name in hidden:
+        try:
+            state = os.stat(name)
+        except OSError:  # a broken link: no log
+            continue
+        if (state.st_dev, state.st_ino) not in analysed or state.st_ino == 0:
+            left.append(os.fspath(name))
+    if not left:
+        return []
+    shown = ", ".join(excerpt(p, 60) for p in sorted(left, key=natural_key)[:_HIDDEN_SHOWN])
+    more = f" and {len(left) - _HIDDEN_SHOWN} more" if len(left) > _HIDDEN_SHOWN else ""
+    count = f"{len(left)} logs whose names start" if len(left) > 1 else "a log whose name starts"
+    return [
+        f"{count} with '.' {'were' if len(left) > 1 else 'was'} skipped ({shown}{more}; hidden "
+        "names are not searched for logs, nor folders starting with '.'): rename "
+        f"{'them' if len(left) > 1 else 'it'}, or give {'them' if len(left) > 1 else 'it'} "
+        "as LOGS, to analyse "
+        f"{'them' if len(left) > 1 else 'it'}"
+    ]
 
 
 _LINKS_SHOWN = 3
