@@ -800,7 +800,7 @@ def batch_markdown(
     offline: Sequence[str] | None = None,
     gated: Sequence[str] = (),
     *,
-    others: Sequence[str] = (),
+    others: Sequence[tuple[str, str]] = (),
 ) -> tuple[str, str]:
     """``summary.md`` of a batch: failures first, then natural order; and its table alone.
 
@@ -815,9 +815,9 @@ def batch_markdown(
     (:func:`offline_metrics`; ``None`` otherwise): the table then has the filter's own mode
     accuracy beside the offline one, and a section compares the two sides over the batch
     (:func:`_offline_section`).  ``gated``: the metrics of the gates, those not shown already
-    each a column (:func:`gated_columns`).  ``others``: report folders in the batch folder
-    of logs not in this run (renamed, moved, left out), listed last: they are not
-    summarised, and read as this run's otherwise.
+    each a column (:func:`gated_columns`).  ``others``: ``(name, kind)`` of the report
+    folders in the batch folder of no log of this run (:data:`OTHER_KINDS`), listed last,
+    by kind: they are not summarised, and read as this run's otherwise.
     """
     failed = [row for row in rows if row.status == "failed"]
     missed = [row for row in rows if row.status != "failed" and row.missed]
@@ -881,17 +881,32 @@ def batch_markdown(
     if offline is not None:
         lines += _offline_section(rows, offline)
     lines += _notes_section(shared)
-    if others:
-        lines += [
-            "",
-            f"## Other report folders ({len(others)})",
-            "",
-            "Of logs not in this batch (renamed, moved or left out since an earlier run into "
-            "this folder): kept, not summarised here.",
-            "",
-            *(f"- {escape_markdown(name)}" for name in others),
-        ]
+    lines += _others_section(others)
     return table, "\n".join(lines) + "\n"
+
+
+OTHER_KINDS = {
+    "log": "Of logs not in this batch (renamed, moved or left out since an earlier run into "
+    "this folder): kept, not summarised here.",
+    "analyze": "Reports `hybridlog analyze` wrote into this folder: kept, not summarised here.",
+    "compare": "Comparisons `hybridlog compare` wrote into this folder: kept, not summarised here.",
+    "batch": "Folders of other batches inside this one: kept, not summarised here (their own "
+    "summaries name their reports).",
+}
+"""What summary.md says of each kind of other report folder
+(:func:`hybridlog.jobs.batch_others.other_folders`), in this order."""
+
+
+def _others_section(others: Sequence[tuple[str, str]]) -> list[str]:
+    """summary.md's "Other report folders": ``(name, kind)`` each, grouped by kind."""
+    if not others:
+        return []
+    lines = ["", f"## Other report folders ({len(others)})"]
+    for kind, says in OTHER_KINDS.items():
+        names = [name for name, of in others if of == kind]
+        if names:
+            lines += ["", says, "", *(f"- {escape_markdown(name)}" for name in names)]
+    return lines
 
 
 def batch_rows_csv(
