@@ -1083,6 +1083,7 @@ def run_batch(
         others = other_folders(root, [Path(o.folder) for o in outcomes])
         summary = _summarise(root, model, job, gates, outcomes, junit, others)
         record_junit(root, junit)  # withdrawn by the next run that does not write it
+        notes += _made_elsewhere_note(outcomes)
         if others:
             notes.append(others_note(others))
         return dataclasses.replace(summary, notes=notes)
@@ -1348,6 +1349,50 @@ def _withdraw_summaries(root: Path, junit: PathLike | None) -> None:
             ) from err
 
 
+def _made_from(outcome: LogOutcome) -> str | None:
+    """The path a skipped log's reused report names, when it is not the log's path now.
+
+    A log of unchanged content is skipped wherever it lies (its provenance records no
+    path, so that a batch folder restored elsewhere resumes), but the report reused names
+    the path an earlier run read it at (``logs/r1.csv``, its folder renamed ``logs_b``
+    since): its title and report.json's ``log`` then disagree with the summaries.
+    """
+    if outcome.status != "skipped" or outcome.report is None:
+        return None
+    recorded = outcome.report.log
+    if os.path.normpath(recorded) == os.path.normpath(as_text(outcome.log)):
+        return None
+    return recorded
+
+
+_MOVED_SHOWN = 3
+"""How many logs whose reused reports name another path the note names."""
+
+
+def _made_elsewhere_note(outcomes: Sequence[LogOutcome]) -> list[str]:
+    """The note (none, or one line) on the reports reused from the log at another path."""
+    moved = [(o.log, made) for o in outcomes if (made := _made_from(o)) is not None]
+    if not moved:
+        return []
+    pairs = ", ".join(
+        f"{excerpt(os.fspath(log), 60)} read as {excerpt(made, 60)}"
+        for log, made in moved[:_MOVED_SHOWN]
+    )
+    more = f" and {len(moved) - _MOVED_SHOWN} more" if len(moved) > _MOVED_SHOWN else ""
+    if len(moved) > 1:
+        return [
+            f"{len(moved)} logs were skipped, their content the one an earlier run analysed at "
+            f"another path ({pairs}{more}): their reused report.md and report.json name that "
+            "path; remove a report folder to redo its log under its path now (summary.md "
+            "lists them)"
+        ]
+    return [
+        "a log was skipped, its content the one an earlier run analysed at another path "
+        f"({pairs}): its reused report.md and report.json name that path; remove its report "
+        "folder to redo it under its path now"
+    ]
+
+
 def _summarise(
     root: Path,
     model: HybridModel,
@@ -1376,6 +1421,7 @@ def _summarise(
             )
             if o.report is not None
             else (),
+            made_from=_made_from(o),
         )
         for o in outcomes
     ]

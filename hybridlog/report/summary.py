@@ -326,6 +326,9 @@ class BatchRow:
     gates:
         ``(gate, failure)`` per CI gate, e.g. ``("--fail-under vaf=90", "vaf = 87.2 is under
         the bound 90")``; ``failure`` is ``None`` for a gate met.  Empty for a failed log.
+    made_from:
+        For a log skipped whose reused report an earlier run made from its content read at
+        another path (the logs' folder renamed since), the path that report names.
     """
 
     log: str
@@ -334,6 +337,7 @@ class BatchRow:
     report: Report | None
     error: str | None
     gates: tuple[tuple[str, str | None], ...] = ()
+    made_from: str | None = None
 
     @property
     def missed(self) -> list[str]:
@@ -881,8 +885,33 @@ def batch_markdown(
     if offline is not None:
         lines += _offline_section(rows, offline)
     lines += _notes_section(shared)
+    lines += _made_elsewhere_section(rows)
     lines += _others_section(others)
     return table, "\n".join(lines) + "\n"
+
+
+def _made_elsewhere_section(rows: Sequence[BatchRow]) -> list[str]:
+    """summary.md's section on the reports reused from the log at another path (``made_from``).
+
+    The log's content is the one an earlier run analysed, so its report is reused, not
+    redone; but that report's title and report.json's ``log`` name the path it was read at
+    then, which this run's summaries do not.
+    """
+    moved = [row for row in rows if row.made_from is not None]
+    if not moved:
+        return []
+    return [
+        "",
+        f"## Reports made from the log at another path ({len(moved)})",
+        "",
+        "Unchanged since an earlier run analysed them at another path, so their reports were "
+        "reused: report.md and report.json name that path.",
+        "",
+        *(
+            f"- {escape_markdown(row.log)}: read as {escape_markdown(row.made_from or '')}"
+            for row in moved
+        ),
+    ]
 
 
 OTHER_KINDS = {
