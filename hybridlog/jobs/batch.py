@@ -63,6 +63,7 @@ from hybridlog.errors import (
     as_name,
     as_text,
     excerpt,
+    names_apart,
 )
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
@@ -1407,10 +1408,12 @@ def _summarise(
     ``others``: the folders of no log of the batch
     (:func:`~hybridlog.jobs.batch_others.other_folders`), which summary.md names.
     """
+    # a byte that is not UTF-8 as \xNN, a backslash \\, names alike but for their Unicode
+    # form (NFC, NFD) written apart: no two logs read alike
+    logs = names_apart([as_name(o.log) for o in outcomes])
     rows = [
         BatchRow(
-            # a byte that is not UTF-8 as \xNN, a backslash \\: no two logs read alike
-            log=as_name(o.log),
+            log=log,
             folder=as_name(Path(o.folder).relative_to(root).as_posix()),
             status=o.status,
             report=o.report,
@@ -1423,7 +1426,7 @@ def _summarise(
             else (),
             made_from=_made_from(o),
         )
-        for o in outcomes
+        for o, log in zip(outcomes, logs, strict=True)
     ]
     title = f"{model.name} · {job.estimator}"
     smoothed = {

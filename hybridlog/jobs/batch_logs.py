@@ -11,12 +11,13 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import unicodedata
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.errors import LogError, OptionError, as_name, excerpt, names_apart
 from hybridlog.io.formats import format_list, indexed_log, log_format, logs_in
 from hybridlog.outputs import PathLike
 
@@ -107,6 +108,7 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     paths, notes = _one_name_each(found, given)
     notes += _links_note(links, [*folders, *given])
     notes += _hidden_note(hidden, paths)
+    notes += _alike_note(paths)
     return FoundLogs(sorted(paths, key=natural_key), folders, tuple(notes))
 
 
@@ -185,6 +187,42 @@ def _links_note(links: Sequence[Path], searched: Sequence[str]) -> list[str]:
     return [
         f"{count} not searched for logs ({shown}{more}; links to folders are not followed): "
         "give the folder it leads to as LOGS to analyse its logs"
+    ]
+
+
+_ALIKE_SHOWN = 2
+"""How many groups of logs whose names read alike the note names; the others are counted."""
+
+
+def _alike_note(paths: Sequence[str]) -> list[str]:
+    """The note (none, or one line) on logs whose names differ only in their Unicode form.
+
+    ``café.csv`` with ``é`` one character (NFC) and with ``e`` and a combining accent (NFD,
+    as macOS writes names) are two files on most file systems, two logs of the batch, whose
+    names read alike: the summaries write them apart
+    (:func:`~hybridlog.errors.names_apart`), but their report folders are one folder where
+    the file system takes both names for one (macOS), and a reader takes them for one log.
+    """
+    groups: dict[str, list[str]] = {}
+    for path in paths:
+        groups.setdefault(unicodedata.normalize("NFC", as_name(path)), []).append(path)
+    alike = [
+        sorted(group, key=natural_key)
+        for group in groups.values()
+        if len({as_name(p) for p in group}) > 1
+    ]
+    if not alike:
+        return []
+    shown = "; ".join(
+        " and ".join(excerpt(name, 60) for name in names_apart([as_name(p) for p in group]))
+        for group in alike[:_ALIKE_SHOWN]
+    )
+    more = f"; and {len(alike) - _ALIKE_SHOWN} more" if len(alike) > _ALIKE_SHOWN else ""
+    return [
+        f"{sum(map(len, alike))} logs have names that read alike, differing only in how their "
+        f"letters are encoded (Unicode NFC and NFD: {shown}{more}): the summaries write them "
+        "with \\u escapes, and their report folders would be one where the file system takes "
+        f"both names for one (macOS); rename one{' of each' if len(alike) > 1 else ''}"
     ]
 
 

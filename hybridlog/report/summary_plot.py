@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import io
 import math
+import unicodedata
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -167,7 +168,8 @@ def _log_labels(folders: Sequence[str]) -> list[str]:
     them, and matplotlib warned), a longer one than :data:`LABEL_CHARS` by its last
     characters after ``…``.  Logs of the same name in different folders
     (``robot_a/2024-05-01/recording.mcap``, ``robot_b/...``) ended alike: two ticks of one
-    label, nothing to tell which point was which.  The labels that are alike start with the
+    label, nothing to tell which point was which.  The labels that are alike (to the eye:
+    ``café.csv`` with ``é`` one character and two, NFC and NFD, are alike) start with the
     log's place on the axis and in summary.csv (``#2 …``).
     """
     written = [excerpt(folder, len(folder) * 6)[1:-1] for folder in folders]
@@ -176,10 +178,11 @@ def _log_labels(folders: Sequence[str]) -> list[str]:
         return name if len(name) <= chars else f"…{name[-(chars - 1) :]}"
 
     shown = [end(name, LABEL_CHARS) for name in written]
-    alike = Counter(shown)
+    # alike to the eye: the same name with an accent one character (NFC) and two (NFD)
+    alike = Counter(unicodedata.normalize("NFC", label) for label in shown)
     labels = []
     for k, (name, label) in enumerate(zip(written, shown, strict=True)):
-        if alike[label] > 1:
+        if alike[unicodedata.normalize("NFC", label)] > 1:
             place = f"#{k + 1} "
             label = place + end(name, max(LABEL_CHARS - len(place), 2))
         labels.append(plain_text(label))
