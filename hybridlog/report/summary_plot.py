@@ -12,7 +12,8 @@ late: summary.csv's ``mode_samples``) is a triangle, not a dot; an analysed log 
 value (no mode accuracy: no true mode, or modes given; an undefined VAF or MSE, report.json's
 ``null_reasons`` says why) a hollow square at the bottom of the panel, red if it missed a
 gate (a ``mode_accuracy`` gate on a log without a true mode): the panel showed nothing of
-it.  The y ticks are values, never an offset added to them (VAFs of 99.993 % and 99.994 %
+it.  A panel without any value (every log failed; no log with a true mode) has no y ticks
+and says so.  The y ticks are values, never an offset added to them (VAFs of 99.993 % and 99.994 %
 read as themselves).  Drawn with matplotlib's Agg canvas (no pyplot, no global state), like
 the per-log plots (:mod:`hybridlog.report.plots`).
 """
@@ -263,7 +264,9 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             ax.set_ylim(top=101.0)  # percentages: nothing is above 100
         if crosses or unknown:
             _room_at_bottom(ax)
-        if ax.get_yscale() == "linear":
+        if all(value is None for value in values):
+            _no_values(ax, analysed=any(row.report is not None for row in rows))
+        elif ax.get_yscale() == "linear":
             # values themselves on the ticks: close VAFs (99.9929, 99.9936) read "0.0000,
             # 0.0006" under an offset "+9.9993e1" above the panel
             ax.ticklabel_format(axis="y", useOffset=False)
@@ -277,6 +280,26 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     else:
         _number_logs(axes[-1], len(rows))
     return fig
+
+
+def _no_values(ax: Axes, *, analysed: bool) -> None:
+    """Say so in a panel without a value (every log failed, or none has a true mode).
+
+    Its y axis kept matplotlib's default ticks, ``-0.05`` to ``0.05``, under "mode accuracy
+    (%)": a scale of no value, beside marks at its bottom that read as a mode accuracy of
+    about 0 %.
+    """
+    ax.set_yticks([])
+    ax.text(
+        0.5,
+        0.5,
+        "no log has a value" if analysed else "no log analysed",
+        transform=ax.transAxes,
+        ha="center",
+        va="center",
+        fontsize=9,
+        color="#7f7f7f",
+    )
 
 
 def _number_logs(ax: Axes, n_rows: int) -> None:
