@@ -134,19 +134,30 @@ def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
     without the last.  One that is a log of the batch under another name (a hidden link to
     it, or given as LOGS) is not named.
     """
-    analysed: set[tuple[int, int]] = set()
-    for log in paths:
-        with contextlib.suppress(OSError):
-            state = os.stat(log)
-            analysed.add((state.st_dev, state.st_ino))
+    if not hidden:
+        return []
+    given = {
+        os.path.abspath(log) for log in paths if os.path.basename(log.rstrip(os.sep))[:1] == "."
+    }
+    analysed: set[tuple[int, int]] | None = None  # the logs' files, taken when needed
     left: list[str] = []
     for name in hidden:
         try:
             state = os.stat(name)
         except OSError:  # a broken link: no log
             continue
-        if (state.st_dev, state.st_ino) not in analysed or state.st_ino == 0:
-            left.append(os.fspath(name))
+        if os.path.abspath(name) in given:
+            continue
+        if state.st_nlink > 1 or os.path.islink(name):  # perhaps a log's other name
+            if analysed is None:
+                analysed = set()
+                for log in paths:
+                    with contextlib.suppress(OSError):
+                        found = os.stat(log)
+                        analysed.add((found.st_dev, found.st_ino))
+            if (state.st_dev, state.st_ino) in analysed and state.st_ino != 0:
+                continue
+        left.append(os.fspath(name))
     if not left:
         return []
     shown = ", ".join(excerpt(p, 60) for p in sorted(left, key=natural_key)[:_HIDDEN_SHOWN])
@@ -203,9 +214,17 @@ def _alike_note(paths: Sequence[str]) -> list[str]:
     (:func:`~hybridlog.errors.names_apart`), but their report folders are one folder where
     the file system takes both names for one (macOS), and a reader takes them for one log.
     """
+    # a name that is ASCII is its own NFC form: only one beyond ASCII can read as another
+    # (even as an ASCII one: KELVIN SIGN is K in NFC)
+    beyond = [path for path in paths if not path.isascii()]
+    if not beyond:
+        return []
     groups: dict[str, list[str]] = {}
-    for path in paths:
+    for path in beyond:
         groups.setdefault(unicodedata.normalize("NFC", as_name(path)), []).append(path)
+    for path in paths:
+        if path.isascii() and (name := as_name(path)) in groups:
+            groups[name].append(path)
     alike = [
         sorted(group, key=natural_key)
         for group in groups.values()
