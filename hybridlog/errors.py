@@ -7,11 +7,12 @@ line at fault.  The CLI turns these into exit code 2; nothing below the CLI prin
 
 from __future__ import annotations
 
+import unicodedata
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Iterator, Mapping
+    from collections.abc import Iterable, Iterator, Mapping, Sequence
 
 
 class HybridlogError(Exception):
@@ -214,6 +215,37 @@ def as_name(path: object) -> str:
     ('run\\xff.csv', 'run\\\\xff.csv')
     """
     return as_text(str(path).replace("\\", "\\\\"))
+
+
+def names_apart(names: Sequence[str]) -> list[str]:
+    r"""``names`` (as :func:`as_name` writes them), those that read alike written apart.
+
+    Two names equal in Unicode's composed form (NFC) but not as text, ``café.csv`` with
+    ``é`` one character and with ``e`` and a combining accent (as macOS writes names), are
+    two files that look one in every summary: two rows alike in summary.md and summary.csv,
+    two test cases of one name in a JUnit file.  Each such name is written with its
+    characters beyond ASCII as ``\uXXXX`` (``caf\u00e9.csv``, ``cafe\u0301.csv``); every
+    other name is kept.  No other name reads as one so written: its backslash is ``\\``.
+
+    Examples
+    --------
+    >>> names_apart(["caf\u00e9.csv", "cafe\u0301.csv", "th\u00e9.csv"])
+    ['caf\\u00e9.csv', 'cafe\\u0301.csv', 'thé.csv']
+    """
+    forms: dict[str, set[str]] = {}
+    for name in names:
+        forms.setdefault(unicodedata.normalize("NFC", name), set()).add(name)
+    return [
+        _escaped_beyond_ascii(name) if len(forms[unicodedata.normalize("NFC", name)]) > 1 else name
+        for name in names
+    ]
+
+
+def _escaped_beyond_ascii(name: str) -> str:
+    return "".join(
+        c if c.isascii() else f"\\u{ord(c):04x}" if ord(c) <= 0xFFFF else f"\\U{ord(c):08x}"
+        for c in name
+    )
 
 
 def arithmetic_reason(err: BaseException) -> str:

@@ -60,6 +60,7 @@ __all__ = [
     "check_file_target",
     "edited_files",
     "is_ours",
+    "is_temporary",
     "output_path",
     "publish_dir",
     "publish_file",
@@ -974,6 +975,11 @@ def temporary_name(target: Path, *, kind: str = "tmp", keep_suffix: bool = False
     if keep_suffix and target.suffix:
         return target.with_name(f".{target.stem}.{tag}{target.suffix}")
     return target.with_name(f".{target.name}.{tag}")
+
+
+def is_temporary(name: str) -> bool:
+    """Whether ``name`` is a temporary name of :func:`temporary_name` (any process's)."""
+    return _TEMPORARY.match(name) is not None
 
 
 def _own_temporary(name: str) -> bool:

@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, cast
 
 from hybridlog.errors import LogError, OptionError
 from hybridlog.io.options import ReadOptions
-from hybridlog.outputs import MARKER
+from hybridlog.outputs import MARKER, is_temporary
 
 if TYPE_CHECKING:
     from hybridlog.io.source import LogSource
@@ -194,7 +194,11 @@ def indexed_log(folder: str | os.PathLike[str]) -> bool:
     return any((Path(folder) / f.index_file).is_file() for f in FORMATS if f.index_file)
 
 
-def logs_in(folder: str | os.PathLike[str], links: list[Path] | None = None) -> list[Path]:
+def logs_in(
+    folder: str | os.PathLike[str],
+    links: list[Path] | None = None,
+    hidden: list[Path] | None = None,
+) -> list[Path]:
     """The logs in a folder of logs and its subfolders, for ``hybridlog batch FOLDER``.
 
     A log is a file with the suffix of a file format (any case), or a subfolder that
@@ -204,8 +208,14 @@ def logs_in(folder: str | os.PathLike[str], links: list[Path] | None = None) -> 
     itself too if it is one; a bag folder without its ``metadata.yaml`` is
     searched like any other, its ``.db3`` or ``.mcap`` files each a log of its own.  Links to
     files are followed, links to folders are not (a loop would never end): each one met is
-    appended to ``links``, when given, so that the caller can say it was not searched.  In
-    the order of :func:`os.walk`, each folder's entries sorted.
+    appended to ``links``, when given, so that the caller can say it was not searched.  A
+    hidden name that would be a log (``.run.csv``, a bag folder ``.bag/``) is appended to
+    ``hidden``, when given, for the same reason; not a macOS ``._run.csv`` beside
+    ``run.csv`` (the file's metadata, which macOS writes where the file system has no room
+    for it) nor a temporary file hybridlog writes a log through
+    (:func:`~hybridlog.outputs.temporary_name`); no folder starting with ``.`` is searched
+    (``.git``, ``.snapshot``: a tool's, not logs).  In the order of :func:`os.walk`, each
+    folder's entries sorted.
 
     Raises
     ------
@@ -223,6 +233,8 @@ def logs_in(folder: str | os.PathLike[str], links: list[Path] | None = None) -> 
         here = Path(root)
         searched = []
         for name in sorted(folders):
+            if name.startswith(".") and hidden is not None and indexed_log(here / name):
+                hidden.append(here / name)
             if name.startswith(".") or (here / name / MARKER).exists():
                 continue
             if indexed_log(here / name):
@@ -233,11 +245,17 @@ def logs_in(folder: str | os.PathLike[str], links: list[Path] | None = None) -> 
             else:
                 searched.append(name)
         folders[:] = searched
-        found += [
-            here / name
-            for name in sorted(files)
-            if not name.startswith(".") and _log_file_name(name)
-        ]
+        logs = [name for name in sorted(files) if _log_file_name(name)]
+        found += [here / name for name in logs if not name.startswith(".")]
+        if hidden is not None:
+            names = set(files)
+            hidden += [
+                here / name
+                for name in logs
+                if name.startswith(".")
+                and not (name.startswith("._") and name[2:] in names)
+                and not is_temporary(name)
+            ]
     return found
 
 

@@ -63,6 +63,7 @@ from hybridlog.errors import (
     as_name,
     as_text,
     excerpt,
+    names_apart,
 )
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
@@ -89,6 +90,13 @@ from hybridlog.jobs.batch_logs import (
     natural_key,
     recover_applies,
     recover_note,
+)
+from hybridlog.jobs.batch_others import (
+    PROVENANCE_KEY,
+    OtherFolder,
+    other_folders,
+    others_note,
+    report_folders,
 )
 from hybridlog.jobs.estimator_calls import warm_up_told
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
@@ -150,9 +158,6 @@ __all__ = [
 
 PLOT_CHOICES = ("none", "failed", "all")
 """``--plots``: no per-log plots (the default in batch), logs that miss a gate, every log."""
-
-PROVENANCE_KEY = "batch"
-"""Report key under which a batch records what the report was made from."""
 
 _ERROR_LIMIT = 300
 
@@ -610,7 +615,7 @@ def _check_apart_from_reports(folder: Path) -> None:
     report = _enclosing_report(folder)
     relation = "would lie inside"
     if report is None and _unmarked_folder(folder):
-        report = next(_report_folders(folder), None)
+        report = next(report_folders(folder), None)
         relation = "holds"
     if report is not None:
         raise OutputError(
@@ -1076,57 +1081,18 @@ def run_batch(
         for outcome in outcomes:
             _remove_previous_report(job, outcome)
             _remove_empty_parents(root, outcome)
-        others = other_report_folders(root, [Path(o.folder) for o in outcomes])
+        others = other_folders(root, [Path(o.folder) for o in outcomes])
         summary = _summarise(root, model, job, gates, outcomes, junit, others)
         record_junit(root, junit)  # withdrawn by the next run that does not write it
+        notes += _made_elsewhere_note(outcomes)
         if others:
-            notes.append(_others_note(others))
+            notes.append(others_note(others))
         return dataclasses.replace(summary, notes=notes)
 
 
-_OTHERS_SHOWN = 3
-"""How many report folders of logs not in the batch its note names; the others are counted."""
-
-
 def other_report_folders(root: Path, folders: Sequence[Path]) -> list[str]:
-    """The report folders below ``root`` that are of no log of this batch (relative, natural order).
-
-    A log renamed, moved or deleted since an earlier run into the same ``--out``, or left out
-    of this run, keeps its report folder: the batch does not remove it (a run over part of
-    the logs would lose the others'), but its report.md read as this run's to whoever opened
-    the folder or its CI artifact, beside summaries that do not list it.  The summaries and
-    a note name them.  A report folder is a folder with hybridlog's marker and a report.json;
-    hidden names (temporaries) and links are not searched.
-    """
-    ours = {os.path.abspath(folder) for folder in folders}
-    found = [
-        here.relative_to(root).as_posix()
-        for here in _report_folders(root)
-        if os.path.abspath(here) not in ours
-    ]
-    return sorted(found, key=natural_key)
-
-
-def _report_folders(root: Path) -> Iterator[Path]:
-    """Every report folder below ``root`` (:func:`other_report_folders`), in walk order."""
-    for parent, subfolders, files in os.walk(root):
-        here = Path(parent)
-        if here != root and MARKER in files and "report.json" in files:
-            yield here
-            subfolders.clear()  # a report's own folders (plots) hold no report
-            continue
-        subfolders[:] = [name for name in subfolders if not name.startswith(".")]
-
-
-def _others_note(others: Sequence[str]) -> str:
-    """The note on the report folders of logs not in the batch (:func:`other_report_folders`)."""
-    shown = ", ".join(excerpt(name, 60) for name in others[:_OTHERS_SHOWN])
-    more = f" and {len(others) - _OTHERS_SHOWN} more" if len(others) > _OTHERS_SHOWN else ""
-    count = f"{len(others)} report folders" if len(others) > 1 else "a report folder"
-    return (
-        f"--out holds {count} of logs not in this batch ({shown}{more}; renamed, moved or "
-        "left out since an earlier run): kept, and not in its summaries"
-    )
+    """The names of :func:`~hybridlog.jobs.batch_others.other_folders` (relative, natural order)."""
+    return [other.name for other in other_folders(root, folders)]
 
 
 def _prepare_summary_plot(n_rows: int) -> None:
@@ -1298,18 +1264,20 @@ def _check_same_run_kind(root: Path, folders: Sequence[Path], job: BatchJob) -> 
     Each such log would fail (its folder is not replaced without ``--force``), and the
     summaries of that run, every such log failed, would replace the previous run's: the
     user's summaries lost for a run that wrote nothing.  The report folders of logs not in
-    this run count too (:func:`_report_folders`): a run over other logs would replace that
-    batch's summaries with its own, of another estimator, beside that batch's reports.
-    Reports of the same estimator and model made with other options are redone as usual
-    (:func:`_reusable`).  Among the others only a batch's reports count: ``analyze`` and
-    ``compare`` may write a new folder inside a batch folder
-    (:func:`~hybridlog.outputs.check_outside_batch`), and such a report (a comparison's,
-    of other estimators by nature) made every later run of the batch fail, exit 2, while
-    it replaced nothing of it; it is named among the other report folders instead.
+    this run count too (:func:`~hybridlog.jobs.batch_others.report_folders`): a run over
+    other logs would replace that batch's summaries with its own, of another estimator,
+    beside that batch's reports.  Reports of the same estimator and model made with other
+    options are redone as usual (:func:`_reusable`).  Among the others only this batch
+    folder's reports count: ``analyze``, ``compare`` and another batch may write a new
+    folder inside a batch folder (:func:`~hybridlog.outputs.check_outside_batch`), and such
+    a report (a comparison's, of other estimators by nature; another batch's, of another
+    estimator) made every later run of the batch fail, exit 2, while it replaced nothing
+    of it; it is named among the other report folders instead (a batch folder inside this
+    one is not searched).
     """
     own = [folder for folder in folders if not folder.is_symlink()]
     seen = {os.path.abspath(folder) for folder in own}
-    others = [f for f in _report_folders(root) if os.path.abspath(f) not in seen]
+    others = [f for f in report_folders(root) if os.path.abspath(f) not in seen]
     other: dict[tuple[str, str], list[str]] = {}
     ordered = sorted(others, key=lambda f: natural_key(f.as_posix()))
     for folder, of_a_batch in [*((f, False) for f in own), *((f, True) for f in ordered)]:
@@ -1382,6 +1350,50 @@ def _withdraw_summaries(root: Path, junit: PathLike | None) -> None:
             ) from err
 
 
+def _made_from(outcome: LogOutcome) -> str | None:
+    """The path a skipped log's reused report names, when it is not the log's path now.
+
+    A log of unchanged content is skipped wherever it lies (its provenance records no
+    path, so that a batch folder restored elsewhere resumes), but the report reused names
+    the path an earlier run read it at (``logs/r1.csv``, its folder renamed ``logs_b``
+    since): its title and report.json's ``log`` then disagree with the summaries.
+    """
+    if outcome.status != "skipped" or outcome.report is None:
+        return None
+    recorded = outcome.report.log
+    if os.path.normpath(recorded) == os.path.normpath(as_text(outcome.log)):
+        return None
+    return recorded
+
+
+_MOVED_SHOWN = 3
+"""How many logs whose reused reports name another path the note names."""
+
+
+def _made_elsewhere_note(outcomes: Sequence[LogOutcome]) -> list[str]:
+    """The note (none, or one line) on the reports reused from the log at another path."""
+    moved = [(o.log, made) for o in outcomes if (made := _made_from(o)) is not None]
+    if not moved:
+        return []
+    pairs = ", ".join(
+        f"{excerpt(os.fspath(log), 60)} read as {excerpt(made, 60)}"
+        for log, made in moved[:_MOVED_SHOWN]
+    )
+    more = f" and {len(moved) - _MOVED_SHOWN} more" if len(moved) > _MOVED_SHOWN else ""
+    if len(moved) > 1:
+        return [
+            f"{len(moved)} logs were skipped, their content the one an earlier run analysed at "
+            f"another path ({pairs}{more}): their reused report.md and report.json name that "
+            "path; remove a report folder to redo its log under its path now (summary.md "
+            "lists them)"
+        ]
+    return [
+        "a log was skipped, its content the one an earlier run analysed at another path "
+        f"({pairs}): its reused report.md and report.json name that path; remove its report "
+        "folder to redo it under its path now"
+    ]
+
+
 def _summarise(
     root: Path,
     model: HybridModel,
@@ -1389,17 +1401,19 @@ def _summarise(
     gates: Sequence[Gate],
     outcomes: Sequence[LogOutcome],
     junit: PathLike | None,
-    others: Sequence[str] = (),
+    others: Sequence[OtherFolder] = (),
 ) -> BatchOutcome:
     """Write the summary files (and the JUnit file) from the outcomes, in natural order.
 
-    ``others``: the report folders of logs not in the batch (:func:`other_report_folders`),
-    which summary.md names.
+    ``others``: the folders of no log of the batch
+    (:func:`~hybridlog.jobs.batch_others.other_folders`), which summary.md names.
     """
+    # a byte that is not UTF-8 as \xNN, a backslash \\, names alike but for their Unicode
+    # form (NFC, NFD) written apart: no two logs read alike
+    logs = names_apart([as_name(o.log) for o in outcomes])
     rows = [
         BatchRow(
-            # a byte that is not UTF-8 as \xNN, a backslash \\: no two logs read alike
-            log=as_name(o.log),
+            log=log,
             folder=as_name(Path(o.folder).relative_to(root).as_posix()),
             status=o.status,
             report=o.report,
@@ -1410,8 +1424,9 @@ def _summarise(
             )
             if o.report is not None
             else (),
+            made_from=_made_from(o),
         )
-        for o in outcomes
+        for o, log in zip(outcomes, logs, strict=True)
     ]
     title = f"{model.name} · {job.estimator}"
     smoothed = {
@@ -1432,7 +1447,7 @@ def _summarise(
         [f"{g.option} {g.spec}" for g in gates],
         compared,
         gated,
-        others=[as_name(name) for name in others],
+        others=[(as_name(other.name), other.kind) for other in others],
     )
     targets: list[PathLike] = [root / name for name in SUMMARY_NAMES]
     if junit is not None:

@@ -8,14 +8,16 @@ only.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import unicodedata
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from hybridlog.errors import LogError, OptionError, excerpt
+from hybridlog.errors import LogError, OptionError, as_name, excerpt, names_apart
 from hybridlog.io.formats import format_list, indexed_log, log_format, logs_in
 from hybridlog.outputs import PathLike
 
@@ -87,14 +89,16 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     given: list[str] = []
     folders: list[str] = []
     links: list[Path] = []
+    hidden: list[Path] = []
     for log in logs:
         if os.path.isdir(log) and not indexed_log(log):
-            inside = logs_in(log, links)
+            skipped = len(hidden)
+            inside = logs_in(log, links, hidden)
             if not inside:
                 raise OptionError(
                     f"LOGS: folder {excerpt(os.fspath(log))} holds no log "
                     f"({format_list()}; names starting with '.' and hybridlog's output "
-                    "folders are skipped)"
+                    f"folders are skipped{_hidden_in_empty(hidden[skipped:])})"
                 )
             _check_new_folder(os.fspath(log), folders)
             folders.append(os.fspath(log))
@@ -103,7 +107,69 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
             given.append(os.fspath(log))
     paths, notes = _one_name_each(found, given)
     notes += _links_note(links, [*folders, *given])
+    notes += _hidden_note(hidden, paths)
+    notes += _alike_note(paths)
     return FoundLogs(sorted(paths, key=natural_key), folders, tuple(notes))
+
+
+_HIDDEN_SHOWN = 3
+"""How many logs of hidden names the note names; the others are counted."""
+
+
+def _hidden_in_empty(hidden: Sequence[Path]) -> str:
+    """The logs of hidden names a folder of logs held, for the error saying it holds none."""
+    if not hidden:
+        return ""
+    shown = ", ".join(excerpt(os.fspath(p), 60) for p in hidden[:_HIDDEN_SHOWN])
+    more = f" and {len(hidden) - _HIDDEN_SHOWN} more" if len(hidden) > _HIDDEN_SHOWN else ""
+    return f": it holds {shown}{more}; give {'it' if len(hidden) == 1 else 'them'} as LOGS"
+
+
+def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
+    """The note (none, or one line) on logs of hidden names a folder of logs held.
+
+    Names starting with ``.`` are not searched (:func:`hybridlog.io.formats.logs_in`), so a
+    log so named (a recorder's ``.run.mcap`` it never renamed, a file hidden by mistake)
+    was left out without a word: 499 of 500 logs analysed, the summaries and gates passing
+    without the last.  One that is a log of the batch under another name (a hidden link to
+    it, or given as LOGS) is not named.
+    """
+    if not hidden:
+        return []
+    given = {
+        os.path.abspath(log) for log in paths if os.path.basename(log.rstrip(os.sep))[:1] == "."
+    }
+    analysed: set[tuple[int, int]] | None = None  # the logs' files, taken when needed
+    left: list[str] = []
+    for name in hidden:
+        try:
+            state = os.stat(name)
+        except OSError:  # a broken link: no log
+            continue
+        if os.path.abspath(name) in given:
+            continue
+        if state.st_nlink > 1 or os.path.islink(name):  # perhaps a log's other name
+            if analysed is None:
+                analysed = set()
+                for log in paths:
+                    with contextlib.suppress(OSError):
+                        found = os.stat(log)
+                        analysed.add((found.st_dev, found.st_ino))
+            if (state.st_dev, state.st_ino) in analysed and state.st_ino != 0:
+                continue
+        left.append(os.fspath(name))
+    if not left:
+        return []
+    shown = ", ".join(excerpt(p, 60) for p in sorted(left, key=natural_key)[:_HIDDEN_SHOWN])
+    more = f" and {len(left) - _HIDDEN_SHOWN} more" if len(left) > _HIDDEN_SHOWN else ""
+    count = f"{len(left)} logs whose names start" if len(left) > 1 else "a log whose name starts"
+    return [
+        f"{count} with '.' {'were' if len(left) > 1 else 'was'} skipped ({shown}{more}; hidden "
+        "names are not searched for logs, nor folders starting with '.'): rename "
+        f"{'them' if len(left) > 1 else 'it'}, or give {'them' if len(left) > 1 else 'it'} "
+        "as LOGS, to analyse "
+        f"{'them' if len(left) > 1 else 'it'}"
+    ]
 
 
 _LINKS_SHOWN = 3
@@ -132,6 +198,50 @@ def _links_note(links: Sequence[Path], searched: Sequence[str]) -> list[str]:
     return [
         f"{count} not searched for logs ({shown}{more}; links to folders are not followed): "
         "give the folder it leads to as LOGS to analyse its logs"
+    ]
+
+
+_ALIKE_SHOWN = 2
+"""How many groups of logs whose names read alike the note names; the others are counted."""
+
+
+def _alike_note(paths: Sequence[str]) -> list[str]:
+    """The note (none, or one line) on logs whose names differ only in their Unicode form.
+
+    ``café.csv`` with ``é`` one character (NFC) and with ``e`` and a combining accent (NFD,
+    as macOS writes names) are two files on most file systems, two logs of the batch, whose
+    names read alike: the summaries write them apart
+    (:func:`~hybridlog.errors.names_apart`), but their report folders are one folder where
+    the file system takes both names for one (macOS), and a reader takes them for one log.
+    """
+    # a name that is ASCII is its own NFC form: only one beyond ASCII can read as another
+    # (even as an ASCII one: KELVIN SIGN is K in NFC)
+    beyond = [path for path in paths if not path.isascii()]
+    if not beyond:
+        return []
+    groups: dict[str, list[str]] = {}
+    for path in beyond:
+        groups.setdefault(unicodedata.normalize("NFC", as_name(path)), []).append(path)
+    for path in paths:
+        if path.isascii() and (name := as_name(path)) in groups:
+            groups[name].append(path)
+    alike = [
+        sorted(group, key=natural_key)
+        for group in groups.values()
+        if len({as_name(p) for p in group}) > 1
+    ]
+    if not alike:
+        return []
+    shown = "; ".join(
+        " and ".join(excerpt(name, 60) for name in names_apart([as_name(p) for p in group]))
+        for group in alike[:_ALIKE_SHOWN]
+    )
+    more = f"; and {len(alike) - _ALIKE_SHOWN} more" if len(alike) > _ALIKE_SHOWN else ""
+    return [
+        f"{sum(map(len, alike))} logs have names that read alike, differing only in how their "
+        f"letters are encoded (Unicode NFC and NFD: {shown}{more}): the summaries write them "
+        "with \\u escapes, and their report folders would be one where the file system takes "
+        f"both names for one (macOS); rename one{' of each' if len(alike) > 1 else ''}"
     ]
 
 

@@ -326,6 +326,9 @@ class BatchRow:
     gates:
         ``(gate, failure)`` per CI gate, e.g. ``("--fail-under vaf=90", "vaf = 87.2 is under
         the bound 90")``; ``failure`` is ``None`` for a gate met.  Empty for a failed log.
+    made_from:
+        For a log skipped whose reused report an earlier run made from its content read at
+        another path (the logs' folder renamed since), the path that report names.
     """
 
     log: str
@@ -334,6 +337,7 @@ class BatchRow:
     report: Report | None
     error: str | None
     gates: tuple[tuple[str, str | None], ...] = ()
+    made_from: str | None = None
 
     @property
     def missed(self) -> list[str]:
@@ -800,7 +804,7 @@ def batch_markdown(
     offline: Sequence[str] | None = None,
     gated: Sequence[str] = (),
     *,
-    others: Sequence[str] = (),
+    others: Sequence[tuple[str, str]] = (),
 ) -> tuple[str, str]:
     """``summary.md`` of a batch: failures first, then natural order; and its table alone.
 
@@ -815,9 +819,9 @@ def batch_markdown(
     (:func:`offline_metrics`; ``None`` otherwise): the table then has the filter's own mode
     accuracy beside the offline one, and a section compares the two sides over the batch
     (:func:`_offline_section`).  ``gated``: the metrics of the gates, those not shown already
-    each a column (:func:`gated_columns`).  ``others``: report folders in the batch folder
-    of logs not in this run (renamed, moved, left out), listed last: they are not
-    summarised, and read as this run's otherwise.
+    each a column (:func:`gated_columns`).  ``others``: ``(name, kind)`` of the report
+    folders in the batch folder of no log of this run (:data:`OTHER_KINDS`), listed last,
+    by kind: they are not summarised, and read as this run's otherwise.
     """
     failed = [row for row in rows if row.status == "failed"]
     missed = [row for row in rows if row.status != "failed" and row.missed]
@@ -881,17 +885,57 @@ def batch_markdown(
     if offline is not None:
         lines += _offline_section(rows, offline)
     lines += _notes_section(shared)
-    if others:
-        lines += [
-            "",
-            f"## Other report folders ({len(others)})",
-            "",
-            "Of logs not in this batch (renamed, moved or left out since an earlier run into "
-            "this folder): kept, not summarised here.",
-            "",
-            *(f"- {escape_markdown(name)}" for name in others),
-        ]
+    lines += _made_elsewhere_section(rows)
+    lines += _others_section(others)
     return table, "\n".join(lines) + "\n"
+
+
+def _made_elsewhere_section(rows: Sequence[BatchRow]) -> list[str]:
+    """summary.md's section on the reports reused from the log at another path (``made_from``).
+
+    The log's content is the one an earlier run analysed, so its report is reused, not
+    redone; but that report's title and report.json's ``log`` name the path it was read at
+    then, which this run's summaries do not.
+    """
+    moved = [row for row in rows if row.made_from is not None]
+    if not moved:
+        return []
+    return [
+        "",
+        f"## Reports made from the log at another path ({len(moved)})",
+        "",
+        "Unchanged since an earlier run analysed them at another path, so their reports were "
+        "reused: report.md and report.json name that path.",
+        "",
+        *(
+            f"- {escape_markdown(row.log)}: read as {escape_markdown(row.made_from or '')}"
+            for row in moved
+        ),
+    ]
+
+
+OTHER_KINDS = {
+    "log": "Of logs not in this batch (renamed, moved or left out since an earlier run into "
+    "this folder): kept, not summarised here.",
+    "analyze": "Reports `hybridlog analyze` wrote into this folder: kept, not summarised here.",
+    "compare": "Comparisons `hybridlog compare` wrote into this folder: kept, not summarised here.",
+    "batch": "Folders of other batches inside this one: kept, not summarised here (their own "
+    "summaries name their reports).",
+}
+"""What summary.md says of each kind of other report folder
+(:func:`hybridlog.jobs.batch_others.other_folders`), in this order."""
+
+
+def _others_section(others: Sequence[tuple[str, str]]) -> list[str]:
+    """summary.md's "Other report folders": ``(name, kind)`` each, grouped by kind."""
+    if not others:
+        return []
+    lines = ["", f"## Other report folders ({len(others)})"]
+    for kind, says in OTHER_KINDS.items():
+        names = [name for name, of in others if of == kind]
+        if names:
+            lines += ["", says, "", *(f"- {escape_markdown(name)}" for name in names)]
+    return lines
 
 
 def batch_rows_csv(

@@ -12,7 +12,8 @@ late: summary.csv's ``mode_samples``) is a triangle, not a dot; an analysed log 
 value (no mode accuracy: no true mode, or modes given; an undefined VAF or MSE, report.json's
 ``null_reasons`` says why) a hollow square at the bottom of the panel, red if it missed a
 gate (a ``mode_accuracy`` gate on a log without a true mode): the panel showed nothing of
-it.  The y ticks are values, never an offset added to them (VAFs of 99.993 % and 99.994 %
+it.  A panel without any value (every log failed; no log with a true mode) has no y ticks
+and says so.  The y ticks are values, never an offset added to them (VAFs of 99.993 % and 99.994 %
 read as themselves).  Drawn with matplotlib's Agg canvas (no pyplot, no global state), like
 the per-log plots (:mod:`hybridlog.report.plots`).
 """
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import io
 import math
+import unicodedata
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -167,7 +169,8 @@ def _log_labels(folders: Sequence[str]) -> list[str]:
     them, and matplotlib warned), a longer one than :data:`LABEL_CHARS` by its last
     characters after ``…``.  Logs of the same name in different folders
     (``robot_a/2024-05-01/recording.mcap``, ``robot_b/...``) ended alike: two ticks of one
-    label, nothing to tell which point was which.  The labels that are alike start with the
+    label, nothing to tell which point was which.  The labels that are alike (to the eye:
+    ``café.csv`` with ``é`` one character and two, NFC and NFD, are alike) start with the
     log's place on the axis and in summary.csv (``#2 …``).
     """
     written = [excerpt(folder, len(folder) * 6)[1:-1] for folder in folders]
@@ -176,10 +179,11 @@ def _log_labels(folders: Sequence[str]) -> list[str]:
         return name if len(name) <= chars else f"…{name[-(chars - 1) :]}"
 
     shown = [end(name, LABEL_CHARS) for name in written]
-    alike = Counter(shown)
+    # alike to the eye: the same name with an accent one character (NFC) and two (NFD)
+    alike = Counter(unicodedata.normalize("NFC", label) for label in shown)
     labels = []
     for k, (name, label) in enumerate(zip(written, shown, strict=True)):
-        if alike[label] > 1:
+        if alike[unicodedata.normalize("NFC", label)] > 1:
             place = f"#{k + 1} "
             label = place + end(name, max(LABEL_CHARS - len(place), 2))
         labels.append(plain_text(label))
@@ -260,7 +264,9 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
             ax.set_ylim(top=101.0)  # percentages: nothing is above 100
         if crosses or unknown:
             _room_at_bottom(ax)
-        if ax.get_yscale() == "linear":
+        if all(value is None for value in values):
+            _no_values(ax, analysed=any(row.report is not None for row in rows))
+        elif ax.get_yscale() == "linear":
             # values themselves on the ticks: close VAFs (99.9929, 99.9936) read "0.0000,
             # 0.0006" under an offset "+9.9993e1" above the panel
             ax.ticklabel_format(axis="y", useOffset=False)
@@ -274,6 +280,26 @@ def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     else:
         _number_logs(axes[-1], len(rows))
     return fig
+
+
+def _no_values(ax: Axes, *, analysed: bool) -> None:
+    """Say so in a panel without a value (every log failed, or none has a true mode).
+
+    Its y axis kept matplotlib's default ticks, ``-0.05`` to ``0.05``, under "mode accuracy
+    (%)": a scale of no value, beside marks at its bottom that read as a mode accuracy of
+    about 0 %.
+    """
+    ax.set_yticks([])
+    ax.text(
+        0.5,
+        0.5,
+        "no log has a value" if analysed else "no log analysed",
+        transform=ax.transAxes,
+        ha="center",
+        va="center",
+        fontsize=9,
+        color="#7f7f7f",
+    )
 
 
 def _number_logs(ax: Axes, n_rows: int) -> None:

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import csv
 import os
+import unicodedata
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import pytest
 from markdown_it import MarkdownIt
 
 from hybridlog.io.writers import write_table
@@ -63,3 +65,40 @@ def test_a_name_with_a_control_character_or_byte_and_its_escaped_spelling_stay_t
     shown = _first_column(markdown)
     assert len(shown) == 4 and len(set(shown)) == 4, shown
     assert len({line.split(": mse")[0] for line in outcome.gate_failures}) == 4
+
+
+def test_names_alike_but_for_their_unicode_form_are_written_apart_and_said(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``café.csv`` with ``é`` one character (NFC) and two (NFD, as macOS writes names): two
+    logs whose rows, gate lines and JUnit test cases read alike, and nothing said so."""
+    monkeypatch.chdir(tmp_path)
+    composed, decomposed = "caf\u00e9.csv", "cafe\u0301.csv"
+    for k, name in enumerate((composed, decomposed)):
+        write_table(Path("logs", name), tank_run(steps=20, seed=1 + k).columns)
+    Path("logs", "th\u00e9.csv").write_bytes(Path("logs", composed).read_bytes())
+
+    outcome = run_batch(
+        ["logs"],
+        "three_tank_hstf",
+        out_dir="out",
+        estimator="imm",
+        fail_over=["mse=0"],
+        junit="junit.xml",
+    )
+
+    assert outcome.notes == [
+        "2 logs have names that read alike, differing only in how their letters are encoded "
+        "(Unicode NFC and NFD: 'logs/cafe\\u0301.csv' and 'logs/caf\\u00e9.csv'): the "
+        "summaries write them with \\u escapes, and their report folders would be one where "
+        "the file system takes both names for one (macOS); rename one"
+    ]
+    with Path("out/summary.csv").open(encoding="utf-8", newline="") as file:
+        logs = [row["log"] for row in csv.DictReader(file)]
+    assert sorted(logs) == ["logs/caf\\u00e9.csv", "logs/cafe\\u0301.csv", "logs/th\u00e9.csv"]
+    shown = _first_column(Path("out/summary.md").read_text(encoding="utf-8"))
+    assert len({unicodedata.normalize("NFC", name) for name in shown}) == 3, shown
+    classnames = [
+        case.get("classname") for case in ET.parse("junit.xml").getroot().iter("testcase")
+    ]
+    assert len({unicodedata.normalize("NFC", name or "") for name in classnames}) == 3

@@ -134,6 +134,16 @@ def test_logs_whose_folders_end_alike_are_told_apart():
     assert labels[2:] == ["short.csv", "…er_than_the_label/x.csv"]
 
 
+def test_logs_whose_names_differ_only_in_their_unicode_form_are_told_apart():
+    """``café.csv`` with ``é`` one character (NFC) and two (NFD): unequal as text, so not
+    numbered, two ticks that read as one label."""
+    report = read_report(REPORT)
+    folders = ["caf\u00e9.csv", "cafe\u0301.csv", "th\u00e9.csv"]
+    batch = [BatchRow(f, f, "done", report, None, ()) for f in folders]
+    labels = [t.get_text() for t in summary_figure("m · imm", batch).axes[-1].get_xticklabels()]
+    assert labels == ["#1 caf\u00e9.csv", "#2 cafe\u0301.csv", "th\u00e9.csv"]
+
+
 def test_more_logs_than_names_are_numbered_from_one_as_summary_csv_rows():
     """The axis of 60 logs counted from 0: its tick 50 was the 51st log of summary.csv."""
     report = read_report(REPORT)

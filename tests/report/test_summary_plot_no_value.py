@@ -46,3 +46,23 @@ def test_a_log_without_a_true_mode_is_marked_in_the_mode_accuracy_panel() -> Non
     low = accuracy.transData.transform((0, 50.0))[1]
     assert accuracy.transAxes.inverted().transform((0, low))[1] > 0.06
     fig.canvas.draw()  # the glyph is in the font (a missing one warns: an error here)
+
+
+def test_a_panel_without_any_value_has_no_scale_and_says_so() -> None:
+    """Every log failed, or none with a true mode (logs from the field): the panel kept
+    matplotlib's ticks -0.05 to 0.05 under "mode accuracy (%)", a scale of nothing beside
+    the marks at its bottom, which read as a mode accuracy near 0 %."""
+    whole = read_report(REPORT)
+    no_truth = replace(whole, modes=replace(whole.modes, accuracy=None))
+    fields = [
+        BatchRow("a.csv", "a.csv", "done", no_truth, None, ()),
+        BatchRow("b.csv", "b.csv", "failed", None, "b.csv: broken", ()),
+    ]
+    vaf, accuracy, mse = summary_figure("m · imm", fields).axes
+    assert len(vaf.get_yticks()) > 0 and len(mse.get_yticks()) > 0 and not vaf.texts
+    assert len(accuracy.get_yticks()) == 0
+    assert [t.get_text() for t in accuracy.texts] == ["no log has a value"]
+    failed = [BatchRow("b.csv", "b.csv", "failed", None, "b.csv: broken", ())] * 2
+    for ax in summary_figure("m · imm", failed).axes:
+        assert len(ax.get_yticks()) == 0
+        assert [t.get_text() for t in ax.texts] == ["no log analysed"]
