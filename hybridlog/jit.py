@@ -126,6 +126,11 @@ def jitable(function: F, *, refcounts: bool = True) -> F:
     return registered
 
 
+def jitable_kernel(function: F) -> F:
+    """:func:`jitable` compiled :data:`WITHOUT_REFCOUNTS`: for a step that allocates nothing."""
+    return jitable(function, refcounts=False)
+
+
 def signature_of(arguments: Sequence[Any]) -> tuple[Any, ...]:
     """The numba argument types of a call (numba infers the result type from them).
 

@@ -59,6 +59,7 @@ from hybridlog.estimators.kernels import (
     mixture_moments,
     mixture_moments_of,
     normalize_log,
+    possible_sources,
     record,
     weighed,
     workspace,
@@ -85,7 +86,7 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
-from hybridlog.jit import jit, jit_kernel, jitable
+from hybridlog.jit import jit_kernel, jitable_kernel
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -166,34 +167,6 @@ class ImmScratch(NamedTuple):
     sources: IntArray
 
 
-@jit
-def possible_sources(transitions: FloatArray) -> tuple[IntArray, IntArray]:
-    """For each mode ``j`` the modes ``i`` with ``Π[i, j] ≠ 0``: ``(start, sources)``, CSR.
-
-    The mixing of mode ``j`` sums over them alone: a term with ``Π[i, j] = 0`` adds an exact
-    0 (``0·x``, ``x`` finite; a NaN or infinite estimate reaches the combined one, which
-    mixes every mode), so the sums are the same to the bit.  A model's mode pairs
-    (:mod:`~hybridlog.estimators.mode_pairs`) leave ``n`` of their ``n²`` previous pairs
-    possible.
-    """
-    n_q = transitions.shape[0]
-    start = np.zeros(n_q + 1, dtype=np.int64)
-    for j in range(n_q):
-        count = 0
-        for i in range(n_q):
-            if transitions[i, j] != 0.0:
-                count += 1
-        start[j + 1] = start[j] + count
-    sources = np.empty(start[n_q], dtype=np.int64)
-    for j in range(n_q):
-        index = start[j]
-        for i in range(n_q):
-            if transitions[i, j] != 0.0:
-                sources[index] = i
-                index += 1
-    return start, sources
-
-
 def _imm_steps(
     f: Fn,
     F: Fn,
@@ -233,6 +206,7 @@ def _imm_steps(
     _imm_rows(f, F, h, H, run, settings, chunk, out, scratch)
 
 
+@jitable_kernel
 def _imm_rows(
     f: Fn,
     F: Fn,
@@ -282,7 +256,7 @@ def _imm_rows(
             for i in range(n_q):
                 pack_state(x_i[i], P_i[i], store.states[k, i])
         # Mixing: predicted mode probabilities and mixed initial conditions per mode, over
-        # the modes each can follow (possible_sources: the others' terms are exact zeros).
+        # the modes each can follow (kernels.possible_sources: the others' terms are exact zeros).
         for j in range(n_q):
             acc = 0.0
             for index in range(source_start[j], source_start[j + 1]):
@@ -361,9 +335,6 @@ def _imm_rows(
         if keep_states and k == n_samples - 2:  # the last row; the others get the mixing
             for i in range(n_q):
                 pack_state(x_i[i], P_i[i], store.states[k + 1, i])
-
-
-_imm_rows = jitable(_imm_rows, refcounts=False)
 
 
 def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:

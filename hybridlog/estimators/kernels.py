@@ -351,6 +351,36 @@ def mixture_moments_of(
             covariance_out[b, a] = acc
 
 
+@jit
+def possible_sources(transitions: FloatArray) -> tuple[IntArray, IntArray]:
+    """For each mode ``j`` the modes ``i`` with ``Π[i, j] ≠ 0``: ``(start, sources)``, CSR.
+
+    Mode ``j``'s are ``sources[start[j]:start[j + 1]]``, in increasing order (of ``Πᵀ``:
+    the modes each mode can be followed by).  The IMM's mixing and expectation correction's
+    pairs sum over them alone: a term with ``Π[i, j] = 0`` adds an exact 0 (``0·x`` or
+    ``exp(−∞)``, ``x`` finite; a NaN or infinite estimate still reaches the combined one,
+    which mixes every mode), so the sums are the same to the bit.  A model's mode pairs
+    (:mod:`~hybridlog.estimators.mode_pairs`) leave ``n`` of their ``n²`` previous pairs
+    possible.
+    """
+    n_q = transitions.shape[0]
+    start = np.zeros(n_q + 1, dtype=np.int64)
+    for j in range(n_q):
+        count = 0
+        for i in range(n_q):
+            if transitions[i, j] != 0.0:
+                count += 1
+        start[j + 1] = start[j] + count
+    sources = np.empty(start[n_q], dtype=np.int64)
+    for j in range(n_q):
+        index = start[j]
+        for i in range(n_q):
+            if transitions[i, j] != 0.0:
+                sources[index] = i
+                index += 1
+    return start, sources
+
+
 @jit_kernel
 def dimensions(run: FilterRun) -> tuple[int, int, int, int]:
     """Samples (of the whole log), states, outputs and modes of a filter run."""

@@ -10,6 +10,8 @@ import pkgutil
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import hybridlog.estimators
 from hybridlog.errors import ModelError
@@ -199,8 +201,8 @@ def test_record_writes_one_output_row_and_covariances_only_where_kept(store_cova
         assert out.covariances.shape[0] == 0
 
 
-ALLOCATING_KERNELS = {"workspace", "keep_psd"}
-"""The kernels that allocate (the scratch; ``keep_psd``'s rare eigendecomposition)."""
+ALLOCATING_KERNELS = {"workspace", "keep_psd", "possible_sources"}
+"""The kernels that allocate (scratch; ``keep_psd``'s rare eigendecomposition)."""
 
 
 def test_the_kernels_take_no_reference_counts_and_are_inlined():
@@ -229,8 +231,7 @@ def test_the_kernels_take_no_reference_counts_and_are_inlined():
 def test_a_mixture_over_the_possible_modes_alone_is_the_whole_mixture_to_the_bit():
     """The IMM's mixing of mode ``j`` sums over the modes ``i`` with ``Π[i, j] ≠ 0`` alone
     (a model's nine mode pairs: three each); the terms left out are exact zeros."""
-    from hybridlog.estimators.imm import possible_sources
-    from hybridlog.estimators.kernels import mixture_moments, mixture_moments_of
+    from hybridlog.estimators.kernels import mixture_moments, mixture_moments_of, possible_sources
     from hybridlog.estimators.mode_pairs import pair_transitions
 
     transitions = pair_transitions(np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]]))
@@ -255,3 +256,23 @@ def test_a_mixture_over_the_possible_modes_alone_is_the_whole_mixture_to_the_bit
         mixture_moments_of(weights, possible, means, covariances, *alone)
         for a, b in zip(whole, alone, strict=True):
             np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(st.one_of(st.floats(-800.0, 800.0), st.just(-np.inf)), min_size=1, max_size=12),
+    st.integers(0, 2**12 - 1),
+)
+def test_a_log_sum_exp_over_the_possible_terms_is_the_whole_one_to_the_bit(
+    values: list[float], extra: int
+) -> None:
+    """Expectation correction's sums over the pairs ``Π_ij ≠ 0`` alone (``log p_ij = −∞``
+    elsewhere): leaving out any ``−∞`` terms, whichever, changes no bit."""
+    from hybridlog.estimators.smoothing import log_sum_exp, log_sum_exp_of
+
+    array = np.array(values)
+    members = np.array(
+        [i for i, v in enumerate(values) if v > -np.inf or (extra >> i) & 1], dtype=np.int64
+    )
+    whole, alone = log_sum_exp(array), log_sum_exp_of(array, members)
+    assert whole == alone or (np.isnan(whole) and np.isnan(alone))
