@@ -947,10 +947,16 @@ def ec_backward(
         for j in range(n_q):
             mu_s[j] = math.exp(log_mu_next[j])
         for i in range(n_q):
-            if log_new[i] == -math.inf or total == -math.inf:
-                # No weight on q(k) = i: any finite estimate does; q(k+1)'s weights, every
-                # pair's (one Π_ij = 0 rules out: its forward estimate, as one that carries
-                # no weight).
+            if log_new[i] == -math.inf and total > -math.inf:
+                # No weight on q(k) = i: any finite estimate does, as it is weighed by 0 here
+                # and a next mode of no weight is neither weighed nor stepped into at k - 1;
+                # every pair from i carries none, so it is the forward estimate x̂_i(k|k)
+                # (mixed over its pairs, each x̂_i(k|k), it cost n_q² a sample on many pairs).
+                _forward_stands(x_f[i], P_f[i], x_new[i], P_new[i], r_new[i])
+                continue
+            if total == -math.inf:
+                # Nothing links the two samples: q(k+1)'s weights, every pair's (one Π_ij = 0
+                # rules out: its forward estimate, as one that carries no weight).
                 for j in range(n_q):
                     if transitions[i, j] == 0.0:
                         x_pair[i, j] = x_f[i]
