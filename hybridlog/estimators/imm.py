@@ -48,6 +48,7 @@ from hybridlog.estimators.common import (
 )
 from hybridlog.estimators.filter_options import ImmOptions
 from hybridlog.estimators.kernels import (
+    Workspace,
     argmax,
     congruence,
     dimensions,
@@ -56,7 +57,9 @@ from hybridlog.estimators.kernels import (
     left_out,
     measured_log_density,
     mixture_moments,
+    mixture_moments_of,
     normalize_log,
+    possible_sources,
     record,
     weighed,
     workspace,
@@ -83,9 +86,9 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
-from hybridlog.jit import jit
+from hybridlog.jit import jit_kernel, jitable_kernel
 from hybridlog.model.hybrid_model import HybridModel, markov_matrix
-from hybridlog.signals import AlignedSignals, FloatArray
+from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
 NAME = "imm"
 
@@ -128,7 +131,7 @@ class ImmState(NamedTuple):
         )
 
 
-@jit
+@jit_kernel
 def pack_state(x: FloatArray, P: FloatArray, out: FloatArray) -> None:
     """Write ``x`` and the upper triangle of ``P`` into one :class:`ModeStore` record ``out``."""
     n = x.shape[0]
@@ -138,6 +141,30 @@ def pack_state(x: FloatArray, P: FloatArray, out: FloatArray) -> None:
         for b in range(a, n):
             out[index] = P[a, b]
             index += 1
+
+
+class ImmScratch(NamedTuple):
+    """The arrays the IMM's time loop works in (:func:`_imm_steps` allocates them)."""
+
+    x: FloatArray
+    P: FloatArray
+    c_bar: FloatArray
+    weights: FloatArray
+    x_mix: FloatArray
+    P_mix: FloatArray
+    x_pred: FloatArray
+    P_pred: FloatArray
+    F_j: FloatArray
+    H_j: FloatArray
+    y_j: FloatArray
+    gamma: FloatArray
+    R_left: FloatArray
+    log_posterior: FloatArray
+    work: Workspace
+    source_start: IntArray
+    """Mode ``j``'s possible previous modes (``Π[i, j] ≠ 0``) are
+    ``sources[source_start[j]:source_start[j + 1]]``, in increasing order."""
+    sources: IntArray
 
 
 def _imm_steps(
@@ -152,7 +179,49 @@ def _imm_steps(
 ) -> None:
     """The generic IMM time loop (compiled on first use; the docstring of the module).
 
-    Computes the rows of ``chunk`` from its :class:`ImmState`, worked on in place.
+    Computes the rows of ``chunk`` from its :class:`ImmState`, worked on in place: allocates
+    the loop's :class:`ImmScratch`, then runs :func:`_imm_rows`, which allocates nothing.
+    """
+    _, n, m, n_q = dimensions(run)
+    source_start, sources = possible_sources(settings.transitions)
+    scratch = ImmScratch(
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty((n, n)),
+        np.empty((m, n)),
+        np.empty((n_q, m)),
+        np.empty(m),
+        np.empty((m, m)),
+        np.empty(n_q),
+        workspace(n, m),
+        source_start,
+        sources,
+    )
+    _imm_rows(f, F, h, H, run, settings, chunk, out, scratch)
+
+
+@jitable_kernel
+def _imm_rows(
+    f: Fn,
+    F: Fn,
+    h: Fn,
+    H: Fn,
+    run: FilterRun,
+    settings: ImmSettings,
+    chunk: Chunk[ImmState],
+    out: FilterBuffers,
+    scratch: ImmScratch,
+) -> None:
+    """The time loop of :func:`_imm_steps`, in its ``scratch``.
+
+    Compiled without reference counts (:data:`~hybridlog.jit.WITHOUT_REFCOUNTS`): it slices
+    views freely, and every array copy is a loop.
     """
     inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R
     transitions, store, filtered_store = settings
@@ -165,23 +234,9 @@ def _imm_steps(
     n_samples, n, m, n_q = dimensions(run)
 
     x_i, P_i, mu = state
-    x = np.empty(n)
-    P = np.empty((n, n))
-
-    c_bar = np.empty(n_q)
-    weights = np.empty(n_q)
-    x_mix = np.empty((n_q, n))
-    P_mix = np.empty((n_q, n, n))
-    x_pred = np.empty(n)
-    P_pred = np.empty((n, n))
-    F_j = np.empty((n, n))
-    H_j = np.empty((m, n))
-    y_j = np.empty((n_q, m))
-    gamma = np.empty(m)
-    R_left = np.empty((m, m))
-    work = workspace(n, m)
+    x, P, c_bar, weights, x_mix, P_mix, x_pred, P_pred, F_j, H_j, y_j = scratch[:11]
+    gamma, R_left, log_posterior, work, source_start, sources = scratch[11:]
     work_nn, L, vec_m = work.nn, work.L, work.m
-    log_posterior = np.empty(n_q)
 
     if first == 0 and stop > 0:  # row 0: the prior
         record(out, 0, argmax(mu), mu, run.x0, run.P0)
@@ -189,7 +244,8 @@ def _imm_steps(
             for i in range(n_q):
                 pack_state(x_i[i], P_i[i], store.states[0, i])
         if keep_likelihoods:
-            store.log_likelihoods[0] = 0.0
+            for i in range(n_q):
+                store.log_likelihoods[0, i] = 0.0
     for k in range(max(first, 1) - 1, stop - 1):
         row = k + 1 - first
         u = inputs[k]
@@ -199,20 +255,26 @@ def _imm_steps(
         if keep_filtered:  # row k: the mode-matched x̂_i(k|k), P_i(k|k) the step starts from
             for i in range(n_q):
                 pack_state(x_i[i], P_i[i], store.states[k, i])
-        # Mixing: predicted mode probabilities and mixed initial conditions per mode.
+        # Mixing: predicted mode probabilities and mixed initial conditions per mode, over
+        # the modes each can follow (kernels.possible_sources: the others' terms are exact zeros).
         for j in range(n_q):
             acc = 0.0
-            for i in range(n_q):
+            for index in range(source_start[j], source_start[j + 1]):
+                i = sources[index]
                 acc += transitions[i, j] * mu[i]
             c_bar[j] = acc
         for j in range(n_q):
             if c_bar[j] > 0.0:
-                for i in range(n_q):
+                for index in range(source_start[j], source_start[j + 1]):
+                    i = sources[index]
                     weights[i] = transitions[i, j] * mu[i] / c_bar[j]
-                mixture_moments(weights, x_i, P_i, x_mix[j], P_mix[j])
-            else:
-                x_mix[j] = x_i[j]
-                P_mix[j] = P_i[j]
+                possible = sources[source_start[j] : source_start[j + 1]]
+                mixture_moments_of(weights, possible, x_i, P_i, x_mix[j], P_mix[j])
+            else:  # keeps its own estimate
+                for a in range(n):
+                    x_mix[j, a] = x_i[j, a]
+                    for c in range(n):
+                        P_mix[j, a, c] = P_i[j, a, c]
         if keep_mixed:
             for j in range(n_q):
                 pack_state(x_mix[j], P_mix[j], store.states[k, j])
@@ -258,13 +320,16 @@ def _imm_steps(
             else:  # S is not positive definite: the prediction stands, the mode is ruled out
                 log_likelihood = -np.inf
                 log_posterior[j] = -np.inf
-                x_i[j] = x_pred
-                P_i[j] = P_pred
+                for a in range(n):
+                    x_i[j, a] = x_pred[a]
+                    for c in range(n):
+                        P_i[j, a, c] = P_pred[a, c]
             if keep_likelihoods:
                 store.log_likelihoods[k + 1, j] = log_likelihood
         out.surprise[row] = nearest if left < m else np.nan
         if not normalize_log(log_posterior, mu):
-            mu[:] = c_bar
+            for j in range(n_q):
+                mu[j] = c_bar[j]
         mixture_moments(mu, x_i, P_i, x, P)
         record(out, row, argmax(mu), mu, x, P)
         if keep_states and k == n_samples - 2:  # the last row; the others get the mixing

@@ -4,7 +4,11 @@ The filters work on 2-6 dimensional states; NumPy calls on such tiny arrays cost
 microseconds each, so the time loops are compiled whole with numba and use these helpers,
 which write into preallocated arrays: linear algebra, and the frame every loop shares
 (:func:`dimensions` of its :class:`~hybridlog.estimators.common.FilterRun`, :func:`record`
-of one row into its :class:`~hybridlog.estimators.common.FilterBuffers`).
+of one row into its :class:`~hybridlog.estimators.common.FilterBuffers`).  They allocate
+nothing (but :func:`workspace`, and :func:`keep_psd`'s rare eigendecomposition), so they
+are compiled without reference counts and inlined into their callers
+(:func:`~hybridlog.jit.jit_kernel`); an array copy is a loop (numba's ``a[:] = b`` may
+allocate a temporary where the two overlap).
 """
 
 from __future__ import annotations
@@ -14,8 +18,8 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from hybridlog.jit import jit
-from hybridlog.signals import FloatArray
+from hybridlog.jit import jit, jit_kernel
+from hybridlog.signals import FloatArray, IntArray
 
 if TYPE_CHECKING:
     from hybridlog.estimators.common import FilterBuffers, FilterRun
@@ -23,7 +27,7 @@ if TYPE_CHECKING:
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@jit
+@jit_kernel
 def mat_mul(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
     """``out = A @ B``."""
     for i in range(A.shape[0]):
@@ -34,7 +38,7 @@ def mat_mul(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
             out[i, j] = acc
 
 
-@jit
+@jit_kernel
 def mat_mul_bt(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
     """``out = A @ B.T``."""
     for i in range(A.shape[0]):
@@ -45,7 +49,7 @@ def mat_mul_bt(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
             out[i, j] = acc
 
 
-@jit
+@jit_kernel
 def congruence(A: FloatArray, P: FloatArray, work: FloatArray, out: FloatArray) -> None:
     """``out = A P Aᵀ`` (``work`` has the shape of ``A``), symmetric by construction."""
     mat_mul(A, P, work)
@@ -53,7 +57,7 @@ def congruence(A: FloatArray, P: FloatArray, work: FloatArray, out: FloatArray) 
     symmetrize(out)
 
 
-@jit
+@jit_kernel
 def symmetrize(P: FloatArray) -> None:
     """Replace ``P`` by ``(P + Pᵀ)/2`` in place."""
     for i in range(P.shape[0]):
@@ -63,7 +67,7 @@ def symmetrize(P: FloatArray) -> None:
             P[j, i] = mean
 
 
-@jit
+@jit_kernel
 def cholesky(S: FloatArray, L: FloatArray) -> bool:
     """Lower Cholesky factor of the symmetric matrix ``S`` into ``L``; False if not PD."""
     n = S.shape[0]
@@ -121,7 +125,7 @@ def keep_psd(P: FloatArray, shifted: FloatArray, L: FloatArray) -> bool:
     return True
 
 
-@jit
+@jit_kernel
 def forward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
     """Solve ``L out = b`` for lower-triangular ``L``."""
     for i in range(L.shape[0]):
@@ -131,7 +135,7 @@ def forward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
         out[i] = acc / L[i, i]
 
 
-@jit
+@jit_kernel
 def backward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
     """Solve ``Lᵀ out = b`` for lower-triangular ``L``."""
     n = L.shape[0]
@@ -142,7 +146,7 @@ def backward_solve(L: FloatArray, b: FloatArray, out: FloatArray) -> None:
         out[i] = acc / L[i, i]
 
 
-@jit
+@jit_kernel
 def gaussian_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray) -> float:
     """``log N(γ; 0, S)`` given the Cholesky factor ``L`` of ``S``."""
     forward_solve(L, gamma, work)
@@ -154,7 +158,7 @@ def gaussian_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray) -> 
     return float(-0.5 * (quadratic + log_det + gamma.shape[0] * LOG_2PI))
 
 
-@jit
+@jit_kernel
 def left_out(y: FloatArray) -> int:
     """How many outputs of ``y`` were not measured (NaN: ``AlignedSignals.measured_outputs``)."""
     count = 0
@@ -164,7 +168,7 @@ def left_out(y: FloatArray) -> int:
     return count
 
 
-@jit
+@jit_kernel
 def leave_out_unmeasured(
     y: FloatArray, H: FloatArray, gamma: FloatArray, R: FloatArray, R_out: FloatArray
 ) -> None:
@@ -192,7 +196,7 @@ def leave_out_unmeasured(
                 R_out[b, c] = R[b, c]
 
 
-@jit
+@jit_kernel
 def measured_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray, left: int) -> float:
     """``log N`` of the measured outputs' innovation, after :func:`leave_out_unmeasured`.
 
@@ -201,7 +205,7 @@ def measured_log_density(gamma: FloatArray, L: FloatArray, work: FloatArray, lef
     return gaussian_log_density(gamma, L, work) + 0.5 * left * LOG_2PI
 
 
-@jit
+@jit_kernel
 def weighed(distance: float, log_likelihood: float) -> bool:
     """Whether a mode's update weighed the sample: its ``γᵀ S⁻¹ γ`` is ``distance``.
 
@@ -214,7 +218,7 @@ def weighed(distance: float, log_likelihood: float) -> bool:
     return (distance < math.inf and log_likelihood > -math.inf) or distance == math.inf
 
 
-@jit
+@jit_kernel
 def gain(
     P: FloatArray,
     H: FloatArray,
@@ -236,7 +240,7 @@ def gain(
             K[i, j] = column[j]
 
 
-@jit
+@jit_kernel
 def joseph_update(
     P: FloatArray,
     K: FloatArray,
@@ -266,7 +270,7 @@ def joseph_update(
     symmetrize(out)
 
 
-@jit
+@jit_kernel
 def normalize_log(log_weights: FloatArray, out: FloatArray) -> bool:
     """``out = exp(w − logsumexp(w))``; False (``out`` untouched) when no weight is finite."""
     top = -np.inf
@@ -284,7 +288,7 @@ def normalize_log(log_weights: FloatArray, out: FloatArray) -> bool:
     return True
 
 
-@jit
+@jit_kernel
 def mixture_moments(
     weights: FloatArray,
     means: FloatArray,
@@ -316,13 +320,74 @@ def mixture_moments(
             covariance_out[b, a] = acc
 
 
+@jit_kernel
+def mixture_moments_of(
+    weights: FloatArray,
+    members: IntArray,
+    means: FloatArray,
+    covariances: FloatArray,
+    mean_out: FloatArray,
+    covariance_out: FloatArray,
+) -> None:
+    """:func:`mixture_moments` of the components ``members`` (increasing) alone.
+
+    The same sums in the same order, less the terms of the components left out: where their
+    weights are 0 and their moments finite, those terms are exact zeros, so the result is
+    :func:`mixture_moments`'s to the bit.
+    """
+    n = mean_out.shape[0]
+    for a in range(n):
+        acc = 0.0
+        for i in members:
+            acc += weights[i] * means[i, a]
+        mean_out[a] = acc
+    for a in range(n):
+        for b in range(a, n):
+            acc = 0.0
+            for i in members:
+                spread = (means[i, a] - mean_out[a]) * (means[i, b] - mean_out[b])
+                acc += weights[i] * (spread + covariances[i, a, b])
+            covariance_out[a, b] = acc
+            covariance_out[b, a] = acc
+
+
 @jit
+def possible_sources(transitions: FloatArray) -> tuple[IntArray, IntArray]:
+    """For each mode ``j`` the modes ``i`` with ``Π[i, j] ≠ 0``: ``(start, sources)``, CSR.
+
+    Mode ``j``'s are ``sources[start[j]:start[j + 1]]``, in increasing order (of ``Πᵀ``:
+    the modes each mode can be followed by).  The IMM's mixing and expectation correction's
+    pairs sum over them alone: a term with ``Π[i, j] = 0`` adds an exact 0 (``0·x`` or
+    ``exp(−∞)``, ``x`` finite; a NaN or infinite estimate still reaches the combined one,
+    which mixes every mode), so the sums are the same to the bit.  A model's mode pairs
+    (:mod:`~hybridlog.estimators.mode_pairs`) leave ``n`` of their ``n²`` previous pairs
+    possible.
+    """
+    n_q = transitions.shape[0]
+    start = np.zeros(n_q + 1, dtype=np.int64)
+    for j in range(n_q):
+        count = 0
+        for i in range(n_q):
+            if transitions[i, j] != 0.0:
+                count += 1
+        start[j + 1] = start[j] + count
+    sources = np.empty(start[n_q], dtype=np.int64)
+    for j in range(n_q):
+        index = start[j]
+        for i in range(n_q):
+            if transitions[i, j] != 0.0:
+                sources[index] = i
+                index += 1
+    return start, sources
+
+
+@jit_kernel
 def dimensions(run: FilterRun) -> tuple[int, int, int, int]:
     """Samples (of the whole log), states, outputs and modes of a filter run."""
     return run.outputs.shape[0], run.x0.shape[0], run.outputs.shape[1], run.mu0.shape[0]
 
 
-@jit
+@jit_kernel
 def argmax(values: FloatArray) -> int:
     """Index of the largest value (the first on ties)."""
     best = 0
@@ -332,7 +397,7 @@ def argmax(values: FloatArray) -> int:
     return best
 
 
-@jit
+@jit_kernel
 def record(
     out: FilterBuffers, row: int, mode: int, mu: FloatArray, x: FloatArray, P: FloatArray
 ) -> None:
@@ -343,12 +408,15 @@ def record(
     buffers hold them (``covariances`` has no rows otherwise).
     """
     out.modes[row] = mode
-    out.mode_probabilities[row, :] = mu
-    out.state_means[row, :] = x
+    for i in range(mu.shape[0]):
+        out.mode_probabilities[row, i] = mu[i]
     for a in range(x.shape[0]):
+        out.state_means[row, a] = x[a]
         out.state_variances[row, a] = P[a, a]
     if out.covariances.shape[0] > row:
-        out.covariances[row] = P
+        for a in range(x.shape[0]):
+            for b in range(x.shape[0]):
+                out.covariances[row, a, b] = P[a, b]
 
 
 class Workspace(NamedTuple):
@@ -381,7 +449,7 @@ def workspace(n: int, m: int) -> Workspace:
     )
 
 
-@jit
+@jit_kernel
 def kalman_update(
     x_pred: FloatArray,
     P_pred: FloatArray,

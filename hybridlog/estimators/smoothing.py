@@ -187,6 +187,8 @@ from hybridlog.estimators.kernels import (
     gaussian_log_density,
     mat_mul,
     mixture_moments,
+    mixture_moments_of,
+    possible_sources,
     record,
     symmetrize,
 )
@@ -211,7 +213,7 @@ from hybridlog.estimators.unrolled import (
     use_unrolled,
     vector_names,
 )
-from hybridlog.jit import compile_for, jit, jitable
+from hybridlog.jit import compile_for, jit, jit_kernel, jitable_kernel
 from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.prefault import populated_beside
@@ -271,6 +273,24 @@ def log_sum_exp(values: FloatArray) -> float:
     total = 0.0
     for value in values:
         total += math.exp(value - top)
+    return top + math.log(total)
+
+
+@jit
+def log_sum_exp_of(values: FloatArray, members: IntArray) -> float:
+    """:func:`log_sum_exp` of ``values[members]`` (increasing), the others ``-inf``.
+
+    The same sums in the same order, less terms ``exp(−∞) = 0``: the same result to the bit.
+    """
+    top = -math.inf
+    for i in members:
+        if values[i] > top:
+            top = values[i]
+    if top == -math.inf:
+        return top
+    total = 0.0
+    for i in members:
+        total += math.exp(values[i] - top)
     return top + math.log(total)
 
 
@@ -380,7 +400,7 @@ def rts_work(n: int) -> RtsWork:
     )
 
 
-@jitable
+@jitable_kernel
 def rts_step(
     f: Fn,
     F: Fn,
@@ -432,7 +452,7 @@ def rts_step(
     )
 
 
-@jitable
+@jitable_kernel
 def rts_cause(
     f: Fn,
     F: Fn,
@@ -459,7 +479,7 @@ def rts_cause(
     return rts_correct(x, P, Q, x_next, P_next, x_out, P_out, w, r_next, r_out)
 
 
-@jitable
+@jitable_kernel
 def rts_predict(
     f: Fn, F: Fn, mode: int, x: FloatArray, P: FloatArray, u: FloatArray, Q: FloatArray, w: RtsWork
 ) -> bool:
@@ -478,7 +498,7 @@ def rts_predict(
     return cholesky(P_pred, L)
 
 
-@jitable
+@jitable_kernel
 def rts_correct(
     x: FloatArray,
     P: FloatArray,
@@ -540,7 +560,7 @@ def rts_correct(
     return TAKEN
 
 
-@jitable
+@jitable_kernel
 def semidefinite_step(
     x: FloatArray,
     P: FloatArray,
@@ -571,14 +591,16 @@ def semidefinite_step(
     return _forward_stands(x, P, x_out, P_out, r_out)
 
 
-@jit
+@jit_kernel
 def _forward_stands(
     x: FloatArray, P: FloatArray, x_out: FloatArray, P_out: FloatArray, r_out: FloatArray
 ) -> bool:
     """:func:`rts_step` not taken: ``x_out, P_out = x, P``, no rounding carried; False."""
-    x_out[:] = x
-    P_out[:, :] = P
-    r_out[:] = 0.0
+    for a in range(x.shape[0]):
+        x_out[a] = x[a]
+        r_out[a] = 0.0
+        for b in range(x.shape[0]):
+            P_out[a, b] = P[a, b]
     return False
 
 
@@ -729,6 +751,18 @@ def _mixed_probe(weights: FloatArray, probes: FloatArray, out: FloatArray) -> No
         out[a] = acc
 
 
+@jit
+def _mixed_probe_of(
+    weights: FloatArray, members: IntArray, probes: FloatArray, out: FloatArray
+) -> None:
+    """:func:`_mixed_probe` over ``members`` (increasing) alone, as ``mixture_moments_of``."""
+    for a in range(out.shape[0]):
+        acc = 0.0
+        for j in members:
+            acc += weights[j] * probes[j, a]
+        out[a] = acc
+
+
 def ec_backward(
     f: Fn,
     F: Fn,
@@ -793,6 +827,14 @@ def ec_backward(
     x = np.empty(n)
     P = np.empty((n, n))
     pair_cause = np.zeros((n_q, n_q), dtype=np.int64)  # TAKEN, or why the pair's step was not
+    # Only the pairs Π_ij ≠ 0 are weighed (a model's mode pairs: n_q^1.5 of n_q²); the others'
+    # log p_ij(k) stay -∞, and their terms in the sums over i or j are exact zeros
+    # (kernels.possible_sources).  Into j from sources[...], from i into targets[...].
+    source_start, sources = possible_sources(transitions)
+    target_start, targets = possible_sources(np.ascontiguousarray(transitions.T))
+    for i in range(n_q):
+        for j in range(n_q):
+            log_pair[i, j] = -math.inf
     if n_samples > 0:
         for j in range(n_q):
             unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
@@ -810,8 +852,16 @@ def ec_backward(
             negligible = math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT
             weighed = corrected[j] and not negligible
             floor = -math.inf  # the largest log μ_i(k) + log Π_ij + density found so far
-            for step in range(n_q):
-                i = ec_order(j, step)
+            into = sources[source_start[j] : source_start[j + 1]]
+            for step in range(into.shape[0] + 1):  # j first, as ec_order; then the others
+                if step == 0:
+                    if transitions[j, j] == 0.0:
+                        continue
+                    i = j
+                else:
+                    i = into[step - 1]
+                    if i == j:
+                        continue
                 density[i] = -math.inf if weighed else 0.0
                 ready[i] = False
                 terms[i] = log_T[i, j] + log_mu[i]
@@ -833,15 +883,15 @@ def ec_backward(
                 floor = max(floor, terms[i] + density[i])
             # Stage 2: the weights log p_ij(k), corrected unless no pair gave a density
             if weighed:
-                for i in range(n_q):
+                for i in into:
                     corrected_terms[i] = terms[i] + density[i]
-                log_norm = log_sum_exp(corrected_terms)
+                log_norm = log_sum_exp_of(corrected_terms, into)
                 weighed = log_norm > -math.inf
             if not weighed:  # Kim's: Pr(q(k)=i | q(k+1)=j, Y^k), as kim_backward
-                for i in range(n_q):
+                for i in into:
                     corrected_terms[i] = terms[i]
-                log_norm = log_sum_exp(terms)
-            for i in range(n_q):
+                log_norm = log_sum_exp_of(terms, into)
+            for i in into:
                 if (
                     log_norm == -math.inf
                     or log_mu_next[j] == -math.inf
@@ -857,7 +907,7 @@ def ec_backward(
             # estimate stands.  With the density (corrected[j]) only a pair stage 1 predicted
             # is stepped: a pair it left out that Kim's weights make count (a prediction of
             # mode j failed) stands for want of a prediction.
-            for i in range(n_q):
+            for i in into:
                 r_pair[i, j] = 0.0
                 pair_cause[i, j] = TAKEN
                 if negligible or log_pair[i, j] < LOG_NEGLIGIBLE_WEIGHT:
@@ -880,8 +930,9 @@ def ec_backward(
         fell = 0  # the causes of this sample's fallbacks among pairs that carry weight
         fell_weight = 0.0  # and the weight of those pairs: Σ p_ij(k)
         for i in range(n_q):
-            row_total[i] = log_sum_exp(log_pair[i])
-            for j in range(n_q):
+            out_of = targets[target_start[i] : target_start[i + 1]]
+            row_total[i] = log_sum_exp_of(log_pair[i], out_of)
+            for j in out_of:
                 if pair_cause[i, j] != TAKEN and log_pair[i, j] >= LOG_NEGLIGIBLE_WEIGHT:
                     fell |= 1 << (pair_cause[i, j] - 1)
                     fell_weight += math.exp(log_pair[i, j])
@@ -896,15 +947,29 @@ def ec_backward(
         for j in range(n_q):
             mu_s[j] = math.exp(log_mu_next[j])
         for i in range(n_q):
-            if log_new[i] == -math.inf or total == -math.inf:
-                # No weight on q(k) = i: any finite estimate does; q(k+1)'s weights.
+            if log_new[i] == -math.inf and total > -math.inf:
+                # No weight on q(k) = i: any finite estimate does, as it is weighed by 0 here
+                # and a next mode of no weight is neither weighed nor stepped into at k - 1;
+                # every pair from i carries none, so it is the forward estimate x̂_i(k|k)
+                # (mixed over its pairs, each x̂_i(k|k), it cost n_q² a sample on many pairs).
+                _forward_stands(x_f[i], P_f[i], x_new[i], P_new[i], r_new[i])
+                continue
+            if total == -math.inf:
+                # Nothing links the two samples: q(k+1)'s weights, every pair's (one Π_ij = 0
+                # rules out: its forward estimate, as one that carries no weight).
+                for j in range(n_q):
+                    if transitions[i, j] == 0.0:
+                        x_pair[i, j] = x_f[i]
+                        P_pair[i, j] = P_f[i]
+                        r_pair[i, j] = 0.0
                 mixture_moments(mu_s, x_pair[i], P_pair[i], x_new[i], P_new[i])
                 _mixed_probe(mu_s, r_pair[i], r_new[i])
                 continue
-            for j in range(n_q):
+            out_of = targets[target_start[i] : target_start[i + 1]]
+            for j in out_of:
                 weights[j] = math.exp(log_pair[i, j] - row_total[i])
-            mixture_moments(weights, x_pair[i], P_pair[i], x_new[i], P_new[i])
-            _mixed_probe(weights, r_pair[i], r_new[i])
+            mixture_moments_of(weights, out_of, x_pair[i], P_pair[i], x_new[i], P_new[i])
+            _mixed_probe_of(weights, out_of, r_pair[i], r_new[i])
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]

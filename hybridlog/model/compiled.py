@@ -374,10 +374,11 @@ def _function(model: HybridModel, name: str, jit: bool) -> Any:
     with _LOCK:
         if memo not in _COMPILED:
             function = getattr(model_module(model), name)
-            if jit:
-                from hybridlog.jit import compile_signature
+            if jit:  # scalar code writing into ``out``: nothing to count references of
+                from hybridlog.jit import WITHOUT_REFCOUNTS, compile_signature
 
-                function = compile_signature(function, _model_signatures()[name])
+                signature = _model_signatures()[name]
+                function = compile_signature(function, signature, **WITHOUT_REFCOUNTS)
             _COMPILED[memo] = function
         return _COMPILED[memo]
 

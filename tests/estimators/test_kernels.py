@@ -10,6 +10,8 @@ import pkgutil
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import hybridlog.estimators
 from hybridlog.errors import ModelError
@@ -197,3 +199,80 @@ def test_record_writes_one_output_row_and_covariances_only_where_kept(store_cova
         assert not out.covariances[[0, 2]].any()
     else:
         assert out.covariances.shape[0] == 0
+
+
+ALLOCATING_KERNELS = {"workspace", "keep_psd", "possible_sources"}
+"""The kernels that allocate (scratch; ``keep_psd``'s rare eigendecomposition)."""
+
+
+def test_the_kernels_take_no_reference_counts_and_are_inlined():
+    """Compiled with numba's runtime, each kernel took a reference to every array it was given
+    on entry and dropped it on return, an atomic ``lock inc``/``lock dec`` each: 60 % of the
+    IMM's generic loop on nine mode pairs (16 on every ``kalman_update``).  Every kernel but
+    those that allocate is compiled without them, and inlined (``jit.jit_kernel``)."""
+    from numba.core.dispatcher import Dispatcher
+
+    from hybridlog.estimators import imm, kernels
+    from hybridlog.jit import WITHOUT_REFCOUNTS
+
+    compiled = {
+        name: value for name, value in vars(kernels).items() if isinstance(value, Dispatcher)
+    }
+    assert {"kalman_update", "mixture_moments", "record", "congruence"} <= set(compiled)
+    for name, dispatcher in [*compiled.items(), ("pack_state", imm.pack_state)]:
+        options = dispatcher.targetoptions
+        if name in ALLOCATING_KERNELS:
+            assert options.get("_nrt", True), name
+            continue
+        assert {**options, **WITHOUT_REFCOUNTS} == options, name
+        assert options.get("forceinline"), name
+
+
+def test_a_mixture_over_the_possible_modes_alone_is_the_whole_mixture_to_the_bit():
+    """The IMM's mixing of mode ``j`` sums over the modes ``i`` with ``Π[i, j] ≠ 0`` alone
+    (a model's nine mode pairs: three each); the terms left out are exact zeros."""
+    from hybridlog.estimators.kernels import mixture_moments, mixture_moments_of, possible_sources
+    from hybridlog.estimators.mode_pairs import pair_transitions
+
+    transitions = pair_transitions(np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]]))
+    start, sources = possible_sources(transitions)
+    # pair b->c follows the three pairs a->b with Π[b, c]; none where Π[b, c] = 0 (2->0)
+    assert list(np.diff(start)) == [3, 3, 3, 3, 3, 3, 0, 3, 3]
+    rng = np.random.default_rng(3)
+    n_q, n = transitions.shape[0], 3
+    means = rng.normal(size=(n_q, n))
+    factors = rng.normal(size=(n_q, n, n))
+    covariances = factors @ factors.transpose(0, 2, 1)
+    mu = rng.dirichlet(np.ones(n_q))
+    for j in range(n_q):
+        if start[j] == start[j + 1]:
+            continue
+        weights = transitions[:, j] * mu / (transitions[:, j] @ mu)
+        possible = sources[start[j] : start[j + 1]]
+        assert set(possible) == set(np.flatnonzero(transitions[:, j]))
+        whole = np.empty(n), np.empty((n, n))
+        alone = np.empty(n), np.empty((n, n))
+        mixture_moments(weights, means, covariances, *whole)
+        mixture_moments_of(weights, possible, means, covariances, *alone)
+        for a, b in zip(whole, alone, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(st.one_of(st.floats(-800.0, 800.0), st.just(-np.inf)), min_size=1, max_size=12),
+    st.integers(0, 2**12 - 1),
+)
+def test_a_log_sum_exp_over_the_possible_terms_is_the_whole_one_to_the_bit(
+    values: list[float], extra: int
+) -> None:
+    """Expectation correction's sums over the pairs ``Π_ij ≠ 0`` alone (``log p_ij = −∞``
+    elsewhere): leaving out any ``−∞`` terms, whichever, changes no bit."""
+    from hybridlog.estimators.smoothing import log_sum_exp, log_sum_exp_of
+
+    array = np.array(values)
+    members = np.array(
+        [i for i, v in enumerate(values) if v > -np.inf or (extra >> i) & 1], dtype=np.int64
+    )
+    whole, alone = log_sum_exp(array), log_sum_exp_of(array, members)
+    assert whole == alone or (np.isnan(whole) and np.isnan(alone))
