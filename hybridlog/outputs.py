@@ -408,7 +408,7 @@ _SUB_SECOND_NS = 1_000
 a copy kept in microseconds, or as a float (Python's ``tarfile``, PAX: tens of ns off)."""
 
 
-def _kept_time(recorded_ns: int, current_ns: int) -> bool:
+def kept_time(recorded_ns: int, current_ns: int) -> bool:
     """Whether ``current_ns`` is ``recorded_ns`` as a copy that kept it would give it back.
 
     ``cp -a``, ``rsync -a``, ``shutil.copy2`` and GNU tar's PAX archives keep nanoseconds;
@@ -429,7 +429,7 @@ def _unchanged(
     The cheap identity decides first: another size is a change; the same inode must have
     the very modification time recorded (the file itself, not edited since), and another
     inode (a copy: ``cp -a``, ``rsync -a``, a tar archive or CI cache restored) a time a
-    copy keeps (:func:`_kept_time`).  Then, where a SHA-256 was recorded
+    copy keeps (:func:`kept_time`).  Then, where a SHA-256 was recorded
     (:func:`_digest_worth_keeping`), the content must have it: an edit of the same size
     whose time was put back (``touch -d``) is caught.  A large table recorded without one is
     taken on its size and time: an edit of the same size whose time was forged back is
@@ -443,7 +443,7 @@ def _unchanged(
     if recorded.get("inode") == identity["inode"]:
         if modified != identity["modified_ns"]:
             return False
-    elif not _kept_time(modified, identity["modified_ns"]):
+    elif not kept_time(modified, identity["modified_ns"]):
         return False
     if digest is None:
         return True

@@ -4,12 +4,15 @@ A batch run with ``--junit J`` and then without it (or with another file) left `
 was: the previous run's test cases, its passed gates, presented as current to the CI step
 that publishes ``J`` (``if: always()``), beside summaries of the new run.  The batch
 folder's :data:`~hybridlog.outputs.MARKER` now records the JUnit file each run wrote (key
-``junit``: its path, relative to the batch folder when inside it, its SHA-256, and the
-batch folder's inode), and the next run that does not write that file removes it, with a
-note, before any log is analysed, as it removes its summaries: only while it is that very
-file (the same SHA-256: not one another batch or the user wrote since), and, outside the
-batch folder, only from the folder that wrote it (the same inode: a copy of the batch
-folder, ``cp -a``, is not the one that wrote a file outside it).
+``junit``: its path, relative to the batch folder when inside it, its SHA-256 and
+modification time, and the batch folder's inode), and the next run that does not write that
+file removes it, with a note, before any log is analysed, as it removes its summaries: only
+while it is that very file (the same SHA-256 and time: not one another batch or the user
+wrote since, even of the same content, as another batch folder of the same logs writes to
+a shared path), and, outside the batch folder, only from the folder that wrote it (the same
+inode: a copy of the batch folder, ``cp -a``, is not the one that wrote a file outside it).
+A relative path must stay inside the batch folder (a marker edited by hand to
+``../../x`` names nothing of the folder's).
 """
 
 from __future__ import annotations
@@ -22,7 +25,14 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs import MARKER, PathLike, output_path, record_path, temporary_name
+from hybridlog.outputs import (
+    MARKER,
+    PathLike,
+    kept_time,
+    output_path,
+    record_path,
+    temporary_name,
+)
 from hybridlog.report.junit import is_junit_of_ours
 
 JUNIT_KEY = "junit"
@@ -53,14 +63,19 @@ def _recorded(root: Path) -> Path | None:
     if not isinstance(entry, dict):
         return None
     path, digest, inode = entry.get("path"), entry.get("sha256"), entry.get("folder_inode")
-    if not isinstance(path, str) or not isinstance(digest, str):
+    modified = entry.get("modified_ns")
+    if not isinstance(path, str) or not isinstance(digest, str) or type(modified) is not int:
         return None
     target = Path(path)
     if not target.is_absolute():
-        target = root / target
+        target = output_path(root / target)
+        if Path(os.path.realpath(root)) not in target.parents:  # ../x: not the folder's own
+            return None
     elif inode != _inode(root):  # a copy of the batch folder: the file is the original's
         return None
     if target.is_symlink() or not target.is_file() or not is_junit_of_ours(target):
+        return None
+    if not kept_time(modified, target.stat().st_mtime_ns):  # written since, by another
         return None
     return target if _digest(target) == digest else None
 
@@ -113,12 +128,17 @@ def record_junit(root: Path, junit: PathLike | None) -> None:
     if junit is not None:
         target = output_path(junit)
         digest = _digest(target)
+        try:
+            modified = target.stat().st_mtime_ns
+        except OSError:
+            return
         if digest is None:
             return
         inside = root in target.parents
         marker[JUNIT_KEY] = {
             "path": target.relative_to(root).as_posix() if inside else str(target),
             "sha256": digest,
+            "modified_ns": modified,
             "folder_inode": _inode(root),
         }
     staged = temporary_name(root / MARKER)

@@ -7,10 +7,12 @@ CI step publishing ``j.xml`` presented as the current run's, beside summaries of
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
 from hybridlog.jobs.batch import run_batch
+from hybridlog.outputs import MARKER
 from tests.jobs.test_batch_resume import write_logs
 
 TANK = "three_tank_hstf"
@@ -65,3 +67,36 @@ def test_a_copy_of_the_batch_folder_removes_only_its_own_file(tmp_path: Path) ->
         shutil.rmtree(copy)
         shutil.rmtree(out)
         junit.unlink(missing_ok=True)
+
+
+def test_the_same_file_of_another_batch_folder_stays(tmp_path: Path) -> None:
+    """Two batch folders of the same logs write byte-identical JUnit files to one path.
+
+    Before, batch folder a's run without --junit removed the file batch folder b wrote
+    since (the same SHA-256): b's current results, gone.
+    """
+    logs = write_logs(tmp_path / "logs", ["s1.csv"], steps=20)
+    junit = tmp_path / "junit.xml"
+    _batch(logs, tmp_path / "a", junit)
+    written_by_a = junit.read_bytes()
+    _batch(logs, tmp_path / "b", junit)
+    assert junit.read_bytes() == written_by_a  # the same content, another file
+
+    assert _batch(logs, tmp_path / "a", None) == []
+    assert junit.is_file()
+
+
+def test_a_marker_edited_to_a_path_outside_removes_nothing(tmp_path: Path) -> None:
+    """A relative path in the marker leading out of the batch folder names nothing of its."""
+    logs = write_logs(tmp_path / "logs", ["s1.csv"], steps=20)
+    out, junit = tmp_path / "out", tmp_path / "out" / "junit.xml"
+    _batch(logs, out, junit)
+    outside = tmp_path / "junit.xml"
+    junit.rename(outside)
+    (out / ".junit.xml.hybridlog").rename(tmp_path / ".junit.xml.hybridlog")
+    marker = json.loads((out / MARKER).read_text(encoding="utf-8"))
+    marker["junit"]["path"] = "../junit.xml"
+    (out / MARKER).write_text(json.dumps(marker), encoding="utf-8")
+
+    assert _batch(logs, out, None) == []
+    assert outside.is_file()
