@@ -35,6 +35,9 @@ from hybridlog.outputs import (
 )
 from hybridlog.report.junit import is_junit_of_ours
 
+WHOLE_PATH = 4096
+"""Linux's ``PATH_MAX``: the note naming the file removed quotes a path of any length whole."""
+
 JUNIT_KEY = "junit"
 """The batch folder's marker's key for the JUnit file its last run wrote."""
 
@@ -109,8 +112,9 @@ def withdraw_previous_junit(root: Path, junit: PathLike | None) -> str | None:
             f"which would present its results as this run's: {err.strerror or err}"
         ) from err
     instead = "none" if junit is None else f"--junit {excerpt(os.fspath(junit))}"
-    return (
-        f"removed {excerpt(str(previous))}, the JUnit file of the previous run into --out "
+    return (  # the file removed named whole (escaped, never cut): the user may look for it
+        f"removed {excerpt(str(previous), limit=WHOLE_PATH)}, the JUnit file of the previous "
+        "run into --out "
         f"(its results would read as this run's); this run writes {instead}"
     )
 
