@@ -1356,13 +1356,18 @@ def _made_from(outcome: LogOutcome) -> str | None:
     A log of unchanged content is skipped wherever it lies (its provenance records no
     path, so that a batch folder restored elsewhere resumes), but the report reused names
     the path an earlier run read it at (``logs/r1.csv``, its folder renamed ``logs_b``
-    since): its title and report.json's ``log`` then disagree with the summaries.
+    since): its title and report.json's ``log`` then disagree with the summaries.  A path
+    that names the log's file still (``logs/r1.csv`` then, ``/abs/logs/r1.csv`` now; a
+    link) is no other path.
     """
     if outcome.status != "skipped" or outcome.report is None:
         return None
     recorded = outcome.report.log
     if os.path.normpath(recorded) == os.path.normpath(as_text(outcome.log)):
         return None
+    with contextlib.suppress(OSError, ValueError):  # gone, or no path (an edited report)
+        if os.path.samefile(recorded, outcome.log):
+            return None
     return recorded
 
 
