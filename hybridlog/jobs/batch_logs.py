@@ -117,7 +117,11 @@ _HIDDEN_SHOWN = 3
 
 
 def _hidden_in_empty(hidden: Sequence[Path]) -> str:
-    """The logs of hidden names a folder of logs held, for the error saying it holds none."""
+    """The logs of hidden names a folder of logs held, for the error saying it holds none.
+
+    Not a broken link (Emacs's lock ``.#run.csv`` of a file being edited): no log to give.
+    """
+    hidden = [path for path in hidden if os.path.exists(path)]
     if not hidden:
         return ""
     shown = ", ".join(excerpt(os.fspath(p), 60) for p in hidden[:_HIDDEN_SHOWN])

@@ -81,3 +81,19 @@ def test_a_folder_of_hidden_logs_only_names_them_in_its_error(
         "names starting with '.' and hybridlog's output folders are skipped: it holds "
         "'logs/.r1.csv'; give it as LOGS)"
     )
+
+
+def test_a_broken_hidden_link_is_not_named_in_the_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Emacs's lock of a file being edited: .#r1.csv, a link to user@host.pid, no log
+    monkeypatch.chdir(tmp_path)
+    Path("logs").mkdir()
+    (Path("logs") / ".#r1.csv").symlink_to("user@host.4242")
+
+    with pytest.raises(OptionError) as refused:
+        batch_logs(["logs"])
+
+    assert str(refused.value).endswith(
+        "names starting with '.' and hybridlog's output folders are skipped)"
+    )
