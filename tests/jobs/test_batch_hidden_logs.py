@@ -97,3 +97,17 @@ def test_a_broken_hidden_link_is_not_named_in_the_error(
     assert str(refused.value).endswith(
         "names starting with '.' and hybridlog's output folders are skipped)"
     )
+
+
+def test_a_hidden_log_a_log_links_to_is_not_named(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a recorder's latest.csv -> .current.csv: the hidden log is analysed, as latest.csv
+    monkeypatch.chdir(tmp_path)
+    logs = Path("logs")
+    _log(logs / ".current.csv")
+    (logs / "latest.csv").symlink_to(".current.csv")
+
+    found = batch_logs([logs])
+
+    assert found.paths == ["logs/latest.csv"] and found.notes == ()
