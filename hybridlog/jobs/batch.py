@@ -1416,10 +1416,12 @@ def _summarise(
     # a byte that is not UTF-8 as \xNN, a backslash \\, names alike but for their Unicode
     # form (NFC, NFD) written apart: no two logs read alike
     logs = names_apart([as_name(o.log) for o in outcomes])
+    # their report folders too (summary.md's report column, summary.csv's folder)
+    folders = names_apart([as_name(Path(o.folder).relative_to(root).as_posix()) for o in outcomes])
     rows = [
         BatchRow(
             log=log,
-            folder=as_name(Path(o.folder).relative_to(root).as_posix()),
+            folder=folder,
             status=o.status,
             report=o.report,
             error=None if o.error is None else as_text(o.error),
@@ -1431,7 +1433,7 @@ def _summarise(
             else (),
             made_from=_made_from(o),
         )
-        for o, log in zip(outcomes, logs, strict=True)
+        for o, log, folder in zip(outcomes, logs, folders, strict=True)
     ]
     title = f"{model.name} · {job.estimator}"
     smoothed = {
