@@ -1356,13 +1356,18 @@ def _made_from(outcome: LogOutcome) -> str | None:
     A log of unchanged content is skipped wherever it lies (its provenance records no
     path, so that a batch folder restored elsewhere resumes), but the report reused names
     the path an earlier run read it at (``logs/r1.csv``, its folder renamed ``logs_b``
-    since): its title and report.json's ``log`` then disagree with the summaries.
+    since): its title and report.json's ``log`` then disagree with the summaries.  A path
+    that names the log's file still (``logs/r1.csv`` then, ``/abs/logs/r1.csv`` now; a
+    link) is no other path.
     """
     if outcome.status != "skipped" or outcome.report is None:
         return None
     recorded = outcome.report.log
     if os.path.normpath(recorded) == os.path.normpath(as_text(outcome.log)):
         return None
+    with contextlib.suppress(OSError, ValueError):  # gone, or no path (an edited report)
+        if os.path.samefile(recorded, outcome.log):
+            return None
     return recorded
 
 
@@ -1411,10 +1416,12 @@ def _summarise(
     # a byte that is not UTF-8 as \xNN, a backslash \\, names alike but for their Unicode
     # form (NFC, NFD) written apart: no two logs read alike
     logs = names_apart([as_name(o.log) for o in outcomes])
+    # their report folders too (summary.md's report column, summary.csv's folder)
+    folders = names_apart([as_name(Path(o.folder).relative_to(root).as_posix()) for o in outcomes])
     rows = [
         BatchRow(
             log=log,
-            folder=as_name(Path(o.folder).relative_to(root).as_posix()),
+            folder=folder,
             status=o.status,
             report=o.report,
             error=None if o.error is None else as_text(o.error),
@@ -1426,7 +1433,7 @@ def _summarise(
             else (),
             made_from=_made_from(o),
         )
-        for o, log in zip(outcomes, logs, strict=True)
+        for o, log, folder in zip(outcomes, logs, folders, strict=True)
     ]
     title = f"{model.name} · {job.estimator}"
     smoothed = {

@@ -117,7 +117,11 @@ _HIDDEN_SHOWN = 3
 
 
 def _hidden_in_empty(hidden: Sequence[Path]) -> str:
-    """The logs of hidden names a folder of logs held, for the error saying it holds none."""
+    """The logs of hidden names a folder of logs held, for the error saying it holds none.
+
+    Not a broken link (Emacs's lock ``.#run.csv`` of a file being edited): no log to give.
+    """
+    hidden = [path for path in hidden if os.path.exists(path)]
     if not hidden:
         return ""
     shown = ", ".join(excerpt(os.fspath(p), 60) for p in hidden[:_HIDDEN_SHOWN])
@@ -132,7 +136,8 @@ def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
     log so named (a recorder's ``.run.mcap`` it never renamed, a file hidden by mistake)
     was left out without a word: 499 of 500 logs analysed, the summaries and gates passing
     without the last.  One that is a log of the batch under another name (a hidden link to
-    it, or given as LOGS) is not named.
+    it, a log's link to it, or given as LOGS) is not named.  The logs' files are taken (a
+    stat each) only when a hidden log is met.
     """
     if not hidden:
         return []
@@ -148,15 +153,16 @@ def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
             continue
         if os.path.abspath(name) in given:
             continue
-        if state.st_nlink > 1 or os.path.islink(name):  # perhaps a log's other name
-            if analysed is None:
-                analysed = set()
-                for log in paths:
-                    with contextlib.suppress(OSError):
-                        found = os.stat(log)
-                        analysed.add((found.st_dev, found.st_ino))
-            if (state.st_dev, state.st_ino) in analysed and state.st_ino != 0:
-                continue
+        # perhaps a log's other name: a hidden link to one, the file a log links to
+        # (latest.mcap -> .current.mcap), another name of its file
+        if analysed is None:
+            analysed = set()
+            for log in paths:
+                with contextlib.suppress(OSError):
+                    found = os.stat(log)
+                    analysed.add((found.st_dev, found.st_ino))
+        if (state.st_dev, state.st_ino) in analysed and state.st_ino != 0:
+            continue
         left.append(os.fspath(name))
     if not left:
         return []

@@ -81,3 +81,33 @@ def test_a_folder_of_hidden_logs_only_names_them_in_its_error(
         "names starting with '.' and hybridlog's output folders are skipped: it holds "
         "'logs/.r1.csv'; give it as LOGS)"
     )
+
+
+def test_a_broken_hidden_link_is_not_named_in_the_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Emacs's lock of a file being edited: .#r1.csv, a link to user@host.pid, no log
+    monkeypatch.chdir(tmp_path)
+    Path("logs").mkdir()
+    (Path("logs") / ".#r1.csv").symlink_to("user@host.4242")
+
+    with pytest.raises(OptionError) as refused:
+        batch_logs(["logs"])
+
+    assert str(refused.value).endswith(
+        "names starting with '.' and hybridlog's output folders are skipped)"
+    )
+
+
+def test_a_hidden_log_a_log_links_to_is_not_named(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a recorder's latest.csv -> .current.csv: the hidden log is analysed, as latest.csv
+    monkeypatch.chdir(tmp_path)
+    logs = Path("logs")
+    _log(logs / ".current.csv")
+    (logs / "latest.csv").symlink_to(".current.csv")
+
+    found = batch_logs([logs])
+
+    assert found.paths == ["logs/latest.csv"] and found.notes == ()

@@ -94,8 +94,13 @@ def test_names_alike_but_for_their_unicode_form_are_written_apart_and_said(
         "the file system takes both names for one (macOS); rename one"
     ]
     with Path("out/summary.csv").open(encoding="utf-8", newline="") as file:
-        logs = [row["log"] for row in csv.DictReader(file)]
+        rows = list(csv.DictReader(file))
+    logs = [row["log"] for row in rows]
     assert sorted(logs) == ["logs/caf\\u00e9.csv", "logs/cafe\\u0301.csv", "logs/th\u00e9.csv"]
+    # their report folders too: summary.csv's folder, summary.md's report column
+    folders = [row["folder"] for row in rows]
+    assert sorted(folders) == ["caf\\u00e9.csv", "cafe\\u0301.csv", "th\u00e9.csv"]
+    assert "| cafe\\\\u0301.csv/report.md |" in Path("out/summary.md").read_text(encoding="utf-8")
     shown = _first_column(Path("out/summary.md").read_text(encoding="utf-8"))
     assert len({unicodedata.normalize("NFC", name) for name in shown}) == 3, shown
     classnames = [

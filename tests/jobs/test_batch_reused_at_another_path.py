@@ -49,3 +49,17 @@ def test_a_report_made_from_the_log_at_another_path_is_named(
     Path("logs_b").rename("logs")
     same = run_batch(["./logs/r1.csv", "logs/r2.csv"], TANK, out_dir="out", estimator="imm")
     assert [o.status for o in same.logs] == ["skipped", "skipped"] and same.notes == []
+
+
+def test_a_log_given_by_its_absolute_path_is_not_at_another_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # logs/r1.csv then, /tmp/.../logs/r1.csv now: the same file, and the report names it
+    monkeypatch.chdir(tmp_path)
+    write_logs(Path("logs"), ["r1.csv"], steps=10)
+    run_batch(["logs"], TANK, out_dir="out", estimator="imm")
+
+    again = run_batch([str(tmp_path / "logs")], TANK, out_dir="out", estimator="imm")
+
+    assert [o.status for o in again.logs] == ["skipped"] and again.notes == []
+    assert "another path" not in Path("out/summary.md").read_text()
