@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import unicodedata
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 if TYPE_CHECKING:
-    from collections.abc import Iterable, Iterator, Mapping, Sequence
+    from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+
+T = TypeVar("T")
 
 
 class HybridlogError(Exception):
@@ -174,6 +176,28 @@ def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
         keep = max(limit - 1, 2)
         shown = shown[: keep - keep // 3] + "…" + shown[len(shown) - keep // 3 :]
     return "'" + shown + "'"
+
+
+def first_few(
+    items: Sequence[T],
+    shown: int,
+    show: Callable[[T], str],
+    *,
+    separator: str = ", ",
+    before_more: str = " and ",
+) -> str:
+    """The first ``shown`` of ``items`` as ``show`` writes them, the others counted.
+
+    How a note names what may be thousands of paths in one line.
+
+    Examples
+    --------
+    >>> first_few(["a", "b", "c", "d"], 2, str)
+    'a, b and 2 more'
+    """
+    listed = separator.join(show(item) for item in items[:shown])
+    rest = len(items) - shown
+    return f"{listed}{before_more}{rest} more" if rest > 0 else listed
 
 
 def as_text(text: object) -> str:

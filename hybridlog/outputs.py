@@ -45,7 +45,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from hybridlog import __version__
-from hybridlog.errors import OutputError, as_name, excerpt
+from hybridlog.errors import OutputError, as_name, excerpt, first_few
 
 __all__ = [
     "MARKER",
@@ -882,8 +882,7 @@ def _check_only_ours(path: Path, written: Collection[str] | None) -> None:
 
 def _some(names: Sequence[str]) -> str:
     """``'a', 'b', 'c' and 2 more``: the first three of ``names``, quoted, and how many else."""
-    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
-    return f"{', '.join(excerpt(name, 60) for name in names[:3])}{more}"
+    return first_few(names, 3, lambda name: excerpt(name, 60))
 
 
 def check_file_name(target: PathLike, option: str = "") -> None:

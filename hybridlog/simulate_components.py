@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog.cluster.progress import simulating
-from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt
+from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt, first_few
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
@@ -340,10 +340,9 @@ def _cut_events(
     if not cut:
         return ()
     cut.sort()
-    more = f" and {len(cut) - 5} more" if len(cut) > 5 else ""
     return (
         f"--steps {rows - 1:,} ends the run before these events of {at.origin}'s scenario, "
-        f"which never run: {'; '.join(what for _, what in cut[:5])}{more}",
+        f"which never run: {first_few(cut, 5, lambda event: event[1], separator='; ')}",
     )
 
 

@@ -63,6 +63,7 @@ from hybridlog.errors import (
     as_name,
     as_text,
     excerpt,
+    first_few,
     names_apart,
 )
 from hybridlog.estimators import Prepared
@@ -1380,15 +1381,15 @@ def _made_elsewhere_note(outcomes: Sequence[LogOutcome]) -> list[str]:
     moved = [(o.log, made) for o in outcomes if (made := _made_from(o)) is not None]
     if not moved:
         return []
-    pairs = ", ".join(
-        f"{excerpt(os.fspath(log), 60)} read as {excerpt(made, 60)}"
-        for log, made in moved[:_MOVED_SHOWN]
+    pairs = first_few(
+        moved,
+        _MOVED_SHOWN,
+        lambda pair: f"{excerpt(os.fspath(pair[0]), 60)} read as {excerpt(pair[1], 60)}",
     )
-    more = f" and {len(moved) - _MOVED_SHOWN} more" if len(moved) > _MOVED_SHOWN else ""
     if len(moved) > 1:
         return [
             f"{len(moved)} logs were skipped, their content the one an earlier run analysed at "
-            f"another path ({pairs}{more}): their reused report.md and report.json name that "
+            f"another path ({pairs}): their reused report.md and report.json name that "
             "path; remove a report folder to redo its log under its path now (summary.md "
             "lists them)"
         ]

@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from hybridlog.errors import LogError, OptionError, as_name, excerpt, names_apart
+from hybridlog.errors import LogError, OptionError, as_name, excerpt, first_few, names_apart
 from hybridlog.io.formats import format_list, indexed_log, log_format, logs_in
 from hybridlog.outputs import PathLike
 
@@ -124,9 +124,8 @@ def _hidden_in_empty(hidden: Sequence[Path]) -> str:
     hidden = [path for path in hidden if os.path.exists(path)]
     if not hidden:
         return ""
-    shown = ", ".join(excerpt(os.fspath(p), 60) for p in hidden[:_HIDDEN_SHOWN])
-    more = f" and {len(hidden) - _HIDDEN_SHOWN} more" if len(hidden) > _HIDDEN_SHOWN else ""
-    return f": it holds {shown}{more}; give {'it' if len(hidden) == 1 else 'them'} as LOGS"
+    shown = first_few(hidden, _HIDDEN_SHOWN, lambda p: excerpt(os.fspath(p), 60))
+    return f": it holds {shown}; give {'it' if len(hidden) == 1 else 'them'} as LOGS"
 
 
 def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
@@ -166,11 +165,10 @@ def _hidden_note(hidden: Sequence[Path], paths: Sequence[str]) -> list[str]:
         left.append(os.fspath(name))
     if not left:
         return []
-    shown = ", ".join(excerpt(p, 60) for p in sorted(left, key=natural_key)[:_HIDDEN_SHOWN])
-    more = f" and {len(left) - _HIDDEN_SHOWN} more" if len(left) > _HIDDEN_SHOWN else ""
+    shown = first_few(sorted(left, key=natural_key), _HIDDEN_SHOWN, lambda p: excerpt(p, 60))
     count = f"{len(left)} logs whose names start" if len(left) > 1 else "a log whose name starts"
     return [
-        f"{count} with '.' {'were' if len(left) > 1 else 'was'} skipped ({shown}{more}; hidden "
+        f"{count} with '.' {'were' if len(left) > 1 else 'was'} skipped ({shown}; hidden "
         "names are not searched for logs, nor folders starting with '.'): rename "
         f"{'them' if len(left) > 1 else 'it'}, or give {'them' if len(left) > 1 else 'it'} "
         "as LOGS, to analyse "
@@ -198,11 +196,10 @@ def _links_note(links: Sequence[Path], searched: Sequence[str]) -> list[str]:
             left.append(os.fspath(link))
     if not left:
         return []
-    shown = ", ".join(excerpt(p, 60) for p in sorted(left, key=natural_key)[:_LINKS_SHOWN])
-    more = f" and {len(left) - _LINKS_SHOWN} more" if len(left) > _LINKS_SHOWN else ""
+    shown = first_few(sorted(left, key=natural_key), _LINKS_SHOWN, lambda p: excerpt(p, 60))
     count = f"{len(left)} links to folders were" if len(left) > 1 else "a link to a folder was"
     return [
-        f"{count} not searched for logs ({shown}{more}; links to folders are not followed): "
+        f"{count} not searched for logs ({shown}; links to folders are not followed): "
         "give the folder it leads to as LOGS to analyse its logs"
     ]
 
@@ -238,14 +235,18 @@ def _alike_note(paths: Sequence[str]) -> list[str]:
     ]
     if not alike:
         return []
-    shown = "; ".join(
-        " and ".join(excerpt(name, 60) for name in names_apart([as_name(p) for p in group]))
-        for group in alike[:_ALIKE_SHOWN]
+    shown = first_few(
+        alike,
+        _ALIKE_SHOWN,
+        lambda group: " and ".join(
+            excerpt(name, 60) for name in names_apart([as_name(p) for p in group])
+        ),
+        separator="; ",
+        before_more="; and ",
     )
-    more = f"; and {len(alike) - _ALIKE_SHOWN} more" if len(alike) > _ALIKE_SHOWN else ""
     return [
         f"{sum(map(len, alike))} logs have names that read alike, differing only in how their "
-        f"letters are encoded (Unicode NFC and NFD: {shown}{more}): the summaries write them "
+        f"letters are encoded (Unicode NFC and NFD: {shown}): the summaries write them "
         "with \\u escapes, and their report folders would be one where the file system takes "
         f"both names for one (macOS); rename one{' of each' if len(alike) > 1 else ''}"
     ]
@@ -319,14 +320,13 @@ def _one_name_each(found: Sequence[str], given: Sequence[str]) -> tuple[list[str
     if not left_out:
         return [*found, *given], []
     shown = sorted(left_out, key=natural_key)
-    pairs = ", ".join(
-        f"{excerpt(p, 60)} as {excerpt(left_out[p], 60)}" for p in shown[:_SHOWN_TWICE]
+    pairs = first_few(
+        shown, _SHOWN_TWICE, lambda p: f"{excerpt(p, 60)} as {excerpt(left_out[p], 60)}"
     )
-    more = f" and {len(shown) - _SHOWN_TWICE} more" if len(shown) > _SHOWN_TWICE else ""
     count = f"{len(shown)} logs were" if len(shown) > 1 else "a log was"
     note = (
         f"{count} found again under another name (a symbolic or hard link to a log of the "
-        f"batch) and analysed once, as that log: {pairs}{more}"
+        f"batch) and analysed once, as that log: {pairs}"
     )
     return [p for p in [*found, *given] if p not in left_out], [note]
 

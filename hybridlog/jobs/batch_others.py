@@ -25,7 +25,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-from hybridlog.errors import excerpt
+from hybridlog.errors import excerpt, first_few
 from hybridlog.jobs.batch_logs import natural_key
 from hybridlog.outputs import MARKER, recorded_files
 
@@ -138,9 +138,8 @@ def others_note(others: Sequence[OtherFolder]) -> str:
         names = [other.name for other in others if other.kind == kind]
         if not names:
             continue
-        shown = ", ".join(excerpt(name, 60) for name in names[:_SHOWN])
-        more = f" and {len(names) - _SHOWN} more" if len(names) > _SHOWN else ""
+        shown = first_few(names, _SHOWN, lambda name: excerpt(name, 60))
         count = several.format(len(names)) if len(names) > 1 else one
-        parts.append(f"{count} ({shown}{more}{'; ' + why if why else ''})")
+        parts.append(f"{count} ({shown}{'; ' + why if why else ''})")
     listed = ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
     return f"--out holds {listed}: kept, and not in its summaries"
