@@ -190,17 +190,28 @@ def _log_labels(folders: Sequence[str]) -> list[str]:
     return labels
 
 
+def _counts(rows: Sequence[BatchRow]) -> str:
+    """The title's second line: how many logs, not analysed, and missed a gate.
+
+    An analysed log carries a result per gate given (:attr:`BatchRow.gates`): when none
+    does, no gate was given, and the title says so rather than "0 missed a gate (red)",
+    which read as gates checked and met.  When no log was analysed, nothing tells.
+    """
+    failed = sum(1 for row in rows if row.status == "failed")
+    parts = [plural(len(rows), "log"), f"{failed} not analysed (crosses)"]
+    if any(row.gates for row in rows):
+        missed = sum(1 for row in rows if row.status != "failed" and row.missed)
+        parts.append(f"{missed} missed a gate (red)")
+    elif failed < len(rows):
+        parts.append("no gate given")
+    return ", ".join(parts)
+
+
 def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     """The figure of ``summary.png``: one panel per key metric over the logs."""
     ready = _READY.pop(len(rows), None)
     fig, axes = ready if ready is not None else _empty_figure(len(rows))
-    missed = sum(1 for row in rows if row.status != "failed" and row.missed)
-    failed = sum(1 for row in rows if row.status == "failed")
-    fig.suptitle(
-        f"{plain_text(title)}\n{plural(len(rows), 'log')}, {failed} not analysed (crosses), "
-        f"{missed} missed a gate (red)",
-        fontsize=10,
-    )
+    fig.suptitle(f"{plain_text(title)}\n{_counts(rows)}", fontsize=10)
     positions = range(len(rows))
     offline = any(row.report is not None and row.report.smoothing is not None for row in rows)
     for ax, (metric, label) in zip(axes, _PANELS, strict=True):

@@ -155,3 +155,18 @@ def test_more_logs_than_names_are_numbered_from_one_as_summary_csv_rows():
         (19, "20"),
     ]
     assert ticks[-1].get_text() == "60" and ticks[-1].get_position()[0] == 59
+
+
+def test_a_batch_without_gates_does_not_count_gates_missed():
+    """The title said '0 missed a gate (red)' of a batch given no gate: gates met, to a reader."""
+    ungated = [replace(row, gates=()) for row in rows()]
+    assert summary_figure("m · imm", ungated).get_suptitle().split("\n")[1] == (
+        "3 logs, 1 not analysed (crosses), no gate given"
+    )
+    met = [replace(row, gates=(("--fail-under vaf=10", None),)) for row in rows()[:2]]
+    assert summary_figure("m · imm", met).get_suptitle().endswith(", 0 missed a gate (red)")
+    # no log analysed: nothing tells whether a gate was given
+    failed = rows()[2:]
+    assert (
+        summary_figure("m · imm", failed).get_suptitle().endswith("1 log, 1 not analysed (crosses)")
+    )
