@@ -666,6 +666,25 @@ class _WholeNumber(_Strict, click.IntRange):
     parse = staticmethod(parse_int)
 
 
+class _Jobs(_WholeNumber):
+    """``--jobs``: a whole number of at least 1, or ``auto``, the cores this process may use."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and value.strip().lower() == "auto":
+            from hybridlog.environment import usable_cores
+
+            return usable_cores()
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter as err:
+            if "whole number" not in err.message:
+                raise
+            self.fail(err.message.replace("a whole number", "a whole number or auto"), param, ctx)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "N|auto"
+
+
 class _Number(_Strict, click.types.FloatParamType):
     """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only)."""
 
@@ -1053,10 +1072,11 @@ def compare_command(
 )
 @click.option(
     "--jobs",
-    type=_WholeNumber(min=1),
+    type=_Jobs(min=1),
     default=1,
     show_default=True,
-    help="Logs analysed in parallel (local processes; not with --scheduler).",
+    help="Logs analysed in parallel (local processes; not with --scheduler); auto: one per "
+    "core this process may use.",
 )
 @click.option(
     "--scheduler",

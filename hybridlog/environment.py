@@ -38,6 +38,13 @@ from hybridlog.errors import OptionError, excerpt
 __all__ = ["check_environment", "numba_whole_numbers"]
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one), at least 1."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
 def _python_int(value: str) -> int | None:
     """``value`` as numba reads a whole number (Python's ``int``), or ``None``."""
     try:

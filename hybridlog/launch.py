@@ -162,7 +162,10 @@ def tolerate_closed_output() -> None:
 
 
 def local_batch_jobs(args: Sequence[str]) -> int:
-    """The ``--jobs`` of a ``batch`` command line run by local workers; 1 for any other line."""
+    """The ``--jobs`` of a ``batch`` command line run by local workers; 1 for any other line.
+
+    ``--jobs auto`` is the cores this process may use, as the CLI reads it.
+    """
     words = list(args[: list(args).index("--")] if "--" in args else args)
     command = next((word for word in words if not word.startswith("-")), None)
     if command != "batch" or any(w.split("=", 1)[0] == "--scheduler" for w in words):
@@ -173,6 +176,10 @@ def local_batch_jobs(args: Sequence[str]) -> int:
             jobs = words[k + 1]
         elif word.startswith("--jobs="):
             jobs = word.removeprefix("--jobs=")
+    if jobs.strip().lower() == "auto":
+        from hybridlog.environment import usable_cores
+
+        return usable_cores()
     return int(jobs) if jobs.isascii() and jobs.isdigit() else 1
 
 

@@ -67,7 +67,6 @@ Paper 001 (``papers/001_73b6a953d073a2d8.txt``), §4.A, eqs. (5)–(7).
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -90,6 +89,7 @@ from hybridlog.cluster.progress import (  # the exact potentials announce long w
     current_reporter,
     duration_text,
 )
+from hybridlog.environment import usable_cores
 from hybridlog.errors import DataShortError, OptionError
 from hybridlog.jit import jit
 from hybridlog.signals import FloatArray, IntArray
@@ -548,8 +548,7 @@ def exact_threads(n: int) -> int:
     """
     if not _long_work(n):
         return 1
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min(cores or 1, int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
+    return max(1, min(usable_cores(), int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))))
 
 
 def _reported_exact_potentials(

@@ -93,6 +93,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from hybridlog.cluster.progress import WorkReporter, reporting, silent_wait
+from hybridlog.environment import usable_cores
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.memory import MemoryLedger
 
@@ -391,8 +392,7 @@ def worker_environment(jobs: int) -> dict[str, str]:
     of six found no effect); small logs keep polars' threads mostly idle, larger ones do not.
     """
     environment = dict(os.environ)
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    environment.setdefault(POLARS_THREADS, str(max(1, (cores or 1) // jobs)))
+    environment.setdefault(POLARS_THREADS, str(max(1, usable_cores() // jobs)))
     return environment
 
 

@@ -224,3 +224,20 @@ def test_switching_observer_eigenvalues_are_read_strictly(tmp_path):
         "expected negative numbers separated by commas, got '-5,-1_0'",
     )
     assert not out.exists()
+
+
+def test_batch_jobs_auto_is_one_per_usable_core(monkeypatch):
+    """``--jobs auto``: as many workers as cores this process may use (was refused)."""
+    import click
+
+    import hybridlog.environment as environment
+    from hybridlog.cli import _Jobs
+
+    monkeypatch.setattr(environment, "usable_cores", lambda: 3)
+    jobs = _Jobs(min=1)
+    assert jobs.convert("auto", None, None) == 3 and jobs.convert(" AUTO ", None, None) == 3
+    assert jobs.convert("2", None, None) == 2
+    with pytest.raises(click.BadParameter, match="a whole number or auto, got 'many'"):
+        jobs.convert("many", None, None)
+    monkeypatch.undo()
+    assert environment.usable_cores() >= 1

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from hybridlog.environment import usable_cores
 from hybridlog.launch import local_batch_jobs
 from tests.jobs.test_batch import write_logs
 
@@ -69,6 +70,8 @@ def test_the_batch_process_of_workers_loads_no_polars_nor_numba(tmp_path: Path) 
         ("batch logs --scheduler=tcp://h:8786 --jobs 2", 1),
         ("batch logs -- --jobs 2", 1),  # after "--" a log, not an option
         ("batch logs --jobs two", 1),
+        ("batch logs --jobs auto", usable_cores()),
+        ("batch logs --jobs=AUTO", usable_cores()),
         ("batch logs --jobs ٣", 1),  # not ASCII: left to the CLI, which starts it later
         ("batch logs --jobs", 1),
         ("analyze log --jobs 2", 1),
