@@ -95,6 +95,7 @@ from hybridlog.jobs.batch_logs import (
 from hybridlog.jobs.batch_others import (
     PROVENANCE_KEY,
     OtherFolder,
+    folder_kind_text,
     other_folders,
     others_note,
     report_folders,
@@ -606,7 +607,8 @@ def _check_apart_from_reports(folder: Path) -> None:
     The report an earlier run left for a log since renamed or moved (``runs/b.csv`` now a
     folder of logs, or ``runs/sub/`` now a bag): :func:`_enclosing_report`, or a folder
     without hybridlog's marker holding one (which ``check_dir_target`` refused as files
-    hybridlog did not write).
+    hybridlog did not write); or a report ``analyze``, a comparison ``compare`` or another
+    batch wrote there, each named as what it is (:func:`folder_kind_text`).
 
     Raises
     ------
@@ -621,8 +623,7 @@ def _check_apart_from_reports(folder: Path) -> None:
     if report is not None:
         raise OutputError(
             f"report folder {excerpt(str(folder))} {relation} {excerpt(str(report))}, "
-            "the report an earlier run wrote for another log (since renamed or moved, or "
-            "left out); move that report out of --out, or choose another --out"
+            f"{folder_kind_text(report)}; move that folder out of --out, or choose another --out"
         )
 
 

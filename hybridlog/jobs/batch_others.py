@@ -29,7 +29,7 @@ from hybridlog.errors import excerpt, first_few
 from hybridlog.jobs.batch_logs import natural_key
 from hybridlog.outputs import MARKER, recorded_files
 
-__all__ = ["OtherFolder", "other_folders", "others_note", "report_folders"]
+__all__ = ["OtherFolder", "folder_kind_text", "other_folders", "others_note", "report_folders"]
 
 PROVENANCE_KEY = "batch"
 """Report key under which a batch records what the report was made from."""
@@ -83,6 +83,25 @@ def _kind(folder: Path) -> str:
         return "log"
     names = {entry.name for entry in os.scandir(folder)} if folder.is_dir() else set()
     return "compare" if not COMPARISON_FILES.isdisjoint(names) else "batch"
+
+
+_KIND_TEXTS = {
+    "log": "the report an earlier run wrote for another log (since renamed or moved, or left out)",
+    "analyze": "a report hybridlog analyze wrote there",
+    "compare": "a comparison hybridlog compare wrote there",
+    "batch": "another batch's folder",
+}
+"""What one folder of each kind is, in an error that names it."""
+
+
+def folder_kind_text(folder: Path) -> str:
+    """What ``folder`` (a report, a comparison or a batch folder) is, for an error naming it.
+
+    A log's report folder that would lie inside or hold another output folder was said to
+    be in "the report an earlier run wrote for another log" whatever that folder was: a
+    comparison ``compare --out`` wrote into the batch folder, too.
+    """
+    return _KIND_TEXTS[_kind(folder)]
 
 
 def other_folders(root: Path, folders: Sequence[Path]) -> list[OtherFolder]:

@@ -84,3 +84,31 @@ def test_a_batch_folder_inside_the_batch_folder_is_named_once_and_refuses_nothin
         "- nested",
     ]
     assert Path("out/nested/a.csv/report.json").is_file()
+
+
+def test_a_logs_folder_inside_a_comparison_names_the_comparison(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """It was called "the report an earlier run wrote for another log (since renamed...)"."""
+    import hybridlog.jobs.batch as batch
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(batch, "_ERROR_LIMIT", 1000)  # pytest's folders: not cut
+    write_logs(Path("runs"), ["a.csv"], steps=10)
+    run_batch(["runs"], TANK, out_dir="out", estimator="imm")
+    compare("runs/a.csv", TANK, ["imm", "hstf"], out_dir="out/cmp")
+    analyze("runs/a.csv", TANK, out_dir="out/mine", estimator="imm")
+    write_logs(Path("runs/cmp"), ["c.csv"], steps=10, first_seed=3)
+    write_logs(Path("runs/mine"), ["d.csv"], steps=10, first_seed=4)
+
+    again = run_batch(["runs"], TANK, out_dir="out", estimator="imm")
+
+    errors = {o.log: o.error for o in again.logs if o.status == "failed"}
+    assert errors["runs/cmp/c.csv"] is not None and errors["runs/cmp/c.csv"].endswith(
+        "/out/cmp', a comparison hybridlog compare wrote there; move that folder out of "
+        "--out, or choose another --out"
+    )
+    assert errors["runs/mine/d.csv"] is not None and errors["runs/mine/d.csv"].endswith(
+        "/out/mine', a report hybridlog analyze wrote there; move that folder out of "
+        "--out, or choose another --out"
+    )

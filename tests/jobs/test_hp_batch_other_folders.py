@@ -74,7 +74,7 @@ def test_a_log_is_never_written_into_the_report_of_a_log_renamed_since(
         assert error is not None and error.startswith("report folder '")
         assert error.endswith(
             "/out/b.csv', the report an earlier run wrote for another log (since renamed or "
-            "moved, or left out); move that report out of --out, or choose another --out"
+            "moved, or left out); move that folder out of --out, or choose another --out"
         )
     assert sorted(p.name for p in Path("out/b.csv").iterdir()) == old  # nothing put in it
     assert again.notes[-1].startswith("--out holds a report folder of logs not in this batch")
@@ -124,7 +124,7 @@ def test_a_logs_folder_holding_the_report_of_a_log_moved_since_names_it(
     assert bag.error == (
         f"report folder {excerpt(f'{tmp_path}/out/deep')} holds "
         f"{excerpt(f'{tmp_path}/out/deep/c.csv')}, the report an earlier run wrote for "
-        "another log (since renamed or moved, or left out); move that report out of --out, "
+        "another log (since renamed or moved, or left out); move that folder out of --out, "
         "or choose another --out"
     )
     assert Path("out/deep/c.csv/report.json").is_file()
