@@ -160,7 +160,9 @@ def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
 
     Control characters (NUL bytes of a zeroed file, newlines) are shown escaped and anything
     longer than ``limit`` characters is cut in the middle with an ellipsis, so that an error
-    about a 16 KB line or a deeply nested expression stays one short line.
+    about a 16 KB line or a deeply nested expression stays one short line.  A byte of a
+    file name that is not UTF-8 is written ``\xNN``, as :func:`as_text` and the summaries
+    write it (it read ``\udcff`` in notes and errors, ``\xff`` in summary.md).
 
     Examples
     --------
@@ -168,9 +170,11 @@ def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
     "'a\\x00b'"
     >>> len(excerpt("x" * 10_000)) <= EXCERPT_LIMIT + 2
     True
+    >>> excerpt("run\udcff.csv")
+    "'run\\xff.csv'"
     """
     shown = "".join(
-        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(text)
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in as_text(text)
     )
     if len(shown) > limit:
         keep = max(limit - 1, 2)

@@ -76,3 +76,13 @@ def test_an_overflow_of_a_power_is_said_in_words_not_as_an_errno_tuple():
     assert arithmetic_reason(ZeroDivisionError("float division by zero")) == (
         "float division by zero"
     )
+
+
+def test_a_byte_that_is_not_utf8_reads_alike_in_errors_notes_and_summaries() -> None:
+    """Notes and errors wrote it ``\\udcff``, summary.md ``\\xff``: one file, two names."""
+    from hybridlog.errors import as_name, excerpt
+
+    name = "runs/r\udcff.csv"
+    assert excerpt(name) == "'runs/r\\xff.csv'" == f"'{as_name(name)}'"
+    assert excerpt("a\udcffb\n") == "'a\\xffb\\n'"
+    assert excerpt("\ud800") == "'\\ud800'"  # a surrogate that is no escaped byte
