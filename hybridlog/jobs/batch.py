@@ -1476,7 +1476,11 @@ def _summarise(
         write_summary_plot(staged[2], title, rows)
         if junit is not None:
             write_junit(staged[3], f"hybridlog batch: {title}", rows, compared)
+    # one line each on the terminal: a line break of a log's name written \n, not a space
     failures = [
-        f"{row.log}: {failure}" for row in rows for _, failure in row.gates if failure is not None
+        f"{excerpt(row.log, len(row.log) * 6)[1:-1]}: {failure}"
+        for row in rows
+        for _, failure in row.gates
+        if failure is not None
     ]
     return BatchOutcome(logs=list(outcomes), table=table, gate_failures=failures)

@@ -107,3 +107,16 @@ def test_names_alike_but_for_their_unicode_form_are_written_apart_and_said(
         case.get("classname") for case in ET.parse("junit.xml").getroot().iter("testcase")
     ]
     assert len({unicodedata.normalize("NFC", name or "") for name in classnames}) == 3
+
+
+def test_a_line_break_in_a_logs_name_is_written_on_its_gate_line(tmp_path: Path) -> None:
+    """The terminal's gate line of ``a\\nb.csv`` read ``a b.csv: ...``, another log's name."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("a\nb.csv", "a b.csv"):
+        write_table(logs / name, tank_run(steps=20, seed=1).columns)
+    outcome = run_batch(
+        [logs], "three_tank_hstf", out_dir=tmp_path / "out", estimator="imm", fail_over=["mse=0"]
+    )
+    names = sorted(line.split(": mse")[0].rsplit("/", 1)[-1] for line in outcome.gate_failures)
+    assert names == ["a b.csv", "a\\nb.csv"]
