@@ -1371,6 +1371,7 @@ def _csv_text_frames(
         except pl.exceptions.PolarsError as err:
             refuse_not_utf8(path)
             _refuse_stray_quote(path)
+            _check_record_widths(path, exact=True)
             raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
         if frame is None:
             return
@@ -1538,14 +1539,16 @@ def _blank_rows(frame: pl.DataFrame) -> np.ndarray[Any, np.dtype[np.bool_]]:
     return blank
 
 
-def _check_record_widths(path: Path) -> None:
+def _check_record_widths(path: Path, *, exact: bool = False) -> None:
     """Every record has as many fields as the header names; blank lines aside.
 
     polars reads a record with too few fields as missing values, which would silently turn
     a damaged line into "no sample"; too many fields it refuses without saying where.  Both
     are errors naming the line.  Without quote characters in the file, fields are counted
     from the comma and newline positions (one count of each when they agree, else NumPy to
-    find the line); with quotes, by the ``csv`` module.
+    find the line); with quotes, by the ``csv`` module.  A short line and a long one cancel
+    out in the counts, and polars refuses the long one without a line: once polars has
+    refused a file, ``exact`` finds the line in any case.
 
     Raises
     ------
@@ -1558,7 +1561,7 @@ def _check_record_widths(path: Path) -> None:
         commas, newlines, quoted, last = _count_separators(path)
         if quoted:
             line, fields = _first_odd_record(path, width)
-        elif commas == (width - 1) * (newlines + (last != NEWLINE)):
+        elif not exact and commas == (width - 1) * (newlines + (last != NEWLINE)):
             return  # every line has width - 1 commas, unless a short and a long one cancel
             # out, and a long one polars refuses in any case (the common case: one pass)
         else:
