@@ -24,7 +24,7 @@ import os
 import re
 import sys
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -1329,6 +1329,8 @@ def _csv_frames(path: Path, **options: Any) -> Iterator[pl.DataFrame]:
     """
     names = _header_names(path)
     written = {name: w for name, w in names.items() if name != w}
+    if any('"' in name for name in names):
+        written = _polars_names(path, names)
     if written:
         if "columns" in options:
             options["columns"] = [written.get(c, c) for c in options["columns"]]
@@ -1341,6 +1343,30 @@ def _csv_frames(path: Path, **options: Any) -> Iterator[pl.DataFrame]:
         with _panics_refused(path, "CSV"):
             frame = pl.read_csv(data, **options)
         yield frame.rename(renamed, strict=False) if renamed else frame
+
+
+def _polars_names(path: Path, names: Mapping[str, str]) -> dict[str, str]:
+    """``{name: polars' name}`` of the columns of a CSV log whose names polars reads otherwise.
+
+    A quote in a quoted name is written twice (``"a""b"``, RFC 4180), and polars 2.1 keeps
+    both in a header's name (``a""b``) while the ``csv`` module reads the ``a"b`` that
+    :func:`_header_names` gives: polars then found no column ``a"b``, and the log was
+    refused as "not a readable CSV file (unable to find column ...)".  polars' names are
+    read from the header line and paired with ``names`` by position.
+    """
+    try:
+        with path.open("rb") as handle:
+            line = handle.readline()
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+    try:
+        with _panics_refused(path, "CSV"):
+            theirs = pl.read_csv(line, n_rows=0, infer_schema=False).columns
+    except pl.exceptions.PolarsError:
+        theirs = []
+    if len(theirs) != len(names):
+        return {name: w for name, w in names.items() if name != w}
+    return {name: their for name, their in zip(names, theirs, strict=True) if name != their}
 
 
 def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:

@@ -865,6 +865,20 @@ def test_header_names_are_read_without_the_spaces_around_them(tmp_path: Path, he
     assert any("CSV header names read without the spaces" in n for n in _reading_notes(notes))
 
 
+@pytest.mark.parametrize("header", ['t,"u""x",y,mode', '"t","u""x","y",mode'])
+def test_a_quote_written_twice_in_a_header_name_is_one_quote(tmp_path: Path, header: str) -> None:
+    # RFC 4180's "u""x" names the column u"x; polars kept both quotes in the name, found no
+    # column u"x, and the log was refused: "not a readable CSV file (unable to find column)"
+    path = csv_file(tmp_path, f"{header}\n{GOOD.split(chr(10), 1)[1]}")
+    assert [c["name"] for c in inspect_log(path)["columns"]] == ["t", 'u"x', "y", "mode"]
+    signals = load(path, maps=['u=u"x'])
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2, 3, 4])
+    np.testing.assert_array_equal(signals.truth_modes, [0, 0, 1, 1])
+    path.write_text(path.read_text().replace("0.3,4,40", "0.3,4,oops"))
+    with pytest.raises(LogError, match=r"line 5, column 'y': 'oops' is not a number"):
+        load(path, maps=['u=u"x'])
+
+
 @pytest.mark.parametrize("header", ["t,u,y, y", "t,u , u,y", "t, t,u,y"])
 def test_header_names_that_differ_only_in_spaces_are_refused(tmp_path: Path, header: str) -> None:
     path = csv_file(tmp_path, f"{header}\n0,1,2,3\n")
