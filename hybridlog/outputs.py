@@ -674,7 +674,8 @@ def check_dir_target(
     :func:`recorded_files`) and none of those changed since (a user's notes appended to
     report.md): a user's own folder, or a note a user put into a report folder, is never
     wiped.  A folder that is part of another output (a comparison's report) is refused,
-    present or not (:func:`_check_not_part`).
+    present or not (:func:`_check_not_part`).  Without ``force`` the same checks run first,
+    so that "use --force" is advised only for a folder it would replace.
 
     Raises
     ------
@@ -707,14 +708,11 @@ def check_dir_target(
         raise OutputError(f"output directory {_shown(path)}: {err.strerror}") from err
     if not nonempty:
         return path
-    if not force:
-        raise OutputError(
-            f"output directory {_shown(path)} is not empty; use --force to replace it"
-        )
+    # Checked with or without ``force``: "use --force" is advised only where it would work.
     if not (is_ours(path) or (ours is not None and ours(path))):
         raise OutputError(
-            f"output directory {_shown(path)} holds files hybridlog did not write (no "
-            f"{MARKER} file), so --force will not delete it; choose another output "
+            f"output directory {_shown(path)} is not empty: it holds files hybridlog did not "
+            f"write (no {MARKER} file), so --force will not delete it; choose another output "
             "directory or remove this one yourself"
         )
     if replacing:
@@ -725,6 +723,10 @@ def check_dir_target(
                 f"them ({_some(edited)}), which replacing it would lose; move them out, or "
                 "choose another output directory"
             )
+    if not force:
+        raise OutputError(
+            f"output directory {_shown(path)} is not empty; use --force to replace it"
+        )
     return path
 
 

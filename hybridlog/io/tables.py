@@ -24,7 +24,7 @@ import os
 import re
 import sys
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -1329,6 +1329,8 @@ def _csv_frames(path: Path, **options: Any) -> Iterator[pl.DataFrame]:
     """
     names = _header_names(path)
     written = {name: w for name, w in names.items() if name != w}
+    if any('"' in name for name in names):
+        written = _polars_names(path, names)
     if written:
         if "columns" in options:
             options["columns"] = [written.get(c, c) for c in options["columns"]]
@@ -1341,6 +1343,30 @@ def _csv_frames(path: Path, **options: Any) -> Iterator[pl.DataFrame]:
         with _panics_refused(path, "CSV"):
             frame = pl.read_csv(data, **options)
         yield frame.rename(renamed, strict=False) if renamed else frame
+
+
+def _polars_names(path: Path, names: Mapping[str, str]) -> dict[str, str]:
+    """``{name: polars' name}`` of the columns of a CSV log whose names polars reads otherwise.
+
+    A quote in a quoted name is written twice (``"a""b"``, RFC 4180), and polars 2.1 keeps
+    both in a header's name (``a""b``) while the ``csv`` module reads the ``a"b`` that
+    :func:`_header_names` gives: polars then found no column ``a"b``, and the log was
+    refused as "not a readable CSV file (unable to find column ...)".  polars' names are
+    read from the header line and paired with ``names`` by position.
+    """
+    try:
+        with path.open("rb") as handle:
+            line = handle.readline()
+    except OSError as err:
+        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
+    try:
+        with _panics_refused(path, "CSV"):
+            theirs = pl.read_csv(line, n_rows=0, infer_schema=False).columns
+    except pl.exceptions.PolarsError:
+        theirs = []
+    if len(theirs) != len(names):
+        return {name: w for name, w in names.items() if name != w}
+    return {name: their for name, their in zip(names, theirs, strict=True) if name != their}
 
 
 def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:
@@ -1371,6 +1397,7 @@ def _csv_text_frames(
         except pl.exceptions.PolarsError as err:
             refuse_not_utf8(path)
             _refuse_stray_quote(path)
+            _check_record_widths(path, exact=True)
             raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
         if frame is None:
             return
@@ -1538,14 +1565,16 @@ def _blank_rows(frame: pl.DataFrame) -> np.ndarray[Any, np.dtype[np.bool_]]:
     return blank
 
 
-def _check_record_widths(path: Path) -> None:
+def _check_record_widths(path: Path, *, exact: bool = False) -> None:
     """Every record has as many fields as the header names; blank lines aside.
 
     polars reads a record with too few fields as missing values, which would silently turn
     a damaged line into "no sample"; too many fields it refuses without saying where.  Both
     are errors naming the line.  Without quote characters in the file, fields are counted
     from the comma and newline positions (one count of each when they agree, else NumPy to
-    find the line); with quotes, by the ``csv`` module.
+    find the line); with quotes, by the ``csv`` module.  A short line and a long one cancel
+    out in the counts, and polars refuses the long one without a line: once polars has
+    refused a file, ``exact`` finds the line in any case.
 
     Raises
     ------
@@ -1558,7 +1587,7 @@ def _check_record_widths(path: Path) -> None:
         commas, newlines, quoted, last = _count_separators(path)
         if quoted:
             line, fields = _first_odd_record(path, width)
-        elif commas == (width - 1) * (newlines + (last != NEWLINE)):
+        elif not exact and commas == (width - 1) * (newlines + (last != NEWLINE)):
             return  # every line has width - 1 commas, unless a short and a long one cancel
             # out, and a long one polars refuses in any case (the common case: one pass)
         else:

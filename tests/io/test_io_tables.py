@@ -241,6 +241,12 @@ def test_line_with_too_many_fields_is_an_error(tmp_path: Path) -> None:
         ("t,u,y\n0.0,1,1\n\n0.1,1,1\n0.2,1\n", 5, "2 fields"),  # blank lines still count
         ('t,u,y\n0.0,"1",1\n0.1,"1,5"\n0.2,1,1\n', 3, "2 fields"),  # quoted: csv module
         ("t,u,y\r\n0.0,1,1\r\n0.1,1,1,7\r\n", 3, "4 fields"),
+        # A short line and a long one whose commas cancel out in the file's count: polars
+        # refused the long one as "not a readable CSV file (found more fields than defined
+        # in 'Schema')", naming no line
+        ("t,u,y\n0.0,1,1\n0.1,1\n0.2,1,1,1\n", 3, "2 fields"),
+        ("t,u,y\n0.0,1,1\n0.1\n0.2,1,1,1,1\n0.3,1,1\n", 3, "1 field,"),
+        ("t,u,y\n0.0,1,1\n0.1,1,1,1\n0.2,1\n", 3, "4 fields"),
     ],
 )
 def test_line_with_a_wrong_number_of_fields_is_an_error(
@@ -857,6 +863,20 @@ def test_header_names_are_read_without_the_spaces_around_them(tmp_path: Path, he
     from hybridlog.report.build import _reading_notes
 
     assert any("CSV header names read without the spaces" in n for n in _reading_notes(notes))
+
+
+@pytest.mark.parametrize("header", ['t,"u""x",y,mode', '"t","u""x","y",mode'])
+def test_a_quote_written_twice_in_a_header_name_is_one_quote(tmp_path: Path, header: str) -> None:
+    # RFC 4180's "u""x" names the column u"x; polars kept both quotes in the name, found no
+    # column u"x, and the log was refused: "not a readable CSV file (unable to find column)"
+    path = csv_file(tmp_path, f"{header}\n{GOOD.split(chr(10), 1)[1]}")
+    assert [c["name"] for c in inspect_log(path)["columns"]] == ["t", 'u"x', "y", "mode"]
+    signals = load(path, maps=['u=u"x'])
+    np.testing.assert_array_equal(signals.inputs[:, 0], [1, 2, 3, 4])
+    np.testing.assert_array_equal(signals.truth_modes, [0, 0, 1, 1])
+    path.write_text(path.read_text().replace("0.3,4,40", "0.3,4,oops"))
+    with pytest.raises(LogError, match=r"line 5, column 'y': 'oops' is not a number"):
+        load(path, maps=['u=u"x'])
 
 
 @pytest.mark.parametrize("header", ["t,u,y, y", "t,u , u,y", "t, t,u,y"])

@@ -1011,3 +1011,38 @@ def test_a_batch_does_not_overwrite_a_summary_the_user_changed(tmp_path: Path) -
     for record in out.glob(".summary.*.hybridlog"):
         record.unlink()
     run_batch([log], TANK, out_dir=out, estimator="imm")
+
+
+def test_force_is_advised_only_where_it_would_replace_the_folder(tmp_path: Path) -> None:
+    """A user's folder (``compare --out notes/``) was refused with "is not empty; use --force
+    to replace it", and ``--force`` was then refused too ("holds files hybridlog did not
+    write"): without ``force`` the folder is checked as with it, and the advice is given
+    only to a folder that ``--force`` replaces."""
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "notes.txt").write_text("mine")
+    for force in (False, True):
+        with pytest.raises(OutputError) as info:
+            check_dir_target(theirs, force=force)
+        message = str(info.value)
+        assert "not empty: it holds files hybridlog did not write" in message
+        assert "use --force" not in message
+    # hybridlog's folder with a note of the user's put into it: --force keeps it too
+    ours = tmp_path / "ours"
+    ours.mkdir()
+    (ours / "report.json").write_text("{}")
+    (ours / "notes.txt").write_text("mine")
+    for force in (False, True):
+        with pytest.raises(OutputError, match=r"did not write \('notes.txt'\)") as info:
+            check_dir_target(
+                ours, force=force, ours=lambda _: True, written=lambda _: ["report.json"]
+            )
+        assert "use --force" not in str(info.value)
+    (ours / "notes.txt").unlink()
+    with pytest.raises(OutputError, match=r"is not empty; use --force to replace it$"):
+        check_dir_target(ours, force=False, ours=lambda _: True, written=lambda _: ["report.json"])
+    assert (
+        check_dir_target(ours, force=True, ours=lambda _: True, written=lambda _: ["report.json"])
+        == ours
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ours", "theirs"]
