@@ -800,8 +800,27 @@ _COLUMNS = (
 )
 
 
-def _row(report: Report) -> dict[str, Any]:
-    return {name: metric(report, name) for name in _COLUMNS}  # the gates' metric names
+def _state_columns(reports: Mapping[str, Report]) -> tuple[str, ...]:
+    """``state_rmse.<x>`` for each state some report has an RMSE of (a true state in the log).
+
+    The comparison showed no state's RMSE unless gated, though for an observer the states
+    are what it estimates; a state no estimator could be scored on gets no column.
+    """
+    states = dict.fromkeys(
+        x
+        for report in reports.values()
+        for x, state in report.states.items()
+        if state.rmse is not None
+    )
+    return tuple(f"state_rmse.{x}" for x in states)
+
+
+def _filtered_state_rmse(report: Report, column: str) -> float | None:
+    """The filter's own RMSE of a ``state_rmse.<x>`` column: the smoothed run's filter's."""
+    state = column.removeprefix("state_rmse.")
+    states = report.states if report.smoothing is None else report.smoothing.filtered.states
+    own = states.get(state)
+    return None if own is None else own.rmse
 
 
 _SMOOTHING_COLUMNS = ("smoothing", "filtered_mode_accuracy", "smoothing_fallback_weight")
@@ -815,14 +834,24 @@ where no smoother ran).  For an estimator not smoothed the filter's own mode acc
 estimates, like for like, were in two columns)."""
 
 
-def _smoothing_cells(report: Report) -> list[Any]:
+def _smoothing_columns(state_columns: Sequence[str]) -> tuple[str, ...]:
+    """:data:`_SMOOTHING_COLUMNS`, a ``filtered_state_rmse.<x>`` per state shown among them.
+
+    After ``filtered_mode_accuracy``, named as batch's summary.csv names them.
+    """
+    smoother, filtered, fallbacks = _SMOOTHING_COLUMNS
+    return (smoother, filtered, *(f"filtered_{c}" for c in state_columns), fallbacks)
+
+
+def _smoothing_cells(report: Report, state_columns: Sequence[str]) -> list[Any]:
     smoothing = report.smoothing
+    filtered_states = [_filtered_state_rmse(report, column) for column in state_columns]
     if smoothing is None:
-        return ["none", report.modes.accuracy, None]
+        return ["none", report.modes.accuracy, *filtered_states, None]
     name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
     fallbacks = smoothing.fallbacks
     weight = None if fallbacks is None else fallbacks.weight
-    return [name, smoothing.filtered.mode_accuracy, weight]
+    return [name, smoothing.filtered.mode_accuracy, *filtered_states, weight]
 
 
 RUN_FAILURES: tuple[type[HybridlogError], ...] = (DivergenceError,)
@@ -1009,7 +1038,9 @@ def compare(
         table = markdown_table(columns, rows, distinct=True)  # estimators side by side
         given = list(modes_given(prepared))
         scored, unlike = samples_section(reports, _rmse_states(columns), given)
-        shown = [c for c in columns if c in _COLUMNS or c in _gated(gates)]
+        shown = [
+            c for c in columns if c in _COLUMNS or c in _gated(gates) or c.startswith("state_rmse.")
+        ]
         sections = [
             *reach_section(reach),
             *scored,
@@ -1064,16 +1095,19 @@ def _comparison_rows(
     per count that differs (``output_samples.y1``, ``mode_samples``, ``state_samples.x1``:
     :func:`~hybridlog.report.comparison.unequal_columns`), after the metrics.
     """
-    columns: tuple[str, ...] = ("estimator", *_COLUMNS)
+    states = _state_columns(reports)
+    *scores, speed = _COLUMNS
+    metrics = (*scores, *states, speed)  # the states' RMSEs beside the other scores
+    columns: tuple[str, ...] = ("estimator", *metrics)
     smoothed = any(report.smoothing is not None for report in reports.values())
-    smoothing_columns = _SMOOTHING_COLUMNS if smoothed else ()
+    smoothing_columns = _smoothing_columns(states) if smoothed else ()
     # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
     # summaries show it: 'pass (1)' alone did not say by how much (a gated
     # smoothing_fallback_weight is shown once, among the smoothing columns)
     extra = gated_columns([gate.metric for gate in gates], (*columns, *smoothing_columns))
     # a VAF over 170 samples beside one over 179 read as like for like: the counts that
     # differ get a column
-    counts = unequal_columns(reports, _rmse_states(extra))
+    counts = unequal_columns(reports, _rmse_states((*states, *extra)))
     columns += counts
     columns += smoothing_columns
     columns += extra
@@ -1084,11 +1118,11 @@ def _comparison_rows(
             width = len(columns) - 1
             row: list[Any] = [name, *[None] * width]
         else:
-            row = [name, *_row(report).values()]
-            own = sample_counts(report, _rmse_states(extra))
+            row = [name, *(metric(report, column) for column in metrics)]
+            own = sample_counts(report, _rmse_states((*states, *extra)))
             row += [own.get(column) for column in counts]
             if smoothed:
-                row += _smoothing_cells(report)
+                row += _smoothing_cells(report, states)
             row += [metric(report, column) for column in extra]
         if gates:  # which estimator missed which gate, as a batch's summary shows per log
             row.append("not analysed" if report is None else gate_cell(len(gates), missed[name]))

@@ -86,16 +86,16 @@ def unequal_columns(reports: Mapping[str, Report], states: Sequence[str] = ()) -
     )
 
 
-def _over(counts: Mapping[str, int | None], prefix: str) -> str:
+def _over(counts: Mapping[str, int | None], prefix: str, noun: str = "output") -> str:
     """``300 samples of y1, 298 of y2`` or ``300 samples of each output (y1, y2)``."""
     named = [(c.removeprefix(prefix), n) for c, n in counts.items() if c.startswith(prefix)]
     if not named:
-        return "no output"
+        return f"no {noun}"
     values = {n for _, n in named}
     if len(named) > 1 and len(values) == 1:
         (n,) = values
         names = ", ".join(escape_markdown(y, line_start=False) for y, _ in named)
-        return f"{_count(n)} samples of each output ({names})"
+        return f"{_count(n)} samples of each {noun} ({names})"
     parts = [f"{_count(n)} of {escape_markdown(y, line_start=False)}" for y, n in named]
     parts[0] = parts[0].replace(" of ", " samples of ", 1)
     return _and(parts)
@@ -118,6 +118,8 @@ def _describe(own: Mapping[str, int | None]) -> str:
     """The samples of one kind of number: ``300 samples of y1 and 298 of y2``, ``301 samples``."""
     if any(c.startswith(_OUTPUT_PREFIX) for c in own):
         return _over(own, _OUTPUT_PREFIX)
+    if len(own) > 1:  # the states' RMSEs
+        return _over(own, _STATE_PREFIX, "state")
     return f"{_count(next(iter(own.values())))} samples"
 
 
@@ -143,8 +145,10 @@ def samples_section(
     kinds = [
         ("vaf, fit and mse", [c for c in columns if c.startswith(_OUTPUT_PREFIX)]),
         ("the mode metrics", [MODE_SAMPLES]),
-        *[(f"the RMSE of {x}", [_STATE_PREFIX + x]) for x in states],
     ]
+    if states:  # one line for all the states, as for the outputs
+        kind = f"the RMSE of {states[0]}" if len(states) == 1 else "the states' RMSEs"
+        kinds.append((kind, [_STATE_PREFIX + x for x in states]))
     lines = ["", "## What the numbers are over", ""]
     unlike: list[str] = []
     for kind, chosen in kinds:

@@ -169,12 +169,21 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
         sets=["smooth=true", "smoother=kim"],  # Kim's refuses one step there (the default none)
     )
     table = pl.read_csv(tmp_path / "c" / "comparison.csv")
-    assert table.columns[-4:] == [
-        "smoothing", "filtered_mode_accuracy", "smoothing_fallback_weight", "warnings",
+    filtered_states = [f"filtered_state_rmse.x{k}" for k in (1, 2, 3)]
+    assert table.columns[-7:] == [
+        "smoothing", "filtered_mode_accuracy", *filtered_states, "smoothing_fallback_weight",
+        "warnings",
     ]  # fmt: skip
     imm = done.reports["imm"].smoothing
     assert imm is not None and imm.method is not None
     row = table.filter(pl.col("estimator") == "imm")
+    # each state's RMSE, the smoothed one and the filter's own beside it
+    for x in ("x1", "x2", "x3"):
+        assert row[f"state_rmse.{x}"][0] == done.reports["imm"].states[x].rmse
+        assert row[f"filtered_state_rmse.{x}"][0] == imm.filtered.states[x].rmse
+        assert row[f"state_rmse.{x}"][0] < row[f"filtered_state_rmse.{x}"][0]
+    hstf_row = table.filter(pl.col("estimator") == "hstf")
+    assert hstf_row["filtered_state_rmse.x1"][0] == hstf_row["state_rmse.x1"][0]
     assert row["filtered_mode_accuracy"][0] == pytest.approx(imm.filtered.mode_accuracy)
     assert row["mode_accuracy"][0] == pytest.approx(done.reports["imm"].modes.accuracy)
     assert row["smoothing"][0] == f"{imm.method}, argmax"

@@ -76,7 +76,7 @@ def test_the_same_samples_are_said_and_each_na_cell_gives_its_reason(tmp_path: P
     assert section == [
         "- vaf, fit and mse: every estimator over 1,000 samples of y",
         "- the mode metrics: every estimator over 1,001 samples",
-        "- the RMSE of x1: every estimator over 1,001 samples",
+        "- the states' RMSEs: every estimator over 1,001 samples of each state (x1, x2, x3, x4)",
     ]
     hstf = json.loads((out / "hstf" / "report.json").read_text())
     assert hstf["modes"]["detection_delay_s"] is None
