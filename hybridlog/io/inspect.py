@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
-from hybridlog.errors import as_text
+from hybridlog.errors import as_text, names_apart
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.io.options import ReadOptions
@@ -148,12 +148,14 @@ def format_inspection(info: dict[str, Any]) -> str:
     time_column = span["column"] if span is not None else None
     header = ("column", "dtype", "count", "nonfinite", "min", "max", "rate_hz", "gaps")
     rows = []
-    for c in columns:
+    # two names alike but for their Unicode form (café NFC and NFD) are written apart
+    names = names_apart([str(c["name"]) for c in columns])
+    for c, name in zip(columns, names, strict=True):
         # the time column's range as times: 1.7e+09 to 1.7e+09 said nothing of a Unix time
         extreme = _at_or_dash if c["name"] == time_column else _num
         rows.append(
             (
-                str(c["name"]),
+                name,
                 str(c["dtype"]),
                 str(c["count"]),
                 _num(c.get("nonfinite")),

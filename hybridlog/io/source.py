@@ -20,6 +20,7 @@ from typing import Any, Protocol, Self
 
 import numpy as np
 
+from hybridlog.errors import names_apart
 from hybridlog.signals import MAX_MAGNITUDE, BoolArray, FloatArray, IntArray
 
 NS_PER_S = 1_000_000_000
@@ -399,6 +400,11 @@ def closest_names(wanted: Sequence[str], available: Sequence[str], limit: int = 
         return closest + lookalikes(wanted, matches[0])
     if not available:
         return "the log has none"
-    shown = ", ".join(repr(a) for a in available[:8])
+    # two names alike but for their Unicode form (café NFC and NFD) are written apart
+    apart = names_apart(list(available[:8]))
+    shown = ", ".join(
+        repr(a) if a == written else f"'{written}'"
+        for a, written in zip(available[:8], apart, strict=True)
+    )
     more = f", ... ({len(available)} in all)" if len(available) > 8 else ""
     return f"available: {shown}{more}"

@@ -101,3 +101,22 @@ def test_an_empty_mcap_profile_is_quoted_once(tmp_path: Path) -> None:
     # "(mcap, profile '''', 9 messages, ...)": the empty name's '' inside the line's quotes
     first = format_inspection(inspect_log(control_mcap(tmp_path / "odd.mcap"))).split("\n")[0]
     assert first.endswith("odd.mcap (mcap, profile '', 9 messages, 3 topics)"), first
+
+
+def test_columns_alike_but_for_their_unicode_form_are_written_apart(tmp_path: Path) -> None:
+    """``café`` with ``é`` one character (NFC) and two (NFD): two rows that printed alike,
+    and an error's ``available: 'café', 'café'``."""
+    from hybridlog.io.source import closest_names
+
+    composed, decomposed = "caf\u00e9", "cafe\u0301"
+    log = tmp_path / "nf.csv"
+    log.write_text(f"t,{composed},{decomposed},th\u00e9\n0,1,2,3\n1,2,3,4\n", encoding="utf-8")
+    lines = format_inspection(inspect_log(log)).splitlines()
+    names = [
+        line.split()[0]
+        for line in lines[lines.index(next(x for x in lines if x.startswith("column"))) + 1 :]
+    ]
+    assert names == ["t", "caf\\u00e9", "cafe\\u0301", "th\u00e9"]
+    assert closest_names(["u"], ["t", composed, decomposed]) == (
+        "available: 't', 'caf\\u00e9', 'cafe\\u0301'"
+    )
