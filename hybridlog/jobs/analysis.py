@@ -80,6 +80,7 @@ from hybridlog.report.summary import (
     gate_cell,
     gated_columns,
     markdown_table,
+    state_columns,
     warning_notes,
     write_summary_csv,
 )
@@ -800,21 +801,6 @@ _COLUMNS = (
 )
 
 
-def _state_columns(reports: Mapping[str, Report]) -> tuple[str, ...]:
-    """``state_rmse.<x>`` for each state some report has an RMSE of (a true state in the log).
-
-    The comparison showed no state's RMSE unless gated, though for an observer the states
-    are what it estimates; a state no estimator could be scored on gets no column.
-    """
-    states = dict.fromkeys(
-        x
-        for report in reports.values()
-        for x, state in report.states.items()
-        if state.rmse is not None
-    )
-    return tuple(f"state_rmse.{x}" for x in states)
-
-
 def _filtered_state_rmse(report: Report, column: str) -> float | None:
     """The filter's own RMSE of a ``state_rmse.<x>`` column: the smoothed run's filter's."""
     state = column.removeprefix("state_rmse.")
@@ -1095,7 +1081,7 @@ def _comparison_rows(
     per count that differs (``output_samples.y1``, ``mode_samples``, ``state_samples.x1``:
     :func:`~hybridlog.report.comparison.unequal_columns`), after the metrics.
     """
-    states = _state_columns(reports)
+    states = state_columns(reports.values())
     *scores, speed = _COLUMNS
     metrics = (*scores, *states, speed)  # the states' RMSEs beside the other scores
     columns: tuple[str, ...] = ("estimator", *metrics)

@@ -69,6 +69,7 @@ __all__ = [
     "offline_label",
     "offline_metrics",
     "offline_samples_apart",
+    "state_columns",
     "warning_notes",
     "warnings_section",
     "write_summary_csv",
@@ -419,6 +420,23 @@ def gated_columns(gated: Sequence[str], shown: Sequence[str]) -> tuple[str, ...]
     log's value, not only, for a log that missed the gate, the message that says so.
     """
     return tuple(dict.fromkeys(name for name in gated if name not in shown))
+
+
+def state_columns(reports: Iterable[Report | None]) -> tuple[str, ...]:
+    """``state_rmse.<x>`` for each state some report has an RMSE of (a true state in the log).
+
+    compare's table and batch's summary.csv showed no state's RMSE unless gated (or, in a
+    batch, smoothed), though for an observer the states are what it estimates; a state no
+    report could be scored on gets no column.
+    """
+    states = dict.fromkeys(
+        x
+        for report in reports
+        if report is not None
+        for x, state in report.states.items()
+        if state.rmse is not None
+    )
+    return tuple(f"state_rmse.{x}" for x in states)
 
 
 MAX_NAMED = 20
@@ -951,19 +969,23 @@ def batch_rows_csv(
     fewer than ``samples`` where the true mode starts late; empty without a true mode).
     ``offline``: the metrics compared when the run has an offline pass
     (:func:`offline_metrics`), which adds :func:`offline_columns` after ``mode_accuracy``
-    (empty cells for a failed log); ``None`` otherwise (no column added).  ``gated``: the
+    (empty cells for a failed log); ``None`` otherwise (then ``state_rmse.<x>`` after
+    ``mode_samples`` for each state a report has an RMSE of, :func:`state_columns`).  ``gated``: the
     metrics of the gates; those without a column yet get one before ``gate_failures``
     (:func:`gated_columns`), the report's raw value.  ``warnings``, after ``gate_failures``:
     the number of the report's notes that warn (:func:`warning_notes`; empty for a failed
     log).
     """
     columns = () if offline is None else offline_columns(offline)
-    extra = gated_columns(gated, (*BATCH_METRICS, *columns))
+    # the states' RMSEs (with an offline pass, among its columns, each beside the filter's)
+    states = state_columns(row.report for row in rows) if offline is None else ()
+    extra = gated_columns(gated, (*BATCH_METRICS, *states, *columns))
     header = (
         "log",
         "status",
         *BATCH_METRICS,
         "mode_samples",
+        *states,
         *columns,
         *extra,
         "gate_failures",
@@ -980,6 +1002,7 @@ def batch_rows_csv(
                 row.status,
                 *row.metrics(),
                 None if row.report is None else row.report.modes.samples,
+                *row.values(states),
                 *(() if offline is None else row.offline_cells(offline)),
                 *row.values(extra),
                 "; ".join(row.missed) or None,

@@ -55,7 +55,8 @@ def test_the_batch_process_of_workers_loads_no_polars_nor_numba(tmp_path: Path) 
     assert facts["loaded"] == ["matplotlib"]  # the summary plot; the workers did the rest
     summary = (tmp_path / "out" / "summary.csv").read_text(encoding="utf-8").splitlines()
     assert summary[0] == (
-        "log,status,samples,vaf,mse,mode_accuracy,mode_samples,gate_failures,warnings,error,folder"
+        "log,status,samples,vaf,mse,mode_accuracy,mode_samples,state_rmse.x1,state_rmse.x2,"
+        "state_rmse.x3,gate_failures,warnings,error,folder"
     )
     assert [line.split(",")[1:3] for line in summary[1:]] == [["done", "91"]] * 3
 

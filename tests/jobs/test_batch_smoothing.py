@@ -71,10 +71,11 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
 
     plain = run()
     assert [o.status for o in plain.logs] == ["done"] * 3 + ["failed"]
-    # without an offline pass: the columns as ever, no comparison, no properties
+    # without an offline pass: each state's RMSE alone, no comparison, no properties
     with (out / "summary.csv").open() as file:
         assert next(csv.reader(file)) == [
             "log", "status", "samples", "vaf", "mse", "mode_accuracy", "mode_samples",
+            "state_rmse.x1", "state_rmse.x2", "state_rmse.x3",
             "gate_failures", "warnings", "error", "folder",
         ]  # fmt: skip
     assert "filter's own" not in (out / "summary.md").read_text()

@@ -103,7 +103,7 @@ def test_summary_csv_adds_the_columns_only_with_an_offline_pass(tmp_path: Path) 
     with path.open() as file:
         assert next(csv.reader(file)) == [
             "log", "status", "samples", "vaf", "mse", "mode_accuracy", "mode_samples",
-            "gate_failures", "warnings", "error", "folder",
+            "state_rmse.x1", "state_rmse.x3", "gate_failures", "warnings", "error", "folder",
         ]  # fmt: skip
     batch_rows_csv(path, rows(), METRICS)
     with path.open() as file:
