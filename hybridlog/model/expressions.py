@@ -29,7 +29,7 @@ from typing import Any
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.toml_text import held_digits, unheld_number
+from hybridlog.model.toml_text import held_digits, key_path, unheld_number
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -251,7 +251,8 @@ def parse_expression(
     if _depth(tree.body) > MAX_DEPTH:
         raise ModelError(f"{key}: expression nested more than {MAX_DEPTH} levels deep")
     try:
-        expression = _Converter(symbols, key, previous, text.strip()).visit(tree.body)
+        converter = _Converter(symbols, key, previous, text.strip())
+        expression = converter.visit(tree.body)
     except (TypeError, ValueError, ArithmeticError) as err:
         raise ModelError(f"{key}: {_unquoted(err, 200)}") from err
     except RecursionError as err:
@@ -263,13 +264,15 @@ def parse_expression(
     overflow = _overflow(expression)
     if overflow:
         raise ModelError(
-            f"{key}: {excerpt(text)} is not finite in double precision ({overflow} overflows)"
+            f"{key}: {excerpt(text)} is not finite in double precision ({overflow} overflows"
+            f"{_parameters_used(tree.body, symbols, converter, _overflow)})"
         )
     underflow = _underflow(expression)
     if underflow:
         raise ModelError(
             f"{key}: {excerpt(text)} holds a constant smaller in magnitude than a double holds "
-            f"in full ({underflow}); write 0 or rescale"
+            f"in full ({underflow}{_parameters_used(tree.body, symbols, converter, _underflow)}); "
+            "write 0 or rescale"
         )
     reason = _complex_reason(expression)
     if reason:
@@ -277,6 +280,56 @@ def parse_expression(
             f"{key}: {excerpt(text)} is complex-valued ({reason}); model expressions must be real"
         )
     return expression
+
+
+def _parameters_used(
+    root: ast.expr,
+    symbols: Mapping[str, sympy.Expr],
+    converter: _Converter,
+    problem: Callable[[sympy.Expr], str],
+) -> str:
+    """``"; with parameters.A = 1e+308"``: the parameters behind ``problem``, with their values.
+
+    A parameter is a number by the time the expression is folded, so an overflow of
+    ``A*x*10`` with ``A = 1e308`` showed only ``1e+309``, at the expression, and the
+    parameter (the value to fix, perhaps set by ``--set``) was not named.  Named are the
+    parameters the expression uses whose value set to 1 makes ``problem`` go; when no single
+    one does (``A*B``, both 1e200), every parameter the expression uses.
+    """
+    used = sorted(
+        {
+            node.id
+            for node in ast.walk(root)
+            if isinstance(node, ast.Name) and isinstance(symbols.get(node.id), sympy.Number)
+        }
+    )
+    culprits = [name for name in used if not _still(root, symbols, name, converter, problem)]
+    names = culprits or used
+    if not names:
+        return ""
+    shown = ", ".join(
+        f"{key_path('parameters', name)} = {float(symbols[name]):.10g}" for name in names[:3]
+    )
+    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+    return f"; with {shown}{more}"
+
+
+def _still(
+    root: ast.expr,
+    symbols: Mapping[str, sympy.Expr],
+    name: str,
+    converter: _Converter,
+    problem: Callable[[sympy.Expr], str],
+) -> bool:
+    """Whether ``problem`` remains with parameter ``name`` set to 1."""
+    other = _Converter(
+        {**symbols, name: sympy.Integer(1)}, converter.key, converter.previous, converter.source
+    )
+    try:
+        expression = other.visit(root)
+    except (ModelError, TypeError, ValueError, ArithmeticError, RecursionError):
+        return True
+    return not isinstance(expression, sympy.Expr) or bool(problem(expression))
 
 
 _SMALLEST_NORMAL = sys.float_info.min

@@ -998,24 +998,55 @@ _SUM_TOLERANCE = 1e-9
 
 
 def _markov_rows(value: Any, mode_ids: tuple[str, ...]) -> FloatArray:
-    """``transitions.matrix``: one row per mode, non-negative, each summing to 1."""
+    """``transitions.matrix``: one row per mode, non-negative, each summing to 1.
+
+    Written as a list of rows in the order of the modes, or (as ``initial.mode_probabilities``
+    may be) keyed by mode id: ``{1 = {1 = 0.9, 2 = 0.1}, 2 = [0.2, 0.8]}``, each mode's row
+    given (a row keyed by mode id leaves the modes it does not name at 0).  The keyed form
+    was refused as "expected a 2x2 matrix" while the initial probabilities took it.
+    """
     key = "transitions.matrix"
     n = len(mode_ids)
-    if (
-        not isinstance(value, list)
-        or len(value) != n
-        or any(not isinstance(r, list) or len(r) != n for r in value)
-    ):
-        raise ModelError(f"{key}: expected a {n}x{n} matrix (one row per mode)")
-    matrix = np.array(
-        [[as_number(v, f"{key}[{i}][{j}]") for j, v in enumerate(r)] for i, r in enumerate(value)]
+    shape = (
+        f"{key}: expected a {n}x{n} matrix (one row per mode) or a table of rows keyed by "
+        f"mode id (modes: {', '.join(mode_ids)})"
     )
+    if isinstance(value, dict):
+        _check_mode_keys(value, mode_ids, key)
+        missing = [m for m in mode_ids if m not in value]
+        if missing:
+            raise ModelError(
+                f"{key_path(key, missing[0])}: the row of mode {missing[0]!r} is missing "
+                "(one row per mode)"
+            )
+        rows = [(key_path(key, m), value[m]) for m in mode_ids]
+    elif isinstance(value, list) and len(value) == n:
+        rows = [(f"{key}[{i}]", row) for i, row in enumerate(value)]
+    else:
+        raise ModelError(shape)
+    entries: list[list[float]] = []
+    entry_keys: list[list[str]] = []
+    for where, row in rows:
+        if isinstance(row, dict):
+            _check_mode_keys(row, mode_ids, where)
+            entry_keys.append([key_path(where, m) for m in mode_ids])
+            written = [row.get(m, 0.0) for m in mode_ids]
+        elif isinstance(row, list) and len(row) == n:
+            entry_keys.append([f"{where}[{j}]" for j in range(n)])
+            written = row
+        else:
+            raise ModelError(
+                f"{where}: expected a row of {n} probabilities (modes: "
+                f"{', '.join(mode_ids)}), as a list or a table keyed by mode id"
+            )
+        entries.append([as_number(v, k) for v, k in zip(written, entry_keys[-1], strict=True)])
+    matrix = np.array(entries)
     if matrix.min() < 0:
         # The row of the negative entry: a row [1.1, -0.1] sums to 1, so the row whose sum
         # is furthest from 1 was named instead (row 0 of [[0.9, 0.1], [1.1, -0.1]]).
         row, col = (int(i) for i in np.unravel_index(np.argmin(matrix), matrix.shape))
         raise ModelError(
-            f"{key}[{row}][{col}]: a probability must be non-negative, got "
+            f"{entry_keys[row][col]}: a probability must be non-negative, got "
             f"{matrix[row, col]:g} (from mode {mode_ids[row]!r} to {mode_ids[col]!r})"
         )
     sums = matrix.sum(axis=1)
@@ -1024,10 +1055,17 @@ def _markov_rows(value: Any, mode_ids: tuple[str, ...]) -> FloatArray:
         # As initial.mode_probabilities: allclose's default relative tolerance let rows
         # summing to 0.99999 through, a Markov chain that loses probability every step.
         raise ModelError(
-            f"{key}[{bad}]: each row must sum to 1; the row of mode {mode_ids[bad]!r} sums to "
+            f"{rows[bad][0]}: each row must sum to 1; the row of mode {mode_ids[bad]!r} sums to "
             f"{sums[bad]:.10g}"
         )
     return matrix
+
+
+def _check_mode_keys(table: Mapping[str, Any], mode_ids: tuple[str, ...], key: str) -> None:
+    """Refuse a key of ``table`` that is not a mode id, naming it and the modes."""
+    for name in table:
+        if name not in mode_ids:
+            raise ModelError(f"{key_path(key, name)}: unknown mode (modes: {', '.join(mode_ids)})")
 
 
 _FREE_TEXT_KEYS = {"name", "description", "reference"}

@@ -28,6 +28,8 @@ def parse_schedule(
         mode = mode.strip()  # "1 : 100, 2 : 50" as written in a model file
         if not sep or not mode:
             raise error(f"{where}: '{part}' is not MODE:STEPS")
+        if ":" in mode:  # '1:10:2' read as mode '1:10' (a mode id never holds ':')
+            raise error(f"{where}: '{part}' is not MODE:STEPS (one ':' per item)")
         if mode not in mode_ids:
             raise error(f"{where}: unknown mode '{mode}' (modes: {', '.join(mode_ids)})")
         try:

@@ -102,6 +102,41 @@ def test_a_markov_row_of_rounded_thirds_summing_to_one_is_read():
     assert model.transitions[0, 2] == 0.333334
 
 
+def test_a_markov_matrix_keyed_by_mode_id_is_read_as_the_initial_probabilities_are():
+    # was "transitions.matrix: expected a 2x2 matrix", though initial.mode_probabilities
+    # takes a table keyed by mode id; a keyed row leaves the modes it does not name at 0
+    keyed = "matrix = {fast = {slow = 0.05, fast = 0.95}, slow = [0.97, 0.03]}"
+    model = parse_model(_replace(LINEAR_TWO_MODE, MATRIX, keyed))
+    assert model.transitions.tolist() == [[0.97, 0.03], [0.05, 0.95]]
+    sparse = "matrix = [{slow = 1.0}, {fast = 1}]"
+    assert parse_model(_replace(LINEAR_TWO_MODE, MATRIX, sparse)).transitions.tolist() == [
+        [1.0, 0.0],
+        [0.0, 1.0],
+    ]
+    for matrix, said in [
+        ("matrix = {slow = [0.97, 0.03]}", r"transitions\.matrix\.fast: the row of mode 'fast' "),
+        (
+            "matrix = {slow = [1, 0], fast = [0, 1], medium = [0, 1]}",
+            r"transitions\.matrix\.medium: unknown ",
+        ),
+        (
+            "matrix = {slow = {slow = 1, quick = 0}, fast = [0, 1]}",
+            r"transitions\.matrix\.slow\.quick: unknown mode",
+        ),
+        (
+            "matrix = {slow = {slow = 1.1, fast = -0.1}, fast = [0, 1]}",
+            r"transitions\.matrix\.slow\.fast: a ",
+        ),
+        (
+            "matrix = {slow = {slow = 0.9}, fast = [0, 1]}",
+            r"transitions\.matrix\.slow: each row must sum",
+        ),
+        ("matrix = [[0.97, 0.03], [1]]", r"transitions\.matrix\[1\]: expected a row of 2 "),
+        ("matrix = [[0.97, 0.03]]", r"transitions\.matrix: expected a 2x2 matrix"),
+    ]:
+        _refused(_replace(LINEAR_TWO_MODE, MATRIX, matrix), said)
+
+
 def test_the_sample_time_below_a_table_header_is_named_where_it_is():
     # was "dt: required key is missing", of a file that has it
     text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")

@@ -308,6 +308,23 @@ def test_constants_beyond_float64_and_wrong_arguments_are_refused_naming_the_key
         parse_model(text, origin="plant.toml")
 
 
+def test_an_overflow_through_a_parameter_names_the_parameter_and_its_value():
+    # parameters.g = 1e308 was reported at modes.only.f[1] with only '1e+308*...' overflowing:
+    # the value to fix (in the file or by --set) was not named
+    text = _replace(PENDULUM_ONE_MODE, "g = 9.81", "g = 1e308").replace("l = 1.3", "l = 0.001")
+    with pytest.raises(
+        ModelError,
+        match=r"^plant\.toml: modes\.only\.f\[1\]: .* not finite in double precision "
+        r"\(.* overflows; with parameters\.g = 1e\+308, parameters\.l = 0\.001\)$",
+    ):
+        parse_model(text, origin="plant.toml")
+    # an underflow likewise; the parameters not at fault (c) are not named
+    with pytest.raises(
+        ModelError, match=r"; with parameters\.g = 1e-300, parameters\.l = 1e\+10\); write 0"
+    ):
+        parse_model(PENDULUM_ONE_MODE, parameters={"l": 1e10, "g": 1e-300})
+
+
 def test_complex_simulation_input_and_matrix_entry_are_refused():
     text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
     with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):

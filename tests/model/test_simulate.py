@@ -125,6 +125,9 @@ def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
     # given empty (a script's unset variable), never taken for the model's own schedule
     with pytest.raises(OptionError, match=r"^--schedule: '' is not MODE:STEPS$"):
         simulate(model, schedule="")
+    # two colons: was "unknown mode '1:10'", though a mode id never holds ':'
+    with pytest.raises(OptionError, match=r"^--schedule: '1:10:2' is not MODE:STEPS \(one"):
+        simulate(model, schedule="1:10:2")
 
 
 def test_divergence_and_missing_inputs_name_the_model_file(tmp_path):
