@@ -59,6 +59,7 @@ from hybridlog.model.schedule import parse_schedule
 from hybridlog.model.toml_text import read_toml, spelled
 from hybridlog.model.twins import twin_modes
 from hybridlog.model.values import (
+    Names,
     as_covariance,
     as_expressions,
     as_mode_id,
@@ -256,8 +257,9 @@ class _Builder:
         )
         noise = as_table(data.get("noise", {}), "noise")
         check_keys(noise, _NOISE_KEYS, "noise")
-        default_q = as_covariance(noise.get("process", 0.0), len(states), "noise.process")
-        default_r = _default_measurement_noise(noise, len(outputs))
+        by_state, by_output = ("state", tuple(states)), ("output", tuple(outputs))
+        default_q = as_covariance(noise.get("process", 0.0), len(states), "noise.process", by_state)
+        default_r = _default_measurement_noise(noise, by_output)
         initial = as_table(required(data, "initial", ""), "initial")
         if kind == "components":
             for key in ("mode", "mode_probabilities"):
@@ -300,12 +302,16 @@ class _Builder:
             transitions = _transitions(data.get("transitions"), mode_ids)
             jumps = _jumps(data.get("jumps", {}), mode_ids, symbols)
         _check_report_columns(states, outputs, tuple(m.id for m in modes))
-        x0 = as_vector(required(initial, "state", "initial"), len(states), "initial.state")
-        p0 = as_covariance(initial.get("covariance", 1.0), len(states), "initial.covariance")
+        x0 = as_vector(
+            required(initial, "state", "initial"), len(states), "initial.state", by_state
+        )
+        p0 = as_covariance(
+            initial.get("covariance", 1.0), len(states), "initial.covariance", by_state
+        )
         simulation = as_table(data.get("simulation", {}), "simulation")
         check_keys(simulation, _SIMULATION_KEYS, "simulation")
         sim_state = (
-            as_vector(simulation["state"], len(states), "simulation.state")
+            as_vector(simulation["state"], len(states), "simulation.state", by_state)
             if "state" in simulation
             else None
         )
@@ -469,8 +475,11 @@ class _Builder:
             dynamics = as_expressions(required(spec, dyn, key), n_x, f"{key}.{dyn}", symbols.env)
             h = as_expressions(required(spec, "h", key), n_y, f"{key}.h", symbols.env)
             form, nonlinear_key = _linear_form(dynamics, h, symbols, f"{key}.{dyn}", f"{key}.h")
-        q, q_key = _mode_noise(spec, "process_noise", key, n_x, default_q, "noise.process")
-        r, r_key = _mode_noise(spec, "measurement_noise", key, n_y, default_r, "noise.measurement")
+        by_state, by_output = ("state", symbols.states), ("output", symbols.outputs)
+        q, q_key = _mode_noise(spec, "process_noise", key, by_state, default_q, "noise.process")
+        r, r_key = _mode_noise(
+            spec, "measurement_noise", key, by_output, default_r, "noise.measurement"
+        )
         guard = (
             _guard(spec["guard"], f"{key}.guard", symbols.env, {*symbols.states, *symbols.inputs})
             if "guard" in spec
@@ -518,9 +527,16 @@ class _Builder:
         unused = [b for b, d in zip(booleans, deltas, strict=True) if d not in used]
         if unused:
             raise ModelError(f"booleans: '{unused[0]}' appears in no expression of [dynamics]")
-        q, q_key = _mode_noise(spec, "process_noise", "dynamics", n_x, default_q, "noise.process")
+        q, q_key = _mode_noise(
+            spec, "process_noise", "dynamics", ("state", symbols.states), default_q, "noise.process"
+        )
         r, r_key = _mode_noise(
-            spec, "measurement_noise", "dynamics", n_y, default_r, "noise.measurement"
+            spec,
+            "measurement_noise",
+            "dynamics",
+            ("output", symbols.outputs),
+            default_r,
+            "noise.measurement",
         )
         affine = BooleanAffine(booleans=booleans, dynamics=dynamics, h=h)
         modes = []
@@ -683,7 +699,7 @@ def _check_dynamics_key(spec: Mapping[str, Any], key: str, continuous: bool) -> 
         )
 
 
-def _default_measurement_noise(noise: Mapping[str, Any], n: int) -> FloatArray:
+def _default_measurement_noise(noise: Mapping[str, Any], outputs: Names) -> FloatArray:
     """``[noise] measurement``, or NaN throughout when the file gives none.
 
     A measurement noise covariance the file does not give is not guessed: NaN records it
@@ -691,18 +707,24 @@ def _default_measurement_noise(noise: Mapping[str, Any], n: int) -> FloatArray:
     (:meth:`~hybridlog.model.hybrid_model.HybridModel.unstated_measurement_noise`).  A
     missing ``process`` is a statement (no process noise, 0), and stays one.
     """
+    n = len(outputs[1])
     if "measurement" in noise:
-        return as_covariance(noise["measurement"], n, "noise.measurement")
+        return as_covariance(noise["measurement"], n, "noise.measurement", outputs)
     return np.full((n, n), np.nan)
 
 
 def _mode_noise(
-    spec: Mapping[str, Any], name: str, key: str, n: int, default: FloatArray, default_key: str
+    spec: Mapping[str, Any],
+    name: str,
+    key: str,
+    names: Names,
+    default: FloatArray,
+    default_key: str,
 ) -> tuple[FloatArray, str]:
     """A mode's own covariance and its key, or the model-wide default and its key."""
     if name not in spec:
         return default, default_key
-    return as_covariance(spec[name], n, f"{key}.{name}"), f"{key}.{name}"
+    return as_covariance(spec[name], len(names[1]), f"{key}.{name}", names), f"{key}.{name}"
 
 
 def _variances(matrix: FloatArray, key: str) -> FloatArray:
@@ -1316,7 +1338,9 @@ def _state_min(
     """
     if "state_min" not in simulation:
         return None
-    bound = as_vector(simulation["state_min"], len(states), "simulation.state_min")
+    bound = as_vector(
+        simulation["state_min"], len(states), "simulation.state_min", ("state", tuple(states))
+    )
     below = [j for j in range(len(states)) if start[j] < bound[j]]
     if below:
         j = below[0]

@@ -204,18 +204,53 @@ def check_disjoint(groups: Mapping[str, tuple[str, ...]]) -> None:
             seen[name] = group
 
 
-def as_vector(value: Any, n: int, key: str) -> FloatArray:
-    """A list of exactly ``n`` finite numbers."""
+Names = tuple[str, tuple[str, ...]]
+"""``(noun, names)`` of what a vector's entries are, for a table keyed by name:
+``("state", ("x1", "x2"))``."""
+
+
+def as_vector(value: Any, n: int, key: str, names: Names | None = None) -> FloatArray:
+    """A list of exactly ``n`` finite numbers, or with ``names`` a table keyed by them.
+
+    ``initial.state = {x1 = 15.0, x2 = 10.0}`` reads as ``[15.0, 10.0]`` in the model's
+    order of the states (as ``initial.mode_probabilities`` and ``transitions.matrix`` take
+    a table keyed by mode id).  Every name must be there: a state left out has no value
+    hybridlog could vouch for.
+    """
+    if isinstance(value, dict) and names is not None:
+        return np.array([as_number(v, k) for k, v in _keyed(value, key, names)])
     if not isinstance(value, list):
-        raise ModelError(f"{key}: expected a list of {n} numbers")
+        keyed = f" or a table keyed by {names[0]}" if names is not None else ""
+        raise ModelError(f"{key}: expected a list of {n} numbers{keyed}")
     if len(value) != n:
         raise ModelError(f"{key}: wrong length; expected {n} instead of {len(value)}")
     return np.array([as_number(v, f"{key}[{i}]") for i, v in enumerate(value)])
 
 
-def as_covariance(value: Any, n: int, key: str) -> FloatArray:
-    """A covariance given as a scalar (times I), a diagonal list, or a full matrix."""
-    if isinstance(value, int | float) and not isinstance(value, bool):
+def _keyed(value: Mapping[str, Any], key: str, names: Names) -> list[tuple[str, Any]]:
+    """``(key path, value)`` of each of ``names`` in ``value``, in the order of ``names``."""
+    noun, known = names
+    for name in value:
+        if name not in known:
+            raise ModelError(f"{key_path(key, name)}: unknown {noun} ({noun}s: {', '.join(known)})")
+    missing = [name for name in known if name not in value]
+    if missing:
+        raise ModelError(
+            f"{key}: no value for {noun} {excerpt(missing[0], 40)}; a table keyed by {noun} "
+            f"gives every {noun} ({', '.join(known)})"
+        )
+    return [(key_path(key, name), value[name]) for name in known]
+
+
+def as_covariance(value: Any, n: int, key: str, names: Names | None = None) -> FloatArray:
+    """A covariance given as a scalar (times I), a diagonal list, or a full matrix.
+
+    With ``names``, the diagonal may be a table keyed by them (``{y1 = 0.01, y2 = 0.04}``),
+    as :func:`as_vector` reads one.
+    """
+    if isinstance(value, dict) and names is not None:
+        matrix = np.diag(as_vector(value, n, key, names))
+    elif isinstance(value, int | float) and not isinstance(value, bool):
         matrix = np.eye(n) * as_number(value, key)
     elif isinstance(value, list) and value and all(isinstance(r, list) for r in value):
         if len(value) != n:
@@ -236,7 +271,8 @@ def as_covariance(value: Any, n: int, key: str) -> FloatArray:
     elif isinstance(value, list):
         matrix = np.diag(as_vector(value, n, key))
     else:
-        raise ModelError(f"{key}: expected a number, a diagonal list or a matrix")
+        keyed = f", a table keyed by {names[0]}" if names is not None else ""
+        raise ModelError(f"{key}: expected a number, a diagonal list{keyed} or a matrix")
     if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
         row, col = (int(k) for k in np.unravel_index(np.argmax(abs(matrix - matrix.T)), (n, n)))
         raise ModelError(

@@ -137,6 +137,45 @@ def test_a_markov_matrix_keyed_by_mode_id_is_read_as_the_initial_probabilities_a
         _refused(_replace(LINEAR_TWO_MODE, MATRIX, matrix), said)
 
 
+def test_vectors_and_diagonals_keyed_by_state_or_output_name_are_read_in_the_models_order():
+    # were refused ("expected a list of 2 numbers"), though the Markov matrix and the
+    # initial mode probabilities take a table keyed by mode id
+    text = _replace(LINEAR_TWO_MODE, "state = [0.5, -0.2]", "state = {v = -0.2, p = 0.5}")
+    text = _replace(text, "process = [0.01, 0.02]", "process = {v = 0.02, p = 0.01}")
+    text = _replace(
+        text,
+        "measurement = [[0.05, 0.01], [0.01, 0.08]]",
+        "measurement = {y2 = 0.08, y1 = 0.05}",
+    )
+    text = _replace(text, "state = [0.0, 0.0]", "state = {p = 0.0, v = 1.5}")
+    text = _replace(text, "process_noise = [[0.02", "process_noise = {p = 0.02, v = 0.03}\n#[[0.02")
+    model = parse_model(text)
+    plain = parse_model(LINEAR_TWO_MODE)
+    assert model.initial_state.tolist() == plain.initial_state.tolist() == [0.5, -0.2]
+    assert model.modes[0].process_noise.tolist() == [[0.01, 0.0], [0.0, 0.02]]
+    assert model.modes[1].process_noise.tolist() == [[0.02, 0.0], [0.0, 0.03]]
+    assert model.modes[0].measurement_noise.tolist() == [[0.05, 0.0], [0.0, 0.08]]
+    assert model.simulation_state is not None and model.simulation_state.tolist() == [0.0, 1.5]
+    for given, said in [
+        ("state = {p = 0.5}", r"initial\.state: no value for state 'v'; a table keyed by state "),
+        ("state = {p = 0.5, v = 0, w = 1}", r"initial\.state\.w: unknown state \(states: p, v\)"),
+        ("state = {p = 0.5, v = 'a'}", r"initial\.state\.v: "),
+    ]:
+        _refused(_replace(LINEAR_TWO_MODE, "state = [0.5, -0.2]", given), said)
+    _refused(
+        _replace(LINEAR_TWO_MODE, "process = [0.01, 0.02]", "process = {p = 0.1, y1 = 1}"),
+        r"noise\.process\.y1: unknown state \(states: p, v\)",
+    )
+    _refused(
+        _replace(
+            LINEAR_TWO_MODE,
+            "measurement = [[0.05, 0.01], [0.01, 0.08]]",
+            "measurement = {y1 = 0.1, p = 1}",
+        ),
+        r"noise\.measurement\.p: unknown output \(outputs: y1, y2\)",
+    )
+
+
 def test_the_sample_time_below_a_table_header_is_named_where_it_is():
     # was "dt: required key is missing", of a file that has it
     text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")
