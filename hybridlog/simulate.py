@@ -1038,8 +1038,9 @@ def impossible_switches(
             f"{where}: switches from mode '{ids[source]}' to '{ids[target]}' at "
             f"t = {format_time(time[row])} s (row {row})"
             + (f" and {more} more time{'s' if more > 1 else ''}" if more else "")
-            + f", which [transitions] gives probability 0 (transitions.matrix[{source}]"
-            f"[{target}]): the model rules it out, so imm weighs it as impossible and its "
-            "Viterbi and k-best mode sequences cannot take it"
+            # the switch named by its modes: the file may write [transitions] as stay = 1,
+            # a matrix keyed by mode id or one in the modes' order
+            + ", which [transitions] gives probability 0: the model rules it out, so imm "
+            "weighs it as impossible and its Viterbi and k-best mode sequences cannot take it"
         )
     return tuple(notes)

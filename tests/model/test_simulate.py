@@ -275,15 +275,15 @@ def test_a_schedule_through_a_switch_the_markov_matrix_rules_out_is_noted():
     log = simulate(model, schedule="a:10,c:10,b:10", steps=60, jit=False)
     assert log.notes == (
         "--schedule: switches from mode 'a' to 'c' at t = 1.1 s (row 11) and 1 more time, "
-        "which [transitions] gives probability 0 (transitions.matrix[0][2]): the model rules "
+        "which [transitions] gives probability 0: the model rules "
         "it out, so imm weighs it as impossible and its Viterbi and k-best mode sequences "
         "cannot take it",
         "--schedule: switches from mode 'c' to 'b' at t = 2.1 s (row 21) and 1 more time, "
-        "which [transitions] gives probability 0 (transitions.matrix[2][1]): the model rules "
+        "which [transitions] gives probability 0: the model rules "
         "it out, so imm weighs it as impossible and its Viterbi and k-best mode sequences "
         "cannot take it",
         "--schedule: switches from mode 'b' to 'a' at t = 3.1 s (row 31), which [transitions] "
-        "gives probability 0 (transitions.matrix[1][0]): the model rules it out, so imm "
+        "gives probability 0: the model rules it out, so imm "
         "weighs it as impossible and its Viterbi and k-best mode sequences cannot take it",
     )
     # a first mode [initial] rules out costs one sample, and the paper's scenario does it
