@@ -61,6 +61,7 @@ from hybridlog.estimators.common import (
 )
 from hybridlog.estimators.filter_options import HstfOptions
 from hybridlog.estimators.kernels import (
+    Workspace,
     argmax,
     cholesky,
     congruence,
@@ -91,6 +92,7 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
+from hybridlog.jit import jitable_kernel
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import AlignedSignals, FloatArray, IntArray
 
@@ -159,6 +161,33 @@ class HstfState(NamedTuple):
         )
 
 
+class HstfScratch(NamedTuple):
+    """The arrays the HSTF's time loop works in (:func:`_hstf_steps` allocates them)."""
+
+    x_i_pred: FloatArray
+    F_i: FloatArray
+    H_i: FloatArray
+    y_i: FloatArray
+    gamma_i: FloatArray
+    P_i_pred: FloatArray
+    FPF: FloatArray
+    x_i_post: FloatArray
+    P_i_post: FloatArray
+    S_i: FloatArray
+    log_likelihood: FloatArray
+    uniform: FloatArray
+    x_pred: FloatArray
+    P_pred: FloatArray
+    y_mix: FloatArray
+    HQH: FloatArray
+    M: FloatArray
+    H_left: FloatArray
+    gamma_left: FloatArray
+    R_left: FloatArray
+    S_left: FloatArray
+    work: Workspace
+
+
 def _hstf_steps(
     f: Fn,
     F: Fn,
@@ -171,7 +200,53 @@ def _hstf_steps(
 ) -> None:
     """The generic HSTF time loop (compiled on first use; the docstring of the module).
 
-    Computes the rows of ``chunk`` from its :class:`HstfState`, worked on in place.
+    Computes the rows of ``chunk`` from its :class:`HstfState`, worked on in place: allocates
+    the loop's :class:`HstfScratch`, then runs :func:`_hstf_rows`, which allocates nothing.
+    """
+    _, n, m, n_q = dimensions(run)
+    scratch = HstfScratch(
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, m, n)),
+        np.empty((n_q, m)),
+        np.empty((n_q, m)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, m, m)),
+        np.empty(n_q),
+        np.full(n_q, 1.0 / n_q),
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty(m),
+        np.empty((m, m)),
+        np.empty((m, m)),
+        np.empty((m, n)),
+        np.empty(m),
+        np.empty((m, m)),
+        np.empty((m, m)),
+        workspace(n, m),
+    )
+    _hstf_rows(f, F, h, H, run, settings, chunk, out, scratch)
+
+
+@jitable_kernel
+def _hstf_rows(
+    f: Fn,
+    F: Fn,
+    h: Fn,
+    H: Fn,
+    run: FilterRun,
+    settings: HstfSettings,
+    chunk: Chunk[HstfState],
+    out: FilterBuffers,
+    scratch: HstfScratch,
+) -> None:
+    """The time loop of :func:`_hstf_steps`, in its ``scratch``.
+
+    Compiled without reference counts (:data:`~hybridlog.jit.WITHOUT_REFCOUNTS`): it slices
+    views freely, and every array copy is a loop.
     """
     inputs, outputs, Q, R = run.inputs, run.outputs, run.Q, run.R
     rho, beta, theta, fading, unfaded_likelihood = settings
@@ -181,31 +256,14 @@ def _hstf_steps(
     x, P, S, mu = state.x, state.P, state.S, state.mu
     q_hat = state.q_hat[0]
 
-    x_i_pred = np.empty((n_q, n))
-    F_i = np.empty((n_q, n, n))
-    H_i = np.empty((n_q, m, n))
-    y_i = np.empty((n_q, m))
-    gamma_i = np.empty((n_q, m))
-    P_i_pred = np.empty((n_q, n, n))
-    FPF = np.empty((n_q, n, n))
-    x_i_post = np.empty((n_q, n))
-    P_i_post = np.empty((n_q, n, n))
-    S_i = np.empty((n_q, m, m))
-    log_likelihood = np.empty(n_q)
-    uniform = np.full(n_q, 1.0 / n_q)
-    x_pred = np.empty(n)
-    P_pred = np.empty((n, n))
-    y_mix = np.empty(m)
-    work = workspace(n, m)
+    x_i_pred, F_i, H_i, y_i, gamma_i, P_i_pred, FPF, x_i_post, P_i_post = scratch[:9]
+    S_i, log_likelihood, uniform, x_pred, P_pred, y_mix, HQH, M = scratch[9:17]
+    H_left, gamma_left, R_left, S_left, work = scratch[17:]
     work_nn, work_mn, L, vec_m = work.nn, work.mn, work.L, work.m
-    L[:, :] = state.L
+    for b in range(m):
+        for c in range(m):
+            L[b, c] = state.L[b, c]
     predictions_out = out.output_predictions
-    HQH = np.empty((m, m))
-    M = np.empty((m, m))
-    H_left = np.empty((m, n))
-    gamma_left = np.empty(m)
-    R_left = np.empty((m, m))
-    S_left = np.empty((m, m))
 
     if first == 0 and stop > 0:
         record(out, 0, q_hat, mu, x, P)
@@ -262,8 +320,10 @@ def _hstf_steps(
             # (9), (11), (32): the gain from the combined P(k+1|k), of the measured outputs.
             H_u, R_u, gamma_u = H_i[i], R[i], gamma_i[i]
             if left:
-                H_left[:, :] = H_u
-                gamma_left[:] = gamma_u
+                for b in range(m):
+                    gamma_left[b] = gamma_u[b]
+                    for a in range(n):
+                        H_left[b, a] = H_u[b, a]
                 leave_out_unmeasured(y, H_left, gamma_left, R_u, R_left)
                 H_u, R_u, gamma_u = H_left, R_left, gamma_left
             kalman_update(x_i_pred[i], P_pred, H_u, R_u, gamma_u, work, x_i_post[i], P_i_post[i])
@@ -301,7 +361,9 @@ def _hstf_steps(
             q_hat = best
         record(out, row, q_hat, mu, x, P)
     state.q_hat[0] = q_hat
-    state.L[:, :] = L
+    for b in range(m):
+        for c in range(m):
+            state.L[b, c] = L[b, c]
 
 
 def _settings(options: HstfOptions) -> HstfSettings:

@@ -67,7 +67,7 @@ from hybridlog.estimators.unrolled import (
     upper,
     vector_names,
 )
-from hybridlog.jit import jit, jitable
+from hybridlog.jit import jit, jit_kernel, jitable_kernel
 from hybridlog.model.compiled import ModelFunction
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.signals import FloatArray, IntArray
@@ -89,7 +89,7 @@ def scratch_for(n: int, m: int) -> Scratch:
     return Scratch(np.empty((n, n)), np.empty(m), np.empty((n, n)))
 
 
-@jitable
+@jitable_kernel
 def predict(
     f: ModelFunction,
     F: ModelFunction,
@@ -254,7 +254,7 @@ def extension_priors(
     return np.argsort(-prior_c[: kept * n_q], kind="mergesort")
 
 
-@jit
+@jit_kernel
 def note_weight(weight: float, best_found: FloatArray, found: int) -> tuple[int, float]:
     """Record a computed log weight among the beam best of the step; (found, threshold).
 

@@ -255,13 +255,13 @@ EC_DESCRIPTION = (
 )
 
 
-@jit
+@jit_kernel
 def safe_log(value: float) -> float:
     """``log(value)``, ``-inf`` for ``value <= 0``."""
     return math.log(value) if value > 0.0 else -math.inf
 
 
-@jit
+@jit_kernel
 def log_sum_exp(values: FloatArray) -> float:
     """``log Σ exp(values)``; ``-inf`` when every value is ``-inf``."""
     top = -math.inf
@@ -276,7 +276,7 @@ def log_sum_exp(values: FloatArray) -> float:
     return top + math.log(total)
 
 
-@jit
+@jit_kernel
 def log_sum_exp_of(values: FloatArray, members: IntArray) -> float:
     """:func:`log_sum_exp` of ``values[members]`` (increasing), the others ``-inf``.
 
@@ -351,7 +351,7 @@ samples where one did for that cause, then (:data:`FALLBACK_WEIGHT`) the sum ove
 of the weight those steps carry in the output (:func:`note_fallbacks`)."""
 
 
-@jit
+@jit_kernel
 def unpack_state(record: FloatArray, x: FloatArray, P: FloatArray) -> None:
     """Read one packed :class:`~hybridlog.estimators.common.ModeStore` record into ``x``, ``P``."""
     n = x.shape[0]
@@ -604,7 +604,7 @@ def _forward_stands(
     return False
 
 
-@jit
+@jit_kernel
 def note_fallbacks(fell: int, weight: float, fallbacks: FloatArray) -> None:
     """Count a sample whose steps fell back for the causes of bit mask ``fell`` (0: none).
 
@@ -620,6 +620,47 @@ def note_fallbacks(fell: int, weight: float, fallbacks: FloatArray) -> None:
         if fell & (1 << (c - 1)):
             fallbacks[c] += 1
     fallbacks[FALLBACK_WEIGHT] += min(weight, 1.0)
+
+
+class KimScratch(NamedTuple):
+    """The arrays Kim's backward loop works in (:func:`kim_backward` allocates them)."""
+
+    log_transitions: FloatArray
+    log_mu_next: FloatArray
+    """``log μ^s(k+1)``."""
+    log_mu: FloatArray
+    log_c: FloatArray
+    terms: FloatArray
+    log_pair: FloatArray
+    row_total: FloatArray
+    log_new: FloatArray
+    weights: FloatArray
+    mu_s: FloatArray
+    x_j: FloatArray
+    """``E[x(k) | q(k+1)=j, Y^N]`` and its covariance ``P_j``."""
+    P_j: FloatArray
+    x_new: FloatArray
+    P_new: FloatArray
+    x: FloatArray
+    P: FloatArray
+    x_prior: FloatArray
+    """The mixed priors ``x̂⁰_j(k)``, ``P⁰_j(k)``."""
+    P_prior: FloatArray
+    x_next: FloatArray
+    """``x̂^s_j(k+1)``, ``P^s_j(k+1)``: the step before's ``x_new``, ``P_new``."""
+    P_next: FloatArray
+    r_next: FloatArray
+    """The rounding probes (:func:`rts_step`) of ``x_next``, ``x_j`` and ``x_new``."""
+    r_j: FloatArray
+    r_new: FloatArray
+    w: RtsWork
+    source_start: IntArray
+    """Next mode ``j``'s possible previous modes (``Π_ij ≠ 0``) are
+    ``sources[source_start[j]:source_start[j + 1]]``, in increasing order."""
+    sources: IntArray
+    target_start: IntArray
+    """Mode ``i``'s possible next modes are ``targets[target_start[i]:target_start[i + 1]]``."""
+    targets: IntArray
 
 
 def kim_backward(
@@ -640,39 +681,79 @@ def kim_backward(
     ``N−1`` is the caller's (the filtered one).  ``fallbacks`` (:data:`FALLBACKS_WIDTH`
     zeros) gets the samples where the step of a next mode that carries weight (at least
     :data:`NEGLIGIBLE_WEIGHT`) left its forward prior standing, by cause
-    (:func:`note_fallbacks`).
+    (:func:`note_fallbacks`).  Allocates the loop's :class:`KimScratch`, then runs
+    :func:`_kim_rows`, which allocates nothing.
+    """
+    n_q = transitions.shape[0]
+    n = Q.shape[1]
+    source_start, sources = possible_sources(transitions)
+    target_start, targets = possible_sources(np.ascontiguousarray(transitions.T))
+    scratch = KimScratch(
+        np.empty((n_q, n_q)),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty((n_q, n_q)),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty(n),
+        np.empty((n, n)),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.zeros((n_q, n)),
+        np.zeros((n_q, n)),
+        np.zeros((n_q, n)),
+        rts_work(n),
+        source_start,
+        sources,
+        target_start,
+        targets,
+    )
+    _kim_rows(f, F, inputs, transitions, Q, mu, store, out, fallbacks, scratch)
+
+
+@jitable_kernel
+def _kim_rows(
+    f: Fn,
+    F: Fn,
+    inputs: FloatArray,
+    transitions: FloatArray,
+    Q: FloatArray,
+    mu: FloatArray,
+    store: ModeStore,
+    out: FilterBuffers,
+    fallbacks: FloatArray,
+    scratch: KimScratch,
+) -> None:
+    """The backward loop of :func:`kim_backward`, in its ``scratch``.
+
+    Compiled without reference counts (:data:`~hybridlog.jit.WITHOUT_REFCOUNTS`): it slices
+    views freely, and every array copy is a loop.  The sums over previous and next modes run
+    over the pairs ``Π_ij ≠ 0`` alone (:func:`~hybridlog.estimators.kernels.possible_sources`;
+    a model's mode pairs: ``n_q^1.5`` of ``n_q²``): the others' ``log p_ij(k)`` are ``-inf``,
+    their terms exact zeros, so the sums are the same to the bit.
     """
     n_samples, n_q, _ = store.states.shape
     n = Q.shape[1]
-    log_T = np.empty((n_q, n_q))
+    log_T, log_mu_next, log_mu, log_c, terms, log_pair, row_total, log_new = scratch[:8]
+    weights, mu_s, x_j, P_j, x_new, P_new, x, P, x_prior, P_prior = scratch[8:18]
+    x_next, P_next, r_next, r_j, r_new, w = scratch[18:24]
+    source_start, sources, target_start, targets = scratch[24:]
     for i in range(n_q):
         for j in range(n_q):
             log_T[i, j] = safe_log(transitions[i, j])
-    log_mu_next = np.empty(n_q)  # log μ^s(k+1)
+            log_pair[i, j] = -math.inf
     for j in range(n_q):
         log_mu_next[j] = safe_log(mu[n_samples - 1, j])
-    log_mu = np.empty(n_q)
-    log_c = np.empty(n_q)
-    terms = np.empty(n_q)
-    log_pair = np.empty((n_q, n_q))
-    row_total = np.empty(n_q)
-    log_new = np.empty(n_q)
-    weights = np.empty(n_q)
-    mu_s = np.empty(n_q)
-    x_j = np.empty((n_q, n))  # E[x(k) | q(k+1)=j, Y^N]
-    P_j = np.empty((n_q, n, n))
-    x_new = np.empty((n_q, n))
-    P_new = np.empty((n_q, n, n))
-    w = rts_work(n)
-    x = np.empty(n)
-    P = np.empty((n, n))
-    x_prior = np.empty((n_q, n))  # mixed priors x̂⁰_j(k)
-    P_prior = np.empty((n_q, n, n))
-    x_next = np.empty((n_q, n))  # x̂^s_j(k+1), P^s_j(k+1): the step before's x_new, P_new
-    P_next = np.empty((n_q, n, n))
-    r_next = np.zeros((n_q, n))  # the rounding probes (rts_step) of x_next, x_j and x_new
-    r_j = np.zeros((n_q, n))
-    r_new = np.zeros((n_q, n))
     if n_samples > 0:
         for j in range(n_q):
             unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
@@ -683,24 +764,28 @@ def kim_backward(
         for i in range(n_q):
             log_mu[i] = safe_log(mu[k, i])
         for j in range(n_q):
-            for i in range(n_q):
+            into = sources[source_start[j] : source_start[j + 1]]
+            for i in into:
                 terms[i] = log_T[i, j] + log_mu[i]
-            log_c[j] = log_sum_exp(terms)
+            log_c[j] = log_sum_exp_of(terms, into)
         for i in range(n_q):
-            for j in range(n_q):
+            out_of = targets[target_start[i] : target_start[i + 1]]
+            for j in out_of:
                 if log_c[j] == -math.inf or log_mu_next[j] == -math.inf:
                     log_pair[i, j] = -math.inf
                 else:
                     log_pair[i, j] = log_mu_next[j] + log_mu[i] + log_T[i, j] - log_c[j]
-            row_total[i] = log_sum_exp(log_pair[i])
+            row_total[i] = log_sum_exp_of(log_pair[i], out_of)
         total = log_sum_exp(row_total)
         # RTS step of each next mode j from its mixed prior.
         fell = 0  # the causes of this sample's fallbacks, a bit each
         fell_weight = 0.0  # and the weight of the refused steps: Σ μ^s_j(k+1)
         for j in range(n_q):
-            x_j[j] = x_prior[j]
-            P_j[j] = P_prior[j]
-            r_j[j] = 0.0
+            for a in range(n):
+                x_j[j, a] = x_prior[j, a]
+                r_j[j, a] = 0.0
+                for b in range(n):
+                    P_j[j, a, b] = P_prior[j, a, b]
             if math.exp(log_mu_next[j]) < NEGLIGIBLE_WEIGHT:
                 continue  # q(k+1) = j carries no weight that counts: the prior stands
             cause = rts_cause(f, F, j, x_prior[j], P_prior[j], u, Q[j], x_next[j], P_next[j],
@@ -727,21 +812,24 @@ def kim_backward(
                 mixture_moments(mu_s, x_j, P_j, x_new[i], P_new[i])
                 _mixed_probe(mu_s, r_j, r_new[i])
                 continue
-            for j in range(n_q):
+            out_of = targets[target_start[i] : target_start[i + 1]]
+            for j in out_of:
                 weights[j] = math.exp(log_pair[i, j] - row_total[i])
-            mixture_moments(weights, x_j, P_j, x_new[i], P_new[i])
-            _mixed_probe(weights, r_j, r_new[i])
+            mixture_moments_of(weights, out_of, x_j, P_j, x_new[i], P_new[i])
+            _mixed_probe_of(weights, out_of, r_j, r_new[i])
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
-        x_next[:, :] = x_new
-        P_next[:, :, :] = P_new
-        r_next[:, :] = r_new
+            for a in range(n):
+                x_next[i, a] = x_new[i, a]
+                r_next[i, a] = r_new[i, a]
+                for b in range(n):
+                    P_next[i, a, b] = P_new[i, a, b]
         mixture_moments(mu_s, x_new, P_new, x, P)
         record(out, k, argmax(mu_s), mu_s, x, P)
 
 
-@jit
+@jit_kernel
 def _mixed_probe(weights: FloatArray, probes: FloatArray, out: FloatArray) -> None:
     """The rounding probe of a mixture's mean: ``Σ_j weights_j probes_j``."""
     for a in range(out.shape[0]):
@@ -751,7 +839,7 @@ def _mixed_probe(weights: FloatArray, probes: FloatArray, out: FloatArray) -> No
         out[a] = acc
 
 
-@jit
+@jit_kernel
 def _mixed_probe_of(
     weights: FloatArray, members: IntArray, probes: FloatArray, out: FloatArray
 ) -> None:
