@@ -26,7 +26,7 @@ import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, NoReturn, TypeVar
 
 import click
 
@@ -667,13 +667,16 @@ class _WholeNumber(_Strict, click.IntRange):
 
 
 class _Jobs(_WholeNumber):
-    """``--jobs``: a whole number of at least 1, or ``auto``, the cores this process may use."""
+    """``--jobs``: a whole number of at least 1, or ``"auto"``, the cores this process may use.
+
+    ``auto`` is passed on as such (:func:`~hybridlog.jobs.batch.run_batch` counts the
+    cores), so that a note or an error says ``--jobs auto``, not the count the user did
+    not write.
+    """
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, str) and value.strip().lower() == "auto":
-            from hybridlog.environment import usable_cores
-
-            return usable_cores()
+            return "auto"
         try:
             return super().convert(value, param, ctx)
         except click.BadParameter as err:
@@ -1109,7 +1112,7 @@ def batch_command(
     model_ref: str,
     estimator: str | None,
     out_dir: Path,
-    jobs: int,
+    jobs: int | Literal["auto"],
     scheduler: str | None,
     plots: str,
     junit: str | None,
@@ -1120,7 +1123,13 @@ def batch_command(
 
     found = batch_logs(logs)  # folders of logs searched once, before the job's imports
     total = len(found.paths)
-    if jobs > 1 and scheduler is None and total > 1:
+    if jobs == "auto":
+        from hybridlog.environment import usable_cores
+
+        workers = usable_cores()
+    else:
+        workers = jobs
+    if workers > 1 and scheduler is None and total > 1:
         # run_batch's workers fork from this forkserver: started before the batch job's
         # imports, it warms up while this process imports polars and numpy
         from hybridlog.jobs.workers import start_forkserver

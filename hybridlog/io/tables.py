@@ -1225,6 +1225,13 @@ def _header_as_written(path: Path) -> tuple[str, ...]:
             f"{path}, line 1: the header's column {len(names)} opens a quote that runs on to "
             "line 2; a header names its columns on one line (an unclosed quote?)"
         )
+    if '"' in line and _RECORD.fullmatch(line.rstrip("\r\n")) is None:
+        # t,u"x,y: polars opened a quote at u"x that ran to the end of the file and read
+        # the log as 0 rows ("no data rows"), with no word of the quote
+        raise LogError(
+            f"{path}, line 1: a quote inside a column name that is not quoted "
+            f'({excerpt(line.strip(), 60)}); a name with a quote is quoted whole, e.g. "u""x"'
+        )
     if line.startswith("#") and not set(TIME_COLUMNS) & {name.strip(" ") for name in names}:
         # a comment line before the header, or numpy.savetxt's header ('# t,u,y'): the
         # columns were named '# t' or after the comment, and the next line "had 3 fields"

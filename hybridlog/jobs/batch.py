@@ -49,10 +49,11 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 from hybridlog import __version__
 from hybridlog.cluster.progress import current_wait
+from hybridlog.environment import usable_cores
 from hybridlog.errors import (
     HybridlogError,
     LogError,
@@ -869,25 +870,29 @@ WORKER_BASELINE_BYTES = 150_000_000
 the filters, polars, the loaded model (70-150 MB measured; the larger figure is assumed)."""
 
 
-def pool_size(jobs: int, logs: int) -> tuple[int, list[str]]:
+def pool_size(jobs: int, logs: int, *, auto: bool = False) -> tuple[int, list[str]]:
     """The worker processes for ``--jobs jobs`` over ``logs`` logs, and a note per cap applied.
 
     Never more workers than logs, nor more than the memory available holds at
     :data:`WORKER_BASELINE_BYTES` each (``--jobs 500`` started 500 processes, which the
     kernel then killed or the machine swapped): each worker's logs need memory on top.
+    ``auto``: ``jobs`` is ``--jobs auto``'s count of cores, which the notes name as such;
+    fewer logs than cores is no note then (the user asked for no number of workers).
     """
     notes: list[str] = []
     size = jobs
+    asked = f"auto ({jobs} core{'s' if jobs > 1 else ''})" if auto else str(jobs)
     if size > logs > 0:
         size = logs
-        notes.append(f"--jobs {jobs}: {logs} log{'s' if logs > 1 else ''}, so {logs} at once")
+        if not auto:
+            notes.append(f"--jobs {jobs}: {logs} log{'s' if logs > 1 else ''}, so {logs} at once")
     available = available_memory()
     if available is not None and size > 1:
         fits = max(1, available // WORKER_BASELINE_BYTES)
         if size > fits:
             size = fits
             notes.append(
-                f"--jobs {jobs}: {fits} worker process{'es' if fits > 1 else ''}, as many as "
+                f"--jobs {asked}: {fits} worker process{'es' if fits > 1 else ''}, as many as "
                 f"the memory available ({size_text(available)}) holds at about "
                 f"{WORKER_BASELINE_BYTES / 1e6:.0f} MB each before their logs"
             )
@@ -904,7 +909,7 @@ def run_batch(
     *,
     out_dir: PathLike,
     estimator: str | None = None,
-    jobs: int = 1,
+    jobs: int | Literal["auto"] = 1,
     scheduler: str | None = None,
     sets: Sequence[str] = (),
     read: ReadOptions | None = None,
@@ -930,10 +935,11 @@ def run_batch(
     (:func:`~hybridlog.cluster.progress.reporting`), if any, is held around a model's
     first compiling, in this process or the workers (:meth:`WorkerPool.run
     <hybridlog.jobs.workers.WorkerPool.run>`); not on a Dask cluster's workers.  ``jobs``
-    worker processes analyse the logs, or the Dask cluster whose scheduler is at
-    ``scheduler``.  ``junit`` names a JUnit XML file to
-    write (:func:`hybridlog.report.junit.write_junit`).  ``smooth`` and ``mode_sequence``
-    are ``--smooth`` and ``--mode-sequence``
+    worker processes (``"auto"``: one per core this process may use,
+    :func:`~hybridlog.environment.usable_cores`) analyse the logs, or the Dask cluster whose
+    scheduler is at ``scheduler``.  ``junit`` names a JUnit XML file to write
+    (:func:`hybridlog.report.junit.write_junit`).  ``smooth`` and ``mode_sequence`` are
+    ``--smooth`` and ``--mode-sequence``
     (:func:`hybridlog.jobs.analysis.smoothing_overrides`); as estimator options they are part
     of the settings a resumed batch compares, so changing them redoes every log.
 
@@ -960,13 +966,17 @@ def run_batch(
     arguments.text(estimator, "estimator", optional=True)
     arguments.text(scheduler, "scheduler", optional=True)
     arguments.text(plots, "plots")
-    jobs = arguments.integer(jobs, "jobs")
+    # "auto": one worker per core this process may use, named so in notes and errors (the
+    # CLI passed the count, and a 2-core machine refused "--jobs 2" with --scheduler,
+    # which a 1-core one took)
+    auto = jobs == "auto"
+    jobs = usable_cores() if auto else arguments.integer(jobs, "jobs")
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
-    if jobs > 1 and scheduler is not None:  # it was ignored, as if it held the cluster back
+    if (auto or jobs > 1) and scheduler is not None:  # ignored, as if it held the cluster back
         raise OptionError(
-            f"--jobs {jobs}: has no effect with --scheduler (the Dask workers' threads set "
-            "how many logs run at once); leave it out"
+            f"--jobs {'auto' if auto else jobs}: has no effect with --scheduler (the Dask "
+            "workers' threads set how many logs run at once); leave it out"
         )
     if plots not in PLOT_CHOICES:
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
@@ -977,7 +987,8 @@ def run_batch(
         recovered = recover_note(paths)
         notes += [] if recovered is None else [recovered]
     if scheduler is None and jobs > 1:
-        jobs, notes = pool_size(jobs, len(paths))
+        jobs, capped = pool_size(jobs, len(paths), auto=auto)
+        notes += capped
     pool = client = None
     # where the workers write: the report folders' parents, and an existing report folder
     # itself (refreshed in place, its temporaries inside it: outputs.publish_dir)

@@ -99,9 +99,22 @@ def folder_kind_text(folder: Path) -> str:
 
     A log's report folder that would lie inside or hold another output folder was said to
     be in "the report an earlier run wrote for another log" whatever that folder was: a
-    comparison ``compare --out`` wrote into the batch folder, too.
+    comparison ``compare --out`` wrote into the batch folder, too.  One estimator's report
+    of a comparison (``<out>/cmp/imm``) is named as such, with its comparison, not as a
+    report ``analyze`` wrote.
     """
-    return _KIND_TEXTS[_kind(folder)]
+    kind = _kind(folder)
+    if (
+        kind == "analyze"
+        and _kind(folder.parent) == "compare"
+        and (folder.parent / MARKER).is_file()
+    ):
+        # an estimator's report of a comparison (<out>/cmp/imm) read as analyze's
+        return (
+            "one estimator's report of a comparison hybridlog compare wrote there "
+            f"({excerpt(str(folder.parent))})"
+        )
+    return _KIND_TEXTS[kind]
 
 
 def other_folders(root: Path, folders: Sequence[Path]) -> list[OtherFolder]:

@@ -96,9 +96,16 @@ def _over(counts: Mapping[str, int | None], prefix: str, noun: str = "output") -
         (n,) = values
         names = ", ".join(escape_markdown(y, line_start=False) for y, _ in named)
         return f"{_count(n)} samples of each {noun} ({names})"
-    parts = [f"{_count(n)} of {escape_markdown(y, line_start=False)}" for y, n in named]
-    parts[0] = parts[0].replace(" of ", " samples of ", 1)
-    return _and(parts)
+    # "301 samples of x1 and none of x2" (a gated state the log has no truth of): the
+    # second read "and no of x2"
+    parts = [f"{n:,}" if n else "none" for _, n in named]
+    parts[0] = f"{_count(named[0][1])} samples"
+    return _and(
+        [
+            f"{p} of {escape_markdown(y, line_start=False)}"
+            for p, (y, _) in zip(parts, named, strict=True)
+        ]
+    )
 
 
 def _count(n: int | None) -> str:

@@ -879,6 +879,18 @@ def test_a_quote_written_twice_in_a_header_name_is_one_quote(tmp_path: Path, hea
         load(path, maps=['u=u"x'])
 
 
+@pytest.mark.parametrize("header", ['t,u"x,y,mode', 't,u,y,mode"'])
+def test_a_quote_inside_an_unquoted_header_name_is_refused(tmp_path: Path, header: str) -> None:
+    # polars opened a quote at u"x that ran to the end of the file: the log read as 0 rows
+    # (inspect) or "no data rows" (analyze), with no word of the quote
+    path = csv_file(tmp_path, f"{header}\n{GOOD.split(chr(10), 1)[1]}")
+    refused = r"line 1: a quote inside a column name that is not quoted \('t,u"
+    with pytest.raises(LogError, match=refused):
+        inspect_log(path)
+    with pytest.raises(LogError, match=refused):
+        load(path)
+
+
 @pytest.mark.parametrize("header", ["t,u,y, y", "t,u , u,y", "t, t,u,y"])
 def test_header_names_that_differ_only_in_spaces_are_refused(tmp_path: Path, header: str) -> None:
     path = csv_file(tmp_path, f"{header}\n0,1,2,3\n")

@@ -54,3 +54,37 @@ def test_a_batch_starts_no_more_workers_than_logs(
     assert sizes == [2]
     assert [o.status for o in outcome.logs] == ["done", "done"]
     assert outcome.notes == ["--jobs 500: 2 logs, so 2 at once"]
+
+
+def test_jobs_auto_is_named_auto_in_notes_and_errors(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--jobs auto`` was the core count by the time the batch saw it: a 2-core machine
+    refused "--jobs 2: has no effect with --scheduler" (a 1-core one took it), and one log
+    gave the note "--jobs 2: 1 log, so 1 at once" for a number the user never wrote."""
+    import hybridlog.errors as errors
+
+    monkeypatch.setattr(batch, "usable_cores", lambda: 1)
+    with pytest.raises(errors.OptionError, match=r"^--jobs auto: has no effect with --scheduler"):
+        run_batch([], "three_tank_hstf", out_dir=tmp_path / "o", jobs="auto", scheduler="tcp://x:1")
+    monkeypatch.setattr(batch, "available_memory", lambda: 3 * WORKER_BASELINE_BYTES + 1)
+    assert pool_size(2, 1, auto=True) == (1, [])  # fewer logs than cores: said by no note
+    assert pool_size(4, 10, auto=True)[1] == [
+        "--jobs auto (4 cores): 3 worker processes, as many as the memory available (0.5 GB) "
+        "holds at about 150 MB each before their logs"
+    ]
+
+
+def test_jobs_keep_the_notes_on_the_logs_found(tmp_path: Path) -> None:
+    """With ``--jobs 2`` the notes on the logs found (a hidden log skipped) were replaced by
+    the workers' cap, so the hidden log's note was said with ``--jobs 1`` only."""
+    folder = tmp_path / "logs"
+    for name in ("s1.csv", ".s2.csv"):
+        write_table(folder / name, tank_run(steps=20, seed=1).columns)
+    outcome = run_batch(
+        [folder], "three_tank_hstf", out_dir=tmp_path / "out", estimator="imm", jobs=2
+    )
+    assert [o.status for o in outcome.logs] == ["done"]
+    assert len(outcome.notes) == 2
+    assert "'.' was skipped" in outcome.notes[0]
+    assert outcome.notes[1] == "--jobs 2: 1 log, so 1 at once"

@@ -100,6 +100,7 @@ def test_a_logs_folder_inside_a_comparison_names_the_comparison(
     analyze("runs/a.csv", TANK, out_dir="out/mine", estimator="imm")
     write_logs(Path("runs/cmp"), ["c.csv"], steps=10, first_seed=3)
     write_logs(Path("runs/mine"), ["d.csv"], steps=10, first_seed=4)
+    write_logs(Path("runs/cmp/hstf"), ["e.csv"], steps=10, first_seed=5)
 
     again = run_batch(["runs"], TANK, out_dir="out", estimator="imm")
 
@@ -111,4 +112,9 @@ def test_a_logs_folder_inside_a_comparison_names_the_comparison(
     assert errors["runs/mine/d.csv"] is not None and errors["runs/mine/d.csv"].endswith(
         "/out/mine', a report hybridlog analyze wrote there; move that folder out of "
         "--out, or choose another --out"
+    )
+    # an estimator's report inside a comparison was "a report hybridlog analyze wrote there"
+    assert errors["runs/cmp/hstf/e.csv"] is not None and errors["runs/cmp/hstf/e.csv"].endswith(
+        "/out/cmp/hstf', one estimator's report of a comparison hybridlog compare wrote there "
+        f"('{Path('out/cmp').absolute()}'); move that folder out of --out, or choose another --out"
     )

@@ -136,3 +136,18 @@ def test_the_terminal_says_when_numbers_are_not_over_the_same_samples(
         f"every estimator; see {out / 'comparison.md'}\n"
     ) in result.stderr
     assert "output_samples.yc1" in result.stdout
+
+
+def test_a_state_without_samples_is_said_in_words(tmp_path: Path) -> None:
+    """The states' line of a gated state the log has no truth of read "301 samples of x1 and
+    no of x2"; it is "none of x2" (and "no samples of x2" first)."""
+    out = tmp_path / "cmp"
+    compare(SAMPLE_LOGS / "three_tank_hstf.csv", "three_tank_hstf", ["imm"], out_dir=out)
+    imm = read_report(out / "imm" / "report.json")
+    blind = dataclasses.replace(
+        imm, states={**imm.states, "x2": dataclasses.replace(imm.states["x2"], samples=None)}
+    )
+    lines, _ = samples_section({"imm": blind}, ["x1", "x2"])
+    assert "- the states' RMSEs: `imm` over 301 samples of x1 and none of x2" in lines
+    lines, _ = samples_section({"imm": blind}, ["x2", "x1", "x3"])
+    assert "- the states' RMSEs: `imm` over no samples of x2, 301 of x1 and 301 of x3" in lines
