@@ -193,12 +193,20 @@ def samples_section(
             )
     offline = [name for name, report in reports.items() if report.smoothing is not None]
     if offline and len(offline) < len(reports):
-        unlike.append(f"the mode metrics of {', '.join(offline)} are of offline estimates")
+        # the states' RMSEs too, unless the offline pass kept the filter's states (the
+        # Viterbi path alone changes the modes only)
+        states_too = bool(states) and any(
+            (smoothing := reports[name].smoothing) is not None and not smoothing.keeps_filter_states
+            for name in offline
+        )
+        which = "the mode metrics and the states' RMSEs" if states_too else "the mode metrics"
+        own = "`filtered_mode_accuracy`" + (" and `filtered_state_rmse.<x>`" if states_too else "")
+        unlike.append(f"{which} of {', '.join(offline)} are of offline estimates")
         lines.append(
-            "- the mode metrics of "
+            f"- {which} of "
             + ", ".join(f"`{name}`" for name in offline)
             + " are of offline estimates (the `smoothing` column), the others' of their own "
-            "estimates: `filtered_mode_accuracy` compares every estimator's own"
+            f"estimates: {own} compare every estimator's own"
         )
     for name in given:
         if name not in reports:

@@ -201,7 +201,14 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
             "- `hstf` smoothing_fallback_weight: no smoother ran on its estimates, so none fell "
             "back to the filter's"
         ) in text.split("## Not available")[1]
-        assert done.unlike == ["the mode metrics of imm are of offline estimates"]
+        assert done.unlike == [
+            "the mode metrics and the states' RMSEs of imm are of offline estimates"
+        ]
+        assert (
+            "are of offline estimates (the `smoothing` column), the others' of their own "
+            "estimates: `filtered_mode_accuracy` and `filtered_state_rmse.<x>` compare every "
+            "estimator's own"
+        ) in text
 
 
 @pytest.mark.parametrize(

@@ -151,3 +151,28 @@ def test_a_state_without_samples_is_said_in_words(tmp_path: Path) -> None:
     assert "- the states' RMSEs: `imm` over 301 samples of x1 and none of x2" in lines
     lines, _ = samples_section({"imm": blind}, ["x2", "x1", "x3"])
     assert "- the states' RMSEs: `imm` over no samples of x2, 301 of x1 and 301 of x3" in lines
+
+
+def test_offline_states_are_said_as_the_offline_modes_are() -> None:
+    """A smoothed estimator's states' RMSEs beside a filter's were not said to be offline;
+    a Viterbi path alone keeps the filter's states, and says so by saying nothing of them."""
+    from hybridlog.report.document import Smoothing
+    from tests.report.test_report_gates import _side
+
+    imm = read_report(
+        Path(__file__).parents[1] / "data" / "reports" / "three_tank_hstf_imm.report.json"
+    )
+
+    def offline(method: str | None, sequence: str) -> Smoothing:
+        return Smoothing(method, sequence, "d", _side(0.8, 0, 0.3), _side(0.9, 0, 0.2))
+
+    for method, sequence, said in [
+        ("kim-rts", "argmax", "the mode metrics and the states' RMSEs of smoothed"),
+        (None, "viterbi", "the mode metrics of smoothed"),
+    ]:
+        reports = {
+            "smoothed": dataclasses.replace(imm, smoothing=offline(method, sequence)),
+            "filter": imm,
+        }
+        _, unlike = samples_section(reports, ["x1"])
+        assert unlike == [f"{said} are of offline estimates"]
