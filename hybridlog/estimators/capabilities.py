@@ -175,7 +175,7 @@ class Capabilities:
         if self.needs_single_output:
             words.append("one output")
         if self.needs_switching_signal:
-            words.append("switching signal in the log")
+            words.append("switching signal in the log (a one-mode model: none)")
         if self.applies_commands:
             words.append("each command a transition rule's when names, in the log")
         return tuple(words)
@@ -238,7 +238,8 @@ class Capabilities:
         starts late leaves the samples before it without one
         (:data:`~hybridlog.signals.NO_TRUE_MODE`), and a sampled one its gaps (the samples
         without one within ``dt/2``, whatever the gap's length), which the mode metrics leave
-        out but such an estimator would read as a mode.
+        out but such an estimator would read as a mode.  A one-mode model needs none: its
+        sigma is that mode (a log without the signal was refused, for a signal of one value).
         """
         if self.applies_commands:
             missing = missing_command(model, signals)
@@ -251,6 +252,8 @@ class Capabilities:
         if not self.needs_switching_signal:
             return None
         if signals.truth_modes is None:
+            if model.n_modes == 1:  # sigma is the one mode: the signal would tell nothing
+                return None
             return (
                 "needs the switching signal in the log; map it with --map truth.mode=PATH "
                 "(or a 'mode' column)"

@@ -380,11 +380,13 @@ def _noted(result: EstimationResult, options: HstfOptions, model: HybridModel) -
     """``result`` with the notes that explain its numbers.
 
     :data:`FADED_LIKELIHOOD_NOTE` where the likelihood is the faded one (not with ``fading =
-    false``: λ_i = 1 fades nothing, and the note's 45 % is not this run's), and
+    false``: λ_i = 1 fades nothing, and the note's 45 % is not this run's; nor on a one-mode
+    model, whose posterior is 1 whatever S_i: there is no mode for θ to hold or miss), and
     :data:`UNIFORM_PREDICTION_NOTE` where the modes' output equations differ.
     """
+    faded = options.fading and options.likelihood == "faded" and model.n_modes > 1
     notes = (
-        *((FADED_LIKELIHOOD_NOTE,) if options.fading and options.likelihood == "faded" else ()),
+        *((FADED_LIKELIHOOD_NOTE,) if faded else ()),
         *((UNIFORM_PREDICTION_NOTE,) if model.outputs_differ_by_mode else ()),
     )
     return replace(result, notes=(*result.notes, *notes)) if notes else result

@@ -101,7 +101,14 @@ MODES_GIVEN = (
     "switching-observer takes its modes from the log's switching signal, the log's true mode "
     "(paper 004: sigma is known): they are given, not estimated, so no mode metric is scored"
 )
-"""``EstimationResult.modes_given`` of every run."""
+"""``EstimationResult.modes_given`` of a run on a log with a switching signal."""
+
+ONE_MODE_GIVEN = (
+    "switching-observer runs a one-mode model, whose sigma is that mode at every sample (the "
+    "log has no switching signal, and needs none): the modes are given, not estimated, so no "
+    "mode metric is scored"
+)
+"""``EstimationResult.modes_given`` of a one-mode model's run on a log without the signal."""
 
 
 def brunovsky_gain(eigenvalues: tuple[float, ...]) -> FloatArray:
@@ -645,15 +652,20 @@ def _notes(
     time_s: FloatArray,
     condition: FloatArray,
     limit: float,
-    switches: int,
+    switches: int | None,
     jumped: int,
     states: FloatArray,
     eigenvalues: tuple[float, ...],
 ) -> tuple[str, ...]:
+    """The run's notes; ``switches`` None where sigma is a one-mode model's (no signal)."""
+    if switches is None:
+        sigma = "sigma the model's one mode throughout (no switching signal in the log)"
+    else:
+        times = "once" if switches == 1 else f"{switches} times"
+        sigma = f"sigma from the log switched {times}, jump maps R applied at {jumped} of them"
     notes = [
         f"observer (20) of paper 004 with K placing eig(A_b - K C_b) at "
-        f"{', '.join(f'{v:g}' for v in eigenvalues)}; sigma from the log switched "
-        f"{switches} times, jump maps R applied at {jumped} of them",
+        f"{', '.join(f'{v:g}' for v in eigenvalues)}; {sigma}",
     ]
     if not time_s.size:
         return tuple(notes)
@@ -707,7 +719,8 @@ def run_switching_observer(
         :class:`~hybridlog.errors.DivergenceError`) the estimate diverged (not finite at
         some sample: a report of it could vouch for nothing).
     LogError
-        The log has no switching signal (the true mode column).
+        The log has no switching signal (the true mode column) and the model more than one
+        mode (a one-mode model's sigma is that mode: the signal would tell nothing).
     OptionError
         ``eigenvalues`` is not one or ``n`` negative reals, or the integration step cannot
         follow one of them (:func:`_check_step`).
@@ -716,7 +729,7 @@ def run_switching_observer(
     from hybridlog.signals import IntArray
 
     _check_model(model)
-    if signals.truth_modes is None:
+    if signals.truth_modes is None and model.n_modes > 1:
         raise LogError(
             f"{signals.source}: estimator '{NAME}' needs the switching signal in the log; map "
             "it with --map truth.mode=PATH (or a 'mode' column)"
@@ -725,7 +738,12 @@ def run_switching_observer(
     gain = brunovsky_gain(eigenvalues)
     _check_step(model, eigenvalues)
     count, n = signals.n_samples, model.n_states
-    modes: IntArray = np.ascontiguousarray(signals.truth_modes, dtype=np.int64)
+    given = signals.truth_modes is not None
+    modes: IntArray = (
+        np.ascontiguousarray(signals.truth_modes, dtype=np.int64)
+        if signals.truth_modes is not None
+        else np.zeros(count, dtype=np.int64)  # one mode: sigma is known without the log
+    )
     timebase = model.timebase
     arguments = (
         np.ascontiguousarray(signals.time, dtype=np.float64),
@@ -762,7 +780,7 @@ def run_switching_observer(
         signals.time,
         condition,
         options.condition_limit,
-        switches,
+        switches if given else None,
         int(jumped.sum()),
         states,
         eigenvalues,
@@ -784,5 +802,5 @@ def run_switching_observer(
         runtime_s=runtime,
         compile_s=compile_s,
         notes=notes,
-        modes_given=MODES_GIVEN,
+        modes_given=MODES_GIVEN if given else ONE_MODE_GIVEN,
     )

@@ -650,23 +650,23 @@ def gates_for(
         state_names=model.states,
         component_names=[c.name for c in model.components],
         without_smoother=without_smoother(prepared),
-        modes_given=modes_given(prepared),
+        modes_given=modes_given(prepared, model),
     )
     return gates
 
 
-def modes_given(prepared: Sequence[Prepared]) -> dict[str, str]:
+def modes_given(prepared: Sequence[Prepared], model: HybridModel | None = None) -> dict[str, str]:
     """The estimators of ``prepared`` that read their modes from the log, each with why.
 
     An estimator that needs the switching signal takes it as its modes, and the log's true
     mode is that signal: its report scores no mode metric (``EstimationResult.modes_given``,
-    paper 004), which comparison.md says of it too.
+    paper 004), which comparison.md says of it too.  On a one-mode ``model`` its sigma is
+    that mode, with or without the signal in the log.
     """
-    return {
-        p.name: "it reads its modes from the log's switching signal, the log's true mode"
-        for p in prepared
-        if p.estimator.capabilities.needs_switching_signal
-    }
+    why = "it reads its modes from the log's switching signal, the log's true mode"
+    if model is not None and model.n_modes == 1:
+        why = "its model has one mode, which is sigma at every sample"
+    return {p.name: why for p in prepared if p.estimator.capabilities.needs_switching_signal}
 
 
 def without_smoother(prepared: Sequence[Prepared]) -> dict[str, str]:

@@ -280,7 +280,8 @@ def render_markdown(report: Report) -> str:
     lines += ["", "## Modes", "", *_offline_caveat(report, "modes")]
     given = _modes_given(report)
     switches = plural(len(modes.switches), "mode switch" if given else "estimated mode switch")
-    lines += [f"{switches}{' in the switching signal' if given else ''}.", ""]
+    signal = given and len(modes.labels) > 1  # a one-mode model's sigma needs no signal
+    lines += [f"{switches}{' in the switching signal' if signal else ''}.", ""]
     lines += ["| mode | dwell (s) |", "|---|---:|"]
     lines += [
         f"| {escape_markdown(m)} | {format_number(modes.dwell_s.get(m))} |" for m in modes.labels

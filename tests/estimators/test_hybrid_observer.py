@@ -147,6 +147,55 @@ def test_one_mode_equals_the_observer_of_ciccarella_dalla_mora_germani(vdp_log, 
     np.testing.assert_allclose(result.output_predictions[1:, 0], x_hat + x_hat**3 / 3)
 
 
+def test_a_one_mode_model_needs_no_switching_signal_in_the_log(vdp_log, tmp_path):
+    """A one-mode model's sigma is that mode: a log without the signal was refused
+    ("needs the switching signal in the log"), for a column that could hold one value."""
+    import polars as pl
+
+    from hybridlog.jobs.analysis import analyze, modes_given
+
+    model = parse_model(VAN_DER_POL)
+    blind = AlignedSignals(**{**vdp_log.__dict__, "truth_modes": None})
+    prepared = prepare(model, "switching-observer")
+    prepared.check_signals(model, blind)  # refused it
+    options = SwitchingObserverOptions(eigenvalues="-3,-6")
+    given = run_switching_observer(model, vdp_log, options)
+    result = run_switching_observer(model, blind, options)
+    np.testing.assert_array_equal(result.state_means, given.state_means)
+    np.testing.assert_array_equal(result.modes, 0)
+    assert result.modes_given.startswith("switching-observer runs a one-mode model")
+    assert "no switching signal in the log" in result.notes[0]
+    # and a signal that switched once said "switched 1 times"
+    once = vdp_log.truth_modes.copy()
+    once[200:] = 1
+    two = parse_model(
+        VAN_DER_POL.replace(
+            "[initial]", '[modes.other]\ndx = ["x2", "-x1 + u"]\nh = ["x1 + x1**3/3"]\n\n[initial]'
+        )
+    )
+    switched_once = AlignedSignals(**{**vdp_log.__dict__, "truth_modes": once})
+    note = run_switching_observer(two, switched_once, options).notes[0]
+    assert note.endswith("sigma from the log switched once, jump maps R applied at 0 of them")
+    assert given.modes_given.startswith("switching-observer takes its modes from the log")
+    # the gate's reason is the model's one mode, not a signal the log need not have
+    assert modes_given([prepared], model) == {
+        "switching-observer": "its model has one mode, which is sigma at every sample"
+    }
+    model_file = tmp_path / "vdp.toml"
+    model_file.write_text(VAN_DER_POL)
+    log = tmp_path / "vdp.csv"
+    columns = {"time": vdp_log.time, "u": vdp_log.inputs[:, 0], "y": vdp_log.outputs[:, 0]}
+    pl.DataFrame(columns).write_csv(log)
+    out = tmp_path / "out"
+    run = analyze(
+        log, model_file, out_dir=out, estimator="switching-observer", sets=["eigenvalues=-3,-6"]
+    )
+    report = run.report
+    assert report.modes.accuracy is None
+    text = (out / "report.md").read_text()
+    assert "0 mode switches.\n" in text and "runs a one-mode model" in text
+
+
 def test_the_gain_places_the_eigenvalues_of_the_brunovsky_pair():
     eigenvalues = (-1.5, -4.0, -7.0, -20.0)
     gain = brunovsky_gain(eigenvalues)

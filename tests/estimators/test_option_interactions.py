@@ -174,6 +174,19 @@ u = "sin(t/5)"
 """
 
 
+def test_the_hstf_says_nothing_of_holding_the_initial_mode_on_a_one_mode_model(
+    tmp_path: Path,
+) -> None:
+    """The faded-likelihood note (a flat posterior, θ holding the initial mode, 45 % mode
+    accuracy) was in every report of the HSTF, a one-mode model's too, where the posterior
+    is 1 and no mode is decided."""
+    path = tmp_path / "one.toml"
+    path.write_text(ONE_MODE, encoding="utf-8")
+    model = load_model(path)
+    signals = simulate(model, steps=20, seed=1).signals(model)
+    assert FADED_LIKELIHOOD_NOTE not in run_hstf(model, signals, HstfOptions()).notes
+
+
 @pytest.mark.parametrize(
     ("estimator", "name", "value"), [("imm", "transition_stay", "0.3"), ("hstf", "theta", "0.7")]
 )
