@@ -250,17 +250,22 @@ def parse_expression(
         ) from err
     if _depth(tree.body) > MAX_DEPTH:
         raise ModelError(f"{key}: expression nested more than {MAX_DEPTH} levels deep")
+    converter = _Converter(symbols, key, previous, text.strip())
     try:
-        converter = _Converter(symbols, key, previous, text.strip())
         expression = converter.visit(tree.body)
     except (TypeError, ValueError, ArithmeticError) as err:
-        raise ModelError(f"{key}: {_unquoted(err, 200)}") from err
+        # a parameter's value may be the cause (E**E with E = 1000: an exponent past 64)
+        culprits = _parameters_used(tree.body, symbols, converter, _no_problem, every=False)
+        raise ModelError(f"{key}: {_unquoted(err, 200)}{culprits}") from err
     except RecursionError as err:
         raise ModelError(f"{key}: expression too long or nested too deeply") from err
     if not isinstance(expression, sympy.Expr):
         raise ModelError(f"{key}: {excerpt(text)} is a condition, not a value")
-    if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
-        raise ModelError(f"{key}: {excerpt(text)} is not finite (a division by zero?)")
+    if _not_finite(expression):
+        raise ModelError(
+            f"{key}: {excerpt(text)} is not finite (a division by zero?"
+            f"{_parameters_used(tree.body, symbols, converter, _not_finite)})"
+        )
     overflow = _overflow(expression)
     if overflow:
         raise ModelError(
@@ -282,11 +287,23 @@ def parse_expression(
     return expression
 
 
+def _not_finite(expression: sympy.Expr) -> str:
+    """``not finite`` where the folded expression holds an infinity or NaN, else ``""``."""
+    return "not finite" if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) else ""
+
+
+def _no_problem(expression: sympy.Expr) -> str:
+    """No problem with an expression that converts (for an error raised while converting)."""
+    return ""
+
+
 def _parameters_used(
     root: ast.expr,
     symbols: Mapping[str, sympy.Expr],
     converter: _Converter,
     problem: Callable[[sympy.Expr], str],
+    *,
+    every: bool = True,
 ) -> str:
     """``"; with parameters.A = 1e+308"``: the parameters behind ``problem``, with their values.
 
@@ -294,7 +311,10 @@ def _parameters_used(
     ``A*x*10`` with ``A = 1e308`` showed only ``1e+309``, at the expression, and the
     parameter (the value to fix, perhaps set by ``--set``) was not named.  Named are the
     parameters the expression uses whose value set to 1 makes ``problem`` go; when no single
-    one does (``A*B``, both 1e200), every parameter the expression uses.
+    one does (``A*B``, both 1e200), every parameter the expression uses, unless not
+    ``every`` (an error while converting, which a parameter seldom causes: ``x/Z`` with
+    ``Z = 0`` and ``E**E`` with ``E = 1000`` are named, an unknown function is not blamed
+    on the parameters beside it).
     """
     used = sorted(
         {
@@ -304,7 +324,7 @@ def _parameters_used(
         }
     )
     culprits = [name for name in used if not _still(root, symbols, name, converter, problem)]
-    names = culprits or used
+    names = culprits or (used if every else [])
     if not names:
         return ""
     shown = ", ".join(

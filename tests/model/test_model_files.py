@@ -325,6 +325,18 @@ def test_an_overflow_through_a_parameter_names_the_parameter_and_its_value():
         parse_model(PENDULUM_ONE_MODE, parameters={"l": 1e10, "g": 1e-300})
 
 
+def test_a_division_by_zero_or_a_huge_exponent_through_a_parameter_names_it():
+    # 'x/Z' with Z = 0 said "a division by zero?" and 'x**E' with E = 1000 "the exponent
+    # 1000.00000000000 is larger than 64", naming neither parameter
+    with pytest.raises(ModelError, match=r"\(a division by zero\?; with parameters\.l = 0\)$"):
+        parse_model(PENDULUM_ONE_MODE, parameters={"l": 0.0})
+    with pytest.raises(ModelError, match=r"larger than 64; with parameters\.l = 100$"):
+        parse_model(_replace(PENDULUM_ONE_MODE, "/l", "/theta**l"), parameters={"l": 100.0})
+    # an error no parameter causes blames none
+    with pytest.raises(ModelError, match=r"unknown function 'foo' \(allowed: [^;]*\)$"):
+        parse_model(_replace(PENDULUM_ONE_MODE, "/l", "/foo(l)"))
+
+
 def test_complex_simulation_input_and_matrix_entry_are_refused():
     text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
     with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
