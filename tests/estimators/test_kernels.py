@@ -328,7 +328,7 @@ def test_the_generic_loops_are_compiled_without_reference_counts(
     Expectation correction's pass (``smoothing.ec_backward``) took and dropped an atomic
     reference on every array its steps were given and every view it sliced (a pair's
     ``x_pair[i, j]``, ``store.states[k, i]``), as Kim's did before ``_kim_rows``: its loop
-    is now ``_ec_rows``, 1.2-1.3x faster on the tank's 9 and the ladder's 16 mode pairs.
+    is now ``_ec_rows``, 1.2-1.4x faster on the tank's 9 and the ladder's 16 mode pairs.
     """
     import importlib
 
