@@ -851,6 +851,55 @@ def _mixed_probe_of(
         out[a] = acc
 
 
+class EcScratch(NamedTuple):
+    """The arrays expectation correction's backward loop works in (:func:`ec_backward`)."""
+
+    log_transitions: FloatArray
+    log_mu_next: FloatArray
+    """``log μ^s(k+1)``."""
+    log_mu: FloatArray
+    terms: FloatArray
+    corrected_terms: FloatArray
+    density: FloatArray
+    ready: BoolArray
+    """Pair ``(i, j)`` predicted in stage 1 (of the next mode ``j`` at hand)."""
+    log_pair: FloatArray
+    """``log Pr(q(k)=i, q(k+1)=j | Y^N)``."""
+    row_total: FloatArray
+    log_new: FloatArray
+    weights: FloatArray
+    mu_s: FloatArray
+    x_f: FloatArray
+    """The filtered ``x̂_i(k|k)``, ``P_i(k|k)``."""
+    P_f: FloatArray
+    x_pair: FloatArray
+    """The RTS step of pair ``(i, j)``, its covariance and rounding probe."""
+    P_pair: FloatArray
+    r_pair: FloatArray
+    x_new: FloatArray
+    P_new: FloatArray
+    x_next: FloatArray
+    """``x̂^s_j(k+1)``, ``P^s_j(k+1)``: the step before's ``x_new``, ``P_new``."""
+    P_next: FloatArray
+    r_next: FloatArray
+    """The rounding probes (:func:`rts_step`) of ``x_next`` and ``x_new``."""
+    r_new: FloatArray
+    gap: FloatArray
+    solved: FloatArray
+    w: RtsWork
+    x: FloatArray
+    P: FloatArray
+    pair_cause: IntArray
+    """:data:`TAKEN`, or why the step of pair ``(i, j)`` was not."""
+    source_start: IntArray
+    """Next mode ``j``'s possible previous modes (``Π_ij ≠ 0``) are
+    ``sources[source_start[j]:source_start[j + 1]]``, in increasing order."""
+    sources: IntArray
+    target_start: IntArray
+    """Mode ``i``'s possible next modes are ``targets[target_start[i]:target_start[i + 1]]``."""
+    targets: IntArray
+
+
 def ec_backward(
     f: Fn,
     F: Fn,
@@ -877,52 +926,91 @@ def ec_backward(
     :data:`NEGLIGIBLE_WEIGHT`) left its forward estimate standing, by cause
     (:func:`note_fallbacks`).  Row ``N−1`` is the caller's (the filtered one).  Plain Python
     that numba compiles on first use; one machine code for every model (the mode functions
-    are first-class functions).
+    are first-class functions).  Allocates the loop's :class:`EcScratch`, then runs
+    :func:`_ec_rows`, which allocates nothing.
     """
-    n_samples, n_q, _ = store.states.shape
+    n_q = transitions.shape[0]
     n = Q.shape[1]
-    log_T = np.empty((n_q, n_q))
-    for i in range(n_q):
-        for j in range(n_q):
-            log_T[i, j] = safe_log(transitions[i, j])
-    log_mu_next = np.empty(n_q)  # log μ^s(k+1)
-    for j in range(n_q):
-        log_mu_next[j] = safe_log(mu[n_samples - 1, j])
-    log_mu = np.empty(n_q)
-    terms = np.empty(n_q)
-    corrected_terms = np.empty(n_q)
-    density = np.empty(n_q)
-    ready = np.zeros(n_q, dtype=np.bool_)  # pair (i, j) predicted in stage 1
-    log_pair = np.empty((n_q, n_q))  # log Pr(q(k)=i, q(k+1)=j | Y^N)
-    row_total = np.empty(n_q)
-    log_new = np.empty(n_q)
-    weights = np.empty(n_q)
-    mu_s = np.empty(n_q)
-    x_f = np.empty((n_q, n))  # filtered x̂_i(k|k), P_i(k|k)
-    P_f = np.empty((n_q, n, n))
-    x_pair = np.empty((n_q, n_q, n))  # the RTS step of pair (i, j)
-    P_pair = np.empty((n_q, n_q, n, n))
-    r_pair = np.zeros((n_q, n_q, n))
-    x_new = np.empty((n_q, n))
-    P_new = np.empty((n_q, n, n))
-    x_next = np.empty((n_q, n))  # x̂^s_j(k+1), P^s_j(k+1): the step before's x_new, P_new
-    P_next = np.empty((n_q, n, n))
-    r_next = np.zeros((n_q, n))  # the rounding probes (rts_step) of x_next and x_new
-    r_new = np.zeros((n_q, n))
-    gap = np.empty(n)
-    solved = np.empty(n)
-    w = rts_work(n)
-    x = np.empty(n)
-    P = np.empty((n, n))
-    pair_cause = np.zeros((n_q, n_q), dtype=np.int64)  # TAKEN, or why the pair's step was not
     # Only the pairs Π_ij ≠ 0 are weighed (a model's mode pairs: n_q^1.5 of n_q²); the others'
     # log p_ij(k) stay -∞, and their terms in the sums over i or j are exact zeros
     # (kernels.possible_sources).  Into j from sources[...], from i into targets[...].
     source_start, sources = possible_sources(transitions)
     target_start, targets = possible_sources(np.ascontiguousarray(transitions.T))
+    scratch = EcScratch(
+        np.empty((n_q, n_q)),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.zeros(n_q, dtype=np.bool_),
+        np.empty((n_q, n_q)),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty(n_q),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, n_q, n)),
+        np.empty((n_q, n_q, n, n)),
+        np.zeros((n_q, n_q, n)),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.empty((n_q, n)),
+        np.empty((n_q, n, n)),
+        np.zeros((n_q, n)),
+        np.zeros((n_q, n)),
+        np.empty(n),
+        np.empty(n),
+        rts_work(n),
+        np.empty(n),
+        np.empty((n, n)),
+        np.zeros((n_q, n_q), dtype=np.int64),
+        source_start,
+        sources,
+        target_start,
+        targets,
+    )
+    _ec_rows(f, F, inputs, transitions, Q, corrected, ceilings, mu, store, out, fallbacks, scratch)
+
+
+@jitable_kernel
+def _ec_rows(
+    f: Fn,
+    F: Fn,
+    inputs: FloatArray,
+    transitions: FloatArray,
+    Q: FloatArray,
+    corrected: BoolArray,
+    ceilings: FloatArray,
+    mu: FloatArray,
+    store: ModeStore,
+    out: FilterBuffers,
+    fallbacks: FloatArray,
+    scratch: EcScratch,
+) -> None:
+    """The backward loop of :func:`ec_backward`, in its ``scratch``.
+
+    Compiled without reference counts (:data:`~hybridlog.jit.WITHOUT_REFCOUNTS`), as
+    :func:`_kim_rows`: it slices views freely, and every array copy is a loop.
+    """
+    n_samples, n_q, _ = store.states.shape
+    n = Q.shape[1]
+    s = scratch
+    log_T, log_mu_next, log_mu, terms = s.log_transitions, s.log_mu_next, s.log_mu, s.terms
+    corrected_terms, density, ready, log_pair = s.corrected_terms, s.density, s.ready, s.log_pair
+    row_total, log_new, weights, mu_s = s.row_total, s.log_new, s.weights, s.mu_s
+    x_f, P_f, x_pair, P_pair, r_pair = s.x_f, s.P_f, s.x_pair, s.P_pair, s.r_pair
+    x_new, P_new, x_next, P_next = s.x_new, s.P_new, s.x_next, s.P_next
+    r_next, r_new, gap, solved, w, x, P = s.r_next, s.r_new, s.gap, s.solved, s.w, s.x, s.P
+    pair_cause, source_start, sources = s.pair_cause, s.source_start, s.sources
+    target_start, targets = s.target_start, s.targets
     for i in range(n_q):
         for j in range(n_q):
+            log_T[i, j] = safe_log(transitions[i, j])
             log_pair[i, j] = -math.inf
+    for j in range(n_q):
+        log_mu_next[j] = safe_log(mu[n_samples - 1, j])
     if n_samples > 0:
         for j in range(n_q):
             unpack_state(store.states[n_samples - 1, j], x_next[j], P_next[j])
@@ -999,8 +1087,7 @@ def ec_backward(
                 r_pair[i, j] = 0.0
                 pair_cause[i, j] = TAKEN
                 if negligible or log_pair[i, j] < LOG_NEGLIGIBLE_WEIGHT:
-                    x_pair[i, j] = x_f[i]
-                    P_pair[i, j] = P_f[i]
+                    _forward_stands(x_f[i], P_f[i], x_pair[i, j], P_pair[i, j], r_pair[i, j])
                     continue
                 x_out, P_out, r_out = x_pair[i, j], P_pair[i, j], r_pair[i, j]
                 if (corrected[j] and not ready[i]) or not rts_predict(
@@ -1047,9 +1134,7 @@ def ec_backward(
                 # rules out: its forward estimate, as one that carries no weight).
                 for j in range(n_q):
                     if transitions[i, j] == 0.0:
-                        x_pair[i, j] = x_f[i]
-                        P_pair[i, j] = P_f[i]
-                        r_pair[i, j] = 0.0
+                        _forward_stands(x_f[i], P_f[i], x_pair[i, j], P_pair[i, j], r_pair[i, j])
                 mixture_moments(mu_s, x_pair[i], P_pair[i], x_new[i], P_new[i])
                 _mixed_probe(mu_s, r_pair[i], r_new[i])
                 continue
@@ -1061,9 +1146,11 @@ def ec_backward(
         for i in range(n_q):
             mu_s[i] = math.exp(log_new[i])
             log_mu_next[i] = log_new[i]
-        x_next[:, :] = x_new
-        P_next[:, :, :] = P_new
-        r_next[:, :] = r_new
+            for a in range(n):
+                x_next[i, a] = x_new[i, a]
+                r_next[i, a] = r_new[i, a]
+                for b in range(n):
+                    P_next[i, a, b] = P_new[i, a, b]
         mixture_moments(mu_s, x_new, P_new, x, P)
         record(out, k, argmax(mu_s), mu_s, x, P)
 
