@@ -28,21 +28,33 @@ from __future__ import annotations
 import ast
 import functools
 import importlib.util
+import math
 import os
 import re
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from hybridlog.cgroups import cpu_limit
 from hybridlog.errors import OptionError, excerpt
 
 __all__ = ["check_environment", "numba_whole_numbers"]
 
 
 def usable_cores() -> int:
-    """The cores this process may run on (its CPU affinity where the system has one), at least 1."""
+    """The cores this process may use, at least 1.
+
+    Its CPU affinity where the system has one, no more than its control groups' CPU quota
+    allows (:func:`hybridlog.cgroups.cpu_limit`), rounded up (``--cpus 1.5``: 2, as the JVM
+    and .NET count a container's processors).
+    """
     if hasattr(os, "sched_getaffinity"):
-        return max(1, len(os.sched_getaffinity(0)))
-    return max(1, os.cpu_count() or 1)
+        cores = len(os.sched_getaffinity(0))
+    else:
+        cores = os.cpu_count() or 1
+    quota = cpu_limit()
+    if quota is not None:
+        cores = min(cores, math.ceil(quota))
+    return max(1, cores)
 
 
 def _python_int(value: str) -> int | None:

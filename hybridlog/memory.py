@@ -24,13 +24,17 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
+from hybridlog.cgroups import memory_room
 from hybridlog.errors import HybridlogError
 
 __all__ = ["MemoryLedger", "available_memory", "check_fits", "reserved", "size_text"]
 
 
 def available_memory() -> int | None:
-    """Bytes of memory this process can still get: ``MemAvailable``, capped by a cgroup limit.
+    """Bytes of memory this process can still get: ``MemAvailable``, capped by its cgroups.
+
+    The cap is what the limits of its control groups leave it
+    (:func:`hybridlog.cgroups.memory_room`).
 
     ``None`` when the system says nothing (then no check is made).
     """
@@ -46,14 +50,8 @@ def available_memory() -> int | None:
             available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (OSError, ValueError, AttributeError):
             return None
-    try:
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = Path("/sys/fs/cgroup/memory.current").read_text().strip()
-        if limit != "max":
-            available = min(available, max(int(limit) - int(used), 0))
-    except (OSError, ValueError):
-        pass
-    return available
+    room = memory_room()
+    return available if room is None else min(available, room)
 
 
 def size_text(size: float) -> str:

@@ -14,6 +14,7 @@ one layer are peers that never import each other:
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
     | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python) | ``numbers``
     (numbers typed on the command line, read strictly) | ``times`` (times written for people)
+    | ``cgroups`` (the control groups' CPU and memory limits)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
     | ``environment`` (the libraries' settings from the environment, checked up front)
 2   ``io`` | ``model``
@@ -56,6 +57,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "polars_import",
         "numbers",
         "times",
+        "cgroups",
     ),
     ("signals", "jit", "outputs", "memory", "environment"),
     ("io", "model"),
