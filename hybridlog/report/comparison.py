@@ -234,10 +234,12 @@ def unavailable_section(
 
     ``columns`` and ``rows`` are the table's (the estimator first in each row); ``metrics``
     the columns that hold a report metric by its gate name (``vaf``, ``state_rmse.x1``).
-    A failed estimator's row is left out (its ``error`` cell says why), as is the
-    ``filtered_mode_accuracy`` cell of an estimator not smoothed: it is its
-    ``mode_accuracy``, whose reason is given.  ``smoothing_fallback_weight`` is ``n/a``
-    where no smoother ran (an estimator without one, ``--mode-sequence viterbi`` alone).
+    A failed estimator's row is left out (its ``error`` cell says why), as are the
+    ``filtered_<metric>`` cells (``filtered_mode_accuracy``, ``filtered_state_rmse.<x>``) of
+    an estimator not smoothed: each is its ``<metric>``, whose reason is given.  A smoothed
+    estimator's says "the filter's own:" and the metric's reason.
+    ``smoothing_fallback_weight`` is ``n/a`` where no smoother ran (an estimator without one,
+    ``--mode-sequence viterbi`` alone).
     """
     lines: list[str] = []
     for row in rows:
@@ -250,8 +252,9 @@ def unavailable_section(
                 continue
             if column in metrics:
                 why = null_reason(report, column)
-            elif column == "filtered_mode_accuracy" and report.smoothing is not None:
-                why = "the filter's own: " + null_reason(report, "mode_accuracy")
+            elif column.startswith("filtered_") and report.smoothing is not None:
+                own = column.removeprefix("filtered_")
+                why = "the filter's own: " + null_reason(report, own)
             elif column == "smoothing_fallback_weight":
                 why = "no smoother ran on its estimates, so none fell back to the filter's"
             else:

@@ -22,6 +22,7 @@ import pytest
 from hybridlog.jobs.analysis import compare
 from hybridlog.report import read_report
 from hybridlog.report.comparison import samples_section, unequal_columns
+from hybridlog.report.gates import null_reason
 from tests.cli.test_cli import run
 from tests.support.cpha import cpha_truth_log
 from tests.support.paths import SAMPLE_LOGS
@@ -176,3 +177,33 @@ def test_offline_states_are_said_as_the_offline_modes_are() -> None:
         }
         _, unlike = samples_section(reports, ["x1"])
         assert unlike == [f"{said} are of offline estimates"]
+
+
+def test_a_smoothed_estimators_na_filtered_state_gives_its_reason() -> None:
+    """comparison.md's "Not available" named the reason of an n/a ``filtered_mode_accuracy``
+    cell of a smoothed estimator but not of an n/a ``filtered_state_rmse.<x>`` beside it."""
+    from hybridlog.report.comparison import unavailable_section
+    from hybridlog.report.document import Smoothing, StateReport
+    from tests.report.test_report_gates import _side
+
+    imm = read_report(
+        Path(__file__).parents[1] / "data" / "reports" / "three_tank_hstf_imm.report.json"
+    )
+    blind = dataclasses.replace(_side(None, 0, 0.3), states={"x1": StateReport(rmse=None)})
+    smoothed = dataclasses.replace(
+        imm,
+        smoothing=Smoothing("kim-rts", "argmax", "d", blind, _side(0.9, 0, 0.2)),
+        null_reasons={**imm.null_reasons, "state_rmse.x1": "no true x1 in the log"},
+    )
+    columns = ["estimator", "filtered_mode_accuracy", "filtered_state_rmse.x1"]
+    lines = unavailable_section(
+        columns,
+        [["smoothed", None, None], ["filter", None, None]],
+        {"smoothed": smoothed, "filter": imm},
+        [],
+    )
+    assert lines[3:] == [
+        f"- `smoothed` filtered_mode_accuracy: the filter's own: "
+        f"{null_reason(smoothed, 'mode_accuracy')}",
+        "- `smoothed` filtered_state_rmse.x1: the filter's own: no true x1 in the log",
+    ]  # the filter's cells are its own metrics', whose reasons are given on their lines
