@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import operator
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import Literal, SupportsIndex, TypeGuard, overload
 
 import numpy as np
@@ -24,7 +24,19 @@ import numpy as np
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.io import ReadOptions
 
-__all__ = ["common", "flag", "integer", "path", "paths", "read_options", "text", "texts"]
+__all__ = [
+    "callback",
+    "common",
+    "flag",
+    "instance",
+    "integer",
+    "names",
+    "path",
+    "paths",
+    "read_options",
+    "text",
+    "texts",
+]
 
 OPTIONS = {
     "out_dir": "--out",
@@ -56,10 +68,17 @@ OPTIONS = {
 """The command-line option each checked parameter with one stands for, named in its error."""
 
 
+def _type_name(value: object) -> str:
+    """``value``'s type, with its module unless a builtin: ``numpy.bool``, not ``bool``."""
+    kind = type(value)
+    module = kind.__module__
+    return kind.__qualname__ if module == "builtins" else f"{module}.{kind.__qualname__}"
+
+
 def _refuse(parameter: str, expected: str, value: object) -> OptionError:
     option = f" ({OPTIONS[parameter]})" if parameter in OPTIONS else ""
     return OptionError(
-        f"{parameter}{option}: expected {expected}, got the {type(value).__name__} {excerpt(value)}"
+        f"{parameter}{option}: expected {expected}, got the {_type_name(value)} {excerpt(value)}"
     )
 
 
@@ -138,6 +157,39 @@ def flag(value: object, parameter: str) -> None:
     """Refuse ``value`` unless it is a ``bool`` (``smooth="no"`` smoothed)."""
     if not isinstance(value, bool):
         raise _refuse(parameter, "True or False", value)
+
+
+def instance(value: object, kind: type, parameter: str, named: str) -> None:
+    """Refuse ``value`` unless it is ``None`` or a ``kind`` (``chiu={"radius": 0.3}``).
+
+    ``named``: where a caller imports ``kind`` from, as the error names it.
+    """
+    if not (value is None or isinstance(value, kind)):
+        raise _refuse(parameter, f"a {named} or None", value)
+
+
+def names(value: object, parameter: str, known: Collection[str]) -> None:
+    """Refuse ``value`` unless it is ``None`` or a collection of names among ``known``.
+
+    One ``str`` is refused, not read as its letters (``given="radius"`` named no option).
+    """
+    if value is None:
+        return
+    if isinstance(value, str | bytes | bytearray) or not isinstance(value, Collection):
+        raise _refuse(parameter, f"a list of names or None{_one_text(value)}", value)
+    for item in value:
+        if not isinstance(item, str):
+            raise _refuse(parameter, "a list of names", item)
+        if item not in known:
+            raise OptionError(
+                f"{parameter}: {excerpt(item)} is no option; expected some of {', '.join(known)}"
+            )
+
+
+def callback(value: object, parameter: str) -> None:
+    """Refuse ``value`` unless it is ``None`` or callable (checked before any work)."""
+    if not (value is None or callable(value)):
+        raise _refuse(parameter, "a callable or None", value)
 
 
 def read_options(value: object) -> ReadOptions:

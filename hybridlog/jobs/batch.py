@@ -966,6 +966,7 @@ def run_batch(
     arguments.text(estimator, "estimator", optional=True)
     arguments.text(scheduler, "scheduler", optional=True)
     arguments.text(plots, "plots")
+    arguments.callback(progress, "progress")
     # "auto": one worker per core this process may use, named so in notes and errors (the
     # CLI passed the count, and a 2-core machine refused "--jobs 2" with --scheduler,
     # which a 1-core one took)

@@ -496,6 +496,10 @@ def discover_modes(
     arguments.path(plot, "plot", optional=True)
     arguments.flag(compare_kmeans, "compare_kmeans")
     arguments.flag(force, "force")
+    arguments.instance(chiu, ChiuOptions, "chiu", "hybridlog.estimators.chiu.ChiuOptions")
+    kind = "hybridlog.estimators.kmeans.KMeansOptions"
+    arguments.instance(kmeans, KMeansOptions, "kmeans", kind)
+    arguments.names(given, "given", [f.name for f in dataclasses.fields(ChiuOptions)])
     read = arguments.read_options(read)
     target, picture = check_cluster_outputs(
         log, model_ref, out=out, plot=plot, force=force, read=read

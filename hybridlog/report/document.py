@@ -72,7 +72,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Final, TypeAlias, TypeVar, cast
+from typing import TYPE_CHECKING, Final, TypeAlias, TypeVar, cast
 
 from hybridlog.errors import ReportError, excerpt
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
@@ -538,7 +538,9 @@ class Report:
     reading:
         What reading the log did (format, time source, dropped samples, ...), when known.
     extra:
-        Further top-level keys, written after all others (names of no other attribute).
+        Further top-level keys, written after all others (names of no other attribute);
+        each is an attribute too (``report.consistency``, ``report.parameters``), as README
+        promises of every key of ``report.json``.
 
     """
 
@@ -565,6 +567,23 @@ class Report:
     smoothing: Smoothing | None = None
     reading: Mapping[str, JsonValue] | None = None
     extra: Mapping[str, JsonValue] = field(default_factory=dict)
+
+    if not TYPE_CHECKING:  # mypy still refuses a misspelt attribute (``report.vaff``)
+
+        def __getattr__(self, name: str) -> JsonValue:
+            """A key of ``extra`` as an attribute: ``report.consistency`` was an AttributeError.
+
+            Called only for a name no attribute has; ``extra`` itself is looked up in the
+            instance's ``__dict__`` (absent while :mod:`pickle` or :mod:`copy` rebuild one).
+            """
+            extra = self.__dict__.get("extra", {})
+            if not name.startswith("__") and name in extra:
+                return extra[name]
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __dir__(self) -> list[str]:
+        """The attributes with the keys of ``extra`` (a notebook's completion offers them)."""
+        return sorted({*super().__dir__(), *self.extra})
 
     def __post_init__(self) -> None:
         clash = sorted(set(self.extra) & _KEYS)

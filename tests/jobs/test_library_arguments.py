@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from hybridlog.errors import OptionError
+from hybridlog.estimators.chiu import ChiuOptions
 from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
@@ -85,7 +86,8 @@ CALLS = {
     ),
     "a path naming no path": (  # os.fspath's TypeError
         lambda out: analyze(_NoPath(), MODEL, out_dir=out),
-        "log: expected a path (a str or pathlib.Path), got the _NoPath",
+        "log: expected a path (a str or pathlib.Path), got the "
+        "tests.jobs.test_library_arguments._NoPath",
     ),
     "seed a float": (
         lambda out: simulate_log(MODEL, out / "run.csv", seed=3.0),
@@ -94,6 +96,36 @@ CALLS = {
     "cluster force a string": (
         lambda out: discover_modes(LOG, MODEL, out=out / "centers.json", force="yes"),
         "force (--force): expected True or False, got the str 'yes'",
+    ),
+    "cluster options a dict": (  # a TypeError from dataclasses after the checks
+        lambda out: discover_modes(LOG, MODEL, out=out / "c.json", chiu={"radius": 0.3}),
+        "chiu: expected a hybridlog.estimators.chiu.ChiuOptions or None, got the dict",
+    ),
+    "kmeans options a dict": (  # an AttributeError ('dict' object has no attribute 'clusters')
+        lambda out: discover_modes(
+            LOG, MODEL, out=out / "c.json", compare_kmeans=True, kmeans={"clusters": 3}
+        ),
+        "kmeans: expected a hybridlog.estimators.kmeans.KMeansOptions or None, got the dict",
+    ),
+    "cluster given one string": (  # read as the letters r, a, d, ...: no option given
+        lambda out: discover_modes(
+            LOG, MODEL, out=out / "c.json", chiu=ChiuOptions(radius=0.3), given="radius"
+        ),
+        "given: expected a list of names or None (not one str), got the str 'radius'",
+    ),
+    "cluster given no option": (  # taken without a word
+        lambda out: discover_modes(
+            LOG, MODEL, out=out / "c.json", chiu=ChiuOptions(radius=0.3), given=["radiuss"]
+        ),
+        "given: 'radiuss' is no option; expected some of ",
+    ),
+    "batch progress not callable": (  # 'int' object is not callable after the first log
+        lambda out: run_batch([LOG], MODEL, out_dir=out, progress=3),
+        "progress: expected a callable or None, got the int '3'",
+    ),
+    "smooth a numpy bool": (  # refused as "got the bool 'True'", a bool by its name
+        lambda out: analyze(LOG, MODEL, out_dir=out, estimator="imm", smooth=np.True_),
+        "smooth (--smooth): expected True or False, got the numpy.bool 'True'",
     ),
 }
 
@@ -114,5 +146,5 @@ def test_a_numpy_integer_is_the_int_it_holds(tmp_path: Path) -> None:
     simulate_log(MODEL, tmp_path / "a.csv", steps=np.int64(30), seed=np.int64(4))
     simulate_log(MODEL, tmp_path / "b.csv", steps=30, seed=4)
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
-    with pytest.raises(OptionError, match=r"^jobs \(--jobs\): expected an int, got the bool"):
+    with pytest.raises(OptionError, match=r"^jobs \(--jobs\): expected an int, got the numpy.bool"):
         run_batch([LOG], MODEL, out_dir=tmp_path / "out", jobs=np.True_)
