@@ -107,11 +107,27 @@ class _PathName(click.Path):
 
     ``--out ""`` was the working folder (``--out . contains the log``), ``analyze ""`` the
     log ``.``, ``cluster --out ""`` an unexpected error.
+
+    A leading ``~`` or ``~user`` is the home folder, as the shell makes it of ``--out ~/r``
+    but not of ``--out=~/r`` nor of a quoted ``"~/r"``: those wrote a folder named ``~`` in
+    the working folder (which a later ``rm -r ~`` would take for the home).  A ``~user``
+    the system does not know is refused; ``./~`` names a file called ``~``.
     """
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, str) and not value:
             self.fail("an empty name", param, ctx)
+        if isinstance(value, str) and value.startswith("~"):
+            home = os.path.expanduser(value)
+            if home.startswith("~"):
+                user = value.split("/", 1)[0]
+                self.fail(
+                    f"{excerpt(value)}: no home folder for {excerpt(user)} (no such user); "
+                    f"write ./{value} for a name that starts with ~",
+                    param,
+                    ctx,
+                )
+            value = home
         return super().convert(value, param, ctx)
 
 

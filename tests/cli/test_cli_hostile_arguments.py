@@ -101,3 +101,31 @@ def test_an_unknown_option_that_is_no_file_is_only_named(hybridlog_main: Main) -
         2,
         "hybridlog inspect: no such option '-r' (see hybridlog inspect --help)\n",
     )
+
+
+def test_a_tilde_the_shell_left_is_the_home_folder(
+    hybridlog_main: Main, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--out=~/run.csv`` (or a quoted ``"~/run.csv"``), which the shell does not expand,
+    wrote a folder named ``~`` in the working folder; it is the home folder, as
+    ``--out ~/run.csv`` is.  A ``~user`` the system does not know is refused."""
+    home, work = tmp_path / "home", tmp_path / "work"
+    home.mkdir()
+    work.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.chdir(work)
+    code, _ = hybridlog_main(
+        ["simulate", "three_tank_hstf", "--out=~/run.csv", "-q", "--steps", "5"]
+    )
+    assert code == 0
+    assert (home / "run.csv").is_file() and list(work.iterdir()) == []
+    code, err = hybridlog_main(["inspect", "~/run.csv"])
+    assert (code, err) == (0, "")
+    code, err = hybridlog_main(["simulate", "three_tank_hstf", "--out=~no_such_user_x/r.csv"])
+    assert (code, err) == (
+        2,
+        "hybridlog simulate: --out: '~no_such_user_x/r.csv': no home folder for "
+        "'~no_such_user_x' (no such user); write ./~no_such_user_x/r.csv for a name that "
+        "starts with ~ (see hybridlog simulate --help)\n",
+    )
+    assert list(work.iterdir()) == []
