@@ -676,8 +676,14 @@ class McapSource(MessageSource):
             self._stores[schema.id] = error
             raise error from None
         except DefinitionError as err:
+            if schema.encoding and schema.encoding not in encoding and schema.data:
+                # "no definition in the log" of a log that holds a schema, of another kind
+                err = DefinitionError(
+                    f"{err} (the log's schema for it is {excerpt(schema.encoding, 20)}, "
+                    "not a ROS message definition)"
+                )
             self._stores[schema.id] = err
-            raise
+            raise err from None
         self._stores[schema.id] = store
         return store
 

@@ -671,6 +671,10 @@ def decode_each(decode: Callable[[bytes], object], messages: Sequence[bytes]) ->
     says (a placeholder definition stored in a bag), so a wrong definition is an error here,
     never a wrong number.
 
+    A message the decoder rejects whose bytes open a compressed frame (:data:`COMPRESSED`)
+    is named so: the storage file of a ROS 2 bag compressed per message, read without its
+    folder, was "Invalid or unsupported CDR encapsulation", which names no cause.
+
     Raises
     ------
     UndecodableError
@@ -682,5 +686,20 @@ def decode_each(decode: Callable[[bytes], object], messages: Sequence[bytes]) ->
             out.append(decode(data))
         except Exception as err:  # any decoder failure means a bad message
             reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-            raise UndecodableError(row, reason) from err
+            raise UndecodableError(row, _compressed(data) or reason) from err
     return out
+
+
+COMPRESSED = {b"\x28\xb5\x2f\xfd": "zstd", b"\x04\x22\x4d\x18": "LZ4"}
+"""Magic numbers opening a compressed frame, and the compression they name."""
+
+
+def _compressed(data: bytes) -> str | None:
+    """Why a message whose bytes are a compressed frame does not decode, or ``None``."""
+    kind = next((name for magic, name in COMPRESSED.items() if data.startswith(magic)), None)
+    if kind is None:
+        return None
+    return (
+        f"its bytes are {kind}-compressed: a ROS 2 bag compressed per message is read "
+        "through its folder, whose metadata.yaml names the compression"
+    )

@@ -235,6 +235,7 @@ class BagSource(MessageSource):
             self._storages = [(storage, list(storage.connections))]
             _check_connections(storage.connections, self.path)
             return
+        _refuse_listed_twice(_listed_files(self._file), self.path)
         self._storages = [(s, list(s.connections)) for s in storages]
         _check_connections(reader.connections, f"{self.path}: metadata.yaml")
         for _, connections in self._storages:
@@ -463,15 +464,10 @@ def unlisted_storage_files(folder: Path) -> list[str]:
     reading says so.  Empty when ``metadata.yaml`` has no such list rosbags could read (it
     has refused the bag then).
     """
-    from ruamel.yaml import YAML
-    from ruamel.yaml.error import YAMLError
-
-    try:
-        document = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
-        paths = document["rosbag2_bagfile_information"]["relative_file_paths"]
-        listed = {Path(str(path)).name for path in paths}
-    except (OSError, ValueError, YAMLError, LookupError, TypeError, AttributeError):
+    names = _listed_files(folder)
+    if names is None:
         return []
+    listed = set(names)
     return sorted(
         file.name
         for file in folder.iterdir()
@@ -479,6 +475,45 @@ def unlisted_storage_files(folder: Path) -> list[str]:
         and file.name.lower().endswith(STORAGE_SUFFIXES)  # as the log's suffix is read
         and file.is_file()
     )
+
+
+def _listed_files(folder: Path) -> list[str] | None:
+    """The names of the storage files ``metadata.yaml`` lists, in order, as rosbags takes them.
+
+    ``None`` when it has no such list rosbags could read (rosbags refuses the bag then).
+    """
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        document = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+        paths = document["rosbag2_bagfile_information"]["relative_file_paths"]
+        return [Path(str(path)).name for path in paths]
+    except (OSError, ValueError, YAMLError, LookupError, TypeError, AttributeError):
+        return None
+
+
+def _refuse_listed_twice(names: list[str] | None, path: str) -> None:
+    """Refuse a bag whose ``metadata.yaml`` lists one storage file more than once.
+
+    rosbags opens the file once per listing and yields its messages as often, so each
+    message was read twice: refused as "the same log time as the one before", with
+    ``--sort`` (which keeps one of each) offered as the remedy for a fault of the metadata.
+
+    Raises
+    ------
+    LogError
+        Naming ``metadata.yaml``, the file and how often it is listed.
+    """
+    if names is None:
+        return
+    for name in dict.fromkeys(names):
+        if (times := names.count(name)) > 1:
+            raise LogError(
+                f"{path}: metadata.yaml lists the storage file {excerpt(name)} {times} times "
+                "in relative_file_paths, which would read its messages as often: list it "
+                "once"
+            )
 
 
 def _definitions(connections: list[Any]) -> dict[str, int | None]:

@@ -1,0 +1,68 @@
+"""A ROS 2 bag whose metadata.yaml lists one storage file twice in relative_file_paths.
+
+rosbags opens the file once per listing and yields each message twice: the bag was refused
+as "40 message(s) have the same log time as the one before ... --sort keeps the last of
+each", a remedy for a fault of the metadata, and with ``--sort`` read every message twice
+over.  It is refused naming metadata.yaml and the file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+from hybridlog.io.rosbag_reader import unlisted_storage_files
+
+SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
+MAPS = ("u=/u.data", "y=/y.data")
+
+
+def _bag(folder: Path) -> Path:
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    number = store.types["std_msgs/msg/Float64"]
+    with Writer(folder, version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        topics = [
+            writer.add_connection(t, "std_msgs/msg/Float64", typestore=store) for t in ("/u", "/y")
+        ]
+        for k in range(20):
+            for topic in topics:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(topic, 10**9 + k * 10**8, data)
+    return folder
+
+
+def _relist(folder: Path, names: list[str]) -> None:
+    meta = folder / "metadata.yaml"
+    text = meta.read_text()
+    listing = "relative_file_paths:\n  - bag.db3\n"
+    assert listing in text
+    listed = "".join(f"  - {n}\n" for n in names) if names else ""
+    written = "relative_file_paths:" + ("\n" + listed if names else " []\n")
+    meta.write_text(text.replace(listing, written))
+
+
+@pytest.mark.parametrize("sort", [False, True])
+def test_a_storage_file_listed_twice_is_refused_naming_it(sort: bool, tmp_path: Path) -> None:
+    folder = _bag(tmp_path / "bag")
+    load_signals(folder, SPEC, ReadOptions(maps=MAPS, sort=sort))  # read once: good
+    _relist(folder, ["bag.db3", "bag.db3"])
+    expected = (
+        "metadata.yaml lists the storage file 'bag.db3' 2 times in relative_file_paths, "
+        "which would read its messages as often: list it once"
+    )
+    with pytest.raises(LogError) as error:
+        load_signals(folder, SPEC, ReadOptions(maps=MAPS, sort=sort))
+    assert str(error.value).endswith(expected) and "\n" not in str(error.value)
+    with pytest.raises(LogError, match="2 times in relative_file_paths"):
+        inspect_log(folder)
+
+
+def test_an_empty_listing_still_names_the_files_it_leaves_out(tmp_path: Path) -> None:
+    folder = _bag(tmp_path / "bag")
+    _relist(folder, [])
+    assert unlisted_storage_files(folder) == ["bag.db3"]
