@@ -61,8 +61,8 @@ from hybridlog.model.compiled import (
     JumpFunction,
     ModelFunction,
     compile_continuous,
+    compile_f_h,
     compile_guard,
-    compile_model,
     input_functions,
 )
 from hybridlog.model.schedule import parse_schedule
@@ -577,7 +577,7 @@ def _compile_model_code(model: HybridModel) -> None:
         if model.is_continuous:
             compile_continuous(model)
         else:
-            compile_model(model)
+            compile_f_h(model)
             if model.state_driven:
                 compile_guard(model)
 
@@ -822,11 +822,11 @@ def simulate(
         run = (modes, inputs, time, states, outputs)
         _check_f_h_domain(model, None, functions.h, run, mode_of_step=lambda k: int(modes[k]))
     elif model.state_driven:
-        compiled = compile_model(model, jit=jit)
+        f, h = compile_f_h(model, jit=jit)
         guard = compile_guard(model, jit=jit)
         arguments = (
-            compiled.f,
-            compiled.h,
+            f,
+            h,
             guard,
             inputs,
             process_factors,
@@ -845,8 +845,8 @@ def simulate(
         end = len(modes) if stuck < 0 else stuck + 1
         _check_f_h_domain(
             model,
-            compiled.f,
-            compiled.h,
+            f,
+            h,
             (modes[:end], inputs[:end], time[:end], states[:end], outputs[:end]),
             mode_of_step=lambda k: int(modes[k - 1]),
         )
@@ -863,10 +863,10 @@ def simulate(
                 f"(x = {states[stuck].tolist()})"
             )
     else:
-        compiled = compile_model(model, jit=jit)
+        f, h = compile_f_h(model, jit=jit)
         arguments = (
-            compiled.f,
-            compiled.h,
+            f,
+            h,
             modes,
             inputs,
             process_factors,
@@ -879,7 +879,7 @@ def simulate(
         )
         _run_in_chunks(kernels.simulate_steps, arguments, (2, 3, 5, 7, 8, 9), origin, jit=jit)
         run = (modes, inputs, time, states, outputs)
-        _check_f_h_domain(model, compiled.f, compiled.h, run, mode_of_step=lambda k: int(modes[k]))
+        _check_f_h_domain(model, f, h, run, mode_of_step=lambda k: int(modes[k]))
     check_columns(
         origin,
         time,
