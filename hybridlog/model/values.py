@@ -246,10 +246,16 @@ def as_covariance(value: Any, n: int, key: str, names: Names | None = None) -> F
     """A covariance given as a scalar (times I), a diagonal list, or a full matrix.
 
     With ``names``, the diagonal may be a table keyed by them (``{y1 = 0.01, y2 = 0.04}``),
-    as :func:`as_vector` reads one.
+    as :func:`as_vector` reads one, and so may the full matrix, each row keyed by name and
+    given as a list or a table keyed by name (``{y1 = {y1 = 0.01, y2 = 0.002}, y2 = [0.002,
+    0.04]}``), every row and entry given.
     """
     if isinstance(value, dict) and names is not None:
-        matrix = np.diag(as_vector(value, n, key, names))
+        entries = _keyed(value, key, names)
+        if any(isinstance(row, dict | list) for _, row in entries):
+            matrix = np.array([as_vector(row, n, row_key, names) for row_key, row in entries])
+        else:
+            matrix = np.diag(as_vector(value, n, key, names))
     elif isinstance(value, int | float) and not isinstance(value, bool):
         matrix = np.eye(n) * as_number(value, key)
     elif isinstance(value, list) and value and all(isinstance(r, list) for r in value):
@@ -271,8 +277,8 @@ def as_covariance(value: Any, n: int, key: str, names: Names | None = None) -> F
     elif isinstance(value, list):
         matrix = np.diag(as_vector(value, n, key))
     else:
-        keyed = f", a table keyed by {names[0]}" if names is not None else ""
-        raise ModelError(f"{key}: expected a number, a diagonal list{keyed} or a matrix")
+        keyed = f" (either may be a table keyed by {names[0]})" if names is not None else ""
+        raise ModelError(f"{key}: expected a number, a diagonal list or a matrix{keyed}")
     if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
         row, col = (int(k) for k in np.unravel_index(np.argmax(abs(matrix - matrix.T)), (n, n)))
         raise ModelError(

@@ -176,6 +176,34 @@ def test_vectors_and_diagonals_keyed_by_state_or_output_name_are_read_in_the_mod
     )
 
 
+def test_a_full_covariance_keyed_by_name_is_read_in_the_models_order():
+    # a diagonal could be keyed by state or output name, a full matrix not: "expected a
+    # list of 2 numbers" of a table of rows
+    keyed = "measurement = {y2 = {y2 = 0.08, y1 = 0.01}, y1 = [0.05, 0.01]}"
+    text = _replace(LINEAR_TWO_MODE, "measurement = [[0.05, 0.01], [0.01, 0.08]]", keyed)
+    model, plain = parse_model(text), parse_model(LINEAR_TWO_MODE)
+    assert model.modes[0].measurement_noise.tolist() == [[0.05, 0.01], [0.01, 0.08]]
+    assert model.modes[0].measurement_noise.tolist() == plain.modes[0].measurement_noise.tolist()
+    for given, said in [
+        (
+            "{y1 = [0.05, 0.01], y2 = {y2 = 0.08}}",
+            r"noise\.measurement\.y2: no value for output 'y1'",
+        ),
+        ("{y1 = [0.05, 0.01], y2 = 0.08}", r"noise\.measurement\.y2: expected a list of 2 numbers"),
+        ("{y1 = [0.05, 0.01]}", r"noise\.measurement: no value for output 'y2'"),
+        ("{y1 = [0.05, 0.02], y2 = [0.01, 0.08]}", r"noise\.measurement: covariance must be symm"),
+        ("{y1 = {y1 = 1, p = 0}, y2 = [0, 1]}", r"noise\.measurement\.y1\.p: unknown output"),
+    ]:
+        _refused(
+            _replace(
+                LINEAR_TWO_MODE,
+                "measurement = [[0.05, 0.01], [0.01, 0.08]]",
+                f"measurement = {given}",
+            ),
+            said,
+        )
+
+
 def test_the_sample_time_below_a_table_header_is_named_where_it_is():
     # was "dt: required key is missing", of a file that has it
     text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")
