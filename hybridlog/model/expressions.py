@@ -96,7 +96,10 @@ MAX_LENGTH = 20_000
 MAX_DEPTH = 100
 """Deepest nesting of operations accepted (a chain ``a + b + c ...`` counts once)."""
 MAX_EXPONENT = 64
-"""Largest magnitude of a numeric exponent: ``2**10**9`` would make sympy compute forever."""
+"""Largest magnitude of a numeric exponent of an expression: ``x**1000`` is no model's."""
+MAX_POWER_BITS = 4096
+"""Largest binary exponent of a number's power (``10**300`` has 997): double precision ends
+at 1024, and ``2**10**9`` would make sympy compute forever."""
 
 
 def symbol_name_problem(name: str) -> str | None:
@@ -141,8 +144,19 @@ def _unquoted(text: object, limit: int) -> str:
 
 
 def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
+    """``base**exponent``, an exponent past :data:`MAX_EXPONENT` only of a number.
+
+    A constant such as ``10**300`` (1e300) is a number like another, which the checks of
+    overflow and underflow then judge; its exponent is bounded by the bits of the result,
+    so that ``2**10**9`` is not computed.
+    """
     if exponent.is_Number and abs(exponent) > MAX_EXPONENT:
-        raise ValueError(f"the exponent {exponent} is larger than {MAX_EXPONENT}")
+        magnitude = abs(float(base)) if base.is_Number else None
+        if magnitude is None or (magnitude not in (0.0, 1.0) and not math.isfinite(magnitude)):
+            raise ValueError(f"the exponent {exponent} is larger than {MAX_EXPONENT}")
+        bits = 0.0 if magnitude in (0.0, 1.0) else abs(float(exponent) * math.log2(magnitude))
+        if bits > MAX_POWER_BITS:
+            raise ValueError(f"{base}**{exponent} is far beyond double precision")
     return base**exponent
 
 

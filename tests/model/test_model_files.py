@@ -337,6 +337,21 @@ def test_a_division_by_zero_or_a_huge_exponent_through_a_parameter_names_it():
         parse_model(_replace(PENDULUM_ONE_MODE, "/l", "/foo(l)"))
 
 
+def test_a_power_of_numbers_past_the_exponent_bound_is_a_number():
+    """``10**300`` (1e300) was refused as "the exponent 300 is larger than 64": a number's
+    power is judged by the overflow and underflow checks; ``2**10**9`` is not computed."""
+    assert float(parse_expression("10**300", X, key="k")) == 1e300
+    assert parse_expression("x*1.0000001**100000 - x*(-1)**1001", X, key="k").free_symbols
+    for text, said in [
+        ("10**400*x", r"^k: '10\*\*400\*x' is not finite in double precision"),
+        ("0.5**2000*x", r"^k: '0\.5\*\*2000\*x' holds a constant smaller in magnitude"),
+        ("2**10**9", r"^k: 2\*\*1000000000 is far beyond double precision$"),
+        ("x**100", r"^k: the exponent 100 is larger than 64$"),
+    ]:
+        with pytest.raises(ModelError, match=said):
+            parse_expression(text, X, key="k")
+
+
 def test_complex_simulation_input_and_matrix_entry_are_refused():
     text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
     with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
