@@ -99,3 +99,17 @@ def test_the_environment_a_first_call_changes_is_what_the_readme_names() -> None
     section = (ROOT / "README.md").read_text(encoding="utf-8").split("## From Python")[1]
     said = set(re.findall(r"`([A-Z_][A-Z0-9_]+)`", section.split("\n## ")[0]))
     assert set(changed) <= said
+
+
+def test_the_callers_matplotlib_settings_change_no_plot(tmp_path: Path) -> None:
+    """A notebook's ``rcParams`` (a dpi, a font size) drew the report's PNGs: outputs.png was
+    1000x716 pixels, not the command's 1000x702.  They are kept, and draw nothing."""
+    import matplotlib
+
+    plain = _analyze(tmp_path / "plain").out_dir / "plots"
+    with matplotlib.rc_context({"figure.dpi": 50, "font.size": 17, "lines.linewidth": 4}):
+        styled = _analyze(tmp_path / "styled").out_dir / "plots"
+        assert (matplotlib.rcParams["figure.dpi"], matplotlib.rcParams["font.size"]) == (50, 17)
+    names = sorted(p.name for p in plain.iterdir())
+    assert names == sorted(p.name for p in styled.iterdir())
+    assert [(plain / n).read_bytes() == (styled / n).read_bytes() for n in names] == [True] * 3
