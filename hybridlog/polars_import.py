@@ -45,7 +45,15 @@ os.environ[ANY_TIME_ZONE] = "1"
 import polars as pl  # noqa: E402  (after the setting it reads)
 from polars.io.plugins import register_io_source  # noqa: E402
 
-__all__ = ["pl", "polars_file", "register_io_source", "take_back_sigint"]
+__all__ = ["SET_ON_IMPORT", "pl", "polars_file", "register_io_source", "take_back_sigint"]
+
+SET_ON_IMPORT = (ANY_TIME_ZONE, "_RJEM_MALLOC_CONF")
+"""The environment variables the first import sets, for the rest of the process: ours, and
+the options of polars' jemalloc, which polars' own ``__init__`` writes (its defaults, then what
+the variable held) before its allocator starts.  They stay: its allocator has read the variable,
+and changing the environment while other threads may read it is undefined behaviour in C.  A
+library call's first import of polars is the one change it leaves in the environment
+(README's "From Python"; ``tests/jobs/test_library_calls.py``)."""
 
 
 def take_back_sigint() -> None:

@@ -29,7 +29,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.report.plot_data import plain_text, time_origin
-from hybridlog.report.plots import label_time_axis
+from hybridlog.report.plots import label_time_axis, matplotlib_defaults
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters", "save_reproducibly"]
@@ -78,6 +78,7 @@ def _groups(
     return group, [f"C{g % 10}" for g in range(len(modes))], labels
 
 
+@matplotlib_defaults()  # the caller's rcParams draw nothing here
 def plot_clusters(
     path: Path,
     *,

@@ -35,7 +35,8 @@ import math
 import textwrap
 import threading
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -77,6 +78,7 @@ __all__ = [
     "figure_shapes",
     "label_time_axis",
     "make_ticks_ahead",
+    "matplotlib_defaults",
     "mode_panel_height",
     "plot_components",
     "plot_modes",
@@ -95,6 +97,25 @@ _MATPLOTLIB = threading.Lock()
 """Held while one run's figures are drawn: the report may draw them in a thread
 (:func:`hybridlog.report.writer.write_report`), and matplotlib's font cache is not safe
 to use from two threads at once (a Dask worker runs several logs side by side)."""
+
+
+@contextmanager
+def matplotlib_defaults() -> Iterator[None]:
+    """Draw with matplotlib's own defaults, whatever the process's ``rcParams``; one at a time.
+
+    A caller of the library that had set ``rcParams["figure.dpi"] = 50`` or
+    ``rcParams["font.size"] = 17`` (a notebook's style), or a ``matplotlibrc`` file, changed
+    the report's PNGs: ``outputs.png`` was 1000x716 pixels, not the command's 1000x702.  The
+    figures are made and drawn under :func:`matplotlib.style.context` of ``"default"`` (0.7 ms),
+    which gives the caller's settings back after; it holds :data:`_MATPLOTLIB`, so that two
+    threads' contexts never interleave (the second would save the first's defaults as the
+    settings to give back).  Every figure hybridlog draws (reports, batch's summary, cluster's
+    plot) is drawn in it.
+    """
+    from matplotlib import style
+
+    with _MATPLOTLIB, style.context("default"):
+        yield
 
 
 def draw_curve(ax: Axes, curve: Envelope, **style: Any) -> list[Line2D]:
@@ -243,7 +264,7 @@ def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
     as its locator asks for, and reuses them after); the same pixels are drawn on it.
     """
     wanted = Counter((max(n_panels, 1), panel_height) for n_panels, panel_height in shapes)
-    with _MATPLOTLIB:
+    with matplotlib_defaults():
         for key, count in wanted.items():
             ready = _READY.setdefault(key, [])
             while len(ready) < count:  # as many as one run's plots take, however often asked
@@ -1107,7 +1128,7 @@ def draw_plots(plot_dir: Path, data: PlotData) -> list[Path]:
         The files written.
 
     """
-    with _MATPLOTLIB:
+    with matplotlib_defaults():
         # in the plots' worker, states.png in a forked child beside the other two
         states = forked(lambda: plot_states(data, plot_dir / "states.png"))
         outputs = plot_outputs(data, plot_dir / "outputs.png")

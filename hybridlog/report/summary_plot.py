@@ -35,7 +35,7 @@ from hybridlog.errors import excerpt
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.markdown import plural
 from hybridlog.report.plot_data import plain_text
-from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead
+from hybridlog.report.plots import PNG_COMPRESS_LEVEL, make_ticks_ahead, matplotlib_defaults
 from hybridlog.report.summary import BatchRow
 
 __all__ = ["MAX_LABELS", "prepare_summary_figure", "summary_figure", "write_summary_plot"]
@@ -113,6 +113,7 @@ def _room_at_bottom(ax: Axes) -> None:
         ax.set_ylim(bottom=bottom - 0.1 * (top - bottom))
 
 
+@matplotlib_defaults()  # the caller's rcParams draw nothing here
 def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None:
     """Draw ``summary.png`` (see the module docstring) into ``path``.
 
@@ -124,6 +125,7 @@ def write_summary_plot(path: Path, title: str, rows: Sequence[BatchRow]) -> None
     figure.savefig(path, dpi=100, format="png", pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
 
 
+@matplotlib_defaults()  # the caller's rcParams draw nothing here
 def prepare_summary_figure(n_rows: int) -> None:
     """Make the empty figure of ``summary.png`` for ``n_rows`` logs ahead, and draw once.
 
