@@ -106,6 +106,8 @@ def _folders(controller: str, proc: Path) -> Iterator[Path]:
             relative = group.relative_to(mount.root)
         except ValueError:
             relative = PurePosixPath()
+        if ".." in relative.parts:  # a group outside the cgroup namespace (proc(5)): not here
+            relative = PurePosixPath()
         folder = mount.point.joinpath(*relative.parts[relative.is_absolute() :])
         while True:
             if folder.is_dir():
@@ -149,10 +151,18 @@ def cpu_limit(proc: Path = PROC) -> float | None:
 
 
 def _inactive_file(folder: Path) -> int:
+    """The bytes of the group's inactive file cache, which its usage counts.
+
+    v1's ``total_inactive_file`` (the hierarchy's, as ``memory.usage_in_bytes``), else
+    ``inactive_file`` (v2's is the hierarchy's; v1's, listed first, the group's own).
+    """
+    stat: dict[str, str] = {}
     for line in (_read(folder, "memory.stat") or "").splitlines():
         key, _, value = line.partition(" ")
-        if key in ("inactive_file", "total_inactive_file") and (number := _whole(value)):
-            return number
+        stat[key] = value
+    for key in ("total_inactive_file", "inactive_file"):
+        if (number := _whole(stat.get(key))) is not None:
+            return max(number, 0)
     return 0
 
 

@@ -131,3 +131,54 @@ def test_the_quota_caps_the_cores_and_the_limit_the_memory(
         assert environment.usable_cores() == 2
     monkeypatch.setattr(memory, "memory_room", lambda: 12_345)
     assert memory.available_memory() == 12_345
+
+
+def test_v1_counts_the_hierarchy_s_inactive_file_cache(tmp_path: Path) -> None:
+    """v1 counts the hierarchy's ``total_inactive_file``, not the group's own listed first.
+
+    ``memory.usage_in_bytes`` counts the hierarchy, children included.
+    """
+    mem = tmp_path / "memory"
+    _write(
+        mem,
+        memory__limit_in_bytes=str(4 * GB),
+        memory__usage_in_bytes=str(3 * GB),
+        memory__stat=f"cache 5\ninactive_file 20480\ntotal_cache 5\ntotal_inactive_file {GB}",
+    )
+    proc = _proc(tmp_path, "4:memory:/\n", _mountinfo_line(mem, "/", "cgroup", "rw,memory"))
+    assert cgroups.memory_room(proc) == 2 * GB
+
+
+def test_a_group_outside_the_namespace_reads_no_folder_outside_the_mount(tmp_path: Path) -> None:
+    """A group outside the namespace's root, ``/../sibling`` (``proc(5)``): only the mount.
+
+    Never a folder above the mount point.
+    """
+    mount = tmp_path / "sys" / "fs" / "cgroup"
+    _write(mount)
+    _write(tmp_path / "sys", cpu__max="100000 100000", memory__max="1", memory__current="0")
+    proc = _proc(tmp_path, "0::/../../sibling\n", _mountinfo_line(mount, "/", "cgroup2", "rw"))
+    assert cgroups.cpu_limit(proc) is None
+    assert cgroups.memory_room(proc) is None
+
+
+def test_a_hybrid_host_with_cpu_and_cpuacct_apart(tmp_path: Path) -> None:
+    """v1 ``cpu`` and ``cpuacct`` mounted apart, ``memory`` whose mount shows a sub-path, a v2
+    ``unified`` beside them, mountinfo's optional fields and a ``:`` in a group's name."""
+    cpu, acct = tmp_path / "cpu", tmp_path / "cpuacct"
+    mem, unified = tmp_path / "memory", tmp_path / "unified"
+    _write(cpu / "a:b", cpu__cfs_quota_us="250000", cpu__cfs_period_us="100000")
+    _write(acct / "a:b", cpu__cfs_quota_us="50000", cpu__cfs_period_us="100000")  # not cpu's
+    _write(mem / "sub", memory__limit_in_bytes=str(GB), memory__usage_in_bytes="0")
+    _write(unified / "a:b", cgroup__procs="1")  # no controller enabled in v2: no limit files
+    optional = "30 25 0:26 {root} {point} rw shared:1 master:2 - cgroup{v} cgroup {options}"
+    proc = _proc(
+        tmp_path,
+        "2:cpuacct:/a:b\n1:cpu:/a:b\n4:memory:/docker/x/sub\n0::/a:b\n",
+        optional.format(root="/", point=cpu, v="", options="rw,cpu"),
+        optional.format(root="/", point=acct, v="", options="rw,cpuacct"),
+        optional.format(root="/docker/x", point=mem, v="", options="rw,memory"),
+        optional.format(root="/", point=unified, v="2", options="rw"),
+    )
+    assert cgroups.cpu_limit(proc) == 2.5
+    assert cgroups.memory_room(proc) == GB

@@ -663,7 +663,8 @@ class McapSource(MessageSource):
             )
         encoding = {"ros2msg": "msg", "ros1msg": "msg", "ros2idl": "idl", "omgidl": "idl"}
         try:
-            text = schema.data.decode("utf-8")
+            # a schema of another kind (a protobuf FileDescriptorSet, binary) is not read
+            text = schema.data.decode("utf-8") if schema.encoding in encoding else ""
             store = typestore_for(
                 msgtype,
                 encoding.get(schema.encoding, ""),
