@@ -44,6 +44,7 @@ import json
 import os
 import shutil
 import threading
+import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -176,6 +177,10 @@ class LogOutcome:
     error: str | None
     memory_wait_s: float = 0.0
     """How long the log waited for memory the other workers' logs held (``--jobs N``)."""
+    seconds: float = 0.0
+    """The log's wall time in this run, from its task's start to its outcome (reading,
+    estimating, writing its report, waiting for memory; a reused report's check alone):
+    JUnit's ``time`` of its cases.  0 for a log whose worker died."""
 
 
 @dataclass(frozen=True)
@@ -722,13 +727,16 @@ def analyze_log(job: BatchJob, log: str, folder: str) -> LogOutcome:
 
     The task a worker runs (a local process or a Dask worker): it returns, never raises.
     """
+    start = time.perf_counter()
     try:
-        return _analyze_checked(job, log, folder)
+        outcome = _analyze_checked(job, log, folder)
     except HybridlogError as err:
         error = _one_line(str(err))
-        return LogOutcome(log, folder, "failed", None, error + missing_pattern_hint(log))
+        outcome = LogOutcome(log, folder, "failed", None, error + missing_pattern_hint(log))
     except Exception as err:  # a reader or estimator bug must not stop the other logs
-        return LogOutcome(log, folder, "failed", None, _one_line(f"{type(err).__name__}: {err}"))
+        why = _one_line(f"{type(err).__name__}: {err}")
+        outcome = LogOutcome(log, folder, "failed", None, why)
+    return dataclasses.replace(outcome, seconds=time.perf_counter() - start)
 
 
 # --- the batch ----------------------------------------------------------------------------------
@@ -1446,6 +1454,7 @@ def _summarise(
             if o.report is not None
             else (),
             made_from=_made_from(o),
+            seconds=o.seconds,
         )
         for o, log, folder in zip(outcomes, logs, folders, strict=True)
     ]

@@ -204,14 +204,14 @@ def junit_tree(
     tests = failures = errors = 0
     total = 0.0
     for row in rows:
+        total += row.seconds
         if row.report is None:
-            case = _case(suite, row.log, "analysis", 0.0)
+            case = _case(suite, row.log, "analysis", row.seconds)
             message = _xml(row.error or "could not be analysed")
             ET.SubElement(case, "error", {"message": message, "type": "hybridlog"}).text = message
             tests, errors = tests + 1, errors + 1
             continue
-        seconds = row.report.runtime_s or 0.0
-        total += seconds
+        seconds = row.seconds
         said = [
             _offline_text(row, offline) if offline is not None else None,
             _coverage_text(row.report),

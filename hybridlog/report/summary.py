@@ -330,6 +330,8 @@ class BatchRow:
     made_from:
         For a log skipped whose reused report an earlier run made from its content read at
         another path (the logs' folder renamed since), the path that report names.
+    seconds:
+        The log's wall time in this run (JUnit's ``time``): reading, estimating and writing.
     """
 
     log: str
@@ -339,6 +341,7 @@ class BatchRow:
     error: str | None
     gates: tuple[tuple[str, str | None], ...] = ()
     made_from: str | None = None
+    seconds: float = 0.0
 
     @property
     def missed(self) -> list[str]:

@@ -49,3 +49,39 @@ def test_a_junit_file_the_disk_cannot_take_is_named_not_its_temporary(tmp_path: 
     expected = rf"^--junit {re.escape(str(target))}: cannot write it: No space left on device$"
     with pytest.raises(OutputError, match=expected):
         write_junit(staged, "hybridlog batch: m · imm", [])
+
+
+def test_a_cases_time_is_its_logs_wall_time(tmp_path: Path) -> None:
+    """JUnit's ``time`` was the report's ``runtime_s``, the estimator's alone (0.000 for every
+    case of the README's batch: 300 samples in under a millisecond), and 0 for a log that
+    failed; it is the log's wall time in the run, shared among its gates' cases."""
+    import xml.etree.ElementTree as ET
+
+    from hybridlog.jobs.batch import run_batch
+    from tests.jobs.test_batch_resume import write_logs
+
+    logs = write_logs(tmp_path / "logs", ["s1.csv"], steps=20)
+    (tmp_path / "logs" / "bad.csv").write_text("t,u\n0,1\n")
+    junit = tmp_path / "junit.xml"
+    outcome = run_batch(
+        [*logs, tmp_path / "logs" / "bad.csv"],
+        "three_tank_hstf",
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        junit=junit,
+        fail_under=["vaf=0", "fit=-1000"],
+    )
+    seconds = {Path(o.log).name: o.seconds for o in outcome.logs}
+    assert seconds["s1.csv"] > 0.001 and seconds["bad.csv"] > 0.0
+    root = ET.parse(junit).getroot()
+    times = [(c.get("classname"), c.get("name"), c.get("time")) for c in root.iter("testcase")]
+    good, bad = str(logs[0]), str(tmp_path / "logs" / "bad.csv")
+    assert sorted(times) == sorted(
+        [
+            (bad, "analysis", f"{seconds['bad.csv']:.3f}"),
+            (good, "--fail-under vaf=0", f"{seconds['s1.csv'] / 2:.3f}"),
+            (good, "--fail-under fit=-1000", f"{seconds['s1.csv'] / 2:.3f}"),
+        ]
+    )
+    suite = root.find("testsuite")
+    assert suite is not None and suite.get("time") == f"{sum(seconds.values()):.3f}"
