@@ -118,17 +118,34 @@ class _PathName(click.Path):
         if isinstance(value, str) and not value:
             self.fail("an empty name", param, ctx)
         if isinstance(value, str) and value.startswith("~"):
-            home = os.path.expanduser(value)
+            home = _expand_tilde(value)
             if home.startswith("~"):
                 user = value.split("/", 1)[0]
+                why = (
+                    "the previous working folder, and OLDPWD is not set"
+                    if user == "~-"
+                    else f"no home folder for {excerpt(user)} (no such user)"
+                )
                 self.fail(
-                    f"{excerpt(value)}: no home folder for {excerpt(user)} (no such user); "
-                    f"write ./{value} for a name that starts with ~",
+                    f"{excerpt(value)}: {why}; write ./{value} for a name that starts with ~",
                     param,
                     ctx,
                 )
             value = home
         return super().convert(value, param, ctx)
+
+
+def _expand_tilde(value: str) -> str:
+    """``value`` with its leading ``~`` expanded as bash expands it, else as given.
+
+    ``~`` and ``~user`` are the home folder, ``~+`` the working folder, ``~-`` the previous
+    one (``$OLDPWD``).
+    """
+    first, slash, rest = value.partition("/")
+    folder = {"~+": os.getcwd(), "~-": os.environ.get("OLDPWD")}
+    if first in folder:
+        return value if not folder[first] else f"{folder[first]}{slash}{rest}"
+    return os.path.expanduser(value)
 
 
 _PATH = _PathName(path_type=Path)

@@ -129,3 +129,18 @@ def test_a_tilde_the_shell_left_is_the_home_folder(
         "starts with ~ (see hybridlog simulate --help)\n",
     )
     assert list(work.iterdir()) == []
+    # bash's ~+ (the working folder) and ~- (the previous one) were "no such user"
+    monkeypatch.setenv("OLDPWD", str(home))
+    code, _ = hybridlog_main(
+        ["simulate", "three_tank_hstf", "--out=~+/here.csv", "-q", "--steps", "5"]
+    )
+    assert code == 0 and (work / "here.csv").is_file()
+    code, _ = hybridlog_main(["inspect", "~-/run.csv"])
+    assert code == 0
+    monkeypatch.delenv("OLDPWD")
+    code, err = hybridlog_main(["inspect", "~-/run.csv"])
+    assert (code, err) == (
+        2,
+        "hybridlog inspect: LOG: '~-/run.csv': the previous working folder, and OLDPWD is not "
+        "set; write ./~-/run.csv for a name that starts with ~ (see hybridlog inspect --help)\n",
+    )
