@@ -476,6 +476,10 @@ class HybridModel:
         Groups of modes with the same equations, noise, guard and jump maps
         (:func:`hybridlog.model.twins.twin_modes`), which no log can tell apart; empty
         when every mode differs.
+    component_twin_modes:
+        A ``[components]`` model's twins: ``(component, mode ids)`` for each group of one
+        component's modes with the same equations and noise
+        (:func:`hybridlog.model.twins.component_twin_modes`); empty otherwise.
     diagnoses:
         What the model's equations say of its estimability (outputs that see no state,
         unobservable states, undamped components without process noise, an integration
@@ -517,6 +521,7 @@ class HybridModel:
     commands: tuple[str, ...] = ()
     scenario: Scenario | None = None
     twin_modes: tuple[tuple[str, ...], ...] = ()
+    component_twin_modes: tuple[tuple[str, tuple[str, ...]], ...] = ()
     diagnoses: tuple[str, ...] = ()
     outputs_differ: bool | None = field(default=None, compare=False, repr=False)
 

@@ -57,7 +57,7 @@ from hybridlog.model.hybrid_model import (
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
 from hybridlog.model.schedule import parse_schedule
 from hybridlog.model.toml_text import read_toml, spelled
-from hybridlog.model.twins import twin_modes
+from hybridlog.model.twins import component_twin_modes, twin_modes
 from hybridlog.model.values import (
     Names,
     as_covariance,
@@ -388,6 +388,7 @@ class _Builder:
             commands=commands,
             scenario=scenario,
             twin_modes=twin_modes(modes, jumps),
+            component_twin_modes=component_twin_modes(components),
             diagnoses=diagnose(modes, states, inputs, timebase, x0, jumps, linearise=False),
             outputs_differ=outputs_differ(modes),
         )

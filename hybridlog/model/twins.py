@@ -12,13 +12,15 @@ loaded then), and kept in the loaded-model cache, so a warm run compares nothing
 
 from __future__ import annotations
 
-from collections.abc import Hashable
+from collections.abc import Hashable, Sequence
 
 import numpy as np
+import sympy
 
+from hybridlog.model.components import Component, ComponentMode, Equation
 from hybridlog.model.hybrid_model import Jump, LinearForm, Mode
 
-__all__ = ["twin_modes"]
+__all__ = ["component_twin_modes", "twin_modes"]
 
 _FORM = ("A", "B", "C", "D", "state_offset", "output_offset")
 
@@ -76,3 +78,38 @@ def twin_modes(modes: tuple[Mode, ...], jumps: tuple[Jump, ...]) -> tuple[tuple[
         )
         groups.setdefault(key, []).append(mode.id)
     return tuple(tuple(ids) for ids in groups.values() if len(ids) > 1)
+
+
+def _component_equation(equation: Equation) -> Hashable:
+    """One component equation, comparable across modes (an algebraic one either way round)."""
+    if equation.kind == "difference":
+        return ("difference", equation.state, sympy.expand(equation.rhs))
+    residual = sympy.expand(equation.residual)
+    return ("algebraic", frozenset({residual, sympy.expand(-residual)}))
+
+
+def _component_mode(mode: ComponentMode) -> Hashable:
+    return (
+        frozenset(_component_equation(e) for e in mode.equations),
+        tuple(sorted(mode.process_noise.items())),
+        tuple(sorted(mode.measurement_noise.items())),
+    )
+
+
+def component_twin_modes(
+    components: Sequence[Component],
+) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """Per component, groups of two or more of its modes that give the same log.
+
+    As :func:`twin_modes` for a ``[components]`` model: a component's modes are twins when
+    their equations (in any order, the parameters substituted; ``y = x`` and ``x = y`` alike)
+    and their process and measurement noise are equal.  Returns ``(component, mode ids)``
+    pairs, the ids in the file's order; empty when every component's modes differ.
+    """
+    found = []
+    for component in components:
+        groups: dict[Hashable, list[str]] = {}
+        for mode in component.modes:
+            groups.setdefault(_component_mode(mode), []).append(mode.id)
+        found += [(component.name, tuple(ids)) for ids in groups.values() if len(ids) > 1]
+    return tuple(found)

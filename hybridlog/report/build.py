@@ -831,6 +831,17 @@ def _model_notes(model: HybridModel | None) -> tuple[str, ...]:
             "the log's samples of the one not picked as errors; merge them, or give them "
             "different equations or noise if they are to be told apart"
         )
+    for component, twins in model.component_twin_modes:
+        quoted = [f"'{m}'" for m in twins]
+        notes.append(
+            f"NOTE: component '{component}': modes {', '.join(quoted[:-1])} and {quoted[-1]} "
+            "have the same equations and noise (process and measurement): no log can tell "
+            "them apart. Between them the estimate follows the modes' order, initial and "
+            "transition probabilities, not the data, so the mode accuracy, confusion and "
+            f"detection delays of component '{component}' count the log's samples of the one "
+            "not picked as errors; merge them, or give them different equations or noise if they "
+            "are to be told apart"
+        )
     notes += [line for line in model.diagnoses if line.startswith(WARNING_PREFIX)]
     return tuple(notes)
 

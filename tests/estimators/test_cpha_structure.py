@@ -183,3 +183,32 @@ def test_an_equation_sympy_cannot_solve_is_named():
     model = parse_model(text)
     with pytest.raises(ModelError, match=r"components\.A1\.modes\.m11\.equations\[0\]: cannot"):
         analyse(model, "m11", "m21", "m31")
+
+
+UNGIVEN = PAPER_EXAMPLE.replace('variables = ["wc1"]', 'variables = ["wc1", "wc2"]').replace(
+    '"yc1 = xc1"', '"yc1 = xc1 + wc2"'
+)
+"""The example with a variable ``wc2`` that A2's output uses and no equation gives."""
+
+UNGIVEN_ERROR = (
+    r"components\.A2\.modes\.m21\.equations\[1\]: uses '(wc2|yc1)', which no equation "
+    r"of the joint mode m11\|m21\|m31 determines"
+)
+
+
+def test_a_variable_no_known_mode_gives_is_refused_not_dropped():
+    # The cluster of yc1 was dropped without a word (wc2 "undetermined", as if a component
+    # were unknown): a report of no estimated state and every mode "right".
+    model = parse_model(UNGIVEN)
+    with pytest.raises(ModelError, match=UNGIVEN_ERROR):
+        analyse(model, "m11", "m21", "m31")
+    d = analyse(model, "unknown", "m21", "m31")  # an unknown component leaves it so: paper's case
+    assert d.held_states == ("xc1",)
+
+
+def test_joint_modes_refuse_a_variable_no_mode_gives():
+    # imm's joint mode kept wc2 as a free symbol of h: numba's NameError at run time.
+    from hybridlog.estimators.cpha.joint import joint_mode_model
+
+    with pytest.raises(ModelError, match=r"^<model>: " + UNGIVEN_ERROR):
+        joint_mode_model(parse_model(UNGIVEN))

@@ -23,7 +23,13 @@ import numpy as np
 import sympy
 
 from hybridlog.estimators.capabilities import MAX_JOINT_MODES
-from hybridlog.estimators.cpha.structure import Assignment, _causal_graph, _Names
+from hybridlog.estimators.cpha.structure import (
+    Assignment,
+    _causal_graph,
+    _Names,
+    _undetermined_message,
+    _undetermined_use,
+)
 from hybridlog.estimators.result import TimelineColumn
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.model.expressions import previous_symbol
@@ -55,6 +61,9 @@ def _mode(model: HybridModel, assignment: Assignment) -> Mode:
     equations = [e for e, _, _ in owned]
     label = joint_label(assignment)
     _, determined_by, unmatched = _causal_graph(names, equations)
+    undetermined = _undetermined_use(names, equations, determined_by)
+    if undetermined is not None:
+        raise model.error(undetermined[0], _undetermined_message(undetermined[1], label))
     missing = [v for v in (*model.states, *model.outputs) if v not in determined_by]
     if unmatched or missing:
         what = f"equations {', '.join(unmatched)} determine nothing" if unmatched else ""

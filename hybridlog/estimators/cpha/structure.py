@@ -43,7 +43,7 @@ import sympy
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from hybridlog.errors import ModelError
-from hybridlog.model.components import Component, Equation
+from hybridlog.model.components import UNKNOWN, Component, Equation
 from hybridlog.model.expressions import previous_symbol
 
 __all__ = [
@@ -234,6 +234,34 @@ def _causal_graph(
     return CausalGraph(vertices, frozenset(edges), exogenous), determined_by, unmatched
 
 
+def _undetermined_use(
+    names: _Names, equations: Sequence[Equation], determined_by: Mapping[str, int]
+) -> tuple[str, str] | None:
+    """The first equation using an output or internal variable no equation determines.
+
+    At an assignment of known modes every variable an equation uses must be given by an
+    equation (as ``simulate`` requires): one left undetermined is a gap of the model, not the
+    unknown mode's (paper 002 §3.1).  Unchecked, its cluster was dropped without a word
+    (``y2 = x2*w2`` with nothing giving ``w2``: no state estimated, every mode "right"), and
+    the joint mode's ``h`` kept the free symbol (``imm``: numba's ``NameError``).
+    """
+    given = set(names.outputs) | set(names.variables)
+    for equation in equations:
+        for variable in sorted((equation.variables | equation.previous) & given):
+            if variable not in determined_by:
+                return equation.key, variable
+    return None
+
+
+def _undetermined_message(variable: str, label: str) -> str:
+    """What :func:`_undetermined_use` found, after the equation's key."""
+    return (
+        f"uses '{variable}', which no equation of the joint mode {label} determines (an "
+        f"equation determines one variable; give '{variable}' an equation in a mode of that "
+        "joint mode, or remove it from this one)"
+    )
+
+
 def _slice(graph: CausalGraph, observed: Sequence[str]) -> CausalGraph:
     """Move every observed variable's outgoing edges to its virtual input (Fig. 7)."""
     observed_set = set(observed)
@@ -305,6 +333,12 @@ def decompose(
             "every variable it relates is determined by another equation, so it would be "
             "ignored (remove it if it is redundant; as it stands it may contradict them)"
         )
+    if UNKNOWN not in assignment:
+        undetermined = _undetermined_use(names, equations, determined_by)
+        if undetermined is not None:
+            key, variable = undetermined
+            label = "|".join(assignment)
+            raise ModelError(f"{key}: {_undetermined_message(variable, label)}")
     sliced = _slice(graph, outputs)
     sccs, scc_of = _sccs(sliced)
     n_scc = len(sccs)
