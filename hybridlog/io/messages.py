@@ -50,6 +50,7 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.exact import EXACT_LIMIT, beyond_exact, inexact
+from hybridlog.io.fixed_messages import single_floats
 from hybridlog.io.message_paths import (
     ARRAY,
     FLOAT_TYPES,
@@ -1404,6 +1405,8 @@ class _TopicReader:
         its values before the next is decoded.
         """
         count = len(datas)
+        if self._add_single_floats(datas, times):
+            return
         numbers = [np.empty(count) if w.kind == "number" else None for w in self.wanted]
         texts: list[list[str]] = [[] for _ in self.wanted]
         json = self.topic.encoding == "json"
@@ -1464,6 +1467,25 @@ class _TopicReader:
             self.stamps.append(stamps)
         self.log_times.append(np.asarray(times, dtype=np.int64))
         self.count += count
+
+    def _add_single_floats(self, datas: list[bytes], times: list[int]) -> bool:
+        """Add a batch of one-``float64`` messages read at once (:func:`single_floats`).
+
+        ``False``, having added nothing, when the batch is not such (or ``header.stamp`` is
+        wanted): :meth:`add` decodes it message by message then.
+        """
+        topic = self.topic
+        if self.header or topic.decode is None or any(w.kind != "number" for w in self.wanted):
+            return False
+        steps = [w.path.steps for w in self.wanted]
+        values = single_floats(topic.encoding, topic.typedefs, topic.msgtype, steps, datas)
+        if values is None:
+            return False
+        for wanted in self.wanted:
+            wanted.values.append(values.copy())
+        self.log_times.append(np.asarray(times, dtype=np.int64))
+        self.count += len(datas)
+        return True
 
     def _refuse_overflow(
         self,
