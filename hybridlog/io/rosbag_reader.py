@@ -166,6 +166,7 @@ class BagSource(MessageSource):
         # (storage reader, its connections): where messages are read from.
         self._storages: list[tuple[Any, list[Any]]] = []
         self._per_message_zstd = False
+        self._listed: list[str] | None = None  # metadata.yaml's storage files, once read
         if log_format.directory:
             self._check_mcap_storage()
             for file in sorted(self._file.glob("*.db3")):
@@ -235,7 +236,8 @@ class BagSource(MessageSource):
             self._storages = [(storage, list(storage.connections))]
             _check_connections(storage.connections, self.path)
             return
-        _refuse_listed_twice(_listed_files(self._file), self.path)
+        self._listed = _listed_files(self._file)
+        _refuse_listed_twice(self._listed, self.path)
         self._storages = [(s, list(s.connections)) for s in storages]
         _check_connections(reader.connections, f"{self.path}: metadata.yaml")
         for _, connections in self._storages:
@@ -405,7 +407,7 @@ class BagSource(MessageSource):
             remarks.append(f"topic {topic_name!r} ({msgtype}) is not listed in metadata.yaml")
         if remarks:
             self._notes["metadata"] = remarks
-        unlisted = unlisted_storage_files(self._file)
+        unlisted = unlisted_storage_files(self._file, self._listed)
         if unlisted:
             self._notes["unlisted_files"] = unlisted
 
@@ -455,16 +457,16 @@ class BagSource(MessageSource):
 STORAGE_SUFFIXES = (".db3", ".mcap", ".db3.zstd", ".mcap.zstd")
 
 
-def unlisted_storage_files(folder: Path) -> list[str]:
+def unlisted_storage_files(folder: Path, names: list[str] | None) -> list[str]:
     """The storage files in a bag folder that its ``metadata.yaml`` does not list.
 
     rosbags (and ``ros2 bag``) read only the files of ``relative_file_paths``; another
     ``.db3`` or ``.mcap`` file beside them (a split file copied in, a second recording) is
     passed over without a word, and its messages with it.  Its name is returned so that the
-    reading says so.  Empty when ``metadata.yaml`` has no such list rosbags could read (it
-    has refused the bag then).
+    reading says so.  ``names``: the list (:func:`_listed_files`, read once per bag: ruamel
+    takes some 20 ms a read); ``None``, when ``metadata.yaml`` has no such list rosbags could
+    read (it has refused the bag then), gives none.
     """
-    names = _listed_files(folder)
     if names is None:
         return []
     listed = set(names)

@@ -16,7 +16,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
-from hybridlog.io.rosbag_reader import unlisted_storage_files
+from hybridlog.io.rosbag_reader import _listed_files, unlisted_storage_files
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 MAPS = ("u=/u.data", "y=/y.data")
@@ -65,4 +65,18 @@ def test_a_storage_file_listed_twice_is_refused_naming_it(sort: bool, tmp_path: 
 def test_an_empty_listing_still_names_the_files_it_leaves_out(tmp_path: Path) -> None:
     folder = _bag(tmp_path / "bag")
     _relist(folder, [])
-    assert unlisted_storage_files(folder) == ["bag.db3"]
+    assert unlisted_storage_files(folder, _listed_files(folder)) == ["bag.db3"]
+
+
+def test_a_bag_reads_its_listing_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """metadata.yaml's listing was parsed twice by hybridlog (ruamel, some 20 ms each), for
+    the files listed twice and for the files not listed."""
+    from hybridlog.io import rosbag_reader
+
+    folder = _bag(tmp_path / "bag")
+    calls = []
+    monkeypatch.setattr(
+        rosbag_reader, "_listed_files", lambda f: calls.append(f) or _listed_files(f)
+    )
+    signals = load_signals(folder, SPEC, ReadOptions(maps=MAPS))
+    assert len(signals.time) == 20 and calls == [folder]
