@@ -1209,11 +1209,8 @@ def batch_command(
         have = _have_warnings(len(warned), analysed, "analysed log")
         click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'summary.md'}"), err=True)
     if outcome.failed:
-        click.echo(
-            f"hybridlog: {outcome.failed} of {len(outcome.logs)} logs failed "
-            f"(see {out_dir / 'summary.md'})",
-            err=True,
-        )
+        failed = f"{outcome.failed} of {len(outcome.logs)} logs failed"
+        click.echo(_one_line(f"hybridlog: {failed} (see {out_dir / 'summary.md'})"), err=True)
     _gate_exit(outcome.gate_failures)
     if outcome.failed:
         sys.exit(1)

@@ -76,15 +76,21 @@ take_back_sigint()
 def polars_file(path: Path, mode: Literal["rb", "wb"]) -> Iterator[Path | BinaryIO]:
     """``path`` as polars' readers and writers take it: the path, or the file opened here.
 
-    polars takes only names that are UTF-8 (a log named in another encoding, a batch's report
-    folder named after it): those are opened by Python, which takes any name the system
-    does.  Readers given the path must also be told ``glob=False``: polars otherwise expands
-    ``*``, ``?`` and ``[...]`` in it (``run[1].csv`` matched nothing, ``run?.csv`` another
-    log).
+    polars takes a name as the UTF-8 of its text, so it is given only a path whose text's
+    UTF-8 is the name the system has: others are opened by Python, which takes any name the
+    system does.  Those are a name in another encoding (a log's, a batch's report folder
+    named after it: its text holds escaped bytes, lone surrogates) and, where Python reads
+    names as ASCII (``LC_ALL=C`` without UTF-8 mode: a cron job, a minimal container), every
+    name that is not ASCII (``é.csv`` is the text ``\udcc3\udca9.csv`` there: polars
+    failed with 'Object does not have a .write() method').  Readers given the path must also
+    be told ``glob=False``: polars otherwise expands ``*``, ``?`` and ``[...]`` in it
+    (``run[1].csv`` matched nothing, ``run?.csv`` another log).
     """
     try:
-        os.fsencode(path).decode("utf-8")
-    except UnicodeDecodeError:
+        as_polars_reads_it = str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        as_polars_reads_it = None
+    if as_polars_reads_it != os.fsencode(path):
         with path.open(mode) as handle:
             yield handle
         return

@@ -1,7 +1,8 @@
-"""polars leaves ``SIGINT`` to Python in hybridlog's processes (``hybridlog/polars_import.py``).
+"""polars as hybridlog imports it (``hybridlog/polars_import.py``): ``SIGINT`` left to Python,
+and given only paths whose text is the system's name.
 
-Each case runs in a fresh interpreter (polars installs its handler once, when imported): a
-table is sunk by polars' streaming engine from a Python source that sends the process
+Each ``SIGINT`` case runs in a fresh interpreter (polars installs its handler once, when
+imported): a table is sunk by polars' streaming engine from a Python source that sends the process
 ``SIGINT`` while the sink runs.  With polars' own handler in place, an ignored ``SIGINT``
 aborted the sink after two of its forty batches, and a Ctrl-C raised ``KeyboardInterrupt``
 twice (pola-rs/polars#23988).
@@ -9,6 +10,7 @@ twice (pola-rs/polars#23988).
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -91,3 +93,49 @@ print(after_import != python_s, handler() == python_s)
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True", "True"]
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        (b"r\xc3\xa9.parquet", "r\udcc3\udca9.parquet"),  # ré.parquet where names are ASCII
+        (b"r\xff.parquet", "r\udcff.parquet"),  # a name that is not UTF-8
+        (b"r\xc3\xa9.parquet", "ré.parquet"),  # UTF-8 mode: polars takes the path itself
+    ],
+    ids=["ascii-locale", "not-utf8", "utf8"],
+)
+def test_polars_reads_and_writes_the_file_the_path_names(
+    tmp_path: Path, name: bytes, text: str
+) -> None:
+    """Under ``LC_ALL=C`` without UTF-8 mode Python reads ``ré.parquet`` as
+    ``r\\udcc3\\udca9.parquet``, whose bytes are UTF-8: polars was given that text and failed
+    with 'Object does not have a .write() method' (analyze, simulate, a Parquet log)."""
+    from hybridlog.polars_import import pl, polars_file
+
+    path = tmp_path / text
+    assert os.fsencode(path) == os.fsencode(tmp_path) + b"/" + name  # the name the system has
+    frame = pl.DataFrame({"a": [1.5, 2.5]})
+    with polars_file(path, "wb") as target:
+        frame.write_parquet(target)
+    with polars_file(path, "rb") as source:
+        assert pl.read_parquet(source).equals(frame)
+    assert os.listdir(os.fsencode(tmp_path)) == [name]
+
+
+def test_a_non_ascii_path_under_the_c_locale(tmp_path: Path) -> None:
+    """The command, where Python reads names as ASCII (a cron job, a minimal container)."""
+    folder = tmp_path / "é 日本 🚀"
+    out = "é 日本 🚀/sim.parquet"
+    folder.mkdir()
+    environment = {**os.environ, "LC_ALL": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}
+    environment["PYTHONPATH"] = str(ROOT)
+    run = subprocess.run(
+        [sys.executable, "-m", "hybridlog", "simulate", "three_tank_hstf", "--out", out],
+        cwd=tmp_path,
+        env=environment,
+        capture_output=True,
+        timeout=60,
+    )
+    assert (run.returncode, run.stderr) == (0, b"")
+    assert run.stdout == f"wrote {out} (301 samples)\n".encode()
+    assert (folder / "sim.parquet").stat().st_size > 0

@@ -17,6 +17,7 @@ import sys
 import threading
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -175,6 +176,23 @@ def test_logs_named_with_bytes_and_controls_get_reports_and_summaries(tmp_path: 
     ]
     report = json.loads((Path(outcome.logs[1].folder) / "report.json").read_text("utf-8"))
     assert report["log"] == f"{runs}/m\\xff.mcap"
+
+
+def test_the_failed_logs_line_names_the_summary_as_stdout_does(
+    tmp_path: Path, hybridlog_main: Callable[[list[str]], tuple[int, str]]
+) -> None:
+    """The stderr line of failed logs named the summary unescaped: ``o\\udcff/summary.md``
+    for a folder named with the byte 0xff, ``o??/summary.md`` for ``oé`` where Python reads
+    names as ASCII (``LC_ALL=C``); it is now named as the ``summary:`` line names it."""
+    (tmp_path / "broken.csv").write_text("t,u,y1\n0,1,2\n")
+    out = os.fsdecode(bytes(tmp_path) + b"/o\xff")
+    code, err = hybridlog_main(
+        ["batch", str(tmp_path / "broken.csv"), "--model", "three_tank_hstf", "--out", out]
+    )
+    assert code == 1
+    assert (
+        err.splitlines()[-1] == f"hybridlog: 1 of 1 logs failed (see {tmp_path}/o\\xff/summary.md)"
+    )
 
 
 def test_batch_keeps_going_skips_finished_and_reports(tmp_path):
