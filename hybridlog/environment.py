@@ -37,7 +37,28 @@ from pathlib import Path
 from hybridlog.cgroups import cpu_limit
 from hybridlog.errors import OptionError, excerpt
 
-__all__ = ["check_environment", "numba_whole_numbers"]
+__all__ = ["check_environment", "check_working_folder", "numba_whole_numbers", "usable_cores"]
+
+
+def check_working_folder() -> None:
+    """Refuse to run in a working folder that was removed (``cd x; rm -r ../x``).
+
+    Every relative path a command is given, ``--out r`` among them, is resolved against
+    it, and the system then has none: ``analyze`` failed with an "unexpected
+    FileNotFoundError" naming a line of hybridlog's code.
+
+    Raises
+    ------
+    OptionError
+        Saying so, and what to do.
+    """
+    try:
+        os.getcwd()
+    except FileNotFoundError as err:
+        raise OptionError(
+            "the working folder no longer exists (removed while the shell was in it); "
+            "change to an existing folder and run again"
+        ) from err
 
 
 def usable_cores() -> int:

@@ -74,7 +74,7 @@ take_back_sigint()
 
 @contextmanager
 def polars_file(path: Path, mode: Literal["rb", "wb"]) -> Iterator[Path | BinaryIO]:
-    """``path`` as polars' readers and writers take it: the path, or the file opened here.
+    r"""``path`` as polars' readers and writers take it: the path, or the file opened here.
 
     polars takes a name as the UTF-8 of its text, so it is given only a path whose text's
     UTF-8 is the name the system has: others are opened by Python, which takes any name the

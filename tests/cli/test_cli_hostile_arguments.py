@@ -144,3 +144,20 @@ def test_a_tilde_the_shell_left_is_the_home_folder(
         "hybridlog inspect: LOG: '~-/run.csv': the previous working folder, and OLDPWD is not "
         "set; write ./~-/run.csv for a name that starts with ~ (see hybridlog inspect --help)\n",
     )
+
+
+def test_a_removed_working_folder_is_said_in_words(
+    hybridlog_main: Main, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``cd x; rm -r ../x; hybridlog analyze /abs/log.csv ... --out r`` failed with an
+    "unexpected FileNotFoundError in outputs.py": a relative path has nowhere to be."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    code, err = hybridlog_main(["simulate", "three_tank_hstf", "--out", "r.csv", "--steps", "5"])
+    assert (code, err) == (
+        2,
+        "hybridlog: error: the working folder no longer exists (removed while the shell was "
+        "in it); change to an existing folder and run again\n",
+    )
