@@ -7,11 +7,13 @@ import multiprocessing
 import os
 import resource
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
 from hybridlog.cli import _failure
 from hybridlog.limits import limit_reached
+from tests.conftest import Main
 
 
 def _too_many_open_files() -> OSError:
@@ -75,3 +77,19 @@ def test_a_non_blocking_read_is_no_limit() -> None:
 def test_an_empty_memory_error_still_says_what_failed() -> None:
     """``MemoryError()`` (``ulimit -v``) gave "out of memory in csv_tally.py:61: ;"."""
     assert "out of memory: an allocation failed;" in _failure(MemoryError())
+
+
+def test_a_umask_taking_the_owners_permissions_is_refused_before_writing(
+    tmp_path: Path, hybridlog_main: Main
+) -> None:
+    """``umask 777``: ``analyze`` left its temporary folder, ``cluster`` mode-000 files."""
+    target = tmp_path / "sim.csv"
+    before = os.umask(0o777)
+    try:
+        code, err = hybridlog_main(
+            ["simulate", "three_tank_hstf", "--steps", "20", "--out", str(target)]
+        )
+    finally:
+        os.umask(before)
+    assert code == 2 and err.count("\n") == 1 and "umask 0777" in err, err
+    assert list(tmp_path.iterdir()) == []
