@@ -41,6 +41,7 @@ from hybridlog.estimators.options import OptionSource, describe_options, parse_o
 from hybridlog.fitted_lines import fitted
 from hybridlog.io.formats import format_list
 from hybridlog.launch import lost_output, single_threaded_blas, tolerate_closed_output
+from hybridlog.limits import limit_reached
 from hybridlog.model.builtins import builtin_names, builtin_reference, builtin_text
 from hybridlog.numbers import parse_float, parse_int
 
@@ -1671,10 +1672,12 @@ def _failure(err: Exception) -> str:
         )
     if isinstance(err, MemoryError):
         return (
-            f"hybridlog: error: out of memory{_where(err)}: {err or 'an allocation failed'}; "
+            f"hybridlog: error: out of memory{_where(err)}: {str(err) or 'an allocation failed'}; "
             "the process may be limited below the machine's free memory (ulimit -v, "
             "a container); analyse a shorter log or free memory"
         )
+    if isinstance(err, OSError) and (limit := limit_reached(err)) is not None:
+        return f"hybridlog: error: {limit.what}{_where(err)} ({limit.detail}); {limit.advice}"
     return (
         f"hybridlog: error: unexpected {type(err).__name__}{_where(err)}: {err} "
         "(a bug, or an input hybridlog does not check yet; --debug shows the traceback)"

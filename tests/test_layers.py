@@ -17,6 +17,7 @@ one layer are peers that never import each other:
     | ``cgroups`` (the control groups' CPU and memory limits)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
     | ``environment`` (the libraries' settings from the environment, checked up front)
+    | ``limits`` (an operating-system error from a ``ulimit`` named in one line)
 2   ``io`` | ``model``
 3   ``cluster``
 4   ``estimators`` | ``simulation``
@@ -59,7 +60,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "times",
         "cgroups",
     ),
-    ("signals", "jit", "outputs", "memory", "environment"),
+    ("signals", "jit", "outputs", "memory", "environment", "limits"),
     ("io", "model"),
     ("cluster",),
     ("estimators", "simulation"),

@@ -1,0 +1,72 @@
+"""A per-process limit of the system (``ulimit``) that an operating-system error came from.
+
+``ulimit -n 16`` left ``batch --jobs 2`` failing with "unexpected OSError in workers.py:409:
+[Errno 24] Too many open files (a bug, ...)": a limit the caller set, not a bug.  The
+command's one line now names the limit, its value and what to do (:func:`limit_reached`).
+"""
+
+from __future__ import annotations
+
+import errno
+import resource
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["Limit", "limit_reached"]
+
+_STARTERS = frozenset({"popen_fork.py", "forkserver.py", "subprocess.py", "threading.py"})
+"""The standard library's modules where a process or thread is started."""
+
+
+@dataclass(frozen=True)
+class Limit:
+    """What ran out, for the command's one line, and what the user can do about it."""
+
+    what: str
+    detail: str
+    advice: str
+
+
+def _soft(which: int) -> str:
+    """The soft limit ``which`` as ``ulimit`` shows it (``unlimited`` or a number)."""
+    soft, _ = resource.getrlimit(which)
+    return "unlimited" if soft == resource.RLIM_INFINITY else str(soft)
+
+
+def _starting(err: OSError) -> bool:
+    """Whether ``err`` was raised where a process or thread is started."""
+    frames = traceback.extract_tb(err.__traceback__)
+    return any(Path(frame.filename).name in _STARTERS for frame in frames)
+
+
+def limit_reached(err: OSError) -> Limit | None:
+    """The limit ``err`` reports reached, or ``None`` for any other error.
+
+    ``EMFILE``: this process's open files (``ulimit -n``); ``ENFILE``: the system's;
+    ``EAGAIN`` raised where a process or thread is started (``fork`` in :mod:`multiprocessing`
+    or :mod:`subprocess`): the user's processes (``ulimit -u``).  Python raises every
+    ``EAGAIN`` as a :class:`BlockingIOError`, a non-blocking read's too: only the place tells
+    them apart.
+    """
+    if err.errno == errno.EMFILE:
+        files = _soft(resource.RLIMIT_NOFILE)
+        return Limit(
+            "too many open files",
+            f"this process may have {files} open: ulimit -n {files}",
+            "raise the limit (ulimit -n 1024) or run fewer --jobs",
+        )
+    if err.errno == errno.ENFILE:
+        return Limit(
+            "too many open files",
+            "the system's table of open files is full",
+            "close other programs' files or raise fs.file-max",
+        )
+    if err.errno == errno.EAGAIN and _starting(err):
+        processes = _soft(resource.RLIMIT_NPROC)
+        return Limit(
+            "no process or thread could be started",
+            f"the user's processes are at their limit: ulimit -u {processes}",
+            "raise the limit (ulimit -u), end other processes of this user, or run fewer --jobs",
+        )
+    return None

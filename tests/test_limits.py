@@ -1,0 +1,95 @@
+"""A limit the caller set (``ulimit -n``, ``ulimit -u``) is named in the command's one line."""
+
+from __future__ import annotations
+
+import errno
+import multiprocessing
+import os
+import resource
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from hybridlog.cli import _failure
+from hybridlog.limits import limit_reached
+from tests.conftest import Main
+
+
+def _too_many_open_files() -> OSError:
+    """A real ``EMFILE``: pipes opened under a soft limit lowered to just above the open files."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    opened: list[int] = []
+    resource.setrlimit(resource.RLIMIT_NOFILE, (len(os.listdir("/proc/self/fd")) + 4, hard))
+    try:
+        while True:
+            opened.extend(os.pipe())
+    except OSError as err:
+        return err
+    finally:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+        for fd in opened:
+            os.close(fd)
+
+
+def test_too_many_open_files_names_ulimit_n() -> None:
+    """``ulimit -n 16`` and ``batch --jobs 2`` was "unexpected OSError ... (a bug, ...)"."""
+    err = _too_many_open_files()
+    line = _failure(err)
+    assert line.startswith("hybridlog: error: too many open files"), line
+    assert "ulimit -n" in line and "unexpected" not in line and "\n" not in line
+
+
+@pytest.fixture
+def fork_refused(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """``fork`` failing as it does when the user's processes are at ``ulimit -u``."""
+
+    def refuse() -> int:
+        raise BlockingIOError(errno.EAGAIN, os.strerror(errno.EAGAIN))
+
+    monkeypatch.setattr(os, "fork", refuse)
+    yield
+
+
+@pytest.mark.usefixtures("fork_refused")
+def test_a_process_refused_names_ulimit_u() -> None:
+    process = multiprocessing.get_context("fork").Process(target=print)
+    with pytest.raises(OSError) as caught:
+        process.start()
+    line = _failure(caught.value)
+    assert "ulimit -u" in line and "unexpected" not in line, line
+
+
+def test_a_non_blocking_read_is_no_limit() -> None:
+    """``EAGAIN`` of an empty non-blocking pipe is not ``ulimit -u``."""
+    read, write = os.pipe()
+    os.set_blocking(read, False)
+    try:
+        with pytest.raises(BlockingIOError) as caught:
+            os.read(read, 1)
+    finally:
+        os.close(read)
+        os.close(write)
+    assert limit_reached(caught.value) is None
+    assert "unexpected BlockingIOError" in _failure(caught.value)
+
+
+def test_an_empty_memory_error_still_says_what_failed() -> None:
+    """``MemoryError()`` (``ulimit -v``) gave "out of memory in csv_tally.py:61: ;"."""
+    assert "out of memory: an allocation failed;" in _failure(MemoryError())
+
+
+def test_a_umask_taking_the_owners_permissions_is_refused_before_writing(
+    tmp_path: Path, hybridlog_main: Main
+) -> None:
+    """``umask 777``: ``analyze`` left its temporary folder, ``cluster`` mode-000 files."""
+    target = tmp_path / "sim.csv"
+    before = os.umask(0o777)
+    try:
+        code, err = hybridlog_main(
+            ["simulate", "three_tank_hstf", "--steps", "20", "--out", str(target)]
+        )
+    finally:
+        os.umask(before)
+    assert code == 2 and err.count("\n") == 1 and "umask 0777" in err, err
+    assert list(tmp_path.iterdir()) == []
