@@ -33,7 +33,7 @@ import click
 from hybridlog import __version__
 from hybridlog.allocators import return_freed_memory
 from hybridlog.background import ESTIMATES, PLOTS, start_worker
-from hybridlog.environment import check_environment, check_working_folder
+from hybridlog.environment import check_environment, check_umask, check_working_folder
 from hybridlog.errors import HybridlogError, as_text, excerpt
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
@@ -597,6 +597,7 @@ def cli(ctx: click.Context) -> None:
     # before any command imports numba or polars, here or in its workers
     check_environment()
     check_working_folder()
+    check_umask()
 
 
 def _say(ctx: click.Context, text: str) -> None:

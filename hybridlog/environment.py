@@ -35,9 +35,16 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from hybridlog.cgroups import cpu_limit
-from hybridlog.errors import OptionError, excerpt
+from hybridlog.errors import OptionError, OutputError, excerpt
+from hybridlog.limits import owner_masked
 
-__all__ = ["check_environment", "check_working_folder", "numba_whole_numbers", "usable_cores"]
+__all__ = [
+    "check_environment",
+    "check_umask",
+    "check_working_folder",
+    "numba_whole_numbers",
+    "usable_cores",
+]
 
 
 def check_working_folder() -> None:
@@ -59,6 +66,21 @@ def check_working_folder() -> None:
             "the working folder no longer exists (removed while the shell was in it); "
             "change to an existing folder and run again"
         ) from err
+
+
+def check_umask() -> None:
+    """Refuse to run under a umask that takes the owner's own permissions (:func:`owner_masked`).
+
+    Checked before a command starts anything that writes: a batch's forkserver made its
+    temporary folder unreadable, and its clean-up printed a traceback after the one line.
+
+    Raises
+    ------
+    OutputError
+        Naming the umask and one to set.
+    """
+    if (why := owner_masked()) is not None:
+        raise OutputError(why)
 
 
 def usable_cores() -> int:

@@ -189,7 +189,7 @@ def main() -> None:
     single_threaded_blas()
     try:
         if local_batch_jobs(sys.argv[1:]) > 1:
-            from hybridlog.environment import check_environment
+            from hybridlog.environment import check_environment, check_umask
             from hybridlog.errors import HybridlogError
             from hybridlog.jobs.workers import start_forkserver
 
@@ -197,6 +197,7 @@ def main() -> None:
             # malformed NUMBA_* setting would break the forkserver's warm-up with a traceback)
             with contextlib.suppress(HybridlogError):
                 check_environment()
+                check_umask()
                 start_forkserver()
         from hybridlog.cli import main as run_cli
     except KeyboardInterrupt:  # Ctrl-C before the CLI handles it: no traceback of imports

@@ -1,4 +1,4 @@
-"""A per-process limit of the system (``ulimit``) that an operating-system error came from.
+"""The process's limits: a ``ulimit`` an operating-system error came from, and its umask.
 
 ``ulimit -n 16`` left ``batch --jobs 2`` failing with "unexpected OSError in workers.py:409:
 [Errno 24] Too many open files (a bug, ...)": a limit the caller set, not a bug.  The
@@ -13,7 +13,7 @@ import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Limit", "limit_reached"]
+__all__ = ["Limit", "limit_reached", "owner_masked", "umask"]
 
 _STARTERS = frozenset({"popen_fork.py", "forkserver.py", "subprocess.py", "threading.py"})
 """The standard library's modules where a process or thread is started."""
@@ -70,3 +70,37 @@ def limit_reached(err: OSError) -> Limit | None:
             "raise the limit (ulimit -u), end other processes of this user, or run fewer --jobs",
         )
     return None
+
+
+def umask() -> int | None:
+    """The process's umask, read from ``/proc/self/status`` (``None`` where it does not say).
+
+    Not :func:`os.umask`, which sets it to read it: another thread (polars', the plots')
+    creating a file in between would get the stand-in.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def owner_masked() -> str | None:
+    """Why the process's umask makes its outputs unusable, or ``None`` when it does not.
+
+    A umask masking any of the owner's own bits (``umask 777``, a user's, not root's, who is
+    not held by them): ``analyze`` failed on its own temporary folder and left it behind
+    (``.tank_report.hybridlog-tmp-...``, mode 000, which nothing could list to remove),
+    ``batch --jobs 2`` printed a traceback of multiprocessing's clean-up of its own temporary
+    folder after its one line, and ``cluster`` wrote files of mode 000.
+    """
+    mask = umask()
+    if mask is None or not mask & 0o700:
+        return None
+    return (
+        f"umask {mask:04o} takes its owner's own permissions from every file and folder "
+        "written (they could not be read back); set a umask such as 022 or 077"
+    )

@@ -46,6 +46,7 @@ from pathlib import Path
 
 from hybridlog import __version__
 from hybridlog.errors import OutputError, as_name, excerpt, first_few
+from hybridlog.limits import owner_masked
 
 __all__ = [
     "MARKER",
@@ -91,37 +92,10 @@ def _shown(path: PathLike) -> str:
     return excerpt(os.fspath(path), _PATH_LIMIT)[1:-1]
 
 
-def umask() -> int | None:
-    """The process's umask, read from ``/proc/self/status`` (``None`` where it does not say).
-
-    Not :func:`os.umask`, which sets it to read it: another thread (polars', the plots')
-    creating a file in between would get the stand-in.
-    """
-    try:
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
-
-
 def _check_umask(target: PathLike) -> None:
-    """Refuse an output its owner could not read back or finish: a umask masking the owner's bits.
-
-    Under ``umask 777`` (a user's, not root's) ``analyze`` failed on its own temporary folder and
-    left it behind (``.tank_report.hybridlog-tmp-...``, mode 000, which nothing could list
-    to remove), ``batch --jobs 2`` printed a traceback of multiprocessing's clean-up after
-    its one line, and ``cluster`` wrote files of mode 000.
-    """
-    mask = umask()
-    if mask is not None and mask & 0o700:
-        raise OutputError(
-            f"{_shown(target)}: umask {mask:04o} takes its owner's own permissions from every "
-            "file and folder written (they could not be read back); set a umask such as "
-            "022 or 077"
-        )
+    """Refuse an output its owner could not read back or finish (:func:`owner_masked`)."""
+    if (why := owner_masked()) is not None:
+        raise OutputError(f"{_shown(target)}: {why}")
 
 
 def output_path(target: PathLike) -> Path:

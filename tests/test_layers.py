@@ -14,10 +14,10 @@ one layer are peers that never import each other:
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
     | ``prefault`` | ``polars_import`` (polars, with ``SIGINT`` left to Python) | ``numbers``
     (numbers typed on the command line, read strictly) | ``times`` (times written for people)
-    | ``cgroups`` (the control groups' CPU and memory limits)
+    | ``cgroups`` (the control groups' CPU and memory limits) | ``limits`` (the process's
+    ``ulimit`` limits and umask)
 1   ``signals`` | ``jit`` | ``outputs`` (the output-path rules every writer follows) | ``memory``
     | ``environment`` (the libraries' settings from the environment, checked up front)
-    | ``limits`` (an operating-system error from a ``ulimit`` named in one line)
 2   ``io`` | ``model``
 3   ``cluster``
 4   ``estimators`` | ``simulation``
@@ -59,8 +59,9 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "numbers",
         "times",
         "cgroups",
+        "limits",
     ),
-    ("signals", "jit", "outputs", "memory", "environment", "limits"),
+    ("signals", "jit", "outputs", "memory", "environment"),
     ("io", "model"),
     ("cluster",),
     ("estimators", "simulation"),

@@ -93,3 +93,42 @@ def test_a_umask_taking_the_owners_permissions_is_refused_before_writing(
         os.umask(before)
     assert code == 2 and err.count("\n") == 1 and "umask 0777" in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_library_names_the_output_a_masking_umask_refuses(tmp_path: Path) -> None:
+    """From Python no command line checks the umask first: the output's path does."""
+    from hybridlog.errors import OutputError
+    from hybridlog.jobs.simulate import simulate_log
+
+    target = tmp_path / "sim.csv"
+    before = os.umask(0o277)
+    try:
+        with pytest.raises(OutputError, match=rf"^{target}: umask 0277 takes its owner's own"):
+            simulate_log("three_tank_hstf", target, steps=20)
+    finally:
+        os.umask(before)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_parallel_batch_under_a_masking_umask_starts_no_forkserver(tmp_path: Path) -> None:
+    """The console script starts a batch's forkserver before the command runs: under
+    ``umask 777`` its temporary folder was unreadable, and its clean-up printed a traceback
+    after the command's one line.  The umask is checked first."""
+    import subprocess
+    import sys
+
+    from tests.support.paths import SAMPLE_LOGS
+
+    out = tmp_path / "out"
+    command = (
+        f"umask 777; exec {sys.executable} -m hybridlog batch "
+        f"{SAMPLE_LOGS / 'three_tank_hstf.csv'} --model three_tank_hstf --estimator imm "
+        f"--out {out} --jobs 2"
+    )
+    done = subprocess.run(["bash", "-c", command], capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == (
+        "hybridlog: error: umask 0777 takes its owner's own permissions from every file and "
+        "folder written (they could not be read back); set a umask such as 022 or 077\n"
+    )
+    assert not out.exists()
