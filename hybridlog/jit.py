@@ -206,7 +206,9 @@ def cache_dir() -> Path:
     absolute path is ignored, as the XDG Base Directory specification says: a relative one
     put the cache in whatever folder the command ran in (a log folder, a CI checkout).  It
     holds the loaded models (:mod:`hybridlog.model.cache`), the generated modules
-    (:mod:`hybridlog.model.compiled`) and numba's machine code (:func:`machine_code_dir`).
+    (:mod:`hybridlog.model.compiled`), numba's machine code (:func:`machine_code_dir`) and,
+    where matplotlib's own folders cannot be written, its settings and font list
+    (:func:`hybridlog.launch.writable_matplotlib_folder`).
 
     Raises
     ------

@@ -58,6 +58,49 @@ def single_threaded_blas() -> None:
     os.environ.setdefault(BLAS_THREADS, "1")
 
 
+def _writable_folder(path: str) -> bool:
+    """Whether ``path`` is, or could be made as, a folder this process can write."""
+    while not os.path.lexists(path):
+        parent = os.path.dirname(path)
+        if parent == path:
+            return False
+        path = parent
+    return os.path.isdir(path) and os.access(path, os.W_OK | os.X_OK)
+
+
+def writable_matplotlib_folder() -> None:
+    """Give matplotlib a folder it can write, in the console script, unless the user chose one.
+
+    matplotlib keeps its settings and its font list in ``$MPLCONFIGDIR``, else
+    ``$XDG_CONFIG_HOME/matplotlib`` and ``$XDG_CACHE_HOME/matplotlib`` (``~/.config``,
+    ``~/.cache``).  Where those cannot be written (a read-only home in CI, a container's user
+    without one, the README's advice to point ``HYBRIDLOG_CACHE_DIR`` elsewhere) it wrote a
+    two-line warning on stderr in every command that draws, under ``-q`` too, and built the
+    font list again each time.  There ``MPLCONFIGDIR`` is set to ``matplotlib`` in hybridlog's
+    own cache folder (:func:`hybridlog.jit.cache_dir`), before any worker is started; where
+    that cannot be written either, matplotlib is left to say so.  Only the console script
+    sets it, never the library.  Nothing is created here: matplotlib makes the folder it uses.
+    """
+    if os.environ.get("MPLCONFIGDIR"):
+        return
+    home = os.path.expanduser("~")
+    defaults = (
+        os.environ.get("XDG_CONFIG_HOME") or os.path.join(home, ".config"),
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(home, ".cache"),
+    )
+    if all(_writable_folder(os.path.join(base, "matplotlib")) for base in defaults):
+        return
+    from hybridlog.errors import HybridlogError
+    from hybridlog.jit import cache_dir
+
+    try:
+        folder = os.fspath(cache_dir() / "matplotlib")
+    except HybridlogError:  # no home and no cache folder: matplotlib says what it does
+        return
+    if _writable_folder(folder):
+        os.environ["MPLCONFIGDIR"] = folder
+
+
 def open_standard_descriptors() -> None:
     """Open ``/dev/null`` on each of descriptors 0, 1 and 2 that is closed (``2>&-``, ``<&-``).
 
@@ -187,6 +230,7 @@ def main() -> None:
     """The console script ``hybridlog`` and ``python -m hybridlog``: :func:`hybridlog.cli.main`."""
     open_standard_descriptors()
     single_threaded_blas()
+    writable_matplotlib_folder()
     try:
         if local_batch_jobs(sys.argv[1:]) > 1:
             from hybridlog.environment import check_environment, check_umask
