@@ -152,12 +152,31 @@ def _number_text(value: sympy.Expr, limit: int = 40) -> str:
     whose text Python refuses: the overflow check, naming it, failed with a ValueError
     ("Exceeds the limit (4300 digits) for integer string conversion").
     """
-    most = sys.get_int_max_str_digits()
-    if isinstance(value, sympy.Rational) and most:
-        size = max(abs(int(value.p)).bit_length(), int(value.q).bit_length())
-        if size * math.log10(2) >= most - 1:
-            return excerpt(value.evalf(4), limit)
+    if _beyond_text(value):
+        return excerpt(value.evalf(4), limit)
     return excerpt(value, limit)
+
+
+def _beyond_text(value: sympy.Expr) -> bool:
+    """Whether ``value`` is a fraction with more digits than Python writes as text."""
+    most = sys.get_int_max_str_digits()
+    if not isinstance(value, sympy.Rational) or not most:
+        return False
+    size = max(abs(int(value.p)).bit_length(), int(value.q).bit_length())
+    return size * math.log10(2) >= most - 1
+
+
+def _long_constant(expression: sympy.Expr) -> str:
+    """A fraction of ``expression`` that no code can write (:func:`_beyond_text`), or ``""``.
+
+    ``x*(1+10**-20)**60*(1+10**-20)**60*(1+10**-20)**60*(1+10**-20)**60`` (about
+    ``1.000000000000000002*x``) folds to a fraction of 4,800 digits: every check passed it,
+    and the model's compilation failed with an "unexpected ValueError in compiled.py".
+    """
+    return next(
+        (_number_text(node) for node in expression.atoms(sympy.Rational) if _beyond_text(node)),
+        "",
+    )
 
 
 def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
@@ -330,6 +349,13 @@ def parse_expression(
     if reason:
         raise ModelError(
             f"{key}: {excerpt(text)} is complex-valued ({reason}); model expressions must be real"
+        )
+    long = _long_constant(expression)
+    if long:
+        raise ModelError(
+            f"{key}: {excerpt(text)} folds to an exact fraction of more than "
+            f"{sys.get_int_max_str_digits():,} digits ({long}), which its compiled code cannot "
+            "write; write its numbers as decimals (1.0000000001, not 1 + 10**-10)"
         )
     return expression
 

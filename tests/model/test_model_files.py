@@ -357,7 +357,8 @@ def test_a_power_of_an_exact_fraction_is_bounded_by_its_digits():
     its power past the exponent bound was computed exactly, a fraction of millions of
     digits (``(10**-400)**100000`` ran for minutes), or one too long for Python's text of an
     integer (a ValueError "Exceeds the limit (4300 digits)" out of ``parse_expression``);
-    a product of numbers past that limit failed so in the overflow check."""
+    a product of numbers past that limit failed so in the overflow check, or, a number in
+    range, in the model's compilation."""
     for text, said in [
         ("x*(1+10**-20)**600", r"^k: \(10{19}1/10{20}\)\*\*600 is an exact fraction of"),
         ("x*10**1000*10**1000*10**1000*10**1000*10**1000", r"'1\.000e\+5000' overflows\)$"),
@@ -366,6 +367,9 @@ def test_a_power_of_an_exact_fraction_is_bounded_by_its_digits():
     ]:
         with pytest.raises(ModelError, match=said):
             parse_expression(text, X, key="k")
+    near_one = "x*" + "*".join(["(1+10**-20)**60"] * 4)  # every power below the bound
+    with pytest.raises(ModelError, match=r"folds to an exact fraction of more than 4,300 digits"):
+        parse_expression(near_one, X, key="k")  # was passed, failing in the model's compilation
     assert float(parse_expression("(1/3)**100", X, key="k")) == pytest.approx(3.0**-100)
 
 
