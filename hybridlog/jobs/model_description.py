@@ -48,6 +48,12 @@ def check_and_describe(path: Path) -> str:
     model = load_model(path)
     traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
+    if model.has_components and "imm" in suited:
+        # imm runs the joint modes, each checked as it is built (a variable no equation of
+        # one gives): analyze refused the file this called valid, imm its default estimator
+        from hybridlog.estimators.cpha.joint import joint_mode_model
+
+        joint_mode_model(model)
     default = model.estimator_by_default
     # as analyze without --estimator: a default_estimator the file writes must run the model;
     # where it writes none and the default cannot run it, analyze needs --estimator

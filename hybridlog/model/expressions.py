@@ -143,20 +143,72 @@ def _unquoted(text: object, limit: int) -> str:
     return excerpt(text, limit)[1:-1]
 
 
+def _number_text(value: sympy.Expr, limit: int = 40) -> str:
+    """:func:`excerpt` of a constant, one too long for Python's text as its first digits.
+
+    A fraction past ``sys.get_int_max_str_digits`` (4,300 digits) is shown ``1.000e+5000``.
+
+    ``x*10**1000*10**1000*10**1000*10**1000*10**1000`` folds to a number of 5,001 digits,
+    whose text Python refuses: the overflow check, naming it, failed with a ValueError
+    ("Exceeds the limit (4300 digits) for integer string conversion").
+    """
+    if _beyond_text(value):
+        return excerpt(value.evalf(4), limit)
+    return excerpt(value, limit)
+
+
+def _beyond_text(value: sympy.Expr) -> bool:
+    """Whether ``value`` is a fraction with more digits than Python writes as text."""
+    most = sys.get_int_max_str_digits()
+    if not isinstance(value, sympy.Rational) or not most:
+        return False
+    size = max(abs(int(value.p)).bit_length(), int(value.q).bit_length())
+    return size * math.log10(2) >= most - 1
+
+
+def _long_constant(expression: sympy.Expr) -> str:
+    """A fraction of ``expression`` that no code can write (:func:`_beyond_text`), or ``""``.
+
+    ``x*(1+10**-20)**60*(1+10**-20)**60*(1+10**-20)**60*(1+10**-20)**60`` (about
+    ``1.000000000000000002*x``) folds to a fraction of 4,800 digits: every check passed it,
+    and the model's compilation failed with an "unexpected ValueError in compiled.py".
+    """
+    return next(
+        (_number_text(node) for node in expression.atoms(sympy.Rational) if _beyond_text(node)),
+        "",
+    )
+
+
 def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
     """``base**exponent``, an exponent past :data:`MAX_EXPONENT` only of a number.
 
     A constant such as ``10**300`` (1e300) is a number like another, which the checks of
     overflow and underflow then judge; its exponent is bounded by the bits of the result,
-    so that ``2**10**9`` is not computed.
+    so that ``2**10**9`` is not computed.  The bits of an exact base count as written, its
+    numerator's and denominator's: ``(1 + 10**-20)**100000`` or ``(10**-400)**100000``,
+    whose float is 1 or 0, made sympy compute a fraction of millions of digits (minutes).
     """
     if exponent.is_Number and abs(exponent) > MAX_EXPONENT:
         magnitude = abs(float(base)) if base.is_Number else None
         if magnitude is None or (magnitude not in (0.0, 1.0) and not math.isfinite(magnitude)):
             raise ValueError(f"the exponent {exponent} is larger than {MAX_EXPONENT}")
-        bits = 0.0 if magnitude in (0.0, 1.0) else abs(float(exponent) * math.log2(magnitude))
+        times = abs(float(exponent))
+        cost = bits = 0.0 if magnitude in (0.0, 1.0) else times * abs(math.log2(magnitude))
+        if isinstance(base, sympy.Rational) and base.p != 0:  # exact: computed digit by digit
+            numerator, denominator = abs(int(base.p)), int(base.q)
+            bits = times * abs(math.log2(numerator) - math.log2(denominator))
+            cost = times * (max(numerator.bit_length(), denominator.bit_length()) - 1)
+        shown = _number_text(base, 60)[1:-1]
+        if not (base.is_Integer and base.is_nonnegative):
+            shown = f"({shown})"
+        power = f"{shown}**{_number_text(exponent, 30)[1:-1]}"
         if bits > MAX_POWER_BITS:
-            raise ValueError(f"{base}**{exponent} is far beyond double precision")
+            raise ValueError(f"{power} is far beyond double precision")
+        if cost > MAX_POWER_BITS:
+            raise ValueError(
+                f"{power} is an exact fraction of more than {MAX_POWER_BITS} bits, "
+                "too long to compute; write its base as a decimal number"
+            )
     return base**exponent
 
 
@@ -298,6 +350,13 @@ def parse_expression(
         raise ModelError(
             f"{key}: {excerpt(text)} is complex-valued ({reason}); model expressions must be real"
         )
+    long = _long_constant(expression)
+    if long:
+        raise ModelError(
+            f"{key}: {excerpt(text)} folds to an exact fraction of more than "
+            f"{sys.get_int_max_str_digits():,} digits ({long}), which its compiled code cannot "
+            "write; write its numbers as decimals (1.0000000001, not 1 + 10**-10)"
+        )
     return expression
 
 
@@ -388,11 +447,11 @@ def _overflow(expression: sympy.Expr) -> str:
         try:
             value = float(node)
         except OverflowError:
-            return excerpt(node, 40)
+            return _number_text(node)
         except TypeError:  # complex: said by _complex_reason
             continue
         if not math.isfinite(value):
-            return excerpt(node, 40)
+            return _number_text(node)
     return ""
 
 
@@ -411,7 +470,7 @@ def _underflow(expression: sympy.Expr) -> str:
         if abs(value) < _SMALLEST_NORMAL and node.is_zero is False:
             shown = node.evalf(4) if node.is_Float else node  # 1.000e-400; exp(-1000)
             held = held_digits(value)
-            return f"{excerpt(shown, 40)} is below {_SMALLEST_NORMAL:.4g} and would be {held}"
+            return f"{_number_text(shown)} is below {_SMALLEST_NORMAL:.4g} and would be {held}"
     return ""
 
 

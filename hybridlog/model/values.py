@@ -281,9 +281,14 @@ def as_covariance(value: Any, n: int, key: str, names: Names | None = None) -> F
         raise ModelError(f"{key}: expected a number, a diagonal list or a matrix{keyed}")
     if not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0.0):
         row, col = (int(k) for k in np.unravel_index(np.argmax(abs(matrix - matrix.T)), (n, n)))
+        if isinstance(value, dict) and names is not None:  # as the file keys them: y1.y2
+            entry = key_path(key_path("", names[1][row]), names[1][col])
+            mirror = key_path(key_path("", names[1][col]), names[1][row])
+        else:
+            entry, mirror = f"[{row}][{col}]", f"[{col}][{row}]"
         raise ModelError(
-            f"{key}: covariance must be symmetric; [{row}][{col}] is {matrix[row, col]:g} but "
-            f"[{col}][{row}] is {matrix[col, row]:g}"
+            f"{key}: covariance must be symmetric; {entry} is {matrix[row, col]:g} but "
+            f"{mirror} is {matrix[col, row]:g}"
         )
     smallest = float(np.linalg.eigvalsh(matrix).min()) if n else 0.0
     if smallest < -1e-12 * max(1.0, float(np.abs(matrix).max())):

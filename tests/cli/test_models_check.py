@@ -189,3 +189,14 @@ def test_a_state_driven_model_says_how_the_filters_read_its_modes(
     scheduled = tmp_path / "scheduled.toml"
     scheduled.write_text(builtin_text("three_tank_hstf"), encoding="utf-8")
     assert "switching" not in check_and_describe(scheduled)
+
+
+def test_a_joint_mode_imm_would_refuse_is_found(tmp_path: Path) -> None:
+    # 'estimators for it: imm, unknown-mode' and 'a valid model file', while analyze (imm,
+    # the default) refused it: a variable no equation of the joint mode m11|m21|m31 gives
+    from tests.estimators.test_cpha_structure import UNGIVEN, UNGIVEN_ERROR
+
+    path = tmp_path / "ungiven.toml"
+    path.write_text(UNGIVEN, encoding="utf-8")
+    with pytest.raises(ModelError, match=UNGIVEN_ERROR):
+        check_and_describe(path)

@@ -191,7 +191,10 @@ def test_a_full_covariance_keyed_by_name_is_read_in_the_models_order():
         ),
         ("{y1 = [0.05, 0.01], y2 = 0.08}", r"noise\.measurement\.y2: expected a list of 2 numbers"),
         ("{y1 = [0.05, 0.01]}", r"noise\.measurement: no value for output 'y2'"),
-        ("{y1 = [0.05, 0.02], y2 = [0.01, 0.08]}", r"noise\.measurement: covariance must be symm"),
+        (  # named as written (was "[0][1] is 0.02 but [1][0] is 0.01", places never written)
+            "{y1 = [0.05, 0.02], y2 = [0.01, 0.08]}",
+            r"noise\.measurement: covariance must be symmetric; y1\.y2 is 0\.02 but y2\.y1 is",
+        ),
         ("{y1 = {y1 = 1, p = 0}, y2 = [0, 1]}", r"noise\.measurement\.y1\.p: unknown output"),
     ]:
         _refused(

@@ -352,6 +352,27 @@ def test_a_power_of_numbers_past_the_exponent_bound_is_a_number():
             parse_expression(text, X, key="k")
 
 
+def test_a_power_of_an_exact_fraction_is_bounded_by_its_digits():
+    """A fraction whose float is 1 or 0 (``1 + 10**-20``, ``10**-400``) counted no bits:
+    its power past the exponent bound was computed exactly, a fraction of millions of
+    digits (``(10**-400)**100000`` ran for minutes), or one too long for Python's text of an
+    integer (a ValueError "Exceeds the limit (4300 digits)" out of ``parse_expression``);
+    a product of numbers past that limit failed so in the overflow check, or, a number in
+    range, in the model's compilation."""
+    for text, said in [
+        ("x*(1+10**-20)**600", r"^k: \(10{19}1/10{20}\)\*\*600 is an exact fraction of"),
+        ("x*10**1000*10**1000*10**1000*10**1000*10**1000", r"'1\.000e\+5000' overflows\)$"),
+        ("x/(10**1000*10**1000*10**1000*10**1000*10**1000)", r"'1\.000e-5000' is below"),
+        ("x*(10**-400)**100000", r"^k: \(1/10.*0\)\*\*100000 is far beyond double precision$"),
+    ]:
+        with pytest.raises(ModelError, match=said):
+            parse_expression(text, X, key="k")
+    near_one = "x*" + "*".join(["(1+10**-20)**60"] * 4)  # every power below the bound
+    with pytest.raises(ModelError, match=r"folds to an exact fraction of more than 4,300 digits"):
+        parse_expression(near_one, X, key="k")  # was passed, failing in the model's compilation
+    assert float(parse_expression("(1/3)**100", X, key="k")) == pytest.approx(3.0**-100)
+
+
 def test_complex_simulation_input_and_matrix_entry_are_refused():
     text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
     with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
