@@ -10,6 +10,9 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
 
 from hybridlog.jobs.batch import run_batch
 from hybridlog.outputs import MARKER
@@ -71,12 +74,18 @@ def test_a_copy_of_the_batch_folder_removes_only_its_own_file(tmp_path: Path) ->
         junit.unlink(missing_ok=True)
 
 
-def test_the_same_file_of_another_batch_folder_stays(tmp_path: Path) -> None:
+def test_the_same_file_of_another_batch_folder_stays(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Two batch folders of the same logs write byte-identical JUnit files to one path.
 
     Before, batch folder a's run without --junit removed the file batch folder b wrote
-    since (the same SHA-256): b's current results, gone.
+    since (the same SHA-256): b's current results, gone.  The logs' wall times, in the
+    file, are held alike here, as they may come out alike to the millisecond.
     """
+    from hybridlog.jobs import batch
+
+    monkeypatch.setattr(batch, "time", SimpleNamespace(perf_counter=lambda: 1.0))
     logs = write_logs(tmp_path / "logs", ["s1.csv"], steps=20)
     junit = tmp_path / "junit.xml"
     _batch(logs, tmp_path / "a", junit)
