@@ -179,36 +179,69 @@ def _long_constant(expression: sympy.Expr) -> str:
     )
 
 
-def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
-    """``base**exponent``, an exponent past :data:`MAX_EXPONENT` only of a number.
+def _magnitude(value: sympy.Expr) -> float | None:
+    """``|value|`` of a real constant (``10``, ``pi``, ``sqrt(2)``), ``None`` of anything else."""
+    if not value.is_number:
+        return None
+    try:
+        return abs(float(value))
+    except TypeError:  # a complex constant
+        return None
 
-    A constant such as ``10**300`` (1e300) is a number like another, which the checks of
-    overflow and underflow then judge; its exponent is bounded by the bits of the result,
-    so that ``2**10**9`` is not computed.  The bits of an exact base count as written, its
-    numerator's and denominator's: ``(1 + 10**-20)**100000`` or ``(10**-400)**100000``,
-    whose float is 1 or 0, made sympy compute a fraction of millions of digits (minutes).
+
+def _exact_bits(value: sympy.Expr) -> int:
+    """The most bits of a numerator or denominator written in ``value`` (0 without one).
+
+    sympy computes a power of an exact number digit by digit, and of a root of one too
+    (``sqrt(1 + 10**-20)**100000`` is ``(1 + 10**-20)**50000``), so these bound its cost.
     """
-    if exponent.is_Number and abs(exponent) > MAX_EXPONENT:
-        magnitude = abs(float(base)) if base.is_Number else None
-        if magnitude is None or (magnitude not in (0.0, 1.0) and not math.isfinite(magnitude)):
-            raise ValueError(f"the exponent {exponent} is larger than {MAX_EXPONENT}")
-        times = abs(float(exponent))
-        cost = bits = 0.0 if magnitude in (0.0, 1.0) else times * abs(math.log2(magnitude))
-        if isinstance(base, sympy.Rational) and base.p != 0:  # exact: computed digit by digit
-            numerator, denominator = abs(int(base.p)), int(base.q)
-            bits = times * abs(math.log2(numerator) - math.log2(denominator))
-            cost = times * (max(numerator.bit_length(), denominator.bit_length()) - 1)
-        shown = _number_text(base, 60)[1:-1]
-        if not (base.is_Integer and base.is_nonnegative):
-            shown = f"({shown})"
-        power = f"{shown}**{_number_text(exponent, 30)[1:-1]}"
-        if bits > MAX_POWER_BITS:
-            raise ValueError(f"{power} is far beyond double precision")
-        if cost > MAX_POWER_BITS:
-            raise ValueError(
-                f"{power} is an exact fraction of more than {MAX_POWER_BITS} bits, "
-                "too long to compute; write its base as a decimal number"
-            )
+    return max(
+        (
+            max(abs(int(atom.p)).bit_length(), int(atom.q).bit_length()) - 1
+            for atom in value.atoms(sympy.Rational)
+            if atom.p != 0
+        ),
+        default=0,
+    )
+
+
+def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
+    """``base**exponent``, an exponent past :data:`MAX_EXPONENT` only of a constant.
+
+    A constant such as ``10**300`` (1e300) or ``pi**100`` is a number like another, which
+    the checks of overflow and underflow then judge; its exponent is bounded by the bits of
+    the result, so that ``2**10**9`` is not computed.  The bits of the exact numbers of the
+    base count as written, their numerators' and denominators': ``(1 + 10**-20)**100000``
+    or ``(10**-400)**100000``, whose float is 1 or 0, made sympy compute a fraction of
+    millions of digits (minutes).  An exponent is a constant too: ``x**(100*pi)`` is
+    ``x**314.159...``, past the bound as ``x**400`` is.
+    """
+    times = _magnitude(exponent)
+    if times is None or times <= MAX_EXPONENT:
+        return base**exponent
+    magnitude = _magnitude(base)
+    if magnitude is None or (magnitude not in (0.0, 1.0) and not math.isfinite(magnitude)):
+        raise ValueError(
+            f"the exponent {_number_text(exponent, 30)[1:-1]} is larger than {MAX_EXPONENT}"
+        )
+    bits = 0.0 if magnitude in (0.0, 1.0) else times * abs(math.log2(magnitude))
+    if isinstance(base, sympy.Rational) and base.p != 0:  # exact: its float may be 0 or 1
+        bits = times * abs(math.log2(abs(int(base.p))) - math.log2(int(base.q)))
+    cost = times * _exact_bits(base)
+    shown = _number_text(base, 60)[1:-1]
+    if not (base.is_Integer and base.is_nonnegative):
+        shown = f"({shown})"
+    times_shown = _number_text(exponent, 30)[1:-1]
+    if not exponent.is_Atom:
+        times_shown = f"({times_shown})"
+    power = f"{shown}**{times_shown}"
+    if bits > MAX_POWER_BITS:
+        raise ValueError(f"{power} is far beyond double precision")
+    if cost > MAX_POWER_BITS:
+        raise ValueError(
+            f"{power} is an exact fraction of more than {MAX_POWER_BITS} bits, "
+            "too long to compute; write its base as a decimal number"
+        )
     return base**exponent
 
 

@@ -352,6 +352,23 @@ def test_a_power_of_numbers_past_the_exponent_bound_is_a_number():
             parse_expression(text, X, key="k")
 
 
+def test_a_power_of_constants_is_a_number_and_a_constant_exponent_is_bounded():
+    """``pi**100`` and ``sqrt(2)**100`` (numbers: 5.2e49, 2**50) were refused as "the
+    exponent 100 is larger than 64", which only a number written with digits escaped, while
+    ``x**(100*pi)`` (``x**314.16``) passed the bound that refuses ``x**100``."""
+    assert float(parse_expression("pi**100", X, key="k")) == pytest.approx(math.pi**100)
+    assert float(parse_expression("sqrt(2)**100", X, key="k")) == 2.0**50
+    assert float(parse_expression("(-pi)**101/pi**101", X, key="k")) == -1.0
+    for text, said in [
+        ("x**(100*pi)", r"^k: the exponent 100\*pi is larger than 64$"),
+        ("x*pi**1000", r"^k: 'x\*pi\*\*1000' is not finite in double precision"),
+        ("2**(10**9*pi)*x", r"^k: 2\*\*\(1000000000\*pi\) is far beyond double precision$"),
+        ("x*sqrt(1+10**-20)**100000", r"^k: \(sqrt\(10{19}1\)/10{10}\)\*\*100000 is an exact"),
+    ]:
+        with pytest.raises(ModelError, match=said):
+            parse_expression(text, X, key="k")
+
+
 def test_a_power_of_an_exact_fraction_is_bounded_by_its_digits():
     """A fraction whose float is 1 or 0 (``1 + 10**-20``, ``10**-400``) counted no bits:
     its power past the exponent bound was computed exactly, a fraction of millions of
