@@ -143,10 +143,27 @@ def _expand_tilde(value: str) -> str:
     one (``$OLDPWD``).
     """
     first, slash, rest = value.partition("/")
-    folder = {"~+": os.getcwd(), "~-": os.environ.get("OLDPWD")}
+    folder = {"~+": _working_folder(), "~-": os.environ.get("OLDPWD")}
     if first in folder:
         return value if not folder[first] else f"{folder[first]}{slash}{rest}"
     return os.path.expanduser(value)
+
+
+def _working_folder() -> str:
+    """The working folder as the shell names it, ``$PWD``, when that is still this folder.
+
+    bash's ``~+`` is ``$PWD``, which keeps the symbolic links it was reached through;
+    ``os.getcwd()`` resolves them (``~+`` in a folder reached through ``/data -> /mnt/d``
+    was ``/mnt/d``).  A ``$PWD`` that is not absolute or names another folder (a program
+    that changed folder without setting it) is not taken.
+    """
+    shown = os.environ.get("PWD", "")
+    try:
+        if os.path.isabs(shown) and os.path.samefile(shown, os.curdir):
+            return shown
+    except OSError:
+        pass
+    return os.getcwd()
 
 
 _PATH = _PathName(path_type=Path)

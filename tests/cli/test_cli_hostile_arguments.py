@@ -6,13 +6,14 @@ parsing refuses before any work, so these cost no start-up of a job.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
 import click
 import pytest
 
-from hybridlog.cli import cli
+from hybridlog.cli import _expand_tilde, cli
 
 Main = Callable[[list[str]], tuple[int, str]]
 
@@ -144,6 +145,23 @@ def test_a_tilde_the_shell_left_is_the_home_folder(
         "hybridlog inspect: LOG: '~-/run.csv': the previous working folder, and OLDPWD is not "
         "set; write ./~-/run.csv for a name that starts with ~ (see hybridlog inspect --help)\n",
     )
+
+
+def test_the_working_folder_of_tilde_plus_is_the_shells(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """bash's ``~+`` is ``$PWD``, with the symbolic link it was reached through; it was the
+    resolved folder.  A ``$PWD`` naming another folder is not taken."""
+    real = tmp_path / "real"
+    real.mkdir()
+    link = tmp_path / "link"
+    link.symlink_to(real)
+    monkeypatch.chdir(link)
+    monkeypatch.setenv("PWD", str(link))
+    assert _expand_tilde("~+/r") == f"{link}/r"
+    for stale in (str(tmp_path), "link", ""):
+        monkeypatch.setenv("PWD", stale)
+        assert _expand_tilde("~+/r") == f"{os.path.realpath(real)}/r"
 
 
 def test_a_removed_working_folder_is_said_in_words(
