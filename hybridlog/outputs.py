@@ -1031,7 +1031,8 @@ def remove_stale_temporaries(folder: PathLike, *, ours: Collection[int] = ()) ->
     removed: list[Path] = []
     host = _host_tag()
     try:
-        entries = list(os.scandir(folder))
+        with os.scandir(folder) as listing:
+            entries = list(listing)
     except OSError:
         return removed
     for entry in entries:

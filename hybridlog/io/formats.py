@@ -383,15 +383,22 @@ def _inside_bag_hint(file: Path) -> str:
     return f"; it is part of the ROS 2 bag {str(folder)!r}: give that folder as the log"
 
 
+def _is_file(entry: os.DirEntry[str]) -> bool:
+    """Whether ``entry`` is a regular file or a link to one; a link loop is not."""
+    try:
+        return entry.is_file()
+    except OSError:  # a link loop (ELOOP) raises where a missing target is False
+        return False
+
+
 def _batch_hint(folder: Path, shown: str) -> str:
     """For a folder that is no log: how many log files it holds, and what reads them.
 
     Its own entries only: a folder of many subfolders is not searched to word an error.
     """
     try:
-        held = sum(
-            1 for entry in os.scandir(folder) if entry.is_file() and _log_file_name(entry.name)
-        )
+        with os.scandir(folder) as entries:
+            held = sum(1 for entry in entries if _log_file_name(entry.name) and _is_file(entry))
     except OSError:
         return ""
     if not held:

@@ -81,7 +81,10 @@ def _kind(folder: Path) -> str:
         if isinstance(data, dict) and PROVENANCE_KEY not in data:
             return "analyze"
         return "log"
-    names = {entry.name for entry in os.scandir(folder)} if folder.is_dir() else set()
+    names: set[str] = set()
+    if folder.is_dir():
+        with os.scandir(folder) as entries:
+            names = {entry.name for entry in entries}
     return "compare" if not COMPARISON_FILES.isdisjoint(names) else "batch"
 
 

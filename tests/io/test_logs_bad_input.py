@@ -7,10 +7,13 @@ killed, bytes flipped, index records lost, definitions missing.
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import sqlite3
 import struct
+import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -442,7 +445,9 @@ def test_a_db3_topic_name_stored_as_a_blob_is_refused(opened: str, tmp_path: Pat
     assert str(refusal.value) == f"{tmp_path / opened}: topic #1: its name is b'/u', not text"
 
 
-def test_folder_that_is_no_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_folder_that_is_no_bag(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
     (tmp_path / "empty_dir").mkdir()
     err = refused(tmp_path / "empty_dir", capsys, "is not a ROS 2 bag")
     assert "batch" not in err
@@ -452,6 +457,16 @@ def test_folder_that_is_no_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str
     for name in ("a.csv", "b.PARQUET", "notes.txt"):
         (runs / name).write_text("")
     refused(runs, capsys, "is not a ROS 2 bag", f"it holds 2 log files: 'hybridlog batch {runs}'")
+    # a link loop named like a log (ELOOP from is_file) lost the hint and left the folder's
+    # listing open: "ResourceWarning: unclosed scandir iterator" on the terminal
+    (runs / "loop.csv").symlink_to("loop.csv")
+    unraisable: list[object] = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", ResourceWarning)
+        refused(runs, capsys, f"it holds 2 log files: 'hybridlog batch {runs}'")
+        gc.collect()
+    assert unraisable == []
 
 
 # ------------------------------------------------------------------ paths and values
