@@ -456,14 +456,19 @@ def _comma_list(value: str) -> tuple[str, ...]:
 
     An empty item is a typo (a name left out, a stray comma), never a name: dropping it
     silently ran less than the user asked for.  A wholly empty value gives no items (the
-    command says what it needs).
+    command says what it needs).  A name given twice is refused here too, as a usage error
+    with the command's help named like the others (the library refuses it for Python).
     """
     from hybridlog.numbers import comma_items
 
     try:
-        return comma_items(value, "names")
+        names = comma_items(value, "names")
     except ValueError as err:
         raise click.BadParameter(str(err)) from None
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise click.BadParameter(f"{', '.join(map(excerpt, twice))} named twice")
+    return names
 
 
 class _Command(click.Command):

@@ -63,6 +63,16 @@ def test_compare_says_which_item_is_empty(hybridlog_main: Main, tmp_path: Path) 
     )
 
 
+def test_compare_says_which_name_is_given_twice(hybridlog_main: Main, tmp_path: Path) -> None:
+    """A name given twice was refused in another form than every other usage error
+    (``hybridlog: error: --estimators: 'imm' named twice``, without the command's help)."""
+    code, err = hybridlog_main([*_base("compare", tmp_path), "--estimators", "imm,hstf, imm"])
+    assert (code, err) == (
+        2,
+        "hybridlog compare: --estimators: 'imm' named twice (see hybridlog compare --help)\n",
+    )
+
+
 def test_spaces_around_names_are_still_fine(hybridlog_main: Main, tmp_path: Path) -> None:
     # parsed, then refused for the missing log (not for the list)
     code, err = hybridlog_main(
