@@ -11,8 +11,10 @@ analysis (:mod:`hybridlog.estimators.cpha.structure`) and ``imm``'s joint modes
 
 At a joint mode of known modes only (no component ``unknown``) the model must be complete
 (eq. (1): "only a fully specified mode allows us to deduce the mathematical model"): every
-equation determines a variable, and every output or internal variable an equation uses is
-determined by one.  :func:`check_joint_modes` checks this for every joint known mode when the
+equation determines a variable, every output or internal variable an equation uses is
+determined by one, and every output is (a mode whose sensor explains nothing is the unknown
+mode's case; ``imm`` and ``simulate`` refused such a joint mode, ``unknown-mode`` left the
+output unexplained).  :func:`check_joint_modes` checks this for every joint known mode when the
 file is read, so that every estimator, ``simulate`` and ``models FILE`` read one model file
 the same way: ``unknown-mode`` had checked a joint mode only when its tracker first visited
 it, so one file passed on one log and was refused on another, while ``imm`` and
@@ -36,6 +38,7 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 import scipy.sparse
@@ -222,22 +225,57 @@ def check_joint_modes(components: Sequence[Component], names: ComponentNames) ->
         parts = [
             {m.id: _Part.of(m.equations, matchable) for m in components[i].modes} for i in group
         ]
+        outputs = _outputs(parts, names)
         for modes in itertools.product(*(components[i].mode_ids for i in group)):
-            if _complete([part[m] for part, m in zip(parts, modes, strict=True)]):
+            if _complete([part[m] for part, m in zip(parts, modes, strict=True)], outputs):
                 continue
-            equations = [
-                e for i, m in zip(group, modes, strict=True) for e in components[i].equations(m)
-            ]
-            _, determined_by, unmatched = causal_graph(names, equations)
-            found = undetermined_use(names, equations, determined_by)
-            if unmatched or found is not None:
-                chosen = dict(zip(group, modes, strict=True))
-                label = "|".join(chosen.get(i, c.mode_ids[0]) for i, c in enumerate(components))
-                if unmatched:
-                    raise ModelError(unmatched_message(unmatched[0], label))
-                if found is not None:
-                    raise ModelError(f"{found[0]}: {undetermined_message(found[1], label)}")
+            _refuse(components, names, dict(zip(group, modes, strict=True)))
     return unchecked_note(components, names)
+
+
+def _outputs(parts: Sequence[Mapping[str, _Part]], names: ComponentNames) -> frozenset[str]:
+    """The outputs some mode of a group's components uses: every joint mode must give them."""
+    used = frozenset().union(*(p.used for part in parts for p in part.values()))
+    return used & frozenset(names.outputs)
+
+
+def _refuse(
+    components: Sequence[Component], names: ComponentNames, chosen: Mapping[int, str]
+) -> NoReturn:
+    """Refuse the joint mode ``chosen`` (component index → mode id) :func:`_complete` refused.
+
+    Naming the equation and the variable as :func:`causal_graph` and
+    :func:`undetermined_use` find them, else the component mode that leaves an output of
+    its group without an equation; the components of other groups at their first mode in
+    the joint mode's label.
+    """
+    label = "|".join(chosen.get(i, c.mode_ids[0]) for i, c in enumerate(components))
+    equations = [e for i, m in chosen.items() for e in components[i].equations(m)]
+    _, determined_by, unmatched = causal_graph(names, equations)
+    if unmatched:
+        raise ModelError(unmatched_message(unmatched[0], label))
+    found = undetermined_use(names, equations, determined_by)
+    if found is not None:
+        raise ModelError(f"{found[0]}: {undetermined_message(found[1], label)}")
+    for i, mode_id in chosen.items():
+        component = components[i]
+        mode = component.mode(mode_id)
+        for other in component.modes:
+            given = [
+                o
+                for e in other.equations
+                if e.kind == "algebraic"
+                for o in sorted(e.variables & set(names.outputs))
+                if o not in determined_by
+            ]
+            if given:
+                raise ModelError(
+                    f"{mode.key}: no equation of the joint mode {label} gives the output "
+                    f"'{given[0]}', which {other.key} gives: a known joint mode gives every "
+                    "output (only the unknown mode leaves one unexplained, paper 002 §3); "
+                    "write its sensor's equation in this mode"
+                )
+    raise ModelError(f"components: joint mode {label}: its equations do not determine it")
 
 
 @dataclass(frozen=True)
@@ -259,8 +297,11 @@ class _Part:
         )
 
 
-def _complete(parts: Sequence[_Part]) -> bool:
+def _complete(parts: Sequence[_Part], outputs: frozenset[str]) -> bool:
     """Whether the algebraic equations of ``parts`` determine exactly the variables they use.
+
+    And whether they use every one of ``outputs`` (those of the group, which every joint
+    mode must give).
 
     A matching that covers every algebraic equation and every output or internal variable
     used (:func:`causal_graph` then leaves none unmatched and :func:`undetermined_use` finds
@@ -271,7 +312,7 @@ def _complete(parts: Sequence[_Part]) -> bool:
     """
     candidates = [c for part in parts for c in part.candidates]
     used = frozenset().union(*(part.used for part in parts))
-    if len(candidates) != len(used):
+    if len(candidates) != len(used) or not outputs <= used:
         return False
     owner: dict[str, int] = {}
 

@@ -69,6 +69,24 @@ def test_a_known_mode_without_a_state_s_difference_equation_is_refused() -> None
     )
 
 
+def test_a_known_joint_mode_without_an_output_s_equation_is_refused() -> None:
+    # a sensor-off mode of A3: unknown-mode left yc2 unexplained (as if A3 were unknown),
+    # imm refused 'nothing determines yc2', simulate refused only a schedule reaching it
+    sensor_off = SECOND_MODE.replace(
+        "[components.A2.modes.m22]",
+        '[components.A3.modes.m32]\nequations = ["xc2[k] = xc3[k-1] + yc1[k-1]", '
+        '"xc3[k] = 0.4*xc2[k-1] + 0.5*uc1[k-1]"]\n\n[components.A2.modes.m22]',
+    )
+    with pytest.raises(ModelError) as refused:
+        parse_model(sensor_off, origin="m.toml")
+    assert str(refused.value) == (
+        "m.toml: components.A3.modes.m32: no equation of the joint mode m11|m21|m32 gives the "
+        "output 'yc2', which components.A3.modes.m31 gives: a known joint mode gives every "
+        "output (only the unknown mode leaves one unexplained, paper 002 §3); write its "
+        "sensor's equation in this mode"
+    )
+
+
 def _chain(n: int, *, shared: bool, bad: int | None = None) -> str:
     """``n`` components of two modes each, every one using ``w`` when ``shared``."""
     states = ", ".join(f'"x{i}"' for i in range(n))
@@ -155,7 +173,7 @@ def test_the_quick_check_agrees_with_the_matching_at_every_joint_mode() -> None:
                 expected = (
                     not unmatched and undetermined_use(names, equations, determined_by) is None
                 )
-                quick = _complete([_Part.of(group, matchable) for group in chosen])
+                quick = _complete([_Part.of(group, matchable) for group in chosen], frozenset())
                 assert quick == expected, modes
                 answers.add(quick)
         assert answers == {True, False}
