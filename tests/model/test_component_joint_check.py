@@ -177,3 +177,12 @@ def test_the_quick_check_agrees_with_the_matching_at_every_joint_mode() -> None:
                 assert quick == expected, modes
                 answers.add(quick)
         assert answers == {True, False}
+
+
+def test_models_file_says_a_group_was_not_checked(tmp_path: Path) -> None:
+    from hybridlog.jobs.model_description import check_and_describe
+
+    path = tmp_path / "chain.toml"
+    path.write_text(_chain(16, shared=True), encoding="utf-8")
+    (line,) = [n for n in check_and_describe(path).splitlines() if "joint modes of" in n]
+    assert line.startswith("NOTE: components: the joint modes of source, c0, ")
