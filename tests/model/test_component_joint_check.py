@@ -142,14 +142,15 @@ def test_a_group_past_the_bound_is_said_not_checked() -> None:
     assert "(131072 joint modes)" in note and "unknown-mode first reaches it" in note
 
 
-def test_the_quick_check_agrees_with_the_matching_at_every_joint_mode() -> None:
-    # _complete answers what causal_graph and undetermined_use would, without scipy
+def test_the_batched_check_agrees_with_the_matching_at_every_joint_mode() -> None:
+    # _first_incomplete answers what causal_graph and undetermined_use would, each joint
+    # mode a block of one matching: alone, and as the first wrong one of a batch
     import itertools
 
     from hybridlog.model.builtins import builtin_text
     from hybridlog.model.component_structure import (
         ComponentNames,
-        _complete,
+        _first_incomplete,
         _Part,
         causal_graph,
         undetermined_use,
@@ -159,7 +160,7 @@ def test_the_quick_check_agrees_with_the_matching_at_every_joint_mode() -> None:
     for model in (parse_model(text), parse_model(SECOND_MODE)):
         names = ComponentNames(model.states, model.inputs, model.outputs, model.variables)
         matchable = frozenset(model.outputs) | frozenset(model.variables)
-        answers = set()
+        joint, expected = [], []
         for modes in itertools.product(*(c.mode_ids for c in model.components)):
             # and with one component's equations left out: complete and incomplete ones
             for left_out in range(-1, len(modes)):
@@ -170,13 +171,17 @@ def test_the_quick_check_agrees_with_the_matching_at_every_joint_mode() -> None:
                 ]
                 equations = [e for group in chosen for e in group]
                 _, determined_by, unmatched = causal_graph(names, equations)
-                expected = (
+                expected.append(
                     not unmatched and undetermined_use(names, equations, determined_by) is None
                 )
-                quick = _complete([_Part.of(group, matchable) for group in chosen], frozenset())
-                assert quick == expected, modes
-                answers.add(quick)
-        assert answers == {True, False}
+                joint.append([_Part.of(group, matchable) for group in chosen])
+        assert set(expected) == {True, False}
+        order = sorted(matchable)
+        for parts, complete in zip(joint, expected, strict=True):
+            assert (_first_incomplete([parts], frozenset(), order) is None) == complete
+        for start in range(0, len(joint), 7):  # a wrong one after complete ones
+            first = next((i for i, ok in enumerate(expected[start:]) if not ok), None)
+            assert _first_incomplete(joint[start:], frozenset(), order) == first
 
 
 def test_models_file_says_a_group_was_not_checked(tmp_path: Path) -> None:
