@@ -693,6 +693,36 @@ def _notes(
     return tuple(notes)
 
 
+def _initial_mode_note(model: HybridModel, first: int) -> tuple[str, ...]:
+    """The note of a log whose first mode is not the one the model's ``[initial]`` expects.
+
+    Paper 004's observer takes sigma as known (the log's switching signal), sigma(0) too: the
+    prior over the initial mode (``[initial] mode`` or ``mode_probabilities``), which a
+    filter weighs against the first outputs, has nothing to decide here.  Nothing said it:
+    a log starting in another mode than ``[initial] mode`` ran without a word of it.  The
+    estimate starts at ``[initial] state`` in the log's first mode as written: the log shows
+    no switch at its start, so no jump map from the model's initial mode is applied.
+    ``()`` where the log's first mode is one of the most probable initial modes.
+    """
+    prior = model.initial_mode_probabilities
+    if prior[first] >= prior.max():
+        return ()
+    expected = model.mode_ids[int(np.argmax(prior))]
+    jump = model.jump_between(int(np.argmax(prior)), first)
+    jumped = (
+        f", and the jump map {jump.key} was not applied (the log shows no switch at its start)"
+        if jump is not None
+        else ""
+    )
+    return (
+        f"[initial] mode not used: the model's initial mode is '{expected}' (prior "
+        f"{prior.max():.3g}), the log's switching signal starts in '{model.mode_ids[first]}' "
+        f"(prior {prior[first]:.3g}), which this observer takes as known (paper 004: sigma is "
+        "given); the estimate starts from [initial] state in "
+        f"'{model.mode_ids[first]}'{jumped}",
+    )
+
+
 def _open_loop_note(signals: AlignedSignals) -> tuple[str, ...]:
     """How many intervals ran without output injection (``y`` not measured at their start)."""
     if signals.unmeasured_outputs is None:
@@ -785,6 +815,8 @@ def run_switching_observer(
         states,
         eigenvalues,
     ) + _open_loop_note(signals)
+    if given and count:
+        notes += _initial_mode_note(model, int(modes[0]))
     from hybridlog.estimators.options import options_dict
 
     return EstimationResult(

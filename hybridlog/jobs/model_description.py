@@ -49,8 +49,8 @@ def check_and_describe(path: Path) -> str:
     traits = ModelTraits(model)
     suited = [e.name for e in ESTIMATORS.values() if e.capabilities.mismatch(traits) is None]
     if model.has_components and "imm" in suited:
-        # imm runs the joint modes, each checked as it is built (a variable no equation of
-        # one gives): analyze refused the file this called valid, imm its default estimator
+        # imm runs the joint modes, each solved as it is built (the loader checked that each
+        # determines its variables): one sympy cannot solve is refused here as imm would
         from hybridlog.estimators.cpha.joint import joint_mode_model
 
         joint_mode_model(model)

@@ -120,8 +120,9 @@ def load_components(
     ``process_variances`` and ``measurement_variances`` are the ``[noise]`` defaults per
     state and per output (NaN for an output when the file gives no ``[noise]
     measurement``: unstated, not guessed).  Besides each table's own checks: a state is
-    defined by the difference equations of one component only (at most one per mode), and
-    every state, output and internal variable appears in some equation.
+    defined by the difference equations of one component only (at most one per mode, and
+    one in every known mode: :func:`_refuse_missing_states`), and every state, output and
+    internal variable appears in some equation.
     """
     if not table:
         raise ModelError("components: at least one component is required")
@@ -147,6 +148,7 @@ def load_components(
                     "a state belongs to one component"
                 )
             owner[state] = key
+        _refuse_missing_states(component)
         components.append(component)
     _refuse_close_settings(components)
     used = set(owner)
@@ -171,6 +173,29 @@ def load_components(
                     "component, so no mode gives it a value (is its component missing?)"
                 )
     return tuple(components)
+
+
+def _refuse_missing_states(component: Component) -> None:
+    """Refuse a known mode without a difference equation for a state its component gives.
+
+    Paper 002 §3: a known mode is fully specified, the union of the joint mode's equations
+    being the model of eq. (1), which gives every state; only the ``unknown`` mode imposes
+    no equation, and a state it leaves undetermined is held (§3.1).  Such a mode had three
+    meanings: ``unknown-mode`` held the state there as if the component were unknown,
+    ``imm`` refused the joint mode ("nothing determines xc1") and ``simulate`` refused it
+    only when its schedule reached it.  Refused here, one line naming the mode and state,
+    before any log is read; a mode meant to keep the state writes ``x[k] = x[k-1]``.
+    """
+    for state in component.states:
+        given = next(m for m in component.modes if any(e.state == state for e in m.equations))
+        for mode in component.modes:
+            if not any(e.state == state for e in mode.equations):
+                raise ModelError(
+                    f"{mode.key}: no difference equation for the state '{state}' of component "
+                    f"'{component.name}', which its mode '{given.id}' gives: a known mode "
+                    f"gives every state of its component (write {state}[k] = {state}[k-1] "
+                    "to keep it; only the unknown mode leaves it undetermined, paper 002 §3)"
+                )
 
 
 def parse_equation(

@@ -140,7 +140,15 @@ class _Finding:
 
 
 def model_diagnoses(model: HybridModel) -> tuple[str, ...]:
-    """:func:`diagnose` of a loaded model, its nonlinear modes linearised (``models FILE``)."""
+    """:func:`diagnose` of a loaded model, its nonlinear modes linearised (``models FILE``).
+
+    A components model's joint modes left unchecked when the file was read
+    (:func:`~hybridlog.model.component_structure.unchecked_note`) are said too.
+    """
+    from hybridlog.model.component_structure import ComponentNames, unchecked_note
+
+    names = ComponentNames(model.states, model.inputs, model.outputs, model.variables)
+    unchecked = unchecked_note(model.components, names) if model.components else None
     return diagnose(
         model.modes,
         model.states,
@@ -149,7 +157,7 @@ def model_diagnoses(model: HybridModel) -> tuple[str, ...]:
         model.initial_state,
         model.jumps,
         linearise=True,
-    )
+    ) + (() if unchecked is None else (f"{_NOTE}{unchecked}",))
 
 
 def _mode_lines(findings: Mapping[_Finding, Sequence[str]]) -> list[str]:

@@ -38,6 +38,7 @@ from sympy.core.function import Application
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
+from hybridlog.model.component_structure import ComponentNames, check_joint_modes
 from hybridlog.model.components import Component
 from hybridlog.model.derivatives import boolean_affine_problem
 from hybridlog.model.diagnosis import diagnose
@@ -273,6 +274,7 @@ class _Builder:
         components: tuple[Component, ...] = ()
         boolean_affine = None
         jumps: tuple[Jump, ...] = ()
+        unchecked: str | None = None
         if kind == "components":
             components = load_components(
                 as_table(data["components"], "components"),
@@ -290,6 +292,9 @@ class _Builder:
                 ),
             )
             _refuse_joint_separator(components)
+            unchecked = check_joint_modes(
+                components, ComponentNames(states, inputs, outputs, variables)
+            )
             mu0 = np.zeros(0)
             transitions = None
         else:
@@ -389,7 +394,10 @@ class _Builder:
             scenario=scenario,
             twin_modes=twin_modes(modes, jumps),
             component_twin_modes=component_twin_modes(components),
-            diagnoses=diagnose(modes, states, inputs, timebase, x0, jumps, linearise=False),
+            diagnoses=(
+                *diagnose(modes, states, inputs, timebase, x0, jumps, linearise=False),
+                *(() if unchecked is None else (f"NOTE: {unchecked}",)),
+            ),
             outputs_differ=outputs_differ(modes),
         )
 

@@ -196,19 +196,36 @@ UNGIVEN_ERROR = (
 )
 
 
-def test_a_variable_no_known_mode_gives_is_refused_not_dropped():
+def unchecked_model(text, monkeypatch):
+    """``text`` parsed as past the bound of the check made when a file is read.
+
+    :func:`~hybridlog.model.component_structure.check_joint_modes` refuses such a file
+    before any estimator sees it; past its bound the estimators' own checks remain.
+    """
+    import hybridlog.model.loader
+
+    monkeypatch.setattr(hybridlog.model.loader, "check_joint_modes", lambda *_: None)
+    return parse_model(text)
+
+
+def test_a_variable_no_known_mode_gives_is_refused_when_the_file_is_read():
+    with pytest.raises(ModelError, match=r"^<model>: " + UNGIVEN_ERROR):
+        parse_model(UNGIVEN)
+
+
+def test_a_variable_no_known_mode_gives_is_refused_not_dropped(monkeypatch):
     # The cluster of yc1 was dropped without a word (wc2 "undetermined", as if a component
     # were unknown): a report of no estimated state and every mode "right".
-    model = parse_model(UNGIVEN)
+    model = unchecked_model(UNGIVEN, monkeypatch)
     with pytest.raises(ModelError, match=UNGIVEN_ERROR):
         analyse(model, "m11", "m21", "m31")
     d = analyse(model, "unknown", "m21", "m31")  # an unknown component leaves it so: paper's case
     assert d.held_states == ("xc1",)
 
 
-def test_joint_modes_refuse_a_variable_no_mode_gives():
+def test_joint_modes_refuse_a_variable_no_mode_gives(monkeypatch):
     # imm's joint mode kept wc2 as a free symbol of h: numba's NameError at run time.
     from hybridlog.estimators.cpha.joint import joint_mode_model
 
     with pytest.raises(ModelError, match=r"^<model>: " + UNGIVEN_ERROR):
-        joint_mode_model(parse_model(UNGIVEN))
+        joint_mode_model(unchecked_model(UNGIVEN, monkeypatch))

@@ -756,3 +756,15 @@ def test_the_stand_ins_on_the_clutch_change_nothing(switched):
     assert_same(first, again)
     error = np.abs(first.state_means - signals.truth_states)[-DWELL:] / SCALE
     assert error.max() < 5e-3  # from 1.3 at the start: the measured half drives it home
+
+
+def test_a_log_starting_in_another_mode_than_initial_mode_is_said_so():
+    # the model's [initial] mode is '0'; a log starting engaged ran without a word of it
+    schedule = [(1, DWELL), (0, DWELL)]
+    _, _, signals, result = clutch_run(builtin_text("ice_clutch"), "-4,-8,-12", schedule)
+    assert signals.truth_modes is not None and signals.truth_modes[0] == 1
+    (note,) = [n for n in result.notes if n.startswith("[initial] mode not used")]
+    assert "initial mode is '0' (prior 1)" in note and "starts in '1' (prior 0)" in note
+    assert 'the jump map jumps."0->1" was not applied' in note
+    _, _, _, expected = clutch_run(builtin_text("ice_clutch"), "-4,-8,-12", schedule[::-1])
+    assert not any(n.startswith("[initial]") for n in expected.notes)

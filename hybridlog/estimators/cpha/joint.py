@@ -23,14 +23,14 @@ import numpy as np
 import sympy
 
 from hybridlog.estimators.capabilities import MAX_JOINT_MODES
-from hybridlog.estimators.cpha.structure import (
-    Assignment,
-    _causal_graph,
-    _Names,
-    _undetermined_message,
-    _undetermined_use,
-)
+from hybridlog.estimators.cpha.structure import Assignment
 from hybridlog.estimators.result import TimelineColumn
+from hybridlog.model.component_structure import (
+    ComponentNames,
+    causal_graph,
+    undetermined_message,
+    undetermined_use,
+)
 from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.hybrid_model import HybridModel, Mode
@@ -54,16 +54,16 @@ def _known(probabilities: dict[str, float]) -> dict[str, float]:
 
 def _mode(model: HybridModel, assignment: Assignment) -> Mode:
     """The MIMO model (eq. (1)) of one joint assignment of known modes."""
-    names = _Names(model.states, model.inputs, model.outputs, model.variables)
+    names = ComponentNames(model.states, model.inputs, model.outputs, model.variables)
     owned = [
         (e, c, m) for c, m in zip(model.components, assignment, strict=True) for e in c.equations(m)
     ]
     equations = [e for e, _, _ in owned]
     label = joint_label(assignment)
-    _, determined_by, unmatched = _causal_graph(names, equations)
-    undetermined = _undetermined_use(names, equations, determined_by)
+    _, determined_by, unmatched = causal_graph(names, equations)
+    undetermined = undetermined_use(names, equations, determined_by)
     if undetermined is not None:
-        raise model.error(undetermined[0], _undetermined_message(undetermined[1], label))
+        raise model.error(undetermined[0], undetermined_message(undetermined[1], label))
     missing = [v for v in (*model.states, *model.outputs) if v not in determined_by]
     if unmatched or missing:
         what = f"equations {', '.join(unmatched)} determine nothing" if unmatched else ""

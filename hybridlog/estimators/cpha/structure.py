@@ -40,9 +40,17 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse
 import sympy
-from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
+from scipy.sparse.csgraph import connected_components
 
 from hybridlog.errors import ModelError
+from hybridlog.model.component_structure import (
+    CausalGraph,
+    causal_graph,
+    undetermined_message,
+    unmatched_message,
+)
+from hybridlog.model.component_structure import ComponentNames as _Names
+from hybridlog.model.component_structure import undetermined_use as _undetermined_use
 from hybridlog.model.components import UNKNOWN, Component, Equation
 from hybridlog.model.expressions import previous_symbol
 
@@ -62,25 +70,6 @@ Assignment = tuple[str, ...]
 def virtual_input(name: str) -> str:
     """The vertex name of observed variable ``name`` used as a virtual input (``u[yc1]``)."""
     return f"u[{name}]"
-
-
-@dataclass(frozen=True)
-class CausalGraph:
-    """A causal graph (Definition 4): vertices are variables, ``(v, w)`` means w uses v.
-
-    Attributes
-    ----------
-    vertices:
-        Variable names (and virtual inputs after slicing), in a fixed order.
-    edges:
-        Directed edges ``(cause, effect)``.
-    exogenous:
-        Vertices without a determining equation.
-    """
-
-    vertices: tuple[str, ...]
-    edges: frozenset[tuple[str, str]]
-    exogenous: frozenset[str]
 
 
 @dataclass(frozen=True)
@@ -177,14 +166,6 @@ class Decomposition:
     unmatched: tuple[str, ...] = field(default=())
 
 
-@dataclass(frozen=True)
-class _Names:
-    states: tuple[str, ...]
-    inputs: tuple[str, ...]
-    outputs: tuple[str, ...]
-    variables: tuple[str, ...]
-
-
 def _owner_modes(
     components: Sequence[Component], assignment: Assignment
 ) -> list[tuple[Equation, str, str]]:
@@ -194,72 +175,6 @@ def _owner_modes(
         for equation in component.equations(mode):
             out.append((equation, component.name, mode))
     return out
-
-
-def _causal_graph(
-    names: _Names, equations: Sequence[Equation]
-) -> tuple[CausalGraph, dict[str, int], list[str]]:
-    """Causal ordering by maximum bipartite matching (paper 002 §3.1, [17])."""
-    vertices = (*names.states, *names.inputs, *names.outputs, *names.variables)
-    column = {v: i for i, v in enumerate(vertices)}
-    matchable = set(names.outputs) | set(names.variables)
-    rows: list[int] = []
-    cols: list[int] = []
-    for r, equation in enumerate(equations):
-        if equation.kind == "difference":
-            candidates = [equation.state]
-        else:
-            candidates = sorted(equation.variables & matchable, key=column.__getitem__)
-        for name in candidates:
-            rows.append(r)
-            cols.append(column[name])
-    biadjacency = scipy.sparse.csr_matrix(
-        (np.ones(len(rows)), (rows, cols)), shape=(len(equations), len(vertices))
-    )
-    match = maximum_bipartite_matching(biadjacency, perm_type="column")
-    determined_by: dict[str, int] = {}
-    unmatched: list[str] = []
-    for r, c in enumerate(match):
-        if c < 0:
-            unmatched.append(equations[r].key)
-        else:
-            determined_by[vertices[int(c)]] = r
-    edges: set[tuple[str, str]] = set()
-    for variable, r in determined_by.items():
-        equation = equations[r]
-        for cause in equation.variables | equation.previous:
-            if cause != variable:
-                edges.add((cause, variable))
-    exogenous = frozenset(v for v in vertices if v not in determined_by)
-    return CausalGraph(vertices, frozenset(edges), exogenous), determined_by, unmatched
-
-
-def _undetermined_use(
-    names: _Names, equations: Sequence[Equation], determined_by: Mapping[str, int]
-) -> tuple[str, str] | None:
-    """The first equation using an output or internal variable no equation determines.
-
-    At an assignment of known modes every variable an equation uses must be given by an
-    equation (as ``simulate`` requires): one left undetermined is a gap of the model, not the
-    unknown mode's (paper 002 §3.1).  Unchecked, its cluster was dropped without a word
-    (``y2 = x2*w2`` with nothing giving ``w2``: no state estimated, every mode "right"), and
-    the joint mode's ``h`` kept the free symbol (``imm``: numba's ``NameError``).
-    """
-    given = set(names.outputs) | set(names.variables)
-    for equation in equations:
-        for variable in sorted((equation.variables | equation.previous) & given):
-            if variable not in determined_by:
-                return equation.key, variable
-    return None
-
-
-def _undetermined_message(variable: str, label: str) -> str:
-    """What :func:`_undetermined_use` found, after the equation's key."""
-    return (
-        f"uses '{variable}', which no equation of the joint mode {label} determines (an "
-        f"equation determines one variable; give '{variable}' an equation in a mode of that "
-        "joint mode, or remove it from this one)"
-    )
 
 
 def _slice(graph: CausalGraph, observed: Sequence[str]) -> CausalGraph:
@@ -326,19 +241,15 @@ def decompose(
     names = _Names(states, inputs, outputs, variables)
     owned = _owner_modes(components, assignment)
     equations = [e for e, _, _ in owned]
-    graph, determined_by, unmatched = _causal_graph(names, equations)
-    if unmatched:
-        raise ModelError(
-            f"{unmatched[0]}: determines nothing at the mode assignment {'|'.join(assignment)}: "
-            "every variable it relates is determined by another equation, so it would be "
-            "ignored (remove it if it is redundant; as it stands it may contradict them)"
-        )
-    if UNKNOWN not in assignment:
+    graph, determined_by, unmatched = causal_graph(names, equations)
+    if unmatched:  # found when the file is read (check_joint_modes) but past its bound
+        raise ModelError(unmatched_message(unmatched[0], "|".join(assignment)))
+    if UNKNOWN not in assignment:  # checked when the file is read, unless past its bound
         undetermined = _undetermined_use(names, equations, determined_by)
         if undetermined is not None:
             key, variable = undetermined
             label = "|".join(assignment)
-            raise ModelError(f"{key}: {_undetermined_message(variable, label)}")
+            raise ModelError(f"{key}: {undetermined_message(variable, label)}")
     sliced = _slice(graph, outputs)
     sccs, scc_of = _sccs(sliced)
     n_scc = len(sccs)

@@ -97,6 +97,7 @@ from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
+from hybridlog.model.component_structure import ComponentNames, unchecked_note
 from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN
 from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS, HybridModel
 from hybridlog.signals import AlignedSignals, BoolArray, FloatArray
@@ -429,6 +430,10 @@ def _run(
             "entered it; a larger candidates searches further",
         )
     notes += command_notes(model, signals)
+    unchecked = unchecked_note(
+        components, ComponentNames(model.states, model.inputs, model.outputs, model.variables)
+    )
+    notes += () if unchecked is None else (unchecked,)
     absorbing = (
         absorbing_components(components, tracker.transitions.commands, tracker.commands)
         if options.unknown_mode
