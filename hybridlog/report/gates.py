@@ -193,7 +193,8 @@ class Gate:
         ``"under"``: fail when the metric is below ``bound``; ``"over"``: when above.
     spec:
         ``METRIC=VALUE`` as given, without the blanks around either part (``' fit = 60 '``
-        is ``fit=60``): the name of the gate in report.json, report.md, summary.md and
+        is ``fit=60``) and a sign that is not the bound's (``fit=-0`` and ``fit=+0`` are
+        ``fit=0``): the name of the gate in report.json, report.md, summary.md and
         JUnit, where a blank would make the same gate another test case.
 
     """
@@ -278,7 +279,19 @@ def parse_gate(spec: str, kind: GateKind) -> Gate:
         hint = _percent_sign_hint(base, value)
         raise OptionError(f"{option} {spec!r}: bound {value!r}: {err}{hint}") from None
     _check_attainable(spec, option, metric, bound, kind)
-    return Gate(metric=metric, bound=bound, kind=kind, spec=f"{metric}={value}")
+    return Gate(metric=metric, bound=bound, kind=kind, spec=f"{metric}={_bound_text(value, bound)}")
+
+
+def _bound_text(value: str, bound: float) -> str:
+    """A bound's text in a gate's name: as given, but for a sign that is not the bound's.
+
+    ``-0`` (``-0.0``, ``-0e5``) is the bound 0 and is named ``0`` (``0.0``, ``0e5``), and a
+    leading ``+`` is dropped (``+60`` is ``60``): ``fit=-0`` was another JUnit case, summary
+    column and report.md gate than ``fit=0`` for the same bound.
+    """
+    if value.startswith("+") or (value.startswith("-") and bound == 0.0):
+        return value[1:]
+    return value
 
 
 def _check_attainable(spec: str, option: str, metric: str, bound: float, kind: GateKind) -> None:

@@ -66,3 +66,14 @@ def test_a_bound_of_minus_zero_is_zero() -> None:
     """``--fail-over mse=-0`` read "is over the bound -0" and recorded -0.0 in report.json."""
     (gate,) = parse_gates([], ["mse=-0"])
     assert math.copysign(1.0, gate.bound) == 1.0 and f"{gate.bound:g}" == "0"
+
+
+@pytest.mark.parametrize(
+    ("given", "named"),
+    [("fit=-0", "fit=0"), ("fit=-0.0", "fit=0.0"), ("fit=+0", "fit=0"), ("vaf=+60", "vaf=60")],
+)
+def test_a_gate_is_named_without_a_sign_that_is_not_its_bounds(given: str, named: str) -> None:
+    """``--fail-under fit=-0`` was the JUnit case, summary column and report.md gate
+    ``fit=-0``: another test case than ``fit=0`` for the same bound; ``-1`` keeps its sign."""
+    gate, negative = parse_gates([given, "fit=-1"])
+    assert gate.spec == named and negative.spec == "fit=-1"
