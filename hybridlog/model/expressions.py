@@ -179,6 +179,9 @@ def _long_constant(expression: sympy.Expr) -> str:
     )
 
 
+_NOT_FINITE = (sympy.zoo, sympy.nan, sympy.oo, -sympy.oo)
+
+
 def _magnitude(value: sympy.Expr) -> float | None:
     """``|value|`` of a real constant (``10``, ``pi``, ``sqrt(2)``), ``None`` of anything else."""
     if not value.is_number:
@@ -215,16 +218,37 @@ def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
     or ``(10**-400)**100000``, whose float is 1 or 0, made sympy compute a fraction of
     millions of digits (minutes).  An exponent is a constant too: ``x**(100*pi)`` is
     ``x**314.159...``, past the bound as ``x**400`` is.
+
+    An exponent within the bound is bounded by the same digits, powers of powers being
+    computed as they come: ``(((1+10**-20)**60)**60)**60``, each exponent 60, ran for
+    minutes (a fraction of 14 million bits), ``(x*(1+10**-20)**60)**60`` as long.
     """
     times = _magnitude(exponent)
-    if times is None or times <= MAX_EXPONENT:
-        return base**exponent
+    if times is None or base.has(*_NOT_FINITE) or exponent.has(*_NOT_FINITE):
+        return base**exponent  # a complex exponent or an infinity: said by the checks after
+    if times <= MAX_EXPONENT:
+        # sympy multiplies out the exact numbers of a power, a product or a number; it
+        # leaves a sum (1 + sqrt(2))**60 or a function's value as written
+        folded = 0 if isinstance(base, sympy.Add | sympy.Function) else _exact_bits(base)
+        if times * folded <= MAX_POWER_BITS:
+            return base**exponent
+        if not base.is_number:
+            raise ValueError(
+                f"({_number_text(base, 60)[1:-1]})**{_number_text(exponent, 30)[1:-1]} holds "
+                f"an exact fraction of more than {MAX_POWER_BITS} bits, too long to compute; "
+                "write its numbers as decimals"
+            )
     magnitude = _magnitude(base)
-    if magnitude is None or (magnitude not in (0.0, 1.0) and not math.isfinite(magnitude)):
+    if magnitude is None or not (math.isfinite(magnitude) or base.is_finite):
         raise ValueError(
             f"the exponent {_number_text(exponent, 30)[1:-1]} is larger than {MAX_EXPONENT}"
         )
-    bits = 0.0 if magnitude in (0.0, 1.0) else times * abs(math.log2(magnitude))
+    if magnitude in (0.0, 1.0):
+        bits = 0.0
+    elif math.isfinite(magnitude):
+        bits = times * abs(math.log2(magnitude))
+    else:  # a number past a double's range: pi**1000, 2**3600
+        bits = times * float(sympy.log(sympy.Abs(base), 2).evalf(15))
     if isinstance(base, sympy.Rational) and base.p != 0:  # exact: its float may be 0 or 1
         bits = times * abs(math.log2(abs(int(base.p))) - math.log2(int(base.q)))
     cost = times * _exact_bits(base)
@@ -395,7 +419,7 @@ def parse_expression(
 
 def _not_finite(expression: sympy.Expr) -> str:
     """``not finite`` where the folded expression holds an infinity or NaN, else ``""``."""
-    return "not finite" if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) else ""
+    return "not finite" if expression.has(*_NOT_FINITE) else ""
 
 
 def _no_problem(expression: sympy.Expr) -> str:

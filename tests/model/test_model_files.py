@@ -390,6 +390,25 @@ def test_a_power_of_an_exact_fraction_is_bounded_by_its_digits():
     assert float(parse_expression("(1/3)**100", X, key="k")) == pytest.approx(3.0**-100)
 
 
+def test_a_power_of_a_power_within_the_exponent_bound_is_bounded_by_its_digits():
+    """Each exponent 60, within the bound, was not checked: ``(((1+10**-20)**60)**60)**60``
+    made sympy compute a fraction of 14 million bits (minutes; ``...**10``, 24 s), so did
+    ``(x*(1+10**-20)**60)**60``; a number past a double's range to a power past the bound
+    (``(pi**1000)**100``) and an infinity's power (``(1/0)**100``) were said to have "the
+    exponent 100 larger than 64", as if the base were a variable."""
+    for text, said in [
+        ("x*((1+10**-20)**60)**60", r"^k: \(10{18}6.*\)\*\*60 is an exact fraction of"),
+        ("(x*(1+10**-20)**60)**60", r"^k: \(10{18}6.*\)\*\*60 holds an exact fraction of"),
+        ("x*(pi**1000)**100", r"^k: \(pi\*\*1000\)\*\*100 is far beyond double precision$"),
+        ("x*((2**60)**60)**60", r"^k: 5104.*\*\*60 is far beyond double precision$"),
+        ("x*(1/0)**100", r"^k: 'x\*\(1/0\)\*\*100' is not finite \(a division by zero\?\)$"),
+    ]:
+        with pytest.raises(ModelError, match=said):
+            parse_expression(text, X, key="k")
+    assert parse_expression("(x*10**80)**2 + (1 + sqrt(2) + 10**-80)**60", X, key="k").has(X["x"])
+    assert float(parse_expression("(1+10**-20)**60", X, key="k")) == 1.0
+
+
 def test_complex_simulation_input_and_matrix_entry_are_refused():
     text = _replace(PENDULUM_ONE_MODE, 'torque = "0.3*sin(0.5*t)"', 'torque = "sqrt(-1)"')
     with pytest.raises(ModelError, match=r"^p\.toml: simulation\.inputs\.torque: .*complex"):
