@@ -191,3 +191,13 @@ def test_models_file_says_a_group_was_not_checked(tmp_path: Path) -> None:
     path.write_text(_chain(16, shared=True), encoding="utf-8")
     (line,) = [n for n in check_and_describe(path).splitlines() if "joint modes of" in n]
     assert line.startswith("NOTE: components: the joint modes of source, c0, ")
+
+
+def test_the_model_files_page_says_known_modes_are_checked_when_the_file_is_read() -> None:
+    # the page said unknown-mode refused a joint mode "it reaches", and nothing of a known
+    # mode's states or outputs, or of the bound past which a group is left to unknown-mode
+    page = (Path(__file__).resolve().parents[2] / "docs" / "model_files.md").read_text()
+    text = " ".join(page.split())
+    assert "checked for when the file is read" in text
+    assert "gives every state of its component a difference equation" in text
+    assert f"more than {MAX_CHECKED_JOINT_MODES:,} joint modes" in text
