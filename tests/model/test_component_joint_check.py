@@ -139,7 +139,8 @@ def test_a_group_past_the_bound_is_said_not_checked() -> None:
     model = parse_model(_chain(16, shared=True))
     (note,) = model.diagnoses
     assert note.startswith("NOTE: components: the joint modes of source, c0, c1, ")
-    assert "(131072 joint modes)" in note and "unknown-mode first reaches it" in note
+    assert "(131,072 joint modes) are more than 16,384 a group" in note  # digits grouped
+    assert "unknown-mode first reaches it" in note
 
 
 def test_the_batched_check_agrees_with_the_matching_at_every_joint_mode() -> None:
