@@ -361,7 +361,8 @@ def unchecked_note(components: Sequence[Component], names: ComponentNames) -> st
     joint modes, which ``unknown-mode`` checks as it first reaches them.
     """
     skipped = [
-        f"{', '.join(components[i].name for i in group)} ({_count(components, group)} joint modes)"
+        f"{', '.join(components[i].name for i in group)} ({_count(components, group):,} joint "
+        "modes)"
         for group in _groups(components, names)
         if _count(components, group) > MAX_CHECKED_JOINT_MODES
     ]
@@ -369,7 +370,7 @@ def unchecked_note(components: Sequence[Component], names: ComponentNames) -> st
         return None
     return (
         f"components: the joint modes of {'; '.join(skipped)} are more than "
-        f"{MAX_CHECKED_JOINT_MODES} a group and were not checked when the file was read: a "
+        f"{MAX_CHECKED_JOINT_MODES:,} a group and were not checked when the file was read: a "
         "joint mode whose equations leave a variable undetermined is refused when "
         "unknown-mode first reaches it"
     )

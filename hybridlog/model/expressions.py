@@ -23,7 +23,7 @@ import math
 import re
 import sys
 import unicodedata
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import sympy
@@ -179,6 +179,9 @@ def _long_constant(expression: sympy.Expr) -> str:
     )
 
 
+_NOT_FINITE = (sympy.zoo, sympy.nan, sympy.oo, -sympy.oo)
+
+
 def _magnitude(value: sympy.Expr) -> float | None:
     """``|value|`` of a real constant (``10``, ``pi``, ``sqrt(2)``), ``None`` of anything else."""
     if not value.is_number:
@@ -215,16 +218,37 @@ def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
     or ``(10**-400)**100000``, whose float is 1 or 0, made sympy compute a fraction of
     millions of digits (minutes).  An exponent is a constant too: ``x**(100*pi)`` is
     ``x**314.159...``, past the bound as ``x**400`` is.
+
+    An exponent within the bound is bounded by the same digits, powers of powers being
+    computed as they come: ``(((1+10**-20)**60)**60)**60``, each exponent 60, ran for
+    minutes (a fraction of 14 million bits), ``(x*(1+10**-20)**60)**60`` as long.
     """
     times = _magnitude(exponent)
-    if times is None or times <= MAX_EXPONENT:
-        return base**exponent
+    if times is None or base.has(*_NOT_FINITE) or exponent.has(*_NOT_FINITE):
+        return base**exponent  # a complex exponent or an infinity: said by the checks after
+    if times <= MAX_EXPONENT:
+        # sympy multiplies out the exact numbers of a power, a product or a number; it
+        # leaves a sum (1 + sqrt(2))**60 or a function's value as written
+        folded = 0 if isinstance(base, sympy.Add | sympy.Function) else _exact_bits(base)
+        if times * folded <= MAX_POWER_BITS:
+            return base**exponent
+        if not base.is_number:
+            raise ValueError(
+                f"({_number_text(base, 60)[1:-1]})**{_number_text(exponent, 30)[1:-1]} holds "
+                f"an exact fraction of more than {MAX_POWER_BITS} bits, too long to compute; "
+                "write its numbers as decimals"
+            )
     magnitude = _magnitude(base)
-    if magnitude is None or (magnitude not in (0.0, 1.0) and not math.isfinite(magnitude)):
+    if magnitude is None or not (math.isfinite(magnitude) or base.is_finite):
         raise ValueError(
             f"the exponent {_number_text(exponent, 30)[1:-1]} is larger than {MAX_EXPONENT}"
         )
-    bits = 0.0 if magnitude in (0.0, 1.0) else times * abs(math.log2(magnitude))
+    if magnitude in (0.0, 1.0):
+        bits = 0.0
+    elif math.isfinite(magnitude):
+        bits = times * abs(math.log2(magnitude))
+    else:  # a number past a double's range: pi**1000, 2**3600
+        bits = times * float(sympy.log(sympy.Abs(base), 2).evalf(15))
     if isinstance(base, sympy.Rational) and base.p != 0:  # exact: its float may be 0 or 1
         bits = times * abs(math.log2(abs(int(base.p))) - math.log2(int(base.q)))
     cost = times * _exact_bits(base)
@@ -243,6 +267,31 @@ def _power(base: sympy.Expr, exponent: sympy.Expr) -> sympy.Expr:
             "too long to compute; write its base as a decimal number"
         )
     return base**exponent
+
+
+def _bound_product(terms: Sequence[sympy.Expr]) -> None:
+    """Refuse a product whose exact numbers multiply to more digits than code can write.
+
+    Such a product is refused after it is folded (:func:`_long_constant`), but sympy folds it
+    fraction by fraction first: ``x*(1+10**-20)**60*...`` with 100 factors of 4,020 bits
+    each took 2.1 s to be refused, with 300 factors 16 s.  Their bits add up to at least the
+    product's (its exact numbers the coefficients of the terms: ``x*(1+10**-20)**60``'s
+    ``(1+10**-20)**60``); refused past four times the digits (a few hundredths of a second
+    to fold), so that a product just past them is named by the checks after folding, as
+    ``x*10**1000*10**1000*10**1000*10**1000*10**1000``'s overflow.
+    """
+    most = sys.get_int_max_str_digits() or _INT_TEXT_DIGITS
+    bits = sum(_exact_bits(term.as_coeff_Mul()[0]) for term in terms)
+    if bits * math.log10(2) >= 4 * most:
+        raise ValueError(
+            f"its product of exact numbers folds to an exact fraction of more than {most:,} "
+            "digits, which its compiled code cannot write; write its numbers as decimals "
+            "(1.0000000001, not 1 + 10**-10)"
+        )
+
+
+_INT_TEXT_DIGITS = 4300
+"""Python's default ``sys.get_int_max_str_digits()``, the bound where it sets none."""
 
 
 _COMPARE: Mapping[type[ast.cmpop], Callable[[sympy.Expr, sympy.Expr], sympy.Expr]] = {
@@ -395,7 +444,7 @@ def parse_expression(
 
 def _not_finite(expression: sympy.Expr) -> str:
     """``not finite`` where the folded expression holds an infinity or NaN, else ``""``."""
-    return "not finite" if expression.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo) else ""
+    return "not finite" if expression.has(*_NOT_FINITE) else ""
 
 
 def _no_problem(expression: sympy.Expr) -> str:
@@ -547,6 +596,10 @@ _PLAIN_NUMBER = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)
 """A number literal as a model expression may write it (its sign is an operator)."""
 
 
+_LINE = re.compile(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+$")
+"""A line of source with its end, as Python's parser counts lines (``\r\n``, ``\r``, ``\n``)."""
+
+
 class _Converter:
     """Walks a restricted Python AST and builds the sympy expression."""
 
@@ -561,6 +614,21 @@ class _Converter:
         self.key = key
         self.previous = previous
         self.source = source
+        self._lines: list[bytes] | None = None
+
+    def segment(self, node: ast.expr) -> str | None:
+        """The text of ``node`` in the source, as :func:`ast.get_source_segment` gives it.
+
+        That function splits the whole source into lines at every call: once per number
+        literal, the check of a 20,000-character expression of 9,900 numbers took 35 s.  The
+        lines are split and encoded once here (a node's columns count UTF-8 bytes).
+        """
+        end = node.end_lineno
+        if end is None or node.end_col_offset is None or end != node.lineno:
+            return ast.get_source_segment(self.source, node)
+        if self._lines is None:
+            self._lines = [line.encode() for line in _LINE.findall(self.source)]
+        return self._lines[end - 1][node.col_offset : node.end_col_offset].decode()
 
     def fail(self, what: str) -> ModelError:
         return ModelError(f"{self.key}: {what} is not allowed in a model expression")
@@ -655,7 +723,10 @@ class _Converter:
             elif isinstance(op, ast.Div):
                 value = 1 / value
             terms.append(value)
-        return sympy.Add(*terms) if group is ast.Add else sympy.Mul(*terms)
+        if group is ast.Add:
+            return sympy.Add(*terms)
+        _bound_product(terms)
+        return sympy.Mul(*terms)
 
     def check_written(self, node: ast.Constant) -> None:
         """Refuse a number not written in plain decimal, or that no double holds.
@@ -664,7 +735,7 @@ class _Converter:
         model file's reader would take for other numbers (or typos) than the parser does;
         and ``1e-400`` as 0 (:func:`~hybridlog.model.toml_text.unheld_number`).
         """
-        written = ast.get_source_segment(self.source, node)
+        written = self.segment(node)
         if (
             isinstance(node.value, int | float)
             and not isinstance(node.value, bool)
@@ -718,7 +789,7 @@ class _Converter:
             and isinstance(index.left, ast.Name)
             and index.left.id == "k"
             and isinstance(index.right, ast.Constant)
-            and ast.get_source_segment(self.source, index.right) == "1"
+            and self.segment(index.right) == "1"
         ):
             return self.previous[name]
         raise ModelError(

@@ -139,7 +139,8 @@ def test_a_group_past_the_bound_is_said_not_checked() -> None:
     model = parse_model(_chain(16, shared=True))
     (note,) = model.diagnoses
     assert note.startswith("NOTE: components: the joint modes of source, c0, c1, ")
-    assert "(131072 joint modes)" in note and "unknown-mode first reaches it" in note
+    assert "(131,072 joint modes) are more than 16,384 a group" in note  # digits grouped
+    assert "unknown-mode first reaches it" in note
 
 
 def test_the_batched_check_agrees_with_the_matching_at_every_joint_mode() -> None:
@@ -191,3 +192,13 @@ def test_models_file_says_a_group_was_not_checked(tmp_path: Path) -> None:
     path.write_text(_chain(16, shared=True), encoding="utf-8")
     (line,) = [n for n in check_and_describe(path).splitlines() if "joint modes of" in n]
     assert line.startswith("NOTE: components: the joint modes of source, c0, ")
+
+
+def test_the_model_files_page_says_known_modes_are_checked_when_the_file_is_read() -> None:
+    # the page said unknown-mode refused a joint mode "it reaches", and nothing of a known
+    # mode's states or outputs, or of the bound past which a group is left to unknown-mode
+    page = (Path(__file__).resolve().parents[2] / "docs" / "model_files.md").read_text()
+    text = " ".join(page.split())
+    assert "checked for when the file is read" in text
+    assert "gives every state of its component a difference equation" in text
+    assert f"more than {MAX_CHECKED_JOINT_MODES:,} joint modes" in text

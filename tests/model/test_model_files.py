@@ -2,6 +2,7 @@
 
 import math
 import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -388,6 +389,40 @@ def test_a_power_of_an_exact_fraction_is_bounded_by_its_digits():
     with pytest.raises(ModelError, match=r"folds to an exact fraction of more than 4,300 digits"):
         parse_expression(near_one, X, key="k")  # was passed, failing in the model's compilation
     assert float(parse_expression("(1/3)**100", X, key="k")) == pytest.approx(3.0**-100)
+
+
+def test_a_power_of_a_power_within_the_exponent_bound_is_bounded_by_its_digits():
+    """Each exponent 60, within the bound, was not checked: ``(((1+10**-20)**60)**60)**60``
+    made sympy compute a fraction of 14 million bits (minutes; ``...**10``, 24 s), so did
+    ``(x*(1+10**-20)**60)**60``; a number past a double's range to a power past the bound
+    (``(pi**1000)**100``) and an infinity's power (``(1/0)**100``) were said to have "the
+    exponent 100 larger than 64", as if the base were a variable."""
+    for text, said in [
+        ("x*((1+10**-20)**60)**60", r"^k: \(10{18}6.*\)\*\*60 is an exact fraction of"),
+        ("(x*(1+10**-20)**60)**60", r"^k: \(10{18}6.*\)\*\*60 holds an exact fraction of"),
+        ("x*(pi**1000)**100", r"^k: \(pi\*\*1000\)\*\*100 is far beyond double precision$"),
+        ("x*((2**60)**60)**60", r"^k: 5104.*\*\*60 is far beyond double precision$"),
+        ("x*(1/0)**100", r"^k: 'x\*\(1/0\)\*\*100' is not finite \(a division by zero\?\)$"),
+    ]:
+        with pytest.raises(ModelError, match=said):
+            parse_expression(text, X, key="k")
+    assert parse_expression("(x*10**80)**2 + (1 + sqrt(2) + 10**-80)**60", X, key="k").has(X["x"])
+    assert float(parse_expression("(1+10**-20)**60", X, key="k")) == 1.0
+
+
+def test_a_long_expression_of_many_numbers_is_read_in_linear_time():
+    """Each number's written text was taken by ast.get_source_segment, which splits the
+    whole source at every call: 19,839 characters of 9,900 ones took 35 s to read (this
+    half of it 9 s); a product of 300 exact factors of 4,020 bits each (refused, too long
+    a fraction for code) 17 s, as sympy folded it fraction by fraction."""
+    group = "(" + "+".join(["1"] * 90) + ")"
+    text = "x+" + "+".join([group] * 55)
+    started = time.perf_counter()
+    assert parse_expression(text, X, key="k") == X["x"] + 90 * 55
+    product = "x*" + "*".join(["(1+10**-20)**60"] * 300)
+    with pytest.raises(ModelError, match=r"^k: its product of exact numbers folds to an exact"):
+        parse_expression(product, X, key="k")
+    assert time.perf_counter() - started < 2.0
 
 
 def test_complex_simulation_input_and_matrix_entry_are_refused():
