@@ -28,25 +28,62 @@ predictions (eq. (12)), so its innovations are biased on a log of its own model 
 ``y1``'s mean innovation −10 on ``sample_logs/three_tank_hstf.csv``).
 
 A test warns where its score passes its threshold *and* the difference matters: a mean NIS
-of at least :data:`NIS_EFFECT` ``m``, a mean whitened innovation of at least
-:data:`BIAS_EFFECT`.  A score grows with ``sqrt(N)``: without the second condition a log of
-10^6 samples simulated from the three-tank model itself warned of a bias (``y2`` +0.013,
-12.9 standard scores: the EKF's own linearisation bias).  Measured 2026-12-05 on logs of the
-built-in models (700 samples, seeds 0..7; 10^5 samples, seeds 0..2): mean NIS 0.35-1.04 ``m``,
-mean whitened innovations within ±0.1 (±0.02 at 10^5 samples); the three-tank log scaled by
-1.5: 1.68-2.05 ``m``, with 3× the measurement noise's standard deviation 2.2-3.2 ``m``; the
-offsets ``y1 + 50`` that are seen: 0.25-0.35.
+of at least :data:`NIS_EFFECT` ``m`` (a score above :data:`NIS_WARNING`) or at most
+:data:`NIS_QUIET_EFFECT` ``m`` (a score below ``−NIS_WARNING``), a mean whitened innovation of
+at least :data:`BIAS_EFFECT`.  A score grows with ``sqrt(N)``: without the second condition a
+log of 10^6 samples simulated from the three-tank model itself warned of a bias
+(``y2`` +0.013, 12.9 standard scores: the EKF's own linearisation bias).  Measured 2026-12-05
+on logs of the built-in models (700 samples, seeds 0..7; 10^5 samples, seeds 0..2): mean NIS
+0.35-1.04 ``m``, mean whitened innovations within ±0.1 (±0.02 at 10^5 samples); the
+three-tank log scaled by 1.5: 1.68-2.05 ``m``, with 3× the measurement noise's standard
+deviation 2.2-3.2 ``m``; the offsets ``y1 + 50`` that are seen: 0.25-0.35.
 
 The thresholds (:data:`NIS_WARNING`, :data:`BIAS_WARNING`) are set from measurements: on
 logs simulated from the built-in models (three-tank at measurement variance 0.5 and 60, the
 double cart, seeds 0..12) every score stayed within ±3.5 but the NIS scores of the double cart
-case 1, whose ``S`` exceeds the innovations' spread (−7.5 to −10: below ``m``, which does not
-warn); the three-tank log scaled by 1.5 scores 13-19, with 3× the measurement noise 25-140
-(scores grow with ``sqrt(N)``: 21-34 and 25-74 over 700 samples, seeds 0..3).  Real logs
-rarely match a model's noise exactly, so a failed test is a warning, not a refusal.  An
-offset on a sensor the filter can absorb into a state (``y1 + 50`` on the three-tank, whose
-process noise lets each level move 0.7 per step) mostly leaves the innovations unbiased:
-bias scores past 6 on 3 of the 29 logs below, within ±5.2 on the others.  It is mostly not seen.
+case 1, whose ``S`` exceeds the innovations' spread (−7.5 to −10: below ``m``, too little
+below it to warn, 0.36-0.53 ``m``); the three-tank log scaled by 1.5 scores 13-19, with 3× the
+measurement noise 25-140 (scores grow with ``sqrt(N)``: 21-34 and 25-74 over 700 samples,
+seeds 0..3).  Real logs rarely match a model's noise exactly, so a failed test is a warning,
+not a refusal.  An offset on a sensor the filter can absorb into a state (``y1 + 50`` on the
+three-tank, whose process noise lets each level move 0.7 per step) mostly leaves the
+innovations unbiased: bias scores past 6 on 3 of the 29 logs below, within ±5.2 on the
+others.  It is mostly not seen.
+
+Innovations far *smaller* than the model's noise predicts (measured 2026-12-06 by
+``docs/studies/quiet_innovations.py``, ``imm`` through the registry as ``analyze`` runs it,
+seeds 0..9): a log in other units than its model, zeroed or flat, or a model whose measurement
+noise is far too large.  The filter absorbs part of a scale error into its state, so the mean
+NIS falls by less than the scale's square, and ``x̂`` settles where the log is flat.
+Mean NIS / ``m`` over the settled samples:
+
+==========================  ===========  ===============  ===========  ===========  =========
+log                         clean        × 1e-3, 1e-2,    × 1e-300,    outputs at   R × 100
+                                         0.1              zero         their mean
+==========================  ===========  ===============  ===========  ===========  =========
+three-tank, 300 steps       0.87-1.01    0.0010-0.049     0.00081      0.018-0.049  0.080-0.13
+three-tank, R = 60, 700     0.83-0.95    0.023-0.038 ¹    untested ¹   0.017-0.060  untested ¹
+double cart 1, 100 steps    0.36-0.53    refused ²        refused ²    refused ²    0.080-0.089
+double cart 1, 600 steps    0.41-0.51    refused ²        refused ²    refused ²    0.083-0.089
+double cart 2, 100 steps    0.69-1.07    refused ²        refused ²    refused ²    0.0083-0.015
+double cart 2, 600 steps    0.76-0.97    refused ²        refused ²    refused ²    0.010-0.012
+one-mode test model, 600    0.97-1.06    0.105-0.121      0.121        0.126-0.29   0.027-0.046
+==========================  ===========  ===============  ===========  ===========  =========
+
+¹ Fewer than :data:`MIN_SAMPLES` settled samples (no mode holds 0.9 where the log is flat
+under a noise of variance 60): × 1e-3, 1e-2, × 1e-300, zero and R × 100 on all 10 logs,
+× 0.1 on 1.  ² Refused (``check_surprise``: no mode explains a sample; the sensor's deviation
+is 0.001), as is × 1e3 on every scenario.  Clean logs over more seeds: the double cart case 1
+at 100 steps 0.34-0.64 ``m`` (seeds 0..99), at 50 steps 0.29-0.79 (scores −3.2 and above at
+the low end), at 10^5 steps 0.47; case 2 at 100 steps 0.53-1.19; the three-tank 0.65-1.04 (at
+its noise, seeds 0..39: scores down to −7.1, so the score alone would warn) and 0.66-0.95
+(variance 60); the one-mode model at 100 steps 0.75-1.25.  So the wrong units, the zeroed
+and vanishing logs and R × 100 score at most 0.133 ``m``, clean logs at least 0.29 ``m``:
+:data:`NIS_QUIET_EFFECT` = 0.2 (their geometric middle) with the score below ``−NIS_WARNING``
+warns on every tested wrong-unit, zeroed and vanishing log, on R × 100 but the 100-step double
+cart case 1's (scores −5.3 to −5.4: 68-70 settled samples of one output) and on 28 of the 30
+logs held at their mean tested (the one-mode model's 0.20 and 0.29 do not: a flat log its
+input barely moves is not far from the model), and on none of the 550 clean logs.
 
 What is not seen, and why (measured 2026-12-04 on ``imm`` runs; the whiteness test of the same
 §5.4.2 was tried and not added).  That test takes the time-averaged autocorrelation of the
@@ -90,6 +127,7 @@ __all__ = [
     "BIAS_WARNING",
     "MIN_SAMPLES",
     "NIS_EFFECT",
+    "NIS_QUIET_EFFECT",
     "NIS_WARNING",
     "SETTLED",
     "Consistency",
@@ -103,7 +141,8 @@ MIN_SAMPLES = 30
 """Fewer settled samples than this: no test (the scores' normal approximation is poor)."""
 
 NIS_WARNING = 6.0
-"""A NIS standard score past this warns (too large: the innovations exceed the model's)."""
+"""A NIS standard score past this warns: above it, innovations larger than the model's (with
+:data:`NIS_EFFECT`); below its negative, smaller (with :data:`NIS_QUIET_EFFECT`)."""
 
 BIAS_WARNING = 6.0
 """An output's bias standard score past this (either sign) warns (with :data:`BIAS_EFFECT`)."""
@@ -112,6 +151,14 @@ NIS_EFFECT = 1.25
 """And the mean NIS must be at least this times ``m``: a difference that matters, not only one
 a long log makes significant (an EKF's own linearisation gives a 10^6-sample log of its own
 model a NIS a few percent off ``m``, scores of ±10 and more)."""
+
+NIS_QUIET_EFFECT = 0.2
+"""Or the mean NIS at most this times ``m`` (with a score below ``−NIS_WARNING``): a log in
+other units than its model (outputs × 1e-3, 1e-2, 0.1), zeroed or flat, or a model whose
+measurement noise is 100× the log's, scores 0.0008-0.13 ``m`` on the built-in models' logs
+and a one-mode test model's; clean logs 0.29-1.25 ``m`` (the double cart case 1 lowest, its
+``S`` exceeding the innovations' spread).  Measured by ``docs/studies/quiet_innovations.py``;
+the module's docstring has the numbers."""
 
 BIAS_EFFECT = 0.1
 """And the mean whitened innovation at least this (a tenth of the innovation's standard
@@ -159,6 +206,19 @@ class Consistency:
                 f"expected {self.nis_expected:g} ({self.nis_score:.1f} standard scores; "
                 "a scaled sensor, or more noise than the model's?)"
             )
+        if self.nis_score < -NIS_WARNING and self.nis <= NIS_QUIET_EFFECT * self.nis_expected:
+            times = (
+                f"{self.nis_expected / self.nis:.3g} times in variance"
+                if self.nis > 0.0
+                else "all of them 0"
+            )
+            found.append(
+                f"the innovations are smaller than the model's noise predicts ({times}): mean "
+                f"normalised innovation squared {self.nis:.3g} over {self.samples} settled "
+                f"samples, expected {self.nis_expected:g} ({self.nis_score:.1f} standard "
+                "scores; outputs in other units than the model's, a noise model far too "
+                "large, or a flat signal?)"
+            )
         biased = [
             f"{name} {self.bias[name]:+.3g} ({score:+.1f})"
             for name, score in self.bias_scores.items()
@@ -181,6 +241,7 @@ class Consistency:
             "nis_score": self.nis_score,
             "nis_warning": NIS_WARNING,
             "nis_effect": NIS_EFFECT,
+            "nis_quiet_effect": NIS_QUIET_EFFECT,
             "bias": dict(self.bias),
             "bias_scores": dict(self.bias_scores),
             "bias_warning": BIAS_WARNING,

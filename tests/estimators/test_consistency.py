@@ -19,6 +19,7 @@ from filterpy.kalman import KalmanFilter
 from hybridlog.cli import main
 from hybridlog.estimators.consistency import (
     BIAS_WARNING,
+    NIS_QUIET_EFFECT,
     NIS_WARNING,
     ConsistencyAccumulator,
 )
@@ -91,6 +92,62 @@ def test_a_log_of_the_model_passes_a_scaled_or_noisier_one_warns():
     assert noisier.nis_score > NIS_WARNING
 
 
+QUIET = "the innovations are smaller than the model's noise predicts"
+
+
+@pytest.mark.parametrize(
+    ("alteration", "scale"),
+    [("other units", 1e-3), ("other units", 0.1), ("scaled to nothing", 1e-300), ("zero", 0.0)],
+)
+def test_a_log_in_other_units_or_zeroed_warns_that_its_innovations_are_too_small(alteration, scale):
+    # outputs × 1e-3 (a log in mm of a model in m), × 1e-300 or zeroed made no warning at all:
+    # the test warned only of a NIS too large (here 0.11-0.12 m, clean 0.97-1.06 m)
+    model = parse_model(ONE_MODE)
+    signals = simulate(model, steps=599, seed=5).signals(model)
+    _, clean = _scores(model, signals)
+    assert clean.warnings() == ()
+    _, quiet = _scores(model, dataclasses.replace(signals, outputs=scale * signals.outputs))
+    assert quiet.nis < NIS_QUIET_EFFECT * quiet.nis_expected and quiet.nis_score < -NIS_WARNING
+    (warning,) = quiet.warnings()
+    assert warning.startswith(QUIET)
+    assert f"({quiet.nis_expected / quiet.nis:.3g} times in variance)" in warning
+    assert "other units" in warning and "noise model far too large" in warning
+
+
+def test_a_model_whose_measurement_noise_is_far_too_large_warns():
+    model = parse_model(ONE_MODE)
+    signals = simulate(model, steps=599, seed=5).signals(model)
+    wide = parse_model(
+        ONE_MODE.replace(
+            "measurement = [[0.05, 0.01], [0.01, 0.08]]", "measurement = [[5.0, 1.0], [1.0, 8.0]]"
+        )
+    )
+    _, tested = _scores(wide, signals)
+    assert any(w.startswith(QUIET) for w in tested.warnings())
+
+
+def test_a_nis_below_m_warns_only_when_both_far_below_and_significant():
+    rng = np.random.default_rng(10)
+    # the double cart case 1's own logs score 0.29-0.64 m, down to -10 standard scores: its S
+    # exceeds the innovations' spread; a long log of it is significant but not small enough
+    cart_like = ConsistencyAccumulator(("y",))
+    cart_like.add(np.sqrt(0.45) * rng.normal(size=(10_000, 1)), np.ones((10_000, 1)))
+    tested = cart_like.result()
+    assert tested is not None and tested.nis_score < -NIS_WARNING and tested.warnings() == ()
+    # small enough but over few samples: (0.09 - 1) / sqrt(2/40) = -4 standard scores
+    short = ConsistencyAccumulator(("y",))
+    short.add(0.3 * rng.normal(size=(40, 1)), np.ones((40, 1)))
+    tested = short.result()
+    assert tested is not None and tested.nis < NIS_QUIET_EFFECT and tested.warnings() == ()
+    # no innovation at all: the ratio has no value, the warning still says what was seen
+    flat = ConsistencyAccumulator(("y",))
+    flat.add(np.zeros((100, 1)), np.ones((100, 1)))
+    tested = flat.result()
+    assert tested is not None
+    (warning,) = tested.warnings()
+    assert warning.startswith(f"{QUIET} (all of them 0)")
+
+
 def test_the_chunks_of_a_run_test_what_the_whole_run_tests():
     model = parse_model(ONE_MODE)
     # more settled rows than one summed block: a report has the same bits however it is read
@@ -153,6 +210,18 @@ def test_report_json_md_and_terminal_carry_the_warning_and_exit_0(tmp_path, caps
     consistency = report["consistency"]
     assert consistency["nis_expected"] == 3.0 and consistency["nis_score"] > NIS_WARNING
     assert "WARNING: the innovations are larger" in (out / "report.md").read_text()
+
+
+def test_the_sample_log_in_other_units_is_reported_as_too_quiet():
+    model = parse_model(builtin_text("three_tank_hstf"))
+    signals = simulate(model, seed=2024).signals(model)  # sample_logs/three_tank_hstf.csv
+    millimetres = dataclasses.replace(signals, outputs=1e-3 * signals.outputs)
+    result = run_imm(model, millimetres, ImmOptions())
+    report = build_report(result, millimetres, log="mm", model_name="three_tank_hstf", dt=1.0)
+    consistency = report.extra["consistency"]
+    assert isinstance(consistency, dict) and consistency["nis_quiet_effect"] == NIS_QUIET_EFFECT
+    (warning,) = consistency["warnings"]
+    assert warning.startswith(QUIET) and f"WARNING: {warning}" in report.notes
 
 
 def test_the_sample_log_is_not_flagged_and_the_hstf_keeps_no_innovations():
