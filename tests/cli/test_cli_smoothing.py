@@ -16,10 +16,10 @@ import polars as pl
 import pytest
 
 from hybridlog.errors import OptionError
-from hybridlog.jobs.analysis import compare, parse_sets, prepare_estimators
+from hybridlog.jobs.analysis import _smoothing_columns, compare, parse_sets, prepare_estimators
 from hybridlog.model.builtins import builtin_text
 from tests.cli.test_cli import run
-from tests.support.paths import SAMPLE_LOGS, TANK_CSV
+from tests.support.paths import ROOT, SAMPLE_LOGS, TANK_CSV
 
 DC1 = SAMPLE_LOGS / "double_cart_case1.csv"
 
@@ -209,6 +209,15 @@ def test_compare_smooth_needs_a_smoother_in_every_estimator(tmp_path: Path) -> N
             "estimates: `filtered_mode_accuracy` and `filtered_state_rmse.<x>` compare every "
             "estimator's own"
         ) in text
+
+
+def test_the_smoothing_page_names_every_column_compare_adds() -> None:
+    # docs/smoothing.md named smoothing, filtered_mode_accuracy and smoothing_fallback_weight,
+    # not the filtered_state_rmse.<x> per state that compare adds beside them
+    paragraphs = (ROOT / "docs" / "smoothing.md").read_text().split("\n\n")
+    (paragraph,) = [p for p in paragraphs if p.startswith("`hybridlog compare` with `--smooth`")]
+    for column in _smoothing_columns(["state_rmse.<x>"]):
+        assert f"`{column}`" in " ".join(paragraph.split()), column
 
 
 @pytest.mark.parametrize(
