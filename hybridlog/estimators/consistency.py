@@ -187,6 +187,9 @@ class Consistency:
         Per output, the mean whitened innovation ``z̄_b`` (expected 0).
     bias_scores:
         Per output, ``z̄_b sqrt(N)``.
+    largest:
+        The largest ``|z_b|`` of the settled samples: the innovations' size where their
+        squares are too small for a double (``ε̄`` 0 or ``m / ε̄`` infinite).
     """
 
     samples: int
@@ -195,6 +198,7 @@ class Consistency:
     nis_score: float
     bias: dict[str, float]
     bias_scores: dict[str, float]
+    largest: float = math.nan
 
     def warnings(self) -> tuple[str, ...]:
         """One line per failed test (empty when the innovations are the model's)."""
@@ -207,11 +211,13 @@ class Consistency:
                 "a scaled sensor, or more noise than the model's?)"
             )
         if self.nis_score < -NIS_WARNING and self.nis <= NIS_QUIET_EFFECT * self.nis_expected:
-            times = (
-                f"{self.nis_expected / self.nis:.3g} times in variance"
-                if self.nis > 0.0
-                else "all of them 0"
-            )
+            ratio = self.nis_expected / self.nis if self.nis > 0.0 else math.inf
+            if math.isfinite(ratio):
+                times = f"{ratio:.3g} times in variance"
+            elif self.largest == 0.0:
+                times = "all of them 0"
+            else:  # squares below a double's range: 'inf times', or '0' of innovations of 1e-200
+                times = f"all of them within {self.largest:.3g} standard deviations of 0"
             found.append(
                 f"the innovations are smaller than the model's noise predicts ({times}): mean "
                 f"normalised innovation squared {self.nis:.3g} over {self.samples} settled "
@@ -264,6 +270,7 @@ class ConsistencyAccumulator:
         # bit, however the run's rows arrive (whole, or in chunks of any size)
         self._block = np.empty((_BLOCK, len(output_names)))
         self._filled = 0
+        self._largest = 0.0
 
     def add(self, whitened: FloatArray, probabilities: FloatArray) -> None:
         """Take the next rows: ``L⁻¹ γ`` (NaN: none) and the mode probabilities of each row."""
@@ -284,6 +291,8 @@ class ConsistencyAccumulator:
                 & np.isfinite(whitened).all(axis=1)
             )
         taken = whitened[settled]
+        if taken.size:
+            self._largest = max(self._largest, float(np.abs(taken).max()))
         start = 0
         while start < taken.shape[0]:
             stop = min(taken.shape[0], start + _BLOCK - self._filled)
@@ -318,4 +327,5 @@ class ConsistencyAccumulator:
             bias_scores=dict(
                 zip(self._names, (float(v) * math.sqrt(n) for v in means), strict=True)
             ),
+            largest=self._largest,
         )

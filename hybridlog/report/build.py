@@ -542,7 +542,10 @@ def few_samples_warning(report: Report) -> str | None:
     """The warning that metrics are over fewer than :data:`FEW_SAMPLES` samples, or ``None``.
 
     A metric counts when it is over at least one sample (a metric over none is ``null`` and
-    says why): the output metrics per output, the mode metrics, the state RMSE per state.
+    says why): the output metrics per output, the mode metrics (a ``[components]`` model's
+    joint accuracy, and each component's over other samples than the joint one: without
+    every component's true mode there is no joint accuracy, and a component's own is over
+    the samples its true mode covers), the state RMSE per state.
     """
     outputs = {
         y: o.samples for y, o in report.outputs.items() if o.samples and o.samples < FEW_SAMPLES
@@ -550,19 +553,36 @@ def few_samples_warning(report: Report) -> str | None:
     states = {
         x: s.samples for x, s in report.states.items() if s.samples and s.samples < FEW_SAMPLES
     }
-    modes = report.modes.samples
+    joint = report.modes.samples
+    modes = joint if joint and joint < FEW_SAMPLES and report.modes.accuracy is not None else None
+    components = {
+        c: m.samples
+        for c, m in report.modes.components.items()
+        if m.accuracy is not None and m.samples and m.samples < FEW_SAMPLES and m.samples != modes
+    }
     parts = []
     if outputs:
         every = "" if len(outputs) == len(report.outputs) else f" of {', '.join(outputs)}"
         parts.append(f"MSE, VAF and fit{every} over {_sample_counts(outputs)}")
-    if modes and modes < FEW_SAMPLES and report.modes.accuracy is not None:
+    if modes:
         parts.append(f"mode accuracy over {plural(modes, 'sample')}")
+    if components:
+        named = "component" if len(components) == 1 else "components"
+        parts.append(
+            f"mode accuracy of {named} {', '.join(components)} over {_sample_counts(components)}"
+        )
     if states:
         every = "" if len(states) == len(report.states) else f" of {', '.join(states)}"
         parts.append(f"state RMSE{every} over {_sample_counts(states)}")
     if not parts:
         return None
-    least = min([*outputs.values(), *states.values(), *([modes] if modes else [])], default=0)
+    counted = [
+        *outputs.values(),
+        *components.values(),
+        *states.values(),
+        *([modes] if modes else []),
+    ]
+    least = min(counted, default=0)
     off = math.sqrt(2.0 / (least - 1)) if least > 1 else math.inf
     spread = f" ({off:.0%} at {least})" if math.isfinite(off) else ""
     return (

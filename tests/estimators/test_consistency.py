@@ -148,6 +148,18 @@ def test_a_nis_below_m_warns_only_when_both_far_below_and_significant():
     assert warning.startswith(f"{QUIET} (all of them 0)")
 
 
+@pytest.mark.parametrize(("size", "shown"), [(1e-160, "2.4e-160"), (1e-200, "2.4e-200")])
+def test_innovations_whose_squares_no_double_holds_are_not_inf_times_nor_zero(size, shown):
+    # squares of 1e-160 are subnormal: m / mean NIS overflowed to 'inf times in variance';
+    # squares of 1e-200 are 0: innovations that are not were said to be 'all of them 0'
+    tiny = ConsistencyAccumulator(("y",))
+    tiny.add(size * np.random.default_rng(0).normal(size=(200, 1)), np.ones((200, 1)))
+    tested = tiny.result()
+    assert tested is not None
+    (warning,) = tested.warnings()
+    assert warning.startswith(f"{QUIET} (all of them within {shown} standard deviations of 0)")
+
+
 def test_the_chunks_of_a_run_test_what_the_whole_run_tests():
     model = parse_model(ONE_MODE)
     # more settled rows than one summed block: a report has the same bits however it is read

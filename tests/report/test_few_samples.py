@@ -8,13 +8,19 @@ the filter's start decide them.
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
+import polars as pl
 import pytest
 
+from hybridlog.estimators.registry import prepare
+from hybridlog.io import SignalSpec, load_signals
+from hybridlog.model.loader import load_model
 from hybridlog.report import build_report, render_markdown
 from hybridlog.report.build import FEW_SAMPLES
 from hybridlog.report.markdown import WARNING_PREFIX
+from tests.support.cpha import cpha_truth_log
 
 from .test_report_files import DT, make_run
 
@@ -57,3 +63,29 @@ def test_a_long_run_with_a_short_true_state_warns_of_that_state_only() -> None:
     )
     (warning,) = [note for note in report.notes if "fewer than" in note]
     assert warning.startswith(f"{WARNING_PREFIX}state RMSE of x1 over 10 samples: fewer than")
+
+
+def test_a_components_accuracy_over_few_samples_warns_without_a_joint_one(
+    tmp_path: Path,
+) -> None:
+    """Without A3's true mode there is no joint accuracy, and A1's and A2's own accuracies,
+    over the 12 and 10 samples their true modes cover, were reported with no warning."""
+    model_file, log = cpha_truth_log(tmp_path)
+    late = pl.int_range(pl.len())
+    partial = pl.read_csv(log).drop("mode.A3")
+    partial = partial.with_columns(
+        pl.when(late >= partial.height - 12).then(pl.col("mode.A1")).alias("mode.A1"),
+        pl.when(late >= partial.height - 10).then(pl.col("mode.A2")).alias("mode.A2"),
+    )
+    partial.write_csv(tmp_path / "partial.csv")
+    model = load_model(model_file)
+    signals = load_signals(tmp_path / "partial.csv", SignalSpec.of(model))
+    result = prepare(model, "imm").run(model, signals)  # with mode.<component>
+    report = build_report(result, signals, log="partial.csv", model_name="cpha", dt=model.dt)
+    assert report.modes.accuracy is None
+    assert {c: m.samples for c, m in report.modes.components.items()} == {"A1": 12, "A2": 10}
+    (warning,) = [note for note in report.notes if "fewer than" in note]
+    assert warning.startswith(
+        f"{WARNING_PREFIX}mode accuracy of components A1, A2 over 12 (A1), 10 (A2): fewer than"
+    )
+    assert "(47% at 10)" in warning
