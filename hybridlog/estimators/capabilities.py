@@ -197,7 +197,7 @@ class Capabilities:
             if traits.joint_modes > MAX_JOINT_MODES:
                 return (
                     f"runs a [components] model on its joint modes, at most {MAX_JOINT_MODES}; "
-                    f"the model has {traits.joint_modes}"
+                    f"the model has {traits.joint_modes:,}"
                 )
         if self.needs_boolean_affine and not traits.booleans:
             return "needs a boolean-affine model (booleans = [...]); the model is not one"

@@ -190,8 +190,12 @@ def test_models_file_says_a_group_was_not_checked(tmp_path: Path) -> None:
 
     path = tmp_path / "chain.toml"
     path.write_text(_chain(16, shared=True), encoding="utf-8")
-    (line,) = [n for n in check_and_describe(path).splitlines() if "joint modes of" in n]
+    described = check_and_describe(path).splitlines()
+    (line,) = [n for n in described if "joint modes of" in n]
     assert line.startswith("NOTE: components: the joint modes of source, c0, ")
+    # the count of imm's refusal grouped as the note's (it was 131072 beside 131,072)
+    (default,) = [n for n in described if n.startswith("default_estimator:")]
+    assert default.endswith("at most 256; the model has 131,072: analyze needs --estimator")
 
 
 def test_the_model_files_page_says_known_modes_are_checked_when_the_file_is_read() -> None:
