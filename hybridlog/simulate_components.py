@@ -36,6 +36,7 @@ import numpy as np
 from hybridlog.cluster.progress import simulating
 from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt, first_few
 from hybridlog.model.compiled import input_functions, load_generated
+from hybridlog.model.component_structure import solve_explicitly
 from hybridlog.model.components import UNKNOWN, Equation
 from hybridlog.signals import FloatArray
 from hybridlog.times import format_time
@@ -513,21 +514,13 @@ def _joint_source(
                 f"{origin}: simulation: in the joint mode {shown} no difference equation "
                 f"gives the state '{state}'"
             )
-    unknowns = [current[n] for n in (*model.outputs, *model.variables)]
-    residuals = [e.residual for e in equations if e.kind == "algebraic"]
-    solutions = sympy.solve(residuals, unknowns, dict=True) if residuals else []
-    if len(solutions) != 1 or set(solutions[0]) != set(unknowns):
-        missing = [str(u) for u in unknowns if u not in solutions[0]] if len(solutions) == 1 else []
-        reason = (
-            f"they do not determine {', '.join(missing)}"
-            if missing
-            else f"they have {len(solutions)} solutions (one is needed)"
-        )
-        raise ModelError(
-            f"{origin}: simulation: the algebraic equations of the joint mode {shown} cannot "
-            f"be solved for the outputs and variables: {reason}"
-        )
-    solution = solutions[0]
+    targets = (*model.outputs, *model.variables)
+    unknowns = [current[n] for n in targets]
+    algebraic = [e for e in equations if e.kind == "algebraic"]
+    try:
+        solution = solve_explicitly(algebraic, targets, shown) if targets else {}
+    except ModelError as err:
+        raise ModelError(f"{origin}: simulation: {err}") from None
     controlled = {current[n] for n in scenario.controller_inputs}
     for output in model.outputs:
         loop = solution[current[output]].free_symbols & controlled

@@ -42,6 +42,7 @@ from typing import NoReturn
 
 import numpy as np
 import scipy.sparse
+import sympy
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from hybridlog.errors import ModelError
@@ -53,6 +54,7 @@ __all__ = [
     "ComponentNames",
     "causal_graph",
     "check_joint_modes",
+    "solve_explicitly",
     "unchecked_note",
     "undetermined_message",
     "undetermined_use",
@@ -373,4 +375,102 @@ def unchecked_note(components: Sequence[Component], names: ComponentNames) -> st
         f"{MAX_CHECKED_JOINT_MODES:,} a group and were not checked when the file was read: a "
         "joint mode whose equations leave a variable undetermined is refused when "
         "unknown-mode first reaches it"
+    )
+
+
+MAX_SOLUTIONS_SHOWN = 3
+"""The solutions a refusal of several lists (then ``and N more``)."""
+
+
+def solve_explicitly(
+    algebraic: Sequence[Equation],
+    targets: Sequence[str],
+    label: str,
+    residuals: Sequence[sympy.Expr] | None = None,
+) -> dict[sympy.Symbol, sympy.Expr]:
+    """The one real solution of ``algebraic`` for ``targets`` (their symbols, real).
+
+    ``residuals`` are the equations' ``lhs − rhs`` to solve, their own by default (a caller
+    that has substituted variables solved before gives its own); ``label`` names the joint
+    mode in a refusal.  Solutions sympy writes with ``I`` (the complex cube roots of
+    ``w1**3 = x1``) are not solutions of a real model and are left out.  The one answer of
+    ``unknown-mode``'s clusters, ``imm``'s joint modes and ``simulate``: ``imm`` took the
+    first of several solutions without a word (possibly a complex one), ``simulate`` counted
+    the complex roots (``w1**3 = x1`` had "3 solutions (one is needed)"), ``unknown-mode``
+    refused several real ones naming them.
+
+    Raises
+    ------
+    ModelError
+        ``<key>: cannot be solved explicitly for <targets> at the mode assignment <label>``,
+        or ``<key>: has N solutions for <targets> ...`` listing them, with the first
+        equation's key.
+    """
+    unknowns = [sympy.Symbol(v, real=True) for v in targets]
+    if not algebraic:
+        raise ModelError(
+            f"components: no equation determines {', '.join(targets)} at the mode "
+            f"assignment {label}"
+        )
+    given = [e.residual for e in algebraic] if residuals is None else list(residuals)
+    try:
+        solutions = sympy.solve(given, unknowns, dict=True)
+    except NotImplementedError:  # sympy's answer for equations it has no method for
+        solutions = []  # refused below, naming the equation's key
+    solutions = [s for s in solutions if not any(e.has(sympy.I) for e in s.values())]
+    if not solutions or any(u not in solutions[0] for u in unknowns):
+        raise ModelError(
+            f"{algebraic[0].key}: cannot be solved explicitly for {', '.join(targets)} at the "
+            f"mode assignment {label}"
+        )
+    if len(solutions) > 1:
+        raise ModelError(_several_solutions(algebraic, targets, unknowns, solutions, label))
+    return dict(solutions[0])
+
+
+def _several_solutions(
+    algebraic: Sequence[Equation],
+    targets: Sequence[str],
+    unknowns: Sequence[sympy.Symbol],
+    solutions: Sequence[Mapping[sympy.Symbol, sympy.Expr]],
+    label: str,
+) -> str:
+    """The refusal of equations that several real solutions satisfy (``w1**2 = x1 + 1``).
+
+    The first of sympy's solutions was taken (``w1 = -sqrt(x1 + 1)``) without a word, so
+    that the filter ran on a root the model's author may not have meant, and the run failed
+    later, or not at all, at an EKF step far from the cause.  Named by the variables whose
+    solutions differ and the first equation that uses one of them (a joint mode's other
+    outputs have one value in every solution).
+    """
+    differing = [
+        (v, u)
+        for v, u in zip(targets, unknowns, strict=True)
+        if len({sympy.srepr(solution[u]) for solution in solutions}) > 1
+    ] or list(zip(targets, unknowns, strict=True))
+    names = [v for v, _ in differing]
+    first = next(
+        (e for e in algebraic if any(u in e.residual.free_symbols for _, u in differing)),
+        algebraic[0],
+    )
+    shown = "; ".join(
+        ", ".join(f"{v} = {solution[u]}" for v, u in differing)
+        for solution in solutions[:MAX_SOLUTIONS_SHOWN]
+    )
+    more = (
+        f" and {len(solutions) - MAX_SOLUTIONS_SHOWN} more"
+        if len(solutions) > MAX_SOLUTIONS_SHOWN
+        else ""
+    )
+    keys = ", ".join(
+        e.key
+        for e in algebraic
+        if e is not first and any(u in e.residual.free_symbols for _, u in differing)
+    )
+    also = f" (with {keys})" if keys else ""
+    return (
+        f"{first.key}: has {len(solutions)} solutions for {', '.join(names)} at the mode "
+        f"assignment {label}{also} ({shown}{more}), and which one the plant follows is not "
+        f"known; write the equation solved for {', '.join(names)} (e.g. {names[0]} = ...) "
+        "with the solution meant"
     )

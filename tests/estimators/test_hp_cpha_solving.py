@@ -141,3 +141,50 @@ def test_a_complex_value_in_the_ekf_step_is_an_error_naming_the_cluster(tmp_path
     assert "the EKF of the cluster of x1 (components plant) cannot step at sample 1" in out
     assert "a fractional power of a negative number" in out
     assert not (tmp_path / "out" / "report.md").exists()
+
+
+SIMULATION = """
+[simulation]
+steps = 20
+
+[simulation.modes]
+plant = "a"
+
+[simulation.inputs]
+u1 = "1 + 0.5*sin(0.3*t)"
+"""
+
+
+def test_imm_and_simulate_solve_a_joint_mode_as_unknown_mode_does(tmp_path):
+    """One answer for the three: imm took the first of several solutions without a word
+    (``w1 = -sqrt(x1 + 1)``), simulate counted the complex cube roots of ``w1**3 = x1``
+    ("3 solutions (one is needed)") and refused several real ones naming no equation."""
+    from hybridlog.estimators.cpha.joint import joint_mode_model
+    from hybridlog.jobs.simulate import simulate_log
+
+    square = model_text(
+        "x1[k] = 0.8*x1[k-1] + u1[k-1]", "w1**2 = x1 + 1", "y1 = w1", variables=("w1",)
+    )
+    with pytest.raises(ModelError) as unknown_mode:
+        decomposition(square)
+    with pytest.raises(ModelError) as imm:
+        joint_mode_model(parse_model(square))
+    (tmp_path / "square.toml").write_text(square + SIMULATION, encoding="utf-8")
+    with pytest.raises(ModelError) as simulate:
+        simulate_log(tmp_path / "square.toml", tmp_path / "square.csv")
+    # unknown-mode solves cluster by cluster (w1, then y1 = w1), the others the joint mode
+    # at once (w1 and y1 differ in its two solutions): the same equation and remedy
+    said = str(imm.value).removeprefix("<model>: ")
+    assert said.startswith("components.plant.modes.a.equations[1]: has 2 solutions for w1, y1 ")
+    simulated = str(simulate.value).removeprefix(f"{tmp_path / 'square.toml'}: simulation: ")
+    for message in (said, simulated, str(unknown_mode.value)):
+        assert message.startswith("components.plant.modes.a.equations[1]: has 2 solutions for ")
+        assert "w1 = -sqrt(x1 + 1)" in message and "write the equation solved for " in message
+    assert not (tmp_path / "square.csv").exists()
+
+    cube = model_text("x1[k] = 0.8*x1[k-1] + u1[k-1]", "w1**3 = x1", "y1 = w1", variables=("w1",))
+    (joint,) = joint_mode_model(parse_model(cube)).modes
+    assert str(joint.h[0]) == "x1**(1/3)"
+    (tmp_path / "cube.toml").write_text(cube + SIMULATION, encoding="utf-8")
+    simulate_log(tmp_path / "cube.toml", tmp_path / "cube.csv")
+    assert (tmp_path / "cube.csv").is_file()

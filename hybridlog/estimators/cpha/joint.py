@@ -22,12 +22,14 @@ import math
 import numpy as np
 import sympy
 
+from hybridlog.errors import ModelError
 from hybridlog.estimators.capabilities import MAX_JOINT_MODES
 from hybridlog.estimators.cpha.structure import Assignment
 from hybridlog.estimators.result import TimelineColumn
 from hybridlog.model.component_structure import (
     ComponentNames,
     causal_graph,
+    solve_explicitly,
     undetermined_message,
     undetermined_use,
 )
@@ -70,11 +72,10 @@ def _mode(model: HybridModel, assignment: Assignment) -> Mode:
         what = what or f"nothing determines {', '.join(missing)}"
         raise model.error("components", f"joint mode {label}: {what}")
     algebraic = {v: equations[r] for v, r in determined_by.items() if v not in model.states}
-    unknowns = [sympy.Symbol(v, real=True) for v in algebraic]
-    solutions = sympy.solve([e.residual for e in algebraic.values()], unknowns, dict=True)
-    if not solutions or any(u not in solutions[0] for u in unknowns):
-        raise model.error("components", f"joint mode {label}: cannot be solved explicitly")
-    solved = solutions[0]
+    try:
+        solved = solve_explicitly(list(algebraic.values()), list(algebraic), label)
+    except ModelError as err:
+        raise ModelError(f"{model.origin or model.name}: {err}") from None
     shift = {
         previous_symbol(str(s)): e.xreplace({c: previous_symbol(str(c)) for c in e.free_symbols})
         for s, e in solved.items()

@@ -46,6 +46,7 @@ from hybridlog.errors import ModelError
 from hybridlog.model.component_structure import (
     CausalGraph,
     causal_graph,
+    solve_explicitly,
     undetermined_message,
     unmatched_message,
 )
@@ -404,22 +405,9 @@ def _solve_cluster(
         ordered.extend(algebraic)
         unknowns = [current[v] for v in targets]
         substituted = [e.residual.xreplace(solved) for e in algebraic]
-        try:
-            solutions = sympy.solve(substituted, unknowns, dict=True)
-        except NotImplementedError:  # sympy's answer for equations it has no method for
-            solutions = []  # refused below, naming the equation's key
-        solutions = [s for s in solutions if not any(e.has(sympy.I) for e in s.values())]
-        if not solutions or any(u not in solutions[0] for u in unknowns):
-            label = "|".join(assignment)
-            raise ModelError(
-                f"{algebraic[0].key}: cannot be solved explicitly for "
-                f"{', '.join(targets)} at the mode assignment {label}"
-            )
-        if len(solutions) > 1:
-            several = _several_solutions(algebraic, targets, unknowns, solutions, assignment)
-            raise ModelError(several)
+        solution = solve_explicitly(algebraic, targets, "|".join(assignment), substituted)
         for v, symbol in zip(targets, unknowns, strict=True):
-            expr = solutions[0][symbol]
+            expr = solution[symbol]
             if v in observed:
                 output_expr[v] = expr
             else:
@@ -465,42 +453,6 @@ def _solve_cluster(
         process_noise=tuple(process),
         measurement_noise=tuple(measurement),
         virtual_noise=tuple(virtual_noise),
-    )
-
-
-MAX_SOLUTIONS_SHOWN = 3
-
-
-def _several_solutions(
-    algebraic: Sequence[Equation],
-    targets: Sequence[str],
-    unknowns: Sequence[sympy.Symbol],
-    solutions: Sequence[Mapping[sympy.Symbol, sympy.Expr]],
-    assignment: Assignment,
-) -> str:
-    """The refusal of equations that several real solutions satisfy (``w1**2 = x1 + 1``).
-
-    The first of sympy's solutions was taken (``w1 = -sqrt(x1 + 1)``) without a word, so
-    that the filter ran on a root the model's author may not have meant, and the run failed
-    later, or not at all, at an EKF step far from the cause.  Solutions sympy writes with
-    ``I`` (the complex cube roots of ``w1**3 = x1``) are left out before this.
-    """
-    shown = "; ".join(
-        ", ".join(f"{v} = {solution[u]}" for v, u in zip(targets, unknowns, strict=True))
-        for solution in solutions[:MAX_SOLUTIONS_SHOWN]
-    )
-    more = (
-        f" and {len(solutions) - MAX_SOLUTIONS_SHOWN} more"
-        if len(solutions) > MAX_SOLUTIONS_SHOWN
-        else ""
-    )
-    keys = ", ".join(e.key for e in algebraic[1:])
-    also = f" (with {keys})" if keys else ""
-    return (
-        f"{algebraic[0].key}: has {len(solutions)} solutions for {', '.join(targets)} at the "
-        f"mode assignment {'|'.join(assignment)}{also} ({shown}{more}), and which one the "
-        "plant follows is not known; write the equation solved for "
-        f"{', '.join(targets)} (e.g. {targets[0]} = ...) with the solution meant"
     )
 
 
