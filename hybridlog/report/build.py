@@ -43,6 +43,7 @@ from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.signals import (
     NO_TRUE_MODE,
     AlignedSignals,
+    BoolArray,
     ComponentTruth,
     FloatArray,
     IntArray,
@@ -156,6 +157,19 @@ def check_compatible(result: EstimationResult, signals: AlignedSignals) -> None:
         )
 
 
+def _where_known(
+    modes: IntArray, truth: IntArray, known: BoolArray, scored: int
+) -> tuple[IntArray, IntArray]:
+    """The estimated and true modes of the samples with a true mode (``scored`` of them).
+
+    The arrays themselves where every sample has one: each selection copied the 10^6 modes
+    of a long log, twice for the confusion matrix and twice for the accuracy.
+    """
+    if scored == truth.size:
+        return modes, truth
+    return modes[known], truth[known]
+
+
 def _modes(
     ids: tuple[str, ...], time: FloatArray, modes: IntArray, truth: IntArray | None, dt: float
 ) -> ModeReport:
@@ -175,13 +189,14 @@ def _modes(
     scored = int(np.count_nonzero(known))
     if scored == 0:  # the true mode starts after the last sample
         return dataclasses.replace(report, samples=0)
-    counts = metrics.confusion_matrix(modes[known], truth[known], len(ids))
+    estimated, true = _where_known(modes, truth, known, scored)
+    counts = metrics.confusion_matrix(estimated, true, len(ids))
     det = metrics.detection_delays(time, modes, truth, ids, dt, known=known)
     return ModeReport(
         labels=report.labels,
         switches=report.switches,
         dwell_s=report.dwell_s,
-        accuracy=_num(metrics.mode_accuracy(modes[known], truth[known])),
+        accuracy=_num(metrics.mode_accuracy(estimated, true)),
         samples=scored,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
@@ -726,13 +741,13 @@ def _side(
             components=sides,
         )
     known = truth != NO_TRUE_MODE  # a true mode's gaps and late start are not scored
-    counts = metrics.confusion_matrix(modes[known], truth[known], len(ids))
+    scored = int(np.count_nonzero(known))
+    estimated, true = _where_known(modes, truth, known, scored)
+    counts = metrics.confusion_matrix(estimated, true, len(ids))
     det = metrics.detection_delays(signals.time, modes, truth, ids, dt, known=known)
     detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
-        mode_accuracy=_num(metrics.mode_accuracy(modes[known], truth[known]))
-        if known.any()
-        else None,
+        mode_accuracy=_num(metrics.mode_accuracy(estimated, true)) if scored else None,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)

@@ -1253,8 +1253,13 @@ class DetectionDelays:
         return float(np.max(d)) if d.size else float("nan")
 
 
+@functools.lru_cache(maxsize=1 << 12)
 def _seconds(t: float) -> str:
-    """A time as ``1700000101.01 s``: to the digits it holds, at Unix times too."""
+    """A time as ``1700000101.01 s``: to the digits it holds, at Unix times too.
+
+    Cached: the reasons of missed switches name the same times again and again (where the
+    estimate sat in a mode since t=0 s, every switch into it names that start).
+    """
     return f"{format_time(t)} s"
 
 
@@ -1390,35 +1395,51 @@ def detection_delays(
     stay = np.append(0, changes)[np.searchsorted(changes, starts - 1, side="right")]
     already = est[starts - 1] == into
     ids = [str(m) for m in mode_ids]
+    # Each event's times read at once (a float(t[i]) per event was four NumPy scalar reads a
+    # switch: 10^4 switches of a 10^6-row log), the same floats; ``t.tolist()`` of 10^6
+    # samples would be 32 MB of floats.  A window's end ``e`` is read only where e < N.
+    last = max(est.size - 1, 0)
+    end_inside = (ends < est.size).tolist()
+    at_start = t[starts].tolist()
+    at_end = t[np.minimum(ends, last)].tolist()
+    at_hit = t[np.maximum(hit, 0)].tolist()
+    at_stay = t[stay].tolist()
+    end_known = (
+        end_inside if have is None else (have[np.minimum(ends, last)] & (ends < est.size)).tolist()
+    )
     events = []
-    for s, e, m, before, k, sat, first_in_mode in zip(
+    for s, e_inside, m, before, k, sat, t_s, t_e, t_k, t_stay, e_known in zip(
         starts.tolist(),
-        ends.tolist(),
+        end_inside,
         into.tolist(),
         tru[starts - 1].tolist(),
         hit.tolist(),
         already.tolist(),
-        stay.tolist(),
+        at_start,
+        at_end,
+        at_hit,
+        at_stay,
+        end_known,
         strict=True,
     ):
         reason = None
         if k < 0 or sat:
             reason = _miss_reason(
-                float(t[e]) if e < est.size else None,
+                t_e if e_inside else None,
                 ids[m],
-                float(t[first_in_mode]) if sat else None,
-                float(t[k]) if k >= 0 else None,
-                unknown=have is not None and e < est.size and not bool(have[e]),
+                t_stay if sat else None,
+                t_k if k >= 0 else None,
+                unknown=have is not None and e_inside and not e_known,
             )
-        # float(t[i]) per event, not t.tolist(): 10^6 samples would be 32 MB of floats
+        detected = k >= 0 and not sat
         events.append(
             SwitchDetection(
-                t=float(t[s]),
+                t=t_s,
                 from_mode=ids[before],
                 to_mode=ids[m],
-                detected_t=float(t[k]) if k >= 0 and not sat else None,
+                detected_t=t_k if detected else None,
                 miss_reason=reason,
-                delay_s=steps_seconds(k - s, dt) if dt is not None and k >= 0 and not sat else None,
+                delay_s=steps_seconds(k - s, dt) if dt is not None and detected else None,
             )
         )
     return DetectionDelays(events=tuple(events))

@@ -640,3 +640,26 @@ def test_detection_delays_make_no_per_sample_python_objects() -> None:
     truth = (np.arange(n) // 2_000) % 3  # 99 true switches
     estimated = np.roll(truth, 3)
     assert _traced_peak(metrics.detection_delays, time, estimated, truth, ("a", "b", "c")) < (8 * n)
+
+
+def test_detection_delays_write_each_time_of_the_reasons_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A filter that sits in one mode misses every switch into it "since t=0 s": the reasons
+    # of a 10^6-row log named that time thousands of times, each written anew.
+    time = np.arange(6_000) * 0.5
+    truth = (np.arange(6_000) // 20) % 3  # 299 true switches
+    estimated = np.zeros(6_000, dtype=np.int64)  # always mode a: every switch missed
+    written: list[float] = []
+
+    def counted(t: float | None) -> str:
+        written.append(t if t is not None else math.nan)
+        return format_time(t)
+
+    metrics._seconds.cache_clear()
+    monkeypatch.setattr(metrics, "format_time", counted)
+    det = metrics.detection_delays(time, estimated, truth, ("a", "b", "c"))
+    assert det.missed == 299
+    reasons = [e.miss_reason for e in det.events]
+    assert sum("(since t=0 s)" in r for r in reasons if r) == 99
+    assert sorted(written) == sorted(set(written))
