@@ -19,6 +19,17 @@ and each output's mean ``z̄_b = (1/N) Σ_k z_b(k)`` is ``N(0, 1/N)`` (the zero-
 least :data:`SETTLED` of the probability at the sample and the one before, the same mode
 (around a switch the mode-conditioned innovation of the old mode is not the model's).
 
+A sample where the log measured only some outputs (``AlignedSignals.unmeasured_outputs``: a
+gap bridged, a sensor sampled slower than the model's ``dt``; NaN in the log) is tested on
+those: the filter updates on them alone, with their own sub-matrix of ``S``, so the row's
+``z`` is the measured ones' and its ``zᵀz`` is ``χ²`` with ``m_k`` (the number measured)
+degrees of freedom.  The test sums over the rows: ``Σ_k z(k)ᵀz(k)`` is ``χ²`` with ``Σ_k m_k``,
+expected ``Σ m_k`` and of variance ``2 Σ m_k``, and each output's mean is over the rows that
+measured it.  Such rows had been left out: with ``y2`` measured on every 12th row of
+``sample_logs/three_tank_hstf.csv``'s log only 25 rows were left, no test and no word of it
+(now 289 settled rows, a mean NIS 2.08 of the 2.09 expected).  A log with fewer than
+:data:`MIN_SAMPLES` settled rows that measured an output has no test, and the report says so.
+
 The IMM's ``z`` is that of the mode nearest to ``y(k)`` (its ``γᵀ S⁻¹ γ`` is the row's
 ``surprise``), which on settled samples is the mode the filter holds; the mode-mixed
 innovation of §11.6.6 differs from it only by the other modes' weights.  The HSTF keeps
@@ -85,6 +96,28 @@ cart case 1's (scores −5.3 to −5.4: 68-70 settled samples of one output) and
 logs held at their mean tested (the one-mode model's 0.20 and 0.29 do not: a flat log its
 input barely moves is not far from the model), and on none of the 550 clean logs.
 
+One output in other units is not seen (measured 2026-12-06, ``per_output`` of the same study):
+only ``y1`` × 1e-3 on the three-tank log leaves the mean NIS at 0.55-0.83 ``m``.  An
+output's marginal whitened innovation ``γ_b / sqrt(S_bb)`` (the first output's ``z_1``; the
+study puts each output first, a relabelling) is ``N(0, 1)``: its mean square is 1.  It does
+not part such logs from clean ones (clean: seeds 0..39; one output scaled: seeds 0..9):
+
+========================  ===================  ==================================  ==============
+log                       clean, each output   the output × 1e-3, 1e-2, 0.1        the others
+========================  ===================  ==================================  ==============
+three-tank, 300 steps     0.645-1.18 (≥ −4.2)  0.051-0.459 (−11.3 to −6.5)         0.65-1.27
+three-tank, R = 60, 700   0.428-1.07 (≥ −5.0)  0.022-0.262 (−12.0 to −4.2) ¹       0.53-1.70
+one-mode test model, 600  0.836-1.12 (≥ −2.8)  ``y1`` 0.54-1.03, ``y2`` 0.20-0.24  ``y1`` 1.4-1.9
+========================  ===================  ==================================  ==============
+
+(scores in brackets; ¹ 3 of the 30 ``y1`` logs untested).  A clean log's ``y1`` at variance 60
+(0.428) is below the three-tank's scaled ``y3`` (0.459): no effect threshold parts them, and
+the scores alone would warn of clean logs as they grow with ``sqrt(N)``.  The one-mode model
+absorbs a scaled ``y1`` (its position) into its state, and a scaled ``y2`` (its velocity)
+makes ``y1``'s innovations *larger* (scores up to +16): a per-output test would name the
+wrong output.  The three-tank's ``y1`` × 1e-3 alone (0.13-0.20 against clean 0.645-1.18)
+would be seen; no per-output test was added.
+
 What is not seen, and why (measured 2026-12-04 on ``imm`` runs; the whiteness test of the same
 §5.4.2 was tried and not added).  That test takes the time-averaged autocorrelation of the
 whitened innovations, ``ρ̄(l) = Σ_k z(k)ᵀ z(k+l) / sqrt(Σ_k z(k)ᵀ z(k) Σ_k z(k+l)ᵀ z(k+l))``
@@ -114,7 +147,7 @@ level of mode ``i``, ``h = i x``) are too few to show.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -180,16 +213,21 @@ class Consistency:
     nis:
         Mean normalised innovation squared ``ε̄`` over them.
     nis_expected:
-        Its expectation under the model, ``m`` (the number of outputs).
+        Its expectation under the model, ``m`` (the number of outputs), or where some were
+        not measured at every sample, the mean number measured, ``Σ_k m_k / N``.
     nis_score:
-        ``(ε̄ − m) / sqrt(2m/N)``.
+        ``(ε̄ − m) / sqrt(2m/N)`` (``(N ε̄ − Σ m_k) / sqrt(2 Σ m_k)``).
     bias:
-        Per output, the mean whitened innovation ``z̄_b`` (expected 0).
+        Per output, the mean whitened innovation ``z̄_b`` (expected 0) over the samples
+        that measured it (``N_b``); an output with fewer than :data:`MIN_SAMPLES` has none.
     bias_scores:
-        Per output, ``z̄_b sqrt(N)``.
+        Per output, ``z̄_b sqrt(N_b)``.
     largest:
         The largest ``|z_b|`` of the settled samples: the innovations' size where their
         squares are too small for a double (``ε̄`` 0 or ``m / ε̄`` infinite).
+    measured:
+        Per output, the settled samples that measured it (all of them but where the log
+        did not: a gap bridged, an output sampled slower than the model's ``dt``).
     """
 
     samples: int
@@ -199,6 +237,7 @@ class Consistency:
     bias: dict[str, float]
     bias_scores: dict[str, float]
     largest: float = math.nan
+    measured: dict[str, int] = field(default_factory=dict)
 
     def warnings(self) -> tuple[str, ...]:
         """One line per failed test (empty when the innovations are the model's)."""
@@ -250,6 +289,7 @@ class Consistency:
             "nis_quiet_effect": NIS_QUIET_EFFECT,
             "bias": dict(self.bias),
             "bias_scores": dict(self.bias_scores),
+            "measured": dict(self.measured),
             "bias_warning": BIAS_WARNING,
             "bias_effect": BIAS_EFFECT,
             "settled": SETTLED,
@@ -271,9 +311,17 @@ class ConsistencyAccumulator:
         self._block = np.empty((_BLOCK, len(output_names)))
         self._filled = 0
         self._largest = 0.0
+        self._settled = 0  # settled rows, measured or not
+        self._measured = np.zeros(len(output_names), dtype=np.int64)  # per output, rows
 
     def add(self, whitened: FloatArray, probabilities: FloatArray) -> None:
-        """Take the next rows: ``L⁻¹ γ`` (NaN: none) and the mode probabilities of each row."""
+        """Take the next rows: ``L⁻¹ γ`` (NaN: not measured) and each row's mode probabilities.
+
+        A row where only some outputs are measured holds the measured ones' ``L⁻¹ γ``: the
+        filter updated on them alone, with their own sub-matrix of ``S`` (the kernels' ``H``,
+        ``γ`` and ``R`` of an output left out are 0, 0 and the identity's, so ``S`` is block
+        diagonal and its Cholesky factor's measured block is that of ``S``'s measured block).
+        """
         rows = whitened.shape[0]
         if rows == 0:
             return
@@ -288,11 +336,11 @@ class ConsistencyAccumulator:
                 (probabilities.max(axis=1) >= SETTLED)
                 & (previous.max(axis=1) >= SETTLED)
                 & (probabilities.argmax(axis=1) == previous.argmax(axis=1))
-                & np.isfinite(whitened).all(axis=1)
             )
-        taken = whitened[settled]
+        self._settled += int(np.count_nonzero(settled))
+        taken = whitened[settled & np.isfinite(whitened).any(axis=1)]
         if taken.size:
-            self._largest = max(self._largest, float(np.abs(taken).max()))
+            self._largest = max(self._largest, float(np.nanmax(np.abs(taken))))
         start = 0
         while start < taken.shape[0]:
             stop = min(taken.shape[0], start + _BLOCK - self._filled)
@@ -304,28 +352,62 @@ class ConsistencyAccumulator:
 
     def _close_block(self) -> None:
         block = self._block[: self._filled]
+        measured = np.isfinite(block)
+        if measured.all():  # every output measured (most logs): no copy
+            values = block
+            self._measured += self._filled
+        else:
+            values = np.where(measured, block, 0.0)
+            self._measured += np.count_nonzero(measured, axis=0)
         self._count += self._filled
-        self._squares += float((block * block).sum())
-        self._sums += block.sum(axis=0)
+        self._squares += float((values * values).sum())
+        self._sums += values.sum(axis=0)
         self._filled = 0
 
     def result(self) -> Consistency | None:
-        """The tests over every row taken; ``None`` below :data:`MIN_SAMPLES` settled ones."""
+        """The tests over every row taken; ``None`` below :data:`MIN_SAMPLES` settled ones.
+
+        A row's NIS is over the outputs measured there (``m_k`` of them, ``χ²`` with ``m_k``
+        degrees of freedom): ``ε̄`` is the mean over the rows, expected ``Σ m_k / N``, its
+        score ``(Σ_k ε_k − Σ_k m_k) / sqrt(2 Σ_k m_k)``; an output's bias is over the rows
+        that measured it, and tested only where it has :data:`MIN_SAMPLES` of them.
+        """
         if self._filled:
             self._close_block()
         n, m = self._count, len(self._names)
         if n < MIN_SAMPLES or m == 0:
             return None
-        nis = self._squares / n
-        means = self._sums / n
+        freedom = int(self._measured.sum())
+        tested = [b for b in range(m) if self._measured[b] >= MIN_SAMPLES]
+        means = {self._names[b]: float(self._sums[b] / self._measured[b]) for b in tested}
         return Consistency(
             samples=n,
-            nis=nis,
-            nis_expected=float(m),
-            nis_score=(nis - m) / math.sqrt(2.0 * m / n),
-            bias=dict(zip(self._names, (float(v) for v in means), strict=True)),
-            bias_scores=dict(
-                zip(self._names, (float(v) * math.sqrt(n) for v in means), strict=True)
-            ),
+            nis=self._squares / n,
+            nis_expected=freedom / n,
+            nis_score=(self._squares - freedom) / math.sqrt(2.0 * freedom),
+            bias=means,
+            bias_scores={
+                self._names[b]: means[self._names[b]] * math.sqrt(float(self._measured[b]))
+                for b in tested
+            },
             largest=self._largest,
+            measured=dict(zip(self._names, (int(c) for c in self._measured), strict=True)),
+        )
+
+    def untested(self) -> str | None:
+        """Why :meth:`result` has no test (a note for the report), or ``None`` when it has one."""
+        if self._filled:
+            self._close_block()
+        if self._count >= MIN_SAMPLES or not self._names:
+            return None
+        measured = (
+            f" ({self._settled - self._count:,} of them measured no output)"
+            if self._settled > self._count
+            else ""
+        )
+        return (
+            f"the innovations' whole-log test did not run: {self._count:,} settled samples "
+            f"with a measured output{measured}, fewer than the {MIN_SAMPLES} it needs "
+            f"(settled: one mode holds at least {SETTLED:g} of the probability at the sample "
+            "and the one before)"
         )

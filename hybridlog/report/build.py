@@ -420,8 +420,8 @@ class ReportBuilder:
                 self._consistency = ConsistencyAccumulator(chunk.output_names)
             whitened = chunk.whitened_innovations
             if part.unmeasured_outputs is not None:  # an innovation of a value not measured
-                unmeasured = np.any(part.unmeasured_outputs, axis=1, keepdims=True)
-                whitened = np.where(unmeasured, np.nan, whitened)
+                # (the filter updated on the others: their L⁻¹ γ is tested, consistency.py)
+                whitened = np.where(part.unmeasured_outputs, np.nan, whitened)
             # settled by the filter's own mode probabilities: the innovations are the filter's,
             # and an offline pass's (smoothed) probabilities settle at other samples
             post = chunk.post_processing
@@ -537,6 +537,8 @@ class ReportBuilder:
                 notes=(*report.notes, *(f"WARNING: {w}" for w in consistency.warnings())),
                 extra={"consistency": _json_object(consistency.to_dict())},
             )
+        elif self._consistency is not None and (why := self._consistency.untested()):
+            report = dataclasses.replace(report, notes=(*report.notes, why))
         few = few_samples_warning(report)
         if few is not None:
             report = dataclasses.replace(report, notes=(*report.notes, few))

@@ -264,3 +264,89 @@ def test_an_offline_pass_leaves_the_filters_innovation_test_as_it_was(smoother):
     alone, offline = (report.extra["consistency"] for report in reports)
     assert isinstance(alone, dict) and alone["samples"] > 0
     assert offline == alone
+
+
+def _sparse(signals, output, every):
+    """``signals`` with ``output`` measured at every ``every``-th row only (a slower sensor)."""
+    unmeasured = np.zeros(signals.outputs.shape, dtype=bool)
+    unmeasured[:, output] = True
+    unmeasured[::every, output] = False
+    return dataclasses.replace(signals, unmeasured_outputs=unmeasured)
+
+
+@pytest.mark.parametrize("kernel", ["unrolled", "loops"])
+def test_a_partly_measured_row_s_innovations_are_the_measured_ones_whitened(kernel):
+    # what the test sums on a row where y2 was not measured: the filter updates on y1 alone,
+    # so the row's NIS is γ1² / S11, FilterPy's update on y1 alone
+    model = parse_model(ONE_MODE)
+    signals = _sparse(simulate(model, steps=99, seed=4).signals(model), 1, 3)
+    mode = model.modes[0]
+    kf = KalmanFilter(dim_x=model.n_states, dim_z=model.n_outputs, dim_u=model.n_inputs)
+    kf.x, kf.P = model.initial_state.copy(), model.initial_covariance.copy()
+    kf.F, kf.B, H = _linear_matrices(model, 0)
+    kf.Q = mode.process_noise
+    nis = [np.nan]
+    for k in range(signals.n_samples - 1):
+        kf.predict(u=signals.inputs[k])
+        kept = ~signals.unmeasured_outputs[k + 1]
+        kf.dim_z = int(kept.sum())
+        kf.H, kf.R = H[kept], mode.measurement_noise[np.ix_(kept, kept)]
+        kf.update(signals.outputs[k + 1, kept])
+        nis.append(float(kf.y @ np.linalg.solve(kf.S, kf.y)))
+    ours = run_imm(model, signals, ImmOptions(), kernel=kernel).whitened_innovations
+    assert ours is not None
+    np.testing.assert_array_equal(np.isnan(ours[1:]), signals.unmeasured_outputs[1:])
+    np.testing.assert_allclose(np.nansum(ours[1:] ** 2, axis=1), nis[1:], rtol=1e-8, atol=1e-8)
+
+
+def test_a_log_whose_output_is_sampled_slower_is_tested_over_every_settled_row():
+    # y2 measured on every 12th row: the test kept only the 25 rows that measured all three
+    # outputs, so there was no 'consistency' and no word that the test had not run
+    model = parse_model(builtin_text("three_tank_hstf"))
+    signals = _sparse(simulate(model, seed=2024).signals(model), 1, 12)
+    result = run_imm(model, signals, ImmOptions())
+    report = build_report(result, signals, log="slow y2", model_name="three_tank_hstf", dt=1.0)
+    consistency = report.extra["consistency"]
+    assert isinstance(consistency, dict) and consistency["samples"] > 250
+    measured = consistency["measured"]
+    assert measured["y1"] == measured["y3"] == consistency["samples"] and measured["y2"] < 30
+    expected = (2 * consistency["samples"] + measured["y2"]) / consistency["samples"]
+    assert consistency["nis_expected"] == pytest.approx(expected, rel=1e-12)
+    assert consistency["warnings"] == [] and set(consistency["bias"]) == {"y1", "y3"}
+    scaled = dataclasses.replace(signals, outputs=1.5 * signals.outputs)
+    result = run_imm(model, scaled, ImmOptions())
+    report = build_report(result, scaled, log="slow y2", model_name="three_tank_hstf", dt=1.0)
+    assert any("larger than the model's noise" in note for note in report.notes)
+
+
+def test_the_nis_of_partly_measured_rows_is_chi_squared_with_the_measured_count():
+    rng = np.random.default_rng(11)
+    whitened = rng.normal(size=(3000, 3))
+    whitened[rng.random(3000) < 0.7, 1] = np.nan  # y2 measured on 30 % of the rows
+    whitened[::50] = np.nan  # nothing measured: not a tested row
+    accumulator = ConsistencyAccumulator(("y1", "y2", "y3"))
+    accumulator.add(whitened, np.ones((3000, 1)))
+    tested = accumulator.result()
+    assert tested is not None and tested.samples == 3000 - 60
+    freedom = int(np.isfinite(whitened).sum())
+    assert tested.nis_expected * tested.samples == pytest.approx(freedom, rel=1e-12)
+    assert abs(tested.nis_score) < 3 and tested.warnings() == ()
+    assert tested.measured["y2"] == int(np.isfinite(whitened[:, 1]).sum())
+    # a biased y2 is seen over the rows that measured it alone
+    whitened[:, 1] += 0.5
+    biased = ConsistencyAccumulator(("y1", "y2", "y3"))
+    biased.add(whitened, np.ones((3000, 1)))
+    tested = biased.result()
+    assert tested is not None
+    (warning,) = tested.warnings()
+    assert "biased" in warning and "y2 +0.5" in warning
+
+
+def test_a_log_too_short_or_unsettled_for_the_test_says_so():
+    model = parse_model(builtin_text("three_tank_hstf"))
+    signals = simulate(model, steps=20, seed=2024).signals(model)
+    result = run_imm(model, signals, ImmOptions())
+    report = build_report(result, signals, log="short", model_name="three_tank_hstf", dt=1.0)
+    assert "consistency" not in report.extra
+    (note,) = [n for n in report.notes if "innovations' whole-log test did not run" in n]
+    assert "fewer than the 30 it needs" in note
