@@ -105,14 +105,8 @@ from hybridlog.estimators.kernels import (
     workspace,
 )
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.estimators.smoothing import (
-    GUARD_TOLERANCE,
-    _log,
-    log_sum_exp,
-    post_process,
-    safe_log,
-    viterbi,
-)
+from hybridlog.estimators.smoother_kernels import GUARD_TOLERANCE, log_sum_exp, safe_log, viterbi
+from hybridlog.estimators.smoothing import _log, post_process
 from hybridlog.jit import compile_for, jit
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -210,7 +204,7 @@ def evidence_backward(
     store: UnpackedStore,
     out: FilterBuffers,
 ) -> None:
-    """:func:`~hybridlog.estimators.smoothing.kim_backward` with the pair weights of the variant."""
+    """:func:`~hybridlog.estimators.smoother_kernels.kim_backward`, the variant's pair weights."""
     n_samples, n_q, n = store.means.shape
     m_y = outputs.shape[1]
     log_T = np.empty((n_q, n_q))

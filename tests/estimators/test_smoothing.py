@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import DivergenceError
-from hybridlog.estimators import smoothing
+from hybridlog.estimators import smoother_kernels, smoothing
 from hybridlog.estimators.common import ModeStore, packed_width, run_filter
 from hybridlog.estimators.imm import (
     CODE,
@@ -21,7 +21,7 @@ from hybridlog.estimators.imm import (
     transition_matrix,
 )
 from hybridlog.estimators.result import Fallbacks
-from hybridlog.estimators.smoothing import unpack_state, viterbi
+from hybridlog.estimators.smoother_kernels import unpack_state, viterbi
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
@@ -428,7 +428,7 @@ def test_skipping_negligible_next_modes_changes_nothing(monkeypatch):
     options = ImmOptions(smooth=True, smoother="kim")
     skipping = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
     looped = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
-    monkeypatch.setattr(smoothing, "NEGLIGIBLE_WEIGHT", 0.0)
+    monkeypatch.setattr(smoother_kernels, "NEGLIGIBLE_WEIGHT", 0.0)
     every = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
     skipped = (every.mode_probabilities[1:] < 1e-30).mean()
     assert skipped > 0.2, skipped

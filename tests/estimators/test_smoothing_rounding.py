@@ -10,7 +10,8 @@ import pytest
 
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.kernels import cholesky
-from hybridlog.estimators.smoothing import ROUNDING_LIMIT, _positive_pivots, rts_step, rts_work
+from hybridlog.estimators.smoother_kernels import ROUNDING_LIMIT, rts_step, rts_work
+from hybridlog.estimators.smoother_source import _positive_pivots
 from hybridlog.estimators.unrolled import Program
 from hybridlog.model.loader import parse_model
 from hybridlog.simulate import simulate
