@@ -15,8 +15,10 @@ takes a malformed value as unset), ``NUMBA_CACHE_DIR`` (the folder under which
 :func:`hybridlog.jit.machine_code_dir` keeps the machine code), ``NUMBA_THREADING_LAYER`` (read as
 text; used only by numba's parallel code, which hybridlog does not run), ``TMPDIR``
 (Python's :mod:`tempfile` falls back to ``/tmp``; one too long for a batch's socket is named
-by :func:`hybridlog.jobs.workers.start_forkserver`) and ``HYBRIDLOG_CACHE_DIR`` (a folder
-that cannot be written is named by :func:`hybridlog.model.compiled.store`).
+by :func:`hybridlog.jobs.workers.start_forkserver`).  ``HYBRIDLOG_CACHE_DIR`` is checked to be
+an absolute path (a relative one was a cache in each working folder, each batch worker's
+too; :func:`hybridlog.jit.cache_dir` refuses it for the library); a folder that cannot be
+written is named by :func:`hybridlog.model.compiled.store`.
 
 Importing this module imports neither numba nor polars: numba's own table of the settings it
 reads as whole numbers is read from its source (:func:`numba_whole_numbers`), and only when a
@@ -140,6 +142,12 @@ RULES: dict[str, tuple[Callable[[str], bool], str]] = {
         f"a whole number of threads from 1 to {POLARS_THREADS_MAX} "
         "(polars starts them all at once)",
     ),
+    # hybridlog's own, read by jit.cache_dir (a peer: it says the same, for the library)
+    "HYBRIDLOG_CACHE_DIR": (
+        lambda value: not value or os.path.isabs(value),
+        "an absolute path (a relative one is a folder of each process's working folder, not "
+        'one cache; write "$PWD/..." for the folder the shell is in)',
+    ),
 }
 """Variables with a rule of their own: (check, what is expected)."""
 
@@ -177,7 +185,7 @@ def numba_whole_numbers() -> frozenset[str]:
 
 
 def check_environment(environ: Mapping[str, str] | None = None) -> None:
-    """Refuse a malformed value of a variable numba or polars reads as a number.
+    """Refuse a malformed number numba or polars reads, or a relative ``HYBRIDLOG_CACHE_DIR``.
 
     ``environ`` defaults to :data:`os.environ`.
 

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any, TypeVar, cast
 
 from hybridlog import __version__
-from hybridlog.errors import OutputError
+from hybridlog.errors import OptionError, OutputError, excerpt
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -204,7 +204,10 @@ def cache_dir() -> Path:
 
     ``$XDG_CACHE_HOME`` defaults to ``~/.cache`` (:func:`home`), and one that is not an
     absolute path is ignored, as the XDG Base Directory specification says: a relative one
-    put the cache in whatever folder the command ran in (a log folder, a CI checkout).  It
+    put the cache in whatever folder the command ran in (a log folder, a CI checkout).  A
+    relative ``$HYBRIDLOG_CACHE_DIR``, which did the same (and in each batch worker's own
+    working folder, a Dask worker's too), is refused (:func:`check_cache_variable`): one
+    cache wherever the command runs, as its name promises.  It
     holds the loaded models (:mod:`hybridlog.model.cache`), the generated modules
     (:mod:`hybridlog.model.compiled`), numba's machine code (:func:`machine_code_dir`) and,
     where matplotlib's own folders cannot be written, its settings and font list
@@ -214,14 +217,40 @@ def cache_dir() -> Path:
     ------
     OutputError
         No folder is set and the home is unknown.
+    OptionError
+        ``$HYBRIDLOG_CACHE_DIR`` is not an absolute path.
     """
     override = os.environ.get("HYBRIDLOG_CACHE_DIR")
     if override:
+        check_cache_variable(override)
         return Path(override)
     base = os.environ.get("XDG_CACHE_HOME", "")
     if os.path.isabs(base):
         return Path(base) / "hybridlog"
     return home() / ".cache" / "hybridlog"
+
+
+CACHE_VARIABLE_EXPECTED = (
+    "an absolute path (a relative one is a folder of each process's working folder, not one "
+    'cache; write "$PWD/..." for the folder the shell is in)'
+)
+"""What ``$HYBRIDLOG_CACHE_DIR`` must be, as the refusal says it (and
+:func:`hybridlog.environment.check_environment`'s, checking it before a command starts)."""
+
+
+def check_cache_variable(value: str) -> None:
+    """Refuse ``value`` of ``$HYBRIDLOG_CACHE_DIR`` unless it is an absolute path (or empty).
+
+    Raises
+    ------
+    OptionError
+        ``environment variable HYBRIDLOG_CACHE_DIR='cache': expected an absolute path ...``.
+    """
+    if value and not os.path.isabs(value):
+        raise OptionError(
+            f"environment variable HYBRIDLOG_CACHE_DIR={excerpt(value)}: expected "
+            f"{CACHE_VARIABLE_EXPECTED}; unset it or give it such a value"
+        )
 
 
 def home() -> Path:

@@ -37,7 +37,7 @@ from hybridlog.cluster.progress import simulating
 from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt, first_few
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.component_structure import solve_explicitly
-from hybridlog.model.components import UNKNOWN, Equation
+from hybridlog.model.components import UNKNOWN, Equation, joint_label
 from hybridlog.signals import FloatArray
 from hybridlog.times import format_time
 
@@ -435,13 +435,21 @@ def _joint_equations(
 
 
 def _describe(joint: Mapping[str, str], scenario: Scenario) -> str:
-    parts = []
-    for name, entry in joint.items():
-        shown = (
-            scenario.unmodelled[_unmodelled_index(entry)].key if entry.startswith("~") else entry
-        )
-        parts.append(f"{name}={shown}")
-    return "{" + ", ".join(parts) + "}"
+    """The joint mode as the estimators and ``models FILE`` name it: ``m11|m21``.
+
+    A component playing an unmodelled behaviour is ``unknown`` there, as the log's true mode
+    says, and the behaviours are named after the label: ``m11|unknown (simulation.
+    unmodelled[0])``.  It was ``{A1=m11, A2=m21}``, so one joint mode refused by ``imm``
+    and by ``simulate`` (an equation with several solutions) was named two ways.
+    """
+    modes, behaviours = [], []
+    for entry in joint.values():
+        unmodelled = entry.startswith("~")
+        modes.append(UNKNOWN if unmodelled else entry)
+        if unmodelled:
+            behaviours.append(scenario.unmodelled[_unmodelled_index(entry)].key)
+    shown = joint_label(modes)
+    return f"{shown} ({', '.join(behaviours)})" if behaviours else shown
 
 
 def _compile_joint(

@@ -46,7 +46,7 @@ import sympy
 from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from hybridlog.errors import ModelError
-from hybridlog.model.components import Component, Equation
+from hybridlog.model.components import Component, Equation, joint_label
 
 __all__ = [
     "MAX_CHECKED_JOINT_MODES",
@@ -254,7 +254,7 @@ def _refuse(
     its group without an equation; the components of other groups at their first mode in
     the joint mode's label.
     """
-    label = "|".join(chosen.get(i, c.mode_ids[0]) for i, c in enumerate(components))
+    label = joint_label(chosen.get(i, c.mode_ids[0]) for i, c in enumerate(components))
     equations = [e for i, m in chosen.items() for e in components[i].equations(m)]
     _, determined_by, unmatched = causal_graph(names, equations)
     if unmatched:

@@ -13,7 +13,7 @@ from the file and the ``unknown-mode`` estimator does the structural analysis.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -21,6 +21,24 @@ import sympy
 
 UNKNOWN = "unknown"
 """Id of every component's implicit unknown mode (no equations, paper 002 §3)."""
+
+JOINT_SEPARATOR = "|"
+"""What joins the components' mode ids into a joint mode's id (a component's mode id may not
+hold it, :mod:`hybridlog.model.loader`)."""
+
+
+def joint_label(modes: Iterable[str]) -> str:
+    """``m11|m21|unknown``: a joint mode as every command names it, its components' mode ids.
+
+    In the model's order of components; the joint-mode model ``imm`` runs on, its
+    ``unknown-mode`` assignments, the refusals of :func:`hybridlog.model.component_structure.
+    check_joint_modes`, of the estimators' structural analysis and of ``simulate``'s joint
+    modes (where an unmodelled behaviour stands for a component's mode, the component is
+    ``unknown``, as the simulated log's true mode says, and ``simulate`` names the
+    behaviour beside the label) all write it so.
+    """
+    return JOINT_SEPARATOR.join(modes)
+
 
 EquationKind = Literal["difference", "algebraic"]
 

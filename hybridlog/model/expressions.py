@@ -11,8 +11,9 @@ Only the equations of a ``[components]`` model also accept the time index of pap
 
 Every expression must be real: one that sympy finds complex-valued (``sqrt(-1)``,
 ``log(-2)``, ``(-8)**(1/3)``, ``sqrt(-x**2 - 1)``) is refused, since compiled code would
-either fail or silently drop the imaginary part.  ``sqrt(x)`` of a real ``x`` is accepted:
-whether it is real depends on the data.
+either fail or silently drop the imaginary part; so is a complex constant anywhere in one,
+named where it is made (``sqrt(-1)`` of ``sqrt(-1)**2*x``, :meth:`_Converter.real`).
+``sqrt(x)`` of a real ``x`` is accepted: whether it is real depends on the data.
 """
 
 from __future__ import annotations
@@ -697,7 +698,7 @@ class _Converter:
         group = _chain_group(node.op)
         if group is None:
             if isinstance(node.op, ast.Pow):
-                return _power(self.value(node.left), self.value(node.right))
+                return self.real(node, _power(self.value(node.left), self.value(node.right)))
             if isinstance(node.op, ast.BitXor):
                 raise ModelError(
                     f"{self.key}: '^' is not a power in a model expression (Python reads it "
@@ -847,4 +848,33 @@ class _Converter:
                     for position, arg in enumerate(node.args)
                 )
             )
-        return function(*(self.value(arg) for arg in node.args))
+        return self.real(node, function(*(self.value(arg) for arg in node.args)))
+
+    def real(self, node: ast.expr, value: sympy.Expr) -> sympy.Expr:
+        """``value``, the power or function ``node``, refused where it is a complex constant.
+
+        Only powers and functions leave the reals from real constants (``sqrt(-1)``,
+        ``(-1)**(1/2)``, ``log(-1)``), so they are asked as they are built, before anything
+        folds the constant away or works on it: ``sqrt(-1)**100`` was refused as "the
+        exponent 100 is larger than 64" (the size of ``I`` unknown), ``sqrt(-1)**2*x`` and
+        ``log(-1)*0 + x`` were accepted.  An infinity or NaN is left to the checks of
+        :func:`parse_expression`, which say so.
+
+        Raises
+        ------
+        ValueError
+            Naming the power or call and the value (:func:`parse_expression` adds the key,
+            and a parameter behind it).
+        """
+        if (
+            isinstance(value, sympy.Expr)
+            and value.is_number
+            and not value.has(*_NOT_FINITE)
+            and (value.has(sympy.I) or value.is_extended_real is False)
+        ):
+            written = self.segment(node) or ast.unparse(node)
+            raise ValueError(
+                f"{excerpt(written, 40)} is complex-valued ({_unquoted(value, 40)}, not a real "
+                "number); model expressions must be real"
+            )
+        return value

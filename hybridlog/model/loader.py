@@ -39,7 +39,7 @@ from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.component_structure import ComponentNames, check_joint_modes
-from hybridlog.model.components import Component
+from hybridlog.model.components import JOINT_SEPARATOR, Component
 from hybridlog.model.derivatives import boolean_affine_problem
 from hybridlog.model.diagnosis import diagnose
 from hybridlog.model.expressions import expression_text, parse_expression
@@ -1138,9 +1138,9 @@ def _strings(value: Any) -> Iterator[str]:
             yield from _strings(item)
 
 
-_JOINT_SEPARATOR = "|"
-"""What joins the components' mode ids into a joint mode's id (``m11|m21``, the joint-mode
-model ``imm`` runs on a components model: ``estimators/cpha/joint.py``)."""
+_JOINT_SEPARATOR = JOINT_SEPARATOR
+"""What joins the components' mode ids into a joint mode's id (``m11|m21``,
+:func:`hybridlog.model.components.joint_label`)."""
 
 
 def _refuse_joint_separator(components: tuple[Component, ...]) -> None:

@@ -555,6 +555,13 @@ def _sample_counts(samples: Mapping[str, int | None]) -> str:
     return ", ".join(f"{n:,} ({name})" for name, n in samples.items() if n is not None)
 
 
+FEW_SAMPLES_REMEDY = (
+    f"judge the estimator on a log that gives each metric at least {FEW_SAMPLES} samples"
+)
+"""What to do, ending :func:`few_samples_warning`'s text (so report.md, report.json, the
+terminal, comparison.md, the summaries and JUnit, which all carry the note whole)."""
+
+
 def few_samples_warning(report: Report) -> str | None:
     """The warning that metrics are over fewer than :data:`FEW_SAMPLES` samples, or ``None``.
 
@@ -605,7 +612,7 @@ def few_samples_warning(report: Report) -> str | None:
     return (
         f"{WARNING_PREFIX}{'; '.join(parts)}: fewer than {FEW_SAMPLES} samples, they describe "
         "these samples, not the estimator: the filter's start weighs as much as the rest, and "
-        f"a variance over n samples is off by sqrt(2/(n-1)) of itself{spread}"
+        f"a variance over n samples is off by sqrt(2/(n-1)) of itself{spread}; {FEW_SAMPLES_REMEDY}"
     )
 
 

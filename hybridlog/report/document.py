@@ -16,7 +16,9 @@ states: {<x>: {rmse, samples}}, runtime_s, compile_s, samples_per_s, notes, null
 ``--mode-sequence viterbi``; absent otherwise), then ``reading`` (what reading the log did)
 when known, then any further keys (:attr:`Report.extra`): those ``analyze``, ``compare``
 and ``batch`` write are :data:`PARAMETERS_KEY` and :data:`ORIGINS_KEY`
-(:mod:`hybridlog.jobs.origins`), and ``batch`` its provenance.
+(:mod:`hybridlog.jobs.origins`), and ``batch`` its provenance.  Every key is an attribute of
+:class:`Report` holding its value, so a further key named like a method of it (``to_dict``)
+or starting with ``__`` is refused (:func:`hidden_keys`).
 
 ``smoothing`` is ``{method, mode_sequence, description, fallbacks, filtered: {...},
 smoothed: {...}}`` (:class:`Smoothing`): ``method`` names the fixed-interval smoother
@@ -69,7 +71,7 @@ import copy
 import dataclasses
 import json
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Final, TypeAlias, TypeVar, cast
@@ -540,7 +542,10 @@ class Report:
     extra:
         Further top-level keys, written after all others (names of no other attribute);
         each is an attribute too (``report.consistency``, ``report.parameters``), as README
-        promises of every key of ``report.json``.
+        promises of every key of ``report.json``.  So none may be named like one of the
+        class's own names (``to_dict``, ``with_extra``, ``extra``, ...: ``report.to_dict``
+        would be the method) or start with ``__``: :func:`hidden_keys`; building such a
+        report is a ``ValueError``, reading one a :class:`~hybridlog.errors.ReportError`.
 
     """
 
@@ -589,6 +594,9 @@ class Report:
         clash = sorted(set(self.extra) & _KEYS)
         if clash:
             raise ValueError(f"extra keys {clash} are report attributes; set those instead")
+        hidden = hidden_keys(self.extra)
+        if hidden:
+            raise ValueError(f"extra key {hidden[0]!r} {HIDDEN_KEY}; choose another name")
 
     def to_dict(self) -> JsonObject:
         """The report as plain JSON values: the keys and values of ``report.json``, in order.
@@ -708,6 +716,9 @@ class Report:
         if not _KEYS.isdisjoint(extra):
             return Report.from_dict({**self.to_dict(), **extra}, source=source)
         reader = _Reader(source)
+        hidden = hidden_keys(extra)
+        if hidden:
+            raise reader.error(hidden[0], f"{HIDDEN_KEY}; choose another name")
         merged = {**self.extra, **extra}
         return dataclasses.replace(
             self, extra={k: reader.json_value(v, k) for k, v in merged.items()}
@@ -736,6 +747,29 @@ def _refuse_constant(name: str) -> object:
 
 
 _KEYS: Final = frozenset(f.name for f in fields(Report)) - {"extra"}
+"""Top-level keys of ``report.json`` that are attributes of :class:`Report`."""
+
+_OWN_NAMES: Final = frozenset(dir(Report)) | {"extra"}
+"""Names attribute access finds on :class:`Report` itself (its methods, ``extra``, ...)."""
+
+
+def hidden_keys(keys: Iterable[str]) -> list[str]:
+    """The further keys (:attr:`Report.extra`) that ``report.<key>`` would not reach, sorted.
+
+    A key named like one of :class:`Report`'s own names (``to_dict``, ``with_extra``,
+    ``extra``, ...) gives the method, and one starting with ``__`` is never read from
+    ``extra`` (:mod:`copy` and :mod:`pickle` ask for such names): both are refused, so every
+    key of ``report.json`` is an attribute holding its value.
+    """
+    return sorted(k for k in keys if k.startswith("__") or (k in _OWN_NAMES and k not in _KEYS))
+
+
+HIDDEN_KEY: Final = (
+    "would be hidden: report.<key> reads Report's own name of it (a method, or a name "
+    "starting with __), not the key"
+)
+"""Why :func:`hidden_keys` refuses a key (the messages name the key before it)."""
+
 
 PARAMETERS_KEY: Final = "parameters"
 """The further key (:attr:`Report.extra`) of the model's parameter values as the run used
@@ -762,8 +796,6 @@ def command_line_values(report: Report) -> list[str]:
         return []
     return [v for v in origins.values() if isinstance(v, str) and v.startswith("--")]
 
-
-"""Top-level keys of ``report.json`` that are attributes of :class:`Report`."""
 
 MAX_DEPTH: Final = 64
 """Deepest nesting of lists and objects read back in ``options``, ``reading`` and further keys
@@ -1158,6 +1190,9 @@ class _Reader:
         if not isinstance(value, dict) or "hybridlog_version" not in value:
             raise ReportError(f"{self.source}: not a hybridlog report (no 'hybridlog_version' key)")
         data: Mapping[str, object] = value
+        hidden = hidden_keys(data)
+        if hidden:
+            raise self.error(hidden[0], f"{HIDDEN_KEY}; not a key hybridlog writes")
         report = Report(
             hybridlog_version=self.string(data["hybridlog_version"], "hybridlog_version"),
             log=self.at(data, "", "log", self.string),

@@ -179,6 +179,8 @@ def test_imm_and_simulate_solve_a_joint_mode_as_unknown_mode_does(tmp_path):
     simulated = str(simulate.value).removeprefix(f"{tmp_path / 'square.toml'}: simulation: ")
     for message in (said, simulated, str(unknown_mode.value)):
         assert message.startswith("components.plant.modes.a.equations[1]: has 2 solutions for ")
+        # simulate named the joint mode {plant=a}, the estimators a (model.components)
+        assert " at the mode assignment a (" in message
         assert "w1 = -sqrt(x1 + 1)" in message and "write the equation solved for " in message
     assert not (tmp_path / "square.csv").exists()
 
@@ -188,3 +190,18 @@ def test_imm_and_simulate_solve_a_joint_mode_as_unknown_mode_does(tmp_path):
     (tmp_path / "cube.toml").write_text(cube + SIMULATION, encoding="utf-8")
     simulate_log(tmp_path / "cube.toml", tmp_path / "cube.csv")
     assert (tmp_path / "cube.csv").is_file()
+
+
+def test_simulate_names_a_joint_mode_with_an_unmodelled_behaviour_as_the_estimators_do():
+    """``{A1=m11, A2=simulation.unmodelled[0]}``: the estimators' form, the component
+    ``unknown`` as the log's true mode says, and the behaviour named after it."""
+    from types import SimpleNamespace
+
+    from hybridlog.simulate_components import _describe
+
+    scenario = SimpleNamespace(unmodelled=[SimpleNamespace(key="simulation.unmodelled[0]")])
+    assert _describe({"A1": "m11", "A2": "m21"}, scenario) == "m11|m21"  # type: ignore[arg-type]
+    assert (
+        _describe({"A1": "m11", "A2": "~0:m21"}, scenario)  # type: ignore[arg-type]
+        == "m11|unknown (simulation.unmodelled[0])"
+    )

@@ -17,7 +17,8 @@ from pathlib import Path
 import pytest
 
 from hybridlog import jit
-from hybridlog.errors import OutputError
+from hybridlog.environment import check_environment
+from hybridlog.errors import OptionError, OutputError
 from hybridlog.model import compiled
 from tests.support.paths import TANK_CSV
 
@@ -80,3 +81,30 @@ def test_no_home_and_no_cache_folder_set_is_one_line(
         f"no cache folder: HOME is {said} and user {os.getuid()} has no home in the password "
         "database; set HYBRIDLOG_CACHE_DIR to a writable folder"
     )
+
+
+@pytest.mark.parametrize("value", ["cache", "./cache", "~/cache"])
+def test_a_relative_cache_folder_variable_is_refused_everywhere_alike(
+    monkeypatch: pytest.MonkeyPatch, value: str
+) -> None:
+    """``HYBRIDLOG_CACHE_DIR=cache`` was a cache in each working folder (each batch worker's,
+    a Dask worker's): ``cd a; analyze ...; cd ../b; analyze ...`` compiled every model
+    twice, into ``a/cache`` and ``b/cache``.  Refused, by the CLI before any command (its
+    workers are started after) and by the library, in the same words."""
+    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", value)
+    with pytest.raises(OptionError) as library:
+        jit.cache_dir()
+    with pytest.raises(OptionError) as command:
+        check_environment({"HYBRIDLOG_CACHE_DIR": value})
+    assert (
+        str(library.value)
+        == str(command.value)
+        == (
+            f"environment variable HYBRIDLOG_CACHE_DIR={value!r}: expected an absolute path (a "
+            "relative one is a folder of each process's working folder, not one cache; write "
+            '"$PWD/..." for the folder the shell is in); unset it or give it such a value'
+        )
+    )
+    check_environment({"HYBRIDLOG_CACHE_DIR": ""})  # empty is unset, as cache_dir takes it
+    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", "/abs/cache")
+    assert jit.cache_dir() == Path("/abs/cache")

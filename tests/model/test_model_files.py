@@ -282,6 +282,34 @@ def test_complex_valued_expressions_are_refused_naming_the_key(expression):
 
 
 @pytest.mark.parametrize(
+    ("expression", "part", "value"),
+    [
+        # was "the exponent 100 is larger than 64": the size of I is not a real number's
+        ("sqrt(-1)**100", "sqrt(-1)", "I"),
+        # accepted: the constant folded to a real one before the check of the whole
+        ("sqrt(-1)**2*x", "sqrt(-1)", "I"),
+        ("sqrt(-2)**2*x", "sqrt(-2)", "sqrt(2)*I"),
+        ("((-1)**(1/2))**2*x", "(-1)**(1/2)", "I"),
+        ("log(-1)*0 + x", "log(-1)", "I*pi"),
+        ("exp(log(-1))*x", "log(-1)", "I*pi"),
+        ("x**(sqrt(-1)**2)", "sqrt(-1)", "I"),
+        ("abs(sqrt(-1))*x", "sqrt(-1)", "I"),
+        ("((-8)**(1/3))**3*x", "(-8)**(1/3)", "2*(-1)**(1/3)"),
+    ],
+)
+def test_a_complex_constant_anywhere_is_refused_as_not_real(
+    expression: str, part: str, value: str
+) -> None:
+    """``I``, ``asin`` and ``re`` are not in the grammar (refused as unknown)."""
+    with pytest.raises(ModelError) as refused:
+        parse_expression(expression, X, key="k")
+    assert str(refused.value) == (
+        f"k: {part!r} is complex-valued ({value}, not a real number); model expressions must "
+        "be real"
+    )
+
+
+@pytest.mark.parametrize(
     ("expression", "words"),
     [
         # sympy's numbers have no limit: these became inf in the compiled code

@@ -40,6 +40,10 @@ def test_a_short_run_warns_naming_each_metric_and_its_samples() -> None:
         f"state RMSE of x1, x3 over 5 samples: fewer than {FEW_SAMPLES} samples"
     )
     assert "(82% at 4)" in warning
+    # what to do, not only what is wrong (it said the metrics describe these samples only)
+    assert warning.endswith(
+        f"; judge the estimator on a log that gives each metric at least {FEW_SAMPLES} samples"
+    )
     assert "## Warnings" in render_markdown(report)
 
 

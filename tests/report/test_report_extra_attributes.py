@@ -3,11 +3,14 @@ promises of every key: ``report.consistency`` and ``report.parameters`` were an
 ``AttributeError`` (only ``report.extra["consistency"]`` reached them)."""
 
 import copy
+import dataclasses
+import json
 import pickle
 
 import pytest
 
-from hybridlog.report import build_report
+from hybridlog.errors import ReportError
+from hybridlog.report import build_report, read_report
 from tests.report.test_report_files import DT, make_run
 
 
@@ -32,3 +35,24 @@ def test_a_missing_key_is_an_attribute_error_and_copies_still_work() -> None:
     for again in (pickle.loads(pickle.dumps(report)), copy.deepcopy(report)):
         assert again == report
         assert again.parameters == {"A": 150.0}
+
+
+@pytest.mark.parametrize("key", ["to_dict", "with_extra", "extra", "keeps", "__deepcopy__"])
+def test_a_key_named_like_the_reports_own_is_refused_not_hidden(key: str, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``report.to_dict`` of a report whose further key ``to_dict`` was the method: the key
+    was kept, unreachable as the attribute README promises (``extra`` gave the mapping)."""
+    if key == "keeps":  # a name that is no method: reached as any other key
+        assert _report(keeps=1).keeps == 1
+        return
+    with pytest.raises(ReportError, match=f"run.csv: '{key}' would be hidden: report.<key> reads"):
+        _report(**{key: 1})
+    with pytest.raises(ValueError, match=f"extra key '{key}' would be hidden"):
+        dataclasses.replace(_report(), extra={key: 1})
+    data = _report().to_dict()
+    data[key] = {"a": 1}
+    path = tmp_path / "report.json"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    with pytest.raises(
+        ReportError, match=rf"report.json: '{key}' would be hidden: .*not a key hybridlog writes"
+    ):
+        read_report(path)

@@ -33,19 +33,20 @@ from hybridlog.model.component_structure import (
     undetermined_message,
     undetermined_use,
 )
-from hybridlog.model.components import UNKNOWN, Component
+from hybridlog.model.components import JOINT_SEPARATOR, UNKNOWN, Component
+from hybridlog.model.components import joint_label as joint_mode_label
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.hybrid_model import HybridModel, Mode
 from hybridlog.signals import IntArray
 
 __all__ = ["component_mode_columns", "joint_label", "joint_mode_model", "unapplied_rules_note"]
 
-SEPARATOR = "|"
+SEPARATOR = JOINT_SEPARATOR
 
 
 def joint_label(assignment: Assignment) -> str:
-    """``m11|m21|m31``: the mode ids of a joint assignment, in component order."""
-    return SEPARATOR.join(assignment)
+    """``m11|m21|m31``: a joint assignment's id (:func:`hybridlog.model.components.joint_label`)."""
+    return joint_mode_label(assignment)
 
 
 def _known(probabilities: dict[str, float]) -> dict[str, float]:

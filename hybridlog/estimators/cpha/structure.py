@@ -52,7 +52,7 @@ from hybridlog.model.component_structure import (
 )
 from hybridlog.model.component_structure import ComponentNames as _Names
 from hybridlog.model.component_structure import undetermined_use as _undetermined_use
-from hybridlog.model.components import UNKNOWN, Component, Equation
+from hybridlog.model.components import UNKNOWN, Component, Equation, joint_label
 from hybridlog.model.expressions import previous_symbol
 
 __all__ = [
@@ -244,12 +244,12 @@ def decompose(
     equations = [e for e, _, _ in owned]
     graph, determined_by, unmatched = causal_graph(names, equations)
     if unmatched:  # found when the file is read (check_joint_modes) but past its bound
-        raise ModelError(unmatched_message(unmatched[0], "|".join(assignment)))
+        raise ModelError(unmatched_message(unmatched[0], joint_label(assignment)))
     if UNKNOWN not in assignment:  # checked when the file is read, unless past its bound
         undetermined = _undetermined_use(names, equations, determined_by)
         if undetermined is not None:
             key, variable = undetermined
-            label = "|".join(assignment)
+            label = joint_label(assignment)
             raise ModelError(f"{key}: {undetermined_message(variable, label)}")
     sliced = _slice(graph, outputs)
     sccs, scc_of = _sccs(sliced)
@@ -405,7 +405,7 @@ def _solve_cluster(
         ordered.extend(algebraic)
         unknowns = [current[v] for v in targets]
         substituted = [e.residual.xreplace(solved) for e in algebraic]
-        solution = solve_explicitly(algebraic, targets, "|".join(assignment), substituted)
+        solution = solve_explicitly(algebraic, targets, joint_label(assignment), substituted)
         for v, symbol in zip(targets, unknowns, strict=True):
             expr = solution[symbol]
             if v in observed:
