@@ -11,13 +11,14 @@ panicked in polars' first query, ``POLARS_MAX_THREADS=abc`` was dropped with a w
 value.
 
 What was tried and needs no check: ``OMP_NUM_THREADS`` and ``OPENBLAS_NUM_THREADS`` (OpenBLAS
-takes a malformed value as unset), ``NUMBA_CACHE_DIR`` (the folder under which
-:func:`hybridlog.jit.machine_code_dir` keeps the machine code), ``NUMBA_THREADING_LAYER`` (read as
-text; used only by numba's parallel code, which hybridlog does not run), ``TMPDIR``
-(Python's :mod:`tempfile` falls back to ``/tmp``; one too long for a batch's socket is named
-by :func:`hybridlog.jobs.workers.start_forkserver`).  ``HYBRIDLOG_CACHE_DIR`` is checked to be
-an absolute path (a relative one was a cache in each working folder, each batch worker's
-too; :func:`hybridlog.jit.cache_dir` refuses it for the library); a folder that cannot be
+takes a malformed value as unset), ``NUMBA_THREADING_LAYER`` (read as text; used only by
+numba's parallel code, which hybridlog does not run), ``TMPDIR`` (Python's :mod:`tempfile`
+falls back to ``/tmp``; one too long for a batch's socket is named by
+:func:`hybridlog.jobs.workers.start_forkserver`).  The cache folders ``HYBRIDLOG_CACHE_DIR``
+and ``NUMBA_CACHE_DIR`` (under which :func:`hybridlog.jit.machine_code_dir` keeps the machine
+code) are checked to be absolute paths (a relative one was a cache in each working folder,
+each batch worker's and Dask worker's too; :func:`hybridlog.jit.cache_variable` refuses it
+for the library in the same words); a folder that cannot be
 written is named by :func:`hybridlog.model.compiled.store`.
 
 Importing this module imports neither numba nor polars: numba's own table of the settings it
@@ -37,7 +38,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from hybridlog.cgroups import cpu_limit
-from hybridlog.errors import OptionError, OutputError, excerpt
+from hybridlog.errors import ABSOLUTE_FOLDER, OptionError, OutputError, environment_error
 from hybridlog.limits import owner_masked
 
 __all__ = [
@@ -131,6 +132,11 @@ def _polars_threads(value: str) -> bool:
     )
 
 
+def _absolute_or_empty(value: str) -> bool:
+    # empty is unset, as numba and jit.cache_dir take it
+    return not value or os.path.isabs(value)
+
+
 RULES: dict[str, tuple[Callable[[str], bool], str]] = {
     "NUMBA_NUM_THREADS": (_threads, "a whole number of threads, at least 1"),
     "NUMBA_OPT": (
@@ -142,12 +148,9 @@ RULES: dict[str, tuple[Callable[[str], bool], str]] = {
         f"a whole number of threads from 1 to {POLARS_THREADS_MAX} "
         "(polars starts them all at once)",
     ),
-    # hybridlog's own, read by jit.cache_dir (a peer: it says the same, for the library)
-    "HYBRIDLOG_CACHE_DIR": (
-        lambda value: not value or os.path.isabs(value),
-        "an absolute path (a relative one is a folder of each process's working folder, not "
-        'one cache; write "$PWD/..." for the folder the shell is in)',
-    ),
+    # the cache folders, read by jit.cache_dir and jit.machine_code_dir (which refuse alike)
+    "HYBRIDLOG_CACHE_DIR": (_absolute_or_empty, ABSOLUTE_FOLDER),
+    "NUMBA_CACHE_DIR": (_absolute_or_empty, ABSOLUTE_FOLDER),
 }
 """Variables with a rule of their own: (check, what is expected)."""
 
@@ -185,7 +188,7 @@ def numba_whole_numbers() -> frozenset[str]:
 
 
 def check_environment(environ: Mapping[str, str] | None = None) -> None:
-    """Refuse a malformed number numba or polars reads, or a relative ``HYBRIDLOG_CACHE_DIR``.
+    """Refuse a malformed number numba or polars reads, or a cache folder's relative path.
 
     ``environ`` defaults to :data:`os.environ`.
 
@@ -209,7 +212,4 @@ def check_environment(environ: Mapping[str, str] | None = None) -> None:
         else:
             continue
         if not check(value):
-            raise OptionError(
-                f"environment variable {name}={excerpt(value)}: expected {expected}; "
-                "unset it or give it such a value"
-            )
+            raise environment_error(name, value, expected)

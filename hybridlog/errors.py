@@ -182,6 +182,23 @@ def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
     return "'" + shown + "'"
 
 
+ABSOLUTE_FOLDER = (
+    "an absolute path (a relative one is a folder of each process's working folder, not one "
+    'cache; write "$PWD/..." for the folder the shell is in)'
+)
+"""What a cache folder's variable (``HYBRIDLOG_CACHE_DIR``, ``NUMBA_CACHE_DIR``) must be:
+checked before a command starts (:func:`hybridlog.environment.check_environment`) and where
+the library reads it (:func:`hybridlog.jit.cache_dir`, :func:`hybridlog.jit.machine_code_dir`)."""
+
+
+def environment_error(name: str, value: str, expected: str) -> OptionError:
+    """``environment variable NAME='value': expected ...; unset it or give it such a value``."""
+    return OptionError(
+        f"environment variable {name}={excerpt(value)}: expected {expected}; "
+        "unset it or give it such a value"
+    )
+
+
 def first_few(
     items: Sequence[T],
     shown: int,

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any, TypeVar, cast
 
 from hybridlog import __version__
-from hybridlog.errors import OptionError, OutputError, excerpt
+from hybridlog.errors import ABSOLUTE_FOLDER, OutputError, environment_error
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -206,7 +206,7 @@ def cache_dir() -> Path:
     absolute path is ignored, as the XDG Base Directory specification says: a relative one
     put the cache in whatever folder the command ran in (a log folder, a CI checkout).  A
     relative ``$HYBRIDLOG_CACHE_DIR``, which did the same (and in each batch worker's own
-    working folder, a Dask worker's too), is refused (:func:`check_cache_variable`): one
+    working folder, a Dask worker's too), is refused (:func:`cache_variable`): one
     cache wherever the command runs, as its name promises.  It
     holds the loaded models (:mod:`hybridlog.model.cache`), the generated modules
     (:mod:`hybridlog.model.compiled`), numba's machine code (:func:`machine_code_dir`) and,
@@ -220,9 +220,8 @@ def cache_dir() -> Path:
     OptionError
         ``$HYBRIDLOG_CACHE_DIR`` is not an absolute path.
     """
-    override = os.environ.get("HYBRIDLOG_CACHE_DIR")
+    override = cache_variable("HYBRIDLOG_CACHE_DIR")
     if override:
-        check_cache_variable(override)
         return Path(override)
     base = os.environ.get("XDG_CACHE_HOME", "")
     if os.path.isabs(base):
@@ -230,27 +229,20 @@ def cache_dir() -> Path:
     return home() / ".cache" / "hybridlog"
 
 
-CACHE_VARIABLE_EXPECTED = (
-    "an absolute path (a relative one is a folder of each process's working folder, not one "
-    'cache; write "$PWD/..." for the folder the shell is in)'
-)
-"""What ``$HYBRIDLOG_CACHE_DIR`` must be, as the refusal says it (and
-:func:`hybridlog.environment.check_environment`'s, checking it before a command starts)."""
-
-
-def check_cache_variable(value: str) -> None:
-    """Refuse ``value`` of ``$HYBRIDLOG_CACHE_DIR`` unless it is an absolute path (or empty).
+def cache_variable(name: str) -> str:
+    """``$name`` of a cache folder (``HYBRIDLOG_CACHE_DIR``, ``NUMBA_CACHE_DIR``), ``""`` unset.
 
     Raises
     ------
     OptionError
-        ``environment variable HYBRIDLOG_CACHE_DIR='cache': expected an absolute path ...``.
+        The value is not an absolute path (:data:`~hybridlog.errors.ABSOLUTE_FOLDER`): a
+        relative one is a cache in each process's working folder (each batch worker's, a Dask
+        worker's), not one cache.
     """
+    value = os.environ.get(name, "")
     if value and not os.path.isabs(value):
-        raise OptionError(
-            f"environment variable HYBRIDLOG_CACHE_DIR={excerpt(value)}: expected "
-            f"{CACHE_VARIABLE_EXPECTED}; unset it or give it such a value"
-        )
+        raise environment_error(name, value, ABSOLUTE_FOLDER)
+    return value
 
 
 def home() -> Path:
@@ -302,7 +294,7 @@ def package_fingerprint() -> str:
 
 def machine_code_dir() -> Path:
     """The folder of this code's machine code: ``<$NUMBA_CACHE_DIR or cache/numba>/<code>``."""
-    root = os.environ.get("NUMBA_CACHE_DIR")
+    root = cache_variable("NUMBA_CACHE_DIR")
     base = Path(root) if root else cache_dir() / "numba"
     return base / package_fingerprint()
 

@@ -83,28 +83,33 @@ def test_no_home_and_no_cache_folder_set_is_one_line(
     )
 
 
+@pytest.mark.parametrize("name", ["HYBRIDLOG_CACHE_DIR", "NUMBA_CACHE_DIR"])
 @pytest.mark.parametrize("value", ["cache", "./cache", "~/cache"])
 def test_a_relative_cache_folder_variable_is_refused_everywhere_alike(
-    monkeypatch: pytest.MonkeyPatch, value: str
+    monkeypatch: pytest.MonkeyPatch, name: str, value: str
 ) -> None:
     """``HYBRIDLOG_CACHE_DIR=cache`` was a cache in each working folder (each batch worker's,
     a Dask worker's): ``cd a; analyze ...; cd ../b; analyze ...`` compiled every model
-    twice, into ``a/cache`` and ``b/cache``.  Refused, by the CLI before any command (its
-    workers are started after) and by the library, in the same words."""
-    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", value)
+    twice, into ``a/cache`` and ``b/cache``; ``NUMBA_CACHE_DIR=cache`` did so with the
+    machine code.  Refused, by the CLI before any command (its workers are started after)
+    and by the library, in the same words."""
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv(name, value)
     with pytest.raises(OptionError) as library:
-        jit.cache_dir()
+        jit.machine_code_dir()  # reads both
     with pytest.raises(OptionError) as command:
-        check_environment({"HYBRIDLOG_CACHE_DIR": value})
+        check_environment({name: value})
     assert (
         str(library.value)
         == str(command.value)
         == (
-            f"environment variable HYBRIDLOG_CACHE_DIR={value!r}: expected an absolute path (a "
+            f"environment variable {name}={value!r}: expected an absolute path (a "
             "relative one is a folder of each process's working folder, not one cache; write "
             '"$PWD/..." for the folder the shell is in); unset it or give it such a value'
         )
     )
-    check_environment({"HYBRIDLOG_CACHE_DIR": ""})  # empty is unset, as cache_dir takes it
-    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", "/abs/cache")
-    assert jit.cache_dir() == Path("/abs/cache")
+    check_environment({name: ""})  # empty is unset, as numba and cache_dir take it
+    monkeypatch.setenv(name, "/abs/cache")
+    assert jit.machine_code_dir().parent == Path(
+        "/abs/cache" if name == "NUMBA_CACHE_DIR" else "/abs/cache/numba"
+    )
