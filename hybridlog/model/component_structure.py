@@ -390,6 +390,9 @@ def solve_explicitly(
 ) -> dict[sympy.Symbol, sympy.Expr]:
     """The one real solution of ``algebraic`` for ``targets`` (their symbols, real).
 
+    A refusal names ``targets`` in the order of their names, whichever order the caller
+    gave them in (``simulate`` gave outputs first, ``imm`` variables first).
+
     ``residuals`` are the equations' ``lhs − rhs`` to solve, their own by default (a caller
     that has substituted variables solved before gives its own); ``label`` names the joint
     mode in a refusal.  Solutions sympy writes with ``I`` (the complex cube roots of
@@ -406,6 +409,7 @@ def solve_explicitly(
         or ``<key>: has N solutions for <targets> ...`` listing them, with the first
         equation's key.
     """
+    targets = sorted(targets)  # named alike whichever path solves: w1, y1 (it was y1, w1 too)
     unknowns = [sympy.Symbol(v, real=True) for v in targets]
     if not algebraic:
         raise ModelError(

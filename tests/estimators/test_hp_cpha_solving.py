@@ -177,6 +177,7 @@ def test_imm_and_simulate_solve_a_joint_mode_as_unknown_mode_does(tmp_path):
     said = str(imm.value).removeprefix("<model>: ")
     assert said.startswith("components.plant.modes.a.equations[1]: has 2 solutions for w1, y1 ")
     simulated = str(simulate.value).removeprefix(f"{tmp_path / 'square.toml'}: simulation: ")
+    assert simulated.split(" (")[0] == said.split(" (")[0]  # simulate said "for y1, w1"
     for message in (said, simulated, str(unknown_mode.value)):
         assert message.startswith("components.plant.modes.a.equations[1]: has 2 solutions for ")
         # simulate named the joint mode {plant=a}, the estimators a (model.components)
