@@ -1112,11 +1112,6 @@ def run_batch(
         return dataclasses.replace(summary, notes=notes)
 
 
-def other_report_folders(root: Path, folders: Sequence[Path]) -> list[str]:
-    """The names of :func:`~hybridlog.jobs.batch_others.other_folders` (relative, natural order)."""
-    return [other.name for other in other_folders(root, folders)]
-
-
 def _prepare_summary_plot(n_rows: int) -> None:
     from hybridlog.report.summary_plot import prepare_summary_figure
 

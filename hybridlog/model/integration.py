@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.model.compiled import ModelFunction
-from hybridlog.signals import FloatArray, IntArray
+from hybridlog.signals import FloatArray
 
 StepFunction = Callable[[ModelFunction, int, int, FloatArray, FloatArray, float, FloatArray], None]
 """``step(dx, method, q, x, u, h, work)``: :func:`integrate_step`, compiled or not."""
@@ -111,29 +111,3 @@ def step_function(jit: bool = True) -> StepFunction:
             _COMPILED.append(compile_signature(integrate_step, signature))
         compiled: StepFunction = _COMPILED[0]
         return compiled
-
-
-def integrate_log(
-    advance: StepFunction,
-    dx: ModelFunction,
-    method: int,
-    modes: IntArray,
-    inputs: FloatArray,
-    x0: FloatArray,
-    h: float,
-    substeps: int,
-    states: FloatArray,
-) -> None:
-    r"""``states[k]`` for every sample of a mode sequence, without noise or jumps.
-
-    ``states[0] = x0``; the interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` with
-    ``inputs[k-1]`` held (the convention of :mod:`hybridlog.simulate`); ``advance`` is
-    :func:`step_function`.  Compiled with :func:`hybridlog.jit.compile_for`.
-    """
-    work = np.zeros((5, x0.shape[0]))
-    x = x0.copy()
-    states[0, :] = x
-    for k in range(1, states.shape[0]):
-        for _ in range(substeps):
-            advance(dx, method, modes[k], x, inputs[k - 1], h, work)
-        states[k, :] = x

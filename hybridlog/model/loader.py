@@ -1138,7 +1138,6 @@ def _strings(value: Any) -> Iterator[str]:
             yield from _strings(item)
 
 
-_JOINT_SEPARATOR = JOINT_SEPARATOR
 """What joins the components' mode ids into a joint mode's id (``m11|m21``,
 :func:`hybridlog.model.components.joint_label`)."""
 
@@ -1152,10 +1151,10 @@ def _refuse_joint_separator(components: tuple[Component, ...]) -> None:
     """
     for component in components:
         for mode_id in component.mode_ids:
-            if _JOINT_SEPARATOR in mode_id:
+            if JOINT_SEPARATOR in mode_id:
                 key = key_path(key_path("components", component.name) + ".modes", mode_id)
                 raise ModelError(
-                    f"{key}: a component's mode id may not hold {_JOINT_SEPARATOR!r}, which joins "
+                    f"{key}: a component's mode id may not hold {JOINT_SEPARATOR!r}, which joins "
                     "the components' mode ids into a joint mode's id (m11|m21)"
                 )
 

@@ -14,7 +14,8 @@ import pytest
 
 import hybridlog.jobs.batch as batch
 from hybridlog.errors import excerpt
-from hybridlog.jobs.batch import other_report_folders, run_batch
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_others import other_folders
 from tests.jobs.test_batch_resume import write_logs
 
 TANK = "three_tank_hstf"
@@ -38,7 +39,7 @@ def test_a_renamed_logs_old_folder_is_kept_and_named(
         "b2.csv": "done",
         "c.csv": "done",
     }
-    assert other_report_folders(Path("out"), [Path(o.folder) for o in again.logs]) == [
+    assert [o.name for o in other_folders(Path("out"), [Path(o.folder) for o in again.logs])] == [
         "b.csv",
         "deep/c.csv",
     ]

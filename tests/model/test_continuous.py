@@ -10,7 +10,7 @@ from hybridlog.errors import ModelError, OptionError
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.derivatives import boolean_affine_split
-from hybridlog.model.integration import EULER, RK4, integrate_log, step_function
+from hybridlog.model.integration import EULER, RK4, step_function
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import Disturbance, simulate
 from tests.support.model_kinds import CLUTCH_JUMPS, CONTINUOUS_TANK
@@ -20,6 +20,24 @@ CLUTCH_RUN = CLUTCH_JUMPS.replace(
     "[initial]",
     '[simulation]\nschedule = "0:30,1:30,0:30"\ninputs = {alpha = "0.5 + 0.1*sin(t)"}\n[initial]',
 )
+
+
+def integrate_log(
+    advance, dx, method: int, modes, inputs, x0, h: float, substeps: int, states
+) -> None:
+    r"""``states[k]`` for every sample of a mode sequence, without noise or jumps.
+
+    ``states[0] = x0``; the interval :math:`(t_{k-1}, t_k]` runs in mode ``modes[k]`` with
+    ``inputs[k-1]`` held (the convention of :mod:`hybridlog.simulate`); ``advance`` is
+    :func:`step_function`.  Compiled with :func:`hybridlog.jit.compile_for`.
+    """
+    work = np.zeros((5, x0.shape[0]))
+    x = x0.copy()
+    states[0, :] = x
+    for k in range(1, states.shape[0]):
+        for _ in range(substeps):
+            advance(dx, method, modes[k], x, inputs[k - 1], h, work)
+        states[k, :] = x
 
 
 def test_g_and_d_give_back_dx_in_every_mode():

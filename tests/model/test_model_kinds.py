@@ -10,12 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import ModelError
-from hybridlog.estimators.cpha.joint import SEPARATOR
 from hybridlog.estimators.switched_observer import linear_modes
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.components import UNKNOWN
 from hybridlog.model.expressions import previous_symbol
-from hybridlog.model.loader import _JOINT_SEPARATOR, load_model, parse_model
+from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
 from tests.support.model_kinds import (
     CLUTCH_JUMPS,
@@ -641,11 +640,6 @@ _COMPONENT_ERRORS = [
 def test_bad_components_name_the_key(old, new, message):
     with pytest.raises(ModelError, match=r"^plant\.toml: " + message):
         parse_model(_replace(THREE_COMPONENTS, old, new), origin="plant.toml")
-
-
-def test_the_refused_mode_id_character_is_the_joint_modes_separator():
-    # the loader cannot import the estimators: its separator must follow joint.py's
-    assert _JOINT_SEPARATOR == SEPARATOR
 
 
 @pytest.mark.parametrize("key", ['"mode.A2"', "mode.A2"])

@@ -33,15 +33,13 @@ from hybridlog.model.component_structure import (
     undetermined_message,
     undetermined_use,
 )
-from hybridlog.model.components import JOINT_SEPARATOR, UNKNOWN, Component
+from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.model.components import joint_label as joint_mode_label
 from hybridlog.model.expressions import previous_symbol
 from hybridlog.model.hybrid_model import HybridModel, Mode
 from hybridlog.signals import IntArray
 
 __all__ = ["component_mode_columns", "joint_label", "joint_mode_model", "unapplied_rules_note"]
-
-SEPARATOR = JOINT_SEPARATOR
 
 
 def joint_label(assignment: Assignment) -> str:

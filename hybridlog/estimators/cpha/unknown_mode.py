@@ -98,7 +98,7 @@ from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.model.component_structure import ComponentNames, unchecked_note
-from hybridlog.model.components import COMMAND_TOLERANCE, JOINT_SEPARATOR, UNKNOWN, joint_label
+from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN, joint_label
 from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS, HybridModel
 from hybridlog.signals import AlignedSignals, BoolArray, FloatArray
 from hybridlog.times import format_time
@@ -112,7 +112,6 @@ __all__ = [
 ]
 
 NAME = "unknown-mode"
-SEPARATOR = JOINT_SEPARATOR
 
 
 def assignment_label(assignment: Assignment) -> str:
