@@ -31,7 +31,7 @@ from hybridlog.jobs.analysis import read_log
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.report import metrics
+from hybridlog.report import metrics, mode_metrics
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 
@@ -52,7 +52,7 @@ def score(result: EstimationResult, signals: AlignedSignals) -> tuple[float, flo
     mse = float(metrics.mse(y, y_hat)[0])
     vaf = float(metrics.vaf(y, y_hat)[0])
     assert signals.truth_modes is not None
-    return mse, vaf, metrics.mode_accuracy(result.modes, signals.truth_modes)
+    return mse, vaf, mode_metrics.mode_accuracy(result.modes, signals.truth_modes)
 
 
 def both(model: object, signals: AlignedSignals) -> tuple[EstimationResult, EstimationResult]:

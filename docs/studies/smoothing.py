@@ -70,7 +70,7 @@ from hybridlog.model.builtins import builtin_text
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.report import metrics
+from hybridlog.report import mode_metrics
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import SimulatedLog, simulate
 
@@ -121,10 +121,10 @@ def scores(result: EstimationResult, signals: AlignedSignals) -> dict[str, float
     truth = signals.truth_modes
     states = signals.truth_states
     assert truth is not None and states is not None
-    delays = metrics.detection_delays(signals.time, result.modes, truth, result.mode_ids)
+    delays = mode_metrics.detection_delays(signals.time, result.modes, truth, result.mode_ids)
     error = result.state_means[1:] - states[1:]
     return {
-        "mode error %": 100.0 * (1.0 - metrics.mode_accuracy(result.modes[1:], truth[1:])),
+        "mode error %": 100.0 * (1.0 - mode_metrics.mode_accuracy(result.modes[1:], truth[1:])),
         "delay s": delays.mean_s,
         "missed": float(delays.missed),
         "state RMSE": float(np.sqrt(np.mean(error**2))),

@@ -110,7 +110,7 @@ from hybridlog.estimators.smoothing import _log, post_process
 from hybridlog.jit import compile_for, jit
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
-from hybridlog.report import metrics
+from hybridlog.report import mode_metrics
 from hybridlog.signals import AlignedSignals, FloatArray
 
 
@@ -556,7 +556,7 @@ def split(
         near[max(s - NEAR, 0) : s + NEAR] = True
     wrong = (estimated != truth) & (k >= 1)
     first = k <= starts[0] - 1
-    delays = metrics.detection_delays(signals.time, estimated, truth, mode_ids)
+    delays = mode_metrics.detection_delays(signals.time, estimated, truth, mode_ids)
     leads = {"lead 1-2": 0.0, "lead 3-10": 0.0, "lead >10": 0.0, "never": 0.0}
     for event in delays.events:
         if event.detected_t is not None:

@@ -41,7 +41,7 @@ from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
-from hybridlog.report import metrics
+from hybridlog.report import metrics, mode_metrics
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import SimulatedLog, simulate
 
@@ -75,10 +75,10 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
     """The study's metrics of one run (NaN delay = switch missed)."""
     truth = log.modes
     out: dict[str, float] = {
-        "acc": metrics.mode_accuracy(r.modes, truth),
-        f"acc k>={K0}": metrics.mode_accuracy(r.modes[K0:], truth[K0:]),
+        "acc": mode_metrics.mode_accuracy(r.modes, truth),
+        f"acc k>={K0}": mode_metrics.mode_accuracy(r.modes[K0:], truth[K0:]),
         # Diagnostic: argmax of the posterior instead of eq. (40)'s θ-threshold hold.
-        "argmax acc (diag)": metrics.mode_accuracy(
+        "argmax acc (diag)": mode_metrics.mode_accuracy(
             np.argmax(r.mode_probabilities[1:], axis=1), truth[1:]
         ),
     }
@@ -94,7 +94,7 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
     out["MSE (mean of y)"] = metrics.mean_where_defined(
         metrics.mse(log.outputs, r.output_predictions)
     )
-    det = metrics.detection_delays(log.time, r.modes, truth, model.mode_ids)
+    det = mode_metrics.detection_delays(log.time, r.modes, truth, model.mode_ids)
     for event in det.events:
         key = f"delay {event.from_mode}->{event.to_mode} s"
         out[key] = float("nan") if event.delay_s is None else float(event.delay_s)

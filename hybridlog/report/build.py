@@ -20,7 +20,7 @@ from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.io.clocks import clocks_disagree
-from hybridlog.report import metrics
+from hybridlog.report import metrics, mode_metrics
 from hybridlog.report.document import (
     ComponentSide,
     Detection,
@@ -174,12 +174,12 @@ def _modes(
     ids: tuple[str, ...], time: FloatArray, modes: IntArray, truth: IntArray | None, dt: float
 ) -> ModeReport:
     """The mode part of a report: switches and dwell, and against the truth when known."""
-    dwell = metrics.dwell_times(time, modes, len(ids), dt, on_grid=True)
+    dwell = mode_metrics.dwell_times(time, modes, len(ids), dt, on_grid=True)
     report = ModeReport(
         labels=ids,
         switches=tuple(
             ModeSwitch(t=s["t"], from_mode=s["from"], to_mode=s["to"])
-            for s in metrics.mode_switches(time, modes, ids)
+            for s in mode_metrics.mode_switches(time, modes, ids)
         ),
         dwell_s={m: _num(float(d)) for m, d in zip(ids, dwell, strict=True)},
     )
@@ -190,13 +190,13 @@ def _modes(
     if scored == 0:  # the true mode starts after the last sample
         return dataclasses.replace(report, samples=0)
     estimated, true = _where_known(modes, truth, known, scored)
-    counts = metrics.confusion_matrix(estimated, true, len(ids))
-    det = metrics.detection_delays(time, modes, truth, ids, dt, known=known)
+    counts = mode_metrics.confusion_matrix(estimated, true, len(ids))
+    det = mode_metrics.detection_delays(time, modes, truth, ids, dt, known=known)
     return ModeReport(
         labels=report.labels,
         switches=report.switches,
         dwell_s=report.dwell_s,
-        accuracy=_num(metrics.mode_accuracy(estimated, true)),
+        accuracy=_num(mode_metrics.mode_accuracy(estimated, true)),
         samples=scored,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
@@ -752,11 +752,11 @@ def _side(
     known = truth != NO_TRUE_MODE  # a true mode's gaps and late start are not scored
     scored = int(np.count_nonzero(known))
     estimated, true = _where_known(modes, truth, known, scored)
-    counts = metrics.confusion_matrix(estimated, true, len(ids))
-    det = metrics.detection_delays(signals.time, modes, truth, ids, dt, known=known)
+    counts = mode_metrics.confusion_matrix(estimated, true, len(ids))
+    det = mode_metrics.detection_delays(signals.time, modes, truth, ids, dt, known=known)
     detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
-        mode_accuracy=_num(metrics.mode_accuracy(estimated, true)) if scored else None,
+        mode_accuracy=_num(mode_metrics.mode_accuracy(estimated, true)) if scored else None,
         confusion={
             t_id: {e_id: int(counts[i, j]) for j, e_id in enumerate(ids)}
             for i, t_id in enumerate(ids)

@@ -57,7 +57,7 @@ never left out).
 for them.  ``modes.detection`` (``null`` without a true mode) holds the details behind
 ``detection_delay_s`` (their mean): ``{mean_s, max_s, detected, missed, events: [{t, from,
 to, detected, detected_t, delay_s, miss_reason}]}``, see
-:func:`hybridlog.report.metrics.detection_delays`.
+:func:`hybridlog.report.mode_metrics.detection_delays`.
 
 Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
 ``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples``, ``modes.samples``,
@@ -79,7 +79,7 @@ from typing import TYPE_CHECKING, Final, TypeAlias, TypeVar, cast
 from hybridlog.errors import ReportError, excerpt
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 from hybridlog.estimators.result import FALLBACK_CAUSES, Fallbacks
-from hybridlog.report.metrics import SwitchDetection
+from hybridlog.report.mode_metrics import SwitchDetection
 
 __all__ = [
     "MODE_SEQUENCES",
@@ -180,7 +180,9 @@ def _event_dict(event: SwitchDetection) -> JsonObject:
 
 @dataclass(frozen=True)
 class Detection:
-    """How every true mode switch was detected (:func:`~hybridlog.report.metrics.detection_delays`).
+    """How every true mode switch was detected.
+
+    By :func:`~hybridlog.report.mode_metrics.detection_delays`.
 
     Attributes
     ----------

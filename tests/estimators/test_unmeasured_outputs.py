@@ -31,7 +31,7 @@ from hybridlog.estimators.kernels import (
     workspace,
 )
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.report.metrics import mode_accuracy
+from hybridlog.report.mode_metrics import mode_accuracy
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import simulate
 from tests.estimators.test_reductions import kalman_filters

@@ -17,7 +17,7 @@ import pytest
 from hybridlog.background import Worker
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
 from hybridlog.report import Report, build_report, plot_data
-from hybridlog.report.metrics import SwitchDetection
+from hybridlog.report.mode_metrics import SwitchDetection
 from hybridlog.report.plot_data import (
     BarsReducer,
     Components,

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import Report, build_report, metrics
+from hybridlog.report import Report, build_report, metrics, mode_metrics
 from hybridlog.report.markdown import render_markdown
 from hybridlog.times import format_time
 
@@ -172,31 +172,31 @@ IDS = ("a", "b", "c")
 def test_accuracy_and_confusion_by_hand() -> None:
     est = np.array([0, 0, 1, 1, 2])
     truth = np.array([0, 1, 1, 1, 2])
-    assert metrics.mode_accuracy(est, truth) == pytest.approx(0.8)
-    counts = metrics.confusion_matrix(est, truth, 3)
+    assert mode_metrics.mode_accuracy(est, truth) == pytest.approx(0.8)
+    counts = mode_metrics.confusion_matrix(est, truth, 3)
     # rows: true mode, columns: estimated mode
     np.testing.assert_array_equal(counts, [[1, 0, 0], [1, 2, 0], [0, 0, 1]])
 
 
 def test_confusion_rejects_out_of_range_modes() -> None:
     with pytest.raises(ValueError, match="outside"):
-        metrics.confusion_matrix(np.array([0, 3]), np.array([0, 0]), 3)
+        mode_metrics.confusion_matrix(np.array([0, 3]), np.array([0, 0]), 3)
 
 
 def test_switches_by_hand() -> None:
     t = np.arange(5) * 0.1
-    switches = metrics.mode_switches(t, np.array([0, 0, 1, 1, 0]), IDS)
+    switches = mode_metrics.mode_switches(t, np.array([0, 0, 1, 1, 0]), IDS)
     assert switches == [
         {"t": pytest.approx(0.2), "from": "a", "to": "b"},
         {"t": pytest.approx(0.4), "from": "b", "to": "a"},
     ]
-    assert metrics.mode_switches(t, np.zeros(5, dtype=np.int64), IDS) == []
+    assert mode_metrics.mode_switches(t, np.zeros(5, dtype=np.int64), IDS) == []
 
 
 def test_dwell_times_by_hand() -> None:
     t = np.array([0.0, 1.0, 2.0, 4.0])
     # durations: 1, 1, 2 and dt = 0.5 for the last sample
-    dwell = metrics.dwell_times(t, np.array([0, 1, 1, 0]), 3, 0.5)
+    dwell = mode_metrics.dwell_times(t, np.array([0, 1, 1, 0]), 3, 0.5)
     np.testing.assert_allclose(dwell, [1.5, 3.0, 0.0])
 
 
@@ -204,7 +204,7 @@ def test_detection_delays_by_hand() -> None:
     t = np.arange(11, dtype=float)
     truth = np.array([0, 0, 0, 1, 1, 1, 1, 2, 2, 0, 0])
     est = np.array([0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 2])
-    det = metrics.detection_delays(t, est, truth, IDS)
+    det = mode_metrics.detection_delays(t, est, truth, IDS)
     # switch at 3 into b: estimate reaches b at 5 -> 2 s
     # switch at 7 into c: never c before the next true switch at 9 -> missed
     # switch at 9 into a: never a before the end (2 at 10 is the wrong mode) -> missed
@@ -224,7 +224,7 @@ def test_an_estimate_already_in_the_new_mode_is_a_miss() -> None:
     t = np.arange(6) * 0.5
     truth = np.array([0, 0, 0, 1, 1, 1])
     est = np.array([0, 1, 1, 1, 1, 1])
-    det = metrics.detection_delays(t, est, truth, IDS)
+    det = mode_metrics.detection_delays(t, est, truth, IDS)
     assert det.delays_s.tolist() == []
     assert (det.detected, det.missed) == (0, 1)
     (event,) = det.events
@@ -237,7 +237,7 @@ def test_a_filter_stuck_in_a_mode_the_truth_enters_detects_nothing() -> None:
     t = np.arange(9, dtype=float)
     truth = np.array([0, 0, 0, 1, 1, 1, 2, 2, 2])
     stuck = np.ones(9, dtype=np.int64)
-    det = metrics.detection_delays(t, stuck, truth, IDS)
+    det = mode_metrics.detection_delays(t, stuck, truth, IDS)
     assert [e.detected for e in det.events] == [False, False]
     assert math.isnan(det.mean_s)
     first, second = det.events
@@ -249,7 +249,7 @@ def test_a_filter_stuck_in_a_mode_the_truth_enters_detects_nothing() -> None:
     # (SPEC §8: an estimate that already sat in the new mode is a miss); the switch into
     # mode c, which the estimate was not in, is detected.
     est = np.array([1, 1, 1, 1, 0, 1, 1, 2, 2])
-    det = metrics.detection_delays(t, est, truth, IDS)
+    det = mode_metrics.detection_delays(t, est, truth, IDS)
     assert det.delays_s.tolist() == [1.0]
     first, _ = det.events
     assert first.detected_t is None and first.miss_reason is not None
@@ -263,7 +263,7 @@ def test_a_switch_entered_early_is_missed_not_timed_by_the_recovery() -> None:
     t = np.arange(12, dtype=float)
     truth = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1])
     est = np.array([0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1, 1])
-    det = metrics.detection_delays(t, est, truth, IDS)
+    det = mode_metrics.detection_delays(t, est, truth, IDS)
     assert (det.detected, det.missed) == (0, 1)
     assert math.isnan(det.mean_s)
 
@@ -272,7 +272,7 @@ def test_detection_delays_mean_and_max() -> None:
     t = np.arange(10, dtype=float)
     truth = np.array([0, 0, 1, 1, 1, 0, 0, 0, 0, 0])
     est = np.array([0, 0, 0, 1, 1, 1, 1, 1, 0, 0])
-    det = metrics.detection_delays(t, est, truth, IDS)
+    det = mode_metrics.detection_delays(t, est, truth, IDS)
     assert det.delays_s.tolist() == [1.0, 3.0]
     assert det.mean_s == 2.0
     assert det.max_s == 3.0
@@ -293,9 +293,11 @@ def test_delays_and_dwell_of_unix_times_are_whole_steps_of_the_grid() -> None:
     )
     assert late.modes.detection is not None
     delays = [e.delay_s for e in late.modes.detection.events if e.delay_s is not None]
-    assert delays and all(d == metrics.steps_seconds(round(d / DT), DT) for d in delays), delays
+    assert delays and all(d == mode_metrics.steps_seconds(round(d / DT), DT) for d in delays), (
+        delays
+    )
     counts = np.bincount(result.modes, minlength=len(late.modes.labels))
-    assert list(late.modes.dwell_s.values()) == [metrics.steps_seconds(c, DT) for c in counts]
+    assert list(late.modes.dwell_s.values()) == [mode_metrics.steps_seconds(c, DT) for c in counts]
     # the grid's steps, whatever the times' offset
     early = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
     assert early.modes.detection is not None
@@ -333,7 +335,7 @@ def test_times_at_unix_magnitudes_are_written_in_full() -> None:
         assert "e+09" not in (event.miss_reason or "")
     # the times a miss reason names
     t = 1.7e9 + np.arange(6) * 0.05
-    det = metrics.detection_delays(t, np.ones(6, int), np.array([0, 0, 1, 1, 0, 1]), IDS)
+    det = mode_metrics.detection_delays(t, np.ones(6, int), np.array([0, 0, 1, 1, 0, 1]), IDS)
     assert det.events[0].miss_reason == (
         "the estimate was already in mode b (since t=1700000000 s) when the truth switched "
         "to it, and no estimated change into mode b followed before the next true switch at "
@@ -353,21 +355,21 @@ def test_steps_seconds_is_the_written_decimal_times_the_steps_rounded_once(
     (``dt``'s decimal is parsed once per ``dt``, not once per switch)."""
     from fractions import Fraction
 
-    assert metrics.steps_seconds(steps, dt) == float(Fraction(repr(dt)) * steps)
-    assert metrics.steps_seconds(np.int64(steps), dt) == float(Fraction(repr(dt)) * steps)
+    assert mode_metrics.steps_seconds(steps, dt) == float(Fraction(repr(dt)) * steps)
+    assert mode_metrics.steps_seconds(np.int64(steps), dt) == float(Fraction(repr(dt)) * steps)
 
 
 def test_steps_on_the_grid_are_dt_as_written_times_their_number() -> None:
     """351 samples of 10 ms dwelt 3.5100000000000002 s in report.json, a delay of 3 steps of
     50 ms was 0.15000000000000002 s: float products, whose last digits say nothing."""
-    assert metrics.steps_seconds(351, 0.01) == 3.51
-    assert metrics.steps_seconds(3, 0.05) == 0.15
-    assert metrics.steps_seconds(0, 0.05) == 0.0
-    assert metrics.steps_seconds(3, 0.1) == 0.3  # not 0.30000000000000004
+    assert mode_metrics.steps_seconds(351, 0.01) == 3.51
+    assert mode_metrics.steps_seconds(3, 0.05) == 0.15
+    assert mode_metrics.steps_seconds(0, 0.05) == 0.0
+    assert mode_metrics.steps_seconds(3, 0.1) == 0.3  # not 0.30000000000000004
     modes = np.array([0] * 351 + [1] * 3)
-    dwell = metrics.dwell_times(np.zeros(354), modes, 2, 0.01, on_grid=True)
+    dwell = mode_metrics.dwell_times(np.zeros(354), modes, 2, 0.01, on_grid=True)
     assert dwell.tolist() == [3.51, 0.03]
-    det = metrics.detection_delays(
+    det = mode_metrics.detection_delays(
         np.arange(8) * 0.05, np.array([0, 0, 0, 0, 0, 1, 1, 1]), np.array([0, 0, 1, 1, 1, 1, 1, 1]),
         ("a", "b"), 0.05,
     )  # fmt: skip
@@ -394,7 +396,7 @@ def test_a_time_is_written_to_the_digits_it_holds(seconds: float | None, text: s
 
 
 def test_no_true_switch_gives_nan_delay() -> None:
-    det = metrics.detection_delays(np.arange(4.0), np.zeros(4, int), np.zeros(4, int), IDS)
+    det = mode_metrics.detection_delays(np.arange(4.0), np.zeros(4, int), np.zeros(4, int), IDS)
     assert det.events == ()
     assert math.isnan(det.mean_s)
     assert det.missed == 0
@@ -407,14 +409,14 @@ mode_seqs = hnp.arrays(np.int64, st.integers(1, 60), elements=st.integers(0, 2))
 @settings(max_examples=200, deadline=None)
 def test_estimate_equal_to_truth_is_perfect(modes: np.ndarray) -> None:
     t = np.arange(modes.size) * 0.25
-    assert metrics.mode_accuracy(modes, modes) == 1.0
-    counts = metrics.confusion_matrix(modes, modes, 3)
+    assert mode_metrics.mode_accuracy(modes, modes) == 1.0
+    counts = mode_metrics.confusion_matrix(modes, modes, 3)
     assert np.count_nonzero(counts - np.diag(np.diag(counts))) == 0
     assert counts.sum() == modes.size
-    det = metrics.detection_delays(t, modes, modes, IDS)
+    det = mode_metrics.detection_delays(t, modes, modes, IDS)
     assert det.missed == 0
     assert np.all(det.delays_s == 0.0)
-    assert metrics.dwell_times(t, modes, 3, 0.25).sum() == pytest.approx(modes.size * 0.25)
+    assert mode_metrics.dwell_times(t, modes, 3, 0.25).sum() == pytest.approx(modes.size * 0.25)
 
 
 def _detections_by_definition(
@@ -460,7 +462,7 @@ def test_detection_delays_follow_their_definition(truth: np.ndarray, data: st.Da
     # detection_delays works on change points of whole arrays; this walks the samples.
     est = data.draw(hnp.arrays(np.int64, truth.shape, elements=st.integers(0, 2)))
     t = np.cumsum(data.draw(hnp.arrays(np.float64, truth.shape, elements=st.floats(0.01, 2.0))))
-    det = metrics.detection_delays(t, est, truth, IDS)
+    det = mode_metrics.detection_delays(t, est, truth, IDS)
     got = [(e.t, e.from_mode, e.to_mode, e.detected_t, e.miss_reason) for e in det.events]
     assert got == _detections_by_definition(t, est, truth)
 
@@ -469,9 +471,9 @@ def test_detection_delays_follow_their_definition(truth: np.ndarray, data: st.Da
 @settings(max_examples=200, deadline=None)
 def test_accuracy_is_the_confusion_diagonal(truth: np.ndarray, data: st.DataObject) -> None:
     est = data.draw(hnp.arrays(np.int64, truth.shape, elements=st.integers(0, 2)))
-    counts = metrics.confusion_matrix(est, truth, 3)
-    assert metrics.mode_accuracy(est, truth) == pytest.approx(np.trace(counts) / truth.size)
-    assert 0.0 <= metrics.mode_accuracy(est, truth) <= 1.0
+    counts = mode_metrics.confusion_matrix(est, truth, 3)
+    assert mode_metrics.mode_accuracy(est, truth) == pytest.approx(np.trace(counts) / truth.size)
+    assert 0.0 <= mode_metrics.mode_accuracy(est, truth) <= 1.0
     np.testing.assert_array_equal(counts.sum(axis=1), np.bincount(truth, minlength=3))
     np.testing.assert_array_equal(counts.sum(axis=0), np.bincount(est, minlength=3))
 
@@ -639,7 +641,9 @@ def test_detection_delays_make_no_per_sample_python_objects() -> None:
     time = np.arange(n) * 0.01
     truth = (np.arange(n) // 2_000) % 3  # 99 true switches
     estimated = np.roll(truth, 3)
-    assert _traced_peak(metrics.detection_delays, time, estimated, truth, ("a", "b", "c")) < (8 * n)
+    assert _traced_peak(mode_metrics.detection_delays, time, estimated, truth, ("a", "b", "c")) < (
+        8 * n
+    )
 
 
 def test_detection_delays_write_each_time_of_the_reasons_once(
@@ -656,9 +660,9 @@ def test_detection_delays_write_each_time_of_the_reasons_once(
         written.append(t if t is not None else math.nan)
         return format_time(t)
 
-    metrics._seconds.cache_clear()
-    monkeypatch.setattr(metrics, "format_time", counted)
-    det = metrics.detection_delays(time, estimated, truth, ("a", "b", "c"))
+    mode_metrics._seconds.cache_clear()
+    monkeypatch.setattr(mode_metrics, "format_time", counted)
+    det = mode_metrics.detection_delays(time, estimated, truth, ("a", "b", "c"))
     assert det.missed == 299
     reasons = [e.miss_reason for e in det.events]
     assert sum("(since t=0 s)" in r for r in reasons if r) == 99

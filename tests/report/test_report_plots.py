@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import metrics
+from hybridlog.report import mode_metrics
 from hybridlog.report.plot_data import (
     PixelBins,
     envelope,
@@ -151,7 +151,7 @@ def test_mode_runs_have_the_switches_and_the_bars_cover_every_run(
     t = np.arange(modes.size) * 0.1
     ids = ("a", "b", "c")
     runs = mode_runs(modes)
-    switches = metrics.mode_switches(t, modes, ids)
+    switches = mode_metrics.mode_switches(t, modes, ids)
     assert [float(t[s]) for s in runs.start[1:]] == [s["t"] for s in switches]
     assert [ids[m] for m in runs.mode[1:]] == [s["to"] for s in switches]
     assert np.array_equal(np.repeat(runs.mode, runs.end - runs.start), modes)

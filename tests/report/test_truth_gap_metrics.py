@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from hybridlog.report import metrics
+from hybridlog.report import mode_metrics
 from hybridlog.report.coverage import samples_coverage
 from hybridlog.signals import NO_TRUE_MODE, ComponentTruth
 from tests.report.test_plot_data import TRUE_LABELS, _run
@@ -26,7 +26,7 @@ def test_a_switch_across_a_gap_has_no_event_and_a_window_stops_at_a_gap() -> Non
     time = np.arange(12.0)
     truth = np.array([0, 0, 1, 1, X, X, X, 0, 0, 1, 1, 1])
     estimated = np.array([0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1])
-    det = metrics.detection_delays(time, estimated, truth, IDS, 1.0, known=truth != X)
+    det = mode_metrics.detection_delays(time, estimated, truth, IDS, 1.0, known=truth != X)
     switch_2, switch_9 = det.events  # 1 -> 0 across 4..6 happened at an unknown time: none
     assert (switch_2.t, switch_2.detected_t) == (2.0, None)  # no change into b before 4
     assert switch_2.miss_reason == (
@@ -39,11 +39,11 @@ def test_a_switch_right_after_a_gap_is_measured_from_two_samples_with_truth() ->
     time = np.arange(8.0)
     truth = np.array([0, 0, X, X, 0, 1, 1, 1])
     estimated = np.array([0, 0, 0, 0, 0, 0, 1, 1])
-    det = metrics.detection_delays(time, estimated, truth, IDS, 1.0, known=truth != X)
+    det = mode_metrics.detection_delays(time, estimated, truth, IDS, 1.0, known=truth != X)
     (event,) = det.events
     assert (event.t, event.delay_s) == (5.0, 1.0)
     # the same labels without the mask: the gap's -1 is no mode
-    plain = metrics.detection_delays(time, estimated, np.where(truth == X, 0, truth), IDS, 1.0)
+    plain = mode_metrics.detection_delays(time, estimated, np.where(truth == X, 0, truth), IDS, 1.0)
     assert [e.t for e in plain.events] == [5.0]
 
 
