@@ -17,7 +17,7 @@ against 1.99-2.20 s).  Two other settings were measured and left out: ``dirty_de
 ``M_MMAP_THRESHOLD`` at 1 MiB (8 MB columns unmapped when freed) another 10 MiB for 0.09 s
 (2.09-2.12 s): on this virtual machine a freshly mapped page costs a fault each time.  It
 changes no result; it is process-wide, so only the console script calls it
-(``hybridlog.cli``), never the library.
+(``hybridlog.cli_process``), never the library.
 
 References
 ----------

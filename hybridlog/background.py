@@ -13,7 +13,7 @@ estimators' chunks).
 
 Workers are forked when the process is small and has one thread: the console script's
 ``analyze`` and ``compare`` start theirs (``ESTIMATES``, ``PLOTS``) before they import
-polars, numba or matplotlib (``hybridlog.cli``), so a child inherits no thread that may
+polars, numba or matplotlib (``hybridlog.cli_process``), so a child inherits no thread that may
 hold a lock and no large memory, and imports what its functions need itself.  Functions
 (module-level, or named ``"module:name"``) and their arguments are sent pickled through a
 pipe, NumPy arrays out of band, and the values or exceptions come back the same way.

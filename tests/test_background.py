@@ -305,7 +305,7 @@ def test_a_forked_child_ends_soon_after_its_worker_is_killed(
 
 
 class _Ended(SystemExit):
-    """What the console script's handler raises on ``SIGTERM`` (``hybridlog.cli``)."""
+    """What the console script's handler raises on ``SIGTERM`` (``hybridlog.cli_process``)."""
 
 
 def _raise_ended(signum: int, frame: object) -> None:

@@ -23,7 +23,8 @@ one layer are peers that never import each other:
 4   ``estimators`` | ``simulation``
 5   ``report``
 6   ``jobs``
-7   ``cli`` (``cli``, ``__main__``, ``launch``)
+7   ``cli`` (``cli``, ``cli_types``, ``cli_options``, ``cli_lines``, ``cli_progress``,
+    ``cli_process``, ``fitted_lines``, ``__main__``, ``launch``)
 ==  ==============================================================================
 
 A module that belongs to no unit of this table fails the test: a new top-level module or
@@ -79,6 +80,11 @@ UNIT_OF_MODULE = {
     "hybridlog.__main__": "cli",
     "hybridlog.launch": "cli",
     "hybridlog.fitted_lines": "cli",
+    "hybridlog.cli_types": "cli",
+    "hybridlog.cli_options": "cli",
+    "hybridlog.cli_lines": "cli",
+    "hybridlog.cli_progress": "cli",
+    "hybridlog.cli_process": "cli",
 }
 """Top-level modules whose unit is not their own name."""
 

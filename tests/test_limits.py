@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.cli import _failure
+from hybridlog.cli_process import _failure
 from hybridlog.limits import limit_reached
 from tests.conftest import Main
 

@@ -515,6 +515,7 @@ def test_every_failure_is_one_bounded_printable_line(monkeypatch):
     import numpy as np
 
     from hybridlog import cli as cli_module
+    from hybridlog import cli_lines
     from hybridlog.errors import LogError
 
     def huge_error():
@@ -542,7 +543,7 @@ def test_every_failure_is_one_bounded_printable_line(monkeypatch):
         lines = result.stderr.splitlines()
         assert len(lines) == 1, result.stderr
         assert lines[0].startswith(start), lines[0]
-        assert len(lines[0]) <= cli_module.MAX_MESSAGE + 2 and lines[0].isprintable()
+        assert len(lines[0]) <= cli_lines.MAX_MESSAGE + 2 and lines[0].isprintable()
         assert "Traceback" not in result.stderr and "Warning:" not in result.stderr[len(start) :]
 
 
@@ -573,7 +574,7 @@ def test_the_summary_line_groups_the_thousands_of_its_counts() -> None:
     """``9,999 true switches: 9,980 detected, 19 missed``: every count grouped alike."""
     from dataclasses import replace
 
-    from hybridlog.cli import _summary_line
+    from hybridlog.cli_lines import _summary_line
     from hybridlog.report.document import read_report
 
     report = read_report(ROOT / "tests/data/reports/double_cart_case1_chiu.report.json")
@@ -586,7 +587,7 @@ def test_the_summary_line_groups_the_thousands_of_its_counts() -> None:
 
 def test_what_is_printed_on_stdout_holds_no_byte_a_terminal_acts_on() -> None:
     """A log named with an escape sequence or bytes that are not UTF-8: shown \\xNN."""
-    from hybridlog.cli import _for_terminal
+    from hybridlog.cli_lines import _for_terminal
 
     shown = _for_terminal("report: run\x1b[31m\udcff/report.md\n\tnext line")
     assert shown == "report: run\\x1b[31m\\xff/report.md\n\tnext line"

@@ -69,7 +69,7 @@ def test_a_stream_closed_before_the_start_is_no_file_of_the_command() -> None:
     descriptor 2 (what a library or a worker writes to standard error went into it)."""
     code = (
         "import os; from hybridlog.launch import tolerate_closed_output; "
-        "tolerate_closed_output(); from hybridlog.cli import _bars_shown; "
+        "tolerate_closed_output(); from hybridlog.cli_progress import _bars_shown; "
         "opened = os.open(os.devnull, os.O_RDONLY); "
         "print(_bars_shown(False), opened > 2, os.readlink('/proc/self/fd/0'))"
     )

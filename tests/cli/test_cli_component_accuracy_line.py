@@ -8,7 +8,7 @@ report.md scored each component that has one.
 
 from dataclasses import replace
 
-from hybridlog.cli import _summary_line
+from hybridlog.cli_lines import _summary_line
 from hybridlog.report.document import ModeReport, read_report
 from tests.report.test_summary_plot import REPORT
 

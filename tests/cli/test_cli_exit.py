@@ -150,15 +150,15 @@ def test_an_interrupted_analyze_ends_with_its_workers(tmp_path: Path, how: str) 
 @pytest.fixture
 def ending_signals() -> Iterator[None]:
     """The console script's handlers of SIGINT, SIGTERM and SIGHUP, in this process."""
-    from hybridlog import cli
+    from hybridlog import cli_process
 
     saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
-    cli._ENDING.clear()
-    cli._handle_ending_signals()
+    cli_process._ENDING.clear()
+    cli_process._handle_ending_signals()
     try:
         yield
     finally:
-        cli._ENDING.clear()
+        cli_process._ENDING.clear()
         for signum, handler in saved.items():
             signal.signal(signum, handler)
 
@@ -171,7 +171,7 @@ def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
     second arrives while the first one's unwinding removes the half-written folder.  It is
     dropped: the folder is removed all the same and the command ends on the first (it was
     raised inside the removal, and left the folder)."""
-    from hybridlog import cli, outputs
+    from hybridlog import cli_process, outputs
 
     real_rmtree = shutil.rmtree
 
@@ -180,7 +180,7 @@ def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
         real_rmtree(path, *args, **kwargs)
 
     monkeypatch.setattr(outputs.shutil, "rmtree", rmtree_interrupted)
-    expected = KeyboardInterrupt if signum == signal.SIGINT else cli._Terminated
+    expected = KeyboardInterrupt if signum == signal.SIGINT else cli_process._Terminated
     with pytest.raises(expected), outputs.atomic_output_dir(tmp_path / "out") as folder:
         (folder / "report.json").write_text("{}")
         signal.raise_signal(signum)  # the first
@@ -188,8 +188,8 @@ def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
 
 
 def test_an_ignored_sigint_stays_ignored(ending_signals: None) -> None:
-    from hybridlog import cli
+    from hybridlog import cli_process
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    cli._handle_ending_signals()
+    cli_process._handle_ending_signals()
     assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN

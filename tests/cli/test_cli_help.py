@@ -104,10 +104,14 @@ def test_cluster_options_are_generated_from_the_chiu_options():
 
 def test_every_option_is_declared_once():
     # `--map` and `--msg-dir` were declared twice (issue 8).  Each flag has one click.option
-    # call in cli.py; --out alone is declared per command: each writes something different.
-    tree = ast.parse((ROOT / "hybridlog" / "cli.py").read_text(encoding="utf-8"))
+    # call in the CLI's modules (cli.py, the shared options of cli_options.py, ...); --out
+    # alone is declared per command: each writes something different.
+    modules = sorted((ROOT / "hybridlog").glob("cli*.py"))
+    assert {"cli.py", "cli_options.py"} <= {module.name for module in modules}
+    trees = [ast.parse(module.read_text(encoding="utf-8")) for module in modules]
     declared = Counter(
         flag
+        for tree in trees
         for node in ast.walk(tree)
         if isinstance(node, ast.Call)
         and ast.unparse(node.func) in ("click.option", "click.Option")

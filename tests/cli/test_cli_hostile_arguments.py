@@ -13,7 +13,8 @@ from pathlib import Path
 import click
 import pytest
 
-from hybridlog.cli import _expand_tilde, cli
+from hybridlog.cli import cli
+from hybridlog.cli_types import _expand_tilde
 
 Main = Callable[[list[str]], tuple[int, str]]
 

@@ -236,7 +236,7 @@ def test_batch_jobs_auto_is_one_per_usable_core(monkeypatch):
 
     import hybridlog.environment as environment
     import hybridlog.jobs.batch as batch
-    from hybridlog.cli import _Jobs
+    from hybridlog.cli_types import _Jobs
 
     jobs = _Jobs(min=1)
     assert jobs.convert("auto", None, None) == "auto" == jobs.convert(" AUTO ", None, None)

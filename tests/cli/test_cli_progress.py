@@ -7,7 +7,9 @@ import io
 import click
 import pytest
 
-from hybridlog.cli import _Context, _progress, _work_progress, cli
+from hybridlog.cli import cli
+from hybridlog.cli_options import _Context
+from hybridlog.cli_progress import _progress, _work_progress
 
 
 class _Terminal(io.StringIO):

@@ -10,7 +10,7 @@ import re
 import click
 import pytest
 
-from hybridlog import cli
+from hybridlog import cli, cli_progress
 from hybridlog.fitted_lines import fitted
 
 ESCAPE = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
@@ -58,9 +58,12 @@ def test_the_commands_bars_are_fitted(monkeypatch):
     monkeypatch.delenv("TERM", raising=False)
     terminal = Terminal()
     monkeypatch.setattr("sys.stderr", terminal)
-    with cli._work_progress(False, 4, LABEL) as advance:
+    with cli_progress._work_progress(False, 4, LABEL) as advance:
         advance(2)
-    with click.Context(cli.cli), cli._progress(click.get_current_context(), 2, LABEL) as step:
+    with (
+        click.Context(cli.cli),
+        cli_progress._progress(click.get_current_context(), 2, LABEL) as step,
+    ):
         assert step is not None
         step("a_log_with_a_long_name.csv")
     assert LABEL[:10] in terminal.getvalue()

@@ -403,13 +403,15 @@ class _Terminal(io.StringIO):
 def test_progress_bar_counts_done_failed_skipped_with_rate(
     monkeypatch: pytest.MonkeyPatch, quiet: bool
 ) -> None:
-    from hybridlog import cli as cli_module
+    from hybridlog import cli, cli_options, cli_progress
 
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
-    context = click.Context(cli_module.cli, obj=cli_module._Context(quiet=quiet))
+    context = click.Context(cli.cli, obj=cli_options._Context(quiet=quiet))
     statuses = ["done", "failed", "skipped", "done"]
-    with cli_module._batch_progress(context, len(statuses), cli_module._BatchClock()) as advance:
+    with cli_progress._batch_progress(
+        context, len(statuses), cli_progress._BatchClock()
+    ) as advance:
         if quiet:
             assert advance is None
             return
@@ -424,17 +426,17 @@ def test_progress_rate_and_time_left_leave_out_the_first_compile(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """30 s compiling, then a log in 2 s: 3 logs left take about 6 s, not 96 (click's ETA)."""
-    from hybridlog import cli as cli_module
+    from hybridlog import cli, cli_options, cli_progress
 
     now = [100.0]
-    monkeypatch.setattr(cli_module.time, "monotonic", lambda: now[0])
+    monkeypatch.setattr(cli_progress.time, "monotonic", lambda: now[0])
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
-    context = click.Context(cli_module.cli, obj=cli_module._Context(quiet=False))
-    clock = cli_module._BatchClock(started=now[0])
-    with cli_module._batch_progress(context, 4, clock) as advance:
+    context = click.Context(cli.cli, obj=cli_options._Context(quiet=False))
+    clock = cli_progress._BatchClock(started=now[0])
+    with cli_progress._batch_progress(context, 4, clock) as advance:
         assert advance is not None
-        with cli_module._clocked_wait(clock, False, "imm: compiling", "first run"):
+        with cli_progress._clocked_wait(clock, False, "imm: compiling", "first run"):
             now[0] += 30.0
         now[0] += 2.0
         advance(LogOutcome("log", "folder", "done", None, None))
@@ -450,12 +452,12 @@ def test_progress_counts_a_compile_as_waiting_only_until_a_log_finishes_during_i
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Two workers: one compiles 10 s and runs a log in 2 s while the other compiles on."""
-    from hybridlog import cli as cli_module
+    from hybridlog import cli_progress
 
     now = [0.0]
-    monkeypatch.setattr(cli_module.time, "monotonic", lambda: now[0])
-    clock = cli_module._BatchClock(started=0.0)
-    with cli_module._clocked_wait(clock, False, "imm: compiling", "first run"):
+    monkeypatch.setattr(cli_progress.time, "monotonic", lambda: now[0])
+    clock = cli_progress._BatchClock(started=0.0)
+    with cli_progress._clocked_wait(clock, False, "imm: compiling", "first run"):
         now[0] = 5.0
         assert clock.working() == 0.0  # a wait going on is not work
         now[0] = 12.0

@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 
 from hybridlog import background
-from hybridlog.cli import SHARED_IMPORTS
+from hybridlog.cli_process import SHARED_IMPORTS
 from hybridlog.jobs.analysis import analyze
 from tests.support.paths import TANK_CSV
 

@@ -18,8 +18,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from hybridlog import background
-from hybridlog import cli as cli_module
+from hybridlog import background, cli_progress
 from hybridlog.cli import cli
 from hybridlog.cluster import potentials, subtractive
 from hybridlog.cluster.progress import WorkReporter, reporting
@@ -136,8 +135,8 @@ def test_a_wait_is_said_on_a_terminal_once_it_outlasts_a_moment(
     after_s: float,
     lines: int,
 ) -> None:
-    monkeypatch.setattr(cli_module, "WAIT_SHOWN_S", after_s)
-    with cli_module._work_wait(shown, "imm: compiling", "first run"):
+    monkeypatch.setattr(cli_progress, "WAIT_SHOWN_S", after_s)
+    with cli_progress._work_wait(shown, "imm: compiling", "first run"):
         time.sleep(0.3)
     said = capsys.readouterr().err.splitlines()
     assert len(said) == lines, said
@@ -149,8 +148,8 @@ def test_a_wait_is_said_on_a_terminal_once_it_outlasts_a_moment(
 def test_a_wait_that_fails_is_not_said_done(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(cli_module, "WAIT_SHOWN_S", 0.0)
-    with pytest.raises(KeyboardInterrupt), cli_module._work_wait(True, "imm: compiling", "first"):
+    monkeypatch.setattr(cli_progress, "WAIT_SHOWN_S", 0.0)
+    with pytest.raises(KeyboardInterrupt), cli_progress._work_wait(True, "imm: compiling", "first"):
         time.sleep(0.3)
         raise KeyboardInterrupt
     assert capsys.readouterr().err.splitlines() == ["imm: compiling (first)..."]
@@ -180,8 +179,8 @@ def test_a_batch_says_what_its_first_log_compiles(tmp_path: Path, jobs: int) -> 
 def test_a_wait_over_a_bar_clears_its_line_first(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(cli_module, "WAIT_SHOWN_S", 0.0)
-    with cli_module._work_wait(True, "imm: compiling", "first run", over_bar=True):
+    monkeypatch.setattr(cli_progress, "WAIT_SHOWN_S", 0.0)
+    with cli_progress._work_wait(True, "imm: compiling", "first run", over_bar=True):
         time.sleep(0.3)
     assert capsys.readouterr().err == (
         "\r\x1b[Kimm: compiling (first run)...\n\r\x1b[Kimm: compiling: done in 0 s\n"

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import pytest
 
-from hybridlog.cli import _summary_line
+from hybridlog.cli_lines import _summary_line
 from hybridlog.report.document import OutputReport
 from hybridlog.report.markdown import format_percent, render_markdown
 from tests.report.test_report_gates import report

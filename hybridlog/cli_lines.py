@@ -1,0 +1,144 @@
+"""What the commands print: lines on stdout and stderr, safe for a terminal and bounded.
+
+The summary line of a report (:func:`_summary_line`), the lines naming what a command wrote
+(:func:`_path_text`), notes, warnings and gate failures on stderr (:func:`_one_line`: one
+printable line of at most :data:`MAX_MESSAGE` characters), ``--quiet`` respected
+(:func:`_say`).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import click
+
+from hybridlog.cli_options import _Context
+from hybridlog.errors import as_text, excerpt
+
+if TYPE_CHECKING:
+    from hybridlog.report.document import Report
+
+
+MAX_MESSAGE = 400
+"""Longest error or warning line the CLI prints (longer ones are cut in the middle)."""
+
+
+def _say(ctx: click.Context, text: str) -> None:
+    settings = ctx.find_object(_Context)
+    if settings is None or not settings.quiet:
+        click.echo(_for_terminal(text))
+
+
+def _path_text(path: object) -> str:
+    r"""A path on one line: a line break or tab in it escaped too (``\n``), as errors show it.
+
+    The lines naming what a command wrote (``report: ...``) are one a path, for scripts
+    that read them; :func:`_for_terminal` keeps a text's line breaks.
+    """
+    return "".join(c if c.isprintable() else excerpt(c)[1:-1] for c in as_text(path))
+
+
+def _for_terminal(text: str) -> str:
+    r"""Lines for stdout: names as the system gave them, but nothing a terminal acts on.
+
+    A log named with bytes that are not UTF-8 or with control characters (an escape
+    sequence) is shown ``\xNN`` (:func:`~hybridlog.errors.as_text`, :func:`excerpt`'s
+    escapes); line breaks and tabs stay.
+    """
+    return "\n".join(
+        "".join(c if c.isprintable() or c == "\t" else excerpt(c)[1:-1] for c in as_text(line))
+        for line in text.split("\n")
+    )
+
+
+def _one_line(text: str) -> str:
+    """The final guard on everything printed to stderr: one printable, bounded line."""
+    return excerpt(" ".join(str(text).split()), MAX_MESSAGE)[1:-1]
+
+
+def _summary_line(report: Report) -> str:
+    from hybridlog.report.markdown import duration, format_number, format_percent, plural
+
+    def percent(value: float | None, decimals: int) -> str:
+        return "n/a" if value is None else f"{format_percent(value, decimals)} %"
+
+    text = (
+        f"{report.estimator} on {_path_text(report.log)}: {plural(report.samples, 'sample')} "
+        f"in {duration(report.runtime_s)}, VAF {percent(report.vaf, 2)}, "
+        f"fit {percent(report.fit, 2)}, MSE {format_number(report.mse, '.4g')}"
+    )
+    scored_outputs = [o.samples for o in report.outputs.values() if o.samples is not None]
+    if scored_outputs and min(scored_outputs) < report.samples - 1:  # row 0 is the prior
+        # a VAF over 73 of 399 predictions read like the whole log's (a gap, a late start)
+        text += f" (over {min(scored_outputs):,} of {report.samples - 1:,} predicted samples)"
+    text += _mode_accuracy_text(report, percent(_percent(report.modes.accuracy), 1))
+    scored = report.modes.samples
+    if report.modes.accuracy is not None and scored is not None and scored < report.samples:
+        text += f" (over the {plural(scored, 'sample')} with a true mode)"
+    smoothing = report.smoothing
+    if smoothing is not None and smoothing.filtered.mode_accuracy is not None:
+        text += f" (filtered {percent(_percent(smoothing.filtered.mode_accuracy), 1)})"
+    detection = report.modes.detection
+    if detection is not None:
+        switches = plural(detection.detected + detection.missed, "true switch")
+        text += f", {switches}: {detection.detected:,} detected, {detection.missed:,} missed"
+    fallbacks = None if smoothing is None else smoothing.fallbacks
+    if fallbacks is not None and fallbacks.samples:  # part of the "smoothed" estimate is not
+        text += f"; {fallbacks.summary()}"
+    return text
+
+
+def _mode_accuracy_text(report: Report, shown: str) -> str:
+    """``, mode accuracy 99.0 %``; of a ``[components]`` model, which accuracy it is.
+
+    There it is the share of samples with every component's mode right, and ``n/a`` where the
+    log has the true mode of only some components, each of which report.md scores: ``mode
+    accuracy n/a`` read as a log without any true mode.
+    """
+    modes = report.modes
+    if not (modes.components or modes.components_without_truth):
+        return f", mode accuracy {shown}"
+    if modes.accuracy is None and modes.components:
+        scored = ", ".join(modes.components)
+        return (
+            f", mode accuracy (every component right) n/a: the log has the true mode of only "
+            f"some components ({scored}: each scored in report.md)"
+        )
+    return f", mode accuracy (every component right) {shown}"
+
+
+def _percent(fraction: float | None) -> float | None:
+    return None if fraction is None else 100.0 * fraction
+
+
+def _have_warnings(warned: int, total: int, kind: str) -> str:
+    """``3 of 1,000 analysed logs have warnings``, ``1 of 2 estimators has warnings``.
+
+    Out of the reports written (``kind``: what they are of), as summary.md counts them.
+    """
+    from hybridlog.report.markdown import plural
+
+    return f"{warned:,} of {plural(total, kind)} {'has' if warned == 1 else 'have'} warnings"
+
+
+def _echo_unused_samples(report: Report) -> None:
+    """A line on stderr per note of ``report`` saying samples of the log are not used.
+
+    A log sampled at twice the model's rate loses every other sample, and ``--split-gaps``
+    analyses the longest piece alone: report.md said so in a NOTE, the terminal nothing,
+    under a summary line that read as the whole log's.
+    """
+    from hybridlog.report.build import unanalysed_span_notes, unused_sample_notes
+
+    reading = report.reading
+    for note in [*unused_sample_notes(reading), *unanalysed_span_notes(reading)]:
+        click.echo(_one_line(f"hybridlog: note: {note.removeprefix('NOTE: ')}"), err=True)
+
+
+def _gate_exit(failures: Sequence[str]) -> None:
+    for failure in failures:
+        click.echo(_one_line(f"hybridlog: gate failed: {failure}"), err=True)
+    if failures:
+        sys.exit(1)

@@ -1,0 +1,335 @@
+"""The click building blocks of the command line: parameter types and command classes.
+
+Parameter types read a value strictly (:class:`_PathName`: no empty name, a leading ``~``
+as the shell makes it; :class:`_WholeNumber`, :class:`_Number`: :mod:`hybridlog.numbers`'s
+parsers; :class:`_Jobs`, :class:`_LogFormats`, :func:`_comma_list`).  :class:`_Command`
+refuses an option that takes one value given twice; :class:`_DataclassOptions` makes a
+command's options from an options dataclass, on first use (:class:`_GeneratedOptionsCommand`).
+
+Light, as :mod:`hybridlog.cli`: click and hybridlog's light modules only.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import click
+
+from hybridlog.errors import excerpt
+from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
+from hybridlog.numbers import parse_float, parse_int
+
+
+class _PathName(click.Path):
+    """A file or folder name; an empty one is refused (pathlib reads ``""`` as ``.``).
+
+    ``--out ""`` was the working folder (``--out . contains the log``), ``analyze ""`` the
+    log ``.``, ``cluster --out ""`` an unexpected error.
+
+    A leading ``~`` or ``~user`` is the home folder, as the shell makes it of ``--out ~/r``
+    but not of ``--out=~/r`` nor of a quoted ``"~/r"``: those wrote a folder named ``~`` in
+    the working folder (which a later ``rm -r ~`` would take for the home).  A ``~user``
+    the system does not know is refused; ``./~`` names a file called ``~``.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and not value:
+            self.fail("an empty name", param, ctx)
+        if isinstance(value, str) and value.startswith("~"):
+            home = _expand_tilde(value)
+            if home.startswith("~"):
+                user = value.split("/", 1)[0]
+                why = (
+                    "the previous working folder, and OLDPWD is not set"
+                    if user == "~-"
+                    else f"no home folder for {excerpt(user)} (no such user)"
+                )
+                self.fail(
+                    f"{excerpt(value)}: {why}; write ./{value} for a name that starts with ~",
+                    param,
+                    ctx,
+                )
+            value = home
+        return super().convert(value, param, ctx)
+
+
+def _expand_tilde(value: str) -> str:
+    """``value`` with its leading ``~`` expanded as bash expands it, else as given.
+
+    ``~`` and ``~user`` are the home folder, ``~+`` the working folder, ``~-`` the previous
+    one (``$OLDPWD``).
+    """
+    first, slash, rest = value.partition("/")
+    folder = {"~+": _working_folder(), "~-": os.environ.get("OLDPWD")}
+    if first in folder:
+        return value if not folder[first] else f"{folder[first]}{slash}{rest}"
+    return os.path.expanduser(value)
+
+
+def _working_folder() -> str:
+    """The working folder as the shell names it, ``$PWD``, when that is still this folder.
+
+    bash's ``~+`` is ``$PWD``, which keeps the symbolic links it was reached through;
+    ``os.getcwd()`` resolves them (``~+`` in a folder reached through ``/data -> /mnt/d``
+    was ``/mnt/d``).  A ``$PWD`` that is not absolute or names another folder (a program
+    that changed folder without setting it) is not taken.
+    """
+    shown = os.environ.get("PWD", "")
+    try:
+        if os.path.isabs(shown) and os.path.samefile(shown, os.curdir):
+            return shown
+    except OSError:
+        pass
+    return os.getcwd()
+
+
+_PATH = _PathName(path_type=Path)
+"""The type of every file or folder argument and option but a file to write."""
+
+
+_FILE_OUT = _PathName(path_type=str)
+"""The type of an option naming a file to write: the text as given, whose ``/`` at the end
+(``--out dir.json/``, meaning a folder) a ``Path`` would drop; the job refuses it
+(:func:`hybridlog.outputs.check_file_name`)."""
+
+
+class _Strict(click.ParamType[Any]):
+    """A click type whose text is read by a strict parser of :mod:`hybridlog.numbers` first.
+
+    click's ``INT`` and ``FLOAT`` read with Python's ``int()`` and ``float()``, which take
+    underscores, any Unicode digits, and ``inf``/``nan``; the subclass' click base then does
+    the rest (a range check, the ``--help`` text).
+    """
+
+    parse: Callable[[str], object]
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str):
+            try:
+                value = type(self).parse(value)
+            except ValueError as err:
+                self.fail(f"{err}, got {excerpt(value)}", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+class _WholeNumber(_Strict, click.IntRange):
+    """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused)."""
+
+    parse = staticmethod(parse_int)
+
+
+class _Jobs(_WholeNumber):
+    """``--jobs``: a whole number of at least 1, or ``"auto"``, the cores this process may use.
+
+    ``auto`` is passed on as such (:func:`~hybridlog.jobs.batch.run_batch` counts the
+    cores), so that a note or an error says ``--jobs auto``, not the count the user did
+    not write.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and value.strip().lower() == "auto":
+            return "auto"
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter as err:
+            if "whole number" not in err.message:
+                raise
+            self.fail(err.message.replace("a whole number", "a whole number or auto"), param, ctx)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "N|auto"
+
+
+class _Number(_Strict, click.types.FloatParamType):
+    """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only)."""
+
+    parse = staticmethod(parse_float)
+
+
+class _LogFormats(click.Choice[str]):
+    """``--format`` or ``--encoding``: choices read from the log writers when first needed.
+
+    ``name`` is the tuple of :mod:`hybridlog.io.bag_writers` that lists them (the one
+    list); the module is imported to parse or show ``simulate``'s options, not by other
+    commands.
+    """
+
+    def __init__(self, name: str) -> None:
+        self._name = name
+        super().__init__(())
+
+    @property
+    def choices(self) -> tuple[str, ...]:
+        from hybridlog.io import bag_writers
+
+        return tuple(getattr(bag_writers, self._name))
+
+    @choices.setter
+    def choices(self, value: Sequence[str]) -> None:
+        """Ignored: click's constructor sets the choices, which are read instead."""
+
+
+def _comma_list(value: str) -> tuple[str, ...]:
+    """A comma-separated option's names (:func:`hybridlog.numbers.comma_items`).
+
+    An empty item is a typo (a name left out, a stray comma), never a name: dropping it
+    silently ran less than the user asked for.  A wholly empty value gives no items (the
+    command says what it needs).  A name given twice is refused here too, as a usage error
+    with the command's help named like the others (the library refuses it for Python).
+    """
+    from hybridlog.numbers import comma_items
+
+    try:
+        names = comma_items(value, "names")
+    except ValueError as err:
+        raise click.BadParameter(str(err)) from None
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise click.BadParameter(f"{', '.join(map(excerpt, twice))} named twice")
+    return names
+
+
+class _Command(click.Command):
+    """A command whose options that take one value are given at most once.
+
+    click keeps the last of ``--out a --out b`` (or ``--model A --model B``, ``--exact
+    --approximate``) without a word: the run then wrote elsewhere, or read the log for
+    another model, than one of the two said.  Repeatable options (``--set``, ``--map``, …)
+    and plain switches given twice (``--force --force``: the same either way) are taken.
+    """
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        if args and not ctx.resilient_parsing:
+            _, _, order = self.make_parser(ctx).parse_args(args=list(args))
+            for param in order:
+                times = sum(1 for seen in order if seen is param)
+                if (
+                    times > 1
+                    and isinstance(param, click.Option)
+                    and not (param.multiple or param.count)
+                    and not (param.is_flag and not param.secondary_opts)
+                ):
+                    raise click.BadParameter(
+                        f"given {'twice' if times == 2 else f'{times} times'}; give it once",
+                        ctx=ctx,
+                        param=param,
+                        param_hint="/".join([*param.opts, *param.secondary_opts]),
+                    )
+        return super().parse_args(ctx, args)
+
+
+class _Group(click.Group):
+    """The ``hybridlog`` group: its commands are :class:`_Command` s."""
+
+    command_class = _Command
+
+
+_METAVARS = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN"}
+"""click's names of plain option types; choices and optional types show as ``[a|b]``."""
+
+
+@dataclass(frozen=True)
+class _DataclassOptions:
+    """Command-line options generated from an options dataclass: its one definition.
+
+    Each named field becomes ``--field-name VALUE`` whose help, default and type come from
+    the field (:func:`~hybridlog.estimators.options.describe_options`); the values given are
+    read and checked by :func:`~hybridlog.estimators.options.parse_options`, exactly like
+    ``--set`` values, and fields not given keep the dataclass's defaults.  A
+    ``Literal`` field may instead be a switch between two of its choices
+    (``--exact/--approximate``).
+
+    Attributes
+    ----------
+    load:
+        Returns the dataclass (called when the command is first used, so that its module is
+        not imported by ``hybridlog --help`` or other commands).
+    names:
+        The fields offered, in the order shown.
+    owner:
+        Whose options they are, for messages (``chiu option 'radius': ...``).
+    switches:
+        Field → (choice of ``--on``, choice of ``--off``), the flags named after the choices.
+    table:
+        The model-file table (``estimators.chiu``) whose values replace the dataclass's
+        defaults, as the help says; empty: none does.
+    """
+
+    load: Callable[[], type[Any]]
+    names: tuple[str, ...]
+    owner: str
+    switches: Mapping[str, tuple[str, str]]
+    table: str = ""
+
+    def params(self) -> list[click.Parameter]:
+        """The click options, one per field."""
+        infos = {info.name: info for info in describe_options(self.load())}
+        params: list[click.Parameter] = []
+        for name in self.names:
+            info = infos[name]
+            default = f"default: {shown(info.default)}"
+            if self.table:  # the help cannot know the model: say where a value comes from
+                default = (
+                    f"default: the model file's {self.table}.{name}, else {shown(info.default)}"
+                )
+            if name in self.switches:
+                on, off = self.switches[name]
+                params.append(
+                    click.Option(
+                        [f"--{on}/--{off}", name], default=None, help=f"{info.help} [{default}]"
+                    )
+                )
+                continue
+            limits = f"; {info.constraint}" if info.constraint else ""
+            params.append(
+                click.Option(
+                    [f"--{name.replace('_', '-')}", name],
+                    default=None,
+                    metavar=_METAVARS.get(info.type, f"[{info.type}]"),
+                    help=f"{info.help} [{default}{limits}]",
+                )
+            )
+        return params
+
+    def parse(self, given: Mapping[str, Any]) -> Any:
+        """The dataclass from the values given on the command line (``None``: not given)."""
+        values: dict[str, Any] = {}
+        sources: dict[str, OptionSource] = {}
+        for name, value in given.items():
+            if value is None:
+                continue
+            if name in self.switches:
+                values[name] = self.switches[name][0 if value else 1]
+                continue
+            values[name] = value
+            sources[name] = OptionSource(f"--{name.replace('_', '-')} {excerpt(value)[1:-1]}")
+        return parse_options(self.load(), values, estimator=self.owner, sources=sources)
+
+
+class _GeneratedOptionsCommand(_Command):
+    """A command with options generated by a :class:`_DataclassOptions` on first use.
+
+    The options are made when the command's parameters are first needed (to parse its
+    arguments or show its help), after the parameter named ``after``.
+    """
+
+    def __init__(self, *args: Any, generated: _DataclassOptions, after: str, **kwargs: Any) -> None:
+        self._generated: _DataclassOptions | None = generated
+        self._after = after
+        super().__init__(*args, **kwargs)
+
+    @property
+    def params(self) -> list[click.Parameter]:
+        if self._generated is not None:
+            generated, self._generated = self._generated, None
+            at = [p.name for p in self._params].index(self._after) + 1
+            self._params[at:at] = generated.params()
+        return self._params
+
+    @params.setter
+    def params(self, value: list[click.Parameter]) -> None:
+        self._params = value
