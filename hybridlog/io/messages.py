@@ -9,7 +9,7 @@ describes its topics (:class:`Topic`) and yields raw messages; everything else i
 - Only the topics of the mapped paths are read, in one pass.  Their serialised messages are
   collected in batches (at most 65,536 messages or 16 MiB per topic); each batch is
   deserialised (rosbags' deserialisers for CDR and ROS 1, which refuse bytes that do not fit
-  the definition) and reduced to the requested numbers, 512 messages at a time
+  the definition) and reduced to the requested numbers, 128 messages at a time
   (:data:`DECODED_AT_ONCE`), so memory grows with the selected signals, not with the file;
   where every path is a number field of such a message, each message is reduced to its
   numbers as it is decoded, none kept (``_TopicReader._add_numbers_streamed``).
@@ -97,13 +97,17 @@ from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 BATCH_MESSAGES = 65_536
 BATCH_BYTES = 16 * 2**20
-DECODED_AT_ONCE = 512
+DECODED_AT_ONCE = 128
 """Messages of a batch decoded at a time, each part reduced to its values before the next.
 
 Decoded messages are objects the cyclic garbage collector tracks (a ``PointStamped`` is four);
 a whole batch of them alive at once made each of its collections walk up to 65,536 messages
 again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 s in parts of
-512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young."""
+512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young; smaller
+still, fewer of its messages outlive the collector's first generation (700 objects): with
+``--time header`` (``header.stamp`` read, so not the streamed numbers of
+``_TopicReader._add_numbers_streamed``) 10^5 messages a topic took 2.31-2.65 s of CPU in parts
+of 128 against 2.52-2.71 s in parts of 512 (alternating, three runs each, a loaded machine)."""
 DECODED_BYTES_AT_ONCE = 16 * 1024 * 1024
 """... and at most about this many bytes of serialised messages (``inspect``): 512 camera
 images of 6 MiB held at once, decoded for their stamps, made ``inspect`` of a 3.5 GB bag

@@ -19,7 +19,7 @@ from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from tests.support.logfiles import Channel, cdr, ros2_store, stamped_point, write_mcap
 
 N = 700
-"""Messages: more than the 512 the reading kept decoded at once."""
+"""Messages: more than a part the careful reading keeps decoded at once (`DECODED_AT_ONCE`)."""
 POINT = "geometry_msgs/msg/PointStamped"
 SPEC = SignalSpec(inputs=("u",), outputs=("y1", "y2"), mode_ids=("a",), dt=0.01)
 MAPS = ("u=/p.point.x", "y1=/p.point.y", "y2=/p.point.z")
