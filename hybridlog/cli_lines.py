@@ -130,7 +130,7 @@ def _echo_unused_samples(report: Report) -> None:
     analyses the longest piece alone: report.md said so in a NOTE, the terminal nothing,
     under a summary line that read as the whole log's.
     """
-    from hybridlog.report.build import unanalysed_span_notes, unused_sample_notes
+    from hybridlog.report.reading_notes import unanalysed_span_notes, unused_sample_notes
 
     reading = report.reading
     for note in [*unused_sample_notes(reading), *unanalysed_span_notes(reading)]:

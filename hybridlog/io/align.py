@@ -653,7 +653,7 @@ def sampled_every(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> dict[str,
     least); ``steps``: that step in steps of ``dt``, to two decimals.  A topic published at
     a third of the model's rate (``steps`` 3) is bridged at two points of three by design,
     one published at the model's rate (``steps`` 1) only where the log lacks samples: the
-    report says which (:func:`~hybridlog.report.build.bridged_cause`), where it asked of
+    report says which (:func:`~hybridlog.report.reading_notes.bridged_cause`), where it asked of
     both whether the model's dt is the log's.
     """
     lo = int(np.searchsorted(time_ns, grid_ns[0], side="left"))

@@ -62,8 +62,12 @@ from hybridlog.outputs import (
     check_file_name,
     check_file_target,
 )
-from hybridlog.report.build import bridged_cause, log_reading_notes, unused_sample_notes
 from hybridlog.report.coverage import samples_coverage
+from hybridlog.report.reading_notes import (
+    bridged_cause,
+    log_reading_notes,
+    unused_sample_notes,
+)
 from hybridlog.report.summary import markdown_table
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
 
@@ -108,7 +112,7 @@ def reading_said(
     used (one at twice it); ``hybridlog cluster`` said none of it, and fitted centres on
     measurements used twice (``y(k) = y(k-1)``) without a word.  Warnings and the notes of
     samples not used go to stderr (``warning: …``, ``note: …``), the other notes of
-    :func:`~hybridlog.report.build.log_reading_notes` (the user's repairs, the span) below
+    :func:`~hybridlog.report.reading_notes.log_reading_notes` (the user's repairs, the span) below
     the table.
 
     ``left_out``: per bridged output, how many regression vectors hold a value of it the log

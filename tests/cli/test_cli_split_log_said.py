@@ -5,14 +5,14 @@ and printed ``imm on cut.csv: 141 samples ..., mode accuracy 100.0 %``, which re
 whole log's; that 139 s were not analysed was a NOTE at the end of report.md only.  The notes
 that a stretch of the log's time was not analysed (``--split-gaps``, a signal that starts
 the span late or ends it early, ``--drop-nonfinite`` at an end) are printed as those of
-samples not used are (``report.build.unanalysed_span_notes``).
+samples not used are (``report.reading_notes.unanalysed_span_notes``).
 """
 
 from pathlib import Path
 
 import polars as pl
 
-from hybridlog.report.build import unanalysed_span_notes
+from hybridlog.report.reading_notes import unanalysed_span_notes
 from tests.cli.test_cli import run
 from tests.support.paths import SAMPLE_LOGS
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from hybridlog.io.align import align_signals, records_switches
 from hybridlog.io.source import LabelSeries, Series, seconds_to_ns
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 from hybridlog.signals import NO_TRUE_MODE, first_uncovered
 
 GRID = np.arange(0.0, 41.0)  # dt = 1 s, max_gap 5 s by default
@@ -60,7 +60,7 @@ def test_a_sampled_true_mode_has_no_true_mode_over_a_gap_longer_than_max_gap() -
     near = _labels([s - 0.2 if s == 19.6 else s for s in seconds], codes)
     modes, _ = _align(near, {})
     assert modes[19] == 1 and (modes[11:19] == NO_TRUE_MODE).all()
-    said = [n for n in _reading_notes(notes) if "the true mode " in n]
+    said = [n for n in report_reading_notes(notes) if "the true mode " in n]
     assert said == [
         "WARNING: the true mode has no sample within dt/2 of 9 of 41 sample times, from "
         "t = 10.2 to 19.6 s (9.4 s): it may have switched there unseen, so those samples "
@@ -119,7 +119,7 @@ def test_a_true_mode_recorded_only_at_its_switches_is_held_however_long() -> Non
     np.testing.assert_array_equal(valve, want)
     assert "truth_gaps" not in notes
     assert notes["truth_held"]["mode"]["holds"] == 3
-    (said, *_) = (n for n in _reading_notes(notes) if "the true mode " in n)
+    (said, *_) = (n for n in report_reading_notes(notes) if "the true mode " in n)
     assert said.startswith("NOTE: the true mode has no sample in 3 stretches longer than")
     assert said.endswith(
         "held at its last value, against which the mode metrics score those samples (it is "
@@ -133,7 +133,7 @@ def test_a_gap_and_a_late_start_are_said_together() -> None:
     notes: dict[str, Any] = {}
     modes, _ = _align(_labels(seconds, [0] * len(seconds)), notes)
     assert int(np.count_nonzero(modes != NO_TRUE_MODE)) == 6 + 16
-    said = [n for n in _reading_notes(notes) if "the true mode starts" in n]
+    said = [n for n in report_reading_notes(notes) if "the true mode starts" in n]
     assert said == [
         "NOTE: the true mode starts at t = 5 s, after the first sample time: the mode metrics "
         "score the 36 of 41 samples from it on, less the 14 without a sample above (the "
@@ -153,7 +153,7 @@ def test_a_short_gap_of_a_sampled_true_mode_is_not_held() -> None:
     gap = {"start": 19.0, "end": 23.0, "seconds": 4.0, "gaps": 1, "points": 3, "of": 41}
     assert notes["truth_gaps"] == {"mode": gap, "mode.valve": gap}
     assert first_uncovered(modes) == 20
-    said = [n for n in _reading_notes(notes) if "the true mode " in n]
+    said = [n for n in report_reading_notes(notes) if "the true mode " in n]
     assert said[0].startswith(
         "WARNING: the true mode has no sample within dt/2 of 3 of 41 sample times, from "
         "t = 19 to 23 s (4 s): it may have switched there unseen"

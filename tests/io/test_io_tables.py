@@ -860,9 +860,9 @@ def test_header_names_are_read_without_the_spaces_around_them(tmp_path: Path, he
     assert load(path, sort=True).n_samples == 4
     assert load(path, signals={"u": "u"}).n_samples == 4
 
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
-    assert any("CSV header names read without the spaces" in n for n in _reading_notes(notes))
+    assert any("CSV header names read without the spaces" in n for n in report_reading_notes(notes))
 
 
 @pytest.mark.parametrize("header", ['t,"u""x",y,mode', '"t","u""x","y",mode'])
@@ -910,10 +910,10 @@ def test_a_time_column_beside_t_is_said_to_be_passed_over(tmp_path: Path, suffix
     mapped = load(path, maps=["u=time"])  # still a column like any other
     np.testing.assert_array_equal(mapped.inputs[:, 0], [0.0, 0.05, 0.1, 0.15])
 
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     assert "NOTE: the time is column 't'; 'time' beside it is read as a signal" in "\n".join(
-        _reading_notes(notes)
+        report_reading_notes(notes)
     )
     alone: dict[str, Any] = {}
     load(csv_file(tmp_path, GOOD), alone)

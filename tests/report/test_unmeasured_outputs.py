@@ -114,7 +114,7 @@ def test_the_warning_says_an_output_is_a_slower_topic_not_that_dt_may_be_wrong()
     """Each output on its own topic: y1 at the model's rate less one message, y2 at half it,
     y3 at a third, on a clock at Unix-epoch times.  Every warning asked "is the model's dt
     the log's?", of a dt that was right; it now says how often the output was sampled."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     t = 1.7e9 + np.arange(61) * 0.1
     y1 = np.delete(t, 30)
@@ -135,7 +135,7 @@ def test_the_warning_says_an_output_is_a_slower_topic_not_that_dt_may_be_wrong()
         "y2": {"points": 30, "of": 61, "every": 0.2, "steps": 2.0},
         "y3": {"points": 40, "of": 61, "every": 0.3, "steps": 3.0},
     }
-    y1_note, y2_note, y3_note = _reading_notes(notes)
+    y1_note, y2_note, y3_note = report_reading_notes(notes)
     assert "of 61 sample times (it is sampled every dt, with samples missing there): " in y1_note
     assert "(it is sampled every 0.2 s (median), 2 steps of dt): " in y2_note
     assert "(it is sampled every 0.3 s (median), 3 steps of dt): " in y3_note
