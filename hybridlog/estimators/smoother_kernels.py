@@ -87,7 +87,7 @@ above the subnormal range, so every term keeps full precision); below it, the lo
 NEGLIGIBLE_WEIGHT = 1e-16
 """Smallest smoothed probability ``μ^s_j(k+1)`` of a next mode whose RTS step is taken, and of
 a pair ``p_ij(k)`` whose step expectation correction takes (below it the forward estimate
-stands; the module docstring bounds what that changes).  Below half the spacing of doubles
+stands; smoothing's docstring bounds what that changes).  Below half the spacing of doubles
 at 1 (``2^-53 ≈ 1.1e-16``): added to the probabilities it is weighed against, which sum to 1,
 it changes no bit of the sum."""
 
@@ -218,7 +218,7 @@ def rts_step(
     to 0, where ``P^-`` is not positive definite, or where ``P^s(k+1)`` is wider than ``P^-``
     (by more than :data:`GUARD_TOLERANCE` of its trace): the exact smoother never has that,
     and a collapsed mixture that does would widen the estimate backwards (through ``F⁻¹`` when
-    ``Q`` is small; the module docstring); or where the rounding probe is past
+    ``Q`` is small; smoothing's docstring); or where the rounding probe is past
     :data:`ROUNDING_LIMIT` of the step's standard deviation of a state.  (The IMM smoothers
     also refuse a ``P^s`` that is not PSD, :func:`semidefinite_step`; the k-best path's
     smoother keeps its covariances PSD in its own way.)
@@ -460,7 +460,7 @@ def kim_backward(
     out: FilterBuffers,
     fallbacks: FloatArray,
 ) -> None:
-    """Rows ``0 … N−2`` of the smoothed result (the module docstring), compiled on first use.
+    """Rows ``0 … N−2`` of the smoothed result (smoothing's docstring), compiled on first use.
 
     ``mu`` are the filtered mode probabilities, ``store`` what the forward pass kept (read
     only: the smoothed per-mode estimates of the next sample are carried in arrays).  Row
@@ -699,14 +699,14 @@ def ec_backward(
     out: FilterBuffers,
     fallbacks: FloatArray,
 ) -> None:
-    """Rows ``0 … N−2`` of expectation correction's smoothed result (the module docstring).
+    """Rows ``0 … N−2`` of expectation correction's smoothed result (smoothing's docstring).
 
     ``store`` holds the filtered per-mode ``x̂_i(k|k)``, ``P_i(k|k)`` in every row (the IMM's
     ``filtered_store``), ``mu`` the filtered mode probabilities; ``corrected[j]`` whether the
     weights of next mode ``j`` take the density of the smoothed state (its process noise
     positive definite), else Kim's, and ``ceilings[j]`` the largest log density a pair into it
     can give (:func:`density_ceilings`), by which a pair is left out unpredicted where its
-    weight cannot reach :data:`NEGLIGIBLE_WEIGHT` (the module docstring, "pairs that carry
+    weight cannot reach :data:`NEGLIGIBLE_WEIGHT` (smoothing's docstring, "pairs that carry
     no weight").  ``fallbacks`` (:data:`FALLBACKS_WIDTH` zeros) gets the
     samples where a pair step that carries weight (``p_ij(k)`` at least
     :data:`NEGLIGIBLE_WEIGHT`) left its forward estimate standing, by cause
@@ -1030,7 +1030,7 @@ def positive_definite_noise(model: HybridModel) -> BoolArray:
 
     Expectation correction weighs next mode ``j`` by the density of the smoothed state only
     where it is: without process noise the density of ``x̂^s_j(k+1)`` under ``F P_i Fᵀ`` is
-    nearly singular and decides by rounding (module docstring).
+    nearly singular and decides by rounding (smoothing's docstring).
     """
     definite = np.zeros(model.n_modes, dtype=np.bool_)
     for j, mode in enumerate(model.modes):

@@ -173,7 +173,7 @@ def _mode_recursion_source(
       c̄_j``, ``a_ij = Π_ij q_j`` (``= p_ij / μ_i``), ``s_i = Σ_j a_ij``, ``μ^s_i ∝ μ_i s_i``,
       ``w_{j|i} = a_ij / s_i`` and ``log μ^s_i = log(μ^s_i)``: the log space adds no range
       there (no ``exp``, ``n_q`` ``log``);
-    * else the log-space recursion of the module docstring as :func:`kim_backward` computes
+    * else the log-space recursion of smoothing's docstring as :func:`kim_backward` computes
       it, with fewer ``exp``: ``log c̄_j`` as the log of the linear sum (``μ(k)`` is stored
       linear) unless it is below :data:`LINEAR_FLOOR`, and ``w_{j|i}``, ``μ^s_i`` as the exps
       each log-sum-exp already took, normalised (:func:`_log_sum_exp_parts`).
@@ -865,7 +865,7 @@ def _ec_weights(
     ``μ^s_j Π_ij μ_i / Σ_i Π_ij μ_i`` with no ``exp`` (``kim_linear[i] = μ_i Π_ij``), or
     from the logs where ``Σ_i Π_ij μ_i`` is below :data:`LINEAR_FLOOR` (``weighed`` is
     updated to say which).  The loop's log-space weights to rounding, except where they are
-    below some 1e-300 (the module docstring).
+    below some 1e-300 (smoothing's docstring).
     """
     n_q = len(prior)
     pair, carries = names
@@ -904,7 +904,7 @@ def generate_ec_smoother_source(model: HybridModel) -> str:
 
     Defines ``imm_smooth_ec(inputs, transitions, log_T, mu, store, out, fallbacks)``,
     counting the samples whose steps fell back into ``fallbacks`` as :func:`ec_backward`
-    does: the same backward pass (the module docstring) with the mode functions, the process
+    does: the same backward pass (smoothing's docstring) with the mode functions, the process
     noise and the small matrix products written out, the pair steps as functions of each
     next mode, defined before it and called once per pair that needs them: stage 1's
     prediction and density and stage 3's correction of that prediction, which stage 1 leaves
