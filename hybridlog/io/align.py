@@ -183,13 +183,25 @@ def grid_span(
         When the series do not overlap or one of them is empty.
     """
     t0, t_last = _first_and_last(starts, ends, source, dt_ns, held)
-    return t0, t_last + (dt_ns // 2 + clock_tolerance_ns(dt_ns) if ends else 0)
+    return t0, _span_end(dt_ns, t_last, bool(ends))
+
+
+def _span_end(dt_ns: int, t_last: int, bounded_by_ends: bool) -> int:
+    """The last time (ns) a grid point may reach (:func:`grid_span`).
+
+    ``t_last`` is the earliest last sample of the series bounding the end: half a step past
+    it when outputs bound the end, else itself.
+    """
+    return t_last + (dt_ns // 2 + clock_tolerance_ns(dt_ns) if bounded_by_ends else 0)
 
 
 def _from_tick(time_ns: IntArray, tick_ns: int, dt_ns: int) -> IntArray:
     """Each sample's signed offset (ns) from the nearest tick ``tick_ns + k*dt``."""
     half = dt_ns // 2
-    offset: IntArray = (time_ns - tick_ns + half) % dt_ns - half
+    offset: IntArray = time_ns - tick_ns  # one array, worked in place
+    offset += half
+    offset %= dt_ns
+    offset -= half
     return offset
 
 
@@ -282,10 +294,13 @@ def _grid_start(start_ns: int, starts: Sequence[Series], held: Sequence[Series],
     tick is within the clock tolerance of it, to the nanosecond.
     """
     clock = held_clock(held, dt_ns)
-    if clock is None or all(
-        int(np.abs(_from_tick(s.time_ns, start_ns, dt_ns)).max()) <= clock.reach for s in held
-    ):
-        return start_ns  # no clock, or the start is on it: no output's median is needed
+    if clock is None or (start_ns - clock.tick) % dt_ns == 0:
+        # no clock, or the start is one of its ticks: every held sample's offset from the
+        # start's grid is its offset from the clock's ticks, which held_clock found within
+        # the clock's reach (a second pass over them took as long as held_clock's)
+        return start_ns
+    if all(int(np.abs(_from_tick(s.time_ns, start_ns, dt_ns)).max()) <= clock.reach for s in held):
+        return start_ns  # the start is on the clock: no output's median is needed
     others = [s for s in starts if all(s is not h for h in held)]
     if not all(_around(s, clock.tick, dt_ns) for s in others):
         return start_ns
@@ -358,9 +373,18 @@ def make_grid(
         When the series do not overlap or one of them is empty.
     """
     dt_ns = step_ns(dt)
-    step = dt * NS_PER_S
     t0, t_last = _first_and_last(starts, ends, source, dt_ns, on_whole_ns(held, dt))
-    n = _last_grid_index(dt, t_last - t0, bool(ends)) + 1
+    return grid_between(dt, t0, t_last, bool(ends))
+
+
+def grid_between(dt: float, t0: int, t_last: int, bounded_by_ends: bool) -> IntArray:
+    """The grid ``t0 + k*dt`` (ns) of :func:`make_grid`, its first and last times known.
+
+    ``t_last``: the earliest last sample of the series bounding the end, outputs when
+    ``bounded_by_ends`` (:func:`_last_grid_index`).
+    """
+    step = dt * NS_PER_S
+    n = _last_grid_index(dt, t_last - t0, bounded_by_ends) + 1
     # Built in place: one array, the same values as t0 + offsets.
     if step == round(step):  # whole nanoseconds: exact integer steps, and faster
         grid: IntArray = np.arange(n, dtype=np.int64)
@@ -741,9 +765,12 @@ def _longest_hold(
     first, last = int(grid_ns[0]), int(grid_ns[-1])
     starts, ends = time_ns[:-1], time_ns[1:]
     threshold = _gap_threshold(max_gap_ns, dt_ns)  # a sample held for one step is no hold
-    long = longer_than_max_gap(ends - starts, threshold, dt_ns) & (ends > first) & (starts < last)
-    pairs = zip(starts[long], ends[long], strict=True)
-    candidates = [(int(b - a), int(a), int(b)) for a, b in pairs]
+    steps = ends - starts
+    candidates: list[tuple[int, int, int]] = []
+    if steps.size and longer_than_max_gap(int(steps.max()), threshold, dt_ns):  # else none is
+        long = longer_than_max_gap(steps, threshold, dt_ns) & (ends > first) & (starts < last)
+        pairs = zip(starts[long], ends[long], strict=True)
+        candidates = [(int(b - a), int(a), int(b)) for a, b in pairs]
     if last > int(time_ns[-1]) and longer_than_max_gap(last - int(time_ns[-1]), threshold, dt_ns):
         candidates.append((last - int(time_ns[-1]), int(time_ns[-1]), last))
     if not candidates:
@@ -904,7 +931,10 @@ def _output_grid(
     output_list = list(outputs.values())
     held_signals = [*inputs.values(), *commands.values()]
     starts, ends = [*held_signals, *output_list], output_list or held_signals
-    span = grid_span(dt_ns, starts, ends, held=on_whole_ns(held_signals, dt), source=source)
+    # make_grid's first and last times, found once (the held signals' clock is a pass over
+    # their samples): the span of grid_span, then the grid
+    t0, t_last = _first_and_last(starts, ends, source, dt_ns, on_whole_ns(held_signals, dt))
+    span = t0, _span_end(dt_ns, t_last, bool(ends))
     for symbol, series in outputs.items():
         gap = _gap_on_the_grid(series, span, dt_ns, max_gap_ns)
         if gap is not None:
@@ -919,7 +949,7 @@ def _output_grid(
                 dt_ns,
                 dropped=dropped.get(symbol),
             )
-    return make_grid(dt, starts, ends, held=held_signals, source=source)
+    return grid_between(dt, t0, t_last, bool(ends))
 
 
 def _split_at_refused_gaps(

@@ -45,6 +45,16 @@ def beyond_exact(values: FloatArray) -> np.ndarray[Any, np.dtype[np.bool_]]:
     return found
 
 
+def any_beyond_exact(values: FloatArray) -> bool:
+    """Whether any of ``values`` is :func:`beyond_exact`, or NaN.
+
+    Their least and greatest values alone (no array of N magnitudes, nor of N answers):
+    a NaN among them makes both NaN, and the answer ``True``, for :func:`beyond_exact` to
+    look again.
+    """
+    return bool(values.size) and not (values.min() > -EXACT_LIMIT and values.max() < EXACT_LIMIT)
+
+
 def inexact(value: object) -> str | None:
     """Why ``value`` (a decoded number, or a CSV cell's text) is not what its ``float64`` is.
 

@@ -55,7 +55,8 @@ def seconds_resolution_ns(
     """
     if seconds.size == 0:
         return 1.0
-    largest = float(np.max(np.abs(seconds)))
+    # from the least and greatest (no array of N magnitudes); NaN if any is NaN
+    largest = float(np.max(np.abs([np.min(seconds), np.max(seconds)])))
     spacing = float(np.spacing(kind(largest)))
     return max(spacing * 1e9, 1.0) if math.isfinite(spacing) else 1.0
 

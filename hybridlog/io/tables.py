@@ -30,13 +30,18 @@ from types import TracebackType
 from typing import Any, Self
 
 import numpy as np
-import numpy.typing as npt
 
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.align import clock_tolerance_ns
 from hybridlog.io.csv_encoding import refuse_not_utf8
 from hybridlog.io.csv_tally import BOOLEANS, ColumnTally, csv_blocks, stripped_cells
-from hybridlog.io.exact import EXACT_LIMIT, WHOLE_NUMBER, beyond_exact, inexact
+from hybridlog.io.exact import (
+    EXACT_LIMIT,
+    WHOLE_NUMBER,
+    any_beyond_exact,
+    beyond_exact,
+    inexact,
+)
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
@@ -382,7 +387,12 @@ class TableSource:
             else:
                 taken = frame.get_column(name)
             column = self._to_float(taken, rows)
-            self._refuse_inexact(taken, column, rows)
+            # copied into the block from polars' chunks (a CSV log's blocks of lines), one
+            # copy, and the 2^53 check looks at the copy: converted to NumPy twice, the
+            # chunks were first put end to end in an array of their own, each time
+            whole = column.null_count() == 0 and not repeats
+            held = block.take(column) if whole else None
+            self._refuse_inexact(taken, column, rows, held)
             del taken
             if (
                 self._format == "csv"
@@ -390,9 +400,8 @@ class TableSource:
                 and column.is_infinite().any()
             ):
                 self._refuse_overflow(column, rows)
-            if column.null_count() == 0 and not repeats:
-                values: FloatArray = block.take(column.to_numpy())
-                numeric_series[name] = Series(name, time_ns, values)
+            if held is not None:
+                numeric_series[name] = Series(name, time_ns, held)
                 self._rows[name] = rows
                 continue
             present = column.is_not_null().to_numpy()
@@ -440,12 +449,18 @@ class TableSource:
                 f"{excerpt(written[first], 40)} is beyond the range of a float64 (about 1.8e308)"
             )
 
-    def _refuse_inexact(self, taken: pl.Series, column: pl.Series, rows: IntArray) -> None:
+    def _refuse_inexact(
+        self,
+        taken: pl.Series,
+        column: pl.Series,
+        rows: IntArray,
+        values: FloatArray | None = None,
+    ) -> None:
         """Refuse a number ``column`` (``taken`` as ``Float64``) does not hold (:mod:`.exact`).
 
         An ``int64``/``uint64`` or decimal Parquet value, or a CSV cell written as a whole
         number, beyond 2^53 lost its last digits as a ``float64``.  Only the cells whose
-        value reached 2^53 are looked at again.
+        value reached 2^53 are looked at again.  ``values``: ``column`` as NumPy, if at hand.
 
         Raises
         ------
@@ -457,7 +472,11 @@ class TableSource:
             or (taken.dtype.is_integer() and taken.dtype not in _NARROW_INTEGERS)
         ):
             return
-        found = np.flatnonzero(beyond_exact(column.to_numpy()))
+        if values is None:
+            values = column.to_numpy()
+        if not any_beyond_exact(values):
+            return
+        found = np.flatnonzero(beyond_exact(values))
         if not found.size:
             return
         found = found[np.argsort(rows[found], kind="stable")]  # in the file's order
@@ -1104,12 +1123,19 @@ class _ColumnBlock:
         self._block: FloatArray | None = None
         self._used = 0
 
-    def take(self, values: npt.NDArray[Any]) -> FloatArray:
-        """A copy of ``values`` (float64) in the next row of the block."""
+    def take(self, values: pl.Series) -> FloatArray:
+        """A copy of ``values`` (``Float64``, no nulls) in the next row of the block.
+
+        Copied a chunk at a time (each a NumPy view of polars' memory), with no array of
+        them put end to end in between.
+        """
         if self._block is None:
             self._block = np.empty(self._shape, dtype=np.float64)
         row: FloatArray = self._block[self._used]
-        row[:] = values
+        start = 0
+        for chunk in values.get_chunks():
+            row[start : start + chunk.len()] = chunk.to_numpy()
+            start += chunk.len()
         self._used += 1
         return row
 

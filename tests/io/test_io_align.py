@@ -526,6 +526,7 @@ def test_a_log_in_nanoseconds_is_refused_before_its_grid_is_made(monkeypatch) ->
         raise AssertionError("the grid was made before the gap was seen")
 
     monkeypatch.setattr(align, "make_grid", no_grid)
+    monkeypatch.setattr(align, "grid_between", no_grid)
     stamps = np.arange(50) * 100_000_000.0  # nanoseconds, taken as seconds
     with pytest.raises(
         LogError,
