@@ -8,7 +8,7 @@ import numpy as np
 
 from hybridlog.io.align import align_signals
 from hybridlog.io.source import Series, seconds_to_ns
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 
 UNIX = 1_700_000_000.0
 
@@ -30,7 +30,7 @@ def test_a_hold_and_a_span_left_out_of_a_unix_time_log_are_to_the_microsecond() 
     held, start = notes["held"]["u"], notes["span"]["start"]
     assert (held["end"] - held["start"], start["at"] - start["log"]) != (29.54, 2.03)
     assert (held["seconds"], start["left_out"]) == (29.54, 2.03)
-    said = _reading_notes(notes)
+    said = report_reading_notes(notes)
     assert any("the longest from t = 1700000010.49 to 1700000040.03 s (29.54 s)" in n for n in said)
     assert any(n.endswith(": 2.03 s of the log not analysed") for n in said)
 
@@ -42,7 +42,7 @@ def test_a_long_hold_is_written_to_its_digits_not_to_six() -> None:
         "held": {"u": {"start": UNIX + 0.25, "end": UNIX + 123457.0, "seconds": 123456.75}},
         "truth_held": {"mode": {"start": UNIX, "end": UNIX + 0.51, "seconds": 0.509999762}},
     }
-    said = _reading_notes(notes)
+    said = report_reading_notes(notes)
     assert "(123456.75 s, longer than max_gap)" in said[0]
     assert "(0.51 s, longer than max_gap)" in said[1]
 

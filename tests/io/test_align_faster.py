@@ -12,7 +12,7 @@ import numpy as np
 
 from hybridlog.io.align import align_signals
 from hybridlog.io.source import Series
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 
 SECOND = 1_000_000_000
 
@@ -37,7 +37,7 @@ def test_a_ten_times_faster_log_is_counted_and_said() -> None:
         "u": {"kind": "input", "samples": 301, "points": 31},
         "y": {"kind": "output", "samples": 301, "points": 31},
     }
-    (said,) = [n for n in _reading_notes(notes) if "sample times analysed" in n]
+    (said,) = [n for n in report_reading_notes(notes) if "sample times analysed" in n]
     assert said.startswith(
         "NOTE: input u, output y each have 301 samples over the 31 sample times analysed "
         "(9.71 a sample time): each sample time takes one (the last at or before it or the "
@@ -49,5 +49,5 @@ def test_a_log_at_the_grids_rate_or_slower_gets_no_note() -> None:
     assert "faster" not in _align(SECOND)
     notes = _align(SECOND, output_step_ns=SECOND // 2)  # only the output is faster
     assert notes["faster"] == {"y": {"kind": "output", "samples": 61, "points": 31}}
-    (said,) = [n for n in _reading_notes(notes) if "sample times analysed" in n]
+    (said,) = [n for n in report_reading_notes(notes) if "sample times analysed" in n]
     assert said.startswith("NOTE: output y has 61 samples") and "(the nearest, SPEC" in said

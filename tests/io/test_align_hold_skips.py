@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
 
@@ -41,7 +41,7 @@ def test_an_input_jittering_by_up_to_half_a_step_is_warned(tmp_path: Path) -> No
     taken = signals.inputs[:, 0]
     np.testing.assert_array_equal(taken[1:5], [0, 2, 2, 4])
     assert notes["skipped"] == {"u": {"kind": "input", "samples": 39, "unused": 19, "points": 40}}
-    (said,) = (n for n in _reading_notes(notes) if "not used" in n)
+    (said,) = (n for n in report_reading_notes(notes) if "not used" in n)
     assert said.startswith(
         "NOTE: input u: 19 of its 39 samples over the 40 sample times analysed are not "
         "used: each sample time takes the last sample at or before it (SPEC §5)"

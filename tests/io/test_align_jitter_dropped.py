@@ -15,7 +15,7 @@ import pytest
 
 from hybridlog.io.align import align_signals
 from hybridlog.io.source import LabelSeries, Series
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 from hybridlog.signals import NO_TRUE_MODE
 
 N, DT_NS = 300, 10_000_000
@@ -59,10 +59,10 @@ def test_dropped_samples_hold_the_one_before_and_the_others_take_their_own() -> 
     assert notes["jitter_held"] == {"input u": {"points": 4, "of": N}}  # the mode holds none
     assert notes["truth_gaps"]["mode"]["points"] == 4
     assert notes["truth_gaps"]["mode"]["gaps"] == 3
-    said = " ".join(_reading_notes(notes))
+    said = " ".join(report_reading_notes(notes))
     assert "4 of 300 sample times have no sample of their own (dropped by the log) and hold" in said
     notes["jitter_held"]["input u"]["points"] = 1
-    said = " ".join(_reading_notes(notes))
+    said = " ".join(report_reading_notes(notes))
     assert "1 of 300 sample times has no sample of its own (dropped by the log) and holds" in said
 
 

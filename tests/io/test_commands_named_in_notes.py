@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 
 SPEC = SignalSpec(
     inputs=("u",),
@@ -48,7 +48,7 @@ def test_a_command_held_across_split_gaps_is_a_command(tmp_path: Path) -> None:
     assert notes["held"] == {
         "cmd": {"start": 2.9, "end": 9.9, "seconds": 7.0, "holds": 1, "kind": "command"}
     }
-    said = [n for n in _reading_notes(notes) if "held at its last value" in n]
+    said = [n for n in report_reading_notes(notes) if "held at its last value" in n]
     assert said == [
         "WARNING: command cmd has no sample from t = 2.9 to 9.9 s (7 s, longer than max_gap): "
         "held at its last value, as a command published only when it changes is "
@@ -78,6 +78,6 @@ def test_a_jittering_and_a_fast_command_are_named_commands(tmp_path: Path) -> No
     notes = {}
     load_signals(write(tmp_path / "fast.csv", rows), SPEC, ReadOptions(sort=True), notes=notes)
     assert notes["faster"]["cmd"]["kind"] == "command"
-    (said,) = (n for n in _reading_notes(notes) if "samples over" in n)
+    (said,) = (n for n in report_reading_notes(notes) if "samples over" in n)
     assert said.startswith("NOTE: command cmd has ")
     assert "(the last at or before it, SPEC §5)" in said

@@ -19,7 +19,7 @@ import pytest
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.report.build import _reading_notes
+from hybridlog.report.reading_notes import report_reading_notes
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
 
@@ -43,7 +43,7 @@ def test_an_output_without_its_first_and_last_samples_says_the_span_moved(
         "start": {"signal": "output 'y' (column 'y')", "at": 0.1, "dropped": 1, "from": 0.0},
         "end": {"signal": "output 'y' (column 'y')", "at": 1.8, "dropped": 1, "from": 1.9},
     }
-    said = [n for n in _reading_notes(notes) if "--drop-nonfinite kept" in n]
+    said = [n for n in report_reading_notes(notes) if "--drop-nonfinite kept" in n]
     assert said == [
         "NOTE: the analysed span starts at t = 0.1 s, the first sample --drop-nonfinite kept "
         "of output 'y' (column 'y'): it dropped the 1 sample before it (from t = 0 s)",

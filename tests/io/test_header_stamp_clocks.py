@@ -25,7 +25,7 @@ from rosbags.typesys import Stores, get_typestore
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 from hybridlog.io.inspect import format_inspection
-from hybridlog.report.build import log_reading_notes
+from hybridlog.report.reading_notes import log_reading_notes
 from tests.support.logfiles import STAMPED_DEFINITION
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)

@@ -325,7 +325,7 @@ def test_split_gaps_analyses_the_longest_piece_and_records_the_pieces() -> None:
 def test_grid_points_bridged_across_short_gaps_are_counted_and_reported() -> None:
     """A log sampled every 1 s on a model of dt 0.37 s: most grid points reuse a sample
     more than dt/2 away (within max_gap), which the report now warns of."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     y = series("y", np.arange(11) * 1.0, np.arange(11) * 1.0)
     notes: dict[str, object] = {}
@@ -334,11 +334,11 @@ def test_grid_points_bridged_across_short_gaps_are_counted_and_reported() -> Non
     assert notes["bridged"] == {
         "y": {"points": int(far.sum()), "of": aligned.n_samples, "every": 1.0, "steps": 2.7}
     }
-    (warning,) = _reading_notes(notes)
+    (warning,) = report_reading_notes(notes)
     assert warning.startswith(f"WARNING: output y has no sample within dt/2 of {int(far.sum())} of")
     plain: dict[str, object] = {}
     align_signals(source="s", dt=1.0, inputs={}, outputs={"y": y}, notes=plain)
-    assert plain == {} and _reading_notes(plain) == ()
+    assert plain == {} and report_reading_notes(plain) == ()
 
 
 def test_split_gaps_without_gaps_changes_nothing() -> None:
@@ -587,14 +587,14 @@ def test_the_early_gap_check_refuses_only_what_the_grid_check_refuses(
 def test_the_split_gaps_note_of_a_gap_at_an_end_of_the_log() -> None:
     """A long gap only at an end of the log left one piece, and the note read 'cut the log
     into 1 pieces; ... not analysed: ' with nothing after it."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     notes = {
         "segments": [{"start": 0.0, "end": 10.0}],
         "analysed_segment": 0,
         "gaps": [{"start": 10.0, "end": 40.0}],
     }
-    assert _reading_notes(notes) == (
+    assert report_reading_notes(notes) == (
         "NOTE: --split-gaps: 1 output gap longer than max_gap (t = 10 … 40 s) left out; "
         "analysed: t = 0 … 10 s",
     )
@@ -603,7 +603,7 @@ def test_the_split_gaps_note_of_a_gap_at_an_end_of_the_log() -> None:
 def test_true_states_bridged_across_short_gaps_are_counted_and_reported() -> None:
     """A true state with a 3 s hole (within max_gap) took its values from the samples around
     it, as an output does, but with no note: the scores against it read as measured."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     grid = np.arange(11) * 1.0
     kept = np.delete(grid, [4, 5])
@@ -621,14 +621,14 @@ def test_true_states_bridged_across_short_gaps_are_counted_and_reported() -> Non
     # the points without a sample are not the truth: NaN, so no RMSE scores them
     np.testing.assert_array_equal(aligned.truth_states[3:7, 0], [3, np.nan, np.nan, 6])
     assert notes == {"truth_bridged": {"x1": {"points": 2, "of": 11}}}
-    (warning,) = _reading_notes(notes)
+    (warning,) = report_reading_notes(notes)
     assert warning.startswith("WARNING: true state x1 has no sample within dt/2 of 2 of 11")
 
 
 def test_a_signal_that_ends_the_grid_early_is_named_in_the_reading_notes() -> None:
     """One output ending at 10 s of a 40 s log cut the report's span to 10 s, which read as
     the whole log's; a late start the same (the other end of the grid)."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     seconds = np.round(np.arange(0.0, 40.01, 0.1), 10)
     early = seconds[seconds <= 10.0]
@@ -659,7 +659,7 @@ def test_a_signal_that_ends_the_grid_early_is_named_in_the_reading_notes() -> No
             },
         }
     }
-    assert _reading_notes(notes) == (
+    assert report_reading_notes(notes) == (
         "NOTE: the analysed span starts at t = 2 s, the first sample of input 'u' (field "
         "'cmd'); the inputs and outputs begin at t = 0 s: 2 s of the log not analysed",
         "NOTE: the analysed span ends at t = 10 s, the last sample of output 'y2' (field "
@@ -682,7 +682,7 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
     """An input whose topic stopped at 10 s while the outputs ran to 40 s was held for 30 s
     without a word; held it stays (SPEC §5: a command published on change is held so), and the
     reading notes the longest hold over max_gap for the report to say."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     seconds = np.round(np.arange(0.0, 40.01, 0.1), 10)
     y = series("level", seconds, np.cos(seconds))
@@ -692,7 +692,7 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
     aligned = align_signals(source="log", dt=0.1, inputs={"u": u}, outputs={"y": y}, notes=notes)
     assert aligned.inputs[-1, 0] == 4.0 and aligned.inputs[55, 0] == 2.0
     assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 4}}
-    assert _reading_notes(notes) == (
+    assert report_reading_notes(notes) == (
         "WARNING: input u has no sample in 4 stretches longer than max_gap, the longest from "
         "t = 10 to 40 s (30 s): held at its last value, as an input published only when it "
         "changes is (zero-order hold)",
@@ -708,7 +708,7 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
         source="log", dt=0.1, inputs={"u": series("cmd", [0.0, 0.3, 0.6], [1.0, 2.0, 3.0])},
         outputs={"y": y}, notes=notes,
     )  # fmt: skip
-    assert _reading_notes(notes) == (
+    assert report_reading_notes(notes) == (
         "WARNING: input u has no sample from t = 0.6 to 40 s (39.4 s, longer than max_gap): "
         "held at its last value, as an input published only when it changes is (zero-order "
         "hold)",
@@ -725,7 +725,7 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
 def test_an_input_held_over_many_stretches_is_counted_not_named_as_one_gap() -> None:
     """An input sampled every 10 steps (max_gap 5) read "no sample from t = 290 to 300 s",
     its last hold, as if it had one gap; the note now counts the holds over max_gap."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     seconds = np.arange(0.0, 301.0)
     y = series("level", seconds, np.cos(seconds))
@@ -739,7 +739,7 @@ def test_an_input_held_over_many_stretches_is_counted_not_named_as_one_gap() -> 
     )
     assert notes["held"] == {"u": {"start": 290.0, "end": 300.0, "seconds": 10.0, "holds": 30}}
     assert notes["truth_held"]["mode"]["holds"] == 3
-    said = _reading_notes(notes)
+    said = report_reading_notes(notes)
     assert said[0].startswith(
         "WARNING: input u has no sample in 30 stretches longer than max_gap, the longest from "
         "t = 290 to 300 s (10 s): held"
@@ -753,7 +753,7 @@ def test_an_input_held_over_many_stretches_is_counted_not_named_as_one_gap() -> 
 def test_a_true_mode_held_longer_than_max_gap_is_noted() -> None:
     """A true mode that stopped at 10 s of a 40 s log was held for 30 s, and the mode accuracy
     scored those samples against the held label without a word; the hold is now noted."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     seconds = np.round(np.arange(0.0, 40.01, 0.1), 10)
     y = series("level", seconds, np.cos(seconds))
@@ -769,7 +769,7 @@ def test_a_true_mode_held_longer_than_max_gap_is_noted() -> None:
     assert notes["truth_held"] == {
         "mode": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 3}
     }
-    (note,) = _reading_notes(notes)
+    (note,) = report_reading_notes(notes)
     assert note.startswith(
         "NOTE: the true mode has no sample in 3 stretches longer than max_gap, the longest "
         "from t = 10 to 40 s (30 s): held"

@@ -32,7 +32,7 @@ import pytest
 from hybridlog.cli import main
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
-from hybridlog.report.build import log_reading_notes
+from hybridlog.report.reading_notes import log_reading_notes
 from tests.support.logfiles import (
     EVENT_TYPE,
     LOG_TYPE,

@@ -118,7 +118,7 @@ def test_report_json_lists_the_first_pieces_counted_and_flagged(
 def test_the_note_counts_every_piece_with_thousands_separators() -> None:
     """'19,999 output gaps ... and 19994 more': one count formatted, the other not, and the
     counts were those of report.json's lists, which no longer hold every piece."""
-    from hybridlog.report.build import _reading_notes
+    from hybridlog.report.reading_notes import report_reading_notes
 
     gaps = [{"start": 10.0 + 2 * k, "end": 11.0 + 2 * k} for k in range(5)]
     pieces = [{"start": 9.0 + 2 * k, "end": 10.0 + 2 * k, "duration": 1.0} for k in range(5)]
@@ -132,7 +132,7 @@ def test_the_note_counts_every_piece_with_thousands_separators() -> None:
         "gap_count": 19_999,
         "gaps_truncated": True,
     }
-    (note,) = _reading_notes(reading)
+    (note,) = report_reading_notes(reading)
     assert note.startswith("NOTE: --split-gaps: 19,999 output gaps longer than max_gap (t = 10")
     assert "… 19 s and 19,994 more) cut the log into 20,000 pieces; the longest is " in note
     assert note.endswith(
