@@ -37,7 +37,6 @@ from hybridlog.cli_lines import (
 )
 from hybridlog.cli_options import (
     _analysis_options,
-    _Context,
     _estimator_option,
     _force_option,
     _global_flags,
@@ -47,6 +46,7 @@ from hybridlog.cli_options import (
     _read_options_given,
     _set_option,
     _split_options,
+    is_quiet,
 )
 from hybridlog.cli_process import _one_bounded_job, run
 from hybridlog.cli_progress import _batch_progress, _batch_reporter, _BatchClock, _work_reporter
@@ -165,10 +165,8 @@ which ros2 bag reads from Humble on.
 )
 @click.version_option(__version__, prog_name="hybridlog")
 @_global_flags
-@click.pass_context
-def cli(ctx: click.Context) -> None:
+def cli() -> None:
     """The command group; its help is :data:`_HELP_HYBRIDLOG`."""
-    ctx.ensure_object(_Context)
     # before any command imports numba or polars, here or in its workers
     check_environment()
     check_working_folder()
@@ -328,8 +326,7 @@ def simulate(
             settings=sets,
         )
     _say(ctx, f"wrote {_path_text(out)} ({plural(outcome.samples, 'sample')})")
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):
+    if not is_quiet(ctx):
         for note in outcome.notes:
             click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
 
@@ -401,8 +398,7 @@ def cluster_command(
     for note in outcome.notes:
         _say(ctx, f"- {note}")
     _say(ctx, f"centres: {_path_text(outcome.centers_path)}, plot: {_path_text(outcome.plot_path)}")
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):  # as analyze says them of the log
+    if not is_quiet(ctx):  # as analyze says them of the log
         for alert in outcome.alerts:
             click.echo(_one_line(f"hybridlog: {alert}"), err=True)
 
@@ -453,8 +449,7 @@ def analyze_command(
     report = outcome.report
     _say(ctx, _summary_line(report))
     _say(ctx, f"report: {_path_text(outcome.out_dir / 'report.md')}")
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):  # every kind, as batch and compare count
+    if not is_quiet(ctx):  # every kind, as batch and compare count
         from hybridlog.report.markdown import WARNING_PREFIX
         from hybridlog.report.summary import warning_notes
 
@@ -517,8 +512,7 @@ def compare_command(
         reports = (_path_text(out_dir / name / "report.md") for name in outcome.reports)
         _say(ctx, f"reports: {', '.join(reports)}")
     _say(ctx, f"comparison: {_path_text(out_dir / 'comparison.md')}")
-    settings = ctx.find_object(_Context)
-    quiet = settings is not None and settings.quiet
+    quiet = is_quiet(ctx)
     if outcome.reports and not quiet:  # one log: every report read it alike
         _echo_unused_samples(next(iter(outcome.reports.values())))
     for reach in [] if quiet else outcome.reach:  # a tuned estimator beside untuned ones
@@ -650,11 +644,11 @@ def batch_command(
     _say(ctx, outcome.table)
     _say(ctx, f"summary: {_path_text(out_dir / 'summary.md')}")
     waited = outcome.waited_for_memory
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):
+    quiet = is_quiet(ctx)
+    if not quiet:
         for note in outcome.notes:
             click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
-    if waited and not (settings is not None and settings.quiet):
+    if waited and not quiet:
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(
             f"hybridlog: note: {len(waited)} of {len(outcome.logs)} logs waited {seconds:.0f} s "
@@ -664,7 +658,7 @@ def batch_command(
             err=True,
         )
     warned = outcome.warned
-    if warned and not (settings is not None and settings.quiet):  # one line, not one a log
+    if warned and not quiet:  # one line, not one a log
         analysed = sum(1 for log in outcome.logs if log.report is not None)
         have = _have_warnings(len(warned), analysed, "analysed log")
         click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'summary.md'}"), err=True)

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from hybridlog.cli_options import _Context
+from hybridlog.cli_options import is_quiet
 from hybridlog.errors import as_text, excerpt
 
 if TYPE_CHECKING:
@@ -26,8 +26,7 @@ MAX_MESSAGE = 400
 
 
 def _say(ctx: click.Context, text: str) -> None:
-    settings = ctx.find_object(_Context)
-    if settings is None or not settings.quiet:
+    if not is_quiet(ctx):
         click.echo(_for_terminal(text))
 
 

@@ -1,6 +1,6 @@
 """The options several commands share, each defined once, and the values they give.
 
-``--debug`` and ``--quiet`` (:func:`_global_flags`, kept in the context's :class:`_Context`),
+``--debug`` and ``--quiet`` (:func:`_global_flags`; :func:`is_quiet`),
 ``--model``, ``--estimator``, ``--force``, ``--set``, how a log is read (:func:`_read_options`,
 its values as a :class:`~hybridlog.io.ReadOptions` by :func:`_read_options_given`) and what
 an analysis takes (:func:`_analysis_options`, :func:`_split_options`).
@@ -27,31 +27,45 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 
 class _Context:
-    def __init__(self, debug: bool = False, quiet: bool = False) -> None:
-        self.debug = debug
+    """What ``--quiet`` set, kept in the click context's object (:func:`is_quiet` reads it).
+
+    ``--debug`` is not kept here: :func:`hybridlog.cli_process.run` finds it on the command
+    line itself, where it must also be found when the line does not parse.
+    """
+
+    def __init__(self, quiet: bool = False) -> None:
         self.quiet = quiet
 
 
-def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+def _set_quiet(ctx: click.Context, param: click.Parameter, value: bool) -> None:
     if value:
-        setattr(ctx.ensure_object(_Context), str(param.name), True)
+        ctx.ensure_object(_Context).quiet = True
+
+
+def is_quiet(ctx: click.Context) -> bool:
+    """Whether ``--quiet`` was given, before the subcommand or after it."""
+    settings = ctx.find_object(_Context)
+    return settings is not None and settings.quiet
 
 
 def _global_flags(function: F) -> F:
-    """``--debug`` and ``-q/--quiet``, accepted before and after the subcommand."""
+    """``--debug`` and ``-q/--quiet``, accepted before and after the subcommand.
+
+    ``--debug`` is only accepted here: :func:`hybridlog.cli_process.run` reads it from the
+    command line.
+    """
     function = click.option(
         "--quiet",
         "-q",
         is_flag=True,
         expose_value=False,
-        callback=_set_flag,
+        callback=_set_quiet,
         help="Print only errors.",
     )(function)
     return click.option(
         "--debug",
         is_flag=True,
         expose_value=False,
-        callback=_set_flag,
         help="Show tracebacks of errors.",
     )(function)
 

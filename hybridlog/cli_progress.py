@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from hybridlog.cli_lines import _for_terminal
-from hybridlog.cli_options import _Context
+from hybridlog.cli_options import is_quiet
 from hybridlog.fitted_lines import fitted
 
 if TYPE_CHECKING:
@@ -51,8 +51,7 @@ def _progress(
 
     Without click's ETA: ``show`` says the time left where it can be told.
     """
-    settings = ctx.find_object(_Context)
-    if not _bars_shown(settings is not None and settings.quiet):
+    if not _bars_shown(is_quiet(ctx)):
         yield None
         return
     bar: Any
@@ -234,7 +233,7 @@ def _work_reporter(ctx: click.Context) -> WorkReporter:
 
     from hybridlog.cluster.progress import WorkReporter
 
-    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    quiet = is_quiet(ctx)
     return WorkReporter(
         note=partial(_work_note, quiet),
         bar=partial(_work_progress, quiet),
@@ -253,5 +252,5 @@ def _batch_reporter(ctx: click.Context, clock: _BatchClock) -> WorkReporter:
 
     from hybridlog.cluster.progress import WorkReporter
 
-    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    quiet = is_quiet(ctx)
     return WorkReporter(wait=partial(_clocked_wait, clock, _bars_shown(quiet)))
