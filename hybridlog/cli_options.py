@@ -1,9 +1,9 @@
 """The options several commands share, each defined once, and the values they give.
 
-``--debug`` and ``--quiet`` (:func:`_global_flags`; :func:`is_quiet`),
-``--model``, ``--estimator``, ``--force``, ``--set``, how a log is read (:func:`_read_options`,
-its values as a :class:`~hybridlog.io.ReadOptions` by :func:`_read_options_given`) and what
-an analysis takes (:func:`_analysis_options`, :func:`_split_options`).
+``--debug`` and ``--quiet`` (:func:`global_flags`; :func:`is_quiet`),
+``--model``, ``--estimator``, ``--force``, ``--set``, how a log is read (:func:`read_options`,
+its values as a :class:`~hybridlog.io.ReadOptions` by :func:`read_options_given`) and what
+an analysis takes (:func:`analysis_options`, :func:`split_options`).
 
 Light, as :mod:`hybridlog.cli`: click and hybridlog's light modules only.
 """
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
-from hybridlog.cli_types import _PATH, _Number, _PathName
+from hybridlog.cli_types import PATH, Number, PathName
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
 
@@ -48,7 +48,7 @@ def is_quiet(ctx: click.Context) -> bool:
     return settings is not None and settings.quiet
 
 
-def _global_flags(function: F) -> F:
+def global_flags(function: F) -> F:
     """``--debug`` and ``-q/--quiet``, accepted before and after the subcommand.
 
     ``--debug`` is only accepted here: :func:`hybridlog.cli_process.run` reads it from the
@@ -72,22 +72,24 @@ def _global_flags(function: F) -> F:
 
 # Options shared by several commands: each is defined here once.
 
-_model_option = click.option(
+model_option = click.option(
     "--model",
     "model_ref",
     required=True,
-    type=_PathName(path_type=str),
+    type=PathName(path_type=str),
     metavar="MODEL",
     help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
 )
+"""``--model MODEL``: a built-in model or a model file, for every command that reads a log."""
 
 
-_estimator_option = click.option(
+estimator_option = click.option(
     "--estimator",
     default=None,
     metavar="NAME",
     help="Estimator (listed below) [default: the model's default_estimator].",
 )
+"""``--estimator NAME`` of ``analyze`` and ``batch``: the model's default when not given."""
 
 
 _map_option = click.option(
@@ -100,23 +102,24 @@ _map_option = click.option(
 )
 
 
-_msg_dir_option = click.option(
+msg_dir_option = click.option(
     "--msg-dir",
     "msg_dirs",
     multiple=True,
-    type=_PATH,
+    type=PATH,
     metavar="DIR",
     help="Folder of .msg files (pkg/msg/Name.msg) for message types the log does "
     "not define. Repeatable.",
 )
+"""``--msg-dir DIR``: message definitions for a log that lacks them (``inspect`` too)."""
 
 
-def _force_option(replaces: str) -> Callable[[F], F]:
+def force_option(replaces: str) -> Callable[[F], F]:
     """``--force``: what it replaces differs by command (and never includes an input)."""
     return click.option("--force", is_flag=True, help=f"Replace {replaces}.")
 
 
-def _set_option(what: str) -> Callable[[F], F]:
+def set_option(what: str) -> Callable[[F], F]:
     """``--set NAME=VALUE``: what it may set differs by command."""
     return click.option(
         "--set", "sets", multiple=True, metavar="NAME=VALUE", help=f"{what} Repeatable."
@@ -135,10 +138,10 @@ _SEQUENCES = ", ".join(
 """The estimators with a ``mode_sequence`` option (``--mode-sequence``), from the registry."""
 
 
-def _read_options(function: F) -> F:
+def read_options(function: F) -> F:
     """How a log is read (:class:`~hybridlog.io.ReadOptions`): every command that reads one.
 
-    analyze, compare, batch and cluster; :func:`_read_options_given` builds the options from
+    analyze, compare, batch and cluster; :func:`read_options_given` builds the options from
     the values.  What reading did is recorded under ``reading`` in the command's JSON output
     (``report.json``, ``centers.json``).
     """
@@ -154,7 +157,7 @@ def _read_options(function: F) -> F:
         ),
         click.option(
             "--max-gap",
-            type=_Number(),
+            type=Number(),
             default=None,
             metavar="SECONDS",
             help="Longest tolerated gap in the outputs [default: 5*dt].",
@@ -198,17 +201,17 @@ def _read_options(function: F) -> F:
             "record, and use that (recorded under reading in report.json or centers.json). "
             "Refused for a log of another format; batch applies it to its MCAP files.",
         ),
-        _msg_dir_option,
+        msg_dir_option,
     ]
     for decorator in reversed(decorators):
         function = decorator(function)
     return function
 
 
-def _analysis_options(function: F) -> F:
+def analysis_options(function: F) -> F:
     """Options shared by analyze, compare and batch: the read options, estimation, gates."""
     decorators = [
-        _set_option("Override a model parameter or an estimator option."),
+        set_option("Override a model parameter or an estimator option."),
         click.option(
             "--fail-under",
             multiple=True,
@@ -257,8 +260,8 @@ def _analysis_options(function: F) -> F:
             show_default=True,
             help="Format of timeline and estimates tables.",
         ),
-        _read_options,
-        _force_option(
+        read_options,
+        force_option(
             "an output directory hybridlog wrote before (never a folder holding other "
             "files, never an input)"
         ),
@@ -268,8 +271,8 @@ def _analysis_options(function: F) -> F:
     return function
 
 
-def _read_options_given(options: dict[str, Any]) -> ReadOptions:
-    """The :func:`_read_options` values, taken out of ``options``, as a ``ReadOptions``."""
+def read_options_given(options: dict[str, Any]) -> ReadOptions:
+    """The :func:`read_options` values, taken out of ``options``, as a ``ReadOptions``."""
     from hybridlog.io import ReadOptions
 
     return ReadOptions(
@@ -285,9 +288,9 @@ def _read_options_given(options: dict[str, Any]) -> ReadOptions:
     )
 
 
-def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
-    """The :func:`_analysis_options` values: the read options and the job's keywords."""
-    read = _read_options_given(options)
+def split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
+    """The :func:`analysis_options` values: the read options and the job's keywords."""
+    read = read_options_given(options)
     return read, {
         "sets": tuple(options.pop("sets")),
         "fail_under": tuple(options.pop("fail_under")),

@@ -1,10 +1,10 @@
 """The click building blocks of the command line: parameter types and command classes.
 
-Parameter types read a value strictly (:class:`_PathName`: no empty name, a leading ``~``
-as the shell makes it; :class:`_WholeNumber`, :class:`_Number`: :mod:`hybridlog.numbers`'s
-parsers; :class:`_Jobs`, :class:`_LogFormats`, :func:`_comma_list`).  :class:`_Command`
-refuses an option that takes one value given twice; :class:`_DataclassOptions` makes a
-command's options from an options dataclass, on first use (:class:`_GeneratedOptionsCommand`).
+Parameter types read a value strictly (:class:`PathName`: no empty name, a leading ``~``
+as the shell makes it; :class:`WholeNumber`, :class:`Number`: :mod:`hybridlog.numbers`'s
+parsers; :class:`Jobs`, :class:`LogFormats`, :func:`comma_list`).  :class:`_Command`
+refuses an option that takes one value given twice; :class:`DataclassOptions` makes a
+command's options from an options dataclass, on first use (:class:`GeneratedOptionsCommand`).
 
 Light, as :mod:`hybridlog.cli`: click and hybridlog's light modules only.
 """
@@ -24,7 +24,7 @@ from hybridlog.estimators.options import OptionSource, describe_options, parse_o
 from hybridlog.numbers import parse_float, parse_int
 
 
-class _PathName(click.Path):
+class PathName(click.Path):
     """A file or folder name; an empty one is refused (pathlib reads ``""`` as ``.``).
 
     ``--out ""`` was the working folder (``--out . contains the log``), ``analyze ""`` the
@@ -37,6 +37,7 @@ class _PathName(click.Path):
     """
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The name as a path, ``~`` expanded; a usage error for an empty name or unknown user."""
         if isinstance(value, str) and not value:
             self.fail("an empty name", param, ctx)
         if isinstance(value, str) and value.startswith("~"):
@@ -87,11 +88,11 @@ def _working_folder() -> str:
     return os.getcwd()
 
 
-_PATH = _PathName(path_type=Path)
+PATH = PathName(path_type=Path)
 """The type of every file or folder argument and option but a file to write."""
 
 
-_FILE_OUT = _PathName(path_type=str)
+FILE_OUT = PathName(path_type=str)
 """The type of an option naming a file to write: the text as given, whose ``/`` at the end
 (``--out dir.json/``, meaning a folder) a ``Path`` would drop; the job refuses it
 (:func:`hybridlog.outputs.check_file_name`)."""
@@ -116,13 +117,13 @@ class _Strict(click.ParamType[Any]):
         return super().convert(value, param, ctx)
 
 
-class _WholeNumber(_Strict, click.IntRange):
+class WholeNumber(_Strict, click.IntRange):
     """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused)."""
 
     parse = staticmethod(parse_int)
 
 
-class _Jobs(_WholeNumber):
+class Jobs(WholeNumber):
     """``--jobs``: a whole number of at least 1, or ``"auto"``, the cores this process may use.
 
     ``auto`` is passed on as such (:func:`~hybridlog.jobs.batch.run_batch` counts the
@@ -131,6 +132,7 @@ class _Jobs(_WholeNumber):
     """
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """``"auto"`` (any case) as it is, else the whole number; a usage error otherwise."""
         if isinstance(value, str) and value.strip().lower() == "auto":
             return "auto"
         try:
@@ -141,16 +143,17 @@ class _Jobs(_WholeNumber):
             self.fail(err.message.replace("a whole number", "a whole number or auto"), param, ctx)
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        """``N|auto`` in ``--help``."""
         return "N|auto"
 
 
-class _Number(_Strict, click.types.FloatParamType):
+class Number(_Strict, click.types.FloatParamType):
     """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only)."""
 
     parse = staticmethod(parse_float)
 
 
-class _LogFormats(click.Choice[str]):
+class LogFormats(click.Choice[str]):
     """``--format`` or ``--encoding``: choices read from the log writers when first needed.
 
     ``name`` is the tuple of :mod:`hybridlog.io.bag_writers` that lists them (the one
@@ -164,6 +167,7 @@ class _LogFormats(click.Choice[str]):
 
     @property
     def choices(self) -> tuple[str, ...]:
+        """The names listed by :mod:`hybridlog.io.bag_writers` (imported now)."""
         from hybridlog.io import bag_writers
 
         return tuple(getattr(bag_writers, self._name))
@@ -173,7 +177,7 @@ class _LogFormats(click.Choice[str]):
         """Ignored: click's constructor sets the choices, which are read instead."""
 
 
-def _comma_list(value: str) -> tuple[str, ...]:
+def comma_list(value: str) -> tuple[str, ...]:
     """A comma-separated option's names (:func:`hybridlog.numbers.comma_items`).
 
     An empty item is a typo (a name left out, a stray comma), never a name: dropping it
@@ -222,7 +226,7 @@ class _Command(click.Command):
         return super().parse_args(ctx, args)
 
 
-class _Group(click.Group):
+class Group(click.Group):
     """The ``hybridlog`` group: its commands are :class:`_Command` s."""
 
     command_class = _Command
@@ -233,7 +237,7 @@ _METAVARS = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN
 
 
 @dataclass(frozen=True)
-class _DataclassOptions:
+class DataclassOptions:
     """Command-line options generated from an options dataclass: its one definition.
 
     Each named field becomes ``--field-name VALUE`` whose help, default and type come from
@@ -310,20 +314,21 @@ class _DataclassOptions:
         return parse_options(self.load(), values, estimator=self.owner, sources=sources)
 
 
-class _GeneratedOptionsCommand(_Command):
-    """A command with options generated by a :class:`_DataclassOptions` on first use.
+class GeneratedOptionsCommand(_Command):
+    """A command with options generated by a :class:`DataclassOptions` on first use.
 
     The options are made when the command's parameters are first needed (to parse its
     arguments or show its help), after the parameter named ``after``.
     """
 
-    def __init__(self, *args: Any, generated: _DataclassOptions, after: str, **kwargs: Any) -> None:
-        self._generated: _DataclassOptions | None = generated
+    def __init__(self, *args: Any, generated: DataclassOptions, after: str, **kwargs: Any) -> None:
+        self._generated: DataclassOptions | None = generated
         self._after = after
         super().__init__(*args, **kwargs)
 
     @property
     def params(self) -> list[click.Parameter]:
+        """The command's parameters, the generated options among them (made on first use)."""
         if self._generated is not None:
             generated, self._generated = self._generated, None
             at = [p.name for p in self._params].index(self._after) + 1

@@ -236,9 +236,9 @@ def test_batch_jobs_auto_is_one_per_usable_core(monkeypatch):
 
     import hybridlog.environment as environment
     import hybridlog.jobs.batch as batch
-    from hybridlog.cli_types import _Jobs
+    from hybridlog.cli_types import Jobs
 
-    jobs = _Jobs(min=1)
+    jobs = Jobs(min=1)
     assert jobs.convert("auto", None, None) == "auto" == jobs.convert(" AUTO ", None, None)
     assert jobs.convert("2", None, None) == 2
     with pytest.raises(click.BadParameter, match="a whole number or auto, got 'many'"):
