@@ -20,7 +20,7 @@ from typing import Any
 import click
 
 from hybridlog.errors import excerpt
-from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
+from hybridlog.estimators.options import describe_options, read_text, shown
 from hybridlog.numbers import parse_float, parse_int
 
 
@@ -241,11 +241,13 @@ class DataclassOptions:
     """Command-line options generated from an options dataclass: its one definition.
 
     Each named field becomes ``--field-name VALUE`` whose help, default and type come from
-    the field (:func:`~hybridlog.estimators.options.describe_options`); the values given are
-    read and checked by :func:`~hybridlog.estimators.options.parse_options`, exactly like
-    ``--set`` values, and fields not given keep the dataclass's defaults.  A
-    ``Literal`` field may instead be a switch between two of its choices
-    (``--exact/--approximate``).
+    the field (:func:`~hybridlog.estimators.options.describe_options`); a value given is read
+    and checked as the command line is parsed (:class:`_FieldValue`, exactly like a ``--set``
+    value), so that a bad one is a usage error like any other option's, and fields not given
+    keep the dataclass's defaults.  Whether the values go together (``conflicts()``: ``reject``
+    below ``accept``) is the job's to check, with the values of the model file's table
+    (:attr:`table`) the others take.  A ``Literal`` field may instead be a switch between
+    two of its choices (``--exact/--approximate``).
 
     Attributes
     ----------
@@ -292,6 +294,7 @@ class DataclassOptions:
             params.append(
                 click.Option(
                     [f"--{name.replace('_', '-')}", name],
+                    type=_FieldValue(self.load, name),
                     default=None,
                     metavar=_METAVARS.get(info.type, f"[{info.type}]"),
                     help=f"{info.help} [{default}{limits}]",
@@ -300,18 +303,46 @@ class DataclassOptions:
         return params
 
     def parse(self, given: Mapping[str, Any]) -> Any:
-        """The dataclass from the values given on the command line (``None``: not given)."""
+        """The dataclass from the values given on the command line (``None``: not given).
+
+        Each value was read by its option's type (:class:`_FieldValue`); how they go
+        together is not checked here: ``--reject 0.7`` was refused against ``accept``'s
+        default 0.5 (``0.7 is not below accept = 0.5 (its default)``) where the model file
+        sets ``accept = 0.9``, which is the default the help promises.
+        """
         values: dict[str, Any] = {}
-        sources: dict[str, OptionSource] = {}
         for name, value in given.items():
             if value is None:
                 continue
-            if name in self.switches:
-                values[name] = self.switches[name][0 if value else 1]
-                continue
-            values[name] = value
-            sources[name] = OptionSource(f"--{name.replace('_', '-')} {excerpt(value)[1:-1]}")
-        return parse_options(self.load(), values, estimator=self.owner, sources=sources)
+            values[name] = (
+                self.switches[name][0 if value else 1] if name in self.switches else value
+            )
+        return self.load()(**values)
+
+
+class _FieldValue(click.ParamType[Any]):
+    """The value of one option of an options dataclass, read as a ``--set`` value is.
+
+    :func:`~hybridlog.estimators.options.read_text`: the field's type, choices, range and
+    check; a bad value is a usage error naming the option (``hybridlog cluster: --radius:
+    expected a finite number, got 'abc' (see hybridlog cluster --help)``), where the
+    command's own check said ``hybridlog: error: --radius abc: chiu option 'radius': ...``.
+    """
+
+    name = "value"
+
+    def __init__(self, load: Callable[[], type[Any]], field: str) -> None:
+        self._load = load
+        self._field = field
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The field's value read from the text; a usage error with the reason otherwise."""
+        if not isinstance(value, str):
+            return value
+        try:
+            return read_text(self._load(), self._field, value)
+        except ValueError as err:
+            self.fail(str(err), param, ctx)
 
 
 class GeneratedOptionsCommand(_Command):

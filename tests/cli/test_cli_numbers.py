@@ -133,8 +133,7 @@ def test_cluster_options_are_read_strictly(tmp_path, option, value):
     log = SAMPLE_LOGS / "double_cart_case1.csv"
     _refused(
         ["cluster", str(log), "--model", "double_cart_case1", "--out", str(out), option, value],
-        f"{option} {value}",
-        "expected a finite number",
+        f"hybridlog cluster: {option}: expected a finite number, got '{value}'",
     )
     assert not out.exists()
 
@@ -209,7 +208,7 @@ def test_cluster_lags_are_read_strictly(tmp_path):
     args = ["cluster", str(log), "--model", "double_cart_case1", "--out", str(out)]
     _refused(
         [*args, "--input-lags", "0,1_0"],
-        "--input-lags 0,1_0: chiu option 'input_lags': '1_0' is not a whole number",
+        "hybridlog cluster: --input-lags: '1_0' is not a whole number",
     )
     assert not out.exists()
 
