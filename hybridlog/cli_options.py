@@ -18,6 +18,7 @@ import click
 from hybridlog.cli_types import PATH, Number, PathName
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
+from hybridlog.io.options import LONGEST_GAP_S
 
 if TYPE_CHECKING:
     from hybridlog.io import ReadOptions
@@ -157,7 +158,7 @@ def read_options(function: F) -> F:
         ),
         click.option(
             "--max-gap",
-            type=Number(),
+            type=Number(min=0, max=LONGEST_GAP_S),  # as ReadOptions checks it, a usage error
             default=None,
             metavar="SECONDS",
             help="Longest tolerated gap in the outputs [default: 5*dt].",

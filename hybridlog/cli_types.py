@@ -2,9 +2,10 @@
 
 Parameter types read a value strictly (:class:`PathName`: no empty name, a leading ``~``
 as the shell makes it; :class:`WholeNumber`, :class:`Number`: :mod:`hybridlog.numbers`'s
-parsers; :class:`Jobs`, :class:`LogFormats`, :func:`comma_list`).  :class:`_Command`
-refuses an option that takes one value given twice; :class:`DataclassOptions` makes a
-command's options from an options dataclass, on first use (:class:`GeneratedOptionsCommand`).
+parsers, a range said in words; :class:`Jobs`, :class:`LogFormats`, :func:`comma_list`).
+:class:`_Command` refuses an option that takes one value given twice;
+:class:`DataclassOptions` makes a command's options from an options dataclass, on first use
+(:class:`GeneratedOptionsCommand`), each read by its field's type (:class:`_FieldValue`).
 
 Light, as :mod:`hybridlog.cli`: click and hybridlog's light modules only.
 """
@@ -99,28 +100,63 @@ FILE_OUT = PathName(path_type=str)
 
 
 class _Strict(click.ParamType[Any]):
-    """A click type whose text is read by a strict parser of :mod:`hybridlog.numbers` first.
+    """A click number type whose text is read by a strict parser of :mod:`hybridlog.numbers`.
 
     click's ``INT`` and ``FLOAT`` read with Python's ``int()`` and ``float()``, which take
     underscores, any Unicode digits, and ``inf``/``nan``; the subclass' click base then does
-    the rest (a range check, the ``--help`` text).
+    the rest.  A value out of the range (``min``, ``max``) is refused in the words of the
+    other refusals, ``expected a whole number of at least 1, got 0``, which ``--help`` uses
+    too (``[at least 1]``): click's were ``0 is not in the range x>=1``.
     """
 
     parse: Callable[[str], object]
+    noun: str
+    # the range, set by the subclass' click base (click.IntRange, click.FloatRange)
+    min: Any
+    max: Any
+    min_open: bool
+    max_open: bool
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The number read strictly and in range; a usage error saying what is expected."""
         if isinstance(value, str):
             try:
                 value = type(self).parse(value)
             except ValueError as err:
-                self.fail(f"{err}, got {excerpt(value)}", param, ctx)
+                reason = str(err)
+                if reason.startswith("expected "):
+                    reason = f"expected {self._expected(reason.removeprefix('expected '))}"
+                self.fail(f"{reason}, got {excerpt(value)}", param, ctx)
+        low = self.min is not None and (value <= self.min if self.min_open else value < self.min)
+        high = self.max is not None and (value >= self.max if self.max_open else value > self.max)
+        if low or high:
+            within = self._describe_range()  # a number of at least 1, a number from 0 to 9
+            within = f"of {within}" if within.startswith("at ") else within
+            expected = self._expected(f"{self.noun} {within}")
+            self.fail(f"expected {expected}, got {shown(value)}", param, ctx)
         return super().convert(value, param, ctx)
+
+    def _expected(self, what: str) -> str:
+        """What the option takes, as an error says it after ``expected``."""
+        return what
+
+    def _describe_range(self) -> str:
+        """The range in words: ``at least 1``, ``from 0 to 1e+09``, ``above 0``."""
+        if self.min is not None and self.max is not None and not (self.min_open or self.max_open):
+            return f"from {shown(self.min)} to {shown(self.max)}"
+        words = []
+        if self.min is not None:
+            words.append(f"{'above' if self.min_open else 'at least'} {shown(self.min)}")
+        if self.max is not None:
+            words.append(f"{'below' if self.max_open else 'at most'} {shown(self.max)}")
+        return " and ".join(words)
 
 
 class WholeNumber(_Strict, click.IntRange):
     """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused)."""
 
     parse = staticmethod(parse_int)
+    noun = "a whole number"
 
 
 class Jobs(WholeNumber):
@@ -135,22 +171,21 @@ class Jobs(WholeNumber):
         """``"auto"`` (any case) as it is, else the whole number; a usage error otherwise."""
         if isinstance(value, str) and value.strip().lower() == "auto":
             return "auto"
-        try:
-            return super().convert(value, param, ctx)
-        except click.BadParameter as err:
-            if "whole number" not in err.message:
-                raise
-            self.fail(err.message.replace("a whole number", "a whole number or auto"), param, ctx)
+        return super().convert(value, param, ctx)
+
+    def _expected(self, what: str) -> str:
+        return f"{what} or auto"
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
         """``N|auto`` in ``--help``."""
         return "N|auto"
 
 
-class Number(_Strict, click.types.FloatParamType):
+class Number(_Strict, click.FloatRange):
     """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only)."""
 
     parse = staticmethod(parse_float)
+    noun = "a number"
 
 
 class LogFormats(click.Choice[str]):

@@ -483,7 +483,7 @@ def test_log_without_truth_gives_null_truth_metrics_and_gates_say_so(tank_log, t
         (["compare", "{log}", "--model", "three_tank_hstf"], "missing option '--estimators'"),
         (
             ["simulate", "three_tank_hstf", "--out", "{tmp}/s.csv", "--seed", "-1"],
-            "hybridlog simulate: --seed: -1 is not in the range x>=0",
+            "hybridlog simulate: --seed: expected a whole number of at least 0, got -1",
         ),
         (["frobnicate"], "hybridlog: no such command 'frobnicate' (see hybridlog --help)"),
     ],
