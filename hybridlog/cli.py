@@ -26,41 +26,41 @@ import click
 
 from hybridlog import __version__
 from hybridlog.cli_lines import (
-    _echo_unused_samples,
-    _for_terminal,
-    _gate_exit,
-    _have_warnings,
-    _one_line,
-    _path_text,
-    _say,
-    _summary_line,
+    echo_unused_samples,
+    for_terminal,
+    gate_exit,
+    have_warnings,
+    one_line,
+    path_text,
+    say,
+    summary_line,
 )
 from hybridlog.cli_options import (
-    _analysis_options,
-    _Context,
-    _estimator_option,
-    _force_option,
-    _global_flags,
-    _model_option,
-    _msg_dir_option,
-    _read_options,
-    _read_options_given,
-    _set_option,
-    _split_options,
+    analysis_options,
+    estimator_option,
+    force_option,
+    global_flags,
+    is_quiet,
+    model_option,
+    msg_dir_option,
+    read_options,
+    read_options_given,
+    set_option,
+    split_options,
 )
-from hybridlog.cli_process import _one_bounded_job, run
-from hybridlog.cli_progress import _batch_progress, _batch_reporter, _BatchClock, _work_reporter
+from hybridlog.cli_process import one_bounded_job, run
+from hybridlog.cli_progress import BatchClock, batch_progress, batch_reporter, work_reporter
 from hybridlog.cli_types import (
-    _FILE_OUT,
-    _PATH,
-    _comma_list,
-    _DataclassOptions,
-    _GeneratedOptionsCommand,
-    _Group,
-    _Jobs,
-    _LogFormats,
-    _PathName,
-    _WholeNumber,
+    FILE_OUT,
+    PATH,
+    DataclassOptions,
+    GeneratedOptionsCommand,
+    Group,
+    Jobs,
+    LogFormats,
+    PathName,
+    WholeNumber,
+    comma_list,
 )
 from hybridlog.environment import check_environment, check_umask, check_working_folder
 from hybridlog.estimators import ESTIMATORS
@@ -91,7 +91,7 @@ def _chiu_options() -> type[Any]:
     return ChiuOptions
 
 
-_CLUSTERING = _DataclassOptions(
+_CLUSTERING = DataclassOptions(
     load=_chiu_options,
     names=("radius", "squash", "accept", "reject", "method", "output_lags", "input_lags"),
     owner="chiu",
@@ -154,7 +154,7 @@ which ros2 bag reads from Humble on.
 
 
 @click.group(
-    cls=_Group,
+    cls=Group,
     help=_HELP_HYBRIDLOG,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
     epilog=_examples(
@@ -164,11 +164,9 @@ which ros2 bag reads from Humble on.
     ),
 )
 @click.version_option(__version__, prog_name="hybridlog")
-@_global_flags
-@click.pass_context
-def cli(ctx: click.Context) -> None:
+@global_flags
+def cli() -> None:
     """The command group; its help is :data:`_HELP_HYBRIDLOG`."""
-    ctx.ensure_object(_Context)
     # before any command imports numba or polars, here or in its workers
     check_environment()
     check_working_folder()
@@ -185,10 +183,10 @@ def cli(ctx: click.Context) -> None:
         "hybridlog inspect sample_logs/three_tank_hstf_ros2",
     ),
 )
-@_global_flags
-@click.argument("log", type=_PATH)
+@global_flags
+@click.argument("log", type=PATH)
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
-@_msg_dir_option
+@msg_dir_option
 def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
     """Describe a log (the help text lists the formats from the table of formats)."""
     from hybridlog.io import ReadOptions
@@ -198,15 +196,15 @@ def inspect(log: Path, as_json: bool, msg_dirs: tuple[Path, ...]) -> None:
     click.echo(
         json.dumps(info, indent=2, allow_nan=False)  # NaN is no JSON: never printed
         if as_json
-        else _for_terminal(format_inspection(info))
+        else for_terminal(format_inspection(info))
     )
 
 
 @cli.command(
     epilog=_examples("hybridlog models", "hybridlog models three_tank_hstf"), help=_HELP_MODELS
 )
-@_global_flags
-@click.argument("name", required=False, type=_PathName(path_type=str), metavar="[NAME|FILE]")
+@global_flags
+@click.argument("name", required=False, type=PathName(path_type=str), metavar="[NAME|FILE]")
 def models(name: str | None) -> None:
     """The ``models`` command; its help is :data:`_HELP_MODELS`."""
     if name is not None:
@@ -218,7 +216,7 @@ def models(name: str | None) -> None:
 
         path = model_file(name)  # names a folder, a missing file or no built-in: refused
         assert path is not None  # a built-in was printed above
-        click.echo(_for_terminal(check_and_describe(path)))
+        click.echo(for_terminal(check_and_describe(path)))
         return
     for builtin in builtin_names():
         click.echo(f"{builtin:20s} {builtin_reference(builtin)}")
@@ -235,25 +233,25 @@ def models(name: str | None) -> None:
     ),
     help=_HELP_SIMULATE,
 )
-@_global_flags
-@click.argument("model_ref", type=_PathName(path_type=str), metavar="MODEL")
+@global_flags
+@click.argument("model_ref", type=PathName(path_type=str), metavar="MODEL")
 @click.option(
     "--out",
     "out",
     required=True,
-    type=_FILE_OUT,
+    type=FILE_OUT,
     help="Log to write: .csv, .parquet, .mcap, .bag, or a ROS 2 bag folder with --format.",
 )
 @click.option(
     "--format",
     "log_format",
-    type=_LogFormats("LOG_FORMATS"),
+    type=LogFormats("LOG_FORMATS"),
     default=None,
     help="Log format [default: from the suffix of --out].",
 )
 @click.option(
     "--encoding",
-    type=_LogFormats("MCAP_ENCODINGS"),
+    type=LogFormats("MCAP_ENCODINGS"),
     default=None,
     help="Message encoding of an MCAP file: ROS 2 CDR, JSON or ROS 1 [default: cdr].",
 )
@@ -265,18 +263,18 @@ def models(name: str | None) -> None:
 )
 @click.option(
     "--steps",
-    type=_WholeNumber(min=1),
+    type=WholeNumber(min=1),
     default=None,
     help="Number of steps [default: the schedule's total].",
 )
 @click.option(
     "--seed",
-    type=_WholeNumber(min=0),
+    type=WholeNumber(min=0),
     default=0,
     show_default=True,
     help="Noise seed (>= 0): the same seed, schedule and --steps give the same log.",
 )
-@_set_option(
+@set_option(
     "A parameter of the model ([parameters]: the plant simulated with another value), or a "
     "scenario parameter of a components model (a fault time, a drift rate)."
 )
@@ -292,7 +290,7 @@ def models(name: str | None) -> None:
     metavar="A,OMEGA",
     help="Continuous time: add paper 003's eq. (49), A·(|x1|+...+|xn|)·sin(OMEGA·t), to dx.",
 )
-@_force_option("a log file or ROS 2 bag folder hybridlog wrote (never a file of yours)")
+@force_option("a log file or ROS 2 bag folder hybridlog wrote (never a file of yours)")
 @click.pass_context
 def simulate(
     ctx: click.Context,
@@ -313,7 +311,7 @@ def simulate(
     from hybridlog.jobs.simulate import simulate_log
     from hybridlog.report.markdown import plural
 
-    with reporting(_work_reporter(ctx)):  # a long bag or MCAP file says how long it takes
+    with reporting(work_reporter(ctx)):  # a long bag or MCAP file says how long it takes
         outcome = simulate_log(
             model_ref,
             out,
@@ -327,16 +325,15 @@ def simulate(
             force=force,
             settings=sets,
         )
-    _say(ctx, f"wrote {_path_text(out)} ({plural(outcome.samples, 'sample')})")
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):
+    say(ctx, f"wrote {path_text(out)} ({plural(outcome.samples, 'sample')})")
+    if not is_quiet(ctx):
         for note in outcome.notes:
-            click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
+            click.echo(one_line(f"hybridlog: note: {note}"), err=True)
 
 
 @cli.command(
     "cluster",
-    cls=_GeneratedOptionsCommand,
+    cls=GeneratedOptionsCommand,
     generated=_CLUSTERING,
     after="model_ref",
     epilog=_examples(
@@ -348,26 +345,26 @@ def simulate(
     ),
     help=_HELP_CLUSTER,
 )
-@_global_flags
-@click.argument("log", type=_PATH)
-@_model_option
+@global_flags
+@click.argument("log", type=PATH)
+@model_option
 @click.option(
     "--out",
     "out",
-    type=_FILE_OUT,
+    type=FILE_OUT,
     default="centers.json",
     show_default=True,
     help="Centres and classifier to write (read by analyze --set centers=FILE).",
 )
 @click.option(
     "--plot",
-    type=_FILE_OUT,
+    type=FILE_OUT,
     default=None,
     help="Picture of the clusters [default: --out with .png].",
 )
 @click.option("--compare-kmeans", is_flag=True, help="Also fit k-means and compare.")
-@_read_options
-@_force_option("centres and plot files hybridlog wrote (never a file of yours)")
+@read_options
+@force_option("centres and plot files hybridlog wrote (never a file of yours)")
 @click.pass_context
 def cluster_command(
     ctx: click.Context,
@@ -384,8 +381,8 @@ def cluster_command(
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.cluster import discover_modes
 
-    read = _read_options_given(options)  # what is left: the clustering options
-    with reporting(_work_reporter(ctx)):
+    read = read_options_given(options)  # what is left: the clustering options
+    with reporting(work_reporter(ctx)):
         outcome = discover_modes(
             log,
             model_ref,
@@ -397,14 +394,13 @@ def cluster_command(
             read=read,
             force=force,
         )
-    _say(ctx, outcome.table)
+    say(ctx, outcome.table)
     for note in outcome.notes:
-        _say(ctx, f"- {note}")
-    _say(ctx, f"centres: {_path_text(outcome.centers_path)}, plot: {_path_text(outcome.plot_path)}")
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):  # as analyze says them of the log
+        say(ctx, f"- {note}")
+    say(ctx, f"centres: {path_text(outcome.centers_path)}, plot: {path_text(outcome.plot_path)}")
+    if not is_quiet(ctx):  # as analyze says them of the log
         for alert in outcome.alerts:
-            click.echo(_one_line(f"hybridlog: {alert}"), err=True)
+            click.echo(one_line(f"hybridlog: {alert}"), err=True)
 
 
 @cli.command(
@@ -420,18 +416,18 @@ def cluster_command(
     ),
     help=_HELP_ANALYZE,
 )
-@_global_flags
-@click.argument("log", type=_PATH)
-@_model_option
-@_estimator_option
+@global_flags
+@click.argument("log", type=PATH)
+@model_option
+@estimator_option
 @click.option(
     "--out",
     "out_dir",
-    type=_PATH,
+    type=PATH,
     default=None,
     help="Output directory [default: <log name>_<estimator> here].",
 )
-@_analysis_options
+@analysis_options
 @click.pass_context
 def analyze_command(
     ctx: click.Context,
@@ -443,26 +439,25 @@ def analyze_command(
     **options: Any,
 ) -> None:
     """The ``analyze`` command; its help is :data:`_HELP_ANALYZE`."""
-    _one_bounded_job()  # before the job's imports: polars' allocator reads its options
+    one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.analysis import analyze
 
-    read, common = _split_options(options)
-    with reporting(_work_reporter(ctx)):  # chiu's clustering of a long log says how long
+    read, common = split_options(options)
+    with reporting(work_reporter(ctx)):  # chiu's clustering of a long log says how long
         outcome = analyze(log, model_ref, out_dir=out_dir, estimator=estimator, read=read, **common)
     report = outcome.report
-    _say(ctx, _summary_line(report))
-    _say(ctx, f"report: {_path_text(outcome.out_dir / 'report.md')}")
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):  # every kind, as batch and compare count
+    say(ctx, summary_line(report))
+    say(ctx, f"report: {path_text(outcome.out_dir / 'report.md')}")
+    if not is_quiet(ctx):  # every kind, as batch and compare count
         from hybridlog.report.markdown import WARNING_PREFIX
         from hybridlog.report.summary import warning_notes
 
         for warning in warning_notes(report):
             text = warning.removeprefix(WARNING_PREFIX)
-            click.echo(_one_line(f"hybridlog: warning: {text}"), err=True)
-        _echo_unused_samples(report)
-    _gate_exit(outcome.gate_failures)
+            click.echo(one_line(f"hybridlog: warning: {text}"), err=True)
+        echo_unused_samples(report)
+    gate_exit(outcome.gate_failures)
 
 
 @cli.command(
@@ -475,24 +470,24 @@ def analyze_command(
     ),
     help=_HELP_COMPARE,
 )
-@_global_flags
-@click.argument("log", type=_PATH)
-@_model_option
+@global_flags
+@click.argument("log", type=PATH)
+@model_option
 @click.option(
     "--estimators",
     required=True,
     metavar="A,B,...",
-    callback=lambda ctx, param, value: _comma_list(value),
+    callback=lambda ctx, param, value: comma_list(value),
     help="Comma-separated estimator names (listed below).",
 )
 @click.option(
     "--out",
     "out_dir",
     required=True,
-    type=_PATH,
+    type=PATH,
     help="Output directory: one report per estimator and comparison.md/.csv.",
 )
-@_analysis_options
+@analysis_options
 @click.pass_context
 def compare_command(
     ctx: click.Context,
@@ -504,37 +499,36 @@ def compare_command(
     **options: Any,
 ) -> None:
     """The ``compare`` command; its help is :data:`_HELP_COMPARE`."""
-    _one_bounded_job()  # before the job's imports: polars' allocator reads its options
+    one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.analysis import compare
 
-    read, common = _split_options(options)
+    read, common = split_options(options)
     names = list(estimators)
-    with reporting(_work_reporter(ctx)):  # chiu's clustering of a long log says how long
+    with reporting(work_reporter(ctx)):  # chiu's clustering of a long log says how long
         outcome = compare(log, model_ref, names, out_dir=out_dir, read=read, **common)
-    _say(ctx, outcome.table)
+    say(ctx, outcome.table)
     if outcome.reports:
-        reports = (_path_text(out_dir / name / "report.md") for name in outcome.reports)
-        _say(ctx, f"reports: {', '.join(reports)}")
-    _say(ctx, f"comparison: {_path_text(out_dir / 'comparison.md')}")
-    settings = ctx.find_object(_Context)
-    quiet = settings is not None and settings.quiet
+        reports = (path_text(out_dir / name / "report.md") for name in outcome.reports)
+        say(ctx, f"reports: {', '.join(reports)}")
+    say(ctx, f"comparison: {path_text(out_dir / 'comparison.md')}")
+    quiet = is_quiet(ctx)
     if outcome.reports and not quiet:  # one log: every report read it alike
-        _echo_unused_samples(next(iter(outcome.reports.values())))
+        echo_unused_samples(next(iter(outcome.reports.values())))
     for reach in [] if quiet else outcome.reach:  # a tuned estimator beside untuned ones
-        click.echo(_one_line(f"hybridlog: note: {reach}"), err=True)
+        click.echo(one_line(f"hybridlog: note: {reach}"), err=True)
     if outcome.warned and not quiet:
-        have = _have_warnings(len(outcome.warned), len(outcome.reports), "estimator")
-        click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'comparison.md'}"), err=True)
+        have = have_warnings(len(outcome.warned), len(outcome.reports), "estimator")
+        click.echo(one_line(f"hybridlog: {have}; see {out_dir / 'comparison.md'}"), err=True)
     if outcome.unlike and not quiet:  # a VAF over fewer samples is no better VAF
         unlike = "; ".join(outcome.unlike)
         click.echo(
-            _one_line(f"hybridlog: not like for like: {unlike}; see {out_dir / 'comparison.md'}"),
+            one_line(f"hybridlog: not like for like: {unlike}; see {out_dir / 'comparison.md'}"),
             err=True,
         )
     for name, reason in outcome.failures.items():  # a result, as a batch's failed log: exit 1
-        click.echo(_one_line(f"hybridlog: estimator failed: {name}: {reason}"), err=True)
-    _gate_exit(outcome.gate_failures)
+        click.echo(one_line(f"hybridlog: estimator failed: {name}: {reason}"), err=True)
+    gate_exit(outcome.gate_failures)
     if outcome.failures:
         sys.exit(1)
 
@@ -554,21 +548,21 @@ def compare_command(
     ),
     help=_HELP_BATCH,
 )
-@_global_flags
-@click.argument("logs", nargs=-1, required=True, type=_PATH)
-@_model_option
-@_estimator_option
+@global_flags
+@click.argument("logs", nargs=-1, required=True, type=PATH)
+@model_option
+@estimator_option
 @click.option(
     "--out",
     "out_dir",
     required=True,
-    type=_PATH,
+    type=PATH,
     help="Output directory: one report folder per log (its path from the logs' common "
     "folder, or from the folder of logs given, e.g. d2/run.csv/) and summary.md/.csv/.png.",
 )
 @click.option(
     "--jobs",
-    type=_Jobs(min=1),
+    type=Jobs(min=1),
     default=1,
     show_default=True,
     help="Logs analysed in parallel (local processes; not with --scheduler); auto: one per "
@@ -592,11 +586,11 @@ def compare_command(
 @click.option(
     "--junit",
     default=None,
-    type=_FILE_OUT,
+    type=FILE_OUT,
     metavar="FILE",
     help="Write JUnit XML: a test case per log per gate, an error per log not analysed.",
 )
-@_analysis_options
+@analysis_options
 @click.pass_context
 def batch_command(
     ctx: click.Context,
@@ -631,9 +625,9 @@ def batch_command(
     from hybridlog.cluster.progress import reporting
     from hybridlog.jobs.batch import run_batch
 
-    read, common = _split_options(options)
-    clock = _BatchClock()
-    with _batch_progress(ctx, total, clock) as advance, reporting(_batch_reporter(ctx, clock)):
+    read, common = split_options(options)
+    clock = BatchClock()
+    with batch_progress(ctx, total, clock) as advance, reporting(batch_reporter(ctx, clock)):
         outcome = run_batch(
             found,
             model_ref,
@@ -647,14 +641,14 @@ def batch_command(
             progress=advance,
             **common,
         )
-    _say(ctx, outcome.table)
-    _say(ctx, f"summary: {_path_text(out_dir / 'summary.md')}")
+    say(ctx, outcome.table)
+    say(ctx, f"summary: {path_text(out_dir / 'summary.md')}")
     waited = outcome.waited_for_memory
-    settings = ctx.find_object(_Context)
-    if not (settings is not None and settings.quiet):
+    quiet = is_quiet(ctx)
+    if not quiet:
         for note in outcome.notes:
-            click.echo(_one_line(f"hybridlog: note: {note}"), err=True)
-    if waited and not (settings is not None and settings.quiet):
+            click.echo(one_line(f"hybridlog: note: {note}"), err=True)
+    if waited and not quiet:
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(
             f"hybridlog: note: {len(waited)} of {len(outcome.logs)} logs waited {seconds:.0f} s "
@@ -664,14 +658,14 @@ def batch_command(
             err=True,
         )
     warned = outcome.warned
-    if warned and not (settings is not None and settings.quiet):  # one line, not one a log
+    if warned and not quiet:  # one line, not one a log
         analysed = sum(1 for log in outcome.logs if log.report is not None)
-        have = _have_warnings(len(warned), analysed, "analysed log")
-        click.echo(_one_line(f"hybridlog: {have}; see {out_dir / 'summary.md'}"), err=True)
+        have = have_warnings(len(warned), analysed, "analysed log")
+        click.echo(one_line(f"hybridlog: {have}; see {out_dir / 'summary.md'}"), err=True)
     if outcome.failed:
         failed = f"{outcome.failed} of {len(outcome.logs)} logs failed"
-        click.echo(_one_line(f"hybridlog: {failed} (see {out_dir / 'summary.md'})"), err=True)
-    _gate_exit(outcome.gate_failures)
+        click.echo(one_line(f"hybridlog: {failed} (see {out_dir / 'summary.md'})"), err=True)
+    gate_exit(outcome.gate_failures)
     if outcome.failed:
         sys.exit(1)
 

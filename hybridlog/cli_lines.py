@@ -1,9 +1,9 @@
 """What the commands print: lines on stdout and stderr, safe for a terminal and bounded.
 
-The summary line of a report (:func:`_summary_line`), the lines naming what a command wrote
-(:func:`_path_text`), notes, warnings and gate failures on stderr (:func:`_one_line`: one
+The summary line of a report (:func:`summary_line`), the lines naming what a command wrote
+(:func:`path_text`), notes, warnings and gate failures on stderr (:func:`one_line`: one
 printable line of at most :data:`MAX_MESSAGE` characters), ``--quiet`` respected
-(:func:`_say`).
+(:func:`say`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from hybridlog.cli_options import _Context
+from hybridlog.cli_options import is_quiet
 from hybridlog.errors import as_text, excerpt
 
 if TYPE_CHECKING:
@@ -25,22 +25,22 @@ MAX_MESSAGE = 400
 """Longest error or warning line the CLI prints (longer ones are cut in the middle)."""
 
 
-def _say(ctx: click.Context, text: str) -> None:
-    settings = ctx.find_object(_Context)
-    if settings is None or not settings.quiet:
-        click.echo(_for_terminal(text))
+def say(ctx: click.Context, text: str) -> None:
+    """``text`` on stdout (:func:`for_terminal`), unless ``--quiet`` was given."""
+    if not is_quiet(ctx):
+        click.echo(for_terminal(text))
 
 
-def _path_text(path: object) -> str:
+def path_text(path: object) -> str:
     r"""A path on one line: a line break or tab in it escaped too (``\n``), as errors show it.
 
     The lines naming what a command wrote (``report: ...``) are one a path, for scripts
-    that read them; :func:`_for_terminal` keeps a text's line breaks.
+    that read them; :func:`for_terminal` keeps a text's line breaks.
     """
     return "".join(c if c.isprintable() else excerpt(c)[1:-1] for c in as_text(path))
 
 
-def _for_terminal(text: str) -> str:
+def for_terminal(text: str) -> str:
     r"""Lines for stdout: names as the system gave them, but nothing a terminal acts on.
 
     A log named with bytes that are not UTF-8 or with control characters (an escape
@@ -53,19 +53,24 @@ def _for_terminal(text: str) -> str:
     )
 
 
-def _one_line(text: str) -> str:
+def one_line(text: str) -> str:
     """The final guard on everything printed to stderr: one printable, bounded line."""
     return excerpt(" ".join(str(text).split()), MAX_MESSAGE)[1:-1]
 
 
-def _summary_line(report: Report) -> str:
+def summary_line(report: Report) -> str:
+    """``analyze``'s line of a report: the estimator, the log, VAF, fit, MSE, mode accuracy.
+
+    With what each number is over where it is not the whole log, the filter's own mode
+    accuracy beside a smoothed one, the switches detected and where the smoother fell back.
+    """
     from hybridlog.report.markdown import duration, format_number, format_percent, plural
 
     def percent(value: float | None, decimals: int) -> str:
         return "n/a" if value is None else f"{format_percent(value, decimals)} %"
 
     text = (
-        f"{report.estimator} on {_path_text(report.log)}: {plural(report.samples, 'sample')} "
+        f"{report.estimator} on {path_text(report.log)}: {plural(report.samples, 'sample')} "
         f"in {duration(report.runtime_s)}, VAF {percent(report.vaf, 2)}, "
         f"fit {percent(report.fit, 2)}, MSE {format_number(report.mse, '.4g')}"
     )
@@ -113,7 +118,7 @@ def _percent(fraction: float | None) -> float | None:
     return None if fraction is None else 100.0 * fraction
 
 
-def _have_warnings(warned: int, total: int, kind: str) -> str:
+def have_warnings(warned: int, total: int, kind: str) -> str:
     """``3 of 1,000 analysed logs have warnings``, ``1 of 2 estimators has warnings``.
 
     Out of the reports written (``kind``: what they are of), as summary.md counts them.
@@ -123,7 +128,7 @@ def _have_warnings(warned: int, total: int, kind: str) -> str:
     return f"{warned:,} of {plural(total, kind)} {'has' if warned == 1 else 'have'} warnings"
 
 
-def _echo_unused_samples(report: Report) -> None:
+def echo_unused_samples(report: Report) -> None:
     """A line on stderr per note of ``report`` saying samples of the log are not used.
 
     A log sampled at twice the model's rate loses every other sample, and ``--split-gaps``
@@ -134,11 +139,12 @@ def _echo_unused_samples(report: Report) -> None:
 
     reading = report.reading
     for note in [*unused_sample_notes(reading), *unanalysed_span_notes(reading)]:
-        click.echo(_one_line(f"hybridlog: note: {note.removeprefix('NOTE: ')}"), err=True)
+        click.echo(one_line(f"hybridlog: note: {note.removeprefix('NOTE: ')}"), err=True)
 
 
-def _gate_exit(failures: Sequence[str]) -> None:
+def gate_exit(failures: Sequence[str]) -> None:
+    """A line on stderr per missed CI gate, then exit code 1 if there was one."""
     for failure in failures:
-        click.echo(_one_line(f"hybridlog: gate failed: {failure}"), err=True)
+        click.echo(one_line(f"hybridlog: gate failed: {failure}"), err=True)
     if failures:
         sys.exit(1)

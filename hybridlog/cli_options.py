@@ -1,9 +1,9 @@
 """The options several commands share, each defined once, and the values they give.
 
-``--debug`` and ``--quiet`` (:func:`_global_flags`, kept in the context's :class:`_Context`),
-``--model``, ``--estimator``, ``--force``, ``--set``, how a log is read (:func:`_read_options`,
-its values as a :class:`~hybridlog.io.ReadOptions` by :func:`_read_options_given`) and what
-an analysis takes (:func:`_analysis_options`, :func:`_split_options`).
+``--debug`` and ``--quiet`` (:func:`global_flags`; :func:`is_quiet`),
+``--model``, ``--estimator``, ``--force``, ``--set``, how a log is read (:func:`read_options`,
+its values as a :class:`~hybridlog.io.ReadOptions` by :func:`read_options_given`) and what
+an analysis takes (:func:`analysis_options`, :func:`split_options`).
 
 Light, as :mod:`hybridlog.cli`: click and hybridlog's light modules only.
 """
@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
-from hybridlog.cli_types import _PATH, _Number, _PathName
+from hybridlog.cli_types import PATH, Number, PathName
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.filter_options import MODE_SEQUENCES
+from hybridlog.io.options import LONGEST_GAP_S
 
 if TYPE_CHECKING:
     from hybridlog.io import ReadOptions
@@ -27,53 +28,69 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 
 class _Context:
-    def __init__(self, debug: bool = False, quiet: bool = False) -> None:
-        self.debug = debug
+    """What ``--quiet`` set, kept in the click context's object (:func:`is_quiet` reads it).
+
+    ``--debug`` is not kept here: :func:`hybridlog.cli_process.run` finds it on the command
+    line itself, where it must also be found when the line does not parse.
+    """
+
+    def __init__(self, quiet: bool = False) -> None:
         self.quiet = quiet
 
 
-def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+def _set_quiet(ctx: click.Context, param: click.Parameter, value: bool) -> None:
     if value:
-        setattr(ctx.ensure_object(_Context), str(param.name), True)
+        ctx.ensure_object(_Context).quiet = True
 
 
-def _global_flags(function: F) -> F:
-    """``--debug`` and ``-q/--quiet``, accepted before and after the subcommand."""
+def is_quiet(ctx: click.Context) -> bool:
+    """Whether ``--quiet`` was given, before the subcommand or after it."""
+    settings = ctx.find_object(_Context)
+    return settings is not None and settings.quiet
+
+
+def global_flags(function: F) -> F:
+    """``--debug`` and ``-q/--quiet``, accepted before and after the subcommand.
+
+    ``--debug`` is only accepted here: :func:`hybridlog.cli_process.run` reads it from the
+    command line.
+    """
     function = click.option(
         "--quiet",
         "-q",
         is_flag=True,
         expose_value=False,
-        callback=_set_flag,
+        callback=_set_quiet,
         help="Print only errors.",
     )(function)
     return click.option(
         "--debug",
         is_flag=True,
         expose_value=False,
-        callback=_set_flag,
         help="Show tracebacks of errors.",
     )(function)
 
 
 # Options shared by several commands: each is defined here once.
 
-_model_option = click.option(
+model_option = click.option(
     "--model",
     "model_ref",
     required=True,
-    type=_PathName(path_type=str),
+    type=PathName(path_type=str),
     metavar="MODEL",
     help="Built-in model name (see `hybridlog models`) or a model file (.toml).",
 )
+"""``--model MODEL``: a built-in model or a model file, for every command that reads a log."""
 
 
-_estimator_option = click.option(
+estimator_option = click.option(
     "--estimator",
     default=None,
     metavar="NAME",
     help="Estimator (listed below) [default: the model's default_estimator].",
 )
+"""``--estimator NAME`` of ``analyze`` and ``batch``: the model's default when not given."""
 
 
 _map_option = click.option(
@@ -86,23 +103,24 @@ _map_option = click.option(
 )
 
 
-_msg_dir_option = click.option(
+msg_dir_option = click.option(
     "--msg-dir",
     "msg_dirs",
     multiple=True,
-    type=_PATH,
+    type=PATH,
     metavar="DIR",
     help="Folder of .msg files (pkg/msg/Name.msg) for message types the log does "
     "not define. Repeatable.",
 )
+"""``--msg-dir DIR``: message definitions for a log that lacks them (``inspect`` too)."""
 
 
-def _force_option(replaces: str) -> Callable[[F], F]:
+def force_option(replaces: str) -> Callable[[F], F]:
     """``--force``: what it replaces differs by command (and never includes an input)."""
     return click.option("--force", is_flag=True, help=f"Replace {replaces}.")
 
 
-def _set_option(what: str) -> Callable[[F], F]:
+def set_option(what: str) -> Callable[[F], F]:
     """``--set NAME=VALUE``: what it may set differs by command."""
     return click.option(
         "--set", "sets", multiple=True, metavar="NAME=VALUE", help=f"{what} Repeatable."
@@ -121,10 +139,10 @@ _SEQUENCES = ", ".join(
 """The estimators with a ``mode_sequence`` option (``--mode-sequence``), from the registry."""
 
 
-def _read_options(function: F) -> F:
+def read_options(function: F) -> F:
     """How a log is read (:class:`~hybridlog.io.ReadOptions`): every command that reads one.
 
-    analyze, compare, batch and cluster; :func:`_read_options_given` builds the options from
+    analyze, compare, batch and cluster; :func:`read_options_given` builds the options from
     the values.  What reading did is recorded under ``reading`` in the command's JSON output
     (``report.json``, ``centers.json``).
     """
@@ -140,7 +158,7 @@ def _read_options(function: F) -> F:
         ),
         click.option(
             "--max-gap",
-            type=_Number(),
+            type=Number(min=0, max=LONGEST_GAP_S),  # as ReadOptions checks it, a usage error
             default=None,
             metavar="SECONDS",
             help="Longest tolerated gap in the outputs [default: 5*dt].",
@@ -184,17 +202,17 @@ def _read_options(function: F) -> F:
             "record, and use that (recorded under reading in report.json or centers.json). "
             "Refused for a log of another format; batch applies it to its MCAP files.",
         ),
-        _msg_dir_option,
+        msg_dir_option,
     ]
     for decorator in reversed(decorators):
         function = decorator(function)
     return function
 
 
-def _analysis_options(function: F) -> F:
+def analysis_options(function: F) -> F:
     """Options shared by analyze, compare and batch: the read options, estimation, gates."""
     decorators = [
-        _set_option("Override a model parameter or an estimator option."),
+        set_option("Override a model parameter or an estimator option."),
         click.option(
             "--fail-under",
             multiple=True,
@@ -243,8 +261,8 @@ def _analysis_options(function: F) -> F:
             show_default=True,
             help="Format of timeline and estimates tables.",
         ),
-        _read_options,
-        _force_option(
+        read_options,
+        force_option(
             "an output directory hybridlog wrote before (never a folder holding other "
             "files, never an input)"
         ),
@@ -254,8 +272,8 @@ def _analysis_options(function: F) -> F:
     return function
 
 
-def _read_options_given(options: dict[str, Any]) -> ReadOptions:
-    """The :func:`_read_options` values, taken out of ``options``, as a ``ReadOptions``."""
+def read_options_given(options: dict[str, Any]) -> ReadOptions:
+    """The :func:`read_options` values, taken out of ``options``, as a ``ReadOptions``."""
     from hybridlog.io import ReadOptions
 
     return ReadOptions(
@@ -271,9 +289,9 @@ def _read_options_given(options: dict[str, Any]) -> ReadOptions:
     )
 
 
-def _split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
-    """The :func:`_analysis_options` values: the read options and the job's keywords."""
-    read = _read_options_given(options)
+def split_options(options: dict[str, Any]) -> tuple[ReadOptions, dict[str, Any]]:
+    """The :func:`analysis_options` values: the read options and the job's keywords."""
+    read = read_options_given(options)
     return read, {
         "sets": tuple(options.pop("sets")),
         "fail_under": tuple(options.pop("fail_under")),

@@ -4,7 +4,7 @@
 trouble and anything unexpected become one line on stderr and exit code 2 (``--debug``:
 the traceback).  Run as the console script (no ``argv``), it also handles ``SIGTERM`` and
 ``SIGHUP`` as an exception (:func:`_end_on_signal`), sets what only a whole process may set
-for a job bounded by one log (:func:`_one_bounded_job`) and ends the process itself
+for a job bounded by one log (:func:`one_bounded_job`) and ends the process itself
 (:func:`_end_process`).
 """
 
@@ -27,7 +27,7 @@ import click
 
 from hybridlog.allocators import return_freed_memory
 from hybridlog.background import ESTIMATES, PLOTS, start_worker
-from hybridlog.cli_lines import _one_line
+from hybridlog.cli_lines import one_line
 from hybridlog.errors import HybridlogError, as_text
 from hybridlog.launch import lost_output, single_threaded_blas, tolerate_closed_output
 from hybridlog.limits import limit_reached
@@ -95,7 +95,7 @@ _PROCESS = {"one_command": False}
 """Whether this process runs one command and ends (the console script, ``python -m``)."""
 
 
-def _one_bounded_job() -> None:
+def one_bounded_job() -> None:
     """Skip the cyclic garbage collector for a job whose work is bounded (one log).
 
     Only when the process runs this one command and ends (:func:`run` without ``argv``):
@@ -151,10 +151,10 @@ def run(group: click.Group, argv: Sequence[str] | None = None) -> None:
         click.echo("hybridlog: aborted", err=True)
         code = 130
     except click.UsageError as err:
-        click.echo(_one_line(_usage_message(err, args)), err=True)
+        click.echo(one_line(_usage_message(err, args)), err=True)
         code = 2
     except click.ClickException as err:
-        click.echo(_one_line(f"hybridlog: error: {err.format_message()}"), err=True)
+        click.echo(one_line(f"hybridlog: error: {err.format_message()}"), err=True)
         code = 2 if err.exit_code in (1, 2) else err.exit_code
     except _Terminated as err:
         click.echo("hybridlog: terminated", err=True)
@@ -168,12 +168,12 @@ def run(group: click.Group, argv: Sequence[str] | None = None) -> None:
     except Exception as err:  # the last guard: never a traceback without --debug
         if debug:
             raise
-        click.echo(_one_line(_failure(err)), err=True)
+        click.echo(one_line(_failure(err)), err=True)
         code = 2
     finally:
         for warning in caught:
             category = warning.category.__name__
-            click.echo(_one_line(f"hybridlog: note: {category}: {warning.message}"), err=True)
+            click.echo(one_line(f"hybridlog: note: {category}: {warning.message}"), err=True)
     if _PROCESS["one_command"]:
         code = _said_lost_output(code)
         if sys.getprofile() is None and sys.gettrace() is None:
@@ -279,7 +279,7 @@ def _said_lost_output(code: int) -> int:
     lost = lost_output()
     if lost is None:
         return code
-    click.echo(_one_line(f"hybridlog: error: cannot write to standard output ({lost})"), err=True)
+    click.echo(one_line(f"hybridlog: error: cannot write to standard output ({lost})"), err=True)
     return code or 2
 
 

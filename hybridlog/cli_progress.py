@@ -1,11 +1,11 @@
 """How long work reports itself on stderr: progress bars, notes and waits.
 
 Only on a terminal that can draw them and without ``--quiet`` (:func:`_bars_shown`):
-a batch's bar of logs with its rate and time left (:func:`_batch_progress`, from a
-:class:`_BatchClock` that leaves out the waits for a model's first compile), the bar of
+a batch's bar of logs with its rate and time left (:func:`batch_progress`, from a
+:class:`BatchClock` that leaves out the waits for a model's first compile), the bar of
 long clustering, and the lines said while a model's first run compiles (:func:`_work_wait`),
 given to the jobs as a :class:`~hybridlog.cluster.progress.WorkReporter`
-(:func:`_work_reporter`, :func:`_batch_reporter`).
+(:func:`work_reporter`, :func:`batch_reporter`).
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from hybridlog.cli_lines import _for_terminal
-from hybridlog.cli_options import _Context
+from hybridlog.cli_lines import for_terminal
+from hybridlog.cli_options import is_quiet
 from hybridlog.fitted_lines import fitted
 
 if TYPE_CHECKING:
@@ -51,8 +51,7 @@ def _progress(
 
     Without click's ETA: ``show`` says the time left where it can be told.
     """
-    settings = ctx.find_object(_Context)
-    if not _bars_shown(settings is not None and settings.quiet):
+    if not _bars_shown(is_quiet(ctx)):
         yield None
         return
     bar: Any
@@ -69,8 +68,8 @@ def _progress(
 
 
 @contextlib.contextmanager
-def _batch_progress(
-    ctx: click.Context, total: int, clock: _BatchClock
+def batch_progress(
+    ctx: click.Context, total: int, clock: BatchClock
 ) -> Iterator[Callable[[Any], None] | None]:
     """A progress bar of a batch on stderr: done / failed / skipped, rate and time left.
 
@@ -112,7 +111,7 @@ def _batch_progress(
 
 
 @dataclass
-class _BatchClock:
+class BatchClock:
     """A batch's working time: since it started, less the time its work waited for compiling.
 
     A wait is one its reporter holds (:func:`_clocked_wait`) while a model's first run
@@ -142,7 +141,7 @@ class _BatchClock:
 
 
 @contextlib.contextmanager
-def _clocked_wait(clock: _BatchClock, shown: bool, what: str, why: str) -> Iterator[None]:
+def _clocked_wait(clock: BatchClock, shown: bool, what: str, why: str) -> Iterator[None]:
     """:func:`_work_wait` over the bar, its time counted out of ``clock``'s working time."""
     clock.wait()
     try:
@@ -159,7 +158,7 @@ def _work_note(quiet: bool, text: str) -> None:
     min" stood bare among them.
     """
     if not quiet:
-        click.echo(_for_terminal(f"hybridlog: note: {text}"), err=True)
+        click.echo(for_terminal(f"hybridlog: note: {text}"), err=True)
 
 
 @contextlib.contextmanager
@@ -206,7 +205,7 @@ def _work_wait(shown: bool, what: str, why: str, *, over_bar: bool = False) -> I
 
     def say() -> None:
         said.set()
-        click.echo(clear + _for_terminal(f"{what} ({why})..."), err=True, color=over_bar)
+        click.echo(clear + for_terminal(f"{what} ({why})..."), err=True, color=over_bar)
 
     timer = threading.Timer(WAIT_SHOWN_S, say)
     timer.daemon = True
@@ -218,10 +217,10 @@ def _work_wait(shown: bool, what: str, why: str, *, over_bar: bool = False) -> I
         timer.join()
     if said.is_set():
         took = duration_text(time.perf_counter() - start)
-        click.echo(clear + _for_terminal(f"{what}: done in {took}"), err=True, color=over_bar)
+        click.echo(clear + for_terminal(f"{what}: done in {took}"), err=True, color=over_bar)
 
 
-def _work_reporter(ctx: click.Context) -> WorkReporter:
+def work_reporter(ctx: click.Context) -> WorkReporter:
     """How long work reports itself on stderr (:mod:`hybridlog.cluster.progress`).
 
     The exact clustering potentials: a note with the expected time first, then a bar.  A
@@ -234,7 +233,7 @@ def _work_reporter(ctx: click.Context) -> WorkReporter:
 
     from hybridlog.cluster.progress import WorkReporter
 
-    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    quiet = is_quiet(ctx)
     return WorkReporter(
         note=partial(_work_note, quiet),
         bar=partial(_work_progress, quiet),
@@ -242,7 +241,7 @@ def _work_reporter(ctx: click.Context) -> WorkReporter:
     )
 
 
-def _batch_reporter(ctx: click.Context, clock: _BatchClock) -> WorkReporter:
+def batch_reporter(ctx: click.Context, clock: BatchClock) -> WorkReporter:
     """A batch's reporter: a model's first compiling said as :func:`_work_wait`, over the bar.
 
     The lines clear the bar's line first (its next update draws it again below them); the
@@ -253,5 +252,5 @@ def _batch_reporter(ctx: click.Context, clock: _BatchClock) -> WorkReporter:
 
     from hybridlog.cluster.progress import WorkReporter
 
-    quiet = (settings := ctx.find_object(_Context)) is not None and settings.quiet
+    quiet = is_quiet(ctx)
     return WorkReporter(wait=partial(_clocked_wait, clock, _bars_shown(quiet)))

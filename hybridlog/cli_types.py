@@ -1,10 +1,11 @@
 """The click building blocks of the command line: parameter types and command classes.
 
-Parameter types read a value strictly (:class:`_PathName`: no empty name, a leading ``~``
-as the shell makes it; :class:`_WholeNumber`, :class:`_Number`: :mod:`hybridlog.numbers`'s
-parsers; :class:`_Jobs`, :class:`_LogFormats`, :func:`_comma_list`).  :class:`_Command`
-refuses an option that takes one value given twice; :class:`_DataclassOptions` makes a
-command's options from an options dataclass, on first use (:class:`_GeneratedOptionsCommand`).
+Parameter types read a value strictly (:class:`PathName`: no empty name, a leading ``~``
+as the shell makes it; :class:`WholeNumber`, :class:`Number`: :mod:`hybridlog.numbers`'s
+parsers, a range said in words; :class:`Jobs`, :class:`LogFormats`, :func:`comma_list`).
+:class:`_Command` refuses an option that takes one value given twice;
+:class:`DataclassOptions` makes a command's options from an options dataclass, on first use
+(:class:`GeneratedOptionsCommand`), each read by its field's type (:class:`_FieldValue`).
 
 Light, as :mod:`hybridlog.cli`: click and hybridlog's light modules only.
 """
@@ -20,11 +21,11 @@ from typing import Any
 import click
 
 from hybridlog.errors import excerpt
-from hybridlog.estimators.options import OptionSource, describe_options, parse_options, shown
+from hybridlog.estimators.options import describe_options, read_text, shown
 from hybridlog.numbers import parse_float, parse_int
 
 
-class _PathName(click.Path):
+class PathName(click.Path):
     """A file or folder name; an empty one is refused (pathlib reads ``""`` as ``.``).
 
     ``--out ""`` was the working folder (``--out . contains the log``), ``analyze ""`` the
@@ -37,6 +38,7 @@ class _PathName(click.Path):
     """
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The name as a path, ``~`` expanded; a usage error for an empty name or unknown user."""
         if isinstance(value, str) and not value:
             self.fail("an empty name", param, ctx)
         if isinstance(value, str) and value.startswith("~"):
@@ -87,42 +89,77 @@ def _working_folder() -> str:
     return os.getcwd()
 
 
-_PATH = _PathName(path_type=Path)
+PATH = PathName(path_type=Path)
 """The type of every file or folder argument and option but a file to write."""
 
 
-_FILE_OUT = _PathName(path_type=str)
+FILE_OUT = PathName(path_type=str)
 """The type of an option naming a file to write: the text as given, whose ``/`` at the end
 (``--out dir.json/``, meaning a folder) a ``Path`` would drop; the job refuses it
 (:func:`hybridlog.outputs.check_file_name`)."""
 
 
 class _Strict(click.ParamType[Any]):
-    """A click type whose text is read by a strict parser of :mod:`hybridlog.numbers` first.
+    """A click number type whose text is read by a strict parser of :mod:`hybridlog.numbers`.
 
     click's ``INT`` and ``FLOAT`` read with Python's ``int()`` and ``float()``, which take
     underscores, any Unicode digits, and ``inf``/``nan``; the subclass' click base then does
-    the rest (a range check, the ``--help`` text).
+    the rest.  A value out of the range (``min``, ``max``) is refused in the words of the
+    other refusals, ``expected a whole number of at least 1, got 0``, which ``--help`` uses
+    too (``[at least 1]``): click's were ``0 is not in the range x>=1``.
     """
 
     parse: Callable[[str], object]
+    noun: str
+    # the range, set by the subclass' click base (click.IntRange, click.FloatRange)
+    min: Any
+    max: Any
+    min_open: bool
+    max_open: bool
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The number read strictly and in range; a usage error saying what is expected."""
         if isinstance(value, str):
             try:
                 value = type(self).parse(value)
             except ValueError as err:
-                self.fail(f"{err}, got {excerpt(value)}", param, ctx)
+                reason = str(err)
+                if reason.startswith("expected "):
+                    reason = f"expected {self._expected(reason.removeprefix('expected '))}"
+                self.fail(f"{reason}, got {excerpt(value)}", param, ctx)
+        low = self.min is not None and (value <= self.min if self.min_open else value < self.min)
+        high = self.max is not None and (value >= self.max if self.max_open else value > self.max)
+        if low or high:
+            within = self._describe_range()  # a number of at least 1, a number from 0 to 9
+            within = f"of {within}" if within.startswith("at ") else within
+            expected = self._expected(f"{self.noun} {within}")
+            self.fail(f"expected {expected}, got {shown(value)}", param, ctx)
         return super().convert(value, param, ctx)
 
+    def _expected(self, what: str) -> str:
+        """What the option takes, as an error says it after ``expected``."""
+        return what
 
-class _WholeNumber(_Strict, click.IntRange):
+    def _describe_range(self) -> str:
+        """The range in words: ``at least 1``, ``from 0 to 1e+09``, ``above 0``."""
+        if self.min is not None and self.max is not None and not (self.min_open or self.max_open):
+            return f"from {shown(self.min)} to {shown(self.max)}"
+        words = []
+        if self.min is not None:
+            words.append(f"{'above' if self.min_open else 'at least'} {shown(self.min)}")
+        if self.max is not None:
+            words.append(f"{'below' if self.max_open else 'at most'} {shown(self.max)}")
+        return " and ".join(words)
+
+
+class WholeNumber(_Strict, click.IntRange):
     """A whole-number option read by :func:`~hybridlog.numbers.parse_int` (``1_0`` refused)."""
 
     parse = staticmethod(parse_int)
+    noun = "a whole number"
 
 
-class _Jobs(_WholeNumber):
+class Jobs(WholeNumber):
     """``--jobs``: a whole number of at least 1, or ``"auto"``, the cores this process may use.
 
     ``auto`` is passed on as such (:func:`~hybridlog.jobs.batch.run_batch` counts the
@@ -131,26 +168,27 @@ class _Jobs(_WholeNumber):
     """
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """``"auto"`` (any case) as it is, else the whole number; a usage error otherwise."""
         if isinstance(value, str) and value.strip().lower() == "auto":
             return "auto"
-        try:
-            return super().convert(value, param, ctx)
-        except click.BadParameter as err:
-            if "whole number" not in err.message:
-                raise
-            self.fail(err.message.replace("a whole number", "a whole number or auto"), param, ctx)
+        return super().convert(value, param, ctx)
+
+    def _expected(self, what: str) -> str:
+        return f"{what} or auto"
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        """``N|auto`` in ``--help``."""
         return "N|auto"
 
 
-class _Number(_Strict, click.types.FloatParamType):
+class Number(_Strict, click.FloatRange):
     """A number option read by :func:`~hybridlog.numbers.parse_float` (finite, ASCII only)."""
 
     parse = staticmethod(parse_float)
+    noun = "a number"
 
 
-class _LogFormats(click.Choice[str]):
+class LogFormats(click.Choice[str]):
     """``--format`` or ``--encoding``: choices read from the log writers when first needed.
 
     ``name`` is the tuple of :mod:`hybridlog.io.bag_writers` that lists them (the one
@@ -164,6 +202,7 @@ class _LogFormats(click.Choice[str]):
 
     @property
     def choices(self) -> tuple[str, ...]:
+        """The names listed by :mod:`hybridlog.io.bag_writers` (imported now)."""
         from hybridlog.io import bag_writers
 
         return tuple(getattr(bag_writers, self._name))
@@ -173,7 +212,7 @@ class _LogFormats(click.Choice[str]):
         """Ignored: click's constructor sets the choices, which are read instead."""
 
 
-def _comma_list(value: str) -> tuple[str, ...]:
+def comma_list(value: str) -> tuple[str, ...]:
     """A comma-separated option's names (:func:`hybridlog.numbers.comma_items`).
 
     An empty item is a typo (a name left out, a stray comma), never a name: dropping it
@@ -222,7 +261,7 @@ class _Command(click.Command):
         return super().parse_args(ctx, args)
 
 
-class _Group(click.Group):
+class Group(click.Group):
     """The ``hybridlog`` group: its commands are :class:`_Command` s."""
 
     command_class = _Command
@@ -233,15 +272,17 @@ _METAVARS = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN
 
 
 @dataclass(frozen=True)
-class _DataclassOptions:
+class DataclassOptions:
     """Command-line options generated from an options dataclass: its one definition.
 
     Each named field becomes ``--field-name VALUE`` whose help, default and type come from
-    the field (:func:`~hybridlog.estimators.options.describe_options`); the values given are
-    read and checked by :func:`~hybridlog.estimators.options.parse_options`, exactly like
-    ``--set`` values, and fields not given keep the dataclass's defaults.  A
-    ``Literal`` field may instead be a switch between two of its choices
-    (``--exact/--approximate``).
+    the field (:func:`~hybridlog.estimators.options.describe_options`); a value given is read
+    and checked as the command line is parsed (:class:`_FieldValue`, exactly like a ``--set``
+    value), so that a bad one is a usage error like any other option's, and fields not given
+    keep the dataclass's defaults.  Whether the values go together (``conflicts()``: ``reject``
+    below ``accept``) is the job's to check, with the values of the model file's table
+    (:attr:`table`) the others take.  A ``Literal`` field may instead be a switch between
+    two of its choices (``--exact/--approximate``).
 
     Attributes
     ----------
@@ -288,6 +329,7 @@ class _DataclassOptions:
             params.append(
                 click.Option(
                     [f"--{name.replace('_', '-')}", name],
+                    type=_FieldValue(self.load, name),
                     default=None,
                     metavar=_METAVARS.get(info.type, f"[{info.type}]"),
                     help=f"{info.help} [{default}{limits}]",
@@ -296,34 +338,63 @@ class _DataclassOptions:
         return params
 
     def parse(self, given: Mapping[str, Any]) -> Any:
-        """The dataclass from the values given on the command line (``None``: not given)."""
+        """The dataclass from the values given on the command line (``None``: not given).
+
+        Each value was read by its option's type (:class:`_FieldValue`); how they go
+        together is not checked here: ``--reject 0.7`` was refused against ``accept``'s
+        default 0.5 (``0.7 is not below accept = 0.5 (its default)``) where the model file
+        sets ``accept = 0.9``, which is the default the help promises.
+        """
         values: dict[str, Any] = {}
-        sources: dict[str, OptionSource] = {}
         for name, value in given.items():
             if value is None:
                 continue
-            if name in self.switches:
-                values[name] = self.switches[name][0 if value else 1]
-                continue
-            values[name] = value
-            sources[name] = OptionSource(f"--{name.replace('_', '-')} {excerpt(value)[1:-1]}")
-        return parse_options(self.load(), values, estimator=self.owner, sources=sources)
+            values[name] = (
+                self.switches[name][0 if value else 1] if name in self.switches else value
+            )
+        return self.load()(**values)
 
 
-class _GeneratedOptionsCommand(_Command):
-    """A command with options generated by a :class:`_DataclassOptions` on first use.
+class _FieldValue(click.ParamType[Any]):
+    """The value of one option of an options dataclass, read as a ``--set`` value is.
+
+    :func:`~hybridlog.estimators.options.read_text`: the field's type, choices, range and
+    check; a bad value is a usage error naming the option (``hybridlog cluster: --radius:
+    expected a finite number, got 'abc' (see hybridlog cluster --help)``), where the
+    command's own check said ``hybridlog: error: --radius abc: chiu option 'radius': ...``.
+    """
+
+    name = "value"
+
+    def __init__(self, load: Callable[[], type[Any]], field: str) -> None:
+        self._load = load
+        self._field = field
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The field's value read from the text; a usage error with the reason otherwise."""
+        if not isinstance(value, str):
+            return value
+        try:
+            return read_text(self._load(), self._field, value)
+        except ValueError as err:
+            self.fail(str(err), param, ctx)
+
+
+class GeneratedOptionsCommand(_Command):
+    """A command with options generated by a :class:`DataclassOptions` on first use.
 
     The options are made when the command's parameters are first needed (to parse its
     arguments or show its help), after the parameter named ``after``.
     """
 
-    def __init__(self, *args: Any, generated: _DataclassOptions, after: str, **kwargs: Any) -> None:
-        self._generated: _DataclassOptions | None = generated
+    def __init__(self, *args: Any, generated: DataclassOptions, after: str, **kwargs: Any) -> None:
+        self._generated: DataclassOptions | None = generated
         self._after = after
         super().__init__(*args, **kwargs)
 
     @property
     def params(self) -> list[click.Parameter]:
+        """The command's parameters, the generated options among them (made on first use)."""
         if self._generated is not None:
             generated, self._generated = self._generated, None
             at = [p.name for p in self._params].index(self._after) + 1

@@ -88,6 +88,7 @@ __all__ = [
     "option",
     "options_dict",
     "parse_options",
+    "read_text",
     "shown",
 ]
 
@@ -388,18 +389,44 @@ def _converted(
                 f"{', '.join(kinds)}){closest(name, kinds)}"
             )
         field, kind = kinds[name]
-        what = f"{prefix}{estimator} option '{name}'"
         try:
-            value = _check(_convert(raw, kind, text=source.text), kind, field)
+            converted[name] = _read(raw, field, kind, text=source.text, base=source.base)
         except ValueError as err:
-            raise source.error(f"{what}: {err}") from None
-        if field.metadata.get("path") and value:
-            if source.base and not os.path.isabs(value):
-                value = os.path.join(source.base, value)
-            if os.path.isdir(value):  # read as a file only after the log, or never
-                raise source.error(f"{what}: {excerpt(value)} is a folder; name a file")
-        converted[name] = value
+            raise source.error(f"{prefix}{estimator} option '{name}': {err}") from None
     return converted
+
+
+def read_text(cls: type[Any], name: str, text: str) -> Any:
+    """The command-line ``text`` read as the option ``name`` of ``cls`` alone.
+
+    As :func:`parse_options` reads a ``--set`` value: its type, choices, range and
+    ``check``, a path option's value naming no folder; not whether it goes with the other
+    options (``conflicts()``), whose values a model file may yet give.  For command-line
+    options made from an options dataclass (``hybridlog cluster --radius``), checked as
+    they are parsed.
+
+    Raises
+    ------
+    ValueError
+        The reason alone (``expected a finite number, got 'abc'``, ``0 is outside [0.001,
+        100]``): the caller names the option.
+    """
+    field, kind = _kinds(cls)[name]
+    return _read(text, field, kind, text=True, base="")
+
+
+def _read(raw: Any, field: dataclasses.Field[Any], kind: _Kind, *, text: bool, base: str) -> Any:
+    """``raw`` read as the option ``field`` of ``kind``; ``ValueError`` with the reason.
+
+    A path option's value is taken from ``base`` when relative, and may not name a folder.
+    """
+    value = _check(_convert(raw, kind, text=text), kind, field)
+    if field.metadata.get("path") and value:
+        if base and not os.path.isabs(value):
+            value = os.path.join(base, value)
+        if os.path.isdir(value):  # read as a file only after the log, or never
+            raise ValueError(f"{excerpt(value)} is a folder; name a file")
+    return value
 
 
 def _refuse_conflicts(options: object, estimator: str, sources: Mapping[str, OptionSource]) -> None:

@@ -483,7 +483,7 @@ def test_log_without_truth_gives_null_truth_metrics_and_gates_say_so(tank_log, t
         (["compare", "{log}", "--model", "three_tank_hstf"], "missing option '--estimators'"),
         (
             ["simulate", "three_tank_hstf", "--out", "{tmp}/s.csv", "--seed", "-1"],
-            "hybridlog simulate: --seed: -1 is not in the range x>=0",
+            "hybridlog simulate: --seed: expected a whole number of at least 0, got -1",
         ),
         (["frobnicate"], "hybridlog: no such command 'frobnicate' (see hybridlog --help)"),
     ],
@@ -574,22 +574,22 @@ def test_the_summary_line_groups_the_thousands_of_its_counts() -> None:
     """``9,999 true switches: 9,980 detected, 19 missed``: every count grouped alike."""
     from dataclasses import replace
 
-    from hybridlog.cli_lines import _summary_line
+    from hybridlog.cli_lines import summary_line
     from hybridlog.report.document import read_report
 
     report = read_report(ROOT / "tests/data/reports/double_cart_case1_chiu.report.json")
     detection = report.modes.detection
     assert detection is not None and (detection.detected, detection.missed) == (24, 24)
     many = replace(detection, events=detection.events * 50)
-    line = _summary_line(replace(report, modes=replace(report.modes, detection=many)))
+    line = summary_line(replace(report, modes=replace(report.modes, detection=many)))
     assert line.endswith(", 2,400 true switches: 1,200 detected, 1,200 missed")
 
 
 def test_what_is_printed_on_stdout_holds_no_byte_a_terminal_acts_on() -> None:
     """A log named with an escape sequence or bytes that are not UTF-8: shown \\xNN."""
-    from hybridlog.cli_lines import _for_terminal
+    from hybridlog.cli_lines import for_terminal
 
-    shown = _for_terminal("report: run\x1b[31m\udcff/report.md\n\tnext line")
+    shown = for_terminal("report: run\x1b[31m\udcff/report.md\n\tnext line")
     assert shown == "report: run\\x1b[31m\\xff/report.md\n\tnext line"
     shown.encode("utf-8")  # a surrogate would raise here
 

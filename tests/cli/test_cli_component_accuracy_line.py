@@ -8,7 +8,7 @@ report.md scored each component that has one.
 
 from dataclasses import replace
 
-from hybridlog.cli_lines import _summary_line
+from hybridlog.cli_lines import summary_line
 from hybridlog.report.document import ModeReport, read_report
 from tests.report.test_summary_plot import REPORT
 
@@ -25,7 +25,7 @@ def _with_components(accuracy: float | None, without: tuple[str, ...]) -> str:
         components={"valve": scored},
         components_without_truth=without,
     )
-    return _summary_line(replace(report, modes=modes))
+    return summary_line(replace(report, modes=modes))
 
 
 def test_the_line_names_the_joint_accuracy_and_a_partial_truth() -> None:

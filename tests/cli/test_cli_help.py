@@ -15,7 +15,6 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import _CLUSTERING, cli, main
-from hybridlog.errors import OptionError
 from hybridlog.estimators import ESTIMATORS
 from hybridlog.estimators.options import describe_options, shown
 from hybridlog.io import ReadOptions
@@ -96,10 +95,14 @@ def test_cluster_options_are_generated_from_the_chiu_options():
         "--approximate"
     ]
     assert _CLUSTERING.parse({name: None for name in _CLUSTERING.names}) == options_type()
-    chosen = _CLUSTERING.parse({"radius": "0.4", "method": False, "input_lags": "1,2"})
+    given = {"radius": "0.4", "input_lags": "1,2"}
+    read = {
+        name: params[name].type.convert(text, params[name], None) for name, text in given.items()
+    }
+    chosen = _CLUSTERING.parse({**read, "method": False})
     assert chosen == options_type(radius=0.4, method="approximate", input_lags="1,2")
-    with pytest.raises(OptionError, match=r"^--squash 0\.5: chiu option 'squash': 0\.5 is outside"):
-        _CLUSTERING.parse({"squash": "0.5"})
+    with pytest.raises(click.BadParameter, match=r"^0\.5 is outside \(1, 100\]$"):
+        params["squash"].type.convert("0.5", params["squash"], None)
 
 
 def test_every_option_is_declared_once():

@@ -7,6 +7,7 @@ different analysis than the one typed, without a word.
 
 import pytest
 
+from hybridlog.cli_types import Number, WholeNumber
 from hybridlog.numbers import parse_float, parse_int
 from tests.cli.test_cli import run
 from tests.support.paths import SAMPLE_LOGS, TANK_CSV
@@ -133,8 +134,7 @@ def test_cluster_options_are_read_strictly(tmp_path, option, value):
     log = SAMPLE_LOGS / "double_cart_case1.csv"
     _refused(
         ["cluster", str(log), "--model", "double_cart_case1", "--out", str(out), option, value],
-        f"{option} {value}",
-        "expected a finite number",
+        f"hybridlog cluster: {option}: expected a finite number, got '{value}'",
     )
     assert not out.exists()
 
@@ -209,7 +209,7 @@ def test_cluster_lags_are_read_strictly(tmp_path):
     args = ["cluster", str(log), "--model", "double_cart_case1", "--out", str(out)]
     _refused(
         [*args, "--input-lags", "0,1_0"],
-        "--input-lags 0,1_0: chiu option 'input_lags': '1_0' is not a whole number",
+        "hybridlog cluster: --input-lags: '1_0' is not a whole number",
     )
     assert not out.exists()
 
@@ -236,12 +236,39 @@ def test_batch_jobs_auto_is_one_per_usable_core(monkeypatch):
 
     import hybridlog.environment as environment
     import hybridlog.jobs.batch as batch
-    from hybridlog.cli_types import _Jobs
+    from hybridlog.cli_types import Jobs
 
-    jobs = _Jobs(min=1)
+    jobs = Jobs(min=1)
     assert jobs.convert("auto", None, None) == "auto" == jobs.convert(" AUTO ", None, None)
     assert jobs.convert("2", None, None) == 2
     with pytest.raises(click.BadParameter, match="a whole number or auto, got 'many'"):
         jobs.convert("many", None, None)
+    with pytest.raises(
+        click.BadParameter, match=r"^expected a whole number of at least 1 or auto, got 0$"
+    ):
+        jobs.convert("0", None, None)  # was click's "0 is not in the range x>=1"
     assert batch.usable_cores is environment.usable_cores
     assert environment.usable_cores() >= 1
+
+
+@pytest.mark.parametrize(
+    ("kind", "inside", "outside", "why"),
+    [
+        (WholeNumber(min=1), "1", "0", "a whole number of at least 1, got 0"),
+        (WholeNumber(max=5), "5", "6", "a whole number of at most 5, got 6"),
+        (WholeNumber(min=0, max=5), "0", "-1", "a whole number from 0 to 5, got -1"),
+        (Number(min=0, max=1e9), "1e9", "2e9", "a number from 0 to 1e+09, got 2e+09"),
+        (Number(min=0, min_open=True), "1e-9", "0", "a number above 0, got 0"),
+        (Number(max=1, max_open=True), "0.5", "1", "a number below 1, got 1"),
+    ],
+)
+def test_a_number_out_of_range_is_refused_in_hybridlogs_words(kind, inside, outside, why):
+    # click said "0 is not in the range x>=1", unlike "expected a whole number, got 'x'";
+    # --help says the range in the same words ("[at least 1]", not "[x>=1]")
+    import click
+
+    assert kind.convert(inside, None, None) == float(inside)
+    with pytest.raises(click.BadParameter) as refused:
+        kind.convert(outside, None, None)
+    assert refused.value.message == f"expected {why}"
+    assert kind._describe_range() in why

@@ -25,20 +25,37 @@ def _cluster(
     [
         # --help gives squash "in [1, 100]" and accept, reject "in [0, 1]"; these edges said
         # "squash: ..." and "accept, reject: ...", naming no flag the user gave
-        (["--squash", "1"], "--squash 1: chiu option 'squash': 1 is outside (1, 100]"),
+        (["--squash", "1"], "--squash: 1 is outside (1, 100]"),
         # --help said accept "in [0, 1]", but 0 leaves no reject in 0 < reject < accept
-        (["--accept", "0"], "--accept 0: chiu option 'accept': 0 is outside (0, 1]"),
-        (["--reject", "0.5"], "--reject 0.5: chiu option 'reject': 0.5 is not below accept = 0.5"),
-        (
-            ["--accept", "0.2", "--reject", "0.3"],
-            "--reject 0.3: chiu option 'reject': 0.3 is not below accept = 0.2 (--accept 0.2)",
-        ),
+        (["--accept", "0"], "--accept: 0 is outside (0, 1]"),
     ],
 )
 def test_a_flag_out_of_bounds_is_named(tmp_path, capsys, options, named):
     code, stderr = _cluster(tmp_path, capsys, "double_cart_case1", *options)
-    assert code == 2 and stderr.startswith(f"hybridlog: error: {named}")
+    assert code == 2 and stderr == f"hybridlog cluster: {named} (see hybridlog cluster --help)\n"
+    assert not (tmp_path / "c.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        (["--reject", "0.5"], "accept 0.5 (the default), --reject 0.5: need 0 < reject < accept"),
+        (["--accept", "0.2", "--reject", "0.3"], "--accept 0.2, --reject 0.3: need 0 < reject <"),
+    ],
+)
+def test_flags_that_do_not_go_together_are_named(tmp_path, capsys, options, named):
+    code, stderr = _cluster(tmp_path, capsys, "double_cart_case1", *options)
+    assert code == 2 and stderr.startswith(f"hybridlog: error: {named}"), stderr
     assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
+
+
+def test_a_flag_goes_with_the_model_files_values(tmp_path, capsys):
+    # --reject 0.7 was refused against accept's dataclass default, "0.7 is not below
+    # accept = 0.5 (its default)", where the model file's accept = 0.9 is the default
+    model = tmp_path / "dc.toml"
+    model.write_text(builtin_text("double_cart_case1") + "\n[estimators.chiu]\naccept = 0.9\n")
+    code, stderr = _cluster(tmp_path, capsys, str(model), "--reject", "0.7")
+    assert code == 2 and stderr.startswith("hybridlog: error: no_such_log.csv"), stderr
 
 
 @pytest.mark.parametrize(
@@ -46,14 +63,14 @@ def test_a_flag_out_of_bounds_is_named(tmp_path, capsys, options, named):
     [
         # the lags were checked only when φ(k) was built: "output_lags: must contain 0",
         # naming neither --output-lags nor --set output_lags nor the model file's key
-        (["--output-lags", "1"], "--output-lags 1: chiu option 'output_lags': must contain 0"),
-        (["--input-lags", "0,0"], "--input-lags 0,0: chiu option 'input_lags': a lag is listed"),
-        (["--input-lags", "-1"], "--input-lags -1: chiu option 'input_lags': lags must be non"),
+        (["--output-lags", "1"], "--output-lags: must contain 0"),
+        (["--input-lags", "0,0"], "--input-lags: a lag is listed twice"),
+        (["--input-lags", "-1"], "--input-lags: lags must be non"),
     ],
 )
 def test_lags_are_named_where_they_were_set(tmp_path, capsys, options, named):
     code, stderr = _cluster(tmp_path, capsys, "double_cart_case1", *options)
-    assert code == 2 and stderr.startswith(f"hybridlog: error: {named}"), stderr
+    assert code == 2 and stderr.startswith(f"hybridlog cluster: {named}"), stderr
     assert len(stderr.splitlines()) == 1 and not (tmp_path / "c.json").exists()
 
 

@@ -62,7 +62,11 @@ def test_the_command_line_builds_the_checked_options(
         main([*args, "--max-gap", "-2"])
     assert exit_.value.code == 2
     err = capsys.readouterr().err
-    assert err == "hybridlog: error: --max-gap: must be between 0 and 1e+09 seconds, got -2\n"
+    # refused as the line is parsed, a usage error like any other bad number
+    assert err == (
+        "hybridlog analyze: --max-gap: expected a number from 0 to 1e+09, got -2 "
+        "(see hybridlog analyze --help)\n"
+    )
     assert not out.exists()
 
 

@@ -409,9 +409,7 @@ def test_progress_bar_counts_done_failed_skipped_with_rate(
     monkeypatch.setattr(sys, "stderr", terminal)
     context = click.Context(cli.cli, obj=cli_options._Context(quiet=quiet))
     statuses = ["done", "failed", "skipped", "done"]
-    with cli_progress._batch_progress(
-        context, len(statuses), cli_progress._BatchClock()
-    ) as advance:
+    with cli_progress.batch_progress(context, len(statuses), cli_progress.BatchClock()) as advance:
         if quiet:
             assert advance is None
             return
@@ -433,8 +431,8 @@ def test_progress_rate_and_time_left_leave_out_the_first_compile(
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
     context = click.Context(cli.cli, obj=cli_options._Context(quiet=False))
-    clock = cli_progress._BatchClock(started=now[0])
-    with cli_progress._batch_progress(context, 4, clock) as advance:
+    clock = cli_progress.BatchClock(started=now[0])
+    with cli_progress.batch_progress(context, 4, clock) as advance:
         assert advance is not None
         with cli_progress._clocked_wait(clock, False, "imm: compiling", "first run"):
             now[0] += 30.0
@@ -456,7 +454,7 @@ def test_progress_counts_a_compile_as_waiting_only_until_a_log_finishes_during_i
 
     now = [0.0]
     monkeypatch.setattr(cli_progress.time, "monotonic", lambda: now[0])
-    clock = cli_progress._BatchClock(started=0.0)
+    clock = cli_progress.BatchClock(started=0.0)
     with cli_progress._clocked_wait(clock, False, "imm: compiling", "first run"):
         now[0] = 5.0
         assert clock.working() == 0.0  # a wait going on is not work

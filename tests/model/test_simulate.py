@@ -190,7 +190,10 @@ def test_a_singular_measurement_noise_names_the_file_mode_and_estimator(tmp_path
 
 @pytest.mark.parametrize(
     ("args", "fragment"),
-    [(["--seed", "-1"], "--seed: -1 is not in the range x>=0"), (["--steps", "10**9"], "GB")],
+    [
+        (["--seed", "-1"], "--seed: expected a whole number of at least 0, got -1"),
+        (["--steps", "10**9"], "GB"),
+    ],
 )
 def test_the_command_refuses_in_one_line_before_writing(tmp_path, capsys, args, fragment):
     # Issue 7: a ValueError traceback, and an OOM kill at 23.7 GB, before.

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import pytest
 
-from hybridlog.cli_lines import _summary_line
+from hybridlog.cli_lines import summary_line
 from hybridlog.report.document import OutputReport
 from hybridlog.report.markdown import format_percent, render_markdown
 from tests.report.test_report_gates import report
@@ -44,7 +44,7 @@ def test_report_md_and_the_summary_line_write_no_false_perfect_score():
     markdown = render_markdown(near)
     assert "| y1 | 1e-09 | 99.99999 | 100.0000 |" in markdown
     assert "- mode accuracy: 99.99997%" in markdown
-    line = _summary_line(near)
+    line = summary_line(near)
     assert "VAF 99.99999 %, fit 100.00 %" in line
     assert "mode accuracy 99.99997 %" in line
 

@@ -41,11 +41,11 @@ def test_a_chunk_of_other_options_is_refused() -> None:
 def test_the_terminal_summary_writes_a_huge_fit_in_scientific_notation() -> None:
     """A diverged but finite prediction gave a fit of about -1e301, printed with ``.2f``
     on the terminal as a number of 300 digits (report.md already wrote it as 1e+301)."""
-    from hybridlog.cli_lines import _summary_line
+    from hybridlog.cli_lines import summary_line
 
     result, signals = make_run(n=30)
     huge = dataclasses.replace(result, output_predictions=result.output_predictions * 1e300)
     report = build_report(huge, signals, log="run.csv", model_name="tanks", dt=DT)
     assert report.fit is not None and abs(report.fit) > 1e12
-    line = _summary_line(report)
+    line = summary_line(report)
     assert "e+" in line and len(line) < 300, line

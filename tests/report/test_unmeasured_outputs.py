@@ -68,10 +68,10 @@ def test_bridged_points_are_left_out_of_the_metrics_and_the_measured_columns(
     assert report.states["x1"].samples == n - len(TRUTH_GAP)
     assert report.states["x2"].samples == n
     assert np.isnan(table["x1_true"].to_numpy()[list(TRUTH_GAP)]).all()
-    from hybridlog.cli_lines import _summary_line
+    from hybridlog.cli_lines import summary_line
 
     # the terminal's line said the VAF without saying it is over part of the log
-    assert " (over 297 of 300 predicted samples), mode accuracy " in _summary_line(report)
+    assert " (over 297 of 300 predicted samples), mode accuracy " in summary_line(report)
     notes = "\n".join(report.notes)
     assert "MSE, VAF and fit leave them out" in notes
     assert "its RMSE leaves them out" in notes
