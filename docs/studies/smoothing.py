@@ -45,7 +45,7 @@ Scenarios (none tuned to a result: fixed before the first run):
   from the seed), the IMM's prior the model's (at rest, mode 1), stay probability 0.95.
 
 Metrics per log: mode error (1 − accuracy, samples 1..N−1), detection delay (mean over the
-detected switches, ``hybridlog.report.metrics.detection_delays``) and missed switches, and the
+detected switches, ``hybridlog.report.mode_metrics.detection_delays``) and missed switches, and the
 state RMSE against the simulated truth (all states, samples 1..N−1).
 """
 

@@ -168,7 +168,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from hybridlog.estimators import smoother_kernels, smoother_source, unrolled
+from hybridlog.estimators import common, kernels, smoother_kernels, smoother_source, unrolled
 from hybridlog.estimators.common import (
     FilterBuffers,
     FilterRun,
@@ -409,7 +409,11 @@ def _backward_pass(
             model,
             name,
             lambda: module_source(model, generate(model)),
-            (smoother_source.__name__, smoother_kernels.__name__, unrolled.__name__),
+            # every module whose code or constants the source takes: kernels' PSD_TOLERANCE
+            # is written into it, common's packed_width and upper_pairs lay out its records
+            tuple(
+                m.__name__ for m in (smoother_source, smoother_kernels, unrolled, kernels, common)
+            ),
             name,
             arguments,
         )

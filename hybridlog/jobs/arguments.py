@@ -23,6 +23,7 @@ import numpy as np
 
 from hybridlog.errors import OptionError, excerpt
 from hybridlog.io import ReadOptions
+from hybridlog.jit import cache_variable
 
 __all__ = [
     "callback",
@@ -213,7 +214,16 @@ def common(
     smooth: object,
     mode_sequence: object,
 ) -> ReadOptions:
-    """Check the arguments ``analyze``, ``compare`` and ``run_batch`` share; the read options."""
+    """Check the arguments ``analyze``, ``compare`` and ``run_batch`` share; the read options.
+
+    The cache folders' variables first (:func:`hybridlog.jit.cache_variable`), as the
+    command line checks them before any command: a relative ``NUMBA_CACHE_DIR``, read only
+    where numba is first set up, failed each log of ``run_batch`` with ``jobs=1``, and with
+    ``jobs=2`` killed the workers' forkserver while it warmed up (a traceback, then
+    ``EOFError: unexpected EOF``).
+    """
+    for variable in ("HYBRIDLOG_CACHE_DIR", "NUMBA_CACHE_DIR"):
+        cache_variable(variable)
     path(model_ref, "model_ref")
     for name, given in (("sets", sets), ("fail_under", fail_under), ("fail_over", fail_over)):
         texts(given, name)

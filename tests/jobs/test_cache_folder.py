@@ -113,3 +113,24 @@ def test_a_relative_cache_folder_variable_is_refused_everywhere_alike(
     assert jit.machine_code_dir().parent == Path(
         "/abs/cache" if name == "NUMBA_CACHE_DIR" else "/abs/cache/numba"
     )
+
+
+def test_the_library_jobs_refuse_a_relative_numba_cache_folder_before_anything(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``run_batch`` read ``NUMBA_CACHE_DIR`` only where numba is first set up: with
+    ``jobs=1`` each log failed with the refusal (the batch folder written), with ``jobs=2``
+    the workers' forkserver died warming up (a traceback, then ``EOFError``).  Refused, as
+    the command line refuses it, before anything is written."""
+    from hybridlog.jobs.analysis import analyze
+    from hybridlog.jobs.batch import run_batch
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "cache")
+    out = tmp_path / "out"
+    for job in (
+        lambda: run_batch([TANK_CSV], "three_tank_hstf", estimator="imm", out_dir=out),
+        lambda: analyze(TANK_CSV, "three_tank_hstf", estimator="imm", out_dir=out),
+    ):
+        with pytest.raises(OptionError, match=r"^environment variable NUMBA_CACHE_DIR='cache'"):
+            job()
+        assert not out.exists()

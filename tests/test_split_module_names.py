@@ -1,0 +1,71 @@
+"""Docs and docstrings name a function of a split module where it now is.
+
+``estimators/smoothing.py`` gave its kernels to ``smoother_kernels.py`` and its code writer to
+``smoother_source.py``, ``report/metrics.py`` its mode metrics to ``mode_metrics.py``,
+``report/build.py`` its reading notes to ``reading_notes.py``, ``cli.py`` its parameter
+types, options, lines, progress bars and process handling to ``cli_*.py``: after the splits,
+``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
+``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
+``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
+``bridged_cause``, ``docs/studies/smoothing.py`` to ``metrics.detection_delays`` and
+``EstimationResult``'s docstring to ``smoothing.NEGLIGIBLE_WEIGHT``: names the old module
+no longer has.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+
+import pytest
+
+from tests.support.paths import ROOT
+
+SPLITS = {
+    "hybridlog.estimators.smoothing": (
+        "hybridlog.estimators.smoother_kernels",
+        "hybridlog.estimators.smoother_source",
+    ),
+    "hybridlog.report.metrics": ("hybridlog.report.mode_metrics",),
+    "hybridlog.report.build": ("hybridlog.report.reading_notes",),
+    "hybridlog.cli": tuple(
+        f"hybridlog.cli_{part}" for part in ("types", "options", "lines", "progress", "process")
+    ),
+}
+"""Each split module and the modules that took part of it."""
+
+
+def _texts() -> list[tuple[str, str]]:
+    paths = [
+        *ROOT.joinpath("hybridlog").rglob("*.py"),
+        *ROOT.joinpath("docs").rglob("*.md"),
+        *ROOT.joinpath("docs", "studies").glob("*.py"),
+        ROOT / "README.md",
+    ]
+    return [(str(p.relative_to(ROOT)), p.read_text(encoding="utf-8")) for p in sorted(paths)]
+
+
+@pytest.mark.parametrize("old", sorted(SPLITS))
+def test_a_moved_name_is_not_named_in_its_old_module(old: str) -> None:
+    module = importlib.import_module(old)
+    moved = {
+        name
+        for new in SPLITS[old]
+        for name in vars(importlib.import_module(new))
+        if not hasattr(module, name)
+    }
+    short = old.rsplit(".", 1)[1]
+    path = old.removeprefix("hybridlog.").replace(".", "/") + ".py"
+    named = re.compile(
+        # quoted (`smoothing.rts_step`, ``~hybridlog.report.metrics.x``) or in full: a bare
+        # ``metrics.mode_accuracy`` in code is a variable's attribute
+        rf"(?:(?<=[`~])(?:hybridlog\.(?:\w+\.)?)?|(?<![\w.])hybridlog\.(?:\w+\.)?){short}\.(\w+)"
+        rf"|{re.escape(path)}`?'s `(\w+)`"
+    )
+    stale = [
+        f"{where}:{text.count(chr(10), 0, m.start()) + 1}: {m[0]}"
+        for where, text in _texts()
+        for m in named.finditer(text)
+        if (m[1] or m[2]) in moved
+    ]
+    assert not stale, stale
