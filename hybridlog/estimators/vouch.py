@@ -474,7 +474,8 @@ def _lost_before(signals: AlignedSignals, result: EstimationResult, at: int, fir
     that state, though the log is sound (10^7 samples simulated from the model: the IMM held
     mode 1 for the 100 samples of mode 3 before t = 1844101 s and was refused there as an
     outlier or another plant's log).  Where the log's true mode at the row before differs from
-    the estimate's, this says so (how many samples back, within the result); else empty.
+    the estimate's, this says so (how many samples back, within the result, sample 0's prior
+    not counted); else empty.
     """
     truth = signals.truth_modes
     if truth is None or at < 1:
@@ -482,8 +483,10 @@ def _lost_before(signals: AlignedSignals, result: EstimationResult, at: int, fir
     ids = result.mode_ids  # the model's, which the true codes index too
 
     def wrong(row: int) -> bool:
+        # sample 0's mode is the prior's, not an estimate: a log no mode explains at
+        # sample 1 (every output 1e6) was said to be one the estimate "had lost" there
         code = int(truth[first + row])
-        return code >= 0 and code != int(result.modes[row])
+        return first + row >= 1 and code >= 0 and code != int(result.modes[row])
 
     if not wrong(at - 1):
         return ""

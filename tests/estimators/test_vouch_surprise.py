@@ -138,7 +138,7 @@ def test_an_estimate_that_had_lost_the_plant_is_said_so_where_the_log_has_its_tr
     message = str(refused.value)
     assert "tank.toml: imm cannot explain the log at t = 101 s (sample 101)" in message
     assert message.endswith(
-        "the estimate had lost the plant before it: it held mode '1' over the 101 samples "
+        "the estimate had lost the plant before it: it held mode '1' over the 100 samples "
         "before, where the log's true mode was '3' (a wrong mode whose outputs another state "
         "matched); the log may be sound, and another estimator or its options may follow it"
     )
@@ -149,6 +149,25 @@ def test_an_estimate_that_had_lost_the_plant_is_said_so_where_the_log_has_its_tr
         "an outlier, a stuck or offset sensor, another plant's log, or an estimate that had "
         "lost the plant before it (a wrong mode whose outputs another state matched)?"
     )
+
+
+def test_a_log_no_mode_explains_at_its_first_sample_is_not_said_to_be_lost_by_the_prior():
+    """Every output of the three-tank sample log at 1e6: refused at sample 1, where the
+    estimate before is the prior (mode 2, the log's true mode 1).  The refusal said "the
+    estimate had lost the plant before it ... the log may be sound" of a broken log."""
+    from hybridlog.io import ReadOptions, SignalSpec, load_signals
+    from hybridlog.model.cache import load_model
+
+    model = load_model("three_tank_hstf")
+    signals = load_signals(SAMPLES / "three_tank_hstf.csv", SignalSpec.of(model), ReadOptions())
+    assert signals.truth_modes is not None and signals.truth_modes[0] == 0  # '1'; the prior '2'
+    constant = dataclasses.replace(signals, outputs=np.full_like(signals.outputs, 1e6))
+    with pytest.raises(DivergenceError) as refused:
+        run_imm(model, constant, ImmOptions())
+    message = str(refused.value)
+    assert "cannot explain the log at t = 1 s (sample 1)" in message
+    assert "lost the plant before it:" not in message
+    assert message.endswith("(a wrong mode whose outputs another state matched)?")
 
 
 def _signals(outputs, inputs=None):
