@@ -272,7 +272,7 @@ def models(name: str | None) -> None:
     type=WholeNumber(min=0),
     default=0,
     show_default=True,
-    help="Noise seed (>= 0): the same seed, schedule and --steps give the same log.",
+    help="Noise seed: the same seed, schedule and --steps give the same log.",
 )
 @set_option(
     "A parameter of the model ([parameters]: the plant simulated with another value), or a "

@@ -38,7 +38,12 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from hybridlog.cgroups import cpu_limit
-from hybridlog.errors import ABSOLUTE_FOLDER, OptionError, OutputError, environment_error
+from hybridlog.errors import (
+    OptionError,
+    OutputError,
+    absolute_folder_expected,
+    environment_error,
+)
 from hybridlog.limits import owner_masked
 
 __all__ = [
@@ -137,7 +142,7 @@ def _absolute_or_empty(value: str) -> bool:
     return not value or os.path.isabs(value)
 
 
-RULES: dict[str, tuple[Callable[[str], bool], str]] = {
+RULES: dict[str, tuple[Callable[[str], bool], str | Callable[[str], str]]] = {
     "NUMBA_NUM_THREADS": (_threads, "a whole number of threads, at least 1"),
     "NUMBA_OPT": (
         lambda value: value in {"0", "1", "2", "3", "max"},
@@ -149,10 +154,10 @@ RULES: dict[str, tuple[Callable[[str], bool], str]] = {
         "(polars starts them all at once)",
     ),
     # the cache folders, read by jit.cache_dir and jit.machine_code_dir (which refuse alike)
-    "HYBRIDLOG_CACHE_DIR": (_absolute_or_empty, ABSOLUTE_FOLDER),
-    "NUMBA_CACHE_DIR": (_absolute_or_empty, ABSOLUTE_FOLDER),
+    "HYBRIDLOG_CACHE_DIR": (_absolute_or_empty, absolute_folder_expected),
+    "NUMBA_CACHE_DIR": (_absolute_or_empty, absolute_folder_expected),
 }
-"""Variables with a rule of their own: (check, what is expected)."""
+"""Variables with a rule of their own: (check, what is expected, or its text for the value)."""
 
 
 @functools.cache
@@ -212,4 +217,5 @@ def check_environment(environ: Mapping[str, str] | None = None) -> None:
         else:
             continue
         if not check(value):
-            raise environment_error(name, value, expected)
+            said = expected if isinstance(expected, str) else expected(value)
+            raise environment_error(name, value, said)

@@ -188,7 +188,22 @@ ABSOLUTE_FOLDER = (
 )
 """What a cache folder's variable (``HYBRIDLOG_CACHE_DIR``, ``NUMBA_CACHE_DIR``) must be:
 checked before a command starts (:func:`hybridlog.environment.check_environment`) and where
-the library reads it (:func:`hybridlog.jit.cache_dir`, :func:`hybridlog.jit.machine_code_dir`)."""
+the library reads it (:func:`hybridlog.jit.cache_dir`, :func:`hybridlog.jit.machine_code_dir`),
+both through :func:`absolute_folder_expected`."""
+
+
+def absolute_folder_expected(value: str) -> str:
+    """:data:`ABSOLUTE_FOLDER`, for a value starting with ``~`` also that nothing expanded it.
+
+    A shell expands ``~`` only where it starts a word (``X=~/c`` but not ``X="~/c"``), and a
+    CI file's or a service's environment not at all: the value reached hybridlog as written.
+    """
+    if value.startswith("~"):
+        return (
+            "an absolute path ('~' is the shell's, and nothing expanded it here: write "
+            '"$HOME/..." for a folder of your home)'
+        )
+    return ABSOLUTE_FOLDER
 
 
 def environment_error(name: str, value: str, expected: str) -> OptionError:

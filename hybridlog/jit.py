@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any, TypeVar, cast
 
 from hybridlog import __version__
-from hybridlog.errors import ABSOLUTE_FOLDER, OutputError, environment_error
+from hybridlog.errors import OutputError, absolute_folder_expected, environment_error
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -235,13 +235,13 @@ def cache_variable(name: str) -> str:
     Raises
     ------
     OptionError
-        The value is not an absolute path (:data:`~hybridlog.errors.ABSOLUTE_FOLDER`): a
+        The value is not an absolute path (:func:`~hybridlog.errors.absolute_folder_expected`): a
         relative one is a cache in each process's working folder (each batch worker's, a Dask
         worker's), not one cache.
     """
     value = os.environ.get(name, "")
     if value and not os.path.isabs(value):
-        raise environment_error(name, value, ABSOLUTE_FOLDER)
+        raise environment_error(name, value, absolute_folder_expected(value))
     return value
 
 

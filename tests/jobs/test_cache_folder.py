@@ -99,13 +99,19 @@ def test_a_relative_cache_folder_variable_is_refused_everywhere_alike(
         jit.machine_code_dir()  # reads both
     with pytest.raises(OptionError) as command:
         check_environment({name: value})
+    expected = (
+        "an absolute path ('~' is the shell's, and nothing expanded it here: write "
+        '"$HOME/..." for a folder of your home)'
+        if value.startswith("~")  # quoted, or set by a CI file: the hint was "$PWD/..."
+        else "an absolute path (a relative one is a folder of each process's working folder, "
+        'not one cache; write "$PWD/..." for the folder the shell is in)'
+    )
     assert (
         str(library.value)
         == str(command.value)
         == (
-            f"environment variable {name}={value!r}: expected an absolute path (a "
-            "relative one is a folder of each process's working folder, not one cache; write "
-            '"$PWD/..." for the folder the shell is in); unset it or give it such a value'
+            f"environment variable {name}={value!r}: expected {expected}; "
+            "unset it or give it such a value"
         )
     )
     check_environment({name: ""})  # empty is unset, as numba and cache_dir take it
