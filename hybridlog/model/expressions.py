@@ -403,8 +403,11 @@ def parse_expression(
     try:
         expression = converter.visit(tree.body)
     except (TypeError, ValueError, ArithmeticError) as err:
-        # a parameter's value may be the cause (E**E with E = 1000: an exponent past 64)
-        culprits = _parameters_used(tree.body, symbols, converter, _no_problem, every=False)
+        # a parameter's value may be the cause (E**E with E = 1000: an exponent past 64); of a
+        # complex value, every parameter of the power or call that made it
+        complex_value = isinstance(err, _ComplexValueError)
+        root = err.node if isinstance(err, _ComplexValueError) else tree.body
+        culprits = _parameters_used(root, symbols, converter, _no_problem, every=complex_value)
         raise ModelError(f"{key}: {_unquoted(err, 200)}{culprits}") from err
     except RecursionError as err:
         raise ModelError(f"{key}: expression too long or nested too deeply") from err
@@ -873,8 +876,22 @@ class _Converter:
             and (value.has(sympy.I) or value.is_extended_real is False)
         ):
             written = self.segment(node) or ast.unparse(node)
-            raise ValueError(
+            raise _ComplexValueError(
                 f"{excerpt(written, 40)} is complex-valued ({_unquoted(value, 40)}, not a real "
-                "number); model expressions must be real"
+                "number); model expressions must be real",
+                node,
             )
         return value
+
+
+class _ComplexValueError(ValueError):
+    """:meth:`_Converter.real`'s refusal, with the power or call ``node`` that made it.
+
+    The parameters that power or call uses are named (``sqrt(p - 3)`` with ``p = 2``): setting
+    one to 1 (how :func:`_parameters_used` finds the culprit of an overflow) does not make
+    ``p - 3`` positive, so ``p`` went unnamed.
+    """
+
+    def __init__(self, message: str, node: ast.expr) -> None:
+        super().__init__(message)
+        self.node = node

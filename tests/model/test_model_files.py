@@ -309,6 +309,17 @@ def test_a_complex_constant_anywhere_is_refused_as_not_real(
     )
 
 
+def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None:
+    """``sqrt(p - 3)`` with ``p = 2``: ``p`` set to 1 leaves it complex, so the probe of an
+    overflow's culprits did not name ``p``; the parameters of the refused part are named."""
+    symbols = {**X, "p": sympy.Integer(2), "q": sympy.Integer(5)}
+    with pytest.raises(ModelError) as refused:
+        parse_expression("q*x + sqrt(p - 3)", symbols, key="k")
+    assert str(refused.value).endswith(
+        "model expressions must be real; with parameters.p = 2"
+    )  # not q, which the refused part does not use
+
+
 @pytest.mark.parametrize(
     ("expression", "words"),
     [
