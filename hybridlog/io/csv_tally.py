@@ -45,7 +45,7 @@ def csv_blocks(path: Path) -> Iterator[bytes]:
 
     Each block ends where a line does (the last where the file does), so polars reads its
     lines as it reads them in the whole file: a record a line (a quoted line break is
-    refused before, ``tables._check_record_widths``), a blank line a row of empty cells.
+    refused before, ``csv_lines.check_record_widths``), a blank line a row of empty cells.
 
     Raises
     ------
@@ -76,7 +76,7 @@ class ColumnTally:
     A column is ``float64`` when every non-empty cell is a number, else ``boolean`` when
     every one (at least one) is ``true`` or ``false`` in any case (read as 1 and 0), else
     ``string``; ``count``, ``nonfinite`` and the finite range are those of its values, as
-    ``tables._describe_column`` gives them for the column read whole.  ``numbers`` counts
+    ``column_summary.describe_column`` gives them for the column read whole.  ``numbers`` counts
     the non-empty cells that are numbers, ``first_text`` is the row and text of the first
     that is not (``None`` while every one is): where a column of numbers has a cell
     ``analyze`` refuses (``'0x10' is not a number``), which ``inspect`` names.

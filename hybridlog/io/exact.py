@@ -11,7 +11,7 @@ whole number (digits, an optional sign); a number written with a decimal point o
 exponent is rounded to the nearest ``float64``, as every decimal fraction is.
 
 Labels (true modes) are never numbers here: an integer mode id is read as its digits, so
-ids beyond 2^53 stay distinct (:func:`hybridlog.io.tables._as_labels`,
+ids beyond 2^53 stay distinct (:func:`hybridlog.io.table_labels._as_labels`,
 :func:`hybridlog.io.message_paths.as_label`).
 """
 

@@ -398,7 +398,7 @@ def _steps(steps: dict[str, Any]) -> str:
 
 def _time_named(columns: list[dict[str, Any]]) -> str | None:
     """The table's time column when its times could not be read (no span to name it)."""
-    from hybridlog.io.tables import TIME_COLUMNS
+    from hybridlog.io.table_times import TIME_COLUMNS
 
     names = {c["name"] for c in columns}
     return next((name for name in TIME_COLUMNS if name in names), None)

@@ -14,17 +14,19 @@ messages count the header as line 1 and assume one record per physical line (no 
 breaks); blank lines (empty, or of blanks and commas alone) are skipped but counted.  Polars
 reads a CSV file a block of lines at a time (:mod:`~hybridlog.io.csv_tally`), and
 :meth:`TableSource.describe` describes one block by block, a Parquet file column by column.
+
+:class:`TableSource` is here; what it reads with is in modules of their own: the header
+(:mod:`.csv_header`), the checks of a CSV file's lines (:mod:`.csv_lines`), its blocks read by
+polars (:mod:`.csv_frames`) and its cells as numbers (:mod:`.csv_numbers`), a Parquet file
+(:mod:`.parquet_files`), the time column's names and ISO 8601 text (:mod:`.table_times`),
+label columns (:mod:`.table_labels`), what a column's type holds (:mod:`.column_types`),
+``inspect``'s entry of a column (:mod:`.column_summary`) and polars' panics
+(:mod:`.polars_errors`).
 """
 
 from __future__ import annotations
 
-import contextlib
-import csv
-import os
-import re
-import sys
-import tempfile
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -33,10 +35,22 @@ import numpy as np
 
 from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.align import clock_tolerance_ns
-from hybridlog.io.csv_encoding import refuse_not_utf8
-from hybridlog.io.csv_tally import BOOLEANS, ColumnTally, csv_blocks, stripped_cells
+from hybridlog.io.column_summary import column_info, describe_column
+from hybridlog.io.column_types import NARROW_INTEGERS, dtype_name, holds_numbers, holds_text
+from hybridlog.io.csv_frames import (
+    blank_csv_rows,
+    blank_rows,
+    csv_text_frames,
+    empty_cells,
+    first_cell,
+    read_csv_frame,
+    read_csv_strings,
+)
+from hybridlog.io.csv_header import header_names
+from hybridlog.io.csv_lines import check_record_widths, check_truncated
+from hybridlog.io.csv_numbers import parse_floats, texts_among_numbers
+from hybridlog.io.csv_tally import ColumnTally
 from hybridlog.io.exact import (
-    EXACT_LIMIT,
     WHOLE_NUMBER,
     any_beyond_exact,
     beyond_exact,
@@ -45,6 +59,8 @@ from hybridlog.io.exact import (
 from hybridlog.io.formats import LogFormat, get_format
 from hybridlog.io.message_paths import PathError
 from hybridlog.io.options import ReadOptions
+from hybridlog.io.parquet_files import read_parquet, read_parquet_schema
+from hybridlog.io.polars_errors import first_line, panics_refused
 from hybridlog.io.source import (
     MAX_SECONDS,
     NS_PER_S,
@@ -62,11 +78,11 @@ from hybridlog.io.source import (
     seconds_to_ns,
 )
 from hybridlog.io.summary import (
-    count_nonfinite,
     describe_steps,
     round_span,
     seconds_resolution_ns,
 )
+from hybridlog.io.table_labels import label_codes
 from hybridlog.io.table_paths import (
     ARRAY,
     STRUCT,
@@ -77,21 +93,12 @@ from hybridlog.io.table_paths import (
     leaf_values,
 )
 from hybridlog.io.table_paths import resolve as resolve_path
+from hybridlog.io.table_times import TIME_COLUMNS, iso_format, not_a_time
 from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
 from hybridlog.times import format_time
 
-TIME_COLUMNS = ("t", "time")
-
 _TABLES = (get_format("csv"), get_format("parquet"))
-
-_NARROW_INTEGERS = (pl.Int8, pl.Int16, pl.Int32, pl.UInt8, pl.UInt16, pl.UInt32)
-"""Integer types every value of which a ``float64`` holds exactly."""
-
-COUNTED_AT_ONCE = 1 << 18
-"""Bytes of a CSV file :func:`_count_separators` reads and counts at a time (256 KiB: of the
-sizes measured, the fastest; 1 MiB took a fifth longer, 4 MiB half as long again)."""
-COMMA, NEWLINE, QUOTE, CARRIAGE_RETURN = (ord(c) for c in ',\n"\r')
 
 
 class TableSource:
@@ -138,13 +145,13 @@ class TableSource:
             raise LogError(f"{path}: no such file")
         self._schema: dict[str, pl.DataType] = {}
         if self._format == "csv":
-            names = _header_names(self._file)
+            names = header_names(self._file)
             self._columns = tuple(names)
             stripped = [name for name, as_written in names.items() if name != as_written]
             if stripped:  # ``t, u, y``: the names are read as ``u``, not `` u``
                 self._notes["csv_names_stripped"] = stripped
         else:
-            self._schema = _read_parquet_schema(self._file)
+            self._schema = read_parquet_schema(self._file)
             self._columns = tuple(self._schema)
         self._time_column = next((c for c in TIME_COLUMNS if c in self._columns), None)
         others = [c for c in TIME_COLUMNS if c in self._columns and c != self._time_column]
@@ -252,7 +259,7 @@ class TableSource:
         """
         key = (path.column, path.steps[:depth])
         if key not in self._list_lengths:
-            frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
+            frame = read_parquet(self._file, columns=[path.column], low_memory=True)
             lengths = frame.select(path.expr(depth).list.len()).to_series().drop_nulls().unique()
             self._list_lengths[key] = int(lengths[0]) if lengths.len() == 1 else None
         return self._list_lengths[key]
@@ -273,7 +280,7 @@ class TableSource:
             dtype = self._path(name).dtype
         except PathError as err:
             return str(err)
-        if numeric and self._format == "parquet" and not _holds_numbers(dtype):
+        if numeric and self._format == "parquet" and not holds_numbers(dtype):
             return f"column {excerpt(name)} has type {dtype}, expected a number"
         return None
 
@@ -334,9 +341,9 @@ class TableSource:
         # polars' memory then peaks at about one column, not all of them.
         later: list[str] = []
         if self._format == "csv":
-            if _iso_format(_first_cell(self._file, self._columns.index(time_column))):
+            if iso_format(first_cell(self._file, self._columns.index(time_column))):
                 as_float.discard(time_column)  # dates and times: parsed by _time_ns
-            frame = _read_csv_frame(self._file, wanted, as_float, time_column)
+            frame = read_csv_frame(self._file, wanted, as_float, time_column)
         else:
             later = [n for n in dict.fromkeys(numeric) if n not in labels and n != time_column]
             frame = self._read_parquet_frame(wanted, set(numeric), set(labels), skip=later)
@@ -358,7 +365,7 @@ class TableSource:
 
         label_series: dict[str, LabelSeries] = {}
         for name in labels:
-            codes, categories = _label_codes(frame.get_column(name), written=self._format == "csv")
+            codes, categories = label_codes(frame.get_column(name), written=self._format == "csv")
             label_time, label_rows = time_ns, rows
             present = codes >= 0
             if not present.all():
@@ -435,7 +442,7 @@ class TableSource:
         name = column.name
         infinite = column.is_infinite().fill_null(False).to_numpy()
         if written is None:
-            text = _read_csv_strings(self._file, [name], checked=True).get_column(name)
+            text = read_csv_strings(self._file, [name], checked=True).get_column(name)
             written = text.gather(rows[infinite])
         else:
             written = written.filter(pl.Series(infinite))
@@ -469,7 +476,7 @@ class TableSource:
         """
         if self._format == "parquet" and not (
             isinstance(taken.dtype, pl.Decimal)
-            or (taken.dtype.is_integer() and taken.dtype not in _NARROW_INTEGERS)
+            or (taken.dtype.is_integer() and taken.dtype not in NARROW_INTEGERS)
         ):
             return
         if values is None:
@@ -481,10 +488,10 @@ class TableSource:
             return
         found = found[np.argsort(rows[found], kind="stable")]  # in the file's order
         if self._format == "csv":
-            if _holds_text(taken.dtype):  # the cells as written (inspect)
+            if holds_text(taken.dtype):  # the cells as written (inspect)
                 written = taken.gather(found)
             else:
-                text = _read_csv_strings(self._file, [column.name], checked=True)
+                text = read_csv_strings(self._file, [column.name], checked=True)
                 written = text.get_column(column.name).gather(rows[found])
             whole = written.str.contains(WHOLE_NUMBER).fill_null(False).to_numpy()
             found, cells = found[whole], written.filter(pl.Series(whole)).to_list()
@@ -501,9 +508,9 @@ class TableSource:
     def _to_float(self, column: pl.Series, rows: IntArray) -> pl.Series:
         if column.dtype == pl.Float64:
             return column
-        if _holds_numbers(column.dtype):
+        if holds_numbers(column.dtype):
             return column.cast(pl.Float64)
-        return _parse_floats(self._file, column, rows)
+        return parse_floats(self._file, column, rows)
 
     def _require_time(self) -> str:
         if self._time_column is None:
@@ -522,12 +529,12 @@ class TableSource:
         for name in wanted:
             dtype = self._path(name).dtype
             if name == time_column and (
-                isinstance(dtype, pl.Datetime | pl.Duration) or _holds_text(dtype)
+                isinstance(dtype, pl.Datetime | pl.Duration) or holds_text(dtype)
             ):
                 continue  # text: ISO 8601 dates and times, as in a CSV file (_time_ns)
             if name == time_column and not dtype.is_numeric():
-                raise LogError(_not_a_time(self.path, name, dtype))
-            if name in numeric and not _holds_numbers(dtype):
+                raise LogError(not_a_time(self.path, name, dtype))
+            if name in numeric and not holds_numbers(dtype):
                 raise LogError(
                     f"{self.path}: column {excerpt(name)} has type {dtype}, expected a number"
                 )
@@ -544,15 +551,13 @@ class TableSource:
             # values) peak about 25 MiB lower, in about the same time
             read = [name for name in wanted if name not in skip]
             paths = [self._path(name) for name in read]
-            frame = _read_parquet(
+            frame = read_parquet(
                 self._file,
                 columns=list(dict.fromkeys(p.column for p in paths)),
                 low_memory=True,
             )
         except pl.exceptions.PolarsError as err:
-            raise LogError(
-                f"{self.path}: not a readable Parquet file ({_first_line(err)})"
-            ) from err
+            raise LogError(f"{self.path}: not a readable Parquet file ({first_line(err)})") from err
         if any(p.nested for p in paths):
             frame = pl.DataFrame([self._leaf_values(frame, p) for p in paths])
         casts = [
@@ -576,11 +581,9 @@ class TableSource:
         """
         path = self._path(name)
         try:
-            frame = _read_parquet(self._file, columns=[path.column], low_memory=True)
+            frame = read_parquet(self._file, columns=[path.column], low_memory=True)
         except pl.exceptions.PolarsError as err:
-            raise LogError(
-                f"{self.path}: not a readable Parquet file ({_first_line(err)})"
-            ) from err
+            raise LogError(f"{self.path}: not a readable Parquet file ({first_line(err)})") from err
         column = self._leaf_values(frame, path)
         del frame
         return column if rows is None else column.gather(rows)
@@ -588,10 +591,10 @@ class TableSource:
     def _kept_rows(self, frame: pl.DataFrame, time_column: str) -> IntArray:
         """Rows to use: all of them, minus blank CSV lines; a row without a time is an error."""
         rows: IntArray = np.arange(frame.height, dtype=np.int64)
-        missing = _empty_cells(frame.get_column(time_column))
+        missing = empty_cells(frame.get_column(time_column))
         if not missing.any():
             return rows
-        blank = _blank_csv_rows(self._file) if self._format == "csv" else np.zeros_like(missing)
+        blank = blank_csv_rows(self._file) if self._format == "csv" else np.zeros_like(missing)
         not_blank = missing & ~blank[: missing.size]
         if not_blank.any():
             raise self._empty_time_cell(int(np.argmax(not_blank)))
@@ -680,10 +683,10 @@ class TableSource:
         the line or row where it is not.
         """
         name = column.name
-        if _holds_text(column.dtype):
+        if holds_text(column.dtype):
             column = column.cast(pl.String)
             written = column.drop_nulls()
-            iso = _iso_format(written[0] if written.len() else None)
+            iso = iso_format(written[0] if written.len() else None)
             if iso is not None:
                 column = self._parse_iso(column, iso, rows)
             elif self._format != "csv":  # a CSV cell is text whatever it holds
@@ -702,7 +705,7 @@ class TableSource:
             if self._format == "parquet" and not stored.is_numeric():
                 # a Date, Time or Boolean: as read() refuses it (inspect said "line 2 ...
                 # '2024-01-01' is not a number", or that a Boolean time goes backwards)
-                raise LogError(_not_a_time(self.path, name, stored))
+                raise LogError(not_a_time(self.path, name, stored))
             column = self._to_float(column, rows)
             seconds: FloatArray = np.asarray(column.to_numpy(), dtype=np.float64)  # no copy
             bad = check_seconds_range(seconds)
@@ -710,7 +713,7 @@ class TableSource:
                 as_written = None
                 if self._format == "csv" and not np.isfinite(seconds[bad]):
                     # the cell as written: a CSV '1e400' parsed as inf, which it does not say
-                    cells = _read_csv_strings(self._file, [name], checked=True).get_column(name)
+                    cells = read_csv_strings(self._file, [name], checked=True).get_column(name)
                     as_written = excerpt(str(cells[int(rows[bad])]).strip(), 40)
                 raise LogError(
                     f"{self.path}, {self._row_label(int(rows[bad]))}, column {excerpt(name)}: "
@@ -768,7 +771,7 @@ class TableSource:
             )
             raise LogError(
                 f"{self.path}, {self._row_label(int(rows[row]))}, column {excerpt(name)}: the "
-                f"time column is {_dtype_name(stored)}, whose values near t="
+                f"time column is {dtype_name(stored)}, whose values near t="
                 f"{format_time(seconds[row])} s "
                 f"are {resolution:.3g} s apart, {steps}: write the time as float64 (or as a "
                 "Datetime)"
@@ -819,7 +822,7 @@ class TableSource:
         if failed.any():
             row = int(np.argmax(failed))
             first = int(np.argmax(text.is_not_null().to_numpy()))
-            if _iso_format(str(text[row])) == iso:  # written alike: a day that does not exist
+            if iso_format(str(text[row])) == iso:  # written alike: a day that does not exist
                 raise LogError(
                     f"{self.path}, {self._row_label(int(rows[row]))}, column "
                     f"{excerpt(column.name)}: {excerpt(text[row], 40)} is not a date and time "
@@ -891,9 +894,9 @@ class TableSource:
         seconds: list[pl.Series] = []  # the time column's numbers, while they are all numbers
         missing: list[IntArray] = []  # rows of an empty time cell
         unblank: int | None = None  # the first of them that is not a blank line
-        _check_truncated(self._file)
-        _check_record_widths(self._file, self._columns)
-        for frame in _csv_text_frames(self._file, list(self._columns), checked=True):
+        check_truncated(self._file)
+        check_record_widths(self._file, self._columns)
+        for frame in csv_text_frames(self._file, list(self._columns), checked=True):
             first = tallies[0].rows
             for tally in tallies:
                 cells = frame.get_column(tally.name)
@@ -901,10 +904,10 @@ class TableSource:
                 if tally.name != self._time_column:
                     continue
                 seconds.append(parsed)
-                empty = _empty_cells(cells)
+                empty = empty_cells(cells)
                 if empty.any():
                     missing.append(np.flatnonzero(empty) + first)
-                    odd = empty & ~_blank_rows(frame)
+                    odd = empty & ~blank_rows(frame)
                     if unblank is None and odd.any():
                         unblank = first + int(np.argmax(odd))
             del frame
@@ -918,9 +921,9 @@ class TableSource:
 
         def time_cells(rows: IntArray) -> pl.Series:
             time = next(t for t in tallies if t.name == self._time_column)
-            if time.dtype == "float64":  # as _parse_floats reads them
+            if time.dtype == "float64":  # as parse_floats reads them
                 return pl.concat(seconds).alias(time.name).gather(rows)
-            text = _read_csv_strings(self._file, [time.name], checked=True)
+            text = read_csv_strings(self._file, [time.name], checked=True)
             return text.get_column(time.name).gather(rows)  # dates and times, or an error
 
         problems: list[str] = []
@@ -931,13 +934,13 @@ class TableSource:
         for tally in tallies:
             present = tally.present()[rows] if rows.size < height else tally.present()
             columns.append(
-                _column_info(tally.name, tally.dtype, tally.values(), present, time_ns, resolution)
+                column_info(tally.name, tally.dtype, tally.values(), present, time_ns, resolution)
             )
             if columns[-1]["nonfinite"] is not None and tally.name != self._time_column:
                 found = self._unheld_value(*tally.suspects())
                 problems.extend([found] if found is not None else [])
             elif tally.name != self._time_column:  # the time's own problem is said above
-                problems.extend(_texts_among_numbers(tally))
+                problems.extend(texts_among_numbers(tally))
         return self._described(rows.size, columns, time_ns, problems)
 
     def _describe_parquet(self) -> dict[str, Any]:
@@ -964,7 +967,7 @@ class TableSource:
             if rows.size < frame.height:
                 frame = frame[pl.Series(rows)]
             for column in frame.iter_columns():
-                columns.append(_describe_column(column, time_ns, resolution))
+                columns.append(describe_column(column, time_ns, resolution))
                 if columns[-1]["nonfinite"] is not None and column.name != self._time_column:
                     found = self._unheld_value(column, rows)
                     unheld.extend([found] if found is not None else [])
@@ -1039,9 +1042,9 @@ class TableSource:
         ``analyze`` then refused the log naming a line inspect said nothing of.  ``rows``:
         the data row of each of ``taken``'s cells.  ``None`` when every value is held.
         """
-        if _holds_text(taken.dtype):
+        if holds_text(taken.dtype):
             column = taken.str.strip_chars().cast(pl.Float64, strict=False)
-        elif _holds_numbers(taken.dtype):
+        elif holds_numbers(taken.dtype):
             column = taken.cast(pl.Float64)
         else:
             return None
@@ -1093,21 +1096,17 @@ class TableSource:
     def _read_parquet_columns(self, columns: list[str]) -> pl.DataFrame:
         """The named top-level columns of a Parquet log, as stored."""
         try:
-            return _read_parquet(self._file, columns=columns, low_memory=True)
+            return read_parquet(self._file, columns=columns, low_memory=True)
         except pl.exceptions.PolarsError as err:
-            raise LogError(
-                f"{self.path}: not a readable Parquet file ({_first_line(err)})"
-            ) from err
+            raise LogError(f"{self.path}: not a readable Parquet file ({first_line(err)})") from err
 
     def _parquet_rows(self) -> int:
         """How many rows a Parquet log has (from its metadata)."""
         try:
-            with _panics_refused(self._file, "Parquet"), polars_file(self._file, "rb") as source:
+            with panics_refused(self._file, "Parquet"), polars_file(self._file, "rb") as source:
                 rows = pl.scan_parquet(source, glob=False).select(pl.len()).collect().item()
         except pl.exceptions.PolarsError as err:
-            raise LogError(
-                f"{self.path}: not a readable Parquet file ({_first_line(err)})"
-            ) from err
+            raise LogError(f"{self.path}: not a readable Parquet file ({first_line(err)})") from err
         return int(rows)
 
 
@@ -1138,909 +1137,3 @@ class _ColumnBlock:
             start += chunk.len()
         self._used += 1
         return row
-
-
-# ---------------------------------------------------------------------- polars' panics
-
-
-@contextlib.contextmanager
-def _panics_refused(path: Path, kind: str) -> Iterator[None]:
-    """Refuse a file on which polars panics (a damaged Parquet page), as a :class:`LogError`.
-
-    A panic is a ``BaseException`` (``pyo3_runtime.PanicException``), which escaped as a
-    traceback, after Rust's own message and, with ``RUST_BACKTRACE`` set, its stack printed
-    to the process's standard error: that is held while polars reads, and written out unless
-    polars panicked.  ``sys.stderr`` is ``None`` in a process started with descriptor 2
-    closed: a worker of ``batch --jobs 2 2>&-`` (multiprocessing's forkserver), where every
-    log failed on "'NoneType' object has no attribute 'flush'".
-    """
-    if sys.stderr is not None:
-        sys.stderr.flush()
-    saved = os.dup(2)
-    panicked = False
-    try:
-        with _held_file() as held:
-            os.dup2(held.fileno(), 2)
-            try:
-                yield
-            except pl.exceptions.PanicException as err:
-                panicked = True
-                raise LogError(
-                    f"{path}: not a readable {kind} file (damaged? polars failed on it: "
-                    f"{_first_line(err)})"
-                ) from None
-            finally:
-                os.dup2(saved, 2)
-                if not panicked:
-                    held.seek(0)
-                    written = held.read()
-                    if written:
-                        os.write(2, written)
-    finally:
-        os.close(saved)
-
-
-def _held_file() -> Any:
-    """A file in memory (no disk, no ``TMPDIR``), or a temporary file where there is none."""
-    if hasattr(os, "memfd_create"):
-        return os.fdopen(os.memfd_create("hybridlog-polars-stderr"), "w+b")
-    return tempfile.TemporaryFile()  # pragma: no cover - not Linux
-
-
-# ---------------------------------------------------------------------- CSV helpers
-
-
-def _first_line(err: BaseException) -> str:
-    """The first line of a library's error, cut short: it may quote the file's bytes."""
-    text = str(err).strip()
-    return excerpt(text.splitlines()[0], 120)[1:-1] if text else type(err).__name__
-
-
-def _read_csv_header(path: Path) -> tuple[str, ...]:
-    """The column names of a CSV file, without the spaces around them (:func:`_header_names`)."""
-    return tuple(_header_names(path))
-
-
-def _header_names(path: Path) -> dict[str, str]:
-    """``{name: name as written}`` for the columns of a CSV file, in file order.
-
-    Loggers that write ``t, u, y`` (a space after each comma) give the names ``" u"`` and
-    ``" y"``, which no user means: names are taken without the ASCII spaces around them
-    (the reading notes say so), unless that would make two of them the same.
-
-    Raises
-    ------
-    LogError
-        As :func:`_header_as_written`, and when two names differ only in spaces around them.
-    """
-    written = _header_as_written(path)
-    names: dict[str, str] = {}
-    for as_written in written:
-        name = as_written.strip(" ")
-        if name in names:
-            raise LogError(
-                f"{path}, line 1: the header's columns {excerpt(names[name])} and "
-                f"{excerpt(as_written)} differ only in the spaces around them: rename one"
-            )
-        names[name] = as_written
-    return names
-
-
-def _header_as_written(path: Path) -> tuple[str, ...]:
-    """Parse line 1 of a CSV file into column names as written, checking them."""
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            line = handle.readline()
-    except UnicodeDecodeError as err:
-        refuse_not_utf8(path)
-        raise LogError(f"{path}: not a UTF-8 text file ({err.reason})") from err
-    except OSError as err:
-        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
-    if not line:
-        raise LogError(f"{path}: empty file")
-    if not line.strip():
-        raise LogError(f"{path}, line 1: no header (the first line must name the columns)")
-    if line.endswith("\r"):  # newline="" ends a line at "\r\n", "\n" or a lone "\r"
-        raise LogError(
-            f"{path}, line 1: ends in a carriage return alone (classic Mac OS line endings); "
-            "hybridlog reads LF or CRLF line endings: convert the file, e.g. tr '\\r' '\\n'"
-        )
-    names = next(csv.reader([line]))
-    if names[-1].endswith("\n"):  # the line's end read into a quoted field left open
-        raise LogError(
-            f"{path}, line 1: the header's column {len(names)} opens a quote that runs on to "
-            "line 2; a header names its columns on one line (an unclosed quote?)"
-        )
-    if '"' in line and _RECORD.fullmatch(line.rstrip("\r\n")) is None:
-        # t,u"x,y: polars opened a quote at u"x that ran to the end of the file and read
-        # the log as 0 rows ("no data rows"), with no word of the quote
-        raise LogError(
-            f"{path}, line 1: a quote inside a column name that is not quoted "
-            f'({excerpt(line.strip(), 60)}); a name with a quote is quoted whole, e.g. "u""x"'
-        )
-    if line.startswith("#") and not set(TIME_COLUMNS) & {name.strip(" ") for name in names}:
-        # a comment line before the header, or numpy.savetxt's header ('# t,u,y'): the
-        # columns were named '# t' or after the comment, and the next line "had 3 fields"
-        raise LogError(
-            f"{path}, line 1: {excerpt(line.strip(), 40)} starts with '#', a comment; the first "
-            "line must be the header naming the columns, e.g. t,u,y: remove the comment "
-            "lines (numpy.savetxt writes its header so unless given comments='')"
-        )
-    if len(names) == 1:
-        # Excel in locales with a decimal comma writes ';', other tools tabs: one column
-        # named 't;u;y' would be listed as the only column, or as text that is not printable
-        for separator, word in ((";", "semicolons"), ("\t", "tabs")):
-            if separator in line:
-                raise LogError(
-                    f"{path}, line 1: the header {excerpt(line.strip(), 40)} is separated by "
-                    f"{word}; hybridlog reads comma-separated CSV (and a point as the "
-                    "decimal separator): convert the file"
-                )
-    if all(_is_number(name) for name in names):
-        raise LogError(
-            f"{path}, line 1: no header; {excerpt(line.strip(), 40)} looks like data "
-            "(the first line must name the columns, e.g. t,u,y)"
-        )
-    for position, name in enumerate(names, start=1):
-        if not name.strip():
-            why = ""
-            if position == len(names):
-                why = " (a separator at the end of the line?)"
-            elif position == 1:
-                why = " (pandas' to_csv writes its index so: write with index=False)"
-            raise LogError(f"{path}, line 1: column {position} of the header has no name{why}")
-        if not name.isprintable():
-            if "\x00" in name:
-                refuse_not_utf8(path)  # UTF-16 without a byte-order mark, ASCII header
-            raise LogError(
-                f"{path}, line 1: column {position} of the header, {excerpt(name, 40)}, is not "
-                "printable text (a zeroed or binary file?)"
-            )
-    seen: set[str] = set()
-    for name in names:
-        if name in seen:
-            raise LogError(f"{path}, line 1: duplicate column name {excerpt(name)} in the header")
-        seen.add(name)
-    return tuple(names)
-
-
-_ISO_DATE = re.compile(
-    r"\d{4}-\d{2}-\d{2}([Tt ])\d{2}:\d{2}(:\d{2}(\.\d+)?)?(Z|[+-]\d{2}(?::?\d{2})?)?$"
-)
-
-
-def _iso_format(text: str | None) -> str | None:
-    """The polars format of an ISO 8601 date and time like ``text``, or ``None`` if not one.
-
-    ``2024-01-01T00:00:00.5``, ``2024-01-01 00:00:00`` (pandas), ``t`` as RFC 3339 allows,
-    either with ``Z`` or an offset (``+01:00``, ``+0100``, ``+01``); seconds are needed.
-    """
-    match = _ISO_DATE.match(text.strip()) if text else None
-    if match is None or match.group(2) is None:
-        return None
-    zone = "%#z" if match.group(4) else ""
-    return f"%Y-%m-%d{match.group(1)}%H:%M:%S%.f{zone}"
-
-
-def _first_cell(path: Path, index: int) -> str | None:
-    """The first non-empty cell of column ``index`` in the first 1000 data lines of a CSV."""
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle)
-            next(reader, None)
-            for record, _ in zip(reader, range(1000), strict=False):
-                if len(record) > index and record[index].strip():
-                    return record[index]
-    except (UnicodeDecodeError, csv.Error, OSError):
-        return None  # the reading proper says what is wrong
-    return None
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _read_csv(path: Path, **options: Any) -> pl.DataFrame:
-    """``pl.read_csv`` of a log, its blocks of lines (:func:`_csv_frames`) put end to end."""
-    return pl.concat(list(_csv_frames(path, **options)))
-
-
-def _csv_frames(path: Path, **options: Any) -> Iterator[pl.DataFrame]:
-    """``pl.read_csv`` of each block of a log's lines (:func:`.csv_tally.csv_blocks`), in turn.
-
-    Given the file, polars maps it into memory whole, and its pages count in the process's
-    memory beside the columns read: 9 columns of 10^7 rows read from a 1.3 GB file peaked at
-    1.8 GB.  Read from blocks, the file is read once, the blocks' bytes one at a time, and
-    its name taken as Python takes it (polars takes only UTF-8 names,
-    :func:`~hybridlog.polars_import.polars_file`).  ``columns`` and ``schema_overrides``
-    name columns as :func:`_read_csv_header` does (no spaces around), and so do the frames'
-    columns.
-    """
-    names = _header_names(path)
-    written = {name: w for name, w in names.items() if name != w}
-    if any('"' in name for name in names):
-        written = _polars_names(path, names)
-    if written:
-        if "columns" in options:
-            options["columns"] = [written.get(c, c) for c in options["columns"]]
-        if "schema_overrides" in options:
-            options["schema_overrides"] = {
-                written.get(c, c): t for c, t in options["schema_overrides"].items()
-            }
-    renamed = {w: name for name, w in written.items()}
-    for data in csv_blocks(path):
-        with _panics_refused(path, "CSV"):
-            frame = pl.read_csv(data, **options)
-        yield frame.rename(renamed, strict=False) if renamed else frame
-
-
-def _polars_names(path: Path, names: Mapping[str, str]) -> dict[str, str]:
-    """``{name: polars' name}`` of the columns of a CSV log whose names polars reads otherwise.
-
-    A quote in a quoted name is written twice (``"a""b"``, RFC 4180), and polars 2.1 keeps
-    both in a header's name (``a""b``) while the ``csv`` module reads the ``a"b`` that
-    :func:`_header_names` gives: polars then found no column ``a"b``, and the log was
-    refused as "not a readable CSV file (unable to find column ...)".  polars' names are
-    read from the header line and paired with ``names`` by position.
-    """
-    try:
-        with path.open("rb") as handle:
-            line = handle.readline()
-    except OSError as err:
-        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
-    try:
-        with _panics_refused(path, "CSV"):
-            theirs = pl.read_csv(line, n_rows=0, infer_schema=False).columns
-    except pl.exceptions.PolarsError:
-        theirs = []
-    if len(theirs) != len(names):
-        return {name: w for name, w in names.items() if name != w}
-    return {name: their for name, their in zip(names, theirs, strict=True) if name != their}
-
-
-def _read_csv_strings(path: Path, columns: list[str], *, checked: bool = False) -> pl.DataFrame:
-    """Read ``columns`` as text (:func:`_csv_text_frames`) put end to end."""
-    return pl.concat(list(_csv_text_frames(path, columns, checked=checked)))
-
-
-def _csv_text_frames(
-    path: Path, columns: list[str], *, checked: bool = False
-) -> Iterator[pl.DataFrame]:
-    """``columns`` of each block of a log's lines as text; a file polars cannot parse refused.
-
-    ``checked``: the caller already ran :func:`_check_truncated` and
-    :func:`_check_record_widths`.
-
-    Raises
-    ------
-    LogError
-        Naming the file, and the line of a byte that is not UTF-8 or a stray quote.
-    """
-    if not checked:
-        _check_truncated(path)
-        _check_record_widths(path, columns)
-    frames = _csv_frames(path, columns=columns, infer_schema=False)
-    while True:
-        try:
-            frame = next(frames, None)
-        except pl.exceptions.PolarsError as err:
-            refuse_not_utf8(path)
-            _refuse_stray_quote(path)
-            _check_record_widths(path)
-            raise LogError(f"{path}: not a readable CSV file ({_first_line(err)})") from err
-        if frame is None:
-            return
-        yield frame
-
-
-_FIELD = r'(?:[^",\r\n]*|\s*"(?:[^"]|"")*"\s*)'
-_RECORD = re.compile(rf"{_FIELD}(?:,{_FIELD})*")
-
-
-def _refuse_stray_quote(path: Path) -> None:
-    """Name the first line with a quote inside an unquoted field (``a"b``), if there is one.
-
-    polars refuses such a file ("CSV malformed") without saying where; the ``csv`` module
-    takes the quote as text.  Only called once polars has refused the file.
-
-    Raises
-    ------
-    LogError
-        Naming the line.
-    """
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            for number, line in enumerate(handle, start=1):
-                text = line.rstrip("\r\n")
-                if '"' in text and _RECORD.fullmatch(text) is None:
-                    raise LogError(
-                        f"{path}, line {number}: a quote inside a field that is not quoted "
-                        f'({excerpt(text, 60)}); a field is quoted whole, e.g. "1.5"'
-                    )
-    except (UnicodeDecodeError, OSError):
-        return
-
-
-def _read_csv_frame(
-    path: Path, columns: list[str], as_float: set[str], time_column: str
-) -> pl.DataFrame:
-    """Read ``columns``: those in ``as_float`` as ``Float64``, the others as text.
-
-    A column of ``true`` and ``false`` reads as 1 and 0, but for ``time_column``
-    (:func:`_parse_floats`).
-
-    The fast path lets polars parse the numbers; when that fails the columns are read as
-    text and converted here, which tolerates surrounding blanks and finds the bad cell.
-    """
-    schema = {c: pl.Float64 if c in as_float else pl.String for c in columns}
-    _check_truncated(path)
-    _check_record_widths(path, columns)
-    try:
-        frame = _read_csv(path, columns=columns, schema_overrides=schema, infer_schema=False)
-    except pl.exceptions.PolarsError:
-        text = _read_csv_strings(path, columns, checked=True)
-        rows: IntArray = np.arange(text.height, dtype=np.int64)
-        return text.with_columns(
-            [
-                _parse_floats(path, text.get_column(c), rows, booleans=c != time_column)
-                for c in columns
-                if c in as_float
-            ]
-        )
-    return frame
-
-
-_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
-_GROUPED = re.compile(r"[+-]?\d{1,3}(?:[,.' \u00a0\u202f]\d{3})+(?:[.,]\d*)?")
-"""Digits grouped by thousands (``1,000``, ``1.234.567,5``, ``1 000``): the comma is not
-only a decimal comma, whose hint alone led a user to write ``1.000`` for one thousand."""
-
-
-def _parse_floats(
-    path: Path, column: pl.Series, rows: IntArray, *, booleans: bool = False
-) -> pl.Series:
-    """Convert a text column to ``Float64``; empty cells become nulls, others must parse.
-
-    With ``booleans`` (a signal, not the time), a column whose every cell is ``true`` or
-    ``false`` (any case: polars and pandas write booleans so) reads as 1 and 0, as a
-    Parquet boolean column, a ROS ``bool`` or a JSON ``true`` do; such a cell among numbers
-    is refused, as any other text.
-    """
-    text = stripped_cells(column)
-    values = text.cast(pl.Float64, strict=False)
-    bad = (values.is_null() & text.is_not_null()).to_numpy()
-    if bad.any():
-        lowered = text.str.to_lowercase()
-        if booleans and bool(lowered.drop_nulls().is_in(BOOLEANS).all()):
-            return (lowered == "true").cast(pl.Float64).alias(column.name)
-        first = int(np.argmax(bad))
-        raise LogError(
-            f"{path}, line {int(rows[first]) + 2}, column {excerpt(column.name)}: "
-            f"{_not_a_number(str(text[first]), booleans=booleans)}"
-        )
-    return values
-
-
-def _not_a_number(cell: str, *, booleans: bool) -> str:
-    """``'0x10' is not a number``, with a hint where the cell is a number written otherwise.
-
-    ``booleans``: true and false count as numbers in a column of nothing else.
-    ``analyze``'s refusal of the cell (:func:`_parse_floats`) and ``inspect``'s note of the
-    first such cell of a column of numbers (:meth:`TableSource._describe_csv`) alike.
-    """
-    hint = ""
-    if booleans and cell.lower() in BOOLEANS:
-        hint = " (true and false read as 1 and 0 only in a column of nothing else)"
-    elif _ISO_DATE.match(cell):  # 2024-01-01T00:00: no seconds
-        hint = " (a date and time is read with its seconds, e.g. 2024-01-01T00:00:00)"
-    elif _GROUPED.fullmatch(cell):  # "1,000": one thousand, or one?
-        hint = (
-            " (digits grouped by thousands, or a decimal comma? hybridlog reads digits "
-            "alone, with a point as the decimal separator)"
-        )
-    elif _DECIMAL_COMMA.fullmatch(cell):  # "1,5" quoted, as Excel writes it
-        hint = " (a decimal comma? hybridlog reads a point as the decimal separator)"
-    return f"{excerpt(cell)} is not a number{hint}"
-
-
-def _texts_among_numbers(tally: ColumnTally) -> list[str]:
-    """Where a CSV column of numbers has cells that are not: the first, in analyze's words.
-
-    ``inspect`` showed such a column as ``string`` and said no more, and ``analyze`` then
-    refused it: ``line 4, column 'y': '0x10' is not a number``.  Nothing for a column
-    without a number (labels), nor for one of booleans.
-    """
-    if tally.first_text is None or not tally.numbers or tally.dtype != "string":
-        return []
-    row, cell = tally.first_text
-    return [
-        f"line {row + 2}, column {excerpt(tally.name)}: {_not_a_number(cell, booleans=True)}; "
-        f"{tally.numbers} of its {tally.count} cells are numbers: analyze takes it as mode "
-        "ids, not as a signal"
-    ]
-
-
-def _empty_cells(column: pl.Series) -> np.ndarray[Any, np.dtype[np.bool_]]:
-    """Which cells are empty: null, or text of nothing but blanks (`` ``, a tab, ``""``)."""
-    if column.dtype == pl.String:
-        empty: np.ndarray[Any, np.dtype[np.bool_]] = (
-            (column.str.strip_chars() == "").fill_null(True).to_numpy()
-        )
-        return empty
-    return column.is_null().to_numpy()
-
-
-def _blank_csv_rows(path: Path) -> np.ndarray[Any, np.dtype[np.bool_]]:
-    """Rows that polars read from blank lines (:func:`_blank_rows`), a block at a time.
-
-    Read whole as text, a log of 10^7 rows of 9 columns with one blank line took 4 GB here.
-    """
-    columns = list(_read_csv_header(path))
-    blank = [_blank_rows(frame) for frame in _csv_text_frames(path, columns, checked=True)]
-    return np.concatenate(blank)
-
-
-def _blank_rows(frame: pl.DataFrame) -> np.ndarray[Any, np.dtype[np.bool_]]:
-    """Rows of a CSV frame read as text whose every cell is empty (:func:`_empty_cells`).
-
-    A line of spaces or a tab, ``,,`` and ``"",,`` are blank lines as an empty one is: the
-    record-width check lets them through as such (:func:`_check_record_widths`).
-    """
-    blank: np.ndarray[Any, np.dtype[np.bool_]] = (
-        frame.select(pl.all_horizontal((pl.all().str.strip_chars() == "").fill_null(True)))
-        .to_series()
-        .to_numpy()
-    )
-    return blank
-
-
-def _check_record_widths(path: Path, reading: Collection[str] = ()) -> None:
-    """Every record has as many fields as the header names; blank lines aside.
-
-    polars reads a record with too few fields as missing values, which would silently turn
-    a damaged line into "no sample"; too many fields it refuses without saying where, and
-    only when it reads every column: reading some (``columns=``), it takes a long line's
-    first fields and drops the others.  Both are errors naming the line.  Without quote
-    characters in the file, fields are counted from the comma and newline positions; with
-    quotes, by the ``csv`` module.
-
-    ``reading``: the columns polars reads once the check passes.  When they are every column
-    of the header, the file's count of commas stands for each line's (one pass of NumPy, the
-    common case): a short line and a long one cancel out in that count, and polars refuses
-    the long one.  Otherwise (``reading`` empty: once polars has refused a file, to find the
-    line) every line's commas are counted (:func:`_first_odd_line`): reading some columns,
-    a short line and a long one had loaded as cells not measured and the long one's first
-    fields.
-
-    Raises
-    ------
-    LogError
-        Naming the first line whose field count differs from the header's.
-    """
-    header = _read_csv_header(path)
-    width = len(header)
-    quoted = False
-    try:
-        if reading and set(header) <= set(reading):
-            commas, newlines, quoted, last = _count_separators(path)
-            if not quoted and commas == (width - 1) * (newlines + (last != NEWLINE)):
-                return  # every line has width - 1 commas, unless a short and a long one
-                # cancel out, and polars refuses the long one when it reads every column
-        odd = None if quoted else _first_odd_line(path, width)
-        if odd is None:  # the file holds a quote
-            line, fields, start = *_first_odd_record(path, width), -1
-        else:
-            line, fields, start = odd
-        lone_cr = line > 0 and start >= 0 and _holds_lone_cr(path, start)
-    except OSError as err:
-        raise LogError(f"{path}: cannot be read ({err.strerror})") from err
-    if line:
-        why = ""
-        if lone_cr:
-            why = (
-                " (a carriage return alone inside it, a line ending of classic Mac OS: "
-                "hybridlog reads LF or CRLF line endings)"
-            )
-        raise LogError(
-            f"{path}, line {line}: {fields} field{'' if fields == 1 else 's'}, but the header "
-            f"names {width} columns{why}"
-        )
-
-
-def _holds_lone_cr(path: Path, start: int) -> bool:
-    """Whether the line from byte ``start`` of the file holds a carriage return before its end.
-
-    Read :data:`COUNTED_AT_ONCE` bytes at a time up to the line's end: a file of classic Mac
-    OS line endings is one line.
-    """
-    with path.open("rb") as handle:
-        handle.seek(start)
-        before = b""  # the last byte read: a carriage return that a newline may follow
-        while block := handle.read(COUNTED_AT_ONCE):
-            text = before + block
-            end = text.find(b"\n")
-            if end >= 0:
-                return b"\r" in text[:end].removesuffix(b"\r")
-            if b"\r" in text[:-1]:
-                return True
-            before = text[-1:]
-    return False
-
-
-def _count_separators(path: Path) -> tuple[int, int, bool, int]:
-    """The file's commas, its newlines, whether it holds a quote, and its last byte (-1: none).
-
-    Read :data:`COUNTED_AT_ONCE` bytes at a time into one buffer and counted by NumPy: 35 ms
-    for a 112 MiB file, against 0.21 s for reading it whole and counting with ``bytes.count``
-    (which also held the file's bytes beside polars' reading of it).
-    """
-    buffer = bytearray(COUNTED_AT_ONCE)
-    block = np.frombuffer(buffer, dtype=np.uint8)  # a view: it sees what is read into buffer
-    commas = newlines = 0
-    quoted = False
-    last = -1
-    with path.open("rb", buffering=0) as handle:
-        while size := handle.readinto(buffer):
-            part = block[:size]
-            commas += int(np.count_nonzero(part == COMMA))
-            newlines += int(np.count_nonzero(part == NEWLINE))
-            quoted = quoted or bool((part == QUOTE).any())
-            last = int(part[-1])
-    return commas, newlines, quoted, last
-
-
-def _first_odd_line(path: Path, width: int) -> tuple[int, int, int] | None:
-    """Line number, field count and first byte of the first odd line of a file without quotes.
-
-    Odd: not the header, not blank, and without ``width`` fields.  ``(0, 0, -1)`` when there
-    is none, ``None`` when the file holds a quote (:func:`_first_odd_record` counts its
-    fields then).
-
-    Read :data:`COUNTED_AT_ONCE` bytes at a time into one buffer and counted a line at a
-    time by :class:`_LineCommas`.  The file read whole had held its bytes and, for 10^7
-    lines, 0.3 GB of positions beside them.
-    """
-    buffer = bytearray(COUNTED_AT_ONCE)
-    block = np.frombuffer(buffer, dtype=np.uint8)  # a view: it sees what is read into buffer
-    lines = _LineCommas(width)
-    found = None
-    with path.open("rb", buffering=0) as handle:
-        while size := handle.readinto(buffer):
-            part = block[:size]
-            if (part == QUOTE).any():
-                return None
-            if found is None:
-                found = lines.first_odd(part)
-    return found or lines.last_odd() or (0, 0, -1)
-
-
-class _LineCommas:
-    """The commas of each line of a file given a block at a time (:func:`_first_odd_line`).
-
-    In each block the separators (commas and newlines) are found once, and a line's commas
-    are the separators between its newline and the one before: 0.14 s for the 112 MiB
-    benchmark file, where NumPy's positions of the commas and of the newlines, paired by
-    ``searchsorted``, took 0.20 s.  The line that runs on past a block is carried into the
-    next: its number, first byte, commas so far, and whether it is blanks alone so far
-    (looked at only while it has no comma).
-    """
-
-    def __init__(self, width: int) -> None:
-        self.width = width
-        self.line, self.start, self.commas, self.blank = 1, 0, 0, True
-        self.offset = 0  # the file's bytes before the block
-
-    def first_odd(self, part: np.ndarray[Any, np.dtype[np.uint8]]) -> tuple[int, int, int] | None:
-        """Number, fields and first byte of the first odd line ending in the next block."""
-        newline = part == NEWLINE
-        separators = np.flatnonzero((part == COMMA) | newline)
-        ends = np.flatnonzero(newline[separators])  # the newlines among the separators
-        if not ends.size:
-            self.commas += separators.size
-            self.blank = self.blank and not self.commas and not part.tobytes().strip()
-            self.offset += part.size
-            return None
-        counts = np.diff(ends, prepend=-1) - 1  # the commas of each line ending in the block
-        counts[0] += self.commas
-        stops = separators[ends]  # the lines' newlines, in the block
-        starts = np.concatenate(([self.start - self.offset], stops[:-1] + 1))
-        found = None
-        for index in _odd_lines(part, counts, starts, stops, self.width):
-            if self.line + index > 1 and (  # not the header
-                counts[index] or not _blank(part, starts[index], stops[index], self.blank)
-            ):
-                found = self.line + index, int(counts[index]) + 1, self.offset + int(starts[index])
-                break
-        self.line += ends.size
-        self.start = self.offset + int(stops[-1]) + 1
-        self.commas = separators.size - int(ends[-1]) - 1
-        self.blank = not self.commas and not part[stops[-1] + 1 :].tobytes().strip()
-        self.offset += part.size
-        return found
-
-    def last_odd(self) -> tuple[int, int, int] | None:
-        """The last line's number, fields and first byte if it is odd and has no line ending."""
-        odd = self.commas != self.width - 1 and (self.commas or not self.blank)
-        if self.offset > self.start and self.line > 1 and odd:
-            return self.line, self.commas + 1, self.start
-        return None
-
-
-def _blank(part: np.ndarray[Any, np.dtype[np.uint8]], start: int, stop: int, before: bool) -> bool:
-    """Whether ``part[start:stop]`` is blanks alone, ``before``: the line's bytes before ``part``.
-
-    ``start`` is negative for a line that began in a block before.
-    """
-    return (before or start >= 0) and not part[max(start, 0) : stop].tobytes().strip()
-
-
-def _odd_lines(
-    part: np.ndarray[Any, np.dtype[np.uint8]],
-    counts: IntArray,
-    starts: IntArray,
-    stops: IntArray,
-    width: int,
-) -> list[int]:
-    """Lines (indices into ``counts``) without ``width - 1`` commas but for empty ones.
-
-    An empty line (or a carriage return alone, of a CRLF file) is blank: left out here by
-    NumPy, so that a file with a blank line between rows is not looked at a line at a time.
-    """
-    odd = np.flatnonzero(counts != width - 1)
-    if not odd.size:
-        return []
-    length = stops[odd] - starts[odd]
-    cr = part[np.maximum(stops[odd] - 1, 0)] == CARRIAGE_RETURN
-    empty = (counts[odd] == 0) & (odd > 0) & ((length == 0) | ((length == 1) & cr))
-    kept: list[int] = odd[~empty].tolist()
-    return kept
-
-
-def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
-    """Like :func:`_first_odd_line` for files with quoted fields, by the ``csv`` module.
-
-    A quoted field that runs over more than one line is refused here: no value of a log
-    needs a line break, so it is an unclosed quote (which swallows the rest of the file
-    into one record), and every line number reported later counts one record per line.
-
-    A quote where a field cannot hold one (``"1.5"x``: text after a closing quote) is refused
-    here too, naming its line: polars refuses it without saying where.
-
-    Raises
-    ------
-    LogError
-        Naming the line the multi-line field starts on and the line it runs to, or the line
-        of a misplaced quote.
-    """
-    ended = 0
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle, strict=True)
-            next(reader, [])
-            ended = reader.line_num
-            for record in reader:
-                if reader.line_num > ended + 1:
-                    _runs_on(path, ended, reader.line_num)
-                ended = reader.line_num
-                if record and len(record) != width and any(f.strip() for f in record):
-                    return reader.line_num, len(record)
-    except UnicodeDecodeError:
-        return 0, 0  # polars then says what it cannot parse
-    except csv.Error as err:
-        if reader.line_num > ended + 1:
-            _runs_on(path, ended, reader.line_num)
-        raise LogError(
-            f"{path}, line {reader.line_num}: a quote where a field cannot hold one ({err}); "
-            'a field is quoted whole, e.g. "1.5"'
-        ) from None
-    return 0, 0
-
-
-def _runs_on(path: Path, ended: int, line: int) -> None:
-    """Refuse a quoted field that runs from the line after ``ended`` on to ``line``."""
-    raise LogError(
-        f"{path}, line {ended + 1}: a quoted field runs on to line {line}; a log's values "
-        "fit on one line (an unclosed quote?)"
-    )
-
-
-def _check_truncated(path: Path) -> None:
-    """Reject a file whose last line has no line ending.
-
-    That is what a log cut off while being written looks like: with fewer fields than the
-    header polars would read the missing cells as empty, and with all of them the last
-    number may itself be cut short (``69.78`` read as ``6``), which nothing in the line
-    shows.  Every CSV writer ends its last line; a file that does not cannot be vouched for.
-    """
-    with path.open("rb") as handle:
-        handle.seek(0, 2)
-        size = handle.tell()
-        handle.seek(max(0, size - 65536))
-        tail = handle.read()
-    if not tail or tail.endswith((b"\n", b"\r")):
-        return
-    last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace")
-    fields = next(csv.reader([last]), [])
-    width = len(_read_csv_header(path))
-    with path.open("rb") as handle:
-        line = sum(chunk.count(b"\n") for chunk in iter(lambda: handle.read(1 << 20), b""))
-    if line == 0:
-        return  # the header alone: refused as a log without rows
-    shown = f"{len(fields)} of {width} fields" if len(fields) < width else "all its fields"
-    raise LogError(
-        f"{path}, line {line + 1}: the last line ({shown}) has no line ending, so the file "
-        "may have been cut off inside it; if that line is whole, end the file with a newline"
-    )
-
-
-def _as_labels(column: pl.Series, *, written: bool = False) -> pl.Series:
-    """Mode ids as stripped text; integer-valued floats lose their ``.0``.
-
-    A float column (Parquet) holds numbers: each whole one is written as an integer (``1.0``
-    is mode ``1`` beside ``2.5``, as in a message log,
-    :func:`hybridlog.io.message_paths.as_label`).  So does a column of cells as written
-    (``written``: a CSV file, which has no types) whose every cell is a number: each cell
-    written as a float (``1.0``, ``2e0``: pandas writes an integer column with a gap so)
-    that is whole is read as an integer (but an id beyond 2^53 keeps its digits: a
-    ``float64`` would merge it with others, :mod:`~hybridlog.io.exact`), every other cell
-    as written.  Cell by cell: a column of ``1.0`` and ``1.5`` was read as written
-    throughout when some cell was not whole, and refused naming the first ``1.0`` rather
-    than the ``1.5``.  A text column of a typed table (Parquet ``String``) is text, as a
-    ROS ``string`` or a JSON string is: ``"1.0"`` there is no mode ``1``.  A Boolean column
-    is mode ``0`` or ``1``, as a ROS ``bool`` or a JSON boolean is (it read ``'true'``, no
-    mode of a model whose modes are ``0`` and ``1``).
-    """
-    if column.dtype == pl.String and written:
-        text = column.str.strip_chars()
-        cells = text.filter(text != "").drop_nulls()
-        if cells.len() and not cells.cast(pl.Float64, strict=False).is_null().any():
-            floats = text.cast(pl.Float64, strict=False)
-            whole = (
-                text.str.contains("[.eE]")
-                & floats.is_finite()
-                & (floats == floats.round(0))
-                & (floats.abs() < EXACT_LIMIT)
-            )
-            column = pl.select(
-                pl.when(whole)
-                .then(floats.cast(pl.Int64, strict=False).cast(pl.String))
-                .otherwise(text)
-            ).to_series()
-    if column.dtype == pl.Boolean:  # as a ROS bool or a JSON boolean reads: mode 0 or 1
-        column = column.cast(pl.Int8)
-    dtype = column.dtype
-    # NaN and infinities keep their text ('NaN', 'inf'), which names no mode and is refused
-    # with its row: cast to an integer they became empty cells, no sample, and so did a
-    # whole number beyond int64
-    if dtype.is_float() and bool(column.is_finite().any()):
-        whole = column.cast(pl.Int64, strict=False)
-        exact = whole.is_not_null() & (whole.cast(pl.Float64) == column)
-        column = pl.select(
-            pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
-        ).to_series()
-    text = column.cast(pl.String).str.strip_chars()
-    return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
-
-
-def _label_codes(column: pl.Series, *, written: bool = False) -> tuple[IntArray, tuple[str, ...]]:
-    """Mode-id codes of a label column: ``(codes, labels)``, code -1 where a cell is empty.
-
-    ``labels`` are the distinct stripped labels (:func:`_as_labels`; ``written`` for a CSV
-    file's cells) in order of first appearance; ``codes[i]`` indexes them.  Labels are
-    worked out on the column's distinct values only, and each cell becomes a small integer
-    code through an ``Enum`` of them: a 10^6-row column of a few mode ids costs a few MB, not
-    the string copies of the whole column that stripping and mapping it cell by cell made
-    (about 50 MB).
-    """
-    text = column if column.dtype == pl.String else _as_labels(column)
-    distinct = text.unique(maintain_order=True).drop_nulls()
-    first: dict[str, int] = {}
-    lookup: list[int] = []
-    for label in _as_labels(distinct, written=written).to_list():
-        lookup.append(-1 if label is None else first.setdefault(label, len(first)))
-    lookup.append(-1)  # empty cells (null)
-    physical = text.cast(pl.Enum(distinct.to_list())).to_physical()
-    index = physical.fill_null(distinct.len()).to_numpy()
-    codes: IntArray = np.asarray(lookup, dtype=np.int64)[index]
-    return codes, tuple(first)
-
-
-# ---------------------------------------------------------------------- Parquet helpers
-
-
-def _read_parquet(path: Path, **options: Any) -> pl.DataFrame:
-    """``pl.read_parquet`` of a log, its name taken as it is (:func:`polars_file`)."""
-    with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
-        return pl.read_parquet(source, glob=False, **options)
-
-
-def _read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
-    try:
-        with _panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
-            schema = pl.scan_parquet(source, glob=False).collect_schema()
-    except (pl.exceptions.PolarsError, OSError) as err:
-        raise LogError(f"{path}: not a readable Parquet file ({_first_line(err)})") from err
-    if not schema:
-        raise LogError(f"{path}: the Parquet file has no columns")
-    return dict(schema)
-
-
-# ---------------------------------------------------------------------- describe helpers
-
-
-def _describe_column(
-    column: pl.Series, time_ns: IntArray | None, resolution_ns: float
-) -> dict[str, Any]:
-    """:func:`_column_info` of a Parquet column: numbers (booleans as 0 and 1) or not."""
-    values: FloatArray | None = None
-    if _holds_numbers(column.dtype):
-        values = column.drop_nulls().cast(pl.Float64).to_numpy().astype(np.float64)
-    info: dict[str, Any] = {"count": column.len() - column.null_count(), "nonfinite": None}
-    info.update(min=None, max=None)
-    if values is not None:
-        info["nonfinite"] = count_nonfinite(values)
-        finite = values[np.isfinite(values)]
-        if finite.size:
-            info["min"] = float(finite.min())
-            info["max"] = float(finite.max())
-    present = column.is_not_null().to_numpy()
-    dtype = _dtype_name(column.dtype)
-    return _column_info(column.name, dtype, info, present, time_ns, resolution_ns)
-
-
-def _column_info(
-    name: str,
-    dtype: str,
-    values: dict[str, Any],
-    present: np.ndarray[Any, np.dtype[np.bool_]],
-    time_ns: IntArray | None,
-    resolution_ns: float,
-) -> dict[str, Any]:
-    """Name, dtype, non-empty and non-finite counts, finite min/max and timing of a column.
-
-    ``values`` holds ``count`` (every non-empty cell), ``nonfinite`` (those of them that are
-    NaN or infinite; ``None`` for a column that is not numeric), ``min`` and ``max``;
-    ``present`` which rows hold a cell.  The column's own sample times (the times of its
-    non-empty cells) are described by :func:`~hybridlog.io.summary.describe_steps`, gaps
-    included: an empty stretch in one column of a table whose time column has no gap is
-    that column's gap, which ``analyze`` refuses in an output.  Without usable times
-    (``time_ns`` ``None``) the timing is ``None``; ``resolution_ns`` is how far apart they
-    could be told where they were read from.
-    """
-    info: dict[str, Any] = {"name": name, "dtype": dtype, **values}
-    times = np.zeros(0, dtype=np.int64)
-    if time_ns is not None and time_ns.size == present.size:
-        times = time_ns[present]
-    info.update(describe_steps(times, resolution_ns=resolution_ns))
-    return info
-
-
-def _not_a_time(path: str, name: str, dtype: pl.DataType) -> str:
-    """Why a Parquet column of ``dtype`` (a Date, Time, Boolean) cannot be the time column."""
-    return (
-        f"{path}: column {excerpt(name)} has type {dtype}, expected seconds as numbers, a "
-        "Datetime or Duration, or ISO 8601 dates and times as text"
-    )
-
-
-def _holds_text(dtype: pl.DataType) -> bool:
-    """Whether a column of ``dtype`` holds text: strings, categories (pyarrow dictionaries)."""
-    return dtype == pl.String or isinstance(dtype, pl.Categorical | pl.Enum)
-
-
-def _holds_numbers(dtype: pl.DataType) -> bool:
-    """Whether a Parquet column of ``dtype`` is read as numbers: booleans are 0 and 1.
-
-    A valve's open/closed input is a boolean in Parquet as in a ROS message (``bool``) or a
-    JSON one, where it reads as 0 and 1; only a time column must be numeric proper.
-    """
-    return dtype.is_numeric() or dtype == pl.Boolean
-
-
-def _dtype_name(dtype: pl.DataType) -> str:
-    text = str(dtype)
-    return text.lower() if text.isalnum() else text

@@ -134,7 +134,7 @@ _LOG_FIELD_NAMES = {
     ),
     "time": "is a time column of a CSV/Parquet log ('t' or 'time')",
 }
-"""Field names a log gives another meaning (:mod:`hybridlog.io.mapping`, ``io/tables.py``).
+"""Field names a log gives another meaning (:mod:`hybridlog.io.mapping`, ``io/table_times.py``).
 
 A symbol of that name would be read from the same field as that meaning: a state ``mode``
 read the true mode's column as its true value and the true mode's as a number (the log was

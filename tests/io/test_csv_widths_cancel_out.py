@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals, tables
+from hybridlog.io import ReadOptions, SignalSpec, csv_lines, inspect_log, load_signals
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=(), dt=0.1)
 """``t``, ``u`` and ``y`` read; ``z`` is no signal's."""
@@ -76,7 +76,7 @@ def test_a_quoted_file_is_counted_by_the_csv_module(tmp_path: Path) -> None:
 
 
 def first_odd_line(data: bytes, width: int) -> tuple[int, int, int] | None:
-    """The definition :func:`tables._first_odd_line` computes a block at a time."""
+    """The definition :func:`csv_lines._first_odd_line` computes a block at a time."""
     if b'"' in data:
         return None
     start = 0
@@ -98,8 +98,8 @@ def test_lines_are_counted_across_blocks(data: bytes, width: int, block: int) ->
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "log.csv"
         path.write_bytes(data)
-        with mock.patch.object(tables, "COUNTED_AT_ONCE", block):
-            found = tables._first_odd_line(path, width)
+        with mock.patch.object(csv_lines, "COUNTED_AT_ONCE", block):
+            found = csv_lines._first_odd_line(path, width)
     assert found == first_odd_line(data, width)
 
 
@@ -107,6 +107,6 @@ def test_lines_are_counted_across_blocks(data: bytes, width: int, block: int) ->
 def test_a_lone_carriage_return_is_found_across_blocks(tmp_path: Path, end: bytes) -> None:
     path = tmp_path / "log.csv"
     path.write_bytes(b"t,u\n0,1\r0.1,2" + end)
-    with mock.patch.object(tables, "COUNTED_AT_ONCE", 3):
-        assert tables._holds_lone_cr(path, 4)
-        assert not tables._holds_lone_cr(path, 0)
+    with mock.patch.object(csv_lines, "COUNTED_AT_ONCE", 3):
+        assert csv_lines._holds_lone_cr(path, 4)
+        assert not csv_lines._holds_lone_cr(path, 0)

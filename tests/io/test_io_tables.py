@@ -19,10 +19,10 @@ from hybridlog.errors import LogError, OptionError
 from hybridlog.io import (
     ReadOptions,
     SignalSpec,
+    csv_lines,
     format_inspection,
     inspect_log,
     load_signals,
-    tables,
     write_table,
 )
 from hybridlog.io.tables import TableSource
@@ -269,8 +269,8 @@ def test_separators_are_counted_across_blocks(data: bytes, block: int) -> None:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "log.csv"
         path.write_bytes(data)
-        with mock.patch.object(tables, "COUNTED_AT_ONCE", block):
-            counted = tables._count_separators(path)
+        with mock.patch.object(csv_lines, "COUNTED_AT_ONCE", block):
+            counted = csv_lines._count_separators(path)
     last = data[-1] if data else -1
     assert counted == (data.count(b","), data.count(b"\n"), b'"' in data, last)
 
@@ -279,7 +279,7 @@ def test_a_short_line_beyond_the_first_block_is_found(tmp_path: Path) -> None:
     rows = [f"{0.01 * k:.2f},1,1" for k in range(60_000)]
     rows[50_000] = "500.00,1"
     path = csv_file(tmp_path, "t,u,y\n" + "\n".join(rows) + "\n")
-    assert path.stat().st_size > 2 * tables.COUNTED_AT_ONCE
+    assert path.stat().st_size > 2 * csv_lines.COUNTED_AT_ONCE
     with pytest.raises(LogError, match=r"line 50002: 2 fields, but the header names 3 columns"):
         load(path)
 

@@ -7,7 +7,7 @@ from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.io import SignalSpec, load_signals, write_table
 from hybridlog.io.mapping import DEFAULT_MODE_FIELD
-from hybridlog.io.tables import TIME_COLUMNS
+from hybridlog.io.table_times import TIME_COLUMNS
 from hybridlog.model.expressions import symbol_name_problem
 from hybridlog.model.loader import _LOG_FIELD_NAMES, _report_columns, parse_model
 from hybridlog.simulate import simulate
