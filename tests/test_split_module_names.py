@@ -3,7 +3,9 @@
 ``estimators/smoothing.py`` gave its kernels to ``smoother_kernels.py`` and its code writer to
 ``smoother_source.py``, ``report/metrics.py`` its mode metrics to ``mode_metrics.py``,
 ``report/build.py`` its reading notes to ``reading_notes.py``, ``cli.py`` its parameter
-types, options, lines, progress bars and process handling to ``cli_*.py``: after the splits,
+types, options, lines, progress bars and process handling to ``cli_*.py``, ``io/tables.py``
+its CSV checks and frames, Parquet files, time columns and column helpers to modules of
+their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -30,6 +32,21 @@ SPLITS = {
     "hybridlog.report.build": ("hybridlog.report.reading_notes",),
     "hybridlog.cli": tuple(
         f"hybridlog.cli_{part}" for part in ("types", "options", "lines", "progress", "process")
+    ),
+    "hybridlog.io.tables": tuple(
+        f"hybridlog.io.{name}"
+        for name in (
+            "csv_header",
+            "csv_lines",
+            "csv_frames",
+            "csv_numbers",
+            "parquet_files",
+            "table_times",
+            "table_labels",
+            "column_types",
+            "column_summary",
+            "polars_errors",
+        )
     ),
 }
 """Each split module and the modules that took part of it."""
