@@ -12,6 +12,7 @@ then from rosbags' standard ROS 1 (Noetic) or ROS 2 (latest LTS) definitions.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,10 @@ from hybridlog.io.message_paths import Typedefs
 from hybridlog.io.options import msg_dir_problem
 
 _IDL_SEPARATOR = "=" * 80 + "\n"
+
+STORE_CACHE_SIZE = 64
+"""How many type stores :func:`typestore_for` keeps, the least recently used dropped first."""
+_stores: OrderedDict[tuple[str, str, str, bool, str], Any] = OrderedDict()
 
 
 class DefinitionError(Exception):
@@ -168,6 +173,9 @@ def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
 def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: Typedefs) -> Any:
     """A rosbags type store that defines ``msgtype``, built from its stored definition.
 
+    Built once for the same arguments and shared (the last :data:`STORE_CACHE_SIZE` kept):
+    read and decode with it, never register into it.
+
     Parameters
     ----------
     msgtype:
@@ -188,6 +196,25 @@ def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: 
         When the stored definition cannot be parsed, conflicts with itself, or the type is
         defined nowhere.
     """
+    # The logs of a batch store the same definitions over and over: parsing one and building
+    # its store (rosbags generates a class per type) cost some 1-2 ms a definition, a tenth of
+    # a small log's reading.  Kept by everything the store is built from -- the type, the
+    # definition's text, ROS 1 or 2 and the --msg-dir types -- never by a file's name; a store
+    # is not changed once built (its users read and decode with it only).
+    key = (msgtype, encoding, text, ros1, repr(sorted(extra.items())) if extra else "")
+    store = _stores.get(key)
+    if store is not None:
+        _stores.move_to_end(key)
+        return store
+    store = _build_typestore(msgtype, encoding, text, ros1=ros1, extra=extra)
+    _stores[key] = store
+    if len(_stores) > STORE_CACHE_SIZE:
+        _stores.popitem(last=False)
+    return store
+
+
+def _build_typestore(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: Typedefs) -> Any:
+    """:func:`typestore_for`, without its cache."""
     from rosbags.typesys import Stores, TypesysError, get_typestore
 
     types = parse_definition(msgtype, encoding, text) if encoding and text.strip() else {}

@@ -236,7 +236,15 @@ class BagSource(MessageSource):
             self._storages = [(storage, list(storage.connections))]
             _check_connections(storage.connections, self.path)
             return
-        self._listed = _listed_files(self._file)
+        # rosbags opened one storage per listed file, in order, at the path it lists
+        # (unless it unpacked them, per-file compressed, into a temporary folder): their
+        # names are the list, without parsing metadata.yaml a second time (ruamel's pure
+        # Python parser takes some 10-20 ms of a small bag's 25).
+        self._listed = (
+            _listed_files(self._file)
+            if reader.compression_mode == "file"
+            else [Path(str(s.path)).name for s in storages]
+        )
         _refuse_listed_twice(self._listed, self.path)
         self._storages = [(s, list(s.connections)) for s in storages]
         _check_connections(reader.connections, f"{self.path}: metadata.yaml")
@@ -463,9 +471,9 @@ def unlisted_storage_files(folder: Path, names: list[str] | None) -> list[str]:
     rosbags (and ``ros2 bag``) read only the files of ``relative_file_paths``; another
     ``.db3`` or ``.mcap`` file beside them (a split file copied in, a second recording) is
     passed over without a word, and its messages with it.  Its name is returned so that the
-    reading says so.  ``names``: the list (:func:`_listed_files`, read once per bag: ruamel
-    takes some 20 ms a read); ``None``, when ``metadata.yaml`` has no such list rosbags could
-    read (it has refused the bag then), gives none.
+    reading says so.  ``names``: the list (the names of the storage files rosbags opened, or
+    :func:`_listed_files` for a bag compressed per file); ``None``, when ``metadata.yaml``
+    has no such list rosbags could read (it has refused the bag then), gives none.
     """
     if names is None:
         return []
