@@ -9,7 +9,7 @@ cut off), and a quote stands only where a field can hold one (:func:`refuse_stra
 from __future__ import annotations
 
 import csv
-from collections.abc import Collection
+from collections.abc import Collection, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -85,10 +85,10 @@ def check_record_widths(path: Path, reading: Collection[str] = ()) -> None:
                 # cancel out, and polars refuses the long one when it reads every column
         odd = None if quoted else _first_odd_line(path, width)
         if odd is None:  # the file holds a quote
-            line, fields, start = *_first_odd_record(path, width), -1
+            line, fields, lone_cr = _first_odd_record(path, width)
         else:
             line, fields, start = odd
-        lone_cr = line > 0 and start >= 0 and _holds_lone_cr(path, start)
+            lone_cr = line > 0 and _holds_lone_cr(path, start)
     except OSError as err:
         raise LogError(f"{path}: cannot be read ({err.strerror})") from err
     if line:
@@ -253,8 +253,14 @@ def _odd_lines(
     return kept
 
 
-def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
+def _first_odd_record(path: Path, width: int) -> tuple[int, int, bool]:
     """Like :func:`_first_odd_line` for files with quoted fields, by the ``csv`` module.
+
+    Line number, field count, and whether a carriage return alone stands inside the line
+    (``(0, 0, False)``: none odd).  Lines end at newlines alone, as polars and ``sed`` count
+    them: a carriage return alone had ended a line for the ``csv`` module, so that a line
+    ``0.1,1,2`` CR ``0.2,1,2`` passed as two records (polars then refused the file naming no
+    line), and every line after it was named one too far on.
 
     A quoted field that runs over more than one line is refused here: no value of a log
     needs a line break, so it is an unclosed quote (which swallows the rest of the file
@@ -270,9 +276,10 @@ def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
         of a misplaced quote.
     """
     ended = 0
+    lone: set[int] = set()  # the lines with a carriage return alone
     try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle, strict=True)
+        with path.open(newline="\n", encoding="utf-8-sig") as handle:
+            reader = csv.reader(_lone_crs_as_text(handle, lone), strict=True)
             next(reader, [])
             ended = reader.line_num
             for record in reader:
@@ -280,9 +287,9 @@ def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
                     _runs_on(path, ended, reader.line_num)
                 ended = reader.line_num
                 if record and len(record) != width and any(f.strip() for f in record):
-                    return reader.line_num, len(record)
+                    return reader.line_num, len(record), reader.line_num in lone
     except UnicodeDecodeError:
-        return 0, 0  # polars then says what it cannot parse
+        return 0, 0, False  # polars then says what it cannot parse
     except csv.Error as err:
         if reader.line_num > ended + 1:
             _runs_on(path, ended, reader.line_num)
@@ -290,7 +297,21 @@ def _first_odd_record(path: Path, width: int) -> tuple[int, int]:
             f"{path}, line {reader.line_num}: a quote where a field cannot hold one ({err}); "
             'a field is quoted whole, e.g. "1.5"'
         ) from None
-    return 0, 0
+    return 0, 0, False
+
+
+def _lone_crs_as_text(lines: Iterable[str], lone: set[int]) -> Iterator[str]:
+    """``lines`` (ended by newlines alone), a carriage return alone inside one a blank.
+
+    polars reads such a carriage return as a character of its field; the ``csv`` module
+    would refuse it in a field not quoted.  The numbers of those lines are added to ``lone``.
+    """
+    for number, line in enumerate(lines, start=1):
+        text = line.removesuffix("\n").removesuffix("\r")
+        if "\r" in text:
+            lone.add(number)
+            line = text.replace("\r", " ") + line[len(text) :]
+        yield line
 
 
 def _runs_on(path: Path, ended: int, line: int) -> None:

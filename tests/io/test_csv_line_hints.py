@@ -42,6 +42,24 @@ def test_a_lone_carriage_return_is_named(tmp_path: Path, line: int) -> None:
         inspect_log(path)
 
 
+def test_a_lone_carriage_return_in_a_file_with_quotes_is_named(tmp_path: Path) -> None:
+    """With a quote in the file the ``csv`` module counted fields, and it ended a line at a
+    carriage return alone: the line passed as two records and polars refused the file
+    naming no line ("found more fields than defined in 'Schema'"); a short line after it
+    was named one line too far on (``sed -n 6p`` showed nothing).
+    """
+    path = tmp_path / "log.csv"
+    path.write_bytes(b't,u,y\n"0",1,2\n0.1,2,3\r0.2,3,4\n0.3,4,5\n')
+    assert refusal(path) == (
+        f"{path}, line 3: 5 fields, but the header names 3 columns (a carriage return alone "
+        "inside it, a line ending of classic Mac OS: hybridlog reads LF or CRLF line endings)"
+    )
+    path.write_bytes(b't,u,y\n"0",1,2\n0.1,2,3\n0.3,4,5\r\n0.4,5\n0.5,6,7\n')
+    assert refusal(path) == f"{path}, line 5: 2 fields, but the header names 3 columns"
+    path.write_bytes(b't,u,y\n0,1,2\n0.1,"1\r0.2",3\n0.3,4\n')  # the quoted one is a field
+    assert refusal(path) == f"{path}, line 4: 2 fields, but the header names 3 columns"
+
+
 def test_a_short_line_without_a_carriage_return_says_nothing_of_one(tmp_path: Path) -> None:
     path = tmp_path / "log.csv"
     path.write_bytes(b"t,u,y\r\n0,1,2\r\n0.1,2\r\n0.2,3,4\r\n")
