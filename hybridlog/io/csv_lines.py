@@ -39,7 +39,9 @@ def refuse_stray_quote(path: Path) -> None:
         Naming the line.
     """
     try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:
+        # lines end at newlines alone, as polars and sed count them (newline="" also ended
+        # one at a carriage return alone, and named every line after it one too far on)
+        with path.open(newline="\n", encoding="utf-8-sig") as handle:
             for number, line in enumerate(handle, start=1):
                 text = line.rstrip("\r\n")
                 if '"' in text and RECORD.fullmatch(text) is None:

@@ -87,3 +87,14 @@ def test_digits_grouped_by_thousands_are_named_as_such(tmp_path: Path, cell: str
         "or a decimal comma? hybridlog reads digits alone, with a point as the decimal "
         "separator)"
     )
+
+
+def test_a_stray_quote_after_a_lone_carriage_return_is_named_at_its_line(tmp_path: Path) -> None:
+    """``refuse_stray_quote`` ended a line at a carriage return alone, as polars and ``sed``
+    do not: the quote of line 3 was named on line 4."""
+    from hybridlog.io.csv_lines import refuse_stray_quote
+
+    log = tmp_path / "q.csv"
+    log.write_bytes(b't,u,y\n0.0,1\r,2\n0.1,1"x,2\n')
+    with pytest.raises(LogError, match=r"q\.csv, line 3: a quote inside a field"):
+        refuse_stray_quote(log)
