@@ -213,12 +213,13 @@ def test_the_hstf_refusal_on_a_paired_model_names_what_the_hstf_evaluated(kernel
 
 def test_a_refusal_on_the_pairs_names_the_held_and_the_true_mode_as_the_log_does() -> None:
     """It compared the log's true modes with the pairs' indices and named both by pairs:
-    ``it held mode 'down->down' ... where the log's true mode was 'up->up'``."""
+    ``it held mode 'down->down' ... where the log's true mode was 'up->up'``.  Nine samples:
+    sample 0's mode is the prior's, not an estimate (``vouch._lost_before``)."""
     text = (SENSOR_BY_MODE % "2*x").replace('mode = "up"', 'mode = "down"')
     message = _refusal(f"{text}\n[transitions]\nmatrix = [[1.0, 0.0], [0.0, 1.0]]\n")
     assert "cannot explain the log at t = 10 s (sample 10)" in message, message
     assert (
-        "it held mode 'down' over the 10 samples before, where the log's true mode was 'up'"
+        "it held mode 'down' over the 9 samples before, where the log's true mode was 'up'"
     ) in message, message
 
 
