@@ -13,29 +13,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from mcap.writer import Writer as McapWriter
 from rosbags.rosbag1 import Writer as Ros1Writer
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
-from tests.support.logfiles import float64_cdr
+from tests.support.logfiles import val_mcap
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 MISSING = "field inner has type 'my_pkg/msg/Inner', which has no definition"
-
-
-def _mcap(path: Path, definition: str) -> Path:
-    """Topics ``/u`` and ``/y`` of ``my_pkg/msg/Val``, defined by ``definition``."""
-    with path.open("wb") as stream:
-        writer = McapWriter(stream)
-        writer.start(profile="ros2")
-        schema = writer.register_schema("my_pkg/msg/Val", "ros2msg", definition.encode())
-        channels = [writer.register_channel(t, "cdr", schema) for t in ("/u", "/y")]
-        for k in range(10):
-            for channel in channels:
-                writer.add_message(channel, k * 100_000_000, float64_cdr(k), k * 100_000_000)
-        writer.finish()
-    return path
 
 
 def _ros1_bag(path: Path) -> Path:
@@ -60,7 +45,7 @@ def _problems(log: Path, *msg_dirs: Path) -> list[str]:
 @pytest.mark.parametrize("kind", ["mcap", "ros1 bag"])
 def test_a_field_of_an_undefined_type_is_named(kind: str, tmp_path: Path) -> None:
     if kind == "mcap":
-        log = _mcap(tmp_path / "val.mcap", "my_pkg/Inner inner")
+        log = val_mcap(tmp_path / "val.mcap", "my_pkg/Inner inner")
     else:
         log = _ros1_bag(tmp_path / "val.bag")
     problems = _problems(log)
@@ -71,7 +56,7 @@ def test_a_field_of_an_undefined_type_is_named(kind: str, tmp_path: Path) -> Non
 
 
 def test_a_msg_dir_type_using_an_undefined_type_is_named(tmp_path: Path) -> None:
-    log = _mcap(tmp_path / "val.mcap", "")  # no stored text: --msg-dir defines it
+    log = val_mcap(tmp_path / "val.mcap", "")  # no stored text: --msg-dir defines it
     (tmp_path / "defs" / "my_pkg" / "msg").mkdir(parents=True)
     (tmp_path / "defs" / "my_pkg" / "msg" / "Val.msg").write_text("Inner inner\n")
     problems = _problems(log, tmp_path / "defs")
@@ -86,6 +71,6 @@ NODE = "my_pkg/Node[] kids\n" + "=" * 80 + "\nMSG: my_pkg/Node\nmy_pkg/Node[] ki
 )
 def test_a_type_that_contains_itself_is_named(definition: str, field: str, tmp_path: Path) -> None:
     # Val holds Val; Val holds Node[], and Node holds Node[] (a tree: rosbags cannot either)
-    problems = _problems(_mcap(tmp_path / "val.mcap", definition))
+    problems = _problems(val_mcap(tmp_path / "val.mcap", definition))
     assert len(problems) == 2
     assert all(f"contains itself (field {field})" in p for p in problems)

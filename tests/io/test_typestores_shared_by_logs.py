@@ -12,27 +12,12 @@ from collections import OrderedDict
 from pathlib import Path
 
 import pytest
-from mcap.writer import Writer as McapWriter
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, definitions, load_signals
-from tests.support.logfiles import float64_cdr
+from tests.support.logfiles import val_mcap
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
-
-
-def _mcap(path: Path, definition: str) -> Path:
-    """Topics ``/u`` and ``/y`` of ``my_pkg/msg/Val`` (one float64), defined by ``definition``."""
-    with path.open("wb") as stream:
-        writer = McapWriter(stream)
-        writer.start(profile="ros2")
-        schema = writer.register_schema("my_pkg/msg/Val", "ros2msg", definition.encode())
-        channels = [writer.register_channel(t, "cdr", schema) for t in ("/u", "/y")]
-        for k in range(10):
-            for channel in channels:
-                writer.add_message(channel, k * 100_000_000, float64_cdr(k), k * 100_000_000)
-        writer.finish()
-    return path
 
 
 def _read(path: Path, field: str) -> int:
@@ -56,8 +41,8 @@ def built(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
 
 def test_the_second_log_of_a_definition_builds_no_store(tmp_path: Path, built: list[str]) -> None:
-    first = _mcap(tmp_path / "a.mcap", "float64 a")
-    second = _mcap(tmp_path / "b.mcap", "float64 a")
+    first = val_mcap(tmp_path / "a.mcap", "float64 a")
+    second = val_mcap(tmp_path / "b.mcap", "float64 a")
     assert _read(first, "a") == _read(second, "a") == 10
     assert built == ["float64 a"]
 
@@ -65,8 +50,8 @@ def test_the_second_log_of_a_definition_builds_no_store(tmp_path: Path, built: l
 def test_another_definition_of_the_same_type_name_gets_its_own_store(
     tmp_path: Path, built: list[str]
 ) -> None:
-    assert _read(_mcap(tmp_path / "a.mcap", "float64 a"), "a") == 10
-    other = _mcap(tmp_path / "b.mcap", "float64 b")
+    assert _read(val_mcap(tmp_path / "a.mcap", "float64 a"), "a") == 10
+    other = val_mcap(tmp_path / "b.mcap", "float64 b")
     assert _read(other, "b") == 10
     with pytest.raises(LogError, match="has no field 'a'; fields: 'b'"):
         _read(other, "a")

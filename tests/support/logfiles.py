@@ -51,6 +51,24 @@ def float64_cdr(value: float) -> bytes:
     )
 
 
+def val_mcap(path: Path, definition: str) -> Path:
+    """Topics ``/u`` and ``/y`` of ``my_pkg/msg/Val`` (10 messages each), defined by ``definition``.
+
+    The stored text alone defines the type (``""``: none stored, ``--msg-dir`` must); each
+    message's bytes are one float64's CDR.
+    """
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2")
+        schema = writer.register_schema("my_pkg/msg/Val", "ros2msg", definition.encode())
+        channels = [writer.register_channel(t, "cdr", schema) for t in ("/u", "/y")]
+        for k in range(10):
+            for channel in channels:
+                writer.add_message(channel, k * 100_000_000, float64_cdr(k), k * 100_000_000)
+        writer.finish()
+    return path
+
+
 def cdr(message: Any, msgtype: str) -> bytes:
     return bytes(ros2_store().serialize_cdr(message, msgtype))
 
