@@ -57,6 +57,7 @@ from hybridlog.io.message_paths import (
     ARRAY,
     FLOAT_TYPES,
     NAME,
+    NUMERIC_TYPES,
     SEQUENCE,
     Leaf,
     MessagePath,
@@ -1378,22 +1379,7 @@ class _Wanted:
     """JSON: the first key of the path found missing."""
 
 
-_HELD_EXACTLY = frozenset(
-    [
-        "float32",
-        "float64",
-        "bool",
-        "byte",
-        "char",
-        "octet",
-        "int8",
-        "uint8",
-        "int16",
-        "uint16",
-        "int32",
-        "uint32",
-    ]
-)
+_HELD_EXACTLY = NUMERIC_TYPES - WIDE_INTEGER_TYPES
 """ROS primitive types whose every value a ``float64`` holds (all but the 64-bit integers)."""
 
 
