@@ -4,8 +4,9 @@
 ``smoother_source.py``, ``report/metrics.py`` its mode metrics to ``mode_metrics.py``,
 ``report/build.py`` its reading notes to ``reading_notes.py``, ``cli.py`` its parameter
 types, options, lines, progress bars and process handling to ``cli_*.py``, ``io/tables.py``
-its CSV checks and frames, Parquet files, time columns and column helpers to modules of
-their own: after the splits,
+its CSV checks and frames, Parquet files, time columns and column helpers, ``io/messages.py``
+its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers to
+modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -46,6 +47,18 @@ SPLITS = {
             "column_types",
             "column_summary",
             "polars_errors",
+        )
+    ),
+    "hybridlog.io.messages": tuple(
+        f"hybridlog.io.{name}"
+        for name in (
+            "message_topics",
+            "topic_reader",
+            "header_stamps",
+            "value_counter",
+            "message_leaves",
+            "json_schemas",
+            "json_values",
         )
     ),
 }

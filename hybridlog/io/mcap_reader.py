@@ -46,7 +46,9 @@ from hybridlog.io.definitions import (
     typestore_for,
 )
 from hybridlog.io.formats import MCAP_MAGIC, LogFormat
-from hybridlog.io.messages import MessageSource, Topic, parse_json_schema
+from hybridlog.io.json_schemas import parse_json_schema
+from hybridlog.io.message_topics import Topic
+from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
 
 _FOOTER_SIZE = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc

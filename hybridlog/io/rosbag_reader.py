@@ -59,7 +59,8 @@ from hybridlog.io.mcap_reader import (
     recover_hint,
     rosbags_summary_problem,
 )
-from hybridlog.io.messages import MessageSource, Topic
+from hybridlog.io.message_topics import Topic
+from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
 
 SCHEMALESS = "__schemaless__"

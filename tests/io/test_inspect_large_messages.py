@@ -2,7 +2,7 @@
 
 Reading header stamps made ``inspect`` decode every camera image: held 512 at a time, a
 3.5 GB bag of 6 MiB images peaked at 6.3 GB (19.5 s); parts of at most
-:data:`~hybridlog.io.messages.DECODED_BYTES_AT_ONCE` bring it back to 121 MB (4.7 s).
+:data:`~hybridlog.io.value_counter.DECODED_BYTES_AT_ONCE` bring it back to 121 MB (4.7 s).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from hybridlog.io import messages
+from hybridlog.io import value_counter
 from hybridlog.io.inspect import inspect_log
 
 IMAGE_BYTES = 2 * 1024 * 1024
@@ -48,15 +48,15 @@ def test_large_messages_are_decoded_in_parts_of_bounded_bytes(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     parts: list[int] = []
-    decode_each = messages.decode_each
+    decode_each = value_counter.decode_each
 
     def counted(decode: Any, datas: list[bytes]) -> list[object]:
         parts.append(sum(len(data) for data in datas))
         return decode_each(decode, datas)
 
-    monkeypatch.setattr(messages, "decode_each", counted)
+    monkeypatch.setattr(value_counter, "decode_each", counted)
     info = inspect_log(camera_bag(tmp_path / "cam", 24))
     (topic,) = info["topics"]
     assert topic["header_stamp"]["count"] == 24  # every stamp read
     assert sum(parts) > 24 * IMAGE_BYTES
-    assert max(parts) < messages.DECODED_BYTES_AT_ONCE + 2 * IMAGE_BYTES, parts
+    assert max(parts) < value_counter.DECODED_BYTES_AT_ONCE + 2 * IMAGE_BYTES, parts

@@ -11,7 +11,8 @@ from __future__ import annotations
 import tracemalloc
 from collections.abc import Iterator
 
-from hybridlog.io.messages import MessageSource, Topic
+from hybridlog.io.message_topics import Topic
+from hybridlog.io.messages import MessageSource
 
 TOPICS = 10
 

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-import hybridlog.io.messages as messages
+import hybridlog.io.message_topics as message_topics
 from hybridlog.io import ReadOptions, inspect_log, open_log
 from hybridlog.io.message_paths import MessagePath
 from tests.support.logfiles import NS, ros2_store
@@ -84,11 +84,11 @@ def test_array_fields_of_a_topic_another_extends_are_listed_plainly(
 
 def test_a_path_two_nested_topics_make_is_still_quoted() -> None:
     # '/a' + '.b[]' and '/a.b' + '[]' spell one path: both keep their topic in quotes
-    shared = messages._shared_paths({"/a": [".b[]", ".c"], "/a.b": ["[]"]})
+    shared = message_topics._shared_paths({"/a": [".b[]", ".c"], "/a.b": ["[]"]})
     assert shared == {"/a.b[]"}
-    assert messages._spell("/a", ".b[]", shared) == '"/a".b[]'
-    assert messages._spell("/a.b", "[]", shared) == '"/a.b"[]'
-    assert messages._spell("/a", ".c", shared) == "/a.c"
+    assert message_topics._spell("/a", ".b[]", shared) == '"/a".b[]'
+    assert message_topics._spell("/a.b", "[]", shared) == '"/a.b"[]'
+    assert message_topics._spell("/a", ".c", shared) == "/a.c"
 
 
 def test_which_topic_reads_a_path_is_found_among_the_topics_that_start_it(
@@ -96,15 +96,15 @@ def test_which_topic_reads_a_path_is_found_among_the_topics_that_start_it(
 ) -> None:
     """Topics ``/t0`` ... ``/t1999``: each check is given the topics its path can start with."""
     seen: list[int] = []
-    split = messages.split_paths
+    split = message_topics.split_paths
 
     def counting(text: str, topics: Any) -> list[MessagePath]:
         seen.append(len(topics))
         return split(text, topics)
 
-    monkeypatch.setattr(messages, "split_paths", counting)
+    monkeypatch.setattr(message_topics, "split_paths", counting)
     count = 2000
-    shared = messages._shared_paths({f"/t{i}": [".v", ".w[]"] for i in range(count)})
+    shared = message_topics._shared_paths({f"/t{i}": [".v", ".w[]"] for i in range(count)})
     assert shared == set()
     # /t1 is extended by /t10 ... /t1999 (1111 topics), /t10 by 111 ...: 6,000 in all,
     # where comparing each path with every topic made 4.4 million

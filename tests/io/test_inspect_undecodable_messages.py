@@ -78,7 +78,7 @@ def test_a_first_part_none_of_whose_messages_decode_is_not_taken_for_the_topic(
 ) -> None:
     """The first DECODED_AT_ONCE messages cut short (a logger's start), the rest whole: the
     topic was described as one none of whose messages decode, no field listed."""
-    from hybridlog.io.messages import DECODED_AT_ONCE
+    from hybridlog.io.topic_reader import DECODED_AT_ONCE
 
     n = DECODED_AT_ONCE + 3
     info = inspect_log(_json_log(tmp_path / "start.mcap", set(range(DECODED_AT_ONCE)), n))

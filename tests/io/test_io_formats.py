@@ -34,7 +34,8 @@ from hybridlog.io import (
     open_log,
 )
 from hybridlog.io.formats import LogFormat, format_list, log_format, sniff
-from hybridlog.io.messages import MessageSource, Topic
+from hybridlog.io.message_topics import Topic
+from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
 from hybridlog.model.loader import load_model
 from tests.support.logfiles import (

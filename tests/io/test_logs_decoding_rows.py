@@ -1,7 +1,7 @@
 """A message that cannot be read is named by its own log time, wherever it is in the topic.
 
 Messages are decoded a few hundred at a time inside batches of up to 65,536
-(:mod:`hybridlog.io.messages`); the failing message's position must survive both levels, for
+(:mod:`hybridlog.io.topic_reader`); the failing message's position must survive both levels, for
 every way a message can fail: undecodable bytes (rosbags refuses them), a number path, a label
 path and ``header.stamp``.  Library calls on files written by the ``mcap`` library's writer.
 """
@@ -17,7 +17,7 @@ import pytest
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.io.messages import DECODED_AT_ONCE
+from hybridlog.io.topic_reader import DECODED_AT_ONCE
 from tests.support.logfiles import Channel, float64_cdr, write_mcap
 
 COUNT = 3 * DECODED_AT_ONCE + 17

@@ -553,7 +553,7 @@ def test_nonfinite_values_inside_json_arrays_of_objects_are_counted(tmp_path: Pa
 
 def test_json_nested_past_the_guard_is_reported(tmp_path: Path) -> None:
     """A pathological nesting is a problem of the topic, its values not counted."""
-    from hybridlog.io.messages import MAX_JSON_DEPTH
+    from hybridlog.io.json_schemas import MAX_JSON_DEPTH
 
     deep: Any = [1.0]
     for _ in range(MAX_JSON_DEPTH + 5):

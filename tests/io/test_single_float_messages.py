@@ -20,7 +20,7 @@ from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadOptions, SignalSpec, load_signals, messages
+from hybridlog.io import ReadOptions, SignalSpec, load_signals, topic_reader
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 MAPS = ("u=/u.data", "y=/y.data")
@@ -72,7 +72,7 @@ def _read_both_ways(log: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[list[st
     """The deserialiser's calls and the signals' bits; asserts they match the old reading's."""
     options = ReadOptions(maps=MAPS, drop_nonfinite=True)
     with monkeypatch.context() as old:
-        old.setattr(messages, "single_floats", lambda *args: None)  # message by message
+        old.setattr(topic_reader, "single_floats", lambda *args: None)  # message by message
         before = load_signals(log, SPEC, options)
     calls = _counting(monkeypatch)
     signals = load_signals(log, SPEC, options)

@@ -1,0 +1,140 @@
+"""What a JSON message's schema says: the type of a path, its leaves, its required keys.
+
+MCAP's ``json`` encoding may carry a JSON schema per topic (:func:`parse_json_schema`); a
+mapped path is checked against it before reading (:func:`_json_kind`), its fields are listed
+for ``inspect`` (:func:`_json_leaves`, no deeper than :data:`MAX_JSON_DEPTH`), and a message
+without a key it lists as ``required`` is refused (:func:`_json_required`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from hybridlog.io.message_paths import PathError, Step, format_steps, spell_field
+from hybridlog.io.source import closest_names
+
+MAX_JSON_DEPTH = 256
+"""Nesting of a JSON message or schema (objects and arrays) that ``inspect`` walks; deeper
+is reported as a problem of the topic, never cut silently.  Real documents are a few levels
+deep; this guards the walk (Python's recursion) against a pathological one."""
+
+
+def _json_required(schema: Mapping[str, Any], steps: Sequence[Step]) -> bool:
+    """Whether a JSON schema lists the last key of ``steps`` as ``required`` in its object."""
+    node: Any = schema
+    for depth, step in enumerate(steps):
+        if not isinstance(node, Mapping):
+            return False
+        if isinstance(step, int):
+            node = node.get("items")
+            continue
+        required = node.get("required")
+        if depth == len(steps) - 1:
+            return isinstance(required, list) and step in required
+        properties = node.get("properties")
+        node = properties.get(step) if isinstance(properties, Mapping) else None
+    return False
+
+
+def parse_json_schema(data: bytes) -> Mapping[str, Any] | None:
+    """A JSON schema as a dict, or ``None`` when it is empty or not JSON."""
+    try:
+        schema = json.loads(data) if data else None
+    except (ValueError, UnicodeDecodeError):
+        return None
+    return schema if isinstance(schema, dict) else None
+
+
+def _json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
+    """What ``steps`` name in a JSON schema, or ``None`` where the schema does not say."""
+    return {
+        "number": "number",
+        "integer": "number",
+        "boolean": "number",
+        "string": "string",
+        "object": "message",
+        "array": "array",
+    }.get(str(_json_type(schema, steps)))
+
+
+def _json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
+    """The JSON type a schema gives ``steps`` (``"integer"``, ...), or ``None`` if none."""
+    node: Any = schema
+    done: list[Step] = []
+    for step in steps:
+        if not isinstance(node, Mapping):
+            return None
+        if isinstance(step, int):
+            if node.get("type") not in ("array", None) and "items" not in node:
+                raise PathError(f"{format_steps(done) or 'the message'} is not an array")
+            node = node.get("items")
+        else:
+            properties = node.get("properties")
+            if not isinstance(properties, Mapping):
+                return None
+            if step not in properties:
+                names = [spell_field(str(k)) for k in properties]
+                raise PathError(
+                    f"{format_steps(done) or 'the message'} has no field {step!r}; "
+                    f"{closest_names([step], names).replace('available', 'fields')}"
+                )
+            node = properties[step]
+        done.append(step)
+    if not isinstance(node, Mapping):
+        return None
+    kind = node.get("type")
+    if isinstance(kind, list):
+        kind = next((k for k in kind if k != "null"), None)
+    return None if kind is None else str(kind)
+
+
+@dataclass(frozen=True)
+class _JsonLeaves:
+    """The leaves a JSON schema lists, and where it nests too deep to follow (or ``None``)."""
+
+    leaves: list[str]
+    too_deep: str | None
+
+
+def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
+    """The numeric and text leaves of a JSON schema's objects, at any depth.
+
+    Arrays of numbers, booleans or text are leaves (``.name[]``), as a single one is; the
+    leaves of arrays of objects are listed
+    with ``[]`` where a path takes an index (``.poses[].x``), as for ROS messages.  Objects
+    nested deeper than :data:`MAX_JSON_DEPTH` are not followed, and the first such path is
+    returned.
+    """
+    out: list[str] = []
+    too_deep: str | None = None
+
+    def walk(node: Mapping[str, Any], prefix: str, depth: int) -> None:
+        nonlocal too_deep
+        properties = node.get("properties")
+        if not isinstance(properties, Mapping):
+            return
+        if depth > MAX_JSON_DEPTH:
+            too_deep = too_deep or prefix or "the message"
+            return
+        for name, child in properties.items():
+            if not isinstance(child, Mapping):
+                continue
+            kind = child.get("type")
+            if kind in ("number", "integer", "boolean", "string"):
+                out.append(f"{prefix}.{spell_field(name)}")
+            elif kind == "object":
+                walk(child, f"{prefix}.{spell_field(name)}", depth + 1)
+            elif kind == "array":
+                items = child.get("items")
+                if not isinstance(items, Mapping):
+                    continue
+                if items.get("type") in ("number", "integer", "boolean", "string"):
+                    out.append(f"{prefix}.{spell_field(name)}[]")
+                elif items.get("type") == "object":
+                    walk(items, f"{prefix}.{spell_field(name)}[]", depth + 1)
+
+    walk(schema, "", 0)
+    return _JsonLeaves(out, too_deep)
